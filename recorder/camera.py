@@ -1,0 +1,134 @@
+"""The pinhole camera model and pose conventions shared by every stage.
+
+Conventions (``../shared/DESIGN.md``): camera frame x right, y down, z forward;
+grid frame G x right, y down (toward the table), z forward. A pose is the camera
+centre ``t_grid`` in G and ``R_cam_to_grid`` built from typed angles as
+``Rx(rx) Ry(ry) Rz(rz)``, so that ``p_grid = R_cam_to_grid @ p_cam + t_grid``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = [
+    "Intrinsics",
+    "project_points",
+    "quaternion_xyzw_from_matrix",
+    "rotation_from_angles_deg",
+]
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Intrinsics:
+    """Pinhole intrinsics in pixels, with OpenCV ``plumb_bob`` distortion (k1, k2, p1, p2, k3)."""
+
+    width: int
+    height: int
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    distortion: tuple[float, float, float, float, float] = (0.0, 0.0, 0.0, 0.0, 0.0)
+
+    @property
+    def K(self) -> FloatArray:
+        """The 3x3 camera matrix."""
+        return np.array(
+            [[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]], dtype=np.float64
+        )
+
+    @property
+    def has_distortion(self) -> bool:
+        return any(k != 0.0 for k in self.distortion)
+
+
+def rotation_from_angles_deg(angles_deg: ArrayLike) -> FloatArray:
+    """``R_cam_to_grid = Rx(rx) Ry(ry) Rz(rz)`` from typed angles in degrees.
+
+    Parameters
+    ----------
+    angles_deg : (..., 3) array_like
+        ``(rx, ry, rz)`` in degrees; leading dimensions are batched.
+
+    Returns
+    -------
+    (..., 3, 3) ndarray
+    """
+    a = np.deg2rad(np.asarray(angles_deg, dtype=np.float64))
+    cx, cy, cz = np.cos(a[..., 0]), np.cos(a[..., 1]), np.cos(a[..., 2])
+    sx, sy, sz = np.sin(a[..., 0]), np.sin(a[..., 1]), np.sin(a[..., 2])
+    one, zero = np.ones_like(cx), np.zeros_like(cx)
+    Rx = np.stack([one, zero, zero, zero, cx, -sx, zero, sx, cx], -1).reshape(*cx.shape, 3, 3)
+    Ry = np.stack([cy, zero, sy, zero, one, zero, -sy, zero, cy], -1).reshape(*cx.shape, 3, 3)
+    Rz = np.stack([cz, -sz, zero, sz, cz, zero, zero, zero, one], -1).reshape(*cx.shape, 3, 3)
+    R: FloatArray = Rx @ Ry @ Rz
+    return R
+
+
+def quaternion_xyzw_from_matrix(R: ArrayLike) -> tuple[float, float, float, float]:
+    """Unit quaternion (x, y, z, w) of a 3x3 rotation matrix, w >= 0 (Shepperd's method)."""
+    m = np.asarray(R, dtype=np.float64)
+    trace = m[0, 0] + m[1, 1] + m[2, 2]
+    if trace > 0:
+        s = 2.0 * np.sqrt(trace + 1.0)
+        q = ((m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s, s / 4)
+    elif m[0, 0] > m[1, 1] and m[0, 0] > m[2, 2]:
+        s = 2.0 * np.sqrt(1.0 + m[0, 0] - m[1, 1] - m[2, 2])
+        q = (s / 4, (m[0, 1] + m[1, 0]) / s, (m[0, 2] + m[2, 0]) / s, (m[2, 1] - m[1, 2]) / s)
+    elif m[1, 1] > m[2, 2]:
+        s = 2.0 * np.sqrt(1.0 + m[1, 1] - m[0, 0] - m[2, 2])
+        q = ((m[0, 1] + m[1, 0]) / s, s / 4, (m[1, 2] + m[2, 1]) / s, (m[0, 2] - m[2, 0]) / s)
+    else:
+        s = 2.0 * np.sqrt(1.0 + m[2, 2] - m[0, 0] - m[1, 1])
+        q = ((m[0, 2] + m[2, 0]) / s, (m[1, 2] + m[2, 1]) / s, s / 4, (m[1, 0] - m[0, 1]) / s)
+    v = np.array(q, dtype=np.float64)
+    v /= np.linalg.norm(v)
+    if v[3] < 0:
+        v = -v
+    return (float(v[0]), float(v[1]), float(v[2]), float(v[3]))
+
+
+def project_points(
+    p_grid: ArrayLike,
+    intrinsics: Intrinsics,
+    R_cam_to_grid: ArrayLike,
+    t_grid: ArrayLike,
+) -> FloatArray:
+    """Project grid-frame points to pixels (col, row), applying the stored distortion.
+
+    Parameters
+    ----------
+    p_grid : (N, 3) array_like
+        Points in the grid frame.
+    intrinsics : Intrinsics
+    R_cam_to_grid : (3, 3) array_like
+    t_grid : (3,) array_like
+        Camera centre in the grid frame.
+
+    Returns
+    -------
+    (N, 2) ndarray
+        Pixel coordinates; points behind the camera come back as NaN.
+    """
+    p = np.atleast_2d(np.asarray(p_grid, dtype=np.float64))
+    R = np.asarray(R_cam_to_grid, dtype=np.float64)
+    p_cam = (p - np.asarray(t_grid, dtype=np.float64)) @ R  # R^T (p - t), row-wise
+    z = p_cam[:, 2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x, y = p_cam[:, 0] / z, p_cam[:, 1] / z
+    if intrinsics.has_distortion:
+        k1, k2, p1, p2, k3 = intrinsics.distortion
+        r2 = x * x + y * y
+        radial = 1 + k1 * r2 + k2 * r2**2 + k3 * r2**3
+        x, y = (
+            x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x),
+            y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y,
+        )
+    px = np.stack([intrinsics.fx * x + intrinsics.cx, intrinsics.fy * y + intrinsics.cy], axis=1)
+    px[z <= 0] = np.nan
+    return px

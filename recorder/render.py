@@ -1,0 +1,462 @@
+"""The synthetic webcam: ray-cast the laptop-on-grid scene into realistic frames.
+
+What the thesis' laptop webcam would see: grid paper on a table, a wall behind, the
+laboratory test stand, and either a black dot on a white card (method 1) or the blue
+gloved finger as a 3-D capsule pointing at the ground target (line method, method 2),
+plus blue-ish clutter the glove filters must reject. Geometry is ray-cast once per pose
+(supersampled, then area-averaged); each frame then gets its own lighting gain,
+white balance and gradient, vignetting, sensor noise, and JPEG compression.
+
+Everything here is deterministic for a given scene, pose and random generator.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from recorder.camera import Intrinsics
+from recorder.scene import Scene
+
+__all__ = ["Layout", "Primitive", "build_layout", "expose", "render_radiance"]
+
+F64 = NDArray[np.float64]
+F32 = NDArray[np.float32]
+GAMMA = 2.2
+
+
+def srgb_to_linear(rgb: tuple[int, int, int]) -> F64:
+    """8-bit display colour -> linear reflectance (simple 2.2 gamma, as the sensor model)."""
+    return (np.asarray(rgb, dtype=np.float64) / 255.0) ** GAMMA
+
+
+# --------------------------------------------------------------------------- primitives
+
+
+@dataclass(frozen=True)
+class Primitive:
+    """A renderable surface. ``kind`` selects the intersection routine.
+
+    kinds: ``capsule`` (a, b, radius), ``box`` (lo, hi), ``card`` (centre, half size,
+    dot centre and radius, in the plane z = centre z, facing -z).
+    """
+
+    kind: str
+    color: F64
+    a: F64
+    b: F64 = field(default_factory=lambda: np.zeros(3))
+    radius: float = 0.0
+    specular: float = 0.0
+    dot_color: F64 = field(default_factory=lambda: np.zeros(3))
+    dot_center: F64 = field(default_factory=lambda: np.zeros(3))
+    dot_radius: float = 0.0
+
+
+@dataclass(frozen=True)
+class Decal:
+    """A flat clutter shape painted on the table (plane y = h) or the wall (z = wall_z).
+
+    ``points`` are the shape's 2-D vertices or parameters in that surface's (a, b) coords:
+    table (x, z), wall (x, y).
+    """
+
+    surface: str  # "table" | "wall"
+    shape: str  # disk | ring | ellipse | triangle
+    center: F64
+    size: F64  # disk: (r, r); ring: (a, b) outer semi-axes; triangle unused
+    angle: float
+    color: F64
+    vertices: F64 = field(default_factory=lambda: np.zeros((3, 2)))
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Everything placed in the scene for one session (target, stand, clutter)."""
+
+    primitives: tuple[Primitive, ...]
+    decals: tuple[Decal, ...]
+
+
+def finger_axis(scene: Scene) -> tuple[F64, F64]:
+    """Tip and base of the finger axis in the grid frame; the axis passes the ground point."""
+    f = scene.finger
+    tilt, az = np.deg2rad(f.tilt_deg), np.deg2rad(f.azimuth_deg)
+    direction = np.array([np.sin(tilt) * np.sin(az), np.cos(tilt), np.sin(tilt) * np.cos(az)])
+    ground = np.array([f.ground_point[0], scene.ground_height, f.ground_point[1]])
+    tip = ground - direction * (f.tip_height / np.cos(tilt))
+    base = tip - direction * f.length
+    return tip, base
+
+
+def _stand(scene: Scene, attach: F64) -> list[Primitive]:
+    st = scene.stand
+    h = scene.ground_height
+    rod_xz = np.array([attach[0] + st.rod_offset[0], attach[2] + st.rod_offset[1]])
+    color = srgb_to_linear(st.color)
+    rod_top = np.array([rod_xz[0], attach[1] - 0.6, rod_xz[1]])
+    rod_bottom = np.array([rod_xz[0], h - st.base_height, rod_xz[1]])
+    arm_start = np.array([rod_xz[0], attach[1], rod_xz[1]])
+    half = np.array([st.base_size[0] / 2, 0.0, st.base_size[1] / 2])
+    base_lo = np.array([rod_xz[0], h - st.base_height, rod_xz[1]]) - half
+    base_hi = np.array([rod_xz[0], h, rod_xz[1]]) + half
+    base_lo[1], base_hi[1] = h - st.base_height, h
+    return [
+        Primitive("capsule", color, rod_top, rod_bottom, radius=st.rod_radius, specular=0.25),
+        Primitive("capsule", color, arm_start, attach, radius=st.rod_radius * 0.6, specular=0.25),
+        Primitive("box", srgb_to_linear(st.base_color), base_lo, base_hi),
+    ]
+
+
+def build_layout(scene: Scene, method: str, rng: np.random.Generator) -> Layout:
+    """Place the target for ``method`` (point | line | ground), the stand and the clutter."""
+    prims: list[Primitive] = []
+    if method == "point":
+        pt = scene.point
+        dot = np.asarray(pt.position, dtype=np.float64)
+        card_center = dot + np.array([pt.card_offset[0], pt.card_offset[1], 0.0])
+        half = np.array([pt.card_size[0] / 2, pt.card_size[1] / 2, 0.0])
+        prims.append(
+            Primitive(
+                "card",
+                srgb_to_linear(pt.card_color),
+                card_center,
+                half,
+                dot_color=srgb_to_linear(pt.dot_color),
+                dot_center=dot,
+                dot_radius=pt.dot_radius,
+            )
+        )
+        attach = card_center + np.array([0.0, 0.0, 0.15])
+        prims += _stand(scene, attach)
+    else:
+        tip, base = finger_axis(scene)
+        f = scene.finger
+        prims.append(
+            Primitive(
+                "capsule", srgb_to_linear(f.color), base, tip, radius=f.radius, specular=f.specular
+            )
+        )
+        prims += _stand(scene, base)
+    return Layout(tuple(prims), tuple(_clutter(scene, rng)))
+
+
+def _clutter(scene: Scene, rng: np.random.Generator) -> list[Decal]:
+    c = scene.clutter
+    decals: list[Decal] = []
+    blue, navy = srgb_to_linear(c.color), srgb_to_linear(c.navy_color)
+    for i in range(c.count):
+        kind = c.kinds[i % len(c.kinds)]
+        on_wall = rng.random() < 0.5
+        if on_wall:
+            center = np.array([rng.uniform(*c.wall_x_range), rng.uniform(*c.wall_y_range)])
+            scale = 3.0  # the wall is far: bigger shapes to stay visible
+        else:
+            center = np.array([rng.uniform(*c.table_x_range), rng.uniform(*c.table_z_range)])
+            scale = 1.6
+        angle = float(rng.uniform(0, np.pi))
+        surface = "wall" if on_wall else "table"
+        if kind == "disk":
+            r = scale * rng.uniform(0.6, 1.0)
+            decals.append(Decal(surface, "disk", center, np.array([r, r]), angle, blue))
+        elif kind == "speck":
+            r = rng.uniform(0.08, 0.15)
+            decals.append(Decal(surface, "disk", center, np.array([r, r]), angle, blue))
+        elif kind == "ring":
+            a = scale * rng.uniform(1.0, 1.4)
+            decals.append(Decal(surface, "ring", center, np.array([a, a * 0.35]), angle, blue))
+        elif kind == "triangle":
+            length, width = scale * rng.uniform(1.5, 2.2), scale * rng.uniform(0.4, 0.6)
+            local = np.array(
+                [[-length / 2, -width / 2], [-length / 2, width / 2], [length / 2, 0.0]]
+            )
+            rot = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+            verts = local @ rot.T + center
+            decals.append(Decal(surface, "triangle", center, np.zeros(2), angle, blue, verts))
+        else:  # navy: a glove-shaped blob of the wrong colour
+            a = scale * rng.uniform(0.8, 1.1)
+            decals.append(Decal(surface, "ellipse", center, np.array([a, a * 0.3]), angle, navy))
+    return decals
+
+
+def _decal_mask(decal: Decal, ab: F64) -> NDArray[np.bool_]:
+    d = ab - decal.center
+    c, s = np.cos(decal.angle), np.sin(decal.angle)
+    u, v = d[:, 0] * c + d[:, 1] * s, -d[:, 0] * s + d[:, 1] * c
+    if decal.shape == "disk":
+        return np.asarray(u * u + v * v <= decal.size[0] ** 2)
+    if decal.shape in ("ring", "ellipse"):
+        r = (u / decal.size[0]) ** 2 + (v / decal.size[1]) ** 2
+        if decal.shape == "ellipse":
+            return np.asarray(r <= 1.0)
+        return np.asarray((r <= 1.0) & (r >= 0.55**2))
+    p0, p1, p2 = decal.vertices
+
+    def edge(pa: F64, pb: F64) -> F64:
+        return np.asarray(
+            (pb[0] - pa[0]) * (ab[:, 1] - pa[1]) - (pb[1] - pa[1]) * (ab[:, 0] - pa[0])
+        )
+
+    e0, e1, e2 = edge(p0, p1), edge(p1, p2), edge(p2, p0)
+    return np.asarray(((e0 >= 0) & (e1 >= 0) & (e2 >= 0)) | ((e0 <= 0) & (e1 <= 0) & (e2 <= 0)))
+
+
+# --------------------------------------------------------------------------- ray casting
+
+
+def _pixel_rays(intr: Intrinsics, s: int) -> F64:
+    """Camera-frame ray directions (z = 1) of the supersampled pixel grid, (H*s*W*s, 3)."""
+    cols = (np.arange(intr.width * s) + 0.5) / s - 0.5
+    rows = (np.arange(intr.height * s) + 0.5) / s - 0.5
+    cc, rr = np.meshgrid(cols, rows)
+    px = np.stack([cc.ravel(), rr.ravel()], axis=1)
+    if intr.has_distortion:
+        norm = cv2.undistortPoints(
+            px.reshape(-1, 1, 2), intr.K, np.asarray(intr.distortion, dtype=np.float64)
+        ).reshape(-1, 2)
+    else:
+        norm = np.stack([(px[:, 0] - intr.cx) / intr.fx, (px[:, 1] - intr.cy) / intr.fy], axis=1)
+    return np.concatenate([norm, np.ones((norm.shape[0], 1))], axis=1)
+
+
+def _capsule(o: F64, d: F64, a: F64, b: F64, r: float) -> tuple[F64, F64]:
+    """Ray-capsule intersection (nearest t, inf for a miss) and the outward normals."""
+    ba = b - a
+    oa = o - a
+    baba = ba @ ba
+    bard = d @ ba
+    baoa = oa @ ba
+    rdoa = d @ oa
+    oaoa = oa @ oa
+    dd = np.einsum("ij,ij->i", d, d)
+    A = baba * dd - bard * bard
+    B = baba * rdoa - baoa * bard
+    C = baba * oaoa - baoa * baoa - r * r * baba
+    h = B * B - A * C
+    t = np.full(d.shape[0], np.inf)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t_body = (-B - np.sqrt(h)) / A
+        y = baoa + t_body * bard
+        body = (h >= 0) & (y > 0) & (y < baba) & (t_body > 0)
+        t[body] = t_body[body]
+        for cap in (a, b):
+            oc = o - cap
+            bq = d @ oc
+            cq = oc @ oc - r * r
+            hq = bq * bq - dd * cq
+            tq = (-bq - np.sqrt(hq)) / dd
+            hit = (hq >= 0) & (tq > 0) & (tq < t) & ~body
+            t[hit] = tq[hit]
+    p = o + d * np.where(np.isfinite(t), t, 0.0)[:, None]
+    s = np.clip(((p - a) @ ba) / baba, 0.0, 1.0)
+    n = p - (a + s[:, None] * ba)
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
+    return t, n
+
+
+def _box(o: F64, d: F64, lo: F64, hi: F64) -> tuple[F64, F64]:
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / d
+        t0 = (lo - o) * inv
+        t1 = (hi - o) * inv
+    tmin = np.nanmax(np.minimum(t0, t1), axis=1)
+    tmax = np.nanmin(np.maximum(t0, t1), axis=1)
+    hit = (tmax >= tmin) & (tmin > 0)
+    t = np.where(hit, tmin, np.inf)
+    axis = np.argmax(np.minimum(t0, t1), axis=1)
+    n = np.zeros_like(d)
+    n[np.arange(d.shape[0]), axis] = -np.sign(d[np.arange(d.shape[0]), axis])
+    return t, n
+
+
+def _bounding_sphere(prim: Primitive) -> tuple[F64, float]:
+    if prim.kind == "capsule":
+        return (prim.a + prim.b) / 2, float(np.linalg.norm(prim.b - prim.a)) / 2 + prim.radius
+    if prim.kind == "box":
+        return (prim.a + prim.b) / 2, float(np.linalg.norm(prim.b - prim.a)) / 2
+    return prim.a, float(np.linalg.norm(prim.b[:2]))
+
+
+def render_radiance(
+    scene: Scene,
+    layout: Layout,
+    intr: Intrinsics,
+    R_cam_to_grid: F64,
+    t_grid: F64,
+) -> F32:
+    """Linear radiance image (H, W, 3) RGB, float32, seen from one (true) pose.
+
+    The ray grid is ``sensor.supersample`` times denser than the pixels and averaged
+    back with ``cv2.INTER_AREA``, which anti-aliases edges (sub-pixel centroids depend on it).
+    """
+    s = scene.sensor.supersample
+    d = _pixel_rays(intr, s) @ np.asarray(R_cam_to_grid, dtype=np.float64).T
+    o = np.asarray(t_grid, dtype=np.float64)
+    n_rays = d.shape[0]
+    t_best = np.full(n_rays, np.inf)
+    owner = np.full(n_rays, -1, dtype=np.int32)
+    normals = np.zeros((n_rays, 3))
+    dd = np.einsum("ij,ij->i", d, d)
+    for idx, prim in enumerate(layout.primitives):
+        # Cull with the bounding sphere first: the full intersection runs on few rays.
+        center, bound = _bounding_sphere(prim)
+        w = center - o
+        dw = d @ w
+        cand = np.flatnonzero((w @ w - dw * dw / dd <= bound * bound) & (dw > 0))
+        if cand.size == 0:
+            continue
+        dc = d[cand]
+        if prim.kind == "capsule":
+            t, n = _capsule(o, dc, prim.a, prim.b, prim.radius)
+        elif prim.kind == "box":
+            t, n = _box(o, dc, prim.a, prim.b)
+        else:  # card in the plane z = a_z, facing -z
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t = (prim.a[2] - o[2]) / dc[:, 2]
+            p = o + dc * np.where(np.isfinite(t), t, 0.0)[:, None]
+            inside = (np.abs(p[:, 0] - prim.a[0]) <= prim.b[0]) & (
+                np.abs(p[:, 1] - prim.a[1]) <= prim.b[1]
+            )
+            t = np.where(inside & (t > 0), t, np.inf)
+            n = np.tile(np.array([0.0, 0.0, -1.0]), (cand.size, 1))
+        closer = t < t_best[cand]
+        hit = cand[closer]
+        t_best[hit] = t[closer]
+        owner[hit] = idx
+        normals[hit] = n[closer]
+
+    albedo = np.zeros((n_rays, 3))
+    specular = np.zeros(n_rays)
+    for idx, prim in enumerate(layout.primitives):
+        m = owner == idx
+        if not m.any():
+            continue
+        albedo[m] = prim.color
+        specular[m] = prim.specular
+        if prim.kind == "card":
+            p = o + d[m] * t_best[m, None]
+            on_dot = (
+                np.hypot(p[:, 0] - prim.dot_center[0], p[:, 1] - prim.dot_center[1])
+                <= prim.dot_radius
+            )
+            sub = albedo[m]
+            sub[on_dot] = prim.dot_color
+            albedo[m] = sub
+
+    _shade_background(scene, layout, o, d, owner, t_best, albedo, normals)
+
+    light = np.asarray(scene.lighting.direction, dtype=np.float64)
+    light /= np.linalg.norm(light)
+    lam = np.clip(normals @ light, 0.0, None)
+    radiance = albedo * (scene.lighting.ambient + scene.lighting.diffuse * lam)[:, None]
+    if specular.any():
+        view = -d / np.linalg.norm(d, axis=1, keepdims=True)
+        half = light + view
+        half /= np.linalg.norm(half, axis=1, keepdims=True)
+        radiance += (specular * np.clip(np.einsum("ij,ij->i", normals, half), 0, None) ** 40)[
+            :, None
+        ]
+
+    img = radiance.reshape(intr.height * s, intr.width * s, 3).astype(np.float32)
+    if s > 1:
+        return np.asarray(
+            cv2.resize(img, (intr.width, intr.height), interpolation=cv2.INTER_AREA),
+            dtype=np.float32,
+        )
+    return img
+
+
+def _shade_background(
+    scene: Scene,
+    layout: Layout,
+    o: F64,
+    d: F64,
+    owner: NDArray[np.int32],
+    t_best: F64,
+    albedo: F64,
+    normals: F64,
+) -> None:
+    """Table (grid paper on wood), wall and floor for the rays no primitive took."""
+    free = owner < 0
+    h = scene.ground_height
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_table = (h - o[1]) / d[:, 1]
+    p = o + d * np.where(np.isfinite(t_table), t_table, 0.0)[:, None]
+    x0, x1, z0, z1 = scene.table_extent
+    on_table = (
+        free & (t_table > 0) & (p[:, 0] >= x0) & (p[:, 0] <= x1) & (p[:, 2] >= z0) & (p[:, 2] <= z1)
+    )
+
+    # Grid paper: lines every grid_spacing, anti-aliased by their footprint in the plane.
+    px0, px1, pz0, pz1 = scene.paper_extent
+    tab = p[on_table]
+    on_paper = (tab[:, 0] >= px0) & (tab[:, 0] <= px1) & (tab[:, 2] >= pz0) & (tab[:, 2] <= pz1)
+    f = 0.5 * (scene.cameras[0].fx + scene.cameras[0].fy) * scene.sensor.supersample
+    ray_len = t_table[on_table] * np.linalg.norm(d[on_table], axis=1)
+    grazing = np.clip(np.abs(d[on_table, 1]) / np.linalg.norm(d[on_table], axis=1), 0.03, 1.0)
+    foot_x = ray_len / f
+    foot_z = foot_x / grazing
+    g = scene.grid_spacing
+    w = scene.grid_line_width
+
+    def coverage(coord: F64, foot: F64) -> F64:
+        dist = np.abs(coord / g - np.round(coord / g)) * g
+        cov = np.clip((w / 2 - dist) / foot + 0.5, 0.0, 1.0) * np.clip(w / foot, 0.0, 1.0)
+        return np.asarray(np.maximum(cov, 0.0))
+
+    line = np.maximum(coverage(tab[:, 0], foot_x), coverage(tab[:, 2], foot_z)) * on_paper
+    paper, grid = srgb_to_linear(scene.paper_color), srgb_to_linear(scene.grid_color)
+    tex = np.where(on_paper[:, None], paper, srgb_to_linear(scene.table_color))
+    tex = tex * (1 - line[:, None]) + grid * line[:, None]
+    for decal in layout.decals:
+        if decal.surface == "table":
+            m = _decal_mask(decal, tab[:, [0, 2]])
+            tex[m] = decal.color
+    albedo[on_table] = tex
+    normals[on_table] = (0.0, -1.0, 0.0)
+
+    rest = free & ~on_table
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_wall = (scene.wall_z - o[2]) / d[:, 2]
+    pw = o + d * np.where(np.isfinite(t_wall), t_wall, 0.0)[:, None]
+    on_wall = rest & (t_wall > 0) & (pw[:, 1] < h)
+    wall_tex = np.tile(srgb_to_linear(scene.wall_color), (int(on_wall.sum()), 1))
+    wall_pts = pw[on_wall][:, [0, 1]]
+    for decal in layout.decals:
+        if decal.surface == "wall":
+            wall_tex[_decal_mask(decal, wall_pts)] = decal.color
+    albedo[on_wall] = wall_tex
+    normals[on_wall] = (0.0, 0.0, -1.0)
+    floor = rest & ~on_wall
+    albedo[floor] = srgb_to_linear(scene.floor_color)
+    normals[floor] = (0.0, -1.0, 0.0)
+    t_best[on_table] = t_table[on_table]
+
+
+# --------------------------------------------------------------------------- the sensor
+
+
+def expose(radiance: F32, scene: Scene, rng: np.random.Generator) -> NDArray[np.uint8]:
+    """One frame from a radiance image: lighting jitter, vignetting, gamma, noise -> BGR uint8.
+
+    Per frame: a global gain, a per-channel white-balance gain and a linear brightness
+    gradient (a light that moves a little); then the 2.2 gamma, Gaussian read noise and
+    signal-dependent shot noise in digital numbers.
+    """
+    li, se = scene.lighting, scene.sensor
+    H, W = radiance.shape[:2]
+    gain = 1.0 + li.gain_jitter * rng.standard_normal()
+    wb = 1.0 + li.white_balance_jitter * rng.standard_normal(3)
+    gx, gy = li.gradient_jitter * rng.standard_normal(2)
+    xs = np.linspace(-0.5, 0.5, W, dtype=np.float32)
+    ys = np.linspace(-0.5, 0.5, H, dtype=np.float32)
+    field = 1.0 + gx * xs[None, :] + gy * ys[:, None]
+    vignette = 1.0 - li.vignetting * (xs[None, :] ** 2 + ys[:, None] ** 2) * 2.0
+    lin = radiance * (gain * field * vignette)[:, :, None] * wb.astype(np.float32)[None, None, :]
+    dn = 255.0 * np.clip(lin, 0.0, 1.0) ** (1.0 / GAMMA)
+    sigma = np.sqrt(se.read_noise_dn**2 + se.shot_noise_dn * dn)
+    dn = dn + sigma * rng.standard_normal(dn.shape).astype(np.float32)
+    rgb = np.clip(np.rint(dn), 0, 255).astype(np.uint8)
+    return np.ascontiguousarray(rgb[:, :, ::-1])

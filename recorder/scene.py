@@ -1,0 +1,339 @@
+"""Simulator scene parameters: every number the synthetic camera uses, loadable from TOML.
+
+A scene file overrides any subset of the defaults below, table by table, e.g.::
+
+    [finger]
+    tilt_deg = 40.0
+
+    [poses]
+    x_range = [-3.0, 3.0]
+
+Unknown tables or keys, wrong types and impossible values raise :class:`SceneError`
+naming the key. Lengths are in the scene's ``units``; angles in degrees; colours are
+8-bit sRGB as the camera would report them under full light.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+import types
+import typing
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+from recorder.camera import Intrinsics
+from recorder.errors import SceneError
+
+__all__ = [
+    "CameraParams",
+    "ClutterParams",
+    "FingerParams",
+    "LightingParams",
+    "PointTargetParams",
+    "PoseParams",
+    "Scene",
+    "SensorParams",
+    "StandParams",
+    "load_scene",
+]
+
+Pair = tuple[float, float]
+Vec3 = tuple[float, float, float]
+RGB = tuple[int, int, int]
+
+
+@dataclass(frozen=True)
+class CameraParams:
+    """One camera: id and pinhole intrinsics (the thesis: f = 525 px, 640x480)."""
+
+    id: str = "cam0"
+    width: int = 640
+    height: int = 480
+    fx: float = 525.0
+    fy: float = 525.0
+    cx: float = 320.0
+    cy: float = 240.0
+    distortion: tuple[float, float, float, float, float] = (0.0, 0.0, 0.0, 0.0, 0.0)
+
+    @property
+    def intrinsics(self) -> Intrinsics:
+        return Intrinsics(
+            width=self.width,
+            height=self.height,
+            fx=self.fx,
+            fy=self.fy,
+            cx=self.cx,
+            cy=self.cy,
+            distortion=self.distortion,
+        )
+
+
+@dataclass(frozen=True)
+class PointTargetParams:
+    """Method 1: a black dot on a white index card facing the camera (normal -z)."""
+
+    position: Vec3 = (0.5, 1.5, 11.0)
+    dot_radius: float = 0.15
+    card_size: Pair = (5.0, 3.0)
+    card_offset: Pair = (0.8, -0.3)  # card centre minus dot centre, (x, y)
+    dot_color: RGB = (25, 25, 28)
+    card_color: RGB = (236, 236, 230)
+
+
+@dataclass(frozen=True)
+class FingerParams:
+    """The blue gloved finger, a 3-D capsule whose axis passes through the ground point.
+
+    ``tilt_deg`` is the angle of the pointing direction from straight down; ``azimuth_deg``
+    the direction of its horizontal part, from +z toward +x (180 points back at the camera).
+    The tip sits ``tip_height`` above the ground along that line.
+    """
+
+    ground_point: Pair = (1.91, 8.375)  # (x, z) on the ground: the thesis' target (Appendix D)
+    tilt_deg: float = 35.0
+    azimuth_deg: float = 195.0
+    tip_height: float = 6.0
+    length: float = 2.5
+    radius: float = 0.33
+    color: RGB = (38, 108, 192)
+    specular: float = 0.10
+
+
+@dataclass(frozen=True)
+class StandParams:
+    """The laboratory test stand holding the target: base plate, vertical rod, arm."""
+
+    rod_offset: Pair = (1.6, 1.4)  # rod (x, z) minus the held object's attachment point
+    rod_radius: float = 0.22
+    base_size: Pair = (4.0, 6.0)
+    base_height: float = 0.4
+    color: RGB = (128, 130, 135)
+    base_color: RGB = (60, 60, 64)
+
+
+@dataclass(frozen=True)
+class PoseParams:
+    """How the operator places the laptop: nominal (typed) poses on a lattice, per trial.
+
+    True pose = typed pose + N(0, noise_sigma) per translation component (and
+    N(0, rotation_noise_deg) per angle): frames are rendered from the true pose.
+    """
+
+    count: int = 2
+    x_range: Pair = (-2.0, 2.0)
+    y_range: Pair = (0.0, 0.0)
+    z_range: Pair = (-2.0, 1.0)
+    rx_range: Pair = (0.0, 0.0)
+    ry_range: Pair = (0.0, 0.0)
+    rz_range: Pair = (0.0, 0.0)
+    step: float = 0.25
+    rotation_step_deg: float = 1.0
+    min_baseline: float = 1.0
+    noise_sigma: float = 0.1
+    rotation_noise_deg: float = 0.0
+    translation_resolution: float = 0.0625
+    rotation_resolution_deg: float = 0.5
+
+
+@dataclass(frozen=True)
+class LightingParams:
+    """Ambient + one directional light; per-frame gain, white-balance and gradient jitter."""
+
+    ambient: float = 0.5
+    diffuse: float = 0.5
+    direction: Vec3 = (0.35, -1.0, -0.45)  # toward the light, grid frame (y down)
+    gain_jitter: float = 0.04
+    white_balance_jitter: float = 0.02
+    gradient_jitter: float = 0.05
+    vignetting: float = 0.12
+
+
+@dataclass(frozen=True)
+class SensorParams:
+    """Noise, encoding and timing of the webcam."""
+
+    read_noise_dn: float = 1.5
+    shot_noise_dn: float = 0.03  # noise variance per DN of signal
+    jpeg_quality: int = 85
+    image_format: Literal["jpeg", "png"] = "jpeg"
+    supersample: int = 2
+    fps: float = 30.0
+    seconds_between_poses: float = 20.0
+
+
+@dataclass(frozen=True)
+class ClutterParams:
+    """Blue-ish objects the thesis' filters must reject, placed once per session.
+
+    Kinds: ``disk`` (fails eccentricity), ``ring`` (fails the pi filter), ``triangle``
+    (fails the pi filter), ``speck`` (fails area), ``navy`` (fails colour).
+    """
+
+    count: int = 6
+    kinds: tuple[str, ...] = ("disk", "ring", "triangle", "speck", "navy")
+    color: RGB = (40, 100, 190)
+    navy_color: RGB = (22, 32, 110)
+    table_x_range: Pair = (-10.0, 12.0)
+    table_z_range: Pair = (24.0, 36.0)
+    wall_x_range: Pair = (-22.0, 22.0)
+    wall_y_range: Pair = (-14.0, 2.0)
+
+
+@dataclass(frozen=True)
+class Scene:
+    """Everything the synthetic camera renders; defaults mirror the thesis' set-up."""
+
+    units: str = "in"
+    ground_height: float = 9.625  # camera centre down to the table top (thesis: h)
+    cameras: tuple[CameraParams, ...] = (CameraParams(),)
+    point: PointTargetParams = field(default_factory=PointTargetParams)
+    finger: FingerParams = field(default_factory=FingerParams)
+    stand: StandParams = field(default_factory=StandParams)
+    poses: PoseParams = field(default_factory=PoseParams)
+    lighting: LightingParams = field(default_factory=LightingParams)
+    sensor: SensorParams = field(default_factory=SensorParams)
+    clutter: ClutterParams = field(default_factory=ClutterParams)
+    grid_spacing: float = 0.5
+    grid_line_width: float = 0.02
+    paper_extent: tuple[float, float, float, float] = (-14.0, 14.0, -4.0, 28.0)  # x0 x1 z0 z1
+    table_extent: tuple[float, float, float, float] = (-30.0, 30.0, -12.0, 48.0)
+    wall_z: float = 48.0
+    paper_color: RGB = (232, 233, 226)
+    grid_color: RGB = (150, 192, 212)
+    table_color: RGB = (150, 108, 72)
+    wall_color: RGB = (205, 196, 178)
+    floor_color: RGB = (70, 66, 62)
+
+    def __post_init__(self) -> None:
+        _check_scene(self)
+
+
+def _check_scene(s: Scene) -> None:
+    def need(ok: bool, key: str, msg: str) -> None:
+        if not ok:
+            raise SceneError(f"scene: {key} {msg}")
+
+    need(s.units in ("in", "mm", "cm", "m"), "units", f"must be in, mm, cm or m, got {s.units!r}")
+    need(s.ground_height > 0, "ground_height", "must be > 0 (the table is below the camera)")
+    need(len(s.cameras) >= 1, "cameras", "needs at least one camera")
+    need(len({c.id for c in s.cameras}) == len(s.cameras), "cameras", "ids must be unique")
+    for c in s.cameras:
+        need(c.width > 0 and c.height > 0, "cameras.width/height", "must be > 0")
+        need(c.fx > 0 and c.fy > 0, "cameras.fx/fy", "must be > 0")
+    p = s.poses
+    need(p.count >= 2, "poses.count", f"must be >= 2 (two views at least), got {p.count}")
+    for name in ("x_range", "y_range", "z_range", "rx_range", "ry_range", "rz_range"):
+        lo, hi = getattr(p, name)
+        need(lo <= hi, f"poses.{name}", f"must be [low, high], got [{lo}, {hi}]")
+    need(p.step > 0 and p.rotation_step_deg > 0, "poses.step", "must be > 0")
+    need(p.noise_sigma >= 0 and p.rotation_noise_deg >= 0, "poses.noise_sigma", "must be >= 0")
+    need(p.translation_resolution > 0, "poses.translation_resolution", "must be > 0")
+    need(p.rotation_resolution_deg > 0, "poses.rotation_resolution_deg", "must be > 0")
+    f = s.finger
+    need(0 <= f.tilt_deg < 85, "finger.tilt_deg", "must be in [0, 85) degrees from straight down")
+    need(f.length > 2 * f.radius > 0, "finger.length", "must exceed the finger's diameter")
+    need(
+        0 < f.tip_height < s.ground_height,
+        "finger.tip_height",
+        "must be between 0 and ground_height",
+    )
+    need(s.point.dot_radius > 0, "point.dot_radius", "must be > 0")
+    se = s.sensor
+    need(se.supersample in (1, 2, 3, 4), "sensor.supersample", "must be 1, 2, 3 or 4")
+    need(1 <= se.jpeg_quality <= 100, "sensor.jpeg_quality", "must be 1-100")
+    need(se.image_format in ("jpeg", "png"), "sensor.image_format", "must be jpeg or png")
+    need(se.fps > 0, "sensor.fps", "must be > 0")
+    need(s.clutter.count >= 0, "clutter.count", "must be >= 0")
+    bad = [k for k in s.clutter.kinds if k not in ("disk", "ring", "triangle", "speck", "navy")]
+    need(not bad, "clutter.kinds", f"has unknown kinds {bad}")
+    need(s.grid_spacing > 0, "grid_spacing", "must be > 0")
+
+
+# --------------------------------------------------------------------------- TOML loading
+
+
+def load_scene(path: str | Path | None = None, **overrides: Any) -> Scene:
+    """Read a scene TOML file over the defaults; keyword overrides win over the file.
+
+    Raises
+    ------
+    SceneError
+        Unknown key, wrong type, or impossible value; the message names the key.
+    """
+    data: dict[str, Any] = {}
+    if path is not None:
+        try:
+            with open(path, "rb") as fh:
+                data = tomllib.load(fh)
+        except OSError as err:
+            raise SceneError(f"cannot read scene file {path}: {err.strerror}") from err
+        except tomllib.TOMLDecodeError as err:
+            raise SceneError(f"scene file {path} is not valid TOML: {err}") from err
+    data.update(overrides)
+    scene: Scene = _build(Scene, data, "")
+    return scene
+
+
+def _build(cls: type[Any], data: dict[str, Any], prefix: str) -> Any:
+    if not isinstance(data, dict):
+        raise SceneError(f"scene: {prefix.rstrip('.') or 'top level'} must be a table")
+    hints = typing.get_type_hints(cls)
+    names = {f.name for f in dataclasses.fields(cls)}
+    unknown = sorted(set(data) - names)
+    if unknown:
+        raise SceneError(
+            f"scene: unknown key(s) {', '.join(prefix + k for k in unknown)}; "
+            f"known here: {', '.join(sorted(names))}"
+        )
+    kwargs = {k: _convert(hints[k], v, prefix + k) for k, v in data.items()}
+    try:
+        return cls(**kwargs)
+    except TypeError as err:  # pragma: no cover - guarded by the checks above
+        raise SceneError(f"scene: {prefix or 'top level'}: {err}") from err
+
+
+def _convert(hint: Any, value: Any, key: str) -> Any:
+    origin = typing.get_origin(hint)
+    args = typing.get_args(hint)
+    if dataclasses.is_dataclass(hint):
+        return _build(hint, value, key + ".")  # type: ignore[arg-type]
+    if origin is Literal:
+        if value not in args:
+            raise SceneError(f"scene: {key} must be one of {list(args)}, got {value!r}")
+        return value
+    if origin is tuple:
+        if not isinstance(value, list | tuple):
+            raise SceneError(f"scene: {key} must be a list, got {value!r}")
+        if len(args) == 2 and args[1] is Ellipsis:
+            return tuple(_convert(args[0], v, f"{key}[{i}]") for i, v in enumerate(value))
+        if len(value) != len(args):
+            raise SceneError(f"scene: {key} must have {len(args)} items, got {len(value)}")
+        return tuple(
+            _convert(a, v, f"{key}[{i}]") for i, (a, v) in enumerate(zip(args, value, strict=True))
+        )
+    if isinstance(hint, types.UnionType):  # pragma: no cover - no unions in Scene today
+        raise SceneError(f"scene: {key} has an unsupported type")
+    if hint is float:
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, int | float)
+            or not math.isfinite(value)
+        ):
+            raise SceneError(f"scene: {key} must be a finite number, got {value!r}")
+        return float(value)
+    if hint is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise SceneError(f"scene: {key} must be a whole number, got {value!r}")
+        return value
+    if hint is str:
+        if not isinstance(value, str):
+            raise SceneError(f"scene: {key} must be a string, got {value!r}")
+        return value
+    if hint is bool:
+        if not isinstance(value, bool):
+            raise SceneError(f"scene: {key} must be true or false, got {value!r}")
+        return value
+    raise SceneError(f"scene: {key} has an unsupported type {hint}")  # pragma: no cover

@@ -1,0 +1,265 @@
+"""Simulated sessions: the laptop-on-grid procedure with a synthetic camera and known truth.
+
+Per trial the simulated operator picks typed poses on a lattice (``poses.step``), places
+the laptop there with an error of ``poses.noise_sigma`` per moving translation axis, and
+captures ``frames`` frames per pose rendered from the *true* pose. Typed poses go to
+``/twopose/pose``; the true poses and target go to ``/simulation/truth``. The same seed
+gives the same bytes.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from recorder.camera import Intrinsics, project_points, rotation_from_angles_deg
+from recorder.errors import InputValueError, SceneError
+from recorder.render import build_layout, expose, finger_axis, render_radiance
+from recorder.scene import Scene
+from recorder.session import (
+    METHODS,
+    Camera,
+    GroundPlane,
+    GroundTruth,
+    PoseEntry,
+    SessionInfo,
+    SessionWriter,
+    SimulationTruth,
+    TruePose,
+    TruthKind,
+    Vec3,
+)
+
+__all__ = ["SimulationSummary", "simulate_session", "target_points"]
+
+# The thesis' running-average script is dated 2011-12-31; simulated clocks start there.
+SIMULATION_EPOCH_NS = 1_325_289_600 * 1_000_000_000
+_MAX_POSE_DRAWS = 2000
+_EDGE_MARGIN_PX = 25.0
+
+
+@dataclass(frozen=True)
+class SimulationSummary:
+    """What :func:`simulate_session` wrote."""
+
+    path: Path
+    method: str
+    n_trials: int
+    n_poses: int
+    n_frames: int
+    size_bytes: int
+
+
+def _vec(a: NDArray[np.float64]) -> Vec3:
+    return (float(a[0]), float(a[1]), float(a[2]))
+
+
+def target_points(scene: Scene, method: str) -> tuple[TruthKind, NDArray[np.float64]]:
+    """Ground-truth kind and points (grid frame) of ``method`` in ``scene``.
+
+    point: the dot centre; ground: where the finger axis meets the ground;
+    line: the finger axis' tip and base.
+    """
+    if method == "point":
+        return "point", np.asarray([scene.point.position], dtype=np.float64)
+    tip, base = finger_axis(scene)
+    if method == "line":
+        return "line", np.stack([tip, base])
+    g = scene.finger.ground_point
+    return "point", np.array([[g[0], scene.ground_height, g[1]]])
+
+
+def _visible_points(scene: Scene, method: str) -> NDArray[np.float64]:
+    if method == "point":
+        return np.asarray([scene.point.position], dtype=np.float64)
+    tip, base = finger_axis(scene)
+    return np.stack([tip, base])
+
+
+def _lattice(rng: np.random.Generator, lo: float, hi: float, step: float) -> float:
+    n = int(np.floor((hi - lo) / step + 1e-9))
+    return float(lo + step * rng.integers(0, n + 1)) if n > 0 else float(lo)
+
+
+def _draw_trial_poses(
+    scene: Scene, method: str, n_poses: int, rng: np.random.Generator
+) -> list[
+    tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
+]:
+    """(typed t, typed r, true t, true r) per pose, every target point well inside every view."""
+    p = scene.poses
+    ranges = [p.x_range, p.y_range, p.z_range]
+    rot_ranges = [p.rx_range, p.ry_range, p.rz_range]
+    moving = np.array([hi > lo for lo, hi in ranges], dtype=np.float64)
+    visible = _visible_points(scene, method)
+    for _ in range(_MAX_POSE_DRAWS):
+        poses = []
+        for k in range(n_poses):
+            intr = scene.cameras[k % len(scene.cameras)].intrinsics
+            t_typed = np.array([_lattice(rng, lo, hi, p.step) for lo, hi in ranges])
+            r_typed = np.array(
+                [_lattice(rng, lo, hi, p.rotation_step_deg) for lo, hi in rot_ranges]
+            )
+            # The operator's placing/measuring error: only along axes the laptop moves on.
+            t_true = t_typed + p.noise_sigma * rng.standard_normal(3) * moving
+            r_true = r_typed + p.rotation_noise_deg * rng.standard_normal(3)
+            if not _in_view(visible, intr, rotation_from_angles_deg(r_true), t_true):
+                break
+            poses.append((t_typed, r_typed, t_true, r_true))
+        if len(poses) < n_poses:
+            continue
+        baselines = [np.linalg.norm(a[0] - b[0]) for a, b in itertools.combinations(poses, 2)]
+        if min(baselines) >= p.min_baseline:
+            return poses
+    raise SceneError(
+        f"scene: could not place {n_poses} poses at least {p.min_baseline} apart with the target "
+        f"in view after {_MAX_POSE_DRAWS} draws; widen poses.*_range or move the target"
+    )
+
+
+def _in_view(
+    points: NDArray[np.float64], intr: Intrinsics, R: NDArray[np.float64], t: NDArray[np.float64]
+) -> bool:
+    px = project_points(points, intr, R, t)
+    m = _EDGE_MARGIN_PX
+    return bool(
+        np.all(np.isfinite(px))
+        and np.all(px[:, 0] > m)
+        and np.all(px[:, 0] < intr.width - m)
+        and np.all(px[:, 1] > m)
+        and np.all(px[:, 1] < intr.height - m)
+    )
+
+
+def simulate_session(
+    out: str | Path,
+    *,
+    method: str,
+    trials: int = 15,
+    frames: int = 5,
+    seed: int = 0,
+    scene: Scene | None = None,
+    pose_noise: float | None = None,
+    poses: int | None = None,
+) -> SimulationSummary:
+    """Simulate a whole session into ``out`` (which must not exist).
+
+    Parameters
+    ----------
+    method : {"point", "line", "ground"}
+    trials, frames : int
+        Trials in the session and frames captured per pose.
+    seed : int
+        Everything random (clutter, poses, typing error, lighting, noise) comes from it.
+    scene : Scene, optional
+        Defaults mirror the thesis (f = 525 px, 640x480, h = 9.625 in).
+    pose_noise : float, optional
+        Overrides ``scene.poses.noise_sigma`` (session units).
+    poses : int, optional
+        Overrides ``scene.poses.count`` (poses per trial, >= 2).
+    """
+    if method not in METHODS:
+        raise InputValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+    if trials < 1:
+        raise InputValueError(f"trials must be >= 1, got {trials}")
+    if frames < 1:
+        raise InputValueError(f"frames must be >= 1, got {frames}")
+    if pose_noise is not None and not (pose_noise >= 0 and np.isfinite(pose_noise)):
+        raise InputValueError(f"pose noise must be a finite number >= 0, got {pose_noise}")
+    scene = scene or Scene()
+    if pose_noise is not None:
+        scene = dataclasses.replace(
+            scene, poses=dataclasses.replace(scene.poses, noise_sigma=float(pose_noise))
+        )
+    if poses is not None:
+        scene = dataclasses.replace(scene, poses=dataclasses.replace(scene.poses, count=poses))
+
+    rng = np.random.default_rng(seed)
+    layout = build_layout(scene, method, rng)
+    kind, truth = target_points(scene, method)
+    truth_points = tuple(_vec(p) for p in truth)
+    cameras = [Camera(c.id, c.intrinsics) for c in scene.cameras]
+    info = SessionInfo(
+        method=method,
+        units=scene.units,
+        camera_ids=tuple(c.id for c in scene.cameras),
+        operator="twopose simulator",
+        notes=(
+            f"simulated: seed={seed}, trials={trials}, frames={frames}, "
+            f"poses={scene.poses.count}, pose_noise={scene.poses.noise_sigma}"
+        ),
+        created_utc=datetime.fromtimestamp(SIMULATION_EPOCH_NS / 1e9, UTC).isoformat(),
+        simulated=True,
+    )
+    frame_dt = int(1e9 / scene.sensor.fps)
+    pose_dt = int(scene.sensor.seconds_between_poses * 1e9)
+    now = SIMULATION_EPOCH_NS
+    n_frames = 0
+    with SessionWriter(
+        out,
+        info,
+        cameras,
+        ground=GroundPlane(offset=scene.ground_height),
+        image_format=scene.sensor.image_format,
+        jpeg_quality=scene.sensor.jpeg_quality,
+        start_ns=now,
+    ) as writer:
+        for trial in range(1, trials + 1):
+            drawn = _draw_trial_poses(scene, method, scene.poses.count, rng)
+            now += pose_dt
+            writer.write_ground_truth(
+                GroundTruth(trial=trial, kind=kind, points_grid=truth_points),
+                now,
+            )
+            true_poses = []
+            for k, (t_typed, r_typed, t_true, r_true) in enumerate(drawn, start=1):
+                cam = scene.cameras[(k - 1) % len(scene.cameras)]
+                now += pose_dt
+                writer.write_pose(
+                    PoseEntry(
+                        trial=trial,
+                        pose=k,
+                        camera_id=cam.id,
+                        t_grid=_vec(t_typed),
+                        r_deg=_vec(r_typed),
+                        translation_resolution=scene.poses.translation_resolution,
+                        rotation_resolution_deg=scene.poses.rotation_resolution_deg,
+                    ),
+                    now,
+                )
+                radiance = render_radiance(
+                    scene, layout, cam.intrinsics, rotation_from_angles_deg(r_true), t_true
+                )
+                with writer.capture(trial, k, cam.id) as capture:
+                    for _ in range(frames):
+                        now += frame_dt
+                        capture.add_frame(expose(radiance, scene, rng), now)
+                        n_frames += 1
+                true_poses.append(
+                    TruePose(pose=k, camera_id=cam.id, t_grid=_vec(t_true), r_deg=_vec(r_true))
+                )
+            now += frame_dt
+            writer.write_simulation_truth(
+                SimulationTruth(
+                    trial=trial,
+                    poses=tuple(true_poses),
+                    kind=kind,
+                    points_grid=truth_points,
+                ),
+                now,
+            )
+    path = Path(out)
+    return SimulationSummary(
+        path=path,
+        method=method,
+        n_trials=trials,
+        n_poses=trials * scene.poses.count,
+        n_frames=n_frames,
+        size_bytes=path.stat().st_size,
+    )
