@@ -38,11 +38,9 @@ from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage as PbC
 from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform as PbFrameTransform
 from jsonschema import Draft202012Validator
 from jsonschema.exceptions import ValidationError
-from mcap.decoder import DecoderFactory as McapDecoderFactory
 from mcap.reader import SeekingReader, make_reader
 from mcap.writer import CompressionType
 from mcap.writer import Writer as McapWriter
-from mcap_protobuf.decoder import DecoderFactory as ProtobufDecoderFactory
 from mcap_protobuf.schema import build_file_descriptor_set
 from numpy.typing import NDArray
 
@@ -1069,13 +1067,9 @@ class Capture:
 Entry = TypedEntry | Frame | PbFrameTransform | Camera
 
 
-class _JsonDecoderFactory(McapDecoderFactory):
-    """Hands raw JSON bytes through; typed decoding needs the schema name, done by us."""
-
-    def decoder_for(self, message_encoding: str, schema: Any) -> Callable[[bytes], Any] | None:
-        if message_encoding == "json":
-            return lambda data: data
-        return None
+_FOXGLOVE_CLASSES: dict[str, Any] = {
+    cls.DESCRIPTOR.full_name: cls for cls in (PbCameraCalibration, PbCompressedImage, PbFrameTransform)
+}
 
 
 class SessionReader:
@@ -1135,7 +1129,6 @@ class SessionReader:
         try:
             reader = make_reader(
                 self._stream,
-                decoder_factories=[ProtobufDecoderFactory(), _JsonDecoderFactory()],
                 validate_crcs=self.validate_crcs,
             )
             summary = reader.get_summary()
@@ -1216,22 +1209,32 @@ class SessionReader:
             raise TwoposeError("use SessionReader as a context manager")
         topic_list = None if topics is None else list(topics)
         try:
-            for schema, channel, message, decoded in self._reader.iter_decoded_messages(
+            for schema, channel, message in self._reader.iter_messages(
                 topics=topic_list, log_time_order=True
             ):
-                yield self._entry(schema, channel, message, decoded)
+                entry = self._entry(schema, channel, message)
+                if entry is not None:
+                    yield entry
         except TwoposeError:
             raise
         except Exception as err:
             raise self._fail("a chunk could not be read", err) from err
 
-    def _entry(self, schema: Any, channel: Any, message: Any, decoded: Any) -> Entry:
+    def _entry(self, schema: Any, channel: Any, message: Any) -> Entry | None:
+        """Typed entries via their JSON schema name, Foxglove messages via Foxglove's classes."""
         topic: str = channel.topic
-        if channel.message_encoding == "json":
-            if schema is None:
-                raise SessionFormatError(f"{self.path}: JSON channel {topic} has no schema")
-            return decode_entry(schema.name, decoded)
-        if topic.endswith("/image"):
+        if schema is None:
+            raise SessionFormatError(f"{self.path}: channel {topic} has no schema")
+        if channel.message_encoding == "json" and schema.name in _BY_SCHEMA:
+            return decode_entry(schema.name, message.data)
+        pb_class = _FOXGLOVE_CLASSES.get(schema.name)
+        if channel.message_encoding != "protobuf" or pb_class is None:
+            return None  # a channel this version does not know (format 1.x may add some)
+        try:
+            decoded = pb_class.FromString(message.data)
+        except Exception as err:  # protobuf's DecodeError and friends
+            raise self._fail(f"{topic} holds an undecodable {schema.name}", err) from err
+        if isinstance(decoded, PbCompressedImage):
             return Frame(
                 camera_id=decoded.frame_id.removeprefix("camera_"),
                 log_time_ns=message.log_time,
@@ -1239,7 +1242,7 @@ class SessionReader:
                 format=decoded.format,
                 data=bytes(decoded.data),
             )
-        if topic.endswith("/calibration"):
+        if isinstance(decoded, PbCameraCalibration):
             return _camera_from_message(decoded)
         return decoded  # type: ignore[no-any-return]
 
