@@ -18,7 +18,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from recorder.camera import Intrinsics
+from recorder.camera import Intrinsics, project_points, rotation_from_angles_deg
 from recorder.scene import Scene
 
 __all__ = ["Layout", "Primitive", "build_layout", "expose", "render_radiance"]
@@ -140,22 +140,65 @@ def build_layout(scene: Scene, method: str, rng: np.random.Generator) -> Layout:
             )
         )
         prims += _stand(scene, base)
-    return Layout(tuple(prims), tuple(_clutter(scene, rng)))
+    return Layout(tuple(prims), tuple(_clutter(scene, method, rng)))
 
 
-def _clutter(scene: Scene, rng: np.random.Generator) -> list[Decal]:
+def _sample_views(scene: Scene) -> list[tuple[Intrinsics, F64, F64]]:
+    """Corner and centre poses of the pose ranges: where the target can appear."""
+    p = scene.poses
+    views = []
+    for x in (*p.x_range, sum(p.x_range) / 2):
+        for z in (*p.z_range, sum(p.z_range) / 2):
+            t = np.array([x, sum(p.y_range) / 2, z])
+            r = np.array([sum(p.rx_range), sum(p.ry_range), sum(p.rz_range)]) / 2
+            views.append((scene.cameras[0].intrinsics, rotation_from_angles_deg(r), t))
+    return views
+
+
+def _too_close_to_target(
+    point_grid: F64, extent: float, target_grid: F64, views: list[tuple[Intrinsics, F64, F64]]
+) -> bool:
+    """Would a decal at ``point_grid`` (size ``extent``) touch the target in some view?"""
+    for intr, R, t in views:
+        target_px = project_points(target_grid, intr, R, t)
+        center_px = project_points(point_grid[None, :], intr, R, t)[0]
+        if not np.all(np.isfinite(target_px)) or not np.all(np.isfinite(center_px)):
+            continue
+        depth = float(np.linalg.norm(point_grid - t))
+        radius_px = intr.fx * extent / depth + 40.0
+        a, b = target_px[0], target_px[-1]
+        ab = b - a
+        s = float(np.clip((center_px - a) @ ab / max(ab @ ab, 1e-9), 0.0, 1.0))
+        if np.linalg.norm(center_px - (a + s * ab)) < radius_px:
+            return True
+    return False
+
+
+def _clutter(scene: Scene, method: str, rng: np.random.Generator) -> list[Decal]:
     c = scene.clutter
     decals: list[Decal] = []
     blue, navy = srgb_to_linear(c.color), srgb_to_linear(c.navy_color)
+    views = _sample_views(scene)
+    if method == "point":
+        target = np.asarray([scene.point.position], dtype=np.float64)
+    else:
+        target = np.stack(finger_axis(scene))
     for i in range(c.count):
         kind = c.kinds[i % len(c.kinds)]
-        on_wall = rng.random() < 0.5
-        if on_wall:
-            center = np.array([rng.uniform(*c.wall_x_range), rng.uniform(*c.wall_y_range)])
-            scale = 3.0  # the wall is far: bigger shapes to stay visible
+        for _ in range(50):  # keep clutter off the target in every view; give up on a crowded scene
+            on_wall = rng.random() < 0.5
+            if on_wall:
+                center = np.array([rng.uniform(*c.wall_x_range), rng.uniform(*c.wall_y_range)])
+                scale = 3.0  # the wall is far: bigger shapes to stay visible
+                point = np.array([center[0], center[1], scene.wall_z])
+            else:
+                center = np.array([rng.uniform(*c.table_x_range), rng.uniform(*c.table_z_range)])
+                scale = 1.6
+                point = np.array([center[0], scene.ground_height, center[1]])
+            if not _too_close_to_target(point, 2.5 * scale, target, views):
+                break
         else:
-            center = np.array([rng.uniform(*c.table_x_range), rng.uniform(*c.table_z_range)])
-            scale = 1.6
+            continue
         angle = float(rng.uniform(0, np.pi))
         surface = "wall" if on_wall else "table"
         if kind == "disk":

@@ -94,9 +94,9 @@ class FingerParams:
 
     ground_point: Pair = (1.91, 8.375)  # (x, z) on the ground: the thesis' target (Appendix D)
     tilt_deg: float = 35.0
-    azimuth_deg: float = 195.0
+    azimuth_deg: float = 165.0
     tip_height: float = 6.0
-    length: float = 2.5
+    length: float = 3.0
     radius: float = 0.33
     color: RGB = (38, 108, 192)
     specular: float = 0.10
@@ -106,7 +106,7 @@ class FingerParams:
 class StandParams:
     """The laboratory test stand holding the target: base plate, vertical rod, arm."""
 
-    rod_offset: Pair = (1.6, 1.4)  # rod (x, z) minus the held object's attachment point
+    rod_offset: Pair = (2.5, 1.5)  # rod (x, z) minus the held object's attachment point
     rod_radius: float = 0.22
     base_size: Pair = (4.0, 6.0)
     base_height: float = 0.4

@@ -1068,7 +1068,8 @@ Entry = TypedEntry | Frame | PbFrameTransform | Camera
 
 
 _FOXGLOVE_CLASSES: dict[str, Any] = {
-    cls.DESCRIPTOR.full_name: cls for cls in (PbCameraCalibration, PbCompressedImage, PbFrameTransform)
+    cls.DESCRIPTOR.full_name: cls
+    for cls in (PbCameraCalibration, PbCompressedImage, PbFrameTransform)
 }
 
 

@@ -19,7 +19,9 @@ def test_rotation_order_is_rx_ry_rz() -> None:
     R = rotation_from_angles_deg([90.0, 0.0, 0.0]) @ rotation_from_angles_deg([0.0, 90.0, 0.0])
     np.testing.assert_allclose(rotation_from_angles_deg([90.0, 90.0, 0.0]), R, atol=1e-12)
     # Rx(90) maps the camera's z (forward) to -y (up) in the grid frame.
-    np.testing.assert_allclose(rotation_from_angles_deg([90, 0, 0]) @ [0, 0, 1], [0, -1, 0], atol=1e-12)
+    np.testing.assert_allclose(
+        rotation_from_angles_deg([90, 0, 0]) @ [0, 0, 1], [0, -1, 0], atol=1e-12
+    )
 
 
 @given(angles)

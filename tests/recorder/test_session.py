@@ -39,7 +39,9 @@ from recorder.session import (
 )
 
 CAM0 = Camera("cam0", Intrinsics(640, 480, 525.0, 525.0, 320.0, 240.0))
-CAM1 = Camera("right", Intrinsics(320, 240, 300.0, 301.0, 161.0, 119.5, (-0.1, 0.01, 0.0, 0.0, 0.0)))
+CAM1 = Camera(
+    "right", Intrinsics(320, 240, 300.0, 301.0, 161.0, 119.5, (-0.1, 0.01, 0.0, 0.0, 0.0))
+)
 
 
 def _image(seed: int, shape: tuple[int, int] = (480, 640)) -> np.ndarray:
@@ -90,7 +92,15 @@ def _write_full_session(path: Path, image_format: str) -> dict[str, object]:
                     cap.add_frame(img, t + 20 + 100 * k + j)
         w.write_note(note, t + 500)
         w.write_simulation_truth(truth, t + 600)
-    return {"info": info, "ground": ground, "poses": poses, "gt": gt, "note": note, "truth": truth, "images": images}
+    return {
+        "info": info,
+        "ground": ground,
+        "poses": poses,
+        "gt": gt,
+        "note": note,
+        "truth": truth,
+        "images": images,
+    }
 
 
 @pytest.mark.parametrize("image_format", ["jpeg", "png"])
@@ -199,15 +209,19 @@ def test_not_an_mcap_file(tmp_path: Path) -> None:
 
 
 def test_missing_file(tmp_path: Path) -> None:
-    with pytest.raises(SessionFormatError, match="cannot open"), SessionReader(tmp_path / "nope.mcap"):
+    with (
+        pytest.raises(SessionFormatError, match="cannot open"),
+        SessionReader(tmp_path / "nope.mcap"),
+    ):
         pass
 
 
 def test_writer_refuses_to_overwrite(tmp_path: Path) -> None:
     path = tmp_path / "s.mcap"
     path.write_bytes(b"precious data")
-    with pytest.raises(SessionExistsError, match="never overwrites"), SessionWriter(
-        path, SessionInfo("point", "in"), [CAM0]
+    with (
+        pytest.raises(SessionExistsError, match="never overwrites"),
+        SessionWriter(path, SessionInfo("point", "in"), [CAM0]),
     ):
         pass
     assert path.read_bytes() == b"precious data"
@@ -219,16 +233,36 @@ def _raw_session(path: Path, format_version: str) -> None:
         w = McapWriter(f)
         w.start()
         w.add_metadata("twopose", {"format_version": format_version, "software_version": "9.0"})
-        sid = w.register_schema("twopose.Session", "jsonschema", json.dumps(SessionInfo.JSON_SCHEMA).encode())
-        cid = w.register_channel("/twopose/session", "json", sid)
-        w.add_message(cid, 0, json.dumps({**SessionInfo("point", "in").to_json(), "format_version": format_version}).encode(), 0)
-        pid = w.register_schema(
-            "foxglove.CameraCalibration", "protobuf", build_file_descriptor_set(CameraCalibration).SerializeToString()
+        sid = w.register_schema(
+            "twopose.Session", "jsonschema", json.dumps(SessionInfo.JSON_SCHEMA).encode()
         )
-        cal = CameraCalibration(frame_id="camera_cam0", width=640, height=480, K=[525, 0, 320, 0, 525, 240, 0, 0, 1])
-        w.add_message(w.register_channel("/twopose/camera/cam0/calibration", "protobuf", pid), 0, cal.SerializeToString(), 0)
+        cid = w.register_channel("/twopose/session", "json", sid)
+        w.add_message(
+            cid,
+            0,
+            json.dumps(
+                {**SessionInfo("point", "in").to_json(), "format_version": format_version}
+            ).encode(),
+            0,
+        )
+        pid = w.register_schema(
+            "foxglove.CameraCalibration",
+            "protobuf",
+            build_file_descriptor_set(CameraCalibration).SerializeToString(),
+        )
+        cal = CameraCalibration(
+            frame_id="camera_cam0", width=640, height=480, K=[525, 0, 320, 0, 525, 240, 0, 0, 1]
+        )
+        w.add_message(
+            w.register_channel("/twopose/camera/cam0/calibration", "protobuf", pid),
+            0,
+            cal.SerializeToString(),
+            0,
+        )
         # A channel this version does not know about: skipped, not fatal.
-        xid = w.register_channel("/someone/else", "json", w.register_schema("x.Y", "jsonschema", b"{}"))
+        xid = w.register_channel(
+            "/someone/else", "json", w.register_schema("x.Y", "jsonschema", b"{}")
+        )
         w.add_message(xid, 1, b"{}", 1)
         w.finish()
 
@@ -245,7 +279,10 @@ def test_newer_minor_version_is_read_and_unknown_channels_skipped(tmp_path: Path
 def test_newer_major_version_is_refused_clearly(tmp_path: Path) -> None:
     path = tmp_path / "future.mcap"
     _raw_session(path, "2.0")
-    with pytest.raises(SessionVersionError, match=r"format 2\.0.*reads format 1\.x only"), SessionReader(path):
+    with (
+        pytest.raises(SessionVersionError, match=r"format 2\.0.*reads format 1\.x only"),
+        SessionReader(path),
+    ):
         pass
 
 
@@ -259,13 +296,18 @@ def test_mcap_without_twopose_metadata_is_refused(tmp_path: Path) -> None:
         pass
 
 
+def _capture_then_fail(w: SessionWriter) -> None:
+    with w.capture(1, 1, "cam0") as cap:
+        cap.add_frame(_image(1), 2)
+        raise RuntimeError("camera stopped delivering frames")
+
+
 def test_capture_interrupted_by_an_error_is_kept_and_marked_incomplete(tmp_path: Path) -> None:
     path = tmp_path / "s.mcap"
     with SessionWriter(path, SessionInfo("point", "in"), [CAM0], start_ns=0) as w:
         w.write_pose(PoseEntry(1, 1, "cam0", (0, 0, 0)), 1)
-        with pytest.raises(RuntimeError), w.capture(1, 1, "cam0") as cap:
-            cap.add_frame(_image(1), 2)
-            raise RuntimeError("camera stopped delivering frames")
+        with pytest.raises(RuntimeError):
+            _capture_then_fail(w)
     with SessionReader(path) as r:
         windows = [e for e in r.iter_entries() if isinstance(e, CaptureWindow)]
     assert len(windows) == 1
@@ -297,8 +339,9 @@ def test_invalid_typed_values_never_reach_a_file(make: object, message: str) -> 
 
 
 def test_writer_rejects_unknown_camera(tmp_path: Path) -> None:
-    with SessionWriter(tmp_path / "s.mcap", SessionInfo("point", "in"), [CAM0]) as w, pytest.raises(
-        InputValueError, match="not in this session"
+    with (
+        SessionWriter(tmp_path / "s.mcap", SessionInfo("point", "in"), [CAM0]) as w,
+        pytest.raises(InputValueError, match="not in this session"),
     ):
         w.write_pose(PoseEntry(1, 1, "right", (0, 0, 0)))
 
@@ -323,7 +366,9 @@ def test_session_written_from_the_spec_with_plain_mcap_is_readable(tmp_path: Pat
         }
         pb = {
             cls.DESCRIPTOR.full_name: w.register_schema(
-                cls.DESCRIPTOR.full_name, "protobuf", build_file_descriptor_set(cls).SerializeToString()
+                cls.DESCRIPTOR.full_name,
+                "protobuf",
+                build_file_descriptor_set(cls).SerializeToString(),
             )
             for cls in (CameraCalibration, CompressedImage, FrameTransform)
         }
@@ -333,28 +378,73 @@ def test_session_written_from_the_spec_with_plain_mcap_is_readable(tmp_path: Pat
             "capture": w.register_channel("/twopose/capture", "json", ids["CaptureWindow"]),
             "ground": w.register_channel("/twopose/ground", "json", ids["GroundPlane"]),
             "gt": w.register_channel("/twopose/ground_truth", "json", ids["GroundTruth"]),
-            "cal": w.register_channel("/twopose/camera/A/calibration", "protobuf", pb["foxglove.CameraCalibration"]),
-            "img": w.register_channel("/twopose/camera/A/image", "protobuf", pb["foxglove.CompressedImage"]),
+            "cal": w.register_channel(
+                "/twopose/camera/A/calibration", "protobuf", pb["foxglove.CameraCalibration"]
+            ),
+            "img": w.register_channel(
+                "/twopose/camera/A/image", "protobuf", pb["foxglove.CompressedImage"]
+            ),
         }
 
         def put(key: str, t: int, payload: dict[str, object] | bytes) -> None:
             data = payload if isinstance(payload, bytes) else json.dumps(payload).encode()
             w.add_message(ch[key], t, data, t)
 
-        put("session", 0, {"format_version": "1.3", "method": "point", "units": "mm", "camera_ids": ["A"], "extra": 1})
-        cal = CameraCalibration(frame_id="camera_A", width=64, height=48, distortion_model="plumb_bob",
-                                D=[0, 0, 0, 0, 0], K=[50, 0, 32, 0, 50, 24, 0, 0, 1])
+        put(
+            "session",
+            0,
+            {
+                "format_version": "1.3",
+                "method": "point",
+                "units": "mm",
+                "camera_ids": ["A"],
+                "extra": 1,
+            },
+        )
+        cal = CameraCalibration(
+            frame_id="camera_A",
+            width=64,
+            height=48,
+            distortion_model="plumb_bob",
+            D=[0, 0, 0, 0, 0],
+            K=[50, 0, 32, 0, 50, 24, 0, 0, 1],
+        )
         put("cal", 0, cal.SerializeToString())
         put("ground", 0, {"normal": [0, 1, 0], "offset": 250.0})
         put("gt", 1, {"trial": 3, "kind": "point", "points": [[1, 2, 3]]})
-        put("pose", 2, {"trial": 3, "pose": 0, "camera": "A", "translation": [0, 0, 0],
-                        "rotation_deg": [0, 0, 0], "resolution": {"translation": 1, "rotation_deg": 1}})
+        put(
+            "pose",
+            2,
+            {
+                "trial": 3,
+                "pose": 0,
+                "camera": "A",
+                "translation": [0, 0, 0],
+                "rotation_deg": [0, 0, 0],
+                "resolution": {"translation": 1, "rotation_deg": 1},
+            },
+        )
         import cv2
 
-        ok, buf = cv2.imencode(".png", np.zeros((48, 64, 3), np.uint8))
-        put("img", 3, CompressedImage(frame_id="camera_A", format="png", data=bytes(buf)).SerializeToString())
-        put("capture", 4, {"trial": 3, "pose": 0, "camera": "A", "start_ns": 3, "end_ns": 3,
-                           "n_frames": 1, "status": "complete"})
+        _ok, buf = cv2.imencode(".png", np.zeros((48, 64, 3), np.uint8))
+        put(
+            "img",
+            3,
+            CompressedImage(frame_id="camera_A", format="png", data=bytes(buf)).SerializeToString(),
+        )
+        put(
+            "capture",
+            4,
+            {
+                "trial": 3,
+                "pose": 0,
+                "camera": "A",
+                "start_ns": 3,
+                "end_ns": 3,
+                "n_frames": 1,
+                "status": "complete",
+            },
+        )
         w.finish()
     with SessionReader(path) as r:
         assert r.info.units == "mm"
@@ -375,7 +465,12 @@ def test_invalid_json_entry_in_a_foreign_file_is_a_format_error(tmp_path: Path) 
         w.add_metadata("twopose", {"format_version": "1.0"})
         sid = w.register_schema("twopose.Session", "jsonschema", b"{}")
         cid = w.register_channel("/twopose/session", "json", sid)
-        w.add_message(cid, 0, json.dumps({"format_version": "1.0", "method": "point", "units": "in"}).encode(), 0)
+        w.add_message(
+            cid,
+            0,
+            json.dumps({"format_version": "1.0", "method": "point", "units": "in"}).encode(),
+            0,
+        )
         w.finish()
     with pytest.raises(SessionFormatError, match="camera_ids"), SessionReader(path):
         pass

@@ -1,0 +1,256 @@
+"""The simulator: determinism, truth in a separate channel, rendered truth consistency."""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from analysis.replay import iter_trials
+from recorder.camera import project_points, rotation_from_angles_deg
+from recorder.errors import InputValueError, SceneError
+from recorder.render import build_layout, expose, finger_axis, render_radiance
+from recorder.scene import Scene, load_scene
+from recorder.session import SessionReader
+from recorder.simulate import simulate_session
+
+
+def _sha(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def test_same_seed_same_bytes_other_seed_other_bytes(tmp_path: Path) -> None:
+    a, b, c = tmp_path / "a.mcap", tmp_path / "b.mcap", tmp_path / "c.mcap"
+    for path, seed in ((a, 3), (b, 3), (c, 4)):
+        simulate_session(path, method="point", trials=1, frames=2, seed=seed)
+    assert _sha(a) == _sha(b)
+    assert _sha(a) != _sha(c)
+
+
+def test_typed_poses_carry_the_typing_error_truth_does_not(ground_session: Path) -> None:
+    with SessionReader(ground_session) as r:
+        assert r.info.simulated
+        assert r.ground is not None
+        assert r.ground.offset == pytest.approx(9.625)
+        trials = list(iter_trials(r))
+    assert [t.trial for t in trials] == [1, 2]
+    for t in trials:
+        assert t.simulation_truth is not None
+        assert t.ground_truth is not None
+        assert t.ground_truth.points_grid == t.simulation_truth.points_grid
+        assert len(t.poses) == 2
+        for pc, true in zip(t.poses, t.simulation_truth.poses, strict=True):
+            assert pc.complete
+            assert len(pc.frames) == 3
+            typed, real = np.array(pc.entry.t_grid), np.array(true.t_grid)
+            # Typed values sit on the 0.25 in lattice; the truth is off it by the typing error.
+            np.testing.assert_allclose(typed / 0.25, np.round(typed / 0.25), atol=1e-9)
+            assert 0 < np.abs(typed - real).max() < 0.6
+            assert typed[1] == real[1] == 0.0  # the laptop stays on the table
+
+
+def test_pose_noise_zero_makes_typed_equal_true(tmp_path: Path) -> None:
+    out = tmp_path / "exact.mcap"
+    simulate_session(out, method="line", trials=2, frames=1, seed=1, pose_noise=0.0)
+    with SessionReader(out) as r:
+        for t in iter_trials(r, with_frames=False):
+            assert t.simulation_truth is not None
+            assert t.simulation_truth.kind == "line"
+            assert len(t.simulation_truth.points_grid) == 2
+            for pc, true in zip(t.poses, t.simulation_truth.poses, strict=True):
+                assert pc.entry.t_grid == true.t_grid
+
+
+def _dark_centroid(img: np.ndarray, near: np.ndarray, half: int = 15) -> np.ndarray:
+    gray = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY).astype(float)
+    c, r = np.round(near).astype(int)
+    win = gray[r - half : r + half + 1, c - half : c + half + 1]
+    weight = np.clip(180.0 - win, 0, None)  # darkness below the card's white level
+    rows, cols = np.mgrid[r - half : r + half + 1, c - half : c + half + 1]
+    return np.array([(weight * cols).sum(), (weight * rows).sum()]) / weight.sum()
+
+
+def test_rendered_dot_is_where_the_true_pose_projects_it(point_session: Path) -> None:
+    with SessionReader(point_session) as r:
+        cams = r.cameras
+        trials = list(iter_trials(r))
+    for t in trials:
+        assert t.simulation_truth is not None
+        dot = np.array(t.simulation_truth.points_grid)
+        for pc, true in zip(t.poses, t.simulation_truth.poses, strict=True):
+            expected = project_points(
+                dot,
+                cams[true.camera_id].intrinsics,
+                rotation_from_angles_deg(true.r_deg),
+                true.t_grid,
+            )[0]
+            for frame in pc.frames:
+                got = _dark_centroid(frame.decode(), expected)
+                assert np.linalg.norm(got - expected) < 0.25, (got, expected)
+
+
+def _blue_blob(img: np.ndarray, inside: np.ndarray) -> tuple[np.ndarray, float, int]:
+    """Centroid (col, row), orientation (deg) and area of the blue blob at pixel ``inside``."""
+    rgb = img[:, :, ::-1].astype(float)
+    norm = rgb / np.maximum(np.linalg.norm(rgb, axis=2, keepdims=True), 1)
+    mask = ((norm[:, :, 2] > 0.7) & (norm[:, :, 0] < 0.35) & (rgb[:, :, 2] > 50)).astype(np.uint8)
+    _, labels, _, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+    c, r = np.round(inside).astype(int)
+    label = labels[r, c]
+    assert label > 0, "no glove-blue pixel on the projected axis"
+    m = cv2.moments((labels == label).astype(np.uint8), binaryImage=True)
+    centroid = np.array([m["m10"] / m["m00"], m["m01"] / m["m00"]])
+    theta = 0.5 * np.degrees(np.arctan2(2 * m["mu11"], m["mu20"] - m["mu02"]))
+    return centroid, theta, int(m["m00"])
+
+
+def test_rendered_finger_lies_on_the_projected_axis(ground_session: Path) -> None:
+    scene = Scene()
+    tip, base = finger_axis(scene)
+    with SessionReader(ground_session) as r:
+        cams = r.cameras
+        trials = list(iter_trials(r))
+    for t in trials:
+        assert t.simulation_truth is not None
+        for pc, true in zip(t.poses, t.simulation_truth.poses, strict=True):
+            p_tip, p_base = project_points(
+                np.stack([tip, base]),
+                cams[true.camera_id].intrinsics,
+                rotation_from_angles_deg(true.r_deg),
+                true.t_grid,
+            )
+            axis = (p_tip - p_base) / np.linalg.norm(p_tip - p_base)
+            normal = np.array([-axis[1], axis[0]])
+            axis_deg = np.degrees(np.arctan2(axis[1], axis[0]))
+            for frame in pc.frames:
+                centroid, theta, area = _blue_blob(frame.decode(), (p_tip + p_base) / 2)
+                assert area > 1000
+                assert abs((centroid - p_base) @ normal) < 0.6  # on the projected axis line
+                diff = (theta - axis_deg + 90) % 180 - 90  # a line direction: modulo 180
+                assert abs(diff) < 1.0
+
+
+def test_frames_vary_between_frames_of_one_pose(ground_session: Path) -> None:
+    with SessionReader(ground_session) as r:
+        pc = next(iter_trials(r)).poses[0]
+    a, b = (f.decode().astype(float) for f in pc.frames[:2])
+    diff = np.abs(a - b)
+    assert 0.5 < diff.mean() < 12  # noise + lighting, not a different scene
+
+
+def test_clutter_is_rendered_and_blue(tmp_path: Path) -> None:
+    scene = load_scene(clutter={"count": 8})
+    rng = np.random.default_rng(0)
+    layout = build_layout(scene, "ground", rng)
+    assert len(layout.decals) == 8
+    assert {d.shape for d in layout.decals} >= {"disk", "ring", "triangle", "ellipse"}
+    intr = scene.cameras[0].intrinsics
+    no_clutter = load_scene(clutter={"count": 0})
+    with_c = render_radiance(scene, layout, intr, np.eye(3), np.zeros(3))
+    without = render_radiance(
+        no_clutter,
+        build_layout(no_clutter, "ground", np.random.default_rng(0)),
+        intr,
+        np.eye(3),
+        np.zeros(3),
+    )
+    changed = np.abs(with_c - without).sum(axis=2) > 0.05
+    assert changed.sum() > 500
+
+
+def test_expose_is_deterministic_for_a_generator() -> None:
+    scene = Scene()
+    rad = np.full((48, 64, 3), 0.3, np.float32)
+    a = expose(rad, scene, np.random.default_rng(5))
+    b = expose(rad, scene, np.random.default_rng(5))
+    np.testing.assert_array_equal(a, b)
+    assert a.dtype == np.uint8
+    assert a.shape == (48, 64, 3)
+
+
+def test_rotated_and_two_camera_scene(tmp_path: Path) -> None:
+    scene_file = tmp_path / "scene.toml"
+    scene_file.write_text(
+        """
+[[cameras]]
+id = "left"
+fx = 525.0
+fy = 525.0
+
+[[cameras]]
+id = "right"
+width = 320
+height = 240
+fx = 300.0
+fy = 300.0
+cx = 160.0
+cy = 120.0
+
+[poses]
+ry_range = [-5.0, 5.0]
+count = 3
+"""
+    )
+    out = tmp_path / "two.mcap"
+    summary = simulate_session(
+        out, method="point", trials=1, frames=1, seed=2, scene=load_scene(scene_file)
+    )
+    assert summary.n_poses == 3
+    with SessionReader(out) as r:
+        assert r.info.camera_ids == ("left", "right")
+        (trial,) = list(iter_trials(r))
+    assert [p.entry.camera_id for p in trial.poses] == ["left", "right", "left"]
+    assert trial.poses[1].frames[0].decode().shape == (240, 320, 3)
+
+
+@pytest.mark.parametrize(
+    ("toml", "message"),
+    [
+        ("[finger]\ntilt = 3.0\n", "unknown key"),
+        ("[finger]\ntilt_deg = 'steep'\n", "finger.tilt_deg must be a finite number"),
+        ("[poses]\ncount = 1\n", "poses.count"),
+        ("[poses]\nx_range = [2.0, -2.0]\n", "poses.x_range"),
+        ("[poses]\nx_range = [1.0]\n", "must have 2 items"),
+        ("ground_height = -1.0\n", "ground_height"),
+        ("[sensor]\nimage_format = 'gif'\n", "image_format"),
+        ("[clutter]\nkinds = ['unicorn']\n", "unknown kinds"),
+        ("this is = not toml [", "not valid TOML"),
+        ("nonsense = 1\n", "unknown key"),
+    ],
+)
+def test_bad_scene_files_name_the_key(tmp_path: Path, toml: str, message: str) -> None:
+    path = tmp_path / "scene.toml"
+    path.write_text(toml)
+    with pytest.raises(SceneError, match=message):
+        load_scene(path)
+
+
+def test_scene_overrides_apply() -> None:
+    scene = load_scene(finger={"tilt_deg": 20.0}, ground_height=10.0)
+    assert scene.finger.tilt_deg == 20.0
+    assert scene.ground_height == 10.0
+    assert scene.finger.azimuth_deg == Scene().finger.azimuth_deg
+
+
+def test_impossible_pose_ranges_are_a_scene_error(tmp_path: Path) -> None:
+    scene = load_scene(poses={"x_range": [0.0, 0.0], "z_range": [0.0, 0.0]})
+    with pytest.raises(SceneError, match="could not place"):
+        simulate_session(tmp_path / "x.mcap", method="point", trials=1, frames=1, scene=scene)
+    assert not (tmp_path / "x.mcap").exists() or (tmp_path / "x.mcap").stat().st_size > 0
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"method": "laser"}, "method"),
+        ({"method": "point", "trials": 0}, "trials"),
+        ({"method": "point", "frames": 0}, "frames"),
+        ({"method": "point", "pose_noise": float("nan")}, "pose noise"),
+    ],
+)
+def test_bad_simulation_arguments(tmp_path: Path, kwargs: dict[str, object], message: str) -> None:
+    with pytest.raises(InputValueError, match=message):
+        simulate_session(tmp_path / "x.mcap", **kwargs)  # type: ignore[arg-type]
