@@ -25,7 +25,7 @@ test: $(STAMP)
 
 # Regenerate the bundled sample sessions (deterministic: same bytes every time).
 sessions: $(STAMP)
-	$(BIN)/python scripts/make_sessions.py sessions/
+	$(BIN)/python sessions/make_sessions.py sessions/
 
 clean:
 	rm -rf $(VENV) results/ .mypy_cache .pytest_cache .ruff_cache

@@ -195,7 +195,12 @@ def _clutter(scene: Scene, method: str, rng: np.random.Generator) -> list[Decal]
                 center = np.array([rng.uniform(*c.table_x_range), rng.uniform(*c.table_z_range)])
                 scale = 1.6
                 point = np.array([center[0], scene.ground_height, center[1]])
-            if not _too_close_to_target(point, 2.5 * scale, target, views):
+            apart = all(
+                d.surface != ("wall" if on_wall else "table")
+                or np.linalg.norm(d.center - center) > 2.2 * scale + 1.0
+                for d in decals
+            )
+            if apart and not _too_close_to_target(point, 2.5 * scale, target, views):
                 break
         else:
             continue

@@ -254,3 +254,23 @@ def test_impossible_pose_ranges_are_a_scene_error(tmp_path: Path) -> None:
 def test_bad_simulation_arguments(tmp_path: Path, kwargs: dict[str, object], message: str) -> None:
     with pytest.raises(InputValueError, match=message):
         simulate_session(tmp_path / "x.mcap", **kwargs)  # type: ignore[arg-type]
+
+
+def test_readme_documents_every_scene_parameter() -> None:
+    import dataclasses
+
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    section = readme.split("### Scene parameters", 1)[1].split("## Sample sessions", 1)[0]
+    missing = []
+    for f in dataclasses.fields(Scene):
+        default = getattr(Scene(), f.name)
+        nested = default[0] if f.name == "cameras" else default
+        if dataclasses.is_dataclass(nested):
+            missing += [
+                f"{f.name}.{g.name}"
+                for g in dataclasses.fields(nested)
+                if f"`{g.name}`" not in section
+            ]
+        elif f"`{f.name}`" not in section:
+            missing.append(f.name)
+    assert not missing, f"README's scene table misses {missing}"
