@@ -1,0 +1,354 @@
+"""Detection: the gloved finger (thesis section 5.2.3, Appendix C) and the dot target.
+
+Per frame, image in, a :class:`Detection` out, no I/O. Per pose, :func:`combine_frames`
+turns K detections into one measurement (mean as the thesis, or median / outlier
+rejection), averaging orientations as line directions (doubled angles).
+
+Orientation convention: ``theta_deg`` is the blob's major-axis direction in (-90, 90],
+measured from the +col axis toward the +row axis (row points down), i.e.
+``theta = 0.5 atan2(2 mu11, mu20 - mu02)`` in (col, row) pixel axes.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = [
+    "Detection",
+    "DotParams",
+    "GloveParams",
+    "PoseMeasurement",
+    "blob_shape",
+    "combine_frames",
+    "detect",
+    "detect_dot",
+    "detect_glove",
+    "wrap_theta_deg",
+]
+
+Image = NDArray[np.uint8]
+CombineMethod = Literal["mean", "median", "robust"]
+
+
+@dataclass(frozen=True)
+class GloveParams:
+    """Thresholds of the thesis' glove filter (DESIGN.md: the code's inequalities).
+
+    A pixel is glove-coloured when its normalized RGB ``(R, G, B) / |RGB|`` has
+    ``Rn <= r_max``, ``Gn >= g_min`` and ``Bn >= b_min``; blobs must have area
+    ``> min_area_px``, eccentricity in ``[ecc_min, ecc_max)`` and ``4 A / (major minor)``
+    in ``[pi_min, pi_max]`` (the "pi filter"; full axis lengths, as MATLAB's).
+    """
+
+    r_max: float = 0.45
+    g_min: float = 0.40
+    b_min: float = 0.60
+    min_area_px: float = 200.0
+    ecc_min: float = 0.86
+    ecc_max: float = 1.0
+    pi_min: float = 2.90
+    pi_max: float = 3.08
+    use_otsu: bool = True
+
+
+@dataclass(frozen=True)
+class DotParams:
+    """The dark dot on a white card: black-hat contrast, size and roundness limits."""
+
+    max_radius_px: int = 25
+    min_area_px: float = 12.0
+    max_eccentricity: float = 0.85
+    min_contrast: float = 40.0  # grey levels darker than the local background
+
+
+@dataclass(frozen=True)
+class Detection:
+    """One frame's detection and the diagnostics behind it.
+
+    ``centroid_px`` is (col, row); NaN fields when nothing was found. ``reason`` says why
+    a frame was rejected (empty when found). ``n_blobs`` counts connected components after
+    the colour/contrast stage; ``n_candidates`` those passing every filter.
+    """
+
+    found: bool
+    centroid_px: tuple[float, float] = (math.nan, math.nan)
+    theta_deg: float = math.nan
+    area_px: float = math.nan
+    eccentricity: float = math.nan
+    pi_estimate: float = math.nan
+    n_blobs: int = 0
+    n_candidates: int = 0
+    reason: str = ""
+
+
+def wrap_theta_deg(theta_deg: NDArray[np.float64] | float) -> NDArray[np.float64]:
+    """Map line directions (degrees) into (-90, 90]."""
+    t = np.mod(np.asarray(theta_deg, dtype=np.float64) + 90.0, 180.0) - 90.0
+    return np.where(t == -90.0, 90.0, t)
+
+
+@dataclass(frozen=True)
+class BlobShape:
+    area: float
+    centroid: tuple[float, float]
+    theta_deg: float
+    major: float
+    minor: float
+    eccentricity: float
+    pi_estimate: float
+
+
+def blob_shape(m: dict[str, float], offset: tuple[float, float] = (0.0, 0.0)) -> BlobShape:
+    """MATLAB-regionprops-compatible shape of a blob from its OpenCV moments.
+
+    regionprops adds 1/12 (a unit pixel's own second moment) to the normalized second
+    moments; the axis lengths are full lengths, so ``4 A / (major minor)`` estimates pi
+    for an ellipse (thesis eq. 20).
+    """
+    a = m["m00"]
+    uxx = m["mu20"] / a + 1.0 / 12.0
+    uyy = m["mu02"] / a + 1.0 / 12.0
+    uxy = m["mu11"] / a
+    common = math.sqrt((uxx - uyy) ** 2 + 4.0 * uxy**2)
+    major = 2.0 * math.sqrt(2.0) * math.sqrt(uxx + uyy + common)
+    minor = 2.0 * math.sqrt(2.0) * math.sqrt(max(uxx + uyy - common, 0.0))
+    ecc = 2.0 * math.sqrt(max((major / 2) ** 2 - (minor / 2) ** 2, 0.0)) / major
+    theta = float(wrap_theta_deg(math.degrees(0.5 * math.atan2(2.0 * uxy, uxx - uyy))))
+    pi_est = 4.0 * a / (major * minor) if minor > 0 else math.inf
+    centroid = (m["m10"] / a + offset[0], m["m01"] / a + offset[1])
+    return BlobShape(a, centroid, theta, major, minor, ecc, pi_est)
+
+
+def _glove_mask(image_bgr: Image, p: GloveParams) -> NDArray[np.uint8]:
+    """The thesis' normalized-RGB filter, then Otsu on what survives (Appendix C).
+
+    ``Rn <= r`` is tested as ``R^2 <= r^2 |RGB|^2`` in integers: no square root, no division.
+    """
+    img = image_bgr.astype(np.int32)
+    b, g, r = img[:, :, 0], img[:, :, 1], img[:, :, 2]
+    s = r * r + g * g + b * b
+    keep = (
+        (r * r * 10_000 <= round(p.r_max**2 * 10_000) * s)
+        & (g * g * 10_000 >= round(p.g_min**2 * 10_000) * s)
+        & (b * b * 10_000 >= round(p.b_min**2 * 10_000) * s)
+        & (s > 0)
+    )
+    if not p.use_otsu:
+        return keep.astype(np.uint8)
+    # MATLAB: zero the rejected pixels, graythresh (Otsu) on the rest of the image, im2bw.
+    gray = cv2.cvtColor(image_bgr, cv2.COLOR_BGR2GRAY)
+    gray = np.where(keep, gray, 0).astype(np.uint8)
+    if not keep.any():
+        return keep.astype(np.uint8)
+    _, bw = cv2.threshold(gray, 0, 1, cv2.THRESH_BINARY + cv2.THRESH_OTSU)
+    return np.asarray(bw, dtype=np.uint8)
+
+
+def detect_glove(image_bgr: Image, params: GloveParams | None = None) -> Detection:
+    """Find the blue gloved finger in one (H, W, 3) BGR uint8 frame."""
+    p = params or GloveParams()
+    mask = _glove_mask(image_bgr, p)
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+    n_blobs = n - 1
+    big = [i for i in range(1, n) if stats[i, cv2.CC_STAT_AREA] > p.min_area_px]
+    shaped: list[BlobShape] = []
+    for i in big:
+        x, y, w, h = stats[i, :4]
+        roi = (labels[y : y + h, x : x + w] == i).astype(np.uint8)
+        shaped.append(blob_shape(cv2.moments(roi, binaryImage=True), (float(x), float(y))))
+    elliptic = [s for s in shaped if p.ecc_min <= s.eccentricity < p.ecc_max]
+    passing = [s for s in elliptic if p.pi_min <= s.pi_estimate <= p.pi_max]
+    if len(passing) == 1:
+        s = passing[0]
+        return Detection(
+            True, s.centroid, s.theta_deg, s.area, s.eccentricity, s.pi_estimate, n_blobs, 1
+        )
+    if passing:
+        areas = ", ".join(f"{s.area:.0f}" for s in passing)
+        reason = f"{len(passing)} blobs passed every filter (areas {areas} px^2); ambiguous"
+    elif n_blobs == 0:
+        reason = "no glove-coloured pixels"
+    elif not big:
+        reason = f"{n_blobs} glove-coloured blob(s), none larger than {p.min_area_px:g} px^2"
+    elif not elliptic:
+        eccs = ", ".join(f"{s.eccentricity:.2f}" for s in shaped)
+        reason = f"{len(big)} blob(s) over the area limit, eccentricity {eccs} not in [{p.ecc_min}, {p.ecc_max})"
+    else:
+        pis = ", ".join(f"{s.pi_estimate:.3f}" for s in elliptic)
+        reason = (
+            f"{len(elliptic)} elongated blob(s), pi estimate {pis} not in [{p.pi_min}, {p.pi_max}]"
+        )
+    return Detection(False, n_blobs=n_blobs, n_candidates=len(passing), reason=reason)
+
+
+def detect_dot(image_bgr: Image, params: DotParams | None = None) -> Detection:
+    """Find the dark dot on the white card; sub-pixel intensity-weighted centroid.
+
+    A morphological black-hat (closing minus image) with a kernel wider than the dot
+    turns small dark features on bright surfaces into peaks; the roundest, most contrasted
+    peak is the dot, and its centroid is weighted by the black-hat response.
+    """
+    p = params or DotParams()
+    gray = cv2.cvtColor(image_bgr, cv2.COLOR_BGR2GRAY)
+    k = 2 * p.max_radius_px + 1
+    kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (k, k))  # separable: 25x faster
+    hat = cv2.morphologyEx(gray, cv2.MORPH_BLACKHAT, kernel)
+    _, bw = cv2.threshold(hat, p.min_contrast, 1, cv2.THRESH_BINARY)
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(bw.astype(np.uint8), connectivity=8)
+    best: tuple[float, BlobShape, int] | None = None
+    n_round = 0
+    for i in range(1, n):
+        if stats[i, cv2.CC_STAT_AREA] < p.min_area_px:
+            continue
+        x, y, w, h = stats[i, :4]
+        if max(w, h) > k:  # wider than the kernel: an edge or a stripe, not a dot
+            continue
+        roi = (labels[y : y + h, x : x + w] == i).astype(np.uint8)
+        shape = blob_shape(cv2.moments(roi, binaryImage=True), (float(x), float(y)))
+        if shape.eccentricity > p.max_eccentricity:
+            continue
+        n_round += 1
+        peak = float(hat[y : y + h, x : x + w][roi > 0].max())
+        if best is None or peak > best[0]:
+            best = (peak, shape, i)
+    if best is None:
+        reason = "no round dark blob" if n > 1 else "no dark feature on a bright background"
+        return Detection(False, n_blobs=n - 1, reason=reason)
+    _, shape, label = best
+    x, y, w, h = stats[label, :4]
+    pad = 3
+    x0, y0 = max(x - pad, 0), max(y - pad, 0)
+    x1, y1 = min(x + w + pad, gray.shape[1]), min(y + h + pad, gray.shape[0])
+    weights = hat[y0:y1, x0:x1].astype(np.float64)
+    weights = np.clip(weights - p.min_contrast / 2, 0.0, None)
+    rows, cols = np.mgrid[y0:y1, x0:x1]
+    total = weights.sum()
+    centroid = (float((weights * cols).sum() / total), float((weights * rows).sum() / total))
+    return Detection(
+        True,
+        centroid,
+        shape.theta_deg,
+        shape.area,
+        shape.eccentricity,
+        shape.pi_estimate,
+        n - 1,
+        n_round,
+    )
+
+
+def detect(
+    image_bgr: Image, target: str, params: GloveParams | DotParams | None = None
+) -> Detection:
+    """Dispatch on ``target``: ``"glove"`` or ``"dot"``."""
+    if target == "glove":
+        return detect_glove(image_bgr, params if isinstance(params, GloveParams) else None)
+    if target == "dot":
+        return detect_dot(image_bgr, params if isinstance(params, DotParams) else None)
+    raise ValueError(f"target must be glove or dot, got {target!r}")
+
+
+@dataclass(frozen=True)
+class PoseMeasurement:
+    """One pose's combined measurement from its K frames.
+
+    ``centroid_std_px`` and ``theta_std_deg`` are the frame-to-frame scatter of the frames
+    used; ``rejected`` lists the indices of found frames dropped as outliers.
+    """
+
+    found: bool
+    centroid_px: tuple[float, float]
+    theta_deg: float
+    n_used: int
+    n_frames: int
+    centroid_std_px: tuple[float, float]
+    theta_std_deg: float
+    rejected: tuple[int, ...] = ()
+
+
+def _doubled_angle_mean(theta_deg: NDArray[np.float64]) -> float:
+    """Mean line direction: average (cos 2t, sin 2t), never raw angles (DESIGN.md)."""
+    t2 = np.deg2rad(2.0 * theta_deg)
+    return float(wrap_theta_deg(np.rad2deg(0.5 * math.atan2(np.sin(t2).mean(), np.cos(t2).mean()))))
+
+
+def _angle_deviation(theta_deg: NDArray[np.float64], ref_deg: float) -> NDArray[np.float64]:
+    return wrap_theta_deg(theta_deg - ref_deg)
+
+
+def combine_frames(
+    centroids_px: NDArray[np.float64],
+    thetas_deg: NDArray[np.float64],
+    found: NDArray[np.bool_],
+    method: CombineMethod = "mean",
+    *,
+    outlier_sigmas: float = 3.5,
+) -> PoseMeasurement:
+    """Combine K frame detections of one pose.
+
+    Parameters
+    ----------
+    centroids_px : (K, 2) ndarray
+        (col, row) per frame; rows of frames not found are ignored.
+    thetas_deg : (K,) ndarray
+        Orientation per frame (NaN for the dot).
+    found : (K,) bool ndarray
+    method : {"mean", "median", "robust"}
+        ``mean`` is the thesis' five-frame average; ``median`` the component-wise median
+        (orientation: median of doubled-angle deviations); ``robust`` drops frames more than
+        ``outlier_sigmas`` robust standard deviations (1.4826 MAD) from the median, then
+        averages.
+    """
+    c = np.asarray(centroids_px, dtype=np.float64).reshape(-1, 2)
+    th = np.asarray(thetas_deg, dtype=np.float64).reshape(-1)
+    ok = np.asarray(found, dtype=bool).reshape(-1)
+    k = ok.size
+    idx = np.flatnonzero(ok)
+    nan2 = (math.nan, math.nan)
+    if idx.size == 0:
+        return PoseMeasurement(False, nan2, math.nan, 0, k, nan2, math.nan)
+    has_theta = bool(np.isfinite(th[idx]).all())
+    rejected: tuple[int, ...] = ()
+    if method == "robust" and idx.size >= 3:
+        med = np.median(c[idx], axis=0)
+        dist = np.linalg.norm(c[idx] - med, axis=1)
+        scale = max(1.4826 * float(np.median(dist)), 0.05)
+        bad = dist > outlier_sigmas * scale
+        if has_theta:
+            dev = np.abs(_angle_deviation(th[idx], _doubled_angle_mean(th[idx])))
+            tscale = max(1.4826 * float(np.median(dev)), 0.05)
+            bad |= dev > outlier_sigmas * tscale
+        if bad.any() and (~bad).sum() >= 2:
+            rejected = tuple(int(i) for i in idx[bad])
+            idx = idx[~bad]
+    used_c, used_t = c[idx], th[idx]
+    if method == "median":
+        centroid = np.median(used_c, axis=0)
+        if has_theta:
+            ref = _doubled_angle_mean(used_t)
+            theta = float(wrap_theta_deg(ref + float(np.median(_angle_deviation(used_t, ref)))))
+        else:
+            theta = math.nan
+    else:
+        centroid = used_c.mean(axis=0)
+        theta = _doubled_angle_mean(used_t) if has_theta else math.nan
+    std = used_c.std(axis=0, ddof=1) if idx.size > 1 else np.array([math.nan, math.nan])
+    if has_theta and idx.size > 1:
+        theta_std = float(np.std(_angle_deviation(used_t, theta), ddof=1))
+    else:
+        theta_std = math.nan
+    return PoseMeasurement(
+        True,
+        (float(centroid[0]), float(centroid[1])),
+        theta,
+        int(idx.size),
+        k,
+        (float(std[0]), float(std[1])),
+        theta_std,
+        rejected,
+    )
