@@ -140,12 +140,12 @@ def _glove_mask(image_bgr: Image, p: GloveParams) -> NDArray[np.uint8]:
         & (s > 0)
     )
     if not p.use_otsu:
-        return keep.astype(np.uint8)
+        return np.asarray(keep, dtype=np.uint8)
     # MATLAB: zero the rejected pixels, graythresh (Otsu) on the rest of the image, im2bw.
     gray = cv2.cvtColor(image_bgr, cv2.COLOR_BGR2GRAY)
     gray = np.where(keep, gray, 0).astype(np.uint8)
     if not keep.any():
-        return keep.astype(np.uint8)
+        return np.asarray(keep, dtype=np.uint8)
     _, bw = cv2.threshold(gray, 0, 1, cv2.THRESH_BINARY + cv2.THRESH_OTSU)
     return np.asarray(bw, dtype=np.uint8)
 
@@ -178,7 +178,10 @@ def detect_glove(image_bgr: Image, params: GloveParams | None = None) -> Detecti
         reason = f"{n_blobs} glove-coloured blob(s), none larger than {p.min_area_px:g} px^2"
     elif not elliptic:
         eccs = ", ".join(f"{s.eccentricity:.2f}" for s in shaped)
-        reason = f"{len(big)} blob(s) over the area limit, eccentricity {eccs} not in [{p.ecc_min}, {p.ecc_max})"
+        reason = (
+            f"{len(big)} blob(s) over the area limit, "
+            f"eccentricity {eccs} not in [{p.ecc_min}, {p.ecc_max})"
+        )
     else:
         pis = ", ".join(f"{s.pi_estimate:.3f}" for s in elliptic)
         reason = (
