@@ -205,7 +205,7 @@ def solve_point(
     b1 = b[:, 0]
     b2_in_1 = np.einsum("tij,tj->ti", Rrel, b[:, 1])
     A = np.stack([b1, -b2_in_1], axis=2)  # (T, 3, 2): eq. (7)'s A_p
-    finite: NDArray[np.bool_] = np.isfinite(p).all(axis=(1, 2)) & np.isfinite(k).all(axis=(1, 2))
+    finite = np.asarray(np.isfinite(p).all(axis=(1, 2)) & np.isfinite(k).all(axis=(1, 2)))
     u1, _ = _unit(b1)
     u2, _ = _unit(b2_in_1)
     parallax = np.linalg.norm(np.cross(u1, u2), axis=-1)
@@ -245,7 +245,7 @@ def _grid_planes(
     n_cam = line_planes(px, th, k)
     n_grid, _ = _unit(np.einsum("tvij,tvj->tvi", R, n_cam))
     offset = np.einsum("tvi,tvi->tv", n_grid, t)
-    finite: NDArray[np.bool_] = (
+    finite = np.asarray(
         np.isfinite(px).all(axis=(1, 2))
         & np.isfinite(th).all(axis=1)
         & np.isfinite(n_grid).all(axis=(1, 2))
