@@ -14,7 +14,7 @@ $(STAMP): pyproject.toml
 
 # The main job on the bundled sample sessions.
 run: $(STAMP)
-	$(BIN)/twopose-analyze info sessions/
+	$(BIN)/twopose-analyze run sessions/ --out results/
 
 # The whole test suite: lint, types, tests.
 test: $(STAMP)

@@ -9,9 +9,16 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+import json
+import math
+import sys
+from enum import StrEnum
+
+from rich.progress import Progress
+
 from analysis.replay import SessionOverview, describe_session, find_sessions
 from recorder.cli import handle_errors
-from recorder.errors import EXIT_SOME_INPUTS_FAILED, TwoposeError
+from recorder.errors import EXIT_SOME_INPUTS_FAILED, InputValueError, TwoposeError
 
 __all__ = ["app", "main"]
 
@@ -82,6 +89,131 @@ def info(
         typer.secho("no session files (*.mcap) found", err=True, fg=typer.colors.YELLOW)
     if failed or not sessions:
         raise typer.Exit(EXIT_SOME_INPUTS_FAILED)
+
+
+class CombineChoice(StrEnum):
+    mean = "mean"
+    median = "median"
+    robust = "robust"
+
+
+@app.command("run")
+def run_command(
+    paths: Annotated[list[Path], typer.Argument(help="Session files and/or folders (recursive).")],
+    out: Annotated[
+        Path, typer.Option("--out", help="Output folder for tables, figures, report.")
+    ] = Path("results"),
+    jobs: Annotated[
+        int, typer.Option(min=1, help="Worker processes (results do not depend on it).")
+    ] = 1,
+    dask: Annotated[
+        str | None,
+        typer.Option(help="Address of an existing Dask scheduler to run the sessions on."),
+    ] = None,
+    combine: Annotated[
+        CombineChoice, typer.Option(help="How a pose's frames are combined (thesis: mean).")
+    ] = CombineChoice.mean,
+) -> None:
+    """Replay sessions through detection and solvers into error tables, figures and a report."""
+    from analysis.report import summary_rows
+    from analysis.run import AnalysisOptions, run
+
+    console = Console(stderr=True)
+    with handle_errors():
+        n = len(find_sessions(paths))
+        with Progress(console=console, transient=True, disable=n < 2) as progress:
+            task = progress.add_task("sessions", total=n)
+            result = run(
+                paths,
+                out,
+                jobs=jobs,
+                dask_address=dask,
+                options=AnalysisOptions(combine=combine.value),
+                on_session_done=lambda _path, _ok: progress.advance(task),
+            )
+    table = Table(title=f"twopose: {len(result.sessions)} session(s), results in {out}")
+    for col in ("session", "method", "ok", "bias x", "bias z", "rmse", "median", "max", "within 1"):
+        table.add_column(col, justify="right")
+    for row in summary_rows(result.summary):
+        table.add_row(*row)
+    Console().print(table)
+    for _, e in result.errors.iterrows():
+        typer.secho(f"failed: {e['error']}", err=True, fg=typer.colors.RED)
+    if result.failed or not result.sessions:
+        if not result.sessions and result.errors.empty:
+            typer.secho("no session files (*.mcap) found", err=True, fg=typer.colors.YELLOW)
+        raise typer.Exit(EXIT_SOME_INPUTS_FAILED)
+
+
+class TargetChoice(StrEnum):
+    glove = "glove"
+    dot = "dot"
+
+
+def _json_float(v: float) -> float | None:
+    return None if math.isnan(v) else round(v, 4)
+
+
+@app.command()
+def detect(
+    images: Annotated[list[Path], typer.Argument(help="Image files (anything OpenCV reads).")],
+    target: Annotated[TargetChoice, typer.Option(help="What to look for.")],
+) -> None:
+    """Detect the glove or the dot in images; one JSON object per image."""
+    import cv2
+
+    from analysis.detect import detect as detect_image
+
+    failed = False
+    for path in images:
+        img = cv2.imread(str(path), cv2.IMREAD_COLOR)
+        if img is None:
+            failed = True
+            out = {
+                "image": str(path),
+                "found": False,
+                "centroid_px": None,
+                "theta_deg": None,
+                "area_px": None,
+                "eccentricity": None,
+                "reason": "not a readable image",
+            }
+        else:
+            d = detect_image(img, target.value)
+            out = {
+                "image": str(path),
+                "found": d.found,
+                "centroid_px": [_json_float(d.centroid_px[0]), _json_float(d.centroid_px[1])]
+                if d.found
+                else None,
+                "theta_deg": _json_float(d.theta_deg) if d.found else None,
+                "area_px": _json_float(d.area_px) if d.found else None,
+                "eccentricity": _json_float(d.eccentricity) if d.found else None,
+                "reason": d.reason,
+            }
+        typer.echo(json.dumps(out))
+    if failed:
+        raise typer.Exit(EXIT_SOME_INPUTS_FAILED)
+
+
+class SolveMethod(StrEnum):
+    point = "point"
+    line = "line"
+    ground = "ground"
+
+
+@app.command()
+def solve(method: Annotated[SolveMethod, typer.Argument(help="Which reconstruction.")]) -> None:
+    """Solve one measurement by hand: a JSON request on stdin, a JSON answer on stdout."""
+    from analysis.request import solve_request
+
+    with handle_errors():
+        try:
+            request = json.loads(sys.stdin.read())
+        except json.JSONDecodeError as err:
+            raise InputValueError(f"the request is not valid JSON: {err}") from err
+        answer = solve_request(method.value, request)
+    typer.echo(json.dumps(answer))
 
 
 def main() -> None:

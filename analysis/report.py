@@ -1,0 +1,183 @@
+"""Report: figures (matplotlib, object API: nothing global is configured), CSV files, a
+self-contained ``report.html`` and the terminal summary."""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+import pandas as pd
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+
+if TYPE_CHECKING:
+    from analysis.run import RunResult
+
+__all__ = [
+    "plot_error_histogram",
+    "plot_error_scatter",
+    "plot_running_average",
+    "make_figures",
+    "write_outputs",
+]
+
+
+def plot_error_scatter(ax: Axes, trials: pd.DataFrame, title: str) -> None:
+    """Estimate minus truth in x-z, ok trials (the thesis' Figures 11 and 21)."""
+    ok = trials[trials["status"] == "ok"]
+    units = trials["units"].iloc[0] if len(trials) else ""
+    ax.axhline(0, color="0.8", lw=0.8)
+    ax.axvline(0, color="0.8", lw=0.8)
+    ax.scatter(ok["err_x"], ok["err_z"], s=18, label=f"{len(ok)} ok trials")
+    if len(ok):
+        ax.scatter(
+            [ok["err_x"].mean()], [ok["err_z"].mean()], marker="x", s=60, color="C3", label="bias"
+        )
+    ax.set_xlabel(f"x error ({units})")
+    ax.set_ylabel(f"z error ({units})")
+    ax.set_title(title, fontsize=9)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.legend(fontsize=7)
+
+
+def plot_running_average(
+    ax: Axes, averaging: pd.DataFrame, trials: pd.DataFrame, axis: str
+) -> None:
+    """Estimate of one coordinate against the number of frames averaged (Figures 22-23)."""
+    units = trials["units"].iloc[0] if len(trials) else ""
+    for trial, g in averaging.groupby("trial"):
+        line = ax.plot(g["n_frames"], g[axis], marker=".", ms=3, lw=0.8, label=f"trial {trial}")
+        truth = trials.loc[trials["trial"] == trial, f"gt_{axis}"]
+        if len(truth):
+            ax.axhline(float(truth.iloc[0]), color=line[0].get_color(), ls="--", lw=0.8)
+    ax.set_xlabel("frames averaged per pose")
+    ax.set_ylabel(f"{axis} estimate ({units})")
+    ax.legend(fontsize=7)
+
+
+def plot_error_histogram(ax: Axes, trials: pd.DataFrame) -> None:
+    ok = trials[trials["status"] == "ok"]
+    for method, g in ok.groupby("method"):
+        ax.hist(g["err"], bins=20, alpha=0.6, label=str(method))
+    ax.set_xlabel("error (session units)")
+    ax.set_ylabel("trials")
+    ax.legend(fontsize=7)
+
+
+def make_figures(result: RunResult) -> dict[str, Figure]:
+    """Named figures of a run: one scatter per session, running averages, a histogram."""
+    figures: dict[str, Figure] = {}
+    for i, s in enumerate(result.sessions):
+        name = Path(s.session).stem
+        fig = Figure(figsize=(4.2, 4.0), layout="constrained")
+        plot_error_scatter(fig.add_subplot(), s.trials, f"{name}: estimate - truth")
+        figures[f"scatter_{i:02d}_{name}"] = fig
+        if not s.averaging.empty and s.averaging["n_frames"].max() > 1:
+            fig = Figure(figsize=(8.0, 3.4), layout="constrained")
+            for j, axis in enumerate(("x", "z")):
+                plot_running_average(fig.add_subplot(1, 2, j + 1), s.averaging, s.trials, axis)
+            fig.suptitle(f"{name}: running average", fontsize=9)
+            figures[f"averaging_{i:02d}_{name}"] = fig
+    if not result.trials.empty:
+        fig = Figure(figsize=(5.0, 3.4), layout="constrained")
+        plot_error_histogram(fig.add_subplot(), result.trials)
+        figures["error_histogram"] = fig
+    return figures
+
+
+def _png(fig: Figure) -> bytes:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110, metadata={"Software": None})
+    return buf.getvalue()
+
+
+def _table(df: pd.DataFrame) -> str:
+    return df.to_html(
+        index=False, float_format=lambda v: f"{v:.4g}", na_rep="", border=0, classes="t"
+    )
+
+
+def write_outputs(result: RunResult, out_dir: Path) -> None:
+    """Write the CSV tables, one PNG per figure, and ``report.html`` into ``out_dir``."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    result.trials.to_csv(out_dir / "trials.csv", index=False)
+    result.summary.to_csv(out_dir / "summary.csv", index=False)
+    result.averaging.to_csv(out_dir / "averaging.csv", index=False)
+    result.frames.to_csv(out_dir / "frames.csv", index=False)
+    result.errors.to_csv(out_dir / "errors.csv", index=False)
+    images = {}
+    for name, fig in result.figures.items():
+        data = _png(fig)
+        (out_dir / f"{name}.png").write_bytes(data)
+        images[name] = base64.b64encode(data).decode()
+    (out_dir / "report.html").write_text(_report_html(result, images), encoding="utf-8")
+
+
+def _report_html(result: RunResult, images: dict[str, str]) -> str:
+    parts = [
+        "<!doctype html><html><head><meta charset='utf-8'><title>twopose report</title>",
+        "<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}"
+        "table.t{border-collapse:collapse;font-size:12px;margin:1em 0}"
+        "table.t td,table.t th{padding:2px 8px;border-bottom:1px solid #ddd;text-align:right}"
+        "h2{border-bottom:1px solid #aaa}.err{color:#a00}</style></head><body>",
+        "<h1>twopose report</h1>",
+        f"<p>{len(result.sessions)} session(s) analysed, {len(result.errors)} failed, "
+        f"{len(result.trials)} trial(s), {int((result.trials['status'] == 'ok').sum()) if len(result.trials) else 0} ok.</p>",
+        "<h2>Summary</h2>",
+        _table(result.summary),
+    ]
+    if "error_histogram" in images:
+        parts.append(
+            f"<img alt='error histogram' src='data:image/png;base64,{images['error_histogram']}'>"
+        )
+    if not result.errors.empty:
+        parts.append("<h2>Inputs that failed</h2>")
+        parts.append(f"<div class='err'>{_table(result.errors)}</div>")
+    for i, s in enumerate(result.sessions):
+        name = Path(s.session).stem
+        parts.append(f"<h2>{html.escape(s.session)}</h2><table class='t'>")
+        parts += [
+            f"<tr><th>{html.escape(k)}</th><td>{html.escape(v)}</td></tr>"
+            for k, v in s.metadata.items()
+        ]
+        parts.append("</table>")
+        for key in (f"scatter_{i:02d}_{name}", f"averaging_{i:02d}_{name}"):
+            if key in images:
+                parts.append(
+                    f"<img alt='{html.escape(key)}' src='data:image/png;base64,{images[key]}'>"
+                )
+        parts.append(_table(s.trials.drop(columns=["session"])))
+    parts.append("</body></html>")
+    return "\n".join(parts)
+
+
+def summary_rows(summary: pd.DataFrame) -> list[list[str]]:
+    """The terminal summary table's cells."""
+
+    def f(v: object) -> str:
+        return (
+            ""
+            if v is None or (isinstance(v, float) and np.isnan(v))
+            else f"{v:.3g}"
+            if isinstance(v, float)
+            else str(v)
+        )
+
+    return [
+        [
+            Path(str(r["session"])).name,
+            str(r["method"]),
+            f"{r['n_ok']}/{r['n_trials']}",
+            f(r["bias_x"]),
+            f(r["bias_z"]),
+            f(r["rmse"]),
+            f(r["median_err"]),
+            f(r["max_err"]),
+            f(r["within_1"]),
+        ]
+        for _, r in summary.iterrows()
+    ]

@@ -1,0 +1,510 @@
+"""The analysis job: sessions in, per-trial error, bias and averaging tables out.
+
+``analyse_session`` replays one file through detection and the solver; ``run`` does it for
+any mix of files and folders (in worker processes or on a Dask cluster), gathers the tables
+in input order (so results never depend on ``jobs``), and optionally writes them with the
+figures and the report. Everything the CLI's ``run`` does is this one call.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from analysis.detect import (
+    CombineMethod,
+    Detection,
+    DotParams,
+    GloveParams,
+    PoseMeasurement,
+    combine_frames,
+    detect,
+)
+from analysis.metrics import LINE_COLUMNS, TRIAL_COLUMNS, line_errors, summarize
+from analysis.replay import TrialRecord, find_sessions, iter_trials
+from analysis.solve import DEFAULT_MIN_CONDITIONING, solve_ground, solve_line, solve_point
+from recorder.errors import SessionFormatError, TwoposeError
+from recorder.session import SessionReader
+
+__all__ = ["AnalysisOptions", "RunResult", "SessionResult", "analyse_session", "run"]
+
+F64 = NDArray[np.float64]
+
+FRAME_COLUMNS = [
+    "session",
+    "trial",
+    "pose",
+    "camera",
+    "frame",
+    "log_time_ns",
+    "found",
+    "col",
+    "row",
+    "theta_deg",
+    "area_px",
+    "eccentricity",
+    "pi_estimate",
+    "n_blobs",
+    "n_candidates",
+    "reason",
+]
+AVERAGING_COLUMNS = ["session", "trial", "n_frames", "x", "y", "z", "err"]
+
+
+@dataclass(frozen=True)
+class AnalysisOptions:
+    """How frames become measurements and measurements become estimates."""
+
+    combine: CombineMethod = "mean"
+    glove: GloveParams = field(default_factory=GloveParams)
+    dot: DotParams = field(default_factory=DotParams)
+    min_conditioning: float = DEFAULT_MIN_CONDITIONING
+
+
+@dataclass(frozen=True)
+class SessionResult:
+    """One session's tables and what the report says about it."""
+
+    session: str
+    metadata: dict[str, str]
+    frames: pd.DataFrame
+    trials: pd.DataFrame
+    averaging: pd.DataFrame
+
+
+@dataclass
+class _View:
+    """One usable pose of a trial: camera, pose and its per-frame detections."""
+
+    intrinsics: F64  # (4,) fx, fy, cx, cy
+    R_cam_to_grid: F64  # (3, 3)
+    t_grid: F64  # (3,)
+    centroids: F64  # (K, 2)
+    thetas: F64  # (K,)
+    found: NDArray[np.bool_]  # (K,)
+
+
+def _detect_trial(
+    record: TrialRecord,
+    session: str,
+    target: str,
+    options: AnalysisOptions,
+    rows: list[dict[str, Any]],
+) -> list[_View]:
+    views: list[_View] = []
+    params = options.dot if target == "dot" else options.glove
+    for pc in record.poses:
+        dets: list[Detection] = []
+        for j, frame in enumerate(pc.frames):
+            try:
+                det = detect(frame.decode(), target, params)
+            except SessionFormatError as err:  # one undecodable frame is a rejected frame
+                det = Detection(False, reason=str(err))
+            dets.append(det)
+            rows.append(
+                {
+                    "session": session,
+                    "trial": record.trial,
+                    "pose": pc.entry.pose,
+                    "camera": pc.entry.camera_id,
+                    "frame": j,
+                    "log_time_ns": frame.log_time_ns,
+                    "found": det.found,
+                    "col": det.centroid_px[0],
+                    "row": det.centroid_px[1],
+                    "theta_deg": det.theta_deg,
+                    "area_px": det.area_px,
+                    "eccentricity": det.eccentricity,
+                    "pi_estimate": det.pi_estimate,
+                    "n_blobs": det.n_blobs,
+                    "n_candidates": det.n_candidates,
+                    "reason": det.reason,
+                }
+            )
+        if not pc.complete:
+            continue
+        i = pc.camera.intrinsics
+        views.append(
+            _View(
+                np.array([i.fx, i.fy, i.cx, i.cy]),
+                pc.entry.R_cam_to_grid,
+                np.array(pc.entry.t_grid),
+                np.array([d.centroid_px for d in dets], dtype=np.float64).reshape(-1, 2),
+                np.array([d.theta_deg for d in dets], dtype=np.float64),
+                np.array([d.found for d in dets], dtype=bool),
+            )
+        )
+    return views
+
+
+def _solve(
+    method: str,
+    measurements: list[list[PoseMeasurement]],
+    views: list[list[_View]],
+    ground: tuple[F64, float] | None,
+    options: AnalysisOptions,
+) -> tuple[F64, F64 | None, F64, NDArray[np.str_], NDArray[np.str_]]:
+    """Batch-solve rows of two pose measurements: (point, direction, conditioning, status, reason)."""
+    T = len(measurements)
+    px = np.array([[m.centroid_px for m in row] for row in measurements], dtype=np.float64).reshape(
+        T, 2, 2
+    )
+    th = np.array([[m.theta_deg for m in row] for row in measurements], dtype=np.float64).reshape(
+        T, 2
+    )
+    k = np.array([[v.intrinsics for v in row] for row in views]).reshape(T, 2, 4)
+    R = np.array([[v.R_cam_to_grid for v in row] for row in views]).reshape(T, 2, 3, 3)
+    t = np.array([[v.t_grid for v in row] for row in views]).reshape(T, 2, 3)
+    mc = options.min_conditioning
+    if method == "point":
+        s = solve_point(px, k, R, t, min_conditioning=mc)
+        return s.point_grid, None, s.conditioning, s.status, s.reason
+    if method == "line":
+        ls = solve_line(px, th, k, R, t, min_conditioning=mc)
+        return ls.point_grid, ls.direction_grid, ls.conditioning, ls.status, ls.reason
+    assert ground is not None
+    g = solve_ground(px, th, k, R, t, ground[0], ground[1], min_conditioning=mc)
+    return g.point_grid, None, g.conditioning, g.status, g.reason
+
+
+def analyse_session(path: str | Path, options: AnalysisOptions | None = None) -> SessionResult:
+    """Replay one session through detection and the solver.
+
+    Trials with fewer than two complete captures are ``incomplete``; a pose where no frame
+    was detected makes its trial ``no_detection``. The first two complete poses of a trial
+    are used.
+
+    Raises
+    ------
+    SessionFormatError
+        The file is not a readable session (the batch lists it and goes on).
+    """
+    options = options or AnalysisOptions()
+    session = str(path)
+    frame_rows: list[dict[str, Any]] = []
+    with SessionReader(path) as reader:
+        info = reader.info
+        method = info.method
+        ground = None
+        if method == "ground":
+            if reader.ground is None:
+                raise SessionFormatError(
+                    f"{path}: a ground session without a /twopose/ground plane"
+                )
+            ground = (np.array(reader.ground.normal_grid), reader.ground.offset)
+        target = "dot" if method == "point" else "glove"
+        records: list[tuple[TrialRecord, list[_View]]] = []
+        for record in iter_trials(reader):
+            records.append((record, _detect_trial(record, session, target, options, frame_rows)))
+        metadata = {
+            "method": method,
+            "units": info.units,
+            "operator": info.operator,
+            "notes": info.notes,
+            "cameras": ", ".join(
+                f"{c.camera_id} (fx={c.intrinsics.fx:g}, fy={c.intrinsics.fy:g}, "
+                f"{c.intrinsics.width}x{c.intrinsics.height})"
+                for c in reader.cameras.values()
+            ),
+            "format_version": reader.format_version,
+            "simulated": str(info.simulated),
+        }
+
+    trial_ids = [r.trial for r, _ in records]
+    T = len(records)
+    used = [views[:2] for _, views in records]
+    complete = np.array([len(v) == 2 for v in used], dtype=bool)
+    measurements = [
+        [combine_frames(v.centroids, v.thetas, v.found, options.combine) for v in views]
+        if ok
+        else []
+        for views, ok in zip(used, complete, strict=True)
+    ]
+    detected = np.array(
+        [ok and all(m.found for m in ms) for ms, ok in zip(measurements, complete, strict=True)]
+    )
+    solvable = np.flatnonzero(detected)
+    point = np.full((T, 3), np.nan)
+    direction = np.full((T, 3), np.nan)
+    conditioning = np.full(T, np.nan)
+    status = np.where(complete, "no_detection", "incomplete").astype("<U12")
+    reason = np.where(
+        complete, "no frame of a pose was detected", "fewer than two complete captures"
+    ).astype("<U64")
+    if solvable.size:
+        p, d, c, s, r = _solve(
+            method,
+            [measurements[i] for i in solvable],
+            [used[i] for i in solvable],
+            ground,
+            options,
+        )
+        point[solvable], conditioning[solvable], status[solvable], reason[solvable] = p, c, s, r
+        if d is not None:
+            direction[solvable] = d
+
+    gt = _ground_truth(records, method)
+    trials = _trial_table(
+        session, method, info.units, trial_ids, status, reason, conditioning, point, direction, gt
+    )
+    averaging = _averaging(session, method, records, used, detected, ground, gt, options)
+    frames = pd.DataFrame(frame_rows, columns=FRAME_COLUMNS)
+    return SessionResult(session, metadata, frames, trials, averaging)
+
+
+def _ground_truth(records: list[tuple[TrialRecord, list[_View]]], method: str) -> F64:
+    """(T, 2, 3) truth per trial: the point twice, or the two line points; NaN when missing."""
+    gt = np.full((len(records), 2, 3), np.nan)
+    for i, (record, _) in enumerate(records):
+        if record.ground_truth is not None:
+            pts = np.array(record.ground_truth.points_grid)
+            gt[i] = pts if len(pts) == 2 else np.stack([pts[0], pts[0]])
+    return gt
+
+
+def _trial_table(
+    session: str,
+    method: str,
+    units: str,
+    trial_ids: Sequence[int],
+    status: NDArray[np.str_],
+    reason: NDArray[np.str_],
+    conditioning: F64,
+    point: F64,
+    direction: F64,
+    gt: F64,
+) -> pd.DataFrame:
+    T = len(trial_ids)
+    extra: dict[str, Any] = {}
+    if method == "line":
+        with np.errstate(invalid="ignore"):
+            est, truth, angle, dist = line_errors(point, direction, gt[:, 0], gt[:, 1])
+        extra = {"dir_x": direction[:, 0], "dir_y": direction[:, 1], "dir_z": direction[:, 2]}
+        extra |= {"angle_err_deg": angle, "dist_err": dist}
+    else:
+        est, truth = point, gt[:, 0]
+    err = est - truth
+    table = pd.DataFrame(
+        {
+            "session": [session] * T,
+            "trial": list(trial_ids),
+            "method": [method] * T,
+            "units": [units] * T,
+            "status": status,
+            "reason": reason,
+            "n_views": np.where(status == "incomplete", 0, 2),
+            "conditioning": conditioning,
+            "x": est[:, 0],
+            "y": est[:, 1],
+            "z": est[:, 2],
+            "gt_x": truth[:, 0],
+            "gt_y": truth[:, 1],
+            "gt_z": truth[:, 2],
+            "err_x": err[:, 0],
+            "err_y": err[:, 1],
+            "err_z": err[:, 2],
+            "err": np.linalg.norm(err, axis=1),
+            **extra,
+        }
+    )
+    return table[TRIAL_COLUMNS + (LINE_COLUMNS if method == "line" else [])]
+
+
+def _averaging(
+    session: str,
+    method: str,
+    records: list[tuple[TrialRecord, list[_View]]],
+    used: list[list[_View]],
+    detected: NDArray[np.bool_],
+    ground: tuple[F64, float] | None,
+    gt: F64,
+    options: AnalysisOptions,
+) -> pd.DataFrame:
+    """The estimate from the first 1..K frames of each pose (the thesis' Figures 22-23)."""
+    rows_m: list[list[PoseMeasurement]] = []
+    rows_v: list[list[_View]] = []
+    keys: list[tuple[int, int, int]] = []
+    for i, ((record, _), views) in enumerate(zip(records, used, strict=True)):
+        if not detected[i]:
+            continue
+        k_max = min(len(v.found) for v in views)
+        for n in range(1, k_max + 1):
+            ms = [
+                combine_frames(v.centroids[:n], v.thetas[:n], v.found[:n], options.combine)
+                for v in views
+            ]
+            if all(m.found for m in ms):
+                rows_m.append(ms)
+                rows_v.append(views)
+                keys.append((i, record.trial, n))
+    if not keys:
+        return pd.DataFrame(columns=AVERAGING_COLUMNS)
+    p, d, _, _, _ = _solve(method, rows_m, rows_v, ground, options)
+    idx = np.array([k[0] for k in keys])
+    if d is not None:
+        with np.errstate(invalid="ignore"):
+            p, mid, _, _ = line_errors(p, d, gt[idx, 0], gt[idx, 1])
+        truth = mid
+    else:
+        truth = gt[idx, 0]
+    return pd.DataFrame(
+        {
+            "session": session,
+            "trial": [k[1] for k in keys],
+            "n_frames": [k[2] for k in keys],
+            "x": p[:, 0],
+            "y": p[:, 1],
+            "z": p[:, 2],
+            "err": np.linalg.norm(p - truth, axis=1),
+        },
+        columns=AVERAGING_COLUMNS,
+    )
+
+
+# --------------------------------------------------------------------------- the batch
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """Everything a run produced (tables as DataFrames, figures as matplotlib Figures)."""
+
+    trials: pd.DataFrame
+    summary: pd.DataFrame
+    averaging: pd.DataFrame
+    frames: pd.DataFrame
+    errors: pd.DataFrame
+    sessions: tuple[SessionResult, ...]
+    figures: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def failed(self) -> bool:
+        return not self.errors.empty
+
+
+def _analyse_or_error(path: str, options: AnalysisOptions) -> SessionResult | str:
+    """Worker entry point: a result, or the reason this file failed (never raises)."""
+    try:
+        return analyse_session(path, options)
+    except TwoposeError as err:
+        return str(err)
+    except Exception as err:  # one bad file never stops the batch; the reason is kept
+        return f"{path}: unexpected {type(err).__name__}: {err}"
+
+
+def run(
+    paths: Sequence[str | Path],
+    out_dir: str | Path | None = None,
+    *,
+    jobs: int = 1,
+    dask_address: str | None = None,
+    options: AnalysisOptions | None = None,
+    on_session_done: Callable[[str, bool], None] | None = None,
+) -> RunResult:
+    """Analyse every session under ``paths`` and (with ``out_dir``) write the results.
+
+    Parameters
+    ----------
+    paths : sequence of path-like
+        Session files and folders (searched recursively for ``*.mcap``).
+    out_dir : path-like, optional
+        Where to write ``trials.csv``, ``summary.csv``, ``averaging.csv``, ``frames.csv``,
+        ``errors.csv``, the figures and ``report.html``.
+    jobs : int
+        Worker processes; results are identical whatever the number.
+    dask_address : str, optional
+        Run the per-session tasks on this existing Dask distributed scheduler instead.
+    on_session_done : callable(path, ok), optional
+        Called as each session finishes (progress bars).
+    """
+    from recorder.errors import InputValueError
+
+    options = options or AnalysisOptions()
+    if jobs < 1:
+        raise InputValueError(f"jobs must be >= 1, got {jobs}")
+    files = [str(p) for p in find_sessions(list(paths))]
+    outcomes: list[SessionResult | str]
+    if dask_address is not None:
+        outcomes = _run_dask(files, options, dask_address, on_session_done)
+    elif jobs == 1 or len(files) <= 1:
+        outcomes = []
+        for f in files:
+            outcomes.append(_analyse_or_error(f, options))
+            if on_session_done:
+                on_session_done(f, not isinstance(outcomes[-1], str))
+    else:
+        with ProcessPoolExecutor(max_workers=jobs) as pool:
+            futures = [pool.submit(_analyse_or_error, f, options) for f in files]
+            outcomes = []
+            for f, fut in zip(files, futures, strict=True):
+                outcomes.append(fut.result())
+                if on_session_done:
+                    on_session_done(f, not isinstance(outcomes[-1], str))
+    results = tuple(o for o in outcomes if not isinstance(o, str))
+    errors = pd.DataFrame(
+        [
+            {"session": f, "error": o}
+            for f, o in zip(files, outcomes, strict=True)
+            if isinstance(o, str)
+        ],
+        columns=["session", "error"],
+    )
+    trials = _concat([r.trials for r in results], TRIAL_COLUMNS + LINE_COLUMNS)
+    result = RunResult(
+        trials=trials,
+        summary=summarize(trials),
+        averaging=_concat([r.averaging for r in results], AVERAGING_COLUMNS),
+        frames=_concat([r.frames for r in results], FRAME_COLUMNS),
+        errors=errors,
+        sessions=results,
+    )
+    from analysis.report import make_figures, write_outputs
+
+    result = RunResult(**{**result.__dict__, "figures": make_figures(result)})
+    if out_dir is not None:
+        write_outputs(result, Path(out_dir))
+    return result
+
+
+def _concat(frames: list[pd.DataFrame], columns: list[str]) -> pd.DataFrame:
+    present = [f for f in frames if not f.empty]
+    if not present:
+        return pd.DataFrame(columns=columns)
+    table = pd.concat(present, ignore_index=True)
+    return table[[c for c in columns if c in table.columns]]
+
+
+def _run_dask(
+    files: list[str],
+    options: AnalysisOptions,
+    address: str,
+    on_session_done: Callable[[str, bool], None] | None,
+) -> list[SessionResult | str]:
+    from recorder.errors import InputValueError
+
+    try:
+        from distributed import Client
+    except ImportError as err:
+        raise InputValueError(
+            "--dask needs the optional Dask extra: pip install 'twopose[dask]'"
+        ) from err
+    try:
+        client = Client(address, timeout=10)
+    except OSError as err:
+        raise InputValueError(f"cannot reach the Dask scheduler at {address}: {err}") from err
+    try:
+        futures = client.map(_analyse_or_error, files, options=options, pure=False)
+        outcomes: list[SessionResult | str] = []
+        for f, fut in zip(files, futures, strict=True):
+            outcomes.append(fut.result())
+            if on_session_done:
+                on_session_done(f, not isinstance(outcomes[-1], str))
+        return outcomes
+    finally:
+        client.close()
