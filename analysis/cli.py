@@ -2,19 +2,18 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-from typing import Annotated
-
-import typer
-from rich.console import Console
-from rich.table import Table
-
 import json
 import math
 import sys
 from enum import StrEnum
+from pathlib import Path
+from typing import Annotated
 
+import numpy as np
+import typer
+from rich.console import Console
 from rich.progress import Progress
+from rich.table import Table
 
 from analysis.replay import SessionOverview, describe_session, find_sessions
 from recorder.cli import handle_errors
@@ -179,7 +178,7 @@ def detect(
                 "reason": "not a readable image",
             }
         else:
-            d = detect_image(img, target.value)
+            d = detect_image(np.asarray(img, dtype=np.uint8), target.value)
             out = {
                 "image": str(path),
                 "found": d.found,

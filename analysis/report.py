@@ -18,10 +18,10 @@ if TYPE_CHECKING:
     from analysis.run import RunResult
 
 __all__ = [
+    "make_figures",
     "plot_error_histogram",
     "plot_error_scatter",
     "plot_running_average",
-    "make_figures",
     "write_outputs",
 ]
 
@@ -118,6 +118,7 @@ def write_outputs(result: RunResult, out_dir: Path) -> None:
 
 
 def _report_html(result: RunResult, images: dict[str, str]) -> str:
+    n_ok = int((result.trials["status"] == "ok").sum())
     parts = [
         "<!doctype html><html><head><meta charset='utf-8'><title>twopose report</title>",
         "<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}"
@@ -126,7 +127,7 @@ def _report_html(result: RunResult, images: dict[str, str]) -> str:
         "h2{border-bottom:1px solid #aaa}.err{color:#a00}</style></head><body>",
         "<h1>twopose report</h1>",
         f"<p>{len(result.sessions)} session(s) analysed, {len(result.errors)} failed, "
-        f"{len(result.trials)} trial(s), {int((result.trials['status'] == 'ok').sum()) if len(result.trials) else 0} ok.</p>",
+        f"{len(result.trials)} trial(s), {n_ok} ok.</p>",
         "<h2>Summary</h2>",
         _table(result.summary),
     ]

@@ -151,7 +151,10 @@ def _solve(
     ground: tuple[F64, float] | None,
     options: AnalysisOptions,
 ) -> tuple[F64, F64 | None, F64, NDArray[np.str_], NDArray[np.str_]]:
-    """Batch-solve rows of two pose measurements: (point, direction, conditioning, status, reason)."""
+    """Batch-solve rows of two pose measurements.
+
+    Returns (point, direction or None, conditioning, status, reason), one row per input row.
+    """
     T = len(measurements)
     px = np.array([[m.centroid_px for m in row] for row in measurements], dtype=np.float64).reshape(
         T, 2, 2
@@ -428,7 +431,7 @@ def run(
     options = options or AnalysisOptions()
     if jobs < 1:
         raise InputValueError(f"jobs must be >= 1, got {jobs}")
-    files = [str(p) for p in find_sessions(list(paths))]
+    files = [str(p) for p in find_sessions([str(p) for p in paths])]
     outcomes: list[SessionResult | str]
     if dask_address is not None:
         outcomes = _run_dask(files, options, dask_address, on_session_done)

@@ -30,3 +30,26 @@ def point_session(sim_dir: Path) -> Path:
     out = sim_dir / "point.mcap"
     simulate_session(out, method="point", trials=2, frames=3, seed=8)
     return out
+
+
+@pytest.fixture(scope="session")
+def line_session(sim_dir: Path) -> Path:
+    out = sim_dir / "line.mcap"
+    simulate_session(out, method="line", trials=2, frames=3, seed=9)
+    return out
+
+
+@pytest.fixture(scope="session")
+def exact_sessions(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """One session per method with no pose-typing error: only detection error remains."""
+    folder = tmp_path_factory.mktemp("exact")
+    for seed, method in enumerate(("point", "line", "ground")):
+        simulate_session(
+            folder / f"{method}.mcap",
+            method=method,
+            trials=4,
+            frames=2,
+            seed=20 + seed,
+            pose_noise=0.0,
+        )
+    return folder

@@ -1,0 +1,173 @@
+"""twopose-analyze run / detect / solve through typer's CliRunner."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from analysis.cli import app
+from recorder.camera import Intrinsics, project_points
+from recorder.errors import EXIT_ERROR, EXIT_SOME_INPUTS_FAILED, EXIT_USAGE
+from recorder.session import SessionReader
+
+runner = CliRunner()
+
+
+def test_run_writes_results_and_prints_a_summary(tmp_path: Path, ground_session: Path) -> None:
+    out = tmp_path / "res"
+    result = runner.invoke(
+        app, ["run", str(ground_session), "--out", str(out)], env={"COLUMNS": "200"}
+    )
+    assert result.exit_code == 0, result.output
+    assert "ground" in result.output
+    assert "2/2" in result.output
+    for name in (
+        "trials.csv",
+        "summary.csv",
+        "averaging.csv",
+        "frames.csv",
+        "errors.csv",
+        "report.html",
+    ):
+        assert (out / name).exists()
+
+
+def test_run_exit_code_when_some_inputs_fail(tmp_path: Path, ground_session: Path) -> None:
+    shutil.copy(ground_session, tmp_path / "good.mcap")
+    (tmp_path / "broken.mcap").write_bytes(b"MCAP? no")
+    result = runner.invoke(
+        app, ["run", str(tmp_path), "--out", str(tmp_path / "res"), "--jobs", "2"]
+    )
+    assert result.exit_code == EXIT_SOME_INPUTS_FAILED
+    assert "broken.mcap" in result.output
+    assert (tmp_path / "res" / "trials.csv").exists()
+
+
+def test_run_missing_input_and_bad_options(tmp_path: Path) -> None:
+    result = runner.invoke(app, ["run", str(tmp_path / "nothing")])
+    assert result.exit_code == EXIT_ERROR
+    assert "does not exist" in result.output
+    assert runner.invoke(app, ["run", str(tmp_path), "--jobs", "0"]).exit_code == EXIT_USAGE
+    assert runner.invoke(app, ["run", str(tmp_path), "--combine", "mode"]).exit_code == EXIT_USAGE
+
+
+def test_detect_prints_one_json_object_per_image(tmp_path: Path, ground_session: Path) -> None:
+    with SessionReader(ground_session) as r:
+        from analysis.replay import iter_trials
+
+        frame = next(iter_trials(r)).poses[0].frames[0]
+    img = tmp_path / "frame.png"
+    cv2.imwrite(str(img), frame.decode())
+    blank = tmp_path / "blank.png"
+    cv2.imwrite(str(blank), np.full((48, 64, 3), 128, np.uint8))
+    result = runner.invoke(app, ["detect", str(img), str(blank), "--target", "glove"])
+    assert result.exit_code == 0, result.output
+    first, second = (json.loads(line) for line in result.output.strip().splitlines())
+    assert set(first) == {
+        "image",
+        "found",
+        "centroid_px",
+        "theta_deg",
+        "area_px",
+        "eccentricity",
+        "reason",
+    }
+    assert first["found"] is True
+    assert -90 < first["theta_deg"] <= 90
+    assert second["found"] is False
+    assert second["reason"]
+
+
+def test_detect_unreadable_image(tmp_path: Path) -> None:
+    bad = tmp_path / "x.png"
+    bad.write_text("not an image")
+    result = runner.invoke(app, ["detect", str(bad), "--target", "dot"])
+    assert result.exit_code == EXIT_SOME_INPUTS_FAILED
+    assert json.loads(result.output)["reason"] == "not a readable image"
+
+
+K = [525.0, 525.0, 320.0, 240.0]
+INTR = Intrinsics(640, 480, *K)
+
+
+def _view(t: list[float], **measure: object) -> dict[str, object]:
+    return {"K": K, "pose": {"t": t, "r_deg": [0, 0, 0]}, **measure}
+
+
+def test_solve_point() -> None:
+    req = {"views": [_view([0, 0, 0], px=[320, 240]), _view([1, 0, 0], px=[267.5, 240])]}
+    result = runner.invoke(app, ["solve", "point"], input=json.dumps(req))
+    assert result.exit_code == 0, result.output
+    answer = json.loads(result.output)
+    np.testing.assert_allclose(answer["point"], [0, 0, 10], atol=1e-9)
+    assert answer["status"] == "ok"
+    assert answer["conditioning"] > 0
+
+
+def _line_view(t: list[float], a: np.ndarray, b: np.ndarray) -> dict[str, object]:
+    pa, pb = project_points(np.stack([a, b]), INTR, np.eye(3), t)
+    theta = float(np.degrees(np.arctan2(*(pb - pa)[::-1])))
+    return _view(t, line={"px": pa.tolist(), "theta_deg": theta})
+
+
+@pytest.mark.parametrize("method", ["line", "ground"])
+def test_solve_line_and_ground(method: str) -> None:
+    a, b = np.array([1.0, 3.0, 12.0]), np.array([1.91, 9.625, 8.375])
+    req = {"views": [_line_view([0, 0, 0], a, b), _line_view([1.1, 0, 0], a, b)], "ground_y": 9.625}
+    result = runner.invoke(app, ["solve", method], input=json.dumps(req))
+    assert result.exit_code == 0, result.output
+    answer = json.loads(result.output)
+    if method == "ground":
+        np.testing.assert_allclose(answer["point"], b, atol=1e-9)
+    else:
+        u = np.array(answer["line"]["direction"])
+        assert np.linalg.norm(np.cross(u, (b - a) / np.linalg.norm(b - a))) < 1e-9
+
+
+def test_solve_degenerate_is_a_status_not_a_crash() -> None:
+    req = {"views": [_view([0, 0, 0], px=[320, 240]), _view([0, 0, 2], px=[320, 240])]}
+    answer = json.loads(runner.invoke(app, ["solve", "point"], input=json.dumps(req)).output)
+    assert answer["status"] == "degenerate"
+    assert answer["point"] is None
+    assert answer["reason"] == "point on the baseline (rays parallel)"
+
+
+@pytest.mark.parametrize(
+    ("method", "payload", "message"),
+    [
+        ("point", "{not json", "not valid JSON"),
+        ("point", json.dumps({"views": [_view([0, 0, 0], px=[1, 2])] * 3}), "exactly 2"),
+        (
+            "point",
+            json.dumps({"views": [_view([0, 0, 0], px=[1, "a"]), _view([1, 0, 0], px=[1, 2])]}),
+            "views[0].px",
+        ),
+        (
+            "point",
+            json.dumps({"views": [_view([0, 0], px=[1, 2]), _view([1, 0, 0], px=[1, 2])]}),
+            "pose.t",
+        ),
+        (
+            "line",
+            json.dumps({"views": [_view([0, 0, 0], px=[1, 2]), _view([1, 0, 0], px=[1, 2])]}),
+            "'line'",
+        ),
+        (
+            "ground",
+            json.dumps({"views": [_view([0, 0, 0], line={"px": [1, 2], "theta_deg": 3})] * 2}),
+            "ground_y",
+        ),
+        ("point", json.dumps([1, 2]), "'views'"),
+    ],
+)
+def test_solve_bad_requests_say_what_is_wrong(method: str, payload: str, message: str) -> None:
+    result = runner.invoke(app, ["solve", method], input=payload)
+    assert result.exit_code == EXIT_ERROR
+    assert message in result.output
+    assert "Traceback" not in result.output

@@ -1,0 +1,202 @@
+"""Detectors on drawn and rendered frames with known truth; per-pose combination."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+from analysis.detect import (
+    Detection,
+    DotParams,
+    GloveParams,
+    combine_frames,
+    detect_dot,
+    detect_glove,
+    wrap_theta_deg,
+)
+from recorder.camera import project_points
+from recorder.render import build_layout, expose, finger_axis, render_radiance
+from recorder.scene import load_scene
+
+GLOVE_BGR = (192, 108, 38)
+
+
+def _drawn_finger(
+    theta_deg: float,
+    center: tuple[float, float] = (320.0, 240.0),
+    length: float = 120.0,
+    width: float = 30.0,
+) -> np.ndarray:
+    """A glove-blue stadium on grey, at sub-pixel precision (cv2 shift=4)."""
+    img = np.full((480, 640, 3), 128, np.uint8)
+    t = np.radians(theta_deg)
+    half = np.array([np.cos(t), np.sin(t)]) * (length - width) / 2
+    a, b = np.array(center) - half, np.array(center) + half
+    s = 16
+    cv2.line(
+        img,
+        tuple(np.round(a * s).astype(int)),
+        tuple(np.round(b * s).astype(int)),
+        GLOVE_BGR,
+        int(width),
+        lineType=cv2.LINE_AA,
+        shift=4,
+    )
+    return img
+
+
+@pytest.mark.parametrize("theta", [-89.0, -60.0, -30.0, 0.0, 15.0, 45.0, 75.0, 89.0, 90.0])
+def test_orientation_convention_on_a_drawn_line(theta: float) -> None:
+    """theta is measured from +col toward +row (row down), in (-90, 90]."""
+    d = detect_glove(_drawn_finger(theta), GloveParams(pi_min=2.5, pi_max=3.2))
+    assert d.found, d.reason
+    diff = float(wrap_theta_deg(d.theta_deg - theta))
+    assert abs(diff) < 0.5
+    assert -90 < d.theta_deg <= 90
+    np.testing.assert_allclose(d.centroid_px, (320.0, 240.0), atol=0.3)
+
+
+def test_a_line_going_down_to_the_right_has_positive_theta() -> None:
+    img = np.full((200, 200, 3), 128, np.uint8)
+    cv2.line(img, (40, 40), (160, 160), GLOVE_BGR, 30)  # +col and +row together
+    d = detect_glove(img, GloveParams(pi_min=2.0, pi_max=3.5))
+    assert d.found
+    assert d.theta_deg == pytest.approx(45.0, abs=0.5)
+
+
+def _render(
+    scene_overrides: dict[str, object],
+    t_grid: tuple[float, float, float],
+    method: str = "ground",
+    seed: int = 0,
+) -> tuple[np.ndarray, np.ndarray]:
+    scene = load_scene(**scene_overrides)
+    layout = build_layout(scene, method, np.random.default_rng(seed))
+    intr = scene.cameras[0].intrinsics
+    rad = render_radiance(scene, layout, intr, np.eye(3), np.array(t_grid))
+    img = expose(rad, scene, np.random.default_rng(seed + 1))
+    ok, buf = cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_QUALITY, 85])
+    assert ok
+    decoded = cv2.imdecode(buf, cv2.IMREAD_COLOR)
+    if method == "point":
+        truth = project_points(np.array([scene.point.position]), intr, np.eye(3), t_grid)
+    else:
+        truth = project_points(np.stack(finger_axis(scene)), intr, np.eye(3), t_grid)
+    return decoded, truth
+
+
+@pytest.mark.parametrize("azimuth", [150.0, 165.0, 180.0, 195.0, 210.0])
+@pytest.mark.parametrize("t_grid", [(-2.0, 0.0, -2.0), (0.0, 0.0, 0.0), (2.0, 0.0, 1.0)])
+def test_glove_found_on_the_projected_axis_with_clutter(
+    azimuth: float, t_grid: tuple[float, float, float]
+) -> None:
+    img, (tip, base) = _render(
+        {"finger": {"azimuth_deg": azimuth}, "clutter": {"count": 8}}, t_grid
+    )
+    d = detect_glove(img)
+    assert d.found, d.reason
+    axis = (tip - base) / np.linalg.norm(tip - base)
+    normal = np.array([-axis[1], axis[0]])
+    assert abs((np.array(d.centroid_px) - base) @ normal) < 0.5
+    truth_deg = np.degrees(np.arctan2(axis[1], axis[0]))
+    assert abs(float(wrap_theta_deg(d.theta_deg - truth_deg))) < 1.0
+    assert 2.90 <= d.pi_estimate <= 3.08
+    assert d.n_blobs > 1  # the clutter was there and was rejected
+
+
+def test_near_vertical_finger_wraps_correctly() -> None:
+    # azimuth 180 and the camera right in front of the finger: the image line is vertical.
+    scene = {
+        "finger": {"azimuth_deg": 180.0, "ground_point": [0.0, 8.375]},
+        "clutter": {"count": 0},
+    }
+    img, _ = _render(scene, (0.0, 0.0, 0.0))
+    d = detect_glove(img)
+    assert d.found
+    assert abs(abs(d.theta_deg) - 90.0) < 1.0
+
+
+@pytest.mark.parametrize(
+    ("params", "reason"),
+    [
+        (GloveParams(min_area_px=1e6), "none larger than"),
+        (GloveParams(ecc_min=0.999), "eccentricity"),
+        (GloveParams(pi_min=3.2, pi_max=3.3), "pi estimate"),
+        (GloveParams(b_min=0.99), "no glove-coloured pixels"),
+    ],
+)
+def test_each_filter_says_why_it_rejected(params: GloveParams, reason: str) -> None:
+    img, _ = _render({"clutter": {"count": 0}}, (0.0, 0.0, 0.0))
+    d = detect_glove(img, params)
+    assert not d.found
+    assert reason in d.reason
+
+
+def test_two_fingers_are_ambiguous() -> None:
+    img = _drawn_finger(30.0, (200.0, 240.0))
+    img2 = _drawn_finger(-30.0, (450.0, 240.0))
+    both = np.minimum(img, img2)
+    both[img2 != 128] = img2[img2 != 128]
+    d = detect_glove(both, GloveParams(pi_min=2.5, pi_max=3.2))
+    assert not d.found
+    assert "ambiguous" in d.reason
+    assert d.n_candidates == 2
+
+
+@pytest.mark.parametrize(
+    "t_grid", [(-2.0, 0.0, -2.0), (0.0, 0.0, 0.0), (2.0, 0.0, 1.0), (1.0, 0.0, -1.0)]
+)
+def test_dot_subpixel_centroid(t_grid: tuple[float, float, float]) -> None:
+    img, truth = _render({"clutter": {"count": 8}}, t_grid, method="point")
+    d = detect_dot(img)
+    assert d.found, d.reason
+    assert np.linalg.norm(np.array(d.centroid_px) - truth[0]) < 0.15
+
+
+def test_dot_not_found_on_a_blank_image() -> None:
+    d = detect_dot(np.full((480, 640, 3), 200, np.uint8))
+    assert not d.found
+    assert d.reason
+    assert not detect_dot(np.full((480, 640, 3), 200, np.uint8), DotParams(min_contrast=10)).found
+
+
+# --------------------------------------------------------------------------- combination
+
+
+def test_doubled_angles_average_89_and_minus_89_to_90() -> None:
+    m = combine_frames(np.zeros((2, 2)), np.array([89.0, -89.0]), np.array([True, True]))
+    assert m.theta_deg == pytest.approx(90.0)
+    assert m.theta_std_deg == pytest.approx(np.std([-1.0, 1.0], ddof=1))
+
+
+def test_mean_median_and_robust() -> None:
+    c = np.array([[100.0, 50.0], [100.2, 50.1], [99.8, 49.9], [100.1, 50.0], [130.0, 70.0]])
+    th = np.array([10.0, 10.2, 9.8, 10.1, 40.0])
+    found = np.ones(5, bool)
+    mean = combine_frames(c, th, found, "mean")
+    np.testing.assert_allclose(mean.centroid_px, c.mean(axis=0))
+    median = combine_frames(c, th, found, "median")
+    np.testing.assert_allclose(median.centroid_px, (100.1, 50.0))
+    robust = combine_frames(c, th, found, "robust")
+    assert robust.rejected == (4,)
+    assert robust.n_used == 4
+    np.testing.assert_allclose(robust.centroid_px, c[:4].mean(axis=0))
+    assert robust.theta_deg == pytest.approx(10.025, abs=0.01)
+
+
+def test_frames_not_found_are_ignored_and_none_found_is_not_found() -> None:
+    c = np.array([[1.0, 2.0], [np.nan, np.nan], [3.0, 4.0]])
+    m = combine_frames(c, np.full(3, np.nan), np.array([True, False, True]))
+    assert m.found
+    assert m.n_used == 2
+    assert m.n_frames == 3
+    np.testing.assert_allclose(m.centroid_px, (2.0, 3.0))
+    assert np.isnan(m.theta_deg)
+    none = combine_frames(c, np.full(3, np.nan), np.zeros(3, bool))
+    assert not none.found
+
+
+def test_detection_defaults_are_not_found_values() -> None:
+    d = Detection(False, reason="x")
+    assert np.isnan(d.centroid_px).all()
