@@ -31,7 +31,7 @@ from analysis.metrics import LINE_COLUMNS, TRIAL_COLUMNS, line_errors, summarize
 from analysis.replay import TrialRecord, find_sessions, iter_trials
 from analysis.solve import DEFAULT_MIN_CONDITIONING, solve_ground, solve_line, solve_point
 from recorder.errors import SessionFormatError, TwoposeError
-from recorder.session import SessionReader
+from recorder.session import GroundTruth, SessionReader
 
 __all__ = ["AnalysisOptions", "RunResult", "SessionResult", "analyse_session", "run"]
 
@@ -77,6 +77,12 @@ class SessionResult:
     frames: pd.DataFrame
     trials: pd.DataFrame
     averaging: pd.DataFrame
+
+
+@dataclass(frozen=True)
+class _TrialKey:
+    trial: int
+    ground_truth: GroundTruth | None
 
 
 @dataclass
@@ -203,9 +209,12 @@ def analyse_session(path: str | Path, options: AnalysisOptions | None = None) ->
                 )
             ground = (np.array(reader.ground.normal_grid), reader.ground.offset)
         target = "dot" if method == "point" else "glove"
-        records: list[tuple[TrialRecord, list[_View]]] = []
+        # Keep only what the tables need; a trial's frames are dropped once detected, so
+        # memory does not grow with session length.
+        records: list[tuple[_TrialKey, list[_View]]] = []
         for record in iter_trials(reader):
-            records.append((record, _detect_trial(record, session, target, options, frame_rows)))
+            views = _detect_trial(record, session, target, options, frame_rows)
+            records.append((_TrialKey(record.trial, record.ground_truth), views))
         metadata = {
             "method": method,
             "units": info.units,
@@ -262,7 +271,7 @@ def analyse_session(path: str | Path, options: AnalysisOptions | None = None) ->
     return SessionResult(session, metadata, frames, trials, averaging)
 
 
-def _ground_truth(records: list[tuple[TrialRecord, list[_View]]], method: str) -> F64:
+def _ground_truth(records: list[tuple[_TrialKey, list[_View]]], method: str) -> F64:
     """(T, 2, 3) truth per trial: the point twice, or the two line points; NaN when missing."""
     gt = np.full((len(records), 2, 3), np.nan)
     for i, (record, _) in enumerate(records):
@@ -323,7 +332,7 @@ def _trial_table(
 def _averaging(
     session: str,
     method: str,
-    records: list[tuple[TrialRecord, list[_View]]],
+    records: list[tuple[_TrialKey, list[_View]]],
     used: list[list[_View]],
     detected: NDArray[np.bool_],
     ground: tuple[F64, float] | None,

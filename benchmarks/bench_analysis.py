@@ -1,0 +1,175 @@
+"""Speed and memory of `twopose-analyze run`, as ratios measured in one run.
+
+    .venv/bin/python benchmarks/bench_analysis.py [--workdir DIR]
+
+Targets (issue 3):
+1. marginal cost of one more frame in `run --jobs 1` (decode + detect + solve + tables),
+   measured between a short and a long session so start-up and report cost cancel,
+   <= 3x the marginal cost of a bare decode loop over the same files;
+2. peak RSS analysing a 10,000-frame session within 1.2x of a 1,000-frame one;
+3. `--jobs 2` at least 1.7x faster than `--jobs 1` on a folder of 8 sessions.
+
+Each measurement runs in a fresh Python process (timings include nothing else).
+Prints one line per figure and exits 1 if a target is missed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+from analysis.replay import iter_trials
+from recorder.session import SessionReader, SessionWriter
+from recorder.simulate import simulate_session
+
+PY = sys.executable
+
+DECODE_LOOP = """
+import sys, time, cv2, numpy as np
+from recorder.session import Frame, SessionReader
+n = 0
+t = time.perf_counter()
+with SessionReader(sys.argv[1]) as r:
+    for e in r.iter_entries():
+        if isinstance(e, Frame):
+            cv2.imdecode(np.frombuffer(e.data, np.uint8), cv2.IMREAD_COLOR)
+            n += 1
+print(time.perf_counter() - t, n)
+"""
+
+RUN_AND_RSS = """
+import resource, sys, time
+from analysis.run import run
+t = time.perf_counter()
+result = run(sys.argv[1:-1], sys.argv[-1], jobs=int(__import__("os").environ.get("JOBS", "1")))
+elapsed = time.perf_counter() - t
+assert not result.failed, result.errors
+print(elapsed, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)
+"""
+
+
+def _python(code: str, *args: str, env: dict[str, str] | None = None) -> list[float]:
+    import os
+
+    out = subprocess.run(
+        [PY, "-c", code, *args],
+        capture_output=True,
+        text=True,
+        check=True,
+        env={**os.environ, **(env or {})},
+    )
+    return [float(x) for x in out.stdout.split()]
+
+
+def replicate(src: Path, dst: Path, copies: int) -> int:
+    """Write a longer session: ``copies`` times the trials of ``src`` (real frames, renumbered)."""
+    with SessionReader(src) as r:
+        info, cameras, ground = r.info, list(r.cameras.values()), r.ground
+        trials = list(iter_trials(r))
+    n = 0
+    clock = 1_000_000_000
+    with SessionWriter(dst, info, cameras, ground=ground, start_ns=clock) as w:
+        for c in range(copies):
+            for t in trials:
+                trial = c * len(trials) + t.trial
+                clock += 1_000_000
+                if t.ground_truth is not None:
+                    w.write_ground_truth(
+                        type(t.ground_truth)(
+                            trial, t.ground_truth.kind, t.ground_truth.points_grid
+                        ),
+                        clock,
+                    )
+                for pc in t.poses:
+                    clock += 1_000_000
+                    e = pc.entry
+                    w.write_pose(type(e)(trial, e.pose, e.camera_id, e.t_grid, e.r_deg), clock)
+                    with w.capture(trial, e.pose, e.camera_id) as cap:
+                        for f in pc.frames:
+                            clock += 1_000
+                            cap.add_encoded(f.data, clock)
+                            n += 1
+    return n
+
+
+def count_frames(path: Path) -> int:
+    with SessionReader(path) as r:
+        return sum(n for topic, n in r.message_counts().items() if topic.endswith("/image"))
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--workdir", type=Path, default=None)
+    args = parser.parse_args()
+    work = args.workdir or Path(tempfile.mkdtemp(prefix="twopose-bench-"))
+    work.mkdir(parents=True, exist_ok=True)
+    base = work / "base.mcap"
+    if not base.exists():
+        simulate_session(base, method="ground", trials=10, frames=50, seed=11)  # 1,000 frames
+    short, long_, huge = work / "short.mcap", work / "long.mcap", work / "huge.mcap"
+    for path, copies in ((long_, 4), (huge, 10)):
+        if not path.exists():
+            replicate(base, path, copies)
+    if not short.exists():
+        shutil.copy(base, short)
+    n_short, n_long, n_huge = count_frames(short), count_frames(long_), count_frames(huge)
+    ok = True
+
+    # 1. marginal per-frame cost, run vs bare decode
+    dec_s, _ = _python(DECODE_LOOP, str(short))
+    dec_l, _ = _python(DECODE_LOOP, str(long_))
+    run_s, _ = _python(RUN_AND_RSS, str(short), str(work / "out_s"))
+    run_l, _ = _python(RUN_AND_RSS, str(long_), str(work / "out_l"))
+    m_dec = (dec_l - dec_s) / (n_long - n_short) * 1e3
+    m_run = (run_l - run_s) / (n_long - n_short) * 1e3
+    ratio = m_run / m_dec
+    ok &= ratio <= 3.0
+    print(
+        f"marginal ms/frame: decode {m_dec:.2f}, run --jobs 1 {m_run:.2f}, ratio {ratio:.2f} (target <= 3)"
+    )
+
+    # 2. peak RSS, 10,000 vs 1,000 frames
+    _, rss_small = _python(RUN_AND_RSS, str(short), str(work / "out_rss1"))
+    _, rss_huge = _python(RUN_AND_RSS, str(huge), str(work / "out_rss2"))
+    rss_ratio = rss_huge / rss_small
+    ok &= rss_ratio <= 1.2
+    print(
+        f"peak RSS: {n_short} frames {rss_small / 1024:.0f} MB, {n_huge} frames {rss_huge / 1024:.0f} MB, "
+        f"ratio {rss_ratio:.2f} (target <= 1.2)"
+    )
+
+    # 3. --jobs 2 vs --jobs 1 on 8 sessions
+    folder = work / "eight"
+    folder.mkdir(exist_ok=True)
+    for i in range(8):
+        target = folder / f"s{i}.mcap"
+        if not target.exists():
+            shutil.copy(base, target)
+    t1, _ = _python(RUN_AND_RSS, str(folder), str(work / "out_j1"), env={"JOBS": "1"})
+    t2, _ = _python(RUN_AND_RSS, str(folder), str(work / "out_j2"), env={"JOBS": "2"})
+    speedup = t1 / t2
+    ok &= speedup >= 1.7
+    print(
+        f"8 sessions: --jobs 1 {t1:.1f} s, --jobs 2 {t2:.1f} s, speed-up {speedup:.2f}x (target >= 1.7)"
+    )
+    print(
+        json.dumps(
+            {
+                "decode_ms": m_dec,
+                "run_ms": m_run,
+                "ratio": ratio,
+                "rss_ratio": rss_ratio,
+                "speedup": speedup,
+            }
+        )
+    )
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
