@@ -136,7 +136,8 @@ def _glove_mask(image_bgr: Image, p: GloveParams) -> NDArray[np.uint8]:
     h, w = b.shape
     keep = np.zeros(h * w, np.uint8)
     if p.b_min > p.r_max and p.g_min > 0:
-        cand = cv2.bitwise_and(cv2.compare(b, r, cv2.CMP_GT), cv2.compare(g, 0, cv2.CMP_GT))
+        _, g_positive = cv2.threshold(g, 0, 255, cv2.THRESH_BINARY)
+        cand = cv2.bitwise_and(cv2.compare(b, r, cv2.CMP_GT), g_positive)
         idx = np.flatnonzero(cand)
     else:  # unusual thresholds: test every pixel
         idx = np.arange(h * w)

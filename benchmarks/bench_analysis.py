@@ -130,7 +130,8 @@ def main() -> int:
     ratio = m_run / m_dec
     ok &= ratio <= 3.0
     print(
-        f"marginal ms/frame: decode {m_dec:.2f}, run --jobs 1 {m_run:.2f}, ratio {ratio:.2f} (target <= 3)"
+        f"marginal ms/frame: decode {m_dec:.2f}, run --jobs 1 {m_run:.2f}, "
+        f"ratio {ratio:.2f} (target <= 3)"
     )
 
     # 2. peak RSS, 10,000 vs 1,000 frames
@@ -139,8 +140,8 @@ def main() -> int:
     rss_ratio = rss_huge / rss_small
     ok &= rss_ratio <= 1.2
     print(
-        f"peak RSS: {n_short} frames {rss_small / 1024:.0f} MB, {n_huge} frames {rss_huge / 1024:.0f} MB, "
-        f"ratio {rss_ratio:.2f} (target <= 1.2)"
+        f"peak RSS: {n_short} frames {rss_small / 1024:.0f} MB, "
+        f"{n_huge} frames {rss_huge / 1024:.0f} MB, ratio {rss_ratio:.2f} (target <= 1.2)"
     )
 
     # 3. --jobs 2 vs --jobs 1 on 8 sessions
@@ -155,7 +156,8 @@ def main() -> int:
     speedup = t1 / t2
     ok &= speedup >= 1.7
     print(
-        f"8 sessions: --jobs 1 {t1:.1f} s, --jobs 2 {t2:.1f} s, speed-up {speedup:.2f}x (target >= 1.7)"
+        f"8 sessions: --jobs 1 {t1:.1f} s, --jobs 2 {t2:.1f} s, "
+        f"speed-up {speedup:.2f}x (target >= 1.7)"
     )
     print(
         json.dumps(
