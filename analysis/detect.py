@@ -138,7 +138,9 @@ def _glove_mask(image_bgr: Image, p: GloveParams) -> NDArray[np.uint8]:
     if p.b_min > p.r_max and p.g_min > 0:
         _, g_positive = cv2.threshold(g, 0, 255, cv2.THRESH_BINARY)
         cand = cv2.bitwise_and(cv2.compare(b, r, cv2.CMP_GT), g_positive)
-        idx = np.flatnonzero(cand)
+        points = cv2.findNonZero(cand)  # 2.5x faster than np.flatnonzero here
+        xy = np.zeros((0, 2), np.int64) if points is None else points.reshape(-1, 2)
+        idx = xy[:, 1].astype(np.int64) * w + xy[:, 0]
     else:  # unusual thresholds: test every pixel
         idx = np.arange(h * w)
     bi, gi, ri = (c.ravel()[idx].astype(np.int32) for c in (b, g, r))  # products < 2^31
@@ -160,19 +162,44 @@ def _glove_mask(image_bgr: Image, p: GloveParams) -> NDArray[np.uint8]:
     return np.asarray(bw, dtype=np.uint8)
 
 
+def _components(
+    mask: NDArray[np.uint8], min_area_px: float, max_side: int | None = None
+) -> tuple[int, list[BlobShape]]:
+    """8-connected components of a binary mask and the shapes of those that may matter.
+
+    ``cv2.connectedComponentsWithStats`` costs ~2 ms a frame here, its labels alone 0.2 ms:
+    so labels come from ``connectedComponents``, boxes from the components' contours (a
+    contour's pixels carry its component's label), and only components whose box can hold
+    ``min_area_px`` pixels (and, with ``max_side``, is no wider) get their moments.
+    """
+    n, labels = cv2.connectedComponents(mask, connectivity=8)
+    if n <= 1:
+        return 0, []
+    # RETR_CCOMP: each component has exactly one top-level (outer) boundary; holes are below.
+    contours, hierarchy = cv2.findContours(mask, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_SIMPLE)
+    shapes: list[BlobShape] = []
+    for contour, links in zip(contours, hierarchy[0], strict=True):
+        if links[3] != -1:  # a hole's boundary
+            continue
+        col, row = contour[0, 0]
+        label = int(labels[row, col])
+        x, y, w, h = cv2.boundingRect(contour)
+        if w * h < min_area_px or (max_side is not None and max(w, h) > max_side):
+            continue
+        roi = (labels[y : y + h, x : x + w] == label).astype(np.uint8)
+        m = cv2.moments(roi, binaryImage=True)
+        if m["m00"] >= min_area_px:
+            shapes.append(blob_shape(m, (float(x), float(y))))
+    return n - 1, shapes
+
+
 def detect_glove(image_bgr: Image, params: GloveParams | None = None) -> Detection:
     """Find the blue gloved finger in one (H, W, 3) BGR uint8 frame."""
     p = params or GloveParams()
     mask = _glove_mask(image_bgr, p)
-    n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
-    n_blobs = n - 1
-    big = [i for i in range(1, n) if stats[i, cv2.CC_STAT_AREA] > p.min_area_px]
-    shaped: list[BlobShape] = []
-    for i in big:
-        x, y, w, h = stats[i, :4]
-        roi = (labels[y : y + h, x : x + w] == i).astype(np.uint8)
-        shaped.append(blob_shape(cv2.moments(roi, binaryImage=True), (float(x), float(y))))
-    elliptic = [s for s in shaped if p.ecc_min <= s.eccentricity < p.ecc_max]
+    n_blobs, blobs = _components(mask, p.min_area_px)
+    big = [b for b in blobs if b.area > p.min_area_px]  # the thesis: area strictly > 200
+    elliptic = [s for s in big if p.ecc_min <= s.eccentricity < p.ecc_max]
     passing = [s for s in elliptic if p.pi_min <= s.pi_estimate <= p.pi_max]
     if len(passing) == 1:
         s = passing[0]
@@ -187,7 +214,7 @@ def detect_glove(image_bgr: Image, params: GloveParams | None = None) -> Detecti
     elif not big:
         reason = f"{n_blobs} glove-coloured blob(s), none larger than {p.min_area_px:g} px^2"
     elif not elliptic:
-        eccs = ", ".join(f"{s.eccentricity:.2f}" for s in shaped)
+        eccs = ", ".join(f"{s.eccentricity:.2f}" for s in big)
         reason = (
             f"{len(big)} blob(s) over the area limit, "
             f"eccentricity {eccs} not in [{p.ecc_min}, {p.ecc_max})"
@@ -213,33 +240,28 @@ def detect_dot(image_bgr: Image, params: DotParams | None = None) -> Detection:
     kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (k, k))  # separable: 25x faster
     hat = cv2.morphologyEx(gray, cv2.MORPH_BLACKHAT, kernel)
     _, bw = cv2.threshold(hat, p.min_contrast, 1, cv2.THRESH_BINARY)
-    n, labels, stats, _ = cv2.connectedComponentsWithStats(bw.astype(np.uint8), connectivity=8)
-    best: tuple[float, BlobShape, int] | None = None
+    n_blobs, blobs = _components(bw.astype(np.uint8), p.min_area_px, max_side=k)
+    best: tuple[float, BlobShape] | None = None
     n_round = 0
-    for i in range(1, n):
-        if stats[i, cv2.CC_STAT_AREA] < p.min_area_px:
-            continue
-        x, y, w, h = stats[i, :4]
-        if max(w, h) > k:  # wider than the kernel: an edge or a stripe, not a dot
-            continue
-        roi = (labels[y : y + h, x : x + w] == i).astype(np.uint8)
-        shape = blob_shape(cv2.moments(roi, binaryImage=True), (float(x), float(y)))
+    for shape in blobs:
         if shape.eccentricity > p.max_eccentricity:
             continue
         n_round += 1
-        peak = float(hat[y : y + h, x : x + w][roi > 0].max())
+        c, r = round(shape.centroid[0]), round(shape.centroid[1])
+        peak = float(hat[max(r - 2, 0) : r + 3, max(c - 2, 0) : c + 3].max())
         if best is None or peak > best[0]:
-            best = (peak, shape, i)
+            best = (peak, shape)
     if best is None:
-        reason = "no round dark blob" if n > 1 else "no dark feature on a bright background"
-        return Detection(False, n_blobs=n - 1, reason=reason)
-    _, shape, label = best
-    x, y, w, h = stats[label, :4]
-    pad = 3
-    x0, y0 = max(x - pad, 0), max(y - pad, 0)
-    x1, y1 = min(x + w + pad, gray.shape[1]), min(y + h + pad, gray.shape[0])
-    weights = hat[y0:y1, x0:x1].astype(np.float64)
-    weights = np.clip(weights - p.min_contrast / 2, 0.0, None)
+        reason = "no round dark blob" if n_blobs else "no dark feature on a bright background"
+        return Detection(False, n_blobs=n_blobs, reason=reason)
+    shape = best[1]
+    # Sub-pixel centroid: weight the black-hat response around the blob (its edges are
+    # anti-aliased, so partial-coverage pixels carry the sub-pixel information).
+    half = math.ceil(math.sqrt(shape.area / math.pi)) + 3
+    c, r = round(shape.centroid[0]), round(shape.centroid[1])
+    x0, y0 = max(c - half, 0), max(r - half, 0)
+    x1, y1 = min(c + half + 1, gray.shape[1]), min(r + half + 1, gray.shape[0])
+    weights = np.clip(hat[y0:y1, x0:x1].astype(np.float64) - p.min_contrast / 2, 0.0, None)
     rows, cols = np.mgrid[y0:y1, x0:x1]
     total = weights.sum()
     centroid = (float((weights * cols).sum() / total), float((weights * rows).sum() / total))
@@ -250,7 +272,7 @@ def detect_dot(image_bgr: Image, params: DotParams | None = None) -> Detection:
         shape.area,
         shape.eccentricity,
         shape.pi_estimate,
-        n - 1,
+        n_blobs,
         n_round,
     )
 

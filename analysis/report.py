@@ -68,28 +68,48 @@ def plot_error_histogram(ax: Axes, trials: pd.DataFrame) -> None:
     ax.legend(fontsize=7)
 
 
+def session_figures(
+    session: str, trials: pd.DataFrame, averaging: pd.DataFrame
+) -> dict[str, Figure]:
+    """One session's figures, keyed ``scatter`` and (with more than one frame) ``averaging``."""
+    name = Path(session).stem
+    figures: dict[str, Figure] = {}
+    fig = Figure(figsize=(4.2, 4.0), layout="constrained")
+    plot_error_scatter(fig.add_subplot(), trials, f"{name}: estimate - truth")
+    figures["scatter"] = fig
+    if not averaging.empty and averaging["n_frames"].max() > 1:
+        fig = Figure(figsize=(8.0, 3.4), layout="constrained")
+        for j, axis in enumerate(("x", "z")):
+            plot_running_average(fig.add_subplot(1, 2, j + 1), averaging, trials, axis)
+        fig.suptitle(f"{name}: running average", fontsize=9)
+        figures["averaging"] = fig
+    return figures
+
+
+def figure_key(kind: str, index: int, session: str) -> str:
+    """File-name stem of a session figure in a run: ``<kind>_<index>_<session stem>``."""
+    return f"{kind}_{index:02d}_{Path(session).stem}"
+
+
+def run_figures(result: RunResult) -> dict[str, Figure]:
+    """The figures spanning all sessions of a run (the error histogram)."""
+    if result.trials.empty:
+        return {}
+    fig = Figure(figsize=(5.0, 3.4), layout="constrained")
+    plot_error_histogram(fig.add_subplot(), result.trials)
+    return {"error_histogram": fig}
+
+
 def make_figures(result: RunResult) -> dict[str, Figure]:
     """Named figures of a run: one scatter per session, running averages, a histogram."""
     figures: dict[str, Figure] = {}
     for i, s in enumerate(result.sessions):
-        name = Path(s.session).stem
-        fig = Figure(figsize=(4.2, 4.0), layout="constrained")
-        plot_error_scatter(fig.add_subplot(), s.trials, f"{name}: estimate - truth")
-        figures[f"scatter_{i:02d}_{name}"] = fig
-        if not s.averaging.empty and s.averaging["n_frames"].max() > 1:
-            fig = Figure(figsize=(8.0, 3.4), layout="constrained")
-            for j, axis in enumerate(("x", "z")):
-                plot_running_average(fig.add_subplot(1, 2, j + 1), s.averaging, s.trials, axis)
-            fig.suptitle(f"{name}: running average", fontsize=9)
-            figures[f"averaging_{i:02d}_{name}"] = fig
-    if not result.trials.empty:
-        fig = Figure(figsize=(5.0, 3.4), layout="constrained")
-        plot_error_histogram(fig.add_subplot(), result.trials)
-        figures["error_histogram"] = fig
-    return figures
+        for kind, fig in session_figures(s.session, s.trials, s.averaging).items():
+            figures[figure_key(kind, i, s.session)] = fig
+    return figures | run_figures(result)
 
 
-def _png(fig: Figure) -> bytes:
+def png_bytes(fig: Figure) -> bytes:
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110, metadata={"Software": None})
     return buf.getvalue()
@@ -109,9 +129,18 @@ def write_outputs(result: RunResult, out_dir: Path) -> None:
     result.averaging.to_csv(out_dir / "averaging.csv", index=False)
     result.frames.to_csv(out_dir / "frames.csv", index=False)
     result.errors.to_csv(out_dir / "errors.csv", index=False)
+    # Session figures were rendered by the workers (in parallel); a session analysed
+    # without them is drawn here. Only what spans sessions is always drawn here.
+    pngs: dict[str, bytes] = {}
+    for i, s in enumerate(result.sessions):
+        rendered = s.images or {
+            kind: png_bytes(fig)
+            for kind, fig in session_figures(s.session, s.trials, s.averaging).items()
+        }
+        pngs |= {figure_key(kind, i, s.session): data for kind, data in rendered.items()}
+    pngs |= {name: png_bytes(fig) for name, fig in run_figures(result).items()}
     images = {}
-    for name, fig in result.figures.items():
-        data = _png(fig)
+    for name, data in pngs.items():
         (out_dir / f"{name}.png").write_bytes(data)
         images[name] = base64.b64encode(data).decode()
     (out_dir / "report.html").write_text(_report_html(result, images), encoding="utf-8")

@@ -200,3 +200,20 @@ def test_frames_not_found_are_ignored_and_none_found_is_not_found() -> None:
 def test_detection_defaults_are_not_found_values() -> None:
     d = Detection(False, reason="x")
     assert np.isnan(d.centroid_px).all()
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_fast_components_agree_with_opencv_stats(seed: int) -> None:
+    """Random masks with holes and blobs inside holes: same components, areas and centroids."""
+    from analysis.detect import _components
+
+    rng = np.random.default_rng(seed)
+    noise = cv2.GaussianBlur(rng.random((240, 320)).astype(np.float32), (0, 0), 3.0)
+    mask = ((noise > np.quantile(noise, 0.6)) & (noise < np.quantile(noise, 0.93))).astype(np.uint8)
+    n, _, stats, cents = cv2.connectedComponentsWithStats(mask, connectivity=8)
+    n_blobs, shapes = _components(mask, 30.0)
+    assert n_blobs == n - 1
+    want = sorted((int(stats[i, 4]), *np.round(cents[i], 6)) for i in range(1, n) if stats[i, 4] >= 30)
+    got = sorted((int(s.area), round(s.centroid[0], 6), round(s.centroid[1], 6)) for s in shapes)
+    assert got == want
+    assert len(want) > 3
