@@ -418,12 +418,77 @@ class RunResult:
         return make_figures(self)
 
 
-def _worker_init() -> None:
+_CLAIMS: Any = None  # in worker processes: the shared claim flags of the batch
+
+
+def _worker_init(claims: Any) -> None:
     """One OpenCV thread per worker: the processes already fill the cores."""
     import cv2
 
+    global _CLAIMS
+    _CLAIMS = claims
     cv2.setNumThreads(1)
     keep_frame_buffers()
+
+
+def _claim(claims: Any, index: int) -> bool:
+    """Take session ``index`` for this process unless another already did."""
+    with claims.get_lock():
+        if claims[index]:
+            return False
+        claims[index] = 1
+        return True
+
+
+def _worker_task(
+    index: int, path: str, options: AnalysisOptions, images: bool
+) -> SessionResult | str | None:
+    """A worker's session, or None when the main process took it first."""
+    if not _claim(_CLAIMS, index):
+        return None
+    return _analyse_or_error(path, options, images)
+
+
+def _run_processes(
+    files: list[str],
+    options: AnalysisOptions,
+    images: bool,
+    jobs: int,
+    on_session_done: Callable[[str, bool], None] | None,
+) -> list[SessionResult | str]:
+    """``jobs`` processes: ``jobs - 1`` spawned workers take sessions from the front of the
+    list, this (already warm) process from the back, each claiming a session through a
+    shared flag; so no session runs twice and no core waits for a worker to start."""
+    # Spawned, not forked: a fork after OpenCV has started its thread pool can deadlock.
+    context = multiprocessing.get_context("spawn")
+    claims = context.Array("b", len(files))
+    outcomes: list[SessionResult | str | None] = [None] * len(files)
+
+    def done(i: int, outcome: SessionResult | str) -> None:
+        outcomes[i] = outcome
+        if on_session_done:
+            on_session_done(files[i], not isinstance(outcome, str))
+
+    with ProcessPoolExecutor(
+        max_workers=jobs - 1, mp_context=context, initializer=_worker_init, initargs=(claims,)
+    ) as pool:
+        futures = [pool.submit(_worker_task, i, f, options, images) for i, f in enumerate(files)]
+        for i in reversed(range(len(files))):
+            if not _claim(claims, i):
+                break  # the workers, going forward, have reached this one
+            done(i, _analyse_or_error(files[i], options, images))
+        for i, fut in enumerate(futures):
+            if outcomes[i] is not None:
+                continue
+            try:
+                outcome = fut.result()
+            except BrokenProcessPool as err:  # a worker died (killed, out of memory)
+                outcome = f"{files[i]}: the worker process analysing it died ({err})"
+            if outcome is not None:
+                done(i, outcome)
+    missing = [f for f, o in zip(files, outcomes, strict=True) if o is None]
+    assert not missing, f"sessions neither the workers nor this process analysed: {missing}"
+    return [o for o in outcomes if o is not None]
 
 
 _ALLOCATOR_TUNED = False
@@ -506,22 +571,7 @@ def run(
             if on_session_done:
                 on_session_done(f, not isinstance(outcomes[-1], str))
     else:
-        # Spawned, not forked: a fork after OpenCV has started its thread pool can deadlock.
-        context = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(
-            max_workers=jobs, mp_context=context, initializer=_worker_init
-        ) as pool:
-            futures = [
-                pool.submit(_analyse_or_error, f, options, out_dir is not None) for f in files
-            ]
-            outcomes = []
-            for f, fut in zip(files, futures, strict=True):
-                try:
-                    outcomes.append(fut.result())
-                except BrokenProcessPool as err:  # a worker died (killed, out of memory)
-                    outcomes.append(f"{f}: the worker process analysing it died ({err})")
-                if on_session_done:
-                    on_session_done(f, not isinstance(outcomes[-1], str))
+        outcomes = _run_processes(files, options, out_dir is not None, jobs, on_session_done)
     results = tuple(o for o in outcomes if not isinstance(o, str))
     errors = pd.DataFrame(
         [
