@@ -469,6 +469,10 @@ def _run_processes(
         if on_session_done:
             on_session_done(files[i], not isinstance(outcome, str))
 
+    import cv2
+
+    threads = cv2.getNumThreads()
+    cv2.setNumThreads(1)  # this process is one of the ``jobs``, like each worker
     with ProcessPoolExecutor(
         max_workers=jobs - 1, mp_context=context, initializer=_worker_init, initargs=(claims,)
     ) as pool:
@@ -486,6 +490,7 @@ def _run_processes(
                 outcome = f"{files[i]}: the worker process analysing it died ({err})"
             if outcome is not None:
                 done(i, outcome)
+    cv2.setNumThreads(threads)
     missing = [f for f, o in zip(files, outcomes, strict=True) if o is None]
     assert not missing, f"sessions neither the workers nor this process analysed: {missing}"
     return [o for o in outcomes if o is not None]

@@ -213,7 +213,9 @@ def test_fast_components_agree_with_opencv_stats(seed: int) -> None:
     n, _, stats, cents = cv2.connectedComponentsWithStats(mask, connectivity=8)
     n_blobs, shapes = _components(mask, 30.0)
     assert n_blobs == n - 1
-    want = sorted((int(stats[i, 4]), *np.round(cents[i], 6)) for i in range(1, n) if stats[i, 4] >= 30)
+    want = sorted(
+        (int(stats[i, 4]), *np.round(cents[i], 6)) for i in range(1, n) if stats[i, 4] >= 30
+    )
     got = sorted((int(s.area), round(s.centroid[0], 6), round(s.centroid[1], 6)) for s in shapes)
     assert got == want
     assert len(want) > 3
