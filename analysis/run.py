@@ -473,24 +473,28 @@ def _run_processes(
 
     threads = cv2.getNumThreads()
     cv2.setNumThreads(1)  # this process is one of the ``jobs``, like each worker
-    with ProcessPoolExecutor(
-        max_workers=jobs - 1, mp_context=context, initializer=_worker_init, initargs=(claims,)
-    ) as pool:
-        futures = [pool.submit(_worker_task, i, f, options, images) for i, f in enumerate(files)]
-        for i in reversed(range(len(files))):
-            if not _claim(claims, i):
-                break  # the workers, going forward, have reached this one
-            done(i, _analyse_or_error(files[i], options, images))
-        for i, fut in enumerate(futures):
-            if outcomes[i] is not None:
-                continue
-            try:
-                outcome = fut.result()
-            except BrokenProcessPool as err:  # a worker died (killed, out of memory)
-                outcome = f"{files[i]}: the worker process analysing it died ({err})"
-            if outcome is not None:
-                done(i, outcome)
-    cv2.setNumThreads(threads)
+    try:
+        with ProcessPoolExecutor(
+            max_workers=jobs - 1, mp_context=context, initializer=_worker_init, initargs=(claims,)
+        ) as pool:
+            futures = [
+                pool.submit(_worker_task, i, f, options, images) for i, f in enumerate(files)
+            ]
+            for i in reversed(range(len(files))):
+                if not _claim(claims, i):
+                    break  # the workers, going forward, have reached this one
+                done(i, _analyse_or_error(files[i], options, images))
+            for i, fut in enumerate(futures):
+                if outcomes[i] is not None:
+                    continue
+                try:
+                    outcome = fut.result()
+                except BrokenProcessPool as err:  # a worker died (killed, out of memory)
+                    outcome = f"{files[i]}: the worker process analysing it died ({err})"
+                if outcome is not None:
+                    done(i, outcome)
+    finally:
+        cv2.setNumThreads(threads)
     missing = [f for f, o in zip(files, outcomes, strict=True) if o is None]
     assert not missing, f"sessions neither the workers nor this process analysed: {missing}"
     return [o for o in outcomes if o is not None]
