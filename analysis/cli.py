@@ -131,8 +131,12 @@ def run_command(
                 on_session_done=lambda _path, _ok: progress.advance(task),
             )
     table = Table(title=f"twopose: {len(result.sessions)} session(s), results in {out}")
-    for col in ("session", "method", "ok", "bias x", "bias z", "rmse", "median", "max", "within 1"):
+    units = result.summary["units"].iloc[0] if len(result.summary["units"].unique()) == 1 else ""
+    table.add_column("session", no_wrap=True, min_width=18)  # names matter more than digits
+    for col in ("method", "ok", "bias x", "bias z", "rmse", "median", "max", "≤1"):
         table.add_column(col, justify="right")
+    if units:
+        table.caption = f"errors in {units}; ≤1: share of ok trials within 1 {units}"
     for row in summary_rows(result.summary):
         table.add_row(*row)
     Console().print(table)
