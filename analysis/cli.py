@@ -114,8 +114,8 @@ def run_command(
     ] = CombineChoice.mean,
 ) -> None:
     """Replay sessions through detection and solvers into error tables, figures and a report."""
+    from analysis.pipeline import AnalysisOptions, run
     from analysis.report import summary_rows
-    from analysis.run import AnalysisOptions, run
 
     console = Console(stderr=True)
     with handle_errors():

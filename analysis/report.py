@@ -15,7 +15,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 if TYPE_CHECKING:
-    from analysis.run import RunResult
+    from analysis.pipeline import RunResult
 
 __all__ = [
     "make_figures",

@@ -46,7 +46,7 @@ print(time.perf_counter() - t, n)
 
 RUN_AND_RSS = """
 import resource, sys, time
-from analysis.run import run
+from analysis.pipeline import run
 t = time.perf_counter()
 result = run(sys.argv[1:-1], sys.argv[-1], jobs=int(__import__("os").environ.get("JOBS", "1")))
 elapsed = time.perf_counter() - t

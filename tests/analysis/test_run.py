@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.run import AnalysisOptions, analyse_session, run
+from analysis.pipeline import AnalysisOptions, analyse_session, run
 from recorder.camera import Intrinsics
 from recorder.errors import InputValueError
 from recorder.session import Camera, GroundTruth, PoseEntry, SessionInfo, SessionWriter
@@ -186,3 +186,11 @@ def test_bad_arguments(ground_session: Path, tmp_path: Path) -> None:
         run([ground_session], jobs=0)
     with pytest.raises(InputValueError, match="does not exist"):
         run([tmp_path / "nope"])
+
+
+def test_the_package_is_the_api(ground_session: Path) -> None:
+    import analysis
+
+    result = analysis.run([ground_session])
+    assert list(result.trials["trial"]) == [1, 2]
+    assert set(result.figures) == {"scatter_00_ground", "averaging_00_ground", "error_histogram"}
