@@ -94,5 +94,20 @@ def simulate(
     )
 
 
+@app.command()
+def recover(
+    broken: Annotated[
+        Path, typer.Argument(exists=True, dir_okay=False, help="The damaged session.")
+    ],
+    output: Annotated[Path, typer.Option("-o", "--output", help="The new, valid session file.")],
+) -> None:
+    """Salvage every complete chunk of an interrupted or damaged session into a new file."""
+    from recorder.recover import recover_session
+
+    with handle_errors():
+        report = recover_session(broken, output)
+    typer.echo(report.summary())
+
+
 def main() -> None:
     app()

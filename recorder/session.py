@@ -775,6 +775,104 @@ def _transform_message(entry: PoseEntry, log_time_ns: int) -> PbFrameTransform:
 # --------------------------------------------------------------------------- writer
 
 
+def register_channels(writer: McapWriter, camera_ids: Sequence[str]) -> dict[str, int]:
+    """Register every schema and channel of a session, in the order the format fixes.
+
+    The order makes channel ids a function of the camera ids alone, which lets
+    ``recover`` rebuild them when the chunk that held the channel records is lost.
+    Returns topic -> channel id.
+    """
+    channels: dict[str, int] = {}
+    for cls in TYPED_ENTRIES:
+        schema_id = writer.register_schema(
+            name=cls.SCHEMA_NAME,
+            encoding="jsonschema",
+            data=json.dumps(cls.JSON_SCHEMA).encode(),
+        )
+        channels[cls.TOPIC] = writer.register_channel(cls.TOPIC, "json", schema_id)
+    proto_ids: dict[str, int] = {}
+    for pb in (PbCameraCalibration, PbCompressedImage, PbFrameTransform):
+        proto_ids[pb.DESCRIPTOR.full_name] = writer.register_schema(
+            name=pb.DESCRIPTOR.full_name,
+            encoding="protobuf",
+            data=build_file_descriptor_set(pb).SerializeToString(),
+        )
+    channels[TF_TOPIC] = writer.register_channel(
+        TF_TOPIC, "protobuf", proto_ids["foxglove.FrameTransform"]
+    )
+    for cid in camera_ids:
+        channels[calibration_topic(cid)] = writer.register_channel(
+            calibration_topic(cid), "protobuf", proto_ids["foxglove.CameraCalibration"]
+        )
+        channels[image_topic(cid)] = writer.register_channel(
+            image_topic(cid), "protobuf", proto_ids["foxglove.CompressedImage"]
+        )
+    return channels
+
+
+def session_metadata(
+    info: SessionInfo, cameras: Sequence[Camera], ground: GroundPlane | None, start_ns: int
+) -> dict[str, str]:
+    """The ``twopose`` metadata record: versions, plus a copy of what opens the session.
+
+    The metadata record is written before the first chunk, so the copy survives the loss
+    of that chunk (which holds the schemas, channels and the session entry).
+    """
+    from recorder import __version__
+
+    return {
+        "format_version": FORMAT_VERSION,
+        "software_version": __version__,
+        "session": encode_entry(info).decode(),
+        "cameras": json.dumps(
+            [
+                {
+                    "camera": c.camera_id,
+                    "width": c.intrinsics.width,
+                    "height": c.intrinsics.height,
+                    "fx": c.intrinsics.fx,
+                    "fy": c.intrinsics.fy,
+                    "cx": c.intrinsics.cx,
+                    "cy": c.intrinsics.cy,
+                    "distortion": list(c.intrinsics.distortion),
+                }
+                for c in cameras
+            ]
+        ),
+        "ground": encode_entry(ground).decode() if ground is not None else "",
+        "start_ns": str(start_ns),
+    }
+
+
+def _distortion(values: Any) -> tuple[float, float, float, float, float]:
+    k = [float(v) for v in values]
+    if len(k) != 5:
+        raise ValueError(f"distortion needs 5 values, got {len(k)}")
+    return (k[0], k[1], k[2], k[3], k[4])
+
+
+def cameras_from_metadata(text: str) -> list[Camera]:
+    """Inverse of the ``cameras`` field of :func:`session_metadata`."""
+    try:
+        return [
+            Camera(
+                c["camera"],
+                Intrinsics(
+                    int(c["width"]),
+                    int(c["height"]),
+                    float(c["fx"]),
+                    float(c["fy"]),
+                    float(c["cx"]),
+                    float(c["cy"]),
+                    _distortion(c["distortion"]),
+                ),
+            )
+            for c in json.loads(text)
+        ]
+    except (KeyError, TypeError, ValueError, InputValueError) as err:
+        raise SessionFormatError(f"the metadata's camera copy is unreadable: {err}") from err
+
+
 class SessionWriter:
     """Write one session file; a context manager that refuses to overwrite.
 
@@ -850,12 +948,11 @@ class SessionWriter:
 
         self._mcap = McapWriter(self._stream, compression=CompressionType.ZSTD)
         self._mcap.start(profile="", library=f"twopose/{__version__}")
-        self._register_channels()
-        self._mcap.add_metadata(
-            METADATA_NAME,
-            {"format_version": FORMAT_VERSION, "software_version": __version__},
-        )
+        self._channels = register_channels(self._mcap, self.info.camera_ids)
         t0 = self._start_ns if self._start_ns is not None else self._clock()
+        self._mcap.add_metadata(
+            METADATA_NAME, session_metadata(self.info, list(self.cameras.values()), self.ground, t0)
+        )
         self._write_json(self.info, t0)
         for camera in self.cameras.values():
             self._write_proto(
@@ -882,33 +979,6 @@ class SessionWriter:
         if self._stream is not None:
             self._stream.close()
             self._stream = None
-
-    def _register_channels(self) -> None:
-        assert self._mcap is not None
-        for cls in TYPED_ENTRIES:
-            schema_id = self._mcap.register_schema(
-                name=cls.SCHEMA_NAME,
-                encoding="jsonschema",
-                data=json.dumps(cls.JSON_SCHEMA).encode(),
-            )
-            self._channels[cls.TOPIC] = self._mcap.register_channel(cls.TOPIC, "json", schema_id)
-        proto_ids: dict[str, int] = {}
-        for pb in (PbCameraCalibration, PbCompressedImage, PbFrameTransform):
-            proto_ids[pb.DESCRIPTOR.full_name] = self._mcap.register_schema(
-                name=pb.DESCRIPTOR.full_name,
-                encoding="protobuf",
-                data=build_file_descriptor_set(pb).SerializeToString(),
-            )
-        self._channels[TF_TOPIC] = self._mcap.register_channel(
-            TF_TOPIC, "protobuf", proto_ids["foxglove.FrameTransform"]
-        )
-        for cid in self.info.camera_ids:
-            self._channels[calibration_topic(cid)] = self._mcap.register_channel(
-                calibration_topic(cid), "protobuf", proto_ids["foxglove.CameraCalibration"]
-            )
-            self._channels[image_topic(cid)] = self._mcap.register_channel(
-                image_topic(cid), "protobuf", proto_ids["foxglove.CompressedImage"]
-            )
 
     # -- low level
     def _time(self, log_time_ns: int | None) -> int:

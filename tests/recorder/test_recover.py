@@ -1,0 +1,250 @@
+"""Crash safety: truncation, corruption, kill -9 at random moments, Ctrl-C, and recover."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mcap.reader import make_reader
+from typer.testing import CliRunner
+
+from analysis.pipeline import analyse_session
+from analysis.replay import iter_trials
+from recorder.cli import app
+from recorder.errors import EXIT_ERROR, SessionExistsError, SessionFormatError
+from recorder.recover import RECOVERED_REASON, recover_session
+from recorder.session import CaptureWindow, SessionReader, SessionWriter
+
+RECORDING_SCRIPT = """
+import sys, time
+import numpy as np
+from recorder.camera import Intrinsics
+from recorder.session import (Camera, GroundPlane, GroundTruth, PoseEntry, SessionInfo,
+                              SessionWriter)
+
+out = sys.argv[1]
+cam = Camera("cam0", Intrinsics(64, 48, 50.0, 50.0, 32.0, 24.0))
+rng = np.random.default_rng(0)
+with SessionWriter(out, SessionInfo("ground", "in"), [cam], ground=GroundPlane(9.625),
+                   image_format="png") as w:
+    print("open", flush=True)
+    for trial in range(1, 1000):
+        w.write_ground_truth(GroundTruth(trial, "point", ((1.0, 9.625, 8.0),)))
+        for pose in (1, 2):
+            w.write_pose(PoseEntry(trial, pose, "cam0", (float(pose), 0.0, 0.0)))
+            with w.capture(trial, pose, "cam0") as cap:
+                for _ in range(3):
+                    cap.add_frame(rng.integers(0, 255, (48, 64, 3), dtype=np.uint8))
+                    time.sleep(0.002)
+            print(f"done {trial} {pose}", flush=True)
+"""
+
+
+def _completed(stdout: str) -> set[tuple[int, int]]:
+    return {
+        (int(t), int(p))
+        for line in stdout.splitlines()
+        if line.startswith("done ")
+        for t, p in [line.split()[1:3]]
+    }
+
+
+def _windows(path: Path) -> dict[tuple[int, int], CaptureWindow]:
+    with SessionReader(path) as r:
+        return {(w.trial, w.pose): w for w in r.iter_entries() if isinstance(w, CaptureWindow)}
+
+
+@pytest.mark.slow
+def test_kill_9_at_random_moments_then_recover(tmp_path: Path) -> None:
+    """20 recordings killed at random: every capture reported complete survives, whole."""
+    script = tmp_path / "record.py"
+    script.write_text(RECORDING_SCRIPT)
+    rng = np.random.default_rng(42)
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
+    for i in range(20):
+        out = tmp_path / f"s{i}.mcap"
+        proc = subprocess.Popen(
+            [sys.executable, str(script), str(out)], stdout=subprocess.PIPE, text=True, env=env
+        )
+        assert proc.stdout is not None
+        assert proc.stdout.readline().strip() == "open"  # the file exists and is flushed
+        time.sleep(float(rng.uniform(0.0, 0.6)))
+        proc.send_signal(signal.SIGKILL)
+        rest, _ = proc.communicate()
+        completed = _completed(rest)
+        fixed = tmp_path / f"fixed{i}.mcap"
+        report = recover_session(out, fixed)
+        windows = _windows(fixed)
+        for key in completed:
+            assert key in windows, f"run {i}: completed capture {key} lost"
+            assert windows[key].status == "complete"
+            assert windows[key].n_frames == 3
+        assert report.complete_captures >= len(completed)
+        # What was not completed is at most the capture in progress (kept as incomplete).
+        incomplete = [w for w in windows.values() if w.status != "complete"]
+        assert len(incomplete) <= 1
+        assert all(w.reason == RECOVERED_REASON for w in incomplete)
+        with SessionReader(fixed) as r:  # a valid, indexed session
+            assert r.info.method == "ground"
+            frames = r.message_counts().get("/twopose/camera/cam0/image", 0)
+        assert frames >= 3 * len(completed)
+
+
+def test_ctrl_c_finishes_the_file_cleanly(tmp_path: Path) -> None:
+    script = tmp_path / "record.py"
+    script.write_text(RECORDING_SCRIPT)
+    out = tmp_path / "s.mcap"
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
+    proc = subprocess.Popen(
+        [sys.executable, str(script), str(out)], stdout=subprocess.PIPE, text=True, env=env
+    )
+    assert proc.stdout is not None
+    proc.stdout.readline()
+    proc.stdout.readline()  # at least one capture done
+    proc.send_signal(signal.SIGINT)
+    rest, _ = proc.communicate(timeout=30)
+    assert proc.returncode != 0
+    with SessionReader(out) as r:  # no recover needed: the summary and index were written
+        windows = [w for w in r.iter_entries() if isinstance(w, CaptureWindow)]
+    assert len(windows) >= 1
+    assert windows[-1].status in ("complete", "incomplete")
+
+
+def _small_session(path: Path, trials: int = 4) -> None:
+    from recorder.camera import Intrinsics
+    from recorder.session import Camera, GroundPlane, GroundTruth, PoseEntry, SessionInfo
+
+    cam = Camera("cam0", Intrinsics(64, 48, 50.0, 50.0, 32.0, 24.0))
+    rng = np.random.default_rng(1)
+    t = 1_000
+    with SessionWriter(
+        path,
+        SessionInfo("ground", "in"),
+        [cam],
+        ground=GroundPlane(9.625),
+        image_format="png",
+        start_ns=t,
+    ) as w:
+        for trial in range(1, trials + 1):
+            w.write_ground_truth(GroundTruth(trial, "point", ((1.0, 9.625, 8.0),)), t := t + 10)
+            for pose in (1, 2):
+                w.write_pose(PoseEntry(trial, pose, "cam0", (float(pose), 0.0, 0.0)), t := t + 10)
+                with w.capture(trial, pose, "cam0") as cap:
+                    for _ in range(3):
+                        cap.add_frame(
+                            rng.integers(0, 255, (48, 64, 3), dtype=np.uint8), t := t + 10
+                        )
+
+
+def test_truncation_anywhere_recovers_every_capture_before_the_cut(tmp_path: Path) -> None:
+    whole = tmp_path / "whole.mcap"
+    _small_session(whole)
+    data = whole.read_bytes()
+    full = _windows(whole)
+    metadata_end = data.index(b"start_ns") + 40  # the metadata record's last field
+    for i, cut in enumerate(range(100, len(data), max(len(data) // 40, 1))):
+        broken = tmp_path / f"cut{i}.mcap"
+        broken.write_bytes(data[:cut])
+        fixed = tmp_path / f"fixed{i}.mcap"
+        if cut < metadata_end:  # nothing to rebuild a session from: a clear error
+            with pytest.raises(SessionFormatError, match="metadata"):
+                recover_session(broken, fixed)
+            continue
+        recover_session(broken, fixed)
+        got = _windows(fixed)
+        complete = {k for k, w in got.items() if w.status == "complete"}
+        assert complete <= set(full)
+        # Captures are contiguous from the start: whatever survived is a prefix.
+        order = sorted(full)
+        assert sorted(complete) == order[: len(complete)]
+    # The whole file (no truncation) recovers to the same captures and an identical count.
+    fixed = tmp_path / "fixed_whole.mcap"
+    report = recover_session(whole, fixed)
+    assert set(_windows(fixed)) == set(full)
+    assert not report.truncated
+
+
+def test_a_corrupt_chunk_is_skipped_and_the_rest_kept(tmp_path: Path) -> None:
+    whole = tmp_path / "whole.mcap"
+    _small_session(whole, trials=6)
+    data = bytearray(whole.read_bytes())
+    mid = len(data) // 2
+    data[mid : mid + 64] = bytes(64)  # zero a run inside a chunk's compressed payload
+    broken = tmp_path / "broken.mcap"
+    broken.write_bytes(bytes(data))
+    fixed = tmp_path / "fixed.mcap"
+    report = recover_session(broken, fixed)
+    assert report.chunks_lost == 1
+    assert report.chunks_kept > 5
+    assert len(_windows(fixed)) >= 10
+
+
+def test_losing_the_first_chunk_restores_the_session_from_metadata(tmp_path: Path) -> None:
+    whole = tmp_path / "whole.mcap"
+    _small_session(whole)
+    with SessionReader(whole) as r:
+        info, cameras, ground = r.info, r.cameras, r.ground
+    with open(whole, "rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None
+    first = min(summary.chunk_indexes, key=lambda c: c.chunk_start_offset)
+    data = bytearray(whole.read_bytes())
+    # Damage the middle of the first chunk's payload (its schemas, channels, session entry).
+    middle = first.chunk_start_offset + first.chunk_length // 2
+    data[middle : middle + 30] = bytes(30)
+    broken = tmp_path / "broken.mcap"
+    broken.write_bytes(bytes(data))
+    fixed = tmp_path / "fixed.mcap"
+    report = recover_session(broken, fixed)
+    assert report.chunks_lost >= 1
+    with SessionReader(fixed) as r:
+        assert r.info == info
+        assert r.cameras == cameras
+        assert r.ground == ground
+
+
+def test_analysis_accepts_a_recovered_session(tmp_path: Path, ground_session: Path) -> None:
+    data = ground_session.read_bytes()
+    broken = tmp_path / "broken.mcap"
+    broken.write_bytes(data[: int(len(data) * 0.8)])
+    with pytest.raises(SessionFormatError, match="recover"):
+        analyse_session(broken)
+    fixed = tmp_path / "fixed.mcap"
+    recover_session(broken, fixed)
+    result = analyse_session(fixed)
+    assert len(result.trials) >= 1
+    assert (result.trials["status"] == "ok").sum() >= 1
+    with SessionReader(fixed) as r:
+        assert len(list(iter_trials(r, with_frames=False))) == len(result.trials)
+
+
+def test_recover_refuses_overwrite_and_non_sessions(tmp_path: Path, ground_session: Path) -> None:
+    existing = tmp_path / "exists.mcap"
+    existing.write_bytes(b"keep")
+    with pytest.raises(SessionExistsError):
+        recover_session(ground_session, existing)
+    assert existing.read_bytes() == b"keep"
+    junk = tmp_path / "junk.mcap"
+    junk.write_bytes(b"\x89MCAP0\r\n" + bytes(100))
+    with pytest.raises(SessionFormatError):
+        recover_session(junk, tmp_path / "out.mcap")
+
+
+def test_recover_cli(tmp_path: Path, ground_session: Path) -> None:
+    data = ground_session.read_bytes()
+    broken = tmp_path / "broken.mcap"
+    broken.write_bytes(data[: int(len(data) * 0.7)])
+    runner = CliRunner()
+    result = runner.invoke(app, ["recover", str(broken), "-o", str(tmp_path / "fixed.mcap")])
+    assert result.exit_code == 0, result.output
+    assert "the file ended early" in result.output
+    assert "complete captures" in result.output
+    again = runner.invoke(app, ["recover", str(broken), "-o", str(tmp_path / "fixed.mcap")])
+    assert again.exit_code == EXIT_ERROR
+    assert "already exists" in again.output
