@@ -95,6 +95,54 @@ def simulate(
 
 
 @app.command()
+def new(
+    out: Annotated[Path, typer.Argument(help="New session file (never overwritten).")],
+    plan: Annotated[
+        Path | None,
+        typer.Option(exists=True, dir_okay=False, help="Run this plan (TOML) without prompts."),
+    ] = None,
+    source: Annotated[
+        str, typer.Option(help="camera:N, video:PATH, images:DIR or synthetic[:SCENE.toml].")
+    ] = "camera:0",
+    width: Annotated[int, typer.Option(min=1, help="Camera width to request.")] = 640,
+    height: Annotated[int, typer.Option(min=1, help="Camera height to request.")] = 480,
+    fps: Annotated[float, typer.Option(min=1, help="Camera frame rate to request.")] = 30.0,
+) -> None:
+    """Record a session: the laptop-on-grid procedure, from a plan file (--plan)."""
+    from recorder.procedure import load_plan, record_plan
+    from recorder.sources import open_source
+
+    if plan is None:
+        typer.secho(
+            "error: interactive recording is not available in this version; give --plan PLAN.toml",
+            err=True,
+            fg=typer.colors.RED,
+        )
+        raise typer.Exit(EXIT_ERROR)
+    with handle_errors():
+        the_plan = load_plan(plan)
+        src = open_source(source, method=the_plan.method, width=width, height=height, fps=fps)
+
+        def on_capture(trial: int, pose: int, result: object) -> None:
+            from recorder.procedure import CaptureResult
+
+            assert isinstance(result, CaptureResult)
+            for fb in result.feedback:
+                typer.echo(fb.line())
+            state = "complete" if result.complete else f"INCOMPLETE: {result.reason}"
+            typer.echo(
+                f"trial {trial} pose {pose}: {result.n_frames} frames, "
+                f"{result.n_found} detected, {state}"
+            )
+
+        summary = record_plan(the_plan, out, src, on_capture=on_capture)
+    typer.echo(
+        f"wrote {summary.path}: {summary.n_trials} trials, {summary.n_captures} captures, "
+        f"{summary.n_frames} frames ({summary.n_found} detected) in {summary.seconds:.1f} s"
+    )
+
+
+@app.command()
 def recover(
     broken: Annotated[
         Path, typer.Argument(exists=True, dir_okay=False, help="The damaged session.")

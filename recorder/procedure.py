@@ -1,0 +1,330 @@
+"""The laptop-on-grid procedure (thesis sections 3.4.2 and 5.2.5) as code: type a pose,
+capture K frames with live detection feedback, next pose, next trial.
+
+:func:`capture_pose` is the one step both the interactive ``twopose-record new`` and plan
+mode use; :func:`load_plan` reads a plan file and :func:`record_plan` runs it unattended.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import tomllib
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from recorder.camera import Intrinsics
+from recorder.errors import InputValueError
+from recorder.session import (
+    METHODS,
+    UNITS,
+    Camera,
+    GroundPlane,
+    GroundTruth,
+    Method,
+    PoseEntry,
+    SessionInfo,
+    SessionWriter,
+    TruthKind,
+    Vec3,
+)
+from recorder.sources import FrameSource, SourceError
+
+__all__ = [
+    "CaptureResult",
+    "FrameFeedback",
+    "Plan",
+    "PlannedPose",
+    "PlannedTrial",
+    "capture_pose",
+    "load_plan",
+    "record_plan",
+]
+
+#: Plausible magnitude of a typed translation (session units); beyond it, a typo is likelier.
+MAX_TRANSLATION = {"in": 200.0, "mm": 5000.0, "cm": 500.0, "m": 5.0}
+
+
+@dataclass(frozen=True)
+class FrameFeedback:
+    """What the operator sees for each captured frame."""
+
+    index: int
+    found: bool
+    centroid_px: tuple[float, float]
+    theta_deg: float
+    n_blobs: int
+    reason: str
+
+    def line(self) -> str:
+        if not self.found:
+            return f"  frame {self.index + 1}: not found ({self.reason})"
+        col, row = self.centroid_px
+        theta = "" if math.isnan(self.theta_deg) else f", theta {self.theta_deg:+.1f} deg"
+        where = f"({col:.1f}, {row:.1f})"
+        return f"  frame {self.index + 1}: found at {where}{theta}, {self.n_blobs} blob(s)"
+
+
+@dataclass(frozen=True)
+class CaptureResult:
+    """How a capture went."""
+
+    n_frames: int
+    complete: bool
+    reason: str
+    feedback: tuple[FrameFeedback, ...] = ()
+
+    @property
+    def n_found(self) -> int:
+        return sum(f.found for f in self.feedback)
+
+
+def capture_pose(
+    writer: SessionWriter,
+    source: FrameSource,
+    entry: PoseEntry,
+    n_frames: int,
+    *,
+    target: str | None = None,
+    on_frame: Callable[[FrameFeedback], None] | None = None,
+    timeout_s: float = 2.0,
+) -> CaptureResult:
+    """Write the typed pose, then capture ``n_frames`` frames from ``source`` at it.
+
+    ``target`` (``"glove"`` or ``"dot"``) turns on live detection feedback. A source that
+    fails mid-capture leaves the capture in the file, marked incomplete with the reason.
+    """
+    writer.write_pose(entry)
+    source.set_pose(entry.t_grid, entry.r_deg)
+    feedback: list[FrameFeedback] = []
+    reason = ""
+    count = 0
+    with writer.capture(entry.trial, entry.pose, entry.camera_id) as cap:
+        for k in range(n_frames):
+            try:
+                image = source.read(timeout_s)
+            except SourceError as err:
+                reason = str(err)
+                cap.mark_incomplete(reason)
+                break
+            cap.add_frame(image)
+            count += 1
+            if target is not None:
+                from analysis.detect import detect
+
+                d = detect(image, target)
+                fb = FrameFeedback(k, d.found, d.centroid_px, d.theta_deg, d.n_blobs, d.reason)
+                feedback.append(fb)
+                if on_frame is not None:
+                    on_frame(fb)
+    return CaptureResult(count, not reason, reason, tuple(feedback))
+
+
+# --------------------------------------------------------------------------- plans
+
+
+@dataclass(frozen=True)
+class PlannedPose:
+    t_grid: Vec3
+    r_deg: Vec3 = (0.0, 0.0, 0.0)
+    camera_id: str = "cam0"
+
+
+@dataclass(frozen=True)
+class PlannedTrial:
+    poses: tuple[PlannedPose, ...]
+    ground_truth: tuple[Vec3, ...] = ()
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A whole session to record unattended (scripted rigs, tests)."""
+
+    method: Method
+    units: str
+    cameras: tuple[Camera, ...]
+    trials: tuple[PlannedTrial, ...]
+    frames: int = 5
+    ground_height: float | None = None
+    operator: str = ""
+    notes: str = ""
+    translation_resolution: float = 0.0625
+    rotation_resolution_deg: float = 0.5
+
+
+def _vec(value: Any, where: str) -> Vec3:
+    if not isinstance(value, list) or len(value) != 3:
+        raise InputValueError(f"plan: {where} must be a list of 3 numbers, got {value!r}")
+    out = []
+    for v in value:
+        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+            raise InputValueError(f"plan: {where} must hold finite numbers, got {value!r}")
+        out.append(float(v))
+    return (out[0], out[1], out[2])
+
+
+def _number(table: dict[str, Any], key: str, default: float) -> float:
+    value = table.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise InputValueError(f"plan: camera.{key} must be a finite number, got {value!r}")
+    return float(value)
+
+
+def _camera(table: Any) -> Camera:
+    """``[camera]``: ``focal`` (or ``fx``/``fy``), ``principal = [cx, cy]`` (or ``cx``/``cy``),
+    ``width``, ``height``, ``distortion``, ``id``."""
+    if not isinstance(table, dict):
+        raise InputValueError("plan: [camera] must be a table")
+    fx = _number(table, "fx", _number(table, "focal", 525.0))
+    fy = _number(table, "fy", _number(table, "focal", fx))
+    principal = table.get("principal")
+    if principal is not None:
+        if not isinstance(principal, list) or len(principal) != 2:
+            raise InputValueError(f"plan: camera.principal must be [cx, cy], got {principal!r}")
+        table = {**table, "cx": principal[0], "cy": principal[1]}
+    dist = [_number({"d": d}, "d", 0.0) for d in table.get("distortion", [0.0] * 5)]
+    if len(dist) != 5:
+        raise InputValueError("plan: camera.distortion needs 5 values (k1, k2, p1, p2, k3)")
+    return Camera(
+        str(table.get("id", "cam0")),
+        Intrinsics(
+            int(_number(table, "width", 640)),
+            int(_number(table, "height", 480)),
+            fx,
+            fy,
+            _number(table, "cx", 320.0),
+            _number(table, "cy", 240.0),
+            (dist[0], dist[1], dist[2], dist[3], dist[4]),
+        ),
+    )
+
+
+def load_plan(path: str | Path) -> Plan:
+    """Read and check a plan file (TOML); every error names the offending key."""
+    try:
+        with open(path, "rb") as fh:
+            data = tomllib.load(fh)
+    except OSError as err:
+        raise InputValueError(f"cannot read plan {path}: {err.strerror}") from err
+    except tomllib.TOMLDecodeError as err:
+        raise InputValueError(f"plan {path} is not valid TOML: {err}") from err
+    method = data.get("method")
+    if method not in METHODS:
+        raise InputValueError(f"plan: method must be one of {', '.join(METHODS)}, got {method!r}")
+    units = data.get("units", "in")
+    if units not in UNITS:
+        raise InputValueError(f"plan: units must be one of {', '.join(UNITS)}, got {units!r}")
+    cameras_data = data.get("cameras") or [data.get("camera", {})]
+    cameras = tuple(_camera(c) for c in cameras_data)
+    frames = data.get("frames", 5)
+    if isinstance(frames, bool) or not isinstance(frames, int) or frames < 1:
+        raise InputValueError(f"plan: frames must be a whole number >= 1, got {frames!r}")
+    ground = data.get("ground_height")
+    if method == "ground" and ground is None:
+        raise InputValueError("plan: a ground session needs ground_height (camera centre to table)")
+    trials = []
+    limit = MAX_TRANSLATION[units]
+    for i, t in enumerate(data.get("trials", []), start=1):
+        poses = []
+        for j, p in enumerate(t.get("poses", []), start=1):
+            where = f"trials[{i}].poses[{j}]"
+            tg = _vec(p.get("t"), f"{where}.t")
+            if max(abs(v) for v in tg) > limit:
+                raise InputValueError(f"plan: {where}.t = {tg} is implausibly large for {units}")
+            poses.append(
+                PlannedPose(
+                    tg,
+                    _vec(p.get("r_deg", [0, 0, 0]), f"{where}.r_deg"),
+                    str(p.get("camera", cameras[0].camera_id)),
+                )
+            )
+        if len(poses) < 2:
+            raise InputValueError(f"plan: trials[{i}] needs at least 2 poses, got {len(poses)}")
+        gt = tuple(_vec(g, f"trials[{i}].ground_truth") for g in t.get("ground_truth", []))
+        trials.append(PlannedTrial(tuple(poses), gt))
+    if not trials:
+        raise InputValueError("plan: no [[trials]]")
+    res = data.get("resolution", {})
+    return Plan(
+        method=method,
+        units=units,
+        cameras=cameras,
+        trials=tuple(trials),
+        frames=frames,
+        ground_height=float(ground) if ground is not None else None,
+        operator=str(data.get("operator", "")),
+        notes=str(data.get("notes", "")),
+        translation_resolution=float(res.get("translation", 0.0625)),
+        rotation_resolution_deg=float(res.get("rotation_deg", 0.5)),
+    )
+
+
+@dataclass(frozen=True)
+class RecordingSummary:
+    path: Path
+    n_trials: int
+    n_captures: int
+    n_incomplete: int
+    n_frames: int
+    n_found: int
+    seconds: float
+
+
+def record_plan(
+    plan: Plan,
+    out: str | Path,
+    source: FrameSource,
+    *,
+    on_frame: Callable[[FrameFeedback], None] | None = None,
+    on_capture: Callable[[int, int, CaptureResult], None] | None = None,
+) -> RecordingSummary:
+    """Record ``plan`` into the new session ``out`` from an (unopened) ``source``.
+
+    A capture that fails is kept (incomplete) and the recording stops there with a
+    :class:`SourceError`; everything written before it is in the file, which is closed.
+    """
+    target = "dot" if plan.method == "point" else "glove"
+    info = SessionInfo(
+        method=plan.method,
+        units=plan.units,
+        camera_ids=tuple(c.camera_id for c in plan.cameras),
+        operator=plan.operator,
+        notes=plan.notes,
+        created_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+    )
+    ground = GroundPlane(plan.ground_height) if plan.ground_height is not None else None
+    captures = incomplete = frames = found = 0
+    start = time.monotonic()
+    with source, SessionWriter(out, info, plan.cameras, ground=ground) as writer:
+        for i, trial in enumerate(plan.trials, start=1):
+            if trial.ground_truth:
+                kind: TruthKind = "line" if plan.method == "line" else "point"
+                writer.write_ground_truth(GroundTruth(i, kind, trial.ground_truth))
+            for k, p in enumerate(trial.poses, start=1):
+                entry = PoseEntry(
+                    i,
+                    k,
+                    p.camera_id,
+                    p.t_grid,
+                    p.r_deg,
+                    plan.translation_resolution,
+                    plan.rotation_resolution_deg,
+                )
+                result = capture_pose(
+                    writer, source, entry, plan.frames, target=target, on_frame=on_frame
+                )
+                captures += 1
+                frames += result.n_frames
+                found += result.n_found
+                if on_capture is not None:
+                    on_capture(i, k, result)
+                if not result.complete:
+                    incomplete += 1
+                    raise SourceError(
+                        f"trial {i} pose {k}: {result.reason}; the session so far is saved in {out}"
+                    )
+    return RecordingSummary(
+        Path(out), len(plan.trials), captures, incomplete, frames, found, time.monotonic() - start
+    )

@@ -1,0 +1,309 @@
+"""Frame sources behind one interface: a camera, a video file, a folder of images, or the
+synthetic camera that renders the simulator's scene from the pose the operator types.
+
+``open_source("camera:0" | "video:PATH" | "images:DIR" | "synthetic[:SCENE.toml]")`` gives a
+:class:`FrameSource`; use it as a context manager and call :meth:`FrameSource.read`. A source
+that cannot open, stops delivering, or times out raises :class:`SourceError` with a message
+saying which and what to try.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import queue
+import threading
+import time
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from pathlib import Path
+from types import TracebackType
+from typing import Any, Self
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from recorder.camera import rotation_from_angles_deg
+from recorder.errors import TwoposeError
+
+__all__ = [
+    "CameraSource",
+    "FrameSource",
+    "ImagesSource",
+    "SourceError",
+    "SourceInfo",
+    "SyntheticSource",
+    "VideoSource",
+    "open_source",
+]
+
+Image = NDArray[np.uint8]
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
+
+
+class SourceError(TwoposeError):
+    """A frame source failed to open, stopped delivering frames, or timed out."""
+
+
+@dataclass(frozen=True)
+class SourceInfo:
+    """What the source actually delivers (a camera may not honour the request)."""
+
+    description: str
+    width: int
+    height: int
+    fps: float
+
+
+class FrameSource(ABC):
+    """A source of BGR uint8 frames. Use as a context manager."""
+
+    info: SourceInfo
+
+    def __enter__(self) -> Self:
+        self.open()
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    @abstractmethod
+    def open(self) -> SourceInfo: ...
+
+    @abstractmethod
+    def read(self, timeout_s: float = 2.0) -> Image:
+        """The next frame, (H, W, 3) BGR uint8; raises SourceError when none comes."""
+
+    def close(self) -> None:
+        return None
+
+    def set_pose(
+        self, t_grid: tuple[float, float, float], r_deg: tuple[float, float, float]
+    ) -> None:
+        """Tell the source where the camera is (only the synthetic camera uses it)."""
+        return
+
+
+class CameraSource(FrameSource):
+    """An OpenCV camera device; frames are grabbed on a thread so ``read`` can time out."""
+
+    def __init__(self, device: int, width: int = 640, height: int = 480, fps: float = 30.0) -> None:
+        self.device, self.width, self.height, self.fps = device, width, height, fps
+        self._cap: Any = None
+        self._frames: queue.Queue[Image | None] = queue.Queue(maxsize=2)
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    def open(self) -> SourceInfo:
+        cap = cv2.VideoCapture(self.device)
+        if not cap.isOpened():
+            raise SourceError(
+                f"camera {self.device} did not open: is it connected, and not in use by another "
+                "program? Try another index (camera:1) or check the device permissions."
+            )
+        cap.set(cv2.CAP_PROP_FRAME_WIDTH, self.width)
+        cap.set(cv2.CAP_PROP_FRAME_HEIGHT, self.height)
+        cap.set(cv2.CAP_PROP_FPS, self.fps)
+        self._cap = cap
+        self.info = SourceInfo(
+            f"camera:{self.device}",
+            int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)),
+            int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT)),
+            float(cap.get(cv2.CAP_PROP_FPS)) or self.fps,
+        )
+        self._thread = threading.Thread(target=self._grab, daemon=True)
+        self._thread.start()
+        return self.info
+
+    def _grab(self) -> None:
+        while not self._stop.is_set():
+            ok, frame = self._cap.read()
+            if not ok:
+                self._frames.put(None)  # the camera stopped delivering
+                return
+            if self._frames.full():  # keep the newest: drop the oldest unread frame
+                with contextlib.suppress(queue.Empty):
+                    self._frames.get_nowait()
+            self._frames.put(np.asarray(frame, dtype=np.uint8))
+
+    def read(self, timeout_s: float = 2.0) -> Image:
+        try:
+            frame = self._frames.get(timeout=timeout_s)
+        except queue.Empty as err:
+            raise SourceError(f"camera {self.device} sent no frame for {timeout_s:g} s") from err
+        if frame is None:
+            raise SourceError(f"camera {self.device} stopped delivering frames (unplugged?)")
+        return frame
+
+    def close(self) -> None:
+        self._stop.set()
+        if self._cap is not None:
+            self._cap.release()
+        if self._thread is not None:
+            self._thread.join(timeout=2.0)
+
+
+class VideoSource(FrameSource):
+    """Frames of a video file, in order."""
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+        self._cap: Any = None
+
+    def open(self) -> SourceInfo:
+        if not self.path.is_file():
+            raise SourceError(f"video {self.path} does not exist")
+        cap = cv2.VideoCapture(str(self.path))
+        if not cap.isOpened():
+            raise SourceError(
+                f"OpenCV cannot read the video {self.path} (unknown format or codec?)"
+            )
+        self._cap = cap
+        self.info = SourceInfo(
+            f"video:{self.path}",
+            int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)),
+            int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT)),
+            float(cap.get(cv2.CAP_PROP_FPS)) or 30.0,
+        )
+        return self.info
+
+    def read(self, timeout_s: float = 2.0) -> Image:
+        ok, frame = self._cap.read()
+        if not ok:
+            raise SourceError(f"video {self.path} has no more frames")
+        return np.asarray(frame, dtype=np.uint8)
+
+    def close(self) -> None:
+        if self._cap is not None:
+            self._cap.release()
+
+
+class ImagesSource(FrameSource):
+    """The images of a folder, in file-name order."""
+
+    def __init__(self, folder: str | Path) -> None:
+        self.folder = Path(folder)
+        self._files: list[Path] = []
+        self._next = 0
+
+    def open(self) -> SourceInfo:
+        if not self.folder.is_dir():
+            raise SourceError(f"image folder {self.folder} does not exist")
+        self._files = sorted(p for p in self.folder.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
+        if not self._files:
+            raise SourceError(f"{self.folder} holds no images ({', '.join(IMAGE_SUFFIXES)})")
+        first = self._load(self._files[0])
+        self.info = SourceInfo(f"images:{self.folder}", first.shape[1], first.shape[0], 30.0)
+        return self.info
+
+    def _load(self, path: Path) -> Image:
+        img = cv2.imread(str(path), cv2.IMREAD_COLOR)
+        if img is None:
+            raise SourceError(f"{path} is not a readable image")
+        return np.asarray(img, dtype=np.uint8)
+
+    def read(self, timeout_s: float = 2.0) -> Image:
+        if self._next >= len(self._files):
+            raise SourceError(f"no more images in {self.folder} ({len(self._files)} used)")
+        path = self._files[self._next]
+        self._next += 1
+        return self._load(path)
+
+
+class SyntheticSource(FrameSource):
+    """The simulator's camera: renders the scene from the pose last given to ``set_pose``.
+
+    Rendering happens once per pose; each ``read`` adds that frame's lighting and noise, and
+    waits for the frame interval so it behaves like a camera.
+    """
+
+    def __init__(
+        self,
+        scene_path: str | Path | None = None,
+        method: str = "ground",
+        *,
+        seed: int = 0,
+        realtime: bool = True,
+    ) -> None:
+        from recorder.scene import load_scene
+
+        self.scene = load_scene(scene_path)
+        self.method = method
+        self.realtime = realtime
+        self._rng = np.random.default_rng(seed)
+        self._radiance: Any = None
+        self._pose: tuple[tuple[float, float, float], tuple[float, float, float]] = (
+            (0, 0, 0),
+            (0, 0, 0),
+        )
+        self._last = 0.0
+
+    def open(self) -> SourceInfo:
+        from recorder.render import build_layout
+
+        self._layout = build_layout(self.scene, self.method, self._rng)
+        cam = self.scene.cameras[0]
+        self.info = SourceInfo("synthetic", cam.width, cam.height, self.scene.sensor.fps)
+        return self.info
+
+    def set_pose(
+        self, t_grid: tuple[float, float, float], r_deg: tuple[float, float, float]
+    ) -> None:
+        if (t_grid, r_deg) != self._pose:
+            self._pose = (t_grid, r_deg)
+            self._radiance = None
+
+    def read(self, timeout_s: float = 2.0) -> Image:
+        from recorder.render import expose, render_radiance
+
+        if self._radiance is None:
+            t, r = self._pose
+            self._radiance = render_radiance(
+                self.scene,
+                self._layout,
+                self.scene.cameras[0].intrinsics,
+                rotation_from_angles_deg(r),
+                np.asarray(t, dtype=np.float64),
+            )
+        if self.realtime:
+            wait = self._last + 1.0 / self.info.fps - time.monotonic()
+            if wait > 0:
+                time.sleep(wait)
+            self._last = time.monotonic()
+        return expose(self._radiance, self.scene, self._rng)
+
+
+def open_source(
+    spec: str,
+    *,
+    method: str = "ground",
+    width: int = 640,
+    height: int = 480,
+    fps: float = 30.0,
+    realtime: bool = True,
+) -> FrameSource:
+    """A source from its command-line spelling (not yet opened).
+
+    ``camera:N`` (device N), ``video:PATH``, ``images:DIR``, ``synthetic`` or
+    ``synthetic:SCENE.toml``.
+    """
+    kind, _, arg = spec.partition(":")
+    if kind == "camera":
+        try:
+            return CameraSource(int(arg or "0"), width, height, fps)
+        except ValueError as err:
+            raise SourceError(f"camera:{arg}: the device must be a number, e.g. camera:0") from err
+    if kind == "video" and arg:
+        return VideoSource(arg)
+    if kind == "images" and arg:
+        return ImagesSource(arg)
+    if kind == "synthetic":
+        return SyntheticSource(arg or None, method, realtime=realtime)
+    raise SourceError(
+        f"unknown source {spec!r}; use camera:N, video:PATH, images:DIR or synthetic[:SCENE.toml]"
+    )

@@ -1,0 +1,207 @@
+"""Frame sources, capturing a pose, plan files and plan mode."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from analysis.pipeline import analyse_session
+from recorder.camera import Intrinsics
+from recorder.cli import app
+from recorder.errors import EXIT_ERROR, InputValueError
+from recorder.procedure import capture_pose, load_plan, record_plan
+from recorder.session import (
+    Camera,
+    CaptureWindow,
+    PoseEntry,
+    SessionInfo,
+    SessionReader,
+    SessionWriter,
+)
+from recorder.sources import ImagesSource, SourceError, SyntheticSource, VideoSource, open_source
+
+runner = CliRunner()
+
+
+def _video(path: Path, n: int, size: tuple[int, int] = (64, 48)) -> Path:
+    w = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 30.0, size)
+    assert w.isOpened()
+    for i in range(n):
+        w.write(np.full((size[1], size[0], 3), 20 * i, np.uint8))
+    w.release()
+    return path
+
+
+def test_video_source_reads_in_order_then_says_it_ended(tmp_path: Path) -> None:
+    with VideoSource(_video(tmp_path / "v.avi", 4)) as src:
+        assert (src.info.width, src.info.height) == (64, 48)
+        means = [src.read().mean() for _ in range(4)]
+        assert means == sorted(means)
+        with pytest.raises(SourceError, match="no more frames"):
+            src.read()
+
+
+def test_images_source(tmp_path: Path) -> None:
+    for i in range(3):
+        cv2.imwrite(str(tmp_path / f"{i:02d}.png"), np.full((10, 20, 3), i * 50, np.uint8))
+    (tmp_path / "notes.txt").write_text("ignored")
+    with ImagesSource(tmp_path) as src:
+        assert (src.info.width, src.info.height) == (20, 10)
+        assert [int(src.read()[0, 0, 0]) for _ in range(3)] == [0, 50, 100]
+        with pytest.raises(SourceError, match="no more images"):
+            src.read()
+
+
+def test_synthetic_source_renders_the_typed_pose() -> None:
+    with SyntheticSource(None, "point", realtime=False) as src:
+        src.set_pose((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        a = src.read()
+        src.set_pose((1.5, 0.0, 0.0), (0.0, 0.0, 0.0))
+        b = src.read()
+    from analysis.detect import detect_dot
+
+    da, db = detect_dot(a), detect_dot(b)
+    assert da.found
+    assert db.found
+    # Moving the camera +1.5 in along x moves the dot left by f * 1.5 / z = 525 * 1.5 / 11 px.
+    assert da.centroid_px[0] - db.centroid_px[0] == pytest.approx(525 * 1.5 / 11.0, abs=0.3)
+
+
+@pytest.mark.parametrize(
+    ("spec", "message"),
+    [
+        ("camera:99", "did not open"),
+        ("camera:x", "must be a number"),
+        ("video:/nonexistent.avi", "does not exist"),
+        ("images:/nonexistent", "does not exist"),
+        ("webcam", "unknown source"),
+    ],
+)
+def test_bad_sources_say_what_is_wrong(spec: str, message: str) -> None:
+    with pytest.raises(SourceError, match=message):
+        open_source(spec).open()
+
+
+def test_a_source_that_stops_mid_capture_leaves_an_incomplete_capture(tmp_path: Path) -> None:
+    out = tmp_path / "s.mcap"
+    cam = Camera("cam0", Intrinsics(64, 48, 50.0, 50.0, 32.0, 24.0))
+    with (
+        VideoSource(_video(tmp_path / "v.avi", 3)) as src,
+        SessionWriter(out, SessionInfo("point", "in"), [cam]) as w,
+    ):
+        result = capture_pose(w, src, PoseEntry(1, 1, "cam0", (0.0, 0.0, 0.0)), 5, target="dot")
+    assert not result.complete
+    assert result.n_frames == 3
+    assert "no more frames" in result.reason
+    assert len(result.feedback) == 3
+    with SessionReader(out) as r:  # the session stays valid
+        (window,) = [e for e in r.iter_entries() if isinstance(e, CaptureWindow)]
+    assert (window.status, window.n_frames) == ("incomplete", 3)
+    assert "no more frames" in window.reason
+
+
+PLAN = """
+method = "ground"
+units = "in"
+operator = "Ada"
+frames = 3
+ground_height = 9.625
+
+[camera]
+focal = 525.0
+principal = [320.0, 240.0]
+
+[[trials]]
+ground_truth = [[1.91, 9.625, 8.375]]
+poses = [{ t = [0.0, 0.0, 0.0] }, { t = [1.5, 0.0, -1.0] }]
+
+[[trials]]
+ground_truth = [[1.91, 9.625, 8.375]]
+poses = [{ t = [-1.0, 0.0, 0.0] }, { t = [1.0, 0.0, 0.5], r_deg = [0.0, 0.0, 0.0] }]
+"""
+
+
+def test_plan_mode_records_a_session_analysis_reads(tmp_path: Path) -> None:
+    plan = tmp_path / "plan.toml"
+    plan.write_text(PLAN)
+    out = tmp_path / "s.mcap"
+    result = runner.invoke(app, ["new", str(out), "--plan", str(plan), "--source", "synthetic"])
+    assert result.exit_code == 0, result.output
+    assert "trial 2 pose 2: 3 frames, 3 detected, complete" in result.output
+    assert "found at (" in result.output
+    trials = analyse_session(out).trials
+    assert list(trials["status"]) == ["ok", "ok"]
+    # Typed poses are exact here, so only detection error remains (method 2 extrapolates).
+    assert trials["err"].max() < 0.5
+
+
+def test_plan_mode_with_a_source_that_runs_out(tmp_path: Path) -> None:
+    plan = tmp_path / "plan.toml"
+    plan.write_text(PLAN)
+    out = tmp_path / "s.mcap"
+    video = _video(tmp_path / "v.avi", 4)
+    result = runner.invoke(
+        app, ["new", str(out), "--plan", str(plan), "--source", f"video:{video}"]
+    )
+    assert result.exit_code == EXIT_ERROR
+    assert "trial 1 pose 2" in result.output
+    assert "saved in" in result.output
+    with SessionReader(out) as r:
+        windows = [e for e in r.iter_entries() if isinstance(e, CaptureWindow)]
+    assert [(w.pose, w.status) for w in windows] == [(1, "complete"), (2, "incomplete")]
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ('method = "laser"\n', "method"),
+        ('method = "point"\nunits = "furlong"\n', "units"),
+        ('method = "ground"\n[[trials]]\nposes = [{t=[0,0,0]},{t=[1,0,0]}]\n', "ground_height"),
+        ('method = "point"\n[[trials]]\nposes = [{t=[0,0,0]}]\n', "at least 2 poses"),
+        ('method = "point"\n[[trials]]\nposes = [{t=[0,0]},{t=[1,0,0]}]\n', "poses[1].t"),
+        ('method = "point"\n[[trials]]\nposes = [{t=[0,0,"a"]},{t=[1,0,0]}]\n', "finite numbers"),
+        (
+            'method = "point"\n[[trials]]\nposes = [{t=[0,0,0]},{t=[9000,0,0]}]\n',
+            "implausibly large",
+        ),
+        ('method = "point"\nframes = 0\n', "frames"),
+        ('method = "point"\n', "no [[trials]]"),
+        (
+            'method = "point"\n[camera]\nfocal = "big"\n'
+            "[[trials]]\nposes = [{t=[0,0,0]},{t=[1,0,0]}]\n",
+            "camera.focal",
+        ),
+        ("method = [", "not valid TOML"),
+    ],
+)
+def test_bad_plans_name_the_problem(tmp_path: Path, text: str, message: str) -> None:
+    plan = tmp_path / "plan.toml"
+    plan.write_text(text)
+    with pytest.raises(InputValueError, match=re.escape(message)):
+        load_plan(plan)
+
+
+def test_record_plan_python_api(tmp_path: Path) -> None:
+    plan_file = tmp_path / "plan.toml"
+    plan_file.write_text(PLAN.replace("frames = 3", "frames = 2"))
+    plan = load_plan(plan_file)
+    assert plan.cameras[0].intrinsics.fx == 525.0
+    seen: list[str] = []
+    summary = record_plan(
+        plan,
+        tmp_path / "s.mcap",
+        SyntheticSource(None, "ground", realtime=False),
+        on_frame=lambda f: seen.append(f.line()),
+    )
+    assert (summary.n_trials, summary.n_captures, summary.n_frames, summary.n_incomplete) == (
+        2,
+        4,
+        8,
+        0,
+    )
+    assert len(seen) == 8
