@@ -2,15 +2,19 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+import time
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from enum import StrEnum
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated, cast
 
 import typer
 
-from recorder.errors import EXIT_ERROR, EXIT_INTERRUPTED, TwoposeError
+from recorder.errors import EXIT_ERROR, EXIT_INTERRUPTED, InputValueError, TwoposeError
+
+if TYPE_CHECKING:
+    from recorder.procedure import CaptureResult, RecordingSummary
 
 __all__ = ["app", "handle_errors", "main"]
 
@@ -104,41 +108,162 @@ def new(
     source: Annotated[
         str, typer.Option(help="camera:N, video:PATH, images:DIR or synthetic[:SCENE.toml].")
     ] = "camera:0",
+    method: Annotated[MethodChoice | None, typer.Option(help="Asked if not given.")] = None,
+    units: Annotated[str | None, typer.Option(help="in, mm, cm or m. Asked if not given.")] = None,
+    focal: Annotated[float | None, typer.Option(help="Focal parameter, px (thesis: 525).")] = None,
+    principal: Annotated[str | None, typer.Option(help="Principal point 'cx,cy', px.")] = None,
+    ground_height: Annotated[
+        float | None, typer.Option(help="Camera centre to table top (method 2).")
+    ] = None,
+    ground_truth: Annotated[
+        list[str] | None,
+        typer.Option(help="Measured 'x,y,z' (twice for a line). Asked if not given."),
+    ] = None,
+    operator: Annotated[str | None, typer.Option(help="Who records.")] = None,
+    notes: Annotated[str, typer.Option(help="Free text about the session.")] = "",
+    frames: Annotated[int, typer.Option(min=1, help="Frames captured per pose.")] = 5,
+    poses: Annotated[int, typer.Option(min=2, help="Poses per trial.")] = 2,
     width: Annotated[int, typer.Option(min=1, help="Camera width to request.")] = 640,
     height: Annotated[int, typer.Option(min=1, help="Camera height to request.")] = 480,
     fps: Annotated[float, typer.Option(min=1, help="Camera frame rate to request.")] = 30.0,
 ) -> None:
-    """Record a session: the laptop-on-grid procedure, from a plan file (--plan)."""
+    """Record a session: the guided laptop-on-grid procedure, or a plan file (--plan)."""
     from recorder.procedure import load_plan, record_plan
     from recorder.sources import open_source
 
-    if plan is None:
-        typer.secho(
-            "error: interactive recording is not available in this version; give --plan PLAN.toml",
-            err=True,
-            fg=typer.colors.RED,
-        )
-        raise typer.Exit(EXIT_ERROR)
     with handle_errors():
-        the_plan = load_plan(plan)
-        src = open_source(source, method=the_plan.method, width=width, height=height, fps=fps)
-
-        def on_capture(trial: int, pose: int, result: object) -> None:
-            from recorder.procedure import CaptureResult
-
-            assert isinstance(result, CaptureResult)
-            for fb in result.feedback:
-                typer.echo(fb.line())
-            state = "complete" if result.complete else f"INCOMPLETE: {result.reason}"
-            typer.echo(
-                f"trial {trial} pose {pose}: {result.n_frames} frames, "
-                f"{result.n_found} detected, {state}"
+        if plan is not None:
+            the_plan = load_plan(plan)
+            src = open_source(source, method=the_plan.method, width=width, height=height, fps=fps)
+            summary = record_plan(the_plan, out, src, on_capture=_report_capture)
+        else:
+            summary = _interactive(
+                out,
+                source,
+                method,
+                units,
+                focal,
+                principal,
+                ground_height,
+                ground_truth,
+                operator,
+                notes,
+                frames,
+                poses,
+                width,
+                height,
+                fps,
             )
-
-        summary = record_plan(the_plan, out, src, on_capture=on_capture)
     typer.echo(
         f"wrote {summary.path}: {summary.n_trials} trials, {summary.n_captures} captures, "
         f"{summary.n_frames} frames ({summary.n_found} detected) in {summary.seconds:.1f} s"
+    )
+
+
+def _report_capture(trial: int, pose: int, result: CaptureResult) -> None:
+    for fb in result.feedback:
+        typer.echo(fb.line())
+    state = "complete" if result.complete else f"INCOMPLETE: {result.reason}"
+    typer.echo(
+        f"trial {trial} pose {pose}: {result.n_frames} frames, {result.n_found} detected, {state}"
+    )
+
+
+def _interactive(
+    out: Path,
+    source: str,
+    method: MethodChoice | None,
+    units: str | None,
+    focal: float | None,
+    principal: str | None,
+    ground_height: float | None,
+    ground_truth: list[str] | None,
+    operator_name: str | None,
+    notes: str,
+    frames: int,
+    poses: int,
+    width: int,
+    height: int,
+    fps: float,
+) -> RecordingSummary:
+    """Ask for whatever the options did not give, then run the guided procedure."""
+    from recorder.camera import Intrinsics
+    from recorder.procedure import Operator, parse_vector, record_interactive
+    from recorder.session import METHODS, UNITS, Camera, GroundPlane, Method, SessionInfo
+    from recorder.sources import open_source
+
+    op = Operator(
+        lambda q, d: str(typer.prompt(q, default=d or None, show_default=bool(d))), typer.echo
+    )
+
+    def one_of(options: tuple[str, ...]) -> Callable[[str], str]:
+        def parse(text: str) -> str:
+            if text not in options:
+                raise InputValueError(f"choose one of {', '.join(options)}")
+            return text
+
+        return parse
+
+    def positive(text: str) -> float:
+        try:
+            v = float(text)
+        except ValueError as err:
+            raise InputValueError(f"{text!r} is not a number") from err
+        if not (v > 0 and v < 1e6):
+            raise InputValueError(f"{text!r} must be a positive, finite number")
+        return v
+
+    def pair(text: str) -> tuple[float, float]:
+        parts = text.replace(",", " ").split()
+        try:
+            a, b = (float(p) for p in parts)
+        except ValueError as err:
+            raise InputValueError(f"type two numbers 'cx, cy', got {text!r}") from err
+        return a, b
+
+    m = method.value if method else op.ask("method (point, line, ground)", one_of(METHODS))
+    u = units if units in UNITS else op.ask("units (in, mm, cm, m)", one_of(UNITS), "in")
+    f = focal if focal and focal > 0 else op.ask("focal parameter, px", positive, "525")
+    cx, cy = (
+        pair(principal) if principal else op.ask("principal point cx, cy (px)", pair, "320, 240")
+    )
+    ground = None
+    if m == "ground":
+        h = (
+            ground_height
+            if ground_height and ground_height > 0
+            else op.ask(f"ground height: camera centre to table ({u})", positive)
+        )
+        ground = GroundPlane(h)
+    n_truth = 2 if m == "line" else 1
+    given = [parse_vector(g, u, what="ground truth") for g in (ground_truth or [])]
+    while len(given) < n_truth:
+        given.append(
+            op.ask(
+                f"ground truth point {len(given) + 1} x, y, z ({u})",
+                lambda s: parse_vector(s, u, what="ground truth"),
+            )
+        )
+    who = operator_name if operator_name is not None else op.ask("operator", str, "")
+    src = open_source(source, method=m, width=width, height=height, fps=fps)
+    camera = Camera("cam0", Intrinsics(width, height, f, f, cx, cy))
+    info = SessionInfo(
+        method=cast("Method", m),  # one of METHODS: checked when it was read
+        units=u,
+        operator=who,
+        notes=notes,
+        created_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+    )
+    return record_interactive(
+        out,
+        src,
+        op,
+        info=info,
+        camera=camera,
+        ground=ground,
+        ground_truth=tuple(given[:n_truth]),
+        frames=frames,
+        poses_per_trial=poses,
     )
 
 

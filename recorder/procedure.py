@@ -11,7 +11,7 @@ import math
 import time
 import tomllib
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -24,6 +24,7 @@ from recorder.session import (
     GroundPlane,
     GroundTruth,
     Method,
+    Note,
     PoseEntry,
     SessionInfo,
     SessionWriter,
@@ -40,6 +41,8 @@ __all__ = [
     "PlannedTrial",
     "capture_pose",
     "load_plan",
+    "parse_vector",
+    "record_interactive",
     "record_plan",
 ]
 
@@ -328,3 +331,175 @@ def record_plan(
     return RecordingSummary(
         Path(out), len(plan.trials), captures, incomplete, frames, found, time.monotonic() - start
     )
+
+
+# --------------------------------------------------------------------------- interactive
+
+
+def parse_vector(
+    text: str, units: str, *, what: str = "translation", limit: float | None = None
+) -> Vec3:
+    """Three numbers typed as ``x, y, z`` (commas or spaces); raises InputValueError."""
+    parts = text.replace(",", " ").split()
+    if len(parts) != 3:
+        raise InputValueError(f"{what}: type three numbers, e.g. 1.1, 0, 0 (got {text!r})")
+    try:
+        v = tuple(float(p) for p in parts)
+    except ValueError as err:
+        raise InputValueError(f"{what}: {text!r} is not three numbers") from err
+    if not all(math.isfinite(x) for x in v):
+        raise InputValueError(f"{what}: values must be finite (got {text!r})")
+    bound = MAX_TRANSLATION[units] if limit is None else limit
+    if max(abs(x) for x in v) > bound:
+        raise InputValueError(
+            f"{what}: {text!r} is implausibly large (over {bound:g} {units}); a typo?"
+        )
+    return (v[0], v[1], v[2])
+
+
+class Operator:
+    """How the procedure talks to the operator: ``ask`` a question, ``say`` a line."""
+
+    def __init__(self, ask: Callable[[str, str], str], say: Callable[[str], None]) -> None:
+        self.ask_raw, self.say = ask, say
+
+    def ask(self, question: str, parse: Callable[[str], Any], default: str = "") -> Any:
+        """Ask until the answer parses; say why an answer was refused."""
+        while True:
+            answer = self.ask_raw(question, default).strip()
+            try:
+                return parse(answer)
+            except InputValueError as err:
+                self.say(f"  not accepted: {err}")
+
+
+@dataclass
+class _Tally:
+    captures: int = 0
+    incomplete: int = 0
+    frames: int = 0
+    found: int = 0
+    trials: set[int] = field(default_factory=set)
+
+
+def record_interactive(
+    out: str | Path,
+    source: FrameSource,
+    operator: Operator,
+    *,
+    info: SessionInfo,
+    camera: Camera,
+    ground: GroundPlane | None,
+    ground_truth: tuple[Vec3, ...],
+    frames: int = 5,
+    poses_per_trial: int = 2,
+    translation_resolution: float = 0.0625,
+    rotation_resolution_deg: float = 0.5,
+) -> RecordingSummary:
+    """The guided procedure: trial after trial, type each pose, capture, accept or redo.
+
+    After each capture the operator answers ``a`` (accept), ``r`` (redo this pose), ``u``
+    (undo: redo the previous pose), ``n`` (add a note) or ``q`` (finish the session). After
+    each trial: another trial (``y``) or finish (``n``). Ctrl-C closes the file cleanly.
+    """
+    target = "dot" if info.method == "point" else "glove"
+    units = info.units
+    tally = _Tally()
+    start = time.monotonic()
+    kind: TruthKind = "line" if info.method == "line" else "point"
+
+    def yes_no(text: str) -> bool:
+        if text.lower() in ("y", "yes", ""):
+            return True
+        if text.lower() in ("n", "no"):
+            return False
+        raise InputValueError("answer y or n")
+
+    def choice(text: str) -> str:
+        c = (text or "a")[0].lower()
+        if c not in "arunq":
+            raise InputValueError("answer a (accept), r (redo), u (undo), n (note) or q (quit)")
+        return c
+
+    with source, SessionWriter(out, info, [camera], ground=ground) as writer:
+        operator.say(
+            f"recording {out} from {source.info.description} "
+            f"({source.info.width}x{source.info.height} at {source.info.fps:g} fps)"
+        )
+        trial = 0
+        finished = False
+        while not finished:
+            trial += 1
+            tally.trials.add(trial)
+            if ground_truth:
+                writer.write_ground_truth(GroundTruth(trial, kind, ground_truth))
+            operator.say(f"trial {trial}")
+            pose = 1
+            while pose <= poses_per_trial:
+                t = operator.ask(
+                    f"pose {pose} camera centre x, y, z ({units})", lambda s: parse_vector(s, units)
+                )
+                r = operator.ask(
+                    "rotation rx, ry, rz (deg)",
+                    lambda s: parse_vector(s, units, what="rotation", limit=180.0),
+                    "0, 0, 0",
+                )
+                entry = PoseEntry(
+                    trial,
+                    pose,
+                    camera.camera_id,
+                    t,
+                    r,
+                    translation_resolution,
+                    rotation_resolution_deg,
+                )
+                result = capture_pose(
+                    writer,
+                    source,
+                    entry,
+                    frames,
+                    target=target,
+                    on_frame=lambda fb: operator.say(fb.line()),
+                )
+                tally.captures += 1
+                tally.frames += result.n_frames
+                tally.found += result.n_found
+                state = "complete" if result.complete else f"INCOMPLETE ({result.reason})"
+                operator.say(
+                    f"pose {pose}: {result.n_frames} frames, {result.n_found} detected, {state}"
+                )
+                if not result.complete:
+                    tally.incomplete += 1
+                while True:
+                    c = operator.ask(
+                        "[a]ccept, [r]edo, [u]ndo previous, [n]ote, [q]uit", choice, "a"
+                    )
+                    if c == "n":
+                        text = operator.ask("note", str)
+                        writer.write_note(Note(text, trial))
+                        continue
+                    break
+                if c == "a":
+                    pose += 1
+                elif c == "u":
+                    pose = max(pose - 1, 1)
+                elif c == "q":
+                    finished = True
+                    break
+            if not finished:
+                finished = not operator.ask("another trial? [Y/n]", yes_no, "y")
+    summary = RecordingSummary(
+        Path(out),
+        len(tally.trials or ()),
+        tally.captures,
+        tally.incomplete,
+        tally.frames,
+        tally.found,
+        time.monotonic() - start,
+    )
+    operator.say(
+        f"finished: {summary.n_trials} trial(s), {summary.n_captures} capture(s) "
+        f"({summary.n_incomplete} incomplete), {summary.n_frames} frames, "
+        f"{summary.n_found} detected"
+    )
+    return summary
