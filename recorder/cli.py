@@ -110,6 +110,12 @@ def new(
     ] = "camera:0",
     method: Annotated[MethodChoice | None, typer.Option(help="Asked if not given.")] = None,
     units: Annotated[str | None, typer.Option(help="in, mm, cm or m. Asked if not given.")] = None,
+    calibration: Annotated[
+        Path | None,
+        typer.Option(
+            exists=True, dir_okay=False, help="Intrinsics from `twopose-record calibrate`."
+        ),
+    ] = None,
     focal: Annotated[float | None, typer.Option(help="Focal parameter, px (thesis: 525).")] = None,
     principal: Annotated[str | None, typer.Option(help="Principal point 'cx,cy', px.")] = None,
     ground_height: Annotated[
@@ -142,6 +148,7 @@ def new(
                 source,
                 method,
                 units,
+                calibration,
                 focal,
                 principal,
                 ground_height,
@@ -174,6 +181,7 @@ def _interactive(
     source: str,
     method: MethodChoice | None,
     units: str | None,
+    calibration: Path | None,
     focal: float | None,
     principal: str | None,
     ground_height: float | None,
@@ -223,10 +231,18 @@ def _interactive(
 
     m = method.value if method else op.ask("method (point, line, ground)", one_of(METHODS))
     u = units if units in UNITS else op.ask("units (in, mm, cm, m)", one_of(UNITS), "in")
-    f = focal if focal and focal > 0 else op.ask("focal parameter, px", positive, "525")
-    cx, cy = (
-        pair(principal) if principal else op.ask("principal point cx, cy (px)", pair, "320, 240")
-    )
+    if calibration is not None:
+        from recorder.calibrate import load_calibration
+
+        intrinsics = load_calibration(calibration)
+    else:
+        f = focal if focal and focal > 0 else op.ask("focal parameter, px", positive, "525")
+        cx, cy = (
+            pair(principal)
+            if principal
+            else op.ask("principal point cx, cy (px)", pair, "320, 240")
+        )
+        intrinsics = Intrinsics(width, height, f, f, cx, cy)
     ground = None
     if m == "ground":
         h = (
@@ -246,7 +262,7 @@ def _interactive(
         )
     who = operator_name if operator_name is not None else op.ask("operator", str, "")
     src = open_source(source, method=m, width=width, height=height, fps=fps)
-    camera = Camera("cam0", Intrinsics(width, height, f, f, cx, cy))
+    camera = Camera("cam0", intrinsics)
     info = SessionInfo(
         method=cast("Method", m),  # one of METHODS: checked when it was read
         units=u,
@@ -264,6 +280,46 @@ def _interactive(
         ground_truth=tuple(given[:n_truth]),
         frames=frames,
         poses_per_trial=poses,
+    )
+
+
+@app.command()
+def calibrate(
+    out: Annotated[Path, typer.Argument(help="Calibration file to write (TOML).")],
+    source: Annotated[str, typer.Option(help="camera:N, video:PATH or images:DIR.")] = "camera:0",
+    board: Annotated[
+        str, typer.Option(help="Inner corners 'COLSxROWS' of the checkerboard.")
+    ] = "9x6",
+    square: Annotated[float, typer.Option(min=0, help="Square side, session units.")] = 1.0,
+    views: Annotated[int, typer.Option(min=3, help="Board views to collect.")] = 15,
+) -> None:
+    """Calibrate a camera from a checkerboard; shows the reprojection error."""
+    from recorder.calibrate import calibrate as run_calibration
+    from recorder.calibrate import save_calibration
+    from recorder.sources import open_source
+
+    with handle_errors():
+        try:
+            cols, rows = (int(v) for v in board.lower().split("x"))
+        except ValueError as err:
+            raise InputValueError(f"--board must look like 9x6, got {board!r}") from err
+        if out.exists():
+            raise TwoposeError(f"{out} already exists; choose another calibration file")
+        result = run_calibration(
+            open_source(source),
+            (cols, rows),
+            square,
+            views=views,
+            on_view=lambda i, found: typer.echo(
+                f"  frame {i + 1}: board {'found' if found else 'not found'}"
+            ),
+        )
+        save_calibration(result, out)
+    i = result.intrinsics
+    typer.echo(
+        f"wrote {out}: fx {i.fx:.2f}, fy {i.fy:.2f}, cx {i.cx:.2f}, cy {i.cy:.2f}, "
+        f"k1 {i.distortion[0]:+.4f}, k2 {i.distortion[1]:+.4f}; "
+        f"RMS reprojection error {result.rms_px:.3f} px over {result.n_views} views"
     )
 
 

@@ -180,6 +180,10 @@ def _camera(table: Any) -> Camera:
     ``width``, ``height``, ``distortion``, ``id``."""
     if not isinstance(table, dict):
         raise InputValueError("plan: [camera] must be a table")
+    if "calibration" in table:  # a file from `twopose-record calibrate`
+        from recorder.calibrate import load_calibration
+
+        return Camera(str(table.get("id", "cam0")), load_calibration(str(table["calibration"])))
     fx = _number(table, "fx", _number(table, "focal", 525.0))
     fy = _number(table, "fy", _number(table, "focal", fx))
     principal = table.get("principal")
