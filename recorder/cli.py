@@ -163,7 +163,8 @@ def new(
             )
     typer.echo(
         f"wrote {summary.path}: {summary.n_trials} trials, {summary.n_captures} captures, "
-        f"{summary.n_frames} frames ({summary.n_found} detected) in {summary.seconds:.1f} s"
+        f"{summary.n_frames} frames ({summary.n_found} detected, {summary.dropped} dropped) "
+        f"in {summary.seconds:.1f} s"
     )
 
 
@@ -172,7 +173,8 @@ def _report_capture(trial: int, pose: int, result: CaptureResult) -> None:
         typer.echo(fb.line())
     state = "complete" if result.complete else f"INCOMPLETE: {result.reason}"
     typer.echo(
-        f"trial {trial} pose {pose}: {result.n_frames} frames, {result.n_found} detected, {state}"
+        f"trial {trial} pose {pose}: {result.n_frames} frames, {result.n_found} detected, "
+        f"{state}, {result.dropped} dropped"
     )
 
 

@@ -78,6 +78,8 @@ class CaptureResult:
     complete: bool
     reason: str
     feedback: tuple[FrameFeedback, ...] = ()
+    dropped: int = 0
+    overhead_s: tuple[float, ...] = ()  # per frame: encode + write + detection
 
     @property
     def n_found(self) -> int:
@@ -101,9 +103,13 @@ def capture_pose(
     """
     writer.write_pose(entry)
     source.set_pose(entry.t_grid, entry.r_deg)
+    from analysis.detect import detect
+
     feedback: list[FrameFeedback] = []
+    overhead: list[float] = []
     reason = ""
     count = 0
+    dropped_before = source.dropped
     with writer.capture(entry.trial, entry.pose, entry.camera_id) as cap:
         for k in range(n_frames):
             try:
@@ -112,17 +118,20 @@ def capture_pose(
                 reason = str(err)
                 cap.mark_incomplete(reason)
                 break
+            started = time.perf_counter()
             cap.add_frame(image)
             count += 1
             if target is not None:
-                from analysis.detect import detect
-
                 d = detect(image, target)
                 fb = FrameFeedback(k, d.found, d.centroid_px, d.theta_deg, d.n_blobs, d.reason)
                 feedback.append(fb)
-                if on_frame is not None:
-                    on_frame(fb)
-    return CaptureResult(count, not reason, reason, tuple(feedback))
+            overhead.append(time.perf_counter() - started)
+            if target is not None and on_frame is not None:
+                on_frame(fb)
+            cap.dropped_frames = source.dropped - dropped_before
+    return CaptureResult(
+        count, not reason, reason, tuple(feedback), source.dropped - dropped_before, tuple(overhead)
+    )
 
 
 # --------------------------------------------------------------------------- plans
@@ -277,6 +286,7 @@ class RecordingSummary:
     n_frames: int
     n_found: int
     seconds: float
+    dropped: int = 0
 
 
 def record_plan(
@@ -302,7 +312,7 @@ def record_plan(
         created_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
     )
     ground = GroundPlane(plan.ground_height) if plan.ground_height is not None else None
-    captures = incomplete = frames = found = 0
+    captures = incomplete = frames = found = dropped = 0
     start = time.monotonic()
     with source, SessionWriter(out, info, plan.cameras, ground=ground) as writer:
         for i, trial in enumerate(plan.trials, start=1):
@@ -325,6 +335,7 @@ def record_plan(
                 captures += 1
                 frames += result.n_frames
                 found += result.n_found
+                dropped += result.dropped
                 if on_capture is not None:
                     on_capture(i, k, result)
                 if not result.complete:
@@ -333,7 +344,14 @@ def record_plan(
                         f"trial {i} pose {k}: {result.reason}; the session so far is saved in {out}"
                     )
     return RecordingSummary(
-        Path(out), len(plan.trials), captures, incomplete, frames, found, time.monotonic() - start
+        Path(out),
+        len(plan.trials),
+        captures,
+        incomplete,
+        frames,
+        found,
+        time.monotonic() - start,
+        dropped,
     )
 
 
@@ -383,6 +401,7 @@ class _Tally:
     incomplete: int = 0
     frames: int = 0
     found: int = 0
+    dropped: int = 0
     trials: set[int] = field(default_factory=set)
 
 
@@ -468,9 +487,11 @@ def record_interactive(
                 tally.captures += 1
                 tally.frames += result.n_frames
                 tally.found += result.n_found
+                tally.dropped += result.dropped
                 state = "complete" if result.complete else f"INCOMPLETE ({result.reason})"
                 operator.say(
-                    f"pose {pose}: {result.n_frames} frames, {result.n_found} detected, {state}"
+                    f"pose {pose}: {result.n_frames} frames, {result.n_found} detected, {state}, "
+                    f"{result.dropped} dropped"
                 )
                 if not result.complete:
                     tally.incomplete += 1
@@ -494,16 +515,17 @@ def record_interactive(
                 finished = not operator.ask("another trial? [Y/n]", yes_no, "y")
     summary = RecordingSummary(
         Path(out),
-        len(tally.trials or ()),
+        len(tally.trials),
         tally.captures,
         tally.incomplete,
         tally.frames,
         tally.found,
         time.monotonic() - start,
+        tally.dropped,
     )
     operator.say(
         f"finished: {summary.n_trials} trial(s), {summary.n_captures} capture(s) "
         f"({summary.n_incomplete} incomplete), {summary.n_frames} frames, "
-        f"{summary.n_found} detected"
+        f"{summary.n_found} detected, {summary.dropped} dropped"
     )
     return summary

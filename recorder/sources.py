@@ -56,9 +56,14 @@ class SourceInfo:
 
 
 class FrameSource(ABC):
-    """A source of BGR uint8 frames. Use as a context manager."""
+    """A source of BGR uint8 frames. Use as a context manager.
+
+    ``dropped`` counts frames the source delivered (or, paced like a camera, would have)
+    that the reader was too late to take.
+    """
 
     info: SourceInfo
+    dropped: int = 0
 
     def __enter__(self) -> Self:
         self.open()
@@ -87,6 +92,30 @@ class FrameSource(ABC):
     ) -> None:
         """Tell the source where the camera is (only the synthetic camera uses it)."""
         return
+
+
+class _Pacer:
+    """Emulates a camera's clock for file and synthetic sources.
+
+    ``wait`` sleeps until the next frame is due and returns how many frame intervals the
+    reader was late by (those frames a camera would have dropped).
+    """
+
+    def __init__(self, fps: float) -> None:
+        self.interval = 1.0 / fps
+        self.due: float | None = None
+
+    def wait(self) -> int:
+        now = time.monotonic()
+        if self.due is None:
+            self.due = now
+        if now < self.due:
+            time.sleep(self.due - now)
+            missed = 0
+        else:
+            missed = int((now - self.due) / self.interval)
+        self.due += (missed + 1) * self.interval
+        return missed
 
 
 class CameraSource(FrameSource):
@@ -129,6 +158,7 @@ class CameraSource(FrameSource):
             if self._frames.full():  # keep the newest: drop the oldest unread frame
                 with contextlib.suppress(queue.Empty):
                     self._frames.get_nowait()
+                    self.dropped += 1
             self._frames.put(np.asarray(frame, dtype=np.uint8))
 
     def read(self, timeout_s: float = 2.0) -> Image:
@@ -149,11 +179,14 @@ class CameraSource(FrameSource):
 
 
 class VideoSource(FrameSource):
-    """Frames of a video file, in order."""
+    """Frames of a video file, in order; with ``realtime``, paced like a camera at the
+    file's frame rate (frames a late reader misses are skipped and counted as dropped)."""
 
-    def __init__(self, path: str | Path) -> None:
+    def __init__(self, path: str | Path, *, realtime: bool = False) -> None:
         self.path = Path(path)
+        self.realtime = realtime
         self._cap: Any = None
+        self._pacer: _Pacer | None = None
 
     def open(self) -> SourceInfo:
         if not self.path.is_file():
@@ -170,9 +203,15 @@ class VideoSource(FrameSource):
             int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT)),
             float(cap.get(cv2.CAP_PROP_FPS)) or 30.0,
         )
+        self._pacer = _Pacer(self.info.fps) if self.realtime else None
         return self.info
 
     def read(self, timeout_s: float = 2.0) -> Image:
+        if self._pacer is not None:
+            missed = self._pacer.wait()
+            for _ in range(missed):  # the camera moved on without us
+                self._cap.grab()
+            self.dropped += missed
         ok, frame = self._cap.read()
         if not ok:
             raise SourceError(f"video {self.path} has no more frames")
@@ -218,8 +257,9 @@ class ImagesSource(FrameSource):
 class SyntheticSource(FrameSource):
     """The simulator's camera: renders the scene from the pose last given to ``set_pose``.
 
-    Rendering happens once per pose; each ``read`` adds that frame's lighting and noise, and
-    waits for the frame interval so it behaves like a camera.
+    Setting a pose renders it and exposes a bank of ``bank`` frames (each with its own
+    lighting and noise); ``read`` cycles through them, paced like a camera at the scene's
+    fps when ``realtime``, so even 1280x720 streams at 30 fps.
     """
 
     def __init__(
@@ -229,19 +269,19 @@ class SyntheticSource(FrameSource):
         *,
         seed: int = 0,
         realtime: bool = True,
+        bank: int = 8,
     ) -> None:
         from recorder.scene import load_scene
 
         self.scene = load_scene(scene_path)
         self.method = method
         self.realtime = realtime
+        self.bank_size = bank
         self._rng = np.random.default_rng(seed)
-        self._radiance: Any = None
-        self._pose: tuple[tuple[float, float, float], tuple[float, float, float]] = (
-            (0, 0, 0),
-            (0, 0, 0),
-        )
-        self._last = 0.0
+        self._bank: list[Image] = []
+        self._next = 0
+        self._pose: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None
+        self._pacer: _Pacer | None = None
 
     def open(self) -> SourceInfo:
         from recorder.render import build_layout
@@ -249,33 +289,36 @@ class SyntheticSource(FrameSource):
         self._layout = build_layout(self.scene, self.method, self._rng)
         cam = self.scene.cameras[0]
         self.info = SourceInfo("synthetic", cam.width, cam.height, self.scene.sensor.fps)
+        self._pacer = _Pacer(self.info.fps) if self.realtime else None
+        self.set_pose((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
         return self.info
 
     def set_pose(
         self, t_grid: tuple[float, float, float], r_deg: tuple[float, float, float]
     ) -> None:
-        if (t_grid, r_deg) != self._pose:
-            self._pose = (t_grid, r_deg)
-            self._radiance = None
-
-    def read(self, timeout_s: float = 2.0) -> Image:
         from recorder.render import expose, render_radiance
 
-        if self._radiance is None:
-            t, r = self._pose
-            self._radiance = render_radiance(
-                self.scene,
-                self._layout,
-                self.scene.cameras[0].intrinsics,
-                rotation_from_angles_deg(r),
-                np.asarray(t, dtype=np.float64),
-            )
-        if self.realtime:
-            wait = self._last + 1.0 / self.info.fps - time.monotonic()
-            if wait > 0:
-                time.sleep(wait)
-            self._last = time.monotonic()
-        return expose(self._radiance, self.scene, self._rng)
+        if (t_grid, r_deg) == self._pose:
+            return
+        self._pose = (t_grid, r_deg)
+        radiance = render_radiance(
+            self.scene,
+            self._layout,
+            self.scene.cameras[0].intrinsics,
+            rotation_from_angles_deg(r_deg),
+            np.asarray(t_grid, dtype=np.float64),
+        )
+        self._bank = [expose(radiance, self.scene, self._rng) for _ in range(self.bank_size)]
+        self._next = 0
+        if self._pacer is not None:
+            self._pacer.due = None  # the operator moved the laptop: the clock restarts
+
+    def read(self, timeout_s: float = 2.0) -> Image:
+        if self._pacer is not None:
+            self.dropped += self._pacer.wait()
+        frame = self._bank[self._next % len(self._bank)]
+        self._next += 1
+        return frame
 
 
 def open_source(
@@ -299,7 +342,7 @@ def open_source(
         except ValueError as err:
             raise SourceError(f"camera:{arg}: the device must be a number, e.g. camera:0") from err
     if kind == "video" and arg:
-        return VideoSource(arg)
+        return VideoSource(arg, realtime=realtime)
     if kind == "images" and arg:
         return ImagesSource(arg)
     if kind == "synthetic":

@@ -296,3 +296,43 @@ def test_interactive_options_skip_the_questions_and_undo_goes_back(tmp_path: Pat
     trials = analyse_session(out).trials
     assert trials["status"].iloc[0] == "ok"
     assert trials["err"].iloc[0] < 0.05
+
+
+def test_a_late_reader_of_a_paced_source_drops_frames_and_they_are_counted(tmp_path: Path) -> None:
+    import time
+
+    out = tmp_path / "s.mcap"
+    cam = Camera("cam0", Intrinsics(640, 480, 525.0, 525.0, 320.0, 240.0))
+    with (
+        SyntheticSource(None, "point") as src,
+        SessionWriter(out, SessionInfo("point", "in"), [cam]) as w,
+    ):
+        src.read()
+        time.sleep(0.2)  # six frame intervals at 30 fps
+        assert src.dropped >= 4
+        before = src.dropped
+        result = capture_pose(
+            w,
+            src,
+            PoseEntry(1, 1, "cam0", (0.0, 0.0, 0.0)),
+            3,
+            target="dot",
+            on_frame=lambda fb: time.sleep(0.1),  # a slow consumer: ~3 intervals a frame
+        )
+    assert result.dropped >= 4
+    assert src.dropped - before == result.dropped
+    assert len(result.overhead_s) == 3
+    with SessionReader(out) as r:
+        (window,) = [e for e in r.iter_entries() if isinstance(e, CaptureWindow)]
+    assert window.dropped_frames == result.dropped
+
+
+def test_a_paced_video_skips_the_frames_a_late_reader_missed(tmp_path: Path) -> None:
+    import time
+
+    with VideoSource(_video(tmp_path / "v.avi", 30), realtime=True) as src:
+        first = src.read().mean()
+        time.sleep(0.12)  # ~3.6 frame intervals at 30 fps
+        second = src.read().mean()
+    assert src.dropped >= 2
+    assert second - first == pytest.approx(20 * (src.dropped + 1), abs=3)
