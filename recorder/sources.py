@@ -119,9 +119,14 @@ class _Pacer:
 
 
 class CameraSource(FrameSource):
-    """An OpenCV camera device; frames are grabbed on a thread so ``read`` can time out."""
+    """An OpenCV capture device; frames are grabbed on a thread so ``read`` can time out.
 
-    def __init__(self, device: int, width: int = 640, height: int = 480, fps: float = 30.0) -> None:
+    ``device`` is a camera index, or anything else ``cv2.VideoCapture`` opens (a stream URL).
+    """
+
+    def __init__(
+        self, device: int | str, width: int = 640, height: int = 480, fps: float = 30.0
+    ) -> None:
         self.device, self.width, self.height, self.fps = device, width, height, fps
         self._cap: Any = None
         self._frames: queue.Queue[Image | None] = queue.Queue(maxsize=2)

@@ -337,3 +337,57 @@ def test_a_paced_video_skips_the_frames_a_late_reader_missed(tmp_path: Path) -> 
         second = src.read().mean()
     assert src.dropped >= 2
     assert second - first == pytest.approx(8 * (src.dropped + 1), abs=3)
+
+
+def test_camera_source_reports_a_device_that_stops_delivering(tmp_path: Path) -> None:
+    """The capture thread's end-of-stream path, driven by a real capture that runs dry."""
+    from recorder.sources import CameraSource
+
+    with CameraSource(str(_video(tmp_path / "v.avi", 3))) as cam:
+        frames = [cam.read(timeout_s=2.0) for _ in range(3)]
+        assert all(f.shape == (48, 64, 3) for f in frames)
+        with pytest.raises(SourceError, match="stopped delivering"):
+            cam.read(timeout_s=2.0)
+
+
+def test_ctrl_c_during_new_closes_the_session(tmp_path: Path) -> None:
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    plan = tmp_path / "plan.toml"
+    plan.write_text(PLAN.replace("frames = 3", "frames = 200"))
+    out = tmp_path / "s.mcap"
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "recorder",
+            "new",
+            str(out),
+            "--plan",
+            str(plan),
+            "--source",
+            "synthetic",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
+    assert proc.stdout is not None
+    for line in proc.stdout:  # the first capture is complete; the second is under way
+        if line.startswith("trial 1 pose 1:"):
+            break
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130
+    assert "interrupted" in err
+    with SessionReader(out) as r:  # closed cleanly: no recover needed
+        windows = [e for e in r.iter_entries() if isinstance(e, CaptureWindow)]
+    # The interrupt lands during pose 2's capture (kept, incomplete) or just before it.
+    assert windows[0].status == "complete"
+    assert len(windows) <= 2
+    assert all(w.status == "incomplete" and "KeyboardInterrupt" in w.reason for w in windows[1:])
