@@ -99,7 +99,8 @@ def main() -> int:
                 ok &= dropped == 0 and share < 0.40
                 print(
                     f"{width}x{height} {name:9s}: {n} frames at {FPS:g} fps, "
-                    f"{dropped} dropped (target 0), recorder overhead {100 * share:.0f}% of the frame interval (target < 40%)"
+                    f"{dropped} dropped (target 0), recorder overhead {100 * share:.0f}% "
+                    "of the frame interval (target < 40%)"
                 )
     return 0 if ok else 1
 
