@@ -6,7 +6,6 @@ angles, OpenCV's corner finder and ``calibrateCamera``, written as a small TOML 
 from __future__ import annotations
 
 import math
-import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -17,6 +16,7 @@ from numpy.typing import NDArray
 
 from recorder.camera import Intrinsics
 from recorder.errors import InputValueError, SessionExistsError
+from recorder.scene import read_toml
 from recorder.sources import FrameSource, SourceError
 
 __all__ = ["Calibration", "calibrate", "load_calibration", "save_calibration"]
@@ -123,9 +123,8 @@ def save_calibration(calibration: Calibration, path: str | Path) -> None:
 
 def load_calibration(path: str | Path) -> Intrinsics:
     """Read a calibration file written by :func:`save_calibration`."""
+    data = read_toml(path, "calibration", InputValueError)
     try:
-        with open(path, "rb") as fh:
-            data = tomllib.load(fh)
         d = [float(x) for x in data.get("distortion", [0.0] * 5)]
         intr = Intrinsics(
             int(data["width"]),
@@ -136,9 +135,7 @@ def load_calibration(path: str | Path) -> Intrinsics:
             float(data["cy"]),
             (d[0], d[1], d[2], d[3], d[4]),
         )
-    except OSError as err:
-        raise InputValueError(f"cannot read calibration {path}: {err.strerror}") from err
-    except (tomllib.TOMLDecodeError, KeyError, ValueError, TypeError, IndexError) as err:
+    except (KeyError, ValueError, TypeError, IndexError) as err:
         raise InputValueError(f"calibration {path} is malformed: {err}") from err
     values = (intr.fx, intr.fy, intr.cx, intr.cy, *intr.distortion)
     if not all(math.isfinite(v) for v in values) or intr.fx <= 0 or intr.fy <= 0:

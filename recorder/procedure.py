@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import math
 import time
-import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,6 +16,7 @@ from typing import Any
 
 from recorder.camera import Intrinsics
 from recorder.errors import InputValueError
+from recorder.scene import read_toml
 from recorder.session import (
     METHODS,
     UNITS,
@@ -219,13 +219,7 @@ def _camera(table: Any) -> Camera:
 
 def load_plan(path: str | Path) -> Plan:
     """Read and check a plan file (TOML); every error names the offending key."""
-    try:
-        with open(path, "rb") as fh:
-            data = tomllib.load(fh)
-    except OSError as err:
-        raise InputValueError(f"cannot read plan {path}: {err.strerror}") from err
-    except tomllib.TOMLDecodeError as err:
-        raise InputValueError(f"plan {path} is not valid TOML: {err}") from err
+    data = read_toml(path, "plan", InputValueError)
     method = data.get("method")
     if method not in METHODS:
         raise InputValueError(f"plan: method must be one of {', '.join(METHODS)}, got {method!r}")

@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from recorder.camera import Intrinsics
-from recorder.errors import SceneError
+from recorder.errors import SceneError, TwoposeError
 
 __all__ = [
     "CameraParams",
@@ -255,6 +255,17 @@ def _check_scene(s: Scene) -> None:
 # --------------------------------------------------------------------------- TOML loading
 
 
+def read_toml(path: str | Path, what: str, error: type[TwoposeError]) -> dict[str, Any]:
+    """A TOML file as a dict; an unreadable or invalid file raises ``error`` naming ``what``."""
+    try:
+        with open(path, "rb") as fh:
+            return tomllib.load(fh)
+    except OSError as err:
+        raise error(f"cannot read {what} {path}: {err.strerror}") from err
+    except tomllib.TOMLDecodeError as err:
+        raise error(f"{what} {path} is not valid TOML: {err}") from err
+
+
 def load_scene(path: str | Path | None = None, **overrides: Any) -> Scene:
     """Read a scene TOML file over the defaults; keyword overrides win over the file.
 
@@ -263,15 +274,7 @@ def load_scene(path: str | Path | None = None, **overrides: Any) -> Scene:
     SceneError
         Unknown key, wrong type, or impossible value; the message names the key.
     """
-    data: dict[str, Any] = {}
-    if path is not None:
-        try:
-            with open(path, "rb") as fh:
-                data = tomllib.load(fh)
-        except OSError as err:
-            raise SceneError(f"cannot read scene file {path}: {err.strerror}") from err
-        except tomllib.TOMLDecodeError as err:
-            raise SceneError(f"scene file {path} is not valid TOML: {err}") from err
+    data = read_toml(path, "scene file", SceneError) if path is not None else {}
     data.update(overrides)
     scene: Scene = _build(Scene, data, "")
     return scene
