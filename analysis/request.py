@@ -6,8 +6,11 @@ Request::
     {"views": [{"K": [fx, fy, cx, cy],
                 "pose": {"t": [x, y, z], "r_deg": [rx, ry, rz]},
                 "px": [col, row]},                       # point, or for line/ground:
-               {..., "line": {"px": [col, row], "theta_deg": t}}],
-     "ground_y": h}                                      # ground only
+               {"P": [[...4], [...4], [...4]],           # instead of K and pose
+                "line": {"px": [col, row], "theta_deg": t}},   # or {"segment_px": [x0, y0, x1, y1]}
+               ...],                                     # two or more views
+     "ground_y": h,                                      # ground only
+     "estimator": "thesis"}                              # or "optimal" (points)
 
 ``pose.t`` is the camera centre in the grid frame, ``R = Rx Ry Rz`` (camera -> grid).
 """
@@ -19,7 +22,14 @@ from typing import Any
 
 import numpy as np
 
-from analysis.solve import solve_ground, solve_line, solve_point
+from analysis.solve import (
+    image_lines,
+    projection_matrices,
+    segment_lines,
+    triangulate_ground,
+    triangulate_lines,
+    triangulate_points,
+)
 from recorder.camera import rotation_from_angles_deg
 from recorder.errors import InputValueError
 
@@ -43,55 +53,82 @@ def _field(obj: Any, key: str, where: str) -> Any:
     return obj[key]
 
 
+def _projection(view: Any, where: str) -> np.ndarray:
+    """A view's 3x4 projection matrix: given as ``P``, or built from ``K`` and ``pose``."""
+    if isinstance(view, dict) and "P" in view:
+        rows = view["P"]
+        if not isinstance(rows, list) or len(rows) != 3:
+            raise InputValueError(f"{where}.P must be 3 rows of 4 numbers")
+        P = np.array([_numbers(r, 4, f"{where}.P") for r in rows])
+        if abs(np.linalg.det(P[:, :3])) < 1e-12:
+            raise InputValueError(f"{where}.P has a singular left 3x3 block: not a camera")
+        return P
+    k = _numbers(_field(view, "K", where), 4, f"{where}.K")
+    if k[0] <= 0 or k[1] <= 0:
+        raise InputValueError(f"{where}.K: fx and fy must be > 0, got {k[:2]}")
+    pose = _field(view, "pose", where)
+    t = _numbers(_field(pose, "t", f"{where}.pose"), 3, f"{where}.pose.t")
+    r_deg = pose.get("r_deg", [0.0, 0.0, 0.0]) if isinstance(pose, dict) else None
+    R = rotation_from_angles_deg(_numbers(r_deg, 3, f"{where}.pose.r_deg"))
+    return projection_matrices(np.array(k), R, np.array(t))
+
+
+def _image_line(view: Any, where: str) -> np.ndarray:
+    line = _field(view, "line", where)
+    if isinstance(line, dict) and "segment_px" in line:
+        return segment_lines(np.array(_numbers(line["segment_px"], 4, f"{where}.line.segment_px")))
+    px = _numbers(_field(line, "px", f"{where}.line"), 2, f"{where}.line.px")
+    theta = _numbers([_field(line, "theta_deg", f"{where}.line")], 1, f"{where}.line.theta_deg")[0]
+    return image_lines(np.array(px), theta)
+
+
 def solve_request(method: str, request: Any) -> dict[str, Any]:
     """Validate a request, solve it, and return the JSON-ready answer."""
     views = _field(request, "views", "the request")
-    if not isinstance(views, list) or len(views) != 2:
+    if not isinstance(views, list) or len(views) < 2:
         n = len(views) if isinstance(views, list) else "no"
-        raise InputValueError(
-            f"the request has {n} views; this version solves exactly 2 "
-            "(more views come with n-pose support)"
-        )
-    K, R, t, px, theta = [], [], [], [], []
-    for i, v in enumerate(views):
-        where = f"views[{i}]"
-        k = _numbers(_field(v, "K", where), 4, f"{where}.K")
-        if k[0] <= 0 or k[1] <= 0:
-            raise InputValueError(f"{where}.K: fx and fy must be > 0, got {k[:2]}")
-        pose = _field(v, "pose", where)
-        t.append(_numbers(_field(pose, "t", f"{where}.pose"), 3, f"{where}.pose.t"))
-        r_deg = pose.get("r_deg", [0.0, 0.0, 0.0]) if isinstance(pose, dict) else None
-        R.append(rotation_from_angles_deg(_numbers(r_deg, 3, f"{where}.pose.r_deg")))
-        K.append(k)
-        if method == "point":
-            px.append(_numbers(_field(v, "px", where), 2, f"{where}.px"))
-        else:
-            line = _field(v, "line", where)
-            px.append(_numbers(_field(line, "px", f"{where}.line"), 2, f"{where}.line.px"))
-            theta.append(
-                _numbers(
-                    [_field(line, "theta_deg", f"{where}.line")], 1, f"{where}.line.theta_deg"
-                )[0]
-            )
-    args = (np.array([px]), np.array([K]), np.array([R]), np.array([t]))
+        raise InputValueError(f"the request has {n} view(s); a reconstruction needs 2 or more")
+    estimator = request.get("estimator", "thesis")
+    if estimator not in ("thesis", "optimal"):
+        raise InputValueError(f"estimator must be thesis or optimal, got {estimator!r}")
+    P = np.stack([_projection(v, f"views[{i}]") for i, v in enumerate(views)])[None]
+    answer: dict[str, Any]
     if method == "point":
-        s = solve_point(*args)
-        answer: dict[str, Any] = {"point": _vec(s.point_grid[0])}
+        px = np.array(
+            [
+                [
+                    _numbers(_field(v, "px", f"views[{i}]"), 2, f"views[{i}].px")
+                    for i, v in enumerate(views)
+                ]
+            ]
+        )
+        s = triangulate_points(px, P, estimator=estimator)
+        answer = {"point": _vec(s.point_grid[0]), "reprojection_rms_px": _num(s.rms_px[0])}
         status, reason, cond = s.status[0], s.reason[0], s.conditioning[0]
-    elif method == "line":
-        ls = solve_line(args[0], np.array([theta]), *args[1:])
-        answer = {
-            "line": {"point": _vec(ls.point_grid[0]), "direction": _vec(ls.direction_grid[0])}
-        }
-        status, reason, cond = ls.status[0], ls.reason[0], ls.conditioning[0]
-    elif method == "ground":
-        h = _numbers([_field(request, "ground_y", "a ground request")], 1, "ground_y")[0]
-        g = solve_ground(args[0], np.array([theta]), *args[1:], [0.0, 1.0, 0.0], h)
-        answer = {"point": _vec(g.point_grid[0])}
-        status, reason, cond = g.status[0], g.reason[0], g.conditioning[0]
+    elif method in ("line", "ground"):
+        if estimator != "thesis":
+            raise InputValueError(f"estimator {estimator!r} is for points; lines use the plane fit")
+        lines = np.stack([_image_line(v, f"views[{i}]") for i, v in enumerate(views)])[None]
+        if method == "line":
+            ls = triangulate_lines(lines, P)
+            answer = {
+                "line": {"point": _vec(ls.point_grid[0]), "direction": _vec(ls.direction_grid[0])}
+            }
+            status, reason, cond = ls.status[0], ls.reason[0], ls.conditioning[0]
+        else:
+            h = _numbers([_field(request, "ground_y", "a ground request")], 1, "ground_y")[0]
+            g = triangulate_ground(lines, P, [0.0, 1.0, 0.0], h)
+            answer = {"point": _vec(g.point_grid[0])}
+            status, reason, cond = g.status[0], g.reason[0], g.conditioning[0]
     else:
         raise InputValueError(f"method must be point, line or ground, got {method!r}")
-    answer |= {"status": str(status), "reason": str(reason), "conditioning": _num(cond)}
+    answer |= {
+        "status": str(status),
+        "reason": str(reason),
+        "conditioning": _num(cond),
+        "n_views": len(views),
+        "estimator": estimator,
+    }
     return answer
 
 

@@ -344,3 +344,295 @@ def solve_ground(
     point = _safe_solve(A, rhs, usable)
     rays = np.full((T, 2, 3), np.nan)
     return PointSolution(point, conditioning, status, reason, rays)
+
+
+# --------------------------------------------------------------------------- N views
+#
+# The N-view solvers work on projection matrices P = K [R^T | -R^T c] (grid -> pixels), so
+# views given as (K, pose) and views given as P (real calibrated data) are one case. With
+# N = 2 they reproduce the two-view formulas above: the least-squares point of two rays is
+# their midpoint (eq. 7-8), two planes meet in one line (eq. 14-15), and two planes and the
+# ground meet in one point (eq. 19).
+
+
+@dataclass(frozen=True)
+class NViewPoints:
+    """Batched N-view point estimates (see :func:`triangulate_points`)."""
+
+    point_grid: F64  # (T, 3)
+    conditioning: F64  # (T,) largest ray parallax sine over view pairs
+    status: Status
+    reason: Status
+    rms_px: F64  # (T,) reprojection RMS over the views used
+
+
+@dataclass(frozen=True)
+class NViewLines:
+    """Batched N-view line estimates (see :func:`triangulate_lines`)."""
+
+    point_grid: F64  # (T, 3) the point closest to the last view's camera centre
+    direction_grid: F64  # (T, 3) unit
+    conditioning: F64  # (T,) largest plane-angle sine over view pairs
+    status: Status
+    reason: Status
+
+
+def projection_matrices(intrinsics: ArrayLike, R_cam_to_grid: ArrayLike, t_grid: ArrayLike) -> F64:
+    """``P = K [R^T | -R^T t]`` (..., 3, 4) from (fx, fy, cx, cy), camera -> grid rotations
+    and camera centres."""
+    k = np.asarray(intrinsics, dtype=np.float64)
+    R = np.asarray(R_cam_to_grid, dtype=np.float64)
+    t = np.asarray(t_grid, dtype=np.float64)
+    K = np.zeros((*k.shape[:-1], 3, 3))
+    K[..., 0, 0], K[..., 1, 1], K[..., 0, 2], K[..., 1, 2], K[..., 2, 2] = (
+        k[..., 0],
+        k[..., 1],
+        k[..., 2],
+        k[..., 3],
+        1.0,
+    )
+    Rt = np.swapaxes(R, -1, -2)
+    Rt_c = -np.einsum("...ij,...j->...i", Rt, t)
+    return np.asarray(K @ np.concatenate([Rt, Rt_c[..., None]], axis=-1))
+
+
+def camera_centres(P: ArrayLike) -> F64:
+    """Camera centres (..., 3): ``-M^-1 p4`` for ``P = [M | p4]``."""
+    p = np.asarray(P, dtype=np.float64)
+    return np.asarray(-np.linalg.solve(p[..., :, :3], p[..., :, 3:])[..., 0])
+
+
+def _valid_views(measured: F64, valid: ArrayLike | None) -> NDArray[np.bool_]:
+    """(T, N) views with finite measurements, and listed in ``valid`` if given."""
+    finite = np.asarray(np.isfinite(measured).all(axis=2))
+    return finite if valid is None else np.asarray(valid, dtype=bool) & finite
+
+
+def _pairwise_max_sine(u: F64, valid: NDArray[np.bool_]) -> F64:
+    """Largest sine of the angle between two valid unit vectors of each row (T, N, 3)."""
+    T, N = u.shape[:2]
+    best = np.zeros(T)
+    for i in range(N):
+        for j in range(i + 1, N):
+            s = np.linalg.norm(np.cross(u[:, i], u[:, j]), axis=-1)
+            best = np.where(valid[:, i] & valid[:, j], np.maximum(best, np.nan_to_num(s)), best)
+    return best
+
+
+def _reprojection(points: F64, P: F64, px: F64) -> F64:
+    """Residuals (T, N, 2) of grid points (T, 3) projected by P (T, N, 3, 4) against px."""
+    X = np.concatenate([points, np.ones((points.shape[0], 1))], axis=1)
+    y = np.einsum("tnij,tj->tni", P, X)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.asarray(y[..., :2] / y[..., 2:3] - px)
+
+
+def triangulate_points(
+    px: ArrayLike,
+    P: ArrayLike,
+    *,
+    valid: ArrayLike | None = None,
+    estimator: str = "thesis",
+    iterations: int = 20,
+    min_conditioning: float = DEFAULT_MIN_CONDITIONING,
+) -> NViewPoints:
+    """Points from N >= 2 rays, batched over trials.
+
+    ``estimator="thesis"``: the point nearest all rays in least squares (for two rays, the
+    midpoint of eq. 7-8). ``"optimal"``: that point refined by Gauss-Newton to minimise the
+    reprojection error (the maximum-likelihood estimate under Gaussian pixel noise).
+
+    Parameters
+    ----------
+    px : (T, N, 2) array_like
+        (col, row) per view; rows of invalid views are ignored.
+    P : (T, N, 3, 4) array_like
+        Projection matrices, grid -> pixels.
+    valid : (T, N) bool array_like, optional
+        Which views a trial uses (default: those with finite pixels).
+    """
+    x = np.asarray(px, dtype=np.float64)
+    p = np.asarray(P, dtype=np.float64)
+    if x.ndim != 3 or x.shape[2] != 2 or p.shape != (*x.shape[:2], 3, 4):
+        raise InputValueError(
+            f"pixels must be (T, N, 2) and P (T, N, 3, 4); got {x.shape}, {p.shape}"
+        )
+    if estimator not in ("thesis", "optimal"):
+        raise InputValueError(f"estimator must be thesis or optimal, got {estimator!r}")
+    ok = _valid_views(x, valid)
+    T = x.shape[0]
+    c = camera_centres(p)
+    xh = np.concatenate([np.where(ok[..., None], x, 0.0), np.ones((*x.shape[:2], 1))], axis=2)
+    d, _ = _unit(np.linalg.solve(p[..., :3], xh[..., None])[..., 0])  # ray directions, grid
+    d = np.where(ok[..., None], d, 0.0)
+    # Least squares: sum_i (I - d_i d_i^T) (p - c_i) = 0.
+    proj = np.eye(3) - np.einsum("tni,tnj->tnij", d, d)
+    proj = np.where(ok[..., None, None], proj, 0.0)
+    A = proj.sum(axis=1)
+    b = np.einsum("tnij,tnj->ti", proj, np.where(ok[..., None], c, 0.0))
+    conditioning = _pairwise_max_sine(d, ok)
+    enough = ok.sum(axis=1) >= 2
+    status, reason = _status(
+        np.where(enough, conditioning, np.nan),
+        enough,
+        min_conditioning,
+        "point on the baseline (rays parallel)",
+    )
+    status[~enough], reason[~enough] = "no_detection", "fewer than two views"
+    usable = status == "ok"
+    point = _safe_solve(np.where(usable[:, None, None], A, np.eye(3)), b, usable)
+    if estimator == "optimal" and usable.any():
+        point[usable] = _gauss_newton(point[usable], x[usable], p[usable], ok[usable], iterations)
+    depth = np.einsum("tni,tni->tn", d, point[:, None, :] - c)
+    behind = usable & ((depth <= 0) & ok).any(axis=1)
+    status[behind], reason[behind] = "degenerate", "point behind a camera"
+    point[status != "ok"] = np.nan
+    res = np.where(
+        ok[..., None], _reprojection(np.nan_to_num(point), p, np.where(ok[..., None], x, 0.0)), 0.0
+    )
+    with np.errstate(invalid="ignore"):
+        rms = np.sqrt((res**2).sum(axis=(1, 2)) / np.maximum(ok.sum(axis=1), 1) / 2)
+    rms[status != "ok"] = np.nan
+    assert point.shape == (T, 3)
+    return NViewPoints(point, conditioning, status, reason, rms)
+
+
+def _gauss_newton(point: F64, x: F64, P: F64, ok: NDArray[np.bool_], iterations: int) -> F64:
+    """Minimise the summed squared reprojection error over each row's valid views."""
+    p = point.copy()
+    w = ok.astype(np.float64)[..., None]
+    x = np.where(ok[..., None], x, 0.0)  # missing views' NaN must not reach the sums
+    for _ in range(iterations):
+        X = np.concatenate([p, np.ones((p.shape[0], 1))], axis=1)
+        y = np.einsum("tnij,tj->tni", P, X)
+        z = y[..., 2:3]
+        r = (y[..., :2] / z - x) * w  # (T, N, 2)
+        # d(y_k / y_2)/dp = (P_k - (y_k / y_2) P_2)[:3] / y_2
+        J = (P[..., :2, :3] - (y[..., :2] / z)[..., None] * P[..., 2:3, :3]) / z[..., None]
+        J = J * w[..., None]
+        JtJ = np.einsum("tnki,tnkj->tij", J, J)
+        Jtr = np.einsum("tnki,tnk->ti", J, r)
+        step = np.linalg.solve(JtJ + 1e-12 * np.eye(3), -Jtr[..., None])[..., 0]
+        p += step
+        if np.abs(step).max() < 1e-13 * max(np.abs(p).max(), 1.0):
+            break
+    return p
+
+
+def image_lines(px: ArrayLike, theta_deg: ArrayLike) -> F64:
+    """Homogeneous image lines (..., 3) through pixel ``px`` with direction ``theta``."""
+    p = np.asarray(px, dtype=np.float64)
+    t = np.deg2rad(np.asarray(theta_deg, dtype=np.float64))
+    a = np.concatenate([p, np.ones((*p.shape[:-1], 1))], axis=-1)
+    b = a + np.stack([np.cos(t), np.sin(t), np.zeros_like(t)], axis=-1)
+    return np.cross(a, b)
+
+
+def segment_lines(segments_px: ArrayLike) -> F64:
+    """Homogeneous image lines (..., 3) through segments ``(x0, y0, x1, y1)``."""
+    s = np.asarray(segments_px, dtype=np.float64)
+    ones = np.ones((*s.shape[:-1], 1))
+    return np.cross(np.concatenate([s[..., :2], ones], -1), np.concatenate([s[..., 2:], ones], -1))
+
+
+def triangulate_lines(
+    lines: ArrayLike,
+    P: ArrayLike,
+    *,
+    valid: ArrayLike | None = None,
+    min_conditioning: float = DEFAULT_MIN_CONDITIONING,
+) -> NViewLines:
+    """Lines from N >= 2 back-projected planes ``pi_i = P_i^T l_i``: the rank-2 null space.
+
+    For two views the planes meet in exactly one line (eq. 14-15); for more, the line is the
+    best rank-2 fit (the two smallest right singular vectors of the stacked unit planes).
+
+    Parameters
+    ----------
+    lines : (T, N, 3) array_like
+        Homogeneous image lines (see :func:`image_lines`, :func:`segment_lines`).
+    P : (T, N, 3, 4) array_like
+    """
+    lin = np.asarray(lines, dtype=np.float64)
+    p = np.asarray(P, dtype=np.float64)
+    ok = _valid_views(lin, valid)
+    planes = np.einsum("tnji,tnj->tni", p, np.where(ok[..., None], lin, 0.0))  # P^T l
+    norm = np.linalg.norm(planes[..., :3], axis=-1, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        planes = np.where(ok[..., None], planes / norm, 0.0)
+    T = lin.shape[0]
+    conditioning = _pairwise_max_sine(planes[..., :3], ok)
+    enough = ok.sum(axis=1) >= 2
+    status, reason = _status(
+        np.where(enough, conditioning, np.nan),
+        enough,
+        min_conditioning,
+        "line coplanar with the baseline",
+    )
+    status[~enough], reason[~enough] = "no_detection", "fewer than two views"
+    usable = status == "ok"
+    point = np.full((T, 3), np.nan)
+    direction = np.full((T, 3), np.nan)
+    if usable.any():
+        _, _, vt = np.linalg.svd(planes[usable])
+        a, b = vt[:, 2], vt[:, 3]  # two homogeneous points spanning the line
+        u, _ = _unit(a[:, 3:4] * b[:, :3] - b[:, 3:4] * a[:, :3])
+        # a finite point of the line: the spanning point with the larger |w|
+        use_a = np.abs(a[:, 3]) >= np.abs(b[:, 3])
+        q = np.where(use_a[:, None], a, b)
+        x0 = q[:, :3] / q[:, 3:4]
+        last = (ok[usable] * np.arange(ok.shape[1])).argmax(axis=1)
+        c = camera_centres(p[usable][np.arange(usable.sum()), last])
+        x0 = x0 + np.einsum("ti,ti->t", c - x0, u)[:, None] * u  # closest to the last camera
+        flip = np.take_along_axis(u, np.abs(u).argmax(axis=1)[:, None], 1) < 0
+        point[usable], direction[usable] = x0, np.where(flip, -u, u)
+    return NViewLines(point, direction, conditioning, status, reason)
+
+
+def triangulate_ground(
+    lines: ArrayLike,
+    P: ArrayLike,
+    ground_normal_grid: ArrayLike,
+    ground_offset: float,
+    *,
+    valid: ArrayLike | None = None,
+    min_conditioning: float = DEFAULT_MIN_CONDITIONING,
+) -> NViewPoints:
+    """Method 2 with N >= 2 views: the least-squares point of the N back-projected planes
+    and the ground plane ``n3 . p = h`` (for two views exactly eq. 19's solution)."""
+    lin = np.asarray(lines, dtype=np.float64)
+    p = np.asarray(P, dtype=np.float64)
+    ok = _valid_views(lin, valid)
+    planes = np.einsum("tnji,tnj->tni", p, np.where(ok[..., None], lin, 0.0))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        planes = planes / np.linalg.norm(planes[..., :3], axis=-1, keepdims=True)
+    planes = np.where(ok[..., None], planes, 0.0)
+    n3, norm = _unit(np.asarray(ground_normal_grid, dtype=np.float64))
+    h = float(ground_offset) / float(norm)
+    T, N = ok.shape
+    A = np.concatenate([planes[..., :3], np.broadcast_to(n3, (T, 1, 3))], axis=1)
+    b = np.concatenate([-planes[..., 3], np.full((T, 1), h)], axis=1)
+    best = np.zeros(T)
+    for i in range(N):
+        for j in range(i + 1, N):
+            det = np.abs(
+                np.einsum(
+                    "ti,ti->t",
+                    np.cross(planes[:, i, :3], planes[:, j, :3]),
+                    np.broadcast_to(n3, (T, 3)),
+                )
+            )
+            best = np.where(ok[:, i] & ok[:, j], np.maximum(best, det), best)
+    enough = ok.sum(axis=1) >= 2
+    status, reason = _status(
+        np.where(enough, best, np.nan),
+        enough,
+        min_conditioning,
+        "line coplanar with the baseline, or parallel to the ground",
+    )
+    status[~enough], reason[~enough] = "no_detection", "fewer than two views"
+    usable = status == "ok"
+    AtA = np.einsum("tki,tkj->tij", A, A)
+    Atb = np.einsum("tki,tk->ti", A, b)
+    point = _safe_solve(np.where(usable[:, None, None], AtA, np.eye(3)), Atb, usable)
+    return NViewPoints(point, best, status, reason, np.full(T, np.nan))

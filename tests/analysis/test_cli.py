@@ -142,7 +142,12 @@ def test_solve_degenerate_is_a_status_not_a_crash() -> None:
     ("method", "payload", "message"),
     [
         ("point", "{not json", "not valid JSON"),
-        ("point", json.dumps({"views": [_view([0, 0, 0], px=[1, 2])] * 3}), "exactly 2"),
+        ("point", json.dumps({"views": [_view([0, 0, 0], px=[1, 2])]}), "2 or more"),
+        (
+            "point",
+            json.dumps({"views": [_view([0, 0, 0], px=[1, 2])] * 2, "estimator": "best"}),
+            "estimator",
+        ),
         (
             "point",
             json.dumps({"views": [_view([0, 0, 0], px=[1, "a"]), _view([1, 0, 0], px=[1, 2])]}),

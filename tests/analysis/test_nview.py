@@ -1,0 +1,158 @@
+"""N-view solvers: two views reproduce the thesis' two-view formulas; N views recover truth;
+the optimal estimator; the real Merton College I data."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import sys
+from pathlib import Path
+from types import ModuleType
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from analysis.cli import app
+from analysis.solve import (
+    image_lines,
+    projection_matrices,
+    solve_ground,
+    solve_line,
+    solve_point,
+    triangulate_ground,
+    triangulate_lines,
+    triangulate_points,
+)
+from recorder.camera import Intrinsics, project_points, rotation_from_angles_deg
+
+K4 = np.array([525.0, 520.0, 318.0, 242.0])
+INTR = Intrinsics(640, 480, *K4)
+MERTON = Path(__file__).resolve().parents[3] / "shared" / "data" / "merton1"
+
+
+def _views(rng: np.random.Generator, T: int, N: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    R = rotation_from_angles_deg(rng.uniform(-10, 10, (T, N, 3)))
+    t = rng.uniform([-3, -1, -2], [3, 1, 1], (T, N, 3))
+    return np.tile(K4, (T, N, 1)), R, t
+
+
+def _project(points: np.ndarray, R: np.ndarray, t: np.ndarray) -> np.ndarray:
+    T, N = R.shape[:2]
+    return np.array(
+        [[project_points(points[i], INTR, R[i, j], t[i, j])[0] for j in range(N)] for i in range(T)]
+    )
+
+
+def test_two_views_reproduce_the_two_view_solvers() -> None:
+    rng = np.random.default_rng(1)
+    T = 40
+    k, R, t = _views(rng, T, 2)
+    a = rng.uniform([-2, -1, 8], [2, 3, 14], (T, 3))
+    b = a + rng.normal(size=(T, 3))
+    px = _project(a, R, t) + rng.normal(0, 0.5, (T, 2, 2))  # noisy: the rays miss each other
+    P = projection_matrices(k, R, t)
+    two = solve_point(px, k, R, t)
+    many = triangulate_points(px, P)
+    ok = two.status == "ok"
+    np.testing.assert_allclose(many.point_grid[ok], two.point_grid[ok], atol=1e-9)
+    np.testing.assert_allclose(many.conditioning, two.conditioning, atol=1e-12)
+    pa, pb = _project(a, R, t), _project(b, R, t)
+    theta = np.degrees(np.arctan2(*(pb - pa).transpose(2, 0, 1)[::-1])) + rng.normal(0, 0.3, (T, 2))
+    lines2 = solve_line(pa, theta, k, R, t)
+    linesn = triangulate_lines(image_lines(pa, theta), P)
+    np.testing.assert_allclose(linesn.point_grid, lines2.point_grid, atol=1e-8)
+    np.testing.assert_allclose(linesn.direction_grid, lines2.direction_grid, atol=1e-10)
+    ground2 = solve_ground(pa, theta, k, R, t, [0, 1, 0], 9.625)
+    groundn = triangulate_ground(image_lines(pa, theta), P, [0, 1, 0], 9.625)
+    good = ground2.status == "ok"
+    np.testing.assert_allclose(groundn.point_grid[good], ground2.point_grid[good], atol=1e-8)
+
+
+@pytest.mark.parametrize("n_views", [3, 4, 6])
+@pytest.mark.parametrize("estimator", ["thesis", "optimal"])
+def test_n_views_recover_exact_points_and_lines(n_views: int, estimator: str) -> None:
+    rng = np.random.default_rng(n_views)
+    T = 30
+    k, R, t = _views(rng, T, n_views)
+    P = projection_matrices(k, R, t)
+    x = rng.uniform([-2, -1, 8], [2, 3, 14], (T, 3))
+    sol = triangulate_points(_project(x, R, t), P, estimator=estimator)
+    assert (sol.status == "ok").all()
+    np.testing.assert_allclose(sol.point_grid, x, atol=1e-8)
+    assert np.nanmax(sol.rms_px) < 1e-6
+    u = rng.normal(size=(T, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    pa, pb = _project(x, R, t), _project(x + 2 * u, R, t)
+    lines = triangulate_lines(
+        np.cross(np.dstack([pa, np.ones(pa.shape[:2])]), np.dstack([pb, np.ones(pb.shape[:2])])), P
+    )
+    assert (np.linalg.norm(np.cross(lines.direction_grid, u), axis=1) < 1e-8).all()
+    off = lines.point_grid - x
+    assert (np.linalg.norm(off - np.einsum("ti,ti->t", off, u)[:, None] * u, axis=1) < 1e-7).all()
+
+
+def test_optimal_never_reprojects_worse_and_missing_views_are_ignored() -> None:
+    rng = np.random.default_rng(5)
+    T, N = 200, 4
+    k, R, t = _views(rng, T, N)
+    P = projection_matrices(k, R, t)
+    x = rng.uniform([-2, -1, 8], [2, 3, 14], (T, 3))
+    px = _project(x, R, t) + rng.normal(0, 1.0, (T, N, 2))
+    px[::3, 1] = np.nan  # a view that did not see the point
+    thesis = triangulate_points(px, P, estimator="thesis")
+    optimal = triangulate_points(px, P, estimator="optimal")
+    assert (optimal.rms_px <= thesis.rms_px + 1e-12).all()
+    assert (optimal.status == "ok").all()
+    one_view = triangulate_points(np.where(np.arange(N)[None, :, None] == 0, px, np.nan), P)
+    assert (one_view.status == "no_detection").all()
+
+
+def _merton() -> ModuleType:
+    path = Path(__file__).resolve().parents[2] / "benchmarks" / "merton_check.py"
+    spec = importlib.util.spec_from_file_location("merton_check", path)
+    assert spec is not None
+    assert spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["merton_check"] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.mark.skipif(
+    not MERTON.is_dir(), reason="../shared/data/merton1 is not beside this checkout"
+)
+def test_merton_reconstruction_meets_its_targets() -> None:
+    m = _merton()
+    figures = m.check(m.load(MERTON))
+    assert figures["optimal_max_rel"] <= 1e-6  # p3d is itself the reprojection-optimal answer
+    assert figures["line_angle_median_deg"] < 3.5
+    assert figures["line_residual_median_px"] <= figures["l3d_residual_median_px"]
+
+
+@pytest.mark.skipif(
+    not MERTON.is_dir(), reason="../shared/data/merton1 is not beside this checkout"
+)
+def test_merton_through_the_solve_command() -> None:
+    m = _merton()
+    data = m.load(MERTON)
+    i = int(np.flatnonzero(np.isfinite(data.corner_px).all(axis=(1, 2)))[0])  # seen in 3 views
+    views = [{"P": data.P[v].tolist(), "px": data.corner_px[i, v].tolist()} for v in range(3)]
+    runner = CliRunner()
+    out = runner.invoke(
+        app, ["solve", "point"], input=json.dumps({"views": views, "estimator": "optimal"})
+    )
+    assert out.exit_code == 0, out.output
+    answer = json.loads(out.output)
+    assert answer["n_views"] == 3
+    np.testing.assert_allclose(answer["point"], data.p3d[i], atol=1e-5)
+    line_views = [
+        {"P": data.P[v].tolist(), "line": {"segment_px": data.segments[0, v].tolist()}}
+        for v in range(3)
+    ]
+    out = runner.invoke(app, ["solve", "line"], input=json.dumps({"views": line_views}))
+    assert out.exit_code == 0, out.output
+    direction = np.array(json.loads(out.output)["line"]["direction"])
+    ref = data.l3d[0, 3:] - data.l3d[0, :3]
+    cosine = abs(direction @ ref) / np.linalg.norm(ref)
+    assert np.degrees(np.arccos(min(cosine, 1.0))) < 10.0
