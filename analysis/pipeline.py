@@ -30,9 +30,22 @@ from analysis.detect import (
     combine_frames,
     detect,
 )
-from analysis.metrics import LINE_COLUMNS, TRIAL_COLUMNS, line_errors, summarize
+from analysis.metrics import (
+    LINE_COLUMNS,
+    OPTIMAL_COLUMNS,
+    TRIAL_COLUMNS,
+    line_errors,
+    summarize,
+)
 from analysis.replay import TrialRecord, find_sessions, iter_trials
-from analysis.solve import DEFAULT_MIN_CONDITIONING, solve_ground, solve_line, solve_point
+from analysis.solve import (
+    DEFAULT_MIN_CONDITIONING,
+    image_lines,
+    projection_matrices,
+    triangulate_ground,
+    triangulate_lines,
+    triangulate_points,
+)
 from recorder.errors import SessionFormatError, TwoposeError
 from recorder.session import GroundTruth, SessionReader
 
@@ -154,37 +167,48 @@ def _detect_trial(
     return views
 
 
+@dataclass(frozen=True)
+class _Solved:
+    point: F64  # (T, 3)
+    direction: F64 | None  # (T, 3), lines only
+    optimal: F64 | None  # (T, 3), points only: the reprojection-optimal estimate
+    conditioning: F64
+    status: NDArray[np.str_]
+    reason: NDArray[np.str_]
+
+
 def _solve(
     method: str,
     measurements: list[list[PoseMeasurement]],
     views: list[list[_View]],
     ground: tuple[F64, float] | None,
     options: AnalysisOptions,
-) -> tuple[F64, F64 | None, F64, NDArray[np.str_], NDArray[np.str_]]:
-    """Batch-solve rows of two pose measurements.
-
-    Returns (point, direction or None, conditioning, status, reason), one row per input row.
-    """
+) -> _Solved:
+    """Batch-solve rows of N >= 2 pose measurements (rows padded to the longest)."""
     T = len(measurements)
-    px = np.array([[m.centroid_px for m in row] for row in measurements], dtype=np.float64).reshape(
-        T, 2, 2
-    )
-    th = np.array([[m.theta_deg for m in row] for row in measurements], dtype=np.float64).reshape(
-        T, 2
-    )
-    k = np.array([[v.intrinsics for v in row] for row in views]).reshape(T, 2, 4)
-    R = np.array([[v.R_cam_to_grid for v in row] for row in views]).reshape(T, 2, 3, 3)
-    t = np.array([[v.t_grid for v in row] for row in views]).reshape(T, 2, 3)
+    N = max(len(row) for row in measurements)
+    px = np.full((T, N, 2), np.nan)
+    th = np.full((T, N), np.nan)
+    P = np.tile(np.eye(3, 4), (T, N, 1, 1))  # padding views: any invertible camera
+    valid = np.zeros((T, N), dtype=bool)
+    for i, (row, row_views) in enumerate(zip(measurements, views, strict=True)):
+        for j, (m, v) in enumerate(zip(row, row_views, strict=True)):
+            px[i, j], th[i, j], valid[i, j] = m.centroid_px, m.theta_deg, True
+            P[i, j] = projection_matrices(v.intrinsics, v.R_cam_to_grid, v.t_grid)
     mc = options.min_conditioning
     if method == "point":
-        s = solve_point(px, k, R, t, min_conditioning=mc)
-        return s.point_grid, None, s.conditioning, s.status, s.reason
+        s = triangulate_points(px, P, valid=valid, min_conditioning=mc)
+        o = triangulate_points(px, P, valid=valid, estimator="optimal", min_conditioning=mc)
+        return _Solved(s.point_grid, None, o.point_grid, s.conditioning, s.status, s.reason)
+    lines = image_lines(px, th)
     if method == "line":
-        ls = solve_line(px, th, k, R, t, min_conditioning=mc)
-        return ls.point_grid, ls.direction_grid, ls.conditioning, ls.status, ls.reason
+        ls = triangulate_lines(lines, P, valid=valid, min_conditioning=mc)
+        return _Solved(
+            ls.point_grid, ls.direction_grid, None, ls.conditioning, ls.status, ls.reason
+        )
     assert ground is not None
-    g = solve_ground(px, th, k, R, t, ground[0], ground[1], min_conditioning=mc)
-    return g.point_grid, None, g.conditioning, g.status, g.reason
+    g = triangulate_ground(lines, P, ground[0], ground[1], valid=valid, min_conditioning=mc)
+    return _Solved(g.point_grid, None, None, g.conditioning, g.status, g.reason)
 
 
 def analyse_session(
@@ -193,8 +217,8 @@ def analyse_session(
     """Replay one session through detection and the solver.
 
     Trials with fewer than two complete captures are ``incomplete``; a pose where no frame
-    was detected makes its trial ``no_detection``. The first two complete poses of a trial
-    are used.
+    was detected makes its trial ``no_detection``. Every complete pose of a trial is used
+    (N >= 2 views); point trials also get the reprojection-optimal estimate (``*_optimal``).
 
     Raises
     ------
@@ -238,8 +262,8 @@ def analyse_session(
 
     trial_ids = [r.trial for r, _ in records]
     T = len(records)
-    used = [views[:2] for _, views in records]
-    complete = np.array([len(v) == 2 for v in used], dtype=bool)
+    used = [views for _, views in records]  # every complete pose: N >= 2 views
+    complete = np.array([len(v) >= 2 for v in used], dtype=bool)
     measurements = [
         [combine_frames(v.centroids, v.thetas, v.found, options.combine) for v in views]
         if ok
@@ -252,26 +276,42 @@ def analyse_session(
     solvable = np.flatnonzero(detected)
     point = np.full((T, 3), np.nan)
     direction = np.full((T, 3), np.nan)
+    optimal = np.full((T, 3), np.nan)
     conditioning = np.full(T, np.nan)
     status = np.where(complete, "no_detection", "incomplete").astype("<U12")
     reason = np.where(
         complete, "no frame of a pose was detected", "fewer than two complete captures"
     ).astype("<U64")
     if solvable.size:
-        p, d, c, s, r = _solve(
+        solved = _solve(
             method,
             [measurements[i] for i in solvable],
             [used[i] for i in solvable],
             ground,
             options,
         )
-        point[solvable], conditioning[solvable], status[solvable], reason[solvable] = p, c, s, r
-        if d is not None:
-            direction[solvable] = d
+        point[solvable], conditioning[solvable] = solved.point, solved.conditioning
+        status[solvable], reason[solvable] = solved.status, solved.reason
+        if solved.direction is not None:
+            direction[solvable] = solved.direction
+        if solved.optimal is not None:
+            optimal[solvable] = solved.optimal
+    n_views = np.array([len(v) if ok else 0 for v, ok in zip(used, complete, strict=True)])
 
     gt = _ground_truth(records, method)
     trials = _trial_table(
-        session, method, info.units, trial_ids, status, reason, conditioning, point, direction, gt
+        session,
+        method,
+        info.units,
+        trial_ids,
+        status,
+        reason,
+        conditioning,
+        point,
+        direction,
+        gt,
+        n_views,
+        optimal,
     )
     averaging = _averaging(session, method, records, used, detected, ground, gt, options)
     frames = pd.DataFrame(frame_rows, columns=FRAME_COLUMNS)
@@ -304,6 +344,8 @@ def _trial_table(
     point: F64,
     direction: F64,
     gt: F64,
+    n_views: NDArray[np.int_],
+    optimal: F64,
 ) -> pd.DataFrame:
     T = len(trial_ids)
     extra: dict[str, Any] = {}
@@ -314,6 +356,14 @@ def _trial_table(
         extra |= {"angle_err_deg": angle, "dist_err": dist}
     else:
         est, truth = point, gt[:, 0]
+    if method == "point":  # the estimators side by side
+        opt_err = optimal - truth
+        extra = {
+            "x_optimal": optimal[:, 0],
+            "y_optimal": optimal[:, 1],
+            "z_optimal": optimal[:, 2],
+            "err_optimal": np.linalg.norm(opt_err, axis=1),
+        }
     err = est - truth
     table = pd.DataFrame(
         {
@@ -323,7 +373,7 @@ def _trial_table(
             "units": [units] * T,
             "status": status,
             "reason": reason,
-            "n_views": np.where(status == "incomplete", 0, 2),
+            "n_views": n_views,
             "conditioning": conditioning,
             "x": est[:, 0],
             "y": est[:, 1],
@@ -338,7 +388,10 @@ def _trial_table(
             **extra,
         }
     )
-    return table[TRIAL_COLUMNS + (LINE_COLUMNS if method == "line" else [])]
+    extra_columns = (
+        LINE_COLUMNS if method == "line" else OPTIMAL_COLUMNS if method == "point" else []
+    )
+    return table[TRIAL_COLUMNS + extra_columns]
 
 
 def _averaging(
@@ -370,7 +423,8 @@ def _averaging(
                 keys.append((i, record.trial, n))
     if not keys:
         return pd.DataFrame(columns=AVERAGING_COLUMNS)
-    p, d, _, _, _ = _solve(method, rows_m, rows_v, ground, options)
+    solved = _solve(method, rows_m, rows_v, ground, options)
+    p, d = solved.point, solved.direction
     idx = np.array([k[0] for k in keys])
     if d is not None:
         with np.errstate(invalid="ignore"):
@@ -590,7 +644,7 @@ def run(
         ],
         columns=["session", "error"],
     )
-    trials = _concat([r.trials for r in results], TRIAL_COLUMNS + LINE_COLUMNS)
+    trials = _concat([r.trials for r in results], TRIAL_COLUMNS + LINE_COLUMNS + OPTIMAL_COLUMNS)
     result = RunResult(
         trials=trials,
         summary=summarize(trials),

@@ -1,7 +1,8 @@
 """Solvers: the thesis' three reconstructions, vectorized over trials, no I/O.
 
-Inputs are batched over T trials and N = 2 views (documented shapes below); results are
-frozen dataclasses of arrays with a conditioning measure and a status per trial:
+Inputs are batched over T trials and N >= 2 views, each view a projection matrix
+``P = K [R^T | -R^T c]`` in the grid frame (:func:`projection_matrices`); results are frozen
+dataclasses of arrays with a conditioning measure and a status per trial:
 
 * ``ok``
 * ``degenerate`` with the reason (point on the baseline, line coplanar with the baseline,
@@ -11,10 +12,10 @@ frozen dataclasses of arrays with a conditioning measure and a status per trial:
 The pipeline adds ``incomplete`` for trials missing a pose. Degenerate rows are NaN by
 design and say so; nothing raises for geometry, nothing is a silent inf/NaN.
 
-Everything is expressed in the grid frame (``p_grid = R_cam_to_grid p_cam + t_grid``). The
-two-view systems are the thesis' equations (7), (14)-(15) and (19) written there: a rigid
-change of frame does not change their solutions, and the tests check them against a
-literal transcription of the camera-frame forms.
+Everything is expressed in the grid frame (``p_grid = R_cam_to_grid p_cam + t_grid``). With
+two views the solvers give the thesis' equations (7)-(8), (14)-(15) and (19) exactly: a rigid
+change of frame does not change their solutions, and the tests check them against a literal
+transcription of the camera-frame forms.
 """
 
 from __future__ import annotations
@@ -28,13 +29,15 @@ from recorder.errors import InputValueError
 
 __all__ = [
     "DEFAULT_MIN_CONDITIONING",
-    "LineSolution",
-    "PointSolution",
-    "line_planes",
-    "pixel_rays",
-    "solve_ground",
-    "solve_line",
-    "solve_point",
+    "NViewLines",
+    "NViewPoints",
+    "camera_centres",
+    "image_lines",
+    "projection_matrices",
+    "segment_lines",
+    "triangulate_ground",
+    "triangulate_lines",
+    "triangulate_points",
 ]
 
 F64 = NDArray[np.float64]
@@ -42,108 +45,6 @@ Status = NDArray[np.str_]
 
 #: Below this conditioning (a sine: ray parallax, plane angle) a trial is degenerate.
 DEFAULT_MIN_CONDITIONING = 1e-6
-
-
-@dataclass(frozen=True)
-class PointSolution:
-    """Batched point estimates.
-
-    Attributes
-    ----------
-    point_grid : (T, 3)
-        The estimate (method 1: midpoint of the two closest ray points; method 2: where
-        the two planes meet the ground).
-    conditioning : (T,)
-        Method 1: sine of the angle between the rays (parallax). Method 2: ``|det|`` of
-        the unit-row system, ``sin(plane angle) * |n3 . u|``.
-    status, reason : (T,) str
-    ray_points_grid : (T, 2, 3)
-        Method 1 only: the closest points on ray 1 and ray 2 (NaN for method 2).
-    """
-
-    point_grid: F64
-    conditioning: F64
-    status: Status
-    reason: Status
-    ray_points_grid: F64
-
-
-@dataclass(frozen=True)
-class LineSolution:
-    """Batched line estimates: a point (closest to the last camera centre) and a unit direction.
-
-    ``conditioning`` is the sine of the angle between the two back-projected planes.
-    """
-
-    point_grid: F64
-    direction_grid: F64
-    conditioning: F64
-    status: Status
-    reason: Status
-
-
-def _views(
-    px: ArrayLike, intrinsics: ArrayLike, R_cam_to_grid: ArrayLike, t_grid: ArrayLike
-) -> tuple[F64, F64, F64, F64]:
-    p = np.asarray(px, dtype=np.float64)
-    k = np.asarray(intrinsics, dtype=np.float64)
-    R = np.asarray(R_cam_to_grid, dtype=np.float64)
-    t = np.asarray(t_grid, dtype=np.float64)
-    if p.ndim != 3 or p.shape[2] != 2:
-        raise InputValueError(f"pixels must have shape (T, N, 2), got {p.shape}")
-    T, N = p.shape[:2]
-    if N != 2:
-        raise InputValueError(f"these solvers take exactly 2 views per trial, got {N}")
-    if k.shape != (T, N, 4) or R.shape != (T, N, 3, 3) or t.shape != (T, N, 3):
-        raise InputValueError(
-            f"shapes do not match: pixels {p.shape}, intrinsics {k.shape} (want (T, N, 4)), "
-            f"rotations {R.shape} (want (T, N, 3, 3)), centres {t.shape} (want (T, N, 3))"
-        )
-    return p, k, R, t
-
-
-def pixel_rays(px: ArrayLike, intrinsics: ArrayLike) -> F64:
-    """Camera-frame ray directions ``((col - cx) / fx, (row - cy) / fy, 1)``.
-
-    The thesis' image vector ``(u, v, f)`` (eq. 5) scaled by 1/f, which also covers fx != fy.
-
-    Parameters
-    ----------
-    px : (..., 2) array_like
-        (col, row).
-    intrinsics : (..., 4) array_like
-        (fx, fy, cx, cy).
-    """
-    p = np.asarray(px, dtype=np.float64)
-    k = np.asarray(intrinsics, dtype=np.float64)
-    x = (p[..., 0] - k[..., 2]) / k[..., 0]
-    y = (p[..., 1] - k[..., 3]) / k[..., 1]
-    return np.stack([x, y, np.ones_like(x)], axis=-1)
-
-
-def line_planes(px: ArrayLike, theta_deg: ArrayLike, intrinsics: ArrayLike) -> F64:
-    """Camera-frame normals of the planes back-projected from image lines.
-
-    A line through pixel offset (u0, v0) from the principal point with direction
-    (cos t, sin t) has normal m = (-sin t, cos t) and offset c = m . (u0, v0); its plane
-    through the camera centre is ``n = (fx m_u, fy m_v, -c)``, ``n . p = 0`` (thesis eq.
-    9-11, DESIGN.md's signs).
-
-    Parameters
-    ----------
-    px : (..., 2) array_like
-        A point on the line, (col, row).
-    theta_deg : (...,) array_like
-        Line direction from +col toward +row, degrees.
-    intrinsics : (..., 4) array_like
-        (fx, fy, cx, cy).
-    """
-    p = np.asarray(px, dtype=np.float64)
-    k = np.asarray(intrinsics, dtype=np.float64)
-    t = np.deg2rad(np.asarray(theta_deg, dtype=np.float64))
-    mu, mv = -np.sin(t), np.cos(t)
-    c = mu * (p[..., 0] - k[..., 2]) + mv * (p[..., 1] - k[..., 3])
-    return np.stack([k[..., 0] * mu, k[..., 1] * mv, -c], axis=-1)
 
 
 def _unit(v: F64) -> tuple[F64, F64]:
@@ -172,187 +73,9 @@ def _safe_solve(A: F64, b: F64, usable: NDArray[np.bool_]) -> F64:
     return out
 
 
-def solve_point(
-    px: ArrayLike,
-    intrinsics: ArrayLike,
-    R_cam_to_grid: ArrayLike,
-    t_grid: ArrayLike,
-    *,
-    min_conditioning: float = DEFAULT_MIN_CONDITIONING,
-) -> PointSolution:
-    """Method 1: a fixed point from two rays, thesis eq. (7)-(8).
-
-    ``[pb1, -R pb2] (a1, a2)^T = d`` by least squares, with ``R = R1^T R2`` and
-    ``d = R1^T (c2 - c1)``; ``p1 = a1 pb1``, ``p2 = a2 R pb2 + d`` (camera 1), and the
-    estimate is their midpoint (DESIGN.md).
-
-    Parameters
-    ----------
-    px : (T, 2, 2) array_like
-        Dot centroid (col, row) in view 1 and view 2.
-    intrinsics : (T, 2, 4) array_like
-        (fx, fy, cx, cy) per view.
-    R_cam_to_grid : (T, 2, 3, 3) array_like
-    t_grid : (T, 2, 3) array_like
-        Camera centres in the grid frame.
-    """
-    p, k, R, t = _views(px, intrinsics, R_cam_to_grid, t_grid)
-    T = p.shape[0]
-    b = pixel_rays(p, k)  # (T, 2, 3)
-    R1, R2 = R[:, 0], R[:, 1]
-    Rrel = np.einsum("tji,tjk->tik", R1, R2)  # R1^T R2
-    d = np.einsum("tji,tj->ti", R1, t[:, 1] - t[:, 0])  # R1^T (c2 - c1)
-    b1 = b[:, 0]
-    b2_in_1 = np.einsum("tij,tj->ti", Rrel, b[:, 1])
-    A = np.stack([b1, -b2_in_1], axis=2)  # (T, 3, 2): eq. (7)'s A_p
-    finite = np.asarray(np.isfinite(p).all(axis=(1, 2)) & np.isfinite(k).all(axis=(1, 2)))
-    u1, _ = _unit(b1)
-    u2, _ = _unit(b2_in_1)
-    parallax = np.linalg.norm(np.cross(u1, u2), axis=-1)
-    baseline = np.linalg.norm(d, axis=-1)
-    # Conditioning: the ray parallax; with no baseline the depth is unobservable anyway.
-    conditioning = np.where(baseline > 0, parallax, 0.0)
-    conditioning = np.where(finite, conditioning, np.nan)
-    status, reason = _status(
-        conditioning, finite, min_conditioning, "point on the baseline (rays parallel)"
-    )
-    no_baseline = finite & (baseline == 0)
-    reason[no_baseline] = "no baseline: the two poses share a camera centre"
-    usable = status == "ok"
-    AtA = np.einsum("tki,tkj->tij", A, A)
-    Atd = np.einsum("tki,tk->ti", A, d)
-    alpha = _safe_solve(np.where(usable[:, None, None], AtA, np.eye(2)), Atd, usable)  # eq. (8)
-    p1 = alpha[:, 0, None] * b1
-    p2 = alpha[:, 1, None] * b2_in_1 + d
-    behind = usable & ((alpha[:, 0] <= 0) | (alpha[:, 1] <= 0))
-    status[behind], reason[behind] = "degenerate", "point behind a camera"
-    mid = 0.5 * (p1 + p2)
-    to_grid = np.einsum("tij,tnj->tni", R1, np.stack([p1, p2, mid], axis=1)) + t[:, 0, None, :]
-    ok = (status == "ok")[:, None]
-    point = np.where(ok, to_grid[:, 2], np.nan)
-    rays = np.where(ok[:, :, None], to_grid[:, :2], np.nan)
-    assert point.shape == (T, 3)
-    return PointSolution(point, conditioning, status, reason, rays)
-
-
-def _grid_planes(
-    px: F64, theta_deg: ArrayLike, k: F64, R: F64, t: F64
-) -> tuple[F64, F64, NDArray[np.bool_]]:
-    """Unit plane normals in the grid frame (T, 2, 3) and offsets n . c (T, 2)."""
-    th = np.asarray(theta_deg, dtype=np.float64)
-    if th.shape != px.shape[:2]:
-        raise InputValueError(f"angles must have shape {px.shape[:2]}, got {th.shape}")
-    n_cam = line_planes(px, th, k)
-    n_grid, _ = _unit(np.einsum("tvij,tvj->tvi", R, n_cam))
-    offset = np.einsum("tvi,tvi->tv", n_grid, t)
-    finite = np.asarray(
-        np.isfinite(px).all(axis=(1, 2))
-        & np.isfinite(th).all(axis=1)
-        & np.isfinite(n_grid).all(axis=(1, 2))
-    )
-    return n_grid, offset, finite
-
-
-def solve_line(
-    px: ArrayLike,
-    theta_deg: ArrayLike,
-    intrinsics: ArrayLike,
-    R_cam_to_grid: ArrayLike,
-    t_grid: ArrayLike,
-    *,
-    min_conditioning: float = DEFAULT_MIN_CONDITIONING,
-) -> LineSolution:
-    """The fixed line from two back-projected planes, thesis eq. (13)-(15).
-
-    Direction ``u = n1 x n2 / |.|`` (eq. 14); the point is the one closest to camera 2's
-    centre, solving ``[n1; n2; u] p = (n1 . c1, n2 . c2, u . c2)`` (eq. 15 in the grid frame).
-    Singular iff ``n1 . d = 0``: the line and the baseline are coplanar.
-
-    Parameters
-    ----------
-    px : (T, 2, 2) array_like
-        A point on the image line (col, row) per view.
-    theta_deg : (T, 2) array_like
-        Image line direction per view (degrees, +col toward +row).
-    intrinsics, R_cam_to_grid, t_grid
-        As :func:`solve_point`.
-    """
-    p, k, R, t = _views(px, intrinsics, R_cam_to_grid, t_grid)
-    n, off, finite = _grid_planes(p, theta_deg, k, R, t)
-    u_raw = np.cross(n[:, 0], n[:, 1])
-    u, sine = _unit(u_raw)
-    conditioning = np.where(finite, sine, np.nan)
-    status, reason = _status(
-        conditioning, finite, min_conditioning, "line coplanar with the baseline"
-    )
-    usable = status == "ok"
-    A = np.stack([n[:, 0], n[:, 1], u], axis=1)
-    rhs = np.stack([off[:, 0], off[:, 1], np.einsum("ti,ti->t", u, t[:, 1])], axis=1)
-    A = np.where(usable[:, None, None], A, np.eye(3))
-    point = _safe_solve(A, rhs, usable)
-    direction = np.where(usable[:, None], u, np.nan)
-    # A canonical sign for the direction: a line has no arrow; make the largest |component| > 0.
-    flip = (
-        np.take_along_axis(
-            direction, np.nanargmax(np.abs(np.nan_to_num(direction)), axis=1)[:, None], 1
-        )
-        < 0
-    )
-    direction = np.where(flip, -direction, direction)
-    return LineSolution(point, direction, conditioning, status, reason)
-
-
-def solve_ground(
-    px: ArrayLike,
-    theta_deg: ArrayLike,
-    intrinsics: ArrayLike,
-    R_cam_to_grid: ArrayLike,
-    t_grid: ArrayLike,
-    ground_normal_grid: ArrayLike,
-    ground_offset: ArrayLike,
-    *,
-    min_conditioning: float = DEFAULT_MIN_CONDITIONING,
-) -> PointSolution:
-    """Method 2: where the pointed-along line meets the ground, thesis eq. (19).
-
-    ``[n1; n2; n3] p = (n1 . c1, n2 . c2, h)`` with the ground ``n3 . p = h``. Singular iff
-    the line and the baseline are coplanar, or the line is parallel to the ground.
-
-    Parameters
-    ----------
-    px, theta_deg, intrinsics, R_cam_to_grid, t_grid
-        As :func:`solve_line`.
-    ground_normal_grid : (3,) or (T, 3) array_like
-    ground_offset : () or (T,) array_like
-    """
-    p, k, R, t = _views(px, intrinsics, R_cam_to_grid, t_grid)
-    T = p.shape[0]
-    n, off, finite = _grid_planes(p, theta_deg, k, R, t)
-    n3, n3_norm = _unit(np.broadcast_to(np.asarray(ground_normal_grid, dtype=np.float64), (T, 3)))
-    h = np.broadcast_to(np.asarray(ground_offset, dtype=np.float64), (T,)) / n3_norm
-    u, plane_sine = _unit(np.cross(n[:, 0], n[:, 1]))
-    along = np.abs(np.einsum("ti,ti->t", u, n3))
-    conditioning = np.where(finite, plane_sine * along, np.nan)  # |det| of the unit-row system
-    status, reason = _status(
-        conditioning, finite, min_conditioning, "line coplanar with the baseline"
-    )
-    parallel = (status == "degenerate") & (plane_sine >= min_conditioning)
-    reason[parallel] = "line parallel to the ground"
-    usable = status == "ok"
-    A = np.where(usable[:, None, None], np.stack([n[:, 0], n[:, 1], n3], axis=1), np.eye(3))
-    rhs = np.stack([off[:, 0], off[:, 1], h], axis=1)
-    point = _safe_solve(A, rhs, usable)
-    rays = np.full((T, 2, 3), np.nan)
-    return PointSolution(point, conditioning, status, reason, rays)
-
-
-# --------------------------------------------------------------------------- N views
-#
-# The N-view solvers work on projection matrices P = K [R^T | -R^T c] (grid -> pixels), so
-# views given as (K, pose) and views given as P (real calibrated data) are one case. With
-# N = 2 they reproduce the two-view formulas above: the least-squares point of two rays is
-# their midpoint (eq. 7-8), two planes meet in one line (eq. 14-15), and two planes and the
-# ground meet in one point (eq. 19).
+# Views given as (K, pose) and views given as P (real calibrated data) are one case. With
+# N = 2: the least-squares point of two rays is their midpoint (eq. 7-8), two planes meet in
+# one line (eq. 14-15), and two planes and the ground meet in one point (eq. 19).
 
 
 @dataclass(frozen=True)
@@ -479,6 +202,10 @@ def triangulate_points(
         "point on the baseline (rays parallel)",
     )
     status[~enough], reason[~enough] = "no_detection", "fewer than two views"
+    spread = np.where(ok[..., None], c - c[:, :1], 0.0)
+    no_baseline = enough & (np.abs(spread).max(axis=(1, 2)) == 0)
+    status[no_baseline] = "degenerate"
+    reason[no_baseline] = "no baseline: the poses share a camera centre"
     usable = status == "ok"
     point = _safe_solve(np.where(usable[:, None, None], A, np.eye(3)), b, usable)
     if estimator == "optimal" and usable.any():
@@ -487,10 +214,12 @@ def triangulate_points(
     behind = usable & ((depth <= 0) & ok).any(axis=1)
     status[behind], reason[behind] = "degenerate", "point behind a camera"
     point[status != "ok"] = np.nan
-    res = np.where(
-        ok[..., None], _reprojection(np.nan_to_num(point), p, np.where(ok[..., None], x, 0.0)), 0.0
-    )
-    with np.errstate(invalid="ignore"):
+    with np.errstate(all="ignore"):  # rows that failed are NaN'd below
+        res = np.where(
+            ok[..., None],
+            _reprojection(np.nan_to_num(point), p, np.where(ok[..., None], x, 0.0)),
+            0.0,
+        )
         rms = np.sqrt((res**2).sum(axis=(1, 2)) / np.maximum(ok.sum(axis=1), 1) / 2)
     rms[status != "ok"] = np.nan
     assert point.shape == (T, 3)
@@ -625,10 +354,11 @@ def triangulate_ground(
             best = np.where(ok[:, i] & ok[:, j], np.maximum(best, det), best)
     enough = ok.sum(axis=1) >= 2
     status, reason = _status(
-        np.where(enough, best, np.nan),
-        enough,
-        min_conditioning,
-        "line coplanar with the baseline, or parallel to the ground",
+        np.where(enough, best, np.nan), enough, min_conditioning, "line parallel to the ground"
+    )
+    plane_sine = _pairwise_max_sine(planes[..., :3], ok)
+    reason[(status == "degenerate") & (plane_sine < min_conditioning)] = (
+        "line coplanar with the baseline"
     )
     status[~enough], reason[~enough] = "no_detection", "fewer than two views"
     usable = status == "ok"

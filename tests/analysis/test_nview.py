@@ -15,12 +15,7 @@ from typer.testing import CliRunner
 
 from analysis.cli import app
 from analysis.solve import (
-    image_lines,
     projection_matrices,
-    solve_ground,
-    solve_line,
-    solve_point,
-    triangulate_ground,
     triangulate_lines,
     triangulate_points,
 )
@@ -42,31 +37,6 @@ def _project(points: np.ndarray, R: np.ndarray, t: np.ndarray) -> np.ndarray:
     return np.array(
         [[project_points(points[i], INTR, R[i, j], t[i, j])[0] for j in range(N)] for i in range(T)]
     )
-
-
-def test_two_views_reproduce_the_two_view_solvers() -> None:
-    rng = np.random.default_rng(1)
-    T = 40
-    k, R, t = _views(rng, T, 2)
-    a = rng.uniform([-2, -1, 8], [2, 3, 14], (T, 3))
-    b = a + rng.normal(size=(T, 3))
-    px = _project(a, R, t) + rng.normal(0, 0.5, (T, 2, 2))  # noisy: the rays miss each other
-    P = projection_matrices(k, R, t)
-    two = solve_point(px, k, R, t)
-    many = triangulate_points(px, P)
-    ok = two.status == "ok"
-    np.testing.assert_allclose(many.point_grid[ok], two.point_grid[ok], atol=1e-9)
-    np.testing.assert_allclose(many.conditioning, two.conditioning, atol=1e-12)
-    pa, pb = _project(a, R, t), _project(b, R, t)
-    theta = np.degrees(np.arctan2(*(pb - pa).transpose(2, 0, 1)[::-1])) + rng.normal(0, 0.3, (T, 2))
-    lines2 = solve_line(pa, theta, k, R, t)
-    linesn = triangulate_lines(image_lines(pa, theta), P)
-    np.testing.assert_allclose(linesn.point_grid, lines2.point_grid, atol=1e-8)
-    np.testing.assert_allclose(linesn.direction_grid, lines2.direction_grid, atol=1e-10)
-    ground2 = solve_ground(pa, theta, k, R, t, [0, 1, 0], 9.625)
-    groundn = triangulate_ground(image_lines(pa, theta), P, [0, 1, 0], 9.625)
-    good = ground2.status == "ok"
-    np.testing.assert_allclose(groundn.point_grid[good], ground2.point_grid[good], atol=1e-8)
 
 
 @pytest.mark.parametrize("n_views", [3, 4, 6])

@@ -194,3 +194,23 @@ def test_the_package_is_the_api(ground_session: Path) -> None:
     result = analysis.run([ground_session])
     assert list(result.trials["trial"]) == [1, 2]
     assert set(result.figures) == {"scatter_00_ground", "averaging_00_ground", "error_histogram"}
+
+
+@pytest.mark.parametrize("method", ["point", "line", "ground"])
+def test_trials_with_more_than_two_poses_use_every_view(tmp_path: Path, method: str) -> None:
+    from recorder.simulate import simulate_session
+
+    out = tmp_path / f"{method}.mcap"
+    simulate_session(out, method=method, trials=3, frames=2, seed=31, pose_noise=0.0, poses=4)
+    t = analyse_session(out).trials
+    assert list(t["n_views"]) == [4, 4, 4]
+    assert (t["status"] == "ok").all()
+    if method == "point":
+        assert t["err"].max() < 0.05
+        assert t["err_optimal"].max() < 0.05
+        assert {"x_optimal", "y_optimal", "z_optimal"} <= set(t.columns)
+    elif method == "line":
+        assert t["dist_err"].max() < 0.05
+        assert t["angle_err_deg"].max() < 2.0
+    else:
+        assert t["err"].max() < 0.5

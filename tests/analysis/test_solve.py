@@ -7,13 +7,38 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from analysis.solve import line_planes, pixel_rays, solve_ground, solve_line, solve_point
+from analysis.solve import (
+    NViewLines,
+    NViewPoints,
+    image_lines,
+    projection_matrices,
+    triangulate_ground,
+    triangulate_lines,
+    triangulate_points,
+)
 from recorder.camera import Intrinsics, project_points, rotation_from_angles_deg
 from recorder.errors import InputValueError
 
 F = 525.0
 INTR = Intrinsics(640, 480, F, F, 320.0, 240.0)
 K4 = np.array([F, F, 320.0, 240.0])
+
+
+# The thesis' two-view forms, through the N-view solvers (two views: eq. 7-8, 14-15, 19).
+def solve_point(px: np.ndarray, k: np.ndarray, R: np.ndarray, t: np.ndarray) -> NViewPoints:
+    return triangulate_points(px, projection_matrices(k, R, t))
+
+
+def solve_line(
+    px: np.ndarray, th: np.ndarray, k: np.ndarray, R: np.ndarray, t: np.ndarray
+) -> NViewLines:
+    return triangulate_lines(image_lines(px, th), projection_matrices(k, R, t))
+
+
+def solve_ground(
+    px: np.ndarray, th: np.ndarray, k: np.ndarray, R: np.ndarray, t: np.ndarray, n: object, h: float
+) -> NViewPoints:
+    return triangulate_ground(image_lines(px, th), projection_matrices(k, R, t), n, h)  # type: ignore[arg-type]
 
 
 def _batch(*views: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -107,19 +132,24 @@ def test_line_and_ground_match_thesis_eq15_and_eq19_with_rotation() -> None:
     np.testing.assert_allclose(ground.point_grid[0], R2 @ p_cam2 + c2, atol=1e-9)
 
 
-def test_line_plane_convention_contains_the_projected_points() -> None:
+def test_back_projected_plane_contains_the_line() -> None:
     a, b = np.array([1.0, 2.0, 10.0]), np.array([-1.0, 3.0, 14.0])
     pa, theta = _line_obs(a, b, np.eye(3), np.zeros(3))
-    n = line_planes(pa, theta, K4)
-    assert abs(n @ a) < 1e-9 * np.linalg.norm(n) * 10
-    assert abs(n @ b) < 1e-9 * np.linalg.norm(n) * 14
-    # theta and theta + 180 are the same line: the same plane up to sign.
-    n2 = line_planes(pa, theta + 180.0, K4)
-    np.testing.assert_allclose(n2, -n, atol=1e-9)
+    P = projection_matrices(K4, np.eye(3), np.zeros(3))
+    plane = P.T @ image_lines(pa, theta)
+    assert abs(plane @ [*a, 1.0]) < 1e-9 * np.linalg.norm(plane) * 10
+    assert abs(plane @ [*b, 1.0]) < 1e-9 * np.linalg.norm(plane) * 14
+    # theta and theta + 180 are the same line: the same plane up to scale.
+    other = P.T @ image_lines(pa, theta + 180.0)
+    assert np.linalg.norm(np.cross(other[:3], plane[:3])) < 1e-9 * np.linalg.norm(plane[:3]) ** 2
 
 
-def test_pixel_rays_are_the_normalised_image_vectors() -> None:
-    np.testing.assert_allclose(pixel_rays([425.0, 135.0], K4), [0.2, -0.2, 1.0])
+def test_projection_matrix_projects_like_the_camera_model() -> None:
+    R = rotation_from_angles_deg([5.0, -3.0, 2.0])
+    t = np.array([1.0, -0.5, 2.0])
+    x = np.array([0.3, 1.2, 11.0])
+    y = projection_matrices(K4, R, t) @ [*x, 1.0]
+    np.testing.assert_allclose(y[:2] / y[2], project_points(x, INTR, R, t)[0], atol=1e-10)
 
 
 # ----------------------------------------------------------------- exact recovery
@@ -152,7 +182,7 @@ def test_point_recovered_exactly(p1, p2, target) -> None:
     assume(sol.conditioning[0] > 1e-3)
     assert sol.status[0] == "ok"
     np.testing.assert_allclose(sol.point_grid[0], x, atol=1e-9 * np.linalg.norm(x))
-    np.testing.assert_allclose(sol.ray_points_grid[0], [x, x], atol=1e-9 * np.linalg.norm(x))
+    assert sol.rms_px[0] < 1e-6
 
 
 @settings(max_examples=150, deadline=None)
@@ -283,12 +313,8 @@ def test_line_parallel_to_the_ground_is_degenerate_for_method_2() -> None:
     assert np.isnan(ground.point_grid[0]).all()
 
 
-def test_wrong_shapes_are_input_errors() -> None:
-    with pytest.raises(InputValueError, match="exactly 2 views"):
-        solve_point(
-            np.zeros((1, 3, 2)), np.zeros((1, 3, 4)), np.zeros((1, 3, 3, 3)), np.zeros((1, 3, 3))
-        )
-    with pytest.raises(InputValueError, match="shapes do not match"):
-        solve_point(
-            np.zeros((1, 2, 2)), np.zeros((1, 2, 3)), np.zeros((1, 2, 3, 3)), np.zeros((1, 2, 3))
-        )
+def test_wrong_shapes_and_estimators_are_input_errors() -> None:
+    with pytest.raises(InputValueError, match="P"):
+        triangulate_points(np.zeros((1, 3, 2)), np.zeros((1, 2, 3, 4)))
+    with pytest.raises(InputValueError, match="estimator"):
+        triangulate_points(np.zeros((1, 2, 2)), np.zeros((1, 2, 3, 4)), estimator="magic")
