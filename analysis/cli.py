@@ -112,6 +112,15 @@ def run_command(
     combine: Annotated[
         CombineChoice, typer.Option(help="How a pose's frames are combined (thesis: mean).")
     ] = CombineChoice.mean,
+    min_parallax: Annotated[
+        float, typer.Option(help="Warn when a point's ray parallax is below this (deg).")
+    ] = 1.0,
+    min_plane_angle: Annotated[
+        float, typer.Option(help="Warn when back-projected planes meet below this (deg).")
+    ] = 5.0,
+    min_ground_angle: Annotated[
+        float, typer.Option(help="Warn when the line meets the ground below this (deg).")
+    ] = 10.0,
 ) -> None:
     """Replay sessions through detection and solvers into error tables, figures and a report."""
     from analysis.pipeline import AnalysisOptions, run
@@ -127,7 +136,12 @@ def run_command(
                 out,
                 jobs=jobs,
                 dask_address=dask,
-                options=AnalysisOptions(combine=combine.value),
+                options=AnalysisOptions(
+                    combine=combine.value,
+                    min_parallax_deg=min_parallax,
+                    min_plane_angle_deg=min_plane_angle,
+                    min_ground_angle_deg=min_ground_angle,
+                ),
                 on_session_done=lambda _path, _ok: progress.advance(task),
             )
     table = Table(title=f"twopose: {len(result.sessions)} session(s), results in {out}")

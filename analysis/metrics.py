@@ -34,6 +34,8 @@ TRIAL_COLUMNS = [
     "err",
 ]
 LINE_COLUMNS = ["dir_x", "dir_y", "dir_z", "angle_err_deg", "dist_err"]
+#: Degeneracy margins (degrees) per method, and the warning when one is under its threshold.
+MARGIN_COLUMNS = ["parallax_deg", "plane_angle_deg", "line_ground_angle_deg", "warning"]
 #: Point trials: the reprojection-optimal estimate beside the thesis' (x, y, z).
 OPTIMAL_COLUMNS = ["x_optimal", "y_optimal", "z_optimal", "err_optimal"]
 SUMMARY_COLUMNS = [

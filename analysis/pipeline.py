@@ -32,6 +32,7 @@ from analysis.detect import (
 )
 from analysis.metrics import (
     LINE_COLUMNS,
+    MARGIN_COLUMNS,
     OPTIMAL_COLUMNS,
     TRIAL_COLUMNS,
     line_errors,
@@ -82,6 +83,10 @@ class AnalysisOptions:
     glove: GloveParams = field(default_factory=GloveParams)
     dot: DotParams = field(default_factory=DotParams)
     min_conditioning: float = DEFAULT_MIN_CONDITIONING
+    # Degeneracy margins: an ok trial under one of these gets a warning (degrees).
+    min_parallax_deg: float = 1.0  # ray parallax, points
+    min_plane_angle_deg: float = 5.0  # between back-projected planes, lines and method 2
+    min_ground_angle_deg: float = 10.0  # between the line and the ground, method 2
 
 
 @dataclass(frozen=True)
@@ -175,6 +180,7 @@ class _Solved:
     conditioning: F64
     status: NDArray[np.str_]
     reason: NDArray[np.str_]
+    margins: dict[str, F64] = field(default_factory=dict)  # degrees, by column name
 
 
 def _solve(
@@ -199,16 +205,48 @@ def _solve(
     if method == "point":
         s = triangulate_points(px, P, valid=valid, min_conditioning=mc)
         o = triangulate_points(px, P, valid=valid, estimator="optimal", min_conditioning=mc)
-        return _Solved(s.point_grid, None, o.point_grid, s.conditioning, s.status, s.reason)
-    lines = image_lines(px, th)
-    if method == "line":
-        ls = triangulate_lines(lines, P, valid=valid, min_conditioning=mc)
+        margins = {"parallax_deg": _degrees(s.conditioning)}
         return _Solved(
-            ls.point_grid, ls.direction_grid, None, ls.conditioning, ls.status, ls.reason
+            s.point_grid, None, o.point_grid, s.conditioning, s.status, s.reason, margins
+        )
+    lines = image_lines(px, th)
+    ls = triangulate_lines(lines, P, valid=valid, min_conditioning=mc)
+    margins = {"plane_angle_deg": _degrees(ls.conditioning)}
+    if method == "line":
+        return _Solved(
+            ls.point_grid, ls.direction_grid, None, ls.conditioning, ls.status, ls.reason, margins
         )
     assert ground is not None
     g = triangulate_ground(lines, P, ground[0], ground[1], valid=valid, min_conditioning=mc)
-    return _Solved(g.point_grid, None, None, g.conditioning, g.status, g.reason)
+    n3 = ground[0] / np.linalg.norm(ground[0])
+    margins["line_ground_angle_deg"] = _degrees(np.abs(ls.direction_grid @ n3))
+    return _Solved(g.point_grid, None, None, g.conditioning, g.status, g.reason, margins)
+
+
+def _degrees(sine: F64) -> F64:
+    """An angle in degrees from its sine (NaN stays NaN)."""
+    with np.errstate(invalid="ignore"):
+        return np.asarray(np.degrees(np.arcsin(np.clip(sine, 0.0, 1.0))))
+
+
+def _warnings(
+    status: NDArray[np.str_], margins: dict[str, F64], options: AnalysisOptions
+) -> list[str]:
+    """Per trial, the margins under their thresholds (empty when none, or not ok)."""
+    limits = {
+        "parallax_deg": ("ray parallax", options.min_parallax_deg),
+        "plane_angle_deg": ("plane angle", options.min_plane_angle_deg),
+        "line_ground_angle_deg": ("line-ground angle", options.min_ground_angle_deg),
+    }
+    out = []
+    for i in range(len(status)):
+        notes = [
+            f"{label} {margins[key][i]:.2f} deg < {limit:g}"
+            for key, (label, limit) in limits.items()
+            if key in margins and status[i] == "ok" and margins[key][i] < limit
+        ]
+        out.append("; ".join(notes))
+    return out
 
 
 def analyse_session(
@@ -278,6 +316,12 @@ def analyse_session(
     direction = np.full((T, 3), np.nan)
     optimal = np.full((T, 3), np.nan)
     conditioning = np.full(T, np.nan)
+    margin_names = {
+        "point": ["parallax_deg"],
+        "line": ["plane_angle_deg"],
+        "ground": ["plane_angle_deg", "line_ground_angle_deg"],
+    }[method]
+    margins = {name: np.full(T, np.nan) for name in margin_names}
     status = np.where(complete, "no_detection", "incomplete").astype("<U12")
     reason = np.where(
         complete, "no frame of a pose was detected", "fewer than two complete captures"
@@ -296,6 +340,8 @@ def analyse_session(
             direction[solvable] = solved.direction
         if solved.optimal is not None:
             optimal[solvable] = solved.optimal
+        for name, values in solved.margins.items():
+            margins[name][solvable] = values
     n_views = np.array([len(v) if ok else 0 for v, ok in zip(used, complete, strict=True)])
 
     gt = _ground_truth(records, method)
@@ -313,6 +359,9 @@ def analyse_session(
         n_views,
         optimal,
     )
+    for name, values in margins.items():
+        trials[name] = values
+    trials["warning"] = _warnings(status, margins, options)
     averaging = _averaging(session, method, records, used, detected, ground, gt, options)
     frames = pd.DataFrame(frame_rows, columns=FRAME_COLUMNS)
     images: dict[str, bytes] = {}
@@ -644,7 +693,9 @@ def run(
         ],
         columns=["session", "error"],
     )
-    trials = _concat([r.trials for r in results], TRIAL_COLUMNS + LINE_COLUMNS + OPTIMAL_COLUMNS)
+    trials = _concat(
+        [r.trials for r in results], TRIAL_COLUMNS + LINE_COLUMNS + OPTIMAL_COLUMNS + MARGIN_COLUMNS
+    )
     result = RunResult(
         trials=trials,
         summary=summarize(trials),

@@ -214,3 +214,22 @@ def test_trials_with_more_than_two_poses_use_every_view(tmp_path: Path, method: 
         assert t["angle_err_deg"].max() < 2.0
     else:
         assert t["err"].max() < 0.5
+
+
+def test_degeneracy_margins_and_configurable_warnings(
+    ground_session: Path, point_session: Path
+) -> None:
+    strict = AnalysisOptions(
+        min_plane_angle_deg=90.0, min_ground_angle_deg=90.0, min_parallax_deg=90.0
+    )
+    g = analyse_session(ground_session, strict).trials
+    assert (g["plane_angle_deg"] > 0).all()
+    assert (g["line_ground_angle_deg"] > 0).all()
+    assert g["warning"].str.contains("plane angle").all()
+    assert g["warning"].str.contains("line-ground angle").all()
+    lax = AnalysisOptions(min_plane_angle_deg=0.0, min_ground_angle_deg=0.0, min_parallax_deg=0.0)
+    assert (analyse_session(ground_session, lax).trials["warning"] == "").all()
+    p = analyse_session(point_session, strict).trials
+    np.testing.assert_allclose(np.sin(np.radians(p["parallax_deg"])), p["conditioning"], atol=1e-12)
+    assert p["warning"].str.contains("ray parallax").all()
+    assert (g["status"] == "ok").all()  # a warning is not a failure
