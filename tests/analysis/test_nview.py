@@ -126,3 +126,55 @@ def test_merton_through_the_solve_command() -> None:
     ref = data.l3d[0, 3:] - data.l3d[0, :3]
     cosine = abs(direction @ ref) / np.linalg.norm(ref)
     assert np.degrees(np.arccos(min(cosine, 1.0))) < 10.0
+
+
+@pytest.mark.parametrize("estimator", ["thesis", "optimal"])
+def test_fast_two_view_path_agrees_with_the_general_solver(estimator: str) -> None:
+    from analysis.solve import triangulate_two_views
+
+    rng = np.random.default_rng(9)
+    T = 500
+    P1 = projection_matrices(K4, np.eye(3), np.zeros(3))
+    P2 = projection_matrices(
+        K4, rotation_from_angles_deg([3.0, -4.0, 1.0]), np.array([1.2, 0.2, -0.4])
+    )
+    X = rng.uniform([-2, -1, 8], [2, 3, 14], (T, 3))
+    px = np.stack(
+        [
+            _project(X, np.tile(np.eye(3), (T, 1, 1))[:, None], np.zeros((T, 1, 3)))[:, 0],
+            _project(
+                X,
+                np.tile(rotation_from_angles_deg([3.0, -4.0, 1.0]), (T, 1, 1))[:, None],
+                np.tile([1.2, 0.2, -0.4], (T, 1))[:, None],
+            )[:, 0],
+        ],
+        axis=1,
+    )
+    px += rng.normal(0, 0.7, px.shape)
+    px[5] = np.nan
+    fast = triangulate_two_views(px[:, 0], px[:, 1], P1, P2, estimator=estimator)
+    general = triangulate_points(
+        px, np.broadcast_to(np.stack([P1, P2]), (T, 2, 3, 4)), estimator=estimator
+    )
+    np.testing.assert_array_equal(fast.status, general.status)
+    ok = fast.status == "ok"
+    np.testing.assert_allclose(fast.point_grid[ok], general.point_grid[ok], atol=1e-6)
+    np.testing.assert_allclose(fast.rms_px[ok], general.rms_px[ok], atol=1e-6)
+    assert fast.status[5] == "no_detection"
+    if estimator == "optimal":  # Lindstrom's correction is the reprojection optimum
+        thesis = triangulate_two_views(px[:, 0], px[:, 1], P1, P2)
+        assert (fast.rms_px[ok] <= thesis.rms_px[ok] + 1e-9).all()
+
+
+def test_fast_two_view_degenerate_cases() -> None:
+    from analysis.solve import triangulate_two_views
+
+    P1 = projection_matrices(K4, np.eye(3), np.zeros(3))
+    same_centre = projection_matrices(K4, rotation_from_angles_deg([0.0, 10.0, 0.0]), np.zeros(3))
+    s = triangulate_two_views(
+        np.array([[320.0, 240.0]]), np.array([[300.0, 240.0]]), P1, same_centre
+    )
+    assert "no baseline" in s.reason[0]
+    on_axis = projection_matrices(K4, np.eye(3), np.array([0.0, 0.0, 2.0]))
+    s = triangulate_two_views(np.array([[318.0, 242.0]]), np.array([[318.0, 242.0]]), P1, on_axis)
+    assert s.reason[0] == "point on the baseline (rays parallel)"
