@@ -46,7 +46,8 @@ def main() -> int:
     t_opt = best_of(lambda: triangulate_two_views(px[0], px[1], P1, P2, estimator="optimal"))
     speedup, ratio = t_cv / t_mid, t_opt / t_mid
     print(
-        f"{N_POINTS} points: cv2.triangulatePoints {t_cv * 1e3:.1f} ms, midpoint {t_mid * 1e3:.1f} ms "
+        f"{N_POINTS} points: cv2.triangulatePoints {t_cv * 1e3:.1f} ms, "
+        f"midpoint {t_mid * 1e3:.1f} ms "
         f"({speedup:.1f}x faster, target >= 4), optimal {t_opt * 1e3:.1f} ms "
         f"({ratio:.2f}x the midpoint, target <= 2)"
     )
