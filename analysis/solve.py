@@ -66,6 +66,16 @@ def _status(
     return status, reason
 
 
+def _view_status(
+    conditioning: F64, ok: NDArray[np.bool_], min_conditioning: float, why: str
+) -> tuple[Status, Status]:
+    """:func:`_status` for rows of N views: fewer than two usable views is no detection."""
+    enough = np.asarray(ok.sum(axis=1) >= 2)
+    status, reason = _status(np.where(enough, conditioning, np.nan), enough, min_conditioning, why)
+    status[~enough], reason[~enough] = "no_detection", "fewer than two views"
+    return status, reason
+
+
 def _safe_solve(A: F64, b: F64, usable: NDArray[np.bool_]) -> F64:
     """Solve the usable rows of a batch of square systems; the others come back NaN."""
     out = np.full(b.shape, np.nan)
@@ -195,16 +205,11 @@ def triangulate_points(
     A = proj.sum(axis=1)
     b = np.einsum("tnij,tnj->ti", proj, np.where(ok[..., None], c, 0.0))
     conditioning = _pairwise_max_sine(d, ok)
-    enough = ok.sum(axis=1) >= 2
-    status, reason = _status(
-        np.where(enough, conditioning, np.nan),
-        enough,
-        min_conditioning,
-        "point on the baseline (rays parallel)",
+    status, reason = _view_status(
+        conditioning, ok, min_conditioning, "point on the baseline (rays parallel)"
     )
-    status[~enough], reason[~enough] = "no_detection", "fewer than two views"
     spread = np.where(ok[..., None], c - c[:, :1], 0.0)
-    no_baseline = enough & (np.abs(spread).max(axis=(1, 2)) == 0)
+    no_baseline = (status != "no_detection") & (np.abs(spread).max(axis=(1, 2)) == 0)
     status[no_baseline] = "degenerate"
     reason[no_baseline] = "no baseline: the poses share a camera centre"
     usable = status == "ok"
@@ -292,14 +297,9 @@ def triangulate_lines(
         planes = np.where(ok[..., None], planes / norm, 0.0)
     T = lin.shape[0]
     conditioning = _pairwise_max_sine(planes[..., :3], ok)
-    enough = ok.sum(axis=1) >= 2
-    status, reason = _status(
-        np.where(enough, conditioning, np.nan),
-        enough,
-        min_conditioning,
-        "line coplanar with the baseline",
+    status, reason = _view_status(
+        conditioning, ok, min_conditioning, "line coplanar with the baseline"
     )
-    status[~enough], reason[~enough] = "no_detection", "fewer than two views"
     usable = status == "ok"
     point = np.full((T, 3), np.nan)
     direction = np.full((T, 3), np.nan)
@@ -353,15 +353,11 @@ def triangulate_ground(
                 )
             )
             best = np.where(ok[:, i] & ok[:, j], np.maximum(best, det), best)
-    enough = ok.sum(axis=1) >= 2
-    status, reason = _status(
-        np.where(enough, best, np.nan), enough, min_conditioning, "line parallel to the ground"
-    )
+    status, reason = _view_status(best, ok, min_conditioning, "line parallel to the ground")
     plane_sine = _pairwise_max_sine(planes[..., :3], ok)
     reason[(status == "degenerate") & (plane_sine < min_conditioning)] = (
         "line coplanar with the baseline"
     )
-    status[~enough], reason[~enough] = "no_detection", "fewer than two views"
     usable = status == "ok"
     AtA = np.einsum("tki,tkj->tij", A, A)
     Atb = np.einsum("tki,tk->ti", A, b)
