@@ -1,0 +1,260 @@
+"""Sensitivity analysis (the thesis' section 6 left it open): how the estimate moves with
+pixel noise, pose-measurement error per axis, the baseline, the target distance and the
+finger angle, in the thesis' own geometry (f = 525 px, h = 9.625 in, camera 2 about 1.1 in
+along x, target near x = 1.91, z = 8.375 in; Appendix D).
+
+Each sweep is a seeded Monte Carlo through the real solvers: the image measurements come
+from the true poses; the solver gets the typed poses (true + error) and noisy pixels.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from analysis.solve import image_lines, projection_matrices, triangulate_ground, triangulate_points
+from recorder.camera import Intrinsics, project_points
+from recorder.render import finger_axis
+from recorder.scene import FingerParams, Scene
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+__all__ = [
+    "SENSITIVITY_COLUMNS",
+    "Geometry",
+    "plot_sensitivity",
+    "sensitivity",
+    "worst_x_translation_effect",
+    "x_translation_effect",
+]
+
+F64 = NDArray[np.float64]
+SENSITIVITY_COLUMNS = [
+    "method",
+    "sweep",
+    "value",
+    "unit",
+    "rmse",
+    "rmse_x",
+    "rmse_z",
+    "bias_x",
+    "bias_z",
+    "n_ok",
+]
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """One configuration: camera 1 at the origin, camera 2 at ``baseline`` (no rotation)."""
+
+    focal_px: float = 525.0
+    ground_height: float = 9.625
+    baseline: tuple[float, float, float] = (1.1, 0.0, 0.0)
+    ground_point: tuple[float, float] = (1.91, 8.375)  # method 2's target (x, z)
+    finger_tilt_deg: float = 35.0
+    finger_azimuth_deg: float = 165.0
+    point_target: tuple[float, float, float] = (0.5, 1.5, 11.0)  # method 1's dot
+    pixel_sigma: float = 0.25  # centroid noise, px
+    theta_sigma_deg: float = 0.1  # orientation noise
+    pose_sigma: tuple[float, float, float] = (0.0, 0.0, 0.0)  # typed-translation error per axis
+
+    @property
+    def intrinsics(self) -> Intrinsics:
+        return Intrinsics(640, 480, self.focal_px, self.focal_px, 320.0, 240.0)
+
+    def finger(self) -> tuple[F64, F64]:
+        scene = Scene(
+            ground_height=self.ground_height,
+            finger=replace(
+                FingerParams(),
+                ground_point=self.ground_point,
+                tilt_deg=self.finger_tilt_deg,
+                azimuth_deg=self.finger_azimuth_deg,
+            ),
+        )
+        return finger_axis(scene)
+
+
+def _estimate(g: Geometry, method: str, samples: int, rng: np.random.Generator) -> F64:
+    """(samples, 3) estimates under the geometry's noise; NaN where the solver gave up."""
+    centres = np.array([[0.0, 0.0, 0.0], g.baseline])
+    K = np.array([g.focal_px, g.focal_px, 320.0, 240.0])
+    typed = centres[None] + rng.normal(size=(samples, 2, 3)) * np.asarray(g.pose_sigma)
+    P = projection_matrices(
+        np.broadcast_to(K, (samples, 2, 4)), np.broadcast_to(np.eye(3), (samples, 2, 3, 3)), typed
+    )
+    if method == "point":
+        px = np.stack(
+            [
+                project_points(np.asarray(g.point_target), g.intrinsics, np.eye(3), c)[0]
+                for c in centres
+            ]
+        )
+        noisy = px[None] + rng.normal(0.0, g.pixel_sigma, (samples, 2, 2))
+        sol = triangulate_points(noisy, P)
+        return sol.point_grid
+    tip, base = g.finger()
+    obs = [project_points(np.stack([tip, base]), g.intrinsics, np.eye(3), c) for c in centres]
+    px = np.stack([o[0] for o in obs])
+    theta = np.array([math.degrees(math.atan2(*(o[1] - o[0])[::-1])) for o in obs])
+    noisy_px = px[None] + rng.normal(0.0, g.pixel_sigma, (samples, 2, 2))
+    noisy_theta = theta[None] + rng.normal(0.0, g.theta_sigma_deg, (samples, 2))
+    sol = triangulate_ground(
+        image_lines(noisy_px, noisy_theta), P, [0.0, 1.0, 0.0], g.ground_height
+    )
+    return sol.point_grid
+
+
+def _truth(g: Geometry, method: str) -> F64:
+    if method == "point":
+        return np.asarray(g.point_target, dtype=np.float64)
+    return np.array([g.ground_point[0], g.ground_height, g.ground_point[1]])
+
+
+def _row(
+    g: Geometry, method: str, sweep: str, value: float, unit: str, samples: int, seed: int
+) -> dict[str, object]:
+    est = _estimate(g, method, samples, np.random.default_rng(seed))
+    err = est - _truth(g, method)
+    ok = np.isfinite(err).all(axis=1)
+    e = err[ok]
+    return {
+        "method": method,
+        "sweep": sweep,
+        "value": value,
+        "unit": unit,
+        "rmse": float(np.sqrt((e**2).sum(axis=1).mean())) if len(e) else math.nan,
+        "rmse_x": float(np.sqrt((e[:, 0] ** 2).mean())) if len(e) else math.nan,
+        "rmse_z": float(np.sqrt((e[:, 2] ** 2).mean())) if len(e) else math.nan,
+        "bias_x": float(e[:, 0].mean()) if len(e) else math.nan,
+        "bias_z": float(e[:, 2].mean()) if len(e) else math.nan,
+        "n_ok": int(ok.sum()),
+    }
+
+
+def sensitivity(samples: int = 2000, seed: int = 0, base: Geometry | None = None) -> pd.DataFrame:
+    """All sweeps, for method 1 (point) and method 2 (ground), as one tidy table.
+
+    Every sweep varies one thing from ``base`` (the thesis' geometry with 0.25 px centroid
+    noise and 0.1 deg orientation noise): pixel noise; pose error on x, y, z; baseline length
+    along x; baseline direction in the x-z plane; target distance; finger tilt (method 2).
+    """
+    g0 = base or Geometry()
+    rows = []
+    for method in ("point", "ground"):
+        for s in (0.1, 0.25, 0.5, 1.0, 2.0):
+            rows.append(
+                _row(replace(g0, pixel_sigma=s), method, "pixel noise", s, "px", samples, seed)
+            )
+        for axis, name in enumerate("xyz"):
+            for s in (0.025, 0.05, 0.1, 0.2):
+                sigma = [0.0, 0.0, 0.0]
+                sigma[axis] = s
+                g = replace(g0, pose_sigma=(sigma[0], sigma[1], sigma[2]))
+                rows.append(_row(g, method, f"pose error {name}", s, "in", samples, seed))
+        for length in (0.25, 0.5, 1.1, 2.0, 4.0):
+            g = replace(g0, baseline=(length, 0.0, 0.0), pose_sigma=(0.1, 0.0, 0.1))
+            rows.append(_row(g, method, "baseline length", length, "in", samples, seed))
+        for angle in (0.0, 30.0, 60.0, 90.0):
+            a = math.radians(angle)
+            g = replace(
+                g0, baseline=(1.1 * math.cos(a), 0.0, 1.1 * math.sin(a)), pose_sigma=(0.1, 0.0, 0.1)
+            )
+            rows.append(_row(g, method, "baseline direction", angle, "deg from x", samples, seed))
+        for scale in (0.75, 1.0, 1.5, 2.0):
+            if method == "point":
+                x, y, z = g0.point_target
+                g = replace(g0, point_target=(x, y, z * scale))
+            else:
+                g = replace(g0, ground_point=(g0.ground_point[0], g0.ground_point[1] * scale))
+            rows.append(_row(g, method, "target distance", scale, "x the thesis'", samples, seed))
+        if method == "ground":
+            for tilt in (15.0, 25.0, 35.0, 45.0, 55.0):
+                rows.append(
+                    _row(
+                        replace(g0, finger_tilt_deg=tilt),
+                        method,
+                        "finger tilt",
+                        tilt,
+                        "deg",
+                        samples,
+                        seed,
+                    )
+                )
+    return pd.DataFrame(rows, columns=SENSITIVITY_COLUMNS)
+
+
+def x_translation_effect(error: float = 0.1, base: Geometry | None = None) -> float:
+    """Largest change of method 2's x estimate when one camera's typed x is off by ``error``.
+
+    The thesis (section 5.3) says a 0.1 in x-translation error can move the x estimate by up
+    to about 0.2 in; this measures it, noise-free, in the thesis' geometry.
+    """
+    g = replace(base or Geometry(), pixel_sigma=0.0, theta_sigma_deg=0.0)
+    truth = _truth(g, "ground")
+    worst = 0.0
+    for camera in (0, 1):
+        for sign in (-1.0, 1.0):
+            shift = np.zeros((2, 3))
+            shift[camera, 0] = sign * error
+            est = _estimate_with_typed_offset(g, shift)
+            worst = max(worst, abs(float(est[0] - truth[0])))
+    return worst
+
+
+def _estimate_with_typed_offset(g: Geometry, offset: F64) -> F64:
+    centres = np.array([[0.0, 0.0, 0.0], g.baseline])
+    tip, base = g.finger()
+    obs = [project_points(np.stack([tip, base]), g.intrinsics, np.eye(3), c) for c in centres]
+    px = np.stack([o[0] for o in obs])[None]
+    theta = np.array([[math.degrees(math.atan2(*(o[1] - o[0])[::-1])) for o in obs]])
+    K = np.array([[g.focal_px, g.focal_px, 320.0, 240.0]] * 2)[None]
+    P = projection_matrices(K, np.broadcast_to(np.eye(3), (1, 2, 3, 3)), (centres + offset)[None])
+    sol = triangulate_ground(image_lines(px, theta), P, [0.0, 1.0, 0.0], g.ground_height)
+    return np.asarray(sol.point_grid[0])
+
+
+def worst_x_translation_effect(
+    error: float = 0.1, base: Geometry | None = None
+) -> tuple[float, float, float]:
+    """:func:`x_translation_effect` maximised over finger orientations the thesis' photos
+    allow (tilt 15-55 deg from vertical, pointing azimuth 135-225 deg): (effect, tilt, azimuth).
+
+    The thesis does not record its finger's orientation, so its claim is checked against
+    the worst case as well as against our default finger.
+    """
+    g0 = base or Geometry()
+    best = (0.0, g0.finger_tilt_deg, 165.0)
+    for tilt in np.arange(15.0, 56.0, 5.0):
+        for azimuth in np.arange(135.0, 226.0, 15.0):
+            g = replace(g0, finger_tilt_deg=float(tilt), finger_azimuth_deg=float(azimuth))
+            effect = x_translation_effect(error, g)
+            if effect > best[0]:
+                best = (effect, float(tilt), float(azimuth))
+    return best
+
+
+def plot_sensitivity(table: pd.DataFrame) -> Figure:
+    """One panel per sweep: RMS error against the swept value, method 1 and method 2."""
+    from matplotlib.figure import Figure
+
+    sweeps = list(dict.fromkeys(table["sweep"]))
+    cols = 3
+    rows = math.ceil(len(sweeps) / cols)
+    fig = Figure(figsize=(4.0 * cols, 3.0 * rows), layout="constrained")
+    for i, sweep in enumerate(sweeps):
+        ax = fig.add_subplot(rows, cols, i + 1)
+        for method, g in table[table["sweep"] == sweep].groupby("method"):
+            ax.plot(g["value"], g["rmse"], marker="o", label=str(method))
+        unit = table.loc[table["sweep"] == sweep, "unit"].iloc[0]
+        ax.set_xlabel(f"{sweep} ({unit})")
+        ax.set_ylabel("RMS error (in)")
+        ax.set_yscale("log")
+        ax.legend(fontsize=7)
+    return fig
