@@ -5,11 +5,22 @@ Vectors are ``x, y, z`` columns in the grid frame and the session's units.
 
 from __future__ import annotations
 
+from statistics import NormalDist
+
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-__all__ = ["SUMMARY_COLUMNS", "TRIAL_COLUMNS", "line_errors", "summarize"]
+from analysis.uncertainty import CHI2_3DOF_95, CHI2_95, nees
+
+__all__ = [
+    "SUMMARY_COLUMNS",
+    "TRIAL_COLUMNS",
+    "UNCERTAINTY_COLUMNS",
+    "line_errors",
+    "summarize",
+    "uncertainty_columns",
+]
 
 F64 = NDArray[np.float64]
 
@@ -38,6 +49,29 @@ LINE_COLUMNS = ["dir_x", "dir_y", "dir_z", "angle_err_deg", "dist_err"]
 MARGIN_COLUMNS = ["parallax_deg", "plane_angle_deg", "line_ground_angle_deg", "warning"]
 #: Point trials: the reprojection-optimal estimate beside the thesis' (x, y, z).
 OPTIMAL_COLUMNS = ["x_optimal", "y_optimal", "z_optimal", "err_optimal"]
+#: First-order uncertainty of (x, y, z) (analysis/uncertainty.py): 1-sigma per axis, the
+#: covariances, 95% half-widths per axis, the 95% ellipsoid's longest semi-axis, the
+#: normalized error ``nees`` over its ``nees_dof`` non-degenerate directions (when truth is
+#: known; a ground point has 2, its height being exact) and whether the truth is inside the
+#: 95% ellipsoid; then the input that dominates the variance, its share, and rejected frames.
+UNCERTAINTY_COLUMNS = [
+    "sigma_x",
+    "sigma_y",
+    "sigma_z",
+    "cov_xy",
+    "cov_xz",
+    "cov_yz",
+    "ci95_x",
+    "ci95_y",
+    "ci95_z",
+    "semiaxis95",
+    "nees",
+    "nees_dof",
+    "within95",
+    "dominant_input",
+    "dominant_share",
+    "rejected_frames",
+]
 SUMMARY_COLUMNS = [
     "session",
     "method",
@@ -88,6 +122,31 @@ def line_errors(
     angle = np.degrees(np.arccos(cos))
     dist = np.linalg.norm(nearest - mid, axis=1)
     return nearest, mid, angle, dist
+
+
+def uncertainty_columns(error: F64, cov: F64) -> dict[str, F64]:
+    """The uncertainty columns computable from errors (T, 3) and covariances (T, 3, 3)."""
+    sigma = np.sqrt(np.diagonal(cov, axis1=1, axis2=2))
+    with np.errstate(invalid="ignore"):
+        eig = np.full(len(cov), np.nan)
+        finite = np.isfinite(cov).all(axis=(1, 2))
+        if finite.any():
+            eig[finite] = np.linalg.eigvalsh(cov[finite])[:, -1]
+        score, dof = nees(error, cov)
+        limit = np.array([CHI2_95.get(int(d), np.nan) for d in dof])
+        within = np.where(np.isfinite(score), score <= limit, np.nan)
+    half95 = NormalDist().inv_cdf(0.975)
+    return {
+        **{f"sigma_{a}": sigma[:, i] for i, a in enumerate("xyz")},
+        "cov_xy": cov[:, 0, 1],
+        "cov_xz": cov[:, 0, 2],
+        "cov_yz": cov[:, 1, 2],
+        **{f"ci95_{a}": half95 * sigma[:, i] for i, a in enumerate("xyz")},
+        "semiaxis95": np.sqrt(CHI2_3DOF_95 * eig),
+        "nees": score,
+        "nees_dof": dof,
+        "within95": within,
+    }
 
 
 def summarize(trials: pd.DataFrame) -> pd.DataFrame:

@@ -35,8 +35,10 @@ from analysis.metrics import (
     MARGIN_COLUMNS,
     OPTIMAL_COLUMNS,
     TRIAL_COLUMNS,
+    UNCERTAINTY_COLUMNS,
     line_errors,
     summarize,
+    uncertainty_columns,
 )
 from analysis.replay import TrialRecord, find_sessions, iter_trials
 from analysis.solve import (
@@ -47,6 +49,15 @@ from analysis.solve import (
     triangulate_lines,
     triangulate_points,
 )
+from analysis.uncertainty import (
+    INPUTS_PER_VIEW,
+    dominant_input,
+    frame_scatter,
+    measurement_covariance,
+    pooled_scatter,
+    propagate,
+)
+from recorder.camera import rotation_from_angles_deg
 from recorder.errors import SessionFormatError, TwoposeError
 from recorder.session import GroundTruth, SessionReader
 
@@ -111,9 +122,12 @@ class _TrialKey:
 class _View:
     """One usable pose of a trial: camera, pose and its per-frame detections."""
 
+    pose: int
     intrinsics: F64  # (4,) fx, fy, cx, cy
-    R_cam_to_grid: F64  # (3, 3)
-    t_grid: F64  # (3,)
+    t_grid: F64  # (3,) typed camera centre
+    r_deg: F64  # (3,) typed angles, R_cam_to_grid = Rx Ry Rz
+    t_sigma: float  # 1-sigma of each typed translation component (session units)
+    r_sigma_deg: float  # 1-sigma of each typed angle
     centroids: F64  # (K, 2)
     thetas: F64  # (K,)
     found: NDArray[np.bool_]  # (K,)
@@ -161,15 +175,47 @@ def _detect_trial(
         i = pc.camera.intrinsics
         views.append(
             _View(
+                pc.entry.pose,
                 np.array([i.fx, i.fy, i.cx, i.cy]),
-                pc.entry.R_cam_to_grid,
                 np.array(pc.entry.t_grid),
+                np.array(pc.entry.r_deg),
+                pc.entry.translation_resolution,
+                pc.entry.rotation_resolution_deg,
                 np.array([d.centroid_px for d in dets], dtype=np.float64).reshape(-1, 2),
                 np.array([d.theta_deg for d in dets], dtype=np.float64),
                 np.array([d.found for d in dets], dtype=bool),
             )
         )
     return views
+
+
+@dataclass(frozen=True)
+class _Batch:
+    """Rows of N >= 2 pose measurements as arrays, padded to the longest row."""
+
+    inputs: F64  # (T, N, 9) in the uncertainty.INPUTS_PER_VIEW layout
+    intrinsics: F64  # (T, N, 4); padding views get (1, 1, 0, 0): P = [I | 0]
+    valid: NDArray[np.bool_]  # (T, N)
+
+    def P(self, inputs: F64 | None = None) -> F64:
+        """Projection matrices (T, N, 3, 4) of these (or perturbed) inputs."""
+        x = self.inputs if inputs is None else inputs
+        R = rotation_from_angles_deg(x[..., 6:9])
+        return projection_matrices(self.intrinsics, R, x[..., 3:6])
+
+
+def _batch(measurements: list[list[PoseMeasurement]], views: list[list[_View]]) -> _Batch:
+    T = len(measurements)
+    N = max(len(row) for row in measurements)
+    x = np.zeros((T, N, len(INPUTS_PER_VIEW)))
+    x[..., :3] = np.nan
+    intr = np.tile([1.0, 1.0, 0.0, 0.0], (T, N, 1))
+    valid = np.zeros((T, N), dtype=bool)
+    for i, (row, row_views) in enumerate(zip(measurements, views, strict=True)):
+        for j, (m, v) in enumerate(zip(row, row_views, strict=True)):
+            x[i, j] = [*m.centroid_px, m.theta_deg, *v.t_grid, *v.r_deg]
+            intr[i, j], valid[i, j] = v.intrinsics, True
+    return _Batch(x, intr, valid)
 
 
 @dataclass(frozen=True)
@@ -184,23 +230,10 @@ class _Solved:
 
 
 def _solve(
-    method: str,
-    measurements: list[list[PoseMeasurement]],
-    views: list[list[_View]],
-    ground: tuple[F64, float] | None,
-    options: AnalysisOptions,
+    method: str, batch: _Batch, ground: tuple[F64, float] | None, options: AnalysisOptions
 ) -> _Solved:
-    """Batch-solve rows of N >= 2 pose measurements (rows padded to the longest)."""
-    T = len(measurements)
-    N = max(len(row) for row in measurements)
-    px = np.full((T, N, 2), np.nan)
-    th = np.full((T, N), np.nan)
-    P = np.tile(np.eye(3, 4), (T, N, 1, 1))  # padding views: any invertible camera
-    valid = np.zeros((T, N), dtype=bool)
-    for i, (row, row_views) in enumerate(zip(measurements, views, strict=True)):
-        for j, (m, v) in enumerate(zip(row, row_views, strict=True)):
-            px[i, j], th[i, j], valid[i, j] = m.centroid_px, m.theta_deg, True
-            P[i, j] = projection_matrices(v.intrinsics, v.R_cam_to_grid, v.t_grid)
+    """Batch-solve rows of N >= 2 pose measurements with every estimator."""
+    px, th, valid, P = batch.inputs[..., :2], batch.inputs[..., 2], batch.valid, batch.P()
     mc = options.min_conditioning
     if method == "point":
         s = triangulate_points(px, P, valid=valid, min_conditioning=mc)
@@ -221,6 +254,40 @@ def _solve(
     n3 = ground[0] / np.linalg.norm(ground[0])
     margins["line_ground_angle_deg"] = _degrees(np.abs(ls.direction_grid @ n3))
     return _Solved(g.point_grid, None, None, g.conditioning, g.status, g.reason, margins)
+
+
+def _thesis_estimate(
+    method: str,
+    batch: _Batch,
+    ground: tuple[F64, float] | None,
+    options: AnalysisOptions,
+    reference: F64,
+) -> Callable[[F64], F64]:
+    """The thesis' estimate as a function of the (perturbed) inputs, for propagation.
+
+    Lines report their point nearest ``reference`` (T, 3), held fixed.
+    """
+    mc, valid = options.min_conditioning, batch.valid
+
+    def estimate(x: F64) -> F64:
+        P = batch.P(x)
+        if method == "point":
+            return triangulate_points(x[..., :2], P, valid=valid, min_conditioning=mc).point_grid
+        lines = image_lines(x[..., :2], x[..., 2])
+        if method == "ground":
+            assert ground is not None
+            return triangulate_ground(
+                lines, P, ground[0], ground[1], valid=valid, min_conditioning=mc
+            ).point_grid
+        ls = triangulate_lines(lines, P, valid=valid, min_conditioning=mc)
+        return _nearest_on_line(ls.point_grid, ls.direction_grid, reference)
+
+    return estimate
+
+
+def _nearest_on_line(point: F64, direction: F64, reference: F64) -> F64:
+    s = np.einsum("ti,ti->t", reference - point, direction)
+    return np.asarray(point + s[:, None] * direction)
 
 
 def _degrees(sine: F64) -> F64:
@@ -326,14 +393,45 @@ def analyse_session(
     reason = np.where(
         complete, "no frame of a pose was detected", "fewer than two complete captures"
     ).astype("<U64")
+    gt = _ground_truth(records, method)
+    cov = np.full((T, 3, 3), np.nan)
+    dominant, dominant_share = np.full(T, "", dtype=object), np.full(T, np.nan)
     if solvable.size:
-        solved = _solve(
-            method,
-            [measurements[i] for i in solvable],
-            [used[i] for i in solvable],
-            ground,
-            options,
+        batch = _batch([measurements[i] for i in solvable], [used[i] for i in solvable])
+        solved = _solve(method, batch, ground, options)
+        # Lines are reported at their point nearest the true segment's midpoint (or, with
+        # no truth, nearest the last camera); that reference is held fixed in propagation.
+        mid = gt[solvable].mean(axis=1)
+        reference = np.where(np.isfinite(mid), mid, solved.point)
+        pooled = pooled_scatter(
+            [
+                _scatter(v, m)
+                for views, ms in zip(used, measurements, strict=True)
+                for v, m in zip(views, ms, strict=True)
+            ]
         )
+        propagated = propagate(
+            _thesis_estimate(method, batch, ground, options, reference),
+            batch.inputs,
+            _input_covariance(
+                [measurements[i] for i in solvable],
+                [used[i] for i in solvable],
+                pooled,
+                batch,
+                median=options.combine == "median",
+            ),
+        )
+        ok = solved.status == "ok"
+        C = propagated.cov_grid
+        if solved.direction is not None:
+            # A line's reported point moves only across the line to first order (its error
+            # is perpendicular by construction): keep the covariance of that offset.
+            across = np.eye(3) - np.einsum("ti,tj->tij", solved.direction, solved.direction)
+            C = across @ C @ across
+        cov[solvable[ok]] = C[ok]
+        names, share = dominant_input(propagated.variance_by_group)
+        dominant[solvable[ok]] = np.array(names, dtype=object)[ok]
+        dominant_share[solvable[ok]] = share[ok]
         point[solvable], conditioning[solvable] = solved.point, solved.conditioning
         status[solvable], reason[solvable] = solved.status, solved.reason
         if solved.direction is not None:
@@ -344,7 +442,6 @@ def analyse_session(
             margins[name][solvable] = values
     n_views = np.array([len(v) if ok else 0 for v, ok in zip(used, complete, strict=True)])
 
-    gt = _ground_truth(records, method)
     trials = _trial_table(
         session,
         method,
@@ -362,6 +459,13 @@ def analyse_session(
     for name, values in margins.items():
         trials[name] = values
     trials["warning"] = _warnings(status, margins, options)
+    err = trials[["err_x", "err_y", "err_z"]].to_numpy(dtype=np.float64)
+    for name, values in uncertainty_columns(err, cov).items():
+        trials[name] = values
+    trials["dominant_input"], trials["dominant_share"] = dominant, dominant_share
+    trials["rejected_frames"] = [
+        _rejected(ms, views) for ms, views in zip(measurements, used, strict=True)
+    ]
     averaging = _averaging(session, method, records, used, detected, ground, gt, options)
     frames = pd.DataFrame(frame_rows, columns=FRAME_COLUMNS)
     images: dict[str, bytes] = {}
@@ -370,6 +474,43 @@ def analyse_session(
 
         images = {k: png_bytes(f) for k, f in session_figures(session, trials, averaging).items()}
     return SessionResult(session, metadata, frames, trials, averaging, images)
+
+
+def _scatter(view: _View, m: PoseMeasurement) -> tuple[F64, int]:
+    used = view.found.copy()
+    used[list(m.rejected)] = False
+    return frame_scatter(view.centroids, view.thetas, used)
+
+
+def _input_covariance(
+    measurements: list[list[PoseMeasurement]],
+    views: list[list[_View]],
+    pooled: F64,
+    batch: _Batch,
+    *,
+    median: bool,
+) -> F64:
+    """(T, N, 9, 9): each view's pixel covariance from its frame scatter, and its typed
+    pose's 1-sigma resolutions on the diagonal (padding views: zero)."""
+    T, N, D = batch.inputs.shape
+    C = np.zeros((T, N, D, D))
+    for i, (row, row_views) in enumerate(zip(measurements, views, strict=True)):
+        for j, (m, v) in enumerate(zip(row, row_views, strict=True)):
+            S, dof = _scatter(v, m)
+            C[i, j, :3, :3] = measurement_covariance(S, dof, pooled, m.n_used, median=median)
+            C[i, j, 3:6, 3:6] = np.eye(3) * v.t_sigma**2
+            C[i, j, 6:9, 6:9] = np.eye(3) * v.r_sigma_deg**2
+    return C
+
+
+def _rejected(measurements: list[PoseMeasurement], views: list[_View]) -> str:
+    """Frames dropped as outliers, per pose: ``"pose 2: 3, 4"`` (frame indices as in
+    frames.csv; empty when none)."""
+    return "; ".join(
+        f"pose {v.pose}: {', '.join(str(i) for i in m.rejected)}"
+        for m, v in zip(measurements, views, strict=True)
+        if m.rejected
+    )
 
 
 def _ground_truth(records: list[tuple[_TrialKey, list[_View]]], method: str) -> F64:
@@ -401,6 +542,7 @@ def _trial_table(
     if method == "line":
         with np.errstate(invalid="ignore"):
             est, truth, angle, dist = line_errors(point, direction, gt[:, 0], gt[:, 1])
+        est = np.where(np.isfinite(truth), est, point)  # no truth: nearest the last camera
         extra = {"dir_x": direction[:, 0], "dir_y": direction[:, 1], "dir_z": direction[:, 2]}
         extra |= {"angle_err_deg": angle, "dist_err": dist}
     else:
@@ -472,7 +614,7 @@ def _averaging(
                 keys.append((i, record.trial, n))
     if not keys:
         return pd.DataFrame(columns=AVERAGING_COLUMNS)
-    solved = _solve(method, rows_m, rows_v, ground, options)
+    solved = _solve(method, _batch(rows_m, rows_v), ground, options)
     p, d = solved.point, solved.direction
     idx = np.array([k[0] for k in keys])
     if d is not None:
@@ -694,7 +836,8 @@ def run(
         columns=["session", "error"],
     )
     trials = _concat(
-        [r.trials for r in results], TRIAL_COLUMNS + LINE_COLUMNS + OPTIMAL_COLUMNS + MARGIN_COLUMNS
+        [r.trials for r in results],
+        TRIAL_COLUMNS + LINE_COLUMNS + OPTIMAL_COLUMNS + MARGIN_COLUMNS + UNCERTAINTY_COLUMNS,
     )
     result = RunResult(
         trials=trials,

@@ -12,12 +12,16 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 from matplotlib.axes import Axes
+from matplotlib.collections import EllipseCollection
 from matplotlib.figure import Figure
+
+from analysis.uncertainty import CHI2_95
 
 if TYPE_CHECKING:
     from analysis.pipeline import RunResult
 
 __all__ = [
+    "error_ellipses",
     "make_figures",
     "plot_error_histogram",
     "plot_error_scatter",
@@ -26,12 +30,46 @@ __all__ = [
 ]
 
 
+def error_ellipses(trials: pd.DataFrame, chi2: float = CHI2_95[2]) -> EllipseCollection:
+    """The x-z marginal 95% ellipse of each trial's covariance, centred on its error: the
+    truth (the origin) lies inside about 95% of them when the uncertainty is honest."""
+    C = np.zeros((len(trials), 2, 2))
+    C[:, 0, 0] = trials["sigma_x"].to_numpy(dtype=np.float64) ** 2
+    C[:, 1, 1] = trials["sigma_z"].to_numpy(dtype=np.float64) ** 2
+    C[:, 0, 1] = C[:, 1, 0] = trials["cov_xz"].to_numpy(dtype=np.float64)
+    C = np.nan_to_num(C)
+    w, V = np.linalg.eigh(C)
+    angle = np.degrees(np.arctan2(V[:, 1, 1], V[:, 0, 1]))  # of the major axis
+    size = 2.0 * np.sqrt(chi2 * np.clip(w, 0.0, None))
+    return EllipseCollection(
+        size[:, 1],
+        size[:, 0],
+        angle,
+        units="xy",
+        offsets=trials[["err_x", "err_z"]].to_numpy(dtype=np.float64),
+        offset_transform=None,
+        facecolors="none",
+        edgecolors="C0",
+        linewidths=0.6,
+        alpha=0.45,
+    )
+
+
+_MAX_LEGEND = 8
+
+
 def plot_error_scatter(ax: Axes, trials: pd.DataFrame, title: str) -> None:
-    """Estimate minus truth in x-z, ok trials (the thesis' Figures 11 and 21)."""
+    """Estimate minus truth in x-z, ok trials (the thesis' Figures 11 and 21), each with its
+    95% error ellipse (analysis/uncertainty.py)."""
     ok = trials[trials["status"] == "ok"]
     units = trials["units"].iloc[0] if len(trials) else ""
     ax.axhline(0, color="0.8", lw=0.8)
     ax.axvline(0, color="0.8", lw=0.8)
+    if len(ok) and "sigma_x" in ok:
+        ellipses = error_ellipses(ok)
+        ellipses.set_offset_transform(ax.transData)
+        ax.add_collection(ellipses, autolim=False)  # the points, not the ellipses, set limits
+        ax.plot([], [], color="C0", lw=0.6, alpha=0.45, label="95% ellipses")
     ax.scatter(ok["err_x"], ok["err_z"], s=18, label=f"{len(ok)} ok trials")
     if len(ok):
         ax.scatter(
@@ -49,8 +87,9 @@ def plot_running_average(
 ) -> None:
     """Estimate of one coordinate against the number of frames averaged (Figures 22-23)."""
     units = trials["units"].iloc[0] if len(trials) else ""
-    for trial, g in averaging.groupby("trial"):
-        line = ax.plot(g["n_frames"], g[axis], marker=".", ms=3, lw=0.8, label=f"trial {trial}")
+    for k, (trial, g) in enumerate(averaging.groupby("trial")):
+        label = f"trial {trial}" if k < _MAX_LEGEND else None  # a legend, not a wall
+        line = ax.plot(g["n_frames"], g[axis], marker=".", ms=3, lw=0.8, label=label)
         truth = trials.loc[trials["trial"] == trial, f"gt_{axis}"]
         if len(truth):
             ax.axhline(float(truth.iloc[0]), color=line[0].get_color(), ls="--", lw=0.8)

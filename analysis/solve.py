@@ -113,10 +113,12 @@ class NViewLines:
 
 def projection_matrices(intrinsics: ArrayLike, R_cam_to_grid: ArrayLike, t_grid: ArrayLike) -> F64:
     """``P = K [R^T | -R^T t]`` (..., 3, 4) from (fx, fy, cx, cy), camera -> grid rotations
-    and camera centres."""
+    and camera centres; leading dimensions broadcast."""
     k = np.asarray(intrinsics, dtype=np.float64)
     R = np.asarray(R_cam_to_grid, dtype=np.float64)
     t = np.asarray(t_grid, dtype=np.float64)
+    lead = np.broadcast_shapes(R.shape[:-2], t.shape[:-1])
+    R, t = np.broadcast_to(R, (*lead, 3, 3)), np.broadcast_to(t, (*lead, 3))
     K = np.zeros((*k.shape[:-1], 3, 3))
     K[..., 0, 0], K[..., 1, 1], K[..., 0, 2], K[..., 1, 2], K[..., 2, 2] = (
         k[..., 0],

@@ -134,8 +134,6 @@ class PoseParams:
     min_baseline: float = 1.0
     noise_sigma: float = 0.1
     rotation_noise_deg: float = 0.0
-    translation_resolution: float = 0.0625
-    rotation_resolution_deg: float = 0.5
 
 
 @dataclass(frozen=True)
@@ -230,8 +228,6 @@ def _check_scene(s: Scene) -> None:
         need(lo <= hi, f"poses.{name}", f"must be [low, high], got [{lo}, {hi}]")
     need(p.step > 0 and p.rotation_step_deg > 0, "poses.step", "must be > 0")
     need(p.noise_sigma >= 0 and p.rotation_noise_deg >= 0, "poses.noise_sigma", "must be >= 0")
-    need(p.translation_resolution > 0, "poses.translation_resolution", "must be > 0")
-    need(p.rotation_resolution_deg > 0, "poses.rotation_resolution_deg", "must be > 0")
     f = s.finger
     need(0 <= f.tilt_deg < 85, "finger.tilt_deg", "must be in [0, 85) degrees from straight down")
     need(f.length > 2 * f.radius > 0, "finger.length", "must exceed the finger's diameter")

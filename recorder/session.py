@@ -269,8 +269,9 @@ class PoseEntry(TypedEntry):
     """A typed pose: camera centre ``t_grid`` (session units) and angles ``r_deg`` (degrees).
 
     ``R_cam_to_grid = Rx(rx) Ry(ry) Rz(rz)``; ``p_grid = R_cam_to_grid p_cam + t_grid``.
-    The resolutions are what the operator could measure to (tape, protractor), used for
-    the pose part of every estimate's uncertainty.
+    The resolutions are the 1-sigma uncertainty of each typed component (what the operator
+    can place and measure to with tape and protractor); they are the pose part of every
+    estimate's uncertainty.
     """
 
     trial: int

@@ -1,7 +1,9 @@
 """Simulated sessions: the laptop-on-grid procedure with a synthetic camera and known truth.
 
 Per trial the simulated operator picks typed poses on a lattice (``poses.step``), places
-the laptop there with an error of ``poses.noise_sigma`` per moving translation axis, and
+the laptop there with an error of ``poses.noise_sigma`` on every translation component
+(``poses.rotation_noise_deg`` on every angle), records those as each entry's 1-sigma
+``resolution``, and
 captures ``frames`` frames per pose rendered from the *true* pose. Typed poses go to
 ``/twopose/pose``; the true poses and target go to ``/simulation/truth``. The same seed
 gives the same bytes.
@@ -42,6 +44,8 @@ __all__ = ["SimulationSummary", "simulate_session", "target_points"]
 SIMULATION_EPOCH_NS = 1_325_289_600 * 1_000_000_000
 _MAX_POSE_DRAWS = 2000
 _EDGE_MARGIN_PX = 25.0
+#: What a noise-free simulated pose records as its 1-sigma resolution (the format wants > 0).
+EXACT_RESOLUTION = 1e-9
 
 
 @dataclass(frozen=True)
@@ -96,7 +100,6 @@ def _draw_trial_poses(
     p = scene.poses
     ranges = [p.x_range, p.y_range, p.z_range]
     rot_ranges = [p.rx_range, p.ry_range, p.rz_range]
-    moving = np.array([hi > lo for lo, hi in ranges], dtype=np.float64)
     visible = _visible_points(scene, method)
     for _ in range(_MAX_POSE_DRAWS):
         poses = []
@@ -106,8 +109,9 @@ def _draw_trial_poses(
             r_typed = np.array(
                 [_lattice(rng, lo, hi, p.rotation_step_deg) for lo, hi in rot_ranges]
             )
-            # The operator's placing/measuring error: only along axes the laptop moves on.
-            t_true = t_typed + p.noise_sigma * rng.standard_normal(3) * moving
+            # The operator's placing/measuring error, on every typed component: this is
+            # what each entry's recorded 1-sigma resolution promises the analysis.
+            t_true = t_typed + p.noise_sigma * rng.standard_normal(3)
             r_true = r_typed + p.rotation_noise_deg * rng.standard_normal(3)
             if not _in_view(visible, intr, rotation_from_angles_deg(r_true), t_true):
                 break
@@ -228,8 +232,10 @@ def simulate_session(
                         camera_id=cam.id,
                         t_grid=_vec(t_typed),
                         r_deg=_vec(r_typed),
-                        translation_resolution=scene.poses.translation_resolution,
-                        rotation_resolution_deg=scene.poses.rotation_resolution_deg,
+                        translation_resolution=max(scene.poses.noise_sigma, EXACT_RESOLUTION),
+                        rotation_resolution_deg=max(
+                            scene.poses.rotation_noise_deg, EXACT_RESOLUTION
+                        ),
                     ),
                     now,
                 )

@@ -233,3 +233,53 @@ def test_degeneracy_margins_and_configurable_warnings(
     np.testing.assert_allclose(np.sin(np.radians(p["parallax_deg"])), p["conditioning"], atol=1e-12)
     assert p["warning"].str.contains("ray parallax").all()
     assert (g["status"] == "ok").all()  # a warning is not a failure
+
+
+def test_every_estimate_carries_its_uncertainty(
+    point_session: Path, line_session: Path, ground_session: Path, exact_sessions: Path
+) -> None:
+    t = run([point_session, line_session, ground_session]).trials
+    assert (t["status"] == "ok").all()
+    by = dict(list(t.groupby("method")))
+    for method, dof in (("point", 3), ("line", 2), ("ground", 2)):
+        g = by[method]
+        assert (g["nees_dof"] == dof).all(), method
+        assert g[["sigma_x", "sigma_z", "semiaxis95", "nees"]].gt(0).all().all(), method
+        np.testing.assert_allclose(g["ci95_z"], 1.959964 * g["sigma_z"], rtol=1e-6)
+        # The 0.1 in placing error recorded with every pose dominates the pixels.
+        assert (g["dominant_input"].str.endswith("translation")).all(), method
+        assert g["dominant_share"].between(0.34, 1.0).all()
+    assert by["ground"]["sigma_y"].max() < 1e-6  # the ground plane fixes the height
+    # Poses typed exactly (recorded 1-sigma 1e-9): what remains is the pixels' scatter.
+    exact = run([exact_sessions]).trials
+    assert (exact["dominant_input"] == "pixels").all()
+    exact_points = exact[exact["method"] == "point"]
+    assert exact_points["sigma_z"].max() < by["point"]["sigma_z"].min() / 5
+
+
+def test_outlier_frames_are_rejected_and_reported(tmp_path: Path, point_session: Path) -> None:
+    """A frame of another pose slipped into pose 1: robust combining drops it and says so."""
+    from analysis.replay import iter_trials
+    from recorder.session import SessionReader
+
+    with SessionReader(point_session) as reader:
+        record = next(iter_trials(reader))
+        info, cameras = reader.info, list(reader.cameras.values())
+        frames = {pc.entry.pose: [f.decode() for f in pc.frames] for pc in record.poses}
+        entries = {pc.entry.pose: pc.entry for pc in record.poses}
+    frames[1].append(frames[2][0])  # index 3 of pose 1
+    out = tmp_path / "outlier.mcap"
+    with SessionWriter(out, info, cameras, start_ns=0) as w:
+        assert record.ground_truth is not None
+        w.write_ground_truth(record.ground_truth, 1)
+        for k, entry in entries.items():
+            w.write_pose(entry, 10 * k)
+            with w.capture(1, k, entry.camera_id) as cap:
+                for j, img in enumerate(frames[k]):
+                    cap.add_frame(img, 10 * k + j + 1)
+    robust = analyse_session(out, AnalysisOptions(combine="robust")).trials.iloc[0]
+    mean = analyse_session(out).trials.iloc[0]
+    clean = analyse_session(point_session).trials.iloc[0]
+    assert robust["rejected_frames"] == "pose 1: 3"
+    assert mean["rejected_frames"] == ""
+    assert abs(robust["x"] - clean["x"]) < 0.01 < abs(mean["x"] - clean["x"])

@@ -1,0 +1,205 @@
+"""Uncertainty: a first-order covariance for every estimate, and what dominates it.
+
+The inputs of a trial are, per view, ``[col, row, theta_deg, tx, ty, tz, rx_deg, ry_deg,
+rz_deg]``: the combined pixel measurement and the typed pose. Views are independent; within
+a view the pixel part's 3x3 covariance comes from the frame-to-frame scatter of its frames
+(:func:`measurement_covariance`) and the pose part is diagonal, from the 1-sigma resolution
+recorded with each typed entry. :func:`propagate` pushes that through any batched estimator
+by central differences (``Sigma_x = J Sigma_in J^T``), so the covariance follows exactly the
+code that made the estimate, thesis formulas or not. No I/O.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from analysis.detect import wrap_theta_deg
+
+__all__ = [
+    "CHI2_3DOF_95",
+    "CHI2_95",
+    "INPUTS_PER_VIEW",
+    "INPUT_GROUPS",
+    "Propagated",
+    "dominant_input",
+    "frame_scatter",
+    "measurement_covariance",
+    "nees",
+    "pooled_scatter",
+    "propagate",
+]
+
+F64 = NDArray[np.float64]
+
+#: Per-view input layout of :func:`propagate`.
+INPUTS_PER_VIEW = ("col", "row", "theta_deg", "tx", "ty", "tz", "rx_deg", "ry_deg", "rz_deg")
+#: The 95% quantile of chi-square with 3 degrees of freedom: the 95% ellipsoid is
+#: ``e^T Sigma^-1 e <= CHI2_3DOF_95``.
+CHI2_3DOF_95 = 7.814727903251178
+#: Input groups for "which input dominates": slices of the per-view layout.
+_GROUPS = (
+    ("pixels", slice(0, 3)),
+    ("x", slice(3, 4)),
+    ("y", slice(4, 5)),
+    ("z", slice(5, 6)),
+    ("rotation", slice(6, 9)),
+)
+#: Prior weight (pseudo frame-differences) of the session's pooled scatter in each pose's
+#: estimate: five frames give four differences, too few to trust a pose's scatter alone.
+PRIOR_DOF = 4.0
+
+
+def frame_scatter(centroids_px: F64, thetas_deg: F64, used: NDArray[np.bool_]) -> tuple[F64, int]:
+    """Sample covariance (3, 3) of one pose's used frames and its degrees of freedom.
+
+    Orientation deviations are taken around the doubled-angle mean (lines have no arrow);
+    a dot has no orientation, so its row and column are zero.
+    """
+    c = centroids_px[used]
+    k = c.shape[0]
+    S = np.zeros((3, 3))
+    if k < 2:
+        return S, 0
+    th = thetas_deg[used]
+    if np.isfinite(th).all():
+        t2 = np.deg2rad(2.0 * th)
+        mean = 0.5 * math.degrees(math.atan2(np.sin(t2).mean(), np.cos(t2).mean()))
+        dev = wrap_theta_deg(th - mean)
+    else:
+        dev = np.zeros(k)
+    X = np.column_stack([c, dev])
+    S = np.cov(X, rowvar=False, ddof=1)
+    return np.asarray(S), k - 1
+
+
+def pooled_scatter(scatters: list[tuple[F64, int]]) -> F64:
+    """The session's pooled within-pose covariance (3, 3): one camera, one noise process."""
+    dof = sum(d for _, d in scatters)
+    if dof == 0:
+        return np.zeros((3, 3))
+    return np.asarray(sum(S * d for S, d in scatters) / dof)
+
+
+def measurement_covariance(
+    scatter: F64, dof: int, pooled: F64, n_used: int, *, median: bool = False
+) -> F64:
+    """Covariance (3, 3) of a pose's combined measurement.
+
+    The pose's own scatter is shrunk toward the session's pooled scatter (weight
+    :data:`PRIOR_DOF`), then divided by the frames averaged; a median costs pi/2 in variance.
+    """
+    shrunk = (PRIOR_DOF * pooled + dof * scatter) / (PRIOR_DOF + dof)
+    factor = (math.pi / 2 if median else 1.0) / max(n_used, 1)
+    return np.asarray(shrunk * factor)
+
+
+@dataclass(frozen=True)
+class Propagated:
+    """First-order covariances of a batch of estimates (see :func:`propagate`)."""
+
+    cov_grid: F64  # (T, 3, 3) covariance of the estimate, grid frame, session units^2
+    jacobian: F64  # (T, 3, N, 9) d estimate / d input
+    variance_by_group: F64  # (T, N, 5) trace share of pixels, x, y, z, rotation per view
+
+
+def propagate(
+    estimate: Callable[[F64], F64], inputs: F64, input_cov: F64, *, rel_step: float = 1e-3
+) -> Propagated:
+    """Propagate per-view input covariances through a batched estimator.
+
+    Parameters
+    ----------
+    estimate : callable
+        ``(T, N, 9) inputs -> (T, 3)`` estimates, rows independent (NaN where it fails).
+    inputs : (T, N, 9) ndarray
+        Per-view inputs in the :data:`INPUTS_PER_VIEW` layout (NaN in unused entries).
+    input_cov : (T, N, 9, 9) ndarray
+        Covariance of each view's inputs; views are independent.
+    rel_step : float
+        Central-difference step as a fraction of each input's standard deviation, so the
+        step is right whatever the units.
+
+    Returns
+    -------
+    Propagated
+        Rows whose estimate fails near the inputs come back NaN.
+    """
+    x = np.asarray(inputs, dtype=np.float64)
+    C = np.asarray(input_cov, dtype=np.float64)
+    T, N, D = x.shape
+    sigma = np.sqrt(np.clip(np.diagonal(C, axis1=2, axis2=3), 0.0, None))  # (T, N, 9)
+    J = np.zeros((T, 3, N, D))
+    for n in range(N):
+        for d in range(D):
+            h = rel_step * sigma[:, n, d]
+            if not (h > 0).any():
+                continue  # an exact input (or unused: a dot's angle) contributes nothing
+            step = np.where(h > 0, h, 0.0)
+            xp, xm = x.copy(), x.copy()
+            xp[:, n, d] += step
+            xm[:, n, d] -= step
+            with np.errstate(invalid="ignore", divide="ignore"):
+                col = (estimate(xp) - estimate(xm)) / (2.0 * step[:, None])
+            J[:, :, n, d] = np.where((h > 0)[:, None], col, 0.0)
+    # Views are independent: Sigma = sum_n J_n C_n J_n^T.
+    JC = np.einsum("tinj,tnjk->tink", J, C)
+    cov = np.einsum("tink,tlnk->til", JC, J)
+    group_var = np.zeros((T, N, len(_GROUPS)))
+    for g, (_, sl) in enumerate(_GROUPS):
+        Jg, Cg = J[:, :, :, sl], C[:, :, sl, sl]
+        group_var[:, :, g] = np.einsum("tinj,tnjk,tink->tn", Jg, Cg, Jg)
+    return Propagated(cov, J, group_var)
+
+
+#: What :func:`dominant_input` names, in the order of ``variance_by_group``'s last axis.
+INPUT_GROUPS = ("pixels", "x translation", "y translation", "z translation", "rotation")
+
+
+def dominant_input(variance_by_group: F64) -> tuple[list[str], F64]:
+    """Per trial, the kind of input (summed over poses) with the largest share of the
+    variance, and that share: e.g. ``"x translation", 0.97``."""
+    flat = variance_by_group.sum(axis=1)  # (T, 5)
+    T = flat.shape[0]
+    total = flat.sum(axis=1)
+    names = INPUT_GROUPS
+    best = np.argmax(np.nan_to_num(flat, nan=-1.0), axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        share = flat[np.arange(T), best] / total
+    ok = np.isfinite(share) & (total > 0)
+    return [names[b] if o else "" for b, o in zip(best, ok, strict=True)], np.where(
+        ok, share, np.nan
+    )
+
+
+#: 95% quantiles of chi-square with 1, 2 and 3 degrees of freedom.
+CHI2_95 = {1: 3.841458820694124, 2: 5.991464547107979, 3: CHI2_3DOF_95}
+#: Covariance directions under this fraction of the largest variance are exact (a ground
+#: point's height is the ground's), so the error is normalized over the others only.
+_RANK_TOLERANCE = 1e-9
+
+
+def nees(error: F64, cov: F64) -> tuple[F64, NDArray[np.int_]]:
+    """Normalized estimation error squared ``e^T Sigma^+ e`` and its degrees of freedom.
+
+    Over the covariance's non-degenerate directions: a ground point (``y = h`` exactly)
+    has two. Rows with a non-finite error or covariance are NaN with 0 degrees of freedom.
+    """
+    e = np.asarray(error, dtype=np.float64)
+    S = np.asarray(cov, dtype=np.float64)
+    out = np.full(e.shape[0], np.nan)
+    dof = np.zeros(e.shape[0], dtype=np.int_)
+    good = np.isfinite(e).all(axis=1) & np.isfinite(S).all(axis=(1, 2))
+    if good.any():
+        w, V = np.linalg.eigh(S[good])
+        keep = w > _RANK_TOLERANCE * w[:, -1:]
+        z = np.einsum("tji,tj->ti", V, e[good])  # error in the eigenbasis
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out[good] = np.where(keep, z**2 / w, 0.0).sum(axis=1)
+        dof[good] = keep.sum(axis=1)
+    out[dof == 0] = np.nan
+    return out, dof
