@@ -407,6 +407,7 @@ def analyse_session(
             [
                 _scatter(v, m)
                 for views, ms in zip(used, measurements, strict=True)
+                if ms  # incomplete trials are not combined
                 for v, m in zip(views, ms, strict=True)
             ]
         )
@@ -464,7 +465,7 @@ def analyse_session(
         trials[name] = values
     trials["dominant_input"], trials["dominant_share"] = dominant, dominant_share
     trials["rejected_frames"] = [
-        _rejected(ms, views) for ms, views in zip(measurements, used, strict=True)
+        _rejected(ms, views) if ms else "" for ms, views in zip(measurements, used, strict=True)
     ]
     averaging = _averaging(session, method, records, used, detected, ground, gt, options)
     frames = pd.DataFrame(frame_rows, columns=FRAME_COLUMNS)
