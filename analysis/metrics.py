@@ -17,6 +17,7 @@ __all__ = [
     "SUMMARY_COLUMNS",
     "TRIAL_COLUMNS",
     "UNCERTAINTY_COLUMNS",
+    "WEIGHTED_COLUMNS",
     "line_errors",
     "summarize",
     "uncertainty_columns",
@@ -45,6 +46,14 @@ TRIAL_COLUMNS = [
     "err",
 ]
 LINE_COLUMNS = ["dir_x", "dir_y", "dir_z", "angle_err_deg", "dist_err"]
+#: Line trials: the weighted/robust fit beside the thesis' (solve.triangulate_lines).
+WEIGHTED_COLUMNS = [
+    "x_weighted",
+    "y_weighted",
+    "z_weighted",
+    "angle_err_weighted_deg",
+    "dist_err_weighted",
+]
 #: Degeneracy margins (degrees) per method, and the warning when one is under its threshold.
 MARGIN_COLUMNS = ["parallax_deg", "plane_angle_deg", "line_ground_angle_deg", "warning"]
 #: Point trials: the reprojection-optimal estimate beside the thesis' (x, y, z).

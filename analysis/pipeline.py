@@ -36,6 +36,7 @@ from analysis.metrics import (
     OPTIMAL_COLUMNS,
     TRIAL_COLUMNS,
     UNCERTAINTY_COLUMNS,
+    WEIGHTED_COLUMNS,
     line_errors,
     summarize,
     uncertainty_columns,
@@ -394,6 +395,7 @@ def analyse_session(
         complete, "no frame of a pose was detected", "fewer than two complete captures"
     ).astype("<U64")
     gt = _ground_truth(records, method)
+    weighted_line = np.full((T, 2, 3), np.nan)  # point, direction
     cov = np.full((T, 3, 3), np.nan)
     dominant, dominant_share = np.full(T, "", dtype=object), np.full(T, np.nan)
     if solvable.size:
@@ -411,17 +413,35 @@ def analyse_session(
                 for v, m in zip(views, ms, strict=True)
             ]
         )
-        propagated = propagate(
-            _thesis_estimate(method, batch, ground, options, reference),
-            batch.inputs,
-            _input_covariance(
-                [measurements[i] for i in solvable],
-                [used[i] for i in solvable],
-                pooled,
-                batch,
-                median=options.combine == "median",
-            ),
+        input_cov = _input_covariance(
+            [measurements[i] for i in solvable],
+            [used[i] for i in solvable],
+            pooled,
+            batch,
+            median=options.combine == "median",
         )
+        propagated = propagate(
+            _thesis_estimate(method, batch, ground, options, reference), batch.inputs, input_cov
+        )
+        if method == "line":  # the weighted/robust fit beside the thesis' one
+            mc = options.min_conditioning
+            weighted = triangulate_lines(
+                image_lines(batch.inputs[..., :2], batch.inputs[..., 2]),
+                batch.P(),
+                valid=batch.valid,
+                estimator="weighted",
+                sigma_px=_across_line_sigma_px(batch.inputs[..., 2], input_cov),
+                sigma_pose=np.stack(
+                    [
+                        np.sqrt(input_cov[..., 3, 3]),
+                        np.deg2rad(np.sqrt(input_cov[..., 6, 6])),
+                    ],
+                    axis=-1,
+                ),
+                min_conditioning=mc,
+            )
+            weighted_line[solvable, 0] = weighted.point_grid
+            weighted_line[solvable, 1] = weighted.direction_grid
         ok = solved.status == "ok"
         C = propagated.cov_grid
         if solved.direction is not None:
@@ -460,6 +480,15 @@ def analyse_session(
     for name, values in margins.items():
         trials[name] = values
     trials["warning"] = _warnings(status, margins, options)
+    if method == "line":
+        with np.errstate(invalid="ignore"):
+            est, mid, angle, dist = line_errors(
+                weighted_line[:, 0], weighted_line[:, 1], gt[:, 0], gt[:, 1]
+            )
+        est = np.where(np.isfinite(mid), est, weighted_line[:, 0])
+        for i, a in enumerate("xyz"):
+            trials[f"{a}_weighted"] = est[:, i]
+        trials["angle_err_weighted_deg"], trials["dist_err_weighted"] = angle, dist
     err = trials[["err_x", "err_y", "err_z"]].to_numpy(dtype=np.float64)
     for name, values in uncertainty_columns(err, cov).items():
         trials[name] = values
@@ -502,6 +531,14 @@ def _input_covariance(
             C[i, j, 3:6, 3:6] = np.eye(3) * v.t_sigma**2
             C[i, j, 6:9, 6:9] = np.eye(3) * v.r_sigma_deg**2
     return C
+
+
+def _across_line_sigma_px(theta_deg: F64, input_cov: F64) -> F64:
+    """(T, N) 1-sigma pixel error across each view's image line, from its covariance."""
+    t = np.deg2rad(theta_deg)
+    n = np.stack([-np.sin(t), np.cos(t)], axis=-1)
+    var = np.einsum("tni,tnij,tnj->tn", n, input_cov[..., :2, :2], n)
+    return np.asarray(np.sqrt(np.where(np.isfinite(var) & (var > 0), var, 1.0)))
 
 
 def _rejected(measurements: list[PoseMeasurement], views: list[_View]) -> str:
@@ -838,7 +875,12 @@ def run(
     )
     trials = _concat(
         [r.trials for r in results],
-        TRIAL_COLUMNS + LINE_COLUMNS + OPTIMAL_COLUMNS + MARGIN_COLUMNS + UNCERTAINTY_COLUMNS,
+        TRIAL_COLUMNS
+        + LINE_COLUMNS
+        + WEIGHTED_COLUMNS
+        + OPTIMAL_COLUMNS
+        + MARGIN_COLUMNS
+        + UNCERTAINTY_COLUMNS,
     )
     result = RunResult(
         trials=trials,

@@ -10,7 +10,9 @@ Request::
                 "line": {"px": [col, row], "theta_deg": t}},   # or {"segment_px": [x0, y0, x1, y1]}
                ...],                                     # two or more views
      "ground_y": h,                                      # ground only
-     "estimator": "thesis"}                              # or "optimal" (points)
+     "estimator": "thesis"}                              # or "optimal" (points) or
+                                                         # "weighted" (lines; a view may
+                                                         # give "sigma_px", default 1)
 
 ``pose.t`` is the camera centre in the grid frame, ``R = Rx Ry Rz`` (camera -> grid).
 """
@@ -89,8 +91,13 @@ def solve_request(method: str, request: Any) -> dict[str, Any]:
         n = len(views) if isinstance(views, list) else "no"
         raise InputValueError(f"the request has {n} view(s); a reconstruction needs 2 or more")
     estimator = request.get("estimator", "thesis")
-    if estimator not in ("thesis", "optimal"):
-        raise InputValueError(f"estimator must be thesis or optimal, got {estimator!r}")
+    allowed = {"point": ("thesis", "optimal"), "line": ("thesis", "weighted")}.get(
+        method, ("thesis",)
+    )
+    if estimator not in allowed:
+        raise InputValueError(
+            f"estimator for {method} must be {' or '.join(allowed)}, got {estimator!r}"
+        )
     P = np.stack([_projection(v, f"views[{i}]") for i, v in enumerate(views)])[None]
     answer: dict[str, Any]
     if method == "point":
@@ -106,11 +113,15 @@ def solve_request(method: str, request: Any) -> dict[str, Any]:
         answer = {"point": _vec(s.point_grid[0]), "reprojection_rms_px": _num(s.rms_px[0])}
         status, reason, cond = s.status[0], s.reason[0], s.conditioning[0]
     elif method in ("line", "ground"):
-        if estimator != "thesis":
-            raise InputValueError(f"estimator {estimator!r} is for points; lines use the plane fit")
         lines = np.stack([_image_line(v, f"views[{i}]") for i, v in enumerate(views)])[None]
         if method == "line":
-            ls = triangulate_lines(lines, P)
+            sigma = [
+                _numbers([v.get("sigma_px", 1.0)], 1, f"views[{i}].sigma_px")[0]
+                for i, v in enumerate(views)
+            ]
+            if min(sigma) <= 0:
+                raise InputValueError(f"sigma_px must be > 0, got {sigma}")
+            ls = triangulate_lines(lines, P, estimator=estimator, sigma_px=[sigma])
             answer = {
                 "line": {"point": _vec(ls.point_grid[0]), "direction": _vec(ls.direction_grid[0])}
             }

@@ -277,6 +277,10 @@ def triangulate_lines(
     P: ArrayLike,
     *,
     valid: ArrayLike | None = None,
+    estimator: str = "thesis",
+    sigma_px: ArrayLike | None = None,
+    sigma_pose: ArrayLike | None = None,
+    iterations: int = 10,
     min_conditioning: float = DEFAULT_MIN_CONDITIONING,
 ) -> NViewLines:
     """Lines from N >= 2 back-projected planes ``pi_i = P_i^T l_i``: the rank-2 null space.
@@ -284,12 +288,28 @@ def triangulate_lines(
     For two views the planes meet in exactly one line (eq. 14-15); for more, the line is the
     best rank-2 fit (the two smallest right singular vectors of the stacked unit planes).
 
+    ``estimator="weighted"`` weighs each plane by how far it can move at the line: a pixel
+    error ``sigma_px`` across the image line moves the plane by ``depth * sigma_px / f``
+    there, a typed-translation error by ``sigma_t`` and a typed-angle error by
+    ``depth * sigma_r``, so near views with steady detections and well-measured poses count
+    most; then, with three views or more,
+    iteratively reweighted (Huber, k = 1.345 sigma) so that one view that disagrees beyond its
+    noise loses its pull. With two views it is the thesis' line (two planes meet in one line
+    whatever their weights).
+
     Parameters
     ----------
     lines : (T, N, 3) array_like
         Homogeneous image lines (see :func:`image_lines`, :func:`segment_lines`).
     P : (T, N, 3, 4) array_like
+    sigma_px : (T, N) array_like, optional
+        Per view, the 1-sigma pixel error across its image line (weighted only; default 1).
+    sigma_pose : (T, N, 2) array_like, optional
+        Per view, the 1-sigma typed translation (grid units) and angle (radians) errors
+        (weighted only; default 0).
     """
+    if estimator not in ("thesis", "weighted"):
+        raise InputValueError(f"line estimator must be thesis or weighted, got {estimator!r}")
     lin = np.asarray(lines, dtype=np.float64)
     p = np.asarray(P, dtype=np.float64)
     ok = _valid_views(lin, valid)
@@ -306,19 +326,58 @@ def triangulate_lines(
     point = np.full((T, 3), np.nan)
     direction = np.full((T, 3), np.nan)
     if usable.any():
-        _, _, vt = np.linalg.svd(planes[usable])
-        a, b = vt[:, 2], vt[:, 3]  # two homogeneous points spanning the line
-        u, _ = _unit(a[:, 3:4] * b[:, :3] - b[:, 3:4] * a[:, :3])
-        # a finite point of the line: the spanning point with the larger |w|
-        use_a = np.abs(a[:, 3]) >= np.abs(b[:, 3])
-        q = np.where(use_a[:, None], a, b)
-        x0 = q[:, :3] / q[:, 3:4]
-        last = (ok[usable] * np.arange(ok.shape[1])).argmax(axis=1)
-        c = camera_centres(p[usable][np.arange(usable.sum()), last])
-        x0 = x0 + np.einsum("ti,ti->t", c - x0, u)[:, None] * u  # closest to the last camera
+        pu, oku, planes_u = p[usable], ok[usable], planes[usable]
+        c = camera_centres(pu)
+        centre = np.where(oku[..., None], c, 0.0).sum(1) / oku.sum(1)[:, None]
+        x0, u = _rank2_line(planes_u, centre)
+        if estimator == "weighted":
+            sig = np.ones(ok.shape) if sigma_px is None else np.asarray(sigma_px, np.float64)
+            pose = np.zeros((*ok.shape, 2)) if sigma_pose is None else np.asarray(sigma_pose)
+            sig, pose = sig[usable], pose[usable]
+            f = np.sqrt(np.abs(np.linalg.det(pu[..., :3])))  # f^2 = det(K R^T)
+            huber = np.ones(oku.shape)
+            for _ in range(iterations):
+                # A point of the line in front of each camera, and the planes' noise there.
+                depth = np.linalg.norm(x0[:, None] - c, axis=-1)
+                sigma = np.sqrt(
+                    (depth * sig / f) ** 2 + pose[..., 0] ** 2 + (depth * pose[..., 1]) ** 2
+                )
+                sigma = np.where(oku & (sigma > 0), sigma, 1.0)
+                w = np.where(oku, huber / sigma, 0.0)
+                x0, u = _rank2_line(planes_u * w[..., None], centre)
+                if oku.sum(axis=1).min() < 3:
+                    continue  # two views: no redundancy to judge a view by
+                # Residual of each plane: its distances to the line near the target.
+                ends = (
+                    x0[:, None]
+                    + np.stack([-depth.mean(1), depth.mean(1)], 1)[..., None] * 0.25 * u[:, None]
+                )
+                dist = np.einsum("tni,tki->tnk", planes_u[..., :3], ends) + planes_u[..., 3:]
+                r = np.sqrt((dist**2).mean(axis=2)) / sigma
+                huber = np.minimum(1.0, HUBER_K / np.maximum(r, 1e-12))
+        last = (oku * np.arange(ok.shape[1])).argmax(axis=1)
+        c_last = c[np.arange(usable.sum()), last]
+        x0 = x0 + np.einsum("ti,ti->t", c_last - x0, u)[:, None] * u  # closest to the last camera
         flip = np.take_along_axis(u, np.abs(u).argmax(axis=1)[:, None], 1) < 0
         point[usable], direction[usable] = x0, np.where(flip, -u, u)
     return NViewLines(point, direction, conditioning, status, reason)
+
+
+#: Huber's tuning constant: 95% efficiency under Gaussian noise.
+HUBER_K = 1.345
+
+
+def _rank2_line(planes: F64, near: F64) -> tuple[F64, F64]:
+    """The point nearest ``near`` (T, 3) and the unit direction (T, 3) of the rank-2 fit to
+    rows of planes (T, N, 4)."""
+    _, _, vt = np.linalg.svd(planes)
+    a, b = vt[:, 2], vt[:, 3]  # two homogeneous points spanning the line
+    u, _ = _unit(a[:, 3:4] * b[:, :3] - b[:, 3:4] * a[:, :3])
+    # a finite point of the line: the spanning point with the larger |w|
+    use_a = np.abs(a[:, 3]) >= np.abs(b[:, 3])
+    q = np.where(use_a[:, None], a, b)
+    x0 = q[:, :3] / q[:, 3:4]
+    return x0 + np.einsum("ti,ti->t", near - x0, u)[:, None] * u, u
 
 
 def triangulate_ground(

@@ -15,6 +15,7 @@ from typer.testing import CliRunner
 
 from analysis.cli import app
 from analysis.solve import (
+    image_lines,
     projection_matrices,
     triangulate_lines,
     triangulate_points,
@@ -98,6 +99,8 @@ def test_merton_reconstruction_meets_its_targets() -> None:
     assert figures["optimal_max_rel"] <= 1e-6  # p3d is itself the reprojection-optimal answer
     assert figures["line_angle_median_deg"] < 3.5
     assert figures["line_residual_median_px"] <= figures["l3d_residual_median_px"]
+    assert figures["weighted_angle_median_deg"] < 3.5
+    assert figures["weighted_residual_median_px"] <= figures["line_residual_median_px"]
 
 
 @pytest.mark.skipif(
@@ -126,6 +129,24 @@ def test_merton_through_the_solve_command() -> None:
     ref = data.l3d[0, 3:] - data.l3d[0, :3]
     cosine = abs(direction @ ref) / np.linalg.norm(ref)
     assert np.degrees(np.arccos(min(cosine, 1.0))) < 10.0
+    for v in line_views:
+        v["sigma_px"] = 0.5
+    weighted = runner.invoke(
+        app, ["solve", "line"], input=json.dumps({"views": line_views, "estimator": "weighted"})
+    )
+    assert weighted.exit_code == 0, weighted.output
+    assert json.loads(weighted.output)["estimator"] == "weighted"
+    line_views[0]["sigma_px"] = 0
+    bad = runner.invoke(
+        app, ["solve", "line"], input=json.dumps({"views": line_views, "estimator": "weighted"})
+    )
+    assert bad.exit_code == 3  # EXIT_ERROR, as every bad request
+    assert "sigma_px must be > 0" in bad.output
+    wrong = runner.invoke(
+        app, ["solve", "line"], input=json.dumps({"views": line_views, "estimator": "optimal"})
+    )
+    assert wrong.exit_code == 3
+    assert "thesis or weighted" in wrong.output
 
 
 @pytest.mark.parametrize("estimator", ["thesis", "optimal"])
@@ -178,3 +199,60 @@ def test_fast_two_view_degenerate_cases() -> None:
     on_axis = projection_matrices(K4, np.eye(3), np.array([0.0, 0.0, 2.0]))
     s = triangulate_two_views(np.array([[318.0, 242.0]]), np.array([[318.0, 242.0]]), P1, on_axis)
     assert s.reason[0] == "point on the baseline (rays parallel)"
+
+
+def _noisy_line_views(
+    rng: np.random.Generator, T: int, N: int, sigma_px: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Image lines (T, N, 3) of random 3-D lines, shifted across by N(0, sigma_px), their P and
+    the true directions."""
+    a = np.column_stack([rng.uniform(-1, 3, T), rng.uniform(-3, 0, T), rng.uniform(8, 10, T)])
+    d = rng.normal(size=(T, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    t = np.zeros((T, N, 3))
+    t[..., 0], t[..., 2] = rng.uniform(-2, 2, (T, N)), rng.uniform(-2, 1, (T, N))
+    P = projection_matrices(K4, np.eye(3), t)
+
+    def project(X: np.ndarray) -> np.ndarray:
+        y = np.einsum("tnij,tj->tni", P, np.concatenate([X, np.ones((T, 1))], 1))
+        return np.asarray(y[..., :2] / y[..., 2:])
+
+    pa, pb = project(a), project(a + 3 * d)
+    theta = np.arctan2(pb[..., 1] - pa[..., 1], pb[..., 0] - pa[..., 0])
+    normal = np.stack([-np.sin(theta), np.cos(theta)], -1)
+    mid = 0.5 * (pa + pb) + (sigma_px * rng.standard_normal((T, N)))[..., None] * normal
+    return image_lines(mid, np.degrees(theta)), P, d
+
+
+def _angle_deg(u: np.ndarray, d: np.ndarray) -> np.ndarray:
+    return np.asarray(np.degrees(np.arccos(np.clip(np.abs(np.sum(u * d, axis=1)), 0, 1))))
+
+
+def test_weighted_line_fit_trusts_the_steady_views() -> None:
+    rng = np.random.default_rng(3)
+    sigma = np.tile([0.2, 0.2, 0.2, 5.0], (2000, 1))  # one view's detections wander
+    lines, P, d = _noisy_line_views(rng, 2000, 4, sigma)
+    plain = _angle_deg(triangulate_lines(lines, P).direction_grid, d)
+    weighted = triangulate_lines(lines, P, estimator="weighted", sigma_px=sigma)
+    assert np.median(_angle_deg(weighted.direction_grid, d)) < 0.7 * np.median(plain)
+
+
+def test_robust_line_fit_drops_a_view_that_disagrees() -> None:
+    rng = np.random.default_rng(4)
+    sigma = np.full((2000, 4), 0.2)
+    lines, P, d = _noisy_line_views(rng, 2000, 4, sigma)
+    lines[:, 1, 2] += 15.0 * np.linalg.norm(lines[:, 1, :2], axis=1)  # 15 px off, unannounced
+    plain = _angle_deg(triangulate_lines(lines, P).direction_grid, d)
+    robust = triangulate_lines(lines, P, estimator="weighted", sigma_px=sigma)
+    assert np.median(_angle_deg(robust.direction_grid, d)) < 0.2 * np.median(plain)
+
+
+def test_weighted_line_fit_of_two_views_is_the_thesis_line() -> None:
+    rng = np.random.default_rng(5)
+    lines, P, _ = _noisy_line_views(rng, 200, 2, np.full((200, 2), 1.0))
+    plain = triangulate_lines(lines, P)
+    weighted = triangulate_lines(
+        lines, P, estimator="weighted", sigma_px=rng.uniform(0.1, 5, (200, 2))
+    )
+    np.testing.assert_allclose(weighted.direction_grid, plain.direction_grid, atol=1e-9)
+    np.testing.assert_allclose(weighted.point_grid, plain.point_grid, atol=1e-8)

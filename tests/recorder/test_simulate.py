@@ -49,7 +49,7 @@ def test_typed_poses_carry_the_typing_error_truth_does_not(ground_session: Path)
             # Typed values sit on the 0.25 in lattice; the truth is off it by the typing error.
             np.testing.assert_allclose(typed / 0.25, np.round(typed / 0.25), atol=1e-9)
             # The placing error is on every component, as the recorded 1-sigma says.
-            assert 0 < np.abs(typed - real).min()
+            assert np.abs(typed - real).min() > 0
             assert np.abs(typed - real).max() < 0.6
             assert typed[1] == 0.0  # typed on the table
             assert pc.entry.translation_resolution == pytest.approx(0.1)
