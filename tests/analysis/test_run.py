@@ -94,6 +94,13 @@ def test_output_files_columns_and_report(
     assert "fx=525" in html
     assert set(result.figures) >= {"error_histogram"}
     assert all((out / f"{name}.png").exists() for name in result.figures)
+    # What dominates each trial, and the sensitivity sweeps, are in the report.
+    assert "What dominates the error" in html
+    assert "x translation" in html
+    sweeps = pd.read_csv(out / "sensitivity.csv")
+    assert {"pixel noise", "pose error x", "baseline length"} <= set(sweeps["sweep"])
+    assert "Sensitivity (the thesis' geometry)" in html
+    assert (out / "sensitivity.png").stat().st_size > 1000
 
 
 def test_running_average_with_all_frames_equals_the_trial_estimate(ground_session: Path) -> None:
