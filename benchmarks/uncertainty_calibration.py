@@ -31,8 +31,11 @@ FRAMES = 3
 
 def _simulate(job: tuple[str, int, int, str]) -> str:
     method, seed, trials, out = job
-    if not Path(out).exists():
-        simulate_session(out, method=method, trials=trials, frames=FRAMES, seed=seed)
+    if not Path(out).exists():  # written under another name first: a kill leaves no half file
+        partial = Path(out).with_suffix(".partial")
+        partial.unlink(missing_ok=True)
+        simulate_session(partial, method=method, trials=trials, frames=FRAMES, seed=seed)
+        partial.rename(out)
     return out
 
 
