@@ -121,6 +121,13 @@ def run_command(
     min_ground_angle: Annotated[
         float, typer.Option(help="Warn when the line meets the ground below this (deg).")
     ] = 10.0,
+    scene: Annotated[
+        bool,
+        typer.Option(
+            help="Also write results_<n>_<session>.mcap per session: images with the "
+            "detections drawn, and each trial's 3-D geometry, for Foxglove."
+        ),
+    ] = True,
 ) -> None:
     """Replay sessions through detection and solvers into error tables, figures and a report."""
     from analysis.pipeline import AnalysisOptions, run
@@ -143,6 +150,7 @@ def run_command(
                     min_ground_angle_deg=min_ground_angle,
                 ),
                 on_session_done=lambda _path, _ok: progress.advance(task),
+                scene=scene,
             )
     table = Table(title=f"twopose: {len(result.sessions)} session(s), results in {out}")
     units = result.summary["units"].iloc[0] if len(result.summary["units"].unique()) == 1 else ""

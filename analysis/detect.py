@@ -11,8 +11,9 @@ measured from the +col axis toward the +row axis (row points down), i.e.
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Literal
 
 import cv2
@@ -24,6 +25,7 @@ __all__ = [
     "DotParams",
     "GloveParams",
     "PoseMeasurement",
+    "RejectedBlob",
     "blob_shape",
     "combine_frames",
     "detect",
@@ -68,12 +70,23 @@ class DotParams:
 
 
 @dataclass(frozen=True)
+class RejectedBlob:
+    """A blob big enough to be a candidate that a filter turned down, and which."""
+
+    outline_px: NDArray[np.float64] | None  # (K, 2) outer boundary, (col, row)
+    centroid_px: tuple[float, float]
+    reason: str
+
+
+@dataclass(frozen=True)
 class Detection:
     """One frame's detection and the diagnostics behind it.
 
     ``centroid_px`` is (col, row); NaN fields when nothing was found. ``reason`` says why
     a frame was rejected (empty when found). ``n_blobs`` counts connected components after
-    the colour/contrast stage; ``n_candidates`` those passing every filter.
+    the colour/contrast stage; ``n_candidates`` those passing every filter. ``outline_px``
+    is the detected blob's outer boundary and ``rejected_blobs`` the candidates turned
+    down (both for drawing the detection on the image).
     """
 
     found: bool
@@ -85,6 +98,8 @@ class Detection:
     n_blobs: int = 0
     n_candidates: int = 0
     reason: str = ""
+    outline_px: NDArray[np.float64] | None = field(default=None, repr=False, compare=False)
+    rejected_blobs: tuple[RejectedBlob, ...] = field(default=(), repr=False, compare=False)
 
 
 def wrap_theta_deg(theta_deg: NDArray[np.float64] | float) -> NDArray[np.float64]:
@@ -102,6 +117,7 @@ class BlobShape:
     minor: float
     eccentricity: float
     pi_estimate: float
+    outline_px: NDArray[np.float64] | None = field(default=None, repr=False, compare=False)
 
 
 def blob_shape(m: dict[str, float], offset: tuple[float, float] = (0.0, 0.0)) -> BlobShape:
@@ -189,7 +205,9 @@ def _components(
         roi = (labels[y : y + h, x : x + w] == label).astype(np.uint8)
         m = cv2.moments(roi, binaryImage=True)
         if m["m00"] >= min_area_px:
-            shapes.append(blob_shape(m, (float(x), float(y))))
+            shape = blob_shape(m, (float(x), float(y)))
+            outline = contour[:, 0, :].astype(np.float64)
+            shapes.append(dataclasses.replace(shape, outline_px=outline))
     return n - 1, shapes
 
 
@@ -201,10 +219,22 @@ def detect_glove(image_bgr: Image, params: GloveParams | None = None) -> Detecti
     big = [b for b in blobs if b.area > p.min_area_px]  # the thesis: area strictly > 200
     elliptic = [s for s in big if p.ecc_min <= s.eccentricity < p.ecc_max]
     passing = [s for s in elliptic if p.pi_min <= s.pi_estimate <= p.pi_max]
+    turned_down = tuple(
+        RejectedBlob(s.outline_px, s.centroid, why) for s in big if (why := _glove_rejection(s, p))
+    )
     if len(passing) == 1:
         s = passing[0]
         return Detection(
-            True, s.centroid, s.theta_deg, s.area, s.eccentricity, s.pi_estimate, n_blobs, 1
+            True,
+            s.centroid,
+            s.theta_deg,
+            s.area,
+            s.eccentricity,
+            s.pi_estimate,
+            n_blobs,
+            1,
+            outline_px=s.outline_px,
+            rejected_blobs=turned_down,
         )
     if passing:
         areas = ", ".join(f"{s.area:.0f}" for s in passing)
@@ -224,7 +254,24 @@ def detect_glove(image_bgr: Image, params: GloveParams | None = None) -> Detecti
         reason = (
             f"{len(elliptic)} elongated blob(s), pi estimate {pis} not in [{p.pi_min}, {p.pi_max}]"
         )
-    return Detection(False, n_blobs=n_blobs, n_candidates=len(passing), reason=reason)
+    if len(passing) > 1:
+        turned_down += tuple(RejectedBlob(s.outline_px, s.centroid, "ambiguous") for s in passing)
+    return Detection(
+        False,
+        n_blobs=n_blobs,
+        n_candidates=len(passing),
+        reason=reason,
+        rejected_blobs=turned_down,
+    )
+
+
+def _glove_rejection(s: BlobShape, p: GloveParams) -> str:
+    """Why the glove filter turns down a blob over the area limit ("" if it passes)."""
+    if not p.ecc_min <= s.eccentricity < p.ecc_max:
+        return f"eccentricity {s.eccentricity:.2f}"
+    if not p.pi_min <= s.pi_estimate <= p.pi_max:
+        return f"pi estimate {s.pi_estimate:.3f}"
+    return ""
 
 
 def detect_dot(image_bgr: Image, params: DotParams | None = None) -> Detection:
@@ -243,17 +290,27 @@ def detect_dot(image_bgr: Image, params: DotParams | None = None) -> Detection:
     n_blobs, blobs = _components(bw.astype(np.uint8), p.min_area_px, max_side=k)
     best: tuple[float, BlobShape] | None = None
     n_round = 0
+    turned_down: list[RejectedBlob] = []
     for shape in blobs:
         if shape.eccentricity > p.max_eccentricity:
+            turned_down.append(
+                RejectedBlob(
+                    shape.outline_px, shape.centroid, f"eccentricity {shape.eccentricity:.2f}"
+                )
+            )
             continue
         n_round += 1
         c, r = round(shape.centroid[0]), round(shape.centroid[1])
         peak = float(hat[max(r - 2, 0) : r + 3, max(c - 2, 0) : c + 3].max())
         if best is None or peak > best[0]:
+            if best is not None:
+                turned_down.append(RejectedBlob(best[1].outline_px, best[1].centroid, "weaker"))
             best = (peak, shape)
+        else:
+            turned_down.append(RejectedBlob(shape.outline_px, shape.centroid, "weaker"))
     if best is None:
         reason = "no round dark blob" if n_blobs else "no dark feature on a bright background"
-        return Detection(False, n_blobs=n_blobs, reason=reason)
+        return Detection(False, n_blobs=n_blobs, reason=reason, rejected_blobs=tuple(turned_down))
     shape = best[1]
     # Sub-pixel centroid: weight the black-hat response around the blob (its edges are
     # anti-aliased, so partial-coverage pixels carry the sub-pixel information).
@@ -274,6 +331,8 @@ def detect_dot(image_bgr: Image, params: DotParams | None = None) -> Detection:
         shape.pi_estimate,
         n_blobs,
         n_round,
+        outline_px=shape.outline_px,
+        rejected_blobs=tuple(turned_down),
     )
 
 

@@ -8,9 +8,10 @@ figures and the report. Everything the CLI's ``run`` does is this one call.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import multiprocessing
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
@@ -42,6 +43,7 @@ from analysis.metrics import (
     uncertainty_columns,
 )
 from analysis.replay import TrialRecord, find_sessions, iter_trials
+from analysis.results_mcap import ResultsWriter, TrialScene
 from analysis.solve import (
     DEFAULT_MIN_CONDITIONING,
     image_lines,
@@ -117,6 +119,7 @@ class SessionResult:
 class _TrialKey:
     trial: int
     ground_truth: GroundTruth | None
+    last_ns: int  # the trial's last frame (0 when it has none)
 
 
 @dataclass
@@ -125,6 +128,7 @@ class _View:
 
     pose: int
     intrinsics: F64  # (4,) fx, fy, cx, cy
+    width_height: tuple[int, int]
     t_grid: F64  # (3,) typed camera centre
     r_deg: F64  # (3,) typed angles, R_cam_to_grid = Rx Ry Rz
     t_sigma: float  # 1-sigma of each typed translation component (session units)
@@ -140,17 +144,23 @@ def _detect_trial(
     target: str,
     options: AnalysisOptions,
     rows: list[dict[str, Any]],
+    results: ResultsWriter | None = None,
 ) -> list[_View]:
     views: list[_View] = []
     params = options.dot if target == "dot" else options.glove
     for pc in record.poses:
         dets: list[Detection] = []
+        if results is not None and pc.frames:
+            results.add_pose(pc.entry, pc.frames[0].log_time_ns)
         for j, frame in enumerate(pc.frames):
             try:
                 det = detect(frame.decode(), target, params)
             except SessionFormatError as err:  # one undecodable frame is a rejected frame
                 det = Detection(False, reason=str(err))
             dets.append(det)
+            if results is not None:
+                label = f"trial {record.trial} pose {pc.entry.pose} frame {j}"
+                results.add_frame(frame, det, label)
             rows.append(
                 {
                     "session": session,
@@ -178,6 +188,7 @@ def _detect_trial(
             _View(
                 pc.entry.pose,
                 np.array([i.fx, i.fy, i.cx, i.cy]),
+                (i.width, i.height),
                 np.array(pc.entry.t_grid),
                 np.array(pc.entry.r_deg),
                 pc.entry.translation_resolution,
@@ -318,7 +329,11 @@ def _warnings(
 
 
 def analyse_session(
-    path: str | Path, options: AnalysisOptions | None = None, *, render_images: bool = False
+    path: str | Path,
+    options: AnalysisOptions | None = None,
+    *,
+    render_images: bool = False,
+    results_path: str | Path | None = None,
 ) -> SessionResult:
     """Replay one session through detection and the solver.
 
@@ -326,12 +341,42 @@ def analyse_session(
     was detected makes its trial ``no_detection``. Every complete pose of a trial is used
     (N >= 2 views); point trials also get the reprojection-optimal estimate (``*_optimal``).
 
+    With ``results_path``, also writes the session's results.mcap there (images with the
+    detections drawn on them, and each trial's geometry as a 3-D scene; see
+    :mod:`analysis.results_mcap`); a session that fails leaves no half-written file.
+
     Raises
     ------
     SessionFormatError
         The file is not a readable session (the batch lists it and goes on).
     """
-    options = options or AnalysisOptions()
+    with contextlib.ExitStack() as stack:
+        results = None
+        if results_path is not None:
+            results = stack.enter_context(_results_writer(Path(results_path), path))
+        return _analyse(path, options or AnalysisOptions(), render_images, results)
+
+
+@contextlib.contextmanager
+def _results_writer(out: Path, session: str | Path) -> Iterator[ResultsWriter]:
+    with SessionReader(session) as reader:
+        cameras, ground = list(reader.cameras.values()), reader.ground
+    writer = ResultsWriter(out, cameras, ground)
+    try:
+        yield writer
+    except BaseException:
+        writer.close()
+        out.unlink(missing_ok=True)
+        raise
+    writer.close()
+
+
+def _analyse(
+    path: str | Path,
+    options: AnalysisOptions,
+    render_images: bool,
+    results: ResultsWriter | None,
+) -> SessionResult:
     keep_frame_buffers()
     session = str(path)
     frame_rows: list[dict[str, Any]] = []
@@ -350,8 +395,9 @@ def analyse_session(
         # memory does not grow with session length.
         records: list[tuple[_TrialKey, list[_View]]] = []
         for record in iter_trials(reader):
-            views = _detect_trial(record, session, target, options, frame_rows)
-            records.append((_TrialKey(record.trial, record.ground_truth), views))
+            views = _detect_trial(record, session, target, options, frame_rows, results)
+            last = max((pc.frames[-1].log_time_ns for pc in record.poses if pc.frames), default=0)
+            records.append((_TrialKey(record.trial, record.ground_truth, last), views))
         metadata = {
             "method": method,
             "units": info.units,
@@ -496,6 +542,15 @@ def analyse_session(
     trials["rejected_frames"] = [
         _rejected(ms, views) if ms else "" for ms, views in zip(measurements, used, strict=True)
     ]
+    if results is not None:
+        for i, ((key, views), ms) in enumerate(zip(records, measurements, strict=True)):
+            if views:
+                estimate = trials.loc[i, ["x", "y", "z"]].to_numpy(dtype=np.float64)
+                line_dir = direction[i] if method == "line" else None
+                scene = _trial_scene(
+                    key.trial, method, str(status[i]), views, ms, estimate, line_dir, gt[i], cov[i]
+                )
+                results.add_trial(scene, key.last_ns)
     averaging = _averaging(session, method, records, used, detected, ground, gt, options)
     frames = pd.DataFrame(frame_rows, columns=FRAME_COLUMNS)
     images: dict[str, bytes] = {}
@@ -548,6 +603,40 @@ def _rejected(measurements: list[PoseMeasurement], views: list[_View]) -> str:
         f"pose {v.pose}: {', '.join(str(i) for i in m.rejected)}"
         for m, v in zip(measurements, views, strict=True)
         if m.rejected
+    )
+
+
+def _trial_scene(
+    trial: int,
+    method: str,
+    status: str,
+    views: list[_View],
+    measurements: list[PoseMeasurement],
+    estimate: F64,
+    direction: F64 | None,
+    truth: F64,
+    cov: F64,
+) -> TrialScene:
+    """What results.mcap draws for a trial (measurements NaN where a pose had none)."""
+    n = len(views)
+    px = np.full((n, 2), np.nan)
+    theta = np.full(n, np.nan)
+    for j, m in enumerate(measurements):
+        px[j], theta[j] = m.centroid_px, m.theta_deg
+    return TrialScene(
+        trial=trial,
+        method=method,
+        status=status,
+        intrinsics=np.array([v.intrinsics for v in views]),
+        width_height=np.array([v.width_height for v in views], dtype=np.float64),
+        R_cam_to_grid=rotation_from_angles_deg(np.array([v.r_deg for v in views])),
+        t_grid=np.array([v.t_grid for v in views]),
+        px=px,
+        theta_deg=theta,
+        estimate=estimate,
+        direction=direction,
+        truth=truth,
+        cov=cov,
     )
 
 
@@ -724,16 +813,17 @@ def _claim(claims: Any, index: int) -> bool:
 
 
 def _worker_task(
-    index: int, path: str, options: AnalysisOptions, images: bool
+    index: int, path: str, options: AnalysisOptions, images: bool, results: str | None
 ) -> SessionResult | str | None:
     """A worker's session, or None when the main process took it first."""
     if not _claim(_CLAIMS, index):
         return None
-    return _analyse_or_error(path, options, images)
+    return _analyse_or_error(path, options, images, results)
 
 
 def _run_processes(
     files: list[str],
+    results: list[str | None],
     options: AnalysisOptions,
     images: bool,
     jobs: int,
@@ -761,12 +851,13 @@ def _run_processes(
             max_workers=jobs - 1, mp_context=context, initializer=_worker_init, initargs=(claims,)
         ) as pool:
             futures = [
-                pool.submit(_worker_task, i, f, options, images) for i, f in enumerate(files)
+                pool.submit(_worker_task, i, f, options, images, results[i])
+                for i, f in enumerate(files)
             ]
             for i in reversed(range(len(files))):
                 if not _claim(claims, i):
                     break  # the workers, going forward, have reached this one
-                done(i, _analyse_or_error(files[i], options, images))
+                done(i, _analyse_or_error(files[i], options, images, results[i]))
             for i, fut in enumerate(futures):
                 if outcomes[i] is not None:
                     continue
@@ -812,10 +903,12 @@ def keep_frame_buffers() -> None:
     mallopt(m_trim_threshold, 128 * 1024 * 1024)
 
 
-def _analyse_or_error(path: str, options: AnalysisOptions, images: bool) -> SessionResult | str:
+def _analyse_or_error(
+    path: str, options: AnalysisOptions, images: bool, results: str | None = None
+) -> SessionResult | str:
     """Worker entry point: a result, or the reason this file failed (never raises)."""
     try:
-        return analyse_session(path, options, render_images=images)
+        return analyse_session(path, options, render_images=images, results_path=results)
     except TwoposeError as err:
         return str(err)
     except Exception as err:  # one bad file never stops the batch; the reason is kept
@@ -830,6 +923,7 @@ def run(
     dask_address: str | None = None,
     options: AnalysisOptions | None = None,
     on_session_done: Callable[[str, bool], None] | None = None,
+    scene: bool = True,
 ) -> RunResult:
     """Analyse every session under ``paths`` and (with ``out_dir``) write the results.
 
@@ -839,7 +933,9 @@ def run(
         Session files and folders (searched recursively for ``*.mcap``).
     out_dir : path-like, optional
         Where to write ``trials.csv``, ``summary.csv``, ``averaging.csv``, ``frames.csv``,
-        ``errors.csv``, the figures and ``report.html``.
+        ``errors.csv``, the figures and ``report.html``, and (with ``scene``) one
+        ``results_<index>_<session>.mcap`` per session for Foxglove
+        (:mod:`analysis.results_mcap`).
     jobs : int
         Worker processes; results are identical whatever the number.
     dask_address : str, optional
@@ -853,17 +949,24 @@ def run(
     if jobs < 1:
         raise InputValueError(f"jobs must be >= 1, got {jobs}")
     files = [str(p) for p in find_sessions([str(p) for p in paths])]
+    results_mcap: list[str | None] = [None] * len(files)
+    if out_dir is not None and scene:
+        Path(out_dir).mkdir(parents=True, exist_ok=True)
+        results_mcap = [
+            str(Path(out_dir) / f"{results_mcap_name(i, f)}") for i, f in enumerate(files)
+        ]
+    images = out_dir is not None
     outcomes: list[SessionResult | str]
     if dask_address is not None:
-        outcomes = _run_dask(files, options, out_dir is not None, dask_address, on_session_done)
+        outcomes = _run_dask(files, results_mcap, options, images, dask_address, on_session_done)
     elif jobs == 1 or len(files) <= 1:
         outcomes = []
-        for f in files:
-            outcomes.append(_analyse_or_error(f, options, out_dir is not None))
+        for f, r in zip(files, results_mcap, strict=True):
+            outcomes.append(_analyse_or_error(f, options, images, r))
             if on_session_done:
                 on_session_done(f, not isinstance(outcomes[-1], str))
     else:
-        outcomes = _run_processes(files, options, out_dir is not None, jobs, on_session_done)
+        outcomes = _run_processes(files, results_mcap, options, images, jobs, on_session_done)
     results = tuple(o for o in outcomes if not isinstance(o, str))
     errors = pd.DataFrame(
         [
@@ -905,8 +1008,14 @@ def _concat(frames: list[pd.DataFrame], columns: list[str]) -> pd.DataFrame:
     return table[[c for c in columns if c in table.columns]]
 
 
+def results_mcap_name(index: int, session: str | Path) -> str:
+    """File name of a session's results.mcap in a run's output folder."""
+    return f"results_{index:02d}_{Path(session).stem}.mcap"
+
+
 def _run_dask(
     files: list[str],
+    results: list[str | None],
     options: AnalysisOptions,
     images: bool,
     address: str,
@@ -925,7 +1034,9 @@ def _run_dask(
     except OSError as err:
         raise InputValueError(f"cannot reach the Dask scheduler at {address}: {err}") from err
     try:
-        futures = client.map(_analyse_or_error, files, options=options, images=images, pure=False)
+        futures = client.map(
+            _analyse_or_error, files, options=options, images=images, results=results, pure=False
+        )
         outcomes: list[SessionResult | str] = []
         for f, fut in zip(files, futures, strict=True):
             outcomes.append(fut.result())

@@ -33,8 +33,8 @@ from recorder.session import (
     GroundPlane,
     PoseEntry,
     SessionInfo,
-    _calibration_message,
     _check_version,
+    calibration_message,
     calibration_topic,
     cameras_from_metadata,
     decode_entry,
@@ -204,7 +204,7 @@ class _Output:
         t0 = self.start_ns
         self.put(SessionInfo.TOPIC, t0, encode_entry(self.info), counts)
         for cam in self.cameras:
-            msg = _calibration_message(cam, t0)
+            msg = calibration_message(cam, t0)
             self.put(calibration_topic(cam.camera_id), t0, msg.SerializeToString(), counts)
         if self.ground is not None:
             self.put(GroundPlane.TOPIC, t0, encode_entry(self.ground), counts)

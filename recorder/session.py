@@ -721,7 +721,7 @@ def _validate(schema_name: str, data: Any) -> None:
 # --------------------------------------------------------------------------- protobuf helpers
 
 
-def _calibration_message(camera: Camera, log_time_ns: int) -> PbCameraCalibration:
+def calibration_message(camera: Camera, log_time_ns: int) -> PbCameraCalibration:
     i = camera.intrinsics
     msg = PbCameraCalibration(
         frame_id=camera_frame_id(camera.camera_id),
@@ -762,7 +762,7 @@ def _camera_from_message(msg: Any) -> Camera:
         raise SessionFormatError(f"camera calibration of {frame_id}: {err}") from err
 
 
-def _transform_message(entry: PoseEntry, log_time_ns: int) -> PbFrameTransform:
+def transform_message(entry: PoseEntry, log_time_ns: int) -> PbFrameTransform:
     qx, qy, qz, qw = quaternion_xyzw_from_matrix(entry.R_cam_to_grid)
     msg = PbFrameTransform(
         parent_frame_id=GRID_FRAME, child_frame_id=camera_frame_id(entry.camera_id)
@@ -957,7 +957,7 @@ class SessionWriter:
         self._write_json(self.info, t0)
         for camera in self.cameras.values():
             self._write_proto(
-                calibration_topic(camera.camera_id), _calibration_message(camera, t0), t0
+                calibration_topic(camera.camera_id), calibration_message(camera, t0), t0
             )
         if self.ground is not None:
             self._write_json(self.ground, t0)
@@ -1028,7 +1028,7 @@ class SessionWriter:
         self._check_camera(entry.camera_id)
         t = self._time(log_time_ns)
         self._write_json(entry, t)
-        self._write_proto(TF_TOPIC, _transform_message(entry, t), t)
+        self._write_proto(TF_TOPIC, transform_message(entry, t), t)
         self._flush()
 
     def write_ground_truth(self, entry: GroundTruth, log_time_ns: int | None = None) -> None:

@@ -1,0 +1,151 @@
+"""results.mcap: decode what we wrote and check it against the tables."""
+
+from __future__ import annotations
+
+from collections import Counter
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+import pandas as pd
+import pytest
+from mcap.reader import make_reader
+from mcap_protobuf.decoder import DecoderFactory
+
+from analysis.detect import detect_glove
+from analysis.pipeline import results_mcap_name, run
+from analysis.results_mcap import SCENE_TOPIC, annotations_topic, image_annotations
+from recorder.session import image_topic
+
+
+def _decoded(path: Path) -> list[tuple[str, int, Any]]:
+    with path.open("rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        return [
+            (channel.topic, message.log_time, proto)
+            for _, channel, message, proto in reader.iter_decoded_messages(log_time_order=True)
+        ]
+
+
+def _entity(update: Any, name: str) -> Any:
+    found = [e for e in update.entities if e.id == name]
+    assert len(found) == 1, f"{name}: {[e.id for e in update.entities]}"
+    return found[0]
+
+
+def _vec(p: Any) -> np.ndarray:
+    return np.array([p.x, p.y, p.z])
+
+
+@pytest.fixture(scope="module")
+def results(
+    tmp_path_factory: pytest.TempPathFactory,
+    point_session: Path,
+    line_session: Path,
+    ground_session: Path,
+) -> tuple[Path, Any]:
+    out = tmp_path_factory.mktemp("results")
+    result = run([point_session, line_session, ground_session], out)
+    return out, result
+
+
+@pytest.mark.parametrize("index", [0, 1, 2])
+def test_scene_geometry_matches_the_trial_table(results: tuple[Path, Any], index: int) -> None:
+    out, result = results
+    session = result.sessions[index]
+    messages = _decoded(out / results_mcap_name(index, session.session))
+    scenes = [m for t, _, m in messages if t == SCENE_TOPIC]
+    static, per_trial = scenes[0], scenes[1:]
+    assert {e.id for e in static.entities} >= {"grid"}
+    assert len(per_trial) == len(session.trials)
+    method = session.trials["method"].iloc[0]
+    for update, (_, row) in zip(per_trial, session.trials.iterrows(), strict=True):
+        estimate = _entity(update, "estimate")
+        np.testing.assert_allclose(
+            _vec(estimate.spheres[0].pose.position), row[["x", "y", "z"]].to_numpy(float)
+        )
+        # The 95% ellipsoid's axes are the covariance's: its volume matches the determinant.
+        axes = _vec(estimate.spheres[1].size) / 2
+        if method == "point":
+            cov = np.array(
+                [
+                    [row.sigma_x**2, row.cov_xy, row.cov_xz],
+                    [row.cov_xy, row.sigma_y**2, row.cov_yz],
+                    [row.cov_xz, row.cov_yz, row.sigma_z**2],
+                ]
+            )
+            np.testing.assert_allclose(
+                np.prod(axes), np.sqrt(7.8147**3 * np.linalg.det(cov)), rtol=1e-3
+            )
+        truth = _entity(update, "truth")
+        if method == "line":
+            pts = [_vec(p) for p in truth.lines[0].points]
+            np.testing.assert_allclose(
+                0.5 * (pts[0] + pts[1]), row[["gt_x", "gt_y", "gt_z"]].to_numpy(float), atol=1e-9
+            )
+        else:
+            np.testing.assert_allclose(
+                _vec(truth.spheres[0].pose.position), row[["gt_x", "gt_y", "gt_z"]].to_numpy(float)
+            )
+        arrow = _entity(update, "error").arrows[0]
+        np.testing.assert_allclose(arrow.shaft_length + arrow.head_length, row["err"], rtol=1e-9)
+        cameras = _entity(update, "cameras")
+        assert len(cameras.lines) == row["n_views"]  # one frustum per pose
+        measurements = _entity(update, "measurements")
+        if method == "point":
+            assert len(measurements.lines[0].points) == 2 * row["n_views"]  # one ray each
+        else:
+            assert len(measurements.triangles[0].points) == 3 * row["n_views"]  # one wedge each
+
+
+def test_images_carry_their_detections(results: tuple[Path, Any]) -> None:
+    out, result = results
+    session = result.sessions[0]
+    messages = _decoded(out / results_mcap_name(0, session.session))
+    counts = Counter(t for t, _, _ in messages)
+    frames = session.frames
+    assert counts[image_topic("cam0")] == len(frames)
+    assert counts[annotations_topic("cam0")] == len(frames)
+    images = {t: m for topic, t, m in messages if topic == image_topic("cam0")}
+    overlays = [(t, m) for topic, t, m in messages if topic == annotations_topic("cam0")]
+    for (t, overlay), (_, row) in zip(overlays, frames.iterrows(), strict=True):
+        assert t == row["log_time_ns"]
+        assert images[t].timestamp.ToNanoseconds() == t  # the Image panel pairs them by stamp
+        assert overlay.circles[0].timestamp.ToNanoseconds() == t
+        centre = overlay.circles[0].position
+        np.testing.assert_allclose([centre.x, centre.y], [row["col"], row["row"]])
+        assert overlay.texts[-1].text.endswith("found")
+        assert f"trial {row['trial']} pose {row['pose']}" in overlay.texts[-1].text
+
+
+def test_rejected_candidates_are_drawn_in_red_with_the_reason() -> None:
+    img = np.full((240, 320, 3), 200, np.uint8)
+    cv2.circle(img, (100, 120), 25, (200, 90, 30), -1)  # blue (BGR) and round: not a finger
+    det = detect_glove(img)
+    assert not det.found
+    msg = image_annotations(det, 5, "trial 1 pose 1 frame 0")
+    red = [p for p in msg.points if p.outline_color.r > 0.9 and p.outline_color.g < 0.5]
+    assert len(red) == 1
+    xs = [pt.x for pt in red[0].points]
+    assert 70 < min(xs) < 80
+    assert 120 < max(xs) < 130
+    assert any(t.text.startswith("eccentricity") for t in msg.texts)
+    assert "rejected" in msg.texts[-1].text
+
+
+def test_no_scene_and_failed_sessions_leave_no_results_file(
+    tmp_path: Path, point_session: Path
+) -> None:
+    bad = tmp_path / "in" / "bad.mcap"
+    bad.parent.mkdir()
+    bad.write_bytes(b"\x89MCAP0\r\n" + b"\0" * 64)
+    out = tmp_path / "out"
+    result = run([point_session, bad], out)
+    assert len(result.errors) == 1
+    written = sorted(p.name for p in out.glob("*.mcap"))
+    assert written == [results_mcap_name(0, point_session)]
+    none = tmp_path / "none"
+    run([point_session], none, scene=False)
+    assert not list(none.glob("*.mcap"))
+    assert pd.read_csv(none / "trials.csv")["status"].eq("ok").all()
