@@ -149,3 +149,26 @@ def test_no_scene_and_failed_sessions_leave_no_results_file(
     run([point_session], none, scene=False)
     assert not list(none.glob("*.mcap"))
     assert pd.read_csv(none / "trials.csv")["status"].eq("ok").all()
+
+
+def test_the_shipped_foxglove_layout_names_topics_that_exist(results: tuple[Path, Any]) -> None:
+    import json
+
+    out, result = results
+    layout = json.loads((Path(__file__).parents[2] / "docs" / "foxglove-layout.json").read_text())
+    config = layout["configById"]
+    image = config["Image!twopose"]["imageMode"]
+    wanted = {image["imageTopic"], image["calibrationTopic"], *image["annotations"]}
+    wanted |= set(config["3D!twopose"]["topics"])
+    wanted.add(config["RawMessages!twopose"]["topicPath"].split(".")[0])
+    with (out / results_mcap_name(0, result.sessions[0].session)).open("rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None
+    topics = {c.topic for c in summary.channels.values()}
+    assert wanted <= topics, wanted - topics
+
+    # Every panel the layout tree places is configured.
+    def leaves(node: Any) -> list[str]:
+        return [node] if isinstance(node, str) else leaves(node["first"]) + leaves(node["second"])
+
+    assert set(leaves(layout["layout"])) == set(config)
