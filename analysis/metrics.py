@@ -55,7 +55,13 @@ WEIGHTED_COLUMNS = [
     "dist_err_weighted",
 ]
 #: Degeneracy margins (degrees) per method, and the warning when one is under its threshold.
-MARGIN_COLUMNS = ["parallax_deg", "plane_angle_deg", "line_ground_angle_deg", "warning"]
+MARGIN_COLUMNS = [
+    "parallax_deg",
+    "plane_angle_deg",
+    "line_ground_angle_deg",
+    "warning",
+    "baseline",  # the longest distance between two typed camera centres of the trial
+]
 #: Point trials: the reprojection-optimal estimate beside the thesis' (x, y, z).
 OPTIMAL_COLUMNS = ["x_optimal", "y_optimal", "z_optimal", "err_optimal"]
 #: First-order uncertainty of (x, y, z) (analysis/uncertainty.py): 1-sigma per axis, the

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import itertools
 import multiprocessing
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
@@ -87,6 +88,22 @@ FRAME_COLUMNS = [
     "reason",
 ]
 AVERAGING_COLUMNS = ["session", "trial", "n_frames", "x", "y", "z", "err"]
+#: One row per used pose: its typed camera centre, combined measurement and the unit ray
+#: through the measured pixel, grid frame (``views.csv``; the top-view plots).
+VIEW_COLUMNS = [
+    "session",
+    "trial",
+    "pose",
+    "t_x",
+    "t_y",
+    "t_z",
+    "col",
+    "row",
+    "theta_deg",
+    "ray_x",
+    "ray_y",
+    "ray_z",
+]
 
 
 @dataclass(frozen=True)
@@ -113,6 +130,7 @@ class SessionResult:
     trials: pd.DataFrame
     averaging: pd.DataFrame
     images: dict[str, bytes] = field(default_factory=dict)  # PNGs by figure kind, if asked
+    views: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=VIEW_COLUMNS))
 
 
 @dataclass(frozen=True)
@@ -508,6 +526,7 @@ def _analyse(
         for name, values in solved.margins.items():
             margins[name][solvable] = values
     n_views = np.array([len(v) if ok else 0 for v, ok in zip(used, complete, strict=True)])
+    view_table = _view_table(session, trial_ids, used, measurements)
 
     trials = _trial_table(
         session,
@@ -526,6 +545,13 @@ def _analyse(
     for name, values in margins.items():
         trials[name] = values
     trials["warning"] = _warnings(status, margins, options)
+    trials["baseline"] = [
+        max(
+            (np.linalg.norm(a.t_grid - b.t_grid) for a, b in itertools.combinations(v, 2)),
+            default=np.nan,
+        )
+        for v in used
+    ]
     if method == "line":
         with np.errstate(invalid="ignore"):
             est, mid, angle, dist = line_errors(
@@ -557,8 +583,11 @@ def _analyse(
     if render_images:  # here, so that a batch renders its figures in parallel too
         from analysis.report import png_bytes, session_figures
 
-        images = {k: png_bytes(f) for k, f in session_figures(session, trials, averaging).items()}
-    return SessionResult(session, metadata, frames, trials, averaging, images)
+        images = {
+            k: png_bytes(f)
+            for k, f in session_figures(session, trials, averaging, view_table).items()
+        }
+    return SessionResult(session, metadata, frames, trials, averaging, images, view_table)
 
 
 def _scatter(view: _View, m: PoseMeasurement) -> tuple[F64, int]:
@@ -604,6 +633,34 @@ def _rejected(measurements: list[PoseMeasurement], views: list[_View]) -> str:
         for m, v in zip(measurements, views, strict=True)
         if m.rejected
     )
+
+
+def _view_table(
+    session: str,
+    trial_ids: Sequence[int],
+    used: list[list[_View]],
+    measurements: list[list[PoseMeasurement]],
+) -> pd.DataFrame:
+    rows = []
+    for trial, views, ms in zip(trial_ids, used, measurements, strict=True):
+        for v, m in zip(views, ms, strict=False):  # incomplete trials have no measurements
+            fx, fy, cx, cy = v.intrinsics
+            cam = np.array([(m.centroid_px[0] - cx) / fx, (m.centroid_px[1] - cy) / fy, 1.0])
+            ray = rotation_from_angles_deg(v.r_deg) @ cam
+            ray /= np.linalg.norm(ray)
+            rows.append(
+                {
+                    "session": session,
+                    "trial": trial,
+                    "pose": v.pose,
+                    **{f"t_{a}": v.t_grid[i] for i, a in enumerate("xyz")},
+                    "col": m.centroid_px[0],
+                    "row": m.centroid_px[1],
+                    "theta_deg": m.theta_deg,
+                    **{f"ray_{a}": ray[i] for i, a in enumerate("xyz")},
+                }
+            )
+    return pd.DataFrame(rows, columns=VIEW_COLUMNS)
 
 
 def _trial_scene(
@@ -777,6 +834,7 @@ class RunResult:
     frames: pd.DataFrame
     errors: pd.DataFrame
     sessions: tuple[SessionResult, ...]
+    views: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=VIEW_COLUMNS))
 
     @property
     def failed(self) -> bool:
@@ -992,6 +1050,7 @@ def run(
         frames=_concat([r.frames for r in results], FRAME_COLUMNS),
         errors=errors,
         sessions=results,
+        views=_concat([r.views for r in results], VIEW_COLUMNS),
     )
     if out_dir is not None:
         from analysis.report import write_outputs
@@ -1006,6 +1065,13 @@ def _concat(frames: list[pd.DataFrame], columns: list[str]) -> pd.DataFrame:
         return pd.DataFrame(columns=columns)
     table = pd.concat(present, ignore_index=True)
     return table[[c for c in columns if c in table.columns]]
+
+
+def _analyse_to(
+    path: str, results: str | None, options: AnalysisOptions, images: bool
+) -> SessionResult | str:
+    """:func:`_analyse_or_error` with the per-session argument second, for ``client.map``."""
+    return _analyse_or_error(path, options, images, results)
 
 
 def results_mcap_name(index: int, session: str | Path) -> str:
@@ -1035,7 +1101,7 @@ def _run_dask(
         raise InputValueError(f"cannot reach the Dask scheduler at {address}: {err}") from err
     try:
         futures = client.map(
-            _analyse_or_error, files, options=options, images=images, results=results, pure=False
+            _analyse_to, files, results, options=options, images=images, pure=False
         )
         outcomes: list[SessionResult | str] = []
         for f, fut in zip(files, futures, strict=True):

@@ -24,9 +24,12 @@ __all__ = [
     "dominant_inputs",
     "error_ellipses",
     "make_figures",
+    "plot_error_by_trial",
     "plot_error_histogram",
     "plot_error_scatter",
+    "plot_error_vs_baseline",
     "plot_running_average",
+    "plot_top_view",
     "write_outputs",
 ]
 
@@ -108,15 +111,82 @@ def plot_error_histogram(ax: Axes, trials: pd.DataFrame) -> None:
     ax.legend(fontsize=7)
 
 
+def plot_top_view(ax: Axes, trials: pd.DataFrame, views: pd.DataFrame, title: str) -> None:
+    """Looking down the y axis (x-z): each trial's typed camera centres, the ray through each
+    view's measurement (for lines, the plane's central ray), the estimate and the truth."""
+    units = trials["units"].iloc[0] if len(trials) else ""
+    ok = trials.set_index("trial")
+    for k, (trial, g) in enumerate(views.groupby("trial", sort=True)):
+        color = f"C{k % 10}"
+        c = g[["t_x", "t_z"]].to_numpy(dtype=np.float64)
+        ray = g[["ray_x", "ray_z"]].to_numpy(dtype=np.float64)
+        est = ok.loc[trial, ["x", "z"]].to_numpy(dtype=np.float64)
+        reach = (
+            1.2 * np.linalg.norm(est - c, axis=1)
+            if np.isfinite(est).all()
+            else np.full(len(c), 10.0)
+        )
+        flat = np.linalg.norm(ray, axis=1)  # the ray's length in the x-z plane
+        with np.errstate(invalid="ignore", divide="ignore"):
+            end = c + ray / flat[:, None] * reach[:, None]
+        for a, b in zip(c, end, strict=True):
+            ax.plot([a[0], b[0]], [a[1], b[1]], color=color, lw=0.6, alpha=0.6)
+        ax.plot(c[:, 0], c[:, 1], "^", color=color, ms=5)
+        ax.plot(*est, "x", color=color, ms=7)
+        truth = ok.loc[trial, ["gt_x", "gt_z"]].to_numpy(dtype=np.float64)
+        ax.plot(*truth, "o", mfc="none", color=color, ms=7)
+    ax.plot([], [], "^", color="0.3", label="cameras (typed)")
+    ax.plot([], [], "x", color="0.3", label="estimate")
+    ax.plot([], [], "o", mfc="none", color="0.3", label="truth")
+    ax.set_xlabel(f"x ({units})")
+    ax.set_ylabel(f"z, depth ({units})")
+    ax.set_title(title, fontsize=9)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.legend(fontsize=7)
+
+
+def plot_error_by_trial(ax: Axes, trials: pd.DataFrame) -> None:
+    """Each ok trial's error, with the radius of its 95% ellipsoid for scale."""
+    ok = trials[trials["status"] == "ok"]
+    for k, (session, g) in enumerate(ok.groupby("session", sort=False)):
+        color = f"C{k % 10}"
+        ax.plot(
+            g["trial"], g["err"], "o-", color=color, ms=3, lw=0.8, label=Path(str(session)).stem
+        )
+        if "semiaxis95" in g:
+            ax.plot(g["trial"], g["semiaxis95"], ":", color=color, lw=0.8)
+    ax.plot([], [], ":", color="0.3", label="95% ellipsoid, longest semi-axis")
+    ax.set_yscale("log")
+    ax.set_xlabel("trial")
+    ax.set_ylabel("error (session units)")
+    ax.legend(fontsize=7)
+
+
+def plot_error_vs_baseline(ax: Axes, trials: pd.DataFrame) -> None:
+    """Error against the distance between the cameras (the thesis' strongest lever)."""
+    ok = trials[(trials["status"] == "ok") & trials["baseline"].notna()]
+    for method, g in ok.groupby("method"):
+        ax.scatter(g["baseline"], g["err"], s=14, label=str(method), alpha=0.8)
+    ax.set_yscale("log")
+    ax.set_xlabel("baseline (session units)")
+    ax.set_ylabel("error (session units)")
+    ax.legend(fontsize=7)
+
+
 def session_figures(
-    session: str, trials: pd.DataFrame, averaging: pd.DataFrame
+    session: str, trials: pd.DataFrame, averaging: pd.DataFrame, views: pd.DataFrame
 ) -> dict[str, Figure]:
-    """One session's figures, keyed ``scatter`` and (with more than one frame) ``averaging``."""
+    """One session's figures: ``scatter``, ``topview`` and (with more than one frame)
+    ``averaging``."""
     name = Path(session).stem
     figures: dict[str, Figure] = {}
     fig = Figure(figsize=(4.2, 4.0), layout="constrained")
     plot_error_scatter(fig.add_subplot(), trials, f"{name}: estimate - truth")
     figures["scatter"] = fig
+    if not views.empty:
+        fig = Figure(figsize=(4.6, 4.0), layout="constrained")
+        plot_top_view(fig.add_subplot(), trials, views, f"{name}: top view")
+        figures["topview"] = fig
     if not averaging.empty and averaging["n_frames"].max() > 1:
         fig = Figure(figsize=(8.0, 3.4), layout="constrained")
         for j, axis in enumerate(("x", "z")):
@@ -137,14 +207,18 @@ def run_figures(result: RunResult) -> dict[str, Figure]:
         return {}
     fig = Figure(figsize=(5.0, 3.4), layout="constrained")
     plot_error_histogram(fig.add_subplot(), result.trials)
-    return {"error_histogram": fig}
+    by_trial = Figure(figsize=(5.6, 3.4), layout="constrained")
+    plot_error_by_trial(by_trial.add_subplot(), result.trials)
+    by_baseline = Figure(figsize=(5.0, 3.4), layout="constrained")
+    plot_error_vs_baseline(by_baseline.add_subplot(), result.trials)
+    return {"error_histogram": fig, "error_by_trial": by_trial, "error_vs_baseline": by_baseline}
 
 
 def make_figures(result: RunResult) -> dict[str, Figure]:
     """Named figures of a run: one scatter per session, running averages, a histogram."""
     figures: dict[str, Figure] = {}
     for i, s in enumerate(result.sessions):
-        for kind, fig in session_figures(s.session, s.trials, s.averaging).items():
+        for kind, fig in session_figures(s.session, s.trials, s.averaging, s.views).items():
             figures[figure_key(kind, i, s.session)] = fig
     return figures | run_figures(result)
 
@@ -169,13 +243,14 @@ def write_outputs(result: RunResult, out_dir: Path) -> None:
     result.averaging.to_csv(out_dir / "averaging.csv", index=False)
     result.frames.to_csv(out_dir / "frames.csv", index=False)
     result.errors.to_csv(out_dir / "errors.csv", index=False)
+    result.views.to_csv(out_dir / "views.csv", index=False)
     # Session figures were rendered by the workers (in parallel); a session analysed
     # without them is drawn here. Only what spans sessions is always drawn here.
     pngs: dict[str, bytes] = {}
     for i, s in enumerate(result.sessions):
         rendered = s.images or {
             kind: png_bytes(fig)
-            for kind, fig in session_figures(s.session, s.trials, s.averaging).items()
+            for kind, fig in session_figures(s.session, s.trials, s.averaging, s.views).items()
         }
         pngs |= {figure_key(kind, i, s.session): data for kind, data in rendered.items()}
     pngs |= {name: png_bytes(fig) for name, fig in run_figures(result).items()}
@@ -231,10 +306,11 @@ def _report_html(result: RunResult, images: dict[str, str], sweeps: pd.DataFrame
         "<h2>Summary</h2>",
         _table(result.summary),
     ]
-    if "error_histogram" in images:
-        parts.append(
-            f"<img alt='error histogram' src='data:image/png;base64,{images['error_histogram']}'>"
-        )
+    for key in ("error_histogram", "error_by_trial", "error_vs_baseline"):
+        if key in images:
+            parts.append(
+                f"<img alt='{key.replace('_', ' ')}' src='data:image/png;base64,{images[key]}'>"
+            )
     if not result.errors.empty:
         parts.append("<h2>Inputs that failed</h2>")
         parts.append(f"<div class='err'>{_table(result.errors)}</div>")
@@ -260,7 +336,8 @@ def _report_html(result: RunResult, images: dict[str, str], sweeps: pd.DataFrame
             for k, v in s.metadata.items()
         ]
         parts.append("</table>")
-        for key in (f"scatter_{i:02d}_{name}", f"averaging_{i:02d}_{name}"):
+        for kind in ("scatter", "topview", "averaging"):
+            key = f"{kind}_{i:02d}_{name}"
             if key in images:
                 parts.append(
                     f"<img alt='{html.escape(key)}' src='data:image/png;base64,{images[key]}'>"

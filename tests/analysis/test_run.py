@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.pipeline import AnalysisOptions, analyse_session, run
+from analysis.pipeline import AnalysisOptions, analyse_session, results_mcap_name, run
 from recorder.camera import Intrinsics
 from recorder.errors import InputValueError
 from recorder.session import Camera, GroundTruth, PoseEntry, SessionInfo, SessionWriter
@@ -100,6 +100,16 @@ def test_output_files_columns_and_report(
     sweeps = pd.read_csv(out / "sensitivity.csv")
     assert {"pixel noise", "pose error x", "baseline length"} <= set(sweeps["sweep"])
     assert "Sensitivity (the thesis' geometry)" in html
+    # The geometry per pose, and the plots made of it.
+    views = pd.read_csv(out / "views.csv")
+    assert len(views) == trials["n_views"].sum()
+    np.testing.assert_allclose(np.linalg.norm(views[["ray_x", "ray_y", "ray_z"]], axis=1), 1.0)
+    spread = views.groupby(["session", "trial"])["t_x"].agg(lambda s: s.max() - s.min())
+    baseline = trials.set_index(["session", "trial"])["baseline"]
+    assert (baseline.loc[spread.index] >= spread - 1e-12).all()
+    for name in ("error_by_trial", "error_vs_baseline", "topview_00_point"):
+        assert (out / f"{name}.png").exists(), name
+        assert f"alt='{name.replace('_', ' ') if not name.startswith('topview') else name}'" in html
     assert (out / "sensitivity.png").stat().st_size > 1000
 
 
@@ -174,13 +184,17 @@ def test_jobs_do_not_change_results(
 
 
 def test_dask_local_cluster_gives_the_same_tables(
-    ground_session: Path, point_session: Path
+    tmp_path: Path, ground_session: Path, point_session: Path
 ) -> None:
     distributed = pytest.importorskip("distributed")
+    paths = [ground_session, point_session]
     with distributed.LocalCluster(n_workers=1, processes=False, dashboard_address=None) as cluster:
-        on_dask = run([ground_session, point_session], dask_address=cluster.scheduler_address)
-    local = run([ground_session, point_session])
+        on_dask = run(paths, tmp_path, dask_address=cluster.scheduler_address)
+    local = run(paths)
     pd.testing.assert_frame_equal(on_dask.trials, local.trials)
+    assert {p.name for p in tmp_path.glob("*.mcap")} == {
+        results_mcap_name(i, p) for i, p in enumerate(paths)
+    }
 
 
 def test_unreachable_dask_scheduler_is_a_clear_error(ground_session: Path) -> None:
@@ -200,7 +214,14 @@ def test_the_package_is_the_api(ground_session: Path) -> None:
 
     result = analysis.run([ground_session])
     assert list(result.trials["trial"]) == [1, 2]
-    assert set(result.figures) == {"scatter_00_ground", "averaging_00_ground", "error_histogram"}
+    assert set(result.figures) == {
+        "scatter_00_ground",
+        "topview_00_ground",
+        "averaging_00_ground",
+        "error_histogram",
+        "error_by_trial",
+        "error_vs_baseline",
+    }
 
 
 @pytest.mark.parametrize("method", ["point", "line", "ground"])
