@@ -16,8 +16,14 @@ $(STAMP): pyproject.toml
 run: $(STAMP)
 	$(BIN)/twopose-analyze run sessions/ --out results/
 
-# The whole test suite: lint, types, tests.
-test: $(STAMP)
+# The TypeScript MCAP reader the tests validate our files with (tests/node, Node.js >= 18).
+NODE_STAMP := tests/node/node_modules/.installed
+$(NODE_STAMP): tests/node/package.json tests/node/package-lock.json
+	npm ci --prefix tests/node --no-audit --no-fund --loglevel=error
+	touch $(NODE_STAMP)
+
+# The whole test suite: lint, types, tests (with the Node.js validation when node is here).
+test: $(STAMP) $(if $(shell command -v npm),$(NODE_STAMP))
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
 	$(BIN)/mypy
@@ -28,4 +34,4 @@ sessions: $(STAMP)
 	$(BIN)/python sessions/make_sessions.py sessions/
 
 clean:
-	rm -rf $(VENV) results/ .mypy_cache .pytest_cache .ruff_cache
+	rm -rf $(VENV) results/ tests/node/node_modules .mypy_cache .pytest_cache .ruff_cache
