@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -14,7 +15,9 @@ import typer
 from recorder.errors import EXIT_ERROR, EXIT_INTERRUPTED, InputValueError, TwoposeError
 
 if TYPE_CHECKING:
+    from recorder.live import LiveView
     from recorder.procedure import CaptureResult, RecordingSummary
+    from recorder.session import Camera
 
 __all__ = ["app", "handle_errors", "main"]
 
@@ -132,16 +135,24 @@ def new(
     width: Annotated[int, typer.Option(min=1, help="Camera width to request.")] = 640,
     height: Annotated[int, typer.Option(min=1, help="Camera height to request.")] = 480,
     fps: Annotated[float, typer.Option(min=1, help="Camera frame rate to request.")] = 30.0,
+    live: Annotated[
+        bool,
+        typer.Option(
+            help="Serve frames, detections and status to Foxglove (WebSocket, loopback only)."
+        ),
+    ] = False,
+    live_port: Annotated[int, typer.Option(min=0, max=65535, help="Port of --live.")] = 8765,
 ) -> None:
     """Record a session: the guided laptop-on-grid procedure, or a plan file (--plan)."""
     from recorder.procedure import load_plan, record_plan
     from recorder.sources import open_source
 
-    with handle_errors():
+    with handle_errors(), contextlib.ExitStack() as stack:
         if plan is not None:
             the_plan = load_plan(plan)
             src = open_source(source, method=the_plan.method, width=width, height=height, fps=fps)
-            summary = record_plan(the_plan, out, src, on_capture=_report_capture)
+            view = _live_view(stack, list(the_plan.cameras), live_port) if live else None
+            summary = record_plan(the_plan, out, src, on_capture=_report_capture, live=view)
         else:
             summary = _interactive(
                 out,
@@ -160,12 +171,23 @@ def new(
                 width,
                 height,
                 fps,
+                (stack, live_port) if live else None,
             )
     typer.echo(
         f"wrote {summary.path}: {summary.n_trials} trials, {summary.n_captures} captures, "
         f"{summary.n_frames} frames ({summary.n_found} detected, {summary.dropped} dropped) "
         f"in {summary.seconds:.1f} s"
     )
+
+
+def _live_view(stack: contextlib.ExitStack, cameras: list[Camera], port: int) -> LiveView:
+    from recorder.live import LiveView
+
+    view = stack.enter_context(LiveView(cameras, port=port))
+    typer.echo(
+        f"live view on {view.url}: in Foxglove, Open connection > Foxglove WebSocket", err=True
+    )
+    return view
 
 
 def _report_capture(trial: int, pose: int, result: CaptureResult) -> None:
@@ -195,6 +217,7 @@ def _interactive(
     width: int,
     height: int,
     fps: float,
+    live: tuple[contextlib.ExitStack, int] | None = None,
 ) -> RecordingSummary:
     """Ask for whatever the options did not give, then run the guided procedure."""
     from recorder.camera import Intrinsics
@@ -272,6 +295,7 @@ def _interactive(
         notes=notes,
         created_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
     )
+    view = _live_view(live[0], [camera], live[1]) if live is not None else None
     return record_interactive(
         out,
         src,
@@ -282,6 +306,7 @@ def _interactive(
         ground_truth=tuple(given[:n_truth]),
         frames=frames,
         poses_per_trial=poses,
+        live=view,
     )
 
 

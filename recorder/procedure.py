@@ -12,7 +12,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from recorder.camera import Intrinsics
 from recorder.errors import InputValueError
@@ -32,6 +32,9 @@ from recorder.session import (
     Vec3,
 )
 from recorder.sources import FrameSource, SourceError
+
+if TYPE_CHECKING:
+    from recorder.live import LiveView
 
 __all__ = [
     "CaptureResult",
@@ -95,11 +98,13 @@ def capture_pose(
     target: str | None = None,
     on_frame: Callable[[FrameFeedback], None] | None = None,
     timeout_s: float = 2.0,
+    live: LiveView | None = None,
 ) -> CaptureResult:
     """Write the typed pose, then capture ``n_frames`` frames from ``source`` at it.
 
     ``target`` (``"glove"`` or ``"dot"``) turns on live detection feedback. A source that
     fails mid-capture leaves the capture in the file, marked incomplete with the reason.
+    With ``live``, every frame, its detection overlay and the status go to the live view.
     """
     writer.write_pose(entry)
     source.set_pose(entry.t_grid, entry.r_deg)
@@ -119,12 +124,27 @@ def capture_pose(
                 cap.mark_incomplete(reason)
                 break
             started = time.perf_counter()
-            cap.add_frame(image)
+            data = writer.encode_image(image)
+            cap.add_encoded(data)
             count += 1
+            d = None
             if target is not None:
                 d = detect(image, target)
                 fb = FrameFeedback(k, d.found, d.centroid_px, d.theta_deg, d.n_blobs, d.reason)
                 feedback.append(fb)
+            if live is not None:
+                where = f"trial {entry.trial} pose {entry.pose} frame {k + 1}/{n_frames}"
+                t = cap.end_ns or 0
+                live.frame(entry.camera_id, data, writer.image_format, t, d, where)
+                live.status(
+                    t,
+                    trial=entry.trial,
+                    pose=entry.pose,
+                    frame=k + 1,
+                    n_frames=n_frames,
+                    found=None if d is None else d.found,
+                    message=where + ("" if d is None else ": " + (d.reason or "found")),
+                )
             overhead.append(time.perf_counter() - started)
             if target is not None and on_frame is not None:
                 on_frame(fb)
@@ -290,6 +310,7 @@ def record_plan(
     *,
     on_frame: Callable[[FrameFeedback], None] | None = None,
     on_capture: Callable[[int, int, CaptureResult], None] | None = None,
+    live: LiveView | None = None,
 ) -> RecordingSummary:
     """Record ``plan`` into the new session ``out`` from an (unopened) ``source``.
 
@@ -324,7 +345,13 @@ def record_plan(
                     plan.rotation_resolution_deg,
                 )
                 result = capture_pose(
-                    writer, source, entry, plan.frames, target=target, on_frame=on_frame
+                    writer,
+                    source,
+                    entry,
+                    plan.frames,
+                    target=target,
+                    on_frame=on_frame,
+                    live=live,
                 )
                 captures += 1
                 frames += result.n_frames
@@ -412,6 +439,7 @@ def record_interactive(
     poses_per_trial: int = 2,
     translation_resolution: float = 0.0625,
     rotation_resolution_deg: float = 0.5,
+    live: LiveView | None = None,
 ) -> RecordingSummary:
     """The guided procedure: trial after trial, type each pose, capture, accept or redo.
 
@@ -477,6 +505,7 @@ def record_interactive(
                     frames,
                     target=target,
                     on_frame=lambda fb: operator.say(fb.line()),
+                    live=live,
                 )
                 tally.captures += 1
                 tally.frames += result.n_frames

@@ -1,0 +1,192 @@
+"""Live view: what the recorder captures, served to Foxglove (or Lichtblick) as it happens.
+
+``twopose-record new --live`` starts a Foxglove WebSocket server (the foxglove-sdk's) on
+loopback, ws://127.0.0.1:8765 by default. Connect Foxglove with *Open connection → Foxglove
+WebSocket*. Per frame it sends the image as it was written to the session, the detection
+overlay (the same ``foxglove.ImageAnnotations`` as results.mcap: outline, centroid and
+orientation in green, turned-down candidates in red with the reason) and the trial status
+as JSON. Off by default; the server only ever binds to a loopback address.
+"""
+
+from __future__ import annotations
+
+import ipaddress
+import json
+from types import TracebackType
+from typing import TYPE_CHECKING, Any, Self
+
+from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
+from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
+from foxglove_schemas_protobuf.ImageAnnotations_pb2 import ImageAnnotations
+from mcap_protobuf.schema import build_file_descriptor_set
+
+from recorder.errors import InputValueError, TwoposeError
+from recorder.session import (
+    Camera,
+    calibration_message,
+    calibration_topic,
+    camera_frame_id,
+    image_topic,
+)
+
+if TYPE_CHECKING:
+    from analysis.detect import Detection
+
+__all__ = ["DEFAULT_LIVE_PORT", "STATUS_TOPIC", "LiveView", "annotations_topic"]
+
+DEFAULT_LIVE_PORT = 8765
+STATUS_TOPIC = "/twopose/live/status"
+STATUS_SCHEMA = {
+    "$schema": "https://json-schema.org/draft/2020-12/schema",
+    "title": "twopose.LiveStatus",
+    "description": "The recorder's progress: where it is and what the last frame showed.",
+    "type": "object",
+    "properties": {
+        "trial": {"type": "integer"},
+        "pose": {"type": "integer"},
+        "frame": {"type": "integer"},
+        "n_frames": {"type": "integer"},
+        "found": {"type": ["boolean", "null"]},
+        "message": {"type": "string"},
+    },
+    "required": ["trial", "pose", "frame", "n_frames", "message"],
+}
+
+
+def annotations_topic(camera_id: str) -> str:
+    return f"/twopose/live/camera/{camera_id}/annotations"
+
+
+class LiveView:
+    """A Foxglove WebSocket server carrying the recorder's frames, overlays and status.
+
+    Parameters
+    ----------
+    cameras : list of Camera
+    port : int
+        0 picks a free port (see :attr:`port`).
+    host : str
+        Must be a loopback address: the live view is for the operator's own machine.
+    """
+
+    def __init__(
+        self, cameras: list[Camera], *, port: int = DEFAULT_LIVE_PORT, host: str = "127.0.0.1"
+    ):
+        try:
+            loopback = ipaddress.ip_address(host).is_loopback
+        except ValueError:
+            loopback = host == "localhost"
+        if not loopback:
+            raise InputValueError(f"the live view only binds to loopback, not {host!r}")
+        import foxglove
+
+        self._context = foxglove.Context()
+        try:
+            self._server = foxglove.start_server(
+                name="twopose recorder", host=host, port=port, context=self._context
+            )
+        except Exception as err:  # the SDK raises its own error types for a busy port
+            raise TwoposeError(
+                f"cannot start the live view on {host}:{port} ({err}); is another recorder "
+                "running? Pick another port with --live-port"
+            ) from err
+        self.host = host
+
+        def proto_channel(topic: str, message: Any) -> Any:
+            schema = foxglove.Schema(
+                name=message.DESCRIPTOR.full_name,
+                encoding="protobuf",
+                data=build_file_descriptor_set(message).SerializeToString(),
+            )
+            return foxglove.Channel(
+                topic, schema=schema, message_encoding="protobuf", context=self._context
+            )
+
+        self._images = {
+            c.camera_id: proto_channel(image_topic(c.camera_id), CompressedImage) for c in cameras
+        }
+        self._overlays = {
+            c.camera_id: proto_channel(annotations_topic(c.camera_id), ImageAnnotations)
+            for c in cameras
+        }
+        self._calibrations = {
+            c.camera_id: proto_channel(calibration_topic(c.camera_id), CameraCalibration)
+            for c in cameras
+        }
+        self._cameras = {c.camera_id: c for c in cameras}
+        self._status = foxglove.Channel(
+            STATUS_TOPIC,
+            schema=foxglove.Schema(
+                name="twopose.LiveStatus",
+                encoding="jsonschema",
+                data=json.dumps(STATUS_SCHEMA).encode(),
+            ),
+            message_encoding="json",
+            context=self._context,
+        )
+
+    @property
+    def port(self) -> int:
+        return int(self._server.port)
+
+    @property
+    def url(self) -> str:
+        return f"ws://{self.host}:{self.port}"
+
+    def frame(
+        self,
+        camera_id: str,
+        data: bytes,
+        image_format: str,
+        log_time_ns: int,
+        detection: Detection | None,
+        label: str,
+    ) -> None:
+        """One captured frame (already encoded), with its detection overlay if any."""
+        cam = self._cameras[camera_id]
+        self._calibrations[camera_id].log(
+            calibration_message(cam, log_time_ns).SerializeToString(), log_time=log_time_ns
+        )
+        img = CompressedImage(frame_id=camera_frame_id(camera_id), data=data, format=image_format)
+        img.timestamp.FromNanoseconds(log_time_ns)
+        self._images[camera_id].log(img.SerializeToString(), log_time=log_time_ns)
+        if detection is not None:
+            from analysis.results_mcap import image_annotations
+
+            overlay = image_annotations(detection, log_time_ns, label)
+            self._overlays[camera_id].log(overlay.SerializeToString(), log_time=log_time_ns)
+
+    def status(
+        self,
+        log_time_ns: int,
+        *,
+        trial: int,
+        pose: int,
+        frame: int,
+        n_frames: int,
+        message: str,
+        found: bool | None = None,
+    ) -> None:
+        status = {
+            "trial": trial,
+            "pose": pose,
+            "frame": frame,
+            "n_frames": n_frames,
+            "found": found,
+            "message": message,
+        }
+        self._status.log(json.dumps(status).encode(), log_time=log_time_ns)
+
+    def close(self) -> None:
+        self._server.stop()
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()

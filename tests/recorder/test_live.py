@@ -1,0 +1,142 @@
+"""The live view, for real: a WebSocket client speaking the Foxglove protocol connects to the
+recorder's server, subscribes, and checks that frames, overlays and status arrive."""
+
+from __future__ import annotations
+
+import json
+import struct
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
+from foxglove_schemas_protobuf.ImageAnnotations_pb2 import ImageAnnotations
+from websockets.sync.client import ClientConnection, connect
+
+from analysis.pipeline import analyse_session
+from recorder.errors import InputValueError
+from recorder.live import STATUS_TOPIC, LiveView, annotations_topic
+from recorder.procedure import load_plan, record_plan
+from recorder.session import image_topic
+from recorder.sources import SyntheticSource
+
+PLAN = """
+method = "ground"
+frames = 2
+ground_height = 9.625
+[camera]
+focal = 525.0
+[[trials]]
+ground_truth = [[1.91, 9.625, 8.375]]
+poses = [{ t = [0.0, 0.0, 0.0] }, { t = [1.5, 0.0, -1.0] }]
+"""
+SUBPROTOCOLS: Any = ["foxglove.sdk.v1", "foxglove.websocket.v1"]
+
+
+def _subscribe(ws: ClientConnection, topics: set[str]) -> dict[int, str]:
+    """Wait for the server to advertise ``topics``, subscribe; subscription id -> topic."""
+    channels: dict[str, int] = {}
+    deadline = time.monotonic() + 10
+    while not topics <= set(channels) and time.monotonic() < deadline:
+        msg = ws.recv(timeout=5)
+        if isinstance(msg, str):
+            data = json.loads(msg)
+            if data.get("op") == "advertise":
+                channels |= {c["topic"]: c["id"] for c in data["channels"]}
+    assert topics <= set(channels), f"not advertised: {topics - set(channels)}"
+    subscriptions = dict(enumerate(sorted(topics), start=1))
+    ws.send(
+        json.dumps(
+            {
+                "op": "subscribe",
+                "subscriptions": [
+                    {"id": i, "channelId": channels[t]} for i, t in subscriptions.items()
+                ],
+            }
+        )
+    )
+    return subscriptions
+
+
+def _collect(
+    ws: ClientConnection, subscriptions: dict[int, str], want: dict[str, int]
+) -> dict[str, list[tuple[int, bytes]]]:
+    """Binary message-data frames (opcode 1) by topic, until ``want`` counts or a timeout."""
+    got: dict[str, list[tuple[int, bytes]]] = {t: [] for t in subscriptions.values()}
+    deadline = time.monotonic() + 20
+    while any(len(got[t]) < n for t, n in want.items()) and time.monotonic() < deadline:
+        try:
+            msg = ws.recv(timeout=2)
+        except TimeoutError:
+            continue
+        if isinstance(msg, bytes) and msg[0] == 1:
+            sub_id, log_time = struct.unpack_from("<IQ", msg, 1)
+            got[subscriptions[sub_id]].append((log_time, msg[13:]))
+    return got
+
+
+def test_a_client_sees_frames_overlays_and_status(tmp_path: Path) -> None:
+    plan = load_plan(_plan_file(tmp_path))
+    with LiveView(list(plan.cameras), port=0) as view:
+        assert view.url.startswith("ws://127.0.0.1:")
+        with connect(view.url, subprotocols=SUBPROTOCOLS, open_timeout=10) as ws:
+            topics = {image_topic("cam0"), annotations_topic("cam0"), STATUS_TOPIC}
+            subscriptions = _subscribe(ws, topics)
+            time.sleep(0.5)  # the server takes the subscription asynchronously
+            out = tmp_path / "s.mcap"
+            record_plan(plan, out, SyntheticSource(None, "ground", realtime=False), live=view)
+            got = _collect(ws, subscriptions, dict.fromkeys(topics, 4))
+    frames = analyse_session(out).frames
+    assert [len(got[t]) for t in sorted(topics)] == [4, 4, 4]
+    for (t_img, img_bytes), (t_ann, ann_bytes), (_, row) in zip(
+        got[image_topic("cam0")], got[annotations_topic("cam0")], frames.iterrows(), strict=True
+    ):
+        image = CompressedImage.FromString(img_bytes)
+        overlay = ImageAnnotations.FromString(ann_bytes)
+        assert t_img == t_ann == row["log_time_ns"]  # the very frames the session holds
+        assert image.format == "jpeg"
+        assert image.data[:2] == b"\xff\xd8"
+        centre = overlay.circles[0].position
+        # Live detection sees the frame before JPEG, the analysis after: sub-pixel apart.
+        np.testing.assert_allclose([centre.x, centre.y], [row["col"], row["row"]], atol=0.5)
+    status = [json.loads(b) for _, b in got[STATUS_TOPIC]]
+    assert [(s["trial"], s["pose"], s["frame"]) for s in status] == [
+        (1, 1, 1),
+        (1, 1, 2),
+        (1, 2, 1),
+        (1, 2, 2),
+    ]
+    assert all(s["found"] for s in status)
+
+
+def _plan_file(tmp_path: Path) -> Path:
+    path = tmp_path / "plan.toml"
+    path.write_text(PLAN)
+    return path
+
+
+def test_the_live_view_only_binds_to_loopback() -> None:
+    with pytest.raises(InputValueError, match="loopback"):
+        LiveView([], host="0.0.0.0", port=0)
+
+
+def test_a_busy_port_is_a_clear_error() -> None:
+    from recorder.errors import TwoposeError
+
+    with LiveView([], port=0) as first, pytest.raises(TwoposeError, match="--live-port"):
+        LiveView([], port=first.port)
+
+
+def test_record_new_live_serves_while_recording(tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from recorder.cli import app
+
+    out = tmp_path / "s.mcap"
+    args = ["new", str(out), "--plan", str(_plan_file(tmp_path)), "--source", "synthetic"]
+    result = CliRunner().invoke(app, [*args, "--live", "--live-port", "0"])
+    assert result.exit_code == 0, result.output
+    assert "live view on ws://127.0.0.1:" in result.output
+    assert analyse_session(out).trials["status"].tolist() == ["ok"]
