@@ -376,6 +376,9 @@ def test_ctrl_c_during_new_closes_the_session(tmp_path: Path) -> None:
         stderr=subprocess.PIPE,
         text=True,
         env=env,
+        # A job started in the background by a non-interactive shell inherits SIGINT
+        # ignored, and Python then never turns it into KeyboardInterrupt: restore it.
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     assert proc.stdout is not None
     for line in proc.stdout:  # the first capture is complete; the second is under way

@@ -102,7 +102,12 @@ def test_ctrl_c_finishes_the_file_cleanly(tmp_path: Path) -> None:
     out = tmp_path / "s.mcap"
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
     proc = subprocess.Popen(
-        [sys.executable, str(script), str(out)], stdout=subprocess.PIPE, text=True, env=env
+        [sys.executable, str(script), str(out)],
+        stdout=subprocess.PIPE,
+        text=True,
+        env=env,
+        # SIGINT may be inherited ignored (a background job of a non-interactive shell).
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     assert proc.stdout is not None
     proc.stdout.readline()
