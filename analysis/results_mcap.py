@@ -25,6 +25,7 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any, Self
 
+import cv2
 import numpy as np
 from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
 from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
@@ -104,11 +105,14 @@ def image_annotations(det: Detection, log_time_ns: int, label: str) -> ImageAnno
     def outline(points: F64 | None, rgba: tuple[float, float, float, float]) -> None:
         if points is None or len(points) < 2:
             return
+        # Within half a pixel of the boundary: a drawing needs no more, and fewer points
+        # keep the overlay cheap (it is built for every frame).
+        simple = cv2.approxPolyDP(points.astype(np.float32)[:, None, :], 0.5, closed=True)
         a = msg.points.add(type=PointsAnnotation.Type.LINE_LOOP, thickness=2.0)
         a.timestamp.FromNanoseconds(log_time_ns)
         _color(a.outline_color, rgba)
-        for x, y in points:
-            _xy(a.points.add(), x, y)
+        for x, y in simple[:, 0, :].tolist():
+            a.points.add(x=x, y=y)
 
     def text(x: float, y: float, words: str, rgba: tuple[float, float, float, float]) -> None:
         t = msg.texts.add(text=words, font_size=14.0)
