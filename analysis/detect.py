@@ -11,7 +11,6 @@ measured from the +col axis toward the +row axis (row points down), i.e.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Literal
@@ -120,7 +119,11 @@ class BlobShape:
     outline_px: NDArray[np.float64] | None = field(default=None, repr=False, compare=False)
 
 
-def blob_shape(m: dict[str, float], offset: tuple[float, float] = (0.0, 0.0)) -> BlobShape:
+def blob_shape(
+    m: dict[str, float],
+    offset: tuple[float, float] = (0.0, 0.0),
+    outline_px: NDArray[np.float64] | None = None,
+) -> BlobShape:
     """MATLAB-regionprops-compatible shape of a blob from its OpenCV moments.
 
     regionprops adds 1/12 (a unit pixel's own second moment) to the normalized second
@@ -138,7 +141,7 @@ def blob_shape(m: dict[str, float], offset: tuple[float, float] = (0.0, 0.0)) ->
     theta = float(wrap_theta_deg(math.degrees(0.5 * math.atan2(2.0 * uxy, uxx - uyy))))
     pi_est = 4.0 * a / (major * minor) if minor > 0 else math.inf
     centroid = (m["m10"] / a + offset[0], m["m01"] / a + offset[1])
-    return BlobShape(a, centroid, theta, major, minor, ecc, pi_est)
+    return BlobShape(a, centroid, theta, major, minor, ecc, pi_est, outline_px)
 
 
 def _glove_mask(image_bgr: Image, p: GloveParams) -> NDArray[np.uint8]:
@@ -205,9 +208,8 @@ def _components(
         roi = (labels[y : y + h, x : x + w] == label).astype(np.uint8)
         m = cv2.moments(roi, binaryImage=True)
         if m["m00"] >= min_area_px:
-            shape = blob_shape(m, (float(x), float(y)))
             outline = contour[:, 0, :].astype(np.float64)
-            shapes.append(dataclasses.replace(shape, outline_px=outline))
+            shapes.append(blob_shape(m, (float(x), float(y)), outline))
     return n - 1, shapes
 
 

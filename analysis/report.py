@@ -9,10 +9,11 @@ import io
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import matplotlib.colors
 import numpy as np
 import pandas as pd
 from matplotlib.axes import Axes
-from matplotlib.collections import EllipseCollection
+from matplotlib.collections import EllipseCollection, LineCollection
 from matplotlib.figure import Figure
 
 from analysis.uncertainty import CHI2_95
@@ -115,26 +116,28 @@ def plot_top_view(ax: Axes, trials: pd.DataFrame, views: pd.DataFrame, title: st
     """Looking down the y axis (x-z): each trial's typed camera centres, the ray through each
     view's measurement (for lines, the plane's central ray), the estimate and the truth."""
     units = trials["units"].iloc[0] if len(trials) else ""
-    ok = trials.set_index("trial")
-    for k, (trial, g) in enumerate(views.groupby("trial", sort=True)):
-        color = f"C{k % 10}"
-        c = g[["t_x", "t_z"]].to_numpy(dtype=np.float64)
-        ray = g[["ray_x", "ray_z"]].to_numpy(dtype=np.float64)
-        est = ok.loc[trial, ["x", "z"]].to_numpy(dtype=np.float64)
-        reach = (
-            1.2 * np.linalg.norm(est - c, axis=1)
-            if np.isfinite(est).all()
-            else np.full(len(c), 10.0)
-        )
-        flat = np.linalg.norm(ray, axis=1)  # the ray's length in the x-z plane
-        with np.errstate(invalid="ignore", divide="ignore"):
-            end = c + ray / flat[:, None] * reach[:, None]
-        for a, b in zip(c, end, strict=True):
-            ax.plot([a[0], b[0]], [a[1], b[1]], color=color, lw=0.6, alpha=0.6)
-        ax.plot(c[:, 0], c[:, 1], "^", color=color, ms=5)
-        ax.plot(*est, "x", color=color, ms=7)
-        truth = ok.loc[trial, ["gt_x", "gt_z"]].to_numpy(dtype=np.float64)
-        ax.plot(*truth, "o", mfc="none", color=color, ms=7)
+    # One artist per kind, not per trial: long sessions must not slow the layout down.
+    by_trial = trials.set_index("trial")
+    order = {t: k for k, t in enumerate(sorted(views["trial"].unique()))}
+    colors = np.array([matplotlib.colors.to_rgba(f"C{k % 10}") for k in range(10)])
+    view_color = colors[views["trial"].map(order).to_numpy() % 10]
+    c = views[["t_x", "t_z"]].to_numpy(dtype=np.float64)
+    ray = views[["ray_x", "ray_z"]].to_numpy(dtype=np.float64)
+    est = by_trial.loc[views["trial"], ["x", "z"]].to_numpy(dtype=np.float64)
+    reach = np.where(np.isfinite(est).all(axis=1), 1.2 * np.linalg.norm(est - c, axis=1), 10.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        end = c + ray / np.linalg.norm(ray, axis=1)[:, None] * reach[:, None]
+    segments = np.stack([c, end], axis=1)
+    good = np.isfinite(segments).all(axis=(1, 2))
+    ax.add_collection(
+        LineCollection(list(segments[good]), colors=view_color[good], linewidths=0.6, alpha=0.6)
+    )
+    ax.scatter(c[:, 0], c[:, 1], marker="^", s=25, c=view_color)
+    trial_color = colors[[order[t] % 10 for t in by_trial.index if t in order]]
+    shown = by_trial.loc[[t for t in by_trial.index if t in order]]
+    ax.scatter(shown["x"], shown["z"], marker="x", s=45, c=trial_color)
+    truth = ax.scatter(shown["gt_x"], shown["gt_z"], marker="o", s=45, facecolors="none")
+    truth.set_edgecolor([tuple(rgba) for rgba in trial_color])
     ax.plot([], [], "^", color="0.3", label="cameras (typed)")
     ax.plot([], [], "x", color="0.3", label="estimate")
     ax.plot([], [], "o", mfc="none", color="0.3", label="truth")

@@ -105,9 +105,9 @@ def image_annotations(det: Detection, log_time_ns: int, label: str) -> ImageAnno
     def outline(points: F64 | None, rgba: tuple[float, float, float, float]) -> None:
         if points is None or len(points) < 2:
             return
-        # Within half a pixel of the boundary: a drawing needs no more, and fewer points
+        # Within a pixel of the boundary: a drawing needs no more, and fewer points
         # keep the overlay cheap (it is built for every frame).
-        simple = cv2.approxPolyDP(points.astype(np.float32)[:, None, :], 0.5, closed=True)
+        simple = cv2.approxPolyDP(points.astype(np.float32)[:, None, :], 1.0, closed=True)
         a = msg.points.add(type=PointsAnnotation.Type.LINE_LOOP, thickness=2.0)
         a.timestamp.FromNanoseconds(log_time_ns)
         _color(a.outline_color, rgba)

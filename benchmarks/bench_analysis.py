@@ -44,14 +44,17 @@ with SessionReader(sys.argv[1]) as r:
 print(time.perf_counter() - t, n)
 """
 
+# Peak RSS from VmHWM, which belongs to this process's own address space: ru_maxrss would
+# start at the parent's peak, inherited through fork.
 RUN_AND_RSS = """
-import resource, sys, time
+import sys, time
 from analysis.pipeline import run
 t = time.perf_counter()
 result = run(sys.argv[1:-1], sys.argv[-1], jobs=int(__import__("os").environ.get("JOBS", "1")))
 elapsed = time.perf_counter() - t
 assert not result.failed, result.errors
-print(elapsed, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)
+hwm = [line for line in open("/proc/self/status") if line.startswith("VmHWM:")][0]
+print(elapsed, int(hwm.split()[1]))
 """
 
 
