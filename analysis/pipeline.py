@@ -469,17 +469,16 @@ def _analyse(
         # no truth, nearest the last camera); that reference is held fixed in propagation.
         mid = gt[solvable].mean(axis=1)
         reference = np.where(np.isfinite(mid), mid, solved.point)
-        pooled = pooled_scatter(
-            [
-                _scatter(v, m)
-                for views, ms in zip(used, measurements, strict=True)
-                if ms  # incomplete trials are not combined
-                for v, m in zip(views, ms, strict=True)
-            ]
-        )
+        # Each pose's frame scatter, once (incomplete trials are not combined: none).
+        scatters = [
+            [_scatter(v, m) for v, m in zip(views, ms, strict=False)]
+            for views, ms in zip(used, measurements, strict=True)
+        ]
+        pooled = pooled_scatter([s for row in scatters for s in row])
         input_cov = _input_covariance(
             [measurements[i] for i in solvable],
             [used[i] for i in solvable],
+            [scatters[i] for i in solvable],
             pooled,
             batch,
             median=options.combine == "median",
@@ -599,6 +598,7 @@ def _scatter(view: _View, m: PoseMeasurement) -> tuple[F64, int]:
 def _input_covariance(
     measurements: list[list[PoseMeasurement]],
     views: list[list[_View]],
+    scatters: list[list[tuple[F64, int]]],
     pooled: F64,
     batch: _Batch,
     *,
@@ -608,9 +608,10 @@ def _input_covariance(
     pose's 1-sigma resolutions on the diagonal (padding views: zero)."""
     T, N, D = batch.inputs.shape
     C = np.zeros((T, N, D, D))
-    for i, (row, row_views) in enumerate(zip(measurements, views, strict=True)):
-        for j, (m, v) in enumerate(zip(row, row_views, strict=True)):
-            S, dof = _scatter(v, m)
+    for i, (row, row_views, row_scatter) in enumerate(
+        zip(measurements, views, scatters, strict=True)
+    ):
+        for j, (m, v, (S, dof)) in enumerate(zip(row, row_views, row_scatter, strict=True)):
             C[i, j, :3, :3] = measurement_covariance(S, dof, pooled, m.n_used, median=median)
             C[i, j, 3:6, 3:6] = np.eye(3) * v.t_sigma**2
             C[i, j, 6:9, 6:9] = np.eye(3) * v.r_sigma_deg**2

@@ -311,3 +311,38 @@ def test_outlier_frames_are_rejected_and_reported(tmp_path: Path, point_session:
     assert robust["rejected_frames"] == "pose 1: 3"
     assert mean["rejected_frames"] == ""
     assert abs(robust["x"] - clean["x"]) < 0.01 < abs(mean["x"] - clean["x"])
+
+
+def test_a_line_session_without_ground_truth_still_reports_lines(
+    tmp_path: Path, line_session: Path
+) -> None:
+    """No truth: the line is reported at its point nearest the last camera, with its
+    uncertainty; the error columns and NEES stay empty."""
+    from analysis.replay import iter_trials
+    from recorder.session import SessionReader
+
+    out = tmp_path / "no_truth.mcap"
+    with SessionReader(line_session) as reader:
+        info, cameras, ground = reader.info, list(reader.cameras.values()), reader.ground
+        with SessionWriter(out, info, cameras, ground=ground, start_ns=0) as w:
+            t = 1
+            for record in iter_trials(reader):
+                for pc in record.poses:
+                    w.write_pose(pc.entry, t)
+                    with w.capture(record.trial, pc.entry.pose, pc.entry.camera_id) as cap:
+                        for frame in pc.frames:
+                            t += 1
+                            cap.add_encoded(frame.data, t)
+                    t += 1
+    bare = analyse_session(out).trials
+    full = analyse_session(line_session).trials
+    assert (bare["status"] == "ok").all()
+    assert bare[["x", "y", "z", "sigma_x", "sigma_z", "dir_x"]].notna().all().all()
+    assert bare[["err", "nees", "angle_err_deg"]].isna().all().all()
+    np.testing.assert_allclose(bare[["dir_x", "dir_y", "dir_z"]], full[["dir_x", "dir_y", "dir_z"]])
+    # Both points lie on the same line.
+    offset = bare[["x", "y", "z"]].to_numpy(float) - full[["x", "y", "z"]].to_numpy(float)
+    across = offset - np.sum(offset * bare[["dir_x", "dir_y", "dir_z"]].to_numpy(float), axis=1)[
+        :, None
+    ] * bare[["dir_x", "dir_y", "dir_z"]].to_numpy(float)
+    assert np.abs(across).max() < 1e-6
