@@ -1,14 +1,46 @@
-"""twopose analysis: replay sessions through detection and solvers into error tables and reports.
+"""twopose analysis, the analyst's side: replay sessions through detection and solvers into
+error tables, figures and a report.
 
 The whole job is one call::
 
     import analysis
     result = analysis.run(["sessions/"], "results/", jobs=2)
     result.trials, result.summary, result.averaging, result.frames, result.errors
+
+The names below load on first use, so ``import analysis.cli`` stays fast.
 """
 
 from __future__ import annotations
 
-from analysis.pipeline import AnalysisOptions, RunResult, SessionResult, analyse_session, run
+from typing import TYPE_CHECKING, Any
 
-__all__ = ["AnalysisOptions", "RunResult", "SessionResult", "analyse_session", "run"]
+if TYPE_CHECKING:
+    from analysis.batch import run
+    from analysis.pipeline import analyse_session
+    from analysis.results import AnalysisOptions, RunResult, SessionFailure, SessionResult
+
+__all__ = [
+    "AnalysisOptions",
+    "RunResult",
+    "SessionFailure",
+    "SessionResult",
+    "analyse_session",
+    "run",
+]
+
+_HOMES = {
+    "run": "analysis.batch",
+    "analyse_session": "analysis.pipeline",
+    "AnalysisOptions": "analysis.results",
+    "RunResult": "analysis.results",
+    "SessionFailure": "analysis.results",
+    "SessionResult": "analysis.results",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _HOMES:
+        import importlib
+
+        return getattr(importlib.import_module(_HOMES[name]), name)
+    raise AttributeError(f"module 'analysis' has no attribute {name!r}")

@@ -9,15 +9,12 @@ from enum import StrEnum
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
-from rich.console import Console
-from rich.progress import Progress
-from rich.table import Table
 
-from analysis.replay import SessionOverview, describe_session, find_sessions
-from recorder.cli import handle_errors
-from recorder.errors import EXIT_SOME_INPUTS_FAILED, InputValueError, TwoposeError
+from twopose.errors import EXIT_SOME_INPUTS_FAILED, InputValueError, TwoposeError, handle_errors
+
+# Everything heavy (numpy, rich, mcap, pandas, matplotlib) is imported inside the command
+# that needs it, so that `twopose-analyze --help` starts fast.
 
 __all__ = ["app", "main"]
 
@@ -42,6 +39,12 @@ def info(
     ],
 ) -> None:
     """Check and describe sessions: method, cameras, trials, poses, captures, frames."""
+    from rich.console import Console
+    from rich.table import Table
+
+    from twopose.format.reader import find_sessions
+    from twopose.format.trials import SessionOverview, describe_session
+
     console = Console()
     with handle_errors():
         sessions = find_sessions(paths)
@@ -130,28 +133,36 @@ def run_command(
     ] = True,
 ) -> None:
     """Replay sessions through detection and solvers into error tables, figures and a report."""
-    from analysis.pipeline import AnalysisOptions, run
+    from rich.console import Console
+    from rich.progress import Progress
+    from rich.table import Table
+
+    from analysis.batch import run
     from analysis.report import summary_rows
+    from analysis.results import AnalysisOptions
 
     console = Console(stderr=True)
-    with handle_errors():
-        n = len(find_sessions(paths))
-        with Progress(console=console, transient=True, disable=n < 2) as progress:
-            task = progress.add_task("sessions", total=n)
-            result = run(
-                paths,
-                out,
-                jobs=jobs,
-                dask_address=dask,
-                options=AnalysisOptions(
-                    combine=combine.value,
-                    min_parallax_deg=min_parallax,
-                    min_plane_angle_deg=min_plane_angle,
-                    min_ground_angle_deg=min_ground_angle,
-                ),
-                on_session_done=lambda _path, _ok: progress.advance(task),
-                scene=scene,
-            )
+    with handle_errors(), Progress(console=console, transient=True) as progress:
+        task = progress.add_task("sessions", total=None)
+
+        def found(n: int) -> None:
+            progress.update(task, total=n, visible=n >= 2)
+
+        result = run(
+            paths,
+            out,
+            jobs=jobs,
+            dask_address=dask,
+            options=AnalysisOptions(
+                combine=combine.value,
+                min_parallax_deg=min_parallax,
+                min_plane_angle_deg=min_plane_angle,
+                min_ground_angle_deg=min_ground_angle,
+            ),
+            on_session_done=lambda _path, _ok: progress.advance(task),
+            on_sessions_found=found,
+            scene=scene,
+        )
     table = Table(title=f"twopose: {len(result.sessions)} session(s), results in {out}")
     units = result.summary["units"].iloc[0] if len(result.summary["units"].unique()) == 1 else ""
     table.add_column("session", no_wrap=True, min_width=18)  # names matter more than digits
@@ -218,8 +229,9 @@ def detect(
 ) -> None:
     """Detect the glove or the dot in images; one JSON object per image."""
     import cv2
+    import numpy as np
 
-    from analysis.detect import detect as detect_image
+    from twopose.detect import detect as detect_image
 
     failed = False
     for path in images:

@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from analysis.uncertainty import CHI2_3DOF_95, CHI2_95, nees
+from twopose.uncertainty import CHI2_3DOF_95, CHI2_95, nees
 
 __all__ = [
     "SUMMARY_COLUMNS",

@@ -16,10 +16,10 @@ from matplotlib.axes import Axes
 from matplotlib.collections import EllipseCollection, LineCollection
 from matplotlib.figure import Figure
 
-from analysis.uncertainty import CHI2_95
+from twopose.uncertainty import CHI2_95
 
 if TYPE_CHECKING:
-    from analysis.pipeline import RunResult
+    from analysis.results import RunResult
 
 __all__ = [
     "dominant_inputs",
@@ -238,8 +238,9 @@ def _table(df: pd.DataFrame) -> str:
     )
 
 
-def write_outputs(result: RunResult, out_dir: Path) -> None:
-    """Write the CSV tables, one PNG per figure, and ``report.html`` into ``out_dir``."""
+def write_outputs(result: RunResult, out_dir: Path, sweeps: pd.DataFrame) -> None:
+    """Write the CSV tables, one PNG per figure, the sensitivity ``sweeps`` and
+    ``report.html`` into ``out_dir``."""
     out_dir.mkdir(parents=True, exist_ok=True)
     result.trials.to_csv(out_dir / "trials.csv", index=False)
     result.summary.to_csv(out_dir / "summary.csv", index=False)
@@ -257,11 +258,8 @@ def write_outputs(result: RunResult, out_dir: Path) -> None:
         }
         pngs |= {figure_key(kind, i, s.session): data for kind, data in rendered.items()}
     pngs |= {name: png_bytes(fig) for name, fig in run_figures(result).items()}
-    # The sweeps are in the thesis' geometry, not the sessions': what the method can do, beside
-    # what each trial's own covariance says dominated it (dominant_input).
-    from analysis.sensitivity import plot_sensitivity, sensitivity
+    from analysis.sensitivity import plot_sensitivity
 
-    sweeps = sensitivity()
     sweeps.to_csv(out_dir / "sensitivity.csv", index=False)
     pngs["sensitivity"] = png_bytes(plot_sensitivity(sweeps))
     images = {}

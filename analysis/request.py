@@ -24,7 +24,9 @@ from typing import Any
 
 import numpy as np
 
-from analysis.solve import (
+from twopose.camera import rotation_from_angles_deg
+from twopose.errors import InputValueError
+from twopose.solve import (
     image_lines,
     projection_matrices,
     segment_lines,
@@ -32,8 +34,6 @@ from analysis.solve import (
     triangulate_lines,
     triangulate_points,
 )
-from recorder.camera import rotation_from_angles_deg
-from recorder.errors import InputValueError
 
 __all__ = ["solve_request"]
 

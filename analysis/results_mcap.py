@@ -25,123 +25,56 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any, Self
 
-import cv2
 import numpy as np
-from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
-from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
-from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
 from foxglove_schemas_protobuf.ImageAnnotations_pb2 import ImageAnnotations
 from foxglove_schemas_protobuf.LinePrimitive_pb2 import LinePrimitive
-from foxglove_schemas_protobuf.PointsAnnotation_pb2 import PointsAnnotation
 from foxglove_schemas_protobuf.SceneEntity_pb2 import SceneEntity
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from mcap.writer import CompressionType
 from mcap.writer import Writer as McapWriter
-from mcap_protobuf.schema import build_file_descriptor_set
 from numpy.typing import NDArray
 
-from analysis.detect import Detection
-from analysis.uncertainty import CHI2_95
-from recorder.camera import quaternion_xyzw_from_matrix
-from recorder.session import (
+from twopose.camera import Camera, quaternion_xyzw_from_matrix
+from twopose.detect import Detection
+from twopose.format.channels import Channels
+from twopose.format.entries import GroundPlane, PoseEntry
+from twopose.format.messages import (
     GRID_FRAME,
+    SESSION_PROTOBUF,
     TF_TOPIC,
-    Camera,
     Frame,
-    GroundPlane,
-    PoseEntry,
     calibration_message,
     calibration_topic,
-    camera_frame_id,
+    image_message,
     image_topic,
     transform_message,
 )
+from twopose.overlay import GREEN, RED, image_annotations, set_color
+from twopose.uncertainty import CHI2_95
 
 __all__ = [
     "SCENE_TOPIC",
     "ResultsWriter",
     "TrialScene",
     "annotations_topic",
-    "image_annotations",
     "trial_scene",
 ]
 
 F64 = NDArray[np.float64]
 SCENE_TOPIC = "/twopose/results/scene"
 
-GREEN = (0.1, 0.85, 0.2, 1.0)
-RED = (0.95, 0.15, 0.1, 1.0)
 ORANGE = (1.0, 0.55, 0.0, 1.0)
 BLUE = (0.2, 0.5, 1.0, 1.0)
 GREY = (0.6, 0.6, 0.6, 0.6)
 WHITE = (1.0, 1.0, 1.0, 1.0)
-BLACK = (0.0, 0.0, 0.0, 0.6)
 
 
 def annotations_topic(camera_id: str) -> str:
     return f"/twopose/results/camera/{camera_id}/annotations"
 
 
-def _color(msg: Any, rgba: tuple[float, float, float, float]) -> None:
-    msg.r, msg.g, msg.b, msg.a = rgba
-
-
-def _xy(msg: Any, x: float, y: float) -> None:
-    msg.x, msg.y = float(x), float(y)
-
-
 def _xyz(msg: Any, p: F64) -> None:
     msg.x, msg.y, msg.z = (float(v) for v in p)
-
-
-# --------------------------------------------------------------------------- image overlays
-
-
-def image_annotations(det: Detection, log_time_ns: int, label: str) -> ImageAnnotations:
-    """One frame's overlay: outline, centroid and orientation of the detection (green),
-    the candidates turned down (red, with why), and ``label`` with the verdict."""
-    msg = ImageAnnotations()
-
-    def outline(points: F64 | None, rgba: tuple[float, float, float, float]) -> None:
-        if points is None or len(points) < 2:
-            return
-        # Within a pixel of the boundary: a drawing needs no more, and fewer points
-        # keep the overlay cheap (it is built for every frame).
-        simple = cv2.approxPolyDP(points.astype(np.float32)[:, None, :], 1.0, closed=True)
-        a = msg.points.add(type=PointsAnnotation.Type.LINE_LOOP, thickness=2.0)
-        a.timestamp.FromNanoseconds(log_time_ns)
-        _color(a.outline_color, rgba)
-        for x, y in simple[:, 0, :].tolist():
-            a.points.add(x=x, y=y)
-
-    def text(x: float, y: float, words: str, rgba: tuple[float, float, float, float]) -> None:
-        t = msg.texts.add(text=words, font_size=14.0)
-        t.timestamp.FromNanoseconds(log_time_ns)
-        _xy(t.position, x, y)
-        _color(t.text_color, rgba)
-        _color(t.background_color, BLACK)
-
-    for blob in det.rejected_blobs:
-        outline(blob.outline_px, RED)
-        text(blob.centroid_px[0], blob.centroid_px[1], blob.reason, RED)
-    if det.found:
-        outline(det.outline_px, GREEN)
-        col, row = det.centroid_px
-        c = msg.circles.add(diameter=8.0, thickness=2.0)
-        c.timestamp.FromNanoseconds(log_time_ns)
-        _xy(c.position, col, row)
-        _color(c.outline_color, GREEN)
-        if math.isfinite(det.theta_deg):
-            t = math.radians(det.theta_deg)
-            d = np.array([math.cos(t), math.sin(t)]) * 80.0
-            a = msg.points.add(type=PointsAnnotation.Type.LINE_LIST, thickness=2.0)
-            a.timestamp.FromNanoseconds(log_time_ns)
-            _color(a.outline_color, GREEN)
-            _xy(a.points.add(), col - d[0], row - d[1])
-            _xy(a.points.add(), col + d[0], row + d[1])
-    verdict = "found" if det.found else f"rejected: {det.reason}"
-    text(10.0, 20.0, f"{label}: {verdict}", GREEN if det.found else RED)
-    return msg
 
 
 # --------------------------------------------------------------------------- the 3-D scene
@@ -191,7 +124,7 @@ def _entity(update: SceneUpdate, log_time_ns: int, entity_id: str, trial: int) -
 def _line(entity: SceneEntity, kind: int, points: F64, rgba: Any, thickness: float = 2.0) -> None:
     line = entity.lines.add(type=kind, thickness=thickness, scale_invariant=True)
     line.pose.orientation.w = 1.0
-    _color(line.color, rgba)
+    set_color(line.color, rgba)
     for p in points:
         _xyz(line.points.add(), p)
 
@@ -203,7 +136,7 @@ def _sphere(entity: SceneEntity, centre: F64, size: F64, R: F64, rgba: Any) -> N
     s.pose.orientation.x, s.pose.orientation.y, s.pose.orientation.z = q[:3]
     s.pose.orientation.w = q[3]
     _xyz(s.size, size)
-    _color(s.color, rgba)
+    set_color(s.color, rgba)
 
 
 def _arrow(entity: SceneEntity, start: F64, end: F64, rgba: Any) -> None:
@@ -224,7 +157,7 @@ def _arrow(entity: SceneEntity, start: F64, end: F64, rgba: Any) -> None:
     head = min(0.3 * length, 0.5)
     a.shaft_length, a.head_length = length - head, head
     a.shaft_diameter, a.head_diameter = head * 0.25, head * 0.6
-    _color(a.color, rgba)
+    set_color(a.color, rgba)
 
 
 def static_scene(ground: GroundPlane | None, extent: float = 12.0) -> SceneUpdate:
@@ -248,7 +181,7 @@ def static_scene(ground: GroundPlane | None, extent: float = 12.0) -> SceneUpdat
         cube.pose.orientation.x, cube.pose.orientation.y, cube.pose.orientation.z = q[:3]
         cube.pose.orientation.w = q[3]
         _xyz(cube.size, np.array([2 * extent, 0.02, 2 * extent]))
-        _color(cube.color, (0.55, 0.45, 0.3, 0.35))
+        set_color(cube.color, (0.55, 0.45, 0.3, 0.35))
     return update
 
 
@@ -302,7 +235,7 @@ def trial_scene(s: TrialScene, log_time_ns: int) -> SceneUpdate:
         wedge = _rays(s, np.stack([s.px - along, s.px + along], axis=1))
         tri = e.triangles.add()
         tri.pose.orientation.w = 1.0
-        _color(tri.color, (1.0, 0.55, 0.0, 0.25))
+        set_color(tri.color, (1.0, 0.55, 0.0, 0.25))
         for c, r, L in zip(centres[seen], wedge[seen], reach[seen], strict=True):
             for p in (c, c + r[0] * L, c + r[1] * L):
                 _xyz(tri.points.add(), p)
@@ -337,7 +270,7 @@ def trial_scene(s: TrialScene, log_time_ns: int) -> SceneUpdate:
     text.scale_invariant = True
     _xyz(text.pose.position, s.estimate if finite else centres[0])
     text.pose.orientation.w = 1.0
-    _color(text.color, WHITE)
+    set_color(text.color, WHITE)
     return update
 
 
@@ -353,52 +286,30 @@ class ResultsWriter:
     def __init__(self, path: str | Path, cameras: list[Camera], ground: GroundPlane | None):
         self.path = Path(path)
         self._file = self.path.open("wb")
-        self._writer = McapWriter(self._file, compression=CompressionType.LZ4)
-        self._writer.start(profile="", library="twopose")
-        ids: dict[str, int] = {}
-        for pb in (
-            CameraCalibration,
-            CompressedImage,
-            FrameTransform,
-            ImageAnnotations,
-            SceneUpdate,
-        ):
-            ids[pb.DESCRIPTOR.full_name] = self._writer.register_schema(
-                name=pb.DESCRIPTOR.full_name,
-                encoding="protobuf",
-                data=build_file_descriptor_set(pb).SerializeToString(),
-            )
-
-        def channel(topic: str, schema: str) -> int:
-            return self._writer.register_channel(topic, "protobuf", ids[schema])
-
-        self._channels = {TF_TOPIC: channel(TF_TOPIC, "foxglove.FrameTransform")}
-        self._channels[SCENE_TOPIC] = channel(SCENE_TOPIC, "foxglove.SceneUpdate")
+        writer = McapWriter(self._file, compression=CompressionType.LZ4)
+        writer.start(profile="", library="twopose")
+        self._channels = Channels(writer)
+        calibration, image, transform = SESSION_PROTOBUF
+        self._channels.protobuf_schemas(*SESSION_PROTOBUF, ImageAnnotations, SceneUpdate)
+        self._channels.protobuf(TF_TOPIC, transform)
+        self._channels.protobuf(SCENE_TOPIC, SceneUpdate)
         for cam in cameras:
-            cid = cam.camera_id
-            self._channels[calibration_topic(cid)] = channel(
-                calibration_topic(cid), "foxglove.CameraCalibration"
-            )
-            self._channels[image_topic(cid)] = channel(image_topic(cid), "foxglove.CompressedImage")
-            self._channels[annotations_topic(cid)] = channel(
-                annotations_topic(cid), "foxglove.ImageAnnotations"
-            )
+            self._channels.protobuf(calibration_topic(cam.camera_id), calibration)
+            self._channels.protobuf(image_topic(cam.camera_id), image)
+            self._channels.protobuf(annotations_topic(cam.camera_id), ImageAnnotations)
         self._sequence = 0
         self._cameras = cameras
         self._ground = ground
         self._started = False
-        self.counts: dict[str, int] = {}
+
+    @property
+    def counts(self) -> dict[str, int]:
+        """Messages written per topic."""
+        return dict(self._channels.counts)
 
     def _write(self, topic: str, msg: Any, log_time_ns: int) -> None:
-        self._writer.add_message(
-            channel_id=self._channels[topic],
-            log_time=log_time_ns,
-            publish_time=log_time_ns,
-            data=msg.SerializeToString(),
-            sequence=self._sequence,
-        )
+        self._channels.write(topic, msg.SerializeToString(), log_time_ns, self._sequence)
         self._sequence += 1
-        self.counts[topic] = self.counts.get(topic, 0) + 1
 
     def _start(self, log_time_ns: int) -> None:
         if not self._started:
@@ -418,10 +329,7 @@ class ResultsWriter:
     def add_frame(self, frame: Frame, det: Detection, label: str) -> None:
         t = frame.log_time_ns
         self._start(t)
-        img = CompressedImage(
-            frame_id=camera_frame_id(frame.camera_id), data=frame.data, format=frame.format
-        )
-        img.timestamp.FromNanoseconds(t)
+        img = image_message(frame.camera_id, frame.data, frame.format, t)
         self._write(image_topic(frame.camera_id), img, t)
         self._write(annotations_topic(frame.camera_id), image_annotations(det, t, label), t)
 
@@ -431,7 +339,7 @@ class ResultsWriter:
 
     def close(self) -> None:
         if not self._file.closed:
-            self._writer.finish()
+            self._channels.writer.finish()
             self._file.close()
 
     def __enter__(self) -> Self:

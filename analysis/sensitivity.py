@@ -17,10 +17,9 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from analysis.solve import image_lines, projection_matrices, triangulate_ground, triangulate_points
-from recorder.camera import Intrinsics, project_points
-from recorder.render import finger_axis
-from recorder.scene import FingerParams, Scene
+from twopose.camera import Intrinsics, project_points
+from twopose.solve import image_lines, projection_matrices, triangulate_ground, triangulate_points
+from twopose.targets import finger_axis
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -69,16 +68,10 @@ class Geometry:
         return Intrinsics(640, 480, self.focal_px, self.focal_px, 320.0, 240.0)
 
     def finger(self) -> tuple[F64, F64]:
-        scene = Scene(
-            ground_height=self.ground_height,
-            finger=replace(
-                FingerParams(),
-                ground_point=self.ground_point,
-                tilt_deg=self.finger_tilt_deg,
-                azimuth_deg=self.finger_azimuth_deg,
-            ),
+        """Tip and base of the finger (the simulator's finger, see :mod:`twopose.targets`)."""
+        return finger_axis(
+            self.ground_point, self.ground_height, self.finger_tilt_deg, self.finger_azimuth_deg
         )
-        return finger_axis(scene)
 
 
 def _estimate(g: Geometry, method: str, samples: int, rng: np.random.Generator) -> F64:

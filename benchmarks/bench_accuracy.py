@@ -26,7 +26,7 @@ import cv2
 import numpy as np
 import pandas as pd
 
-from analysis.solve import projection_matrices, triangulate_points
+from twopose.solve import projection_matrices, triangulate_points
 
 F64 = np.ndarray
 K = np.array([525.0, 525.0, 320.0, 240.0])

@@ -25,15 +25,17 @@ import sys
 import tempfile
 from pathlib import Path
 
-from analysis.replay import iter_trials
-from recorder.session import SessionReader, SessionWriter
 from recorder.simulate import simulate_session
+from twopose.format.reader import SessionReader
+from twopose.format.trials import iter_trials
+from twopose.format.writer import SessionWriter
 
 PY = sys.executable
 
 DECODE_LOOP = """
 import sys, time, cv2, numpy as np
-from recorder.session import Frame, SessionReader
+from twopose.format.messages import Frame
+from twopose.format.reader import SessionReader
 n = 0
 t = time.perf_counter()
 with SessionReader(sys.argv[1]) as r:
@@ -48,7 +50,7 @@ print(time.perf_counter() - t, n)
 # start at the parent's peak, inherited through fork.
 RUN_AND_RSS = """
 import sys, time
-from analysis.pipeline import run
+from analysis.batch import run
 t = time.perf_counter()
 result = run(sys.argv[1:-1], sys.argv[-1], jobs=int(__import__("os").environ.get("JOBS", "1")))
 elapsed = time.perf_counter() - t

@@ -19,10 +19,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from recorder.camera import Intrinsics
-from recorder.procedure import CaptureResult, Plan, PlannedPose, PlannedTrial, record_plan
-from recorder.session import Camera
+from recorder.plan import Plan, PlannedPose, PlannedTrial, record_plan
+from recorder.procedure import CaptureResult
 from recorder.sources import FrameSource, SyntheticSource, VideoSource
+from twopose.camera import Camera, Intrinsics
 
 SIZES = ((640, 480), (1280, 720))
 FPS = 30.0

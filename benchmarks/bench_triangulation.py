@@ -16,8 +16,8 @@ from collections.abc import Callable
 import cv2
 import numpy as np
 
-from analysis.solve import projection_matrices, triangulate_two_views
-from recorder.camera import rotation_from_angles_deg
+from twopose.camera import rotation_from_angles_deg
+from twopose.solve import projection_matrices, triangulate_two_views
 
 N_POINTS = 100_000
 

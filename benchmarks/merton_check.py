@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from analysis.solve import segment_lines, triangulate_lines, triangulate_points
+from twopose.solve import segment_lines, triangulate_lines, triangulate_points
 
 DEFAULT = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "merton1"
 

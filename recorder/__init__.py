@@ -1,60 +1,12 @@
-"""twopose recorder: frames, typed poses, ground height and ground truth into MCAP sessions."""
+"""twopose recorder, the operator's side: the laptop-on-grid procedure (terminal, plan,
+live view), frame sources, camera calibration, recovery of interrupted sessions, and the
+simulator that renders what the thesis' webcam would see.
+
+It writes the session format of :mod:`twopose.format` and never imports ``analysis``.
+"""
 
 from __future__ import annotations
 
-from importlib.metadata import PackageNotFoundError, version
+from twopose import __version__
 
-try:
-    __version__ = version("twopose")
-except PackageNotFoundError:  # running from a source tree without installing
-    __version__ = "0.0.0+unknown"
-
-from recorder.camera import Intrinsics, rotation_from_angles_deg
-from recorder.errors import (
-    InputValueError,
-    SceneError,
-    SessionExistsError,
-    SessionFormatError,
-    SessionVersionError,
-    TwoposeError,
-)
-from recorder.session import (
-    FORMAT_VERSION,
-    Camera,
-    CaptureWindow,
-    Frame,
-    GroundPlane,
-    GroundTruth,
-    Note,
-    PoseEntry,
-    SessionInfo,
-    SessionReader,
-    SessionWriter,
-    SimulationTruth,
-    TruePose,
-)
-
-__all__ = [
-    "FORMAT_VERSION",
-    "Camera",
-    "CaptureWindow",
-    "Frame",
-    "GroundPlane",
-    "GroundTruth",
-    "InputValueError",
-    "Intrinsics",
-    "Note",
-    "PoseEntry",
-    "SceneError",
-    "SessionExistsError",
-    "SessionFormatError",
-    "SessionInfo",
-    "SessionReader",
-    "SessionVersionError",
-    "SessionWriter",
-    "SimulationTruth",
-    "TruePose",
-    "TwoposeError",
-    "__version__",
-    "rotation_from_angles_deg",
-]
+__all__ = ["__version__"]

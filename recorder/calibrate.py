@@ -5,7 +5,6 @@ angles, OpenCV's corner finder and ``calibrateCamera``, written as a small TOML 
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -14,10 +13,10 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from recorder.camera import Intrinsics
-from recorder.errors import InputValueError, SessionExistsError
-from recorder.scene import read_toml
-from recorder.sources import FrameSource, SourceError
+from recorder.sources import FrameSource
+from twopose.camera import Intrinsics
+from twopose.config import read_toml
+from twopose.errors import InputValueError, SessionExistsError, SourceError
 
 __all__ = ["Calibration", "calibrate", "load_calibration", "save_calibration"]
 
@@ -124,20 +123,4 @@ def save_calibration(calibration: Calibration, path: str | Path) -> None:
 def load_calibration(path: str | Path) -> Intrinsics:
     """Read a calibration file written by :func:`save_calibration`."""
     data = read_toml(path, "calibration", InputValueError)
-    try:
-        d = [float(x) for x in data.get("distortion", [0.0] * 5)]
-        intr = Intrinsics(
-            int(data["width"]),
-            int(data["height"]),
-            float(data["fx"]),
-            float(data["fy"]),
-            float(data["cx"]),
-            float(data["cy"]),
-            (d[0], d[1], d[2], d[3], d[4]),
-        )
-    except (KeyError, ValueError, TypeError, IndexError) as err:
-        raise InputValueError(f"calibration {path} is malformed: {err}") from err
-    values = (intr.fx, intr.fy, intr.cx, intr.cy, *intr.distortion)
-    if not all(math.isfinite(v) for v in values) or intr.fx <= 0 or intr.fy <= 0:
-        raise InputValueError(f"calibration {path} has non-finite or non-positive values")
-    return intr
+    return Intrinsics.from_dict(data, f"calibration {path}")

@@ -4,22 +4,20 @@ from __future__ import annotations
 
 import contextlib
 import time
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
 from enum import StrEnum
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, cast
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
-from recorder.errors import EXIT_ERROR, EXIT_INTERRUPTED, InputValueError, TwoposeError
+from twopose.errors import InputValueError, TwoposeError, handle_errors
 
 if TYPE_CHECKING:
     from recorder.live import LiveView
     from recorder.procedure import CaptureResult, RecordingSummary
-    from recorder.session import Camera
+    from twopose.camera import Camera, Intrinsics
 
-__all__ = ["app", "handle_errors", "main"]
+__all__ = ["app", "main"]
 
 app = typer.Typer(
     name="twopose-record",
@@ -39,19 +37,6 @@ class MethodChoice(StrEnum):
     point = "point"
     line = "line"
     ground = "ground"
-
-
-@contextmanager
-def handle_errors() -> Iterator[None]:
-    """Turn twopose errors into a one-line message and an exit code (the CLIs' only place)."""
-    try:
-        yield
-    except TwoposeError as err:
-        typer.secho(f"error: {err}", err=True, fg=typer.colors.RED)
-        raise typer.Exit(EXIT_ERROR) from None
-    except KeyboardInterrupt:
-        typer.secho("interrupted", err=True)
-        raise typer.Exit(EXIT_INTERRUPTED) from None
 
 
 @app.command()
@@ -144,7 +129,7 @@ def new(
     live_port: Annotated[int, typer.Option(min=0, max=65535, help="Port of --live.")] = 8765,
 ) -> None:
     """Record a session: the guided laptop-on-grid procedure, or a plan file (--plan)."""
-    from recorder.procedure import load_plan, record_plan
+    from recorder.plan import load_plan, record_plan
     from recorder.sources import open_source
 
     with handle_errors(), contextlib.ExitStack() as stack:
@@ -154,23 +139,22 @@ def new(
             view = _live_view(stack, list(the_plan.cameras), live_port) if live else None
             summary = record_plan(the_plan, out, src, on_capture=_report_capture, live=view)
         else:
+            given = {
+                "method": method.value if method else None,
+                "units": units,
+                "calibration": calibration,
+                "focal": focal,
+                "principal": principal,
+                "ground_height": ground_height,
+                "ground_truth": ground_truth,
+                "operator": operator,
+                "notes": notes,
+            }
             summary = _interactive(
                 out,
                 source,
-                method,
-                units,
-                calibration,
-                focal,
-                principal,
-                ground_height,
-                ground_truth,
-                operator,
-                notes,
-                frames,
-                poses,
-                width,
-                height,
-                fps,
+                given,
+                (frames, poses, width, height, fps),
                 (stack, live_port) if live else None,
             )
     typer.echo(
@@ -203,99 +187,46 @@ def _report_capture(trial: int, pose: int, result: CaptureResult) -> None:
 def _interactive(
     out: Path,
     source: str,
-    method: MethodChoice | None,
-    units: str | None,
-    calibration: Path | None,
-    focal: float | None,
-    principal: str | None,
-    ground_height: float | None,
-    ground_truth: list[str] | None,
-    operator_name: str | None,
-    notes: str,
-    frames: int,
-    poses: int,
-    width: int,
-    height: int,
-    fps: float,
+    given: dict[str, Any],
+    capture: tuple[int, int, int, int, float],
     live: tuple[contextlib.ExitStack, int] | None = None,
 ) -> RecordingSummary:
     """Ask for whatever the options did not give, then run the guided procedure."""
-    from recorder.camera import Intrinsics
-    from recorder.procedure import Operator, parse_vector, record_interactive
-    from recorder.session import METHODS, UNITS, Camera, GroundPlane, Method, SessionInfo
+    from recorder.interactive import Operator, ask_setup, parse_vector, record_interactive
     from recorder.sources import open_source
+    from twopose.camera import Camera
+    from twopose.format.entries import GroundPlane, SessionInfo
 
+    frames, poses, width, height, fps = capture
     op = Operator(
         lambda q, d: str(typer.prompt(q, default=d or None, show_default=bool(d))), typer.echo
     )
-
-    def one_of(options: tuple[str, ...]) -> Callable[[str], str]:
-        def parse(text: str) -> str:
-            if text not in options:
-                raise InputValueError(f"choose one of {', '.join(options)}")
-            return text
-
-        return parse
-
-    def positive(text: str) -> float:
-        try:
-            v = float(text)
-        except ValueError as err:
-            raise InputValueError(f"{text!r} is not a number") from err
-        if not (v > 0 and v < 1e6):
-            raise InputValueError(f"{text!r} must be a positive, finite number")
-        return v
-
-    def pair(text: str) -> tuple[float, float]:
-        parts = text.replace(",", " ").split()
-        try:
-            a, b = (float(p) for p in parts)
-        except ValueError as err:
-            raise InputValueError(f"type two numbers 'cx, cy', got {text!r}") from err
-        return a, b
-
-    m = method.value if method else op.ask("method (point, line, ground)", one_of(METHODS))
-    u = units if units in UNITS else op.ask("units (in, mm, cm, m)", one_of(UNITS), "in")
-    if calibration is not None:
-        from recorder.calibrate import load_calibration
-
-        intrinsics = load_calibration(calibration)
-    else:
-        f = focal if focal and focal > 0 else op.ask("focal parameter, px", positive, "525")
-        cx, cy = (
-            pair(principal)
-            if principal
-            else op.ask("principal point cx, cy (px)", pair, "320, 240")
-        )
-        intrinsics = Intrinsics(width, height, f, f, cx, cy)
-    ground = None
-    if m == "ground":
-        h = (
-            ground_height
-            if ground_height and ground_height > 0
-            else op.ask(f"ground height: camera centre to table ({u})", positive)
-        )
-        ground = GroundPlane(h)
-    n_truth = 2 if m == "line" else 1
-    given = [parse_vector(g, u, what="ground truth") for g in (ground_truth or [])]
-    while len(given) < n_truth:
-        given.append(
-            op.ask(
-                f"ground truth point {len(given) + 1} x, y, z ({u})",
-                lambda s: parse_vector(s, u, what="ground truth"),
-            )
-        )
-    who = operator_name if operator_name is not None else op.ask("operator", str, "")
-    src = open_source(source, method=m, width=width, height=height, fps=fps)
-    camera = Camera("cam0", intrinsics)
+    units = given["units"] if given["units"] is not None else "in"
+    setup = ask_setup(
+        op,
+        method=given["method"],
+        units=given["units"],
+        intrinsics=_calibration(given["calibration"]),
+        focal=given["focal"],
+        principal=_principal(given["principal"]),
+        size=(width, height),
+        ground_height=given["ground_height"],
+        ground_truth=[
+            parse_vector(g, units, what="ground truth") for g in given["ground_truth"] or []
+        ],
+        operator=given["operator"],
+    )
+    src = open_source(source, method=setup.method, width=width, height=height, fps=fps)
+    camera = Camera("cam0", setup.intrinsics)
     info = SessionInfo(
-        method=cast("Method", m),  # one of METHODS: checked when it was read
-        units=u,
-        operator=who,
-        notes=notes,
+        method=setup.method,
+        units=setup.units,
+        operator=setup.operator,
+        notes=given["notes"],
         created_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
     )
     view = _live_view(live[0], [camera], live[1]) if live is not None else None
+    ground = GroundPlane(offset=setup.ground_height) if setup.ground_height else None
     return record_interactive(
         out,
         src,
@@ -303,11 +234,31 @@ def _interactive(
         info=info,
         camera=camera,
         ground=ground,
-        ground_truth=tuple(given[:n_truth]),
+        ground_truth=setup.ground_truth,
         frames=frames,
         poses_per_trial=poses,
         live=view,
     )
+
+
+def _calibration(path: Path | None) -> Intrinsics | None:
+    if path is None:
+        return None
+    from recorder.calibrate import load_calibration
+
+    return load_calibration(path)
+
+
+def _principal(text: str | None) -> tuple[float, float] | None:
+    if not text:
+        return None
+    from twopose.values import numbers
+
+    try:
+        cx, cy = numbers([float(p) for p in text.replace(",", " ").split()], 2, "--principal")
+    except ValueError as err:
+        raise InputValueError(f"--principal must be 'cx,cy', got {text!r}") from err
+    return cx, cy
 
 
 @app.command()

@@ -20,17 +20,18 @@ from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
 from foxglove_schemas_protobuf.ImageAnnotations_pb2 import ImageAnnotations
 from mcap_protobuf.schema import build_file_descriptor_set
 
-from recorder.errors import InputValueError, TwoposeError
-from recorder.session import (
-    Camera,
+from twopose.camera import Camera
+from twopose.errors import InputValueError, TwoposeError
+from twopose.format.messages import (
     calibration_message,
     calibration_topic,
-    camera_frame_id,
+    image_message,
     image_topic,
 )
+from twopose.overlay import image_annotations
 
 if TYPE_CHECKING:
-    from analysis.detect import Detection
+    from twopose.detect import Detection
 
 __all__ = ["DEFAULT_LIVE_PORT", "STATUS_TOPIC", "LiveView", "annotations_topic"]
 
@@ -147,12 +148,9 @@ class LiveView:
         self._calibrations[camera_id].log(
             calibration_message(cam, log_time_ns).SerializeToString(), log_time=log_time_ns
         )
-        img = CompressedImage(frame_id=camera_frame_id(camera_id), data=data, format=image_format)
-        img.timestamp.FromNanoseconds(log_time_ns)
+        img = image_message(camera_id, data, image_format, log_time_ns)
         self._images[camera_id].log(img.SerializeToString(), log_time=log_time_ns)
         if detection is not None:
-            from analysis.results_mcap import image_annotations
-
             overlay = image_annotations(detection, log_time_ns, label)
             self._overlays[camera_id].log(overlay.SerializeToString(), log_time=log_time_ns)
 

@@ -25,22 +25,20 @@ from mcap.stream_reader import StreamReader, breakup_chunk
 from mcap.writer import CompressionType
 from mcap.writer import Writer as McapWriter
 
-from recorder.errors import SessionExistsError, SessionFormatError, TwoposeError
-from recorder.session import (
-    METADATA_NAME,
-    Camera,
+from twopose.camera import Camera
+from twopose.errors import SessionExistsError, SessionFormatError, TwoposeError
+from twopose.format.channels import Channels, register_session_channels
+from twopose.format.entries import (
     CaptureWindow,
     GroundPlane,
     PoseEntry,
     SessionInfo,
-    _check_version,
-    calibration_message,
-    calibration_topic,
-    cameras_from_metadata,
     decode_entry,
     encode_entry,
-    register_channels,
 )
+from twopose.format.messages import calibration_message, calibration_topic
+from twopose.format.reader import check_version
+from twopose.format.writer import METADATA_NAME, cameras_from_metadata
 
 __all__ = ["RecoveryReport", "recover_session"]
 
@@ -95,6 +93,22 @@ class _Pending:
         self.closed_windows: set[tuple[int, int, str]] = set()
 
 
+@dataclass
+class _Salvage:
+    """What the pass over a broken file has found so far."""
+
+    out: _Output | None = None
+    counts: Counter[str] = field(default_factory=Counter)
+    kept: int = 0
+    lost: int = 0
+    truncated: bool = False
+    stop_reason: str = ""
+    pending: _Pending = field(default_factory=lambda: _Pending())
+    complete: int = 0
+    topics_by_id: dict[int, str] = field(default_factory=dict)
+    session_seen: bool = False
+
+
 def recover_session(broken: str | Path, output: str | Path) -> RecoveryReport:
     """Salvage every complete chunk of ``broken`` into the new session file ``output``.
 
@@ -114,89 +128,103 @@ def recover_session(broken: str | Path, output: str | Path) -> RecoveryReport:
         stream = open(src, "rb")  # noqa: SIM115 - closed below
     except OSError as err:
         raise SessionFormatError(f"cannot open {src}: {err.strerror}") from err
-    out: _Output | None = None
-    counts: Counter[str] = Counter()
-    kept = lost = 0
-    truncated, stop_reason = False, ""
-    pending = _Pending()
-    complete = closed = 0
+    state = _Salvage()
     try:
-        records = StreamReader(stream, emit_chunks=True, record_size_limit=1 << 30).records
-        topics_by_id: dict[int, str] = {}
-        session_seen = False
-        while True:
-            try:
-                record = next(records)
-            except StopIteration:
-                break
-            except (McapError, ValueError, EOFError, OSError) as err:  # cut or garbled
-                truncated, stop_reason = True, f"{type(err).__name__}: {err}"
-                break
-            if isinstance(record, Metadata) and record.name == METADATA_NAME and out is None:
-                out = _open_output(dst, record.metadata)
-                # The writer registers channels in a fixed order, so the broken file used
-                # these ids; channel records recovered from its chunks override them.
-                topics_by_id = {cid: topic for topic, cid in out.channel_ids.items()}
-                continue
-            if isinstance(record, DataEnd | Footer):
-                break
-            if not isinstance(record, Chunk):
-                continue
-            if out is None:
+        _salvage(stream, src, dst, state)
+        if state.out is None:
+            raise SessionFormatError(
+                f"{src}: no '{METADATA_NAME}' metadata record; no twopose session to recover"
+            )
+        closed, unassigned = _close_pending(state.out, state.pending, state.counts)
+        return RecoveryReport(
+            src,
+            dst,
+            state.kept,
+            state.lost,
+            state.truncated,
+            state.stop_reason,
+            dict(state.counts),
+            state.complete,
+            closed,
+            unassigned,
+        )
+    finally:
+        stream.close()
+        if state.out is not None:
+            state.out.close()
+
+
+def _salvage(stream: IO[bytes], src: Path, dst: Path, state: _Salvage) -> None:
+    """Read ``stream`` front to back, copying every readable chunk's messages to the output
+    (opened at the ``twopose`` metadata record); stop at the first unreadable record."""
+    records = StreamReader(stream, emit_chunks=True, record_size_limit=1 << 30).records
+    while True:
+        try:
+            record = next(records)
+        except StopIteration:
+            return
+        except (McapError, ValueError, EOFError, OSError) as err:  # cut or garbled
+            state.truncated, state.stop_reason = True, f"{type(err).__name__}: {err}"
+            return
+        if isinstance(record, Metadata) and record.name == METADATA_NAME and state.out is None:
+            state.out = _open_output(dst, record.metadata)
+            # The writer registers channels in a fixed order, so the broken file used
+            # these ids; channel records recovered from its chunks override them.
+            state.topics_by_id = {cid: topic for topic, cid in state.out.channel_ids.items()}
+        elif isinstance(record, DataEnd | Footer):
+            return
+        elif isinstance(record, Chunk):
+            if state.out is None:
                 raise SessionFormatError(
                     f"{src}: no '{METADATA_NAME}' metadata record before the first chunk; "
                     "this is not a session written by twopose, or its start is damaged"
                 )
-            try:
-                inner = breakup_chunk(record, validate_crc=True)
-            except Exception:  # corrupt compressed data or CRC mismatch: skip this chunk
-                lost += 1
+            _copy_chunk(record, state.out, state)
+
+
+def _copy_chunk(chunk: Chunk, out: _Output, state: _Salvage) -> None:
+    """A chunk's messages into the output, or count it lost if it is corrupt."""
+    try:
+        inner = breakup_chunk(chunk, validate_crc=True)
+    except Exception:  # corrupt compressed data or CRC mismatch: skip this chunk
+        state.lost += 1
+        return
+    state.kept += 1
+    for r in inner:
+        if isinstance(r, Channel):
+            state.topics_by_id[r.id] = r.topic
+        elif isinstance(r, Message):
+            topic = state.topics_by_id.get(r.channel_id)
+            if topic is None or topic not in out.channel_ids:
                 continue
-            kept += 1
-            for r in inner:
-                if isinstance(r, Channel):
-                    topics_by_id[r.id] = r.topic
-                elif isinstance(r, Message):
-                    topic = topics_by_id.get(r.channel_id)
-                    if topic is None or topic not in out.channel_ids:
-                        continue
-                    session_seen |= topic == SessionInfo.TOPIC
-                    out.writer.add_message(
-                        out.channel_ids[topic], r.log_time, r.data, r.publish_time, r.sequence
-                    )
-                    counts[topic] += 1
-                    complete += _track(topic, r, pending)
-            if not session_seen:  # the first chunk was lost: restore its opening entries
-                out.write_opening(counts)
-                session_seen = True
-        if out is None:
-            raise SessionFormatError(
-                f"{src}: no '{METADATA_NAME}' metadata record; no twopose session to recover"
+            state.session_seen |= topic == SessionInfo.TOPIC
+            out.channels.writer.add_message(
+                out.channel_ids[topic], r.log_time, r.data, r.publish_time, r.sequence
             )
-        closed, unassigned = _close_pending(out, pending, counts)
-        return RecoveryReport(
-            src, dst, kept, lost, truncated, stop_reason, dict(counts), complete, closed, unassigned
-        )
-    finally:
-        stream.close()
-        if out is not None:
-            out.close()
+            state.counts[topic] += 1
+            state.complete += _track(topic, r, state.pending)
+    if not state.session_seen:  # the first chunk was lost: restore its opening entries
+        out.write_opening(state.counts)
+        state.session_seen = True
 
 
 @dataclass
 class _Output:
     """The new session file and what is needed to restore its opening entries."""
 
-    writer: McapWriter
+    channels: Channels
     stream: IO[bytes]
-    channel_ids: dict[str, int]
     info: SessionInfo
     cameras: list[Camera]
     ground: GroundPlane | None
     start_ns: int
 
+    @property
+    def channel_ids(self) -> dict[str, int]:
+        return self.channels.ids
+
     def put(self, topic: str, log_time: int, data: bytes, counts: Counter[str]) -> None:
-        self.writer.add_message(self.channel_ids[topic], log_time, data, log_time, 0)
+        self.channels.write(topic, data, log_time, 0)
         counts[topic] += 1
 
     def write_opening(self, counts: Counter[str]) -> None:
@@ -210,12 +238,12 @@ class _Output:
             self.put(GroundPlane.TOPIC, t0, encode_entry(self.ground), counts)
 
     def close(self) -> None:
-        self.writer.finish()
+        self.channels.writer.finish()
         self.stream.close()
 
 
 def _open_output(dst: Path, metadata: dict[str, str]) -> _Output:
-    _check_version(dst, metadata.get("format_version", ""))
+    check_version(dst, metadata.get("format_version", ""))
     try:
         info = decode_entry(SessionInfo.SCHEMA_NAME, metadata["session"].encode())
         ground_text = metadata.get("ground", "")
@@ -236,9 +264,9 @@ def _open_output(dst: Path, metadata: dict[str, str]) -> _Output:
         raise SessionExistsError(f"{dst} already exists; choose another output file") from err
     writer = McapWriter(stream, compression=CompressionType.ZSTD)
     writer.start(profile="", library=f"twopose recover ({metadata.get('software_version', '?')})")
-    channel_ids = register_channels(writer, info.camera_ids)
+    channels = register_session_channels(writer, info.camera_ids)
     writer.add_metadata(METADATA_NAME, dict(metadata))
-    return _Output(writer, stream, channel_ids, info, cameras, ground, start_ns)
+    return _Output(channels, stream, info, cameras, ground, start_ns)
 
 
 def _track(topic: str, message: Message, pending: _Pending) -> int:

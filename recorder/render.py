@@ -18,8 +18,9 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from recorder.camera import Intrinsics, project_points, rotation_from_angles_deg
 from recorder.scene import Scene
+from twopose.camera import Intrinsics, project_points, rotation_from_angles_deg
+from twopose.targets import finger_axis as target_finger_axis
 
 __all__ = ["Layout", "Primitive", "build_layout", "expose", "render_radiance"]
 
@@ -81,14 +82,11 @@ class Layout:
 
 
 def finger_axis(scene: Scene) -> tuple[F64, F64]:
-    """Tip and base of the finger axis in the grid frame; the axis passes the ground point."""
+    """Tip and base of the scene's finger axis in the grid frame (it meets the ground point)."""
     f = scene.finger
-    tilt, az = np.deg2rad(f.tilt_deg), np.deg2rad(f.azimuth_deg)
-    direction = np.array([np.sin(tilt) * np.sin(az), np.cos(tilt), np.sin(tilt) * np.cos(az)])
-    ground = np.array([f.ground_point[0], scene.ground_height, f.ground_point[1]])
-    tip = ground - direction * (f.tip_height / np.cos(tilt))
-    base = tip - direction * f.length
-    return tip, base
+    return target_finger_axis(
+        f.ground_point, scene.ground_height, f.tilt_deg, f.azimuth_deg, f.tip_height, f.length
+    )
 
 
 def _stand(scene: Scene, attach: F64) -> list[Primitive]:
@@ -342,6 +340,22 @@ def render_radiance(
     s = scene.sensor.supersample
     d = _pixel_rays(intr, s) @ np.asarray(R_cam_to_grid, dtype=np.float64).T
     o = np.asarray(t_grid, dtype=np.float64)
+    t_best, owner, normals = _intersect(layout, o, d)
+    albedo, specular = _surface(layout, o, d, owner, t_best)
+    _shade_background(scene, layout, o, d, owner, t_best, albedo, normals)
+    radiance = _lit(scene, d, albedo, specular, normals)
+    img = radiance.reshape(intr.height * s, intr.width * s, 3).astype(np.float32)
+    if s > 1:
+        return np.asarray(
+            cv2.resize(img, (intr.width, intr.height), interpolation=cv2.INTER_AREA),
+            dtype=np.float32,
+        )
+    return img
+
+
+def _intersect(layout: Layout, o: F64, d: F64) -> tuple[F64, NDArray[np.int32], F64]:
+    """Per ray from ``o`` along ``d`` (R, 3): the nearest hit's distance, the primitive hit
+    (-1: none) and the surface normal there."""
     n_rays = d.shape[0]
     t_best = np.full(n_rays, np.inf)
     owner = np.full(n_rays, -1, dtype=np.int32)
@@ -355,28 +369,36 @@ def render_radiance(
         cand = np.flatnonzero((w @ w - dw * dw / dd <= bound * bound) & (dw > 0))
         if cand.size == 0:
             continue
-        dc = d[cand]
-        if prim.kind == "capsule":
-            t, n = _capsule(o, dc, prim.a, prim.b, prim.radius)
-        elif prim.kind == "box":
-            t, n = _box(o, dc, prim.a, prim.b)
-        else:  # card in the plane z = a_z, facing -z
-            with np.errstate(divide="ignore", invalid="ignore"):
-                t = (prim.a[2] - o[2]) / dc[:, 2]
-            p = o + dc * np.where(np.isfinite(t), t, 0.0)[:, None]
-            inside = (np.abs(p[:, 0] - prim.a[0]) <= prim.b[0]) & (
-                np.abs(p[:, 1] - prim.a[1]) <= prim.b[1]
-            )
-            t = np.where(inside & (t > 0), t, np.inf)
-            n = np.tile(np.array([0.0, 0.0, -1.0]), (cand.size, 1))
+        t, n = _hit(prim, o, d[cand])
         closer = t < t_best[cand]
         hit = cand[closer]
         t_best[hit] = t[closer]
         owner[hit] = idx
         normals[hit] = n[closer]
+    return t_best, owner, normals
 
-    albedo = np.zeros((n_rays, 3))
-    specular = np.zeros(n_rays)
+
+def _hit(prim: Primitive, o: F64, dc: F64) -> tuple[F64, F64]:
+    """Distance (inf: missed) and normal of rays ``dc`` against one primitive."""
+    if prim.kind == "capsule":
+        return _capsule(o, dc, prim.a, prim.b, prim.radius)
+    if prim.kind == "box":
+        return _box(o, dc, prim.a, prim.b)
+    # a card in the plane z = a_z, facing -z
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (prim.a[2] - o[2]) / dc[:, 2]
+    p = o + dc * np.where(np.isfinite(t), t, 0.0)[:, None]
+    inside = (np.abs(p[:, 0] - prim.a[0]) <= prim.b[0]) & (np.abs(p[:, 1] - prim.a[1]) <= prim.b[1])
+    t = np.where(inside & (t > 0), t, np.inf)
+    return t, np.tile(np.array([0.0, 0.0, -1.0]), (dc.shape[0], 1))
+
+
+def _surface(
+    layout: Layout, o: F64, d: F64, owner: NDArray[np.int32], t_best: F64
+) -> tuple[F64, F64]:
+    """Albedo (R, 3) and specular strength (R,) where each ray hit (the dot on its card)."""
+    albedo = np.zeros((d.shape[0], 3))
+    specular = np.zeros(d.shape[0])
     for idx, prim in enumerate(layout.primitives):
         m = owner == idx
         if not m.any():
@@ -392,9 +414,11 @@ def render_radiance(
             sub = albedo[m]
             sub[on_dot] = prim.dot_color
             albedo[m] = sub
+    return albedo, specular
 
-    _shade_background(scene, layout, o, d, owner, t_best, albedo, normals)
 
+def _lit(scene: Scene, d: F64, albedo: F64, specular: F64, normals: F64) -> F64:
+    """Ambient + Lambert + a Blinn highlight under the scene's one directional light."""
     light = np.asarray(scene.lighting.direction, dtype=np.float64)
     light /= np.linalg.norm(light)
     lam = np.clip(normals @ light, 0.0, None)
@@ -403,17 +427,9 @@ def render_radiance(
         view = -d / np.linalg.norm(d, axis=1, keepdims=True)
         half = light + view
         half /= np.linalg.norm(half, axis=1, keepdims=True)
-        radiance += (specular * np.clip(np.einsum("ij,ij->i", normals, half), 0, None) ** 40)[
-            :, None
-        ]
-
-    img = radiance.reshape(intr.height * s, intr.width * s, 3).astype(np.float32)
-    if s > 1:
-        return np.asarray(
-            cv2.resize(img, (intr.width, intr.height), interpolation=cv2.INTER_AREA),
-            dtype=np.float32,
-        )
-    return img
+        highlight = specular * np.clip(np.einsum("ij,ij->i", normals, half), 0, None) ** 40
+        radiance += highlight[:, None]
+    return np.asarray(radiance)
 
 
 def _shade_background(

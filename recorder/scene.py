@@ -15,17 +15,14 @@ naming the key. Lengths are in the scene's ``units``; angles in degrees; colours
 
 from __future__ import annotations
 
-import dataclasses
-import math
-import tomllib
-import types
-import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
-from recorder.camera import Intrinsics
-from recorder.errors import SceneError, TwoposeError
+from twopose.camera import Intrinsics
+from twopose.config import build_dataclass, read_toml
+from twopose.errors import SceneError
+from twopose.targets import FINGER_LENGTH, FINGER_TIP_HEIGHT
 
 __all__ = [
     "CameraParams",
@@ -95,8 +92,8 @@ class FingerParams:
     ground_point: Pair = (1.91, 8.375)  # (x, z) on the ground: the thesis' target (Appendix D)
     tilt_deg: float = 35.0
     azimuth_deg: float = 165.0
-    tip_height: float = 6.0
-    length: float = 3.0
+    tip_height: float = FINGER_TIP_HEIGHT
+    length: float = FINGER_LENGTH
     radius: float = 0.33
     color: RGB = (38, 108, 192)
     specular: float = 0.10
@@ -248,20 +245,6 @@ def _check_scene(s: Scene) -> None:
     need(s.grid_spacing > 0, "grid_spacing", "must be > 0")
 
 
-# --------------------------------------------------------------------------- TOML loading
-
-
-def read_toml(path: str | Path, what: str, error: type[TwoposeError]) -> dict[str, Any]:
-    """A TOML file as a dict; an unreadable or invalid file raises ``error`` naming ``what``."""
-    try:
-        with open(path, "rb") as fh:
-            return tomllib.load(fh)
-    except OSError as err:
-        raise error(f"cannot read {what} {path}: {err.strerror}") from err
-    except tomllib.TOMLDecodeError as err:
-        raise error(f"{what} {path} is not valid TOML: {err}") from err
-
-
 def load_scene(path: str | Path | None = None, **overrides: Any) -> Scene:
     """Read a scene TOML file over the defaults; keyword overrides win over the file.
 
@@ -272,67 +255,4 @@ def load_scene(path: str | Path | None = None, **overrides: Any) -> Scene:
     """
     data = read_toml(path, "scene file", SceneError) if path is not None else {}
     data.update(overrides)
-    scene: Scene = _build(Scene, data, "")
-    return scene
-
-
-def _build(cls: type[Any], data: dict[str, Any], prefix: str) -> Any:
-    if not isinstance(data, dict):
-        raise SceneError(f"scene: {prefix.rstrip('.') or 'top level'} must be a table")
-    hints = typing.get_type_hints(cls)
-    names = {f.name for f in dataclasses.fields(cls)}
-    unknown = sorted(set(data) - names)
-    if unknown:
-        raise SceneError(
-            f"scene: unknown key(s) {', '.join(prefix + k for k in unknown)}; "
-            f"known here: {', '.join(sorted(names))}"
-        )
-    kwargs = {k: _convert(hints[k], v, prefix + k) for k, v in data.items()}
-    try:
-        return cls(**kwargs)
-    except TypeError as err:  # pragma: no cover - guarded by the checks above
-        raise SceneError(f"scene: {prefix or 'top level'}: {err}") from err
-
-
-def _convert(hint: Any, value: Any, key: str) -> Any:
-    origin = typing.get_origin(hint)
-    args = typing.get_args(hint)
-    if dataclasses.is_dataclass(hint):
-        return _build(hint, value, key + ".")  # type: ignore[arg-type]
-    if origin is Literal:
-        if value not in args:
-            raise SceneError(f"scene: {key} must be one of {list(args)}, got {value!r}")
-        return value
-    if origin is tuple:
-        if not isinstance(value, list | tuple):
-            raise SceneError(f"scene: {key} must be a list, got {value!r}")
-        if len(args) == 2 and args[1] is Ellipsis:
-            return tuple(_convert(args[0], v, f"{key}[{i}]") for i, v in enumerate(value))
-        if len(value) != len(args):
-            raise SceneError(f"scene: {key} must have {len(args)} items, got {len(value)}")
-        return tuple(
-            _convert(a, v, f"{key}[{i}]") for i, (a, v) in enumerate(zip(args, value, strict=True))
-        )
-    if isinstance(hint, types.UnionType):  # pragma: no cover - no unions in Scene today
-        raise SceneError(f"scene: {key} has an unsupported type")
-    if hint is float:
-        if (
-            isinstance(value, bool)
-            or not isinstance(value, int | float)
-            or not math.isfinite(value)
-        ):
-            raise SceneError(f"scene: {key} must be a finite number, got {value!r}")
-        return float(value)
-    if hint is int:
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise SceneError(f"scene: {key} must be a whole number, got {value!r}")
-        return value
-    if hint is str:
-        if not isinstance(value, str):
-            raise SceneError(f"scene: {key} must be a string, got {value!r}")
-        return value
-    if hint is bool:
-        if not isinstance(value, bool):
-            raise SceneError(f"scene: {key} must be true or false, got {value!r}")
-        return value
-    raise SceneError(f"scene: {key} has an unsupported type {hint}")  # pragma: no cover
+    return build_dataclass(Scene, data, "scene", SceneError)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -20,23 +21,24 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from recorder.camera import Intrinsics, project_points, rotation_from_angles_deg
-from recorder.errors import InputValueError, SceneError
-from recorder.render import build_layout, expose, finger_axis, render_radiance
+from recorder.procedure import Driver, Placement, record
+from recorder.render import Layout, build_layout, expose, finger_axis, render_radiance
 from recorder.scene import Scene
-from recorder.session import (
+from recorder.sources import FrameSource, SourceInfo
+from twopose.camera import Camera, Intrinsics, project_points, rotation_from_angles_deg
+from twopose.errors import InputValueError, SceneError
+from twopose.format.entries import (
     METHODS,
-    Camera,
     GroundPlane,
     GroundTruth,
     PoseEntry,
     SessionInfo,
-    SessionWriter,
     SimulationTruth,
     TruePose,
     TruthKind,
-    Vec3,
+    TypedEntry,
 )
+from twopose.values import Vec3
 
 __all__ = ["SimulationSummary", "simulate_session", "target_points"]
 
@@ -46,6 +48,7 @@ _MAX_POSE_DRAWS = 2000
 _EDGE_MARGIN_PX = 25.0
 #: What a noise-free simulated pose records as its 1-sigma resolution (the format wants > 0).
 EXACT_RESOLUTION = 1e-9
+F64 = NDArray[np.float64]
 
 
 @dataclass(frozen=True)
@@ -141,6 +144,119 @@ def _in_view(
     )
 
 
+class _SimClock:
+    """The simulated session's clock: time moves only when the simulation moves it."""
+
+    def __init__(self, start_ns: int) -> None:
+        self.now = start_ns
+
+    def advance(self, dt_ns: int) -> None:
+        self.now += dt_ns
+
+    def __call__(self) -> int:
+        return self.now
+
+
+class _SimulatedCamera(FrameSource):
+    """The synthetic webcam at the pose the simulated operator really placed it: renders
+    once per pose, exposes every frame anew, one frame interval on the clock per frame."""
+
+    def __init__(
+        self, scene: Scene, layout: Layout, rng: np.random.Generator, clock: _SimClock
+    ) -> None:
+        self.scene, self.layout, self.rng, self.clock = scene, layout, rng, clock
+        self.camera = scene.cameras[0]
+        self.frame_dt = int(1e9 / scene.sensor.fps)
+        self._radiance: NDArray[np.float32] | None = None
+
+    def open(self) -> SourceInfo:
+        cam = self.camera
+        self.info = SourceInfo("simulated", cam.width, cam.height, self.scene.sensor.fps)
+        return self.info
+
+    def set_pose(self, t_grid: Vec3, r_deg: Vec3) -> None:
+        self._radiance = render_radiance(
+            self.scene,
+            self.layout,
+            self.camera.intrinsics,
+            rotation_from_angles_deg(r_deg),
+            np.asarray(t_grid, dtype=np.float64),
+        )
+
+    def read(self, timeout_s: float = 2.0) -> NDArray[np.uint8]:
+        assert self._radiance is not None, "set_pose first"
+        self.clock.advance(self.frame_dt)
+        return expose(self._radiance, self.scene, self.rng)
+
+
+class _SimulatedOperator(Driver):
+    """Per trial: typed poses drawn on the lattice, placed with the typing error; every
+    capture accepted; the truth written at the end of the trial."""
+
+    def __init__(
+        self,
+        scene: Scene,
+        method: str,
+        trials: int,
+        rng: np.random.Generator,
+        clock: _SimClock,
+        source: _SimulatedCamera,
+    ) -> None:
+        self.scene, self.method, self.trials = scene, method, trials
+        self.rng, self.clock, self.source = rng, clock, source
+        self.kind, truth = target_points(scene, method)
+        self.truth = tuple(_vec(p) for p in truth)
+        self.pose_dt = int(scene.sensor.seconds_between_poses * 1e9)
+        self.drawn: list[tuple[F64, F64, F64, F64]] = []
+        self.poses_per_trial = scene.poses.count
+
+    def next_trial(self, trial: int) -> bool:
+        return trial <= self.trials
+
+    def trial_entries(self, trial: int) -> Sequence[TypedEntry]:
+        self.drawn = _draw_trial_poses(self.scene, self.method, self.poses_per_trial, self.rng)
+        self.clock.advance(self.pose_dt)
+        return (GroundTruth(trial=trial, kind=self.kind, points_grid=self.truth),)
+
+    def place(self, trial: int, pose: int) -> Placement:
+        t_typed, r_typed, t_true, r_true = self.drawn[pose - 1]
+        self.source.camera = self.scene.cameras[(pose - 1) % len(self.scene.cameras)]
+        self.clock.advance(self.pose_dt)
+        p = self.scene.poses
+        entry = PoseEntry(
+            trial=trial,
+            pose=pose,
+            camera_id=self.source.camera.id,
+            t_grid=_vec(t_typed),
+            r_deg=_vec(r_typed),
+            translation_resolution=max(p.noise_sigma, EXACT_RESOLUTION),
+            rotation_resolution_deg=max(p.rotation_noise_deg, EXACT_RESOLUTION),
+        )
+        return Placement(entry, (_vec(t_true), _vec(r_true)))
+
+    def end_trial(self, trial: int) -> Sequence[TypedEntry]:
+        cams = self.scene.cameras
+        true_poses = tuple(
+            TruePose(pose=k, camera_id=cams[(k - 1) % len(cams)].id, t_grid=_vec(t), r_deg=_vec(r))
+            for k, (_, _, t, r) in enumerate(self.drawn, start=1)
+        )
+        self.clock.advance(self.source.frame_dt)
+        return (SimulationTruth(trial, true_poses, self.kind, self.truth),)
+
+
+def _scene_with(scene: Scene | None, pose_noise: float | None, poses: int | None) -> Scene:
+    """The scene with the command line's overrides of its pose noise and pose count."""
+    scene = scene or Scene()
+    if pose_noise is not None:
+        if not (pose_noise >= 0 and np.isfinite(pose_noise)):
+            raise InputValueError(f"pose noise must be a finite number >= 0, got {pose_noise}")
+        noise = dataclasses.replace(scene.poses, noise_sigma=float(pose_noise))
+        scene = dataclasses.replace(scene, poses=noise)
+    if poses is not None:
+        scene = dataclasses.replace(scene, poses=dataclasses.replace(scene.poses, count=poses))
+    return scene
+
+
 def simulate_session(
     out: str | Path,
     *,
@@ -152,7 +268,8 @@ def simulate_session(
     pose_noise: float | None = None,
     poses: int | None = None,
 ) -> SimulationSummary:
-    """Simulate a whole session into ``out`` (which must not exist).
+    """Simulate a whole session into ``out`` (which must not exist), through the same
+    procedure loop as a recording (:func:`recorder.procedure.record`).
 
     Parameters
     ----------
@@ -174,21 +291,11 @@ def simulate_session(
         raise InputValueError(f"trials must be >= 1, got {trials}")
     if frames < 1:
         raise InputValueError(f"frames must be >= 1, got {frames}")
-    if pose_noise is not None and not (pose_noise >= 0 and np.isfinite(pose_noise)):
-        raise InputValueError(f"pose noise must be a finite number >= 0, got {pose_noise}")
-    scene = scene or Scene()
-    if pose_noise is not None:
-        scene = dataclasses.replace(
-            scene, poses=dataclasses.replace(scene.poses, noise_sigma=float(pose_noise))
-        )
-    if poses is not None:
-        scene = dataclasses.replace(scene, poses=dataclasses.replace(scene.poses, count=poses))
-
+    scene = _scene_with(scene, pose_noise, poses)
     rng = np.random.default_rng(seed)
     layout = build_layout(scene, method, rng)
-    kind, truth = target_points(scene, method)
-    truth_points = tuple(_vec(p) for p in truth)
-    cameras = [Camera(c.id, c.intrinsics) for c in scene.cameras]
+    clock = _SimClock(SIMULATION_EPOCH_NS)
+    camera = _SimulatedCamera(scene, layout, rng, clock)
     info = SessionInfo(
         method=method,
         units=scene.units,
@@ -201,71 +308,26 @@ def simulate_session(
         created_utc=datetime.fromtimestamp(SIMULATION_EPOCH_NS / 1e9, UTC).isoformat(),
         simulated=True,
     )
-    frame_dt = int(1e9 / scene.sensor.fps)
-    pose_dt = int(scene.sensor.seconds_between_poses * 1e9)
-    now = SIMULATION_EPOCH_NS
-    n_frames = 0
-    with SessionWriter(
+    summary = record(
         out,
         info,
-        cameras,
+        [Camera(c.id, c.intrinsics) for c in scene.cameras],
+        camera,
+        _SimulatedOperator(scene, method, trials, rng, clock, camera),
         ground=GroundPlane(offset=scene.ground_height),
-        image_format=scene.sensor.image_format,
-        jpeg_quality=scene.sensor.jpeg_quality,
-        start_ns=now,
-    ) as writer:
-        for trial in range(1, trials + 1):
-            drawn = _draw_trial_poses(scene, method, scene.poses.count, rng)
-            now += pose_dt
-            writer.write_ground_truth(
-                GroundTruth(trial=trial, kind=kind, points_grid=truth_points),
-                now,
-            )
-            true_poses = []
-            for k, (t_typed, r_typed, t_true, r_true) in enumerate(drawn, start=1):
-                cam = scene.cameras[(k - 1) % len(scene.cameras)]
-                now += pose_dt
-                writer.write_pose(
-                    PoseEntry(
-                        trial=trial,
-                        pose=k,
-                        camera_id=cam.id,
-                        t_grid=_vec(t_typed),
-                        r_deg=_vec(r_typed),
-                        translation_resolution=max(scene.poses.noise_sigma, EXACT_RESOLUTION),
-                        rotation_resolution_deg=max(
-                            scene.poses.rotation_noise_deg, EXACT_RESOLUTION
-                        ),
-                    ),
-                    now,
-                )
-                radiance = render_radiance(
-                    scene, layout, cam.intrinsics, rotation_from_angles_deg(r_true), t_true
-                )
-                with writer.capture(trial, k, cam.id) as capture:
-                    for _ in range(frames):
-                        now += frame_dt
-                        capture.add_frame(expose(radiance, scene, rng), now)
-                        n_frames += 1
-                true_poses.append(
-                    TruePose(pose=k, camera_id=cam.id, t_grid=_vec(t_true), r_deg=_vec(r_true))
-                )
-            now += frame_dt
-            writer.write_simulation_truth(
-                SimulationTruth(
-                    trial=trial,
-                    poses=tuple(true_poses),
-                    kind=kind,
-                    points_grid=truth_points,
-                ),
-                now,
-            )
-    path = Path(out)
+        frames=frames,
+        writer_options={
+            "image_format": scene.sensor.image_format,
+            "jpeg_quality": scene.sensor.jpeg_quality,
+            "start_ns": SIMULATION_EPOCH_NS,
+            "clock": clock,
+        },
+    )
     return SimulationSummary(
-        path=path,
+        path=summary.path,
         method=method,
         n_trials=trials,
         n_poses=trials * scene.poses.count,
-        n_frames=n_frames,
-        size_bytes=path.stat().st_size,
+        n_frames=summary.n_frames,
+        size_bytes=summary.path.stat().st_size,
     )

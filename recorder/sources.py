@@ -23,14 +23,13 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from recorder.camera import rotation_from_angles_deg
-from recorder.errors import TwoposeError
+from twopose.camera import rotation_from_angles_deg
+from twopose.errors import SourceError
 
 __all__ = [
     "CameraSource",
     "FrameSource",
     "ImagesSource",
-    "SourceError",
     "SourceInfo",
     "SyntheticSource",
     "VideoSource",
@@ -39,10 +38,6 @@ __all__ = [
 
 Image = NDArray[np.uint8]
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
-
-
-class SourceError(TwoposeError):
-    """A frame source failed to open, stopped delivering frames, or timed out."""
 
 
 @dataclass(frozen=True)

@@ -17,8 +17,8 @@ from typing import Any
 import pytest
 from mcap.reader import make_reader
 
-from analysis.pipeline import results_mcap_name, run
-from recorder.procedure import load_plan, record_plan
+from analysis.batch import results_mcap_name, run
+from recorder.plan import load_plan, record_plan
 from recorder.recover import recover_session
 from recorder.simulate import simulate_session
 from recorder.sources import SyntheticSource

@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 
-from analysis.replay import describe_session, iter_trials
-from recorder.session import Frame, SessionReader
+from twopose.format.messages import Frame
+from twopose.format.reader import SessionReader
+from twopose.format.trials import describe_session, iter_trials
 
 SESSIONS = Path(__file__).resolve().parents[1] / "sessions"
 

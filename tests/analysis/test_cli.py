@@ -12,9 +12,9 @@ import pytest
 from typer.testing import CliRunner
 
 from analysis.cli import app
-from recorder.camera import Intrinsics, project_points
-from recorder.errors import EXIT_ERROR, EXIT_SOME_INPUTS_FAILED, EXIT_USAGE
-from recorder.session import SessionReader
+from twopose.camera import Intrinsics, project_points
+from twopose.errors import EXIT_ERROR, EXIT_SOME_INPUTS_FAILED, EXIT_USAGE
+from twopose.format.reader import SessionReader
 
 runner = CliRunner()
 
@@ -59,7 +59,7 @@ def test_run_missing_input_and_bad_options(tmp_path: Path) -> None:
 
 def test_detect_prints_one_json_object_per_image(tmp_path: Path, ground_session: Path) -> None:
     with SessionReader(ground_session) as r:
-        from analysis.replay import iter_trials
+        from twopose.format.trials import iter_trials
 
         frame = next(iter_trials(r)).poses[0].frames[0]
     img = tmp_path / "frame.png"

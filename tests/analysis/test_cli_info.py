@@ -10,8 +10,8 @@ from pathlib import Path
 from typer.testing import CliRunner
 
 from analysis.cli import app
-from analysis.replay import describe_session
-from recorder.errors import EXIT_ERROR, EXIT_SOME_INPUTS_FAILED
+from twopose.errors import EXIT_ERROR, EXIT_SOME_INPUTS_FAILED
+from twopose.format.trials import describe_session
 
 runner = CliRunner()
 

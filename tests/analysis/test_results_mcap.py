@@ -13,10 +13,11 @@ import pytest
 from mcap.reader import make_reader
 from mcap_protobuf.decoder import DecoderFactory
 
-from analysis.detect import detect_glove
-from analysis.pipeline import results_mcap_name, run
-from analysis.results_mcap import SCENE_TOPIC, annotations_topic, image_annotations
-from recorder.session import image_topic
+from analysis.batch import results_mcap_name, run
+from analysis.results_mcap import SCENE_TOPIC, annotations_topic
+from twopose.detect import detect_glove
+from twopose.format.messages import image_topic
+from twopose.overlay import image_annotations
 
 
 def _decoded(path: Path) -> list[tuple[str, int, Any]]:

@@ -9,10 +9,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.pipeline import AnalysisOptions, analyse_session, results_mcap_name, run
-from recorder.camera import Intrinsics
-from recorder.errors import InputValueError
-from recorder.session import Camera, GroundTruth, PoseEntry, SessionInfo, SessionWriter
+from analysis.batch import results_mcap_name, run
+from analysis.pipeline import analyse_session
+from analysis.results import AnalysisOptions
+from twopose.camera import Camera, Intrinsics
+from twopose.errors import InputValueError
+from twopose.format.entries import GroundTruth, PoseEntry, SessionInfo
+from twopose.format.writer import SessionWriter
 
 REQUIRED = [
     "session",
@@ -130,7 +133,7 @@ def test_combine_option_changes_nothing_on_clean_data_but_runs(ground_session: P
 
 def _handmade(path: Path, frames_by_pose: dict[int, list[np.ndarray]], poses: int = 2) -> None:
     cam = Camera("cam0", Intrinsics(640, 480, 525.0, 525.0, 320.0, 240.0))
-    with SessionWriter(path, SessionInfo("point", "in"), [cam], start_ns=0) as w:
+    with SessionWriter(path, SessionInfo(method="point", units="in"), [cam], start_ns=0) as w:
         w.write_ground_truth(GroundTruth(1, "point", ((0.0, 0.0, 10.0),)), 1)
         for k in range(1, poses + 1):
             w.write_pose(PoseEntry(1, k, "cam0", (float(k), 0.0, 0.0)), 10 * k)
@@ -287,8 +290,8 @@ def test_every_estimate_carries_its_uncertainty(
 
 def test_outlier_frames_are_rejected_and_reported(tmp_path: Path, point_session: Path) -> None:
     """A frame of another pose slipped into pose 1: robust combining drops it and says so."""
-    from analysis.replay import iter_trials
-    from recorder.session import SessionReader
+    from twopose.format.reader import SessionReader
+    from twopose.format.trials import iter_trials
 
     with SessionReader(point_session) as reader:
         record = next(iter_trials(reader))
@@ -318,8 +321,8 @@ def test_a_line_session_without_ground_truth_still_reports_lines(
 ) -> None:
     """No truth: the line is reported at its point nearest the last camera, with its
     uncertainty; the error columns and NEES stay empty."""
-    from analysis.replay import iter_trials
-    from recorder.session import SessionReader
+    from twopose.format.reader import SessionReader
+    from twopose.format.trials import iter_trials
 
     out = tmp_path / "no_truth.mcap"
     with SessionReader(line_session) as reader:

@@ -10,10 +10,10 @@ import pytest
 from typer.testing import CliRunner
 
 from recorder.calibrate import load_calibration
-from recorder.camera import rotation_from_angles_deg
 from recorder.cli import app
-from recorder.errors import EXIT_ERROR, InputValueError
-from recorder.procedure import load_plan
+from recorder.plan import load_plan
+from twopose.camera import rotation_from_angles_deg
+from twopose.errors import EXIT_ERROR, InputValueError
 
 runner = CliRunner()
 K = np.array([[500.0, 0.0, 322.0], [0.0, 500.0, 236.0], [0.0, 0.0, 1.0]])
@@ -83,8 +83,8 @@ def test_calibration_is_used_by_plans(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("text", "message"),
     [
-        ("width = 640\n", "malformed"),
-        ("width = 640\nheight = 480\nfx = -1\nfy = 1\ncx = 0\ncy = 0\n", "non-positive"),
+        ("width = 640\n", "missing height, fx, fy, cx, cy"),
+        ("width = 640\nheight = 480\nfx = -1\nfy = 1\ncx = 0\ncy = 0\n", "fx must be positive"),
     ],
 )
 def test_bad_calibration_files(tmp_path: Path, text: str, message: str) -> None:

@@ -9,8 +9,8 @@ from pathlib import Path
 from typer.testing import CliRunner
 
 from recorder.cli import app
-from recorder.errors import EXIT_ERROR, EXIT_USAGE
-from recorder.session import SessionReader
+from twopose.errors import EXIT_ERROR, EXIT_USAGE
+from twopose.format.reader import SessionReader
 
 runner = CliRunner()
 

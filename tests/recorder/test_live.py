@@ -16,11 +16,11 @@ from foxglove_schemas_protobuf.ImageAnnotations_pb2 import ImageAnnotations
 from websockets.sync.client import ClientConnection, connect
 
 from analysis.pipeline import analyse_session
-from recorder.errors import InputValueError
 from recorder.live import STATUS_TOPIC, LiveView, annotations_topic
-from recorder.procedure import load_plan, record_plan
-from recorder.session import image_topic
+from recorder.plan import load_plan, record_plan
 from recorder.sources import SyntheticSource
+from twopose.errors import InputValueError
+from twopose.format.messages import image_topic
 
 PLAN = """
 method = "ground"
@@ -123,7 +123,7 @@ def test_the_live_view_only_binds_to_loopback() -> None:
 
 
 def test_a_busy_port_is_a_clear_error() -> None:
-    from recorder.errors import TwoposeError
+    from twopose.errors import TwoposeError
 
     with LiveView([], port=0) as first, pytest.raises(TwoposeError, match="--live-port"):
         LiveView([], port=first.port)

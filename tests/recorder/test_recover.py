@@ -15,24 +15,27 @@ from mcap.reader import make_reader
 from typer.testing import CliRunner
 
 from analysis.pipeline import analyse_session
-from analysis.replay import iter_trials
 from recorder.cli import app
-from recorder.errors import EXIT_ERROR, SessionExistsError, SessionFormatError
 from recorder.recover import RECOVERED_REASON, recover_session
-from recorder.session import CaptureWindow, SessionReader, SessionWriter
+from twopose.errors import EXIT_ERROR, SessionExistsError, SessionFormatError
+from twopose.format.entries import CaptureWindow
+from twopose.format.reader import SessionReader
+from twopose.format.trials import iter_trials
+from twopose.format.writer import SessionWriter
 
 RECORDING_SCRIPT = """
 import sys, time
 import numpy as np
-from recorder.camera import Intrinsics
-from recorder.session import (Camera, GroundPlane, GroundTruth, PoseEntry, SessionInfo,
-                              SessionWriter)
+from twopose.camera import Intrinsics
+from twopose.camera import Camera
+from twopose.format.entries import GroundPlane, GroundTruth, PoseEntry, SessionInfo
+from twopose.format.writer import SessionWriter
 
 out = sys.argv[1]
 cam = Camera("cam0", Intrinsics(64, 48, 50.0, 50.0, 32.0, 24.0))
 rng = np.random.default_rng(0)
-with SessionWriter(out, SessionInfo("ground", "in"), [cam], ground=GroundPlane(9.625),
-                   image_format="png") as w:
+info = SessionInfo(method="ground", units="in")
+with SessionWriter(out, info, [cam], ground=GroundPlane(offset=9.625), image_format="png") as w:
     print("open", flush=True)
     for trial in range(1, 1000):
         w.write_ground_truth(GroundTruth(trial, "point", ((1.0, 9.625, 8.0),)))
@@ -67,6 +70,7 @@ def test_kill_9_at_random_moments_then_recover(tmp_path: Path) -> None:
     script.write_text(RECORDING_SCRIPT)
     rng = np.random.default_rng(42)
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
+    runs_with_captures = 0
     for i in range(20):
         out = tmp_path / f"s{i}.mcap"
         proc = subprocess.Popen(
@@ -78,6 +82,7 @@ def test_kill_9_at_random_moments_then_recover(tmp_path: Path) -> None:
         proc.send_signal(signal.SIGKILL)
         rest, _ = proc.communicate()
         completed = _completed(rest)
+        runs_with_captures += bool(completed)
         fixed = tmp_path / f"fixed{i}.mcap"
         report = recover_session(out, fixed)
         windows = _windows(fixed)
@@ -94,6 +99,8 @@ def test_kill_9_at_random_moments_then_recover(tmp_path: Path) -> None:
             assert r.info.method == "ground"
             frames = r.message_counts().get("/twopose/camera/cam0/image", 0)
         assert frames >= 3 * len(completed)
+    # The sweep means something only if kills landed after captures had completed.
+    assert runs_with_captures >= 10, f"only {runs_with_captures} of 20 kills came after a capture"
 
 
 def test_ctrl_c_finishes_the_file_cleanly(tmp_path: Path) -> None:
@@ -122,17 +129,17 @@ def test_ctrl_c_finishes_the_file_cleanly(tmp_path: Path) -> None:
 
 
 def _small_session(path: Path, trials: int = 4) -> None:
-    from recorder.camera import Intrinsics
-    from recorder.session import Camera, GroundPlane, GroundTruth, PoseEntry, SessionInfo
+    from twopose.camera import Camera, Intrinsics
+    from twopose.format.entries import GroundPlane, GroundTruth, PoseEntry, SessionInfo
 
     cam = Camera("cam0", Intrinsics(64, 48, 50.0, 50.0, 32.0, 24.0))
     rng = np.random.default_rng(1)
     t = 1_000
     with SessionWriter(
         path,
-        SessionInfo("ground", "in"),
+        SessionInfo(method="ground", units="in"),
         [cam],
-        ground=GroundPlane(9.625),
+        ground=GroundPlane(offset=9.625),
         image_format="png",
         start_ns=t,
     ) as w:

@@ -9,13 +9,13 @@ import cv2
 import numpy as np
 import pytest
 
-from analysis.replay import iter_trials
-from recorder.camera import project_points, rotation_from_angles_deg
-from recorder.errors import InputValueError, SceneError
 from recorder.render import build_layout, expose, finger_axis, render_radiance
 from recorder.scene import Scene, load_scene
-from recorder.session import SessionReader
 from recorder.simulate import simulate_session
+from twopose.camera import project_points, rotation_from_angles_deg
+from twopose.errors import InputValueError, SceneError
+from twopose.format.reader import SessionReader
+from twopose.format.trials import iter_trials
 
 
 def _sha(path: Path) -> str:

@@ -7,7 +7,9 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from analysis.solve import (
+from twopose.camera import Intrinsics, project_points, rotation_from_angles_deg
+from twopose.errors import InputValueError
+from twopose.solve import (
     NViewLines,
     NViewPoints,
     image_lines,
@@ -16,8 +18,6 @@ from analysis.solve import (
     triangulate_lines,
     triangulate_points,
 )
-from recorder.camera import Intrinsics, project_points, rotation_from_angles_deg
-from recorder.errors import InputValueError
 
 F = 525.0
 INTR = Intrinsics(640, 480, F, F, 320.0, 240.0)

@@ -15,28 +15,27 @@ from mcap.reader import make_reader
 from mcap.writer import Writer as McapWriter
 from mcap_protobuf.schema import build_file_descriptor_set
 
-from analysis.replay import iter_trials
-from recorder.camera import Intrinsics, rotation_from_angles_deg
-from recorder.errors import (
+from twopose.camera import Camera, Intrinsics, rotation_from_angles_deg
+from twopose.errors import (
     InputValueError,
     SessionExistsError,
     SessionFormatError,
     SessionVersionError,
 )
-from recorder.session import (
-    Camera,
+from twopose.format.entries import (
     CaptureWindow,
-    Frame,
     GroundPlane,
     GroundTruth,
     Note,
     PoseEntry,
     SessionInfo,
-    SessionReader,
-    SessionWriter,
     SimulationTruth,
     TruePose,
 )
+from twopose.format.messages import Frame
+from twopose.format.reader import SessionReader
+from twopose.format.trials import iter_trials
+from twopose.format.writer import SessionWriter
 
 CAM0 = Camera("cam0", Intrinsics(640, 480, 525.0, 525.0, 320.0, 240.0))
 CAM1 = Camera(
@@ -221,7 +220,7 @@ def test_writer_refuses_to_overwrite(tmp_path: Path) -> None:
     path.write_bytes(b"precious data")
     with (
         pytest.raises(SessionExistsError, match="never overwrites"),
-        SessionWriter(path, SessionInfo("point", "in"), [CAM0]),
+        SessionWriter(path, SessionInfo(method="point", units="in"), [CAM0]),
     ):
         pass
     assert path.read_bytes() == b"precious data"
@@ -241,7 +240,10 @@ def _raw_session(path: Path, format_version: str) -> None:
             cid,
             0,
             json.dumps(
-                {**SessionInfo("point", "in").to_json(), "format_version": format_version}
+                {
+                    **SessionInfo(method="point", units="in").to_json(),
+                    "format_version": format_version,
+                }
             ).encode(),
             0,
         )
@@ -304,7 +306,7 @@ def _capture_then_fail(w: SessionWriter) -> None:
 
 def test_capture_interrupted_by_an_error_is_kept_and_marked_incomplete(tmp_path: Path) -> None:
     path = tmp_path / "s.mcap"
-    with SessionWriter(path, SessionInfo("point", "in"), [CAM0], start_ns=0) as w:
+    with SessionWriter(path, SessionInfo(method="point", units="in"), [CAM0], start_ns=0) as w:
         w.write_pose(PoseEntry(1, 1, "cam0", (0, 0, 0)), 1)
         with pytest.raises(RuntimeError):
             _capture_then_fail(w)
@@ -320,12 +322,12 @@ def test_capture_interrupted_by_an_error_is_kept_and_marked_incomplete(tmp_path:
     ("make", "message"),
     [
         (lambda: PoseEntry(1, 1, "cam0", (0.0, math.nan, 0.0)), "finite"),
-        (lambda: PoseEntry(1, 1, "cam0", (0.0, 1.0)), "three numbers"),
+        (lambda: PoseEntry(1, 1, "cam0", (0.0, 1.0)), "3 numbers"),
         (lambda: PoseEntry(-1, 1, "cam0", (0.0, 0.0, 0.0)), "trial"),
         (lambda: PoseEntry(1, 1, "cam 0", (0.0, 0.0, 0.0)), "camera id"),
         (lambda: PoseEntry(1, 1, "cam0", (0, 0, 0), translation_resolution=0.0), "positive"),
-        (lambda: SessionInfo("triangle", "in"), "method"),  # type: ignore[arg-type]
-        (lambda: SessionInfo("point", "furlong"), "units"),
+        (lambda: SessionInfo(method="triangle", units="in"), "method"),  # type: ignore[arg-type]
+        (lambda: SessionInfo(method="point", units="furlong"), "units"),
         (lambda: GroundTruth(1, "line", ((0, 0, 0),)), "needs 2"),
         (lambda: GroundTruth(1, "line", ((1, 2, 3), (1, 2, 3))), "must differ"),
         (lambda: GroundPlane(offset=math.inf), "finite"),
@@ -340,7 +342,7 @@ def test_invalid_typed_values_never_reach_a_file(make: object, message: str) -> 
 
 def test_writer_rejects_unknown_camera(tmp_path: Path) -> None:
     with (
-        SessionWriter(tmp_path / "s.mcap", SessionInfo("point", "in"), [CAM0]) as w,
+        SessionWriter(tmp_path / "s.mcap", SessionInfo(method="point", units="in"), [CAM0]) as w,
         pytest.raises(InputValueError, match="not in this session"),
     ):
         w.write_pose(PoseEntry(1, 1, "right", (0, 0, 0)))

@@ -1,4 +1,4 @@
-"""Replay: stream a session file trial by trial, pose by pose, frame by frame.
+"""Trials: stream a session file trial by trial, pose by pose, frame by frame.
 
 Messages come in log-time order from the seeking reader, one chunk in memory at a time.
 Frames are held only until their capture window closes, and a trial is handed out as
@@ -12,26 +12,24 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from recorder.session import (
-    Camera,
+from twopose.camera import Camera
+from twopose.format.entries import (
     CaptureWindow,
-    Frame,
     GroundPlane,
     GroundTruth,
     Note,
     PoseEntry,
     SessionInfo,
-    SessionReader,
     SimulationTruth,
-    image_topic,
 )
+from twopose.format.messages import Frame, image_topic
+from twopose.format.reader import SessionReader
 
 __all__ = [
     "PoseCapture",
     "SessionOverview",
     "TrialRecord",
     "describe_session",
-    "find_sessions",
     "iter_trials",
 ]
 
@@ -182,30 +180,3 @@ def describe_session(path: str | Path) -> SessionOverview:
             n_frames=sum(n for topic, n in counts.items() if topic.endswith("/image")),
             message_counts=counts,
         )
-
-
-def find_sessions(paths: list[Path] | list[str]) -> list[Path]:
-    """Session files named by ``paths``: files as given, folders searched recursively for *.mcap.
-
-    Sorted within each folder so that results do not depend on directory order.
-    Raises :class:`~recorder.errors.InputValueError` for a path that does not exist.
-    """
-    from recorder.errors import InputValueError
-
-    found: list[Path] = []
-    for raw in paths:
-        p = Path(raw)
-        if p.is_dir():
-            found += sorted(q for q in p.rglob("*.mcap") if q.is_file())
-        elif p.exists():
-            found.append(p)
-        else:
-            raise InputValueError(f"{p} does not exist")
-    seen: set[Path] = set()
-    unique = []
-    for p in found:
-        key = p.resolve()
-        if key not in seen:
-            seen.add(key)
-            unique.append(p)
-    return unique

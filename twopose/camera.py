@@ -8,12 +8,18 @@ centre ``t_grid`` in G and ``R_cam_to_grid`` built from typed angles as
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from twopose.errors import InputValueError
+from twopose.values import camera_id, finite, numbers
+
 __all__ = [
+    "Camera",
     "Intrinsics",
     "project_points",
     "quaternion_xyzw_from_matrix",
@@ -35,6 +41,51 @@ class Intrinsics:
     cy: float
     distortion: tuple[float, float, float, float, float] = (0.0, 0.0, 0.0, 0.0, 0.0)
 
+    def __post_init__(self) -> None:
+        for name in ("width", "height"):
+            size = getattr(self, name)
+            if isinstance(size, bool) or not isinstance(size, int | np.integer) or size <= 0:
+                raise InputValueError(f"image {name} must be a whole number > 0, got {size!r}")
+            object.__setattr__(self, name, int(size))
+        for name in ("fx", "fy"):
+            object.__setattr__(self, name, finite(getattr(self, name), name, positive=True))
+        for name in ("cx", "cy"):
+            object.__setattr__(self, name, finite(getattr(self, name), name))
+        k1, k2, p1, p2, k3 = numbers(self.distortion, 5, "distortion (k1, k2, p1, p2, k3)")
+        object.__setattr__(self, "distortion", (k1, k2, p1, p2, k3))
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], what: str) -> Intrinsics:
+        """From ``width, height, fx, fy, cx, cy[, distortion]`` (calibration files, plans,
+        the session metadata); a missing or bad value raises InputValueError naming ``what``."""
+        missing = [k for k in ("width", "height", "fx", "fy", "cx", "cy") if k not in data]
+        if missing:
+            raise InputValueError(f"{what}: missing {', '.join(missing)}")
+        try:
+            return cls(
+                width=data["width"],
+                height=data["height"],
+                fx=data["fx"],
+                fy=data["fy"],
+                cx=data["cx"],
+                cy=data["cy"],
+                distortion=data.get("distortion", (0.0, 0.0, 0.0, 0.0, 0.0)),
+            )
+        except InputValueError as err:
+            raise InputValueError(f"{what}: {err}") from err
+
+    def to_dict(self) -> dict[str, Any]:
+        """The inverse of :meth:`from_dict`."""
+        return {
+            "width": self.width,
+            "height": self.height,
+            "fx": self.fx,
+            "fy": self.fy,
+            "cx": self.cx,
+            "cy": self.cy,
+            "distortion": list(self.distortion),
+        }
+
     @property
     def K(self) -> FloatArray:
         """The 3x3 camera matrix."""
@@ -45,6 +96,17 @@ class Intrinsics:
     @property
     def has_distortion(self) -> bool:
         return any(k != 0.0 for k in self.distortion)
+
+
+@dataclass(frozen=True)
+class Camera:
+    """A camera of a session: its id and its calibration."""
+
+    camera_id: str
+    intrinsics: Intrinsics
+
+    def __post_init__(self) -> None:
+        camera_id(self.camera_id)
 
 
 def rotation_from_angles_deg(angles_deg: ArrayLike) -> FloatArray:

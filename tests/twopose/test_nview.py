@@ -14,13 +14,13 @@ import pytest
 from typer.testing import CliRunner
 
 from analysis.cli import app
-from analysis.solve import (
+from twopose.camera import Intrinsics, project_points, rotation_from_angles_deg
+from twopose.solve import (
     image_lines,
     projection_matrices,
     triangulate_lines,
     triangulate_points,
 )
-from recorder.camera import Intrinsics, project_points, rotation_from_angles_deg
 
 K4 = np.array([525.0, 520.0, 318.0, 242.0])
 INTR = Intrinsics(640, 480, *K4)
@@ -151,7 +151,7 @@ def test_merton_through_the_solve_command() -> None:
 
 @pytest.mark.parametrize("estimator", ["thesis", "optimal"])
 def test_fast_two_view_path_agrees_with_the_general_solver(estimator: str) -> None:
-    from analysis.solve import triangulate_two_views
+    from twopose.solve import triangulate_two_views
 
     rng = np.random.default_rng(9)
     T = 500
@@ -188,7 +188,7 @@ def test_fast_two_view_path_agrees_with_the_general_solver(estimator: str) -> No
 
 
 def test_fast_two_view_degenerate_cases() -> None:
-    from analysis.solve import triangulate_two_views
+    from twopose.solve import triangulate_two_views
 
     P1 = projection_matrices(K4, np.eye(3), np.zeros(3))
     same_centre = projection_matrices(K4, rotation_from_angles_deg([0.0, 10.0, 0.0]), np.zeros(3))

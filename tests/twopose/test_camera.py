@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from recorder.camera import (
+from twopose.camera import (
     Intrinsics,
     project_points,
     quaternion_xyzw_from_matrix,

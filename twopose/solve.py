@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from recorder.errors import InputValueError
+from twopose.errors import InputValueError
 
 __all__ = [
     "DEFAULT_MIN_CONDITIONING",
@@ -333,28 +333,9 @@ def triangulate_lines(
         if estimator == "weighted":
             sig = np.ones(ok.shape) if sigma_px is None else np.asarray(sigma_px, np.float64)
             pose = np.zeros((*ok.shape, 2)) if sigma_pose is None else np.asarray(sigma_pose)
-            sig, pose = sig[usable], pose[usable]
-            f = np.sqrt(np.abs(np.linalg.det(pu[..., :3])))  # f^2 = det(K R^T)
-            huber = np.ones(oku.shape)
-            for _ in range(iterations):
-                # A point of the line in front of each camera, and the planes' noise there.
-                depth = np.linalg.norm(x0[:, None] - c, axis=-1)
-                sigma = np.sqrt(
-                    (depth * sig / f) ** 2 + pose[..., 0] ** 2 + (depth * pose[..., 1]) ** 2
-                )
-                sigma = np.where(oku & (sigma > 0), sigma, 1.0)
-                w = np.where(oku, huber / sigma, 0.0)
-                x0, u = _rank2_line(planes_u * w[..., None], centre)
-                if oku.sum(axis=1).min() < 3:
-                    continue  # two views: no redundancy to judge a view by
-                # Residual of each plane: its distances to the line near the target.
-                ends = (
-                    x0[:, None]
-                    + np.stack([-depth.mean(1), depth.mean(1)], 1)[..., None] * 0.25 * u[:, None]
-                )
-                dist = np.einsum("tni,tki->tnk", planes_u[..., :3], ends) + planes_u[..., 3:]
-                r = np.sqrt((dist**2).mean(axis=2)) / sigma
-                huber = np.minimum(1.0, HUBER_K / np.maximum(r, 1e-12))
+            x0, u = _weighted_line(
+                x0, planes_u, pu, oku, c, centre, sig[usable], pose[usable], iterations
+            )
         last = (oku * np.arange(ok.shape[1])).argmax(axis=1)
         c_last = c[np.arange(usable.sum()), last]
         x0 = x0 + np.einsum("ti,ti->t", c_last - x0, u)[:, None] * u  # closest to the last camera
@@ -365,6 +346,48 @@ def triangulate_lines(
 
 #: Huber's tuning constant: 95% efficiency under Gaussian noise.
 HUBER_K = 1.345
+
+
+def _weighted_line(
+    x0: F64,
+    planes: F64,
+    P: F64,
+    ok: NDArray[np.bool_],
+    centres: F64,
+    near: F64,
+    sigma_px: F64,
+    sigma_pose: F64,
+    iterations: int,
+) -> tuple[F64, F64]:
+    """The weighted/robust rank-2 line of :func:`triangulate_lines`, from its first guess.
+
+    Each plane is weighed by its noise at the line (pixels scaled by depth over focal
+    length, typed translation, typed angle scaled by depth), then, with three views or
+    more, reweighted by Huber on its residual so that a disagreeing view loses its pull.
+    """
+    f = np.sqrt(np.abs(np.linalg.det(P[..., :3])))  # f^2 = det(K R^T)
+    huber = np.ones(ok.shape)
+    u = np.zeros_like(x0)
+    for _ in range(iterations):
+        # A point of the line in front of each camera, and the planes' noise there.
+        depth = np.linalg.norm(x0[:, None] - centres, axis=-1)
+        sigma = np.sqrt(
+            (depth * sigma_px / f) ** 2
+            + sigma_pose[..., 0] ** 2
+            + (depth * sigma_pose[..., 1]) ** 2
+        )
+        sigma = np.where(ok & (sigma > 0), sigma, 1.0)
+        w = np.where(ok, huber / sigma, 0.0)
+        x0, u = _rank2_line(planes * w[..., None], near)
+        if ok.sum(axis=1).min() < 3:
+            continue  # two views: no redundancy to judge a view by
+        # Residual of each plane: its distances to the line near the target.
+        half = np.stack([-depth.mean(1), depth.mean(1)], 1)[..., None] * 0.25
+        ends = x0[:, None] + half * u[:, None]
+        dist = np.einsum("tni,tki->tnk", planes[..., :3], ends) + planes[..., 3:]
+        r = np.sqrt((dist**2).mean(axis=2)) / sigma
+        huber = np.minimum(1.0, HUBER_K / np.maximum(r, 1e-12))
+    return x0, u
 
 
 def _rank2_line(planes: F64, near: F64) -> tuple[F64, F64]:

@@ -6,18 +6,18 @@ import cv2
 import numpy as np
 import pytest
 
-from analysis.detect import (
-    Detection,
+from recorder.render import build_layout, expose, finger_axis, render_radiance
+from recorder.scene import load_scene
+from twopose.camera import project_points
+from twopose.detect import (
     DotParams,
     GloveParams,
     combine_frames,
+    detect,
     detect_dot,
     detect_glove,
     wrap_theta_deg,
 )
-from recorder.camera import project_points
-from recorder.render import build_layout, expose, finger_axis, render_radiance
-from recorder.scene import load_scene
 
 GLOVE_BGR = (192, 108, 38)
 
@@ -197,15 +197,23 @@ def test_frames_not_found_are_ignored_and_none_found_is_not_found() -> None:
     assert not none.found
 
 
-def test_detection_defaults_are_not_found_values() -> None:
-    d = Detection(False, reason="x")
+@pytest.mark.parametrize("target", ["glove", "dot"])
+def test_an_empty_scene_is_a_not_found_detection_with_a_reason(target: str) -> None:
+    """Nothing to find: not found, every measured value NaN (never a stale or zero centroid
+    that could reach a solver), and a reason the operator can read."""
+    blank = np.full((96, 128, 3), 200, np.uint8)
+    d = detect(blank, target)
+    assert not d.found
+    assert d.reason
     assert np.isnan(d.centroid_px).all()
+    assert np.isnan([d.theta_deg, d.area_px, d.eccentricity]).all()
+    assert d.n_candidates == 0
 
 
 @pytest.mark.parametrize("seed", range(6))
 def test_fast_components_agree_with_opencv_stats(seed: int) -> None:
     """Random masks with holes and blobs inside holes: same components, areas and centroids."""
-    from analysis.detect import _components
+    from twopose.detect import _components
 
     rng = np.random.default_rng(seed)
     noise = cv2.GaussianBlur(rng.random((240, 320)).astype(np.float32), (0, 0), 3.0)

@@ -8,8 +8,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.typing import NDArray
 
-from analysis.solve import image_lines, projection_matrices, triangulate_ground, triangulate_points
-from analysis.uncertainty import (
+from twopose.camera import rotation_from_angles_deg
+from twopose.solve import image_lines, projection_matrices, triangulate_ground, triangulate_points
+from twopose.uncertainty import (
     CHI2_95,
     INPUT_GROUPS,
     dominant_input,
@@ -19,7 +20,6 @@ from analysis.uncertainty import (
     pooled_scatter,
     propagate,
 )
-from recorder.camera import rotation_from_angles_deg
 
 F64 = NDArray[np.float64]
 FOCAL = np.array([525.0, 525.0, 320.0, 240.0])

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from analysis.detect import wrap_theta_deg
+from twopose.detect import wrap_theta_deg
 
 __all__ = [
     "CHI2_3DOF_95",

@@ -1,0 +1,303 @@
+"""Many sessions: discovery, execution (in this process, worker processes, or on a Dask
+cluster), gathering in input order (so results never depend on ``jobs``), and the outputs.
+
+Everything the CLI's ``run`` does is :func:`run`, one call.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from analysis.metrics import (
+    LINE_COLUMNS,
+    MARGIN_COLUMNS,
+    OPTIMAL_COLUMNS,
+    TRIAL_COLUMNS,
+    UNCERTAINTY_COLUMNS,
+    WEIGHTED_COLUMNS,
+    summarize,
+)
+from analysis.pipeline import analyse_session, keep_frame_buffers
+from analysis.results import AnalysisOptions, RunResult, SessionFailure, SessionResult
+from analysis.tables import AVERAGING_COLUMNS, FRAME_COLUMNS, VIEW_COLUMNS
+from twopose.errors import InputValueError, TwoposeError
+from twopose.format.reader import find_sessions
+
+__all__ = ["Outcome", "analyse_or_fail", "results_mcap_name", "run"]
+
+#: What one session's analysis gives: its tables, or why it failed.
+Outcome = SessionResult | SessionFailure
+#: Called as each session finishes: its path and whether it succeeded (progress bars).
+OnDone = Callable[[str, bool], None]
+
+TRIAL_TABLE_COLUMNS = (
+    TRIAL_COLUMNS
+    + LINE_COLUMNS
+    + WEIGHTED_COLUMNS
+    + OPTIMAL_COLUMNS
+    + MARGIN_COLUMNS
+    + UNCERTAINTY_COLUMNS
+)
+
+
+def run(
+    paths: Sequence[str | Path],
+    out_dir: str | Path | None = None,
+    *,
+    jobs: int = 1,
+    dask_address: str | None = None,
+    options: AnalysisOptions | None = None,
+    on_session_done: OnDone | None = None,
+    on_sessions_found: Callable[[int], None] | None = None,
+    scene: bool = True,
+) -> RunResult:
+    """Analyse every session under ``paths`` and (with ``out_dir``) write the results.
+
+    Parameters
+    ----------
+    paths : sequence of path-like
+        Session files and folders (searched recursively for ``*.mcap``).
+    out_dir : path-like, optional
+        Where to write ``trials.csv``, ``summary.csv``, ``averaging.csv``, ``frames.csv``,
+        ``errors.csv``, ``views.csv``, ``sensitivity.csv``, the figures and
+        ``report.html``, and (with ``scene``) one ``results_<index>_<session>.mcap`` per
+        session for Foxglove (:mod:`analysis.results_mcap`).
+    jobs : int
+        Worker processes; results are identical whatever the number.
+    dask_address : str, optional
+        Run the per-session tasks on this existing Dask distributed scheduler instead.
+    on_session_done : callable(path, ok), optional
+        Called as each session finishes (progress bars).
+    on_sessions_found : callable(n), optional
+        Called once with the number of sessions found, before the first is analysed.
+    scene : bool
+        With ``out_dir``: also write each session's results.mcap.
+    """
+    options = options or AnalysisOptions()
+    if jobs < 1:
+        raise InputValueError(f"jobs must be >= 1, got {jobs}")
+    files = [str(p) for p in find_sessions(paths)]
+    if on_sessions_found is not None:
+        on_sessions_found(len(files))
+    results_mcap: list[str | None] = [None] * len(files)
+    if out_dir is not None and scene:
+        Path(out_dir).mkdir(parents=True, exist_ok=True)
+        results_mcap = [str(Path(out_dir) / results_mcap_name(i, f)) for i, f in enumerate(files)]
+    images = out_dir is not None
+    outcomes = _execute(files, results_mcap, options, images, jobs, dask_address, on_session_done)
+    result = gather(files, outcomes)
+    if out_dir is not None:
+        from analysis.report import write_outputs
+        from analysis.sensitivity import sensitivity
+
+        # The sweeps are in the thesis' geometry, not the sessions': what the method can
+        # do, beside what each trial's own covariance says dominated it.
+        write_outputs(result, Path(out_dir), sensitivity())
+    return result
+
+
+def _execute(
+    files: list[str],
+    results_mcap: list[str | None],
+    options: AnalysisOptions,
+    images: bool,
+    jobs: int,
+    dask_address: str | None,
+    on_done: OnDone | None,
+) -> list[Outcome]:
+    """Every session's outcome, in input order, wherever it ran."""
+    if dask_address is not None:
+        return _run_dask(files, results_mcap, options, images, dask_address, on_done)
+    if jobs == 1 or len(files) <= 1:
+        outcomes: list[Outcome] = []
+        for f, r in zip(files, results_mcap, strict=True):
+            outcomes.append(analyse_or_fail(f, options, images, r))
+            _report(on_done, f, outcomes[-1])
+        return outcomes
+    return _run_processes(files, results_mcap, options, images, min(jobs, len(files)), on_done)
+
+
+def _report(on_done: OnDone | None, path: str, outcome: Outcome) -> None:
+    if on_done is not None:
+        on_done(path, isinstance(outcome, SessionResult))
+
+
+def gather(files: list[str], outcomes: list[Outcome]) -> RunResult:
+    """The run's tables: every session's rows concatenated in input order."""
+    results = tuple(o for o in outcomes if isinstance(o, SessionResult))
+    errors = pd.DataFrame(
+        [
+            {"session": o.session, "error": o.reason}
+            for o in outcomes
+            if isinstance(o, SessionFailure)
+        ],
+        columns=["session", "error"],
+    )
+    trials = _concat([r.trials for r in results], TRIAL_TABLE_COLUMNS)
+    return RunResult(
+        trials=trials,
+        summary=summarize(trials),
+        averaging=_concat([r.averaging for r in results], AVERAGING_COLUMNS),
+        frames=_concat([r.frames for r in results], FRAME_COLUMNS),
+        errors=errors,
+        sessions=results,
+        views=_concat([r.views for r in results], VIEW_COLUMNS),
+    )
+
+
+def _concat(frames: list[pd.DataFrame], columns: list[str]) -> pd.DataFrame:
+    present = [f for f in frames if not f.empty]
+    if not present:
+        return pd.DataFrame(columns=columns)
+    table = pd.concat(present, ignore_index=True)
+    return table[[c for c in columns if c in table.columns]]
+
+
+def results_mcap_name(index: int, session: str | Path) -> str:
+    """File name of a session's results.mcap in a run's output folder."""
+    return f"results_{index:02d}_{Path(session).stem}.mcap"
+
+
+def analyse_or_fail(
+    path: str, options: AnalysisOptions, images: bool, results: str | None = None
+) -> Outcome:
+    """One session's result, or a :class:`SessionFailure` saying why (never raises)."""
+    try:
+        return analyse_session(path, options, render_images=images, results_path=results)
+    except TwoposeError as err:
+        return SessionFailure(path, str(err))
+    except Exception as err:  # one bad file never stops the batch; the reason is kept
+        return SessionFailure(path, f"{path}: unexpected {type(err).__name__}: {err}")
+
+
+# --------------------------------------------------------------------------- processes
+
+_CLAIMS: Any = None  # in worker processes: the shared claim flags of the batch
+
+
+def _worker_init(claims: Any) -> None:
+    """One OpenCV thread per worker: the processes already fill the cores."""
+    import cv2
+
+    global _CLAIMS
+    _CLAIMS = claims
+    cv2.setNumThreads(1)
+    keep_frame_buffers()
+
+
+def _claim(claims: Any, index: int) -> bool:
+    """Take session ``index`` for this process unless another already did."""
+    with claims.get_lock():
+        if claims[index]:
+            return False
+        claims[index] = 1
+        return True
+
+
+def _worker_task(
+    index: int, path: str, options: AnalysisOptions, images: bool, results: str | None
+) -> Outcome | None:
+    """A worker's session, or None when the main process took it first."""
+    if not _claim(_CLAIMS, index):
+        return None
+    return analyse_or_fail(path, options, images, results)
+
+
+def _run_processes(
+    files: list[str],
+    results: list[str | None],
+    options: AnalysisOptions,
+    images: bool,
+    jobs: int,
+    on_done: OnDone | None,
+) -> list[Outcome]:
+    """``jobs`` processes: ``jobs - 1`` spawned workers take sessions from the front of the
+    list, this (already warm) process from the back, each claiming a session through a
+    shared flag; so no session runs twice and no core waits for a worker to start."""
+    # Spawned, not forked: a fork after OpenCV has started its thread pool can deadlock.
+    context = multiprocessing.get_context("spawn")
+    claims = context.Array("b", len(files))
+    outcomes: list[Outcome | None] = [None] * len(files)
+
+    def done(i: int, outcome: Outcome) -> None:
+        outcomes[i] = outcome
+        _report(on_done, files[i], outcome)
+
+    import cv2
+
+    threads = cv2.getNumThreads()
+    cv2.setNumThreads(1)  # this process is one of the ``jobs``, like each worker
+    try:
+        with ProcessPoolExecutor(
+            max_workers=jobs - 1, mp_context=context, initializer=_worker_init, initargs=(claims,)
+        ) as pool:
+            futures = [
+                pool.submit(_worker_task, i, f, options, images, results[i])
+                for i, f in enumerate(files)
+            ]
+            for i in reversed(range(len(files))):
+                if not _claim(claims, i):
+                    break  # the workers, going forward, have reached this one
+                done(i, analyse_or_fail(files[i], options, images, results[i]))
+            for i, fut in enumerate(futures):
+                if outcomes[i] is not None:
+                    continue
+                try:
+                    outcome = fut.result()
+                except BrokenProcessPool as err:  # a worker died (killed, out of memory)
+                    outcome = SessionFailure(
+                        files[i], f"{files[i]}: the worker process analysing it died ({err})"
+                    )
+                if outcome is not None:
+                    done(i, outcome)
+    finally:
+        cv2.setNumThreads(threads)
+    missing = [f for f, o in zip(files, outcomes, strict=True) if o is None]
+    assert not missing, f"sessions neither the workers nor this process analysed: {missing}"
+    return [o for o in outcomes if o is not None]
+
+
+# --------------------------------------------------------------------------- Dask
+
+
+def _analyse_to(path: str, results: str | None, options: AnalysisOptions, images: bool) -> Outcome:
+    """:func:`analyse_or_fail` with the per-session argument second, for ``client.map``."""
+    return analyse_or_fail(path, options, images, results)
+
+
+def _run_dask(
+    files: list[str],
+    results: list[str | None],
+    options: AnalysisOptions,
+    images: bool,
+    address: str,
+    on_done: OnDone | None,
+) -> list[Outcome]:
+    try:
+        from distributed import Client
+    except ImportError as err:
+        raise InputValueError(
+            "--dask needs the optional Dask extra: pip install 'twopose[dask]'"
+        ) from err
+    try:
+        client = Client(address, timeout=10)
+    except OSError as err:
+        raise InputValueError(f"cannot reach the Dask scheduler at {address}: {err}") from err
+    try:
+        futures = client.map(
+            _analyse_to, files, results, options=options, images=images, pure=False
+        )
+        outcomes: list[Outcome] = []
+        for f, fut in zip(files, futures, strict=True):
+            outcomes.append(fut.result())
+            _report(on_done, f, outcomes[-1])
+        return outcomes
+    finally:
+        client.close()

@@ -1,0 +1,433 @@
+"""Estimation: each trial's pose measurements in, its estimates and their uncertainty out.
+
+Every trial's usable poses become one row of a padded batch, so each estimator runs once
+per session, vectorized over trials (:func:`estimate_trials`); the same batch, perturbed,
+propagates the input covariance to every estimate (:mod:`twopose.uncertainty`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from analysis.results import AnalysisOptions
+from twopose.camera import rotation_from_angles_deg
+from twopose.detect import PoseMeasurement, combine_frames
+from twopose.solve import (
+    image_lines,
+    projection_matrices,
+    triangulate_ground,
+    triangulate_lines,
+    triangulate_points,
+)
+from twopose.uncertainty import (
+    INPUTS_PER_VIEW,
+    dominant_input,
+    frame_scatter,
+    measurement_covariance,
+    pooled_scatter,
+    propagate,
+)
+
+__all__ = [
+    "MARGINS",
+    "Estimates",
+    "GroundSpec",
+    "PoseView",
+    "ViewBatch",
+    "estimate_trials",
+    "measure",
+    "running_estimates",
+    "solve_batch",
+]
+
+F64 = NDArray[np.float64]
+#: The ground plane as ``(normal_grid (3,), offset)``.
+GroundSpec = tuple[F64, float]
+#: The degeneracy margins (degrees) each method reports.
+MARGINS = {
+    "point": ("parallax_deg",),
+    "line": ("plane_angle_deg",),
+    "ground": ("plane_angle_deg", "line_ground_angle_deg"),
+}
+
+
+@dataclass(frozen=True)
+class PoseView:
+    """One complete pose of a trial: its camera, typed pose and per-frame detections."""
+
+    pose: int
+    intrinsics: F64  # (4,) fx, fy, cx, cy
+    width_height: tuple[int, int]
+    t_grid: F64  # (3,) typed camera centre
+    r_deg: F64  # (3,) typed angles, R_cam_to_grid = Rx Ry Rz
+    t_sigma: float  # 1-sigma of each typed translation component (session units)
+    r_sigma_deg: float  # 1-sigma of each typed angle
+    centroids: F64  # (K, 2)
+    thetas: F64  # (K,)
+    found: NDArray[np.bool_]  # (K,)
+
+
+def measure(
+    views: list[list[PoseView]], options: AnalysisOptions
+) -> tuple[list[list[PoseMeasurement]], NDArray[np.bool_], NDArray[np.bool_]]:
+    """Each pose's frames combined into one measurement (the thesis' mean, or median /
+    robust). Returns the measurements (empty for a trial with fewer than two poses), and
+    per trial whether it is complete and whether every pose was detected."""
+    complete = np.array([len(v) >= 2 for v in views], dtype=bool)
+    measurements = [
+        [combine_frames(v.centroids, v.thetas, v.found, options.combine) for v in row] if ok else []
+        for row, ok in zip(views, complete, strict=True)
+    ]
+    detected = np.array(
+        [ok and all(m.found for m in ms) for ms, ok in zip(measurements, complete, strict=True)],
+        dtype=bool,
+    )
+    return measurements, complete, detected
+
+
+@dataclass(frozen=True)
+class ViewBatch:
+    """Rows of N >= 2 pose measurements as arrays, padded to the longest row."""
+
+    inputs: F64  # (T, N, 9) in the uncertainty.INPUTS_PER_VIEW layout
+    intrinsics: F64  # (T, N, 4); padding views get (1, 1, 0, 0): P = [I | 0]
+    valid: NDArray[np.bool_]  # (T, N)
+
+    @classmethod
+    def of(
+        cls, measurements: list[list[PoseMeasurement]], views: list[list[PoseView]]
+    ) -> ViewBatch:
+        T = len(measurements)
+        N = max(len(row) for row in measurements)
+        x = np.zeros((T, N, len(INPUTS_PER_VIEW)))
+        x[..., :3] = np.nan
+        intr = np.tile([1.0, 1.0, 0.0, 0.0], (T, N, 1))
+        valid = np.zeros((T, N), dtype=bool)
+        for i, (row, row_views) in enumerate(zip(measurements, views, strict=True)):
+            for j, (m, v) in enumerate(zip(row, row_views, strict=True)):
+                x[i, j] = [*m.centroid_px, m.theta_deg, *v.t_grid, *v.r_deg]
+                intr[i, j], valid[i, j] = v.intrinsics, True
+        return cls(x, intr, valid)
+
+    def P(self, inputs: F64 | None = None) -> F64:
+        """Projection matrices (T, N, 3, 4) of these (or perturbed) inputs."""
+        x = self.inputs if inputs is None else inputs
+        R = rotation_from_angles_deg(x[..., 6:9])
+        return projection_matrices(self.intrinsics, R, x[..., 3:6])
+
+
+@dataclass(frozen=True)
+class Solved:
+    """Every estimator's answer for a batch of trials."""
+
+    point: F64  # (T, 3)
+    direction: F64 | None  # (T, 3), lines only
+    optimal: F64 | None  # (T, 3), points only: the reprojection-optimal estimate
+    conditioning: F64
+    status: NDArray[np.str_]
+    reason: NDArray[np.str_]
+    margins: dict[str, F64] = field(default_factory=dict)  # degrees, by column name
+
+
+def solve_batch(
+    method: str, batch: ViewBatch, ground: GroundSpec | None, options: AnalysisOptions
+) -> Solved:
+    """Batch-solve rows of N >= 2 pose measurements with every estimator."""
+    px, th, valid, P = batch.inputs[..., :2], batch.inputs[..., 2], batch.valid, batch.P()
+    mc = options.min_conditioning
+    if method == "point":
+        s = triangulate_points(px, P, valid=valid, min_conditioning=mc)
+        o = triangulate_points(px, P, valid=valid, estimator="optimal", min_conditioning=mc)
+        margins = {"parallax_deg": degrees_from_sine(s.conditioning)}
+        return Solved(s.point_grid, None, o.point_grid, s.conditioning, s.status, s.reason, margins)
+    lines = image_lines(px, th)
+    ls = triangulate_lines(lines, P, valid=valid, min_conditioning=mc)
+    margins = {"plane_angle_deg": degrees_from_sine(ls.conditioning)}
+    if method == "line":
+        return Solved(
+            ls.point_grid, ls.direction_grid, None, ls.conditioning, ls.status, ls.reason, margins
+        )
+    assert ground is not None
+    g = triangulate_ground(lines, P, ground[0], ground[1], valid=valid, min_conditioning=mc)
+    n3 = ground[0] / np.linalg.norm(ground[0])
+    margins["line_ground_angle_deg"] = degrees_from_sine(np.abs(ls.direction_grid @ n3))
+    return Solved(g.point_grid, None, None, g.conditioning, g.status, g.reason, margins)
+
+
+def thesis_estimate(
+    method: str,
+    batch: ViewBatch,
+    ground: GroundSpec | None,
+    options: AnalysisOptions,
+    reference: F64,
+) -> Callable[[F64], F64]:
+    """The thesis' estimate as a function of the (perturbed) inputs, for propagation.
+
+    Lines report their point nearest ``reference`` (T, 3), held fixed.
+    """
+    mc, valid = options.min_conditioning, batch.valid
+
+    def estimate(x: F64) -> F64:
+        P = batch.P(x)
+        if method == "point":
+            return triangulate_points(x[..., :2], P, valid=valid, min_conditioning=mc).point_grid
+        lines = image_lines(x[..., :2], x[..., 2])
+        if method == "ground":
+            assert ground is not None
+            return triangulate_ground(
+                lines, P, ground[0], ground[1], valid=valid, min_conditioning=mc
+            ).point_grid
+        ls = triangulate_lines(lines, P, valid=valid, min_conditioning=mc)
+        return nearest_on_line(ls.point_grid, ls.direction_grid, reference)
+
+    return estimate
+
+
+def nearest_on_line(point: F64, direction: F64, reference: F64) -> F64:
+    """(T, 3) the point of each line nearest its reference point."""
+    s = np.einsum("ti,ti->t", reference - point, direction)
+    return np.asarray(point + s[:, None] * direction)
+
+
+def degrees_from_sine(sine: F64) -> F64:
+    """An angle in degrees from its sine (NaN stays NaN)."""
+    with np.errstate(invalid="ignore"):
+        return np.asarray(np.degrees(np.arcsin(np.clip(sine, 0.0, 1.0))))
+
+
+def margin_warnings(
+    status: NDArray[np.str_], margins: dict[str, F64], options: AnalysisOptions
+) -> list[str]:
+    """Per trial, the margins under their thresholds (empty when none, or not ok)."""
+    limits = {
+        "parallax_deg": ("ray parallax", options.min_parallax_deg),
+        "plane_angle_deg": ("plane angle", options.min_plane_angle_deg),
+        "line_ground_angle_deg": ("line-ground angle", options.min_ground_angle_deg),
+    }
+    out = []
+    for i in range(len(status)):
+        notes = [
+            f"{label} {margins[key][i]:.2f} deg < {limit:g}"
+            for key, (label, limit) in limits.items()
+            if key in margins and status[i] == "ok" and margins[key][i] < limit
+        ]
+        out.append("; ".join(notes))
+    return out
+
+
+# --------------------------------------------------------------------------- input covariance
+
+
+def _scatter(view: PoseView, m: PoseMeasurement) -> tuple[F64, int]:
+    used = view.found.copy()
+    used[list(m.rejected)] = False
+    return frame_scatter(view.centroids, view.thetas, used)
+
+
+def input_covariance(
+    measurements: list[list[PoseMeasurement]],
+    views: list[list[PoseView]],
+    scatters: list[list[tuple[F64, int]]],
+    pooled: F64,
+    batch: ViewBatch,
+    *,
+    median: bool,
+) -> F64:
+    """(T, N, 9, 9): each view's pixel covariance from its frame scatter, and its typed
+    pose's 1-sigma resolutions on the diagonal (padding views: zero)."""
+    T, N, D = batch.inputs.shape
+    C = np.zeros((T, N, D, D))
+    for i, (row, row_views, row_scatter) in enumerate(
+        zip(measurements, views, scatters, strict=True)
+    ):
+        for j, (m, v, (S, dof)) in enumerate(zip(row, row_views, row_scatter, strict=True)):
+            C[i, j, :3, :3] = measurement_covariance(S, dof, pooled, m.n_used, median=median)
+            C[i, j, 3:6, 3:6] = np.eye(3) * v.t_sigma**2
+            C[i, j, 6:9, 6:9] = np.eye(3) * v.r_sigma_deg**2
+    return C
+
+
+def across_line_sigma_px(theta_deg: F64, input_cov: F64) -> F64:
+    """(T, N) 1-sigma pixel error across each view's image line, from its covariance."""
+    t = np.deg2rad(theta_deg)
+    n = np.stack([-np.sin(t), np.cos(t)], axis=-1)
+    var = np.einsum("tni,tnij,tnj->tn", n, input_cov[..., :2, :2], n)
+    return np.asarray(np.sqrt(np.where(np.isfinite(var) & (var > 0), var, 1.0)))
+
+
+# --------------------------------------------------------------------------- a session's trials
+
+
+@dataclass(frozen=True)
+class Estimates:
+    """Per trial (T rows, NaN where not solved): every estimate, its status and uncertainty."""
+
+    status: NDArray[np.str_]  # ok, degenerate, no_detection, incomplete
+    reason: NDArray[np.str_]
+    point: F64  # (T, 3) the thesis' estimate (lines: the point used for the error)
+    direction: F64  # (T, 3) lines: the unit direction
+    optimal: F64  # (T, 3) points: the reprojection-optimal estimate
+    weighted_line: F64  # (T, 2, 3) lines: the weighted/robust fit's point and direction
+    conditioning: F64  # (T,)
+    margins: dict[str, F64]  # (T,) degrees, by column name
+    cov: F64  # (T, 3, 3) of ``point``
+    dominant: NDArray[np.object_]  # (T,) the input dominating the variance ("" if none)
+    dominant_share: F64  # (T,)
+
+
+def _unsolved(T: int, method: str, complete: NDArray[np.bool_]) -> Estimates:
+    """Every trial as not (yet) solved: incomplete, or missing a detection."""
+    status = np.where(complete, "no_detection", "incomplete").astype("<U12")
+    reason = np.where(
+        complete, "no frame of a pose was detected", "fewer than two complete captures"
+    ).astype("<U64")
+    nan3 = np.full((T, 3), np.nan)
+    return Estimates(
+        status=status,
+        reason=reason,
+        point=nan3.copy(),
+        direction=nan3.copy(),
+        optimal=nan3.copy(),
+        weighted_line=np.full((T, 2, 3), np.nan),
+        conditioning=np.full(T, np.nan),
+        margins={name: np.full(T, np.nan) for name in MARGINS[method]},
+        cov=np.full((T, 3, 3), np.nan),
+        dominant=np.full(T, "", dtype=object),
+        dominant_share=np.full(T, np.nan),
+    )
+
+
+def estimate_trials(
+    method: str,
+    views: list[list[PoseView]],
+    measurements: list[list[PoseMeasurement]],
+    complete: NDArray[np.bool_],
+    detected: NDArray[np.bool_],
+    truth: F64,
+    ground: GroundSpec | None,
+    options: AnalysisOptions,
+) -> Estimates:
+    """Solve every detected trial with every estimator, in one batch, and propagate each
+    one's input covariance (pixels from the frame scatter, poses from the typed resolution).
+
+    ``truth`` is (T, 2, 3): lines are reported at their point nearest the true segment's
+    midpoint (with no truth, nearest the solved point); that reference is held fixed in the
+    propagation.
+    """
+    out = _unsolved(len(views), method, complete)
+    solvable = np.flatnonzero(detected)
+    if not solvable.size:
+        return out
+    rows_m = [measurements[i] for i in solvable]
+    rows_v = [views[i] for i in solvable]
+    batch = ViewBatch.of(rows_m, rows_v)
+    solved = solve_batch(method, batch, ground, options)
+    # Each pose's frame scatter, once, for the pooled and the per-pose covariances.
+    scatters = [
+        [_scatter(v, m) for v, m in zip(vs, ms, strict=False)]
+        for vs, ms in zip(views, measurements, strict=True)
+    ]
+    pooled = pooled_scatter([s for row in scatters for s in row])
+    cov_in = input_covariance(
+        rows_m,
+        rows_v,
+        [scatters[i] for i in solvable],
+        pooled,
+        batch,
+        median=options.combine == "median",
+    )
+    mid = truth[solvable].mean(axis=1)
+    reference = np.where(np.isfinite(mid), mid, solved.point)
+    propagated = propagate(
+        thesis_estimate(method, batch, ground, options, reference), batch.inputs, cov_in
+    )
+    _store_solution(out, solvable, solved)
+    _store_uncertainty(out, solvable, solved, propagated.cov_grid, propagated.variance_by_group)
+    if method == "line":
+        _store_weighted_lines(out, solvable, batch, cov_in, options)
+    return out
+
+
+def _store_solution(out: Estimates, rows: NDArray[np.intp], solved: Solved) -> None:
+    out.point[rows], out.conditioning[rows] = solved.point, solved.conditioning
+    out.status[rows], out.reason[rows] = solved.status, solved.reason
+    if solved.direction is not None:
+        out.direction[rows] = solved.direction
+    if solved.optimal is not None:
+        out.optimal[rows] = solved.optimal
+    for name, values in solved.margins.items():
+        out.margins[name][rows] = values
+
+
+def _store_uncertainty(
+    out: Estimates, rows: NDArray[np.intp], solved: Solved, cov: F64, by_group: F64
+) -> None:
+    """The covariance and dominant input of every ok trial."""
+    ok = solved.status == "ok"
+    if solved.direction is not None:
+        # A line's reported point moves only across the line to first order (its error
+        # is perpendicular by construction): keep the covariance of that offset.
+        across = np.eye(3) - np.einsum("ti,tj->tij", solved.direction, solved.direction)
+        cov = across @ cov @ across
+    out.cov[rows[ok]] = cov[ok]
+    names, share = dominant_input(by_group)
+    out.dominant[rows[ok]] = np.array(names, dtype=object)[ok]
+    out.dominant_share[rows[ok]] = share[ok]
+
+
+def _store_weighted_lines(
+    out: Estimates,
+    rows: NDArray[np.intp],
+    batch: ViewBatch,
+    cov_in: F64,
+    options: AnalysisOptions,
+) -> None:
+    """The weighted/robust line fit beside the thesis' one, weighted by each view's noise."""
+    weighted = triangulate_lines(
+        image_lines(batch.inputs[..., :2], batch.inputs[..., 2]),
+        batch.P(),
+        valid=batch.valid,
+        estimator="weighted",
+        sigma_px=across_line_sigma_px(batch.inputs[..., 2], cov_in),
+        sigma_pose=np.stack(
+            [np.sqrt(cov_in[..., 3, 3]), np.deg2rad(np.sqrt(cov_in[..., 6, 6]))], axis=-1
+        ),
+        min_conditioning=options.min_conditioning,
+    )
+    out.weighted_line[rows, 0] = weighted.point_grid
+    out.weighted_line[rows, 1] = weighted.direction_grid
+
+
+def running_estimates(
+    method: str,
+    views: list[list[PoseView]],
+    detected: NDArray[np.bool_],
+    ground: GroundSpec | None,
+    options: AnalysisOptions,
+) -> tuple[list[tuple[int, int]], Solved | None]:
+    """The estimate from the first 1..K frames of each pose (the thesis' Figures 22-23).
+
+    Returns ``(trial index, frames used)`` per row and the rows' solution (None: no rows).
+    """
+    rows_m: list[list[PoseMeasurement]] = []
+    rows_v: list[list[PoseView]] = []
+    keys: list[tuple[int, int]] = []
+    for i, row in enumerate(views):
+        if not detected[i]:
+            continue
+        for n in range(1, min(len(v.found) for v in row) + 1):
+            ms = [
+                combine_frames(v.centroids[:n], v.thetas[:n], v.found[:n], options.combine)
+                for v in row
+            ]
+            if all(m.found for m in ms):
+                rows_m.append(ms)
+                rows_v.append(row)
+                keys.append((i, n))
+    if not keys:
+        return keys, None
+    return keys, solve_batch(method, ViewBatch.of(rows_m, rows_v), ground, options)

@@ -1,0 +1,74 @@
+"""What an analysis is asked to do and what it gives back: frozen types, no computation."""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass, field
+from typing import Any
+
+import pandas as pd
+
+from analysis.tables import VIEW_COLUMNS
+from twopose.detect import CombineMethod, DotParams, GloveParams
+from twopose.solve import DEFAULT_MIN_CONDITIONING
+
+__all__ = ["AnalysisOptions", "RunResult", "SessionFailure", "SessionResult"]
+
+
+@dataclass(frozen=True)
+class AnalysisOptions:
+    """How frames become measurements and measurements become estimates."""
+
+    combine: CombineMethod = "mean"
+    glove: GloveParams = field(default_factory=GloveParams)
+    dot: DotParams = field(default_factory=DotParams)
+    min_conditioning: float = DEFAULT_MIN_CONDITIONING
+    # Degeneracy margins: an ok trial under one of these gets a warning (degrees).
+    min_parallax_deg: float = 1.0  # ray parallax, points
+    min_plane_angle_deg: float = 5.0  # between back-projected planes, lines and method 2
+    min_ground_angle_deg: float = 10.0  # between the line and the ground, method 2
+
+
+@dataclass(frozen=True)
+class SessionResult:
+    """One session's tables and what the report says about it."""
+
+    session: str
+    metadata: dict[str, str]
+    frames: pd.DataFrame
+    trials: pd.DataFrame
+    averaging: pd.DataFrame
+    images: dict[str, bytes] = field(default_factory=dict)  # PNGs by figure kind, if asked
+    views: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=VIEW_COLUMNS))
+
+
+@dataclass(frozen=True)
+class SessionFailure:
+    """A session that could not be analysed, and why (the batch lists it and goes on)."""
+
+    session: str
+    reason: str
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """Everything a run produced (tables as DataFrames, figures as matplotlib Figures)."""
+
+    trials: pd.DataFrame
+    summary: pd.DataFrame
+    averaging: pd.DataFrame
+    frames: pd.DataFrame
+    errors: pd.DataFrame
+    sessions: tuple[SessionResult, ...]
+    views: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=VIEW_COLUMNS))
+
+    @property
+    def failed(self) -> bool:
+        return not self.errors.empty
+
+    @functools.cached_property
+    def figures(self) -> dict[str, Any]:
+        """Named matplotlib Figures of the run (built on first use, for notebooks)."""
+        from analysis.report import make_figures
+
+        return make_figures(self)

@@ -1,0 +1,262 @@
+"""Tables: a session's detections, estimates and running averages as tidy DataFrames.
+
+Pure functions from arrays to one row per frame (``frames.csv``), per trial
+(``trials.csv``), per used pose (``views.csv``) and per running average
+(``averaging.csv``); the column lists are the documented ones.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from analysis.metrics import (
+    LINE_COLUMNS,
+    OPTIMAL_COLUMNS,
+    TRIAL_COLUMNS,
+    line_errors,
+    uncertainty_columns,
+)
+from twopose.camera import rotation_from_angles_deg
+from twopose.detect import Detection, PoseMeasurement
+
+if TYPE_CHECKING:
+    from analysis.estimate import Estimates, PoseView, Solved
+    from twopose.format.entries import PoseEntry
+    from twopose.format.messages import Frame
+
+__all__ = [
+    "AVERAGING_COLUMNS",
+    "FRAME_COLUMNS",
+    "VIEW_COLUMNS",
+    "averaging_table",
+    "frame_row",
+    "trial_table",
+    "view_table",
+]
+
+F64 = NDArray[np.float64]
+
+FRAME_COLUMNS = [
+    "session",
+    "trial",
+    "pose",
+    "camera",
+    "frame",
+    "log_time_ns",
+    "found",
+    "col",
+    "row",
+    "theta_deg",
+    "area_px",
+    "eccentricity",
+    "pi_estimate",
+    "n_blobs",
+    "n_candidates",
+    "reason",
+]
+AVERAGING_COLUMNS = ["session", "trial", "n_frames", "x", "y", "z", "err"]
+#: One row per used pose: its typed camera centre, combined measurement and the unit ray
+#: through the measured pixel, grid frame (``views.csv``; the top-view plots).
+VIEW_COLUMNS = [
+    "session",
+    "trial",
+    "pose",
+    "t_x",
+    "t_y",
+    "t_z",
+    "col",
+    "row",
+    "theta_deg",
+    "ray_x",
+    "ray_y",
+    "ray_z",
+]
+
+
+def frame_row(
+    session: str, trial: int, entry: PoseEntry, index: int, frame: Frame, det: Detection
+) -> dict[str, Any]:
+    """One frame's detection, a row of ``frames.csv``."""
+    return {
+        "session": session,
+        "trial": trial,
+        "pose": entry.pose,
+        "camera": entry.camera_id,
+        "frame": index,
+        "log_time_ns": frame.log_time_ns,
+        "found": det.found,
+        "col": det.centroid_px[0],
+        "row": det.centroid_px[1],
+        "theta_deg": det.theta_deg,
+        "area_px": det.area_px,
+        "eccentricity": det.eccentricity,
+        "pi_estimate": det.pi_estimate,
+        "n_blobs": det.n_blobs,
+        "n_candidates": det.n_candidates,
+        "reason": det.reason,
+    }
+
+
+def _estimate_and_truth(method: str, est: Estimates, truth: F64) -> tuple[F64, F64, dict[str, Any]]:
+    """The reported estimate, the truth it is compared with, and the method's extra columns."""
+    if method == "line":
+        with np.errstate(invalid="ignore"):
+            point, mid, angle, dist = line_errors(
+                est.point, est.direction, truth[:, 0], truth[:, 1]
+            )
+        point = np.where(np.isfinite(mid), point, est.point)  # no truth: the solved point
+        extra = {f"dir_{a}": est.direction[:, i] for i, a in enumerate("xyz")}
+        return point, mid, extra | {"angle_err_deg": angle, "dist_err": dist}
+    if method == "point":  # the estimators side by side
+        opt_err = est.optimal - truth[:, 0]
+        extra = {f"{a}_optimal": est.optimal[:, i] for i, a in enumerate("xyz")}
+        return est.point, truth[:, 0], extra | {"err_optimal": np.linalg.norm(opt_err, axis=1)}
+    return est.point, truth[:, 0], {}
+
+
+def _weighted_line_columns(est: Estimates, truth: F64) -> dict[str, Any]:
+    """Line trials: the weighted/robust fit, compared with the truth as the thesis' line."""
+    with np.errstate(invalid="ignore"):
+        point, mid, angle, dist = line_errors(
+            est.weighted_line[:, 0], est.weighted_line[:, 1], truth[:, 0], truth[:, 1]
+        )
+    point = np.where(np.isfinite(mid), point, est.weighted_line[:, 0])
+    columns: dict[str, Any] = {f"{a}_weighted": point[:, i] for i, a in enumerate("xyz")}
+    return columns | {"angle_err_weighted_deg": angle, "dist_err_weighted": dist}
+
+
+def trial_table(
+    session: str,
+    method: str,
+    units: str,
+    trial_ids: Sequence[int],
+    views: list[list[PoseView]],
+    measurements: list[list[PoseMeasurement]],
+    est: Estimates,
+    truth: F64,
+    warnings: list[str],
+) -> pd.DataFrame:
+    """One row per trial (``trials.csv``): estimate, truth, error, margins, uncertainty."""
+    point, reference, extra = _estimate_and_truth(method, est, truth)
+    err = point - reference
+    table = pd.DataFrame(
+        {
+            "session": [session] * len(trial_ids),
+            "trial": list(trial_ids),
+            "method": [method] * len(trial_ids),
+            "units": [units] * len(trial_ids),
+            "status": est.status,
+            "reason": est.reason,
+            "n_views": [len(v) if len(v) >= 2 else 0 for v in views],
+            "conditioning": est.conditioning,
+            **{a: point[:, i] for i, a in enumerate("xyz")},
+            **{f"gt_{a}": reference[:, i] for i, a in enumerate("xyz")},
+            **{f"err_{a}": err[:, i] for i, a in enumerate("xyz")},
+            "err": np.linalg.norm(err, axis=1),
+            **extra,
+        }
+    )
+    extra_columns = (
+        LINE_COLUMNS if method == "line" else OPTIMAL_COLUMNS if method == "point" else []
+    )
+    table = table[TRIAL_COLUMNS + extra_columns]
+    for name, values in est.margins.items():
+        table[name] = values
+    table["warning"] = warnings
+    table["baseline"] = [_baseline(v) for v in views]
+    if method == "line":
+        for name, values in _weighted_line_columns(est, truth).items():
+            table[name] = values
+    for name, values in uncertainty_columns(err, est.cov).items():
+        table[name] = values
+    table["dominant_input"], table["dominant_share"] = est.dominant, est.dominant_share
+    table["rejected_frames"] = [
+        _rejected(ms, vs) if ms else "" for ms, vs in zip(measurements, views, strict=True)
+    ]
+    return table
+
+
+def _baseline(views: list[PoseView]) -> float:
+    """The longest distance between two typed camera centres of a trial (NaN: one pose)."""
+    return max(
+        (float(np.linalg.norm(a.t_grid - b.t_grid)) for a, b in itertools.combinations(views, 2)),
+        default=np.nan,
+    )
+
+
+def _rejected(measurements: list[PoseMeasurement], views: list[PoseView]) -> str:
+    """Frames dropped as outliers, per pose: ``"pose 2: 3, 4"`` (frame indices as in
+    frames.csv; empty when none)."""
+    return "; ".join(
+        f"pose {v.pose}: {', '.join(str(i) for i in m.rejected)}"
+        for m, v in zip(measurements, views, strict=True)
+        if m.rejected
+    )
+
+
+def view_table(
+    session: str,
+    trial_ids: Sequence[int],
+    views: list[list[PoseView]],
+    measurements: list[list[PoseMeasurement]],
+) -> pd.DataFrame:
+    """One row per measured pose (``views.csv``): camera centre, pixel and grid-frame ray."""
+    rows = []
+    for trial, row_views, ms in zip(trial_ids, views, measurements, strict=True):
+        for v, m in zip(row_views, ms, strict=False):  # incomplete trials have none
+            fx, fy, cx, cy = v.intrinsics
+            cam = np.array([(m.centroid_px[0] - cx) / fx, (m.centroid_px[1] - cy) / fy, 1.0])
+            ray = rotation_from_angles_deg(v.r_deg) @ cam
+            ray /= np.linalg.norm(ray)
+            rows.append(
+                {
+                    "session": session,
+                    "trial": trial,
+                    "pose": v.pose,
+                    **{f"t_{a}": v.t_grid[i] for i, a in enumerate("xyz")},
+                    "col": m.centroid_px[0],
+                    "row": m.centroid_px[1],
+                    "theta_deg": m.theta_deg,
+                    **{f"ray_{a}": ray[i] for i, a in enumerate("xyz")},
+                }
+            )
+    return pd.DataFrame(rows, columns=VIEW_COLUMNS)
+
+
+def averaging_table(
+    session: str,
+    trial_ids: Sequence[int],
+    keys: list[tuple[int, int]],
+    solved: Solved | None,
+    truth: F64,
+) -> pd.DataFrame:
+    """``averaging.csv``: the estimate from the first ``n_frames`` frames of each pose."""
+    if solved is None:
+        return pd.DataFrame(columns=AVERAGING_COLUMNS)
+    idx = np.array([i for i, _ in keys])
+    point = solved.point
+    if solved.direction is not None:
+        with np.errstate(invalid="ignore"):
+            point, reference, _, _ = line_errors(
+                point, solved.direction, truth[idx, 0], truth[idx, 1]
+            )
+    else:
+        reference = truth[idx, 0]
+    return pd.DataFrame(
+        {
+            "session": session,
+            "trial": [trial_ids[i] for i in idx],
+            "n_frames": [n for _, n in keys],
+            "x": point[:, 0],
+            "y": point[:, 1],
+            "z": point[:, 2],
+            "err": np.linalg.norm(point - reference, axis=1),
+        },
+        columns=AVERAGING_COLUMNS,
+    )

@@ -1,0 +1,292 @@
+"""The guided procedure at the terminal: the operator answers, :func:`record` records.
+
+:func:`ask_setup` asks for whatever the command line did not give (method, units,
+intrinsics, ground height, ground truth, operator); :func:`record_interactive` then runs
+trial after trial: type each pose, capture, accept or redo. The questions go through an
+:class:`Operator` (``ask`` and ``say``), so tests drive it with scripted answers.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, cast
+
+from recorder.plan import MAX_TRANSLATION
+from recorder.procedure import (
+    CaptureResult,
+    Decision,
+    Driver,
+    Placement,
+    RecordingSummary,
+    record,
+)
+from recorder.sources import FrameSource, SourceInfo
+from twopose.camera import Camera, Intrinsics
+from twopose.errors import InputValueError
+from twopose.format.entries import (
+    METHODS,
+    UNITS,
+    GroundPlane,
+    GroundTruth,
+    Method,
+    Note,
+    PoseEntry,
+    SessionInfo,
+    TruthKind,
+    TypedEntry,
+)
+from twopose.values import Vec3, finite, numbers, vec3
+
+if TYPE_CHECKING:
+    from recorder.live import LiveView
+
+__all__ = ["Operator", "Setup", "ask_setup", "parse_vector", "record_interactive"]
+
+
+def parse_vector(
+    text: str, units: str, *, what: str = "translation", limit: float | None = None
+) -> Vec3:
+    """Three numbers typed as ``x, y, z`` (commas or spaces); raises InputValueError."""
+    parts = text.replace(",", " ").split()
+    if len(parts) != 3:
+        raise InputValueError(f"{what}: type three numbers, e.g. 1.1, 0, 0 (got {text!r})")
+    try:
+        v = vec3([float(p) for p in parts], what)
+    except ValueError as err:
+        raise InputValueError(f"{what}: {text!r} is not three numbers") from err
+    bound = MAX_TRANSLATION[units] if limit is None else limit
+    if max(abs(x) for x in v) > bound:
+        raise InputValueError(
+            f"{what}: {text!r} is implausibly large (over {bound:g} {units}); a typo?"
+        )
+    return v
+
+
+class Operator:
+    """How the procedure talks to the operator: ``ask`` a question, ``say`` a line."""
+
+    def __init__(self, ask: Callable[[str, str], str], say: Callable[[str], None]) -> None:
+        self.ask_raw, self.say = ask, say
+
+    def ask(self, question: str, parse: Callable[[str], Any], default: str = "") -> Any:
+        """Ask until the answer parses; say why an answer was refused."""
+        while True:
+            answer = self.ask_raw(question, default).strip()
+            try:
+                return parse(answer)
+            except InputValueError as err:
+                self.say(f"  not accepted: {err}")
+
+
+# --------------------------------------------------------------------------- setup
+
+
+@dataclass(frozen=True)
+class Setup:
+    """What a session needs before its first trial."""
+
+    method: Method
+    units: str
+    intrinsics: Intrinsics
+    ground_height: float | None
+    ground_truth: tuple[Vec3, ...]
+    operator: str
+
+
+def _one_of(options: Sequence[str]) -> Callable[[str], str]:
+    def parse(text: str) -> str:
+        if text not in options:
+            raise InputValueError(f"choose one of {', '.join(options)}")
+        return text
+
+    return parse
+
+
+def _positive(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError as err:
+        raise InputValueError(f"{text!r} is not a number") from err
+    if not (v < 1e6):
+        raise InputValueError(f"{text!r} must be a positive, finite number")
+    return finite(v, repr(text), positive=True)
+
+
+def _pair(text: str) -> tuple[float, float]:
+    try:
+        a, b = numbers([float(p) for p in text.replace(",", " ").split()], 2, "cx, cy")
+    except (ValueError, InputValueError) as err:
+        raise InputValueError(f"type two numbers 'cx, cy', got {text!r}") from err
+    return a, b
+
+
+def ask_setup(
+    op: Operator,
+    *,
+    method: str | None,
+    units: str | None,
+    intrinsics: Intrinsics | None,
+    focal: float | None,
+    principal: tuple[float, float] | None,
+    size: tuple[int, int],
+    ground_height: float | None,
+    ground_truth: Sequence[Vec3],
+    operator: str | None,
+) -> Setup:
+    """Ask for whatever is None (or missing) above; answers are checked as they are typed."""
+    m = method or op.ask("method (point, line, ground)", _one_of(METHODS))
+    u = units if units in UNITS else op.ask("units (in, mm, cm, m)", _one_of(UNITS), "in")
+    if intrinsics is None:
+        f = focal if focal and focal > 0 else op.ask("focal parameter, px", _positive, "525")
+        cx, cy = principal or op.ask("principal point cx, cy (px)", _pair, "320, 240")
+        intrinsics = Intrinsics(size[0], size[1], f, f, cx, cy)
+    h = None
+    if m == "ground":
+        h = ground_height if ground_height and ground_height > 0 else None
+        h = h or op.ask(f"ground height: camera centre to table ({u})", _positive)
+    n_truth = 2 if m == "line" else 1
+    given = list(ground_truth)
+    while len(given) < n_truth:
+        given.append(
+            op.ask(
+                f"ground truth point {len(given) + 1} x, y, z ({u})",
+                lambda s: parse_vector(s, u, what="ground truth"),
+            )
+        )
+    who = operator if operator is not None else op.ask("operator", str, "")
+    method_ = cast("Method", m)  # one of METHODS: checked when it was read
+    return Setup(method_, u, intrinsics, h, tuple(given[:n_truth]), who)
+
+
+# --------------------------------------------------------------------------- the procedure
+
+
+def _yes_no(text: str) -> bool:
+    if text.lower() in ("y", "yes", ""):
+        return True
+    if text.lower() in ("n", "no"):
+        return False
+    raise InputValueError("answer y or n")
+
+
+def _choice(text: str) -> Decision:
+    c = (text or "a")[0].lower()
+    if c not in "arunq":
+        raise InputValueError("answer a (accept), r (redo), u (undo), n (note) or q (quit)")
+    return Decision(c)
+
+
+class _OperatorDriver(Driver):
+    """The operator decides: poses typed, each capture accepted, redone or undone."""
+
+    def __init__(
+        self,
+        op: Operator,
+        info: SessionInfo,
+        camera: Camera,
+        ground_truth: tuple[Vec3, ...],
+        poses_per_trial: int,
+        translation_resolution: float,
+        rotation_resolution_deg: float,
+    ) -> None:
+        self.op, self.info, self.camera = op, info, camera
+        self.ground_truth = ground_truth
+        self.poses_per_trial = poses_per_trial
+        self.resolution = (translation_resolution, rotation_resolution_deg)
+
+    def start(self, source: SourceInfo, path: Path) -> None:
+        self.op.say(
+            f"recording {path} from {source.description} "
+            f"({source.width}x{source.height} at {source.fps:g} fps)"
+        )
+
+    def next_trial(self, trial: int) -> bool:
+        return trial == 1 or bool(self.op.ask("another trial? [Y/n]", _yes_no, "y"))
+
+    def trial_entries(self, trial: int) -> Sequence[TypedEntry]:
+        self.op.say(f"trial {trial}")
+        if not self.ground_truth:
+            return ()
+        kind: TruthKind = "line" if self.info.method == "line" else "point"
+        return (GroundTruth(trial, kind, self.ground_truth),)
+
+    def place(self, trial: int, pose: int) -> Placement:
+        units = self.info.units
+        t = self.op.ask(
+            f"pose {pose} camera centre x, y, z ({units})", lambda s: parse_vector(s, units)
+        )
+        r = self.op.ask(
+            "rotation rx, ry, rz (deg)",
+            lambda s: parse_vector(s, units, what="rotation", limit=180.0),
+            "0, 0, 0",
+        )
+        return Placement(PoseEntry(trial, pose, self.camera.camera_id, t, r, *self.resolution))
+
+    def captured(self, trial: int, pose: int, result: CaptureResult) -> None:
+        state = "complete" if result.complete else f"INCOMPLETE ({result.reason})"
+        self.op.say(
+            f"pose {pose}: {result.n_frames} frames, {result.n_found} detected, {state}, "
+            f"{result.dropped} dropped"
+        )
+
+    def decide(self, trial: int, pose: int, result: CaptureResult) -> Decision:
+        return cast(
+            "Decision",
+            self.op.ask("[a]ccept, [r]edo, [u]ndo previous, [n]ote, [q]uit", _choice, "a"),
+        )
+
+    def note(self, trial: int) -> Note:
+        return Note(self.op.ask("note", str), trial)
+
+    def finish(self, summary: RecordingSummary) -> None:
+        self.op.say(
+            f"finished: {summary.n_trials} trial(s), {summary.n_captures} capture(s) "
+            f"({summary.n_incomplete} incomplete), {summary.n_frames} frames, "
+            f"{summary.n_found} detected, {summary.dropped} dropped"
+        )
+
+
+def record_interactive(
+    out: str | Path,
+    source: FrameSource,
+    operator: Operator,
+    *,
+    info: SessionInfo,
+    camera: Camera,
+    ground: GroundPlane | None,
+    ground_truth: tuple[Vec3, ...],
+    frames: int = 5,
+    poses_per_trial: int = 2,
+    translation_resolution: float = 0.0625,
+    rotation_resolution_deg: float = 0.5,
+    live: LiveView | None = None,
+) -> RecordingSummary:
+    """The guided procedure: trial after trial, type each pose, capture, accept or redo.
+
+    After each capture the operator answers ``a`` (accept), ``r`` (redo this pose), ``u``
+    (undo: redo the previous pose), ``n`` (add a note) or ``q`` (finish the session). After
+    each trial: another trial (``y``) or finish (``n``). Ctrl-C closes the file cleanly.
+    """
+    driver = _OperatorDriver(
+        operator,
+        info,
+        camera,
+        ground_truth,
+        poses_per_trial,
+        translation_resolution,
+        rotation_resolution_deg,
+    )
+    return record(
+        out,
+        info,
+        [camera],
+        source,
+        driver,
+        ground=ground,
+        frames=frames,
+        target="dot" if info.method == "point" else "glove",
+        live=live,
+        on_frame=lambda fb: operator.say(fb.line()),
+    )

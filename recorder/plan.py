@@ -1,0 +1,243 @@
+"""Plan files: a whole session to record unattended (scripted rigs, tests).
+
+:func:`load_plan` reads and checks a plan (TOML, see the README); :func:`record_plan` runs
+it through the one procedure loop (:func:`recorder.procedure.record`).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from recorder.procedure import (
+    CaptureResult,
+    Decision,
+    Driver,
+    FrameFeedback,
+    Placement,
+    RecordingSummary,
+    record,
+)
+from recorder.sources import FrameSource
+from twopose.camera import Camera, Intrinsics
+from twopose.config import read_toml
+from twopose.errors import InputValueError, SourceError
+from twopose.format.entries import (
+    METHODS,
+    UNITS,
+    GroundPlane,
+    GroundTruth,
+    Method,
+    PoseEntry,
+    SessionInfo,
+    TruthKind,
+    TypedEntry,
+)
+from twopose.values import Vec3, numbers, vec3
+
+if TYPE_CHECKING:
+    from recorder.live import LiveView
+
+__all__ = ["MAX_TRANSLATION", "Plan", "PlannedPose", "PlannedTrial", "load_plan", "record_plan"]
+
+#: Plausible magnitude of a typed translation (session units); beyond it, a typo is likelier.
+MAX_TRANSLATION = {"in": 200.0, "mm": 5000.0, "cm": 500.0, "m": 5.0}
+
+
+@dataclass(frozen=True)
+class PlannedPose:
+    t_grid: Vec3
+    r_deg: Vec3 = (0.0, 0.0, 0.0)
+    camera_id: str = "cam0"
+
+
+@dataclass(frozen=True)
+class PlannedTrial:
+    poses: tuple[PlannedPose, ...]
+    ground_truth: tuple[Vec3, ...] = ()
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A whole session to record unattended (scripted rigs, tests)."""
+
+    method: Method
+    units: str
+    cameras: tuple[Camera, ...]
+    trials: tuple[PlannedTrial, ...]
+    frames: int = 5
+    ground_height: float | None = None
+    operator: str = ""
+    notes: str = ""
+    translation_resolution: float = 0.0625
+    rotation_resolution_deg: float = 0.5
+
+
+def _vec(value: Any, where: str) -> Vec3:
+    return vec3(value, f"plan: {where}")
+
+
+def _camera(table: Any) -> Camera:
+    """``[camera]``: ``calibration = FILE``, or ``focal`` (or ``fx``/``fy``), ``principal =
+    [cx, cy]`` (or ``cx``/``cy``), ``width``, ``height``, ``distortion``; and ``id``."""
+    if not isinstance(table, dict):
+        raise InputValueError("plan: [camera] must be a table")
+    camera_id = str(table.get("id", "cam0"))
+    if "calibration" in table:  # a file from `twopose-record calibrate`
+        from recorder.calibrate import load_calibration
+
+        return Camera(camera_id, load_calibration(str(table["calibration"])))
+    focal = table.get("focal", 525.0)
+    cx, cy = numbers(table.get("principal", [320.0, 240.0]), 2, "plan: camera.principal")
+    values = {"width": 640, "height": 480, "fx": focal, "cx": cx, "cy": cy} | table
+    values.setdefault("fy", values["fx"])
+    return Camera(camera_id, Intrinsics.from_dict(values, "plan: [camera]"))
+
+
+def load_plan(path: str | Path) -> Plan:
+    """Read and check a plan file (TOML); every error names the offending key."""
+    data = read_toml(path, "plan", InputValueError)
+    method = data.get("method")
+    if method not in METHODS:
+        raise InputValueError(f"plan: method must be one of {', '.join(METHODS)}, got {method!r}")
+    units = data.get("units", "in")
+    if units not in UNITS:
+        raise InputValueError(f"plan: units must be one of {', '.join(UNITS)}, got {units!r}")
+    cameras_data = data.get("cameras") or [data.get("camera", {})]
+    cameras = tuple(_camera(c) for c in cameras_data)
+    frames = data.get("frames", 5)
+    if isinstance(frames, bool) or not isinstance(frames, int) or frames < 1:
+        raise InputValueError(f"plan: frames must be a whole number >= 1, got {frames!r}")
+    ground = data.get("ground_height")
+    if method == "ground" and ground is None:
+        raise InputValueError("plan: a ground session needs ground_height (camera centre to table)")
+    trials = []
+    limit = MAX_TRANSLATION[units]
+    for i, t in enumerate(data.get("trials", []), start=1):
+        poses = []
+        for j, p in enumerate(t.get("poses", []), start=1):
+            where = f"trials[{i}].poses[{j}]"
+            tg = _vec(p.get("t"), f"{where}.t")
+            if max(abs(v) for v in tg) > limit:
+                raise InputValueError(f"plan: {where}.t = {tg} is implausibly large for {units}")
+            poses.append(
+                PlannedPose(
+                    tg,
+                    _vec(p.get("r_deg", [0, 0, 0]), f"{where}.r_deg"),
+                    str(p.get("camera", cameras[0].camera_id)),
+                )
+            )
+        if len(poses) < 2:
+            raise InputValueError(f"plan: trials[{i}] needs at least 2 poses, got {len(poses)}")
+        gt = tuple(_vec(g, f"trials[{i}].ground_truth") for g in t.get("ground_truth", []))
+        trials.append(PlannedTrial(tuple(poses), gt))
+    if not trials:
+        raise InputValueError("plan: no [[trials]]")
+    res = data.get("resolution", {})
+    return Plan(
+        method=method,
+        units=units,
+        cameras=cameras,
+        trials=tuple(trials),
+        frames=frames,
+        ground_height=float(ground) if ground is not None else None,
+        operator=str(data.get("operator", "")),
+        notes=str(data.get("notes", "")),
+        translation_resolution=float(res.get("translation", 0.0625)),
+        rotation_resolution_deg=float(res.get("rotation_deg", 0.5)),
+    )
+
+
+class _PlanDriver(Driver):
+    """Every planned pose, accepted; a failed capture ends the recording with an error."""
+
+    def __init__(
+        self,
+        plan: Plan,
+        on_capture: Callable[[int, int, CaptureResult], None] | None,
+    ) -> None:
+        self.plan = plan
+        self.on_capture = on_capture
+        self.path = Path()
+
+    def start(self, source: object, path: Path) -> None:
+        self.path = path
+
+    def next_trial(self, trial: int) -> bool:
+        return trial <= len(self.plan.trials)
+
+    def trial_entries(self, trial: int) -> Sequence[TypedEntry]:
+        truth = self.plan.trials[trial - 1].ground_truth
+        if not truth:
+            return ()
+        kind: TruthKind = "line" if self.plan.method == "line" else "point"
+        return (GroundTruth(trial, kind, truth),)
+
+    def poses_in(self, trial: int) -> int:
+        return len(self.plan.trials[trial - 1].poses)
+
+    def place(self, trial: int, pose: int) -> Placement:
+        p = self.plan.trials[trial - 1].poses[pose - 1]
+        return Placement(
+            PoseEntry(
+                trial,
+                pose,
+                p.camera_id,
+                p.t_grid,
+                p.r_deg,
+                self.plan.translation_resolution,
+                self.plan.rotation_resolution_deg,
+            )
+        )
+
+    def captured(self, trial: int, pose: int, result: CaptureResult) -> None:
+        if self.on_capture is not None:
+            self.on_capture(trial, pose, result)
+
+    def decide(self, trial: int, pose: int, result: CaptureResult) -> Decision:
+        if not result.complete:
+            raise SourceError(
+                f"trial {trial} pose {pose}: {result.reason}; the session so far is saved "
+                f"in {self.path}"
+            )
+        return Decision.ACCEPT
+
+
+def record_plan(
+    plan: Plan,
+    out: str | Path,
+    source: FrameSource,
+    *,
+    on_frame: Callable[[FrameFeedback], None] | None = None,
+    on_capture: Callable[[int, int, CaptureResult], None] | None = None,
+    live: LiveView | None = None,
+) -> RecordingSummary:
+    """Record ``plan`` into the new session ``out`` from an (unopened) ``source``.
+
+    A capture that fails is kept (incomplete) and the recording stops there with a
+    :class:`SourceError`; everything written before it is in the file, which is closed.
+    """
+    info = SessionInfo(
+        method=plan.method,
+        units=plan.units,
+        camera_ids=tuple(c.camera_id for c in plan.cameras),
+        operator=plan.operator,
+        notes=plan.notes,
+        created_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+    )
+    ground = GroundPlane(offset=plan.ground_height) if plan.ground_height is not None else None
+    return record(
+        out,
+        info,
+        plan.cameras,
+        source,
+        _PlanDriver(plan, on_capture),
+        ground=ground,
+        frames=plan.frames,
+        target="dot" if plan.method == "point" else "glove",
+        live=live,
+        on_frame=on_frame,
+    )

@@ -1,0 +1,168 @@
+"""plan: plan files, checked and recorded unattended."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from analysis.pipeline import analyse_session
+from recorder.cli import app
+from recorder.plan import load_plan, record_plan
+from recorder.sources import SyntheticSource
+from tests.helpers import write_video
+from twopose.errors import EXIT_ERROR, InputValueError
+from twopose.format.entries import CaptureWindow
+from twopose.format.reader import SessionReader
+
+runner = CliRunner()
+
+
+PLAN = """
+method = "ground"
+units = "in"
+operator = "Ada"
+frames = 3
+ground_height = 9.625
+
+[camera]
+focal = 525.0
+principal = [320.0, 240.0]
+
+[[trials]]
+ground_truth = [[1.91, 9.625, 8.375]]
+poses = [{ t = [0.0, 0.0, 0.0] }, { t = [1.5, 0.0, -1.0] }]
+
+[[trials]]
+ground_truth = [[1.91, 9.625, 8.375]]
+poses = [{ t = [-1.0, 0.0, 0.0] }, { t = [1.0, 0.0, 0.5], r_deg = [0.0, 0.0, 0.0] }]
+"""
+
+
+def test_plan_mode_records_a_session_analysis_reads(tmp_path: Path) -> None:
+    plan = tmp_path / "plan.toml"
+    plan.write_text(PLAN)
+    out = tmp_path / "s.mcap"
+    result = runner.invoke(app, ["new", str(out), "--plan", str(plan), "--source", "synthetic"])
+    assert result.exit_code == 0, result.output
+    assert "trial 2 pose 2: 3 frames, 3 detected, complete" in result.output
+    assert "found at (" in result.output
+    trials = analyse_session(out).trials
+    assert list(trials["status"]) == ["ok", "ok"]
+    # Typed poses are exact here, so only detection error remains (method 2 extrapolates).
+    assert trials["err"].max() < 0.5
+
+
+def test_plan_mode_with_a_source_that_runs_out(tmp_path: Path) -> None:
+    plan = tmp_path / "plan.toml"
+    plan.write_text(PLAN)
+    out = tmp_path / "s.mcap"
+    video = write_video(tmp_path / "v.avi", 4)
+    result = runner.invoke(
+        app, ["new", str(out), "--plan", str(plan), "--source", f"video:{video}"]
+    )
+    assert result.exit_code == EXIT_ERROR
+    assert "trial 1 pose 2" in result.output
+    assert "saved in" in result.output
+    with SessionReader(out) as r:
+        windows = [e for e in r.iter_entries() if isinstance(e, CaptureWindow)]
+    assert [(w.pose, w.status) for w in windows] == [(1, "complete"), (2, "incomplete")]
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ('method = "laser"\n', "method"),
+        ('method = "point"\nunits = "furlong"\n', "units"),
+        ('method = "ground"\n[[trials]]\nposes = [{t=[0,0,0]},{t=[1,0,0]}]\n', "ground_height"),
+        ('method = "point"\n[[trials]]\nposes = [{t=[0,0,0]}]\n', "at least 2 poses"),
+        ('method = "point"\n[[trials]]\nposes = [{t=[0,0]},{t=[1,0,0]}]\n', "poses[1].t"),
+        ('method = "point"\n[[trials]]\nposes = [{t=[0,0,"a"]},{t=[1,0,0]}]\n', "finite numbers"),
+        (
+            'method = "point"\n[[trials]]\nposes = [{t=[0,0,0]},{t=[9000,0,0]}]\n',
+            "implausibly large",
+        ),
+        ('method = "point"\nframes = 0\n', "frames"),
+        ('method = "point"\n', "no [[trials]]"),
+        (
+            'method = "point"\n[camera]\nfocal = "big"\n'
+            "[[trials]]\nposes = [{t=[0,0,0]},{t=[1,0,0]}]\n",
+            "camera.focal",
+        ),
+        ("method = [", "not valid TOML"),
+    ],
+)
+def test_bad_plans_name_the_problem(tmp_path: Path, text: str, message: str) -> None:
+    plan = tmp_path / "plan.toml"
+    plan.write_text(text)
+    with pytest.raises(InputValueError, match=re.escape(message)):
+        load_plan(plan)
+
+
+def test_record_plan_python_api(tmp_path: Path) -> None:
+    plan_file = tmp_path / "plan.toml"
+    plan_file.write_text(PLAN.replace("frames = 3", "frames = 2"))
+    plan = load_plan(plan_file)
+    assert plan.cameras[0].intrinsics.fx == 525.0
+    seen: list[str] = []
+    summary = record_plan(
+        plan,
+        tmp_path / "s.mcap",
+        SyntheticSource(None, "ground", realtime=False),
+        on_frame=lambda f: seen.append(f.line()),
+    )
+    assert (summary.n_trials, summary.n_captures, summary.n_frames, summary.n_incomplete) == (
+        2,
+        4,
+        8,
+        0,
+    )
+    assert len(seen) == 8
+
+
+def test_ctrl_c_during_new_closes_the_session(tmp_path: Path) -> None:
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    plan = tmp_path / "plan.toml"
+    plan.write_text(PLAN.replace("frames = 3", "frames = 200"))
+    out = tmp_path / "s.mcap"
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "recorder",
+            "new",
+            str(out),
+            "--plan",
+            str(plan),
+            "--source",
+            "synthetic",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+        # A job started in the background by a non-interactive shell inherits SIGINT
+        # ignored, and Python then never turns it into KeyboardInterrupt: restore it.
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
+    assert proc.stdout is not None
+    for line in proc.stdout:  # the first capture is complete; the second is under way
+        if line.startswith("trial 1 pose 1:"):
+            break
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130
+    assert "interrupted" in err
+    with SessionReader(out) as r:  # closed cleanly: no recover needed
+        windows = [e for e in r.iter_entries() if isinstance(e, CaptureWindow)]
+    # The interrupt lands during pose 2's capture (kept, incomplete) or just before it.
+    assert windows[0].status == "complete"
+    assert len(windows) <= 2
+    assert all(w.status == "incomplete" and "KeyboardInterrupt" in w.reason for w in windows[1:])

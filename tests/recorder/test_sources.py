@@ -1,0 +1,128 @@
+"""sources: camera, video, images and synthetic frame sources."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from recorder.procedure import capture_pose
+from recorder.sources import ImagesSource, SourceError, SyntheticSource, VideoSource, open_source
+from tests.helpers import write_video
+from twopose.camera import Camera, Intrinsics
+from twopose.format.entries import CaptureWindow, PoseEntry, SessionInfo
+from twopose.format.reader import SessionReader
+from twopose.format.writer import SessionWriter
+
+
+def test_video_source_reads_in_order_then_says_it_ended(tmp_path: Path) -> None:
+    with VideoSource(write_video(tmp_path / "v.avi", 4)) as src:
+        assert (src.info.width, src.info.height) == (64, 48)
+        means = [src.read().mean() for _ in range(4)]
+        assert means == sorted(means)
+        with pytest.raises(SourceError, match="no more frames"):
+            src.read()
+
+
+def test_images_source(tmp_path: Path) -> None:
+    for i in range(3):
+        cv2.imwrite(str(tmp_path / f"{i:02d}.png"), np.full((10, 20, 3), i * 50, np.uint8))
+    (tmp_path / "notes.txt").write_text("ignored")
+    with ImagesSource(tmp_path) as src:
+        assert (src.info.width, src.info.height) == (20, 10)
+        assert [int(src.read()[0, 0, 0]) for _ in range(3)] == [0, 50, 100]
+        with pytest.raises(SourceError, match="no more images"):
+            src.read()
+
+
+def test_synthetic_source_renders_the_typed_pose() -> None:
+    with SyntheticSource(None, "point", realtime=False) as src:
+        src.set_pose((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        a = src.read()
+        src.set_pose((1.5, 0.0, 0.0), (0.0, 0.0, 0.0))
+        b = src.read()
+    from twopose.detect import detect_dot
+
+    da, db = detect_dot(a), detect_dot(b)
+    assert da.found
+    assert db.found
+    # Moving the camera +1.5 in along x moves the dot left by f * 1.5 / z = 525 * 1.5 / 11 px.
+    assert da.centroid_px[0] - db.centroid_px[0] == pytest.approx(525 * 1.5 / 11.0, abs=0.3)
+
+
+@pytest.mark.parametrize(
+    ("spec", "message"),
+    [
+        ("camera:99", "did not open"),
+        ("camera:x", "must be a number"),
+        ("video:/nonexistent.avi", "does not exist"),
+        ("images:/nonexistent", "does not exist"),
+        ("webcam", "unknown source"),
+    ],
+)
+def test_bad_sources_say_what_is_wrong(spec: str, message: str) -> None:
+    with pytest.raises(SourceError, match=message):
+        open_source(spec).open()
+
+
+def test_a_late_reader_of_a_paced_source_drops_frames_and_they_are_counted(tmp_path: Path) -> None:
+    import time
+
+    out = tmp_path / "s.mcap"
+    cam = Camera("cam0", Intrinsics(640, 480, 525.0, 525.0, 320.0, 240.0))
+    with (
+        SyntheticSource(None, "point") as src,
+        SessionWriter(out, SessionInfo(method="point", units="in"), [cam]) as w,
+    ):
+        src.read()
+        time.sleep(0.2)  # six frame intervals at 30 fps
+        src.read()  # a camera would have moved on meanwhile
+        assert src.dropped >= 4
+        before = src.dropped
+        result = capture_pose(
+            w,
+            src,
+            PoseEntry(1, 1, "cam0", (0.0, 0.0, 0.0)),
+            3,
+            target="dot",
+            on_frame=lambda fb: time.sleep(0.1),  # a slow consumer: ~3 intervals a frame
+        )
+    assert result.dropped >= 4
+    assert src.dropped - before == result.dropped
+    assert len(result.overhead_s) == 3
+    with SessionReader(out) as r:
+        (window,) = [e for e in r.iter_entries() if isinstance(e, CaptureWindow)]
+    assert window.dropped_frames == result.dropped
+
+
+def test_a_paced_video_skips_the_frames_a_late_reader_missed(tmp_path: Path) -> None:
+    import time
+
+    with VideoSource(write_video(tmp_path / "v.avi", 30, step=8), realtime=True) as src:
+        first = src.read().mean()
+        time.sleep(0.12)  # ~3.6 frame intervals at 30 fps
+        second = src.read().mean()
+    assert src.dropped >= 2
+    assert second - first == pytest.approx(8 * (src.dropped + 1), abs=3)
+
+
+def test_camera_source_reports_a_device_that_stops_delivering(tmp_path: Path) -> None:
+    """The capture thread's end-of-stream path, driven by a real capture that runs dry."""
+    from recorder.sources import CameraSource
+
+    with CameraSource(str(write_video(tmp_path / "v.avi", 3))) as cam:
+        # A file delivers faster than a camera: the grabber keeps the newest frames, as it
+        # does for a camera, so how many arrive depends on timing; none is lost uncounted.
+        frames: list[np.ndarray] = []
+
+        def drain() -> None:
+            for _ in range(4):
+                frames.append(cam.read(timeout_s=2.0))
+
+        with pytest.raises(SourceError, match="stopped delivering"):
+            drain()
+        assert frames
+        assert all(f.shape == (48, 64, 3) for f in frames)
+        assert len(frames) + cam.dropped == 3

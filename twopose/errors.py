@@ -1,0 +1,79 @@
+"""The twopose exception hierarchy, the exit codes, and the one place that maps one to the other.
+
+Every error a user can cause (a bad file, a bad typed value, a bad scene, a camera that
+stops) is a :class:`TwoposeError` whose message says what went wrong and what to do about
+it. Library code only raises; :func:`handle_errors`, used by both command lines, alone
+turns these into messages and exit codes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+__all__ = [
+    "EXIT_ERROR",
+    "EXIT_INTERRUPTED",
+    "EXIT_OK",
+    "EXIT_SOME_INPUTS_FAILED",
+    "EXIT_USAGE",
+    "InputValueError",
+    "SceneError",
+    "SessionExistsError",
+    "SessionFormatError",
+    "SessionVersionError",
+    "SourceError",
+    "TwoposeError",
+    "handle_errors",
+]
+
+
+class TwoposeError(Exception):
+    """Base class of every error twopose raises on purpose."""
+
+
+class SessionFormatError(TwoposeError):
+    """A session file is unreadable, corrupt, truncated or not a twopose session."""
+
+
+class SessionVersionError(SessionFormatError):
+    """A session file was written by a newer, incompatible format version."""
+
+
+class SessionExistsError(TwoposeError):
+    """Refusing to overwrite an existing session file."""
+
+
+class SceneError(TwoposeError):
+    """A simulator scene file has an unknown key, a wrong type or an impossible value."""
+
+
+class InputValueError(TwoposeError):
+    """A typed or requested value is malformed, non-finite or implausible."""
+
+
+class SourceError(TwoposeError):
+    """A frame source failed to open, stopped delivering frames, or timed out."""
+
+
+#: Exit codes of the command-line tools (documented in the README).
+EXIT_OK = 0
+EXIT_SOME_INPUTS_FAILED = 1
+EXIT_USAGE = 2  # click/typer's own code for a malformed command line
+EXIT_ERROR = 3
+EXIT_INTERRUPTED = 130
+
+
+@contextmanager
+def handle_errors() -> Iterator[None]:
+    """Turn twopose errors into a one-line message and an exit code (the CLIs' only place)."""
+    import typer  # only the command lines need it
+
+    try:
+        yield
+    except TwoposeError as err:
+        typer.secho(f"error: {err}", err=True, fg=typer.colors.RED)
+        raise typer.Exit(EXIT_ERROR) from None
+    except KeyboardInterrupt:
+        typer.secho("interrupted", err=True)
+        raise typer.Exit(EXIT_INTERRUPTED) from None

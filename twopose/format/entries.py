@@ -1,0 +1,496 @@
+"""The typed entries of a session: frozen dataclasses, each field declared once.
+
+Every JSON-encoded entry is a frozen dataclass whose fields carry their JSON name and
+JSON Schema (:func:`json_field`); the entry's JSON Schema (written into every file), its
+encoding and its decoding are all derived from that one declaration, in declaration
+order, so the three can never disagree. A dotted JSON name (``resolution.translation``)
+nests a field inside a JSON object.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from collections.abc import Callable
+from dataclasses import MISSING, dataclass
+from typing import Any, ClassVar, Literal, Self, TypeVar
+
+import numpy as np
+from numpy.typing import NDArray
+
+from twopose.camera import rotation_from_angles_deg
+from twopose.errors import InputValueError, SessionFormatError
+from twopose.values import CAMERA_ID_PATTERN, Vec3, camera_id, finite, index, vec3
+
+__all__ = [
+    "FORMAT_MAJOR",
+    "FORMAT_VERSION",
+    "METHODS",
+    "TYPED_ENTRIES",
+    "UNITS",
+    "CaptureWindow",
+    "GroundPlane",
+    "GroundTruth",
+    "Method",
+    "Note",
+    "PoseEntry",
+    "SessionInfo",
+    "SimulationTruth",
+    "TruePose",
+    "TruthKind",
+    "TypedEntry",
+    "decode_entry",
+    "encode_entry",
+    "json_field",
+]
+
+FORMAT_VERSION = "1.0"
+FORMAT_MAJOR = 1
+
+Method = Literal["point", "line", "ground"]
+METHODS: tuple[Method, ...] = ("point", "line", "ground")
+UNITS = ("in", "mm", "cm", "m")
+TruthKind = Literal["point", "line"]
+CaptureStatus = Literal["complete", "incomplete"]
+
+# --------------------------------------------------------------------------- declaration
+
+
+def json_field(
+    key: str,
+    schema: dict[str, Any],
+    *,
+    required: bool = True,
+    default: Any = MISSING,
+    decode: Callable[[Any], Any] | None = None,
+) -> Any:
+    """A dataclass field with its JSON name (dots nest), its JSON Schema, whether the
+    schema requires it, and how a JSON value becomes the attribute (``decode``)."""
+    meta = {"json": key, "schema": schema, "required": required, "decode": decode}
+    return dataclasses.field(default=default, metadata=meta)
+
+
+def _json_fields(cls: type[Any]) -> list[dataclasses.Field[Any]]:
+    return [f for f in dataclasses.fields(cls) if "json" in f.metadata]
+
+
+def object_schema(cls: type[Any]) -> dict[str, Any]:
+    """``{"type": "object", "properties": ..., "required": ...}`` of a declared class."""
+    props: dict[str, Any] = {}
+    required: dict[str, list[str]] = {"": []}
+    for f in _json_fields(cls):
+        *parents, leaf = f.metadata["json"].split(".")
+        target, where = props, ""
+        for name in parents:  # a nested object, created where its first field is declared
+            if name not in target:
+                target[name] = {"type": "object", "properties": {}, "required": []}
+                required[where + name] = target[name]["required"]
+            if f.metadata["required"] and name not in required[where]:
+                required[where].append(name)
+            where += name + "."
+            target = target[name]["properties"]
+        target[leaf] = f.metadata["schema"]
+        if f.metadata["required"]:
+            required[where.rstrip(".")].append(leaf)
+    return {"type": "object", "properties": props, "required": required[""]}
+
+
+def _encode(value: Any) -> Any:
+    if isinstance(value, tuple | list):
+        return [_encode(v) for v in value]
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return to_json(value)
+    return value
+
+
+def to_json(obj: Any) -> dict[str, Any]:
+    """The JSON object of a declared dataclass instance, keys in declaration order."""
+    out: dict[str, Any] = {}
+    for f in _json_fields(type(obj)):
+        *parents, leaf = f.metadata["json"].split(".")
+        target = out
+        for name in parents:
+            target = target.setdefault(name, {})
+        target[leaf] = _encode(getattr(obj, f.name))
+    return out
+
+
+T = TypeVar("T")
+
+
+def from_json(cls: type[T], data: dict[str, Any]) -> T:
+    """Build a declared dataclass from its (schema-valid) JSON object; absent optional
+    fields take their defaults, unknown fields are ignored (a newer minor may add some)."""
+    kwargs: dict[str, Any] = {}
+    for f in _json_fields(cls):
+        value: Any = data
+        for name in f.metadata["json"].split("."):
+            if not isinstance(value, dict) or name not in value:
+                break
+            value = value[name]
+        else:
+            decode = f.metadata["decode"]
+            kwargs[f.name] = decode(value) if decode is not None else value
+    return cls(**kwargs)
+
+
+class TypedEntry:
+    """Base of the JSON-encoded typed entries (frozen dataclasses made with :func:`entry`)."""
+
+    TOPIC: ClassVar[str]
+    SCHEMA_NAME: ClassVar[str]
+    JSON_SCHEMA: ClassVar[dict[str, Any]]
+
+    def to_json(self) -> dict[str, Any]:
+        return to_json(self)
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> Self:
+        return from_json(cls, data)
+
+
+E = TypeVar("E", bound=type[TypedEntry])
+
+
+def entry(topic: str, name: str, description: str) -> Callable[[E], E]:
+    """Class decorator (over ``@dataclass``): the topic, schema name and JSON Schema."""
+
+    def decorate(cls: E) -> E:
+        cls.TOPIC = topic
+        cls.SCHEMA_NAME = f"twopose.{name}"
+        body = object_schema(cls)
+        cls.JSON_SCHEMA = {
+            "$schema": "https://json-schema.org/draft/2020-12/schema",
+            "$id": f"twopose.{name}",
+            "title": f"twopose.{name}",
+            "description": description,
+            **body,
+        }
+        return cls
+
+    return decorate
+
+
+def _vec3_schema(description: str) -> dict[str, Any]:
+    return {
+        "type": "array",
+        "items": {"type": "number"},
+        "minItems": 3,
+        "maxItems": 3,
+        "description": description,
+    }
+
+
+_INDEX_SCHEMA = {"type": "integer", "minimum": 0}
+_CAMERA_SCHEMA = {"type": "string", "pattern": CAMERA_ID_PATTERN}
+_POINTS_SCHEMA = {"enum": ["point", "line"]}
+
+# --------------------------------------------------------------------------- the entries
+
+
+@entry("/twopose/session", "Session", "One per file, first typed entry: what this session is.")
+@dataclass(frozen=True, kw_only=True)
+class SessionInfo(TypedEntry):
+    """What the session is: method, units, who recorded it, which cameras."""
+
+    format_version: str = json_field(
+        "format_version", {"type": "string", "pattern": r"^\d+\.\d+$"}, default=FORMAT_VERSION
+    )
+    software_version: str = json_field(
+        "software_version", {"type": "string"}, required=False, default=""
+    )
+    method: Method = json_field("method", {"enum": list(METHODS)})
+    units: str = json_field("units", {"enum": list(UNITS)})
+    camera_ids: tuple[str, ...] = json_field(
+        "camera_ids",
+        {"type": "array", "items": _CAMERA_SCHEMA, "minItems": 1, "uniqueItems": True},
+        default=("cam0",),
+        decode=tuple,
+    )
+    operator: str = json_field("operator", {"type": "string"}, required=False, default="")
+    notes: str = json_field("notes", {"type": "string"}, required=False, default="")
+    created_utc: str = json_field(
+        "created_utc",
+        {"type": "string", "description": "ISO 8601, UTC; may be empty"},
+        required=False,
+        default="",
+    )
+    simulated: bool = json_field("simulated", {"type": "boolean"}, required=False, default=False)
+
+    def __post_init__(self) -> None:
+        if self.method not in METHODS:
+            raise InputValueError(
+                f"method must be one of {', '.join(METHODS)}, got {self.method!r}"
+            )
+        if self.units not in UNITS:
+            raise InputValueError(f"units must be one of {', '.join(UNITS)}, got {self.units!r}")
+        if not self.camera_ids:
+            raise InputValueError("a session needs at least one camera")
+        for cid in self.camera_ids:
+            camera_id(cid)
+        if len(set(self.camera_ids)) != len(self.camera_ids):
+            raise InputValueError(f"camera ids must be unique, got {self.camera_ids}")
+
+
+@entry(
+    "/twopose/pose",
+    "PoseEntry",
+    "A typed camera pose: camera centre in the grid frame and R = Rx Ry Rz (camera -> grid).",
+)
+@dataclass(frozen=True)
+class PoseEntry(TypedEntry):
+    """A typed pose: camera centre ``t_grid`` (session units) and angles ``r_deg`` (degrees).
+
+    ``R_cam_to_grid = Rx(rx) Ry(ry) Rz(rz)``; ``p_grid = R_cam_to_grid p_cam + t_grid``.
+    The resolutions are the 1-sigma uncertainty of each typed component (what the operator
+    can place and measure to with tape and protractor); they are the pose part of every
+    estimate's uncertainty.
+    """
+
+    trial: int = json_field("trial", _INDEX_SCHEMA)
+    pose: int = json_field("pose", _INDEX_SCHEMA)
+    camera_id: str = json_field("camera", _CAMERA_SCHEMA)
+    t_grid: Vec3 = json_field(
+        "translation", _vec3_schema("camera centre in the grid frame, session units")
+    )
+    r_deg: Vec3 = json_field(
+        "rotation_deg",
+        _vec3_schema("(rx, ry, rz) in degrees, R = Rx(rx) Ry(ry) Rz(rz)"),
+        default=(0.0, 0.0, 0.0),
+    )
+    translation_resolution: float = json_field(
+        "resolution.translation", {"type": "number", "exclusiveMinimum": 0}, default=0.0625
+    )
+    rotation_resolution_deg: float = json_field(
+        "resolution.rotation_deg", {"type": "number", "exclusiveMinimum": 0}, default=0.5
+    )
+
+    def __post_init__(self) -> None:
+        index(self.trial, "trial")
+        index(self.pose, "pose")
+        camera_id(self.camera_id)
+        object.__setattr__(self, "t_grid", vec3(self.t_grid, "translation"))
+        object.__setattr__(self, "r_deg", vec3(self.r_deg, "rotation"))
+        finite(self.translation_resolution, "translation resolution", positive=True)
+        finite(self.rotation_resolution_deg, "rotation resolution", positive=True)
+
+    @property
+    def R_cam_to_grid(self) -> NDArray[np.float64]:
+        return rotation_from_angles_deg(self.r_deg)
+
+
+@entry(
+    "/twopose/capture",
+    "CaptureWindow",
+    "The frames of one capture: the camera's images with start_ns <= log_time <= end_ns.",
+)
+@dataclass(frozen=True)
+class CaptureWindow(TypedEntry):
+    """Which frames belong to which trial and pose.
+
+    The frames of a capture are the messages on the camera's image topic with
+    ``start_ns <= log_time <= end_ns``; written after the last frame of the capture.
+    """
+
+    trial: int = json_field("trial", _INDEX_SCHEMA)
+    pose: int = json_field("pose", _INDEX_SCHEMA)
+    camera_id: str = json_field("camera", _CAMERA_SCHEMA)
+    start_ns: int = json_field("start_ns", _INDEX_SCHEMA)
+    end_ns: int = json_field("end_ns", _INDEX_SCHEMA)
+    n_frames: int = json_field("n_frames", _INDEX_SCHEMA)
+    status: CaptureStatus = json_field(
+        "status", {"enum": ["complete", "incomplete"]}, default="complete"
+    )
+    reason: str = json_field("reason", {"type": "string"}, required=False, default="")
+    dropped_frames: int = json_field("dropped_frames", _INDEX_SCHEMA, required=False, default=0)
+
+    def __post_init__(self) -> None:
+        for name in ("trial", "pose", "start_ns", "end_ns", "n_frames", "dropped_frames"):
+            index(getattr(self, name), name)
+        camera_id(self.camera_id)
+        if self.end_ns < self.start_ns:
+            raise InputValueError(
+                f"capture ends ({self.end_ns}) before it starts ({self.start_ns})"
+            )
+        if self.status not in ("complete", "incomplete"):
+            raise InputValueError(
+                f"capture status must be complete or incomplete, got {self.status!r}"
+            )
+
+
+@entry(
+    "/twopose/ground",
+    "GroundPlane",
+    "The ground plane normal . p = offset in the grid frame (session units).",
+)
+@dataclass(frozen=True, kw_only=True)
+class GroundPlane(TypedEntry):
+    """The ground (table top) plane ``normal_grid . p = offset`` in the grid frame.
+
+    The thesis: normal (0, 1, 0), offset h = 9.625 in (camera centre down to the table).
+    """
+
+    normal_grid: Vec3 = json_field(
+        "normal", _vec3_schema("unit normal in the grid frame"), default=(0.0, 1.0, 0.0)
+    )
+    offset: float = json_field("offset", {"type": "number"})
+
+    def __post_init__(self) -> None:
+        n = np.array(vec3(self.normal_grid, "ground normal"))
+        norm = float(np.linalg.norm(n))
+        if norm < 1e-9:
+            raise InputValueError("ground normal must not be zero")
+        object.__setattr__(self, "normal_grid", vec3(n / norm, "ground normal"))
+        object.__setattr__(self, "offset", finite(self.offset, "ground height") / norm)
+
+
+@entry(
+    "/twopose/ground_truth",
+    "GroundTruth",
+    "Ground truth of one trial: a grid point (point, ground) or two points on the line (line).",
+)
+@dataclass(frozen=True)
+class GroundTruth(TypedEntry):
+    """Measured truth of one trial in the grid frame: a point, or two points on the line."""
+
+    trial: int = json_field("trial", _INDEX_SCHEMA)
+    kind: TruthKind = json_field("kind", _POINTS_SCHEMA)
+    points_grid: tuple[Vec3, ...] = json_field(
+        "points",
+        {
+            "type": "array",
+            "items": _vec3_schema("a point in the grid frame"),
+            "minItems": 1,
+            "maxItems": 2,
+        },
+        decode=tuple,
+    )
+
+    def __post_init__(self) -> None:
+        index(self.trial, "trial")
+        if self.kind not in ("point", "line"):
+            raise InputValueError(f"ground truth kind must be point or line, got {self.kind!r}")
+        pts = tuple(vec3(p, "ground-truth point") for p in self.points_grid)
+        want = 1 if self.kind == "point" else 2
+        if len(pts) != want:
+            raise InputValueError(f"{self.kind} ground truth needs {want} point(s), got {len(pts)}")
+        if self.kind == "line" and np.allclose(pts[0], pts[1]):
+            raise InputValueError("the two ground-truth points of a line must differ")
+        object.__setattr__(self, "points_grid", pts)
+
+
+@entry("/twopose/note", "Note", "A free-text operator note.")
+@dataclass(frozen=True)
+class Note(TypedEntry):
+    """A free-text note by the operator, optionally about one trial."""
+
+    text: str = json_field("text", {"type": "string"})
+    trial: int | None = json_field(
+        "trial", {"type": ["integer", "null"], "minimum": 0}, required=False, default=None
+    )
+
+    def __post_init__(self) -> None:
+        if self.trial is not None:
+            index(self.trial, "trial")
+
+
+@dataclass(frozen=True)
+class TruePose:
+    """The pose the simulated camera really had (the typed one carries the typing error)."""
+
+    pose: int = json_field("pose", _INDEX_SCHEMA)
+    camera_id: str = json_field("camera", {"type": "string"})
+    t_grid: Vec3 = json_field("translation", _vec3_schema("true camera centre, grid frame"))
+    r_deg: Vec3 = json_field("rotation_deg", _vec3_schema("true (rx, ry, rz), degrees"))
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "t_grid", vec3(self.t_grid, "true translation"))
+        object.__setattr__(self, "r_deg", vec3(self.r_deg, "true rotation"))
+
+
+@entry(
+    "/simulation/truth",
+    "SimulationTruth",
+    "Simulated sessions only: the true poses (frames were rendered from these) and target.",
+)
+@dataclass(frozen=True)
+class SimulationTruth(TypedEntry):
+    """What a simulated trial really was: true poses and the true point or line."""
+
+    trial: int = json_field("trial", _INDEX_SCHEMA)
+    poses: tuple[TruePose, ...] = json_field(
+        "poses",
+        {"type": "array", "items": object_schema(TruePose)},
+        decode=lambda items: tuple(from_json(TruePose, p) for p in items),
+    )
+    kind: TruthKind = json_field("kind", _POINTS_SCHEMA)
+    points_grid: tuple[Vec3, ...] = json_field(
+        "points", {"type": "array", "items": _vec3_schema("grid frame"), "minItems": 1}
+    )
+
+    def __post_init__(self) -> None:
+        index(self.trial, "trial")
+        object.__setattr__(
+            self, "points_grid", tuple(vec3(p, "truth point") for p in self.points_grid)
+        )
+
+
+TYPED_ENTRIES: tuple[type[TypedEntry], ...] = (
+    SessionInfo,
+    PoseEntry,
+    CaptureWindow,
+    GroundPlane,
+    GroundTruth,
+    Note,
+    SimulationTruth,
+)
+
+# --------------------------------------------------------------------------- JSON bytes
+
+_BY_SCHEMA: dict[str, type[TypedEntry]] = {cls.SCHEMA_NAME: cls for cls in TYPED_ENTRIES}
+_VALIDATORS: dict[str, Any] = {}
+
+
+def _validator(schema_name: str) -> Any:
+    """The compiled JSON Schema validator, built on first use (jsonschema is slow to load)."""
+    if schema_name not in _VALIDATORS:
+        from jsonschema import Draft202012Validator
+
+        _VALIDATORS[schema_name] = Draft202012Validator(_BY_SCHEMA[schema_name].JSON_SCHEMA)
+    return _VALIDATORS[schema_name]
+
+
+def _validate(schema_name: str, data: Any) -> None:
+    from jsonschema.exceptions import ValidationError
+
+    try:
+        _validator(schema_name).validate(data)
+    except ValidationError as err:
+        where = "/".join(str(p) for p in err.absolute_path) or "(top level)"
+        raise SessionFormatError(f"{schema_name} at {where}: {err.message}") from err
+
+
+def encode_entry(entry: TypedEntry) -> bytes:
+    """JSON bytes of a typed entry, checked against its schema."""
+    data = entry.to_json()
+    _validate(entry.SCHEMA_NAME, data)
+    try:
+        return json.dumps(data, allow_nan=False, separators=(",", ":")).encode()
+    except ValueError as err:
+        raise InputValueError(f"{entry.SCHEMA_NAME}: {err}") from err
+
+
+def decode_entry(schema_name: str, payload: bytes) -> TypedEntry:
+    """Parse, validate and build the typed entry of a JSON message."""
+    cls = _BY_SCHEMA.get(schema_name)
+    if cls is None:
+        raise SessionFormatError(f"unknown typed entry schema {schema_name!r}")
+    try:
+        data = json.loads(payload)
+    except (UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise SessionFormatError(f"{schema_name} message is not valid JSON: {err}") from err
+    _validate(schema_name, data)
+    try:
+        return cls.from_json(data)
+    except InputValueError as err:
+        raise SessionFormatError(f"{schema_name} message has an invalid value: {err}") from err

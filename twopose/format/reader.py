@@ -1,0 +1,253 @@
+"""The session reader: a checked, seeking view of one session file, and session discovery."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterable, Iterator
+from pathlib import Path
+from types import TracebackType
+from typing import IO, Any, Self
+
+from twopose.camera import Camera
+from twopose.errors import InputValueError, SessionFormatError, SessionVersionError, TwoposeError
+from twopose.format.entries import (
+    FORMAT_MAJOR,
+    TYPED_ENTRIES,
+    GroundPlane,
+    SessionInfo,
+    TypedEntry,
+    decode_entry,
+)
+from twopose.format.messages import (
+    SESSION_PROTOBUF,
+    Frame,
+    calibration_topic,
+    camera_from_message,
+)
+from twopose.format.writer import METADATA_NAME
+
+__all__ = ["Entry", "SessionReader", "check_version", "find_sessions"]
+
+Entry = TypedEntry | Frame | Camera | Any  # Any: a decoded foxglove.FrameTransform
+
+_FOXGLOVE_CLASSES: dict[str, Any] = {cls.DESCRIPTOR.full_name: cls for cls in SESSION_PROTOBUF}
+_JSON_SCHEMAS = {cls.SCHEMA_NAME for cls in TYPED_ENTRIES}
+
+
+def check_version(path: Path, version: str) -> None:
+    """Refuse a format version that is not MAJOR.MINOR, or whose MAJOR is newer than ours."""
+    from twopose import __version__
+
+    match = re.fullmatch(r"(\d+)\.(\d+)", version)
+    if match is None:
+        raise SessionFormatError(f"{path}: format version {version!r} is not MAJOR.MINOR")
+    if int(match.group(1)) > FORMAT_MAJOR:
+        raise SessionVersionError(
+            f"{path} uses twopose session format {version}, but this twopose ({__version__}) "
+            f"reads format {FORMAT_MAJOR}.x only. Upgrade twopose to read it."
+        )
+
+
+class SessionReader:
+    """Read a session file (seeking reader: memory stays bounded by one chunk).
+
+    Use as a context manager. Raises :class:`SessionFormatError` for anything that is
+    not a readable session and :class:`SessionVersionError` for a newer major version.
+
+    Parameters
+    ----------
+    path : path-like
+    validate_crcs : bool
+        Check chunk CRCs while reading (a corrupt chunk raises SessionFormatError).
+    """
+
+    def __init__(self, path: str | Path, *, validate_crcs: bool = True) -> None:
+        self.path = Path(path)
+        self.validate_crcs = validate_crcs
+        self._stream: IO[bytes] | None = None
+        self._reader: Any = None
+        self.format_version = ""
+        self.software_version = ""
+        self._info: SessionInfo | None = None
+        self._cameras: dict[str, Camera] = {}
+        self._ground: GroundPlane | None = None
+
+    def __enter__(self) -> Self:
+        try:
+            self._stream = open(self.path, "rb")
+        except OSError as err:
+            raise SessionFormatError(f"cannot open {self.path}: {err.strerror}") from err
+        try:
+            self._open()
+        except BaseException:
+            self._stream.close()
+            raise
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        if self._stream is not None:
+            self._stream.close()
+            self._stream = None
+
+    def _fail(self, what: str, err: BaseException) -> SessionFormatError:
+        return SessionFormatError(
+            f"{self.path}: {what} ({type(err).__name__}: {err}). If the recording was "
+            f"interrupted, `twopose-record recover {self.path} -o FIXED.mcap` salvages it."
+        )
+
+    def _open(self) -> None:
+        """Read the summary and metadata, check the version, then the opening entries."""
+        from mcap.reader import make_reader
+
+        assert self._stream is not None
+        try:
+            reader = make_reader(self._stream, validate_crcs=self.validate_crcs)
+            summary = reader.get_summary()
+            metadata = {m.name: m.metadata for m in reader.iter_metadata()}
+        except TwoposeError:
+            raise
+        except Exception as err:
+            raise self._fail("not a readable MCAP file", err) from err
+        if summary is None:
+            raise SessionFormatError(
+                f"{self.path}: the file has no summary section, so it was truncated or never "
+                f"closed. `twopose-record recover {self.path} -o FIXED.mcap` salvages it."
+            )
+        if METADATA_NAME not in metadata:
+            raise SessionFormatError(
+                f"{self.path}: no '{METADATA_NAME}' metadata record; this MCAP file is not a "
+                "twopose session"
+            )
+        self.format_version = metadata[METADATA_NAME].get("format_version", "")
+        self.software_version = metadata[METADATA_NAME].get("software_version", "")
+        check_version(self.path, self.format_version)
+        self._reader = reader
+        self._read_opening([c.topic for c in summary.channels.values()])
+
+    def _read_opening(self, topics: list[str]) -> None:
+        """The session entry, the ground plane and every camera's calibration."""
+        wanted = [SessionInfo.TOPIC, GroundPlane.TOPIC]
+        wanted += [t for t in topics if t.endswith("/calibration")]
+        for item in self.iter_entries(topics=wanted):
+            if isinstance(item, SessionInfo) and self._info is None:
+                self._info = item
+            elif isinstance(item, GroundPlane):
+                self._ground = item
+            elif isinstance(item, Camera):
+                self._cameras[item.camera_id] = item
+        if self._info is None:
+            raise SessionFormatError(
+                f"{self.path}: no {SessionInfo.TOPIC} message; not a twopose session"
+            )
+        missing = [c for c in self._info.camera_ids if c not in self._cameras]
+        if missing:
+            raise SessionFormatError(
+                f"{self.path}: no calibration for camera(s) {', '.join(missing)} "
+                f"on {calibration_topic(missing[0])}"
+            )
+
+    @property
+    def info(self) -> SessionInfo:
+        assert self._info is not None, "use SessionReader as a context manager"
+        return self._info
+
+    @property
+    def cameras(self) -> dict[str, Camera]:
+        return dict(self._cameras)
+
+    @property
+    def ground(self) -> GroundPlane | None:
+        return self._ground
+
+    def message_counts(self) -> dict[str, int]:
+        """Messages per topic, from the summary statistics."""
+        assert self._reader is not None
+        summary = self._reader.get_summary()
+        assert summary is not None
+        assert summary.statistics is not None
+        return {
+            summary.channels[cid].topic: n
+            for cid, n in summary.statistics.channel_message_counts.items()
+        }
+
+    def iter_entries(self, topics: Iterable[str] | None = None) -> Iterator[Entry]:
+        """Decoded messages in log-time order: typed entries, frames, transforms, cameras.
+
+        Parameters
+        ----------
+        topics : iterable of str, optional
+            Only these topics (all when None).
+        """
+        if self._reader is None:
+            raise TwoposeError("use SessionReader as a context manager")
+        topic_list = None if topics is None else list(topics)
+        try:
+            for schema, channel, message in self._reader.iter_messages(
+                topics=topic_list, log_time_order=True
+            ):
+                entry = self._entry(schema, channel, message)
+                if entry is not None:
+                    yield entry
+        except TwoposeError:
+            raise
+        except Exception as err:
+            raise self._fail("a chunk could not be read", err) from err
+
+    def _entry(self, schema: Any, channel: Any, message: Any) -> Entry | None:
+        """Typed entries via their JSON schema name, Foxglove messages via Foxglove's classes."""
+        from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
+        from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
+
+        topic: str = channel.topic
+        if schema is None:
+            raise SessionFormatError(f"{self.path}: channel {topic} has no schema")
+        if channel.message_encoding == "json" and schema.name in _JSON_SCHEMAS:
+            return decode_entry(schema.name, message.data)
+        pb_class = _FOXGLOVE_CLASSES.get(schema.name)
+        if channel.message_encoding != "protobuf" or pb_class is None:
+            return None  # a channel this version does not know (format 1.x may add some)
+        try:
+            decoded = pb_class.FromString(message.data)
+        except Exception as err:  # protobuf's DecodeError and friends
+            raise self._fail(f"{topic} holds an undecodable {schema.name}", err) from err
+        if isinstance(decoded, CompressedImage):
+            return Frame(
+                camera_id=decoded.frame_id.removeprefix("camera_"),
+                log_time_ns=message.log_time,
+                sequence=message.sequence,
+                format=decoded.format,
+                data=bytes(decoded.data),
+            )
+        if isinstance(decoded, CameraCalibration):
+            return camera_from_message(decoded)
+        return decoded
+
+
+def find_sessions(paths: Iterable[Path | str]) -> list[Path]:
+    """Session files named by ``paths``: files as given, folders searched recursively for *.mcap.
+
+    Sorted within each folder so that results do not depend on directory order.
+    Raises :class:`~twopose.errors.InputValueError` for a path that does not exist.
+    """
+    found: list[Path] = []
+    for raw in paths:
+        p = Path(raw)
+        if p.is_dir():
+            found += sorted(q for q in p.rglob("*.mcap") if q.is_file())
+        elif p.exists():
+            found.append(p)
+        else:
+            raise InputValueError(f"{p} does not exist")
+    seen: set[Path] = set()
+    unique = []
+    for p in found:
+        key = p.resolve()
+        if key not in seen:
+            seen.add(key)
+            unique.append(p)
+    return unique

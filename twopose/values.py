@@ -1,0 +1,72 @@
+"""The one home of value checks shared by every entry point: typed poses, plans, requests,
+session entries. Each raises :class:`~twopose.errors.InputValueError` naming ``what``."""
+
+from __future__ import annotations
+
+import math
+import re
+from numbers import Real as numbers_Real
+from typing import Any
+
+from twopose.errors import InputValueError
+
+__all__ = ["CAMERA_ID_PATTERN", "Vec3", "camera_id", "finite", "index", "numbers", "vec3"]
+
+Vec3 = tuple[float, float, float]
+CAMERA_ID_PATTERN = r"^[A-Za-z0-9_-]{1,32}$"
+_CAMERA_ID = re.compile(CAMERA_ID_PATTERN)
+
+
+def _number(value: Any, what: str) -> float:
+    # A typed number is an int or a float (numpy's included); never a bool or a string.
+    if isinstance(value, bool) or not isinstance(value, numbers_Real):
+        raise InputValueError(f"{what} must be a number, got {value!r}")
+    try:
+        return float(value)
+    except OverflowError as err:  # an integer beyond the float range
+        raise InputValueError(f"{what} is too large, got {value!r}") from err
+
+
+def finite(value: Any, what: str, *, positive: bool = False) -> float:
+    """``value`` as a finite float (and > 0 with ``positive``)."""
+    v = _number(value, what)
+    if not math.isfinite(v):
+        raise InputValueError(f"{what} must be finite, got {v}")
+    if positive and v <= 0:
+        raise InputValueError(f"{what} must be positive, got {v}")
+    return v
+
+
+def numbers(value: Any, n: int, what: str) -> tuple[float, ...]:
+    """Exactly ``n`` finite numbers from a list, tuple or 1-D array."""
+    if isinstance(value, str | bytes | dict) or not hasattr(value, "__iter__"):
+        raise InputValueError(f"{what} must be a list of {n} numbers, got {value!r}")
+    items = list(value)
+    if len(items) != n:
+        raise InputValueError(f"{what} must be a list of {n} numbers, got {len(items)}")
+    v = tuple(_number(x, what) for x in items)
+    if not all(math.isfinite(x) for x in v):
+        raise InputValueError(f"{what} must hold finite numbers, got {v}")
+    return v
+
+
+def vec3(value: Any, what: str) -> Vec3:
+    """Three finite numbers ``(x, y, z)``."""
+    x, y, z = numbers(value, 3, what)
+    return (x, y, z)
+
+
+def index(value: Any, what: str) -> int:
+    """A whole number >= 0 (trial, pose, frame counts, nanoseconds)."""
+    import numpy as np  # numpy integers count as whole numbers
+
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 0:
+        raise InputValueError(f"{what} must be a whole number >= 0, got {value!r}")
+    return int(value)
+
+
+def camera_id(value: Any) -> str:
+    """A camera id: 1-32 letters, digits, ``_`` or ``-``."""
+    if not isinstance(value, str) or not _CAMERA_ID.match(value):
+        raise InputValueError(f"camera id must be 1-32 letters, digits, '_' or '-', got {value!r}")
+    return value
