@@ -36,7 +36,7 @@ from twopose.format.entries import (
     TruthKind,
     TypedEntry,
 )
-from twopose.values import Vec3, numbers, vec3
+from twopose.values import Vec3, finite, numbers, vec3
 
 if TYPE_CHECKING:
     from recorder.live import LiveView
@@ -90,7 +90,7 @@ def _camera(table: Any) -> Camera:
         from recorder.calibrate import load_calibration
 
         return Camera(camera_id, load_calibration(str(table["calibration"])))
-    focal = table.get("focal", 525.0)
+    focal = finite(table.get("focal", 525.0), "plan: camera.focal", positive=True)
     cx, cy = numbers(table.get("principal", [320.0, 240.0]), 2, "plan: camera.principal")
     values = {"width": 640, "height": 480, "fx": focal, "cx": cx, "cy": cy} | table
     values.setdefault("fy", values["fx"])

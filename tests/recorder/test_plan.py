@@ -79,7 +79,10 @@ def test_plan_mode_with_a_source_that_runs_out(tmp_path: Path) -> None:
         ('method = "ground"\n[[trials]]\nposes = [{t=[0,0,0]},{t=[1,0,0]}]\n', "ground_height"),
         ('method = "point"\n[[trials]]\nposes = [{t=[0,0,0]}]\n', "at least 2 poses"),
         ('method = "point"\n[[trials]]\nposes = [{t=[0,0]},{t=[1,0,0]}]\n', "poses[1].t"),
-        ('method = "point"\n[[trials]]\nposes = [{t=[0,0,"a"]},{t=[1,0,0]}]\n', "finite numbers"),
+        (
+            'method = "point"\n[[trials]]\nposes = [{t=[0,0,"a"]},{t=[1,0,0]}]\n',
+            "t must be a number",
+        ),
         (
             'method = "point"\n[[trials]]\nposes = [{t=[0,0,0]},{t=[9000,0,0]}]\n',
             "implausibly large",

@@ -1,0 +1,118 @@
+"""entries: each field declared once; schema, encoding and decoding follow from it."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from twopose.errors import SessionFormatError
+from twopose.format.entries import (
+    TYPED_ENTRIES,
+    CaptureWindow,
+    GroundPlane,
+    GroundTruth,
+    Note,
+    PoseEntry,
+    SessionInfo,
+    SimulationTruth,
+    TruePose,
+    decode_entry,
+    encode_entry,
+    json_field,
+    object_schema,
+)
+
+EXAMPLES = [
+    SessionInfo(method="ground", units="mm", operator="Ada", simulated=True),
+    PoseEntry(2, 1, "cam0", (1.5, 0.0, -2.0), (0.0, 5.0, 0.0), 0.1, 0.25),
+    CaptureWindow(2, 1, "cam0", 10, 20, 5, "incomplete", "camera stopped", 3),
+    GroundPlane(offset=9.625),
+    GroundTruth(1, "line", ((0.0, 1.0, 2.0), (3.0, 4.0, 5.0))),
+    Note("glare", 3),
+    Note("session-wide"),
+    SimulationTruth(
+        1, (TruePose(1, "cam0", (0.1, 0.0, 0.0), (0.0, 0.0, 0.0)),), "point", ((1, 2, 3),)
+    ),
+]
+
+
+@pytest.mark.parametrize("entry", EXAMPLES, ids=lambda e: type(e).__name__)
+def test_every_entry_round_trips_through_its_json(entry: object) -> None:
+    payload = encode_entry(entry)  # type: ignore[arg-type]
+    assert decode_entry(type(entry).SCHEMA_NAME, payload) == entry  # type: ignore[attr-defined]
+
+
+@pytest.mark.parametrize("cls", TYPED_ENTRIES, ids=lambda c: c.__name__)
+def test_schema_properties_are_the_declared_fields_in_order(cls: type) -> None:
+    keys = [f.metadata["json"].split(".")[0] for f in dataclasses.fields(cls)]
+    assert list(cls.JSON_SCHEMA["properties"]) == list(dict.fromkeys(keys))
+    assert set(cls.JSON_SCHEMA["required"]) <= set(cls.JSON_SCHEMA["properties"])
+    example = next(e for e in EXAMPLES if type(e) is cls)
+    assert list(example.to_json()) == list(cls.JSON_SCHEMA["properties"])
+
+
+def test_dotted_names_nest_and_required_follows_the_declaration() -> None:
+    @dataclasses.dataclass(frozen=True)
+    class Probe:
+        a: int = json_field("a", {"type": "integer"})
+        lo: float = json_field("range.lo", {"type": "number"})
+        hi: float = json_field("range.hi", {"type": "number"}, required=False, default=1.0)
+        c: str = json_field("c", {"type": "string"}, required=False, default="")
+
+    schema = object_schema(Probe)
+    assert schema["required"] == ["a", "range"]
+    assert schema["properties"]["range"] == {
+        "type": "object",
+        "properties": {"lo": {"type": "number"}, "hi": {"type": "number"}},
+        "required": ["lo"],
+    }
+
+
+def test_pose_entry_json_is_the_documented_shape() -> None:
+    data = json.loads(encode_entry(PoseEntry(1, 2, "cam0", (1, 2, 3))))
+    assert data == {
+        "trial": 1,
+        "pose": 2,
+        "camera": "cam0",
+        "translation": [1.0, 2.0, 3.0],
+        "rotation_deg": [0.0, 0.0, 0.0],
+        "resolution": {"translation": 0.0625, "rotation_deg": 0.5},
+    }
+
+
+def test_unknown_fields_are_ignored_and_missing_optional_ones_default() -> None:
+    payload = json.dumps(
+        {"format_version": "1.3", "method": "point", "units": "in", "camera_ids": ["a"], "new": 1}
+    ).encode()
+    info = decode_entry("twopose.Session", payload)
+    assert info == SessionInfo(format_version="1.3", method="point", units="in", camera_ids=("a",))
+
+
+@pytest.mark.parametrize(
+    "payload",
+    [b"{", b'{"trial": 1}', b'{"trial": -1, "kind": "point", "points": [[0, 0, 0]]}'],
+)
+def test_invalid_json_is_a_format_error(payload: bytes) -> None:
+    with pytest.raises(SessionFormatError):
+        decode_entry("twopose.GroundTruth", payload)
+
+
+finite = st.floats(allow_nan=False, allow_infinity=False, width=32)
+
+
+@given(
+    trial=st.integers(0, 10**6),
+    pose=st.integers(0, 100),
+    t=st.tuples(finite, finite, finite),
+    r=st.tuples(finite, finite, finite),
+    res=st.floats(1e-6, 10.0),
+)
+def test_pose_entries_round_trip_for_any_finite_values(
+    trial: int, pose: int, t: tuple[float, ...], r: tuple[float, ...], res: float
+) -> None:
+    entry = PoseEntry(trial, pose, "cam_1", t, r, res, res)  # type: ignore[arg-type]
+    assert decode_entry(PoseEntry.SCHEMA_NAME, encode_entry(entry)) == entry
