@@ -34,19 +34,15 @@ from twopose.solve import (
     triangulate_lines,
     triangulate_points,
 )
+from twopose.values import numbers
 
 __all__ = ["solve_request"]
 
 
 def _numbers(value: Any, n: int, where: str) -> list[float]:
-    if not isinstance(value, list) or len(value) != n:
+    if not isinstance(value, list):  # JSON arrays only: a string or object is a mistake
         raise InputValueError(f"{where} must be a list of {n} numbers, got {value!r}")
-    out = []
-    for v in value:
-        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
-            raise InputValueError(f"{where} must hold finite numbers, got {value!r}")
-        out.append(float(v))
-    return out
+    return list(numbers(value, n, where))
 
 
 def _field(obj: Any, key: str, where: str) -> Any:

@@ -63,7 +63,8 @@ def test_identical_views_are_degenerate_not_ok() -> None:
         ({}, "'views'"),
         ({"views": [_view(*POSES[0], px=[1, 2])] * 2, "estimator": "magic"}, "estimator"),
         ({"views": [{"K": [0, 1, 2, 3], "pose": {"t": [0, 0, 0]}, "px": [1, 2]}] * 2}, "fx and fy"),
-        ({"views": [_view(*POSES[0], px=[1, "a"])] * 2}, "finite numbers"),
+        ({"views": [_view(*POSES[0], px=[1, "a"])] * 2}, "px must be a number"),
+        ({"views": [_view(*POSES[0], px=[1, float("nan")])] * 2}, "finite numbers"),
     ],
 )
 def test_malformed_requests_say_what_is_wrong(request_: dict[str, object], message: str) -> None:
