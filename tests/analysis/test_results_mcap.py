@@ -6,7 +6,6 @@ from collections import Counter
 from pathlib import Path
 from typing import Any
 
-import cv2
 import numpy as np
 import pandas as pd
 import pytest
@@ -15,9 +14,7 @@ from mcap_protobuf.decoder import DecoderFactory
 
 from analysis.batch import results_mcap_name, run
 from analysis.results_mcap import SCENE_TOPIC, annotations_topic
-from twopose.detect import detect_glove
 from twopose.format.messages import image_topic
-from twopose.overlay import image_annotations
 
 
 def _decoded(path: Path) -> list[tuple[str, int, Any]]:
@@ -118,21 +115,6 @@ def test_images_carry_their_detections(results: tuple[Path, Any]) -> None:
         np.testing.assert_allclose([centre.x, centre.y], [row["col"], row["row"]])
         assert overlay.texts[-1].text.endswith("found")
         assert f"trial {row['trial']} pose {row['pose']}" in overlay.texts[-1].text
-
-
-def test_rejected_candidates_are_drawn_in_red_with_the_reason() -> None:
-    img = np.full((240, 320, 3), 200, np.uint8)
-    cv2.circle(img, (100, 120), 25, (200, 90, 30), -1)  # blue (BGR) and round: not a finger
-    det = detect_glove(img)
-    assert not det.found
-    msg = image_annotations(det, 5, "trial 1 pose 1 frame 0")
-    red = [p for p in msg.points if p.outline_color.r > 0.9 and p.outline_color.g < 0.5]
-    assert len(red) == 1
-    xs = [pt.x for pt in red[0].points]
-    assert 70 < min(xs) < 80
-    assert 120 < max(xs) < 130
-    assert any(t.text.startswith("eccentricity") for t in msg.texts)
-    assert "rejected" in msg.texts[-1].text
 
 
 def test_no_scene_and_failed_sessions_leave_no_results_file(
