@@ -115,6 +115,38 @@ def count_frames(path: Path) -> int:
         return sum(n for topic, n in r.message_counts().items() if topic.endswith("/image"))
 
 
+def _speedups(
+    work: Path, sessions: dict[int, Path], target_size: int, rep: int
+) -> dict[int, float]:
+    """--jobs 2 vs --jobs 1 on 8 sessions of each size (frames -> session file)."""
+    # --jobs 2 vs --jobs 1 on 8 sessions, of 1,000 and of 4,000 frames. Work is split in
+    # whole sessions and a worker starts ~0.8 s after the main process, so short sessions
+    # cannot balance; both sizes are reported, the target is read on the longer.
+    speedups = {}
+    for size, src in sessions.items():
+        folder = work / f"eight_{size}"
+        folder.mkdir(exist_ok=True)
+        for i in range(8):
+            target = folder / f"s{i}.mcap"
+            if not target.exists():
+                shutil.copy(src, target)
+        t1s, t2s = [], []
+        for _ in range(rep):  # interleaved, so a slow spell of the machine hits both
+            t1s.append(
+                _python(RUN_AND_RSS, str(folder), str(work / "out_j1"), env={"JOBS": "1"})[0]
+            )
+            t2s.append(
+                _python(RUN_AND_RSS, str(folder), str(work / "out_j2"), env={"JOBS": "2"})[0]
+            )
+        t1, t2 = min(t1s), min(t2s)
+        speedups[size] = t1 / t2
+        print(
+            f"8 sessions of {size} frames: --jobs 1 {t1:.1f} s, --jobs 2 {t2:.1f} s, "
+            f"speed-up {t1 / t2:.2f}x" + (" (target >= 1.7)" if size == target_size else "")
+        )
+    return speedups
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--workdir", type=Path, default=None)
@@ -159,31 +191,7 @@ def main() -> int:
         f"{n_huge} frames {rss_huge / 1024:.0f} MB, ratio {rss_ratio:.2f} (target <= 1.2)"
     )
 
-    # 3. --jobs 2 vs --jobs 1 on 8 sessions, of 1,000 and of 4,000 frames. Work is split in
-    # whole sessions and a worker starts ~0.8 s after the main process, so short sessions
-    # cannot balance; both sizes are reported, the target is read on the longer.
-    speedups = {}
-    for size, src in ((n_short, short), (n_long, long_)):
-        folder = work / f"eight_{size}"
-        folder.mkdir(exist_ok=True)
-        for i in range(8):
-            target = folder / f"s{i}.mcap"
-            if not target.exists():
-                shutil.copy(src, target)
-        t1s, t2s = [], []
-        for _ in range(rep):  # interleaved, so a slow spell of the machine hits both
-            t1s.append(
-                _python(RUN_AND_RSS, str(folder), str(work / "out_j1"), env={"JOBS": "1"})[0]
-            )
-            t2s.append(
-                _python(RUN_AND_RSS, str(folder), str(work / "out_j2"), env={"JOBS": "2"})[0]
-            )
-        t1, t2 = min(t1s), min(t2s)
-        speedups[size] = t1 / t2
-        print(
-            f"8 sessions of {size} frames: --jobs 1 {t1:.1f} s, --jobs 2 {t2:.1f} s, "
-            f"speed-up {t1 / t2:.2f}x" + (" (target >= 1.7)" if size == n_long else "")
-        )
+    speedups = _speedups(work, {n_short: short, n_long: long_}, n_long, rep)
     speedup = speedups[n_long]
     ok &= speedup >= 1.7
     print(
