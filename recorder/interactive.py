@@ -106,12 +106,12 @@ def _one_of(options: Sequence[str]) -> Callable[[str], str]:
 
 def _positive(text: str) -> float:
     try:
-        v = float(text)
+        v = finite(float(text), repr(text), positive=True)
     except ValueError as err:
         raise InputValueError(f"{text!r} is not a number") from err
-    if not (v < 1e6):
-        raise InputValueError(f"{text!r} must be a positive, finite number")
-    return finite(v, repr(text), positive=True)
+    if v >= 1e6:
+        raise InputValueError(f"{text!r} is implausibly large")
+    return v
 
 
 def _pair(text: str) -> tuple[float, float]:

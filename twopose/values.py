@@ -39,9 +39,12 @@ def finite(value: Any, what: str, *, positive: bool = False) -> float:
 
 def numbers(value: Any, n: int, what: str) -> tuple[float, ...]:
     """Exactly ``n`` finite numbers from a list, tuple or 1-D array."""
-    if isinstance(value, str | bytes | dict) or not hasattr(value, "__iter__"):
-        raise InputValueError(f"{what} must be a list of {n} numbers, got {value!r}")
-    items = list(value)
+    try:
+        if isinstance(value, str | bytes | dict):
+            raise TypeError
+        items = list(value)
+    except TypeError as err:  # not iterable (a number, a 0-d array, None)
+        raise InputValueError(f"{what} must be a list of {n} numbers, got {value!r}") from err
     if len(items) != n:
         raise InputValueError(f"{what} must be a list of {n} numbers, got {len(items)}")
     v = tuple(_number(x, what) for x in items)

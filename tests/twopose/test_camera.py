@@ -11,6 +11,7 @@ from twopose.camera import (
     quaternion_xyzw_from_matrix,
     rotation_from_angles_deg,
 )
+from twopose.errors import InputValueError
 
 angles = st.tuples(*(st.floats(-180, 180, allow_nan=False) for _ in range(3)))
 
@@ -71,3 +72,29 @@ def test_projection_with_distortion_matches_opencv() -> None:
     ours = project_points(pts, intr, np.eye(3), np.zeros(3))
     theirs, _ = cv2.projectPoints(pts, np.zeros(3), np.zeros(3), intr.K, np.array(intr.distortion))
     np.testing.assert_allclose(ours, theirs.reshape(-1, 2), atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"width": 0}, "width must be a whole number > 0"),
+        ({"width": 1e12}, "width must be a whole number > 0"),
+        ({"fx": -1.0}, "fx must be positive"),
+        ({"cy": float("inf")}, "cy must be finite"),
+        ({"distortion": (0.1, 0.0)}, "distortion"),
+    ],
+)
+def test_intrinsics_check_themselves(kwargs: dict[str, object], message: str) -> None:
+    values = {"width": 640, "height": 480, "fx": 525.0, "fy": 525.0, "cx": 320.0, "cy": 240.0}
+    with pytest.raises(InputValueError, match=message):
+        Intrinsics(**(values | kwargs))  # type: ignore[arg-type]
+
+
+def test_intrinsics_from_and_to_a_dict() -> None:
+    intr = Intrinsics(320, 240, 300.0, 301, 160.0, 120.0, (-0.1, 0.0, 0.0, 0.0, 0.0))
+    assert Intrinsics.from_dict(intr.to_dict(), "here") == intr
+    assert isinstance(intr.fy, float)
+    with pytest.raises(InputValueError, match="calibration x: missing cx, cy"):
+        Intrinsics.from_dict({"width": 1, "height": 1, "fx": 1, "fy": 1}, "calibration x")
+    with pytest.raises(InputValueError, match="calibration x: fx must be a number"):
+        Intrinsics.from_dict(intr.to_dict() | {"fx": "big"}, "calibration x")

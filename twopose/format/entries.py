@@ -461,13 +461,10 @@ def _validator(schema_name: str) -> Any:
 
 
 def _validate(schema_name: str, data: Any) -> None:
-    from jsonschema.exceptions import ValidationError
-
-    try:
-        _validator(schema_name).validate(data)
-    except ValidationError as err:
+    err = next(_validator(schema_name).iter_errors(data), None)
+    if err is not None:
         where = "/".join(str(p) for p in err.absolute_path) or "(top level)"
-        raise SessionFormatError(f"{schema_name} at {where}: {err.message}") from err
+        raise SessionFormatError(f"{schema_name} at {where}: {err.message}")
 
 
 def encode_entry(entry: TypedEntry) -> bytes:

@@ -8,6 +8,10 @@ from pathlib import Path
 from types import TracebackType
 from typing import IO, Any, Self
 
+from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
+from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
+from mcap.reader import make_reader
+
 from twopose.camera import Camera
 from twopose.errors import InputValueError, SessionFormatError, SessionVersionError, TwoposeError
 from twopose.format.entries import (
@@ -102,8 +106,6 @@ class SessionReader:
 
     def _open(self) -> None:
         """Read the summary and metadata, check the version, then the opening entries."""
-        from mcap.reader import make_reader
-
         assert self._stream is not None
         try:
             reader = make_reader(self._stream, validate_crcs=self.validate_crcs)
@@ -200,9 +202,6 @@ class SessionReader:
 
     def _entry(self, schema: Any, channel: Any, message: Any) -> Entry | None:
         """Typed entries via their JSON schema name, Foxglove messages via Foxglove's classes."""
-        from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
-        from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
-
         topic: str = channel.topic
         if schema is None:
             raise SessionFormatError(f"{self.path}: channel {topic} has no schema")

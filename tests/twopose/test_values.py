@@ -1,0 +1,47 @@
+"""values: the one home of the checks every entry point shares."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from twopose.errors import InputValueError
+from twopose.values import camera_id, finite, index, numbers, vec3
+
+
+def test_numbers_accept_lists_tuples_arrays_and_numpy_scalars() -> None:
+    assert vec3([1, 2.5, np.float32(3)], "t") == (1.0, 2.5, 3.0)
+    assert numbers(np.array([4.0, 5.0]), 2, "p") == (4.0, 5.0)
+
+
+@pytest.mark.parametrize(
+    ("value", "message"),
+    [
+        (None, "list of 3 numbers"),
+        (1.0, "list of 3 numbers"),
+        (np.array(1.0), "list of 3 numbers"),  # a 0-d array is not three numbers
+        ("1 2 3", "list of 3 numbers"),
+        ({"x": 1}, "list of 3 numbers"),
+        ([1, 2], "got 2"),
+        ([1, 2, True], "must be a number"),
+        ([1, 2, "3"], "must be a number"),
+        ([1, 2, float("nan")], "finite"),
+        ([1, 2, 10**400], "too large"),
+    ],
+)
+def test_bad_vectors_name_what_is_wrong(value: object, message: str) -> None:
+    with pytest.raises(InputValueError, match=message):
+        vec3(value, "t")
+
+
+def test_scalars_indices_and_camera_ids() -> None:
+    assert finite(2, "f", positive=True) == 2.0
+    with pytest.raises(InputValueError, match="positive"):
+        finite(0.0, "f", positive=True)
+    assert index(np.int64(3), "trial") == 3
+    for bad in (-1, 1.0, True):
+        with pytest.raises(InputValueError, match="whole number"):
+            index(bad, "trial")
+    assert camera_id("cam_0-a") == "cam_0-a"
+    with pytest.raises(InputValueError, match="camera id"):
+        camera_id("cam 0")
