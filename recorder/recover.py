@@ -90,7 +90,14 @@ class _Pending:
     def __init__(self) -> None:
         self.frames: dict[str, list[int]] = {}  # camera -> log times
         self.last_pose: PoseEntry | None = None
-        self.closed_windows: set[tuple[int, int, str]] = set()
+        self.closed_windows: set[tuple[int, int, str] | int] = set()
+
+    @staticmethod
+    def key(entry: PoseEntry | CaptureWindow) -> tuple[int, int, str] | int:
+        """Format 1.1 binds a window to its pose by capture number; 1.0 by (trial, pose)."""
+        if entry.capture is not None:
+            return entry.capture
+        return (entry.trial, entry.pose, entry.camera_id)
 
 
 @dataclass
@@ -264,7 +271,9 @@ def _open_output(dst: Path, metadata: dict[str, str]) -> _Output:
         raise SessionExistsError(f"{dst} already exists; choose another output file") from err
     writer = McapWriter(stream, compression=CompressionType.ZSTD)
     writer.start(profile="", library=f"twopose recover ({metadata.get('software_version', '?')})")
-    channels = register_session_channels(writer, info.camera_ids)
+    channels = register_session_channels(
+        writer, info.camera_ids, metadata.get("format_version", "1.0")
+    )
     writer.add_metadata(METADATA_NAME, dict(metadata))
     return _Output(channels, stream, info, cameras, ground, start_ns)
 
@@ -284,7 +293,7 @@ def _track(topic: str, message: Message, pending: _Pending) -> int:
         pending.frames[window.camera_id] = [
             t for t in pending.frames.get(window.camera_id, []) if t > window.end_ns
         ]
-        pending.closed_windows.add((window.trial, window.pose, window.camera_id))
+        pending.closed_windows.add(pending.key(window))
         return int(window.status == "complete")
     return 0
 
@@ -299,7 +308,7 @@ def _close_pending(out: _Output, pending: _Pending, counts: Counter[str]) -> tup
         if (
             pose is None
             or pose.camera_id != camera
-            or (pose.trial, pose.pose, camera) in pending.closed_windows
+            or pending.key(pose) in pending.closed_windows
         ):
             unassigned += len(times)
             continue
@@ -312,6 +321,7 @@ def _close_pending(out: _Output, pending: _Pending, counts: Counter[str]) -> tup
             n_frames=len(times),
             status="incomplete",
             reason=RECOVERED_REASON,
+            capture=pose.capture,
         )
         out.put(CaptureWindow.TOPIC, max(times), encode_entry(window), counts)
         closed += 1

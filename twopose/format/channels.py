@@ -16,7 +16,7 @@ from typing import Any
 from mcap.writer import Writer as McapWriter
 from mcap_protobuf.schema import build_file_descriptor_set
 
-from twopose.format.entries import TYPED_ENTRIES, TypedEntry
+from twopose.format.entries import FORMAT_VERSION, TYPED_ENTRIES, CaptureDecision, TypedEntry
 from twopose.format.messages import (
     SESSION_PROTOBUF,
     TF_TOPIC,
@@ -79,17 +79,23 @@ class Channels:
         self.counts[topic] = self.counts.get(topic, 0) + 1
 
 
-def register_session_channels(writer: McapWriter, camera_ids: Sequence[str]) -> Channels:
+def register_session_channels(
+    writer: McapWriter, camera_ids: Sequence[str], format_version: str = FORMAT_VERSION
+) -> Channels:
     """Every schema and channel of a session, in the order ``docs/session-format.md`` fixes:
-    the typed entries, the Foxglove schemas, ``/tf``, then per camera its calibration and
-    image channels."""
+    the format 1.0 typed entries, the Foxglove schemas, ``/tf``, per camera its calibration
+    and image channels, then (format 1.1) ``/twopose/decision``. Appending the 1.1 channel
+    keeps the 1.0 ids, so ``recover`` rebuilds files of either version."""
     channels = Channels(writer)
     for cls in TYPED_ENTRIES:
-        channels.json_entry(cls)
+        if cls is not CaptureDecision:
+            channels.json_entry(cls)
     channels.protobuf_schemas(*SESSION_PROTOBUF)
     calibration, image, transform = SESSION_PROTOBUF
     channels.protobuf(TF_TOPIC, transform)
     for cid in camera_ids:
         channels.protobuf(calibration_topic(cid), calibration)
         channels.protobuf(image_topic(cid), image)
+    if format_version != "1.0":
+        channels.json_entry(CaptureDecision)
     return channels

@@ -28,6 +28,7 @@ __all__ = [
     "METHODS",
     "TYPED_ENTRIES",
     "UNITS",
+    "CaptureDecision",
     "CaptureWindow",
     "GroundPlane",
     "GroundTruth",
@@ -44,7 +45,7 @@ __all__ = [
     "json_field",
 ]
 
-FORMAT_VERSION = "1.0"
+FORMAT_VERSION = "1.1"
 FORMAT_MAJOR = 1
 
 Method = Literal["point", "line", "ground"]
@@ -52,6 +53,7 @@ METHODS: tuple[Method, ...] = ("point", "line", "ground")
 UNITS = ("in", "mm", "cm", "m")
 TruthKind = Literal["point", "line"]
 CaptureStatus = Literal["complete", "incomplete"]
+Verdict = Literal["accept", "discard"]
 
 # --------------------------------------------------------------------------- declaration
 
@@ -107,12 +109,19 @@ def to_json(obj: Any) -> dict[str, Any]:
     """The JSON object of a declared dataclass instance, keys in declaration order."""
     out: dict[str, Any] = {}
     for f in _json_fields(type(obj)):
+        if getattr(obj, f.name) is None and not _allows_null(f):
+            continue  # an optional field left out (e.g. format 1.1's capture in 1.0 use)
         *parents, leaf = f.metadata["json"].split(".")
         target = out
         for name in parents:
             target = target.setdefault(name, {})
         target[leaf] = _encode(getattr(obj, f.name))
     return out
+
+
+def _allows_null(f: dataclasses.Field[Any]) -> bool:
+    kind = f.metadata["schema"].get("type")
+    return bool(f.metadata["required"]) or kind == "null" or "null" in (kind or [])
 
 
 T = TypeVar("T")
@@ -182,10 +191,20 @@ def _vec3_schema(description: str) -> dict[str, Any]:
 
 
 _INDEX_SCHEMA = {"type": "integer", "minimum": 0}
+_CAPTURE_SCHEMA = {
+    "type": "integer",
+    "minimum": 1,
+    "description": "the capture's number, unique in the session (format 1.1)",
+}
 _CAMERA_SCHEMA = {"type": "string", "pattern": CAMERA_ID_PATTERN}
 _POINTS_SCHEMA = {"enum": ["point", "line"]}
 
 # --------------------------------------------------------------------------- the entries
+
+
+def _capture_number(value: int | None) -> None:
+    if value is not None and (index(value, "capture") < 1):
+        raise InputValueError(f"capture numbers start at 1, got {value}")
 
 
 @entry("/twopose/session", "Session", "One per file, first typed entry: what this session is.")
@@ -264,10 +283,12 @@ class PoseEntry(TypedEntry):
     rotation_resolution_deg: float = json_field(
         "resolution.rotation_deg", {"type": "number", "exclusiveMinimum": 0}, default=0.5
     )
+    capture: int | None = json_field("capture", _CAPTURE_SCHEMA, required=False, default=None)
 
     def __post_init__(self) -> None:
         index(self.trial, "trial")
         index(self.pose, "pose")
+        _capture_number(self.capture)
         camera_id(self.camera_id)
         object.__setattr__(self, "t_grid", vec3(self.t_grid, "translation"))
         object.__setattr__(self, "r_deg", vec3(self.r_deg, "rotation"))
@@ -303,10 +324,12 @@ class CaptureWindow(TypedEntry):
     )
     reason: str = json_field("reason", {"type": "string"}, required=False, default="")
     dropped_frames: int = json_field("dropped_frames", _INDEX_SCHEMA, required=False, default=0)
+    capture: int | None = json_field("capture", _CAPTURE_SCHEMA, required=False, default=None)
 
     def __post_init__(self) -> None:
         for name in ("trial", "pose", "start_ns", "end_ns", "n_frames", "dropped_frames"):
             index(getattr(self, name), name)
+        _capture_number(self.capture)
         camera_id(self.camera_id)
         if self.end_ns < self.start_ns:
             raise InputValueError(
@@ -316,6 +339,40 @@ class CaptureWindow(TypedEntry):
             raise InputValueError(
                 f"capture status must be complete or incomplete, got {self.status!r}"
             )
+
+
+@entry(
+    "/twopose/decision",
+    "CaptureDecision",
+    "The operator's decision on one capture: accept it, or discard it (kept, never analysed).",
+)
+@dataclass(frozen=True)
+class CaptureDecision(TypedEntry):
+    """What the operator decided about capture ``capture`` (format 1.1).
+
+    A capture is measured only if the last decision naming it is ``accept``. ``discard``
+    keeps its frames in the file but out of the analysis; ``reason`` says why (``redo``,
+    ``undo``, ``undone``, ``quit``, ``interrupted``, ``source failure``).
+    """
+
+    capture: int = json_field("capture", _CAPTURE_SCHEMA)
+    trial: int = json_field("trial", _INDEX_SCHEMA)
+    pose: int = json_field("pose", _INDEX_SCHEMA)
+    camera_id: str = json_field("camera", _CAMERA_SCHEMA)
+    decision: Verdict = json_field("decision", {"enum": ["accept", "discard"]})
+    reason: str = json_field("reason", {"type": "string"}, required=False, default="")
+
+    def __post_init__(self) -> None:
+        _capture_number(self.capture)
+        index(self.trial, "trial")
+        index(self.pose, "pose")
+        camera_id(self.camera_id)
+        if self.decision not in ("accept", "discard"):
+            raise InputValueError(f"decision must be accept or discard, got {self.decision!r}")
+
+    @property
+    def accepted(self) -> bool:
+        return self.decision == "accept"
 
 
 @entry(
@@ -443,6 +500,7 @@ TYPED_ENTRIES: tuple[type[TypedEntry], ...] = (
     GroundTruth,
     Note,
     SimulationTruth,
+    CaptureDecision,  # format 1.1; registered after the 1.0 channels (see channels.py)
 )
 
 # --------------------------------------------------------------------------- JSON bytes

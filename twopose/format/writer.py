@@ -21,6 +21,7 @@ from twopose.errors import InputValueError, SessionExistsError, SessionFormatErr
 from twopose.format.channels import Channels, register_session_channels
 from twopose.format.entries import (
     FORMAT_VERSION,
+    CaptureDecision,
     CaptureWindow,
     GroundPlane,
     GroundTruth,
@@ -143,6 +144,7 @@ class SessionWriter:
         self._sequence: dict[str, int] = {}
         self._last_ns = 0
         self._open_capture: Capture | None = None
+        self._captures = 0
 
     @property
     def counts(self) -> dict[str, int]:
@@ -264,14 +266,28 @@ class SessionWriter:
     ) -> None:
         self.write_entry(entry, log_time_ns)
 
-    def capture(self, trial: int, pose: int, camera_id: str) -> Capture:
-        """Open a capture window; frames go through :meth:`Capture.add_frame`."""
+    def write_decision(self, entry: CaptureDecision, log_time_ns: int | None = None) -> None:
+        self.write_entry(entry, log_time_ns)
+
+    def new_capture_number(self) -> int:
+        """The next capture number (1, 2, ...): binds a pose entry, its capture window and
+        the decisions about it (format 1.1)."""
+        self._captures += 1
+        return self._captures
+
+    def capture(
+        self, trial: int, pose: int, camera_id: str, capture: int | None = None
+    ) -> Capture:
+        """Open a capture window; frames go through :meth:`Capture.add_frame`.
+
+        ``capture`` is the number its pose entry was written with (format 1.1).
+        """
         self._check_camera(camera_id)
         index(trial, "trial")
         index(pose, "pose")
         if self._open_capture is not None:
             raise TwoposeError("a capture is already open; finish it before starting another")
-        return Capture(self, trial, pose, camera_id)
+        return Capture(self, trial, pose, camera_id, capture)
 
     def encode_image(self, image_bgr: NDArray[np.uint8]) -> bytes:
         """Encode an (H, W, 3) BGR uint8 image in the session's image format."""
@@ -295,11 +311,19 @@ class Capture:
     """One capture window (see :meth:`SessionWriter.capture`): its frames, then on exit its
     :class:`CaptureWindow` entry (``incomplete`` with the reason after an error)."""
 
-    def __init__(self, writer: SessionWriter, trial: int, pose: int, camera_id: str) -> None:
+    def __init__(
+        self,
+        writer: SessionWriter,
+        trial: int,
+        pose: int,
+        camera_id: str,
+        capture: int | None = None,
+    ) -> None:
         self._writer = writer
         self.trial = trial
         self.pose = pose
         self.camera_id = camera_id
+        self.number = capture
         self.start_ns: int | None = None
         self.end_ns: int | None = None
         self.n_frames = 0
@@ -337,7 +361,9 @@ class Capture:
         tb: TracebackType | None,
     ) -> None:
         self._writer._begin_capture(None)
-        if exc is not None and not self._incomplete_reason:
+        if isinstance(exc, KeyboardInterrupt) and not self._incomplete_reason:
+            self._incomplete_reason = "interrupted (Ctrl-C) during the capture"
+        elif exc is not None and not self._incomplete_reason:
             self._incomplete_reason = f"{exc_type.__name__ if exc_type else 'error'}: {exc}"
         if not self._writer.is_open:
             return
@@ -352,5 +378,10 @@ class Capture:
             status="incomplete" if self._incomplete_reason else "complete",
             reason=self._incomplete_reason,
             dropped_frames=self.dropped_frames,
+            capture=self.number,
         )
         self._writer.write_entry(window, now)
+
+    @property
+    def incomplete_reason(self) -> str:
+        return self._incomplete_reason

@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 from twopose.errors import SessionFormatError
 from twopose.format.entries import (
     TYPED_ENTRIES,
+    CaptureDecision,
     CaptureWindow,
     GroundPlane,
     GroundTruth,
@@ -28,8 +29,9 @@ from twopose.format.entries import (
 
 EXAMPLES = [
     SessionInfo(method="ground", units="mm", operator="Ada", simulated=True),
-    PoseEntry(2, 1, "cam0", (1.5, 0.0, -2.0), (0.0, 5.0, 0.0), 0.1, 0.25),
-    CaptureWindow(2, 1, "cam0", 10, 20, 5, "incomplete", "camera stopped", 3),
+    PoseEntry(2, 1, "cam0", (1.5, 0.0, -2.0), (0.0, 5.0, 0.0), 0.1, 0.25, capture=4),
+    CaptureWindow(2, 1, "cam0", 10, 20, 5, "incomplete", "camera stopped", 3, capture=4),
+    CaptureDecision(4, 2, 1, "cam0", "discard", "redo"),
     GroundPlane(offset=9.625),
     GroundTruth(1, "line", ((0.0, 1.0, 2.0), (3.0, 4.0, 5.0))),
     Note("glare", 3),
@@ -53,6 +55,36 @@ def test_schema_properties_are_the_declared_fields_in_order(cls: type) -> None:
     assert set(cls.JSON_SCHEMA["required"]) <= set(cls.JSON_SCHEMA["properties"])
     example = next(e for e in EXAMPLES if type(e) is cls)
     assert list(example.to_json()) == list(cls.JSON_SCHEMA["properties"])
+
+
+def test_a_1_0_entry_leaves_the_capture_number_out() -> None:
+    """Format 1.0 entries (no capture number) encode exactly as 1.0 wrote them."""
+    assert "capture" not in json.loads(encode_entry(PoseEntry(1, 2, "cam0", (1, 2, 3))))
+    window = CaptureWindow(1, 2, "cam0", 0, 1, 2)
+    assert "capture" not in json.loads(encode_entry(window))
+    assert decode_entry(CaptureWindow.SCHEMA_NAME, encode_entry(window)) == window
+
+
+@pytest.mark.parametrize("bad", [0, -1, 1.5, True])
+def test_capture_numbers_start_at_one(bad: object) -> None:
+    from twopose.errors import InputValueError
+
+    with pytest.raises(InputValueError, match="capture"):
+        CaptureDecision(bad, 1, 1, "cam0", "accept")  # type: ignore[arg-type]
+    with pytest.raises(InputValueError, match="capture"):
+        PoseEntry(1, 1, "cam0", (0, 0, 0), capture=bad)  # type: ignore[arg-type]
+
+
+def test_a_decision_is_accept_or_discard() -> None:
+    from twopose.errors import InputValueError
+
+    with pytest.raises(InputValueError, match="accept or discard"):
+        CaptureDecision(1, 1, 1, "cam0", "maybe")  # type: ignore[arg-type]
+    with pytest.raises(SessionFormatError, match="decision"):
+        decode_entry(
+            CaptureDecision.SCHEMA_NAME,
+            b'{"capture":1,"trial":1,"pose":1,"camera":"c","decision":"ok"}',
+        )
 
 
 def test_dotted_names_nest_and_required_follows_the_declaration() -> None:

@@ -110,7 +110,7 @@ def test_every_entry_round_trips(tmp_path: Path, image_format: str) -> None:
         assert r.info == sent["info"]
         assert r.ground == sent["ground"]
         assert r.cameras == {"cam0": CAM0, "right": CAM1}
-        assert r.format_version == "1.0"
+        assert r.format_version == "1.1"
         items = list(r.iter_entries())
         typed = [i for i in items if not isinstance(i, Frame | FrameTransform | Camera)]
         assert [p for p in typed if isinstance(p, PoseEntry)] == sent["poses"]
@@ -156,7 +156,7 @@ def test_file_passes_mcap_crc_validation_and_foxglove_decoding(tmp_path: Path) -
         for _, channel, message in reader.iter_messages():
             by_topic.setdefault(channel.topic, []).append(message.data)
         metadata = {m.name: m.metadata for m in reader.iter_metadata()}
-    assert metadata["twopose"]["format_version"] == "1.0"
+    assert metadata["twopose"]["format_version"] == "1.1"
     # Foxglove's own protobuf classes parse what we wrote.
     cal = CameraCalibration.FromString(by_topic["/twopose/camera/right/calibration"][0])
     assert (cal.width, cal.height, cal.distortion_model) == (320, 240, "plumb_bob")

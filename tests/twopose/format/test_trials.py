@@ -7,7 +7,13 @@ from pathlib import Path
 import numpy as np
 
 from twopose.camera import Camera, Intrinsics
-from twopose.format.entries import GroundTruth, Note, PoseEntry, SessionInfo
+from twopose.format.entries import (
+    CaptureDecision,
+    GroundTruth,
+    Note,
+    PoseEntry,
+    SessionInfo,
+)
 from twopose.format.reader import SessionReader
 from twopose.format.trials import describe_session, iter_trials
 from twopose.format.writer import SessionWriter
@@ -22,6 +28,20 @@ def _capture(w: SessionWriter, trial: int, pose: int, n: int, t0: int, fail: boo
             cap.add_frame(np.full((24, 32, 3), 10 * k, np.uint8), t0 + 1 + k)
         if fail:
             cap.mark_incomplete("camera unplugged")
+
+
+def _numbered(
+    w: SessionWriter, trial: int, pose: int, t0: int, decision: str | None, *, frames: int = 2
+) -> int:
+    """A format 1.1 capture: the pose entry and window bound by number, then the decision."""
+    number = w.new_capture_number()
+    w.write_pose(PoseEntry(trial, pose, "cam0", (float(t0), 0.0, 0.0), capture=number), t0)
+    with w.capture(trial, pose, "cam0", number) as cap:
+        for k in range(frames):
+            cap.add_frame(np.full((24, 32, 3), 10 * k, np.uint8), t0 + 1 + k)
+    if decision is not None:
+        w.write_decision(CaptureDecision(number, trial, pose, "cam0", decision, "test"), t0 + 9)
+    return number
 
 
 def _session(path: Path) -> None:
@@ -62,6 +82,81 @@ def test_trials_without_frames_and_the_overview(tmp_path: Path) -> None:
         trials = list(iter_trials(r, with_frames=False))
     assert [len(p.frames) for t in trials for p in t.poses] == [0, 0, 0, 0]
     o = describe_session(path)
-    assert (o.n_trials, o.n_poses, o.n_captures, o.n_incomplete_captures) == (2, 4, 4, 1)
+    assert (o.n_trials, o.n_poses, o.n_captures, o.n_incomplete_captures) == (
+        2,
+        4,
+        5,
+        1,
+    )  # 5 windows: one redone
     assert o.n_frames == 3 + 2 + 4 + 2 + 1  # every frame written, redone ones included
     assert o.info.notes == "session note"
+
+
+def _replayed(path: Path) -> list[tuple[int, list[tuple[int, float, int]]]]:
+    """Per trial: (pose, typed x, number of frames) of every pose it is measured from."""
+    with SessionReader(path) as r:
+        return [
+            (t.trial, [(p.entry.pose, p.entry.t_grid[0], len(p.frames)) for p in t.poses])
+            for t in iter_trials(r)
+        ]
+
+
+def test_format_1_1_replays_exactly_the_accepted_captures(tmp_path: Path) -> None:
+    """The issue's scenario at the format level: accept, undo, retype, interrupted."""
+    path = tmp_path / "s.mcap"
+    info = SessionInfo(method="point", units="in")
+    with SessionWriter(path, info, [CAM], image_format="png", start_ns=0) as w:
+        _numbered(w, 1, 1, 10, "accept")
+        _numbered(w, 1, 2, 20, "discard")  # redone
+        _numbered(w, 1, 2, 30, "accept", frames=3)
+        a = _numbered(w, 2, 1, 40, "accept")
+        _numbered(w, 2, 2, 50, "discard")  # undo ...
+        w.write_decision(CaptureDecision(a, 2, 1, "cam0", "discard", "undone"), 59)
+        # ... pose 1 retyped, then the capture cut short by Ctrl-C and never decided
+        number = w.new_capture_number()
+        w.write_pose(PoseEntry(2, 1, "cam0", (0.5, 0.0, 0.0), capture=number), 60)
+    replayed = _replayed(path)
+    assert replayed == [(1, [(1, 10.0, 2), (2, 30.0, 3)]), (2, [])]
+    with SessionReader(path) as r:
+        two = list(iter_trials(r))[1]
+    reasons = [s.reason for s in two.set_aside]
+    assert len(reasons) == 3
+    assert "discarded (undone)" in reasons
+    assert "discarded (test)" in reasons
+    assert any("no capture was recorded" in x for x in reasons)
+    assert "fewer than two accepted" in two.why_not_measured()
+
+
+def test_an_undecided_or_incomplete_capture_is_never_measured(tmp_path: Path) -> None:
+    path = tmp_path / "s.mcap"
+    with SessionWriter(
+        path, SessionInfo(method="point", units="in"), [CAM], image_format="png", start_ns=0
+    ) as w:
+        _numbered(w, 1, 1, 10, "accept")
+        _numbered(w, 1, 2, 20, None)  # the recorder died before the decision
+        n = w.new_capture_number()
+        w.write_pose(PoseEntry(1, 3, "cam0", (3.0, 0.0, 0.0), capture=n), 30)
+        with w.capture(1, 3, "cam0", n) as cap:
+            cap.add_frame(np.zeros((24, 32, 3), np.uint8), 31)
+            cap.mark_incomplete("camera unplugged")
+        w.write_decision(CaptureDecision(n, 1, 3, "cam0", "accept"), 39)  # another writer
+    assert _replayed(path) == [(1, [(1, 10.0, 2)])]
+    o = describe_session(path)
+    assert (o.n_poses, o.n_captures, o.n_incomplete_captures, o.n_set_aside) == (1, 3, 1, 2)
+
+
+def test_notes_reach_their_trial_wherever_they_were_typed(tmp_path: Path) -> None:
+    path = tmp_path / "s.mcap"
+    with SessionWriter(
+        path, SessionInfo(method="point", units="in"), [CAM], image_format="png", start_ns=0
+    ) as w:
+        w.write_note(Note("before anything", None), 1)
+        _numbered(w, 1, 1, 10, "accept")
+        _numbered(w, 2, 1, 20, "accept")
+        w.write_note(Note("about trial 1, typed late", 1), 30)
+    with SessionReader(path) as r:
+        trials = list(iter_trials(r, with_frames=False))
+    assert [t.notes for t in trials] == [("about trial 1, typed late",), ()]
+    notes = describe_session(path).notes
+    assert notes.session == ("before anything",)
+    assert notes.by_trial == {1: ("about trial 1, typed late",)}
