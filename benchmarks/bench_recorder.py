@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 
 from recorder.plan import Plan, PlannedPose, PlannedTrial, record_plan
-from recorder.procedure import CaptureResult
+from recorder.capture import CaptureResult
 from recorder.sources import FrameSource, SyntheticSource, VideoSource
 from twopose.camera import Camera, Intrinsics
 

@@ -10,11 +10,12 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
-from twopose.errors import InputValueError, TwoposeError, handle_errors
+from twopose.errors import EXIT_INTERRUPTED, InputValueError, TwoposeError, handle_errors
 
 if TYPE_CHECKING:
+    from recorder.capture import CaptureResult
     from recorder.live import LiveView
-    from recorder.procedure import CaptureResult, RecordingSummary
+    from recorder.procedure import RecordingSummary
     from twopose.camera import Camera, Intrinsics
 
 __all__ = ["app", "main"]
@@ -128,11 +129,17 @@ def new(
     ] = False,
     live_port: Annotated[int, typer.Option(min=0, max=65535, help="Port of --live.")] = 8765,
 ) -> None:
-    """Record a session: the guided laptop-on-grid procedure, or a plan file (--plan)."""
+    """Record a session: the guided laptop-on-grid procedure, or a plan file (--plan).
+
+    Ctrl-C at any point closes the file (valid, with everything accepted so far), prints
+    the summary and exits with 130.
+    """
     from recorder.plan import load_plan, record_plan
+    from recorder.procedure import refuse_existing
     from recorder.sources import open_source
 
     with handle_errors(), contextlib.ExitStack() as stack:
+        refuse_existing(out)  # before the first question
         if plan is not None:
             the_plan = load_plan(plan)
             src = open_source(source, method=the_plan.method, width=width, height=height, fps=fps)
@@ -157,11 +164,9 @@ def new(
                 (frames, poses, width, height, fps),
                 (stack, live_port) if live else None,
             )
-    typer.echo(
-        f"wrote {summary.path}: {summary.n_trials} trials, {summary.n_captures} captures, "
-        f"{summary.n_frames} frames ({summary.n_found} detected, {summary.dropped} dropped) "
-        f"in {summary.seconds:.1f} s"
-    )
+    typer.echo(summary.line())
+    if summary.interrupted:
+        raise typer.Exit(EXIT_INTERRUPTED)
 
 
 def _live_view(stack: contextlib.ExitStack, cameras: list[Camera], port: int) -> LiveView:
@@ -198,9 +203,7 @@ def _interactive(
     from twopose.format.entries import GroundPlane, SessionInfo
 
     frames, poses, width, height, fps = capture
-    op = Operator(
-        lambda q, d: str(typer.prompt(q, default=d or None, show_default=bool(d))), typer.echo
-    )
+    op = Operator(_prompt, typer.echo)
     units = given["units"] if given["units"] is not None else "in"
     setup = ask_setup(
         op,
@@ -239,6 +242,14 @@ def _interactive(
         poses_per_trial=poses,
         live=view,
     )
+
+
+def _prompt(question: str, default: str) -> str:
+    """One question at the terminal; Ctrl-C or a closed input is an interrupt."""
+    try:
+        return str(typer.prompt(question, default=default or None, show_default=bool(default)))
+    except typer.Abort:
+        raise KeyboardInterrupt from None
 
 
 def _calibration(path: Path | None) -> Intrinsics | None:

@@ -13,12 +13,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
 
-from recorder.plan import MAX_TRANSLATION
+from recorder.capture import CaptureResult
+from recorder.plan import MAX_TRANSLATION, off_ground
 from recorder.procedure import (
-    CaptureResult,
     Decision,
     Driver,
     Placement,
+    ProcedureRefusedError,
     RecordingSummary,
     record,
 )
@@ -146,18 +147,46 @@ def ask_setup(
     if m == "ground":
         h = ground_height if ground_height and ground_height > 0 else None
         h = h or op.ask(f"ground height: camera centre to table ({u})", _positive)
-    n_truth = 2 if m == "line" else 1
-    given = list(ground_truth)
-    while len(given) < n_truth:
-        given.append(
-            op.ask(
-                f"ground truth point {len(given) + 1} x, y, z ({u})",
-                lambda s: parse_vector(s, u, what="ground truth"),
-            )
-        )
+    truth = _ask_truth(op, m, u, h, list(ground_truth))
     who = operator if operator is not None else op.ask("operator", str, "")
     method_ = cast("Method", m)  # one of METHODS: checked when it was read
-    return Setup(method_, u, intrinsics, h, tuple(given[:n_truth]), who)
+    return Setup(method_, u, intrinsics, h, truth, who)
+
+
+def _ask_truth(
+    op: Operator, method: str, units: str, height: float | None, given: list[Vec3]
+) -> tuple[Vec3, ...]:
+    """The ground truth, checked as typed: a line's two points must differ, and a method 2
+    point off the ground plane is kept only if the operator confirms it."""
+    n_truth = 2 if method == "line" else 1
+    if n_truth == 2 and len(given) >= 2 and given[0] == given[1]:
+        raise InputValueError(f"the two ground-truth points of a line must differ, got {given}")
+    given = given[:n_truth]
+    if height is not None and given and not _keep(op, given[0], height, units):
+        given = []  # the option's point is off the ground and not confirmed: ask again
+    while len(given) < n_truth:
+        point = op.ask(
+            f"ground truth point {len(given) + 1} x, y, z ({units})",
+            lambda s: _distinct(parse_vector(s, units, what="ground truth"), given),
+        )
+        if height is None or _keep(op, point, height, units):
+            given.append(point)
+    return tuple(given)
+
+
+def _distinct(point: Vec3, earlier: list[Vec3]) -> Vec3:
+    if point in earlier:
+        raise InputValueError("this point was already given; a line needs two different points")
+    return point
+
+
+def _keep(op: Operator, point: Vec3, height: float, units: str) -> bool:
+    """True if ``point`` is on the ground plane, or the operator keeps it anyway."""
+    off = off_ground(point, height, units)
+    if not off:
+        return True
+    op.say(f"  warning: {off}")
+    return bool(op.ask("keep this ground truth anyway? [y/N]", _yes_no, "n"))
 
 
 # --------------------------------------------------------------------------- the procedure
@@ -234,18 +263,18 @@ class _OperatorDriver(Driver):
     def decide(self, trial: int, pose: int, result: CaptureResult) -> Decision:
         return cast(
             "Decision",
-            self.op.ask("[a]ccept, [r]edo, [u]ndo previous, [n]ote, [q]uit", _choice, "a"),
+            self.op.ask(
+                "[a]ccept, [r]edo, [u]ndo previous, [n]ote, [q]uit (this capture unused)",
+                _choice,
+                "a",
+            ),
         )
+
+    def refused(self, error: ProcedureRefusedError) -> None:
+        self.op.say(f"  not possible: {error}")
 
     def note(self, trial: int) -> Note:
         return Note(self.op.ask("note", str), trial)
-
-    def finish(self, summary: RecordingSummary) -> None:
-        self.op.say(
-            f"finished: {summary.n_trials} trial(s), {summary.n_captures} capture(s) "
-            f"({summary.n_incomplete} incomplete), {summary.n_frames} frames, "
-            f"{summary.n_found} detected, {summary.dropped} dropped"
-        )
 
 
 def record_interactive(

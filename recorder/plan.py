@@ -12,11 +12,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from recorder.capture import CaptureResult, FrameFeedback
 from recorder.procedure import (
-    CaptureResult,
     Decision,
     Driver,
-    FrameFeedback,
     Placement,
     RecordingSummary,
     record,
@@ -41,10 +40,58 @@ from twopose.values import Vec3, finite, numbers, vec3
 if TYPE_CHECKING:
     from recorder.live import LiveView
 
-__all__ = ["MAX_TRANSLATION", "Plan", "PlannedPose", "PlannedTrial", "load_plan", "record_plan"]
+__all__ = [
+    "MAX_TRANSLATION",
+    "Plan",
+    "PlannedPose",
+    "PlannedTrial",
+    "load_plan",
+    "off_ground",
+    "record_plan",
+]
 
 #: Plausible magnitude of a typed translation (session units); beyond it, a typo is likelier.
 MAX_TRANSLATION = {"in": 200.0, "mm": 5000.0, "cm": 500.0, "m": 5.0}
+#: How far (session units) a method 2 ground truth may sit off the ground plane before it is
+#: questioned: half a 1/16 in tape tick, or half a millimetre.
+GROUND_TOLERANCE = {"in": 1 / 32, "mm": 0.5, "cm": 0.05, "m": 0.0005}
+
+#: The keys a plan may hold, per table (anything else is a typo that would be ignored).
+_PLAN_KEYS = {
+    "": {"method", "units", "camera", "cameras", "frames", "ground_height", "trials"}
+    | {"operator", "notes", "resolution"},
+    "camera": {"id", "calibration", "focal", "fx", "fy", "principal", "cx", "cy"}
+    | {"width", "height", "distortion"},
+    "trials": {"poses", "ground_truth"},
+    "poses": {"t", "r_deg", "camera"},
+    "resolution": {"translation", "rotation_deg"},
+}
+
+
+def off_ground(point: Vec3, height: float, units: str) -> str:
+    """Why a method 2 ground truth point is not on the ground plane ``y = height`` (empty
+    when it is, within :data:`GROUND_TOLERANCE`)."""
+    gap = point[1] - height
+    if abs(gap) <= GROUND_TOLERANCE[units]:
+        return ""
+    return (
+        f"the ground truth {point} has y = {point[1]:g} {units}, but the ground plane is at "
+        f"y = {height:g} {units} ({gap:+g} {units}): the finger points at the table, so "
+        "its y should be the ground height"
+    )
+
+
+def _known_keys(table: Any, kind: str, where: str) -> dict[str, Any]:
+    """``table`` as a dict whose keys are all known for ``kind``; else the key is named."""
+    if not isinstance(table, dict):
+        raise InputValueError(f"plan: {where or 'the plan'} must be a table")
+    unknown = sorted(set(table) - _PLAN_KEYS[kind])
+    if unknown:
+        raise InputValueError(
+            f"plan: unknown key {where + '.' if where else ''}{unknown[0]}; "
+            f"known here: {', '.join(sorted(_PLAN_KEYS[kind]))}"
+        )
+    return table
 
 
 @dataclass(frozen=True)
@@ -83,8 +130,7 @@ def _vec(value: Any, where: str) -> Vec3:
 def _camera(table: Any) -> Camera:
     """``[camera]``: ``calibration = FILE``, or ``focal`` (or ``fx``/``fy``), ``principal =
     [cx, cy]`` (or ``cx``/``cy``), ``width``, ``height``, ``distortion``; and ``id``."""
-    if not isinstance(table, dict):
-        raise InputValueError("plan: [camera] must be a table")
+    table = _known_keys(table, "camera", "camera")
     camera_id = str(table.get("id", "cam0"))
     if "calibration" in table:  # a file from `twopose-record calibrate`
         from recorder.calibrate import load_calibration
@@ -99,7 +145,7 @@ def _camera(table: Any) -> Camera:
 
 def load_plan(path: str | Path) -> Plan:
     """Read and check a plan file (TOML); every error names the offending key."""
-    data = read_toml(path, "plan", InputValueError)
+    data = _known_keys(read_toml(path, "plan", InputValueError), "", "")
     method = data.get("method")
     if method not in METHODS:
         raise InputValueError(f"plan: method must be one of {', '.join(METHODS)}, got {method!r}")
@@ -114,41 +160,59 @@ def load_plan(path: str | Path) -> Plan:
     ground = data.get("ground_height")
     if method == "ground" and ground is None:
         raise InputValueError("plan: a ground session needs ground_height (camera centre to table)")
-    trials = []
-    limit = MAX_TRANSLATION[units]
-    for i, t in enumerate(data.get("trials", []), start=1):
-        poses = []
-        for j, p in enumerate(t.get("poses", []), start=1):
-            where = f"trials[{i}].poses[{j}]"
-            tg = _vec(p.get("t"), f"{where}.t")
-            if max(abs(v) for v in tg) > limit:
-                raise InputValueError(f"plan: {where}.t = {tg} is implausibly large for {units}")
-            poses.append(
-                PlannedPose(
-                    tg,
-                    _vec(p.get("r_deg", [0, 0, 0]), f"{where}.r_deg"),
-                    str(p.get("camera", cameras[0].camera_id)),
-                )
-            )
-        if len(poses) < 2:
-            raise InputValueError(f"plan: trials[{i}] needs at least 2 poses, got {len(poses)}")
-        gt = tuple(_vec(g, f"trials[{i}].ground_truth") for g in t.get("ground_truth", []))
-        trials.append(PlannedTrial(tuple(poses), gt))
-    if not trials:
+    height = None if ground is None else finite(ground, "plan: ground_height", positive=True)
+    raw_trials = data.get("trials", [])
+    if not isinstance(raw_trials, list) or not raw_trials:
         raise InputValueError("plan: no [[trials]]")
-    res = data.get("resolution", {})
+    trials = tuple(
+        _trial(t, i, method, units, cameras[0].camera_id, height)
+        for i, t in enumerate(raw_trials, start=1)
+    )
+    res = _known_keys(data.get("resolution", {}), "resolution", "resolution")
     return Plan(
         method=method,
         units=units,
         cameras=cameras,
-        trials=tuple(trials),
+        trials=trials,
         frames=frames,
-        ground_height=float(ground) if ground is not None else None,
+        ground_height=height,
         operator=str(data.get("operator", "")),
         notes=str(data.get("notes", "")),
-        translation_resolution=float(res.get("translation", 0.0625)),
-        rotation_resolution_deg=float(res.get("rotation_deg", 0.5)),
+        translation_resolution=finite(
+            res.get("translation", 0.0625), "plan: resolution.translation", positive=True
+        ),
+        rotation_resolution_deg=finite(
+            res.get("rotation_deg", 0.5), "plan: resolution.rotation_deg", positive=True
+        ),
     )
+
+
+def _trial(
+    table: Any, i: int, method: str, units: str, default_camera: str, height: float | None
+) -> PlannedTrial:
+    """``[[trials]]`` number ``i``: its poses and its ground truth, checked."""
+    t = _known_keys(table, "trials", f"trials[{i}]")
+    poses = []
+    for j, p in enumerate(t.get("poses", []), start=1):
+        where = f"trials[{i}].poses[{j}]"
+        p = _known_keys(p, "poses", where)
+        tg = _vec(p.get("t"), f"{where}.t")
+        if max(abs(v) for v in tg) > MAX_TRANSLATION[units]:
+            raise InputValueError(f"plan: {where}.t = {tg} is implausibly large for {units}")
+        r_deg = _vec(p.get("r_deg", [0, 0, 0]), f"{where}.r_deg")
+        poses.append(PlannedPose(tg, r_deg, str(p.get("camera", default_camera))))
+    if len(poses) < 2:
+        raise InputValueError(f"plan: trials[{i}] needs at least 2 poses, got {len(poses)}")
+    where = f"trials[{i}].ground_truth"
+    gt = tuple(_vec(g, where) for g in t.get("ground_truth", []))
+    want = 2 if method == "line" else 1
+    if gt and len(gt) != want:
+        raise InputValueError(f"plan: {where} needs {want} point(s) for {method}, got {len(gt)}")
+    if method == "line" and gt and gt[0] == gt[1]:
+        raise InputValueError(f"plan: {where}: the line's two points must differ")
+    if method == "ground" and gt and height is not None and off_ground(gt[0], height, units):
+        raise InputValueError(f"plan: {where}: {off_ground(gt[0], height, units)}")
+    return PlannedTrial(tuple(poses), gt)
 
 
 class _PlanDriver(Driver):

@@ -1,27 +1,59 @@
-"""The laptop-on-grid procedure (thesis sections 3.4.2 and 5.2.5) as one loop: a trial's
-ground truth, then pose after pose: place the camera, capture K frames with live detection
-feedback, decide (accept, redo, undo, note, quit); next trial.
+"""The laptop-on-grid procedure (thesis sections 3.4.2 and 5.2.5) as one state machine.
 
-:func:`record` is that loop, the only one. What varies is who decides, a
-:class:`Driver`: the operator at the terminal (:mod:`recorder.interactive`), a plan file
-(:mod:`recorder.plan`), or the simulator (:mod:`recorder.simulate`). :func:`capture_pose`
-is the capture step itself.
+A trial's ground truth, then pose after pose: type the pose, capture K frames, decide
+(accept, redo, undo, note, quit); next trial. :class:`Procedure` is that machine and the
+only writer of the operator's record. Every event is checked against the state
+(:data:`TRANSITIONS`), and every event that changes what the analysis will use is written
+to the session at once (format 1.1, ``docs/session-format.md``):
+
+=========  ==============================  ==========  =====================================
+state      event                           next state  written
+=========  ==============================  ==========  =====================================
+ready      begin_trial                     typing      the trial's ground truth
+typing     type_pose                       placed      the pose entry, bound to capture n
+placed     type_pose (retyped)             placed      a new entry (capture n+1); n unused
+placed     capture                         deciding    the frames and capture window n
+deciding   accept (complete capture)       typing      decision: accept n
+                                           / ready     (after the trial's last pose)
+deciding   redo                            typing      decision: discard n (redo)
+deciding   undo (pose > 1)                 typing      discard n (undo), and discard the
+                                                       previous pose's capture (undone)
+any open   note                            unchanged   the note
+any open   quit / interrupt / error        closed      discard n if undecided
+=========  ==============================  ==========  =====================================
+
+Refused (:class:`ProcedureRefusedError`, the state is unchanged): accepting an incomplete
+capture, and undo at a trial's first pose (there is nothing to undo). A kill -9 leaves the
+file as the last flush left it: ``recover`` closes it, and whatever was not yet accepted is
+not measured.
+
+:func:`record` drives the machine; who decides is a :class:`Driver`: the operator at the
+terminal (:mod:`recorder.interactive`), a plan file (:mod:`recorder.plan`), or the
+simulator (:mod:`recorder.simulate`).
 """
 
 from __future__ import annotations
 
-import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from recorder.capture import CaptureResult, FrameFeedback, capture_frames
 from recorder.sources import FrameSource, SourceInfo
 from twopose.camera import Camera
-from twopose.errors import SourceError
-from twopose.format.entries import GroundPlane, Note, PoseEntry, SessionInfo, TypedEntry
+from twopose.errors import InputValueError, SessionExistsError, TwoposeError
+from twopose.format.entries import (
+    CaptureDecision,
+    GroundPlane,
+    Note,
+    PoseEntry,
+    SessionInfo,
+    TypedEntry,
+    Verdict,
+)
 from twopose.format.writer import SessionWriter
 from twopose.values import Vec3
 
@@ -29,130 +61,216 @@ if TYPE_CHECKING:
     from recorder.live import LiveView
 
 __all__ = [
+    "TRANSITIONS",
     "CaptureResult",
     "Decision",
     "Driver",
     "FrameFeedback",
     "Placement",
+    "Procedure",
+    "ProcedureError",
+    "ProcedureRefusedError",
     "RecordingSummary",
-    "capture_pose",
+    "State",
     "record",
+    "refuse_existing",
 ]
 
 
-@dataclass(frozen=True)
-class FrameFeedback:
-    """What the operator sees for each captured frame."""
-
-    index: int
-    found: bool
-    centroid_px: tuple[float, float]
-    theta_deg: float
-    n_blobs: int
-    reason: str
-
-    def line(self) -> str:
-        if not self.found:
-            return f"  frame {self.index + 1}: not found ({self.reason})"
-        col, row = self.centroid_px
-        theta = "" if math.isnan(self.theta_deg) else f", theta {self.theta_deg:+.1f} deg"
-        where = f"({col:.1f}, {row:.1f})"
-        return f"  frame {self.index + 1}: found at {where}{theta}, {self.n_blobs} blob(s)"
+class State(StrEnum):
+    READY = "ready"  # between trials
+    TYPING = "typing"  # a trial is open; its next pose is to be typed
+    PLACED = "placed"  # the pose is typed (written), not yet captured
+    DECIDING = "deciding"  # captured; waiting for the operator's decision
+    CLOSED = "closed"
 
 
-@dataclass(frozen=True)
-class CaptureResult:
-    """How a capture went."""
-
-    n_frames: int
-    complete: bool
-    reason: str
-    feedback: tuple[FrameFeedback, ...] = ()
-    dropped: int = 0
-    overhead_s: tuple[float, ...] = ()  # per frame: encode + write + detection
-
-    @property
-    def n_found(self) -> int:
-        return sum(f.found for f in self.feedback)
+#: The events each state allows (what :class:`Procedure` checks before every event).
+TRANSITIONS: dict[State, frozenset[str]] = {
+    State.READY: frozenset({"begin_trial", "write", "note", "close"}),
+    State.TYPING: frozenset({"type_pose", "write", "note", "close"}),
+    State.PLACED: frozenset({"type_pose", "capture", "note", "close"}),
+    State.DECIDING: frozenset({"accept", "redo", "undo", "note", "close"}),
+    State.CLOSED: frozenset(),
+}
 
 
-def capture_pose(
-    writer: SessionWriter,
-    source: FrameSource,
-    entry: PoseEntry,
-    n_frames: int,
-    *,
-    target: str | None = None,
-    on_frame: Callable[[FrameFeedback], None] | None = None,
-    timeout_s: float = 2.0,
-    live: LiveView | None = None,
-) -> CaptureResult:
-    """Write the typed pose, then capture ``n_frames`` frames from ``source`` (already
-    placed at the pose: :func:`record` does that).
-
-    ``target`` (``"glove"`` or ``"dot"``) turns on live detection feedback. A source that
-    fails mid-capture leaves the capture in the file, marked incomplete with the reason.
-    With ``live``, every frame, its detection overlay and the status go to the live view.
-    """
-    from twopose.detect import detect
-
-    writer.write_pose(entry)
-
-    feedback: list[FrameFeedback] = []
-    overhead: list[float] = []
-    reason = ""
-    count = 0
-    dropped_before = source.dropped
-    with writer.capture(entry.trial, entry.pose, entry.camera_id) as cap:
-        for k in range(n_frames):
-            try:
-                image = source.read(timeout_s)
-            except SourceError as err:
-                reason = str(err)
-                cap.mark_incomplete(reason)
-                break
-            started = time.perf_counter()
-            data = writer.encode_image(image)
-            cap.add_encoded(data)
-            count += 1
-            d = None
-            if target is not None:
-                d = detect(image, target)
-                fb = FrameFeedback(k, d.found, d.centroid_px, d.theta_deg, d.n_blobs, d.reason)
-                feedback.append(fb)
-            if live is not None:
-                where = f"trial {entry.trial} pose {entry.pose} frame {k + 1}/{n_frames}"
-                t = cap.end_ns or 0
-                live.frame(entry.camera_id, data, writer.image_format, t, d, where)
-                live.status(
-                    t,
-                    trial=entry.trial,
-                    pose=entry.pose,
-                    frame=k + 1,
-                    n_frames=n_frames,
-                    found=None if d is None else d.found,
-                    message=where + ("" if d is None else ": " + (d.reason or "found")),
-                )
-            overhead.append(time.perf_counter() - started)
-            if target is not None and on_frame is not None:
-                on_frame(fb)
-            cap.dropped_frames = source.dropped - dropped_before
-    return CaptureResult(
-        count, not reason, reason, tuple(feedback), source.dropped - dropped_before, tuple(overhead)
-    )
+class ProcedureError(TwoposeError):
+    """An event the current state does not allow (a driver's mistake)."""
 
 
-# --------------------------------------------------------------------------- the loop
+class ProcedureRefusedError(InputValueError):
+    """A decision the operator cannot take now; the message says what to do instead."""
+
+
+class Procedure:
+    """The recording procedure over an open :class:`SessionWriter` (see the module docs)."""
+
+    def __init__(self, writer: SessionWriter) -> None:
+        self.writer = writer
+        self.state = State.READY
+        self.trial = 0
+        self.pose = 0
+        self.n_poses = 0
+        self.entry: PoseEntry | None = None  # the typed pose being captured or decided
+        self.result: CaptureResult | None = None
+        self.accepted: dict[int, PoseEntry] = {}  # this trial: pose -> accepted entry
+        self.n_accepted = 0
+        self.n_discarded = 0
+        self.n_complete_trials = 0
+
+    def _event(self, name: str) -> None:
+        if name not in TRANSITIONS[self.state]:
+            raise ProcedureError(f"cannot {name.replace('_', ' ')} while {self.state.value}")
+
+    # -- trials and poses
+    def begin_trial(self, trial: int, n_poses: int, entries: Iterable[TypedEntry] = ()) -> None:
+        """Open trial ``trial`` of ``n_poses`` poses; ``entries`` (its ground truth) go first."""
+        self._event("begin_trial")
+        if trial <= self.trial:
+            raise ProcedureError(f"trial {trial} does not follow trial {self.trial}")
+        if n_poses < 1:
+            raise ProcedureError(f"a trial needs at least one pose, got {n_poses}")
+        self.trial, self.pose, self.n_poses, self.accepted = trial, 1, n_poses, {}
+        for entry in entries:
+            self.writer.write_entry(entry)
+        self.state = State.TYPING
+
+    def type_pose(self, entry: PoseEntry) -> PoseEntry:
+        """Write the typed pose bound to a new capture number; returns the bound entry."""
+        self._event("type_pose")
+        if (entry.trial, entry.pose) != (self.trial, self.pose):
+            raise ProcedureError(
+                f"expected trial {self.trial} pose {self.pose}, got trial {entry.trial} "
+                f"pose {entry.pose}"
+            )
+        bound = PoseEntry(
+            entry.trial,
+            entry.pose,
+            entry.camera_id,
+            entry.t_grid,
+            entry.r_deg,
+            entry.translation_resolution,
+            entry.rotation_resolution_deg,
+            capture=self.writer.new_capture_number(),
+        )
+        self.writer.write_pose(bound)
+        self.entry, self.result = bound, None
+        self.state = State.PLACED
+        return bound
+
+    def capture(
+        self,
+        source: FrameSource,
+        n_frames: int,
+        *,
+        true_pose: tuple[Vec3, Vec3] | None = None,
+        **options: Any,
+    ) -> CaptureResult:
+        """Place ``source`` at the pose (the simulator's true pose, if given) and capture.
+
+        ``options`` go to :func:`recorder.capture.capture_frames`. An interrupt during the
+        capture leaves its window in the file (incomplete) and the machine deciding, so
+        that closing discards it.
+        """
+        self._event("capture")
+        assert self.entry is not None
+        t_grid, r_deg = true_pose or (self.entry.t_grid, self.entry.r_deg)
+        try:
+            source.set_pose(t_grid, r_deg)
+            self.result = capture_frames(self.writer, source, self.entry, n_frames, **options)
+        finally:
+            self.state = State.DECIDING
+        return self.result
+
+    # -- decisions
+    def _decide(self, entry: PoseEntry, verdict: Verdict, reason: str = "") -> None:
+        assert entry.capture is not None
+        self.writer.write_decision(
+            CaptureDecision(
+                entry.capture, entry.trial, entry.pose, entry.camera_id, verdict, reason
+            )
+        )
+        if verdict == "accept":
+            self.n_accepted += 1
+        else:
+            self.n_discarded += 1
+
+    def accept(self) -> None:
+        """Accept the capture: next pose, or the trial is complete (back to ready)."""
+        self._event("accept")
+        assert self.entry is not None
+        assert self.result is not None
+        if not self.result.complete:
+            raise ProcedureRefusedError(
+                f"capture {self.entry.capture} is incomplete ({self.result.reason}); "
+                "redo it, or quit"
+            )
+        self._decide(self.entry, "accept")
+        self.accepted[self.pose] = self.entry
+        self.entry = None
+        if self.pose >= self.n_poses:
+            self.n_complete_trials += 1
+            self.state = State.READY
+        else:
+            self.pose += 1
+            self.state = State.TYPING
+
+    def redo(self) -> None:
+        """Discard the capture; the same pose is typed (it may be corrected) and captured."""
+        self._event("redo")
+        assert self.entry is not None
+        self._decide(self.entry, "discard", "redo")
+        self.entry = None
+        self.state = State.TYPING
+
+    def undo(self) -> None:
+        """Discard the capture and the previous pose's accepted one; retype that pose."""
+        self._event("undo")
+        assert self.entry is not None
+        if self.pose == 1:
+            raise ProcedureRefusedError(
+                f"nothing to undo: pose 1 is the first pose of trial {self.trial}; "
+                "[r]edo captures it again"
+            )
+        self._decide(self.entry, "discard", "undo")
+        previous = self.accepted.pop(self.pose - 1)
+        self._decide(previous, "discard", f"undone by capture {self.entry.capture}")
+        self.entry = None
+        self.pose -= 1
+        self.state = State.TYPING
+
+    def note(self, text: str) -> None:
+        """An operator note about the current trial (about the session before the first)."""
+        self._event("note")
+        self.writer.write_note(Note(text, self.trial or None))
+
+    def write(self, entry: TypedEntry) -> None:
+        """A typed entry between poses (a trial's ground truth or simulation truth)."""
+        self._event("write")
+        self.writer.write_entry(entry)
+
+    def close(self, reason: str) -> None:
+        """End the procedure: an undecided capture is discarded with ``reason``."""
+        if self.state is State.CLOSED:
+            return
+        if self.state is State.DECIDING and self.entry is not None and self.writer.is_open:
+            self._decide(self.entry, "discard", reason)
+        self.entry = None
+        self.state = State.CLOSED
+
+
+# --------------------------------------------------------------------------- the drivers
 
 
 class Decision(StrEnum):
-    """What happens after a capture."""
+    """What the driver decides after a capture."""
 
     ACCEPT = "a"  # next pose
     REDO = "r"  # capture this pose again
     UNDO = "u"  # go back to the previous pose
     NOTE = "n"  # add a note, then decide again
-    QUIT = "q"  # end the session
+    QUIT = "q"  # end the session (this capture is not used)
 
 
 @dataclass(frozen=True)
@@ -193,6 +311,10 @@ class Driver:
     def decide(self, trial: int, pose: int, result: CaptureResult) -> Decision:
         return Decision.ACCEPT
 
+    def refused(self, error: ProcedureRefusedError) -> None:
+        """The last decision was refused; by default that ends the recording."""
+        raise error
+
     def note(self, trial: int) -> Note:
         """The note to write after :attr:`Decision.NOTE`."""
         raise NotImplementedError
@@ -205,18 +327,40 @@ class Driver:
         """The session is closed."""
 
 
+# --------------------------------------------------------------------------- the loop
+
+
+def _count(n: int, what: str) -> str:
+    return f"{n} {what}{'' if n == 1 else 's'}"
+
+
 @dataclass(frozen=True)
 class RecordingSummary:
-    """What a recording holds."""
+    """What a recording holds, and how it ended."""
 
     path: Path
-    n_trials: int
+    n_trials: int  # trials begun
     n_captures: int
     n_incomplete: int
     n_frames: int
     n_found: int
     seconds: float
     dropped: int = 0
+    n_complete_trials: int = 0  # every pose accepted
+    n_accepted: int = 0
+    n_discarded: int = 0
+    interrupted: bool = False
+
+    def line(self) -> str:
+        """The one summary line the command prints."""
+        ending = " (interrupted: the file is closed and valid)" if self.interrupted else ""
+        return (
+            f"wrote {self.path}: {_count(self.n_trials, 'trial')} "
+            f"({self.n_complete_trials} complete), {_count(self.n_captures, 'capture')} "
+            f"({self.n_accepted} accepted, {self.n_discarded} discarded, "
+            f"{self.n_incomplete} incomplete), {_count(self.n_frames, 'frame')} "
+            f"({self.n_found} detected, {self.dropped} dropped) in {self.seconds:.1f} s{ending}"
+        )
 
 
 @dataclass
@@ -227,7 +371,6 @@ class _Tally:
     frames: int = 0
     found: int = 0
     dropped: int = 0
-    trials: set[int] = field(default_factory=set)
 
     def add(self, result: CaptureResult) -> None:
         self.captures += 1
@@ -236,17 +379,38 @@ class _Tally:
         self.found += result.n_found
         self.dropped += result.dropped
 
-    def summary(self, path: Path) -> RecordingSummary:
+    def summary(self, path: Path, proc: Procedure, interrupted: bool) -> RecordingSummary:
         return RecordingSummary(
             path,
-            len(self.trials),
+            proc.trial,
             self.captures,
             self.incomplete,
             self.frames,
             self.found,
             time.monotonic() - self.started,
             self.dropped,
+            proc.n_complete_trials,
+            proc.n_accepted,
+            proc.n_discarded,
+            interrupted,
         )
+
+
+def refuse_existing(path: str | Path) -> None:
+    """Refuse a session path that exists (call it before asking the operator anything)."""
+    if Path(path).exists():
+        raise SessionExistsError(
+            f"{path} already exists; twopose never overwrites a session. "
+            "Choose another file name or move the old one away."
+        )
+
+
+@dataclass(frozen=True)
+class _CaptureOptions:
+    frames: int
+    target: str | None
+    live: LiveView | None
+    on_frame: Callable[[FrameFeedback], None] | None
 
 
 def record(
@@ -265,59 +429,82 @@ def record(
 ) -> RecordingSummary:
     """Record a new session at ``path`` from the (unopened) ``source``, as ``driver`` says.
 
-    ``target`` (``"glove"`` or ``"dot"``) turns on live detection feedback. A capture that
-    fails is kept in the file, marked incomplete; whatever stops the loop (the driver, an
-    error, Ctrl-C) leaves a closed, valid session with everything captured so far.
+    ``target`` (``"glove"`` or ``"dot"``) turns on live detection feedback. Whatever stops
+    the recording (the driver, an error, Ctrl-C) leaves a closed, valid session holding
+    everything captured so far, with an undecided capture discarded. Ctrl-C returns the
+    summary with ``interrupted`` set; any other error propagates after the file is closed.
     """
-    tally = _Tally()
     out = Path(path)
+    refuse_existing(out)
+    tally = _Tally()
+    options = _CaptureOptions(frames, target, live, on_frame)
+    interrupted = False
     with source, SessionWriter(out, info, cameras, ground=ground, **(writer_options or {})) as w:
+        proc = Procedure(w)
         driver.start(source.info, out)
-        trial = 0
-        while driver.next_trial(trial + 1):
-            trial += 1
-            tally.trials.add(trial)
-            for entry in driver.trial_entries(trial):
-                w.write_entry(entry)
-            if not _record_trial(w, source, driver, trial, tally, frames, target, live, on_frame):
-                break
-            for entry in driver.end_trial(trial):
-                w.write_entry(entry)
-    summary = tally.summary(out)
+        try:
+            _run(proc, source, driver, tally, options)
+            proc.close("quit")
+        except KeyboardInterrupt:
+            interrupted = True
+            proc.close("interrupted (Ctrl-C)")
+        except BaseException as err:
+            proc.close(f"the recording stopped: {type(err).__name__}: {err}")
+            raise
+    summary = tally.summary(out, proc, interrupted)
     driver.finish(summary)
     return summary
 
 
+def _run(
+    proc: Procedure, source: FrameSource, driver: Driver, tally: _Tally, opts: _CaptureOptions
+) -> None:
+    """Trial after trial, as long as the driver wants one and does not quit."""
+    while driver.next_trial(proc.trial + 1):
+        trial = proc.trial + 1
+        proc.begin_trial(trial, driver.poses_in(trial), driver.trial_entries(trial))
+        if not _record_trial(proc, source, driver, tally, opts):
+            return
+        for entry in driver.end_trial(trial):
+            proc.write(entry)
+
+
 def _record_trial(
-    writer: SessionWriter,
-    source: FrameSource,
-    driver: Driver,
-    trial: int,
-    tally: _Tally,
-    frames: int,
-    target: str | None,
-    live: LiveView | None,
-    on_frame: Callable[[FrameFeedback], None] | None,
+    proc: Procedure, source: FrameSource, driver: Driver, tally: _Tally, opts: _CaptureOptions
 ) -> bool:
     """Pose after pose until the trial's last is accepted; False when the driver quits."""
-    pose = 1
-    while pose <= driver.poses_in(trial):
-        placed = driver.place(trial, pose)
-        t_grid, r_deg = placed.true_pose or (placed.entry.t_grid, placed.entry.r_deg)
-        source.set_pose(t_grid, r_deg)
-        result = capture_pose(
-            writer, source, placed.entry, frames, target=target, on_frame=on_frame, live=live
+    while proc.state is not State.READY:
+        placed = driver.place(proc.trial, proc.pose)
+        proc.type_pose(placed.entry)
+        result = proc.capture(
+            source,
+            opts.frames,
+            true_pose=placed.true_pose,
+            target=opts.target,
+            on_frame=opts.on_frame,
+            live=opts.live,
         )
         tally.add(result)
-        driver.captured(trial, pose, result)
-        decision = driver.decide(trial, pose, result)
-        while decision is Decision.NOTE:
-            writer.write_note(driver.note(trial))
-            decision = driver.decide(trial, pose, result)
-        if decision is Decision.QUIT:
+        driver.captured(proc.trial, proc.pose, result)
+        if not _decide(proc, driver, result):
             return False
-        if decision is Decision.ACCEPT:
-            pose += 1
-        elif decision is Decision.UNDO:
-            pose = max(pose - 1, 1)
     return True
+
+
+def _decide(proc: Procedure, driver: Driver, result: CaptureResult) -> bool:
+    """Ask until a decision is taken; False for quit."""
+    while True:
+        decision = driver.decide(proc.trial, proc.pose, result)
+        if decision is Decision.QUIT:
+            proc.close("quit before accepting")
+            return False
+        try:
+            if decision is Decision.NOTE:
+                proc.note(driver.note(proc.trial).text)
+                continue
+            {Decision.ACCEPT: proc.accept, Decision.REDO: proc.redo, Decision.UNDO: proc.undo}[
+                decision
+            ]()
+            return True
+        except ProcedureRefusedError as err:
+            driver.refused(err)

@@ -305,11 +305,7 @@ def _close_pending(out: _Output, pending: _Pending, counts: Counter[str]) -> tup
     for camera, times in pending.frames.items():
         if not times:
             continue
-        if (
-            pose is None
-            or pose.camera_id != camera
-            or pending.key(pose) in pending.closed_windows
-        ):
+        if pose is None or pose.camera_id != camera or pending.key(pose) in pending.closed_windows:
             unassigned += len(times)
             continue
         window = CaptureWindow(

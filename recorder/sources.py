@@ -54,11 +54,13 @@ class FrameSource(ABC):
     """A source of BGR uint8 frames. Use as a context manager.
 
     ``dropped`` counts frames the source delivered (or, paced like a camera, would have)
-    that the reader was too late to take.
+    that the reader was too late to take. The recorder counts them only while a capture
+    runs: :meth:`start_capture` marks its start.
     """
 
     info: SourceInfo
     dropped: int = 0
+    _pacer: _Pacer | None = None
 
     def __enter__(self) -> Self:
         self.open()
@@ -81,6 +83,12 @@ class FrameSource(ABC):
 
     def close(self) -> None:
         return None
+
+    def start_capture(self) -> None:
+        """A capture begins: a paced source restarts its clock, so that the operator's
+        pause since the last frame is not counted as dropped frames."""
+        if self._pacer is not None:
+            self._pacer.due = None
 
     def set_pose(
         self, t_grid: tuple[float, float, float], r_deg: tuple[float, float, float]
@@ -161,6 +169,15 @@ class CameraSource(FrameSource):
                     self.dropped += 1
             self._frames.put(np.asarray(frame, dtype=np.uint8))
 
+    def start_capture(self) -> None:
+        """Frames queued before the capture are stale (the laptop was being moved): drop
+        them without counting them."""
+        while True:
+            try:
+                self._frames.get_nowait()
+            except queue.Empty:
+                return
+
     def read(self, timeout_s: float = 2.0) -> Image:
         try:
             frame = self._frames.get(timeout=timeout_s)
@@ -186,7 +203,6 @@ class VideoSource(FrameSource):
         self.path = Path(path)
         self.realtime = realtime
         self._cap: Any = None
-        self._pacer: _Pacer | None = None
 
     def open(self) -> SourceInfo:
         if not self.path.is_file():
@@ -281,7 +297,6 @@ class SyntheticSource(FrameSource):
         self._bank: list[Image] = []
         self._next = 0
         self._pose: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None
-        self._pacer: _Pacer | None = None
 
     def open(self) -> SourceInfo:
         from recorder.render import build_layout
@@ -310,8 +325,6 @@ class SyntheticSource(FrameSource):
         )
         self._bank = [expose(radiance, self.scene, self._rng) for _ in range(self.bank_size)]
         self._next = 0
-        if self._pacer is not None:
-            self._pacer.due = None  # the operator moved the laptop: the clock restarts
 
     def read(self, timeout_s: float = 2.0) -> Image:
         if self._pacer is not None:

@@ -1,4 +1,4 @@
-"""procedure: the capture step and the one recording loop."""
+"""procedure: the state machine and the one recording loop, through real session files."""
 
 from __future__ import annotations
 
@@ -8,13 +8,36 @@ import cv2
 import numpy as np
 import pytest
 
-from recorder.procedure import CaptureResult, Decision, Driver, Placement, capture_pose, record
+from recorder.capture import CaptureResult, capture_frames
+from recorder.procedure import (
+    TRANSITIONS,
+    Decision,
+    Driver,
+    Placement,
+    Procedure,
+    ProcedureError,
+    ProcedureRefusedError,
+    State,
+    record,
+)
 from recorder.sources import ImagesSource, VideoSource
 from tests.helpers import write_video
 from twopose.camera import Camera, Intrinsics
-from twopose.format.entries import CaptureWindow, Note, PoseEntry, SessionInfo
+from twopose.errors import SessionExistsError
+from twopose.format.entries import CaptureDecision, CaptureWindow, Note, PoseEntry, SessionInfo
 from twopose.format.reader import SessionReader
+from twopose.format.trials import iter_trials
 from twopose.format.writer import SessionWriter
+
+CAM = Camera("cam0", Intrinsics(32, 24, 30.0, 30.0, 16.0, 12.0))
+INFO = SessionInfo(method="point", units="in")
+
+
+def _frames(folder: Path, n: int = 60) -> Path:
+    folder.mkdir()
+    for k in range(n):
+        cv2.imwrite(str(folder / f"{k:03d}.png"), np.full((24, 32, 3), k, np.uint8))
+    return folder
 
 
 def test_a_source_that_stops_mid_capture_leaves_an_incomplete_capture(tmp_path: Path) -> None:
@@ -22,17 +45,64 @@ def test_a_source_that_stops_mid_capture_leaves_an_incomplete_capture(tmp_path: 
     cam = Camera("cam0", Intrinsics(64, 48, 50.0, 50.0, 32.0, 24.0))
     with (
         VideoSource(write_video(tmp_path / "v.avi", 3)) as src,
-        SessionWriter(out, SessionInfo(method="point", units="in"), [cam]) as w,
+        SessionWriter(out, INFO, [cam]) as w,
     ):
-        result = capture_pose(w, src, PoseEntry(1, 1, "cam0", (0.0, 0.0, 0.0)), 5, target="dot")
+        entry = PoseEntry(1, 1, "cam0", (0.0, 0.0, 0.0), capture=w.new_capture_number())
+        result = capture_frames(w, src, entry, 5, target="dot")
     assert not result.complete
     assert result.n_frames == 3
     assert "no more frames" in result.reason
     assert len(result.feedback) == 3
     with SessionReader(out) as r:  # the session stays valid
         (window,) = [e for e in r.iter_entries() if isinstance(e, CaptureWindow)]
-    assert (window.status, window.n_frames) == ("incomplete", 3)
+    assert (window.status, window.n_frames, window.capture) == ("incomplete", 3, 1)
     assert "no more frames" in window.reason
+
+
+def test_events_the_state_does_not_allow_are_errors(tmp_path: Path) -> None:
+    with SessionWriter(tmp_path / "s.mcap", INFO, [CAM], image_format="png") as w:
+        proc = Procedure(w)
+        for event in ("accept", "redo", "undo"):
+            with pytest.raises(ProcedureError, match=f"cannot {event} while ready"):
+                getattr(proc, event)()
+        with pytest.raises(ProcedureError, match="cannot type pose while ready"):
+            proc.type_pose(PoseEntry(1, 1, "cam0", (0, 0, 0)))
+        proc.begin_trial(1, 2)
+        with pytest.raises(ProcedureError, match="expected trial 1 pose 1"):
+            proc.type_pose(PoseEntry(1, 2, "cam0", (0, 0, 0)))
+        proc.close("test")
+        assert proc.state is State.CLOSED
+        with pytest.raises(ProcedureError, match="cannot note while closed"):
+            proc.note("late")
+    assert TRANSITIONS[State.CLOSED] == frozenset()
+
+
+def test_refusals_leave_the_state_unchanged(tmp_path: Path) -> None:
+    with (
+        VideoSource(write_video(tmp_path / "v.avi", 3)) as src,
+        SessionWriter(tmp_path / "s.mcap", INFO, [CAM], image_format="png") as w,
+    ):
+        proc = Procedure(w)
+        proc.begin_trial(1, 2)
+        proc.type_pose(PoseEntry(1, 1, "cam0", (0, 0, 0)))
+        proc.capture(src, 2)
+        with pytest.raises(ProcedureRefusedError, match="nothing to undo: pose 1 is the first"):
+            proc.undo()
+        assert (proc.state, proc.pose) == (State.DECIDING, 1)
+        proc.accept()
+        proc.type_pose(PoseEntry(1, 2, "cam0", (1, 0, 0)))
+        result = proc.capture(src, 2)  # one frame left: the video ends
+        assert not result.complete
+        with pytest.raises(ProcedureRefusedError, match="incomplete .* redo it, or quit"):
+            proc.accept()
+        assert (proc.state, proc.pose) == (State.DECIDING, 2)
+        proc.close("source failure")
+    with SessionReader(tmp_path / "s.mcap") as r:
+        decisions = [e for e in r.iter_entries() if isinstance(e, CaptureDecision)]
+    assert [(d.capture, d.decision, d.reason) for d in decisions] == [
+        (1, "accept", ""),
+        (2, "discard", "source failure"),
+    ]
 
 
 class _Scripted(Driver):
@@ -42,6 +112,7 @@ class _Scripted(Driver):
         self.decisions = list(decisions)
         self.trials = trials
         self.placed: list[tuple[int, int]] = []
+        self.refusals: list[str] = []
 
     def next_trial(self, trial: int) -> bool:
         return trial <= self.trials
@@ -53,45 +124,102 @@ class _Scripted(Driver):
     def decide(self, trial: int, pose: int, result: CaptureResult) -> Decision:
         return self.decisions.pop(0)
 
+    def refused(self, error: ProcedureRefusedError) -> None:
+        self.refusals.append(str(error))
+
     def note(self, trial: int) -> Note:
         return Note(f"note in trial {trial}", trial)
 
 
+A, R, U, N, Q = Decision.ACCEPT, Decision.REDO, Decision.UNDO, Decision.NOTE, Decision.QUIT
+
+
 @pytest.mark.parametrize(
-    ("decisions", "placed"),
+    ("decisions", "placed", "used"),
     [
-        ([Decision.ACCEPT, Decision.ACCEPT], [(1, 1), (1, 2)]),
-        ([Decision.REDO, Decision.ACCEPT, Decision.ACCEPT], [(1, 1), (1, 1), (1, 2)]),
-        (
-            [Decision.ACCEPT, Decision.UNDO, Decision.ACCEPT, Decision.ACCEPT],
-            [(1, 1), (1, 2), (1, 1), (1, 2)],
-        ),
-        ([Decision.NOTE, Decision.ACCEPT, Decision.QUIT], [(1, 1), (1, 2)]),
-        ([Decision.UNDO, Decision.ACCEPT, Decision.ACCEPT], [(1, 1), (1, 1), (1, 2)]),
+        ([A, A], [(1, 1), (1, 2)], [(1, 11.0), (2, 12.0)]),
+        ([R, A, A], [(1, 1), (1, 1), (1, 2)], [(1, 11.0), (2, 12.0)]),
+        ([A, U, A, A], [(1, 1), (1, 2), (1, 1), (1, 2)], [(1, 11.0), (2, 12.0)]),
+        ([N, A, Q], [(1, 1), (1, 2)], [(1, 11.0)]),  # quit: the last capture is not used
+        ([U, A, A], [(1, 1), (1, 2)], [(1, 11.0), (2, 12.0)]),  # undo at pose 1: refused
     ],
 )
 def test_the_loop_follows_the_drivers_decisions(
-    tmp_path: Path, decisions: list[Decision], placed: list[tuple[int, int]]
+    tmp_path: Path,
+    decisions: list[Decision],
+    placed: list[tuple[int, int]],
+    used: list[tuple[int, float]],
 ) -> None:
     out = tmp_path / "s.mcap"
-    folder = tmp_path / "frames"
-    folder.mkdir()
-    for k in range(40):
-        cv2.imwrite(str(folder / f"{k:03d}.png"), np.full((24, 32, 3), k, np.uint8))
-    cam = Camera("cam0", Intrinsics(32, 24, 30.0, 30.0, 16.0, 12.0))
     driver = _Scripted(decisions)
-    summary = record(
-        out, SessionInfo(method="point", units="in"), [cam], ImagesSource(folder), driver, frames=2
-    )
+    summary = record(out, INFO, [CAM], ImagesSource(_frames(tmp_path / "f")), driver, frames=2)
     assert driver.placed == placed
     assert not driver.decisions  # every decision was asked for
-    assert summary.n_captures == len(placed)
-    assert summary.n_frames == 2 * len(placed)
+    assert (summary.n_captures, summary.n_frames) == (len(placed), 2 * len(placed))
+    assert summary.n_accepted + summary.n_discarded == len(placed) + decisions.count(U) - len(
+        driver.refusals
+    )
+    assert len(driver.refusals) == (1 if decisions[0] is U else 0)
     with SessionReader(out) as r:
         entries = list(r.iter_entries())
+        (trial,) = iter_trials(r)
     poses = [(e.trial, e.pose) for e in entries if isinstance(e, PoseEntry)]
     windows = [(e.trial, e.pose, e.n_frames) for e in entries if isinstance(e, CaptureWindow)]
     notes = [e.text for e in entries if isinstance(e, Note)]
     assert poses == placed
-    assert windows == [(t, p, 2) for t, p in placed]
-    assert notes == (["note in trial 1"] if Decision.NOTE in decisions else [])
+    assert windows == [(t, p, 2) for t, p in placed]  # nothing recorded is deleted
+    assert notes == (["note in trial 1"] if N in decisions else [])
+    assert [(p.entry.pose, p.entry.t_grid[0]) for p in trial.poses] == used
+
+
+def test_an_existing_file_is_refused_before_the_source_opens(tmp_path: Path) -> None:
+    out = tmp_path / "s.mcap"
+    out.write_bytes(b"keep me")
+    with pytest.raises(SessionExistsError, match="never overwrites"):
+        record(out, INFO, [CAM], ImagesSource(tmp_path / "missing"), _Scripted([A, A]))
+    assert out.read_bytes() == b"keep me"
+
+
+class _InterruptingSource(ImagesSource):
+    """Real frames from a folder; Ctrl-C arrives at read number ``at`` (counting from 1)."""
+
+    def __init__(self, folder: Path, at: int) -> None:
+        super().__init__(folder)
+        self.at, self.reads = at, 0
+
+    def read(self, timeout_s: float = 2.0) -> np.ndarray:  # type: ignore[type-arg]
+        self.reads += 1
+        if self.reads == self.at:
+            raise KeyboardInterrupt
+        return super().read(timeout_s)
+
+
+def test_ctrl_c_during_a_capture_closes_a_valid_file_and_discards_it(tmp_path: Path) -> None:
+    out = tmp_path / "s.mcap"
+    source = _InterruptingSource(_frames(tmp_path / "f"), at=4)  # pose 2, second frame
+    summary = record(out, INFO, [CAM], source, _Scripted([A, A]), frames=2)
+    assert summary.interrupted
+    assert "interrupted" in summary.line()
+    with SessionReader(out) as r:
+        windows = [e for e in r.iter_entries() if isinstance(e, CaptureWindow)]
+        decisions = [e for e in r.iter_entries() if isinstance(e, CaptureDecision)]
+        (trial,) = iter_trials(r)
+    assert [(w.pose, w.status, w.n_frames) for w in windows] == [
+        (1, "complete", 2),
+        (2, "incomplete", 1),
+    ]
+    assert "interrupted" in windows[1].reason
+    assert [(d.capture, d.decision) for d in decisions] == [(1, "accept"), (2, "discard")]
+    assert [p.entry.pose for p in trial.poses] == [1]
+    assert "fewer than two" in trial.why_not_measured()
+
+
+def test_the_summary_line_counts_in_words() -> None:
+    from recorder.procedure import RecordingSummary
+
+    one = RecordingSummary(Path("s.mcap"), 1, 1, 0, 1, 1, 2.0, n_accepted=1)
+    assert "1 trial (0 complete), 1 capture (1 accepted" in one.line()
+    assert "1 frame (1 detected" in one.line()
+    two = RecordingSummary(Path("s.mcap"), 2, 3, 1, 6, 5, 2.0)
+    assert "2 trials" in two.line()
+    assert "3 captures" in two.line()

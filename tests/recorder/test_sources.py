@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 import pytest
 
-from recorder.procedure import capture_pose
+from recorder.capture import capture_frames
 from recorder.sources import ImagesSource, SourceError, SyntheticSource, VideoSource, open_source
 from tests.helpers import write_video
 from twopose.camera import Camera, Intrinsics
@@ -81,7 +81,7 @@ def test_a_late_reader_of_a_paced_source_drops_frames_and_they_are_counted(tmp_p
         src.read()  # a camera would have moved on meanwhile
         assert src.dropped >= 4
         before = src.dropped
-        result = capture_pose(
+        result = capture_frames(
             w,
             src,
             PoseEntry(1, 1, "cam0", (0.0, 0.0, 0.0)),
@@ -126,3 +126,60 @@ def test_camera_source_reports_a_device_that_stops_delivering(tmp_path: Path) ->
         assert frames
         assert all(f.shape == (48, 64, 3) for f in frames)
         assert len(frames) + cam.dropped == 3
+
+
+@pytest.mark.parametrize("kind", ["synthetic", "video", "images"])
+def test_a_pause_before_a_redone_capture_is_not_counted_as_dropped(
+    tmp_path: Path, kind: str
+) -> None:
+    import time
+
+    from recorder.capture import CaptureResult
+    from recorder.procedure import Decision, Driver, Placement, record
+
+    pause_s = 0.6  # 18 frame intervals at 30 fps
+
+    class Pausing(Driver):
+        decisions = [Decision.REDO, Decision.ACCEPT, Decision.ACCEPT]
+
+        def place(self, trial: int, pose: int) -> Placement:
+            return Placement(PoseEntry(trial, pose, "cam0", (0.0, 0.0, 0.0)))  # same pose
+
+        def decide(self, trial: int, pose: int, result: CaptureResult) -> Decision:
+            time.sleep(pause_s)
+            return self.decisions.pop(0)
+
+    if kind == "synthetic":
+        source: object = SyntheticSource(None, "point", realtime=True)
+        cam = Camera("cam0", Intrinsics(640, 480, 525.0, 525.0, 320.0, 240.0))
+    elif kind == "video":
+        source = VideoSource(write_video(tmp_path / "v.avi", 90, step=2), realtime=True)
+        cam = Camera("cam0", Intrinsics(64, 48, 50.0, 50.0, 32.0, 24.0))
+    else:
+        for i in range(12):
+            cv2.imwrite(str(tmp_path / f"{i:02d}.png"), np.full((48, 64, 3), i, np.uint8))
+        source = ImagesSource(tmp_path)
+        cam = Camera("cam0", Intrinsics(64, 48, 50.0, 50.0, 32.0, 24.0))
+    out = tmp_path / "s.mcap"
+    summary = record(
+        out, SessionInfo(method="point", units="in"), [cam], source, Pausing(), frames=3
+    )  # type: ignore[arg-type]
+    with SessionReader(out) as r:
+        windows = [e for e in r.iter_entries() if isinstance(e, CaptureWindow)]
+    assert len(windows) == 3  # the redone capture, then poses 1 and 2
+    # A pause counted as drops would give ~18 per capture; a capture itself may lose one or
+    # two frames on a loaded machine.
+    assert [w.dropped_frames <= 2 for w in windows] == [True, True, True]
+    assert summary.dropped == sum(w.dropped_frames for w in windows)
+
+
+def test_a_camera_drops_frames_queued_before_the_capture_without_counting_them() -> None:
+    from recorder.sources import CameraSource
+
+    cam = CameraSource(0)  # not opened: its queue is all this test uses
+    cam._frames.put(np.zeros((2, 2, 3), np.uint8))
+    cam._frames.put(np.zeros((2, 2, 3), np.uint8))
+    cam.dropped = 7  # dropped while the laptop was being moved
+    cam.start_capture()
+    assert cam._frames.empty()
+    assert cam.dropped == 7  # the capture counts from here

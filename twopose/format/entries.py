@@ -40,6 +40,7 @@ __all__ = [
     "TruePose",
     "TruthKind",
     "TypedEntry",
+    "Verdict",
     "decode_entry",
     "encode_entry",
     "json_field",

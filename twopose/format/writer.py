@@ -275,9 +275,7 @@ class SessionWriter:
         self._captures += 1
         return self._captures
 
-    def capture(
-        self, trial: int, pose: int, camera_id: str, capture: int | None = None
-    ) -> Capture:
+    def capture(self, trial: int, pose: int, camera_id: str, capture: int | None = None) -> Capture:
         """Open a capture window; frames go through :meth:`Capture.add_frame`.
 
         ``capture`` is the number its pose entry was written with (format 1.1).

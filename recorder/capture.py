@@ -1,0 +1,153 @@
+"""The capture step: K frames from a source into the session, with live detection feedback.
+
+:func:`capture_frames` is called by the procedure (:mod:`recorder.procedure`) once the
+typed pose is written and bound to a capture number; it never writes the pose itself.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from recorder.sources import FrameSource
+from twopose.errors import SourceError
+from twopose.format.entries import PoseEntry
+from twopose.format.writer import Capture, SessionWriter
+
+if TYPE_CHECKING:
+    from recorder.live import LiveView
+    from twopose.detect import Detection
+
+__all__ = ["CaptureResult", "FrameFeedback", "capture_frames"]
+
+
+@dataclass(frozen=True)
+class FrameFeedback:
+    """What the operator sees for each captured frame."""
+
+    index: int
+    found: bool
+    centroid_px: tuple[float, float]
+    theta_deg: float
+    n_blobs: int
+    reason: str
+
+    def line(self) -> str:
+        if not self.found:
+            return f"  frame {self.index + 1}: not found ({self.reason})"
+        col, row = self.centroid_px
+        theta = "" if math.isnan(self.theta_deg) else f", theta {self.theta_deg:+.1f} deg"
+        where = f"({col:.1f}, {row:.1f})"
+        return f"  frame {self.index + 1}: found at {where}{theta}, {self.n_blobs} blob(s)"
+
+
+@dataclass(frozen=True)
+class CaptureResult:
+    """How a capture went."""
+
+    n_frames: int
+    complete: bool
+    reason: str
+    feedback: tuple[FrameFeedback, ...] = ()
+    dropped: int = 0
+    overhead_s: tuple[float, ...] = ()  # per frame: encode + write + detection
+    capture: int | None = None  # its number in the session (format 1.1)
+
+    @property
+    def n_found(self) -> int:
+        return sum(f.found for f in self.feedback)
+
+
+def capture_frames(
+    writer: SessionWriter,
+    source: FrameSource,
+    entry: PoseEntry,
+    n_frames: int,
+    *,
+    target: str | None = None,
+    on_frame: Callable[[FrameFeedback], None] | None = None,
+    timeout_s: float = 2.0,
+    live: LiveView | None = None,
+) -> CaptureResult:
+    """Capture ``n_frames`` frames for the already written pose ``entry`` (the source is
+    already placed there).
+
+    Dropped frames are counted from the start of this capture only: the source restarts
+    its clock here (:meth:`FrameSource.start_capture`), so the operator's pause before a
+    capture is never counted. ``target`` (``"glove"`` or ``"dot"``) turns on live detection
+    feedback. A source that fails mid-capture leaves the capture in the file, marked
+    incomplete with the reason; an interrupt (Ctrl-C) does the same, then propagates.
+    """
+    source.start_capture()
+    dropped_before = source.dropped
+    feedback: list[FrameFeedback] = []
+    overhead: list[float] = []
+    reason = ""
+    with writer.capture(entry.trial, entry.pose, entry.camera_id, entry.capture) as cap:
+        for k in range(n_frames):
+            try:
+                image = source.read(timeout_s)
+            except SourceError as err:
+                reason = str(err)
+                cap.mark_incomplete(reason)
+                break
+            started = time.perf_counter()
+            data = writer.encode_image(image)
+            cap.add_encoded(data)
+            d = _detection(image, target)
+            fb = None if d is None else _feedback(k, d)
+            if fb is not None:
+                feedback.append(fb)
+            if live is not None:
+                _show_live(live, writer, cap, entry, data, (k, n_frames), d)
+            overhead.append(time.perf_counter() - started)
+            if fb is not None and on_frame is not None:
+                on_frame(fb)
+            cap.dropped_frames = source.dropped - dropped_before
+    return CaptureResult(
+        cap.n_frames,
+        not reason,
+        reason,
+        tuple(feedback),
+        source.dropped - dropped_before,
+        tuple(overhead),
+        entry.capture,
+    )
+
+
+def _detection(image: object, target: str | None) -> Detection | None:
+    from twopose.detect import detect
+
+    return None if target is None else detect(image, target)  # type: ignore[arg-type]
+
+
+def _feedback(k: int, d: Detection) -> FrameFeedback:
+    return FrameFeedback(k, d.found, d.centroid_px, d.theta_deg, d.n_blobs, d.reason)
+
+
+def _show_live(
+    live: LiveView,
+    writer: SessionWriter,
+    cap: Capture,
+    entry: PoseEntry,
+    data: bytes,
+    frame: tuple[int, int],
+    d: Detection | None,
+) -> None:
+    """The frame, its detection overlay and the status line to the live view."""
+    k, n_frames = frame
+    where = f"trial {entry.trial} pose {entry.pose} frame {k + 1}/{n_frames}"
+    t = cap.end_ns or 0
+    live.frame(entry.camera_id, data, writer.image_format, t, d, where)
+    live.status(
+        t,
+        trial=entry.trial,
+        pose=entry.pose,
+        frame=k + 1,
+        n_frames=n_frames,
+        found=None if d is None else d.found,
+        message=where + ("" if d is None else ": " + (d.reason or "found")),
+    )
