@@ -6,6 +6,7 @@ Everything the CLI's ``run`` does is :func:`run`, one call.
 
 from __future__ import annotations
 
+import dataclasses
 import multiprocessing
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
@@ -18,19 +19,21 @@ import pandas as pd
 from analysis.metrics import (
     LINE_COLUMNS,
     MARGIN_COLUMNS,
+    NOTES_COLUMNS,
     OPTIMAL_COLUMNS,
     TRIAL_COLUMNS,
     UNCERTAINTY_COLUMNS,
     WEIGHTED_COLUMNS,
     summarize,
 )
+from analysis.outputs import OutputFolder
 from analysis.pipeline import analyse_session, keep_frame_buffers
 from analysis.results import AnalysisOptions, RunResult, SessionFailure, SessionResult
 from analysis.tables import AVERAGING_COLUMNS, FRAME_COLUMNS, VIEW_COLUMNS
 from twopose.errors import InputValueError, TwoposeError
-from twopose.format.reader import find_sessions
+from twopose.format.reader import find_sessions, is_results_file
 
-__all__ = ["Outcome", "analyse_or_fail", "results_mcap_name", "run"]
+__all__ = ["Outcome", "analyse_or_fail", "results_mcap_name", "run", "split_inputs"]
 
 #: What one session's analysis gives: its tables, or why it failed.
 Outcome = SessionResult | SessionFailure
@@ -44,6 +47,7 @@ TRIAL_TABLE_COLUMNS = (
     + OPTIMAL_COLUMNS
     + MARGIN_COLUMNS
     + UNCERTAINTY_COLUMNS
+    + NOTES_COLUMNS
 )
 
 
@@ -83,24 +87,33 @@ def run(
     options = options or AnalysisOptions()
     if jobs < 1:
         raise InputValueError(f"jobs must be >= 1, got {jobs}")
-    files = [str(p) for p in find_sessions(paths)]
+    files, skipped = split_inputs(paths)
     if on_sessions_found is not None:
         on_sessions_found(len(files))
+    folder = OutputFolder.prepare(out_dir) if out_dir is not None else None
     results_mcap: list[str | None] = [None] * len(files)
-    if out_dir is not None and scene:
-        Path(out_dir).mkdir(parents=True, exist_ok=True)
-        results_mcap = [str(Path(out_dir) / results_mcap_name(i, f)) for i, f in enumerate(files)]
-    images = out_dir is not None
+    if folder is not None and scene:
+        results_mcap = [str(folder.path / results_mcap_name(i, f)) for i, f in enumerate(files)]
+    images = folder is not None
     outcomes = _execute(files, results_mcap, options, images, jobs, dask_address, on_session_done)
-    result = gather(files, outcomes)
-    if out_dir is not None:
+    result = dataclasses.replace(gather(files, outcomes), skipped=tuple(skipped))
+    if folder is not None:
         from analysis.report import write_outputs
         from analysis.sensitivity import sensitivity
 
         # The sweeps are in the thesis' geometry, not the sessions': what the method can
         # do, beside what each trial's own covariance says dominated it.
-        write_outputs(result, Path(out_dir), sensitivity())
+        written = write_outputs(result, folder.path, sensitivity())
+        folder.record(written + [Path(r).name for r in results_mcap if r is not None])
     return result
+
+
+def split_inputs(paths: Sequence[str | Path]) -> tuple[list[str], list[str]]:
+    """The session files under ``paths``, and the results files of an earlier run found
+    among them (skipped: they are not sessions)."""
+    found = find_sessions(paths)
+    skipped = [str(p) for p in found if is_results_file(p)]
+    return [str(p) for p in found if str(p) not in skipped], skipped
 
 
 def _execute(

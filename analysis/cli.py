@@ -7,11 +7,14 @@ import math
 import sys
 from enum import StrEnum
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
 from twopose.errors import EXIT_SOME_INPUTS_FAILED, InputValueError, TwoposeError, handle_errors
+
+if TYPE_CHECKING:
+    from twopose.format.trials import SessionOverview
 
 # Everything heavy (numpy, rich, mcap, pandas, matplotlib) is imported inside the command
 # that needs it, so that `twopose-analyze --help` starts fast.
@@ -42,14 +45,15 @@ def info(
     from rich.console import Console
     from rich.table import Table
 
-    from twopose.format.reader import find_sessions
-    from twopose.format.trials import SessionOverview, describe_session
+    from analysis.batch import split_inputs
+    from twopose.format.trials import describe_session
 
     console = Console()
     with handle_errors():
-        sessions = find_sessions(paths)
+        sessions, skipped = split_inputs(paths)
+    _say_skipped(skipped)
     overviews: list[SessionOverview] = []
-    failed: list[tuple[Path, str]] = []
+    failed: list[tuple[str, str]] = []
     for path in sessions:
         try:
             overviews.append(describe_session(path))
@@ -71,7 +75,9 @@ def info(
     for o in overviews:
         cams = ", ".join(f"{c.camera_id} f={c.intrinsics.fx:g}" for c in o.cameras)
         captures = f"{o.n_captures}" + (
-            f" ({o.n_incomplete_captures} incomplete)" if o.n_incomplete_captures else ""
+            f" ({o.n_set_aside} set aside, {o.n_incomplete_captures} incomplete)"
+            if o.n_set_aside or o.n_incomplete_captures
+            else ""
         )
         table.add_row(
             str(o.path),
@@ -85,12 +91,37 @@ def info(
             o.format_version,
         )
     console.print(table)
+    for o in overviews:
+        _print_notes(o)
     for path, reason in failed:
         typer.secho(f"failed: {path}: {reason}", err=True, fg=typer.colors.RED)
     if not sessions:
         typer.secho("no session files (*.mcap) found", err=True, fg=typer.colors.YELLOW)
     if failed or not sessions:
         raise typer.Exit(EXIT_SOME_INPUTS_FAILED)
+
+
+def _say_skipped(skipped: list[str]) -> None:
+    if skipped:
+        typer.secho(
+            f"skipped {len(skipped)} results file(s) of an earlier twopose-analyze run (not "
+            f"sessions): {', '.join(skipped)}",
+            err=True,
+            fg=typer.colors.YELLOW,
+        )
+
+
+def _print_notes(o: SessionOverview) -> None:
+    """The operator's notes of one session (``info``), session-wide first."""
+    lines = [f"  session: {text}" for text in o.notes.session]
+    lines += [
+        f"  trial {trial}: {text}"
+        for trial, texts in sorted(o.notes.by_trial.items())
+        for text in texts
+    ]
+    if lines:
+        typer.echo(f"notes in {o.path}:")
+        typer.echo("\n".join(lines))
 
 
 class CombineChoice(StrEnum):
@@ -173,6 +204,7 @@ def run_command(
     for row in summary_rows(result.summary):
         table.add_row(*row)
     Console().print(table)
+    _say_skipped(list(result.skipped))
     for _, e in result.errors.iterrows():
         typer.secho(f"failed: {e['error']}", err=True, fg=typer.colors.RED)
     if result.failed or not result.sessions:

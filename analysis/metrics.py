@@ -14,6 +14,7 @@ from numpy.typing import NDArray
 from twopose.uncertainty import CHI2_3DOF_95, CHI2_95, nees
 
 __all__ = [
+    "NOTES_COLUMNS",
     "SUMMARY_COLUMNS",
     "TRIAL_COLUMNS",
     "UNCERTAINTY_COLUMNS",
@@ -46,6 +47,8 @@ TRIAL_COLUMNS = [
     "err",
 ]
 LINE_COLUMNS = ["dir_x", "dir_y", "dir_z", "angle_err_deg", "dist_err"]
+#: The operator's notes about the trial, joined with " | " (session-wide notes: the report).
+NOTES_COLUMNS = ["notes"]
 #: Line trials: the weighted/robust fit beside the thesis' (solve.triangulate_lines).
 WEIGHTED_COLUMNS = [
     "x_weighted",

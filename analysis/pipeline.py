@@ -34,7 +34,7 @@ from twopose.detect import Detection, PoseMeasurement, detect
 from twopose.errors import SessionFormatError
 from twopose.format.entries import PoseEntry
 from twopose.format.reader import SessionReader
-from twopose.format.trials import TrialRecord, iter_trials
+from twopose.format.trials import TrialRecord, iter_trials, read_notes
 
 __all__ = ["analyse_session", "keep_frame_buffers"]
 
@@ -55,6 +55,8 @@ class _Replay:
     views: list[list[PoseView]]  # per trial, its complete poses
     last_ns: list[int]  # per trial, its last frame's log time (0 when it has none)
     frame_rows: list[dict[str, Any]]
+    notes: list[str]  # per trial, the operator's notes joined with " | "
+    unmeasured: list[str]  # per trial, why it has fewer than two usable poses ("" if not)
 
 
 def analyse_session(
@@ -108,6 +110,8 @@ def analyse_session(
             est,
             replay.truth,
             margin_warnings(est.status, est.margins, options),
+            replay.notes,
+            replay.unmeasured,
         )
         if results is not None:
             _write_trial_scenes(results, replay, measurements, est, trials)
@@ -146,6 +150,7 @@ def _replay(
     target = "dot" if info.method == "point" else "glove"
     rows: list[dict[str, Any]] = []
     trial_ids, truths, views, last_ns = [], [], [], []
+    notes, unmeasured = [], []
     for record in iter_trials(reader):
         views.append(_detect_trial(record, session, target, options, rows, results))
         trial_ids.append(record.trial)
@@ -153,6 +158,8 @@ def _replay(
         last_ns.append(
             max((pc.frames[-1].log_time_ns for pc in record.poses if pc.frames), default=0)
         )
+        notes.append(" | ".join(record.notes))
+        unmeasured.append(record.why_not_measured())
     return _Replay(
         session=session,
         method=info.method,
@@ -164,17 +171,26 @@ def _replay(
         views=views,
         last_ns=last_ns,
         frame_rows=rows,
+        notes=notes,
+        unmeasured=unmeasured,
     )
 
 
 def _metadata(reader: SessionReader) -> dict[str, str]:
     """What the report says about the session."""
     info = reader.info
+    session_notes = read_notes(reader)
     return {
         "method": info.method,
         "units": info.units,
         "operator": info.operator,
         "notes": info.notes,
+        "operator_notes": " | ".join(session_notes.session),
+        "trial_notes": " | ".join(
+            f"trial {t}: {text}"
+            for t, texts in sorted(session_notes.by_trial.items())
+            for text in texts
+        ),
         "cameras": ", ".join(
             f"{c.camera_id} (fx={c.intrinsics.fx:g}, fy={c.intrinsics.fy:g}, "
             f"{c.intrinsics.width}x{c.intrinsics.height})"

@@ -238,16 +238,21 @@ def _table(df: pd.DataFrame) -> str:
     )
 
 
-def write_outputs(result: RunResult, out_dir: Path, sweeps: pd.DataFrame) -> None:
+def write_outputs(result: RunResult, out_dir: Path, sweeps: pd.DataFrame) -> list[str]:
     """Write the CSV tables, one PNG per figure, the sensitivity ``sweeps`` and
-    ``report.html`` into ``out_dir``."""
+    ``report.html`` into ``out_dir``; the names of the files written."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    result.trials.to_csv(out_dir / "trials.csv", index=False)
-    result.summary.to_csv(out_dir / "summary.csv", index=False)
-    result.averaging.to_csv(out_dir / "averaging.csv", index=False)
-    result.frames.to_csv(out_dir / "frames.csv", index=False)
-    result.errors.to_csv(out_dir / "errors.csv", index=False)
-    result.views.to_csv(out_dir / "views.csv", index=False)
+    tables = {
+        "trials.csv": result.trials,
+        "summary.csv": result.summary,
+        "averaging.csv": result.averaging,
+        "frames.csv": result.frames,
+        "errors.csv": result.errors,
+        "views.csv": result.views,
+        "sensitivity.csv": sweeps,
+    }
+    for name, table in tables.items():
+        table.to_csv(out_dir / name, index=False)
     # Session figures were rendered by the workers (in parallel); a session analysed
     # without them is drawn here. Only what spans sessions is always drawn here.
     pngs: dict[str, bytes] = {}
@@ -260,13 +265,13 @@ def write_outputs(result: RunResult, out_dir: Path, sweeps: pd.DataFrame) -> Non
     pngs |= {name: png_bytes(fig) for name, fig in run_figures(result).items()}
     from analysis.sensitivity import plot_sensitivity
 
-    sweeps.to_csv(out_dir / "sensitivity.csv", index=False)
     pngs["sensitivity"] = png_bytes(plot_sensitivity(sweeps))
     images = {}
     for name, data in pngs.items():
         (out_dir / f"{name}.png").write_bytes(data)
         images[name] = base64.b64encode(data).decode()
     (out_dir / "report.html").write_text(_report_html(result, images, sweeps), encoding="utf-8")
+    return [*tables, *(f"{name}.png" for name in pngs), "report.html"]
 
 
 def dominant_inputs(trials: pd.DataFrame) -> pd.DataFrame:

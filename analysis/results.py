@@ -61,6 +61,7 @@ class RunResult:
     errors: pd.DataFrame
     sessions: tuple[SessionResult, ...]
     views: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=VIEW_COLUMNS))
+    skipped: tuple[str, ...] = ()  # results files of an earlier run found among the inputs
 
     @property
     def failed(self) -> bool:

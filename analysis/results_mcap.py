@@ -40,6 +40,7 @@ from twopose.format.channels import Channels
 from twopose.format.entries import GroundPlane, PoseEntry
 from twopose.format.messages import (
     GRID_FRAME,
+    RESULTS_TOPIC_PREFIX,
     SESSION_PROTOBUF,
     TF_TOPIC,
     Frame,
@@ -61,7 +62,7 @@ __all__ = [
 ]
 
 F64 = NDArray[np.float64]
-SCENE_TOPIC = "/twopose/results/scene"
+SCENE_TOPIC = RESULTS_TOPIC_PREFIX + "scene"
 
 ORANGE = (1.0, 0.55, 0.0, 1.0)
 BLUE = (0.2, 0.5, 1.0, 1.0)
@@ -70,7 +71,7 @@ WHITE = (1.0, 1.0, 1.0, 1.0)
 
 
 def annotations_topic(camera_id: str) -> str:
-    return f"/twopose/results/camera/{camera_id}/annotations"
+    return f"{RESULTS_TOPIC_PREFIX}camera/{camera_id}/annotations"
 
 
 def _xyz(msg: Any, p: F64) -> None:

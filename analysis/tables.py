@@ -141,8 +141,12 @@ def trial_table(
     est: Estimates,
     truth: F64,
     warnings: list[str],
+    notes: Sequence[str] | None = None,
+    unmeasured: Sequence[str] | None = None,
 ) -> pd.DataFrame:
-    """One row per trial (``trials.csv``): estimate, truth, error, margins, uncertainty."""
+    """One row per trial (``trials.csv``): estimate, truth, error, margins, uncertainty,
+    the operator's ``notes``; ``unmeasured`` (per trial, why its captures do not make two
+    usable poses) replaces the generic reason of an ``incomplete`` trial."""
     point, reference, extra = _estimate_and_truth(method, est, truth)
     err = point - reference
     table = pd.DataFrame(
@@ -152,7 +156,7 @@ def trial_table(
             "method": [method] * len(trial_ids),
             "units": [units] * len(trial_ids),
             "status": est.status,
-            "reason": est.reason,
+            "reason": _reasons(est, unmeasured),
             "n_views": [len(v) if len(v) >= 2 else 0 for v in views],
             "conditioning": est.conditioning,
             **{a: point[:, i] for i, a in enumerate("xyz")},
@@ -179,7 +183,19 @@ def trial_table(
     table["rejected_frames"] = [
         _rejected(ms, vs) if ms else "" for ms, vs in zip(measurements, views, strict=True)
     ]
+    table["notes"] = list(notes) if notes is not None else [""] * len(trial_ids)
     return table
+
+
+def _reasons(est: Estimates, unmeasured: Sequence[str] | None) -> list[str]:
+    """Each trial's reason; an incomplete trial's says which captures were set aside."""
+    reasons = [str(r) for r in est.reason]
+    if unmeasured is None:
+        return reasons
+    return [
+        why if status == "incomplete" and why else reason
+        for reason, status, why in zip(reasons, est.status, unmeasured, strict=True)
+    ]
 
 
 def _baseline(views: list[PoseView]) -> float:

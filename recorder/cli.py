@@ -166,6 +166,7 @@ def new(
             )
     typer.echo(summary.line())
     if summary.interrupted:
+        typer.secho("interrupted", err=True)
         raise typer.Exit(EXIT_INTERRUPTED)
 
 

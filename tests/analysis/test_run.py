@@ -12,6 +12,7 @@ import pytest
 from analysis.batch import results_mcap_name, run
 from analysis.pipeline import analyse_session
 from analysis.results import AnalysisOptions
+from tests.helpers import write_accepted_capture
 from twopose.camera import Camera, Intrinsics
 from twopose.errors import InputValueError
 from twopose.format.entries import GroundTruth, PoseEntry, SessionInfo
@@ -304,10 +305,7 @@ def test_outlier_frames_are_rejected_and_reported(tmp_path: Path, point_session:
         assert record.ground_truth is not None
         w.write_ground_truth(record.ground_truth, 1)
         for k, entry in entries.items():
-            w.write_pose(entry, 10 * k)
-            with w.capture(1, k, entry.camera_id) as cap:
-                for j, img in enumerate(frames[k]):
-                    cap.add_frame(img, 10 * k + j + 1)
+            write_accepted_capture(w, entry, frames[k], 10 * k)
     robust = analyse_session(out, AnalysisOptions(combine="robust")).trials.iloc[0]
     mean = analyse_session(out).trials.iloc[0]
     clean = analyse_session(point_session).trials.iloc[0]
@@ -331,12 +329,7 @@ def test_a_line_session_without_ground_truth_still_reports_lines(
             t = 1
             for record in iter_trials(reader):
                 for pc in record.poses:
-                    w.write_pose(pc.entry, t)
-                    with w.capture(record.trial, pc.entry.pose, pc.entry.camera_id) as cap:
-                        for frame in pc.frames:
-                            t += 1
-                            cap.add_encoded(frame.data, t)
-                    t += 1
+                    t = write_accepted_capture(w, pc.entry, [f.data for f in pc.frames], t)
     bare = analyse_session(out).trials
     full = analyse_session(line_session).trials
     assert (bare["status"] == "ok").all()

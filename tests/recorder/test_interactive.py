@@ -4,11 +4,16 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+from numpy.typing import NDArray
 from typer.testing import CliRunner
 
 from analysis.pipeline import analyse_session
 from recorder.cli import app
-from twopose.format.entries import CaptureWindow, PoseEntry
+from recorder.interactive import Operator, record_interactive
+from recorder.sources import SyntheticSource
+from twopose.camera import Camera, Intrinsics
+from twopose.format.entries import CaptureWindow, PoseEntry, SessionInfo
 from twopose.format.reader import SessionReader
 
 runner = CliRunner()
@@ -53,13 +58,14 @@ def test_interactive_procedure_with_valid_and_invalid_answers(tmp_path: Path) ->
     assert out_text.count("not accepted") == 6
     assert "implausibly large" in out_text
     assert "found at (" in out_text
-    assert "finished: 1 trial(s), 3 capture(s)" in out_text
+    assert "1 trial (1 complete), 3 captures (2 accepted, 1 discarded, 0 incomplete)" in out_text
+    assert out_text.count("wrote ") == 1  # the summary, once
     with SessionReader(out) as r:
         assert r.info.operator == "Ada"
         assert r.ground is not None
         entries = list(r.iter_entries())
     windows = [(e.trial, e.pose) for e in entries if isinstance(e, CaptureWindow)]
-    assert windows == [(1, 1), (1, 1), (1, 2)]  # the redo is kept; the later one counts
+    assert windows == [(1, 1), (1, 1), (1, 2)]  # the redone capture is kept, discarded
     from twopose.format.entries import Note
 
     assert [e.text for e in entries if isinstance(e, Note)] == ["glove slipped a little"]
@@ -70,7 +76,8 @@ def test_interactive_procedure_with_valid_and_invalid_answers(tmp_path: Path) ->
 
 def test_interactive_options_skip_the_questions_and_undo_goes_back(tmp_path: Path) -> None:
     out = tmp_path / "s.mcap"
-    answers = ["0, 0, 0", "", "a", "1, 0, 0", "", "u", "-1, 0, 0", "", "a", "1.5, 0, 0", "", "q"]
+    answers = ["0, 0, 0", "", "a", "1, 0, 0", "", "u", "-1, 0, 0", "", "a", "1.5, 0, 0", "", "a"]
+    answers += ["n"]  # no other trial
     result = runner.invoke(
         app,
         [
@@ -98,8 +105,53 @@ def test_interactive_options_skip_the_questions_and_undo_goes_back(tmp_path: Pat
     assert result.exit_code == 0, result.output
     with SessionReader(out) as r:
         poses = [(e.pose, e.t_grid[0]) for e in r.iter_entries() if isinstance(e, PoseEntry)]
-    # Pose 2 at x=1 was undone: pose 1 retyped at x=-1, then pose 2 at x=1.5; q finished.
+    # Pose 2 at x=1 was undone: pose 1 retyped at x=-1, then pose 2 at x=1.5.
     assert poses == [(1, 0.0), (2, 1.0), (1, -1.0), (2, 1.5)]
     trials = analyse_session(out).trials
     assert trials["status"].iloc[0] == "ok"
     assert trials["err"].iloc[0] < 0.05
+
+
+class _CtrlCSource(SyntheticSource):
+    """The synthetic camera (real rendering); Ctrl-C arrives at read number ``at``."""
+
+    def __init__(self, at: int) -> None:
+        super().__init__(None, "point", realtime=False)
+        self.at, self.reads = at, 0
+
+    def read(self, timeout_s: float = 2.0) -> NDArray[np.uint8]:
+        self.reads += 1
+        if self.reads == self.at:
+            raise KeyboardInterrupt
+        return super().read(timeout_s)
+
+
+def test_the_undo_then_interrupt_scenario_never_reports_a_wrong_ok(tmp_path: Path) -> None:
+    """The issue's scenario: trial 2 pose 1 accepted at 0 0 0, pose 2 at 1.1 0 0 undone,
+    pose 1 retyped as 0.5 0 0, Ctrl-C during that capture. Trial 2 must not be measured
+    (it was reported ok with a 5 in error); trial 1 is measured from what was accepted."""
+    answers = iter(
+        ["0 0 0", "", "a", "1.1 0 0", "", "a", "y"]  # trial 1
+        + ["0 0 0", "", "a", "1.1 0 0", "", "u", "0.5 0 0", ""]  # trial 2, then Ctrl-C
+    )
+    said: list[str] = []
+    op = Operator(lambda q, d: next(answers) or d, said.append)
+    out = tmp_path / "s.mcap"
+    summary = record_interactive(
+        out,
+        _CtrlCSource(at=10),  # 2 frames a capture: read 10 is the retyped pose's second
+        op,
+        info=SessionInfo(method="point", units="in"),
+        camera=Camera("cam0", Intrinsics(640, 480, 525.0, 525.0, 320.0, 240.0)),
+        ground=None,
+        ground_truth=((0.5, 1.5, 11.0),),
+        frames=2,
+    )
+    assert summary.interrupted
+    assert next(answers, None) is None  # every answer was used
+    trials = analyse_session(out).trials.set_index("trial")
+    assert trials.loc[1, "status"] == "ok"
+    assert trials.loc[1, "err"] < 0.05
+    assert trials.loc[2, "status"] == "incomplete"
+    assert "undone by capture 4" in trials.loc[2, "reason"]
+    assert "interrupted" in trials.loc[2, "reason"]

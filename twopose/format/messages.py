@@ -36,6 +36,8 @@ __all__ = [
 
 GRID_FRAME = "grid"
 TF_TOPIC = "/tf"
+#: Every topic of an analysis results file (``results_<n>_<session>.mcap``) starts so.
+RESULTS_TOPIC_PREFIX = "/twopose/results/"
 #: The Foxglove message types of a session, in the order their schemas are registered.
 SESSION_PROTOBUF = (CameraCalibration, CompressedImage, FrameTransform)
 

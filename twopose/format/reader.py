@@ -23,6 +23,7 @@ from twopose.format.entries import (
     decode_entry,
 )
 from twopose.format.messages import (
+    RESULTS_TOPIC_PREFIX,
     SESSION_PROTOBUF,
     Frame,
     calibration_topic,
@@ -30,7 +31,7 @@ from twopose.format.messages import (
 )
 from twopose.format.writer import METADATA_NAME
 
-__all__ = ["Entry", "SessionReader", "check_version", "find_sessions"]
+__all__ = ["Entry", "SessionReader", "check_version", "find_sessions", "is_results_file"]
 
 Entry = TypedEntry | Frame | Camera | Any  # Any: a decoded foxglove.FrameTransform
 
@@ -250,3 +251,21 @@ def find_sessions(paths: Iterable[Path | str]) -> list[Path]:
             seen.add(key)
             unique.append(p)
     return unique
+
+
+def is_results_file(path: str | Path) -> bool:
+    """Whether ``path`` is an analysis results file of ours (its channels are all under
+    ``/twopose/results/``, ``/tf`` and the camera topics, with no ``twopose`` metadata):
+    such files are not sessions, and a run over a folder skips them."""
+    try:
+        with open(path, "rb") as stream:
+            reader = make_reader(stream)
+            summary = reader.get_summary()
+            if summary is None:
+                return False
+            topics = [c.topic for c in summary.channels.values()]
+            if not any(t.startswith(RESULTS_TOPIC_PREFIX) for t in topics):
+                return False
+            return all(m.name != METADATA_NAME for m in reader.iter_metadata())
+    except Exception:  # unreadable: not ours to skip; the analysis reports it as failed
+        return False
