@@ -46,6 +46,7 @@ def make(sample: SampleSession, out_dir: Path) -> SimulationSummary:
 
 def main(argv: list[str]) -> int:
     out_dir = Path(argv[1]) if len(argv) > 1 else Path(__file__).parent
+    out_dir.mkdir(parents=True, exist_ok=True)
     for sample in SAMPLES:
         target = out_dir / sample.file
         if target.exists():

@@ -82,8 +82,48 @@ def written(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
         simulated,
         recorded,
         recovered,
+        _decided(tmp / "decided.mcap"),
         out / results_mcap_name(0, recorded),
     ]
+
+
+def _decided(path: Path) -> Path:
+    """Redo, undo and an undecided last capture, through the real procedure."""
+    from recorder.procedure import Procedure
+    from twopose.camera import Camera, Intrinsics
+    from twopose.format.entries import PoseEntry, SessionInfo
+    from twopose.format.writer import SessionWriter
+
+    cam = Camera("cam0", Intrinsics(640, 480, 525.0, 525.0, 320.0, 240.0))
+    with (
+        SyntheticSource(None, "point", realtime=False) as src,
+        SessionWriter(path, SessionInfo(method="point", units="in"), [cam]) as w,
+    ):
+        proc = Procedure(w)
+        proc.begin_trial(1, 2)
+        for step in ("accept", "redo", "accept", "accept", "undo", "accept", None):
+            x = float(proc.pose)
+            proc.type_pose(PoseEntry(proc.trial, proc.pose, "cam0", (x, 0.0, 0.0)))
+            proc.capture(src, 2)
+            if step is None:
+                break
+            getattr(proc, step)()
+            if proc.state.value == "ready":
+                proc.begin_trial(2, 2)
+    return path
+
+
+def _accepted_by_us(path: Path) -> list[list[int]]:
+    """[trial, pose, capture, frames] of every capture the analysis is measured from."""
+    from twopose.format.reader import SessionReader
+    from twopose.format.trials import iter_trials
+
+    with SessionReader(path) as reader:
+        return [
+            [t.trial, p.entry.pose, p.entry.capture or 0, len(p.frames)]
+            for t in iter_trials(reader)
+            for p in t.poses
+        ]
 
 
 def test_the_typescript_reader_agrees_with_ours(written: list[Path]) -> None:
@@ -97,6 +137,19 @@ def test_the_typescript_reader_agrees_with_ours(written: list[Path]) -> None:
         assert report["statistics_message_count"] == sum(ours.values()), path
         assert report["json_validated"] == n_json, path
     assert any("/twopose/results/scene" in reports[str(p)]["indexed"] for p in written)
+
+
+def test_the_typescript_reading_of_the_spec_rebuilds_the_accepted_captures(
+    written: list[Path],
+) -> None:
+    """Format 1.1: the captures each trial is measured from, rebuilt in TypeScript from
+    docs/session-format.md alone, are exactly the ones our replay hands the analysis."""
+    sessions = [p for p in written if not p.name.startswith("results_")]
+    reports = _node_reports(sessions)
+    decided = next(p for p in sessions if p.name == "decided.mcap")
+    assert reports[str(decided)]["accepted"] == [[1, 1, 1, 2], [1, 2, 3, 2], [2, 1, 6, 2]]
+    for path in sessions:
+        assert reports[str(path)]["accepted"] == _accepted_by_us(path), path
 
 
 def test_the_typescript_reader_catches_a_corrupt_file(tmp_path: Path) -> None:
