@@ -19,8 +19,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from recorder.plan import Plan, PlannedPose, PlannedTrial, record_plan
 from recorder.capture import CaptureResult
+from recorder.plan import Plan, PlannedPose, PlannedTrial, record_plan
 from recorder.sources import FrameSource, SyntheticSource, VideoSource
 from twopose.camera import Camera, Intrinsics
 

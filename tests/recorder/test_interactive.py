@@ -131,8 +131,10 @@ def test_the_undo_then_interrupt_scenario_never_reports_a_wrong_ok(tmp_path: Pat
     pose 1 retyped as 0.5 0 0, Ctrl-C during that capture. Trial 2 must not be measured
     (it was reported ok with a 5 in error); trial 1 is measured from what was accepted."""
     answers = iter(
-        ["0 0 0", "", "a", "1.1 0 0", "", "a", "y"]  # trial 1
-        + ["0 0 0", "", "a", "1.1 0 0", "", "u", "0.5 0 0", ""]  # trial 2, then Ctrl-C
+        [
+            *("0 0 0", "", "a", "1.1 0 0", "", "a", "y"),  # trial 1
+            *("0 0 0", "", "a", "1.1 0 0", "", "u", "0.5 0 0", ""),  # trial 2, then Ctrl-C
+        ]
     )
     said: list[str] = []
     op = Operator(lambda q, d: next(answers) or d, said.append)

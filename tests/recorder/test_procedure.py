@@ -93,7 +93,7 @@ def test_refusals_leave_the_state_unchanged(tmp_path: Path) -> None:
         proc.type_pose(PoseEntry(1, 2, "cam0", (1, 0, 0)))
         result = proc.capture(src, 2)  # one frame left: the video ends
         assert not result.complete
-        with pytest.raises(ProcedureRefusedError, match="incomplete .* redo it, or quit"):
+        with pytest.raises(ProcedureRefusedError, match=r"incomplete .* redo it, or quit"):
             proc.accept()
         assert (proc.state, proc.pose) == (State.DECIDING, 2)
         proc.close("source failure")

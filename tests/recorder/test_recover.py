@@ -260,3 +260,41 @@ def test_recover_cli(tmp_path: Path, ground_session: Path) -> None:
     again = runner.invoke(app, ["recover", str(broken), "-o", str(tmp_path / "fixed.mcap")])
     assert again.exit_code == EXIT_ERROR
     assert "already exists" in again.output
+
+
+def test_kill_9_of_the_recorder_keeps_exactly_what_was_accepted(tmp_path: Path) -> None:
+    """The real recorder (plan mode), killed right after its third capture ended: after
+    recover, the analysis gets the captures accepted before the kill, whole, and never the
+    one whose decision had not reached the disk."""
+    plan = tmp_path / "plan.toml"
+    plan.write_text(
+        'method = "point"\nframes = 3\n[camera]\nfocal = 525.0\n'
+        + "[[trials]]\nground_truth = [[0.5, 1.5, 11.0]]\n"
+        "poses = [{ t = [0.0, 0.0, 0.0] }, { t = [1.1, 0.0, 0.0] }]\n" * 3
+    )
+    out, fixed = tmp_path / "s.mcap", tmp_path / "fixed.mcap"
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "recorder", "new", out, "--plan", plan, "--source", "synthetic"],
+        stdout=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
+    assert proc.stdout is not None
+    for line in proc.stdout:
+        if line.startswith("trial 2 pose 1:"):  # the third capture ended; undecided yet?
+            break
+    proc.send_signal(signal.SIGKILL)
+    proc.communicate(timeout=30)
+    recover_session(out, fixed)
+    with SessionReader(fixed) as r:
+        pairs = [
+            (t.trial, p.entry.pose, p.entry.t_grid[0], len(p.frames))
+            for t in iter_trials(r)
+            for p in t.poses
+        ]
+    plan_order = [(1, 1, 0.0, 3), (1, 2, 1.1, 3), (2, 1, 0.0, 3), (2, 2, 1.1, 3)]
+    assert pairs in (plan_order[:2], plan_order[:3])  # the third: if its accept was flushed
+    trials = analyse_session(fixed).trials.set_index("trial")
+    assert trials.loc[1, "status"] == "ok"
+    assert trials.loc[1, "err"] < 0.05

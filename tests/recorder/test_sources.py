@@ -140,7 +140,8 @@ def test_a_pause_before_a_redone_capture_is_not_counted_as_dropped(
     pause_s = 0.6  # 18 frame intervals at 30 fps
 
     class Pausing(Driver):
-        decisions = [Decision.REDO, Decision.ACCEPT, Decision.ACCEPT]
+        def __init__(self) -> None:
+            self.decisions = [Decision.REDO, Decision.ACCEPT, Decision.ACCEPT]
 
         def place(self, trial: int, pose: int) -> Placement:
             return Placement(PoseEntry(trial, pose, "cam0", (0.0, 0.0, 0.0)))  # same pose
