@@ -161,6 +161,11 @@ def load_plan(path: str | Path) -> Plan:
     if method == "ground" and ground is None:
         raise InputValueError("plan: a ground session needs ground_height (camera centre to table)")
     height = None if ground is None else finite(ground, "plan: ground_height", positive=True)
+    res = _known_keys(data.get("resolution", {}), "resolution", "resolution")
+    resolution = (
+        finite(res.get("translation", 0.0625), "plan: resolution.translation", positive=True),
+        finite(res.get("rotation_deg", 0.5), "plan: resolution.rotation_deg", positive=True),
+    )
     raw_trials = data.get("trials", [])
     if not isinstance(raw_trials, list) or not raw_trials:
         raise InputValueError("plan: no [[trials]]")
@@ -168,7 +173,6 @@ def load_plan(path: str | Path) -> Plan:
         _trial(t, i, method, units, cameras[0].camera_id, height)
         for i, t in enumerate(raw_trials, start=1)
     )
-    res = _known_keys(data.get("resolution", {}), "resolution", "resolution")
     return Plan(
         method=method,
         units=units,
@@ -178,12 +182,8 @@ def load_plan(path: str | Path) -> Plan:
         ground_height=height,
         operator=str(data.get("operator", "")),
         notes=str(data.get("notes", "")),
-        translation_resolution=finite(
-            res.get("translation", 0.0625), "plan: resolution.translation", positive=True
-        ),
-        rotation_resolution_deg=finite(
-            res.get("rotation_deg", 0.5), "plan: resolution.rotation_deg", positive=True
-        ),
+        translation_resolution=resolution[0],
+        rotation_resolution_deg=resolution[1],
     )
 
 

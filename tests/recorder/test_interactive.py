@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 from numpy.typing import NDArray
 from typer.testing import CliRunner
 
@@ -13,7 +14,14 @@ from recorder.cli import app
 from recorder.interactive import Operator, record_interactive
 from recorder.sources import SyntheticSource
 from twopose.camera import Camera, Intrinsics
-from twopose.format.entries import CaptureWindow, PoseEntry, SessionInfo
+from twopose.errors import EXIT_ERROR, EXIT_INTERRUPTED
+from twopose.format.entries import (
+    CaptureDecision,
+    CaptureWindow,
+    GroundTruth,
+    PoseEntry,
+    SessionInfo,
+)
 from twopose.format.reader import SessionReader
 
 runner = CliRunner()
@@ -157,3 +165,92 @@ def test_the_undo_then_interrupt_scenario_never_reports_a_wrong_ok(tmp_path: Pat
     assert trials.loc[2, "status"] == "incomplete"
     assert "undone by capture 4" in trials.loc[2, "reason"]
     assert "interrupted" in trials.loc[2, "reason"]
+
+
+SETUP_OPTIONS = [
+    "--source",
+    "synthetic",
+    "--units",
+    "in",
+    "--focal",
+    "525",
+    "--principal",
+    "320,240",
+]
+POINT_OPTIONS = [*SETUP_OPTIONS, "--frames", "1", "--method", "point", "--operator", "Bo"]
+GROUND_OPTIONS = [*SETUP_OPTIONS, "--frames", "1", "--method", "ground", "--operator", "Bo"]
+GROUND_OPTIONS += ["--ground-height", "9.625"]
+
+
+def test_an_existing_file_is_refused_before_the_first_question(tmp_path: Path) -> None:
+    out = tmp_path / "s.mcap"
+    out.write_bytes(b"an earlier session")
+    result = runner.invoke(app, ["new", str(out), "--source", "synthetic"], input="point\n")
+    assert result.exit_code == EXIT_ERROR
+    assert "already exists" in result.output
+    assert "method" not in result.output  # no question was asked
+    assert out.read_bytes() == b"an earlier session"
+
+
+def test_identical_line_points_are_refused_at_the_prompt(tmp_path: Path) -> None:
+    out = tmp_path / "s.mcap"
+    answers = ["line", "0, 0, 10", "0, 0, 10", "1, 0, 10", "Ada"]  # then the input ends
+    result = runner.invoke(
+        app,
+        ["new", str(out), *SETUP_OPTIONS],
+        input="\n".join(answers) + "\n",
+    )
+    assert "a line needs two different points" in result.output
+    assert result.exit_code == EXIT_INTERRUPTED  # the input ended: like Ctrl-C
+    assert "interrupted" in result.output
+
+
+@pytest.mark.parametrize("keep", ["y", "n"])
+def test_a_method_2_truth_off_the_ground_is_questioned(tmp_path: Path, keep: str) -> None:
+    out = tmp_path / "s.mcap"
+    answers = ["1.9, 5, 8.4", keep] + (["1.9, 9.625, 8.4"] if keep == "n" else [])
+    answers += ["0, 0, 0", "", "a", "1.5, 0, -1", "", "a", "n"]
+    result = runner.invoke(
+        app,
+        ["new", str(out), *GROUND_OPTIONS],
+        input="\n".join(answers) + "\n",
+    )
+    assert result.exit_code == 0, result.output
+    assert "warning: the ground truth (1.9, 5.0, 8.4) has y = 5 in" in result.output
+    with SessionReader(out) as r:
+        (truth,) = [e for e in r.iter_entries() if isinstance(e, GroundTruth)]
+    assert truth.points_grid[0][1] == (5.0 if keep == "y" else 9.625)
+
+
+def test_undo_at_the_first_pose_says_there_is_nothing_to_undo(tmp_path: Path) -> None:
+    out = tmp_path / "s.mcap"
+    answers = ["0, 0, 0", "", "u", "a", "1.1, 0, 0", "", "a", "n"]
+    result = runner.invoke(
+        app,
+        ["new", str(out), *POINT_OPTIONS, "--ground-truth", "0.5,1.5,11"],
+        input="\n".join(answers) + "\n",
+    )
+    assert result.exit_code == 0, result.output
+    assert "nothing to undo: pose 1 is the first pose of trial 1" in result.output
+    assert "1 trial (1 complete), 2 captures (2 accepted, 0 discarded" in result.output
+
+
+def test_ctrl_c_at_a_prompt_closes_the_file_prints_the_summary_once_and_exits_130(
+    tmp_path: Path,
+) -> None:
+    out = tmp_path / "s.mcap"
+    answers = ["0, 0, 0", "", "a", "1.1, 0, 0", ""]  # the input ends at the decision
+    result = runner.invoke(
+        app,
+        ["new", str(out), *POINT_OPTIONS, "--ground-truth", "0.5,1.5,11"],
+        input="\n".join(answers) + "\n",
+    )
+    assert result.exit_code == EXIT_INTERRUPTED, result.output
+    assert result.output.count("wrote ") == 1
+    assert "2 captures (1 accepted, 1 discarded" in result.output
+    with SessionReader(out) as r:  # closed: no recover needed
+        decisions = [e for e in r.iter_entries() if isinstance(e, CaptureDecision)]
+    assert [(d.decision, d.reason) for d in decisions] == [
+        ("accept", ""),
+        ("discard", "interrupted (Ctrl-C)"),
+    ]

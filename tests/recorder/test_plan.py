@@ -95,6 +95,29 @@ def test_plan_mode_with_a_source_that_runs_out(tmp_path: Path) -> None:
             "camera.focal",
         ),
         ("method = [", "not valid TOML"),
+        ('method = "point"\nframe = 2\n', "unknown key frame"),
+        ('method = "point"\noperater = "Ada"\n', "unknown key operater"),
+        ('method = "point"\n[camera]\nfocus = 500\n', "unknown key camera.focus"),
+        (
+            'method = "point"\n[[trials]]\nposes = [{t=[0,0,0]},{t=[1,0,0]}]\ntruth = []\n',
+            "unknown key trials[1].truth",
+        ),
+        (
+            'method = "point"\n[[trials]]\nposes = [{t=[0,0,0], rot=[0,0,0]},{t=[1,0,0]}]\n',
+            "unknown key trials[1].poses[1].rot",
+        ),
+        ('method = "point"\n[resolution]\ntranslate = 0.1\n', "unknown key resolution.translate"),
+        (
+            'method = "line"\n[[trials]]\nground_truth = [[0,0,1],[0,0,1]]\n'
+            "poses = [{t=[0,0,0]},{t=[1,0,0]}]\n",
+            "two points must differ",
+        ),
+        (
+            'method = "ground"\nground_height = 9.625\n[[trials]]\n'
+            "ground_truth = [[1.9, 5.0, 8.4]]\nposes = [{t=[0,0,0]},{t=[1,0,0]}]\n",
+            "ground plane is at y = 9.625",
+        ),
+        ('method = "point"\n[resolution]\ntranslation = -1\n', "resolution.translation"),
     ],
 )
 def test_bad_plans_name_the_problem(tmp_path: Path, text: str, message: str) -> None:
