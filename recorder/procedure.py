@@ -118,6 +118,7 @@ class Procedure:
         self.n_accepted = 0
         self.n_discarded = 0
         self.n_complete_trials = 0
+        self.n_operator_entries = 0  # typed poses and notes: what an empty session lacks
 
     def _event(self, name: str) -> None:
         if name not in TRANSITIONS[self.state]:
@@ -155,6 +156,7 @@ class Procedure:
             capture=self.writer.new_capture_number(),
         )
         self.writer.write_pose(bound)
+        self.n_operator_entries += 1
         self.entry, self.result = bound, None
         self.state = State.PLACED
         return bound
@@ -244,6 +246,7 @@ class Procedure:
         """An operator note about the current trial (about the session before the first)."""
         self._event("note")
         self.writer.write_note(Note(text, self.trial or None))
+        self.n_operator_entries += 1
 
     def write(self, entry: TypedEntry) -> None:
         """A typed entry between poses (a trial's ground truth or simulation truth)."""
@@ -350,9 +353,12 @@ class RecordingSummary:
     n_accepted: int = 0
     n_discarded: int = 0
     interrupted: bool = False
+    kept: bool = True  # False: nothing was typed, so no (empty) session file was left
 
     def line(self) -> str:
         """The one summary line the command prints."""
+        if not self.kept:
+            return f"nothing was recorded: no session file written at {self.path}"
         ending = " (interrupted: the file is closed and valid)" if self.interrupted else ""
         return (
             f"wrote {self.path}: {_count(self.n_trials, 'trial')} "
@@ -379,7 +385,9 @@ class _Tally:
         self.found += result.n_found
         self.dropped += result.dropped
 
-    def summary(self, path: Path, proc: Procedure, interrupted: bool) -> RecordingSummary:
+    def summary(
+        self, path: Path, proc: Procedure, interrupted: bool, kept: bool
+    ) -> RecordingSummary:
         return RecordingSummary(
             path,
             proc.trial,
@@ -393,6 +401,7 @@ class _Tally:
             proc.n_accepted,
             proc.n_discarded,
             interrupted,
+            kept,
         )
 
 
@@ -433,6 +442,7 @@ def record(
     the recording (the driver, an error, Ctrl-C) leaves a closed, valid session holding
     everything captured so far, with an undecided capture discarded. Ctrl-C returns the
     summary with ``interrupted`` set; any other error propagates after the file is closed.
+    A recording that ends before the first pose is typed leaves no file (``kept`` False).
     """
     out = Path(path)
     refuse_existing(out)
@@ -451,7 +461,10 @@ def record(
         except BaseException as err:
             proc.close(f"the recording stopped: {type(err).__name__}: {err}")
             raise
-    summary = tally.summary(out, proc, interrupted)
+    kept = proc.n_operator_entries > 0
+    if not kept:  # an empty session would only block the name for the next attempt
+        out.unlink(missing_ok=True)
+    summary = tally.summary(out, proc, interrupted, kept)
     driver.finish(summary)
     return summary
 

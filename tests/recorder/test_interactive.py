@@ -203,6 +203,9 @@ def test_identical_line_points_are_refused_at_the_prompt(tmp_path: Path) -> None
     assert "a line needs two different points" in result.output
     assert result.exit_code == EXIT_INTERRUPTED  # the input ended: like Ctrl-C
     assert "interrupted" in result.output
+    # Ended at the first pose's question: no empty file is left to block the name.
+    assert "nothing was recorded: no session file written" in result.output
+    assert not out.exists()
 
 
 @pytest.mark.parametrize("keep", ["y", "n"])
