@@ -30,7 +30,7 @@ from twopose.errors import SessionFormatError  # noqa: E402
 from twopose.format.reader import SessionReader  # noqa: E402
 from twopose.format.trials import iter_trials  # noqa: E402
 
-TRIALS, FRAMES = 4, 5
+TRIALS, FRAMES = 4, 15
 POSES = [((0.0, 0.0, 0.0), (1.1, 0.0, 0.0))] * TRIALS
 
 
@@ -107,12 +107,12 @@ def main() -> int:
         plan = folder / "plan.toml"
         plan.write_text(plan_text())
         for i in range(args.runs):
-            result = one_run(folder, plan, float(rng.uniform(0.0, 2.5)), i)
+            result = one_run(folder, plan, float(rng.uniform(0.0, 4.0)), i)
             for key, value in result.items():
                 totals[key] = totals.get(key, 0) + value
     print(f"python benchmarks/kill9.py --runs {args.runs} --seed {args.seed}")
     print(
-        f"{args.runs} kill -9 at random moments (0-2.5 s after the session file opened, "
+        f"{args.runs} kill -9 at random moments (0-4 s after the session file opened, "
         f"{TRIALS}-trial plan): every recovered file replays a prefix of the plan's accepted "
         "captures, whole"
     )

@@ -93,10 +93,10 @@ class TrialRecord:
         if len(usable) >= 2:
             return ""
         have = ", ".join(f"pose {p.entry.pose}" for p in usable) or "none"
+        if not self.set_aside:
+            return f"fewer than two complete captures (usable: {have})"
         lost = "; ".join(s.describe() for s in self.set_aside)
-        return f"fewer than two accepted, complete captures (usable: {have})" + (
-            f"; set aside: {lost}" if lost else ""
-        )
+        return f"fewer than two accepted, complete captures (usable: {have}); set aside: {lost}"
 
 
 @dataclass(frozen=True)
