@@ -295,8 +295,11 @@ def record_interactive(
     """The guided procedure: trial after trial, type each pose, capture, accept or redo.
 
     After each capture the operator answers ``a`` (accept), ``r`` (redo this pose), ``u``
-    (undo: redo the previous pose), ``n`` (add a note) or ``q`` (finish the session). After
-    each trial: another trial (``y``) or finish (``n``). Ctrl-C closes the file cleanly.
+    (undo: discard this capture and the previous pose's, then retype that pose), ``n`` (add
+    a note) or ``q`` (end the session; this capture is not used). A refused answer (accept
+    an incomplete capture, undo at pose 1) is explained and asked again. After each trial:
+    another trial (``y``) or finish (``n``). Ctrl-C closes the file cleanly and returns the
+    summary with ``interrupted`` set.
     """
     driver = _OperatorDriver(
         operator,
