@@ -184,8 +184,8 @@ def analyse_or_fail(
     """One session's result, or a :class:`SessionFailure` saying why (never raises)."""
     try:
         return analyse_session(path, options, render_images=images, results_path=results)
-    except TwoposeError as err:
-        return SessionFailure(path, str(err))
+    except TwoposeError as err:  # the message names the file, once
+        return SessionFailure(path, str(err) if path in str(err) else f"{path}: {err}")
     except Exception as err:  # one bad file never stops the batch; the reason is kept
         return SessionFailure(path, f"{path}: unexpected {type(err).__name__}: {err}")
 

@@ -179,6 +179,10 @@ def summarize(trials: pd.DataFrame) -> pd.DataFrame:
         err = ok[["err_x", "err_y", "err_z"]].to_numpy(dtype=np.float64)
         total = ok["err"].to_numpy(dtype=np.float64)
         n = len(ok)
+        known = total[~np.isnan(total)]  # no truth: no error to summarize
+        m = len(known)
+        with np.errstate(over="ignore"):
+            rmse = float(np.sqrt(np.mean(known**2))) if m else np.nan
         rows.append(
             {
                 "session": session,
@@ -191,10 +195,10 @@ def summarize(trials: pd.DataFrame) -> pd.DataFrame:
                     f"std_{a}": (err[:, i].std(ddof=1) if n > 1 else np.nan)
                     for i, a in enumerate("xyz")
                 },
-                "rmse": float(np.sqrt(np.mean(total**2))) if n else np.nan,
-                "median_err": float(np.median(total)) if n else np.nan,
-                "max_err": float(total.max()) if n else np.nan,
-                "within_1": float(np.mean(total <= 1.0)) if n else np.nan,
+                "rmse": rmse,
+                "median_err": float(np.median(known)) if m else np.nan,
+                "max_err": float(known.max()) if m else np.nan,
+                "within_1": float(np.mean(known <= 1.0)) if m else np.nan,
             }
         )
     return pd.DataFrame(rows, columns=SUMMARY_COLUMNS)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import base64
 import html
 import io
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -103,10 +104,22 @@ def plot_running_average(
     ax.legend(fontsize=7)
 
 
+def _ok_with_error(trials: pd.DataFrame) -> pd.DataFrame:
+    """The ok trials whose error is known and finite (no truth: NaN; absurd truth: inf)."""
+    err = pd.to_numeric(trials["err"], errors="coerce")
+    ok: pd.DataFrame = trials[(trials["status"] == "ok") & np.isfinite(err)]
+    return ok
+
+
 def plot_error_histogram(ax: Axes, trials: pd.DataFrame) -> None:
-    ok = trials[trials["status"] == "ok"]
+    ok = _ok_with_error(trials)
     for method, g in ok.groupby("method"):
-        ax.hist(g["err"], bins=20, alpha=0.6, label=str(method))
+        with np.errstate(over="ignore", invalid="ignore"):
+            span = float(g["err"].max() - g["err"].min())
+        bins = 20 if np.isfinite(span) else [float(b) for b in np.geomspace(1e-300, 1e300, 20)]
+        ax.hist(g["err"], bins=bins, alpha=0.6, label=str(method))
+        if not np.isfinite(span):
+            ax.set_xscale("log")
     ax.set_xlabel("error (session units)")
     ax.set_ylabel("trials")
     ax.legend(fontsize=7)
@@ -116,8 +129,9 @@ def plot_top_view(ax: Axes, trials: pd.DataFrame, views: pd.DataFrame, title: st
     """Looking down the y axis (x-z): each trial's typed camera centres, the ray through each
     view's measurement (for lines, the plane's central ray), the estimate and the truth."""
     units = trials["units"].iloc[0] if len(trials) else ""
-    # One artist per kind, not per trial: long sessions must not slow the layout down.
-    by_trial = trials.set_index("trial")
+    # One artist per kind, not per trial: long sessions must not slow the layout down. A
+    # trial number recorded twice is drawn once (its last occurrence).
+    by_trial = trials.drop_duplicates("trial", keep="last").set_index("trial")
     order = {t: k for k, t in enumerate(sorted(views["trial"].unique()))}
     colors = np.array([matplotlib.colors.to_rgba(f"C{k % 10}") for k in range(10)])
     view_color = colors[views["trial"].map(order).to_numpy() % 10]
@@ -150,7 +164,7 @@ def plot_top_view(ax: Axes, trials: pd.DataFrame, views: pd.DataFrame, title: st
 
 def plot_error_by_trial(ax: Axes, trials: pd.DataFrame) -> None:
     """Each ok trial's error, with the radius of its 95% ellipsoid for scale."""
-    ok = trials[trials["status"] == "ok"]
+    ok = _ok_with_error(trials)
     for k, (session, g) in enumerate(ok.groupby("session", sort=False)):
         color = f"C{k % 10}"
         ax.plot(
@@ -167,7 +181,8 @@ def plot_error_by_trial(ax: Axes, trials: pd.DataFrame) -> None:
 
 def plot_error_vs_baseline(ax: Axes, trials: pd.DataFrame) -> None:
     """Error against the distance between the cameras (the thesis' strongest lever)."""
-    ok = trials[(trials["status"] == "ok") & trials["baseline"].notna()]
+    ok = _ok_with_error(trials)
+    ok = ok[ok["baseline"].notna()]
     for method, g in ok.groupby("method"):
         ax.scatter(g["baseline"], g["err"], s=14, label=str(method), alpha=0.8)
     ax.set_yscale("log")
@@ -182,21 +197,45 @@ def session_figures(
     """One session's figures: ``scatter``, ``topview`` and (with more than one frame)
     ``averaging``."""
     name = Path(session).stem
-    figures: dict[str, Figure] = {}
-    fig = Figure(figsize=(4.2, 4.0), layout="constrained")
-    plot_error_scatter(fig.add_subplot(), trials, f"{name}: estimate - truth")
-    figures["scatter"] = fig
+    figures = {
+        "scatter": _figure(
+            (4.2, 4.0),
+            lambda fig: plot_error_scatter(fig.add_subplot(), trials, f"{name}: estimate - truth"),
+        )
+    }
     if not views.empty:
-        fig = Figure(figsize=(4.6, 4.0), layout="constrained")
-        plot_top_view(fig.add_subplot(), trials, views, f"{name}: top view")
-        figures["topview"] = fig
+        figures["topview"] = _figure(
+            (4.6, 4.0),
+            lambda fig: plot_top_view(fig.add_subplot(), trials, views, f"{name}: top view"),
+        )
     if not averaging.empty and averaging["n_frames"].max() > 1:
-        fig = Figure(figsize=(8.0, 3.4), layout="constrained")
-        for j, axis in enumerate(("x", "z")):
-            plot_running_average(fig.add_subplot(1, 2, j + 1), averaging, trials, axis)
-        fig.suptitle(f"{name}: running average", fontsize=9)
-        figures["averaging"] = fig
+
+        def running(fig: Figure) -> None:
+            for j, axis in enumerate(("x", "z")):
+                plot_running_average(fig.add_subplot(1, 2, j + 1), averaging, trials, axis)
+            fig.suptitle(f"{name}: running average", fontsize=9)
+
+        figures["averaging"] = _figure((8.0, 3.4), running)
     return figures
+
+
+def _figure(size: tuple[float, float], draw: Callable[[Figure], None]) -> Figure:
+    """A figure drawn by ``draw``; if the data defeat it, a figure that says why instead, so
+    that one odd session never costs the run its report."""
+    fig = Figure(figsize=size, layout="constrained")
+    try:
+        draw(fig)
+        fig.canvas.draw()  # layout errors surface here, not when the PNG is written
+    except (ValueError, OverflowError, FloatingPointError, KeyError, IndexError) as err:
+        fig = Figure(figsize=size, layout="constrained")
+        fig.text(
+            0.5,
+            0.5,
+            f"figure not drawn:\n{type(err).__name__}: {err}"[:300],
+            ha="center",
+            wrap=True,
+        )
+    return fig
 
 
 def figure_key(kind: str, index: int, session: str) -> str:
@@ -208,13 +247,18 @@ def run_figures(result: RunResult) -> dict[str, Figure]:
     """The figures spanning all sessions of a run (the error histogram)."""
     if result.trials.empty:
         return {}
-    fig = Figure(figsize=(5.0, 3.4), layout="constrained")
-    plot_error_histogram(fig.add_subplot(), result.trials)
-    by_trial = Figure(figsize=(5.6, 3.4), layout="constrained")
-    plot_error_by_trial(by_trial.add_subplot(), result.trials)
-    by_baseline = Figure(figsize=(5.0, 3.4), layout="constrained")
-    plot_error_vs_baseline(by_baseline.add_subplot(), result.trials)
-    return {"error_histogram": fig, "error_by_trial": by_trial, "error_vs_baseline": by_baseline}
+    trials = result.trials
+    return {
+        "error_histogram": _figure(
+            (5.0, 3.4), lambda fig: plot_error_histogram(fig.add_subplot(), trials)
+        ),
+        "error_by_trial": _figure(
+            (5.6, 3.4), lambda fig: plot_error_by_trial(fig.add_subplot(), trials)
+        ),
+        "error_vs_baseline": _figure(
+            (5.0, 3.4), lambda fig: plot_error_vs_baseline(fig.add_subplot(), trials)
+        ),
+    }
 
 
 def make_figures(result: RunResult) -> dict[str, Figure]:

@@ -205,6 +205,8 @@ def _trial(
         raise InputValueError(f"plan: trials[{i}] needs at least 2 poses, got {len(poses)}")
     where = f"trials[{i}].ground_truth"
     gt = tuple(_vec(g, where) for g in t.get("ground_truth", []))
+    if any(max(abs(v) for v in g) > MAX_TRANSLATION[units] for g in gt):
+        raise InputValueError(f"plan: {where} = {gt} is implausibly large for {units}")
     want = 2 if method == "line" else 1
     if gt and len(gt) != want:
         raise InputValueError(f"plan: {where} needs {want} point(s) for {method}, got {len(gt)}")

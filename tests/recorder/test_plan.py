@@ -118,6 +118,11 @@ def test_plan_mode_with_a_source_that_runs_out(tmp_path: Path) -> None:
             "ground plane is at y = 9.625",
         ),
         ('method = "point"\n[resolution]\ntranslation = -1\n', "resolution.translation"),
+        (
+            'method = "point"\n[[trials]]\nground_truth = [[1e300, 0, 1]]\n'
+            "poses = [{t=[0,0,0]},{t=[1,0,0]}]\n",
+            "ground_truth = ((1e+300, 0.0, 1.0),) is implausibly large",
+        ),
     ],
 )
 def test_bad_plans_name_the_problem(tmp_path: Path, text: str, message: str) -> None:

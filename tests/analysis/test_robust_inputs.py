@@ -1,0 +1,81 @@
+"""Valid but unusual sessions never cost a run its report: no ground truth, errors that
+are all unknown, an absurd truth, a trial number recorded twice."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from analysis.batch import run
+from recorder.plan import load_plan, record_plan
+from recorder.sources import SyntheticSource
+from tests.helpers import write_accepted_capture
+from twopose.camera import Camera, Intrinsics
+from twopose.format.entries import GroundTruth, PoseEntry, SessionInfo
+from twopose.format.writer import SessionWriter
+
+TWO_TRIALS = "poses = [{ t = [0.0, 0.0, 0.0] }, { t = [1.1, 0.0, 0.0] }]\n"
+
+
+def _planned(path: Path, truth: str) -> Path:
+    plan = path.with_suffix(".toml")
+    trial = f"[[trials]]\n{truth}{TWO_TRIALS}"
+    plan.write_text(f'method = "point"\nframes = 2\n[camera]\nfocal = 525.0\n{trial}{trial}')
+    record_plan(load_plan(plan), path, SyntheticSource(None, "point", realtime=False))
+    return path
+
+
+@pytest.fixture(scope="module")
+def odd_sessions(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    folder = tmp_path_factory.mktemp("odd")
+    return {
+        "no_truth": _planned(folder / "no_truth.mcap", ""),
+        "absurd_truth": _written(folder / "absurd.mcap", (1, 2), (1e300, 0.0, 1e300)),
+        "normal": _planned(folder / "normal.mcap", "ground_truth = [[0.5, 1.5, 11.0]]\n"),
+        "repeated_trial": _written(folder / "repeated.mcap", (1, 2, 1), (0.5, 1.5, 11.0)),
+    }
+
+
+def _written(path: Path, trials: tuple[int, ...], truth: tuple[float, float, float]) -> Path:
+    """A session as another writer may make it: these trial numbers (1, 2, 1 repeats one),
+    and this ground truth (the recorder refuses an absurd one)."""
+    cam = Camera("cam0", Intrinsics(640, 480, 525.0, 525.0, 320.0, 240.0))
+    with (
+        SyntheticSource(None, "point", realtime=False) as src,
+        SessionWriter(path, SessionInfo(method="point", units="in"), [cam], start_ns=0) as w,
+    ):
+        t = 10
+        for trial in trials:
+            w.write_ground_truth(GroundTruth(trial, "point", (truth,)), t)
+            for pose, x in ((1, 0.0), (2, 1.1)):
+                src.set_pose((x, 0.0, 0.0), (0.0, 0.0, 0.0))
+                entry = PoseEntry(trial, pose, "cam0", (x, 0.0, 0.0))
+                t = write_accepted_capture(w, entry, [src.read(), src.read()], t + 10)
+    return path
+
+
+@pytest.mark.parametrize("kind", ["no_truth", "absurd_truth", "repeated_trial"])
+def test_an_odd_session_in_a_batch_keeps_the_report(
+    tmp_path: Path, odd_sessions: dict[str, Path], kind: str
+) -> None:
+    out = tmp_path / "out"
+    result = run([odd_sessions["normal"], odd_sessions[kind]], out)
+    assert result.errors.empty, result.errors
+    assert (out / "report.html").is_file()
+    for name in ("error_histogram", "error_by_trial", "error_vs_baseline"):
+        assert (out / f"{name}.png").stat().st_size > 1000
+    report = (out / "report.html").read_text()
+    assert "figure not drawn" not in report  # drawn, not merely survived
+    summary = pd.read_csv(out / "summary.csv").set_index("session")
+    normal = summary.loc[str(odd_sessions["normal"])]
+    assert normal["within_1"] == 1.0
+    odd = summary.loc[str(odd_sessions[kind])]
+    if kind == "no_truth":
+        assert np.isnan(odd["rmse"])
+        assert np.isnan(odd["within_1"])  # unknown, not "none within 1 in"
+    if kind == "absurd_truth":
+        assert odd["within_1"] == 0.0
+        assert odd["max_err"] > 1e299  # inf: beyond float range, and said so
