@@ -7,6 +7,7 @@ Everything the CLI's ``run`` does is :func:`run`, one call.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import multiprocessing
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
@@ -99,13 +100,20 @@ def run(
     result = dataclasses.replace(gather(files, outcomes), skipped=tuple(skipped))
     if folder is not None:
         from analysis.report import write_outputs
-        from analysis.sensitivity import sensitivity
 
         # The sweeps are in the thesis' geometry, not the sessions': what the method can
         # do, beside what each trial's own covariance says dominated it.
-        written = write_outputs(result, folder.path, sensitivity())
+        written = write_outputs(result, folder.path, _thesis_sweeps().copy())
         folder.record(written + [Path(r).name for r in results_mcap if r is not None])
     return result
+
+
+@functools.lru_cache(maxsize=1)
+def _thesis_sweeps() -> pd.DataFrame:
+    """The report's sensitivity sweeps (seeded, so the same every time: computed once)."""
+    from analysis.sensitivity import sensitivity
+
+    return sensitivity()
 
 
 def split_inputs(paths: Sequence[str | Path]) -> tuple[list[str], list[str]]:

@@ -14,6 +14,7 @@ kept and closed with an ``incomplete`` capture window, so nothing recorded is dr
 
 from __future__ import annotations
 
+import struct
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -114,6 +115,7 @@ class _Salvage:
     complete: int = 0
     topics_by_id: dict[int, str] = field(default_factory=dict)
     session_seen: bool = False
+    bad_entries: int = 0
 
 
 def recover_session(broken: str | Path, output: str | Path) -> RecoveryReport:
@@ -127,22 +129,28 @@ def recover_session(broken: str | Path, output: str | Path) -> RecoveryReport:
         ``broken`` is not a twopose session (no ``twopose`` metadata record at its start).
     """
     src, dst = Path(broken), Path(output)
-    if dst.exists():
+    if dst.exists() or dst.is_symlink():
         raise SessionExistsError(f"{dst} already exists; choose another output file")
     if src.resolve() == dst.resolve():
         raise TwoposeError("recover writes a new file; give an output path other than the input")
+    if not src.is_file():  # a FIFO or a device would block the read forever
+        raise SessionFormatError(f"{src} is not a regular file")
     try:
         stream = open(src, "rb")  # noqa: SIM115 - closed below
     except OSError as err:
         raise SessionFormatError(f"cannot open {src}: {err.strerror}") from err
     state = _Salvage()
+    done = False
     try:
         _salvage(stream, src, dst, state)
         if state.out is None:
             raise SessionFormatError(
                 f"{src}: no '{METADATA_NAME}' metadata record; no twopose session to recover"
             )
+        if not state.session_seen:  # no chunk survived: the opening entries from metadata
+            state.out.write_opening(state.counts)
         closed, unassigned = _close_pending(state.out, state.pending, state.counts)
+        done = True
         return RecoveryReport(
             src,
             dst,
@@ -159,20 +167,24 @@ def recover_session(broken: str | Path, output: str | Path) -> RecoveryReport:
         stream.close()
         if state.out is not None:
             state.out.close()
+            if not done:  # no half-written output to block a re-run
+                dst.unlink(missing_ok=True)
 
 
 def _salvage(stream: IO[bytes], src: Path, dst: Path, state: _Salvage) -> None:
     """Read ``stream`` front to back, copying every readable chunk's messages to the output
     (opened at the ``twopose`` metadata record); stop at the first unreadable record."""
-    records = StreamReader(stream, emit_chunks=True, record_size_limit=1 << 30).records
+    # No record can be longer than the file: a garbled length is refused, not allocated.
+    limit = max(src.stat().st_size, 1)
+    records = StreamReader(stream, emit_chunks=True, record_size_limit=limit).records
     while True:
         try:
             record = next(records)
         except StopIteration:
             return
-        except (McapError, ValueError, EOFError, OSError) as err:  # cut or garbled
+        except (McapError, ValueError, EOFError, OSError, struct.error, MemoryError) as err:
             state.truncated, state.stop_reason = True, f"{type(err).__name__}: {err}"
-            return
+            return  # cut or garbled here: keep everything before
         if isinstance(record, Metadata) and record.name == METADATA_NAME and state.out is None:
             state.out = _open_output(dst, record.metadata)
             # The writer registers channels in a fixed order, so the broken file used
@@ -209,7 +221,10 @@ def _copy_chunk(chunk: Chunk, out: _Output, state: _Salvage) -> None:
                 out.channel_ids[topic], r.log_time, r.data, r.publish_time, r.sequence
             )
             state.counts[topic] += 1
-            state.complete += _track(topic, r, state.pending)
+            try:
+                state.complete += _track(topic, r, state.pending)
+            except SessionFormatError:  # a malformed entry is copied, not followed
+                state.bad_entries += 1
     if not state.session_seen:  # the first chunk was lost: restore its opening entries
         out.write_opening(state.counts)
         state.session_seen = True
@@ -269,6 +284,8 @@ def _open_output(dst: Path, metadata: dict[str, str]) -> _Output:
         stream = open(dst, "xb")  # noqa: SIM115 - closed by _Output.close
     except FileExistsError as err:
         raise SessionExistsError(f"{dst} already exists; choose another output file") from err
+    except OSError as err:
+        raise TwoposeError(f"cannot create {dst}: {err.strerror}") from err
     writer = McapWriter(stream, compression=CompressionType.ZSTD)
     writer.start(profile="", library=f"twopose recover ({metadata.get('software_version', '?')})")
     channels = register_session_channels(

@@ -17,7 +17,7 @@ from typer.testing import CliRunner
 from analysis.pipeline import analyse_session
 from recorder.cli import app
 from recorder.recover import RECOVERED_REASON, recover_session
-from twopose.errors import EXIT_ERROR, SessionExistsError, SessionFormatError
+from twopose.errors import EXIT_ERROR, SessionExistsError, SessionFormatError, TwoposeError
 from twopose.format.entries import CaptureWindow
 from twopose.format.reader import SessionReader
 from twopose.format.trials import iter_trials
@@ -298,3 +298,40 @@ def test_kill_9_of_the_recorder_keeps_exactly_what_was_accepted(tmp_path: Path) 
     trials = analyse_session(fixed).trials.set_index("trial")
     assert trials.loc[1, "status"] == "ok"
     assert trials.loc[1, "err"] < 0.05
+
+
+def test_recover_answers_every_cut_and_a_garbled_length_without_a_crash(
+    tmp_path: Path, ground_session: Path
+) -> None:
+    """Cuts every 397 bytes (many land inside a record header) and a chunk whose length
+    field claims 2**62 bytes: each is recovered or refused with a message, and a refused
+    one leaves no output behind."""
+    from twopose.errors import TwoposeError
+
+    data = ground_session.read_bytes()
+    garbled = bytearray(data)
+    first_chunk = data.index(b"\x06", 8 + 9 + 100)  # an opcode byte after header+metadata
+    garbled[first_chunk + 1 : first_chunk + 9] = (1 << 62).to_bytes(8, "little")
+    cases = [data[:cut] for cut in range(0, len(data), 397)] + [bytes(garbled)]
+    outcomes = {"recovered": 0, "refused": 0}
+    for i, case in enumerate(cases):
+        broken, fixed = tmp_path / f"b{i}.mcap", tmp_path / f"f{i}.mcap"
+        broken.write_bytes(case)
+        try:
+            recover_session(broken, fixed)
+        except TwoposeError:
+            outcomes["refused"] += 1
+            assert not fixed.exists()
+            continue
+        with SessionReader(fixed) as r:
+            assert r.info.method == "ground"
+        outcomes["recovered"] += 1
+    assert outcomes["recovered"] > 100
+    assert outcomes["refused"] >= 1  # a cut inside the opening: nothing to recover
+
+
+def test_recover_into_a_missing_folder_is_a_clear_error(
+    tmp_path: Path, ground_session: Path
+) -> None:
+    with pytest.raises(TwoposeError, match="cannot create"):
+        recover_session(ground_session, tmp_path / "no" / "such" / "fixed.mcap")
