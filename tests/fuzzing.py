@@ -37,16 +37,16 @@ def mutants(data: bytes, n: int, seed: int) -> Iterator[tuple[str, bytes]]:
             yield f"bits flipped at {sorted(int(k) for k in where)}", bytes(damaged)
 
 
-class Hang(Exception):
+class HangError(Exception):
     """A command ran past its time limit."""
 
 
 @contextmanager
 def time_limit(seconds: int) -> Iterator[None]:
-    """Raise :class:`Hang` if the block runs longer than ``seconds`` (main thread only)."""
+    """Raise :class:`HangError` if the block runs longer than ``seconds`` (main thread only)."""
 
     def expired(signum: int, frame: Any) -> None:
-        raise Hang(f"no answer within {seconds} s")
+        raise HangError(f"no answer within {seconds} s")
 
     previous = signal.signal(signal.SIGALRM, expired)
     signal.alarm(seconds)
@@ -77,7 +77,7 @@ def check_command(
     try:
         with time_limit(seconds):
             result = runner.invoke(app, list(args))
-    except Hang as err:
+    except HangError as err:
         outcomes.violations.append(f"{case}: {' '.join(args)}: {err}")
         return None
     if result.exception is not None and not isinstance(result.exception, SystemExit):
