@@ -260,14 +260,16 @@ def detect(
     target: Annotated[TargetChoice, typer.Option(help="What to look for.")],
 ) -> None:
     """Detect the glove or the dot in images; one JSON object per image."""
-    import cv2
-    import numpy as np
-
     from twopose.detect import detect as detect_image
+    from twopose.images import decode_image
 
     failed = False
     for path in images:
-        img = cv2.imread(str(path), cv2.IMREAD_COLOR)
+        try:
+            img = decode_image(path.read_bytes(), str(path)) if path.is_file() else None
+            reason = "not a readable image" if img is None else ""
+        except (OSError, InputValueError) as err:
+            img, reason = None, str(err)
         if img is None:
             failed = True
             out = {
@@ -277,10 +279,10 @@ def detect(
                 "theta_deg": None,
                 "area_px": None,
                 "eccentricity": None,
-                "reason": "not a readable image",
+                "reason": reason or "not a readable image",
             }
         else:
-            d = detect_image(np.asarray(img, dtype=np.uint8), target.value)
+            d = detect_image(img, target.value)
             out = {
                 "image": str(path),
                 "found": d.found,

@@ -221,12 +221,13 @@ def _detect_trial(
     views: list[PoseView] = []
     params = options.dot if target == "dot" else options.glove
     for pc in record.poses:
+        size = (pc.camera.intrinsics.width, pc.camera.intrinsics.height)
         if results is not None and pc.frames:
             results.add_pose(pc.entry, pc.frames[0].log_time_ns)
         dets: list[Detection] = []
         for j, frame in enumerate(pc.frames):
             try:
-                det = detect(frame.decode(), target, params)
+                det = detect(frame.decode(size), target, params)
             except SessionFormatError as err:  # one undecodable frame is a rejected frame
                 det = Detection(False, reason=str(err))
             dets.append(det)

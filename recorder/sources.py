@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twopose.camera import rotation_from_angles_deg
-from twopose.errors import SourceError
+from twopose.errors import InputValueError, SourceError
 
 __all__ = [
     "CameraSource",
@@ -257,10 +257,12 @@ class ImagesSource(FrameSource):
         return self.info
 
     def _load(self, path: Path) -> Image:
-        img = cv2.imread(str(path), cv2.IMREAD_COLOR)
-        if img is None:
-            raise SourceError(f"{path} is not a readable image")
-        return np.asarray(img, dtype=np.uint8)
+        from twopose.images import decode_image
+
+        try:
+            return decode_image(path.read_bytes(), str(path))
+        except (OSError, InputValueError) as err:
+            raise SourceError(str(err)) from err
 
     def read(self, timeout_s: float = 2.0) -> Image:
         if self._next >= len(self._files):

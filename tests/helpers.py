@@ -47,3 +47,15 @@ def write_accepted_capture(
         CaptureDecision(number, entry.trial, entry.pose, entry.camera_id, "accept"), t + 1
     )
     return t + 2
+
+
+def jpeg_declaring(width: int, height: int) -> bytes:
+    """A tiny JPEG (8x8 pixels of data) whose header declares ``width`` x ``height``: a
+    decompression bomb for image decoders that trust the header."""
+    ok, buf = cv2.imencode(".jpg", np.full((8, 8, 3), 128, np.uint8))
+    assert ok
+    data = bytearray(buf.tobytes())
+    sof = data.index(b"\xff\xc0")  # baseline start-of-frame: length(2) precision(1) H(2) W(2)
+    data[sof + 5 : sof + 7] = height.to_bytes(2, "big")
+    data[sof + 7 : sof + 9] = width.to_bytes(2, "big")
+    return bytes(data)

@@ -89,7 +89,7 @@ def test_detect_unreadable_image(tmp_path: Path) -> None:
     bad.write_text("not an image")
     result = runner.invoke(app, ["detect", str(bad), "--target", "dot"])
     assert result.exit_code == EXIT_SOME_INPUTS_FAILED
-    assert json.loads(result.output)["reason"] == "not a readable image"
+    assert "is not a readable image" in json.loads(result.output)["reason"]
 
 
 K = [525.0, 525.0, 320.0, 240.0]
@@ -176,3 +176,18 @@ def test_solve_bad_requests_say_what_is_wrong(method: str, payload: str, message
     assert result.exit_code == EXIT_ERROR
     assert message in result.output
     assert "Traceback" not in result.output
+
+
+def test_detect_refuses_an_image_bomb_and_an_empty_file_with_a_reason(tmp_path: Path) -> None:
+    from tests.helpers import jpeg_declaring
+
+    bomb, empty = tmp_path / "bomb.jpg", tmp_path / "empty.png"
+    bomb.write_bytes(jpeg_declaring(32000, 32000))
+    empty.write_bytes(b"")
+    result = CliRunner().invoke(app, ["detect", str(bomb), str(empty), "--target", "dot"])
+    assert result.exit_code == 1
+    assert result.exception is None or isinstance(result.exception, SystemExit)
+    lines = [json.loads(line) for line in result.stdout.splitlines()]
+    assert [d["found"] for d in lines] == [False, False]
+    assert "over the limit" in lines[0]["reason"]
+    assert "not a readable image" in lines[1]["reason"]

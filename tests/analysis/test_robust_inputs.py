@@ -79,3 +79,42 @@ def test_an_odd_session_in_a_batch_keeps_the_report(
     if kind == "absurd_truth":
         assert odd["within_1"] == 0.0
         assert odd["max_err"] > 1e299  # inf: beyond float range, and said so
+
+
+@pytest.mark.parametrize("bad", ["bomb", "empty", "wrong_size"])
+def test_one_bad_frame_is_one_rejected_frame(tmp_path: Path, bad: str) -> None:
+    """A frame that declares 32000x32000 (634 bytes), an empty one, or one whose size
+    differs from the calibration: that frame is rejected with the reason, the session is
+    analysed, and no memory is spent on it."""
+    import cv2
+
+    from analysis.pipeline import analyse_session
+    from tests.helpers import jpeg_declaring
+
+    frame = {
+        "bomb": jpeg_declaring(32000, 32000),
+        "empty": b"",
+        "wrong_size": cv2.imencode(".jpg", np.zeros((48, 64, 3), np.uint8))[1].tobytes(),
+    }[bad]
+    cam = Camera("cam0", Intrinsics(640, 480, 525.0, 525.0, 320.0, 240.0))
+    path = tmp_path / "s.mcap"
+    with (
+        SyntheticSource(None, "point", realtime=False) as src,
+        SessionWriter(path, SessionInfo(method="point", units="in"), [cam], start_ns=0) as w,
+    ):
+        w.write_ground_truth(GroundTruth(1, "point", ((0.5, 1.5, 11.0),)), 1)
+        t = 10
+        for pose, x in ((1, 0.0), (2, 1.1)):
+            src.set_pose((x, 0.0, 0.0), (0.0, 0.0, 0.0))
+            good = [w.encode_image(src.read()), w.encode_image(src.read())]
+            entry = PoseEntry(1, pose, "cam0", (x, 0.0, 0.0))
+            t = write_accepted_capture(w, entry, [*good, frame] if pose == 2 else good, t + 10)
+    result = analyse_session(path)
+    assert result.trials["status"].tolist() == ["ok"]
+    assert result.trials["err"].iloc[0] < 0.1
+    rejected = result.frames[~result.frames["found"]]
+    assert len(rejected) == 1
+    reason = rejected["reason"].iloc[0]
+    assert {"bomb": "over the limit", "empty": "not a readable image", "wrong_size": "640x480"}[
+        bad
+    ] in reason

@@ -9,7 +9,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-import cv2
 import numpy as np
 from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
 from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
@@ -65,15 +64,17 @@ class Frame:
     format: str
     data: bytes = field(repr=False)
 
-    def decode(self) -> NDArray[np.uint8]:
-        """The image as an (H, W, 3) BGR uint8 array (OpenCV's order)."""
-        img = cv2.imdecode(np.frombuffer(self.data, dtype=np.uint8), cv2.IMREAD_COLOR)
-        if img is None:
-            raise SessionFormatError(
-                f"frame {self.sequence} of camera {self.camera_id} at {self.log_time_ns} ns "
-                f"is not a decodable {self.format} image"
-            )
-        return np.asarray(img, dtype=np.uint8)
+    def decode(self, expected_size: tuple[int, int] | None = None) -> NDArray[np.uint8]:
+        """The image as an (H, W, 3) BGR uint8 array (OpenCV's order); its header is checked
+        first against ``expected_size`` (the camera's calibrated width, height) and the
+        pixel limit (:mod:`twopose.images`), so a bad frame costs no memory."""
+        from twopose.images import decode_image
+
+        what = f"frame {self.sequence} of camera {self.camera_id} at {self.log_time_ns} ns"
+        try:
+            return decode_image(self.data, what, expected_size)
+        except InputValueError as err:
+            raise SessionFormatError(str(err)) from err
 
 
 def image_message(camera_id: str, data: bytes, image_format: str, log_time_ns: int) -> Any:
