@@ -38,7 +38,7 @@ from twopose.format.entries import (
     encode_entry,
 )
 from twopose.format.messages import calibration_message, calibration_topic
-from twopose.format.reader import check_version
+from twopose.format.reader import check_version, max_chunk_bytes
 from twopose.format.writer import METADATA_NAME, cameras_from_metadata
 
 __all__ = ["RecoveryReport", "recover_session"]
@@ -202,7 +202,11 @@ def _salvage(stream: IO[bytes], src: Path, dst: Path, state: _Salvage) -> None:
 
 
 def _copy_chunk(chunk: Chunk, out: _Output, state: _Salvage) -> None:
-    """A chunk's messages into the output, or count it lost if it is corrupt."""
+    """A chunk's messages into the output, or count it lost if it is corrupt or larger
+    than :func:`max_chunk_bytes` (never decompressed then)."""
+    if chunk.uncompressed_size > max_chunk_bytes() or _zstd_declares_more(chunk):
+        state.lost += 1
+        return
     try:
         inner = breakup_chunk(chunk, validate_crc=True)
     except Exception:  # corrupt compressed data or CRC mismatch: skip this chunk
@@ -228,6 +232,19 @@ def _copy_chunk(chunk: Chunk, out: _Output, state: _Salvage) -> None:
     if not state.session_seen:  # the first chunk was lost: restore its opening entries
         out.write_opening(state.counts)
         state.session_seen = True
+
+
+def _zstd_declares_more(chunk: Chunk) -> bool:
+    """A zstd frame whose own header declares more than the chunk's limit."""
+    if chunk.compression != "zstd":
+        return False
+    import zstandard
+
+    try:
+        declared = zstandard.frame_content_size(chunk.data)
+    except zstandard.ZstdError:
+        return True
+    return declared > max_chunk_bytes()
 
 
 @dataclass

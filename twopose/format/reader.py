@@ -31,7 +31,28 @@ from twopose.format.messages import (
 )
 from twopose.format.writer import METADATA_NAME
 
-__all__ = ["Entry", "SessionReader", "check_version", "find_sessions", "is_results_file"]
+__all__ = [
+    "Entry",
+    "SessionReader",
+    "check_version",
+    "find_sessions",
+    "is_results_file",
+    "max_chunk_bytes",
+]
+
+
+def max_chunk_bytes() -> int:
+    """The largest chunk (uncompressed) a reader decompresses: 256 MB, or
+    ``TWOPOSE_MAX_CHUNK_MB``. twopose writes chunks of one capture (a few MB); a larger
+    declared size is a damaged file or a decompression bomb."""
+    import os
+
+    try:
+        megabytes = float(os.environ.get("TWOPOSE_MAX_CHUNK_MB", "256"))
+    except ValueError:
+        megabytes = 256.0
+    return int(megabytes * 1_000_000)
+
 
 Entry = TypedEntry | Frame | Camera | Any  # Any: a decoded foxglove.FrameTransform
 
@@ -121,6 +142,7 @@ class SessionReader:
                 f"{self.path}: the file has no summary section, so it was truncated or never "
                 f"closed. `twopose-record recover {self.path} -o FIXED.mcap` salvages it."
             )
+        self._check_chunk_sizes(summary)
         if METADATA_NAME not in metadata:
             raise SessionFormatError(
                 f"{self.path}: no '{METADATA_NAME}' metadata record; this MCAP file is not a "
@@ -131,6 +153,19 @@ class SessionReader:
         check_version(self.path, self.format_version)
         self._reader = reader
         self._read_opening([c.topic for c in summary.channels.values()])
+
+    def _check_chunk_sizes(self, summary: Any) -> None:
+        """Refuse a file whose index declares a chunk over :func:`max_chunk_bytes`, before
+        anything is decompressed."""
+        limit = max_chunk_bytes()
+        for index in summary.chunk_indexes:
+            if index.uncompressed_size > limit:
+                raise SessionFormatError(
+                    f"{self.path}: a chunk at byte {index.chunk_start_offset} declares "
+                    f"{index.uncompressed_size / 1e6:.0f} MB uncompressed, over the limit of "
+                    f"{limit / 1e6:g} MB; a damaged file or a decompression bomb "
+                    "(TWOPOSE_MAX_CHUNK_MB raises the limit)"
+                )
 
     def _read_opening(self, topics: list[str]) -> None:
         """The session entry, the ground plane and every camera's calibration."""

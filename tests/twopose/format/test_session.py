@@ -14,6 +14,7 @@ from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
 from mcap.reader import make_reader
 from mcap.writer import Writer as McapWriter
 from mcap_protobuf.schema import build_file_descriptor_set
+from typer.testing import CliRunner
 
 from twopose.camera import Camera, Intrinsics, rotation_from_angles_deg
 from twopose.errors import (
@@ -476,3 +477,28 @@ def test_invalid_json_entry_in_a_foreign_file_is_a_format_error(tmp_path: Path) 
         w.finish()
     with pytest.raises(SessionFormatError, match="camera_ids"), SessionReader(path):
         pass
+
+
+def test_a_chunk_over_the_size_limit_is_refused_before_it_is_decompressed(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """8 MB of one note compresses to a few kB: with a 1 MB limit, info refuses the file
+    naming the limit, and recover skips that chunk and keeps the rest."""
+    from analysis.cli import app as analyze
+    from recorder.recover import recover_session
+    from twopose.format.entries import Note
+
+    path = tmp_path / "bomb.mcap"
+    with SessionWriter(path, SessionInfo(method="point", units="in"), [CAM0], start_ns=0) as w:
+        w.write_note(Note("x" * 8_000_000), 1)
+    assert path.stat().st_size < 100_000
+    monkeypatch.setenv("TWOPOSE_MAX_CHUNK_MB", "1")
+    with pytest.raises(SessionFormatError, match=r"over the limit of 1 MB.*decompression bomb"):
+        SessionReader(path).__enter__()
+    result = CliRunner().invoke(analyze, ["info", str(path)])
+    assert result.exit_code == 1
+    assert "TWOPOSE_MAX_CHUNK_MB" in result.output
+    report = recover_session(path, tmp_path / "fixed.mcap")
+    assert report.chunks_lost == 1
+    with SessionReader(tmp_path / "fixed.mcap") as r:
+        assert r.info.method == "point"
