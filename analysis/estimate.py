@@ -169,10 +169,13 @@ def thesis_estimate(
 
     Lines report their point nearest ``reference`` (T, 3), held fixed.
     """
-    mc, valid = options.min_conditioning, batch.valid
+    mc, T = options.min_conditioning, batch.valid.shape[0]
 
     def estimate(x: F64) -> F64:
-        P = batch.P(x)
+        reps = x.shape[0] // T  # propagate stacks copies of the T trials
+        valid = np.tile(batch.valid, (reps, 1))
+        R = rotation_from_angles_deg(x[..., 6:9])
+        P = projection_matrices(np.tile(batch.intrinsics, (reps, 1, 1)), R, x[..., 3:6])
         if method == "point":
             return triangulate_points(x[..., :2], P, valid=valid, min_conditioning=mc).point_grid
         lines = image_lines(x[..., :2], x[..., 2])
@@ -182,7 +185,7 @@ def thesis_estimate(
                 lines, P, ground[0], ground[1], valid=valid, min_conditioning=mc
             ).point_grid
         ls = triangulate_lines(lines, P, valid=valid, min_conditioning=mc)
-        return nearest_on_line(ls.point_grid, ls.direction_grid, reference)
+        return nearest_on_line(ls.point_grid, ls.direction_grid, np.tile(reference, (reps, 1)))
 
     return estimate
 

@@ -145,13 +145,22 @@ def _valid_views(measured: F64, valid: ArrayLike | None) -> NDArray[np.bool_]:
 
 
 def _pairwise_max_sine(u: F64, valid: NDArray[np.bool_]) -> F64:
-    """Largest sine of the angle between two valid unit vectors of each row (T, N, 3)."""
+    """Largest sine of the angle between two valid unit vectors of each row (T, N, 3).
+
+    One Gram matrix per row (``sin^2 = 1 - cos^2`` for unit vectors), in blocks of rows so
+    that memory stays near 8 MB whatever N: no Python loop over the N^2 pairs."""
     T, N = u.shape[:2]
     best = np.zeros(T)
-    for i in range(N):
-        for j in range(i + 1, N):
-            s = np.linalg.norm(np.cross(u[:, i], u[:, j]), axis=-1)
-            best = np.where(valid[:, i] & valid[:, j], np.maximum(best, np.nan_to_num(s)), best)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        unit = u / np.linalg.norm(u, axis=-1, keepdims=True)
+    clean = np.where(valid[..., None], np.nan_to_num(unit), 0.0)
+    rows = max(1, 1_000_000 // max(N * N, 1))
+    for start in range(0, T, rows):
+        block = slice(start, start + rows)
+        cos = np.einsum("tik,tjk->tij", clean[block], clean[block])
+        pair = valid[block, :, None] & valid[block, None, :]
+        sine2 = np.where(pair, 1.0 - np.minimum(cos * cos, 1.0), 0.0)
+        best[block] = np.sqrt(sine2.reshape(sine2.shape[0], -1).max(axis=1, initial=0.0))
     return best
 
 

@@ -37,7 +37,10 @@ def test_propagation_of_a_linear_map_is_exact(seed: int) -> None:
     x0 = rng.normal(size=(T, N, 9))
 
     def f(x: F64) -> F64:
-        return np.asarray(np.einsum("tinj,tnj->ti", A, x) + b)
+        reps = x.shape[0] // T  # propagate stacks perturbed copies of the T rows
+        return np.asarray(np.einsum("tinj,tnj->ti", np.tile(A, (reps, 1, 1, 1)), x)) + np.tile(
+            b, (reps, 1)
+        )
 
     out = propagate(f, x0, C)
     expected = np.einsum("tinj,tnjk,tlnk->til", A, C, A)
@@ -64,7 +67,8 @@ def test_inputs_with_zero_variance_are_not_perturbed() -> None:
     C = np.zeros((2, 1, 9, 9))
     C[:, 0, 1, 1] = 4.0
     out = propagate(f, np.zeros((2, 1, 9)), C)
-    assert len(calls) == 2  # one central difference, for the one uncertain input
+    # One call: the +step and -step copies of the one uncertain input, for both rows.
+    assert [c.shape for c in calls] == [(4, 1, 9)]
     np.testing.assert_allclose(out.cov_grid[:, 1, 1], 4.0)
     assert out.cov_grid[:, 0, 0].tolist() == [0.0, 0.0]
 
