@@ -18,6 +18,7 @@ from twopose.camera import rotation_from_angles_deg
 from twopose.detect import PoseMeasurement, combine_frames
 from twopose.solve import (
     image_lines,
+    parallax_sine,
     projection_matrices,
     triangulate_ground,
     triangulate_lines,
@@ -50,8 +51,8 @@ GroundSpec = tuple[F64, float]
 #: The degeneracy margins (degrees) each method reports.
 MARGINS = {
     "point": ("parallax_deg",),
-    "line": ("plane_angle_deg",),
-    "ground": ("plane_angle_deg", "line_ground_angle_deg"),
+    "line": ("parallax_deg", "plane_angle_deg"),
+    "ground": ("parallax_deg", "plane_angle_deg", "line_ground_angle_deg"),
 }
 
 
@@ -146,13 +147,17 @@ def solve_batch(
         return Solved(s.point_grid, None, o.point_grid, s.conditioning, s.status, s.reason, margins)
     lines = image_lines(px, th)
     ls = triangulate_lines(lines, P, valid=valid, min_conditioning=mc)
-    margins = {"plane_angle_deg": degrees_from_sine(ls.conditioning)}
+    margins = {
+        "parallax_deg": degrees_from_sine(parallax_sine(P, valid, ls.point_grid)),
+        "plane_angle_deg": degrees_from_sine(ls.conditioning),
+    }
     if method == "line":
         return Solved(
             ls.point_grid, ls.direction_grid, None, ls.conditioning, ls.status, ls.reason, margins
         )
     assert ground is not None
     g = triangulate_ground(lines, P, ground[0], ground[1], valid=valid, min_conditioning=mc)
+    margins["parallax_deg"] = degrees_from_sine(parallax_sine(P, valid, g.point_grid))
     n3 = ground[0] / np.linalg.norm(ground[0])
     margins["line_ground_angle_deg"] = degrees_from_sine(np.abs(ls.direction_grid @ n3))
     return Solved(g.point_grid, None, None, g.conditioning, g.status, g.reason, margins)

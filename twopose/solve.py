@@ -164,6 +164,45 @@ def _pairwise_max_sine(u: F64, valid: NDArray[np.bool_]) -> F64:
     return best
 
 
+def _pairwise_max_abs_dot(a: F64, b: F64, valid: NDArray[np.bool_]) -> F64:
+    """Largest ``|a_i . b_j|`` over pairs of valid views of each row (T, N, 3), blocked
+    like :func:`_pairwise_max_sine`."""
+    T, N = a.shape[:2]
+    best = np.zeros(T)
+    rows = max(1, 1_000_000 // max(N * N, 1))
+    for start in range(0, T, rows):
+        block = slice(start, start + rows)
+        dots = np.abs(np.einsum("tik,tjk->tij", np.nan_to_num(a[block]), np.nan_to_num(b[block])))
+        pair = valid[block, :, None] & valid[block, None, :]
+        masked = np.where(pair, dots, 0.0)
+        best[block] = masked.reshape(masked.shape[0], -1).max(axis=1, initial=0.0)
+    return best
+
+
+def parallax_sine(P: ArrayLike, valid: ArrayLike, point_grid: ArrayLike) -> F64:
+    """(T,) the largest sine of the angle two valid camera centres subtend at each trial's
+    point: the baseline as seen from the target, for every method (NaN without a point).
+
+    For a point it is the ray parallax; for a line or a ground point it says what the plane
+    angles cannot: planes through (nearly) one camera centre meet, but anywhere."""
+    p = np.asarray(P, dtype=np.float64)
+    ok = np.asarray(valid, dtype=bool)
+    x = np.asarray(point_grid, dtype=np.float64)
+    sine = _pairwise_max_sine(camera_centres(p) - x[:, None, :], ok)
+    return np.where(np.isfinite(x).all(axis=1), sine, np.nan)
+
+
+def _flag_no_baseline(centres: F64, ok: NDArray[np.bool_], status: Status, reason: Status) -> None:
+    """Every method, one rule: views that all share one camera centre have no baseline, so
+    nothing can be triangulated from them, whatever the solver would return."""
+    spread = np.abs(np.nan_to_num(np.where(ok[..., None], centres - centres[:, :1], 0.0)))
+    scale = 1.0 + np.abs(np.nan_to_num(centres[:, :1])).max(axis=(1, 2))
+    # One centre, up to the rounding of recovering it from P.
+    none = (status != "no_detection") & ~(spread.max(axis=(1, 2)) > 1e-9 * scale)
+    status[none] = "degenerate"
+    reason[none] = "no baseline: the poses share a camera centre"
+
+
 def _reprojection(points: F64, P: F64, px: F64) -> F64:
     """Residuals (T, N, 2) of grid points (T, 3) projected by P (T, N, 3, 4) against px."""
     X = np.concatenate([points, np.ones((points.shape[0], 1))], axis=1)
@@ -219,10 +258,7 @@ def triangulate_points(
     status, reason = _view_status(
         conditioning, ok, min_conditioning, "point on the baseline (rays parallel)"
     )
-    spread = np.where(ok[..., None], c - c[:, :1], 0.0)
-    no_baseline = (status != "no_detection") & (np.abs(spread).max(axis=(1, 2)) == 0)
-    status[no_baseline] = "degenerate"
-    reason[no_baseline] = "no baseline: the poses share a camera centre"
+    _flag_no_baseline(c, ok, status, reason)
     usable = status == "ok"
     point = _safe_solve(np.where(usable[:, None, None], A, np.eye(3)), b, usable)
     if estimator == "optimal" and usable.any():
@@ -331,6 +367,7 @@ def triangulate_lines(
     status, reason = _view_status(
         conditioning, ok, min_conditioning, "line coplanar with the baseline"
     )
+    _flag_no_baseline(camera_centres(p), ok, status, reason)
     usable = status == "ok"
     point = np.full((T, 3), np.nan)
     direction = np.full((T, 3), np.nan)
@@ -432,25 +469,17 @@ def triangulate_ground(
     planes = np.where(ok[..., None], planes, 0.0)
     n3, norm = _unit(np.asarray(ground_normal_grid, dtype=np.float64))
     h = float(ground_offset) / float(norm)
-    T, N = ok.shape
+    T = ok.shape[0]
     A = np.concatenate([planes[..., :3], np.broadcast_to(n3, (T, 1, 3))], axis=1)
     b = np.concatenate([-planes[..., 3], np.full((T, 1), h)], axis=1)
-    best = np.zeros(T)
-    for i in range(N):
-        for j in range(i + 1, N):
-            det = np.abs(
-                np.einsum(
-                    "ti,ti->t",
-                    np.cross(planes[:, i, :3], planes[:, j, :3]),
-                    np.broadcast_to(n3, (T, 3)),
-                )
-            )
-            best = np.where(ok[:, i] & ok[:, j], np.maximum(best, det), best)
+    # |det [p_i; p_j; n3]| = |p_i . (p_j x n3)|: the largest over view pairs (eq. 19).
+    best = _pairwise_max_abs_dot(planes[..., :3], np.cross(planes[..., :3], n3), ok)
     status, reason = _view_status(best, ok, min_conditioning, "line parallel to the ground")
     plane_sine = _pairwise_max_sine(planes[..., :3], ok)
     reason[(status == "degenerate") & (plane_sine < min_conditioning)] = (
         "line coplanar with the baseline"
     )
+    _flag_no_baseline(camera_centres(p), ok, status, reason)
     usable = status == "ok"
     AtA = np.einsum("tki,tkj->tij", A, A)
     Atb = np.einsum("tki,tk->ti", A, b)

@@ -118,3 +118,27 @@ def test_one_bad_frame_is_one_rejected_frame(tmp_path: Path, bad: str) -> None:
     assert {"bomb": "over the limit", "empty": "not a readable image", "wrong_size": "640x480"}[
         bad
     ] in reason
+
+
+@pytest.mark.parametrize("method", ["point", "line", "ground"])
+def test_poses_typed_identical_are_degenerate_not_ok(tmp_path: Path, method: str) -> None:
+    """Every pose of a trial typed at one place: no method may report ok (ground and line
+    trials were ok with 15-20 in of error)."""
+    from analysis.pipeline import analyse_session
+
+    truth = {"point": "[[0.5, 1.5, 11.0]]", "line": "[[0, 9.625, 8], [2, 9.625, 9]]"}
+    truth["ground"] = "[[1.91, 9.625, 8.375]]"
+    same = "poses = [{ t = [0.5, 0.0, 0.0] }, { t = [0.5, 0.0, 0.0] }]\n"
+    trial = f"[[trials]]\nground_truth = {truth[method]}\n{same}"
+    plan = tmp_path / "plan.toml"
+    plan.write_text(
+        f'method = "{method}"\nframes = 2\nground_height = 9.625\n[camera]\nfocal = 525.0\n'
+        + trial * 2
+    )
+    path = tmp_path / "s.mcap"
+    record_plan(load_plan(plan), path, SyntheticSource(None, method, realtime=False))
+    trials = analyse_session(path).trials
+    assert (trials["status"] != "ok").all(), trials[["status", "reason"]]
+    found = trials[trials["status"] == "degenerate"]
+    assert len(found) >= 1
+    assert found["reason"].str.contains("no baseline").all()

@@ -256,3 +256,36 @@ def test_weighted_line_fit_of_two_views_is_the_thesis_line() -> None:
     )
     np.testing.assert_allclose(weighted.direction_grid, plain.direction_grid, atol=1e-9)
     np.testing.assert_allclose(weighted.point_grid, plain.point_grid, atol=1e-8)
+
+
+@pytest.mark.parametrize("method", ["point", "line", "ground"])
+@pytest.mark.parametrize("n_views", [2, 4])
+def test_views_from_one_camera_centre_are_degenerate_for_every_method(
+    method: str, n_views: int
+) -> None:
+    """Rotating the camera about one centre gives distinct rays and planes but no
+    baseline: every method says so (lines and ground points used to report ok)."""
+    from twopose.solve import parallax_sine, triangulate_ground
+
+    rng = np.random.default_rng(3)
+    K, R, t = _views(rng, 5, n_views)
+    t[:] = t[:, :1]  # one centre per trial
+    P = projection_matrices(K, R, t)
+    a, b = np.array([0.3, 1.0, 9.0]), np.array([1.5, 1.2, 10.0])
+    if method == "point":
+        result = triangulate_points(_project(a[None].repeat(5, 0), R, t), P)
+    else:
+        end_a, end_b = _project(a[None].repeat(5, 0), R, t), _project(b[None].repeat(5, 0), R, t)
+        theta = np.degrees(np.arctan2(*(end_b - end_a)[..., ::-1].transpose(2, 0, 1)))
+        lines = image_lines(end_a, theta)
+        result = (
+            triangulate_lines(lines, P)
+            if method == "line"
+            else triangulate_ground(lines, P, [0.0, 1.0, 0.0], 1.0)
+        )
+    assert (result.status == "degenerate").all(), result.status
+    assert all("no baseline" in r for r in result.reason)
+    # The margin behind it: the centres subtend no angle at any point.
+    assert np.allclose(
+        parallax_sine(P, np.ones((5, n_views), bool), np.tile(a, (5, 1))), 0.0, atol=1e-6
+    )
