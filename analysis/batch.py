@@ -6,6 +6,7 @@ Everything the CLI's ``run`` does is :func:`run`, one call.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import multiprocessing
@@ -27,7 +28,7 @@ from analysis.metrics import (
     WEIGHTED_COLUMNS,
     summarize,
 )
-from analysis.outputs import OutputFolder
+from analysis.outputs import OutputFolder, printable_stem
 from analysis.pipeline import analyse_session, keep_frame_buffers
 from analysis.results import AnalysisOptions, RunResult, SessionFailure, SessionResult
 from analysis.tables import AVERAGING_COLUMNS, FRAME_COLUMNS, VIEW_COLUMNS
@@ -92,19 +93,22 @@ def run(
     if on_sessions_found is not None:
         on_sessions_found(len(files))
     folder = OutputFolder.prepare(out_dir) if out_dir is not None else None
-    results_mcap: list[str | None] = [None] * len(files)
-    if folder is not None and scene:
-        results_mcap = [str(folder.path / results_mcap_name(i, f)) for i, f in enumerate(files)]
-    images = folder is not None
-    outcomes = _execute(files, results_mcap, options, images, jobs, dask_address, on_session_done)
-    result = dataclasses.replace(gather(files, outcomes), skipped=tuple(skipped))
-    if folder is not None:
-        from analysis.report import write_outputs
+    with folder or contextlib.nullcontext():
+        results_mcap: list[str | None] = [None] * len(files)
+        if folder is not None and scene:
+            results_mcap = [str(folder.path / results_mcap_name(i, f)) for i, f in enumerate(files)]
+        images = folder is not None
+        outcomes = _execute(
+            files, results_mcap, options, images, jobs, dask_address, on_session_done
+        )
+        result = dataclasses.replace(gather(files, outcomes), skipped=tuple(skipped))
+        if folder is not None:
+            from analysis.report import write_outputs
 
-        # The sweeps are in the thesis' geometry, not the sessions': what the method can
-        # do, beside what each trial's own covariance says dominated it.
-        written = write_outputs(result, folder.path, _thesis_sweeps().copy())
-        folder.record(written + [Path(r).name for r in results_mcap if r is not None])
+            # The sweeps are in the thesis' geometry, not the sessions': what the method
+            # can do, beside what each trial's own covariance says dominated it.
+            written = write_outputs(result, folder.path, _thesis_sweeps().copy())
+            folder.record(written + [Path(r).name for r in results_mcap if r is not None])
     return result
 
 
@@ -182,8 +186,9 @@ def _concat(frames: list[pd.DataFrame], columns: list[str]) -> pd.DataFrame:
 
 
 def results_mcap_name(index: int, session: str | Path) -> str:
-    """File name of a session's results.mcap in a run's output folder."""
-    return f"results_{index:02d}_{Path(session).stem}.mcap"
+    """File name of a session's results.mcap in a run's output folder: the session's stem,
+    made printable and cut to 100 characters (file names are limited to 255 bytes)."""
+    return f"results_{index:02d}_{printable_stem(session)}.mcap"
 
 
 def analyse_or_fail(

@@ -11,7 +11,13 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from twopose.errors import EXIT_SOME_INPUTS_FAILED, InputValueError, TwoposeError, handle_errors
+from twopose.errors import (
+    EXIT_SOME_INPUTS_FAILED,
+    InputValueError,
+    TwoposeError,
+    handle_errors,
+    safe_console,
+)
 
 if TYPE_CHECKING:
     from twopose.format.trials import SessionOverview
@@ -223,6 +229,7 @@ def sensitivity_command(
 ) -> None:
     """Sweeps of error against pixel noise, pose error per axis, baseline, distance, finger
     angle, in the thesis' geometry; and a check of its 0.1 in -> 0.2 in claim (section 5.3)."""
+    from analysis.outputs import OutputFolder, write_atomically
     from analysis.report import png_bytes
     from analysis.sensitivity import (
         plot_sensitivity,
@@ -231,10 +238,10 @@ def sensitivity_command(
         x_translation_effect,
     )
 
-    table = sensitivity(samples=samples, seed=seed)
-    out.mkdir(parents=True, exist_ok=True)
-    table.to_csv(out / "sensitivity.csv", index=False)
-    (out / "sensitivity.png").write_bytes(png_bytes(plot_sensitivity(table)))
+    with handle_errors(), OutputFolder.prepare(out):  # the same checks and lock as run's --out
+        table = sensitivity(samples=samples, seed=seed)
+        write_atomically(out / "sensitivity.csv", table.to_csv(index=False).encode())
+        write_atomically(out / "sensitivity.png", png_bytes(plot_sensitivity(table)))
     ours = x_translation_effect()
     worst, tilt, azimuth = worst_x_translation_effect()
     typer.echo(f"wrote {out / 'sensitivity.csv'} ({len(table)} rows) and {out / 'sensitivity.png'}")
@@ -320,4 +327,5 @@ def solve(method: Annotated[SolveMethod, typer.Argument(help="Which reconstructi
 
 
 def main() -> None:
+    safe_console()
     app()

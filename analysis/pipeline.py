@@ -8,6 +8,7 @@ session's results.mcap (:mod:`analysis.results_mcap`) as the frames are detected
 from __future__ import annotations
 
 import contextlib
+import os
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -125,15 +126,27 @@ def analyse_session(
 
 @contextlib.contextmanager
 def _results_writer(out: Path, reader: SessionReader) -> Iterator[ResultsWriter]:
-    """The session's results.mcap, removed again if the analysis fails."""
-    writer = ResultsWriter(out, list(reader.cameras.values()), reader.ground)
+    """The session's results.mcap, written under a temporary name and renamed into place
+    only when the analysis succeeds (a failure or a full disk leaves no half file)."""
+    from analysis.outputs import partial_name, write_failed
+
+    tmp = partial_name(out)
+    try:
+        writer = ResultsWriter(tmp, list(reader.cameras.values()), reader.ground)
+    except OSError as err:
+        raise write_failed(out, err) from err
     try:
         yield writer
+        writer.close()
+        os.replace(tmp, out)
+    except OSError as err:
+        writer.close()
+        tmp.unlink(missing_ok=True)
+        raise write_failed(out, err) from err
     except BaseException:
         writer.close()
-        out.unlink(missing_ok=True)
+        tmp.unlink(missing_ok=True)
         raise
-    writer.close()
 
 
 def _replay(

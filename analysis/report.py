@@ -164,11 +164,13 @@ def plot_top_view(ax: Axes, trials: pd.DataFrame, views: pd.DataFrame, title: st
 
 def plot_error_by_trial(ax: Axes, trials: pd.DataFrame) -> None:
     """Each ok trial's error, with the radius of its 95% ellipsoid for scale."""
+    from analysis.outputs import printable_stem
+
     ok = _ok_with_error(trials)
     for k, (session, g) in enumerate(ok.groupby("session", sort=False)):
         color = f"C{k % 10}"
         ax.plot(
-            g["trial"], g["err"], "o-", color=color, ms=3, lw=0.8, label=Path(str(session)).stem
+            g["trial"], g["err"], "o-", color=color, ms=3, lw=0.8, label=printable_stem(session)
         )
         if "semiaxis95" in g:
             ax.plot(g["trial"], g["semiaxis95"], ":", color=color, lw=0.8)
@@ -196,7 +198,9 @@ def session_figures(
 ) -> dict[str, Figure]:
     """One session's figures: ``scatter``, ``topview`` and (with more than one frame)
     ``averaging``."""
-    name = Path(session).stem
+    from analysis.outputs import printable_stem
+
+    name = printable_stem(session)
     figures = {
         "scatter": _figure(
             (4.2, 4.0),
@@ -240,7 +244,9 @@ def _figure(size: tuple[float, float], draw: Callable[[Figure], None]) -> Figure
 
 def figure_key(kind: str, index: int, session: str) -> str:
     """File-name stem of a session figure in a run: ``<kind>_<index>_<session stem>``."""
-    return f"{kind}_{index:02d}_{Path(session).stem}"
+    from analysis.outputs import printable_stem
+
+    return f"{kind}_{index:02d}_{printable_stem(session)}"
 
 
 def run_figures(result: RunResult) -> dict[str, Figure]:
@@ -284,7 +290,10 @@ def _table(df: pd.DataFrame) -> str:
 
 def write_outputs(result: RunResult, out_dir: Path, sweeps: pd.DataFrame) -> list[str]:
     """Write the CSV tables, one PNG per figure, the sensitivity ``sweeps`` and
-    ``report.html`` into ``out_dir``; the names of the files written."""
+    ``report.html`` into ``out_dir`` (each atomically: :mod:`analysis.outputs`); the names
+    of the files written."""
+    from analysis.outputs import write_atomically
+
     out_dir.mkdir(parents=True, exist_ok=True)
     tables = {
         "trials.csv": result.trials,
@@ -296,7 +305,8 @@ def write_outputs(result: RunResult, out_dir: Path, sweeps: pd.DataFrame) -> lis
         "sensitivity.csv": sweeps,
     }
     for name, table in tables.items():
-        table.to_csv(out_dir / name, index=False)
+        csv = table.to_csv(index=False).encode("utf-8", "backslashreplace")
+        write_atomically(out_dir / name, csv)
     # Session figures were rendered by the workers (in parallel); a session analysed
     # without them is drawn here. Only what spans sessions is always drawn here.
     pngs: dict[str, bytes] = {}
@@ -312,9 +322,10 @@ def write_outputs(result: RunResult, out_dir: Path, sweeps: pd.DataFrame) -> lis
     pngs["sensitivity"] = png_bytes(plot_sensitivity(sweeps))
     images = {}
     for name, data in pngs.items():
-        (out_dir / f"{name}.png").write_bytes(data)
+        write_atomically(out_dir / f"{name}.png", data)
         images[name] = base64.b64encode(data).decode()
-    (out_dir / "report.html").write_text(_report_html(result, images, sweeps), encoding="utf-8")
+    page = _report_html(result, images, sweeps).encode("utf-8", "backslashreplace")
+    write_atomically(out_dir / "report.html", page)
     return [*tables, *(f"{name}.png" for name in pngs), "report.html"]
 
 

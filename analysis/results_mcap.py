@@ -340,8 +340,10 @@ class ResultsWriter:
 
     def close(self) -> None:
         if not self._file.closed:
-            self._channels.writer.finish()
-            self._file.close()
+            try:
+                self._channels.writer.finish()
+            finally:
+                self._file.close()
 
     def __enter__(self) -> Self:
         return self

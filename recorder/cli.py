@@ -10,7 +10,13 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
-from twopose.errors import EXIT_INTERRUPTED, InputValueError, TwoposeError, handle_errors
+from twopose.errors import (
+    EXIT_INTERRUPTED,
+    InputValueError,
+    TwoposeError,
+    handle_errors,
+    safe_console,
+)
 
 if TYPE_CHECKING:
     from recorder.capture import CaptureResult
@@ -329,4 +335,5 @@ def recover(
 
 
 def main() -> None:
+    safe_console()
     app()

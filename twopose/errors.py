@@ -25,6 +25,7 @@ __all__ = [
     "SourceError",
     "TwoposeError",
     "handle_errors",
+    "safe_console",
 ]
 
 
@@ -77,3 +78,14 @@ def handle_errors() -> Iterator[None]:
     except KeyboardInterrupt:
         typer.secho("interrupted", err=True)
         raise typer.Exit(EXIT_INTERRUPTED) from None
+
+
+def safe_console() -> None:
+    """The command lines' output streams escape what they cannot encode (a file name that
+    is not valid UTF-8 is printed escaped, never a crash)."""
+    import sys
+
+    for stream in (sys.stdout, sys.stderr):
+        reconfigure = getattr(stream, "reconfigure", None)
+        if reconfigure is not None:
+            reconfigure(errors="backslashreplace")

@@ -13,7 +13,7 @@ from typer.testing import CliRunner
 
 from analysis.batch import run
 from analysis.cli import app
-from analysis.outputs import MANIFEST_NAME
+from analysis.outputs import LOCK_NAME, MANIFEST_NAME
 from recorder.procedure import Procedure
 from recorder.sources import SyntheticSource
 from twopose.camera import Camera, Intrinsics
@@ -41,7 +41,7 @@ def test_a_rerun_replaces_its_own_outputs_and_nothing_else(
     assert not any(n.startswith("scatter_01") for n in second)
     assert (out / "mine.txt").read_text() == "the analyst's own file"
     listed = json.loads((out / MANIFEST_NAME).read_text())["files"]
-    assert set(listed) == second - {"mine.txt", MANIFEST_NAME}
+    assert set(listed) == second - {"mine.txt", MANIFEST_NAME, LOCK_NAME}
     assert set(pd.read_csv(out / "trials.csv")["session"]) == {str(line_session)}
 
 
@@ -127,3 +127,89 @@ def test_notes_reach_info_trials_csv_and_the_report(tmp_path: Path) -> None:
     report = (out / "report.html").read_text()
     assert "lamp flickered all session" in report
     assert "pose 2 was bumped | then re-measured" in report
+
+
+def test_a_symlink_in_out_is_replaced_never_written_through(
+    tmp_path: Path, point_session: Path
+) -> None:
+    outside = tmp_path / "outside.txt"
+    outside.write_text("not yours to overwrite")
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "trials.csv").symlink_to(outside)
+    (out / "report.html").symlink_to(outside)
+    run([point_session], out, scene=False)
+    assert outside.read_text() == "not yours to overwrite"
+    assert not (out / "trials.csv").is_symlink()
+    assert "session,trial" in (out / "trials.csv").read_text()
+
+
+def test_a_second_run_into_the_same_out_is_refused_while_one_writes(
+    tmp_path: Path, point_session: Path
+) -> None:
+    from analysis.outputs import OutputFolder
+
+    out = tmp_path / "out"
+    with OutputFolder.prepare(out):  # a run in progress holds the folder
+        result = runner.invoke(app, ["run", str(point_session), "--out", str(out)])
+        assert result.exit_code == EXIT_ERROR
+        assert "another twopose-analyze run is writing into" in result.output
+    result = runner.invoke(app, ["run", str(point_session), "--out", str(out), "--no-scene"])
+    assert result.exit_code == 0, result.output  # released: the next run goes ahead
+
+
+def test_a_full_disk_is_a_clear_error_and_leaves_no_half_written_file(
+    tmp_path: Path, point_session: Path
+) -> None:
+    """The file-size limit (RLIMIT_FSIZE) makes writes fail like a full disk (EFBIG)."""
+    import os
+    import resource
+    import signal
+    import subprocess
+    import sys
+
+    def small_disk() -> None:
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # fail the write, not the process
+        resource.setrlimit(resource.RLIMIT_FSIZE, (60_000, 60_000))
+
+    out = tmp_path / "out"
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
+    proc = subprocess.run(
+        [sys.executable, "-m", "analysis", "run", str(point_session), "--out", str(out)],
+        capture_output=True,
+        text=True,
+        env=env,
+        preexec_fn=small_disk,
+        timeout=300,
+    )
+    assert proc.returncode == EXIT_ERROR, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert "the disk is full" in proc.stderr
+    assert not list(out.glob("*.partial"))
+    assert not list(out.glob(".*.partial"))
+    assert all(p.stat().st_size > 0 for p in out.iterdir() if p.is_file() and p.suffix == ".csv")
+
+
+@pytest.mark.parametrize("name", ["na\udcefve.mcap", "s" * 235 + ".mcap"])
+def test_odd_session_file_names_are_analysed(
+    tmp_path: Path, point_session: Path, name: str
+) -> None:
+    """A name that is not UTF-8, and one of 239 characters."""
+    import os
+    import subprocess
+    import sys
+
+    session = tmp_path / name
+    shutil.copy(point_session, session)
+    out = tmp_path / "out"
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
+    proc = subprocess.run(
+        [sys.executable, "-m", "analysis", "run", str(tmp_path), "--out", str(out)],
+        capture_output=True,
+        env=env,
+        timeout=300,
+    )
+    assert proc.returncode == 0, proc.stderr.decode(errors="replace")
+    assert b"Traceback" not in proc.stderr
+    assert len(pd.read_csv(out / "trials.csv")) == 2
+    assert all(len(p.name.encode()) < 255 for p in out.iterdir())
