@@ -170,7 +170,13 @@ def plot_error_by_trial(ax: Axes, trials: pd.DataFrame) -> None:
     for k, (session, g) in enumerate(ok.groupby("session", sort=False)):
         color = f"C{k % 10}"
         ax.plot(
-            g["trial"], g["err"], "o-", color=color, ms=3, lw=0.8, label=printable_stem(session)
+            g["trial"],
+            g["err"],
+            "o-",
+            color=color,
+            ms=3,
+            lw=0.8,
+            label=printable_stem(str(session)),
         )
         if "semiaxis95" in g:
             ax.plot(g["trial"], g["semiaxis95"], ":", color=color, lw=0.8)
