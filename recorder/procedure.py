@@ -209,6 +209,7 @@ class Procedure:
                 "redo it, or quit"
             )
         self._decide(self.entry, "accept")
+        self.writer.sync()  # an accepted capture survives a power cut too
         self.accepted[self.pose] = self.entry
         self.entry = None
         if self.pose >= self.n_poses:

@@ -223,3 +223,23 @@ def test_the_summary_line_counts_in_words() -> None:
     two = RecordingSummary(Path("s.mcap"), 2, 3, 1, 6, 5, 2.0)
     assert "2 trials" in two.line()
     assert "3 captures" in two.line()
+
+
+def test_an_accepted_capture_is_synced_to_disk(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """fsync (the real one, counted) after every accept and at close: power loss loses at
+    most the capture in progress."""
+    import os
+
+    synced: list[int] = []
+    real_fsync = os.fsync
+
+    def counting_fsync(fd: int) -> None:
+        synced.append(fd)
+        real_fsync(fd)
+
+    monkeypatch.setattr(os, "fsync", counting_fsync)
+    out = tmp_path / "s.mcap"
+    record(out, INFO, [CAM], ImagesSource(_frames(tmp_path / "f")), _Scripted([A, R, A]), frames=2)
+    assert len(synced) == 2 + 1  # two accepts, then the close

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -188,13 +189,29 @@ class SessionWriter:
         self.close()
 
     def close(self) -> None:
-        """Write the summary and index and close the file (also after an error)."""
+        """Write the summary and index, sync and close the file (also after an error)."""
+        try:
+            if self._mcap is not None:
+                self._mcap.finish()
+                self._mcap = None
+            self.sync()
+        finally:
+            if self._stream is not None:
+                self._stream.close()
+                self._stream = None
+
+    def sync(self) -> None:
+        """Flush the open chunk and ``fsync`` the file: what is written so far survives a
+        power cut, not only a crash of this process (called when a capture is accepted)."""
+        if self._stream is None:
+            return
         if self._mcap is not None:
-            self._mcap.finish()
-            self._mcap = None
-        if self._stream is not None:
-            self._stream.close()
-            self._stream = None
+            self._mcap.flush()
+        self._stream.flush()
+        try:
+            os.fsync(self._stream.fileno())
+        except OSError as err:
+            raise TwoposeError(f"cannot sync {self.path} to disk: {err.strerror}") from err
 
     @property
     def is_open(self) -> bool:
