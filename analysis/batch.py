@@ -314,6 +314,8 @@ def _run_dask(
         ) from err
     try:
         client = Client(address, timeout=10)
+    except ValueError as err:
+        raise InputValueError(f"--dask {address!r} is not a scheduler address: {err}") from err
     except OSError as err:
         raise InputValueError(f"cannot reach the Dask scheduler at {address}: {err}") from err
     try:

@@ -320,7 +320,7 @@ def solve(method: Annotated[SolveMethod, typer.Argument(help="Which reconstructi
     with handle_errors():
         try:
             request = json.loads(sys.stdin.read())
-        except json.JSONDecodeError as err:
+        except (ValueError, RecursionError) as err:  # bad JSON, 5000-digit or 1e5-deep values
             raise InputValueError(f"the request is not valid JSON: {err}") from err
         answer = solve_request(method.value, request)
     typer.echo(json.dumps(answer))

@@ -53,7 +53,7 @@ def simulate(
     trials: Annotated[int, typer.Option(min=1, help="Trials in the session.")] = 15,
     frames: Annotated[int, typer.Option(min=1, help="Frames captured per pose.")] = 5,
     seed: Annotated[
-        int, typer.Option(help="Random seed; the same seed writes the same bytes.")
+        int, typer.Option(min=0, help="Random seed; the same seed writes the same bytes.")
     ] = 0,
     pose_noise: Annotated[
         float | None,
@@ -299,6 +299,8 @@ def calibrate(
             cols, rows = (int(v) for v in board.lower().split("x"))
         except ValueError as err:
             raise InputValueError(f"--board must look like 9x6, got {board!r}") from err
+        if not (2 <= cols <= 100 and 2 <= rows <= 100):
+            raise InputValueError(f"--board: 2-100 inner corners each way, got {board!r}")
         if out.exists():
             raise TwoposeError(f"{out} already exists; choose another calibration file")
         result = run_calibration(

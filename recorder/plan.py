@@ -193,7 +193,10 @@ def _trial(
     """``[[trials]]`` number ``i``: its poses and its ground truth, checked."""
     t = _known_keys(table, "trials", f"trials[{i}]")
     poses = []
-    for j, p in enumerate(t.get("poses", []), start=1):
+    raw_poses = t.get("poses", [])
+    if not isinstance(raw_poses, list):
+        raise InputValueError(f"plan: trials[{i}].poses must be a list of poses")
+    for j, p in enumerate(raw_poses, start=1):
         where = f"trials[{i}].poses[{j}]"
         p = _known_keys(p, "poses", where)
         tg = _vec(p.get("t"), f"{where}.t")

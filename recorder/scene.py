@@ -216,14 +216,25 @@ def _check_scene(s: Scene) -> None:
     need(len(s.cameras) >= 1, "cameras", "needs at least one camera")
     need(len({c.id for c in s.cameras}) == len(s.cameras), "cameras", "ids must be unique")
     for c in s.cameras:
-        need(c.width > 0 and c.height > 0, "cameras.width/height", "must be > 0")
+        need(
+            0 < c.width <= 10_000 and 0 < c.height <= 10_000,
+            "cameras.width/height",
+            "must be 1-10000 pixels",
+        )
         need(c.fx > 0 and c.fy > 0, "cameras.fx/fy", "must be > 0")
     p = s.poses
     need(p.count >= 2, "poses.count", f"must be >= 2 (two views at least), got {p.count}")
+    need(p.count <= 1000, "poses.count", f"must be <= 1000, got {p.count}")
     for name in ("x_range", "y_range", "z_range", "rx_range", "ry_range", "rz_range"):
         lo, hi = getattr(p, name)
         need(lo <= hi, f"poses.{name}", f"must be [low, high], got [{lo}, {hi}]")
-    need(p.step > 0 and p.rotation_step_deg > 0, "poses.step", "must be > 0")
+    need(p.step >= 1e-3 and p.rotation_step_deg >= 1e-3, "poses.step", "must be >= 0.001")
+    need(
+        max(abs(v) for name in ("x_range", "y_range", "z_range") for v in getattr(p, name)) / p.step
+        <= 1e6,
+        "poses.step",
+        "makes a lattice of over a million steps across the ranges",
+    )
     need(p.noise_sigma >= 0 and p.rotation_noise_deg >= 0, "poses.noise_sigma", "must be >= 0")
     f = s.finger
     need(0 <= f.tilt_deg < 85, "finger.tilt_deg", "must be in [0, 85) degrees from straight down")
@@ -238,8 +249,8 @@ def _check_scene(s: Scene) -> None:
     need(se.supersample in (1, 2, 3, 4), "sensor.supersample", "must be 1, 2, 3 or 4")
     need(1 <= se.jpeg_quality <= 100, "sensor.jpeg_quality", "must be 1-100")
     need(se.image_format in ("jpeg", "png"), "sensor.image_format", "must be jpeg or png")
-    need(se.fps > 0, "sensor.fps", "must be > 0")
-    need(s.clutter.count >= 0, "clutter.count", "must be >= 0")
+    need(1 <= se.fps <= 1000, "sensor.fps", "must be 1-1000")
+    need(0 <= s.clutter.count <= 10_000, "clutter.count", "must be 0-10000")
     bad = [k for k in s.clutter.kinds if k not in ("disk", "ring", "triangle", "speck", "navy")]
     need(not bad, "clutter.kinds", f"has unknown kinds {bad}")
     need(s.grid_spacing > 0, "grid_spacing", "must be > 0")

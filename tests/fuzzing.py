@@ -70,13 +70,18 @@ class Outcomes:
 
 
 def check_command(
-    app: typer.Typer, args: Sequence[str], case: str, outcomes: Outcomes, seconds: int = 60
+    app: typer.Typer,
+    args: Sequence[str],
+    case: str,
+    outcomes: Outcomes,
+    seconds: int = 60,
+    stdin: str | None = None,
 ) -> int | None:
     """Run one command in-process; record its exit code or the invariant it broke."""
     runner = CliRunner()
     try:
         with time_limit(seconds):
-            result = runner.invoke(app, list(args))
+            result = runner.invoke(app, list(args), input=stdin)
     except HangError as err:
         outcomes.violations.append(f"{case}: {' '.join(args)}: {err}")
         return None

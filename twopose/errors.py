@@ -78,6 +78,20 @@ def handle_errors() -> Iterator[None]:
     except KeyboardInterrupt:
         typer.secho("interrupted", err=True)
         raise typer.Exit(EXIT_INTERRUPTED) from None
+    except (MemoryError, RecursionError, OverflowError, ArithmeticError, ValueError) as err:
+        # Last resort: an input no check foresaw. Say what happened, never a traceback;
+        # TWOPOSE_DEBUG=1 shows it for a bug report.
+        import os
+
+        if os.environ.get("TWOPOSE_DEBUG"):
+            raise
+        typer.secho(
+            f"error: unexpected {type(err).__name__}: {err} (an input twopose does not check "
+            "yet: please report it with the command; TWOPOSE_DEBUG=1 shows the details)",
+            err=True,
+            fg=typer.colors.RED,
+        )
+        raise typer.Exit(EXIT_ERROR) from None
 
 
 def safe_console() -> None:

@@ -64,7 +64,7 @@ def check_version(path: Path, version: str) -> None:
     """Refuse a format version that is not MAJOR.MINOR, or whose MAJOR is newer than ours."""
     from twopose import __version__
 
-    match = re.fullmatch(r"(\d+)\.(\d+)", version)
+    match = re.fullmatch(r"(\d{1,9})\.(\d{1,9})", version)
     if match is None:
         raise SessionFormatError(f"{path}: format version {version!r} is not MAJOR.MINOR")
     if int(match.group(1)) > FORMAT_MAJOR:
@@ -208,9 +208,10 @@ class SessionReader:
         summary = self._reader.get_summary()
         assert summary is not None
         assert summary.statistics is not None
-        return {
+        return {  # a count for a channel the summary does not declare is not ours to name
             summary.channels[cid].topic: n
             for cid, n in summary.statistics.channel_message_counts.items()
+            if cid in summary.channels
         }
 
     def iter_entries(self, topics: Iterable[str] | None = None) -> Iterator[Entry]:

@@ -129,10 +129,12 @@ class _Capture:
     frames: tuple[Frame, ...] = ()
     decision: CaptureDecision | None = None
 
-    def reason_unused(self) -> str:
+    def reason_unused(self, cameras: dict[str, Camera]) -> str:
         """Why this capture is not measured; empty if it is usable."""
         if self.entry is None:
             return "its pose entry is missing"
+        if self.entry.camera_id not in cameras:
+            return f"its camera {self.entry.camera_id!r} has no calibration in the session"
         if self.window is None:
             return "no capture was recorded for this typed pose (the recording stopped)"
         if self.decision is None:
@@ -182,6 +184,10 @@ class _TrialBuilder:
         for k in sorted(self.poses):  # format 1.0 files
             entry = self.poses[k]
             window, frames = self.captures_1_0.get(k, (None, ()))
+            if entry.camera_id not in cameras:
+                why = f"its camera {entry.camera_id!r} has no calibration in the session"
+                set_aside.append(SetAside(k, None, len(frames), why))
+                continue
             poses[k] = PoseCapture(entry, cameras[entry.camera_id], window, frames)
         return TrialRecord(
             self.trial,
@@ -203,7 +209,7 @@ class _TrialBuilder:
             c = self.captures[number]
             pose = c.entry.pose if c.entry is not None else c.window.pose if c.window else -1
             n_frames = c.window.n_frames if c.window is not None else 0
-            reason = c.reason_unused()
+            reason = c.reason_unused(cameras)
             if reason:
                 set_aside.append(SetAside(pose, number, n_frames, reason))
                 continue
