@@ -10,7 +10,9 @@ import contextlib
 import dataclasses
 import functools
 import multiprocessing
-from collections.abc import Callable, Sequence
+import signal
+import threading
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
@@ -194,13 +196,46 @@ def results_mcap_name(index: int, session: str | Path) -> str:
 def analyse_or_fail(
     path: str, options: AnalysisOptions, images: bool, results: str | None = None
 ) -> Outcome:
-    """One session's result, or a :class:`SessionFailure` saying why (never raises)."""
+    """One session's result, or a :class:`SessionFailure` saying why (never raises but for
+    Ctrl-C); a session over ``options.session_timeout_s`` is stopped and fails."""
     try:
-        return analyse_session(path, options, render_images=images, results_path=results)
+        with _time_limit(options.session_timeout_s):
+            return analyse_session(path, options, render_images=images, results_path=results)
+    except _SessionTimeoutError:
+        return SessionFailure(
+            path,
+            f"{path}: stopped after {options.session_timeout_s:g} s (--session-timeout); "
+            "the session is too large or pathological for one analysis",
+        )
     except TwoposeError as err:  # the message names the file, once
         return SessionFailure(path, str(err) if path in str(err) else f"{path}: {err}")
     except Exception as err:  # one bad file never stops the batch; the reason is kept
         return SessionFailure(path, f"{path}: unexpected {type(err).__name__}: {err}")
+
+
+class _SessionTimeoutError(Exception):
+    """A session ran past its time limit."""
+
+
+@contextlib.contextmanager
+def _time_limit(seconds: float | None) -> Iterator[None]:
+    """Raise :class:`_SessionTimeoutError` after ``seconds`` (SIGALRM: the main thread of a
+    process, as in this process and the pool's workers; elsewhere, e.g. a Dask worker
+    thread, no limit applies)."""
+    if seconds is None or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def expired(signum: int, frame: Any) -> None:
+        raise _SessionTimeoutError
+
+    previous = signal.signal(signal.SIGALRM, expired)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
 
 
 # --------------------------------------------------------------------------- processes
@@ -209,9 +244,11 @@ _CLAIMS: Any = None  # in worker processes: the shared claim flags of the batch
 
 
 def _worker_init(claims: Any) -> None:
-    """One OpenCV thread per worker: the processes already fill the cores."""
+    """One OpenCV thread per worker: the processes already fill the cores. Ctrl-C is the
+    parent's to handle (a worker would print a traceback of its own)."""
     import cv2
 
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     global _CLAIMS
     _CLAIMS = claims
     cv2.setNumThreads(1)

@@ -168,6 +168,14 @@ def run_command(
             "detections drawn, and each trial's 3-D geometry, for Foxglove."
         ),
     ] = True,
+    session_timeout: Annotated[
+        float,
+        typer.Option(
+            min=0.0,
+            help="Stop a session still running after this many seconds and list it as "
+            "failed (0: no limit).",
+        ),
+    ] = 600.0,
 ) -> None:
     """Replay sessions through detection and solvers into error tables, figures and a report."""
     from rich.console import Console
@@ -195,6 +203,7 @@ def run_command(
                 min_parallax_deg=min_parallax,
                 min_plane_angle_deg=min_plane_angle,
                 min_ground_angle_deg=min_ground_angle,
+                session_timeout_s=session_timeout or None,
             ),
             on_session_done=lambda _path, _ok: progress.advance(task),
             on_sessions_found=found,

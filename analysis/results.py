@@ -27,6 +27,9 @@ class AnalysisOptions:
     min_parallax_deg: float = 1.0  # ray parallax, points
     min_plane_angle_deg: float = 5.0  # between back-projected planes, lines and method 2
     min_ground_angle_deg: float = 10.0  # between the line and the ground, method 2
+    # A session still running after this many seconds is stopped and listed as failed, so
+    # that one pathological file cannot stall a batch (None: no limit).
+    session_timeout_s: float | None = 600.0
 
 
 @dataclass(frozen=True)

@@ -142,3 +142,31 @@ def test_poses_typed_identical_are_degenerate_not_ok(tmp_path: Path, method: str
     found = trials[trials["status"] == "degenerate"]
     assert len(found) >= 1
     assert found["reason"].str.contains("no baseline").all()
+
+
+def test_a_session_over_the_time_limit_fails_alone(
+    tmp_path: Path, odd_sessions: dict[str, Path]
+) -> None:
+    from analysis.results import AnalysisOptions
+
+    options = AnalysisOptions(session_timeout_s=1e-3)
+    result = run([odd_sessions["normal"]], None, options=options)
+    assert len(result.errors) == 1
+    assert "stopped after 0.001 s (--session-timeout)" in result.errors["error"].iloc[0]
+    assert len(run([odd_sessions["normal"]], None).sessions) == 1  # the default: no problem
+
+
+def test_a_fifo_named_mcap_is_refused_not_waited_on(tmp_path: Path) -> None:
+    import os
+
+    from typer.testing import CliRunner
+
+    from analysis.cli import app
+
+    fifo = tmp_path / "pipe.mcap"
+    os.mkfifo(fifo)
+    result = CliRunner().invoke(app, ["info", str(fifo)])
+    assert result.exit_code == 3
+    assert "is not a regular file" in result.output
+    result = CliRunner().invoke(app, ["info", str(tmp_path)])  # in a folder: not a session
+    assert "no session files" in result.output

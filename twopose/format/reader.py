@@ -275,8 +275,10 @@ def find_sessions(paths: Iterable[Path | str]) -> list[Path]:
         p = Path(raw)
         if p.is_dir():
             found += sorted(q for q in p.rglob("*.mcap") if q.is_file())
-        elif p.exists():
+        elif p.is_file():
             found.append(p)
+        elif p.exists():  # a FIFO or a device would block the reader forever
+            raise InputValueError(f"{p} is not a regular file")
         else:
             raise InputValueError(f"{p} does not exist")
     seen: set[Path] = set()
