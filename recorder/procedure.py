@@ -34,6 +34,7 @@ simulator (:mod:`recorder.simulate`).
 
 from __future__ import annotations
 
+import errno
 import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
@@ -450,18 +451,28 @@ def record(
     tally = _Tally()
     options = _CaptureOptions(frames, target, live, on_frame)
     interrupted = False
-    with source, SessionWriter(out, info, cameras, ground=ground, **(writer_options or {})) as w:
-        proc = Procedure(w)
-        driver.start(source.info, out)
-        try:
-            _run(proc, source, driver, tally, options)
-            proc.close("quit")
-        except KeyboardInterrupt:
-            interrupted = True
-            proc.close("interrupted (Ctrl-C)")
-        except BaseException as err:
-            proc.close(f"the recording stopped: {type(err).__name__}: {err}")
-            raise
+    try:
+        with (
+            source,
+            SessionWriter(out, info, cameras, ground=ground, **(writer_options or {})) as w,
+        ):
+            proc = Procedure(w)
+            driver.start(source.info, out)
+            try:
+                _run(proc, source, driver, tally, options)
+                proc.close("quit")
+            except KeyboardInterrupt:
+                interrupted = True
+                proc.close("interrupted (Ctrl-C)")
+            except BaseException as err:
+                proc.close(f"the recording stopped: {type(err).__name__}: {err}")
+                raise
+    except OSError as err:  # the disk filled up, or the file system failed under us
+        full = err.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
+        raise TwoposeError(
+            f"writing {out} failed: {'the disk is full' if full else err.strerror or err}. "
+            f"What reached the disk can be salvaged: twopose-record recover {out} -o FIXED.mcap"
+        ) from err
     kept = proc.n_operator_entries > 0
     if not kept:  # an empty session would only block the name for the next attempt
         out.unlink(missing_ok=True)

@@ -243,3 +243,41 @@ def test_an_accepted_capture_is_synced_to_disk(
     out = tmp_path / "s.mcap"
     record(out, INFO, [CAM], ImagesSource(_frames(tmp_path / "f")), _Scripted([A, R, A]), frames=2)
     assert len(synced) == 2 + 1  # two accepts, then the close
+
+
+def test_a_full_disk_while_recording_is_a_clear_error_and_recoverable(tmp_path: Path) -> None:
+    """RLIMIT_FSIZE makes writes fail as on a full disk: the recorder says so, names
+    recover, and recover salvages what reached the disk."""
+    import os
+    import resource
+    import signal
+    import subprocess
+    import sys
+
+    from recorder.recover import recover_session
+
+    def small_disk() -> None:
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (400_000, 400_000))
+
+    plan = tmp_path / "plan.toml"
+    plan.write_text(
+        'method = "point"\nframes = 5\n[camera]\nfocal = 525.0\n'
+        + "[[trials]]\nposes = [{ t = [0.0, 0.0, 0.0] }, { t = [1.1, 0.0, 0.0] }]\n" * 6
+    )
+    out = tmp_path / "s.mcap"
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
+    proc = subprocess.run(
+        [sys.executable, "-m", "recorder", "new", out, "--plan", plan, "--source", "synthetic"],
+        capture_output=True,
+        text=True,
+        env=env,
+        preexec_fn=small_disk,
+        timeout=300,
+    )
+    assert proc.returncode == 3, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert "the disk is full" in proc.stderr
+    assert f"twopose-record recover {out}" in proc.stderr
+    report = recover_session(out, tmp_path / "fixed.mcap")
+    assert report.complete_captures >= 1
