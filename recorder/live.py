@@ -81,12 +81,17 @@ class LiveView:
             raise InputValueError(f"the live view only binds to loopback, not {host!r}")
         import foxglove
 
+        from recorder.live_guard import LoopbackGuard
+
         self._context = foxglove.Context()
-        try:
+        try:  # the SDK's server on a private port; the guard faces the operator
             self._server = foxglove.start_server(
-                name="twopose recorder", host=host, port=port, context=self._context
+                name="twopose recorder", host="127.0.0.1", port=0, context=self._context
             )
+            self._guard = LoopbackGuard(host, port, int(self._server.port))
         except Exception as err:  # the SDK raises its own error types for a busy port
+            if hasattr(self, "_server"):
+                self._server.stop()
             raise TwoposeError(
                 f"cannot start the live view on {host}:{port} ({err}); is another recorder "
                 "running? Pick another port with --live-port"
@@ -128,7 +133,7 @@ class LiveView:
 
     @property
     def port(self) -> int:
-        return int(self._server.port)
+        return self._guard.port
 
     @property
     def url(self) -> str:
@@ -176,6 +181,7 @@ class LiveView:
         self._status.log(json.dumps(status).encode(), log_time=log_time_ns)
 
     def close(self) -> None:
+        self._guard.close()
         self._server.stop()
 
     def __enter__(self) -> Self:

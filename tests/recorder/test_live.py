@@ -140,3 +140,55 @@ def test_record_new_live_serves_while_recording(tmp_path: Path) -> None:
     assert result.exit_code == 0, result.output
     assert "live view on ws://127.0.0.1:" in result.output
     assert analyse_session(out).trials["status"].tolist() == ["ok"]
+
+
+def _handshake(port: int, host: str, origin: str | None) -> str:
+    """The status line the server answers a raw WebSocket upgrade with (a real client: a
+    socket speaking HTTP, so that Host and Origin can be anything a browser might send)."""
+    import base64
+    import os
+    import socket
+
+    key = base64.b64encode(os.urandom(16)).decode()
+    lines = [
+        "GET / HTTP/1.1",
+        f"Host: {host}",
+        "Upgrade: websocket",
+        "Connection: Upgrade",
+        f"Sec-WebSocket-Key: {key}",
+        "Sec-WebSocket-Version: 13",
+        "Sec-WebSocket-Protocol: foxglove.websocket.v1",
+    ]
+    if origin is not None:
+        lines.append(f"Origin: {origin}")
+    with socket.create_connection(("127.0.0.1", port), timeout=10) as sock:
+        sock.sendall(("\r\n".join(lines) + "\r\n\r\n").encode())
+        return sock.recv(4096).decode(errors="replace").split("\r\n", 1)[0]
+
+
+@pytest.mark.parametrize(
+    ("host", "origin", "allowed"),
+    [
+        ("127.0.0.1:{port}", None, True),  # Foxglove desktop, scripts: no Origin
+        ("localhost:{port}", "http://localhost:3000", True),  # a page served from here
+        ("[::1]:{port}", "http://127.0.0.1:8080", True),
+        ("127.0.0.1:{port}", "https://evil.example", False),  # a web page elsewhere
+        ("127.0.0.1:{port}", "null", False),  # a sandboxed or file page
+        ("evil.example:{port}", None, False),  # DNS rebinding: a foreign Host
+        ("evil.example:{port}", "http://evil.example", False),
+    ],
+)
+def test_the_live_view_refuses_handshakes_from_web_pages(
+    host: str, origin: str | None, allowed: bool
+) -> None:
+    from twopose.camera import Camera, Intrinsics
+
+    with LiveView([Camera("cam0", Intrinsics(64, 48, 50, 50, 32, 24))], port=0) as view:
+        status = _handshake(view.port, host.format(port=view.port), origin)
+        if allowed:
+            assert " 101 " in status + " ", status
+        else:
+            assert " 403 " in status + " ", status
+        if origin is None and allowed:  # and a real client still talks through the guard
+            with connect(view.url, subprotocols=SUBPROTOCOLS, open_timeout=10) as ws:
+                assert json.loads(ws.recv(timeout=10))["op"] == "serverInfo"

@@ -1,0 +1,145 @@
+"""The live view's front door: WebSocket handshakes from anything but the operator's own
+machine are refused before they reach the Foxglove server.
+
+Binding to 127.0.0.1 keeps other machines out, but not web pages: a page open in the
+operator's browser may open ``ws://127.0.0.1:PORT`` (its ``Origin`` is the page's site),
+and a DNS-rebinding page reaches it under its own host name (its ``Host`` is not
+loopback). The Foxglove SDK's server has no hook for the handshake, so it listens on a
+private loopback port and :class:`LoopbackGuard` (``websockets``) faces the operator: it
+answers 403 unless ``Host`` names a loopback address and ``Origin`` is absent (Foxglove's
+desktop app, scripts) or loopback too, then relays every message both ways.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import ipaddress
+import threading
+from http import HTTPStatus
+from typing import Any
+from urllib.parse import urlsplit
+
+__all__ = ["LoopbackGuard", "is_loopback_host", "is_loopback_origin"]
+
+#: What Foxglove clients ask for (the SDK's server speaks both).
+SUBPROTOCOLS = ["foxglove.sdk.v1", "foxglove.websocket.v1"]
+
+
+def _loopback_name(name: str) -> bool:
+    if name.lower() == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(name).is_loopback
+    except ValueError:
+        return False
+
+
+def is_loopback_host(host: str) -> bool:
+    """Whether an HTTP ``Host`` header (``name[:port]``, ``[v6][:port]``) is loopback."""
+    host = host.strip()
+    if host.startswith("["):
+        name = host[1 : host.find("]")] if "]" in host else ""
+    else:
+        name = host.rsplit(":", 1)[0] if host.count(":") == 1 else host
+    return bool(name) and _loopback_name(name)
+
+
+def is_loopback_origin(origin: str) -> bool:
+    """Whether an ``Origin`` header names a page served from this machine (``null``, the
+    origin of sandboxed and file pages, does not)."""
+    try:
+        name = urlsplit(origin.strip()).hostname
+    except ValueError:
+        return False
+    return name is not None and _loopback_name(name)
+
+
+class LoopbackGuard:
+    """Serve ``host:port`` (0: a free port, see :attr:`port`) and relay accepted
+    connections to the Foxglove server on ``upstream_port``; runs on its own thread."""
+
+    def __init__(self, host: str, port: int, upstream_port: int) -> None:
+        self.host, self.port, self.upstream_port = host, port, upstream_port
+        self._loop = asyncio.new_event_loop()
+        self._server: Any = None
+        self._error: BaseException | None = None
+        self._ready = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="live-guard", daemon=True)
+        self._thread.start()
+        self._ready.wait(timeout=10)
+        if self._error is not None:
+            raise OSError(str(self._error)) from self._error
+
+    def _run(self) -> None:
+        asyncio.set_event_loop(self._loop)
+        try:
+            self._loop.run_until_complete(self._start())
+        except Exception as err:  # a busy port: reported by __init__
+            self._error = err
+            self._ready.set()
+            return
+        self._ready.set()
+        self._loop.run_forever()
+
+    async def _start(self) -> None:
+        from websockets.asyncio.server import serve
+
+        self._server = await serve(
+            self._relay,
+            self.host,
+            self.port,
+            process_request=self._check,
+            subprotocols=SUBPROTOCOLS,  # type: ignore[arg-type]
+            max_size=None,
+        )
+        self.port = int(self._server.sockets[0].getsockname()[1])
+
+    def _check(self, connection: Any, request: Any) -> Any:
+        """403 for a handshake from a web page or under a foreign host name."""
+        host = request.headers.get("Host", "")
+        origin = request.headers.get("Origin")
+        if not is_loopback_host(host):
+            return connection.respond(
+                HTTPStatus.FORBIDDEN, f"the live view answers loopback hosts only, not {host!r}\n"
+            )
+        if origin is not None and not is_loopback_origin(origin):
+            return connection.respond(
+                HTTPStatus.FORBIDDEN, f"the live view refuses web pages of {origin!r}\n"
+            )
+        return None
+
+    async def _relay(self, client: Any) -> None:
+        """Pipe messages both ways until either side closes."""
+        from websockets.asyncio.client import connect
+        from websockets.typing import Subprotocol
+
+        chosen = [client.subprotocol] if client.subprotocol else SUBPROTOCOLS
+        wanted = [Subprotocol(p) for p in chosen]
+        async with connect(
+            f"ws://127.0.0.1:{self.upstream_port}", subprotocols=wanted, max_size=None
+        ) as upstream:
+
+            async def pump(source: Any, sink: Any) -> None:
+                with contextlib.suppress(Exception):  # a side closed: the relay ends
+                    async for message in source:
+                        await sink.send(message)
+
+            tasks = [
+                asyncio.create_task(pump(client, upstream)),
+                asyncio.create_task(pump(upstream, client)),
+            ]
+            _, pending = await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
+            for task in pending:
+                task.cancel()
+
+    def close(self) -> None:
+        if self._server is not None and self._loop.is_running():
+
+            async def stop() -> None:
+                self._server.close()
+                await self._server.wait_closed()
+                self._loop.stop()
+
+            asyncio.run_coroutine_threadsafe(stop(), self._loop)
+        self._thread.join(timeout=5)
