@@ -34,6 +34,7 @@ simulator (:mod:`recorder.simulate`).
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import time
 from collections.abc import Callable, Iterable, Sequence
@@ -452,10 +453,12 @@ def record(
     options = _CaptureOptions(frames, target, live, on_frame)
     interrupted = False
     try:
-        with (
-            source,
-            SessionWriter(out, info, cameras, ground=ground, **(writer_options or {})) as w,
-        ):
+        with contextlib.ExitStack() as stack:
+            stack.enter_context(source)
+            _check_frame_size(source.info, cameras)  # before the file exists
+            w = stack.enter_context(
+                SessionWriter(out, info, cameras, ground=ground, **(writer_options or {}))
+            )
             proc = Procedure(w)
             driver.start(source.info, out)
             try:
@@ -479,6 +482,19 @@ def record(
     summary = tally.summary(out, proc, interrupted, kept)
     driver.finish(summary)
     return summary
+
+
+def _check_frame_size(source: SourceInfo, cameras: Sequence[Camera]) -> None:
+    """Refuse a source whose frames do not have the calibrated size: every frame would be
+    rejected by the analysis (the calibration would not apply to them)."""
+    sizes = {(c.intrinsics.width, c.intrinsics.height) for c in cameras}
+    if (source.width, source.height) not in sizes:
+        want = " or ".join(f"{w}x{h}" for w, h in sorted(sizes))
+        raise InputValueError(
+            f"{source.description} delivers {source.width}x{source.height} frames, but the "
+            f"camera calibration is for {want}: calibrate this camera mode, or request "
+            "the calibrated size (--width/--height)"
+        )
 
 
 def _run(

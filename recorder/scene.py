@@ -15,6 +15,7 @@ naming the key. Lengths are in the scene's ``units``; angles in degrees; colours
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -254,6 +255,25 @@ def _check_scene(s: Scene) -> None:
     bad = [k for k in s.clutter.kinds if k not in ("disk", "ring", "triangle", "speck", "navy")]
     need(not bad, "clutter.kinds", f"has unknown kinds {bad}")
     need(s.grid_spacing > 0, "grid_spacing", "must be > 0")
+    for key, rgb in _colours(s):
+        need(all(0 <= v <= 255 for v in rgb), key, f"must be 0-255 per channel, got {rgb}")
+
+
+def _colours(s: Scene) -> list[tuple[str, RGB]]:
+    """Every colour of the scene, by its key (dataclass fields typed RGB, one level deep)."""
+    found = []
+    for part in (s, *(getattr(s, f.name) for f in dataclasses.fields(s))):
+        if not dataclasses.is_dataclass(part):
+            continue
+        prefix = (
+            ""
+            if part is s
+            else next(f.name + "." for f in dataclasses.fields(s) if getattr(s, f.name) is part)
+        )
+        for f in dataclasses.fields(part):
+            if f.name.endswith("color"):
+                found.append((prefix + f.name, getattr(part, f.name)))
+    return found
 
 
 def load_scene(path: str | Path | None = None, **overrides: Any) -> Scene:

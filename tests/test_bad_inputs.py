@@ -35,6 +35,8 @@ SCENES = {
     "width 1e12": '[[cameras]]\nid = "cam0"\nwidth = 1000000000000\n',
     "clutter 1e6": "[clutter]\ncount = 1000000\n",
     "5000 poses": "[poses]\ncount = 5000\n",
+    "colour 999": "[point]\ndot_color = [999, 0, 0]\n",
+    "colour -5": "[clutter]\nnavy_color = [-5, 0, 0]\n",
 }
 
 
@@ -230,3 +232,57 @@ def test_info_on_a_pose_for_an_unknown_camera_and_a_huge_version(tmp_path: Path)
         writer.add_metadata("twopose", {"format_version": "9" * 5000 + ".0"})
         writer.finish()
     assert _check(analyze, ["info", str(huge)], "huge version") == 1
+
+
+def test_impossible_values_are_refused_not_accepted_silently(tmp_path: Path) -> None:
+    """A session whose two version records disagree; a frame whose frame_id names another
+    camera (kept with its topic's camera); a source whose size is not the calibrated one
+    (refused before a file exists)."""
+    import numpy as np
+
+    from recorder.plan import load_plan, record_plan
+    from recorder.sources import ImagesSource
+    from tests.helpers import write_accepted_capture
+    from twopose.camera import Camera, Intrinsics
+    from twopose.errors import InputValueError, SessionFormatError
+    from twopose.format.entries import PoseEntry, SessionInfo
+    from twopose.format.messages import image_message
+    from twopose.format.reader import SessionReader
+    from twopose.format.trials import iter_trials
+    from twopose.format.writer import SessionWriter
+
+    cam = Camera("cam0", Intrinsics(64, 48, 50.0, 50.0, 32.0, 24.0))
+    mixed = tmp_path / "mixed.mcap"
+    with SessionWriter(mixed, SessionInfo(method="point", units="in", format_version="1.0"), [cam]):
+        pass
+    with pytest.raises(SessionFormatError, match=r"says format 1\.0 but the twopose metadata"):
+        SessionReader(mixed).__enter__()
+
+    moved = tmp_path / "moved.mcap"
+    with SessionWriter(moved, SessionInfo(method="point", units="in"), [cam], start_ns=0) as w:
+        frame = w.encode_image(np.zeros((48, 64, 3), np.uint8))
+        original = w.write_image
+        w.write_image = lambda cid, data, t: w._write_proto(  # type: ignore[method-assign]
+            "/twopose/camera/cam0/image", image_message("elsewhere", data, "jpeg", t), t
+        )
+        write_accepted_capture(w, PoseEntry(1, 1, "cam0", (0, 0, 0)), [frame], 10)
+        w.write_image = original  # type: ignore[method-assign]
+    with SessionReader(moved) as r:
+        (trial,) = iter_trials(r)
+    assert [len(p.frames) for p in trial.poses] == [1]
+
+    folder = tmp_path / "img"
+    folder.mkdir()
+    import cv2
+
+    cv2.imwrite(str(folder / "a.png"), np.zeros((24, 32, 3), np.uint8))
+    plan = tmp_path / "plan.toml"
+    plan.write_text(
+        'method = "point"\n[camera]\nfocal = 50.0\nwidth = 64\nheight = 48\n'
+        f"[[trials]]\n{TWO_POSES}"
+    )
+    with pytest.raises(
+        InputValueError, match="delivers 32x24 frames, but the camera calibration is for 64x48"
+    ):
+        record_plan(load_plan(plan), tmp_path / "s.mcap", ImagesSource(folder))
+    assert not (tmp_path / "s.mcap").exists()

@@ -59,7 +59,7 @@ def test_plan_mode_with_a_source_that_runs_out(tmp_path: Path) -> None:
     plan = tmp_path / "plan.toml"
     plan.write_text(PLAN)
     out = tmp_path / "s.mcap"
-    video = write_video(tmp_path / "v.avi", 4)
+    video = write_video(tmp_path / "v.avi", 4, size=(640, 480))
     result = runner.invoke(
         app, ["new", str(out), "--plan", str(plan), "--source", f"video:{video}"]
     )

@@ -182,6 +182,12 @@ class SessionReader:
             raise SessionFormatError(
                 f"{self.path}: no {SessionInfo.TOPIC} message; not a twopose session"
             )
+        if self._info.format_version != self.format_version:
+            raise SessionFormatError(
+                f"{self.path}: the session entry says format {self._info.format_version} but "
+                f"the twopose metadata says {self.format_version}; the file was not written "
+                "consistently (was it edited?)"
+            )
         missing = [c for c in self._info.camera_ids if c not in self._cameras]
         if missing:
             raise SessionFormatError(
@@ -252,8 +258,12 @@ class SessionReader:
         except Exception as err:  # protobuf's DecodeError and friends
             raise self._fail(f"{topic} holds an undecodable {schema.name}", err) from err
         if isinstance(decoded, CompressedImage):
+            # The topic says whose frame it is (a frame_id naming another camera must not
+            # silently move the frame out of its camera's captures).
+            parts = topic.split("/")
+            camera = parts[3] if len(parts) == 5 and parts[4] == "image" else ""
             return Frame(
-                camera_id=decoded.frame_id.removeprefix("camera_"),
+                camera_id=camera or decoded.frame_id.removeprefix("camera_"),
                 log_time_ns=message.log_time,
                 sequence=message.sequence,
                 format=decoded.format,
