@@ -20,6 +20,7 @@ from twopose.errors import (
 )
 
 if TYPE_CHECKING:
+    from analysis.results import RunResult
     from twopose.format.trials import SessionOverview
 
 # Everything heavy (numpy, rich, mcap, pandas, matplotlib) is imported inside the command
@@ -180,10 +181,8 @@ def run_command(
     """Replay sessions through detection and solvers into error tables, figures and a report."""
     from rich.console import Console
     from rich.progress import Progress
-    from rich.table import Table
 
     from analysis.batch import run
-    from analysis.report import summary_rows
     from analysis.results import AnalysisOptions
 
     console = Console(stderr=True)
@@ -209,6 +208,16 @@ def run_command(
             on_sessions_found=found,
             scene=scene,
         )
+    _print_run(result, out)
+
+
+def _print_run(result: RunResult, out: Path) -> None:
+    """The summary table, the skipped and failed inputs; exit 1 if any input failed."""
+    from rich.console import Console
+    from rich.table import Table
+
+    from analysis.report import summary_rows
+
     table = Table(title=f"twopose: {len(result.sessions)} session(s), results in {out}")
     units = result.summary["units"].iloc[0] if len(result.summary["units"].unique()) == 1 else ""
     table.add_column("session", no_wrap=True, min_width=18)  # names matter more than digits

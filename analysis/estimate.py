@@ -15,10 +15,10 @@ from numpy.typing import NDArray
 
 from analysis.results import AnalysisOptions
 from twopose.camera import rotation_from_angles_deg
+from twopose.conditioning import parallax_sine
 from twopose.detect import PoseMeasurement, combine_frames
 from twopose.solve import (
     image_lines,
-    parallax_sine,
     projection_matrices,
     triangulate_ground,
     triangulate_lines,

@@ -21,6 +21,7 @@ from twopose.values import camera_id, finite, numbers
 __all__ = [
     "Camera",
     "Intrinsics",
+    "camera_centres",
     "project_points",
     "quaternion_xyzw_from_matrix",
     "rotation_from_angles_deg",
@@ -194,3 +195,9 @@ def project_points(
     px = np.stack([intrinsics.fx * x + intrinsics.cx, intrinsics.fy * y + intrinsics.cy], axis=1)
     px[z <= 0] = np.nan
     return px
+
+
+def camera_centres(P: ArrayLike) -> FloatArray:
+    """Camera centres (..., 3): ``-M^-1 p4`` for ``P = [M | p4]``."""
+    p = np.asarray(P, dtype=np.float64)
+    return np.asarray(-np.linalg.solve(p[..., :, :3], p[..., :, 3:])[..., 0])

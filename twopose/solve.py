@@ -25,6 +25,12 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from twopose.camera import camera_centres
+from twopose.conditioning import (
+    flag_no_baseline,
+    pairwise_max_abs_dot,
+    pairwise_max_sine,
+)
 from twopose.errors import InputValueError
 
 __all__ = [
@@ -132,75 +138,10 @@ def projection_matrices(intrinsics: ArrayLike, R_cam_to_grid: ArrayLike, t_grid:
     return np.asarray(K @ np.concatenate([Rt, Rt_c[..., None]], axis=-1))
 
 
-def camera_centres(P: ArrayLike) -> F64:
-    """Camera centres (..., 3): ``-M^-1 p4`` for ``P = [M | p4]``."""
-    p = np.asarray(P, dtype=np.float64)
-    return np.asarray(-np.linalg.solve(p[..., :, :3], p[..., :, 3:])[..., 0])
-
-
 def _valid_views(measured: F64, valid: ArrayLike | None) -> NDArray[np.bool_]:
     """(T, N) views with finite measurements, and listed in ``valid`` if given."""
     finite = np.asarray(np.isfinite(measured).all(axis=2))
     return finite if valid is None else np.asarray(valid, dtype=bool) & finite
-
-
-def _pairwise_max_sine(u: F64, valid: NDArray[np.bool_]) -> F64:
-    """Largest sine of the angle between two valid unit vectors of each row (T, N, 3).
-
-    One Gram matrix per row (``sin^2 = 1 - cos^2`` for unit vectors), in blocks of rows so
-    that memory stays near 8 MB whatever N: no Python loop over the N^2 pairs."""
-    T, N = u.shape[:2]
-    best = np.zeros(T)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        unit = u / np.linalg.norm(u, axis=-1, keepdims=True)
-    clean = np.where(valid[..., None], np.nan_to_num(unit), 0.0)
-    rows = max(1, 1_000_000 // max(N * N, 1))
-    for start in range(0, T, rows):
-        block = slice(start, start + rows)
-        cos = np.einsum("tik,tjk->tij", clean[block], clean[block])
-        pair = valid[block, :, None] & valid[block, None, :]
-        sine2 = np.where(pair, 1.0 - np.minimum(cos * cos, 1.0), 0.0)
-        best[block] = np.sqrt(sine2.reshape(sine2.shape[0], -1).max(axis=1, initial=0.0))
-    return best
-
-
-def _pairwise_max_abs_dot(a: F64, b: F64, valid: NDArray[np.bool_]) -> F64:
-    """Largest ``|a_i . b_j|`` over pairs of valid views of each row (T, N, 3), blocked
-    like :func:`_pairwise_max_sine`."""
-    T, N = a.shape[:2]
-    best = np.zeros(T)
-    rows = max(1, 1_000_000 // max(N * N, 1))
-    for start in range(0, T, rows):
-        block = slice(start, start + rows)
-        dots = np.abs(np.einsum("tik,tjk->tij", np.nan_to_num(a[block]), np.nan_to_num(b[block])))
-        pair = valid[block, :, None] & valid[block, None, :]
-        masked = np.where(pair, dots, 0.0)
-        best[block] = masked.reshape(masked.shape[0], -1).max(axis=1, initial=0.0)
-    return best
-
-
-def parallax_sine(P: ArrayLike, valid: ArrayLike, point_grid: ArrayLike) -> F64:
-    """(T,) the largest sine of the angle two valid camera centres subtend at each trial's
-    point: the baseline as seen from the target, for every method (NaN without a point).
-
-    For a point it is the ray parallax; for a line or a ground point it says what the plane
-    angles cannot: planes through (nearly) one camera centre meet, but anywhere."""
-    p = np.asarray(P, dtype=np.float64)
-    ok = np.asarray(valid, dtype=bool)
-    x = np.asarray(point_grid, dtype=np.float64)
-    sine = _pairwise_max_sine(camera_centres(p) - x[:, None, :], ok)
-    return np.where(np.isfinite(x).all(axis=1), sine, np.nan)
-
-
-def _flag_no_baseline(centres: F64, ok: NDArray[np.bool_], status: Status, reason: Status) -> None:
-    """Every method, one rule: views that all share one camera centre have no baseline, so
-    nothing can be triangulated from them, whatever the solver would return."""
-    spread = np.abs(np.nan_to_num(np.where(ok[..., None], centres - centres[:, :1], 0.0)))
-    scale = 1.0 + np.abs(np.nan_to_num(centres[:, :1])).max(axis=(1, 2))
-    # One centre, up to the rounding of recovering it from P.
-    none = (status != "no_detection") & ~(spread.max(axis=(1, 2)) > 1e-9 * scale)
-    status[none] = "degenerate"
-    reason[none] = "no baseline: the poses share a camera centre"
 
 
 def _reprojection(points: F64, P: F64, px: F64) -> F64:
@@ -254,11 +195,11 @@ def triangulate_points(
     proj = np.where(ok[..., None, None], proj, 0.0)
     A = proj.sum(axis=1)
     b = np.einsum("tnij,tnj->ti", proj, np.where(ok[..., None], c, 0.0))
-    conditioning = _pairwise_max_sine(d, ok)
+    conditioning = pairwise_max_sine(d, ok)
     status, reason = _view_status(
         conditioning, ok, min_conditioning, "point on the baseline (rays parallel)"
     )
-    _flag_no_baseline(c, ok, status, reason)
+    flag_no_baseline(c, ok, status, reason)
     usable = status == "ok"
     point = _safe_solve(np.where(usable[:, None, None], A, np.eye(3)), b, usable)
     if estimator == "optimal" and usable.any():
@@ -363,11 +304,11 @@ def triangulate_lines(
     with np.errstate(invalid="ignore", divide="ignore"):
         planes = np.where(ok[..., None], planes / norm, 0.0)
     T = lin.shape[0]
-    conditioning = _pairwise_max_sine(planes[..., :3], ok)
+    conditioning = pairwise_max_sine(planes[..., :3], ok)
     status, reason = _view_status(
         conditioning, ok, min_conditioning, "line coplanar with the baseline"
     )
-    _flag_no_baseline(camera_centres(p), ok, status, reason)
+    flag_no_baseline(camera_centres(p), ok, status, reason)
     usable = status == "ok"
     point = np.full((T, 3), np.nan)
     direction = np.full((T, 3), np.nan)
@@ -473,13 +414,13 @@ def triangulate_ground(
     A = np.concatenate([planes[..., :3], np.broadcast_to(n3, (T, 1, 3))], axis=1)
     b = np.concatenate([-planes[..., 3], np.full((T, 1), h)], axis=1)
     # |det [p_i; p_j; n3]| = |p_i . (p_j x n3)|: the largest over view pairs (eq. 19).
-    best = _pairwise_max_abs_dot(planes[..., :3], np.cross(planes[..., :3], n3), ok)
+    best = pairwise_max_abs_dot(planes[..., :3], np.cross(planes[..., :3], n3), ok)
     status, reason = _view_status(best, ok, min_conditioning, "line parallel to the ground")
-    plane_sine = _pairwise_max_sine(planes[..., :3], ok)
+    plane_sine = pairwise_max_sine(planes[..., :3], ok)
     reason[(status == "degenerate") & (plane_sine < min_conditioning)] = (
         "line coplanar with the baseline"
     )
-    _flag_no_baseline(camera_centres(p), ok, status, reason)
+    flag_no_baseline(camera_centres(p), ok, status, reason)
     usable = status == "ok"
     AtA = np.einsum("tki,tkj->tij", A, A)
     Atb = np.einsum("tki,tk->ti", A, b)

@@ -265,7 +265,8 @@ def test_views_from_one_camera_centre_are_degenerate_for_every_method(
 ) -> None:
     """Rotating the camera about one centre gives distinct rays and planes but no
     baseline: every method says so (lines and ground points used to report ok)."""
-    from twopose.solve import parallax_sine, triangulate_ground
+    from twopose.conditioning import parallax_sine
+    from twopose.solve import triangulate_ground
 
     rng = np.random.default_rng(3)
     K, R, t = _views(rng, 5, n_views)
