@@ -65,7 +65,8 @@ def simulate(
         ),
     ] = None,
     poses: Annotated[
-        int | None, typer.Option(min=2, help="Poses per trial [default: the scene's, 2].")
+        int | None,
+        typer.Option(min=2, max=100, help="Poses per trial [default: the scene's, 2]."),
     ] = None,
     scene: Annotated[
         Path | None,
@@ -88,8 +89,9 @@ def simulate(
             poses=poses,
         )
     typer.echo(
-        f"wrote {summary.path}: {summary.method}, {summary.n_trials} trials, "
-        f"{summary.n_poses} poses, {summary.n_frames} frames, {summary.size_bytes / 1e6:.2f} MB"
+        f"wrote {summary.path}: {summary.method}, {summary.n_trials} "
+        f"trial{'' if summary.n_trials == 1 else 's'}, {summary.n_poses} poses, "
+        f"{summary.n_frames} frames, {summary.size_bytes / 1e6:.2f} MB"
     )
 
 

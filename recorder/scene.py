@@ -225,7 +225,7 @@ def _check_scene(s: Scene) -> None:
         need(c.fx > 0 and c.fy > 0, "cameras.fx/fy", "must be > 0")
     p = s.poses
     need(p.count >= 2, "poses.count", f"must be >= 2 (two views at least), got {p.count}")
-    need(p.count <= 1000, "poses.count", f"must be <= 1000, got {p.count}")
+    need(p.count <= 100, "poses.count", f"must be <= 100, got {p.count}")
     for name in ("x_range", "y_range", "z_range", "rx_range", "ry_range", "rz_range"):
         lo, hi = getattr(p, name)
         need(lo <= hi, f"poses.{name}", f"must be [low, high], got [{lo}, {hi}]")

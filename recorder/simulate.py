@@ -12,7 +12,6 @@ gives the same bytes.
 from __future__ import annotations
 
 import dataclasses
-import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
@@ -121,13 +120,18 @@ def _draw_trial_poses(
             poses.append((t_typed, r_typed, t_true, r_true))
         if len(poses) < n_poses:
             continue
-        baselines = [np.linalg.norm(a[0] - b[0]) for a, b in itertools.combinations(poses, 2)]
-        if min(baselines) >= p.min_baseline:
+        if _min_baseline(np.array([pose[0] for pose in poses])) >= p.min_baseline:
             return poses
     raise SceneError(
         f"scene: could not place {n_poses} poses at least {p.min_baseline} apart with the target "
         f"in view after {_MAX_POSE_DRAWS} draws; widen poses.*_range or move the target"
     )
+
+
+def _min_baseline(t_typed: NDArray[np.float64]) -> float:
+    """The least distance between two of the (N, 3) typed camera centres (no pair loop)."""
+    gaps = np.linalg.norm(t_typed[:, None, :] - t_typed[None, :, :], axis=-1)
+    return float(gaps[np.triu_indices(len(t_typed), k=1)].min())
 
 
 def _in_view(

@@ -35,7 +35,7 @@ def test_simulate_writes_a_session(tmp_path: Path) -> None:
         ],
     )
     assert result.exit_code == 0, result.output
-    assert "1 trials, 2 poses, 4 frames" in result.output
+    assert "1 trial, 2 poses, 4 frames" in result.output
     with SessionReader(out) as r:
         assert r.info.method == "line"
         assert "pose_noise=0.05" in r.info.notes
