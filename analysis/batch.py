@@ -213,8 +213,9 @@ def analyse_or_fail(
         return SessionFailure(path, f"{path}: unexpected {type(err).__name__}: {err}")
 
 
-class _SessionTimeoutError(Exception):
-    """A session ran past its time limit."""
+class _SessionTimeoutError(BaseException):
+    """A session ran past its time limit (a BaseException, like KeyboardInterrupt, so that
+    no ``except Exception`` on the way turns it into another error)."""
 
 
 @contextlib.contextmanager
