@@ -170,3 +170,35 @@ def test_a_fifo_named_mcap_is_refused_not_waited_on(tmp_path: Path) -> None:
     assert "is not a regular file" in result.output
     result = CliRunner().invoke(app, ["info", str(tmp_path)])  # in a folder: not a session
     assert "no session files" in result.output
+
+
+def test_ctrl_c_with_two_jobs_exits_130_without_a_worker_traceback(
+    tmp_path: Path, odd_sessions: dict[str, Path]
+) -> None:
+    import os
+    import shutil
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    folder = tmp_path / "in"
+    folder.mkdir()
+    for k in range(6):
+        shutil.copy(odd_sessions["normal"], folder / f"s{k}.mcap")
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "analysis", "run", folder, "--out", tmp_path / "o", "--jobs", "2"],
+        stderr=subprocess.PIPE,
+        stdout=subprocess.DEVNULL,
+        text=True,
+        env=env,
+        start_new_session=True,  # Ctrl-C reaches the whole group, as at a terminal
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
+    time.sleep(4.0)  # the workers are up and analysing
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err
+    assert "interrupted" in err
