@@ -103,7 +103,10 @@ def run(
         outcomes = _execute(
             files, results_mcap, options, images, jobs, dask_address, on_session_done
         )
-        result = dataclasses.replace(gather(files, outcomes), skipped=tuple(skipped))
+        result = dataclasses.replace(
+            gather(files, outcomes, include_warned=options.include_warned),
+            skipped=tuple(skipped),
+        )
         if folder is not None:
             from analysis.report import write_outputs
 
@@ -156,8 +159,9 @@ def _report(on_done: OnDone | None, path: str, outcome: Outcome) -> None:
         on_done(path, isinstance(outcome, SessionResult))
 
 
-def gather(files: list[str], outcomes: list[Outcome]) -> RunResult:
-    """The run's tables: every session's rows concatenated in input order."""
+def gather(files: list[str], outcomes: list[Outcome], *, include_warned: bool = False) -> RunResult:
+    """The run's tables: every session's rows concatenated in input order; the summary
+    leaves warned trials out unless ``include_warned`` (:func:`analysis.metrics.summarize`)."""
     results = tuple(o for o in outcomes if isinstance(o, SessionResult))
     errors = pd.DataFrame(
         [
@@ -170,7 +174,7 @@ def gather(files: list[str], outcomes: list[Outcome]) -> RunResult:
     trials = _concat([r.trials for r in results], TRIAL_TABLE_COLUMNS)
     return RunResult(
         trials=trials,
-        summary=summarize(trials),
+        summary=summarize(trials, include_warned=include_warned),
         averaging=_concat([r.averaging for r in results], AVERAGING_COLUMNS),
         frames=_concat([r.frames for r in results], FRAME_COLUMNS),
         errors=errors,

@@ -177,6 +177,14 @@ def run_command(
             "failed (0: no limit).",
         ),
     ] = 600.0,
+    include_warned: Annotated[
+        bool,
+        typer.Option(
+            "--include-warned",
+            help="Summarize over every ok trial, also those with a near-degeneracy warning "
+            "(default: those are counted in n_warned and left out).",
+        ),
+    ] = False,
 ) -> None:
     """Replay sessions through detection and solvers into error tables, figures and a report."""
     from rich.console import Console
@@ -203,6 +211,7 @@ def run_command(
                 min_plane_angle_deg=min_plane_angle,
                 min_ground_angle_deg=min_ground_angle,
                 session_timeout_s=session_timeout or None,
+                include_warned=include_warned,
             ),
             on_session_done=lambda _path, _ok: progress.advance(task),
             on_sessions_found=found,
@@ -228,6 +237,12 @@ def _print_run(result: RunResult, out: Path) -> None:
     for row in summary_rows(result.summary):
         table.add_row(*row)
     Console().print(table)
+    warned = int(result.summary["n_warned"].sum()) if len(result.summary) else 0
+    if warned and (result.summary["n_used"] < result.summary["n_ok"]).any():
+        typer.echo(
+            f"{warned} ok trial(s) carry a near-degeneracy warning and are left out of these "
+            "statistics (n_warned in summary.csv; --include-warned keeps them)"
+        )
     _say_skipped(list(result.skipped))
     for _, e in result.errors.iterrows():
         typer.secho(f"failed: {e['error']}", err=True, fg=typer.colors.RED)

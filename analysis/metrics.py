@@ -96,16 +96,27 @@ SUMMARY_COLUMNS = [
     "units",
     "n_trials",
     "n_ok",
+    "n_warned",  # ok trials with a near-degeneracy warning (left out unless --include-warned)
+    "n_used",  # the trials the statistics below are over
     "bias_x",
     "bias_y",
     "bias_z",
+    "bias_x_ci95",  # half-width of the 95% t-interval of each bias component
+    "bias_y_ci95",
+    "bias_z_ci95",
     "std_x",
     "std_y",
     "std_z",
     "rmse",
+    "rmse_ci95_low",  # seeded bootstrap (2000 resamples) 95% interval of the RMSE
+    "rmse_ci95_high",
     "median_err",
     "max_err",
     "within_1",
+    "coverage95",  # share of used trials whose truth is inside their 95% ellipsoid
+    "rmse_all_ok",  # the same over every ok trial, warned ones included
+    "median_err_all_ok",
+    "max_err_all_ok",
 ]
 
 
@@ -167,38 +178,109 @@ def uncertainty_columns(error: F64, cov: F64) -> dict[str, F64]:
     }
 
 
-def summarize(trials: pd.DataFrame) -> pd.DataFrame:
-    """One row per session and method: bias, spread and error statistics over ok trials.
+def summarize(trials: pd.DataFrame, *, include_warned: bool = False) -> pd.DataFrame:
+    """One row per session and method: bias, spread and error statistics.
 
-    ``within_1`` is the share of ok trials whose error is within 1 session unit (the
-    thesis' "< 1 inch").
+    The statistics are over the ok trials *without* a near-degeneracy warning (the tool
+    itself doubts the others), unless ``include_warned``; ``n_warned`` counts what was left
+    out and ``*_all_ok`` give the figures over every ok trial beside them. ``within_1`` is
+    the share of used trials whose error is within 1 session unit (the thesis' "< 1 inch").
+    Errors that are unknown (no ground truth) are left out of the error statistics.
     """
     rows = []
     for (session, method), g in trials.groupby(["session", "method"], sort=True):
         ok = g[g["status"] == "ok"]
-        err = ok[["err_x", "err_y", "err_z"]].to_numpy(dtype=np.float64)
-        total = ok["err"].to_numpy(dtype=np.float64)
-        n = len(ok)
-        known = total[~np.isnan(total)]  # no truth: no error to summarize
-        m = len(known)
-        with np.errstate(over="ignore"):
-            rmse = float(np.sqrt(np.mean(known**2))) if m else np.nan
+        if "warning" in ok:
+            warned = ok["warning"].fillna("").astype(str) != ""
+        else:
+            warned = pd.Series(False, index=ok.index)
+        used = ok if include_warned else ok[~warned]
+        all_ok = _error_statistics(ok)
         rows.append(
             {
                 "session": session,
                 "method": method,
                 "units": g["units"].iloc[0],
                 "n_trials": len(g),
-                "n_ok": n,
-                **{f"bias_{a}": (err[:, i].mean() if n else np.nan) for i, a in enumerate("xyz")},
-                **{
-                    f"std_{a}": (err[:, i].std(ddof=1) if n > 1 else np.nan)
-                    for i, a in enumerate("xyz")
-                },
-                "rmse": rmse,
-                "median_err": float(np.median(known)) if m else np.nan,
-                "max_err": float(known.max()) if m else np.nan,
-                "within_1": float(np.mean(known <= 1.0)) if m else np.nan,
+                "n_ok": len(ok),
+                "n_warned": int(warned.sum()),
+                "n_used": len(used),
+                **_error_statistics(used),
+                "rmse_all_ok": all_ok["rmse"],
+                "median_err_all_ok": all_ok["median_err"],
+                "max_err_all_ok": all_ok["max_err"],
             }
         )
     return pd.DataFrame(rows, columns=SUMMARY_COLUMNS)
+
+
+#: Two-sided 95% Student t quantiles by degrees of freedom (1-30); beyond, the normal's.
+_T95 = [
+    12.706,
+    4.303,
+    3.182,
+    2.776,
+    2.571,
+    2.447,
+    2.365,
+    2.306,
+    2.262,
+    2.228,
+    2.201,
+    2.179,
+    2.160,
+    2.145,
+    2.131,
+    2.120,
+    2.110,
+    2.101,
+    2.093,
+    2.086,
+    2.080,
+    2.074,
+    2.069,
+    2.064,
+    2.060,
+    2.056,
+    2.052,
+    2.048,
+    2.045,
+    2.042,
+]
+
+
+def _t95(dof: int) -> float:
+    return _T95[dof - 1] if dof <= len(_T95) else 1.96
+
+
+def _error_statistics(trials: pd.DataFrame) -> dict[str, float]:
+    """Bias (with 95% t-intervals), spread, RMSE (with a seeded bootstrap interval), median,
+    max, share within 1 unit and 95% coverage, over the trials whose error is known."""
+    known = trials[trials["err"].notna()]
+    err = known[["err_x", "err_y", "err_z"]].to_numpy(dtype=np.float64)
+    total = known["err"].to_numpy(dtype=np.float64)
+    n = len(known)
+    out: dict[str, float] = {}
+    for i, a in enumerate("xyz"):
+        out[f"bias_{a}"] = float(err[:, i].mean()) if n else np.nan
+        std = float(err[:, i].std(ddof=1)) if n > 1 else np.nan
+        out[f"std_{a}"] = std
+        out[f"bias_{a}_ci95"] = _t95(n - 1) * std / np.sqrt(n) if n > 1 else np.nan
+    with np.errstate(over="ignore"):
+        out["rmse"] = float(np.sqrt(np.mean(total**2))) if n else np.nan
+        if n > 1:
+            rng = np.random.default_rng(0)
+            draws = total[rng.integers(0, n, size=(2000, n))]
+            boot = np.sqrt(np.mean(draws**2, axis=1))
+            out["rmse_ci95_low"], out["rmse_ci95_high"] = (
+                float(v) for v in np.percentile(boot, [2.5, 97.5])
+            )
+        else:
+            out["rmse_ci95_low"] = out["rmse_ci95_high"] = np.nan
+    out["median_err"] = float(np.median(total)) if n else np.nan
+    out["max_err"] = float(total.max()) if n else np.nan
+    out["within_1"] = float(np.mean(total <= 1.0)) if n else np.nan
+    inside = known["within95"] if "within95" in known else pd.Series(dtype=object)
+    inside = inside[inside.notna()]
+    out["coverage95"] = float(inside.astype(bool).mean()) if len(inside) else np.nan
+    return out

@@ -30,6 +30,8 @@ class AnalysisOptions:
     # A session still running after this many seconds is stopped and listed as failed, so
     # that one pathological file cannot stall a batch (None: no limit).
     session_timeout_s: float | None = 600.0
+    # The summary's statistics include ok trials with a near-degeneracy warning.
+    include_warned: bool = False
 
 
 @dataclass(frozen=True)

@@ -77,3 +77,23 @@ def test_uncertainty_columns_of_a_known_covariance() -> None:
     np.testing.assert_allclose(cols["ci95_x"], [1.959964 * 2], rtol=1e-6)
     far = uncertainty_columns(np.array([[20.0, 0.0, 0.0]]), cov)
     assert far["within95"][0] == 0.0
+
+
+def test_warned_trials_are_counted_and_left_out_unless_asked() -> None:
+    """The headline is over the trials the tool does not doubt; the all-ok figures beside."""
+    trials = _trials([(0.1, 0.0, 0.0), (0.3, 0.0, 0.0), (10.0, 0.0, 0.0)], ["ok"] * 3)
+    trials["warning"] = ["", "", "plane angle 0.12 deg < 5"]
+    trials["within95"] = [True, False, False]
+    (row,) = summarize(trials).to_dict("records")
+    assert (row["n_ok"], row["n_warned"], row["n_used"]) == (3, 1, 2)
+    assert row["rmse"] == pytest.approx(np.sqrt((0.1**2 + 0.3**2) / 2))
+    assert row["max_err"] == pytest.approx(0.3)
+    assert row["max_err_all_ok"] == pytest.approx(10.0)
+    assert row["rmse_all_ok"] > 5
+    assert row["coverage95"] == 0.5
+    # The 95% t-interval of the x bias over 2 trials: 12.706 * s / sqrt(2).
+    assert row["bias_x_ci95"] == pytest.approx(12.706 * np.std([0.1, 0.3], ddof=1) / np.sqrt(2))
+    assert row["rmse_ci95_low"] <= row["rmse"] <= row["rmse_ci95_high"]
+    (everything,) = summarize(trials, include_warned=True).to_dict("records")
+    assert everything["n_used"] == 3
+    assert everything["max_err"] == pytest.approx(10.0)
