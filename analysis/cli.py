@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from twopose.errors import (
+    EXIT_INTERRUPTED,
     EXIT_SOME_INPUTS_FAILED,
     InputValueError,
     TwoposeError,
@@ -361,4 +362,8 @@ def solve(method: Annotated[SolveMethod, typer.Argument(help="Which reconstructi
 
 def main() -> None:
     safe_console()
-    app()
+    try:
+        app()
+    except KeyboardInterrupt:  # Ctrl-C outside a command's own handling: still 130
+        sys.stderr.write("interrupted\n")
+        raise SystemExit(EXIT_INTERRUPTED) from None

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import sys
 import time
 from enum import StrEnum
 from pathlib import Path
@@ -340,4 +341,8 @@ def recover(
 
 def main() -> None:
     safe_console()
-    app()
+    try:
+        app()
+    except KeyboardInterrupt:  # Ctrl-C outside a command's own handling: still 130
+        sys.stderr.write("interrupted\n")
+        raise SystemExit(EXIT_INTERRUPTED) from None

@@ -184,7 +184,7 @@ def test_ctrl_c_with_two_jobs_exits_130_without_a_worker_traceback(
 
     folder = tmp_path / "in"
     folder.mkdir()
-    for k in range(6):
+    for k in range(24):  # enough that the batch is still running when Ctrl-C comes
         shutil.copy(odd_sessions["normal"], folder / f"s{k}.mcap")
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
     proc = subprocess.Popen(
@@ -196,7 +196,7 @@ def test_ctrl_c_with_two_jobs_exits_130_without_a_worker_traceback(
         start_new_session=True,  # Ctrl-C reaches the whole group, as at a terminal
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
-    time.sleep(4.0)  # the workers are up and analysing
+    time.sleep(3.0)  # the workers are up and analysing
     os.killpg(proc.pid, signal.SIGINT)
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == 130, err
