@@ -218,31 +218,27 @@ def run_command(
             on_sessions_found=found,
             scene=scene,
         )
-    _print_run(result, out)
+    _print_run(result, out, include_warned)
 
 
-def _print_run(result: RunResult, out: Path) -> None:
-    """The summary table, the skipped and failed inputs; exit 1 if any input failed."""
-    from rich.console import Console
-    from rich.table import Table
+def _print_run(result: RunResult, out: Path, include_warned: bool) -> None:
+    """The per-method and per-session summary (80 columns at a terminal, whole lines when
+    piped), the skipped and failed inputs; exit 1 if any input failed."""
+    import shutil
 
-    from analysis.report import summary_rows
+    from analysis.console import summary_lines
 
-    table = Table(title=f"twopose: {len(result.sessions)} session(s), results in {out}")
-    units = result.summary["units"].iloc[0] if len(result.summary["units"].unique()) == 1 else ""
-    table.add_column("session", no_wrap=True, min_width=18)  # names matter more than digits
-    for col in ("method", "ok", "bias x", "bias z", "rmse", "median", "max", "≤1"):
-        table.add_column(col, justify="right")
-    if units:
-        table.caption = f"errors in {units}; ≤1: share of ok trials within 1 {units}"
-    for row in summary_rows(result.summary):
-        table.add_row(*row)
-    Console().print(table)
+    width = min(shutil.get_terminal_size().columns, 100) if sys.stdout.isatty() else None
+    typer.echo(f"twopose: {len(result.sessions)} session(s), results in {out}")
+    for line in summary_lines(
+        result.trials, result.summary, include_warned=include_warned, width=width
+    ):
+        typer.echo(line)
     warned = int(result.summary["n_warned"].sum()) if len(result.summary) else 0
-    if warned and (result.summary["n_used"] < result.summary["n_ok"]).any():
+    if warned and not include_warned:
         typer.echo(
-            f"{warned} ok trial(s) carry a near-degeneracy warning and are left out of these "
-            "statistics (n_warned in summary.csv; --include-warned keeps them)"
+            f"{warned} ok trial(s) with a near-degeneracy warning are left out of these "
+            "statistics (--include-warned keeps them)"
         )
     _say_skipped(list(result.skipped))
     for _, e in result.errors.iterrows():

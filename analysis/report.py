@@ -412,31 +412,3 @@ def _report_html(result: RunResult, images: dict[str, str], sweeps: pd.DataFrame
         parts.append(_table(s.trials.drop(columns=["session"])))
     parts.append("</body></html>")
     return "\n".join(parts)
-
-
-def summary_rows(summary: pd.DataFrame) -> list[list[str]]:
-    """The terminal summary table's cells."""
-
-    def f(v: object) -> str:
-        return (
-            ""
-            if v is None or (isinstance(v, float) and np.isnan(v))
-            else f"{v:.3g}"
-            if isinstance(v, float)
-            else str(v)
-        )
-
-    return [
-        [
-            Path(str(r["session"])).name,
-            str(r["method"]),
-            f"{r['n_ok']}/{r['n_trials']}",
-            f(r["bias_x"]),
-            f(r["bias_z"]),
-            f(r["rmse"]),
-            f(r["median_err"]),
-            f(r["max_err"]),
-            f(r["within_1"]),
-        ]
-        for _, r in summary.iterrows()
-    ]

@@ -12,7 +12,6 @@ from analysis.report import (
     figure_key,
     plot_error_scatter,
     png_bytes,
-    summary_rows,
 )
 from twopose.uncertainty import CHI2_95
 
@@ -54,28 +53,6 @@ def test_error_scatter_draws_ok_trials_on_a_given_axes() -> None:
     np.testing.assert_allclose(points, [[0.2, 0.1], [-0.4, 0.3]])
     assert "2 ok trials" in [t.get_text() for t in ax.get_legend().get_texts()]
     assert png_bytes(fig).startswith(b"\x89PNG")
-
-
-def test_summary_rows_format_numbers_and_leave_nan_blank() -> None:
-    summary = pd.DataFrame(
-        [
-            {
-                "session": "/data/a.mcap",
-                "method": "point",
-                "n_ok": 2,
-                "n_trials": 3,
-                "bias_x": 0.123456,
-                "bias_z": np.nan,
-                "rmse": 1.5,
-                "median_err": 1.0,
-                "max_err": 2.0,
-                "within_1": 0.5,
-            }
-        ]
-    )
-    assert summary_rows(summary) == [
-        ["a.mcap", "point", "2/3", "0.123", "", "1.5", "1", "2", "0.5"]
-    ]
 
 
 def test_dominant_inputs_count_ok_trials_per_session() -> None:

@@ -1,0 +1,79 @@
+"""The run's answer as console text: readable in an 80-column terminal and in a CI log.
+
+A per-method table (pooled over the sessions) that fits 80 columns, then one line per
+session, wrapped at the terminal's width when printing to a terminal and left whole when
+piped (a log or a file keeps every number on its line).
+"""
+
+from __future__ import annotations
+
+import math
+import textwrap
+from pathlib import Path
+
+import pandas as pd
+
+from analysis.metrics import summarize
+
+__all__ = ["UNIT_NAMES", "summary_lines"]
+
+UNIT_NAMES = {"in": "inches", "mm": "millimetres", "cm": "centimetres", "m": "metres"}
+
+_HEADER = (
+    f"{'method':<7}{'sessions':>8}{'trials':>7}{'ok':>5}{'warned':>7}"
+    f"{'rmse':>7}{'median':>7}{'max':>7}{'bias x':>7}{'bias z':>7}{'≤1':>6}"
+)
+
+
+def _num(value: object, signed: bool = False) -> str:
+    if not isinstance(value, int | float) or math.isnan(value):
+        return "-"
+    return f"{value:+.2f}" if signed else f"{value:.2f}"
+
+
+def _share(value: object) -> str:
+    if not isinstance(value, int | float) or math.isnan(value):
+        return "-"
+    return f"{100 * value:.0f}%"
+
+
+def _units(summary: pd.DataFrame) -> str:
+    units = sorted(set(summary["units"]))
+    return UNIT_NAMES.get(units[0], units[0]) if len(units) == 1 else "session units"
+
+
+def summary_lines(
+    trials: pd.DataFrame,
+    summary: pd.DataFrame,
+    *,
+    include_warned: bool = False,
+    width: int | None = 80,
+) -> list[str]:
+    """The console summary: per-method table, then per-session lines wrapped at ``width``
+    (None: never wrapped, for pipes)."""
+    if summary.empty:
+        return []
+    which = "every ok trial" if include_warned else "ok trials without a warning"
+    lines = [f"per method, over {which}; errors in {_units(summary)}:", _HEADER]
+    pooled = summarize(trials.assign(session="all"), include_warned=include_warned)
+    sessions = summary.groupby("method")["session"].nunique()
+    for _, r in pooled.iterrows():
+        lines.append(
+            f"{r['method']!s:<7}{sessions.get(r['method'], 0):>8}{r['n_trials']:>7}"
+            f"{r['n_ok']:>5}{r['n_warned']:>7}{_num(r['rmse']):>7}{_num(r['median_err']):>7}"
+            f"{_num(r['max_err']):>7}{_num(r['bias_x'], True):>7}{_num(r['bias_z'], True):>7}"
+            f"{_share(r['within_1']):>6}"
+        )
+    lines.append("per session:")
+    for _, r in summary.iterrows():
+        text = (
+            f"{Path(str(r['session'])).name} ({r['method']}): {r['n_ok']}/{r['n_trials']} ok, "
+            f"{r['n_warned']} warned; rmse {_num(r['rmse'])}, median {_num(r['median_err'])}, "
+            f"max {_num(r['max_err'])}, bias x {_num(r['bias_x'], True)} "
+            f"z {_num(r['bias_z'], True)}, within 1: {_share(r['within_1'])}"
+        )
+        if width is None:
+            lines.append("  " + text)
+        else:
+            lines += textwrap.wrap(text, width, initial_indent="  ", subsequent_indent="    ")
+    return lines

@@ -1,0 +1,42 @@
+"""console: the run's answer fits an 80-column terminal and stays whole in a pipe."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from analysis.batch import run
+from analysis.cli import app
+from analysis.console import summary_lines
+
+SESSIONS = Path(__file__).resolve().parents[2] / "sessions"
+
+
+@pytest.fixture(scope="module")
+def sample_run() -> object:
+    return run([SESSIONS / "method2_ground.mcap", SESSIONS / "line.mcap"])
+
+
+def test_at_80_columns_nothing_is_cut(sample_run: object) -> None:
+    lines = summary_lines(sample_run.trials, sample_run.summary, width=80)  # type: ignore[attr-defined]
+    assert max(len(line) for line in lines) <= 80
+    text = " ".join(line.strip() for line in lines)
+    assert "errors in inches" in text
+    for name in ("method2_ground.mcap (ground)", "line.mcap (line)"):
+        assert name in text  # whole names, no ellipsis
+    assert "…" not in text
+    assert any(line.startswith("ground ") for line in lines)
+    assert any(line.startswith("line ") for line in lines)
+
+
+def test_piped_output_keeps_every_session_on_one_line(tmp_path: Path) -> None:
+    result = CliRunner().invoke(
+        app, ["run", str(SESSIONS / "line.mcap"), "--out", str(tmp_path / "o"), "--no-scene"]
+    )
+    assert result.exit_code == 0, result.output
+    (line,) = [x for x in result.stdout.splitlines() if x.startswith("  line.mcap (line):")]
+    assert "rmse" in line
+    assert "within 1:" in line
+    assert "left out of these statistics" in result.stdout  # the line session has warnings
