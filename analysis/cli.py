@@ -18,6 +18,7 @@ from twopose.errors import (
     TwoposeError,
     handle_errors,
     safe_console,
+    show_version,
 )
 
 if TYPE_CHECKING:
@@ -39,7 +40,14 @@ app = typer.Typer(
 
 
 @app.callback()
-def _group() -> None:
+def _group(
+    version: Annotated[
+        bool,
+        typer.Option(
+            "--version", callback=show_version, is_eager=True, help="Print the version and exit."
+        ),
+    ] = False,
+) -> None:
     """Analyse twopose sessions."""
 
 
