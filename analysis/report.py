@@ -288,10 +288,42 @@ def png_bytes(fig: Figure) -> bytes:
     return buf.getvalue()
 
 
+def _rounded(value: float) -> str:
+    """Four significant digits; floating-point noise (|v| < 1e-9) reads 0."""
+    return "0" if abs(value) < 1e-9 else f"{value:.4g}"
+
+
 def _table(df: pd.DataFrame) -> str:
-    return df.to_html(
-        index=False, float_format=lambda v: f"{v:.4g}", na_rep="", border=0, classes="t"
-    )
+    """A table that scrolls inside its own box: a wide one never widens the page."""
+    body = df.to_html(index=False, float_format=_rounded, na_rep="", border=0, classes="t")
+    return f"<div class='scroll'>{body}</div>"
+
+
+ANSWER_COLUMNS = [
+    "method",
+    "n_trials",
+    "n_ok",
+    "n_warned",
+    "rmse",
+    "rmse_ci95_low",
+    "rmse_ci95_high",
+    "median_err",
+    "bias_x",
+    "bias_x_ci95",
+    "bias_z",
+    "bias_z_ci95",
+    "coverage95",
+    "within_1",
+]
+
+
+def answer_table(trials: pd.DataFrame) -> pd.DataFrame:
+    """Per method, pooled over the sessions: the report's first table."""
+    from analysis.metrics import summarize
+
+    if trials.empty:
+        return pd.DataFrame(columns=ANSWER_COLUMNS)
+    return summarize(trials.assign(session="all"))[ANSWER_COLUMNS]
 
 
 def write_outputs(result: RunResult, out_dir: Path, sweeps: pd.DataFrame) -> list[str]:
@@ -364,13 +396,23 @@ def _report_html(result: RunResult, images: dict[str, str], sweeps: pd.DataFrame
     parts = [
         "<!doctype html><html><head><meta charset='utf-8'><title>twopose report</title>",
         "<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}"
+        ".scroll{overflow-x:auto;max-width:100%}img{max-width:100%;height:auto}"
         "table.t{border-collapse:collapse;font-size:12px;margin:1em 0}"
         "table.t td,table.t th{padding:2px 8px;border-bottom:1px solid #ddd;text-align:right}"
         "h2{border-bottom:1px solid #aaa}.err{color:#a00}</style></head><body>",
         "<h1>twopose report</h1>",
         f"<p>{len(result.sessions)} session(s) analysed, {len(result.errors)} failed, "
         f"{len(result.trials)} trial(s), {n_ok} ok.</p>",
-        "<h2>Summary</h2>",
+        "<p><a href='#answer'>Answer per method</a> · <a href='#summary'>Per session</a> · "
+        "<a href='#dominant'>What dominates the error</a> · "
+        "<a href='#sensitivity'>Sensitivity</a> · <a href='#sessions'>Sessions</a></p>",
+        "<h2 id='answer'>Answer per method</h2>",
+        "<p>Pooled over the sessions, over the ok trials without a near-degeneracy warning "
+        "(<code>n_warned</code> counts those left out); 95% intervals of the RMSE (bootstrap) "
+        "and of the biases (<code>_ci95</code>: half-widths); <code>coverage95</code>: the "
+        "share of trials whose truth is inside their 95% ellipsoid.</p>",
+        _table(answer_table(result.trials)),
+        "<h2 id='summary'>Per session</h2>",
         _table(result.summary),
     ]
     for key in ("error_histogram", "error_by_trial", "error_vs_baseline"):
@@ -382,27 +424,28 @@ def _report_html(result: RunResult, images: dict[str, str], sweeps: pd.DataFrame
         parts.append("<h2>Inputs that failed</h2>")
         parts.append(f"<div class='err'>{_table(result.errors)}</div>")
     parts += [
-        "<h2>What dominates the error</h2>",
+        "<h2 id='dominant'>What dominates the error</h2>",
         "<p>Per trial, the input whose uncertainty contributes most to the estimate's "
         "covariance (first-order propagation of the frame scatter and the typed poses' "
         "recorded 1-sigma resolution; trials.csv: <code>dominant_input</code>, "
         "<code>dominant_share</code>).</p>",
         _table(dominant_inputs(result.trials)),
-        "<h2>Sensitivity (the thesis' geometry)</h2>",
+        "<h2 id='sensitivity'>Sensitivity (the thesis' geometry)</h2>",
         "<p>Seeded Monte Carlo sweeps through the solvers, one input varied at a time, in the "
         "thesis' geometry (f = 525 px, h = 9.625 in, a 1.1 in baseline along x; "
         "<code>twopose-analyze sensitivity</code>; sensitivity.csv).</p>",
         f"<img alt='sensitivity' src='data:image/png;base64,{images['sensitivity']}'>",
         _table(_sensitivity_table(sweeps)),
     ]
+    parts.append("<h2 id='sessions'>Sessions</h2>" if result.sessions else "")
     for i, s in enumerate(result.sessions):
         name = Path(s.session).stem
-        parts.append(f"<h2>{html.escape(s.session)}</h2><table class='t'>")
+        parts.append(f"<h2>{html.escape(s.session)}</h2><div class='scroll'><table class='t'>")
         parts += [
             f"<tr><th>{html.escape(k)}</th><td>{html.escape(v)}</td></tr>"
             for k, v in s.metadata.items()
         ]
-        parts.append("</table>")
+        parts.append("</table></div>")
         for kind in ("scatter", "topview", "averaging"):
             key = f"{kind}_{i:02d}_{name}"
             if key in images:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
@@ -62,3 +64,19 @@ def test_dominant_inputs_count_ok_trials_per_session() -> None:
         {"session": "s.mcap", "dominant_input": "x translation", "trials": 1, "median_share": 0.9},
     ]
     assert figure_key("scatter", 3, "/x/method2_ground.mcap") == "scatter_03_method2_ground"
+
+
+def test_the_report_answers_first_and_keeps_wide_tables_in_their_box(
+    tmp_path: Path, point_session: Path
+) -> None:
+    from analysis.batch import run
+
+    out = tmp_path / "out"
+    run([point_session], out, scene=False)
+    page = (out / "report.html").read_text()
+    answer = page.index("id='answer'")
+    assert answer < page.index("id='summary'") < page.index("id='sessions'")
+    assert "href='#answer'" in page  # the table of contents
+    assert page.count("<div class='scroll'><table") == page.count("<table")  # every table
+    assert "e-15" not in page  # floating-point noise reads 0
+    assert "e-16" not in page
