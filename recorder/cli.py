@@ -17,8 +17,8 @@ from twopose.errors import (
     TwoposeError,
     handle_errors,
     safe_console,
-    show_version,
 )
+from twopose.version import show_version
 
 if TYPE_CHECKING:
     from recorder.capture import CaptureResult

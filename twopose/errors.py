@@ -26,7 +26,6 @@ __all__ = [
     "TwoposeError",
     "handle_errors",
     "safe_console",
-    "show_version",
 ]
 
 
@@ -104,16 +103,3 @@ def safe_console() -> None:
         reconfigure = getattr(stream, "reconfigure", None)
         if reconfigure is not None:
             reconfigure(errors="backslashreplace")
-
-
-def show_version(value: bool) -> None:
-    """The command lines' ``--version``: print the package and session format versions."""
-    if not value:
-        return
-    import typer
-
-    from twopose import __version__
-    from twopose.format.entries import FORMAT_VERSION
-
-    typer.echo(f"twopose {__version__} (session format {FORMAT_VERSION})")
-    raise typer.Exit()
