@@ -81,6 +81,8 @@ def capture_frames(
     feedback. A source that fails mid-capture leaves the capture in the file, marked
     incomplete with the reason; an interrupt (Ctrl-C) does the same, then propagates.
     """
+    from twopose.detect import detect
+
     source.start_capture()
     dropped_before = source.dropped
     feedback: list[FrameFeedback] = []
@@ -97,7 +99,7 @@ def capture_frames(
             started = time.perf_counter()
             data = writer.encode_image(image)
             cap.add_encoded(data)
-            d = _detection(image, target)
+            d = None if target is None else detect(image, target)
             fb = None if d is None else _feedback(k, d)
             if fb is not None:
                 feedback.append(fb)
@@ -116,12 +118,6 @@ def capture_frames(
         tuple(overhead),
         entry.capture,
     )
-
-
-def _detection(image: object, target: str | None) -> Detection | None:
-    from twopose.detect import detect
-
-    return None if target is None else detect(image, target)  # type: ignore[arg-type]
 
 
 def _feedback(k: int, d: Detection) -> FrameFeedback:

@@ -18,7 +18,7 @@ from twopose.errors import (
     handle_errors,
     safe_console,
 )
-from twopose.version import show_version
+from twopose.version import VersionOption
 
 if TYPE_CHECKING:
     from recorder.capture import CaptureResult
@@ -38,14 +38,7 @@ app = typer.Typer(
 
 
 @app.callback()
-def _group(
-    version: Annotated[
-        bool,
-        typer.Option(
-            "--version", callback=show_version, is_eager=True, help="Print the version and exit."
-        ),
-    ] = False,
-) -> None:
+def _group(version: VersionOption = False) -> None:
     """Record twopose measurement sessions."""
 
 

@@ -15,11 +15,17 @@ from numpy.typing import NDArray
 
 from twopose.errors import InputValueError
 
-__all__ = ["MAX_IMAGE_PIXELS", "decode_image", "image_size"]
+__all__ = ["decode_image", "image_size", "max_image_pixels"]
 
-#: The largest image decoded (pixels); ``TWOPOSE_MAX_IMAGE_MPIX`` (megapixels) overrides it.
-#: 50 MP is above every camera the method uses and ~150 MB decoded.
-MAX_IMAGE_PIXELS = int(float(os.environ.get("TWOPOSE_MAX_IMAGE_MPIX", "50")) * 1_000_000)
+
+def max_image_pixels() -> int:
+    """The largest image decoded (pixels): 50 MP (above every camera the method uses, about
+    150 MB decoded), or ``TWOPOSE_MAX_IMAGE_MPIX`` megapixels."""
+    try:
+        megapixels = float(os.environ.get("TWOPOSE_MAX_IMAGE_MPIX", "50"))
+    except ValueError:
+        megapixels = 50.0
+    return int(megapixels * 1_000_000)
 
 
 def image_size(data: bytes, what: str) -> tuple[int, int]:
@@ -31,7 +37,7 @@ def image_size(data: bytes, what: str) -> tuple[int, int]:
             width, height = img.size
     except Image.DecompressionBombError as err:  # Pillow's own header check, > ~179 MP
         raise InputValueError(
-            f"{what} declares an image over the limit of {MAX_IMAGE_PIXELS / 1e6:g} MP ({err})"
+            f"{what} declares an image over the limit of {max_image_pixels() / 1e6:g} MP ({err})"
         ) from err
     except (UnidentifiedImageError, OSError, ValueError, SyntaxError) as err:
         raise InputValueError(f"{what} is not a readable image ({err})") from err
@@ -44,7 +50,7 @@ def decode_image(
     """An encoded image as an (H, W, 3) BGR uint8 array (OpenCV's order).
 
     Raises :class:`InputValueError` (naming ``what``) if it is not an image, declares more
-    than :data:`MAX_IMAGE_PIXELS`, differs from ``expected_size`` (width, height), or does
+    than :func:`max_image_pixels`, differs from ``expected_size`` (width, height), or does
     not decode.
     """
     import cv2
@@ -55,10 +61,11 @@ def decode_image(
             f"{what} is {width}x{height}, but its camera's calibration is "
             f"{expected_size[0]}x{expected_size[1]}"
         )
-    if width * height > MAX_IMAGE_PIXELS:
+    limit = max_image_pixels()
+    if width * height > limit:
         raise InputValueError(
             f"{what} declares {width}x{height} pixels, over the limit of "
-            f"{MAX_IMAGE_PIXELS / 1e6:g} MP (TWOPOSE_MAX_IMAGE_MPIX raises it)"
+            f"{limit / 1e6:g} MP (TWOPOSE_MAX_IMAGE_MPIX raises it)"
         )
     try:
         img = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_COLOR)
