@@ -49,7 +49,7 @@ def test_the_size_must_match_the_calibration() -> None:
 def test_the_pixel_limit_is_read_when_decoding(monkeypatch: pytest.MonkeyPatch) -> None:
     _ok, png = cv2.imencode(".png", np.zeros((48, 64, 3), np.uint8))
     monkeypatch.setenv("TWOPOSE_MAX_IMAGE_MPIX", "0.001")  # 1000 pixels
-    with pytest.raises(InputValueError, match="64x48 pixels, over the limit of 0.001 MP"):
+    with pytest.raises(InputValueError, match=r"64x48 pixels, over the limit of 0\.001 MP"):
         decode_image(png.tobytes(), "f")
     monkeypatch.setenv("TWOPOSE_MAX_IMAGE_MPIX", "many")  # a typo keeps the default
     assert decode_image(png.tobytes(), "f").shape == (48, 64, 3)
