@@ -180,6 +180,7 @@ def gather(files: list[str], outcomes: list[Outcome], *, include_warned: bool = 
         errors=errors,
         sessions=results,
         views=_concat([r.views for r in results], VIEW_COLUMNS),
+        include_warned=include_warned,
     )
 
 

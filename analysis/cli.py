@@ -260,8 +260,8 @@ def sensitivity_command(
 ) -> None:
     """Sweeps of error against pixel noise, pose error per axis, baseline, distance, finger
     angle, in the thesis' geometry; and a check of its 0.1 in -> 0.2 in claim (section 5.3)."""
+    from analysis.figures import png_bytes
     from analysis.outputs import OutputFolder, write_atomically
-    from analysis.report import png_bytes
     from analysis.sensitivity import (
         plot_sensitivity,
         sensitivity,

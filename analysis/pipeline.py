@@ -307,7 +307,7 @@ def _figures(
     session: str, trials: pd.DataFrame, averaging: pd.DataFrame, views: pd.DataFrame
 ) -> dict[str, bytes]:
     """The session's figures as PNGs, drawn here so that a batch renders them in parallel."""
-    from analysis.report import png_bytes, session_figures
+    from analysis.figures import png_bytes, session_figures
 
     return {k: png_bytes(f) for k, f in session_figures(session, trials, averaging, views).items()}
 

@@ -1,291 +1,29 @@
-"""Report: figures (matplotlib, object API: nothing global is configured), CSV files, a
-self-contained ``report.html`` and the terminal summary."""
+"""Report: the CSV tables, one PNG per figure (:mod:`analysis.figures`) and a
+self-contained ``report.html`` that answers first: per method, then per session."""
 
 from __future__ import annotations
 
 import base64
 import html
-import io
-from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import matplotlib.colors
 import numpy as np
 import pandas as pd
-from matplotlib.axes import Axes
-from matplotlib.collections import EllipseCollection, LineCollection
-from matplotlib.figure import Figure
 
-from twopose.uncertainty import CHI2_95
+from analysis.figures import figure_key, png_bytes, run_figures, session_figures
+from twopose.format.entries import INCHES_PER_UNIT
 
 if TYPE_CHECKING:
     from analysis.results import RunResult
 
 __all__ = [
+    "ANSWER_COLUMNS",
+    "answer_table",
     "dominant_inputs",
-    "error_ellipses",
-    "make_figures",
-    "plot_error_by_trial",
-    "plot_error_histogram",
-    "plot_error_scatter",
-    "plot_error_vs_baseline",
-    "plot_running_average",
-    "plot_top_view",
+    "thesis_verdict",
     "write_outputs",
 ]
-
-
-def error_ellipses(trials: pd.DataFrame, chi2: float = CHI2_95[2]) -> EllipseCollection:
-    """The x-z marginal 95% ellipse of each trial's covariance, centred on its error: the
-    truth (the origin) lies inside about 95% of them when the uncertainty is honest."""
-    C = np.zeros((len(trials), 2, 2))
-    C[:, 0, 0] = trials["sigma_x"].to_numpy(dtype=np.float64) ** 2
-    C[:, 1, 1] = trials["sigma_z"].to_numpy(dtype=np.float64) ** 2
-    C[:, 0, 1] = C[:, 1, 0] = trials["cov_xz"].to_numpy(dtype=np.float64)
-    C = np.nan_to_num(C)
-    w, V = np.linalg.eigh(C)
-    angle = np.degrees(np.arctan2(V[:, 1, 1], V[:, 0, 1]))  # of the major axis
-    size = 2.0 * np.sqrt(chi2 * np.clip(w, 0.0, None))
-    return EllipseCollection(
-        size[:, 1],
-        size[:, 0],
-        angle,
-        units="xy",
-        offsets=trials[["err_x", "err_z"]].to_numpy(dtype=np.float64),
-        offset_transform=None,
-        facecolors="none",
-        edgecolors="C0",
-        linewidths=0.6,
-        alpha=0.45,
-    )
-
-
-_MAX_LEGEND = 8
-
-
-def plot_error_scatter(ax: Axes, trials: pd.DataFrame, title: str) -> None:
-    """Estimate minus truth in x-z, ok trials (the thesis' Figures 11 and 21), each with its
-    95% error ellipse (analysis/uncertainty.py)."""
-    ok = trials[trials["status"] == "ok"]
-    units = trials["units"].iloc[0] if len(trials) else ""
-    ax.axhline(0, color="0.8", lw=0.8)
-    ax.axvline(0, color="0.8", lw=0.8)
-    if len(ok) and "sigma_x" in ok:
-        ellipses = error_ellipses(ok)
-        ellipses.set_offset_transform(ax.transData)
-        ax.add_collection(ellipses, autolim=False)  # the points, not the ellipses, set limits
-        ax.plot([], [], color="C0", lw=0.6, alpha=0.45, label="95% ellipses")
-    ax.scatter(ok["err_x"], ok["err_z"], s=18, label=f"{len(ok)} ok trials")
-    if len(ok):
-        ax.scatter(
-            [ok["err_x"].mean()], [ok["err_z"].mean()], marker="x", s=60, color="C3", label="bias"
-        )
-    ax.set_xlabel(f"x error ({units})")
-    ax.set_ylabel(f"z error ({units})")
-    ax.set_title(title, fontsize=9)
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.legend(fontsize=7)
-
-
-def plot_running_average(
-    ax: Axes, averaging: pd.DataFrame, trials: pd.DataFrame, axis: str
-) -> None:
-    """Estimate of one coordinate against the number of frames averaged (Figures 22-23)."""
-    units = trials["units"].iloc[0] if len(trials) else ""
-    for k, (trial, g) in enumerate(averaging.groupby("trial")):
-        label = f"trial {trial}" if k < _MAX_LEGEND else None  # a legend, not a wall
-        line = ax.plot(g["n_frames"], g[axis], marker=".", ms=3, lw=0.8, label=label)
-        truth = trials.loc[trials["trial"] == trial, f"gt_{axis}"]
-        if len(truth):
-            ax.axhline(float(truth.iloc[0]), color=line[0].get_color(), ls="--", lw=0.8)
-    ax.set_xlabel("frames averaged per pose")
-    ax.set_ylabel(f"{axis} estimate ({units})")
-    ax.legend(fontsize=7)
-
-
-def _ok_with_error(trials: pd.DataFrame) -> pd.DataFrame:
-    """The ok trials whose error is known and finite (no truth: NaN; absurd truth: inf)."""
-    err = pd.to_numeric(trials["err"], errors="coerce")
-    ok: pd.DataFrame = trials[(trials["status"] == "ok") & np.isfinite(err)]
-    return ok
-
-
-def plot_error_histogram(ax: Axes, trials: pd.DataFrame) -> None:
-    ok = _ok_with_error(trials)
-    for method, g in ok.groupby("method"):
-        with np.errstate(over="ignore", invalid="ignore"):
-            span = float(g["err"].max() - g["err"].min())
-        bins = 20 if np.isfinite(span) else [float(b) for b in np.geomspace(1e-300, 1e300, 20)]
-        ax.hist(g["err"], bins=bins, alpha=0.6, label=str(method))
-        if not np.isfinite(span):
-            ax.set_xscale("log")
-    ax.set_xlabel("error (session units)")
-    ax.set_ylabel("trials")
-    ax.legend(fontsize=7)
-
-
-def plot_top_view(ax: Axes, trials: pd.DataFrame, views: pd.DataFrame, title: str) -> None:
-    """Looking down the y axis (x-z): each trial's typed camera centres, the ray through each
-    view's measurement (for lines, the plane's central ray), the estimate and the truth."""
-    units = trials["units"].iloc[0] if len(trials) else ""
-    # One artist per kind, not per trial: long sessions must not slow the layout down. A
-    # trial number recorded twice is drawn once (its last occurrence).
-    by_trial = trials.drop_duplicates("trial", keep="last").set_index("trial")
-    order = {t: k for k, t in enumerate(sorted(views["trial"].unique()))}
-    colors = np.array([matplotlib.colors.to_rgba(f"C{k % 10}") for k in range(10)])
-    view_color = colors[views["trial"].map(order).to_numpy() % 10]
-    c = views[["t_x", "t_z"]].to_numpy(dtype=np.float64)
-    ray = views[["ray_x", "ray_z"]].to_numpy(dtype=np.float64)
-    est = by_trial.loc[views["trial"], ["x", "z"]].to_numpy(dtype=np.float64)
-    reach = np.where(np.isfinite(est).all(axis=1), 1.2 * np.linalg.norm(est - c, axis=1), 10.0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        end = c + ray / np.linalg.norm(ray, axis=1)[:, None] * reach[:, None]
-    segments = np.stack([c, end], axis=1)
-    good = np.isfinite(segments).all(axis=(1, 2))
-    ax.add_collection(
-        LineCollection(list(segments[good]), colors=view_color[good], linewidths=0.6, alpha=0.6)
-    )
-    ax.scatter(c[:, 0], c[:, 1], marker="^", s=25, c=view_color)
-    trial_color = colors[[order[t] % 10 for t in by_trial.index if t in order]]
-    shown = by_trial.loc[[t for t in by_trial.index if t in order]]
-    ax.scatter(shown["x"], shown["z"], marker="x", s=45, c=trial_color)
-    truth = ax.scatter(shown["gt_x"], shown["gt_z"], marker="o", s=45, facecolors="none")
-    truth.set_edgecolor([tuple(rgba) for rgba in trial_color])
-    ax.plot([], [], "^", color="0.3", label="cameras (typed)")
-    ax.plot([], [], "x", color="0.3", label="estimate")
-    ax.plot([], [], "o", mfc="none", color="0.3", label="truth")
-    ax.set_xlabel(f"x ({units})")
-    ax.set_ylabel(f"z, depth ({units})")
-    ax.set_title(title, fontsize=9)
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.legend(fontsize=7)
-
-
-def plot_error_by_trial(ax: Axes, trials: pd.DataFrame) -> None:
-    """Each ok trial's error, with the radius of its 95% ellipsoid for scale."""
-    from analysis.outputs import printable_stem
-
-    ok = _ok_with_error(trials)
-    for k, (session, g) in enumerate(ok.groupby("session", sort=False)):
-        color = f"C{k % 10}"
-        ax.plot(
-            g["trial"],
-            g["err"],
-            "o-",
-            color=color,
-            ms=3,
-            lw=0.8,
-            label=printable_stem(str(session)),
-        )
-        if "semiaxis95" in g:
-            ax.plot(g["trial"], g["semiaxis95"], ":", color=color, lw=0.8)
-    ax.plot([], [], ":", color="0.3", label="95% ellipsoid, longest semi-axis")
-    ax.set_yscale("log")
-    ax.set_xlabel("trial")
-    ax.set_ylabel("error (session units)")
-    ax.legend(fontsize=7)
-
-
-def plot_error_vs_baseline(ax: Axes, trials: pd.DataFrame) -> None:
-    """Error against the distance between the cameras (the thesis' strongest lever)."""
-    ok = _ok_with_error(trials)
-    ok = ok[ok["baseline"].notna()]
-    for method, g in ok.groupby("method"):
-        ax.scatter(g["baseline"], g["err"], s=14, label=str(method), alpha=0.8)
-    ax.set_yscale("log")
-    ax.set_xlabel("baseline (session units)")
-    ax.set_ylabel("error (session units)")
-    ax.legend(fontsize=7)
-
-
-def session_figures(
-    session: str, trials: pd.DataFrame, averaging: pd.DataFrame, views: pd.DataFrame
-) -> dict[str, Figure]:
-    """One session's figures: ``scatter``, ``topview`` and (with more than one frame)
-    ``averaging``."""
-    from analysis.outputs import printable_stem
-
-    name = printable_stem(session)
-    figures = {
-        "scatter": _figure(
-            (4.2, 4.0),
-            lambda fig: plot_error_scatter(fig.add_subplot(), trials, f"{name}: estimate - truth"),
-        )
-    }
-    if not views.empty:
-        figures["topview"] = _figure(
-            (4.6, 4.0),
-            lambda fig: plot_top_view(fig.add_subplot(), trials, views, f"{name}: top view"),
-        )
-    if not averaging.empty and averaging["n_frames"].max() > 1:
-
-        def running(fig: Figure) -> None:
-            for j, axis in enumerate(("x", "z")):
-                plot_running_average(fig.add_subplot(1, 2, j + 1), averaging, trials, axis)
-            fig.suptitle(f"{name}: running average", fontsize=9)
-
-        figures["averaging"] = _figure((8.0, 3.4), running)
-    return figures
-
-
-def _figure(size: tuple[float, float], draw: Callable[[Figure], None]) -> Figure:
-    """A figure drawn by ``draw``; if the data defeat it, a figure that says why instead, so
-    that one odd session never costs the run its report."""
-    fig = Figure(figsize=size, layout="constrained")
-    try:
-        draw(fig)
-        fig.canvas.draw()  # layout errors surface here, not when the PNG is written
-    except (ValueError, OverflowError, FloatingPointError, KeyError, IndexError) as err:
-        fig = Figure(figsize=size, layout="constrained")
-        fig.text(
-            0.5,
-            0.5,
-            f"figure not drawn:\n{type(err).__name__}: {err}"[:300],
-            ha="center",
-            wrap=True,
-        )
-    return fig
-
-
-def figure_key(kind: str, index: int, session: str) -> str:
-    """File-name stem of a session figure in a run: ``<kind>_<index>_<session stem>``."""
-    from analysis.outputs import printable_stem
-
-    return f"{kind}_{index:02d}_{printable_stem(session)}"
-
-
-def run_figures(result: RunResult) -> dict[str, Figure]:
-    """The figures spanning all sessions of a run (the error histogram)."""
-    if result.trials.empty:
-        return {}
-    trials = result.trials
-    return {
-        "error_histogram": _figure(
-            (5.0, 3.4), lambda fig: plot_error_histogram(fig.add_subplot(), trials)
-        ),
-        "error_by_trial": _figure(
-            (5.6, 3.4), lambda fig: plot_error_by_trial(fig.add_subplot(), trials)
-        ),
-        "error_vs_baseline": _figure(
-            (5.0, 3.4), lambda fig: plot_error_vs_baseline(fig.add_subplot(), trials)
-        ),
-    }
-
-
-def make_figures(result: RunResult) -> dict[str, Figure]:
-    """Named figures of a run: one scatter per session, running averages, a histogram."""
-    figures: dict[str, Figure] = {}
-    for i, s in enumerate(result.sessions):
-        for kind, fig in session_figures(s.session, s.trials, s.averaging, s.views).items():
-            figures[figure_key(kind, i, s.session)] = fig
-    return figures | run_figures(result)
-
-
-def png_bytes(fig: Figure) -> bytes:
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110, metadata={"Software": None})
-    return buf.getvalue()
 
 
 def _rounded(value: float) -> str:
@@ -301,6 +39,7 @@ def _table(df: pd.DataFrame) -> str:
 
 ANSWER_COLUMNS = [
     "method",
+    "units",
     "n_trials",
     "n_ok",
     "n_warned",
@@ -317,13 +56,75 @@ ANSWER_COLUMNS = [
 ]
 
 
-def answer_table(trials: pd.DataFrame) -> pd.DataFrame:
-    """Per method, pooled over the sessions: the report's first table."""
+def answer_table(trials: pd.DataFrame, *, include_warned: bool = False) -> pd.DataFrame:
+    """Per method (and units), pooled over the sessions: the report's first table."""
     from analysis.metrics import summarize
 
     if trials.empty:
         return pd.DataFrame(columns=ANSWER_COLUMNS)
-    return summarize(trials.assign(session="all"))[ANSWER_COLUMNS]
+    pooled = trials.assign(session="all (" + trials["units"].astype(str) + ")")
+    return summarize(pooled, include_warned=include_warned)[ANSWER_COLUMNS]
+
+
+#: What the thesis reports per method (section 5.3): every trial within 1 inch.
+THESIS_TOLERANCE_IN = 1.0
+_THESIS_NAME = {"point": "method 1", "ground": "method 2"}
+
+
+def thesis_verdict(trials: pd.DataFrame, *, include_warned: bool = False) -> list[str]:
+    """One line per method set against the thesis' figure (errors within 1 in): how many
+    of the trials the summary uses are within it, and so whether twopose reproduces it."""
+    ok = trials[(trials["status"] == "ok") & pd.to_numeric(trials["err"]).notna()]
+    if not include_warned and "warning" in ok:
+        ok = ok[ok["warning"].fillna("").astype(str) == ""]
+    lines = []
+    for method, g in ok.groupby("method", sort=True):
+        name = _THESIS_NAME.get(str(method))
+        err_in = g["err"].to_numpy(dtype=np.float64) * g["units"].map(INCHES_PER_UNIT).to_numpy(
+            dtype=np.float64
+        )
+        within = int(np.sum(err_in <= THESIS_TOLERANCE_IN))
+        counts = f"{within} of {len(g)} trials within 1 in (largest {np.max(err_in):.2f} in)"
+        if name is None:
+            lines.append(f"{method}: {counts}; the thesis did not test this method.")
+            continue
+        agrees = "as the thesis reports" if within == len(g) else "the thesis reports all"
+        lines.append(f"{method} ({name}): {counts}; {agrees} (errors < 1 in).")
+    return lines
+
+
+#: The per-trial columns the report shows (every column is in trials.csv).
+REPORT_TRIAL_COLUMNS = [
+    "trial",
+    "status",
+    "n_views",
+    "x",
+    "y",
+    "z",
+    "gt_x",
+    "gt_y",
+    "gt_z",
+    "err_x",
+    "err_y",
+    "err_z",
+    "err",
+    "angle_err_deg",
+    "dist_err",
+    "semiaxis95",
+    "within95",
+    "warning",
+    "reason",
+    "notes",
+]
+
+
+def _trial_table(trials: pd.DataFrame) -> pd.DataFrame:
+    """The report's view of a session's trials: what was measured, its error and why not;
+    the line's columns only for a line session."""
+    columns = [c for c in REPORT_TRIAL_COLUMNS if c in trials]
+    if not (trials["method"] == "line").any():
+        columns = [c for c in columns if c not in ("angle_err_deg", "dist_err")]
+    return trials[columns]
 
 
 def write_outputs(result: RunResult, out_dir: Path, sweeps: pd.DataFrame) -> list[str]:
@@ -391,39 +192,64 @@ def _sensitivity_table(sweeps: pd.DataFrame) -> pd.DataFrame:
     )
 
 
-def _report_html(result: RunResult, images: dict[str, str], sweeps: pd.DataFrame) -> str:
+_STYLE = (
+    "body{font-family:sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;color:#222}"
+    ".scroll{overflow-x:auto;max-width:100%}img{max-width:100%;height:auto;display:block}"
+    "table.t{border-collapse:collapse;font-size:12px;margin:1em 0}"
+    "table.t td,table.t th{padding:2px 8px;border-bottom:1px solid #ddd;text-align:right}"
+    "h2{border-bottom:1px solid #aaa}.err{color:#a00}.verdict{font-weight:bold}"
+)
+
+
+def _img(key: str, images: dict[str, str]) -> str:
+    if key not in images:
+        return ""
+    alt = html.escape(key)
+    return f"<img alt='{alt}' src='data:image/png;base64,{images[key]}'>"
+
+
+def _answer_section(result: RunResult) -> list[str]:
+    """The answer per method, its verdict against the thesis, and a table of contents."""
     n_ok = int((result.trials["status"] == "ok").sum())
-    parts = [
-        "<!doctype html><html><head><meta charset='utf-8'><title>twopose report</title>",
-        "<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}"
-        ".scroll{overflow-x:auto;max-width:100%}img{max-width:100%;height:auto}"
-        "table.t{border-collapse:collapse;font-size:12px;margin:1em 0}"
-        "table.t td,table.t th{padding:2px 8px;border-bottom:1px solid #ddd;text-align:right}"
-        "h2{border-bottom:1px solid #aaa}.err{color:#a00}</style></head><body>",
+    which = (
+        "every ok trial (warned ones included: --include-warned)"
+        if result.include_warned
+        else "the ok trials without a near-degeneracy warning (<code>n_warned</code> counts "
+        "those left out)"
+    )
+    verdict = thesis_verdict(result.trials, include_warned=result.include_warned)
+    return [
         "<h1>twopose report</h1>",
         f"<p>{len(result.sessions)} session(s) analysed, {len(result.errors)} failed, "
         f"{len(result.trials)} trial(s), {n_ok} ok.</p>",
-        "<p><a href='#answer'>Answer per method</a> · <a href='#summary'>Per session</a> · "
+        "<nav><a href='#answer'>Answer per method</a> · <a href='#summary'>Per session</a> · "
+        "<a href='#figures'>Overview figures</a> · "
         "<a href='#dominant'>What dominates the error</a> · "
-        "<a href='#sensitivity'>Sensitivity</a> · <a href='#sessions'>Sessions</a></p>",
+        "<a href='#sensitivity'>Sensitivity</a> · <a href='#sessions'>Sessions</a></nav>",
         "<h2 id='answer'>Answer per method</h2>",
-        "<p>Pooled over the sessions, over the ok trials without a near-degeneracy warning "
-        "(<code>n_warned</code> counts those left out); 95% intervals of the RMSE (bootstrap) "
+        f"<p>Pooled over the sessions, over {which}; 95% intervals of the RMSE (bootstrap) "
         "and of the biases (<code>_ci95</code>: half-widths); <code>coverage95</code>: the "
         "share of trials whose truth is inside their 95% ellipsoid.</p>",
-        _table(answer_table(result.trials)),
+        _table(answer_table(result.trials, include_warned=result.include_warned)),
+        *(f"<p class='verdict'>{html.escape(line)}</p>" for line in verdict),
+    ]
+
+
+def _overview_section(result: RunResult, images: dict[str, str]) -> list[str]:
+    parts = [
         "<h2 id='summary'>Per session</h2>",
         _table(result.summary),
+        "<h2 id='figures'>Overview figures</h2>",
+        *(_img(key, images) for key in ("error_histogram", "error_by_trial", "error_vs_baseline")),
     ]
-    for key in ("error_histogram", "error_by_trial", "error_vs_baseline"):
-        if key in images:
-            parts.append(
-                f"<img alt='{key.replace('_', ' ')}' src='data:image/png;base64,{images[key]}'>"
-            )
     if not result.errors.empty:
         parts.append("<h2>Inputs that failed</h2>")
         parts.append(f"<div class='err'>{_table(result.errors)}</div>")
-    parts += [
+    return parts
+
+
+def _method_sections(result: RunResult, images: dict[str, str], sweeps: pd.DataFrame) -> list[str]:
+    return [
         "<h2 id='dominant'>What dominates the error</h2>",
         "<p>Per trial, the input whose uncertainty contributes most to the estimate's "
         "covariance (first-order propagation of the frame scatter and the typed poses' "
@@ -434,24 +260,52 @@ def _report_html(result: RunResult, images: dict[str, str], sweeps: pd.DataFrame
         "<p>Seeded Monte Carlo sweeps through the solvers, one input varied at a time, in the "
         "thesis' geometry (f = 525 px, h = 9.625 in, a 1.1 in baseline along x; "
         "<code>twopose-analyze sensitivity</code>; sensitivity.csv).</p>",
-        f"<img alt='sensitivity' src='data:image/png;base64,{images['sensitivity']}'>",
+        _img("sensitivity", images),
         _table(_sensitivity_table(sweeps)),
     ]
-    parts.append("<h2 id='sessions'>Sessions</h2>" if result.sessions else "")
+
+
+def _notes(metadata: dict[str, str]) -> str:
+    """The operator's notes on the session and its trials, as a list."""
+    notes = [
+        f"{label}: {metadata[key]}"
+        for key, label in (("operator_notes", "session"), ("trial_notes", "trials"))
+        if metadata.get(key)
+    ]
+    if not notes:
+        return "<p>No operator notes.</p>"
+    items = "".join(f"<li>{html.escape(n)}</li>" for n in notes)
+    return f"<p>Operator notes:</p><ul>{items}</ul>"
+
+
+def _session_sections(result: RunResult, images: dict[str, str]) -> list[str]:
+    parts = ["<h2 id='sessions'>Sessions</h2>" if result.sessions else ""]
     for i, s in enumerate(result.sessions):
-        name = Path(s.session).stem
-        parts.append(f"<h2>{html.escape(s.session)}</h2><div class='scroll'><table class='t'>")
+        parts.append(f"<h3>{html.escape(s.session)}</h3><div class='scroll'><table class='t'>")
         parts += [
             f"<tr><th>{html.escape(k)}</th><td>{html.escape(v)}</td></tr>"
             for k, v in s.metadata.items()
         ]
         parts.append("</table></div>")
-        for kind in ("scatter", "topview", "averaging"):
-            key = f"{kind}_{i:02d}_{name}"
-            if key in images:
-                parts.append(
-                    f"<img alt='{html.escape(key)}' src='data:image/png;base64,{images[key]}'>"
-                )
-        parts.append(_table(s.trials.drop(columns=["session"])))
-    parts.append("</body></html>")
-    return "\n".join(parts)
+        parts.append(_notes(s.metadata))
+        parts += [_img(figure_key(kind, i, s.session), images) for kind in _SESSION_FIGURES]
+        parts.append("<p>Trials (every column: <code>trials.csv</code>):</p>")
+        parts.append(_table(_trial_table(s.trials)))
+    return parts
+
+
+_SESSION_FIGURES = ("scatter", "topview", "averaging")
+
+
+def _report_html(result: RunResult, images: dict[str, str], sweeps: pd.DataFrame) -> str:
+    parts = [
+        "<!doctype html><html><head><meta charset='utf-8'>",
+        "<meta name='viewport' content='width=device-width, initial-scale=1'>",
+        f"<title>twopose report</title><style>{_STYLE}</style></head><body>",
+        *_answer_section(result),
+        *_overview_section(result, images),
+        *_method_sections(result, images, sweeps),
+        *_session_sections(result, images),
+        "</body></html>",
+    ]
+    return "\n".join(p for p in parts if p)

@@ -67,6 +67,7 @@ class RunResult:
     sessions: tuple[SessionResult, ...]
     views: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=VIEW_COLUMNS))
     skipped: tuple[str, ...] = ()  # results files of an earlier run found among the inputs
+    include_warned: bool = False  # whether the summary counts trials with a warning
 
     @property
     def failed(self) -> bool:
@@ -75,6 +76,6 @@ class RunResult:
     @functools.cached_property
     def figures(self) -> dict[str, Any]:
         """Named matplotlib Figures of the run (built on first use, for notebooks)."""
-        from analysis.report import make_figures
+        from analysis.figures import make_figures
 
         return make_figures(self)

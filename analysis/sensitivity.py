@@ -249,5 +249,7 @@ def plot_sensitivity(table: pd.DataFrame) -> Figure:
         ax.set_xlabel(f"{sweep} ({unit})")
         ax.set_ylabel("RMS error (in)")
         ax.set_yscale("log")
+        ax.set_title(f"error against {sweep}", fontsize=9)
         ax.legend(fontsize=7)
+    fig.suptitle("Sensitivity in the thesis' geometry: RMS error, one input varied", fontsize=10)
     return fig

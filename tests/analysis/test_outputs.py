@@ -125,7 +125,7 @@ def test_notes_reach_info_trials_csv_and_the_report(tmp_path: Path) -> None:
     assert list(trials["notes"]) == ["", "pose 2 was bumped | then re-measured"]
     assert list(trials["status"]) == ["ok", "ok"]
     report = (out / "report.html").read_text()
-    assert "lamp flickered all session" in report
+    assert "<li>session: lamp flickered all session</li>" in report  # the notes list
     assert "pose 2 was bumped | then re-measured" in report
 
 

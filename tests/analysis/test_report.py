@@ -8,13 +8,16 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
-from analysis.report import (
-    dominant_inputs,
+from analysis.figures import (
+    MAX_LEGEND,
+    MAX_PANELS,
     error_ellipses,
     figure_key,
     plot_error_scatter,
     png_bytes,
+    session_figures,
 )
+from analysis.report import ANSWER_COLUMNS, answer_table, dominant_inputs, thesis_verdict
 from twopose.uncertainty import CHI2_95
 
 
@@ -27,6 +30,7 @@ def _trials() -> pd.DataFrame:
             "status": ["ok", "ok", "degenerate"],
             "err_x": [0.2, -0.4, 5.0],
             "err_z": [0.1, 0.3, 5.0],
+            "err": [0.22, 0.5, 7.1],
             "sigma_x": [0.5, 1.0, np.nan],
             "sigma_z": [0.25, 0.5, np.nan],
             "cov_xz": [0.0, 0.0, np.nan],
@@ -80,3 +84,136 @@ def test_the_report_answers_first_and_keeps_wide_tables_in_their_box(
     assert page.count("<div class='scroll'><table") == page.count("<table")  # every table
     assert "e-15" not in page  # floating-point noise reads 0
     assert "e-16" not in page
+
+
+def _wide_trials(n: int, seed: int = 0) -> pd.DataFrame:
+    rng = np.random.default_rng(seed)
+    sigma = rng.uniform(0.1, 3.0, (n, 2))
+    return pd.DataFrame(
+        {
+            "session": "s.mcap",
+            "trial": np.arange(1, n + 1),
+            "units": "in",
+            "status": "ok",
+            "err_x": rng.normal(0, 1, n),
+            "err_y": 0.0,
+            "err_z": rng.normal(0, 1, n),
+            "err": rng.uniform(0.1, 2, n),
+            "sigma_x": sigma[:, 0],
+            "sigma_z": sigma[:, 1],
+            "cov_xz": 0.5 * sigma[:, 0] * sigma[:, 1],
+            "warning": ["plane angle 1.0 deg < 5 deg" if k % 4 == 0 else "" for k in range(n)],
+        }
+    )
+
+
+def test_error_scatter_keeps_every_ellipse_inside_the_axes() -> None:
+    trials = _wide_trials(12)
+    fig = Figure()
+    ax = fig.add_subplot()
+    plot_error_scatter(ax, trials, "t")
+    clean = trials[trials["warning"] == ""]
+    half_x = np.sqrt(CHI2_95[2]) * clean["sigma_x"]
+    half_z = np.sqrt(CHI2_95[2]) * clean["sigma_z"]
+    (x0, x1), (z0, z1) = ax.get_xlim(), ax.get_ylim()
+    assert len(clean) == 9
+    assert ((clean["err_x"] - half_x) >= x0).all()
+    assert ((clean["err_x"] + half_x) <= x1).all()
+    assert ((clean["err_z"] - half_z) >= z0).all()
+    assert ((clean["err_z"] + half_z) <= z1).all()
+    # The warned trials are drawn apart, named, and without ellipses.
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert "3 warned (left out)" in labels
+    assert "9 ok trials" in labels
+    assert len(ax.collections[0].get_offsets()) == 9  # ellipses: the clean trials only
+
+
+def _averaging(n_trials: int) -> tuple[pd.DataFrame, pd.DataFrame]:
+    frames = np.arange(1, 6)
+    averaging = pd.DataFrame(
+        {
+            "trial": np.repeat(np.arange(1, n_trials + 1), len(frames)),
+            "n_frames": np.tile(frames, n_trials),
+            "x": 1.0,
+            "y": 9.625,
+            "z": 10.0,
+        }
+    )
+    trials = _wide_trials(n_trials).assign(gt_x=1.0, gt_y=9.625, gt_z=10.0)
+    return averaging, trials
+
+
+def test_running_average_names_every_series_or_draws_small_multiples() -> None:
+    averaging, trials = _averaging(MAX_LEGEND)
+    fig = session_figures("s.mcap", trials, averaging, pd.DataFrame())["averaging"]
+    axes = [ax for ax in fig.axes if ax.get_visible() and ax.axison]
+    assert len(axes) == 2
+    for ax in axes:
+        labels = [t.get_text() for t in ax.get_legend().get_texts()]
+        assert [f"trial {k}" for k in range(1, MAX_LEGEND + 1)] == labels[:MAX_LEGEND]
+        colours = {line.get_color() for line in ax.get_lines() if line.get_label().startswith("t")}
+        assert len(colours) >= MAX_LEGEND  # no colour repeats
+    # Beyond MAX_LEGEND: one titled panel per trial, capped, the rest named as left out.
+    averaging, trials = _averaging(40)
+    fig = session_figures("s.mcap", trials, averaging, pd.DataFrame())["averaging"]
+    panels = [ax for ax in fig.axes if ax.axison]
+    assert [ax.get_title() for ax in panels] == [f"trial {k}" for k in range(1, MAX_PANELS + 1)]
+    assert "of 40, all in averaging.csv" in fig.get_suptitle()
+
+
+def test_figures_cost_the_same_whatever_the_trial_count() -> None:
+    """The artists a session's figures draw do not grow with the trials."""
+
+    def artists(n: int) -> int:
+        averaging, trials = _averaging(n)
+        views = pd.DataFrame(
+            {
+                "trial": np.repeat(trials["trial"], 2),
+                "t_x": 0.0,
+                "t_z": 0.0,
+                "ray_x": 0.1,
+                "ray_z": 1.0,
+            }
+        )
+        trials = trials.assign(x=1.0, z=10.0)
+        figures = session_figures("s.mcap", trials, averaging, views)
+        return sum(len(ax.get_children()) for fig in figures.values() for ax in fig.axes)
+
+    assert artists(30) == artists(300)
+
+
+def test_every_run_figure_has_a_title(tmp_path: Path, point_session: Path) -> None:
+    from analysis.batch import run
+
+    result = run([point_session], None, scene=False)
+    assert len(result.figures) >= 5
+    for name, fig in result.figures.items():
+        titled = fig.get_suptitle() or all(ax.get_title() for ax in fig.axes if ax.axison)
+        assert titled, name
+
+
+def test_thesis_verdict_counts_trials_within_one_inch_in_any_unit() -> None:
+    trials = pd.DataFrame(
+        {
+            "method": ["point", "point", "ground", "ground", "line"],
+            "units": ["in", "in", "mm", "mm", "in"],
+            "status": "ok",
+            "err": [0.5, 0.9, 20.0, 30.0, 0.3],  # 30 mm is 1.18 in
+            "warning": ["", "", "", "", ""],
+        }
+    )
+    lines = thesis_verdict(trials)
+    assert lines[0].startswith("ground (method 2): 1 of 2 trials within 1 in (largest 1.18 in)")
+    assert "line: 1 of 1 trials within 1 in" in lines[1]
+    assert "did not test" in lines[1]
+    assert lines[2].startswith("point (method 1): 2 of 2 trials within 1 in")
+    assert "as the thesis reports" in lines[2]
+
+
+def test_answer_table_pools_per_method_and_units() -> None:
+    trials = _wide_trials(8).assign(method="point")
+    trials.loc[:3, "units"] = "mm"
+    table = answer_table(trials)
+    assert list(table.columns) == ANSWER_COLUMNS
+    assert sorted(table["units"]) == ["in", "mm"]
+    assert table["n_trials"].sum() == 8

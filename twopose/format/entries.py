@@ -25,6 +25,7 @@ from twopose.values import CAMERA_ID_PATTERN, Vec3, camera_id, finite, index, ve
 __all__ = [
     "FORMAT_MAJOR",
     "FORMAT_VERSION",
+    "INCHES_PER_UNIT",
     "METHODS",
     "TYPED_ENTRIES",
     "UNITS",
@@ -52,6 +53,8 @@ FORMAT_MAJOR = 1
 Method = Literal["point", "line", "ground"]
 METHODS: tuple[Method, ...] = ("point", "line", "ground")
 UNITS = ("in", "mm", "cm", "m")
+#: Inches in one session unit (the thesis reports in inches).
+INCHES_PER_UNIT = {"in": 1.0, "mm": 1 / 25.4, "cm": 1 / 2.54, "m": 1000 / 25.4}
 TruthKind = Literal["point", "line"]
 CaptureStatus = Literal["complete", "incomplete"]
 Verdict = Literal["accept", "discard"]
