@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from analysis.batch import run
+    from analysis.gate import check
     from analysis.pipeline import analyse_session
     from analysis.results import AnalysisOptions, RunResult, SessionFailure, SessionResult
 
@@ -25,11 +26,13 @@ __all__ = [
     "SessionFailure",
     "SessionResult",
     "analyse_session",
+    "check",
     "run",
 ]
 
 _HOMES = {
     "run": "analysis.batch",
+    "check": "analysis.gate",
     "analyse_session": "analysis.pipeline",
     "AnalysisOptions": "analysis.results",
     "RunResult": "analysis.results",

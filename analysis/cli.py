@@ -133,6 +133,16 @@ def _print_notes(o: SessionOverview) -> None:
         typer.echo("\n".join(lines))
 
 
+JunitOption = Annotated[
+    Path | None,
+    typer.Option(
+        "--junit",
+        help="Also write JUnit XML here: one test case per session and method.",
+        metavar="FILE",
+    ),
+]
+
+
 class CombineChoice(StrEnum):
     mean = "mean"
     median = "median"
@@ -187,6 +197,7 @@ def run_command(
             "(default: those are counted in n_warned and left out).",
         ),
     ] = False,
+    junit: JunitOption = None,
 ) -> None:
     """Replay sessions through detection and solvers into error tables, figures and a report."""
     from rich.console import Console
@@ -219,7 +230,58 @@ def run_command(
             on_sessions_found=found,
             scene=scene,
         )
+        if junit is not None:
+            from analysis.gate import junit_xml, run_cases
+
+            cases = run_cases(result.summary, result.errors)
+            _write_junit(junit, junit_xml("twopose-analyze run", cases))
     _print_run(result, out, include_warned)
+
+
+def _write_junit(path: Path, xml: bytes) -> None:
+    from analysis.outputs import write_atomically
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_atomically(path, xml)
+
+
+@app.command("check")
+def check_command(
+    results: Annotated[Path, typer.Argument(help="The --out folder of the run to check.")],
+    baseline: Annotated[
+        Path, typer.Option("--baseline", help="The --out folder of the run to compare with.")
+    ],
+    tolerance: Annotated[
+        Path | None,
+        typer.Option(
+            "--tolerance",
+            help="TOML file of allowances (default: RMSE and median 10%, |bias| 10% or "
+            "0.05 units, n_ok 0, coverage 0.05); see docs/ci.md.",
+        ),
+    ] = None,
+    junit: JunitOption = None,
+) -> None:
+    """The CI gate: compare summary.csv with a baseline's, per session and method (RMSE,
+    median, |bias|, n_ok, coverage); print what got worse; exit 1 on a regression beyond
+    the tolerance."""
+    from analysis.gate import check, check_cases, describe, junit_xml
+
+    with handle_errors():
+        outcome = check(results, baseline, tolerance)
+        if junit is not None:
+            _write_junit(junit, junit_xml("twopose-analyze check", check_cases(outcome)))
+    table = outcome.comparisons
+    pairs = table[["session", "method"]].drop_duplicates()
+    worse = outcome.worse()
+    for _, row in worse.iterrows():
+        typer.echo(describe(row))
+    for _, row in table[table["status"] == "new"].iterrows():
+        typer.echo(f"new: {row['session']} ({row['method']}): not in the baseline")
+    n_bad = int(worse["status"].isin(["regressed", "missing"]).sum())
+    verdict = f"{n_bad} regression(s)" if n_bad else "no regression"
+    typer.echo(f"checked {len(pairs)} session/method pair(s) against {baseline}: {verdict}")
+    if outcome.regressed:
+        raise typer.Exit(EXIT_SOME_INPUTS_FAILED)
 
 
 def _print_run(result: RunResult, out: Path, include_warned: bool) -> None:

@@ -9,6 +9,8 @@
   half of one, and a symlink at the destination is replaced, never followed.
 * ``.twopose-run.lock`` (an advisory ``flock``, released when the process ends, however it
   ends) refuses a second run into the same folder while one is writing.
+* A finished run's tables are read back (``check``, ``compare``) with
+  :func:`read_results_table`, its sessions named by :func:`session_keys`.
 """
 
 from __future__ import annotations
@@ -21,9 +23,12 @@ import os
 from collections.abc import Iterable
 from pathlib import Path
 from types import TracebackType
-from typing import Self
+from typing import TYPE_CHECKING, Self
 
 from twopose.errors import InputValueError, TwoposeError
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = [
     "LOCK_NAME",
@@ -31,6 +36,8 @@ __all__ = [
     "OutputFolder",
     "partial_name",
     "printable_stem",
+    "read_results_table",
+    "session_keys",
     "write_atomically",
 ]
 
@@ -185,3 +192,37 @@ class OutputFolder:
 def _plain_name(name: str) -> bool:
     """A file name directly inside the folder (a tampered list cannot reach elsewhere)."""
     return bool(name) and name not in (".", "..", MANIFEST_NAME) and Path(name).name == name
+
+
+def read_results_table(folder: str | Path, name: str) -> pd.DataFrame:
+    """``folder/name`` (a CSV table a run wrote), or an error saying how to make it."""
+    import pandas as pd
+
+    path = Path(folder) / name
+    if not Path(folder).is_dir():
+        raise InputValueError(f"{folder} is not a folder: give a run's --out folder")
+    try:
+        table = pd.read_csv(path, keep_default_na=True)
+    except FileNotFoundError as err:
+        raise InputValueError(
+            f"no {name} in {folder}: give the --out folder of a finished `twopose-analyze run`"
+        ) from err
+    except (OSError, ValueError, UnicodeDecodeError) as err:
+        raise InputValueError(f"cannot read {path}: {err}") from err
+    missing = {"session", "method"} - set(table.columns)
+    if missing:
+        raise InputValueError(f"{path} is not a twopose table: no {', '.join(sorted(missing))}")
+    return table
+
+
+def session_keys(sessions: pd.Series) -> pd.Series:
+    """Each session's path below the run's common folder: ``sessions/a.mcap`` and
+    ``/ci/clone/sessions/a.mcap`` are both ``a.mcap``, so that two runs of the same
+    sessions from different places match."""
+    paths = [str(s) for s in sessions]
+    parents = {os.path.dirname(p) for p in paths}
+    try:
+        common = os.path.commonpath(list(parents)) if parents and "" not in parents else ""
+    except ValueError:  # absolute and relative paths mixed
+        common = ""
+    return sessions.map(lambda s: os.path.relpath(str(s), common) if common else str(s))

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import base64
 import html
+import json
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -21,6 +22,7 @@ __all__ = [
     "ANSWER_COLUMNS",
     "answer_table",
     "dominant_inputs",
+    "summary_document",
     "thesis_verdict",
     "write_outputs",
 ]
@@ -146,6 +148,8 @@ def write_outputs(result: RunResult, out_dir: Path, sweeps: pd.DataFrame) -> lis
     for name, table in tables.items():
         csv = table.to_csv(index=False).encode("utf-8", "backslashreplace")
         write_atomically(out_dir / name, csv)
+    document = json.dumps(summary_document(result), indent=1, allow_nan=False)
+    write_atomically(out_dir / "summary.json", document.encode() + b"\n")
     # Session figures were rendered by the workers (in parallel); a session analysed
     # without them is drawn here. Only what spans sessions is always drawn here.
     pngs: dict[str, bytes] = {}
@@ -165,7 +169,44 @@ def write_outputs(result: RunResult, out_dir: Path, sweeps: pd.DataFrame) -> lis
         images[name] = base64.b64encode(data).decode()
     page = _report_html(result, images, sweeps).encode("utf-8", "backslashreplace")
     write_atomically(out_dir / "report.html", page)
-    return [*tables, *(f"{name}.png" for name in pngs), "report.html"]
+    return [*tables, "summary.json", *(f"{name}.png" for name in pngs), "report.html"]
+
+
+def _records(table: pd.DataFrame) -> list[dict[str, object]]:
+    """Rows as JSON objects: NaN and infinities become null, numpy scalars Python's."""
+    clean = table.astype(object).where(table.map(_finite_or_text), None)
+    return [{str(k): _plain(v) for k, v in row.items()} for row in clean.to_dict("records")]
+
+
+def _finite_or_text(value: object) -> bool:
+    if isinstance(value, float | np.floating):
+        return bool(np.isfinite(value))
+    return value is not None
+
+
+def _plain(value: object) -> object:
+    return value.item() if isinstance(value, np.generic) else value
+
+
+def summary_document(result: RunResult) -> dict[str, object]:
+    """``summary.json``: the run's answer for machines (CI): versions, counts, the per-method
+    table, the per-session summary (summary.csv's columns), the verdict and the failures."""
+    from twopose import __version__
+    from twopose.format.entries import FORMAT_VERSION
+
+    return {
+        "twopose_version": __version__,
+        "format_version": FORMAT_VERSION,
+        "include_warned": result.include_warned,
+        "n_sessions": len(result.sessions),
+        "n_failed": len(result.errors),
+        "n_trials": len(result.trials),
+        "n_ok": int((result.trials["status"] == "ok").sum()),
+        "methods": _records(answer_table(result.trials, include_warned=result.include_warned)),
+        "summary": _records(result.summary),
+        "verdict": thesis_verdict(result.trials, include_warned=result.include_warned),
+        "failed": _records(result.errors),
+    }
 
 
 def dominant_inputs(trials: pd.DataFrame) -> pd.DataFrame:

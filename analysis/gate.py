@@ -1,0 +1,282 @@
+"""The CI gate: a run's ``summary.csv`` checked against a baseline run's, with tolerances
+from a TOML file, and JUnit XML that CI systems display (one test case per session and
+method).
+
+A metric *got worse* when it moved the wrong way (RMSE, median error and |bias| up; ok
+trials and the 95% coverage down); it *regressed* when it got worse by more than its
+allowance, ``max(absolute, relative * |baseline|)``. A session and method in the baseline
+but not in the run (a session that failed, a method no longer measured) has regressed too;
+one only in the run is new, reported but never a failure.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from analysis.outputs import read_results_table, session_keys
+from twopose.config import build_dataclass, read_toml
+from twopose.errors import InputValueError
+
+__all__ = [
+    "CHECKED_METRICS",
+    "Allowance",
+    "CheckResult",
+    "Tolerance",
+    "check",
+    "compare_summaries",
+    "junit_xml",
+    "load_tolerance",
+    "run_cases",
+]
+
+
+@dataclass(frozen=True)
+class Allowance:
+    """How much worse a metric may get: ``max(absolute, relative * |baseline|)``."""
+
+    relative: float = 0.0
+    absolute: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.relative < 0 or self.absolute < 0:
+            raise InputValueError("a tolerance cannot be negative")
+
+    def of(self, baseline: float) -> float:
+        return max(self.absolute, self.relative * abs(baseline))
+
+
+@dataclass(frozen=True)
+class Tolerance:
+    """The allowances of each checked metric; ``bias`` covers |bias_x|, |bias_y|, |bias_z|
+    (session units), ``n_ok`` counts trials, ``coverage95`` is a share (0-1)."""
+
+    rmse: Allowance = Allowance(relative=0.10)
+    median_err: Allowance = Allowance(relative=0.10)
+    bias: Allowance = Allowance(relative=0.10, absolute=0.05)
+    n_ok: Allowance = Allowance()
+    coverage95: Allowance = Allowance(absolute=0.05)
+
+
+#: (metric, summary.csv column, tolerance field, +1 when larger is worse / -1 when smaller is).
+CHECKED_METRICS = (
+    ("rmse", "rmse", "rmse", +1),
+    ("median_err", "median_err", "median_err", +1),
+    ("|bias_x|", "bias_x", "bias", +1),
+    ("|bias_y|", "bias_y", "bias", +1),
+    ("|bias_z|", "bias_z", "bias", +1),
+    ("n_ok", "n_ok", "n_ok", -1),
+    ("coverage95", "coverage95", "coverage95", -1),
+)
+
+COMPARISON_COLUMNS = [
+    "session",
+    "method",
+    "metric",
+    "baseline",
+    "result",
+    "change",
+    "allowed",
+    "status",  # better, same, worse (within tolerance), regressed, missing, new
+]
+
+
+def load_tolerance(path: str | Path | None) -> dict[str, Tolerance]:
+    """Tolerances by method (``""``: the default) from a TOML file such as::
+
+        [rmse]
+        relative = 0.10          # 10 % of the baseline's RMSE
+        [bias]
+        absolute = 0.05          # session units
+        [methods.ground.rmse]    # a method's own allowance, over the default
+        relative = 0.25
+
+    ``None``: the defaults of :class:`Tolerance`."""
+    if path is None:
+        return {"": Tolerance()}
+    what = f"tolerance file {path}"
+    data = read_toml(path, "tolerance file", InputValueError)
+    methods = data.pop("methods", {})
+    if not isinstance(methods, dict):
+        raise InputValueError(f"{what}: methods must be a table of methods")
+    default = build_dataclass(Tolerance, _merged(Tolerance(), data, what), what, InputValueError)
+    tolerances = {"": default}
+    for method, table in methods.items():
+        where = f"{what}: methods.{method}"
+        tolerances[method] = build_dataclass(
+            Tolerance, _merged(default, table, where), where, InputValueError
+        )
+    return tolerances
+
+
+def _merged(base: Tolerance, table: Any, what: str) -> dict[str, Any]:
+    """``table``'s keys over ``base``'s: an allowance given in part keeps the rest."""
+    if not isinstance(table, dict):
+        raise InputValueError(f"{what} must be a table")
+    values = dataclasses.asdict(base)
+    return values | {
+        k: values[k] | v if isinstance(v, dict) and k in values else v for k, v in table.items()
+    }
+
+
+@dataclass(frozen=True)
+class CheckResult:
+    """Every comparison (``COMPARISON_COLUMNS``) and whether any regressed."""
+
+    comparisons: pd.DataFrame
+
+    @property
+    def regressed(self) -> bool:
+        return bool(self.comparisons["status"].isin(["regressed", "missing"]).any())
+
+    def worse(self) -> pd.DataFrame:
+        """What got worse, regressions first."""
+        bad = self.comparisons[self.comparisons["status"].isin(["regressed", "missing", "worse"])]
+        order = bad["status"].map({"missing": 0, "regressed": 1, "worse": 2})
+        return bad.assign(_o=order).sort_values(["_o", "session", "method"]).drop(columns="_o")
+
+
+def check(
+    results_dir: str | Path, baseline_dir: str | Path, tolerance: str | Path | None = None
+) -> CheckResult:
+    """``twopose-analyze check``: ``results_dir``'s summary.csv against ``baseline_dir``'s."""
+    tolerances = load_tolerance(tolerance)
+    result = read_results_table(results_dir, "summary.csv")
+    baseline = read_results_table(baseline_dir, "summary.csv")
+    return compare_summaries(result, baseline, tolerances)
+
+
+def compare_summaries(
+    result: pd.DataFrame, baseline: pd.DataFrame, tolerances: dict[str, Tolerance]
+) -> CheckResult:
+    """Each (session, method) and checked metric of ``baseline`` against ``result``; the
+    sessions are matched by their path below each run's common folder."""
+    new = result.assign(session=session_keys(result["session"])).set_index(["session", "method"])
+    old = baseline.assign(session=session_keys(baseline["session"])).set_index(
+        ["session", "method"]
+    )
+    rows: list[dict[str, Any]] = []
+    for key in old.index.union(new.index, sort=True):
+        session, method = key
+        if key not in new.index or key not in old.index:
+            status = "missing" if key not in new.index else "new"
+            rows.append(_row(session, method, "(session and method)", math.nan, math.nan, status))
+            continue
+        tolerance = tolerances.get(str(method), tolerances[""])
+        for metric, column, field, sign in CHECKED_METRICS:
+            before, after = _value(old.loc[key], column), _value(new.loc[key], column)
+            allowed = getattr(tolerance, field).of(before)
+            rows.append(
+                _row(
+                    session,
+                    method,
+                    metric,
+                    before,
+                    after,
+                    _status(before, after, sign, allowed),
+                    allowed,
+                )
+            )
+    return CheckResult(pd.DataFrame(rows, columns=COMPARISON_COLUMNS))
+
+
+def _value(row: pd.Series | pd.DataFrame, column: str) -> float:
+    value = row[column]
+    if isinstance(value, pd.Series):  # a key twice in one summary: its first row
+        value = value.iloc[0]
+    number = float(pd.to_numeric(value, errors="coerce"))
+    return abs(number) if column.startswith("bias_") else number
+
+
+def _status(before: float, after: float, sign: int, allowed: float) -> str:
+    if math.isnan(before):
+        return "same" if math.isnan(after) else "better"
+    if math.isnan(after):
+        return "regressed"  # measured before, not now
+    worsening = sign * (after - before)
+    if worsening > allowed + 1e-12:
+        return "regressed"
+    if worsening > 1e-12:
+        return "worse"
+    return "better" if worsening < -1e-12 else "same"
+
+
+def _row(
+    session: str,
+    method: str,
+    metric: str,
+    before: float,
+    after: float,
+    status: str,
+    allowed: float = math.nan,
+) -> dict[str, Any]:
+    return {
+        "session": session,
+        "method": method,
+        "metric": metric,
+        "baseline": before,
+        "result": after,
+        "change": after - before,
+        "allowed": allowed,
+        "status": status,
+    }
+
+
+def describe(row: pd.Series) -> str:
+    """One line of what got worse: ``session (method) metric: a -> b (+d, +p%; allowed e)``."""
+    where = f"{row['session']} ({row['method']})"
+    if row["status"] == "missing":
+        return f"REGRESSED {where}: in the baseline, not in this run (failed or not measured)"
+    before, after = float(row["baseline"]), float(row["result"])
+    if math.isnan(after):
+        return f"REGRESSED {where} {row['metric']}: {before:.4g} -> not measured"
+    change = after - before
+    share = f", {change / abs(before):+.0%}" if before else ""
+    tag = "REGRESSED" if row["status"] == "regressed" else "worse"
+    return (
+        f"{tag} {where} {row['metric']}: {before:.4g} -> {after:.4g} "
+        f"({change:+.4g}{share}; allowed {float(row['allowed']):.4g})"
+    )
+
+
+def check_cases(result: CheckResult) -> list[tuple[str, str, str | None]]:
+    """JUnit cases of a check: (session, method, failure message or None)."""
+    cases = []
+    for (session, method), g in result.comparisons.groupby(["session", "method"], sort=True):
+        bad = g[g["status"].isin(["regressed", "missing"])]
+        message = "; ".join(describe(r) for _, r in bad.iterrows()) if len(bad) else None
+        cases.append((str(session), str(method), message))
+    return cases
+
+
+def run_cases(summary: pd.DataFrame, errors: pd.DataFrame) -> list[tuple[str, str, str | None]]:
+    """JUnit cases of a run: each session and method analysed, each input that failed."""
+    cases: list[tuple[str, str, str | None]] = [
+        (str(r["session"]), str(r["method"]), None) for _, r in summary.iterrows()
+    ]
+    cases += [(str(e["session"]), "(session)", str(e["error"])) for _, e in errors.iterrows()]
+    return cases
+
+
+def junit_xml(suite: str, cases: list[tuple[str, str, str | None]]) -> bytes:
+    """JUnit XML (the schema Jenkins, GitLab and GitHub reporters read): one ``testcase``
+    per (session, method) with ``classname`` the method, failing with ``message``."""
+    failures = sum(message is not None for _, _, message in cases)
+    root = ET.Element("testsuites", name=suite, tests=str(len(cases)), failures=str(failures))
+    node = ET.SubElement(
+        root, "testsuite", name=suite, tests=str(len(cases)), failures=str(failures), errors="0"
+    )
+    for session, method, message in cases:
+        case = ET.SubElement(node, "testcase", classname=f"twopose.{method}", name=session)
+        if message is not None:
+            failure = ET.SubElement(case, "failure", message=message[:500])
+            failure.text = message
+    ET.indent(root)
+    body: bytes = ET.tostring(root, encoding="utf-8", xml_declaration=True)
+    return body + b"\n"

@@ -1,0 +1,197 @@
+"""The CI gate: ``check`` against a baseline, tolerances, JUnit XML, ``summary.json``."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from analysis.cli import app
+from analysis.gate import Tolerance, check, load_tolerance
+from analysis.outputs import session_keys
+
+runner = CliRunner()
+
+
+@pytest.fixture(scope="module")
+def baseline(
+    tmp_path_factory: pytest.TempPathFactory, point_session: Path, ground_session: Path
+) -> Path:
+    out = tmp_path_factory.mktemp("gate") / "baseline"
+    junit = out.parent / "run.xml"
+    result = runner.invoke(
+        app,
+        [
+            "run",
+            str(point_session),
+            str(ground_session),
+            "--out",
+            str(out),
+            "--no-scene",
+            "--junit",
+            str(junit),
+        ],
+    )
+    assert result.exit_code == 0, result.output
+    return out
+
+
+def _copy(baseline: Path, tmp_path: Path) -> Path:
+    run = tmp_path / "run"
+    shutil.copytree(baseline, run)
+    return run
+
+
+def _edit(run: Path, method: str, **changes: float) -> None:
+    summary = pd.read_csv(run / "summary.csv")
+    for column, factor in changes.items():
+        summary.loc[summary["method"] == method, column] *= factor
+    summary.to_csv(run / "summary.csv", index=False)
+
+
+def test_a_run_checked_against_itself_passes(baseline: Path, tmp_path: Path) -> None:
+    junit = tmp_path / "check.xml"
+    result = runner.invoke(
+        app, ["check", str(baseline), "--baseline", str(baseline), "--junit", str(junit)]
+    )
+    assert result.exit_code == 0, result.output
+    assert "checked 2 session/method pair(s)" in result.output
+    assert "no regression" in result.output
+    suite = ET.parse(junit).getroot()
+    assert suite.get("tests") == "2"
+    assert suite.get("failures") == "0"
+
+
+def test_a_worse_rmse_is_printed_with_its_size_and_fails(baseline: Path, tmp_path: Path) -> None:
+    run = _copy(baseline, tmp_path)
+    _edit(run, "ground", rmse=1.5)
+    junit = tmp_path / "check.xml"
+    result = runner.invoke(
+        app, ["check", str(run), "--baseline", str(baseline), "--junit", str(junit)]
+    )
+    assert result.exit_code == 1, result.output
+    line = next(x for x in result.output.splitlines() if x.startswith("REGRESSED"))
+    assert "ground.mcap (ground) rmse:" in line
+    assert "+50%" in line
+    assert "1 regression(s)" in result.output
+    cases = ET.parse(junit).getroot().findall(".//testcase")
+    assert sorted(c.get("classname") for c in cases) == ["twopose.ground", "twopose.point"]
+    failed = [c for c in cases if c.find("failure") is not None]
+    assert [c.get("name") for c in failed] == ["ground.mcap"]
+    assert "rmse" in failed[0].find("failure").get("message")
+
+
+def test_worse_within_tolerance_is_printed_but_passes(baseline: Path, tmp_path: Path) -> None:
+    run = _copy(baseline, tmp_path)
+    _edit(run, "point", median_err=1.05)  # 5% worse; the default allows 10%
+    result = runner.invoke(app, ["check", str(run), "--baseline", str(baseline)])
+    assert result.exit_code == 0, result.output
+    assert "worse point.mcap (point) median_err" in result.output
+
+
+def test_fewer_ok_trials_and_lower_coverage_regress(baseline: Path, tmp_path: Path) -> None:
+    run = _copy(baseline, tmp_path)
+    summary = pd.read_csv(run / "summary.csv")
+    summary["n_ok"] -= 1
+    summary["coverage95"] -= 0.5
+    summary.to_csv(run / "summary.csv", index=False)
+    outcome = check(run, baseline)
+    regressed = outcome.comparisons[outcome.comparisons["status"] == "regressed"]
+    assert set(regressed["metric"]) == {"n_ok", "coverage95"}
+    assert outcome.regressed
+
+
+def test_a_session_missing_from_the_run_regresses(baseline: Path, tmp_path: Path) -> None:
+    run = _copy(baseline, tmp_path)
+    summary = pd.read_csv(run / "summary.csv")
+    summary[summary["method"] == "point"].to_csv(run / "summary.csv", index=False)
+    result = runner.invoke(app, ["check", str(run), "--baseline", str(baseline)])
+    assert result.exit_code == 1
+    assert "REGRESSED ground.mcap (ground): in the baseline, not in this run" in result.output
+    # The other way round, a session only in the run is new: reported, not a failure.
+    back = runner.invoke(app, ["check", str(baseline), "--baseline", str(run)])
+    assert back.exit_code == 0, back.output
+    assert "new: ground.mcap (ground)" in back.output
+
+
+def test_a_tolerance_file_loosens_one_method(baseline: Path, tmp_path: Path) -> None:
+    run = _copy(baseline, tmp_path)
+    _edit(run, "ground", rmse=1.2)
+    tolerance = tmp_path / "tolerance.toml"
+    tolerance.write_text("[rmse]\nabsolute = 0.0\n\n[methods.ground.rmse]\nrelative = 0.25\n")
+    assert runner.invoke(app, ["check", str(run), "--baseline", str(baseline)]).exit_code == 1
+    result = runner.invoke(
+        app, ["check", str(run), "--baseline", str(baseline), "--tolerance", str(tolerance)]
+    )
+    assert result.exit_code == 0, result.output
+    tolerances = load_tolerance(tolerance)
+    assert tolerances["ground"].rmse.relative == 0.25
+    assert tolerances[""].rmse.relative == Tolerance().rmse.relative  # given in part: kept
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("[rmse]\nrelativ = 0.1\n", "unknown key(s) rmse.relativ"),
+        ("[rmse]\nrelative = -0.1\n", "cannot be negative"),
+        ("[rmse]\nrelative = 'ten'\n", "rmse.relative must be a finite number"),
+        ("rmse = [\n", "not valid TOML"),
+        ("methods = 3\n", "methods must be a table"),
+    ],
+)
+def test_a_bad_tolerance_file_is_refused_with_the_key(
+    baseline: Path, tmp_path: Path, text: str, message: str
+) -> None:
+    tolerance = tmp_path / "tolerance.toml"
+    tolerance.write_text(text)
+    result = runner.invoke(
+        app, ["check", str(baseline), "--baseline", str(baseline), "--tolerance", str(tolerance)]
+    )
+    assert result.exit_code == 3, result.output
+    assert message in result.output
+
+
+def test_a_folder_without_a_summary_is_refused(baseline: Path, tmp_path: Path) -> None:
+    result = runner.invoke(app, ["check", str(tmp_path), "--baseline", str(baseline)])
+    assert result.exit_code == 3
+    assert "no summary.csv in" in result.output
+    assert "Traceback" not in result.output
+
+
+def test_run_writes_junit_and_summary_json(baseline: Path) -> None:
+    cases = ET.parse(baseline.parent / "run.xml").getroot().findall(".//testcase")
+    found = sorted((c.get("classname"), Path(c.get("name") or "").name) for c in cases)
+    assert found == [("twopose.ground", "ground.mcap"), ("twopose.point", "point.mcap")]
+    assert all(c.find("failure") is None for c in cases)
+    document = json.loads((baseline / "summary.json").read_text())
+    summary = pd.read_csv(baseline / "summary.csv")
+    assert document["n_sessions"] == 2
+    assert document["n_failed"] == 0
+    assert [row["method"] for row in document["methods"]] == ["ground", "point"]
+    assert [row["rmse"] for row in document["summary"]] == pytest.approx(list(summary["rmse"]))
+    assert set(document["summary"][0]) == set(summary.columns)
+    assert document["verdict"]
+
+
+def test_run_junit_fails_the_case_of_a_session_that_failed(tmp_path: Path) -> None:
+    broken = tmp_path / "broken.mcap"
+    broken.write_bytes(b"\x89MCAP0\r\nnot really")
+    junit = tmp_path / "run.xml"
+    result = runner.invoke(
+        app, ["run", str(broken), "--out", str(tmp_path / "out"), "--junit", str(junit)]
+    )
+    assert result.exit_code == 1
+    cases = ET.parse(junit).getroot().findall(".//testcase")
+    assert len(cases) == 1
+    assert cases[0].find("failure") is not None
+
+
+def test_session_keys_match_runs_from_different_places() -> None:
+    here = pd.Series(["sessions/a.mcap", "sessions/sub/b.mcap"])
+    there = pd.Series(["/ci/clone/sessions/a.mcap", "/ci/clone/sessions/sub/b.mcap"])
+    assert list(session_keys(here)) == list(session_keys(there)) == ["a.mcap", "sub/b.mcap"]
