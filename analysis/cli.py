@@ -312,6 +312,52 @@ def _print_run(result: RunResult, out: Path, include_warned: bool) -> None:
         raise typer.Exit(EXIT_SOME_INPUTS_FAILED)
 
 
+class EstimatorChoice(StrEnum):
+    thesis = "thesis"
+    optimal = "optimal"
+    weighted = "weighted"
+
+
+@app.command("compare")
+def compare_command(
+    run_a: Annotated[Path, typer.Argument(help="The --out folder of run A.")],
+    run_b: Annotated[Path, typer.Argument(help="The --out folder of run B.")],
+    out: Annotated[
+        Path, typer.Option("--out", help="Folder for the tables, compare.png, compare.html.")
+    ] = Path("comparison"),
+    estimator_a: Annotated[
+        EstimatorChoice, typer.Option(help="Estimator read from run A.")
+    ] = EstimatorChoice.thesis,
+    estimator_b: Annotated[
+        EstimatorChoice, typer.Option(help="Estimator read from run B.")
+    ] = EstimatorChoice.thesis,
+    include_warned: Annotated[
+        bool, typer.Option("--include-warned", help="Also use trials with a warning.")
+    ] = False,
+) -> None:
+    """Compare two runs: statistics side by side, and paired differences (B - A) on the
+    trials both measured, with a 95% interval and a sign-flip test, per method."""
+    from analysis.compare import compare_runs, describe_test, write_comparison
+    from analysis.outputs import OutputFolder
+
+    with handle_errors():
+        comparison = compare_runs(
+            run_a,
+            run_b,
+            estimator_a=estimator_a.value,
+            estimator_b=estimator_b.value,
+            include_warned=include_warned,
+        )
+        with OutputFolder.prepare(out) as folder:
+            folder.record(write_comparison(comparison, out))
+    typer.echo(f"A: {comparison.a.label}\nB: {comparison.b.label}")
+    for _, row in comparison.tests.iterrows():
+        typer.echo(describe_test(row))
+    if comparison.tests.empty:
+        typer.echo("no trial measured in both runs")
+    typer.echo(f"wrote {out / 'compare.html'} and its tables")
+
+
 @app.command("sensitivity")
 def sensitivity_command(
     out: Annotated[Path, typer.Option("--out", help="Folder for sensitivity.csv and .png.")] = Path(

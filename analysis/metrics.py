@@ -20,7 +20,9 @@ __all__ = [
     "UNCERTAINTY_COLUMNS",
     "WEIGHTED_COLUMNS",
     "line_errors",
+    "paired_difference",
     "summarize",
+    "t95",
     "uncertainty_columns",
 ]
 
@@ -249,8 +251,38 @@ _T95 = [
 ]
 
 
-def _t95(dof: int) -> float:
+def t95(dof: int) -> float:
+    """The two-sided 95% Student t quantile with ``dof`` degrees of freedom."""
     return _T95[dof - 1] if dof <= len(_T95) else 1.96
+
+
+#: Sign flips drawn for the paired test when there are too many pairs to enumerate.
+_SIGN_FLIPS = 20000
+
+
+def paired_difference(diff: np.ndarray, seed: int = 0) -> dict[str, float]:
+    """Paired per-trial differences ``diff`` (n,): mean with its 95% t-interval, median,
+    and the two-sided p-value of the sign-flip permutation test of a zero mean (exact for
+    up to 16 pairs, else ``_SIGN_FLIPS`` seeded draws; no normality assumed)."""
+    d = np.asarray(diff, dtype=np.float64)
+    d = d[np.isfinite(d)]
+    n = len(d)
+    out = {"n_pairs": float(n), "mean_diff": np.nan, "ci95_low": np.nan, "ci95_high": np.nan}
+    out |= {"median_diff": np.nan, "p_value": np.nan}
+    if n == 0:
+        return out
+    mean = float(d.mean())
+    out |= {"mean_diff": mean, "median_diff": float(np.median(d))}
+    if n > 1:
+        half = t95(n - 1) * float(d.std(ddof=1)) / np.sqrt(n)
+        out |= {"ci95_low": mean - half, "ci95_high": mean + half}
+    if n <= 16:
+        signs = 1 - 2 * ((np.arange(2**n)[:, None] >> np.arange(n)) & 1)
+    else:
+        signs = np.random.default_rng(seed).choice([-1.0, 1.0], size=(_SIGN_FLIPS, n))
+    flipped = np.abs((signs * d).mean(axis=1))
+    out["p_value"] = float(np.mean(flipped >= abs(mean) - 1e-12 * max(1.0, abs(mean))))
+    return out
 
 
 def _error_statistics(trials: pd.DataFrame) -> dict[str, float]:
@@ -265,7 +297,7 @@ def _error_statistics(trials: pd.DataFrame) -> dict[str, float]:
         out[f"bias_{a}"] = float(err[:, i].mean()) if n else np.nan
         std = float(err[:, i].std(ddof=1)) if n > 1 else np.nan
         out[f"std_{a}"] = std
-        out[f"bias_{a}_ci95"] = _t95(n - 1) * std / np.sqrt(n) if n > 1 else np.nan
+        out[f"bias_{a}_ci95"] = t95(n - 1) * std / np.sqrt(n) if n > 1 else np.nan
     with np.errstate(over="ignore"):
         out["rmse"] = float(np.sqrt(np.mean(total**2))) if n else np.nan
         if n > 1:

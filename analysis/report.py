@@ -22,7 +22,9 @@ __all__ = [
     "ANSWER_COLUMNS",
     "answer_table",
     "dominant_inputs",
+    "page_html",
     "summary_document",
+    "table_html",
     "thesis_verdict",
     "write_outputs",
 ]
@@ -33,7 +35,7 @@ def _rounded(value: float) -> str:
     return "0" if abs(value) < 1e-9 else f"{value:.4g}"
 
 
-def _table(df: pd.DataFrame) -> str:
+def table_html(df: pd.DataFrame) -> str:
     """A table that scrolls inside its own box: a wide one never widens the page."""
     body = df.to_html(index=False, float_format=_rounded, na_rep="", border=0, classes="t")
     return f"<div class='scroll'>{body}</div>"
@@ -271,7 +273,7 @@ def _answer_section(result: RunResult) -> list[str]:
         f"<p>Pooled over the sessions, over {which}; 95% intervals of the RMSE (bootstrap) "
         "and of the biases (<code>_ci95</code>: half-widths); <code>coverage95</code>: the "
         "share of trials whose truth is inside their 95% ellipsoid.</p>",
-        _table(answer_table(result.trials, include_warned=result.include_warned)),
+        table_html(answer_table(result.trials, include_warned=result.include_warned)),
         *(f"<p class='verdict'>{html.escape(line)}</p>" for line in verdict),
     ]
 
@@ -279,13 +281,13 @@ def _answer_section(result: RunResult) -> list[str]:
 def _overview_section(result: RunResult, images: dict[str, str]) -> list[str]:
     parts = [
         "<h2 id='summary'>Per session</h2>",
-        _table(result.summary),
+        table_html(result.summary),
         "<h2 id='figures'>Overview figures</h2>",
         *(_img(key, images) for key in ("error_histogram", "error_by_trial", "error_vs_baseline")),
     ]
     if not result.errors.empty:
         parts.append("<h2>Inputs that failed</h2>")
-        parts.append(f"<div class='err'>{_table(result.errors)}</div>")
+        parts.append(f"<div class='err'>{table_html(result.errors)}</div>")
     return parts
 
 
@@ -296,13 +298,13 @@ def _method_sections(result: RunResult, images: dict[str, str], sweeps: pd.DataF
         "covariance (first-order propagation of the frame scatter and the typed poses' "
         "recorded 1-sigma resolution; trials.csv: <code>dominant_input</code>, "
         "<code>dominant_share</code>).</p>",
-        _table(dominant_inputs(result.trials)),
+        table_html(dominant_inputs(result.trials)),
         "<h2 id='sensitivity'>Sensitivity (the thesis' geometry)</h2>",
         "<p>Seeded Monte Carlo sweeps through the solvers, one input varied at a time, in the "
         "thesis' geometry (f = 525 px, h = 9.625 in, a 1.1 in baseline along x; "
         "<code>twopose-analyze sensitivity</code>; sensitivity.csv).</p>",
         _img("sensitivity", images),
-        _table(_sensitivity_table(sweeps)),
+        table_html(_sensitivity_table(sweeps)),
     ]
 
 
@@ -331,22 +333,30 @@ def _session_sections(result: RunResult, images: dict[str, str]) -> list[str]:
         parts.append(_notes(s.metadata))
         parts += [_img(figure_key(kind, i, s.session), images) for kind in _SESSION_FIGURES]
         parts.append("<p>Trials (every column: <code>trials.csv</code>):</p>")
-        parts.append(_table(_trial_table(s.trials)))
+        parts.append(table_html(_trial_table(s.trials)))
     return parts
 
 
 _SESSION_FIGURES = ("scatter", "topview", "averaging")
 
 
-def _report_html(result: RunResult, images: dict[str, str], sweeps: pd.DataFrame) -> str:
+def page_html(title: str, body: list[str]) -> str:
+    """A self-contained page: our style, no horizontal overflow, ``body``'s parts."""
     parts = [
         "<!doctype html><html><head><meta charset='utf-8'>",
         "<meta name='viewport' content='width=device-width, initial-scale=1'>",
-        f"<title>twopose report</title><style>{_STYLE}</style></head><body>",
+        f"<title>{html.escape(title)}</title><style>{_STYLE}</style></head><body>",
+        *body,
+        "</body></html>",
+    ]
+    return "\n".join(p for p in parts if p)
+
+
+def _report_html(result: RunResult, images: dict[str, str], sweeps: pd.DataFrame) -> str:
+    body = [
         *_answer_section(result),
         *_overview_section(result, images),
         *_method_sections(result, images, sweeps),
         *_session_sections(result, images),
-        "</body></html>",
     ]
-    return "\n".join(p for p in parts if p)
+    return page_html("twopose report", body)

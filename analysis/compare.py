@@ -1,0 +1,289 @@
+"""Two runs compared (``twopose-analyze compare``, after evo's ``evo_res``): side-by-side
+statistics per session and method, and paired per-trial differences on the trials both
+runs measured, with a paired test and a confidence interval.
+
+A run is a ``run --out`` folder; each side picks an estimator (``thesis``: ``x, y, z``;
+``optimal``: the reprojection-optimal point, ``x_optimal``...; ``weighted``: the line's
+weighted fit, ``x_weighted``...), so one run can be compared with itself across
+estimators, and two runs across combine modes, settings or twopose versions (an older
+run's missing columns read as not measured). Errors are recomputed from each estimate and
+the truth, the same way for every estimator.
+"""
+
+from __future__ import annotations
+
+import base64
+import contextlib
+import html
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
+
+from analysis.figures import png_bytes
+from analysis.metrics import paired_difference, summarize
+from analysis.outputs import read_results_table, session_keys, write_atomically
+from analysis.report import page_html, table_html
+from twopose.errors import InputValueError
+
+__all__ = [
+    "ESTIMATORS",
+    "Comparison",
+    "RunSide",
+    "compare_runs",
+    "plot_comparison",
+    "write_comparison",
+]
+
+Estimator = Literal["thesis", "optimal", "weighted"]
+#: Each estimator's estimate columns in trials.csv.
+ESTIMATORS: dict[str, tuple[str, str, str]] = {
+    "thesis": ("x", "y", "z"),
+    "optimal": ("x_optimal", "y_optimal", "z_optimal"),
+    "weighted": ("x_weighted", "y_weighted", "z_weighted"),
+}
+
+SIDE_COLUMNS = ["n_used", "rmse", "median_err", "max_err", "bias_x", "bias_y", "bias_z"]
+TEST_COLUMNS = [
+    "method",
+    "units",
+    "n_pairs",
+    "mean_diff",
+    "ci95_low",
+    "ci95_high",
+    "median_diff",
+    "p_value",
+    "n_b_better",
+    "n_a_better",
+]
+
+
+@dataclass(frozen=True)
+class RunSide:
+    """One side of a comparison: a run folder and the estimator read from it."""
+
+    folder: Path
+    estimator: Estimator = "thesis"
+    version: str = ""  # twopose version that wrote the run (summary.json), if known
+
+    @property
+    def label(self) -> str:
+        return f"{self.folder} ({self.estimator})"
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """``side_by_side``: per session and method, ``SIDE_COLUMNS`` of A and B (suffixes
+    ``_a``, ``_b``) and B - A of the RMSE and median; ``paired``: per shared trial, its
+    error in A and B and ``diff`` = B - A; ``tests``: per method, ``TEST_COLUMNS``
+    (``mean_diff`` < 0: B's errors are smaller)."""
+
+    a: RunSide
+    b: RunSide
+    side_by_side: pd.DataFrame
+    paired: pd.DataFrame
+    tests: pd.DataFrame
+
+
+def compare_runs(
+    run_a: str | Path,
+    run_b: str | Path,
+    *,
+    estimator_a: Estimator = "thesis",
+    estimator_b: Estimator = "thesis",
+    include_warned: bool = False,
+) -> Comparison:
+    """Compare two run folders (see the module's docstring)."""
+    sides = [_side(Path(run_a), estimator_a), _side(Path(run_b), estimator_b)]
+    used = [
+        _used_trials(_with_errors(read_results_table(s.folder, "trials.csv"), s), include_warned)
+        for s in sides
+    ]
+    summaries = [summarize(u, include_warned=True) for u in used]  # already filtered
+    side = _side_by_side(*summaries)
+    paired = _paired(*used)
+    return Comparison(sides[0], sides[1], side, paired, _tests(paired))
+
+
+def _side(folder: Path, estimator: Estimator) -> RunSide:
+    if estimator not in ESTIMATORS:
+        raise InputValueError(f"estimator must be one of {', '.join(ESTIMATORS)}")
+    version = ""
+    # A run before summary.json: its version is unknown, its tables still compare.
+    with contextlib.suppress(OSError, ValueError, KeyError, TypeError):
+        version = str(json.loads((folder / "summary.json").read_text())["twopose_version"])
+    return RunSide(folder, estimator, version)
+
+
+def _with_errors(trials: pd.DataFrame, side: RunSide) -> pd.DataFrame:
+    """``trials`` with ``err_x, err_y, err_z, err`` of ``side``'s estimator against the
+    truth; ``within95`` only for the thesis estimator, whose covariance it is."""
+    columns = ESTIMATORS[side.estimator]
+    if not set(columns) <= set(trials.columns):
+        raise InputValueError(
+            f"{side.folder}/trials.csv has no {side.estimator} estimates ({columns[0]}, ...): "
+            "optimal is for point sessions, weighted for line sessions"
+        )
+    estimate = trials[list(columns)].apply(pd.to_numeric, errors="coerce").to_numpy()
+    truth = trials[["gt_x", "gt_y", "gt_z"]].apply(pd.to_numeric, errors="coerce").to_numpy()
+    err = estimate - truth
+    out = trials.assign(
+        session=session_keys(trials["session"]),
+        err_x=err[:, 0],
+        err_y=err[:, 1],
+        err_z=err[:, 2],
+        err=np.linalg.norm(err, axis=1),
+    )
+    if side.estimator != "thesis" or "within95" not in out:
+        out = out.assign(within95=np.nan)
+    return out
+
+
+def _used_trials(trials: pd.DataFrame, include_warned: bool) -> pd.DataFrame:
+    """The ok trials with a known error (and without a warning unless ``include_warned``)."""
+    keep = (trials["status"] == "ok") & np.isfinite(trials["err"].to_numpy(dtype=np.float64))
+    if not include_warned and "warning" in trials:
+        keep &= trials["warning"].fillna("").astype(str) == ""
+    used: pd.DataFrame = trials[keep]
+    return used
+
+
+def _side_by_side(summary_a: pd.DataFrame, summary_b: pd.DataFrame) -> pd.DataFrame:
+    keys = ["session", "method", "units"]
+    table = pd.merge(
+        summary_a[keys + SIDE_COLUMNS],
+        summary_b[keys + SIDE_COLUMNS],
+        on=keys,
+        how="outer",
+        suffixes=("_a", "_b"),
+        sort=True,
+    )
+    for column in ("rmse", "median_err"):
+        table[f"{column}_diff"] = table[f"{column}_b"] - table[f"{column}_a"]
+    return table
+
+
+def _paired(used_a: pd.DataFrame, used_b: pd.DataFrame) -> pd.DataFrame:
+    keys = ["session", "method", "units", "trial"]
+    pairs = pd.merge(
+        used_a[[*keys, "err"]].drop_duplicates(keys, keep="last"),
+        used_b[[*keys, "err"]].drop_duplicates(keys, keep="last"),
+        on=keys,
+        suffixes=("_a", "_b"),
+        sort=True,
+    )
+    return pairs.assign(diff=pairs["err_b"] - pairs["err_a"])
+
+
+def _tests(paired: pd.DataFrame) -> pd.DataFrame:
+    rows = []
+    for (method, units), g in paired.groupby(["method", "units"], sort=True):
+        diff = g["diff"].to_numpy(dtype=np.float64)
+        rows.append(
+            {
+                "method": method,
+                "units": units,
+                **paired_difference(diff),
+                "n_b_better": int(np.sum(diff < 0)),
+                "n_a_better": int(np.sum(diff > 0)),
+            }
+        )
+    tests = pd.DataFrame(rows, columns=TEST_COLUMNS)
+    return tests.astype({"n_pairs": int})
+
+
+def describe_test(row: pd.Series) -> str:
+    """One line per method: ``ground: 15 shared trials; B - A mean error ... p = ...``."""
+    n = int(row["n_pairs"])
+    if n == 0:
+        return f"{row['method']}: no trial measured in both runs"
+    interval = (
+        f" (95% CI {row['ci95_low']:+.3g} to {row['ci95_high']:+.3g})"
+        if math.isfinite(row["ci95_low"])
+        else ""
+    )
+    return (
+        f"{row['method']}: {n} shared trial(s); B - A mean error {row['mean_diff']:+.3g} "
+        f"{row['units']}{interval}, p = {row['p_value']:.3g}; B better in "
+        f"{int(row['n_b_better'])}, A in {int(row['n_a_better'])}"
+    )
+
+
+def plot_comparison(comparison: Comparison) -> Figure:
+    """Left: each shared trial's error in A against B (below the diagonal: B better).
+    Right: per method, the mean difference B - A with its 95% interval."""
+    fig = Figure(figsize=(9.0, 3.8), layout="constrained")
+    left, right = fig.subplots(1, 2)
+    paired = comparison.paired
+    for method, g in paired.groupby("method", sort=True):
+        left.scatter(g["err_a"], g["err_b"], s=14, alpha=0.8, label=str(method))
+    if len(paired):
+        both = paired[["err_a", "err_b"]].to_numpy(dtype=np.float64)
+        lo, hi = float(np.nanmin(both)), float(np.nanmax(both))
+        left.plot([lo, hi], [lo, hi], color="0.5", lw=0.8, label="equal")
+        left.legend(fontsize=7)
+    left.set_xlabel("error in A (session units)")
+    left.set_ylabel("error in B (session units)")
+    left.set_title("Error per shared trial (below the line: B better)", fontsize=9)
+    tests = comparison.tests[comparison.tests["n_pairs"] > 0]
+    y = np.arange(len(tests))
+    mean = tests["mean_diff"].to_numpy(dtype=np.float64)
+    low = np.nan_to_num(mean - tests["ci95_low"].to_numpy(dtype=np.float64))
+    high = np.nan_to_num(tests["ci95_high"].to_numpy(dtype=np.float64) - mean)
+    right.errorbar(mean, y, xerr=[low, high], fmt="o", capsize=3)
+    right.axvline(0.0, color="0.5", lw=0.8)
+    right.set_yticks(
+        y, [f"{m} (n={n})" for m, n in zip(tests["method"], tests["n_pairs"], strict=True)]
+    )
+    right.set_xlabel("mean error B - A, 95% interval (session units)")
+    right.set_title("Paired difference per method", fontsize=9)
+    fig.suptitle(f"A: {comparison.a.label}   B: {comparison.b.label}", fontsize=8)
+    return fig
+
+
+def write_comparison(comparison: Comparison, out_dir: str | Path) -> list[str]:
+    """``tests.csv``, ``side_by_side.csv``, ``paired.csv``, ``compare.png`` and
+    ``compare.html`` in ``out_dir`` (each written atomically); the names written."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    tables = {
+        "tests.csv": comparison.tests,
+        "side_by_side.csv": comparison.side_by_side,
+        "paired.csv": comparison.paired,
+    }
+    for name, table in tables.items():
+        write_atomically(out / name, table.to_csv(index=False).encode("utf-8", "backslashreplace"))
+    png = png_bytes(plot_comparison(comparison))
+    write_atomically(out / "compare.png", png)
+    page = _compare_html(comparison, base64.b64encode(png).decode())
+    write_atomically(out / "compare.html", page.encode("utf-8", "backslashreplace"))
+    return [*tables, "compare.png", "compare.html"]
+
+
+def _compare_html(comparison: Comparison, png_base64: str) -> str:
+    runs = "".join(
+        f"<li>{side}: {html.escape(run.label)}"
+        f"{' (twopose ' + html.escape(run.version) + ')' if run.version else ''}</li>"
+        for side, run in (("A", comparison.a), ("B", comparison.b))
+    )
+    lines = "".join(
+        f"<li>{html.escape(describe_test(r))}</li>" for _, r in comparison.tests.iterrows()
+    )
+    body = [
+        "<h1>twopose: two runs compared</h1>",
+        f"<ul>{runs}</ul>",
+        "<h2 id='tests'>Paired differences (B - A, shared trials)</h2>",
+        f"<ul>{lines or '<li>no trial measured in both runs</li>'}</ul>",
+        table_html(comparison.tests),
+        f"<img alt='compare' src='data:image/png;base64,{png_base64}'>",
+        "<h2 id='side'>Side by side</h2>",
+        table_html(comparison.side_by_side),
+        "<h2 id='paired'>Per shared trial</h2>",
+        table_html(comparison.paired),
+    ]
+    return page_html("twopose comparison", body)
