@@ -13,6 +13,7 @@ import numpy as np
 import pandas as pd
 
 from analysis.figures import figure_key, png_bytes, run_figures, session_figures
+from analysis.thesis import thesis_table
 from twopose.format.entries import INCHES_PER_UNIT
 
 if TYPE_CHECKING:
@@ -141,6 +142,9 @@ def write_outputs(result: RunResult, out_dir: Path, sweeps: pd.DataFrame) -> lis
     tables = {
         "trials.csv": result.trials,
         "summary.csv": result.summary,
+        "thesis.csv": thesis_table(
+            result.trials, result.averaging, include_warned=result.include_warned
+        ),
         "averaging.csv": result.averaging,
         "frames.csv": result.frames,
         "errors.csv": result.errors,
@@ -260,12 +264,14 @@ def _answer_section(result: RunResult) -> list[str]:
         else "the ok trials without a near-degeneracy warning (<code>n_warned</code> counts "
         "those left out)"
     )
-    verdict = thesis_verdict(result.trials, include_warned=result.include_warned)
+    which_warned = result.include_warned
+    verdict = thesis_verdict(result.trials, include_warned=which_warned)
     return [
         "<h1>twopose report</h1>",
         f"<p>{len(result.sessions)} session(s) analysed, {len(result.errors)} failed, "
         f"{len(result.trials)} trial(s), {n_ok} ok.</p>",
-        "<nav><a href='#answer'>Answer per method</a> · <a href='#summary'>Per session</a> · "
+        "<nav><a href='#answer'>Answer per method</a> · <a href='#thesis'>The thesis</a> · "
+        "<a href='#summary'>Per session</a> · "
         "<a href='#figures'>Overview figures</a> · "
         "<a href='#dominant'>What dominates the error</a> · "
         "<a href='#sensitivity'>Sensitivity</a> · <a href='#sessions'>Sessions</a></nav>",
@@ -275,6 +281,12 @@ def _answer_section(result: RunResult) -> list[str]:
         "share of trials whose truth is inside their 95% ellipsoid.</p>",
         table_html(answer_table(result.trials, include_warned=result.include_warned)),
         *(f"<p class='verdict'>{html.escape(line)}</p>" for line in verdict),
+        "<h2 id='thesis'>The thesis, reproduced</h2>",
+        "<p>What the thesis reported (sections 3.4, 5.3, 5.4) against this run "
+        "(thesis.csv; errors in inches).</p>",
+        table_html(
+            thesis_table(result.trials, result.averaging, include_warned=result.include_warned)
+        ),
     ]
 
 

@@ -118,6 +118,11 @@ class PoseParams:
 
     True pose = typed pose + N(0, noise_sigma) per translation component (and
     N(0, rotation_noise_deg) per angle): frames are rendered from the true pose.
+
+    ``moves``: ``"free"`` draws every pose of a trial anywhere in the ranges; ``"thesis"``
+    draws the first so and moves the laptop from each pose to the next as the thesis did
+    (section 5.3): along x only, or along x and depth z with the depth move the larger,
+    each move's length drawn from ``move_range`` on the lattice.
     """
 
     count: int = 2
@@ -132,6 +137,8 @@ class PoseParams:
     min_baseline: float = 1.0
     noise_sigma: float = 0.1
     rotation_noise_deg: float = 0.0
+    moves: Literal["free", "thesis"] = "free"
+    move_range: Pair = (1.0, 3.0)
 
 
 @dataclass(frozen=True)
@@ -237,6 +244,8 @@ def _check_scene(s: Scene) -> None:
         "makes a lattice of over a million steps across the ranges",
     )
     need(p.noise_sigma >= 0 and p.rotation_noise_deg >= 0, "poses.noise_sigma", "must be >= 0")
+    lo, hi = p.move_range
+    need(0 < lo <= hi <= 100, "poses.move_range", f"must be 0 < low <= high <= 100, got {lo}, {hi}")
     f = s.finger
     need(0 <= f.tilt_deg < 85, "finger.tilt_deg", "must be in [0, 85) degrees from straight down")
     need(f.length > 2 * f.radius > 0, "finger.length", "must exceed the finger's diameter")

@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 
 from recorder.procedure import Driver, Placement, record
 from recorder.render import Layout, build_layout, expose, finger_axis, render_radiance
-from recorder.scene import Scene
+from recorder.scene import PoseParams, Scene
 from recorder.sources import FrameSource, SourceInfo
 from twopose.camera import Camera, Intrinsics, project_points, rotation_from_angles_deg
 from twopose.errors import InputValueError, SceneError
@@ -104,10 +104,13 @@ def _draw_trial_poses(
     rot_ranges = [p.rx_range, p.ry_range, p.rz_range]
     visible = _visible_points(scene, method)
     for _ in range(_MAX_POSE_DRAWS):
-        poses = []
+        poses: list[tuple[F64, F64, F64, F64]] = []
         for k in range(n_poses):
             intr = scene.cameras[k % len(scene.cameras)].intrinsics
-            t_typed = np.array([_lattice(rng, lo, hi, p.step) for lo, hi in ranges])
+            if p.moves == "thesis" and k > 0:
+                t_typed = poses[k - 1][0] + _thesis_move(rng, p)
+            else:
+                t_typed = np.array([_lattice(rng, lo, hi, p.step) for lo, hi in ranges])
             r_typed = np.array(
                 [_lattice(rng, lo, hi, p.rotation_step_deg) for lo, hi in rot_ranges]
             )
@@ -126,6 +129,17 @@ def _draw_trial_poses(
         f"scene: could not place {n_poses} poses at least {p.min_baseline} apart with the target "
         f"in view after {_MAX_POSE_DRAWS} draws; widen poses.*_range or move the target"
     )
+
+
+def _thesis_move(rng: np.random.Generator, p: PoseParams) -> NDArray[np.float64]:
+    """One move of the laptop as in the thesis (section 5.3): along x only, or along x and
+    depth z with the depth move the larger; lengths on the typing lattice, either sign."""
+    lo, hi = p.move_range
+    main = _lattice(rng, lo, hi, p.step) * rng.choice([-1.0, 1.0])
+    if rng.random() < 0.5:
+        return np.array([main, 0.0, 0.0])
+    side = _lattice(rng, p.step, max(abs(main) - p.step, p.step), p.step) * rng.choice([-1, 1])
+    return np.array([side, 0.0, main])
 
 
 def _min_baseline(t_typed: NDArray[np.float64]) -> float:

@@ -53,3 +53,14 @@ def exact_sessions(tmp_path_factory: pytest.TempPathFactory) -> Path:
             pose_noise=0.0,
         )
     return folder
+
+
+@pytest.fixture(scope="session")
+def bundled_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The --out folder of ``make run``'s job on the bundled sessions (without the Foxglove
+    files), made once for the tests that read it."""
+    import analysis
+
+    out = tmp_path_factory.mktemp("bundled") / "results"
+    analysis.run([SESSIONS], out, scene=False)
+    return out

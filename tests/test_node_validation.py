@@ -154,7 +154,7 @@ def test_the_typescript_reading_of_the_spec_rebuilds_the_accepted_captures(
 
 def test_the_typescript_reader_catches_a_corrupt_file(tmp_path: Path) -> None:
     """The check above can fail: one flipped byte inside a (compressed) chunk is refused."""
-    data = bytearray((SESSIONS / "line.mcap").read_bytes())
+    data = bytearray((SESSIONS / "stress_line.mcap").read_bytes())
     data[len(data) // 2] ^= 0xFF
     bad = tmp_path / "bad.mcap"
     bad.write_bytes(bytes(data))

@@ -37,7 +37,7 @@ SAMPLES = _make_sessions_module().SAMPLES
 def test_samples_are_all_there_and_small() -> None:
     files = sorted(p.name for p in SESSIONS.glob("*.mcap"))
     assert files == sorted(s.file for s in SAMPLES)
-    assert sum(p.stat().st_size for p in SESSIONS.glob("*.mcap")) < 25e6
+    assert sum(p.stat().st_size for p in SESSIONS.glob("*.mcap")) < 35e6
 
 
 @pytest.mark.parametrize("sample", SAMPLES, ids=lambda s: s.file)
@@ -55,10 +55,10 @@ def test_sample_opens_with_crc_validation_and_matches_its_recipe(sample: Any) ->
 
 
 def test_a_sample_regenerates_from_its_script(tmp_path: Path) -> None:
-    """The committed line session is what the committed script writes (frames within JPEG noise
-    of a different OpenCV build; every typed entry exactly)."""
+    """The committed thesis line session is what the committed script writes (frames within
+    JPEG noise of a different OpenCV build; every typed entry exactly)."""
     module = _make_sessions_module()
-    sample = next(s for s in SAMPLES if s.file == "line.mcap")
+    sample = next(s for s in SAMPLES if s.file == "thesis_line.mcap")
     module.make(sample, tmp_path)
     with SessionReader(SESSIONS / sample.file) as a, SessionReader(tmp_path / sample.file) as b:
         assert a.info == b.info
@@ -71,3 +71,24 @@ def test_a_sample_regenerates_from_its_script(tmp_path: Path) -> None:
                 assert ea == eb
     with SessionReader(tmp_path / sample.file) as b:
         assert len(list(iter_trials(b, with_frames=False))) == sample.trials
+
+
+@pytest.mark.parametrize("sample", [s for s in SAMPLES if s.thesis], ids=lambda s: s.file)
+def test_thesis_samples_move_the_laptop_as_the_thesis_did(sample: Any) -> None:
+    """Section 5.3: along x only, or along x and depth with the depth move the larger;
+    typed to 1/8 in; nothing else moves."""
+    with SessionReader(SESSIONS / sample.file) as reader:
+        trials = list(iter_trials(reader, with_frames=False))
+    kinds = []
+    for trial in trials:
+        typed = np.array([pose.entry.t_grid for pose in trial.poses])
+        np.testing.assert_allclose(typed * 8, np.round(typed * 8), atol=1e-9)
+        move = typed[1] - typed[0]
+        assert move[1] == 0.0
+        assert move[2] == 0.0 or abs(move[2]) > abs(move[0]) > 0
+        assert 1.0 <= max(abs(move[0]), abs(move[2])) <= 3.0
+        kinds.append("x" if move[2] == 0 else "xz")
+        assert trial.poses[0].entry.translation_resolution == pytest.approx(0.04)
+    assert len(kinds) == sample.trials
+    if sample.trials >= 15:
+        assert {"x", "xz"} <= set(kinds)  # both kinds of move occur

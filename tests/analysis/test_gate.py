@@ -195,3 +195,13 @@ def test_session_keys_match_runs_from_different_places() -> None:
     here = pd.Series(["sessions/a.mcap", "sessions/sub/b.mcap"])
     there = pd.Series(["/ci/clone/sessions/a.mcap", "/ci/clone/sessions/sub/b.mcap"])
     assert list(session_keys(here)) == list(session_keys(there)) == ["a.mcap", "sub/b.mcap"]
+
+
+def test_the_bundled_sessions_match_the_committed_baseline(bundled_run: Path) -> None:
+    """docs/ci.md's job, on our own sessions: .ci/baseline/summary.csv is current."""
+    ci = Path(__file__).resolve().parents[2] / ".ci"
+    args = ["check", str(bundled_run), "--baseline", str(ci / "baseline")]
+    result = runner.invoke(app, [*args, "--tolerance", str(ci / "tolerance.toml")])
+    assert result.exit_code == 0, result.output
+    assert "checked 7 session/method pair(s)" in result.output
+    assert load_tolerance(ci / "tolerance.toml")["ground"].rmse.relative == 0.15

@@ -15,9 +15,6 @@ import numpy as np
 import pytest
 from PIL import Image
 
-import analysis
-from tests.conftest import SESSIONS
-
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 CHROMEDRIVER = shutil.which("chromedriver")
 
@@ -34,11 +31,9 @@ WIDTH, HEIGHT = 1280, 900
 
 
 @pytest.fixture(scope="module")
-def report(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def report(bundled_run: Path) -> Path:
     """The report of ``make run``: the bundled sample sessions."""
-    out = tmp_path_factory.mktemp("browser") / "results"
-    analysis.run([SESSIONS], out)
-    return out / "report.html"
+    return bundled_run / "report.html"
 
 
 @pytest.fixture(scope="module")
