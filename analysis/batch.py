@@ -13,7 +13,7 @@ import multiprocessing
 import signal
 import threading
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import Any
@@ -315,7 +315,9 @@ def _run_processes(
                 if not _claim(claims, i):
                     break  # the workers, going forward, have reached this one
                 done(i, analyse_or_fail(files[i], options, images, results[i]))
-            for i, fut in enumerate(futures):
+            index = {fut: i for i, fut in enumerate(futures)}
+            for fut in as_completed(futures):  # progress as sessions finish, in any order
+                i = index[fut]
                 if outcomes[i] is not None:
                     continue
                 try:
@@ -361,14 +363,21 @@ def _run_dask(
         raise InputValueError(f"--dask {address!r} is not a scheduler address: {err}") from err
     except OSError as err:
         raise InputValueError(f"cannot reach the Dask scheduler at {address}: {err}") from err
+    from distributed import as_completed
+
     try:
+        # A worker that dies mid-session (killed, out of memory) loses its task to the
+        # scheduler, which runs it again on another worker (``allowed-failures``, 3).
         futures = client.map(
             _analyse_to, files, results, options=options, images=images, pure=False
         )
-        outcomes: list[Outcome] = []
-        for f, fut in zip(files, futures, strict=True):
-            outcomes.append(fut.result())
-            _report(on_done, f, outcomes[-1])
-        return outcomes
+        index = {fut.key: i for i, fut in enumerate(futures)}
+        outcomes: list[Outcome | None] = [None] * len(files)
+        for fut in as_completed(futures):  # progress as sessions finish, in any order
+            i = index[fut.key]
+            outcome: Outcome = fut.result()
+            outcomes[i] = outcome
+            _report(on_done, files[i], outcome)
+        return [o for o in outcomes if o is not None]
     finally:
         client.close()

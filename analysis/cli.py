@@ -36,6 +36,7 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    rich_markup_mode=None,  # click's plain help: wrapped at words, never boxed and cut
 )
 
 
@@ -453,7 +454,34 @@ class SolveMethod(StrEnum):
 
 @app.command()
 def solve(method: Annotated[SolveMethod, typer.Argument(help="Which reconstruction.")]) -> None:
-    """Solve one measurement by hand: a JSON request on stdin, a JSON answer on stdout."""
+    """Solve one measurement by hand: a JSON request on stdin, a JSON answer on stdout.
+
+    \b
+    The request:
+      {"views": [                      two or more, one per camera pose
+         {"K": [fx, fy, cx, cy],       intrinsics in pixels
+          "pose": {"t": [x, y, z],     camera centre (grid frame, session units)
+                   "r_deg": [rx, ry, rz]},   R = Rx Ry Rz, camera to grid
+                                       (degrees, optional)
+          "px": [col, row]},           point: the target's pixel
+         {"P": [[4], [4], [4]],        or the 3x4 projection matrix instead
+          "line": {"px": [col, row], "theta_deg": t}},   line, ground: a point
+                                       and the orientation of the image line,
+                                       or {"segment_px": [x0, y0, x1, y1]}
+         ...],
+       "ground_y": h,                  ground only: the ground plane y = h
+       "estimator": "thesis"}          or "optimal" (point), "weighted" (line;
+                                       a view may give "sigma_px", default 1)
+
+    \b
+    The answer: {"point": [x, y, z]} or {"line": {"point": [...], "direction":
+    [...]}}, with "status", "reason", "conditioning", "n_views" and for points
+    "reprojection_rms_px".
+
+    Example: echo '{"views": [{"K": [525, 525, 320, 240], "pose": {"t": [0, 0, 0]},
+    "px": [343.9, 311.6]}, {"K": [525, 525, 320, 240], "pose": {"t": [1.1, 0, 0]},
+    "px": [291.4, 311.6]}]}' | twopose-analyze solve point
+    """
     from analysis.request import solve_request
 
     with handle_errors():

@@ -71,6 +71,7 @@ def capture_frames(
     on_frame: Callable[[FrameFeedback], None] | None = None,
     timeout_s: float = 2.0,
     live: LiveView | None = None,
+    on_progress: Callable[[], None] | None = None,
 ) -> CaptureResult:
     """Capture ``n_frames`` frames for the already written pose ``entry`` (the source is
     already placed there).
@@ -78,7 +79,8 @@ def capture_frames(
     Dropped frames are counted from the start of this capture only: the source restarts
     its clock here (:meth:`FrameSource.start_capture`), so the operator's pause before a
     capture is never counted. ``target`` (``"glove"`` or ``"dot"``) turns on live detection
-    feedback. A source that fails mid-capture leaves the capture in the file, marked
+    feedback (``on_frame``); ``on_progress`` is called after every frame written, detected
+    or not. A source that fails mid-capture leaves the capture in the file, marked
     incomplete with the reason; an interrupt (Ctrl-C) does the same, then propagates.
     """
     from twopose.detect import detect
@@ -108,6 +110,8 @@ def capture_frames(
             overhead.append(time.perf_counter() - started)
             if fb is not None and on_frame is not None:
                 on_frame(fb)
+            if on_progress is not None:
+                on_progress()
             cap.dropped_frames = source.dropped - dropped_before
     return CaptureResult(
         cap.n_frames,

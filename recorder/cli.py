@@ -34,6 +34,7 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    rich_markup_mode=None,  # click's plain help: wrapped at words, never boxed and cut
 )
 
 
@@ -76,20 +77,29 @@ def simulate(
     ] = None,
 ) -> None:
     """Render a simulated session of the laptop-on-grid procedure with known truth."""
+    from rich.console import Console
+    from rich.progress import Progress
+
     from recorder.scene import load_scene
     from recorder.simulate import simulate_session
 
     with handle_errors():
-        summary = simulate_session(
-            out,
-            method=method.value,
-            trials=trials,
-            frames=frames,
-            seed=seed,
-            scene=load_scene(scene),
-            pose_noise=pose_noise,
-            poses=poses,
-        )
+        loaded = load_scene(scene)
+        total = trials * (poses or loaded.poses.count) * frames
+        # A bar on stderr at a terminal (rendering takes about 0.1 s a frame), nothing in a pipe.
+        with Progress(console=Console(stderr=True), transient=True) as progress:
+            task = progress.add_task("frames rendered", total=total)
+            summary = simulate_session(
+                out,
+                method=method.value,
+                trials=trials,
+                frames=frames,
+                seed=seed,
+                scene=loaded,
+                pose_noise=pose_noise,
+                poses=poses,
+                on_progress=lambda: progress.advance(task),
+            )
     typer.echo(
         f"wrote {summary.path}: {summary.method}, {summary.n_trials} "
         f"trial{'' if summary.n_trials == 1 else 's'}, {summary.n_poses} poses, "

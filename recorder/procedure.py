@@ -423,6 +423,7 @@ class _CaptureOptions:
     target: str | None
     live: LiveView | None
     on_frame: Callable[[FrameFeedback], None] | None
+    on_progress: Callable[[], None] | None
 
 
 def record(
@@ -438,6 +439,7 @@ def record(
     live: LiveView | None = None,
     on_frame: Callable[[FrameFeedback], None] | None = None,
     writer_options: dict[str, Any] | None = None,
+    on_progress: Callable[[], None] | None = None,
 ) -> RecordingSummary:
     """Record a new session at ``path`` from the (unopened) ``source``, as ``driver`` says.
 
@@ -450,7 +452,7 @@ def record(
     out = Path(path)
     refuse_existing(out)
     tally = _Tally()
-    options = _CaptureOptions(frames, target, live, on_frame)
+    options = _CaptureOptions(frames, target, live, on_frame, on_progress)
     interrupted = False
     try:
         with contextlib.ExitStack() as stack:
@@ -523,6 +525,7 @@ def _record_trial(
             true_pose=placed.true_pose,
             target=opts.target,
             on_frame=opts.on_frame,
+            on_progress=opts.on_progress,
             live=opts.live,
         )
         tally.add(result)

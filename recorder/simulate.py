@@ -12,7 +12,7 @@ gives the same bytes.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -285,6 +285,7 @@ def simulate_session(
     scene: Scene | None = None,
     pose_noise: float | None = None,
     poses: int | None = None,
+    on_progress: Callable[[], None] | None = None,
 ) -> SimulationSummary:
     """Simulate a whole session into ``out`` (which must not exist), through the same
     procedure loop as a recording (:func:`recorder.procedure.record`).
@@ -302,6 +303,8 @@ def simulate_session(
         Overrides ``scene.poses.noise_sigma`` (session units).
     poses : int, optional
         Overrides ``scene.poses.count`` (poses per trial, >= 2).
+    on_progress : callable, optional
+        Called after every frame rendered and written (``trials * poses * frames`` times).
     """
     if method not in METHODS:
         raise InputValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
@@ -334,6 +337,7 @@ def simulate_session(
         _SimulatedOperator(scene, method, trials, rng, clock, camera),
         ground=GroundPlane(offset=scene.ground_height),
         frames=frames,
+        on_progress=on_progress,
         writer_options={
             "image_format": scene.sensor.image_format,
             "jpeg_quality": scene.sensor.jpeg_quality,

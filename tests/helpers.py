@@ -3,7 +3,13 @@
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+import importlib
+import json
+import os
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import cv2
@@ -59,3 +65,61 @@ def jpeg_declaring(width: int, height: int) -> bytes:
     data[sof + 5 : sof + 7] = height.to_bytes(2, "big")
     data[sof + 7 : sof + 9] = width.to_bytes(2, "big")
     return bytes(data)
+
+
+DASK = Path(sys.executable).with_name("dask")
+
+
+def _wait_for(predicate: Callable[[], bool], timeout_s: float, what: str) -> None:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if predicate():
+            return
+        time.sleep(0.1)
+    raise AssertionError(f"timed out waiting for {what}")
+
+
+class DaskCluster:
+    """``dask scheduler`` and ``workers`` single-threaded ``dask worker`` processes on
+    loopback, as an operator starts them (no nanny: a killed worker stays dead, as on a
+    machine that was lost). ``close()`` stops them."""
+
+    def __init__(self, folder: Path, workers: int) -> None:
+        from distributed import Client
+
+        self.file = folder / "scheduler.json"
+        self.scheduler = self._spawn(
+            "scheduler", "--port", "0", "--no-dashboard", "--scheduler-file", str(self.file)
+        )
+        _wait_for(self.file.exists, 60, "the scheduler file")
+        self.address: str = json.loads(self.file.read_text())["address"]
+        self.workers = [
+            self._spawn(
+                "worker", "--scheduler-file", str(self.file), "--nthreads", "1", "--no-nanny",
+                "--no-dashboard", "--name", f"w{k}", "--memory-limit", "0",
+            )
+            for k in range(workers)
+        ]  # fmt: skip
+        with Client(self.address, timeout=30) as client:
+            client.wait_for_workers(workers, timeout=60)
+            # Imported once up front, so that the first task's time is its own work.
+            client.run(importlib.import_module, "analysis.pipeline")
+
+    @staticmethod
+    def _spawn(*args: str) -> subprocess.Popen[bytes]:
+        return subprocess.Popen(
+            [str(DASK), *args, "--host", "127.0.0.1"],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            env=os.environ | {"DASK_DISTRIBUTED__WORKER__DAEMON": "False"},
+        )
+
+    def close(self) -> None:
+        for process in [*self.workers, self.scheduler]:
+            if process.poll() is None:
+                process.terminate()
+        for process in [*self.workers, self.scheduler]:
+            try:
+                process.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                process.kill()

@@ -277,3 +277,16 @@ def test_readme_documents_every_scene_parameter() -> None:
         elif f"`{f.name}`" not in section:
             missing.append(f.name)
     assert not missing, f"README's scene table misses {missing}"
+
+
+def test_progress_is_reported_for_every_frame(tmp_path: Path) -> None:
+    seen: list[int] = []
+    summary = simulate_session(
+        tmp_path / "p.mcap",
+        method="point",
+        trials=2,
+        frames=2,
+        seed=1,
+        on_progress=lambda: seen.append(1),
+    )
+    assert len(seen) == summary.n_frames == 2 * 2 * 2

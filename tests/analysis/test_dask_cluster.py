@@ -1,0 +1,91 @@
+"""Real scale-out: a ``dask scheduler`` and two ``dask worker`` processes on loopback, as an
+operator would start them; the batch gives the tables of ``--jobs 1``, survives a worker
+killed with SIGKILL mid-batch (its session runs again elsewhere), and reports sessions as
+they complete."""
+
+from __future__ import annotations
+
+import os
+import signal
+from collections.abc import Iterator
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from analysis.batch import run
+from recorder.simulate import simulate_session
+from tests.helpers import DaskCluster
+
+distributed = pytest.importorskip("distributed")
+
+
+@pytest.fixture(scope="module")
+def batch(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
+    """One heavy session first, then light ones: completion order is not submission order."""
+    folder = tmp_path_factory.mktemp("dask_batch")
+    paths = [folder / "s0_heavy.mcap"]
+    simulate_session(paths[0], method="ground", trials=6, frames=6, seed=30)
+    for k in range(1, 6):
+        paths.append(folder / f"s{k}.mcap")
+        simulate_session(paths[-1], method="point", trials=1, frames=2, seed=30 + k)
+    return paths
+
+
+@pytest.fixture(scope="module")
+def local(batch: list[Path]) -> pd.DataFrame:
+    return run(batch, None, jobs=1).trials
+
+
+@pytest.fixture
+def cluster(tmp_path: Path) -> Iterator[DaskCluster]:
+    c = DaskCluster(tmp_path, workers=2)
+    try:
+        yield c
+    finally:
+        c.close()
+
+
+def test_two_worker_processes_give_the_tables_of_one_job(
+    batch: list[Path], local: pd.DataFrame, cluster: DaskCluster, tmp_path: Path
+) -> None:
+    done: list[str] = []
+    result = run(
+        batch,
+        tmp_path / "out",
+        dask_address=cluster.address,
+        on_session_done=lambda path, ok: done.append(Path(path).name),
+    )
+    assert result.errors.empty, result.errors
+    pd.testing.assert_frame_equal(result.trials, local)
+    assert sorted(done) == sorted(p.name for p in batch)
+    # Reported as they complete: the heavy first session is not reported first.
+    assert done[0] != "s0_heavy.mcap", done
+    assert (tmp_path / "out" / "report.html").is_file()
+
+
+def test_a_worker_killed_mid_batch_loses_nothing(
+    batch: list[Path], local: pd.DataFrame, cluster: DaskCluster
+) -> None:
+    killed: list[int] = []
+
+    def kill_a_busy_worker(path: str, ok: bool) -> None:
+        if killed:
+            return
+        with distributed.Client(cluster.address, timeout=30) as client:
+            busy = [w for w, tasks in client.processing().items() if tasks]
+            assert busy, "no worker was busy when the first session finished"
+            pids = client.run(os.getpid, workers=busy[:1])
+        victim = pids[busy[0]]
+        os.kill(victim, signal.SIGKILL)
+        killed.append(victim)
+
+    result = run(batch, None, dask_address=cluster.address, on_session_done=kill_a_busy_worker)
+    assert len(killed) == 1
+    assert any(
+        w.pid == killed[0] and w.wait(timeout=10) == -signal.SIGKILL for w in cluster.workers
+    )
+    assert result.errors.empty, result.errors
+    pd.testing.assert_frame_equal(result.trials, local)
+    with distributed.Client(cluster.address, timeout=30) as client:
+        assert len(client.scheduler_info()["workers"]) == 1  # the survivor did the rest
