@@ -202,17 +202,30 @@ def run_command(
 ) -> None:
     """Replay sessions through detection and solvers into error tables, figures and a report."""
     from rich.console import Console
-    from rich.progress import Progress
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        SpinnerColumn,
+        TextColumn,
+        TimeElapsedColumn,
+    )
 
     from analysis.batch import run
     from analysis.results import AnalysisOptions
 
     console = Console(stderr=True)
-    with handle_errors(), Progress(console=console, transient=True) as progress:
+    # At a terminal: a spinner and the time from the start (a long session shows it is
+    # working), sessions counted as they complete. Nothing in a pipe.
+    columns = (SpinnerColumn(), TextColumn("sessions"), BarColumn(), MofNCompleteColumn())
+    with (
+        handle_errors(),
+        Progress(*columns, TimeElapsedColumn(), console=console, transient=True) as progress,
+    ):
         task = progress.add_task("sessions", total=None)
 
         def found(n: int) -> None:
-            progress.update(task, total=n, visible=n >= 2)
+            progress.update(task, total=n)
 
         result = run(
             paths,
@@ -290,7 +303,7 @@ def _print_run(result: RunResult, out: Path, include_warned: bool) -> None:
     piped), the skipped and failed inputs; exit 1 if any input failed."""
     import shutil
 
-    from analysis.console import summary_lines
+    from analysis.console import summary_lines, wrap_phrases
 
     width = min(shutil.get_terminal_size().columns, 100) if sys.stdout.isatty() else None
     typer.echo(f"twopose: {len(result.sessions)} session(s), results in {out}")
@@ -300,10 +313,13 @@ def _print_run(result: RunResult, out: Path, include_warned: bool) -> None:
         typer.echo(line)
     warned = int(result.summary["n_warned"].sum()) if len(result.summary) else 0
     if warned and not include_warned:
-        typer.echo(
-            f"{warned} ok trial(s) with a near-degeneracy warning are left out of these "
-            "statistics (--include-warned keeps them)"
-        )
+        footer = [
+            f"{warned} ok trial(s) with a near-degeneracy warning",
+            "are left out of these statistics",
+            "(--include-warned keeps them)",
+        ]
+        for line in wrap_phrases(footer, width):
+            typer.echo(line)
     _say_skipped(list(result.skipped))
     for _, e in result.errors.iterrows():
         typer.secho(f"failed: {e['error']}", err=True, fg=typer.colors.RED)

@@ -15,7 +15,7 @@ import pandas as pd
 
 from analysis.metrics import summarize
 
-__all__ = ["UNIT_NAMES", "summary_lines"]
+__all__ = ["UNIT_NAMES", "summary_lines", "wrap_phrases"]
 
 UNIT_NAMES = {"in": "inches", "mm": "millimetres", "cm": "centimetres", "m": "metres"}
 
@@ -66,14 +66,31 @@ def summary_lines(
         )
     lines.append("per session:")
     for _, r in summary.iterrows():
-        text = (
-            f"{Path(str(r['session'])).name} ({r['method']}): {r['n_ok']}/{r['n_trials']} ok, "
-            f"{r['n_warned']} warned; rmse {_num(r['rmse'])}, median {_num(r['median_err'])}, "
-            f"max {_num(r['max_err'])}, bias x {_num(r['bias_x'], True)} "
-            f"z {_num(r['bias_z'], True)}, within 1: {_share(r['within_1'])}"
-        )
-        if width is None:
-            lines.append("  " + text)
-        else:
-            lines += textwrap.wrap(text, width, initial_indent="  ", subsequent_indent="    ")
+        phrases = [
+            f"{Path(str(r['session'])).name} ({r['method']}):",
+            f"{r['n_ok']}/{r['n_trials']} ok,",
+            f"{r['n_warned']} warned;",
+            f"rmse {_num(r['rmse'])},",
+            f"median {_num(r['median_err'])},",
+            f"max {_num(r['max_err'])},",
+            f"bias x {_num(r['bias_x'], True)} z {_num(r['bias_z'], True)},",
+            f"within 1: {_share(r['within_1'])}",
+        ]
+        lines += wrap_phrases(phrases, width, indent="  ")
     return lines
+
+
+_KEEP = "\x00"  # joins the words of a phrase: textwrap only breaks at real whitespace
+
+
+def wrap_phrases(phrases: list[str], width: int | None, indent: str = "") -> list[str]:
+    """``phrases`` joined by spaces on one line (``width`` None: a pipe), or wrapped at
+    ``width`` between phrases, never inside one (``rmse`` stays beside its number)."""
+    if width is None:
+        return [indent + " ".join(phrases)]
+    text = " ".join(p.replace(" ", _KEEP) for p in phrases)
+    wrapped = textwrap.wrap(
+        text, width, initial_indent=indent, subsequent_indent=indent + "  ",
+        break_long_words=False, break_on_hyphens=False,
+    )  # fmt: skip
+    return [line.replace(_KEEP, " ") for line in wrapped]

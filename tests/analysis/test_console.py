@@ -9,7 +9,7 @@ from typer.testing import CliRunner
 
 from analysis.batch import run
 from analysis.cli import app
-from analysis.console import summary_lines
+from analysis.console import summary_lines, wrap_phrases
 
 SESSIONS = Path(__file__).resolve().parents[2] / "sessions"
 
@@ -40,3 +40,16 @@ def test_piped_output_keeps_every_session_on_one_line(tmp_path: Path) -> None:
     assert "rmse" in line
     assert "within 1:" in line
     assert "left out of these statistics" in result.stdout  # the line session has warnings
+
+
+def test_lines_break_between_phrases_never_inside_one(sample_run: object) -> None:
+    lines = summary_lines(sample_run.trials, sample_run.summary, width=60)  # type: ignore[attr-defined]
+    session_lines = lines[lines.index("per session:") + 1 :]
+    assert len(session_lines) > len(sample_run.summary)  # type: ignore[attr-defined]  # wrapped
+    for line in session_lines:
+        assert len(line) <= 60
+        for label in ("rmse", "median", "max", "bias x", "within 1:"):
+            if line.rstrip().endswith(label):
+                raise AssertionError(f"{label!r} cut from its value: {line!r}")
+    assert wrap_phrases(["a b", "c d"], None, indent="  ") == ["  a b c d"]
+    assert wrap_phrases(["aaaa bbbb", "cc dd"], 10) == ["aaaa bbbb", "  cc dd"]
