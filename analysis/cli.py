@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import sys
+from collections.abc import Callable, Iterator
 from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
@@ -201,6 +203,41 @@ def run_command(
     junit: JunitOption = None,
 ) -> None:
     """Replay sessions through detection and solvers into error tables, figures and a report."""
+    from analysis.batch import run
+    from analysis.results import AnalysisOptions
+
+    options = AnalysisOptions(
+        combine=combine.value,
+        min_parallax_deg=min_parallax,
+        min_plane_angle_deg=min_plane_angle,
+        min_ground_angle_deg=min_ground_angle,
+        session_timeout_s=session_timeout or None,
+        include_warned=include_warned,
+    )
+    with handle_errors(), _session_progress() as (found, done):
+        result = run(
+            paths,
+            out,
+            jobs=jobs,
+            dask_address=dask,
+            options=options,
+            on_session_done=done,
+            on_sessions_found=found,
+            scene=scene,
+        )
+        if junit is not None:
+            from analysis.gate import junit_xml, run_cases
+
+            cases = run_cases(result.summary, result.errors)
+            _write_junit(junit, junit_xml("twopose-analyze run", cases))
+    _print_run(result, out, include_warned)
+
+
+@contextlib.contextmanager
+def _session_progress() -> Iterator[tuple[Callable[[int], None], Callable[[str, bool], None]]]:
+    """A progress bar on stderr at a terminal (nothing in a pipe): a spinner and the time
+    since the start, so that one long session shows it is working, and the sessions
+    counted as they complete. Yields the callbacks ``run`` takes: sessions found, done."""
     from rich.console import Console
     from rich.progress import (
         BarColumn,
@@ -211,45 +248,15 @@ def run_command(
         TimeElapsedColumn,
     )
 
-    from analysis.batch import run
-    from analysis.results import AnalysisOptions
-
-    console = Console(stderr=True)
-    # At a terminal: a spinner and the time from the start (a long session shows it is
-    # working), sessions counted as they complete. Nothing in a pipe.
     columns = (SpinnerColumn(), TextColumn("sessions"), BarColumn(), MofNCompleteColumn())
-    with (
-        handle_errors(),
-        Progress(*columns, TimeElapsedColumn(), console=console, transient=True) as progress,
-    ):
+    with Progress(
+        *columns, TimeElapsedColumn(), console=Console(stderr=True), transient=True
+    ) as progress:
         task = progress.add_task("sessions", total=None)
-
-        def found(n: int) -> None:
-            progress.update(task, total=n)
-
-        result = run(
-            paths,
-            out,
-            jobs=jobs,
-            dask_address=dask,
-            options=AnalysisOptions(
-                combine=combine.value,
-                min_parallax_deg=min_parallax,
-                min_plane_angle_deg=min_plane_angle,
-                min_ground_angle_deg=min_ground_angle,
-                session_timeout_s=session_timeout or None,
-                include_warned=include_warned,
-            ),
-            on_session_done=lambda _path, _ok: progress.advance(task),
-            on_sessions_found=found,
-            scene=scene,
+        yield (
+            lambda n: progress.update(task, total=n),
+            lambda _path, _ok: progress.advance(task),
         )
-        if junit is not None:
-            from analysis.gate import junit_xml, run_cases
-
-            cases = run_cases(result.summary, result.errors)
-            _write_junit(junit, junit_xml("twopose-analyze run", cases))
-    _print_run(result, out, include_warned)
 
 
 def _write_junit(path: Path, xml: bytes) -> None:
