@@ -36,6 +36,7 @@ __all__ = [
     "Comparison",
     "RunSide",
     "compare_runs",
+    "describe_test",
     "plot_comparison",
     "write_comparison",
 ]

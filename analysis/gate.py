@@ -26,11 +26,14 @@ from twopose.errors import InputValueError
 
 __all__ = [
     "CHECKED_METRICS",
+    "COMPARISON_COLUMNS",
     "Allowance",
     "CheckResult",
     "Tolerance",
     "check",
+    "check_cases",
     "compare_summaries",
+    "describe",
     "junit_xml",
     "load_tolerance",
     "run_cases",

@@ -36,9 +36,11 @@ def _rounded(value: float) -> str:
     return "0" if abs(value) < 1e-9 else f"{value:.4g}"
 
 
-def table_html(df: pd.DataFrame) -> str:
-    """A table that scrolls inside its own box: a wide one never widens the page."""
-    body = df.to_html(index=False, float_format=_rounded, na_rep="", border=0, classes="t")
+def table_html(df: pd.DataFrame, *, text: bool = False) -> str:
+    """A table that scrolls inside its own box: a wide one never widens the page. Numbers
+    align right; a table of sentences (``text``) aligns left."""
+    classes = "t text" if text else "t"
+    body = df.to_html(index=False, float_format=_rounded, na_rep="", border=0, classes=classes)
     return f"<div class='scroll'>{body}</div>"
 
 
@@ -244,6 +246,7 @@ _STYLE = (
     ".scroll{overflow-x:auto;max-width:100%}img{max-width:100%;height:auto;display:block}"
     "table.t{border-collapse:collapse;font-size:12px;margin:1em 0}"
     "table.t td,table.t th{padding:2px 8px;border-bottom:1px solid #ddd;text-align:right}"
+    "table.text td,table.text th{text-align:left}"
     "h2{border-bottom:1px solid #aaa}.err{color:#a00}.verdict{font-weight:bold}"
 )
 
