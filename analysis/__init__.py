@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from analysis.batch import run
+    from analysis.compare import compare
     from analysis.gate import check
     from analysis.pipeline import analyse_session
     from analysis.results import AnalysisOptions, RunResult, SessionFailure, SessionResult
@@ -27,12 +28,14 @@ __all__ = [
     "SessionResult",
     "analyse_session",
     "check",
+    "compare",
     "run",
 ]
 
 _HOMES = {
     "run": "analysis.batch",
     "check": "analysis.gate",
+    "compare": "analysis.compare",
     "analyse_session": "analysis.pipeline",
     "AnalysisOptions": "analysis.results",
     "RunResult": "analysis.results",

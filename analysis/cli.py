@@ -361,19 +361,17 @@ def compare_command(
 ) -> None:
     """Compare two runs: statistics side by side, and paired differences (B - A) on the
     trials both measured, with a 95% interval and a sign-flip test, per method."""
-    from analysis.compare import compare_runs, describe_test, write_comparison
-    from analysis.outputs import OutputFolder
+    from analysis.compare import compare, describe_test
 
     with handle_errors():
-        comparison = compare_runs(
+        comparison = compare(
             run_a,
             run_b,
+            out,
             estimator_a=estimator_a.value,
             estimator_b=estimator_b.value,
             include_warned=include_warned,
         )
-        with OutputFolder.prepare(out) as folder:
-            folder.record(write_comparison(comparison, out))
     typer.echo(f"A: {comparison.a.label}\nB: {comparison.b.label}")
     for _, row in comparison.tests.iterrows():
         typer.echo(describe_test(row))

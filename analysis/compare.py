@@ -35,6 +35,7 @@ __all__ = [
     "ESTIMATORS",
     "Comparison",
     "RunSide",
+    "compare",
     "compare_runs",
     "describe_test",
     "plot_comparison",
@@ -109,6 +110,32 @@ def compare_runs(
     side = _side_by_side(*summaries)
     paired = _paired(*used)
     return Comparison(sides[0], sides[1], side, paired, _tests(paired))
+
+
+def compare(
+    run_a: str | Path,
+    run_b: str | Path,
+    out_dir: str | Path | None = None,
+    *,
+    estimator_a: Estimator = "thesis",
+    estimator_b: Estimator = "thesis",
+    include_warned: bool = False,
+) -> Comparison:
+    """``twopose-analyze compare`` in one call: :func:`compare_runs`, and with ``out_dir``
+    its files written there (:func:`write_comparison`, in a checked, locked folder)."""
+    comparison = compare_runs(
+        run_a,
+        run_b,
+        estimator_a=estimator_a,
+        estimator_b=estimator_b,
+        include_warned=include_warned,
+    )
+    if out_dir is not None:
+        from analysis.outputs import OutputFolder
+
+        with OutputFolder.prepare(Path(out_dir)) as folder:
+            folder.record(write_comparison(comparison, out_dir))
+    return comparison
 
 
 def _side(folder: Path, estimator: Estimator) -> RunSide:

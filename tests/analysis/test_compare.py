@@ -120,3 +120,11 @@ def test_compare_refuses_a_folder_that_is_not_a_run(tmp_path: Path) -> None:
     result = runner.invoke(app, ["compare", str(tmp_path), str(tmp_path), "--out", "x"])
     assert result.exit_code == 3
     assert "no trials.csv in" in result.output
+
+
+def test_compare_is_one_call_from_python(two_runs: tuple[Path, Path], tmp_path: Path) -> None:
+    import analysis
+
+    comparison = analysis.compare(two_runs[0], two_runs[1], tmp_path / "cmp")
+    assert (tmp_path / "cmp" / "compare.html").is_file()
+    assert list(comparison.tests["method"]) == ["ground", "point"]
