@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from analysis.batch import run
-    from analysis.compare import compare
+    from analysis.comparison import compare
     from analysis.gate import check
     from analysis.pipeline import analyse_session
     from analysis.results import AnalysisOptions, RunResult, SessionFailure, SessionResult
@@ -35,7 +35,7 @@ __all__ = [
 _HOMES = {
     "run": "analysis.batch",
     "check": "analysis.gate",
-    "compare": "analysis.compare",
+    "compare": "analysis.comparison",
     "analyse_session": "analysis.pipeline",
     "AnalysisOptions": "analysis.results",
     "RunResult": "analysis.results",

@@ -361,7 +361,7 @@ def compare_command(
 ) -> None:
     """Compare two runs: statistics side by side, and paired differences (B - A) on the
     trials both measured, with a 95% interval and a sign-flip test, per method."""
-    from analysis.compare import compare, describe_test
+    from analysis.comparison import compare, describe_test
 
     with handle_errors():
         comparison = compare(

@@ -11,7 +11,7 @@ import pytest
 from typer.testing import CliRunner
 
 from analysis.cli import app
-from analysis.compare import TEST_COLUMNS, compare_runs
+from analysis.comparison import TEST_COLUMNS, compare_runs
 from analysis.metrics import paired_difference
 
 runner = CliRunner()
