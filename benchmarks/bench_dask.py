@@ -2,7 +2,7 @@
 processes against 1, on loopback, on a batch of many small sessions (the workers are
 warmed up first, as a running cluster would be).
 
-    python benchmarks/bench_dask.py [--sessions 16] [--trials 3] [--frames 5]
+    python benchmarks/bench_dask.py [--sessions 16] [--trials 5] [--frames 10]
 """
 
 from __future__ import annotations
@@ -43,8 +43,8 @@ def _folder(parent: Path, workers: int) -> Path:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sessions", type=int, default=16)
-    parser.add_argument("--trials", type=int, default=3)
-    parser.add_argument("--frames", type=int, default=5)
+    parser.add_argument("--trials", type=int, default=5)
+    parser.add_argument("--frames", type=int, default=10)
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
