@@ -5,13 +5,9 @@ Vectors are ``x, y, z`` columns in the grid frame and the session's units.
 
 from __future__ import annotations
 
-from statistics import NormalDist
-
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
-
-from twopose.uncertainty import CHI2_3DOF_95, CHI2_95, nees
 
 __all__ = [
     "NOTES_COLUMNS",
@@ -19,11 +15,9 @@ __all__ = [
     "TRIAL_COLUMNS",
     "UNCERTAINTY_COLUMNS",
     "WEIGHTED_COLUMNS",
-    "line_errors",
     "paired_difference",
     "summarize",
     "t95",
-    "uncertainty_columns",
 ]
 
 F64 = NDArray[np.float64]
@@ -120,64 +114,6 @@ SUMMARY_COLUMNS = [
     "median_err_all_ok",
     "max_err_all_ok",
 ]
-
-
-def line_errors(
-    point_grid: F64, direction_grid: F64, gt_a: F64, gt_b: F64
-) -> tuple[F64, F64, F64, F64]:
-    """Compare estimated lines with ground-truth lines.
-
-    Parameters
-    ----------
-    point_grid, direction_grid : (T, 3)
-        A point on each estimated line and its unit direction.
-    gt_a, gt_b : (T, 3)
-        Two points on each true line.
-
-    Returns
-    -------
-    nearest : (T, 3)
-        The estimated line's point nearest the true segment's midpoint.
-    midpoint : (T, 3)
-        The true segment's midpoint.
-    angle_err_deg : (T,)
-        Angle between the lines, in [0, 90] degrees (lines have no arrow).
-    dist_err : (T,)
-        Distance from the true midpoint to the estimated line.
-    """
-    mid = 0.5 * (gt_a + gt_b)
-    s = np.einsum("ti,ti->t", mid - point_grid, direction_grid)
-    nearest = point_grid + s[:, None] * direction_grid
-    gt_dir = (gt_b - gt_a) / np.linalg.norm(gt_b - gt_a, axis=1, keepdims=True)
-    cos = np.clip(np.abs(np.einsum("ti,ti->t", gt_dir, direction_grid)), 0.0, 1.0)
-    angle = np.degrees(np.arccos(cos))
-    dist = np.linalg.norm(nearest - mid, axis=1)
-    return nearest, mid, angle, dist
-
-
-def uncertainty_columns(error: F64, cov: F64) -> dict[str, F64]:
-    """The uncertainty columns computable from errors (T, 3) and covariances (T, 3, 3)."""
-    sigma = np.sqrt(np.diagonal(cov, axis1=1, axis2=2))
-    with np.errstate(invalid="ignore"):
-        eig = np.full(len(cov), np.nan)
-        finite = np.isfinite(cov).all(axis=(1, 2))
-        if finite.any():
-            eig[finite] = np.linalg.eigvalsh(cov[finite])[:, -1]
-        score, dof = nees(error, cov)
-        limit = np.array([CHI2_95.get(int(d), np.nan) for d in dof])
-        within = np.where(np.isfinite(score), score <= limit, np.nan)
-    half95 = NormalDist().inv_cdf(0.975)
-    return {
-        **{f"sigma_{a}": sigma[:, i] for i, a in enumerate("xyz")},
-        "cov_xy": cov[:, 0, 1],
-        "cov_xz": cov[:, 0, 2],
-        "cov_yz": cov[:, 1, 2],
-        **{f"ci95_{a}": half95 * sigma[:, i] for i, a in enumerate("xyz")},
-        "semiaxis95": np.sqrt(CHI2_3DOF_95 * eig),
-        "nees": score,
-        "nees_dof": dof,
-        "within95": within,
-    }
 
 
 def summarize(trials: pd.DataFrame, *, include_warned: bool = False) -> pd.DataFrame:

@@ -18,24 +18,26 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from analysis.estimate import (
+from analysis.results import AnalysisOptions, SessionResult
+from analysis.results_mcap import ResultsWriter
+from analysis.tables import FRAME_COLUMNS, averaging_table, frame_row, trial_table, view_table
+from twopose.camera import Intrinsics, rotation_from_angles_deg
+from twopose.detect import Detection, PoseMeasurement, detect
+from twopose.errors import SessionFormatError
+from twopose.estimate import (
     Estimates,
     GroundSpec,
     PoseView,
     estimate_trials,
     margin_warnings,
     measure,
+    pose_view,
     running_estimates,
 )
-from analysis.results import AnalysisOptions, SessionResult
-from analysis.results_mcap import ResultsWriter, TrialScene
-from analysis.tables import FRAME_COLUMNS, averaging_table, frame_row, trial_table, view_table
-from twopose.camera import Intrinsics, rotation_from_angles_deg
-from twopose.detect import Detection, PoseMeasurement, detect
-from twopose.errors import SessionFormatError
 from twopose.format.entries import PoseEntry
 from twopose.format.reader import SessionReader
 from twopose.format.trials import TrialRecord, iter_trials, read_notes
+from twopose.scene3d import TrialScene
 
 __all__ = ["analyse_session", "keep_frame_buffers"]
 
@@ -255,18 +257,12 @@ def _detect_trial(
 
 
 def _pose_view(entry: PoseEntry, intrinsics: Intrinsics, dets: list[Detection]) -> PoseView:
-    """A complete pose: its typed pose, its camera and its frames' detections as arrays."""
-    return PoseView(
-        entry.pose,
-        np.array([intrinsics.fx, intrinsics.fy, intrinsics.cx, intrinsics.cy]),
-        (intrinsics.width, intrinsics.height),
-        np.array(entry.t_grid),
-        np.array(entry.r_deg),
-        entry.translation_resolution,
-        entry.rotation_resolution_deg,
-        np.array([d.centroid_px for d in dets], dtype=np.float64).reshape(-1, 2),
-        np.array([d.theta_deg for d in dets], dtype=np.float64),
-        np.array([d.found for d in dets], dtype=bool),
+    return pose_view(
+        entry,
+        intrinsics,
+        [d.found for d in dets],
+        [d.centroid_px for d in dets],
+        [d.theta_deg for d in dets],
     )
 
 

@@ -10,6 +10,11 @@ import pandas as pd
 
 from analysis.tables import VIEW_COLUMNS
 from twopose.detect import CombineMethod, DotParams, GloveParams
+from twopose.estimate import (
+    DEFAULT_MIN_GROUND_ANGLE_DEG,
+    DEFAULT_MIN_PARALLAX_DEG,
+    DEFAULT_MIN_PLANE_ANGLE_DEG,
+)
 from twopose.solve import DEFAULT_MIN_CONDITIONING
 
 __all__ = ["AnalysisOptions", "RunResult", "SessionFailure", "SessionResult"]
@@ -24,9 +29,9 @@ class AnalysisOptions:
     dot: DotParams = field(default_factory=DotParams)
     min_conditioning: float = DEFAULT_MIN_CONDITIONING
     # Degeneracy margins: an ok trial under one of these gets a warning (degrees).
-    min_parallax_deg: float = 1.0  # ray parallax, points
-    min_plane_angle_deg: float = 5.0  # between back-projected planes, lines and method 2
-    min_ground_angle_deg: float = 10.0  # between the line and the ground, method 2
+    min_parallax_deg: float = DEFAULT_MIN_PARALLAX_DEG
+    min_plane_angle_deg: float = DEFAULT_MIN_PLANE_ANGLE_DEG
+    min_ground_angle_deg: float = DEFAULT_MIN_GROUND_ANGLE_DEG
     # A session still running after this many seconds is stopped and listed as failed, so
     # that one pathological file cannot stall a batch (None: no limit).
     session_timeout_s: float | None = 600.0

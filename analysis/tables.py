@@ -15,18 +15,15 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from analysis.metrics import (
-    LINE_COLUMNS,
-    OPTIMAL_COLUMNS,
-    TRIAL_COLUMNS,
-    line_errors,
-    uncertainty_columns,
-)
+from analysis.metrics import LINE_COLUMNS, OPTIMAL_COLUMNS, TRIAL_COLUMNS
 from twopose.camera import rotation_from_angles_deg
 from twopose.detect import Detection, PoseMeasurement
+from twopose.estimate import line_errors
+from twopose.trial_result import reported_point
+from twopose.uncertainty import uncertainty_columns
 
 if TYPE_CHECKING:
-    from analysis.estimate import Estimates, PoseView, Solved
+    from twopose.estimate import Estimates, PoseView, Solved
     from twopose.format.entries import PoseEntry
     from twopose.format.messages import Frame
 
@@ -105,19 +102,17 @@ def frame_row(
 
 def _estimate_and_truth(method: str, est: Estimates, truth: F64) -> tuple[F64, F64, dict[str, Any]]:
     """The reported estimate, the truth it is compared with, and the method's extra columns."""
+    point, reference = reported_point(method, est, truth)  # the one rule, shared with live
     if method == "line":
         with np.errstate(invalid="ignore"):
-            point, mid, angle, dist = line_errors(
-                est.point, est.direction, truth[:, 0], truth[:, 1]
-            )
-        point = np.where(np.isfinite(mid), point, est.point)  # no truth: the solved point
+            _, _, angle, dist = line_errors(est.point, est.direction, truth[:, 0], truth[:, 1])
         extra = {f"dir_{a}": est.direction[:, i] for i, a in enumerate("xyz")}
-        return point, mid, extra | {"angle_err_deg": angle, "dist_err": dist}
+        return point, reference, extra | {"angle_err_deg": angle, "dist_err": dist}
     if method == "point":  # the estimators side by side
         opt_err = est.optimal - truth[:, 0]
         extra = {f"{a}_optimal": est.optimal[:, i] for i, a in enumerate("xyz")}
-        return est.point, truth[:, 0], extra | {"err_optimal": np.linalg.norm(opt_err, axis=1)}
-    return est.point, truth[:, 0], {}
+        return point, reference, extra | {"err_optimal": np.linalg.norm(opt_err, axis=1)}
+    return point, reference, {}
 
 
 def _weighted_line_columns(est: Estimates, truth: F64) -> dict[str, Any]:

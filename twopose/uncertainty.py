@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from statistics import NormalDist
 
 import numpy as np
 from numpy.typing import NDArray
@@ -32,6 +33,7 @@ __all__ = [
     "nees",
     "pooled_scatter",
     "propagate",
+    "uncertainty_columns",
 ]
 
 F64 = NDArray[np.float64]
@@ -224,3 +226,28 @@ def nees(error: F64, cov: F64) -> tuple[F64, NDArray[np.int_]]:
         dof[good] = keep.sum(axis=1)
     out[dof == 0] = np.nan
     return out, dof
+
+
+def uncertainty_columns(error: F64, cov: F64) -> dict[str, F64]:
+    """The uncertainty columns computable from errors (T, 3) and covariances (T, 3, 3)."""
+    sigma = np.sqrt(np.diagonal(cov, axis1=1, axis2=2))
+    with np.errstate(invalid="ignore"):
+        eig = np.full(len(cov), np.nan)
+        finite = np.isfinite(cov).all(axis=(1, 2))
+        if finite.any():
+            eig[finite] = np.linalg.eigvalsh(cov[finite])[:, -1]
+        score, dof = nees(error, cov)
+        limit = np.array([CHI2_95.get(int(d), np.nan) for d in dof])
+        within = np.where(np.isfinite(score), score <= limit, np.nan)
+    half95 = NormalDist().inv_cdf(0.975)
+    return {
+        **{f"sigma_{a}": sigma[:, i] for i, a in enumerate("xyz")},
+        "cov_xy": cov[:, 0, 1],
+        "cov_xz": cov[:, 0, 2],
+        "cov_yz": cov[:, 1, 2],
+        **{f"ci95_{a}": half95 * sigma[:, i] for i, a in enumerate("xyz")},
+        "semiaxis95": np.sqrt(CHI2_3DOF_95 * eig),
+        "nees": score,
+        "nees_dof": dof,
+        "within95": within,
+    }

@@ -6,7 +6,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.metrics import SUMMARY_COLUMNS, line_errors, summarize, uncertainty_columns
+from analysis.metrics import SUMMARY_COLUMNS, summarize
+from twopose.estimate import line_errors
+from twopose.uncertainty import uncertainty_columns
 
 
 def test_line_errors_of_a_shifted_tilted_line() -> None:

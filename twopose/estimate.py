@@ -7,17 +7,19 @@ propagates the input covariance to every estimate (:mod:`twopose.uncertainty`).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
-from analysis.results import AnalysisOptions
-from twopose.camera import rotation_from_angles_deg
+from twopose.camera import Intrinsics, rotation_from_angles_deg
 from twopose.conditioning import parallax_sine
-from twopose.detect import PoseMeasurement, combine_frames
+from twopose.detect import CombineMethod, PoseMeasurement, combine_frames
+from twopose.format.entries import PoseEntry
 from twopose.solve import (
+    DEFAULT_MIN_CONDITIONING,
     image_lines,
     projection_matrices,
     triangulate_ground,
@@ -34,18 +36,59 @@ from twopose.uncertainty import (
 )
 
 __all__ = [
+    "DEFAULT_MIN_GROUND_ANGLE_DEG",
+    "DEFAULT_MIN_PARALLAX_DEG",
+    "DEFAULT_MIN_PLANE_ANGLE_DEG",
     "MARGINS",
+    "EstimateOptions",
+    "EstimateSettings",
     "Estimates",
     "GroundSpec",
     "PoseView",
     "ViewBatch",
     "estimate_trials",
+    "line_errors",
     "measure",
+    "pose_view",
     "running_estimates",
     "solve_batch",
 ]
 
 F64 = NDArray[np.float64]
+
+# Degeneracy margins: an ok trial under one of these gets a warning (degrees).
+DEFAULT_MIN_PARALLAX_DEG = 1.0  # ray parallax, points
+DEFAULT_MIN_PLANE_ANGLE_DEG = 5.0  # between back-projected planes, lines and method 2
+DEFAULT_MIN_GROUND_ANGLE_DEG = 10.0  # between the line and the ground, method 2
+
+
+class EstimateSettings(Protocol):
+    """What estimation reads from its options (``analysis.AnalysisOptions`` has it all;
+    the recorder's live result uses :class:`EstimateOptions`)."""
+
+    @property
+    def combine(self) -> CombineMethod: ...
+    @property
+    def min_conditioning(self) -> float: ...
+    @property
+    def min_parallax_deg(self) -> float: ...
+    @property
+    def min_plane_angle_deg(self) -> float: ...
+    @property
+    def min_ground_angle_deg(self) -> float: ...
+
+
+@dataclass(frozen=True)
+class EstimateOptions:
+    """How a pose's frames are combined and when a margin warns: the analysis' defaults."""
+
+    combine: CombineMethod = "mean"
+    min_conditioning: float = DEFAULT_MIN_CONDITIONING
+    min_parallax_deg: float = DEFAULT_MIN_PARALLAX_DEG
+    min_plane_angle_deg: float = DEFAULT_MIN_PLANE_ANGLE_DEG
+    min_ground_angle_deg: float = DEFAULT_MIN_GROUND_ANGLE_DEG
+
+
 #: The ground plane as ``(normal_grid (3,), offset)``.
 GroundSpec = tuple[F64, float]
 #: The degeneracy margins (degrees) each method reports.
@@ -72,8 +115,30 @@ class PoseView:
     found: NDArray[np.bool_]  # (K,)
 
 
+def pose_view(
+    entry: PoseEntry,
+    intrinsics: Intrinsics,
+    found: Sequence[bool],
+    centroids_px: Sequence[tuple[float, float]],
+    thetas_deg: Sequence[float],
+) -> PoseView:
+    """A complete pose: its typed pose, its camera and its frames' detections as arrays."""
+    return PoseView(
+        entry.pose,
+        np.array([intrinsics.fx, intrinsics.fy, intrinsics.cx, intrinsics.cy]),
+        (intrinsics.width, intrinsics.height),
+        np.array(entry.t_grid),
+        np.array(entry.r_deg),
+        entry.translation_resolution,
+        entry.rotation_resolution_deg,
+        np.array(centroids_px, dtype=np.float64).reshape(-1, 2),
+        np.array(thetas_deg, dtype=np.float64),
+        np.array(found, dtype=bool),
+    )
+
+
 def measure(
-    views: list[list[PoseView]], options: AnalysisOptions
+    views: list[list[PoseView]], options: EstimateSettings
 ) -> tuple[list[list[PoseMeasurement]], NDArray[np.bool_], NDArray[np.bool_]]:
     """Each pose's frames combined into one measurement (the thesis' mean, or median /
     robust). Returns the measurements (empty for a trial with fewer than two poses), and
@@ -135,7 +200,7 @@ class Solved:
 
 
 def solve_batch(
-    method: str, batch: ViewBatch, ground: GroundSpec | None, options: AnalysisOptions
+    method: str, batch: ViewBatch, ground: GroundSpec | None, options: EstimateSettings
 ) -> Solved:
     """Batch-solve rows of N >= 2 pose measurements with every estimator."""
     px, th, valid, P = batch.inputs[..., :2], batch.inputs[..., 2], batch.valid, batch.P()
@@ -167,7 +232,7 @@ def thesis_estimate(
     method: str,
     batch: ViewBatch,
     ground: GroundSpec | None,
-    options: AnalysisOptions,
+    options: EstimateSettings,
     reference: F64,
 ) -> Callable[[F64], F64]:
     """The thesis' estimate as a function of the (perturbed) inputs, for propagation.
@@ -208,7 +273,7 @@ def degrees_from_sine(sine: F64) -> F64:
 
 
 def margin_warnings(
-    status: NDArray[np.str_], margins: dict[str, F64], options: AnalysisOptions
+    status: NDArray[np.str_], margins: dict[str, F64], options: EstimateSettings
 ) -> list[str]:
     """Per trial, the margins under their thresholds (empty when none, or not ok)."""
     limits = {
@@ -317,7 +382,7 @@ def estimate_trials(
     detected: NDArray[np.bool_],
     truth: F64,
     ground: GroundSpec | None,
-    options: AnalysisOptions,
+    options: EstimateSettings,
 ) -> Estimates:
     """Solve every detected trial with every estimator, in one batch, and propagate each
     one's input covariance (pixels from the frame scatter, poses from the typed resolution).
@@ -392,7 +457,7 @@ def _store_weighted_lines(
     rows: NDArray[np.intp],
     batch: ViewBatch,
     cov_in: F64,
-    options: AnalysisOptions,
+    options: EstimateSettings,
 ) -> None:
     """The weighted/robust line fit beside the thesis' one, weighted by each view's noise."""
     weighted = triangulate_lines(
@@ -415,7 +480,7 @@ def running_estimates(
     views: list[list[PoseView]],
     detected: NDArray[np.bool_],
     ground: GroundSpec | None,
-    options: AnalysisOptions,
+    options: EstimateSettings,
 ) -> tuple[list[tuple[int, int]], Solved | None]:
     """The estimate from the first 1..K frames of each pose (the thesis' Figures 22-23).
 
@@ -439,3 +504,36 @@ def running_estimates(
     if not keys:
         return keys, None
     return keys, solve_batch(method, ViewBatch.of(rows_m, rows_v), ground, options)
+
+
+def line_errors(
+    point_grid: F64, direction_grid: F64, gt_a: F64, gt_b: F64
+) -> tuple[F64, F64, F64, F64]:
+    """Compare estimated lines with ground-truth lines.
+
+    Parameters
+    ----------
+    point_grid, direction_grid : (T, 3)
+        A point on each estimated line and its unit direction.
+    gt_a, gt_b : (T, 3)
+        Two points on each true line.
+
+    Returns
+    -------
+    nearest : (T, 3)
+        The estimated line's point nearest the true segment's midpoint.
+    midpoint : (T, 3)
+        The true segment's midpoint.
+    angle_err_deg : (T,)
+        Angle between the lines, in [0, 90] degrees (lines have no arrow).
+    dist_err : (T,)
+        Distance from the true midpoint to the estimated line.
+    """
+    mid = 0.5 * (gt_a + gt_b)
+    s = np.einsum("ti,ti->t", mid - point_grid, direction_grid)
+    nearest = point_grid + s[:, None] * direction_grid
+    gt_dir = (gt_b - gt_a) / np.linalg.norm(gt_b - gt_a, axis=1, keepdims=True)
+    cos = np.clip(np.abs(np.einsum("ti,ti->t", gt_dir, direction_grid)), 0.0, 1.0)
+    angle = np.degrees(np.arccos(cos))
+    dist = np.linalg.norm(nearest - mid, axis=1)
+    return nearest, mid, angle, dist

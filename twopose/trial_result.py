@@ -1,0 +1,160 @@
+"""A trial's result as the analysis reports it, for the recorder's live view (the thesis'
+GUI computed the point on the spot, section 5.2.4) and for the analysis' tables.
+
+:func:`trial_results` runs the analysis' own estimation (:mod:`twopose.estimate`: the
+same frame combination, solvers, margins and uncertainty propagation) on the trials so
+far, and :func:`reported_point` is the one rule for which point a trial reports and what
+it is compared with. The estimate and its error are the analysis' exactly; the 95% region
+pools the frame scatter of the trials so far, where the analysis pools the whole session.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from twopose.estimate import (
+    EstimateOptions,
+    Estimates,
+    EstimateSettings,
+    GroundSpec,
+    PoseView,
+    estimate_trials,
+    line_errors,
+    margin_warnings,
+    measure,
+)
+from twopose.uncertainty import uncertainty_columns
+
+__all__ = ["TrialResult", "reported_point", "trial_results"]
+
+F64 = NDArray[np.float64]
+
+
+def reported_point(method: str, est: Estimates, truth: F64) -> tuple[F64, F64]:
+    """Per trial, the point reported and the true point it is compared with (T, 3) each:
+    for lines, the estimated line's point nearest the true segment's midpoint, and that
+    midpoint (with no truth, the solved point and NaN); otherwise the estimate and the
+    first true point."""
+    if method == "line":
+        with np.errstate(invalid="ignore"):
+            point, mid, _, _ = line_errors(est.point, est.direction, truth[:, 0], truth[:, 1])
+        return np.where(np.isfinite(mid), point, est.point), mid
+    return est.point, truth[:, 0]
+
+
+@dataclass(frozen=True)
+class TrialResult:
+    """One trial's live result, in session units."""
+
+    trial: int
+    method: str
+    units: str
+    n_views: int
+    status: str  # ok, degenerate, no_detection, incomplete (as trials.csv)
+    reason: str
+    point: tuple[float, float, float]
+    direction: tuple[float, float, float] | None  # lines
+    semiaxis95: float  # the 95% ellipsoid's longest semi-axis
+    ci95: tuple[float, float, float]  # 95% half-widths per axis
+    margins: dict[str, float] = field(default_factory=dict)  # degrees, by trials.csv column
+    warning: str = ""  # margins under their thresholds
+    error: float = math.nan  # against the typed ground truth (NaN: none)
+    error_xyz: tuple[float, float, float] = (math.nan, math.nan, math.nan)
+
+    def text(self) -> str:
+        """One line: ``trial 3 (2 views): x 1.915 y 9.625 z 8.402 in; 95% within 0.183
+        in; error 0.052 in``, then the warning; or why there is no estimate."""
+        head = f"trial {self.trial} ({self.n_views} views)"
+        if self.status != "ok":
+            return f"{head}: {self.status}: {self.reason}"
+        x, y, z = self.point
+        parts = [f"{head}: x {x:.3f} y {y:.3f} z {z:.3f} {self.units}"]
+        if self.direction is not None:
+            dx, dy, dz = self.direction
+            parts.append(f"direction ({dx:.3f}, {dy:.3f}, {dz:.3f})")
+        if math.isfinite(self.semiaxis95):
+            parts.append(f"95% within {self.semiaxis95:.3f} {self.units}")
+        if math.isfinite(self.error):
+            parts.append(f"error {self.error:.3f} {self.units}")
+        if self.warning:
+            parts.append(f"WARNING {self.warning}")
+        return "; ".join(parts)
+
+    def to_json(self) -> dict[str, object]:
+        """A JSON object (NaN as null) for the web console and the live view."""
+
+        def clean(value: float) -> float | None:
+            return value if math.isfinite(value) else None
+
+        return {
+            "trial": self.trial,
+            "method": self.method,
+            "units": self.units,
+            "n_views": self.n_views,
+            "status": self.status,
+            "reason": self.reason,
+            "point": [clean(v) for v in self.point],
+            "direction": None if self.direction is None else list(self.direction),
+            "semiaxis95": clean(self.semiaxis95),
+            "ci95": [clean(v) for v in self.ci95],
+            "margins": {k: clean(v) for k, v in self.margins.items()},
+            "warning": self.warning,
+            "error": clean(self.error),
+            "error_xyz": [clean(v) for v in self.error_xyz],
+            "text": self.text(),
+        }
+
+
+def trial_results(
+    method: str,
+    units: str,
+    trial_ids: Sequence[int],
+    views: list[list[PoseView]],
+    truth: F64,
+    ground: GroundSpec | None,
+    options: EstimateSettings | None = None,
+) -> list[TrialResult]:
+    """Every trial's result, solved in one batch as the analysis solves a session.
+
+    Parameters
+    ----------
+    trial_ids : (T,)
+    views : T lists of the trial's accepted poses (fewer than two: incomplete)
+    truth : (T, 2, 3)
+        Each trial's true point (twice) or line's two points; NaN where unknown.
+    """
+    options = options or EstimateOptions()
+    measurements, complete, detected = measure(views, options)
+    est = estimate_trials(method, views, measurements, complete, detected, truth, ground, options)
+    point, reference = reported_point(method, est, truth)
+    err = point - reference
+    spread = uncertainty_columns(err, est.cov)
+    warnings = margin_warnings(est.status, est.margins, options)
+    return [
+        TrialResult(
+            trial=int(trial),
+            method=method,
+            units=units,
+            n_views=len(views[i]),
+            status=str(est.status[i]),
+            reason=str(est.reason[i]),
+            point=_triple(point[i]),
+            direction=_triple(est.direction[i]) if method == "line" else None,
+            semiaxis95=float(spread["semiaxis95"][i]),
+            ci95=_triple(np.array([spread[f"ci95_{a}"][i] for a in "xyz"])),
+            margins={k: float(v[i]) for k, v in est.margins.items()},
+            warning=warnings[i],
+            error=float(np.linalg.norm(err[i])),
+            error_xyz=_triple(err[i]),
+        )
+        for i, trial in enumerate(trial_ids)
+    ]
+
+
+def _triple(values: F64) -> tuple[float, float, float]:
+    return (float(values[0]), float(values[1]), float(values[2]))
