@@ -84,6 +84,7 @@ def capture_frames(
     incomplete with the reason; an interrupt (Ctrl-C) does the same, then propagates.
     """
     from twopose.detect import detect
+    from twopose.images import decode_image
 
     source.start_capture()
     dropped_before = source.dropped
@@ -101,7 +102,9 @@ def capture_frames(
             started = time.perf_counter()
             data = writer.encode_image(image)
             cap.add_encoded(data)
-            d = None if target is None else detect(image, target)
+            # Detected on the frame as stored (decoded), as the analysis will: the live
+            # result is then the analysis' own, to the last digit.
+            d = None if target is None else detect(decode_image(data, "the frame"), target)
             fb = None if d is None else _feedback(k, d)
             if fb is not None:
                 feedback.append(fb)

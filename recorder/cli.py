@@ -164,7 +164,14 @@ def new(
             the_plan = load_plan(plan)
             src = open_source(source, method=the_plan.method, width=width, height=height, fps=fps)
             view = _live_view(stack, list(the_plan.cameras), live_port) if live else None
-            summary = record_plan(the_plan, out, src, on_capture=_report_capture, live=view)
+            summary = record_plan(
+                the_plan,
+                out,
+                src,
+                on_capture=_report_capture,
+                live=view,
+                on_result=lambda result: typer.echo(f"  result: {result.text()}"),
+            )
         else:
             given = {
                 "method": method.value if method else None,

@@ -42,6 +42,7 @@ from twopose.values import Vec3, finite, numbers, vec3
 
 if TYPE_CHECKING:
     from recorder.live import LiveView
+    from twopose.trial_result import TrialResult
 
 __all__ = ["Operator", "Setup", "ask_setup", "parse_vector", "record_interactive"]
 
@@ -259,6 +260,9 @@ class _OperatorDriver(Driver):
             f"pose {pose}: {result.n_frames} frames, {result.n_found} detected, {state}, "
             f"{result.dropped} dropped"
         )
+
+    def trial_result(self, result: TrialResult) -> None:
+        self.op.say(f"  result: {result.text()}")
 
     def decide(self, trial: int, pose: int, result: CaptureResult) -> Decision:
         return cast(

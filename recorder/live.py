@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any, Self
 from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
 from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
 from foxglove_schemas_protobuf.ImageAnnotations_pb2 import ImageAnnotations
+from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from mcap_protobuf.schema import build_file_descriptor_set
 
 from twopose.camera import Camera
@@ -29,14 +30,25 @@ from twopose.format.messages import (
     image_topic,
 )
 from twopose.overlay import image_annotations
+from twopose.scene3d import TrialScene, trial_scene
 
 if TYPE_CHECKING:
     from twopose.detect import Detection
+    from twopose.trial_result import TrialResult
 
-__all__ = ["DEFAULT_LIVE_PORT", "STATUS_TOPIC", "LiveView", "annotations_topic"]
+__all__ = [
+    "DEFAULT_LIVE_PORT",
+    "RESULT_TOPIC",
+    "SCENE_TOPIC",
+    "STATUS_TOPIC",
+    "LiveView",
+    "annotations_topic",
+]
 
 DEFAULT_LIVE_PORT = 8765
 STATUS_TOPIC = "/twopose/live/status"
+SCENE_TOPIC = "/twopose/live/scene"  # foxglove.SceneUpdate: the trial's live result in 3-D
+RESULT_TOPIC = "/twopose/live/result"  # JSON: the trial's live result (TrialResult.to_json)
 STATUS_SCHEMA = {
     "$schema": "https://json-schema.org/draft/2020-12/schema",
     "title": "twopose.LiveStatus",
@@ -120,6 +132,13 @@ class LiveView:
             for c in cameras
         }
         self._cameras = {c.camera_id: c for c in cameras}
+        self._scene = proto_channel(SCENE_TOPIC, SceneUpdate)
+        self._result = foxglove.Channel(
+            RESULT_TOPIC,
+            schema=foxglove.Schema(name="twopose.TrialResult", encoding="jsonschema", data=b"{}"),
+            message_encoding="json",
+            context=self._context,
+        )
         self._status = foxglove.Channel(
             STATUS_TOPIC,
             schema=foxglove.Schema(
@@ -179,6 +198,14 @@ class LiveView:
             "message": message,
         }
         self._status.log(json.dumps(status).encode(), log_time=log_time_ns)
+
+    def trial_result(self, result: TrialResult, scene: TrialScene | None, log_time_ns: int) -> None:
+        """A trial's live result: as JSON, and in 3-D (cameras, rays or planes, the
+        estimate with its 95% ellipsoid, the truth and the error vector)."""
+        self._result.log(json.dumps(result.to_json()).encode(), log_time=log_time_ns)
+        if scene is not None:
+            update = trial_scene(scene, log_time_ns)
+            self._scene.log(update.SerializeToString(), log_time=log_time_ns)
 
     def close(self) -> None:
         self._guard.close()

@@ -39,6 +39,7 @@ from twopose.values import Vec3, finite, numbers, vec3
 
 if TYPE_CHECKING:
     from recorder.live import LiveView
+    from twopose.trial_result import TrialResult
 
 __all__ = [
     "MAX_TRANSLATION",
@@ -227,9 +228,11 @@ class _PlanDriver(Driver):
         self,
         plan: Plan,
         on_capture: Callable[[int, int, CaptureResult], None] | None,
+        on_result: Callable[[TrialResult], None] | None = None,
     ) -> None:
         self.plan = plan
         self.on_capture = on_capture
+        self.on_result = on_result
         self.path = Path()
 
     def start(self, source: object, path: Path) -> None:
@@ -266,6 +269,10 @@ class _PlanDriver(Driver):
         if self.on_capture is not None:
             self.on_capture(trial, pose, result)
 
+    def trial_result(self, result: TrialResult) -> None:
+        if self.on_result is not None:
+            self.on_result(result)
+
     def decide(self, trial: int, pose: int, result: CaptureResult) -> Decision:
         if not result.complete:
             raise SourceError(
@@ -283,11 +290,13 @@ def record_plan(
     on_frame: Callable[[FrameFeedback], None] | None = None,
     on_capture: Callable[[int, int, CaptureResult], None] | None = None,
     live: LiveView | None = None,
+    on_result: Callable[[TrialResult], None] | None = None,
 ) -> RecordingSummary:
     """Record ``plan`` into the new session ``out`` from an (unopened) ``source``.
 
     A capture that fails is kept (incomplete) and the recording stops there with a
     :class:`SourceError`; everything written before it is in the file, which is closed.
+    ``on_result`` receives each trial's live result (new or updated).
     """
     info = SessionInfo(
         method=plan.method,
@@ -303,7 +312,7 @@ def record_plan(
         info,
         plan.cameras,
         source,
-        _PlanDriver(plan, on_capture),
+        _PlanDriver(plan, on_capture, on_result),
         ground=ground,
         frames=plan.frames,
         target="dot" if plan.method == "point" else "glove",

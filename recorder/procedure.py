@@ -44,6 +44,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from recorder.capture import CaptureResult, FrameFeedback, capture_frames
+from recorder.live_result import LiveResults
 from recorder.sources import FrameSource, SourceInfo
 from twopose.camera import Camera
 from twopose.errors import InputValueError, SessionExistsError, TwoposeError
@@ -61,6 +62,7 @@ from twopose.values import Vec3
 
 if TYPE_CHECKING:
     from recorder.live import LiveView
+    from twopose.trial_result import TrialResult
 
 __all__ = [
     "TRANSITIONS",
@@ -329,6 +331,9 @@ class Driver:
         """Entries written when the trial is done (the simulation truth)."""
         return ()
 
+    def trial_result(self, result: TrialResult) -> None:
+        """A trial's live result, new or updated (shown to the operator)."""
+
     def finish(self, summary: RecordingSummary) -> None:
         """The session is closed."""
 
@@ -424,6 +429,7 @@ class _CaptureOptions:
     live: LiveView | None
     on_frame: Callable[[FrameFeedback], None] | None
     on_progress: Callable[[], None] | None
+    results: LiveResults | None = None  # with live detection: each trial's live result
 
 
 def record(
@@ -452,7 +458,8 @@ def record(
     out = Path(path)
     refuse_existing(out)
     tally = _Tally()
-    options = _CaptureOptions(frames, target, live, on_frame, on_progress)
+    results = None if target is None else LiveResults(info.method, info.units, cameras, ground)
+    options = _CaptureOptions(frames, target, live, on_frame, on_progress, results)
     interrupted = False
     try:
         with contextlib.ExitStack() as stack:
@@ -505,7 +512,10 @@ def _run(
     """Trial after trial, as long as the driver wants one and does not quit."""
     while driver.next_trial(proc.trial + 1):
         trial = proc.trial + 1
-        proc.begin_trial(trial, driver.poses_in(trial), driver.trial_entries(trial))
+        entries = driver.trial_entries(trial)
+        proc.begin_trial(trial, driver.poses_in(trial), entries)
+        if opts.results is not None:
+            opts.results.begin(trial, entries)
         if not _record_trial(proc, source, driver, tally, opts):
             return
         for entry in driver.end_trial(trial):
@@ -530,9 +540,27 @@ def _record_trial(
         )
         tally.add(result)
         driver.captured(proc.trial, proc.pose, result)
+        if opts.results is not None and proc.entry is not None:
+            opts.results.captured(proc.entry, result)
+        trial = proc.trial
         if not _decide(proc, driver, result):
             return False
+        _show_result(trial, proc, driver, opts)
     return True
+
+
+def _show_result(trial: int, proc: Procedure, driver: Driver, opts: _CaptureOptions) -> None:
+    """After a decision: the trial's live result if its accepted poses changed (a second
+    pose gives one, a third updates it), to the driver and the live view."""
+    if opts.results is None:
+        return
+    result = opts.results.update(trial, proc.accepted)
+    if result is None:
+        return
+    driver.trial_result(result)
+    if opts.live is not None:
+        scene = opts.results.scene(trial)
+        opts.live.trial_result(result, scene, time.time_ns())
 
 
 def _decide(proc: Procedure, driver: Driver, result: CaptureResult) -> bool:

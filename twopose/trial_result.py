@@ -65,6 +65,7 @@ class TrialResult:
     warning: str = ""  # margins under their thresholds
     error: float = math.nan  # against the typed ground truth (NaN: none)
     error_xyz: tuple[float, float, float] = (math.nan, math.nan, math.nan)
+    cov: tuple[tuple[float, float, float], ...] = ()  # (3, 3) of ``point``, propagated
 
     def text(self) -> str:
         """One line: ``trial 3 (2 views): x 1.915 y 9.625 z 8.402 in; 95% within 0.183
@@ -106,6 +107,7 @@ class TrialResult:
             "warning": self.warning,
             "error": clean(self.error),
             "error_xyz": [clean(v) for v in self.error_xyz],
+            "cov": [[clean(v) for v in row] for row in self.cov],
             "text": self.text(),
         }
 
@@ -151,6 +153,7 @@ def trial_results(
             warning=warnings[i],
             error=float(np.linalg.norm(err[i])),
             error_xyz=_triple(err[i]),
+            cov=tuple(_triple(row) for row in est.cov[i]),
         )
         for i, trial in enumerate(trial_ids)
     ]

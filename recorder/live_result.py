@@ -1,0 +1,123 @@
+"""Each trial's result while the operator is still at the bench (the thesis' GUI computed
+the point on the spot, section 5.2.4).
+
+:class:`LiveResults` follows the procedure: the captures' live detections, which of them
+the operator accepted, each trial's typed ground truth. After every accepted pose of a
+trial with two or more, it solves every trial so far with the core's estimation
+(:func:`twopose.trial_result.trial_results`, the analysis' own), so a third pose updates
+the result, and an undone pose withdraws it. Nothing is written: the file holds what the
+operator did, the analysis stays the reference.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping, Sequence
+
+import numpy as np
+
+from recorder.capture import CaptureResult
+from twopose.camera import Camera, rotation_from_angles_deg
+from twopose.estimate import EstimateOptions, GroundSpec, PoseView, measure, pose_view
+from twopose.format.entries import GroundPlane, GroundTruth, PoseEntry, TypedEntry
+from twopose.scene3d import TrialScene
+from twopose.trial_result import TrialResult, trial_results
+
+__all__ = ["LiveResults"]
+
+
+class LiveResults:
+    """The live results of a recording (see the module docstring)."""
+
+    def __init__(
+        self,
+        method: str,
+        units: str,
+        cameras: Sequence[Camera],
+        ground: GroundPlane | None,
+        options: EstimateOptions | None = None,
+    ) -> None:
+        self.method, self.units = method, units
+        self.options = options or EstimateOptions()
+        self._cameras = {c.camera_id: c for c in cameras}
+        self._ground: GroundSpec | None = (
+            (np.array(ground.normal_grid, dtype=np.float64), ground.offset) if ground else None
+        )
+        self._captures: dict[int, PoseView] = {}  # capture number -> its detections
+        self._truth: dict[int, np.ndarray] = {}  # trial -> (2, 3)
+        self._views: dict[int, list[PoseView]] = {}  # trial -> its accepted poses, in order
+        self._solved: dict[int, tuple[int, ...]] = {}  # trial -> captures last solved
+        self.results: dict[int, TrialResult] = {}  # trial -> its latest result
+
+    def begin(self, trial: int, entries: Iterable[TypedEntry]) -> None:
+        """A trial begins; its ground truth (if typed) is among ``entries``."""
+        truth = np.full((2, 3), np.nan)
+        for entry in entries:
+            if isinstance(entry, GroundTruth) and entry.trial == trial:
+                points = np.array(entry.points_grid, dtype=np.float64)
+                truth = points[[0, -1]]  # a point twice, or the line's two points
+        self._truth[trial] = truth
+
+    def captured(self, entry: PoseEntry, result: CaptureResult) -> None:
+        """A capture ended: keep its frames' detections under its capture number."""
+        if entry.capture is None or not result.feedback:
+            return
+        camera = self._cameras[entry.camera_id]
+        fb = result.feedback
+        self._captures[entry.capture] = pose_view(
+            entry,
+            camera.intrinsics,
+            [f.found for f in fb],
+            [f.centroid_px for f in fb],
+            [f.theta_deg for f in fb],
+        )
+
+    def update(self, trial: int, accepted: Mapping[int, PoseEntry]) -> TrialResult | None:
+        """The trial's accepted poses now (pose -> entry): its new result when they changed
+        and number two or more (also when they dropped below two: then None is kept)."""
+        captures = tuple(e.capture for _, e in sorted(accepted.items()) if e.capture is not None)
+        if self._solved.get(trial) == captures:
+            return None
+        self._solved[trial] = captures
+        self._views[trial] = [self._captures[c] for c in captures if c in self._captures]
+        if len(self._views[trial]) < 2:
+            self.results.pop(trial, None)
+            return None
+        trials = sorted(t for t, v in self._views.items() if len(v) >= 2)
+        solved = trial_results(
+            self.method,
+            self.units,
+            trials,
+            [self._views[t] for t in trials],
+            np.array([self._truth.get(t, np.full((2, 3), np.nan)) for t in trials]),
+            self._ground,
+            self.options,
+        )
+        self.results = dict(zip(trials, solved, strict=True))
+        return self.results[trial]
+
+    def scene(self, trial: int) -> TrialScene | None:
+        """The trial's geometry for the live view's 3-D panel (None: no result yet)."""
+        result = self.results.get(trial)
+        if result is None:
+            return None
+        views = self._views[trial]
+        measurements, _, _ = measure([views], self.options)
+        px = np.array([m.centroid_px for m in measurements[0]], dtype=np.float64)
+        theta = np.array([m.theta_deg for m in measurements[0]], dtype=np.float64)
+        if self.method == "point":
+            theta = np.full(len(views), np.nan)
+        return TrialScene(
+            trial=trial,
+            method=self.method,
+            status=result.status,
+            intrinsics=np.array([v.intrinsics for v in views]),
+            width_height=np.array([v.width_height for v in views], dtype=np.float64),
+            R_cam_to_grid=rotation_from_angles_deg(np.array([v.r_deg for v in views])),
+            t_grid=np.array([v.t_grid for v in views]),
+            px=px,
+            theta_deg=theta,
+            estimate=np.array(result.point),
+            direction=None if result.direction is None else np.array(result.direction),
+            truth=self._truth.get(trial, np.full((2, 3), np.nan)),
+            cov=np.array(result.cov, dtype=np.float64).reshape(3, 3),
+        )

@@ -1,0 +1,86 @@
+"""The live result: every recording path solves each trial as soon as it has two accepted
+poses, with the analysis' own estimation, and shows it; the analysis agrees exactly."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from analysis.pipeline import analyse_session
+from recorder.cli import app
+from recorder.plan import load_plan, record_plan
+from recorder.sources import SyntheticSource
+from twopose.trial_result import TrialResult
+
+runner = CliRunner()
+
+PLAN = """
+method = "{method}"
+units = "in"
+frames = 3
+ground_height = 9.625
+
+[camera]
+focal = 525.0
+principal = [320.0, 240.0]
+
+[[trials]]
+ground_truth = {truth}
+poses = [{{ t = [0.0, 0.0, 0.0] }}, {{ t = [1.5, 0.0, -1.0] }}, {{ t = [-1.0, 0.0, 0.5] }}]
+
+[[trials]]
+ground_truth = {truth}
+poses = [{{ t = [-1.0, 0.0, 0.0] }}, {{ t = [1.0, 0.0, 0.5] }}]
+"""
+
+TRUTH = {
+    "point": "[[0.5, 1.5, 11.0]]",
+    "ground": "[[1.91, 9.625, 8.375]]",
+    "line": "[[-1.0, 1.5, 11.0], [2.0, 1.5, 11.0]]",
+}
+
+
+@pytest.mark.parametrize("method", ["point", "line", "ground"])
+def test_each_trial_is_solved_live_as_the_analysis_solves_it(method: str, tmp_path: Path) -> None:
+    plan_file = tmp_path / "plan.toml"
+    plan_file.write_text(PLAN.format(method=method, truth=TRUTH[method]))
+    shown: list[TrialResult] = []
+    out = tmp_path / "s.mcap"
+    record_plan(
+        load_plan(plan_file),
+        out,
+        SyntheticSource(None, method, realtime=False),
+        on_result=shown.append,
+    )
+    # Trial 1: after its 2nd pose, updated after its 3rd; trial 2: after its 2nd.
+    assert [(r.trial, r.n_views) for r in shown] == [(1, 2), (1, 3), (2, 2)]
+    trials = analyse_session(out).trials.set_index("trial")
+    for result in (shown[1], shown[2]):  # each trial's final live result
+        row = trials.loc[result.trial]
+        assert result.status == row["status"] == "ok"
+        np.testing.assert_allclose(result.point, row[["x", "y", "z"]].to_numpy(float), atol=1e-9)
+        assert result.error == pytest.approx(row["err"], abs=1e-9)
+        assert f"x {row['x']:.3f} y {row['y']:.3f} z {row['z']:.3f} in" in result.text()
+        assert f"error {row['err']:.3f} in" in result.text()
+        assert np.isfinite(result.semiaxis95)
+    assert shown[0].point != shown[1].point  # the third pose changed the estimate
+
+
+def test_the_plan_command_prints_each_result(tmp_path: Path) -> None:
+    plan_file = tmp_path / "plan.toml"
+    plan_file.write_text(PLAN.format(method="ground", truth=TRUTH["ground"]))
+    out = tmp_path / "s.mcap"
+    result = runner.invoke(
+        app, ["new", str(out), "--plan", str(plan_file), "--source", "synthetic"]
+    )
+    assert result.exit_code == 0, result.output
+    lines = [line for line in result.output.splitlines() if "result: trial" in line]
+    assert [line.split("result: ")[1].split(":")[0] for line in lines] == [
+        "trial 1 (2 views)",
+        "trial 1 (3 views)",
+        "trial 2 (2 views)",
+    ]
+    assert all("95% within" in line and "error" in line for line in lines)
