@@ -131,7 +131,7 @@ def plot_error_scatter(ax: Axes, trials: pd.DataFrame, title: str) -> None:
     ax.set_xlabel(f"x error ({units})")
     ax.set_ylabel(f"z error ({units})")
     ax.set_title(title, fontsize=9)
-    ax.legend(fontsize=7)
+    _legend(ax, 7)
 
 
 def _limits_around(ax: Axes, clean: pd.DataFrame, doubtful: pd.DataFrame) -> None:
@@ -169,7 +169,7 @@ def plot_running_average(
     ax.set_xlabel("frames averaged per pose")
     ax.set_ylabel(f"{axis} estimate ({units})")
     ax.set_title(f"{axis} estimate", fontsize=9)
-    ax.legend(fontsize=6)
+    _legend(ax, 6)
 
 
 def _running_average_panels(fig: Figure, averaging: pd.DataFrame, trials: pd.DataFrame) -> str:
@@ -204,6 +204,12 @@ def _running_average_panels(fig: Figure, averaging: pd.DataFrame, trials: pd.Dat
     return f"error of the running average against frames averaged{more}"
 
 
+def _legend(ax: Axes, fontsize: int) -> None:
+    """A legend when something is named (an empty one would only warn)."""
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(fontsize=fontsize)
+
+
 def _ok_with_error(trials: pd.DataFrame) -> pd.DataFrame:
     """The ok trials whose error is known and finite (no truth: NaN; absurd truth: inf)."""
     err = pd.to_numeric(trials["err"], errors="coerce")
@@ -223,7 +229,7 @@ def plot_error_histogram(ax: Axes, trials: pd.DataFrame) -> None:
     ax.set_xlabel("error (session units)")
     ax.set_ylabel("trials")
     ax.set_title("Error per ok trial, by method", fontsize=9)
-    ax.legend(fontsize=7)
+    _legend(ax, 7)
 
 
 def plot_top_view(ax: Axes, trials: pd.DataFrame, views: pd.DataFrame, title: str) -> None:
@@ -261,7 +267,7 @@ def plot_top_view(ax: Axes, trials: pd.DataFrame, views: pd.DataFrame, title: st
     ax.set_ylabel(f"z, depth ({units})")
     ax.set_title(title, fontsize=9)
     ax.set_aspect("equal", adjustable="datalim")
-    ax.legend(fontsize=7)
+    _legend(ax, 7)
 
 
 def plot_error_by_trial(ax: Axes, trials: pd.DataFrame) -> None:
@@ -280,7 +286,7 @@ def plot_error_by_trial(ax: Axes, trials: pd.DataFrame) -> None:
     ax.set_xlabel("trial")
     ax.set_ylabel("error (session units)")
     ax.set_title("Error by trial, per session", fontsize=9)
-    ax.legend(fontsize=6)
+    _legend(ax, 6)
 
 
 def plot_error_vs_baseline(ax: Axes, trials: pd.DataFrame) -> None:
@@ -293,7 +299,7 @@ def plot_error_vs_baseline(ax: Axes, trials: pd.DataFrame) -> None:
     ax.set_xlabel("baseline (session units)")
     ax.set_ylabel("error (session units)")
     ax.set_title("Error against baseline", fontsize=9)
-    ax.legend(fontsize=7)
+    _legend(ax, 7)
 
 
 def session_figures(
