@@ -10,7 +10,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 from recorder.sources import FrameSource
 from twopose.errors import SourceError
@@ -18,10 +18,42 @@ from twopose.format.entries import PoseEntry
 from twopose.format.writer import Capture, SessionWriter
 
 if TYPE_CHECKING:
-    from recorder.live import LiveView
     from twopose.detect import Detection
+    from twopose.scene3d import TrialScene
+    from twopose.trial_result import TrialResult
 
-__all__ = ["CaptureResult", "FrameFeedback", "capture_frames"]
+__all__ = ["CaptureResult", "FrameFeedback", "LiveSink", "capture_frames"]
+
+
+class LiveSink(Protocol):
+    """Where the recorder shows what it captures as it happens: the Foxglove live view
+    (:class:`recorder.live.LiveSink`) or the web console (:mod:`recorder.console`)."""
+
+    def frame(
+        self,
+        camera_id: str,
+        data: bytes,
+        image_format: str,
+        log_time_ns: int,
+        detection: Detection | None,
+        label: str,
+    ) -> None: ...
+
+    def status(
+        self,
+        log_time_ns: int,
+        *,
+        trial: int,
+        pose: int,
+        frame: int,
+        n_frames: int,
+        message: str,
+        found: bool | None = None,
+    ) -> None: ...
+
+    def trial_result(
+        self, result: TrialResult, scene: TrialScene | None, log_time_ns: int
+    ) -> None: ...
 
 
 @dataclass(frozen=True)
@@ -70,7 +102,7 @@ def capture_frames(
     target: str | None = None,
     on_frame: Callable[[FrameFeedback], None] | None = None,
     timeout_s: float = 2.0,
-    live: LiveView | None = None,
+    live: LiveSink | None = None,
     on_progress: Callable[[], None] | None = None,
 ) -> CaptureResult:
     """Capture ``n_frames`` frames for the already written pose ``entry`` (the source is
@@ -132,7 +164,7 @@ def _feedback(k: int, d: Detection) -> FrameFeedback:
 
 
 def _show_live(
-    live: LiveView,
+    live: LiveSink,
     writer: SessionWriter,
     cap: Capture,
     entry: PoseEntry,

@@ -148,6 +148,18 @@ def new(
         ),
     ] = False,
     live_port: Annotated[int, typer.Option(min=0, max=65535, help="Port of --live.")] = 8765,
+    ui: Annotated[
+        bool,
+        typer.Option(
+            "--ui",
+            help="Run the procedure in the browser: serve the web console and print its URL.",
+        ),
+    ] = False,
+    port: Annotated[int, typer.Option(min=0, max=65535, help="Port of --ui (0: a free one).")] = 0,
+    host: Annotated[
+        str,
+        typer.Option(help="Address --ui listens on; anything but loopback is warned about."),
+    ] = "127.0.0.1",
 ) -> None:
     """Record a session: the guided laptop-on-grid procedure, or a plan file (--plan).
 
@@ -160,6 +172,19 @@ def new(
 
     with handle_errors(), contextlib.ExitStack() as stack:
         refuse_existing(out)  # before the first question
+        if ui:
+            given: dict[str, Any] = {
+                "method": method.value if method else None,
+                "units": units,
+                "intrinsics": _calibration(calibration),
+                "focal": focal,
+                "principal": _principal(principal),
+                "ground_height": ground_height,
+                "ground_truth": _truths(ground_truth, units),
+                "operator": operator,
+            }
+            _console(out, source, given, (frames, poses, width, height, fps), notes, host, port)
+            return
         if plan is not None:
             the_plan = load_plan(plan)
             src = open_source(source, method=the_plan.method, width=width, height=height, fps=fps)
@@ -270,6 +295,33 @@ def _interactive(
         poses_per_trial=poses,
         live=view,
     )
+
+
+def _truths(texts: list[str] | None, units: str | None) -> list[Any]:
+    from recorder.interactive import parse_vector
+
+    return [parse_vector(g, units or "in", what="ground truth") for g in texts or []]
+
+
+def _console(
+    out: Path,
+    source: str,
+    given: dict[str, Any],
+    capture: tuple[int, int, int, int, float],
+    notes: str,
+    host: str,
+    port: int,
+) -> None:
+    """The web console until Ctrl-C; then the summary (the file is closed either way)."""
+    from recorder.console_server import ConsoleOptions, serve_console
+
+    frames, poses, width, height, fps = capture
+    options = ConsoleOptions(
+        source, given, frames=frames, poses=poses, size=(width, height), fps=fps, notes=notes
+    )
+    session = serve_console(out, options, host=host, port=port)
+    if session.summary:
+        typer.echo(session.summary)
 
 
 def _prompt(question: str, default: str) -> str:

@@ -97,7 +97,7 @@ class Setup:
     operator: str
 
 
-def _one_of(options: Sequence[str]) -> Callable[[str], str]:
+def one_of(options: Sequence[str]) -> Callable[[str], str]:
     def parse(text: str) -> str:
         if text not in options:
             raise InputValueError(f"choose one of {', '.join(options)}")
@@ -106,7 +106,7 @@ def _one_of(options: Sequence[str]) -> Callable[[str], str]:
     return parse
 
 
-def _positive(text: str) -> float:
+def positive_number(text: str) -> float:
     try:
         v = finite(float(text), repr(text), positive=True)
     except ValueError as err:
@@ -116,7 +116,7 @@ def _positive(text: str) -> float:
     return v
 
 
-def _pair(text: str) -> tuple[float, float]:
+def number_pair(text: str) -> tuple[float, float]:
     try:
         a, b = numbers([float(p) for p in text.replace(",", " ").split()], 2, "cx, cy")
     except (ValueError, InputValueError) as err:
@@ -138,16 +138,16 @@ def ask_setup(
     operator: str | None,
 ) -> Setup:
     """Ask for whatever is None (or missing) above; answers are checked as they are typed."""
-    m = method or op.ask("method (point, line, ground)", _one_of(METHODS))
-    u = units if units in UNITS else op.ask("units (in, mm, cm, m)", _one_of(UNITS), "in")
+    m = method or op.ask("method (point, line, ground)", one_of(METHODS))
+    u = units if units in UNITS else op.ask("units (in, mm, cm, m)", one_of(UNITS), "in")
     if intrinsics is None:
-        f = focal if focal and focal > 0 else op.ask("focal parameter, px", _positive, "525")
-        cx, cy = principal or op.ask("principal point cx, cy (px)", _pair, "320, 240")
+        f = focal if focal and focal > 0 else op.ask("focal parameter, px", positive_number, "525")
+        cx, cy = principal or op.ask("principal point cx, cy (px)", number_pair, "320, 240")
         intrinsics = Intrinsics(size[0], size[1], f, f, cx, cy)
     h = None
     if m == "ground":
         h = ground_height if ground_height and ground_height > 0 else None
-        h = h or op.ask(f"ground height: camera centre to table ({u})", _positive)
+        h = h or op.ask(f"ground height: camera centre to table ({u})", positive_number)
     truth = _ask_truth(op, m, u, h, list(ground_truth))
     who = operator if operator is not None else op.ask("operator", str, "")
     method_ = cast("Method", m)  # one of METHODS: checked when it was read
@@ -168,14 +168,14 @@ def _ask_truth(
     while len(given) < n_truth:
         point = op.ask(
             f"ground truth point {len(given) + 1} x, y, z ({units})",
-            lambda s: _distinct(parse_vector(s, units, what="ground truth"), given),
+            lambda s: distinct_point(parse_vector(s, units, what="ground truth"), given),
         )
         if height is None or _keep(op, point, height, units):
             given.append(point)
     return tuple(given)
 
 
-def _distinct(point: Vec3, earlier: list[Vec3]) -> Vec3:
+def distinct_point(point: Vec3, earlier: list[Vec3]) -> Vec3:
     if point in earlier:
         raise InputValueError("this point was already given; a line needs two different points")
     return point

@@ -61,7 +61,7 @@ from twopose.format.writer import SessionWriter
 from twopose.values import Vec3
 
 if TYPE_CHECKING:
-    from recorder.live import LiveView
+    from recorder.capture import LiveSink
     from twopose.trial_result import TrialResult
 
 __all__ = [
@@ -74,6 +74,7 @@ __all__ = [
     "Procedure",
     "ProcedureError",
     "ProcedureRefusedError",
+    "QuitRecording",
     "RecordingSummary",
     "State",
     "record",
@@ -101,6 +102,11 @@ TRANSITIONS: dict[State, frozenset[str]] = {
 
 class ProcedureError(TwoposeError):
     """An event the current state does not allow (a driver's mistake)."""
+
+
+class QuitRecording(Exception):  # noqa: N818 - a request, not an error
+    """Raised by a driver that ends the recording while asked for something else (the
+    web console's quit button while a pose is being typed): closes like a quit."""
 
 
 class ProcedureRefusedError(InputValueError):
@@ -426,7 +432,7 @@ def refuse_existing(path: str | Path) -> None:
 class _CaptureOptions:
     frames: int
     target: str | None
-    live: LiveView | None
+    live: LiveSink | None
     on_frame: Callable[[FrameFeedback], None] | None
     on_progress: Callable[[], None] | None
     results: LiveResults | None = None  # with live detection: each trial's live result
@@ -442,7 +448,7 @@ def record(
     ground: GroundPlane | None = None,
     frames: int = 5,
     target: str | None = None,
-    live: LiveView | None = None,
+    live: LiveSink | None = None,
     on_frame: Callable[[FrameFeedback], None] | None = None,
     writer_options: dict[str, Any] | None = None,
     on_progress: Callable[[], None] | None = None,
@@ -472,6 +478,8 @@ def record(
             driver.start(source.info, out)
             try:
                 _run(proc, source, driver, tally, options)
+                proc.close("quit")
+            except QuitRecording:
                 proc.close("quit")
             except KeyboardInterrupt:
                 interrupted = True

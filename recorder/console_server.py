@@ -1,0 +1,328 @@
+"""The web console's server (see :mod:`recorder.console` for the routes): a Starlette
+app served by uvicorn, the recording thread, and the live image as MJPEG with the
+detection drawn on it (drawn here, per viewer frame, so the capture thread only hands
+the stored JPEG over)."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import ipaddress
+import math
+import threading
+import time
+import warnings
+from collections.abc import AsyncIterator
+from importlib import resources
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import cv2
+import numpy as np
+from starlette.applications import Starlette
+from starlette.requests import Request
+from starlette.responses import HTMLResponse, JSONResponse, Response, StreamingResponse
+from starlette.routing import Route
+
+from recorder.console import (
+    DECISIONS,
+    ConsoleSession,
+    WebDriver,
+    parse_pose,
+    setup_from_form,
+)
+from recorder.interactive import Setup
+from twopose.errors import InputValueError, TwoposeError
+
+if TYPE_CHECKING:
+    from recorder.sources import FrameSource
+    from twopose.detect import Detection
+
+__all__ = ["ConsoleOptions", "console_app", "draw_detection", "serve_console"]
+
+_BOUNDARY = "twoposeframe"
+_PREVIEW_INTERVAL_S = 0.1
+
+
+class ConsoleOptions:
+    """What the command line gave (``given``: ask_setup's arguments) and how to record."""
+
+    def __init__(
+        self,
+        source: str,
+        given: dict[str, Any],
+        *,
+        frames: int = 5,
+        poses: int = 2,
+        size: tuple[int, int] = (640, 480),
+        fps: float = 30.0,
+        notes: str = "",
+    ) -> None:
+        self.source, self.given = source, given
+        self.frames, self.poses, self.size, self.fps, self.notes = frames, poses, size, fps, notes
+
+
+def draw_detection(image: np.ndarray, det: Detection | None) -> np.ndarray:
+    """The detection on the image (BGR, in place): candidates turned down in red, the
+    blob's outline, centroid and orientation in green, or why nothing was found."""
+    if det is None:
+        return image
+    for blob in det.rejected_blobs:
+        if blob.outline_px is not None and len(blob.outline_px) > 1:
+            cv2.polylines(image, [blob.outline_px.astype(np.int32)], True, (0, 0, 255), 1)
+    if det.found:
+        if det.outline_px is not None and len(det.outline_px) > 1:
+            cv2.polylines(image, [det.outline_px.astype(np.int32)], True, (0, 200, 0), 2)
+        c = np.array(det.centroid_px)
+        cv2.circle(image, (int(c[0]), int(c[1])), 4, (0, 200, 0), -1)
+        if math.isfinite(det.theta_deg):
+            t = math.radians(det.theta_deg)
+            d = 60 * np.array([math.cos(t), math.sin(t)])
+            a, b = (c - d).astype(int), (c + d).astype(int)
+            cv2.line(image, (int(a[0]), int(a[1])), (int(b[0]), int(b[1])), (0, 200, 0), 2)
+    else:
+        cv2.putText(
+            image, f"not found: {det.reason}"[:70], (8, 24), cv2.FONT_HERSHEY_SIMPLEX, 0.55,
+            (0, 0, 255), 2,
+        )  # fmt: skip
+    return image
+
+
+def _overlay_jpeg(data: bytes, det: Detection | None) -> bytes:
+    image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
+    if image is None:
+        return data
+    ok, encoded = cv2.imencode(".jpg", draw_detection(image, det), [cv2.IMWRITE_JPEG_QUALITY, 80])
+    return encoded.tobytes() if ok else data
+
+
+def preview(source: FrameSource, session: ConsoleSession) -> None:
+    """One live frame while the operator types or decides (shown, not recorded), at most
+    every ``_PREVIEW_INTERVAL_S``, and only while someone watches."""
+    from twopose.detect import detect
+
+    now = time.monotonic()
+    if session.viewers == 0 or now - getattr(session, "_preview_at", 0.0) < _PREVIEW_INTERVAL_S:
+        time.sleep(0.02)
+        return
+    session._preview_at = now  # type: ignore[attr-defined]
+    try:
+        image = source.read(0.5)
+    except TwoposeError:
+        return
+    ok, encoded = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, 80])
+    if ok:
+        target = "dot" if session.method == "point" else "glove"
+        session.frame("", encoded.tobytes(), "jpeg", time.time_ns(), detect(image, target), "")
+
+
+def _recording(session: ConsoleSession, setup: Setup, options: ConsoleOptions) -> None:
+    """The recording thread: the procedure with the page as its driver."""
+    from recorder.procedure import record
+    from recorder.sources import open_source
+    from twopose.camera import Camera
+    from twopose.format.entries import GroundPlane, SessionInfo
+
+    try:
+        width, height = options.size
+        src = open_source(
+            options.source, method=setup.method, width=width, height=height, fps=options.fps
+        )
+        camera = Camera("cam0", setup.intrinsics)
+        info = SessionInfo(
+            method=setup.method,
+            units=setup.units,
+            operator=setup.operator,
+            notes=options.notes,
+            created_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+        )
+        driver = WebDriver(
+            session, src, "cam0", setup.ground_truth, options.poses, (0.0625, 0.5), preview
+        )
+        ground = GroundPlane(offset=setup.ground_height) if setup.ground_height else None
+        target = "dot" if setup.method == "point" else "glove"
+        summary = record(
+            session.out, info, [camera], src, driver, ground=ground, frames=options.frames,
+            target=target, live=session,
+        )  # fmt: skip
+        print(f"{summary.line()}\n(the console shows it; Ctrl-C stops the console)", flush=True)
+    except TwoposeError as err:
+        session.update(phase="failed", waiting="", message=str(err))
+    except Exception as err:  # the page must say it, not a thread's traceback
+        session.update(phase="failed", waiting="", message=f"{type(err).__name__}: {err}")
+
+
+def console_app(session: ConsoleSession, options: ConsoleOptions) -> Starlette:
+    """The ASGI app of one recording session."""
+    threads: list[threading.Thread] = []
+
+    def start(setup: Setup) -> None:
+        session.update(method=setup.method, units=setup.units, phase="recording")
+        thread = threading.Thread(
+            target=_recording, args=(session, setup, options), name="recording", daemon=True
+        )
+        threads.append(thread)
+        thread.start()
+
+    async def page(request: Request) -> Response:
+        html = resources.files("recorder").joinpath("console.html").read_text("utf-8")
+        return HTMLResponse(html, headers={"Cache-Control": "no-store"})
+
+    async def state(request: Request) -> Response:
+        return JSONResponse(session.snapshot(), headers={"Cache-Control": "no-store"})
+
+    async def setup(request: Request) -> Response:
+        form = await _form(request)
+        if session.phase != "setup":
+            return _refused("the session is already set up")
+        try:
+            chosen = setup_from_form(form, **_given(options))
+        except InputValueError as err:
+            return _refused(str(err))
+        start(chosen)
+        return JSONResponse({"ok": True})
+
+    async def pose(request: Request) -> Response:
+        form = await _form(request)
+        if session.waiting != "pose":
+            return _refused("not now: the recorder is not waiting for a pose")
+        try:
+            t, r = parse_pose(form, session.units)
+        except InputValueError as err:
+            return _refused(str(err))
+        session.commands.put(("pose", (t, r)))
+        return JSONResponse({"ok": True})
+
+    async def decide(request: Request) -> Response:
+        form = await _form(request)
+        choice = str(form.get("decision", ""))
+        if choice == "quit" and session.phase == "recording":
+            session.commands.put(("quit", None))
+            return JSONResponse({"ok": True})
+        if choice not in DECISIONS:
+            return _refused(f"decision must be accept, redo, undo or quit, not {choice!r}")
+        if session.waiting != "decision":
+            return _refused("not now: decide after a capture")
+        session.commands.put(("decision", DECISIONS[choice]))
+        return JSONResponse({"ok": True})
+
+    async def note(request: Request) -> Response:
+        form = await _form(request)
+        text = str(form.get("text", "")).strip()
+        if not text:
+            return _refused("the note is empty")
+        if session.waiting != "decision":
+            return _refused("add a note after a capture (it goes with that trial)")
+        session.commands.put(("note", text))
+        return JSONResponse({"ok": True})
+
+    async def stream(request: Request) -> Response:
+        return StreamingResponse(
+            _mjpeg(session, request),
+            media_type=f"multipart/x-mixed-replace; boundary={_BOUNDARY}",
+            headers={"Cache-Control": "no-store"},
+        )
+
+    @contextlib.asynccontextmanager
+    async def lifespan(app: Starlette) -> AsyncIterator[None]:
+        if not any(v is None for k, v in _given(options).items() if k != "intrinsics"):
+            with contextlib.suppress(InputValueError):  # all given: no form to fill
+                start(setup_from_form({}, **_given(options)))
+        yield
+        session.commands.put(("quit", None))  # the server stops: close the file cleanly
+        for thread in threads:
+            thread.join(timeout=30)
+
+    routes = [
+        Route("/", page),
+        Route("/api/state", state),
+        Route("/api/setup", setup, methods=["POST"]),
+        Route("/api/pose", pose, methods=["POST"]),
+        Route("/api/decide", decide, methods=["POST"]),
+        Route("/api/note", note, methods=["POST"]),
+        Route("/stream.mjpg", stream),
+    ]
+    return Starlette(routes=routes, lifespan=lifespan)
+
+
+def _given(options: ConsoleOptions) -> dict[str, Any]:
+    return dict(options.given, size=options.size)
+
+
+async def _form(request: Request) -> dict[str, str]:
+    try:
+        data = await request.json()
+    except ValueError:
+        data = {}
+    return {str(k): str(v) for k, v in data.items()} if isinstance(data, dict) else {}
+
+
+def _refused(message: str) -> Response:
+    return JSONResponse({"error": message}, status_code=400)
+
+
+async def _mjpeg(session: ConsoleSession, request: Request) -> AsyncIterator[bytes]:
+    """Every new frame, with its detection drawn, until the page goes away."""
+    with session.lock:
+        session.viewers += 1
+    try:
+        seq = 0
+        while not await request.is_disconnected():
+            frame = await asyncio.to_thread(session.next_frame, seq, 0.5)
+            if frame is None:
+                continue
+            seq = frame.seq
+            jpeg = await asyncio.to_thread(_overlay_jpeg, frame.data, frame.detection)
+            yield (
+                (
+                    f"--{_BOUNDARY}\r\nContent-Type: image/jpeg\r\n"
+                    f"Content-Length: {len(jpeg)}\r\n\r\n"
+                ).encode()
+                + jpeg
+                + b"\r\n"
+            )
+    finally:
+        with session.lock:
+            session.viewers -= 1
+
+
+def serve_console(
+    out: Path, options: ConsoleOptions, *, host: str = "127.0.0.1", port: int = 0
+) -> ConsoleSession:
+    """Serve the console until Ctrl-C (or the process is told to stop); prints the URL."""
+    import socket
+
+    import typer
+    import uvicorn
+
+    if not _loopback(host):
+        warnings.warn(
+            f"the console listens on {host}: anyone who can reach it can drive the recording",
+            stacklevel=2,
+        )
+        typer.secho(
+            f"warning: --host {host} exposes the console beyond this machine; anyone who "
+            "can reach it can drive the recording",
+            err=True,
+            fg=typer.colors.YELLOW,
+        )
+    sock = socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        sock.bind((host, port))
+    except OSError as err:
+        raise TwoposeError(f"cannot listen on {host}:{port} ({err.strerror}); pick --port") from err
+    session = ConsoleSession(out)
+    bound = sock.getsockname()[1]
+    shown = f"[{host}]" if ":" in host else host
+    typer.echo(f"twopose console: http://{shown}:{bound}/  (Ctrl-C to stop)", err=False)
+    config = uvicorn.Config(console_app(session, options), log_level="warning", lifespan="on")
+    uvicorn.Server(config).run(sockets=[sock])
+    return session
+
+
+def _loopback(host: str) -> bool:
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return host == "localhost"
