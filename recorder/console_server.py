@@ -316,7 +316,12 @@ def serve_console(
     bound = sock.getsockname()[1]
     shown = f"[{host}]" if ":" in host else host
     typer.echo(f"twopose console: http://{shown}:{bound}/  (Ctrl-C to stop)", err=False)
-    config = uvicorn.Config(console_app(session, options), log_level="warning", lifespan="on")
+    config = uvicorn.Config(
+        console_app(session, options),
+        log_level="warning",
+        lifespan="on",
+        timeout_graceful_shutdown=2,  # a watching page's MJPEG stream never ends by itself
+    )
     uvicorn.Server(config).run(sockets=[sock])
     return session
 
