@@ -11,7 +11,6 @@ import ipaddress
 import math
 import threading
 import time
-import warnings
 from collections.abc import AsyncIterator
 from importlib import resources
 from pathlib import Path
@@ -296,10 +295,6 @@ def serve_console(
     import uvicorn
 
     if not _loopback(host):
-        warnings.warn(
-            f"the console listens on {host}: anyone who can reach it can drive the recording",
-            stacklevel=2,
-        )
         typer.secho(
             f"warning: --host {host} exposes the console beyond this machine; anyone who "
             "can reach it can drive the recording",
@@ -310,6 +305,7 @@ def serve_console(
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
     try:
         sock.bind((host, port))
+        sock.listen(64)  # connections queue from the moment the URL is printed
     except OSError as err:
         raise TwoposeError(f"cannot listen on {host}:{port} ({err.strerror}); pick --port") from err
     session = ConsoleSession(out)

@@ -44,6 +44,8 @@ def start_console(out: Path, *args: str) -> tuple[subprocess.Popen[str], str]:
     )
     assert process.stdout is not None
     line = process.stdout.readline()
+    while line and "http://" not in line:  # a warning first (--host)
+        line = process.stdout.readline()
     assert "http://127.0.0.1:" in line, line
     return process, line.split()[2]
 

@@ -1,0 +1,163 @@
+"""The web console without a browser: its setup check, its API's refusals, its address
+and a server killed with SIGKILL mid-capture."""
+
+from __future__ import annotations
+
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import httpx
+import pytest
+from typer.testing import CliRunner
+
+import analysis
+from recorder.cli import app
+from recorder.console import setup_from_form
+from twopose.errors import InputValueError
+
+RECORD = Path(sys.executable).with_name("twopose-record")
+
+
+def start_console(out: Path, *args: str) -> tuple[subprocess.Popen[str], str]:
+    """``twopose-record new OUT --ui`` on a free port; the process and its URL (lines
+    before the URL are kept in ``start_console.preamble``)."""
+    process = subprocess.Popen(
+        [str(RECORD), "new", str(out), "--ui", "--source", "synthetic", "--frames", "2", *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    assert process.stdout is not None
+    line = process.stdout.readline()
+    start_console.preamble = ""  # type: ignore[attr-defined]
+    while line and "http://" not in line:  # a warning first (--host)
+        start_console.preamble += line  # type: ignore[attr-defined]
+        line = process.stdout.readline()
+    assert "http://" in line, line
+    return process, line.split()[2]
+
+
+GIVEN = {
+    "method": None,
+    "units": None,
+    "intrinsics": None,
+    "focal": None,
+    "principal": None,
+    "size": (640, 480),
+    "ground_height": None,
+    "ground_truth": [],
+    "operator": None,
+}
+
+
+def test_the_setup_form_is_checked_by_the_terminal_questions() -> None:
+    setup = setup_from_form(
+        {"method": "ground", "ground_height": "9.625", "truth1": "1.91, 9.625, 8.375"}, **GIVEN
+    )
+    assert setup.method == "ground"
+    assert setup.intrinsics.fx == 525.0  # the question's default
+    assert setup.ground_truth == ((1.91, 9.625, 8.375),)
+    bad = {
+        "method": ({"method": "plane"}, "method: choose one of"),
+        "focal": ({"method": "point", "focal": "-3"}, "focal"),
+        "truth": ({"method": "point", "truth1": "1, 2"}, "truth1"),
+        "line": ({"method": "line", "truth1": "1,2,3", "truth2": "1,2,3"}, "truth2"),
+        "ground": ({"method": "ground", "ground_height": "9.6", "truth1": "1, 5, 8"}, "truth1"),
+    }
+    for form, message in bad.values():
+        with pytest.raises(InputValueError, match=message):
+            setup_from_form(form, **GIVEN)
+    # Off the ground, kept when the operator says so (the terminal's confirmation).
+    kept = setup_from_form(
+        {"method": "ground", "ground_height": "9.6", "truth1": "1, 5, 8", "keep_off_ground": "y"},
+        **GIVEN,
+    )
+    assert kept.ground_truth == ((1.0, 5.0, 8.0),)
+
+
+def test_the_api_refuses_what_the_state_does_not_allow(tmp_path: Path) -> None:
+    process, url = start_console(tmp_path / "s.mcap")
+    try:
+        client = httpx.Client(base_url=url, timeout=10)
+        assert client.get("/api/state").json()["phase"] == "setup"
+        refused = {
+            "/api/pose": {"x": "0", "y": "0", "z": "0"},
+            "/api/decide": {"decision": "accept"},
+            "/api/note": {"text": "hello"},
+        }
+        for path, body in refused.items():
+            answer = client.post(path, json=body)
+            assert answer.status_code == 400, path
+            assert answer.json()["error"]
+        assert client.post("/api/decide", json={"decision": "maybe"}).status_code == 400
+        assert "twopose console" in client.get("/").text
+        assert not (tmp_path / "s.mcap").exists()  # nothing recorded
+    finally:
+        process.terminate()
+        process.wait(timeout=30)
+
+
+def test_only_loopback_unless_host_says_so_and_then_a_warning(tmp_path: Path) -> None:
+    process, url = start_console(tmp_path / "a.mcap")
+    process.terminate()
+    process.wait(timeout=30)
+    assert url.startswith("http://127.0.0.1:")
+    process, url = start_console(tmp_path / "b.mcap", "--host", "0.0.0.0")
+    try:
+        assert url.startswith("http://0.0.0.0:")
+        port = int(url.rsplit(":", 1)[1].strip("/"))
+        with socket.create_connection(("127.0.0.1", port), timeout=5):
+            pass
+    finally:
+        process.terminate()
+        process.communicate(timeout=30)
+    assert "warning: --host 0.0.0.0 exposes the console" in start_console.preamble  # type: ignore[attr-defined]
+
+
+def test_the_server_killed_mid_capture_loses_nothing_accepted(tmp_path: Path) -> None:
+    """SIGKILL while a capture is in progress: recover salvages the file, the trial
+    accepted before is measured, the capture in progress is not."""
+    out = tmp_path / "killed.mcap"
+    process, url = start_console(out, "--frames", "40")
+    client = httpx.Client(base_url=url, timeout=10)
+
+    def wait_for(what: str) -> dict[str, object]:
+        for _ in range(600):
+            state: dict[str, object] = client.get("/api/state").json()
+            if state["waiting"] == what:
+                return state
+            time.sleep(0.05)
+        raise AssertionError(f"the console never waited for {what}")
+
+    try:
+        setup = {"method": "point", "truth1": "0.5, 1.5, 11", "operator": "Ada"}
+        assert client.post("/api/setup", json=setup).status_code == 200
+        for x, z in (("0", "0"), ("1.5", "-1")):
+            wait_for("pose")
+            assert client.post("/api/pose", json={"x": x, "y": "0", "z": z}).status_code == 200
+            wait_for("decision")
+            assert client.post("/api/decide", json={"decision": "accept"}).status_code == 200
+        wait_for("pose")
+        client.post("/api/pose", json={"x": "-1", "y": "0", "z": "0"})
+        for _ in range(600):  # mid-capture: some of its 40 frames written
+            capture = client.get("/api/state").json()["capture"]
+            if 0 < capture["frame"] < capture["n_frames"]:
+                break
+            time.sleep(0.02)
+        else:
+            raise AssertionError("the capture was never seen in progress")
+        process.send_signal(signal.SIGKILL)
+        process.wait(timeout=10)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    fixed = tmp_path / "fixed.mcap"
+    recovered = CliRunner().invoke(app, ["recover", str(out), "-o", str(fixed)])
+    assert recovered.exit_code == 0, recovered.output
+    trials = analysis.run([fixed], None, scene=False).trials
+    assert list(trials["status"]) == ["ok", "incomplete"]
+    assert trials["err"].iloc[0] < 0.5
