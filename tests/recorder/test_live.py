@@ -13,10 +13,11 @@ import numpy as np
 import pytest
 from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
 from foxglove_schemas_protobuf.ImageAnnotations_pb2 import ImageAnnotations
+from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from websockets.sync.client import ClientConnection, connect
 
 from analysis.pipeline import analyse_session
-from recorder.live import STATUS_TOPIC, LiveView, annotations_topic
+from recorder.live import RESULT_TOPIC, SCENE_TOPIC, STATUS_TOPIC, LiveView, annotations_topic
 from recorder.plan import load_plan, record_plan
 from recorder.sources import SyntheticSource
 from twopose.errors import InputValueError
@@ -82,14 +83,25 @@ def test_a_client_sees_frames_overlays_and_status(tmp_path: Path) -> None:
     with LiveView(list(plan.cameras), port=0) as view:
         assert view.url.startswith("ws://127.0.0.1:")
         with connect(view.url, subprotocols=SUBPROTOCOLS, open_timeout=10) as ws:
-            topics = {image_topic("cam0"), annotations_topic("cam0"), STATUS_TOPIC}
+            per_frame = {image_topic("cam0"), annotations_topic("cam0"), STATUS_TOPIC}
+            topics = per_frame | {SCENE_TOPIC, RESULT_TOPIC}
             subscriptions = _subscribe(ws, topics)
             time.sleep(0.5)  # the server takes the subscription asynchronously
             out = tmp_path / "s.mcap"
             record_plan(plan, out, SyntheticSource(None, "ground", realtime=False), live=view)
-            got = _collect(ws, subscriptions, dict.fromkeys(topics, 4))
-    frames = analyse_session(out).frames
-    assert [len(got[t]) for t in sorted(topics)] == [4, 4, 4]
+            want = dict.fromkeys(per_frame, 4) | {SCENE_TOPIC: 1, RESULT_TOPIC: 1}
+            got = _collect(ws, subscriptions, want)
+    session = analyse_session(out)
+    frames = session.frames
+    assert {t: len(got[t]) for t in topics} == want
+    # The trial's live result: as JSON, the analysis' estimate; in 3-D, its entities.
+    (_, result_bytes), (_, scene_bytes) = got[RESULT_TOPIC][0], got[SCENE_TOPIC][0]
+    live = json.loads(result_bytes)
+    row = session.trials.iloc[0]
+    np.testing.assert_allclose(live["point"], row[["x", "y", "z"]].to_numpy(float), atol=1e-9)
+    assert live["error"] == pytest.approx(row["err"], abs=1e-9)
+    entities = {e.id for e in SceneUpdate.FromString(scene_bytes).entities}
+    assert {"cameras", "measurements", "estimate", "truth", "error"} <= entities
     for (t_img, img_bytes), (t_ann, ann_bytes), (_, row) in zip(
         got[image_topic("cam0")], got[annotations_topic("cam0")], frames.iterrows(), strict=True
     ):
@@ -99,8 +111,8 @@ def test_a_client_sees_frames_overlays_and_status(tmp_path: Path) -> None:
         assert image.format == "jpeg"
         assert image.data[:2] == b"\xff\xd8"
         centre = overlay.circles[0].position
-        # Live detection sees the frame before JPEG, the analysis after: sub-pixel apart.
-        np.testing.assert_allclose([centre.x, centre.y], [row["col"], row["row"]], atol=0.5)
+        # Live detection sees the frame as stored, as the analysis does: the same centroid.
+        np.testing.assert_allclose([centre.x, centre.y], [row["col"], row["row"]], atol=1e-6)
     status = [json.loads(b) for _, b in got[STATUS_TOPIC]]
     assert [(s["trial"], s["pose"], s["frame"]) for s in status] == [
         (1, 1, 1),
