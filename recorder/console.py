@@ -255,8 +255,10 @@ class WebDriver(Driver):
         self.preview = preview
         self._note = ""
         self._pending: tuple[str, Any] | None = None  # a pose typed before its trial began
+        self.fps = 30.0
 
     def start(self, source: SourceInfo, path: Path) -> None:
+        self.fps = source.fps
         self.session.update(phase="recording", message=f"recording {path}")
 
     def next_trial(self, trial: int) -> bool:
@@ -306,9 +308,11 @@ class WebDriver(Driver):
 
     def captured(self, trial: int, pose: int, result: CaptureResult) -> None:
         state = "complete" if result.complete else f"INCOMPLETE ({result.reason})"
+        overhead = float(np.mean(result.overhead_s)) * self.fps if result.overhead_s else 0.0
         self.session.update(
             last_capture=f"trial {trial} pose {pose}: {result.n_frames} frames, "
-            f"{result.n_found} detected, {state}, {result.dropped} dropped",
+            f"{result.n_found} detected, {state}, {result.dropped} dropped; recorder "
+            f"overhead {100 * overhead:.0f}% of the frame interval",
             message=f"trial {trial} pose {pose}: accept, redo, undo, note or quit",
         )
 
