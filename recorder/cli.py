@@ -107,6 +107,18 @@ def simulate(
     )
 
 
+UiOption = Annotated[
+    bool,
+    typer.Option(
+        "--ui", help="Run the procedure in the browser: serve the console, print its URL."
+    ),
+]
+PortOption = Annotated[int, typer.Option(min=0, max=65535, help="Port of --ui (0: a free one).")]
+HostOption = Annotated[
+    str, typer.Option(help="Address --ui listens on; anything but loopback is warned about.")
+]
+
+
 @app.command()
 def new(
     out: Annotated[Path, typer.Argument(help="New session file (never overwritten).")],
@@ -148,55 +160,27 @@ def new(
         ),
     ] = False,
     live_port: Annotated[int, typer.Option(min=0, max=65535, help="Port of --live.")] = 8765,
-    ui: Annotated[
-        bool,
-        typer.Option(
-            "--ui",
-            help="Run the procedure in the browser: serve the web console and print its URL.",
-        ),
-    ] = False,
-    port: Annotated[int, typer.Option(min=0, max=65535, help="Port of --ui (0: a free one).")] = 0,
-    host: Annotated[
-        str,
-        typer.Option(help="Address --ui listens on; anything but loopback is warned about."),
-    ] = "127.0.0.1",
+    ui: UiOption = False,
+    port: PortOption = 0,
+    host: HostOption = "127.0.0.1",
 ) -> None:
     """Record a session: the guided laptop-on-grid procedure, or a plan file (--plan).
 
     Ctrl-C at any point closes the file (valid, with everything accepted so far), prints
     the summary and exits with 130.
     """
-    from recorder.plan import load_plan, record_plan
     from recorder.procedure import refuse_existing
-    from recorder.sources import open_source
 
     with handle_errors(), contextlib.ExitStack() as stack:
         refuse_existing(out)  # before the first question
         if ui:
-            given: dict[str, Any] = {
-                "method": method.value if method else None,
-                "units": units,
-                "intrinsics": _calibration(calibration),
-                "focal": focal,
-                "principal": _principal(principal),
-                "ground_height": ground_height,
-                "ground_truth": _truths(ground_truth, units),
-                "operator": operator,
-            }
+            answers = (method, units, calibration, focal, principal, ground_height)
+            given = _console_given(*answers, ground_truth, operator)
             _console(out, source, given, (frames, poses, width, height, fps), notes, host, port)
             return
         if plan is not None:
-            the_plan = load_plan(plan)
-            src = open_source(source, method=the_plan.method, width=width, height=height, fps=fps)
-            view = _live_view(stack, list(the_plan.cameras), live_port) if live else None
-            summary = record_plan(
-                the_plan,
-                out,
-                src,
-                on_capture=_report_capture,
-                live=view,
-                on_result=lambda result: typer.echo(f"  result: {result.text()}"),
-            )
+            view_port = live_port if live else None
+            summary = _planned(out, plan, source, (width, height, fps), stack, view_port)
         else:
             given = {
                 "method": method.value if method else None,
@@ -297,10 +281,57 @@ def _interactive(
     )
 
 
-def _truths(texts: list[str] | None, units: str | None) -> list[Any]:
+def _planned(
+    out: Path,
+    plan: Path,
+    source: str,
+    mode: tuple[int, int, float],
+    stack: contextlib.ExitStack,
+    live_port: int | None,
+) -> RecordingSummary:
+    """``new --plan``: the plan recorded, each capture and live result printed."""
+    from recorder.plan import load_plan, record_plan
+    from recorder.sources import open_source
+
+    the_plan = load_plan(plan)
+    width, height, fps = mode
+    src = open_source(source, method=the_plan.method, width=width, height=height, fps=fps)
+    view = _live_view(stack, list(the_plan.cameras), live_port) if live_port is not None else None
+    return record_plan(
+        the_plan,
+        out,
+        src,
+        on_capture=_report_capture,
+        live=view,
+        on_result=lambda result: typer.echo(f"  result: {result.text()}"),
+    )
+
+
+def _console_given(
+    method: MethodChoice | None,
+    units: str | None,
+    calibration: Path | None,
+    focal: float | None,
+    principal: str | None,
+    ground_height: float | None,
+    ground_truth: list[str] | None,
+    operator: str | None,
+) -> dict[str, Any]:
+    """What the command line gave, as :func:`recorder.interactive.ask_setup` takes it."""
     from recorder.interactive import parse_vector
 
-    return [parse_vector(g, units or "in", what="ground truth") for g in texts or []]
+    return {
+        "method": method.value if method else None,
+        "units": units,
+        "intrinsics": _calibration(calibration),
+        "focal": focal,
+        "principal": _principal(principal),
+        "ground_height": ground_height,
+        "ground_truth": [
+            parse_vector(g, units or "in", what="ground truth") for g in ground_truth or []
+        ],
+        "operator": operator,
+    }
 
 
 def _console(

@@ -151,97 +151,104 @@ def _recording(session: ConsoleSession, setup: Setup, options: ConsoleOptions) -
         session.update(phase="failed", waiting="", message=f"{type(err).__name__}: {err}")
 
 
-def console_app(session: ConsoleSession, options: ConsoleOptions) -> Starlette:
-    """The ASGI app of one recording session."""
-    threads: list[threading.Thread] = []
+class _Console:
+    """The routes of one recording session (see :mod:`recorder.console`)."""
 
-    def start(setup: Setup) -> None:
-        session.update(method=setup.method, units=setup.units, phase="recording")
+    def __init__(self, session: ConsoleSession, options: ConsoleOptions) -> None:
+        self.session, self.options = session, options
+        self.threads: list[threading.Thread] = []
+
+    def start(self, setup: Setup) -> None:
+        self.session.update(method=setup.method, units=setup.units, phase="recording")
         thread = threading.Thread(
-            target=_recording, args=(session, setup, options), name="recording", daemon=True
+            target=_recording, args=(self.session, setup, self.options), name="recording"
         )
-        threads.append(thread)
+        thread.daemon = True
+        self.threads.append(thread)
         thread.start()
 
-    async def page(request: Request) -> Response:
+    async def page(self, request: Request) -> Response:
         html = resources.files("recorder").joinpath("console.html").read_text("utf-8")
         return HTMLResponse(html, headers={"Cache-Control": "no-store"})
 
-    async def state(request: Request) -> Response:
-        return JSONResponse(session.snapshot(), headers={"Cache-Control": "no-store"})
+    async def state(self, request: Request) -> Response:
+        return JSONResponse(self.session.snapshot(), headers={"Cache-Control": "no-store"})
 
-    async def setup(request: Request) -> Response:
+    async def setup(self, request: Request) -> Response:
         form = await _form(request)
-        if session.phase != "setup":
+        if self.session.phase != "setup":
             return _refused("the session is already set up")
         try:
-            chosen = setup_from_form(form, **_given(options))
+            chosen = setup_from_form(form, **_given(self.options))
         except InputValueError as err:
             return _refused(str(err))
-        start(chosen)
+        self.start(chosen)
         return JSONResponse({"ok": True})
 
-    async def pose(request: Request) -> Response:
+    async def pose(self, request: Request) -> Response:
         form = await _form(request)
-        if session.waiting != "pose":
+        if self.session.waiting != "pose":
             return _refused("not now: the recorder is not waiting for a pose")
         try:
-            t, r = parse_pose(form, session.units)
+            t, r = parse_pose(form, self.session.units)
         except InputValueError as err:
             return _refused(str(err))
-        session.commands.put(("pose", (t, r)))
+        self.session.commands.put(("pose", (t, r)))
         return JSONResponse({"ok": True})
 
-    async def decide(request: Request) -> Response:
-        form = await _form(request)
-        choice = str(form.get("decision", ""))
-        if choice == "quit" and session.phase == "recording":
-            session.commands.put(("quit", None))
+    async def decide(self, request: Request) -> Response:
+        choice = str((await _form(request)).get("decision", ""))
+        if choice == "quit" and self.session.phase == "recording":
+            self.session.commands.put(("quit", None))
             return JSONResponse({"ok": True})
         if choice not in DECISIONS:
             return _refused(f"decision must be accept, redo, undo or quit, not {choice!r}")
-        if session.waiting != "decision":
+        if self.session.waiting != "decision":
             return _refused("not now: decide after a capture")
-        session.commands.put(("decision", DECISIONS[choice]))
+        self.session.commands.put(("decision", DECISIONS[choice]))
         return JSONResponse({"ok": True})
 
-    async def note(request: Request) -> Response:
-        form = await _form(request)
-        text = str(form.get("text", "")).strip()
+    async def note(self, request: Request) -> Response:
+        text = str((await _form(request)).get("text", "")).strip()
         if not text:
             return _refused("the note is empty")
-        if session.waiting != "decision":
+        if self.session.waiting != "decision":
             return _refused("add a note after a capture (it goes with that trial)")
-        session.commands.put(("note", text))
+        self.session.commands.put(("note", text))
         return JSONResponse({"ok": True})
 
-    async def stream(request: Request) -> Response:
+    async def stream(self, request: Request) -> Response:
         return StreamingResponse(
-            _mjpeg(session, request),
+            _mjpeg(self.session, request),
             media_type=f"multipart/x-mixed-replace; boundary={_BOUNDARY}",
             headers={"Cache-Control": "no-store"},
         )
 
     @contextlib.asynccontextmanager
-    async def lifespan(app: Starlette) -> AsyncIterator[None]:
-        if not any(v is None for k, v in _given(options).items() if k != "intrinsics"):
+    async def lifespan(self, app: Starlette) -> AsyncIterator[None]:
+        given = _given(self.options)
+        if not any(v is None for k, v in given.items() if k != "intrinsics"):
             with contextlib.suppress(InputValueError):  # all given: no form to fill
-                start(setup_from_form({}, **_given(options)))
+                self.start(setup_from_form({}, **given))
         yield
-        session.commands.put(("quit", None))  # the server stops: close the file cleanly
-        for thread in threads:
+        self.session.commands.put(("quit", None))  # the server stops: close the file cleanly
+        for thread in self.threads:
             thread.join(timeout=30)
 
+
+def console_app(session: ConsoleSession, options: ConsoleOptions) -> Starlette:
+    """The ASGI app of one recording session."""
+    c = _Console(session, options)
     routes = [
-        Route("/", page),
-        Route("/api/state", state),
-        Route("/api/setup", setup, methods=["POST"]),
-        Route("/api/pose", pose, methods=["POST"]),
-        Route("/api/decide", decide, methods=["POST"]),
-        Route("/api/note", note, methods=["POST"]),
-        Route("/stream.mjpg", stream),
+        Route("/", c.page),
+        Route("/api/state", c.state),
+        Route("/api/setup", c.setup, methods=["POST"]),
+        Route("/api/pose", c.pose, methods=["POST"]),
+        Route("/api/decide", c.decide, methods=["POST"]),
+        Route("/api/note", c.note, methods=["POST"]),
+        Route("/stream.mjpg", c.stream),
     ]
-    return Starlette(routes=routes, lifespan=lifespan)
+    return Starlette(routes=routes, lifespan=c.lifespan)
 
 
 def _given(options: ConsoleOptions) -> dict[str, Any]:
