@@ -80,6 +80,11 @@ def test_interactive_procedure_with_valid_and_invalid_answers(tmp_path: Path) ->
     trials = analyse_session(out).trials
     assert list(trials["status"]) == ["ok"]
     assert trials["err"].iloc[0] < 0.5
+    # The trial's live result, printed after its last pose: the analysis' own.
+    (line,) = [x for x in out_text.splitlines() if x.strip().startswith("result: trial 1")]
+    row = trials.iloc[0]
+    assert f"x {row['x']:.3f} y {row['y']:.3f} z {row['z']:.3f} in" in line
+    assert f"error {row['err']:.3f} in" in line
 
 
 def test_interactive_options_skip_the_questions_and_undo_goes_back(tmp_path: Path) -> None:
