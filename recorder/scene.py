@@ -23,6 +23,7 @@ from typing import Any, Literal
 from twopose.camera import Intrinsics
 from twopose.config import build_dataclass, read_toml
 from twopose.errors import SceneError
+from twopose.rig import RigConstants
 from twopose.targets import FINGER_LENGTH, FINGER_TIP_HEIGHT
 
 __all__ = [
@@ -199,6 +200,9 @@ class Scene:
     lighting: LightingParams = field(default_factory=LightingParams)
     sensor: SensorParams = field(default_factory=SensorParams)
     clutter: ClutterParams = field(default_factory=ClutterParams)
+    # The rig's hidden constants (twopose.rig): frames are rendered with them, the typed
+    # poses, intrinsics and ground height are not. None by default.
+    systematic: RigConstants = field(default_factory=RigConstants)
     grid_spacing: float = 0.5
     grid_line_width: float = 0.02
     paper_extent: tuple[float, float, float, float] = (-14.0, 14.0, -4.0, 28.0)  # x0 x1 z0 z1

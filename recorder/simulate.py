@@ -37,6 +37,7 @@ from twopose.format.entries import (
     TruthKind,
     TypedEntry,
 )
+from twopose.rig import RigConstants, angles_deg_from_rotation
 from twopose.values import Vec3
 
 __all__ = ["SimulationSummary", "simulate_session", "target_points"]
@@ -116,9 +117,11 @@ def _draw_trial_poses(
             )
             # The operator's placing/measuring error, on every typed component: this is
             # what each entry's recorded 1-sigma resolution promises the analysis.
-            t_true = t_typed + p.noise_sigma * rng.standard_normal(3)
-            r_true = r_typed + p.rotation_noise_deg * rng.standard_normal(3)
-            if not _in_view(visible, intr, rotation_from_angles_deg(r_true), t_true):
+            t_placed = t_typed + p.noise_sigma * rng.standard_normal(3)
+            r_placed = r_typed + p.rotation_noise_deg * rng.standard_normal(3)
+            t_true, r_true = _camera_pose(scene.systematic, t_placed, r_placed)
+            true_intr = _true_intrinsics(scene.systematic, intr)
+            if not _in_view(visible, true_intr, rotation_from_angles_deg(r_true), t_true):
                 break
             poses.append((t_typed, r_typed, t_true, r_true))
         if len(poses) < n_poses:
@@ -129,6 +132,23 @@ def _draw_trial_poses(
         f"scene: could not place {n_poses} poses at least {p.min_baseline} apart with the target "
         f"in view after {_MAX_POSE_DRAWS} draws; widen poses.*_range or move the target"
     )
+
+
+def _camera_pose(rig: RigConstants, t_placed: F64, r_placed: F64) -> tuple[F64, F64]:
+    """Where the camera really is when the laptop is placed at ``t_placed, r_placed``:
+    the rig's mount rotation, camera offset and tape scale (:mod:`twopose.rig`)."""
+    if rig.is_identity:
+        return t_placed, r_placed
+    t, R = rig.true_poses(t_placed, r_placed)
+    return np.asarray(t), np.array(angles_deg_from_rotation(R))
+
+
+def _true_intrinsics(rig: RigConstants, intr: Intrinsics) -> Intrinsics:
+    """The camera's real intrinsics: the rig's focal scale and principal offset."""
+    if rig.is_identity:
+        return intr
+    fx, fy, cx, cy = rig.true_intrinsics([intr.fx, intr.fy, intr.cx, intr.cy])
+    return dataclasses.replace(intr, fx=float(fx), fy=float(fy), cx=float(cx), cy=float(cy))
 
 
 def _thesis_move(rng: np.random.Generator, p: PoseParams) -> NDArray[np.float64]:
@@ -196,7 +216,7 @@ class _SimulatedCamera(FrameSource):
         self._radiance = render_radiance(
             self.scene,
             self.layout,
-            self.camera.intrinsics,
+            _true_intrinsics(self.scene.systematic, self.camera.intrinsics),
             rotation_from_angles_deg(r_deg),
             np.asarray(t_grid, dtype=np.float64),
         )
@@ -259,7 +279,9 @@ class _SimulatedOperator(Driver):
             for k, (_, _, t, r) in enumerate(self.drawn, start=1)
         )
         self.clock.advance(self.source.frame_dt)
-        return (SimulationTruth(trial, true_poses, self.kind, self.truth),)
+        rig = self.scene.systematic
+        constants = None if rig.is_identity else tuple(float(v) for v in rig.vector())
+        return (SimulationTruth(trial, true_poses, self.kind, self.truth, constants),)
 
 
 def _scene_with(scene: Scene | None, pose_noise: float | None, poses: int | None) -> Scene:
@@ -335,7 +357,8 @@ def simulate_session(
         [Camera(c.id, c.intrinsics) for c in scene.cameras],
         camera,
         _SimulatedOperator(scene, method, trials, rng, clock, camera),
-        ground=GroundPlane(offset=scene.ground_height),
+        # The operator types the ground height off by the rig's error (the true one renders).
+        ground=GroundPlane(offset=scene.ground_height + scene.systematic.ground_height_error),
         frames=frames,
         on_progress=on_progress,
         writer_options={

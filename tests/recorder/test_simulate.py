@@ -290,3 +290,29 @@ def test_progress_is_reported_for_every_frame(tmp_path: Path) -> None:
         on_progress=lambda: seen.append(1),
     )
     assert len(seen) == summary.n_frames == 2 * 2 * 2
+
+
+def test_the_rig_constants_render_and_are_recorded(tmp_path: Path) -> None:
+    """A camera offset the operator does not know shifts every estimate by minus it
+    (pure translation, no typing error): the bias the thesis saw, and the truth records it."""
+    import dataclasses
+
+    from analysis.pipeline import analyse_session
+    from twopose.rig import RigConstants
+
+    rig = RigConstants(camera_offset=(0.3, 0.2, 0.4))
+    scene = dataclasses.replace(Scene(), systematic=rig)
+    out = tmp_path / "rig.mcap"
+    simulate_session(out, method="point", trials=3, frames=2, seed=4, scene=scene, pose_noise=0.0)
+    with SessionReader(out) as r:
+        truths = [t.simulation_truth for t in iter_trials(r, with_frames=False)]
+    assert all(t is not None and t.rig == tuple(rig.vector()) for t in truths)
+    trials = analyse_session(out).trials
+    bias = trials[["err_x", "err_y", "err_z"]].mean().to_numpy()
+    np.testing.assert_allclose(bias, [-0.3, -0.2, -0.4], atol=0.08)
+    # Without constants, no such bias, and the truth says none.
+    plain = tmp_path / "plain.mcap"
+    simulate_session(plain, method="point", trials=3, frames=2, seed=4, pose_noise=0.0)
+    with SessionReader(plain) as r:
+        assert all(t.simulation_truth.rig is None for t in iter_trials(r, with_frames=False))  # type: ignore[union-attr]
+    assert np.abs(analyse_session(plain).trials[["err_x", "err_y", "err_z"]].mean()).max() < 0.08

@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from twopose.camera import rotation_from_angles_deg
 from twopose.errors import InputValueError, SessionFormatError
-from twopose.values import CAMERA_ID_PATTERN, Vec3, camera_id, finite, index, vec3
+from twopose.values import CAMERA_ID_PATTERN, Vec3, camera_id, finite, index, numbers, vec3
 
 __all__ = [
     "FORMAT_MAJOR",
@@ -488,12 +488,28 @@ class SimulationTruth(TypedEntry):
     points_grid: tuple[Vec3, ...] = json_field(
         "points", {"type": "array", "items": _vec3_schema("grid frame"), "minItems": 1}
     )
+    rig: tuple[float, ...] | None = json_field(
+        "rig",
+        {
+            "type": "array",
+            "items": {"type": "number"},
+            "minItems": 11,
+            "maxItems": 11,
+            "description": "the rig's systematic constants the frames were rendered with "
+            "(twopose.rig.RIG_PARAMETERS order); absent: none",
+        },
+        required=False,
+        default=None,
+        decode=lambda values: tuple(float(v) for v in values),
+    )
 
     def __post_init__(self) -> None:
         index(self.trial, "trial")
         object.__setattr__(
             self, "points_grid", tuple(vec3(p, "truth point") for p in self.points_grid)
         )
+        if self.rig is not None:
+            object.__setattr__(self, "rig", tuple(float(v) for v in numbers(self.rig, 11, "rig")))
 
 
 TYPED_ENTRIES: tuple[type[TypedEntry], ...] = (

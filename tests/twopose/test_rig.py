@@ -1,0 +1,54 @@
+"""twopose.rig: the rig's constants and how they map typed poses to true ones."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from twopose.camera import rotation_from_angles_deg
+from twopose.errors import InputValueError
+from twopose.rig import RIG_PARAMETERS, RigConstants, angles_deg_from_rotation
+
+angle = st.floats(-89.0, 89.0)
+
+
+@given(rx=st.floats(-179.0, 179.0), ry=angle, rz=st.floats(-179.0, 179.0))
+def test_angles_round_trip_through_the_rotation(rx: float, ry: float, rz: float) -> None:
+    R = rotation_from_angles_deg([rx, ry, rz])
+    np.testing.assert_allclose(rotation_from_angles_deg(angles_deg_from_rotation(R)), R, atol=1e-9)
+
+
+def test_the_constants_act_as_documented() -> None:
+    rig = RigConstants(
+        mount_rotation_deg=(0.8, -0.5, 0.3),
+        camera_offset=(0.3, 0.2, 0.4),
+        focal_scale=1.03,
+        principal_offset_px=(2.0, -1.0),
+        tape_scale=1.01,
+        ground_height_error=0.1,
+    )
+    t_typed = np.array([[1.0, 0.0, -2.0], [0.0, 0.0, 0.0]])
+    r_typed = np.array([[0.0, 0.0, 90.0], [0.0, 0.0, 0.0]])
+    t, R = rig.true_poses(t_typed, r_typed)
+    R_typed = rotation_from_angles_deg(r_typed)
+    offset = np.einsum("nij,j->ni", R_typed, [0.3, 0.2, 0.4])
+    np.testing.assert_allclose(t, 1.01 * t_typed + offset)
+    np.testing.assert_allclose(R, R_typed @ rotation_from_angles_deg([0.8, -0.5, 0.3]))
+    np.testing.assert_allclose(
+        rig.true_intrinsics([525, 525, 320, 240]), [540.75, 540.75, 322, 239]
+    )
+    assert rig.true_ground_height(9.625) == pytest.approx(9.525)
+    assert RigConstants.from_vector(rig.vector()) == rig
+    assert len(rig.vector()) == sum(len(v) for v in RIG_PARAMETERS.values()) == 11
+    assert RigConstants().is_identity
+    assert not rig.is_identity
+
+
+@pytest.mark.parametrize(
+    "kwargs", [{"focal_scale": 3.0}, {"tape_scale": 0.1}, {"ground_height_error": float("nan")}]
+)
+def test_impossible_constants_are_refused(kwargs: dict[str, float]) -> None:
+    with pytest.raises(InputValueError, match="rig constants"):
+        RigConstants(**kwargs)  # type: ignore[arg-type]
