@@ -151,6 +151,13 @@ def _results_writer(out: Path, reader: SessionReader) -> Iterator[ResultsWriter]
         raise
 
 
+def replay_views(path: str | Path, options: AnalysisOptions | None = None) -> _Replay:
+    """A session's trials as the estimation takes them (ids, truth, usable poses): what
+    the rig's constants are fitted on (:mod:`analysis.rig`)."""
+    with SessionReader(path) as reader:
+        return _replay(reader, str(path), options or AnalysisOptions(), None)
+
+
 def _replay(
     reader: SessionReader, session: str, options: AnalysisOptions, results: ResultsWriter | None
 ) -> _Replay:
