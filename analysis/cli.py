@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import json
 import math
 import sys
@@ -201,6 +202,14 @@ def run_command(
         ),
     ] = False,
     junit: JunitOption = None,
+    rig: Annotated[
+        Path | None,
+        typer.Option(
+            exists=True,
+            dir_okay=False,
+            help="Correct every view by the rig's constants from `twopose-analyze rig`.",
+        ),
+    ] = None,
 ) -> None:
     """Replay sessions through detection and solvers into error tables, figures and a report."""
     from analysis.batch import run
@@ -215,6 +224,10 @@ def run_command(
         include_warned=include_warned,
     )
     with handle_errors(), _session_progress() as (found, done):
+        if rig is not None:
+            from twopose.rig import load_rig
+
+            options = dataclasses.replace(options, rig=load_rig(rig))
         result = run(
             paths,
             out,
@@ -378,6 +391,41 @@ def compare_command(
     if comparison.tests.empty:
         typer.echo("no trial measured in both runs")
     typer.echo(f"wrote {out / 'compare.html'} and its tables")
+
+
+@app.command("rig")
+def rig_command(
+    sessions: Annotated[
+        list[Path], typer.Argument(help="Calibration sessions (one method, known targets).")
+    ],
+    out: Annotated[Path, typer.Option("--out", help="The rig file to write.")] = Path("rig.toml"),
+    constants: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--constant",
+            help="Fit this group (repeatable): mount_rotation_deg, camera_offset, focal_scale, "
+            "principal_offset_px, tape_scale, ground_height_error [default: those "
+            "leave-one-out cross-validation supports].",
+        ),
+    ] = None,
+) -> None:
+    """Estimate the rig's hidden constants from sessions with known targets; write them
+    for `run --rig` and `twopose-record new --rig`."""
+    from analysis.outputs import write_atomically
+    from analysis.rig import calibrate, rig_toml
+
+    with handle_errors():
+        fit, data = calibrate([str(s) for s in sessions], constants)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        write_atomically(out, rig_toml(fit, [str(s) for s in sessions]).encode())
+    fitted = ", ".join(fit.free) or "nothing"
+    typer.echo(f"{len(data.trial_ids)} trial(s) with ground truth; fitted: {fitted}")
+    for row in fit.rows():
+        if row["fitted"]:
+            typer.echo(f"  {row['constant']} = {row['value']:.4g} ± {row['sigma']:.2g}")
+    for name, why in fit.fixed.items():
+        typer.echo(f"  {name}: fixed ({why})")
+    typer.echo(f"wrote {out}")
 
 
 @app.command("sensitivity")

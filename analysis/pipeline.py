@@ -8,6 +8,7 @@ session's results.mcap (:mod:`analysis.results_mcap`) as the frames are detected
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import os
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -37,6 +38,7 @@ from twopose.estimate import (
 from twopose.format.entries import PoseEntry
 from twopose.format.reader import SessionReader
 from twopose.format.trials import TrialRecord, iter_trials, read_notes
+from twopose.rig import RigConstants, corrected_ground, corrected_view
 from twopose.scene3d import TrialScene
 
 __all__ = ["analyse_session", "keep_frame_buffers"]
@@ -91,7 +93,7 @@ def analyse_session(
         results = None
         if results_path is not None:
             results = stack.enter_context(_results_writer(Path(results_path), reader))
-        replay = _replay(reader, str(path), options, results)
+        replay = _corrected(_replay(reader, str(path), options, results), options.rig)
         measurements, complete, detected = measure(replay.views, options)
         est = estimate_trials(
             replay.method,
@@ -149,6 +151,14 @@ def _results_writer(out: Path, reader: SessionReader) -> Iterator[ResultsWriter]
         writer.close()
         tmp.unlink(missing_ok=True)
         raise
+
+
+def _corrected(replay: _Replay, rig: RigConstants | None) -> _Replay:
+    """The replay with every view (and the ground) as the rig really had them."""
+    if rig is None or rig.is_identity:
+        return replay
+    views = [[corrected_view(v, rig) for v in row] for row in replay.views]
+    return dataclasses.replace(replay, views=views, ground=corrected_ground(replay.ground, rig))
 
 
 def replay_views(path: str | Path, options: AnalysisOptions | None = None) -> _Replay:

@@ -15,6 +15,7 @@ from twopose.estimate import (
     DEFAULT_MIN_PARALLAX_DEG,
     DEFAULT_MIN_PLANE_ANGLE_DEG,
 )
+from twopose.rig import RigConstants
 from twopose.solve import DEFAULT_MIN_CONDITIONING
 
 __all__ = ["AnalysisOptions", "RunResult", "SessionFailure", "SessionResult"]
@@ -37,6 +38,8 @@ class AnalysisOptions:
     session_timeout_s: float | None = 600.0
     # The summary's statistics include ok trials with a near-degeneracy warning.
     include_warned: bool = False
+    # The rig's constants (`twopose-analyze rig`): every view corrected before solving.
+    rig: RigConstants | None = None
 
 
 @dataclass(frozen=True)

@@ -42,7 +42,16 @@ from twopose.rig import RIG_PARAMETERS, RigConstants
 from twopose.solve import image_lines, triangulate_ground, triangulate_lines, triangulate_points
 from twopose.trial_result import reported_point
 
-__all__ = ["GROUPS", "RigData", "RigFit", "fit_constants", "prepare", "select_constants"]
+__all__ = [
+    "GROUPS",
+    "RigData",
+    "RigFit",
+    "calibrate",
+    "fit_constants",
+    "prepare",
+    "rig_toml",
+    "select_constants",
+]
 
 F64 = NDArray[np.float64]
 
@@ -321,3 +330,53 @@ def select_constants(data: RigData, *, margin: float = 0.02) -> RigFit:
             return best
         chosen = [g for g in GROUPS if any(n in RIG_PARAMETERS[g] for n in candidate.free)]
         best = candidate
+
+
+def calibrate(paths: Sequence[str], groups: Sequence[str] | None = None) -> tuple[RigFit, RigData]:
+    """``twopose-analyze rig``: the constants of the sessions' rig (one method, every trial
+    with ground truth), the groups given or those cross-validation supports."""
+    from analysis.pipeline import replay_views
+
+    replays = [replay_views(p) for p in paths]
+    methods = {r.method for r in replays}
+    if len(methods) != 1:
+        raise InputValueError(
+            f"calibrate the rig with sessions of one method, got {sorted(methods)}"
+        )
+    first = replays[0]
+    views = [v for r in replays for v in r.views]
+    truth = np.concatenate([r.truth for r in replays])
+    ids = [t for r in replays for t in r.trial_ids]
+    data = prepare(first.method, ids, views, truth, first.ground)
+    fit = select_constants(data) if groups is None else fit_constants(data, groups)
+    return fit, data
+
+
+def rig_toml(fit: RigFit, sources: Sequence[str]) -> str:
+    """The rig file: ``[rig]`` (what ``--rig`` reads), ``[sigma]`` (1-sigma, 0 if fixed),
+    ``[fixed]`` (why a constant was not estimated)."""
+    c = fit.constants
+    sigma = dict(zip(_NAMES, np.nan_to_num(fit.sigma), strict=True))
+
+    def vec(values: Sequence[float]) -> str:
+        return "[" + ", ".join(f"{float(v):.6g}" for v in values) + "]"
+
+    lines = [
+        "# twopose rig constants, estimated by `twopose-analyze rig` from:",
+        *(f"#   {s}" for s in sources),
+        f"# chi-square {fit.chi2:.1f} on {fit.dof} degrees of freedom; fitted: "
+        + (", ".join(fit.free) or "nothing (none supported)"),
+        "[rig]",
+        f"mount_rotation_deg = {vec(c.mount_rotation_deg)}",
+        f"camera_offset = {vec(c.camera_offset)}",
+        f"focal_scale = {c.focal_scale:.6g}",
+        f"principal_offset_px = {vec(c.principal_offset_px)}",
+        f"tape_scale = {c.tape_scale:.6g}",
+        f"ground_height_error = {c.ground_height_error:.6g}",
+        "",
+        "[sigma]",
+        *(f"{name} = {value:.6g}" for name, value in sigma.items()),
+    ]
+    if fit.fixed:
+        lines += ["", "[fixed]", *(f'{k} = "{v}"' for k, v in fit.fixed.items())]
+    return "\n".join(lines) + "\n"

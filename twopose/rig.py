@@ -19,16 +19,26 @@ apply a calibrated rig to its live result. One home for the rule:
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, fields
+from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from twopose.camera import rotation_from_angles_deg
 from twopose.errors import InputValueError
+from twopose.estimate import GroundSpec, PoseView
 
-__all__ = ["RIG_PARAMETERS", "RigConstants", "angles_deg_from_rotation"]
+__all__ = [
+    "RIG_PARAMETERS",
+    "RigConstants",
+    "angles_deg_from_rotation",
+    "corrected_ground",
+    "corrected_view",
+    "load_rig",
+]
 
 F64 = NDArray[np.float64]
 
@@ -109,3 +119,34 @@ def angles_deg_from_rotation(R: ArrayLike) -> tuple[float, float, float]:
     rx = math.atan2(-float(m[1, 2]), float(m[2, 2]))
     rz = math.atan2(-float(m[0, 1]), float(m[0, 0]))
     return (math.degrees(rx), math.degrees(ry), math.degrees(rz))
+
+
+def corrected_view(view: PoseView, rig: RigConstants) -> PoseView:
+    """A pose as the rig really had it: typed centre, angles and intrinsics corrected."""
+    t, R = rig.true_poses(view.t_grid, view.r_deg)
+    return dataclasses.replace(
+        view,
+        t_grid=np.asarray(t, dtype=np.float64),
+        r_deg=np.array(angles_deg_from_rotation(R)),
+        intrinsics=rig.true_intrinsics(view.intrinsics),
+    )
+
+
+def corrected_ground(ground: GroundSpec | None, rig: RigConstants) -> GroundSpec | None:
+    """The ground plane at its true height (the typed one minus the rig's error)."""
+    if ground is None:
+        return None
+    normal, offset = ground
+    return normal, offset - rig.ground_height_error * float(np.linalg.norm(normal))
+
+
+def load_rig(path: str | Path) -> RigConstants:
+    """A rig file written by ``twopose-analyze rig`` (its ``[rig]`` table)."""
+    from twopose.config import build_dataclass, read_toml
+
+    data = read_toml(path, "rig file", InputValueError)
+    if not isinstance(data.get("rig"), dict):
+        raise InputValueError(
+            f"rig file {path}: no [rig] table; write one with twopose-analyze rig"
+        )
+    return build_dataclass(RigConstants, data["rig"], f"rig file {path}", InputValueError)

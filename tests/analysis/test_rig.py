@@ -1,0 +1,109 @@
+"""The rig's constants: estimated from a session's own ground truth, checked for
+identifiability, selected by cross-validation, written and applied."""
+
+from __future__ import annotations
+
+import dataclasses
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from analysis.cli import app
+from analysis.pipeline import analyse_session, replay_views
+from analysis.rig import fit_constants, prepare, select_constants
+from recorder.scene import Scene
+from recorder.simulate import simulate_session
+from twopose.rig import RigConstants
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "sessions"))
+from make_sessions import THESIS_POSES
+
+runner = CliRunner()
+RIG = RigConstants(camera_offset=(0.3, 0.2, 0.4), mount_rotation_deg=(0.8, -0.5, 0.3))
+
+
+@pytest.fixture(scope="module")
+def sessions(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    folder = tmp_path_factory.mktemp("rig")
+    out = {}
+    for name, rig in (("with", RIG), ("without", RigConstants())):
+        out[name] = folder / f"{name}.mcap"
+        # No typing error: what remains is the constants' bias and the pixels' noise.
+        poses = dataclasses.replace(THESIS_POSES, noise_sigma=0.0)
+        scene = Scene(poses=poses, systematic=rig)
+        simulate_session(out[name], method="point", trials=10, frames=2, seed=41, scene=scene)
+    return out
+
+
+def _data(path: Path):  # type: ignore[no-untyped-def]
+    r = replay_views(path)
+    return prepare(r.method, r.trial_ids, r.views, r.truth, r.ground)
+
+
+def test_the_constants_are_found_within_their_intervals(sessions: dict[str, Path]) -> None:
+    fit = fit_constants(_data(sessions["with"]), ["camera_offset", "mount_rotation_deg"])
+    assert set(fit.free) == {
+        "offset_x",
+        "offset_y",
+        "offset_z",
+        *(f"mount_r{a}_deg" for a in "xyz"),
+    }
+    rows = {r["constant"]: r for r in fit.rows(RIG)}
+    for name in fit.free:
+        row = rows[name]
+        assert abs(row["value"] - row["truth"]) <= 3 * row["sigma"], row  # type: ignore[operator]
+    assert np.isfinite(fit.chi2)
+    assert fit.dof == 3 * 10 - 6  # 10 trials of 3 residuals, 6 constants
+
+
+def test_what_a_session_cannot_determine_is_fixed_and_named(sessions: dict[str, Path]) -> None:
+    fit = fit_constants(_data(sessions["with"]), ["ground_height_error", "camera_offset"])
+    assert fit.fixed == {"ground_height_error": "no trial of this session depends on it"}
+    assert "ground_height_error" not in fit.free
+    assert np.isnan(fit.sigma[-1])
+
+
+def test_a_session_without_constants_keeps_none(sessions: dict[str, Path]) -> None:
+    fit = select_constants(_data(sessions["without"]))
+    assert fit.free == ()
+    assert fit.constants.is_identity
+
+
+def test_rig_writes_a_file_that_run_applies(sessions: dict[str, Path], tmp_path: Path) -> None:
+    rig_file = tmp_path / "rig.toml"
+    args = ["rig", str(sessions["with"]), "--out", str(rig_file)]
+    constants = ["--constant", "camera_offset", "--constant", "mount_rotation_deg"]
+    result = runner.invoke(app, [*args, *constants])
+    assert result.exit_code == 0, result.output
+    assert "offset_x = " in result.output
+    text = rig_file.read_text()
+    assert "[rig]" in text
+    assert "camera_offset = [" in text
+    before = analyse_session(sessions["with"]).trials
+    run = runner.invoke(
+        app, ["run", str(sessions["with"]), "--out", str(tmp_path / "o"), "--no-scene",
+              "--rig", str(rig_file)],
+    )  # fmt: skip
+    assert run.exit_code == 0, run.output
+    import pandas as pd
+
+    after = pd.read_csv(tmp_path / "o" / "trials.csv")
+    bias = [np.abs(t[["err_x", "err_y", "err_z"]].mean()).max() for t in (before, after)]
+    assert bias[1] < 0.5 * bias[0]  # the constants' bias is gone (in-sample)
+    assert np.sqrt((after["err"] ** 2).mean()) < np.sqrt((before["err"] ** 2).mean())
+
+
+def test_a_bad_rig_file_is_refused(sessions: dict[str, Path], tmp_path: Path) -> None:
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[rig]\nfocal_scale = 7\n")
+    result = runner.invoke(
+        app, ["run", str(sessions["without"]), "--out", str(tmp_path / "o"), "--rig", str(bad)]
+    )
+    assert result.exit_code == 3
+    assert "focal_scale and tape_scale must be within" in result.output
+    mixed = runner.invoke(app, ["rig", str(sessions["with"]), "--constant", "warp_drive"])
+    assert mixed.exit_code == 3
+    assert "unknown rig constant" in mixed.output
