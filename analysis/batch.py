@@ -33,6 +33,7 @@ from analysis.metrics import (
 from analysis.outputs import OutputFolder, printable_stem
 from analysis.pipeline import analyse_session, keep_frame_buffers
 from analysis.results import AnalysisOptions, RunResult, SessionFailure, SessionResult
+from analysis.rig import RIG_COLUMNS, RIG_TABLE_COLUMNS
 from analysis.tables import AVERAGING_COLUMNS, FRAME_COLUMNS, VIEW_COLUMNS
 from twopose.errors import InputValueError, TwoposeError
 from twopose.format.reader import find_sessions, is_results_file
@@ -52,6 +53,7 @@ TRIAL_TABLE_COLUMNS = (
     + MARGIN_COLUMNS
     + UNCERTAINTY_COLUMNS
     + NOTES_COLUMNS
+    + RIG_COLUMNS
 )
 
 
@@ -181,6 +183,7 @@ def gather(files: list[str], outcomes: list[Outcome], *, include_warned: bool = 
         sessions=results,
         views=_concat([r.views for r in results], VIEW_COLUMNS),
         include_warned=include_warned,
+        rig=_concat([r.rig for r in results], RIG_TABLE_COLUMNS),
     )
 
 

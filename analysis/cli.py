@@ -147,6 +147,11 @@ JunitOption = Annotated[
 ]
 
 
+class RigCalibration(StrEnum):
+    none = "none"
+    loo = "loo"
+
+
 class CombineChoice(StrEnum):
     mean = "mean"
     median = "median"
@@ -210,6 +215,13 @@ def run_command(
             help="Correct every view by the rig's constants from `twopose-analyze rig`.",
         ),
     ] = None,
+    rig_calibration: Annotated[
+        RigCalibration,
+        typer.Option(
+            help="loo: also each trial corrected by constants its session's other trials "
+            "give (x_rig, y_rig, z_rig, err_rig; rig.csv).",
+        ),
+    ] = RigCalibration.none,
 ) -> None:
     """Replay sessions through detection and solvers into error tables, figures and a report."""
     from analysis.batch import run
@@ -222,6 +234,7 @@ def run_command(
         min_ground_angle_deg=min_ground_angle,
         session_timeout_s=session_timeout or None,
         include_warned=include_warned,
+        rig_calibration=rig_calibration.value,
     )
     with handle_errors(), _session_progress() as (found, done):
         if rig is not None:
@@ -411,8 +424,9 @@ def rig_command(
 ) -> None:
     """Estimate the rig's hidden constants from sessions with known targets; write them
     for `run --rig` and `twopose-record new --rig`."""
+    from analysis.calibration import calibrate
     from analysis.outputs import write_atomically
-    from analysis.rig import calibrate, rig_toml
+    from analysis.rig import rig_toml
 
     with handle_errors():
         fit, data = calibrate([str(s) for s in sessions], constants)

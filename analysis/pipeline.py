@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 
 from analysis.results import AnalysisOptions, SessionResult
 from analysis.results_mcap import ResultsWriter
+from analysis.rig import RIG_TABLE_COLUMNS
 from analysis.tables import FRAME_COLUMNS, averaging_table, frame_row, trial_table, view_table
 from twopose.camera import Intrinsics, rotation_from_angles_deg
 from twopose.detect import Detection, PoseMeasurement, detect
@@ -62,6 +63,7 @@ class _Replay:
     frame_rows: list[dict[str, Any]]
     notes: list[str]  # per trial, the operator's notes joined with " | "
     unmeasured: list[str]  # per trial, why it has fewer than two usable poses ("" if not)
+    rig_truth: RigConstants | None = None  # a simulated session's constants, if it had any
 
 
 def analyse_session(
@@ -120,12 +122,17 @@ def analyse_session(
         )
         if results is not None:
             _write_trial_scenes(results, replay, measurements, est, trials)
+    rig = pd.DataFrame(columns=RIG_TABLE_COLUMNS)
+    if options.rig_calibration == "loo":
+        trials, rig = _rig_columns(replay, trials, options)
     keys, solved = running_estimates(replay.method, replay.views, detected, replay.ground, options)
     averaging = averaging_table(replay.session, replay.trial_ids, keys, solved, replay.truth)
     views = view_table(replay.session, replay.trial_ids, replay.views, measurements)
     images = _figures(replay.session, trials, averaging, views) if render_images else {}
     frames = pd.DataFrame(replay.frame_rows, columns=FRAME_COLUMNS)
-    return SessionResult(replay.session, replay.metadata, frames, trials, averaging, images, views)
+    return SessionResult(
+        replay.session, replay.metadata, frames, trials, averaging, images, views, rig
+    )
 
 
 @contextlib.contextmanager
@@ -151,6 +158,30 @@ def _results_writer(out: Path, reader: SessionReader) -> Iterator[ResultsWriter]
         writer.close()
         tmp.unlink(missing_ok=True)
         raise
+
+
+def _rig_columns(
+    replay: _Replay, trials: pd.DataFrame, options: AnalysisOptions
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """``--rig-calibration loo``: each trial corrected by constants estimated without it
+    (``x_rig, y_rig, z_rig, err_rig``), and the session's constants (rig.csv rows)."""
+    from analysis.rig import loo_calibration
+
+    points, rows = loo_calibration(
+        replay.session,
+        replay.method,
+        replay.trial_ids,
+        replay.views,
+        replay.truth,
+        replay.ground,
+        options,
+        replay.rig_truth,
+    )
+    corrected = np.array([points.get(t, np.full(3, np.nan)) for t in trials["trial"]])
+    reference = trials[["gt_x", "gt_y", "gt_z"]].to_numpy(dtype=np.float64)
+    columns = {f"{a}_rig": corrected[:, i] for i, a in enumerate("xyz")}
+    columns["err_rig"] = np.linalg.norm(corrected - reference, axis=1)
+    return trials.assign(**columns), pd.DataFrame(rows, columns=RIG_TABLE_COLUMNS)
 
 
 def _corrected(replay: _Replay, rig: RigConstants | None) -> _Replay:
@@ -183,7 +214,10 @@ def _replay(
     rows: list[dict[str, Any]] = []
     trial_ids, truths, views, last_ns = [], [], [], []
     notes, unmeasured = [], []
+    rig_truth: RigConstants | None = None
     for record in iter_trials(reader):
+        if record.simulation_truth is not None and record.simulation_truth.rig is not None:
+            rig_truth = RigConstants.from_vector(record.simulation_truth.rig)
         views.append(_detect_trial(record, session, target, options, rows, results))
         trial_ids.append(record.trial)
         truths.append(_truth(record))
@@ -205,6 +239,7 @@ def _replay(
         frame_rows=rows,
         notes=notes,
         unmeasured=unmeasured,
+        rig_truth=rig_truth,
     )
 
 

@@ -153,6 +153,8 @@ def write_outputs(result: RunResult, out_dir: Path, sweeps: pd.DataFrame) -> lis
         "views.csv": result.views,
         "sensitivity.csv": sweeps,
     }
+    if not result.rig.empty:  # --rig-calibration
+        tables["rig.csv"] = result.rig
     for name, table in tables.items():
         csv = table.to_csv(index=False).encode("utf-8", "backslashreplace")
         write_atomically(out_dir / name, csv)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 import pandas as pd
 
@@ -40,6 +40,8 @@ class AnalysisOptions:
     include_warned: bool = False
     # The rig's constants (`twopose-analyze rig`): every view corrected before solving.
     rig: RigConstants | None = None
+    # "loo": also each trial corrected by the constants its session's other trials give.
+    rig_calibration: Literal["none", "loo"] = "none"
 
 
 @dataclass(frozen=True)
@@ -53,6 +55,7 @@ class SessionResult:
     averaging: pd.DataFrame
     images: dict[str, bytes] = field(default_factory=dict)  # PNGs by figure kind, if asked
     views: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=VIEW_COLUMNS))
+    rig: pd.DataFrame = field(default_factory=pd.DataFrame)  # --rig-calibration: rig.csv rows
 
 
 @dataclass(frozen=True)
@@ -76,6 +79,7 @@ class RunResult:
     views: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=VIEW_COLUMNS))
     skipped: tuple[str, ...] = ()  # results files of an earlier run found among the inputs
     include_warned: bool = False  # whether the summary counts trials with a warning
+    rig: pd.DataFrame = field(default_factory=pd.DataFrame)  # --rig-calibration: rig.csv
 
     @property
     def failed(self) -> bool:

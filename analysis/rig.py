@@ -44,10 +44,13 @@ from twopose.trial_result import reported_point
 
 __all__ = [
     "GROUPS",
+    "RIG_COLUMNS",
+    "RIG_TABLE_COLUMNS",
     "RigData",
     "RigFit",
-    "calibrate",
     "fit_constants",
+    "leave_one_out",
+    "loo_calibration",
     "prepare",
     "rig_toml",
     "select_constants",
@@ -332,26 +335,6 @@ def select_constants(data: RigData, *, margin: float = 0.02) -> RigFit:
         best = candidate
 
 
-def calibrate(paths: Sequence[str], groups: Sequence[str] | None = None) -> tuple[RigFit, RigData]:
-    """``twopose-analyze rig``: the constants of the sessions' rig (one method, every trial
-    with ground truth), the groups given or those cross-validation supports."""
-    from analysis.pipeline import replay_views
-
-    replays = [replay_views(p) for p in paths]
-    methods = {r.method for r in replays}
-    if len(methods) != 1:
-        raise InputValueError(
-            f"calibrate the rig with sessions of one method, got {sorted(methods)}"
-        )
-    first = replays[0]
-    views = [v for r in replays for v in r.views]
-    truth = np.concatenate([r.truth for r in replays])
-    ids = [t for r in replays for t in r.trial_ids]
-    data = prepare(first.method, ids, views, truth, first.ground)
-    fit = select_constants(data) if groups is None else fit_constants(data, groups)
-    return fit, data
-
-
 def rig_toml(fit: RigFit, sources: Sequence[str]) -> str:
     """The rig file: ``[rig]`` (what ``--rig`` reads), ``[sigma]`` (1-sigma, 0 if fixed),
     ``[fixed]`` (why a constant was not estimated)."""
@@ -380,3 +363,43 @@ def rig_toml(fit: RigFit, sources: Sequence[str]) -> str:
     if fit.fixed:
         lines += ["", "[fixed]", *(f'{k} = "{v}"' for k, v in fit.fixed.items())]
     return "\n".join(lines) + "\n"
+
+
+RIG_COLUMNS = ["x_rig", "y_rig", "z_rig", "err_rig"]
+RIG_TABLE_COLUMNS = ["session", "constant", "value", "sigma", "fitted", "why_fixed", "truth"]
+
+
+def leave_one_out(data: RigData) -> F64:
+    """Each trial's reported point (T, 3) corrected by constants estimated without it:
+    the selection too runs without it, so the trial never informs its own correction."""
+    points = np.full((len(data.trial_ids), 3), np.nan)
+    for i in range(len(data.trial_ids)):
+        others = [j for j in range(len(data.trial_ids)) if j != i]
+        if len(others) < 2:
+            continue
+        fit = select_constants(data.subset(others))
+        points[i] = solve_corrected(data.subset([i]), fit.constants)[0]
+    return points
+
+
+def loo_calibration(
+    session: str,
+    method: str,
+    trial_ids: Sequence[int],
+    views: list[list[PoseView]],
+    truth: F64,
+    ground: GroundSpec | None,
+    options: EstimateSettings,
+    rig_truth: RigConstants | None = None,
+) -> tuple[dict[int, F64], list[dict[str, object]]]:
+    """``run --rig-calibration loo`` for one session: per trial its leave-one-out corrected
+    point (trial id -> (3,)), and the session's constants (selected on all its trials) as
+    rig.csv rows. A session that cannot inform the rig gets neither, and says why."""
+    try:
+        data = prepare(method, trial_ids, views, truth, ground, options)
+    except InputValueError as err:
+        return {}, [{"session": session, "constant": "", "why_fixed": str(err)}]
+    points = leave_one_out(data)
+    fit = select_constants(data)
+    rows = [{"session": session, **row} for row in fit.rows(rig_truth)]
+    return dict(zip(data.trial_ids, points, strict=True)), rows

@@ -107,3 +107,36 @@ def test_a_bad_rig_file_is_refused(sessions: dict[str, Path], tmp_path: Path) ->
     mixed = runner.invoke(app, ["rig", str(sessions["with"]), "--constant", "warp_drive"])
     assert mixed.exit_code == 3
     assert "unknown rig constant" in mixed.output
+
+
+def test_run_rig_calibration_loo_is_honest(sessions: dict[str, Path], tmp_path: Path) -> None:
+    """Each trial corrected by constants fitted without it: the bias goes, a session
+    without constants is not made worse, and rig.csv sets the estimates against the truth."""
+    import pandas as pd
+
+    out = tmp_path / "o"
+    args = ["run", str(sessions["with"]), str(sessions["without"]), "--out", str(out)]
+    result = runner.invoke(app, [*args, "--no-scene", "--rig-calibration", "loo"])
+    assert result.exit_code == 0, result.output
+    trials = pd.read_csv(out / "trials.csv")
+    assert {"x_rig", "y_rig", "z_rig", "err_rig"} <= set(trials.columns)
+    rmse = {
+        Path(s).stem: (np.sqrt((g["err"] ** 2).mean()), np.sqrt((g["err_rig"] ** 2).mean()))
+        for s, g in trials.groupby("session")
+    }
+    assert rmse["with"][1] < 0.7 * rmse["with"][0]
+    assert rmse["without"][1] <= 1.05 * rmse["without"][0]
+    rig = pd.read_csv(out / "rig.csv")
+    assert list(rig.columns) == [
+        "session",
+        "constant",
+        "value",
+        "sigma",
+        "fitted",
+        "why_fixed",
+        "truth",
+    ]
+    with_rows = rig[rig["session"].str.endswith("/with.mcap")].set_index("constant")
+    assert with_rows.loc["offset_x", "truth"] == pytest.approx(0.3)
+    assert rig[rig["session"].str.endswith("without.mcap")]["truth"].isna().all()
+    assert not rig[rig["session"].str.endswith("without.mcap")]["fitted"].any()
