@@ -181,7 +181,26 @@ def _rig_columns(
     reference = trials[["gt_x", "gt_y", "gt_z"]].to_numpy(dtype=np.float64)
     columns = {f"{a}_rig": corrected[:, i] for i, a in enumerate("xyz")}
     columns["err_rig"] = np.linalg.norm(corrected - reference, axis=1)
-    return trials.assign(**columns), pd.DataFrame(rows, columns=RIG_TABLE_COLUMNS)
+    return _systematic_dominance(trials.assign(**columns)), pd.DataFrame(
+        rows, columns=RIG_TABLE_COLUMNS
+    )
+
+
+def _systematic_dominance(trials: pd.DataFrame) -> pd.DataFrame:
+    """``dominant_input`` becomes ``systematic`` where the rig's correction moved the
+    estimate by more (squared) than the largest random input's variance; its share is
+    then of the systematic plus the random variance."""
+    shift = trials[["x", "y", "z"]].to_numpy(dtype=np.float64) - trials[
+        ["x_rig", "y_rig", "z_rig"]
+    ].to_numpy(dtype=np.float64)
+    systematic = np.sum(shift**2, axis=1)
+    variance = np.sum(trials[["sigma_x", "sigma_y", "sigma_z"]].to_numpy(dtype=np.float64) ** 2, 1)
+    largest = trials["dominant_share"].to_numpy(dtype=np.float64) * variance
+    wins = np.isfinite(systematic) & (systematic > np.nan_to_num(largest, nan=np.inf))
+    out = trials.copy()
+    out.loc[wins, "dominant_input"] = "systematic"
+    out.loc[wins, "dominant_share"] = systematic[wins] / (systematic[wins] + variance[wins])
+    return out
 
 
 def _corrected(replay: _Replay, rig: RigConstants | None) -> _Replay:

@@ -325,6 +325,40 @@ def _method_sections(result: RunResult, images: dict[str, str], sweeps: pd.DataF
     ]
 
 
+def rig_before_after(trials: pd.DataFrame) -> pd.DataFrame:
+    """Per session, the ok trials' RMSE before and after the leave-one-out rig correction."""
+    ok = trials[(trials["status"] == "ok") & trials["err_rig"].notna()]
+    rows = [
+        {
+            "session": session,
+            "trials": len(g),
+            "rmse": float(np.sqrt(np.mean(g["err"] ** 2))),
+            "rmse_rig_loo": float(np.sqrt(np.mean(g["err_rig"] ** 2))),
+            "systematic_dominant": int((g["dominant_input"] == "systematic").sum()),
+        }
+        for session, g in ok.groupby("session", sort=False)
+    ]
+    return pd.DataFrame(
+        rows, columns=["session", "trials", "rmse", "rmse_rig_loo", "systematic_dominant"]
+    )
+
+
+def _rig_section(result: RunResult) -> list[str]:
+    """``--rig-calibration loo``: errors before and after, and the constants."""
+    if result.rig.empty or "err_rig" not in result.trials:
+        return []
+    fitted = result.rig[result.rig["fitted"].astype(bool)]
+    return [
+        "<h2 id='rig'>The rig's constants</h2>",
+        "<p>Each trial corrected by the constants its session's other trials give (leave "
+        "one out: selected and fitted without it; trials.csv <code>x_rig, y_rig, z_rig, "
+        "err_rig</code>), and the constants each session supports (rig.csv; "
+        "<code>truth</code>: the simulation's).</p>",
+        table_html(rig_before_after(result.trials)),
+        table_html(fitted if not fitted.empty else result.rig.head(0)),
+    ]
+
+
 def _notes(metadata: dict[str, str]) -> str:
     """The operator's notes on the session and its trials, as a list."""
     notes = [
@@ -373,6 +407,7 @@ def _report_html(result: RunResult, images: dict[str, str], sweeps: pd.DataFrame
     body = [
         *_answer_section(result),
         *_overview_section(result, images),
+        *_rig_section(result),
         *_method_sections(result, images, sweeps),
         *_session_sections(result, images),
     ]

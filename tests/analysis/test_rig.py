@@ -139,4 +139,11 @@ def test_run_rig_calibration_loo_is_honest(sessions: dict[str, Path], tmp_path: 
     with_rows = rig[rig["session"].str.endswith("/with.mcap")].set_index("constant")
     assert with_rows.loc["offset_x", "truth"] == pytest.approx(0.3)
     assert rig[rig["session"].str.endswith("without.mcap")]["truth"].isna().all()
+    # What dominates: the constants, in the session that has them; never without them.
+    dominant = trials.groupby(trials["session"].map(lambda s: Path(s).stem))["dominant_input"]
+    assert (dominant.get_group("with") == "systematic").sum() > 0
+    assert (dominant.get_group("without") == "systematic").sum() == 0
+    page = (out / "report.html").read_text()
+    assert "The rig's constants" in page
+    assert "rmse_rig_loo" in page
     assert not rig[rig["session"].str.endswith("without.mcap")]["fitted"].any()
