@@ -158,6 +158,39 @@ class CombineChoice(StrEnum):
     robust = "robust"
 
 
+SessionTimeoutOption = Annotated[
+    float,
+    typer.Option(
+        min=0.0,
+        help="Stop a session still running after this many seconds and list it as failed "
+        "(0: no limit).",
+    ),
+]
+IncludeWarnedOption = Annotated[
+    bool,
+    typer.Option(
+        "--include-warned",
+        help="Summarize over every ok trial, also those with a near-degeneracy warning "
+        "(default: those are counted in n_warned and left out).",
+    ),
+]
+RigFileOption = Annotated[
+    Path | None,
+    typer.Option(
+        exists=True,
+        dir_okay=False,
+        help="Correct every view by the rig's constants from `twopose-analyze rig`.",
+    ),
+]
+RigCalibrationOption = Annotated[
+    RigCalibration,
+    typer.Option(
+        help="loo: also each trial corrected by constants its session's other trials give "
+        "(x_rig, y_rig, z_rig, err_rig; rig.csv).",
+    ),
+]
+
+
 @app.command("run")
 def run_command(
     paths: Annotated[list[Path], typer.Argument(help="Session files and/or folders (recursive).")],
@@ -190,38 +223,11 @@ def run_command(
             "detections drawn, and each trial's 3-D geometry, for Foxglove."
         ),
     ] = True,
-    session_timeout: Annotated[
-        float,
-        typer.Option(
-            min=0.0,
-            help="Stop a session still running after this many seconds and list it as "
-            "failed (0: no limit).",
-        ),
-    ] = 600.0,
-    include_warned: Annotated[
-        bool,
-        typer.Option(
-            "--include-warned",
-            help="Summarize over every ok trial, also those with a near-degeneracy warning "
-            "(default: those are counted in n_warned and left out).",
-        ),
-    ] = False,
+    session_timeout: SessionTimeoutOption = 600.0,
+    include_warned: IncludeWarnedOption = False,
     junit: JunitOption = None,
-    rig: Annotated[
-        Path | None,
-        typer.Option(
-            exists=True,
-            dir_okay=False,
-            help="Correct every view by the rig's constants from `twopose-analyze rig`.",
-        ),
-    ] = None,
-    rig_calibration: Annotated[
-        RigCalibration,
-        typer.Option(
-            help="loo: also each trial corrected by constants its session's other trials "
-            "give (x_rig, y_rig, z_rig, err_rig; rig.csv).",
-        ),
-    ] = RigCalibration.none,
+    rig: RigFileOption = None,
+    rig_calibration: RigCalibrationOption = RigCalibration.none,
 ) -> None:
     """Replay sessions through detection and solvers into error tables, figures and a report."""
     from analysis.batch import run

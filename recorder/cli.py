@@ -25,6 +25,7 @@ if TYPE_CHECKING:
     from recorder.live import LiveView
     from recorder.procedure import RecordingSummary
     from twopose.camera import Camera, Intrinsics
+    from twopose.rig import RigConstants
 
 __all__ = ["app", "main"]
 
@@ -119,6 +120,22 @@ HostOption = Annotated[
 ]
 
 
+RigOption = Annotated[
+    Path | None,
+    typer.Option(
+        exists=True,
+        dir_okay=False,
+        help="A calibrated rig (twopose-analyze rig) for the live result.",
+    ),
+]
+
+
+def _load_rig(path: Path | None) -> RigConstants | None:
+    from twopose.rig import load_rig
+
+    return load_rig(path) if path is not None else None
+
+
 @app.command()
 def new(
     out: Annotated[Path, typer.Argument(help="New session file (never overwritten).")],
@@ -163,6 +180,7 @@ def new(
     ui: UiOption = False,
     port: PortOption = 0,
     host: HostOption = "127.0.0.1",
+    rig: RigOption = None,
 ) -> None:
     """Record a session: the guided laptop-on-grid procedure, or a plan file (--plan).
 
@@ -173,14 +191,16 @@ def new(
 
     with handle_errors(), contextlib.ExitStack() as stack:
         refuse_existing(out)  # before the first question
+        constants = _load_rig(rig)
         if ui:
             answers = (method, units, calibration, focal, principal, ground_height)
             given = _console_given(*answers, ground_truth, operator)
-            _console(out, source, given, (frames, poses, width, height, fps), notes, host, port)
+            mode = (frames, poses, width, height, fps)
+            _console(out, source, given, mode, notes, (host, port), constants)
             return
         if plan is not None:
             view_port = live_port if live else None
-            summary = _planned(out, plan, source, (width, height, fps), stack, view_port)
+            summary = _planned(out, plan, source, (width, height, fps), stack, view_port, constants)
         else:
             given = {
                 "method": method.value if method else None,
@@ -192,6 +212,7 @@ def new(
                 "ground_truth": ground_truth,
                 "operator": operator,
                 "notes": notes,
+                "rig": constants,
             }
             summary = _interactive(
                 out,
@@ -278,6 +299,7 @@ def _interactive(
         frames=frames,
         poses_per_trial=poses,
         live=view,
+        rig=given["rig"],
     )
 
 
@@ -288,6 +310,7 @@ def _planned(
     mode: tuple[int, int, float],
     stack: contextlib.ExitStack,
     live_port: int | None,
+    rig: RigConstants | None = None,
 ) -> RecordingSummary:
     """``new --plan``: the plan recorded, each capture and live result printed."""
     from recorder.plan import load_plan, record_plan
@@ -304,6 +327,7 @@ def _planned(
         on_capture=_report_capture,
         live=view,
         on_result=lambda result: typer.echo(f"  result: {result.text()}"),
+        rig=rig,
     )
 
 
@@ -340,17 +364,18 @@ def _console(
     given: dict[str, Any],
     capture: tuple[int, int, int, int, float],
     notes: str,
-    host: str,
-    port: int,
+    address: tuple[str, int],
+    rig: RigConstants | None = None,
 ) -> None:
     """The web console until Ctrl-C; then the summary (the file is closed either way)."""
     from recorder.console_server import ConsoleOptions, serve_console
 
     frames, poses, width, height, fps = capture
     options = ConsoleOptions(
-        source, given, frames=frames, poses=poses, size=(width, height), fps=fps, notes=notes
-    )
-    session = serve_console(out, options, host=host, port=port)
+        source, given, frames=frames, poses=poses, size=(width, height), fps=fps, notes=notes,
+        rig=rig,
+    )  # fmt: skip
+    session = serve_console(out, options, host=address[0], port=address[1])
     if session.summary:
         typer.echo(session.summary)
 

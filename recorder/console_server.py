@@ -36,6 +36,7 @@ from twopose.errors import InputValueError, TwoposeError
 if TYPE_CHECKING:
     from recorder.sources import FrameSource
     from twopose.detect import Detection
+    from twopose.rig import RigConstants
 
 __all__ = ["ConsoleOptions", "console_app", "draw_detection", "serve_console"]
 
@@ -56,8 +57,9 @@ class ConsoleOptions:
         size: tuple[int, int] = (640, 480),
         fps: float = 30.0,
         notes: str = "",
+        rig: RigConstants | None = None,
     ) -> None:
-        self.source, self.given = source, given
+        self.source, self.given, self.rig = source, given, rig
         self.frames, self.poses, self.size, self.fps, self.notes = frames, poses, size, fps, notes
 
 
@@ -142,7 +144,7 @@ def _recording(session: ConsoleSession, setup: Setup, options: ConsoleOptions) -
         target = "dot" if setup.method == "point" else "glove"
         summary = record(
             session.out, info, [camera], src, driver, ground=ground, frames=options.frames,
-            target=target, live=session,
+            target=target, live=session, rig=options.rig,
         )  # fmt: skip
         print(f"{summary.line()}\n(the console shows it; Ctrl-C stops the console)", flush=True)
     except TwoposeError as err:

@@ -42,6 +42,7 @@ from twopose.values import Vec3, finite, numbers, vec3
 
 if TYPE_CHECKING:
     from recorder.live import LiveView
+    from twopose.rig import RigConstants
     from twopose.trial_result import TrialResult
 
 __all__ = ["Operator", "Setup", "ask_setup", "parse_vector", "record_interactive"]
@@ -295,6 +296,7 @@ def record_interactive(
     translation_resolution: float = 0.0625,
     rotation_resolution_deg: float = 0.5,
     live: LiveView | None = None,
+    rig: RigConstants | None = None,
 ) -> RecordingSummary:
     """The guided procedure: trial after trial, type each pose, capture, accept or redo.
 
@@ -325,4 +327,5 @@ def record_interactive(
         target="dot" if info.method == "point" else "glove",
         live=live,
         on_frame=lambda fb: operator.say(fb.line()),
+        rig=rig,
     )

@@ -19,6 +19,7 @@ from recorder.capture import CaptureResult
 from twopose.camera import Camera, rotation_from_angles_deg
 from twopose.estimate import EstimateOptions, GroundSpec, PoseView, measure, pose_view
 from twopose.format.entries import GroundPlane, GroundTruth, PoseEntry, TypedEntry
+from twopose.rig import RigConstants, corrected_ground, corrected_view
 from twopose.scene3d import TrialScene
 from twopose.trial_result import TrialResult, trial_results
 
@@ -35,13 +36,17 @@ class LiveResults:
         cameras: Sequence[Camera],
         ground: GroundPlane | None,
         options: EstimateOptions | None = None,
+        rig: RigConstants | None = None,
     ) -> None:
         self.method, self.units = method, units
+        self.rig = rig  # a calibrated rig (`twopose-analyze rig`): views corrected by it
         self.options = options or EstimateOptions()
         self._cameras = {c.camera_id: c for c in cameras}
         self._ground: GroundSpec | None = (
             (np.array(ground.normal_grid, dtype=np.float64), ground.offset) if ground else None
         )
+        if rig is not None:
+            self._ground = corrected_ground(self._ground, rig)
         self._captures: dict[int, PoseView] = {}  # capture number -> its detections
         self._truth: dict[int, np.ndarray] = {}  # trial -> (2, 3)
         self._views: dict[int, list[PoseView]] = {}  # trial -> its accepted poses, in order
@@ -63,13 +68,14 @@ class LiveResults:
             return
         camera = self._cameras[entry.camera_id]
         fb = result.feedback
-        self._captures[entry.capture] = pose_view(
+        view = pose_view(
             entry,
             camera.intrinsics,
             [f.found for f in fb],
             [f.centroid_px for f in fb],
             [f.theta_deg for f in fb],
         )
+        self._captures[entry.capture] = view if self.rig is None else corrected_view(view, self.rig)
 
     def update(self, trial: int, accepted: Mapping[int, PoseEntry]) -> TrialResult | None:
         """The trial's accepted poses now (pose -> entry): its new result when they changed

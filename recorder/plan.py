@@ -39,6 +39,7 @@ from twopose.values import Vec3, finite, numbers, vec3
 
 if TYPE_CHECKING:
     from recorder.live import LiveView
+    from twopose.rig import RigConstants
     from twopose.trial_result import TrialResult
 
 __all__ = [
@@ -291,6 +292,7 @@ def record_plan(
     on_capture: Callable[[int, int, CaptureResult], None] | None = None,
     live: LiveView | None = None,
     on_result: Callable[[TrialResult], None] | None = None,
+    rig: RigConstants | None = None,
 ) -> RecordingSummary:
     """Record ``plan`` into the new session ``out`` from an (unopened) ``source``.
 
@@ -313,6 +315,7 @@ def record_plan(
         plan.cameras,
         source,
         _PlanDriver(plan, on_capture, on_result),
+        rig=rig,
         ground=ground,
         frames=plan.frames,
         target="dot" if plan.method == "point" else "glove",

@@ -62,6 +62,7 @@ from twopose.values import Vec3
 
 if TYPE_CHECKING:
     from recorder.capture import LiveSink
+    from twopose.rig import RigConstants
     from twopose.trial_result import TrialResult
 
 __all__ = [
@@ -452,10 +453,12 @@ def record(
     on_frame: Callable[[FrameFeedback], None] | None = None,
     writer_options: dict[str, Any] | None = None,
     on_progress: Callable[[], None] | None = None,
+    rig: RigConstants | None = None,
 ) -> RecordingSummary:
     """Record a new session at ``path`` from the (unopened) ``source``, as ``driver`` says.
 
-    ``target`` (``"glove"`` or ``"dot"``) turns on live detection feedback. Whatever stops
+    ``target`` (``"glove"`` or ``"dot"``) turns on live detection feedback and the live
+    result (corrected by ``rig``, a calibrated rig, if given). Whatever stops
     the recording (the driver, an error, Ctrl-C) leaves a closed, valid session holding
     everything captured so far, with an undecided capture discarded. Ctrl-C returns the
     summary with ``interrupted`` set; any other error propagates after the file is closed.
@@ -464,7 +467,9 @@ def record(
     out = Path(path)
     refuse_existing(out)
     tally = _Tally()
-    results = None if target is None else LiveResults(info.method, info.units, cameras, ground)
+    results = None
+    if target is not None:  # the live result needs the live detection
+        results = LiveResults(info.method, info.units, cameras, ground, rig=rig)
     options = _CaptureOptions(frames, target, live, on_frame, on_progress, results)
     interrupted = False
     try:

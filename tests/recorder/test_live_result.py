@@ -84,3 +84,30 @@ def test_the_plan_command_prints_each_result(tmp_path: Path) -> None:
         "trial 2 (2 views)",
     ]
     assert all("95% within" in line and "error" in line for line in lines)
+
+
+def test_a_calibrated_rig_corrects_the_live_result_as_run_rig_does(tmp_path: Path) -> None:
+    """``new --rig``: the live result is corrected by the rig's constants exactly as
+    ``twopose-analyze run --rig`` corrects the analysis."""
+    from analysis.results import AnalysisOptions
+    from twopose.rig import RigConstants, load_rig
+
+    rig_file = tmp_path / "rig.toml"
+    rig_file.write_text(
+        "[rig]\ncamera_offset = [0.3, 0.2, 0.4]\nmount_rotation_deg = [0.8, -0.5, 0.3]\n"
+    )
+    rig = load_rig(rig_file)
+    assert rig == RigConstants(mount_rotation_deg=(0.8, -0.5, 0.3), camera_offset=(0.3, 0.2, 0.4))
+    plan_file = tmp_path / "plan.toml"
+    plan_file.write_text(PLAN.format(method="point", truth=TRUTH["point"]))
+    out = tmp_path / "s.mcap"
+    args = ["new", str(out), "--plan", str(plan_file), "--source", "synthetic"]
+    result = runner.invoke(app, [*args, "--rig", str(rig_file)])
+    assert result.exit_code == 0, result.output
+    lines = [x for x in result.output.splitlines() if "result: trial 2" in x]
+    assert len(lines) == 1
+    corrected = analyse_session(out, AnalysisOptions(rig=rig)).trials.set_index("trial")
+    plain = analyse_session(out).trials.set_index("trial")
+    row = corrected.loc[2]
+    assert f"x {row['x']:.3f} y {row['y']:.3f} z {row['z']:.3f} in" in lines[0]
+    assert abs(row["x"] - plain.loc[2, "x"]) > 0.1  # the rig did move it
