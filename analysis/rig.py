@@ -15,7 +15,7 @@ constant's typical size) are checked by SVD; a constant that no trial depends on
 moves the estimates the way others do (a near-null direction), is fixed at its nominal
 value, and :attr:`RigFit.fixed` says which and why. Model selection
 (:func:`select_constants`): groups of constants are added one at a time while the
-leave-one-out prediction error (PRESS of the linearized fit) drops by more than 2%, so a
+leave-one-out prediction error (PRESS of the linearized fit) drops by more than 5%, so a
 session without systematic error keeps none.
 """
 
@@ -319,7 +319,7 @@ def _press(r: F64, J: F64) -> float:
     return total
 
 
-def select_constants(data: RigData, *, margin: float = 0.02) -> RigFit:
+def select_constants(data: RigData, *, margin: float = 0.05) -> RigFit:
     """The constants leave-one-out cross-validation supports: groups added one at a time
     while the PRESS drops by more than ``margin`` (none, if none helps)."""
     chosen: list[str] = []
