@@ -136,7 +136,8 @@ class ConsoleSession:
         self.topview: dict[str, Any] | None = None
         self.summary = ""
         self.latest: _Frame | None = None
-        self.viewers = 0
+        self.viewers = 0  # pages watching the live image (the preview runs only for them)
+        self.preview_at = 0.0  # monotonic time of the last preview frame
 
     # -- the page's view
     def snapshot(self) -> dict[str, Any]:

@@ -103,10 +103,10 @@ def preview(source: FrameSource, session: ConsoleSession) -> None:
     from twopose.detect import detect
 
     now = time.monotonic()
-    if session.viewers == 0 or now - getattr(session, "_preview_at", 0.0) < _PREVIEW_INTERVAL_S:
+    if session.viewers == 0 or now - session.preview_at < _PREVIEW_INTERVAL_S:
         time.sleep(0.02)
         return
-    session._preview_at = now  # type: ignore[attr-defined]
+    session.preview_at = now
     try:
         image = source.read(0.5)
     except TwoposeError:
