@@ -37,7 +37,11 @@ EXAMPLES = [
     Note("glare", 3),
     Note("session-wide"),
     SimulationTruth(
-        1, (TruePose(1, "cam0", (0.1, 0.0, 0.0), (0.0, 0.0, 0.0)),), "point", ((1, 2, 3),)
+        1,
+        (TruePose(1, "cam0", (0.1, 0.0, 0.0), (0.0, 0.0, 0.0)),),
+        "point",
+        ((1, 2, 3),),
+        (0.8, -0.5, 0.3, 0.3, 0.2, 0.4, 1.03, 0.0, 0.0, 1.0, 0.0),  # the rig's constants
     ),
 ]
 
