@@ -164,7 +164,8 @@ def _rig_columns(
     replay: _Replay, trials: pd.DataFrame, options: AnalysisOptions
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
     """``--rig-calibration loo``: each trial corrected by constants estimated without it
-    (``x_rig, y_rig, z_rig, err_rig``), and the session's constants (rig.csv rows)."""
+    (``x_rig, y_rig, z_rig, err_rig, within95_rig``), and the session's constants (rig.csv
+    rows)."""
     from analysis.rig import loo_calibration
 
     points, rows = loo_calibration(
@@ -177,10 +178,12 @@ def _rig_columns(
         options,
         replay.rig_truth,
     )
-    corrected = np.array([points.get(t, np.full(3, np.nan)) for t in trials["trial"]])
+    rows_rig = np.array([points.get(t, np.full(4, np.nan)) for t in trials["trial"]])
+    corrected = rows_rig[:, :3].reshape(-1, 3)
     reference = trials[["gt_x", "gt_y", "gt_z"]].to_numpy(dtype=np.float64)
     columns = {f"{a}_rig": corrected[:, i] for i, a in enumerate("xyz")}
     columns["err_rig"] = np.linalg.norm(corrected - reference, axis=1)
+    columns["within95_rig"] = rows_rig[:, 3]
     return _systematic_dominance(trials.assign(**columns)), pd.DataFrame(
         rows, columns=RIG_TABLE_COLUMNS
     )

@@ -334,12 +334,23 @@ def rig_before_after(trials: pd.DataFrame) -> pd.DataFrame:
             "trials": len(g),
             "rmse": float(np.sqrt(np.mean(g["err"] ** 2))),
             "rmse_rig_loo": float(np.sqrt(np.mean(g["err_rig"] ** 2))),
+            "coverage95": float(pd.to_numeric(g["within95"], errors="coerce").mean()),
+            "coverage95_rig": float(pd.to_numeric(g["within95_rig"], errors="coerce").mean()),
             "systematic_dominant": int((g["dominant_input"] == "systematic").sum()),
         }
         for session, g in ok.groupby("session", sort=False)
     ]
     return pd.DataFrame(
-        rows, columns=["session", "trials", "rmse", "rmse_rig_loo", "systematic_dominant"]
+        rows,
+        columns=[
+            "session",
+            "trials",
+            "rmse",
+            "rmse_rig_loo",
+            "coverage95",
+            "coverage95_rig",
+            "systematic_dominant",
+        ],
     )
 
 

@@ -41,6 +41,7 @@ from twopose.estimate import (
 from twopose.rig import RIG_PARAMETERS, RigConstants
 from twopose.solve import image_lines, triangulate_ground, triangulate_lines, triangulate_points
 from twopose.trial_result import reported_point
+from twopose.uncertainty import CHI2_95, nees
 
 __all__ = [
     "GROUPS",
@@ -82,6 +83,7 @@ class RigData:
     truth: F64  # (T, 2, 3)
     ground: GroundSpec | None
     whiten: F64  # (T, 3, 3): residual -> whitened residual (pseudo-inverse square root)
+    cov: F64  # (T, 3, 3): each trial's propagated (random) covariance
     options: EstimateSettings = field(default_factory=EstimateOptions)
 
     def subset(self, rows: Sequence[int]) -> RigData:
@@ -93,6 +95,7 @@ class RigData:
             batch=batch,
             truth=self.truth[idx],
             whiten=self.whiten[idx],
+            cov=self.cov[idx],
         )
 
 
@@ -123,6 +126,7 @@ def prepare(
         truth[keep],
         ground,
         whiten,
+        est.cov[keep],
         options,
     )
 
@@ -199,6 +203,7 @@ class RigFit:
     chi2: float
     dof: int
     press: float
+    cov_scaled: F64 = field(default_factory=lambda: np.zeros((0, 0)))  # free, scaled units
 
     def rows(self, truth: RigConstants | None = None) -> list[dict[str, object]]:
         """One row per scalar: ``constant, value, sigma, fitted, why_fixed, truth``."""
@@ -298,11 +303,12 @@ def fit_constants(data: RigData, groups: Sequence[str] = GROUPS) -> RigFit:
     chi2 = float(r @ r)
     sigma = np.full(len(_NAMES), np.nan)
     press = _press(r, J)
+    cov: F64 = np.zeros((0, 0))
     if free.any():
-        cov = np.linalg.pinv(J.T @ J) * max(1.0, chi2 / dof)
+        cov = np.asarray(np.linalg.pinv(J.T @ J) * max(1.0, chi2 / dof), dtype=np.float64)
         sigma[free] = np.sqrt(np.diag(cov)) * _SCALE[free]
     names = tuple(n for n, f in zip(_NAMES, free, strict=True) if f)
-    return RigFit(constants, sigma, names, fixed, chi2, dof, press)
+    return RigFit(constants, sigma, names, fixed, chi2, dof, press, cov)
 
 
 def _press(r: F64, J: F64) -> float:
@@ -365,21 +371,49 @@ def rig_toml(fit: RigFit, sources: Sequence[str]) -> str:
     return "\n".join(lines) + "\n"
 
 
-RIG_COLUMNS = ["x_rig", "y_rig", "z_rig", "err_rig"]
+RIG_COLUMNS = ["x_rig", "y_rig", "z_rig", "err_rig", "within95_rig"]
 RIG_TABLE_COLUMNS = ["session", "constant", "value", "sigma", "fitted", "why_fixed", "truth"]
 
 
-def leave_one_out(data: RigData) -> F64:
-    """Each trial's reported point (T, 3) corrected by constants estimated without it:
-    the selection too runs without it, so the trial never informs its own correction."""
-    points = np.full((len(data.trial_ids), 3), np.nan)
-    for i in range(len(data.trial_ids)):
-        others = [j for j in range(len(data.trial_ids)) if j != i]
+def leave_one_out(data: RigData) -> tuple[F64, F64]:
+    """Each trial's reported point (T, 3) corrected by constants estimated without it
+    (the selection too runs without it, so the trial never informs its own correction),
+    and whether its truth is inside the 95% region of the corrected estimate (T,; NaN if
+    unknown): the trial's random covariance plus the fitted constants' covariance carried
+    through the correction, ``C + J C_rig J^T``."""
+    T = len(data.trial_ids)
+    points = np.full((T, 3), np.nan)
+    inside = np.full(T, np.nan)
+    for i in range(T):
+        others = [j for j in range(T) if j != i]
         if len(others) < 2:
             continue
         fit = select_constants(data.subset(others))
-        points[i] = solve_corrected(data.subset([i]), fit.constants)[0]
-    return points
+        trial = data.subset([i])
+        points[i] = solve_corrected(trial, fit.constants)[0]
+        cov = trial.cov[0] + _carried(trial, fit)
+        score, dof = nees((points[i] - trial.truth[0].mean(axis=0))[None], cov[None])
+        if dof[0] > 0 and np.isfinite(score[0]):
+            inside[i] = float(score[0] <= CHI2_95[int(dof[0])])
+    return points, inside
+
+
+def _carried(trial: RigData, fit: RigFit, step: float = 1e-3) -> F64:
+    """The constants' covariance carried to the trial's corrected point: ``J C J^T``."""
+    free = np.array([n in fit.free for n in _NAMES])
+    if not free.any():
+        return np.zeros((3, 3))
+    base = fit.constants.vector()
+    columns = []
+    for k in np.flatnonzero(free):
+        dv = np.zeros(len(base))
+        dv[k] = step * _SCALE[k]
+        plus = solve_corrected(trial, RigConstants.from_vector(base + dv))[0]
+        minus = solve_corrected(trial, RigConstants.from_vector(base - dv))[0]
+        columns.append((plus - minus) / (2 * step))
+    J = np.stack(columns, axis=1)
+    carried: F64 = J @ fit.cov_scaled @ J.T
+    return carried
 
 
 def loo_calibration(
@@ -393,13 +427,15 @@ def loo_calibration(
     rig_truth: RigConstants | None = None,
 ) -> tuple[dict[int, F64], list[dict[str, object]]]:
     """``run --rig-calibration loo`` for one session: per trial its leave-one-out corrected
-    point (trial id -> (3,)), and the session's constants (selected on all its trials) as
-    rig.csv rows. A session that cannot inform the rig gets neither, and says why."""
+    point and whether the truth is inside its 95% region (trial id -> (x, y, z, inside)),
+    and the session's constants (selected on all its trials) as rig.csv rows. A session
+    that cannot inform the rig gets neither, and says why."""
     try:
         data = prepare(method, trial_ids, views, truth, ground, options)
     except InputValueError as err:
         return {}, [{"session": session, "constant": "", "why_fixed": str(err)}]
-    points = leave_one_out(data)
+    points, inside = leave_one_out(data)
     fit = select_constants(data)
     rows = [{"session": session, **row} for row in fit.rows(rig_truth)]
-    return dict(zip(data.trial_ids, points, strict=True)), rows
+    corrected = {t: np.append(p, w) for t, p, w in zip(data.trial_ids, points, inside, strict=True)}
+    return corrected, rows

@@ -119,7 +119,12 @@ def test_run_rig_calibration_loo_is_honest(sessions: dict[str, Path], tmp_path: 
     result = runner.invoke(app, [*args, "--no-scene", "--rig-calibration", "loo"])
     assert result.exit_code == 0, result.output
     trials = pd.read_csv(out / "trials.csv")
-    assert {"x_rig", "y_rig", "z_rig", "err_rig"} <= set(trials.columns)
+    assert {"x_rig", "y_rig", "z_rig", "err_rig", "within95_rig"} <= set(trials.columns)
+    # The corrected regions (random plus the constants' covariance): known for every
+    # trial, and where the constants biased the estimates they hold the truth more often.
+    assert trials["within95_rig"].notna().all()
+    biased = trials[trials["session"].str.endswith("/with.mcap")]
+    assert biased["within95_rig"].mean() > biased["within95"].astype(float).mean()
     rmse = {
         Path(s).stem: (np.sqrt((g["err"] ** 2).mean()), np.sqrt((g["err_rig"] ** 2).mean()))
         for s, g in trials.groupby("session")
