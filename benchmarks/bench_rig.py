@@ -58,6 +58,7 @@ def main() -> int:
     args = parser.parse_args()
     ok = True
     within, fitted = 0, 0
+    covered: list[float] = []
     print("method seed  rmse_without  rmse_with  with_loo (ratio, <= 1.15)", end="")
     print("  without_loo (ratio, <= 1.05)")
     with tempfile.TemporaryDirectory() as tmp:
@@ -80,6 +81,8 @@ def main() -> int:
                 loo_with = rmse(ok_with["err_rig"].to_numpy())
                 loo_without = rmse(ok_without["err_rig"].to_numpy())
                 r1, r2 = loo_with / base, loo_without / base
+                for g in (ok_with, ok_without):
+                    covered += [float(v) for v in g["within95_rig"] if np.isfinite(v)]
                 ok &= r1 <= 1.15 and r2 <= 1.05
                 print(
                     f"{method:6} {seed:4}  {base:12.3f}  {rmse(ok_with['err'].to_numpy()):9.3f}  "
@@ -91,6 +94,11 @@ def main() -> int:
                         fitted += 1
                         gap = abs(float(row["value"]) - float(row["truth"]))  # type: ignore[arg-type]
                         within += gap <= 1.96 * float(row["sigma"])  # type: ignore[arg-type]
+    coverage = float(np.mean(covered)) if covered else float("nan")
+    print(
+        f"95% coverage after correction (leave-one-out): {coverage:.0%} of {len(covered)} "
+        "trials (target 90-99% over >= 500 trials)"
+    )
     share = within / max(fitted, 1)
     print(f"constants within their 95% intervals of the truth: {within} of {fitted} ({share:.0%})")
     ok &= share >= 0.9
