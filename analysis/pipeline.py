@@ -23,7 +23,7 @@ from analysis.results import AnalysisOptions, SessionResult
 from analysis.results_mcap import ResultsWriter
 from analysis.rig import RIG_TABLE_COLUMNS
 from analysis.tables import FRAME_COLUMNS, averaging_table, frame_row, trial_table, view_table
-from twopose.camera import Intrinsics, rotation_from_angles_deg
+from twopose.camera import Intrinsics
 from twopose.detect import Detection, PoseMeasurement, detect
 from twopose.errors import SessionFormatError
 from twopose.estimate import (
@@ -40,7 +40,7 @@ from twopose.format.entries import PoseEntry
 from twopose.format.reader import SessionReader
 from twopose.format.trials import TrialRecord, iter_trials, read_notes
 from twopose.rig import RigConstants, corrected_ground, corrected_view
-from twopose.scene3d import TrialScene
+from twopose.scene3d import scene_of_views
 
 __all__ = ["analyse_session", "keep_frame_buffers"]
 
@@ -351,24 +351,16 @@ def _write_trial_scenes(
     for i, (views, ms) in enumerate(zip(replay.views, measurements, strict=True)):
         if not views:
             continue
-        n = len(views)
-        px, theta = np.full((n, 2), np.nan), np.full(n, np.nan)
-        for j, m in enumerate(ms):  # NaN where a pose had no measurement
-            px[j], theta[j] = m.centroid_px, m.theta_deg
-        scene = TrialScene(
-            trial=replay.trial_ids[i],
-            method=replay.method,
-            status=str(est.status[i]),
-            intrinsics=np.array([v.intrinsics for v in views]),
-            width_height=np.array([v.width_height for v in views], dtype=np.float64),
-            R_cam_to_grid=rotation_from_angles_deg(np.array([v.r_deg for v in views])),
-            t_grid=np.array([v.t_grid for v in views]),
-            px=px,
-            theta_deg=theta,
-            estimate=trials.loc[i, ["x", "y", "z"]].to_numpy(dtype=np.float64),
-            direction=est.direction[i] if replay.method == "line" else None,
-            truth=replay.truth[i],
-            cov=est.cov[i],
+        scene = scene_of_views(
+            replay.trial_ids[i],
+            replay.method,
+            str(est.status[i]),
+            views,
+            ms,
+            trials.loc[i, ["x", "y", "z"]].to_numpy(dtype=np.float64),
+            est.direction[i] if replay.method == "line" else None,
+            replay.truth[i],
+            est.cov[i],
         )
         results.add_trial(scene, replay.last_ns[i])
 

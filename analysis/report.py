@@ -13,8 +13,7 @@ import numpy as np
 import pandas as pd
 
 from analysis.figures import figure_key, png_bytes, run_figures, session_figures
-from analysis.thesis import thesis_table
-from twopose.format.entries import INCHES_PER_UNIT
+from analysis.thesis import thesis_table, thesis_verdict
 
 if TYPE_CHECKING:
     from analysis.results import RunResult
@@ -26,7 +25,6 @@ __all__ = [
     "page_html",
     "summary_document",
     "table_html",
-    "thesis_verdict",
     "write_outputs",
 ]
 
@@ -71,33 +69,6 @@ def answer_table(trials: pd.DataFrame, *, include_warned: bool = False) -> pd.Da
         return pd.DataFrame(columns=ANSWER_COLUMNS)
     pooled = trials.assign(session="all (" + trials["units"].astype(str) + ")")
     return summarize(pooled, include_warned=include_warned)[ANSWER_COLUMNS]
-
-
-#: What the thesis reports per method (section 5.3): every trial within 1 inch.
-THESIS_TOLERANCE_IN = 1.0
-_THESIS_NAME = {"point": "method 1", "ground": "method 2"}
-
-
-def thesis_verdict(trials: pd.DataFrame, *, include_warned: bool = False) -> list[str]:
-    """One line per method set against the thesis' figure (errors within 1 in): how many
-    of the trials the summary uses are within it, and so whether twopose reproduces it."""
-    ok = trials[(trials["status"] == "ok") & pd.to_numeric(trials["err"]).notna()]
-    if not include_warned and "warning" in ok:
-        ok = ok[ok["warning"].fillna("").astype(str) == ""]
-    lines = []
-    for method, g in ok.groupby("method", sort=True):
-        name = _THESIS_NAME.get(str(method))
-        err_in = g["err"].to_numpy(dtype=np.float64) * g["units"].map(INCHES_PER_UNIT).to_numpy(
-            dtype=np.float64
-        )
-        within = int(np.sum(err_in <= THESIS_TOLERANCE_IN))
-        counts = f"{within} of {len(g)} trials within 1 in (largest {np.max(err_in):.2f} in)"
-        if name is None:
-            lines.append(f"{method}: {counts}; the thesis did not test this method.")
-            continue
-        agrees = "as the thesis reports" if within == len(g) else "the thesis reports all"
-        lines.append(f"{method} ({name}): {counts}; {agrees} (errors < 1 in).")
-    return lines
 
 
 #: The per-trial columns the report shows (every column is in trials.csv).

@@ -17,7 +17,7 @@ import pandas as pd
 
 from twopose.format.entries import INCHES_PER_UNIT
 
-__all__ = ["THESIS_COLUMNS", "fisher_p", "thesis_table"]
+__all__ = ["THESIS_COLUMNS", "fisher_p", "thesis_table", "thesis_verdict"]
 
 THESIS_COLUMNS = ["claim", "thesis", "twopose", "reproduced"]
 
@@ -39,6 +39,24 @@ def thesis_table(
     ]
     table: pd.DataFrame = pd.DataFrame(rows, columns=THESIS_COLUMNS)
     return table
+
+
+_THESIS_NAME = {"point": "method 1", "ground": "method 2"}
+
+
+def thesis_verdict(trials: pd.DataFrame, *, include_warned: bool = False) -> list[str]:
+    """One line per method set against the thesis' figure (errors within 1 in): how many
+    of the trials the summary uses are within it, and so whether twopose reproduces it."""
+    lines = []
+    for method, g in _used(trials, include_warned).groupby("method", sort=True):
+        n_in, counts = _within(g)
+        name = _THESIS_NAME.get(str(method))
+        if name is None:
+            lines.append(f"{method}: {counts}; the thesis did not test this method.")
+            continue
+        agrees = "as the thesis reports" if n_in == len(g) else "the thesis reports all"
+        lines.append(f"{method} ({name}): {counts}; {agrees} (errors < 1 in).")
+    return lines
 
 
 def _used(trials: pd.DataFrame, include_warned: bool) -> pd.DataFrame:

@@ -98,13 +98,7 @@ def setup_from_form(form: dict[str, str], **given: Any) -> Setup:
     def say(line: str) -> None:
         refusal.append(line.strip().removeprefix("not accepted: "))
 
-    op = Operator(answer, say)
-    try:
-        return ask_setup(op, **given)
-    except _FormRefusedError:
-        raise
-    except InputValueError as err:
-        raise InputValueError(str(err)) from err
+    return ask_setup(Operator(answer, say), **given)
 
 
 @dataclass

@@ -16,11 +16,11 @@ from collections.abc import Iterable, Mapping, Sequence
 import numpy as np
 
 from recorder.capture import CaptureResult
-from twopose.camera import Camera, rotation_from_angles_deg
+from twopose.camera import Camera
 from twopose.estimate import EstimateOptions, GroundSpec, PoseView, measure, pose_view
 from twopose.format.entries import GroundPlane, GroundTruth, PoseEntry, TypedEntry
 from twopose.rig import RigConstants, corrected_ground, corrected_view
-from twopose.scene3d import TrialScene
+from twopose.scene3d import TrialScene, scene_of_views
 from twopose.trial_result import TrialResult, trial_results
 
 __all__ = ["LiveResults"]
@@ -108,22 +108,14 @@ class LiveResults:
             return None
         views = self._views[trial]
         measurements, _, _ = measure([views], self.options)
-        px = np.array([m.centroid_px for m in measurements[0]], dtype=np.float64)
-        theta = np.array([m.theta_deg for m in measurements[0]], dtype=np.float64)
-        if self.method == "point":
-            theta = np.full(len(views), np.nan)
-        return TrialScene(
-            trial=trial,
-            method=self.method,
-            status=result.status,
-            intrinsics=np.array([v.intrinsics for v in views]),
-            width_height=np.array([v.width_height for v in views], dtype=np.float64),
-            R_cam_to_grid=rotation_from_angles_deg(np.array([v.r_deg for v in views])),
-            t_grid=np.array([v.t_grid for v in views]),
-            px=px,
-            theta_deg=theta,
-            estimate=np.array(result.point),
-            direction=None if result.direction is None else np.array(result.direction),
-            truth=self._truth.get(trial, np.full((2, 3), np.nan)),
-            cov=np.array(result.cov, dtype=np.float64).reshape(3, 3),
+        return scene_of_views(
+            trial,
+            self.method,
+            result.status,
+            views,
+            measurements[0],
+            np.array(result.point),
+            None if result.direction is None else np.array(result.direction),
+            self._truth.get(trial, np.full((2, 3), np.nan)),
+            np.array(result.cov, dtype=np.float64).reshape(3, 3),
         )

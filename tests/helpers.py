@@ -123,3 +123,25 @@ class DaskCluster:
                 process.wait(timeout=20)
             except subprocess.TimeoutExpired:
                 process.kill()
+
+
+RECORD = Path(sys.executable).with_name("twopose-record")
+
+
+def start_console(out: Path, *args: str) -> tuple[subprocess.Popen[str], str, str]:
+    """``twopose-record new OUT --ui`` (synthetic source, 2 frames) on a free port: the
+    process, its URL, and what it printed before the URL (a warning, for --host)."""
+    process = subprocess.Popen(
+        [str(RECORD), "new", str(out), "--ui", "--source", "synthetic", "--frames", "2", *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    assert process.stdout is not None
+    preamble = ""
+    line = process.stdout.readline()
+    while line and "http://" not in line:
+        preamble += line
+        line = process.stdout.readline()
+    assert "http://" in line, preamble + line
+    return process, line.split()[2], preamble

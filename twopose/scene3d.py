@@ -9,8 +9,9 @@ y down.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from foxglove_schemas_protobuf.LinePrimitive_pb2 import LinePrimitive
@@ -18,13 +19,17 @@ from foxglove_schemas_protobuf.SceneEntity_pb2 import SceneEntity
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from numpy.typing import NDArray
 
-from twopose.camera import quaternion_xyzw_from_matrix
+from twopose.camera import quaternion_xyzw_from_matrix, rotation_from_angles_deg
 from twopose.format.entries import GroundPlane
 from twopose.format.messages import GRID_FRAME
 from twopose.overlay import GREEN, RED, set_color
 from twopose.uncertainty import CHI2_95
 
-__all__ = ["TrialScene", "static_scene", "trial_scene"]
+__all__ = ["TrialScene", "scene_of_views", "static_scene", "trial_scene"]
+
+if TYPE_CHECKING:
+    from twopose.detect import PoseMeasurement
+    from twopose.estimate import PoseView
 
 F64 = NDArray[np.float64]
 
@@ -55,6 +60,40 @@ class TrialScene:
     direction: F64 | None  # (3,) lines
     truth: F64  # (2, 3) the point twice, or two points of the true line; NaN if unknown
     cov: F64  # (3, 3) NaN when unknown
+
+
+def scene_of_views(
+    trial: int,
+    method: str,
+    status: str,
+    views: Sequence[PoseView],
+    measurements: Sequence[PoseMeasurement],
+    estimate: F64,
+    direction: F64 | None,
+    truth: F64,
+    cov: F64,
+) -> TrialScene:
+    """A trial's scene from its poses and their combined measurements (NaN where a pose
+    had none): the one way results.mcap and the live view build it."""
+    n = len(views)
+    px, theta = np.full((n, 2), np.nan), np.full(n, np.nan)
+    for j, m in enumerate(measurements):
+        px[j], theta[j] = m.centroid_px, m.theta_deg
+    return TrialScene(
+        trial=trial,
+        method=method,
+        status=status,
+        intrinsics=np.array([v.intrinsics for v in views]),
+        width_height=np.array([v.width_height for v in views], dtype=np.float64),
+        R_cam_to_grid=rotation_from_angles_deg(np.array([v.r_deg for v in views])),
+        t_grid=np.array([v.t_grid for v in views]),
+        px=px,
+        theta_deg=theta,
+        estimate=np.asarray(estimate, dtype=np.float64),
+        direction=None if direction is None else np.asarray(direction, dtype=np.float64),
+        truth=np.asarray(truth, dtype=np.float64),
+        cov=np.asarray(cov, dtype=np.float64),
+    )
 
 
 def _rays(s: TrialScene, pixels: F64) -> F64:

@@ -17,7 +17,8 @@ from analysis.figures import (
     png_bytes,
     session_figures,
 )
-from analysis.report import ANSWER_COLUMNS, answer_table, dominant_inputs, thesis_verdict
+from analysis.report import ANSWER_COLUMNS, answer_table, dominant_inputs
+from analysis.thesis import thesis_verdict
 from twopose.uncertainty import CHI2_95
 
 
@@ -199,6 +200,7 @@ def test_thesis_verdict_counts_trials_within_one_inch_in_any_unit() -> None:
             "units": ["in", "in", "mm", "mm", "in"],
             "status": "ok",
             "err": [0.5, 0.9, 20.0, 30.0, 0.3],  # 30 mm is 1.18 in
+            "err_x": [0.1, 0.1, 1.0, 1.0, 0.1],
             "warning": ["", "", "", "", ""],
         }
     )

@@ -6,25 +6,18 @@ it is missing (and fails in CI, where it must run)."""
 from __future__ import annotations
 
 import io
-import os
-import shutil
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 from PIL import Image
 
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
-CHROMEDRIVER = shutil.which("chromedriver")
+from tests.browser import headless_chromium, require_chromium
 
-if not (CHROMIUM and CHROMEDRIVER):
-    if os.environ.get("CI"):
-        pytest.fail("CI must have chromium and chromium-driver (.ci/run installs them)")
-    pytest.skip("chromium and chromium-driver are not installed", allow_module_level=True)
+require_chromium()
 
-from selenium import webdriver  # noqa: E402
-from selenium.webdriver.chrome.service import Service  # noqa: E402
 from selenium.webdriver.common.by import By  # noqa: E402
 
 WIDTH, HEIGHT = 1280, 900
@@ -37,22 +30,12 @@ def report(bundled_run: Path) -> Path:
 
 
 @pytest.fixture(scope="module")
-def browser() -> Iterator[webdriver.Chrome]:
-    options = webdriver.ChromeOptions()
-    options.binary_location = str(CHROMIUM)
-    for flag in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--disable-gpu"):
-        options.add_argument(flag)
-    options.add_argument(f"--window-size={WIDTH},{HEIGHT}")
-    driver = webdriver.Chrome(service=Service(executable_path=str(CHROMEDRIVER)), options=options)
-    try:
+def browser() -> Iterator[Any]:
+    with headless_chromium(WIDTH, HEIGHT) as driver:
         yield driver
-    finally:
-        driver.quit()
 
 
-def test_report_fits_a_1280_px_window_and_every_image_loads(
-    report: Path, browser: webdriver.Chrome
-) -> None:
+def test_report_fits_a_1280_px_window_and_every_image_loads(report: Path, browser: Any) -> None:
     browser.get(report.as_uri())
     inner_width = browser.execute_script("return window.innerWidth")
     page_width = browser.execute_script(
@@ -76,7 +59,7 @@ def test_report_fits_a_1280_px_window_and_every_image_loads(
     assert all(box.rect["x"] + box.rect["width"] <= inner_width + 1 for box in boxes)
 
 
-def test_report_answers_first(report: Path, browser: webdriver.Chrome) -> None:
+def test_report_answers_first(report: Path, browser: Any) -> None:
     browser.get(report.as_uri())
     headings = [h.text for h in browser.find_elements(By.CSS_SELECTOR, "h2")]
     assert headings[0] == "Answer per method"
@@ -95,7 +78,7 @@ def test_report_answers_first(report: Path, browser: webdriver.Chrome) -> None:
 
 
 def test_screenshot_of_the_top_of_the_report_is_the_window_and_has_content(
-    report: Path, browser: webdriver.Chrome
+    report: Path, browser: Any
 ) -> None:
     """What a reader sees first: a screenshot as wide as the window (no horizontal
     scrollbar steals a row of it), with text in it, not a blank page."""

@@ -5,8 +5,6 @@ from __future__ import annotations
 
 import signal
 import socket
-import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -17,29 +15,8 @@ from typer.testing import CliRunner
 import analysis
 from recorder.cli import app
 from recorder.console import setup_from_form
+from tests.helpers import start_console
 from twopose.errors import InputValueError
-
-RECORD = Path(sys.executable).with_name("twopose-record")
-
-
-def start_console(out: Path, *args: str) -> tuple[subprocess.Popen[str], str]:
-    """``twopose-record new OUT --ui`` on a free port; the process and its URL (lines
-    before the URL are kept in ``start_console.preamble``)."""
-    process = subprocess.Popen(
-        [str(RECORD), "new", str(out), "--ui", "--source", "synthetic", "--frames", "2", *args],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
-    assert process.stdout is not None
-    line = process.stdout.readline()
-    start_console.preamble = ""  # type: ignore[attr-defined]
-    while line and "http://" not in line:  # a warning first (--host)
-        start_console.preamble += line  # type: ignore[attr-defined]
-        line = process.stdout.readline()
-    assert "http://" in line, line
-    return process, line.split()[2]
-
 
 GIVEN = {
     "method": None,
@@ -80,7 +57,7 @@ def test_the_setup_form_is_checked_by_the_terminal_questions() -> None:
 
 
 def test_the_api_refuses_what_the_state_does_not_allow(tmp_path: Path) -> None:
-    process, url = start_console(tmp_path / "s.mcap")
+    process, url, _ = start_console(tmp_path / "s.mcap")
     try:
         client = httpx.Client(base_url=url, timeout=10)
         assert client.get("/api/state").json()["phase"] == "setup"
@@ -102,11 +79,11 @@ def test_the_api_refuses_what_the_state_does_not_allow(tmp_path: Path) -> None:
 
 
 def test_only_loopback_unless_host_says_so_and_then_a_warning(tmp_path: Path) -> None:
-    process, url = start_console(tmp_path / "a.mcap")
+    process, url, _ = start_console(tmp_path / "a.mcap")
     process.terminate()
     process.wait(timeout=30)
     assert url.startswith("http://127.0.0.1:")
-    process, url = start_console(tmp_path / "b.mcap", "--host", "0.0.0.0")
+    process, url, preamble = start_console(tmp_path / "b.mcap", "--host", "0.0.0.0")
     try:
         assert url.startswith("http://0.0.0.0:")
         port = int(url.rsplit(":", 1)[1].strip("/"))
@@ -115,14 +92,14 @@ def test_only_loopback_unless_host_says_so_and_then_a_warning(tmp_path: Path) ->
     finally:
         process.terminate()
         process.communicate(timeout=30)
-    assert "warning: --host 0.0.0.0 exposes the console" in start_console.preamble  # type: ignore[attr-defined]
+    assert "warning: --host 0.0.0.0 exposes the console" in preamble
 
 
 def test_the_server_killed_mid_capture_loses_nothing_accepted(tmp_path: Path) -> None:
     """SIGKILL while a capture is in progress: recover salvages the file, the trial
     accepted before is measured, the capture in progress is not."""
     out = tmp_path / "killed.mcap"
-    process, url = start_console(out, "--frames", "40")
+    process, url, _ = start_console(out, "--frames", "40")
     client = httpx.Client(base_url=url, timeout=10)
 
     def wait_for(what: str) -> dict[str, object]:

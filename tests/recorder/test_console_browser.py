@@ -5,12 +5,9 @@ field, a redo, an undo, a note and a reload; the page's results are the analysis
 from __future__ import annotations
 
 import io
-import os
-import shutil
-import subprocess
-import sys
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -18,56 +15,25 @@ import pytest
 from PIL import Image
 
 import analysis
+from tests.browser import headless_chromium, require_chromium
+from tests.helpers import start_console
 
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
-CHROMEDRIVER = shutil.which("chromedriver")
-if not (CHROMIUM and CHROMEDRIVER):
-    if os.environ.get("CI"):
-        pytest.fail("CI must have chromium and chromium-driver (.ci/run installs them)")
-    pytest.skip("chromium and chromium-driver are not installed", allow_module_level=True)
+require_chromium()
 
-from selenium import webdriver  # noqa: E402
-from selenium.webdriver.chrome.service import Service  # noqa: E402
 from selenium.webdriver.common.by import By  # noqa: E402
 from selenium.webdriver.support.ui import Select, WebDriverWait  # noqa: E402
 
-RECORD = Path(sys.executable).with_name("twopose-record")
-
-
-def start_console(out: Path, *args: str) -> tuple[subprocess.Popen[str], str]:
-    """``twopose-record new OUT --ui`` on a free port; the process and its URL."""
-    process = subprocess.Popen(
-        [str(RECORD), "new", str(out), "--ui", "--source", "synthetic", "--frames", "2", *args],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
-    assert process.stdout is not None
-    line = process.stdout.readline()
-    while line and "http://" not in line:  # a warning first (--host)
-        line = process.stdout.readline()
-    assert "http://127.0.0.1:" in line, line
-    return process, line.split()[2]
-
 
 @pytest.fixture(scope="module")
-def browser() -> Iterator[webdriver.Chrome]:
-    options = webdriver.ChromeOptions()
-    options.binary_location = str(CHROMIUM)
-    for flag in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--disable-gpu"):
-        options.add_argument(flag)
-    options.add_argument("--window-size=1280,1000")
-    driver = webdriver.Chrome(service=Service(executable_path=str(CHROMEDRIVER)), options=options)
-    try:
+def browser() -> Iterator[Any]:
+    with headless_chromium(1280, 1000) as driver:
         yield driver
-    finally:
-        driver.quit()
 
 
 class Page:
     """The console's elements by their data-testid, and waits on what the page shows."""
 
-    def __init__(self, browser: webdriver.Chrome) -> None:
+    def __init__(self, browser: Any) -> None:
         self.browser = browser
 
     def el(self, testid: str) -> object:
@@ -115,9 +81,9 @@ class Page:
         return np.asarray(Image.open(io.BytesIO(self.browser.get_screenshot_as_png())))
 
 
-def test_a_whole_session_in_the_browser(browser: webdriver.Chrome, tmp_path: Path) -> None:
+def test_a_whole_session_in_the_browser(browser: Any, tmp_path: Path) -> None:
     out = tmp_path / "ui.mcap"
-    process, url = start_console(out)
+    process, url, _ = start_console(out)
     try:
         browser.get(url)
         page = Page(browser)
