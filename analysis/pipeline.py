@@ -164,11 +164,10 @@ def _rig_columns(
     replay: _Replay, trials: pd.DataFrame, options: AnalysisOptions
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
     """``--rig-calibration loo``: each trial corrected by constants estimated without it
-    (``x_rig, y_rig, z_rig, err_rig, within95_rig``), and the session's constants (rig.csv
-    rows)."""
+    (:data:`analysis.rig.RIG_COLUMNS`), and the session's constants (rig.csv rows)."""
     from analysis.rig import loo_calibration
 
-    points, rows = loo_calibration(
+    columns, rows = loo_calibration(
         replay.session,
         replay.method,
         replay.trial_ids,
@@ -178,13 +177,8 @@ def _rig_columns(
         options,
         replay.rig_truth,
     )
-    rows_rig = np.array([points.get(t, np.full(4, np.nan)) for t in trials["trial"]])
-    corrected = rows_rig[:, :3].reshape(-1, 3)
-    reference = trials[["gt_x", "gt_y", "gt_z"]].to_numpy(dtype=np.float64)
-    columns = {f"{a}_rig": corrected[:, i] for i, a in enumerate("xyz")}
-    columns["err_rig"] = np.linalg.norm(corrected - reference, axis=1)
-    columns["within95_rig"] = rows_rig[:, 3]
-    return _systematic_dominance(trials.assign(**columns)), pd.DataFrame(
+    corrected = columns.reindex(trials["trial"].to_numpy()).set_index(trials.index)
+    return _systematic_dominance(trials.assign(**corrected)), pd.DataFrame(
         rows, columns=RIG_TABLE_COLUMNS
     )
 

@@ -15,8 +15,9 @@ constant's typical size) are checked by SVD; a constant that no trial depends on
 moves the estimates the way others do (a near-null direction), is fixed at its nominal
 value, and :attr:`RigFit.fixed` says which and why. Model selection
 (:func:`select_constants`): groups of constants are added one at a time while the
-leave-one-out prediction error (PRESS of the linearized fit) drops by more than 5%, so a
-session without systematic error keeps none.
+leave-one-out prediction error (PRESS of the linearized fit, in the session's units)
+drops by more than 5% and the drop in chi-square passes an F-test at 1%, so a session
+without systematic error keeps none.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+import pandas as pd
 from numpy.typing import NDArray
 
 from twopose.errors import InputValueError
@@ -36,9 +38,10 @@ from twopose.estimate import (
     PoseView,
     ViewBatch,
     estimate_trials,
+    line_errors,
     measure,
 )
-from twopose.rig import RIG_PARAMETERS, RigConstants
+from twopose.rig import RIG_PARAMETERS, RigConstants, angles_deg_from_rotation
 from twopose.solve import image_lines, triangulate_ground, triangulate_lines, triangulate_points
 from twopose.trial_result import reported_point
 from twopose.uncertainty import CHI2_95, nees
@@ -47,8 +50,10 @@ __all__ = [
     "GROUPS",
     "RIG_COLUMNS",
     "RIG_TABLE_COLUMNS",
+    "LeaveOneOut",
     "RigData",
     "RigFit",
+    "corrected_estimates",
     "fit_constants",
     "leave_one_out",
     "loo_calibration",
@@ -143,13 +148,10 @@ def _whitening(cov: F64) -> F64:
 
 def corrected_batch(batch: ViewBatch, rig: RigConstants) -> ViewBatch:
     """The batch with every view's typed pose and intrinsics corrected by ``rig``."""
-    from twopose.rig import angles_deg_from_rotation
-
     inputs = batch.inputs.copy()
     t, R = rig.true_poses(inputs[..., 3:6], inputs[..., 6:9])
     inputs[..., 3:6] = t
-    flat = R.reshape(-1, 3, 3)
-    inputs[..., 6:9] = np.array([angles_deg_from_rotation(m) for m in flat]).reshape(R.shape[:-1])
+    inputs[..., 6:9] = angles_deg_from_rotation(R)
     intrinsics = np.where(
         batch.valid[..., None], rig.true_intrinsics(batch.intrinsics), batch.intrinsics
     )
@@ -158,21 +160,29 @@ def corrected_batch(batch: ViewBatch, rig: RigConstants) -> ViewBatch:
 
 def solve_corrected(data: RigData, rig: RigConstants) -> F64:
     """Every trial's reported point (T, 3) with the constants applied."""
+    return corrected_estimates(data, rig)[0]
+
+
+def corrected_estimates(data: RigData, rig: RigConstants) -> tuple[F64, F64]:
+    """Every trial's reported point and, for lines, the line's unit direction (T, 3)
+    each (NaN for the other methods), with the constants applied."""
     batch = corrected_batch(data.batch, rig)
     P, valid, mc = batch.P(), batch.valid, data.options.min_conditioning
     px, th = batch.inputs[..., :2], batch.inputs[..., 2]
+    no_direction = np.full((len(data.trial_ids), 3), np.nan)
     if data.method == "point":
-        return np.asarray(triangulate_points(px, P, valid=valid, min_conditioning=mc).point_grid)
+        solved = triangulate_points(px, P, valid=valid, min_conditioning=mc)
+        return np.asarray(solved.point_grid), no_direction
     lines = image_lines(px, th)
     if data.method == "ground":
         assert data.ground is not None
         height = rig.true_ground_height(data.ground[1])
         g = triangulate_ground(lines, P, data.ground[0], height, valid=valid, min_conditioning=mc)
-        return np.asarray(g.point_grid)
-    solved = triangulate_lines(lines, P, valid=valid, min_conditioning=mc)
-    est = _LineEstimate(solved.point_grid, solved.direction_grid)
+        return np.asarray(g.point_grid), no_direction
+    solved_lines = triangulate_lines(lines, P, valid=valid, min_conditioning=mc)
+    est = _LineEstimate(solved_lines.point_grid, solved_lines.direction_grid)
     point, _ = reported_point("line", est, data.truth)  # type: ignore[arg-type]
-    return point
+    return point, np.asarray(solved_lines.direction_grid)
 
 
 @dataclass(frozen=True)
@@ -181,20 +191,30 @@ class _LineEstimate:
     direction: F64
 
 
+def raw_residuals(data: RigData, rig: RigConstants) -> F64:
+    """The corrected estimates minus the truth (T * 3,), in the session's units."""
+    r = solve_corrected(data, rig) - data.truth.mean(axis=1)
+    flat: F64 = np.nan_to_num(r, nan=1e6, posinf=1e6, neginf=-1e6).ravel()  # a trial the rig breaks
+    return flat
+
+
+def _whitened(data: RigData, raw: F64) -> F64:
+    """Per-trial whitening of stacked (T * 3, ...) residuals or Jacobian rows."""
+    blocks = raw.reshape(len(data.trial_ids), 3, -1)
+    out: F64 = np.einsum("tij,tjk->tik", data.whiten, blocks).reshape(raw.shape)
+    return out
+
+
 def residuals(data: RigData, rig: RigConstants) -> F64:
     """Whitened residuals (T * 3,) of the corrected estimates against the truth."""
-    reference = data.truth.mean(axis=1)
-    r = solve_corrected(data, rig) - reference
-    r = np.nan_to_num(r, nan=1e6, posinf=1e6, neginf=-1e6)  # a trial the rig breaks
-    whitened: F64 = np.einsum("tij,tj->ti", data.whiten, r).ravel()
-    return whitened
+    return _whitened(data, raw_residuals(data, rig))
 
 
 @dataclass(frozen=True)
 class RigFit:
     """Estimated constants: their values (fixed ones nominal), 1-sigma of each scalar
     (NaN: fixed), what was fitted, what was fixed and why, the fit's chi-square and its
-    degrees of freedom, and the leave-one-out prediction error (PRESS, whitened)."""
+    degrees of freedom, and the leave-one-out prediction error (PRESS, units squared)."""
 
     constants: RigConstants
     sigma: F64  # (11,) RIG_PARAMETERS order
@@ -229,19 +249,17 @@ def _vector(x: F64, free: NDArray[np.bool_]) -> F64:
 
 
 def _jacobian(data: RigData, free: NDArray[np.bool_], x: F64, step: float = 1e-3) -> F64:
-    """Central differences of the whitened residuals in scaled units (columns: free)."""
+    """Central differences of the raw residuals in scaled units (columns: free)."""
     columns = []
     for k in range(int(free.sum())):
         dx = np.zeros(len(x))
         dx[k] = step
-        plus = residuals(data, RigConstants.from_vector(_vector(x + dx, free)))
-        minus = residuals(data, RigConstants.from_vector(_vector(x - dx, free)))
+        plus = raw_residuals(data, RigConstants.from_vector(_vector(x + dx, free)))
+        minus = raw_residuals(data, RigConstants.from_vector(_vector(x - dx, free)))
         columns.append((plus - minus) / (2 * step))
-    return (
-        np.stack(columns, axis=1)
-        if columns
-        else np.zeros((len(residuals(data, RigConstants())), 0))
-    )
+    if not columns:
+        return np.zeros((3 * len(data.trial_ids), 0))
+    return np.stack(columns, axis=1)
 
 
 def identifiable(
@@ -251,7 +269,7 @@ def identifiable(
     free = wanted.copy()
     fixed: dict[str, str] = {}
     while free.any():
-        J = _jacobian(data, free, np.zeros(int(free.sum())))
+        J = _whitened(data, _jacobian(data, free, np.zeros(int(free.sum()))))
         names = [n for n, f in zip(_NAMES, free, strict=True) if f]
         norms = np.linalg.norm(J, axis=0)
         if norms.max() <= 0:
@@ -297,12 +315,13 @@ def fit_constants(data: RigData, groups: Sequence[str] = GROUPS) -> RigFit:
     else:
         x = x0
     constants = RigConstants.from_vector(_vector(x, free))
-    r = residuals(data, constants)
-    J = _jacobian(data, free, x)
+    raw = raw_residuals(data, constants)
+    G = _jacobian(data, free, x)
+    r, J = _whitened(data, raw), _whitened(data, G)
     dof = max(len(r) - int(free.sum()), 1)
     chi2 = float(r @ r)
     sigma = np.full(len(_NAMES), np.nan)
-    press = _press(r, J)
+    press = _press(r, J, raw, G)
     cov: F64 = np.zeros((0, 0))
     if free.any():
         cov = np.asarray(np.linalg.pinv(J.T @ J) * max(1.0, chi2 / dof), dtype=np.float64)
@@ -311,34 +330,57 @@ def fit_constants(data: RigData, groups: Sequence[str] = GROUPS) -> RigFit:
     return RigFit(constants, sigma, names, fixed, chi2, dof, press, cov)
 
 
-def _press(r: F64, J: F64) -> float:
-    """Leave-one-trial-out prediction error of the linearized fit: each trial's 3
-    residuals divided by ``(I - H_tt)`` (H the hat matrix), squared and summed."""
+def _press(r: F64, J: F64, raw: F64, G: F64) -> float:
+    """Leave-one-trial-out prediction error of the linearized fit, in the session's
+    units squared: without trial t the whitened fit moves by ``-(J'J)^-1 J_t' (I -
+    H_tt)^-1 r_t`` (H the hat matrix), which moves the trial's raw residual by ``G_t``
+    times that. Raw, not whitened: selection judges a constant by the error the report
+    shows, so a constant that fits the well-measured trials better but moves the rest
+    away (a whitened gain, a raw loss) is not chosen."""
     if J.shape[1] == 0:
-        return float(r @ r)
-    H = J @ np.linalg.pinv(J.T @ J) @ J.T
+        return float(raw @ raw)
+    inverse = np.linalg.pinv(J.T @ J)
     total = 0.0
     for t in range(len(r) // 3):
         block = slice(3 * t, 3 * t + 3)
-        loo = np.linalg.lstsq(np.eye(3) - H[block, block], r[block], rcond=None)[0]
-        total += float(loo @ loo)
+        H_tt = J[block] @ inverse @ J[block].T
+        loo = np.linalg.lstsq(np.eye(3) - H_tt, r[block], rcond=None)[0]
+        step = -inverse @ J[block].T @ loo
+        predicted = raw[block] + G[block] @ step
+        total += float(predicted @ predicted)
     return total
 
 
-def select_constants(data: RigData, *, margin: float = 0.05) -> RigFit:
-    """The constants leave-one-out cross-validation supports: groups added one at a time
-    while the PRESS drops by more than ``margin`` (none, if none helps)."""
+def select_constants(data: RigData, *, margin: float = 0.05, alpha: float = 0.01) -> RigFit:
+    """The constants the session supports: groups added one at a time (the one with the
+    lowest leave-one-out prediction error first) while each addition both lowers the
+    PRESS by more than ``margin`` and passes an F-test at level ``alpha`` (its drop in
+    chi-square against the residual chi-square: forward selection with an F-to-enter,
+    so that a session without systematic error keeps none)."""
     chosen: list[str] = []
     best = fit_constants(data, chosen)
     while True:
         trials = [fit_constants(data, [*chosen, g]) for g in GROUPS if g not in chosen]
+        trials = [f for f in trials if len(f.free) > len(best.free)]
         if not trials:
             return best
         candidate = min(trials, key=lambda f: f.press)
-        if candidate.press >= (1.0 - margin) * best.press or set(candidate.free) == set(best.free):
+        if candidate.press >= (1.0 - margin) * best.press or _f_test(best, candidate) >= alpha:
             return best
         chosen = [g for g in GROUPS if any(n in RIG_PARAMETERS[g] for n in candidate.free)]
         best = candidate
+
+
+def _f_test(smaller: RigFit, larger: RigFit) -> float:
+    """The p-value of the larger model's drop in chi-square (an F-test: the drop per
+    added constant against the larger fit's residual chi-square per degree of freedom)."""
+    from scipy.stats import f as f_distribution
+
+    added = len(larger.free) - len(smaller.free)
+    if larger.chi2 <= 0:
+        return 0.0
+    statistic = ((smaller.chi2 - larger.chi2) / added) / (larger.chi2 / larger.dof)
+    return float(f_distribution.sf(statistic, added, larger.dof))
 
 
 def rig_toml(fit: RigFit, sources: Sequence[str]) -> str:
@@ -371,18 +413,40 @@ def rig_toml(fit: RigFit, sources: Sequence[str]) -> str:
     return "\n".join(lines) + "\n"
 
 
-RIG_COLUMNS = ["x_rig", "y_rig", "z_rig", "err_rig", "within95_rig"]
+#: trials.csv's columns from ``--rig-calibration loo`` (the last five: line trials only).
+RIG_COLUMNS = [
+    "x_rig",
+    "y_rig",
+    "z_rig",
+    "err_rig",
+    "within95_rig",
+    "dir_x_rig",
+    "dir_y_rig",
+    "dir_z_rig",
+    "angle_err_rig_deg",
+    "dist_err_rig",
+]
 RIG_TABLE_COLUMNS = ["session", "constant", "value", "sigma", "fitted", "why_fixed", "truth"]
 
 
-def leave_one_out(data: RigData) -> tuple[F64, F64]:
-    """Each trial's reported point (T, 3) corrected by constants estimated without it
-    (the selection too runs without it, so the trial never informs its own correction),
-    and whether its truth is inside the 95% region of the corrected estimate (T,; NaN if
-    unknown): the trial's random covariance plus the fitted constants' covariance carried
-    through the correction, ``C + J C_rig J^T``."""
+@dataclass(frozen=True)
+class LeaveOneOut:
+    """Each trial corrected by constants estimated without it: its reported point and
+    (lines) direction (T, 3) each, and whether its truth is inside the corrected 95%
+    region (T,; 1.0, 0.0 or NaN)."""
+
+    points: F64
+    directions: F64
+    within95: F64
+
+
+def leave_one_out(data: RigData) -> LeaveOneOut:
+    """Each trial corrected by constants estimated without it (the selection too runs
+    without it, so the trial never informs its own correction), and whether its truth is
+    inside the 95% region of the corrected estimate: the trial's random covariance plus
+    the fitted constants' covariance carried through the correction, ``C + J C_rig J^T``."""
     T = len(data.trial_ids)
-    points = np.full((T, 3), np.nan)
+    points, directions = np.full((T, 3), np.nan), np.full((T, 3), np.nan)
     inside = np.full(T, np.nan)
     for i in range(T):
         others = [j for j in range(T) if j != i]
@@ -390,12 +454,13 @@ def leave_one_out(data: RigData) -> tuple[F64, F64]:
             continue
         fit = select_constants(data.subset(others))
         trial = data.subset([i])
-        points[i] = solve_corrected(trial, fit.constants)[0]
+        point, direction = corrected_estimates(trial, fit.constants)
+        points[i], directions[i] = point[0], direction[0]
         cov = trial.cov[0] + _carried(trial, fit)
         score, dof = nees((points[i] - trial.truth[0].mean(axis=0))[None], cov[None])
         if dof[0] > 0 and np.isfinite(score[0]):
             inside[i] = float(score[0] <= CHI2_95[int(dof[0])])
-    return points, inside
+    return LeaveOneOut(points, directions, inside)
 
 
 def _carried(trial: RigData, fit: RigFit, step: float = 1e-3) -> F64:
@@ -425,17 +490,35 @@ def loo_calibration(
     ground: GroundSpec | None,
     options: EstimateSettings,
     rig_truth: RigConstants | None = None,
-) -> tuple[dict[int, F64], list[dict[str, object]]]:
-    """``run --rig-calibration loo`` for one session: per trial its leave-one-out corrected
-    point and whether the truth is inside its 95% region (trial id -> (x, y, z, inside)),
-    and the session's constants (selected on all its trials) as rig.csv rows. A session
-    that cannot inform the rig gets neither, and says why."""
+) -> tuple[pd.DataFrame, list[dict[str, object]]]:
+    """``run --rig-calibration loo`` for one session: its trials' :data:`RIG_COLUMNS`
+    (indexed by trial id; trials that could not inform the rig are absent), and the
+    session's constants (selected on all its trials) as rig.csv rows. A session that
+    cannot inform the rig gets no columns, and its one row says why."""
     try:
         data = prepare(method, trial_ids, views, truth, ground, options)
     except InputValueError as err:
-        return {}, [{"session": session, "constant": "", "why_fixed": str(err)}]
-    points, inside = leave_one_out(data)
+        empty = pd.DataFrame(columns=RIG_COLUMNS, index=pd.Index([], name="trial"))
+        return empty, [{"session": session, "constant": "", "why_fixed": str(err)}]
+    loo = leave_one_out(data)
     fit = select_constants(data)
     rows = [{"session": session, **row} for row in fit.rows(rig_truth)]
-    corrected = {t: np.append(p, w) for t, p, w in zip(data.trial_ids, points, inside, strict=True)}
-    return corrected, rows
+    return _loo_columns(data, loo), rows
+
+
+def _loo_columns(data: RigData, loo: LeaveOneOut) -> pd.DataFrame:
+    """The trials' :data:`RIG_COLUMNS`, compared with the truth as trials.csv compares
+    the uncorrected estimate (lines: the true segment's midpoint, and the angle)."""
+    reference = data.truth.mean(axis=1)
+    columns: dict[str, F64] = {f"{a}_rig": loo.points[:, i] for i, a in enumerate("xyz")}
+    columns["err_rig"] = np.linalg.norm(loo.points - reference, axis=1)
+    columns["within95_rig"] = loo.within95
+    if data.method == "line":
+        with np.errstate(invalid="ignore"):
+            _, _, angle, dist = line_errors(
+                loo.points, loo.directions, data.truth[:, 0], data.truth[:, 1]
+            )
+        columns |= {f"dir_{a}_rig": loo.directions[:, i] for i, a in enumerate("xyz")}
+        columns |= {"angle_err_rig_deg": angle, "dist_err_rig": dist}
+    index = pd.Index(data.trial_ids, name="trial")
+    return pd.DataFrame(columns, index=index).reindex(columns=RIG_COLUMNS)

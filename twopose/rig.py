@@ -20,7 +20,6 @@ apply a calibrated rig to its live result. One home for the rule:
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass, fields
 from pathlib import Path
 
@@ -111,14 +110,15 @@ class RigConstants:
         return typed - self.ground_height_error
 
 
-def angles_deg_from_rotation(R: ArrayLike) -> tuple[float, float, float]:
-    """The angles (rx, ry, rz) in degrees with ``rotation_from_angles_deg`` giving ``R``
-    (``R = Rx Ry Rz``; ry in [-90, 90])."""
+def angles_deg_from_rotation(R: ArrayLike) -> F64:
+    """The angles ``(rx, ry, rz)`` (..., 3) in degrees with ``rotation_from_angles_deg``
+    giving ``R`` (..., 3, 3) (``R = Rx Ry Rz``; ry in [-90, 90])."""
     m = np.asarray(R, dtype=np.float64)
-    ry = math.asin(max(-1.0, min(1.0, float(m[0, 2]))))
-    rx = math.atan2(-float(m[1, 2]), float(m[2, 2]))
-    rz = math.atan2(-float(m[0, 1]), float(m[0, 0]))
-    return (math.degrees(rx), math.degrees(ry), math.degrees(rz))
+    ry = np.arcsin(np.clip(m[..., 0, 2], -1.0, 1.0))
+    rx = np.arctan2(-m[..., 1, 2], m[..., 2, 2])
+    rz = np.arctan2(-m[..., 0, 1], m[..., 0, 0])
+    angles: F64 = np.degrees(np.stack([rx, ry, rz], axis=-1))
+    return angles
 
 
 def corrected_view(view: PoseView, rig: RigConstants) -> PoseView:
@@ -127,7 +127,7 @@ def corrected_view(view: PoseView, rig: RigConstants) -> PoseView:
     return dataclasses.replace(
         view,
         t_grid=np.asarray(t, dtype=np.float64),
-        r_deg=np.array(angles_deg_from_rotation(R)),
+        r_deg=angles_deg_from_rotation(R),
         intrinsics=rig.true_intrinsics(view.intrinsics),
     )
 

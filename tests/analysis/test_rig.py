@@ -152,3 +152,30 @@ def test_run_rig_calibration_loo_is_honest(sessions: dict[str, Path], tmp_path: 
     assert "The rig's constants" in page
     assert "rmse_rig_loo" in page
     assert not rig[rig["session"].str.endswith("without.mcap")]["fitted"].any()
+
+
+def test_line_trials_get_the_corrected_line_columns(tmp_path: Path) -> None:
+    """The line method: each trial's corrected line (direction, angle and distance
+    errors) beside the uncorrected one; the constants' bias leaves the distance."""
+    import pandas as pd
+
+    session = tmp_path / "line.mcap"
+    poses = dataclasses.replace(THESIS_POSES, noise_sigma=0.0)
+    scene = Scene(poses=poses, systematic=RIG)
+    simulate_session(session, method="line", trials=8, frames=2, seed=43, scene=scene)
+    out = tmp_path / "o"
+    args = ["run", str(session), "--out", str(out), "--no-scene", "--rig-calibration", "loo"]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    trials = pd.read_csv(out / "trials.csv")
+    line_columns = ["dir_x_rig", "dir_y_rig", "dir_z_rig", "angle_err_rig_deg", "dist_err_rig"]
+    ok = trials[trials["status"] == "ok"]
+    assert len(ok) >= 6
+    assert ok[line_columns].notna().all().all()
+    norms = np.linalg.norm(ok[["dir_x_rig", "dir_y_rig", "dir_z_rig"]].to_numpy(), axis=1)
+    np.testing.assert_allclose(norms, 1.0, atol=1e-9)
+    assert (ok["angle_err_rig_deg"].between(0, 90)).all()
+    # err_rig is the distance of the corrected line from the true midpoint, as err is.
+    np.testing.assert_allclose(ok["dist_err_rig"], ok["err_rig"], atol=1e-9)
+    np.testing.assert_allclose(ok["dist_err"], ok["err"], atol=1e-9)
+    assert ok["dist_err_rig"].mean() < ok["dist_err"].mean()
