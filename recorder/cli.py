@@ -192,35 +192,19 @@ def new(
     with handle_errors(), contextlib.ExitStack() as stack:
         refuse_existing(out)  # before the first question
         constants = _load_rig(rig)
+        answers = (method, units, calibration, focal, principal, ground_height)
+        mode = (frames, poses, width, height, fps)
         if ui:
-            answers = (method, units, calibration, focal, principal, ground_height)
             given = _console_given(*answers, ground_truth, operator)
-            mode = (frames, poses, width, height, fps)
             _console(out, source, given, mode, notes, (host, port), constants)
             return
         if plan is not None:
             view_port = live_port if live else None
             summary = _planned(out, plan, source, (width, height, fps), stack, view_port, constants)
         else:
-            given = {
-                "method": method.value if method else None,
-                "units": units,
-                "calibration": calibration,
-                "focal": focal,
-                "principal": principal,
-                "ground_height": ground_height,
-                "ground_truth": ground_truth,
-                "operator": operator,
-                "notes": notes,
-                "rig": constants,
-            }
-            summary = _interactive(
-                out,
-                source,
-                given,
-                (frames, poses, width, height, fps),
-                (stack, live_port) if live else None,
-            )
+            given = _console_given(*answers, ground_truth, operator)
+            view = (stack, live_port) if live else None
+            summary = _interactive(out, source, given, mode, (notes, constants), view)
     typer.echo(summary.line())
     if summary.interrupted:
         typer.secho("interrupted", err=True)
@@ -252,38 +236,27 @@ def _interactive(
     source: str,
     given: dict[str, Any],
     capture: tuple[int, int, int, int, float],
+    session: tuple[str, RigConstants | None],
     live: tuple[contextlib.ExitStack, int] | None = None,
 ) -> RecordingSummary:
-    """Ask for whatever the options did not give, then run the guided procedure."""
-    from recorder.interactive import Operator, ask_setup, parse_vector, record_interactive
+    """Ask for whatever the options did not give (``given``: :func:`_console_given`), then
+    run the guided procedure; ``session``: its notes and the rig's constants."""
+    from recorder.interactive import Operator, ask_setup, record_interactive
     from recorder.sources import open_source
     from twopose.camera import Camera
     from twopose.format.entries import GroundPlane, SessionInfo
 
     frames, poses, width, height, fps = capture
+    notes, rig = session
     op = Operator(_prompt, typer.echo)
-    units = given["units"] if given["units"] is not None else "in"
-    setup = ask_setup(
-        op,
-        method=given["method"],
-        units=given["units"],
-        intrinsics=_calibration(given["calibration"]),
-        focal=given["focal"],
-        principal=_principal(given["principal"]),
-        size=(width, height),
-        ground_height=given["ground_height"],
-        ground_truth=[
-            parse_vector(g, units, what="ground truth") for g in given["ground_truth"] or []
-        ],
-        operator=given["operator"],
-    )
+    setup = ask_setup(op, size=(width, height), **given)
     src = open_source(source, method=setup.method, width=width, height=height, fps=fps)
     camera = Camera("cam0", setup.intrinsics)
     info = SessionInfo(
         method=setup.method,
         units=setup.units,
         operator=setup.operator,
-        notes=given["notes"],
+        notes=notes,
         created_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
     )
     view = _live_view(live[0], [camera], live[1]) if live is not None else None
@@ -299,7 +272,7 @@ def _interactive(
         frames=frames,
         poses_per_trial=poses,
         live=view,
-        rig=given["rig"],
+        rig=rig,
     )
 
 
