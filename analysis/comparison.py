@@ -26,7 +26,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from analysis.figures import png_bytes
-from analysis.metrics import paired_difference, summarize
+from analysis.metrics import paired_difference, summarize, used_trials
 from analysis.outputs import read_results_table, session_keys, write_atomically
 from analysis.report import page_html, table_html
 from twopose.errors import InputValueError
@@ -173,12 +173,10 @@ def _with_errors(trials: pd.DataFrame, side: RunSide) -> pd.DataFrame:
 
 
 def _used_trials(trials: pd.DataFrame, include_warned: bool) -> pd.DataFrame:
-    """The ok trials with a known error (and without a warning unless ``include_warned``)."""
-    keep = (trials["status"] == "ok") & np.isfinite(trials["err"].to_numpy(dtype=np.float64))
-    if not include_warned and "warning" in trials:
-        keep &= trials["warning"].fillna("").astype(str) == ""
-    used: pd.DataFrame = trials[keep]
-    return used
+    """The trials the summary uses (:func:`analysis.metrics.used_trials`) with a known error."""
+    used = used_trials(trials, include_warned=include_warned)
+    known: pd.DataFrame = used[np.isfinite(used["err"].to_numpy(dtype=np.float64))]
+    return known
 
 
 def _side_by_side(summary_a: pd.DataFrame, summary_b: pd.DataFrame) -> pd.DataFrame:

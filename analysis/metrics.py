@@ -18,6 +18,8 @@ __all__ = [
     "paired_difference",
     "summarize",
     "t95",
+    "used_trials",
+    "warned",
 ]
 
 F64 = NDArray[np.float64]
@@ -116,6 +118,23 @@ SUMMARY_COLUMNS = [
 ]
 
 
+def warned(trials: pd.DataFrame) -> pd.Series:
+    """Which trials carry a near-degeneracy warning (the one rule the summary, the
+    comparison and the rig's before/after share)."""
+    if "warning" not in trials:
+        return pd.Series(False, index=trials.index)
+    return trials["warning"].fillna("").astype(str) != ""
+
+
+def used_trials(trials: pd.DataFrame, *, include_warned: bool = False) -> pd.DataFrame:
+    """The trials the statistics use: ok, and without a warning unless ``include_warned``."""
+    keep = trials["status"] == "ok"
+    if not include_warned:
+        keep &= ~warned(trials)
+    used: pd.DataFrame = trials[keep]
+    return used
+
+
 def summarize(trials: pd.DataFrame, *, include_warned: bool = False) -> pd.DataFrame:
     """One row per session and method: bias, spread and error statistics.
 
@@ -128,11 +147,7 @@ def summarize(trials: pd.DataFrame, *, include_warned: bool = False) -> pd.DataF
     rows = []
     for (session, method), g in trials.groupby(["session", "method"], sort=True):
         ok = g[g["status"] == "ok"]
-        if "warning" in ok:
-            warned = ok["warning"].fillna("").astype(str) != ""
-        else:
-            warned = pd.Series(False, index=ok.index)
-        used = ok if include_warned else ok[~warned]
+        used = used_trials(g, include_warned=include_warned)
         all_ok = _error_statistics(ok)
         rows.append(
             {
@@ -141,7 +156,7 @@ def summarize(trials: pd.DataFrame, *, include_warned: bool = False) -> pd.DataF
                 "units": g["units"].iloc[0],
                 "n_trials": len(g),
                 "n_ok": len(ok),
-                "n_warned": int(warned.sum()),
+                "n_warned": int(warned(ok).sum()),
                 "n_used": len(used),
                 **_error_statistics(used),
                 "rmse_all_ok": all_ok["rmse"],

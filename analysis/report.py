@@ -13,6 +13,7 @@ import numpy as np
 import pandas as pd
 
 from analysis.figures import figure_key, png_bytes, run_figures, session_figures
+from analysis.metrics import used_trials
 from analysis.thesis import thesis_table, thesis_verdict
 
 if TYPE_CHECKING:
@@ -296,9 +297,12 @@ def _method_sections(result: RunResult, images: dict[str, str], sweeps: pd.DataF
     ]
 
 
-def rig_before_after(trials: pd.DataFrame) -> pd.DataFrame:
-    """Per session, the ok trials' RMSE before and after the leave-one-out rig correction."""
-    ok = trials[(trials["status"] == "ok") & trials["err_rig"].notna()]
+def rig_before_after(trials: pd.DataFrame, *, include_warned: bool = False) -> pd.DataFrame:
+    """Per session, the RMSE and 95% coverage before and after the leave-one-out rig
+    correction, over the trials the summary uses (ok, without a warning unless
+    ``include_warned``) that the correction reached."""
+    used = used_trials(trials, include_warned=include_warned)
+    ok = used[used["err_rig"].notna()]
     rows = [
         {
             "session": session,
@@ -334,9 +338,9 @@ def _rig_section(result: RunResult) -> list[str]:
         "<h2 id='rig'>The rig's constants</h2>",
         "<p>Each trial corrected by the constants its session's other trials give (leave "
         "one out: selected and fitted without it; trials.csv <code>x_rig, y_rig, z_rig, "
-        "err_rig</code>), and the constants each session supports (rig.csv; "
-        "<code>truth</code>: the simulation's).</p>",
-        table_html(rig_before_after(result.trials)),
+        "err_rig</code>), over the trials the summary uses, and the constants each "
+        "session supports (rig.csv; <code>truth</code>: the simulation's).</p>",
+        table_html(rig_before_after(result.trials, include_warned=result.include_warned)),
         table_html(fitted if not fitted.empty else result.rig.head(0)),
     ]
 

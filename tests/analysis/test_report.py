@@ -219,3 +219,31 @@ def test_answer_table_pools_per_method_and_units() -> None:
     assert list(table.columns) == ANSWER_COLUMNS
     assert sorted(table["units"]) == ["in", "mm"]
     assert table["n_trials"].sum() == 8
+
+
+def test_rig_before_after_uses_the_trials_the_summary_uses() -> None:
+    """A warned trial (the tool doubts it) is left out of the rig's before/after, as of
+    the summary, unless include_warned; a failed trial never counts."""
+    from analysis.report import rig_before_after
+
+    trials = pd.DataFrame(
+        {
+            "session": ["s"] * 4,
+            "status": ["ok", "ok", "ok", "degenerate"],
+            "warning": ["", "", "plane angle 1.0 deg < 5", ""],
+            "err": [1.0, 1.0, 10.0, 50.0],
+            "err_rig": [0.5, 0.5, 20.0, 40.0],
+            "within95": [True, False, True, False],
+            "within95_rig": [1.0, 1.0, 0.0, 0.0],
+            "dominant_input": ["systematic", "pixels", "systematic", "pixels"],
+        }
+    )
+    table = rig_before_after(trials).set_index("session")
+    assert table.loc["s", "trials"] == 2
+    assert table.loc["s", "rmse"] == 1.0
+    assert table.loc["s", "rmse_rig_loo"] == 0.5
+    assert table.loc["s", "coverage95_rig"] == 1.0
+    assert table.loc["s", "systematic_dominant"] == 1
+    everything = rig_before_after(trials, include_warned=True).set_index("session")
+    assert everything.loc["s", "trials"] == 3
+    assert everything.loc["s", "rmse_rig_loo"] == np.sqrt((0.25 + 0.25 + 400) / 3)
