@@ -15,9 +15,8 @@ constant's typical size) are checked by SVD; a constant that no trial depends on
 moves the estimates the way others do (a near-null direction), is fixed at its nominal
 value, and :attr:`RigFit.fixed` says which and why. Model selection
 (:func:`select_constants`): groups of constants are added one at a time while the
-leave-one-out prediction error (PRESS of the linearized fit, in the session's units)
-drops by more than 5% and the drop in chi-square passes an F-test at 1%, so a session
-without systematic error keeps none.
+leave-one-out prediction error (PRESS of the linearized, whitened fit) drops and the drop
+in chi-square passes an F-test at 1%, so a session without systematic error keeps none.
 """
 
 from __future__ import annotations
@@ -39,6 +38,7 @@ from twopose.estimate import (
     ViewBatch,
     estimate_trials,
     line_errors,
+    margin_warnings,
     measure,
 )
 from twopose.rig import RIG_PARAMETERS, RigConstants, angles_deg_from_rotation
@@ -78,9 +78,12 @@ _UPPER = np.array([20.0, 20.0, 20.0, 5.0, 5.0, 5.0, 1.4, 100.0, 100.0, 1.25, 5.0
 
 @dataclass(frozen=True)
 class RigData:
-    """A session's trials with ground truth, ready for fitting: their detections combined
-    into one measurement per pose (the constants do not change them), the typed batch,
-    the truth and each trial's whitening (from its propagated covariance)."""
+    """A session's ok trials with ground truth, ready for fitting: their detections
+    combined into one measurement per pose (the constants do not change them), the typed
+    batch, the truth, each trial's whitening (from its propagated covariance) and whether
+    it is trusted (no near-degeneracy warning): only trusted trials inform the constants,
+    since a near-degenerate trial's linearized covariance understates its error and would
+    steer the fit; every trial is corrected."""
 
     method: str
     trial_ids: tuple[int, ...]
@@ -89,6 +92,7 @@ class RigData:
     ground: GroundSpec | None
     whiten: F64  # (T, 3, 3): residual -> whitened residual (pseudo-inverse square root)
     cov: F64  # (T, 3, 3): each trial's propagated (random) covariance
+    trusted: NDArray[np.bool_]  # (T,): no near-degeneracy warning
     options: EstimateSettings = field(default_factory=EstimateOptions)
 
     def subset(self, rows: Sequence[int]) -> RigData:
@@ -101,7 +105,12 @@ class RigData:
             truth=self.truth[idx],
             whiten=self.whiten[idx],
             cov=self.cov[idx],
+            trusted=self.trusted[idx],
         )
+
+    def fitting(self) -> RigData:
+        """The trials that inform the constants (the trusted ones)."""
+        return self.subset([int(i) for i in np.flatnonzero(self.trusted)])
 
 
 def prepare(
@@ -118,9 +127,12 @@ def prepare(
     est = estimate_trials(method, views, measurements, complete, detected, truth, ground, options)
     known = [bool(np.isfinite(truth[i]).all()) for i in range(len(views))]
     keep = [i for i in range(len(views)) if est.status[i] == "ok" and known[i]]
-    if len(keep) < 2:
+    warnings = margin_warnings(est.status, est.margins, options)
+    trusted = np.array([warnings[i] == "" for i in keep], dtype=bool)
+    if trusted.sum() < 2:
         raise InputValueError(
-            f"the rig needs at least 2 ok trials with ground truth, this session has {len(keep)}"
+            "the rig needs at least 2 ok trials with ground truth and without a "
+            f"near-degeneracy warning, this session has {int(trusted.sum())}"
         )
     batch = ViewBatch.of([measurements[i] for i in keep], [views[i] for i in keep])
     whiten = np.stack([_whitening(est.cov[i]) for i in keep])
@@ -132,6 +144,7 @@ def prepare(
         ground,
         whiten,
         est.cov[keep],
+        trusted,
         options,
     )
 
@@ -214,7 +227,7 @@ def residuals(data: RigData, rig: RigConstants) -> F64:
 class RigFit:
     """Estimated constants: their values (fixed ones nominal), 1-sigma of each scalar
     (NaN: fixed), what was fitted, what was fixed and why, the fit's chi-square and its
-    degrees of freedom, and the leave-one-out prediction error (PRESS, units squared)."""
+    degrees of freedom, and the leave-one-out prediction error (PRESS, whitened)."""
 
     constants: RigConstants
     sigma: F64  # (11,) RIG_PARAMETERS order
@@ -300,6 +313,7 @@ def fit_constants(data: RigData, groups: Sequence[str] = GROUPS) -> RigFit:
     unknown = sorted(set(groups) - set(GROUPS))
     if unknown:
         raise InputValueError(f"unknown rig constant(s) {unknown}; known: {', '.join(GROUPS)}")
+    data = data.fitting()
     wanted = np.array([any(n in RIG_PARAMETERS[g] for g in groups) for n in _NAMES])
     free, fixed = identifiable(data, wanted)
     x0 = np.zeros(int(free.sum()))
@@ -315,13 +329,11 @@ def fit_constants(data: RigData, groups: Sequence[str] = GROUPS) -> RigFit:
     else:
         x = x0
     constants = RigConstants.from_vector(_vector(x, free))
-    raw = raw_residuals(data, constants)
-    G = _jacobian(data, free, x)
-    r, J = _whitened(data, raw), _whitened(data, G)
+    r, J = residuals(data, constants), _whitened(data, _jacobian(data, free, x))
     dof = max(len(r) - int(free.sum()), 1)
     chi2 = float(r @ r)
     sigma = np.full(len(_NAMES), np.nan)
-    press = _press(r, J, raw, G)
+    press = _press(r, J)
     cov: F64 = np.zeros((0, 0))
     if free.any():
         cov = np.asarray(np.linalg.pinv(J.T @ J) * max(1.0, chi2 / dof), dtype=np.float64)
@@ -330,33 +342,29 @@ def fit_constants(data: RigData, groups: Sequence[str] = GROUPS) -> RigFit:
     return RigFit(constants, sigma, names, fixed, chi2, dof, press, cov)
 
 
-def _press(r: F64, J: F64, raw: F64, G: F64) -> float:
-    """Leave-one-trial-out prediction error of the linearized fit, in the session's
-    units squared: without trial t the whitened fit moves by ``-(J'J)^-1 J_t' (I -
-    H_tt)^-1 r_t`` (H the hat matrix), which moves the trial's raw residual by ``G_t``
-    times that. Raw, not whitened: selection judges a constant by the error the report
-    shows, so a constant that fits the well-measured trials better but moves the rest
-    away (a whitened gain, a raw loss) is not chosen."""
+def _press(r: F64, J: F64) -> float:
+    """Leave-one-trial-out prediction error of the linearized (whitened) fit: each
+    trial's 3 residuals divided by ``(I - H_tt)`` (H the hat matrix), squared and summed.
+    Whitened, as the likelihood is: in raw units the few poorly conditioned trials (a
+    ground trial's nearly parallel planes) decide alone, and spurious constants follow."""
     if J.shape[1] == 0:
-        return float(raw @ raw)
+        return float(r @ r)
     inverse = np.linalg.pinv(J.T @ J)
     total = 0.0
     for t in range(len(r) // 3):
         block = slice(3 * t, 3 * t + 3)
         H_tt = J[block] @ inverse @ J[block].T
         loo = np.linalg.lstsq(np.eye(3) - H_tt, r[block], rcond=None)[0]
-        step = -inverse @ J[block].T @ loo
-        predicted = raw[block] + G[block] @ step
-        total += float(predicted @ predicted)
+        total += float(loo @ loo)
     return total
 
 
-def select_constants(data: RigData, *, margin: float = 0.05, alpha: float = 0.01) -> RigFit:
+def select_constants(data: RigData, *, margin: float = 0.0, alpha: float = 0.01) -> RigFit:
     """The constants the session supports: groups added one at a time (the one with the
     lowest leave-one-out prediction error first) while each addition both lowers the
-    PRESS by more than ``margin`` and passes an F-test at level ``alpha`` (its drop in
-    chi-square against the residual chi-square: forward selection with an F-to-enter,
-    so that a session without systematic error keeps none)."""
+    PRESS (by more than ``margin``, relative) and passes an F-test at level ``alpha`` (its
+    drop in chi-square against the residual chi-square: forward selection with an
+    F-to-enter, so that a session without systematic error keeps none)."""
     chosen: list[str] = []
     best = fit_constants(data, chosen)
     while True:
@@ -450,7 +458,7 @@ def leave_one_out(data: RigData) -> LeaveOneOut:
     inside = np.full(T, np.nan)
     for i in range(T):
         others = [j for j in range(T) if j != i]
-        if len(others) < 2:
+        if data.trusted[others].sum() < 2:
             continue
         fit = select_constants(data.subset(others))
         trial = data.subset([i])

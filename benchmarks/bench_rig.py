@@ -7,8 +7,9 @@ sessions' poses: x or x-and-depth moves, 1/8 in typing, 0.04 in placing error, 5
 each seed simulated twice: with the constants (mount rotation (0.8, -0.5, 0.3) deg, camera
 offset (0.3, 0.2, 0.4) in, focal scale 1.03) and without. Per session, ``run
 --rig-calibration loo`` (each trial corrected by constants selected and fitted without
-it). RMSEs are over the trials the summary uses (ok, without a near-degeneracy warning:
-the report's headline set); coverage is over every ok trial. Targets:
+it). A seed's RMSEs are over the trials the summary uses (ok, without a near-degeneracy
+warning: the report's headline set) in both of its sessions, so both sessions are judged
+on the same targets; coverage is over every ok trial. Targets:
 
 1. with constants: the leave-one-out corrected RMSE <= 1.15x the RMSE of the same seed
    simulated without them;
@@ -70,11 +71,12 @@ class SeedResult:
     covered: list[float]
     within: int
     fitted: int
+    n: int  # trials both sessions use
 
     def line(self) -> str:
         r1, r2 = self.loo_with / self.base, self.loo_without / self.base
         return (
-            f"{self.method:6} {self.seed:4}  {self.base:12.3f}  {self.with_raw:9.3f}  "
+            f"{self.method:6} {self.seed:4} {self.n:3}  {self.base:12.3f}  {self.with_raw:9.3f}  "
             f"{self.loo_with:8.3f} ({r1:.2f})            {self.loo_without:8.3f} ({r2:.2f})"
         )
 
@@ -96,7 +98,9 @@ def one_seed(method: str, seed: int) -> SeedResult:
         options = AnalysisOptions(rig_calibration="loo")
         trials = run(list(paths.values()), None, options=options).trials
         by = {Path(str(s)).stem.rsplit("_", 1)[1]: g for s, g in trials.groupby("session")}
-        ok = {name: used_trials(g) for name, g in by.items()}  # as the summary counts
+        # The trials the summary uses (ok, unwarned) in both sessions: one set of targets.
+        both = set.intersection(*(set(used_trials(g)["trial"]) for g in by.values()))
+        ok = {name: g[g["trial"].isin(both)] for name, g in by.items()}
         # Coverage is a property of every ok trial's region, warned ones' (wide) included.
         covered = [
             float(v) for g in by.values() for v in g[g["status"] == "ok"]["within95_rig"]
@@ -118,6 +122,7 @@ def one_seed(method: str, seed: int) -> SeedResult:
         covered,
         within,
         len(rows),
+        len(both),
     )
 
 
@@ -128,7 +133,7 @@ def main() -> int:
     parser.add_argument("--workers", type=int, default=2)
     args = parser.parse_args()
     jobs = [(m, s) for m in args.methods for s in range(args.seeds)]
-    print("method seed  rmse_without  rmse_with  with_loo (ratio, <= 1.15)", end="")
+    print("method seed   n  rmse_without  rmse_with  with_loo (ratio, <= 1.15)", end="")
     print("  without_loo (ratio, <= 1.05)")
     results = []
     with ProcessPoolExecutor(args.workers) as pool:

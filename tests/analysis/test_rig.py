@@ -179,3 +179,21 @@ def test_line_trials_get_the_corrected_line_columns(tmp_path: Path) -> None:
     np.testing.assert_allclose(ok["dist_err_rig"], ok["err_rig"], atol=1e-9)
     np.testing.assert_allclose(ok["dist_err"], ok["err"], atol=1e-9)
     assert ok["dist_err_rig"].mean() < ok["dist_err"].mean()
+
+
+def test_only_trusted_trials_inform_the_constants(tmp_path: Path) -> None:
+    """A near-degenerate trial (a warning in trials.csv) is corrected but does not steer
+    the fit: its linearized covariance understates its error."""
+    session = tmp_path / "ground.mcap"
+    simulate_session(session, method="ground", trials=8, frames=2, seed=7,
+                     scene=Scene(poses=THESIS_POSES, systematic=RIG))  # fmt: skip
+    trials = analyse_session(session).trials
+    ok = trials[(trials["status"] == "ok") & trials["gt_x"].notna()]
+    unwarned = set(ok[ok["warning"].fillna("") == ""]["trial"])
+    data = _data(session)
+    trusted = {t for t, keep in zip(data.trial_ids, data.trusted, strict=True) if keep}
+    assert set(data.trial_ids) == set(ok["trial"])
+    assert trusted == unwarned
+    assert 2 <= len(trusted) < len(data.trial_ids)  # this seed has both kinds
+    fit = fit_constants(data, ["camera_offset"])
+    assert fit.dof == 3 * len(trusted) - len(fit.free)
