@@ -19,6 +19,11 @@ on the same targets; coverage is over every ok trial. Targets:
 4. the corrected estimates' 95% regions cover the truth in 90-99% of >= 500 trials (the
    default 9 seeds x 2 methods x 2 sessions x 15 trials = 540).
 
+Then the real workflow, calibrate once and measure: for each seed, ``rig`` on the other
+seeds' sessions with constants (``analysis.calibration.calibrate``, default selection),
+applied to this seed's with ``run --rig``; its RMSE against the same base (target 1
+again, reported beside the leave-one-out one, and the pooled RMSE per method).
+
 Prints one line per session and a summary; exits 1 if a target is missed.
 """
 
@@ -71,13 +76,14 @@ class SeedResult:
     covered: list[float]
     within: int
     fitted: int
-    n: int  # trials both sessions use
+    both: frozenset[int]  # the trials both sessions use
 
     def line(self) -> str:
         r1, r2 = self.loo_with / self.base, self.loo_without / self.base
         return (
-            f"{self.method:6} {self.seed:4} {self.n:3}  {self.base:12.3f}  {self.with_raw:9.3f}  "
-            f"{self.loo_with:8.3f} ({r1:.2f})            {self.loo_without:8.3f} ({r2:.2f})"
+            f"{self.method:6} {self.seed:4} {len(self.both):3}  {self.base:12.3f}  "
+            f"{self.with_raw:9.3f}  {self.loo_with:8.3f} ({r1:.3f})           "
+            f"{self.loo_without:8.3f} ({r2:.3f})"
         )
 
     @property
@@ -85,33 +91,48 @@ class SeedResult:
         return self.loo_with <= 1.15 * self.base and self.loo_without <= 1.05 * self.base
 
 
-def one_seed(method: str, seed: int) -> SeedResult:
-    """Simulate the seed with and without the constants; judge them (see the docstring)."""
-    with tempfile.TemporaryDirectory() as tmp:
-        paths = {}
-        for name, rig in (("with", RIG), ("without", RigConstants())):
-            paths[name] = Path(tmp) / f"{method}_{seed}_{name}.mcap"
-            scene = Scene(poses=THESIS_POSES, systematic=rig)
-            simulate_session(
-                paths[name], method=method, trials=15, frames=5, seed=100 + seed, scene=scene
-            )
-        options = AnalysisOptions(rig_calibration="loo")
-        trials = run(list(paths.values()), None, options=options).trials
-        by = {Path(str(s)).stem.rsplit("_", 1)[1]: g for s, g in trials.groupby("session")}
-        # The trials the summary uses (ok, unwarned) in both sessions: one set of targets.
-        both = set.intersection(*(set(used_trials(g)["trial"]) for g in by.values()))
-        ok = {name: g[g["trial"].isin(both)] for name, g in by.items()}
-        # Coverage is a property of every ok trial's region, warned ones' (wide) included.
-        covered = [
-            float(v) for g in by.values() for v in g[g["status"] == "ok"]["within95_rig"]
-            if np.isfinite(v)
-        ]  # fmt: skip
-        fit, _ = calibrate([str(paths["with"])], TRUE_GROUPS)
-        rows = [row for row in fit.rows(RIG) if row["fitted"]]
-        within = sum(
-            abs(float(r["value"]) - float(r["truth"])) <= 1.96 * float(r["sigma"])  # type: ignore[arg-type]
-            for r in rows
+def session_path(folder: Path, method: str, seed: int, name: str) -> Path:
+    return folder / f"{method}_{seed}_{name}.mcap"
+
+
+def simulate_pair(method: str, seed: int, folder: Path) -> dict[str, Path]:
+    """The seed simulated with the constants and without, kept in ``folder``."""
+    paths = {}
+    for name, rig in (("with", RIG), ("without", RigConstants())):
+        paths[name] = session_path(folder, method, seed, name)
+        scene = Scene(poses=THESIS_POSES, systematic=rig)
+        simulate_session(
+            paths[name], method=method, trials=15, frames=5, seed=100 + seed, scene=scene
         )
+    return paths
+
+
+def constants_within(path: Path) -> tuple[int, int]:
+    """Of the true groups fitted on all the session's trials: how many scalars lie within
+    their 95% interval of the truth, and how many were fitted."""
+    fit, _ = calibrate([str(path)], TRUE_GROUPS)
+    rows = [row for row in fit.rows(RIG) if row["fitted"]]
+    within = sum(
+        abs(float(r["value"]) - float(r["truth"])) <= 1.96 * float(r["sigma"])  # type: ignore[arg-type]
+        for r in rows
+    )
+    return within, len(rows)
+
+
+def one_seed(method: str, seed: int, folder: Path) -> SeedResult:
+    """Simulate the seed with and without the constants; judge them (see the docstring)."""
+    paths = simulate_pair(method, seed, folder)
+    trials = run(list(paths.values()), None, options=AnalysisOptions(rig_calibration="loo")).trials
+    by = {Path(str(s)).stem.rsplit("_", 1)[1]: g for s, g in trials.groupby("session")}
+    # The trials the summary uses (ok, unwarned) in both sessions: one set of targets.
+    both = set.intersection(*(set(used_trials(g)["trial"]) for g in by.values()))
+    ok = {name: g[g["trial"].isin(both)] for name, g in by.items()}
+    # Coverage is a property of every ok trial's region, warned ones' (wide) included.
+    covered = [
+        float(v) for g in by.values() for v in g[g["status"] == "ok"]["within95_rig"]
+        if np.isfinite(v)
+    ]  # fmt: skip
+    within, fitted = constants_within(paths["with"])
     return SeedResult(
         method,
         seed,
@@ -121,9 +142,29 @@ def one_seed(method: str, seed: int) -> SeedResult:
         rmse(ok["without"]["err_rig"].to_numpy()),
         covered,
         within,
-        len(rows),
-        len(both),
+        fitted,
+        frozenset(int(t) for t in both),
     )
+
+
+def calibrated_once(result: SeedResult, seeds: int, folder: Path) -> float:
+    """The seed's session with constants corrected by ``rig`` on the other seeds' (the
+    real workflow); its RMSE over the seed's common trials."""
+    others = [
+        str(session_path(folder, result.method, s, "with"))
+        for s in range(seeds)
+        if s != result.seed
+    ]
+    fit, _ = calibrate(others)
+    path = session_path(folder, result.method, result.seed, "with")
+    trials = run([path], None, options=AnalysisOptions(rig=fit.constants)).trials
+    return rmse(trials[trials["trial"].isin(result.both)]["err"].to_numpy())
+
+
+def pooled(results: list[SeedResult], attribute: str) -> float:
+    """The RMSE over every seed's common trials."""
+    squares = sum(len(r.both) * getattr(r, attribute) ** 2 for r in results)
+    return float(np.sqrt(squares / sum(len(r.both) for r in results)))
 
 
 def main() -> int:
@@ -132,7 +173,15 @@ def main() -> int:
     parser.add_argument("--methods", nargs="+", default=["point", "ground"])
     parser.add_argument("--workers", type=int, default=2)
     args = parser.parse_args()
-    jobs = [(m, s) for m in args.methods for s in range(args.seeds)]
+    with tempfile.TemporaryDirectory() as tmp:
+        results = leave_one_out_table(args, Path(tmp))
+        ok = summary(results)
+        ok &= workflow_table(results, args.seeds, Path(tmp), args.workers)
+    return 0 if ok else 1
+
+
+def leave_one_out_table(args: argparse.Namespace, folder: Path) -> list[SeedResult]:
+    jobs = [(m, s, folder) for m in args.methods for s in range(args.seeds)]
     print("method seed   n  rmse_without  rmse_with  with_loo (ratio, <= 1.15)", end="")
     print("  without_loo (ratio, <= 1.05)")
     results = []
@@ -140,6 +189,11 @@ def main() -> int:
         for result in pool.map(one_seed, *zip(*jobs, strict=True)):
             print(result.line(), flush=True)
             results.append(result)
+    return results
+
+
+def summary(results: list[SeedResult]) -> bool:
+    """Coverage and the constants' intervals; whether every target so far is met."""
     covered = [v for r in results for v in r.covered]
     coverage = float(np.mean(covered)) if covered else float("nan")
     print(
@@ -150,8 +204,42 @@ def main() -> int:
     share = within / max(fitted, 1)
     print(f"constants within their 95% intervals of the truth: {within} of {fitted} ({share:.0%})")
     ok = all(r.ok for r in results) and share >= 0.9
-    ok &= 0.90 <= coverage <= 0.99 and len(covered) >= 500
-    return 0 if ok else 1
+    return ok and 0.90 <= coverage <= 0.99 and len(covered) >= 500
+
+
+def workflow_table(results: list[SeedResult], seeds: int, folder: Path, workers: int) -> bool:
+    """Calibrate once on the other seeds, apply to this one (see the docstring)."""
+    print()
+    print("calibrated once on the other seeds' sessions (rig, then run --rig):")
+    print("method seed   n  rmse_without  with_rig (ratio, <= 1.15)")
+    with ProcessPoolExecutor(workers) as pool:
+        once = list(
+            pool.map(calibrated_once, results, [seeds] * len(results), [folder] * len(results))
+        )
+    ok = True
+    for r, value in zip(results, once, strict=True):
+        print(
+            f"{r.method:6} {r.seed:4} {len(r.both):3}  {r.base:12.3f}  "
+            f"{value:8.3f} ({value / r.base:.3f})"
+        )
+        ok &= value <= 1.15 * r.base
+    print("pooled over the seeds (RMSE over every seed's common trials):")
+    print(
+        "method  rmse_without  rmse_with  with_loo (ratio)  with_rig (ratio)  without_loo (ratio)"
+    )
+    for method in dict.fromkeys(r.method for r in results):
+        rs = [r for r in results if r.method == method]
+        squares = sum(
+            len(r.both) * v**2 for r, v in zip(results, once, strict=True) if r.method == method
+        )
+        rig = float(np.sqrt(squares / sum(len(r.both) for r in rs)))
+        base, loo, loo0 = pooled(rs, "base"), pooled(rs, "loo_with"), pooled(rs, "loo_without")
+        print(
+            f"{method:6}  {base:12.3f}  {pooled(rs, 'with_raw'):9.3f}  "
+            f"{loo:8.3f} ({loo / base:.3f})"
+            f"  {rig:8.3f} ({rig / base:.3f})  {loo0:8.3f} ({loo0 / base:.3f})"
+        )
+    return ok
 
 
 if __name__ == "__main__":
