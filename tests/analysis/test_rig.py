@@ -13,7 +13,7 @@ from typer.testing import CliRunner
 
 from analysis.cli import app
 from analysis.pipeline import analyse_session, replay_views
-from analysis.rig import fit_constants, prepare, select_constants
+from analysis.rig import fit_constants, prepare, residuals, select_constants
 from recorder.scene import Scene
 from recorder.simulate import simulate_session
 from twopose.rig import RigConstants
@@ -197,3 +197,25 @@ def test_only_trusted_trials_inform_the_constants(tmp_path: Path) -> None:
     assert 2 <= len(trusted) < len(data.trial_ids)  # this seed has both kinds
     fit = fit_constants(data, ["camera_offset"])
     assert fit.dof == 3 * len(trusted) - len(fit.free)
+
+
+def test_a_ground_height_error_is_found_off_the_typed_plane(tmp_path: Path) -> None:
+    """Method 2 estimates lie on the typed ground plane, so the error along its normal has
+    no propagated variance; the fit must still weigh it, or a wrong ground height (and the
+    constants that trade with it) goes unseen."""
+    session = tmp_path / "ground.mcap"
+    rig = RigConstants(ground_height_error=0.5)
+    poses = dataclasses.replace(THESIS_POSES, noise_sigma=0.0)
+    simulate_session(session, method="ground", trials=8, frames=2, seed=11,
+                     scene=Scene(poses=poses, systematic=rig))  # fmt: skip
+    data = _data(session).fitting()
+    normal = np.array(_data(session).ground[0])  # type: ignore[index]
+    shifted = dataclasses.replace(data, truth=data.truth + 1.0 * normal)
+    change = (residuals(shifted, rig) - residuals(data, rig)).reshape(-1, 3)
+    assert len(change) >= 2
+    assert (np.linalg.norm(change, axis=1) > 1.0).all()  # a 1-unit miss off the plane counts
+    fit = fit_constants(data, ["ground_height_error"])
+    assert fit.free == ("ground_height_error",)
+    value, sigma = fit.constants.ground_height_error, fit.sigma[-1]
+    assert abs(value - 0.5) < 0.05
+    assert abs(value - 0.5) <= 3 * sigma
