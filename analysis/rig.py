@@ -149,21 +149,22 @@ def prepare(
     )
 
 
-#: The smallest variance a direction of a trial's residual gets, relative to its largest:
-#: a method 2 estimate has none along the ground's normal (it lies on the typed plane), yet
-#: its truth can sit off that plane (a ground height error), and that must count. A floor
-#: of (10% of the largest sigma)^2 weighs the normal direction, without letting the true
-#: points' own placing error there outweigh the plane's.
-_VARIANCE_FLOOR = 1e-2
+#: The variance a direction without any gets, relative to the largest: a method 2
+#: estimate has none along the ground's normal (it lies on the typed plane), yet its truth
+#: can sit off that plane (a ground height error), and that must count. (10% of the
+#: largest sigma)^2 weighs the normal, without letting the true points' own placing error
+#: there outweigh the plane's. Directions the covariance spans keep their own variance.
+_NULL_VARIANCE = 1e-2
 
 
 def _whitening(cov: F64) -> F64:
-    """``W`` with ``W r`` of unit covariance (each variance floored, see above)."""
+    """``W`` with ``W r`` of unit covariance (null directions: see above)."""
     if not np.isfinite(cov).all():
         return np.zeros((3, 3))
     w, V = np.linalg.eigh(cov)
-    floor = _VARIANCE_FLOOR * max(float(w.max()), 1e-300)
-    return np.asarray((V / np.sqrt(np.maximum(w, floor))).T)
+    largest = max(float(w.max()), 1e-300)
+    w = np.where(w > 1e-9 * largest, w, _NULL_VARIANCE * largest)
+    return np.asarray((V / np.sqrt(w)).T)
 
 
 def corrected_batch(batch: ViewBatch, rig: RigConstants) -> ViewBatch:
