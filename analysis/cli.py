@@ -20,7 +20,9 @@ from twopose.errors import (
     InputValueError,
     TwoposeError,
     handle_errors,
+    interrupted,
     safe_console,
+    watch_interrupts,
 )
 from twopose.version import VersionOption
 
@@ -584,8 +586,14 @@ def solve(method: Annotated[SolveMethod, typer.Argument(help="Which reconstructi
 
 def main() -> None:
     safe_console()
+    watch_interrupts()
     try:
         app()
     except KeyboardInterrupt:  # Ctrl-C outside a command's own handling: still 130
         sys.stderr.write("interrupted\n")
         raise SystemExit(EXIT_INTERRUPTED) from None
+    except SystemExit as done:
+        if interrupted() and done.code in (0, None):  # Ctrl-C swallowed along the way
+            sys.stderr.write("interrupted\n")
+            raise SystemExit(EXIT_INTERRUPTED) from None
+        raise

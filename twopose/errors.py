@@ -94,6 +94,28 @@ def handle_errors() -> Iterator[None]:
         raise typer.Exit(EXIT_ERROR) from None
 
 
+_interrupted = False
+
+
+def _on_interrupt(signum: int, frame: object) -> None:
+    global _interrupted
+    _interrupted = True
+    raise KeyboardInterrupt
+
+
+def watch_interrupts() -> None:
+    """Remember a Ctrl-C even where Python swallows the KeyboardInterrupt it raises (in a
+    finalizer or weakref callback it is printed and ignored, and the command would then
+    finish with 0): :func:`interrupted` tells the command line to exit with 130."""
+    import signal
+
+    signal.signal(signal.SIGINT, _on_interrupt)
+
+
+def interrupted() -> bool:
+    return _interrupted
+
+
 def safe_console() -> None:
     """The command lines' output streams escape what they cannot encode (a file name that
     is not valid UTF-8 is printed escaped, never a crash)."""
