@@ -12,13 +12,15 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Protocol
 
+import numpy as np
+
 from recorder.sources import FrameSource
 from twopose.errors import SourceError
 from twopose.format.entries import PoseEntry
 from twopose.format.writer import Capture, SessionWriter
 
 if TYPE_CHECKING:
-    from twopose.detect import Detection
+    from twopose.detect import Detection, PoseMeasurement
     from twopose.scene3d import TrialScene
     from twopose.trial_result import TrialResult
 
@@ -64,16 +66,54 @@ class FrameFeedback:
     found: bool
     centroid_px: tuple[float, float]
     theta_deg: float
-    n_blobs: int
+    n_blobs: int  # objects after the colour/contrast stage (the thesis GUI's count)
     reason: str
+    area_px: float = math.nan
+    eccentricity: float = math.nan
 
     def line(self) -> str:
+        """What the thesis' GUI showed per frame (section 5.2.4): centroid, orientation
+        and the image line through them, area, eccentricity, object count."""
         if not self.found:
             return f"  frame {self.index + 1}: not found ({self.reason})"
         col, row = self.centroid_px
-        theta = "" if math.isnan(self.theta_deg) else f", theta {self.theta_deg:+.1f} deg"
-        where = f"({col:.1f}, {row:.1f})"
-        return f"  frame {self.index + 1}: found at {where}{theta}, {self.n_blobs} blob(s)"
+        parts = [f"  frame {self.index + 1}: found at ({col:.1f}, {row:.1f})"]
+        if math.isfinite(self.theta_deg):
+            parts.append(f"theta {self.theta_deg:+.1f} deg")
+            parts.append(image_line_equation(self.centroid_px, self.theta_deg))
+        if math.isfinite(self.area_px):
+            parts.append(f"area {self.area_px:.0f} px")
+        if math.isfinite(self.eccentricity):
+            parts.append(f"eccentricity {self.eccentricity:.2f}")
+        parts.append(f"{self.n_blobs} object(s)")
+        return ", ".join(parts)
+
+    def to_json(self) -> dict[str, object]:
+        """The frame's numbers for the web console (NaN stays NaN: the one JSON encoder
+        turns it into null)."""
+        line = ""
+        if self.found and math.isfinite(self.theta_deg):
+            line = image_line_equation(self.centroid_px, self.theta_deg)
+        return {
+            "frame": self.index + 1,
+            "found": self.found,
+            "centroid": list(self.centroid_px),
+            "theta_deg": self.theta_deg,
+            "area_px": self.area_px,
+            "eccentricity": self.eccentricity,
+            "n_objects": self.n_blobs,
+            "line": line,
+            "reason": self.reason,
+        }
+
+
+def image_line_equation(centroid_px: tuple[float, float], theta_deg: float) -> str:
+    """The image line through the centroid at the orientation, ``a u + b v = c`` with
+    (a, b) its unit normal (thesis eq. 3.15's line in pixels)."""
+    t = math.radians(theta_deg)
+    a, b = -math.sin(t), math.cos(t)
+    c = a * centroid_px[0] + b * centroid_px[1]
+    return f"line {a:+.3f} u {b:+.3f} v = {c:.1f}"
 
 
 @dataclass(frozen=True)
@@ -91,6 +131,20 @@ class CaptureResult:
     @property
     def n_found(self) -> int:
         return sum(f.found for f in self.feedback)
+
+    def pose_average(self) -> PoseMeasurement | None:
+        """The pose's frames combined as the analysis combines them by default (the
+        thesis' mean, section 5.2.5); None without live detection."""
+        from twopose.detect import combine_frames
+
+        if not self.feedback:
+            return None
+        fb = self.feedback
+        return combine_frames(
+            np.array([f.centroid_px for f in fb], dtype=np.float64),
+            np.array([f.theta_deg for f in fb], dtype=np.float64),
+            np.array([f.found for f in fb], dtype=bool),
+        )
 
 
 def capture_frames(
@@ -160,7 +214,9 @@ def capture_frames(
 
 
 def _feedback(k: int, d: Detection) -> FrameFeedback:
-    return FrameFeedback(k, d.found, d.centroid_px, d.theta_deg, d.n_blobs, d.reason)
+    return FrameFeedback(
+        k, d.found, d.centroid_px, d.theta_deg, d.n_blobs, d.reason, d.area_px, d.eccentricity
+    )
 
 
 def _show_live(

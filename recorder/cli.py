@@ -222,13 +222,18 @@ def _live_view(stack: contextlib.ExitStack, cameras: list[Camera], port: int) ->
 
 
 def _report_capture(trial: int, pose: int, result: CaptureResult) -> None:
+    from recorder.interactive import capture_lines
+
     for fb in result.feedback:
         typer.echo(fb.line())
-    state = "complete" if result.complete else f"INCOMPLETE: {result.reason}"
-    typer.echo(
-        f"trial {trial} pose {pose}: {result.n_frames} frames, {result.n_found} detected, "
-        f"{state}, {result.dropped} dropped"
-    )
+    from recorder.procedure import Shortfall, detection_shortfall
+
+    head, *rest = capture_lines(pose, result)
+    typer.echo(f"trial {trial} {head}")
+    for line in rest:
+        typer.echo(line)
+    if detection_shortfall(result) is not Shortfall.OK:
+        typer.echo("  a plan cannot ask: this capture is recorded as accepted all the same")
 
 
 def _interactive(

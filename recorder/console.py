@@ -34,18 +34,18 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
-from recorder.interactive import Operator, Setup, ask_setup, parse_vector
 from recorder.procedure import (
     Decision,
     Driver,
+    LowDetectionError,
     Placement,
     ProcedureRefusedError,
     QuitRecording,
     RecordingSummary,
+    Shortfall,
+    detection_shortfall,
 )
-from twopose.errors import InputValueError
+from recorder.setup_rules import form_fields
 from twopose.format.entries import GroundTruth, Note, PoseEntry, TruthKind, TypedEntry
 from twopose.values import Vec3
 
@@ -56,49 +56,15 @@ if TYPE_CHECKING:
     from twopose.scene3d import TrialScene
     from twopose.trial_result import TrialResult
 
-__all__ = ["FORM_QUESTIONS", "ConsoleSession", "WebDriver", "setup_from_form"]
+__all__ = ["DECISIONS", "ConsoleSession", "WebDriver"]
 
-#: The setup form's fields, by the start of the terminal question each one answers.
-FORM_QUESTIONS = {
-    "method": "method",
-    "units": "units",
-    "focal parameter": "focal",
-    "principal point": "principal",
-    "ground height": "ground_height",
-    "ground truth point 1": "truth1",
-    "ground truth point 2": "truth2",
-    "keep this ground truth anyway": "keep_off_ground",
-    "operator": "operator",
+#: The decision buttons (``POST /api/decide``) and what each tells the procedure.
+DECISIONS = {
+    "accept": Decision.ACCEPT,
+    "accept_anyway": Decision.ACCEPT_ANYWAY,
+    "redo": Decision.REDO,
+    "undo": Decision.UNDO,
 }
-
-
-class _FormRefusedError(InputValueError):
-    pass
-
-
-def setup_from_form(form: dict[str, str], **given: Any) -> Setup:
-    """The setup a form describes, checked by the terminal's questions: each question is
-    answered from its field (empty: the question's default); a refused answer raises
-    :class:`InputValueError` naming the field and saying why."""
-    refusal: list[str] = []
-    asked: set[str] = set()
-
-    def answer(question: str, default: str) -> str:
-        field = next((f for q, f in FORM_QUESTIONS.items() if question.startswith(q)), None)
-        if field is None:
-            raise InputValueError(f"the form has no field for {question!r}")
-        if field in asked:  # asked again: the last answer was refused
-            raise _FormRefusedError(f"{field}: {refusal[-1] if refusal else 'not accepted'}")
-        asked.add(field)
-        text = str(form.get(field, "") or "").strip()
-        if field == "keep_off_ground":
-            return "y" if text.lower() in ("y", "yes", "true", "on", "1") else "n"
-        return text or default
-
-    def say(line: str) -> None:
-        refusal.append(line.strip().removeprefix("not accepted: "))
-
-    return ask_setup(Operator(answer, say), **given)
 
 
 @dataclass
@@ -108,23 +74,45 @@ class _Frame:
     seq: int
 
 
+def _frame_numbers(index: int, det: Detection | None) -> dict[str, Any]:
+    """One captured frame's numbers as the thesis' GUI showed them (section 5.2.4)."""
+    from recorder.capture import FrameFeedback
+
+    if det is None:
+        return {"frame": index, "found": None}
+    fb = FrameFeedback(
+        index - 1, det.found, det.centroid_px, det.theta_deg, det.n_blobs, det.reason,
+        det.area_px, det.eccentricity,
+    )  # fmt: skip
+    return fb.to_json()
+
+
 class ConsoleSession:
     """What the page shows and what it asks, shared by the server and the recording
     thread (every access under one lock). It is also the recorder's live sink
     (:class:`recorder.capture.LiveSink`): frames, status and trial results arrive here."""
 
-    def __init__(self, out: Path) -> None:
+    def __init__(self, out: Path, given: dict[str, Any] | None = None) -> None:
         self.out = out
         self.lock = threading.Condition()
         self.commands: queue.Queue[tuple[str, Any]] = queue.Queue()
         self.phase = "setup"  # setup, recording, done, failed
-        self.setup_fields: list[str] = list(dict.fromkeys(FORM_QUESTIONS.values()))
+        self.setup_fields = form_fields(given or {})
         self.method = ""
         self.units = ""
         self.waiting = ""  # pose, decision, or "" (capturing, between steps)
         self.trial = self.pose = self.n_poses = 0
+        self.poses: list[dict[str, Any]] = []  # this trial's typed poses so far
+        self.pose_form: dict[str, Any] = {}  # what the pose form shows (after undo: retyped)
         self.capture = {"frame": 0, "n_frames": 0}
+        self.frames: list[dict[str, Any]] = []  # the capture's per-frame numbers
+        self.average: dict[str, Any] | None = None  # the capture's pose average
+        self.shortfall = Shortfall.OK.value
+        self.preview: dict[str, Any] | None = None  # the result if the capture is accepted
         self.message = "fill in the setup"
+        self.level = "info"  # info, warning, error: how the page colours the message
+        self.refusal: dict[str, Any] = {}  # {control, message, seq}: shown by that control
+        self.live_error = ""
         self.last_capture = ""
         self.results: dict[int, dict[str, Any]] = {}
         self.topview: dict[str, Any] | None = None
@@ -132,21 +120,33 @@ class ConsoleSession:
         self.latest: _Frame | None = None
         self.viewers = 0  # pages watching the live image (the preview runs only for them)
         self.preview_at = 0.0  # monotonic time of the last preview frame
+        self._refusals = 0
 
     # -- the page's view
     def snapshot(self) -> dict[str, Any]:
+        """Everything the page shows (NaN and infinity are left to the one JSON encoder)."""
         with self.lock:
             return {
                 "phase": self.phase,
                 "out": str(self.out),
                 "method": self.method,
                 "units": self.units,
+                "setup_fields": self.setup_fields if self.phase == "setup" else [],
                 "waiting": self.waiting,
                 "trial": self.trial,
                 "pose": self.pose,
                 "n_poses": self.n_poses,
+                "poses": list(self.poses),
+                "pose_form": dict(self.pose_form),
                 "capture": dict(self.capture),
+                "frames": list(self.frames),
+                "average": self.average,
+                "shortfall": self.shortfall,
+                "preview": self.preview,
                 "message": self.message,
+                "level": self.level,
+                "refusal": dict(self.refusal),
+                "live_error": self.live_error,
                 "last_capture": self.last_capture,
                 "results": [self.results[t] for t in sorted(self.results)],
                 "topview": self.topview,
@@ -158,6 +158,13 @@ class ConsoleSession:
         with self.lock:
             for name, value in fields.items():
                 setattr(self, name, value)
+            self.lock.notify_all()
+
+    def refuse(self, control: str, message: str) -> None:
+        """A refusal the page shows next to ``control`` (a decision button, a form)."""
+        with self.lock:
+            self._refusals += 1
+            self.refusal = {"control": control, "message": message, "seq": self._refusals}
             self.lock.notify_all()
 
     # -- the recorder's live sink
@@ -173,6 +180,8 @@ class ConsoleSession:
         with self.lock:
             seq = self.latest.seq + 1 if self.latest else 1
             self.latest = _Frame(data, detection, seq)
+            if label:  # a captured frame (previews have no label): its numbers, live
+                self.frames.append(_frame_numbers(len(self.frames) + 1, detection))
             self.lock.notify_all()
 
     def status(
@@ -186,12 +195,22 @@ class ConsoleSession:
         message: str,
         found: bool | None = None,
     ) -> None:
-        self.update(capture={"frame": frame, "n_frames": n_frames}, message=message)
+        self.update(capture={"frame": frame, "n_frames": n_frames}, message=message, level="info")
 
     def trial_result(self, result: TrialResult, scene: TrialScene | None, log_time_ns: int) -> None:
+        from twopose.topview import top_view
+
         with self.lock:
             self.results[result.trial] = result.to_json()
-            self.topview = _topview(result, scene)
+            self.topview = None if scene is None else top_view(scene).to_json()
+            self.lock.notify_all()
+
+    def withdraw(self, trial: int) -> None:
+        """The trial's result is gone (an undo left it fewer than two poses)."""
+        with self.lock:
+            self.results.pop(trial, None)
+            if self.topview is not None and self.topview.get("trial") == trial:
+                self.topview = None
             self.lock.notify_all()
 
     def next_frame(self, after: int, timeout_s: float) -> _Frame | None:
@@ -204,29 +223,8 @@ class ConsoleSession:
             return latest if latest is not None and latest.seq > after else None
 
 
-def _topview(result: TrialResult, scene: TrialScene | None) -> dict[str, Any] | None:
-    """The trial seen from above (x, z): camera centres, where each view's ray or plane
-    points, the estimate and the truth; for the page's canvas."""
-    if scene is None:
-        return None
-    k = scene.intrinsics
-    cam = np.stack([(scene.px[:, 0] - k[:, 2]) / k[:, 0], (scene.px[:, 1] - k[:, 3]) / k[:, 1]])
-    rays = np.einsum("nij,nj->ni", scene.R_cam_to_grid, np.vstack([cam, np.ones(len(k))]).T)
-    reach = np.linalg.norm(np.asarray(result.point) - scene.t_grid, axis=1) * 1.2
-    ends = scene.t_grid + rays / np.linalg.norm(rays, axis=1, keepdims=True) * reach[:, None]
-    truth = scene.truth.mean(axis=0)
-
-    def xz(p: Any) -> list[float] | None:
-        p = np.asarray(p, dtype=np.float64)
-        return [float(p[0]), float(p[2])] if np.isfinite(p).all() else None
-
-    return {
-        "trial": result.trial,
-        "cameras": [xz(c) for c in scene.t_grid],
-        "ray_ends": [xz(e) for e in ends],
-        "estimate": xz(result.point),
-        "truth": xz(truth),
-    }
+def _vec(v: Vec3) -> list[float]:
+    return [float(x) for x in v]
 
 
 class WebDriver(Driver):
@@ -250,19 +248,28 @@ class WebDriver(Driver):
         self.preview = preview
         self._note = ""
         self._pending: tuple[str, Any] | None = None  # a pose typed before its trial began
+        self._typed: dict[int, tuple[Vec3, Vec3]] = {}  # this trial: pose -> last typed
+        self._accepted: set[int] = set()  # this trial's accepted poses
+        self._control = ""  # the decision button last pressed (where a refusal shows)
         self.fps = 30.0
 
     def start(self, source: SourceInfo, path: Path) -> None:
         self.fps = source.fps
-        self.session.update(phase="recording", message=f"recording {path}")
+        self.session.update(phase="recording", message=f"recording {path}", level="info")
 
     def next_trial(self, trial: int) -> bool:
         """The first trial begins at once; another when its first pose is typed (quit
         instead ends the session, with no empty trial left in the file)."""
         if trial == 1:
             return True
+        self._typed, self._accepted = {}, set()
         self.session.update(
-            trial=trial, pose=1, message=f"trial {trial}: type pose 1, then capture (or quit)"
+            trial=trial,
+            pose=1,
+            poses=[],
+            pose_form={},
+            message=f"trial {trial}: type pose 1, then capture (or quit to finish)",
+            level="info",
         )
         try:
             self._pending = self._wait("pose")
@@ -294,52 +301,132 @@ class WebDriver(Driver):
                 self.session.update(waiting="")
                 return command
 
+    def _show_poses(self, current: int, state: str) -> None:
+        """This trial's poses: the accepted ones, then the one being typed or decided."""
+        listed = sorted(p for p in self._typed if p in self._accepted and p < current)
+        rows = [self._pose_row(p, "accepted") for p in listed]
+        if current in self._typed and state:
+            rows.append(self._pose_row(current, state))
+        self.session.update(poses=rows)
+
+    def _pose_row(self, pose: int, state: str) -> dict[str, Any]:
+        t, r = self._typed[pose]
+        return {"pose": pose, "t": _vec(t), "r_deg": _vec(r), "state": state}
+
     def place(self, trial: int, pose: int) -> Placement:
-        self.session.update(pose=pose, message=f"trial {trial}: type pose {pose}, then capture")
+        # The form shows this pose's last typed values when it is retyped (after redo or
+        # undo); a new pose starts empty, never with another pose's values.
+        typed = self._typed.get(pose)
+        form = {} if typed is None else {"t": _vec(typed[0]), "r_deg": _vec(typed[1])}
+        self._accepted.discard(pose)
+        self._show_poses(pose, "")
+        self.session.update(
+            pose=pose,
+            pose_form=form,
+            message=f"trial {trial}: type pose {pose} of {self.poses_per_trial}, then capture",
+            level="info",
+        )
         command, self._pending = self._pending or self._wait("pose"), None
         _, (t, r) = command
-        self.session.update(message=f"trial {trial} pose {pose}: capturing")
+        self._typed[pose] = (t, r)
+        self._show_poses(pose, "capturing")
+        self.session.update(
+            message=f"trial {trial} pose {pose}: capturing",
+            frames=[],
+            average=None,
+            preview=None,
+            shortfall=Shortfall.OK.value,
+            refusal={},
+        )
         return Placement(PoseEntry(trial, pose, self.camera_id, t, r, *self.resolution))
 
     def captured(self, trial: int, pose: int, result: CaptureResult) -> None:
         state = "complete" if result.complete else f"INCOMPLETE ({result.reason})"
-        overhead = float(np.mean(result.overhead_s)) * self.fps if result.overhead_s else 0.0
-        self.session.update(
-            last_capture=f"trial {trial} pose {pose}: {result.n_frames} frames, "
-            f"{result.n_found} detected, {state}, {result.dropped} dropped; recorder "
-            f"overhead {100 * overhead:.0f}% of the frame interval",
-            message=f"trial {trial} pose {pose}: accept, redo, undo, note or quit",
+        shortfall = detection_shortfall(result)
+        message, level = f"trial {trial} pose {pose}: accept, redo, undo or quit", "info"
+        if not result.complete:
+            message, level = f"trial {trial} pose {pose}: the capture is incomplete: redo", "error"
+        elif shortfall is Shortfall.NONE_FOUND:
+            message = f"trial {trial} pose {pose}: the target was not found in any frame: redo"
+            level = "error"
+        elif shortfall is Shortfall.FEW_FOUND:
+            message = (
+                f"trial {trial} pose {pose}: the target was found in only {result.n_found} of "
+                f"{len(result.feedback)} frames: redo, or accept anyway"
+            )
+            level = "warning"
+        average = result.pose_average()
+        overhead = (
+            sum(result.overhead_s) / len(result.overhead_s) * self.fps if result.overhead_s else 0.0
         )
+        self._show_poses(pose, "awaiting decision")
+        self.session.update(
+            last_capture=f"{result.n_frames} frames, {result.n_found} with the target found, "
+            f"{state}, {result.dropped} dropped; recorder overhead {100 * overhead:.0f}% of "
+            "the frame interval",
+            frames=[f.to_json() for f in result.feedback],
+            average=None if average is None else _average(average),
+            shortfall=shortfall.value,
+            message=message,
+            level=level,
+        )
+
+    def preview_result(self, result: TrialResult) -> None:
+        self.session.update(preview=result.to_json())
+
+    def live_failed(self, message: str) -> None:
+        self.session.update(live_error=message)
 
     def decide(self, trial: int, pose: int, result: CaptureResult) -> Decision:
         kind, value = self._wait("decision")
         if kind == "note":
             self._note = str(value)
             return Decision.NOTE
-        return Decision(value)
+        control, decision = value
+        self._control = control
+        if decision in (Decision.ACCEPT, Decision.ACCEPT_ANYWAY):
+            self._accepted.add(pose)
+        elif decision is Decision.UNDO and pose > 1:
+            self._accepted.discard(pose - 1)
+        return Decision(decision)
 
     def note(self, trial: int) -> Note:
-        self.session.update(message=f"note added to trial {trial}")
+        self.session.update(message=f"note added to trial {trial}", level="info")
         return Note(self._note, trial)
 
     def refused(self, error: ProcedureRefusedError) -> None:
-        self.session.update(message=f"not possible: {error}")
+        self._accepted.discard(self.session.pose)
+        control = "accept" if isinstance(error, LowDetectionError) else self._control
+        self.session.refuse(control or "decision", str(error))
 
     def trial_result(self, result: TrialResult) -> None:
-        self.session.update(message=result.text())
+        level = "warning" if result.warning or result.status != "ok" else "info"
+        self.session.update(message=result.text(), level=level, preview=None)
+
+    def result_withdrawn(self, trial: int) -> None:
+        self.session.withdraw(trial)
 
     def finish(self, summary: RecordingSummary) -> None:
-        self.session.update(phase="done", waiting="", summary=summary.line())
+        self.session.update(
+            phase="done",
+            waiting="",
+            poses=[],
+            summary=summary.line(),
+            message="the session is finished: " + summary.line(),
+            level="info",
+        )
+
+
+def _average(m: Any) -> dict[str, Any]:
+    """The pose's combined measurement, as the page shows it."""
+    return {
+        "found": m.found,
+        "n_used": m.n_used,
+        "n_frames": m.n_frames,
+        "centroid": list(m.centroid_px),
+        "theta_deg": m.theta_deg,
+        "centroid_std": list(m.centroid_std_px),
+    }
 
 
 _EXPECTED = {"pose": {"pose"}, "decision": {"decision", "note"}}
-DECISIONS = {"accept": "a", "redo": "r", "undo": "u"}
-
-
-def parse_pose(form: dict[str, str], units: str) -> tuple[Vec3, Vec3]:
-    """The pose form, checked as the terminal checks a typed pose."""
-    xyz = ", ".join(str(form.get(k, "")).strip() or "?" for k in ("x", "y", "z"))
-    t = parse_vector(xyz, units)
-    rotation = str(form.get("rotation", "") or "").strip() or "0, 0, 0"
-    r = parse_vector(rotation, units, what="rotation", limit=180.0)
-    return t, r

@@ -23,14 +23,9 @@ from starlette.requests import Request
 from starlette.responses import HTMLResponse, JSONResponse, Response, StreamingResponse
 from starlette.routing import Route
 
-from recorder.console import (
-    DECISIONS,
-    ConsoleSession,
-    WebDriver,
-    parse_pose,
-    setup_from_form,
-)
-from recorder.interactive import Setup
+from recorder.console import DECISIONS, ConsoleSession, WebDriver
+from recorder.procedure import Shortfall
+from recorder.setup_rules import FormRefusedError, Setup, parse_pose_form, setup_from_answers
 from twopose.errors import InputValueError, TwoposeError
 
 if TYPE_CHECKING:
@@ -90,10 +85,16 @@ def draw_detection(image: np.ndarray, det: Detection | None) -> np.ndarray:
 
 
 def _overlay_jpeg(data: bytes, det: Detection | None) -> bytes:
-    image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
-    if image is None:
+    """The frame with its detection drawn; the frame as it is if drawing fails (the
+    overlay is a courtesy and must never stop the stream)."""
+    try:
+        image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
+        if image is None:
+            return data
+        drawn = draw_detection(image, det)
+        ok, encoded = cv2.imencode(".jpg", drawn, [cv2.IMWRITE_JPEG_QUALITY, 80])
+    except Exception:
         return data
-    ok, encoded = cv2.imencode(".jpg", draw_detection(image, det), [cv2.IMWRITE_JPEG_QUALITY, 80])
     return encoded.tobytes() if ok else data
 
 
@@ -114,7 +115,12 @@ def preview(source: FrameSource, session: ConsoleSession) -> None:
     ok, encoded = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, 80])
     if ok:
         target = "dot" if session.method == "point" else "glove"
-        session.frame("", encoded.tobytes(), "jpeg", time.time_ns(), detect(image, target), "")
+        try:
+            detection = detect(image, target)
+        except Exception as err:  # the overlay is a courtesy; it must not stop the recording
+            session.update(live_error=f"the live detection failed ({type(err).__name__}: {err})")
+            detection = None
+        session.frame("", encoded.tobytes(), "jpeg", time.time_ns(), detection, "")
 
 
 def _recording(session: ConsoleSession, setup: Setup, options: ConsoleOptions) -> None:
@@ -181,9 +187,9 @@ class _Console:
         if self.session.phase != "setup":
             return _refused("the session is already set up")
         try:
-            chosen = setup_from_form(form, **_given(self.options))
-        except InputValueError as err:
-            return _refused(str(err))
+            chosen = setup_from_answers(form, _given(self.options))
+        except FormRefusedError as err:
+            return _refused(str(err), err.errors)
         self.start(chosen)
         return JSONResponse({"ok": True})
 
@@ -192,9 +198,9 @@ class _Console:
         if self.session.waiting != "pose":
             return _refused("not now: the recorder is not waiting for a pose")
         try:
-            t, r = parse_pose(form, self.session.units)
-        except InputValueError as err:
-            return _refused(str(err))
+            t, r = parse_pose_form(form, self.session.units)
+        except FormRefusedError as err:
+            return _refused(str(err), err.errors)
         self.session.commands.put(("pose", (t, r)))
         return JSONResponse({"ok": True})
 
@@ -204,10 +210,14 @@ class _Console:
             self.session.commands.put(("quit", None))
             return JSONResponse({"ok": True})
         if choice not in DECISIONS:
-            return _refused(f"decision must be accept, redo, undo or quit, not {choice!r}")
-        if self.session.waiting != "decision":
-            return _refused("not now: decide after a capture")
-        self.session.commands.put(("decision", DECISIONS[choice]))
+            return _refused(
+                "decision must be accept, accept_anyway, redo, undo or quit, not " + repr(choice)
+            )
+        refusal = _decision_refusal(self.session, choice)
+        if refusal:
+            self.session.refuse(choice, refusal)
+            return _refused(refusal, {choice: refusal})
+        self.session.commands.put(("decision", (choice, DECISIONS[choice])))
         return JSONResponse({"ok": True})
 
     async def note(self, request: Request) -> Response:
@@ -231,7 +241,7 @@ class _Console:
         given = _given(self.options)
         if not any(v is None for k, v in given.items() if k != "intrinsics"):
             with contextlib.suppress(InputValueError):  # all given: no form to fill
-                self.start(setup_from_form({}, **given))
+                self.start(setup_from_answers({}, given))
         yield
         self.session.commands.put(("quit", None))  # the server stops: close the file cleanly
         for thread in self.threads:
@@ -265,8 +275,26 @@ async def _form(request: Request) -> dict[str, str]:
     return {str(k): str(v) for k, v in data.items()} if isinstance(data, dict) else {}
 
 
-def _refused(message: str) -> Response:
-    return JSONResponse({"error": message}, status_code=400)
+def _refused(message: str, errors: dict[str, str] | None = None) -> Response:
+    """400 with the message, and each refusal by the field or button it belongs to."""
+    return JSONResponse({"error": message, "errors": errors or {}}, status_code=400)
+
+
+def _decision_refusal(session: ConsoleSession, choice: str) -> str:
+    """Why the page's decision cannot be taken now (empty: it goes to the procedure, which
+    checks it again). Said at once, next to the button, in the operator's words."""
+    if session.waiting != "decision":
+        return "not now: decide after a capture"
+    if choice == "undo" and session.pose <= 1:
+        return (
+            f"nothing to undo: this is the first pose of trial {session.trial}; "
+            "redo captures it again"
+        )
+    if choice in ("accept", "accept_anyway") and session.shortfall == Shortfall.NONE_FOUND:
+        return "the target was not found in any frame, so this pose has nothing to measure: redo"
+    if choice == "accept" and session.shortfall == Shortfall.FEW_FOUND:
+        return "the target was found in fewer than half the frames: redo, or accept anyway"
+    return ""
 
 
 async def _mjpeg(session: ConsoleSession, request: Request) -> AsyncIterator[bytes]:
@@ -317,7 +345,7 @@ def serve_console(
         sock.listen(64)  # connections queue from the moment the URL is printed
     except OSError as err:
         raise TwoposeError(f"cannot listen on {host}:{port} ({err.strerror}); pick --port") from err
-    session = ConsoleSession(out)
+    session = ConsoleSession(out, _given(options))
     bound = sock.getsockname()[1]
     shown = f"[{host}]" if ":" in host else host
     typer.echo(f"twopose console: http://{shown}:{bound}/  (Ctrl-C to stop)", err=False)

@@ -8,20 +8,31 @@ trial after trial: type each pose, capture, accept or redo. The questions go thr
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
 
 from recorder.capture import CaptureResult
-from recorder.plan import MAX_TRANSLATION, off_ground
+from recorder.plan import off_ground
 from recorder.procedure import (
     Decision,
     Driver,
     Placement,
     ProcedureRefusedError,
     RecordingSummary,
+    Shortfall,
+    detection_shortfall,
     record,
+)
+from recorder.setup_rules import (
+    Setup,
+    default_ground_height,
+    distinct_point,
+    number_pair,
+    one_of,
+    parse_vector,
+    positive_number,
 )
 from recorder.sources import FrameSource, SourceInfo
 from twopose.camera import Camera, Intrinsics
@@ -38,7 +49,7 @@ from twopose.format.entries import (
     TruthKind,
     TypedEntry,
 )
-from twopose.values import Vec3, finite, numbers, vec3
+from twopose.values import Vec3
 
 if TYPE_CHECKING:
     from recorder.live import LiveView
@@ -46,25 +57,6 @@ if TYPE_CHECKING:
     from twopose.trial_result import TrialResult
 
 __all__ = ["Operator", "Setup", "ask_setup", "parse_vector", "record_interactive"]
-
-
-def parse_vector(
-    text: str, units: str, *, what: str = "translation", limit: float | None = None
-) -> Vec3:
-    """Three numbers typed as ``x, y, z`` (commas or spaces); raises InputValueError."""
-    parts = text.replace(",", " ").split()
-    if len(parts) != 3:
-        raise InputValueError(f"{what}: type three numbers, e.g. 1.1, 0, 0 (got {text!r})")
-    try:
-        v = vec3([float(p) for p in parts], what)
-    except ValueError as err:
-        raise InputValueError(f"{what}: {text!r} is not three numbers") from err
-    bound = MAX_TRANSLATION[units] if limit is None else limit
-    if max(abs(x) for x in v) > bound:
-        raise InputValueError(
-            f"{what}: {text!r} is implausibly large (over {bound:g} {units}); a typo?"
-        )
-    return v
 
 
 class Operator:
@@ -84,45 +76,6 @@ class Operator:
 
 
 # --------------------------------------------------------------------------- setup
-
-
-@dataclass(frozen=True)
-class Setup:
-    """What a session needs before its first trial."""
-
-    method: Method
-    units: str
-    intrinsics: Intrinsics
-    ground_height: float | None
-    ground_truth: tuple[Vec3, ...]
-    operator: str
-
-
-def one_of(options: Sequence[str]) -> Callable[[str], str]:
-    def parse(text: str) -> str:
-        if text not in options:
-            raise InputValueError(f"choose one of {', '.join(options)}")
-        return text
-
-    return parse
-
-
-def positive_number(text: str) -> float:
-    try:
-        v = finite(float(text), repr(text), positive=True)
-    except ValueError as err:
-        raise InputValueError(f"{text!r} is not a number") from err
-    if v >= 1e6:
-        raise InputValueError(f"{text!r} is implausibly large")
-    return v
-
-
-def number_pair(text: str) -> tuple[float, float]:
-    try:
-        a, b = numbers([float(p) for p in text.replace(",", " ").split()], 2, "cx, cy")
-    except (ValueError, InputValueError) as err:
-        raise InputValueError(f"type two numbers 'cx, cy', got {text!r}") from err
-    return a, b
 
 
 def ask_setup(
@@ -148,7 +101,11 @@ def ask_setup(
     h = None
     if m == "ground":
         h = ground_height if ground_height and ground_height > 0 else None
-        h = h or op.ask(f"ground height: camera centre to table ({u})", positive_number)
+        h = h or op.ask(
+            f"ground height: camera centre to table ({u})",
+            positive_number,
+            default_ground_height(u),
+        )
     truth = _ask_truth(op, m, u, h, list(ground_truth))
     who = operator if operator is not None else op.ask("operator", str, "")
     method_ = cast("Method", m)  # one of METHODS: checked when it was read
@@ -176,12 +133,6 @@ def _ask_truth(
     return tuple(given)
 
 
-def distinct_point(point: Vec3, earlier: list[Vec3]) -> Vec3:
-    if point in earlier:
-        raise InputValueError("this point was already given; a line needs two different points")
-    return point
-
-
 def _keep(op: Operator, point: Vec3, height: float, units: str) -> bool:
     """True if ``point`` is on the ground plane, or the operator keeps it anyway."""
     off = off_ground(point, height, units)
@@ -203,10 +154,42 @@ def _yes_no(text: str) -> bool:
 
 
 def _choice(text: str) -> Decision:
+    if text.strip().lower() in ("anyway", "accept anyway", "aa") or text.strip() == "A":
+        return Decision.ACCEPT_ANYWAY
     c = (text or "a")[0].lower()
     if c not in "arunq":
-        raise InputValueError("answer a (accept), r (redo), u (undo), n (note) or q (quit)")
+        raise InputValueError(
+            "answer a (accept), anyway (accept although the target was rarely found), "
+            "r (redo), u (undo), n (note) or q (quit)"
+        )
     return Decision(c)
+
+
+def capture_lines(pose: int, result: CaptureResult) -> list[str]:
+    """What the terminal and plan print after a capture: the counts, the pose's averaged
+    centroid and orientation (the thesis GUI's per-pose numbers), and a shortfall."""
+    state = "complete" if result.complete else f"INCOMPLETE ({result.reason})"
+    lines = [
+        f"pose {pose}: {result.n_frames} frames, {result.n_found} detected, {state}, "
+        f"{result.dropped} dropped"
+    ]
+    average = result.pose_average()
+    if average is not None and average.found:
+        u, v = average.centroid_px
+        theta = "" if math.isnan(average.theta_deg) else f", theta {average.theta_deg:+.2f} deg"
+        lines.append(
+            f"  averaged over {average.n_used} of {average.n_frames} frames: "
+            f"centroid ({u:.2f}, {v:.2f}){theta}"
+        )
+    shortfall = detection_shortfall(result)
+    if shortfall is Shortfall.NONE_FOUND:
+        lines.append("  WARNING the target was found in no frame: redo this pose")
+    elif shortfall is Shortfall.FEW_FOUND:
+        lines.append(
+            f"  WARNING the target was found in only {result.n_found} of "
+            f"{len(result.feedback)} frames"
+        )
+    return lines
 
 
 class _OperatorDriver(Driver):
@@ -256,22 +239,25 @@ class _OperatorDriver(Driver):
         return Placement(PoseEntry(trial, pose, self.camera.camera_id, t, r, *self.resolution))
 
     def captured(self, trial: int, pose: int, result: CaptureResult) -> None:
-        state = "complete" if result.complete else f"INCOMPLETE ({result.reason})"
-        self.op.say(
-            f"pose {pose}: {result.n_frames} frames, {result.n_found} detected, {state}, "
-            f"{result.dropped} dropped"
-        )
+        for line in capture_lines(pose, result):
+            self.op.say(line)
 
-    def trial_result(self, result: TrialResult) -> None:
-        self.op.say(f"  result: {result.text()}")
+    def preview_result(self, result: TrialResult) -> None:
+        self.op.say(f"  result if accepted: {result.text()}")
+
+    def live_failed(self, message: str) -> None:
+        self.op.say(f"  WARNING {message}")
 
     def decide(self, trial: int, pose: int, result: CaptureResult) -> Decision:
+        accept = "[a]ccept"
+        if detection_shortfall(result) is Shortfall.FEW_FOUND:
+            accept = "accept [anyway]"
         return cast(
             "Decision",
             self.op.ask(
-                "[a]ccept, [r]edo, [u]ndo previous, [n]ote, [q]uit (this capture unused)",
+                f"{accept}, [r]edo, [u]ndo previous, [n]ote, [q]uit (this capture unused)",
                 _choice,
-                "a",
+                "anyway" if accept != "[a]ccept" else "a",
             ),
         )
 

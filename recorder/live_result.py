@@ -80,7 +80,7 @@ class LiveResults:
     def update(self, trial: int, accepted: Mapping[int, PoseEntry]) -> TrialResult | None:
         """The trial's accepted poses now (pose -> entry): its new result when they changed
         and number two or more (also when they dropped below two: then None is kept)."""
-        captures = tuple(e.capture for _, e in sorted(accepted.items()) if e.capture is not None)
+        captures = _captures_of(accepted)
         if self._solved.get(trial) == captures:
             return None
         self._solved[trial] = captures
@@ -88,18 +88,32 @@ class LiveResults:
         if len(self._views[trial]) < 2:
             self.results.pop(trial, None)
             return None
-        trials = sorted(t for t, v in self._views.items() if len(v) >= 2)
+        self.results = self._solve(self._views)
+        return self.results[trial]
+
+    def preview(self, trial: int, accepted: Mapping[int, PoseEntry]) -> TrialResult | None:
+        """The result ``trial`` would have with these accepted poses (the capture awaiting
+        a decision among them), solved exactly as :meth:`update` would solve it, without
+        changing what is kept. None with fewer than two poses."""
+        views = [self._captures[c] for c in _captures_of(accepted) if c in self._captures]
+        if len(views) < 2:
+            return None
+        return self._solve({**self._views, trial: views})[trial]
+
+    def _solve(self, views: Mapping[int, list[PoseView]]) -> dict[int, TrialResult]:
+        """Every trial with two or more poses, in one batch (the 95% regions pool their
+        frame scatter, as the analysis pools a session's)."""
+        trials = sorted(t for t, v in views.items() if len(v) >= 2)
         solved = trial_results(
             self.method,
             self.units,
             trials,
-            [self._views[t] for t in trials],
+            [views[t] for t in trials],
             np.array([self._truth.get(t, np.full((2, 3), np.nan)) for t in trials]),
             self._ground,
             self.options,
         )
-        self.results = dict(zip(trials, solved, strict=True))
-        return self.results[trial]
+        return dict(zip(trials, solved, strict=True))
 
     def scene(self, trial: int) -> TrialScene | None:
         """The trial's geometry for the live view's 3-D panel (None: no result yet)."""
@@ -119,3 +133,8 @@ class LiveResults:
             self._truth.get(trial, np.full((2, 3), np.nan)),
             np.array(result.cov, dtype=np.float64).reshape(3, 3),
         )
+
+
+def _captures_of(accepted: Mapping[int, PoseEntry]) -> tuple[int, ...]:
+    """The capture numbers of the accepted poses, in pose order."""
+    return tuple(e.capture for _, e in sorted(accepted.items()) if e.capture is not None)

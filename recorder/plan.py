@@ -223,7 +223,11 @@ def _trial(
 
 
 class _PlanDriver(Driver):
-    """Every planned pose, accepted; a failed capture ends the recording with an error."""
+    """Every planned pose, accepted (a plan cannot ask: a capture whose target was rarely
+    or never found is recorded too, and the capture report says so); a failed capture ends
+    the recording with an error."""
+
+    unattended = True
 
     def __init__(
         self,
@@ -270,9 +274,16 @@ class _PlanDriver(Driver):
         if self.on_capture is not None:
             self.on_capture(trial, pose, result)
 
-    def trial_result(self, result: TrialResult) -> None:
+    def preview_result(self, result: TrialResult) -> None:
+        # A plan accepts every complete capture: the result it would have is the result,
+        # printed when the terminal prints it (before the decision).
         if self.on_result is not None:
             self.on_result(result)
+
+    def live_failed(self, message: str) -> None:
+        import sys
+
+        print(f"  WARNING {message}", file=sys.stderr, flush=True)
 
     def decide(self, trial: int, pose: int, result: CaptureResult) -> Decision:
         if not result.complete:

@@ -71,13 +71,16 @@ __all__ = [
     "Decision",
     "Driver",
     "FrameFeedback",
+    "LowDetectionError",
     "Placement",
     "Procedure",
     "ProcedureError",
     "ProcedureRefusedError",
     "QuitRecording",
     "RecordingSummary",
+    "Shortfall",
     "State",
+    "detection_shortfall",
     "record",
     "refuse_existing",
 ]
@@ -112,6 +115,29 @@ class QuitRecording(Exception):  # noqa: N818 - a request, not an error
 
 class ProcedureRefusedError(InputValueError):
     """A decision the operator cannot take now; the message says what to do instead."""
+
+
+class LowDetectionError(ProcedureRefusedError):
+    """Accept refused because the target was found in fewer than half the frames: the
+    operator may confirm it (accept anyway)."""
+
+
+class Shortfall(StrEnum):
+    """How a capture's live detection falls short of a measurement."""
+
+    OK = "ok"  # found in at least half the frames (or no live detection to judge by)
+    FEW_FOUND = "few"  # found, but in fewer than half the frames
+    NONE_FOUND = "none"  # found in no frame
+
+
+def detection_shortfall(result: CaptureResult) -> Shortfall:
+    """The one rule for a capture's detections: fewer than half found needs the
+    operator's confirmation, none found is nothing to measure."""
+    if not result.feedback:
+        return Shortfall.OK
+    if result.n_found == 0:
+        return Shortfall.NONE_FOUND
+    return Shortfall.FEW_FOUND if 2 * result.n_found < len(result.feedback) else Shortfall.OK
 
 
 class Procedure:
@@ -209,8 +235,13 @@ class Procedure:
         else:
             self.n_discarded += 1
 
-    def accept(self) -> None:
-        """Accept the capture: next pose, or the trial is complete (back to ready)."""
+    def accept(self, *, anyway: bool = False, unattended: bool = False) -> None:
+        """Accept the capture: next pose, or the trial is complete (back to ready).
+
+        A capture whose target was found in fewer than half its frames needs ``anyway``
+        (the operator confirmed it); one where it was never found is refused, except
+        ``unattended`` (a plan, which cannot ask, records it; its driver says so).
+        """
         self._event("accept")
         assert self.entry is not None
         assert self.result is not None
@@ -218,6 +249,17 @@ class Procedure:
             raise ProcedureRefusedError(
                 f"capture {self.entry.capture} is incomplete ({self.result.reason}); "
                 "redo it, or quit"
+            )
+        shortfall = detection_shortfall(self.result)
+        if shortfall is Shortfall.NONE_FOUND and not unattended:
+            raise ProcedureRefusedError(
+                f"the target was found in none of the {self.result.n_frames} frames, so "
+                "this pose has nothing to measure: redo it (is the target in view?)"
+            )
+        if shortfall is Shortfall.FEW_FOUND and not (anyway or unattended):
+            raise LowDetectionError(
+                f"the target was found in only {self.result.n_found} of "
+                f"{self.result.n_frames} frames: accept anyway, or redo"
             )
         self._decide(self.entry, "accept")
         self.writer.sync()  # an accepted capture survives a power cut too
@@ -245,11 +287,12 @@ class Procedure:
         if self.pose == 1:
             raise ProcedureRefusedError(
                 f"nothing to undo: pose 1 is the first pose of trial {self.trial}; "
-                "[r]edo captures it again"
+                "redo captures it again"
             )
         self._decide(self.entry, "discard", "undo")
         previous = self.accepted.pop(self.pose - 1)
         self._decide(previous, "discard", f"undone by capture {self.entry.capture}")
+        self.n_accepted -= 1  # counted once, by its final decision: discarded
         self.entry = None
         self.pose -= 1
         self.state = State.TYPING
@@ -282,6 +325,7 @@ class Decision(StrEnum):
     """What the driver decides after a capture."""
 
     ACCEPT = "a"  # next pose
+    ACCEPT_ANYWAY = "A"  # next pose, although the target was found in few frames
     REDO = "r"  # capture this pose again
     UNDO = "u"  # go back to the previous pose
     NOTE = "n"  # add a note, then decide again
@@ -302,6 +346,9 @@ class Driver:
     defaults record one trial of two poses and accept every capture."""
 
     poses_per_trial = 2
+    #: True for a driver that cannot ask (a plan): a capture whose target was rarely or
+    #: never found is recorded as accepted, and the driver says so in :meth:`captured`.
+    unattended = False
 
     def start(self, source: SourceInfo, path: Path) -> None:
         """The session file and the source are open."""
@@ -341,6 +388,17 @@ class Driver:
     def trial_result(self, result: TrialResult) -> None:
         """A trial's live result, new or updated (shown to the operator)."""
 
+    def result_withdrawn(self, trial: int) -> None:
+        """The trial's live result is gone (an undo left it fewer than two poses)."""
+
+    def preview_result(self, result: TrialResult) -> None:
+        """The result the trial would have if the capture awaiting a decision were
+        accepted (from the trial's second pose on), shown before the decision."""
+
+    def live_failed(self, message: str) -> None:
+        """The live result or the overlay failed; the recording goes on (the analysis
+        solves the file). Shown to the operator."""
+
     def finish(self, summary: RecordingSummary) -> None:
         """The session is closed."""
 
@@ -352,9 +410,12 @@ def _count(n: int, what: str) -> str:
     return f"{n} {what}{'' if n == 1 else 's'}"
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class RecordingSummary:
-    """What a recording holds, and how it ended."""
+    """What a recording holds, and how it ended. Each capture counts once, by its final
+    decision: ``n_accepted + n_discarded == n_captures`` (an accepted capture later undone
+    is discarded); ``n_incomplete`` counts captures that ended early, whatever became
+    of them."""
 
     path: Path
     n_trials: int  # trials begun
@@ -378,7 +439,7 @@ class RecordingSummary:
         return (
             f"wrote {self.path}: {_count(self.n_trials, 'trial')} "
             f"({self.n_complete_trials} complete), {_count(self.n_captures, 'capture')} "
-            f"({self.n_accepted} accepted, {self.n_discarded} discarded, "
+            f"({self.n_accepted} accepted, {self.n_discarded} discarded; "
             f"{self.n_incomplete} incomplete), {_count(self.n_frames, 'frame')} "
             f"({self.n_found} detected, {self.dropped} dropped) in {self.seconds:.1f} s{ending}"
         )
@@ -404,19 +465,19 @@ class _Tally:
         self, path: Path, proc: Procedure, interrupted: bool, kept: bool
     ) -> RecordingSummary:
         return RecordingSummary(
-            path,
-            proc.trial,
-            self.captures,
-            self.incomplete,
-            self.frames,
-            self.found,
-            time.monotonic() - self.started,
-            self.dropped,
-            proc.n_complete_trials,
-            proc.n_accepted,
-            proc.n_discarded,
-            interrupted,
-            kept,
+            path=path,
+            n_trials=proc.trial,
+            n_captures=self.captures,
+            n_incomplete=self.incomplete,
+            n_frames=self.frames,
+            n_found=self.found,
+            seconds=time.monotonic() - self.started,
+            dropped=self.dropped,
+            n_complete_trials=proc.n_complete_trials,
+            n_accepted=proc.n_accepted,
+            n_discarded=proc.n_discarded,
+            interrupted=interrupted,
+            kept=kept,
         )
 
 
@@ -553,22 +614,47 @@ def _record_trial(
         )
         tally.add(result)
         driver.captured(proc.trial, proc.pose, result)
-        if opts.results is not None and proc.entry is not None:
-            opts.results.captured(proc.entry, result)
         trial = proc.trial
+        if opts.results is not None and proc.entry is not None:
+            _live(driver, _preview, opts.results, proc, driver, result)
         if not _decide(proc, driver, result):
             return False
-        _show_result(trial, proc, driver, opts)
+        if opts.results is not None:
+            _live(driver, _show_result, trial, proc, driver, opts)
     return True
+
+
+def _live(driver: Driver, step: Callable[..., None], *args: Any) -> None:
+    """A step of the live result: whatever fails in it (a rig that makes the geometry
+    singular, a bug) is shown to the operator and never stops the recording."""
+    try:
+        step(*args)
+    except Exception as err:  # the file is the record; the live result only a courtesy
+        driver.live_failed(
+            f"the live result failed ({type(err).__name__}: {err}); the recording goes "
+            "on and the analysis will solve the file"
+        )
+
+
+def _preview(results: LiveResults, proc: Procedure, driver: Driver, result: CaptureResult) -> None:
+    """After a capture: keep its detections, and from the trial's second pose on show the
+    result the trial would have if it were accepted (so a degenerate one can be redone)."""
+    assert proc.entry is not None
+    results.captured(proc.entry, result)
+    if result.complete and proc.accepted:
+        preview = results.preview(proc.trial, {**proc.accepted, proc.pose: proc.entry})
+        if preview is not None:
+            driver.preview_result(preview)
 
 
 def _show_result(trial: int, proc: Procedure, driver: Driver, opts: _CaptureOptions) -> None:
     """After a decision: the trial's live result if its accepted poses changed (a second
     pose gives one, a third updates it), to the driver and the live view."""
-    if opts.results is None:
-        return
+    assert opts.results is not None
     result = opts.results.update(trial, proc.accepted)
     if result is None:
+        if trial not in opts.results.results:
+            driver.result_withdrawn(trial)
         return
     driver.trial_result(result)
     if opts.live is not None:
@@ -587,9 +673,11 @@ def _decide(proc: Procedure, driver: Driver, result: CaptureResult) -> bool:
             if decision is Decision.NOTE:
                 proc.note(driver.note(proc.trial).text)
                 continue
-            {Decision.ACCEPT: proc.accept, Decision.REDO: proc.redo, Decision.UNDO: proc.undo}[
-                decision
-            ]()
+            if decision in (Decision.ACCEPT, Decision.ACCEPT_ANYWAY):
+                anyway = decision is Decision.ACCEPT_ANYWAY
+                proc.accept(anyway=anyway, unattended=driver.unattended)
+            else:
+                {Decision.REDO: proc.redo, Decision.UNDO: proc.undo}[decision]()
             return True
         except ProcedureRefusedError as err:
             driver.refused(err)

@@ -1,4 +1,4 @@
-"""The web console without a browser: its setup check, its API's refusals, its address
+"""The web console without a browser: its API's refusals, its address
 and a server killed with SIGKILL mid-capture."""
 
 from __future__ import annotations
@@ -9,51 +9,11 @@ import time
 from pathlib import Path
 
 import httpx
-import pytest
 from typer.testing import CliRunner
 
 import analysis
 from recorder.cli import app
-from recorder.console import setup_from_form
 from tests.helpers import start_console
-from twopose.errors import InputValueError
-
-GIVEN = {
-    "method": None,
-    "units": None,
-    "intrinsics": None,
-    "focal": None,
-    "principal": None,
-    "size": (640, 480),
-    "ground_height": None,
-    "ground_truth": [],
-    "operator": None,
-}
-
-
-def test_the_setup_form_is_checked_by_the_terminal_questions() -> None:
-    setup = setup_from_form(
-        {"method": "ground", "ground_height": "9.625", "truth1": "1.91, 9.625, 8.375"}, **GIVEN
-    )
-    assert setup.method == "ground"
-    assert setup.intrinsics.fx == 525.0  # the question's default
-    assert setup.ground_truth == ((1.91, 9.625, 8.375),)
-    bad = {
-        "method": ({"method": "plane"}, "method: choose one of"),
-        "focal": ({"method": "point", "focal": "-3"}, "focal"),
-        "truth": ({"method": "point", "truth1": "1, 2"}, "truth1"),
-        "line": ({"method": "line", "truth1": "1,2,3", "truth2": "1,2,3"}, "truth2"),
-        "ground": ({"method": "ground", "ground_height": "9.6", "truth1": "1, 5, 8"}, "truth1"),
-    }
-    for form, message in bad.values():
-        with pytest.raises(InputValueError, match=message):
-            setup_from_form(form, **GIVEN)
-    # Off the ground, kept when the operator says so (the terminal's confirmation).
-    kept = setup_from_form(
-        {"method": "ground", "ground_height": "9.6", "truth1": "1, 5, 8", "keep_off_ground": "y"},
-        **GIVEN,
-    )
-    assert kept.ground_truth == ((1.0, 5.0, 8.0),)
 
 
 def test_the_api_refuses_what_the_state_does_not_allow(tmp_path: Path) -> None:

@@ -66,7 +66,7 @@ def test_interactive_procedure_with_valid_and_invalid_answers(tmp_path: Path) ->
     assert out_text.count("not accepted") == 6
     assert "implausibly large" in out_text
     assert "found at (" in out_text
-    assert "1 trial (1 complete), 3 captures (2 accepted, 1 discarded, 0 incomplete)" in out_text
+    assert "1 trial (1 complete), 3 captures (2 accepted, 1 discarded; 0 incomplete)" in out_text
     assert out_text.count("wrote ") == 1  # the summary, once
     with SessionReader(out) as r:
         assert r.info.operator == "Ada"
@@ -80,8 +80,12 @@ def test_interactive_procedure_with_valid_and_invalid_answers(tmp_path: Path) ->
     trials = analyse_session(out).trials
     assert list(trials["status"]) == ["ok"]
     assert trials["err"].iloc[0] < 0.5
-    # The trial's live result, printed after its last pose: the analysis' own.
-    (line,) = [x for x in out_text.splitlines() if x.strip().startswith("result: trial 1")]
+    # The trial's live result, printed with its last capture, before the decision (so a
+    # degenerate one can still be redone): the analysis' own.
+    lines = out_text.splitlines()
+    (at,) = [i for i, x in enumerate(lines) if x.strip().startswith("result if accepted: trial 1")]
+    line = lines[at]
+    assert "[a]ccept" in " ".join(lines[at + 1 :])  # the decision is asked after it
     row = trials.iloc[0]
     assert f"x {row['x']:.3f} y {row['y']:.3f} z {row['z']:.3f} in" in line
     assert f"error {row['err']:.3f} in" in line

@@ -156,9 +156,10 @@ def test_the_loop_follows_the_drivers_decisions(
     assert driver.placed == placed
     assert not driver.decisions  # every decision was asked for
     assert (summary.n_captures, summary.n_frames) == (len(placed), 2 * len(placed))
-    assert summary.n_accepted + summary.n_discarded == len(placed) + decisions.count(U) - len(
-        driver.refusals
-    )
+    # Each capture counts once, by its final decision (an accepted capture later undone
+    # is discarded).
+    assert summary.n_accepted + summary.n_discarded == len(placed)
+    assert summary.n_accepted == len(used)
     assert len(driver.refusals) == (1 if decisions[0] is U else 0)
     with SessionReader(out) as r:
         entries = list(r.iter_entries())
@@ -217,10 +218,14 @@ def test_ctrl_c_during_a_capture_closes_a_valid_file_and_discards_it(tmp_path: P
 def test_the_summary_line_counts_in_words() -> None:
     from recorder.procedure import RecordingSummary
 
-    one = RecordingSummary(Path("s.mcap"), 1, 1, 0, 1, 1, 2.0, n_accepted=1)
+    counts = {"n_incomplete": 0, "n_frames": 1, "n_found": 1, "seconds": 2.0}
+    one = RecordingSummary(path=Path("s.mcap"), n_trials=1, n_captures=1, n_accepted=1, **counts)
     assert "1 trial (0 complete), 1 capture (1 accepted" in one.line()
     assert "1 frame (1 detected" in one.line()
-    two = RecordingSummary(Path("s.mcap"), 2, 3, 1, 6, 5, 2.0)
+    two = RecordingSummary(
+        path=Path("s.mcap"), n_trials=2, n_captures=3, n_incomplete=1, n_frames=6, n_found=5,
+        seconds=2.0,
+    )  # fmt: skip
     assert "2 trials" in two.line()
     assert "3 captures" in two.line()
 

@@ -1,0 +1,339 @@
+"""The rules of a session's setup, in one place: which answers a session needs before its
+first trial, which apply to which method, their defaults (the thesis' rig), and the check
+each answer must pass.
+
+The terminal (:func:`recorder.interactive.ask_setup`) asks them one at a time with these
+parsers; the web console (:func:`setup_from_answers`) checks a whole form with the same
+parsers, called directly, and reports every refusal at once, by field. Neither matches
+the other's wording.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, cast
+
+from recorder.plan import MAX_TRANSLATION, off_ground
+from twopose.camera import Intrinsics
+from twopose.errors import InputValueError
+from twopose.format.entries import METHODS, UNITS, Method
+from twopose.values import Vec3, finite, numbers, vec3
+
+__all__ = [
+    "SETUP_FIELDS",
+    "FormRefusedError",
+    "Setup",
+    "SetupField",
+    "default_ground_height",
+    "distinct_point",
+    "form_fields",
+    "number_pair",
+    "one_of",
+    "parse_pose_form",
+    "parse_vector",
+    "positive_number",
+    "setup_from_answers",
+]
+
+#: The thesis' rig (section 5.2): f = 525 px, principal point at the centre of 640x480, a
+#: ground 9 5/8 in below the camera centre. Offered as defaults, never assumed silently.
+THESIS_FOCAL_PX = 525.0
+THESIS_GROUND_HEIGHT_IN = 9.625
+
+
+@dataclass(frozen=True)
+class Setup:
+    """What a session needs before its first trial."""
+
+    method: Method
+    units: str
+    intrinsics: Intrinsics
+    ground_height: float | None
+    ground_truth: tuple[Vec3, ...]
+    operator: str
+
+
+class FormRefusedError(InputValueError):
+    """A form's answers refused; ``errors`` holds every refusal by field name, in the
+    operator's words (the console shows each next to its field)."""
+
+    def __init__(self, errors: Mapping[str, str]) -> None:
+        self.errors = dict(errors)
+        super().__init__("; ".join(f"{_LABELS.get(k, k)}: {v}" for k, v in self.errors.items()))
+
+
+def parse_pose_form(form: Mapping[str, str], units: str) -> tuple[Vec3, Vec3]:
+    """A pose typed in a form (``x``, ``y``, ``z``, ``rotation``), each field checked;
+    raises :class:`FormRefusedError` with every refusal."""
+    errors: dict[str, str] = {}
+    xyz: list[float] = []
+    for axis in "xyz":
+        text = str(form.get(axis, "") or "").strip()
+        try:
+            xyz.append(finite(float(text), axis) if text else math.nan)
+        except (ValueError, InputValueError):
+            errors[axis] = f"type a number for {axis} ({units}), e.g. 1.5"
+            continue
+        if not text:
+            errors[axis] = f"type the camera centre's {axis} ({units})"
+        elif abs(xyz[-1]) > MAX_TRANSLATION[units]:
+            errors[axis] = f"{text} {units} is implausibly large; a typo?"
+    rotation = str(form.get("rotation", "") or "").strip() or "0, 0, 0"
+    r: Vec3 = (0.0, 0.0, 0.0)
+    try:
+        r = parse_vector(rotation, units, what="rotation", limit=180.0)
+    except InputValueError as err:
+        errors["rotation"] = str(err).removeprefix("rotation: ")
+    if errors:
+        raise FormRefusedError(errors)
+    return (xyz[0], xyz[1], xyz[2]), r
+
+
+# --------------------------------------------------------------------------- the checks
+
+
+def parse_vector(
+    text: str, units: str, *, what: str = "translation", limit: float | None = None
+) -> Vec3:
+    """Three numbers typed as ``x, y, z`` (commas or spaces); raises InputValueError."""
+    example = "0, 0, 0" if what == "rotation" else "1.1, 0, 0"
+    parts = text.replace(",", " ").split()
+    if len(parts) != 3:
+        raise InputValueError(f"{what}: type three numbers, e.g. {example} (got {text!r})")
+    try:
+        v = vec3([float(p) for p in parts], what)
+    except ValueError as err:
+        raise InputValueError(f"{what}: {text!r} is not three numbers, e.g. {example}") from err
+    bound = MAX_TRANSLATION[units] if limit is None else limit
+    if max(abs(x) for x in v) > bound:
+        unit = "deg" if what == "rotation" else units
+        raise InputValueError(
+            f"{what}: {text!r} is implausibly large (over {bound:g} {unit}); a typo?"
+        )
+    return v
+
+
+def one_of(options: Sequence[str]) -> Callable[[str], str]:
+    def parse(text: str) -> str:
+        if text not in options:
+            raise InputValueError(f"choose one of {', '.join(options)}")
+        return text
+
+    return parse
+
+
+def positive_number(text: str) -> float:
+    """A positive number below a million (a typed length or focal length)."""
+    if not text.strip():
+        raise InputValueError("type a number")
+    try:
+        v = finite(float(text), repr(text), positive=True)
+    except ValueError as err:
+        raise InputValueError(f"{text!r} is not a positive number") from err
+    if v >= 1e6:
+        raise InputValueError(f"{text!r} is implausibly large")
+    return v
+
+
+def number_pair(text: str) -> tuple[float, float]:
+    try:
+        a, b = numbers([float(p) for p in text.replace(",", " ").split()], 2, "cx, cy")
+    except (ValueError, InputValueError) as err:
+        raise InputValueError(f"type two numbers 'cx, cy', e.g. 320, 240 (got {text!r})") from err
+    return a, b
+
+
+def distinct_point(point: Vec3, earlier: Sequence[Vec3]) -> Vec3:
+    if point in earlier:
+        raise InputValueError("this point was already given; a line needs two different points")
+    return point
+
+
+def default_ground_height(units: str) -> str:
+    """The thesis' ground height where the units are inches; nothing to assume otherwise."""
+    return f"{THESIS_GROUND_HEIGHT_IN:g}" if units == "in" else ""
+
+
+# --------------------------------------------------------------------------- the fields
+
+
+@dataclass(frozen=True, kw_only=True)
+class SetupField:
+    """One answer of the setup, as the page shows it."""
+
+    name: str  # the form's key
+    label: str  # the operator's words
+    kind: str  # choice, text or check
+    methods: tuple[str, ...] = METHODS  # the methods it applies to
+    options: tuple[str, ...] = ()
+
+
+SETUP_FIELDS: tuple[SetupField, ...] = (
+    SetupField(name="method", label="method", kind="choice", options=METHODS),
+    SetupField(name="units", label="units", kind="choice", options=UNITS),
+    SetupField(name="focal", label="focal length (px)", kind="text"),
+    SetupField(name="principal", label="principal point cx, cy (px)", kind="text"),
+    SetupField(
+        name="ground_height",
+        label="ground height: camera centre to table",
+        kind="text",
+        methods=("ground",),
+    ),
+    SetupField(name="truth1", label="ground-truth point x, y, z", kind="text"),
+    SetupField(
+        name="truth2", label="second ground-truth point x, y, z", kind="text", methods=("line",)
+    ),
+    SetupField(
+        name="keep_off_ground",
+        label="keep a ground-truth point that is off the ground",
+        kind="check",
+        methods=("ground",),
+    ),
+    SetupField(name="operator", label="operator", kind="text"),
+)
+_LABELS = {f.name: f.label for f in SETUP_FIELDS} | {"rotation": "rotation"}
+
+
+def _given_text(name: str, given: Mapping[str, Any]) -> str | None:
+    """The command line's answer for a field, as text (None: not given)."""
+    k = given.get("intrinsics")
+    truth = list(given.get("ground_truth") or [])
+    texts: dict[str, Any] = {
+        "method": given.get("method"),
+        "units": given.get("units") if given.get("units") in UNITS else None,
+        "focal": f"{k.fx:g}" if k is not None else given.get("focal"),
+        "principal": f"{k.cx:g}, {k.cy:g}" if k is not None else given.get("principal"),
+        "ground_height": given.get("ground_height"),
+        "truth1": truth[0] if truth else None,
+        "truth2": truth[1] if len(truth) > 1 else None,
+        "keep_off_ground": None,
+        "operator": given.get("operator"),
+    }
+    value = texts[name]
+    if value is None or (value == "" and name != "operator"):
+        return None
+    if isinstance(value, tuple):
+        return ", ".join(f"{v:g}" for v in value)
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+def _default_text(name: str, units: str) -> str:
+    defaults = {
+        "units": "in",
+        "focal": f"{THESIS_FOCAL_PX:g}",
+        "principal": "320, 240",
+        "ground_height": default_ground_height(units),
+    }
+    return defaults.get(name, "")
+
+
+def form_fields(given: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """The setup form as the page draws it: each field with what the command line gave
+    (shown read-only), or its default (the thesis' rig), and the methods it applies to."""
+    units = str(given.get("units") or "in")
+    fields = []
+    for f in SETUP_FIELDS:
+        fixed = _given_text(f.name, given)
+        fields.append(
+            {
+                "name": f.name,
+                "label": f.label,
+                "kind": f.kind,
+                "options": list(f.options),
+                "methods": list(f.methods),
+                "given": fixed is not None,
+                "value": fixed if fixed is not None else _default_text(f.name, units),
+            }
+        )
+    return fields
+
+
+# --------------------------------------------------------------------------- a whole form
+
+
+class _Answers:
+    """The form's answers with the command line's on top; refusals collected by field."""
+
+    def __init__(self, form: Mapping[str, str], given: Mapping[str, Any]) -> None:
+        self.form, self.given = form, given
+        self.errors: dict[str, str] = {}
+
+    def text(self, name: str) -> str:
+        fixed = _given_text(name, self.given)
+        return fixed if fixed is not None else str(self.form.get(name, "") or "").strip()
+
+    def check(self, name: str, parse: Callable[[str], Any]) -> Any:
+        """The parsed answer, or None with the refusal kept under ``name``."""
+        try:
+            return parse(self.text(name))
+        except InputValueError as err:
+            self.errors[name] = str(err)
+            return None
+
+
+def setup_from_answers(form: Mapping[str, str], given: Mapping[str, Any]) -> Setup:
+    """The setup a form describes, with what the command line gave taking precedence over
+    the form (the page shows it read-only); empty text fields take their defaults. Raises
+    :class:`FormRefusedError` holding every refusal, by field."""
+    a = _Answers(form, given)
+    method = a.check("method", _method)
+    units = a.check("units", lambda s: one_of(UNITS)(s or "in")) or "in"
+    intrinsics = given.get("intrinsics") or _intrinsics(a, given.get("size", (640, 480)))
+    height = None
+    if method == "ground":
+        height = a.check("ground_height", lambda s: _ground_height(s, units))
+    truth = _truth(a, method, units, height) if method is not None else ()
+    operator = a.text("operator")
+    if a.errors:
+        raise FormRefusedError(a.errors)
+    return Setup(cast("Method", method), units, intrinsics, height, truth, operator)
+
+
+def _method(text: str) -> str:
+    if not text:
+        raise InputValueError("choose point, line or ground")
+    return one_of(METHODS)(text)
+
+
+def _ground_height(text: str, units: str) -> float:
+    if not text:
+        raise InputValueError(f"type the height of the camera centre above the table ({units})")
+    return positive_number(text)
+
+
+def _intrinsics(a: _Answers, size: tuple[int, int]) -> Intrinsics:
+    focal = a.check("focal", lambda s: positive_number(s or f"{THESIS_FOCAL_PX:g}"))
+    principal = a.check("principal", lambda s: number_pair(s or "320, 240"))
+    f = focal or THESIS_FOCAL_PX
+    cx, cy = principal or (size[0] / 2, size[1] / 2)
+    try:
+        return Intrinsics(size[0], size[1], f, f, cx, cy)
+    except InputValueError as err:  # e.g. a principal point outside the image
+        a.errors["principal"] = str(err)
+        return Intrinsics(size[0], size[1], f, f, size[0] / 2, size[1] / 2)
+
+
+def _truth(a: _Answers, method: str, units: str, height: float | None) -> tuple[Vec3, ...]:
+    """The ground truth (optional): a line's two points must differ, and a method 2 point
+    off the ground plane is kept only when the operator ticked that it should be."""
+    names = ("truth1", "truth2") if method == "line" else ("truth1",)
+    points: list[Vec3] = []
+    for name in names:
+        if not a.text(name):
+            continue
+        point = a.check(
+            name, lambda s: distinct_point(parse_vector(s, units, what="ground truth"), points)
+        )
+        if point is not None:
+            points.append(point)
+    if method == "line" and len(points) == 1 and not a.errors:
+        missing = "truth2" if a.text("truth1") else "truth1"
+        a.errors[missing] = "a line needs two points (or leave both empty: no ground truth)"
+    keep = a.text("keep_off_ground").lower() in ("y", "yes", "true", "on", "1")
+    if height is not None and points and not keep:
+        off = off_ground(points[0], height, units)
+        if off:
+            a.errors["truth1"] = f"{off}; tick 'keep anyway' to keep it"
+    return tuple(points)

@@ -1,0 +1,126 @@
+"""The setup's rules, called directly (the terminal, plans and the web console share them):
+every refusal at once, by field; what the command line gave wins and is shown read-only;
+the thesis' defaults; the fields that apply to each method."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from recorder.setup_rules import (
+    SETUP_FIELDS,
+    FormRefusedError,
+    form_fields,
+    parse_pose_form,
+    setup_from_answers,
+)
+from twopose.camera import Intrinsics
+
+NOTHING_GIVEN: dict[str, Any] = {
+    "method": None,
+    "units": None,
+    "intrinsics": None,
+    "focal": None,
+    "principal": None,
+    "size": (640, 480),
+    "ground_height": None,
+    "ground_truth": [],
+    "operator": None,
+}
+
+
+def test_a_good_form_with_the_thesis_defaults() -> None:
+    setup = setup_from_answers(
+        {"method": "ground", "ground_height": "9.625", "truth1": "1.91, 9.625, 8.375"},
+        NOTHING_GIVEN,
+    )
+    assert setup.method == "ground"
+    assert (setup.intrinsics.fx, setup.intrinsics.cx, setup.intrinsics.cy) == (525, 320, 240)
+    assert setup.units == "in"
+    assert setup.ground_truth == ((1.91, 9.625, 8.375),)
+
+
+def test_every_refusal_at_once_by_field_in_the_operators_words() -> None:
+    with pytest.raises(FormRefusedError) as caught:
+        setup_from_answers(
+            {"method": "ground", "focal": "-3", "principal": "1", "ground_height": ""},
+            NOTHING_GIVEN,
+        )
+    errors = caught.value.errors
+    assert set(errors) == {"focal", "principal", "ground_height"}
+    assert "height of the camera centre above the table" in errors["ground_height"]
+    assert "ground_height" not in str(caught.value)  # labels, not internal keys
+    assert "ground height" in str(caught.value)
+    with pytest.raises(FormRefusedError) as caught:
+        setup_from_answers({"method": "line", "truth1": "1,2,3", "truth2": "1,2,3"}, NOTHING_GIVEN)
+    assert set(caught.value.errors) == {"truth2"}
+    with pytest.raises(FormRefusedError) as caught:
+        setup_from_answers({"method": "line", "truth1": "1,2,3"}, NOTHING_GIVEN)
+    assert "two points" in caught.value.errors["truth2"]
+    with pytest.raises(FormRefusedError) as caught:
+        setup_from_answers({}, NOTHING_GIVEN)
+    assert set(caught.value.errors) == {"method"}
+
+
+def test_a_ground_truth_off_the_ground_is_kept_only_when_ticked() -> None:
+    form = {"method": "ground", "ground_height": "9.6", "truth1": "1, 5, 8"}
+    with pytest.raises(FormRefusedError) as caught:
+        setup_from_answers(form, NOTHING_GIVEN)
+    assert "keep anyway" in caught.value.errors["truth1"]
+    kept = setup_from_answers({**form, "keep_off_ground": "y"}, NOTHING_GIVEN)
+    assert kept.ground_truth == ((1.0, 5.0, 8.0),)
+
+
+def test_what_the_command_line_gave_wins_and_is_shown_read_only() -> None:
+    given = {**NOTHING_GIVEN, "method": "ground", "ground_height": 9.625, "units": "in"}
+    fields = {f["name"]: f for f in form_fields(given)}
+    assert fields["method"] == {**fields["method"], "given": True, "value": "ground"}
+    assert fields["ground_height"]["given"]
+    assert fields["ground_height"]["value"] == "9.625"
+    assert not fields["focal"]["given"]
+    assert fields["focal"]["value"] == "525"
+    # The form cannot override it: a different method typed there is not used.
+    setup = setup_from_answers({"method": "point", "ground_height": "3"}, given)
+    assert (setup.method, setup.ground_height) == ("ground", 9.625)
+    calibrated = {**NOTHING_GIVEN, "intrinsics": Intrinsics(640, 480, 530, 531, 321, 239)}
+    fields = {f["name"]: f for f in form_fields(calibrated)}
+    assert fields["focal"]["given"]
+    assert fields["principal"]["value"] == "321, 239"
+
+
+def test_the_thesis_ground_height_is_the_default_in_inches_only() -> None:
+    inches = {f["name"]: f for f in form_fields({**NOTHING_GIVEN, "units": "in"})}
+    mm = {f["name"]: f for f in form_fields({**NOTHING_GIVEN, "units": "mm"})}
+    assert inches["ground_height"]["value"] == "9.625"
+    assert mm["ground_height"]["value"] == ""
+
+
+def test_fields_say_which_methods_they_apply_to() -> None:
+    applies = {f.name: f.methods for f in SETUP_FIELDS}
+    assert applies["ground_height"] == ("ground",)
+    assert applies["truth2"] == ("line",)
+    assert applies["keep_off_ground"] == ("ground",)
+    assert set(applies["truth1"]) == {"point", "line", "ground"}
+
+
+def test_the_pose_form_refuses_each_field() -> None:
+    assert parse_pose_form({"x": "1", "y": "0", "z": "-2"}, "in") == ((1, 0, -2), (0, 0, 0))
+    with pytest.raises(FormRefusedError) as caught:
+        parse_pose_form({"x": "a", "y": "", "z": "1e9", "rotation": "1, 2"}, "in")
+    assert set(caught.value.errors) == {"x", "y", "z", "rotation"}
+    assert "0, 0, 0" in caught.value.errors["rotation"]  # a rotation's example is a rotation
+
+
+@given(st.dictionaries(st.sampled_from([f.name for f in SETUP_FIELDS]), st.text(max_size=12)))
+def test_any_form_is_a_setup_or_a_refusal_by_known_field(form: dict[str, str]) -> None:
+    errors: dict[str, str] = {}
+    try:
+        setup_from_answers(form, NOTHING_GIVEN)
+    except FormRefusedError as err:
+        errors = err.errors
+        if not errors:
+            raise
+    assert set(errors) <= {f.name for f in SETUP_FIELDS}

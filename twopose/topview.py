@@ -1,0 +1,157 @@
+"""A trial seen from above (the grid's x across, z in depth, session units): what each view
+measured, drawn so that it meets where the solver says the target is.
+
+- method 1 (point): each view's ray through the dot's centroid, from the camera centre;
+  the rays meet at the estimate;
+- method 2 (ground): each view's plane (the finger's image line back-projected, thesis
+  eq. 3.15) cut by the ground plane, a line on the table; the traces meet at the ground
+  point the finger points at, which is the estimate (not at the finger);
+- the fixed line: the estimated 3-D line, and the true one when typed.
+
+Pure geometry from a :class:`twopose.scene3d.TrialScene`, for the web console's canvas
+(:mod:`recorder.console`); no drawing here.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from twopose.scene3d import TrialScene
+from twopose.solve import image_lines, projection_matrices
+
+__all__ = ["TopView", "top_view"]
+
+F64 = NDArray[np.float64]
+XZ = tuple[float, float]
+
+
+@dataclass(frozen=True, kw_only=True)
+class TopView:
+    """What the top view draws; every point is (x, z) in session units."""
+
+    trial: int
+    method: str
+    cameras: tuple[XZ, ...]
+    #: (kind, start, end): ``ray`` (point), ``trace`` (method 2 plane on the ground),
+    #: ``line`` (the estimated 3-D line), ``truth_line``.
+    segments: tuple[tuple[str, XZ, XZ], ...]
+    estimate: XZ | None
+    truth: XZ | None  # a point target's true position (lines: a truth_line segment)
+
+    def to_json(self) -> dict[str, object]:
+        return {
+            "trial": self.trial,
+            "method": self.method,
+            "cameras": [list(c) for c in self.cameras],
+            "segments": [
+                {"kind": kind, "from": list(a), "to": list(b)} for kind, a, b in self.segments
+            ],
+            "estimate": None if self.estimate is None else list(self.estimate),
+            "truth": None if self.truth is None else list(self.truth),
+        }
+
+
+def _xz(p: F64) -> XZ | None:
+    return (float(p[0]), float(p[2])) if np.isfinite(p).all() else None
+
+
+def top_view(scene: TrialScene) -> TopView:
+    """The trial from above (see the module docstring)."""
+    estimate = scene.estimate if np.isfinite(scene.estimate).all() else None
+    reach = _reach(scene, estimate)
+    if scene.method == "point":
+        segments = _rays(scene, reach)
+    elif scene.method == "ground":
+        segments = _ground_traces(scene, estimate, reach)
+    else:
+        segments = _lines(scene, estimate, reach)
+    truth = None if scene.method == "line" else _xz(scene.truth[0])
+    cameras = tuple(c for c in (_xz(t) for t in scene.t_grid) if c is not None)
+    return TopView(
+        trial=scene.trial,
+        method=scene.method,
+        cameras=cameras,
+        segments=tuple(segments),
+        estimate=None if estimate is None else _xz(estimate),
+        truth=truth,
+    )
+
+
+def _reach(scene: TrialScene, estimate: F64 | None) -> F64:
+    """How far to draw from each camera: a little past the estimate (10 units without)."""
+    if estimate is None:
+        return np.full(len(scene.t_grid), 10.0)
+    return np.asarray(1.2 * np.linalg.norm(estimate - scene.t_grid, axis=1))
+
+
+def _rays(scene: TrialScene, reach: F64) -> list[tuple[str, XZ, XZ]]:
+    k = scene.intrinsics
+    cam = np.stack(
+        [
+            (scene.px[:, 0] - k[:, 2]) / k[:, 0],
+            (scene.px[:, 1] - k[:, 3]) / k[:, 1],
+            np.ones(len(k)),
+        ],
+        axis=-1,
+    )
+    d = np.einsum("nij,nj->ni", scene.R_cam_to_grid, cam)
+    ends = scene.t_grid + d / np.linalg.norm(d, axis=1, keepdims=True) * reach[:, None]
+    return _segments("ray", scene.t_grid, ends)
+
+
+def _view_planes(scene: TrialScene) -> F64:
+    """Each view's image line back-projected: the plane ``pi = P^T l`` (N, 4) in the grid
+    frame, ``pi . (x, y, z, 1) = 0``."""
+    P = projection_matrices(scene.intrinsics, scene.R_cam_to_grid, scene.t_grid)
+    lines = image_lines(scene.px, scene.theta_deg)
+    return np.asarray(np.einsum("nji,nj->ni", P, lines))
+
+
+def _ground_traces(scene: TrialScene, estimate: F64 | None, reach: F64) -> list[tuple[str, XZ, XZ]]:
+    """Each view's plane cut by the horizontal plane through the estimate (the ground)."""
+    if estimate is None:
+        return []
+    planes = _view_planes(scene)
+    y = estimate[1]
+    out = []
+    for plane, length in zip(planes, reach, strict=True):
+        a, b, c, d = plane
+        normal = np.array([a, c])
+        norm = float(np.linalg.norm(normal))
+        if not np.isfinite(plane).all() or norm < 1e-12:
+            continue
+        # The trace a x + c z + (b y + d) = 0: its point nearest the estimate, then along.
+        offset = (a * estimate[0] + c * estimate[2] + b * y + d) / norm
+        foot = np.array([estimate[0], estimate[2]]) - offset * normal / norm
+        along = np.array([-normal[1], normal[0]]) / norm * 0.5 * length
+        out.append(("trace", _pair(foot - along), _pair(foot + along)))
+    return out
+
+
+def _lines(scene: TrialScene, estimate: F64 | None, reach: F64) -> list[tuple[str, XZ, XZ]]:
+    out: list[tuple[str, XZ, XZ]] = []
+    direction = scene.direction
+    if estimate is not None and direction is not None and np.isfinite(direction).all():
+        span = 0.6 * float(np.mean(reach))
+        out += _segments(
+            "line", (estimate - span * direction)[None], (estimate + span * direction)[None]
+        )
+    if np.isfinite(scene.truth).all():
+        out += _segments("truth_line", scene.truth[:1], scene.truth[1:])
+    return out
+
+
+def _segments(kind: str, starts: F64, ends: F64) -> list[tuple[str, XZ, XZ]]:
+    out = []
+    for a, b in zip(starts, ends, strict=True):
+        pa, pb = _xz(a), _xz(b)
+        if pa is not None and pb is not None:
+            out.append((kind, pa, pb))
+    return out
+
+
+def _pair(p: F64) -> XZ:
+    return (float(p[0]), float(p[1]))
