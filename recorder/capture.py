@@ -10,6 +10,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from enum import StrEnum
 from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
@@ -24,7 +25,14 @@ if TYPE_CHECKING:
     from twopose.scene3d import TrialScene
     from twopose.trial_result import TrialResult
 
-__all__ = ["CaptureResult", "FrameFeedback", "LiveSink", "capture_frames"]
+__all__ = [
+    "CaptureResult",
+    "FrameFeedback",
+    "LiveSink",
+    "Shortfall",
+    "capture_frames",
+    "detection_shortfall",
+]
 
 
 class LiveSink(Protocol):
@@ -145,6 +153,24 @@ class CaptureResult:
             np.array([f.theta_deg for f in fb], dtype=np.float64),
             np.array([f.found for f in fb], dtype=bool),
         )
+
+
+class Shortfall(StrEnum):
+    """How a capture's live detection falls short of a measurement."""
+
+    OK = "ok"  # found in at least half the frames (or no live detection to judge by)
+    FEW_FOUND = "few"  # found, but in fewer than half the frames
+    NONE_FOUND = "none"  # found in no frame
+
+
+def detection_shortfall(result: CaptureResult) -> Shortfall:
+    """The one rule for a capture's detections: fewer than half found needs the
+    operator's confirmation, none found is nothing to measure."""
+    if not result.feedback:
+        return Shortfall.OK
+    if result.n_found == 0:
+        return Shortfall.NONE_FOUND
+    return Shortfall.FEW_FOUND if 2 * result.n_found < len(result.feedback) else Shortfall.OK
 
 
 def capture_frames(

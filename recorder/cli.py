@@ -23,7 +23,7 @@ from twopose.version import VersionOption
 if TYPE_CHECKING:
     from recorder.capture import CaptureResult
     from recorder.live import LiveView
-    from recorder.procedure import RecordingSummary
+    from recorder.summary import RecordingSummary
     from twopose.camera import Camera, Intrinsics
     from twopose.rig import RigConstants
 

@@ -41,11 +41,11 @@ from recorder.procedure import (
     Placement,
     ProcedureRefusedError,
     QuitRecording,
-    RecordingSummary,
     Shortfall,
     detection_shortfall,
 )
 from recorder.setup_rules import form_fields
+from recorder.summary import RecordingSummary
 from twopose.format.entries import GroundTruth, Note, PoseEntry, TruthKind, TypedEntry
 from twopose.values import Vec3
 

@@ -20,7 +20,6 @@ from recorder.procedure import (
     Driver,
     Placement,
     ProcedureRefusedError,
-    RecordingSummary,
     Shortfall,
     detection_shortfall,
     record,
@@ -35,6 +34,7 @@ from recorder.setup_rules import (
     positive_number,
 )
 from recorder.sources import FrameSource, SourceInfo
+from recorder.summary import RecordingSummary
 from twopose.camera import Camera, Intrinsics
 from twopose.errors import InputValueError
 from twopose.format.entries import (

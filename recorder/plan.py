@@ -17,10 +17,10 @@ from recorder.procedure import (
     Decision,
     Driver,
     Placement,
-    RecordingSummary,
     record,
 )
 from recorder.sources import FrameSource
+from recorder.summary import RecordingSummary
 from twopose.camera import Camera, Intrinsics
 from twopose.config import read_toml
 from twopose.errors import InputValueError, SourceError

@@ -38,14 +38,21 @@ import contextlib
 import errno
 import time
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from recorder.capture import CaptureResult, FrameFeedback, capture_frames
+from recorder.capture import (
+    CaptureResult,
+    FrameFeedback,
+    Shortfall,
+    capture_frames,
+    detection_shortfall,
+)
 from recorder.live_result import LiveResults
 from recorder.sources import FrameSource, SourceInfo
+from recorder.summary import RecordingSummary, Tally
 from twopose.camera import Camera
 from twopose.errors import InputValueError, SessionExistsError, TwoposeError
 from twopose.format.entries import (
@@ -120,24 +127,6 @@ class ProcedureRefusedError(InputValueError):
 class LowDetectionError(ProcedureRefusedError):
     """Accept refused because the target was found in fewer than half the frames: the
     operator may confirm it (accept anyway)."""
-
-
-class Shortfall(StrEnum):
-    """How a capture's live detection falls short of a measurement."""
-
-    OK = "ok"  # found in at least half the frames (or no live detection to judge by)
-    FEW_FOUND = "few"  # found, but in fewer than half the frames
-    NONE_FOUND = "none"  # found in no frame
-
-
-def detection_shortfall(result: CaptureResult) -> Shortfall:
-    """The one rule for a capture's detections: fewer than half found needs the
-    operator's confirmation, none found is nothing to measure."""
-    if not result.feedback:
-        return Shortfall.OK
-    if result.n_found == 0:
-        return Shortfall.NONE_FOUND
-    return Shortfall.FEW_FOUND if 2 * result.n_found < len(result.feedback) else Shortfall.OK
 
 
 class Procedure:
@@ -406,81 +395,6 @@ class Driver:
 # --------------------------------------------------------------------------- the loop
 
 
-def _count(n: int, what: str) -> str:
-    return f"{n} {what}{'' if n == 1 else 's'}"
-
-
-@dataclass(frozen=True, kw_only=True)
-class RecordingSummary:
-    """What a recording holds, and how it ended. Each capture counts once, by its final
-    decision: ``n_accepted + n_discarded == n_captures`` (an accepted capture later undone
-    is discarded); ``n_incomplete`` counts captures that ended early, whatever became
-    of them."""
-
-    path: Path
-    n_trials: int  # trials begun
-    n_captures: int
-    n_incomplete: int
-    n_frames: int
-    n_found: int
-    seconds: float
-    dropped: int = 0
-    n_complete_trials: int = 0  # every pose accepted
-    n_accepted: int = 0
-    n_discarded: int = 0
-    interrupted: bool = False
-    kept: bool = True  # False: nothing was typed, so no (empty) session file was left
-
-    def line(self) -> str:
-        """The one summary line the command prints."""
-        if not self.kept:
-            return f"nothing was recorded: no session file written at {self.path}"
-        ending = " (interrupted: the file is closed and valid)" if self.interrupted else ""
-        return (
-            f"wrote {self.path}: {_count(self.n_trials, 'trial')} "
-            f"({self.n_complete_trials} complete), {_count(self.n_captures, 'capture')} "
-            f"({self.n_accepted} accepted, {self.n_discarded} discarded; "
-            f"{self.n_incomplete} incomplete), {_count(self.n_frames, 'frame')} "
-            f"({self.n_found} detected, {self.dropped} dropped) in {self.seconds:.1f} s{ending}"
-        )
-
-
-@dataclass
-class _Tally:
-    started: float = field(default_factory=time.monotonic)
-    captures: int = 0
-    incomplete: int = 0
-    frames: int = 0
-    found: int = 0
-    dropped: int = 0
-
-    def add(self, result: CaptureResult) -> None:
-        self.captures += 1
-        self.incomplete += not result.complete
-        self.frames += result.n_frames
-        self.found += result.n_found
-        self.dropped += result.dropped
-
-    def summary(
-        self, path: Path, proc: Procedure, interrupted: bool, kept: bool
-    ) -> RecordingSummary:
-        return RecordingSummary(
-            path=path,
-            n_trials=proc.trial,
-            n_captures=self.captures,
-            n_incomplete=self.incomplete,
-            n_frames=self.frames,
-            n_found=self.found,
-            seconds=time.monotonic() - self.started,
-            dropped=self.dropped,
-            n_complete_trials=proc.n_complete_trials,
-            n_accepted=proc.n_accepted,
-            n_discarded=proc.n_discarded,
-            interrupted=interrupted,
-            kept=kept,
-        )
-
-
 def refuse_existing(path: str | Path) -> None:
     """Refuse a session path that exists (call it before asking the operator anything)."""
     if Path(path).exists():
@@ -527,7 +441,7 @@ def record(
     """
     out = Path(path)
     refuse_existing(out)
-    tally = _Tally()
+    tally = Tally()
     results = None
     if target is not None:  # the live result needs the live detection
         results = LiveResults(info.method, info.units, cameras, ground, rig=rig)
@@ -581,7 +495,7 @@ def _check_frame_size(source: SourceInfo, cameras: Sequence[Camera]) -> None:
 
 
 def _run(
-    proc: Procedure, source: FrameSource, driver: Driver, tally: _Tally, opts: _CaptureOptions
+    proc: Procedure, source: FrameSource, driver: Driver, tally: Tally, opts: _CaptureOptions
 ) -> None:
     """Trial after trial, as long as the driver wants one and does not quit."""
     while driver.next_trial(proc.trial + 1):
@@ -597,7 +511,7 @@ def _run(
 
 
 def _record_trial(
-    proc: Procedure, source: FrameSource, driver: Driver, tally: _Tally, opts: _CaptureOptions
+    proc: Procedure, source: FrameSource, driver: Driver, tally: Tally, opts: _CaptureOptions
 ) -> bool:
     """Pose after pose until the trial's last is accepted; False when the driver quits."""
     while proc.state is not State.READY:
@@ -616,11 +530,11 @@ def _record_trial(
         driver.captured(proc.trial, proc.pose, result)
         trial = proc.trial
         if opts.results is not None and proc.entry is not None:
-            _live(driver, _preview, opts.results, proc, driver, result)
+            _live(driver, _preview_step, opts.results, proc, driver, result)
         if not _decide(proc, driver, result):
             return False
         if opts.results is not None:
-            _live(driver, _show_result, trial, proc, driver, opts)
+            _live(driver, _result_step, trial, proc, driver, opts)
     return True
 
 
@@ -636,7 +550,9 @@ def _live(driver: Driver, step: Callable[..., None], *args: Any) -> None:
         )
 
 
-def _preview(results: LiveResults, proc: Procedure, driver: Driver, result: CaptureResult) -> None:
+def _preview_step(
+    results: LiveResults, proc: Procedure, driver: Driver, result: CaptureResult
+) -> None:
     """After a capture: keep its detections, and from the trial's second pose on show the
     result the trial would have if it were accepted (so a degenerate one can be redone)."""
     assert proc.entry is not None
@@ -647,7 +563,7 @@ def _preview(results: LiveResults, proc: Procedure, driver: Driver, result: Capt
             driver.preview_result(preview)
 
 
-def _show_result(trial: int, proc: Procedure, driver: Driver, opts: _CaptureOptions) -> None:
+def _result_step(trial: int, proc: Procedure, driver: Driver, opts: _CaptureOptions) -> None:
     """After a decision: the trial's live result if its accepted poses changed (a second
     pose gives one, a third updates it), to the driver and the live view."""
     assert opts.results is not None

@@ -111,3 +111,30 @@ def test_a_calibrated_rig_corrects_the_live_result_as_run_rig_does(tmp_path: Pat
     row = corrected.loc[2]
     assert f"x {row['x']:.3f} y {row['y']:.3f} z {row['z']:.3f} in" in lines[0]
     assert abs(row["x"] - plain.loc[2, "x"]) > 0.1  # the rig did move it
+
+
+def test_a_live_result_that_fails_is_said_and_the_recording_goes_on(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A rig whose principal offset makes every live solve fail (the rig file's checks
+    are the analysis' business; here it reaches the recorder all the same): each trial is
+    still recorded whole, and the operator is told why no result is shown."""
+    from twopose.rig import RigConstants
+
+    plan_file = tmp_path / "plan.toml"
+    plan_file.write_text(PLAN.format(method="point", truth=TRUTH["point"]))
+    out = tmp_path / "s.mcap"
+    shown: list[TrialResult] = []
+    summary = record_plan(
+        load_plan(plan_file),
+        out,
+        SyntheticSource(None, "point", realtime=False),
+        on_result=shown.append,
+        rig=RigConstants(principal_offset_px=(1e300, 0.0)),
+    )
+    assert (summary.n_trials, summary.n_complete_trials, summary.n_accepted) == (2, 2, 5)
+    warnings = [x for x in capsys.readouterr().err.splitlines() if "live result failed" in x]
+    assert warnings  # said, not silently dropped
+    assert all(not np.isfinite(r.point).all() or r.status != "ok" for r in shown)
+    trials = analyse_session(out).trials
+    assert list(trials["status"]) == ["ok", "ok"]  # the file holds both trials, whole

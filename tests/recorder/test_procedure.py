@@ -8,11 +8,12 @@ import cv2
 import numpy as np
 import pytest
 
-from recorder.capture import CaptureResult, capture_frames
+from recorder.capture import CaptureResult, Shortfall, capture_frames, detection_shortfall
 from recorder.procedure import (
     TRANSITIONS,
     Decision,
     Driver,
+    LowDetectionError,
     Placement,
     Procedure,
     ProcedureError,
@@ -216,7 +217,7 @@ def test_ctrl_c_during_a_capture_closes_a_valid_file_and_discards_it(tmp_path: P
 
 
 def test_the_summary_line_counts_in_words() -> None:
-    from recorder.procedure import RecordingSummary
+    from recorder.summary import RecordingSummary
 
     counts = {"n_incomplete": 0, "n_frames": 1, "n_found": 1, "seconds": 2.0}
     one = RecordingSummary(path=Path("s.mcap"), n_trials=1, n_captures=1, n_accepted=1, **counts)
@@ -286,3 +287,56 @@ def test_a_full_disk_while_recording_is_a_clear_error_and_recoverable(tmp_path: 
     assert f"twopose-record recover {out}" in proc.stderr
     report = recover_session(out, tmp_path / "fixed.mcap")
     assert report.complete_captures >= 1
+
+
+def _dot_frames(folder: Path, with_dot: list[bool]) -> Path:
+    """Frames of 64x48 with a black dot (found by the dot detector) where asked."""
+    folder.mkdir()
+    for k, dot in enumerate(with_dot):
+        image = np.full((48, 64, 3), 255, np.uint8)
+        if dot:
+            cv2.circle(image, (30, 20), 5, (0, 0, 0), -1)
+        cv2.imwrite(str(folder / f"{k:03d}.png"), image)
+    return folder
+
+
+@pytest.mark.parametrize(
+    ("with_dot", "shortfall"),
+    [
+        ([True, True, False, False], Shortfall.OK),  # half: enough
+        ([True, False, False, False], Shortfall.FEW_FOUND),
+        ([False, False, False, False], Shortfall.NONE_FOUND),
+    ],
+)
+def test_accepting_a_capture_that_rarely_found_its_target_needs_the_operator(
+    tmp_path: Path, with_dot: list[bool], shortfall: Shortfall
+) -> None:
+    """Fewer than half the frames found: accept is refused until the operator confirms
+    (accept anyway); none found: refused even then, except unattended (a plan records it)."""
+    cam = Camera("cam0", Intrinsics(64, 48, 50.0, 50.0, 32.0, 24.0))
+    folder = _dot_frames(tmp_path / "f", with_dot * 2)
+    with (
+        ImagesSource(folder) as src,
+        SessionWriter(tmp_path / "s.mcap", INFO, [cam], image_format="png") as w,
+    ):
+        proc = Procedure(w)
+        proc.begin_trial(1, 2)
+        proc.type_pose(PoseEntry(1, 1, "cam0", (0.0, 0.0, 0.0)))
+        result = proc.capture(src, len(with_dot), target="dot")
+        assert detection_shortfall(result) is shortfall
+        if shortfall is Shortfall.OK:
+            proc.accept()
+        else:
+            with pytest.raises(ProcedureRefusedError, match="found in"):
+                proc.accept()
+            assert (proc.state, proc.pose) == (State.DECIDING, 1)  # unchanged
+        if shortfall is Shortfall.FEW_FOUND:
+            with pytest.raises(LowDetectionError, match="only 1 of 4 frames"):
+                proc.accept()
+            proc.accept(anyway=True)
+        if shortfall is Shortfall.NONE_FOUND:
+            with pytest.raises(ProcedureRefusedError, match="none of the 4 frames"):
+                proc.accept(anyway=True)
+            proc.accept(unattended=True)  # a plan cannot ask: it records it
+        assert (proc.state, proc.pose, proc.n_accepted) == (State.TYPING, 2, 1)
+        proc.close("test")
