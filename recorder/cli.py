@@ -21,6 +21,7 @@ from twopose.errors import (
 from twopose.version import VersionOption
 
 if TYPE_CHECKING:
+    from recorder.calibrate import Calibration
     from recorder.capture import CaptureResult
     from recorder.live import LiveView
     from recorder.summary import RecordingSummary
@@ -394,9 +395,15 @@ def calibrate(
         str, typer.Option(help="Inner corners 'COLSxROWS' of the checkerboard.")
     ] = "9x6",
     square: Annotated[float, typer.Option(min=0, help="Square side, session units.")] = 1.0,
-    views: Annotated[int, typer.Option(min=3, help="Board views to collect.")] = 15,
+    views: Annotated[
+        int | None,
+        typer.Option(
+            min=3, help="Stop after this many views (default: every still; 15 from a camera)."
+        ),
+    ] = None,
 ) -> None:
-    """Calibrate a camera from a checkerboard; shows the reprojection error."""
+    """Calibrate a camera from a checkerboard: every distinct view, the sigma of every
+    intrinsic, each view's error, outlier views dropped, and the image's coverage."""
     from recorder.calibrate import calibrate as run_calibration
     from recorder.calibrate import save_calibration
     from recorder.sources import open_source
@@ -420,12 +427,27 @@ def calibrate(
             ),
         )
         save_calibration(result, out)
-    i = result.intrinsics
+    _report_calibration(out, result)
+
+
+def _report_calibration(out: Path, result: Calibration) -> None:
+    """The fit's values with their sigmas, the views, and what to worry about."""
+    i, s = result.intrinsics, result.sigma
+    nan = float("nan")
     typer.echo(
-        f"wrote {out}: fx {i.fx:.2f}, fy {i.fy:.2f}, cx {i.cx:.2f}, cy {i.cy:.2f}, "
-        f"k1 {i.distortion[0]:+.4f}, k2 {i.distortion[1]:+.4f}; "
-        f"RMS reprojection error {result.rms_px:.3f} px over {result.n_views} views"
+        f"wrote {out}: fx {i.fx:.2f} ± {s.get('fx', nan):.2f}, fy {i.fy:.2f} ± "
+        f"{s.get('fy', nan):.2f}, cx {i.cx:.2f} ± {s.get('cx', nan):.2f}, cy {i.cy:.2f} ± "
+        f"{s.get('cy', nan):.2f}, k1 {i.distortion[0]:+.4f}, k2 {i.distortion[1]:+.4f}, "
+        f"k3 {i.distortion[4]:+.4f}; RMS reprojection error {result.rms_px:.3f} px over "
+        f"{result.n_views} views; corners cover {result.coverage:.0%} of the image"
     )
+    worst = max(result.view_rms_px)
+    median = sorted(result.view_rms_px)[len(result.view_rms_px) // 2]
+    typer.echo(f"  per view RMS: median {median:.3f} px, worst {worst:.3f} px")
+    for dropped in result.dropped:
+        typer.secho(f"  dropped as an outlier and fitted again: {dropped}", fg=typer.colors.YELLOW)
+    for warning in result.warnings:
+        typer.secho(f"  warning: {warning}", fg=typer.colors.YELLOW)
 
 
 @app.command()

@@ -61,6 +61,8 @@ class FrameSource(ABC):
     info: SourceInfo
     dropped: int = 0
     _pacer: _Pacer | None = None
+    #: Distinct still images (a folder), not a moving stream: each frame is its own view.
+    stills = False
 
     def __enter__(self) -> Self:
         self.open()
@@ -83,6 +85,10 @@ class FrameSource(ABC):
 
     def close(self) -> None:
         return None
+
+    def frame_name(self, index: int) -> str:
+        """How to name frame ``index`` (from 0) to the operator."""
+        return f"frame {index + 1}"
 
     def start_capture(self) -> None:
         """A capture begins: a paced source restarts its clock, so that the operator's
@@ -241,6 +247,8 @@ class VideoSource(FrameSource):
 class ImagesSource(FrameSource):
     """The images of a folder, in file-name order."""
 
+    stills = True
+
     def __init__(self, folder: str | Path) -> None:
         self.folder = Path(folder)
         self._files: list[Path] = []
@@ -270,6 +278,9 @@ class ImagesSource(FrameSource):
         path = self._files[self._next]
         self._next += 1
         return self._load(path)
+
+    def frame_name(self, index: int) -> str:
+        return self._files[index].name if index < len(self._files) else super().frame_name(index)
 
 
 class SyntheticSource(FrameSource):

@@ -9,9 +9,17 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from recorder.calibrate import load_calibration
+from recorder.calibrate import (
+    OUTER_THIRD,
+    _find_board,
+    calibrate,
+    fit_views,
+    load_calibration,
+    load_calibration_sigma,
+)
 from recorder.cli import app
 from recorder.plan import load_plan
+from recorder.sources import ImagesSource, VideoSource
 from twopose.camera import rotation_from_angles_deg
 from twopose.errors import EXIT_ERROR, InputValueError
 
@@ -103,5 +111,99 @@ def test_no_board_in_view_is_a_clear_error(tmp_path: Path) -> None:
         app, ["calibrate", str(tmp_path / "cal.toml"), "--source", f"images:{folder}"]
     )
     assert result.exit_code == EXIT_ERROR
-    assert "board in only 0 frame(s)" in result.output
+    assert "board in only 0 view(s)" in result.output
     assert not (tmp_path / "cal.toml").exists()
+
+
+REAL = Path(__file__).resolve().parents[3] / "shared" / "data" / "opencv-chessboard"
+
+
+@pytest.mark.skipif(not REAL.is_dir(), reason="../shared/data/opencv-chessboard is not here")
+def test_real_photographs_use_every_view_and_agree_with_opencv(tmp_path: Path) -> None:
+    """OpenCV's 13 real photographs (left camera): every view is used, and the intrinsics
+    are within 2 sigma of OpenCV's own fit of all 13, computed here with OpenCV directly."""
+    left = tmp_path / "left"
+    left.mkdir()
+    for photo in sorted(REAL.glob("left*.jpg")):
+        (left / photo.name).write_bytes(photo.read_bytes())
+    pattern = np.zeros((54, 3), np.float32)
+    pattern[:, :2] = np.mgrid[0:9, 0:6].T.reshape(-1, 2) * 25.0
+    corners = []
+    for photo in sorted(left.iterdir()):
+        gray = cv2.imread(str(photo), cv2.IMREAD_GRAYSCALE)
+        found, c = cv2.findChessboardCorners(gray, (9, 6))
+        assert found, photo
+        criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 1e-3)
+        corners.append(cv2.cornerSubPix(gray, c, (11, 11), (-1, -1), criteria))
+    assert len(corners) == 13
+    _, K, _, _, _, std, _, _ = cv2.calibrateCameraExtended(
+        [pattern] * 13, corners, (640, 480), np.eye(3), np.zeros(5)
+    )
+    reference = {"fx": K[0, 0], "fy": K[1, 1], "cx": K[0, 2], "cy": K[1, 2]}
+    sigma = dict(zip(("fx", "fy", "cx", "cy"), np.ravel(std)[:4], strict=True))
+
+    out = tmp_path / "cal.toml"
+    args = ["calibrate", str(out), "--source", f"images:{left}", "--board", "9x6"]
+    result = runner.invoke(app, [*args, "--square", "25"])
+    assert result.exit_code == 0, result.output
+    assert "over 13 views" in result.output
+    intr = load_calibration(out)
+    ours = {"fx": intr.fx, "fy": intr.fy, "cx": intr.cx, "cy": intr.cy}
+    for key, value in ours.items():
+        assert abs(value - reference[key]) <= 2 * sigma[key], (key, value, reference[key])
+    kept = load_calibration_sigma(out)
+    assert set(kept) >= {"fx", "fy", "cx", "cy", "k1", "k2", "k3"}
+    assert kept["fx"] == pytest.approx(sigma["fx"], rel=0.05)
+
+
+def _rendered_corners(tmp_path: Path) -> tuple[list[np.ndarray], list[str]]:
+    views = _board_views(tmp_path / "views")
+    corners, names = [], []
+    for image in sorted(views.iterdir()):
+        c = _find_board(cv2.imread(str(image)), (9, 6))
+        assert c is not None
+        corners.append(c)
+        names.append(image.name)
+    return corners, names
+
+
+def test_a_view_far_worse_than_the_others_is_dropped_and_named(tmp_path: Path) -> None:
+    corners, names = _rendered_corners(tmp_path)
+    pattern = np.zeros((54, 3), np.float32)
+    pattern[:, :2] = np.mgrid[0:9, 0:6].T.reshape(-1, 2)
+    rng = np.random.default_rng(0)
+    corners[4] = (corners[4] + rng.normal(0, 6.0, corners[4].shape)).astype(np.float32)
+    fit = fit_views(corners, names, (640, 480), pattern)
+    assert fit.n_views == len(names) - 1
+    assert len(fit.dropped) == 1
+    assert fit.dropped[0].startswith(names[4])
+    assert names[4] not in fit.view_names
+    assert fit.intrinsics.fx == pytest.approx(500.0, rel=0.01)  # the truth, once it is gone
+    assert len(fit.view_rms_px) == fit.n_views
+    assert set(fit.sigma) >= {"fx", "fy", "cx", "cy"}
+
+
+def test_corners_kept_near_the_centre_are_warned_about(tmp_path: Path) -> None:
+    corners, names = _rendered_corners(tmp_path)
+    pattern = np.zeros((54, 3), np.float32)
+    pattern[:, :2] = np.mgrid[0:9, 0:6].T.reshape(-1, 2)
+    fit = fit_views(corners, names, (640, 480), pattern)
+    assert fit.reach < OUTER_THIRD  # the rendered boards stay near the middle
+    assert any("outer third" in w for w in fit.warnings)
+    assert 0 < fit.coverage < 1
+
+
+def test_a_camera_keeps_a_frame_only_when_the_board_moved(tmp_path: Path) -> None:
+    """A video holding each of 12 views 4 times: 12 views, not 48 (nor every 4th frame)."""
+    views = sorted(_board_views(tmp_path / "views").iterdir())
+    video = tmp_path / "board.avi"
+    writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"MJPG"), 30, (640, 480))
+    for image in views:
+        frame = cv2.imread(str(image))
+        for _ in range(4):
+            writer.write(frame)
+    writer.release()
+    fit = calibrate(VideoSource(video, realtime=False), (9, 6), 1.0, min_motion_px=5.0, views=40)
+    assert fit.n_views == len(views)
+    stills = calibrate(ImagesSource(tmp_path / "views"), (9, 6), 1.0)
+    assert stills.n_views == len(views)  # every still, whatever --views would say for a camera
