@@ -1,33 +1,200 @@
 """``twopose-analyze rig``: the rig's constants from calibration sessions (sessions with
 known targets), in one call: replay them (:mod:`analysis.pipeline`), then estimate
-(:mod:`analysis.rig`)."""
+(:mod:`analysis.rig`).
+
+Each session is solved with its own ground plane, intrinsics and units; sessions in
+different units are refused (the constants' lengths have one unit, which the rig file
+records). A session given twice, by the same path or with the same content (the same
+replayed trials: a copy, or a recovered rewrite of the file), is counted once, with a note;
+so is a session that informs nothing (no ok trial with ground truth). The sessions are
+combined in an order of their content, not of the command line, so naming them in another
+order, or twice, gives the same constants.
+"""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import dataclasses
+import hashlib
+import os
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from analysis.pipeline import replay_views
-from analysis.rig import RigData, RigFit, fit_constants, prepare, select_constants
+from analysis.rig import RigFit, fit_constants, select_constants
+from analysis.rig_data import RigData, combine, prepare_session, require_trusted
 from twopose.errors import InputValueError
+from twopose.rig import RigConstants, check_applicable
 
-__all__ = ["calibrate"]
+__all__ = ["calibrate", "check_rig_for_sessions", "rig_for_run"]
+
+Note = Callable[[str], None]
 
 
-def calibrate(paths: Sequence[str], groups: Sequence[str] | None = None) -> tuple[RigFit, RigData]:
-    """``twopose-analyze rig``: the constants of the sessions' rig (one method, every trial
-    with ground truth), the groups given or those cross-validation supports."""
-    replays = [replay_views(p) for p in paths]
-    methods = {r.method for r in replays}
-    if len(methods) != 1:
-        raise InputValueError(
-            f"calibrate the rig with sessions of one method, got {sorted(methods)}"
+def calibrate(
+    paths: Sequence[str], groups: Sequence[str] | None = None, on_note: Note | None = None
+) -> tuple[RigFit, RigData]:
+    """``twopose-analyze rig``: the constants of the sessions' rig (one method, one unit,
+    every trial with ground truth), the groups given or those cross-validation supports.
+    ``on_note`` hears what was left out and why (a session given twice, one without
+    trials). The data's ``sessions`` are those that informed the fit, in the order given."""
+    note = on_note or (lambda _text: None)
+    replays = _distinct(paths, note)
+    _one_of(replays, "method", "calibrate the rig with sessions of one method")
+    _one_of(
+        replays,
+        "units",
+        "a rig's camera offset and ground height error are lengths in one unit: calibrate "
+        "it with sessions in one unit",
+    )
+    parts: list[RigData] = []
+    for replay in sorted(replays, key=lambda r: r.fingerprint):  # not the command line's order
+        part = prepare_session(
+            replay.method,
+            replay.trial_ids,
+            replay.views,
+            replay.truth,
+            replay.ground,
+            units=replay.units,
         )
-    first = replays[0]
-    views = [v for r in replays for v in r.views]
-    truth = np.concatenate([r.truth for r in replays])
-    ids = [t for r in replays for t in r.trial_ids]
-    data = prepare(first.method, ids, views, truth, first.ground)
+        if part is None:
+            note(f"{replay.session}: no ok trial with ground truth; it informs nothing")
+            continue
+        parts.append(dataclasses.replace(part, sessions=(replay.session,)))
+    data = require_trusted(combine(parts) if parts else None)
+    used = {s for p in parts for s in p.sessions}
+    data = dataclasses.replace(
+        data, sessions=tuple(r.session for r in replays if r.session in used)
+    )
     fit = select_constants(data) if groups is None else fit_constants(data, groups)
     return fit, data
+
+
+@dataclasses.dataclass(frozen=True)
+class _Distinct:
+    """A replayed session and the fingerprint of what the fit reads from it."""
+
+    session: str
+    method: str
+    units: str
+    ground: Any
+    trial_ids: list[int]
+    truth: Any
+    views: Any
+    fingerprint: str
+
+
+def _distinct(paths: Sequence[str], note: Note) -> list[_Distinct]:
+    """Each session once, in the order given: the same file (by path, link or inode) is
+    not replayed again, and a session with the same content as an earlier one is left
+    out; both with a note."""
+    seen_files: dict[tuple[int, int] | str, str] = {}
+    seen_content: dict[str, str] = {}
+    out: list[_Distinct] = []
+    for path in paths:
+        key = _file_key(path)
+        if key in seen_files:
+            first = seen_files[key]
+            also = "" if first == path else f" (as {first})"
+            note(f"{path} given twice{also}: counted once")
+            continue
+        seen_files[key] = path
+        r = replay_views(path)
+        replay = _Distinct(
+            path, r.method, r.units, r.ground, r.trial_ids, r.truth, r.views, _fingerprint(r)
+        )
+        if replay.fingerprint in seen_content:
+            first = seen_content[replay.fingerprint]
+            note(f"{path} holds the same session as {first} (the same trials): counted once")
+            continue
+        seen_content[replay.fingerprint] = path
+        out.append(replay)
+    return out
+
+
+def _file_key(path: str) -> tuple[int, int] | str:
+    """The file's identity: device and inode (hard links, symlinks, other spellings of
+    the path), else its resolved path."""
+    try:
+        st = os.stat(path)
+    except OSError:
+        return str(Path(path).resolve())
+    return (st.st_dev, st.st_ino)
+
+
+def _fingerprint(replay: Any) -> str:
+    """A hash of what the fit reads from a session: method, units, ground plane, trials,
+    truth and every pose's camera, typed pose and detections (the session format has no
+    session id, so a copy or a rewritten file is known by its content)."""
+    h = hashlib.sha256()
+
+    def add(value: Any) -> None:
+        array = np.ascontiguousarray(np.asarray(value))
+        h.update(f"{array.dtype.str}{array.shape}".encode())
+        h.update(array.tobytes())
+
+    h.update(f"{replay.method}|{replay.units}|".encode())
+    if replay.ground is not None:
+        add(replay.ground[0])
+        add(float(replay.ground[1]))
+    add(np.asarray(replay.trial_ids, dtype=np.int64))
+    add(np.asarray(replay.truth, dtype=np.float64))
+    for row in replay.views:
+        h.update(b"|trial")
+        for v in row:
+            for value in (v.pose, v.intrinsics, v.width_height, v.t_grid, v.r_deg):
+                add(value)
+            for value in (v.t_sigma, v.r_sigma_deg, v.centroids, v.thetas, v.found):
+                add(value)
+    return h.hexdigest()
+
+
+def _one_of(replays: Sequence[_Distinct], attribute: str, why: str) -> None:
+    """Refuse sessions that differ in ``attribute``, naming each with its value."""
+    values = {getattr(r, attribute) for r in replays}
+    if len(values) > 1:
+        named = ", ".join(f"{r.session} ({getattr(r, attribute)})" for r in replays)
+        raise InputValueError(f"sessions of different {attribute}: {named}; {why}")
+
+
+def check_rig_for_sessions(rig: RigConstants, paths: Sequence[str], what: str) -> list[str]:
+    """``run --rig``: refuse the rig (before anything is analysed) for a session in other
+    units than the rig's, or implausible for the session's ground height or images
+    (:func:`twopose.rig.check_applicable`); returns the notes to show, once each. A file
+    that is not a readable session is left for the analysis to report."""
+    from twopose.errors import SessionFormatError
+    from twopose.format.reader import SessionReader
+
+    notes: list[str] = []
+    for path in paths:
+        try:
+            with SessionReader(path) as reader:
+                units = reader.info.units
+                ground = reader.ground
+                sizes = [(c.intrinsics.width, c.intrinsics.height) for c in reader.cameras.values()]
+        except (SessionFormatError, OSError):
+            continue
+        spec = (np.array(ground.normal_grid), ground.offset) if ground is not None else None
+        try:
+            found = check_applicable(rig, units, spec, sizes, what)
+        except InputValueError as err:
+            raise InputValueError(f"{err} (session {path})") from None
+        for text in found:
+            if text not in notes:
+                notes.append(text)
+    return notes
+
+
+def rig_for_run(path: str | Path, inputs: Sequence[str | Path], on_note: Note) -> RigConstants:
+    """``run --rig``: the rig file, refused (exit 3, before any analysis) if implausible,
+    or for a session under ``inputs`` in other units, or whose ground height or image it
+    does not fit; ``on_note`` hears the notes (a rig file without units)."""
+    from analysis.batch import split_inputs
+    from twopose.rig import load_rig
+
+    rig = load_rig(path)
+    for text in check_rig_for_sessions(rig, split_inputs(inputs)[0], f"rig file {path}"):
+        on_note(text)
+    return rig

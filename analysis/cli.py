@@ -246,9 +246,9 @@ def run_command(
     )
     with handle_errors(), _session_progress() as (found, done):
         if rig is not None:
-            from twopose.rig import load_rig
+            from analysis.calibration import rig_for_run
 
-            options = dataclasses.replace(options, rig=load_rig(rig))
+            options = dataclasses.replace(options, rig=rig_for_run(rig, paths, _note))
         result = run(
             paths,
             out,
@@ -265,6 +265,10 @@ def run_command(
             cases = run_cases(result.summary, result.errors)
             _write_junit(junit, junit_xml("twopose-analyze run", cases))
     _print_run(result, out, include_warned)
+
+
+def _note(text: str) -> None:
+    typer.secho(f"note: {text}", err=True)
 
 
 @contextlib.contextmanager
@@ -437,9 +441,9 @@ def rig_command(
     from analysis.rig import rig_toml
 
     with handle_errors():
-        fit, data = calibrate([str(s) for s in sessions], constants)
+        fit, data = calibrate([str(s) for s in sessions], constants, on_note=_note)
         out.parent.mkdir(parents=True, exist_ok=True)
-        write_atomically(out, rig_toml(fit, [str(s) for s in sessions]).encode())
+        write_atomically(out, rig_toml(fit, data.sessions).encode())
     fitted = ", ".join(fit.free) or "nothing"
     typer.echo(f"{len(data.trial_ids)} trial(s) with ground truth; fitted: {fitted}")
     for row in fit.rows():

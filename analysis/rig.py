@@ -21,7 +21,6 @@ in chi-square passes an F-test at 1%, so a session without systematic error keep
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -29,18 +28,9 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from analysis.rig_data import RigData, combine, prepare, prepare_session, require_trusted
 from twopose.errors import InputValueError
-from twopose.estimate import (
-    EstimateOptions,
-    EstimateSettings,
-    GroundSpec,
-    PoseView,
-    ViewBatch,
-    estimate_trials,
-    line_errors,
-    margin_warnings,
-    measure,
-)
+from twopose.estimate import EstimateSettings, GroundSpec, PoseView, ViewBatch, line_errors
 from twopose.rig import RIG_PARAMETERS, RigConstants, angles_deg_from_rotation
 from twopose.solve import image_lines, triangulate_ground, triangulate_lines, triangulate_points
 from twopose.trial_result import reported_point
@@ -53,11 +43,14 @@ __all__ = [
     "LeaveOneOut",
     "RigData",
     "RigFit",
+    "combine",
     "corrected_estimates",
     "fit_constants",
     "leave_one_out",
     "loo_calibration",
     "prepare",
+    "prepare_session",
+    "require_trusted",
     "rig_toml",
     "select_constants",
 ]
@@ -71,100 +64,6 @@ _NAMES = [name for group in GROUPS for name in RIG_PARAMETERS[group]]
 _SCALE = np.array([1.0, 1.0, 1.0, 0.5, 0.5, 0.5, 0.02, 5.0, 5.0, 0.01, 0.1])
 _NOMINAL = RigConstants().vector()
 _MIN_SINGULAR = 1e-3  # relative: below it, a direction of the constants is not identifiable
-#: Where a fit may look (beyond: not a laptop on grid paper): lower and upper per scalar.
-_LOWER = np.array([-20.0, -20.0, -20.0, -5.0, -5.0, -5.0, 0.7, -100.0, -100.0, 0.8, -5.0])
-_UPPER = np.array([20.0, 20.0, 20.0, 5.0, 5.0, 5.0, 1.4, 100.0, 100.0, 1.25, 5.0])
-
-
-@dataclass(frozen=True)
-class RigData:
-    """A session's ok trials with ground truth, ready for fitting: their detections
-    combined into one measurement per pose (the constants do not change them), the typed
-    batch, the truth, each trial's whitening (from its propagated covariance) and whether
-    it is trusted (no near-degeneracy warning): only trusted trials inform the constants,
-    since a near-degenerate trial's linearized covariance understates its error and would
-    steer the fit; every trial is corrected."""
-
-    method: str
-    trial_ids: tuple[int, ...]
-    batch: ViewBatch
-    truth: F64  # (T, 2, 3)
-    ground: GroundSpec | None
-    whiten: F64  # (T, 3, 3): residual -> whitened residual (pseudo-inverse square root)
-    cov: F64  # (T, 3, 3): each trial's propagated (random) covariance
-    trusted: NDArray[np.bool_]  # (T,): no near-degeneracy warning
-    options: EstimateSettings = field(default_factory=EstimateOptions)
-
-    def subset(self, rows: Sequence[int]) -> RigData:
-        idx = np.asarray(rows, dtype=int)
-        batch = ViewBatch(self.batch.inputs[idx], self.batch.intrinsics[idx], self.batch.valid[idx])
-        return dataclasses.replace(
-            self,
-            trial_ids=tuple(self.trial_ids[i] for i in idx),
-            batch=batch,
-            truth=self.truth[idx],
-            whiten=self.whiten[idx],
-            cov=self.cov[idx],
-            trusted=self.trusted[idx],
-        )
-
-    def fitting(self) -> RigData:
-        """The trials that inform the constants (the trusted ones)."""
-        return self.subset([int(i) for i in np.flatnonzero(self.trusted)])
-
-
-def prepare(
-    method: str,
-    trial_ids: Sequence[int],
-    views: list[list[PoseView]],
-    truth: F64,
-    ground: GroundSpec | None,
-    options: EstimateSettings | None = None,
-) -> RigData:
-    """The trials that can inform the constants: ok, with ground truth."""
-    options = options or EstimateOptions()
-    measurements, complete, detected = measure(views, options)
-    est = estimate_trials(method, views, measurements, complete, detected, truth, ground, options)
-    known = [bool(np.isfinite(truth[i]).all()) for i in range(len(views))]
-    keep = [i for i in range(len(views)) if est.status[i] == "ok" and known[i]]
-    warnings = margin_warnings(est.status, est.margins, options)
-    trusted = np.array([warnings[i] == "" for i in keep], dtype=bool)
-    if trusted.sum() < 2:
-        raise InputValueError(
-            "the rig needs at least 2 ok trials with ground truth and without a "
-            f"near-degeneracy warning, this session has {int(trusted.sum())}"
-        )
-    batch = ViewBatch.of([measurements[i] for i in keep], [views[i] for i in keep])
-    whiten = np.stack([_whitening(est.cov[i]) for i in keep])
-    return RigData(
-        method,
-        tuple(int(trial_ids[i]) for i in keep),
-        batch,
-        truth[keep],
-        ground,
-        whiten,
-        est.cov[keep],
-        trusted,
-        options,
-    )
-
-
-#: The variance a direction without any gets, relative to the largest: a method 2
-#: estimate has none along the ground's normal (it lies on the typed plane), yet its truth
-#: can sit off that plane (a ground height error), and that must count. (10% of the
-#: largest sigma)^2 weighs the normal, without letting the true points' own placing error
-#: there outweigh the plane's. Directions the covariance spans keep their own variance.
-_NULL_VARIANCE = 1e-2
-
-
-def _whitening(cov: F64) -> F64:
-    """``W`` with ``W r`` of unit covariance (null directions: see above)."""
-    if not np.isfinite(cov).all():
-        return np.zeros((3, 3))
-    w, V = np.linalg.eigh(cov)
-    largest = max(float(w.max()), 1e-300)
-    w = np.where(w > 1e-9 * largest, w, _NULL_VARIANCE * largest)
-    return np.asarray((V / np.sqrt(w)).T)
 
 
 def corrected_batch(batch: ViewBatch, rig: RigConstants) -> ViewBatch:
@@ -196,10 +95,18 @@ def corrected_estimates(data: RigData, rig: RigConstants) -> tuple[F64, F64]:
         return np.asarray(solved.point_grid), no_direction
     lines = image_lines(px, th)
     if data.method == "ground":
-        assert data.ground is not None
-        height = rig.true_ground_height(data.ground[1])
-        g = triangulate_ground(lines, P, data.ground[0], height, valid=valid, min_conditioning=mc)
-        return np.asarray(g.point_grid), no_direction
+        point = np.full((len(data.trial_ids), 3), np.nan)
+        for s in np.unique(data.origin):  # each session on its own ground plane
+            rows = data.origin == s
+            ground = data.grounds[int(s)]
+            assert ground is not None
+            normal, typed = ground
+            true = typed - rig.ground_height_error * float(np.linalg.norm(normal))
+            g = triangulate_ground(
+                lines[rows], P[rows], normal, true, valid=valid[rows], min_conditioning=mc
+            )
+            point[rows] = g.point_grid
+        return point, no_direction
     solved_lines = triangulate_lines(lines, P, valid=valid, min_conditioning=mc)
     est = _LineEstimate(solved_lines.point_grid, solved_lines.direction_grid)
     point, _ = reported_point("line", est, data.truth)  # type: ignore[arg-type]
@@ -326,17 +233,15 @@ def fit_constants(data: RigData, groups: Sequence[str] = GROUPS) -> RigFit:
     free, fixed = identifiable(data, wanted)
     x0 = np.zeros(int(free.sum()))
     if free.any():
-        bounds = (
-            (_LOWER - _NOMINAL)[free] / _SCALE[free],
-            (_UPPER - _NOMINAL)[free] / _SCALE[free],
-        )
+        lower, upper = data.bounds()
+        bounds = ((lower - _NOMINAL)[free] / _SCALE[free], (upper - _NOMINAL)[free] / _SCALE[free])
         solution = least_squares(
             lambda x: residuals(data, RigConstants.from_vector(_vector(x, free))), x0, bounds=bounds
         )
         x = solution.x
     else:
         x = x0
-    constants = RigConstants.from_vector(_vector(x, free))
+    constants = RigConstants.from_vector(_vector(x, free), data.units)
     r, J = residuals(data, constants), _whitened(data, _jacobian(data, free, x))
     dof = max(len(r) - int(free.sum()), 1)
     chi2 = float(r @ r)
@@ -414,6 +319,7 @@ def rig_toml(fit: RigFit, sources: Sequence[str]) -> str:
         f"# chi-square {fit.chi2:.1f} on {fit.dof} degrees of freedom; fitted: "
         + (", ".join(fit.free) or "nothing (none supported)"),
         "[rig]",
+        *([f'units = "{c.units}"  # of camera_offset and ground_height_error'] if c.units else []),
         f"mount_rotation_deg = {vec(c.mount_rotation_deg)}",
         f"camera_offset = {vec(c.camera_offset)}",
         f"focal_scale = {c.focal_scale:.6g}",
@@ -506,13 +412,15 @@ def loo_calibration(
     ground: GroundSpec | None,
     options: EstimateSettings,
     rig_truth: RigConstants | None = None,
+    units: str | None = None,
 ) -> tuple[pd.DataFrame, list[dict[str, object]]]:
     """``run --rig-calibration loo`` for one session: its trials' :data:`RIG_COLUMNS`
     (indexed by trial id; trials that could not inform the rig are absent), and the
     session's constants (selected on all its trials) as rig.csv rows. A session that
-    cannot inform the rig gets no columns, and its one row says why."""
+    cannot inform the rig gets no columns, and its one row says why. ``units`` (the
+    session's) scale the plausible lengths the fit may reach (unknown: inches)."""
     try:
-        data = prepare(method, trial_ids, views, truth, ground, options)
+        data = prepare(method, trial_ids, views, truth, ground, options, units)
     except InputValueError as err:
         empty = pd.DataFrame(columns=RIG_COLUMNS, index=pd.Index([], name="trial"))
         return empty, [{"session": session, "constant": "", "why_fixed": str(err)}]

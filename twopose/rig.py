@@ -15,12 +15,20 @@ apply a calibrated rig to its live result. One home for the rule:
 * ``principal_offset_px`` (dx, dy): true principal point = typed + offset;
 * ``tape_scale``: what the tape reads against the true distance (applied as above);
 * ``ground_height_error``: the typed ground height minus the true one.
+
+The lengths (``camera_offset``, ``ground_height_error``) are in the calibration sessions'
+units, which a rig file records (``units``) and ``--rig`` checks against the session's.
+Every rig read from a file is checked for physical plausibility (:func:`check_plausible`,
+the limits in :data:`LIMITS`); where it meets a session, also against that session's
+ground height and image (:func:`check_applicable`). The fit looks only where these
+limits allow (:func:`plausible_bounds`), so it never writes a file that is refused.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass, fields
+from collections.abc import Iterable
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -29,14 +37,20 @@ from numpy.typing import ArrayLike, NDArray
 from twopose.camera import rotation_from_angles_deg
 from twopose.errors import InputValueError
 from twopose.estimate import GroundSpec, PoseView
+from twopose.format.entries import INCHES_PER_UNIT, UNITS
 
 __all__ = [
+    "LIMITS",
     "RIG_PARAMETERS",
     "RigConstants",
     "angles_deg_from_rotation",
+    "check_applicable",
+    "check_plausible",
     "corrected_ground",
     "corrected_view",
+    "ground_height",
     "load_rig",
+    "plausible_bounds",
 ]
 
 F64 = NDArray[np.float64]
@@ -62,6 +76,8 @@ class RigConstants:
     principal_offset_px: tuple[float, float] = (0.0, 0.0)
     tape_scale: float = 1.0
     ground_height_error: float = 0.0
+    #: The lengths' units (a rig file's ``units``); None: not recorded (a file from before).
+    units: str | None = None
 
     def __post_init__(self) -> None:
         values = self.vector()
@@ -72,6 +88,10 @@ class RigConstants:
                 "rig constants: focal_scale and tape_scale must be within (0.5, 2), got "
                 f"{self.focal_scale} and {self.tape_scale}"
             )
+        if self.units is not None and self.units not in UNITS:
+            raise InputValueError(
+                f"rig constants: units must be one of {', '.join(UNITS)}, got {self.units!r}"
+            )
 
     @property
     def is_identity(self) -> bool:
@@ -80,15 +100,15 @@ class RigConstants:
     def vector(self) -> F64:
         """The 11 scalars in :data:`RIG_PARAMETERS` order."""
         parts: list[float] = []
-        for f in fields(self):
-            value = getattr(self, f.name)
+        for name in RIG_PARAMETERS:
+            value = getattr(self, name)
             parts += list(value) if isinstance(value, tuple) else [value]
         return np.array(parts, dtype=np.float64)
 
     @classmethod
-    def from_vector(cls, values: ArrayLike) -> RigConstants:
+    def from_vector(cls, values: ArrayLike, units: str | None = None) -> RigConstants:
         v = [float(x) for x in np.asarray(values, dtype=np.float64)]
-        return cls((v[0], v[1], v[2]), (v[3], v[4], v[5]), v[6], (v[7], v[8]), v[9], v[10])
+        return cls((v[0], v[1], v[2]), (v[3], v[4], v[5]), v[6], (v[7], v[8]), v[9], v[10], units)
 
     def true_poses(self, t_typed: ArrayLike, r_typed_deg: ArrayLike) -> tuple[F64, F64]:
         """Typed camera centres (..., 3) and angles (..., 3, degrees) -> the true centres
@@ -122,7 +142,9 @@ def angles_deg_from_rotation(R: ArrayLike) -> F64:
 
 
 def corrected_view(view: PoseView, rig: RigConstants) -> PoseView:
-    """A pose as the rig really had it: typed centre, angles and intrinsics corrected."""
+    """A pose as the rig really had it: typed centre, angles and intrinsics corrected
+    (refused if the rig's principal offset is beyond a quarter of this view's image)."""
+    check_plausible(rig, image_size=view.width_height, only=["principal_offset_px"])
     t, R = rig.true_poses(view.t_grid, view.r_deg)
     return dataclasses.replace(
         view,
@@ -133,20 +155,186 @@ def corrected_view(view: PoseView, rig: RigConstants) -> PoseView:
 
 
 def corrected_ground(ground: GroundSpec | None, rig: RigConstants) -> GroundSpec | None:
-    """The ground plane at its true height (the typed one minus the rig's error)."""
+    """The ground plane at its true height (the typed one minus the rig's error; refused
+    if the error is beyond half the ground height)."""
     if ground is None:
         return None
+    check_plausible(rig, ground_height=ground_height(ground), only=["ground_height_error"])
     normal, offset = ground
     return normal, offset - rig.ground_height_error * float(np.linalg.norm(normal))
 
 
+def ground_height(ground: GroundSpec | None) -> float | None:
+    """The typed distance from the grid's origin (the camera centre's height) down to the
+    ground plane ``n . p = offset``, in the session's units (None: no ground)."""
+    if ground is None:
+        return None
+    normal, offset = ground
+    return abs(float(offset)) / float(np.linalg.norm(normal))
+
+
+#: What a laptop on grid paper allows (the plausibility of a rig, :func:`check_plausible`):
+#: each mount angle within ±30 deg; each camera offset component within 3 in (converted
+#: to the rig's units); the focal scale within ±20% and the tape scale within ±5% of 1; the
+#: principal offset within a quarter of the image (x: its width, y: its height); the
+#: ground height error within half the ground height. Where the image or the ground height
+#: is not known yet (a rig file read before a session), the largest image a webcam gives
+#: and the highest ground stand in for them.
+LIMITS = {
+    "mount_rotation_deg": 30.0,
+    "camera_offset_in": 3.0,
+    "focal_scale": 0.20,
+    "tape_scale": 0.05,
+    "principal_fraction": 0.25,
+    "ground_fraction": 0.5,
+    "largest_image_px": 4096.0,
+    "highest_ground_in": 48.0,
+}
+
+
+def _limits(
+    units: str | None, height: float | None, image: tuple[int, int] | None
+) -> dict[str, tuple[float | F64, str]]:
+    """Per constant: the largest plausible deviation from nominal (one number, or one per
+    scalar) and the limit in words (NaN-free; ``inf`` where it cannot be judged yet)."""
+    per_inch = 1.0 / INCHES_PER_UNIT[units] if units is not None else np.inf
+    offset = LIMITS["camera_offset_in"] * per_inch
+    largest = LIMITS["largest_image_px"]
+    size = np.array(image if image is not None else (largest, largest), dtype=np.float64)
+    principal = LIMITS["principal_fraction"] * size
+    of_image = "the image" if image is not None else f"a {largest:g} px image, the largest"
+    in_units = f" {units}" if units is not None else ""
+    if height is not None:
+        ground = LIMITS["ground_fraction"] * height
+        ground_text = f"within half the ground height, ±{ground:.4g}{in_units}"
+    else:
+        ground = LIMITS["ground_fraction"] * LIMITS["highest_ground_in"] * per_inch
+        ground_text = (
+            f"within ±{ground:.4g}{in_units}, half of a {LIMITS['highest_ground_in']:g} in "
+            "ground height, the most a laptop on a table has"
+        )
+    return {
+        "mount_rotation_deg": (
+            LIMITS["mount_rotation_deg"],
+            f"each angle within ±{LIMITS['mount_rotation_deg']:g} deg",
+        ),
+        "camera_offset": (
+            offset,
+            f"each component within ±{offset:.4g}{in_units}"
+            + (f" ({LIMITS['camera_offset_in']:g} in)" if units not in (None, "in") else ""),
+        ),
+        "focal_scale": (LIMITS["focal_scale"], f"within 1 ± {LIMITS['focal_scale']:g}"),
+        "principal_offset_px": (
+            principal,
+            f"within a quarter of {of_image}: ±{principal[0]:g} px in x, ±{principal[1]:g} px in y",
+        ),
+        "tape_scale": (LIMITS["tape_scale"], f"within 1 ± {LIMITS['tape_scale']:g}"),
+        "ground_height_error": (ground, ground_text),
+    }
+
+
+def plausible_bounds(
+    units: str | None, ground_height: float | None = None, image: tuple[int, int] | None = None
+) -> tuple[F64, F64]:
+    """The plausible constants' lower and upper bounds (11 each, :data:`RIG_PARAMETERS`
+    order): where a fit may look, so that it never writes a rig that is refused."""
+    nominal = RigConstants().vector()
+    limits = _limits(units, ground_height, image)
+    half = np.concatenate(
+        [np.broadcast_to(limits[g][0], (len(n),)) for g, n in RIG_PARAMETERS.items()]
+    )
+    return nominal - half, nominal + half
+
+
+def check_plausible(
+    rig: RigConstants,
+    *,
+    units: str | None = None,
+    ground_height: float | None = None,
+    image_size: tuple[int, int] | None = None,
+    what: str = "rig",
+    only: Iterable[str] | None = None,
+) -> None:
+    """Refuse a rig a laptop on grid paper cannot have (:data:`LIMITS`), naming each
+    constant beyond its limit and the limit. The lengths are judged in ``rig.units`` (else
+    ``units``; neither: not judged); ``ground_height`` (session units) and ``image_size``
+    (width, height) are the session's, where known; ``only``: these constants alone."""
+    units = rig.units or units
+    limits = _limits(units, ground_height, image_size)
+    values, nominal = rig.vector(), RigConstants().vector()
+    groups = set(RIG_PARAMETERS if only is None else only)
+    problems, k = [], 0
+    for group, names in RIG_PARAMETERS.items():
+        half, text = limits[group]
+        deviation = np.abs(values[k : k + len(names)] - nominal[k : k + len(names)])
+        k += len(names)
+        if group not in groups:
+            continue
+        bound = np.broadcast_to(np.asarray(half, dtype=np.float64), deviation.shape)
+        if (deviation > bound * (1 + 1e-6)).any():  # the file's 6 digits may round up
+            problems.append(f"{group} = {_shown(getattr(rig, group))} ({text})")
+    if problems:
+        raise InputValueError(
+            f"{what}: implausible for a laptop on grid paper: " + "; ".join(problems)
+        )
+
+
+def _shown(value: float | tuple[float, ...]) -> str:
+    if isinstance(value, tuple):
+        return "[" + ", ".join(f"{v:g}" for v in value) + "]"
+    return f"{value:g}"
+
+
+def check_applicable(
+    rig: RigConstants,
+    units: str,
+    ground: GroundSpec | None = None,
+    image_sizes: Iterable[tuple[int, int]] = (),
+    what: str = "rig",
+) -> list[str]:
+    """Refuse a rig for a session in other units than the rig's, or implausible for its
+    ground height and images (each camera's ``(width, height)``); returns the notes to
+    show (a rig without units, from before they were recorded, is taken in the
+    session's)."""
+    notes = []
+    if rig.units is None:
+        notes.append(
+            f"{what} records no units (written before rig files did): its lengths are taken "
+            f"in the session's units ({units}); write it again with `twopose-analyze rig` "
+            "to have them checked"
+        )
+    elif rig.units != units:
+        raise InputValueError(
+            f"{what} is in {rig.units}, the session in {units}: its camera offset and ground "
+            f"height error are lengths; calibrate a rig from sessions in {_NAMES[units]}"
+        )
+    sizes = list(image_sizes)
+    smallest = (min(w for w, _ in sizes), min(h for _, h in sizes)) if sizes else None
+    check_plausible(
+        rig, units=units, ground_height=ground_height(ground), image_size=smallest, what=what
+    )
+    return notes
+
+
+_NAMES = {"in": "inches", "mm": "millimetres", "cm": "centimetres", "m": "metres"}
+
+
 def load_rig(path: str | Path) -> RigConstants:
-    """A rig file written by ``twopose-analyze rig`` (its ``[rig]`` table)."""
+    """A rig file written by ``twopose-analyze rig`` (its ``[rig]`` table), checked for
+    plausibility (:func:`check_plausible`; the session's ground height and image are
+    judged when it is applied, :func:`check_applicable`)."""
     from twopose.config import build_dataclass, read_toml
 
+    what = f"rig file {path}"
     data = read_toml(path, "rig file", InputValueError)
-    if not isinstance(data.get("rig"), dict):
-        raise InputValueError(
-            f"rig file {path}: no [rig] table; write one with twopose-analyze rig"
-        )
-    return build_dataclass(RigConstants, data["rig"], f"rig file {path}", InputValueError)
+    table = data.get("rig")
+    if not isinstance(table, dict):
+        raise InputValueError(f"{what}: no [rig] table; write one with twopose-analyze rig")
+    units = table.get("units")
+    if units is not None and units not in UNITS:
+        raise InputValueError(f"{what}: units must be one of {', '.join(UNITS)}, got {units!r}")
+    numbers = {k: v for k, v in table.items() if k != "units"}
+    rig = build_dataclass(RigConstants, numbers, what, InputValueError)
+    rig = dataclasses.replace(rig, units=units)
+    check_plausible(rig, what=what)
+    return rig
