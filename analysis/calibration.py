@@ -164,7 +164,7 @@ def check_rig_for_sessions(rig: RigConstants, paths: Sequence[str], what: str) -
     units than the rig's, or implausible for the session's ground height or images
     (:func:`twopose.rig.check_applicable`); returns the notes to show, once each. A file
     that is not a readable session is left for the analysis to report."""
-    from twopose.errors import SessionFormatError
+    from twopose.errors import TwoposeError
     from twopose.format.reader import SessionReader
 
     notes: list[str] = []
@@ -174,7 +174,7 @@ def check_rig_for_sessions(rig: RigConstants, paths: Sequence[str], what: str) -
                 units = reader.info.units
                 ground = reader.ground
                 sizes = [(c.intrinsics.width, c.intrinsics.height) for c in reader.cameras.values()]
-        except (SessionFormatError, OSError):
+        except (TwoposeError, OSError):  # not a readable session: the analysis says why
             continue
         spec = (np.array(ground.normal_grid), ground.offset) if ground is not None else None
         try:
