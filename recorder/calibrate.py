@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from recorder.sources import FrameSource
-from twopose.camera import Intrinsics
+from twopose.camera import SIGMA_KEYS, Intrinsics, intrinsics_sigma
 from twopose.config import read_toml
 from twopose.errors import InputValueError, SessionExistsError, SourceError
 
@@ -37,9 +37,6 @@ __all__ = [
     "save_calibration",
 ]
 
-#: The intrinsics whose standard deviations the file keeps, in calibrateCameraExtended's
-#: order (fx, fy, cx, cy, k1, k2, p1, p2, k3).
-SIGMA_KEYS = ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3")
 #: A view is an outlier when its RMS exceeds both this many times the median view's and
 #: :data:`OUTLIER_FLOOR_PX`: a gross failure (a misdetected or misordered corner grid, a
 #: blurred frame: several px), not a view the lens model fits less well at the image's
@@ -307,13 +304,7 @@ def load_calibration_sigma(path: str | Path) -> dict[str, float]:
     sigma = data.get("sigma", {})
     if not isinstance(sigma, dict):
         raise InputValueError(f"calibration {path}: [sigma] must be a table")
-    out: dict[str, float] = {}
-    for key, value in sigma.items():
-        if key not in SIGMA_KEYS:
-            raise InputValueError(
-                f"calibration {path}: unknown sigma {key!r}; known: {', '.join(SIGMA_KEYS)}"
-            )
-        if not isinstance(value, int | float) or not np.isfinite(value) or value < 0:
-            raise InputValueError(f"calibration {path}: sigma {key} must be a number >= 0")
-        out[key] = float(value)
-    return out
+    try:
+        return intrinsics_sigma(sigma)
+    except InputValueError as err:
+        raise InputValueError(f"calibration {path}: [sigma]: {err}") from err

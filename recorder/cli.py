@@ -257,7 +257,7 @@ def _interactive(
     op = Operator(_prompt, typer.echo)
     setup = ask_setup(op, size=(width, height), **given)
     src = open_source(source, method=setup.method, width=width, height=height, fps=fps)
-    camera = Camera("cam0", setup.intrinsics)
+    camera = Camera("cam0", setup.intrinsics, setup.intrinsics_sigma)
     info = SessionInfo(
         method=setup.method,
         units=setup.units,
@@ -327,6 +327,7 @@ def _console_given(
         "method": method.value if method else None,
         "units": units,
         "intrinsics": _calibration(calibration),
+        "intrinsics_sigma": _calibration_sigma(calibration),
         "focal": focal,
         "principal": _principal(principal),
         "ground_height": ground_height,
@@ -365,6 +366,12 @@ def _prompt(question: str, default: str) -> str:
         return str(typer.prompt(question, default=default or None, show_default=bool(default)))
     except typer.Abort:
         raise KeyboardInterrupt from None
+
+
+def _calibration_sigma(path: Path | None) -> dict[str, float]:
+    from recorder.calibrate import load_calibration_sigma
+
+    return load_calibration_sigma(path) if path is not None else {}
 
 
 def _calibration(path: Path | None) -> Intrinsics | None:

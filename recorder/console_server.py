@@ -135,7 +135,7 @@ def _recording(session: ConsoleSession, setup: Setup, options: ConsoleOptions) -
         src = open_source(
             options.source, method=setup.method, width=width, height=height, fps=options.fps
         )
-        camera = Camera("cam0", setup.intrinsics)
+        camera = Camera("cam0", setup.intrinsics, setup.intrinsics_sigma)
         info = SessionInfo(
             method=setup.method,
             units=setup.units,

@@ -90,8 +90,10 @@ def ask_setup(
     ground_height: float | None,
     ground_truth: Sequence[Vec3],
     operator: str | None,
+    intrinsics_sigma: dict[str, float] | None = None,
 ) -> Setup:
-    """Ask for whatever is None (or missing) above; answers are checked as they are typed."""
+    """Ask for whatever is None (or missing) above; answers are checked as they are typed.
+    ``intrinsics_sigma`` (a calibration file's) travels with the intrinsics."""
     m = method or op.ask("method (point, line, ground)", one_of(METHODS))
     u = units if units in UNITS else op.ask("units (in, mm, cm, m)", one_of(UNITS), "in")
     if intrinsics is None:
@@ -109,7 +111,7 @@ def ask_setup(
     truth = _ask_truth(op, m, u, h, list(ground_truth))
     who = operator if operator is not None else op.ask("operator", str, "")
     method_ = cast("Method", m)  # one of METHODS: checked when it was read
-    return Setup(method_, u, intrinsics, h, truth, who)
+    return Setup(method_, u, intrinsics, h, truth, who, dict(intrinsics_sigma or {}))
 
 
 def _ask_truth(

@@ -135,9 +135,10 @@ def _camera(table: Any) -> Camera:
     table = _known_keys(table, "camera", "camera")
     camera_id = str(table.get("id", "cam0"))
     if "calibration" in table:  # a file from `twopose-record calibrate`
-        from recorder.calibrate import load_calibration
+        from recorder.calibrate import load_calibration, load_calibration_sigma
 
-        return Camera(camera_id, load_calibration(str(table["calibration"])))
+        path = str(table["calibration"])
+        return Camera(camera_id, load_calibration(path), load_calibration_sigma(path))
     focal = finite(table.get("focal", 525.0), "plan: camera.focal", positive=True)
     cx, cy = numbers(table.get("principal", [320.0, 240.0]), 2, "plan: camera.principal")
     values = {"width": 640, "height": 480, "fx": focal, "cx": cx, "cy": cy} | table

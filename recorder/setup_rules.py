@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, cast
 
 from recorder.plan import MAX_TRANSLATION, off_ground
@@ -53,6 +53,7 @@ class Setup:
     ground_height: float | None
     ground_truth: tuple[Vec3, ...]
     operator: str
+    intrinsics_sigma: dict[str, float] = field(default_factory=dict, compare=False)
 
 
 class FormRefusedError(InputValueError):
@@ -288,7 +289,8 @@ def setup_from_answers(form: Mapping[str, str], given: Mapping[str, Any]) -> Set
     operator = a.text("operator")
     if a.errors:
         raise FormRefusedError(a.errors)
-    return Setup(cast("Method", method), units, intrinsics, height, truth, operator)
+    sigma = dict(given.get("intrinsics_sigma") or {})
+    return Setup(cast("Method", method), units, intrinsics, height, truth, operator, sigma)
 
 
 def _method(text: str) -> str:

@@ -9,7 +9,7 @@ centre ``t_grid`` in G and ``R_cam_to_grid`` built from typed angles as
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -19,9 +19,11 @@ from twopose.errors import InputValueError
 from twopose.values import camera_id, finite, numbers
 
 __all__ = [
+    "SIGMA_KEYS",
     "Camera",
     "Intrinsics",
     "camera_centres",
+    "intrinsics_sigma",
     "project_points",
     "quaternion_xyzw_from_matrix",
     "rotation_from_angles_deg",
@@ -99,15 +101,35 @@ class Intrinsics:
         return any(k != 0.0 for k in self.distortion)
 
 
+#: The intrinsics a calibration's 1-sigma may be given for (OpenCV's order).
+SIGMA_KEYS = ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3")
+
+
 @dataclass(frozen=True)
 class Camera:
-    """A camera of a session: its id and its calibration."""
+    """A camera of a session: its id, its calibration and (format 1.2) the calibration's
+    1-sigma per intrinsic (:data:`SIGMA_KEYS`; empty when unknown, e.g. typed by hand)."""
 
     camera_id: str
     intrinsics: Intrinsics
+    intrinsics_sigma: Mapping[str, float] = field(default_factory=dict, compare=False)
 
     def __post_init__(self) -> None:
         camera_id(self.camera_id)
+        object.__setattr__(self, "intrinsics_sigma", intrinsics_sigma(self.intrinsics_sigma))
+
+
+def intrinsics_sigma(values: Mapping[str, Any]) -> dict[str, float]:
+    """A calibration's 1-sigma per intrinsic, checked: known keys, finite numbers >= 0."""
+    out: dict[str, float] = {}
+    for key, value in values.items():
+        if key not in SIGMA_KEYS:
+            raise InputValueError(f"unknown intrinsic {key!r}; known: {', '.join(SIGMA_KEYS)}")
+        v = finite(value, f"the sigma of {key}")
+        if v < 0:
+            raise InputValueError(f"the sigma of {key} must be >= 0, got {v}")
+        out[key] = v
+    return out
 
 
 def rotation_from_angles_deg(angles_deg: ArrayLike) -> FloatArray:

@@ -197,3 +197,24 @@ def test_ctrl_c_during_new_closes_the_session(tmp_path: Path) -> None:
     assert windows[0].status == "complete"
     assert len(windows) <= 2
     assert all(w.status == "incomplete" and "KeyboardInterrupt" in w.reason for w in windows[1:])
+
+
+def test_a_calibration_s_sigma_is_recorded_with_its_camera(tmp_path: Path) -> None:
+    """Format 1.2: a plan's calibration file carries its sigma into the session, where
+    the reader attaches it to the camera (so the analysis can propagate it)."""
+    cal = tmp_path / "cal.toml"
+    cal.write_text(
+        "width = 640\nheight = 480\nfx = 525.0\nfy = 525.0\ncx = 320.0\ncy = 240.0\n"
+        "distortion = [0.0, 0.0, 0.0, 0.0, 0.0]\n[sigma]\nfx = 0.93\ncx = 1.07\n"
+    )
+    plan = tmp_path / "plan.toml"
+    plan.write_text(
+        PLAN.replace("focal = 525.0\nprincipal = [320.0, 240.0]", f'calibration = "{cal}"')
+    )
+    out = tmp_path / "s.mcap"
+    result = runner.invoke(app, ["new", str(out), "--plan", str(plan), "--source", "synthetic"])
+    assert result.exit_code == 0, result.output
+    with SessionReader(out) as reader:
+        assert reader.info.format_version == "1.2"
+        assert reader.info.intrinsics_sigma == {"cam0": {"fx": 0.93, "cx": 1.07}}
+        assert reader.cameras["cam0"].intrinsics_sigma == {"fx": 0.93, "cx": 1.07}

@@ -18,7 +18,7 @@ from typing import Any, ClassVar, Literal, Self, TypeVar
 import numpy as np
 from numpy.typing import NDArray
 
-from twopose.camera import rotation_from_angles_deg
+from twopose.camera import SIGMA_KEYS, intrinsics_sigma, rotation_from_angles_deg
 from twopose.errors import InputValueError, SessionFormatError
 from twopose.values import CAMERA_ID_PATTERN, Vec3, camera_id, finite, index, numbers, vec3
 
@@ -47,7 +47,7 @@ __all__ = [
     "json_field",
 ]
 
-FORMAT_VERSION = "1.1"
+FORMAT_VERSION = "1.2"
 FORMAT_MAJOR = 1
 
 Method = Literal["point", "line", "ground"]
@@ -69,11 +69,13 @@ def json_field(
     required: bool = True,
     default: Any = MISSING,
     decode: Callable[[Any], Any] | None = None,
+    compare: bool = True,
 ) -> Any:
     """A dataclass field with its JSON name (dots nest), its JSON Schema, whether the
-    schema requires it, and how a JSON value becomes the attribute (``decode``)."""
+    schema requires it, and how a JSON value becomes the attribute (``decode``);
+    ``compare=False`` for a mutable value (kept out of equality and the hash)."""
     meta = {"json": key, "schema": schema, "required": required, "decode": decode}
-    return dataclasses.field(default=default, metadata=meta)
+    return dataclasses.field(default=default, metadata=meta, compare=compare)
 
 
 def _json_fields(cls: type[Any]) -> list[dataclasses.Field[Any]]:
@@ -239,6 +241,21 @@ class SessionInfo(TypedEntry):
         default="",
     )
     simulated: bool = json_field("simulated", {"type": "boolean"}, required=False, default=False)
+    intrinsics_sigma: dict[str, dict[str, float]] | None = json_field(
+        "intrinsics_sigma",
+        {
+            "type": "object",
+            "description": "format 1.2: per camera id, the calibration's 1-sigma per intrinsic",
+            "additionalProperties": {
+                "type": "object",
+                "propertyNames": {"enum": list(SIGMA_KEYS)},
+                "additionalProperties": {"type": "number", "minimum": 0},
+            },
+        },
+        required=False,
+        default=None,
+        compare=False,
+    )
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -253,6 +270,12 @@ class SessionInfo(TypedEntry):
             camera_id(cid)
         if len(set(self.camera_ids)) != len(self.camera_ids):
             raise InputValueError(f"camera ids must be unique, got {self.camera_ids}")
+        if self.intrinsics_sigma is not None:
+            unknown = sorted(set(self.intrinsics_sigma) - set(self.camera_ids))
+            if unknown:
+                raise InputValueError(f"intrinsics_sigma names unknown camera(s) {unknown}")
+            sigma = {c: intrinsics_sigma(s) for c, s in self.intrinsics_sigma.items()}
+            object.__setattr__(self, "intrinsics_sigma", sigma)
 
 
 @entry(

@@ -188,6 +188,10 @@ class SessionReader:
                 f"the twopose metadata says {self.format_version}; the file was not written "
                 "consistently (was it edited?)"
             )
+        for cid, sigma in (self._info.intrinsics_sigma or {}).items():
+            if cid in self._cameras:  # format 1.2: the calibration's sigma with its camera
+                camera = self._cameras[cid]
+                self._cameras[cid] = Camera(cid, camera.intrinsics, sigma)
         missing = [c for c in self._info.camera_ids if c not in self._cameras]
         if missing:
             raise SessionFormatError(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import time
@@ -85,6 +86,15 @@ def cameras_from_metadata(text: str) -> list[Camera]:
         raise SessionFormatError(f"the metadata's camera copy is unreadable: {err}") from err
 
 
+def _with_sigma(info: SessionInfo, cameras: Sequence[Camera]) -> SessionInfo:
+    """The session entry carrying the cameras' calibration sigmas (format 1.2), where the
+    cameras know them and the entry does not say otherwise."""
+    known = {c.camera_id: dict(c.intrinsics_sigma) for c in cameras if c.intrinsics_sigma}
+    if not known or info.intrinsics_sigma is not None:
+        return info
+    return dataclasses.replace(info, intrinsics_sigma=known)
+
+
 class SessionWriter:
     """Write one session file; a context manager that refuses to overwrite.
 
@@ -130,7 +140,7 @@ class SessionWriter:
         if not 1 <= jpeg_quality <= 100:
             raise InputValueError(f"JPEG quality must be 1-100, got {jpeg_quality}")
         self.path = Path(path)
-        self.info = info
+        self.info = _with_sigma(info, cameras)
         self.cameras = {c.camera_id: c for c in cameras}
         self.ground = ground
         self.image_format = image_format

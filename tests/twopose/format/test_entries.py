@@ -28,7 +28,13 @@ from twopose.format.entries import (
 )
 
 EXAMPLES = [
-    SessionInfo(method="ground", units="mm", operator="Ada", simulated=True),
+    SessionInfo(
+        method="ground",
+        units="mm",
+        operator="Ada",
+        simulated=True,
+        intrinsics_sigma={"cam0": {"fx": 0.93, "cy": 1.07}},
+    ),
     PoseEntry(2, 1, "cam0", (1.5, 0.0, -2.0), (0.0, 5.0, 0.0), 0.1, 0.25, capture=4),
     CaptureWindow(2, 1, "cam0", 10, 20, 5, "incomplete", "camera stopped", 3, capture=4),
     CaptureDecision(4, 2, 1, "cam0", "discard", "redo"),
@@ -59,6 +65,22 @@ def test_schema_properties_are_the_declared_fields_in_order(cls: type) -> None:
     assert set(cls.JSON_SCHEMA["required"]) <= set(cls.JSON_SCHEMA["properties"])
     example = next(e for e in EXAMPLES if type(e) is cls)
     assert list(example.to_json()) == list(cls.JSON_SCHEMA["properties"])
+
+
+@pytest.mark.parametrize(
+    ("sigma", "message"),
+    [
+        ({"cam9": {"fx": 1.0}}, "unknown camera"),
+        ({"cam0": {"focal": 1.0}}, "focal"),
+        ({"cam0": {"fx": -1.0}}, "fx"),
+        ({"cam0": {"fx": float("nan")}}, "fx"),
+    ],
+)
+def test_a_session_refuses_a_malformed_intrinsics_sigma(sigma: object, message: str) -> None:
+    from twopose.errors import InputValueError
+
+    with pytest.raises(InputValueError, match=message):
+        SessionInfo(method="point", units="in", intrinsics_sigma=sigma)  # type: ignore[arg-type]
 
 
 def test_a_1_0_entry_leaves_the_capture_number_out() -> None:

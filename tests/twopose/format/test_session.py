@@ -111,7 +111,7 @@ def test_every_entry_round_trips(tmp_path: Path, image_format: str) -> None:
         assert r.info == sent["info"]
         assert r.ground == sent["ground"]
         assert r.cameras == {"cam0": CAM0, "right": CAM1}
-        assert r.format_version == "1.1"
+        assert r.format_version == "1.2"
         items = list(r.iter_entries())
         typed = [i for i in items if not isinstance(i, Frame | FrameTransform | Camera)]
         assert [p for p in typed if isinstance(p, PoseEntry)] == sent["poses"]
@@ -157,7 +157,7 @@ def test_file_passes_mcap_crc_validation_and_foxglove_decoding(tmp_path: Path) -
         for _, channel, message in reader.iter_messages():
             by_topic.setdefault(channel.topic, []).append(message.data)
         metadata = {m.name: m.metadata for m in reader.iter_metadata()}
-    assert metadata["twopose"]["format_version"] == "1.1"
+    assert metadata["twopose"]["format_version"] == "1.2"
     # Foxglove's own protobuf classes parse what we wrote.
     cal = CameraCalibration.FromString(by_topic["/twopose/camera/right/calibration"][0])
     assert (cal.width, cal.height, cal.distortion_model) == (320, 240, "plumb_bob")
@@ -277,6 +277,36 @@ def test_newer_minor_version_is_read_and_unknown_channels_skipped(tmp_path: Path
         assert r.format_version == "1.7"
         entries = list(r.iter_entries())
     assert [type(e).__name__ for e in entries] == ["SessionInfo", "Camera"]
+
+
+@pytest.mark.parametrize("version", ["1.0", "1.1"])
+def test_older_minor_versions_read_as_before_without_sigma(tmp_path: Path, version: str) -> None:
+    path = tmp_path / "older.mcap"
+    _raw_session(path, version)
+    with SessionReader(path) as r:
+        assert r.format_version == version
+        assert r.info.intrinsics_sigma is None
+        assert r.cameras["cam0"].intrinsics_sigma == {}
+
+
+def test_the_calibrations_sigma_travels_with_its_camera(tmp_path: Path) -> None:
+    """Format 1.2: a camera's calibration sigma is written into the session entry and
+    read back with the camera; a camera without one has none."""
+    sigma = {"fx": 0.93, "fy": 0.97, "cx": 0.97, "cy": 1.07, "k1": 0.012}
+    cams = [Camera("cam0", CAM0.intrinsics, sigma), Camera("right", CAM1.intrinsics)]
+    info = SessionInfo(method="point", units="in", camera_ids=("cam0", "right"))
+    path = tmp_path / "s.mcap"
+    with SessionWriter(path, info, cams):
+        pass
+    with SessionReader(path) as r:
+        assert r.format_version == "1.2"
+        assert r.info.intrinsics_sigma == {"cam0": sigma}
+        assert r.cameras["cam0"].intrinsics_sigma == sigma
+        assert r.cameras["right"].intrinsics_sigma == {}
+    with pytest.raises(InputValueError, match="unknown intrinsic 'f'"):
+        Camera("cam0", CAM0.intrinsics, {"f": 1.0})
+    with pytest.raises(InputValueError, match="must be >= 0"):
+        Camera("cam0", CAM0.intrinsics, {"fx": -1.0})
 
 
 def test_newer_major_version_is_refused_clearly(tmp_path: Path) -> None:
