@@ -19,7 +19,7 @@ from recorder.capture import CaptureResult
 from twopose.camera import Camera
 from twopose.estimate import EstimateOptions, GroundSpec, PoseView, measure, pose_view
 from twopose.format.entries import GroundPlane, GroundTruth, PoseEntry, TypedEntry
-from twopose.rig import RigConstants, corrected_ground, corrected_view
+from twopose.rig import RigConstants, check_applicable, corrected_ground, corrected_view
 from twopose.scene3d import TrialScene, scene_of_views
 from twopose.trial_result import TrialResult, trial_results
 
@@ -45,7 +45,11 @@ class LiveResults:
         self._ground: GroundSpec | None = (
             (np.array(ground.normal_grid, dtype=np.float64), ground.offset) if ground else None
         )
-        if rig is not None:
+        #: what the operator should know about the rig (e.g. a file without units)
+        self.notes: list[str] = []
+        if rig is not None:  # the analysis' own check (`run --rig`): units and plausibility
+            sizes = [(c.intrinsics.width, c.intrinsics.height) for c in cameras]
+            self.notes = check_applicable(rig, units, self._ground, sizes, "the rig file")
             self._ground = corrected_ground(self._ground, rig)
         self._captures: dict[int, PoseView] = {}  # capture number -> its detections
         self._truth: dict[int, np.ndarray] = {}  # trial -> (2, 3)

@@ -385,8 +385,8 @@ class Driver:
         accepted (from the trial's second pose on), shown before the decision."""
 
     def live_failed(self, message: str) -> None:
-        """The live result or the overlay failed; the recording goes on (the analysis
-        solves the file). Shown to the operator."""
+        """The live result or the overlay failed, or its rig file needs a word; the
+        recording goes on (the analysis solves the file). Shown to the operator."""
 
     def finish(self, summary: RecordingSummary) -> None:
         """The session is closed."""
@@ -456,6 +456,8 @@ def record(
             )
             proc = Procedure(w)
             driver.start(source.info, out)
+            for note in getattr(results, "notes", ()):
+                driver.live_failed(note)
             try:
                 _run(proc, source, driver, tally, options)
                 proc.close("quit")

@@ -114,13 +114,17 @@ def test_a_calibrated_rig_corrects_the_live_result_as_run_rig_does(tmp_path: Pat
 
 
 def test_a_live_result_that_fails_is_said_and_the_recording_goes_on(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """A rig whose principal offset makes every live solve fail (the rig file's checks
-    are the analysis' business; here it reaches the recorder all the same): each trial is
-    still recorded whole, and the operator is told why no result is shown."""
-    from twopose.rig import RigConstants
+    """A live solve that raises (a fault injected into the estimation, since every input
+    that could make it fail is now refused up front): each trial is still recorded whole,
+    and the operator is told why no result is shown."""
+    import recorder.live_result
 
+    def broken(*args: object, **kwargs: object) -> object:
+        raise np.linalg.LinAlgError("injected")
+
+    monkeypatch.setattr(recorder.live_result, "trial_results", broken)
     plan_file = tmp_path / "plan.toml"
     plan_file.write_text(PLAN.format(method="point", truth=TRUTH["point"]))
     out = tmp_path / "s.mcap"
@@ -130,11 +134,40 @@ def test_a_live_result_that_fails_is_said_and_the_recording_goes_on(
         out,
         SyntheticSource(None, "point", realtime=False),
         on_result=shown.append,
-        rig=RigConstants(principal_offset_px=(1e300, 0.0)),
     )
     assert (summary.n_trials, summary.n_complete_trials, summary.n_accepted) == (2, 2, 5)
     warnings = [x for x in capsys.readouterr().err.splitlines() if "live result failed" in x]
     assert warnings  # said, not silently dropped
-    assert all(not np.isfinite(r.point).all() or r.status != "ok" for r in shown)
+    assert shown == []
     trials = analyse_session(out).trials
     assert list(trials["status"]) == ["ok", "ok"]  # the file holds both trials, whole
+
+
+@pytest.mark.parametrize(
+    ("rig_text", "message"),
+    [
+        ('[rig]\nunits = "in"\nprincipal_offset_px = [1e300, 0.0]\n', "principal_offset_px"),
+        ('[rig]\nunits = "mm"\ncamera_offset = [1.0, 0.0, 0.0]\n', "in mm"),
+    ],
+)
+def test_a_rig_that_does_not_apply_is_refused_before_the_file_exists(
+    tmp_path: Path, rig_text: str, message: str
+) -> None:
+    """`new --plan --rig` checks the rig as `run --rig` does (units, plausibility) before
+    recording: exit 3 naming the key, and no session file."""
+    from typer.testing import CliRunner
+
+    from recorder.cli import app
+    from twopose.errors import EXIT_ERROR
+
+    rig = tmp_path / "rig.toml"
+    rig.write_text(rig_text)
+    plan_file = tmp_path / "plan.toml"
+    plan_file.write_text(PLAN.format(method="point", truth=TRUTH["point"]))
+    out = tmp_path / "s.mcap"
+    args = ["new", str(out), "--plan", str(plan_file), "--source", "synthetic", "--rig", str(rig)]
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == EXIT_ERROR, result.output
+    assert message in result.output
+    assert "Traceback" not in result.output
+    assert not out.exists()
