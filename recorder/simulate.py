@@ -351,23 +351,27 @@ def simulate_session(
         created_utc=datetime.fromtimestamp(SIMULATION_EPOCH_NS / 1e9, UTC).isoformat(),
         simulated=True,
     )
-    summary = record(
-        out,
-        info,
-        [Camera(c.id, c.intrinsics) for c in scene.cameras],
-        camera,
-        _SimulatedOperator(scene, method, trials, rng, clock, camera),
-        # The operator types the ground height off by the rig's error (the true one renders).
-        ground=GroundPlane(offset=scene.ground_height + scene.systematic.ground_height_error),
-        frames=frames,
-        on_progress=on_progress,
-        writer_options={
-            "image_format": scene.sensor.image_format,
-            "jpeg_quality": scene.sensor.jpeg_quality,
-            "start_ns": SIMULATION_EPOCH_NS,
-            "clock": clock,
-        },
-    )
+    try:
+        summary = record(
+            out,
+            info,
+            [Camera(c.id, c.intrinsics) for c in scene.cameras],
+            camera,
+            _SimulatedOperator(scene, method, trials, rng, clock, camera),
+            # The operator types the ground height off by the rig's error (the true one renders).
+            ground=GroundPlane(offset=scene.ground_height + scene.systematic.ground_height_error),
+            frames=frames,
+            on_progress=on_progress,
+            writer_options={
+                "image_format": scene.sensor.image_format,
+                "jpeg_quality": scene.sensor.jpeg_quality,
+                "start_ns": SIMULATION_EPOCH_NS,
+                "clock": clock,
+            },
+        )
+    except SceneError:  # a scene that cannot be placed
+        _remove_if_empty(Path(out))
+        raise
     return SimulationSummary(
         path=summary.path,
         method=method,
@@ -376,3 +380,16 @@ def simulate_session(
         n_frames=summary.n_frames,
         size_bytes=summary.path.stat().st_size,
     )
+
+
+def _remove_if_empty(path: Path) -> None:
+    """A simulation that stopped before its first pose leaves no file (``record`` made
+    it new); one that stopped later keeps the trials it simulated."""
+    from twopose.format.reader import SessionReader
+
+    if not path.exists():
+        return
+    with SessionReader(path) as reader:
+        poses = reader.message_counts().get(PoseEntry.TOPIC, 0)
+    if poses == 0:
+        path.unlink()
