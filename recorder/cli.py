@@ -347,7 +347,9 @@ def _console(
     address: tuple[str, int],
     rig: RigConstants | None = None,
 ) -> None:
-    """The web console until Ctrl-C; then the summary (the file is closed either way)."""
+    """The web console until Ctrl-C or SIGTERM. The recording thread prints the summary,
+    once, when the session ends; an interrupted session exits 130 (KeyboardInterrupt, as
+    the terminal's), a failed one 3."""
     from recorder.console_server import ConsoleOptions, serve_console
 
     frames, poses, width, height, fps = capture
@@ -355,9 +357,7 @@ def _console(
         source, given, frames=frames, poses=poses, size=(width, height), fps=fps, notes=notes,
         rig=rig,
     )  # fmt: skip
-    session = serve_console(out, options, host=address[0], port=address[1])
-    if session.summary:
-        typer.echo(session.summary)
+    serve_console(out, options, host=address[0], port=address[1])
 
 
 def _prompt(question: str, default: str) -> str:

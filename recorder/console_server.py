@@ -7,26 +7,37 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import ipaddress
 import math
+import signal
 import threading
 import time
 from collections.abc import AsyncIterator
 from importlib import resources
 from pathlib import Path
+from types import FrameType
 from typing import TYPE_CHECKING, Any
 
 import cv2
 import numpy as np
+import uvicorn
 from starlette.applications import Starlette
+from starlette.middleware import Middleware
 from starlette.requests import Request
-from starlette.responses import HTMLResponse, JSONResponse, Response, StreamingResponse
+from starlette.responses import HTMLResponse, Response, StreamingResponse
 from starlette.routing import Route
 
 from recorder.console import DECISIONS, ConsoleSession, WebDriver
+from recorder.console_guard import ConsoleGuard, ConsoleJSONResponse, text_refusal
 from recorder.procedure import Shortfall
-from recorder.setup_rules import FormRefusedError, Setup, parse_pose_form, setup_from_answers
-from twopose.errors import InputValueError, TwoposeError
+from recorder.setup_rules import (
+    SETUP_FIELDS,
+    FormRefusedError,
+    Setup,
+    parse_pose_form,
+    setup_from_answers,
+)
+from twopose.errors import InputValueError, SourceError, TwoposeError
+from twopose.loopback import is_loopback_host
 
 if TYPE_CHECKING:
     from recorder.sources import FrameSource
@@ -36,6 +47,10 @@ if TYPE_CHECKING:
 __all__ = ["ConsoleOptions", "console_app", "draw_detection", "serve_console"]
 
 _BOUNDARY = "twoposeframe"
+MAX_NOTE_CHARS = 500  # a note about a trial
+MAX_OPERATOR_CHARS = 80  # who records
+_SETUP_LIMITS = {f.name: 200 for f in SETUP_FIELDS} | {"operator": MAX_OPERATOR_CHARS}
+_POSE_LIMITS = {"x": 50, "y": 50, "z": 50, "rotation": 100}
 _PREVIEW_INTERVAL_S = 0.1
 
 
@@ -123,8 +138,11 @@ def preview(source: FrameSource, session: ConsoleSession) -> None:
         session.frame("", encoded.tobytes(), "jpeg", time.time_ns(), detection, "")
 
 
-def _recording(session: ConsoleSession, setup: Setup, options: ConsoleOptions) -> None:
-    """The recording thread: the procedure with the page as its driver."""
+def _recording(
+    session: ConsoleSession, setup: Setup, options: ConsoleOptions, stopping: threading.Event
+) -> None:
+    """The recording thread: the procedure with the page as its driver. It prints the
+    summary, once, when the procedure ends (the page's quit, or the server stopping)."""
     from recorder.procedure import record
     from recorder.sources import open_source
     from twopose.camera import Camera
@@ -152,7 +170,8 @@ def _recording(session: ConsoleSession, setup: Setup, options: ConsoleOptions) -
             session.out, info, [camera], src, driver, ground=ground, frames=options.frames,
             target=target, live=session, rig=options.rig,
         )  # fmt: skip
-        print(f"{summary.line()}\n(the console shows it; Ctrl-C stops the console)", flush=True)
+        hint = "" if stopping.is_set() else "\n(the console shows it; Ctrl-C stops the console)"
+        print(summary.line() + hint, flush=True)
     except TwoposeError as err:
         session.update(phase="failed", waiting="", message=str(err))
     except Exception as err:  # the page must say it, not a thread's traceback
@@ -165,11 +184,14 @@ class _Console:
     def __init__(self, session: ConsoleSession, options: ConsoleOptions) -> None:
         self.session, self.options = session, options
         self.threads: list[threading.Thread] = []
+        self.stopping = threading.Event()  # the server is stopping (Ctrl-C, SIGTERM)
 
     def start(self, setup: Setup) -> None:
         self.session.update(method=setup.method, units=setup.units, phase="recording")
         thread = threading.Thread(
-            target=_recording, args=(self.session, setup, self.options), name="recording"
+            target=_recording,
+            args=(self.session, setup, self.options, self.stopping),
+            name="recording",
         )
         thread.daemon = True
         self.threads.append(thread)
@@ -180,10 +202,12 @@ class _Console:
         return HTMLResponse(html, headers={"Cache-Control": "no-store"})
 
     async def state(self, request: Request) -> Response:
-        return JSONResponse(self.session.snapshot(), headers={"Cache-Control": "no-store"})
+        return ConsoleJSONResponse(self.session.snapshot(), headers={"Cache-Control": "no-store"})
 
     async def setup(self, request: Request) -> Response:
-        form = await _form(request)
+        form, refused = await _form(request, _SETUP_LIMITS)
+        if refused is not None:
+            return refused
         if self.session.phase != "setup":
             return _refused("the session is already set up")
         try:
@@ -191,10 +215,12 @@ class _Console:
         except FormRefusedError as err:
             return _refused(str(err), err.errors)
         self.start(chosen)
-        return JSONResponse({"ok": True})
+        return ConsoleJSONResponse({"ok": True})
 
     async def pose(self, request: Request) -> Response:
-        form = await _form(request)
+        form, refused = await _form(request, _POSE_LIMITS)
+        if refused is not None:
+            return refused
         if self.session.waiting != "pose":
             return _refused("not now: the recorder is not waiting for a pose")
         try:
@@ -202,13 +228,16 @@ class _Console:
         except FormRefusedError as err:
             return _refused(str(err), err.errors)
         self.session.commands.put(("pose", (t, r)))
-        return JSONResponse({"ok": True})
+        return ConsoleJSONResponse({"ok": True})
 
     async def decide(self, request: Request) -> Response:
-        choice = str((await _form(request)).get("decision", ""))
+        form, refused = await _form(request, {"decision": 20})
+        if refused is not None:
+            return refused
+        choice = form.get("decision", "")
         if choice == "quit" and self.session.phase == "recording":
             self.session.commands.put(("quit", None))
-            return JSONResponse({"ok": True})
+            return ConsoleJSONResponse({"ok": True})
         if choice not in DECISIONS:
             return _refused(
                 "decision must be accept, accept_anyway, redo, undo or quit, not " + repr(choice)
@@ -218,16 +247,19 @@ class _Console:
             self.session.refuse(choice, refusal)
             return _refused(refusal, {choice: refusal})
         self.session.commands.put(("decision", (choice, DECISIONS[choice])))
-        return JSONResponse({"ok": True})
+        return ConsoleJSONResponse({"ok": True})
 
     async def note(self, request: Request) -> Response:
-        text = str((await _form(request)).get("text", "")).strip()
+        form, refused = await _form(request, {"text": MAX_NOTE_CHARS})
+        if refused is not None:
+            return refused
+        text = form.get("text", "").strip()
         if not text:
-            return _refused("the note is empty")
+            return _refused("the note is empty", {"text": "type the note first"})
         if self.session.waiting != "decision":
             return _refused("add a note after a capture (it goes with that trial)")
         self.session.commands.put(("note", text))
-        return JSONResponse({"ok": True})
+        return ConsoleJSONResponse({"ok": True})
 
     async def stream(self, request: Request) -> Response:
         return StreamingResponse(
@@ -243,13 +275,22 @@ class _Console:
             with contextlib.suppress(InputValueError):  # all given: no form to fill
                 self.start(setup_from_answers({}, given))
         yield
+        self.stopping.set()
         self.session.commands.put(("quit", None))  # the server stops: close the file cleanly
         for thread in self.threads:
             thread.join(timeout=30)
 
 
-def console_app(session: ConsoleSession, options: ConsoleOptions) -> Starlette:
-    """The ASGI app of one recording session."""
+def console_app(
+    session: ConsoleSession,
+    options: ConsoleOptions,
+    *,
+    host: str = "127.0.0.1",
+    token: str | None = None,
+) -> Starlette:
+    """The ASGI app of one recording session, behind its guard (``host``: the address it
+    listens on, ``--host``; ``token``: the session's, random by default; see
+    :mod:`recorder.console_guard`)."""
     c = _Console(session, options)
     routes = [
         Route("/", c.page),
@@ -259,25 +300,49 @@ def console_app(session: ConsoleSession, options: ConsoleOptions) -> Starlette:
         Route("/api/decide", c.decide, methods=["POST"]),
         Route("/api/note", c.note, methods=["POST"]),
         Route("/stream.mjpg", c.stream),
+        Route("/console.js", _asset("console.js", "text/javascript; charset=utf-8")),
+        Route("/console.css", _asset("console.css", "text/css; charset=utf-8")),
     ]
-    return Starlette(routes=routes, lifespan=c.lifespan)
+    guard = Middleware(ConsoleGuard, host=host, token=token)
+    return Starlette(routes=routes, lifespan=c.lifespan, middleware=[guard])
+
+
+def _asset(name: str, media_type: str) -> Any:
+    """A route serving one of the page's files from the package (the page's script and
+    style are files, not inline, so the Content-Security-Policy can forbid inline code)."""
+
+    async def serve(request: Request) -> Response:
+        text = resources.files("recorder").joinpath(name).read_text("utf-8")
+        return Response(text, media_type=media_type, headers={"Cache-Control": "no-store"})
+
+    return serve
 
 
 def _given(options: ConsoleOptions) -> dict[str, Any]:
     return dict(options.given, size=options.size)
 
 
-async def _form(request: Request) -> dict[str, str]:
+async def _form(request: Request, limits: dict[str, int]) -> tuple[dict[str, str], Response | None]:
+    """The request's fields named in ``limits`` (others are ignored), as text, and a 400
+    naming each field whose text is too long or holds control characters (None: none).
+    The guard has already refused bodies that are not a flat JSON object of text or
+    numbers (:mod:`recorder.console_guard`)."""
     try:
         data = await request.json()
     except ValueError:
-        data = {}
-    return {str(k): str(v) for k, v in data.items()} if isinstance(data, dict) else {}
+        data = None
+    if not isinstance(data, dict):
+        return {}, _refused("the request must be a JSON object of fields")
+    form = {k: str(v) for k, v in data.items() if k in limits and isinstance(v, str | int | float)}
+    errors = {k: why for k, v in form.items() if (why := text_refusal(v, limits[k]))}
+    if errors:
+        return form, _refused("; ".join(f"{k}: {v}" for k, v in errors.items()), errors)
+    return form, None
 
 
 def _refused(message: str, errors: dict[str, str] | None = None) -> Response:
     """400 with the message, and each refusal by the field or button it belongs to."""
-    return JSONResponse({"error": message, "errors": errors or {}}, status_code=400)
+    return ConsoleJSONResponse({"error": message, "errors": errors or {}}, status_code=400)
 
 
 def _decision_refusal(session: ConsoleSession, choice: str) -> str:
@@ -322,16 +387,37 @@ async def _mjpeg(session: ConsoleSession, request: Request) -> AsyncIterator[byt
             session.viewers -= 1
 
 
+class _Server(uvicorn.Server):
+    """uvicorn's server, told what the session was doing when Ctrl-C or SIGTERM came (it
+    stops gracefully, as uvicorn does, but does not raise the signal again afterwards:
+    :func:`serve_console` reports it)."""
+
+    def __init__(self, config: uvicorn.Config, session: ConsoleSession) -> None:
+        super().__init__(config)
+        self.session = session
+        self.phase_at_signal = ""  # the session's phase when the first signal came
+
+    def handle_exit(self, sig: int, frame: FrameType | None) -> None:
+        if not self.phase_at_signal:
+            self.phase_at_signal = self.session.phase
+        if self.should_exit and sig == signal.SIGINT:
+            self.force_exit = True  # a second Ctrl-C: stop waiting for connections
+        self.should_exit = True
+
+
 def serve_console(
     out: Path, options: ConsoleOptions, *, host: str = "127.0.0.1", port: int = 0
 ) -> ConsoleSession:
-    """Serve the console until Ctrl-C (or the process is told to stop); prints the URL."""
+    """Serve the console until Ctrl-C or SIGTERM; prints the URL. The source is opened
+    first (a missing camera is said before the setup, naming ``--source``). Raises
+    KeyboardInterrupt if the session was interrupted (the recording thread has closed
+    the file and printed the summary), TwoposeError if the recording failed."""
     import socket
 
     import typer
-    import uvicorn
 
-    if not _loopback(host):
+    _check_source(options)
+    if not is_loopback_host(host):
         typer.secho(
             f"warning: --host {host} exposes the console beyond this machine; anyone who "
             "can reach it can drive the recording",
@@ -350,17 +436,32 @@ def serve_console(
     shown = f"[{host}]" if ":" in host else host
     typer.echo(f"twopose console: http://{shown}:{bound}/  (Ctrl-C to stop)", err=False)
     config = uvicorn.Config(
-        console_app(session, options),
+        console_app(session, options, host=host),
         log_level="warning",
         lifespan="on",
         timeout_graceful_shutdown=2,  # a watching page's MJPEG stream never ends by itself
     )
-    uvicorn.Server(config).run(sockets=[sock])
+    server = _Server(config, session)
+    server.run(sockets=[sock])
+    if session.phase == "failed":
+        raise TwoposeError(session.message)
+    if server.phase_at_signal in ("setup", "recording"):
+        if server.phase_at_signal == "setup":
+            typer.echo("nothing recorded: the setup was not finished")
+        raise KeyboardInterrupt
     return session
 
 
-def _loopback(host: str) -> bool:
+def _check_source(options: ConsoleOptions) -> None:
+    """Open the source and close it again, before the page asks anything: a camera that
+    is not there is an error now, naming ``--source``, not after the whole setup."""
+    from recorder.sources import open_source
+
+    width, height = options.size
+    method = str(options.given.get("method") or "point")
     try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return host == "localhost"
+        source = open_source(options.source, method=method, width=width, height=height)
+        with source:
+            pass
+    except TwoposeError as err:
+        raise SourceError(f"--source {options.source}: {err}") from err

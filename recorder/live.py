@@ -10,7 +10,6 @@ as JSON. Off by default; the server only ever binds to a loopback address.
 
 from __future__ import annotations
 
-import ipaddress
 import json
 from types import TracebackType
 from typing import TYPE_CHECKING, Any, Self
@@ -21,6 +20,7 @@ from foxglove_schemas_protobuf.ImageAnnotations_pb2 import ImageAnnotations
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from mcap_protobuf.schema import build_file_descriptor_set
 
+from twopose import jsonsafe
 from twopose.camera import Camera
 from twopose.errors import InputValueError, TwoposeError
 from twopose.format.messages import (
@@ -29,6 +29,7 @@ from twopose.format.messages import (
     image_message,
     image_topic,
 )
+from twopose.loopback import is_loopback_host
 from twopose.overlay import image_annotations
 from twopose.scene3d import TrialScene, trial_scene
 
@@ -85,11 +86,7 @@ class LiveView:
     def __init__(
         self, cameras: list[Camera], *, port: int = DEFAULT_LIVE_PORT, host: str = "127.0.0.1"
     ):
-        try:
-            loopback = ipaddress.ip_address(host).is_loopback
-        except ValueError:
-            loopback = host == "localhost"
-        if not loopback:
+        if not is_loopback_host(host):
             raise InputValueError(f"the live view only binds to loopback, not {host!r}")
         import foxglove
 
@@ -197,12 +194,13 @@ class LiveView:
             "found": found,
             "message": message,
         }
-        self._status.log(json.dumps(status).encode(), log_time=log_time_ns)
+        self._status.log(jsonsafe.dumps(status).encode(), log_time=log_time_ns)
 
     def trial_result(self, result: TrialResult, scene: TrialScene | None, log_time_ns: int) -> None:
-        """A trial's live result: as JSON, and in 3-D (cameras, rays or planes, the
-        estimate with its 95% ellipsoid, the truth and the error vector)."""
-        self._result.log(json.dumps(result.to_json()).encode(), log_time=log_time_ns)
+        """A trial's live result: as JSON (NaN and infinity as null), and in 3-D
+        (cameras, rays or planes, the estimate with its 95% ellipsoid, the truth and the
+        error vector)."""
+        self._result.log(jsonsafe.dumps(result.to_json()).encode(), log_time=log_time_ns)
         if scene is not None:
             update = trial_scene(scene, log_time_ns)
             self._scene.log(update.SerializeToString(), log_time=log_time_ns)

@@ -7,52 +7,24 @@ and a DNS-rebinding page reaches it under its own host name (its ``Host`` is not
 loopback). The Foxglove SDK's server has no hook for the handshake, so it listens on a
 private loopback port and :class:`LoopbackGuard` (``websockets``) faces the operator: it
 answers 403 unless ``Host`` names a loopback address and ``Origin`` is absent (Foxglove's
-desktop app, scripts) or loopback too, then relays every message both ways.
+desktop app, scripts) or loopback too (:mod:`twopose.loopback`, the one rule), then
+relays every message both ways.
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
-import ipaddress
 import threading
 from http import HTTPStatus
 from typing import Any
-from urllib.parse import urlsplit
 
-__all__ = ["LoopbackGuard", "is_loopback_host", "is_loopback_origin"]
+from twopose.loopback import is_loopback_host, is_loopback_origin
+
+__all__ = ["LoopbackGuard"]
 
 #: What Foxglove clients ask for (the SDK's server speaks both).
 SUBPROTOCOLS = ["foxglove.sdk.v1", "foxglove.websocket.v1"]
-
-
-def _loopback_name(name: str) -> bool:
-    if name.lower() == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(name).is_loopback
-    except ValueError:
-        return False
-
-
-def is_loopback_host(host: str) -> bool:
-    """Whether an HTTP ``Host`` header (``name[:port]``, ``[v6][:port]``) is loopback."""
-    host = host.strip()
-    if host.startswith("["):
-        name = host[1 : host.find("]")] if "]" in host else ""
-    else:
-        name = host.rsplit(":", 1)[0] if host.count(":") == 1 else host
-    return bool(name) and _loopback_name(name)
-
-
-def is_loopback_origin(origin: str) -> bool:
-    """Whether an ``Origin`` header names a page served from this machine (``null``, the
-    origin of sandboxed and file pages, does not)."""
-    try:
-        name = urlsplit(origin.strip()).hostname
-    except ValueError:
-        return False
-    return name is not None and _loopback_name(name)
 
 
 class LoopbackGuard:

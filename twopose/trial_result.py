@@ -87,11 +87,9 @@ class TrialResult:
         return "; ".join(parts)
 
     def to_json(self) -> dict[str, object]:
-        """A JSON object (NaN as null) for the web console and the live view."""
-
-        def clean(value: float) -> float | None:
-            return value if math.isfinite(value) else None
-
+        """The result as a JSON-ready object for the web console and the live view. NaN
+        and infinity are left as floats: whoever serialises it uses the one encoder,
+        :func:`twopose.jsonsafe.dumps`, which writes them as ``null``."""
         return {
             "trial": self.trial,
             "method": self.method,
@@ -99,15 +97,15 @@ class TrialResult:
             "n_views": self.n_views,
             "status": self.status,
             "reason": self.reason,
-            "point": [clean(v) for v in self.point],
+            "point": list(self.point),
             "direction": None if self.direction is None else list(self.direction),
-            "semiaxis95": clean(self.semiaxis95),
-            "ci95": [clean(v) for v in self.ci95],
-            "margins": {k: clean(v) for k, v in self.margins.items()},
+            "semiaxis95": self.semiaxis95,
+            "ci95": list(self.ci95),
+            "margins": dict(self.margins),
             "warning": self.warning,
-            "error": clean(self.error),
-            "error_xyz": [clean(v) for v in self.error_xyz],
-            "cov": [[clean(v) for v in row] for row in self.cov],
+            "error": self.error,
+            "error_xyz": list(self.error_xyz),
+            "cov": [list(row) for row in self.cov],
             "text": self.text(),
         }
 

@@ -1,25 +1,30 @@
-"""The web console without a browser: its API's refusals, its address
-and a server killed with SIGKILL mid-capture."""
+"""The web console without a browser: its API's refusals, its address, Ctrl-C and
+SIGTERM (the summary once, exit 130), a missing camera before the setup, and a server
+killed with SIGKILL mid-capture."""
 
 from __future__ import annotations
 
 import signal
 import socket
+import subprocess
 import time
 from pathlib import Path
 
 import httpx
+import pytest
 from typer.testing import CliRunner
 
 import analysis
 from recorder.cli import app
-from tests.helpers import start_console
+from tests.helpers import RECORD, start_console
 
 
 def test_the_api_refuses_what_the_state_does_not_allow(tmp_path: Path) -> None:
     process, url, _ = start_console(tmp_path / "s.mcap")
     try:
         client = httpx.Client(base_url=url, timeout=10)
+        assert client.get("/api/state").status_code == 403  # no token: the page not loaded
+        assert "twopose console" in client.get("/").text  # the page sets the token
         assert client.get("/api/state").json()["phase"] == "setup"
         refused = {
             "/api/pose": {"x": "0", "y": "0", "z": "0"},
@@ -31,7 +36,6 @@ def test_the_api_refuses_what_the_state_does_not_allow(tmp_path: Path) -> None:
             assert answer.status_code == 400, path
             assert answer.json()["error"]
         assert client.post("/api/decide", json={"decision": "maybe"}).status_code == 400
-        assert "twopose console" in client.get("/").text
         assert not (tmp_path / "s.mcap").exists()  # nothing recorded
     finally:
         process.terminate()
@@ -61,6 +65,7 @@ def test_the_server_killed_mid_capture_loses_nothing_accepted(tmp_path: Path) ->
     out = tmp_path / "killed.mcap"
     process, url, _ = start_console(out, "--frames", "40")
     client = httpx.Client(base_url=url, timeout=10)
+    client.get("/")  # the page: the session's token
 
     def wait_for(what: str) -> dict[str, object]:
         for _ in range(600):
@@ -98,3 +103,59 @@ def test_the_server_killed_mid_capture_loses_nothing_accepted(tmp_path: Path) ->
     trials = analysis.run([fixed], None, scene=False).trials
     assert list(trials["status"]) == ["ok", "incomplete"]
     assert trials["err"].iloc[0] < 0.5
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_ctrl_c_or_sigterm_closes_the_file_prints_the_summary_once_and_exits_130(
+    tmp_path: Path, sig: signal.Signals
+) -> None:
+    out = tmp_path / "stopped.mcap"
+    process, url, _ = start_console(out)
+    client = httpx.Client(base_url=url, timeout=10)
+    client.get("/")
+    setup = {"method": "point", "truth1": "0.5, 1.5, 11", "operator": "Ada"}
+    assert client.post("/api/setup", json=setup).status_code == 200
+    for what, path, body in (
+        ("pose", "/api/pose", {"x": "0", "y": "0", "z": "0"}),
+        ("decision", "/api/decide", {"decision": "accept"}),
+    ):
+        for _ in range(600):
+            if client.get("/api/state").json()["waiting"] == what:
+                break
+            time.sleep(0.05)
+        assert client.post(path, json=body).status_code == 200
+    time.sleep(0.3)
+    process.send_signal(sig)
+    rest, _ = process.communicate(timeout=60)
+    assert process.returncode == 130, rest
+    assert rest.count(f"wrote {out}") == 1, rest  # the summary, once
+    assert "1 capture (1 accepted" in rest
+    assert rest.strip().endswith("interrupted")
+    assert "Traceback" not in rest
+    trials = analysis.run([out], None, scene=False).trials  # closed: readable as it is
+    assert list(trials["status"]) == ["incomplete"]
+
+
+def test_ctrl_c_before_the_setup_records_nothing_and_exits_130(tmp_path: Path) -> None:
+    out = tmp_path / "never.mcap"
+    process, _, _ = start_console(out)
+    time.sleep(0.3)
+    process.send_signal(signal.SIGINT)
+    rest, _ = process.communicate(timeout=60)
+    assert process.returncode == 130
+    assert "nothing recorded" in rest
+    assert not out.exists()
+
+
+def test_a_missing_camera_is_said_before_the_setup_naming_source(tmp_path: Path) -> None:
+    out = tmp_path / "nocam.mcap"
+    done = subprocess.run(
+        [str(RECORD), "new", str(out), "--ui", "--source", "video:/no/such/video.mp4"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 3
+    assert "error: --source video:/no/such/video.mp4:" in done.stderr
+    assert "twopose console" not in done.stdout  # no page to fill in for nothing
+    assert not out.exists()

@@ -1,0 +1,312 @@
+"""The web console's front door (recorder/console_guard.py) over HTTP, in-process: only
+the operator's page drives it and sees it (Host, Origin, the session token, the content
+type, the body's size, depth and types, the frame headers), and no state of the recorder
+gives the page a 500 (a line whose glove is not found, the same pose typed twice)."""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+from starlette.testclient import TestClient
+
+from recorder.console import ConsoleSession
+from recorder.console_guard import (
+    MAX_BODY_BYTES,
+    SECURITY_HEADERS,
+    ConsoleGuard,
+    body_refusal,
+    text_refusal,
+)
+from recorder.console_server import ConsoleOptions, console_app
+
+# A small synthetic camera: a pose renders in ~70 ms (as tests/recorder/test_console_stateful.py).
+SCENE = """
+[[cameras]]
+id = "cam0"
+width = 320
+height = 240
+fx = 262.5
+fy = 262.5
+cx = 160.0
+cy = 120.0
+
+[sensor]
+supersample = 1
+
+[clutter]
+count = 0
+"""
+ORIGIN = "http://127.0.0.1:8765"
+GIVEN: dict[str, Any] = {
+    "method": None, "units": None, "intrinsics": None, "intrinsics_sigma": {}, "focal": None,
+    "principal": None, "ground_height": None, "ground_truth": [], "operator": None,
+}  # fmt: skip
+LINE_SETUP = {
+    "method": "line", "units": "in", "focal": "262.5", "principal": "160, 120",
+    "truth1": "1.91, 9.625, 8.375", "truth2": "0.5, 2, 7", "operator": "Ada",
+}  # fmt: skip
+JSON = {"Content-Type": "application/json"}
+
+
+def strict_json(text: str) -> Any:
+    """JSON as browsers parse it: NaN and Infinity are errors."""
+
+    def refuse(name: str) -> None:
+        raise AssertionError(f"{name} in the console's JSON")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+@pytest.fixture
+def console(tmp_path: Path) -> Iterator[tuple[TestClient, Path]]:
+    """The console in-process (Host 127.0.0.1:8765, the page loaded: the token cookie set)."""
+    scene = tmp_path / "scene.toml"
+    scene.write_text(SCENE)
+    out = tmp_path / "s.mcap"
+    options = ConsoleOptions(f"synthetic:{scene}", GIVEN, frames=2, size=(320, 240))
+    session = ConsoleSession(out, dict(GIVEN, size=(320, 240)))
+    with TestClient(console_app(session, options), base_url=ORIGIN) as client:
+        assert client.get("/").status_code == 200
+        yield client, out
+
+
+def stranger(client: TestClient) -> TestClient:
+    """The same app without the page's cookie: what another site's request carries."""
+    return TestClient(client.app, base_url=ORIGIN)
+
+
+def test_a_foreign_host_is_refused_everywhere(console: tuple[TestClient, Path]) -> None:
+    client, _ = console
+    for path in ("/", "/console.js", "/api/state", "/stream.mjpg"):
+        for host in ("rebind.evil.example:8765", "evil.example", "127.0.0.1.nip.io", ""):
+            answer = client.get(path, headers={"Host": host})
+            assert answer.status_code == 403, (path, host)
+            assert strict_json(answer.text)["error"]
+    for host in ("127.0.0.1:8765", "localhost:8765", "LOCALHOST", "[::1]:8765", "127.9.9.9"):
+        assert client.get("/api/state", headers={"Host": host}).status_code == 200, host
+
+
+def test_a_foreign_origin_is_refused_null_included(console: tuple[TestClient, Path]) -> None:
+    client, out = console
+    for origin in (
+        "http://evil.example:8765",
+        "null",
+        "http://127.0.0.1:9999",  # another local server: another origin
+        "http://localhost:8765",  # another name: another origin
+        "https://127.0.0.1:8765",
+        "file://",
+    ):
+        answer = client.post("/api/setup", json=LINE_SETUP, headers={"Origin": origin})
+        assert answer.status_code == 403, origin
+        assert client.get("/api/state", headers={"Origin": origin}).status_code == 403
+    assert client.get("/api/state").json()["phase"] == "setup"  # nothing started
+    assert not out.exists()
+    assert client.get("/api/state", headers={"Origin": ORIGIN}).status_code == 200
+
+
+def test_other_sites_fetch_metadata_is_refused(console: tuple[TestClient, Path]) -> None:
+    client, _ = console
+    for site in ("cross-site", "same-site"):  # same-site: another port of 127.0.0.1
+        headers = {"Sec-Fetch-Site": site}
+        assert client.get("/api/state", headers=headers).status_code == 403
+        assert client.get("/stream.mjpg", headers=headers).status_code == 403
+    for site in ("same-origin", "none"):
+        assert client.get("/api/state", headers={"Sec-Fetch-Site": site}).status_code == 200
+
+
+def test_the_token_is_required_and_set_by_the_page(console: tuple[TestClient, Path]) -> None:
+    client, out = console
+    other = stranger(client)
+    assert other.get("/api/state").status_code == 403
+    assert other.get("/stream.mjpg").status_code == 403
+    assert other.post("/api/setup", json=LINE_SETUP).status_code == 403
+    other.cookies.set("twopose_console_8765", "guessed", domain="127.0.0.1")
+    assert other.get("/api/state").status_code == 403
+    assert not out.exists()
+    page = stranger(client).get("/")
+    cookie = page.headers["set-cookie"]
+    assert "HttpOnly" in cookie
+    assert "SameSite=Strict" in cookie
+    assert "Path=/" in cookie
+    assert cookie.split(";")[0].startswith("twopose_console_8765=")
+    assert page.headers["set-cookie"] == client.get("/").headers["set-cookie"]  # one token
+    assert "set-cookie" not in client.get("/api/state").headers  # only the page sets it
+
+
+def test_posts_must_be_json(console: tuple[TestClient, Path]) -> None:
+    client, out = console
+    body = json.dumps(LINE_SETUP)
+    for kind in ("text/plain", "application/x-www-form-urlencoded", "multipart/form-data", ""):
+        answer = client.post("/api/setup", content=body, headers={"Content-Type": kind})
+        assert answer.status_code == 415, kind
+    assert not out.exists()
+    answer = client.post(
+        "/api/decide",
+        content='{"decision": "accept"}',
+        headers={"Content-Type": "application/json; charset=utf-8"},
+    )
+    assert answer.status_code == 400  # accepted as JSON, refused by the state
+
+
+def test_a_large_body_is_refused_before_it_is_read(console: tuple[TestClient, Path]) -> None:
+    client, _ = console
+    big = b'{"text": "' + b"a" * MAX_BODY_BYTES + b'"}'
+    answer = client.post("/api/note", content=big, headers=JSON)
+    assert answer.status_code == 413
+
+    read = 0
+
+    def chunks() -> Iterator[bytes]:  # no Content-Length: counted as it streams
+        nonlocal read
+        yield b'{"text": "'
+        for _ in range(10_000):
+            read += 1
+            yield b"a" * 1024
+        yield b'"}'
+
+    answer = client.post("/api/note", content=chunks(), headers=JSON)
+    assert answer.status_code == 413
+    assert "content-length" not in answer.request.headers
+    assert strict_json(answer.text)["error"].startswith("the request is larger than 64 KB")
+
+
+def test_deep_or_mistyped_json_is_a_400(console: tuple[TestClient, Path]) -> None:
+    client, _ = console
+    deep = "[" * 30_000 + "]" * 30_000  # 60 KB: under the size limit, 30,000 deep
+    for body in (
+        deep,
+        '{"text": ' + "[" * 30 + "]" * 30 + "}",
+        '{"text": ["a note", "that is a list"]}',
+        '{"text": {"a": "b"}}',
+        '{"text": null}',
+        '{"text": true}',
+        '{"x": NaN, "y": "0", "z": "0"}',
+        '{"x": Infinity, "y": "0", "z": "0"}',
+        '["text"]',
+        '"text"',
+        "{not json",
+        '{"text": "\xff"}'.encode("latin-1").decode("latin-1"),
+    ):
+        answer = client.post("/api/note", content=body.encode("latin-1"), headers=JSON)
+        assert answer.status_code == 400, body[:40]
+        assert strict_json(answer.text)["error"]
+    answer = client.post("/api/note", json={"text": ["a", "list"]})
+    assert strict_json(answer.text)["errors"] == {"text": "must be text, not list"}
+
+
+def test_notes_and_operators_have_limits_and_no_control_characters(
+    console: tuple[TestClient, Path],
+) -> None:
+    client, out = console
+    for operator in ("A" * 81, "Ada\x1b[2J", "Ada\nroot", "Ada\u202emoc.live"):
+        answer = client.post("/api/setup", json=LINE_SETUP | {"operator": operator})
+        assert answer.status_code == 400, operator
+        assert "operator" in answer.json()["errors"]
+    assert not out.exists()
+    for text in ("n" * 501, "\x07bell", "a\rb"):
+        answer = client.post("/api/note", json={"text": text})
+        assert answer.status_code == 400
+        assert "text" in answer.json()["errors"]
+    assert text_refusal("Ada Lovelace, Zoë Ølstad") == ""
+    assert "U+001B" in text_refusal("\x1b[31m")
+
+
+def test_every_response_forbids_framing(console: tuple[TestClient, Path]) -> None:
+    client, _ = console
+    answers = [
+        client.get("/"),
+        client.get("/console.js"),
+        client.get("/console.css"),
+        client.get("/api/state"),
+        client.post("/api/note", json={"text": "too early"}),  # 400
+        stranger(client).get("/api/state"),  # 403
+        client.get("/api/state", headers={"Host": "evil.example"}),  # 403
+        client.post("/api/note", content="x", headers={"Content-Type": "text/plain"}),  # 415
+        client.get("/nowhere"),  # 404
+    ]
+    for answer in answers:
+        for name, value in SECURITY_HEADERS.items():
+            assert answer.headers[name] == value, (answer.request.url, name)
+    policy = SECURITY_HEADERS["Content-Security-Policy"]
+    assert "frame-ancestors 'none'" in policy
+    assert "script-src 'self'" in policy
+    assert SECURITY_HEADERS["X-Frame-Options"] == "DENY"
+
+
+def test_the_host_the_operator_chose_is_served() -> None:
+    async def app(scope: Any, receive: Any, send: Any) -> None:
+        await send({"type": "http.response.start", "status": 200, "headers": []})
+        await send({"type": "http.response.body", "body": b"ok"})
+
+    def status(guard_host: str, host: str) -> int:
+        client = TestClient(ConsoleGuard(app, host=guard_host), base_url=f"http://{host}")
+        return int(client.get("/").status_code)
+
+    assert status("192.168.1.20", "192.168.1.20:8000") == 200
+    assert status("192.168.1.20", "192.168.1.21:8000") == 403
+    assert status("lab-pc.local", "LAB-PC.local:8000") == 200
+    assert status("0.0.0.0", "10.0.0.5:8000") == 200  # any address: a rebinding needs a name
+    assert status("0.0.0.0", "rebind.evil.example:8000") == 403
+    assert status("::", "[fe80::1]:8000") == 200
+    assert status("127.0.0.1", "127.0.0.1:8000") == 200
+
+
+def test_body_refusal_rules() -> None:
+    assert body_refusal(b'{"x": "1", "y": 2, "z": 3.5}') == ("", {})
+    assert body_refusal(b"") == ("", {})
+    assert body_refusal(b'{"a": "[[[[[[[[[["}') == ("", {})  # brackets in text are text
+    assert body_refusal(b'{"a": [[[]]]}')[0].startswith("the request is nested deeper")
+    _, errors = body_refusal(b'{"a": 1e999}')
+    assert errors == {"a": "must be a finite number"}
+
+
+# -- never blind: a line whose glove is not found, the same pose typed twice
+
+
+def wait_for(client: TestClient, what: str) -> dict[str, Any]:
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline:
+        answer = client.get("/api/state")
+        assert answer.status_code == 200, answer.text
+        state: dict[str, Any] = strict_json(answer.text)
+        assert state["phase"] != "failed", state["message"]
+        if state["waiting"] == what:
+            return state
+        time.sleep(0.02)
+    raise AssertionError(f"the console never waited for {what}")
+
+
+def capture(client: TestClient, pose: dict[str, str]) -> dict[str, Any]:
+    wait_for(client, "pose")
+    assert client.post("/api/pose", json=pose).status_code == 200
+    return wait_for(client, "decision")
+
+
+def test_a_line_with_no_glove_and_a_pose_typed_twice_never_blinds_the_page(
+    console: tuple[TestClient, Path],
+) -> None:
+    client, _ = console
+    assert client.post("/api/setup", json=LINE_SETUP).status_code == 200
+    away = capture(client, {"x": "0", "y": "0", "z": "0", "rotation": "0, 180, 0"})
+    assert away["shortfall"] != "ok"  # the glove was not found
+    assert client.post("/api/decide", json={"decision": "accept"}).status_code == 400
+    assert client.post("/api/decide", json={"decision": "redo"}).status_code == 200
+    same = {"x": "0", "y": "0", "z": "0", "rotation": "0, 0, 0"}
+    capture(client, same)
+    assert client.post("/api/decide", json={"decision": "accept"}).status_code == 200
+    second = capture(client, same)  # the same pose again: no baseline, NaN everywhere
+    assert second["preview"]["direction"] == [None, None, None]  # NaN, sent as null
+    assert client.post("/api/decide", json={"decision": "accept"}).status_code == 200
+    state = wait_for(client, "pose")
+    (result,) = state["results"]
+    assert result["status"] != "ok"
+    for _ in range(20):  # every poll from then on
+        answer = client.get("/api/state")
+        assert answer.status_code == 200
+        strict_json(answer.text)
+    assert client.post("/api/decide", json={"decision": "quit"}).status_code == 200
