@@ -5,7 +5,8 @@ field, a redo, an undo, a note and a reload; the page's results are the analysis
 from __future__ import annotations
 
 import io
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -36,17 +37,17 @@ class Page:
     def __init__(self, browser: Any) -> None:
         self.browser = browser
 
-    def el(self, testid: str) -> object:
+    def el(self, testid: str) -> Any:
         return self.browser.find_element(By.CSS_SELECTOR, f"[data-testid={testid}]")
 
     def type(self, testid: str, text: str) -> None:
         element = self.el(testid)
-        element.clear()  # type: ignore[attr-defined]
-        element.send_keys(text)  # type: ignore[attr-defined]
+        element.clear()
+        element.send_keys(text)
 
     def click(self, testid: str) -> None:
-        self.wait(lambda: self.el(testid).is_enabled(), f"{testid} enabled")  # type: ignore[attr-defined]
-        self.el(testid).click()  # type: ignore[attr-defined]
+        self.wait(lambda: self.el(testid).is_enabled(), f"{testid} enabled")
+        self.el(testid).click()
 
     def status(self) -> str:
         return str(
@@ -55,11 +56,8 @@ class Page:
             )
         )
 
-    def wait(self, condition: object, what: str, timeout: float = 60) -> None:
-        WebDriverWait(self.browser, timeout).until(
-            lambda _: condition(),
-            message=what,  # type: ignore[operator]
-        )
+    def wait(self, condition: Callable[[], object], what: str, timeout: float = 60) -> None:
+        WebDriverWait(self.browser, timeout).until(lambda _: condition(), message=what)
 
     def results(self) -> list[str]:
         """The trial results' texts (read in one script: the list is redrawn as it polls)."""
@@ -69,16 +67,26 @@ class Page:
         )
         return [str(t) for t in texts]
 
+    def text(self, testid: str) -> str:
+        script = "const e = document.querySelector(arguments[0]); return e ? e.textContent : ''"
+        return str(self.browser.execute_script(script, f"[data-testid={testid}]"))
+
     def capture(self, x: str, z: str) -> None:
+        """Type a pose in the empty form (a new pose's form is empty) and capture it."""
+        self.wait(lambda: self.el("pose-x").is_enabled(), "the pose form")
         self.type("pose-x", x)
         self.type("pose-y", "0")
         self.type("pose-z", z)
         self.type("pose-rotation", "0, 0, 0")
         self.click("capture")
-        self.wait(lambda: self.el("accept").is_enabled(), "the capture to end")  # type: ignore[attr-defined]
+        self.wait(lambda: self.el("accept").is_enabled(), "the capture to end")
 
     def shot(self) -> np.ndarray:
         return np.asarray(Image.open(io.BytesIO(self.browser.get_screenshot_as_png())))
+
+
+def _shows(page: Page, testid: str, text: str) -> bool:
+    return text in page.text(testid)
 
 
 def test_a_whole_session_in_the_browser(browser: Any, tmp_path: Path) -> None:
@@ -87,39 +95,39 @@ def test_a_whole_session_in_the_browser(browser: Any, tmp_path: Path) -> None:
     try:
         browser.get(url)
         page = Page(browser)
-        page.wait(lambda: page.el("setup-submit").is_displayed(), "the setup form")  # type: ignore[attr-defined]
-        # Bad setup input: refused with the reason, nothing starts.
+        page.wait(lambda: browser.find_elements(By.ID, "f-method"), "the setup form")
+        # Bad setup input: every refusal at once, each by its field; nothing starts.
         Select(browser.find_element(By.ID, "f-method")).select_by_visible_text("point")
-        browser.find_element(By.ID, "f-focal").send_keys("abc")
-        browser.find_element(By.ID, "f-truth1").send_keys("0.5, 1.5")
+        page.type("field-focal", "abc")
+        page.type("field-truth1", "0.5, 1.5")
         page.click("setup-submit")
-        page.wait(lambda: page.status().startswith("refused: focal"), "the focal refused")
-        browser.find_element(By.ID, "f-focal").clear()
-        page.click("setup-submit")
-        page.wait(lambda: "truth1" in page.status(), "the truth refused")
+        page.wait(lambda: page.text("field-error-truth1") != "", "the truth refused")
+        assert "'abc' is not a positive number" in page.text("field-error-focal")
+        assert "three numbers" in page.text("field-error-truth1")
         assert not out.exists()  # nothing recorded yet
-        browser.find_element(By.ID, "f-truth1").clear()
-        browser.find_element(By.ID, "f-truth1").send_keys("0.5, 1.5, 11")
-        browser.find_element(By.ID, "f-operator").send_keys("Ada")
+        page.type("field-focal", "525")
+        page.type("field-truth1", "0.5, 1.5, 11")
+        page.type("field-operator", "Ada")
         page.click("setup-submit")
         page.wait(lambda: "type pose 1" in page.status(), "the first pose")
         first_screen = page.shot()
 
-        # Bad pose input in every field: refused, the pose still awaited.
+        # Bad pose input in every field: refused by its field, the pose still awaited.
+        page.wait(lambda: page.el("pose-x").is_enabled(), "the pose form")
         for testid, bad, expected in (
-            ("pose-x", "abc", "translation"),
-            ("pose-y", "1e9", "implausibly large"),
-            ("pose-z", "", "translation"),
-            ("pose-rotation", "0, 0, 999", "rotation"),
+            ("x", "abc", "type a number for x"),
+            ("y", "1e9", "implausibly large"),
+            ("z", "", "type the camera centre's z"),
+            ("rotation", "0, 0, 999", "implausibly large"),
         ):
             page.type("pose-x", "0")
             page.type("pose-y", "0")
             page.type("pose-z", "0")
             page.type("pose-rotation", "0, 0, 0")
-            page.type(testid, bad)
+            page.type(f"pose-{testid}", bad)
             page.click("capture")
-            page.wait(lambda e=expected: "refused" in page.status() and e in page.status(), bad)
-            assert page.el("capture").is_enabled()  # type: ignore[attr-defined]
+            page.wait(partial(_shows, page, f"field-error-{testid}", expected), bad)
+            assert page.el("capture").is_enabled()
 
         # Trial 1: pose 1, then pose 2 redone once.
         page.capture("0", "0")
@@ -141,6 +149,9 @@ def test_a_whole_session_in_the_browser(browser: Any, tmp_path: Path) -> None:
         page.capture("1", "0.5")
         page.click("undo")
         page.wait(lambda: "pose 1" in page.status(), "back to pose 1")
+        # The form shows pose 1 as typed, to retype; pose 2's values are gone.
+        page.wait(lambda: page.el("pose-x").is_enabled(), "the pose form")
+        assert browser.find_element(By.ID, "pose-x").get_attribute("value") == "-1"
         page.capture("-1", "0")
         page.click("accept")
         page.capture("1", "0.5")
@@ -151,6 +162,7 @@ def test_a_whole_session_in_the_browser(browser: Any, tmp_path: Path) -> None:
         page.wait(lambda: len(page.results()) == 2, "trial 2's result")
         shown = page.results()
         page.click("quit")
+        page.click("quit-confirm")
         summary = browser.find_element(By.ID, "summary")
         page.wait(lambda: "2 trials (2 complete)" in summary.text, "the summary")
         last_screen = page.shot()
@@ -171,3 +183,27 @@ def test_a_whole_session_in_the_browser(browser: Any, tmp_path: Path) -> None:
     # The screens were drawn: ink on them, and they changed as the session went on.
     assert (first_screen[..., :3] < 128).mean() > 0.01
     assert np.abs(first_screen.astype(int) - last_screen.astype(int)).mean() > 1
+
+
+def test_the_setup_shows_what_the_command_line_gave(browser: Any, tmp_path: Path) -> None:
+    """Given options are shown read-only, marked as such; only the method's fields."""
+    out = tmp_path / "given.mcap"
+    process, url, _ = start_console(out, "--method", "ground", "--ground-height", "9.5")
+    try:
+        browser.get(url)
+        page = Page(browser)
+        page.wait(lambda: browser.find_elements(By.ID, "f-method"), "the setup form")
+        method = browser.find_element(By.ID, "f-method")
+        assert method.get_attribute("value") == "ground"
+        assert not method.is_enabled()
+        height = browser.find_element(By.ID, "f-ground_height")
+        assert height.get_attribute("value") == "9.5"
+        assert height.get_attribute("readonly") is not None
+        cell = browser.find_element(By.ID, "cell-ground_height")
+        assert "from the command line" in cell.text
+        assert not browser.find_element(By.ID, "cell-truth2").is_displayed()
+        assert browser.find_element(By.ID, "cell-keep_off_ground").is_displayed()
+        assert browser.find_element(By.ID, "f-focal").get_attribute("value") == "525"
+    finally:
+        process.terminate()
+        process.wait(timeout=30)

@@ -1,0 +1,248 @@
+"""The console's layout in a real headless Chromium (Debian's chromium and chromium-driver):
+for each method at 1366x768, and for the method with the most setup fields (ground) at
+1280x800, a synthetic-source session from setup to quit: a setup with bad values (every
+refusal at once, each by its field), pose 1 captured with Enter, undo refused at the
+first pose (next to the undo button), accept by the keyboard, pose 2 (an empty form) with
+the result it would give before the decision, accept, quit and its confirmation, the
+finished page with the summary.
+
+At every step the status, the decision buttons and every refusal shown are inside the
+viewport with the page not scrolled, and a screenshot of the step is saved for a person
+to look at: into ``$TWOPOSE_SCREENSHOTS/<method>-<width>x<height>/NN-<step>.png`` when
+that variable names a folder, else into ``results/screenshots/`` (CI keeps ``results/``).
+
+The window is the screen's size: its viewport is what a browser leaves of the screen
+(1366x768 gives 1366x625 in headless Chromium), as on the operator's laptop."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from tests.browser import headless_chromium, require_chromium
+from tests.helpers import start_console
+
+require_chromium()
+
+from selenium.webdriver.common.action_chains import ActionChains  # noqa: E402
+from selenium.webdriver.common.by import By  # noqa: E402
+from selenium.webdriver.common.keys import Keys  # noqa: E402
+from selenium.webdriver.support.ui import Select, WebDriverWait  # noqa: E402
+
+DECISION_BUTTONS = ("accept", "redo", "undo", "quit")
+#: Every refusal the page can show; whichever is shown must be in view.
+REFUSALS = (
+    "[data-testid=refusal]",
+    "[data-testid^=field-error-]",
+    "[data-testid=setup-refusal]",
+    "[data-testid=pose-refusal]",
+    "[data-testid=note-refusal]",
+)
+
+#: Per method: the setup's bad values (field -> value), the fields they make refused, the
+#: good values, and the fields that must not be shown for it.
+SETUPS: dict[str, tuple[dict[str, str], tuple[str, ...], dict[str, str], tuple[str, ...]]] = {
+    "point": (
+        {"focal": "abc", "principal": "1", "truth1": "1, 2"},
+        ("focal", "principal", "truth1"),
+        {"focal": "", "principal": "", "truth1": "0.5, 1.5, 11", "operator": "Ada"},
+        ("ground_height", "truth2", "keep_off_ground"),
+    ),
+    "line": (
+        {"focal": "-5", "truth1": "0, 0, 10", "truth2": "0, 0, 10"},
+        ("focal", "truth2"),
+        {"focal": "", "truth1": "0, 0, 10", "truth2": "1, 0, 10", "operator": "Ada"},
+        ("ground_height", "keep_off_ground"),
+    ),
+    "ground": (
+        {"focal": "abc", "ground_height": "x", "truth1": "1, 2"},
+        ("focal", "ground_height", "truth1"),
+        {"focal": "", "ground_height": "9.625", "truth1": "1.9, 9.625, 8.4", "operator": "Ada"},
+        ("truth2",),
+    ),
+}
+
+IN_VIEW = """
+const [selectors, required] = arguments;
+const problems = [];
+const shown = (e) => e.getClientRects().length > 0 && getComputedStyle(e).visibility !== "hidden";
+for (const selector of [...required, ...selectors]) {
+  const found = [...document.querySelectorAll(selector)];
+  if (required.includes(selector) && !found.some(shown)) problems.push(selector + " not shown");
+  for (const e of found.filter(shown)) {
+    const r = e.getBoundingClientRect();
+    if (r.left < 0 || r.top < 0 || r.right > innerWidth || r.bottom > innerHeight) {
+      problems.push(`${selector} at (${r.left}, ${r.top})-(${r.right}, ${r.bottom})`);
+    }
+  }
+}
+if (scrollX || scrollY) problems.push(`the page is scrolled to (${scrollX}, ${scrollY})`);
+return {problems, width: innerWidth, height: innerHeight};
+"""
+
+
+SCREENSHOTS = Path(__file__).resolve().parents[2] / "results" / "screenshots"
+
+
+def _folder(name: str) -> Path:
+    root = os.environ.get("TWOPOSE_SCREENSHOTS")
+    folder = (Path(root) if root else SCREENSHOTS) / name
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
+
+
+class Steps:
+    """The page at each step: what must be in view, and its screenshot."""
+
+    def __init__(self, browser: Any, folder: Path) -> None:
+        self.browser, self.folder, self.n = browser, folder, 0
+
+    def el(self, testid: str) -> Any:
+        return self.browser.find_element(By.CSS_SELECTOR, f"[data-testid={testid}]")
+
+    def text(self, testid: str) -> str:
+        script = "const e = document.querySelector(arguments[0]); return e ? e.textContent : ''"
+        return str(self.browser.execute_script(script, f"[data-testid={testid}]"))
+
+    def shown(self, testid: str) -> bool:
+        return bool(self.el(testid).is_displayed())
+
+    def wait(self, condition: Any, what: str, timeout: float = 60) -> None:
+        WebDriverWait(self.browser, timeout).until(lambda _: condition(), message=what)
+
+    def type(self, testid: str, text: str) -> None:
+        self.wait(lambda: self.el(testid).is_enabled(), f"{testid} enabled")
+        element = self.el(testid)
+        element.clear()
+        element.send_keys(text)
+
+    def step(self, name: str, *, recording: bool = True) -> None:
+        """Everything that must be seen is in view; then the screenshot."""
+        required = ["[data-testid=status]"]
+        if recording:
+            required += [f"[data-testid={b}]" for b in DECISION_BUTTONS]
+        if self.shown("accept-anyway"):
+            required.append("[data-testid=accept-anyway]")
+        seen = self.browser.execute_script(IN_VIEW, list(REFUSALS), required)
+        self.n += 1
+        path = self.folder / f"{self.n:02d}-{name}.png"
+        self.browser.save_screenshot(str(path))
+        size = f"{seen['width']}x{seen['height']}"
+        assert not seen["problems"], f"{name} ({size}): {seen['problems']}"
+
+
+@pytest.fixture
+def console(tmp_path: Path) -> Iterator[tuple[str, Path]]:
+    out = tmp_path / "layout.mcap"
+    process, url, _ = start_console(out)
+    try:
+        yield url, out
+    finally:
+        process.terminate()
+        process.wait(timeout=30)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("method", "size"),
+    [
+        ("point", (1366, 768)),
+        ("line", (1366, 768)),
+        ("ground", (1366, 768)),
+        ("ground", (1280, 800)),
+    ],
+)
+def test_every_step_fits_the_screen(
+    method: str, size: tuple[int, int], console: tuple[str, Path]
+) -> None:
+    url, _ = console
+    bad, refused, good, absent = SETUPS[method]
+    with headless_chromium(*size) as browser:
+        page = Steps(browser, _folder(f"{method}-{size[0]}x{size[1]}"))
+        browser.get(url)
+        page.wait(lambda: browser.find_elements(By.ID, "f-method"), "the setup form")
+        Select(browser.find_element(By.ID, "f-method")).select_by_value(method)
+        # Only the fields of the method; the thesis' defaults filled in.
+        for name in absent:
+            assert not browser.find_element(By.ID, f"cell-{name}").is_displayed(), name
+        assert browser.find_element(By.ID, "f-focal").get_attribute("value") == "525"
+        assert browser.find_element(By.ID, "f-principal").get_attribute("value") == "320, 240"
+        if method == "ground":
+            assert browser.find_element(By.ID, "f-ground_height").get_attribute("value") == "9.625"
+        page.step("setup", recording=False)
+
+        # Bad values: every refusal at once, each by its field, the field marked.
+        for name, value in bad.items():
+            page.type(f"field-{name}", value)
+        page.el("setup-submit").click()
+        page.wait(lambda: all(page.shown(f"field-error-{n}") for n in refused), "every refusal")
+        for name in refused:
+            assert page.text(f"field-error-{name}").strip()
+            assert "invalid" in str(page.el(f"field-{name}").get_attribute("class"))
+            assert "_" not in page.text(f"field-error-{name}"), "an internal key shown"
+        page.step("setup-refused", recording=False)
+        for name, value in good.items():
+            page.type(f"field-{name}", value)
+        page.el("setup-submit").click()
+        page.wait(lambda: "type pose 1" in page.text("status"), "the first pose")
+        page.wait(lambda: page.el("pose-x").is_enabled(), "the pose form")
+        page.step("pose-1")
+
+        # Pose 1, captured with Enter; its frames' numbers and their average.
+        for testid, value in (("pose-x", "0"), ("pose-y", "0"), ("pose-z", "0")):
+            page.type(testid, value)
+        page.type("pose-rotation", "0, 0, 0" + Keys.ENTER)
+        page.wait(lambda: page.el("accept").is_enabled(), "the capture to end")
+        rows = browser.find_elements(By.CSS_SELECTOR, "[data-testid=frames-table] tbody tr")
+        assert len(rows) == 2
+        assert "2 of 2 frames" in page.text("pose-average")
+        page.step("captured-1")
+
+        # Undo at the first pose: refused next to the undo button.
+        page.el("undo").click()
+        page.wait(lambda: page.shown("refusal"), "the undo refused")
+        assert "nothing to undo" in page.text("refusal")
+        assert page.el("refusal").get_attribute("data-control") == "undo"
+        undo, refusal = page.el("undo").rect, page.el("refusal").rect
+        assert 0 <= refusal["y"] - (undo["y"] + undo["height"]) < 40
+        page.step("undo-refused")
+
+        # Accept by the keyboard; pose 2's form is empty, pose 1 listed as accepted.
+        ActionChains(browser).send_keys("a").perform()  # to whatever has the focus
+        page.wait(lambda: "type pose 2" in page.text("status"), "the second pose")
+        page.wait(lambda: page.el("pose-x").is_enabled(), "the pose form")
+        assert [page.el(f"pose-{k}").get_attribute("value") for k in "xyz"] == ["", "", ""]
+        assert "accepted" in page.text("pose-list")
+        assert not page.shown("refusal")
+        page.step("pose-2")
+
+        for testid, value in (("pose-x", "1.5"), ("pose-y", "0"), ("pose-z", "-1")):
+            page.type(testid, value)
+        page.el("capture").click()
+        page.wait(lambda: page.el("accept").is_enabled(), "the capture to end")
+        page.wait(lambda: page.shown("preview-result"), "the result before the decision")
+        assert "trial 1 (2 views)" in page.text("preview-result")
+        page.step("preview")
+
+        page.el("accept").click()
+        page.wait(lambda: "trial 2" in page.text("status"), "trial 2")
+        page.wait(lambda: page.text("trial-result").startswith("trial 1"), "trial 1's result")
+        legend = page.el("topview-legend")
+        assert float(legend.value_of_css_property("font-size").removesuffix("px")) >= 12
+        canvas = page.el("topview").rect
+        assert legend.rect["y"] >= canvas["y"] + canvas["height"]  # not over the data
+        page.step("trial-2")
+
+        # Quit asks first; then the page says the session is finished, with the summary.
+        page.el("quit").click()
+        page.wait(lambda: page.shown("quit-confirm"), "the confirmation")
+        page.step("quit-asked")
+        page.el("quit-confirm").click()
+        page.wait(lambda: page.shown("summary"), "the summary")
+        assert "finished" in page.text("status")
+        assert "1 trial (1 complete)" in page.text("summary")
+        page.step("finished", recording=False)
