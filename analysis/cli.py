@@ -348,7 +348,7 @@ def _print_run(result: RunResult, out: Path, include_warned: bool) -> None:
     piped), the skipped and failed inputs; exit 1 if any input failed."""
     import shutil
 
-    from analysis.console import summary_lines, wrap_phrases
+    from analysis.console import closing_lines, summary_lines, wrap_phrases
 
     width = min(shutil.get_terminal_size().columns, 100) if sys.stdout.isatty() else None
     typer.echo(f"twopose: {len(result.sessions)} session(s), results in {out}")
@@ -368,6 +368,8 @@ def _print_run(result: RunResult, out: Path, include_warned: bool) -> None:
     _say_skipped(list(result.skipped))
     for _, e in result.errors.iterrows():
         typer.secho(f"failed: {e['error']}", err=True, fg=typer.colors.RED)
+    for line in closing_lines(result.trials, out, include_warned=include_warned, width=width):
+        typer.echo(line)
     if result.failed or not result.sessions:
         if not result.sessions and result.errors.empty:
             typer.secho("no session files (*.mcap) found", err=True, fg=typer.colors.YELLOW)

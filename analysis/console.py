@@ -1,21 +1,25 @@
 """The run's answer as console text: readable in an 80-column terminal and in a CI log.
 
-A per-method table (pooled over the sessions) that fits 80 columns, then one line per
-session, wrapped at the terminal's width when printing to a terminal and left whole when
-piped (a log or a file keeps every number on its line).
+A per-method table (pooled over the sessions, per session set when the run has more than
+one: ``thesis_*`` first) that fits 80 columns, then one line per session, wrapped at the
+terminal's width when printing to a terminal and left whole when piped (a log or a file
+keeps every number on its line); the run ends with one verdict line per method against
+the thesis and the path of ``report.html``.
 """
 
 from __future__ import annotations
 
-import math
 import textwrap
 from pathlib import Path
 
 import pandas as pd
 
-from analysis.metrics import summarize
+from analysis.answer import number as _num
+from analysis.answer import session_order
+from analysis.answer import share as _share
+from analysis.metrics import SESSION_SETS, by_session_set, summarize
 
-__all__ = ["UNIT_NAMES", "summary_lines", "wrap_phrases"]
+__all__ = ["UNIT_NAMES", "closing_lines", "summary_lines", "wrap_phrases"]
 
 UNIT_NAMES = {"in": "inches", "mm": "millimetres", "cm": "centimetres", "m": "metres"}
 
@@ -23,18 +27,6 @@ _HEADER = (
     f"{'method':<7}{'sessions':>8}{'trials':>7}{'ok':>5}{'warned':>7}"
     f"{'rmse':>7}{'median':>7}{'max':>7}{'bias x':>7}{'bias z':>7}{'≤1':>6}"
 )
-
-
-def _num(value: object, signed: bool = False) -> str:
-    if not isinstance(value, int | float) or math.isnan(value):
-        return "-"
-    return f"{value:+.2f}" if signed else f"{value:.2f}"
-
-
-def _share(value: object) -> str:
-    if not isinstance(value, int | float) or math.isnan(value):
-        return "-"
-    return f"{100 * value:.0f}%"
 
 
 def _units(summary: pd.DataFrame) -> str:
@@ -55,17 +47,23 @@ def summary_lines(
         return []
     which = "every ok trial" if include_warned else "ok trials without a warning"
     lines = [f"per method, over {which}; errors in {_units(summary)}:", _HEADER]
-    pooled = summarize(trials.assign(session="all"), include_warned=include_warned)
-    sessions = summary.groupby("method")["session"].nunique()
-    for _, r in pooled.iterrows():
-        lines.append(
-            f"{r['method']!s:<7}{sessions.get(r['method'], 0):>8}{r['n_trials']:>7}"
-            f"{r['n_ok']:>5}{r['n_warned']:>7}{_num(r['rmse']):>7}{_num(r['median_err']):>7}"
-            f"{_num(r['max_err']):>7}{_num(r['bias_x'], True):>7}{_num(r['bias_z'], True):>7}"
-            f"{_share(r['within_1']):>6}"
-        )
+    groups = by_session_set(trials)
+    for name, group in groups:
+        if len(groups) > 1:
+            lines.append(SESSION_SETS.get(name, "sessions in no set") + ":")
+        pooled = summarize(group.assign(session="all"), include_warned=include_warned)
+        mine = summary[summary["session"].isin(set(group["session"]))]
+        sessions = mine.groupby("method")["session"].nunique()
+        for _, r in pooled.iterrows():
+            lines.append(
+                f"{r['method']!s:<7}{sessions.get(r['method'], 0):>8}{r['n_trials']:>7}"
+                f"{r['n_ok']:>5}{r['n_warned']:>7}{_num(r['rmse']):>7}"
+                f"{_num(r['median_err']):>7}{_num(r['max_err']):>7}"
+                f"{_num(r['bias_x'], True):>7}{_num(r['bias_z'], True):>7}"
+                f"{_share(r['within_1']):>6}"
+            )
     lines.append("per session:")
-    for _, r in summary.iterrows():
+    for _, r in session_order(summary).iterrows():
         phrases = [
             f"{Path(str(r['session'])).name} ({r['method']}):",
             f"{r['n_ok']}/{r['n_trials']} ok,",
@@ -94,3 +92,19 @@ def wrap_phrases(phrases: list[str], width: int | None, indent: str = "") -> lis
         break_long_words=False, break_on_hyphens=False,
     )  # fmt: skip
     return [line.replace(_KEEP, " ") for line in wrapped]
+
+
+def closing_lines(
+    trials: pd.DataFrame, out: Path, *, include_warned: bool = False, width: int | None = 80
+) -> list[str]:
+    """The run's last lines: one verdict per method against the thesis (per session set,
+    ``thesis_*`` first), then where ``report.html`` is (when it was written)."""
+    from analysis.thesis import thesis_verdict
+
+    lines = []
+    for verdict in thesis_verdict(trials, include_warned=include_warned):
+        lines += wrap_phrases(["verdict:", *verdict.split(" ")], width)
+    report = out / "report.html"
+    if report.is_file():
+        lines.append(f"report: {report}")
+    return lines

@@ -1,26 +1,50 @@
 """Figures (matplotlib, object API: nothing global is configured).
 
-Every figure has a title and every series a name. What a figure draws does not grow with
-the number of trials: collections (one artist per kind, not per trial), and small multiples
-capped at :data:`MAX_PANELS` panels, the rest in the CSV tables. The report's cost is then
-the same for 15 trials or 500.
+Every figure draws the trials the statistics use (:func:`analysis.metrics.used_trials`):
+a session's figures draw its warned trials distinctly (hollow, dashed), the run's figures
+leave them out, as the answer does; :mod:`analysis.captions` says which in each caption.
+Every axis names its unit (the sessions', or inches when they differ); legends sit beside
+the data, never on it; a figure has one bin width and one y scale.
+
+Layouts are fixed (margins in inches, no constrained layout) and what a figure draws does
+not grow with the number of trials: collections (one artist per kind, not per trial),
+a colour per trial with its key beyond :data:`MAX_LEGEND` named series. The report's cost
+is then the same for 15 trials or 500.
 """
 
 from __future__ import annotations
 
+import functools
 import io
-import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from typing import TYPE_CHECKING
 
-import matplotlib.colors
 import numpy as np
 import pandas as pd
 from matplotlib.axes import Axes
 from matplotlib.collections import EllipseCollection, LineCollection
 from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.ticker import MaxNLocator
 
+from analysis.answer import session_order
+from analysis.figure_style import (
+    DPI,
+    LABEL,
+    TICK,
+    TITLE,
+    colour_key,
+    common_units,
+    key,
+    layout,
+    legend_below,
+    method_colour,
+    place_colour_key,
+    trial_colours,
+)
+from analysis.metrics import by_session_set, session_set, used_trials, warned
 from analysis.outputs import printable_stem
+from analysis.topview_figure import plot_top_view
 from twopose.uncertainty import CHI2_95
 
 if TYPE_CHECKING:
@@ -28,7 +52,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "MAX_LEGEND",
-    "MAX_PANELS",
+    "common_units",
     "error_ellipses",
     "figure_key",
     "make_figures",
@@ -36,7 +60,6 @@ __all__ = [
     "plot_error_histogram",
     "plot_error_scatter",
     "plot_error_vs_baseline",
-    "plot_running_average",
     "plot_top_view",
     "png_bytes",
     "run_figures",
@@ -45,8 +68,17 @@ __all__ = [
 
 #: Series in one legend; beyond it, a figure switches to small multiples.
 MAX_LEGEND = 8
-#: Small multiples drawn at most (the first trials); every trial is in the CSV tables.
-MAX_PANELS = 16
+#: Figures are at most this wide (inches): at 110 dpi, 528 px, shown on a 390 px phone
+#: at two thirds, their 9 pt labels about 9 px high.
+WIDTH = 4.8
+HISTOGRAM_BINS = 20
+
+
+def _style(ax: Axes, title: str, xlabel: str, ylabel: str) -> None:
+    ax.set_title(title, fontsize=TITLE)
+    ax.set_xlabel(xlabel, fontsize=LABEL)
+    ax.set_ylabel(ylabel, fontsize=LABEL)
+    ax.tick_params(labelsize=TICK)
 
 
 def _covariances_xz(trials: pd.DataFrame) -> np.ndarray:
@@ -92,46 +124,39 @@ def _ellipse_bounds(trials: pd.DataFrame, chi2: float = CHI2_95[2]) -> np.ndarra
     return np.array([np.minimum(lo, 0.0), np.maximum(hi, 0.0)])  # the truth is in view
 
 
-def _warned(trials: pd.DataFrame) -> pd.Series:
-    if "warning" not in trials:
-        return pd.Series(False, index=trials.index)
-    return trials["warning"].fillna("").astype(str) != ""
-
-
-def plot_error_scatter(ax: Axes, trials: pd.DataFrame, title: str) -> None:
+def plot_error_scatter(
+    ax: Axes, trials: pd.DataFrame, title: str, *, include_warned: bool = False
+) -> list[Line2D]:
     """Estimate minus truth in x-z, ok trials (the thesis' Figures 11 and 21), each with its
     95% error ellipse, every ellipse inside the axes. Trials with a near-degeneracy warning
-    are hollow red and drawn without their (degenerate) ellipses: the summary leaves them
-    out."""
-    ok = _ok_with_error(trials)
-    warned = _warned(ok)
-    clean, doubtful = ok[~warned], ok[warned]
-    units = trials["units"].iloc[0] if len(trials) else ""
+    are hollow red and drawn without their (degenerate) ellipses; the bias is over the
+    trials the statistics use. Returns the legend's entries."""
+    ok = used_trials(trials, include_warned=True, measured=True)
+    doubted = warned(ok)
+    clean, doubtful = ok[~doubted], ok[doubted]
+    used = ok if include_warned else clean
+    units = str(trials["units"].iloc[0]) if len(trials) else "session units"
     ax.axhline(0, color="0.8", lw=0.8)
     ax.axvline(0, color="0.8", lw=0.8)
+    handles = []
     if len(clean) and "sigma_x" in clean:
         ellipses = error_ellipses(clean)
         ellipses.set_offset_transform(ax.transData)
         ax.add_collection(ellipses, autolim=False)
-        ax.plot([], [], color="C0", lw=0.6, alpha=0.45, label="95% ellipses")
-    ax.scatter(clean["err_x"], clean["err_z"], s=18, label=f"{len(clean)} ok trials")
+        handles.append(key("95% ellipses", color="C0", lw=0.6, alpha=0.45, linestyle="-"))
+    ax.scatter(clean["err_x"], clean["err_z"], s=18, color="C0")
+    handles.append(key(f"{len(clean)} ok trials", marker="o", color="C0", ms=5))
     if len(doubtful):
-        ax.scatter(
-            doubtful["err_x"],
-            doubtful["err_z"],
-            s=22,
-            facecolors="none",
-            edgecolors="C3",
-            label=f"{len(doubtful)} warned (left out)",
-        )
-    if len(clean):
-        mean = (clean["err_x"].mean(), clean["err_z"].mean())
-        ax.scatter([mean[0]], [mean[1]], marker="x", s=60, color="k", label="bias")
+        ax.scatter(doubtful["err_x"], doubtful["err_z"], s=22, facecolors="none", edgecolors="C3")
+        fate = "included" if include_warned else "left out"
+        handles.append(key(f"{len(doubtful)} warned ({fate})", marker="o", mfc="none", mec="C3"))
+    if len(used):
+        ax.scatter([used["err_x"].mean()], [used["err_z"].mean()], marker="x", s=60, color="k")
+        handles.append(key("bias (mean error)", marker="x", color="k", ms=7))
     _limits_around(ax, clean, doubtful)
-    ax.set_xlabel(f"x error ({units})")
-    ax.set_ylabel(f"z error ({units})")
-    ax.set_title(title, fontsize=9)
-    _legend(ax, 7)
+    _style(ax, title, f"x error ({units})", f"z error ({units})")
+    ax.xaxis.set_major_locator(MaxNLocator(nbins=5))  # tick labels that never touch
+    return handles
 
 
 def _limits_around(ax: Axes, clean: pd.DataFrame, doubtful: pd.DataFrame) -> None:
@@ -151,207 +176,146 @@ def _limits_around(ax: Axes, clean: pd.DataFrame, doubtful: pd.DataFrame) -> Non
     ax.set_ylim(lo[1] - pad[1], hi[1] + pad[1])
 
 
-def plot_running_average(
-    ax: Axes, averaging: pd.DataFrame, trials: pd.DataFrame, axis: str
-) -> None:
-    """Estimate of one coordinate against the number of frames averaged (Figures 22-23),
-    one line per trial: for at most :data:`MAX_LEGEND` trials (more: :func:`session_figures`
-    draws small multiples)."""
-    units = trials["units"].iloc[0] if len(trials) else ""
-    for k, (trial, g) in enumerate(averaging.groupby("trial")):
-        line = ax.plot(
-            g["n_frames"], g[axis], marker=".", ms=3, lw=0.8, color=f"C{k}", label=f"trial {trial}"
+def running_errors(averaging: pd.DataFrame, trials: pd.DataFrame) -> pd.DataFrame:
+    """The running averages of the ok trials as errors: ``trial, n_frames, err_x, err_z``
+    (estimate minus truth, session units) and ``warned``."""
+    ok = used_trials(trials, include_warned=True).drop_duplicates("trial", keep="last")
+    truth = ok.set_index("trial")
+    picked = averaging[averaging["trial"].isin(truth.index)]
+    gt = truth.reindex(picked["trial"])
+    return pd.DataFrame(
+        {
+            "trial": picked["trial"].to_numpy(),
+            "n_frames": picked["n_frames"].to_numpy(),
+            "err_x": picked["x"].to_numpy(dtype=np.float64) - gt["gt_x"].to_numpy(np.float64),
+            "err_z": picked["z"].to_numpy(dtype=np.float64) - gt["gt_z"].to_numpy(np.float64),
+            "warned": warned(gt).to_numpy(),
+        }
+    )
+
+
+def _running_axes(fig: Figure, units: str) -> tuple[Axes, Axes]:
+    """The running averages' two panels, x and z error, on one y scale."""
+    ax_x, ax_z = fig.subplots(1, 2, sharey=True, squeeze=False)[0]
+    for ax, axis in ((ax_x, "x"), (ax_z, "z")):
+        ax.axhline(0.0, color="0.6", lw=0.8)
+        _style(ax, f"{axis} error", "", "")
+    ax_x.set_ylabel(f"error of the running average ({units})", fontsize=LABEL)
+    return ax_x, ax_z
+
+
+def plot_running_averages(fig: Figure, errors: pd.DataFrame, units: str) -> list[Line2D]:
+    """Up to :data:`MAX_LEGEND` trials: the x and the z error of the running average
+    against the frames averaged (Figures 22-23, as errors), one named line per trial (a
+    warned one dashed), the two panels on one y scale. Returns the legend's entries."""
+    axes = _running_axes(fig, units)
+    by_trial = list(errors.groupby("trial", sort=True))
+    for ax, axis in zip(axes, ("x", "z"), strict=True):
+        for k, (_, g) in enumerate(by_trial):
+            style = "--" if g["warned"].any() else "-"
+            ax.plot(g["n_frames"], g[f"err_{axis}"], style, color=f"C{k}", lw=1.0)
+    handles = []
+    for k, (trial, g) in enumerate(by_trial):
+        doubt = bool(g["warned"].any())
+        label = f"trial {trial}" + (" (warned)" if doubt else "")
+        handles.append(key(label, color=f"C{k}", linestyle="--" if doubt else "-"))
+    return [*handles, key("truth (zero error)", color="0.6", linestyle="-")]
+
+
+def plot_running_averages_keyed(fig: Figure, errors: pd.DataFrame, units: str) -> Axes:
+    """More trials: the same two panels, one collection of lines per panel, each trial's
+    colour its number's (the colour key returned, to place once the layout is set), a
+    warned trial dashed; what is drawn does not grow with the trials."""
+    axes = _running_axes(fig, units)
+    cmap, norm = trial_colours([int(t) for t in errors["trial"].unique()])
+    by_trial = list(errors.groupby("trial", sort=True))
+    colours = [cmap(norm(int(g["trial"].iloc[0]))) for _, g in by_trial]
+    styles = ["--" if g["warned"].any() else "-" for _, g in by_trial]
+    for ax, axis in zip(axes, ("x", "z"), strict=True):
+        lines = [g[["n_frames", f"err_{axis}"]].to_numpy(dtype=np.float64) for _, g in by_trial]
+        ax.add_collection(
+            LineCollection(lines, colors=colours, linestyles=styles, linewidths=0.9, alpha=0.9)
         )
-        truth = trials.loc[trials["trial"] == trial, f"gt_{axis}"]
-        if len(truth):
-            ax.axhline(float(truth.iloc[0]), color=line[0].get_color(), ls="--", lw=0.8)
-    ax.plot([], [], "--", color="0.3", lw=0.8, label="truth")
-    ax.set_xlabel("frames averaged per pose")
-    ax.set_ylabel(f"{axis} estimate ({units})")
-    ax.set_title(f"{axis} estimate", fontsize=9)
-    _legend(ax, 6)
+        ax.autoscale_view()
+    return colour_key(fig, cmap, norm)
 
 
-def _running_average_panels(fig: Figure, averaging: pd.DataFrame, trials: pd.DataFrame) -> str:
-    """Small multiples: one panel per trial (the first :data:`MAX_PANELS`), its x and z
-    running-average error against the frames averaged; the figure's subtitle."""
-    truth = trials.drop_duplicates("trial", keep="last").set_index("trial")
-    shown = sorted(averaging["trial"].unique())
-    n_all = len(shown)
-    shown = shown[:MAX_PANELS]
-    cols = 4
-    rows = math.ceil(len(shown) / cols)
-    axes = fig.subplots(rows, cols, sharex=True, squeeze=False)
-    by_trial = dict(tuple(averaging[averaging["trial"].isin(shown)].groupby("trial")))
-    for k, ax in enumerate(axes.flat):
-        if k >= len(shown):
-            ax.set_axis_off()
-            continue
-        trial = shown[k]
-        g = by_trial[trial]
-        for j, axis in enumerate(("x", "z")):
-            gt = truth[f"gt_{axis}"].get(trial, np.nan) if f"gt_{axis}" in truth else np.nan
-            ax.plot(g["n_frames"], g[axis] - gt, lw=0.8, color=f"C{j}", label=f"{axis} error")
-        ax.axhline(0.0, color="0.6", lw=0.6)
-        ax.set_title(f"trial {trial}", fontsize=7)
-        ax.tick_params(labelsize=6)
-    axes.flat[0].legend(fontsize=6)
-    more = (
-        f"; trials {shown[0]}-{shown[-1]} of {n_all}, all in averaging.csv"
-        if n_all > len(shown)
-        else ""
-    )
-    return f"error of the running average against frames averaged{more}"
+def _running_figure(name: str, errors: pd.DataFrame, units: str) -> Figure:
+    """The running averages' figure: named lines, or lines keyed by colour beyond
+    :data:`MAX_LEGEND` trials."""
+    many = errors["trial"].nunique() > MAX_LEGEND
 
+    def draw(fig: Figure) -> None:
+        if many:
+            cax = plot_running_averages_keyed(fig, errors, units)
+            handles = [key("truth (zero error)", color="0.6", linestyle="-")]
+            if errors["warned"].any():
+                handles.insert(0, key("warned trial", color="0.3", linestyle="--"))
+            bottom = legend_below(fig, handles, 2)
+            layout(fig, left=0.8, right=1.2, top=0.6, bottom=0.6 + bottom, wspace=0.08)
+            place_colour_key(fig, cax, fig.axes[1])
+        else:
+            bottom = legend_below(fig, plot_running_averages(fig, errors, units), 3)
+            layout(fig, left=0.8, right=0.15, top=0.6, bottom=0.6 + bottom, wspace=0.08)
+        height = fig.get_size_inches()[1]
+        fig.supxlabel(
+            "number of frames averaged per pose",
+            fontsize=LABEL,
+            y=(bottom + 0.05) / height,
+            va="bottom",
+        )
+        fig.suptitle(f"{name}: running average, error", fontsize=TITLE)
 
-def _legend(ax: Axes, fontsize: int) -> None:
-    """A legend when something is named (an empty one would only warn)."""
-    if ax.get_legend_handles_labels()[0]:
-        ax.legend(fontsize=fontsize)
-
-
-def _ok_with_error(trials: pd.DataFrame) -> pd.DataFrame:
-    """The ok trials whose error is known and finite (no truth: NaN; absurd truth: inf)."""
-    err = pd.to_numeric(trials["err"], errors="coerce")
-    ok: pd.DataFrame = trials[(trials["status"] == "ok") & np.isfinite(err)]
-    return ok
-
-
-def plot_error_histogram(ax: Axes, trials: pd.DataFrame) -> None:
-    ok = _ok_with_error(trials)
-    for method, g in ok.groupby("method"):
-        with np.errstate(over="ignore", invalid="ignore"):
-            span = float(g["err"].max() - g["err"].min())
-        bins = 20 if np.isfinite(span) else [float(b) for b in np.geomspace(1e-300, 1e300, 20)]
-        ax.hist(g["err"], bins=bins, alpha=0.6, label=str(method))
-        if not np.isfinite(span):
-            ax.set_xscale("log")
-    ax.set_xlabel("error (session units)")
-    ax.set_ylabel("trials")
-    ax.set_title("Error per ok trial, by method", fontsize=9)
-    _legend(ax, 7)
-
-
-def plot_top_view(ax: Axes, trials: pd.DataFrame, views: pd.DataFrame, title: str) -> None:
-    """Looking down the y axis (x-z): each trial's typed camera centres, the ray through each
-    view's measurement (for lines, the plane's central ray), the estimate and the truth."""
-    units = trials["units"].iloc[0] if len(trials) else ""
-    # One artist per kind, not per trial: long sessions must not slow the layout down. A
-    # trial number recorded twice is drawn once (its last occurrence).
-    by_trial = trials.drop_duplicates("trial", keep="last").set_index("trial")
-    order = {t: k for k, t in enumerate(sorted(views["trial"].unique()))}
-    colors = np.array([matplotlib.colors.to_rgba(f"C{k % 10}") for k in range(10)])
-    view_color = colors[views["trial"].map(order).to_numpy() % 10]
-    c = views[["t_x", "t_z"]].to_numpy(dtype=np.float64)
-    ray = views[["ray_x", "ray_z"]].to_numpy(dtype=np.float64)
-    est = by_trial.loc[views["trial"], ["x", "z"]].to_numpy(dtype=np.float64)
-    reach = np.where(np.isfinite(est).all(axis=1), 1.2 * np.linalg.norm(est - c, axis=1), 10.0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        end = c + ray / np.linalg.norm(ray, axis=1)[:, None] * reach[:, None]
-    segments = np.stack([c, end], axis=1)
-    good = np.isfinite(segments).all(axis=(1, 2))
-    ax.add_collection(
-        LineCollection(list(segments[good]), colors=view_color[good], linewidths=0.6, alpha=0.6)
-    )
-    ax.scatter(c[:, 0], c[:, 1], marker="^", s=25, c=view_color)
-    trial_color = colors[[order[t] % 10 for t in by_trial.index if t in order]]
-    shown = by_trial.loc[[t for t in by_trial.index if t in order]]
-    ax.scatter(shown["x"], shown["z"], marker="x", s=45, c=trial_color)
-    truth = ax.scatter(shown["gt_x"], shown["gt_z"], marker="o", s=45, facecolors="none")
-    truth.set_edgecolor([tuple(rgba) for rgba in trial_color])
-    ax.plot([], [], "^", color="0.3", label="cameras (typed)")
-    ax.plot([], [], "-", color="0.3", lw=0.6, label="rays (colour: trial)")
-    ax.plot([], [], "x", color="0.3", label="estimate")
-    ax.plot([], [], "o", mfc="none", color="0.3", label="truth")
-    ax.set_xlabel(f"x ({units})")
-    ax.set_ylabel(f"z, depth ({units})")
-    ax.set_title(title, fontsize=9)
-    ax.set_aspect("equal", adjustable="datalim")
-    _legend(ax, 7)
-
-
-def plot_error_by_trial(ax: Axes, trials: pd.DataFrame) -> None:
-    """Each ok trial's error, with the radius of its 95% ellipsoid for scale; one series
-    per session (beyond :data:`MAX_LEGEND` sessions, grey and unnamed but for the first)."""
-    ok = _ok_with_error(trials)
-    for k, (session, g) in enumerate(ok.groupby("session", sort=False)):
-        named = k < MAX_LEGEND
-        color = f"C{k}" if named else "0.6"
-        label = printable_stem(str(session)) if named else None
-        ax.plot(g["trial"], g["err"], "o-", color=color, ms=3, lw=0.8, label=label)
-        if "semiaxis95" in g:
-            ax.plot(g["trial"], g["semiaxis95"], ":", color=color, lw=0.8)
-    ax.plot([], [], ":", color="0.3", label="95% ellipsoid, longest semi-axis")
-    ax.set_yscale("log")
-    ax.set_xlabel("trial")
-    ax.set_ylabel("error (session units)")
-    ax.set_title("Error by trial, per session", fontsize=9)
-    _legend(ax, 6)
-
-
-def plot_error_vs_baseline(ax: Axes, trials: pd.DataFrame) -> None:
-    """Error against the distance between the cameras (the thesis' strongest lever)."""
-    ok = _ok_with_error(trials)
-    ok = ok[ok["baseline"].notna()]
-    for method, g in ok.groupby("method"):
-        ax.scatter(g["baseline"], g["err"], s=14, label=str(method), alpha=0.8)
-    ax.set_yscale("log")
-    ax.set_xlabel("baseline (session units)")
-    ax.set_ylabel("error (session units)")
-    ax.set_title("Error against baseline", fontsize=9)
-    _legend(ax, 7)
+    return _figure((WIDTH, 3.9), draw)
 
 
 def session_figures(
-    session: str, trials: pd.DataFrame, averaging: pd.DataFrame, views: pd.DataFrame
+    session: str,
+    trials: pd.DataFrame,
+    averaging: pd.DataFrame,
+    views: pd.DataFrame,
+    *,
+    include_warned: bool = False,
 ) -> dict[str, Figure]:
-    """One session's figures: ``scatter``, ``topview`` and (with more than one frame)
-    ``averaging``: one panel per coordinate for up to :data:`MAX_LEGEND` trials, small
-    multiples beyond."""
+    """One session's figures: ``scatter``, ``topview`` (ok trials with views) and, with
+    more than one frame per pose, ``averaging``."""
     name = printable_stem(session)
-    figures = {
-        "scatter": _figure(
-            (4.2, 4.0),
-            lambda fig: plot_error_scatter(fig.add_subplot(), trials, f"{name}: estimate - truth"),
-        )
-    }
-    if not views.empty:
+    units = str(trials["units"].iloc[0]) if len(trials) else "session units"
+
+    def scatter(fig: Figure) -> None:
+        ax = fig.add_subplot()
+        title = f"{name}: estimate - truth"
+        handles = plot_error_scatter(ax, trials, title, include_warned=include_warned)
+        bottom = legend_below(fig, handles, 2)
+        layout(fig, left=0.75, right=0.2, top=0.35, bottom=0.5 + bottom)
+
+    figures = {"scatter": _figure((WIDTH - 0.3, 4.9), scatter)}
+    if not views.empty and not used_trials(trials, include_warned=True).empty:
         figures["topview"] = _figure(
-            (4.6, 4.0),
-            lambda fig: plot_top_view(fig.add_subplot(), trials, views, f"{name}: top view"),
+            (WIDTH, 5.2), lambda fig: plot_top_view(fig, trials, views, f"{name}: top view")
         )
-    if not averaging.empty and averaging["n_frames"].max() > 1:
-        many = averaging["trial"].nunique() > MAX_LEGEND
-
-        def running(fig: Figure) -> None:
-            if many:
-                subtitle = _running_average_panels(fig, averaging, trials)
-            else:
-                for j, axis in enumerate(("x", "z")):
-                    plot_running_average(fig.add_subplot(1, 2, j + 1), averaging, trials, axis)
-                subtitle = "estimate against frames averaged"
-            fig.suptitle(f"{name}: running average ({subtitle})", fontsize=9)
-
-        figures["averaging"] = _figure((8.0, 6.4 if many else 3.4), running)
+    errors = running_errors(averaging, trials) if not averaging.empty else averaging
+    if not errors.empty and errors["n_frames"].max() > 1:
+        figures["averaging"] = _running_figure(name, errors, units)
     return figures
 
 
 def _figure(size: tuple[float, float], draw: Callable[[Figure], None]) -> Figure:
     """A figure drawn by ``draw``; if the data defeat it, a figure that says why instead, so
-    that one odd session never costs the run its report."""
-    fig = Figure(figsize=size, layout="constrained")
+    that one odd session never costs the run its report (errors that only rendering meets
+    are caught by :func:`png_bytes`)."""
+    fig = Figure(figsize=size, dpi=DPI)
     try:
         draw(fig)
-        fig.canvas.draw()  # layout errors surface here, not when the PNG is written
     except (ValueError, OverflowError, FloatingPointError, KeyError, IndexError) as err:
-        fig = Figure(figsize=size, layout="constrained")
-        fig.text(
-            0.5,
-            0.5,
-            f"figure not drawn:\n{type(err).__name__}: {err}"[:300],
-            ha="center",
-            wrap=True,
-        )
+        fig = _not_drawn(size, err)
+    return fig
+
+
+def _not_drawn(size: tuple[float, float], err: Exception) -> Figure:
+    fig = Figure(figsize=size, dpi=DPI)
+    text = f"figure not drawn:\n{type(err).__name__}: {err}"[:300]
+    fig.text(0.5, 0.5, text, ha="center", wrap=True)
     return fig
 
 
@@ -360,34 +324,155 @@ def figure_key(kind: str, index: int, session: str) -> str:
     return f"{kind}_{index:02d}_{printable_stem(session)}"
 
 
+def _grouped_axes(fig: Figure, trials: pd.DataFrame) -> list[tuple[str, Axes]]:
+    """One panel per session set (stacked, on shared x and y scales), each with its set."""
+    groups = by_session_set(trials)
+    axes = fig.subplots(len(groups), 1, sharex=True, sharey=True, squeeze=False)[:, 0]
+    return [(name, ax) for (name, _), ax in zip(groups, axes, strict=True)]
+
+
+def _set_title(name: str, base: str) -> str:
+    return f"{base}: {name}_* sessions" if name else base
+
+
+def plot_error_histogram(
+    fig: Figure, trials: pd.DataFrame, *, include_warned: bool = False
+) -> None:
+    """The error of each trial the answer uses, by method, one panel per session set, every
+    panel with the same bins (one width, from 0 to the largest error) and y scale."""
+    used, units = common_units(used_trials(trials, include_warned=include_warned, measured=True))
+    top = float(used["err"].max()) if len(used) else 1.0
+    edges = np.linspace(0.0, top if top > 0 else 1.0, HISTOGRAM_BINS + 1)
+    methods = sorted(used["method"].unique()) if len(used) else []
+    panels = _grouped_axes(fig, used)
+    for name, ax in panels:
+        g = used if not name else used[used["session"].map(session_set) == name]
+        data = [g.loc[g["method"] == m, "err"].to_numpy() for m in methods]
+        if methods:
+            ax.hist(data, bins=list(edges), color=[method_colour(m) for m in methods])
+        _style(ax, _set_title(name, "Error per trial"), "", "number of trials")
+    width = f"{edges[1] - edges[0]:.3g}"
+    panels[-1][1].set_xlabel(f"error ({units}); bins {width} {units} wide", fontsize=LABEL)
+    handles = [key(str(m), marker="s", color=method_colour(m), ms=7) for m in methods]
+    _run_layout(fig, len(panels), legend_below(fig, handles, 3))
+
+
+def _run_layout(fig: Figure, panels: int, legend: float) -> None:
+    fig.set_size_inches(WIDTH, 0.95 + legend + 2.3 * panels)
+    layout(fig, left=0.75, right=0.2, top=0.35, bottom=0.55 + legend, hspace=0.3)
+
+
+def plot_error_by_trial(fig: Figure, trials: pd.DataFrame, *, include_warned: bool = False) -> None:
+    """Each used trial's error, with the radius of its 95% ellipsoid for scale; one series
+    per session (beyond :data:`MAX_LEGEND` sessions, one grey collection, unnamed)."""
+    used, units = common_units(used_trials(trials, include_warned=include_warned, measured=True))
+    ax = fig.add_subplot()
+    handles = []
+    rest = []
+    for k, (session, g) in enumerate(session_order(used).groupby("session", sort=False)):
+        xy = g[["trial", "err"]].to_numpy(dtype=np.float64)
+        if k >= MAX_LEGEND:
+            rest.append(xy)
+            continue
+        ax.plot(xy[:, 0], xy[:, 1], "o-", color=f"C{k}", ms=3, lw=0.8)
+        if "semiaxis95" in g:
+            ax.plot(g["trial"], g["semiaxis95"], ":", color=f"C{k}", lw=0.8)
+        name = printable_stem(str(session))
+        handles.append(key(name, color=f"C{k}", marker="o", ms=3, linestyle="-"))
+    if rest:
+        ax.add_collection(LineCollection(rest, colors="0.6", linewidths=0.6))
+        handles.append(key(f"{len(rest)} more sessions", color="0.6", linestyle="-"))
+    handles.append(key("95% ellipsoid, longest semi-axis", linestyle=":", lw=0.8))
+    ax.set_yscale("log")
+    _style(ax, "Error by trial, per session", "trial number", f"error ({units}, log scale)")
+    legend = legend_below(fig, handles, 2)
+    fig.set_size_inches(WIDTH, 3.4 + legend)
+    layout(fig, left=0.75, right=0.2, top=0.35, bottom=0.55 + legend)
+
+
+def plot_error_vs_baseline(
+    fig: Figure, trials: pd.DataFrame, *, include_warned: bool = False
+) -> None:
+    """Error against the distance between the cameras (the thesis' strongest lever), by
+    method, one panel per session set on shared scales."""
+    used, units = common_units(used_trials(trials, include_warned=include_warned, measured=True))
+    used = used[used["baseline"].notna()] if "baseline" in used else used.head(0)
+    methods = sorted(used["method"].unique()) if len(used) else []
+    panels = _grouped_axes(fig, used)
+    for name, ax in panels:
+        g = used if not name else used[used["session"].map(session_set) == name]
+        for method, m in g.groupby("method"):
+            ax.scatter(m["baseline"], m["err"], s=14, color=method_colour(method), alpha=0.8)
+        ax.set_yscale("log")
+        _style(ax, _set_title(name, "Error against baseline"), "", f"error ({units}, log)")
+    panels[-1][1].set_xlabel(f"baseline ({units})", fontsize=LABEL)
+    handles = [key(str(m), marker="o", color=method_colour(m), ms=5) for m in methods]
+    _run_layout(fig, len(panels), legend_below(fig, handles, 3))
+
+
 def run_figures(result: RunResult) -> dict[str, Figure]:
     """The figures spanning all sessions of a run."""
     if result.trials.empty:
         return {}
-    trials = result.trials
+    plots = {
+        "error_histogram": plot_error_histogram,
+        "error_by_trial": plot_error_by_trial,
+        "error_vs_baseline": plot_error_vs_baseline,
+    }
     return {
-        "error_histogram": _figure(
-            (5.0, 3.4), lambda fig: plot_error_histogram(fig.add_subplot(), trials)
-        ),
-        "error_by_trial": _figure(
-            (5.6, 3.4), lambda fig: plot_error_by_trial(fig.add_subplot(), trials)
-        ),
-        "error_vs_baseline": _figure(
-            (5.0, 3.4), lambda fig: plot_error_vs_baseline(fig.add_subplot(), trials)
-        ),
+        name: _figure(
+            (WIDTH, 3.6),
+            functools.partial(plot, trials=result.trials, include_warned=result.include_warned),
+        )
+        for name, plot in plots.items()
     }
 
 
 def make_figures(result: RunResult) -> dict[str, Figure]:
-    """Named figures of a run: one scatter per session, running averages, a histogram."""
+    """Named figures of a run: per session its scatter, top view and running averages;
+    then the histogram, the error by trial and the error against baseline."""
     figures: dict[str, Figure] = {}
     for i, s in enumerate(result.sessions):
-        for kind, fig in session_figures(s.session, s.trials, s.averaging, s.views).items():
-            figures[figure_key(kind, i, s.session)] = fig
+        drawn = session_figures(
+            s.session, s.trials, s.averaging, s.views, include_warned=result.include_warned
+        )
+        figures |= {figure_key(kind, i, s.session): fig for kind, fig in drawn.items()}
     return figures | run_figures(result)
 
 
+def describe(fig: Figure) -> str:
+    """What a figure shows, for its PNG's ``Description`` and the report's alt text: its
+    titles and every axis label (``x: ...``, ``y: ...``)."""
+    parts = [fig.get_suptitle()]
+    parts += [f"x: {fig.get_supxlabel()}", f"y: {fig.get_supylabel()}"]
+    parts += _axes_labels(ax for ax in fig.axes if ax.axison)
+    if not fig.axes:  # a figure that says why it was not drawn
+        parts += [t.get_text() for t in fig.texts]
+    return "; ".join(dict.fromkeys(p for p in parts if p and p not in ("x: ", "y: ")))
+
+
+def _axes_labels(axes: Iterable[Axes]) -> list[str]:
+    out = []
+    for ax in axes:
+        out += [ax.get_title()]
+        out += [f"x: {ax.get_xlabel()}"] if ax.get_xlabel() else []
+        out += [f"y: {ax.get_ylabel()}"] if ax.get_ylabel() else []
+    return out
+
+
 def png_bytes(fig: Figure) -> bytes:
+    """The figure as a PNG whose ``Description`` is :func:`describe`'s; a figure whose data
+    defeat rendering becomes one that says why."""
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110, metadata={"Software": None})
+    try:
+        fig.savefig(buf, format="png", dpi=DPI, metadata=_metadata(fig))
+    except (ValueError, OverflowError, FloatingPointError) as err:
+        buf = io.BytesIO()
+        size = fig.get_size_inches()
+        fallback = _not_drawn((float(size[0]), float(size[1])), err)
+        fallback.savefig(buf, format="png", dpi=DPI, metadata=_metadata(fallback))
     return buf.getvalue()
+
+
+def _metadata(fig: Figure) -> dict[str, str | None]:
+    return {"Software": None, "Description": describe(fig)}

@@ -11,11 +11,14 @@ from numpy.typing import NDArray
 
 __all__ = [
     "NOTES_COLUMNS",
+    "SESSION_SETS",
     "SUMMARY_COLUMNS",
     "TRIAL_COLUMNS",
     "UNCERTAINTY_COLUMNS",
     "WEIGHTED_COLUMNS",
+    "by_session_set",
     "paired_difference",
+    "session_set",
     "summarize",
     "t95",
     "used_trials",
@@ -119,20 +122,57 @@ SUMMARY_COLUMNS = [
 
 
 def warned(trials: pd.DataFrame) -> pd.Series:
-    """Which trials carry a near-degeneracy warning (the one rule the summary, the
-    comparison and the rig's before/after share)."""
+    """Which trials carry a near-degeneracy warning (part of :func:`used_trials`' rule)."""
     if "warning" not in trials:
         return pd.Series(False, index=trials.index)
     return trials["warning"].fillna("").astype(str) != ""
 
 
-def used_trials(trials: pd.DataFrame, *, include_warned: bool = False) -> pd.DataFrame:
-    """The trials the statistics use: ok, and without a warning unless ``include_warned``."""
+def used_trials(
+    trials: pd.DataFrame, *, include_warned: bool = False, measured: bool = False
+) -> pd.DataFrame:
+    """The trials the statistics use: ok, and without a warning unless ``include_warned``;
+    with ``measured``, only those whose error is known and finite (what a figure can draw).
+
+    The one rule: the summary, the answer, the thesis table and verdict, every figure, the
+    rig's before/after and ``compare`` all call it.
+    """
     keep = trials["status"] == "ok"
     if not include_warned:
         keep &= ~warned(trials)
+    if measured:
+        keep &= np.isfinite(pd.to_numeric(trials["err"], errors="coerce"))
     used: pd.DataFrame = trials[keep]
     return used
+
+
+#: Session sets a file name declares, in the order the report and the console show them:
+#: ``thesis_*.mcap`` repeat the thesis' experiments, ``stress_*.mcap`` go beyond them (the
+#: bundled sample sessions are named so). Any other file is in no set.
+SESSION_SETS = {
+    "thesis": "thesis_* sessions: the thesis' experiments",
+    "stress": "stress_* sessions: free poses, some near a degenerate geometry",
+}
+
+
+def session_set(session: str) -> str:
+    """The set a session's file name declares (``thesis_line.mcap``: ``thesis``; see
+    :data:`SESSION_SETS`), or ``""``."""
+    name = str(session).replace("\\", "/").rsplit("/", 1)[-1]
+    prefix = name.split("_", 1)[0] if "_" in name else ""
+    return prefix if prefix in SESSION_SETS else ""
+
+
+def by_session_set(trials: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
+    """``trials`` split by session set, in :data:`SESSION_SETS`' order, the sessions in no
+    set last (``""``); one group, ``""``, when the run has a single group (or no
+    ``session`` column): sets are only told apart when there is more than one."""
+    if "session" not in trials or trials.empty:
+        return [("", trials)]
+    sets = trials["session"].map(session_set)
+    order = [*SESSION_SETS, ""]
+    groups = [(name, trials[sets == name]) for name in order if (sets == name).any()]
+    return groups if len(groups) > 1 else [("", trials)]
 
 
 def summarize(trials: pd.DataFrame, *, include_warned: bool = False) -> pd.DataFrame:

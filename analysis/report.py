@@ -1,9 +1,10 @@
 """Report: the CSV tables, one PNG per figure (:mod:`analysis.figures`) and a
-self-contained ``report.html`` that answers first: per method, then per session."""
+self-contained ``report.html`` that answers first: per session set and method (the
+``thesis_*`` sessions first: the thesis reproduced, then ``stress_*``), then per session.
+The page reads at 1280 px and at 390 px (:mod:`analysis.html_page`)."""
 
 from __future__ import annotations
 
-import base64
 import html
 import json
 from pathlib import Path
@@ -12,9 +13,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
+from analysis.answer import ANSWER_COLUMNS, answer_table, readable, session_order, share
+from analysis.captions import run_captions, session_captions
 from analysis.figures import figure_key, png_bytes, run_figures, session_figures
-from analysis.metrics import used_trials
-from analysis.thesis import thesis_table, thesis_verdict
+from analysis.html_page import Image, figure_html, image, page_html, table_html
+from analysis.metrics import SESSION_SETS, by_session_set, session_set, used_trials
+from analysis.thesis import thesis_sessions, thesis_table, thesis_verdict
 
 if TYPE_CHECKING:
     from analysis.results import RunResult
@@ -28,48 +32,6 @@ __all__ = [
     "table_html",
     "write_outputs",
 ]
-
-
-def _rounded(value: float) -> str:
-    """Four significant digits; floating-point noise (|v| < 1e-9) reads 0."""
-    return "0" if abs(value) < 1e-9 else f"{value:.4g}"
-
-
-def table_html(df: pd.DataFrame, *, text: bool = False) -> str:
-    """A table that scrolls inside its own box: a wide one never widens the page. Numbers
-    align right; a table of sentences (``text``) aligns left."""
-    classes = "t text" if text else "t"
-    body = df.to_html(index=False, float_format=_rounded, na_rep="", border=0, classes=classes)
-    return f"<div class='scroll'>{body}</div>"
-
-
-ANSWER_COLUMNS = [
-    "method",
-    "units",
-    "n_trials",
-    "n_ok",
-    "n_warned",
-    "rmse",
-    "rmse_ci95_low",
-    "rmse_ci95_high",
-    "median_err",
-    "bias_x",
-    "bias_x_ci95",
-    "bias_z",
-    "bias_z_ci95",
-    "coverage95",
-    "within_1",
-]
-
-
-def answer_table(trials: pd.DataFrame, *, include_warned: bool = False) -> pd.DataFrame:
-    """Per method (and units), pooled over the sessions: the report's first table."""
-    from analysis.metrics import summarize
-
-    if trials.empty:
-        return pd.DataFrame(columns=ANSWER_COLUMNS)
-    pooled = trials.assign(session="all (" + trials["units"].astype(str) + ")")
-    return summarize(pooled, include_warned=include_warned)[ANSWER_COLUMNS]
 
 
 #: The per-trial columns the report shows (every column is in trials.csv).
@@ -136,9 +98,12 @@ def write_outputs(result: RunResult, out_dir: Path, sweeps: pd.DataFrame) -> lis
     # without them is drawn here. Only what spans sessions is always drawn here.
     pngs: dict[str, bytes] = {}
     for i, s in enumerate(result.sessions):
-        rendered = s.images or {
+        # Workers draw with the default rule; --include-warned redraws here.
+        rendered = (s.images if not result.include_warned else {}) or {
             kind: png_bytes(fig)
-            for kind, fig in session_figures(s.session, s.trials, s.averaging, s.views).items()
+            for kind, fig in session_figures(
+                s.session, s.trials, s.averaging, s.views, include_warned=result.include_warned
+            ).items()
         }
         pngs |= {figure_key(kind, i, s.session): data for kind, data in rendered.items()}
     pngs |= {name: png_bytes(fig) for name, fig in run_figures(result).items()}
@@ -148,7 +113,7 @@ def write_outputs(result: RunResult, out_dir: Path, sweeps: pd.DataFrame) -> lis
     images = {}
     for name, data in pngs.items():
         write_atomically(out_dir / f"{name}.png", data)
-        images[name] = base64.b64encode(data).decode()
+        images[name] = image(data)
     page = _report_html(result, images, sweeps).encode("utf-8", "backslashreplace")
     write_atomically(out_dir / "report.html", page)
     return [*tables, "summary.json", *(f"{name}.png" for name in pngs), "report.html"]
@@ -203,6 +168,19 @@ def dominant_inputs(trials: pd.DataFrame) -> pd.DataFrame:
     )
 
 
+def _dominant_shown(table: pd.DataFrame) -> pd.DataFrame:
+    """:func:`dominant_inputs` as a reader sees it: file names, words, percent."""
+    ordered = session_order(table)
+    return pd.DataFrame(
+        {
+            "session": [Path(str(s)).name for s in ordered["session"]],
+            "dominant input": ordered["dominant_input"],
+            "trials": ordered["trials"],
+            "its median share of the variance": [share(v) for v in ordered["median_share"]],
+        }
+    )
+
+
 def _sensitivity_table(sweeps: pd.DataFrame) -> pd.DataFrame:
     """RMS error per sweep value, one column per method."""
     table = sweeps.pivot_table(
@@ -215,35 +193,17 @@ def _sensitivity_table(sweeps: pd.DataFrame) -> pd.DataFrame:
     )
 
 
-_STYLE = (
-    "body{font-family:sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;color:#222}"
-    ".scroll{overflow-x:auto;max-width:100%}img{max-width:100%;height:auto;display:block}"
-    "table.t{border-collapse:collapse;font-size:12px;margin:1em 0}"
-    "table.t td,table.t th{padding:2px 8px;border-bottom:1px solid #ddd;text-align:right}"
-    "table.text td,table.text th{text-align:left}"
-    "h2{border-bottom:1px solid #aaa}.err{color:#a00}.verdict{font-weight:bold}"
-)
-
-
-def _img(key: str, images: dict[str, str]) -> str:
-    if key not in images:
-        return ""
-    alt = html.escape(key)
-    return f"<img alt='{alt}' src='data:image/png;base64,{images[key]}'>"
-
-
 def _answer_section(result: RunResult) -> list[str]:
-    """The answer per method, its verdict against the thesis, and a table of contents."""
+    """The answer per session set and method, each set's verdict against the thesis, and
+    a table of contents."""
     n_ok = int((result.trials["status"] == "ok").sum())
     which = (
         "every ok trial (warned ones included: --include-warned)"
         if result.include_warned
-        else "the ok trials without a near-degeneracy warning (<code>n_warned</code> counts "
-        "those left out)"
+        else "the ok trials without a near-degeneracy warning (“warned” counts those left "
+        "out; trials.csv has them all)"
     )
-    which_warned = result.include_warned
-    verdict = thesis_verdict(result.trials, include_warned=which_warned)
-    return [
+    parts = [
         "<h1>twopose report</h1>",
         f"<p>{len(result.sessions)} session(s) analysed, {len(result.errors)} failed, "
         f"{len(result.trials)} trial(s), {n_ok} ok.</p>",
@@ -253,46 +213,78 @@ def _answer_section(result: RunResult) -> list[str]:
         "<a href='#dominant'>What dominates the error</a> · "
         "<a href='#sensitivity'>Sensitivity</a> · <a href='#sessions'>Sessions</a></nav>",
         "<h2 id='answer'>Answer per method</h2>",
-        f"<p>Pooled over the sessions, over {which}; 95% intervals of the RMSE (bootstrap) "
-        "and of the biases (<code>_ci95</code>: half-widths); <code>coverage95</code>: the "
-        "share of trials whose truth is inside their 95% ellipsoid.</p>",
-        table_html(answer_table(result.trials, include_warned=result.include_warned)),
-        *(f"<p class='verdict'>{html.escape(line)}</p>" for line in verdict),
+        f"<p>Pooled over the sessions, over {which}. Errors are distances from the truth; "
+        "RMSE with its 95% bootstrap interval, biases (mean error) with the half-widths of "
+        "their 95% intervals; the last column is the share of trials whose truth lies "
+        "inside their own 95% uncertainty ellipsoid (95% when the uncertainty is honest).</p>",
+    ]
+    groups = by_session_set(result.trials)
+    if len(groups) > 1:
+        parts.append(
+            "<p>Per session set, as the file names declare it: <code>thesis_*</code> "
+            "repeat the thesis' experiments, <code>stress_*</code> go beyond them.</p>"
+        )
+    for name, group in groups:
+        if len(groups) > 1:
+            title = SESSION_SETS.get(name, "sessions in no set")
+            parts.append(f"<h3 id='set-{name or 'other'}'>{html.escape(title)}</h3>")
+        table = answer_table(group, include_warned=result.include_warned)
+        parts.append(table_html(readable(table, include_warned=result.include_warned)))
+        verdict = thesis_verdict(group, include_warned=result.include_warned)
+        parts += [f"<p class='verdict'>{html.escape(line)}</p>" for line in verdict]
+    return parts + _thesis_section(result)
+
+
+def _thesis_section(result: RunResult) -> list[str]:
+    sessions = thesis_sessions(result.trials)["session"].nunique() if len(result.trials) else 0
+    over = (
+        f"the {sessions} <code>thesis_*</code> session(s)"
+        if sessions < result.trials["session"].nunique()
+        else "every session"
+    )
+    table = thesis_table(result.trials, result.averaging, include_warned=result.include_warned)
+    return [
         "<h2 id='thesis'>The thesis, reproduced</h2>",
-        "<p>What the thesis reported (sections 3.4, 5.3, 5.4) against this run "
-        "(thesis.csv; errors in inches).</p>",
-        table_html(
-            thesis_table(result.trials, result.averaging, include_warned=result.include_warned)
-        ),
+        "<p>What the thesis reported (sections 3.4, 5.3, 5.4) against this run, over "
+        f"{over} (thesis.csv; errors in inches).</p>",
+        table_html(table, text=True),
     ]
 
 
-def _overview_section(result: RunResult, images: dict[str, str]) -> list[str]:
+def _overview_section(result: RunResult, images: dict[str, Image]) -> list[str]:
+    captions = run_captions(result.trials, result.include_warned)
+    summary = session_order(result.summary)
     parts = [
         "<h2 id='summary'>Per session</h2>",
-        table_html(result.summary),
+        "<p>As the answer, per session (every column: <code>summary.csv</code>).</p>",
+        table_html(readable(summary, include_warned=result.include_warned)) if len(summary) else "",
         "<h2 id='figures'>Overview figures</h2>",
-        *(_img(key, images) for key in ("error_histogram", "error_by_trial", "error_vs_baseline")),
+        *(
+            figure_html(key, images.get(key), captions.get(key, ""))
+            for key in ("error_histogram", "error_by_trial", "error_vs_baseline")
+        ),
     ]
     if not result.errors.empty:
         parts.append("<h2>Inputs that failed</h2>")
-        parts.append(f"<div class='err'>{table_html(result.errors)}</div>")
+        parts.append(f"<div class='err'>{table_html(result.errors, text=True)}</div>")
     return parts
 
 
-def _method_sections(result: RunResult, images: dict[str, str], sweeps: pd.DataFrame) -> list[str]:
+def _method_sections(
+    result: RunResult, images: dict[str, Image], sweeps: pd.DataFrame
+) -> list[str]:
     return [
         "<h2 id='dominant'>What dominates the error</h2>",
         "<p>Per trial, the input whose uncertainty contributes most to the estimate's "
         "covariance (first-order propagation of the frame scatter and the typed poses' "
         "recorded 1-sigma resolution; trials.csv: <code>dominant_input</code>, "
         "<code>dominant_share</code>).</p>",
-        table_html(dominant_inputs(result.trials)),
+        table_html(_dominant_shown(dominant_inputs(result.trials))),
         "<h2 id='sensitivity'>Sensitivity (the thesis' geometry)</h2>",
         "<p>Seeded Monte Carlo sweeps through the solvers, one input varied at a time, in the "
         "thesis' geometry (f = 525 px, h = 9.625 in, a 1.1 in baseline along x; "
         "<code>twopose-analyze sensitivity</code>; sensitivity.csv).</p>",
-        _img("sensitivity", images),
+        figure_html("sensitivity", images.get("sensitivity")),
         table_html(_sensitivity_table(sweeps)),
     ]
 
@@ -358,17 +350,22 @@ def _notes(metadata: dict[str, str]) -> str:
     return f"<p>Operator notes:</p><ul>{items}</ul>"
 
 
-def _session_sections(result: RunResult, images: dict[str, str]) -> list[str]:
+def _session_sections(result: RunResult, images: dict[str, Image]) -> list[str]:
     parts = ["<h2 id='sessions'>Sessions</h2>" if result.sessions else ""]
-    for i, s in enumerate(result.sessions):
-        parts.append(f"<h3>{html.escape(s.session)}</h3><div class='scroll'><table class='t'>")
-        parts += [
-            f"<tr><th>{html.escape(k)}</th><td>{html.escape(v)}</td></tr>"
-            for k, v in s.metadata.items()
-        ]
-        parts.append("</table></div>")
+    rank = {name: k for k, name in enumerate([*SESSION_SETS, ""])}
+    order = sorted(
+        range(len(result.sessions)), key=lambda k: rank[session_set(result.sessions[k].session)]
+    )
+    for i in order:  # thesis_* first, as the answer; figures keep the run's numbering
+        s = result.sessions[i]
+        parts.append(f"<h3>{html.escape(s.session)}</h3>")
+        metadata = pd.DataFrame({"": list(s.metadata), " ": list(s.metadata.values())})
+        parts.append(table_html(metadata, text=True).replace("<thead>", "<thead hidden>", 1))
         parts.append(_notes(s.metadata))
-        parts += [_img(figure_key(kind, i, s.session), images) for kind in _SESSION_FIGURES]
+        captions = session_captions(s.trials, result.include_warned)
+        for kind in _SESSION_FIGURES:
+            key = figure_key(kind, i, s.session)
+            parts.append(figure_html(key, images.get(key), captions.get(kind, "")))
         parts.append("<p>Trials (every column: <code>trials.csv</code>):</p>")
         parts.append(table_html(_trial_table(s.trials)))
     return parts
@@ -377,19 +374,7 @@ def _session_sections(result: RunResult, images: dict[str, str]) -> list[str]:
 _SESSION_FIGURES = ("scatter", "topview", "averaging")
 
 
-def page_html(title: str, body: list[str]) -> str:
-    """A self-contained page: our style, no horizontal overflow, ``body``'s parts."""
-    parts = [
-        "<!doctype html><html><head><meta charset='utf-8'>",
-        "<meta name='viewport' content='width=device-width, initial-scale=1'>",
-        f"<title>{html.escape(title)}</title><style>{_STYLE}</style></head><body>",
-        *body,
-        "</body></html>",
-    ]
-    return "\n".join(p for p in parts if p)
-
-
-def _report_html(result: RunResult, images: dict[str, str], sweeps: pd.DataFrame) -> str:
+def _report_html(result: RunResult, images: dict[str, Image], sweeps: pd.DataFrame) -> str:
     body = [
         *_answer_section(result),
         *_overview_section(result, images),

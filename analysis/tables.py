@@ -58,8 +58,10 @@ FRAME_COLUMNS = [
     "reason",
 ]
 AVERAGING_COLUMNS = ["session", "trial", "n_frames", "x", "y", "z", "err"]
-#: One row per used pose: its typed camera centre, combined measurement and the unit ray
-#: through the measured pixel, grid frame (``views.csv``; the top-view plots).
+#: One row per used pose: its typed camera centre, combined measurement, the unit ray
+#: through the measured pixel (grid frame), and the intrinsics and typed angles (degrees,
+#: ``R_cam_to_grid = Rx Ry Rz``) the solver used: with them, the report's top view draws
+#: each trial by :func:`twopose.topview.top_view` (``views.csv``).
 VIEW_COLUMNS = [
     "session",
     "trial",
@@ -73,6 +75,13 @@ VIEW_COLUMNS = [
     "ray_x",
     "ray_y",
     "ray_z",
+    "fx",
+    "fy",
+    "cx",
+    "cy",
+    "r_x_deg",
+    "r_y_deg",
+    "r_z_deg",
 ]
 
 
@@ -235,6 +244,8 @@ def view_table(
                     "row": m.centroid_px[1],
                     "theta_deg": m.theta_deg,
                     **{f"ray_{a}": ray[i] for i, a in enumerate("xyz")},
+                    **dict(zip(("fx", "fy", "cx", "cy"), map(float, v.intrinsics), strict=True)),
+                    **{f"r_{a}_deg": float(v.r_deg[i]) for i, a in enumerate("xyz")},
                 }
             )
     return pd.DataFrame(rows, columns=VIEW_COLUMNS)

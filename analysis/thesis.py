@@ -6,6 +6,10 @@ with x overestimated (a bias); a 0.1 in x-translation error moving x by up to ab
 0.2 in; and 50 frames averaged instead of 5 improving the estimate by about 1%. Each row
 is computed from the run's trials of that method (errors converted to inches), from the
 sensitivity model, or from the running averages of trials with 50 frames or more per pose.
+
+When a run holds sessions of the ``thesis`` set (``thesis_*.mcap``,
+:data:`analysis.metrics.SESSION_SETS`), the table is over those alone: the thesis'
+experiments, not the stress sessions beside them. The verdict lines are per set.
 """
 
 from __future__ import annotations
@@ -15,9 +19,10 @@ import math
 import numpy as np
 import pandas as pd
 
+from analysis.metrics import by_session_set, session_set, used_trials
 from twopose.format.entries import INCHES_PER_UNIT
 
-__all__ = ["THESIS_COLUMNS", "fisher_p", "thesis_table", "thesis_verdict"]
+__all__ = ["THESIS_COLUMNS", "fisher_p", "thesis_sessions", "thesis_table", "thesis_verdict"]
 
 THESIS_COLUMNS = ["claim", "thesis", "twopose", "reproduced"]
 
@@ -29,7 +34,9 @@ def thesis_table(
     trials: pd.DataFrame, averaging: pd.DataFrame, *, include_warned: bool = False
 ) -> pd.DataFrame:
     """One row per claim: ``claim``, what the ``thesis`` reported, what ``twopose``
-    measured here and whether that ``reproduced`` it (``yes``, ``no``, or ``no data``)."""
+    measured here and whether that ``reproduced`` it (``yes``, ``no``, or ``no data``);
+    over :func:`thesis_sessions`."""
+    trials, averaging = thesis_sessions(trials), thesis_sessions(averaging)
     used = _used(trials, include_warned)
     rows = [
         _within_row(used, "point", "method 1 (fixed point) errors", "within ±1 in"),
@@ -44,28 +51,47 @@ def thesis_table(
 _THESIS_NAME = {"point": "method 1", "ground": "method 2"}
 
 
+def thesis_sessions(table: pd.DataFrame) -> pd.DataFrame:
+    """The rows of ``table`` from sessions of the ``thesis`` set, if the run has any;
+    otherwise every row (a run of other sessions is set against the thesis as a whole)."""
+    if "session" not in table or table.empty:
+        return table
+    mine = table["session"].map(session_set) == "thesis"
+    picked: pd.DataFrame = table[mine] if mine.any() else table
+    return picked
+
+
 def thesis_verdict(trials: pd.DataFrame, *, include_warned: bool = False) -> list[str]:
     """One line per method set against the thesis' figure (errors within 1 in): how many
-    of the trials the summary uses are within it, and so whether twopose reproduces it."""
+    of the trials the summary uses are within it, and so whether twopose reproduces it;
+    per session set (``thesis_*`` first) when the run has more than one."""
     lines = []
-    for method, g in _used(trials, include_warned).groupby("method", sort=True):
-        n_in, counts = _within(g)
-        name = _THESIS_NAME.get(str(method))
-        if name is None:
-            lines.append(f"{method}: {counts}; the thesis did not test this method.")
-            continue
-        agrees = "as the thesis reports" if n_in == len(g) else "the thesis reports all"
-        lines.append(f"{method} ({name}): {counts}; {agrees} (errors < 1 in).")
+    groups = by_session_set(trials)
+    for name, group in groups:
+        prefix = f"{name}_*: " if name else ("other sessions: " if len(groups) > 1 else "")
+        for method, g in _used(group, include_warned).groupby("method", sort=True):
+            lines.append(prefix + _verdict(str(method), g))
     return lines
 
 
+def _verdict(method: str, g: pd.DataFrame) -> str:
+    """The thesis table's rule in a line: all within 1 in, as the thesis; or some not,
+    consistent with its 15 of 15 (Fisher's exact test, p > 0.05) or not."""
+    n_in, counts = _within(g)
+    name = _THESIS_NAME.get(method)
+    if name is None:
+        return f"{method}: {counts}; the thesis did not test this method."
+    if n_in == len(g):
+        return f"{method} ({name}): {counts}; reproduced: the thesis reports all within 1 in."
+    p_value = fisher_p(n_in, len(g))
+    agrees = "consistent with" if p_value > 0.05 else "unlike"
+    return f"{method} ({name}): {counts}; {agrees} the thesis' 15 of 15 (Fisher p = {p_value:.2f})."
+
+
 def _used(trials: pd.DataFrame, include_warned: bool) -> pd.DataFrame:
-    """Ok trials with a known error, in inches (``err_in``, ``err_x_in``)."""
-    err = pd.to_numeric(trials["err"], errors="coerce")
-    keep = (trials["status"] == "ok") & np.isfinite(err)
-    if not include_warned and "warning" in trials:
-        keep &= trials["warning"].fillna("").astype(str) == ""
-    used = trials[keep]
+    """The trials the statistics use (:func:`analysis.metrics.used_trials`) with a known
+    error, in inches (``err_in``, ``err_x_in``)."""
+    used = used_trials(trials, include_warned=include_warned, measured=True)
     scale = used["units"].map(INCHES_PER_UNIT).astype(float)
     inches: pd.DataFrame = used.assign(err_in=used["err"] * scale, err_x_in=used["err_x"] * scale)
     return inches

@@ -196,8 +196,9 @@ def test_detect_refuses_an_image_bomb_and_an_empty_file_with_a_reason(tmp_path: 
 def test_both_command_lines_print_their_version() -> None:
     from recorder.cli import app as record
     from twopose import __version__
+    from twopose.format.entries import FORMAT_VERSION
 
     for cli in (app, record):
         result = CliRunner().invoke(cli, ["--version"])
         assert result.exit_code == 0
-        assert result.output.strip() == f"twopose {__version__} (session format 1.1)"
+        assert result.output.strip() == f"twopose {__version__} (session format {FORMAT_VERSION})"

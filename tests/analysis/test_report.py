@@ -6,11 +6,11 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 
 from analysis.figures import (
     MAX_LEGEND,
-    MAX_PANELS,
     error_ellipses,
     figure_key,
     plot_error_scatter,
@@ -54,11 +54,13 @@ def test_error_ellipses_have_the_95_percent_size_of_each_covariance() -> None:
 def test_error_scatter_draws_ok_trials_on_a_given_axes() -> None:
     fig = Figure()
     ax = fig.add_subplot()
-    plot_error_scatter(ax, _trials(), "the title")
+    handles = plot_error_scatter(ax, _trials(), "the title")
     assert ax.get_title() == "the title"
     points = ax.collections[1].get_offsets()  # ellipses first, then the ok trials
     np.testing.assert_allclose(points, [[0.2, 0.1], [-0.4, 0.3]])
-    assert "2 ok trials" in [t.get_text() for t in ax.get_legend().get_texts()]
+    # The legend's entries are returned for the caller to place off the data.
+    assert ax.get_legend() is None
+    assert "2 ok trials" in [h.get_label() for h in handles]
     assert png_bytes(fig).startswith(b"\x89PNG")
 
 
@@ -112,7 +114,7 @@ def test_error_scatter_keeps_every_ellipse_inside_the_axes() -> None:
     trials = _wide_trials(12)
     fig = Figure()
     ax = fig.add_subplot()
-    plot_error_scatter(ax, trials, "t")
+    handles = plot_error_scatter(ax, trials, "t")
     clean = trials[trials["warning"] == ""]
     half_x = np.sqrt(CHI2_95[2]) * clean["sigma_x"]
     half_z = np.sqrt(CHI2_95[2]) * clean["sigma_z"]
@@ -123,7 +125,7 @@ def test_error_scatter_keeps_every_ellipse_inside_the_axes() -> None:
     assert ((clean["err_z"] - half_z) >= z0).all()
     assert ((clean["err_z"] + half_z) <= z1).all()
     # The warned trials are drawn apart, named, and without ellipses.
-    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    labels = [h.get_label() for h in handles]
     assert "3 warned (left out)" in labels
     assert "9 ok trials" in labels
     assert len(ax.collections[0].get_offsets()) == 9  # ellipses: the clean trials only
@@ -149,17 +151,36 @@ def test_running_average_names_every_series_or_draws_small_multiples() -> None:
     fig = session_figures("s.mcap", trials, averaging, pd.DataFrame())["averaging"]
     axes = [ax for ax in fig.axes if ax.get_visible() and ax.axison]
     assert len(axes) == 2
+    # One legend, below the panels (never on the data), naming every trial.
+    assert all(ax.get_legend() is None for ax in axes)
+    labels = [t.get_text() for t in fig.legends[0].get_texts()]
+    warned = (trials["warning"] != "").map({True: " (warned)", False: ""})
+    named = list("trial " + trials["trial"].astype(str) + warned)
+    assert labels[:MAX_LEGEND] == named
+    assert "trial 1 (warned)" in labels  # drawn dashed, and said so
     for ax in axes:
-        labels = [t.get_text() for t in ax.get_legend().get_texts()]
-        assert [f"trial {k}" for k in range(1, MAX_LEGEND + 1)] == labels[:MAX_LEGEND]
-        colours = {line.get_color() for line in ax.get_lines() if line.get_label().startswith("t")}
+        colours = {str(line.get_color()) for line in ax.get_lines()} - {"0.6"}
         assert len(colours) >= MAX_LEGEND  # no colour repeats
-    # Beyond MAX_LEGEND: one titled panel per trial, capped, the rest named as left out.
+    # The error (not the estimate), with its unit, and the two panels on one y scale.
+    assert axes[0].get_ylabel() == "error of the running average (in)"
+    assert fig.get_supxlabel() == "number of frames averaged per pose"
+    assert "running average, error" in fig.get_suptitle()
+    assert axes[0].get_ylim() == axes[1].get_ylim()
+    # Beyond MAX_LEGEND: the same two panels, each trial a line coloured by its number,
+    # with a colour key; a warned trial dashed.
     averaging, trials = _averaging(40)
     fig = session_figures("s.mcap", trials, averaging, pd.DataFrame())["averaging"]
-    panels = [ax for ax in fig.axes if ax.axison]
-    assert [ax.get_title() for ax in panels] == [f"trial {k}" for k in range(1, MAX_PANELS + 1)]
-    assert "of 40, all in averaging.csv" in fig.get_suptitle()
+    panels = [ax for ax in fig.axes if ax.axison and ax.get_label() != "<colorbar>"]
+    assert [ax.get_title() for ax in panels] == ["x error", "z error"]
+    for ax in panels:
+        (lines,) = [c for c in ax.collections if isinstance(c, LineCollection)]
+        assert len(lines.get_segments()) == 40
+        assert len({tuple(c) for c in lines.get_colors()}) > MAX_LEGEND
+    (bar,) = [ax for ax in fig.axes if ax.get_label() == "<colorbar>"]
+    assert bar.get_ylabel() == "trial number (colour key)"
+    assert panels[0].get_ylim() == panels[1].get_ylim()
+    assert panels[0].get_ylabel() == "error of the running average (in)"
+    assert "warned trial" in [t.get_text() for t in fig.legends[0].get_texts()]
 
 
 def test_figures_cost_the_same_whatever_the_trial_count() -> None:
@@ -189,8 +210,18 @@ def test_every_run_figure_has_a_title(tmp_path: Path, point_session: Path) -> No
     result = run([point_session], None, scene=False)
     assert len(result.figures) >= 5
     for name, fig in result.figures.items():
-        titled = fig.get_suptitle() or all(ax.get_title() for ax in fig.axes if ax.axison)
+        panels = [ax for ax in fig.axes if ax.axison and ax.get_label() != "<colorbar>"]
+        titled = fig.get_suptitle() or all(ax.get_title() for ax in panels)
         assert titled, name
+        # Every axis is named, with its unit (a count or a trial number needs none).
+        xs = [fig.get_supxlabel(), *(ax.get_xlabel() for ax in panels)]
+        ys = [fig.get_supylabel(), *(ax.get_ylabel() for ax in panels)]
+        for labels in (xs, ys):
+            named = [label for label in labels if label]
+            assert named, name
+            for label in named:
+                assert "(in" in label or label.startswith(("number of", "trial number")), label
+        assert "session units" not in str(xs + ys)
 
 
 def test_thesis_verdict_counts_trials_within_one_inch_in_any_unit() -> None:
@@ -208,8 +239,9 @@ def test_thesis_verdict_counts_trials_within_one_inch_in_any_unit() -> None:
     assert lines[0].startswith("ground (method 2): 1 of 2 trials within 1 in (largest 1.18 in)")
     assert "line: 1 of 1 trials within 1 in" in lines[1]
     assert "did not test" in lines[1]
+    assert "consistent with the thesis' 15 of 15 (Fisher p =" in lines[0]
     assert lines[2].startswith("point (method 1): 2 of 2 trials within 1 in")
-    assert "as the thesis reports" in lines[2]
+    assert "reproduced: the thesis reports all within 1 in" in lines[2]
 
 
 def test_answer_table_pools_per_method_and_units() -> None:

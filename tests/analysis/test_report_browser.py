@@ -1,11 +1,15 @@
 """report.html in a real headless Chromium (Debian's ``chromium`` and ``chromium-driver``,
-driven by Selenium): at a 1280 px window nothing overflows, every image loads and the
-answer comes first. ``.ci/run`` installs the browser; elsewhere the test is skipped when
-it is missing (and fails in CI, where it must run)."""
+driven by Selenium): at a 1280 px window and at a 390 px phone nothing overflows the page
+(a wide table or figure scrolls in its own box, with a visible cue), every image loads,
+the answer comes first (the thesis' sessions first, in words and units), the figures'
+largest errors are the answer's and every axis names its unit. ``.ci/run`` installs the
+browser; elsewhere the test is skipped when it is missing (and fails in CI, where it must
+run)."""
 
 from __future__ import annotations
 
 import io
+import re
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -21,6 +25,7 @@ require_chromium()
 from selenium.webdriver.common.by import By  # noqa: E402
 
 WIDTH, HEIGHT = 1280, 900
+PHONE = 390
 
 
 @pytest.fixture(scope="module")
@@ -63,18 +68,112 @@ def test_report_answers_first(report: Path, browser: Any) -> None:
     browser.get(report.as_uri())
     headings = [h.text for h in browser.find_elements(By.CSS_SELECTOR, "h2")]
     assert headings[0] == "Answer per method"
-    answer = browser.find_element(By.CSS_SELECTOR, "#answer + p + div table")
-    header = [th.text for th in answer.find_elements(By.CSS_SELECTOR, "thead th")]
-    assert {"method", "rmse", "median_err", "bias_x_ci95", "n_warned", "coverage95"} <= set(header)
-    methods = [
-        row.find_element(By.TAG_NAME, "td").text
+    # The bundled sessions declare two sets: the thesis' experiments come first.
+    sets = [h.get_attribute("id") for h in browser.find_elements(By.CSS_SELECTOR, "h3[id^=set-]")]
+    assert sets == ["set-thesis", "set-stress"]
+    answer = browser.find_element(By.CSS_SELECTOR, "#set-thesis + div table")
+    header = _header(answer)
+    assert {
+        "method",
+        "RMSE (in)",
+        "median (in)",
+        "largest (in)",
+        "within 1 in",
+        "bias x ± 95% (in)",
+        "warned (left out)",
+        "truth inside its 95% ellipsoid",
+    } <= set(header), header
+    rows = [
+        [td.text for td in row.find_elements(By.TAG_NAME, "td")]
         for row in answer.find_elements(By.CSS_SELECTOR, "tbody tr")
     ]
-    assert methods == ["ground", "line", "point"]
+    assert [r[0] for r in rows] == ["ground (method 2)", "line", "point (method 1)"]
+    within = header.index("within 1 in")
+    for row in rows:  # two decimals, shares in percent
+        assert re.fullmatch(r"\d+\.\d\d", row[header.index("RMSE (in)")]), row
+        assert re.fullmatch(r"\d+%", row[within]), row
     verdicts = [p.text for p in browser.find_elements(By.CSS_SELECTOR, "p.verdict")]
-    assert any(v.startswith("point (method 1)") for v in verdicts), verdicts
+    assert verdicts[2].startswith("point (method 1): 15 of 15 trials within 1 in"), verdicts
+    assert "reproduced" in verdicts[2]
     links = [a.get_attribute("href") for a in browser.find_elements(By.CSS_SELECTOR, "nav a")]
     assert all(browser.find_elements(By.ID, link.rsplit("#", 1)[1]) for link in links)
+
+
+def _header(table: Any) -> list[str]:
+    return [th.text.replace("\n", " ") for th in table.find_elements(By.CSS_SELECTOR, "thead th")]
+
+
+_METHOD_LABEL = {"point": "point (method 1)", "ground": "ground (method 2)", "line": "line"}
+
+
+def test_figures_largest_errors_are_the_answers(report: Path, browser: Any) -> None:
+    """Each overview figure's caption names the largest error it draws per set and method:
+    the answer table's "largest" (warned trials are left out of both)."""
+    browser.get(report.as_uri())
+    largest: dict[tuple[str, str], str] = {}
+    for name in ("thesis", "stress"):
+        table = browser.find_element(By.CSS_SELECTOR, f"#set-{name} + div table")
+        header = _header(table)
+        column = header.index("largest (in)")
+        for row in table.find_elements(By.CSS_SELECTOR, "tbody tr"):
+            cells = [td.text for td in row.find_elements(By.TAG_NAME, "td")]
+            largest[(name, cells[0])] = cells[column]
+    spans = browser.find_elements(By.CSS_SELECTOR, "#figures ~ figure span.largest")
+    assert len(spans) == 3 * len(largest)  # three overview figures
+    for span in spans:
+        method = _METHOD_LABEL[span.get_attribute("data-method")]
+        assert span.text == largest[(span.get_attribute("data-set"), method)], method
+
+
+def _has_unit(label: str) -> bool:
+    return "(" in label or label.startswith(("number of", "trial number"))
+
+
+@pytest.mark.parametrize("width", [WIDTH, PHONE])
+def test_every_axis_names_its_unit_and_nothing_overflows_without_a_cue(
+    report: Path, browser: Any, width: int
+) -> None:
+    _emulate(browser, width)
+    browser.get(report.as_uri())
+    inner_width = browser.execute_script("return window.innerWidth")
+    assert inner_width == width
+    page_width = browser.execute_script("return document.documentElement.scrollWidth")
+    assert page_width <= inner_width, f"the page is {page_width} px wide in {inner_width} px"
+    for image in browser.find_elements(By.TAG_NAME, "img"):
+        alt = image.get_attribute("alt")
+        labels = [p.split(": ", 1)[1] for p in alt.split("; ") if p[:3] in ("x: ", "y: ")]
+        assert labels, alt
+        assert all(_has_unit(label) for label in labels), alt
+        assert "session units" not in alt
+        # Readable: never shown under 65% of its drawn width (a phone scrolls it).
+        natural = browser.execute_script("return arguments[0].naturalWidth", image)
+        assert image.rect["width"] >= 0.65 * natural - 1, alt
+    overflowing = 0
+    for box in browser.find_elements(By.CSS_SELECTOR, "div.scroll"):
+        wider = browser.execute_script(
+            "return arguments[0].scrollWidth > arguments[0].clientWidth + 1", box
+        )
+        cue = browser.execute_script(
+            "return getComputedStyle(arguments[0].parentElement, '::before').content", box
+        )
+        assert box.rect["x"] + box.rect["width"] <= inner_width + 1
+        if wider:
+            overflowing += 1
+            assert "scroll sideways" in cue, box.get_attribute("innerHTML")[:200]
+        else:
+            assert cue in ("none", "normal", ""), cue
+    if width == PHONE:
+        assert overflowing  # the phone does scroll some tables, each with its cue
+    _emulate(browser, None)
+
+
+def _emulate(browser: Any, width: int | None) -> None:
+    """A viewport ``width`` px wide, as a phone below 600 px (``None``: the window's)."""
+    if width is None:
+        browser.execute_cdp_cmd("Emulation.clearDeviceMetricsOverride", {})
+        return
+    metrics = {"width": width, "height": HEIGHT, "deviceScaleFactor": 1, "mobile": width < 600}
+    browser.execute_cdp_cmd("Emulation.setDeviceMetricsOverride", metrics)
 
 
 def test_screenshot_of_the_top_of_the_report_is_the_window_and_has_content(

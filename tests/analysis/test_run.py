@@ -113,7 +113,7 @@ def test_output_files_columns_and_report(
     assert (baseline.loc[spread.index] >= spread - 1e-12).all()
     for name in ("error_by_trial", "error_vs_baseline", "topview_00_point"):
         assert (out / f"{name}.png").exists(), name
-        assert f"alt='{name}'" in html
+        assert f"data-name='{name}'" in html  # its alt text: what it draws
     assert (out / "sensitivity.png").stat().st_size > 1000
 
 

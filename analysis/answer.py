@@ -1,0 +1,126 @@
+"""The run's answer per method: the numbers (``summary.json``'s ``methods``) and the table a
+reader sees (human labels, units in the headers, two decimals as the console prints them,
+shares in percent), per session set (``thesis_*`` first, then ``stress_*``,
+:data:`analysis.metrics.SESSION_SETS`) when the run has more than one.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pandas as pd
+
+from analysis.metrics import by_session_set, summarize
+
+__all__ = [
+    "ANSWER_COLUMNS",
+    "METHOD_NAMES",
+    "answer_table",
+    "number",
+    "readable",
+    "session_order",
+    "share",
+]
+
+ANSWER_COLUMNS = [
+    "set",
+    "method",
+    "units",
+    "n_trials",
+    "n_ok",
+    "n_warned",
+    "n_used",
+    "rmse",
+    "rmse_ci95_low",
+    "rmse_ci95_high",
+    "median_err",
+    "max_err",
+    "bias_x",
+    "bias_x_ci95",
+    "bias_z",
+    "bias_z_ci95",
+    "coverage95",
+    "within_1",
+]
+
+#: How the report names a method (the thesis' numbering where it has one).
+METHOD_NAMES = {"point": "point (method 1)", "ground": "ground (method 2)", "line": "line"}
+
+
+def answer_table(trials: pd.DataFrame, *, include_warned: bool = False) -> pd.DataFrame:
+    """Per session set, method and units, pooled over the sessions: the report's first
+    table (``set``: ``thesis``, ``stress``, or ``""`` for one group or no set)."""
+    if trials.empty:
+        return pd.DataFrame(columns=ANSWER_COLUMNS)
+    parts = []
+    for name, group in by_session_set(trials):
+        pooled = group.assign(session="all (" + group["units"].astype(str) + ")")
+        parts.append(summarize(pooled, include_warned=include_warned).assign(set=name))
+    table: pd.DataFrame = pd.concat(parts, ignore_index=True)[ANSWER_COLUMNS]
+    return table
+
+
+def session_order(summary: pd.DataFrame) -> pd.DataFrame:
+    """``summary``'s rows with the sessions of each set together, in the sets' order."""
+    if summary.empty:
+        return summary
+    groups = by_session_set(summary)
+    ordered: pd.DataFrame = pd.concat([g for _, g in groups]) if len(groups) > 1 else summary
+    return ordered
+
+
+def number(value: object, signed: bool = False) -> str:
+    """Two decimals (``-`` when unknown): the report's answer and the console alike."""
+    if not isinstance(value, int | float) or math.isnan(value):
+        return "-"
+    value = round(value, 2) + 0.0  # -0.001 reads +0.00, not -0.00
+    return f"{value:+.2f}" if signed else f"{value:.2f}"
+
+
+def share(value: object) -> str:
+    """A share in whole percent (``-`` when unknown)."""
+    if not isinstance(value, int | float) or math.isnan(value):
+        return "-"
+    return f"{100 * value:.0f}%"
+
+
+def _interval(low: object, high: object) -> str:
+    return "-" if number(low) == "-" else f"{number(low)} to {number(high)}"
+
+
+def _plus_minus(value: object, half: object) -> str:
+    return number(value, True) if number(half) == "-" else f"{number(value, True)} ± {number(half)}"
+
+
+def readable(table: pd.DataFrame, *, include_warned: bool = False) -> pd.DataFrame:
+    """An answer table or a summary (``summary.csv``'s columns) as a reader sees it: labels
+    in words, the units in the headers (a ``units`` column when they differ), lengths with
+    two decimals, biases with their 95% half-widths, shares in percent; the errors first
+    (what a phone shows without scrolling), the counts last."""
+    units = sorted({str(u) for u in table["units"]})
+    one = units[0] if len(units) == 1 else ""
+    u = f" ({one})" if one else ""
+    rows = []
+    for _, r in table.iterrows():
+        row: dict[str, object] = {}
+        if "session" in table:
+            row["session"] = str(r["session"]).replace("\\", "/").rsplit("/", 1)[-1]
+        row["method"] = METHOD_NAMES.get(str(r["method"]), str(r["method"]))
+        if not one:
+            row["units"] = r["units"]
+        row |= {
+            f"RMSE{u}": number(r["rmse"]),
+            f"RMSE 95% interval{u}": _interval(r["rmse_ci95_low"], r["rmse_ci95_high"]),
+            f"median{u}": number(r["median_err"]),
+            f"largest{u}": number(r["max_err"]),
+            f"within 1 {one or 'unit'}": share(r["within_1"]),
+            f"bias x ± 95%{u}": _plus_minus(r["bias_x"], r["bias_x_ci95"]),
+            f"bias z ± 95%{u}": _plus_minus(r["bias_z"], r["bias_z_ci95"]),
+            "truth inside its 95% ellipsoid": share(r["coverage95"]),
+            "trials": r["n_trials"],
+            "ok": r["n_ok"],
+            "warned (included)" if include_warned else "warned (left out)": r["n_warned"],
+            "used": r["n_used"],
+        }
+        rows.append(row)
+    return pd.DataFrame(rows)

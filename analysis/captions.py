@@ -1,0 +1,114 @@
+"""The report's figure captions: what each figure draws, which trials (the rule of
+:func:`analysis.metrics.used_trials`, and what became of the warned ones), in which units,
+and, for the figures over the run, the largest error drawn per session set and method: the
+answer table's "largest" column, so that a reader can check one against the other.
+
+Captions are HTML fragments (escaped here).
+"""
+
+from __future__ import annotations
+
+import html
+
+import pandas as pd
+
+from analysis.console import UNIT_NAMES
+from analysis.figure_style import common_units
+from analysis.metrics import by_session_set, used_trials, warned
+
+__all__ = ["run_captions", "session_captions"]
+
+
+def _which(trials: pd.DataFrame, include_warned: bool) -> str:
+    """Which trials a run figure draws, in words."""
+    n_warned = int(warned(used_trials(trials, include_warned=True)).sum())
+    if include_warned:
+        return f"every ok trial, the {n_warned} warned included (--include-warned)"
+    if not n_warned:
+        return "the ok trials (none is warned)"
+    return f"the trials the answer uses ({n_warned} warned trial(s) left out, as there)"
+
+
+def largest_errors(trials: pd.DataFrame, include_warned: bool) -> list[tuple[str, str, float]]:
+    """(set, method, largest error) over the trials a run figure draws, in its units."""
+    used, _ = common_units(used_trials(trials, include_warned=include_warned, measured=True))
+    out = []
+    for name, group in by_session_set(used):
+        for method, g in group.groupby("method", sort=True):
+            out.append((name, str(method), float(g["err"].max())))
+    return out
+
+
+def _largest(trials: pd.DataFrame, include_warned: bool, units: str) -> str:
+    """The largest error drawn, per set and method, marked up for a reader and a test."""
+    parts: dict[str, list[str]] = {}
+    for name, method, value in largest_errors(trials, include_warned):
+        cell = (
+            f"{html.escape(method)} <span class='largest' data-set='{html.escape(name)}' "
+            f"data-method='{html.escape(method)}'>{value:.2f}</span>"
+        )
+        parts.setdefault(name, []).append(cell)
+    groups = [
+        (f"{name}_*: " if name else "") + ", ".join(cells) + f" {html.escape(units)}"
+        for name, cells in parts.items()
+    ]
+    return "Largest error drawn: " + "; ".join(groups) + ", as in the answer."
+
+
+def run_captions(trials: pd.DataFrame, include_warned: bool) -> dict[str, str]:
+    """The captions of the figures over the run, by figure name."""
+    if trials.empty:
+        return {}
+    _, units = common_units(trials)
+    mixed = trials["units"].nunique() > 1 if "units" in trials else False
+    unit_note = f"Errors in {UNIT_NAMES.get(units, units)}" + (
+        " (sessions in other units converted)" if mixed else ""
+    )
+    common = f"Drawn: {_which(trials, include_warned)}; {unit_note[0].lower()}{unit_note[1:]}."
+    largest = _largest(trials, include_warned, units)
+    return {
+        "error_histogram": "Trials per error bin, by method, a panel per session set, one "
+        f"bin width throughout. {common} {largest}",
+        "error_by_trial": "Each trial's error (log scale), a line per session; dotted: the "
+        f"longest semi-axis of its 95% ellipsoid, for scale. {common} {largest}",
+        "error_vs_baseline": "Each trial's error (log scale) against its baseline (the "
+        "longest distance between two of its typed camera centres), a panel per session "
+        f"set. {common} {largest}",
+    }
+
+
+_TOP_VIEW = {
+    "point": "each view's ray through the dot, from its typed camera centre: the rays meet "
+    "at the estimate",
+    "ground": "each view's plane (the finger's image line back-projected) cut by the ground: "
+    "the traces meet at the estimate, the ground point the finger points at (not the finger)",
+    "line": "the estimated line through its reported point; the circle is the true "
+    "segment's midpoint",
+}
+
+
+def session_captions(trials: pd.DataFrame, include_warned: bool) -> dict[str, str]:
+    """The captions of one session's figures, by figure kind."""
+    units = html.escape(str(trials["units"].iloc[0])) if len(trials) else "session units"
+    method = str(trials["method"].iloc[0]) if len(trials) else ""
+    ok = used_trials(trials, include_warned=True)
+    n_warned = int(warned(ok).sum())
+    fate = "included in the statistics" if include_warned else "left out of the statistics"
+    not_ok = len(trials) - len(ok)
+    skipped = f" {not_ok} trial(s) not ok are not drawn." if not_ok else ""
+    doubt = f" {n_warned} warned trial(s) {{how}}, {fate}." if n_warned else ""
+    return {
+        "scatter": f"Estimate minus truth in x and z ({units}) of each ok trial, with its 95% "
+        "error ellipse (about 95% of them hold the origin when the uncertainty is honest); "
+        "the cross is the bias over the trials the statistics use."
+        + doubt.format(how="hollow red, without an ellipse")
+        + skipped,
+        "topview": f"Seen from above (x across, z in depth, {units}): "
+        f"{_TOP_VIEW.get(method, 'each view')}. The colour is the trial (key at the right)."
+        + doubt.format(how="dashed")
+        + skipped,
+        "averaging": "The error of the estimate from the first n frames of each pose "
+        f"({units}), against n; zero is the truth; x and z on one scale."
+        + doubt.format(how="dashed")
+        + skipped,
+    }

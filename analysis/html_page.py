@@ -1,0 +1,169 @@
+"""Self-contained HTML pages (the report, the comparison) that read at 1280 px and at
+390 px (a phone): the text reflows; a table or a figure wider than the page scrolls inside
+its own box, and a cue says so (the line above it, a shade on its right edge) for as long
+as there is more to the right; a figure keeps at least :data:`MIN_FIGURE_SCALE` of its
+drawn width, so that its text stays legible, and scrolls beyond.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+import math
+import re
+from dataclasses import dataclass
+
+import pandas as pd
+
+__all__ = [
+    "MIN_FIGURE_SCALE",
+    "Image",
+    "figure_html",
+    "image",
+    "page_html",
+    "table_html",
+    "wide",
+]
+
+#: The smallest share of its drawn width a figure is shown at: a 4.8 in figure at 110 dpi
+#: (528 px) fits a 390 px phone at 0.68, its 9 pt labels 8 px high or more.
+MIN_FIGURE_SCALE = 0.65
+
+
+def _rounded(value: float) -> str:
+    """Four significant digits; floating-point noise (|v| < 1e-9) reads 0."""
+    return "0" if abs(value) < 1e-9 else f"{value:.4g}"
+
+
+def wide(inner: str) -> str:
+    """``inner`` in a box that scrolls sideways when it is wider than the page, with a cue
+    (the page's script marks the box ``overflows``)."""
+    return f"<div class='wide'><div class='scroll'>{inner}</div></div>"
+
+
+def _cell(value: object) -> str:
+    """A cell's text: floats to four significant digits, missing values empty."""
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return ""
+    if isinstance(value, float):
+        return _rounded(value)
+    return html.escape(str(value))
+
+
+def _numeric(column: pd.Series) -> bool:
+    """Whether a column reads as numbers (aligned right): numbers, or text that is numbers
+    (``0.40``, ``92%``, ``+0.00 ± 0.03``) where it is not empty."""
+    if pd.api.types.is_numeric_dtype(column) and not pd.api.types.is_bool_dtype(column):
+        return True
+    cells = [str(v) for v in column if str(v) not in ("", "-", "nan", "None")]
+    return bool(cells) and all(_NUMBER.fullmatch(c) for c in cells)
+
+
+_NUMBER = re.compile(r"[-+]?\d[\d.]*(e[-+]?\d+)?%?( (±|to) [-+]?\d[\d.]*)?")
+
+
+def table_html(df: pd.DataFrame, *, text: bool = False) -> str:
+    """A table that scrolls inside its own box: a wide one never widens the page. Numbers
+    align right and never wrap, words align left; a table of sentences (``text``) aligns
+    left and wraps."""
+    classes = "t text" if text else "t"
+    numeric = [not text and _numeric(df[c]) for c in df.columns]
+    align = ["" if n else " class='l'" for n in numeric]
+    head = "".join(
+        f"<th{a}>{html.escape(str(c))}</th>" for c, a in zip(df.columns, align, strict=True)
+    )
+    rows = "".join(
+        "<tr>"
+        + "".join(f"<td{a}>{_cell(v)}</td>" for v, a in zip(row, align, strict=True))
+        + "</tr>\n"
+        for row in df.itertuples(index=False, name=None)
+    )
+    body = f"<table class='{classes}'><thead><tr>{head}</tr></thead><tbody>\n{rows}</tbody></table>"
+    return wide(body)
+
+
+@dataclass(frozen=True)
+class Image:
+    """A PNG for the page: its data, its width in pixels and its description (alt text)."""
+
+    base64: str
+    width: int
+    description: str
+
+
+def image(png: bytes) -> Image:
+    """A PNG with its width (the header's) and the ``Description`` it was saved with."""
+    from PIL import Image as Pil
+
+    with Pil.open(io.BytesIO(png)) as picture:
+        width = picture.width
+        text = getattr(picture, "text", {}) or {}
+    return Image(base64.b64encode(png).decode(), width, str(text.get("Description", "")))
+
+
+def figure_html(name: str, img: Image | None, caption: str = "") -> str:
+    """A figure at its drawn width, never under :data:`MIN_FIGURE_SCALE` of it (a
+    narrower page scrolls it, with the cue), and its caption (an HTML fragment)."""
+    if img is None:
+        return ""
+    alt = html.escape(img.description or name, quote=True)
+    least = math.ceil(MIN_FIGURE_SCALE * img.width)
+    tag = (
+        f"<img alt=\"{alt}\" data-name='{html.escape(name)}' width='{img.width}' "
+        f"style='min-width:{least}px' src='data:image/png;base64,{img.base64}'>"
+    )
+    text = f"<figcaption>{caption}</figcaption>" if caption else ""
+    return f"<figure>{wide(tag)}{text}</figure>"
+
+
+_STYLE = (
+    "body{font-family:sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;color:#222;"
+    "line-height:1.4}"
+    "h1{font-size:1.8em}h2{border-bottom:1px solid #aaa;margin-top:1.6em}"
+    "h1,h2,h3,p,li,figcaption{overflow-wrap:anywhere}"
+    ".wide{position:relative;margin:0.8em 0}"
+    ".scroll{overflow-x:auto;max-width:100%}"
+    "img{max-width:100%;height:auto;display:block}"
+    ".wide.overflows::before{content:'\\2194  wider than the page: scroll sideways';"
+    "display:block;height:18px;line-height:18px;font-size:12px;color:#555}"
+    ".wide.overflows::after{content:'';position:absolute;top:18px;right:0;bottom:0;"
+    "width:28px;pointer-events:none;"
+    "background:linear-gradient(to right,rgba(255,255,255,0),rgba(0,0,0,0.22))}"
+    ".wide.overflows.at-end::after{display:none}"
+    "table.t{border-collapse:collapse;font-size:12px}"
+    "table.t td,table.t th{padding:2px 8px;border-bottom:1px solid #ddd;text-align:right;"
+    "white-space:nowrap}table.t th{white-space:normal;vertical-align:bottom;min-width:3em}"
+    "table.t .l{text-align:left}"
+    "table.t:not(.text) td:first-child,table.t:not(.text) th:first-child"
+    "{position:sticky;left:0;background:#fff}"
+    "table.text td,table.text th{text-align:left;white-space:normal;min-width:9em;"
+    "max-width:30em}"
+    "figure{margin:1.2em 0}figcaption{font-size:13px;color:#444;max-width:46em}"
+    "nav a{white-space:nowrap}.err{color:#a00}.verdict{font-weight:bold;margin:0.4em 0}"
+)
+
+# Marks each scroll box that is wider than its page (the cue shows) and whether it is
+# scrolled to its end (the shade goes).
+_SCRIPT = (
+    "function cue(b){var w=b.parentElement;"
+    "w.classList.toggle('overflows',b.scrollWidth>b.clientWidth+1);"
+    "w.classList.toggle('at-end',b.scrollLeft+b.clientWidth>=b.scrollWidth-1)}"
+    "function cues(){document.querySelectorAll('.scroll').forEach(cue)}"
+    "addEventListener('load',cues);addEventListener('resize',cues);"
+    "document.addEventListener('scroll',function(e){var b=e.target;"
+    "if(b.classList&&b.classList.contains('scroll'))cue(b)},true);"
+)
+
+
+def page_html(title: str, body: list[str]) -> str:
+    """A self-contained page: our style, no horizontal overflow, ``body``'s parts."""
+    parts = [
+        "<!doctype html><html><head><meta charset='utf-8'>",
+        "<meta name='viewport' content='width=device-width, initial-scale=1'>",
+        f"<title>{html.escape(title)}</title><style>{_STYLE}</style>",
+        f"<script>{_SCRIPT}</script></head><body>",
+        *body,
+        "</body></html>",
+    ]
+    return "\n".join(p for p in parts if p)

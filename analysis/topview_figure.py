@@ -1,0 +1,171 @@
+"""A session's top view: every ok trial seen from above, drawn by the core's geometry
+(:func:`twopose.topview.top_view`), so that what the report shows is what the solver did:
+rays through the dot meeting at the estimate (method 1), each view plane's trace on the
+ground meeting at the estimate, not at the finger (method 2), the estimated line (lines).
+
+One artist per kind, whatever the number of trials; a colour per trial with its key (a
+colour bar); warned trials dashed; legends below the axes, never on the data.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+import pandas as pd
+from matplotlib.axes import Axes
+from matplotlib.collections import LineCollection
+from matplotlib.colors import Colormap, Normalize
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+
+from analysis.figure_style import (
+    LABEL,
+    TICK,
+    TITLE,
+    colour_key,
+    layout,
+    legend_below,
+    place_colour_key,
+    trial_colours,
+)
+from analysis.metrics import used_trials, warned
+from twopose.camera import rotation_from_angles_deg
+from twopose.scene3d import TrialScene
+from twopose.topview import TopView, top_view
+
+__all__ = ["VIEW_GEOMETRY", "plot_top_view", "top_views"]
+
+#: views.csv columns a top view needs beyond the camera centre and the pixel.
+VIEW_GEOMETRY = ["fx", "fy", "cx", "cy", "r_x_deg", "r_y_deg", "r_z_deg"]
+
+_SEGMENT_NAME = {
+    "point": "ray through the dot, per view",
+    "ground": "view plane's trace on the ground",
+    "line": "estimated line",
+}
+_TRUTH_NAME = {"line": "truth (true segment's midpoint)"}
+
+
+def _scene(trial: pd.Series, views: pd.DataFrame) -> TrialScene:
+    """A trial's scene from its trials.csv row and its views.csv rows."""
+    n = len(views)
+    estimate = trial[["x", "y", "z"]].to_numpy(dtype=np.float64)
+    line = trial["method"] == "line"
+    direction = (
+        trial[["dir_x", "dir_y", "dir_z"]].to_numpy(dtype=np.float64)
+        if line and "dir_x" in trial
+        else None
+    )
+    truth = np.full((2, 3), np.nan)  # a line's true segment is not in trials.csv
+    if not line:
+        truth[:] = trial[["gt_x", "gt_y", "gt_z"]].to_numpy(dtype=np.float64)
+    return TrialScene(
+        trial=int(trial["trial"]),
+        method=str(trial["method"]),
+        status=str(trial["status"]),
+        intrinsics=views[["fx", "fy", "cx", "cy"]].to_numpy(dtype=np.float64),
+        width_height=np.full((n, 2), np.nan),
+        R_cam_to_grid=rotation_from_angles_deg(
+            views[["r_x_deg", "r_y_deg", "r_z_deg"]].to_numpy(dtype=np.float64)
+        ),
+        t_grid=views[["t_x", "t_y", "t_z"]].to_numpy(dtype=np.float64),
+        px=views[["col", "row"]].to_numpy(dtype=np.float64),
+        theta_deg=views["theta_deg"].to_numpy(dtype=np.float64),
+        estimate=estimate,
+        direction=direction,
+        truth=truth,
+        cov=np.full((3, 3), np.nan),
+    )
+
+
+class Drawn(NamedTuple):
+    view: TopView
+    warned: bool
+    truth: tuple[float, float]  # (x, z); a line's: its true segment's midpoint
+
+
+def top_views(trials: pd.DataFrame, views: pd.DataFrame) -> list[Drawn]:
+    """The top view of each ok trial with two views or more (a trial number recorded twice:
+    its last), whether it is warned, and its truth."""
+    if views.empty or not set(VIEW_GEOMETRY) <= set(views):
+        return []
+    ok = used_trials(trials, include_warned=True).drop_duplicates("trial", keep="last")
+    by_trial = dict(tuple(views.groupby("trial")))
+    doubted = warned(ok)
+    out = []
+    for (_, row), doubt in zip(ok.iterrows(), doubted, strict=True):
+        rows = by_trial.get(row["trial"])
+        if rows is not None and len(rows) >= 2:
+            truth = (float(row["gt_x"]), float(row["gt_z"]))
+            out.append(Drawn(top_view(_scene(row, rows)), bool(doubt), truth))
+    return out
+
+
+def plot_top_view(fig: Figure, trials: pd.DataFrame, views: pd.DataFrame, title: str) -> None:
+    """Looking down the y axis (x-z): each ok trial's typed camera centres, what each view
+    measured (:data:`_SEGMENT_NAME`), the estimate and the truth; a colour bar for the
+    trials; the legend of the kinds below."""
+    drawn = top_views(trials, views)
+    units = str(trials["units"].iloc[0]) if len(trials) else "session units"
+    method = str(trials["method"].iloc[0]) if len(trials) else "point"
+    ax = fig.add_subplot()
+    if drawn:
+        cmap, norm = trial_colours([d.view.trial for d in drawn])
+        _draw(ax, drawn, cmap, norm)
+        cax = colour_key(fig, cmap, norm)
+    ax.set_title(title, fontsize=TITLE)
+    ax.set_xlabel(f"x ({units})", fontsize=LABEL)
+    ax.set_ylabel(f"z, depth ({units})", fontsize=LABEL)
+    ax.tick_params(labelsize=TICK)
+    ax.set_aspect("equal", adjustable="datalim")
+    handles = [
+        Line2D([], [], marker="^", color="0.3", linestyle="none", label="camera (typed)"),
+        Line2D([], [], color="0.3", lw=0.8, label=_SEGMENT_NAME.get(method, "segment")),
+        Line2D([], [], marker="x", color="0.3", linestyle="none", label="estimate"),
+        Line2D(
+            [],
+            [],
+            marker="o",
+            mfc="none",
+            color="0.3",
+            linestyle="none",
+            label=_TRUTH_NAME.get(method, "truth"),
+        ),
+    ]
+    if any(d.warned for d in drawn):
+        handles.append(Line2D([], [], color="0.3", lw=0.8, ls="--", label="warned trial"))
+    bottom = legend_below(fig, handles, 2)
+    layout(fig, left=0.75, right=1.2, top=0.35, bottom=0.5 + bottom)
+    if drawn:
+        place_colour_key(fig, cax, ax)
+
+
+def _draw(ax: Axes, drawn: list[Drawn], cmap: Colormap, norm: Normalize) -> None:
+    """One collection per kind: segments, cameras, estimates, truths."""
+    segments, seg_colour, seg_style = [], [], []
+    cameras, cam_colour = [], []
+    for d in drawn:
+        colour = cmap(norm(d.view.trial))
+        for _kind, a, b in d.view.segments:
+            segments.append([a, b])
+            seg_colour.append(colour)
+            seg_style.append((0, (4, 2)) if d.warned else "solid")
+        cameras += list(d.view.cameras)
+        cam_colour += [colour] * len(d.view.cameras)
+    if segments:
+        ax.add_collection(
+            LineCollection(
+                segments, colors=seg_colour, linestyles=seg_style, linewidths=0.8, alpha=0.8
+            )
+        )
+    if cameras:
+        xy = np.array(cameras)
+        ax.scatter(xy[:, 0], xy[:, 1], marker="^", s=25, c=cam_colour)
+    colours = [cmap(norm(d.view.trial)) for d in drawn]
+    nowhere = (np.nan, np.nan)
+    est = np.array([d.view.estimate if d.view.estimate is not None else nowhere for d in drawn])
+    ax.scatter(est[:, 0], est[:, 1], marker="x", s=45, c=colours)
+    truth = np.array([d.truth for d in drawn])
+    ax.scatter(truth[:, 0], truth[:, 1], marker="o", s=45, facecolors="none", edgecolors=colours)
+    ax.autoscale_view()
