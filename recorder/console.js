@@ -323,6 +323,11 @@ function renderStatus(s) {
 }
 
 function renderCapture(s) {
+  let note = "";
+  if (s.phase === "setup") note = "the camera is shown here once the session starts";
+  else if (s.phase === "recording" && !s.frame_seq) note = "waiting for the camera's first frame...";
+  setText($("live-note"), note);
+  show($("live-note"), !!note);
   const n = s.capture.n_frames || 0;
   $("progress").max = n || 1;
   $("progress").value = Math.min(s.capture.frame || 0, n || 1);
@@ -355,25 +360,25 @@ function frameRow(f) {
   const tr = el("tr");
   tr.append(el("td", f.frame));
   if (f.found === null || f.found === undefined) {
-    tr.append(el("td", "–"), el("td", "no live detection", "no"));
+    const none = el("td", "no live detection", "no");
+    none.colSpan = 6;
+    tr.append(none);
     return tr;
   }
   if (!f.found) {
-    const why = el("td", "no", "no");
     const reason = el("td", f.reason ? "not found: " + f.reason : "not found", "no");
     reason.colSpan = 4;
-    tr.append(why, reason, el("td", f.n_objects), el("td", ""));
+    tr.append(reason, el("td", f.n_objects), el("td", ""));
     return tr;
   }
   const c = f.centroid || [];
   tr.append(
-    el("td", "yes", "yes"),
     el("td", fixed(c[0], 1) + ", " + fixed(c[1], 1)),
     el("td", fixed(f.theta_deg, 1)),
     el("td", fixed(f.area_px, 0)),
     el("td", fixed(f.eccentricity, 2)),
     el("td", f.n_objects),
-    el("td", (f.line || "").replace(/^line /, ""), "line"),
+    el("td", (f.line || "").replace(/^line /, "").replace(/ ([uv])\b/g, "$1"), "line"),
   );
   return tr;
 }
@@ -546,7 +551,8 @@ function drawTopView(view, units, method) {
     ctx.fillStyle = COLOURS.axis;
     ctx.font = "13px sans-serif";
     ctx.textAlign = "center";
-    ctx.fillText("the current trial, from above, once it has two poses", w / 2, h / 2);
+    ctx.fillText("a trial, from above,", w / 2, h / 2 - 9);
+    ctx.fillText("once it has two poses", w / 2, h / 2 + 9);
     return;
   }
   setText($("topview-title"), "trial " + view.trial + ", from above: x across, z in depth");

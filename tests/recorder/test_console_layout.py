@@ -1,10 +1,11 @@
 """The console's layout in a real headless Chromium (Debian's chromium and chromium-driver):
 for each method at 1366x768, and for the method with the most setup fields (ground) at
 1280x800, a synthetic-source session from setup to quit: a setup with bad values (every
-refusal at once, each by its field), pose 1 captured with Enter, undo refused at the
-first pose (next to the undo button), accept by the keyboard, pose 2 (an empty form) with
-the result it would give before the decision, accept, quit and its confirmation, the
-finished page with the summary.
+refusal at once, each by its field), pose 1 typed looking away and captured with Enter
+(found in no frame: accept off, the reason shown), redone by the keyboard (the form keeps
+what was typed), undo refused at the first pose (next to the undo button), accept by the
+keyboard, pose 2 (an empty form) with the result it would give before the decision,
+accept, quit and its confirmation, the finished page with the summary.
 
 At every step the status, the decision buttons and every refusal shown are inside the
 viewport with the page not scrolled, and a screenshot of the step is saved for a person
@@ -192,9 +193,23 @@ def test_every_step_fits_the_screen(
         page.wait(lambda: page.el("pose-x").is_enabled(), "the pose form")
         page.step("pose-1")
 
-        # Pose 1, captured with Enter; its frames' numbers and their average.
+        # Pose 1 typed looking away from the target, captured with Enter: found in no
+        # frame, so accept is off and the page says why; redone by the keyboard.
         for testid, value in (("pose-x", "0"), ("pose-y", "0"), ("pose-z", "0")):
             page.type(testid, value)
+        page.type("pose-rotation", "0, 180, 0" + Keys.ENTER)
+        page.wait(lambda: page.el("redo").is_enabled(), "the capture to end")
+        assert not page.el("accept").is_enabled()
+        assert "not found in any frame" in page.text("shortfall")
+        assert "not found" in page.text("frames-table")
+        assert "none" in page.text("pose-average")
+        page.step("not-found")
+        ActionChains(browser).send_keys("r").perform()
+        page.wait(lambda: page.el("pose-x").is_enabled(), "the pose retyped")
+        # The form holds what was typed for this pose, to correct.
+        assert page.el("pose-rotation").get_attribute("value") == "0, 180, 0"
+
+        # Pose 1 again, captured with Enter; its frames' numbers and their average.
         page.type("pose-rotation", "0, 0, 0" + Keys.ENTER)
         page.wait(lambda: page.el("accept").is_enabled(), "the capture to end")
         rows = browser.find_elements(By.CSS_SELECTOR, "[data-testid=frames-table] tbody tr")
