@@ -20,6 +20,7 @@ __all__ = [
     "MIN_FIGURE_SCALE",
     "Image",
     "figure_html",
+    "figure_row",
     "image",
     "page_html",
     "table_html",
@@ -114,14 +115,19 @@ def figure_html(name: str, img: Image | None, caption: str = "") -> str:
         f"style='min-width:{least}px' src='data:image/png;base64,{img.base64}'>"
     )
     text = f"<figcaption>{caption}</figcaption>" if caption else ""
-    return f"<figure>{wide(tag)}{text}</figure>"
+    return f"<figure style='width:{img.width}px'>{wide(tag)}{text}</figure>"
+
+
+def figure_row(figures: list[str]) -> str:
+    """Figures side by side where the page is wide enough, one under the other where not."""
+    return f"<div class='figs'>{''.join(figures)}</div>"
 
 
 _STYLE = (
-    "body{font-family:sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;color:#222;"
+    "body{font-family:sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222;"
     "line-height:1.4}"
     "h1{font-size:1.8em}h2{border-bottom:1px solid #aaa;margin-top:1.6em}"
-    "h1,h2,h3,p,li,figcaption{overflow-wrap:anywhere}"
+    "h1,h2,h3,p,li,figcaption{overflow-wrap:anywhere}p{max-width:62em}"
     ".wide{position:relative;margin:0.8em 0}"
     ".scroll{overflow-x:auto;max-width:100%}"
     "img{max-width:100%;height:auto;display:block}"
@@ -139,8 +145,10 @@ _STYLE = (
     "{position:sticky;left:0;background:#fff}"
     "table.text td,table.text th{text-align:left;white-space:normal;min-width:9em;"
     "max-width:30em}"
-    "figure{margin:1.2em 0}figcaption{font-size:13px;color:#444;max-width:46em}"
+    "figure{margin:1.2em 0;max-width:100%}figcaption{font-size:13px;color:#444}"
+    ".figs{display:flex;flex-wrap:wrap;column-gap:2.5em;align-items:flex-start}"
     "nav a{white-space:nowrap}.err{color:#a00}.verdict{font-weight:bold;margin:0.4em 0}"
+    "@media (max-width:600px){table.text td,table.text th{min-width:0;padding:2px 4px}}"
 )
 
 # Marks each scroll box that is wider than its page (the cue shows) and whether it is

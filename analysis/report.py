@@ -16,7 +16,7 @@ import pandas as pd
 from analysis.answer import ANSWER_COLUMNS, answer_table, readable, session_order, share
 from analysis.captions import run_captions, session_captions
 from analysis.figures import figure_key, png_bytes, run_figures, session_figures
-from analysis.html_page import Image, figure_html, image, page_html, table_html
+from analysis.html_page import Image, figure_html, figure_row, image, page_html, table_html
 from analysis.metrics import SESSION_SETS, by_session_set, session_set, used_trials
 from analysis.thesis import thesis_sessions, thesis_table, thesis_verdict
 
@@ -259,9 +259,11 @@ def _overview_section(result: RunResult, images: dict[str, Image]) -> list[str]:
         "<p>As the answer, per session (every column: <code>summary.csv</code>).</p>",
         table_html(readable(summary, include_warned=result.include_warned)) if len(summary) else "",
         "<h2 id='figures'>Overview figures</h2>",
-        *(
-            figure_html(key, images.get(key), captions.get(key, ""))
-            for key in ("error_histogram", "error_by_trial", "error_vs_baseline")
+        figure_row(
+            [
+                figure_html(key, images.get(key), captions.get(key, ""))
+                for key in ("error_histogram", "error_by_trial", "error_vs_baseline")
+            ]
         ),
     ]
     if not result.errors.empty:
@@ -363,9 +365,9 @@ def _session_sections(result: RunResult, images: dict[str, Image]) -> list[str]:
         parts.append(table_html(metadata, text=True).replace("<thead>", "<thead hidden>", 1))
         parts.append(_notes(s.metadata))
         captions = session_captions(s.trials, result.include_warned)
-        for kind in _SESSION_FIGURES:
-            key = figure_key(kind, i, s.session)
-            parts.append(figure_html(key, images.get(key), captions.get(kind, "")))
+        keys = [(kind, figure_key(kind, i, s.session)) for kind in _SESSION_FIGURES]
+        figures = [figure_html(key, images.get(key), captions.get(kind, "")) for kind, key in keys]
+        parts.append(figure_row(figures))
         parts.append("<p>Trials (every column: <code>trials.csv</code>):</p>")
         parts.append(table_html(_trial_table(s.trials)))
     return parts

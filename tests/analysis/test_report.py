@@ -279,3 +279,36 @@ def test_rig_before_after_uses_the_trials_the_summary_uses() -> None:
     everything = rig_before_after(trials, include_warned=True).set_index("session")
     assert everything.loc["s", "trials"] == 3
     assert everything.loc["s", "rmse_rig_loo"] == np.sqrt((0.25 + 0.25 + 400) / 3)
+
+
+def test_the_console_answers_per_session_set_and_ends_with_verdicts_and_the_report(
+    tmp_path: Path,
+) -> None:
+    """Sessions of two sets: the thesis' first, each set's rows under its name, then one
+    verdict line per set and method, then where report.html is."""
+    from analysis.console import closing_lines, summary_lines
+    from analysis.metrics import summarize
+
+    trials = pd.concat(
+        [
+            _wide_trials(6).assign(session=name, method="point", gt_x=0.0, gt_y=0.0, gt_z=0.0)
+            for name in ("/s/stress_point.mcap", "/s/thesis_point.mcap")
+        ],
+        ignore_index=True,
+    )
+    lines = summary_lines(trials, summarize(trials), width=None)
+    thesis = lines.index("thesis_* sessions: the thesis' experiments:")
+    stress = lines.index("stress_* sessions: free poses, some near a degenerate geometry:")
+    assert thesis < stress
+    assert lines[thesis + 1].startswith("point ")
+    per_session = lines[lines.index("per session:") + 1 :]
+    assert per_session[0].startswith("  thesis_point.mcap")
+    (tmp_path / "report.html").write_text("<html></html>")
+    closing = closing_lines(trials, tmp_path, width=None)
+    assert [line.split(":")[:2] for line in closing[:2]] == [
+        ["verdict", " thesis_*"],
+        ["verdict", " stress_*"],
+    ]
+    assert "point (method 1)" in closing[0]
+    assert closing[-1] == f"report: {tmp_path / 'report.html'}"
+    assert closing_lines(trials, tmp_path / "none", width=None)[-1].startswith("verdict:")

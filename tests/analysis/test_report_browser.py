@@ -118,7 +118,7 @@ def test_figures_largest_errors_are_the_answers(report: Path, browser: Any) -> N
         for row in table.find_elements(By.CSS_SELECTOR, "tbody tr"):
             cells = [td.text for td in row.find_elements(By.TAG_NAME, "td")]
             largest[(name, cells[0])] = cells[column]
-    spans = browser.find_elements(By.CSS_SELECTOR, "#figures ~ figure span.largest")
+    spans = browser.find_elements(By.CSS_SELECTOR, "#figures ~ .figs span.largest")
     assert len(spans) == 3 * len(largest)  # three overview figures
     for span in spans:
         method = _METHOD_LABEL[span.get_attribute("data-method")]
