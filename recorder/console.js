@@ -315,6 +315,7 @@ function renderStatus(s) {
     level = "error";
   } else if (s.phase === "done") {
     level = "done";
+    message = "the session is finished: the file is closed; its summary is below";
   }
   setText(status, message);
   status.className = "level-" + level;
@@ -367,17 +368,17 @@ function frameRow(f) {
   }
   if (!f.found) {
     const reason = el("td", f.reason ? "not found: " + f.reason : "not found", "no");
-    reason.colSpan = 4;
-    tr.append(reason, el("td", f.n_objects), el("td", ""));
+    reason.colSpan = 5;
+    tr.append(el("td", f.n_objects), reason);
     return tr;
   }
   const c = f.centroid || [];
   tr.append(
+    el("td", f.n_objects),
     el("td", fixed(c[0], 1) + ", " + fixed(c[1], 1)),
     el("td", fixed(f.theta_deg, 1)),
     el("td", fixed(f.area_px, 0)),
     el("td", fixed(f.eccentricity, 2)),
-    el("td", f.n_objects),
     el("td", (f.line || "").replace(/^line /, "").replace(/ ([uv])\b/g, "$1"), "line"),
   );
   return tr;
@@ -414,8 +415,17 @@ function renderDecision(s) {
   const deciding = recording && s.waiting === "decision";
   show($("decision"), recording);
   show($("finished"), s.phase === "done" || s.phase === "failed");
-  setText($("summary"), s.phase === "done" ? s.summary : s.message);
-  if (s.phase === "failed") setText($("finished").querySelector("h2"), "The session stopped");
+  if (changed("summary", [s.phase, s.summary, s.message])) {
+    // "wrote PATH: counts" on two lines: where the file is, then what it holds.
+    const text = s.phase === "done" ? s.summary : s.message;
+    const m = /^(wrote .+): (\d+ trials? \(.*)$/s.exec(text || "");
+    const summary = $("summary");
+    if (m) summary.replaceChildren(el("span", m[1] + ":", "path"), el("span", m[2], "counts"));
+    else summary.replaceChildren(el("span", text));
+  }
+  const failed = s.phase === "failed";
+  setText($("finished").querySelector("h2"), failed ? "The session stopped" : "The session is finished");
+  $("finished").classList.toggle("failed", failed);
 
   const few = deciding && s.shortfall === "few";
   const none = deciding && s.shortfall === "none";
@@ -428,17 +438,6 @@ function renderDecision(s) {
   $("note-text").disabled = !deciding;
   $("quit").disabled = !recording;
   if (!recording && quitAsked) askQuit(false);
-
-  const shortfall = $("shortfall");
-  if (few) {
-    setText(shortfall, "the target was found in fewer than half the frames: redo, or accept anyway");
-    shortfall.className = "warning";
-  } else if (none) {
-    setText(shortfall, "the target was not found in any frame: nothing to measure, so accept is off; redo");
-    shortfall.className = "error";
-  } else {
-    shortfall.className = "hidden";
-  }
 
   // The refusal of a decision, under the decision buttons, the button that caused it marked.
   let refusal = localRefusal;
@@ -455,6 +454,20 @@ function renderDecision(s) {
     $(id).classList.toggle("refused", !!refusal && refusal.control === control);
   }
   $("quit").classList.toggle("refused", !!refusal && refusal.control === "quit");
+
+  // Why accept needs "anyway" or is off (the refusal says it instead when there is one).
+  const shortfall = $("shortfall");
+  if (refusal) {
+    shortfall.className = "hidden";
+  } else if (few) {
+    setText(shortfall, "the target was found in fewer than half the frames: redo, or accept anyway");
+    shortfall.className = "warning";
+  } else if (none) {
+    setText(shortfall, "the target was not found in any frame: nothing to measure, so accept is off; redo");
+    shortfall.className = "error";
+  } else {
+    shortfall.className = "hidden";
+  }
 
   const preview = $("preview");
   const p = deciding ? s.preview : null;
@@ -555,7 +568,7 @@ function drawTopView(view, units, method) {
     ctx.fillText("once it has two poses", w / 2, h / 2 + 9);
     return;
   }
-  setText($("topview-title"), "trial " + view.trial + ", from above: x across, z in depth");
+  setText($("topview-title"), "trial " + view.trial + ", from above");
   legend.replaceChildren(...legendItems(view).map(([kind, mark, text]) => {
     const li = el("li");
     li.append(el("span", mark, "mark " + kind), el("span", text));

@@ -261,3 +261,138 @@ def test_every_step_fits_the_screen(
         assert "finished" in page.text("status")
         assert "1 trial (1 complete)" in page.text("summary")
         page.step("finished", recording=False)
+
+
+# --------------------------------------------------------------------------- states by hand
+
+
+def _missed(frame: int, reason: str, objects: int) -> dict[str, Any]:
+    """A captured frame without the target, as the session's state holds it."""
+    return {
+        "frame": frame,
+        "found": False,
+        "centroid": [None, None],
+        "theta_deg": None,
+        "area_px": None,
+        "eccentricity": None,
+        "n_objects": objects,
+        "line": "",
+        "reason": reason,
+    }
+
+
+#: A capture with the target in 1 of 3 frames, the result it would give (near-degenerate),
+#: and the live result failing: states a synthetic session does not reach on demand.
+_FOUND = {
+    "frame": 2,
+    "found": True,
+    "centroid": [321.5, 240.25],
+    "theta_deg": 12.5,
+    "area_px": 151.0,
+    "eccentricity": 0.31,
+    "n_objects": 2,
+    "line": "line -0.216 u +0.976 v = 165.1",
+    "reason": "",
+}
+_WARNING = "parallax 0.4 deg < 1 deg"
+_FEW = {
+    "phase": "recording",
+    "method": "point",
+    "units": "in",
+    "waiting": "decision",
+    "trial": 4,
+    "pose": 2,
+    "n_poses": 2,
+    "capture": {"frame": 3, "n_frames": 3},
+    "frames": [
+        _missed(1, "no dark feature on a bright background", 0),
+        _FOUND,
+        _missed(3, "no candidate passes the shape test", 3),
+    ],
+    "average": {
+        "found": True,
+        "n_used": 1,
+        "n_frames": 3,
+        "centroid": [321.5, 240.25],
+        "theta_deg": 12.5,
+        "centroid_std": [0.0, 0.0],
+    },
+    "shortfall": "few",
+    "preview": {
+        "trial": 4,
+        "status": "ok",
+        "warning": _WARNING,
+        "text": f"trial 4 (2 views): x 0.512 y 1.480 z 30.911 in; WARNING {_WARNING}",
+    },
+    "message": "trial 4 pose 2: the target was found in only 1 of 3 frames: redo, or accept anyway",
+    "level": "warning",
+    "live_error": "the live result failed (ValueError: a test's fault); the recording goes on",
+    "poses": [
+        {"pose": 1, "t": [0.0, 0.0, 0.0], "r_deg": [0.0, 0.0, 0.0], "state": "accepted"},
+        {"pose": 2, "t": [0.25, 0.0, 0.0], "r_deg": [0.0, 0.0, 0.0], "state": "awaiting decision"},
+    ],
+}
+
+
+@pytest.fixture
+def by_hand(tmp_path: Path) -> Iterator[tuple[str, Any]]:
+    """The console's app in this process, its session's state set by the test (nothing
+    records: no recording thread is started)."""
+    import socket
+    import threading
+
+    import uvicorn
+
+    from recorder.console import ConsoleSession
+    from recorder.console_server import ConsoleOptions, console_app
+
+    session = ConsoleSession(tmp_path / "by-hand.mcap")
+    app = console_app(session, ConsoleOptions("synthetic", {}))
+    sock = socket.socket()
+    sock.bind(("127.0.0.1", 0))
+    sock.listen(16)
+    server = uvicorn.Server(uvicorn.Config(app, log_level="warning", lifespan="on"))
+    thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
+    thread.start()
+    try:
+        yield f"http://127.0.0.1:{sock.getsockname()[1]}/", session
+    finally:
+        server.should_exit = True
+        thread.join(timeout=10)
+        sock.close()
+
+
+@pytest.mark.slow
+def test_states_a_synthetic_session_does_not_reach(by_hand: tuple[str, Any]) -> None:
+    """Few frames found: accept anyway offered and accept refused by its button; the result
+    before the decision with its warning; a failing live result in red; a failed session."""
+    url, session = by_hand
+    session.update(**_FEW, setup_fields=[])
+    with headless_chromium(1366, 768) as browser:
+        page = Steps(browser, _folder("states-1366x768"))
+        browser.get(url)
+        page.wait(lambda: page.shown("accept-anyway"), "accept anyway offered")
+        assert page.el("accept").is_enabled()  # pressed, it is refused with the reason
+        assert "fewer than half" in page.text("shortfall")
+        assert "warned" in str(page.el("preview").get_attribute("class"))
+        assert "WARNING parallax" in page.text("preview-result")
+        assert page.shown("live-error")
+        assert "a test's fault" in page.text("live-error")
+        red = page.el("live-error").value_of_css_property("background-color")
+        assert red.startswith("rgba(204, 17, 17"), red
+        assert "1 of 3 frames" in page.text("pose-average")
+        assert page.text("frames-table").count("not found") == 2
+        assert "awaiting decision" in page.text("pose-list")
+        page.step("few-found")
+
+        page.el("accept").click()
+        page.wait(lambda: page.shown("refusal"), "accept refused")
+        assert "accept anyway" in page.text("refusal")
+        assert page.el("refusal").get_attribute("data-control") == "accept"
+        page.step("accept-refused")
+
+        session.update(phase="failed", waiting="", message="the camera stopped: a test")
+        page.wait(lambda: page.shown("finished"), "the failure shown")
+        assert "the camera stopped" in page.text("summary")
+        assert "error" in str(page.el("status").get_attribute("class"))
+        page.step("failed", recording=False)
