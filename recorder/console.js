@@ -323,10 +323,21 @@ function renderStatus(s) {
   show($("live-error"), !!s.live_error);
 }
 
+let capturedAt = ""; // the trial and pose whose capture the frames table shows
+
 function renderCapture(s) {
   let note = "";
   if (s.phase === "setup") note = "the camera is shown here once the session starts";
-  else if (s.phase === "recording" && !s.frame_seq) note = "waiting for the camera's first frame...";
+  else if (s.phase === "recording" && !$("live").naturalWidth) note = "waiting for the camera's first frame...";
+  // The table is this pose's capture while it is taken and decided; afterwards it is
+  // the last capture's, and says so.
+  if (s.phase === "recording" && s.waiting !== "pose" && s.frames.length) {
+    capturedAt = "trial " + s.trial + " pose " + s.pose;
+  }
+  const current = s.phase === "recording" && s.waiting !== "pose";
+  setText($("frames-title"), !s.frames.length ? "This pose's capture, frame by frame"
+    : current ? "This capture (" + capturedAt + "), frame by frame"
+    : "The last capture" + (capturedAt ? " (" + capturedAt + ")" : "") + ", frame by frame");
   setText($("live-note"), note);
   show($("live-note"), !!note);
   const n = s.capture.n_frames || 0;
@@ -341,7 +352,7 @@ function renderCapture(s) {
   const avg = $("pose-average");
   const a = s.average;
   if (!a) {
-    setText(avg, s.frames.length ? "" : "no capture yet for this pose");
+    setText(avg, s.frames.length ? "" : "no capture yet");
     avg.classList.remove("none");
   } else if (!a.found) {
     setText(avg, "pose average: none (the target was found in 0 of " + a.n_frames + " frames)");
