@@ -233,6 +233,7 @@ def run_command(
 ) -> None:
     """Replay sessions through detection and solvers into error tables, figures and a report."""
     from analysis.batch import run
+    from analysis.outputs import check_run_outputs, write_file
     from analysis.results import AnalysisOptions
 
     options = AnalysisOptions(
@@ -245,6 +246,7 @@ def run_command(
         rig_calibration=rig_calibration.value,
     )
     with handle_errors(), _session_progress() as (found, done):
+        check_run_outputs(paths, out, junit, rig)  # before anything is written
         if rig is not None:
             from analysis.calibration import rig_for_run
 
@@ -263,7 +265,7 @@ def run_command(
             from analysis.gate import junit_xml, run_cases
 
             cases = run_cases(result.summary, result.errors)
-            _write_junit(junit, junit_xml("twopose-analyze run", cases))
+            write_file(junit, junit_xml("twopose-analyze run", cases))
     _print_run(result, out, include_warned)
 
 
@@ -297,13 +299,6 @@ def _session_progress() -> Iterator[tuple[Callable[[int], None], Callable[[str, 
         )
 
 
-def _write_junit(path: Path, xml: bytes) -> None:
-    from analysis.outputs import write_atomically
-
-    path.parent.mkdir(parents=True, exist_ok=True)
-    write_atomically(path, xml)
-
-
 @app.command("check")
 def check_command(
     results: Annotated[Path, typer.Argument(help="The --out folder of the run to check.")],
@@ -323,22 +318,16 @@ def check_command(
     """The CI gate: compare summary.csv with a baseline's, per session and method (RMSE,
     median, |bias|, n_ok, coverage); print what got worse; exit 1 on a regression beyond
     the tolerance."""
-    from analysis.gate import check, check_cases, describe, junit_xml
+    from analysis.gate import check, check_cases, check_lines, junit_xml
+    from analysis.outputs import Inputs, write_file
 
     with handle_errors():
+        read = Inputs(files=(tolerance,) if tolerance else (), folders=(results, baseline))
+        read.check_file("--junit", junit)
         outcome = check(results, baseline, tolerance)
         if junit is not None:
-            _write_junit(junit, junit_xml("twopose-analyze check", check_cases(outcome)))
-    table = outcome.comparisons
-    pairs = table[["session", "method"]].drop_duplicates()
-    worse = outcome.worse()
-    for _, row in worse.iterrows():
-        typer.echo(describe(row))
-    for _, row in table[table["status"] == "new"].iterrows():
-        typer.echo(f"new: {row['session']} ({row['method']}): not in the baseline")
-    n_bad = int(worse["status"].isin(["regressed", "missing"]).sum())
-    verdict = f"{n_bad} regression(s)" if n_bad else "no regression"
-    typer.echo(f"checked {len(pairs)} session/method pair(s) against {baseline}: {verdict}")
+            write_file(junit, junit_xml("twopose-analyze check", check_cases(outcome)))
+    typer.echo("\n".join(check_lines(outcome, baseline)))
     if outcome.regressed:
         raise typer.Exit(EXIT_SOME_INPUTS_FAILED)
 
@@ -439,13 +428,13 @@ def rig_command(
     """Estimate the rig's hidden constants from sessions with known targets; write them
     for `run --rig` and `twopose-record new --rig`."""
     from analysis.calibration import calibrate
-    from analysis.outputs import write_atomically
+    from analysis.outputs import run_inputs, write_file
     from analysis.rig import rig_toml
 
     with handle_errors():
+        run_inputs(sessions).check_file("--out", out)  # never a session, FIFO or device
         fit, data = calibrate([str(s) for s in sessions], constants, on_note=_note)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        write_atomically(out, rig_toml(fit, data.sessions).encode())
+        write_file(out, rig_toml(fit, data.sessions).encode())
     fitted = ", ".join(fit.free) or "nothing"
     typer.echo(f"{len(data.trial_ids)} trial(s) with ground truth; fitted: {fitted}")
     for row in fit.rows():

@@ -102,10 +102,7 @@ def compare_runs(
 ) -> Comparison:
     """Compare two run folders (see the module's docstring)."""
     sides = [_side(Path(run_a), estimator_a), _side(Path(run_b), estimator_b)]
-    used = [
-        _used_trials(_with_errors(read_results_table(s.folder, "trials.csv"), s), include_warned)
-        for s in sides
-    ]
+    used = [_used_trials(_with_errors(_read_trials(s), s), include_warned) for s in sides]
     summaries = [summarize(u, include_warned=True) for u in used]  # already filtered
     side = _side_by_side(*summaries)
     paired = _paired(*used)
@@ -122,7 +119,12 @@ def compare(
     include_warned: bool = False,
 ) -> Comparison:
     """``twopose-analyze compare`` in one call: :func:`compare_runs`, and with ``out_dir``
-    its files written there (:func:`write_comparison`, in a checked, locked folder)."""
+    its files written there (:func:`write_comparison`, in a checked, locked folder that is
+    neither run nor inside one: :class:`analysis.outputs.Inputs`)."""
+    from analysis.outputs import Inputs, OutputFolder
+
+    if out_dir is not None:
+        Inputs(folders=(Path(run_a), Path(run_b))).check_folder("--out", Path(out_dir))
     comparison = compare_runs(
         run_a,
         run_b,
@@ -131,8 +133,6 @@ def compare(
         include_warned=include_warned,
     )
     if out_dir is not None:
-        from analysis.outputs import OutputFolder
-
         with OutputFolder.prepare(Path(out_dir)) as folder:
             folder.record(write_comparison(comparison, out_dir))
     return comparison
@@ -144,19 +144,40 @@ def _side(folder: Path, estimator: Estimator) -> RunSide:
     version = ""
     # A run before summary.json: its version is unknown, its tables still compare.
     with contextlib.suppress(OSError, ValueError, KeyError, TypeError):
-        version = str(json.loads((folder / "summary.json").read_text())["twopose_version"])
+        if (folder / "summary.json").is_file():  # a FIFO would block the read forever
+            version = str(json.loads((folder / "summary.json").read_text())["twopose_version"])
     return RunSide(folder, estimator, version)
+
+
+#: trials.csv's columns every comparison needs; the estimate columns are the estimator's.
+TRIAL_KEY = ("session", "method", "trial")
+TRIAL_COLUMNS = ("units", "status", "gt_x", "gt_y", "gt_z")
+
+
+def _read_trials(side: RunSide) -> pd.DataFrame:
+    """``side``'s trials.csv, checked as ``check`` checks a summary
+    (:func:`analysis.outputs.read_results_table`): one row per session, method and trial,
+    the truth and the estimator's columns present and numbers."""
+    columns = ESTIMATORS[side.estimator]
+    trials = read_results_table(
+        side.folder,
+        "trials.csv",
+        key=TRIAL_KEY,
+        required=TRIAL_COLUMNS,
+        numeric=("trial", "gt_x", "gt_y", "gt_z", *columns, "within95"),
+    )
+    if not set(columns) <= set(trials.columns):
+        raise InputValueError(
+            f"{side.folder}/trials.csv has no {side.estimator} estimates ({columns[0]}, ...): "
+            "optimal is for point sessions, weighted for line sessions"
+        )
+    return trials
 
 
 def _with_errors(trials: pd.DataFrame, side: RunSide) -> pd.DataFrame:
     """``trials`` with ``err_x, err_y, err_z, err`` of ``side``'s estimator against the
     truth; ``within95`` only for the thesis estimator, whose covariance it is."""
     columns = ESTIMATORS[side.estimator]
-    if not set(columns) <= set(trials.columns):
-        raise InputValueError(
-            f"{side.folder}/trials.csv has no {side.estimator} estimates ({columns[0]}, ...): "
-            "optimal is for point sessions, weighted for line sessions"
-        )
     estimate = trials[list(columns)].apply(pd.to_numeric, errors="coerce").to_numpy()
     truth = trials[["gt_x", "gt_y", "gt_z"]].apply(pd.to_numeric, errors="coerce").to_numpy()
     err = estimate - truth

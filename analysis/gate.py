@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import typing
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,9 +21,10 @@ from typing import Any
 
 import pandas as pd
 
-from analysis.outputs import read_results_table, session_keys
+from analysis.outputs import check_results_table, read_results_table, session_keys
 from twopose.config import build_dataclass, read_toml
 from twopose.errors import InputValueError
+from twopose.format.entries import Method
 
 __all__ = [
     "CHECKED_METRICS",
@@ -32,6 +34,7 @@ __all__ = [
     "Tolerance",
     "check",
     "check_cases",
+    "check_lines",
     "compare_summaries",
     "describe",
     "junit_xml",
@@ -78,6 +81,9 @@ CHECKED_METRICS = (
     ("coverage95", "coverage95", "coverage95", -1),
 )
 
+#: The methods a tolerance file may name (``[methods.<method>.<metric>]``).
+METHODS = tuple(sorted(typing.get_args(Method)))
+
 COMPARISON_COLUMNS = [
     "session",
     "method",
@@ -100,39 +106,58 @@ def load_tolerance(path: str | Path | None) -> dict[str, Tolerance]:
         [methods.ground.rmse]    # a method's own allowance, over the default
         relative = 0.25
 
-    ``None``: the defaults of :class:`Tolerance`."""
+    ``None``: the defaults of :class:`Tolerance`. An unknown key anywhere (a metric, an
+    allowance's field, a method: ``[methods.piont.rmse]``), a wrong type or a negative or
+    non-finite number is refused, naming the key and the known ones."""
     if path is None:
         return {"": Tolerance()}
     what = f"tolerance file {path}"
+    if not Path(path).is_file():  # a FIFO would block the read forever
+        raise InputValueError(f"{what}: not a file; give a TOML file (see docs/ci.md)")
     data = read_toml(path, "tolerance file", InputValueError)
     methods = data.pop("methods", {})
     if not isinstance(methods, dict):
-        raise InputValueError(f"{what}: methods must be a table of methods")
-    default = build_dataclass(Tolerance, _merged(Tolerance(), data, what), what, InputValueError)
+        raise InputValueError(f"{what}: methods must be a table of methods ([methods.ground])")
+    unknown = sorted(set(methods) - set(METHODS))
+    if unknown:
+        raise InputValueError(
+            f"{what}: unknown method(s) {', '.join('methods.' + m for m in unknown)}; "
+            f"known: {', '.join(METHODS)}"
+        )
+    default = _tolerance(Tolerance(), data, what, "")
     tolerances = {"": default}
     for method, table in methods.items():
-        where = f"{what}: methods.{method}"
-        tolerances[method] = build_dataclass(
-            Tolerance, _merged(default, table, where), where, InputValueError
-        )
+        tolerances[method] = _tolerance(default, table, what, f"methods.{method}.")
     return tolerances
 
 
-def _merged(base: Tolerance, table: Any, what: str) -> dict[str, Any]:
-    """``table``'s keys over ``base``'s: an allowance given in part keeps the rest."""
+def _tolerance(base: Tolerance, table: Any, what: str, prefix: str) -> Tolerance:
+    """``table``'s keys over ``base``'s (an allowance given in part keeps the rest)."""
     if not isinstance(table, dict):
-        raise InputValueError(f"{what} must be a table")
+        raise InputValueError(f"{what}: {prefix.rstrip('.')} must be a table")
     values = dataclasses.asdict(base)
-    return values | {
+    for metric, allowance in table.items():
+        if not isinstance(allowance, dict):
+            continue  # build_dataclass names the key that should be a table
+        for field, number in allowance.items():
+            if isinstance(number, int | float) and not isinstance(number, bool) and number < 0:
+                raise InputValueError(
+                    f"{what}: {prefix}{metric}.{field} is {number}: an allowance cannot be negative"
+                )
+    merged = values | {
         k: values[k] | v if isinstance(v, dict) and k in values else v for k, v in table.items()
     }
+    where = f"{what}: {prefix.rstrip('.')}" if prefix else what
+    return build_dataclass(Tolerance, merged, where, InputValueError)
 
 
 @dataclass(frozen=True)
 class CheckResult:
-    """Every comparison (``COMPARISON_COLUMNS``) and whether any regressed."""
+    """Every comparison (``COMPARISON_COLUMNS``), whether any regressed, and ``notes`` on
+    what was not compared (a metric the baseline predates)."""
 
     comparisons: pd.DataFrame
+    notes: tuple[str, ...] = ()
 
     @property
     def regressed(self) -> bool:
@@ -145,21 +170,55 @@ class CheckResult:
         return bad.assign(_o=order).sort_values(["_o", "session", "method"]).drop(columns="_o")
 
 
+#: Checked columns a baseline may predate (summary.csv gained them later): not compared, with
+#: a note. Every other checked column missing from either table is an error.
+BASELINE_MAY_LACK = ("coverage95",)
+_CHECKED_COLUMNS = tuple(dict.fromkeys(column for _, column, _, _ in CHECKED_METRICS))
+
+
 def check(
     results_dir: str | Path, baseline_dir: str | Path, tolerance: str | Path | None = None
 ) -> CheckResult:
-    """``twopose-analyze check``: ``results_dir``'s summary.csv against ``baseline_dir``'s."""
+    """``twopose-analyze check``: ``results_dir``'s summary.csv against ``baseline_dir``'s,
+    both checked first (:func:`analysis.outputs.read_results_table`: one row per session
+    and method, numbers where numbers belong)."""
     tolerances = load_tolerance(tolerance)
-    result = read_results_table(results_dir, "summary.csv")
-    baseline = read_results_table(baseline_dir, "summary.csv")
-    return compare_summaries(result, baseline, tolerances)
+    result, baseline = (
+        read_results_table(folder, "summary.csv", numeric=_CHECKED_COLUMNS)
+        for folder in (results_dir, baseline_dir)
+    )
+    return compare_summaries(
+        result, baseline, tolerances, names=(str(results_dir), str(baseline_dir))
+    )
 
 
 def compare_summaries(
-    result: pd.DataFrame, baseline: pd.DataFrame, tolerances: dict[str, Tolerance]
+    result: pd.DataFrame,
+    baseline: pd.DataFrame,
+    tolerances: dict[str, Tolerance],
+    *,
+    names: tuple[str, str] = ("the run", "the baseline"),
 ) -> CheckResult:
     """Each (session, method) and checked metric of ``baseline`` against ``result``; the
-    sessions are matched by their path below each run's common folder."""
+    sessions are matched by their path below each run's common folder. A checked column
+    missing from either is an error, but for one the baseline predates
+    (:data:`BASELINE_MAY_LACK`): that metric is not compared, and a note says so."""
+    for table, name in zip((result, baseline), names, strict=True):
+        check_results_table(table, f"{name}/summary.csv", numeric=_CHECKED_COLUMNS)
+    skipped = [c for c in BASELINE_MAY_LACK if c not in baseline.columns]
+    for table, name, fix in (
+        (baseline, names[1], "replace the baseline with a summary.csv of this twopose"),
+        (result, names[0], "run `twopose-analyze run` with this twopose to write it"),
+    ):
+        lacking = [c for c in _CHECKED_COLUMNS if c not in table.columns and c not in skipped]
+        if lacking:
+            raise InputValueError(
+                f"{name}/summary.csv has no column {', '.join(lacking)}: cannot check it; {fix}"
+            )
+    notes = tuple(
+        f"not compared: {c} (the baseline predates it; replace the baseline to check it)"
+        for c in skipped
+    )
     new = result.assign(session=session_keys(result["session"])).set_index(["session", "method"])
     old = baseline.assign(session=session_keys(baseline["session"])).set_index(
         ["session", "method"]
@@ -173,6 +232,8 @@ def compare_summaries(
             continue
         tolerance = tolerances.get(str(method), tolerances[""])
         for metric, column, field, sign in CHECKED_METRICS:
+            if column in skipped:
+                continue
             before, after = _value(old.loc[key], column), _value(new.loc[key], column)
             allowed = getattr(tolerance, field).of(before)
             rows.append(
@@ -186,14 +247,11 @@ def compare_summaries(
                     allowed,
                 )
             )
-    return CheckResult(pd.DataFrame(rows, columns=COMPARISON_COLUMNS))
+    return CheckResult(pd.DataFrame(rows, columns=COMPARISON_COLUMNS), notes)
 
 
-def _value(row: pd.Series | pd.DataFrame, column: str) -> float:
-    value = row[column]
-    if isinstance(value, pd.Series):  # a key twice in one summary: its first row
-        value = value.iloc[0]
-    number = float(pd.to_numeric(value, errors="coerce"))
+def _value(row: pd.Series, column: str) -> float:
+    number = float(pd.to_numeric(row[column], errors="coerce"))
     return abs(number) if column.startswith("bias_") else number
 
 
@@ -246,6 +304,23 @@ def describe(row: pd.Series) -> str:
         f"{tag} {where} {row['metric']}: {before:.4g} -> {after:.4g} "
         f"({change:+.4g}{share}; allowed {float(row['allowed']):.4g})"
     )
+
+
+def check_lines(outcome: CheckResult, baseline: str | Path) -> list[str]:
+    """What ``check`` prints: notes, what got worse (regressions first), what is new, and
+    one line of verdict."""
+    table = outcome.comparisons
+    worse = outcome.worse()
+    lines = [f"note: {note}" for note in outcome.notes]
+    lines += [describe(row) for _, row in worse.iterrows()]
+    lines += [
+        f"new: {row['session']} ({row['method']}): not in the baseline"
+        for _, row in table[table["status"] == "new"].iterrows()
+    ]
+    n_pairs = len(table[["session", "method"]].drop_duplicates())
+    n_bad = int(worse["status"].isin(["regressed", "missing"]).sum())
+    verdict = f"{n_bad} regression(s)" if n_bad else "no regression"
+    return [*lines, f"checked {n_pairs} session/method pair(s) against {baseline}: {verdict}"]
 
 
 def check_cases(result: CheckResult) -> list[tuple[str, str, str | None]]:

@@ -4,23 +4,32 @@
   next run into the same folder first removes the files that list names (and only those:
   never a file it did not write), so no stale per-session file of an earlier run survives
   with numbering that no longer matches.
-* Every file is written under a temporary name and renamed into place
-  (:func:`write_atomically`): a full disk or a crash leaves the previous file or none, never
-  half of one, and a symlink at the destination is replaced, never followed.
+* Every file twopose-analyze writes is written under a temporary name, synced and renamed
+  into place, and its folder synced (:func:`replacing`, :func:`write_atomically`: the one
+  way): a full disk or a crash leaves the previous file or none, never half of one; a
+  symlink at the destination is replaced, never followed; a folder, FIFO or device there
+  is refused.
+* No output replaces an input (:class:`Inputs`): an output file or folder that is an
+  input, lies inside a run folder being read, or (a file) is not a regular file or a new
+  name is refused before anything is written.
 * ``.twopose-run.lock`` (an advisory ``flock``, released when the process ends, however it
   ends) refuses a second run into the same folder while one is writing.
 * A finished run's tables are read back (``check``, ``compare``) with
-  :func:`read_results_table`, its sessions named by :func:`session_keys`.
+  :func:`read_results_table`, which checks them (:func:`check_results_table`: columns,
+  one row per key, numbers), its sessions named by :func:`session_keys`.
 """
 
 from __future__ import annotations
 
 import contextlib
+import csv
 import errno
 import fcntl
 import json
 import os
-from collections.abc import Iterable
+import stat
+from collections.abc import Iterable, Iterator, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
 from typing import TYPE_CHECKING, Self
@@ -33,12 +42,18 @@ if TYPE_CHECKING:
 __all__ = [
     "LOCK_NAME",
     "MANIFEST_NAME",
+    "Inputs",
     "OutputFolder",
+    "check_results_table",
+    "check_run_outputs",
     "partial_name",
     "printable_stem",
     "read_results_table",
+    "replacing",
+    "run_inputs",
     "session_keys",
     "write_atomically",
+    "write_file",
 ]
 
 MANIFEST_NAME = ".twopose-outputs.json"
@@ -64,23 +79,77 @@ def write_failed(path: Path, err: OSError) -> TwoposeError:
     return TwoposeError(f"cannot write {path}: {err.strerror or err}")
 
 
-def write_atomically(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` under a temporary name, sync it, and rename it into place;
-    on any failure the temporary file is removed and ``path`` is untouched."""
+@contextlib.contextmanager
+def replacing(path: Path) -> Iterator[Path]:
+    """The one way a file is written in place of another: yields a temporary name beside
+    ``path`` to write (by any means); when the block ends, the file is synced, renamed over
+    ``path`` and the folder synced, so a crash or a full disk leaves the previous file or
+    the new one, never half of one. On any failure the temporary file is removed and
+    ``path`` is untouched. ``path`` must be a regular file, a symlink (replaced itself,
+    never written through) or a new name: a folder, FIFO or device is refused."""
+    _refuse_special(path)
     tmp = partial_name(path)
     try:
-        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644)
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)  # renames over a symlink; never writes through it
+        tmp.unlink(missing_ok=True)  # this process's own name: a leftover of a failed write
+        yield tmp
+        _fsync(tmp, os.O_RDONLY)
+        _refuse_special(path)  # again: it may have changed while we wrote
+        os.replace(tmp, path)
+        _fsync(path.parent, os.O_RDONLY | os.O_DIRECTORY)
     except OSError as err:
         tmp.unlink(missing_ok=True)
         raise write_failed(path, err) from err
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
+
+
+def write_file(path: Path, data: bytes) -> None:
+    """``data`` written to ``path`` (:func:`write_atomically`), its folder created if need
+    be: a file the user named (``--junit``, ``rig --out``), checked first with
+    :meth:`Inputs.check_file`."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise InputValueError(f"cannot create the folder {path.parent}: {err.strerror}") from err
+    write_atomically(path, data)
+
+
+def write_atomically(path: Path, data: bytes) -> None:
+    """``data`` written to ``path`` through :func:`replacing`."""
+    with replacing(path) as tmp:
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644)
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+
+
+def _fsync(path: Path, flags: int) -> None:
+    fd = os.open(path, flags)
+    try:
+        os.fsync(fd)
+    except OSError as err:  # a file system that cannot sync a folder: nothing more to do
+        if err.errno not in (errno.EINVAL, errno.ENOTSUP):
+            raise
+    finally:
+        os.close(fd)
+
+
+def _refuse_special(path: Path) -> None:
+    """A folder, FIFO, device or socket where a file is to be written: refused (a rename
+    would replace ``/dev/null`` itself, or a FIFO a reader is waiting on)."""
+    try:
+        mode = os.lstat(path).st_mode
+    except FileNotFoundError:
+        return
+    except OSError as err:
+        raise write_failed(path, err) from err
+    if stat.S_ISDIR(mode):
+        raise InputValueError(f"{path} is a folder; give a file name to write")
+    if not (stat.S_ISREG(mode) or stat.S_ISLNK(mode)):
+        raise InputValueError(
+            f"{path} is not a regular file (a FIFO, device or socket); give a new file name "
+            "or a regular file to replace"
+        )
 
 
 class OutputFolder:
@@ -194,25 +263,224 @@ def _plain_name(name: str) -> bool:
     return bool(name) and name not in (".", "..", MANIFEST_NAME) and Path(name).name == name
 
 
-def read_results_table(folder: str | Path, name: str) -> pd.DataFrame:
-    """``folder/name`` (a CSV table a run wrote), or an error saying how to make it."""
+@dataclass(frozen=True)
+class Inputs:
+    """What a command reads, which none of its outputs may replace: ``files`` (sessions, a
+    rig or tolerance file) and ``folders`` (run folders being read, wholly). Paths are
+    compared by what they are on disk (symlinks resolved, by device and inode), so another
+    spelling, a symlink or a hard link to an input is the input."""
+
+    files: tuple[Path, ...] = ()
+    folders: tuple[Path, ...] = ()
+
+    def check_file(self, option: str, path: Path | None, *, beside: Path | None = None) -> None:
+        """Refuse ``path`` as the file ``option`` writes when it is an input, lies inside
+        an input folder, or is anything but a regular file or a new name (a folder, FIFO,
+        device). ``beside``: a folder the same command writes its own files into, where
+        this file must be ``.xml`` so as not to replace one of them."""
+        if path is None:
+            return
+        where = f"{option} {path}"
+        target = _stat(path)  # follows a symlink: what a write could reach
+        if target is not None:
+            if stat.S_ISDIR(target.st_mode):
+                raise InputValueError(f"{where} is a folder; give a file name")
+            if not stat.S_ISREG(target.st_mode):
+                raise InputValueError(
+                    f"{where} is not a regular file (a FIFO, device or socket); give a new "
+                    "file name"
+                )
+            for f in self.files:
+                if _same(target, f):
+                    raise InputValueError(f"{where} is the input {f}; give a new file name")
+        self._outside_folders(where, path)
+        ancestor = _nearest_existing(path.parent)
+        if ancestor is not None and not ancestor.is_dir():
+            raise InputValueError(f"{where}: {ancestor} is not a folder")
+        if beside is not None and _inside(beside, path):
+            raise InputValueError(f"{where} is the folder the results go to; give a file name")
+        if beside is not None and _inside(path, beside) and path.suffix != ".xml":
+            raise InputValueError(
+                f"{where} is in {beside}, where the run writes its own files: give it a name "
+                "ending in .xml, or write it elsewhere"
+            )
+
+    def check_folder(self, option: str, path: Path) -> None:
+        """Refuse ``path`` as the folder ``option`` writes into when it is not a folder,
+        is or lies inside an input folder, or directly holds an input file."""
+        where = f"{option} {path}"
+        target = _stat(path)
+        if target is not None and not stat.S_ISDIR(target.st_mode):
+            what = "a file" if stat.S_ISREG(target.st_mode) else "not a folder"
+            raise InputValueError(f"{where} is {what}; give a folder for the results")
+        self._outside_folders(where, path)
+        if target is not None:
+            for f in self.files:
+                parent = _stat(f.parent)
+                if parent is not None and os.path.samestat(parent, target):
+                    raise InputValueError(
+                        f"{where} holds the input {f}; give a folder of its own for the "
+                        f"results (e.g. {path / 'results'})"
+                    )
+
+    def _outside_folders(self, where: str, path: Path) -> None:
+        for folder in self.folders:
+            if _inside(path, folder):
+                raise InputValueError(
+                    f"{where} is, or is inside, the run folder {folder} being read; "
+                    "write it elsewhere"
+                )
+
+
+def _stat(path: Path) -> os.stat_result | None:
+    try:
+        return os.stat(path)
+    except (FileNotFoundError, NotADirectoryError):
+        return None
+    except OSError as err:
+        raise InputValueError(f"cannot examine {path}: {err.strerror or err}") from err
+
+
+def _same(st: os.stat_result, other: Path) -> bool:
+    theirs = _stat(other)
+    return theirs is not None and os.path.samestat(st, theirs)
+
+
+def _inside(path: Path, folder: Path) -> bool:
+    """Whether ``path`` (existing or not) is ``folder`` or lies below it, symlinks resolved;
+    an existing ``folder`` is compared by device and inode, a new one by its path."""
+    resolved = _resolved(path)
+    theirs = _stat(folder)
+    if theirs is None:
+        mine = _resolved(folder)
+        return resolved == mine or mine in resolved.parents
+    for ancestor in (resolved, *resolved.parents):
+        st = _stat(ancestor)
+        if st is not None and os.path.samestat(st, theirs):
+            return True
+    return False
+
+
+def _resolved(path: Path) -> Path:
+    try:
+        return path.resolve()
+    except (OSError, RuntimeError) as err:  # a symlink loop
+        raise InputValueError(f"cannot resolve {path}: {err}") from err
+
+
+def _nearest_existing(path: Path) -> Path | None:
+    for ancestor in (path, *path.parents):
+        if os.path.lexists(ancestor):
+            return ancestor
+    return None
+
+
+def check_run_outputs(
+    paths: Iterable[str | Path], out: Path, junit: Path | None, rig: Path | None
+) -> None:
+    """``run``'s ``--out`` and ``--junit`` checked against its inputs (:class:`Inputs`)."""
+    inputs = run_inputs(paths, rig)
+    inputs.check_folder("--out", out)
+    inputs.check_file("--junit", junit, beside=out)
+
+
+def run_inputs(paths: Iterable[str | Path], *more: Path | None) -> Inputs:
+    """The files a ``run`` or ``rig`` reads: the sessions under ``paths`` (a folder is only
+    searched: results may go below it) and ``more`` (a rig file)."""
+    from twopose.format.reader import find_sessions
+
+    sessions = tuple(find_sessions(paths))
+    return Inputs(files=sessions + tuple(p for p in more if p is not None))
+
+
+def read_results_table(
+    folder: str | Path,
+    name: str,
+    *,
+    key: Sequence[str] = ("session", "method"),
+    required: Iterable[str] = (),
+    numeric: Iterable[str] = (),
+) -> pd.DataFrame:
+    """``folder/name``, a CSV table a run wrote, checked as ``check`` and ``compare`` need
+    it (:func:`check_results_table`), or an error saying what is wrong and what to do."""
     import pandas as pd
 
-    path = Path(folder) / name
-    if not Path(folder).is_dir():
+    where = Path(folder)
+    path = where / name
+    if not where.is_dir():
         raise InputValueError(f"{folder} is not a folder: give a run's --out folder")
-    try:
-        table = pd.read_csv(path, keep_default_na=True)
-    except FileNotFoundError as err:
+    if not path.is_file():  # a FIFO or a device would block the read forever
         raise InputValueError(
             f"no {name} in {folder}: give the --out folder of a finished `twopose-analyze run`"
-        ) from err
-    except (OSError, ValueError, UnicodeDecodeError) as err:
+        )
+    try:
+        with open(path, encoding="utf-8", newline="") as fh:
+            header = next(csv.reader(fh), [])
+        table = pd.read_csv(path, keep_default_na=True, dtype={"session": str, "method": str})
+    except (OSError, ValueError, UnicodeDecodeError, csv.Error) as err:
         raise InputValueError(f"cannot read {path}: {err}") from err
-    missing = {"session", "method"} - set(table.columns)
+    twice = sorted({c for c in header if header.count(c) > 1})
+    if twice:
+        raise InputValueError(f"{path}: column(s) {', '.join(twice)} given twice")
+    return check_results_table(table, str(path), key=key, required=required, numeric=numeric)
+
+
+def check_results_table(
+    table: pd.DataFrame,
+    what: str,
+    *,
+    key: Sequence[str] = ("session", "method"),
+    required: Iterable[str] = (),
+    numeric: Iterable[str] = (),
+) -> pd.DataFrame:
+    """The one check of a run's table before ``check`` or ``compare`` reads it: the
+    ``key`` and ``required`` columns present, every row with its key, no key twice (a
+    session and method, or a trial, in two rows: which is the run's?), and the ``numeric``
+    columns present numbers or empty (not measured). Returns ``table``."""
+    import pandas as pd
+
+    missing = [c for c in (*key, *required) if c not in table.columns]
     if missing:
-        raise InputValueError(f"{path} is not a twopose table: no {', '.join(sorted(missing))}")
+        raise InputValueError(
+            f"{what} has no column {', '.join(missing)}: not a table of this twopose's run; "
+            "run `twopose-analyze run` again to write it"
+        )
+    blank = table[list(key)].isna().any(axis=1) | (
+        table[list(key)].astype(str).apply(lambda c: c.str.strip()).eq("").any(axis=1)
+    )
+    if blank.any():
+        rows = ", ".join(str(i + 1) for i in table.index[blank][:5])
+        raise InputValueError(
+            f"{what}: row(s) {rows} (below the header) have no {' or '.join(key)}"
+        )
+    keyed = table.assign(session=session_keys(table["session"])) if "session" in key else table
+    doubled = keyed[keyed.duplicated(list(key), keep=False)]
+    if len(doubled):
+        names = sorted({_key_name(key, row) for row in doubled[list(key)].itertuples(index=False)})
+        shown = "; ".join(names[:5]) + (f"; and {len(names) - 5} more" if len(names) > 5 else "")
+        raise InputValueError(
+            f"{what}: more than one row for {shown}; a run writes one per "
+            f"{', '.join(key)}: which is the run's? Keep one and check again"
+        )
+    for column in numeric:
+        if column not in table.columns:
+            continue
+        values = pd.to_numeric(table[column], errors="coerce")
+        bad = values.isna() & table[column].notna()
+        if bad.any():
+            i = table.index[bad][0]
+            value = table[column][i]
+            raise InputValueError(
+                f"{what}: {column} in row {i + 1} (below the header) is {value!r}, not a number"
+            )
     return table
+
+
+def _key_name(key: Sequence[str], values: Iterable[object]) -> str:
+    """``a.mcap (point)``, ``a.mcap (point) trial 3``: a row's key as the messages name it."""
+    named = [str(v) for v in values]
+    extra = "".join(f" {k} {v}" for k, v in zip(key[2:], named[2:], strict=True))
+    return f"{named[0]} ({named[1]}){extra}" if len(named) > 1 else named[0]
 
 
 def session_keys(sessions: pd.Series) -> pd.Series:

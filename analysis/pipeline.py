@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import os
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -138,26 +137,16 @@ def analyse_session(
 @contextlib.contextmanager
 def _results_writer(out: Path, reader: SessionReader) -> Iterator[ResultsWriter]:
     """The session's results.mcap, written under a temporary name and renamed into place
-    only when the analysis succeeds (a failure or a full disk leaves no half file)."""
-    from analysis.outputs import partial_name, write_failed
+    only when the analysis succeeds (a failure or a full disk leaves no half file), by the
+    one atomic writer (:func:`analysis.outputs.replacing`: synced, renamed, folder synced)."""
+    from analysis.outputs import replacing
 
-    tmp = partial_name(out)
-    try:
+    with replacing(out) as tmp:
         writer = ResultsWriter(tmp, list(reader.cameras.values()), reader.ground)
-    except OSError as err:
-        raise write_failed(out, err) from err
-    try:
-        yield writer
-        writer.close()
-        os.replace(tmp, out)
-    except OSError as err:
-        writer.close()
-        tmp.unlink(missing_ok=True)
-        raise write_failed(out, err) from err
-    except BaseException:
-        writer.close()
-        tmp.unlink(missing_ok=True)
-        raise
+        try:
+            yield writer
+        finally:
+            writer.close()
 
 
 def _rig_columns(

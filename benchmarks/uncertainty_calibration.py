@@ -22,6 +22,7 @@ import numpy as np
 import pandas as pd
 
 from analysis import run
+from analysis.outputs import replacing
 from recorder.simulate import simulate_session
 
 METHODS = ("point", "line", "ground")
@@ -32,10 +33,8 @@ FRAMES = 3
 def _simulate(job: tuple[str, int, int, str]) -> str:
     method, seed, trials, out = job
     if not Path(out).exists():  # written under another name first: a kill leaves no half file
-        partial = Path(out).with_suffix(".partial")
-        partial.unlink(missing_ok=True)
-        simulate_session(partial, method=method, trials=trials, frames=FRAMES, seed=seed)
-        partial.rename(out)
+        with replacing(Path(out)) as partial:
+            simulate_session(partial, method=method, trials=trials, frames=FRAMES, seed=seed)
     return out
 
 
