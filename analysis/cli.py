@@ -556,13 +556,14 @@ def solve(method: Annotated[SolveMethod, typer.Argument(help="Which reconstructi
                                        or {"segment_px": [x0, y0, x1, y1]}
          ...],
        "ground_y": h,                  ground only: the ground plane y = h
-       "estimator": "thesis"}          or "optimal" (point), "weighted" (line;
-                                       a view may give "sigma_px", default 1)
+       "estimator": "thesis"}          or "optimal" (point, line), "weighted"
+                                       (line; a view may give "sigma_px",
+                                       default 1, and "sigma_theta_deg")
 
     \b
     The answer: {"point": [x, y, z]} or {"line": {"point": [...], "direction":
     [...]}}, with "status", "reason", "conditioning", "n_views" and for points
-    "reprojection_rms_px".
+    "reprojection_rms_px" (optimal lines: also "cov_point", "cov_direction").
 
     Example: echo '{"views": [{"K": [525, 525, 320, 240], "pose": {"t": [0, 0, 0]},
     "px": [343.9, 311.6]}, {"K": [525, 525, 320, 240], "pose": {"t": [1.1, 0, 0]},

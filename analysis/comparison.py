@@ -3,8 +3,8 @@ statistics per session and method, and paired per-trial differences on the trial
 runs measured, with a paired test and a confidence interval.
 
 A run is a ``run --out`` folder; each side picks an estimator (``thesis``: ``x, y, z``;
-``optimal``: the reprojection-optimal point, ``x_optimal``...; ``weighted``: the line's
-weighted fit, ``x_weighted``...), so one run can be compared with itself across
+``optimal``: the reprojection-optimal point or line, ``x_optimal``...; ``weighted``: the
+line's weighted fit, ``x_weighted``...), so one run can be compared with itself across
 estimators, and two runs across combine modes, settings or twopose versions (an older
 run's missing columns read as not measured). Errors are recomputed from each estimate and
 the truth, the same way for every estimator.
@@ -169,7 +169,7 @@ def _read_trials(side: RunSide) -> pd.DataFrame:
     if not set(columns) <= set(trials.columns):
         raise InputValueError(
             f"{side.folder}/trials.csv has no {side.estimator} estimates ({columns[0]}, ...): "
-            "optimal is for point sessions, weighted for line sessions"
+            "optimal is for point and line sessions, weighted for line sessions"
         )
     return trials
 

@@ -50,13 +50,16 @@ TRIAL_COLUMNS = [
 LINE_COLUMNS = ["dir_x", "dir_y", "dir_z", "angle_err_deg", "dist_err"]
 #: The operator's notes about the trial, joined with " | " (session-wide notes: the report).
 NOTES_COLUMNS = ["notes"]
-#: Line trials: the weighted/robust fit beside the thesis' (solve.triangulate_lines).
+#: Line trials: the weighted/robust fit beside the thesis' (solve.triangulate_lines), and
+#: the reprojection-optimal line's errors (twopose.optimal_lines; its point is ``x_optimal``...).
 WEIGHTED_COLUMNS = [
     "x_weighted",
     "y_weighted",
     "z_weighted",
     "angle_err_weighted_deg",
     "dist_err_weighted",
+    "angle_err_optimal_deg",
+    "dist_err_optimal",
 ]
 #: Degeneracy margins (degrees) per method, and the warning when one is under its threshold.
 MARGIN_COLUMNS = [
@@ -66,7 +69,8 @@ MARGIN_COLUMNS = [
     "warning",
     "baseline",  # the longest distance between two typed camera centres of the trial
 ]
-#: Point trials: the reprojection-optimal estimate beside the thesis' (x, y, z).
+#: Point trials: the reprojection-optimal estimate beside the thesis' (x, y, z); line trials:
+#: the optimal line's point nearest the true midpoint and its distance from it.
 OPTIMAL_COLUMNS = ["x_optimal", "y_optimal", "z_optimal", "err_optimal"]
 #: First-order uncertainty of (x, y, z) (analysis/uncertainty.py): 1-sigma per axis, the
 #: covariances, 95% half-widths per axis, the 95% ellipsoid's longest semi-axis, the

@@ -10,9 +10,15 @@ Request::
                 "line": {"px": [col, row], "theta_deg": t}},   # or {"segment_px": [x0, y0, x1, y1]}
                ...],                                     # two or more views
      "ground_y": h,                                      # ground only
-     "estimator": "thesis"}                              # or "optimal" (points) or
-                                                         # "weighted" (lines; a view may
+     "estimator": "thesis"}                              # or "optimal" (points, lines)
+                                                         # or "weighted" (lines; a view may
                                                          # give "sigma_px", default 1)
+
+Lines with ``"optimal"``: the reprojection-optimal line (:mod:`twopose.optimal_lines`),
+``sigma_px`` a view's 1-sigma across the line (of each endpoint of a segment, of the point
+of a ``px``/``theta_deg`` view, which may also give ``"sigma_theta_deg"``, default 1); the
+answer adds ``reprojection_rms_px`` and the covariances ``cov_point`` (of the reported
+point, across the line) and ``cov_direction`` (of the unit direction).
 
 ``pose.t`` is the camera centre in the grid frame, ``R = Rx Ry Rz`` (camera -> grid).
 """
@@ -26,6 +32,7 @@ import numpy as np
 
 from twopose.camera import rotation_from_angles_deg
 from twopose.errors import InputValueError
+from twopose.optimal_lines import centroid_segments, optimal_lines
 from twopose.solve import (
     image_lines,
     projection_matrices,
@@ -80,6 +87,40 @@ def _image_line(view: Any, where: str) -> np.ndarray:
     return image_lines(np.array(px), theta)
 
 
+def _segment(view: Any, sigma_px: float, where: str) -> tuple[np.ndarray, float]:
+    """A view's measured segment and its endpoints' 1-sigma (a ``px``/``theta_deg`` view
+    as the segment equivalent to its ``sigma_px`` and ``sigma_theta_deg``)."""
+    line = _field(view, "line", where)
+    if isinstance(line, dict) and "segment_px" in line:
+        return np.array(_numbers(line["segment_px"], 4, f"{where}.line.segment_px")), sigma_px
+    px = _numbers(_field(line, "px", f"{where}.line"), 2, f"{where}.line.px")
+    theta = _numbers([_field(line, "theta_deg", f"{where}.line")], 1, f"{where}.line.theta_deg")[0]
+    sigma_theta = _numbers([view.get("sigma_theta_deg", 1.0)], 1, f"{where}.sigma_theta_deg")[0]
+    if sigma_theta <= 0:
+        raise InputValueError(f"{where}.sigma_theta_deg must be > 0, got {sigma_theta}")
+    segment, sigma = centroid_segments(np.array(px), theta, sigma_px, sigma_theta)
+    return segment, float(sigma)
+
+
+def _optimal_line(
+    views: list[Any], P: np.ndarray, sigma: list[float]
+) -> tuple[dict[str, Any], str, str, float]:
+    """The reprojection-optimal line's answer, its status, reason and conditioning."""
+    pairs = [
+        _segment(v, s, f"views[{i}]") for i, (v, s) in enumerate(zip(views, sigma, strict=True))
+    ]
+    ls = optimal_lines(
+        np.stack([seg for seg, _ in pairs])[None], P, sigma_px=[[s for _, s in pairs]]
+    )
+    answer = {
+        "line": {"point": _vec(ls.point_grid[0]), "direction": _vec(ls.direction_grid[0])},
+        "reprojection_rms_px": _num(ls.rms_px[0]),
+        "cov_point": _matrix(ls.cov[0, :3, :3]),
+        "cov_direction": _matrix(ls.cov[0, 3:, 3:]),
+    }
+    return answer, str(ls.status[0]), str(ls.reason[0]), float(ls.conditioning[0])
+
+
 def solve_request(method: str, request: Any) -> dict[str, Any]:
     """Validate a request, solve it, and return the JSON-ready answer."""
     views = _field(request, "views", "the request")
@@ -87,7 +128,7 @@ def solve_request(method: str, request: Any) -> dict[str, Any]:
         n = len(views) if isinstance(views, list) else "no"
         raise InputValueError(f"the request has {n} view(s); a reconstruction needs 2 or more")
     estimator = request.get("estimator", "thesis")
-    allowed = {"point": ("thesis", "optimal"), "line": ("thesis", "weighted")}.get(
+    allowed = {"point": ("thesis", "optimal"), "line": ("thesis", "weighted", "optimal")}.get(
         method, ("thesis",)
     )
     if estimator not in allowed:
@@ -117,11 +158,17 @@ def solve_request(method: str, request: Any) -> dict[str, Any]:
             ]
             if min(sigma) <= 0:
                 raise InputValueError(f"sigma_px must be > 0, got {sigma}")
-            ls = triangulate_lines(lines, P, estimator=estimator, sigma_px=[sigma])
-            answer = {
-                "line": {"point": _vec(ls.point_grid[0]), "direction": _vec(ls.direction_grid[0])}
-            }
-            status, reason, cond = ls.status[0], ls.reason[0], ls.conditioning[0]
+            if estimator == "optimal":
+                answer, status, reason, cond = _optimal_line(views, P, sigma)
+            else:
+                ls = triangulate_lines(lines, P, estimator=estimator, sigma_px=[sigma])
+                answer = {
+                    "line": {
+                        "point": _vec(ls.point_grid[0]),
+                        "direction": _vec(ls.direction_grid[0]),
+                    }
+                }
+                status, reason, cond = ls.status[0], ls.reason[0], ls.conditioning[0]
         else:
             h = _numbers([_field(request, "ground_y", "a ground request")], 1, "ground_y")[0]
             g = triangulate_ground(lines, P, [0.0, 1.0, 0.0], h)
@@ -145,3 +192,7 @@ def _num(v: float) -> float | None:
 
 def _vec(v: np.ndarray) -> list[float] | None:
     return None if not np.isfinite(v).all() else [float(x) for x in v]
+
+
+def _matrix(m: np.ndarray) -> list[list[float]] | None:
+    return None if not np.isfinite(m).all() else [[float(x) for x in row] for row in m]

@@ -124,15 +124,19 @@ def _estimate_and_truth(method: str, est: Estimates, truth: F64) -> tuple[F64, F
     return point, reference, {}
 
 
-def _weighted_line_columns(est: Estimates, truth: F64) -> dict[str, Any]:
-    """Line trials: the weighted/robust fit, compared with the truth as the thesis' line."""
-    with np.errstate(invalid="ignore"):
-        point, mid, angle, dist = line_errors(
-            est.weighted_line[:, 0], est.weighted_line[:, 1], truth[:, 0], truth[:, 1]
-        )
-    point = np.where(np.isfinite(mid), point, est.weighted_line[:, 0])
-    columns: dict[str, Any] = {f"{a}_weighted": point[:, i] for i, a in enumerate("xyz")}
-    return columns | {"angle_err_weighted_deg": angle, "dist_err_weighted": dist}
+def _other_line_columns(est: Estimates, truth: F64) -> dict[str, Any]:
+    """Line trials: the weighted/robust fit (``*_weighted``) and the reprojection-optimal
+    line (``*_optimal``), each compared with the truth as the thesis' line."""
+    columns: dict[str, Any] = {}
+    for name, line in (("weighted", est.weighted_line), ("optimal", est.optimal_line)):
+        with np.errstate(invalid="ignore"):
+            point, mid, angle, dist = line_errors(line[:, 0], line[:, 1], truth[:, 0], truth[:, 1])
+        point = np.where(np.isfinite(mid), point, line[:, 0])
+        columns |= {f"{a}_{name}": point[:, i] for i, a in enumerate("xyz")}
+        if name == "optimal":
+            columns["err_optimal"] = np.linalg.norm(point - mid, axis=1)
+        columns |= {f"angle_err_{name}_deg": angle, f"dist_err_{name}": dist}
+    return columns
 
 
 def trial_table(
@@ -179,7 +183,7 @@ def trial_table(
     table["warning"] = warnings
     table["baseline"] = [_baseline(v) for v in views]
     if method == "line":
-        for name, values in _weighted_line_columns(est, truth).items():
+        for name, values in _other_line_columns(est, truth).items():
             table[name] = values
     for name, values in uncertainty_columns(err, est.cov).items():
         table[name] = values

@@ -14,10 +14,11 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from twopose.camera import Intrinsics, rotation_from_angles_deg
+from twopose.camera import Intrinsics, camera_centres, rotation_from_angles_deg
 from twopose.conditioning import parallax_sine
 from twopose.detect import CombineMethod, PoseMeasurement, combine_frames
 from twopose.format.entries import PoseEntry
+from twopose.optimal_lines import centroid_segments, optimal_lines
 from twopose.solve import (
     DEFAULT_MIN_CONDITIONING,
     image_lines,
@@ -345,6 +346,7 @@ class Estimates:
     direction: F64  # (T, 3) lines: the unit direction
     optimal: F64  # (T, 3) points: the reprojection-optimal estimate
     weighted_line: F64  # (T, 2, 3) lines: the weighted/robust fit's point and direction
+    optimal_line: F64  # (T, 2, 3) lines: the reprojection-optimal line's point and direction
     conditioning: F64  # (T,)
     margins: dict[str, F64]  # (T,) degrees, by column name
     cov: F64  # (T, 3, 3) of ``point``
@@ -366,6 +368,7 @@ def _unsolved(T: int, method: str, complete: NDArray[np.bool_]) -> Estimates:
         direction=nan3.copy(),
         optimal=nan3.copy(),
         weighted_line=np.full((T, 2, 3), np.nan),
+        optimal_line=np.full((T, 2, 3), np.nan),
         conditioning=np.full(T, np.nan),
         margins={name: np.full(T, np.nan) for name in MARGINS[method]},
         cov=np.full((T, 3, 3), np.nan),
@@ -422,6 +425,7 @@ def estimate_trials(
     _store_uncertainty(out, solvable, solved, propagated.cov_grid, propagated.variance_by_group)
     if method == "line":
         _store_weighted_lines(out, solvable, batch, cov_in, options)
+        _store_optimal_lines(out, solvable, batch, cov_in, options)
     return out
 
 
@@ -473,6 +477,49 @@ def _store_weighted_lines(
     )
     out.weighted_line[rows, 0] = weighted.point_grid
     out.weighted_line[rows, 1] = weighted.direction_grid
+
+
+def _store_optimal_lines(
+    out: Estimates,
+    rows: NDArray[np.intp],
+    batch: ViewBatch,
+    cov_in: F64,
+    options: EstimateSettings,
+) -> None:
+    """The reprojection-optimal line beside the thesis' one. Each view's centroid and angle
+    become their equivalent segment (:func:`centroid_segments`) for their noise: the frame
+    scatter plus the typed pose's, seen in the image at the thesis' line (a translation
+    error moves the line across by ``f sigma_t / depth``, an angle error by ``f sigma_r``
+    and turns it by ``sigma_r``), the segment no longer than the image allows. With two
+    views it is the thesis' line."""
+    theta = batch.inputs[..., 2]
+    P = batch.P()
+    depth = np.linalg.norm(camera_centres(P) - out.point[rows][:, None], axis=-1)
+    f = batch.intrinsics[..., 0]
+    sigma_r = np.deg2rad(np.sqrt(cov_in[..., 6, 6]))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        pose_px2 = (f / depth) ** 2 * cov_in[..., 3, 3] + (f * sigma_r) ** 2
+    var_theta = np.deg2rad(np.sqrt(np.abs(cov_in[..., 2, 2]))) ** 2 + sigma_r**2
+    across = np.sqrt(
+        across_line_sigma_px(theta, cov_in) ** 2 + np.where(np.isfinite(pose_px2), pose_px2, 0)
+    )
+    segments, sigma = centroid_segments(
+        batch.inputs[..., :2],
+        theta,
+        across,
+        np.degrees(np.sqrt(np.where(np.isfinite(var_theta), var_theta, 0.0))),
+        # at most from the principal point to the image's nearer edge
+        np.minimum(batch.intrinsics[..., 2], batch.intrinsics[..., 3]),
+    )
+    optimal = optimal_lines(
+        segments,
+        P,
+        valid=batch.valid,
+        sigma_px=np.where(batch.valid, sigma, 1.0),
+        min_conditioning=options.min_conditioning,
+    )
+    out.optimal_line[rows, 0] = optimal.point_grid
+    out.optimal_line[rows, 1] = optimal.direction_grid
 
 
 def running_estimates(

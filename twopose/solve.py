@@ -301,6 +301,7 @@ def triangulate_lines(
     ok = _valid_views(lin, valid)
     planes = np.einsum("tnji,tnj->tni", p, np.where(ok[..., None], lin, 0.0))  # P^T l
     norm = np.linalg.norm(planes[..., :3], axis=-1, keepdims=True)
+    ok &= norm[..., 0] > 0  # a zero image line (a zero-length segment) says nothing
     with np.errstate(invalid="ignore", divide="ignore"):
         planes = np.where(ok[..., None], planes / norm, 0.0)
     T = lin.shape[0]
@@ -405,8 +406,10 @@ def triangulate_ground(
     p = np.asarray(P, dtype=np.float64)
     ok = _valid_views(lin, valid)
     planes = np.einsum("tnji,tnj->tni", p, np.where(ok[..., None], lin, 0.0))
+    norm_p = np.linalg.norm(planes[..., :3], axis=-1, keepdims=True)
+    ok &= norm_p[..., 0] > 0  # a zero image line (a zero-length segment) says nothing
     with np.errstate(invalid="ignore", divide="ignore"):
-        planes = planes / np.linalg.norm(planes[..., :3], axis=-1, keepdims=True)
+        planes = planes / norm_p
     planes = np.where(ok[..., None], planes, 0.0)
     n3, norm = _unit(np.asarray(ground_normal_grid, dtype=np.float64))
     h = float(ground_offset) / float(norm)

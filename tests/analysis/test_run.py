@@ -245,6 +245,8 @@ def test_trials_with_more_than_two_poses_use_every_view(tmp_path: Path, method: 
     elif method == "line":
         assert t["dist_err"].max() < 0.05
         assert t["angle_err_deg"].max() < 2.0
+        assert t["dist_err_optimal"].max() < 0.05  # the reprojection-optimal line beside it
+        assert t["angle_err_optimal_deg"].max() < 2.0
     else:
         assert t["err"].max() < 0.5
 

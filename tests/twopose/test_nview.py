@@ -101,6 +101,30 @@ def test_merton_reconstruction_meets_its_targets() -> None:
     assert figures["line_residual_median_px"] <= figures["l3d_residual_median_px"]
     assert figures["weighted_angle_median_deg"] < 3.5
     assert figures["weighted_residual_median_px"] <= figures["line_residual_median_px"]
+    # The reprojection-optimal line: no worse than l3d (median and RMS) nor the start (RMS:
+    # it minimises the sum of squares), closer to l3d in angle and in LIMAP's shares.
+    assert figures["optimal_residual_median_px"] <= figures["l3d_residual_median_px"]
+    assert figures["optimal_residual_rms_px"] <= figures["l3d_residual_rms_px"]
+    assert figures["optimal_residual_rms_px"] <= figures["line_residual_rms_px"]
+    assert figures["optimal_angle_median_deg"] <= figures["line_angle_median_deg"]
+    for tau in m.LIMAP_THRESHOLDS:
+        assert figures[f"optimal_within_{tau:g}"] >= figures[f"line_within_{tau:g}"]
+    assert 0 < figures["optimal_within_0.001"] < figures["optimal_within_0.01"] <= 1
+
+
+def test_limap_length_share_in_closed_form() -> None:
+    m = _merton()
+    a, b = (
+        np.array([[0.0, 0.0, 0.0], [0.0, 5.0, 0.0]]),
+        np.array([[2.0, 0.0, 0.0], [2.0, 5.0, 0.0]]),
+    )
+    point, direction = np.zeros((2, 3)), np.tile([1.0, 0.0, 0.0], (2, 1))
+    # The first segment lies on the line, the second 5 away: half the length is within.
+    assert m.length_within(a, b, point, direction, 0.1) == pytest.approx(0.5)
+    # A segment across the line, from 1 below to 1 above: the part within 0.25 is a quarter.
+    a, b = np.array([[0.0, -1.0, 0.0]]), np.array([[0.0, 1.0, 0.0]])
+    assert m.length_within(a, b, point[:1], direction[:1], 0.25) == pytest.approx(0.25)
+    assert m.length_within(a, b, point[:1], direction[:1], 2.0) == pytest.approx(1.0)
 
 
 @pytest.mark.skipif(
@@ -143,10 +167,22 @@ def test_merton_through_the_solve_command() -> None:
     assert bad.exit_code == 3  # EXIT_ERROR, as every bad request
     assert "sigma_px must be > 0" in bad.output
     wrong = runner.invoke(
-        app, ["solve", "line"], input=json.dumps({"views": line_views, "estimator": "optimal"})
+        app, ["solve", "line"], input=json.dumps({"views": line_views, "estimator": "l3d"})
     )
     assert wrong.exit_code == 3
-    assert "thesis or weighted" in wrong.output
+    assert "thesis or weighted or optimal" in wrong.output
+    line_views[0]["sigma_px"] = 0.5
+    optimal = runner.invoke(
+        app, ["solve", "line"], input=json.dumps({"views": line_views, "estimator": "optimal"})
+    )
+    assert optimal.exit_code == 0, optimal.output
+    answer = json.loads(optimal.output)
+    assert answer["estimator"] == "optimal"
+    assert answer["status"] == "ok"
+    assert answer["reprojection_rms_px"] < 1.0
+    cov = np.array(answer["cov_direction"])
+    assert cov.shape == (3, 3)
+    assert np.linalg.eigvalsh(cov).min() > -1e-12
 
 
 @pytest.mark.parametrize("estimator", ["thesis", "optimal"])
