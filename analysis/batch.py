@@ -9,6 +9,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import functools
+import glob
 import multiprocessing
 import signal
 import threading
@@ -20,6 +21,7 @@ from typing import Any
 
 import pandas as pd
 
+from analysis.drawer import FigureDrawer, note, sigint_blocked
 from analysis.metrics import (
     LINE_COLUMNS,
     MARGIN_COLUMNS,
@@ -147,13 +149,40 @@ def _execute(
     """Every session's outcome, in input order, wherever it ran."""
     if dask_address is not None:
         return _run_dask(files, results_mcap, options, images, dask_address, on_done)
-    if jobs == 1 or len(files) <= 1:
-        outcomes: list[Outcome] = []
-        for f, r in zip(files, results_mcap, strict=True):
-            outcomes.append(analyse_or_fail(f, options, images, r))
-            _report(on_done, f, outcomes[-1])
+    if jobs > 1 and len(files) > 1:  # each process draws its own sessions' figures
+        return _run_processes(files, results_mcap, options, images, min(jobs, len(files)), on_done)
+    # --include-warned: the report draws the session figures itself, with that rule.
+    if not images or len(files) <= 1 or options.include_warned:
+        return _run_here(files, results_mcap, options, images, None, on_done)
+    with FigureDrawer.started() as drawer:
+        return _run_here(files, results_mcap, options, drawer is None, drawer, on_done)
+
+
+def _run_here(
+    files: list[str],
+    results_mcap: list[str | None],
+    options: AnalysisOptions,
+    images: bool,
+    drawer: FigureDrawer | None,
+    on_done: OnDone | None,
+) -> list[Outcome]:
+    """The sessions one after the other in this process; with a ``drawer``, each one's
+    figures are drawn in its process while this one analyses the next."""
+    outcomes: list[Outcome] = []
+    for i, (f, r) in enumerate(zip(files, results_mcap, strict=True)):
+        outcomes.append(analyse_or_fail(f, options, images, r))
+        if drawer is not None and isinstance(outcomes[-1], SessionResult):
+            drawer.submit(i, outcomes[-1])
+        _report(on_done, f, outcomes[-1])
+    if drawer is None:
         return outcomes
-    return _run_processes(files, results_mcap, options, images, min(jobs, len(files)), on_done)
+    for i, (figures, why_not) in sorted(drawer.collect().items()):
+        done = outcomes[i]
+        assert isinstance(done, SessionResult)
+        if why_not:
+            note(f"the figures of {done.session} were not drawn ({why_not}); the report says so")
+        outcomes[i] = dataclasses.replace(done, images=figures)
+    return outcomes
 
 
 def _report(on_done: OnDone | None, path: str, outcome: Outcome) -> None:
@@ -258,6 +287,7 @@ def _worker_init(claims: Any) -> None:
     import cv2
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})  # held back at its start
     global _CLAIMS
     _CLAIMS = claims
     cv2.setNumThreads(1)
@@ -310,32 +340,55 @@ def _run_processes(
         with ProcessPoolExecutor(
             max_workers=jobs - 1, mp_context=context, initializer=_worker_init, initargs=(claims,)
         ) as pool:
-            futures = [
-                pool.submit(_worker_task, i, f, options, images, results[i])
-                for i, f in enumerate(files)
-            ]
-            for i in reversed(range(len(files))):
-                if not _claim(claims, i):
-                    break  # the workers, going forward, have reached this one
-                done(i, analyse_or_fail(files[i], options, images, results[i]))
-            index = {fut: i for i, fut in enumerate(futures)}
-            for fut in as_completed(futures):  # progress as sessions finish, in any order
-                i = index[fut]
-                if outcomes[i] is not None:
-                    continue
-                try:
-                    outcome = fut.result()
-                except BrokenProcessPool as err:  # a worker died (killed, out of memory)
-                    outcome = SessionFailure(
-                        files[i], f"{files[i]}: the worker process analysing it died ({err})"
-                    )
-                if outcome is not None:
-                    done(i, outcome)
+            try:
+                with sigint_blocked():  # the workers start as the sessions are submitted
+                    futures = [
+                        pool.submit(_worker_task, i, f, options, images, results[i])
+                        for i, f in enumerate(files)
+                    ]
+                for i in reversed(range(len(files))):
+                    if not _claim(claims, i):
+                        break  # the workers, going forward, have reached this one
+                    done(i, analyse_or_fail(files[i], options, images, results[i]))
+                index = {fut: i for i, fut in enumerate(futures)}
+                for fut in as_completed(futures):  # progress as sessions finish, in any order
+                    i = index[fut]
+                    if outcomes[i] is not None:
+                        continue
+                    try:
+                        outcome = fut.result()
+                    except BrokenProcessPool as err:  # a worker died (killed, out of memory)
+                        outcome = SessionFailure(
+                            files[i], f"{files[i]}: the worker process analysing it died ({err})"
+                        )
+                    if outcome is not None:
+                        done(i, outcome)
+            except BaseException:  # Ctrl-C, or this process's own failure: stop at once
+                _stop_workers(pool, results)
+                raise
     finally:
         cv2.setNumThreads(threads)
     missing = [f for f, o in zip(files, outcomes, strict=True) if o is None]
     assert not missing, f"sessions neither the workers nor this process analysed: {missing}"
     return [o for o in outcomes if o is not None]
+
+
+def _stop_workers(pool: ProcessPoolExecutor, results: list[str | None]) -> None:
+    """End the pool now: queued sessions are dropped and the workers (which ignore Ctrl-C)
+    terminated, rather than left to finish the batch; the results.mcap a worker was
+    writing leaves no temporary file (``.<name>.<pid>.partial``) behind."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        process.terminate()
+    for process in processes:
+        process.join(5.0)
+        if process.is_alive():
+            process.kill()
+            process.join()
+    for path in (Path(r) for r in results if r is not None):
+        for leftover in path.parent.glob(f".{glob.escape(path.name)}.*.partial"):
+            leftover.unlink(missing_ok=True)
 
 
 # --------------------------------------------------------------------------- Dask

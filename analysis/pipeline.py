@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-from collections.abc import Iterator
+from collections.abc import Generator, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -23,7 +23,7 @@ from analysis.results_mcap import ResultsWriter
 from analysis.rig import RIG_TABLE_COLUMNS
 from analysis.tables import FRAME_COLUMNS, averaging_table, frame_row, trial_table, view_table
 from twopose.camera import Intrinsics
-from twopose.detect import Detection, PoseMeasurement, detect
+from twopose.detect import Detection, DotParams, GloveParams, PoseMeasurement, detect
 from twopose.errors import SessionFormatError
 from twopose.estimate import (
     Estimates,
@@ -36,8 +36,9 @@ from twopose.estimate import (
     running_estimates,
 )
 from twopose.format.entries import PoseEntry
+from twopose.format.messages import Frame
 from twopose.format.reader import SessionReader
-from twopose.format.trials import TrialRecord, iter_trials, read_notes
+from twopose.format.trials import PoseCapture, TrialRecord, iter_trials, read_notes
 from twopose.rig import RigConstants, corrected_ground, corrected_view
 from twopose.scene3d import scene_of_views
 
@@ -165,6 +166,7 @@ def _rig_columns(
         replay.ground,
         options,
         replay.rig_truth,
+        units=replay.units,  # the plausible lengths are the session's (mm: 25.4 x inches)
     )
     corrected = columns.reindex(trials["trial"].to_numpy()).set_index(trials.index)
     return _systematic_dominance(trials.assign(**corrected)), pd.DataFrame(
@@ -220,17 +222,19 @@ def _replay(
     trial_ids, truths, views, last_ns = [], [], [], []
     notes, unmeasured = [], []
     rig_truth: RigConstants | None = None
-    for record in iter_trials(reader):
-        if record.simulation_truth is not None and record.simulation_truth.rig is not None:
-            rig_truth = RigConstants.from_vector(record.simulation_truth.rig)
-        views.append(_detect_trial(record, session, target, options, rows, results))
-        trial_ids.append(record.trial)
-        truths.append(_truth(record))
-        last_ns.append(
-            max((pc.frames[-1].log_time_ns for pc in record.poses if pc.frames), default=0)
-        )
-        notes.append(" | ".join(record.notes))
-        unmeasured.append(record.why_not_measured())
+    params = options.dot if target == "dot" else options.glove
+    with contextlib.closing(_detected(iter_trials(reader), target, params)) as trials:
+        for record, detections in trials:
+            if record.simulation_truth is not None and record.simulation_truth.rig is not None:
+                rig_truth = RigConstants.from_vector(record.simulation_truth.rig)
+            views.append(_trial_views(record, detections, session, rows, results))
+            trial_ids.append(record.trial)
+            truths.append(_truth(record))
+            last_ns.append(
+                max((pc.frames[-1].log_time_ns for pc in record.poses if pc.frames), default=0)
+            )
+            notes.append(" | ".join(record.notes))
+            unmeasured.append(record.why_not_measured())
     return _Replay(
         session=session,
         method=info.method,
@@ -281,28 +285,93 @@ def _truth(record: TrialRecord) -> F64:
     return pts if len(pts) == 2 else np.stack([pts[0], pts[0]])
 
 
-def _detect_trial(
+#: Threads decoding and detecting frames beside the one reading the session and writing
+#: what was found (OpenCV and NumPy release the GIL for most of a frame's work).
+DETECTION_THREADS = 2
+
+Detections = list[list[Detection]]  # per pose of a trial, per frame
+Params = GloveParams | DotParams
+
+
+def _detect_frame(frame: Frame, size: tuple[int, int], target: str, params: Params) -> Detection:
+    try:
+        return detect(frame.decode(size), target, params)
+    except SessionFormatError as err:  # one undecodable frame is a rejected frame
+        return Detection(False, reason=str(err))
+
+
+def _detection_threads() -> int:
+    """Threads for :func:`_detected`: none in a process that is one of several workers
+    (they set OpenCV to one thread: the cores are taken) or off the main thread (a Dask
+    worker's task), else :data:`DETECTION_THREADS` on more than one core."""
+    import os
+    import threading
+
+    import cv2
+
+    cores = os.cpu_count() or 1
+    if threading.current_thread() is not threading.main_thread() or cv2.getNumThreads() < 2:
+        return 0
+    return min(DETECTION_THREADS, cores) if cores > 1 else 0
+
+
+def _detected(
+    records: Iterator[TrialRecord], target: str, params: Params
+) -> Generator[tuple[TrialRecord, Detections], None, None]:
+    """Each trial with every frame's detection, in order. With threads, the next trial's
+    frames are decoded and detected while this one's are written (one trial ahead, so
+    memory stays that of two trials); the detections are the same either way."""
+    threads = _detection_threads()
+    if not threads:
+        for record in records:
+            yield (
+                record,
+                [
+                    [_detect_frame(f, _size(pc), target, params) for f in pc.frames]
+                    for pc in record.poses
+                ],
+            )
+        return
+    from collections import deque
+    from concurrent.futures import Future, ThreadPoolExecutor
+
+    pool = ThreadPoolExecutor(threads, thread_name_prefix="twopose-detect")
+    ahead: deque[tuple[TrialRecord, list[list[Future[Detection]]]]] = deque()
+    try:
+        for record in records:
+            futures = [
+                [pool.submit(_detect_frame, f, _size(pc), target, params) for f in pc.frames]
+                for pc in record.poses
+            ]
+            ahead.append((record, futures))
+            if len(ahead) > 1:
+                done, pending = ahead.popleft()
+                yield done, [[f.result() for f in pose] for pose in pending]
+        while ahead:
+            done, pending = ahead.popleft()
+            yield done, [[f.result() for f in pose] for pose in pending]
+    finally:  # Ctrl-C, a timeout or a failure: what has not started never will
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _size(pc: PoseCapture) -> tuple[int, int]:
+    return (pc.camera.intrinsics.width, pc.camera.intrinsics.height)
+
+
+def _trial_views(
     record: TrialRecord,
+    detections: Detections,
     session: str,
-    target: str,
-    options: AnalysisOptions,
     rows: list[dict[str, Any]],
     results: ResultsWriter | None,
 ) -> list[PoseView]:
-    """Detect every frame of a trial (one row each in ``rows``); its complete poses."""
+    """A trial's detected frames (one row each in ``rows``; drawn into ``results``); its
+    complete poses."""
     views: list[PoseView] = []
-    params = options.dot if target == "dot" else options.glove
-    for pc in record.poses:
-        size = (pc.camera.intrinsics.width, pc.camera.intrinsics.height)
+    for pc, dets in zip(record.poses, detections, strict=True):
         if results is not None and pc.frames:
             results.add_pose(pc.entry, pc.frames[0].log_time_ns)
-        dets: list[Detection] = []
-        for j, frame in enumerate(pc.frames):
-            try:
-                det = detect(frame.decode(size), target, params)
-            except SessionFormatError as err:  # one undecodable frame is a rejected frame
-                det = Detection(False, reason=str(err))
-            dets.append(det)
+        for j, (frame, det) in enumerate(zip(pc.frames, dets, strict=True)):
             if results is not None:
                 results.add_frame(
                     frame, det, f"trial {record.trial} pose {pc.entry.pose} frame {j}"
@@ -351,10 +420,14 @@ def _write_trial_scenes(
 def _figures(
     session: str, trials: pd.DataFrame, averaging: pd.DataFrame, views: pd.DataFrame
 ) -> dict[str, bytes]:
-    """The session's figures as PNGs, drawn here so that a batch renders them in parallel."""
-    from analysis.figures import png_bytes, session_figures
+    """The session's figures as PNGs, drawn here so that a batch renders them in parallel;
+    figures that fail to draw are said, and shown as such, never the session's end."""
+    from analysis.drawer import draw_session_figures, note
 
-    return {k: png_bytes(f) for k, f in session_figures(session, trials, averaging, views).items()}
+    images, why_not = draw_session_figures(session, trials, averaging, views)
+    if why_not:
+        note(f"the figures of {session} were not drawn ({why_not}); the report says so")
+    return images
 
 
 _ALLOCATOR_TUNED = False

@@ -1,0 +1,223 @@
+"""Session figures off a run's critical path: drawn in one spawned process while this one
+analyses the next session (:class:`FigureDrawer`), and drawn so that a figure that fails
+is said and shown, never the end of its session's numbers (:func:`draw_session_figures`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import os
+import pickle
+import queue
+import signal
+import sys
+import textwrap
+import threading
+from collections.abc import Iterator
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from analysis.results import SessionResult
+
+__all__ = ["FigureDrawer", "draw_session_figures", "not_drawn_png", "note", "sigint_blocked"]
+
+#: What :func:`draw_session_figures` gives: PNGs by figure kind, and why they are not the
+#: session's figures ("" when they are).
+Drawn = tuple[dict[str, bytes], str]
+
+
+def draw_session_figures(
+    session: str, trials: pd.DataFrame, averaging: pd.DataFrame, views: pd.DataFrame
+) -> Drawn:
+    """The session's figures as PNGs (:func:`analysis.figures.session_figures`); if drawing
+    them fails, one image that says so in the first figure's place, and the reason."""
+    try:
+        from analysis.figures import png_bytes, session_figures
+
+        figures = session_figures(session, trials, averaging, views)
+        return {kind: png_bytes(fig) for kind, fig in figures.items()}, ""
+    except Exception as err:  # a bug in a figure must not cost the session its numbers
+        reason = f"{type(err).__name__}: {err}"
+        return {"scatter": not_drawn_png(session, reason)}, reason
+
+
+def not_drawn_png(session: str, reason: str) -> bytes:
+    """A small PNG saying that ``session``'s figures were not drawn, and why (drawn with
+    Pillow: whatever broke the figures may be matplotlib)."""
+    from PIL import Image, ImageDraw, PngImagePlugin
+
+    text = f"The figures of {session} were not drawn: {reason}"
+    lines = textwrap.wrap(text, 80)[:12] or [text[:80]]
+    picture = Image.new("RGB", (520, 16 * len(lines) + 20), "white")
+    pen = ImageDraw.Draw(picture)
+    for k, line in enumerate(lines):
+        pen.text((10, 10 + 16 * k), line, fill=(170, 0, 0))
+    info = PngImagePlugin.PngInfo()
+    info.add_text("Description", text)
+    buf = io.BytesIO()
+    picture.save(buf, format="PNG", pnginfo=info)
+    return buf.getvalue()
+
+
+def note(text: str) -> None:
+    """Say something the operator should know that does not stop the run (stderr)."""
+    sys.stderr.write(f"note: {text}\n")
+
+
+class FigureDrawer:
+    """A child process (``python -m analysis.drawer``) that draws sessions' figures as
+    they are handed over, through its stdin and stdout.
+
+    :meth:`submit` returns at once (a thread feeds the child), so the caller goes on with
+    the next session; :meth:`collect` waits for every drawing. The child is a fresh
+    interpreter, not a fork (OpenCV's threads) nor a multiprocessing spawn (which would
+    import the caller's main script again). Ctrl-C is the caller's: the child ignores it
+    and is ended with the block; it also ends when its stdin closes, so it never outlives
+    its parent. Sessions a dead child did not draw are drawn here.
+    """
+
+    def __init__(self) -> None:
+        import subprocess
+        from pathlib import Path
+
+        root = str(Path(__file__).resolve().parents[1])  # this analysis package, not another
+        path = os.environ.get("PYTHONPATH")
+        env = {**os.environ, "PYTHONPATH": root + (os.pathsep + path if path else "")}
+        with sigint_blocked():  # held back in the child too, until it ignores it
+            self._child = subprocess.Popen(
+                [sys.executable, "-m", "analysis.drawer"],
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+                env=env,
+            )
+        self._submitted: dict[int, SessionResult] = {}
+        self._tasks: queue.SimpleQueue[bytes | None] = queue.SimpleQueue()
+        self._feeder = threading.Thread(target=self._feed, name="twopose-figures", daemon=True)
+        self._feeder.start()
+
+    @classmethod
+    @contextlib.contextmanager
+    def started(cls) -> Iterator[FigureDrawer | None]:
+        """A drawer for the block, or None when no process can be started (then the
+        figures are drawn in this process, after each session)."""
+        try:
+            drawer = cls()
+        except OSError as err:
+            note(f"figures are drawn after each session ({err})")
+            yield None
+            return
+        try:
+            yield drawer
+        finally:
+            drawer.close()
+
+    def submit(self, index: int, result: SessionResult) -> None:
+        """Draw ``result``'s figures (``index`` names it in :meth:`collect`)."""
+        self._submitted[index] = result
+        task = (index, result.session, result.trials, result.averaging, result.views)
+        self._tasks.put(pickle.dumps(task, protocol=pickle.HIGHEST_PROTOCOL))
+
+    def _feed(self) -> None:
+        stdin = self._child.stdin
+        assert stdin is not None
+        try:
+            while (task := self._tasks.get()) is not None:
+                _send(stdin, task)
+            stdin.close()
+        except (OSError, ValueError):  # the child is gone (or ended): collect sees it
+            pass
+
+    def collect(self) -> dict[int, Drawn]:
+        """Every submitted session's figures, by index; those the child could not give
+        (it died) are drawn here."""
+        self._tasks.put(None)  # no more: the child ends when it has drawn them
+        stdout = self._child.stdout
+        assert stdout is not None
+        drawn: dict[int, Drawn] = {}
+        while len(drawn) < len(self._submitted) and (message := _receive(stdout)) is not None:
+            index, figures = pickle.loads(message)
+            drawn[index] = figures
+        missing = [i for i in self._submitted if i not in drawn]
+        if missing:
+            note(
+                f"the figure-drawing process ended early (exit code {self._child.poll()}); "
+                f"{len(missing)} session(s)' figures are drawn here"
+            )
+        for i in missing:
+            s = self._submitted[i]
+            drawn[i] = draw_session_figures(s.session, s.trials, s.averaging, s.views)
+        return drawn
+
+    def close(self) -> None:
+        """End the child at once, if it still runs (it holds nothing worth waiting for)."""
+        import subprocess
+
+        self._tasks.put(None)
+        if self._child.poll() is None:
+            self._child.terminate()
+            try:
+                self._child.wait(5.0)
+            except subprocess.TimeoutExpired:
+                pass
+            finally:  # also on a second Ctrl-C while waiting
+                if self._child.poll() is None:
+                    self._child.kill()
+                    self._child.wait()
+        for stream in (self._child.stdin, self._child.stdout):
+            with contextlib.suppress(OSError):
+                if stream is not None:
+                    stream.close()
+
+
+def _send(stream: Any, payload: bytes) -> None:
+    stream.write(len(payload).to_bytes(8, "little") + payload)
+    stream.flush()
+
+
+def _receive(stream: Any) -> bytes | None:
+    """One message, or None at the end of the stream (or a message cut short)."""
+    head = stream.read(8)
+    if len(head) < 8:
+        return None
+    size = int.from_bytes(head, "little")
+    payload = bytes(stream.read(size))
+    return payload if len(payload) == size else None
+
+
+@contextlib.contextmanager
+def sigint_blocked() -> Iterator[None]:
+    """SIGINT held back (not lost) in this thread while children are started: a child
+    inherits the blocked signal and ignores it before unblocking it, so a Ctrl-C during its
+    start-up never prints its traceback; ours arrives when the block ends."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
+def _main() -> None:
+    """The child: draw every session read from stdin, send each one's figures to stdout;
+    stop at the end of stdin (the parent closed it, or died). Ctrl-C is the parent's."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    stdin = sys.stdin.buffer
+    stdout = os.fdopen(os.dup(1), "wb")  # the messages' own channel; anything printed
+    os.dup2(2, 1)  # to stdout by a library goes to stderr instead
+    sys.stdout = sys.stderr
+    import analysis.figures  # noqa: F401  (matplotlib loads while the first session runs)
+
+    while (message := _receive(stdin)) is not None:
+        index, session, trials, averaging, views = pickle.loads(message)
+        drawn = draw_session_figures(session, trials, averaging, views)
+        _send(stdout, pickle.dumps((index, drawn), protocol=pickle.HIGHEST_PROTOCOL))
+
+
+if __name__ == "__main__":
+    _main()

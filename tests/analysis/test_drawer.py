@@ -1,0 +1,208 @@
+"""Figures off a run's critical path (issue 22, item 5): drawn in a child process while the
+next session is analysed, byte for byte the figures drawn in line; a figure that fails is
+said and shown, and the numbers stay; Ctrl-C and a killed parent leave no process."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+import analysis.batch
+from analysis.drawer import FigureDrawer, draw_session_figures
+from analysis.pipeline import analyse_session
+from analysis.results import SessionResult
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+@contextlib.contextmanager
+def _in_line() -> Iterator[None]:
+    yield None
+
+
+def _files(folder: Path) -> dict[str, bytes]:
+    return {p.name: p.read_bytes() for p in sorted(folder.iterdir()) if p.is_file()}
+
+
+def test_a_batch_writes_the_same_files_with_figures_drawn_beside_or_in_line(
+    tmp_path: Path,
+    ground_session: Path,
+    point_session: Path,
+    line_session: Path,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    sessions = [ground_session, point_session, line_session]
+    beside = analysis.batch.run(sessions, tmp_path / "beside")
+    monkeypatch.setattr(FigureDrawer, "started", staticmethod(_in_line))
+    in_line = analysis.batch.run(sessions, tmp_path / "in_line")
+    assert not beside.failed
+    assert not in_line.failed
+    assert [s.images for s in beside.sessions] == [s.images for s in in_line.sessions]
+    written = _files(tmp_path / "beside")
+    assert any(name.startswith("scatter_") for name in written)
+    assert written == _files(tmp_path / "in_line")  # tables, figures, report, results MCAPs
+
+
+def _without_units(result: SessionResult) -> SessionResult:
+    """A session whose figures cannot be drawn (session_figures needs the units)."""
+    import dataclasses
+
+    return dataclasses.replace(result, trials=result.trials.drop(columns=["units"]))
+
+
+def test_the_drawer_draws_what_this_process_draws_and_says_what_fails(
+    ground_session: Path,
+) -> None:
+    good = analyse_session(ground_session)
+    bad = _without_units(good)
+    with FigureDrawer.started() as drawer:
+        assert drawer is not None
+        drawer.submit(3, good)
+        drawer.submit(5, bad)
+        drawn = drawer.collect()
+    assert drawn[3] == draw_session_figures(good.session, good.trials, good.averaging, good.views)
+    assert drawn[3][1] == ""
+    assert "scatter" in drawn[3][0]
+    images, why_not = drawn[5]
+    assert why_not.startswith("KeyError")
+    assert list(images) == ["scatter"]
+    assert images["scatter"].startswith(b"\x89PNG")
+
+
+def test_a_drawer_that_dies_leaves_its_sessions_drawn_here(
+    ground_session: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    good = analyse_session(ground_session)
+    with FigureDrawer.started() as drawer:
+        assert drawer is not None
+        drawer._child.kill()
+        drawer._child.wait()
+        drawer.submit(0, good)
+        drawn = drawer.collect()
+    assert drawn[0] == draw_session_figures(good.session, good.trials, good.averaging, good.views)
+    assert "figures are drawn here" in capsys.readouterr().err
+
+
+def test_a_figure_that_fails_is_said_and_shown_and_the_numbers_stay(
+    tmp_path: Path,
+    ground_session: Path,
+    point_session: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """Drawn in line (one session, or no drawer): before, the session failed."""
+
+    def broken(*args: object, **kwargs: object) -> dict[str, object]:
+        raise TypeError("a bug in a figure")
+
+    monkeypatch.setattr("analysis.figures.session_figures", broken)
+    monkeypatch.setattr("analysis.report.session_figures", broken)
+    monkeypatch.setattr(FigureDrawer, "started", staticmethod(_in_line))
+    result = analysis.batch.run([ground_session, point_session], tmp_path / "out")
+    assert not result.failed
+    assert len(result.trials) > 0
+    assert len(result.summary) > 0
+    err = capsys.readouterr().err
+    assert err.count("were not drawn (TypeError: a bug in a figure)") == 2
+    page = (tmp_path / "out" / "report.html").read_text()
+    assert "were not drawn: TypeError: a bug in a figure" in page
+    assert (tmp_path / "out" / "trials.csv").read_text().count("\n") == len(result.trials) + 1
+
+
+def _group(pgid: int) -> list[str]:
+    """Command lines of the live processes in process group ``pgid``."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            if os.getpgid(int(entry.name)) != pgid:
+                continue
+            state = (entry / "stat").read_text().rsplit(")", 1)[1].split()[0]
+            if state != "Z":
+                found.append((entry / "cmdline").read_bytes().replace(b"\0", b" ").decode())
+        except (OSError, ProcessLookupError):
+            continue
+    return found
+
+
+def _wait_for(condition: object, seconds: float) -> bool:
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        if condition():  # type: ignore[operator]
+            return True
+        time.sleep(0.1)
+    return False
+
+
+@pytest.mark.skipif(not Path("/proc").is_dir(), reason="reads /proc")
+@pytest.mark.parametrize(("jobs", "helper"), [(1, "analysis.drawer"), (2, "spawn_main")])
+def test_ctrl_c_in_a_batch_exits_130_promptly_and_leaves_no_process(
+    jobs: int, helper: str, tmp_path: Path, ground_session: Path
+) -> None:
+    """With the figures' process (--jobs 1) or the workers (--jobs 2, which used to finish
+    the whole batch first): 130 within seconds, nothing left running, no partial file."""
+    folder = tmp_path / "in"
+    folder.mkdir()
+    for k in range(60):  # long enough that Ctrl-C comes mid-batch
+        shutil.copy(ground_session, folder / f"s{k:02d}.mcap")
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    out = tmp_path / "o"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "analysis", "run", folder, "--out", out, "--jobs", str(jobs)],
+        stderr=subprocess.PIPE,
+        stdout=subprocess.DEVNULL,
+        text=True,
+        env=env,
+        start_new_session=True,  # Ctrl-C reaches the whole group, as at a terminal
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
+    try:
+        started = _wait_for(lambda: any(helper in c for c in _group(proc.pid)), 60)
+        assert started, f"no {helper} process started"
+        time.sleep(1.5)  # sessions analysed, figures being drawn
+        os.killpg(proc.pid, signal.SIGINT)
+        interrupted = time.monotonic()
+        _, err = proc.communicate(timeout=120)
+        took = time.monotonic() - interrupted
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err
+    assert took < 10, f"Ctrl-C took {took:.1f} s"
+    assert _wait_for(lambda: not _group(proc.pid), 10), _group(proc.pid)
+    assert not list(out.glob(".*.partial"))
+
+
+@pytest.mark.skipif(not Path("/proc").is_dir(), reason="reads /proc")
+def test_the_drawer_ends_with_its_parent_killed() -> None:
+    code = (
+        "import time\nfrom analysis.drawer import FigureDrawer\n"
+        "d = FigureDrawer()\nprint(d._child.pid, flush=True)\ntime.sleep(60)\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    parent = subprocess.Popen(
+        [sys.executable, "-c", code], stdout=subprocess.PIPE, text=True, env=env
+    )
+    assert parent.stdout is not None
+    child = int(parent.stdout.readline())
+    parent.kill()
+    parent.wait()
+    assert _wait_for(lambda: not Path(f"/proc/{child}").exists() or _zombie(child), 15)
+
+
+def _zombie(pid: int) -> bool:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] == "Z"
+    except OSError:
+        return True

@@ -1,0 +1,82 @@
+"""The replay: frames decoded and detected in threads give what one thread gives, and the
+rig's leave-one-out fit is told the session's units."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+import pytest
+
+import analysis.pipeline
+from analysis.pipeline import analyse_session
+from analysis.results import AnalysisOptions
+
+
+@pytest.mark.parametrize("fixture", ["ground_session", "point_session", "line_session"])
+def test_detection_threads_change_nothing(
+    fixture: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, request: pytest.FixtureRequest
+) -> None:
+    session: Path = request.getfixturevalue(fixture)
+    runs = {}
+    for threads in (0, 3):
+        monkeypatch.setattr(analysis.pipeline, "_detection_threads", lambda n=threads: n)
+        out = tmp_path / f"results_{threads}.mcap"
+        runs[threads] = (analyse_session(session, results_path=out), out.read_bytes())
+    (serial, serial_mcap), (threaded, threaded_mcap) = runs[0], runs[3]
+    for table in ("frames", "trials", "averaging", "views"):
+        pd.testing.assert_frame_equal(getattr(serial, table), getattr(threaded, table))
+    assert serial_mcap == threaded_mcap
+
+
+def test_threads_only_where_the_cores_are_this_process_own(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A worker of a --jobs pool sets OpenCV to one thread: no detection threads there."""
+    import cv2
+
+    threads = cv2.getNumThreads()
+    try:
+        cv2.setNumThreads(1)
+        assert analysis.pipeline._detection_threads() == 0
+    finally:
+        cv2.setNumThreads(threads)
+
+
+def test_an_undecodable_frame_is_a_rejected_frame_with_threads(
+    tmp_path: Path, ground_session: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from twopose.errors import SessionFormatError
+    from twopose.format.messages import Frame
+
+    real = Frame.decode
+
+    def flaky(self: Frame, size: Any = None) -> Any:
+        if self.sequence % 4 == 1:
+            raise SessionFormatError(f"frame {self.sequence} broken")
+        return real(self, size)
+
+    monkeypatch.setattr(Frame, "decode", flaky)
+    monkeypatch.setattr(analysis.pipeline, "_detection_threads", lambda: 2)
+    frames = analyse_session(ground_session).frames
+    broken = frames[frames["reason"].str.endswith("broken")]
+    assert len(broken) > 0
+    assert not broken["found"].any()
+
+
+def test_leave_one_out_is_given_the_sessions_units(
+    ground_session: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import analysis.rig
+
+    seen: list[object] = []
+    real = analysis.rig.loo_calibration
+
+    def spy(*args: Any, **kwargs: Any) -> Any:
+        seen.append(kwargs.get("units"))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(analysis.rig, "loo_calibration", spy)
+    analyse_session(ground_session, AnalysisOptions(rig_calibration="loo"))
+    assert seen == ["in"]  # the simulated session's units
