@@ -9,7 +9,6 @@ import contextlib
 import io
 import os
 import pickle
-import queue
 import signal
 import sys
 import textwrap
@@ -71,13 +70,18 @@ class FigureDrawer:
     """A child process (``python -m analysis.drawer``) that draws sessions' figures as
     they are handed over, through its stdin and stdout.
 
-    :meth:`submit` returns at once (a thread feeds the child), so the caller goes on with
-    the next session; :meth:`collect` waits for every drawing. The child is a fresh
-    interpreter, not a fork (OpenCV's threads) nor a multiprocessing spawn (which would
-    import the caller's main script again). Ctrl-C is the caller's: the child ignores it
-    and is ended with the block; it also ends when its stdin closes, so it never outlives
-    its parent. Sessions a dead child did not draw are drawn here.
+    :meth:`submit` returns at once (a thread feeds the child one session at a time, a
+    second reads what it drew), so the caller goes on with the next session;
+    :meth:`collect` waits for the drawings, drawing here, at the same time, the sessions
+    the child has not started (the run's last sessions are drawn twice as fast). The
+    child is a fresh interpreter, not a fork (OpenCV's threads) nor a multiprocessing
+    spawn (which would import the caller's main script again). Ctrl-C is the caller's:
+    the child ignores it and is ended with the block; it also ends when its stdin closes,
+    so it never outlives its parent. Sessions a dead child did not draw are drawn here.
     """
+
+    #: Sessions handed to the child before it has returned the first of them.
+    IN_FLIGHT = 2
 
     def __init__(self) -> None:
         import subprocess
@@ -94,9 +98,19 @@ class FigureDrawer:
                 env=env,
             )
         self._submitted: dict[int, SessionResult] = {}
-        self._tasks: queue.SimpleQueue[bytes | None] = queue.SimpleQueue()
-        self._feeder = threading.Thread(target=self._feed, name="twopose-figures", daemon=True)
-        self._feeder.start()
+        self._waiting: list[int] = []  # submitted, not yet sent (oldest first)
+        self._sent: set[int] = set()  # sent, not yet drawn
+        self._drawn: dict[int, Drawn] = {}
+        self._closing = False
+        self._child_gone = False
+        self._ended_early = False
+        self._changed = threading.Condition()
+        self._threads = [
+            threading.Thread(target=self._feed, name="twopose-figures-feed", daemon=True),
+            threading.Thread(target=self._read, name="twopose-figures-read", daemon=True),
+        ]
+        for thread in self._threads:
+            thread.start()
 
     @classmethod
     @contextlib.contextmanager
@@ -116,46 +130,90 @@ class FigureDrawer:
 
     def submit(self, index: int, result: SessionResult) -> None:
         """Draw ``result``'s figures (``index`` names it in :meth:`collect`)."""
-        self._submitted[index] = result
-        task = (index, result.session, result.trials, result.averaging, result.views)
-        self._tasks.put(pickle.dumps(task, protocol=pickle.HIGHEST_PROTOCOL))
+        with self._changed:
+            self._submitted[index] = result
+            self._waiting.append(index)
+            self._changed.notify_all()
 
     def _feed(self) -> None:
+        """Send the oldest waiting session whenever fewer than :data:`IN_FLIGHT` are out;
+        close the child's stdin once collecting and nothing waits."""
         stdin = self._child.stdin
         assert stdin is not None
         try:
-            while (task := self._tasks.get()) is not None:
-                _send(stdin, task)
+            while (index := self._next_to_send()) is not None:
+                s = self._submitted[index]
+                task = (index, s.session, s.trials, s.averaging, s.views)
+                _send(stdin, pickle.dumps(task, protocol=pickle.HIGHEST_PROTOCOL))
             stdin.close()
-        except (OSError, ValueError):  # the child is gone (or ended): collect sees it
+        except (OSError, ValueError):  # the child is gone: the reader says so
             pass
 
-    def collect(self) -> dict[int, Drawn]:
-        """Every submitted session's figures, by index; those the child could not give
-        (it died) are drawn here."""
-        self._tasks.put(None)  # no more: the child ends when it has drawn them
+    def _next_to_send(self) -> int | None:
+        with self._changed:
+            while not self._child_gone:
+                if self._waiting and len(self._sent) < self.IN_FLIGHT:
+                    index = self._waiting.pop(0)
+                    self._sent.add(index)
+                    return index
+                if self._closing and not self._waiting:
+                    return None
+                self._changed.wait()
+            return None
+
+    def _read(self) -> None:
+        """Take the child's drawings as they come; at its end, what it had is drawn here."""
         stdout = self._child.stdout
         assert stdout is not None
-        drawn: dict[int, Drawn] = {}
-        while len(drawn) < len(self._submitted) and (message := _receive(stdout)) is not None:
-            index, figures = pickle.loads(message)
-            drawn[index] = figures
-        missing = [i for i in self._submitted if i not in drawn]
-        if missing:
+        try:
+            while (message := _receive(stdout)) is not None:
+                index, figures = pickle.loads(message)
+                with self._changed:
+                    self._drawn[index] = figures
+                    self._sent.discard(index)
+                    self._changed.notify_all()
+        except (OSError, ValueError, pickle.UnpicklingError):
+            pass
+        with self._changed:
+            self._ended_early = not self._closing or bool(self._sent or self._waiting)
+            self._child_gone = True
+            self._changed.notify_all()
+
+    def collect(self) -> dict[int, Drawn]:
+        """Every submitted session's figures, by index: those the child has not started are
+        drawn here meanwhile (newest first, the child takes the oldest), and those a child
+        that died did not give."""
+        while True:
+            with self._changed:
+                self._closing = True
+                self._changed.notify_all()
+                if self._child_gone and self._sent:  # it died with sessions in hand
+                    self._waiting += sorted(self._sent)
+                    self._sent.clear()
+                if not self._waiting:
+                    if not self._sent:
+                        break
+                    self._changed.wait(0.5)
+                    continue
+                index = self._waiting.pop()
+                s = self._submitted[index]
+            drawn = draw_session_figures(s.session, s.trials, s.averaging, s.views)
+            with self._changed:
+                self._drawn[index] = drawn
+        if self._ended_early:
             note(
                 f"the figure-drawing process ended early (exit code {self._child.poll()}); "
-                f"{len(missing)} session(s)' figures are drawn here"
+                "the figures it did not draw are drawn here"
             )
-        for i in missing:
-            s = self._submitted[i]
-            drawn[i] = draw_session_figures(s.session, s.trials, s.averaging, s.views)
-        return drawn
+        return dict(self._drawn)
 
     def close(self) -> None:
         """End the child at once, if it still runs (it holds nothing worth waiting for)."""
         import subprocess
 
-        self._tasks.put(None)
+        with self._changed:
+            self._closing = True
+            self._changed.notify_all()
         if self._child.poll() is None:
             self._child.terminate()
             try:
@@ -167,7 +225,7 @@ class FigureDrawer:
                     self._child.kill()
                     self._child.wait()
         for stream in (self._child.stdin, self._child.stdout):
-            with contextlib.suppress(OSError):
+            with contextlib.suppress(OSError, ValueError):
                 if stream is not None:
                     stream.close()
 

@@ -106,10 +106,30 @@ def _on_interrupt(signum: int, frame: object) -> None:
 def watch_interrupts() -> None:
     """Remember a Ctrl-C even where Python swallows the KeyboardInterrupt it raises (in a
     finalizer or weakref callback it is printed and ignored, and the command would then
-    finish with 0): :func:`interrupted` tells the command line to exit with 130."""
+    finish with 0): :func:`interrupted` tells the command line to exit with 130. Such a
+    KeyboardInterrupt is raised again in the main thread (without its traceback), so the
+    command stops there and then, not at its end."""
     import signal
+    import sys
 
     signal.signal(signal.SIGINT, _on_interrupt)
+    sys.unraisablehook = _unraisable
+
+
+def _unraisable(info: object) -> None:
+    """``sys.unraisablehook``: a Ctrl-C raised where Python can only print it is raised
+    again where it can stop the command; anything else is printed as Python would."""
+    import sys
+
+    if isinstance(getattr(info, "exc_value", None), KeyboardInterrupt):
+        import _thread
+        import threading
+
+        # Our SIGINT handler runs again in the main thread, once this hook has returned
+        # (raised from within the hook, it would be swallowed all the same).
+        threading.Timer(0.01, _thread.interrupt_main).start()
+        return
+    sys.__unraisablehook__(info)  # type: ignore[arg-type]
 
 
 def interrupted() -> bool:

@@ -89,7 +89,7 @@ def test_a_drawer_that_dies_leaves_its_sessions_drawn_here(
         drawer.submit(0, good)
         drawn = drawer.collect()
     assert drawn[0] == draw_session_figures(good.session, good.trials, good.averaging, good.views)
-    assert "figures are drawn here" in capsys.readouterr().err
+    assert "ended early" in capsys.readouterr().err
 
 
 def test_a_figure_that_fails_is_said_and_shown_and_the_numbers_stay(
@@ -206,3 +206,29 @@ def _zombie(pid: int) -> bool:
         return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] == "Z"
     except OSError:
         return True
+
+
+def test_a_ctrl_c_python_swallowed_is_raised_again_without_a_traceback() -> None:
+    """A Ctrl-C landing in a weakref callback is printed and ignored by Python (the run
+    went on to its end, a traceback on the screen): it now stops the command there."""
+    code = (
+        "import time, weakref\n"
+        "from twopose.errors import watch_interrupts\n"
+        "watch_interrupts()\n"
+        "class A: pass\n"
+        "def callback(ref):\n"
+        "    raise KeyboardInterrupt\n"
+        "a = A(); r = weakref.ref(a, callback)\n"
+        "try:\n"
+        "    del a\n"
+        "    time.sleep(10)\n"
+        "    print('went on')\n"
+        "except KeyboardInterrupt:\n"
+        "    print('stopped')\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=60
+    )
+    assert done.stdout.strip() == "stopped"
+    assert "Traceback" not in done.stderr
