@@ -378,17 +378,21 @@ def _trial_views(
                 )
             rows.append(frame_row(session, record.trial, pc.entry, j, frame, det))
         if pc.complete:
-            views.append(_pose_view(pc.entry, pc.camera.intrinsics, dets))
+            sigma = dict(pc.camera.intrinsics_sigma)  # the calibration's, if recorded
+            views.append(_pose_view(pc.entry, pc.camera.intrinsics, dets, sigma))
     return views
 
 
-def _pose_view(entry: PoseEntry, intrinsics: Intrinsics, dets: list[Detection]) -> PoseView:
+def _pose_view(
+    entry: PoseEntry, intrinsics: Intrinsics, dets: list[Detection], sigma: dict[str, float]
+) -> PoseView:
     return pose_view(
         entry,
         intrinsics,
         [d.found for d in dets],
         [d.centroid_px for d in dets],
         [d.theta_deg for d in dets],
+        sigma,
     )
 
 

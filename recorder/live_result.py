@@ -78,6 +78,7 @@ class LiveResults:
             [f.found for f in fb],
             [f.centroid_px for f in fb],
             [f.theta_deg for f in fb],
+            camera.intrinsics_sigma,
         )
         self._captures[entry.capture] = view if self.rig is None else corrected_view(view, self.rig)
 

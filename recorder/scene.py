@@ -46,7 +46,13 @@ RGB = tuple[int, int, int]
 
 @dataclass(frozen=True)
 class CameraParams:
-    """One camera: id and pinhole intrinsics (the thesis: f = 525 px, 640x480)."""
+    """One camera: id and pinhole intrinsics (the thesis: f = 525 px, 640x480).
+
+    ``calibration_sigma`` (fx, fy, cx, cy; pixels) is the 1-sigma of a calibration that
+    gave these intrinsics: the session records the intrinsics with it, and the frames are
+    rendered with true intrinsics drawn once per session from N(intrinsics, sigma^2)
+    (:func:`recorder.simulate.simulate_session`). Zero: the intrinsics are exact.
+    """
 
     id: str = "cam0"
     width: int = 640
@@ -56,6 +62,7 @@ class CameraParams:
     cx: float = 320.0
     cy: float = 240.0
     distortion: tuple[float, float, float, float, float] = (0.0, 0.0, 0.0, 0.0, 0.0)
+    calibration_sigma: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
 
     @property
     def intrinsics(self) -> Intrinsics:
@@ -234,6 +241,12 @@ def _check_scene(s: Scene) -> None:
             "must be 1-10000 pixels",
         )
         need(c.fx > 0 and c.fy > 0, "cameras.fx/fy", "must be > 0")
+        sx, sy = c.calibration_sigma[:2]
+        need(
+            min(c.calibration_sigma) >= 0 and sx <= c.fx / 10 and sy <= c.fy / 10,
+            "cameras.calibration_sigma",
+            f"must be >= 0, the focal's at most a tenth of fx, fy; got {list(c.calibration_sigma)}",
+        )
     p = s.poses
     need(p.count >= 2, "poses.count", f"must be >= 2 (two views at least), got {p.count}")
     need(p.count <= 100, "poses.count", f"must be <= 100, got {p.count}")

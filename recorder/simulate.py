@@ -5,8 +5,10 @@ the laptop there with an error of ``poses.noise_sigma`` on every translation com
 (``poses.rotation_noise_deg`` on every angle), records those as each entry's 1-sigma
 ``resolution``, and
 captures ``frames`` frames per pose rendered from the *true* pose. Typed poses go to
-``/twopose/pose``; the true poses and target go to ``/simulation/truth``. The same seed
-gives the same bytes.
+``/twopose/pose``; the true poses and target go to ``/simulation/truth``. A camera with a
+``calibration_sigma`` is recorded with its intrinsics and that sigma, and rendered with true
+intrinsics drawn once per session (:func:`calibrated_cameras`). The same seed gives the same
+bytes.
 """
 
 from __future__ import annotations
@@ -40,7 +42,7 @@ from twopose.format.entries import (
 from twopose.rig import RigConstants, angles_deg_from_rotation
 from twopose.values import Vec3
 
-__all__ = ["SimulationSummary", "simulate_session", "target_points"]
+__all__ = ["SimulationSummary", "calibrated_cameras", "simulate_session", "target_points"]
 
 # The thesis' running-average script is dated 2011-12-31; simulated clocks start there.
 SIMULATION_EPOCH_NS = 1_325_289_600 * 1_000_000_000
@@ -48,6 +50,9 @@ _MAX_POSE_DRAWS = 2000
 _EDGE_MARGIN_PX = 25.0
 #: What a noise-free simulated pose records as its 1-sigma resolution (the format wants > 0).
 EXACT_RESOLUTION = 1e-9
+#: The random stream of the calibration's error, apart from the session's own (so that the
+#: same seed places the same poses with and without a calibration sigma).
+_CALIBRATION_STREAM = 0xCA1
 F64 = NDArray[np.float64]
 
 
@@ -149,6 +154,44 @@ def _true_intrinsics(rig: RigConstants, intr: Intrinsics) -> Intrinsics:
         return intr
     fx, fy, cx, cy = rig.true_intrinsics([intr.fx, intr.fy, intr.cx, intr.cy])
     return dataclasses.replace(intr, fx=float(fx), fy=float(fy), cx=float(cx), cy=float(cy))
+
+
+def calibrated_cameras(scene: Scene, seed: int) -> tuple[Scene, list[Camera]]:
+    """The scene as rendered and its cameras as the session records them.
+
+    A camera whose ``calibration_sigma`` is not zero is recorded with its (typed)
+    intrinsics and that sigma, and rendered with true ones drawn once per session from
+    N(intrinsics, sigma^2), independently per intrinsic: a calibration's error, the same in
+    every frame. Without a sigma the scene is returned unchanged.
+    """
+    keys = ("fx", "fy", "cx", "cy")
+    cameras = [
+        Camera(
+            c.id,
+            c.intrinsics,
+            {k: v for k, v in zip(keys, c.calibration_sigma, strict=True) if v > 0},
+        )
+        for c in scene.cameras
+    ]
+    if not any(cam.intrinsics_sigma for cam in cameras):
+        return scene, cameras
+    rng = np.random.default_rng([seed, _CALIBRATION_STREAM])
+    drawn = []
+    for c in scene.cameras:
+        fx, fy, cx, cy = np.array([c.fx, c.fy, c.cx, c.cy]) + np.array(
+            c.calibration_sigma
+        ) * rng.standard_normal(4)
+        drawn.append(dataclasses.replace(c, fx=float(fx), fy=float(fy), cx=float(cx), cy=float(cy)))
+    return dataclasses.replace(scene, cameras=tuple(drawn)), cameras
+
+
+def _drawn_note(rendered: Scene, cameras: list[Camera]) -> str:
+    """The drawn true intrinsics, for the session's notes ("" when none were drawn)."""
+    return "".join(
+        f"; {c.id} rendered with fx={c.fx:.3f}, fy={c.fy:.3f}, cx={c.cx:.3f}, cy={c.cy:.3f}"
+        for c, cam in zip(rendered.cameras, cameras, strict=True)
+        if cam.intrinsics_sigma
+    )
 
 
 def _thesis_move(rng: np.random.Generator, p: PoseParams) -> NDArray[np.float64]:
@@ -334,7 +377,7 @@ def simulate_session(
         raise InputValueError(f"trials must be >= 1, got {trials}")
     if frames < 1:
         raise InputValueError(f"frames must be >= 1, got {frames}")
-    scene = _scene_with(scene, pose_noise, poses)
+    scene, cameras = calibrated_cameras(_scene_with(scene, pose_noise, poses), seed)
     rng = np.random.default_rng(seed)
     layout = build_layout(scene, method, rng)
     clock = _SimClock(SIMULATION_EPOCH_NS)
@@ -347,6 +390,7 @@ def simulate_session(
         notes=(
             f"simulated: seed={seed}, trials={trials}, frames={frames}, "
             f"poses={scene.poses.count}, pose_noise={scene.poses.noise_sigma}"
+            + _drawn_note(scene, cameras)
         ),
         created_utc=datetime.fromtimestamp(SIMULATION_EPOCH_NS / 1e9, UTC).isoformat(),
         simulated=True,
@@ -355,7 +399,7 @@ def simulate_session(
         summary = record(
             out,
             info,
-            [Camera(c.id, c.intrinsics) for c in scene.cameras],
+            cameras,
             camera,
             _SimulatedOperator(scene, method, trials, rng, clock, camera),
             # The operator types the ground height off by the rig's error (the true one renders).

@@ -2,12 +2,13 @@
 
 Every trial's usable poses become one row of a padded batch, so each estimator runs once
 per session, vectorized over trials (:func:`estimate_trials`); the same batch, perturbed,
-propagates the input covariance to every estimate (:mod:`twopose.uncertainty`).
+propagates the input covariance to every estimate (:mod:`twopose.uncertainty`): pixels,
+typed poses and, where the camera's calibration recorded its 1-sigma, the intrinsics.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -29,6 +30,8 @@ from twopose.solve import (
 )
 from twopose.uncertainty import (
     INPUTS_PER_VIEW,
+    SHARED_INPUTS,
+    Shared,
     dominant_input,
     frame_scatter,
     measurement_covariance,
@@ -114,6 +117,9 @@ class PoseView:
     centroids: F64  # (K, 2)
     thetas: F64  # (K,)
     found: NDArray[np.bool_]  # (K,)
+    camera_id: str = ""  # views of one camera share its intrinsics' error
+    # (4,) the calibration's 1-sigma of fx, fy, cx, cy (0: taken as exact)
+    intrinsics_sigma: F64 = field(default_factory=lambda: np.zeros(len(SHARED_INPUTS)))
 
 
 def pose_view(
@@ -122,8 +128,16 @@ def pose_view(
     found: Sequence[bool],
     centroids_px: Sequence[tuple[float, float]],
     thetas_deg: Sequence[float],
+    intrinsics_sigma: Mapping[str, float] | None = None,
 ) -> PoseView:
-    """A complete pose: its typed pose, its camera and its frames' detections as arrays."""
+    """A complete pose: its typed pose, its camera and its frames' detections as arrays.
+
+    ``intrinsics_sigma`` is the camera's calibration 1-sigma (``Camera.intrinsics_sigma``):
+    of its keys, fx, fy, cx and cy enter the uncertainty. The distortion's are left out:
+    the solvers use the pinhole model on the detected pixels (nothing is undistorted), so
+    the estimate does not depend on k1..k3, p1, p2.
+    """
+    sigma = intrinsics_sigma or {}
     return PoseView(
         entry.pose,
         np.array([intrinsics.fx, intrinsics.fy, intrinsics.cx, intrinsics.cy]),
@@ -135,6 +149,8 @@ def pose_view(
         np.array(centroids_px, dtype=np.float64).reshape(-1, 2),
         np.array(thetas_deg, dtype=np.float64),
         np.array(found, dtype=bool),
+        entry.camera_id,
+        np.array([float(sigma.get(k, 0.0)) for k in SHARED_INPUTS]),
     )
 
 
@@ -246,7 +262,11 @@ def thesis_estimate(
         reps = x.shape[0] // T  # propagate stacks copies of the T trials
         valid = np.tile(batch.valid, (reps, 1))
         R = rotation_from_angles_deg(x[..., 6:9])
-        P = projection_matrices(np.tile(batch.intrinsics, (reps, 1, 1)), R, x[..., 3:6])
+        # With the intrinsics' uncertainty (twopose.uncertainty.Shared) they follow the
+        # view's inputs; otherwise they are the batch's, exact.
+        D = len(INPUTS_PER_VIEW)
+        intr = x[..., D:] if x.shape[-1] > D else np.tile(batch.intrinsics, (reps, 1, 1))
+        P = projection_matrices(intr, R, x[..., 3:6])
         if method == "point":
             return triangulate_points(x[..., :2], P, valid=valid, min_conditioning=mc).point_grid
         lines = image_lines(x[..., :2], x[..., 2])
@@ -325,6 +345,31 @@ def input_covariance(
     return C
 
 
+def shared_intrinsics(views: list[list[PoseView]], batch: ViewBatch) -> Shared | None:
+    """The intrinsics as inputs shared by each trial's views of one camera, with their
+    calibration's covariance (diagonal: the calibration records 1-sigma per intrinsic);
+    None when no view's camera has a sigma, so such sessions propagate as before."""
+    if not any(v.intrinsics_sigma.any() for row in views for v in row):
+        return None
+    T, N = batch.valid.shape
+    group = np.full((T, N), -1)
+    sigmas: list[list[F64]] = []
+    for i, row in enumerate(views):
+        cameras: list[str] = []
+        sigmas.append([])
+        for j, v in enumerate(row):
+            if v.camera_id not in cameras:
+                cameras.append(v.camera_id)
+                sigmas[i].append(v.intrinsics_sigma)
+            group[i, j] = cameras.index(v.camera_id)
+    G, S = max(len(row) for row in sigmas), len(SHARED_INPUTS)
+    cov = np.zeros((T, G, S, S))
+    for i, row_sigma in enumerate(sigmas):
+        for g, sigma in enumerate(row_sigma):
+            cov[i, g] = np.diag(sigma**2)
+    return Shared(batch.intrinsics.copy(), group, cov)
+
+
 def across_line_sigma_px(theta_deg: F64, input_cov: F64) -> F64:
     """(T, N) 1-sigma pixel error across each view's image line, from its covariance."""
     t = np.deg2rad(theta_deg)
@@ -388,7 +433,8 @@ def estimate_trials(
     options: EstimateSettings,
 ) -> Estimates:
     """Solve every detected trial with every estimator, in one batch, and propagate each
-    one's input covariance (pixels from the frame scatter, poses from the typed resolution).
+    one's input covariance (pixels from the frame scatter, poses from the typed resolution,
+    intrinsics from the calibration's 1-sigma: one error for all views of a camera).
 
     ``truth`` is (T, 2, 3): lines are reported at their point nearest the true segment's
     midpoint (with no truth, nearest the solved point); that reference is held fixed in the
@@ -419,10 +465,20 @@ def estimate_trials(
     mid = truth[solvable].mean(axis=1)
     reference = np.where(np.isfinite(mid), mid, solved.point)
     propagated = propagate(
-        thesis_estimate(method, batch, ground, options, reference), batch.inputs, cov_in
+        thesis_estimate(method, batch, ground, options, reference),
+        batch.inputs,
+        cov_in,
+        shared=shared_intrinsics(rows_v, batch),
     )
     _store_solution(out, solvable, solved)
-    _store_uncertainty(out, solvable, solved, propagated.cov_grid, propagated.variance_by_group)
+    _store_uncertainty(
+        out,
+        solvable,
+        solved,
+        propagated.cov_grid,
+        propagated.variance_by_group,
+        propagated.shared_variance,
+    )
     if method == "line":
         _store_weighted_lines(out, solvable, batch, cov_in, options)
         _store_optimal_lines(out, solvable, batch, cov_in, options)
@@ -441,7 +497,12 @@ def _store_solution(out: Estimates, rows: NDArray[np.intp], solved: Solved) -> N
 
 
 def _store_uncertainty(
-    out: Estimates, rows: NDArray[np.intp], solved: Solved, cov: F64, by_group: F64
+    out: Estimates,
+    rows: NDArray[np.intp],
+    solved: Solved,
+    cov: F64,
+    by_group: F64,
+    shared: F64 | None = None,
 ) -> None:
     """The covariance and dominant input of every ok trial."""
     ok = solved.status == "ok"
@@ -451,7 +512,7 @@ def _store_uncertainty(
         across = np.eye(3) - np.einsum("ti,tj->tij", solved.direction, solved.direction)
         cov = across @ cov @ across
     out.cov[rows[ok]] = cov[ok]
-    names, share = dominant_input(by_group)
+    names, share = dominant_input(by_group, shared)
     out.dominant[rows[ok]] = np.array(names, dtype=object)[ok]
     out.dominant_share[rows[ok]] = share[ok]
 

@@ -4,9 +4,12 @@ The inputs of a trial are, per view, ``[col, row, theta_deg, tx, ty, tz, rx_deg,
 rz_deg]``: the combined pixel measurement and the typed pose. Views are independent; within
 a view the pixel part's 3x3 covariance comes from the frame-to-frame scatter of its frames
 (:func:`measurement_covariance`) and the pose part is diagonal, from the 1-sigma resolution
-recorded with each typed entry. :func:`propagate` pushes that through any batched estimator
-by central differences (``Sigma_x = J Sigma_in J^T``), so the covariance follows exactly the
-code that made the estimate, thesis formulas or not. No I/O.
+recorded with each typed entry. A camera's intrinsics ``(fx, fy, cx, cy)`` are inputs too
+when its calibration's 1-sigma is known (:class:`Shared`): their error is the same in every
+view that camera took, so they are perturbed in all of a trial's views of that camera at
+once. :func:`propagate` pushes that through any batched estimator by central differences
+(``Sigma_x = J Sigma_in J^T``), so the covariance follows exactly the code that made the
+estimate, thesis formulas or not. No I/O.
 """
 
 from __future__ import annotations
@@ -26,7 +29,9 @@ __all__ = [
     "CHI2_95",
     "INPUTS_PER_VIEW",
     "INPUT_GROUPS",
+    "SHARED_INPUTS",
     "Propagated",
+    "Shared",
     "dominant_input",
     "frame_scatter",
     "measurement_covariance",
@@ -51,6 +56,8 @@ _GROUPS = (
     ("z", slice(5, 6)),
     ("rotation", slice(6, 9)),
 )
+#: The inputs a trial's views of one camera share (:class:`Shared`): its intrinsics.
+SHARED_INPUTS = ("fx", "fy", "cx", "cy")
 #: Prior weight (pseudo frame-differences) of the session's pooled scatter in each pose's
 #: estimate: five frames give four differences, too few to trust a pose's scatter alone.
 PRIOR_DOF = 4.0
@@ -101,18 +108,39 @@ def measurement_covariance(
 
 
 @dataclass(frozen=True)
+class Shared:
+    """Inputs common to several views of a trial: a camera's intrinsics, whose calibration
+    error is one draw for every view (and every trial) that camera took.
+
+    Views of one ``group`` (a trial's views of one camera) hold the same ``values`` and
+    are perturbed together; a view in group -1, or a group whose ``cov`` is zero, is exact.
+    """
+
+    values: F64  # (T, N, S) each view's values, in the SHARED_INPUTS layout
+    group: NDArray[np.int_]  # (T, N) each view's group, 0 .. G-1 (-1: none)
+    cov: F64  # (T, G, S, S) each group's covariance
+
+
+@dataclass(frozen=True)
 class Propagated:
     """First-order covariances of a batch of estimates (see :func:`propagate`)."""
 
     cov_grid: F64  # (T, 3, 3) covariance of the estimate, grid frame, session units^2
     jacobian: F64  # (T, 3, N, 9) d estimate / d input
     variance_by_group: F64  # (T, N, 5) trace share of pixels, x, y, z, rotation per view
+    shared_jacobian: F64 | None = None  # (T, 3, G, S) d estimate / d shared input
+    shared_variance: F64 | None = None  # (T,) trace share of the shared inputs
 
 
 def propagate(
-    estimate: Callable[[F64], F64], inputs: F64, input_cov: F64, *, rel_step: float = 1e-3
+    estimate: Callable[[F64], F64],
+    inputs: F64,
+    input_cov: F64,
+    *,
+    rel_step: float = 1e-3,
+    shared: Shared | None = None,
 ) -> Propagated:
-    """Propagate per-view input covariances through a batched estimator.
+    """Propagate per-view input covariances (and shared ones) through a batched estimator.
 
     Parameters
     ----------
@@ -120,6 +148,8 @@ def propagate(
         ``(R T, N, 9) inputs -> (R T, 3)`` estimates, rows independent (NaN where it
         fails): it is called with R perturbed copies of the T trials stacked along the
         first axis (row ``r T + t`` is trial ``t``), so per-trial context must be tiled.
+        With ``shared``, each view's inputs are followed by its shared values:
+        ``(R T, N, 9 + S)``.
     inputs : (T, N, 9) ndarray
         Per-view inputs in the :data:`INPUTS_PER_VIEW` layout (NaN in unused entries).
     input_cov : (T, N, 9, 9) ndarray
@@ -127,6 +157,10 @@ def propagate(
     rel_step : float
         Central-difference step as a fraction of each input's standard deviation, so the
         step is right whatever the units.
+    shared : Shared, optional
+        Inputs common to a group of views (a camera's intrinsics), independent of the
+        per-view ones: ``Sigma_x += sum_g J_g Sigma_g J_g^T``, with ``J_g`` the derivative
+        with respect to the group's value in all of its views at once.
 
     Returns
     -------
@@ -139,12 +173,36 @@ def propagate(
     sigma = np.sqrt(np.clip(np.diagonal(C, axis1=2, axis2=3), 0.0, None))  # (T, N, 9)
     J = np.zeros((T, 3, N, D))
     # An exact input (or an unused one: a dot's angle) contributes nothing: skip it.
-    columns = [(n, d) for n in range(N) for d in range(D) if (sigma[:, n, d] > 0).any()]
+    columns: list[_Column] = [
+        (n, d, None) for n in range(N) for d in range(D) if (sigma[:, n, d] > 0).any()
+    ]
+    Cs = np.zeros((T, 0, 0, 0)) if shared is None else np.asarray(shared.cov, dtype=np.float64)
+    group_sigma = np.sqrt(np.clip(np.diagonal(Cs, axis1=2, axis2=3), 0.0, None))  # (T, G, S)
+    Js = np.zeros((T, 3, *Cs.shape[1:3]))
+    if shared is not None:
+        x = np.concatenate([x, np.asarray(shared.values, dtype=np.float64)], axis=-1)
+        G, S = Cs.shape[1], Cs.shape[2]
+        columns += [
+            (g, D + s, shared.group == g)
+            for g in range(G)
+            for s in range(S)
+            if (group_sigma[:, g, s] > 0).any()
+        ]
     # All perturbed copies go through the estimator together, in batches of about 2e5
     # views: one vectorized call per batch instead of 2 N D calls.
     per_batch = max(1, 200_000 // max(2 * T * N, 1))
     for start in range(0, len(columns), per_batch):
-        _difference_columns(estimate, x, sigma, rel_step, columns[start : start + per_batch], J)
+        batch = columns[start : start + per_batch]
+        steps = [
+            rel_step * (sigma[:, n, d] if views is None else group_sigma[:, n, d - D])
+            for n, d, views in batch
+        ]
+        derivatives = _difference_columns(estimate, x, steps, batch)
+        for (n, d, views), column in zip(batch, derivatives, strict=True):
+            if views is None:
+                J[:, :, n, d] = column
+            else:
+                Js[:, :, n, d - D] = column
     # Views are independent: Sigma = sum_n J_n C_n J_n^T.
     JC = np.einsum("tinj,tnjk->tink", J, C)
     cov = np.einsum("tink,tlnk->til", JC, J)
@@ -152,41 +210,62 @@ def propagate(
     for g, (_, sl) in enumerate(_GROUPS):
         Jg, Cg = J[:, :, :, sl], C[:, :, sl, sl]
         group_var[:, :, g] = np.einsum("tinj,tnjk,tink->tn", Jg, Cg, Jg)
-    return Propagated(cov, J, group_var)
+    if shared is None:
+        return Propagated(cov, J, group_var)
+    # Groups (cameras) are independent of each other and of the per-view inputs.
+    cov_shared = np.einsum("tigs,tgsr,tjgr->tij", Js, Cs, Js)
+    return Propagated(cov + cov_shared, J, group_var, Js, np.trace(cov_shared, axis1=1, axis2=2))
+
+
+#: A Jacobian column: (view, input, None) for a view's own input, or (group, input, the
+#: (T, N) views of that group) for a shared one, perturbed in all of its views at once.
+_Column = tuple[int, int, NDArray[np.bool_] | None]
 
 
 def _difference_columns(
-    estimate: Callable[[F64], F64],
-    x: F64,
-    sigma: F64,
-    rel_step: float,
-    columns: list[tuple[int, int]],
-    J: F64,
-) -> None:
-    """Central differences of ``columns`` (view, input) of the Jacobian, in one call."""
+    estimate: Callable[[F64], F64], x: F64, steps: list[F64], columns: list[_Column]
+) -> list[F64]:
+    """Central differences of ``columns`` of the Jacobian, each (T, 3), in one call;
+    ``steps`` (T,) per column (0: an exact input, its column 0)."""
     T = x.shape[0]
     K = len(columns)
-    h = np.stack([rel_step * sigma[:, n, d] for n, d in columns])  # (K, T)
+    h = np.stack(steps)  # (K, T)
     step = np.where(h > 0, h, 0.0)
     batch = np.repeat(x[None], 2 * K, axis=0)  # (2K, T, N, D): +step copies, then -step
-    for k, (n, d) in enumerate(columns):
-        batch[k, :, n, d] += step[k]
-        batch[K + k, :, n, d] -= step[k]
+    for k, (n, d, views) in enumerate(columns):
+        if views is None:
+            batch[k, :, n, d] += step[k]
+            batch[K + k, :, n, d] -= step[k]
+        else:  # every view of the group at once
+            batch[k, ..., d] += np.where(views, step[k][:, None], 0.0)
+            batch[K + k, ..., d] -= np.where(views, step[k][:, None], 0.0)
     with np.errstate(invalid="ignore", divide="ignore"):
         est = estimate(batch.reshape(2 * K * T, *x.shape[1:])).reshape(2, K, T, 3)
         col = (est[0] - est[1]) / (2.0 * step[..., None])  # (K, T, 3)
-    for k, (n, d) in enumerate(columns):
-        J[:, :, n, d] = np.where((h[k] > 0)[:, None], col[k], 0.0)
+    return [np.where((h[k] > 0)[:, None], col[k], 0.0) for k in range(K)]
 
 
-#: What :func:`dominant_input` names, in the order of ``variance_by_group``'s last axis.
-INPUT_GROUPS = ("pixels", "x translation", "y translation", "z translation", "rotation")
+#: What :func:`dominant_input` names: ``variance_by_group``'s last axis in its order, then
+#: the shared inputs (the cameras' intrinsics).
+INPUT_GROUPS = (
+    "pixels",
+    "x translation",
+    "y translation",
+    "z translation",
+    "rotation",
+    "intrinsics",
+)
 
 
-def dominant_input(variance_by_group: F64) -> tuple[list[str], F64]:
+def dominant_input(
+    variance_by_group: F64, shared_variance: F64 | None = None
+) -> tuple[list[str], F64]:
     """Per trial, the kind of input (summed over poses) with the largest share of the
-    variance, and that share: e.g. ``"x translation", 0.97``."""
+    variance, and that share: e.g. ``"x translation", 0.97``; with ``shared_variance``
+    (T,), the intrinsics compete too."""
     flat = variance_by_group.sum(axis=1)  # (T, 5)
+    if shared_variance is not None:
+        flat = np.concatenate([flat, np.asarray(shared_variance)[:, None]], axis=1)
     T = flat.shape[0]
     total = flat.sum(axis=1)
     names = INPUT_GROUPS

@@ -38,6 +38,8 @@ def test_a_file_overrides_table_by_table(tmp_path: Path) -> None:
         ("[finger]\ntilt_deg = 90\n", "finger.tilt_deg"),
         ("[poses]\nx_range = [1]\n", "poses.x_range must have 2 items"),
         ("[sensor]\nimage_format = 'gif'\n", "sensor.image_format must be one of"),
+        ("[[cameras]]\ncalibration_sigma = [2, 2, -1, 0]\n", "cameras.calibration_sigma"),
+        ("[[cameras]]\ncalibration_sigma = [60, 2, 1, 1]\n", "a tenth of fx"),
         ("finger = 3\n", "finger must be a table"),
         ("units = [\n", "not valid TOML"),
     ],
