@@ -200,7 +200,9 @@ class FigureDrawer:
             drawn = draw_session_figures(s.session, s.trials, s.averaging, s.views)
             with self._changed:
                 self._drawn[index] = drawn
-        if self._ended_early:
+        # A child that died may not have been seen by the reader yet (its EOF races with
+        # this loop): a non-zero exit code says so as surely.
+        if self._ended_early or self._child.poll() not in (None, 0):
             note(
                 f"the figure-drawing process ended early (exit code {self._child.poll()}); "
                 "the figures it did not draw are drawn here"
