@@ -148,10 +148,15 @@ def test_other_pages_cannot_drive_nor_watch_the_console(tmp_path: Path) -> None:
     process, url, _ = start_console(out)
     console = url.rstrip("/")
     port = int(console.rsplit(":", 1)[1])
-    operator = httpx.Client(base_url=console, timeout=10)
+    # A fresh connection per request: the attacks outlast uvicorn's 5 s keep-alive, and a
+    # request sent on a connection the server is closing fails for the harness' reason.
+    operator = httpx.Client(
+        base_url=console, timeout=10, limits=httpx.Limits(max_keepalive_connections=0)
+    )
     operator.get("/")
 
     def state() -> dict[str, Any]:
+        assert process.poll() is None, "the console died"
         answer = operator.get("/api/state")
         assert answer.status_code == 200
         found: dict[str, Any] = answer.json()
