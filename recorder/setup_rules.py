@@ -310,6 +310,12 @@ def _intrinsics(a: _Answers, size: tuple[int, int]) -> Intrinsics:
     principal = a.check("principal", lambda s: number_pair(s or "320, 240"))
     f = focal or THESIS_FOCAL_PX
     cx, cy = principal or (size[0] / 2, size[1] / 2)
+    if not (0 <= cx <= size[0] and 0 <= cy <= size[1]):  # a typo: it lies in the image
+        a.errors["principal"] = (
+            f"the principal point ({cx:g}, {cy:g}) px is outside the {size[0]}x{size[1]} "
+            "image; type a point inside it (its centre if you do not know)"
+        )
+        return Intrinsics(size[0], size[1], f, f, size[0] / 2, size[1] / 2)
     try:
         return Intrinsics(size[0], size[1], f, f, cx, cy)
     except InputValueError as err:  # e.g. a principal point outside the image

@@ -124,3 +124,13 @@ def test_any_form_is_a_setup_or_a_refusal_by_known_field(form: dict[str, str]) -
         if not errors:
             raise
     assert set(errors) <= {f.name for f in SETUP_FIELDS}
+
+
+@pytest.mark.parametrize("principal", ["900, 900", "-1, 240", "320, 481"])
+def test_a_principal_point_outside_the_image_is_refused(principal: str) -> None:
+    with pytest.raises(FormRefusedError) as caught:
+        setup_from_answers({"method": "point", "principal": principal}, NOTHING_GIVEN)
+    assert set(caught.value.errors) == {"principal"}
+    assert "outside the 640x480 image" in caught.value.errors["principal"]
+    setup = setup_from_answers({"method": "point", "principal": "0, 480"}, NOTHING_GIVEN)
+    assert (setup.intrinsics.cx, setup.intrinsics.cy) == (0, 480)  # the edge is inside
