@@ -24,6 +24,7 @@ from twopose.errors import (
     safe_console,
     watch_interrupts,
 )
+from twopose.text import for_terminal
 from twopose.version import VersionOption
 
 if TYPE_CHECKING:
@@ -58,6 +59,7 @@ def info(
 ) -> None:
     """Check and describe sessions: method, cameras, trials, poses, captures, frames."""
     from rich.console import Console
+    from rich.markup import escape
     from rich.table import Table
 
     from analysis.batch import split_inputs
@@ -95,7 +97,7 @@ def info(
             else ""
         )
         table.add_row(
-            str(o.path),
+            escape(for_terminal(str(o.path))),
             o.info.method + (" (sim)" if o.info.simulated else ""),
             o.info.units,
             cams,
@@ -128,14 +130,16 @@ def _say_skipped(skipped: list[str]) -> None:
 
 def _print_notes(o: SessionOverview) -> None:
     """The operator's notes of one session (``info``), session-wide first."""
-    lines = [f"  session: {text}" for text in o.notes.session]
+    # A note is what someone typed, into a file anyone may hand us: escaped, so that an
+    # ESC sequence or a bidi override in it is shown, not obeyed.
+    lines = [f"  session: {for_terminal(text)}" for text in o.notes.session]
     lines += [
-        f"  trial {trial}: {text}"
+        f"  trial {trial}: {for_terminal(text)}"
         for trial, texts in sorted(o.notes.by_trial.items())
         for text in texts
     ]
     if lines:
-        typer.echo(f"notes in {o.path}:")
+        typer.echo(f"notes in {for_terminal(str(o.path))}:")
         typer.echo("\n".join(lines))
 
 

@@ -43,6 +43,7 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from twopose import jsonsafe
 from twopose.loopback import is_loopback_host, split_host
+from twopose.text import first_control
 
 __all__ = [
     "MAX_BODY_BYTES",
@@ -73,9 +74,6 @@ SECURITY_HEADERS = {
     "Cross-Origin-Opener-Policy": "same-origin",
 }
 
-# Bidirectional overrides and isolates: text that reads differently from what it holds.
-_BIDI = frozenset("\u061c\u200e\u200f\u202a\u202b\u202c\u202d\u202e\u2066\u2067\u2068\u2069")
-
 
 class ConsoleJSONResponse(JSONResponse):
     """Every JSON the console answers: NaN and infinity as ``null`` (the one encoder,
@@ -92,9 +90,9 @@ def text_refusal(text: str, limit: int = MAX_TEXT_CHARS) -> str:
     or holding a control character (a terminal would obey it where the text is printed)."""
     if len(text) > limit:
         return f"at most {limit} characters, please (this has {len(text)})"
-    for char in text:
-        if char in _BIDI or ord(char) < 0x20 or 0x7F <= ord(char) < 0xA0:
-            return f"a control character (U+{ord(char):04X}) cannot be part of it; retype it"
+    char = first_control(text)
+    if char is not None:
+        return f"a control character (U+{ord(char):04X}) cannot be part of it; retype it"
     return ""
 
 

@@ -10,8 +10,12 @@ from pathlib import Path
 from typer.testing import CliRunner
 
 from analysis.cli import app
+from twopose.camera import Camera, Intrinsics
 from twopose.errors import EXIT_ERROR, EXIT_SOME_INPUTS_FAILED
+from twopose.format.entries import Note, SessionInfo
 from twopose.format.trials import describe_session
+from twopose.format.writer import SessionWriter
+from twopose.text import first_control
 
 runner = CliRunner()
 
@@ -65,3 +69,21 @@ def test_python_dash_m_analysis() -> None:
     )
     assert result.returncode == 0
     assert "info" in result.stdout
+
+
+def test_info_shows_control_characters_in_notes_escaped_not_obeyed(tmp_path: Path) -> None:
+    """A note is typed text in a file anyone may hand us: an ESC sequence (clear the
+    screen), a bell, a carriage return or a bidi override is printed as its escape."""
+    path = tmp_path / "s.mcap"
+    hostile = "ok\x1b[2J\x07\rfake\u202eevil"
+    cam = Camera("cam0", Intrinsics(32, 24, 30.0, 30.0, 16.0, 12.0))
+    with SessionWriter(
+        path, SessionInfo(method="point", units="in"), [cam], image_format="png", start_ns=0
+    ) as w:
+        w.write_note(Note(hostile, None), 1)
+        w.write_note(Note("plain, né à Zoë 北京", 1), 2)
+    result = runner.invoke(app, ["info", str(path)], env={"COLUMNS": "200"})
+    assert result.exit_code == 0, result.output
+    assert "session: ok\\x1b[2J\\x07\\rfake\\u202eevil" in result.output
+    assert "trial 1: plain, né à Zoë 北京" in result.output  # printable text as it is
+    assert not any(first_control(line) for line in result.output.splitlines())

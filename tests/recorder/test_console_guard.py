@@ -23,6 +23,7 @@ from recorder.console_guard import (
     text_refusal,
 )
 from recorder.console_server import ConsoleOptions, console_app
+from twopose.text import is_control
 
 # A small synthetic camera: a pose renders in ~70 ms (as tests/recorder/test_console_stateful.py).
 SCENE = """
@@ -310,3 +311,10 @@ def test_a_line_with_no_glove_and_a_pose_typed_twice_never_blinds_the_page(
         assert answer.status_code == 200
         strict_json(answer.text)
     assert client.post("/api/decide", json={"decision": "quit"}).status_code == 200
+
+
+def test_the_console_refuses_exactly_what_a_terminal_would_obey() -> None:
+    """One rule (twopose.text): the console refuses the characters info escapes."""
+    for code in range(0x3000):
+        char = chr(code)
+        assert bool(text_refusal(f"a{char}b")) == is_control(char), hex(code)
