@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
-from numpy.typing import NDArray
 
 __all__ = [
     "NOTES_COLUMNS",
@@ -25,7 +24,6 @@ __all__ = [
     "warned",
 ]
 
-F64 = NDArray[np.float64]
 
 TRIAL_COLUMNS = [
     "session",

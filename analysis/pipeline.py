@@ -16,12 +16,12 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from numpy.typing import NDArray
 
 from analysis.results import AnalysisOptions, SessionResult
 from analysis.results_mcap import ResultsWriter
 from analysis.rig import RIG_TABLE_COLUMNS
 from analysis.tables import FRAME_COLUMNS, averaging_table, frame_row, trial_table, view_table
+from twopose.arrays import F64
 from twopose.camera import Intrinsics
 from twopose.detect import Detection, DotParams, GloveParams, PoseMeasurement, detect
 from twopose.errors import SessionFormatError
@@ -43,8 +43,6 @@ from twopose.rig import RigConstants, corrected_ground, corrected_view
 from twopose.scene3d import scene_of_views
 
 __all__ = ["analyse_session", "keep_frame_buffers"]
-
-F64 = NDArray[np.float64]
 
 
 @dataclass(frozen=True)

@@ -23,12 +23,10 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any, Self
 
-import numpy as np
 from foxglove_schemas_protobuf.ImageAnnotations_pb2 import ImageAnnotations
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from mcap.writer import CompressionType
 from mcap.writer import Writer as McapWriter
-from numpy.typing import NDArray
 
 from twopose.camera import Camera
 from twopose.detect import Detection
@@ -54,7 +52,6 @@ __all__ = [
     "annotations_topic",
 ]
 
-F64 = NDArray[np.float64]
 SCENE_TOPIC = RESULTS_TOPIC_PREFIX + "scene"
 
 

@@ -29,6 +29,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from analysis.rig_data import RigData, combine, prepare, prepare_session, require_trusted
+from twopose.arrays import F64
 from twopose.errors import InputValueError
 from twopose.estimate import EstimateSettings, GroundSpec, PoseView, ViewBatch, line_errors
 from twopose.rig import RIG_PARAMETERS, RigConstants, angles_deg_from_rotation
@@ -55,7 +56,6 @@ __all__ = [
     "select_constants",
 ]
 
-F64 = NDArray[np.float64]
 
 #: The constants' groups (what model selection adds or leaves out), in RIG_PARAMETERS order.
 GROUPS = tuple(RIG_PARAMETERS)

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from twopose.arrays import F64
 from twopose.errors import InputValueError
 from twopose.estimate import (
     EstimateOptions,
@@ -26,8 +27,6 @@ from twopose.estimate import (
 from twopose.rig import ground_height, plausible_bounds
 
 __all__ = ["RigData", "combine", "prepare", "prepare_session", "require_trusted"]
-
-F64 = NDArray[np.float64]
 
 
 @dataclass(frozen=True)

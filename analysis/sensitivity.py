@@ -15,8 +15,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
-from numpy.typing import NDArray
 
+from twopose.arrays import F64
 from twopose.camera import Intrinsics, project_points
 from twopose.solve import image_lines, projection_matrices, triangulate_ground, triangulate_points
 from twopose.targets import finger_axis
@@ -33,7 +33,6 @@ __all__ = [
     "x_translation_effect",
 ]
 
-F64 = NDArray[np.float64]
 SENSITIVITY_COLUMNS = [
     "method",
     "sweep",

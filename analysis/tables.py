@@ -13,9 +13,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
-from numpy.typing import NDArray
 
 from analysis.metrics import LINE_COLUMNS, OPTIMAL_COLUMNS, TRIAL_COLUMNS
+from twopose.arrays import F64
 from twopose.camera import rotation_from_angles_deg
 from twopose.detect import Detection, PoseMeasurement
 from twopose.estimate import line_errors
@@ -37,7 +37,6 @@ __all__ = [
     "view_table",
 ]
 
-F64 = NDArray[np.float64]
 
 FRAME_COLUMNS = [
     "session",

@@ -19,12 +19,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from recorder.scene import Scene
+from twopose.arrays import F64
 from twopose.camera import Intrinsics, project_points, rotation_from_angles_deg
 from twopose.targets import finger_axis as target_finger_axis
 
 __all__ = ["Layout", "Primitive", "build_layout", "expose", "render_radiance"]
 
-F64 = NDArray[np.float64]
 F32 = NDArray[np.float32]
 GAMMA = 2.2
 

@@ -26,6 +26,7 @@ from recorder.procedure import Driver, Placement, record
 from recorder.render import Layout, build_layout, expose, finger_axis, render_radiance
 from recorder.scene import PoseParams, Scene
 from recorder.sources import FrameSource, SourceInfo
+from twopose.arrays import F64
 from twopose.camera import Camera, Intrinsics, project_points, rotation_from_angles_deg
 from twopose.errors import InputValueError, SceneError
 from twopose.format.entries import (
@@ -53,7 +54,6 @@ EXACT_RESOLUTION = 1e-9
 #: The random stream of the calibration's error, apart from the session's own (so that the
 #: same seed places the same poses with and without a calibration sigma).
 _CALIBRATION_STREAM = 0xCA1
-F64 = NDArray[np.float64]
 
 
 @dataclass(frozen=True)

@@ -9,11 +9,11 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from twopose.arrays import F64
 from twopose.camera import camera_centres
 
 __all__ = ["flag_no_baseline", "pairwise_max_abs_dot", "pairwise_max_sine", "parallax_sine"]
 
-F64 = NDArray[np.float64]
 Status = NDArray[np.str_]
 
 

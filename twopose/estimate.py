@@ -15,6 +15,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from twopose.arrays import F64
 from twopose.camera import Intrinsics, camera_centres, rotation_from_angles_deg
 from twopose.conditioning import parallax_sine
 from twopose.detect import CombineMethod, PoseMeasurement, combine_frames
@@ -58,7 +59,6 @@ __all__ = [
     "solve_batch",
 ]
 
-F64 = NDArray[np.float64]
 
 # Degeneracy margins: an ok trial under one of these gets a warning (degrees).
 DEFAULT_MIN_PARALLAX_DEG = 1.0  # ray parallax, points

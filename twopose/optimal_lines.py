@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from twopose.arrays import F64
 from twopose.camera import camera_centres
 from twopose.errors import InputValueError
 from twopose.solve import (
@@ -33,7 +34,6 @@ from twopose.solve import (
 
 __all__ = ["OptimalLines", "centroid_segments", "endpoint_distances", "optimal_lines"]
 
-F64 = NDArray[np.float64]
 Status = NDArray[np.str_]
 
 #: Virtual half-lengths (px) of a segment standing for a centroid and an angle are kept in

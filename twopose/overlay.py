@@ -11,13 +11,12 @@ import cv2
 import numpy as np
 from foxglove_schemas_protobuf.ImageAnnotations_pb2 import ImageAnnotations
 from foxglove_schemas_protobuf.PointsAnnotation_pb2 import PointsAnnotation
-from numpy.typing import NDArray
 
+from twopose.arrays import F64
 from twopose.detect import Detection
 
 __all__ = ["BLACK", "GREEN", "RED", "image_annotations", "set_color", "set_xy"]
 
-F64 = NDArray[np.float64]
 RGBA = tuple[float, float, float, float]
 GREEN: RGBA = (0.1, 0.85, 0.2, 1.0)
 RED: RGBA = (0.95, 0.15, 0.1, 1.0)

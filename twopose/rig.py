@@ -32,8 +32,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from twopose.arrays import F64
 from twopose.camera import rotation_from_angles_deg
 from twopose.errors import InputValueError
 from twopose.estimate import GroundSpec, PoseView
@@ -53,7 +54,6 @@ __all__ = [
     "plausible_bounds",
 ]
 
-F64 = NDArray[np.float64]
 
 #: Each constant's scalar parameters, in the order of :meth:`RigConstants.vector`.
 RIG_PARAMETERS = {

@@ -17,8 +17,8 @@ import numpy as np
 from foxglove_schemas_protobuf.LinePrimitive_pb2 import LinePrimitive
 from foxglove_schemas_protobuf.SceneEntity_pb2 import SceneEntity
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
-from numpy.typing import NDArray
 
+from twopose.arrays import F64
 from twopose.camera import quaternion_xyzw_from_matrix, rotation_from_angles_deg
 from twopose.format.entries import GroundPlane
 from twopose.format.messages import GRID_FRAME
@@ -31,7 +31,6 @@ if TYPE_CHECKING:
     from twopose.detect import PoseMeasurement
     from twopose.estimate import PoseView
 
-F64 = NDArray[np.float64]
 
 ORANGE = (1.0, 0.55, 0.0, 1.0)
 BLUE = (0.2, 0.5, 1.0, 1.0)

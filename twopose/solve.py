@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from twopose.arrays import F64
 from twopose.camera import camera_centres
 from twopose.conditioning import (
     flag_no_baseline,
@@ -47,7 +48,6 @@ __all__ = [
     "triangulate_two_views",
 ]
 
-F64 = NDArray[np.float64]
 Status = NDArray[np.str_]
 
 #: Below this conditioning (a sine: ray parallax, plane angle) a trial is degenerate.

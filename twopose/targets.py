@@ -9,11 +9,11 @@ sensitivity sweeps to measure it, so both mean the same finger.
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import NDArray
+
+from twopose.arrays import F64
 
 __all__ = ["FINGER_LENGTH", "FINGER_TIP_HEIGHT", "finger_axis"]
 
-F64 = NDArray[np.float64]
 #: The simulated finger's tip height above the ground (along its axis' vertical) and length.
 FINGER_TIP_HEIGHT = 6.0
 FINGER_LENGTH = 3.0

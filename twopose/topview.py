@@ -17,14 +17,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
+from twopose.arrays import F64
 from twopose.scene3d import TrialScene
 from twopose.solve import image_lines, projection_matrices
 
 __all__ = ["TopView", "top_view"]
 
-F64 = NDArray[np.float64]
 XZ = tuple[float, float]
 
 

@@ -15,8 +15,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import NDArray
 
+from twopose.arrays import F64
 from twopose.estimate import (
     EstimateOptions,
     Estimates,
@@ -31,8 +31,6 @@ from twopose.estimate import (
 from twopose.uncertainty import uncertainty_columns
 
 __all__ = ["TrialResult", "reported_point", "trial_results"]
-
-F64 = NDArray[np.float64]
 
 
 def reported_point(method: str, est: Estimates, truth: F64) -> tuple[F64, F64]:

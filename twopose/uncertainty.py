@@ -22,6 +22,7 @@ from statistics import NormalDist
 import numpy as np
 from numpy.typing import NDArray
 
+from twopose.arrays import F64
 from twopose.detect import wrap_theta_deg
 
 __all__ = [
@@ -41,7 +42,6 @@ __all__ = [
     "uncertainty_columns",
 ]
 
-F64 = NDArray[np.float64]
 
 #: Per-view input layout of :func:`propagate`.
 INPUTS_PER_VIEW = ("col", "row", "theta_deg", "tx", "ty", "tz", "rx_deg", "ry_deg", "rz_deg")

@@ -1,0 +1,16 @@
+"""The array aliases every module annotates with (one home, so that a change of dtype
+policy is one edit): shapes are documented where the arrays are, in the docstrings."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["F64", "Bools", "Ints"]
+
+#: Float arrays: coordinates, pixels, covariances (units in each name or docstring).
+F64 = NDArray[np.float64]
+#: Boolean masks (valid views, found frames, used trials).
+Bools = NDArray[np.bool_]
+#: Integer index arrays.
+Ints = NDArray[np.intp]
