@@ -11,6 +11,7 @@ import math
 import pandas as pd
 
 from analysis.metrics import by_session_set, summarize
+from twopose.methods import METHOD_SPECS
 
 __all__ = [
     "ANSWER_COLUMNS",
@@ -44,7 +45,7 @@ ANSWER_COLUMNS = [
 ]
 
 #: How the report names a method (the thesis' numbering where it has one).
-METHOD_NAMES = {"point": "point (method 1)", "ground": "ground (method 2)", "line": "line"}
+METHOD_NAMES = {str(m): spec.label for m, spec in METHOD_SPECS.items()}
 
 
 def answer_table(trials: pd.DataFrame, *, include_warned: bool = False) -> pd.DataFrame:

@@ -18,10 +18,11 @@ from analysis.answer import number as _num
 from analysis.answer import session_order
 from analysis.answer import share as _share
 from analysis.metrics import SESSION_SETS, by_session_set, summarize
+from twopose.units import UNIT_SPECS
 
 __all__ = ["UNIT_NAMES", "closing_lines", "summary_lines", "wrap_phrases"]
 
-UNIT_NAMES = {"in": "inches", "mm": "millimetres", "cm": "centimetres", "m": "metres"}
+UNIT_NAMES = {str(u): spec.name for u, spec in UNIT_SPECS.items()}
 
 _HEADER = (
     f"{'method':<7}{'sessions':>8}{'trials':>7}{'ok':>5}{'warned':>7}"

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import typing
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,7 +23,7 @@ import pandas as pd
 from analysis.outputs import check_results_table, read_results_table, session_keys
 from twopose.config import build_dataclass, read_toml
 from twopose.errors import InputValueError
-from twopose.format.entries import Method
+from twopose.methods import Method
 
 __all__ = [
     "CHECKED_METRICS",
@@ -82,7 +81,7 @@ CHECKED_METRICS = (
 )
 
 #: The methods a tolerance file may name (``[methods.<method>.<metric>]``).
-METHODS = tuple(sorted(typing.get_args(Method)))
+METHODS = tuple(sorted(str(m) for m in Method))
 
 COMPARISON_COLUMNS = [
     "session",

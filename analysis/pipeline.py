@@ -39,6 +39,7 @@ from twopose.format.entries import PoseEntry
 from twopose.format.messages import Frame
 from twopose.format.reader import SessionReader
 from twopose.format.trials import PoseCapture, TrialRecord, iter_trials, read_notes
+from twopose.methods import spec_of
 from twopose.rig import RigConstants, corrected_ground, corrected_view
 from twopose.scene3d import scene_of_views
 
@@ -215,7 +216,7 @@ def _replay(
         if reader.ground is None:
             raise SessionFormatError(f"{session}: a ground session without a /twopose/ground plane")
         ground = (np.array(reader.ground.normal_grid), reader.ground.offset)
-    target = "dot" if info.method == "point" else "glove"
+    target = spec_of(info.method).target
     rows: list[dict[str, Any]] = []
     trial_ids, truths, views, last_ns = [], [], [], []
     notes, unmeasured = [], []

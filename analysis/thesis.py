@@ -21,6 +21,7 @@ import pandas as pd
 
 from analysis.metrics import by_session_set, session_set, used_trials
 from twopose.format.entries import INCHES_PER_UNIT
+from twopose.methods import METHOD_SPECS, Method
 
 __all__ = ["THESIS_COLUMNS", "fisher_p", "thesis_sessions", "thesis_table", "thesis_verdict"]
 
@@ -48,7 +49,8 @@ def thesis_table(
     return table
 
 
-_THESIS_NAME = {"point": "method 1", "ground": "method 2"}
+# The thesis tested methods 1 and 2, not the line.
+_THESIS_NAME = {str(m): METHOD_SPECS[m].thesis_name for m in (Method.POINT, Method.GROUND)}
 
 
 def thesis_sessions(table: pd.DataFrame) -> pd.DataFrame:

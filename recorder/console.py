@@ -47,6 +47,7 @@ from recorder.procedure import (
 from recorder.setup_rules import form_fields
 from recorder.summary import RecordingSummary
 from twopose.format.entries import GroundTruth, Note, PoseEntry, TruthKind, TypedEntry
+from twopose.methods import spec_of
 from twopose.values import Vec3
 
 if TYPE_CHECKING:
@@ -281,7 +282,7 @@ class WebDriver(Driver):
         self.session.update(trial=trial, n_poses=self.poses_per_trial)
         if not self.ground_truth:
             return ()
-        kind: TruthKind = "line" if self.session.method == "line" else "point"
+        kind: TruthKind = spec_of(self.session.method).truth_kind
         return (GroundTruth(trial, kind, self.ground_truth),)
 
     def _wait(self, what: str) -> tuple[str, Any]:

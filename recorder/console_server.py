@@ -38,6 +38,7 @@ from recorder.setup_rules import (
 )
 from twopose.errors import InputValueError, SourceError, TwoposeError
 from twopose.loopback import is_loopback_host
+from twopose.methods import spec_of
 
 if TYPE_CHECKING:
     from recorder.sources import FrameSource
@@ -129,7 +130,7 @@ def preview(source: FrameSource, session: ConsoleSession) -> None:
         return
     ok, encoded = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, 80])
     if ok:
-        target = "dot" if session.method == "point" else "glove"
+        target = spec_of(session.method).target
         try:
             detection = detect(image, target)
         except Exception as err:  # the overlay is a courtesy; it must not stop the recording
@@ -165,7 +166,7 @@ def _recording(
             session, src, "cam0", setup.ground_truth, options.poses, (0.0625, 0.5), preview
         )
         ground = GroundPlane(offset=setup.ground_height) if setup.ground_height else None
-        target = "dot" if setup.method == "point" else "glove"
+        target = spec_of(setup.method).target
         summary = record(
             session.out, info, [camera], src, driver, ground=ground, frames=options.frames,
             target=target, live=session, rig=options.rig,

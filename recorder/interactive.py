@@ -38,17 +38,16 @@ from recorder.summary import RecordingSummary
 from twopose.camera import Camera, Intrinsics
 from twopose.errors import InputValueError
 from twopose.format.entries import (
-    METHODS,
-    UNITS,
     GroundPlane,
     GroundTruth,
-    Method,
     Note,
     PoseEntry,
     SessionInfo,
     TruthKind,
     TypedEntry,
 )
+from twopose.methods import METHODS, Method, spec_of
+from twopose.units import UNITS, Units
 from twopose.values import Vec3
 
 if TYPE_CHECKING:
@@ -94,8 +93,8 @@ def ask_setup(
 ) -> Setup:
     """Ask for whatever is None (or missing) above; answers are checked as they are typed.
     ``intrinsics_sigma`` (a calibration file's) travels with the intrinsics."""
-    m = method or op.ask("method (point, line, ground)", one_of(METHODS))
-    u = units if units in UNITS else op.ask("units (in, mm, cm, m)", one_of(UNITS), "in")
+    m = Method(method or op.ask("method (point, line, ground)", one_of(METHODS)))
+    u = Units(units if units in UNITS else op.ask("units (in, mm, cm, m)", one_of(UNITS), "in"))
     if intrinsics is None:
         f = focal if focal and focal > 0 else op.ask("focal parameter, px", positive_number, "525")
         cx, cy = principal or op.ask("principal point cx, cy (px)", number_pair, "320, 240")
@@ -110,8 +109,7 @@ def ask_setup(
         )
     truth = _ask_truth(op, m, u, h, list(ground_truth))
     who = operator if operator is not None else op.ask("operator", str, "")
-    method_ = cast("Method", m)  # one of METHODS: checked when it was read
-    return Setup(method_, u, intrinsics, h, truth, who, dict(intrinsics_sigma or {}))
+    return Setup(m, u, intrinsics, h, truth, who, dict(intrinsics_sigma or {}))
 
 
 def _ask_truth(
@@ -119,7 +117,7 @@ def _ask_truth(
 ) -> tuple[Vec3, ...]:
     """The ground truth, checked as typed: a line's two points must differ, and a method 2
     point off the ground plane is kept only if the operator confirms it."""
-    n_truth = 2 if method == "line" else 1
+    n_truth = spec_of(method).truth_points
     if n_truth == 2 and len(given) >= 2 and given[0] == given[1]:
         raise InputValueError(f"the two ground-truth points of a line must differ, got {given}")
     given = given[:n_truth]
@@ -225,7 +223,7 @@ class _OperatorDriver(Driver):
         self.op.say(f"trial {trial}")
         if not self.ground_truth:
             return ()
-        kind: TruthKind = "line" if self.info.method == "line" else "point"
+        kind: TruthKind = spec_of(self.info.method).truth_kind
         return (GroundTruth(trial, kind, self.ground_truth),)
 
     def place(self, trial: int, pose: int) -> Placement:
@@ -312,7 +310,7 @@ def record_interactive(
         driver,
         ground=ground,
         frames=frames,
-        target="dot" if info.method == "point" else "glove",
+        target=spec_of(info.method).target,
         live=live,
         on_frame=lambda fb: operator.say(fb.line()),
         rig=rig,

@@ -25,16 +25,15 @@ from twopose.camera import Camera, Intrinsics
 from twopose.config import read_toml
 from twopose.errors import InputValueError, SourceError
 from twopose.format.entries import (
-    METHODS,
-    UNITS,
     GroundPlane,
     GroundTruth,
-    Method,
     PoseEntry,
     SessionInfo,
     TruthKind,
     TypedEntry,
 )
+from twopose.methods import METHODS, Method, spec_of
+from twopose.units import UNIT_SPECS, UNITS, Units
 from twopose.values import Vec3, finite, numbers, vec3
 
 if TYPE_CHECKING:
@@ -53,10 +52,10 @@ __all__ = [
 ]
 
 #: Plausible magnitude of a typed translation (session units); beyond it, a typo is likelier.
-MAX_TRANSLATION = {"in": 200.0, "mm": 5000.0, "cm": 500.0, "m": 5.0}
+MAX_TRANSLATION = {str(u): spec.max_translation for u, spec in UNIT_SPECS.items()}
 #: How far (session units) a method 2 ground truth may sit off the ground plane before it is
 #: questioned: half a 1/16 in tape tick, or half a millimetre.
-GROUND_TOLERANCE = {"in": 1 / 32, "mm": 0.5, "cm": 0.05, "m": 0.0005}
+GROUND_TOLERANCE = {str(u): spec.ground_tolerance for u, spec in UNIT_SPECS.items()}
 
 #: The keys a plan may hold, per table (anything else is a typo that would be ignored).
 _PLAN_KEYS = {
@@ -114,7 +113,7 @@ class Plan:
     """A whole session to record unattended (scripted rigs, tests)."""
 
     method: Method
-    units: str
+    units: Units
     cameras: tuple[Camera, ...]
     trials: tuple[PlannedTrial, ...]
     frames: int = 5
@@ -152,16 +151,18 @@ def load_plan(path: str | Path) -> Plan:
     method = data.get("method")
     if method not in METHODS:
         raise InputValueError(f"plan: method must be one of {', '.join(METHODS)}, got {method!r}")
+    method = Method(method)
     units = data.get("units", "in")
     if units not in UNITS:
         raise InputValueError(f"plan: units must be one of {', '.join(UNITS)}, got {units!r}")
+    units = Units(units)
     cameras_data = data.get("cameras") or [data.get("camera", {})]
     cameras = tuple(_camera(c) for c in cameras_data)
     frames = data.get("frames", 5)
     if isinstance(frames, bool) or not isinstance(frames, int) or frames < 1:
         raise InputValueError(f"plan: frames must be a whole number >= 1, got {frames!r}")
     ground = data.get("ground_height")
-    if method == "ground" and ground is None:
+    if spec_of(method).needs_ground and ground is None:
         raise InputValueError("plan: a ground session needs ground_height (camera centre to table)")
     height = None if ground is None else finite(ground, "plan: ground_height", positive=True)
     res = _known_keys(data.get("resolution", {}), "resolution", "resolution")
@@ -213,7 +214,7 @@ def _trial(
     gt = tuple(_vec(g, where) for g in t.get("ground_truth", []))
     if any(max(abs(v) for v in g) > MAX_TRANSLATION[units] for g in gt):
         raise InputValueError(f"plan: {where} = {gt} is implausibly large for {units}")
-    want = 2 if method == "line" else 1
+    want = spec_of(method).truth_points
     if gt and len(gt) != want:
         raise InputValueError(f"plan: {where} needs {want} point(s) for {method}, got {len(gt)}")
     if method == "line" and gt and gt[0] == gt[1]:
@@ -251,7 +252,7 @@ class _PlanDriver(Driver):
         truth = self.plan.trials[trial - 1].ground_truth
         if not truth:
             return ()
-        kind: TruthKind = "line" if self.plan.method == "line" else "point"
+        kind: TruthKind = spec_of(self.plan.method).truth_kind
         return (GroundTruth(trial, kind, truth),)
 
     def poses_in(self, trial: int) -> int:
@@ -330,7 +331,7 @@ def record_plan(
         rig=rig,
         ground=ground,
         frames=plan.frames,
-        target="dot" if plan.method == "point" else "glove",
+        target=spec_of(plan.method).target,
         live=live,
         on_frame=on_frame,
     )

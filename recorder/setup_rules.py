@@ -13,12 +13,13 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, cast
+from typing import Any
 
 from recorder.plan import MAX_TRANSLATION, off_ground
 from twopose.camera import Intrinsics
 from twopose.errors import InputValueError
-from twopose.format.entries import METHODS, UNITS, Method
+from twopose.methods import METHODS, Method
+from twopose.units import UNITS, Units
 from twopose.values import Vec3, finite, numbers, vec3
 
 __all__ = [
@@ -48,7 +49,7 @@ class Setup:
     """What a session needs before its first trial."""
 
     method: Method
-    units: str
+    units: Units
     intrinsics: Intrinsics
     ground_height: float | None
     ground_truth: tuple[Vec3, ...]
@@ -280,7 +281,7 @@ def setup_from_answers(form: Mapping[str, str], given: Mapping[str, Any]) -> Set
     :class:`FormRefusedError` holding every refusal, by field."""
     a = _Answers(form, given)
     method = a.check("method", _method)
-    units = a.check("units", lambda s: one_of(UNITS)(s or "in")) or "in"
+    units = a.check("units", lambda s: Units(one_of(UNITS)(s or "in"))) or Units.IN
     intrinsics = given.get("intrinsics") or _intrinsics(a, given.get("size", (640, 480)))
     height = None
     if method == "ground":
@@ -290,13 +291,14 @@ def setup_from_answers(form: Mapping[str, str], given: Mapping[str, Any]) -> Set
     if a.errors:
         raise FormRefusedError(a.errors)
     sigma = dict(given.get("intrinsics_sigma") or {})
-    return Setup(cast("Method", method), units, intrinsics, height, truth, operator, sigma)
+    assert method is not None  # a.errors holds its refusal otherwise
+    return Setup(method, units, intrinsics, height, truth, operator, sigma)
 
 
-def _method(text: str) -> str:
+def _method(text: str) -> Method:
     if not text:
         raise InputValueError("choose point, line or ground")
-    return one_of(METHODS)(text)
+    return Method(one_of(METHODS)(text))
 
 
 def _ground_height(text: str, units: str) -> float:

@@ -30,7 +30,6 @@ from twopose.arrays import F64
 from twopose.camera import Camera, Intrinsics, project_points, rotation_from_angles_deg
 from twopose.errors import InputValueError, SceneError
 from twopose.format.entries import (
-    METHODS,
     GroundPlane,
     GroundTruth,
     PoseEntry,
@@ -40,7 +39,9 @@ from twopose.format.entries import (
     TruthKind,
     TypedEntry,
 )
+from twopose.methods import spec_of
 from twopose.rig import RigConstants, angles_deg_from_rotation
+from twopose.units import unit_spec
 from twopose.values import Vec3
 
 __all__ = ["SimulationSummary", "calibrated_cameras", "simulate_session", "target_points"]
@@ -371,8 +372,7 @@ def simulate_session(
     on_progress : callable, optional
         Called after every frame rendered and written (``trials * poses * frames`` times).
     """
-    if method not in METHODS:
-        raise InputValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+    method = spec_of(method).method  # refuses an unknown method, naming the known ones
     if trials < 1:
         raise InputValueError(f"trials must be >= 1, got {trials}")
     if frames < 1:
@@ -384,7 +384,7 @@ def simulate_session(
     camera = _SimulatedCamera(scene, layout, rng, clock)
     info = SessionInfo(
         method=method,
-        units=scene.units,
+        units=unit_spec(scene.units).units,
         camera_ids=tuple(c.id for c in scene.cameras),
         operator="twopose simulator",
         notes=(

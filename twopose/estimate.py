@@ -20,9 +20,11 @@ from twopose.camera import Intrinsics, camera_centres, rotation_from_angles_deg
 from twopose.conditioning import parallax_sine
 from twopose.detect import CombineMethod, PoseMeasurement, combine_frames
 from twopose.format.entries import PoseEntry
+from twopose.methods import Method, spec_of
 from twopose.optimal_lines import centroid_segments, optimal_lines
 from twopose.solve import (
     DEFAULT_MIN_CONDITIONING,
+    NViewLines,
     image_lines,
     projection_matrices,
     triangulate_ground,
@@ -220,29 +222,54 @@ def solve_batch(
     method: str, batch: ViewBatch, ground: GroundSpec | None, options: EstimateSettings
 ) -> Solved:
     """Batch-solve rows of N >= 2 pose measurements with every estimator."""
+    return _SOLVERS[spec_of(method).method](batch, ground, options.min_conditioning)
+
+
+def _solve_points(batch: ViewBatch, ground: GroundSpec | None, mc: float) -> Solved:
+    """Method 1: the thesis' two-ray least squares and the reprojection-optimal point."""
+    px, valid, P = batch.inputs[..., :2], batch.valid, batch.P()
+    s = triangulate_points(px, P, valid=valid, min_conditioning=mc)
+    o = triangulate_points(px, P, valid=valid, estimator="optimal", min_conditioning=mc)
+    margins = {"parallax_deg": degrees_from_sine(s.conditioning)}
+    return Solved(s.point_grid, None, o.point_grid, s.conditioning, s.status, s.reason, margins)
+
+
+def _view_planes(batch: ViewBatch, mc: float) -> tuple[F64, F64, NViewLines, dict[str, F64]]:
+    """The image lines, cameras and the planes' line (and its margins) of line and ground."""
     px, th, valid, P = batch.inputs[..., :2], batch.inputs[..., 2], batch.valid, batch.P()
-    mc = options.min_conditioning
-    if method == "point":
-        s = triangulate_points(px, P, valid=valid, min_conditioning=mc)
-        o = triangulate_points(px, P, valid=valid, estimator="optimal", min_conditioning=mc)
-        margins = {"parallax_deg": degrees_from_sine(s.conditioning)}
-        return Solved(s.point_grid, None, o.point_grid, s.conditioning, s.status, s.reason, margins)
     lines = image_lines(px, th)
     ls = triangulate_lines(lines, P, valid=valid, min_conditioning=mc)
     margins = {
         "parallax_deg": degrees_from_sine(parallax_sine(P, valid, ls.point_grid)),
         "plane_angle_deg": degrees_from_sine(ls.conditioning),
     }
-    if method == "line":
-        return Solved(
-            ls.point_grid, ls.direction_grid, None, ls.conditioning, ls.status, ls.reason, margins
-        )
+    return lines, P, ls, margins
+
+
+def _solve_lines(batch: ViewBatch, ground: GroundSpec | None, mc: float) -> Solved:
+    """The fixed line: the views' planes' intersection."""
+    _, _, ls, margins = _view_planes(batch, mc)
+    return Solved(
+        ls.point_grid, ls.direction_grid, None, ls.conditioning, ls.status, ls.reason, margins
+    )
+
+
+def _solve_ground(batch: ViewBatch, ground: GroundSpec | None, mc: float) -> Solved:
+    """Method 2: the views' planes and the ground plane y = h."""
     assert ground is not None
-    g = triangulate_ground(lines, P, ground[0], ground[1], valid=valid, min_conditioning=mc)
-    margins["parallax_deg"] = degrees_from_sine(parallax_sine(P, valid, g.point_grid))
+    lines, P, ls, margins = _view_planes(batch, mc)
+    g = triangulate_ground(lines, P, ground[0], ground[1], valid=batch.valid, min_conditioning=mc)
+    margins["parallax_deg"] = degrees_from_sine(parallax_sine(P, batch.valid, g.point_grid))
     n3 = ground[0] / np.linalg.norm(ground[0])
     margins["line_ground_angle_deg"] = degrees_from_sine(np.abs(ls.direction_grid @ n3))
     return Solved(g.point_grid, None, None, g.conditioning, g.status, g.reason, margins)
+
+
+_SOLVERS: dict[Method, Callable[[ViewBatch, GroundSpec | None, float], Solved]] = {
+    Method.POINT: _solve_points,
+    Method.LINE: _solve_lines,
+    Method.GROUND: _solve_ground,
+}
 
 
 def thesis_estimate(
@@ -257,6 +284,7 @@ def thesis_estimate(
     Lines report their point nearest ``reference`` (T, 3), held fixed.
     """
     mc, T = options.min_conditioning, batch.valid.shape[0]
+    spec = spec_of(method)
 
     def estimate(x: F64) -> F64:
         reps = x.shape[0] // T  # propagate stacks copies of the T trials
@@ -267,10 +295,10 @@ def thesis_estimate(
         D = len(INPUTS_PER_VIEW)
         intr = x[..., D:] if x.shape[-1] > D else np.tile(batch.intrinsics, (reps, 1, 1))
         P = projection_matrices(intr, R, x[..., 3:6])
-        if method == "point":
+        if not spec.uses_image_lines:  # method 1: the dot's rays
             return triangulate_points(x[..., :2], P, valid=valid, min_conditioning=mc).point_grid
         lines = image_lines(x[..., :2], x[..., 2])
-        if method == "ground":
+        if spec.needs_ground:  # method 2: the planes and the ground
             assert ground is not None
             return triangulate_ground(
                 lines, P, ground[0], ground[1], valid=valid, min_conditioning=mc
@@ -479,7 +507,7 @@ def estimate_trials(
         propagated.variance_by_group,
         propagated.shared_variance,
     )
-    if method == "line":
+    if spec_of(method).estimates_line:
         _store_weighted_lines(out, solvable, batch, cov_in, options)
         _store_optimal_lines(out, solvable, batch, cov_in, options)
     return out

@@ -39,6 +39,7 @@ from twopose.camera import rotation_from_angles_deg
 from twopose.errors import InputValueError
 from twopose.estimate import GroundSpec, PoseView
 from twopose.format.entries import INCHES_PER_UNIT, UNITS
+from twopose.units import unit_spec
 
 __all__ = [
     "LIMITS",
@@ -306,7 +307,7 @@ def check_applicable(
     elif rig.units != units:
         raise InputValueError(
             f"{what} is in {rig.units}, the session in {units}: its camera offset and ground "
-            f"height error are lengths; calibrate a rig from sessions in {_NAMES[units]}"
+            f"height error are lengths; calibrate a rig from sessions in {unit_spec(units).name}"
         )
     sizes = list(image_sizes)
     smallest = (min(w for w, _ in sizes), min(h for _, h in sizes)) if sizes else None
@@ -314,9 +315,6 @@ def check_applicable(
         rig, units=units, ground_height=ground_height(ground), image_size=smallest, what=what
     )
     return notes
-
-
-_NAMES = {"in": "inches", "mm": "millimetres", "cm": "centimetres", "m": "metres"}
 
 
 def load_rig(path: str | Path) -> RigConstants:

@@ -22,6 +22,7 @@ from twopose.arrays import F64
 from twopose.camera import quaternion_xyzw_from_matrix, rotation_from_angles_deg
 from twopose.format.entries import GroundPlane
 from twopose.format.messages import GRID_FRAME
+from twopose.methods import spec_of
 from twopose.overlay import GREEN, RED, set_color
 from twopose.uncertainty import CHI2_95
 
@@ -219,9 +220,9 @@ def trial_scene(s: TrialScene, log_time_ns: int) -> SceneUpdate:
     # What each view measured: a ray (points) or the plane of its image line (lines).
     e = _entity(update, log_time_ns, "measurements", s.trial)
     seen = np.isfinite(s.px).all(axis=1) & (
-        np.isfinite(s.theta_deg) if s.method != "point" else True
+        np.isfinite(s.theta_deg) if spec_of(s.method).uses_image_lines else True
     )
-    if s.method == "point":
+    if not spec_of(s.method).uses_image_lines:  # rays through the dot
         ray = _rays(s, s.px[:, None])[:, 0]
         rays = np.stack([centres, centres + ray * reach[:, None]], axis=1)[seen]
         _line(e, LinePrimitive.Type.LINE_LIST, rays.reshape(-1, 3), ORANGE, 1.5)
@@ -252,7 +253,7 @@ def trial_scene(s: TrialScene, log_time_ns: int) -> SceneUpdate:
     if np.isfinite(s.truth).all():
         e = _entity(update, log_time_ns, "truth", s.trial)
         size = 0.04 * float(np.mean(reach))
-        if s.method == "line":
+        if spec_of(s.method).truth_kind == "line":
             _line(e, LinePrimitive.Type.LINE_STRIP, s.truth, GREEN, 4.0)
         else:
             _sphere(e, s.truth[0], np.full(3, size), np.eye(3), GREEN)

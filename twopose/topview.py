@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from twopose.arrays import F64
+from twopose.methods import spec_of
 from twopose.scene3d import TrialScene
 from twopose.solve import image_lines, projection_matrices
 
@@ -61,13 +62,14 @@ def top_view(scene: TrialScene) -> TopView:
     """The trial from above (see the module docstring)."""
     estimate = scene.estimate if np.isfinite(scene.estimate).all() else None
     reach = _reach(scene, estimate)
-    if scene.method == "point":
+    spec = spec_of(scene.method)
+    if not spec.uses_image_lines:  # method 1: the rays through the dot
         segments = _rays(scene, reach)
-    elif scene.method == "ground":
+    elif spec.needs_ground:  # method 2: the planes' traces on the ground
         segments = _ground_traces(scene, estimate, reach)
     else:
         segments = _lines(scene, estimate, reach)
-    truth = None if scene.method == "line" else _xz(scene.truth[0])
+    truth = None if spec.truth_kind == "line" else _xz(scene.truth[0])
     cameras = tuple(c for c in (_xz(t) for t in scene.t_grid) if c is not None)
     return TopView(
         trial=scene.trial,

@@ -28,6 +28,7 @@ from twopose.estimate import (
     margin_warnings,
     measure,
 )
+from twopose.methods import spec_of
 from twopose.uncertainty import uncertainty_columns
 
 __all__ = ["TrialResult", "reported_point", "trial_results"]
@@ -38,7 +39,7 @@ def reported_point(method: str, est: Estimates, truth: F64) -> tuple[F64, F64]:
     for lines, the estimated line's point nearest the true segment's midpoint, and that
     midpoint (with no truth, the solved point and NaN); otherwise the estimate and the
     first true point."""
-    if method == "line":
+    if spec_of(method).estimates_line:
         with np.errstate(invalid="ignore"):
             point, mid, _, _ = line_errors(est.point, est.direction, truth[:, 0], truth[:, 1])
         return np.where(np.isfinite(mid), point, est.point), mid
@@ -142,7 +143,7 @@ def trial_results(
             status=str(est.status[i]),
             reason=str(est.reason[i]),
             point=_triple(point[i]),
-            direction=_triple(est.direction[i]) if method == "line" else None,
+            direction=_triple(est.direction[i]) if spec_of(method).estimates_line else None,
             semiaxis95=float(spread["semiaxis95"][i]),
             ci95=_triple(np.array([spread[f"ci95_{a}"][i] for a in "xyz"])),
             margins={k: float(v[i]) for k, v in est.margins.items()},

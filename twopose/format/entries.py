@@ -20,6 +20,8 @@ from numpy.typing import NDArray
 
 from twopose.camera import SIGMA_KEYS, intrinsics_sigma, rotation_from_angles_deg
 from twopose.errors import InputValueError, SessionFormatError
+from twopose.methods import METHODS, Method, spec_of
+from twopose.units import UNIT_SPECS, UNITS, Units, unit_spec
 from twopose.values import CAMERA_ID_PATTERN, Vec3, camera_id, finite, index, numbers, vec3
 
 __all__ = [
@@ -50,11 +52,8 @@ __all__ = [
 FORMAT_VERSION = "1.2"
 FORMAT_MAJOR = 1
 
-Method = Literal["point", "line", "ground"]
-METHODS: tuple[Method, ...] = ("point", "line", "ground")
-UNITS = ("in", "mm", "cm", "m")
-#: Inches in one session unit (the thesis reports in inches).
-INCHES_PER_UNIT = {"in": 1.0, "mm": 1 / 25.4, "cm": 1 / 2.54, "m": 1000 / 25.4}
+#: Inches in one session unit (the thesis reports in inches): twopose.units' registry.
+INCHES_PER_UNIT = {str(u): spec.inches for u, spec in UNIT_SPECS.items()}
 TruthKind = Literal["point", "line"]
 CaptureStatus = Literal["complete", "incomplete"]
 Verdict = Literal["accept", "discard"]
@@ -225,7 +224,7 @@ class SessionInfo(TypedEntry):
         "software_version", {"type": "string"}, required=False, default=""
     )
     method: Method = json_field("method", {"enum": list(METHODS)})
-    units: str = json_field("units", {"enum": list(UNITS)})
+    units: Units = json_field("units", {"enum": list(UNITS)})
     camera_ids: tuple[str, ...] = json_field(
         "camera_ids",
         {"type": "array", "items": _CAMERA_SCHEMA, "minItems": 1, "uniqueItems": True},
@@ -258,12 +257,9 @@ class SessionInfo(TypedEntry):
     )
 
     def __post_init__(self) -> None:
-        if self.method not in METHODS:
-            raise InputValueError(
-                f"method must be one of {', '.join(METHODS)}, got {self.method!r}"
-            )
-        if self.units not in UNITS:
-            raise InputValueError(f"units must be one of {', '.join(UNITS)}, got {self.units!r}")
+        # The registries' types (equal to, and serialised as, the names in the file).
+        object.__setattr__(self, "method", spec_of(self.method).method)
+        object.__setattr__(self, "units", unit_spec(self.units).units)
         if not self.camera_ids:
             raise InputValueError("a session needs at least one camera")
         for cid in self.camera_ids:

@@ -1,0 +1,78 @@
+"""The method and unit registries: every member has its spec, names stay the file's, and
+an unknown name is refused naming the known ones."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from twopose.errors import InputValueError
+from twopose.format.entries import SessionInfo, decode_entry, encode_entry
+from twopose.methods import METHOD_SPECS, METHODS, Method, spec_of
+from twopose.units import UNIT_SPECS, UNITS, Units, unit_spec
+
+
+def test_every_method_and_unit_has_its_spec() -> None:
+    assert set(METHOD_SPECS) == set(Method)
+    assert METHODS == (Method.POINT, Method.LINE, Method.GROUND)  # the thesis' order
+    assert set(UNIT_SPECS) == set(Units)
+    assert UNITS[0] == Units.IN  # the default
+    for method, spec in METHOD_SPECS.items():
+        assert spec.method is method
+    for units, unit in UNIT_SPECS.items():
+        assert unit.units is units
+
+
+def test_what_each_method_is() -> None:
+    point, line, ground = (spec_of(m) for m in ("point", "line", "ground"))
+    assert (point.target, line.target, ground.target) == ("dot", "glove", "glove")
+    assert (point.truth_points, line.truth_points, ground.truth_points) == (1, 2, 1)
+    assert [s.needs_ground for s in (point, line, ground)] == [False, False, True]
+    assert [s.estimates_line for s in (point, line, ground)] == [False, True, False]
+    assert [s.uses_image_lines for s in (point, line, ground)] == [False, True, True]
+    # Every method's margins include the parallax; method 2 adds the line-ground angle.
+    assert all(s.margins[0] == "parallax_deg" for s in (point, line, ground))
+    assert "line_ground_angle_deg" in ground.margins
+    assert "line_ground_angle_deg" not in line.margins
+
+
+def test_units_agree_with_each_other() -> None:
+    assert unit_spec("mm").inches == pytest.approx(1 / 25.4)
+    for spec in UNIT_SPECS.values():
+        # The limits are the same lengths in every unit (to the nearest round number).
+        assert spec.max_translation * spec.inches == pytest.approx(200, rel=0.02)
+        assert spec.ground_tolerance * spec.inches == pytest.approx(1 / 32, rel=0.4)
+
+
+def test_the_types_are_their_names() -> None:
+    assert Method.POINT == "point"
+    assert f"{Method.GROUND}" == "ground"
+    assert json.dumps([Method.LINE, Units.CM]) == '["line", "cm"]'
+
+
+@pytest.mark.parametrize(
+    ("call", "name", "message"),
+    [
+        (spec_of, "plane", "method must be one of point, line, ground, got 'plane'"),
+        (spec_of, "", "method must be one of"),
+        (spec_of, "POINT", "got 'POINT'"),
+        (unit_spec, "furlongs", "units must be one of in, mm, cm, m, got 'furlongs'"),
+    ],
+)
+def test_an_unknown_name_is_refused_naming_the_known_ones(
+    call: object, name: str, message: str
+) -> None:
+    with pytest.raises(InputValueError, match=message):
+        call(name)  # type: ignore[operator]
+
+
+def test_session_info_holds_the_types_and_writes_the_names() -> None:
+    info = SessionInfo(method="ground", units="mm")  # type: ignore[arg-type]
+    assert info.method is Method.GROUND
+    assert info.units is Units.MM
+    encoded = encode_entry(info)
+    assert json.loads(encoded)["method"] == "ground"
+    assert decode_entry(SessionInfo.SCHEMA_NAME, encoded) == info
+    with pytest.raises(InputValueError, match="got 'plane'"):
+        SessionInfo(method="plane", units="in")  # type: ignore[arg-type]

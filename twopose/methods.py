@@ -1,0 +1,110 @@
+"""The reconstruction methods as a type, with one registry of what each one is.
+
+Every rule that depends on the method reads it here: which target the detector looks for,
+what ground truth a trial carries, whether the ground plane is needed, whether the estimate
+is a line, which degeneracy margins apply, and how the thesis names it. Adding a method is
+adding a :class:`MethodSpec`; nothing else compares method names.
+
+``Method`` is a :class:`~enum.StrEnum`: its members equal their names (``Method.POINT ==
+"point"``), print as them and serialise as them, so session files, tables and JSON are the
+same as when the method was a plain string.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from enum import StrEnum
+from types import MappingProxyType
+from typing import Literal
+
+from twopose.errors import InputValueError
+
+__all__ = ["METHODS", "METHOD_SPECS", "Method", "MethodSpec", "spec_of"]
+
+
+class Method(StrEnum):
+    """What a session reconstructs (DESIGN.md; the thesis' method 1, the line, method 2)."""
+
+    POINT = "point"  # method 1: a fixed dot, two rays (thesis eq. for [p1, -R p2] a = d)
+    LINE = "line"  # a fixed line: each image line back-projects to a plane
+    GROUND = "ground"  # method 2: the glove's planes meet the ground plane y = h
+
+
+@dataclass(frozen=True, kw_only=True)
+class MethodSpec:
+    """What one method is, for every stage that depends on it."""
+
+    method: Method
+    #: What the detector looks for in each frame (twopose.detect): the dark dot or the glove.
+    target: Literal["dot", "glove"]
+    #: The ground truth a trial carries: one point, or a line's two points.
+    truth_kind: Literal["point", "line"]
+    #: Whether the estimate needs the ground plane y = h (the session's ground height).
+    needs_ground: bool
+    #: Degeneracy margins (trials.csv columns, degrees) that apply to the method.
+    margins: tuple[str, ...]
+    #: How the thesis names it, and how tables and verdicts label it.
+    thesis_name: str
+    label: str
+
+    @property
+    def truth_points(self) -> int:
+        """How many ground-truth points a trial has (a line's two ends)."""
+        return 2 if self.truth_kind == "line" else 1
+
+    @property
+    def estimates_line(self) -> bool:
+        """Whether the estimate is a 3-D line (a point on it and a direction)."""
+        return self.truth_kind == "line"
+
+    @property
+    def uses_image_lines(self) -> bool:
+        """Whether each view's measurement is an image line (orientation) and not a point."""
+        return self.target == "glove"
+
+
+METHOD_SPECS: Mapping[Method, MethodSpec] = MappingProxyType(
+    {
+        Method.POINT: MethodSpec(
+            method=Method.POINT,
+            target="dot",
+            truth_kind="point",
+            needs_ground=False,
+            margins=("parallax_deg",),
+            thesis_name="method 1",
+            label="point (method 1)",
+        ),
+        Method.LINE: MethodSpec(
+            method=Method.LINE,
+            target="glove",
+            truth_kind="line",
+            needs_ground=False,
+            margins=("parallax_deg", "plane_angle_deg"),
+            thesis_name="fixed line",
+            label="line",
+        ),
+        Method.GROUND: MethodSpec(
+            method=Method.GROUND,
+            target="glove",
+            truth_kind="point",
+            needs_ground=True,
+            margins=("parallax_deg", "plane_angle_deg", "line_ground_angle_deg"),
+            thesis_name="method 2",
+            label="ground (method 2)",
+        ),
+    }
+)
+#: The methods' names, in the order the thesis presents them.
+METHODS: tuple[Method, ...] = tuple(METHOD_SPECS)
+
+
+def spec_of(method: str) -> MethodSpec:
+    """The spec of ``method`` (a :class:`Method` or its name); an unknown name raises
+    :class:`~twopose.errors.InputValueError` listing the known ones."""
+    try:
+        return METHOD_SPECS[Method(method)]
+    except ValueError:
+        raise InputValueError(
+            f"method must be one of {', '.join(METHODS)}, got {method!r}"
+        ) from None
