@@ -212,7 +212,7 @@ def _replay(
     frames are dropped once detected, so memory does not grow with session length."""
     info = reader.info
     ground: GroundSpec | None = None
-    if info.method == "ground":
+    if spec_of(info.method).needs_ground:
         if reader.ground is None:
             raise SessionFormatError(f"{session}: a ground session without a /twopose/ground plane")
         ground = (np.array(reader.ground.normal_grid), reader.ground.offset)
@@ -413,7 +413,7 @@ def _write_trial_scenes(
             views,
             ms,
             trials.loc[i, ["x", "y", "z"]].to_numpy(dtype=np.float64),
-            est.direction[i] if replay.method == "line" else None,
+            est.direction[i] if spec_of(replay.method).estimates_line else None,
             replay.truth[i],
             est.cov[i],
         )

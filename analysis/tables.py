@@ -19,6 +19,7 @@ from twopose.arrays import F64
 from twopose.camera import rotation_from_angles_deg
 from twopose.detect import Detection, PoseMeasurement
 from twopose.estimate import line_errors
+from twopose.methods import spec_of
 from twopose.trial_result import reported_point
 from twopose.uncertainty import uncertainty_columns
 
@@ -111,7 +112,7 @@ def frame_row(
 def _estimate_and_truth(method: str, est: Estimates, truth: F64) -> tuple[F64, F64, dict[str, Any]]:
     """The reported estimate, the truth it is compared with, and the method's extra columns."""
     point, reference = reported_point(method, est, truth)  # the one rule, shared with live
-    if method == "line":
+    if spec_of(method).estimates_line:
         with np.errstate(invalid="ignore"):
             _, _, angle, dist = line_errors(est.point, est.direction, truth[:, 0], truth[:, 1])
         extra = {f"dir_{a}": est.direction[:, i] for i, a in enumerate("xyz")}
@@ -181,7 +182,7 @@ def trial_table(
         table[name] = values
     table["warning"] = warnings
     table["baseline"] = [_baseline(v) for v in views]
-    if method == "line":
+    if spec_of(method).estimates_line:
         for name, values in _other_line_columns(est, truth).items():
             table[name] = values
     for name, values in uncertainty_columns(err, est.cov).items():

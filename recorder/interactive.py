@@ -100,7 +100,7 @@ def ask_setup(
         cx, cy = principal or op.ask("principal point cx, cy (px)", number_pair, "320, 240")
         intrinsics = Intrinsics(size[0], size[1], f, f, cx, cy)
     h = None
-    if m == "ground":
+    if spec_of(m).needs_ground:
         h = ground_height if ground_height and ground_height > 0 else None
         h = h or op.ask(
             f"ground height: camera centre to table ({u})",

@@ -214,12 +214,14 @@ def _trial(
     gt = tuple(_vec(g, where) for g in t.get("ground_truth", []))
     if any(max(abs(v) for v in g) > MAX_TRANSLATION[units] for g in gt):
         raise InputValueError(f"plan: {where} = {gt} is implausibly large for {units}")
-    want = spec_of(method).truth_points
-    if gt and len(gt) != want:
-        raise InputValueError(f"plan: {where} needs {want} point(s) for {method}, got {len(gt)}")
-    if method == "line" and gt and gt[0] == gt[1]:
+    spec = spec_of(method)
+    if gt and len(gt) != spec.truth_points:
+        raise InputValueError(
+            f"plan: {where} needs {spec.truth_points} point(s) for {method}, got {len(gt)}"
+        )
+    if spec.truth_points == 2 and gt and gt[0] == gt[1]:
         raise InputValueError(f"plan: {where}: the line's two points must differ")
-    if method == "ground" and gt and height is not None and off_ground(gt[0], height, units):
+    if spec.needs_ground and gt and height is not None and off_ground(gt[0], height, units):
         raise InputValueError(f"plan: {where}: {off_ground(gt[0], height, units)}")
     return PlannedTrial(tuple(poses), gt)
 

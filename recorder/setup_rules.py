@@ -18,7 +18,7 @@ from typing import Any
 from recorder.plan import MAX_TRANSLATION, off_ground
 from twopose.camera import Intrinsics
 from twopose.errors import InputValueError
-from twopose.methods import METHODS, Method
+from twopose.methods import METHODS, Method, spec_of
 from twopose.units import UNITS, Units
 from twopose.values import Vec3, finite, numbers, vec3
 
@@ -284,7 +284,7 @@ def setup_from_answers(form: Mapping[str, str], given: Mapping[str, Any]) -> Set
     units = a.check("units", lambda s: Units(one_of(UNITS)(s or "in"))) or Units.IN
     intrinsics = given.get("intrinsics") or _intrinsics(a, given.get("size", (640, 480)))
     height = None
-    if method == "ground":
+    if method is not None and spec_of(method).needs_ground:
         height = a.check("ground_height", lambda s: _ground_height(s, units))
     truth = _truth(a, method, units, height) if method is not None else ()
     operator = a.text("operator")
@@ -328,7 +328,7 @@ def _intrinsics(a: _Answers, size: tuple[int, int]) -> Intrinsics:
 def _truth(a: _Answers, method: str, units: str, height: float | None) -> tuple[Vec3, ...]:
     """The ground truth (optional): a line's two points must differ, and a method 2 point
     off the ground plane is kept only when the operator ticked that it should be."""
-    names = ("truth1", "truth2") if method == "line" else ("truth1",)
+    names = ("truth1", "truth2")[: spec_of(method).truth_points]
     points: list[Vec3] = []
     for name in names:
         if not a.text(name):
@@ -338,7 +338,7 @@ def _truth(a: _Answers, method: str, units: str, height: float | None) -> tuple[
         )
         if point is not None:
             points.append(point)
-    if method == "line" and len(points) == 1 and not a.errors:
+    if spec_of(method).truth_points == 2 and len(points) == 1 and not a.errors:
         missing = "truth2" if a.text("truth1") else "truth1"
         a.errors[missing] = "a line needs two points (or leave both empty: no ground truth)"
     keep = a.text("keep_off_ground").lower() in ("y", "yes", "true", "on", "1")
