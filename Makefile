@@ -4,12 +4,12 @@ VENV ?= .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: run test lint sessions bench clean
+.PHONY: run test docs lint sessions bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[dev]'
+	$(BIN)/python -m pip install --quiet -e '.[dev,docs]'
 	touch $(STAMP)
 
 # The main job on the bundled sample sessions.
@@ -22,16 +22,21 @@ $(NODE_STAMP): tests/node/package.json tests/node/package-lock.json
 	npm ci --prefix tests/node --no-audit --no-fund --loglevel=error
 	touch $(NODE_STAMP)
 
-# The whole test suite: lint, types, tests (with the Node.js validation when node is here).
+# The whole test suite: lint, types, the docs, tests (with the Node.js validation when node is here).
 test: $(STAMP) $(if $(shell command -v npm),$(NODE_STAMP))
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
 	$(BIN)/mypy
+	$(BIN)/mkdocs build --strict --quiet
 	$(BIN)/pytest -q
+
+# The documentation site (docs/, mkdocs.yml) into site/, warnings as errors.
+docs: $(STAMP)
+	$(BIN)/mkdocs build --strict
 
 # Regenerate the bundled sample sessions (deterministic: same bytes every time).
 sessions: $(STAMP)
 	$(BIN)/python sessions/make_sessions.py sessions/
 
 clean:
-	rm -rf $(VENV) results/ tests/node/node_modules .mypy_cache .pytest_cache .ruff_cache
+	rm -rf $(VENV) results/ site/ tests/node/node_modules .mypy_cache .pytest_cache .ruff_cache

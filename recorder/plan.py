@@ -1,6 +1,6 @@
 """Plan files: a whole session to record unattended (scripted rigs, tests).
 
-:func:`load_plan` reads and checks a plan (TOML, see the README); :func:`record_plan` runs
+:func:`load_plan` reads and checks a plan (TOML, see docs/recording.md); :func:`record_plan` runs
 it through the one procedure loop (:func:`recorder.procedure.record`).
 """
 

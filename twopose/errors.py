@@ -57,7 +57,7 @@ class SourceError(TwoposeError):
     """A frame source failed to open, stopped delivering frames, or timed out."""
 
 
-#: Exit codes of the command-line tools (documented in the README).
+#: Exit codes of the command-line tools (documented in the README and docs/commands.md).
 EXIT_OK = 0
 EXIT_SOME_INPUTS_FAILED = 1
 EXIT_USAGE = 2  # click/typer's own code for a malformed command line

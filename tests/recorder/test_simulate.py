@@ -266,11 +266,11 @@ def test_bad_simulation_arguments(tmp_path: Path, kwargs: dict[str, object], mes
         simulate_session(tmp_path / "x.mcap", **kwargs)  # type: ignore[arg-type]
 
 
-def test_readme_documents_every_scene_parameter() -> None:
+def test_the_docs_document_every_scene_parameter() -> None:
     import dataclasses
 
-    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
-    section = readme.split("### Scene parameters", 1)[1].split("## Sample sessions", 1)[0]
+    page = (Path(__file__).resolve().parents[2] / "docs" / "simulator.md").read_text()
+    section = page.split("## Scene parameters", 1)[1]
     missing = []
     for f in dataclasses.fields(Scene):
         default = getattr(Scene(), f.name)
@@ -283,7 +283,7 @@ def test_readme_documents_every_scene_parameter() -> None:
             ]
         elif f"`{f.name}`" not in section:
             missing.append(f.name)
-    assert not missing, f"README's scene table misses {missing}"
+    assert not missing, f"docs/simulator.md's scene table misses {missing}"
 
 
 def test_progress_is_reported_for_every_frame(tmp_path: Path) -> None:
