@@ -121,14 +121,17 @@ def test_running_average_with_all_frames_equals_the_trial_estimate(ground_sessio
     r = analyse_session(ground_session)
     last = r.averaging[r.averaging["n_frames"] == 3].set_index("trial")
     trials = r.trials.set_index("trial")
-    np.testing.assert_allclose(
-        last[["x", "y", "z"]], trials.loc[last.index, ["x", "y", "z"]], atol=1e-12
-    )
+    assert len(last) == len(trials) == 2  # both trials, averaged up to all their frames
+    estimates = trials.loc[last.index, ["x", "y", "z"]].to_numpy()
+    assert np.isfinite(estimates).all()  # (assert_allclose would pass NaN against NaN)
+    np.testing.assert_allclose(last[["x", "y", "z"]].to_numpy(), estimates, atol=1e-12)
 
 
 def test_combine_option_changes_nothing_on_clean_data_but_runs(ground_session: Path) -> None:
     mean = analyse_session(ground_session, AnalysisOptions(combine="mean")).trials
     robust = analyse_session(ground_session, AnalysisOptions(combine="robust")).trials
+    assert len(mean) == len(robust) == 2
+    assert np.isfinite(mean[["x", "z"]].to_numpy()).all()
     np.testing.assert_allclose(mean[["x", "z"]], robust[["x", "z"]], atol=0.05)
 
 
@@ -177,6 +180,12 @@ def test_jobs_do_not_change_results(
 ) -> None:
     paths = [ground_session, point_session, line_session]
     one = run(paths, jobs=1)
+    # Equal empty tables would pass: every session's trials and frames are there.
+    assert sorted(one.trials["method"].unique()) == ["ground", "line", "point"]
+    assert (one.trials["status"] == "ok").all()
+    assert len(one.frames) > 0
+    assert len(one.averaging) > 0
+    assert len(one.summary) == 3
     for jobs in (2, 3):  # the main process works too: 1 or 2 workers beside it
         many = run(paths, jobs=jobs)
         for a, b in (
@@ -196,6 +205,8 @@ def test_dask_local_cluster_gives_the_same_tables(
     with distributed.LocalCluster(n_workers=1, processes=False, dashboard_address=None) as cluster:
         on_dask = run(paths, tmp_path, dask_address=cluster.scheduler_address)
     local = run(paths)
+    assert len(local.trials) > 0
+    assert (local.trials["status"] == "ok").all()
     pd.testing.assert_frame_equal(on_dask.trials, local.trials)
     assert {p.name for p in tmp_path.glob("*.mcap")} == {
         results_mcap_name(i, p) for i, p in enumerate(paths)
