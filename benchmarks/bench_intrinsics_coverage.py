@@ -44,9 +44,9 @@ from analysis import run  # noqa: E402
 from analysis.outputs import replacing  # noqa: E402
 from analysis.pipeline import replay_views  # noqa: E402
 from analysis.results import AnalysisOptions  # noqa: E402
-from recorder.scene import CameraParams, Scene  # noqa: E402
 from recorder.simulate import simulate_session  # noqa: E402
 from twopose.estimate import estimate_trials, measure  # noqa: E402
+from twopose.sim.scene import CameraParams, Scene  # noqa: E402
 from twopose.trial_result import reported_point  # noqa: E402
 from twopose.uncertainty import uncertainty_columns  # noqa: E402
 

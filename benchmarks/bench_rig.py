@@ -48,9 +48,9 @@ from analysis.batch import run  # noqa: E402
 from analysis.calibration import calibrate  # noqa: E402
 from analysis.metrics import used_trials  # noqa: E402
 from analysis.results import AnalysisOptions  # noqa: E402
-from recorder.scene import Scene  # noqa: E402
 from recorder.simulate import simulate_session  # noqa: E402
 from twopose.rig import RigConstants  # noqa: E402
+from twopose.sim.scene import Scene  # noqa: E402
 
 RIG = RigConstants(
     mount_rotation_deg=(0.8, -0.5, 0.3), camera_offset=(0.3, 0.2, 0.4), focal_scale=1.03

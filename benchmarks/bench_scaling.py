@@ -22,8 +22,8 @@ sys.path.insert(0, str(REPO))
 
 from analysis.pipeline import analyse_session  # noqa: E402
 from analysis.request import solve_request  # noqa: E402
-from recorder.scene import Scene  # noqa: E402
 from recorder.simulate import simulate_session  # noqa: E402
+from twopose.sim.scene import Scene  # noqa: E402
 
 
 def session_seconds(folder: Path, poses: int) -> float:

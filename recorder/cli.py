@@ -82,8 +82,8 @@ def simulate(
     from rich.console import Console
     from rich.progress import Progress
 
-    from recorder.scene import load_scene
     from recorder.simulate import simulate_session
+    from twopose.sim.scene import load_scene
 
     with handle_errors():
         loaded = load_scene(scene)

@@ -23,8 +23,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from recorder.procedure import Driver, Placement, record
-from recorder.render import Layout, build_layout, expose, finger_axis, render_radiance
-from recorder.scene import PoseParams, Scene
 from recorder.sources import FrameSource, SourceInfo
 from twopose.arrays import F64
 from twopose.camera import Camera, Intrinsics, project_points, rotation_from_angles_deg
@@ -40,7 +38,9 @@ from twopose.format.entries import (
     TypedEntry,
 )
 from twopose.methods import spec_of
-from twopose.rig import RigConstants, angles_deg_from_rotation
+from twopose.sim.camera import SyntheticCamera, camera_pose, true_intrinsics
+from twopose.sim.render import Layout, build_layout, finger_axis
+from twopose.sim.scene import CameraParams, PoseParams, Scene
 from twopose.units import unit_spec
 from twopose.values import Vec3
 
@@ -125,8 +125,8 @@ def _draw_trial_poses(
             # what each entry's recorded 1-sigma resolution promises the analysis.
             t_placed = t_typed + p.noise_sigma * rng.standard_normal(3)
             r_placed = r_typed + p.rotation_noise_deg * rng.standard_normal(3)
-            t_true, r_true = _camera_pose(scene.systematic, t_placed, r_placed)
-            true_intr = _true_intrinsics(scene.systematic, intr)
+            t_true, r_true = camera_pose(scene.systematic, t_placed, r_placed)
+            true_intr = true_intrinsics(scene.systematic, intr)
             if not _in_view(visible, true_intr, rotation_from_angles_deg(r_true), t_true):
                 break
             poses.append((t_typed, r_typed, t_true, r_true))
@@ -138,23 +138,6 @@ def _draw_trial_poses(
         f"scene: could not place {n_poses} poses at least {p.min_baseline} apart with the target "
         f"in view after {_MAX_POSE_DRAWS} draws; widen poses.*_range or move the target"
     )
-
-
-def _camera_pose(rig: RigConstants, t_placed: F64, r_placed: F64) -> tuple[F64, F64]:
-    """Where the camera really is when the laptop is placed at ``t_placed, r_placed``:
-    the rig's mount rotation, camera offset and tape scale (:mod:`twopose.rig`)."""
-    if rig.is_identity:
-        return t_placed, r_placed
-    t, R = rig.true_poses(t_placed, r_placed)
-    return np.asarray(t), np.array(angles_deg_from_rotation(R))
-
-
-def _true_intrinsics(rig: RigConstants, intr: Intrinsics) -> Intrinsics:
-    """The camera's real intrinsics: the rig's focal scale and principal offset."""
-    if rig.is_identity:
-        return intr
-    fx, fy, cx, cy = rig.true_intrinsics([intr.fx, intr.fy, intr.cx, intr.cy])
-    return dataclasses.replace(intr, fx=float(fx), fy=float(fy), cx=float(cx), cy=float(cy))
 
 
 def calibrated_cameras(scene: Scene, seed: int) -> tuple[Scene, list[Camera]]:
@@ -240,16 +223,24 @@ class _SimClock:
 
 
 class _SimulatedCamera(FrameSource):
-    """The synthetic webcam at the pose the simulated operator really placed it: renders
-    once per pose, exposes every frame anew, one frame interval on the clock per frame."""
+    """The synthetic camera (:class:`twopose.sim.camera.SyntheticCamera`) at the pose the
+    simulated operator really placed it: renders once per pose, exposes every frame anew,
+    one frame interval on the clock per frame."""
 
     def __init__(
         self, scene: Scene, layout: Layout, rng: np.random.Generator, clock: _SimClock
     ) -> None:
-        self.scene, self.layout, self.rng, self.clock = scene, layout, rng, clock
-        self.camera = scene.cameras[0]
+        self.synthetic = SyntheticCamera(scene, layout, rng)
+        self.scene, self.clock = scene, clock
         self.frame_dt = int(1e9 / scene.sensor.fps)
-        self._radiance: NDArray[np.float32] | None = None
+
+    @property
+    def camera(self) -> CameraParams:
+        return self.synthetic.camera
+
+    @camera.setter
+    def camera(self, camera: CameraParams) -> None:
+        self.synthetic.camera = camera
 
     def open(self) -> SourceInfo:
         cam = self.camera
@@ -257,18 +248,12 @@ class _SimulatedCamera(FrameSource):
         return self.info
 
     def set_pose(self, t_grid: Vec3, r_deg: Vec3) -> None:
-        self._radiance = render_radiance(
-            self.scene,
-            self.layout,
-            _true_intrinsics(self.scene.systematic, self.camera.intrinsics),
-            rotation_from_angles_deg(r_deg),
-            np.asarray(t_grid, dtype=np.float64),
-        )
+        # The operator's placement gives the camera's true pose (the rig applied).
+        self.synthetic.place_camera(np.asarray(t_grid), np.asarray(r_deg))
 
     def read(self, timeout_s: float = 2.0) -> NDArray[np.uint8]:
-        assert self._radiance is not None, "set_pose first"
         self.clock.advance(self.frame_dt)
-        return expose(self._radiance, self.scene, self.rng)
+        return self.synthetic.expose()
 
 
 class _SimulatedOperator(Driver):

@@ -23,7 +23,6 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from twopose.camera import rotation_from_angles_deg
 from twopose.errors import InputValueError, SourceError
 
 __all__ = [
@@ -300,7 +299,7 @@ class SyntheticSource(FrameSource):
         realtime: bool = True,
         bank: int = 8,
     ) -> None:
-        from recorder.scene import load_scene
+        from twopose.sim.scene import load_scene
 
         self.scene = load_scene(scene_path)
         self.method = method
@@ -312,9 +311,11 @@ class SyntheticSource(FrameSource):
         self._pose: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None
 
     def open(self) -> SourceInfo:
-        from recorder.render import build_layout
+        from twopose.sim.camera import SyntheticCamera
+        from twopose.sim.render import build_layout
 
-        self._layout = build_layout(self.scene, self.method, self._rng)
+        layout = build_layout(self.scene, self.method, self._rng)
+        self._camera = SyntheticCamera(self.scene, layout, self._rng)
         cam = self.scene.cameras[0]
         self.info = SourceInfo("synthetic", cam.width, cam.height, self.scene.sensor.fps)
         self._pacer = _Pacer(self.info.fps) if self.realtime else None
@@ -324,19 +325,14 @@ class SyntheticSource(FrameSource):
     def set_pose(
         self, t_grid: tuple[float, float, float], r_deg: tuple[float, float, float]
     ) -> None:
-        from recorder.render import expose, render_radiance
-
+        """The operator typed this pose and placed the laptop there: the camera renders
+        from where the scene's rig (``[systematic]``) really puts it, as ``simulate``
+        does (one synthetic camera: :class:`twopose.sim.camera.SyntheticCamera`)."""
         if (t_grid, r_deg) == self._pose:
             return
         self._pose = (t_grid, r_deg)
-        radiance = render_radiance(
-            self.scene,
-            self._layout,
-            self.scene.cameras[0].intrinsics,
-            rotation_from_angles_deg(r_deg),
-            np.asarray(t_grid, dtype=np.float64),
-        )
-        self._bank = [expose(radiance, self.scene, self._rng) for _ in range(self.bank_size)]
+        self._camera.place(np.asarray(t_grid, dtype=np.float64), np.asarray(r_deg))
+        self._bank = [self._camera.expose() for _ in range(self.bank_size)]
         self._next = 0
 
     def read(self, timeout_s: float = 2.0) -> Image:

@@ -18,8 +18,8 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from recorder.scene import PoseParams, Scene
 from recorder.simulate import SimulationSummary, simulate_session
+from twopose.sim.scene import PoseParams, Scene
 
 
 @dataclass(frozen=True)

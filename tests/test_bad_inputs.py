@@ -199,8 +199,8 @@ def test_generated_plans_keep_the_invariant(
 def test_generated_scenes_are_checked_before_rendering(
     tmp_path_factory: pytest.TempPathFactory, top: dict[str, Any]
 ) -> None:
-    from recorder.scene import load_scene
     from twopose.errors import SceneError
+    from twopose.sim.scene import load_scene
 
     folder = tmp_path_factory.mktemp("scene")
     scene = folder / "scene.toml"

@@ -17,9 +17,9 @@ from typer.testing import CliRunner
 from analysis.cli import app
 from analysis.pipeline import analyse_session, replay_views
 from analysis.rig import fit_constants, prepare, residuals, select_constants
-from recorder.scene import Scene
 from recorder.simulate import simulate_session
 from twopose.rig import RigConstants
+from twopose.sim.scene import Scene
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "sessions"))
 from make_sessions import THESIS_POSES

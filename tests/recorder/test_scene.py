@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from recorder.scene import Scene, load_scene
 from twopose.errors import SceneError
+from twopose.sim.scene import Scene, load_scene
 
 
 def test_defaults_are_the_thesis_rig() -> None:

@@ -9,13 +9,13 @@ import cv2
 import numpy as np
 import pytest
 
-from recorder.render import build_layout, expose, finger_axis, render_radiance
-from recorder.scene import Scene, load_scene
 from recorder.simulate import simulate_session
 from twopose.camera import project_points, rotation_from_angles_deg
 from twopose.errors import InputValueError, SceneError
 from twopose.format.reader import SessionReader
 from twopose.format.trials import iter_trials
+from twopose.sim.render import build_layout, expose, finger_axis, render_radiance
+from twopose.sim.scene import Scene, load_scene
 
 
 def _sha(path: Path) -> str:

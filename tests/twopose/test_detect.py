@@ -6,8 +6,6 @@ import cv2
 import numpy as np
 import pytest
 
-from recorder.render import build_layout, expose, finger_axis, render_radiance
-from recorder.scene import load_scene
 from twopose.camera import project_points
 from twopose.detect import (
     DotParams,
@@ -18,6 +16,8 @@ from twopose.detect import (
     detect_glove,
     wrap_theta_deg,
 )
+from twopose.sim.render import build_layout, expose, finger_axis, render_radiance
+from twopose.sim.scene import load_scene
 
 GLOVE_BGR = (192, 108, 38)
 

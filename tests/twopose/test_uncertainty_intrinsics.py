@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 from numpy.typing import NDArray
 
-from recorder.scene import CameraParams, ClutterParams, Scene, SensorParams
 from recorder.simulate import calibrated_cameras, simulate_session
 from twopose.camera import Intrinsics, project_points
 from twopose.estimate import EstimateOptions, PoseView, estimate_trials, measure
+from twopose.sim.scene import CameraParams, ClutterParams, Scene, SensorParams
 from twopose.trial_result import reported_point
 from twopose.uncertainty import INPUT_GROUPS, Shared, dominant_input, propagate, uncertainty_columns
 

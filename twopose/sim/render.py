@@ -18,9 +18,9 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from recorder.scene import Scene
 from twopose.arrays import F64
 from twopose.camera import Intrinsics, project_points, rotation_from_angles_deg
+from twopose.sim.scene import Scene
 from twopose.targets import finger_axis as target_finger_axis
 
 __all__ = ["Layout", "Primitive", "build_layout", "expose", "render_radiance"]
