@@ -20,7 +20,7 @@ from twopose.camera import Intrinsics, camera_centres, rotation_from_angles_deg
 from twopose.conditioning import parallax_sine
 from twopose.detect import CombineMethod, PoseMeasurement, combine_frames
 from twopose.format.entries import PoseEntry
-from twopose.methods import Method, spec_of
+from twopose.methods import METHOD_SPECS, Method, spec_of
 from twopose.optimal_lines import centroid_segments, optimal_lines
 from twopose.solve import (
     DEFAULT_MIN_CONDITIONING,
@@ -97,12 +97,8 @@ class EstimateOptions:
 
 #: The ground plane as ``(normal_grid (3,), offset)``.
 GroundSpec = tuple[F64, float]
-#: The degeneracy margins (degrees) each method reports.
-MARGINS = {
-    "point": ("parallax_deg",),
-    "line": ("parallax_deg", "plane_angle_deg"),
-    "ground": ("parallax_deg", "plane_angle_deg", "line_ground_angle_deg"),
-}
+#: The degeneracy margins (degrees) each method reports: the method registry's.
+MARGINS = {str(m): spec.margins for m, spec in METHOD_SPECS.items()}
 
 
 @dataclass(frozen=True)
