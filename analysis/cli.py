@@ -15,15 +15,13 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from twopose.errors import (
-    EXIT_INTERRUPTED,
     EXIT_SOME_INPUTS_FAILED,
     InputValueError,
     TwoposeError,
     handle_errors,
-    interrupted,
-    safe_console,
-    watch_interrupts,
+    run_command_line,
 )
+from twopose.methods import Method
 from twopose.text import for_terminal
 from twopose.version import VersionOption
 
@@ -536,14 +534,8 @@ def detect(
         raise typer.Exit(EXIT_SOME_INPUTS_FAILED)
 
 
-class SolveMethod(StrEnum):
-    point = "point"
-    line = "line"
-    ground = "ground"
-
-
 @app.command()
-def solve(method: Annotated[SolveMethod, typer.Argument(help="Which reconstruction.")]) -> None:
+def solve(method: Annotated[Method, typer.Argument(help="Which reconstruction.")]) -> None:
     """Solve one measurement by hand: a JSON request on stdin, a JSON answer on stdout.
 
     \b
@@ -585,15 +577,5 @@ def solve(method: Annotated[SolveMethod, typer.Argument(help="Which reconstructi
 
 
 def main() -> None:
-    safe_console()
-    watch_interrupts()
-    try:
-        app()
-    except KeyboardInterrupt:  # Ctrl-C outside a command's own handling: still 130
-        sys.stderr.write("interrupted\n")
-        raise SystemExit(EXIT_INTERRUPTED) from None
-    except SystemExit as done:
-        if interrupted() and done.code in (0, None):  # Ctrl-C swallowed along the way
-            sys.stderr.write("interrupted\n")
-            raise SystemExit(EXIT_INTERRUPTED) from None
-        raise
+    """The command line's entry point (``[project.scripts]``, ``python -m``)."""
+    run_command_line(app)

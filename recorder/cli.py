@@ -3,9 +3,7 @@
 from __future__ import annotations
 
 import contextlib
-import sys
 import time
-from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -16,8 +14,9 @@ from twopose.errors import (
     InputValueError,
     TwoposeError,
     handle_errors,
-    safe_console,
+    run_command_line,
 )
+from twopose.methods import Method
 from twopose.version import VersionOption
 
 if TYPE_CHECKING:
@@ -45,16 +44,10 @@ def _group(version: VersionOption = False) -> None:
     """Record twopose measurement sessions."""
 
 
-class MethodChoice(StrEnum):
-    point = "point"
-    line = "line"
-    ground = "ground"
-
-
 @app.command()
 def simulate(
     out: Annotated[Path, typer.Argument(help="New session file to write (never overwritten).")],
-    method: Annotated[MethodChoice, typer.Option(help="What the session measures.")],
+    method: Annotated[Method, typer.Option(help="What the session measures.")],
     trials: Annotated[int, typer.Option(min=1, help="Trials in the session.")] = 15,
     frames: Annotated[int, typer.Option(min=1, help="Frames captured per pose.")] = 5,
     seed: Annotated[
@@ -147,7 +140,7 @@ def new(
     source: Annotated[
         str, typer.Option(help="camera:N, video:PATH, images:DIR or synthetic[:SCENE.toml].")
     ] = "camera:0",
-    method: Annotated[MethodChoice | None, typer.Option(help="Asked if not given.")] = None,
+    method: Annotated[Method | None, typer.Option(help="Asked if not given.")] = None,
     units: Annotated[str | None, typer.Option(help="in, mm, cm or m. Asked if not given.")] = None,
     calibration: Annotated[
         Path | None,
@@ -311,7 +304,7 @@ def _planned(
 
 
 def _console_given(
-    method: MethodChoice | None,
+    method: Method | None,
     units: str | None,
     calibration: Path | None,
     focal: float | None,
@@ -473,9 +466,5 @@ def recover(
 
 
 def main() -> None:
-    safe_console()
-    try:
-        app()
-    except KeyboardInterrupt:  # Ctrl-C outside a command's own handling: still 130
-        sys.stderr.write("interrupted\n")
-        raise SystemExit(EXIT_INTERRUPTED) from None
+    """The command line's entry point (``[project.scripts]``, ``python -m``)."""
+    run_command_line(app)

@@ -8,7 +8,7 @@ turns these into messages and exit codes.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
 __all__ = [
@@ -145,3 +145,25 @@ def safe_console() -> None:
         reconfigure = getattr(stream, "reconfigure", None)
         if reconfigure is not None:
             reconfigure(errors="backslashreplace")
+
+
+def run_command_line(app: Callable[[], object]) -> None:
+    """The one ``main`` of both command lines (``twopose-record``, ``twopose-analyze``):
+    output streams that never crash on a file name, a Ctrl-C anywhere exits 130 with one
+    line (even one Python swallowed in a finalizer, :func:`watch_interrupts`), and every
+    other exit is the command's own (:func:`handle_errors` turns a
+    :class:`TwoposeError` into its message and exit code inside each command)."""
+    import sys
+
+    safe_console()
+    watch_interrupts()
+    try:
+        app()
+    except KeyboardInterrupt:  # Ctrl-C outside a command's own handling: still 130
+        sys.stderr.write("interrupted\n")
+        raise SystemExit(EXIT_INTERRUPTED) from None
+    except SystemExit as done:
+        if interrupted() and done.code in (0, None):  # Ctrl-C swallowed along the way
+            sys.stderr.write("interrupted\n")
+            raise SystemExit(EXIT_INTERRUPTED) from None
+        raise

@@ -1,0 +1,79 @@
+"""twopose.errors: the exception hierarchy's exit codes and the one main of both command
+lines (a Ctrl-C exits 130 with one line, even one Python swallowed)."""
+
+from __future__ import annotations
+
+import gc
+import signal
+import weakref
+
+import pytest
+import typer
+
+import analysis.cli
+import recorder.cli
+from twopose import errors
+from twopose.errors import (
+    EXIT_ERROR,
+    EXIT_INTERRUPTED,
+    InputValueError,
+    handle_errors,
+    run_command_line,
+)
+
+
+@pytest.fixture(autouse=True)
+def _restore_sigint() -> object:
+    before = signal.getsignal(signal.SIGINT)
+    yield None
+    signal.signal(signal.SIGINT, before)
+    errors._interrupted = False
+
+
+def test_an_error_is_its_message_and_exit_code(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(typer.Exit) as done, handle_errors():
+        raise InputValueError("frames must be >= 1, got 0")
+    assert done.value.exit_code == EXIT_ERROR
+    assert capsys.readouterr().err.strip() == "error: frames must be >= 1, got 0"
+
+
+def test_ctrl_c_anywhere_exits_130_with_one_line(capsys: pytest.CaptureFixture[str]) -> None:
+    def app() -> None:
+        raise KeyboardInterrupt
+
+    with pytest.raises(SystemExit) as done:
+        run_command_line(app)
+    assert done.value.code == EXIT_INTERRUPTED
+    assert capsys.readouterr().err == "interrupted\n"
+
+
+def test_a_ctrl_c_python_swallowed_still_exits_130(capsys: pytest.CaptureFixture[str]) -> None:
+    """A KeyboardInterrupt raised in a weakref callback is printed and ignored by Python;
+    the command would finish with 0. The one main remembers it."""
+
+    class Thing:
+        pass
+
+    def app() -> None:
+        thing = Thing()
+        weakref.finalize(thing, lambda: signal.raise_signal(signal.SIGINT))
+        try:
+            del thing
+            gc.collect()
+        except KeyboardInterrupt:  # raised again in the main thread: the command stops
+            raise SystemExit(0) from None
+        raise SystemExit(0)
+
+    with pytest.raises(SystemExit) as done:
+        run_command_line(app)
+    assert done.value.code == EXIT_INTERRUPTED
+    assert "interrupted" in capsys.readouterr().err
+
+
+def test_both_command_lines_share_the_one_main(monkeypatch: pytest.MonkeyPatch) -> None:
+    seen: list[object] = []
+    monkeypatch.setattr(analysis.cli, "run_command_line", seen.append)
+    monkeypatch.setattr(recorder.cli, "run_command_line", seen.append)
+    analysis.cli.main()
+    recorder.cli.main()
+    assert seen == [analysis.cli.app, recorder.cli.app]
