@@ -1,0 +1,102 @@
+"""``twopose-analyze info``: check and describe sessions."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated
+
+import typer
+
+from twopose.errors import (
+    EXIT_SOME_INPUTS_FAILED,
+    TwoposeError,
+    handle_errors,
+)
+from twopose.text import for_terminal
+
+if TYPE_CHECKING:
+    from twopose.format.trials import SessionOverview
+
+from analysis.cli.app import app, say_skipped
+
+
+@app.command()
+def info(
+    paths: Annotated[
+        list[Path], typer.Argument(help="Session files and/or folders (searched recursively).")
+    ],
+) -> None:
+    """Check and describe sessions: method, cameras, trials, poses, captures, frames."""
+    from rich.console import Console
+    from rich.markup import escape
+    from rich.table import Table
+
+    from analysis.batch import split_inputs
+    from twopose.format.trials import describe_session
+
+    console = Console()
+    with handle_errors():
+        sessions, skipped = split_inputs(paths)
+    say_skipped(skipped)
+    overviews: list[SessionOverview] = []
+    failed: list[tuple[str, str]] = []
+    for path in sessions:
+        try:
+            overviews.append(describe_session(path))
+        except TwoposeError as err:
+            failed.append((path, str(err)))
+    table = Table(title=f"{len(overviews)} session(s)")
+    for col in (
+        "session",
+        "method",
+        "units",
+        "cameras",
+        "trials",
+        "poses",
+        "captures",
+        "frames",
+        "format",
+    ):
+        table.add_column(col)
+    for o in overviews:
+        cams = ", ".join(f"{c.camera_id} f={c.intrinsics.fx:g}" for c in o.cameras)
+        captures = f"{o.n_captures}" + (
+            f" ({o.n_set_aside} set aside, {o.n_incomplete_captures} incomplete)"
+            if o.n_set_aside or o.n_incomplete_captures
+            else ""
+        )
+        table.add_row(
+            escape(for_terminal(str(o.path))),
+            o.info.method + (" (sim)" if o.info.simulated else ""),
+            o.info.units,
+            cams,
+            str(o.n_trials),
+            str(o.n_poses),
+            captures,
+            str(o.n_frames),
+            o.format_version,
+        )
+    console.print(table)
+    for o in overviews:
+        _print_notes(o)
+    for path, reason in failed:
+        typer.secho(f"failed: {path}: {reason}", err=True, fg=typer.colors.RED)
+    if not sessions:
+        typer.secho("no session files (*.mcap) found", err=True, fg=typer.colors.YELLOW)
+    if failed or not sessions:
+        raise typer.Exit(EXIT_SOME_INPUTS_FAILED)
+
+
+def _print_notes(o: SessionOverview) -> None:
+    """The operator's notes of one session (``info``), session-wide first."""
+    # A note is what someone typed, into a file anyone may hand us: escaped, so that an
+    # ESC sequence or a bidi override in it is shown, not obeyed.
+    lines = [f"  session: {for_terminal(text)}" for text in o.notes.session]
+    lines += [
+        f"  trial {trial}: {for_terminal(text)}"
+        for trial, texts in sorted(o.notes.by_trial.items())
+        for text in texts
+    ]
+    if lines:
+        typer.echo(f"notes in {for_terminal(str(o.path))}:")
+        typer.echo("\n".join(lines))

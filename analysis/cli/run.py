@@ -1,0 +1,196 @@
+"""``twopose-analyze run``: the main job, sessions to tables, figures and a report."""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import sys
+from collections.abc import Callable, Iterator
+from enum import StrEnum
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated
+
+import typer
+
+from twopose.errors import (
+    EXIT_SOME_INPUTS_FAILED,
+    handle_errors,
+)
+
+if TYPE_CHECKING:
+    from analysis.results import RunResult
+
+from analysis.cli.app import IncludeWarnedOption, JunitOption, app, note, say_skipped
+
+
+class RigCalibration(StrEnum):
+    none = "none"
+    loo = "loo"
+
+
+class CombineChoice(StrEnum):
+    mean = "mean"
+    median = "median"
+    robust = "robust"
+
+
+SessionTimeoutOption = Annotated[
+    float,
+    typer.Option(
+        min=0.0,
+        help="Stop a session still running after this many seconds and list it as failed "
+        "(0: no limit).",
+    ),
+]
+
+
+RigFileOption = Annotated[
+    Path | None,
+    typer.Option(
+        exists=True,
+        dir_okay=False,
+        help="Correct every view by the rig's constants from `twopose-analyze rig`.",
+    ),
+]
+RigCalibrationOption = Annotated[
+    RigCalibration,
+    typer.Option(
+        help="loo: also each trial corrected by constants its session's other trials give "
+        "(x_rig, y_rig, z_rig, err_rig; rig.csv).",
+    ),
+]
+
+
+@app.command("run")
+def run_command(
+    paths: Annotated[list[Path], typer.Argument(help="Session files and/or folders (recursive).")],
+    out: Annotated[
+        Path, typer.Option("--out", help="Output folder for tables, figures, report.")
+    ] = Path("results"),
+    jobs: Annotated[
+        int, typer.Option(min=1, help="Worker processes (results do not depend on it).")
+    ] = 1,
+    dask: Annotated[
+        str | None,
+        typer.Option(help="Address of an existing Dask scheduler to run the sessions on."),
+    ] = None,
+    combine: Annotated[
+        CombineChoice, typer.Option(help="How a pose's frames are combined (thesis: mean).")
+    ] = CombineChoice.mean,
+    min_parallax: Annotated[
+        float, typer.Option(help="Warn when a point's ray parallax is below this (deg).")
+    ] = 1.0,
+    min_plane_angle: Annotated[
+        float, typer.Option(help="Warn when back-projected planes meet below this (deg).")
+    ] = 5.0,
+    min_ground_angle: Annotated[
+        float, typer.Option(help="Warn when the line meets the ground below this (deg).")
+    ] = 10.0,
+    scene: Annotated[
+        bool,
+        typer.Option(
+            help="Also write results_<n>_<session>.mcap per session: images with the "
+            "detections drawn, and each trial's 3-D geometry, for Foxglove."
+        ),
+    ] = True,
+    session_timeout: SessionTimeoutOption = 600.0,
+    include_warned: IncludeWarnedOption = False,
+    junit: JunitOption = None,
+    rig: RigFileOption = None,
+    rig_calibration: RigCalibrationOption = RigCalibration.none,
+) -> None:
+    """Replay sessions through detection and solvers into error tables, figures and a report."""
+    from analysis.batch import run
+    from analysis.outputs import check_run_outputs, write_file
+    from analysis.results import AnalysisOptions
+
+    options = AnalysisOptions(
+        combine=combine.value,
+        min_parallax_deg=min_parallax,
+        min_plane_angle_deg=min_plane_angle,
+        min_ground_angle_deg=min_ground_angle,
+        session_timeout_s=session_timeout or None,
+        include_warned=include_warned,
+        rig_calibration=rig_calibration.value,
+    )
+    with handle_errors(), _session_progress() as (found, done):
+        check_run_outputs(paths, out, junit, rig)  # before anything is written
+        if rig is not None:
+            from analysis.calibration import rig_for_run
+
+            options = dataclasses.replace(options, rig=rig_for_run(rig, paths, note))
+        result = run(
+            paths,
+            out,
+            jobs=jobs,
+            dask_address=dask,
+            options=options,
+            on_session_done=done,
+            on_sessions_found=found,
+            scene=scene,
+        )
+        if junit is not None:
+            from analysis.gate import junit_xml, run_cases
+
+            cases = run_cases(result.summary, result.errors)
+            write_file(junit, junit_xml("twopose-analyze run", cases))
+    _print_run(result, out, include_warned)
+
+
+@contextlib.contextmanager
+def _session_progress() -> Iterator[tuple[Callable[[int], None], Callable[[str, bool], None]]]:
+    """A progress bar on stderr at a terminal (nothing in a pipe): a spinner and the time
+    since the start, so that one long session shows it is working, and the sessions
+    counted as they complete. Yields the callbacks ``run`` takes: sessions found, done."""
+    from rich.console import Console
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        SpinnerColumn,
+        TextColumn,
+        TimeElapsedColumn,
+    )
+
+    columns = (SpinnerColumn(), TextColumn("sessions"), BarColumn(), MofNCompleteColumn())
+    with Progress(
+        *columns, TimeElapsedColumn(), console=Console(stderr=True), transient=True
+    ) as progress:
+        task = progress.add_task("sessions", total=None)
+        yield (
+            lambda n: progress.update(task, total=n),
+            lambda _path, _ok: progress.advance(task),
+        )
+
+
+def _print_run(result: RunResult, out: Path, include_warned: bool) -> None:
+    """The per-method and per-session summary (80 columns at a terminal, whole lines when
+    piped), the skipped and failed inputs; exit 1 if any input failed."""
+    import shutil
+
+    from analysis.console import closing_lines, summary_lines, wrap_phrases
+
+    width = min(shutil.get_terminal_size().columns, 100) if sys.stdout.isatty() else None
+    typer.echo(f"twopose: {len(result.sessions)} session(s), results in {out}")
+    for line in summary_lines(
+        result.trials, result.summary, include_warned=include_warned, width=width
+    ):
+        typer.echo(line)
+    warned = int(result.summary["n_warned"].sum()) if len(result.summary) else 0
+    if warned and not include_warned:
+        footer = [
+            f"{warned} ok trial(s) with a near-degeneracy warning",
+            "are left out of these statistics",
+            "(--include-warned keeps them)",
+        ]
+        for line in wrap_phrases(footer, width):
+            typer.echo(line)
+    say_skipped(list(result.skipped))
+    for _, e in result.errors.iterrows():
+        typer.secho(f"failed: {e['error']}", err=True, fg=typer.colors.RED)
+    for line in closing_lines(result.trials, out, include_warned=include_warned, width=width):
+        typer.echo(line)
+    if result.failed or not result.sessions:
+        if not result.sessions and result.errors.empty:
+            typer.secho("no session files (*.mcap) found", err=True, fg=typer.colors.YELLOW)
+        raise typer.Exit(EXIT_SOME_INPUTS_FAILED)
