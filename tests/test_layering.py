@@ -91,6 +91,27 @@ def test_dependencies_point_one_way(package: str, forbidden: tuple[str, ...]) ->
     assert not offending, offending
 
 
+def test_the_simulator_stands_on_the_core_and_nothing_in_the_core_needs_it() -> None:
+    """Inside the core, ``twopose.sim`` is a layer on top: the camera model, solvers and the
+    session format never import the simulator (a measurement must not depend on how a scene
+    is rendered); the simulator imports only the core."""
+    graph = _graph(type_checking_too=True)
+    sim = [m for m in graph if m.startswith("twopose.sim")]
+    assert {"twopose.sim.camera", "twopose.sim.render", "twopose.sim.scene"} <= set(sim)
+    offending = sorted(
+        f"{m} imports {dep}"
+        for m, deps in graph.items()
+        if m.startswith("twopose") and not m.startswith("twopose.sim")
+        for dep in deps
+        if dep.startswith("twopose.sim")
+    )
+    assert not offending, offending
+    outside = sorted(
+        f"{m} imports {d}" for m in sim for d in graph[m] if d.split(".")[0] != "twopose"
+    )
+    assert not outside, outside
+
+
 def test_no_import_cycles() -> None:
     graph = _graph()
     # A package's __init__ re-exporting its own modules is not a cycle between modules.
