@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from twopose.arrays import F64
 from twopose.camera import Intrinsics, project_points, rotation_from_angles_deg
-from twopose.sim.scene import Scene
+from twopose.sim.scene import BoardParams, Scene
 from twopose.targets import finger_axis as target_finger_axis
 
 __all__ = ["Layout", "Primitive", "build_layout", "expose", "render_radiance"]
@@ -42,7 +42,9 @@ class Primitive:
     """A renderable surface. ``kind`` selects the intersection routine.
 
     kinds: ``capsule`` (a, b, radius), ``box`` (lo, hi), ``card`` (centre, half size,
-    dot centre and radius, in the plane z = centre z, facing -z).
+    dot centre and radius, in the plane z = centre z, facing -z), ``board`` (a card whose
+    face is a checkerboard: squares of side ``square`` from the pattern's corner
+    ``dot_center``, ``color`` light and ``dot_color`` dark, the margin light).
     """
 
     kind: str
@@ -54,6 +56,8 @@ class Primitive:
     dot_color: F64 = field(default_factory=lambda: np.zeros(3))
     dot_center: F64 = field(default_factory=lambda: np.zeros(3))
     dot_radius: float = 0.0
+    square: float = 0.0  # board: the squares' side
+    squares: tuple[int, int] = (0, 0)  # board: squares along x and y (inner corners + 1)
 
 
 @dataclass(frozen=True)
@@ -138,7 +142,50 @@ def build_layout(scene: Scene, method: str, rng: np.random.Generator) -> Layout:
             )
         )
         prims += _stand(scene, base)
+    if scene.board.present:
+        prims.append(_board(scene.board))
     return Layout(tuple(prims), tuple(_clutter(scene, method, rng)))
+
+
+def board_layout(scene: Scene) -> Layout:
+    """What a board session sees: the scene's checkerboard alone on the grid paper (no
+    target, stand or clutter in front of it)."""
+    return Layout((_board(scene.board),), ())
+
+
+def board_corners(board: BoardParams) -> F64:
+    """(cols * rows, 3) the board's inner corners in the grid frame, row by row from the
+    first (rows along +x, columns rising along -y), as ``cv2.findChessboardCorners`` lists
+    them for an upright board."""
+    cols, rows = board.inner_corners
+    i, j = np.meshgrid(np.arange(cols), np.arange(rows))
+    x0, y0, z0 = board.first_corner
+    return np.stack(
+        [x0 + board.square * i.ravel(), y0 - board.square * j.ravel(), np.full(i.size, z0)],
+        axis=1,
+    )
+
+
+def _board(board: BoardParams) -> Primitive:
+    """The board as a card: the pattern of (cols + 1) x (rows + 1) squares, the first inner
+    corner one square in from the pattern's lower left, a one-square margin around."""
+    cols, rows = board.inner_corners
+    s = board.square
+    x0, y0, z0 = board.first_corner
+    corner = np.array([x0 - s, y0 + s, z0])  # the pattern's lower-left corner (y down)
+    size = np.array([(cols + 1) * s, (rows + 1) * s])
+    centre = corner + np.array([size[0] / 2, -size[1] / 2, 0.0])
+    half = np.array([size[0] / 2 + s, size[1] / 2 + s, 0.0])  # with the margin
+    return Primitive(
+        "board",
+        srgb_to_linear(board.light_color),
+        centre,
+        half,
+        dot_color=srgb_to_linear(board.dark_color),
+        dot_center=corner,
+        square=s,
+        squares=(cols + 1, rows + 1),
+    )
 
 
 def _sample_views(scene: Scene) -> list[tuple[Intrinsics, F64, F64]]:
@@ -413,6 +460,14 @@ def _surface(
             )
             sub = albedo[m]
             sub[on_dot] = prim.dot_color
+            albedo[m] = sub
+        elif prim.kind == "board":
+            p = o + d[m] * t_best[m, None]
+            i = np.floor((p[:, 0] - prim.dot_center[0]) / prim.square)
+            j = np.floor((prim.dot_center[1] - p[:, 1]) / prim.square)
+            inside = (i >= 0) & (i < prim.squares[0]) & (j >= 0) & (j < prim.squares[1])
+            sub = albedo[m]
+            sub[inside & ((i + j) % 2 == 0)] = prim.dot_color  # the corner square is dark
             albedo[m] = sub
     return albedo, specular
 

@@ -194,6 +194,23 @@ class ClutterParams:
 
 
 @dataclass(frozen=True)
+class BoardParams:
+    """A printed checkerboard standing upright on the grid paper, facing the camera (the
+    rig-from-a-board calibration's target): ``inner_corners`` (columns, rows) of squares of
+    side ``square`` (session units), its first inner corner at the grid point
+    ``first_corner``, its rows along +x and its columns rising (-y), in the plane
+    z = ``first_corner`` z; a white margin of one square around the pattern. Rendered when
+    ``present``."""
+
+    present: bool = False
+    inner_corners: tuple[int, int] = (9, 6)
+    square: float = 0.75
+    first_corner: tuple[float, float, float] = (-3.0, 8.125, 24.0)
+    dark_color: RGB = (20, 20, 22)
+    light_color: RGB = (238, 238, 232)
+
+
+@dataclass(frozen=True)
 class Scene:
     """Everything the synthetic camera renders; defaults mirror the thesis' set-up."""
 
@@ -207,6 +224,7 @@ class Scene:
     lighting: LightingParams = field(default_factory=LightingParams)
     sensor: SensorParams = field(default_factory=SensorParams)
     clutter: ClutterParams = field(default_factory=ClutterParams)
+    board: BoardParams = field(default_factory=BoardParams)
     # The rig's hidden constants (twopose.rig): frames are rendered with them, the typed
     # poses, intrinsics and ground height are not. None by default.
     systematic: RigConstants = field(default_factory=RigConstants)
@@ -247,6 +265,13 @@ def _check_scene(s: Scene) -> None:
             "cameras.calibration_sigma",
             f"must be >= 0, the focal's at most a tenth of fx, fy; got {list(c.calibration_sigma)}",
         )
+    b = s.board
+    need(
+        min(b.inner_corners) >= 2 and max(b.inner_corners) <= 50,
+        "board.inner_corners",
+        f"must be 2-50 each way, got {list(b.inner_corners)}",
+    )
+    need(b.square > 0, "board.square", f"must be > 0, got {b.square}")
     p = s.poses
     need(p.count >= 2, "poses.count", f"must be >= 2 (two views at least), got {p.count}")
     need(p.count <= 100, "poses.count", f"must be <= 100, got {p.count}")
