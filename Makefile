@@ -1,10 +1,10 @@
-# Two entry points for a fresh machine with Python 3.11: `make run` and `make test`.
+# Two entry points for a fresh machine with Python 3.11: `make run` and `make test-all`.
 PYTHON ?= python3
 VENV ?= .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: run test docs lint sessions bench clean
+.PHONY: run check test test-all docs lint sessions bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -22,12 +22,20 @@ $(NODE_STAMP): tests/node/package.json tests/node/package-lock.json
 	npm ci --prefix tests/node --no-audit --no-fund --loglevel=error
 	touch $(NODE_STAMP)
 
-# The whole test suite: lint, types, the docs, tests (with the Node.js validation when node is here).
-test: $(STAMP) $(if $(shell command -v npm),$(NODE_STAMP))
+# Lint, types and the docs, before any test.
+check: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
 	$(BIN)/mypy
 	$(BIN)/mkdocs build --strict --quiet
+
+# The quick loop: everything but the tests marked slow (browsers, clusters, many-session fits).
+test: check $(if $(shell command -v npm),$(NODE_STAMP))
+	$(BIN)/pytest -q -m "not slow"
+
+# The whole test suite, slow tests included (with the Node.js validation when node is here):
+# what CI runs.
+test-all: check $(if $(shell command -v npm),$(NODE_STAMP))
 	$(BIN)/pytest -q
 
 # The documentation site (docs/, mkdocs.yml) into site/, warnings as errors.

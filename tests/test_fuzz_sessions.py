@@ -16,6 +16,9 @@ from recorder.sources import SyntheticSource
 from tests.fuzzing import Outcomes, check_command, mutants
 from twopose.format.reader import SessionReader
 
+# Slow (a real browser, a cluster, or fits over many sessions): make test-all and CI run it.
+pytestmark = pytest.mark.slow
+
 PLAN = """method = "point"
 frames = 2
 [camera]

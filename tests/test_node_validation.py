@@ -26,9 +26,10 @@ from recorder.sources import SyntheticSource
 NODE_DIR = Path(__file__).parent / "node"
 SESSIONS = Path(__file__).parents[1] / "sessions"
 
-pytestmark = pytest.mark.skipif(
-    shutil.which("node") is None, reason="Node.js is not installed (CI has it)"
-)
+pytestmark = [
+    pytest.mark.skipif(shutil.which("node") is None, reason="Node.js is not installed (CI has it)"),
+    pytest.mark.slow,  # a Node.js process per check: make test-all and CI run it
+]
 
 
 def _node_reports(files: list[Path]) -> dict[str, Any]:

@@ -54,6 +54,7 @@ def test_sample_opens_with_crc_validation_and_matches_its_recipe(sample: Any) ->
     assert o.n_incomplete_captures == 0
 
 
+@pytest.mark.slow
 def test_a_sample_regenerates_from_its_script(tmp_path: Path) -> None:
     """The committed thesis line session is what the committed script writes (frames within
     JPEG noise of a different OpenCV build; every typed entry exactly)."""

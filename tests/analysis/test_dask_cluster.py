@@ -17,6 +17,9 @@ from analysis.batch import run
 from recorder.simulate import simulate_session
 from tests.helpers import DaskCluster
 
+# Slow (a real browser, a cluster, or fits over many sessions): make test-all and CI run it.
+pytestmark = pytest.mark.slow
+
 distributed = pytest.importorskip("distributed")
 
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from analysis import analyse_session
 from analysis.batch import run
@@ -23,6 +24,7 @@ def test_two_views_report_the_thesis_line(line_session: Path) -> None:
     np.testing.assert_allclose(t.loc[ok, "err_optimal"], t.loc[ok, "dist_err_optimal"])
 
 
+@pytest.mark.slow
 def test_three_views_in_the_run_and_in_compare(tmp_path: Path) -> None:
     from recorder.simulate import simulate_session
 

@@ -24,6 +24,9 @@ from twopose.sim.scene import Scene
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "sessions"))
 from make_sessions import THESIS_POSES
 
+# Slow (a real browser, a cluster, or fits over many sessions): make test-all and CI run it.
+pytestmark = pytest.mark.slow
+
 runner = CliRunner()
 RIG = RigConstants(camera_offset=(0.3, 0.2, 0.4), mount_rotation_deg=(0.8, -0.5, 0.3))
 

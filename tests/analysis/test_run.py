@@ -213,6 +213,7 @@ def test_dask_local_cluster_gives_the_same_tables(
     }
 
 
+@pytest.mark.slow
 def test_unreachable_dask_scheduler_is_a_clear_error(ground_session: Path) -> None:
     with pytest.raises(InputValueError, match="cannot reach the Dask scheduler"):
         run([ground_session], dask_address="tcp://127.0.0.1:9")
@@ -240,6 +241,7 @@ def test_the_package_is_the_api(ground_session: Path) -> None:
     }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["point", "line", "ground"])
 def test_trials_with_more_than_two_poses_use_every_view(tmp_path: Path, method: str) -> None:
     from recorder.simulate import simulate_session

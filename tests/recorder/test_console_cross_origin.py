@@ -26,6 +26,9 @@ import pytest
 from tests.browser import require_chromium
 from tests.helpers import start_console
 
+# Slow (a real browser, a cluster, or fits over many sessions): make test-all and CI run it.
+pytestmark = pytest.mark.slow
+
 require_chromium()
 
 # What a hostile page runs against the console at ``target``: every API call as a simple

@@ -34,6 +34,9 @@ from selenium.webdriver.common.by import By  # noqa: E402
 from selenium.webdriver.common.keys import Keys  # noqa: E402
 from selenium.webdriver.support.ui import Select, WebDriverWait  # noqa: E402
 
+# Slow (a real browser, a cluster, or fits over many sessions): make test-all and CI run it.
+pytestmark = pytest.mark.slow
+
 DECISION_BUTTONS = ("accept", "redo", "undo", "quit")
 #: Every refusal the page can show; whichever is shown must be in view.
 REFUSALS = (

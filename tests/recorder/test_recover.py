@@ -64,6 +64,7 @@ def _windows(path: Path) -> dict[tuple[int, int], CaptureWindow]:
 
 
 @pytest.mark.slow
+@pytest.mark.slow
 def test_kill_9_at_random_moments_then_recover(tmp_path: Path) -> None:
     """20 recordings killed at random: every capture reported complete survives, whole."""
     script = tmp_path / "record.py"

@@ -299,6 +299,7 @@ def test_progress_is_reported_for_every_frame(tmp_path: Path) -> None:
     assert len(seen) == summary.n_frames == 2 * 2 * 2
 
 
+@pytest.mark.slow
 def test_the_rig_constants_render_and_are_recorded(tmp_path: Path) -> None:
     """A camera offset the operator does not know shifts every estimate by minus it
     (pure translation, no typing error): the bias the thesis saw, and the truth records it."""
