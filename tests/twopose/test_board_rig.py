@@ -1,0 +1,132 @@
+"""twopose.board_rig: the rig's constants from board captures. Seeded synthetic corners
+from known constants are recovered within 2 sigma (several seeds); poses that cannot
+determine the rig are refused naming what to add; a fit against its priors says so; and
+frames rendered by the one synthetic camera through the rig, found by OpenCV, give the
+rig back."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+from twopose.board_rig import board_order, fit_board_rig
+from twopose.errors import InputValueError
+from twopose.rig import RigConstants
+from twopose.sim.camera import SyntheticCamera
+from twopose.sim.render import board_corners, board_layout
+from twopose.sim.scene import load_scene
+
+K = np.array([525.0, 525.0, 320.0, 240.0])
+#: benchmarks/bench_rig.py's constants, plus a principal offset.
+TRUE = RigConstants(
+    mount_rotation_deg=(0.8, -0.5, 0.3),
+    camera_offset=(0.3, 0.2, 0.4),
+    focal_scale=1.03,
+    principal_offset_px=(4.0, -3.0),
+)
+#: Eight typed poses: moves along x and z, 21 to 28 in from the board (z = 24), where the
+#: whole board, its margin included, is in view.
+POSES = np.array(
+    [[0, 0, 0], [2, 0, 0], [-2, 0, 0], [0, 0, -2], [2, 0, -2], [-1, 0, 3], [1, 0, -4], [-2, 0, 2]],
+    dtype=np.float64,
+)
+#: chi-square with 10 degrees of freedom, 99.9%: the fitted constants' joint test.
+CHI2_10_999 = 29.59
+
+
+def _corners() -> np.ndarray:
+    return board_corners(load_scene(None, board={"present": True}).board)
+
+
+def _observed(rig: RigConstants, t: np.ndarray, noise_px: float, seed: int) -> np.ndarray:
+    X = _corners()
+    tt, R = rig.true_poses(t, np.zeros_like(t))
+    fx, fy, cx, cy = rig.true_intrinsics(K)
+    p = np.einsum("cji,ckj->cki", R, X[None] - tt[:, None])
+    u = np.stack([fx * p[..., 0] / p[..., 2] + cx, fy * p[..., 1] / p[..., 2] + cy], -1)
+    return u + noise_px * np.random.default_rng(seed).standard_normal(u.shape)
+
+
+def _assert_within_their_uncertainty(rig: RigConstants, sigma: np.ndarray, cov: np.ndarray) -> None:
+    """Each constant within 3 sigma of the truth, and all of them jointly inside their
+    99.9% ellipsoid (2 sigma each would fail one time in three over ten constants)."""
+    error = rig.vector()[:-1] - TRUE.vector()[:-1]
+    assert np.isfinite(sigma).all()
+    assert (np.abs(error) <= 3 * sigma).all(), error / sigma
+    assert error @ np.linalg.solve(cov, error) < CHI2_10_999, error / sigma
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_known_constants_are_recovered_within_two_sigma(seed: int) -> None:
+    fit = fit_board_rig(
+        _corners(), _observed(TRUE, POSES, 0.2, seed), POSES, np.zeros_like(POSES), K
+    )
+    _assert_within_their_uncertainty(fit.rig, fit.sigma[:-1], fit.cov)
+    assert fit.rms_px == pytest.approx(0.2, rel=0.2)
+    assert fit.n_captures == 8
+    assert fit.n_corners == 8 * 54
+    assert np.isnan(fit.sigma[-1])  # the ground's error: not seen by a board
+
+
+def test_translation_along_one_direction_is_refused() -> None:
+    along_x = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0], [-1, 0, 0]], dtype=np.float64)
+    with pytest.raises(InputValueError, match="two non-parallel directions"):
+        fit_board_rig(
+            _corners(), _observed(TRUE, along_x, 0.2, 0), along_x, np.zeros_like(along_x), K
+        )
+
+
+def test_poses_at_one_distance_are_refused() -> None:
+    one_depth = np.array([[0, 0, 0], [2, 0, 0], [-2, 0, 0], [0, -1, 0]], dtype=np.float64)
+    with pytest.raises(InputValueError, match="several distances"):
+        fit_board_rig(
+            _corners(), _observed(TRUE, one_depth, 0.2, 0), one_depth, np.zeros_like(one_depth), K
+        )
+
+
+def test_a_fit_pushed_against_its_prior_says_so() -> None:
+    stretched = RigConstants(tape_scale=1.02)  # a tape 2% long: 20 prior sigmas
+    fit = fit_board_rig(
+        _corners(), _observed(stretched, POSES, 0.2, 0), POSES, np.zeros_like(POSES), K
+    )
+    assert any(w.startswith("tape_scale") for w in fit.warnings), fit.warnings
+    clean = fit_board_rig(
+        _corners(), _observed(TRUE, POSES, 0.2, 0), POSES, np.zeros_like(POSES), K
+    )
+    assert clean.warnings == ()
+
+
+def test_bad_captures_are_refused() -> None:
+    with pytest.raises(InputValueError, match="captures, corners, 2"):
+        fit_board_rig(_corners(), np.zeros((8, 3, 2)), POSES, np.zeros_like(POSES), K)
+
+
+def test_rendered_frames_give_the_rig_back() -> None:
+    """End to end: the one synthetic camera renders the board through the rig at each
+    typed pose; OpenCV finds the corners; the fit recovers the constants within 2 sigma."""
+    scene = load_scene(
+        None,
+        board={"present": True},
+        systematic={
+            "mount_rotation_deg": list(TRUE.mount_rotation_deg),
+            "camera_offset": list(TRUE.camera_offset),
+            "focal_scale": TRUE.focal_scale,
+            "principal_offset_px": list(TRUE.principal_offset_px),
+        },
+    )
+    rng = np.random.default_rng(5)
+    camera = SyntheticCamera(scene, board_layout(scene), rng)
+    X = board_corners(scene.board)
+    observed = []
+    for t in POSES:
+        camera.place(t, np.zeros(3))
+        grey = cv2.cvtColor(camera.expose(), cv2.COLOR_BGR2GRAY)
+        ok, found = cv2.findChessboardCorners(grey, scene.board.inner_corners)
+        assert ok, t
+        criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 50, 1e-3)
+        found = cv2.cornerSubPix(grey, found, (5, 5), (-1, -1), criteria)
+        observed.append(board_order(found, scene.board.inner_corners))
+    fit = fit_board_rig(X, np.array(observed), POSES, np.zeros_like(POSES), K)
+    assert fit.rms_px < 0.5
+    _assert_within_their_uncertainty(fit.rig, fit.sigma[:-1], fit.cov)
