@@ -46,6 +46,7 @@ RIG_PRIORS = {
 }
 #: The constants a board determines (RIG_PARAMETERS order, without the ground's).
 FITTED = tuple(g for g in RIG_PARAMETERS if g != "ground_height_error")
+FITTED_NAMES = tuple(n for g in FITTED for n in RIG_PARAMETERS[g])
 #: Two typed moves are parallel when the smaller singular value of the moves is under this
 #: fraction of the larger.
 MIN_DIRECTION_RATIO = 0.2
@@ -116,9 +117,12 @@ def check_identifiable(t_typed: ArrayLike, board_depth: float) -> None:
 
 
 def _project(params: F64, corners: F64, t_typed: F64, r_typed: F64, intrinsics: F64) -> F64:
-    """(C, K, 2) the corners' pixels for the constants ``params`` (10, FITTED order)."""
-    rig = RigConstants.from_vector(np.append(params, 0.0))
-    t, R = rig.true_poses(t_typed, r_typed)
+    """(C, K, 2) the corners' pixels for the constants ``params`` (10, FITTED order, then
+    optionally each capture's placing error (C, 3): where the laptop really was)."""
+    n = len(RigConstants().vector()) - 1
+    rig = RigConstants.from_vector(np.append(params[:n], 0.0))
+    placed = t_typed + params[n:].reshape(-1, 3) if len(params) > n else t_typed
+    t, R = rig.true_poses(placed, r_typed)
     fx, fy, cx, cy = rig.true_intrinsics(intrinsics)
     p_cam = np.einsum("cji,ckj->cki", R, corners[None] - t[:, None])  # R^T (X - t)
     z = p_cam[..., 2]
@@ -133,6 +137,7 @@ def fit_board_rig(
     intrinsics: ArrayLike,
     *,
     units: str = "in",
+    t_sigma: float = 0.0,
 ) -> BoardRigFit:
     """The rig's constants from board captures.
 
@@ -146,6 +151,10 @@ def fit_board_rig(
         Each capture's typed camera centre and angles.
     intrinsics : (4,) array_like
         The nominal ``fx, fy, cx, cy`` (the camera's calibration).
+    t_sigma : float
+        The typed translations' 1-sigma per component (the entries' resolution: tape and
+        placing): each capture's placing error is fitted with it as its prior, so the
+        constants' sigma includes what the poses' typing leaves unknown (0: typed exactly).
     """
     X = np.asarray(corners_grid, dtype=np.float64)
     u = np.asarray(observed_px, dtype=np.float64)
@@ -157,8 +166,10 @@ def fit_board_rig(
             f"pixels, got {u.shape}"
         )
     check_identifiable(t, float(X[:, 2].mean()))
-    nominal = RigConstants().vector()[:-1]
-    prior = _prior_sigma(units)
+    n_rig = len(FITTED_NAMES)
+    placing = t_sigma > 0
+    nominal = np.concatenate([RigConstants().vector()[:-1], np.zeros(t.size if placing else 0)])
+    prior = np.concatenate([_prior_sigma(units), np.full(t.size if placing else 0, t_sigma)])
 
     def residuals(p: F64, sigma_px: float) -> F64:
         corners = (_project(p, X, t, r, k) - u).ravel() / sigma_px
@@ -170,9 +181,9 @@ def fit_board_rig(
         corner_res = (_project(fit.x, X, t, r, k) - u).ravel()
         sigma_px = max(float(np.sqrt(np.mean(corner_res**2))), 1e-6)
     fit = least_squares(residuals, fit.x, args=(sigma_px,), x_scale=prior, method="trf")
-    cov = np.linalg.pinv(fit.jac.T @ fit.jac)
+    cov = np.linalg.pinv(fit.jac.T @ fit.jac)[:n_rig, :n_rig]
     sigma = np.append(np.sqrt(np.clip(np.diag(cov), 0.0, None)), np.nan)
-    rig = RigConstants.from_vector(np.append(fit.x, 0.0), units)
+    rig = RigConstants.from_vector(np.append(fit.x[:n_rig], 0.0), units)
     return BoardRigFit(
         rig=rig,
         sigma=sigma,
@@ -180,13 +191,13 @@ def fit_board_rig(
         rms_px=float(np.sqrt(np.mean((_project(fit.x, X, t, r, k) - u) ** 2))),
         n_captures=len(t),
         n_corners=u.shape[0] * u.shape[1],
-        warnings=_against_priors(fit.x - nominal, prior),
+        warnings=_against_priors(fit.x[:n_rig] - nominal[:n_rig], prior[:n_rig]),
     )
 
 
 def _against_priors(delta: F64, prior: F64) -> tuple[str, ...]:
     """A warning per constant the fit moved more than two prior sigmas from nominal."""
-    names = [n for g in FITTED for n in RIG_PARAMETERS[g]]
+    names = FITTED_NAMES
     return tuple(
         f"{name} = nominal {d:+.4g} is {abs(d) / s:.1f} prior sigmas off (prior sigma {s:.3g}): "
         "the data push it against its prior; check the board's placement and the typed poses"
