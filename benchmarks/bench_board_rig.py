@@ -1,0 +1,155 @@
+"""The rig from a board (issue 24, item 3): one board session calibrates the rig, which then
+corrects separate measurement sessions.
+
+    .venv/bin/python benchmarks/bench_board_rig.py [--seeds 3] [--methods point ground]
+
+Per seed: a board session of 8 typed poses (moves along x and z, 21-28 in from the board),
+5 frames each, rendered by the one synthetic camera (``twopose.sim.camera``) through the
+constants of ``bench_rig.py`` (mount rotation (0.8, -0.5, 0.3) deg, camera offset
+(0.3, 0.2, 0.4) in, focal scale 1.03), the laptop placed off each typed pose by the
+thesis' placing error (0.04 in per axis); each pose's corners found by OpenCV and
+averaged over its frames; :func:`twopose.board_rig.fit_board_rig` gives the constants and
+their sigma. Then ``bench_rig.py``'s measurement sessions of the same seed (15 trials, the
+thesis' geometry, with the constants and without), the one with constants analysed with
+``run --rig`` (the board's constants), judged on the trials both sessions use.
+
+Targets: every constant within 2 sigma of the truth; the corrected sessions' RMSE <= 1.05x
+the same seed simulated without constants. Beside them, ``bench_rig.py``'s leave-one-out
+correction from the session's own target trials. Prints one line per seed and method;
+exits 1 if a target is missed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+sys.path.insert(0, str(REPO / "benchmarks"))
+sys.path.insert(0, str(REPO / "sessions"))
+
+from bench_rig import RIG, rmse, simulate_pair  # noqa: E402
+
+from analysis.batch import run  # noqa: E402
+from analysis.metrics import used_trials  # noqa: E402
+from analysis.results import AnalysisOptions  # noqa: E402
+from twopose.board_rig import BoardRigFit, board_order, fit_board_rig  # noqa: E402
+from twopose.rig import RIG_PARAMETERS  # noqa: E402
+from twopose.sim.camera import SyntheticCamera  # noqa: E402
+from twopose.sim.render import board_corners, board_layout  # noqa: E402
+from twopose.sim.scene import Scene, load_scene  # noqa: E402
+
+POSES = np.array(
+    [[0, 0, 0], [2, 0, 0], [-2, 0, 0], [0, 0, -2], [2, 0, -2], [-1, 0, 3], [1, 0, -4], [-2, 0, 2]],
+    dtype=np.float64,
+)
+FRAMES = 5
+PLACING_SIGMA = 0.04  # inches per axis, the thesis sessions' placing error
+NAMES = [n for g in RIG_PARAMETERS for n in RIG_PARAMETERS[g]][:-1]  # the ground's not seen
+
+
+def board_scene() -> Scene:
+    return load_scene(
+        None,
+        board={"present": True},
+        systematic={
+            "mount_rotation_deg": list(RIG.mount_rotation_deg),
+            "camera_offset": list(RIG.camera_offset),
+            "focal_scale": RIG.focal_scale,
+            "principal_offset_px": list(RIG.principal_offset_px),
+        },
+    )
+
+
+def board_fit(seed: int) -> BoardRigFit:
+    """One board session: 8 typed poses, placed with the placing error, 5 frames each."""
+    scene = board_scene()
+    rng = np.random.default_rng(1000 + seed)
+    camera = SyntheticCamera(scene, board_layout(scene), rng)
+    criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 50, 1e-3)
+    observed = []
+    for t_typed in POSES:
+        camera.place(t_typed + PLACING_SIGMA * rng.standard_normal(3), np.zeros(3))
+        frames = []
+        for _ in range(FRAMES):
+            grey = cv2.cvtColor(camera.expose(), cv2.COLOR_BGR2GRAY)
+            ok, found = cv2.findChessboardCorners(grey, scene.board.inner_corners)
+            if not ok:
+                raise SystemExit(f"the board was not found at the typed pose {t_typed}")
+            found = cv2.cornerSubPix(grey, found, (5, 5), (-1, -1), criteria)
+            frames.append(board_order(found, scene.board.inner_corners))
+        observed.append(np.mean(frames, axis=0))
+    k = scene.cameras[0].intrinsics
+    return fit_board_rig(
+        board_corners(scene.board),
+        np.array(observed),
+        POSES,
+        np.zeros_like(POSES),
+        [k.fx, k.fy, k.cx, k.cy],
+        t_sigma=PLACING_SIGMA,  # what the entries' resolution would record
+    )
+
+
+def corrected(method: str, seed: int, fit: BoardRigFit, folder: Path) -> tuple[float, ...]:
+    """RMSE of the seed's session without constants, with them uncorrected, corrected by the
+    board's rig, and corrected leave-one-out by its own target trials (bench_rig)."""
+    paths = simulate_pair(method, seed, folder)
+    loo = run(list(paths.values()), None, options=AnalysisOptions(rig_calibration="loo")).trials
+    by = {Path(str(s)).stem.rsplit("_", 1)[1]: g for s, g in loo.groupby("session")}
+    both = set.intersection(*(set(used_trials(g)["trial"]) for g in by.values()))
+    board = run([paths["with"]], None, options=AnalysisOptions(rig=fit.rig)).trials
+
+    def over_both(table: object, column: str) -> float:
+        t = table  # type: ignore[assignment]
+        return rmse(t[t["trial"].isin(both)][column].to_numpy())  # type: ignore[index]
+
+    return (
+        over_both(by["without"], "err"),
+        over_both(by["with"], "err"),
+        over_both(board, "err"),
+        over_both(by["with"], "err_rig"),
+    )
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seeds", type=int, default=3)
+    ap.add_argument("--methods", nargs="+", default=["point", "ground"])
+    args = ap.parse_args()
+    ok = True
+    truth = RIG.vector()[:-1]
+    print("seed  constants within 2 sigma  (worst |error|/sigma)  RMS px")
+    fits = {}
+    for seed in range(args.seeds):
+        fit = board_fit(seed)
+        z = np.abs(fit.rig.vector()[:-1] - truth) / fit.sigma[:-1]
+        fits[seed] = fit
+        within = int((z <= 2).sum())
+        ok &= within == len(z)
+        worst = NAMES[int(np.argmax(z))]
+        print(f"{seed:4}  {within:2} of {len(z)}  ({z.max():.2f}, {worst})  {fit.rms_px:.3f}")
+    print("\nmethod seed  RMSE without  with, raw  with, board rig (ratio)  with, loo (ratio)")
+    with tempfile.TemporaryDirectory(prefix="twopose-board-rig-") as tmp:
+        for method in args.methods:
+            for seed in range(args.seeds):
+                base, raw, board, loo = corrected(method, seed, fits[seed], Path(tmp))
+                ok &= board <= 1.05 * base
+                print(
+                    f"{method:6} {seed:4}  {base:12.3f}  {raw:9.3f}  {board:9.3f} "
+                    f"({board / base:.3f})         {loo:8.3f} ({loo / base:.3f})"
+                )
+    print(
+        "targets (every constant within 2 sigma; corrected RMSE <= 1.05x): "
+        + ("met" if ok else "MISSED")
+    )
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
