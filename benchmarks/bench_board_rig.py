@@ -26,7 +26,6 @@ import sys
 import tempfile
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
@@ -40,6 +39,7 @@ from analysis.batch import run  # noqa: E402
 from analysis.metrics import used_trials  # noqa: E402
 from analysis.results import AnalysisOptions  # noqa: E402
 from twopose.board_rig import BoardRigFit, board_order, fit_board_rig  # noqa: E402
+from twopose.detect import find_board  # noqa: E402
 from twopose.rig import RIG_PARAMETERS  # noqa: E402
 from twopose.sim.camera import SyntheticCamera  # noqa: E402
 from twopose.sim.render import board_corners, board_layout  # noqa: E402
@@ -72,17 +72,14 @@ def board_fit(seed: int) -> BoardRigFit:
     scene = board_scene()
     rng = np.random.default_rng(1000 + seed)
     camera = SyntheticCamera(scene, board_layout(scene), rng)
-    criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 50, 1e-3)
     observed = []
     for t_typed in POSES:
         camera.place(t_typed + PLACING_SIGMA * rng.standard_normal(3), np.zeros(3))
         frames = []
         for _ in range(FRAMES):
-            grey = cv2.cvtColor(camera.expose(), cv2.COLOR_BGR2GRAY)
-            ok, found = cv2.findChessboardCorners(grey, scene.board.inner_corners)
-            if not ok:
+            found = find_board(camera.expose(), scene.board.inner_corners, window_px=5)
+            if found is None:
                 raise SystemExit(f"the board was not found at the typed pose {t_typed}")
-            found = cv2.cornerSubPix(grey, found, (5, 5), (-1, -1), criteria)
             frames.append(board_order(found, scene.board.inner_corners))
         observed.append(np.mean(frames, axis=0))
     k = scene.cameras[0].intrinsics

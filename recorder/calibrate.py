@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 from recorder.sources import FrameSource
 from twopose.camera import SIGMA_KEYS, Intrinsics, intrinsics_sigma
 from twopose.config import read_toml
+from twopose.detect import find_board
 from twopose.errors import InputValueError, SessionExistsError, SourceError
 
 __all__ = [
@@ -83,15 +84,6 @@ def _board_pattern(board: tuple[int, int], square: float) -> NDArray[np.float32]
     return pattern
 
 
-def _find_board(frame: NDArray[np.uint8], board: tuple[int, int]) -> F32 | None:
-    gray = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
-    found, corners = cv2.findChessboardCorners(gray, board)
-    if not found:
-        return None
-    criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 1e-3)
-    return np.asarray(cv2.cornerSubPix(gray, corners, (11, 11), (-1, -1), criteria), np.float32)
-
-
 def _moved(corners: F32, views: _Views, min_motion_px: float) -> bool:
     """Whether the board moved since the last kept view (mean corner displacement)."""
     if not views.points:
@@ -125,7 +117,7 @@ def _collect(
                     break  # a folder or video that ran out: fit what it showed
                 raise
             kept.size = (frame.shape[1], frame.shape[0])
-            corners = _find_board(frame, board)
+            corners = find_board(frame, board)
             use = corners is not None and (stills or _moved(corners, kept, min_motion_px))
             if corners is not None and use:
                 kept.points.append(corners)

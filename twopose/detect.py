@@ -31,6 +31,7 @@ __all__ = [
     "detect",
     "detect_dot",
     "detect_glove",
+    "find_board",
     "wrap_theta_deg",
 ]
 
@@ -542,3 +543,18 @@ def combine_frames(
         theta_std,
         rejected,
     )
+
+
+def find_board(
+    image_bgr: Image, inner_corners: tuple[int, int], *, window_px: int = 11
+) -> NDArray[np.float32] | None:
+    """A checkerboard's inner corners (cols * rows, 1, 2), refined to sub-pixel
+    (``cv2.findChessboardCorners`` then ``cv2.cornerSubPix`` in a (2 window + 1)^2 window:
+    keep it under half a square), in OpenCV's order; None where the board is not found."""
+    grey = cv2.cvtColor(image_bgr, cv2.COLOR_BGR2GRAY)
+    found, corners = cv2.findChessboardCorners(grey, inner_corners)
+    if not found:
+        return None
+    criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 1e-3)
+    window = (window_px, window_px)
+    return np.asarray(cv2.cornerSubPix(grey, corners, window, (-1, -1), criteria), np.float32)

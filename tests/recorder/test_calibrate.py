@@ -11,7 +11,6 @@ from typer.testing import CliRunner
 
 from recorder.calibrate import (
     OUTER_THIRD,
-    _find_board,
     calibrate,
     fit_views,
     load_calibration,
@@ -21,6 +20,7 @@ from recorder.cli import app
 from recorder.plan import load_plan
 from recorder.sources import ImagesSource, VideoSource
 from twopose.camera import rotation_from_angles_deg
+from twopose.detect import find_board
 from twopose.errors import EXIT_ERROR, InputValueError
 
 runner = CliRunner()
@@ -160,7 +160,7 @@ def _rendered_corners(tmp_path: Path) -> tuple[list[np.ndarray], list[str]]:
     views = _board_views(tmp_path / "views")
     corners, names = [], []
     for image in sorted(views.iterdir()):
-        c = _find_board(cv2.imread(str(image)), (9, 6))
+        c = find_board(cv2.imread(str(image)), (9, 6))
         assert c is not None
         corners.append(c)
         names.append(image.name)

@@ -6,11 +6,11 @@ rig back."""
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 import pytest
 
 from twopose.board_rig import board_order, fit_board_rig
+from twopose.detect import find_board
 from twopose.errors import InputValueError
 from twopose.rig import RigConstants
 from twopose.sim.camera import SyntheticCamera
@@ -136,11 +136,8 @@ def test_rendered_frames_give_the_rig_back() -> None:
     observed = []
     for t in POSES:
         camera.place(t, np.zeros(3))
-        grey = cv2.cvtColor(camera.expose(), cv2.COLOR_BGR2GRAY)
-        ok, found = cv2.findChessboardCorners(grey, scene.board.inner_corners)
-        assert ok, t
-        criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 50, 1e-3)
-        found = cv2.cornerSubPix(grey, found, (5, 5), (-1, -1), criteria)
+        found = find_board(camera.expose(), scene.board.inner_corners, window_px=5)
+        assert found is not None, t
         observed.append(board_order(found, scene.board.inner_corners))
     fit = fit_board_rig(X, np.array(observed), POSES, np.zeros_like(POSES), K)
     assert fit.rms_px < 0.5

@@ -5,11 +5,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import cv2
 import numpy as np
 import pytest
 
 from twopose.camera import project_points, rotation_from_angles_deg
+from twopose.detect import find_board
 from twopose.errors import SceneError
 from twopose.sim.camera import SyntheticCamera
 from twopose.sim.render import board_corners, board_layout, build_layout
@@ -25,12 +25,9 @@ present = true
 
 
 def _found(image: np.ndarray, pattern: tuple[int, int]) -> np.ndarray:
-    grey = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-    ok, corners = cv2.findChessboardCorners(grey, pattern)
-    assert ok, "the corner finder did not find the rendered board"
-    criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 50, 1e-3)
-    refined: np.ndarray = cv2.cornerSubPix(grey, corners, (5, 5), (-1, -1), criteria)
-    return refined.reshape(-1, 2)
+    found = find_board(image, pattern, window_px=5)
+    assert found is not None, "the corner finder did not find the rendered board"
+    return found.reshape(-1, 2)
 
 
 @pytest.mark.parametrize(
