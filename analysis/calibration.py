@@ -26,7 +26,9 @@ from analysis.pipeline import replay_views
 from analysis.rig import RigFit, fit_constants, select_constants
 from analysis.rig_data import RigData, combine, prepare_session, require_trusted
 from twopose.errors import InputValueError
+from twopose.estimate import EstimateOptions
 from twopose.rig import RigConstants, check_applicable
+from twopose.session_estimate import SessionTrials, estimate_session
 
 __all__ = ["calibrate", "check_rig_for_sessions", "rig_for_run"]
 
@@ -51,14 +53,7 @@ def calibrate(
     )
     parts: list[RigData] = []
     for replay in sorted(replays, key=lambda r: r.fingerprint):  # not the command line's order
-        part = prepare_session(
-            replay.method,
-            replay.trial_ids,
-            replay.views,
-            replay.truth,
-            replay.ground,
-            units=replay.units,
-        )
+        part = prepare_session(estimate_session(replay.trials, EstimateOptions()))
         if part is None:
             note(f"{replay.session}: no ok trial with ground truth; it informs nothing")
             continue
@@ -72,18 +67,23 @@ def calibrate(
     return fit, data
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, kw_only=True)
 class _Distinct:
     """A replayed session and the fingerprint of what the fit reads from it."""
 
     session: str
-    method: str
-    units: str
-    ground: Any
-    trial_ids: list[int]
-    truth: Any
-    views: Any
+    trials: SessionTrials
     fingerprint: str
+
+    @property
+    def method(self) -> str:
+        """The session's method."""
+        return self.trials.method
+
+    @property
+    def units(self) -> str:
+        """The session's units."""
+        return self.trials.units
 
 
 def _distinct(paths: Sequence[str], note: Note) -> list[_Distinct]:
@@ -102,9 +102,7 @@ def _distinct(paths: Sequence[str], note: Note) -> list[_Distinct]:
             continue
         seen_files[key] = path
         r = replay_views(path)
-        replay = _Distinct(
-            path, r.method, r.units, r.ground, r.trial_ids, r.truth, r.views, _fingerprint(r)
-        )
+        replay = _Distinct(session=path, trials=r, fingerprint=_fingerprint(r))
         if replay.fingerprint in seen_content:
             first = seen_content[replay.fingerprint]
             note(f"{path} holds the same session as {first} (the same trials): counted once")
@@ -124,7 +122,7 @@ def _file_key(path: str) -> tuple[int, int] | str:
     return (st.st_dev, st.st_ino)
 
 
-def _fingerprint(replay: Any) -> str:
+def _fingerprint(replay: SessionTrials) -> str:
     """A hash of what the fit reads from a session: method, units, ground plane, trials,
     truth and every pose's camera, typed pose and detections (the session format has no
     session id, so a copy or a rewritten file is known by its content)."""
@@ -144,9 +142,8 @@ def _fingerprint(replay: Any) -> str:
     for row in replay.views:
         h.update(b"|trial")
         for v in row:
-            for value in (v.pose, v.intrinsics, v.width_height, v.t_grid, v.r_deg):
-                add(value)
-            for value in (v.t_sigma, v.r_sigma_deg, v.centroids, v.thetas, v.found):
+            values: tuple[Any, ...] = (v.pose, v.intrinsics, v.width_height, v.t_grid, v.r_deg)
+            for value in (*values, v.t_sigma, v.r_sigma_deg, v.centroids, v.thetas, v.found):
                 add(value)
     return h.hexdigest()
 

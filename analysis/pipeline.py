@@ -23,18 +23,9 @@ from analysis.rig import RIG_TABLE_COLUMNS
 from analysis.tables import FRAME_COLUMNS, averaging_table, frame_row, trial_table, view_table
 from twopose.arrays import F64
 from twopose.camera import Intrinsics
-from twopose.detect import Detection, DotParams, GloveParams, PoseMeasurement, detect
+from twopose.detect import Detection, DotParams, GloveParams, detect
 from twopose.errors import SessionFormatError
-from twopose.estimate import (
-    Estimates,
-    GroundSpec,
-    PoseView,
-    estimate_trials,
-    margin_warnings,
-    measure,
-    pose_view,
-    running_estimates,
-)
+from twopose.estimate import GroundSpec, PoseView, pose_view
 from twopose.format.entries import PoseEntry
 from twopose.format.messages import Frame
 from twopose.format.reader import SessionReader
@@ -42,22 +33,25 @@ from twopose.format.trials import PoseCapture, TrialRecord, iter_trials, read_no
 from twopose.methods import spec_of
 from twopose.rig import RigConstants, corrected_ground, corrected_view
 from twopose.scene3d import scene_of_views
+from twopose.session_estimate import (
+    SessionEstimate,
+    SessionTrials,
+    estimate_session,
+    running_estimates,
+)
+from twopose.truth import Reported, reported
 
 __all__ = ["analyse_session", "keep_frame_buffers"]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class _Replay:
-    """What a session's replay keeps: per trial its id, truth, usable poses, last frame."""
+    """What a session's replay keeps: its trials as one value, and what only the tables
+    and the results file read (per trial its last frame, notes, why it was not measured)."""
 
     session: str
-    method: str
-    units: str
+    trials: SessionTrials
     metadata: dict[str, str]
-    ground: GroundSpec | None
-    trial_ids: list[int]
-    truth: F64  # (T, 2, 3): the point twice, or the line's two points; NaN when unknown
-    views: list[list[PoseView]]  # per trial, its complete poses
     last_ns: list[int]  # per trial, its last frame's log time (0 when it has none)
     frame_rows: list[dict[str, Any]]
     notes: list[str]  # per trial, the operator's notes joined with " | "
@@ -95,38 +89,18 @@ def analyse_session(
         if results_path is not None:
             results = stack.enter_context(_results_writer(Path(results_path), reader))
         replay = _corrected(_replay(reader, str(path), options, results), options.rig)
-        measurements, complete, detected = measure(replay.views, options)
-        est = estimate_trials(
-            replay.method,
-            replay.views,
-            measurements,
-            complete,
-            detected,
-            replay.truth,
-            replay.ground,
-            options,
-        )
-        trials = trial_table(
-            replay.session,
-            replay.method,
-            replay.units,
-            replay.trial_ids,
-            replay.views,
-            measurements,
-            est,
-            replay.truth,
-            margin_warnings(est.status, est.margins, options),
-            replay.notes,
-            replay.unmeasured,
-        )
+        estimate = estimate_session(replay.trials, options)
+        reported_ = reported(estimate)
+        trials = trial_table(replay.session, estimate, reported_, replay.notes, replay.unmeasured)
         if results is not None:
-            _write_trial_scenes(results, replay, measurements, est, trials)
+            _write_trial_scenes(results, replay, estimate, reported_)
     rig = pd.DataFrame(columns=RIG_TABLE_COLUMNS)
     if options.rig_calibration == "loo":
-        trials, rig = _rig_columns(replay, trials, options)
-    keys, solved = running_estimates(replay.method, replay.views, detected, replay.ground, options)
-    averaging = averaging_table(replay.session, replay.trial_ids, keys, solved, replay.truth)
-    views = view_table(replay.session, replay.trial_ids, replay.views, measurements)
+        trials, rig = _rig_columns(replay, estimate, reported_, trials)
+    keys, solved = running_estimates(estimate)
+    ids, truth = replay.trials.trial_ids, replay.trials.truth
+    averaging = averaging_table(replay.session, ids, keys, solved, truth)
+    views = view_table(replay.session, ids, replay.trials.views, estimate.measurements)
     images = _figures(replay.session, trials, averaging, views) if render_images else {}
     frames = pd.DataFrame(replay.frame_rows, columns=FRAME_COLUMNS)
     return SessionResult(
@@ -150,23 +124,14 @@ def _results_writer(out: Path, reader: SessionReader) -> Iterator[ResultsWriter]
 
 
 def _rig_columns(
-    replay: _Replay, trials: pd.DataFrame, options: AnalysisOptions
+    replay: _Replay, estimate: SessionEstimate, reported_: Reported, trials: pd.DataFrame
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
     """``--rig-calibration loo``: each trial corrected by constants estimated without it
-    (:data:`analysis.rig.RIG_COLUMNS`), and the session's constants (rig.csv rows)."""
+    (:data:`analysis.rig.RIG_COLUMNS`), and the session's constants (rig.csv rows), from
+    the session's one estimate."""
     from analysis.rig import loo_calibration
 
-    columns, rows = loo_calibration(
-        replay.session,
-        replay.method,
-        replay.trial_ids,
-        replay.views,
-        replay.truth,
-        replay.ground,
-        options,
-        replay.rig_truth,
-        units=replay.units,  # the plausible lengths are the session's (mm: 25.4 x inches)
-    )
+    columns, rows = loo_calibration(replay.session, estimate, reported_, replay.rig_truth)
     corrected = columns.reindex(trials["trial"].to_numpy()).set_index(trials.index)
     return _systematic_dominance(trials.assign(**corrected)), pd.DataFrame(
         rows, columns=RIG_TABLE_COLUMNS
@@ -194,15 +159,20 @@ def _corrected(replay: _Replay, rig: RigConstants | None) -> _Replay:
     """The replay with every view (and the ground) as the rig really had them."""
     if rig is None or rig.is_identity:
         return replay
-    views = [[corrected_view(v, rig) for v in row] for row in replay.views]
-    return dataclasses.replace(replay, views=views, ground=corrected_ground(replay.ground, rig))
+    trials = replay.trials
+    corrected = dataclasses.replace(
+        trials,
+        views=[[corrected_view(v, rig) for v in row] for row in trials.views],
+        ground=corrected_ground(trials.ground, rig),
+    )
+    return dataclasses.replace(replay, trials=corrected)
 
 
-def replay_views(path: str | Path, options: AnalysisOptions | None = None) -> _Replay:
+def replay_views(path: str | Path, options: AnalysisOptions | None = None) -> SessionTrials:
     """A session's trials as the estimation takes them (ids, truth, usable poses): what
     the rig's constants are fitted on (:mod:`analysis.rig`)."""
     with SessionReader(path) as reader:
-        return _replay(reader, str(path), options or AnalysisOptions(), None)
+        return _replay(reader, str(path), options or AnalysisOptions(), None).trials
 
 
 def _replay(
@@ -234,15 +204,18 @@ def _replay(
             )
             notes.append(" | ".join(record.notes))
             unmeasured.append(record.why_not_measured())
-    return _Replay(
-        session=session,
+    trials_value = SessionTrials(
         method=info.method,
         units=info.units,
-        metadata=_metadata(reader),
-        ground=ground,
-        trial_ids=trial_ids,
-        truth=np.array(truths).reshape(-1, 2, 3),
+        trial_ids=tuple(trial_ids),
         views=views,
+        truth=np.array(truths).reshape(-1, 2, 3),
+        ground=ground,
+    )
+    return _Replay(
+        session=session,
+        trials=trials_value,
+        metadata=_metadata(reader),
         last_ns=last_ns,
         frame_rows=rows,
         notes=notes,
@@ -396,26 +369,24 @@ def _pose_view(
 
 
 def _write_trial_scenes(
-    results: ResultsWriter,
-    replay: _Replay,
-    measurements: list[list[PoseMeasurement]],
-    est: Estimates,
-    trials: pd.DataFrame,
+    results: ResultsWriter, replay: _Replay, estimate: SessionEstimate, reported_: Reported
 ) -> None:
     """Each trial's geometry into results.mcap, stamped at its last frame."""
-    for i, (views, ms) in enumerate(zip(replay.views, measurements, strict=True)):
+    trials, est = replay.trials, estimate.estimates
+    line = spec_of(trials.method).estimates_line
+    for i, (views, ms) in enumerate(zip(trials.views, estimate.measurements, strict=True)):
         if not views:
             continue
         scene = scene_of_views(
-            replay.trial_ids[i],
-            replay.method,
+            trials.trial_ids[i],
+            trials.method,
             str(est.status[i]),
             views,
             ms,
-            trials.loc[i, ["x", "y", "z"]].to_numpy(dtype=np.float64),
-            est.direction[i] if spec_of(replay.method).estimates_line else None,
-            replay.truth[i],
-            est.cov[i],
+            reported_.point[i],
+            est.direction[i] if line else None,
+            trials.truth[i],
+            reported_.cov[i],
         )
         results.add_trial(scene, replay.last_ns[i])
 

@@ -5,7 +5,7 @@ The likelihood is the analysis' own, linearized: every trial with ground truth i
 again with the typed poses, intrinsics and ground height corrected by the constants, and
 its estimate is compared with its truth, weighted by the inverse of the trial's
 propagated covariance (the measured frame scatter and the typed resolution,
-:func:`twopose.estimate.estimate_trials`). Minimizing the sum of the whitened residuals
+:func:`twopose.session_estimate.estimate_session`). Minimizing the sum of the whitened residuals
 (``scipy.optimize.least_squares``) is maximum likelihood under the first-order Gaussian
 model the uncertainty columns already use. The constants' covariance is the inverse of
 the whitened normal matrix (inflated by the reduced chi-square when that exceeds 1).
@@ -31,10 +31,11 @@ from numpy.typing import NDArray
 from analysis.rig_data import RigData, combine, prepare, prepare_session, require_trusted
 from twopose.arrays import F64
 from twopose.errors import InputValueError
-from twopose.estimate import EstimateSettings, GroundSpec, PoseView, ViewBatch, line_errors
+from twopose.estimate import ViewBatch
 from twopose.rig import RIG_PARAMETERS, RigConstants, angles_deg_from_rotation
+from twopose.session_estimate import SessionEstimate
 from twopose.solve import image_lines, triangulate_ground, triangulate_lines, triangulate_points
-from twopose.trial_result import reported_point
+from twopose.truth import Reported, line_errors, reported_line_point
 from twopose.uncertainty import CHI2_95, nees
 
 __all__ = [
@@ -108,15 +109,8 @@ def corrected_estimates(data: RigData, rig: RigConstants) -> tuple[F64, F64]:
             point[rows] = g.point_grid
         return point, no_direction
     solved_lines = triangulate_lines(lines, P, valid=valid, min_conditioning=mc)
-    est = _LineEstimate(solved_lines.point_grid, solved_lines.direction_grid)
-    point, _ = reported_point("line", est, data.truth)  # type: ignore[arg-type]
+    point, _ = reported_line_point(solved_lines.point_grid, solved_lines.direction_grid, data.truth)
     return point, np.asarray(solved_lines.direction_grid)
-
-
-@dataclass(frozen=True)
-class _LineEstimate:
-    point: F64
-    direction: F64
 
 
 def raw_residuals(data: RigData, rig: RigConstants) -> F64:
@@ -405,22 +399,17 @@ def _carried(trial: RigData, fit: RigFit, step: float = 1e-3) -> F64:
 
 def loo_calibration(
     session: str,
-    method: str,
-    trial_ids: Sequence[int],
-    views: list[list[PoseView]],
-    truth: F64,
-    ground: GroundSpec | None,
-    options: EstimateSettings,
+    estimate: SessionEstimate,
+    reported_: Reported | None = None,
     rig_truth: RigConstants | None = None,
-    units: str | None = None,
 ) -> tuple[pd.DataFrame, list[dict[str, object]]]:
-    """``run --rig-calibration loo`` for one session: its trials' :data:`RIG_COLUMNS`
-    (indexed by trial id; trials that could not inform the rig are absent), and the
-    session's constants (selected on all its trials) as rig.csv rows. A session that
-    cannot inform the rig gets no columns, and its one row says why. ``units`` (the
-    session's) scale the plausible lengths the fit may reach (unknown: inches)."""
+    """``run --rig-calibration loo`` for one session, from its one estimate: its trials'
+    :data:`RIG_COLUMNS` (indexed by trial id; trials that could not inform the rig are
+    absent), and the session's constants (selected on all its trials) as rig.csv rows. A
+    session that cannot inform the rig gets no columns, and its one row says why. The
+    session's units scale the plausible lengths the fit may reach."""
     try:
-        data = prepare(method, trial_ids, views, truth, ground, options, units)
+        data = prepare(estimate, reported_)
     except InputValueError as err:
         empty = pd.DataFrame(columns=RIG_COLUMNS, index=pd.Index([], name="trial"))
         return empty, [{"session": session, "constant": "", "why_fixed": str(err)}]

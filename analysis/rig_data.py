@@ -14,22 +14,22 @@ from numpy.typing import NDArray
 
 from twopose.arrays import F64
 from twopose.errors import InputValueError
-from twopose.estimate import (
-    EstimateOptions,
-    EstimateSettings,
-    GroundSpec,
-    PoseView,
-    ViewBatch,
-    estimate_trials,
-    margin_warnings,
-    measure,
-)
+from twopose.estimate import EstimateOptions, EstimateSettings, GroundSpec, ViewBatch
 from twopose.rig import ground_height, plausible_bounds
+from twopose.session_estimate import SessionEstimate, SessionTrials, estimate_session
+from twopose.truth import Reported, reported
 
-__all__ = ["RigData", "combine", "prepare", "prepare_session", "require_trusted"]
+__all__ = [
+    "RigData",
+    "combine",
+    "prepare",
+    "prepare_session",
+    "prepare_trials",
+    "require_trusted",
+]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class RigData:
     """Sessions' ok trials with ground truth, ready for fitting: their detections
     combined into one measurement per pose (the constants do not change them), the typed
@@ -82,19 +82,10 @@ class RigData:
         )
 
 
-def prepare(
-    method: str,
-    trial_ids: Sequence[int],
-    views: list[list[PoseView]],
-    truth: F64,
-    ground: GroundSpec | None,
-    options: EstimateSettings | None = None,
-    units: str | None = None,
-) -> RigData:
-    """The trials of one session that can inform the constants: ok, with ground truth
-    (at least 2 trusted)."""
-    data = prepare_session(method, trial_ids, views, truth, ground, options, units)
-    return require_trusted(data)
+def prepare(estimate: SessionEstimate, reported_: Reported | None = None) -> RigData:
+    """The trials of one session's estimate that can inform the constants: ok, with
+    ground truth (at least 2 trusted)."""
+    return require_trusted(prepare_session(estimate, reported_))
 
 
 def require_trusted(data: RigData | None) -> RigData:
@@ -109,41 +100,40 @@ def require_trusted(data: RigData | None) -> RigData:
     return data
 
 
-def prepare_session(
-    method: str,
-    trial_ids: Sequence[int],
-    views: list[list[PoseView]],
-    truth: F64,
-    ground: GroundSpec | None,
-    options: EstimateSettings | None = None,
-    units: str | None = None,
-) -> RigData | None:
-    """A session's ok trials with ground truth (None: it has none)."""
-    options = options or EstimateOptions()
-    if not views:
+def prepare_session(estimate: SessionEstimate, reported_: Reported | None = None) -> RigData | None:
+    """A session's ok trials with ground truth (None: it has none), from its one estimate
+    (:func:`twopose.session_estimate.estimate_session`), each with its reported point's
+    covariance (``reported_``, computed here when not given: :func:`twopose.truth.reported`)."""
+    trials, est = estimate.trials, estimate.estimates
+    if not trials.views:
         return None
-    measurements, complete, detected = measure(views, options)
-    est = estimate_trials(method, views, measurements, complete, detected, truth, ground, options)
-    known = [bool(np.isfinite(truth[i]).all()) for i in range(len(views))]
-    keep = [i for i in range(len(views)) if est.status[i] == "ok" and known[i]]
+    truth = trials.truth
+    keep = [i for i in range(len(trials)) if est.status[i] == "ok" and np.isfinite(truth[i]).all()]
     if not keep:
         return None
-    warnings = margin_warnings(est.status, est.margins, options)
-    sizes = [v.width_height for i in keep for v in views[i]]
+    cov = (reported_ or reported(estimate)).cov
+    sizes = [v.width_height for i in keep for v in trials.views[i]]
     return RigData(
-        method,
-        tuple(int(trial_ids[i]) for i in keep),
-        ViewBatch.of([measurements[i] for i in keep], [views[i] for i in keep]),
-        truth[keep],
-        (ground,),
-        np.zeros(len(keep), dtype=int),
-        np.stack([_whitening(est.cov[i]) for i in keep]),
-        est.cov[keep],
-        np.array([warnings[i] == "" for i in keep], dtype=bool),
-        options,
-        units,
-        (min(w for w, _ in sizes), min(h for _, h in sizes)),
+        method=trials.method,
+        trial_ids=tuple(int(trials.trial_ids[i]) for i in keep),
+        batch=ViewBatch.of(
+            [estimate.measurements[i] for i in keep], [trials.views[i] for i in keep]
+        ),
+        truth=truth[keep],
+        grounds=(trials.ground,),
+        origin=np.zeros(len(keep), dtype=int),
+        whiten=np.stack([_whitening(cov[i]) for i in keep]),
+        cov=cov[keep],
+        trusted=np.array([estimate.warnings[i] == "" for i in keep], dtype=bool),
+        options=estimate.options,
+        units=trials.units,
+        image_size=(min(w for w, _ in sizes), min(h for _, h in sizes)),
     )
+
+
+def prepare_trials(trials: SessionTrials, options: EstimateSettings | None = None) -> RigData:
+    """:func:`prepare` of a session's trials, estimated here (the rig fit from a notebook)."""
+    return prepare(estimate_session(trials, options or EstimateOptions()))
 
 
 def combine(parts: Sequence[RigData]) -> RigData:

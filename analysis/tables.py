@@ -18,15 +18,15 @@ from analysis.metrics import LINE_COLUMNS, OPTIMAL_COLUMNS, TRIAL_COLUMNS
 from twopose.arrays import F64
 from twopose.camera import rotation_from_angles_deg
 from twopose.detect import Detection, PoseMeasurement
-from twopose.estimate import line_errors
 from twopose.methods import spec_of
-from twopose.trial_result import reported_point
+from twopose.truth import Reported, line_errors
 from twopose.uncertainty import uncertainty_columns
 
 if TYPE_CHECKING:
-    from twopose.estimate import Estimates, PoseView, Solved
+    from twopose.estimate import PoseView, Solved
     from twopose.format.entries import PoseEntry
     from twopose.format.messages import Frame
+    from twopose.session_estimate import Estimates, SessionEstimate
 
 __all__ = [
     "AVERAGING_COLUMNS",
@@ -109,19 +109,19 @@ def frame_row(
     }
 
 
-def _estimate_and_truth(method: str, est: Estimates, truth: F64) -> tuple[F64, F64, dict[str, Any]]:
-    """The reported estimate, the truth it is compared with, and the method's extra columns."""
-    point, reference = reported_point(method, est, truth)  # the one rule, shared with live
+def _method_columns(method: str, est: Estimates, truth: F64) -> dict[str, Any]:
+    """The method's extra columns: a line's direction and errors; a point's
+    reprojection-optimal estimate beside the thesis' one."""
     if spec_of(method).estimates_line:
         with np.errstate(invalid="ignore"):
             _, _, angle, dist = line_errors(est.point, est.direction, truth[:, 0], truth[:, 1])
         extra = {f"dir_{a}": est.direction[:, i] for i, a in enumerate("xyz")}
-        return point, reference, extra | {"angle_err_deg": angle, "dist_err": dist}
+        return extra | {"angle_err_deg": angle, "dist_err": dist}
     if method == "point":  # the estimators side by side
         opt_err = est.optimal - truth[:, 0]
         extra = {f"{a}_optimal": est.optimal[:, i] for i, a in enumerate("xyz")}
-        return point, reference, extra | {"err_optimal": np.linalg.norm(opt_err, axis=1)}
-    return point, reference, {}
+        return extra | {"err_optimal": np.linalg.norm(opt_err, axis=1)}
+    return {}
 
 
 def _other_line_columns(est: Estimates, truth: F64) -> dict[str, Any]:
@@ -141,37 +141,32 @@ def _other_line_columns(est: Estimates, truth: F64) -> dict[str, Any]:
 
 def trial_table(
     session: str,
-    method: str,
-    units: str,
-    trial_ids: Sequence[int],
-    views: list[list[PoseView]],
-    measurements: list[list[PoseMeasurement]],
-    est: Estimates,
-    truth: F64,
-    warnings: list[str],
+    estimate: SessionEstimate,
+    reported_: Reported,
     notes: Sequence[str] | None = None,
     unmeasured: Sequence[str] | None = None,
 ) -> pd.DataFrame:
     """One row per trial (``trials.csv``): estimate, truth, error, margins, uncertainty,
     the operator's ``notes``; ``unmeasured`` (per trial, why its captures do not make two
     usable poses) replaces the generic reason of an ``incomplete`` trial."""
-    point, reference, extra = _estimate_and_truth(method, est, truth)
-    err = point - reference
+    trials, est = estimate.trials, estimate.estimates
+    method, T = trials.method, len(trials)
+    point, reference, err = reported_.point, reported_.reference, reported_.error
     table = pd.DataFrame(
         {
-            "session": [session] * len(trial_ids),
-            "trial": list(trial_ids),
-            "method": [method] * len(trial_ids),
-            "units": [units] * len(trial_ids),
+            "session": [session] * T,
+            "trial": list(trials.trial_ids),
+            "method": [str(method)] * T,
+            "units": [str(trials.units)] * T,
             "status": est.status,
             "reason": _reasons(est, unmeasured),
-            "n_views": [len(v) if len(v) >= 2 else 0 for v in views],
+            "n_views": [len(v) if len(v) >= 2 else 0 for v in trials.views],
             "conditioning": est.conditioning,
             **{a: point[:, i] for i, a in enumerate("xyz")},
             **{f"gt_{a}": reference[:, i] for i, a in enumerate("xyz")},
             **{f"err_{a}": err[:, i] for i, a in enumerate("xyz")},
             "err": np.linalg.norm(err, axis=1),
-            **extra,
+            **_method_columns(method, est, trials.truth),
         }
     )
     extra_columns = (
@@ -180,18 +175,20 @@ def trial_table(
     table = table[TRIAL_COLUMNS + extra_columns]
     for name, values in est.margins.items():
         table[name] = values
-    table["warning"] = warnings
-    table["baseline"] = [_baseline(v) for v in views]
+    table["warning"] = estimate.warnings
+    table["baseline"] = [_baseline(v) for v in trials.views]
     if spec_of(method).estimates_line:
-        for name, values in _other_line_columns(est, truth).items():
+        for name, values in _other_line_columns(est, trials.truth).items():
             table[name] = values
-    for name, values in uncertainty_columns(err, est.cov).items():
+    for name, values in uncertainty_columns(err, reported_.cov).items():
         table[name] = values
-    table["dominant_input"], table["dominant_share"] = est.dominant, est.dominant_share
+    table["dominant_input"] = reported_.dominant
+    table["dominant_share"] = reported_.dominant_share
     table["rejected_frames"] = [
-        _rejected(ms, vs) if ms else "" for ms, vs in zip(measurements, views, strict=True)
+        _rejected(ms, vs) if ms else ""
+        for ms, vs in zip(estimate.measurements, trials.views, strict=True)
     ]
-    table["notes"] = list(notes) if notes is not None else [""] * len(trial_ids)
+    table["notes"] = list(notes) if notes is not None else [""] * T
     return table
 
 

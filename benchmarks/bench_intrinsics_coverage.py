@@ -45,9 +45,9 @@ from analysis.outputs import replacing  # noqa: E402
 from analysis.pipeline import replay_views  # noqa: E402
 from analysis.results import AnalysisOptions  # noqa: E402
 from recorder.simulate import simulate_session  # noqa: E402
-from twopose.estimate import estimate_trials, measure  # noqa: E402
+from twopose.session_estimate import estimate_session  # noqa: E402
 from twopose.sim.scene import CameraParams, Scene  # noqa: E402
-from twopose.trial_result import reported_point  # noqa: E402
+from twopose.truth import reported  # noqa: E402
 from twopose.uncertainty import uncertainty_columns  # noqa: E402
 
 METHODS = ("point", "line", "ground")
@@ -85,24 +85,14 @@ def without_sigma(path: str) -> pd.DataFrame:
     views = [
         [dataclasses.replace(v, intrinsics_sigma=np.zeros(4)) for v in row] for row in replay.views
     ]
-    measurements, complete, detected = measure(views, options)
-    est = estimate_trials(
-        replay.method,
-        views,
-        measurements,
-        complete,
-        detected,
-        replay.truth,
-        replay.ground,
-        options,
-    )
-    point, reference = reported_point(replay.method, est, replay.truth)
-    within = uncertainty_columns(point - reference, est.cov)["within95"]
+    estimate = estimate_session(dataclasses.replace(replay, views=views), options)
+    rep = reported(estimate)
+    within = uncertainty_columns(rep.error, rep.cov)["within95"]
     return pd.DataFrame(
         {
             "session": Path(path).name,
             "trial": replay.trial_ids,
-            "status": est.status,
+            "status": estimate.estimates.status,
             "within95_without": within,
         }
     )

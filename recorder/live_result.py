@@ -19,8 +19,10 @@ from recorder.capture import CaptureResult
 from twopose.camera import Camera
 from twopose.estimate import EstimateOptions, GroundSpec, PoseView, measure, pose_view
 from twopose.format.entries import GroundPlane, GroundTruth, PoseEntry, TypedEntry
+from twopose.methods import Method
 from twopose.rig import RigConstants, check_applicable, corrected_ground, corrected_view
 from twopose.scene3d import TrialScene, scene_of_views
+from twopose.session_estimate import SessionTrials
 from twopose.trial_result import TrialResult, trial_results
 
 __all__ = ["LiveResults"]
@@ -31,14 +33,14 @@ class LiveResults:
 
     def __init__(
         self,
-        method: str,
+        method: Method | str,
         units: str,
         cameras: Sequence[Camera],
         ground: GroundPlane | None,
         options: EstimateOptions | None = None,
         rig: RigConstants | None = None,
     ) -> None:
-        self.method, self.units = method, units
+        self.method, self.units = Method(method), units
         self.rig = rig  # a calibrated rig (`twopose-analyze rig`): views corrected by it
         self.options = options or EstimateOptions()
         self._cameras = {c.camera_id: c for c in cameras}
@@ -109,15 +111,15 @@ class LiveResults:
         """Every trial with two or more poses, in one batch (the 95% regions pool their
         frame scatter, as the analysis pools a session's)."""
         trials = sorted(t for t, v in views.items() if len(v) >= 2)
-        solved = trial_results(
-            self.method,
-            self.units,
-            trials,
-            [views[t] for t in trials],
-            np.array([self._truth.get(t, np.full((2, 3), np.nan)) for t in trials]),
-            self._ground,
-            self.options,
+        session = SessionTrials(
+            method=self.method,
+            units=self.units,
+            trial_ids=tuple(trials),
+            views=[views[t] for t in trials],
+            truth=np.array([self._truth.get(t, np.full((2, 3), np.nan)) for t in trials]),
+            ground=self._ground,
         )
+        solved = trial_results(session, self.options)
         return dict(zip(trials, solved, strict=True))
 
     def scene(self, trial: int) -> TrialScene | None:

@@ -1,7 +1,8 @@
 """Estimation: each trial's pose measurements in, its estimates and their uncertainty out.
 
 Every trial's usable poses become one row of a padded batch, so each estimator runs once
-per session, vectorized over trials (:func:`estimate_trials`); the same batch, perturbed,
+per session, vectorized over trials (:func:`twopose.session_estimate.estimate_session`
+drives it); the same batch, perturbed,
 propagates the input covariance to every estimate (:mod:`twopose.uncertainty`): pixels,
 typed poses and, where the camera's calibration recorded its 1-sigma, the intrinsics.
 """
@@ -16,12 +17,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twopose.arrays import F64
-from twopose.camera import Intrinsics, camera_centres, rotation_from_angles_deg
+from twopose.camera import Intrinsics, rotation_from_angles_deg
 from twopose.conditioning import parallax_sine
 from twopose.detect import CombineMethod, PoseMeasurement, combine_frames
 from twopose.format.entries import PoseEntry
 from twopose.methods import METHOD_SPECS, Method, spec_of
-from twopose.optimal_lines import centroid_segments, optimal_lines
 from twopose.solve import (
     DEFAULT_MIN_CONDITIONING,
     NViewLines,
@@ -35,11 +35,8 @@ from twopose.uncertainty import (
     INPUTS_PER_VIEW,
     SHARED_INPUTS,
     Shared,
-    dominant_input,
     frame_scatter,
     measurement_covariance,
-    pooled_scatter,
-    propagate,
 )
 
 __all__ = [
@@ -49,15 +46,12 @@ __all__ = [
     "MARGINS",
     "EstimateOptions",
     "EstimateSettings",
-    "Estimates",
     "GroundSpec",
     "PoseView",
     "ViewBatch",
-    "estimate_trials",
-    "line_errors",
     "measure",
     "pose_view",
-    "running_estimates",
+    "scatter_of",
     "solve_batch",
 ]
 
@@ -340,7 +334,8 @@ def margin_warnings(
 # --------------------------------------------------------------------------- input covariance
 
 
-def _scatter(view: PoseView, m: PoseMeasurement) -> tuple[F64, int]:
+def scatter_of(view: PoseView, m: PoseMeasurement) -> tuple[F64, int]:
+    """A pose's frame scatter over the frames its measurement used, and its dof."""
     used = view.found.copy()
     used[list(m.rejected)] = False
     return frame_scatter(view.centroids, view.thetas, used)
@@ -400,272 +395,3 @@ def across_line_sigma_px(theta_deg: F64, input_cov: F64) -> F64:
     n = np.stack([-np.sin(t), np.cos(t)], axis=-1)
     var = np.einsum("tni,tnij,tnj->tn", n, input_cov[..., :2, :2], n)
     return np.asarray(np.sqrt(np.where(np.isfinite(var) & (var > 0), var, 1.0)))
-
-
-# --------------------------------------------------------------------------- a session's trials
-
-
-@dataclass(frozen=True)
-class Estimates:
-    """Per trial (T rows, NaN where not solved): every estimate, its status and uncertainty."""
-
-    status: NDArray[np.str_]  # ok, degenerate, no_detection, incomplete
-    reason: NDArray[np.str_]
-    point: F64  # (T, 3) the thesis' estimate (lines: the point used for the error)
-    direction: F64  # (T, 3) lines: the unit direction
-    optimal: F64  # (T, 3) points: the reprojection-optimal estimate
-    weighted_line: F64  # (T, 2, 3) lines: the weighted/robust fit's point and direction
-    optimal_line: F64  # (T, 2, 3) lines: the reprojection-optimal line's point and direction
-    conditioning: F64  # (T,)
-    margins: dict[str, F64]  # (T,) degrees, by column name
-    cov: F64  # (T, 3, 3) of ``point``
-    dominant: NDArray[np.object_]  # (T,) the input dominating the variance ("" if none)
-    dominant_share: F64  # (T,)
-
-
-def _unsolved(T: int, method: str, complete: NDArray[np.bool_]) -> Estimates:
-    """Every trial as not (yet) solved: incomplete, or missing a detection."""
-    status = np.where(complete, "no_detection", "incomplete").astype("<U12")
-    reason = np.where(
-        complete, "no frame of a pose was detected", "fewer than two complete captures"
-    ).astype("<U64")
-    nan3 = np.full((T, 3), np.nan)
-    return Estimates(
-        status=status,
-        reason=reason,
-        point=nan3.copy(),
-        direction=nan3.copy(),
-        optimal=nan3.copy(),
-        weighted_line=np.full((T, 2, 3), np.nan),
-        optimal_line=np.full((T, 2, 3), np.nan),
-        conditioning=np.full(T, np.nan),
-        margins={name: np.full(T, np.nan) for name in MARGINS[method]},
-        cov=np.full((T, 3, 3), np.nan),
-        dominant=np.full(T, "", dtype=object),
-        dominant_share=np.full(T, np.nan),
-    )
-
-
-def estimate_trials(
-    method: str,
-    views: list[list[PoseView]],
-    measurements: list[list[PoseMeasurement]],
-    complete: NDArray[np.bool_],
-    detected: NDArray[np.bool_],
-    truth: F64,
-    ground: GroundSpec | None,
-    options: EstimateSettings,
-) -> Estimates:
-    """Solve every detected trial with every estimator, in one batch, and propagate each
-    one's input covariance (pixels from the frame scatter, poses from the typed resolution,
-    intrinsics from the calibration's 1-sigma: one error for all views of a camera).
-
-    ``truth`` is (T, 2, 3): lines are reported at their point nearest the true segment's
-    midpoint (with no truth, nearest the solved point); that reference is held fixed in the
-    propagation.
-    """
-    out = _unsolved(len(views), method, complete)
-    solvable = np.flatnonzero(detected)
-    if not solvable.size:
-        return out
-    rows_m = [measurements[i] for i in solvable]
-    rows_v = [views[i] for i in solvable]
-    batch = ViewBatch.of(rows_m, rows_v)
-    solved = solve_batch(method, batch, ground, options)
-    # Each pose's frame scatter, once, for the pooled and the per-pose covariances.
-    scatters = [
-        [_scatter(v, m) for v, m in zip(vs, ms, strict=False)]
-        for vs, ms in zip(views, measurements, strict=True)
-    ]
-    pooled = pooled_scatter([s for row in scatters for s in row])
-    cov_in = input_covariance(
-        rows_m,
-        rows_v,
-        [scatters[i] for i in solvable],
-        pooled,
-        batch,
-        median=options.combine == "median",
-    )
-    mid = truth[solvable].mean(axis=1)
-    reference = np.where(np.isfinite(mid), mid, solved.point)
-    propagated = propagate(
-        thesis_estimate(method, batch, ground, options, reference),
-        batch.inputs,
-        cov_in,
-        shared=shared_intrinsics(rows_v, batch),
-    )
-    _store_solution(out, solvable, solved)
-    _store_uncertainty(
-        out,
-        solvable,
-        solved,
-        propagated.cov_grid,
-        propagated.variance_by_group,
-        propagated.shared_variance,
-    )
-    if spec_of(method).estimates_line:
-        _store_weighted_lines(out, solvable, batch, cov_in, options)
-        _store_optimal_lines(out, solvable, batch, cov_in, options)
-    return out
-
-
-def _store_solution(out: Estimates, rows: NDArray[np.intp], solved: Solved) -> None:
-    out.point[rows], out.conditioning[rows] = solved.point, solved.conditioning
-    out.status[rows], out.reason[rows] = solved.status, solved.reason
-    if solved.direction is not None:
-        out.direction[rows] = solved.direction
-    if solved.optimal is not None:
-        out.optimal[rows] = solved.optimal
-    for name, values in solved.margins.items():
-        out.margins[name][rows] = values
-
-
-def _store_uncertainty(
-    out: Estimates,
-    rows: NDArray[np.intp],
-    solved: Solved,
-    cov: F64,
-    by_group: F64,
-    shared: F64 | None = None,
-) -> None:
-    """The covariance and dominant input of every ok trial."""
-    ok = solved.status == "ok"
-    if solved.direction is not None:
-        # A line's reported point moves only across the line to first order (its error
-        # is perpendicular by construction): keep the covariance of that offset.
-        across = np.eye(3) - np.einsum("ti,tj->tij", solved.direction, solved.direction)
-        cov = across @ cov @ across
-    out.cov[rows[ok]] = cov[ok]
-    names, share = dominant_input(by_group, shared)
-    out.dominant[rows[ok]] = np.array(names, dtype=object)[ok]
-    out.dominant_share[rows[ok]] = share[ok]
-
-
-def _store_weighted_lines(
-    out: Estimates,
-    rows: NDArray[np.intp],
-    batch: ViewBatch,
-    cov_in: F64,
-    options: EstimateSettings,
-) -> None:
-    """The weighted/robust line fit beside the thesis' one, weighted by each view's noise."""
-    weighted = triangulate_lines(
-        image_lines(batch.inputs[..., :2], batch.inputs[..., 2]),
-        batch.P(),
-        valid=batch.valid,
-        estimator="weighted",
-        sigma_px=across_line_sigma_px(batch.inputs[..., 2], cov_in),
-        sigma_pose=np.stack(
-            [np.sqrt(cov_in[..., 3, 3]), np.deg2rad(np.sqrt(cov_in[..., 6, 6]))], axis=-1
-        ),
-        min_conditioning=options.min_conditioning,
-    )
-    out.weighted_line[rows, 0] = weighted.point_grid
-    out.weighted_line[rows, 1] = weighted.direction_grid
-
-
-def _store_optimal_lines(
-    out: Estimates,
-    rows: NDArray[np.intp],
-    batch: ViewBatch,
-    cov_in: F64,
-    options: EstimateSettings,
-) -> None:
-    """The reprojection-optimal line beside the thesis' one. Each view's centroid and angle
-    become their equivalent segment (:func:`centroid_segments`) for their noise: the frame
-    scatter plus the typed pose's, seen in the image at the thesis' line (a translation
-    error moves the line across by ``f sigma_t / depth``, an angle error by ``f sigma_r``
-    and turns it by ``sigma_r``), the segment no longer than the image allows. With two
-    views it is the thesis' line."""
-    theta = batch.inputs[..., 2]
-    P = batch.P()
-    depth = np.linalg.norm(camera_centres(P) - out.point[rows][:, None], axis=-1)
-    f = batch.intrinsics[..., 0]
-    sigma_r = np.deg2rad(np.sqrt(cov_in[..., 6, 6]))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        pose_px2 = (f / depth) ** 2 * cov_in[..., 3, 3] + (f * sigma_r) ** 2
-    var_theta = np.deg2rad(np.sqrt(np.abs(cov_in[..., 2, 2]))) ** 2 + sigma_r**2
-    across = np.sqrt(
-        across_line_sigma_px(theta, cov_in) ** 2 + np.where(np.isfinite(pose_px2), pose_px2, 0)
-    )
-    segments, sigma = centroid_segments(
-        batch.inputs[..., :2],
-        theta,
-        across,
-        np.degrees(np.sqrt(np.where(np.isfinite(var_theta), var_theta, 0.0))),
-        # at most from the principal point to the image's nearer edge
-        np.minimum(batch.intrinsics[..., 2], batch.intrinsics[..., 3]),
-    )
-    optimal = optimal_lines(
-        segments,
-        P,
-        valid=batch.valid,
-        sigma_px=np.where(batch.valid, sigma, 1.0),
-        min_conditioning=options.min_conditioning,
-    )
-    out.optimal_line[rows, 0] = optimal.point_grid
-    out.optimal_line[rows, 1] = optimal.direction_grid
-
-
-def running_estimates(
-    method: str,
-    views: list[list[PoseView]],
-    detected: NDArray[np.bool_],
-    ground: GroundSpec | None,
-    options: EstimateSettings,
-) -> tuple[list[tuple[int, int]], Solved | None]:
-    """The estimate from the first 1..K frames of each pose (the thesis' Figures 22-23).
-
-    Returns ``(trial index, frames used)`` per row and the rows' solution (None: no rows).
-    """
-    rows_m: list[list[PoseMeasurement]] = []
-    rows_v: list[list[PoseView]] = []
-    keys: list[tuple[int, int]] = []
-    for i, row in enumerate(views):
-        if not detected[i]:
-            continue
-        for n in range(1, min(len(v.found) for v in row) + 1):
-            ms = [
-                combine_frames(v.centroids[:n], v.thetas[:n], v.found[:n], options.combine)
-                for v in row
-            ]
-            if all(m.found for m in ms):
-                rows_m.append(ms)
-                rows_v.append(row)
-                keys.append((i, n))
-    if not keys:
-        return keys, None
-    return keys, solve_batch(method, ViewBatch.of(rows_m, rows_v), ground, options)
-
-
-def line_errors(
-    point_grid: F64, direction_grid: F64, gt_a: F64, gt_b: F64
-) -> tuple[F64, F64, F64, F64]:
-    """Compare estimated lines with ground-truth lines.
-
-    Parameters
-    ----------
-    point_grid, direction_grid : (T, 3)
-        A point on each estimated line and its unit direction.
-    gt_a, gt_b : (T, 3)
-        Two points on each true line.
-
-    Returns
-    -------
-    nearest : (T, 3)
-        The estimated line's point nearest the true segment's midpoint.
-    midpoint : (T, 3)
-        The true segment's midpoint.
-    angle_err_deg : (T,)
-        Angle between the lines, in [0, 90] degrees (lines have no arrow).
-    dist_err : (T,)
-        Distance from the true midpoint to the estimated line.
-    """
-    mid = 0.5 * (gt_a + gt_b)
-    s = np.einsum("ti,ti->t", mid - point_grid, direction_grid)
-    nearest = point_grid + s[:, None] * direction_grid
-    gt_dir = (gt_b - gt_a) / np.linalg.norm(gt_b - gt_a, axis=1, keepdims=True)
-    cos = np.clip(np.abs(np.einsum("ti,ti->t", gt_dir, direction_grid)), 0.0, 1.0)
-    angle = np.degrees(np.arccos(cos))
-    dist = np.linalg.norm(nearest - mid, axis=1)
-    return nearest, mid, angle, dist

@@ -1,49 +1,29 @@
 """A trial's result as the analysis reports it, for the recorder's live view (the thesis'
-GUI computed the point on the spot, section 5.2.4) and for the analysis' tables.
+GUI computed the point on the spot, section 5.2.4).
 
-:func:`trial_results` runs the analysis' own estimation (:mod:`twopose.estimate`: the
-same frame combination, solvers, margins and uncertainty propagation) on the trials so
-far, and :func:`reported_point` is the one rule for which point a trial reports and what
-it is compared with. The estimate and its error are the analysis' exactly; the 95% region
-pools the frame scatter of the trials so far, where the analysis pools the whole session.
+:func:`trial_results` runs the analysis' own estimation
+(:func:`twopose.session_estimate.estimate_session`: the same frame combination, solvers,
+margins and uncertainty propagation) on the trials so far, and compares it with the truth
+by the analysis' one rule (:func:`twopose.truth.reported`). The estimate and its error are
+the analysis' exactly; the 95% region pools the frame scatter of the trials so far, where
+the analysis pools the whole session.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from twopose.arrays import F64
-from twopose.estimate import (
-    EstimateOptions,
-    Estimates,
-    EstimateSettings,
-    GroundSpec,
-    PoseView,
-    estimate_trials,
-    line_errors,
-    margin_warnings,
-    measure,
-)
+from twopose.estimate import EstimateOptions, EstimateSettings
 from twopose.methods import spec_of
+from twopose.session_estimate import SessionTrials, estimate_session
+from twopose.truth import reported
 from twopose.uncertainty import uncertainty_columns
 
-__all__ = ["TrialResult", "reported_point", "trial_results"]
-
-
-def reported_point(method: str, est: Estimates, truth: F64) -> tuple[F64, F64]:
-    """Per trial, the point reported and the true point it is compared with (T, 3) each:
-    for lines, the estimated line's point nearest the true segment's midpoint, and that
-    midpoint (with no truth, the solved point and NaN); otherwise the estimate and the
-    first true point."""
-    if spec_of(method).estimates_line:
-        with np.errstate(invalid="ignore"):
-            point, mid, _, _ = line_errors(est.point, est.direction, truth[:, 0], truth[:, 1])
-        return np.where(np.isfinite(mid), point, est.point), mid
-    return est.point, truth[:, 0]
+__all__ = ["TrialResult", "trial_results"]
 
 
 @dataclass(frozen=True)
@@ -110,49 +90,34 @@ class TrialResult:
 
 
 def trial_results(
-    method: str,
-    units: str,
-    trial_ids: Sequence[int],
-    views: list[list[PoseView]],
-    truth: F64,
-    ground: GroundSpec | None,
-    options: EstimateSettings | None = None,
+    trials: SessionTrials, options: EstimateSettings | None = None
 ) -> list[TrialResult]:
-    """Every trial's result, solved in one batch as the analysis solves a session.
-
-    Parameters
-    ----------
-    trial_ids : (T,)
-    views : T lists of the trial's accepted poses (fewer than two: incomplete)
-    truth : (T, 2, 3)
-        Each trial's true point (twice) or line's two points; NaN where unknown.
-    """
-    options = options or EstimateOptions()
-    measurements, complete, detected = measure(views, options)
-    est = estimate_trials(method, views, measurements, complete, detected, truth, ground, options)
-    point, reference = reported_point(method, est, truth)
-    err = point - reference
-    spread = uncertainty_columns(err, est.cov)
-    warnings = margin_warnings(est.status, est.margins, options)
+    """Every trial's result, estimated in one batch as the analysis estimates a session
+    (:func:`twopose.session_estimate.estimate_session`) and compared with the truth by the
+    analysis' rule (:func:`twopose.truth.reported`)."""
+    estimate = estimate_session(trials, options or EstimateOptions())
+    est, rep = estimate.estimates, reported(estimate)
+    spread = uncertainty_columns(rep.error, rep.cov)
+    line = spec_of(trials.method).estimates_line
     return [
         TrialResult(
             trial=int(trial),
-            method=method,
-            units=units,
-            n_views=len(views[i]),
+            method=trials.method,
+            units=trials.units,
+            n_views=len(trials.views[i]),
             status=str(est.status[i]),
             reason=str(est.reason[i]),
-            point=_triple(point[i]),
-            direction=_triple(est.direction[i]) if spec_of(method).estimates_line else None,
+            point=_triple(rep.point[i]),
+            direction=_triple(est.direction[i]) if line else None,
             semiaxis95=float(spread["semiaxis95"][i]),
             ci95=_triple(np.array([spread[f"ci95_{a}"][i] for a in "xyz"])),
             margins={k: float(v[i]) for k, v in est.margins.items()},
-            warning=warnings[i],
-            error=float(np.linalg.norm(err[i])),
-            error_xyz=_triple(err[i]),
-            cov=tuple(_triple(row) for row in est.cov[i]),
+            warning=estimate.warnings[i],
+            error=float(np.linalg.norm(rep.error[i])),
+            error_xyz=_triple(rep.error[i]),
+            cov=tuple(_triple(row) for row in rep.cov[i]),
         )
-        for i, trial in enumerate(trial_ids)
+        for i, trial in enumerate(trials.trial_ids)
     ]
 
 

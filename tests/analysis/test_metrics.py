@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from analysis.metrics import SUMMARY_COLUMNS, summarize
-from twopose.estimate import line_errors
+from twopose.truth import line_errors
 from twopose.uncertainty import uncertainty_columns
 
 

@@ -12,6 +12,7 @@ import pytest
 import analysis.pipeline
 from analysis.pipeline import analyse_session
 from analysis.results import AnalysisOptions
+from twopose.session_estimate import SessionEstimate
 
 
 @pytest.mark.parametrize("fixture", ["ground_session", "point_session", "line_session"])
@@ -65,18 +66,31 @@ def test_an_undecodable_frame_is_a_rejected_frame_with_threads(
     assert not broken["found"].any()
 
 
-def test_leave_one_out_is_given_the_sessions_units(
+def test_leave_one_out_reuses_the_sessions_one_estimate(
     ground_session: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    """``--rig-calibration loo`` takes the session's estimate (its units included): the
+    session is estimated once, not again for the rig."""
+    import analysis.pipeline
     import analysis.rig
+    import analysis.rig_data
 
-    seen: list[object] = []
-    real = analysis.rig.loo_calibration
+    units: list[str] = []
+    estimated: list[int] = []
+    real_loo, real_estimate = analysis.rig.loo_calibration, analysis.pipeline.estimate_session
 
-    def spy(*args: Any, **kwargs: Any) -> Any:
-        seen.append(kwargs.get("units"))
-        return real(*args, **kwargs)
+    def loo_spy(session: str, estimate: SessionEstimate, *args: Any) -> Any:
+        units.append(estimate.trials.units)
+        return real_loo(session, estimate, *args)
 
-    monkeypatch.setattr(analysis.rig, "loo_calibration", spy)
-    analyse_session(ground_session, AnalysisOptions(rig_calibration="loo"))
-    assert seen == ["in"]  # the simulated session's units
+    def estimate_spy(*args: Any) -> Any:
+        estimated.append(1)
+        return real_estimate(*args)
+
+    monkeypatch.setattr(analysis.rig, "loo_calibration", loo_spy)
+    monkeypatch.setattr(analysis.pipeline, "estimate_session", estimate_spy)
+    monkeypatch.setattr(analysis.rig_data, "estimate_session", estimate_spy)
+    result = analyse_session(ground_session, AnalysisOptions(rig_calibration="loo"))
+    assert units == ["in"]  # the simulated session's units
+    assert len(estimated) == 1
+    assert "x_rig" in result.trials.columns

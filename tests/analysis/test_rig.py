@@ -16,7 +16,8 @@ from typer.testing import CliRunner
 
 from analysis.cli import app
 from analysis.pipeline import analyse_session, replay_views
-from analysis.rig import fit_constants, prepare, residuals, select_constants
+from analysis.rig import fit_constants, residuals, select_constants
+from analysis.rig_data import prepare_trials
 from recorder.simulate import simulate_session
 from twopose.rig import RigConstants
 from twopose.sim.scene import Scene
@@ -45,8 +46,7 @@ def sessions(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
 
 
 def _data(path: Path):  # type: ignore[no-untyped-def]
-    r = replay_views(path)
-    return prepare(r.method, r.trial_ids, r.views, r.truth, r.ground)
+    return prepare_trials(replay_views(path))
 
 
 def test_the_constants_are_found_within_their_intervals(sessions: dict[str, Path]) -> None:

@@ -10,8 +10,10 @@ import pytest
 from analysis.metrics import LINE_COLUMNS, OPTIMAL_COLUMNS, TRIAL_COLUMNS
 from analysis.tables import VIEW_COLUMNS, trial_table, view_table
 from twopose.camera import Intrinsics, project_points
-from twopose.estimate import EstimateOptions, PoseView, estimate_trials, measure
-from twopose.methods import spec_of
+from twopose.estimate import EstimateOptions, PoseView, measure
+from twopose.methods import Method, spec_of
+from twopose.session_estimate import SessionTrials, estimate_session
+from twopose.truth import reported
 
 K = Intrinsics(640, 480, 525.0, 525.0, 320.0, 240.0)
 H = 9.625
@@ -64,11 +66,12 @@ def _session(method: str) -> tuple[list[list[PoseView]], np.ndarray]:
 @pytest.mark.parametrize("method", ["point", "line", "ground"])
 def test_a_trial_table_has_the_documented_columns_and_exact_errors(method: str) -> None:
     views, truth = _session(method)
-    options = EstimateOptions()
-    ms, complete, detected = measure(views, options)
     ground = (np.array([0.0, 1.0, 0.0]), H) if spec_of(method).needs_ground else None
-    est = estimate_trials(method, views, ms, complete, detected, truth, ground, options)
-    table = trial_table("s.mcap", method, "in", [1, 2], views, ms, est, truth, ["", ""])
+    trials = SessionTrials(
+        method=Method(method), units="in", trial_ids=(1, 2), views=views, truth=truth, ground=ground
+    )
+    estimate = estimate_session(trials, EstimateOptions())
+    table = trial_table("s.mcap", estimate, reported(estimate))
     extra = LINE_COLUMNS if method == "line" else OPTIMAL_COLUMNS if method == "point" else []
     assert list(table.columns[: len(TRIAL_COLUMNS + extra)]) == TRIAL_COLUMNS + extra
     for name in (*spec_of(method).margins, "warning", "baseline", "notes", "within95"):

@@ -17,9 +17,11 @@ from numpy.typing import NDArray
 
 from recorder.simulate import calibrated_cameras, simulate_session
 from twopose.camera import Intrinsics, project_points
-from twopose.estimate import EstimateOptions, PoseView, estimate_trials, measure
+from twopose.estimate import EstimateOptions, PoseView
+from twopose.methods import Method
+from twopose.session_estimate import SessionTrials, estimate_session
 from twopose.sim.scene import CameraParams, ClutterParams, Scene, SensorParams
-from twopose.trial_result import reported_point
+from twopose.truth import reported
 from twopose.uncertainty import INPUT_GROUPS, Shared, dominant_input, propagate, uncertainty_columns
 
 F64 = NDArray[np.float64]
@@ -140,15 +142,20 @@ def _session(
                 )
             )
         views.append(row)
-    options = EstimateOptions()
-    truth_a = np.array(truth)
-    measurements, complete, detected = measure(views, options)
     ground = (np.array([0.0, 1.0, 0.0]), GROUND_HEIGHT) if method == "ground" else None
-    est = estimate_trials(method, views, measurements, complete, detected, truth_a, ground, options)
-    point, reference = reported_point(method, est, truth_a)
-    within = uncertainty_columns(point - reference, est.cov)["within95"]
-    ok = (est.status == "ok") & np.isfinite(within)
-    return within[ok], [str(d) for d in est.dominant[ok]]
+    trials = SessionTrials(
+        method=Method(method),
+        units="in",
+        trial_ids=tuple(range(len(views))),
+        views=views,
+        truth=np.array(truth),
+        ground=ground,
+    )
+    estimate = estimate_session(trials, EstimateOptions())
+    rep = reported(estimate)
+    within = uncertainty_columns(rep.error, rep.cov)["within95"]
+    ok = (estimate.estimates.status == "ok") & np.isfinite(within)
+    return within[ok], [str(d) for d in rep.dominant[ok]]
 
 
 def _coverage(method: str, *, recorded: bool) -> tuple[float, int]:

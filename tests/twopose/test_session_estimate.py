@@ -1,5 +1,6 @@
-"""twopose.estimate directly: seeded synthetic truth projected into typed poses, through
-measure() and estimate_trials(), for every method; degenerate trials flagged, not solved."""
+"""twopose.session_estimate directly: seeded synthetic truth projected into typed poses,
+through estimate_session() for every method; degenerate trials flagged, not solved; the
+estimate never reads the truth (twopose.truth compares with it)."""
 
 from __future__ import annotations
 
@@ -7,8 +8,15 @@ import numpy as np
 import pytest
 
 from twopose.camera import Intrinsics, project_points, rotation_from_angles_deg
-from twopose.estimate import EstimateOptions, PoseView, estimate_trials, measure
-from twopose.methods import spec_of
+from twopose.estimate import EstimateOptions, PoseView
+from twopose.methods import Method, spec_of
+from twopose.session_estimate import (
+    SessionEstimate,
+    SessionTrials,
+    estimate_session,
+    running_estimates,
+)
+from twopose.truth import reported
 
 INTRINSICS = Intrinsics(640, 480, 525.0, 525.0, 320.0, 240.0)
 H = 9.625  # the thesis' ground height: the ground plane y = h (y down)
@@ -76,16 +84,26 @@ def _trials(
     return views, np.array(truth, dtype=np.float64)
 
 
+def _estimate(method: str, views: list[list[PoseView]], truth: np.ndarray) -> SessionEstimate:
+    trials = SessionTrials(
+        method=Method(method),
+        units="in",
+        trial_ids=tuple(range(1, len(views) + 1)),
+        views=views,
+        truth=truth,
+        ground=GROUND if spec_of(method).needs_ground else None,
+    )
+    return estimate_session(trials, EstimateOptions())
+
+
 @pytest.mark.parametrize("method", ["point", "line", "ground"])
 def test_every_method_recovers_seeded_truth(method: str) -> None:
     rng = np.random.default_rng(7)
     views, truth = _trials(method, rng, [1.0, 1.5, 2.0, 3.0])
-    options = EstimateOptions()
-    measurements, complete, detected = measure(views, options)
-    assert complete.all()
-    assert detected.all()
-    ground = GROUND if spec_of(method).needs_ground else None
-    est = estimate_trials(method, views, measurements, complete, detected, truth, ground, options)
+    estimate = _estimate(method, views, truth)
+    assert estimate.complete.all()
+    assert estimate.detected.all()
+    est = estimate.estimates
     assert list(est.status) == ["ok"] * 4, list(est.reason)
     if method == "line":  # the line through both true points, its direction along them
         d_true = (truth[:, 0] - truth[:, 1]) / np.linalg.norm(truth[:, 0] - truth[:, 1], axis=1)[
@@ -108,10 +126,7 @@ def test_every_method_recovers_seeded_truth(method: str) -> None:
 def test_a_trial_without_baseline_is_flagged_not_solved(method: str) -> None:
     rng = np.random.default_rng(8)
     views, truth = _trials(method, rng, [2.0, 0.0])  # the second trial: one camera centre
-    options = EstimateOptions()
-    measurements, complete, detected = measure(views, options)
-    ground = GROUND if spec_of(method).needs_ground else None
-    est = estimate_trials(method, views, measurements, complete, detected, truth, ground, options)
+    est = _estimate(method, views, truth).estimates
     assert est.status[0] == "ok"
     assert est.status[1] == "degenerate"
     assert "no baseline" in str(est.reason[1])
@@ -121,10 +136,64 @@ def test_a_trial_with_one_pose_is_incomplete() -> None:
     rng = np.random.default_rng(9)
     views, truth = _trials("point", rng, [2.0, 2.0])
     views[1] = views[1][:1]
-    options = EstimateOptions()
-    measurements, complete, detected = measure(views, options)
-    assert list(complete) == [True, False]
-    est = estimate_trials("point", views, measurements, complete, detected, truth, None, options)
+    estimate = _estimate("point", views, truth)
+    assert list(estimate.complete) == [True, False]
+    assert estimate.measurements[1] == []
+    est = estimate.estimates
     assert est.status[0] == "ok"
     assert est.status[1] == "incomplete"
     assert not np.isfinite(est.point[1]).any()
+
+
+@pytest.mark.parametrize("method", ["point", "line", "ground"])
+def test_the_estimate_does_not_read_the_truth(method: str) -> None:
+    """The same trials with their truth, with none, and with another: every estimate,
+    covariance and warning the same (what is compared with the truth is twopose.truth's)."""
+    views, truth = _trials(method, np.random.default_rng(10), [1.0, 2.0, 3.0])
+    runs = [_estimate(method, views, t) for t in (truth, np.full_like(truth, np.nan), truth + 5)]
+    first = runs[0].estimates
+    assert (first.status == "ok").all()
+    for other in runs[1:]:
+        est = other.estimates
+        for name in ("point", "direction", "optimal", "weighted_line", "optimal_line", "cov"):
+            np.testing.assert_array_equal(getattr(est, name), getattr(first, name))
+        assert list(est.dominant) == list(first.dominant)
+        assert other.warnings == runs[0].warnings
+
+
+def test_a_line_is_reported_at_its_point_nearest_the_true_midpoint() -> None:
+    """twopose.truth: the reported point lies on the estimated line, nearest the true
+    midpoint, and its covariance is propagated there (not at the solved point): no
+    variance along the line, and different from the solved point's where they differ."""
+    views, truth = _trials("line", np.random.default_rng(11), [1.0, 2.0, 3.0])
+    estimate = _estimate("line", views, truth)
+    est, rep = estimate.estimates, reported(estimate)
+    mid = truth.mean(axis=1)
+    np.testing.assert_allclose(rep.reference, mid)
+    np.testing.assert_allclose(rep.error, rep.point - mid)
+    # on the line, and the offset to the midpoint is perpendicular to it
+    offset = rep.point - est.point
+    cross = np.cross(offset, est.direction)
+    np.testing.assert_allclose(cross, 0.0, atol=1e-9)
+    np.testing.assert_allclose(np.einsum("ti,ti->t", mid - rep.point, est.direction), 0, atol=1e-9)
+    along = np.einsum("ti,tij,tj->t", est.direction, rep.cov, est.direction)
+    np.testing.assert_allclose(along, 0.0, atol=1e-12)
+    moved = np.linalg.norm(offset, axis=1) > 0.5
+    assert moved.any()
+    assert not np.allclose(rep.cov[moved], est.cov[moved])
+    # with no truth, the solved point and its covariance
+    none = reported(_estimate("line", views, np.full_like(truth, np.nan)))
+    np.testing.assert_array_equal(none.point, est.point)
+    np.testing.assert_array_equal(none.cov, est.cov)
+    assert np.isnan(none.reference).all()
+
+
+def test_running_estimates_use_the_first_frames_of_each_pose() -> None:
+    views, truth = _trials("point", np.random.default_rng(12), [1.5, 2.5])
+    estimate = _estimate("point", views, truth)
+    keys, solved = running_estimates(estimate)
+    assert keys == [(i, n) for i in range(2) for n in range(1, FRAMES + 1)]
+    assert solved is not None
+    # with every frame, the running estimate is the session's estimate
+    last = [k for k, (_, n) in enumerate(keys) if n == FRAMES]
+    np.testing.assert_allclose(solved.point[last], estimate.estimates.point)

@@ -1,0 +1,393 @@
+"""A session's trials in, one value of every estimate out: the one estimation entry point.
+
+:class:`SessionTrials` is a session's trials as one value (what the analysis' replay and
+the recorder's live result both build); :func:`estimate_session` runs the whole sequence
+on it once: each pose's frames combined (:func:`twopose.estimate.measure`), every detected
+trial solved by every estimator in one batch, the input covariance propagated, the
+degeneracy margins and their warnings. Its :class:`SessionEstimate` is what the tables,
+the live result, the rig fit and the 3-D scenes take. Nothing here reads the truth: which
+point a trial reports and how it compares with the truth is :mod:`twopose.truth`'s rule.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, TypeVar
+
+import numpy as np
+from numpy.typing import NDArray
+
+from twopose.arrays import F64, Bools, Ints
+from twopose.camera import camera_centres
+from twopose.detect import PoseMeasurement, combine_frames
+from twopose.estimate import (
+    MARGINS,
+    EstimateSettings,
+    GroundSpec,
+    PoseView,
+    Solved,
+    ViewBatch,
+    across_line_sigma_px,
+    input_covariance,
+    margin_warnings,
+    measure,
+    scatter_of,
+    shared_intrinsics,
+    solve_batch,
+    thesis_estimate,
+)
+from twopose.methods import Method, spec_of
+from twopose.optimal_lines import centroid_segments, optimal_lines
+from twopose.solve import image_lines, triangulate_lines
+from twopose.uncertainty import Propagated, Shared, dominant_input, pooled_scatter, propagate
+
+__all__ = [
+    "Estimates",
+    "SessionEstimate",
+    "SessionTrials",
+    "Uncertainty",
+    "estimate_session",
+    "running_estimates",
+]
+
+
+_A = TypeVar("_A", bound=NDArray[Any])
+
+
+@dataclass(frozen=True, kw_only=True)
+class SessionTrials:
+    """A session's trials, as estimation and the comparison with the truth take them.
+
+    ``views`` holds per trial its usable poses (fewer than two: the trial is incomplete);
+    ``truth`` is (T, 2, 3), each trial's true point (twice) or line's two points, NaN where
+    unknown; ``ground`` is the ground plane (method 2).
+    """
+
+    method: Method
+    units: str
+    trial_ids: tuple[int, ...]
+    views: list[list[PoseView]]
+    truth: F64
+    ground: GroundSpec | None = None
+
+    def __len__(self) -> int:
+        """The number of trials."""
+        return len(self.trial_ids)
+
+
+@dataclass(frozen=True, kw_only=True)
+class Uncertainty:
+    """Per trial (T rows, NaN and "" where not ok): an estimate's propagated covariance
+    (T, 3, 3), the input dominating its variance and that input's share (T,)."""
+
+    cov: F64
+    dominant: NDArray[np.object_]
+    dominant_share: F64
+
+
+@dataclass(frozen=True, kw_only=True)
+class Estimates:
+    """Per trial (T rows, NaN where not solved): every estimate, its status and uncertainty.
+
+    A line's ``point`` is the thesis' solved point on it, and ``cov`` that point's
+    covariance across the line; :func:`twopose.truth.reported` moves both to the point the
+    trial reports.
+    """
+
+    status: NDArray[np.str_]  # ok, degenerate, no_detection, incomplete
+    reason: NDArray[np.str_]
+    point: F64  # (T, 3) the thesis' estimate
+    direction: F64  # (T, 3) lines: the unit direction
+    optimal: F64  # (T, 3) points: the reprojection-optimal estimate
+    weighted_line: F64  # (T, 2, 3) lines: the weighted/robust fit's point and direction
+    optimal_line: F64  # (T, 2, 3) lines: the reprojection-optimal line's point and direction
+    conditioning: F64  # (T,)
+    margins: dict[str, F64]  # (T,) degrees, by column name
+    cov: F64  # (T, 3, 3) of ``point``
+    dominant: NDArray[np.object_]  # (T,) the input dominating the variance ("" if none)
+    dominant_share: F64  # (T,)
+
+
+@dataclass(frozen=True, kw_only=True)
+class _Propagation:
+    """What propagating the thesis' estimate needs again: the solved rows' batch, their
+    input covariance and shared intrinsics (lines re-propagate at their reported point)."""
+
+    rows: Ints
+    batch: ViewBatch
+    cov_in: F64
+    shared: Shared | None
+    solved: Solved
+
+
+@dataclass(frozen=True, kw_only=True)
+class SessionEstimate:
+    """Everything :func:`estimate_session` computed for a session's trials, as one value."""
+
+    trials: SessionTrials
+    measurements: list[list[PoseMeasurement]]  # per trial (empty: incomplete)
+    complete: Bools  # (T,) at least two usable poses
+    detected: Bools  # (T,) complete and every pose detected
+    estimates: Estimates
+    warnings: list[str]  # per trial, the margins under their thresholds ("" when none)
+    options: EstimateSettings
+    _propagation: _Propagation | None = None
+
+    def uncertainty_at(self, reference: F64) -> Uncertainty:
+        """The thesis' estimate's uncertainty with lines reported at their point nearest
+        ``reference`` (T, 3), held fixed; points and ground points do not depend on it."""
+        T = len(self.trials)
+        if self._propagation is None:
+            return _no_uncertainty(T)
+        p = self._propagation
+        estimate = thesis_estimate(
+            self.trials.method, p.batch, self.trials.ground, self.options, reference[p.rows]
+        )
+        return _uncertainty(T, p, propagate(estimate, p.batch.inputs, p.cov_in, shared=p.shared))
+
+
+def estimate_session(trials: SessionTrials, options: EstimateSettings) -> SessionEstimate:
+    """Solve every detected trial with every estimator, in one batch, and propagate each
+    one's input covariance (pixels from the frame scatter, poses from the typed resolution,
+    intrinsics from the calibration's 1-sigma: one error for all views of a camera).
+
+    Each pose's frames are combined first (the thesis' mean, or median / robust); trials
+    with fewer than two poses are ``incomplete``, and those with a pose never detected
+    ``no_detection``.
+    """
+    measurements, complete, detected = measure(trials.views, options)
+    solvable = np.flatnonzero(detected)
+    if not solvable.size:
+        est = _unsolved(len(trials), trials.method, complete)
+        return _session_estimate(trials, measurements, complete, detected, est, options)
+    rows_m = [measurements[i] for i in solvable]
+    rows_v = [trials.views[i] for i in solvable]
+    batch = ViewBatch.of(rows_m, rows_v)
+    solved = solve_batch(trials.method, batch, trials.ground, options)
+    # Each pose's frame scatter, once, for the pooled and the per-pose covariances.
+    scatters = [
+        [scatter_of(v, m) for v, m in zip(vs, ms, strict=False)]
+        for vs, ms in zip(trials.views, measurements, strict=True)
+    ]
+    cov_in = input_covariance(
+        rows_m,
+        rows_v,
+        [scatters[i] for i in solvable],
+        pooled_scatter([s for row in scatters for s in row]),
+        batch,
+        median=options.combine == "median",
+    )
+    context = _Propagation(
+        rows=solvable,
+        batch=batch,
+        cov_in=cov_in,
+        shared=shared_intrinsics(rows_v, batch),
+        solved=solved,
+    )
+    est = _solved_estimates(trials, complete, context, options)
+    return _session_estimate(trials, measurements, complete, detected, est, options, context)
+
+
+def _session_estimate(
+    trials: SessionTrials,
+    measurements: list[list[PoseMeasurement]],
+    complete: Bools,
+    detected: Bools,
+    est: Estimates,
+    options: EstimateSettings,
+    context: _Propagation | None = None,
+) -> SessionEstimate:
+    return SessionEstimate(
+        trials=trials,
+        measurements=measurements,
+        complete=complete,
+        detected=detected,
+        estimates=est,
+        warnings=margin_warnings(est.status, est.margins, options),
+        options=options,
+        _propagation=context,
+    )
+
+
+def _with_rows(base: _A, rows: Ints, values: NDArray[Any]) -> _A:
+    """A copy of ``base`` (T, ...) with the solved rows' ``values`` at their trials."""
+    out = base.copy()
+    out[rows] = values
+    return out
+
+
+def _unsolved(T: int, method: str, complete: Bools) -> Estimates:
+    """Every trial as not solved: incomplete, or missing a detection."""
+    status = np.where(complete, "no_detection", "incomplete").astype("<U12")
+    reason = np.where(
+        complete, "no frame of a pose was detected", "fewer than two complete captures"
+    ).astype("<U64")
+    none = _no_uncertainty(T)
+    return Estimates(
+        status=status,
+        reason=reason,
+        point=np.full((T, 3), np.nan),
+        direction=np.full((T, 3), np.nan),
+        optimal=np.full((T, 3), np.nan),
+        weighted_line=np.full((T, 2, 3), np.nan),
+        optimal_line=np.full((T, 2, 3), np.nan),
+        conditioning=np.full(T, np.nan),
+        margins={name: np.full(T, np.nan) for name in MARGINS[method]},
+        cov=none.cov,
+        dominant=none.dominant,
+        dominant_share=none.dominant_share,
+    )
+
+
+def _no_uncertainty(T: int) -> Uncertainty:
+    return Uncertainty(
+        cov=np.full((T, 3, 3), np.nan),
+        dominant=np.full(T, "", dtype=object),
+        dominant_share=np.full(T, np.nan),
+    )
+
+
+def _solved_estimates(
+    trials: SessionTrials, complete: Bools, p: _Propagation, options: EstimateSettings
+) -> Estimates:
+    """The solved rows' estimates at their trials, with every other trial unsolved."""
+    T, rows, solved = len(trials), p.rows, p.solved
+    base = _unsolved(T, trials.method, complete)
+    # Propagated at the solved point: a line's reported point is chosen by twopose.truth.
+    uncertainty = _uncertainty(
+        T,
+        p,
+        propagate(
+            thesis_estimate(trials.method, p.batch, trials.ground, options, solved.point),
+            p.batch.inputs,
+            p.cov_in,
+            shared=p.shared,
+        ),
+    )
+    lines = spec_of(trials.method).estimates_line
+    return Estimates(
+        status=_with_rows(base.status, rows, solved.status),
+        reason=_with_rows(base.reason, rows, solved.reason),
+        point=_with_rows(base.point, rows, solved.point),
+        direction=base.direction
+        if solved.direction is None
+        else _with_rows(base.direction, rows, solved.direction),
+        optimal=base.optimal
+        if solved.optimal is None
+        else _with_rows(base.optimal, rows, solved.optimal),
+        weighted_line=_with_rows(base.weighted_line, rows, _weighted_lines(p, options))
+        if lines
+        else base.weighted_line,
+        optimal_line=_with_rows(base.optimal_line, rows, _optimal_lines(p, options))
+        if lines
+        else base.optimal_line,
+        conditioning=_with_rows(base.conditioning, rows, solved.conditioning),
+        margins={
+            k: v if k not in solved.margins else _with_rows(v, rows, solved.margins[k])
+            for k, v in base.margins.items()
+        },
+        cov=uncertainty.cov,
+        dominant=uncertainty.dominant,
+        dominant_share=uncertainty.dominant_share,
+    )
+
+
+def _uncertainty(T: int, p: _Propagation, propagated: Propagated) -> Uncertainty:
+    """The covariance and dominant input of every ok trial (T rows)."""
+    ok, cov = p.solved.status == "ok", propagated.cov_grid
+    if p.solved.direction is not None:
+        # A line's reported point moves only across the line to first order (its error
+        # is perpendicular by construction): keep the covariance of that offset.
+        d = p.solved.direction
+        across = np.eye(3) - np.einsum("ti,tj->tij", d, d)
+        cov = across @ cov @ across
+    names, share = dominant_input(propagated.variance_by_group, propagated.shared_variance)
+    none, rows = _no_uncertainty(T), p.rows[ok]
+    return Uncertainty(
+        cov=_with_rows(none.cov, rows, cov[ok]),
+        dominant=_with_rows(none.dominant, rows, np.array(names, dtype=object)[ok]),
+        dominant_share=_with_rows(none.dominant_share, rows, share[ok]),
+    )
+
+
+def _weighted_lines(p: _Propagation, options: EstimateSettings) -> F64:
+    """(R, 2, 3) the weighted/robust line fit beside the thesis' one, weighted by each
+    view's noise: each solved row's point and direction."""
+    batch, cov_in = p.batch, p.cov_in
+    weighted = triangulate_lines(
+        image_lines(batch.inputs[..., :2], batch.inputs[..., 2]),
+        batch.P(),
+        valid=batch.valid,
+        estimator="weighted",
+        sigma_px=across_line_sigma_px(batch.inputs[..., 2], cov_in),
+        sigma_pose=np.stack(
+            [np.sqrt(cov_in[..., 3, 3]), np.deg2rad(np.sqrt(cov_in[..., 6, 6]))], axis=-1
+        ),
+        min_conditioning=options.min_conditioning,
+    )
+    return np.stack([weighted.point_grid, weighted.direction_grid], axis=1)
+
+
+def _optimal_lines(p: _Propagation, options: EstimateSettings) -> F64:
+    """(R, 2, 3) the reprojection-optimal line beside the thesis' one.
+
+    Each view's centroid and angle become their equivalent segment
+    (:func:`centroid_segments`) for their noise: the frame scatter plus the typed pose's,
+    seen in the image at the thesis' line (a translation error moves the line across by
+    ``f sigma_t / depth``, an angle error by ``f sigma_r`` and turns it by ``sigma_r``),
+    the segment no longer than the image allows. With two views it is the thesis' line.
+    """
+    batch, cov_in = p.batch, p.cov_in
+    theta = batch.inputs[..., 2]
+    P = batch.P()
+    depth = np.linalg.norm(camera_centres(P) - p.solved.point[:, None], axis=-1)
+    f = batch.intrinsics[..., 0]
+    sigma_r = np.deg2rad(np.sqrt(cov_in[..., 6, 6]))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        pose_px2 = (f / depth) ** 2 * cov_in[..., 3, 3] + (f * sigma_r) ** 2
+    var_theta = np.deg2rad(np.sqrt(np.abs(cov_in[..., 2, 2]))) ** 2 + sigma_r**2
+    across = np.sqrt(
+        across_line_sigma_px(theta, cov_in) ** 2 + np.where(np.isfinite(pose_px2), pose_px2, 0)
+    )
+    segments, sigma = centroid_segments(
+        batch.inputs[..., :2],
+        theta,
+        across,
+        np.degrees(np.sqrt(np.where(np.isfinite(var_theta), var_theta, 0.0))),
+        # at most from the principal point to the image's nearer edge
+        np.minimum(batch.intrinsics[..., 2], batch.intrinsics[..., 3]),
+    )
+    optimal = optimal_lines(
+        segments,
+        P,
+        valid=batch.valid,
+        sigma_px=np.where(batch.valid, sigma, 1.0),
+        min_conditioning=options.min_conditioning,
+    )
+    return np.stack([optimal.point_grid, optimal.direction_grid], axis=1)
+
+
+def running_estimates(estimate: SessionEstimate) -> tuple[list[tuple[int, int]], Solved | None]:
+    """The estimate from the first 1..K frames of each pose (the thesis' Figures 22-23).
+
+    Returns ``(trial index, frames used)`` per row and the rows' solution (None: no rows).
+    """
+    trials, options = estimate.trials, estimate.options
+    rows_m: list[list[PoseMeasurement]] = []
+    rows_v: list[list[PoseView]] = []
+    keys: list[tuple[int, int]] = []
+    for i, row in enumerate(trials.views):
+        if not estimate.detected[i]:
+            continue
+        for n in range(1, min(len(v.found) for v in row) + 1):
+            ms = [
+                combine_frames(v.centroids[:n], v.thetas[:n], v.found[:n], options.combine)
+                for v in row
+            ]
+            if all(m.found for m in ms):
+                rows_m.append(ms)
+                rows_v.append(row)
+                keys.append((i, n))
+    if not keys:
+        return keys, None
+    return keys, solve_batch(trials.method, ViewBatch.of(rows_m, rows_v), trials.ground, options)
