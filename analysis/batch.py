@@ -21,22 +21,18 @@ from typing import Any
 
 import pandas as pd
 
-from analysis.drawer import FigureDrawer, note, sigint_blocked
-from analysis.metrics import (
-    LINE_COLUMNS,
-    MARGIN_COLUMNS,
-    NOTES_COLUMNS,
-    OPTIMAL_COLUMNS,
-    TRIAL_COLUMNS,
-    UNCERTAINTY_COLUMNS,
-    WEIGHTED_COLUMNS,
-    summarize,
+from analysis.columns import (
+    AVERAGING_COLUMNS,
+    FRAME_COLUMNS,
+    RIG_TABLE_COLUMNS,
+    TRIAL_TABLE_COLUMNS,
+    VIEW_COLUMNS,
 )
+from analysis.drawer import FigureDrawer, note, sigint_blocked
+from analysis.metrics import summarize
 from analysis.outputs import OutputFolder, printable_stem
 from analysis.pipeline import analyse_session, keep_frame_buffers
 from analysis.results import AnalysisOptions, RunResult, SessionFailure, SessionResult
-from analysis.rig import RIG_COLUMNS, RIG_TABLE_COLUMNS
-from analysis.tables import AVERAGING_COLUMNS, FRAME_COLUMNS, VIEW_COLUMNS
 from twopose.errors import InputValueError, TwoposeError
 from twopose.format.reader import find_sessions, is_results_file
 
@@ -46,17 +42,6 @@ __all__ = ["Outcome", "analyse_or_fail", "results_mcap_name", "run", "split_inpu
 Outcome = SessionResult | SessionFailure
 #: Called as each session finishes: its path and whether it succeeded (progress bars).
 OnDone = Callable[[str, bool], None]
-
-TRIAL_TABLE_COLUMNS = (
-    TRIAL_COLUMNS
-    + LINE_COLUMNS
-    + WEIGHTED_COLUMNS
-    + OPTIMAL_COLUMNS
-    + MARGIN_COLUMNS
-    + UNCERTAINTY_COLUMNS
-    + NOTES_COLUMNS
-    + RIG_COLUMNS
-)
 
 
 def run(

@@ -8,13 +8,10 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from analysis.columns import SUMMARY_COLUMNS
+
 __all__ = [
-    "NOTES_COLUMNS",
     "SESSION_SETS",
-    "SUMMARY_COLUMNS",
-    "TRIAL_COLUMNS",
-    "UNCERTAINTY_COLUMNS",
-    "WEIGHTED_COLUMNS",
     "by_session_set",
     "paired_difference",
     "session_set",
@@ -22,104 +19,6 @@ __all__ = [
     "t95",
     "used_trials",
     "warned",
-]
-
-
-TRIAL_COLUMNS = [
-    "session",
-    "trial",
-    "method",
-    "units",
-    "status",
-    "reason",
-    "n_views",
-    "conditioning",
-    "x",
-    "y",
-    "z",
-    "gt_x",
-    "gt_y",
-    "gt_z",
-    "err_x",
-    "err_y",
-    "err_z",
-    "err",
-]
-LINE_COLUMNS = ["dir_x", "dir_y", "dir_z", "angle_err_deg", "dist_err"]
-#: The operator's notes about the trial, joined with " | " (session-wide notes: the report).
-NOTES_COLUMNS = ["notes"]
-#: Line trials: the weighted/robust fit beside the thesis' (solve.triangulate_lines), and
-#: the reprojection-optimal line's errors (twopose.optimal_lines; its point is ``x_optimal``...).
-WEIGHTED_COLUMNS = [
-    "x_weighted",
-    "y_weighted",
-    "z_weighted",
-    "angle_err_weighted_deg",
-    "dist_err_weighted",
-    "angle_err_optimal_deg",
-    "dist_err_optimal",
-]
-#: Degeneracy margins (degrees) per method, and the warning when one is under its threshold.
-MARGIN_COLUMNS = [
-    "parallax_deg",
-    "plane_angle_deg",
-    "line_ground_angle_deg",
-    "warning",
-    "baseline",  # the longest distance between two typed camera centres of the trial
-]
-#: Point trials: the reprojection-optimal estimate beside the thesis' (x, y, z); line trials:
-#: the optimal line's point nearest the true midpoint and its distance from it.
-OPTIMAL_COLUMNS = ["x_optimal", "y_optimal", "z_optimal", "err_optimal"]
-#: First-order uncertainty of (x, y, z) (analysis/uncertainty.py): 1-sigma per axis, the
-#: covariances, 95% half-widths per axis, the 95% ellipsoid's longest semi-axis, the
-#: normalized error ``nees`` over its ``nees_dof`` non-degenerate directions (when truth is
-#: known; a ground point has 2, its height being exact) and whether the truth is inside the
-#: 95% ellipsoid; then the input that dominates the variance, its share, and rejected frames.
-UNCERTAINTY_COLUMNS = [
-    "sigma_x",
-    "sigma_y",
-    "sigma_z",
-    "cov_xy",
-    "cov_xz",
-    "cov_yz",
-    "ci95_x",
-    "ci95_y",
-    "ci95_z",
-    "semiaxis95",
-    "nees",
-    "nees_dof",
-    "within95",
-    "dominant_input",
-    "dominant_share",
-    "rejected_frames",
-]
-SUMMARY_COLUMNS = [
-    "session",
-    "method",
-    "units",
-    "n_trials",
-    "n_ok",
-    "n_warned",  # ok trials with a near-degeneracy warning (left out unless --include-warned)
-    "n_used",  # the trials the statistics below are over
-    "bias_x",
-    "bias_y",
-    "bias_z",
-    "bias_x_ci95",  # half-width of the 95% t-interval of each bias component
-    "bias_y_ci95",
-    "bias_z_ci95",
-    "std_x",
-    "std_y",
-    "std_z",
-    "rmse",
-    "rmse_ci95_low",  # seeded bootstrap (2000 resamples) 95% interval of the RMSE
-    "rmse_ci95_high",
-    "median_err",
-    "max_err",
-    "within_1",
-    "coverage95",  # share of used trials whose truth is inside their 95% ellipsoid
-    "rmse_all_ok",  # the same over every ok trial, warned ones included
-    "median_err_all_ok",
-    "max_err_all_ok",
 ]
 
 

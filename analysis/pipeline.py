@@ -17,10 +17,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from analysis.columns import FRAME_COLUMNS, RIG_TABLE_COLUMNS
 from analysis.results import AnalysisOptions, SessionResult
 from analysis.results_mcap import ResultsWriter
-from analysis.rig import RIG_TABLE_COLUMNS
-from analysis.tables import FRAME_COLUMNS, averaging_table, frame_row, trial_table, view_table
+from analysis.tables import averaging_table, frame_row, trial_table, view_table
 from twopose.arrays import F64
 from twopose.camera import Intrinsics
 from twopose.detect import Detection, DotParams, GloveParams, detect

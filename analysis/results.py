@@ -8,7 +8,7 @@ from typing import Any, Literal
 
 import pandas as pd
 
-from analysis.tables import VIEW_COLUMNS
+from analysis.columns import VIEW_COLUMNS
 from twopose.detect import CombineMethod, DotParams, GloveParams
 from twopose.estimate import (
     DEFAULT_MIN_GROUND_ANGLE_DEG,

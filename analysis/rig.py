@@ -28,6 +28,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from analysis.columns import RIG_COLUMNS
 from analysis.rig_data import RigData, combine, prepare, prepare_session, require_trusted
 from twopose.arrays import F64
 from twopose.errors import InputValueError
@@ -40,8 +41,6 @@ from twopose.uncertainty import CHI2_95, nees
 
 __all__ = [
     "GROUPS",
-    "RIG_COLUMNS",
-    "RIG_TABLE_COLUMNS",
     "LeaveOneOut",
     "RigData",
     "RigFit",
@@ -327,22 +326,6 @@ def rig_toml(fit: RigFit, sources: Sequence[str]) -> str:
     if fit.fixed:
         lines += ["", "[fixed]", *(f'{k} = "{v}"' for k, v in fit.fixed.items())]
     return "\n".join(lines) + "\n"
-
-
-#: trials.csv's columns from ``--rig-calibration loo`` (the last five: line trials only).
-RIG_COLUMNS = [
-    "x_rig",
-    "y_rig",
-    "z_rig",
-    "err_rig",
-    "within95_rig",
-    "dir_x_rig",
-    "dir_y_rig",
-    "dir_z_rig",
-    "angle_err_rig_deg",
-    "dist_err_rig",
-]
-RIG_TABLE_COLUMNS = ["session", "constant", "value", "sigma", "fitted", "why_fixed", "truth"]
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
-from analysis.metrics import LINE_COLUMNS, OPTIMAL_COLUMNS, TRIAL_COLUMNS
+from analysis.columns import AVERAGING_COLUMNS, TRIAL_COLUMNS, VIEW_COLUMNS
 from twopose.arrays import F64
 from twopose.camera import rotation_from_angles_deg
 from twopose.detect import Detection, PoseMeasurement
@@ -29,59 +29,10 @@ if TYPE_CHECKING:
     from twopose.session_estimate import Estimates, SessionEstimate
 
 __all__ = [
-    "AVERAGING_COLUMNS",
-    "FRAME_COLUMNS",
-    "VIEW_COLUMNS",
     "averaging_table",
     "frame_row",
     "trial_table",
     "view_table",
-]
-
-
-FRAME_COLUMNS = [
-    "session",
-    "trial",
-    "pose",
-    "camera",
-    "frame",
-    "log_time_ns",
-    "found",
-    "col",
-    "row",
-    "theta_deg",
-    "area_px",
-    "eccentricity",
-    "pi_estimate",
-    "n_blobs",
-    "n_candidates",
-    "reason",
-]
-AVERAGING_COLUMNS = ["session", "trial", "n_frames", "x", "y", "z", "err"]
-#: One row per used pose: its typed camera centre, combined measurement, the unit ray
-#: through the measured pixel (grid frame), and the intrinsics and typed angles (degrees,
-#: ``R_cam_to_grid = Rx Ry Rz``) the solver used: with them, the report's top view draws
-#: each trial by :func:`twopose.topview.top_view` (``views.csv``).
-VIEW_COLUMNS = [
-    "session",
-    "trial",
-    "pose",
-    "t_x",
-    "t_y",
-    "t_z",
-    "col",
-    "row",
-    "theta_deg",
-    "ray_x",
-    "ray_y",
-    "ray_z",
-    "fx",
-    "fy",
-    "cx",
-    "cy",
-    "r_x_deg",
-    "r_y_deg",
-    "r_z_deg",
 ]
 
 
@@ -169,10 +120,7 @@ def trial_table(
             **_method_columns(method, est, trials.truth),
         }
     )
-    extra_columns = (
-        LINE_COLUMNS if method == "line" else OPTIMAL_COLUMNS if method == "point" else []
-    )
-    table = table[TRIAL_COLUMNS + extra_columns]
+    table = table[[*TRIAL_COLUMNS, *spec_of(method).extra_columns]]
     for name, values in est.margins.items():
         table[name] = values
     table["warning"] = estimate.warnings

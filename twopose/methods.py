@@ -2,8 +2,8 @@
 
 Every rule that depends on the method reads it here: which target the detector looks for,
 what ground truth a trial carries, whether the ground plane is needed, whether the estimate
-is a line, which degeneracy margins apply, and how the thesis names it. Adding a method is
-adding a :class:`MethodSpec`; nothing else compares method names.
+is a line, which degeneracy margins and extra table columns apply, and how the thesis names
+it. Adding a method is adding a :class:`MethodSpec`; nothing else compares method names.
 
 ``Method`` is a :class:`~enum.StrEnum`: its members equal their names (``Method.POINT ==
 "point"``), print as them and serialise as them, so session files, tables and JSON are the
@@ -44,6 +44,8 @@ class MethodSpec:
     needs_ground: bool
     #: Degeneracy margins (trials.csv columns, degrees) that apply to the method.
     margins: tuple[str, ...]
+    #: The method's own trials.csv columns beside the common ones (analysis/columns.py).
+    extra_columns: tuple[str, ...]
     #: How the thesis names it, and how tables and verdicts label it.
     thesis_name: str
     label: str
@@ -72,6 +74,7 @@ METHOD_SPECS: Mapping[Method, MethodSpec] = MappingProxyType(
             truth_kind="point",
             needs_ground=False,
             margins=("parallax_deg",),
+            extra_columns=("x_optimal", "y_optimal", "z_optimal", "err_optimal"),
             thesis_name="method 1",
             label="point (method 1)",
         ),
@@ -81,6 +84,7 @@ METHOD_SPECS: Mapping[Method, MethodSpec] = MappingProxyType(
             truth_kind="line",
             needs_ground=False,
             margins=("parallax_deg", "plane_angle_deg"),
+            extra_columns=("dir_x", "dir_y", "dir_z", "angle_err_deg", "dist_err"),
             thesis_name="fixed line",
             label="line",
         ),
@@ -90,6 +94,7 @@ METHOD_SPECS: Mapping[Method, MethodSpec] = MappingProxyType(
             truth_kind="point",
             needs_ground=True,
             margins=("parallax_deg", "plane_angle_deg", "line_ground_angle_deg"),
+            extra_columns=(),
             thesis_name="method 2",
             label="ground (method 2)",
         ),

@@ -31,6 +31,7 @@ __all__ = [
     "INPUTS_PER_VIEW",
     "INPUT_GROUPS",
     "SHARED_INPUTS",
+    "SPREAD_COLUMNS",
     "Propagated",
     "Shared",
     "dominant_input",
@@ -307,8 +308,29 @@ def nees(error: F64, cov: F64) -> tuple[F64, NDArray[np.int_]]:
     return out, dof
 
 
+#: The columns :func:`uncertainty_columns` fills, in order: 1-sigma per axis, the
+#: covariances, 95% half-widths per axis, the 95% ellipsoid's longest semi-axis, the
+#: normalized error ``nees`` over its ``nees_dof`` non-degenerate directions (a ground
+#: point has 2, its height being exact) and whether the truth is inside the 95% ellipsoid.
+SPREAD_COLUMNS = (
+    "sigma_x",
+    "sigma_y",
+    "sigma_z",
+    "cov_xy",
+    "cov_xz",
+    "cov_yz",
+    "ci95_x",
+    "ci95_y",
+    "ci95_z",
+    "semiaxis95",
+    "nees",
+    "nees_dof",
+    "within95",
+)
+
+
 def uncertainty_columns(error: F64, cov: F64) -> dict[str, F64]:
-    """The uncertainty columns computable from errors (T, 3) and covariances (T, 3, 3)."""
+    """The :data:`SPREAD_COLUMNS` from errors (T, 3) and covariances (T, 3, 3)."""
     sigma = np.sqrt(np.diagonal(cov, axis1=1, axis2=2))
     with np.errstate(invalid="ignore"):
         eig = np.full(len(cov), np.nan)
@@ -319,14 +341,15 @@ def uncertainty_columns(error: F64, cov: F64) -> dict[str, F64]:
         limit = np.array([CHI2_95.get(int(d), np.nan) for d in dof])
         within = np.where(np.isfinite(score), score <= limit, np.nan)
     half95 = NormalDist().inv_cdf(0.975)
-    return {
-        **{f"sigma_{a}": sigma[:, i] for i, a in enumerate("xyz")},
-        "cov_xy": cov[:, 0, 1],
-        "cov_xz": cov[:, 0, 2],
-        "cov_yz": cov[:, 1, 2],
-        **{f"ci95_{a}": half95 * sigma[:, i] for i, a in enumerate("xyz")},
-        "semiaxis95": np.sqrt(CHI2_3DOF_95 * eig),
-        "nees": score,
-        "nees_dof": dof,
-        "within95": within,
-    }
+    values = (
+        *(sigma[:, i] for i in range(3)),
+        cov[:, 0, 1],
+        cov[:, 0, 2],
+        cov[:, 1, 2],
+        *(half95 * sigma[:, i] for i in range(3)),
+        np.sqrt(CHI2_3DOF_95 * eig),
+        score,
+        dof,
+        within,
+    )
+    return dict(zip(SPREAD_COLUMNS, values, strict=True))

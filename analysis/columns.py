@@ -1,0 +1,187 @@
+"""Every output table's columns, declared once, in the order the files write them.
+
+``docs/analysis.md`` documents each column (``tests/analysis/test_columns.py`` checks that
+every one declared here is); the stages that fill a table import its list from here. What
+depends on the method (its extra columns, its degeneracy margins) is read from the method
+registry (:mod:`twopose.methods`), and the uncertainty columns from
+:data:`twopose.uncertainty.SPREAD_COLUMNS`, the keys that
+:func:`~twopose.uncertainty.uncertainty_columns` fills.
+"""
+
+from __future__ import annotations
+
+from twopose.methods import METHOD_SPECS, Method
+from twopose.uncertainty import SPREAD_COLUMNS
+
+__all__ = [
+    "AVERAGING_COLUMNS",
+    "FRAME_COLUMNS",
+    "LINE_COLUMNS",
+    "MARGIN_COLUMNS",
+    "NOTES_COLUMNS",
+    "OPTIMAL_COLUMNS",
+    "RIG_COLUMNS",
+    "RIG_TABLE_COLUMNS",
+    "SUMMARY_COLUMNS",
+    "TRIAL_COLUMNS",
+    "TRIAL_TABLE_COLUMNS",
+    "UNCERTAINTY_COLUMNS",
+    "VIEW_COLUMNS",
+    "WEIGHTED_COLUMNS",
+]
+
+# trials.csv: one row per trial.
+TRIAL_COLUMNS = [
+    "session",
+    "trial",
+    "method",
+    "units",
+    "status",
+    "reason",
+    "n_views",
+    "conditioning",
+    "x",
+    "y",
+    "z",
+    "gt_x",
+    "gt_y",
+    "gt_z",
+    "err_x",
+    "err_y",
+    "err_z",
+    "err",
+]
+#: Line trials: the line's direction and its angle and distance errors (the method's own
+#: extra columns, :attr:`twopose.methods.MethodSpec.extra_columns`).
+LINE_COLUMNS = list(METHOD_SPECS[Method.LINE].extra_columns)
+#: The operator's notes about the trial, joined with " | " (session-wide notes: the report).
+NOTES_COLUMNS = ["notes"]
+#: Line trials: the weighted/robust fit beside the thesis' (solve.triangulate_lines), and
+#: the reprojection-optimal line's errors (twopose.optimal_lines; its point is ``x_optimal``...).
+WEIGHTED_COLUMNS = [
+    "x_weighted",
+    "y_weighted",
+    "z_weighted",
+    "angle_err_weighted_deg",
+    "dist_err_weighted",
+    "angle_err_optimal_deg",
+    "dist_err_optimal",
+]
+#: Degeneracy margins (degrees; each method's from the registry), the warning when one is
+#: under its threshold, and the trial's baseline (the longest distance between two typed
+#: camera centres).
+MARGIN_COLUMNS = [
+    *dict.fromkeys(margin for spec in METHOD_SPECS.values() for margin in spec.margins),
+    "warning",
+    "baseline",
+]
+#: Point trials: the reprojection-optimal estimate beside the thesis' (x, y, z), the point
+#: method's extra columns; line trials: the optimal line's point nearest the true midpoint
+#: and its distance from it.
+OPTIMAL_COLUMNS = list(METHOD_SPECS[Method.POINT].extra_columns)
+#: First-order uncertainty of (x, y, z) (:mod:`twopose.uncertainty`), then the input that
+#: dominates the variance, its share, and the frames rejected as outliers.
+UNCERTAINTY_COLUMNS = [*SPREAD_COLUMNS, "dominant_input", "dominant_share", "rejected_frames"]
+#: trials.csv's columns from ``--rig-calibration loo`` (the last five: line trials only).
+RIG_COLUMNS = [
+    "x_rig",
+    "y_rig",
+    "z_rig",
+    "err_rig",
+    "within95_rig",
+    "dir_x_rig",
+    "dir_y_rig",
+    "dir_z_rig",
+    "angle_err_rig_deg",
+    "dist_err_rig",
+]
+#: ``trials.csv``, every session and method concatenated (a column a method lacks is empty).
+TRIAL_TABLE_COLUMNS = (
+    TRIAL_COLUMNS
+    + LINE_COLUMNS
+    + WEIGHTED_COLUMNS
+    + OPTIMAL_COLUMNS
+    + MARGIN_COLUMNS
+    + UNCERTAINTY_COLUMNS
+    + NOTES_COLUMNS
+    + RIG_COLUMNS
+)
+
+# The other tables.
+#: ``summary.csv``: one row per session and method.
+SUMMARY_COLUMNS = [
+    "session",
+    "method",
+    "units",
+    "n_trials",
+    "n_ok",
+    "n_warned",  # ok trials with a near-degeneracy warning (left out unless --include-warned)
+    "n_used",  # the trials the statistics below are over
+    "bias_x",
+    "bias_y",
+    "bias_z",
+    "bias_x_ci95",  # half-width of the 95% t-interval of each bias component
+    "bias_y_ci95",
+    "bias_z_ci95",
+    "std_x",
+    "std_y",
+    "std_z",
+    "rmse",
+    "rmse_ci95_low",  # seeded bootstrap (2000 resamples) 95% interval of the RMSE
+    "rmse_ci95_high",
+    "median_err",
+    "max_err",
+    "within_1",
+    "coverage95",  # share of used trials whose truth is inside their 95% ellipsoid
+    "rmse_all_ok",  # the same over every ok trial, warned ones included
+    "median_err_all_ok",
+    "max_err_all_ok",
+]
+#: ``frames.csv``: every frame's detection.
+FRAME_COLUMNS = [
+    "session",
+    "trial",
+    "pose",
+    "camera",
+    "frame",
+    "log_time_ns",
+    "found",
+    "col",
+    "row",
+    "theta_deg",
+    "area_px",
+    "eccentricity",
+    "pi_estimate",
+    "n_blobs",
+    "n_candidates",
+    "reason",
+]
+#: ``averaging.csv``: the estimate from each trial's first 1..K frames per pose.
+AVERAGING_COLUMNS = ["session", "trial", "n_frames", "x", "y", "z", "err"]
+#: One row per used pose: its typed camera centre, combined measurement, the unit ray
+#: through the measured pixel (grid frame), and the intrinsics and typed angles (degrees,
+#: ``R_cam_to_grid = Rx Ry Rz``) the solver used: with them, the report's top view draws
+#: each trial by :func:`twopose.topview.top_view` (``views.csv``).
+VIEW_COLUMNS = [
+    "session",
+    "trial",
+    "pose",
+    "t_x",
+    "t_y",
+    "t_z",
+    "col",
+    "row",
+    "theta_deg",
+    "ray_x",
+    "ray_y",
+    "ray_z",
+    "fx",
+    "fy",
+    "cx",
+    "cy",
+    "r_x_deg",
+    "r_y_deg",
+    "r_z_deg",
+]
+#: ``rig.csv``: one row per session and rig constant.
+RIG_TABLE_COLUMNS = ["session", "constant", "value", "sigma", "fitted", "why_fixed", "truth"]
