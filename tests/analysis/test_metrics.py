@@ -6,7 +6,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.metrics import SUMMARY_COLUMNS, summarize
+from analysis.columns import SUMMARY_COLUMNS
+from analysis.metrics import summarize
 from twopose.truth import line_errors
 from twopose.uncertainty import uncertainty_columns
 

@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from analysis.metrics import LINE_COLUMNS, OPTIMAL_COLUMNS, TRIAL_COLUMNS
-from analysis.tables import VIEW_COLUMNS, trial_table, view_table
+from analysis.columns import LINE_COLUMNS, OPTIMAL_COLUMNS, TRIAL_COLUMNS, VIEW_COLUMNS
+from analysis.tables import trial_table, view_table
 from twopose.camera import Intrinsics, project_points
 from twopose.estimate import EstimateOptions, PoseView, measure
 from twopose.methods import Method, spec_of
