@@ -70,7 +70,7 @@ def session_order(summary: pd.DataFrame) -> pd.DataFrame:
     return ordered
 
 
-def number(value: object, signed: bool = False) -> str:
+def number(value: object, *, signed: bool = False) -> str:
     """Two decimals (``-`` when unknown): the report's answer and the console alike."""
     if not isinstance(value, int | float) or math.isnan(value):
         return "-"
@@ -90,7 +90,11 @@ def _interval(low: object, high: object) -> str:
 
 
 def _plus_minus(value: object, half: object) -> str:
-    return number(value, True) if number(half) == "-" else f"{number(value, True)} ± {number(half)}"
+    return (
+        number(value, signed=True)
+        if number(half) == "-"
+        else f"{number(value, signed=True)} ± {number(half)}"
+    )
 
 
 def readable(table: pd.DataFrame, *, include_warned: bool = False) -> pd.DataFrame:

@@ -88,12 +88,16 @@ def run(
         results_mcap: list[str | None] = [None] * len(files)
         if folder is not None and scene:
             results_mcap = [str(folder.path / results_mcap_name(i, f)) for i, f in enumerate(files)]
-        images = folder is not None
-        outcomes = _execute(
-            files, results_mcap, options, images, jobs, dask_address, on_session_done
+        batch = _Batch(
+            files=files,
+            results_mcap=results_mcap,
+            options=options,
+            images=folder is not None,
+            on_done=on_session_done,
         )
+        outcomes = _execute(batch, jobs=jobs, dask_address=dask_address)
         result = dataclasses.replace(
-            gather(files, outcomes, include_warned=options.include_warned),
+            gather(outcomes, include_warned=options.include_warned),
             skipped=tuple(skipped),
         )
         if folder is not None:
@@ -122,40 +126,42 @@ def split_inputs(paths: Sequence[str | Path]) -> tuple[list[str], list[str]]:
     return [str(p) for p in found if str(p) not in skipped], skipped
 
 
-def _execute(
-    files: list[str],
-    results_mcap: list[str | None],
-    options: AnalysisOptions,
-    images: bool,
-    jobs: int,
-    dask_address: str | None,
-    on_done: OnDone | None,
-) -> list[Outcome]:
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class _Batch:
+    """The sessions of one run and what each one's analysis needs, wherever it runs."""
+
+    files: list[str]
+    results_mcap: list[str | None]  # each session's results.mcap path (None: not written)
+    options: AnalysisOptions
+    images: bool  # whether the session figures are drawn (only when an --out is written)
+    on_done: OnDone | None
+
+    def without_images(self) -> _Batch:
+        """The same batch, its figures drawn elsewhere (by a :class:`FigureDrawer`)."""
+        return dataclasses.replace(self, images=False)
+
+
+def _execute(batch: _Batch, *, jobs: int, dask_address: str | None) -> list[Outcome]:
     """Every session's outcome, in input order, wherever it ran."""
+    n = len(batch.files)
     if dask_address is not None:
-        return _run_dask(files, results_mcap, options, images, dask_address, on_done)
-    if jobs > 1 and len(files) > 1:  # each process draws its own sessions' figures
-        return _run_processes(files, results_mcap, options, images, min(jobs, len(files)), on_done)
+        return _run_dask(batch, dask_address)
+    if jobs > 1 and n > 1:  # each process draws its own sessions' figures
+        return _run_processes(batch, min(jobs, n))
     # --include-warned: the report draws the session figures itself, with that rule.
-    if not images or len(files) <= 1 or options.include_warned:
-        return _run_here(files, results_mcap, options, images, None, on_done)
+    if not batch.images or n <= 1 or batch.options.include_warned:
+        return _run_here(batch, None)
     with FigureDrawer.started() as drawer:
-        return _run_here(files, results_mcap, options, drawer is None, drawer, on_done)
+        return _run_here(batch if drawer is None else batch.without_images(), drawer)
 
 
-def _run_here(
-    files: list[str],
-    results_mcap: list[str | None],
-    options: AnalysisOptions,
-    images: bool,
-    drawer: FigureDrawer | None,
-    on_done: OnDone | None,
-) -> list[Outcome]:
+def _run_here(batch: _Batch, drawer: FigureDrawer | None) -> list[Outcome]:
     """The sessions one after the other in this process; with a ``drawer``, each one's
     figures are drawn in its process while this one analyses the next."""
+    files, options, on_done = batch.files, batch.options, batch.on_done
     outcomes: list[Outcome] = []
-    for i, (f, r) in enumerate(zip(files, results_mcap, strict=True)):
-        outcomes.append(analyse_or_fail(f, options, images, r))
+    for i, (f, r) in enumerate(zip(files, batch.results_mcap, strict=True)):
+        outcomes.append(analyse_or_fail(f, options, images=batch.images, results=r))
         if drawer is not None and isinstance(outcomes[-1], SessionResult):
             drawer.submit(i, outcomes[-1])
         _report(on_done, f, outcomes[-1])
@@ -175,7 +181,7 @@ def _report(on_done: OnDone | None, path: str, outcome: Outcome) -> None:
         on_done(path, isinstance(outcome, SessionResult))
 
 
-def gather(files: list[str], outcomes: list[Outcome], *, include_warned: bool = False) -> RunResult:
+def gather(outcomes: list[Outcome], *, include_warned: bool = False) -> RunResult:
     """The run's tables: every session's rows concatenated in input order; the summary
     leaves warned trials out unless ``include_warned`` (:func:`analysis.metrics.summarize`)."""
     results = tuple(o for o in outcomes if isinstance(o, SessionResult))
@@ -216,7 +222,7 @@ def results_mcap_name(index: int, session: str | Path) -> str:
 
 
 def analyse_or_fail(
-    path: str, options: AnalysisOptions, images: bool, results: str | None = None
+    path: str, options: AnalysisOptions, *, images: bool, results: str | None = None
 ) -> Outcome:
     """One session's result, or a :class:`SessionFailure` saying why (never raises but for
     Ctrl-C); a session over ``options.session_timeout_s`` is stopped and fails."""
@@ -225,14 +231,18 @@ def analyse_or_fail(
             return analyse_session(path, options, render_images=images, results_path=results)
     except _SessionTimeoutError:
         return SessionFailure(
-            path,
-            f"{path}: stopped after {options.session_timeout_s:g} s (--session-timeout); "
+            session=path,
+            reason=f"{path}: stopped after {options.session_timeout_s:g} s (--session-timeout); "
             "the session is too large or pathological for one analysis",
         )
     except TwoposeError as err:  # the message names the file, once
-        return SessionFailure(path, str(err) if path in str(err) else f"{path}: {err}")
+        return SessionFailure(
+            session=path, reason=str(err) if path in str(err) else f"{path}: {err}"
+        )
     except Exception as err:  # one bad file never stops the batch; the reason is kept
-        return SessionFailure(path, f"{path}: unexpected {type(err).__name__}: {err}")
+        return SessionFailure(
+            session=path, reason=f"{path}: unexpected {type(err).__name__}: {err}"
+        )
 
 
 class _SessionTimeoutError(BaseException):
@@ -249,7 +259,7 @@ def _time_limit(seconds: float | None) -> Iterator[None]:
         yield
         return
 
-    def expired(signum: int, frame: Any) -> None:
+    def expired(_signum: int, _frame: Any) -> None:
         raise _SessionTimeoutError
 
     previous = signal.signal(signal.SIGALRM, expired)
@@ -289,26 +299,21 @@ def _claim(claims: Any, index: int) -> bool:
 
 
 def _worker_task(
-    index: int, path: str, options: AnalysisOptions, images: bool, results: str | None
+    index: int, path: str, options: AnalysisOptions, results: str | None, *, images: bool
 ) -> Outcome | None:
     """A worker's session, or None when the main process took it first."""
     if not _claim(_CLAIMS, index):
         return None
-    return analyse_or_fail(path, options, images, results)
+    return analyse_or_fail(path, options, images=images, results=results)
 
 
-def _run_processes(
-    files: list[str],
-    results: list[str | None],
-    options: AnalysisOptions,
-    images: bool,
-    jobs: int,
-    on_done: OnDone | None,
-) -> list[Outcome]:
+def _run_processes(batch: _Batch, jobs: int) -> list[Outcome]:
     """``jobs`` processes: ``jobs - 1`` spawned workers take sessions from the front of the
     list, this (already warm) process from the back, each claiming a session through a
     shared flag; so no session runs twice and no core waits for a worker to start."""
     # Spawned, not forked: a fork after OpenCV has started its thread pool can deadlock.
+    files, results, options, images = batch.files, batch.results_mcap, batch.options, batch.images
+    on_done = batch.on_done
     context = multiprocessing.get_context("spawn")
     claims = context.Array("b", len(files))
     outcomes: list[Outcome | None] = [None] * len(files)
@@ -328,13 +333,13 @@ def _run_processes(
             try:
                 with sigint_blocked():  # the workers start as the sessions are submitted
                     futures = [
-                        pool.submit(_worker_task, i, f, options, images, results[i])
+                        pool.submit(_worker_task, i, f, options, results[i], images=images)
                         for i, f in enumerate(files)
                     ]
                 for i in reversed(range(len(files))):
                     if not _claim(claims, i):
                         break  # the workers, going forward, have reached this one
-                    done(i, analyse_or_fail(files[i], options, images, results[i]))
+                    done(i, analyse_or_fail(files[i], options, images=images, results=results[i]))
                 index = {fut: i for i, fut in enumerate(futures)}
                 for fut in as_completed(futures):  # progress as sessions finish, in any order
                     i = index[fut]
@@ -344,7 +349,8 @@ def _run_processes(
                         outcome = fut.result()
                     except BrokenProcessPool as err:  # a worker died (killed, out of memory)
                         outcome = SessionFailure(
-                            files[i], f"{files[i]}: the worker process analysing it died ({err})"
+                            session=files[i],
+                            reason=f"{files[i]}: the worker process analysing it died ({err})",
                         )
                     if outcome is not None:
                         done(i, outcome)
@@ -379,19 +385,16 @@ def _stop_workers(pool: ProcessPoolExecutor, results: list[str | None]) -> None:
 # --------------------------------------------------------------------------- Dask
 
 
-def _analyse_to(path: str, results: str | None, options: AnalysisOptions, images: bool) -> Outcome:
+def _analyse_to(
+    path: str, results: str | None, *, options: AnalysisOptions, images: bool
+) -> Outcome:
     """:func:`analyse_or_fail` with the per-session argument second, for ``client.map``."""
-    return analyse_or_fail(path, options, images, results)
+    return analyse_or_fail(path, options, images=images, results=results)
 
 
-def _run_dask(
-    files: list[str],
-    results: list[str | None],
-    options: AnalysisOptions,
-    images: bool,
-    address: str,
-    on_done: OnDone | None,
-) -> list[Outcome]:
+def _run_dask(batch: _Batch, address: str) -> list[Outcome]:
+    """The sessions on a Dask cluster (``--dask ADDRESS``), in input order."""
+    files, results, on_done = batch.files, batch.results_mcap, batch.on_done
     try:
         from distributed import Client
     except ImportError as err:
@@ -410,7 +413,7 @@ def _run_dask(
         # A worker that dies mid-session (killed, out of memory) loses its task to the
         # scheduler, which runs it again on another worker (``allowed-failures``, 3).
         futures = client.map(
-            _analyse_to, files, results, options=options, images=images, pure=False
+            _analyse_to, files, results, options=batch.options, images=batch.images, pure=False
         )
         index = {fut.key: i for i, fut in enumerate(futures)}
         outcomes: list[Outcome | None] = [None] * len(files)

@@ -19,7 +19,7 @@ from analysis.metrics import by_session_set, used_trials, warned
 __all__ = ["run_captions", "session_captions"]
 
 
-def _which(trials: pd.DataFrame, include_warned: bool) -> str:
+def _which(trials: pd.DataFrame, *, include_warned: bool) -> str:
     """Which trials a run figure draws, in words."""
     n_warned = int(warned(used_trials(trials, include_warned=True)).sum())
     if include_warned:
@@ -29,7 +29,7 @@ def _which(trials: pd.DataFrame, include_warned: bool) -> str:
     return f"the trials the answer uses ({n_warned} warned trial(s) left out, as there)"
 
 
-def largest_errors(trials: pd.DataFrame, include_warned: bool) -> list[tuple[str, str, float]]:
+def largest_errors(trials: pd.DataFrame, *, include_warned: bool) -> list[tuple[str, str, float]]:
     """(set, method, largest error) over the trials a run figure draws, in its units."""
     used, _ = common_units(used_trials(trials, include_warned=include_warned, measured=True))
     out = []
@@ -39,10 +39,10 @@ def largest_errors(trials: pd.DataFrame, include_warned: bool) -> list[tuple[str
     return out
 
 
-def _largest(trials: pd.DataFrame, include_warned: bool, units: str) -> str:
+def _largest(trials: pd.DataFrame, units: str, *, include_warned: bool) -> str:
     """The largest error drawn, per set and method, marked up for a reader and a test."""
     parts: dict[str, list[str]] = {}
-    for name, method, value in largest_errors(trials, include_warned):
+    for name, method, value in largest_errors(trials, include_warned=include_warned):
         cell = (
             f"{html.escape(method)} <span class='largest' data-set='{html.escape(name)}' "
             f"data-method='{html.escape(method)}'>{value:.2f}</span>"
@@ -55,7 +55,7 @@ def _largest(trials: pd.DataFrame, include_warned: bool, units: str) -> str:
     return "Largest error drawn: " + "; ".join(groups) + ", as in the answer."
 
 
-def run_captions(trials: pd.DataFrame, include_warned: bool) -> dict[str, str]:
+def run_captions(trials: pd.DataFrame, *, include_warned: bool) -> dict[str, str]:
     """The captions of the figures over the run, by figure name."""
     if trials.empty:
         return {}
@@ -64,8 +64,9 @@ def run_captions(trials: pd.DataFrame, include_warned: bool) -> dict[str, str]:
     unit_note = f"Errors in {UNIT_NAMES.get(units, units)}" + (
         " (sessions in other units converted)" if mixed else ""
     )
-    common = f"Drawn: {_which(trials, include_warned)}; {unit_note[0].lower()}{unit_note[1:]}."
-    largest = _largest(trials, include_warned, units)
+    which = _which(trials, include_warned=include_warned)
+    common = f"Drawn: {which}; {unit_note[0].lower()}{unit_note[1:]}."
+    largest = _largest(trials, units, include_warned=include_warned)
     return {
         "error_histogram": "Trials per error bin, by method, a panel per session set, one "
         f"bin width throughout. {common} {largest}",
@@ -87,7 +88,7 @@ _TOP_VIEW = {
 }
 
 
-def session_captions(trials: pd.DataFrame, include_warned: bool) -> dict[str, str]:
+def session_captions(trials: pd.DataFrame, *, include_warned: bool) -> dict[str, str]:
     """The captions of one session's figures, by figure kind."""
     units = html.escape(str(trials["units"].iloc[0])) if len(trials) else "session units"
     method = str(trials["method"].iloc[0]) if len(trials) else ""

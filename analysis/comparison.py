@@ -19,12 +19,12 @@ import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
 
 import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
+from analysis.choices import Estimator
 from analysis.figures import png_bytes
 from analysis.metrics import paired_difference, summarize, used_trials
 from analysis.outputs import read_results_table, session_keys, write_atomically
@@ -42,7 +42,6 @@ __all__ = [
     "write_comparison",
 ]
 
-Estimator = Literal["thesis", "optimal", "weighted"]
 #: Each estimator's estimate columns in trials.csv.
 ESTIMATORS: dict[str, tuple[str, str, str]] = {
     "thesis": ("x", "y", "z"),
@@ -65,7 +64,7 @@ TEST_COLUMNS = [
 ]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class RunSide:
     """One side of a comparison: a run folder and the estimator read from it."""
 
@@ -78,7 +77,7 @@ class RunSide:
         return f"{self.folder} ({self.estimator})"
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Comparison:
     """``side_by_side``: per session and method, ``SIDE_COLUMNS`` of A and B (suffixes
     ``_a``, ``_b``) and B - A of the RMSE and median; ``paired``: per shared trial, its
@@ -102,11 +101,15 @@ def compare_runs(
 ) -> Comparison:
     """Compare two run folders (see the module's docstring)."""
     sides = [_side(Path(run_a), estimator_a), _side(Path(run_b), estimator_b)]
-    used = [_used_trials(_with_errors(_read_trials(s), s), include_warned) for s in sides]
+    used = [
+        _used_trials(_with_errors(_read_trials(s), s), include_warned=include_warned) for s in sides
+    ]
     summaries = [summarize(u, include_warned=True) for u in used]  # already filtered
     side = _side_by_side(*summaries)
     paired = _paired(*used)
-    return Comparison(sides[0], sides[1], side, paired, _tests(paired))
+    return Comparison(
+        a=sides[0], b=sides[1], side_by_side=side, paired=paired, tests=_tests(paired)
+    )
 
 
 def compare(
@@ -146,7 +149,7 @@ def _side(folder: Path, estimator: Estimator) -> RunSide:
     with contextlib.suppress(OSError, ValueError, KeyError, TypeError):
         if (folder / "summary.json").is_file():  # a FIFO would block the read forever
             version = str(json.loads((folder / "summary.json").read_text())["twopose_version"])
-    return RunSide(folder, estimator, version)
+    return RunSide(folder=folder, estimator=estimator, version=version)
 
 
 #: trials.csv's columns every comparison needs; the estimate columns are the estimator's.
@@ -193,7 +196,7 @@ def _with_errors(trials: pd.DataFrame, side: RunSide) -> pd.DataFrame:
     return out
 
 
-def _used_trials(trials: pd.DataFrame, include_warned: bool) -> pd.DataFrame:
+def _used_trials(trials: pd.DataFrame, *, include_warned: bool) -> pd.DataFrame:
     """The trials the summary uses (:func:`analysis.metrics.used_trials`) with a known error."""
     used = used_trials(trials, include_warned=include_warned)
     known: pd.DataFrame = used[np.isfinite(used["err"].to_numpy(dtype=np.float64))]

@@ -60,7 +60,7 @@ def summary_lines(
                 f"{r['method']!s:<7}{sessions.get(r['method'], 0):>8}{r['n_trials']:>7}"
                 f"{r['n_ok']:>5}{r['n_warned']:>7}{_num(r['rmse']):>7}"
                 f"{_num(r['median_err']):>7}{_num(r['max_err']):>7}"
-                f"{_num(r['bias_x'], True):>7}{_num(r['bias_z'], True):>7}"
+                f"{_num(r['bias_x'], signed=True):>7}{_num(r['bias_z'], signed=True):>7}"
                 f"{_share(r['within_1']):>6}"
             )
     lines.append("per session:")
@@ -72,7 +72,7 @@ def summary_lines(
             f"rmse {_num(r['rmse'])},",
             f"median {_num(r['median_err'])},",
             f"max {_num(r['max_err'])},",
-            f"bias x {_num(r['bias_x'], True)} z {_num(r['bias_z'], True)},",
+            f"bias x {_num(r['bias_x'], signed=True)} z {_num(r['bias_z'], signed=True)},",
             f"within 1: {_share(r['within_1'])}",
         ]
         lines += wrap_phrases(phrases, width, indent="  ")

@@ -42,7 +42,7 @@ __all__ = [
 ]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Allowance:
     """How much worse a metric may get: ``max(absolute, relative * |baseline|)``."""
 
@@ -57,7 +57,7 @@ class Allowance:
         return max(self.absolute, self.relative * abs(baseline))
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Tolerance:
     """The allowances of each checked metric; ``bias`` covers |bias_x|, |bias_y|, |bias_z|
     (session units), ``n_ok`` counts trials, ``coverage95`` is a share (0-1)."""
@@ -150,7 +150,7 @@ def _tolerance(base: Tolerance, table: Any, what: str, prefix: str) -> Tolerance
     return build_dataclass(Tolerance, merged, where, InputValueError)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class CheckResult:
     """Every comparison (``COMPARISON_COLUMNS``), whether any regressed, and ``notes`` on
     what was not compared (a metric the baseline predates)."""
@@ -246,7 +246,7 @@ def compare_summaries(
                     allowed,
                 )
             )
-    return CheckResult(pd.DataFrame(rows, columns=COMPARISON_COLUMNS), notes)
+    return CheckResult(comparisons=pd.DataFrame(rows, columns=COMPARISON_COLUMNS), notes=notes)
 
 
 def _value(row: pd.Series, column: str) -> float:

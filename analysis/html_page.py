@@ -84,7 +84,7 @@ def table_html(df: pd.DataFrame, *, text: bool = False) -> str:
     return wide(body)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Image:
     """A PNG for the page: its data, its width in pixels and its description (alt text)."""
 
@@ -100,7 +100,11 @@ def image(png: bytes) -> Image:
     with Pil.open(io.BytesIO(png)) as picture:
         width = picture.width
         text = getattr(picture, "text", {}) or {}
-    return Image(base64.b64encode(png).decode(), width, str(text.get("Description", "")))
+    return Image(
+        base64=base64.b64encode(png).decode(),
+        width=width,
+        description=str(text.get("Description", "")),
+    )
 
 
 def figure_html(name: str, img: Image | None, caption: str = "") -> str:

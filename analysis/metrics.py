@@ -25,7 +25,7 @@ __all__ = [
 def warned(trials: pd.DataFrame) -> pd.Series:
     """Which trials carry a near-degeneracy warning (part of :func:`used_trials`' rule)."""
     if "warning" not in trials:
-        return pd.Series(False, index=trials.index)
+        return pd.Series(data=False, index=trials.index)
     return trials["warning"].fillna("").astype(str) != ""
 
 

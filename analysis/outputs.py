@@ -263,7 +263,7 @@ def _plain_name(name: str) -> bool:
     return bool(name) and name not in (".", "..", MANIFEST_NAME) and Path(name).name == name
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Inputs:
     """What a command reads, which none of its outputs may replace: ``files`` (sessions, a
     rig or tolerance file) and ``folders`` (run folders being read, wholly). Paths are

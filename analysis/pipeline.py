@@ -23,6 +23,7 @@ from analysis.results_mcap import ResultsWriter
 from analysis.tables import averaging_table, frame_row, trial_table, view_table
 from twopose.arrays import F64
 from twopose.camera import Intrinsics
+from twopose.choices import Target
 from twopose.detect import Detection, DotParams, GloveParams, detect
 from twopose.errors import SessionFormatError
 from twopose.estimate import GroundSpec, PoseView, pose_view
@@ -104,7 +105,14 @@ def analyse_session(
     images = _figures(replay.session, trials, averaging, views) if render_images else {}
     frames = pd.DataFrame(replay.frame_rows, columns=FRAME_COLUMNS)
     return SessionResult(
-        replay.session, replay.metadata, frames, trials, averaging, images, views, rig
+        session=replay.session,
+        metadata=replay.metadata,
+        frames=frames,
+        trials=trials,
+        averaging=averaging,
+        images=images,
+        views=views,
+        rig=rig,
     )
 
 
@@ -265,11 +273,11 @@ Detections = list[list[Detection]]  # per pose of a trial, per frame
 Params = GloveParams | DotParams
 
 
-def _detect_frame(frame: Frame, size: tuple[int, int], target: str, params: Params) -> Detection:
+def _detect_frame(frame: Frame, size: tuple[int, int], target: Target, params: Params) -> Detection:
     try:
         return detect(frame.decode(size), target, params)
     except SessionFormatError as err:  # one undecodable frame is a rejected frame
-        return Detection(False, reason=str(err))
+        return Detection(found=False, reason=str(err))
 
 
 def _detection_threads() -> int:
@@ -288,7 +296,7 @@ def _detection_threads() -> int:
 
 
 def _detected(
-    records: Iterator[TrialRecord], target: str, params: Params
+    records: Iterator[TrialRecord], target: Target, params: Params
 ) -> Generator[tuple[TrialRecord, Detections], None, None]:
     """Each trial with every frame's detection, in order. With threads, the next trial's
     frames are decoded and detected while this one's are written (one trial ahead, so

@@ -252,7 +252,7 @@ def _thesis_section(result: RunResult) -> list[str]:
 
 
 def _overview_section(result: RunResult, images: dict[str, Image]) -> list[str]:
-    captions = run_captions(result.trials, result.include_warned)
+    captions = run_captions(result.trials, include_warned=result.include_warned)
     summary = session_order(result.summary)
     parts = [
         "<h2 id='summary'>Per session</h2>",
@@ -364,7 +364,7 @@ def _session_sections(result: RunResult, images: dict[str, Image]) -> list[str]:
         metadata = pd.DataFrame({"": list(s.metadata), " ": list(s.metadata.values())})
         parts.append(table_html(metadata, text=True).replace("<thead>", "<thead hidden>", 1))
         parts.append(_notes(s.metadata))
-        captions = session_captions(s.trials, result.include_warned)
+        captions = session_captions(s.trials, include_warned=result.include_warned)
         keys = [(kind, figure_key(kind, i, s.session)) for kind in _SESSION_FIGURES]
         figures = [figure_html(key, images.get(key), captions.get(kind, "")) for kind, key in keys]
         parts.append(figure_row(figures))

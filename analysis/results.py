@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Any
 
 import pandas as pd
 
+from analysis.choices import RigCalibrationMode
 from analysis.columns import VIEW_COLUMNS
-from twopose.detect import CombineMethod, DotParams, GloveParams
+from twopose.choices import CombineMethod
+from twopose.detect import DotParams, GloveParams
 from twopose.estimate import (
     DEFAULT_MIN_GROUND_ANGLE_DEG,
     DEFAULT_MIN_PARALLAX_DEG,
@@ -21,7 +23,7 @@ from twopose.solve import DEFAULT_MIN_CONDITIONING
 __all__ = ["AnalysisOptions", "RunResult", "SessionFailure", "SessionResult"]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class AnalysisOptions:
     """How frames become measurements and measurements become estimates."""
 
@@ -41,10 +43,10 @@ class AnalysisOptions:
     # The rig's constants (`twopose-analyze rig`): every view corrected before solving.
     rig: RigConstants | None = None
     # "loo": also each trial corrected by the constants its session's other trials give.
-    rig_calibration: Literal["none", "loo"] = "none"
+    rig_calibration: RigCalibrationMode = "none"
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class SessionResult:
     """One session's tables and what the report says about it."""
 
@@ -58,7 +60,7 @@ class SessionResult:
     rig: pd.DataFrame = field(default_factory=pd.DataFrame)  # --rig-calibration: rig.csv rows
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class SessionFailure:
     """A session that could not be analysed, and why (the batch lists it and goes on)."""
 
@@ -66,7 +68,7 @@ class SessionFailure:
     reason: str
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class RunResult:
     """Everything a run produced (tables as DataFrames, figures as matplotlib Figures)."""
 

@@ -75,7 +75,7 @@ def corrected_batch(batch: ViewBatch, rig: RigConstants) -> ViewBatch:
     intrinsics = np.where(
         batch.valid[..., None], rig.true_intrinsics(batch.intrinsics), batch.intrinsics
     )
-    return ViewBatch(inputs, intrinsics, batch.valid)
+    return ViewBatch(inputs=inputs, intrinsics=intrinsics, valid=batch.valid)
 
 
 def solve_corrected(data: RigData, rig: RigConstants) -> F64:
@@ -131,7 +131,7 @@ def residuals(data: RigData, rig: RigConstants) -> F64:
     return _whitened(data, raw_residuals(data, rig))
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class RigFit:
     """Estimated constants: their values (fixed ones nominal), 1-sigma of each scalar
     (NaN: fixed), what was fitted, what was fixed and why, the fit's chi-square and its
@@ -245,7 +245,16 @@ def fit_constants(data: RigData, groups: Sequence[str] = GROUPS) -> RigFit:
         cov = np.asarray(np.linalg.pinv(J.T @ J) * max(1.0, chi2 / dof), dtype=np.float64)
         sigma[free] = np.sqrt(np.diag(cov)) * _SCALE[free]
     names = tuple(n for n, f in zip(_NAMES, free, strict=True) if f)
-    return RigFit(constants, sigma, names, fixed, chi2, dof, press, cov)
+    return RigFit(
+        constants=constants,
+        sigma=sigma,
+        free=names,
+        fixed=fixed,
+        chi2=chi2,
+        dof=dof,
+        press=press,
+        cov_scaled=cov,
+    )
 
 
 def _press(r: F64, J: F64) -> float:
@@ -328,7 +337,7 @@ def rig_toml(fit: RigFit, sources: Sequence[str]) -> str:
     return "\n".join(lines) + "\n"
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class LeaveOneOut:
     """Each trial corrected by constants estimated without it: its reported point and
     (lines) direction (T, 3) each, and whether its truth is inside the corrected 95%
@@ -359,7 +368,7 @@ def leave_one_out(data: RigData) -> LeaveOneOut:
         score, dof = nees((points[i] - trial.truth[0].mean(axis=0))[None], cov[None])
         if dof[0] > 0 and np.isfinite(score[0]):
             inside[i] = float(score[0] <= CHI2_95[int(dof[0])])
-    return LeaveOneOut(points, directions, inside)
+    return LeaveOneOut(points=points, directions=directions, within95=inside)
 
 
 def _carried(trial: RigData, fit: RigFit, step: float = 1e-3) -> F64:

@@ -56,7 +56,11 @@ class RigData:
 
     def subset(self, rows: Sequence[int]) -> RigData:
         idx = np.asarray(rows, dtype=int)
-        batch = ViewBatch(self.batch.inputs[idx], self.batch.intrinsics[idx], self.batch.valid[idx])
+        batch = ViewBatch(
+            inputs=self.batch.inputs[idx],
+            intrinsics=self.batch.intrinsics[idx],
+            valid=self.batch.valid[idx],
+        )
         return dataclasses.replace(
             self,
             trial_ids=tuple(self.trial_ids[i] for i in idx),
@@ -150,9 +154,9 @@ def combine(parts: Sequence[RigData]) -> RigData:
         parts[0],
         trial_ids=tuple(t for p in parts for t in p.trial_ids),
         batch=ViewBatch(
-            np.concatenate([b.inputs for b in batches]),
-            np.concatenate([b.intrinsics for b in batches]),
-            np.concatenate([b.valid for b in batches]),
+            inputs=np.concatenate([b.inputs for b in batches]),
+            intrinsics=np.concatenate([b.intrinsics for b in batches]),
+            valid=np.concatenate([b.valid for b in batches]),
         ),
         truth=np.concatenate([p.truth for p in parts]),
         grounds=grounds,
@@ -173,7 +177,7 @@ def _padded(batch: ViewBatch, width: int) -> ViewBatch:
     intrinsics = np.tile([1.0, 1.0, 0.0, 0.0], (T, width, 1))
     valid = np.zeros((T, width), dtype=bool)
     inputs[:, :N], intrinsics[:, :N], valid[:, :N] = batch.inputs, batch.intrinsics, batch.valid
-    return ViewBatch(inputs, intrinsics, valid)
+    return ViewBatch(inputs=inputs, intrinsics=intrinsics, valid=valid)
 
 
 #: The variance a direction without any gets, relative to the largest: a method 2

@@ -47,7 +47,7 @@ SENSITIVITY_COLUMNS = [
 ]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Geometry:
     """One configuration: camera 1 at the origin, camera 2 at ``baseline`` (no rotation)."""
 
@@ -64,7 +64,9 @@ class Geometry:
 
     @property
     def intrinsics(self) -> Intrinsics:
-        return Intrinsics(640, 480, self.focal_px, self.focal_px, 320.0, 240.0)
+        return Intrinsics(
+            width=640, height=480, fx=self.focal_px, fy=self.focal_px, cx=320.0, cy=240.0
+        )
 
     def finger(self) -> tuple[F64, F64]:
         """Tip and base of the finger (the simulator's finger, see :mod:`twopose.targets`)."""

@@ -38,7 +38,7 @@ def thesis_table(
     measured here and whether that ``reproduced`` it (``yes``, ``no``, or ``no data``);
     over :func:`thesis_sessions`."""
     trials, averaging = thesis_sessions(trials), thesis_sessions(averaging)
-    used = _used(trials, include_warned)
+    used = _used(trials, include_warned=include_warned)
     rows = [
         _within_row(used, "point", "method 1 (fixed point) errors", "within ±1 in"),
         _method2_row(used),
@@ -71,7 +71,7 @@ def thesis_verdict(trials: pd.DataFrame, *, include_warned: bool = False) -> lis
     groups = by_session_set(trials)
     for name, group in groups:
         prefix = f"{name}_*: " if name else ("other sessions: " if len(groups) > 1 else "")
-        for method, g in _used(group, include_warned).groupby("method", sort=True):
+        for method, g in _used(group, include_warned=include_warned).groupby("method", sort=True):
             lines.append(prefix + _verdict(str(method), g))
     return lines
 
@@ -90,7 +90,7 @@ def _verdict(method: str, g: pd.DataFrame) -> str:
     return f"{method} ({name}): {counts}; {agrees} the thesis' 15 of 15 (Fisher p = {p_value:.2f})."
 
 
-def _used(trials: pd.DataFrame, include_warned: bool) -> pd.DataFrame:
+def _used(trials: pd.DataFrame, *, include_warned: bool) -> pd.DataFrame:
     """The trials the statistics use (:func:`analysis.metrics.used_trials`) with a known
     error, in inches (``err_in``, ``err_x_in``)."""
     used = used_trials(trials, include_warned=include_warned, measured=True)

@@ -22,6 +22,7 @@ timing is the best of ``--repeat`` runs, interleaved, because single timings on 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import shutil
 import subprocess
@@ -102,15 +103,13 @@ def replicate(src: Path, dst: Path, copies: int) -> int:
                 clock += 1_000_000
                 if t.ground_truth is not None:
                     w.write_ground_truth(
-                        type(t.ground_truth)(
-                            trial, t.ground_truth.kind, t.ground_truth.points_grid
-                        ),
+                        dataclasses.replace(t.ground_truth, trial=trial),
                         clock,
                     )
                 for pc in t.poses:
                     clock += 1_000_000
                     e = pc.entry
-                    w.write_pose(type(e)(trial, e.pose, e.camera_id, e.t_grid, e.r_deg), clock)
+                    w.write_pose(dataclasses.replace(e, trial=trial, capture=None), clock)
                     with w.capture(trial, e.pose, e.camera_id) as cap:
                         for f in pc.frames:
                             clock += 1_000

@@ -29,22 +29,27 @@ from twopose.camera import Camera, Intrinsics  # noqa: E402
 from twopose.format.entries import GroundTruth, Note, PoseEntry, SessionInfo  # noqa: E402
 from twopose.format.writer import SessionWriter  # noqa: E402
 
-CAM = Camera("cam0", Intrinsics(640, 480, 525.0, 525.0, 320.0, 240.0))
+CAM = Camera(
+    camera_id="cam0",
+    intrinsics=Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0),
+)
 
 
 def frame_bomb(path: Path) -> None:
     good = np.full((480, 640, 3), 200, np.uint8)
     with SessionWriter(path, SessionInfo(method="point", units="in"), [CAM], start_ns=0) as w:
-        w.write_ground_truth(GroundTruth(1, "point", ((0.5, 1.5, 11.0),)), 1)
+        w.write_ground_truth(GroundTruth(trial=1, kind="point", points_grid=((0.5, 1.5, 11.0),)), 1)
         t = 10
         for pose in (1, 2):
             frames = [w.encode_image(good), jpeg_declaring(32000, 32000)]
-            t = write_accepted_capture(w, PoseEntry(1, pose, "cam0", (pose, 0, 0)), frames, t)
+            t = write_accepted_capture(
+                w, PoseEntry(trial=1, pose=pose, camera_id="cam0", t_grid=(pose, 0, 0)), frames, t
+            )
 
 
 def chunk_bomb(path: Path) -> None:
     with SessionWriter(path, SessionInfo(method="point", units="in"), [CAM], start_ns=0) as w:
-        w.write_note(Note("x" * 300_000_000), 1)
+        w.write_note(Note(text="x" * 300_000_000), 1)
 
 
 def measure(args: list[str]) -> tuple[int, float, float]:

@@ -28,14 +28,25 @@ def main() -> int:
     args = parser.parse_args()
     rng = np.random.default_rng(0)
     frames = [rng.integers(0, 255, (480, 640, 3), dtype=np.uint8) for _ in range(5)]
-    cam = Camera("cam0", Intrinsics(640, 480, 525.0, 525.0, 320.0, 240.0))
+    cam = Camera(
+        camera_id="cam0",
+        intrinsics=Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0),
+    )
     syncs = []
     with tempfile.TemporaryDirectory(dir=REPO) as tmp:  # the disk sessions are written to
         path = Path(tmp) / "s.mcap"
         with SessionWriter(path, SessionInfo(method="point", units="in"), [cam]) as w:
             for k in range(args.captures):
                 number = w.new_capture_number()
-                w.write_pose(PoseEntry(1, k + 1, "cam0", (0.0, 0.0, 0.0), capture=number))
+                w.write_pose(
+                    PoseEntry(
+                        trial=1,
+                        pose=k + 1,
+                        camera_id="cam0",
+                        t_grid=(0.0, 0.0, 0.0),
+                        capture=number,
+                    )
+                )
                 with w.capture(1, k + 1, "cam0", number) as cap:
                     for f in frames:
                         cap.add_frame(f)

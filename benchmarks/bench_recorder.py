@@ -52,13 +52,16 @@ def _video(work: Path, scene: Path, width: int, height: int, frames: int) -> Pat
 
 def _plan(width: int, height: int, frames: int) -> Plan:
     f = 525.0 * width / 640.0
-    camera = Camera("cam0", Intrinsics(width, height, f, f, width / 2, height / 2))
-    poses = (PlannedPose((0.0, 0.0, 0.0)), PlannedPose((1.5, 0.0, -1.0)))
+    camera = Camera(
+        camera_id="cam0",
+        intrinsics=Intrinsics(width=width, height=height, fx=f, fy=f, cx=width / 2, cy=height / 2),
+    )
+    poses = (PlannedPose(t_grid=(0.0, 0.0, 0.0)), PlannedPose(t_grid=(1.5, 0.0, -1.0)))
     return Plan(
-        "ground",
-        "in",
-        (camera,),
-        (PlannedTrial(poses, ((1.91, 9.625, 8.375),)),),
+        method="ground",
+        units="in",
+        cameras=(camera,),
+        trials=(PlannedTrial(poses=poses, ground_truth=((1.91, 9.625, 8.375),)),),
         frames=frames,
         ground_height=9.625,
     )

@@ -68,7 +68,7 @@ class Calibration:
     warnings: tuple[str, ...] = ()
 
 
-@dataclass
+@dataclass(kw_only=True)
 class _Views:
     """The corner sets collected so far, with where each came from."""
 
@@ -211,8 +211,13 @@ def fit_views(
         rms, K, dist, std, per_view = _fit(image_points, pattern, size)
     d = [float(x) for x in dist[:5]] + [0.0] * 5
     intrinsics = Intrinsics(
-        size[0], size[1], float(K[0, 0]), float(K[1, 1]), float(K[0, 2]), float(K[1, 2]),
-        (d[0], d[1], d[2], d[3], d[4]),
+        width=size[0],
+        height=size[1],
+        fx=float(K[0, 0]),
+        fy=float(K[1, 1]),
+        cx=float(K[0, 2]),
+        cy=float(K[1, 2]),
+        distortion=(d[0], d[1], d[2], d[3], d[4]),
     )  # fmt: skip
     coverage, reach = _coverage(image_points, size)
     warnings = []

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 from recorder.sources import FrameSource
+from twopose.choices import Target
 from twopose.errors import SourceError
 from twopose.format.entries import PoseEntry
 from twopose.format.writer import Capture, SessionWriter
@@ -66,7 +67,7 @@ class LiveSink(Protocol):
     ) -> None: ...
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class FrameFeedback:
     """What the operator sees for each captured frame."""
 
@@ -124,7 +125,7 @@ def image_line_equation(centroid_px: tuple[float, float], theta_deg: float) -> s
     return f"line {a:+.3f} u {b:+.3f} v = {c:.1f}"
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class CaptureResult:
     """How a capture went."""
 
@@ -173,13 +174,13 @@ def detection_shortfall(result: CaptureResult) -> Shortfall:
     return Shortfall.FEW_FOUND if 2 * result.n_found < len(result.feedback) else Shortfall.OK
 
 
-def capture_frames(
+def capture_frames(  # noqa: PLR0913 - keyword-only settings, one per command-line option
     writer: SessionWriter,
     source: FrameSource,
     entry: PoseEntry,
     n_frames: int,
     *,
-    target: str | None = None,
+    target: Target | None = None,
     on_frame: Callable[[FrameFeedback], None] | None = None,
     timeout_s: float = 2.0,
     live: LiveSink | None = None,
@@ -229,19 +230,26 @@ def capture_frames(
                 on_progress()
             cap.dropped_frames = source.dropped - dropped_before
     return CaptureResult(
-        cap.n_frames,
-        not reason,
-        reason,
-        tuple(feedback),
-        source.dropped - dropped_before,
-        tuple(overhead),
-        entry.capture,
+        n_frames=cap.n_frames,
+        complete=not reason,
+        reason=reason,
+        feedback=tuple(feedback),
+        dropped=source.dropped - dropped_before,
+        overhead_s=tuple(overhead),
+        capture=entry.capture,
     )
 
 
 def _feedback(k: int, d: Detection) -> FrameFeedback:
     return FrameFeedback(
-        k, d.found, d.centroid_px, d.theta_deg, d.n_blobs, d.reason, d.area_px, d.eccentricity
+        index=k,
+        found=d.found,
+        centroid_px=d.centroid_px,
+        theta_deg=d.theta_deg,
+        n_blobs=d.n_blobs,
+        reason=d.reason,
+        area_px=d.area_px,
+        eccentricity=d.eccentricity,
     )
 
 

@@ -250,7 +250,9 @@ def _interactive(
     op = Operator(_prompt, typer.echo)
     setup = ask_setup(op, size=(width, height), **given)
     src = open_source(source, method=setup.method, width=width, height=height, fps=fps)
-    camera = Camera("cam0", setup.intrinsics, setup.intrinsics_sigma)
+    camera = Camera(
+        camera_id="cam0", intrinsics=setup.intrinsics, intrinsics_sigma=setup.intrinsics_sigma
+    )
     info = SessionInfo(
         method=setup.method,
         units=setup.units,

@@ -34,6 +34,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from typing_extensions import override
+
+from recorder.capture import LiveSink
 from recorder.procedure import (
     Decision,
     Driver,
@@ -68,7 +71,7 @@ DECISIONS = {
 }
 
 
-@dataclass
+@dataclass(kw_only=True)
 class _Frame:
     data: bytes  # JPEG as stored (or a preview's)
     detection: Detection | None
@@ -82,13 +85,18 @@ def _frame_numbers(index: int, det: Detection | None) -> dict[str, Any]:
     if det is None:
         return {"frame": index, "found": None}
     fb = FrameFeedback(
-        index - 1, det.found, det.centroid_px, det.theta_deg, det.n_blobs, det.reason,
-        det.area_px, det.eccentricity,
+        index=index - 1,
+        found=det.found,
+        centroid_px=det.centroid_px,
+        theta_deg=det.theta_deg,
+        n_blobs=det.n_blobs,
+        reason=det.reason,
+        area_px=det.area_px, eccentricity=det.eccentricity,
     )  # fmt: skip
     return fb.to_json()
 
 
-class ConsoleSession:
+class ConsoleSession(LiveSink):
     """What the page shows and what it asks, shared by the server and the recording
     thread (every access under one lock). It is also the recorder's live sink
     (:class:`recorder.capture.LiveSink`): frames, status and trial results arrive here."""
@@ -169,6 +177,7 @@ class ConsoleSession:
             self.lock.notify_all()
 
     # -- the recorder's live sink
+    @override
     def frame(
         self,
         camera_id: str,
@@ -180,11 +189,12 @@ class ConsoleSession:
     ) -> None:
         with self.lock:
             seq = self.latest.seq + 1 if self.latest else 1
-            self.latest = _Frame(data, detection, seq)
+            self.latest = _Frame(data=data, detection=detection, seq=seq)
             if label:  # a captured frame (previews have no label): its numbers, live
                 self.frames.append(_frame_numbers(len(self.frames) + 1, detection))
             self.lock.notify_all()
 
+    @override
     def status(
         self,
         log_time_ns: int,
@@ -198,6 +208,7 @@ class ConsoleSession:
     ) -> None:
         self.update(capture={"frame": frame, "n_frames": n_frames}, message=message, level="info")
 
+    @override
     def trial_result(self, result: TrialResult, scene: TrialScene | None, log_time_ns: int) -> None:
         from twopose.topview import top_view
 
@@ -283,7 +294,7 @@ class WebDriver(Driver):
         if not self.ground_truth:
             return ()
         kind: TruthKind = spec_of(self.session.method).truth_kind
-        return (GroundTruth(trial, kind, self.ground_truth),)
+        return (GroundTruth(trial=trial, kind=kind, points_grid=self.ground_truth),)
 
     def _wait(self, what: str) -> tuple[str, Any]:
         """The page's next command for ``what`` (pose or decision); quit ends it all."""
@@ -339,7 +350,17 @@ class WebDriver(Driver):
             shortfall=Shortfall.OK.value,
             refusal={},
         )
-        return Placement(PoseEntry(trial, pose, self.camera_id, t, r, *self.resolution))
+        t_res, r_res = self.resolution
+        entry = PoseEntry(
+            trial=trial,
+            pose=pose,
+            camera_id=self.camera_id,
+            t_grid=t,
+            r_deg=r,
+            translation_resolution=t_res,
+            rotation_resolution_deg=r_res,
+        )
+        return Placement(entry=entry)
 
     def captured(self, trial: int, pose: int, result: CaptureResult) -> None:
         state = "complete" if result.complete else f"INCOMPLETE ({result.reason})"
@@ -378,6 +399,7 @@ class WebDriver(Driver):
     def live_failed(self, message: str) -> None:
         self.session.update(live_error=message)
 
+    @override
     def decide(self, trial: int, pose: int, result: CaptureResult) -> Decision:
         kind, value = self._wait("decision")
         if kind == "note":
@@ -393,7 +415,7 @@ class WebDriver(Driver):
 
     def note(self, trial: int) -> Note:
         self.session.update(message=f"note added to trial {trial}", level="info")
-        return Note(self._note, trial)
+        return Note(text=self._note, trial=trial)
 
     def refused(self, error: ProcedureRefusedError) -> None:
         self._accepted.discard(self.session.pose)

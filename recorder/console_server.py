@@ -25,6 +25,7 @@ from starlette.middleware import Middleware
 from starlette.requests import Request
 from starlette.responses import HTMLResponse, Response, StreamingResponse
 from starlette.routing import Route
+from typing_extensions import override
 
 from recorder.console import DECISIONS, ConsoleSession, WebDriver
 from recorder.console_guard import ConsoleGuard, ConsoleJSONResponse, text_refusal
@@ -81,10 +82,18 @@ def draw_detection(image: np.ndarray, det: Detection | None) -> np.ndarray:
         return image
     for blob in det.rejected_blobs:
         if blob.outline_px is not None and len(blob.outline_px) > 1:
-            cv2.polylines(image, [blob.outline_px.astype(np.int32)], True, (0, 0, 255), 1)
+            cv2.polylines(
+                image, [blob.outline_px.astype(np.int32)], isClosed=True, color=(0, 0, 255)
+            )
     if det.found:
         if det.outline_px is not None and len(det.outline_px) > 1:
-            cv2.polylines(image, [det.outline_px.astype(np.int32)], True, (0, 200, 0), 2)
+            cv2.polylines(
+                image,
+                [det.outline_px.astype(np.int32)],
+                isClosed=True,
+                color=(0, 200, 0),
+                thickness=2,
+            )
         c = np.array(det.centroid_px)
         cv2.circle(image, (int(c[0]), int(c[1])), 4, (0, 200, 0), -1)
         if math.isfinite(det.theta_deg):
@@ -154,7 +163,9 @@ def _recording(
         src = open_source(
             options.source, method=setup.method, width=width, height=height, fps=options.fps
         )
-        camera = Camera("cam0", setup.intrinsics, setup.intrinsics_sigma)
+        camera = Camera(
+            camera_id="cam0", intrinsics=setup.intrinsics, intrinsics_sigma=setup.intrinsics_sigma
+        )
         info = SessionInfo(
             method=setup.method,
             units=setup.units,
@@ -198,11 +209,11 @@ class _Console:
         self.threads.append(thread)
         thread.start()
 
-    async def page(self, request: Request) -> Response:
+    async def page(self, _request: Request) -> Response:
         html = resources.files("recorder").joinpath("console.html").read_text("utf-8")
         return HTMLResponse(html, headers={"Cache-Control": "no-store"})
 
-    async def state(self, request: Request) -> Response:
+    async def state(self, _request: Request) -> Response:
         return ConsoleJSONResponse(self.session.snapshot(), headers={"Cache-Control": "no-store"})
 
     async def setup(self, request: Request) -> Response:
@@ -270,7 +281,7 @@ class _Console:
         )
 
     @contextlib.asynccontextmanager
-    async def lifespan(self, app: Starlette) -> AsyncIterator[None]:
+    async def lifespan(self, _app: Starlette) -> AsyncIterator[None]:
         given = _given(self.options)
         if not any(v is None for k, v in given.items() if k != "intrinsics"):
             with contextlib.suppress(InputValueError):  # all given: no form to fill
@@ -312,7 +323,7 @@ def _asset(name: str, media_type: str) -> Any:
     """A route serving one of the page's files from the package (the page's script and
     style are files, not inline, so the Content-Security-Policy can forbid inline code)."""
 
-    async def serve(request: Request) -> Response:
+    async def serve(_request: Request) -> Response:
         text = resources.files("recorder").joinpath(name).read_text("utf-8")
         return Response(text, media_type=media_type, headers={"Cache-Control": "no-store"})
 
@@ -398,6 +409,7 @@ class _Server(uvicorn.Server):
         self.session = session
         self.phase_at_signal = ""  # the session's phase when the first signal came
 
+    @override
     def handle_exit(self, sig: int, frame: FrameType | None) -> None:
         if not self.phase_at_signal:
             self.phase_at_signal = self.session.phase

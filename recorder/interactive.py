@@ -13,6 +13,8 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
 
+from typing_extensions import override
+
 from recorder.capture import CaptureResult
 from recorder.plan import off_ground
 from recorder.procedure import (
@@ -77,7 +79,7 @@ class Operator:
 # --------------------------------------------------------------------------- setup
 
 
-def ask_setup(
+def ask_setup(  # noqa: PLR0913 - one keyword per setup value the operator may have given
     op: Operator,
     *,
     method: str | None,
@@ -98,7 +100,7 @@ def ask_setup(
     if intrinsics is None:
         f = focal if focal and focal > 0 else op.ask("focal parameter, px", positive_number, "525")
         cx, cy = principal or op.ask("principal point cx, cy (px)", number_pair, "320, 240")
-        intrinsics = Intrinsics(size[0], size[1], f, f, cx, cy)
+        intrinsics = Intrinsics(width=size[0], height=size[1], fx=f, fy=f, cx=cx, cy=cy)
     h = None
     if spec_of(m).needs_ground:
         h = ground_height if ground_height and ground_height > 0 else None
@@ -109,7 +111,15 @@ def ask_setup(
         )
     truth = _ask_truth(op, m, u, h, list(ground_truth))
     who = operator if operator is not None else op.ask("operator", str, "")
-    return Setup(m, u, intrinsics, h, truth, who, dict(intrinsics_sigma or {}))
+    return Setup(
+        method=m,
+        units=u,
+        intrinsics=intrinsics,
+        ground_height=h,
+        ground_truth=truth,
+        operator=who,
+        intrinsics_sigma=dict(intrinsics_sigma or {}),
+    )
 
 
 def _ask_truth(
@@ -224,7 +234,7 @@ class _OperatorDriver(Driver):
         if not self.ground_truth:
             return ()
         kind: TruthKind = spec_of(self.info.method).truth_kind
-        return (GroundTruth(trial, kind, self.ground_truth),)
+        return (GroundTruth(trial=trial, kind=kind, points_grid=self.ground_truth),)
 
     def place(self, trial: int, pose: int) -> Placement:
         units = self.info.units
@@ -236,8 +246,19 @@ class _OperatorDriver(Driver):
             lambda s: parse_vector(s, units, what="rotation", limit=180.0),
             "0, 0, 0",
         )
-        return Placement(PoseEntry(trial, pose, self.camera.camera_id, t, r, *self.resolution))
+        t_res, r_res = self.resolution
+        entry = PoseEntry(
+            trial=trial,
+            pose=pose,
+            camera_id=self.camera.camera_id,
+            t_grid=t,
+            r_deg=r,
+            translation_resolution=t_res,
+            rotation_resolution_deg=r_res,
+        )
+        return Placement(entry=entry)
 
+    @override
     def captured(self, trial: int, pose: int, result: CaptureResult) -> None:
         for line in capture_lines(pose, result):
             self.op.say(line)
@@ -248,6 +269,7 @@ class _OperatorDriver(Driver):
     def live_failed(self, message: str) -> None:
         self.op.say(f"  WARNING {message}")
 
+    @override
     def decide(self, trial: int, pose: int, result: CaptureResult) -> Decision:
         accept = "[a]ccept"
         if detection_shortfall(result) is Shortfall.FEW_FOUND:
@@ -265,10 +287,10 @@ class _OperatorDriver(Driver):
         self.op.say(f"  not possible: {error}")
 
     def note(self, trial: int) -> Note:
-        return Note(self.op.ask("note", str), trial)
+        return Note(text=self.op.ask("note", str), trial=trial)
 
 
-def record_interactive(
+def record_interactive(  # noqa: PLR0913 - keyword-only settings, one per command-line option
     out: str | Path,
     source: FrameSource,
     operator: Operator,

@@ -12,6 +12,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from typing_extensions import override
+
 from recorder.capture import CaptureResult, FrameFeedback
 from recorder.procedure import (
     Decision,
@@ -95,20 +97,20 @@ def _known_keys(table: Any, kind: str, where: str) -> dict[str, Any]:
     return table
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class PlannedPose:
     t_grid: Vec3
     r_deg: Vec3 = (0.0, 0.0, 0.0)
     camera_id: str = "cam0"
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class PlannedTrial:
     poses: tuple[PlannedPose, ...]
     ground_truth: tuple[Vec3, ...] = ()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Plan:
     """A whole session to record unattended (scripted rigs, tests)."""
 
@@ -137,12 +139,16 @@ def _camera(table: Any) -> Camera:
         from recorder.calibrate import load_calibration, load_calibration_sigma
 
         path = str(table["calibration"])
-        return Camera(camera_id, load_calibration(path), load_calibration_sigma(path))
+        return Camera(
+            camera_id=camera_id,
+            intrinsics=load_calibration(path),
+            intrinsics_sigma=load_calibration_sigma(path),
+        )
     focal = finite(table.get("focal", 525.0), "plan: camera.focal", positive=True)
     cx, cy = numbers(table.get("principal", [320.0, 240.0]), 2, "plan: camera.principal")
     values = {"width": 640, "height": 480, "fx": focal, "cx": cx, "cy": cy} | table
     values.setdefault("fy", values["fx"])
-    return Camera(camera_id, Intrinsics.from_dict(values, "plan: [camera]"))
+    return Camera(camera_id=camera_id, intrinsics=Intrinsics.from_dict(values, "plan: [camera]"))
 
 
 def load_plan(path: str | Path) -> Plan:
@@ -207,7 +213,9 @@ def _trial(
         if max(abs(v) for v in tg) > MAX_TRANSLATION[units]:
             raise InputValueError(f"plan: {where}.t = {tg} is implausibly large for {units}")
         r_deg = _vec(p.get("r_deg", [0, 0, 0]), f"{where}.r_deg")
-        poses.append(PlannedPose(tg, r_deg, str(p.get("camera", default_camera))))
+        poses.append(
+            PlannedPose(t_grid=tg, r_deg=r_deg, camera_id=str(p.get("camera", default_camera)))
+        )
     if len(poses) < 2:
         raise InputValueError(f"plan: trials[{i}] needs at least 2 poses, got {len(poses)}")
     where = f"trials[{i}].ground_truth"
@@ -223,7 +231,7 @@ def _trial(
         raise InputValueError(f"plan: {where}: the line's two points must differ")
     if spec.needs_ground and gt and height is not None and off_ground(gt[0], height, units):
         raise InputValueError(f"plan: {where}: {off_ground(gt[0], height, units)}")
-    return PlannedTrial(tuple(poses), gt)
+    return PlannedTrial(poses=tuple(poses), ground_truth=gt)
 
 
 class _PlanDriver(Driver):
@@ -244,6 +252,7 @@ class _PlanDriver(Driver):
         self.on_result = on_result
         self.path = Path()
 
+    @override
     def start(self, source: object, path: Path) -> None:
         self.path = path
 
@@ -255,7 +264,7 @@ class _PlanDriver(Driver):
         if not truth:
             return ()
         kind: TruthKind = spec_of(self.plan.method).truth_kind
-        return (GroundTruth(trial, kind, truth),)
+        return (GroundTruth(trial=trial, kind=kind, points_grid=truth),)
 
     def poses_in(self, trial: int) -> int:
         return len(self.plan.trials[trial - 1].poses)
@@ -263,14 +272,14 @@ class _PlanDriver(Driver):
     def place(self, trial: int, pose: int) -> Placement:
         p = self.plan.trials[trial - 1].poses[pose - 1]
         return Placement(
-            PoseEntry(
-                trial,
-                pose,
-                p.camera_id,
-                p.t_grid,
-                p.r_deg,
-                self.plan.translation_resolution,
-                self.plan.rotation_resolution_deg,
+            entry=PoseEntry(
+                trial=trial,
+                pose=pose,
+                camera_id=p.camera_id,
+                t_grid=p.t_grid,
+                r_deg=p.r_deg,
+                translation_resolution=self.plan.translation_resolution,
+                rotation_resolution_deg=self.plan.rotation_resolution_deg,
             )
         )
 

@@ -54,6 +54,7 @@ from recorder.live_result import LiveResults
 from recorder.sources import FrameSource, SourceInfo
 from recorder.summary import RecordingSummary, Tally
 from twopose.camera import Camera
+from twopose.choices import Target
 from twopose.errors import InputValueError, SessionExistsError, TwoposeError
 from twopose.format.entries import (
     CaptureDecision,
@@ -172,13 +173,13 @@ class Procedure:
                 f"pose {entry.pose}"
             )
         bound = PoseEntry(
-            entry.trial,
-            entry.pose,
-            entry.camera_id,
-            entry.t_grid,
-            entry.r_deg,
-            entry.translation_resolution,
-            entry.rotation_resolution_deg,
+            trial=entry.trial,
+            pose=entry.pose,
+            camera_id=entry.camera_id,
+            t_grid=entry.t_grid,
+            r_deg=entry.r_deg,
+            translation_resolution=entry.translation_resolution,
+            rotation_resolution_deg=entry.rotation_resolution_deg,
             capture=self.writer.new_capture_number(),
         )
         self.writer.write_pose(bound)
@@ -216,7 +217,12 @@ class Procedure:
         assert entry.capture is not None
         self.writer.write_decision(
             CaptureDecision(
-                entry.capture, entry.trial, entry.pose, entry.camera_id, verdict, reason
+                capture=entry.capture,
+                trial=entry.trial,
+                pose=entry.pose,
+                camera_id=entry.camera_id,
+                decision=verdict,
+                reason=reason,
             )
         )
         if verdict == "accept":
@@ -289,7 +295,7 @@ class Procedure:
     def note(self, text: str) -> None:
         """An operator note about the current trial (about the session before the first)."""
         self._event("note")
-        self.writer.write_note(Note(text, self.trial or None))
+        self.writer.write_note(Note(text=text, trial=self.trial or None))
         self.n_operator_entries += 1
 
     def write(self, entry: TypedEntry) -> None:
@@ -321,7 +327,7 @@ class Decision(StrEnum):
     QUIT = "q"  # end the session (this capture is not used)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Placement:
     """Where the camera goes for a pose: the typed entry, and where it really is (the
     simulator renders from the true pose; a real operator's camera is where it is)."""
@@ -346,11 +352,11 @@ class Driver:
         """Whether to record trial ``trial`` (numbered from 1)."""
         return trial == 1
 
-    def trial_entries(self, trial: int) -> Sequence[TypedEntry]:
+    def trial_entries(self, trial: int) -> Sequence[TypedEntry]:  # noqa: ARG002 - the Driver's default ignores it
         """Entries written when the trial begins (its ground truth)."""
         return ()
 
-    def poses_in(self, trial: int) -> int:
+    def poses_in(self, trial: int) -> int:  # noqa: ARG002 - the Driver's default ignores it
         return self.poses_per_trial
 
     def place(self, trial: int, pose: int) -> Placement:
@@ -359,7 +365,7 @@ class Driver:
     def captured(self, trial: int, pose: int, result: CaptureResult) -> None:
         """A capture ended (report it)."""
 
-    def decide(self, trial: int, pose: int, result: CaptureResult) -> Decision:
+    def decide(self, trial: int, pose: int, result: CaptureResult) -> Decision:  # noqa: ARG002 - the Driver's default ignores it
         return Decision.ACCEPT
 
     def refused(self, error: ProcedureRefusedError) -> None:
@@ -370,7 +376,7 @@ class Driver:
         """The note to write after :attr:`Decision.NOTE`."""
         raise NotImplementedError
 
-    def end_trial(self, trial: int) -> Sequence[TypedEntry]:
+    def end_trial(self, trial: int) -> Sequence[TypedEntry]:  # noqa: ARG002 - the Driver's default ignores it
         """Entries written when the trial is done (the simulation truth)."""
         return ()
 
@@ -404,17 +410,17 @@ def refuse_existing(path: str | Path) -> None:
         )
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class _CaptureOptions:
     frames: int
-    target: str | None
+    target: Target | None
     live: LiveSink | None
     on_frame: Callable[[FrameFeedback], None] | None
     on_progress: Callable[[], None] | None
     results: LiveResults | None = None  # with live detection: each trial's live result
 
 
-def record(
+def record(  # noqa: PLR0913 - keyword-only settings, one per command-line option
     path: str | Path,
     info: SessionInfo,
     cameras: Sequence[Camera],
@@ -423,7 +429,7 @@ def record(
     *,
     ground: GroundPlane | None = None,
     frames: int = 5,
-    target: str | None = None,
+    target: Target | None = None,
     live: LiveSink | None = None,
     on_frame: Callable[[FrameFeedback], None] | None = None,
     writer_options: dict[str, Any] | None = None,
@@ -445,7 +451,14 @@ def record(
     results = None
     if target is not None:  # the live result needs the live detection
         results = LiveResults(info.method, info.units, cameras, ground, rig=rig)
-    options = _CaptureOptions(frames, target, live, on_frame, on_progress, results)
+    options = _CaptureOptions(
+        frames=frames,
+        target=target,
+        live=live,
+        on_frame=on_frame,
+        on_progress=on_progress,
+        results=results,
+    )
     interrupted = False
     try:
         with contextlib.ExitStack() as stack:
@@ -478,7 +491,7 @@ def record(
     kept = proc.n_operator_entries > 0
     if not kept:  # an empty session would only block the name for the next attempt
         out.unlink(missing_ok=True)
-    summary = tally.summary(out, proc, interrupted, kept)
+    summary = tally.summary(out, proc, interrupted=interrupted, kept=kept)
     driver.finish(summary)
     return summary
 

@@ -46,7 +46,7 @@ __all__ = ["RecoveryReport", "recover_session"]
 RECOVERED_REASON = "recording interrupted; closed by twopose-record recover"
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class RecoveryReport:
     """What ``recover_session`` kept and what it could not."""
 
@@ -101,7 +101,7 @@ class _Pending:
         return (entry.trial, entry.pose, entry.camera_id)
 
 
-@dataclass
+@dataclass(kw_only=True)
 class _Salvage:
     """What the pass over a broken file has found so far."""
 
@@ -152,16 +152,16 @@ def recover_session(broken: str | Path, output: str | Path) -> RecoveryReport:
         closed, unassigned = _close_pending(state.out, state.pending, state.counts)
         done = True
         return RecoveryReport(
-            src,
-            dst,
-            state.kept,
-            state.lost,
-            state.truncated,
-            state.stop_reason,
-            dict(state.counts),
-            state.complete,
-            closed,
-            unassigned,
+            source=src,
+            output=dst,
+            chunks_kept=state.kept,
+            chunks_lost=state.lost,
+            truncated=state.truncated,
+            stop_reason=state.stop_reason,
+            messages=dict(state.counts),
+            complete_captures=state.complete,
+            closed_captures=closed,
+            unassigned_frames=unassigned,
         )
     finally:
         stream.close()
@@ -247,7 +247,7 @@ def _zstd_declares_more(chunk: Chunk) -> bool:
     return declared > max_chunk_bytes()
 
 
-@dataclass
+@dataclass(kw_only=True)
 class _Output:
     """The new session file and what is needed to restore its opening entries."""
 
@@ -309,7 +309,14 @@ def _open_output(dst: Path, metadata: dict[str, str]) -> _Output:
         writer, info.camera_ids, metadata.get("format_version", "1.0")
     )
     writer.add_metadata(METADATA_NAME, dict(metadata))
-    return _Output(channels, stream, info, cameras, ground, start_ns)
+    return _Output(
+        channels=channels,
+        stream=stream,
+        info=info,
+        cameras=cameras,
+        ground=ground,
+        start_ns=start_ns,
+    )
 
 
 def _track(topic: str, message: Message, pending: _Pending) -> int:

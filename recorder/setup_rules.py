@@ -44,7 +44,7 @@ THESIS_FOCAL_PX = 525.0
 THESIS_GROUND_HEIGHT_IN = 9.625
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Setup:
     """What a session needs before its first trial."""
 
@@ -292,7 +292,15 @@ def setup_from_answers(form: Mapping[str, str], given: Mapping[str, Any]) -> Set
         raise FormRefusedError(a.errors)
     sigma = dict(given.get("intrinsics_sigma") or {})
     assert method is not None  # a.errors holds its refusal otherwise
-    return Setup(method, units, intrinsics, height, truth, operator, sigma)
+    return Setup(
+        method=method,
+        units=units,
+        intrinsics=intrinsics,
+        ground_height=height,
+        ground_truth=truth,
+        operator=operator,
+        intrinsics_sigma=sigma,
+    )
 
 
 def _method(text: str) -> Method:
@@ -317,12 +325,12 @@ def _intrinsics(a: _Answers, size: tuple[int, int]) -> Intrinsics:
             f"the principal point ({cx:g}, {cy:g}) px is outside the {size[0]}x{size[1]} "
             "image; type a point inside it (its centre if you do not know)"
         )
-        return Intrinsics(size[0], size[1], f, f, size[0] / 2, size[1] / 2)
+        return Intrinsics(width=size[0], height=size[1], fx=f, fy=f, cx=size[0] / 2, cy=size[1] / 2)
     try:
-        return Intrinsics(size[0], size[1], f, f, cx, cy)
+        return Intrinsics(width=size[0], height=size[1], fx=f, fy=f, cx=cx, cy=cy)
     except InputValueError as err:  # e.g. a principal point outside the image
         a.errors["principal"] = str(err)
-        return Intrinsics(size[0], size[1], f, f, size[0] / 2, size[1] / 2)
+        return Intrinsics(width=size[0], height=size[1], fx=f, fy=f, cx=size[0] / 2, cy=size[1] / 2)
 
 
 def _truth(a: _Answers, method: str, units: str, height: float | None) -> tuple[Vec3, ...]:

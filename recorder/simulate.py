@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
+from typing_extensions import override
 
 from recorder.procedure import Driver, Placement, record
 from recorder.sources import FrameSource, SourceInfo
@@ -57,7 +58,7 @@ EXACT_RESOLUTION = 1e-9
 _CALIBRATION_STREAM = 0xCA1
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class SimulationSummary:
     """What :func:`simulate_session` wrote."""
 
@@ -151,9 +152,11 @@ def calibrated_cameras(scene: Scene, seed: int) -> tuple[Scene, list[Camera]]:
     keys = ("fx", "fy", "cx", "cy")
     cameras = [
         Camera(
-            c.id,
-            c.intrinsics,
-            {k: v for k, v in zip(keys, c.calibration_sigma, strict=True) if v > 0},
+            camera_id=c.id,
+            intrinsics=c.intrinsics,
+            intrinsics_sigma={
+                k: v for k, v in zip(keys, c.calibration_sigma, strict=True) if v > 0
+            },
         )
         for c in scene.cameras
     ]
@@ -244,13 +247,16 @@ class _SimulatedCamera(FrameSource):
 
     def open(self) -> SourceInfo:
         cam = self.camera
-        self.info = SourceInfo("simulated", cam.width, cam.height, self.scene.sensor.fps)
+        self.info = SourceInfo(
+            description="simulated", width=cam.width, height=cam.height, fps=self.scene.sensor.fps
+        )
         return self.info
 
     def set_pose(self, t_grid: Vec3, r_deg: Vec3) -> None:
         # The operator's placement gives the camera's true pose (the rig applied).
         self.synthetic.place_camera(np.asarray(t_grid), np.asarray(r_deg))
 
+    @override
     def read(self, timeout_s: float = 2.0) -> NDArray[np.uint8]:
         self.clock.advance(self.frame_dt)
         return self.synthetic.expose()
@@ -299,7 +305,7 @@ class _SimulatedOperator(Driver):
             translation_resolution=max(p.noise_sigma, EXACT_RESOLUTION),
             rotation_resolution_deg=max(p.rotation_noise_deg, EXACT_RESOLUTION),
         )
-        return Placement(entry, (_vec(t_true), _vec(r_true)))
+        return Placement(entry=entry, true_pose=(_vec(t_true), _vec(r_true)))
 
     def end_trial(self, trial: int) -> Sequence[TypedEntry]:
         cams = self.scene.cameras
@@ -310,7 +316,11 @@ class _SimulatedOperator(Driver):
         self.clock.advance(self.source.frame_dt)
         rig = self.scene.systematic
         constants = None if rig.is_identity else tuple(float(v) for v in rig.vector())
-        return (SimulationTruth(trial, true_poses, self.kind, self.truth, constants),)
+        return (
+            SimulationTruth(
+                trial=trial, poses=true_poses, kind=self.kind, points_grid=self.truth, rig=constants
+            ),
+        )
 
 
 def _scene_with(scene: Scene | None, pose_noise: float | None, poses: int | None) -> Scene:
@@ -326,7 +336,7 @@ def _scene_with(scene: Scene | None, pose_noise: float | None, poses: int | None
     return scene
 
 
-def simulate_session(
+def simulate_session(  # noqa: PLR0913 - keyword-only settings, one per command-line option
     out: str | Path,
     *,
     method: str,

@@ -22,6 +22,7 @@ from typing import Any, Self
 import cv2
 import numpy as np
 from numpy.typing import NDArray
+from typing_extensions import override
 
 from twopose.errors import InputValueError, SourceError
 
@@ -39,7 +40,7 @@ Image = NDArray[np.uint8]
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class SourceInfo:
     """What the source actually delivers (a camera may not honour the request)."""
 
@@ -96,7 +97,9 @@ class FrameSource(ABC):
             self._pacer.due = None
 
     def set_pose(
-        self, t_grid: tuple[float, float, float], r_deg: tuple[float, float, float]
+        self,
+        t_grid: tuple[float, float, float],  # noqa: ARG002 - a camera ignores where it is
+        r_deg: tuple[float, float, float],  # noqa: ARG002
     ) -> None:
         """Tell the source where the camera is (only the synthetic camera uses it)."""
         return
@@ -153,10 +156,10 @@ class CameraSource(FrameSource):
         cap.set(cv2.CAP_PROP_FPS, self.fps)
         self._cap = cap
         self.info = SourceInfo(
-            f"camera:{self.device}",
-            int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)),
-            int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT)),
-            float(cap.get(cv2.CAP_PROP_FPS)) or self.fps,
+            description=f"camera:{self.device}",
+            width=int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)),
+            height=int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT)),
+            fps=float(cap.get(cv2.CAP_PROP_FPS)) or self.fps,
         )
         self._thread = threading.Thread(target=self._grab, daemon=True)
         self._thread.start()
@@ -219,14 +222,15 @@ class VideoSource(FrameSource):
             )
         self._cap = cap
         self.info = SourceInfo(
-            f"video:{self.path}",
-            int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)),
-            int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT)),
-            float(cap.get(cv2.CAP_PROP_FPS)) or 30.0,
+            description=f"video:{self.path}",
+            width=int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)),
+            height=int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT)),
+            fps=float(cap.get(cv2.CAP_PROP_FPS)) or 30.0,
         )
         self._pacer = _Pacer(self.info.fps) if self.realtime else None
         return self.info
 
+    @override
     def read(self, timeout_s: float = 2.0) -> Image:
         if self._pacer is not None:
             missed = self._pacer.wait()
@@ -260,7 +264,12 @@ class ImagesSource(FrameSource):
         if not self._files:
             raise SourceError(f"{self.folder} holds no images ({', '.join(IMAGE_SUFFIXES)})")
         first = self._load(self._files[0])
-        self.info = SourceInfo(f"images:{self.folder}", first.shape[1], first.shape[0], 30.0)
+        self.info = SourceInfo(
+            description=f"images:{self.folder}",
+            width=first.shape[1],
+            height=first.shape[0],
+            fps=30.0,
+        )
         return self.info
 
     def _load(self, path: Path) -> Image:
@@ -271,6 +280,7 @@ class ImagesSource(FrameSource):
         except (OSError, InputValueError) as err:
             raise SourceError(str(err)) from err
 
+    @override
     def read(self, timeout_s: float = 2.0) -> Image:
         if self._next >= len(self._files):
             raise SourceError(f"no more images in {self.folder} ({len(self._files)} used)")
@@ -317,7 +327,9 @@ class SyntheticSource(FrameSource):
         layout = build_layout(self.scene, self.method, self._rng)
         self._camera = SyntheticCamera(self.scene, layout, self._rng)
         cam = self.scene.cameras[0]
-        self.info = SourceInfo("synthetic", cam.width, cam.height, self.scene.sensor.fps)
+        self.info = SourceInfo(
+            description="synthetic", width=cam.width, height=cam.height, fps=self.scene.sensor.fps
+        )
         self._pacer = _Pacer(self.info.fps) if self.realtime else None
         self.set_pose((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
         return self.info
@@ -335,6 +347,7 @@ class SyntheticSource(FrameSource):
         self._bank = [self._camera.expose() for _ in range(self.bank_size)]
         self._next = 0
 
+    @override
     def read(self, timeout_s: float = 2.0) -> Image:
         if self._pacer is not None:
             self.dropped += self._pacer.wait()

@@ -61,7 +61,7 @@ class RecordingSummary:
         )
 
 
-@dataclass
+@dataclass(kw_only=True)
 class Tally:
     started: float = field(default_factory=time.monotonic)
     captures: int = 0
@@ -78,7 +78,7 @@ class Tally:
         self.dropped += result.dropped
 
     def summary(
-        self, path: Path, proc: DecisionCounts, interrupted: bool, kept: bool
+        self, path: Path, proc: DecisionCounts, *, interrupted: bool, kept: bool
     ) -> RecordingSummary:
         """The summary of a recording whose procedure is ``proc``."""
         return RecordingSummary(

@@ -50,7 +50,14 @@ def write_accepted_capture(
             else:
                 cap.add_frame(image, t)
     writer.write_decision(
-        CaptureDecision(number, entry.trial, entry.pose, entry.camera_id, "accept"), t + 1
+        CaptureDecision(
+            capture=number,
+            trial=entry.trial,
+            pose=entry.pose,
+            camera_id=entry.camera_id,
+            decision="accept",
+        ),
+        t + 1,
     )
     return t + 2
 

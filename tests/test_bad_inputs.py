@@ -219,9 +219,14 @@ def test_info_on_a_pose_for_an_unknown_camera_and_a_huge_version(tmp_path: Path)
     from twopose.format.writer import SessionWriter
 
     ghost = tmp_path / "ghost.mcap"
-    cam = Camera("cam0", Intrinsics(64, 48, 50.0, 50.0, 32.0, 24.0))
+    cam = Camera(
+        camera_id="cam0",
+        intrinsics=Intrinsics(width=64, height=48, fx=50.0, fy=50.0, cx=32.0, cy=24.0),
+    )
     with SessionWriter(ghost, SessionInfo(method="point", units="in"), [cam]) as w:
-        w._write_json(PoseEntry(1, 1, "ghost", (0.0, 0.0, 0.0), capture=1), 5)  # unchecked
+        w._write_json(
+            PoseEntry(trial=1, pose=1, camera_id="ghost", t_grid=(0.0, 0.0, 0.0), capture=1), 5
+        )  # unchecked
     assert _check(analyze, ["info", str(ghost)], "ghost camera") == 0
     assert _check(analyze, ["run", str(ghost), "--out", str(tmp_path / "o")], "ghost") == 0
 
@@ -251,7 +256,10 @@ def test_impossible_values_are_refused_not_accepted_silently(tmp_path: Path) -> 
     from twopose.format.trials import iter_trials
     from twopose.format.writer import SessionWriter
 
-    cam = Camera("cam0", Intrinsics(64, 48, 50.0, 50.0, 32.0, 24.0))
+    cam = Camera(
+        camera_id="cam0",
+        intrinsics=Intrinsics(width=64, height=48, fx=50.0, fy=50.0, cx=32.0, cy=24.0),
+    )
     mixed = tmp_path / "mixed.mcap"
     with SessionWriter(mixed, SessionInfo(method="point", units="in", format_version="1.0"), [cam]):
         pass
@@ -265,7 +273,9 @@ def test_impossible_values_are_refused_not_accepted_silently(tmp_path: Path) -> 
         w.write_image = lambda cid, data, t: w._write_proto(  # type: ignore[method-assign]
             "/twopose/camera/cam0/image", image_message("elsewhere", data, "jpeg", t), t
         )
-        write_accepted_capture(w, PoseEntry(1, 1, "cam0", (0, 0, 0)), [frame], 10)
+        write_accepted_capture(
+            w, PoseEntry(trial=1, pose=1, camera_id="cam0", t_grid=(0, 0, 0)), [frame], 10
+        )
         w.write_image = original  # type: ignore[method-assign]
     with SessionReader(moved) as r:
         (trial,) = iter_trials(r)

@@ -95,7 +95,10 @@ def _decided(path: Path) -> Path:
     from twopose.format.entries import PoseEntry, SessionInfo
     from twopose.format.writer import SessionWriter
 
-    cam = Camera("cam0", Intrinsics(640, 480, 525.0, 525.0, 320.0, 240.0))
+    cam = Camera(
+        camera_id="cam0",
+        intrinsics=Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0),
+    )
     with (
         SyntheticSource(None, "point", realtime=False) as src,
         SessionWriter(path, SessionInfo(method="point", units="in"), [cam]) as w,
@@ -104,7 +107,9 @@ def _decided(path: Path) -> Path:
         proc.begin_trial(1, 2)
         for step in ("accept", "redo", "accept", "accept", "undo", "accept", None):
             x = float(proc.pose)
-            proc.type_pose(PoseEntry(proc.trial, proc.pose, "cam0", (x, 0.0, 0.0)))
+            proc.type_pose(
+                PoseEntry(trial=proc.trial, pose=proc.pose, camera_id="cam0", t_grid=(x, 0.0, 0.0))
+            )
             proc.capture(src, 2)
             if step is None:
                 break

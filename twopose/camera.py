@@ -32,7 +32,7 @@ __all__ = [
 FloatArray = NDArray[np.float64]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Intrinsics:
     """Pinhole intrinsics in pixels, with OpenCV ``plumb_bob`` distortion (k1, k2, p1, p2, k3)."""
 
@@ -105,7 +105,7 @@ class Intrinsics:
 SIGMA_KEYS = ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Camera:
     """A camera of a session: its id, its calibration and (format 1.2) the calibration's
     1-sigma per intrinsic (:data:`SIGMA_KEYS`; empty when unknown, e.g. typed by hand)."""

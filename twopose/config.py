@@ -57,7 +57,7 @@ def _build(cls: type[Any], data: Any, prefix: str, what: str, error: type[Twopos
         raise error(f"{what}: {prefix or 'top level'}: {err}") from err
 
 
-def _convert(hint: Any, value: Any, key: str, what: str, error: type[TwoposeError]) -> Any:
+def _convert(hint: Any, value: Any, key: str, what: str, error: type[TwoposeError]) -> Any:  # noqa: C901 - one branch per supported type hint
     origin = typing.get_origin(hint)
     args = typing.get_args(hint)
     if dataclasses.is_dataclass(hint):

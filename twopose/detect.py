@@ -14,11 +14,12 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, field
-from typing import Literal
 
 import cv2
 import numpy as np
 from numpy.typing import NDArray
+
+from twopose.choices import CombineMethod, Target
 
 __all__ = [
     "Detection",
@@ -36,10 +37,9 @@ __all__ = [
 ]
 
 Image = NDArray[np.uint8]
-CombineMethod = Literal["mean", "median", "robust"]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class GloveParams:
     """Thresholds of the thesis' glove filter (DESIGN.md: the code's inequalities).
 
@@ -60,7 +60,7 @@ class GloveParams:
     use_otsu: bool = True
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class DotParams:
     """The dark dot on a white card: black-hat contrast, size and roundness limits."""
 
@@ -70,7 +70,7 @@ class DotParams:
     min_contrast: float = 40.0  # grey levels darker than the local background
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class RejectedBlob:
     """A blob big enough to be a candidate that a filter turned down, and which."""
 
@@ -79,7 +79,7 @@ class RejectedBlob:
     reason: str
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Detection:
     """One frame's detection and the diagnostics behind it.
 
@@ -117,7 +117,7 @@ def _wrapped_deg(theta_deg: float) -> float:
     return 90.0 if t == -90.0 else t
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class BlobShape:
     area: float
     centroid: tuple[float, float]
@@ -151,7 +151,16 @@ def blob_shape(
     theta = _wrapped_deg(math.degrees(0.5 * math.atan2(2.0 * uxy, uxx - uyy)))
     pi_est = 4.0 * a / (major * minor) if minor > 0 else math.inf
     centroid = (m["m10"] / a + offset[0], m["m01"] / a + offset[1])
-    return BlobShape(a, centroid, theta, major, minor, ecc, pi_est, outline_px)
+    return BlobShape(
+        area=a,
+        centroid=centroid,
+        theta_deg=theta,
+        major=major,
+        minor=minor,
+        eccentricity=ecc,
+        pi_estimate=pi_est,
+        outline_px=outline_px,
+    )
 
 
 def _glove_mask(image_bgr: Image, p: GloveParams) -> NDArray[np.uint8]:
@@ -317,19 +326,21 @@ def detect_glove(image_bgr: Image, params: GloveParams | None = None) -> Detecti
     elliptic = [s for s in big if p.ecc_min <= s.eccentricity < p.ecc_max]
     passing = [s for s in elliptic if p.pi_min <= s.pi_estimate <= p.pi_max]
     turned_down = tuple(
-        RejectedBlob(s.outline_px, s.centroid, why) for s in big if (why := _glove_rejection(s, p))
+        RejectedBlob(outline_px=s.outline_px, centroid_px=s.centroid, reason=why)
+        for s in big
+        if (why := _glove_rejection(s, p))
     )
     if len(passing) == 1:
         s = passing[0]
         return Detection(
-            True,
-            s.centroid,
-            s.theta_deg,
-            s.area,
-            s.eccentricity,
-            s.pi_estimate,
-            n_blobs,
-            1,
+            found=True,
+            centroid_px=s.centroid,
+            theta_deg=s.theta_deg,
+            area_px=s.area,
+            eccentricity=s.eccentricity,
+            pi_estimate=s.pi_estimate,
+            n_blobs=n_blobs,
+            n_candidates=1,
             outline_px=s.outline_px,
             rejected_blobs=turned_down,
         )
@@ -352,9 +363,12 @@ def detect_glove(image_bgr: Image, params: GloveParams | None = None) -> Detecti
             f"{len(elliptic)} elongated blob(s), pi estimate {pis} not in [{p.pi_min}, {p.pi_max}]"
         )
     if len(passing) > 1:
-        turned_down += tuple(RejectedBlob(s.outline_px, s.centroid, "ambiguous") for s in passing)
+        turned_down += tuple(
+            RejectedBlob(outline_px=s.outline_px, centroid_px=s.centroid, reason="ambiguous")
+            for s in passing
+        )
     return Detection(
-        False,
+        found=False,
         n_blobs=n_blobs,
         n_candidates=len(passing),
         reason=reason,
@@ -392,7 +406,9 @@ def detect_dot(image_bgr: Image, params: DotParams | None = None) -> Detection:
         if shape.eccentricity > p.max_eccentricity:
             turned_down.append(
                 RejectedBlob(
-                    shape.outline_px, shape.centroid, f"eccentricity {shape.eccentricity:.2f}"
+                    outline_px=shape.outline_px,
+                    centroid_px=shape.centroid,
+                    reason=f"eccentricity {shape.eccentricity:.2f}",
                 )
             )
             continue
@@ -401,13 +417,23 @@ def detect_dot(image_bgr: Image, params: DotParams | None = None) -> Detection:
         peak = float(hat[max(r - 2, 0) : r + 3, max(c - 2, 0) : c + 3].max())
         if best is None or peak > best[0]:
             if best is not None:
-                turned_down.append(RejectedBlob(best[1].outline_px, best[1].centroid, "weaker"))
+                turned_down.append(
+                    RejectedBlob(
+                        outline_px=best[1].outline_px, centroid_px=best[1].centroid, reason="weaker"
+                    )
+                )
             best = (peak, shape)
         else:
-            turned_down.append(RejectedBlob(shape.outline_px, shape.centroid, "weaker"))
+            turned_down.append(
+                RejectedBlob(
+                    outline_px=shape.outline_px, centroid_px=shape.centroid, reason="weaker"
+                )
+            )
     if best is None:
         reason = "no round dark blob" if n_blobs else "no dark feature on a bright background"
-        return Detection(False, n_blobs=n_blobs, reason=reason, rejected_blobs=tuple(turned_down))
+        return Detection(
+            found=False, n_blobs=n_blobs, reason=reason, rejected_blobs=tuple(turned_down)
+        )
     shape = best[1]
     # Sub-pixel centroid: weight the black-hat response around the blob (its edges are
     # anti-aliased, so partial-coverage pixels carry the sub-pixel information).
@@ -420,21 +446,21 @@ def detect_dot(image_bgr: Image, params: DotParams | None = None) -> Detection:
     total = weights.sum()
     centroid = (float((weights * cols).sum() / total), float((weights * rows).sum() / total))
     return Detection(
-        True,
-        centroid,
-        shape.theta_deg,
-        shape.area,
-        shape.eccentricity,
-        shape.pi_estimate,
-        n_blobs,
-        n_round,
+        found=True,
+        centroid_px=centroid,
+        theta_deg=shape.theta_deg,
+        area_px=shape.area,
+        eccentricity=shape.eccentricity,
+        pi_estimate=shape.pi_estimate,
+        n_blobs=n_blobs,
+        n_candidates=n_round,
         outline_px=shape.outline_px,
         rejected_blobs=tuple(turned_down),
     )
 
 
 def detect(
-    image_bgr: Image, target: str, params: GloveParams | DotParams | None = None
+    image_bgr: Image, target: Target, params: GloveParams | DotParams | None = None
 ) -> Detection:
     """Dispatch on ``target``: ``"glove"`` or ``"dot"``."""
     if target == "glove":
@@ -444,7 +470,7 @@ def detect(
     raise ValueError(f"target must be glove or dot, got {target!r}")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class PoseMeasurement:
     """One pose's combined measurement from its K frames.
 
@@ -502,7 +528,15 @@ def combine_frames(
     idx = np.flatnonzero(ok)
     nan2 = (math.nan, math.nan)
     if idx.size == 0:
-        return PoseMeasurement(False, nan2, math.nan, 0, k, nan2, math.nan)
+        return PoseMeasurement(
+            found=False,
+            centroid_px=nan2,
+            theta_deg=math.nan,
+            n_used=0,
+            n_frames=k,
+            centroid_std_px=nan2,
+            theta_std_deg=math.nan,
+        )
     has_theta = bool(np.isfinite(th[idx]).all())
     rejected: tuple[int, ...] = ()
     if method == "robust" and idx.size >= 3:
@@ -534,14 +568,14 @@ def combine_frames(
     else:
         theta_std = math.nan
     return PoseMeasurement(
-        True,
-        (float(centroid[0]), float(centroid[1])),
-        theta,
-        int(idx.size),
-        k,
-        (float(std[0]), float(std[1])),
-        theta_std,
-        rejected,
+        found=True,
+        centroid_px=(float(centroid[0]), float(centroid[1])),
+        theta_deg=theta,
+        n_used=int(idx.size),
+        n_frames=k,
+        centroid_std_px=(float(std[0]), float(std[1])),
+        theta_std_deg=theta_std,
+        rejected=rejected,
     )
 
 

@@ -97,7 +97,7 @@ def handle_errors() -> Iterator[None]:
 _interrupted = False
 
 
-def _on_interrupt(signum: int, frame: object) -> None:
+def _on_interrupt(_signum: int, _frame: object) -> None:
     global _interrupted
     _interrupted = True
     raise KeyboardInterrupt

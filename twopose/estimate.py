@@ -18,8 +18,9 @@ from numpy.typing import NDArray
 
 from twopose.arrays import F64
 from twopose.camera import Intrinsics, rotation_from_angles_deg
+from twopose.choices import CombineMethod
 from twopose.conditioning import parallax_sine
-from twopose.detect import CombineMethod, PoseMeasurement, combine_frames
+from twopose.detect import PoseMeasurement, combine_frames
 from twopose.format.entries import PoseEntry
 from twopose.methods import METHOD_SPECS, Method, spec_of
 from twopose.solve import (
@@ -78,7 +79,7 @@ class EstimateSettings(Protocol):
     def min_ground_angle_deg(self) -> float: ...
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class EstimateOptions:
     """How a pose's frames are combined and when a margin warns: the analysis' defaults."""
 
@@ -95,7 +96,7 @@ GroundSpec = tuple[F64, float]
 MARGINS = {str(m): spec.margins for m, spec in METHOD_SPECS.items()}
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class PoseView:
     """One complete pose of a trial: its camera, typed pose and per-frame detections."""
 
@@ -131,18 +132,18 @@ def pose_view(
     """
     sigma = intrinsics_sigma or {}
     return PoseView(
-        entry.pose,
-        np.array([intrinsics.fx, intrinsics.fy, intrinsics.cx, intrinsics.cy]),
-        (intrinsics.width, intrinsics.height),
-        np.array(entry.t_grid),
-        np.array(entry.r_deg),
-        entry.translation_resolution,
-        entry.rotation_resolution_deg,
-        np.array(centroids_px, dtype=np.float64).reshape(-1, 2),
-        np.array(thetas_deg, dtype=np.float64),
-        np.array(found, dtype=bool),
-        entry.camera_id,
-        np.array([float(sigma.get(k, 0.0)) for k in SHARED_INPUTS]),
+        pose=entry.pose,
+        intrinsics=np.array([intrinsics.fx, intrinsics.fy, intrinsics.cx, intrinsics.cy]),
+        width_height=(intrinsics.width, intrinsics.height),
+        t_grid=np.array(entry.t_grid),
+        r_deg=np.array(entry.r_deg),
+        t_sigma=entry.translation_resolution,
+        r_sigma_deg=entry.rotation_resolution_deg,
+        centroids=np.array(centroids_px, dtype=np.float64).reshape(-1, 2),
+        thetas=np.array(thetas_deg, dtype=np.float64),
+        found=np.array(found, dtype=bool),
+        camera_id=entry.camera_id,
+        intrinsics_sigma=np.array([float(sigma.get(k, 0.0)) for k in SHARED_INPUTS]),
     )
 
 
@@ -164,7 +165,7 @@ def measure(
     return measurements, complete, detected
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class ViewBatch:
     """Rows of N >= 2 pose measurements as arrays, padded to the longest row."""
 
@@ -186,7 +187,7 @@ class ViewBatch:
             for j, (m, v) in enumerate(zip(row, row_views, strict=True)):
                 x[i, j] = [*m.centroid_px, m.theta_deg, *v.t_grid, *v.r_deg]
                 intr[i, j], valid[i, j] = v.intrinsics, True
-        return cls(x, intr, valid)
+        return cls(inputs=x, intrinsics=intr, valid=valid)
 
     def P(self, inputs: F64 | None = None) -> F64:
         """Projection matrices (T, N, 3, 4) of these (or perturbed) inputs."""
@@ -195,7 +196,7 @@ class ViewBatch:
         return projection_matrices(self.intrinsics, R, x[..., 3:6])
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Solved:
     """Every estimator's answer for a batch of trials."""
 
@@ -215,13 +216,21 @@ def solve_batch(
     return _SOLVERS[spec_of(method).method](batch, ground, options.min_conditioning)
 
 
-def _solve_points(batch: ViewBatch, ground: GroundSpec | None, mc: float) -> Solved:
+def _solve_points(batch: ViewBatch, _ground: GroundSpec | None, mc: float) -> Solved:
     """Method 1: the thesis' two-ray least squares and the reprojection-optimal point."""
     px, valid, P = batch.inputs[..., :2], batch.valid, batch.P()
     s = triangulate_points(px, P, valid=valid, min_conditioning=mc)
     o = triangulate_points(px, P, valid=valid, estimator="optimal", min_conditioning=mc)
     margins = {"parallax_deg": degrees_from_sine(s.conditioning)}
-    return Solved(s.point_grid, None, o.point_grid, s.conditioning, s.status, s.reason, margins)
+    return Solved(
+        point=s.point_grid,
+        direction=None,
+        optimal=o.point_grid,
+        conditioning=s.conditioning,
+        status=s.status,
+        reason=s.reason,
+        margins=margins,
+    )
 
 
 def _view_planes(batch: ViewBatch, mc: float) -> tuple[F64, F64, NViewLines, dict[str, F64]]:
@@ -236,11 +245,17 @@ def _view_planes(batch: ViewBatch, mc: float) -> tuple[F64, F64, NViewLines, dic
     return lines, P, ls, margins
 
 
-def _solve_lines(batch: ViewBatch, ground: GroundSpec | None, mc: float) -> Solved:
+def _solve_lines(batch: ViewBatch, _ground: GroundSpec | None, mc: float) -> Solved:
     """The fixed line: the views' planes' intersection."""
     _, _, ls, margins = _view_planes(batch, mc)
     return Solved(
-        ls.point_grid, ls.direction_grid, None, ls.conditioning, ls.status, ls.reason, margins
+        point=ls.point_grid,
+        direction=ls.direction_grid,
+        optimal=None,
+        conditioning=ls.conditioning,
+        status=ls.status,
+        reason=ls.reason,
+        margins=margins,
     )
 
 
@@ -252,7 +267,15 @@ def _solve_ground(batch: ViewBatch, ground: GroundSpec | None, mc: float) -> Sol
     margins["parallax_deg"] = degrees_from_sine(parallax_sine(P, batch.valid, g.point_grid))
     n3 = ground[0] / np.linalg.norm(ground[0])
     margins["line_ground_angle_deg"] = degrees_from_sine(np.abs(ls.direction_grid @ n3))
-    return Solved(g.point_grid, None, None, g.conditioning, g.status, g.reason, margins)
+    return Solved(
+        point=g.point_grid,
+        direction=None,
+        optimal=None,
+        conditioning=g.conditioning,
+        status=g.status,
+        reason=g.reason,
+        margins=margins,
+    )
 
 
 _SOLVERS: dict[Method, Callable[[ViewBatch, GroundSpec | None, float], Solved]] = {
@@ -386,7 +409,7 @@ def shared_intrinsics(views: list[list[PoseView]], batch: ViewBatch) -> Shared |
     for i, row_sigma in enumerate(sigmas):
         for g, sigma in enumerate(row_sigma):
             cov[i, g] = np.diag(sigma**2)
-    return Shared(batch.intrinsics.copy(), group, cov)
+    return Shared(values=batch.intrinsics.copy(), group=group, cov=cov)
 
 
 def across_line_sigma_px(theta_deg: F64, input_cov: F64) -> F64:

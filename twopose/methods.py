@@ -18,6 +18,7 @@ from enum import StrEnum
 from types import MappingProxyType
 from typing import Literal
 
+from twopose.choices import Target
 from twopose.errors import InputValueError
 
 __all__ = ["METHODS", "METHOD_SPECS", "Method", "MethodSpec", "spec_of"]
@@ -37,7 +38,7 @@ class MethodSpec:
 
     method: Method
     #: What the detector looks for in each frame (twopose.detect): the dark dot or the glove.
-    target: Literal["dot", "glove"]
+    target: Target
     #: The ground truth a trial carries: one point, or a line's two points.
     truth_kind: Literal["point", "line"]
     #: Whether the estimate needs the ground plane y = h (the session's ground height).

@@ -41,7 +41,7 @@ Status = NDArray[np.str_]
 HALF_LENGTH_PX = (1.0, 1e4)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class OptimalLines:
     """Batched reprojection-optimal lines (see :func:`optimal_lines`)."""
 
@@ -201,16 +201,16 @@ def optimal_lines(
         start_rms[rows] = np.sqrt(start_sq / n_res)
         used[rows] = fit.iterations
     return OptimalLines(
-        out_point,
-        out_dir,
-        cov,
-        rms,
-        start_rms,
-        factor,
-        used,
-        start.conditioning,
-        start.status,
-        start.reason,
+        point_grid=out_point,
+        direction_grid=out_dir,
+        cov=cov,
+        rms_px=rms,
+        start_rms_px=start_rms,
+        variance_factor=factor,
+        iterations=used,
+        conditioning=start.conditioning,
+        status=start.status,
+        reason=start.reason,
     )
 
 
@@ -255,7 +255,7 @@ def _best_start(
     return best_x, best_u
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class _Fit:
     point: F64
     direction: F64
@@ -471,4 +471,11 @@ def _refine(
     cov6 = np.einsum("tik,tkl,tjl->tij", G, cov4, G)
     sq = (problem.distances(*_plucker(U, w)) ** 2).sum(axis=(1, 2))
     with np.errstate(over="ignore", under="ignore", invalid="ignore"):  # absurd sigma: inf
-        return _Fit(x, u, cov6 * (1 / top[:, None, None]) ** 2, cost * top**2, sq, used)
+        return _Fit(
+            point=x,
+            direction=u,
+            cov=cov6 * (1 / top[:, None, None]) ** 2,
+            cost=cost * top**2,
+            sq_px=sq,
+            iterations=used,
+        )

@@ -67,7 +67,7 @@ RIG_PARAMETERS = {
 }
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class RigConstants:
     """The rig's constants (see the module docstring); the defaults change nothing."""
 
@@ -109,7 +109,15 @@ class RigConstants:
     @classmethod
     def from_vector(cls, values: ArrayLike, units: str | None = None) -> RigConstants:
         v = [float(x) for x in np.asarray(values, dtype=np.float64)]
-        return cls((v[0], v[1], v[2]), (v[3], v[4], v[5]), v[6], (v[7], v[8]), v[9], v[10], units)
+        return cls(
+            mount_rotation_deg=(v[0], v[1], v[2]),
+            camera_offset=(v[3], v[4], v[5]),
+            focal_scale=v[6],
+            principal_offset_px=(v[7], v[8]),
+            tape_scale=v[9],
+            ground_height_error=v[10],
+            units=units,
+        )
 
     def true_poses(self, t_typed: ArrayLike, r_typed_deg: ArrayLike) -> tuple[F64, F64]:
         """Typed camera centres (..., 3) and angles (..., 3, degrees) -> the true centres

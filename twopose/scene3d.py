@@ -43,7 +43,7 @@ def _xyz(msg: Any, p: F64) -> None:
     msg.x, msg.y, msg.z = (float(v) for v in p)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class TrialScene:
     """What a trial's scene shows (grid frame, session units)."""
 
@@ -62,7 +62,7 @@ class TrialScene:
     cov: F64  # (3, 3) NaN when unknown
 
 
-def scene_of_views(
+def scene_of_views(  # noqa: PLR0913 - one per TrialScene field its two callers know
     trial: int,
     method: str,
     status: str,

@@ -95,7 +95,7 @@ def _safe_solve(A: F64, b: F64, usable: NDArray[np.bool_]) -> F64:
 # one line (eq. 14-15), and two planes and the ground meet in one point (eq. 19).
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class NViewPoints:
     """Batched N-view point estimates (see :func:`triangulate_points`)."""
 
@@ -106,7 +106,7 @@ class NViewPoints:
     rms_px: F64  # (T,) reprojection RMS over the views used
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class NViewLines:
     """Batched N-view line estimates (see :func:`triangulate_lines`)."""
 
@@ -217,7 +217,9 @@ def triangulate_points(
         rms = np.sqrt((res**2).sum(axis=(1, 2)) / np.maximum(ok.sum(axis=1), 1) / 2)
     rms[status != "ok"] = np.nan
     assert point.shape == (T, 3)
-    return NViewPoints(point, conditioning, status, reason, rms)
+    return NViewPoints(
+        point_grid=point, conditioning=conditioning, status=status, reason=reason, rms_px=rms
+    )
 
 
 def _gauss_newton(point: F64, x: F64, P: F64, ok: NDArray[np.bool_], iterations: int) -> F64:
@@ -329,14 +331,20 @@ def triangulate_lines(
         x0 = x0 + np.einsum("ti,ti->t", c_last - x0, u)[:, None] * u  # closest to the last camera
         flip = np.take_along_axis(u, np.abs(u).argmax(axis=1)[:, None], 1) < 0
         point[usable], direction[usable] = x0, np.where(flip, -u, u)
-    return NViewLines(point, direction, conditioning, status, reason)
+    return NViewLines(
+        point_grid=point,
+        direction_grid=direction,
+        conditioning=conditioning,
+        status=status,
+        reason=reason,
+    )
 
 
 #: Huber's tuning constant: 95% efficiency under Gaussian noise.
 HUBER_K = 1.345
 
 
-def _weighted_line(
+def _weighted_line(  # noqa: PLR0913 - the line fit's arrays, named as in its caller
     x0: F64,
     planes: F64,
     P: F64,
@@ -428,7 +436,9 @@ def triangulate_ground(
     AtA = np.einsum("tki,tkj->tij", A, A)
     Atb = np.einsum("tki,tk->ti", A, b)
     point = _safe_solve(np.where(usable[:, None, None], AtA, np.eye(3)), Atb, usable)
-    return NViewPoints(point, best, status, reason, np.full(T, np.nan))
+    return NViewPoints(
+        point_grid=point, conditioning=best, status=status, reason=reason, rms_px=np.full(T, np.nan)
+    )
 
 
 def triangulate_two_views(
@@ -508,7 +518,9 @@ def triangulate_two_views(
     status[behind], reason[behind] = "degenerate", "point behind a camera"
     point[status != "ok"] = np.nan
     rms = np.where(status == "ok", np.sqrt(np.abs(sq) / 4), np.nan)
-    return NViewPoints(point, conditioning, status, reason, rms)
+    return NViewPoints(
+        point_grid=point, conditioning=conditioning, status=status, reason=reason, rms_px=rms
+    )
 
 
 _CHUNK = 8192

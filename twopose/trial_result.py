@@ -26,7 +26,7 @@ from twopose.uncertainty import uncertainty_columns
 __all__ = ["TrialResult", "trial_results"]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class TrialResult:
     """One trial's live result, in session units."""
 

@@ -108,7 +108,7 @@ def measurement_covariance(
     return np.asarray(shrunk * factor)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Shared:
     """Inputs common to several views of a trial: a camera's intrinsics, whose calibration
     error is one draw for every view (and every trial) that camera took.
@@ -122,7 +122,7 @@ class Shared:
     cov: F64  # (T, G, S, S) each group's covariance
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Propagated:
     """First-order covariances of a batch of estimates (see :func:`propagate`)."""
 
@@ -212,10 +212,16 @@ def propagate(
         Jg, Cg = J[:, :, :, sl], C[:, :, sl, sl]
         group_var[:, :, g] = np.einsum("tinj,tnjk,tink->tn", Jg, Cg, Jg)
     if shared is None:
-        return Propagated(cov, J, group_var)
+        return Propagated(cov_grid=cov, jacobian=J, variance_by_group=group_var)
     # Groups (cameras) are independent of each other and of the per-view inputs.
     cov_shared = np.einsum("tigs,tgsr,tjgr->tij", Js, Cs, Js)
-    return Propagated(cov + cov_shared, J, group_var, Js, np.trace(cov_shared, axis1=1, axis2=2))
+    return Propagated(
+        cov_grid=cov + cov_shared,
+        jacobian=J,
+        variance_by_group=group_var,
+        shared_jacobian=Js,
+        shared_variance=np.trace(cov_shared, axis1=1, axis2=2),
+    )
 
 
 #: A Jacobian column: (view, input, None) for a view's own input, or (group, input, the

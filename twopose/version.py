@@ -9,7 +9,7 @@ import typer
 __all__ = ["VersionOption", "show_version"]
 
 
-def show_version(value: bool) -> None:
+def show_version(*, value: bool) -> None:
     """The command lines' ``--version``: print the package and session format versions."""
     if not value:
         return

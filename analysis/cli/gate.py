@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
@@ -16,6 +15,7 @@ from twopose.errors import (
 if TYPE_CHECKING:
     pass
 
+from analysis.choices import Estimator
 from analysis.cli.app import JunitOption, app
 
 
@@ -52,12 +52,6 @@ def check_command(
         raise typer.Exit(EXIT_SOME_INPUTS_FAILED)
 
 
-class EstimatorChoice(StrEnum):
-    thesis = "thesis"
-    optimal = "optimal"
-    weighted = "weighted"
-
-
 @app.command("compare")
 def compare_command(
     run_a: Annotated[Path, typer.Argument(help="The --out folder of run A.")],
@@ -65,12 +59,8 @@ def compare_command(
     out: Annotated[
         Path, typer.Option("--out", help="Folder for the tables, compare.png, compare.html.")
     ] = Path("comparison"),
-    estimator_a: Annotated[
-        EstimatorChoice, typer.Option(help="Estimator read from run A.")
-    ] = EstimatorChoice.thesis,
-    estimator_b: Annotated[
-        EstimatorChoice, typer.Option(help="Estimator read from run B.")
-    ] = EstimatorChoice.thesis,
+    estimator_a: Annotated[Estimator, typer.Option(help="Estimator read from run A.")] = "thesis",
+    estimator_b: Annotated[Estimator, typer.Option(help="Estimator read from run B.")] = "thesis",
     include_warned: Annotated[
         bool, typer.Option("--include-warned", help="Also use trials with a warning.")
     ] = False,
@@ -84,8 +74,8 @@ def compare_command(
             run_a,
             run_b,
             out,
-            estimator_a=estimator_a.value,
-            estimator_b=estimator_b.value,
+            estimator_a=estimator_a,
+            estimator_b=estimator_b,
             include_warned=include_warned,
         )
     typer.echo(f"A: {comparison.a.label}\nB: {comparison.b.label}")

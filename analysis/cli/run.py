@@ -6,12 +6,12 @@ import contextlib
 import dataclasses
 import sys
 from collections.abc import Callable, Iterator
-from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
 import typer
 
+from twopose.choices import CombineMethod
 from twopose.errors import (
     EXIT_SOME_INPUTS_FAILED,
     handle_errors,
@@ -20,19 +20,8 @@ from twopose.errors import (
 if TYPE_CHECKING:
     from analysis.results import RunResult
 
+from analysis.choices import RigCalibrationMode
 from analysis.cli.app import IncludeWarnedOption, JunitOption, app, note, say_skipped
-
-
-class RigCalibration(StrEnum):
-    none = "none"
-    loo = "loo"
-
-
-class CombineChoice(StrEnum):
-    mean = "mean"
-    median = "median"
-    robust = "robust"
-
 
 SessionTimeoutOption = Annotated[
     float,
@@ -53,7 +42,7 @@ RigFileOption = Annotated[
     ),
 ]
 RigCalibrationOption = Annotated[
-    RigCalibration,
+    RigCalibrationMode,
     typer.Option(
         help="loo: also each trial corrected by constants its session's other trials give "
         "(x_rig, y_rig, z_rig, err_rig; rig.csv).",
@@ -75,8 +64,8 @@ def run_command(
         typer.Option(help="Address of an existing Dask scheduler to run the sessions on."),
     ] = None,
     combine: Annotated[
-        CombineChoice, typer.Option(help="How a pose's frames are combined (thesis: mean).")
-    ] = CombineChoice.mean,
+        CombineMethod, typer.Option(help="How a pose's frames are combined (thesis: mean).")
+    ] = "mean",
     min_parallax: Annotated[
         float, typer.Option(help="Warn when a point's ray parallax is below this (deg).")
     ] = 1.0,
@@ -97,7 +86,7 @@ def run_command(
     include_warned: IncludeWarnedOption = False,
     junit: JunitOption = None,
     rig: RigFileOption = None,
-    rig_calibration: RigCalibrationOption = RigCalibration.none,
+    rig_calibration: RigCalibrationOption = "none",
 ) -> None:
     """Replay sessions through detection and solvers into error tables, figures and a report."""
     from analysis.batch import run
@@ -105,13 +94,13 @@ def run_command(
     from analysis.results import AnalysisOptions
 
     options = AnalysisOptions(
-        combine=combine.value,
+        combine=combine,
         min_parallax_deg=min_parallax,
         min_plane_angle_deg=min_plane_angle,
         min_ground_angle_deg=min_ground_angle,
         session_timeout_s=session_timeout or None,
         include_warned=include_warned,
-        rig_calibration=rig_calibration.value,
+        rig_calibration=rig_calibration,
     )
     with handle_errors(), _session_progress() as (found, done):
         check_run_outputs(paths, out, junit, rig)  # before anything is written
@@ -134,7 +123,7 @@ def run_command(
 
             cases = run_cases(result.summary, result.errors)
             write_file(junit, junit_xml("twopose-analyze run", cases))
-    _print_run(result, out, include_warned)
+    _print_run(result, out, include_warned=include_warned)
 
 
 @contextlib.contextmanager
@@ -163,7 +152,7 @@ def _session_progress() -> Iterator[tuple[Callable[[int], None], Callable[[str, 
         )
 
 
-def _print_run(result: RunResult, out: Path, include_warned: bool) -> None:
+def _print_run(result: RunResult, out: Path, *, include_warned: bool) -> None:
     """The per-method and per-session summary (80 columns at a terminal, whole lines when
     piped), the skipped and failed inputs; exit 1 if any input failed."""
     import shutil

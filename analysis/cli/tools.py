@@ -6,12 +6,12 @@ from __future__ import annotations
 import json
 import math
 import sys
-from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
 import typer
 
+from twopose.choices import Target
 from twopose.errors import (
     EXIT_SOME_INPUTS_FAILED,
     InputValueError,
@@ -94,11 +94,6 @@ def sensitivity_command(
     )
 
 
-class TargetChoice(StrEnum):
-    glove = "glove"
-    dot = "dot"
-
-
 def _json_float(v: float) -> float | None:
     return None if math.isnan(v) else round(v, 4)
 
@@ -106,7 +101,7 @@ def _json_float(v: float) -> float | None:
 @app.command()
 def detect(
     images: Annotated[list[Path], typer.Argument(help="Image files (anything OpenCV reads).")],
-    target: Annotated[TargetChoice, typer.Option(help="What to look for.")],
+    target: Annotated[Target, typer.Option(help="What to look for.")],
 ) -> None:
     """Detect the glove or the dot in images; one JSON object per image."""
     from twopose.detect import detect as detect_image
@@ -131,7 +126,7 @@ def detect(
                 "reason": reason or "not a readable image",
             }
         else:
-            d = detect_image(img, target.value)
+            d = detect_image(img, target)
             out = {
                 "image": str(path),
                 "found": d.found,

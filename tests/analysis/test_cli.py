@@ -93,7 +93,7 @@ def test_detect_unreadable_image(tmp_path: Path) -> None:
 
 
 K = [525.0, 525.0, 320.0, 240.0]
-INTR = Intrinsics(640, 480, *K)
+INTR = Intrinsics(width=640, height=480, fx=K[0], fy=K[1], cx=K[2], cy=K[3])
 
 
 def _view(t: list[float], **measure: object) -> dict[str, object]:

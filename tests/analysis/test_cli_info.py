@@ -76,12 +76,15 @@ def test_info_shows_control_characters_in_notes_escaped_not_obeyed(tmp_path: Pat
     screen), a bell, a carriage return or a bidi override is printed as its escape."""
     path = tmp_path / "s.mcap"
     hostile = "ok\x1b[2J\x07\rfake\u202eevil"
-    cam = Camera("cam0", Intrinsics(32, 24, 30.0, 30.0, 16.0, 12.0))
+    cam = Camera(
+        camera_id="cam0",
+        intrinsics=Intrinsics(width=32, height=24, fx=30.0, fy=30.0, cx=16.0, cy=12.0),
+    )
     with SessionWriter(
         path, SessionInfo(method="point", units="in"), [cam], image_format="png", start_ns=0
     ) as w:
-        w.write_note(Note(hostile, None), 1)
-        w.write_note(Note("plain, né à Zoë 北京", 1), 2)
+        w.write_note(Note(text=hostile, trial=None), 1)
+        w.write_note(Note(text="plain, né à Zoë 北京", trial=1), 2)
     result = runner.invoke(app, ["info", str(path)], env={"COLUMNS": "200"})
     assert result.exit_code == 0, result.output
     assert "session: ok\\x1b[2J\\x07\\rfake\\u202eevil" in result.output

@@ -92,8 +92,11 @@ def test_results_files_among_the_inputs_are_skipped_not_failed(
 
 def _noted_session(path: Path) -> Path:
     """Two trials through the real procedure, with a session note and trial notes."""
-    cam = Camera("cam0", Intrinsics(640, 480, 525.0, 525.0, 320.0, 240.0))
-    truth = GroundTruth(0, "point", ((0.5, 1.5, 11.0),))
+    cam = Camera(
+        camera_id="cam0",
+        intrinsics=Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0),
+    )
+    truth = GroundTruth(trial=0, kind="point", points_grid=((0.5, 1.5, 11.0),))
     with (
         SyntheticSource(None, "point", realtime=False) as src,
         SessionWriter(path, SessionInfo(method="point", units="in"), [cam]) as w,
@@ -101,9 +104,13 @@ def _noted_session(path: Path) -> Path:
         proc = Procedure(w)
         proc.note("lamp flickered all session")
         for trial in (1, 2):
-            proc.begin_trial(trial, 2, [GroundTruth(trial, "point", truth.points_grid)])
+            proc.begin_trial(
+                trial, 2, [GroundTruth(trial=trial, kind="point", points_grid=truth.points_grid)]
+            )
             for pose, x in ((1, 0.0), (2, 1.1)):
-                proc.type_pose(PoseEntry(trial, pose, "cam0", (x, 0.0, 0.0)))
+                proc.type_pose(
+                    PoseEntry(trial=trial, pose=pose, camera_id="cam0", t_grid=(x, 0.0, 0.0))
+                )
                 proc.capture(src, 2)
                 if trial == 2 and pose == 2:
                     proc.note("pose 2 was bumped")

@@ -9,7 +9,7 @@ from analysis.request import solve_request
 from twopose.camera import Intrinsics, project_points, rotation_from_angles_deg
 from twopose.errors import InputValueError
 
-INTR = Intrinsics(640, 480, 525.0, 525.0, 320.0, 240.0)
+INTR = Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0)
 POSES = [((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)), ((1.1, 0.0, 0.0), (0.0, 5.0, 0.0))]
 
 

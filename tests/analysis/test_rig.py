@@ -252,7 +252,10 @@ def _empty_session(
     from twopose.format.entries import GroundPlane, SessionInfo
     from twopose.format.writer import SessionWriter
 
-    camera = Camera("cam0", Intrinsics(640, 480, 525.0, 525.0, 320.0, 240.0))
+    camera = Camera(
+        camera_id="cam0",
+        intrinsics=Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0),
+    )
     plane = GroundPlane(offset=ground) if ground is not None else None
     with SessionWriter(path, SessionInfo(method=method, units=units), [camera], ground=plane):
         pass

@@ -42,17 +42,20 @@ def odd_sessions(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
 def _written(path: Path, trials: tuple[int, ...], truth: tuple[float, float, float]) -> Path:
     """A session as another writer may make it: these trial numbers (1, 2, 1 repeats one),
     and this ground truth (the recorder refuses an absurd one)."""
-    cam = Camera("cam0", Intrinsics(640, 480, 525.0, 525.0, 320.0, 240.0))
+    cam = Camera(
+        camera_id="cam0",
+        intrinsics=Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0),
+    )
     with (
         SyntheticSource(None, "point", realtime=False) as src,
         SessionWriter(path, SessionInfo(method="point", units="in"), [cam], start_ns=0) as w,
     ):
         t = 10
         for trial in trials:
-            w.write_ground_truth(GroundTruth(trial, "point", (truth,)), t)
+            w.write_ground_truth(GroundTruth(trial=trial, kind="point", points_grid=(truth,)), t)
             for pose, x in ((1, 0.0), (2, 1.1)):
                 src.set_pose((x, 0.0, 0.0), (0.0, 0.0, 0.0))
-                entry = PoseEntry(trial, pose, "cam0", (x, 0.0, 0.0))
+                entry = PoseEntry(trial=trial, pose=pose, camera_id="cam0", t_grid=(x, 0.0, 0.0))
                 t = write_accepted_capture(w, entry, [src.read(), src.read()], t + 10)
     return path
 
@@ -96,18 +99,21 @@ def test_one_bad_frame_is_one_rejected_frame(tmp_path: Path, bad: str) -> None:
         "empty": b"",
         "wrong_size": cv2.imencode(".jpg", np.zeros((48, 64, 3), np.uint8))[1].tobytes(),
     }[bad]
-    cam = Camera("cam0", Intrinsics(640, 480, 525.0, 525.0, 320.0, 240.0))
+    cam = Camera(
+        camera_id="cam0",
+        intrinsics=Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0),
+    )
     path = tmp_path / "s.mcap"
     with (
         SyntheticSource(None, "point", realtime=False) as src,
         SessionWriter(path, SessionInfo(method="point", units="in"), [cam], start_ns=0) as w,
     ):
-        w.write_ground_truth(GroundTruth(1, "point", ((0.5, 1.5, 11.0),)), 1)
+        w.write_ground_truth(GroundTruth(trial=1, kind="point", points_grid=((0.5, 1.5, 11.0),)), 1)
         t = 10
         for pose, x in ((1, 0.0), (2, 1.1)):
             src.set_pose((x, 0.0, 0.0), (0.0, 0.0, 0.0))
             good = [w.encode_image(src.read()), w.encode_image(src.read())]
-            entry = PoseEntry(1, pose, "cam0", (x, 0.0, 0.0))
+            entry = PoseEntry(trial=1, pose=pose, camera_id="cam0", t_grid=(x, 0.0, 0.0))
             t = write_accepted_capture(w, entry, [*good, frame] if pose == 2 else good, t + 10)
     result = analyse_session(path)
     assert result.trials["status"].tolist() == ["ok"]

@@ -136,11 +136,16 @@ def test_combine_option_changes_nothing_on_clean_data_but_runs(ground_session: P
 
 
 def _handmade(path: Path, frames_by_pose: dict[int, list[np.ndarray]], poses: int = 2) -> None:
-    cam = Camera("cam0", Intrinsics(640, 480, 525.0, 525.0, 320.0, 240.0))
+    cam = Camera(
+        camera_id="cam0",
+        intrinsics=Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0),
+    )
     with SessionWriter(path, SessionInfo(method="point", units="in"), [cam], start_ns=0) as w:
-        w.write_ground_truth(GroundTruth(1, "point", ((0.0, 0.0, 10.0),)), 1)
+        w.write_ground_truth(GroundTruth(trial=1, kind="point", points_grid=((0.0, 0.0, 10.0),)), 1)
         for k in range(1, poses + 1):
-            w.write_pose(PoseEntry(1, k, "cam0", (float(k), 0.0, 0.0)), 10 * k)
+            w.write_pose(
+                PoseEntry(trial=1, pose=k, camera_id="cam0", t_grid=(float(k), 0.0, 0.0)), 10 * k
+            )
             if k in frames_by_pose:
                 with w.capture(1, k, "cam0") as cap:
                     for j, img in enumerate(frames_by_pose[k]):

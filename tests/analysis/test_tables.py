@@ -15,7 +15,7 @@ from twopose.methods import Method, spec_of
 from twopose.session_estimate import SessionTrials, estimate_session
 from twopose.truth import reported
 
-K = Intrinsics(640, 480, 525.0, 525.0, 320.0, 240.0)
+K = Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0)
 H = 9.625
 
 

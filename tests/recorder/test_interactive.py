@@ -161,7 +161,10 @@ def test_the_undo_then_interrupt_scenario_never_reports_a_wrong_ok(tmp_path: Pat
         _CtrlCSource(at=10),  # 2 frames a capture: read 10 is the retyped pose's second
         op,
         info=SessionInfo(method="point", units="in"),
-        camera=Camera("cam0", Intrinsics(640, 480, 525.0, 525.0, 320.0, 240.0)),
+        camera=Camera(
+            camera_id="cam0",
+            intrinsics=Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0),
+        ),
         ground=None,
         ground_truth=((0.5, 1.5, 11.0),),
         frames=2,

@@ -195,7 +195,15 @@ def test_the_live_view_refuses_handshakes_from_web_pages(
 ) -> None:
     from twopose.camera import Camera, Intrinsics
 
-    with LiveView([Camera("cam0", Intrinsics(64, 48, 50, 50, 32, 24))], port=0) as view:
+    with LiveView(
+        [
+            Camera(
+                camera_id="cam0",
+                intrinsics=Intrinsics(width=64, height=48, fx=50, fy=50, cx=32, cy=24),
+            )
+        ],
+        port=0,
+    ) as view:
         status = _handshake(view.port, host.format(port=view.port), origin)
         if allowed:
             assert " 101 " in status + " ", status

@@ -30,7 +30,9 @@ from twopose.format.reader import SessionReader
 from twopose.format.trials import iter_trials
 from twopose.format.writer import SessionWriter
 
-CAM = Camera("cam0", Intrinsics(32, 24, 30.0, 30.0, 16.0, 12.0))
+CAM = Camera(
+    camera_id="cam0", intrinsics=Intrinsics(width=32, height=24, fx=30.0, fy=30.0, cx=16.0, cy=12.0)
+)
 INFO = SessionInfo(method="point", units="in")
 
 
@@ -43,12 +45,21 @@ def _frames(folder: Path, n: int = 60) -> Path:
 
 def test_a_source_that_stops_mid_capture_leaves_an_incomplete_capture(tmp_path: Path) -> None:
     out = tmp_path / "s.mcap"
-    cam = Camera("cam0", Intrinsics(64, 48, 50.0, 50.0, 32.0, 24.0))
+    cam = Camera(
+        camera_id="cam0",
+        intrinsics=Intrinsics(width=64, height=48, fx=50.0, fy=50.0, cx=32.0, cy=24.0),
+    )
     with (
         VideoSource(write_video(tmp_path / "v.avi", 3)) as src,
         SessionWriter(out, INFO, [cam]) as w,
     ):
-        entry = PoseEntry(1, 1, "cam0", (0.0, 0.0, 0.0), capture=w.new_capture_number())
+        entry = PoseEntry(
+            trial=1,
+            pose=1,
+            camera_id="cam0",
+            t_grid=(0.0, 0.0, 0.0),
+            capture=w.new_capture_number(),
+        )
         result = capture_frames(w, src, entry, 5, target="dot")
     assert not result.complete
     assert result.n_frames == 3
@@ -67,10 +78,10 @@ def test_events_the_state_does_not_allow_are_errors(tmp_path: Path) -> None:
             with pytest.raises(ProcedureError, match=f"cannot {event} while ready"):
                 getattr(proc, event)()
         with pytest.raises(ProcedureError, match="cannot type pose while ready"):
-            proc.type_pose(PoseEntry(1, 1, "cam0", (0, 0, 0)))
+            proc.type_pose(PoseEntry(trial=1, pose=1, camera_id="cam0", t_grid=(0, 0, 0)))
         proc.begin_trial(1, 2)
         with pytest.raises(ProcedureError, match="expected trial 1 pose 1"):
-            proc.type_pose(PoseEntry(1, 2, "cam0", (0, 0, 0)))
+            proc.type_pose(PoseEntry(trial=1, pose=2, camera_id="cam0", t_grid=(0, 0, 0)))
         proc.close("test")
         assert proc.state is State.CLOSED
         with pytest.raises(ProcedureError, match="cannot note while closed"):
@@ -85,13 +96,13 @@ def test_refusals_leave_the_state_unchanged(tmp_path: Path) -> None:
     ):
         proc = Procedure(w)
         proc.begin_trial(1, 2)
-        proc.type_pose(PoseEntry(1, 1, "cam0", (0, 0, 0)))
+        proc.type_pose(PoseEntry(trial=1, pose=1, camera_id="cam0", t_grid=(0, 0, 0)))
         proc.capture(src, 2)
         with pytest.raises(ProcedureRefusedError, match="nothing to undo: pose 1 is the first"):
             proc.undo()
         assert (proc.state, proc.pose) == (State.DECIDING, 1)
         proc.accept()
-        proc.type_pose(PoseEntry(1, 2, "cam0", (1, 0, 0)))
+        proc.type_pose(PoseEntry(trial=1, pose=2, camera_id="cam0", t_grid=(1, 0, 0)))
         result = proc.capture(src, 2)  # one frame left: the video ends
         assert not result.complete
         with pytest.raises(ProcedureRefusedError, match=r"incomplete .* redo it, or quit"):
@@ -120,7 +131,11 @@ class _Scripted(Driver):
 
     def place(self, trial: int, pose: int) -> Placement:
         self.placed.append((trial, pose))
-        return Placement(PoseEntry(trial, pose, "cam0", (pose + 10.0 * trial, 0.0, 0.0)))
+        return Placement(
+            entry=PoseEntry(
+                trial=trial, pose=pose, camera_id="cam0", t_grid=(pose + 10.0 * trial, 0.0, 0.0)
+            )
+        )
 
     def decide(self, trial: int, pose: int, result: CaptureResult) -> Decision:
         return self.decisions.pop(0)
@@ -129,7 +144,7 @@ class _Scripted(Driver):
         self.refusals.append(str(error))
 
     def note(self, trial: int) -> Note:
-        return Note(f"note in trial {trial}", trial)
+        return Note(text=f"note in trial {trial}", trial=trial)
 
 
 A, R, U, N, Q = Decision.ACCEPT, Decision.REDO, Decision.UNDO, Decision.NOTE, Decision.QUIT
@@ -313,7 +328,10 @@ def test_accepting_a_capture_that_rarely_found_its_target_needs_the_operator(
 ) -> None:
     """Fewer than half the frames found: accept is refused until the operator confirms
     (accept anyway); none found: refused even then, except unattended (a plan records it)."""
-    cam = Camera("cam0", Intrinsics(64, 48, 50.0, 50.0, 32.0, 24.0))
+    cam = Camera(
+        camera_id="cam0",
+        intrinsics=Intrinsics(width=64, height=48, fx=50.0, fy=50.0, cx=32.0, cy=24.0),
+    )
     folder = _dot_frames(tmp_path / "f", with_dot * 2)
     with (
         ImagesSource(folder) as src,
@@ -321,7 +339,7 @@ def test_accepting_a_capture_that_rarely_found_its_target_needs_the_operator(
     ):
         proc = Procedure(w)
         proc.begin_trial(1, 2)
-        proc.type_pose(PoseEntry(1, 1, "cam0", (0.0, 0.0, 0.0)))
+        proc.type_pose(PoseEntry(trial=1, pose=1, camera_id="cam0", t_grid=(0.0, 0.0, 0.0)))
         result = proc.capture(src, len(with_dot), target="dot")
         assert detection_shortfall(result) is shortfall
         if shortfall is Shortfall.OK:

@@ -39,7 +39,9 @@ from twopose.format.reader import SessionReader
 from twopose.format.trials import iter_trials
 from twopose.format.writer import SessionWriter
 
-CAM = Camera("cam0", Intrinsics(8, 6, 10.0, 10.0, 4.0, 3.0))
+CAM = Camera(
+    camera_id="cam0", intrinsics=Intrinsics(width=8, height=6, fx=10.0, fy=10.0, cx=4.0, cy=3.0)
+)
 INFO = SessionInfo(method="point", units="in")
 FRAMES = 2
 # The replayed pairs: (trial, pose) -> (typed x, capture number seen in every frame, frames)
@@ -59,7 +61,7 @@ class _ScriptedCamera(FrameSource):
         self.interrupt_after: int | None = None
 
     def open(self) -> SourceInfo:
-        self.info = SourceInfo("scripted", 8, 6, 30.0)
+        self.info = SourceInfo(description="scripted", width=8, height=6, fps=30.0)
         return self.info
 
     def start_capture(self) -> None:
@@ -140,13 +142,17 @@ class ProcedureModel(RuleBasedStateMachine):
     @rule(n_poses=st.integers(2, 3))
     def begin_trial(self, n_poses: int) -> None:
         trial = self.trial + 1
-        self.proc.begin_trial(trial, n_poses, [GroundTruth(trial, "point", ((0.0, 0.0, 9.0),))])
+        self.proc.begin_trial(
+            trial, n_poses, [GroundTruth(trial=trial, kind="point", points_grid=((0.0, 0.0, 9.0),))]
+        )
         self.trial, self.pose, self.n_poses, self.state = trial, 1, n_poses, State.TYPING
 
     @precondition(lambda self: self.open and self.state in (State.TYPING, State.PLACED))
     @rule(x=st.integers(-50, 50))
     def type_pose(self, x: int) -> None:
-        bound = self.proc.type_pose(PoseEntry(self.trial, self.pose, "cam0", (x / 4, 0.0, 0.0)))
+        bound = self.proc.type_pose(
+            PoseEntry(trial=self.trial, pose=self.pose, camera_id="cam0", t_grid=(x / 4, 0.0, 0.0))
+        )
         self.number += 1
         assert bound.capture == self.number
         self.typed, self.state = x / 4, State.PLACED

@@ -32,15 +32,18 @@ from twopose.format.entries import GroundPlane, GroundTruth, PoseEntry, SessionI
 from twopose.format.writer import SessionWriter
 
 out = sys.argv[1]
-cam = Camera("cam0", Intrinsics(64, 48, 50.0, 50.0, 32.0, 24.0))
+intrinsics = Intrinsics(width=64, height=48, fx=50.0, fy=50.0, cx=32.0, cy=24.0)
+cam = Camera(camera_id="cam0", intrinsics=intrinsics)
 rng = np.random.default_rng(0)
 info = SessionInfo(method="ground", units="in")
 with SessionWriter(out, info, [cam], ground=GroundPlane(offset=9.625), image_format="png") as w:
     print("open", flush=True)
     for trial in range(1, 1000):
-        w.write_ground_truth(GroundTruth(trial, "point", ((1.0, 9.625, 8.0),)))
+        truth = GroundTruth(trial=trial, kind="point", points_grid=((1.0, 9.625, 8.0),))
+        w.write_ground_truth(truth)
         for pose in (1, 2):
-            w.write_pose(PoseEntry(trial, pose, "cam0", (float(pose), 0.0, 0.0)))
+            t_grid = (float(pose), 0.0, 0.0)
+            w.write_pose(PoseEntry(trial=trial, pose=pose, camera_id="cam0", t_grid=t_grid))
             with w.capture(trial, pose, "cam0") as cap:
                 for _ in range(3):
                     cap.add_frame(rng.integers(0, 255, (48, 64, 3), dtype=np.uint8))
@@ -133,7 +136,10 @@ def _small_session(path: Path, trials: int = 4) -> None:
     from twopose.camera import Camera, Intrinsics
     from twopose.format.entries import GroundPlane, GroundTruth, PoseEntry, SessionInfo
 
-    cam = Camera("cam0", Intrinsics(64, 48, 50.0, 50.0, 32.0, 24.0))
+    cam = Camera(
+        camera_id="cam0",
+        intrinsics=Intrinsics(width=64, height=48, fx=50.0, fy=50.0, cx=32.0, cy=24.0),
+    )
     rng = np.random.default_rng(1)
     t = 1_000
     with SessionWriter(
@@ -145,9 +151,17 @@ def _small_session(path: Path, trials: int = 4) -> None:
         start_ns=t,
     ) as w:
         for trial in range(1, trials + 1):
-            w.write_ground_truth(GroundTruth(trial, "point", ((1.0, 9.625, 8.0),)), t := t + 10)
+            w.write_ground_truth(
+                GroundTruth(trial=trial, kind="point", points_grid=((1.0, 9.625, 8.0),)),
+                t := t + 10,
+            )
             for pose in (1, 2):
-                w.write_pose(PoseEntry(trial, pose, "cam0", (float(pose), 0.0, 0.0)), t := t + 10)
+                w.write_pose(
+                    PoseEntry(
+                        trial=trial, pose=pose, camera_id="cam0", t_grid=(float(pose), 0.0, 0.0)
+                    ),
+                    t := t + 10,
+                )
                 with w.capture(trial, pose, "cam0") as cap:
                     for _ in range(3):
                         cap.add_frame(

@@ -85,7 +85,10 @@ def test_what_the_command_line_gave_wins_and_is_shown_read_only() -> None:
     # The form cannot override it: a different method typed there is not used.
     setup = setup_from_answers({"method": "point", "ground_height": "3"}, given)
     assert (setup.method, setup.ground_height) == ("ground", 9.625)
-    calibrated = {**NOTHING_GIVEN, "intrinsics": Intrinsics(640, 480, 530, 531, 321, 239)}
+    calibrated = {
+        **NOTHING_GIVEN,
+        "intrinsics": Intrinsics(width=640, height=480, fx=530, fy=531, cx=321, cy=239),
+    }
     fields = {f["name"]: f for f in form_fields(calibrated)}
     assert fields["focal"]["given"]
     assert fields["principal"]["value"] == "321, 239"

@@ -71,7 +71,10 @@ def test_a_late_reader_of_a_paced_source_drops_frames_and_they_are_counted(tmp_p
     import time
 
     out = tmp_path / "s.mcap"
-    cam = Camera("cam0", Intrinsics(640, 480, 525.0, 525.0, 320.0, 240.0))
+    cam = Camera(
+        camera_id="cam0",
+        intrinsics=Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0),
+    )
     with (
         SyntheticSource(None, "point") as src,
         SessionWriter(out, SessionInfo(method="point", units="in"), [cam]) as w,
@@ -84,7 +87,7 @@ def test_a_late_reader_of_a_paced_source_drops_frames_and_they_are_counted(tmp_p
         result = capture_frames(
             w,
             src,
-            PoseEntry(1, 1, "cam0", (0.0, 0.0, 0.0)),
+            PoseEntry(trial=1, pose=1, camera_id="cam0", t_grid=(0.0, 0.0, 0.0)),
             3,
             target="dot",
             on_frame=lambda fb: time.sleep(0.1),  # a slow consumer: ~3 intervals a frame
@@ -144,7 +147,9 @@ def test_a_pause_before_a_redone_capture_is_not_counted_as_dropped(
             self.decisions = [Decision.REDO, Decision.ACCEPT, Decision.ACCEPT]
 
         def place(self, trial: int, pose: int) -> Placement:
-            return Placement(PoseEntry(trial, pose, "cam0", (0.0, 0.0, 0.0)))  # same pose
+            return Placement(
+                entry=PoseEntry(trial=trial, pose=pose, camera_id="cam0", t_grid=(0.0, 0.0, 0.0))
+            )  # same pose
 
         def decide(self, trial: int, pose: int, result: CaptureResult) -> Decision:
             time.sleep(pause_s)
@@ -152,15 +157,24 @@ def test_a_pause_before_a_redone_capture_is_not_counted_as_dropped(
 
     if kind == "synthetic":
         source: object = SyntheticSource(None, "point", realtime=True)
-        cam = Camera("cam0", Intrinsics(640, 480, 525.0, 525.0, 320.0, 240.0))
+        cam = Camera(
+            camera_id="cam0",
+            intrinsics=Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0),
+        )
     elif kind == "video":
         source = VideoSource(write_video(tmp_path / "v.avi", 90, step=2), realtime=True)
-        cam = Camera("cam0", Intrinsics(64, 48, 50.0, 50.0, 32.0, 24.0))
+        cam = Camera(
+            camera_id="cam0",
+            intrinsics=Intrinsics(width=64, height=48, fx=50.0, fy=50.0, cx=32.0, cy=24.0),
+        )
     else:
         for i in range(12):
             cv2.imwrite(str(tmp_path / f"{i:02d}.png"), np.full((48, 64, 3), i, np.uint8))
         source = ImagesSource(tmp_path)
-        cam = Camera("cam0", Intrinsics(64, 48, 50.0, 50.0, 32.0, 24.0))
+        cam = Camera(
+            camera_id="cam0",
+            intrinsics=Intrinsics(width=64, height=48, fx=50.0, fy=50.0, cx=32.0, cy=24.0),
+        )
     out = tmp_path / "s.mcap"
     summary = record(
         out, SessionInfo(method="point", units="in"), [cam], source, Pausing(), frames=3

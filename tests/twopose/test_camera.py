@@ -49,7 +49,7 @@ def test_quaternion_round_trip(a: tuple[float, float, float]) -> None:
 
 
 def test_projection_matches_the_pinhole_equations() -> None:
-    intr = Intrinsics(640, 480, 525.0, 525.0, 320.0, 240.0)
+    intr = Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0)
     # Thesis eq. 1-2: u = f x / z, v = f y / z, relative to the principal point.
     px = project_points([[1.0, 2.0, 10.0]], intr, np.eye(3), [0.0, 0.0, 0.0])
     np.testing.assert_allclose(px, [[320 + 52.5, 240 + 105.0]])
@@ -59,14 +59,22 @@ def test_projection_matches_the_pinhole_equations() -> None:
 
 
 def test_projection_behind_camera_is_nan() -> None:
-    intr = Intrinsics(640, 480, 525.0, 525.0, 320.0, 240.0)
+    intr = Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0)
     assert np.isnan(project_points([[0.0, 0.0, -5.0]], intr, np.eye(3), [0, 0, 0])).all()
 
 
 def test_projection_with_distortion_matches_opencv() -> None:
     import cv2
 
-    intr = Intrinsics(640, 480, 500.0, 510.0, 318.0, 242.0, (-0.2, 0.05, 0.001, -0.002, 0.01))
+    intr = Intrinsics(
+        width=640,
+        height=480,
+        fx=500.0,
+        fy=510.0,
+        cx=318.0,
+        cy=242.0,
+        distortion=(-0.2, 0.05, 0.001, -0.002, 0.01),
+    )
     rng = np.random.default_rng(0)
     pts = rng.uniform([-3, -2, 8], [3, 2, 15], size=(20, 3))
     ours = project_points(pts, intr, np.eye(3), np.zeros(3))
@@ -91,7 +99,15 @@ def test_intrinsics_check_themselves(kwargs: dict[str, object], message: str) ->
 
 
 def test_intrinsics_from_and_to_a_dict() -> None:
-    intr = Intrinsics(320, 240, 300.0, 301, 160.0, 120.0, (-0.1, 0.0, 0.0, 0.0, 0.0))
+    intr = Intrinsics(
+        width=320,
+        height=240,
+        fx=300.0,
+        fy=301,
+        cx=160.0,
+        cy=120.0,
+        distortion=(-0.1, 0.0, 0.0, 0.0, 0.0),
+    )
     assert Intrinsics.from_dict(intr.to_dict(), "here") == intr
     assert isinstance(intr.fy, float)
     with pytest.raises(InputValueError, match="calibration x: missing cx, cy"):

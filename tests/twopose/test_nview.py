@@ -23,7 +23,7 @@ from twopose.solve import (
 )
 
 K4 = np.array([525.0, 520.0, 318.0, 242.0])
-INTR = Intrinsics(640, 480, *K4)
+INTR = Intrinsics(width=640, height=480, fx=K4[0], fy=K4[1], cx=K4[2], cy=K4[3])
 MERTON = Path(__file__).resolve().parents[3] / "shared" / "data" / "merton1"
 
 

@@ -18,7 +18,7 @@ from twopose.session_estimate import (
 )
 from twopose.truth import reported
 
-INTRINSICS = Intrinsics(640, 480, 525.0, 525.0, 320.0, 240.0)
+INTRINSICS = Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0)
 H = 9.625  # the thesis' ground height: the ground plane y = h (y down)
 GROUND = (np.array([0.0, 1.0, 0.0]), H)
 FRAMES = 5

@@ -20,7 +20,7 @@ from twopose.solve import (
 )
 
 F = 525.0
-INTR = Intrinsics(640, 480, F, F, 320.0, 240.0)
+INTR = Intrinsics(width=640, height=480, fx=F, fy=F, cx=320.0, cy=240.0)
 K4 = np.array([F, F, 320.0, 240.0])
 
 

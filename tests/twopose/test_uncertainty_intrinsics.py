@@ -46,7 +46,7 @@ def test_a_shared_input_is_propagated_jointly_across_its_views() -> None:
     Cs = np.zeros((T, 2, S, S))
     Cs[:, 0] = np.diag(sigma**2)  # camera 1 is exact, except in trial 2
     Cs[2, 1] = np.diag((2 * sigma) ** 2)
-    shared = Shared(np.tile(NOMINAL, (T, N, 1)), group, Cs)
+    shared = Shared(values=np.tile(NOMINAL, (T, N, 1)), group=group, cov=Cs)
 
     def f(x: F64) -> F64:
         reps = x.shape[0] // T
@@ -101,7 +101,8 @@ def _session(
     trial's two poses typed with a 0.04 in placing error, three frames of 0.3 px (0.5 deg)
     noise. Returns the ok trials' within95 and dominant inputs, the views recording the
     nominal intrinsics with (``recorded``) or without the calibration's sigma."""
-    true = Intrinsics(640, 480, *(NOMINAL + calibration * rng.standard_normal(4)))
+    fx, fy, cx, cy = NOMINAL + calibration * rng.standard_normal(4)
+    true = Intrinsics(width=640, height=480, fx=fx, fy=fy, cx=cx, cy=cy)
     sigma_t, frames = 0.04, 3
     views, truth = [], []
     for _ in range(trials):
@@ -127,18 +128,18 @@ def _session(
                 theta = (theta + 90.0) % 180.0 - 90.0
             row.append(
                 PoseView(
-                    n + 1,
-                    NOMINAL.copy(),
-                    (640, 480),
-                    t,
-                    np.zeros(3),
-                    sigma_t,
-                    1e-9,
-                    centroids,
-                    theta,
-                    np.ones(frames, dtype=bool),
-                    "cam0",
-                    calibration.copy() if recorded else np.zeros(4),
+                    pose=n + 1,
+                    intrinsics=NOMINAL.copy(),
+                    width_height=(640, 480),
+                    t_grid=t,
+                    r_deg=np.zeros(3),
+                    t_sigma=sigma_t,
+                    r_sigma_deg=1e-9,
+                    centroids=centroids,
+                    thetas=theta,
+                    found=np.ones(frames, dtype=bool),
+                    camera_id="cam0",
+                    intrinsics_sigma=calibration.copy() if recorded else np.zeros(4),
                 )
             )
         views.append(row)

@@ -279,7 +279,7 @@ class SessionInfo(TypedEntry):
     "PoseEntry",
     "A typed camera pose: camera centre in the grid frame and R = Rx Ry Rz (camera -> grid).",
 )
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class PoseEntry(TypedEntry):
     """A typed pose: camera centre ``t_grid`` (session units) and angles ``r_deg`` (degrees).
 
@@ -328,7 +328,7 @@ class PoseEntry(TypedEntry):
     "CaptureWindow",
     "The frames of one capture: the camera's images with start_ns <= log_time <= end_ns.",
 )
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class CaptureWindow(TypedEntry):
     """Which frames belong to which trial and pose.
 
@@ -369,7 +369,7 @@ class CaptureWindow(TypedEntry):
     "CaptureDecision",
     "The operator's decision on one capture: accept it, or discard it (kept, never analysed).",
 )
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class CaptureDecision(TypedEntry):
     """What the operator decided about capture ``capture`` (format 1.1).
 
@@ -429,7 +429,7 @@ class GroundPlane(TypedEntry):
     "GroundTruth",
     "Ground truth of one trial: a grid point (point, ground) or two points on the line (line).",
 )
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class GroundTruth(TypedEntry):
     """Measured truth of one trial in the grid frame: a point, or two points on the line."""
 
@@ -460,7 +460,7 @@ class GroundTruth(TypedEntry):
 
 
 @entry("/twopose/note", "Note", "A free-text operator note.")
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Note(TypedEntry):
     """A free-text note by the operator, optionally about one trial."""
 
@@ -474,7 +474,7 @@ class Note(TypedEntry):
             index(self.trial, "trial")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class TruePose:
     """The pose the simulated camera really had (the typed one carries the typing error)."""
 
@@ -493,7 +493,7 @@ class TruePose:
     "SimulationTruth",
     "Simulated sessions only: the true poses (frames were rendered from these) and target.",
 )
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class SimulationTruth(TypedEntry):
     """What a simulated trial really was: true poses and the true point or line."""
 

@@ -54,7 +54,7 @@ def calibration_topic(camera_id: str) -> str:
     return f"/twopose/camera/{camera_id}/calibration"
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Frame:
     """One encoded image as stored (decode with :meth:`decode`)."""
 
@@ -112,15 +112,15 @@ def camera_from_message(msg: Any) -> Camera:
     D = [*list(msg.D), 0.0, 0.0, 0.0, 0.0, 0.0][:5]
     try:
         return Camera(
-            frame_id.removeprefix("camera_"),
-            Intrinsics(
-                int(msg.width),
-                int(msg.height),
-                K[0],
-                K[4],
-                K[2],
-                K[5],
-                (D[0], D[1], D[2], D[3], D[4]),
+            camera_id=frame_id.removeprefix("camera_"),
+            intrinsics=Intrinsics(
+                width=int(msg.width),
+                height=int(msg.height),
+                fx=K[0],
+                fy=K[4],
+                cx=K[2],
+                cy=K[5],
+                distortion=(D[0], D[1], D[2], D[3], D[4]),
             ),
         )
     except InputValueError as err:

@@ -191,7 +191,9 @@ class SessionReader:
         for cid, sigma in (self._info.intrinsics_sigma or {}).items():
             if cid in self._cameras:  # format 1.2: the calibration's sigma with its camera
                 camera = self._cameras[cid]
-                self._cameras[cid] = Camera(cid, camera.intrinsics, sigma)
+                self._cameras[cid] = Camera(
+                    camera_id=cid, intrinsics=camera.intrinsics, intrinsics_sigma=sigma
+                )
         missing = [c for c in self._info.camera_ids if c not in self._cameras]
         if missing:
             raise SessionFormatError(

@@ -47,7 +47,7 @@ __all__ = [
 ]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class PoseCapture:
     """One pose of a trial: the typed pose, its camera, and the frames captured there."""
 
@@ -61,7 +61,7 @@ class PoseCapture:
         return self.window is not None and self.window.status == "complete" and bool(self.frames)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class SetAside:
     """A capture (or a typed pose without one) that is kept in the file but not measured."""
 
@@ -75,7 +75,7 @@ class SetAside:
         return f"pose {self.pose} ({which}, {self.n_frames} frames): {self.reason}"
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class TrialRecord:
     """Everything recorded for one trial: the poses it is measured from, in pose order,
     and (format 1.1) what was set aside."""
@@ -99,7 +99,7 @@ class TrialRecord:
         return f"fewer than two accepted, complete captures (usable: {have}); set aside: {lost}"
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class SessionNotes:
     """The operator's notes: per trial, and about the whole session."""
 
@@ -117,10 +117,10 @@ def read_notes(reader: SessionReader) -> SessionNotes:
                 session.append(item.text)
             else:
                 by_trial.setdefault(item.trial, []).append(item.text)
-    return SessionNotes({k: tuple(v) for k, v in by_trial.items()}, tuple(session))
+    return SessionNotes(by_trial={k: tuple(v) for k, v in by_trial.items()}, session=tuple(session))
 
 
-@dataclass
+@dataclass(kw_only=True)
 class _Capture:
     """What is known of one numbered capture (format 1.1)."""
 
@@ -148,7 +148,7 @@ class _Capture:
         return ""
 
 
-@dataclass
+@dataclass(kw_only=True)
 class _TrialBuilder:
     trial: int
     poses: dict[int, PoseEntry] = field(default_factory=dict)  # format 1.0
@@ -186,16 +186,18 @@ class _TrialBuilder:
             window, frames = self.captures_1_0.get(k, (None, ()))
             if entry.camera_id not in cameras:
                 why = f"its camera {entry.camera_id!r} has no calibration in the session"
-                set_aside.append(SetAside(k, None, len(frames), why))
+                set_aside.append(SetAside(pose=k, capture=None, n_frames=len(frames), reason=why))
                 continue
-            poses[k] = PoseCapture(entry, cameras[entry.camera_id], window, frames)
+            poses[k] = PoseCapture(
+                entry=entry, camera=cameras[entry.camera_id], window=window, frames=frames
+            )
         return TrialRecord(
-            self.trial,
-            tuple(poses[k] for k in sorted(poses)),
-            self.ground_truth,
-            self.simulation_truth,
-            notes,
-            tuple(set_aside),
+            trial=self.trial,
+            poses=tuple(poses[k] for k in sorted(poses)),
+            ground_truth=self.ground_truth,
+            simulation_truth=self.simulation_truth,
+            notes=notes,
+            set_aside=tuple(set_aside),
         )
 
     def _accepted(
@@ -211,14 +213,26 @@ class _TrialBuilder:
             n_frames = c.window.n_frames if c.window is not None else 0
             reason = c.reason_unused(cameras)
             if reason:
-                set_aside.append(SetAside(pose, number, n_frames, reason))
+                set_aside.append(
+                    SetAside(pose=pose, capture=number, n_frames=n_frames, reason=reason)
+                )
                 continue
             assert c.entry is not None
             if pose in poses:
                 earlier, _ = poses[pose]
-                set_aside.append(SetAside(pose, earlier, n_frames, f"replaced by {number}"))
+                set_aside.append(
+                    SetAside(
+                        pose=pose,
+                        capture=earlier,
+                        n_frames=n_frames,
+                        reason=f"replaced by {number}",
+                    )
+                )
             camera = cameras[c.entry.camera_id]
-            poses[pose] = (number, PoseCapture(c.entry, camera, c.window, c.frames))
+            poses[pose] = (
+                number,
+                PoseCapture(entry=c.entry, camera=camera, window=c.window, frames=c.frames),
+            )
         return {k: pc for k, (_, pc) in poses.items()}, set_aside
 
 
@@ -251,7 +265,7 @@ def iter_trials(reader: SessionReader, *, with_frames: bool = True) -> Iterator[
         if current is not None and current.trial != item.trial:
             yield current.build(cameras, notes.get(current.trial, ()))
             current = None
-        current = current or _TrialBuilder(item.trial)
+        current = current or _TrialBuilder(trial=item.trial)
         if isinstance(item, PoseEntry):
             current.add_pose(item)
         elif isinstance(item, CaptureWindow):
@@ -274,7 +288,7 @@ def _take_frames(pending: dict[str, list[Frame]], window: CaptureWindow) -> tupl
     return frames
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class SessionOverview:
     """What a session holds, without decoding a frame."""
 
@@ -291,7 +305,7 @@ class SessionOverview:
     n_frames: int
     message_counts: dict[str, int]
     n_set_aside: int = 0
-    notes: SessionNotes = field(default_factory=lambda: SessionNotes({}, ()))
+    notes: SessionNotes = field(default_factory=lambda: SessionNotes(by_trial={}, session=()))
 
 
 def describe_session(path: str | Path) -> SessionOverview:

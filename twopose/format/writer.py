@@ -79,7 +79,10 @@ def cameras_from_metadata(text: str) -> list[Camera]:
     """Inverse of the ``cameras`` field of :func:`session_metadata`."""
     try:
         return [
-            Camera(c["camera"], Intrinsics.from_dict(c, "the metadata's camera copy"))
+            Camera(
+                camera_id=c["camera"],
+                intrinsics=Intrinsics.from_dict(c, "the metadata's camera copy"),
+            )
             for c in json.loads(text)
         ]
     except (KeyError, TypeError, ValueError, InputValueError) as err:

@@ -37,7 +37,7 @@ def srgb_to_linear(rgb: tuple[int, int, int]) -> F64:
 # --------------------------------------------------------------------------- primitives
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Primitive:
     """A renderable surface. ``kind`` selects the intersection routine.
 
@@ -60,7 +60,7 @@ class Primitive:
     squares: tuple[int, int] = (0, 0)  # board: squares along x and y (inner corners + 1)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Decal:
     """A flat clutter shape painted on the table (plane y = h) or the wall (z = wall_z).
 
@@ -77,7 +77,7 @@ class Decal:
     vertices: F64 = field(default_factory=lambda: np.zeros((3, 2)))
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Layout:
     """Everything placed in the scene for one session (target, stand, clutter)."""
 
@@ -106,9 +106,23 @@ def _stand(scene: Scene, attach: F64) -> list[Primitive]:
     base_hi = np.array([rod_xz[0], h, rod_xz[1]]) + half
     base_lo[1], base_hi[1] = h - st.base_height, h
     return [
-        Primitive("capsule", color, rod_top, rod_bottom, radius=st.rod_radius, specular=0.25),
-        Primitive("capsule", color, arm_start, attach, radius=st.rod_radius * 0.6, specular=0.25),
-        Primitive("box", srgb_to_linear(st.base_color), base_lo, base_hi),
+        Primitive(
+            kind="capsule",
+            color=color,
+            a=rod_top,
+            b=rod_bottom,
+            radius=st.rod_radius,
+            specular=0.25,
+        ),
+        Primitive(
+            kind="capsule",
+            color=color,
+            a=arm_start,
+            b=attach,
+            radius=st.rod_radius * 0.6,
+            specular=0.25,
+        ),
+        Primitive(kind="box", color=srgb_to_linear(st.base_color), a=base_lo, b=base_hi),
     ]
 
 
@@ -122,10 +136,10 @@ def build_layout(scene: Scene, method: str, rng: np.random.Generator) -> Layout:
         half = np.array([pt.card_size[0] / 2, pt.card_size[1] / 2, 0.0])
         prims.append(
             Primitive(
-                "card",
-                srgb_to_linear(pt.card_color),
-                card_center,
-                half,
+                kind="card",
+                color=srgb_to_linear(pt.card_color),
+                a=card_center,
+                b=half,
                 dot_color=srgb_to_linear(pt.dot_color),
                 dot_center=dot,
                 dot_radius=pt.dot_radius,
@@ -138,19 +152,24 @@ def build_layout(scene: Scene, method: str, rng: np.random.Generator) -> Layout:
         f = scene.finger
         prims.append(
             Primitive(
-                "capsule", srgb_to_linear(f.color), base, tip, radius=f.radius, specular=f.specular
+                kind="capsule",
+                color=srgb_to_linear(f.color),
+                a=base,
+                b=tip,
+                radius=f.radius,
+                specular=f.specular,
             )
         )
         prims += _stand(scene, base)
     if scene.board.present:
         prims.append(_board(scene.board))
-    return Layout(tuple(prims), tuple(_clutter(scene, method, rng)))
+    return Layout(primitives=tuple(prims), decals=tuple(_clutter(scene, method, rng)))
 
 
 def board_layout(scene: Scene) -> Layout:
     """What a board session sees: the scene's checkerboard alone on the grid paper (no
     target, stand or clutter in front of it)."""
-    return Layout((_board(scene.board),), ())
+    return Layout(primitives=(_board(scene.board),), decals=())
 
 
 def board_corners(board: BoardParams) -> F64:
@@ -177,10 +196,10 @@ def _board(board: BoardParams) -> Primitive:
     centre = corner + np.array([size[0] / 2, -size[1] / 2, 0.0])
     half = np.array([size[0] / 2 + s, size[1] / 2 + s, 0.0])  # with the margin
     return Primitive(
-        "board",
-        srgb_to_linear(board.light_color),
-        centre,
-        half,
+        kind="board",
+        color=srgb_to_linear(board.light_color),
+        a=centre,
+        b=half,
         dot_color=srgb_to_linear(board.dark_color),
         dot_center=corner,
         square=s,
@@ -253,13 +272,40 @@ def _clutter(scene: Scene, method: str, rng: np.random.Generator) -> list[Decal]
         surface = "wall" if on_wall else "table"
         if kind == "disk":
             r = scale * rng.uniform(0.6, 1.0)
-            decals.append(Decal(surface, "disk", center, np.array([r, r]), angle, blue))
+            decals.append(
+                Decal(
+                    surface=surface,
+                    shape="disk",
+                    center=center,
+                    size=np.array([r, r]),
+                    angle=angle,
+                    color=blue,
+                )
+            )
         elif kind == "speck":
             r = rng.uniform(0.08, 0.15)
-            decals.append(Decal(surface, "disk", center, np.array([r, r]), angle, blue))
+            decals.append(
+                Decal(
+                    surface=surface,
+                    shape="disk",
+                    center=center,
+                    size=np.array([r, r]),
+                    angle=angle,
+                    color=blue,
+                )
+            )
         elif kind == "ring":
             a = scale * rng.uniform(1.0, 1.4)
-            decals.append(Decal(surface, "ring", center, np.array([a, a * 0.35]), angle, blue))
+            decals.append(
+                Decal(
+                    surface=surface,
+                    shape="ring",
+                    center=center,
+                    size=np.array([a, a * 0.35]),
+                    angle=angle,
+                    color=blue,
+                )
+            )
         elif kind == "triangle":
             length, width = scale * rng.uniform(1.5, 2.2), scale * rng.uniform(0.4, 0.6)
             local = np.array(
@@ -267,10 +313,29 @@ def _clutter(scene: Scene, method: str, rng: np.random.Generator) -> list[Decal]
             )
             rot = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
             verts = local @ rot.T + center
-            decals.append(Decal(surface, "triangle", center, np.zeros(2), angle, blue, verts))
+            decals.append(
+                Decal(
+                    surface=surface,
+                    shape="triangle",
+                    center=center,
+                    size=np.zeros(2),
+                    angle=angle,
+                    color=blue,
+                    vertices=verts,
+                )
+            )
         else:  # navy: a glove-shaped blob of the wrong colour
             a = scale * rng.uniform(0.8, 1.1)
-            decals.append(Decal(surface, "ellipse", center, np.array([a, a * 0.3]), angle, navy))
+            decals.append(
+                Decal(
+                    surface=surface,
+                    shape="ellipse",
+                    center=center,
+                    size=np.array([a, a * 0.3]),
+                    angle=angle,
+                    color=navy,
+                )
+            )
     return decals
 
 

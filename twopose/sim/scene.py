@@ -44,7 +44,7 @@ Vec3 = tuple[float, float, float]
 RGB = tuple[int, int, int]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class CameraParams:
     """One camera: id and pinhole intrinsics (the thesis: f = 525 px, 640x480).
 
@@ -77,7 +77,7 @@ class CameraParams:
         )
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class PointTargetParams:
     """Method 1: a black dot on a white index card facing the camera (normal -z)."""
 
@@ -89,7 +89,7 @@ class PointTargetParams:
     card_color: RGB = (236, 236, 230)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class FingerParams:
     """The blue gloved finger, a 3-D capsule whose axis passes through the ground point.
 
@@ -108,7 +108,7 @@ class FingerParams:
     specular: float = 0.10
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class StandParams:
     """The laboratory test stand holding the target: base plate, vertical rod, arm."""
 
@@ -120,7 +120,7 @@ class StandParams:
     base_color: RGB = (60, 60, 64)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class PoseParams:
     """How the operator places the laptop: nominal (typed) poses on a lattice, per trial.
 
@@ -149,7 +149,7 @@ class PoseParams:
     move_range: Pair = (1.0, 3.0)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class LightingParams:
     """Ambient + one directional light; per-frame gain, white-balance and gradient jitter."""
 
@@ -162,7 +162,7 @@ class LightingParams:
     vignetting: float = 0.12
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class SensorParams:
     """Noise, encoding and timing of the webcam."""
 
@@ -175,7 +175,7 @@ class SensorParams:
     seconds_between_poses: float = 20.0
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class ClutterParams:
     """Blue-ish objects the thesis' filters must reject, placed once per session.
 
@@ -193,7 +193,7 @@ class ClutterParams:
     wall_y_range: Pair = (-14.0, 2.0)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class BoardParams:
     """A printed checkerboard standing upright on the grid paper, facing the camera (the
     rig-from-a-board calibration's target): ``inner_corners`` (columns, rows) of squares of
@@ -210,7 +210,7 @@ class BoardParams:
     light_color: RGB = (238, 238, 232)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Scene:
     """Everything the synthetic camera renders; defaults mirror the thesis' set-up."""
 
@@ -244,7 +244,7 @@ class Scene:
 
 
 def _check_scene(s: Scene) -> None:
-    def need(ok: bool, key: str, msg: str) -> None:
+    def need(ok: bool, key: str, msg: str) -> None:  # noqa: FBT001 - an assertion: condition first
         if not ok:
             raise SceneError(f"scene: {key} {msg}")
 

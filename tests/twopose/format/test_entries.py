@@ -35,19 +35,41 @@ EXAMPLES = [
         simulated=True,
         intrinsics_sigma={"cam0": {"fx": 0.93, "cy": 1.07}},
     ),
-    PoseEntry(2, 1, "cam0", (1.5, 0.0, -2.0), (0.0, 5.0, 0.0), 0.1, 0.25, capture=4),
-    CaptureWindow(2, 1, "cam0", 10, 20, 5, "incomplete", "camera stopped", 3, capture=4),
-    CaptureDecision(4, 2, 1, "cam0", "discard", "redo"),
+    PoseEntry(
+        trial=2,
+        pose=1,
+        camera_id="cam0",
+        t_grid=(1.5, 0.0, -2.0),
+        r_deg=(0.0, 5.0, 0.0),
+        translation_resolution=0.1,
+        rotation_resolution_deg=0.25,
+        capture=4,
+    ),
+    CaptureWindow(
+        trial=2,
+        pose=1,
+        camera_id="cam0",
+        start_ns=10,
+        end_ns=20,
+        n_frames=5,
+        status="incomplete",
+        reason="camera stopped",
+        dropped_frames=3,
+        capture=4,
+    ),
+    CaptureDecision(
+        capture=4, trial=2, pose=1, camera_id="cam0", decision="discard", reason="redo"
+    ),
     GroundPlane(offset=9.625),
-    GroundTruth(1, "line", ((0.0, 1.0, 2.0), (3.0, 4.0, 5.0))),
-    Note("glare", 3),
-    Note("session-wide"),
+    GroundTruth(trial=1, kind="line", points_grid=((0.0, 1.0, 2.0), (3.0, 4.0, 5.0))),
+    Note(text="glare", trial=3),
+    Note(text="session-wide"),
     SimulationTruth(
-        1,
-        (TruePose(1, "cam0", (0.1, 0.0, 0.0), (0.0, 0.0, 0.0)),),
-        "point",
-        ((1, 2, 3),),
-        (0.8, -0.5, 0.3, 0.3, 0.2, 0.4, 1.03, 0.0, 0.0, 1.0, 0.0),  # the rig's constants
+        trial=1,
+        poses=(TruePose(pose=1, camera_id="cam0", t_grid=(0.1, 0.0, 0.0), r_deg=(0.0, 0.0, 0.0)),),
+        kind="point",
+        points_grid=((1, 2, 3),),
+        rig=(0.8, -0.5, 0.3, 0.3, 0.2, 0.4, 1.03, 0.0, 0.0, 1.0, 0.0),  # the rig's constants
     ),
 ]
 
@@ -85,8 +107,10 @@ def test_a_session_refuses_a_malformed_intrinsics_sigma(sigma: object, message: 
 
 def test_a_1_0_entry_leaves_the_capture_number_out() -> None:
     """Format 1.0 entries (no capture number) encode exactly as 1.0 wrote them."""
-    assert "capture" not in json.loads(encode_entry(PoseEntry(1, 2, "cam0", (1, 2, 3))))
-    window = CaptureWindow(1, 2, "cam0", 0, 1, 2)
+    assert "capture" not in json.loads(
+        encode_entry(PoseEntry(trial=1, pose=2, camera_id="cam0", t_grid=(1, 2, 3)))
+    )
+    window = CaptureWindow(trial=1, pose=2, camera_id="cam0", start_ns=0, end_ns=1, n_frames=2)
     assert "capture" not in json.loads(encode_entry(window))
     assert decode_entry(CaptureWindow.SCHEMA_NAME, encode_entry(window)) == window
 
@@ -96,16 +120,16 @@ def test_capture_numbers_start_at_one(bad: object) -> None:
     from twopose.errors import InputValueError
 
     with pytest.raises(InputValueError, match="capture"):
-        CaptureDecision(bad, 1, 1, "cam0", "accept")  # type: ignore[arg-type]
+        CaptureDecision(capture=bad, trial=1, pose=1, camera_id="cam0", decision="accept")  # type: ignore[arg-type]
     with pytest.raises(InputValueError, match="capture"):
-        PoseEntry(1, 1, "cam0", (0, 0, 0), capture=bad)  # type: ignore[arg-type]
+        PoseEntry(trial=1, pose=1, camera_id="cam0", t_grid=(0, 0, 0), capture=bad)  # type: ignore[arg-type]
 
 
 def test_a_decision_is_accept_or_discard() -> None:
     from twopose.errors import InputValueError
 
     with pytest.raises(InputValueError, match="accept or discard"):
-        CaptureDecision(1, 1, 1, "cam0", "maybe")  # type: ignore[arg-type]
+        CaptureDecision(capture=1, trial=1, pose=1, camera_id="cam0", decision="maybe")  # type: ignore[arg-type]
     with pytest.raises(SessionFormatError, match="decision"):
         decode_entry(
             CaptureDecision.SCHEMA_NAME,
@@ -131,7 +155,7 @@ def test_dotted_names_nest_and_required_follows_the_declaration() -> None:
 
 
 def test_pose_entry_json_is_the_documented_shape() -> None:
-    data = json.loads(encode_entry(PoseEntry(1, 2, "cam0", (1, 2, 3))))
+    data = json.loads(encode_entry(PoseEntry(trial=1, pose=2, camera_id="cam0", t_grid=(1, 2, 3))))
     assert data == {
         "trial": 1,
         "pose": 2,
@@ -172,5 +196,13 @@ finite = st.floats(allow_nan=False, allow_infinity=False, width=32)
 def test_pose_entries_round_trip_for_any_finite_values(
     trial: int, pose: int, t: tuple[float, ...], r: tuple[float, ...], res: float
 ) -> None:
-    entry = PoseEntry(trial, pose, "cam_1", t, r, res, res)  # type: ignore[arg-type]
+    entry = PoseEntry(
+        trial=trial,
+        pose=pose,
+        camera_id="cam_1",
+        t_grid=t,
+        r_deg=r,
+        translation_resolution=res,
+        rotation_resolution_deg=res,
+    )  # type: ignore[arg-type]
     assert decode_entry(PoseEntry.SCHEMA_NAME, encode_entry(entry)) == entry

@@ -38,9 +38,21 @@ from twopose.format.reader import SessionReader
 from twopose.format.trials import iter_trials
 from twopose.format.writer import SessionWriter
 
-CAM0 = Camera("cam0", Intrinsics(640, 480, 525.0, 525.0, 320.0, 240.0))
+CAM0 = Camera(
+    camera_id="cam0",
+    intrinsics=Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0),
+)
 CAM1 = Camera(
-    "right", Intrinsics(320, 240, 300.0, 301.0, 161.0, 119.5, (-0.1, 0.01, 0.0, 0.0, 0.0))
+    camera_id="right",
+    intrinsics=Intrinsics(
+        width=320,
+        height=240,
+        fx=300.0,
+        fy=301.0,
+        cx=161.0,
+        cy=119.5,
+        distortion=(-0.1, 0.01, 0.0, 0.0, 0.0),
+    ),
 )
 
 
@@ -65,19 +77,35 @@ def _write_full_session(path: Path, image_format: str) -> dict[str, object]:
     )
     ground = GroundPlane(offset=9.625)
     poses = [
-        PoseEntry(1, 1, "cam0", (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0625, 0.5),
-        PoseEntry(1, 2, "right", (1.1, 0.0, -0.5), (0.0, 5.0, -2.0), 0.125, 1.0),
-    ]
-    gt = GroundTruth(1, "point", ((1.91, 9.625, 8.375),))
-    note = Note("glove slipped a little", trial=1)
-    truth = SimulationTruth(
-        1,
-        (
-            TruePose(1, "cam0", (0.01, 0.0, -0.02), (0.0, 0.0, 0.0)),
-            TruePose(2, "right", (1.12, 0.0, -0.45), (0.0, 5.0, -2.0)),
+        PoseEntry(
+            trial=1,
+            pose=1,
+            camera_id="cam0",
+            t_grid=(0.0, 0.0, 0.0),
+            r_deg=(0.0, 0.0, 0.0),
+            translation_resolution=0.0625,
+            rotation_resolution_deg=0.5,
         ),
-        "point",
-        ((1.91, 9.625, 8.375),),
+        PoseEntry(
+            trial=1,
+            pose=2,
+            camera_id="right",
+            t_grid=(1.1, 0.0, -0.5),
+            r_deg=(0.0, 5.0, -2.0),
+            translation_resolution=0.125,
+            rotation_resolution_deg=1.0,
+        ),
+    ]
+    gt = GroundTruth(trial=1, kind="point", points_grid=((1.91, 9.625, 8.375),))
+    note = Note(text="glove slipped a little", trial=1)
+    truth = SimulationTruth(
+        trial=1,
+        poses=(
+            TruePose(pose=1, camera_id="cam0", t_grid=(0.01, 0.0, -0.02), r_deg=(0.0, 0.0, 0.0)),
+            TruePose(pose=2, camera_id="right", t_grid=(1.12, 0.0, -0.45), r_deg=(0.0, 5.0, -2.0)),
+        ),
+        kind="point",
+        points_grid=((1.91, 9.625, 8.375),),
     )
     images = {"cam0": [_image(1), _image(2)], "right": [_image(3, (240, 320))]}
     t = 1_000_000_000
@@ -293,7 +321,10 @@ def test_the_calibrations_sigma_travels_with_its_camera(tmp_path: Path) -> None:
     """Format 1.2: a camera's calibration sigma is written into the session entry and
     read back with the camera; a camera without one has none."""
     sigma = {"fx": 0.93, "fy": 0.97, "cx": 0.97, "cy": 1.07, "k1": 0.012}
-    cams = [Camera("cam0", CAM0.intrinsics, sigma), Camera("right", CAM1.intrinsics)]
+    cams = [
+        Camera(camera_id="cam0", intrinsics=CAM0.intrinsics, intrinsics_sigma=sigma),
+        Camera(camera_id="right", intrinsics=CAM1.intrinsics),
+    ]
     info = SessionInfo(method="point", units="in", camera_ids=("cam0", "right"))
     path = tmp_path / "s.mcap"
     with SessionWriter(path, info, cams):
@@ -304,9 +335,9 @@ def test_the_calibrations_sigma_travels_with_its_camera(tmp_path: Path) -> None:
         assert r.cameras["cam0"].intrinsics_sigma == sigma
         assert r.cameras["right"].intrinsics_sigma == {}
     with pytest.raises(InputValueError, match="unknown intrinsic 'f'"):
-        Camera("cam0", CAM0.intrinsics, {"f": 1.0})
+        Camera(camera_id="cam0", intrinsics=CAM0.intrinsics, intrinsics_sigma={"f": 1.0})
     with pytest.raises(InputValueError, match="must be >= 0"):
-        Camera("cam0", CAM0.intrinsics, {"fx": -1.0})
+        Camera(camera_id="cam0", intrinsics=CAM0.intrinsics, intrinsics_sigma={"fx": -1.0})
 
 
 def test_newer_major_version_is_refused_clearly(tmp_path: Path) -> None:
@@ -338,7 +369,7 @@ def _capture_then_fail(w: SessionWriter) -> None:
 def test_capture_interrupted_by_an_error_is_kept_and_marked_incomplete(tmp_path: Path) -> None:
     path = tmp_path / "s.mcap"
     with SessionWriter(path, SessionInfo(method="point", units="in"), [CAM0], start_ns=0) as w:
-        w.write_pose(PoseEntry(1, 1, "cam0", (0, 0, 0)), 1)
+        w.write_pose(PoseEntry(trial=1, pose=1, camera_id="cam0", t_grid=(0, 0, 0)), 1)
         with pytest.raises(RuntimeError):
             _capture_then_fail(w)
     with SessionReader(path) as r:
@@ -352,18 +383,37 @@ def test_capture_interrupted_by_an_error_is_kept_and_marked_incomplete(tmp_path:
 @pytest.mark.parametrize(
     ("make", "message"),
     [
-        (lambda: PoseEntry(1, 1, "cam0", (0.0, math.nan, 0.0)), "finite"),
-        (lambda: PoseEntry(1, 1, "cam0", (0.0, 1.0)), "3 numbers"),
-        (lambda: PoseEntry(-1, 1, "cam0", (0.0, 0.0, 0.0)), "trial"),
-        (lambda: PoseEntry(1, 1, "cam 0", (0.0, 0.0, 0.0)), "camera id"),
-        (lambda: PoseEntry(1, 1, "cam0", (0, 0, 0), translation_resolution=0.0), "positive"),
+        (
+            lambda: PoseEntry(trial=1, pose=1, camera_id="cam0", t_grid=(0.0, math.nan, 0.0)),
+            "finite",
+        ),
+        (lambda: PoseEntry(trial=1, pose=1, camera_id="cam0", t_grid=(0.0, 1.0)), "3 numbers"),
+        (lambda: PoseEntry(trial=-1, pose=1, camera_id="cam0", t_grid=(0.0, 0.0, 0.0)), "trial"),
+        (
+            lambda: PoseEntry(trial=1, pose=1, camera_id="cam 0", t_grid=(0.0, 0.0, 0.0)),
+            "camera id",
+        ),
+        (
+            lambda: PoseEntry(
+                trial=1, pose=1, camera_id="cam0", t_grid=(0, 0, 0), translation_resolution=0.0
+            ),
+            "positive",
+        ),
         (lambda: SessionInfo(method="triangle", units="in"), "method"),  # type: ignore[arg-type]
         (lambda: SessionInfo(method="point", units="furlong"), "units"),
-        (lambda: GroundTruth(1, "line", ((0, 0, 0),)), "needs 2"),
-        (lambda: GroundTruth(1, "line", ((1, 2, 3), (1, 2, 3))), "must differ"),
+        (lambda: GroundTruth(trial=1, kind="line", points_grid=((0, 0, 0),)), "needs 2"),
+        (
+            lambda: GroundTruth(trial=1, kind="line", points_grid=((1, 2, 3), (1, 2, 3))),
+            "must differ",
+        ),
         (lambda: GroundPlane(offset=math.inf), "finite"),
         (lambda: GroundPlane(offset=1.0, normal_grid=(0, 0, 0)), "zero"),
-        (lambda: CaptureWindow(1, 1, "cam0", 10, 5, 0), "before it starts"),
+        (
+            lambda: CaptureWindow(
+                trial=1, pose=1, camera_id="cam0", start_ns=10, end_ns=5, n_frames=0
+            ),
+            "before it starts",
+        ),
     ],
 )
 def test_invalid_typed_values_never_reach_a_file(make: object, message: str) -> None:
@@ -376,7 +426,7 @@ def test_writer_rejects_unknown_camera(tmp_path: Path) -> None:
         SessionWriter(tmp_path / "s.mcap", SessionInfo(method="point", units="in"), [CAM0]) as w,
         pytest.raises(InputValueError, match="not in this session"),
     ):
-        w.write_pose(PoseEntry(1, 1, "right", (0, 0, 0)))
+        w.write_pose(PoseEntry(trial=1, pose=1, camera_id="right", t_grid=(0, 0, 0)))
 
 
 def test_ground_plane_is_normalised() -> None:
@@ -520,7 +570,7 @@ def test_a_chunk_over_the_size_limit_is_refused_before_it_is_decompressed(
 
     path = tmp_path / "bomb.mcap"
     with SessionWriter(path, SessionInfo(method="point", units="in"), [CAM0], start_ns=0) as w:
-        w.write_note(Note("x" * 8_000_000), 1)
+        w.write_note(Note(text="x" * 8_000_000), 1)
     assert path.stat().st_size < 100_000
     monkeypatch.setenv("TWOPOSE_MAX_CHUNK_MB", "1")
     with pytest.raises(SessionFormatError, match=r"over the limit of 1 MB.*decompression bomb"):

@@ -18,11 +18,15 @@ from twopose.format.reader import SessionReader
 from twopose.format.trials import describe_session, iter_trials
 from twopose.format.writer import SessionWriter
 
-CAM = Camera("cam0", Intrinsics(32, 24, 30.0, 30.0, 16.0, 12.0))
+CAM = Camera(
+    camera_id="cam0", intrinsics=Intrinsics(width=32, height=24, fx=30.0, fy=30.0, cx=16.0, cy=12.0)
+)
 
 
 def _capture(w: SessionWriter, trial: int, pose: int, n: int, t0: int, fail: bool = False) -> None:
-    w.write_pose(PoseEntry(trial, pose, "cam0", (float(pose), 0.0, 0.0)), t0)
+    w.write_pose(
+        PoseEntry(trial=trial, pose=pose, camera_id="cam0", t_grid=(float(pose), 0.0, 0.0)), t0
+    )
     with w.capture(trial, pose, "cam0") as cap:
         for k in range(n):
             cap.add_frame(np.full((24, 32, 3), 10 * k, np.uint8), t0 + 1 + k)
@@ -35,23 +39,38 @@ def _numbered(
 ) -> int:
     """A format 1.1 capture: the pose entry and window bound by number, then the decision."""
     number = w.new_capture_number()
-    w.write_pose(PoseEntry(trial, pose, "cam0", (float(t0), 0.0, 0.0), capture=number), t0)
+    w.write_pose(
+        PoseEntry(
+            trial=trial, pose=pose, camera_id="cam0", t_grid=(float(t0), 0.0, 0.0), capture=number
+        ),
+        t0,
+    )
     with w.capture(trial, pose, "cam0", number) as cap:
         for k in range(frames):
             cap.add_frame(np.full((24, 32, 3), 10 * k, np.uint8), t0 + 1 + k)
     if decision is not None:
-        w.write_decision(CaptureDecision(number, trial, pose, "cam0", decision, "test"), t0 + 9)
+        w.write_decision(
+            CaptureDecision(
+                capture=number,
+                trial=trial,
+                pose=pose,
+                camera_id="cam0",
+                decision=decision,
+                reason="test",
+            ),
+            t0 + 9,
+        )
     return number
 
 
 def _session(path: Path) -> None:
     info = SessionInfo(method="point", units="in", notes="session note")
     with SessionWriter(path, info, [CAM], image_format="png", start_ns=0) as w:
-        w.write_ground_truth(GroundTruth(1, "point", ((1.0, 2.0, 3.0),)), 5)
+        w.write_ground_truth(GroundTruth(trial=1, kind="point", points_grid=((1.0, 2.0, 3.0),)), 5)
         _capture(w, 1, 1, 3, 10)
         _capture(w, 1, 2, 2, 20)
         _capture(w, 1, 2, 4, 30)  # redone: replaces the capture above
-        w.write_note(Note("glare on pose 2", 1), 40)
+        w.write_note(Note(text="glare on pose 2", trial=1), 40)
         _capture(w, 2, 1, 2, 50)
         _capture(w, 2, 2, 1, 60, fail=True)
 
@@ -111,10 +130,17 @@ def test_format_1_1_replays_exactly_the_accepted_captures(tmp_path: Path) -> Non
         _numbered(w, 1, 2, 30, "accept", frames=3)
         a = _numbered(w, 2, 1, 40, "accept")
         _numbered(w, 2, 2, 50, "discard")  # undo ...
-        w.write_decision(CaptureDecision(a, 2, 1, "cam0", "discard", "undone"), 59)
+        w.write_decision(
+            CaptureDecision(
+                capture=a, trial=2, pose=1, camera_id="cam0", decision="discard", reason="undone"
+            ),
+            59,
+        )
         # ... pose 1 retyped, then the capture cut short by Ctrl-C and never decided
         number = w.new_capture_number()
-        w.write_pose(PoseEntry(2, 1, "cam0", (0.5, 0.0, 0.0), capture=number), 60)
+        w.write_pose(
+            PoseEntry(trial=2, pose=1, camera_id="cam0", t_grid=(0.5, 0.0, 0.0), capture=number), 60
+        )
     replayed = _replayed(path)
     assert replayed == [(1, [(1, 10.0, 2), (2, 30.0, 3)]), (2, [])]
     with SessionReader(path) as r:
@@ -135,11 +161,15 @@ def test_an_undecided_or_incomplete_capture_is_never_measured(tmp_path: Path) ->
         _numbered(w, 1, 1, 10, "accept")
         _numbered(w, 1, 2, 20, None)  # the recorder died before the decision
         n = w.new_capture_number()
-        w.write_pose(PoseEntry(1, 3, "cam0", (3.0, 0.0, 0.0), capture=n), 30)
+        w.write_pose(
+            PoseEntry(trial=1, pose=3, camera_id="cam0", t_grid=(3.0, 0.0, 0.0), capture=n), 30
+        )
         with w.capture(1, 3, "cam0", n) as cap:
             cap.add_frame(np.zeros((24, 32, 3), np.uint8), 31)
             cap.mark_incomplete("camera unplugged")
-        w.write_decision(CaptureDecision(n, 1, 3, "cam0", "accept"), 39)  # another writer
+        w.write_decision(
+            CaptureDecision(capture=n, trial=1, pose=3, camera_id="cam0", decision="accept"), 39
+        )  # another writer
     assert _replayed(path) == [(1, [(1, 10.0, 2)])]
     o = describe_session(path)
     assert (o.n_poses, o.n_captures, o.n_incomplete_captures, o.n_set_aside) == (1, 3, 1, 2)
@@ -150,10 +180,10 @@ def test_notes_reach_their_trial_wherever_they_were_typed(tmp_path: Path) -> Non
     with SessionWriter(
         path, SessionInfo(method="point", units="in"), [CAM], image_format="png", start_ns=0
     ) as w:
-        w.write_note(Note("before anything", None), 1)
+        w.write_note(Note(text="before anything", trial=None), 1)
         _numbered(w, 1, 1, 10, "accept")
         _numbered(w, 2, 1, 20, "accept")
-        w.write_note(Note("about trial 1, typed late", 1), 30)
+        w.write_note(Note(text="about trial 1, typed late", trial=1), 30)
     with SessionReader(path) as r:
         trials = list(iter_trials(r, with_frames=False))
     assert [t.notes for t in trials] == [("about trial 1, typed late",), ()]

@@ -1,0 +1,19 @@
+"""The analyst's closed sets of names, declared once for the library and the command line.
+
+Like :mod:`twopose.choices`: a :data:`~typing.Literal` types the option record, and typer
+makes it the command line's choices. Nothing heavy is imported, so that the command line
+reads it at start-up.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+__all__ = ["Estimator", "RigCalibrationMode"]
+
+#: The estimate a comparison reads from a run (``thesis``: ``x, y, z``; ``optimal``: the
+#: reprojection-optimal estimate; ``weighted``: the weighted/robust line fit).
+Estimator = Literal["thesis", "optimal", "weighted"]
+#: ``--rig-calibration``: ``loo`` also corrects each trial by the rig constants that its
+#: session's other trials give.
+RigCalibrationMode = Literal["none", "loo"]
