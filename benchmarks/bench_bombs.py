@@ -21,6 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
+from twopose.methods import Method
+from twopose.units import Units
+
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
@@ -37,7 +40,9 @@ CAM = Camera(
 
 def frame_bomb(path: Path) -> None:
     good = np.full((480, 640, 3), 200, np.uint8)
-    with SessionWriter(path, SessionInfo(method="point", units="in"), [CAM], start_ns=0) as w:
+    with SessionWriter(
+        path, SessionInfo(method=Method.POINT, units=Units.IN), [CAM], start_ns=0
+    ) as w:
         w.write_ground_truth(GroundTruth(trial=1, kind="point", points_grid=((0.5, 1.5, 11.0),)), 1)
         t = 10
         for pose in (1, 2):
@@ -48,7 +53,9 @@ def frame_bomb(path: Path) -> None:
 
 
 def chunk_bomb(path: Path) -> None:
-    with SessionWriter(path, SessionInfo(method="point", units="in"), [CAM], start_ns=0) as w:
+    with SessionWriter(
+        path, SessionInfo(method=Method.POINT, units=Units.IN), [CAM], start_ns=0
+    ) as w:
         w.write_note(Note(text="x" * 300_000_000), 1)
 
 

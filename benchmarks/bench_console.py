@@ -39,7 +39,7 @@ def make_video(folder: Path, n_frames: int) -> Path:
     session = folder / "frames.mcap"
     simulate_session(session, method="ground", trials=1, frames=max(2, n_frames // 2), seed=5)
     video = folder / "frames.avi"
-    writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"MJPG"), 30.0, (640, 480))
+    writer = cv2.VideoWriter(str(video), cv2.VideoWriter.fourcc(*"MJPG"), 30.0, (640, 480))
     with SessionReader(session) as reader:
         for entry in reader.iter_entries():
             if isinstance(entry, Frame):

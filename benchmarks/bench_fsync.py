@@ -14,6 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
+from twopose.methods import Method
+from twopose.units import Units
+
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
@@ -35,7 +38,7 @@ def main() -> int:
     syncs = []
     with tempfile.TemporaryDirectory(dir=REPO) as tmp:  # the disk sessions are written to
         path = Path(tmp) / "s.mcap"
-        with SessionWriter(path, SessionInfo(method="point", units="in"), [cam]) as w:
+        with SessionWriter(path, SessionInfo(method=Method.POINT, units=Units.IN), [cam]) as w:
             for k in range(args.captures):
                 number = w.new_capture_number()
                 w.write_pose(

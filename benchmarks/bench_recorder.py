@@ -42,7 +42,7 @@ def _video(work: Path, scene: Path, width: int, height: int, frames: int) -> Pat
     """A video of the synthetic scene (what a camera recording would be)."""
     path = work / f"video_{width}.avi"
     src = SyntheticSource(scene, "ground", realtime=False)
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), FPS, (width, height))
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter.fourcc(*"MJPG"), FPS, (width, height))
     with src:
         for _ in range(frames):
             writer.write(src.read())

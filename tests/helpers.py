@@ -21,7 +21,7 @@ from twopose.format.writer import SessionWriter
 
 
 def write_video(path: Path, n: int, size: tuple[int, int] = (64, 48), step: int = 20) -> Path:
-    w = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 30.0, size)
+    w = cv2.VideoWriter(str(path), cv2.VideoWriter.fourcc(*"MJPG"), 30.0, size)
     assert w.isOpened()
     for i in range(n):
         w.write(np.full((size[1], size[0], 3), step * i, np.uint8))

@@ -16,6 +16,8 @@ from hypothesis import strategies as st
 from analysis.cli import app as analyze
 from recorder.cli import app as record
 from tests.fuzzing import Outcomes, check_command
+from twopose.methods import Method
+from twopose.units import Units
 
 TWO_POSES = "poses = [{t=[0,0,0]},{t=[1,0,0]}]\n"
 PLANS = {
@@ -223,7 +225,7 @@ def test_info_on_a_pose_for_an_unknown_camera_and_a_huge_version(tmp_path: Path)
         camera_id="cam0",
         intrinsics=Intrinsics(width=64, height=48, fx=50.0, fy=50.0, cx=32.0, cy=24.0),
     )
-    with SessionWriter(ghost, SessionInfo(method="point", units="in"), [cam]) as w:
+    with SessionWriter(ghost, SessionInfo(method=Method.POINT, units=Units.IN), [cam]) as w:
         w._write_json(
             PoseEntry(trial=1, pose=1, camera_id="ghost", t_grid=(0.0, 0.0, 0.0), capture=1), 5
         )  # unchecked
@@ -261,13 +263,17 @@ def test_impossible_values_are_refused_not_accepted_silently(tmp_path: Path) -> 
         intrinsics=Intrinsics(width=64, height=48, fx=50.0, fy=50.0, cx=32.0, cy=24.0),
     )
     mixed = tmp_path / "mixed.mcap"
-    with SessionWriter(mixed, SessionInfo(method="point", units="in", format_version="1.0"), [cam]):
+    with SessionWriter(
+        mixed, SessionInfo(method=Method.POINT, units=Units.IN, format_version="1.0"), [cam]
+    ):
         pass
     with pytest.raises(SessionFormatError, match=r"says format 1\.0 but the twopose metadata"):
         SessionReader(mixed).__enter__()
 
     moved = tmp_path / "moved.mcap"
-    with SessionWriter(moved, SessionInfo(method="point", units="in"), [cam], start_ns=0) as w:
+    with SessionWriter(
+        moved, SessionInfo(method=Method.POINT, units=Units.IN), [cam], start_ns=0
+    ) as w:
         frame = w.encode_image(np.zeros((48, 64, 3), np.uint8))
         original = w.write_image
         w.write_image = lambda cid, data, t: w._write_proto(  # type: ignore[method-assign]

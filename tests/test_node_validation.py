@@ -22,6 +22,8 @@ from recorder.plan import load_plan, record_plan
 from recorder.recover import recover_session
 from recorder.simulate import simulate_session
 from recorder.sources import SyntheticSource
+from twopose.methods import Method
+from twopose.units import Units
 
 NODE_DIR = Path(__file__).parent / "node"
 SESSIONS = Path(__file__).parents[1] / "sessions"
@@ -101,7 +103,7 @@ def _decided(path: Path) -> Path:
     )
     with (
         SyntheticSource(None, "point", realtime=False) as src,
-        SessionWriter(path, SessionInfo(method="point", units="in"), [cam]) as w,
+        SessionWriter(path, SessionInfo(method=Method.POINT, units=Units.IN), [cam]) as w,
     ):
         proc = Procedure(w)
         proc.begin_trial(1, 2)

@@ -15,7 +15,9 @@ from twopose.errors import EXIT_ERROR, EXIT_SOME_INPUTS_FAILED
 from twopose.format.entries import Note, SessionInfo
 from twopose.format.trials import describe_session
 from twopose.format.writer import SessionWriter
+from twopose.methods import Method
 from twopose.text import first_control
+from twopose.units import Units
 
 runner = CliRunner()
 
@@ -81,7 +83,11 @@ def test_info_shows_control_characters_in_notes_escaped_not_obeyed(tmp_path: Pat
         intrinsics=Intrinsics(width=32, height=24, fx=30.0, fy=30.0, cx=16.0, cy=12.0),
     )
     with SessionWriter(
-        path, SessionInfo(method="point", units="in"), [cam], image_format="png", start_ns=0
+        path,
+        SessionInfo(method=Method.POINT, units=Units.IN),
+        [cam],
+        image_format="png",
+        start_ns=0,
     ) as w:
         w.write_note(Note(text=hostile, trial=None), 1)
         w.write_note(Note(text="plain, né à Zoë 北京", trial=1), 2)

@@ -208,6 +208,7 @@ def _zombie(pid: int) -> bool:
         return True
 
 
+@pytest.mark.slow
 def test_a_ctrl_c_python_swallowed_is_raised_again_without_a_traceback() -> None:
     """A Ctrl-C landing in a weakref callback is printed and ignored by Python (the run
     went on to its end, a traceback on the screen): it now stops the command there."""

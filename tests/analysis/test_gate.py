@@ -80,10 +80,12 @@ def test_a_worse_rmse_is_printed_with_its_size_and_fails(baseline: Path, tmp_pat
     assert "+50%" in line
     assert "1 regression(s)" in result.output
     cases = ET.parse(junit).getroot().findall(".//testcase")
-    assert sorted(c.get("classname") for c in cases) == ["twopose.ground", "twopose.point"]
+    assert sorted(c.get("classname", "") for c in cases) == ["twopose.ground", "twopose.point"]
     failed = [c for c in cases if c.find("failure") is not None]
     assert [c.get("name") for c in failed] == ["ground.mcap"]
-    assert "rmse" in failed[0].find("failure").get("message")
+    failure = failed[0].find("failure")
+    assert failure is not None
+    assert "rmse" in failure.get("message", "")
 
 
 def test_worse_within_tolerance_is_printed_but_passes(baseline: Path, tmp_path: Path) -> None:

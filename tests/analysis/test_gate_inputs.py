@@ -321,6 +321,7 @@ def _ground_rmse_allowance(tolerance: dict[str, Any], baseline_rmse: float) -> f
     return max(float(rmse["absolute"]), float(rmse["relative"]) * abs(baseline_rmse))
 
 
+@pytest.mark.slow
 @settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(tolerance=tolerance_files(), factor=st.floats(min_value=1.0, max_value=4.0))
 def test_generated_tolerance_files_are_refused_or_applied_exactly(
@@ -424,6 +425,7 @@ def _one_numeric_ground_rmse(table: Table) -> bool:
         return False
 
 
+@pytest.mark.slow
 @settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(run_edits=EDITS, baseline_edits=EDITS, worse=st.booleans())
 def test_generated_summaries_exit_0_1_or_3_and_never_pass_a_worse_run(
@@ -451,6 +453,7 @@ def test_generated_summaries_exit_0_1_or_3_and_never_pass_a_worse_run(
         assert code == (1 if worse else 0), output
 
 
+@pytest.mark.slow
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(a_edits=EDITS, b_edits=EDITS, estimator=st.sampled_from(["thesis", "optimal"]))
 def test_generated_trials_tables_compare_or_are_refused_with_a_message(

@@ -72,7 +72,7 @@ def test_uncertainty_columns_of_a_known_covariance() -> None:
     cov = np.diag([4.0, 1.0, 0.25])[None]
     cols = uncertainty_columns(np.array([[2.0, 0.0, 0.0]]), cov)
     np.testing.assert_allclose(
-        [cols["sigma_x"], cols["sigma_y"], cols["sigma_z"]], [[2], [1], [0.5]]
+        np.array([cols["sigma_x"], cols["sigma_y"], cols["sigma_z"]]), [[2.0], [1.0], [0.5]]
     )
     np.testing.assert_allclose(cols["nees"], [1.0])  # (2 / 2)^2
     assert cols["nees_dof"][0] == 3

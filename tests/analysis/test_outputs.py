@@ -20,6 +20,8 @@ from twopose.camera import Camera, Intrinsics
 from twopose.errors import EXIT_ERROR
 from twopose.format.entries import GroundTruth, PoseEntry, SessionInfo
 from twopose.format.writer import SessionWriter
+from twopose.methods import Method
+from twopose.units import Units
 
 runner = CliRunner()
 
@@ -99,7 +101,7 @@ def _noted_session(path: Path) -> Path:
     truth = GroundTruth(trial=0, kind="point", points_grid=((0.5, 1.5, 11.0),))
     with (
         SyntheticSource(None, "point", realtime=False) as src,
-        SessionWriter(path, SessionInfo(method="point", units="in"), [cam]) as w,
+        SessionWriter(path, SessionInfo(method=Method.POINT, units=Units.IN), [cam]) as w,
     ):
         proc = Procedure(w)
         proc.note("lamp flickered all session")
@@ -119,6 +121,7 @@ def _noted_session(path: Path) -> Path:
     return path
 
 
+@pytest.mark.slow
 def test_notes_reach_info_trials_csv_and_the_report(tmp_path: Path) -> None:
     session = _noted_session(tmp_path / "noted.mcap")
     info = runner.invoke(app, ["info", str(session)], env={"COLUMNS": "200"})

@@ -46,8 +46,8 @@ def test_error_ellipses_have_the_95_percent_size_of_each_covariance() -> None:
     ellipses = error_ellipses(ok)
     k = np.sqrt(CHI2_95[2])
     # Full axes 2 k sigma: the major one along x (the larger sigma here), the minor along z.
-    np.testing.assert_allclose(ellipses._widths * 2, [2 * k * 0.5, 2 * k * 1.0])
-    np.testing.assert_allclose(ellipses._heights * 2, [2 * k * 0.25, 2 * k * 0.5])
+    np.testing.assert_allclose(ellipses.get_widths(), [2 * k * 0.5, 2 * k * 1.0])
+    np.testing.assert_allclose(ellipses.get_heights(), [2 * k * 0.25, 2 * k * 0.5])
     np.testing.assert_allclose(ellipses.get_offsets(), ok[["err_x", "err_z"]].to_numpy())
 
 

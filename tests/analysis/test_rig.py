@@ -17,10 +17,12 @@ from typer.testing import CliRunner
 from analysis.cli import app
 from analysis.pipeline import analyse_session, replay_views
 from analysis.rig import fit_constants, residuals, select_constants
-from analysis.rig_data import prepare_trials
+from analysis.rig_data import RigData, prepare_trials
 from recorder.simulate import simulate_session
+from twopose.methods import Method
 from twopose.rig import RigConstants
 from twopose.sim.scene import Scene
+from twopose.units import Units
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "sessions"))
 from make_sessions import THESIS_POSES
@@ -45,7 +47,7 @@ def sessions(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     return out
 
 
-def _data(path: Path):  # type: ignore[no-untyped-def]
+def _data(path: Path) -> RigData:
     return prepare_trials(replay_views(path))
 
 
@@ -133,7 +135,7 @@ def test_run_rig_calibration_loo_is_honest(sessions: dict[str, Path], tmp_path: 
     biased = trials[trials["session"].str.endswith("/with.mcap")]
     assert biased["within95_rig"].mean() > biased["within95"].astype(float).mean()
     rmse = {
-        Path(s).stem: (np.sqrt((g["err"] ** 2).mean()), np.sqrt((g["err_rig"] ** 2).mean()))
+        Path(str(s)).stem: (np.sqrt((g["err"] ** 2).mean()), np.sqrt((g["err_rig"] ** 2).mean()))
         for s, g in trials.groupby("session")
     }
     assert rmse["with"][1] < 0.7 * rmse["with"][0]
@@ -257,7 +259,8 @@ def _empty_session(
         intrinsics=Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0),
     )
     plane = GroundPlane(offset=ground) if ground is not None else None
-    with SessionWriter(path, SessionInfo(method=method, units=units), [camera], ground=plane):
+    info = SessionInfo(method=Method(method), units=Units(units))
+    with SessionWriter(path, info, [camera], ground=plane):
         pass
     return path
 

@@ -16,6 +16,8 @@ from tests.helpers import write_accepted_capture
 from twopose.camera import Camera, Intrinsics
 from twopose.format.entries import GroundTruth, PoseEntry, SessionInfo
 from twopose.format.writer import SessionWriter
+from twopose.methods import Method
+from twopose.units import Units
 
 TWO_TRIALS = "poses = [{ t = [0.0, 0.0, 0.0] }, { t = [1.1, 0.0, 0.0] }]\n"
 
@@ -48,7 +50,9 @@ def _written(path: Path, trials: tuple[int, ...], truth: tuple[float, float, flo
     )
     with (
         SyntheticSource(None, "point", realtime=False) as src,
-        SessionWriter(path, SessionInfo(method="point", units="in"), [cam], start_ns=0) as w,
+        SessionWriter(
+            path, SessionInfo(method=Method.POINT, units=Units.IN), [cam], start_ns=0
+        ) as w,
     ):
         t = 10
         for trial in trials:
@@ -106,7 +110,9 @@ def test_one_bad_frame_is_one_rejected_frame(tmp_path: Path, bad: str) -> None:
     path = tmp_path / "s.mcap"
     with (
         SyntheticSource(None, "point", realtime=False) as src,
-        SessionWriter(path, SessionInfo(method="point", units="in"), [cam], start_ns=0) as w,
+        SessionWriter(
+            path, SessionInfo(method=Method.POINT, units=Units.IN), [cam], start_ns=0
+        ) as w,
     ):
         w.write_ground_truth(GroundTruth(trial=1, kind="point", points_grid=((0.5, 1.5, 11.0),)), 1)
         t = 10

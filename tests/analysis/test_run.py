@@ -17,6 +17,8 @@ from twopose.camera import Camera, Intrinsics
 from twopose.errors import InputValueError
 from twopose.format.entries import GroundTruth, PoseEntry, SessionInfo
 from twopose.format.writer import SessionWriter
+from twopose.methods import Method
+from twopose.units import Units
 
 REQUIRED = [
     "session",
@@ -37,6 +39,7 @@ REQUIRED = [
 ]
 
 
+@pytest.mark.slow
 def test_exact_poses_leave_only_detection_error(exact_sessions: Path) -> None:
     result = run([exact_sessions])
     t = result.trials
@@ -140,7 +143,9 @@ def _handmade(path: Path, frames_by_pose: dict[int, list[np.ndarray]], poses: in
         camera_id="cam0",
         intrinsics=Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0),
     )
-    with SessionWriter(path, SessionInfo(method="point", units="in"), [cam], start_ns=0) as w:
+    with SessionWriter(
+        path, SessionInfo(method=Method.POINT, units=Units.IN), [cam], start_ns=0
+    ) as w:
         w.write_ground_truth(GroundTruth(trial=1, kind="point", points_grid=((0.0, 0.0, 10.0),)), 1)
         for k in range(1, poses + 1):
             w.write_pose(

@@ -197,7 +197,7 @@ def test_a_camera_keeps_a_frame_only_when_the_board_moved(tmp_path: Path) -> Non
     """A video holding each of 12 views 4 times: 12 views, not 48 (nor every 4th frame)."""
     views = sorted(_board_views(tmp_path / "views").iterdir())
     video = tmp_path / "board.avi"
-    writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"MJPG"), 30, (640, 480))
+    writer = cv2.VideoWriter(str(video), cv2.VideoWriter.fourcc(*"MJPG"), 30, (640, 480))
     for image in views:
         frame = cv2.imread(str(image))
         for _ in range(4):

@@ -59,6 +59,7 @@ def test_only_loopback_unless_host_says_so_and_then_a_warning(tmp_path: Path) ->
     assert "warning: --host 0.0.0.0 exposes the console" in preamble
 
 
+@pytest.mark.slow
 def test_the_server_killed_mid_capture_loses_nothing_accepted(tmp_path: Path) -> None:
     """SIGKILL while a capture is in progress: recover salvages the file, the trial
     accepted before is measured, the capture in progress is not."""

@@ -23,6 +23,8 @@ from twopose.format.entries import (
     SessionInfo,
 )
 from twopose.format.reader import SessionReader
+from twopose.methods import Method
+from twopose.units import Units
 
 runner = CliRunner()
 
@@ -143,6 +145,7 @@ class _CtrlCSource(SyntheticSource):
         return super().read(timeout_s)
 
 
+@pytest.mark.slow
 def test_the_undo_then_interrupt_scenario_never_reports_a_wrong_ok(tmp_path: Path) -> None:
     """The issue's scenario: trial 2 pose 1 accepted at 0 0 0, pose 2 at 1.1 0 0 undone,
     pose 1 retyped as 0.5 0 0, Ctrl-C during that capture. Trial 2 must not be measured
@@ -160,7 +163,7 @@ def test_the_undo_then_interrupt_scenario_never_reports_a_wrong_ok(tmp_path: Pat
         out,
         _CtrlCSource(at=10),  # 2 frames a capture: read 10 is the retyped pose's second
         op,
-        info=SessionInfo(method="point", units="in"),
+        info=SessionInfo(method=Method.POINT, units=Units.IN),
         camera=Camera(
             camera_id="cam0",
             intrinsics=Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0),
@@ -173,10 +176,10 @@ def test_the_undo_then_interrupt_scenario_never_reports_a_wrong_ok(tmp_path: Pat
     assert next(answers, None) is None  # every answer was used
     trials = analyse_session(out).trials.set_index("trial")
     assert trials.loc[1, "status"] == "ok"
-    assert trials.loc[1, "err"] < 0.05
+    assert float(trials.loc[1, "err"]) < 0.05
     assert trials.loc[2, "status"] == "incomplete"
-    assert "undone by capture 4" in trials.loc[2, "reason"]
-    assert "interrupted" in trials.loc[2, "reason"]
+    assert "undone by capture 4" in str(trials.loc[2, "reason"])
+    assert "interrupted" in str(trials.loc[2, "reason"])
 
 
 SETUP_OPTIONS = [

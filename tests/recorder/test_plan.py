@@ -153,6 +153,7 @@ def test_record_plan_python_api(tmp_path: Path) -> None:
     assert len(seen) == 8
 
 
+@pytest.mark.slow
 def test_ctrl_c_during_new_closes_the_session(tmp_path: Path) -> None:
     import os
     import signal

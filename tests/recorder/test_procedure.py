@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
 import pytest
+from numpy.typing import NDArray
 
 from recorder.capture import CaptureResult, Shortfall, capture_frames, detection_shortfall
 from recorder.procedure import (
@@ -29,11 +31,13 @@ from twopose.format.entries import CaptureDecision, CaptureWindow, Note, PoseEnt
 from twopose.format.reader import SessionReader
 from twopose.format.trials import iter_trials
 from twopose.format.writer import SessionWriter
+from twopose.methods import Method
+from twopose.units import Units
 
 CAM = Camera(
     camera_id="cam0", intrinsics=Intrinsics(width=32, height=24, fx=30.0, fy=30.0, cx=16.0, cy=12.0)
 )
-INFO = SessionInfo(method="point", units="in")
+INFO = SessionInfo(method=Method.POINT, units=Units.IN)
 
 
 def _frames(folder: Path, n: int = 60) -> Path:
@@ -204,7 +208,7 @@ class _InterruptingSource(ImagesSource):
         super().__init__(folder)
         self.at, self.reads = at, 0
 
-    def read(self, timeout_s: float = 2.0) -> np.ndarray:  # type: ignore[type-arg]
+    def read(self, timeout_s: float = 2.0) -> NDArray[np.uint8]:
         self.reads += 1
         if self.reads == self.at:
             raise KeyboardInterrupt
@@ -234,7 +238,7 @@ def test_ctrl_c_during_a_capture_closes_a_valid_file_and_discards_it(tmp_path: P
 def test_the_summary_line_counts_in_words() -> None:
     from recorder.summary import RecordingSummary
 
-    counts = {"n_incomplete": 0, "n_frames": 1, "n_found": 1, "seconds": 2.0}
+    counts: dict[str, Any] = {"n_incomplete": 0, "n_frames": 1, "n_found": 1, "seconds": 2.0}
     one = RecordingSummary(path=Path("s.mcap"), n_trials=1, n_captures=1, n_accepted=1, **counts)
     assert "1 trial (0 complete), 1 capture (1 accepted" in one.line()
     assert "1 frame (1 detected" in one.line()
@@ -266,6 +270,7 @@ def test_an_accepted_capture_is_synced_to_disk(
     assert len(synced) == 2 + 1  # two accepts, then the close
 
 
+@pytest.mark.slow
 def test_a_full_disk_while_recording_is_a_clear_error_and_recoverable(tmp_path: Path) -> None:
     """RLIMIT_FSIZE makes writes fail as on a full disk: the recorder says so, names
     recover, and recover salvages what reached the disk."""

@@ -38,11 +38,13 @@ from twopose.format.entries import GroundTruth, PoseEntry, SessionInfo
 from twopose.format.reader import SessionReader
 from twopose.format.trials import iter_trials
 from twopose.format.writer import SessionWriter
+from twopose.methods import Method
+from twopose.units import Units
 
 CAM = Camera(
     camera_id="cam0", intrinsics=Intrinsics(width=8, height=6, fx=10.0, fy=10.0, cx=4.0, cy=3.0)
 )
-INFO = SessionInfo(method="point", units="in")
+INFO = SessionInfo(method=Method.POINT, units=Units.IN)
 FRAMES = 2
 # The replayed pairs: (trial, pose) -> (typed x, capture number seen in every frame, frames)
 Pairs = dict[tuple[int, int], tuple[float, int, int]]

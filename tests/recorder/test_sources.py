@@ -15,6 +15,8 @@ from twopose.camera import Camera, Intrinsics
 from twopose.format.entries import CaptureWindow, PoseEntry, SessionInfo
 from twopose.format.reader import SessionReader
 from twopose.format.writer import SessionWriter
+from twopose.methods import Method
+from twopose.units import Units
 
 
 def test_video_source_reads_in_order_then_says_it_ended(tmp_path: Path) -> None:
@@ -77,7 +79,7 @@ def test_a_late_reader_of_a_paced_source_drops_frames_and_they_are_counted(tmp_p
     )
     with (
         SyntheticSource(None, "point") as src,
-        SessionWriter(out, SessionInfo(method="point", units="in"), [cam]) as w,
+        SessionWriter(out, SessionInfo(method=Method.POINT, units=Units.IN), [cam]) as w,
     ):
         src.read()
         time.sleep(0.2)  # six frame intervals at 30 fps
@@ -177,8 +179,13 @@ def test_a_pause_before_a_redone_capture_is_not_counted_as_dropped(
         )
     out = tmp_path / "s.mcap"
     summary = record(
-        out, SessionInfo(method="point", units="in"), [cam], source, Pausing(), frames=3
-    )  # type: ignore[arg-type]
+        out,
+        SessionInfo(method=Method.POINT, units=Units.IN),
+        [cam],
+        source,  # type: ignore[arg-type]  # a stand-in source that pauses between captures
+        Pausing(),
+        frames=3,
+    )
     with SessionReader(out) as r:
         windows = [e for e in r.iter_entries() if isinstance(e, CaptureWindow)]
     assert len(windows) == 3  # the redone capture, then poses 1 and 2

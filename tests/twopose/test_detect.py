@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from twopose.camera import project_points
+from twopose.choices import Target
 from twopose.detect import (
     DotParams,
     GloveParams,
@@ -198,7 +199,7 @@ def test_frames_not_found_are_ignored_and_none_found_is_not_found() -> None:
 
 
 @pytest.mark.parametrize("target", ["glove", "dot"])
-def test_an_empty_scene_is_a_not_found_detection_with_a_reason(target: str) -> None:
+def test_an_empty_scene_is_a_not_found_detection_with_a_reason(target: Target) -> None:
     """Nothing to find: not found, every measured value NaN (never a stale or zero centroid
     that could reach a solver), and a reason the operator can read."""
     blank = np.full((96, 128, 3), 200, np.uint8)

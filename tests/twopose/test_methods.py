@@ -46,7 +46,8 @@ def test_units_agree_with_each_other() -> None:
 
 
 def test_the_types_are_their_names() -> None:
-    assert Method.POINT == "point"
+    assert str(Method.POINT) == "point"
+    assert Method("point") == Method.POINT
     assert f"{Method.GROUND}" == "ground"
     assert json.dumps([Method.LINE, Units.CM]) == '["line", "cm"]'
 
@@ -68,11 +69,11 @@ def test_an_unknown_name_is_refused_naming_the_known_ones(
 
 
 def test_session_info_holds_the_types_and_writes_the_names() -> None:
-    info = SessionInfo(method="ground", units="mm")  # type: ignore[arg-type]
+    info = SessionInfo(method=Method.GROUND, units=Units.MM)  # type: ignore[arg-type]
     assert info.method is Method.GROUND
     assert info.units is Units.MM
     encoded = encode_entry(info)
     assert json.loads(encoded)["method"] == "ground"
     assert decode_entry(SessionInfo.SCHEMA_NAME, encoded) == info
     with pytest.raises(InputValueError, match="got 'plane'"):
-        SessionInfo(method="plane", units="in")  # type: ignore[arg-type]
+        SessionInfo(method="plane", units=Units.IN)  # type: ignore[arg-type]

@@ -16,6 +16,8 @@ from typer.testing import CliRunner
 from analysis.cli import app
 from twopose.camera import Intrinsics, project_points, rotation_from_angles_deg
 from twopose.solve import (
+    NViewLines,
+    NViewPoints,
     image_lines,
     projection_matrices,
     triangulate_lines,
@@ -315,11 +317,12 @@ def test_views_from_one_camera_centre_are_degenerate_for_every_method(
         end_a, end_b = _project(a[None].repeat(5, 0), R, t), _project(b[None].repeat(5, 0), R, t)
         theta = np.degrees(np.arctan2(*(end_b - end_a)[..., ::-1].transpose(2, 0, 1)))
         lines = image_lines(end_a, theta)
-        result = (
+        line_or_ground: NViewLines | NViewPoints = (
             triangulate_lines(lines, P)
             if method == "line"
             else triangulate_ground(lines, P, [0.0, 1.0, 0.0], 1.0)
         )
+        result = line_or_ground
     assert (result.status == "degenerate").all(), result.status
     assert all("no baseline" in r for r in result.reason)
     # The margin behind it: the centres subtend no angle at any point.

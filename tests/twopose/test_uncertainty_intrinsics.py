@@ -144,7 +144,7 @@ def _session(
             )
         views.append(row)
     ground = (np.array([0.0, 1.0, 0.0]), GROUND_HEIGHT) if method == "ground" else None
-    trials = SessionTrials(
+    session = SessionTrials(
         method=Method(method),
         units="in",
         trial_ids=tuple(range(len(views))),
@@ -152,7 +152,7 @@ def _session(
         truth=np.array(truth),
         ground=ground,
     )
-    estimate = estimate_session(trials, EstimateOptions())
+    estimate = estimate_session(session, EstimateOptions())
     rep = reported(estimate)
     within = uncertainty_columns(rep.error, rep.cov)["within95"]
     ok = (estimate.estimates.status == "ok") & np.isfinite(within)

@@ -21,16 +21,19 @@ from twopose.format.entries import (
     SessionInfo,
     SimulationTruth,
     TruePose,
+    TypedEntry,
     decode_entry,
     encode_entry,
     json_field,
     object_schema,
 )
+from twopose.methods import Method
+from twopose.units import Units
 
 EXAMPLES = [
     SessionInfo(
-        method="ground",
-        units="mm",
+        method=Method.GROUND,
+        units=Units.MM,
         operator="Ada",
         simulated=True,
         intrinsics_sigma={"cam0": {"fx": 0.93, "cy": 1.07}},
@@ -81,7 +84,7 @@ def test_every_entry_round_trips_through_its_json(entry: object) -> None:
 
 
 @pytest.mark.parametrize("cls", TYPED_ENTRIES, ids=lambda c: c.__name__)
-def test_schema_properties_are_the_declared_fields_in_order(cls: type) -> None:
+def test_schema_properties_are_the_declared_fields_in_order(cls: type[TypedEntry]) -> None:
     keys = [f.metadata["json"].split(".")[0] for f in dataclasses.fields(cls)]
     assert list(cls.JSON_SCHEMA["properties"]) == list(dict.fromkeys(keys))
     assert set(cls.JSON_SCHEMA["required"]) <= set(cls.JSON_SCHEMA["properties"])
@@ -102,7 +105,7 @@ def test_a_session_refuses_a_malformed_intrinsics_sigma(sigma: object, message: 
     from twopose.errors import InputValueError
 
     with pytest.raises(InputValueError, match=message):
-        SessionInfo(method="point", units="in", intrinsics_sigma=sigma)  # type: ignore[arg-type]
+        SessionInfo(method=Method.POINT, units=Units.IN, intrinsics_sigma=sigma)  # type: ignore[arg-type]
 
 
 def test_a_1_0_entry_leaves_the_capture_number_out() -> None:
@@ -171,7 +174,9 @@ def test_unknown_fields_are_ignored_and_missing_optional_ones_default() -> None:
         {"format_version": "1.3", "method": "point", "units": "in", "camera_ids": ["a"], "new": 1}
     ).encode()
     info = decode_entry("twopose.Session", payload)
-    assert info == SessionInfo(format_version="1.3", method="point", units="in", camera_ids=("a",))
+    assert info == SessionInfo(
+        format_version="1.3", method=Method.POINT, units=Units.IN, camera_ids=("a",)
+    )
 
 
 @pytest.mark.parametrize(

@@ -37,6 +37,8 @@ from twopose.format.messages import Frame
 from twopose.format.reader import SessionReader
 from twopose.format.trials import iter_trials
 from twopose.format.writer import SessionWriter
+from twopose.methods import Method
+from twopose.units import Units
 
 CAM0 = Camera(
     camera_id="cam0",
@@ -68,8 +70,8 @@ def _image(seed: int, shape: tuple[int, int] = (480, 640)) -> np.ndarray:
 def _write_full_session(path: Path, image_format: str) -> dict[str, object]:
     """A two-camera session with every typed entry; returns what went in."""
     info = SessionInfo(
-        method="ground",
-        units="in",
+        method=Method.GROUND,
+        units=Units.IN,
         camera_ids=("cam0", "right"),
         operator="Ada",
         notes="round trip",
@@ -249,7 +251,7 @@ def test_writer_refuses_to_overwrite(tmp_path: Path) -> None:
     path.write_bytes(b"precious data")
     with (
         pytest.raises(SessionExistsError, match="never overwrites"),
-        SessionWriter(path, SessionInfo(method="point", units="in"), [CAM0]),
+        SessionWriter(path, SessionInfo(method=Method.POINT, units=Units.IN), [CAM0]),
     ):
         pass
     assert path.read_bytes() == b"precious data"
@@ -270,7 +272,7 @@ def _raw_session(path: Path, format_version: str) -> None:
             0,
             json.dumps(
                 {
-                    **SessionInfo(method="point", units="in").to_json(),
+                    **SessionInfo(method=Method.POINT, units=Units.IN).to_json(),
                     "format_version": format_version,
                 }
             ).encode(),
@@ -325,7 +327,7 @@ def test_the_calibrations_sigma_travels_with_its_camera(tmp_path: Path) -> None:
         Camera(camera_id="cam0", intrinsics=CAM0.intrinsics, intrinsics_sigma=sigma),
         Camera(camera_id="right", intrinsics=CAM1.intrinsics),
     ]
-    info = SessionInfo(method="point", units="in", camera_ids=("cam0", "right"))
+    info = SessionInfo(method=Method.POINT, units=Units.IN, camera_ids=("cam0", "right"))
     path = tmp_path / "s.mcap"
     with SessionWriter(path, info, cams):
         pass
@@ -368,7 +370,9 @@ def _capture_then_fail(w: SessionWriter) -> None:
 
 def test_capture_interrupted_by_an_error_is_kept_and_marked_incomplete(tmp_path: Path) -> None:
     path = tmp_path / "s.mcap"
-    with SessionWriter(path, SessionInfo(method="point", units="in"), [CAM0], start_ns=0) as w:
+    with SessionWriter(
+        path, SessionInfo(method=Method.POINT, units=Units.IN), [CAM0], start_ns=0
+    ) as w:
         w.write_pose(PoseEntry(trial=1, pose=1, camera_id="cam0", t_grid=(0, 0, 0)), 1)
         with pytest.raises(RuntimeError):
             _capture_then_fail(w)
@@ -387,7 +391,7 @@ def test_capture_interrupted_by_an_error_is_kept_and_marked_incomplete(tmp_path:
             lambda: PoseEntry(trial=1, pose=1, camera_id="cam0", t_grid=(0.0, math.nan, 0.0)),
             "finite",
         ),
-        (lambda: PoseEntry(trial=1, pose=1, camera_id="cam0", t_grid=(0.0, 1.0)), "3 numbers"),
+        (lambda: PoseEntry(trial=1, pose=1, camera_id="cam0", t_grid=(0.0, 1.0)), "3 numbers"),  # type: ignore[arg-type]
         (lambda: PoseEntry(trial=-1, pose=1, camera_id="cam0", t_grid=(0.0, 0.0, 0.0)), "trial"),
         (
             lambda: PoseEntry(trial=1, pose=1, camera_id="cam 0", t_grid=(0.0, 0.0, 0.0)),
@@ -399,8 +403,8 @@ def test_capture_interrupted_by_an_error_is_kept_and_marked_incomplete(tmp_path:
             ),
             "positive",
         ),
-        (lambda: SessionInfo(method="triangle", units="in"), "method"),  # type: ignore[arg-type]
-        (lambda: SessionInfo(method="point", units="furlong"), "units"),
+        (lambda: SessionInfo(method="triangle", units=Units.IN), "method"),  # type: ignore[arg-type]
+        (lambda: SessionInfo(method=Method.POINT, units="furlong"), "units"),  # type: ignore[arg-type]
         (lambda: GroundTruth(trial=1, kind="line", points_grid=((0, 0, 0),)), "needs 2"),
         (
             lambda: GroundTruth(trial=1, kind="line", points_grid=((1, 2, 3), (1, 2, 3))),
@@ -423,7 +427,9 @@ def test_invalid_typed_values_never_reach_a_file(make: object, message: str) -> 
 
 def test_writer_rejects_unknown_camera(tmp_path: Path) -> None:
     with (
-        SessionWriter(tmp_path / "s.mcap", SessionInfo(method="point", units="in"), [CAM0]) as w,
+        SessionWriter(
+            tmp_path / "s.mcap", SessionInfo(method=Method.POINT, units=Units.IN), [CAM0]
+        ) as w,
         pytest.raises(InputValueError, match="not in this session"),
     ):
         w.write_pose(PoseEntry(trial=1, pose=1, camera_id="right", t_grid=(0, 0, 0)))
@@ -569,7 +575,9 @@ def test_a_chunk_over_the_size_limit_is_refused_before_it_is_decompressed(
     from twopose.format.entries import Note
 
     path = tmp_path / "bomb.mcap"
-    with SessionWriter(path, SessionInfo(method="point", units="in"), [CAM0], start_ns=0) as w:
+    with SessionWriter(
+        path, SessionInfo(method=Method.POINT, units=Units.IN), [CAM0], start_ns=0
+    ) as w:
         w.write_note(Note(text="x" * 8_000_000), 1)
     assert path.stat().st_size < 100_000
     monkeypatch.setenv("TWOPOSE_MAX_CHUNK_MB", "1")

@@ -17,6 +17,8 @@ from twopose.format.entries import (
 from twopose.format.reader import SessionReader
 from twopose.format.trials import describe_session, iter_trials
 from twopose.format.writer import SessionWriter
+from twopose.methods import Method
+from twopose.units import Units
 
 CAM = Camera(
     camera_id="cam0", intrinsics=Intrinsics(width=32, height=24, fx=30.0, fy=30.0, cx=16.0, cy=12.0)
@@ -64,7 +66,7 @@ def _numbered(
 
 
 def _session(path: Path) -> None:
-    info = SessionInfo(method="point", units="in", notes="session note")
+    info = SessionInfo(method=Method.POINT, units=Units.IN, notes="session note")
     with SessionWriter(path, info, [CAM], image_format="png", start_ns=0) as w:
         w.write_ground_truth(GroundTruth(trial=1, kind="point", points_grid=((1.0, 2.0, 3.0),)), 5)
         _capture(w, 1, 1, 3, 10)
@@ -123,7 +125,7 @@ def _replayed(path: Path) -> list[tuple[int, list[tuple[int, float, int]]]]:
 def test_format_1_1_replays_exactly_the_accepted_captures(tmp_path: Path) -> None:
     """The issue's scenario at the format level: accept, undo, retype, interrupted."""
     path = tmp_path / "s.mcap"
-    info = SessionInfo(method="point", units="in")
+    info = SessionInfo(method=Method.POINT, units=Units.IN)
     with SessionWriter(path, info, [CAM], image_format="png", start_ns=0) as w:
         _numbered(w, 1, 1, 10, "accept")
         _numbered(w, 1, 2, 20, "discard")  # redone
@@ -156,7 +158,11 @@ def test_format_1_1_replays_exactly_the_accepted_captures(tmp_path: Path) -> Non
 def test_an_undecided_or_incomplete_capture_is_never_measured(tmp_path: Path) -> None:
     path = tmp_path / "s.mcap"
     with SessionWriter(
-        path, SessionInfo(method="point", units="in"), [CAM], image_format="png", start_ns=0
+        path,
+        SessionInfo(method=Method.POINT, units=Units.IN),
+        [CAM],
+        image_format="png",
+        start_ns=0,
     ) as w:
         _numbered(w, 1, 1, 10, "accept")
         _numbered(w, 1, 2, 20, None)  # the recorder died before the decision
@@ -178,7 +184,11 @@ def test_an_undecided_or_incomplete_capture_is_never_measured(tmp_path: Path) ->
 def test_notes_reach_their_trial_wherever_they_were_typed(tmp_path: Path) -> None:
     path = tmp_path / "s.mcap"
     with SessionWriter(
-        path, SessionInfo(method="point", units="in"), [CAM], image_format="png", start_ns=0
+        path,
+        SessionInfo(method=Method.POINT, units=Units.IN),
+        [CAM],
+        image_format="png",
+        start_ns=0,
     ) as w:
         w.write_note(Note(text="before anything", trial=None), 1)
         _numbered(w, 1, 1, 10, "accept")
