@@ -81,7 +81,9 @@ def _project(truth: F64, P: F64) -> F64:
     return np.asarray(y[..., :2] / y[..., 2:])
 
 
-def trial(parallax_deg: float, samples: int, sigma_px: float, rng: np.random.Generator) -> dict:
+def trial(
+    parallax_deg: float, samples: int, sigma_px: float, rng: np.random.Generator
+) -> dict[str, float | str]:
     truth, P = geometry(parallax_deg, samples, rng)
     clean = _project(truth, P)
     inside = ((clean > 0) & (clean < [640, 480])).all(axis=(1, 2))

@@ -27,13 +27,14 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "benchmarks"))
 sys.path.insert(0, str(REPO / "sessions"))
 
-from bench_rig import RIG, rmse, simulate_pair  # noqa: E402
+from bench_rig import RIG, rmse, simulate_pair  # type: ignore[import-not-found]  # noqa: E402 - on sys.path at run time
 
 from analysis.batch import run  # noqa: E402
 from analysis.metrics import used_trials  # noqa: E402
@@ -102,9 +103,8 @@ def corrected(method: str, seed: int, fit: BoardRigFit, folder: Path) -> tuple[f
     both = set.intersection(*(set(used_trials(g)["trial"]) for g in by.values()))
     board = run([paths["with"]], None, options=AnalysisOptions(rig=fit.rig)).trials
 
-    def over_both(table: object, column: str) -> float:
-        t = table  # type: ignore[assignment]
-        return rmse(t[t["trial"].isin(both)][column].to_numpy())  # type: ignore[index]
+    def over_both(table: pd.DataFrame, column: str) -> float:
+        return float(rmse(table[table["trial"].isin(both)][column].to_numpy()))
 
     return (
         over_both(by["without"], "err"),

@@ -38,7 +38,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "sessions"))
 
-from make_sessions import THESIS_POSES  # noqa: E402
+from make_sessions import THESIS_POSES  # type: ignore[import-not-found]  # noqa: E402 - on sys.path at run time
 
 from analysis import run  # noqa: E402
 from analysis.outputs import replacing  # noqa: E402

@@ -23,6 +23,8 @@ from recorder.capture import CaptureResult
 from recorder.plan import Plan, PlannedPose, PlannedTrial, record_plan
 from recorder.sources import FrameSource, SyntheticSource, VideoSource
 from twopose.camera import Camera, Intrinsics
+from twopose.methods import Method
+from twopose.units import Units
 
 SIZES = ((640, 480), (1280, 720))
 FPS = 30.0
@@ -58,8 +60,8 @@ def _plan(width: int, height: int, frames: int) -> Plan:
     )
     poses = (PlannedPose(t_grid=(0.0, 0.0, 0.0)), PlannedPose(t_grid=(1.5, 0.0, -1.0)))
     return Plan(
-        method="ground",
-        units="in",
+        method=Method.GROUND,
+        units=Units.IN,
         cameras=(camera,),
         trials=(PlannedTrial(poses=poses, ground_truth=((1.91, 9.625, 8.375),)),),
         frames=frames,

@@ -24,7 +24,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_analysis import DECODE_LOOP, _python, count_frames, replicate
+from bench_analysis import DECODE_LOOP, _python, count_frames, replicate  # type: ignore[import-not-found]  # on sys.path at run time
 
 from recorder.simulate import simulate_session
 

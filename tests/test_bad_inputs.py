@@ -276,7 +276,7 @@ def test_impossible_values_are_refused_not_accepted_silently(tmp_path: Path) -> 
     ) as w:
         frame = w.encode_image(np.zeros((48, 64, 3), np.uint8))
         original = w.write_image
-        w.write_image = lambda cid, data, t: w._write_proto(  # type: ignore[method-assign]
+        w.write_image = lambda cid, data, t: w._write_proto(  # type: ignore[method-assign, assignment]
             "/twopose/camera/cam0/image", image_message("elsewhere", data, "jpeg", t), t
         )
         write_accepted_capture(

@@ -1,5 +1,6 @@
 """The array aliases every module annotates with (one home, so that a change of dtype
-policy is one edit): shapes are documented where the arrays are, in the docstrings."""
+policy is one edit): shapes are documented where the arrays are, in the docstrings.
+"""
 
 from __future__ import annotations
 

@@ -57,7 +57,8 @@ MIN_DEPTH_SPREAD = 0.1
 @dataclass(frozen=True, kw_only=True)
 class BoardRigFit:
     """The fitted constants, their 1-sigma (11, RIG_PARAMETERS order; the ground height
-    error is not fitted: 0 with sigma NaN) and how well the corners fit."""
+    error is not fitted: 0 with sigma NaN) and how well the corners fit.
+    """
 
     rig: RigConstants
     sigma: F64  # (11,)
@@ -73,7 +74,8 @@ def board_order(found_px: ArrayLike, inner_corners: tuple[int, int]) -> F64:
     order (:func:`twopose.sim.render.board_corners`: from the first inner corner, the lower
     left seen from the camera, rows along +x, rising): OpenCV starts from a corner of its
     choosing, so of the four orderings of the grid the one whose first corner is lowest
-    and leftmost in the image (an upright board, an upright camera) is taken."""
+    and leftmost in the image (an upright board, an upright camera) is taken.
+    """
     cols, rows = inner_corners
     grid = np.asarray(found_px, dtype=np.float64).reshape(rows, cols, 2)
     candidates = [grid[::dr, ::dc] for dr in (1, -1) for dc in (1, -1)]
@@ -92,7 +94,8 @@ def _prior_sigma(units: str) -> F64:
 def check_identifiable(t_typed: ArrayLike, board_depth: float) -> None:
     """Refuse, naming the poses to add, when the typed poses cannot determine the rig.
 
-    ``t_typed`` (C, 3) typed camera centres; ``board_depth`` the board's z (its plane)."""
+    ``t_typed`` (C, 3) typed camera centres; ``board_depth`` the board's z (its plane).
+    """
     t = np.asarray(t_typed, dtype=np.float64)
     if len(t) < 3:
         raise InputValueError(
@@ -118,7 +121,8 @@ def check_identifiable(t_typed: ArrayLike, board_depth: float) -> None:
 
 def _project(params: F64, corners: F64, t_typed: F64, r_typed: F64, intrinsics: F64) -> F64:
     """(C, K, 2) the corners' pixels for the constants ``params`` (10, FITTED order, then
-    optionally each capture's placing error (C, 3): where the laptop really was)."""
+    optionally each capture's placing error (C, 3): where the laptop really was).
+    """
     n = len(RigConstants().vector()) - 1
     rig = RigConstants.from_vector(np.append(params[:n], 0.0))
     placed = t_typed + params[n:].reshape(-1, 3) if len(params) > n else t_typed

@@ -45,6 +45,7 @@ class Intrinsics:
     distortion: tuple[float, float, float, float, float] = (0.0, 0.0, 0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
+        """Check the image size and the focal lengths, principal point and distortion."""
         for name in ("width", "height"):
             size = getattr(self, name)
             if isinstance(size, bool) or not isinstance(size, int | np.integer) or size <= 0:
@@ -60,7 +61,8 @@ class Intrinsics:
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], what: str) -> Intrinsics:
         """From ``width, height, fx, fy, cx, cy[, distortion]`` (calibration files, plans,
-        the session metadata); a missing or bad value raises InputValueError naming ``what``."""
+        the session metadata); a missing or bad value raises InputValueError naming ``what``.
+        """
         missing = [k for k in ("width", "height", "fx", "fy", "cx", "cy") if k not in data]
         if missing:
             raise InputValueError(f"{what}: missing {', '.join(missing)}")
@@ -98,6 +100,7 @@ class Intrinsics:
 
     @property
     def has_distortion(self) -> bool:
+        """Whether any distortion coefficient is non-zero."""
         return any(k != 0.0 for k in self.distortion)
 
 
@@ -108,13 +111,15 @@ SIGMA_KEYS = ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3")
 @dataclass(frozen=True, kw_only=True)
 class Camera:
     """A camera of a session: its id, its calibration and (format 1.2) the calibration's
-    1-sigma per intrinsic (:data:`SIGMA_KEYS`; empty when unknown, e.g. typed by hand)."""
+    1-sigma per intrinsic (:data:`SIGMA_KEYS`; empty when unknown, e.g. typed by hand).
+    """
 
     camera_id: str
     intrinsics: Intrinsics
     intrinsics_sigma: Mapping[str, float] = field(default_factory=dict, compare=False)
 
     def __post_init__(self) -> None:
+        """Check the camera id and the calibration's sigma."""
         camera_id(self.camera_id)
         object.__setattr__(self, "intrinsics_sigma", intrinsics_sigma(self.intrinsics_sigma))
 

@@ -21,7 +21,8 @@ def pairwise_max_sine(u: F64, valid: NDArray[np.bool_]) -> F64:
     """Largest sine of the angle between two valid unit vectors of each row (T, N, 3).
 
     One Gram matrix per row (``sin^2 = 1 - cos^2`` for unit vectors), in blocks of rows so
-    that memory stays near 8 MB whatever N: no Python loop over the N^2 pairs."""
+    that memory stays near 8 MB whatever N: no Python loop over the N^2 pairs.
+    """
     T, N = u.shape[:2]
     best = np.zeros(T)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -39,7 +40,8 @@ def pairwise_max_sine(u: F64, valid: NDArray[np.bool_]) -> F64:
 
 def pairwise_max_abs_dot(a: F64, b: F64, valid: NDArray[np.bool_]) -> F64:
     """Largest ``|a_i . b_j|`` over pairs of valid views of each row (T, N, 3), blocked
-    like :func:`pairwise_max_sine`."""
+    like :func:`pairwise_max_sine`.
+    """
     T, N = a.shape[:2]
     best = np.zeros(T)
     rows = max(1, 1_000_000 // max(N * N, 1))
@@ -57,7 +59,8 @@ def parallax_sine(P: ArrayLike, valid: ArrayLike, point_grid: ArrayLike) -> F64:
     point: the baseline as seen from the target, for every method (NaN without a point).
 
     For a point it is the ray parallax; for a line or a ground point it says what the plane
-    angles cannot: planes through (nearly) one camera centre meet, but anywhere."""
+    angles cannot: planes through (nearly) one camera centre meet, but anywhere.
+    """
     p = np.asarray(P, dtype=np.float64)
     ok = np.asarray(valid, dtype=bool)
     x = np.asarray(point_grid, dtype=np.float64)
@@ -67,7 +70,8 @@ def parallax_sine(P: ArrayLike, valid: ArrayLike, point_grid: ArrayLike) -> F64:
 
 def flag_no_baseline(centres: F64, ok: NDArray[np.bool_], status: Status, reason: Status) -> None:
     """Every method, one rule: views that all share one camera centre have no baseline, so
-    nothing can be triangulated from them, whatever the solver would return."""
+    nothing can be triangulated from them, whatever the solver would return.
+    """
     spread = np.abs(np.nan_to_num(np.where(ok[..., None], centres - centres[:, :1], 0.0)))
     scale = 1.0 + np.abs(np.nan_to_num(centres[:, :1])).max(axis=(1, 2))
     # One centre, up to the rounding of recovering it from P.

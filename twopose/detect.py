@@ -112,7 +112,8 @@ def wrap_theta_deg(theta_deg: NDArray[np.float64] | float) -> NDArray[np.float64
 def _wrapped_deg(theta_deg: float) -> float:
     """:func:`wrap_theta_deg` of one angle, in Python floats (the same IEEE operations:
     Python's ``%`` and NumPy's ``mod`` both take C's ``fmod`` and add the divisor when the
-    signs differ)."""
+    signs differ).
+    """
     t = (theta_deg + 90.0) % 180.0 - 90.0
     return 90.0 if t == -90.0 else t
 
@@ -211,7 +212,8 @@ _GREY_WEIGHTS = (3735, 19235, 9798)
 @functools.cache
 def _grey_weights_hold() -> bool:
     """Whether :data:`_GREY_WEIGHTS` are this OpenCV's (every colour agrees in the tests;
-    here 65,536 random colours and the extremes, once per process): if not, ``cvtColor``."""
+    here 65,536 random colours and the extremes, once per process): if not, ``cvtColor``.
+    """
     rng = np.random.default_rng(0)
     colours = np.concatenate(
         [rng.integers(0, 256, (1 << 16, 3)), np.repeat(np.arange(256), 3).reshape(-1, 3)]
@@ -584,7 +586,8 @@ def find_board(
 ) -> NDArray[np.float32] | None:
     """A checkerboard's inner corners (cols * rows, 1, 2), refined to sub-pixel
     (``cv2.findChessboardCorners`` then ``cv2.cornerSubPix`` in a (2 window + 1)^2 window:
-    keep it under half a square), in OpenCV's order; None where the board is not found."""
+    keep it under half a square), in OpenCV's order; None where the board is not found.
+    """
     grey = cv2.cvtColor(image_bgr, cv2.COLOR_BGR2GRAY)
     found, corners = cv2.findChessboardCorners(grey, inner_corners)
     if not found:

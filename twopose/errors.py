@@ -108,7 +108,8 @@ def watch_interrupts() -> None:
     finalizer or weakref callback it is printed and ignored, and the command would then
     finish with 0): :func:`interrupted` tells the command line to exit with 130. Such a
     KeyboardInterrupt is raised again in the main thread (without its traceback), so the
-    command stops there and then, not at its end."""
+    command stops there and then, not at its end.
+    """
     import signal
     import sys
 
@@ -118,7 +119,8 @@ def watch_interrupts() -> None:
 
 def _unraisable(info: object) -> None:
     """``sys.unraisablehook``: a Ctrl-C raised where Python can only print it is raised
-    again where it can stop the command; anything else is printed as Python would."""
+    again where it can stop the command; anything else is printed as Python would.
+    """
     import sys
 
     if isinstance(getattr(info, "exc_value", None), KeyboardInterrupt):
@@ -138,7 +140,8 @@ def interrupted() -> bool:
 
 def safe_console() -> None:
     """The command lines' output streams escape what they cannot encode (a file name that
-    is not valid UTF-8 is printed escaped, never a crash)."""
+    is not valid UTF-8 is printed escaped, never a crash).
+    """
     import sys
 
     for stream in (sys.stdout, sys.stderr):
@@ -152,7 +155,8 @@ def run_command_line(app: Callable[[], object]) -> None:
     output streams that never crash on a file name, a Ctrl-C anywhere exits 130 with one
     line (even one Python swallowed in a finalizer, :func:`watch_interrupts`), and every
     other exit is the command's own (:func:`handle_errors` turns a
-    :class:`TwoposeError` into its message and exit code inside each command)."""
+    :class:`TwoposeError` into its message and exit code inside each command).
+    """
     import sys
 
     safe_console()

@@ -65,18 +65,28 @@ DEFAULT_MIN_GROUND_ANGLE_DEG = 10.0  # between the line and the ground, method 2
 
 class EstimateSettings(Protocol):
     """What estimation reads from its options (``analysis.AnalysisOptions`` has it all;
-    the recorder's live result uses :class:`EstimateOptions`)."""
+    the recorder's live result uses :class:`EstimateOptions`).
+    """
 
     @property
-    def combine(self) -> CombineMethod: ...
+    def combine(self) -> CombineMethod:
+        """How a pose's frames are combined into one measurement."""
+
     @property
-    def min_conditioning(self) -> float: ...
+    def min_conditioning(self) -> float:
+        """Below this conditioning a trial is degenerate."""
+
     @property
-    def min_parallax_deg(self) -> float: ...
+    def min_parallax_deg(self) -> float:
+        """Warn when the rays' parallax is below this (degrees)."""
+
     @property
-    def min_plane_angle_deg(self) -> float: ...
+    def min_plane_angle_deg(self) -> float:
+        """Warn when the back-projected planes meet below this (degrees)."""
+
     @property
-    def min_ground_angle_deg(self) -> float: ...
+    def min_ground_angle_deg(self) -> float:
+        """Warn when the line meets the ground below this (degrees)."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -152,7 +162,8 @@ def measure(
 ) -> tuple[list[list[PoseMeasurement]], NDArray[np.bool_], NDArray[np.bool_]]:
     """Each pose's frames combined into one measurement (the thesis' mean, or median /
     robust). Returns the measurements (empty for a trial with fewer than two poses), and
-    per trial whether it is complete and whether every pose was detected."""
+    per trial whether it is complete and whether every pose was detected.
+    """
     complete = np.array([len(v) >= 2 for v in views], dtype=bool)
     measurements = [
         [combine_frames(v.centroids, v.thetas, v.found, options.combine) for v in row] if ok else []
@@ -177,6 +188,7 @@ class ViewBatch:
     def of(
         cls, measurements: list[list[PoseMeasurement]], views: list[list[PoseView]]
     ) -> ViewBatch:
+        """The padded batch of a session's trials, from their measurements and views."""
         T = len(measurements)
         N = max(len(row) for row in measurements)
         x = np.zeros((T, N, len(INPUTS_PER_VIEW)))
@@ -374,7 +386,8 @@ def input_covariance(
     median: bool,
 ) -> F64:
     """(T, N, 9, 9): each view's pixel covariance from its frame scatter, and its typed
-    pose's 1-sigma resolutions on the diagonal (padding views: zero)."""
+    pose's 1-sigma resolutions on the diagonal (padding views: zero).
+    """
     T, N, D = batch.inputs.shape
     C = np.zeros((T, N, D, D))
     for i, (row, row_views, row_scatter) in enumerate(
@@ -390,7 +403,8 @@ def input_covariance(
 def shared_intrinsics(views: list[list[PoseView]], batch: ViewBatch) -> Shared | None:
     """The intrinsics as inputs shared by each trial's views of one camera, with their
     calibration's covariance (diagonal: the calibration records 1-sigma per intrinsic);
-    None when no view's camera has a sigma, so such sessions propagate as before."""
+    None when no view's camera has a sigma, so such sessions propagate as before.
+    """
     if not any(v.intrinsics_sigma.any() for row in views for v in row):
         return None
     T, N = batch.valid.shape

@@ -20,7 +20,8 @@ __all__ = ["decode_image", "image_size", "max_image_pixels"]
 
 def max_image_pixels() -> int:
     """The largest image decoded (pixels): 50 MP (above every camera the method uses, about
-    150 MB decoded), or ``TWOPOSE_MAX_IMAGE_MPIX`` megapixels."""
+    150 MB decoded), or ``TWOPOSE_MAX_IMAGE_MPIX`` megapixels.
+    """
     try:
         megapixels = float(os.environ.get("TWOPOSE_MAX_IMAGE_MPIX", "50"))
     except ValueError:

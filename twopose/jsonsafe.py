@@ -20,12 +20,14 @@ __all__ = ["dumps", "finite_or_none", "jsonable"]
 
 
 def finite_or_none(value: float) -> float | None:
+    """``value``, or None when it is NaN or infinite (JSON has neither)."""
     return value if math.isfinite(value) else None
 
 
 def jsonable(value: Any) -> Any:
     """``value`` with every non-finite float (also in lists, tuples, dicts, NumPy arrays
-    and NumPy scalars) replaced by None, tuples as lists and NumPy values as Python's."""
+    and NumPy scalars) replaced by None, tuples as lists and NumPy values as Python's.
+    """
     if value is None or isinstance(value, str | int):  # bool is an int
         return value
     if isinstance(value, float):  # np.float64 too

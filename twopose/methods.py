@@ -107,7 +107,8 @@ METHODS: tuple[Method, ...] = tuple(METHOD_SPECS)
 
 def spec_of(method: str) -> MethodSpec:
     """The spec of ``method`` (a :class:`Method` or its name); an unknown name raises
-    :class:`~twopose.errors.InputValueError` listing the known ones."""
+    :class:`~twopose.errors.InputValueError` listing the known ones.
+    """
     try:
         return METHOD_SPECS[Method(method)]
     except ValueError:

@@ -228,7 +228,8 @@ def _best_start(
 ) -> tuple[F64, F64]:
     """The start of least cost among the algebraic line, the weighted one and (up to
     :data:`MAX_VIEWS_FOR_PAIRS` views) each pair of views' line: an algebraic line can sit
-    in another basin than the optimum when the planes meet at a small angle."""
+    in another basin than the optimum when the planes meet at a small angle.
+    """
     lines = segment_lines(seg)
     candidates = [(start.point_grid[rows], start.direction_grid[rows])]
     sigma = np.where(ok, 1.0 / np.where(weight > 0, weight, 1.0), 1.0)
@@ -285,7 +286,8 @@ def _rodrigues(w: F64) -> F64:
 
 class _Problem:
     """The residuals of one batch in its normalised frames: line projection matrices
-    ``l = A d + B m`` per view (``P' = P H`` with ``H`` the frame's scale and origin)."""
+    ``l = A d + B m`` per view (``P' = P H`` with ``H`` the frame's scale and origin).
+    """
 
     def __init__(
         self, seg: F64, P: F64, ok: NDArray[np.bool_], weight: F64, origin: F64, scale: F64
@@ -317,7 +319,8 @@ class _Problem:
 
     def jacobian(self, U: F64, w: F64, rows: NDArray[np.intp] | slice = slice(None)) -> F64:
         """(R, 2N, 4) of the weighted residuals of ``rows`` (lines ``U``, ``w`` of those
-        rows) in the orthonormal update (theta, dphi)."""
+        rows) in the orthonormal update (theta, dphi).
+        """
         u1, u2, u3 = U[..., 0], U[..., 1], U[..., 2]
         w1, w2 = w[:, :1], w[:, 1:]
         zero = np.zeros_like(u1)

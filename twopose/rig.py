@@ -81,6 +81,7 @@ class RigConstants:
     units: str | None = None
 
     def __post_init__(self) -> None:
+        """Check that the constants are finite and the scales plausible."""
         values = self.vector()
         if not np.isfinite(values).all():
             raise InputValueError(f"rig constants must be finite numbers, got {self}")
@@ -96,6 +97,7 @@ class RigConstants:
 
     @property
     def is_identity(self) -> bool:
+        """Whether these are the constants of a perfect rig (no correction)."""
         return bool(np.allclose(self.vector(), RigConstants().vector(), rtol=0.0, atol=0.0))
 
     def vector(self) -> F64:
@@ -108,6 +110,7 @@ class RigConstants:
 
     @classmethod
     def from_vector(cls, values: ArrayLike, units: str | None = None) -> RigConstants:
+        """The constants from the 11 scalars in :data:`RIG_PARAMETERS` order."""
         v = [float(x) for x in np.asarray(values, dtype=np.float64)]
         return cls(
             mount_rotation_deg=(v[0], v[1], v[2]),
@@ -121,7 +124,8 @@ class RigConstants:
 
     def true_poses(self, t_typed: ArrayLike, r_typed_deg: ArrayLike) -> tuple[F64, F64]:
         """Typed camera centres (..., 3) and angles (..., 3, degrees) -> the true centres
-        (..., 3) and rotations ``R_cam_to_grid`` (..., 3, 3)."""
+        (..., 3) and rotations ``R_cam_to_grid`` (..., 3, 3).
+        """
         t = np.asarray(t_typed, dtype=np.float64)
         R_typed = rotation_from_angles_deg(r_typed_deg)
         R_mount = rotation_from_angles_deg(self.mount_rotation_deg)
@@ -136,12 +140,14 @@ class RigConstants:
         return k
 
     def true_ground_height(self, typed: float) -> float:
+        """The true ground height for a typed one."""
         return typed - self.ground_height_error
 
 
 def angles_deg_from_rotation(R: ArrayLike) -> F64:
     """The angles ``(rx, ry, rz)`` (..., 3) in degrees with ``rotation_from_angles_deg``
-    giving ``R`` (..., 3, 3) (``R = Rx Ry Rz``; ry in [-90, 90])."""
+    giving ``R`` (..., 3, 3) (``R = Rx Ry Rz``; ry in [-90, 90]).
+    """
     m = np.asarray(R, dtype=np.float64)
     ry = np.arcsin(np.clip(m[..., 0, 2], -1.0, 1.0))
     rx = np.arctan2(-m[..., 1, 2], m[..., 2, 2])
@@ -152,7 +158,8 @@ def angles_deg_from_rotation(R: ArrayLike) -> F64:
 
 def corrected_view(view: PoseView, rig: RigConstants) -> PoseView:
     """A pose as the rig really had it: typed centre, angles and intrinsics corrected
-    (refused if the rig's principal offset is beyond a quarter of this view's image)."""
+    (refused if the rig's principal offset is beyond a quarter of this view's image).
+    """
     check_plausible(rig, image_size=view.width_height, only=["principal_offset_px"])
     t, R = rig.true_poses(view.t_grid, view.r_deg)
     return dataclasses.replace(
@@ -165,7 +172,8 @@ def corrected_view(view: PoseView, rig: RigConstants) -> PoseView:
 
 def corrected_ground(ground: GroundSpec | None, rig: RigConstants) -> GroundSpec | None:
     """The ground plane at its true height (the typed one minus the rig's error; refused
-    if the error is beyond half the ground height)."""
+    if the error is beyond half the ground height).
+    """
     if ground is None:
         return None
     check_plausible(rig, ground_height=ground_height(ground), only=["ground_height_error"])
@@ -175,7 +183,8 @@ def corrected_ground(ground: GroundSpec | None, rig: RigConstants) -> GroundSpec
 
 def ground_height(ground: GroundSpec | None) -> float | None:
     """The typed distance from the grid's origin (the camera centre's height) down to the
-    ground plane ``n . p = offset``, in the session's units (None: no ground)."""
+    ground plane ``n . p = offset``, in the session's units (None: no ground).
+    """
     if ground is None:
         return None
     normal, offset = ground
@@ -205,7 +214,8 @@ def _limits(
     units: str | None, height: float | None, image: tuple[int, int] | None
 ) -> dict[str, tuple[float | F64, str]]:
     """Per constant: the largest plausible deviation from nominal (one number, or one per
-    scalar) and the limit in words (NaN-free; ``inf`` where it cannot be judged yet)."""
+    scalar) and the limit in words (NaN-free; ``inf`` where it cannot be judged yet).
+    """
     per_inch = 1.0 / INCHES_PER_UNIT[units] if units is not None else np.inf
     offset = LIMITS["camera_offset_in"] * per_inch
     largest = LIMITS["largest_image_px"]
@@ -246,7 +256,8 @@ def plausible_bounds(
     units: str | None, ground_height: float | None = None, image: tuple[int, int] | None = None
 ) -> tuple[F64, F64]:
     """The plausible constants' lower and upper bounds (11 each, :data:`RIG_PARAMETERS`
-    order): where a fit may look, so that it never writes a rig that is refused."""
+    order): where a fit may look, so that it never writes a rig that is refused.
+    """
     nominal = RigConstants().vector()
     limits = _limits(units, ground_height, image)
     half = np.concatenate(
@@ -267,7 +278,8 @@ def check_plausible(
     """Refuse a rig a laptop on grid paper cannot have (:data:`LIMITS`), naming each
     constant beyond its limit and the limit. The lengths are judged in ``rig.units`` (else
     ``units``; neither: not judged); ``ground_height`` (session units) and ``image_size``
-    (width, height) are the session's, where known; ``only``: these constants alone."""
+    (width, height) are the session's, where known; ``only``: these constants alone.
+    """
     units = rig.units or units
     limits = _limits(units, ground_height, image_size)
     values, nominal = rig.vector(), RigConstants().vector()
@@ -304,7 +316,8 @@ def check_applicable(
     """Refuse a rig for a session in other units than the rig's, or implausible for its
     ground height and images (each camera's ``(width, height)``); returns the notes to
     show (a rig without units, from before they were recorded, is taken in the
-    session's)."""
+    session's).
+    """
     notes = []
     if rig.units is None:
         notes.append(
@@ -328,7 +341,8 @@ def check_applicable(
 def load_rig(path: str | Path) -> RigConstants:
     """A rig file written by ``twopose-analyze rig`` (its ``[rig]`` table), checked for
     plausibility (:func:`check_plausible`; the session's ground height and image are
-    judged when it is applied, :func:`check_applicable`)."""
+    judged when it is applied, :func:`check_applicable`).
+    """
     from twopose.config import build_dataclass, read_toml
 
     what = f"rig file {path}"

@@ -74,7 +74,8 @@ def scene_of_views(  # noqa: PLR0913 - one per TrialScene field its two callers 
     cov: F64,
 ) -> TrialScene:
     """A trial's scene from its poses and their combined measurements (NaN where a pose
-    had none): the one way results.mcap and the live view build it."""
+    had none): the one way results.mcap and the live view build it.
+    """
     n = len(views)
     px, theta = np.full((n, 2), np.nan), np.full(n, np.nan)
     for j, m in enumerate(measurements):

@@ -78,7 +78,8 @@ class SessionTrials:
 @dataclass(frozen=True, kw_only=True)
 class Uncertainty:
     """Per trial (T rows, NaN and "" where not ok): an estimate's propagated covariance
-    (T, 3, 3), the input dominating its variance and that input's share (T,)."""
+    (T, 3, 3), the input dominating its variance and that input's share (T,).
+    """
 
     cov: F64
     dominant: NDArray[np.object_]
@@ -111,7 +112,8 @@ class Estimates:
 @dataclass(frozen=True, kw_only=True)
 class _Propagation:
     """What propagating the thesis' estimate needs again: the solved rows' batch, their
-    input covariance and shared intrinsics (lines re-propagate at their reported point)."""
+    input covariance and shared intrinsics (lines re-propagate at their reported point).
+    """
 
     rows: Ints
     batch: ViewBatch
@@ -135,7 +137,8 @@ class SessionEstimate:
 
     def uncertainty_at(self, reference: F64) -> Uncertainty:
         """The thesis' estimate's uncertainty with lines reported at their point nearest
-        ``reference`` (T, 3), held fixed; points and ground points do not depend on it."""
+        ``reference`` (T, 3), held fixed; points and ground points do not depend on it.
+        """
         T = len(self.trials)
         if self._propagation is None:
             return _no_uncertainty(T)
@@ -312,7 +315,8 @@ def _uncertainty(T: int, p: _Propagation, propagated: Propagated) -> Uncertainty
 
 def _weighted_lines(p: _Propagation, options: EstimateSettings) -> F64:
     """(R, 2, 3) the weighted/robust line fit beside the thesis' one, weighted by each
-    view's noise: each solved row's point and direction."""
+    view's noise: each solved row's point and direction.
+    """
     batch, cov_in = p.batch, p.cov_in
     weighted = triangulate_lines(
         image_lines(batch.inputs[..., :2], batch.inputs[..., 2]),

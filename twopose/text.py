@@ -30,8 +30,9 @@ def first_control(text: str) -> str | None:
 
 
 def for_terminal(text: str) -> str:
-    """``text`` with every control character written as its escape (``\\x1b``,
-    ``\\u202e``), everything else as it is (accents, CJK, emoji)."""
+    r"""``text`` with every control character written as its escape (``\x1b``,
+    ``\u202e``), everything else as it is (accents, CJK, emoji).
+    """
     if first_control(text) is None:
         return text
     return "".join(

@@ -42,6 +42,7 @@ class TopView:
     truth: XZ | None  # a point target's true position (lines: a truth_line segment)
 
     def to_json(self) -> dict[str, object]:
+        """The view as a JSON object (the report's top-view data)."""
         return {
             "trial": self.trial,
             "method": self.method,
@@ -105,7 +106,8 @@ def _rays(scene: TrialScene, reach: F64) -> list[tuple[str, XZ, XZ]]:
 
 def _view_planes(scene: TrialScene) -> F64:
     """Each view's image line back-projected: the plane ``pi = P^T l`` (N, 4) in the grid
-    frame, ``pi . (x, y, z, 1) = 0``."""
+    frame, ``pi . (x, y, z, 1) = 0``.
+    """
     P = projection_matrices(scene.intrinsics, scene.R_cam_to_grid, scene.t_grid)
     lines = image_lines(scene.px, scene.theta_deg)
     return np.asarray(np.einsum("nji,nj->ni", P, lines))

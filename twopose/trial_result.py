@@ -48,7 +48,8 @@ class TrialResult:
 
     def text(self) -> str:
         """One line: ``trial 3 (2 views): x 1.915 y 9.625 z 8.402 in; 95% within 0.183
-        in; error 0.052 in``, then the warning; or why there is no estimate."""
+        in; error 0.052 in``, then the warning; or why there is no estimate.
+        """
         head = f"trial {self.trial} ({self.n_views} views)"
         if self.status != "ok":
             return f"{head}: {self.status}: {self.reason}"
@@ -68,7 +69,8 @@ class TrialResult:
     def to_json(self) -> dict[str, object]:
         """The result as a JSON-ready object for the web console and the live view. NaN
         and infinity are left as floats: whoever serialises it uses the one encoder,
-        :func:`twopose.jsonsafe.dumps`, which writes them as ``null``."""
+        :func:`twopose.jsonsafe.dumps`, which writes them as ``null``.
+        """
         return {
             "trial": self.trial,
             "method": self.method,
@@ -94,7 +96,8 @@ def trial_results(
 ) -> list[TrialResult]:
     """Every trial's result, estimated in one batch as the analysis estimates a session
     (:func:`twopose.session_estimate.estimate_session`) and compared with the truth by the
-    analysis' rule (:func:`twopose.truth.reported`)."""
+    analysis' rule (:func:`twopose.truth.reported`).
+    """
     estimate = estimate_session(trials, options or EstimateOptions())
     est, rep = estimate.estimates, reported(estimate)
     spread = uncertainty_columns(rep.error, rep.cov)

@@ -25,7 +25,8 @@ __all__ = ["Reported", "line_errors", "reported", "reported_line_point"]
 @dataclass(frozen=True, kw_only=True)
 class Reported:
     """Per trial (T rows): the point reported, the true point it is compared with (NaN:
-    no truth), their difference, and the reported point's covariance and dominant input."""
+    no truth), their difference, and the reported point's covariance and dominant input.
+    """
 
     point: F64  # (T, 3)
     reference: F64  # (T, 3)
@@ -72,7 +73,8 @@ def reported(estimate: SessionEstimate) -> Reported:
 
 def reported_line_point(point: F64, direction: F64, truth: F64) -> tuple[F64, F64]:
     """Lines (T rows): the point each reports, nearest its true segment's midpoint (with no
-    truth, ``point``), and that midpoint (NaN: no truth); ``truth`` is (T, 2, 3)."""
+    truth, ``point``), and that midpoint (NaN: no truth); ``truth`` is (T, 2, 3).
+    """
     with np.errstate(invalid="ignore"):
         nearest, mid, _, _ = line_errors(point, direction, truth[:, 0], truth[:, 1])
     return np.where(np.isfinite(mid), nearest, point), mid

@@ -233,7 +233,8 @@ def _difference_columns(
     estimate: Callable[[F64], F64], x: F64, steps: list[F64], columns: list[_Column]
 ) -> list[F64]:
     """Central differences of ``columns`` of the Jacobian, each (T, 3), in one call;
-    ``steps`` (T,) per column (0: an exact input, its column 0)."""
+    ``steps`` (T,) per column (0: an exact input, its column 0).
+    """
     T = x.shape[0]
     K = len(columns)
     h = np.stack(steps)  # (K, T)
@@ -269,7 +270,8 @@ def dominant_input(
 ) -> tuple[list[str], F64]:
     """Per trial, the kind of input (summed over poses) with the largest share of the
     variance, and that share: e.g. ``"x translation", 0.97``; with ``shared_variance``
-    (T,), the intrinsics compete too."""
+    (T,), the intrinsics compete too.
+    """
     flat = variance_by_group.sum(axis=1)  # (T, 5)
     if shared_variance is not None:
         flat = np.concatenate([flat, np.asarray(shared_variance)[:, None]], axis=1)

@@ -64,7 +64,8 @@ UNITS: tuple[Units, ...] = tuple(UNIT_SPECS)
 
 def unit_spec(units: str) -> UnitSpec:
     """The spec of ``units`` (a :class:`Units` or its symbol); an unknown one raises
-    :class:`~twopose.errors.InputValueError` listing the known ones."""
+    :class:`~twopose.errors.InputValueError` listing the known ones.
+    """
     try:
         return UNIT_SPECS[Units(units)]
     except ValueError:

@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from matplotlib.figure import Figure
+from matplotlib.patches import Rectangle
 
 from analysis.answer import answer_table
 from analysis.captions import largest_errors, run_captions
@@ -59,7 +60,9 @@ def test_the_histogram_draws_the_answers_trials_with_one_bin_width() -> None:
         "Error per trial: thesis_* sessions",
         "Error per trial: stress_* sessions",
     ]
-    bars = [p for ax in panels for p in ax.patches if p.get_height() > 0]
+    bars = [
+        p for ax in panels for p in ax.patches if isinstance(p, Rectangle) and p.get_height() > 0
+    ]
     widths = {round(p.get_width() * len(answer["method"].unique()), 9) for p in bars}
     assert len(widths) == 1  # one bin width (three methods' bars share each bin)
     # The last bin ends at the answer's largest error (1.39, not the warned 44.4): the
@@ -75,7 +78,9 @@ def test_the_histogram_draws_the_answers_trials_with_one_bin_width() -> None:
     # With --include-warned, the warned trials are drawn, as the answer then counts them.
     fig = Figure()
     plot_error_histogram(fig, trials, include_warned=True)
-    bars = [p for ax in fig.axes for p in ax.patches if p.get_height() > 0]
+    bars = [
+        p for ax in fig.axes for p in ax.patches if isinstance(p, Rectangle) and p.get_height() > 0
+    ]
     assert 44.4 - 44.4 / 20 <= max(p.get_x() for p in bars) < 44.4
 
 
@@ -139,8 +144,8 @@ def test_the_top_view_meets_at_the_estimate(
         estimate = np.array(d.view.estimate)
         kinds = {kind for kind, _, _ in d.view.segments}
         assert kinds == {"point": {"ray"}, "ground": {"trace"}, "line": {"line"}}[method]
-        for _, a, b in d.view.segments:
-            a, b = np.array(a), np.array(b)
+        for _, start, end in d.view.segments:
+            a, b = np.array(start), np.array(end)
             along = (b - a) / np.linalg.norm(b - a)
             off = estimate - a
             distance = abs(off[0] * along[1] - off[1] * along[0])

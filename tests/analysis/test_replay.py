@@ -10,6 +10,7 @@ import pandas as pd
 import pytest
 
 import analysis.pipeline
+import twopose.session_estimate
 from analysis.pipeline import analyse_session
 from analysis.results import AnalysisOptions
 from twopose.session_estimate import SessionEstimate
@@ -77,7 +78,10 @@ def test_leave_one_out_reuses_the_sessions_one_estimate(
 
     units: list[str] = []
     estimated: list[int] = []
-    real_loo, real_estimate = analysis.rig.loo_calibration, analysis.pipeline.estimate_session
+    real_loo, real_estimate = (
+        analysis.rig.loo_calibration,
+        twopose.session_estimate.estimate_session,
+    )
 
     def loo_spy(session: str, estimate: SessionEstimate, *args: Any) -> Any:
         units.append(estimate.trials.units)

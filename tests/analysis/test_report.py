@@ -46,9 +46,11 @@ def test_error_ellipses_have_the_95_percent_size_of_each_covariance() -> None:
     ellipses = error_ellipses(ok)
     k = np.sqrt(CHI2_95[2])
     # Full axes 2 k sigma: the major one along x (the larger sigma here), the minor along z.
-    np.testing.assert_allclose(ellipses.get_widths(), [2 * k * 0.5, 2 * k * 1.0])
-    np.testing.assert_allclose(ellipses.get_heights(), [2 * k * 0.25, 2 * k * 0.5])
-    np.testing.assert_allclose(ellipses.get_offsets(), ok[["err_x", "err_z"]].to_numpy())
+    np.testing.assert_allclose(np.asarray(ellipses.get_widths()), [2 * k * 0.5, 2 * k * 1.0])
+    np.testing.assert_allclose(np.asarray(ellipses.get_heights()), [2 * k * 0.25, 2 * k * 0.5])
+    np.testing.assert_allclose(
+        np.asarray(ellipses.get_offsets()), ok[["err_x", "err_z"]].to_numpy()
+    )
 
 
 def test_error_scatter_draws_ok_trials_on_a_given_axes() -> None:
@@ -56,8 +58,8 @@ def test_error_scatter_draws_ok_trials_on_a_given_axes() -> None:
     ax = fig.add_subplot()
     handles = plot_error_scatter(ax, _trials(), "the title")
     assert ax.get_title() == "the title"
-    points = ax.collections[1].get_offsets()  # ellipses first, then the ok trials
-    np.testing.assert_allclose(points, [[0.2, 0.1], [-0.4, 0.3]])
+    points = np.asarray(ax.collections[1].get_offsets())  # ellipses first, then the ok trials
+    np.testing.assert_allclose(points, np.array([[0.2, 0.1], [-0.4, 0.3]]))
     # The legend's entries are returned for the caller to place off the data.
     assert ax.get_legend() is None
     assert "2 ok trials" in [h.get_label() for h in handles]
@@ -128,7 +130,7 @@ def test_error_scatter_keeps_every_ellipse_inside_the_axes() -> None:
     labels = [h.get_label() for h in handles]
     assert "3 warned (left out)" in labels
     assert "9 ok trials" in labels
-    assert len(ax.collections[0].get_offsets()) == 9  # ellipses: the clean trials only
+    assert len(np.asarray(ax.collections[0].get_offsets())) == 9  # ellipses: the clean trials only
 
 
 def _averaging(n_trials: int) -> tuple[pd.DataFrame, pd.DataFrame]:
@@ -175,7 +177,7 @@ def test_running_average_names_every_series_or_draws_small_multiples() -> None:
     for ax in panels:
         (lines,) = [c for c in ax.collections if isinstance(c, LineCollection)]
         assert len(lines.get_segments()) == 40
-        assert len({tuple(c) for c in lines.get_colors()}) > MAX_LEGEND
+        assert len({tuple(c) for c in np.asarray(lines.get_colors())}) > MAX_LEGEND
     (bar,) = [ax for ax in fig.axes if ax.get_label() == "<colorbar>"]
     assert bar.get_ylabel() == "trial number (colour key)"
     assert panels[0].get_ylim() == panels[1].get_ylim()

@@ -25,7 +25,7 @@ from twopose.sim.scene import Scene
 from twopose.units import Units
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "sessions"))
-from make_sessions import THESIS_POSES
+from make_sessions import THESIS_POSES  # type: ignore[import-not-found]  # on sys.path at run time
 
 # Slow (a real browser, a cluster, or fits over many sessions): make test-all and CI run it.
 pytestmark = pytest.mark.slow

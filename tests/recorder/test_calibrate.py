@@ -131,6 +131,7 @@ def test_real_photographs_use_every_view_and_agree_with_opencv(tmp_path: Path) -
     corners = []
     for photo in sorted(left.iterdir()):
         gray = cv2.imread(str(photo), cv2.IMREAD_GRAYSCALE)
+        assert gray is not None, photo
         found, c = cv2.findChessboardCorners(gray, (9, 6))
         assert found, photo
         criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 1e-3)
@@ -160,7 +161,9 @@ def _rendered_corners(tmp_path: Path) -> tuple[list[np.ndarray], list[str]]:
     views = _board_views(tmp_path / "views")
     corners, names = [], []
     for image in sorted(views.iterdir()):
-        c = find_board(cv2.imread(str(image)), (9, 6))
+        bgr = cv2.imread(str(image))
+        assert bgr is not None, image
+        c = find_board(np.asarray(bgr, dtype=np.uint8), (9, 6))
         assert c is not None
         corners.append(c)
         names.append(image.name)
@@ -200,6 +203,7 @@ def test_a_camera_keeps_a_frame_only_when_the_board_moved(tmp_path: Path) -> Non
     writer = cv2.VideoWriter(str(video), cv2.VideoWriter.fourcc(*"MJPG"), 30, (640, 480))
     for image in views:
         frame = cv2.imread(str(image))
+        assert frame is not None, image
         for _ in range(4):
             writer.write(frame)
     writer.release()

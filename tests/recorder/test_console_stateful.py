@@ -158,7 +158,7 @@ def _step(
         self.steps += 1
         return result
 
-    return run
+    return run  # type: ignore[return-value]  # functools.wraps' type hides the signature
 
 
 def _strict_json(text: str) -> Any:
@@ -350,7 +350,7 @@ class ConsoleModel(RuleBasedStateMachine):
         self.min_steps, self.n_poses = min_steps, n_poses
         scene = self.dir / "scene.toml"
         scene.write_text(SCENE)
-        given = {
+        given: dict[str, Any] = {
             "method": None, "units": None, "intrinsics": None, "intrinsics_sigma": {},
             "focal": None, "principal": None, "ground_height": None, "ground_truth": [],
             "operator": None,
@@ -574,7 +574,12 @@ class ConsoleModel(RuleBasedStateMachine):
             form = state["pose_form"]
             shown = (tuple(form["t"]), tuple(form["r_deg"])) if "t" in form else None
             own = self.typed.get(self.pose)
-            allowed = {"new": [None], "retype": [own], "revisit": [None, own]}[self.form]
+            choices: dict[str, list[object]] = {
+                "new": [None],
+                "retype": [own],
+                "revisit": [None, own],
+            }
+            allowed = choices[self.form]
             assert shown in allowed, (self.form, self.pose, shown, self.typed)
 
     # -- the end
@@ -605,9 +610,9 @@ class ConsoleModel(RuleBasedStateMachine):
         result = analysis.run([self.out], None, scene=False)
         assert result.errors.empty, result.errors.to_dict("records")
         assert sorted(result.trials["trial"]) == sorted(trials)
-        for row in result.trials.itertuples():
-            if row.status == "ok":
-                assert len(replayed.get(int(row.trial), {})) >= 2, row
+        ok = result.trials[result.trials["status"] == "ok"]
+        for trial in ok["trial"].astype(int):
+            assert len(replayed.get(trial, {})) >= 2, trial
         counts = SUMMARY.search(self.session.summary)
         assert counts is not None, self.session.summary
         assert int(counts["trials"]) == self.trials_begun, self.session.summary

@@ -176,7 +176,7 @@ def test_the_undo_then_interrupt_scenario_never_reports_a_wrong_ok(tmp_path: Pat
     assert next(answers, None) is None  # every answer was used
     trials = analyse_session(out).trials.set_index("trial")
     assert trials.loc[1, "status"] == "ok"
-    assert float(trials.loc[1, "err"]) < 0.05
+    assert float(trials["err"].loc[1]) < 0.05
     assert trials.loc[2, "status"] == "incomplete"
     assert "undone by capture 4" in str(trials.loc[2, "reason"])
     assert "interrupted" in str(trials.loc[2, "reason"])

@@ -113,7 +113,7 @@ def test_a_calibrated_rig_corrects_the_live_result_as_run_rig_does(tmp_path: Pat
     plain = analyse_session(out).trials.set_index("trial")
     row = corrected.loc[2]
     assert f"x {row['x']:.3f} y {row['y']:.3f} z {row['z']:.3f} in" in lines[0]
-    assert abs(float(row["x"]) - float(plain.loc[2, "x"])) > 0.1  # the rig did move it
+    assert abs(float(corrected["x"].loc[2]) - float(plain["x"].loc[2])) > 0.1  # the rig did move it
 
 
 @pytest.mark.slow

@@ -315,7 +315,7 @@ def test_kill_9_of_the_recorder_keeps_exactly_what_was_accepted(tmp_path: Path) 
     assert pairs in (plan_order[:2], plan_order[:3])  # the third: if its accept was flushed
     trials = analyse_session(fixed).trials.set_index("trial")
     assert trials.loc[1, "status"] == "ok"
-    assert float(trials.loc[1, "err"]) < 0.05
+    assert float(trials["err"].loc[1]) < 0.05
 
 
 def test_recover_answers_every_cut_and_a_garbled_length_without_a_crash(

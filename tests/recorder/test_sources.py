@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 
 from recorder.capture import capture_frames
-from recorder.sources import ImagesSource, SourceError, SyntheticSource, VideoSource, open_source
+from recorder.sources import ImagesSource, SyntheticSource, VideoSource, open_source
 from tests.helpers import write_video
 from twopose.camera import Camera, Intrinsics
+from twopose.errors import SourceError
 from twopose.format.entries import CaptureWindow, PoseEntry, SessionInfo
 from twopose.format.reader import SessionReader
 from twopose.format.writer import SessionWriter

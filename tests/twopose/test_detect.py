@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import cv2
 import numpy as np
 import pytest
@@ -67,7 +69,7 @@ def test_a_line_going_down_to_the_right_has_positive_theta() -> None:
 
 
 def _render(
-    scene_overrides: dict[str, object],
+    scene_overrides: dict[str, Any],
     t_grid: tuple[float, float, float],
     method: str = "ground",
     seed: int = 0,
@@ -80,6 +82,7 @@ def _render(
     ok, buf = cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_QUALITY, 85])
     assert ok
     decoded = cv2.imdecode(buf, cv2.IMREAD_COLOR)
+    assert decoded is not None
     if method == "point":
         truth = project_points(np.array([scene.point.position]), intr, np.eye(3), t_grid)
     else:

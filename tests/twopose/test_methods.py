@@ -69,7 +69,7 @@ def test_an_unknown_name_is_refused_naming_the_known_ones(
 
 
 def test_session_info_holds_the_types_and_writes_the_names() -> None:
-    info = SessionInfo(method=Method.GROUND, units=Units.MM)  # type: ignore[arg-type]
+    info = SessionInfo(method=Method.GROUND, units=Units.MM)
     assert info.method is Method.GROUND
     assert info.units is Units.MM
     encoded = encode_entry(info)

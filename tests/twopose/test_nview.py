@@ -312,17 +312,18 @@ def test_views_from_one_camera_centre_are_degenerate_for_every_method(
     P = projection_matrices(K, R, t)
     a, b = np.array([0.3, 1.0, 9.0]), np.array([1.5, 1.2, 10.0])
     if method == "point":
-        result = triangulate_points(_project(a[None].repeat(5, 0), R, t), P)
+        result: NViewPoints | NViewLines = triangulate_points(
+            _project(a[None].repeat(5, 0), R, t), P
+        )
     else:
         end_a, end_b = _project(a[None].repeat(5, 0), R, t), _project(b[None].repeat(5, 0), R, t)
         theta = np.degrees(np.arctan2(*(end_b - end_a)[..., ::-1].transpose(2, 0, 1)))
         lines = image_lines(end_a, theta)
-        line_or_ground: NViewLines | NViewPoints = (
+        result = (
             triangulate_lines(lines, P)
             if method == "line"
             else triangulate_ground(lines, P, [0.0, 1.0, 0.0], 1.0)
         )
-        result = line_or_ground
     assert (result.status == "degenerate").all(), result.status
     assert all("no baseline" in r for r in result.reason)
     # The margin behind it: the centres subtend no angle at any point.

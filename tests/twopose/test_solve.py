@@ -181,7 +181,7 @@ def test_point_recovered_exactly(p1, p2, target) -> None:
     sol = solve_point(px, k, R, t)
     assume(sol.conditioning[0] > 1e-3)
     assert sol.status[0] == "ok"
-    np.testing.assert_allclose(sol.point_grid[0], x, atol=1e-9 * np.linalg.norm(x))
+    np.testing.assert_allclose(sol.point_grid[0], x, atol=float(1e-9 * np.linalg.norm(x)))
     assert sol.rms_px[0] < 1e-6
 
 
@@ -222,7 +222,7 @@ def test_line_and_ground_point_recovered_exactly(p1, p2, anchor, direction) -> N
     assume(ground.conditioning[0] > 1e-3)
     expected = a + (h - a[1]) / u[1] * u
     np.testing.assert_allclose(
-        ground.point_grid[0], expected, atol=1e-9 * (np.linalg.norm(expected) + 1) * 10
+        ground.point_grid[0], expected, atol=float(1e-9 * (np.linalg.norm(expected) + 1) * 10)
     )
 
 

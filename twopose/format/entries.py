@@ -72,7 +72,8 @@ def json_field(
 ) -> Any:
     """A dataclass field with its JSON name (dots nest), its JSON Schema, whether the
     schema requires it, and how a JSON value becomes the attribute (``decode``);
-    ``compare=False`` for a mutable value (kept out of equality and the hash)."""
+    ``compare=False`` for a mutable value (kept out of equality and the hash).
+    """
     meta = {"json": key, "schema": schema, "required": required, "decode": decode}
     return dataclasses.field(default=default, metadata=meta, compare=compare)
 
@@ -134,7 +135,8 @@ T = TypeVar("T")
 
 def from_json(cls: type[T], data: dict[str, Any]) -> T:
     """Build a declared dataclass from its (schema-valid) JSON object; absent optional
-    fields take their defaults, unknown fields are ignored (a newer minor may add some)."""
+    fields take their defaults, unknown fields are ignored (a newer minor may add some).
+    """
     kwargs: dict[str, Any] = {}
     for f in _json_fields(cls):
         value: Any = data
@@ -156,10 +158,12 @@ class TypedEntry:
     JSON_SCHEMA: ClassVar[dict[str, Any]]
 
     def to_json(self) -> dict[str, Any]:
+        """The entry as its JSON object."""
         return to_json(self)
 
     @classmethod
     def from_json(cls, data: dict[str, Any]) -> Self:
+        """The entry from its JSON object, checked against the schema."""
         return from_json(cls, data)
 
 
@@ -257,6 +261,7 @@ class SessionInfo(TypedEntry):
     )
 
     def __post_init__(self) -> None:
+        """Hold the method and units as their types; check the cameras and the version."""
         # The registries' types (equal to, and serialised as, the names in the file).
         object.__setattr__(self, "method", spec_of(self.method).method)
         object.__setattr__(self, "units", unit_spec(self.units).units)
@@ -309,6 +314,7 @@ class PoseEntry(TypedEntry):
     capture: int | None = json_field("capture", _CAPTURE_SCHEMA, required=False, default=None)
 
     def __post_init__(self) -> None:
+        """Check the trial, pose, capture and camera, and the pose's six numbers."""
         index(self.trial, "trial")
         index(self.pose, "pose")
         _capture_number(self.capture)
@@ -320,6 +326,7 @@ class PoseEntry(TypedEntry):
 
     @property
     def R_cam_to_grid(self) -> NDArray[np.float64]:
+        """The typed rotation, camera to grid (``Rx Ry Rz`` of ``r_deg``)."""
         return rotation_from_angles_deg(self.r_deg)
 
 
@@ -350,6 +357,7 @@ class CaptureWindow(TypedEntry):
     capture: int | None = json_field("capture", _CAPTURE_SCHEMA, required=False, default=None)
 
     def __post_init__(self) -> None:
+        """Check the window's indices, times, capture and camera."""
         for name in ("trial", "pose", "start_ns", "end_ns", "n_frames", "dropped_frames"):
             index(getattr(self, name), name)
         _capture_number(self.capture)
@@ -386,6 +394,7 @@ class CaptureDecision(TypedEntry):
     reason: str = json_field("reason", {"type": "string"}, required=False, default="")
 
     def __post_init__(self) -> None:
+        """Check the capture, trial, pose and camera."""
         _capture_number(self.capture)
         index(self.trial, "trial")
         index(self.pose, "pose")
@@ -395,6 +404,7 @@ class CaptureDecision(TypedEntry):
 
     @property
     def accepted(self) -> bool:
+        """Whether the operator accepted the capture."""
         return self.decision == "accept"
 
 
@@ -416,6 +426,7 @@ class GroundPlane(TypedEntry):
     offset: float = json_field("offset", {"type": "number"})
 
     def __post_init__(self) -> None:
+        """Check the normal (non-zero, normalised) and the offset."""
         n = np.array(vec3(self.normal_grid, "ground normal"))
         norm = float(np.linalg.norm(n))
         if norm < 1e-9:
@@ -447,6 +458,7 @@ class GroundTruth(TypedEntry):
     )
 
     def __post_init__(self) -> None:
+        """Check the trial, the kind and its number of points."""
         index(self.trial, "trial")
         if self.kind not in ("point", "line"):
             raise InputValueError(f"ground truth kind must be point or line, got {self.kind!r}")
@@ -470,6 +482,7 @@ class Note(TypedEntry):
     )
 
     def __post_init__(self) -> None:
+        """Check the trial the note is about, if any."""
         if self.trial is not None:
             index(self.trial, "trial")
 
@@ -484,6 +497,7 @@ class TruePose:
     r_deg: Vec3 = json_field("rotation_deg", _vec3_schema("true (rx, ry, rz), degrees"))
 
     def __post_init__(self) -> None:
+        """Check the true pose's six numbers."""
         object.__setattr__(self, "t_grid", vec3(self.t_grid, "true translation"))
         object.__setattr__(self, "r_deg", vec3(self.r_deg, "true rotation"))
 
@@ -523,6 +537,7 @@ class SimulationTruth(TypedEntry):
     )
 
     def __post_init__(self) -> None:
+        """Check the trial and the truth's points."""
         index(self.trial, "trial")
         object.__setattr__(
             self, "points_grid", tuple(vec3(p, "truth point") for p in self.points_grid)

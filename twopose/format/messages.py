@@ -47,10 +47,12 @@ def camera_frame_id(camera_id: str) -> str:
 
 
 def image_topic(camera_id: str) -> str:
+    """The MCAP topic of a camera's images."""
     return f"/twopose/camera/{camera_id}/image"
 
 
 def calibration_topic(camera_id: str) -> str:
+    """The MCAP topic of a camera's calibration."""
     return f"/twopose/camera/{camera_id}/calibration"
 
 
@@ -67,7 +69,8 @@ class Frame:
     def decode(self, expected_size: tuple[int, int] | None = None) -> NDArray[np.uint8]:
         """The image as an (H, W, 3) BGR uint8 array (OpenCV's order); its header is checked
         first against ``expected_size`` (the camera's calibrated width, height) and the
-        pixel limit (:mod:`twopose.images`), so a bad frame costs no memory."""
+        pixel limit (:mod:`twopose.images`), so a bad frame costs no memory.
+        """
         from twopose.images import decode_image
 
         what = f"frame {self.sequence} of camera {self.camera_id} at {self.log_time_ns} ns"

@@ -44,7 +44,8 @@ __all__ = [
 def max_chunk_bytes() -> int:
     """The largest chunk (uncompressed) a reader decompresses: 256 MB, or
     ``TWOPOSE_MAX_CHUNK_MB``. twopose writes chunks of one capture (a few MB); a larger
-    declared size is a damaged file or a decompression bomb."""
+    declared size is a damaged file or a decompression bomb.
+    """
     import os
 
     try:
@@ -99,6 +100,7 @@ class SessionReader:
         self._ground: GroundPlane | None = None
 
     def __enter__(self) -> Self:
+        """Open the file and read its summary, metadata and typed entries."""
         try:
             self._stream = open(self.path, "rb")
         except OSError as err:
@@ -116,6 +118,7 @@ class SessionReader:
         exc: BaseException | None,
         tb: TracebackType | None,
     ) -> None:
+        """Close the file."""
         if self._stream is not None:
             self._stream.close()
             self._stream = None
@@ -156,7 +159,8 @@ class SessionReader:
 
     def _check_chunk_sizes(self, summary: Any) -> None:
         """Refuse a file whose index declares a chunk over :func:`max_chunk_bytes`, before
-        anything is decompressed."""
+        anything is decompressed.
+        """
         limit = max_chunk_bytes()
         for index in summary.chunk_indexes:
             if index.uncompressed_size > limit:
@@ -203,15 +207,18 @@ class SessionReader:
 
     @property
     def info(self) -> SessionInfo:
+        """What the session is (method, units, cameras)."""
         assert self._info is not None, "use SessionReader as a context manager"
         return self._info
 
     @property
     def cameras(self) -> dict[str, Camera]:
+        """The session's cameras by id."""
         return dict(self._cameras)
 
     @property
     def ground(self) -> GroundPlane | None:
+        """The ground plane, if the session has one."""
         return self._ground
 
     def message_counts(self) -> dict[str, int]:
@@ -310,7 +317,8 @@ def find_sessions(paths: Iterable[Path | str]) -> list[Path]:
 def is_results_file(path: str | Path) -> bool:
     """Whether ``path`` is an analysis results file of ours (its channels are all under
     ``/twopose/results/``, ``/tf`` and the camera topics, with no ``twopose`` metadata):
-    such files are not sessions, and a run over a folder skips them."""
+    such files are not sessions, and a run over a folder skips them.
+    """
     try:
         with open(path, "rb") as stream:
             reader = make_reader(stream)

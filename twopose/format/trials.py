@@ -58,6 +58,7 @@ class PoseCapture:
 
     @property
     def complete(self) -> bool:
+        """Whether the capture ended complete and has frames."""
         return self.window is not None and self.window.status == "complete" and bool(self.frames)
 
 
@@ -71,6 +72,7 @@ class SetAside:
     reason: str
 
     def describe(self) -> str:
+        """The capture in words, with why it was set aside."""
         which = f"capture {self.capture}" if self.capture is not None else "a capture"
         return f"pose {self.pose} ({which}, {self.n_frames} frames): {self.reason}"
 
@@ -78,7 +80,8 @@ class SetAside:
 @dataclass(frozen=True, kw_only=True)
 class TrialRecord:
     """Everything recorded for one trial: the poses it is measured from, in pose order,
-    and (format 1.1) what was set aside."""
+    and (format 1.1) what was set aside.
+    """
 
     trial: int
     poses: tuple[PoseCapture, ...]
@@ -204,7 +207,8 @@ class _TrialBuilder:
         self, cameras: dict[str, Camera]
     ) -> tuple[dict[int, PoseCapture], list[SetAside]]:
         """Format 1.1: the accepted capture of each pose (the later one, should a writer
-        have accepted two), and everything set aside with its reason."""
+        have accepted two), and everything set aside with its reason.
+        """
         poses: dict[int, tuple[int, PoseCapture]] = {}
         set_aside: list[SetAside] = []
         for number in sorted(self.captures):

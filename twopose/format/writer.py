@@ -91,7 +91,8 @@ def cameras_from_metadata(text: str) -> list[Camera]:
 
 def _with_sigma(info: SessionInfo, cameras: Sequence[Camera]) -> SessionInfo:
     """The session entry carrying the cameras' calibration sigmas (format 1.2), where the
-    cameras know them and the entry does not say otherwise."""
+    cameras know them and the entry does not say otherwise.
+    """
     known = {c.camera_id: dict(c.intrinsics_sigma) for c in cameras if c.intrinsics_sigma}
     if not known or info.intrinsics_sigma is not None:
         return info
@@ -167,6 +168,7 @@ class SessionWriter:
 
     # -- lifecycle
     def __enter__(self) -> Self:
+        """Create the file (never over an existing one) and write its header."""
         try:
             self._stream = open(self.path, "xb")
         except FileExistsError as err:
@@ -199,6 +201,7 @@ class SessionWriter:
         exc: BaseException | None,
         tb: TracebackType | None,
     ) -> None:
+        """Finish the file: summary, index and footer, even after an error."""
         self.close()
 
     def close(self) -> None:
@@ -215,7 +218,8 @@ class SessionWriter:
 
     def sync(self) -> None:
         """Flush the open chunk and ``fsync`` the file: what is written so far survives a
-        power cut, not only a crash of this process (called when a capture is accepted)."""
+        power cut, not only a crash of this process (called when a capture is accepted).
+        """
         if self._stream is None:
             return
         if self._mcap is not None:
@@ -228,6 +232,7 @@ class SessionWriter:
 
     @property
     def is_open(self) -> bool:
+        """Whether the file is still being written."""
         return self._mcap is not None
 
     # -- low level
@@ -286,22 +291,27 @@ class SessionWriter:
         self.flush()
 
     def write_ground_truth(self, entry: GroundTruth, log_time_ns: int | None = None) -> None:
+        """Write a trial's ground truth."""
         self.write_entry(entry, log_time_ns)
 
     def write_note(self, entry: Note, log_time_ns: int | None = None) -> None:
+        """Write an operator's note."""
         self.write_entry(entry, log_time_ns)
 
     def write_simulation_truth(
         self, entry: SimulationTruth, log_time_ns: int | None = None
     ) -> None:
+        """Write a simulation's true pose or truth."""
         self.write_entry(entry, log_time_ns)
 
     def write_decision(self, entry: CaptureDecision, log_time_ns: int | None = None) -> None:
+        """Write the operator's decision on a capture."""
         self.write_entry(entry, log_time_ns)
 
     def new_capture_number(self) -> int:
         """The next capture number (1, 2, ...): binds a pose entry, its capture window and
-        the decisions about it (format 1.1)."""
+        the decisions about it (format 1.1).
+        """
         self._captures += 1
         return self._captures
 
@@ -337,7 +347,8 @@ class SessionWriter:
 
 class Capture:
     """One capture window (see :meth:`SessionWriter.capture`): its frames, then on exit its
-    :class:`CaptureWindow` entry (``incomplete`` with the reason after an error)."""
+    :class:`CaptureWindow` entry (``incomplete`` with the reason after an error).
+    """
 
     def __init__(
         self,
@@ -359,6 +370,7 @@ class Capture:
         self._incomplete_reason = ""
 
     def __enter__(self) -> Self:
+        """Begin the capture (one at a time per writer)."""
         self._writer._begin_capture(self)
         return self
 
@@ -380,6 +392,7 @@ class Capture:
         return seq
 
     def mark_incomplete(self, reason: str) -> None:
+        """Mark the capture incomplete, with the reason."""
         self._incomplete_reason = reason or "incomplete"
 
     def __exit__(
@@ -388,6 +401,7 @@ class Capture:
         exc: BaseException | None,
         tb: TracebackType | None,
     ) -> None:
+        """End the capture: write its window, incomplete if an error ended it."""
         self._writer._begin_capture(None)
         if isinstance(exc, KeyboardInterrupt) and not self._incomplete_reason:
             self._incomplete_reason = "interrupted (Ctrl-C) during the capture"
@@ -412,4 +426,5 @@ class Capture:
 
     @property
     def incomplete_reason(self) -> str:
+        """Why the capture is incomplete (empty when it is not)."""
         return self._incomplete_reason

@@ -27,7 +27,8 @@ __all__ = ["SyntheticCamera", "camera_pose", "true_intrinsics"]
 def camera_pose(rig: RigConstants, t_placed: F64, r_placed: F64) -> tuple[F64, F64]:
     """Where the camera really is when the laptop is placed at ``t_placed, r_placed``
     (grid frame, session units; degrees): the rig's mount rotation, camera offset and tape
-    scale (:mod:`twopose.rig`)."""
+    scale (:mod:`twopose.rig`).
+    """
     if rig.is_identity:
         return t_placed, r_placed
     t, R = rig.true_poses(t_placed, r_placed)
@@ -46,7 +47,8 @@ class SyntheticCamera:
     """The scene's cameras (one at a time: :attr:`camera`): :meth:`place` renders the scene
     once from where the rig puts the camera when the laptop is placed at a pose,
     :meth:`expose` makes each frame anew from it (lighting, sensor noise, quantisation:
-    :func:`twopose.sim.render.expose`)."""
+    :func:`twopose.sim.render.expose`).
+    """
 
     def __init__(self, scene: Scene, layout: Layout, rng: np.random.Generator) -> None:
         self.scene, self.layout, self.rng = scene, layout, rng
@@ -55,14 +57,16 @@ class SyntheticCamera:
 
     def place(self, t_placed: F64, r_placed_deg: F64) -> None:
         """Render from where the camera really is when the laptop is placed here (grid
-        frame, session units; degrees): the rig's constants applied."""
+        frame, session units; degrees): the rig's constants applied.
+        """
         t, r = camera_pose(self.scene.systematic, np.asarray(t_placed), np.asarray(r_placed_deg))
         self.place_camera(t, r)
 
     def place_camera(self, t_camera: F64, r_camera_deg: F64) -> None:
         """Render from the camera's own (true) pose, the rig's pose constants already
         applied (the simulator draws it to check the target is in view); the rig's
-        intrinsics constants are applied here."""
+        intrinsics constants are applied here.
+        """
         self._radiance = render_radiance(
             self.scene,
             self.layout,

@@ -168,14 +168,16 @@ def build_layout(scene: Scene, method: str, rng: np.random.Generator) -> Layout:
 
 def board_layout(scene: Scene) -> Layout:
     """What a board session sees: the scene's checkerboard alone on the grid paper (no
-    target, stand or clutter in front of it)."""
+    target, stand or clutter in front of it).
+    """
     return Layout(primitives=(_board(scene.board),), decals=())
 
 
 def board_corners(board: BoardParams) -> F64:
     """(cols * rows, 3) the board's inner corners in the grid frame, row by row from the
     first (rows along +x, columns rising along -y), as ``cv2.findChessboardCorners`` lists
-    them for an upright board."""
+    them for an upright board.
+    """
     cols, rows = board.inner_corners
     i, j = np.meshgrid(np.arange(cols), np.arange(rows))
     x0, y0, z0 = board.first_corner
@@ -187,7 +189,8 @@ def board_corners(board: BoardParams) -> F64:
 
 def _board(board: BoardParams) -> Primitive:
     """The board as a card: the pattern of (cols + 1) x (rows + 1) squares, the first inner
-    corner one square in from the pattern's lower left, a one-square margin around."""
+    corner one square in from the pattern's lower left, a one-square margin around.
+    """
     cols, rows = board.inner_corners
     s = board.square
     x0, y0, z0 = board.first_corner
@@ -222,7 +225,7 @@ def _sample_views(scene: Scene) -> list[tuple[Intrinsics, F64, F64]]:
 def _too_close_to_target(
     point_grid: F64, extent: float, target_grid: F64, views: list[tuple[Intrinsics, F64, F64]]
 ) -> bool:
-    """Would a decal at ``point_grid`` (size ``extent``) touch the target in some view?"""
+    """Whether a decal at ``point_grid`` (size ``extent``) would touch the target in a view."""
     for intr, R, t in views:
         target_px = project_points(target_grid, intr, R, t)
         center_px = project_points(point_grid[None, :], intr, R, t)[0]
@@ -467,7 +470,8 @@ def render_radiance(
 
 def _intersect(layout: Layout, o: F64, d: F64) -> tuple[F64, NDArray[np.int32], F64]:
     """Per ray from ``o`` along ``d`` (R, 3): the nearest hit's distance, the primitive hit
-    (-1: none) and the surface normal there."""
+    (-1: none) and the surface normal there.
+    """
     n_rays = d.shape[0]
     t_best = np.full(n_rays, np.inf)
     owner = np.full(n_rays, -1, dtype=np.int32)

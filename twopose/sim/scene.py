@@ -66,6 +66,7 @@ class CameraParams:
 
     @property
     def intrinsics(self) -> Intrinsics:
+        """The camera's intrinsics."""
         return Intrinsics(
             width=self.width,
             height=self.height,
@@ -200,7 +201,8 @@ class BoardParams:
     side ``square`` (session units), its first inner corner at the grid point
     ``first_corner``, its rows along +x and its columns rising (-y), in the plane
     z = ``first_corner`` z; a white margin of one square around the pattern. Rendered when
-    ``present``."""
+    ``present``.
+    """
 
     present: bool = False
     inner_corners: tuple[int, int] = (9, 6)
@@ -240,6 +242,7 @@ class Scene:
     floor_color: RGB = (70, 66, 62)
 
     def __post_init__(self) -> None:
+        """Check the scene (units, sizes, cameras, targets)."""
         _check_scene(self)
 
 

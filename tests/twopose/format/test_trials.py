@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 
@@ -37,7 +38,13 @@ def _capture(w: SessionWriter, trial: int, pose: int, n: int, t0: int, fail: boo
 
 
 def _numbered(
-    w: SessionWriter, trial: int, pose: int, t0: int, decision: str | None, *, frames: int = 2
+    w: SessionWriter,
+    trial: int,
+    pose: int,
+    t0: int,
+    decision: Literal["accept", "discard"] | None,
+    *,
+    frames: int = 2,
 ) -> int:
     """A format 1.1 capture: the pose entry and window bound by number, then the decision."""
     number = w.new_capture_number()
