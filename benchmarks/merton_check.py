@@ -20,10 +20,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from doc_figures import recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
 from twopose.optimal_lines import OptimalLines, optimal_lines
 from twopose.solve import NViewLines, segment_lines, triangulate_lines, triangulate_points
 
+#: The docs include this file (``--write-docs`` writes it).
+FIGURE = "merton_check.md"
 DEFAULT = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "merton1"
 
 
@@ -143,7 +146,15 @@ def check(m: Merton) -> dict[str, float]:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--data", type=Path, default=DEFAULT)
+    parser.add_argument(
+        "--write-docs", action="store_true", help="also write the output to docs/figures/"
+    )
     args = parser.parse_args()
+    with recorded(FIGURE, write=args.write_docs):
+        return _report(args)
+
+
+def _report(args: argparse.Namespace) -> int:
     f = check(load(args.data))
     print(
         f"points (717, scene size {f['scene']:.2f}): thesis least squares max error "

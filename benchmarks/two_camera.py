@@ -28,12 +28,15 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from doc_figures import recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 from numpy.typing import NDArray
 
 from recorder.calibrate import fit_views
 from twopose.camera import Intrinsics
 from twopose.solve import projection_matrices, triangulate_two_views
 
+#: The docs include this file (``--write-docs`` writes it).
+FIGURE = "two_camera.txt"
 DEFAULT = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "opencv-chessboard"
 BOARD = (9, 6)  # inner corners, (cols, rows)
 SQUARE_MM = 25.0
@@ -211,7 +214,15 @@ def _clean_spacings(fold: Fold) -> NDArray[np.bool_]:
 def main() -> int:
     parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
     parser.add_argument("--data", type=Path, default=DEFAULT)
+    parser.add_argument(
+        "--write-docs", action="store_true", help="also write the output to docs/figures/"
+    )
     args = parser.parse_args()
+    with recorded(FIGURE, write=args.write_docs):
+        return _report(args)
+
+
+def _report(args: argparse.Namespace) -> int:
     folds = leave_one_out(detect(args.data))
     print("held-out pair | stereo RMS px | depth mm | median |err| mm | worst |err| mm | in sigmas")
     for f in folds:

@@ -4,6 +4,8 @@ section in the API reference (docs/api/<package>.md), and the README's links res
 from __future__ import annotations
 
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -30,3 +32,24 @@ def test_the_readmes_links_point_at_files_that_exist() -> None:
     assert len(targets) > 10
     missing = [t for t in targets if not t.startswith("http") and not (REPO / t).exists()]
     assert not missing, missing
+
+
+@pytest.mark.parametrize(
+    ("script", "figure"),
+    [("merton_check.py", "merton_check.md"), ("two_camera.py", "two_camera.txt")],
+)
+def test_the_docs_real_data_figures_are_what_their_benchmarks_print(
+    script: str, figure: str
+) -> None:
+    """The docs include docs/figures/<figure>, written by ``<script> --write-docs``: the
+    deterministic real-data benchmarks are rerun here and must print it exactly."""
+    printed = subprocess.run(
+        [sys.executable, str(REPO / "benchmarks" / script)],
+        capture_output=True,
+        text=True,
+        check=True,
+        timeout=120,
+    ).stdout
+    assert printed.strip(), script
+    assert printed == (REPO / "docs" / "figures" / figure).read_text(encoding="utf-8")
+    assert f'--8<-- "figures/{figure}"' in (REPO / "docs" / "real-data.md").read_text()
