@@ -1,5 +1,6 @@
-"""The rig's constants from a checkerboard (issue 24, item 3): a board standing at a measured
-place on the grid paper, seen from several typed poses.
+"""The rig's constants from a checkerboard (issue 24, item 3).
+
+A board standing at a measured place on the grid paper, seen from several typed poses.
 
 Each capture sees every inner corner of the board; the camera's true pose is the typed one
 moved by the rig's constants (:meth:`twopose.rig.RigConstants.true_poses`) and its true
@@ -56,8 +57,10 @@ MIN_DEPTH_SPREAD = 0.1
 
 @dataclass(frozen=True, kw_only=True)
 class BoardRigFit:
-    """The fitted constants, their 1-sigma (11, RIG_PARAMETERS order; the ground height
-    error is not fitted: 0 with sigma NaN) and how well the corners fit.
+    """The fitted constants, their 1-sigma and how well the corners fit.
+
+    The fitted constants, their 1-sigma (11, RIG_PARAMETERS order; the ground height error
+    is not fitted: 0 with sigma NaN) and how well the corners fit.
     """
 
     rig: RigConstants
@@ -70,11 +73,13 @@ class BoardRigFit:
 
 
 def board_order(found_px: ArrayLike, inner_corners: tuple[int, int]) -> F64:
-    """OpenCV's corners (``cv2.findChessboardCorners``, (cols * rows, 2)) in the board's
-    order (:func:`twopose.sim.render.board_corners`: from the first inner corner, the lower
-    left seen from the camera, rows along +x, rising): OpenCV starts from a corner of its
-    choosing, so of the four orderings of the grid the one whose first corner is lowest
-    and leftmost in the image (an upright board, an upright camera) is taken.
+    """OpenCV's board corners put in the board's own order.
+
+    OpenCV's corners (``cv2.findChessboardCorners``, (cols * rows, 2)) in the board's order
+    (:func:`twopose.sim.render.board_corners`: from the first inner corner, the lower left
+    seen from the camera, rows along +x, rising): OpenCV starts from a corner of its
+    choosing, so of the four orderings of the grid the one whose first corner is lowest and
+    leftmost in the image (an upright board, an upright camera) is taken.
     """
     cols, rows = inner_corners
     grid = np.asarray(found_px, dtype=np.float64).reshape(rows, cols, 2)
@@ -120,7 +125,9 @@ def check_identifiable(t_typed: ArrayLike, board_depth: float) -> None:
 
 
 def _project(params: F64, corners: F64, t_typed: F64, r_typed: F64, intrinsics: F64) -> F64:
-    """(C, K, 2) the corners' pixels for the constants ``params`` (10, FITTED order, then
+    """The corners' pixels (C, K, 2) predicted for the constants ``params``.
+
+    (C, K, 2) the corners' pixels for the constants ``params`` (10, FITTED order, then
     optionally each capture's placing error (C, 3): where the laptop really was).
     """
     n = len(RigConstants().vector()) - 1

@@ -60,8 +60,10 @@ class Intrinsics:
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], what: str) -> Intrinsics:
-        """From ``width, height, fx, fy, cx, cy[, distortion]`` (calibration files, plans,
-        the session metadata); a missing or bad value raises InputValueError naming ``what``.
+        """Intrinsics from a table of ``width, height, fx, fy, cx, cy[, distortion]``.
+
+        From ``width, height, fx, fy, cx, cy[, distortion]`` (calibration files, plans, the
+        session metadata); a missing or bad value raises InputValueError naming ``what``.
         """
         missing = [k for k in ("width", "height", "fx", "fy", "cx", "cy") if k not in data]
         if missing:
@@ -110,7 +112,9 @@ SIGMA_KEYS = ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3")
 
 @dataclass(frozen=True, kw_only=True)
 class Camera:
-    """A camera of a session: its id, its calibration and (format 1.2) the calibration's
+    """A camera of a session: its id, its calibration and the calibration's sigma.
+
+    A camera of a session: its id, its calibration and (format 1.2) the calibration's
     1-sigma per intrinsic (:data:`SIGMA_KEYS`; empty when unknown, e.g. typed by hand).
     """
 

@@ -1,5 +1,6 @@
-"""The closed sets of names a user picks from, declared once for the library and both
-command lines.
+"""The closed sets of names a user picks from, declared once.
+
+For the library and both command lines.
 
 Each is a :data:`~typing.Literal`: the library's option records are typed with it, and
 typer turns it into the command lines' choices (``--combine <mean|median|robust>``), so a

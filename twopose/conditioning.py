@@ -39,8 +39,10 @@ def pairwise_max_sine(u: F64, valid: NDArray[np.bool_]) -> F64:
 
 
 def pairwise_max_abs_dot(a: F64, b: F64, valid: NDArray[np.bool_]) -> F64:
-    """Largest ``|a_i . b_j|`` over pairs of valid views of each row (T, N, 3), blocked
-    like :func:`pairwise_max_sine`.
+    """Largest ``|a_i . b_j|`` over pairs of valid views of each row.
+
+    Largest ``|a_i . b_j|`` over pairs of valid views of each row (T, N, 3), blocked like
+    :func:`pairwise_max_sine`.
     """
     T, N = a.shape[:2]
     best = np.zeros(T)
@@ -55,7 +57,9 @@ def pairwise_max_abs_dot(a: F64, b: F64, valid: NDArray[np.bool_]) -> F64:
 
 
 def parallax_sine(P: ArrayLike, valid: ArrayLike, point_grid: ArrayLike) -> F64:
-    """(T,) the largest sine of the angle two valid camera centres subtend at each trial's
+    """The largest sine (T,) of the angle two camera centres subtend at the point.
+
+    (T,) the largest sine of the angle two valid camera centres subtend at each trial's
     point: the baseline as seen from the target, for every method (NaN without a point).
 
     For a point it is the ray parallax; for a line or a ground point it says what the plane
@@ -69,7 +73,9 @@ def parallax_sine(P: ArrayLike, valid: ArrayLike, point_grid: ArrayLike) -> F64:
 
 
 def flag_no_baseline(centres: F64, ok: NDArray[np.bool_], status: Status, reason: Status) -> None:
-    """Every method, one rule: views that all share one camera centre have no baseline, so
+    """Whether each trial's valid views have more than one camera centre.
+
+    Every method, one rule: views that all share one camera centre have no baseline, so
     nothing can be triangulated from them, whatever the solver would return.
     """
     spread = np.abs(np.nan_to_num(np.where(ok[..., None], centres - centres[:, :1], 0.0)))

@@ -1,6 +1,8 @@
-"""The one TOML reader (scenes, plans, calibrations) and the one way TOML tables become
-typed, validated dataclasses: unknown keys, wrong types and non-finite numbers are errors
-that name the key.
+"""The one TOML reader, and the one way TOML tables become typed dataclasses.
+
+The one TOML reader (scenes, plans, calibrations) and the one way TOML tables become typed,
+validated dataclasses: unknown keys, wrong types and non-finite numbers are errors that name
+the key.
 """
 
 from __future__ import annotations
@@ -34,7 +36,9 @@ def read_toml(path: str | Path, what: str, error: type[TwoposeError]) -> dict[st
 
 
 def build_dataclass(cls: type[T], data: Any, what: str, error: type[TwoposeError]) -> T:
-    """``cls(**data)`` with every key checked against ``cls``'s fields and type hints,
+    """``cls(**data)`` with every key checked against ``cls``'s fields and hints.
+
+    ``cls(**data)`` with every key checked against ``cls``'s fields and type hints,
     recursively for nested dataclasses; ``error`` messages start with ``what``.
     """
     built: T = _build(cls, data, "", what, error)

@@ -110,7 +110,9 @@ def wrap_theta_deg(theta_deg: NDArray[np.float64] | float) -> NDArray[np.float64
 
 
 def _wrapped_deg(theta_deg: float) -> float:
-    """:func:`wrap_theta_deg` of one angle, in Python floats (the same IEEE operations:
+    """:func:`wrap_theta_deg` of one angle, in Python floats.
+
+    :func:`wrap_theta_deg` of one angle, in Python floats (the same IEEE operations:
     Python's ``%`` and NumPy's ``mod`` both take C's ``fmod`` and add the divisor when the
     signs differ).
     """
@@ -211,8 +213,10 @@ _GREY_WEIGHTS = (3735, 19235, 9798)
 
 @functools.cache
 def _grey_weights_hold() -> bool:
-    """Whether :data:`_GREY_WEIGHTS` are this OpenCV's (every colour agrees in the tests;
-    here 65,536 random colours and the extremes, once per process): if not, ``cvtColor``.
+    """Whether :data:`_GREY_WEIGHTS` are this OpenCV's grey conversion.
+
+    Whether :data:`_GREY_WEIGHTS` are this OpenCV's (every colour agrees in the tests; here
+    65,536 random colours and the extremes, once per process): if not, ``cvtColor``.
     """
     rng = np.random.default_rng(0)
     colours = np.concatenate(
@@ -246,9 +250,10 @@ _OTSU_MAX_PIXELS = 1 << 23
 
 
 def _otsu_foreground(grey: NDArray[np.uint8], n_pixels: int) -> NDArray[np.bool_] | None:
-    """Which of the kept pixels (grey levels ``grey``) are above OpenCV's Otsu threshold
-    of the image that holds them and ``n_pixels - len(grey)`` zeros; None when OpenCV
-    must decide.
+    """Which kept pixels are above OpenCV's Otsu threshold of their image.
+
+    Which of the kept pixels (grey levels ``grey``) are above OpenCV's Otsu threshold of the
+    image that holds them and ``n_pixels - len(grey)`` zeros; None when OpenCV must decide.
 
     Otsu picks the split of the histogram with the largest between-class variance
     ``(n2 m1 - n1 m2)^2 / (n1 n2 N^2)`` (``n``: pixels, ``m``: sums of levels per class):
@@ -584,7 +589,9 @@ def combine_frames(
 def find_board(
     image_bgr: Image, inner_corners: tuple[int, int], *, window_px: int = 11
 ) -> NDArray[np.float32] | None:
-    """A checkerboard's inner corners (cols * rows, 1, 2), refined to sub-pixel
+    """A checkerboard's inner corners, refined to sub-pixel; None if not found.
+
+    A checkerboard's inner corners (cols * rows, 1, 2), refined to sub-pixel
     (``cv2.findChessboardCorners`` then ``cv2.cornerSubPix`` in a (2 window + 1)^2 window:
     keep it under half a square), in OpenCV's order; None where the board is not found.
     """

@@ -104,7 +104,9 @@ def _on_interrupt(_signum: int, _frame: object) -> None:
 
 
 def watch_interrupts() -> None:
-    """Remember a Ctrl-C even where Python swallows the KeyboardInterrupt it raises (in a
+    """Remember a Ctrl-C even where Python swallows its KeyboardInterrupt.
+
+    Remember a Ctrl-C even where Python swallows the KeyboardInterrupt it raises (in a
     finalizer or weakref callback it is printed and ignored, and the command would then
     finish with 0): :func:`interrupted` tells the command line to exit with 130. Such a
     KeyboardInterrupt is raised again in the main thread (without its traceback), so the
@@ -118,8 +120,10 @@ def watch_interrupts() -> None:
 
 
 def _unraisable(info: object) -> None:
-    """``sys.unraisablehook``: a Ctrl-C raised where Python can only print it is raised
-    again where it can stop the command; anything else is printed as Python would.
+    """Raise again a Ctrl-C that Python could only print (``sys.unraisablehook``).
+
+    ``sys.unraisablehook``: a Ctrl-C raised where Python can only print it is raised again
+    where it can stop the command; anything else is printed as Python would.
     """
     import sys
 
@@ -139,8 +143,10 @@ def interrupted() -> bool:
 
 
 def safe_console() -> None:
-    """The command lines' output streams escape what they cannot encode (a file name that
-    is not valid UTF-8 is printed escaped, never a crash).
+    """Make the output streams escape what they cannot encode.
+
+    The command lines' output streams escape what they cannot encode (a file name that is
+    not valid UTF-8 is printed escaped, never a crash).
     """
     import sys
 
@@ -151,11 +157,13 @@ def safe_console() -> None:
 
 
 def run_command_line(app: Callable[[], object]) -> None:
-    """The one ``main`` of both command lines (``twopose-record``, ``twopose-analyze``):
-    output streams that never crash on a file name, a Ctrl-C anywhere exits 130 with one
-    line (even one Python swallowed in a finalizer, :func:`watch_interrupts`), and every
-    other exit is the command's own (:func:`handle_errors` turns a
-    :class:`TwoposeError` into its message and exit code inside each command).
+    """The one ``main`` of both command lines.
+
+    The one ``main`` of both command lines (``twopose-record``, ``twopose-analyze``): output
+    streams that never crash on a file name, a Ctrl-C anywhere exits 130 with one line (even
+    one Python swallowed in a finalizer, :func:`watch_interrupts`), and every other exit is
+    the command's own (:func:`handle_errors` turns a :class:`TwoposeError` into its message
+    and exit code inside each command).
     """
     import sys
 

@@ -64,8 +64,10 @@ DEFAULT_MIN_GROUND_ANGLE_DEG = 10.0  # between the line and the ground, method 2
 
 
 class EstimateSettings(Protocol):
-    """What estimation reads from its options (``analysis.AnalysisOptions`` has it all;
-    the recorder's live result uses :class:`EstimateOptions`).
+    """What estimation reads from its options.
+
+    What estimation reads from its options (``analysis.AnalysisOptions`` has it all; the
+    recorder's live result uses :class:`EstimateOptions`).
     """
 
     @property
@@ -160,9 +162,11 @@ def pose_view(
 def measure(
     views: list[list[PoseView]], options: EstimateSettings
 ) -> tuple[list[list[PoseMeasurement]], NDArray[np.bool_], NDArray[np.bool_]]:
-    """Each pose's frames combined into one measurement (the thesis' mean, or median /
-    robust). Returns the measurements (empty for a trial with fewer than two poses), and
-    per trial whether it is complete and whether every pose was detected.
+    """Each pose's frames combined into one measurement.
+
+    Each pose's frames combined into one measurement (the thesis' mean, or median / robust).
+    Returns the measurements (empty for a trial with fewer than two poses), and per trial
+    whether it is complete and whether every pose was detected.
     """
     complete = np.array([len(v) >= 2 for v in views], dtype=bool)
     measurements = [
@@ -385,8 +389,10 @@ def input_covariance(
     *,
     median: bool,
 ) -> F64:
-    """(T, N, 9, 9): each view's pixel covariance from its frame scatter, and its typed
-    pose's 1-sigma resolutions on the diagonal (padding views: zero).
+    """Each view's input covariance (T, N, 9, 9): pixels and typed pose.
+
+    (T, N, 9, 9): each view's pixel covariance from its frame scatter, and its typed pose's
+    1-sigma resolutions on the diagonal (padding views: zero).
     """
     T, N, D = batch.inputs.shape
     C = np.zeros((T, N, D, D))
@@ -401,9 +407,11 @@ def input_covariance(
 
 
 def shared_intrinsics(views: list[list[PoseView]], batch: ViewBatch) -> Shared | None:
-    """The intrinsics as inputs shared by each trial's views of one camera, with their
-    calibration's covariance (diagonal: the calibration records 1-sigma per intrinsic);
-    None when no view's camera has a sigma, so such sessions propagate as before.
+    """The intrinsics as inputs shared by each trial's views of one camera.
+
+    Each comes with its calibration's covariance (diagonal: the calibration records 1-sigma per
+    intrinsic); None when no view's camera has a sigma, so such sessions propagate as
+    before.
     """
     if not any(v.intrinsics_sigma.any() for row in views for v in row):
         return None

@@ -1,5 +1,6 @@
-"""Decoding images safely: the header is read first, so a small file that declares a huge
-image is refused before a byte of pixels is allocated.
+"""Decoding images safely: the header is read first.
+
+A small file that declares a huge image is refused before a byte of pixels is allocated.
 
 Every image twopose decodes (session frames, ``detect`` inputs, ``images:`` sources) goes
 through :func:`decode_image`.
@@ -19,8 +20,10 @@ __all__ = ["decode_image", "image_size", "max_image_pixels"]
 
 
 def max_image_pixels() -> int:
-    """The largest image decoded (pixels): 50 MP (above every camera the method uses, about
-    150 MB decoded), or ``TWOPOSE_MAX_IMAGE_MPIX`` megapixels.
+    """The largest image decoded, in pixels.
+
+    The largest image decoded (pixels): 50 MP (above every camera the method uses, about 150
+    MB decoded), or ``TWOPOSE_MAX_IMAGE_MPIX`` megapixels.
     """
     try:
         megapixels = float(os.environ.get("TWOPOSE_MAX_IMAGE_MPIX", "50"))

@@ -25,8 +25,10 @@ def finite_or_none(value: float) -> float | None:
 
 
 def jsonable(value: Any) -> Any:
-    """``value`` with every non-finite float (also in lists, tuples, dicts, NumPy arrays
-    and NumPy scalars) replaced by None, tuples as lists and NumPy values as Python's.
+    """``value`` made JSON-safe: non-finite floats as None, NumPy as Python.
+
+    ``value`` with every non-finite float (also in lists, tuples, dicts, NumPy arrays and
+    NumPy scalars) replaced by None, tuples as lists and NumPy values as Python's.
     """
     if value is None or isinstance(value, str | int):  # bool is an int
         return value

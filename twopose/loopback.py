@@ -24,8 +24,10 @@ __all__ = [
 
 
 def split_host(host: str) -> tuple[str, int | None]:
-    """The name or address and the port of an HTTP ``Host`` header or a bare host, the
-    name lowercased and without brackets: ``"LOCALHOST:8080"`` -> ``("localhost", 8080)``,
+    """The name (lowercased) and the port of an HTTP ``Host`` header or a host.
+
+    The name or address and the port of an HTTP ``Host`` header or a bare host, the name
+    lowercased and without brackets: ``"LOCALHOST:8080"`` -> ``("localhost", 8080)``,
     ``"[::1]"`` -> ``("::1", None)``, ``"::1"`` -> ``("::1", None)``. ``("", None)`` when
     the text is malformed (a bad port, a stray bracket).
     """
@@ -68,7 +70,9 @@ def is_loopback_name(name: str) -> bool:
 
 
 def is_loopback_host(host: str) -> bool:
-    """Whether an HTTP ``Host`` header (``name[:port]``, ``[v6][:port]``) or a bare name or
+    """Whether a ``Host`` header or a bare name or address is loopback.
+
+    Whether an HTTP ``Host`` header (``name[:port]``, ``[v6][:port]``) or a bare name or
     address is loopback (see the module docstring).
     """
     name = host_name(host)
@@ -76,8 +80,9 @@ def is_loopback_host(host: str) -> bool:
 
 
 def is_loopback_origin(origin: str) -> bool:
-    """Whether an ``Origin`` header names a page served from this machine over http(s)
-    (``null``, the origin of sandboxed and file pages, does not).
+    """Whether an ``Origin`` header names a page served from this machine.
+
+    Over http(s) (``null``, the origin of sandboxed and file pages, does not).
     """
     try:
         parts = urlsplit(origin.strip())

@@ -106,8 +106,9 @@ METHODS: tuple[Method, ...] = tuple(METHOD_SPECS)
 
 
 def spec_of(method: str) -> MethodSpec:
-    """The spec of ``method`` (a :class:`Method` or its name); an unknown name raises
-    :class:`~twopose.errors.InputValueError` listing the known ones.
+    """The spec of ``method`` (a :class:`Method` or its name).
+
+    An unknown name raises :class:`~twopose.errors.InputValueError` listing the known ones.
     """
     try:
         return METHOD_SPECS[Method(method)]

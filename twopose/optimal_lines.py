@@ -64,7 +64,9 @@ def centroid_segments(
     sigma_theta_deg: ArrayLike,
     max_half_length_px: ArrayLike = HALF_LENGTH_PX[1],
 ) -> tuple[F64, F64]:
-    """Segments (..., 4) and their endpoints' 1-sigma (...) equivalent to a centroid and an
+    """Segments equivalent to a centroid and an angle with their 1-sigma.
+
+    Segments (..., 4) and their endpoints' 1-sigma (...) equivalent to a centroid and an
     angle measured with the given 1-sigma errors.
 
     Two endpoints ``h`` either side of the centroid, each with noise ``sqrt(2) sigma_across``
@@ -226,7 +228,9 @@ def _best_start(
     weight: F64,
     rows: NDArray[np.intp],
 ) -> tuple[F64, F64]:
-    """The start of least cost among the algebraic line, the weighted one and (up to
+    """The start of least cost among the candidate lines.
+
+    The start of least cost among the algebraic line, the weighted one and (up to
     :data:`MAX_VIEWS_FOR_PAIRS` views) each pair of views' line: an algebraic line can sit
     in another basin than the optimum when the planes meet at a small angle.
     """
@@ -285,8 +289,10 @@ def _rodrigues(w: F64) -> F64:
 
 
 class _Problem:
-    """The residuals of one batch in its normalised frames: line projection matrices
-    ``l = A d + B m`` per view (``P' = P H`` with ``H`` the frame's scale and origin).
+    """The residuals of one batch in its normalised frames.
+
+    Line projection matrices ``l = A d + B m`` per view (``P' = P H`` with ``H`` the frame's
+    scale and origin).
     """
 
     def __init__(
@@ -318,8 +324,10 @@ class _Problem:
         return r.reshape(len(r), -1)
 
     def jacobian(self, U: F64, w: F64, rows: NDArray[np.intp] | slice = slice(None)) -> F64:
-        """(R, 2N, 4) of the weighted residuals of ``rows`` (lines ``U``, ``w`` of those
-        rows) in the orthonormal update (theta, dphi).
+        """The Jacobian (R, 2N, 4) of the weighted residuals of ``rows``.
+
+        (R, 2N, 4) of the weighted residuals of ``rows`` (lines ``U``, ``w`` of those rows)
+        in the orthonormal update (theta, dphi).
         """
         u1, u2, u3 = U[..., 0], U[..., 1], U[..., 2]
         w1, w2 = w[:, :1], w[:, 1:]

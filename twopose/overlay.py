@@ -1,6 +1,8 @@
-"""A detection drawn on its image: ``foxglove.ImageAnnotations`` (used live by the recorder
-and offline in results.mcap): the detected blob's outline, centroid and orientation in
-green, candidates the filters turned down in red with the reason, and the verdict.
+"""A detection drawn on its image as ``foxglove.ImageAnnotations``.
+
+A detection drawn on its image: ``foxglove.ImageAnnotations`` (used live by the recorder and
+offline in results.mcap): the detected blob's outline, centroid and orientation in green,
+candidates the filters turned down in red with the reason, and the verdict.
 """
 
 from __future__ import annotations
@@ -35,8 +37,10 @@ def set_xy(msg: Any, x: float, y: float) -> None:
 
 
 def image_annotations(det: Detection, log_time_ns: int, label: str) -> ImageAnnotations:
-    """One frame's overlay: outline, centroid and orientation of the detection (green),
-    the candidates turned down (red, with why), and ``label`` with the verdict.
+    """One frame's overlay: the detection, the candidates turned down, a label.
+
+    One frame's overlay: outline, centroid and orientation of the detection (green), the
+    candidates turned down (red, with why), and ``label`` with the verdict.
     """
     msg = ImageAnnotations()
 

@@ -123,8 +123,10 @@ class RigConstants:
         )
 
     def true_poses(self, t_typed: ArrayLike, r_typed_deg: ArrayLike) -> tuple[F64, F64]:
-        """Typed camera centres (..., 3) and angles (..., 3, degrees) -> the true centres
-        (..., 3) and rotations ``R_cam_to_grid`` (..., 3, 3).
+        """Typed camera centres and angles to the true centres and rotations.
+
+        Typed camera centres (..., 3) and angles (..., 3, degrees) -> the true centres (...,
+        3) and rotations ``R_cam_to_grid`` (..., 3, 3).
         """
         t = np.asarray(t_typed, dtype=np.float64)
         R_typed = rotation_from_angles_deg(r_typed_deg)
@@ -145,8 +147,10 @@ class RigConstants:
 
 
 def angles_deg_from_rotation(R: ArrayLike) -> F64:
-    """The angles ``(rx, ry, rz)`` (..., 3) in degrees with ``rotation_from_angles_deg``
-    giving ``R`` (..., 3, 3) (``R = Rx Ry Rz``; ry in [-90, 90]).
+    """The angles ``(rx, ry, rz)`` in degrees of rotations ``R = Rx Ry Rz``.
+
+    The angles ``(rx, ry, rz)`` (..., 3) in degrees with ``rotation_from_angles_deg`` giving
+    ``R`` (..., 3, 3) (``R = Rx Ry Rz``; ry in [-90, 90]).
     """
     m = np.asarray(R, dtype=np.float64)
     ry = np.arcsin(np.clip(m[..., 0, 2], -1.0, 1.0))
@@ -157,8 +161,10 @@ def angles_deg_from_rotation(R: ArrayLike) -> F64:
 
 
 def corrected_view(view: PoseView, rig: RigConstants) -> PoseView:
-    """A pose as the rig really had it: typed centre, angles and intrinsics corrected
-    (refused if the rig's principal offset is beyond a quarter of this view's image).
+    """A pose as the rig really had it: centre, angles and intrinsics corrected.
+
+    A pose as the rig really had it: typed centre, angles and intrinsics corrected (refused
+    if the rig's principal offset is beyond a quarter of this view's image).
     """
     check_plausible(rig, image_size=view.width_height, only=["principal_offset_px"])
     t, R = rig.true_poses(view.t_grid, view.r_deg)
@@ -171,8 +177,10 @@ def corrected_view(view: PoseView, rig: RigConstants) -> PoseView:
 
 
 def corrected_ground(ground: GroundSpec | None, rig: RigConstants) -> GroundSpec | None:
-    """The ground plane at its true height (the typed one minus the rig's error; refused
-    if the error is beyond half the ground height).
+    """The ground plane at its true height.
+
+    The ground plane at its true height (the typed one minus the rig's error; refused if the
+    error is beyond half the ground height).
     """
     if ground is None:
         return None
@@ -182,7 +190,9 @@ def corrected_ground(ground: GroundSpec | None, rig: RigConstants) -> GroundSpec
 
 
 def ground_height(ground: GroundSpec | None) -> float | None:
-    """The typed distance from the grid's origin (the camera centre's height) down to the
+    """The typed distance from the grid's origin down to the ground plane.
+
+    The typed distance from the grid's origin (the camera centre's height) down to the
     ground plane ``n . p = offset``, in the session's units (None: no ground).
     """
     if ground is None:
@@ -213,7 +223,9 @@ LIMITS = {
 def _limits(
     units: str | None, height: float | None, image: tuple[int, int] | None
 ) -> dict[str, tuple[float | F64, str]]:
-    """Per constant: the largest plausible deviation from nominal (one number, or one per
+    """Per constant, the largest plausible deviation from nominal and its words.
+
+    Per constant: the largest plausible deviation from nominal (one number, or one per
     scalar) and the limit in words (NaN-free; ``inf`` where it cannot be judged yet).
     """
     per_inch = 1.0 / INCHES_PER_UNIT[units] if units is not None else np.inf
@@ -255,8 +267,10 @@ def _limits(
 def plausible_bounds(
     units: str | None, ground_height: float | None = None, image: tuple[int, int] | None = None
 ) -> tuple[F64, F64]:
-    """The plausible constants' lower and upper bounds (11 each, :data:`RIG_PARAMETERS`
-    order): where a fit may look, so that it never writes a rig that is refused.
+    """The plausible constants' lower and upper bounds.
+
+    The plausible constants' lower and upper bounds (11 each, :data:`RIG_PARAMETERS` order):
+    where a fit may look, so that it never writes a rig that is refused.
     """
     nominal = RigConstants().vector()
     limits = _limits(units, ground_height, image)
@@ -275,10 +289,12 @@ def check_plausible(
     what: str = "rig",
     only: Iterable[str] | None = None,
 ) -> None:
-    """Refuse a rig a laptop on grid paper cannot have (:data:`LIMITS`), naming each
-    constant beyond its limit and the limit. The lengths are judged in ``rig.units`` (else
-    ``units``; neither: not judged); ``ground_height`` (session units) and ``image_size``
-    (width, height) are the session's, where known; ``only``: these constants alone.
+    """Refuse a rig a laptop on grid paper cannot have.
+
+    Refuse a rig a laptop on grid paper cannot have (:data:`LIMITS`), naming each constant
+    beyond its limit and the limit. The lengths are judged in ``rig.units`` (else ``units``;
+    neither: not judged); ``ground_height`` (session units) and ``image_size`` (width,
+    height) are the session's, where known; ``only``: these constants alone.
     """
     units = rig.units or units
     limits = _limits(units, ground_height, image_size)
@@ -313,10 +329,11 @@ def check_applicable(
     image_sizes: Iterable[tuple[int, int]] = (),
     what: str = "rig",
 ) -> list[str]:
-    """Refuse a rig for a session in other units than the rig's, or implausible for its
-    ground height and images (each camera's ``(width, height)``); returns the notes to
-    show (a rig without units, from before they were recorded, is taken in the
-    session's).
+    """Refuse a rig for a session it cannot apply to; return the notes to show.
+
+    Refuse a rig for a session in other units than the rig's, or implausible for its ground
+    height and images (each camera's ``(width, height)``); returns the notes to show (a rig
+    without units, from before they were recorded, is taken in the session's).
     """
     notes = []
     if rig.units is None:
@@ -339,9 +356,11 @@ def check_applicable(
 
 
 def load_rig(path: str | Path) -> RigConstants:
-    """A rig file written by ``twopose-analyze rig`` (its ``[rig]`` table), checked for
-    plausibility (:func:`check_plausible`; the session's ground height and image are
-    judged when it is applied, :func:`check_applicable`).
+    """A rig file written by ``twopose-analyze rig``, checked for plausibility.
+
+    A rig file written by ``twopose-analyze rig`` (its ``[rig]`` table), checked for
+    plausibility (:func:`check_plausible`; the session's ground height and image are judged
+    when it is applied, :func:`check_applicable`).
     """
     from twopose.config import build_dataclass, read_toml
 

@@ -77,8 +77,10 @@ class SessionTrials:
 
 @dataclass(frozen=True, kw_only=True)
 class Uncertainty:
-    """Per trial (T rows, NaN and "" where not ok): an estimate's propagated covariance
-    (T, 3, 3), the input dominating its variance and that input's share (T,).
+    """Per trial: an estimate's covariance and the input dominating it.
+
+    Per trial (T rows, NaN and "" where not ok): an estimate's propagated covariance (T, 3,
+    3), the input dominating its variance and that input's share (T,).
     """
 
     cov: F64
@@ -111,8 +113,10 @@ class Estimates:
 
 @dataclass(frozen=True, kw_only=True)
 class _Propagation:
-    """What propagating the thesis' estimate needs again: the solved rows' batch, their
-    input covariance and shared intrinsics (lines re-propagate at their reported point).
+    """What propagating the thesis' estimate needs again.
+
+    The solved rows' batch, their input covariance and shared intrinsics (lines re-propagate
+    at their reported point).
     """
 
     rows: Ints
@@ -136,7 +140,9 @@ class SessionEstimate:
     _propagation: _Propagation | None = None
 
     def uncertainty_at(self, reference: F64) -> Uncertainty:
-        """The thesis' estimate's uncertainty with lines reported at their point nearest
+        """The thesis' estimate's uncertainty, lines reported near ``reference``.
+
+        The thesis' estimate's uncertainty with lines reported at their point nearest
         ``reference`` (T, 3), held fixed; points and ground points do not depend on it.
         """
         T = len(self.trials)
@@ -150,8 +156,10 @@ class SessionEstimate:
 
 
 def estimate_session(trials: SessionTrials, options: EstimateSettings) -> SessionEstimate:
-    """Solve every detected trial with every estimator, in one batch, and propagate each
-    one's input covariance (pixels from the frame scatter, poses from the typed resolution,
+    """Solve every detected trial with every estimator, and propagate.
+
+    Solve every detected trial with every estimator, in one batch, and propagate each one's
+    input covariance (pixels from the frame scatter, poses from the typed resolution,
     intrinsics from the calibration's 1-sigma: one error for all views of a camera).
 
     Each pose's frames are combined first (the thesis' mean, or median / robust); trials
@@ -314,8 +322,10 @@ def _uncertainty(T: int, p: _Propagation, propagated: Propagated) -> Uncertainty
 
 
 def _weighted_lines(p: _Propagation, options: EstimateSettings) -> F64:
-    """(R, 2, 3) the weighted/robust line fit beside the thesis' one, weighted by each
-    view's noise: each solved row's point and direction.
+    """The weighted/robust line fit (R, 2, 3) beside the thesis' one.
+
+    (R, 2, 3) the weighted/robust line fit beside the thesis' one, weighted by each view's
+    noise: each solved row's point and direction.
     """
     batch, cov_in = p.batch, p.cov_in
     weighted = triangulate_lines(

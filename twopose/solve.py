@@ -118,8 +118,10 @@ class NViewLines:
 
 
 def projection_matrices(intrinsics: ArrayLike, R_cam_to_grid: ArrayLike, t_grid: ArrayLike) -> F64:
-    """``P = K [R^T | -R^T t]`` (..., 3, 4) from (fx, fy, cx, cy), camera -> grid rotations
-    and camera centres; leading dimensions broadcast.
+    """The projection matrices ``P = K [R^T | -R^T t]`` (..., 3, 4).
+
+    ``P = K [R^T | -R^T t]`` (..., 3, 4) from (fx, fy, cx, cy), camera -> grid rotations and
+    camera centres; leading dimensions broadcast.
     """
     k = np.asarray(intrinsics, dtype=np.float64)
     R = np.asarray(R_cam_to_grid, dtype=np.float64)
@@ -388,7 +390,9 @@ def _weighted_line(  # noqa: PLR0913 - the line fit's arrays, named as in its ca
 
 
 def _rank2_line(planes: F64, near: F64) -> tuple[F64, F64]:
-    """The point nearest ``near`` (T, 3) and the unit direction (T, 3) of the rank-2 fit to
+    """The rank-2 fit's point nearest ``near`` and its unit direction.
+
+    The point nearest ``near`` (T, 3) and the unit direction (T, 3) of the rank-2 fit to
     rows of planes (T, N, 4).
     """
     _, _, vt = np.linalg.svd(planes)
@@ -410,8 +414,10 @@ def triangulate_ground(
     valid: ArrayLike | None = None,
     min_conditioning: float = DEFAULT_MIN_CONDITIONING,
 ) -> NViewPoints:
-    """Method 2 with N >= 2 views: the least-squares point of the N back-projected planes
-    and the ground plane ``n3 . p = h`` (for two views exactly eq. 19's solution).
+    """Method 2 with N >= 2 views: the planes' point on the ground plane.
+
+    Method 2 with N >= 2 views: the least-squares point of the N back-projected planes and
+    the ground plane ``n3 . p = h`` (for two views exactly eq. 19's solution).
     """
     lin = np.asarray(lines, dtype=np.float64)
     p = np.asarray(P, dtype=np.float64)
@@ -532,7 +538,9 @@ _CHUNK = 8192
 def _midpoint(
     u1: F64, v1: F64, u2: F64, v2: F64, Ai: F64, Bi: F64, c1: F64, c2: F64
 ) -> tuple[F64, F64, F64, F64]:
-    """Eq. 7-8 per point: rays ``d = M^-1 [u, v, 1]``, ``[d1, -d2] (a1, a2)^T = c2 - c1`` by
+    """Eq. 7-8 per point: the two rays' midpoint in closed form.
+
+    Eq. 7-8 per point: rays ``d = M^-1 [u, v, 1]``, ``[d1, -d2] (a1, a2)^T = c2 - c1`` by
     its 2x2 normal equations in closed form; returns (midpoint, a1, a2, parallax sine).
     """
     d1 = [Ai[i, 0] * u1 + Ai[i, 1] * v1 + Ai[i, 2] for i in range(3)]
@@ -568,9 +576,11 @@ def _fundamental(P1: F64, P2: F64, c1: F64) -> F64:
 
 
 def _lindstrom(u1: F64, v1: F64, u2: F64, v2: F64, F: F64) -> tuple[F64, F64, F64, F64]:
-    """Lindstrom's niter2: the pixel pair closest to the measured one that satisfies the
-    epipolar constraint, in closed form. His ``x^T E x' = 0`` (x in view 1) is our
-    ``x1^T F^T x2 = 0``; ``n = S E x'``, ``n' = S E^T x``, ``E~ = S E S^T``.
+    """Lindstrom's niter2: the nearest pixel pair that meets the epipolar constraint.
+
+    Lindstrom's niter2: the pixel pair closest to the measured one that satisfies the
+    epipolar constraint, in closed form. His ``x^T E x' = 0`` (x in view 1) is our ``x1^T
+    F^T x2 = 0``; ``n = S E x'``, ``n' = S E^T x``, ``E~ = S E S^T``.
     """
     E = F.T
     n1x = E[0, 0] * u2 + E[0, 1] * v2 + E[0, 2]

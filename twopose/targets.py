@@ -27,8 +27,10 @@ def finger_axis(
     tip_height: float = FINGER_TIP_HEIGHT,
     length: float = FINGER_LENGTH,
 ) -> tuple[F64, F64]:
-    """Tip and base (grid frame) of a finger whose axis meets the ground ``y = h`` at
-    ``(x, h, z)``; the tip is ``tip_height`` above the ground, the base ``length`` behind it.
+    """Tip and base of a finger whose axis meets the ground at ``(x, h, z)``.
+
+    Tip and base (grid frame) of a finger whose axis meets the ground ``y = h`` at ``(x, h,
+    z)``; the tip is ``tip_height`` above the ground, the base ``length`` behind it.
     """
     tilt, az = np.deg2rad(tilt_deg), np.deg2rad(azimuth_deg)
     direction = np.array([np.sin(tilt) * np.sin(az), np.cos(tilt), np.sin(tilt) * np.cos(az)])

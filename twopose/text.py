@@ -1,7 +1,9 @@
-"""One rule for text a person typed that a terminal will print: which characters are
-control characters (C0, DEL, C1 and the bidirectional overrides, which a terminal obeys
-instead of showing: an ESC sequence can clear the screen or retitle the window, U+202E
-reverses what follows), and how to show them harmlessly (escaped, as Python writes them).
+"""One rule for typed text a terminal will print.
+
+One rule for text a person typed that a terminal will print: which characters are control
+characters (C0, DEL, C1 and the bidirectional overrides, which a terminal obeys instead of
+showing: an ESC sequence can clear the screen or retitle the window, U+202E reverses what
+follows), and how to show them harmlessly (escaped, as Python writes them).
 
 The web console refuses such text (:func:`recorder.console_guard.text_refusal`); a session
 file may hold it anyway (typed at a terminal, or written by another tool), so everything
@@ -30,8 +32,10 @@ def first_control(text: str) -> str | None:
 
 
 def for_terminal(text: str) -> str:
-    r"""``text`` with every control character written as its escape (``\x1b``,
-    ``\u202e``), everything else as it is (accents, CJK, emoji).
+    r"""``text`` with every control character written as its escape.
+
+    ``text`` with every control character written as its escape (``\x1b``, ``\u202e``),
+    everything else as it is (accents, CJK, emoji).
     """
     if first_control(text) is None:
         return text

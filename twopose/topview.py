@@ -1,4 +1,6 @@
-"""A trial seen from above (the grid's x across, z in depth, session units): what each view
+"""A trial seen from above, drawn as the solver solved it.
+
+A trial seen from above (the grid's x across, z in depth, session units): what each view
 measured, drawn so that it meets where the solver says the target is.
 
 - method 1 (point): each view's ray through the dot's centroid, from the camera centre;
@@ -105,7 +107,9 @@ def _rays(scene: TrialScene, reach: F64) -> list[tuple[str, XZ, XZ]]:
 
 
 def _view_planes(scene: TrialScene) -> F64:
-    """Each view's image line back-projected: the plane ``pi = P^T l`` (N, 4) in the grid
+    """Each view's image line back-projected to its plane (N, 4).
+
+    Each view's image line back-projected: the plane ``pi = P^T l`` (N, 4) in the grid
     frame, ``pi . (x, y, z, 1) = 0``.
     """
     P = projection_matrices(scene.intrinsics, scene.R_cam_to_grid, scene.t_grid)

@@ -1,5 +1,7 @@
-"""A trial's result as the analysis reports it, for the recorder's live view (the thesis'
-GUI computed the point on the spot, section 5.2.4).
+"""A trial's result as the analysis reports it, for the live view.
+
+A trial's result as the analysis reports it, for the recorder's live view (the thesis' GUI
+computed the point on the spot, section 5.2.4).
 
 :func:`trial_results` runs the analysis' own estimation
 (:func:`twopose.session_estimate.estimate_session`: the same frame combination, solvers,
@@ -47,8 +49,10 @@ class TrialResult:
     cov: tuple[tuple[float, float, float], ...] = ()  # (3, 3) of ``point``, propagated
 
     def text(self) -> str:
-        """One line: ``trial 3 (2 views): x 1.915 y 9.625 z 8.402 in; 95% within 0.183
-        in; error 0.052 in``, then the warning; or why there is no estimate.
+        """The result in one line, then its warning; or why there is none.
+
+        One line: ``trial 3 (2 views): x 1.915 y 9.625 z 8.402 in; 95% within 0.183 in;
+        error 0.052 in``, then the warning; or why there is no estimate.
         """
         head = f"trial {self.trial} ({self.n_views} views)"
         if self.status != "ok":
@@ -67,8 +71,10 @@ class TrialResult:
         return "; ".join(parts)
 
     def to_json(self) -> dict[str, object]:
-        """The result as a JSON-ready object for the web console and the live view. NaN
-        and infinity are left as floats: whoever serialises it uses the one encoder,
+        """The result as a JSON-ready object for the web console and live view.
+
+        The result as a JSON-ready object for the web console and the live view. NaN and
+        infinity are left as floats: whoever serialises it uses the one encoder,
         :func:`twopose.jsonsafe.dumps`, which writes them as ``null``.
         """
         return {
@@ -94,7 +100,9 @@ class TrialResult:
 def trial_results(
     trials: SessionTrials, options: EstimateSettings | None = None
 ) -> list[TrialResult]:
-    """Every trial's result, estimated in one batch as the analysis estimates a session
+    """Every trial's result, estimated as the analysis estimates a session.
+
+    Every trial's result, estimated in one batch as the analysis estimates a session
     (:func:`twopose.session_estimate.estimate_session`) and compared with the truth by the
     analysis' rule (:func:`twopose.truth.reported`).
     """

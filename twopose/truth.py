@@ -1,5 +1,6 @@
-"""The comparison with the typed ground truth, in one place: which point a trial reports,
-the true point it is compared with, and a line's errors.
+"""The comparison with the typed ground truth, in one place.
+
+Which point a trial reports, the true point it is compared with, and a line's errors.
 
 Estimation (:mod:`twopose.session_estimate`) never reads the truth. A line has no one
 point, so the analysis and the live result report it at its point nearest the true
@@ -24,8 +25,10 @@ __all__ = ["Reported", "line_errors", "reported", "reported_line_point"]
 
 @dataclass(frozen=True, kw_only=True)
 class Reported:
-    """Per trial (T rows): the point reported, the true point it is compared with (NaN:
-    no truth), their difference, and the reported point's covariance and dominant input.
+    """Per trial: the point reported and the true point it is compared with.
+
+    Per trial (T rows): the point reported, the true point it is compared with (NaN: no
+    truth), their difference, and the reported point's covariance and dominant input.
     """
 
     point: F64  # (T, 3)
@@ -72,7 +75,9 @@ def reported(estimate: SessionEstimate) -> Reported:
 
 
 def reported_line_point(point: F64, direction: F64, truth: F64) -> tuple[F64, F64]:
-    """Lines (T rows): the point each reports, nearest its true segment's midpoint (with no
+    """Lines: each one's point nearest its true segment's midpoint.
+
+    Lines (T rows): the point each reports, nearest its true segment's midpoint (with no
     truth, ``point``), and that midpoint (NaN: no truth); ``truth`` is (T, 2, 3).
     """
     with np.errstate(invalid="ignore"):

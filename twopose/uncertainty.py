@@ -110,8 +110,10 @@ def measurement_covariance(
 
 @dataclass(frozen=True, kw_only=True)
 class Shared:
-    """Inputs common to several views of a trial: a camera's intrinsics, whose calibration
-    error is one draw for every view (and every trial) that camera took.
+    """Inputs common to several views of a trial.
+
+    A camera's intrinsics, whose calibration error is one draw for every view (and every
+    trial) that camera took.
 
     Views of one ``group`` (a trial's views of one camera) hold the same ``values`` and
     are perturbed together; a view in group -1, or a group whose ``cov`` is zero, is exact.
@@ -232,8 +234,10 @@ _Column = tuple[int, int, NDArray[np.bool_] | None]
 def _difference_columns(
     estimate: Callable[[F64], F64], x: F64, steps: list[F64], columns: list[_Column]
 ) -> list[F64]:
-    """Central differences of ``columns`` of the Jacobian, each (T, 3), in one call;
-    ``steps`` (T,) per column (0: an exact input, its column 0).
+    """Central differences of ``columns`` of the Jacobian, in one call.
+
+    Central differences of ``columns`` of the Jacobian, each (T, 3), in one call; ``steps``
+    (T,) per column (0: an exact input, its column 0).
     """
     T = x.shape[0]
     K = len(columns)
@@ -268,9 +272,11 @@ INPUT_GROUPS = (
 def dominant_input(
     variance_by_group: F64, shared_variance: F64 | None = None
 ) -> tuple[list[str], F64]:
-    """Per trial, the kind of input (summed over poses) with the largest share of the
-    variance, and that share: e.g. ``"x translation", 0.97``; with ``shared_variance``
-    (T,), the intrinsics compete too.
+    """Per trial, the kind of input with the largest share of the variance.
+
+    Per trial, the kind of input (summed over poses) with the largest share of the variance,
+    and that share: e.g. ``"x translation", 0.97``; with ``shared_variance`` (T,), the
+    intrinsics compete too.
     """
     flat = variance_by_group.sum(axis=1)  # (T, 5)
     if shared_variance is not None:

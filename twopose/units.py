@@ -1,6 +1,7 @@
-"""The session's length units as a type, with one registry of what each one is: its size
-in inches (the thesis reports in inches), its name in words, and the recorder's limits
-expressed in it. Every per-unit table reads it here.
+"""The session's length units as a type, with one registry.
+
+Of what each one is: its size in inches (the thesis reports in inches), its name in words,
+and the recorder's limits expressed in it. Every per-unit table reads it here.
 
 ``Units`` is a :class:`~enum.StrEnum`: its members equal, print and serialise as their
 symbols (``Units.IN == "in"``), so files and tables are unchanged.
@@ -63,8 +64,9 @@ UNITS: tuple[Units, ...] = tuple(UNIT_SPECS)
 
 
 def unit_spec(units: str) -> UnitSpec:
-    """The spec of ``units`` (a :class:`Units` or its symbol); an unknown one raises
-    :class:`~twopose.errors.InputValueError` listing the known ones.
+    """The spec of ``units`` (a :class:`Units` or its symbol).
+
+    An unknown one raises :class:`~twopose.errors.InputValueError` listing the known ones.
     """
     try:
         return UNIT_SPECS[Units(units)]

@@ -1,5 +1,7 @@
-"""The one home of value checks shared by every entry point: typed poses, plans, requests,
-session entries. Each raises :class:`~twopose.errors.InputValueError` naming ``what``.
+"""The one home of value checks shared by every entry point.
+
+Typed poses, plans, requests, session entries. Each raises
+:class:`~twopose.errors.InputValueError` naming ``what``.
 """
 
 from __future__ import annotations

@@ -70,9 +70,11 @@ def json_field(
     decode: Callable[[Any], Any] | None = None,
     compare: bool = True,
 ) -> Any:
-    """A dataclass field with its JSON name (dots nest), its JSON Schema, whether the
-    schema requires it, and how a JSON value becomes the attribute (``decode``);
-    ``compare=False`` for a mutable value (kept out of equality and the hash).
+    """A dataclass field with its JSON name, its JSON Schema and its decoding.
+
+    A dataclass field with its JSON name (dots nest), its JSON Schema, whether the schema
+    requires it, and how a JSON value becomes the attribute (``decode``); ``compare=False``
+    for a mutable value (kept out of equality and the hash).
     """
     meta = {"json": key, "schema": schema, "required": required, "decode": decode}
     return dataclasses.field(default=default, metadata=meta, compare=compare)
@@ -134,8 +136,10 @@ T = TypeVar("T")
 
 
 def from_json(cls: type[T], data: dict[str, Any]) -> T:
-    """Build a declared dataclass from its (schema-valid) JSON object; absent optional
-    fields take their defaults, unknown fields are ignored (a newer minor may add some).
+    """Build a declared dataclass from its (schema-valid) JSON object.
+
+    Absent optional fields take their defaults, unknown fields are ignored (a newer minor
+    may add some).
     """
     kwargs: dict[str, Any] = {}
     for f in _json_fields(cls):

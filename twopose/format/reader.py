@@ -42,9 +42,10 @@ __all__ = [
 
 
 def max_chunk_bytes() -> int:
-    """The largest chunk (uncompressed) a reader decompresses: 256 MB, or
-    ``TWOPOSE_MAX_CHUNK_MB``. twopose writes chunks of one capture (a few MB); a larger
-    declared size is a damaged file or a decompression bomb.
+    """The largest chunk (uncompressed) a reader decompresses.
+
+    256 MB, or ``TWOPOSE_MAX_CHUNK_MB``. twopose writes chunks of one capture (a few MB); a
+    larger declared size is a damaged file or a decompression bomb.
     """
     import os
 
@@ -158,7 +159,9 @@ class SessionReader:
         self._read_opening([c.topic for c in summary.channels.values()])
 
     def _check_chunk_sizes(self, summary: Any) -> None:
-        """Refuse a file whose index declares a chunk over :func:`max_chunk_bytes`, before
+        """Refuse a file whose index declares a chunk over the limit.
+
+        Refuse a file whose index declares a chunk over :func:`max_chunk_bytes`, before
         anything is decompressed.
         """
         limit = max_chunk_bytes()
@@ -315,7 +318,9 @@ def find_sessions(paths: Iterable[Path | str]) -> list[Path]:
 
 
 def is_results_file(path: str | Path) -> bool:
-    """Whether ``path`` is an analysis results file of ours (its channels are all under
+    """Whether ``path`` is an analysis results file of ours.
+
+    Whether ``path`` is an analysis results file of ours (its channels are all under
     ``/twopose/results/``, ``/tf`` and the camera topics, with no ``twopose`` metadata):
     such files are not sessions, and a run over a folder skips them.
     """

@@ -79,8 +79,9 @@ class SetAside:
 
 @dataclass(frozen=True, kw_only=True)
 class TrialRecord:
-    """Everything recorded for one trial: the poses it is measured from, in pose order,
-    and (format 1.1) what was set aside.
+    """Everything recorded for one trial.
+
+    The poses it is measured from, in pose order, and (format 1.1) what was set aside.
     """
 
     trial: int
@@ -206,8 +207,10 @@ class _TrialBuilder:
     def _accepted(
         self, cameras: dict[str, Camera]
     ) -> tuple[dict[int, PoseCapture], list[SetAside]]:
-        """Format 1.1: the accepted capture of each pose (the later one, should a writer
-        have accepted two), and everything set aside with its reason.
+        """Each pose's accepted capture, and everything set aside with its reason.
+
+        Format 1.1: the accepted capture of each pose (the later one, should a writer have
+        accepted two), and everything set aside with its reason.
         """
         poses: dict[int, tuple[int, PoseCapture]] = {}
         set_aside: list[SetAside] = []

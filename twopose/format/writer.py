@@ -90,8 +90,9 @@ def cameras_from_metadata(text: str) -> list[Camera]:
 
 
 def _with_sigma(info: SessionInfo, cameras: Sequence[Camera]) -> SessionInfo:
-    """The session entry carrying the cameras' calibration sigmas (format 1.2), where the
-    cameras know them and the entry does not say otherwise.
+    """The session entry carrying the cameras' calibration sigmas (format 1.2).
+
+    The sigmas are added where the cameras know them and the entry does not say otherwise.
     """
     known = {c.camera_id: dict(c.intrinsics_sigma) for c in cameras if c.intrinsics_sigma}
     if not known or info.intrinsics_sigma is not None:
@@ -217,8 +218,10 @@ class SessionWriter:
                 self._stream = None
 
     def sync(self) -> None:
-        """Flush the open chunk and ``fsync`` the file: what is written so far survives a
-        power cut, not only a crash of this process (called when a capture is accepted).
+        """Flush the open chunk and ``fsync`` the file.
+
+        What is written so far survives a power cut, not only a crash of this process
+        (called when a capture is accepted).
         """
         if self._stream is None:
             return
@@ -309,8 +312,9 @@ class SessionWriter:
         self.write_entry(entry, log_time_ns)
 
     def new_capture_number(self) -> int:
-        """The next capture number (1, 2, ...): binds a pose entry, its capture window and
-        the decisions about it (format 1.1).
+        """The next capture number (1, 2, ...).
+
+        Binds a pose entry, its capture window and the decisions about it (format 1.1).
         """
         self._captures += 1
         return self._captures
@@ -346,7 +350,9 @@ class SessionWriter:
 
 
 class Capture:
-    """One capture window (see :meth:`SessionWriter.capture`): its frames, then on exit its
+    """One capture window: its frames, then its :class:`CaptureWindow` entry.
+
+    One capture window (see :meth:`SessionWriter.capture`): its frames, then on exit its
     :class:`CaptureWindow` entry (``incomplete`` with the reason after an error).
     """
 

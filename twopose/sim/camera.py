@@ -25,9 +25,11 @@ __all__ = ["SyntheticCamera", "camera_pose", "true_intrinsics"]
 
 
 def camera_pose(rig: RigConstants, t_placed: F64, r_placed: F64) -> tuple[F64, F64]:
-    """Where the camera really is when the laptop is placed at ``t_placed, r_placed``
-    (grid frame, session units; degrees): the rig's mount rotation, camera offset and tape
-    scale (:mod:`twopose.rig`).
+    """Where the camera really is when the laptop is placed at a typed pose.
+
+    Where the camera really is when the laptop is placed at ``t_placed, r_placed`` (grid
+    frame, session units; degrees): the rig's mount rotation, camera offset and tape scale
+    (:mod:`twopose.rig`).
     """
     if rig.is_identity:
         return t_placed, r_placed
@@ -44,7 +46,9 @@ def true_intrinsics(rig: RigConstants, intr: Intrinsics) -> Intrinsics:
 
 
 class SyntheticCamera:
-    """The scene's cameras (one at a time: :attr:`camera`): :meth:`place` renders the scene
+    """The scene's cameras, rendered from where the rig puts them.
+
+    The scene's cameras (one at a time: :attr:`camera`): :meth:`place` renders the scene
     once from where the rig puts the camera when the laptop is placed at a pose,
     :meth:`expose` makes each frame anew from it (lighting, sensor noise, quantisation:
     :func:`twopose.sim.render.expose`).
@@ -56,16 +60,19 @@ class SyntheticCamera:
         self._radiance: NDArray[np.float32] | None = None
 
     def place(self, t_placed: F64, r_placed_deg: F64) -> None:
-        """Render from where the camera really is when the laptop is placed here (grid
-        frame, session units; degrees): the rig's constants applied.
+        """Render from where the camera really is when the laptop is placed here.
+
+        Render from where the camera really is when the laptop is placed here (grid frame,
+        session units; degrees): the rig's constants applied.
         """
         t, r = camera_pose(self.scene.systematic, np.asarray(t_placed), np.asarray(r_placed_deg))
         self.place_camera(t, r)
 
     def place_camera(self, t_camera: F64, r_camera_deg: F64) -> None:
-        """Render from the camera's own (true) pose, the rig's pose constants already
-        applied (the simulator draws it to check the target is in view); the rig's
-        intrinsics constants are applied here.
+        """Render from the camera's own (true) pose.
+
+        The rig's pose constants already applied (the simulator draws it to check the target
+        is in view); the rig's intrinsics constants are applied here.
         """
         self._radiance = render_radiance(
             self.scene,

@@ -167,16 +167,20 @@ def build_layout(scene: Scene, method: str, rng: np.random.Generator) -> Layout:
 
 
 def board_layout(scene: Scene) -> Layout:
-    """What a board session sees: the scene's checkerboard alone on the grid paper (no
-    target, stand or clutter in front of it).
+    """What a board session sees: the checkerboard alone on the grid paper.
+
+    What a board session sees: the scene's checkerboard alone on the grid paper (no target,
+    stand or clutter in front of it).
     """
     return Layout(primitives=(_board(scene.board),), decals=())
 
 
 def board_corners(board: BoardParams) -> F64:
-    """(cols * rows, 3) the board's inner corners in the grid frame, row by row from the
-    first (rows along +x, columns rising along -y), as ``cv2.findChessboardCorners`` lists
-    them for an upright board.
+    """The board's inner corners (cols * rows, 3) in the grid frame.
+
+    (cols * rows, 3) the board's inner corners in the grid frame, row by row from the first
+    (rows along +x, columns rising along -y), as ``cv2.findChessboardCorners`` lists them
+    for an upright board.
     """
     cols, rows = board.inner_corners
     i, j = np.meshgrid(np.arange(cols), np.arange(rows))
@@ -188,7 +192,9 @@ def board_corners(board: BoardParams) -> F64:
 
 
 def _board(board: BoardParams) -> Primitive:
-    """The board as a card: the pattern of (cols + 1) x (rows + 1) squares, the first inner
+    """The board as a card of (cols + 1) x (rows + 1) squares and a margin.
+
+    The board as a card: the pattern of (cols + 1) x (rows + 1) squares, the first inner
     corner one square in from the pattern's lower left, a one-square margin around.
     """
     cols, rows = board.inner_corners
@@ -469,7 +475,9 @@ def render_radiance(
 
 
 def _intersect(layout: Layout, o: F64, d: F64) -> tuple[F64, NDArray[np.int32], F64]:
-    """Per ray from ``o`` along ``d`` (R, 3): the nearest hit's distance, the primitive hit
+    """Per ray, the nearest hit's distance, the primitive hit and its normal.
+
+    Per ray from ``o`` along ``d`` (R, 3): the nearest hit's distance, the primitive hit
     (-1: none) and the surface normal there.
     """
     n_rays = d.shape[0]

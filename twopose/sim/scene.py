@@ -196,12 +196,13 @@ class ClutterParams:
 
 @dataclass(frozen=True, kw_only=True)
 class BoardParams:
-    """A printed checkerboard standing upright on the grid paper, facing the camera (the
-    rig-from-a-board calibration's target): ``inner_corners`` (columns, rows) of squares of
-    side ``square`` (session units), its first inner corner at the grid point
-    ``first_corner``, its rows along +x and its columns rising (-y), in the plane
-    z = ``first_corner`` z; a white margin of one square around the pattern. Rendered when
-    ``present``.
+    """A printed checkerboard standing upright on the grid paper.
+
+    Facing the camera (the rig-from-a-board calibration's target): ``inner_corners``
+    (columns, rows) of squares of side ``square`` (session units), its first inner corner at
+    the grid point ``first_corner``, its rows along +x and its columns rising (-y), in the
+    plane z = ``first_corner`` z; a white margin of one square around the pattern. Rendered
+    when ``present``.
     """
 
     present: bool = False
