@@ -11,6 +11,7 @@ import sys
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from types import ModuleType
 
 import cv2
 import numpy as np
@@ -152,3 +153,17 @@ def start_console(out: Path, *args: str) -> tuple[subprocess.Popen[str], str, st
         line = process.stdout.readline()
     assert "http://" in line, preamble + line
     return process, line.split()[2], preamble
+
+
+BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
+
+
+def load_benchmark(name: str) -> ModuleType:
+    """Import ``benchmarks/<name>.py`` as its script sees itself: ``benchmarks/`` on the path.
+
+    A benchmark imports its siblings (``doc_figures``) as top-level modules, because a script's
+    own directory is ``sys.path[0]``; a test that loads one must give it the same path.
+    """
+    if str(BENCHMARKS) not in sys.path:
+        sys.path.insert(0, str(BENCHMARKS))
+    return importlib.import_module(name)

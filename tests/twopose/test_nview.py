@@ -3,9 +3,7 @@ the optimal estimator; the real Merton College I data."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
-import sys
 from pathlib import Path
 from types import ModuleType
 
@@ -14,6 +12,7 @@ import pytest
 from typer.testing import CliRunner
 
 from analysis.cli import app
+from tests.helpers import load_benchmark
 from twopose.camera import Intrinsics, project_points, rotation_from_angles_deg
 from twopose.solve import (
     NViewLines,
@@ -82,14 +81,7 @@ def test_optimal_never_reprojects_worse_and_missing_views_are_ignored() -> None:
 
 
 def _merton() -> ModuleType:
-    path = Path(__file__).resolve().parents[2] / "benchmarks" / "merton_check.py"
-    spec = importlib.util.spec_from_file_location("merton_check", path)
-    assert spec is not None
-    assert spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["merton_check"] = module
-    spec.loader.exec_module(module)
-    return module
+    return load_benchmark("merton_check")
 
 
 @pytest.mark.skipif(

@@ -7,14 +7,14 @@ corners are detected once for the module.
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 from pathlib import Path
 from types import ModuleType
 from typing import Any
 
 import numpy as np
 import pytest
+
+from tests.helpers import load_benchmark
 
 DATA = Path(__file__).resolve().parents[3] / "shared" / "data" / "opencv-chessboard"
 
@@ -24,14 +24,7 @@ pytestmark = pytest.mark.skipif(
 
 
 def _bench() -> ModuleType:
-    path = Path(__file__).resolve().parents[2] / "benchmarks" / "two_camera.py"
-    spec = importlib.util.spec_from_file_location("two_camera", path)
-    assert spec is not None
-    assert spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["two_camera"] = module
-    spec.loader.exec_module(module)
-    return module
+    return load_benchmark("two_camera")
 
 
 @pytest.fixture(scope="module")
