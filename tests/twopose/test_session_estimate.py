@@ -1,99 +1,17 @@
 """twopose.session_estimate directly: seeded synthetic truth projected into typed poses,
 through estimate_session() for every method; degenerate trials flagged, not solved; the
-estimate never reads the truth (twopose.truth compares with it)."""
+estimate never reads the truth (twopose.truth compares with it: test_truth.py)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from twopose.camera import Intrinsics, project_points, rotation_from_angles_deg
-from twopose.estimate import EstimateOptions, PoseView
-from twopose.methods import Method, spec_of
-from twopose.session_estimate import (
-    SessionEstimate,
-    SessionTrials,
-    estimate_session,
-    running_estimates,
-)
-from twopose.truth import reported
-
-INTRINSICS = Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0)
-H = 9.625  # the thesis' ground height: the ground plane y = h (y down)
-GROUND = (np.array([0.0, 1.0, 0.0]), H)
-FRAMES = 5
-
-
-def _view(
-    pose: int, t: np.ndarray, px: np.ndarray, theta: float, rng: np.random.Generator
-) -> PoseView:
-    """A pose seeing ``px`` (the target's centroid) with image orientation ``theta`` over
-    FRAMES frames of 0.3 px noise."""
-    return PoseView(
-        pose=pose,
-        intrinsics=np.array([INTRINSICS.fx, INTRINSICS.fy, INTRINSICS.cx, INTRINSICS.cy]),
-        width_height=(640, 480),
-        t_grid=t,
-        r_deg=np.zeros(3),
-        t_sigma=0.0625,
-        r_sigma_deg=0.5,
-        centroids=px + 0.3 * rng.standard_normal((FRAMES, 2)),
-        thetas=np.full(FRAMES, theta) + 0.1 * rng.standard_normal(FRAMES),
-        found=np.ones(FRAMES, dtype=bool),
-    )
-
-
-def _project(p: np.ndarray, t: np.ndarray) -> np.ndarray:
-    projected: np.ndarray = project_points(
-        p[None], INTRINSICS, rotation_from_angles_deg([0, 0, 0]), t
-    )
-    return projected[0]
-
-
-def _line_view(
-    pose: int, t: np.ndarray, a: np.ndarray, b: np.ndarray, rng: np.random.Generator
-) -> PoseView:
-    """A pose seeing the 3-D segment a-b: its midpoint's image and the image direction."""
-    pa, pb = _project(a, t), _project(b, t)
-    theta = float(np.degrees(np.arctan2(pb[1] - pa[1], pb[0] - pa[0])))
-    return _view(pose, t, (pa + pb) / 2, theta, rng)
-
-
-def _trials(
-    method: str, rng: np.random.Generator, baselines: list[float]
-) -> tuple[list[list[PoseView]], np.ndarray]:
-    """One trial per baseline (the second camera's x, in inches; 0: no baseline)."""
-    views, truth = [], []
-    for b in baselines:
-        t1, t2 = np.zeros(3), np.array([b, 0.0, 0.0])
-        if method == "point":
-            p = np.array([0.5, 1.5, 11.0]) + rng.uniform(-0.5, 0.5, 3)
-            row = [
-                _view(1, t1, _project(p, t1), np.nan, rng),
-                _view(2, t2, _project(p, t2), np.nan, rng),
-            ]
-            truth.append([p, [np.nan] * 3])
-        else:
-            g = np.array([1.9, H, 8.4]) + np.array(
-                [rng.uniform(-0.5, 0.5), 0, rng.uniform(-0.5, 0.5)]
-            )
-            top = g + np.array([0.3, -6.0, 1.5])  # the finger, leaning towards the camera
-            row = [_line_view(1, t1, top, g, rng), _line_view(2, t2, top, g, rng)]
-            truth.append([top, g] if method == "line" else [g, [np.nan] * 3])
-        views.append(row)
-    return views, np.array(truth, dtype=np.float64)
-
-
-def _estimate(method: str, views: list[list[PoseView]], truth: np.ndarray) -> SessionEstimate:
-    trials = SessionTrials(
-        method=Method(method),
-        units="in",
-        trial_ids=tuple(range(1, len(views) + 1)),
-        views=views,
-        truth=truth,
-        ground=GROUND if spec_of(method).needs_ground else None,
-    )
-    return estimate_session(trials, EstimateOptions())
+from tests.twopose.synthetic_trials import FRAMES, H
+from tests.twopose.synthetic_trials import estimate as _estimate
+from tests.twopose.synthetic_trials import trials as _trials
+from twopose.methods import spec_of
+from twopose.session_estimate import running_estimates
 
 
 @pytest.mark.parametrize("method", ["point", "line", "ground"])
@@ -159,33 +77,6 @@ def test_the_estimate_does_not_read_the_truth(method: str) -> None:
             np.testing.assert_array_equal(getattr(est, name), getattr(first, name))
         assert list(est.dominant) == list(first.dominant)
         assert other.warnings == runs[0].warnings
-
-
-def test_a_line_is_reported_at_its_point_nearest_the_true_midpoint() -> None:
-    """twopose.truth: the reported point lies on the estimated line, nearest the true
-    midpoint, and its covariance is propagated there (not at the solved point): no
-    variance along the line, and different from the solved point's where they differ."""
-    views, truth = _trials("line", np.random.default_rng(11), [1.0, 2.0, 3.0])
-    estimate = _estimate("line", views, truth)
-    est, rep = estimate.estimates, reported(estimate)
-    mid = truth.mean(axis=1)
-    np.testing.assert_allclose(rep.reference, mid)
-    np.testing.assert_allclose(rep.error, rep.point - mid)
-    # on the line, and the offset to the midpoint is perpendicular to it
-    offset = rep.point - est.point
-    cross = np.cross(offset, est.direction)
-    np.testing.assert_allclose(cross, 0.0, atol=1e-9)
-    np.testing.assert_allclose(np.einsum("ti,ti->t", mid - rep.point, est.direction), 0, atol=1e-9)
-    along = np.einsum("ti,tij,tj->t", est.direction, rep.cov, est.direction)
-    np.testing.assert_allclose(along, 0.0, atol=1e-12)
-    moved = np.linalg.norm(offset, axis=1) > 0.5
-    assert moved.any()
-    assert not np.allclose(rep.cov[moved], est.cov[moved])
-    # with no truth, the solved point and its covariance
-    none = reported(_estimate("line", views, np.full_like(truth, np.nan)))
-    np.testing.assert_array_equal(none.point, est.point)
-    np.testing.assert_array_equal(none.cov, est.cov)
-    assert np.isnan(none.reference).all()
 
 
 def test_running_estimates_use_the_first_frames_of_each_pose() -> None:
