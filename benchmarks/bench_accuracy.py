@@ -1,6 +1,6 @@
 """Accuracy against the Cramer-Rao bound: triangulation RMSE on simulated data with known noise.
 
-    .venv/bin/python benchmarks/bench_accuracy.py [--samples 50000] [--sigma-px 0.25]
+    .venv/bin/python benchmarks/bench_accuracy.py [--samples 50000] [--sigma-px 0.25 0.5]
 
 Two cameras of the thesis (f = 525 px, 640x480, poses known exactly) look at a point at a
 given ray parallax (0.5 to 10 degrees). Each sample draws its own geometry: the point
@@ -14,7 +14,8 @@ for two views it equals Lindstrom's niter2, see tests/analysis/test_solve.py), a
 linear DLT (cv2.triangulatePoints).
 
 Targets (issue 5): optimal within 2% of the bound at parallax >= 2 deg and within 6% at
-0.5 deg. Exits 1 if a target is missed.
+0.5 deg, at the thesis' noise (0.25 px; larger sigmas are printed beside it). Exits 1 if a
+target is missed.
 """
 
 from __future__ import annotations
@@ -25,8 +26,14 @@ import sys
 import cv2
 import numpy as np
 import pandas as pd
+from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
 from twopose.solve import projection_matrices, triangulate_points
+
+#: The docs include this file (``--write-docs`` writes it).
+FIGURE = "accuracy.txt"
+#: The noise the targets are stated for (the thesis' detector, issue 5).
+TARGET_SIGMA_PX = 0.25
 
 F64 = np.ndarray
 K = np.array([525.0, 525.0, 320.0, 240.0])
@@ -111,21 +118,44 @@ def trial(
 def main(argv: list[str]) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--samples", type=int, default=50_000)
-    ap.add_argument("--sigma-px", type=float, default=0.25)
+    ap.add_argument("--sigma-px", type=float, nargs="+", default=[0.25, 0.5])
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args(argv)
-    rng = np.random.default_rng(args.seed)
-    table = pd.DataFrame([trial(p, args.samples, args.sigma_px, rng) for p in PARALLAX_DEG])
+    met = [
+        _report(sigma_px, args.samples, np.random.default_rng(args.seed))
+        for sigma_px in args.sigma_px
+    ]
+    return (
+        0
+        if all(
+            ok
+            for sigma_px, ok in zip(args.sigma_px, met, strict=True)
+            if sigma_px <= TARGET_SIGMA_PX
+        )
+        else 1
+    )
+
+
+def _report(sigma_px: float, samples: int, rng: np.random.Generator) -> bool:
+    """Print one noise level's table; whether its optimal estimator meets the targets."""
+    table = pd.DataFrame([trial(p, samples, sigma_px, rng) for p in PARALLAX_DEG])
     print(
-        f"RMSE / Cramer-Rao bound, {args.samples} samples a row, sigma = {args.sigma_px} px, "
+        f"RMSE / Cramer-Rao bound, {samples} samples a row, sigma = {sigma_px} px, "
         f"geometry drawn per sample (crb: RMS bound, units):"
     )
     print(table.to_string(index=False, float_format=lambda v: f"{v:.4f}"))
     opt = table.set_index("parallax_deg")["optimal (Gauss-Newton)"]
     ok = bool((opt[opt.index >= 2.0] <= 1.02).all() and opt.loc[0.5] <= 1.06)
-    print("targets (optimal within 2% at >= 2 deg, 6% at 0.5 deg):", "met" if ok else "MISSED")
-    return 0 if ok else 1
+    binding = (
+        "" if sigma_px <= TARGET_SIGMA_PX else f" (targets stated for <= {TARGET_SIGMA_PX} px)"
+    )
+    print(
+        "targets (optimal within 2% at >= 2 deg, 6% at 0.5 deg):",
+        f"{'met' if ok else 'MISSED'}{binding}",
+    )
+    print()
+    return ok
 
 
 if __name__ == "__main__":
-    raise SystemExit(main(sys.argv[1:]))
+    raise SystemExit(run_recorded(lambda: main(sys.argv[1:]), FIGURE))

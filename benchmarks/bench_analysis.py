@@ -30,6 +30,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
+
 from recorder.simulate import simulate_session
 from twopose.format.reader import SessionReader
 from twopose.format.trials import iter_trials
@@ -63,6 +65,9 @@ assert not result.failed, result.errors
 hwm = [line for line in open("/proc/self/status") if line.startswith("VmHWM:")][0]
 print(elapsed, int(hwm.split()[1]))
 """
+
+#: The docs include this file (``--write-docs`` writes it).
+FIGURE = "analysis.txt"
 
 
 def _best(code: str, *args: str, repeat: int, env: dict[str, str] | None = None) -> list[float]:
@@ -219,4 +224,4 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(run_recorded(main, FIGURE))

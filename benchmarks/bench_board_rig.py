@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
@@ -43,8 +44,11 @@ from twopose.board_rig import BoardRigFit, board_order, fit_board_rig  # noqa: E
 from twopose.detect import find_board  # noqa: E402
 from twopose.rig import RIG_PARAMETERS  # noqa: E402
 from twopose.sim.camera import SyntheticCamera  # noqa: E402
-from twopose.sim.render import board_corners, board_layout  # noqa: E402
+from twopose.sim.layout import board_corners, board_layout  # noqa: E402
 from twopose.sim.scene import Scene, load_scene  # noqa: E402
+
+#: The docs include this file (``--write-docs`` writes it).
+FIGURE = "board_rig.txt"
 
 POSES = np.array(
     [[0, 0, 0], [2, 0, 0], [-2, 0, 0], [0, 0, -2], [2, 0, -2], [-1, 0, 3], [1, 0, -4], [-2, 0, 2]],
@@ -149,4 +153,4 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(run_recorded(main, FIGURE))

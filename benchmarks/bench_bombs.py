@@ -20,6 +20,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
 from twopose.methods import Method
 from twopose.units import Units
@@ -31,6 +32,9 @@ from tests.helpers import jpeg_declaring, write_accepted_capture  # noqa: E402
 from twopose.camera import Camera, Intrinsics  # noqa: E402
 from twopose.format.entries import GroundTruth, Note, PoseEntry, SessionInfo  # noqa: E402
 from twopose.format.writer import SessionWriter  # noqa: E402
+
+#: The docs include this file (``--write-docs`` writes it).
+FIGURE = "bombs.txt"
 
 CAM = Camera(
     camera_id="cam0",
@@ -114,4 +118,4 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(run_recorded(main, FIGURE))

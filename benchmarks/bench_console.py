@@ -23,6 +23,7 @@ from pathlib import Path
 
 import cv2
 import httpx
+from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
@@ -30,6 +31,9 @@ sys.path.insert(0, str(REPO))
 from recorder.simulate import simulate_session  # noqa: E402
 from twopose.format.messages import Frame  # noqa: E402
 from twopose.format.reader import SessionReader  # noqa: E402
+
+#: The docs include this file (``--write-docs`` writes it).
+FIGURE = "console.txt"
 
 RECORD = Path(sys.executable).with_name("twopose-record")
 
@@ -106,4 +110,4 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(run_recorded(main, FIGURE))

@@ -14,12 +14,17 @@ import tempfile
 import time
 from pathlib import Path
 
+from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
+
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from analysis.batch import run  # noqa: E402
 from recorder.simulate import simulate_session  # noqa: E402
 from tests.helpers import DaskCluster  # noqa: E402
+
+#: The docs include this file (``--write-docs`` writes it).
+FIGURE = "dask.txt"
 
 
 def batch_seconds(paths: list[Path], folder: Path, workers: int) -> float:
@@ -62,4 +67,4 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(run_recorded(main, FIGURE))

@@ -13,6 +13,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
 from twopose.methods import Method
 from twopose.units import Units
@@ -23,6 +24,9 @@ sys.path.insert(0, str(REPO))
 from twopose.camera import Camera, Intrinsics  # noqa: E402
 from twopose.format.entries import PoseEntry, SessionInfo  # noqa: E402
 from twopose.format.writer import SessionWriter  # noqa: E402
+
+#: The docs include this file (``--write-docs`` writes it).
+FIGURE = "fsync.txt"
 
 
 def main() -> int:
@@ -67,4 +71,4 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(run_recorded(main, FIGURE))

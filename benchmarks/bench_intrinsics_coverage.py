@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
@@ -49,6 +50,9 @@ from twopose.session_estimate import estimate_session  # noqa: E402
 from twopose.sim.scene import CameraParams, Scene  # noqa: E402
 from twopose.truth import reported  # noqa: E402
 from twopose.uncertainty import uncertainty_columns  # noqa: E402
+
+#: The docs include this file (``--write-docs`` writes it).
+FIGURE = "intrinsics_coverage.txt"
 
 METHODS = ("point", "line", "ground")
 #: The calibration's 1-sigma (px) of fx, fy, cx and cy, each.
@@ -171,4 +175,4 @@ def main(argv: list[str]) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main(sys.argv[1:]))
+    raise SystemExit(run_recorded(lambda: main(sys.argv[1:]), FIGURE))

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
 from recorder.capture import CaptureResult
 from recorder.plan import Plan, PlannedPose, PlannedTrial, record_plan
@@ -25,6 +26,9 @@ from recorder.sources import FrameSource, SyntheticSource, VideoSource
 from twopose.camera import Camera, Intrinsics
 from twopose.methods import Method
 from twopose.units import Units
+
+#: The docs include this file (``--write-docs`` writes it).
+FIGURE = "recorder.txt"
 
 SIZES = ((640, 480), (1280, 720))
 FPS = 30.0
@@ -111,4 +115,4 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(run_recorded(main, FIGURE))

@@ -37,6 +37,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
@@ -51,6 +52,9 @@ from analysis.results import AnalysisOptions  # noqa: E402
 from recorder.simulate import simulate_session  # noqa: E402
 from twopose.rig import RigConstants  # noqa: E402
 from twopose.sim.scene import Scene  # noqa: E402
+
+#: The docs include this file (``--write-docs`` writes it).
+FIGURE = "rig.txt"
 
 RIG = RigConstants(
     mount_rotation_deg=(0.8, -0.5, 0.3), camera_offset=(0.3, 0.2, 0.4), focal_scale=1.03
@@ -243,4 +247,4 @@ def workflow_table(results: list[SeedResult], seeds: int, folder: Path, workers:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(run_recorded(main, FIGURE))

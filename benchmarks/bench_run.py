@@ -31,6 +31,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from bench_analysis import count_frames, replicate  # type: ignore[import-not-found]  # on sys.path at run time
@@ -103,6 +105,9 @@ result = batch.run([folder], out)
 assert not result.failed, result.errors
 print(time.perf_counter() - t, spent[0], len(result.sessions), len(result.frames))
 """
+
+#: The docs include this file (``--write-docs`` writes it).
+FIGURE = "run.txt"
 
 
 def _python(code: str, *args: str) -> list[float]:
@@ -201,4 +206,4 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(run_recorded(main, FIGURE))

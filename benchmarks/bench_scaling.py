@@ -16,6 +16,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
@@ -24,6 +25,9 @@ from analysis.pipeline import analyse_session  # noqa: E402
 from analysis.request import solve_request  # noqa: E402
 from recorder.simulate import simulate_session  # noqa: E402
 from twopose.sim.scene import Scene  # noqa: E402
+
+#: The docs include this file (``--write-docs`` writes it).
+FIGURE = "scaling.txt"
 
 
 def session_seconds(folder: Path, poses: int) -> float:
@@ -78,4 +82,4 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(run_recorded(main, FIGURE))

@@ -22,6 +22,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from bench_analysis import DECODE_LOOP, _python, count_frames, replicate  # type: ignore[import-not-found]  # on sys.path at run time
@@ -42,6 +44,9 @@ t = time.perf_counter()
 write_outputs(result, Path(sys.argv[2]) / "again", _thesis_sweeps().copy())
 print(total, time.perf_counter() - t)
 """
+
+#: The docs include this file (``--write-docs`` writes it).
+FIGURE = "trials.txt"
 
 
 def _best(code: str, *args: str, repeat: int) -> list[float]:
@@ -93,4 +98,4 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(run_recorded(main, FIGURE))

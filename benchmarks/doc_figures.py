@@ -1,9 +1,11 @@
 """Benchmark figures written by the benchmarks where the docs include them, never pasted.
 
-A benchmark run with ``--write-docs`` also writes what it prints to
-``docs/figures/<name>`` (the command that made it first); the docs page includes that file
-(``pymdownx.snippets``), so a figure in the docs is the output of its script's last run.
-``tests/test_docs.py`` reruns the deterministic ones and fails when the docs' copy differs.
+Every benchmark ends with ``raise SystemExit(run_recorded(main, FIGURE))``. Run with
+``--write-docs`` anywhere on its command line, it prints as usual and also writes what it
+printed to ``docs/figures/<figure>``; the docs page includes that file
+(``pymdownx.snippets``), so a figure in the docs is the output of its script's last run, whether
+the run met its targets or not. ``tests/test_docs.py`` checks that every benchmark has its
+figure and that a page includes it, and reruns the deterministic ones to compare.
 """
 
 from __future__ import annotations
@@ -11,12 +13,13 @@ from __future__ import annotations
 import contextlib
 import io
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 FIGURES = Path(__file__).resolve().parents[1] / "docs" / "figures"
+WRITE_DOCS = "--write-docs"
 
-__all__ = ["FIGURES", "recorded"]
+__all__ = ["FIGURES", "WRITE_DOCS", "recorded", "run_recorded"]
 
 
 class _Tee(io.TextIOBase):
@@ -42,5 +45,15 @@ def recorded(name: str, *, write: bool) -> Iterator[None]:
     tee = _Tee(sys.stdout)  # type: ignore[arg-type]
     with contextlib.redirect_stdout(tee):
         yield
+    # Written whether the run met its targets or not (the docs show what the script printed,
+    # never an older, better run), but not after an exception or Ctrl-C: half a run is no figure.
     FIGURES.mkdir(exist_ok=True)
     (FIGURES / name).write_text(tee.kept.getvalue(), encoding="utf-8")
+
+
+def run_recorded(main: Callable[[], int | None], figure: str) -> int:
+    """Run a benchmark's ``main``; ``--write-docs`` (taken off ``sys.argv``) records its output."""
+    write = WRITE_DOCS in sys.argv
+    sys.argv = [a for a in sys.argv if a != WRITE_DOCS]
+    with recorded(figure, write=write):
+        return main() or 0

@@ -17,6 +17,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
+
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
@@ -25,6 +27,9 @@ from recorder.cli import app as record  # noqa: E402
 from recorder.plan import load_plan, record_plan  # noqa: E402
 from recorder.sources import SyntheticSource  # noqa: E402
 from tests.fuzzing import Outcomes, check_command, mutants  # noqa: E402
+
+#: The docs include this file (``--write-docs`` writes it).
+FIGURE = "fuzz.txt"
 
 PLAN = (
     'method = "ground"\nframes = 3\nground_height = 9.625\n[camera]\nfocal = 525.0\n'
@@ -79,4 +84,4 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(run_recorded(main, FIGURE))

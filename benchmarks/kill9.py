@@ -21,6 +21,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
@@ -29,6 +30,9 @@ from recorder.recover import recover_session  # noqa: E402
 from twopose.errors import SessionFormatError  # noqa: E402
 from twopose.format.reader import SessionReader  # noqa: E402
 from twopose.format.trials import iter_trials  # noqa: E402
+
+#: The docs include this file (``--write-docs`` writes it).
+FIGURE = "kill9.txt"
 
 TRIALS, FRAMES = 4, 15
 POSES = [((0.0, 0.0, 0.0), (1.1, 0.0, 0.0))] * TRIALS
@@ -122,4 +126,4 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(run_recorded(main, FIGURE))

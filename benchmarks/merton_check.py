@@ -15,12 +15,11 @@ of l3d's segments' length within 0.1%, 0.5% and 1% of the scene's size of our li
 from __future__ import annotations
 
 import argparse
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from doc_figures import recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
+from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
 from twopose.optimal_lines import OptimalLines, optimal_lines
 from twopose.solve import NViewLines, segment_lines, triangulate_lines, triangulate_points
@@ -146,12 +145,7 @@ def check(m: Merton) -> dict[str, float]:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--data", type=Path, default=DEFAULT)
-    parser.add_argument(
-        "--write-docs", action="store_true", help="also write the output to docs/figures/"
-    )
-    args = parser.parse_args()
-    with recorded(FIGURE, write=args.write_docs):
-        return _report(args)
+    return _report(parser.parse_args())
 
 
 def _report(args: argparse.Namespace) -> int:
@@ -201,4 +195,4 @@ def _report(args: argparse.Namespace) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    raise SystemExit(run_recorded(main, FIGURE))

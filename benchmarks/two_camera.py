@@ -22,13 +22,12 @@ error is beyond 3 of its sigmas or the median beyond the median sigma.
 from __future__ import annotations
 
 import argparse
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
 import numpy as np
-from doc_figures import recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
+from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 from numpy.typing import NDArray
 
 from recorder.calibrate import fit_views
@@ -214,12 +213,7 @@ def _clean_spacings(fold: Fold) -> NDArray[np.bool_]:
 def main() -> int:
     parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
     parser.add_argument("--data", type=Path, default=DEFAULT)
-    parser.add_argument(
-        "--write-docs", action="store_true", help="also write the output to docs/figures/"
-    )
-    args = parser.parse_args()
-    with recorded(FIGURE, write=args.write_docs):
-        return _report(args)
+    return _report(parser.parse_args())
 
 
 def _report(args: argparse.Namespace) -> int:
@@ -254,4 +248,4 @@ def _report(args: argparse.Namespace) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    raise SystemExit(run_recorded(main, FIGURE))

@@ -20,10 +20,14 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
 from analysis import run
 from analysis.outputs import replacing
 from recorder.simulate import simulate_session
+
+#: The docs include this file (``--write-docs`` writes it).
+FIGURE = "uncertainty_calibration.txt"
 
 METHODS = ("point", "line", "ground")
 TRIALS_PER_SESSION = 100
@@ -86,4 +90,4 @@ def main(argv: list[str]) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main(sys.argv[1:]))
+    raise SystemExit(run_recorded(lambda: main(sys.argv[1:]), FIGURE))

@@ -40,7 +40,7 @@ from twopose.format.entries import (
 )
 from twopose.methods import spec_of
 from twopose.sim.camera import SyntheticCamera, camera_pose, true_intrinsics
-from twopose.sim.render import Layout, build_layout, finger_axis
+from twopose.sim.layout import Layout, build_layout, finger_axis
 from twopose.sim.scene import CameraParams, PoseParams, Scene
 from twopose.units import unit_spec
 from twopose.values import Vec3

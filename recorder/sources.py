@@ -322,7 +322,7 @@ class SyntheticSource(FrameSource):
 
     def open(self) -> SourceInfo:
         from twopose.sim.camera import SyntheticCamera
-        from twopose.sim.render import build_layout
+        from twopose.sim.layout import build_layout
 
         layout = build_layout(self.scene, self.method, self._rng)
         self._camera = SyntheticCamera(self.scene, layout, self._rng)

@@ -76,7 +76,7 @@ def board_order(found_px: ArrayLike, inner_corners: tuple[int, int]) -> F64:
     """OpenCV's board corners put in the board's own order.
 
     OpenCV's corners (``cv2.findChessboardCorners``, (cols * rows, 2)) in the board's order
-    (:func:`twopose.sim.render.board_corners`: from the first inner corner, the lower left
+    (:func:`twopose.sim.layout.board_corners`: from the first inner corner, the lower left
     seen from the camera, rows along +x, rising): OpenCV starts from a corner of its
     choosing, so of the four orderings of the grid the one whose first corner is lowest and
     leftmost in the image (an upright board, an upright camera) is taken.

@@ -14,7 +14,8 @@ from twopose.camera import project_points, rotation_from_angles_deg
 from twopose.errors import InputValueError, SceneError
 from twopose.format.reader import SessionReader
 from twopose.format.trials import iter_trials
-from twopose.sim.render import build_layout, expose, finger_axis, render_radiance
+from twopose.sim.layout import build_layout, finger_axis
+from twopose.sim.render import expose, render_radiance
 from twopose.sim.scene import Scene, load_scene
 
 

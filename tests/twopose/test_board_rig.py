@@ -14,7 +14,7 @@ from twopose.detect import find_board
 from twopose.errors import InputValueError
 from twopose.rig import RigConstants
 from twopose.sim.camera import SyntheticCamera
-from twopose.sim.render import board_corners, board_layout
+from twopose.sim.layout import board_corners, board_layout
 from twopose.sim.scene import load_scene
 
 K = np.array([525.0, 525.0, 320.0, 240.0])

@@ -19,7 +19,8 @@ from twopose.detect import (
     detect_glove,
     wrap_theta_deg,
 )
-from twopose.sim.render import build_layout, expose, finger_axis, render_radiance
+from twopose.sim.layout import build_layout, finger_axis
+from twopose.sim.render import expose, render_radiance
 from twopose.sim.scene import load_scene
 
 GLOVE_BGR = (192, 108, 38)

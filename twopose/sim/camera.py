@@ -18,7 +18,8 @@ from numpy.typing import NDArray
 from twopose.arrays import F64
 from twopose.camera import Intrinsics, rotation_from_angles_deg
 from twopose.rig import RigConstants, angles_deg_from_rotation
-from twopose.sim.render import Layout, expose, render_radiance
+from twopose.sim.layout import Layout
+from twopose.sim.render import expose, render_radiance
 from twopose.sim.scene import CameraParams, Scene
 
 __all__ = ["SyntheticCamera", "camera_pose", "true_intrinsics"]

@@ -12,7 +12,7 @@ from twopose.camera import project_points, rotation_from_angles_deg
 from twopose.detect import find_board
 from twopose.errors import SceneError
 from twopose.sim.camera import SyntheticCamera
-from twopose.sim.render import board_corners, board_layout, build_layout
+from twopose.sim.layout import board_corners, board_layout, build_layout
 from twopose.sim.scene import load_scene
 
 BOARD = """

@@ -1,0 +1,350 @@
+"""What the synthetic webcam looks at: the scene's objects as primitives to ray-cast.
+
+The laboratory test stand, the dot on its card (method 1), the gloved finger as a capsule
+(line method, method 2), the calibration board, and blue-ish clutter decals the glove filters
+must reject, placed where no view would confuse them with the target. :mod:`twopose.sim.render`
+ray-casts a :class:`Layout`; nothing here draws.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from twopose.arrays import F64
+from twopose.camera import Intrinsics, project_points, rotation_from_angles_deg
+from twopose.sim.scene import BoardParams, Scene
+from twopose.targets import finger_axis as target_finger_axis
+
+__all__ = [
+    "Decal",
+    "Layout",
+    "Primitive",
+    "board_corners",
+    "board_layout",
+    "build_layout",
+    "finger_axis",
+    "srgb_to_linear",
+]
+
+GAMMA = 2.2
+
+
+def srgb_to_linear(rgb: tuple[int, int, int]) -> F64:
+    """8-bit display colour -> linear reflectance (simple 2.2 gamma, as the sensor model)."""
+    return (np.asarray(rgb, dtype=np.float64) / 255.0) ** GAMMA
+
+
+# --------------------------------------------------------------------------- primitives
+
+
+@dataclass(frozen=True, kw_only=True)
+class Primitive:
+    """A renderable surface. ``kind`` selects the intersection routine.
+
+    kinds: ``capsule`` (a, b, radius), ``box`` (lo, hi), ``card`` (centre, half size,
+    dot centre and radius, in the plane z = centre z, facing -z), ``board`` (a card whose
+    face is a checkerboard: squares of side ``square`` from the pattern's corner
+    ``dot_center``, ``color`` light and ``dot_color`` dark, the margin light).
+    """
+
+    kind: str
+    color: F64
+    a: F64
+    b: F64 = field(default_factory=lambda: np.zeros(3))
+    radius: float = 0.0
+    specular: float = 0.0
+    dot_color: F64 = field(default_factory=lambda: np.zeros(3))
+    dot_center: F64 = field(default_factory=lambda: np.zeros(3))
+    dot_radius: float = 0.0
+    square: float = 0.0  # board: the squares' side
+    squares: tuple[int, int] = (0, 0)  # board: squares along x and y (inner corners + 1)
+
+
+@dataclass(frozen=True, kw_only=True)
+class Decal:
+    """A flat clutter shape painted on the table (plane y = h) or the wall (z = wall_z).
+
+    ``points`` are the shape's 2-D vertices or parameters in that surface's (a, b) coords:
+    table (x, z), wall (x, y).
+    """
+
+    surface: str  # "table" | "wall"
+    shape: str  # disk | ring | ellipse | triangle
+    center: F64
+    size: F64  # disk: (r, r); ring: (a, b) outer semi-axes; triangle unused
+    angle: float
+    color: F64
+    vertices: F64 = field(default_factory=lambda: np.zeros((3, 2)))
+
+
+@dataclass(frozen=True, kw_only=True)
+class Layout:
+    """Everything placed in the scene for one session (target, stand, clutter)."""
+
+    primitives: tuple[Primitive, ...]
+    decals: tuple[Decal, ...]
+
+
+def finger_axis(scene: Scene) -> tuple[F64, F64]:
+    """Tip and base of the scene's finger axis in the grid frame (it meets the ground point)."""
+    f = scene.finger
+    return target_finger_axis(
+        f.ground_point, scene.ground_height, f.tilt_deg, f.azimuth_deg, f.tip_height, f.length
+    )
+
+
+def _stand(scene: Scene, attach: F64) -> list[Primitive]:
+    st = scene.stand
+    h = scene.ground_height
+    rod_xz = np.array([attach[0] + st.rod_offset[0], attach[2] + st.rod_offset[1]])
+    color = srgb_to_linear(st.color)
+    rod_top = np.array([rod_xz[0], attach[1] - 0.6, rod_xz[1]])
+    rod_bottom = np.array([rod_xz[0], h - st.base_height, rod_xz[1]])
+    arm_start = np.array([rod_xz[0], attach[1], rod_xz[1]])
+    half = np.array([st.base_size[0] / 2, 0.0, st.base_size[1] / 2])
+    base_lo = np.array([rod_xz[0], h - st.base_height, rod_xz[1]]) - half
+    base_hi = np.array([rod_xz[0], h, rod_xz[1]]) + half
+    base_lo[1], base_hi[1] = h - st.base_height, h
+    return [
+        Primitive(
+            kind="capsule",
+            color=color,
+            a=rod_top,
+            b=rod_bottom,
+            radius=st.rod_radius,
+            specular=0.25,
+        ),
+        Primitive(
+            kind="capsule",
+            color=color,
+            a=arm_start,
+            b=attach,
+            radius=st.rod_radius * 0.6,
+            specular=0.25,
+        ),
+        Primitive(kind="box", color=srgb_to_linear(st.base_color), a=base_lo, b=base_hi),
+    ]
+
+
+def build_layout(scene: Scene, method: str, rng: np.random.Generator) -> Layout:
+    """Place the target for ``method`` (point | line | ground), the stand and the clutter."""
+    prims: list[Primitive] = []
+    if method == "point":
+        pt = scene.point
+        dot = np.asarray(pt.position, dtype=np.float64)
+        card_center = dot + np.array([pt.card_offset[0], pt.card_offset[1], 0.0])
+        half = np.array([pt.card_size[0] / 2, pt.card_size[1] / 2, 0.0])
+        prims.append(
+            Primitive(
+                kind="card",
+                color=srgb_to_linear(pt.card_color),
+                a=card_center,
+                b=half,
+                dot_color=srgb_to_linear(pt.dot_color),
+                dot_center=dot,
+                dot_radius=pt.dot_radius,
+            )
+        )
+        attach = card_center + np.array([0.0, 0.0, 0.15])
+        prims += _stand(scene, attach)
+    else:
+        tip, base = finger_axis(scene)
+        f = scene.finger
+        prims.append(
+            Primitive(
+                kind="capsule",
+                color=srgb_to_linear(f.color),
+                a=base,
+                b=tip,
+                radius=f.radius,
+                specular=f.specular,
+            )
+        )
+        prims += _stand(scene, base)
+    if scene.board.present:
+        prims.append(_board(scene.board))
+    return Layout(primitives=tuple(prims), decals=tuple(_clutter(scene, method, rng)))
+
+
+def board_layout(scene: Scene) -> Layout:
+    """What a board session sees: the checkerboard alone on the grid paper.
+
+    What a board session sees: the scene's checkerboard alone on the grid paper (no target,
+    stand or clutter in front of it).
+    """
+    return Layout(primitives=(_board(scene.board),), decals=())
+
+
+def board_corners(board: BoardParams) -> F64:
+    """The board's inner corners (cols * rows, 3) in the grid frame.
+
+    (cols * rows, 3) the board's inner corners in the grid frame, row by row from the first
+    (rows along +x, columns rising along -y), as ``cv2.findChessboardCorners`` lists them
+    for an upright board.
+    """
+    cols, rows = board.inner_corners
+    i, j = np.meshgrid(np.arange(cols), np.arange(rows))
+    x0, y0, z0 = board.first_corner
+    return np.stack(
+        [x0 + board.square * i.ravel(), y0 - board.square * j.ravel(), np.full(i.size, z0)],
+        axis=1,
+    )
+
+
+def _board(board: BoardParams) -> Primitive:
+    """The board as a card of (cols + 1) x (rows + 1) squares and a margin.
+
+    The board as a card: the pattern of (cols + 1) x (rows + 1) squares, the first inner
+    corner one square in from the pattern's lower left, a one-square margin around.
+    """
+    cols, rows = board.inner_corners
+    s = board.square
+    x0, y0, z0 = board.first_corner
+    corner = np.array([x0 - s, y0 + s, z0])  # the pattern's lower-left corner (y down)
+    size = np.array([(cols + 1) * s, (rows + 1) * s])
+    centre = corner + np.array([size[0] / 2, -size[1] / 2, 0.0])
+    half = np.array([size[0] / 2 + s, size[1] / 2 + s, 0.0])  # with the margin
+    return Primitive(
+        kind="board",
+        color=srgb_to_linear(board.light_color),
+        a=centre,
+        b=half,
+        dot_color=srgb_to_linear(board.dark_color),
+        dot_center=corner,
+        square=s,
+        squares=(cols + 1, rows + 1),
+    )
+
+
+def _sample_views(scene: Scene) -> list[tuple[Intrinsics, F64, F64]]:
+    """Corner and centre poses of the pose ranges: where the target can appear."""
+    p = scene.poses
+    views = []
+    for x in (*p.x_range, sum(p.x_range) / 2):
+        for z in (*p.z_range, sum(p.z_range) / 2):
+            t = np.array([x, sum(p.y_range) / 2, z])
+            r = np.array([sum(p.rx_range), sum(p.ry_range), sum(p.rz_range)]) / 2
+            views.append((scene.cameras[0].intrinsics, rotation_from_angles_deg(r), t))
+    return views
+
+
+def _too_close_to_target(
+    point_grid: F64, extent: float, target_grid: F64, views: list[tuple[Intrinsics, F64, F64]]
+) -> bool:
+    """Whether a decal at ``point_grid`` (size ``extent``) would touch the target in a view."""
+    for intr, R, t in views:
+        target_px = project_points(target_grid, intr, R, t)
+        center_px = project_points(point_grid[None, :], intr, R, t)[0]
+        if not np.all(np.isfinite(target_px)) or not np.all(np.isfinite(center_px)):
+            continue
+        depth = float(np.linalg.norm(point_grid - t))
+        radius_px = intr.fx * extent / depth + 40.0
+        a, b = target_px[0], target_px[-1]
+        ab = b - a
+        s = float(np.clip((center_px - a) @ ab / max(ab @ ab, 1e-9), 0.0, 1.0))
+        if np.linalg.norm(center_px - (a + s * ab)) < radius_px:
+            return True
+    return False
+
+
+def _clutter(scene: Scene, method: str, rng: np.random.Generator) -> list[Decal]:
+    c = scene.clutter
+    decals: list[Decal] = []
+    blue, navy = srgb_to_linear(c.color), srgb_to_linear(c.navy_color)
+    views = _sample_views(scene)
+    if method == "point":
+        target = np.asarray([scene.point.position], dtype=np.float64)
+    else:
+        target = np.stack(finger_axis(scene))
+    for i in range(c.count):
+        kind = c.kinds[i % len(c.kinds)]
+        for _ in range(50):  # keep clutter off the target in every view; give up on a crowded scene
+            on_wall = rng.random() < 0.5
+            if on_wall:
+                center = np.array([rng.uniform(*c.wall_x_range), rng.uniform(*c.wall_y_range)])
+                scale = 3.0  # the wall is far: bigger shapes to stay visible
+                point = np.array([center[0], center[1], scene.wall_z])
+            else:
+                center = np.array([rng.uniform(*c.table_x_range), rng.uniform(*c.table_z_range)])
+                scale = 1.6
+                point = np.array([center[0], scene.ground_height, center[1]])
+            apart = all(
+                d.surface != ("wall" if on_wall else "table")
+                or np.linalg.norm(d.center - center) > 2.2 * scale + 1.0
+                for d in decals
+            )
+            if apart and not _too_close_to_target(point, 2.5 * scale, target, views):
+                break
+        else:
+            continue
+        angle = float(rng.uniform(0, np.pi))
+        surface = "wall" if on_wall else "table"
+        if kind == "disk":
+            r = scale * rng.uniform(0.6, 1.0)
+            decals.append(
+                Decal(
+                    surface=surface,
+                    shape="disk",
+                    center=center,
+                    size=np.array([r, r]),
+                    angle=angle,
+                    color=blue,
+                )
+            )
+        elif kind == "speck":
+            r = rng.uniform(0.08, 0.15)
+            decals.append(
+                Decal(
+                    surface=surface,
+                    shape="disk",
+                    center=center,
+                    size=np.array([r, r]),
+                    angle=angle,
+                    color=blue,
+                )
+            )
+        elif kind == "ring":
+            a = scale * rng.uniform(1.0, 1.4)
+            decals.append(
+                Decal(
+                    surface=surface,
+                    shape="ring",
+                    center=center,
+                    size=np.array([a, a * 0.35]),
+                    angle=angle,
+                    color=blue,
+                )
+            )
+        elif kind == "triangle":
+            length, width = scale * rng.uniform(1.5, 2.2), scale * rng.uniform(0.4, 0.6)
+            local = np.array(
+                [[-length / 2, -width / 2], [-length / 2, width / 2], [length / 2, 0.0]]
+            )
+            rot = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+            verts = local @ rot.T + center
+            decals.append(
+                Decal(
+                    surface=surface,
+                    shape="triangle",
+                    center=center,
+                    size=np.zeros(2),
+                    angle=angle,
+                    color=blue,
+                    vertices=verts,
+                )
+            )
+        else:  # navy: a glove-shaped blob of the wrong colour
+            a = scale * rng.uniform(0.8, 1.1)
+            decals.append(
+                Decal(
+                    surface=surface,
+                    shape="ellipse",
+                    center=center,
+                    size=np.array([a, a * 0.3]),
+                    angle=angle,
+                    color=navy,
+                )
+            )
+    return decals
