@@ -91,6 +91,6 @@ def test_the_methods_margins_and_the_core_uncertainty_columns_are_the_declared_o
 def test_the_run_writes_the_declared_columns_in_order(bundled_run: Path, name: str) -> None:
     table = pd.read_csv(bundled_run / name)
     assert len(table) > 0
-    # The rig's columns come with --rig-calibration loo only (test_replay runs it).
+    # The rig's columns come with --rig-calibration loo only (test_pipeline runs it).
     expected = [c for c in FILES[name] if c not in RIG_COLUMNS or name != "trials.csv"]
     assert list(table.columns) == expected

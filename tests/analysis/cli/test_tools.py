@@ -1,9 +1,9 @@
-"""twopose-analyze run / detect / solve through typer's CliRunner."""
+"""``twopose-analyze detect`` and ``solve`` through typer's CliRunner: one JSON object per
+image or request, degenerate geometry as a status, bad input refused with its reason."""
 
 from __future__ import annotations
 
 import json
-import shutil
 from pathlib import Path
 
 import cv2
@@ -13,48 +13,26 @@ from typer.testing import CliRunner
 
 from analysis.cli import app
 from twopose.camera import Intrinsics, project_points
-from twopose.errors import EXIT_ERROR, EXIT_SOME_INPUTS_FAILED, EXIT_USAGE
+from twopose.errors import EXIT_ERROR, EXIT_SOME_INPUTS_FAILED
 from twopose.format.reader import SessionReader
 
 runner = CliRunner()
 
 
-def test_run_writes_results_and_prints_a_summary(tmp_path: Path, ground_session: Path) -> None:
-    out = tmp_path / "res"
-    result = runner.invoke(
-        app, ["run", str(ground_session), "--out", str(out)], env={"COLUMNS": "200"}
-    )
-    assert result.exit_code == 0, result.output
-    assert "ground" in result.output
-    assert "2/2" in result.output
-    for name in (
-        "trials.csv",
-        "summary.csv",
-        "averaging.csv",
-        "frames.csv",
-        "errors.csv",
-        "report.html",
-    ):
-        assert (out / name).exists()
+K = [525.0, 525.0, 320.0, 240.0]
 
 
-def test_run_exit_code_when_some_inputs_fail(tmp_path: Path, ground_session: Path) -> None:
-    shutil.copy(ground_session, tmp_path / "good.mcap")
-    (tmp_path / "broken.mcap").write_bytes(b"MCAP? no")
-    result = runner.invoke(
-        app, ["run", str(tmp_path), "--out", str(tmp_path / "res"), "--jobs", "2"]
-    )
-    assert result.exit_code == EXIT_SOME_INPUTS_FAILED
-    assert "broken.mcap" in result.output
-    assert (tmp_path / "res" / "trials.csv").exists()
+INTR = Intrinsics(width=640, height=480, fx=K[0], fy=K[1], cx=K[2], cy=K[3])
 
 
-def test_run_missing_input_and_bad_options(tmp_path: Path) -> None:
-    result = runner.invoke(app, ["run", str(tmp_path / "nothing")])
-    assert result.exit_code == EXIT_ERROR
-    assert "does not exist" in result.output
-    assert runner.invoke(app, ["run", str(tmp_path), "--jobs", "0"]).exit_code == EXIT_USAGE
-    assert runner.invoke(app, ["run", str(tmp_path), "--combine", "mode"]).exit_code == EXIT_USAGE
+def _view(t: list[float], **measure: object) -> dict[str, object]:
+    return {"K": K, "pose": {"t": t, "r_deg": [0, 0, 0]}, **measure}
+
+
+def _line_view(t: list[float], a: np.ndarray, b: np.ndarray) -> dict[str, object]:
+    pa, pb = project_points(np.stack([a, b]), INTR, np.eye(3), t)
+    theta = float(np.degrees(np.arctan2(*(pb - pa)[::-1])))
+    return _view(t, line={"px": pa.tolist(), "theta_deg": theta})
 
 
 def test_detect_prints_one_json_object_per_image(tmp_path: Path, ground_session: Path) -> None:
@@ -92,14 +70,6 @@ def test_detect_unreadable_image(tmp_path: Path) -> None:
     assert "is not a readable image" in json.loads(result.output)["reason"]
 
 
-K = [525.0, 525.0, 320.0, 240.0]
-INTR = Intrinsics(width=640, height=480, fx=K[0], fy=K[1], cx=K[2], cy=K[3])
-
-
-def _view(t: list[float], **measure: object) -> dict[str, object]:
-    return {"K": K, "pose": {"t": t, "r_deg": [0, 0, 0]}, **measure}
-
-
 def test_solve_point() -> None:
     req = {"views": [_view([0, 0, 0], px=[320, 240]), _view([1, 0, 0], px=[267.5, 240])]}
     result = runner.invoke(app, ["solve", "point"], input=json.dumps(req))
@@ -108,12 +78,6 @@ def test_solve_point() -> None:
     np.testing.assert_allclose(answer["point"], [0, 0, 10], atol=1e-9)
     assert answer["status"] == "ok"
     assert answer["conditioning"] > 0
-
-
-def _line_view(t: list[float], a: np.ndarray, b: np.ndarray) -> dict[str, object]:
-    pa, pb = project_points(np.stack([a, b]), INTR, np.eye(3), t)
-    theta = float(np.degrees(np.arctan2(*(pb - pa)[::-1])))
-    return _view(t, line={"px": pa.tolist(), "theta_deg": theta})
 
 
 @pytest.mark.parametrize("method", ["line", "ground"])
@@ -191,14 +155,3 @@ def test_detect_refuses_an_image_bomb_and_an_empty_file_with_a_reason(tmp_path: 
     assert [d["found"] for d in lines] == [False, False]
     assert "over the limit" in lines[0]["reason"]
     assert "not a readable image" in lines[1]["reason"]
-
-
-def test_both_command_lines_print_their_version() -> None:
-    from recorder.cli import app as record
-    from twopose import __version__
-    from twopose.format.entries import FORMAT_VERSION
-
-    for cli in (app, record):
-        result = CliRunner().invoke(cli, ["--version"])
-        assert result.exit_code == 0
-        assert result.output.strip() == f"twopose {__version__} (session format {FORMAT_VERSION})"
