@@ -1,0 +1,59 @@
+"""recorder.summary directly: the tally counts each capture once, and the one summary line
+says what the file holds, how it ended, and that nothing was written when nothing was."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from recorder.capture import CaptureResult, FrameFeedback
+from recorder.summary import RecordingSummary, Tally
+
+
+@dataclass
+class _Counts:
+    trial: int = 2
+    n_complete_trials: int = 1
+    n_accepted: int = 2
+    n_discarded: int = 1
+
+
+def _feedback(found: list[bool]) -> tuple[FrameFeedback, ...]:
+    return tuple(
+        FrameFeedback(
+            index=i, found=f, centroid_px=(1.0, 2.0), theta_deg=0.0, n_blobs=int(f), reason=""
+        )
+        for i, f in enumerate(found)
+    )
+
+
+def test_the_tally_adds_every_capture_once() -> None:
+    tally = Tally()
+    tally.add(CaptureResult(n_frames=5, complete=True, reason="", feedback=_feedback([True] * 5)))
+    tally.add(
+        CaptureResult(
+            n_frames=3, complete=False, reason="the camera stopped", dropped=2,
+            feedback=_feedback([True, False, False]),
+        )
+    )  # fmt: skip
+    tally.add(CaptureResult(n_frames=5, complete=True, reason=""))  # no live detection
+    summary = tally.summary(Path("s.mcap"), _Counts(), interrupted=False, kept=True)
+    assert (summary.n_captures, summary.n_incomplete, summary.n_frames) == (3, 1, 13)
+    assert (summary.n_found, summary.dropped) == (6, 2)
+    assert summary.n_accepted + summary.n_discarded == summary.n_captures
+    assert summary.seconds >= 0
+
+
+def test_the_line_in_words_and_its_endings() -> None:
+    summary = RecordingSummary(
+        path=Path("s.mcap"), n_trials=1, n_captures=2, n_incomplete=0, n_frames=10, n_found=9,
+        seconds=12.34, dropped=1, n_complete_trials=1, n_accepted=2, n_discarded=0,
+    )  # fmt: skip
+    assert summary.line() == (
+        "wrote s.mcap: 1 trial (1 complete), 2 captures (2 accepted, 0 discarded; "
+        "0 incomplete), 10 frames (9 detected, 1 dropped) in 12.3 s"
+    )
+    stopped = RecordingSummary(**{**summary.__dict__, "interrupted": True})
+    assert stopped.line().endswith(" (interrupted: the file is closed and valid)")
+    empty = RecordingSummary(**{**summary.__dict__, "kept": False})
+    assert empty.line() == "nothing was recorded: no session file written at s.mcap"
