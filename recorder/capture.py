@@ -23,11 +23,13 @@ from twopose.format.writer import Capture, SessionWriter
 
 if TYPE_CHECKING:
     from twopose.detect import Detection, PoseMeasurement
+    from twopose.rig import RigConstants
     from twopose.scene3d import TrialScene
     from twopose.trial_result import TrialResult
 
 __all__ = [
     "CaptureResult",
+    "CaptureSettings",
     "FrameFeedback",
     "LiveSink",
     "Shortfall",
@@ -174,31 +176,41 @@ def detection_shortfall(result: CaptureResult) -> Shortfall:
     return Shortfall.FEW_FOUND if 2 * result.n_found < len(result.feedback) else Shortfall.OK
 
 
-def capture_frames(  # noqa: PLR0913 - keyword-only settings, one per command-line option
-    writer: SessionWriter,
-    source: FrameSource,
-    entry: PoseEntry,
-    n_frames: int,
-    *,
-    target: Target | None = None,
-    on_frame: Callable[[FrameFeedback], None] | None = None,
-    timeout_s: float = 2.0,
-    live: LiveSink | None = None,
-    on_progress: Callable[[], None] | None = None,
+@dataclass(frozen=True, kw_only=True)
+class CaptureSettings:
+    """How every capture of a recording is taken: the same for each pose.
+
+    ``target`` (``"glove"`` or ``"dot"``) turns on live detection: each frame's feedback to
+    ``on_frame``, the detection drawn on ``live``, and the trial's live result (corrected by
+    ``rig``, a calibrated rig, if given); ``on_progress`` is called after every frame
+    written, detected or not.
+    """
+
+    frames: int = 5
+    target: Target | None = None
+    live: LiveSink | None = None
+    on_frame: Callable[[FrameFeedback], None] | None = None
+    on_progress: Callable[[], None] | None = None
+    rig: RigConstants | None = None
+    timeout_s: float = 2.0  # a frame later than this: the source has stopped
+
+
+def capture_frames(
+    writer: SessionWriter, source: FrameSource, entry: PoseEntry, settings: CaptureSettings
 ) -> CaptureResult:
-    """Capture ``n_frames`` frames for the already written pose ``entry`` (the source is
-    already placed there).
+    """Capture ``settings.frames`` frames for the already written pose ``entry`` (the source
+    is already placed there).
 
     Dropped frames are counted from the start of this capture only: the source restarts
     its clock here (:meth:`FrameSource.start_capture`), so the operator's pause before a
-    capture is never counted. ``target`` (``"glove"`` or ``"dot"``) turns on live detection
-    feedback (``on_frame``); ``on_progress`` is called after every frame written, detected
-    or not. A source that fails mid-capture leaves the capture in the file, marked
-    incomplete with the reason; an interrupt (Ctrl-C) does the same, then propagates.
+    capture is never counted. A source that fails mid-capture leaves the capture in the
+    file, marked incomplete with the reason; an interrupt (Ctrl-C) does the same, then
+    propagates.
     """
     from twopose.detect import detect
     from twopose.images import decode_image
 
+    n_frames, target, live = settings.frames, settings.target, settings.live
     source.start_capture()
     dropped_before = source.dropped
     feedback: list[FrameFeedback] = []
@@ -207,7 +219,7 @@ def capture_frames(  # noqa: PLR0913 - keyword-only settings, one per command-li
     with writer.capture(entry.trial, entry.pose, entry.camera_id, entry.capture) as cap:
         for k in range(n_frames):
             try:
-                image = source.read(timeout_s)
+                image = source.read(settings.timeout_s)
             except SourceError as err:
                 reason = str(err)
                 cap.mark_incomplete(reason)
@@ -224,10 +236,10 @@ def capture_frames(  # noqa: PLR0913 - keyword-only settings, one per command-li
             if live is not None:
                 _show_live(live, writer, cap, entry, data, (k, n_frames), d)
             overhead.append(time.perf_counter() - started)
-            if fb is not None and on_frame is not None:
-                on_frame(fb)
-            if on_progress is not None:
-                on_progress()
+            if fb is not None and settings.on_frame is not None:
+                settings.on_frame(fb)
+            if settings.on_progress is not None:
+                settings.on_progress()
             cap.dropped_frames = source.dropped - dropped_before
     return CaptureResult(
         n_frames=cap.n_frames,

@@ -153,6 +153,7 @@ def _recording(
 ) -> None:
     """The recording thread: the procedure with the page as its driver. It prints the
     summary, once, when the procedure ends (the page's quit, or the server stopping)."""
+    from recorder.capture import CaptureSettings
     from recorder.procedure import record
     from recorder.sources import open_source
     from twopose.camera import Camera
@@ -178,10 +179,10 @@ def _recording(
         )
         ground = GroundPlane(offset=setup.ground_height) if setup.ground_height else None
         target = spec_of(setup.method).target
-        summary = record(
-            session.out, info, [camera], src, driver, ground=ground, frames=options.frames,
-            target=target, live=session, rig=options.rig,
-        )  # fmt: skip
+        capture = CaptureSettings(
+            frames=options.frames, target=target, live=session, rig=options.rig
+        )
+        summary = record(session.out, info, [camera], src, driver, ground=ground, capture=capture)
         hint = "" if stopping.is_set() else "\n(the console shows it; Ctrl-C stops the console)"
         print(summary.line() + hint, flush=True)
     except TwoposeError as err:

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 from typing_extensions import override
 
-from recorder.capture import CaptureResult
+from recorder.capture import CaptureResult, CaptureSettings
 from recorder.plan import off_ground
 from recorder.procedure import (
     Decision,
@@ -331,9 +331,11 @@ def record_interactive(  # noqa: PLR0913 - keyword-only settings, one per comman
         source,
         driver,
         ground=ground,
-        frames=frames,
-        target=spec_of(info.method).target,
-        live=live,
-        on_frame=lambda fb: operator.say(fb.line()),
-        rig=rig,
+        capture=CaptureSettings(
+            frames=frames,
+            target=spec_of(info.method).target,
+            live=live,
+            on_frame=lambda fb: operator.say(fb.line()),
+            rig=rig,
+        ),
     )

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 
 from typing_extensions import override
 
-from recorder.capture import CaptureResult, FrameFeedback
+from recorder.capture import CaptureResult, CaptureSettings, FrameFeedback
 from recorder.procedure import (
     Decision,
     Driver,
@@ -339,10 +339,12 @@ def record_plan(
         plan.cameras,
         source,
         _PlanDriver(plan, on_capture, on_result),
-        rig=rig,
         ground=ground,
-        frames=plan.frames,
-        target=spec_of(plan.method).target,
-        live=live,
-        on_frame=on_frame,
+        capture=CaptureSettings(
+            frames=plan.frames,
+            target=spec_of(plan.method).target,
+            live=live,
+            on_frame=on_frame,
+            rig=rig,
+        ),
     )

@@ -45,6 +45,7 @@ from typing import TYPE_CHECKING, Any
 
 from recorder.capture import (
     CaptureResult,
+    CaptureSettings,
     FrameFeedback,
     Shortfall,
     capture_frames,
@@ -54,7 +55,6 @@ from recorder.live_result import LiveResults
 from recorder.sources import FrameSource, SourceInfo
 from recorder.summary import RecordingSummary, Tally
 from twopose.camera import Camera
-from twopose.choices import Target
 from twopose.errors import InputValueError, SessionExistsError, TwoposeError
 from twopose.format.entries import (
     CaptureDecision,
@@ -69,8 +69,6 @@ from twopose.format.writer import SessionWriter
 from twopose.values import Vec3
 
 if TYPE_CHECKING:
-    from recorder.capture import LiveSink
-    from twopose.rig import RigConstants
     from twopose.trial_result import TrialResult
 
 __all__ = [
@@ -191,23 +189,21 @@ class Procedure:
     def capture(
         self,
         source: FrameSource,
-        n_frames: int,
+        settings: CaptureSettings,
         *,
         true_pose: tuple[Vec3, Vec3] | None = None,
-        **options: Any,
     ) -> CaptureResult:
         """Place ``source`` at the pose (the simulator's true pose, if given) and capture.
 
-        ``options`` go to :func:`recorder.capture.capture_frames`. An interrupt during the
-        capture leaves its window in the file (incomplete) and the machine deciding, so
-        that closing discards it.
+        An interrupt during the capture leaves its window in the file (incomplete) and the
+        machine deciding, so that closing discards it.
         """
         self._event("capture")
         assert self.entry is not None
         t_grid, r_deg = true_pose or (self.entry.t_grid, self.entry.r_deg)
         try:
             source.set_pose(t_grid, r_deg)
-            self.result = capture_frames(self.writer, source, self.entry, n_frames, **options)
+            self.result = capture_frames(self.writer, source, self.entry, settings)
         finally:
             self.state = State.DECIDING
         return self.result
@@ -412,15 +408,11 @@ def refuse_existing(path: str | Path) -> None:
 
 @dataclass(frozen=True, kw_only=True)
 class _CaptureOptions:
-    frames: int
-    target: Target | None
-    live: LiveSink | None
-    on_frame: Callable[[FrameFeedback], None] | None
-    on_progress: Callable[[], None] | None
+    settings: CaptureSettings
     results: LiveResults | None = None  # with live detection: each trial's live result
 
 
-def record(  # noqa: PLR0913 - keyword-only settings, one per command-line option
+def record(
     path: str | Path,
     info: SessionInfo,
     cameras: Sequence[Camera],
@@ -428,18 +420,13 @@ def record(  # noqa: PLR0913 - keyword-only settings, one per command-line optio
     driver: Driver,
     *,
     ground: GroundPlane | None = None,
-    frames: int = 5,
-    target: Target | None = None,
-    live: LiveSink | None = None,
-    on_frame: Callable[[FrameFeedback], None] | None = None,
+    capture: CaptureSettings | None = None,
     writer_options: dict[str, Any] | None = None,
-    on_progress: Callable[[], None] | None = None,
-    rig: RigConstants | None = None,
 ) -> RecordingSummary:
     """Record a new session at ``path`` from the (unopened) ``source``, as ``driver`` says.
 
-    ``target`` (``"glove"`` or ``"dot"``) turns on live detection feedback and the live
-    result (corrected by ``rig``, a calibrated rig, if given). Whatever stops
+    Every pose is captured as ``capture`` says (5 frames, no live detection, by default);
+    its ``target`` turns on live detection feedback and the live result. Whatever stops
     the recording (the driver, an error, Ctrl-C) leaves a closed, valid session holding
     everything captured so far, with an undecided capture discarded. Ctrl-C returns the
     summary with ``interrupted`` set; any other error propagates after the file is closed.
@@ -448,17 +435,11 @@ def record(  # noqa: PLR0913 - keyword-only settings, one per command-line optio
     out = Path(path)
     refuse_existing(out)
     tally = Tally()
+    settings = capture or CaptureSettings()
     results = None
-    if target is not None:  # the live result needs the live detection
-        results = LiveResults(info.method, info.units, cameras, ground, rig=rig)
-    options = _CaptureOptions(
-        frames=frames,
-        target=target,
-        live=live,
-        on_frame=on_frame,
-        on_progress=on_progress,
-        results=results,
-    )
+    if settings.target is not None:  # the live result needs the live detection
+        results = LiveResults(info.method, info.units, cameras, ground, rig=settings.rig)
+    options = _CaptureOptions(settings=settings, results=results)
     interrupted = False
     try:
         with contextlib.ExitStack() as stack:
@@ -532,15 +513,7 @@ def _record_trial(
     while proc.state is not State.READY:
         placed = driver.place(proc.trial, proc.pose)
         proc.type_pose(placed.entry)
-        result = proc.capture(
-            source,
-            opts.frames,
-            true_pose=placed.true_pose,
-            target=opts.target,
-            on_frame=opts.on_frame,
-            on_progress=opts.on_progress,
-            live=opts.live,
-        )
+        result = proc.capture(source, opts.settings, true_pose=placed.true_pose)
         tally.add(result)
         driver.captured(proc.trial, proc.pose, result)
         trial = proc.trial
@@ -588,9 +561,9 @@ def _result_step(trial: int, proc: Procedure, driver: Driver, opts: _CaptureOpti
             driver.result_withdrawn(trial)
         return
     driver.trial_result(result)
-    if opts.live is not None:
+    if opts.settings.live is not None:
         scene = opts.results.scene(trial)
-        opts.live.trial_result(result, scene, time.time_ns())
+        opts.settings.live.trial_result(result, scene, time.time_ns())
 
 
 def _decide(proc: Procedure, driver: Driver, result: CaptureResult) -> bool:

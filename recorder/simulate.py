@@ -23,6 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 from typing_extensions import override
 
+from recorder.capture import CaptureSettings
 from recorder.procedure import Driver, Placement, record
 from recorder.sources import FrameSource, SourceInfo
 from twopose.arrays import F64
@@ -399,8 +400,7 @@ def simulate_session(  # noqa: PLR0913 - keyword-only settings, one per command-
             _SimulatedOperator(scene, method, trials, rng, clock, camera),
             # The operator types the ground height off by the rig's error (the true one renders).
             ground=GroundPlane(offset=scene.ground_height + scene.systematic.ground_height_error),
-            frames=frames,
-            on_progress=on_progress,
+            capture=CaptureSettings(frames=frames, on_progress=on_progress),
             writer_options={
                 "image_format": scene.sensor.image_format,
                 "jpeg_quality": scene.sensor.jpeg_quality,

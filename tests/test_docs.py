@@ -53,3 +53,24 @@ def test_the_docs_real_data_figures_are_what_their_benchmarks_print(
     assert printed.strip(), script
     assert printed == (REPO / "docs" / "figures" / figure).read_text(encoding="utf-8")
     assert f'--8<-- "figures/{figure}"' in (REPO / "docs" / "real-data.md").read_text()
+
+
+def test_every_benchmark_writes_the_figure_a_docs_page_includes() -> None:
+    """No pasted benchmark output: each script records its figure (``--write-docs``), the file
+    is there, and exactly one page includes it next to the command that made it."""
+    scripts = sorted(p for p in (REPO / "benchmarks").glob("*.py") if p.stem != "doc_figures")
+    assert len(scripts) >= 20
+    pages = {p.name: p.read_text() for p in (REPO / "docs").glob("*.md")}
+    for script in scripts:
+        source = script.read_text()
+        found = re.search(r'^FIGURE = "([^"]+)"$', source, re.M)
+        assert found, f"{script.name} has no FIGURE"
+        assert "raise SystemExit(run_recorded(" in source, script.name
+        figure = found.group(1)
+        assert (REPO / "docs" / "figures" / figure).is_file(), f"run {script.name} --write-docs"
+        including = [
+            name
+            for name, text in pages.items()
+            if f'--8<-- "figures/{figure}"' in text and f"benchmarks/{script.name}" in text
+        ]
+        assert len(including) == 1, (script.name, including)

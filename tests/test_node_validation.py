@@ -92,6 +92,7 @@ def written(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
 
 def _decided(path: Path) -> Path:
     """Redo, undo and an undecided last capture, through the real procedure."""
+    from recorder.capture import CaptureSettings
     from recorder.procedure import Procedure
     from twopose.camera import Camera, Intrinsics
     from twopose.format.entries import PoseEntry, SessionInfo
@@ -112,7 +113,7 @@ def _decided(path: Path) -> Path:
             proc.type_pose(
                 PoseEntry(trial=proc.trial, pose=proc.pose, camera_id="cam0", t_grid=(x, 0.0, 0.0))
             )
-            proc.capture(src, 2)
+            proc.capture(src, CaptureSettings(frames=2))
             if step is None:
                 break
             getattr(proc, step)()

@@ -14,6 +14,7 @@ from typer.testing import CliRunner
 from analysis.batch import run
 from analysis.cli import app
 from analysis.outputs import LOCK_NAME, MANIFEST_NAME
+from recorder.capture import CaptureSettings
 from recorder.procedure import Procedure
 from recorder.sources import SyntheticSource
 from twopose.camera import Camera, Intrinsics
@@ -113,7 +114,7 @@ def _noted_session(path: Path) -> Path:
                 proc.type_pose(
                     PoseEntry(trial=trial, pose=pose, camera_id="cam0", t_grid=(x, 0.0, 0.0))
                 )
-                proc.capture(src, 2)
+                proc.capture(src, CaptureSettings(frames=2))
                 if trial == 2 and pose == 2:
                     proc.note("pose 2 was bumped")
                     proc.note("then re-measured")

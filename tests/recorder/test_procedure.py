@@ -10,7 +10,13 @@ import numpy as np
 import pytest
 from numpy.typing import NDArray
 
-from recorder.capture import CaptureResult, Shortfall, capture_frames, detection_shortfall
+from recorder.capture import (
+    CaptureResult,
+    CaptureSettings,
+    Shortfall,
+    capture_frames,
+    detection_shortfall,
+)
 from recorder.procedure import (
     TRANSITIONS,
     Decision,
@@ -38,6 +44,7 @@ CAM = Camera(
     camera_id="cam0", intrinsics=Intrinsics(width=32, height=24, fx=30.0, fy=30.0, cx=16.0, cy=12.0)
 )
 INFO = SessionInfo(method=Method.POINT, units=Units.IN)
+TWO_FRAMES = CaptureSettings(frames=2)
 
 
 def _frames(folder: Path, n: int = 60) -> Path:
@@ -64,7 +71,7 @@ def test_a_source_that_stops_mid_capture_leaves_an_incomplete_capture(tmp_path: 
             t_grid=(0.0, 0.0, 0.0),
             capture=w.new_capture_number(),
         )
-        result = capture_frames(w, src, entry, 5, target="dot")
+        result = capture_frames(w, src, entry, CaptureSettings(frames=5, target="dot"))
     assert not result.complete
     assert result.n_frames == 3
     assert "no more frames" in result.reason
@@ -101,13 +108,13 @@ def test_refusals_leave_the_state_unchanged(tmp_path: Path) -> None:
         proc = Procedure(w)
         proc.begin_trial(1, 2)
         proc.type_pose(PoseEntry(trial=1, pose=1, camera_id="cam0", t_grid=(0, 0, 0)))
-        proc.capture(src, 2)
+        proc.capture(src, CaptureSettings(frames=2))
         with pytest.raises(ProcedureRefusedError, match="nothing to undo: pose 1 is the first"):
             proc.undo()
         assert (proc.state, proc.pose) == (State.DECIDING, 1)
         proc.accept()
         proc.type_pose(PoseEntry(trial=1, pose=2, camera_id="cam0", t_grid=(1, 0, 0)))
-        result = proc.capture(src, 2)  # one frame left: the video ends
+        result = proc.capture(src, CaptureSettings(frames=2))  # one frame left: the video ends
         assert not result.complete
         with pytest.raises(ProcedureRefusedError, match=r"incomplete .* redo it, or quit"):
             proc.accept()
@@ -172,7 +179,14 @@ def test_the_loop_follows_the_drivers_decisions(
 ) -> None:
     out = tmp_path / "s.mcap"
     driver = _Scripted(decisions)
-    summary = record(out, INFO, [CAM], ImagesSource(_frames(tmp_path / "f")), driver, frames=2)
+    summary = record(
+        out,
+        INFO,
+        [CAM],
+        ImagesSource(_frames(tmp_path / "f")),
+        driver,
+        capture=CaptureSettings(frames=2),
+    )
     assert driver.placed == placed
     assert not driver.decisions  # every decision was asked for
     assert (summary.n_captures, summary.n_frames) == (len(placed), 2 * len(placed))
@@ -218,7 +232,7 @@ class _InterruptingSource(ImagesSource):
 def test_ctrl_c_during_a_capture_closes_a_valid_file_and_discards_it(tmp_path: Path) -> None:
     out = tmp_path / "s.mcap"
     source = _InterruptingSource(_frames(tmp_path / "f"), at=4)  # pose 2, second frame
-    summary = record(out, INFO, [CAM], source, _Scripted([A, A]), frames=2)
+    summary = record(out, INFO, [CAM], source, _Scripted([A, A]), capture=TWO_FRAMES)
     assert summary.interrupted
     assert "interrupted" in summary.line()
     with SessionReader(out) as r:
@@ -266,7 +280,14 @@ def test_an_accepted_capture_is_synced_to_disk(
 
     monkeypatch.setattr(os, "fsync", counting_fsync)
     out = tmp_path / "s.mcap"
-    record(out, INFO, [CAM], ImagesSource(_frames(tmp_path / "f")), _Scripted([A, R, A]), frames=2)
+    record(
+        out,
+        INFO,
+        [CAM],
+        ImagesSource(_frames(tmp_path / "f")),
+        _Scripted([A, R, A]),
+        capture=CaptureSettings(frames=2),
+    )
     assert len(synced) == 2 + 1  # two accepts, then the close
 
 
@@ -345,7 +366,7 @@ def test_accepting_a_capture_that_rarely_found_its_target_needs_the_operator(
         proc = Procedure(w)
         proc.begin_trial(1, 2)
         proc.type_pose(PoseEntry(trial=1, pose=1, camera_id="cam0", t_grid=(0.0, 0.0, 0.0)))
-        result = proc.capture(src, len(with_dot), target="dot")
+        result = proc.capture(src, CaptureSettings(frames=len(with_dot), target="dot"))
         assert detection_shortfall(result) is shortfall
         if shortfall is Shortfall.OK:
             proc.accept()

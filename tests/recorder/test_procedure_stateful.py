@@ -29,6 +29,7 @@ from hypothesis.stateful import (
 )
 from numpy.typing import NDArray
 
+from recorder.capture import CaptureSettings
 from recorder.procedure import Procedure, ProcedureRefusedError, State
 from recorder.recover import recover_session
 from recorder.sources import FrameSource, SourceInfo
@@ -163,7 +164,7 @@ class ProcedureModel(RuleBasedStateMachine):
     @rule(fail_after=st.none() | st.integers(0, FRAMES - 1))
     def capture(self, fail_after: int | None) -> None:
         self.camera.capture_number, self.camera.fail_after = self.number, fail_after
-        result = self.proc.capture(self.camera, FRAMES)
+        result = self.proc.capture(self.camera, CaptureSettings(frames=FRAMES))
         assert result.complete == (fail_after is None)
         assert self.typed is not None
         n = FRAMES if fail_after is None else fail_after
@@ -222,7 +223,7 @@ class ProcedureModel(RuleBasedStateMachine):
         self.camera.capture_number, self.camera.interrupt_after = self.number, after
         self.camera.fail_after = None
         with pytest.raises(KeyboardInterrupt):
-            self.proc.capture(self.camera, FRAMES)
+            self.proc.capture(self.camera, CaptureSettings(frames=FRAMES))
         self.camera.interrupt_after = None
         self.proc.close("interrupted (Ctrl-C)")
         self.writer.close()

@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 import pytest
 
-from recorder.capture import capture_frames
+from recorder.capture import CaptureSettings, capture_frames
 from recorder.sources import ImagesSource, SyntheticSource, VideoSource, open_source
 from tests.helpers import write_video
 from twopose.camera import Camera, Intrinsics
@@ -91,9 +91,11 @@ def test_a_late_reader_of_a_paced_source_drops_frames_and_they_are_counted(tmp_p
             w,
             src,
             PoseEntry(trial=1, pose=1, camera_id="cam0", t_grid=(0.0, 0.0, 0.0)),
-            3,
-            target="dot",
-            on_frame=lambda fb: time.sleep(0.1),  # a slow consumer: ~3 intervals a frame
+            CaptureSettings(
+                frames=3,
+                target="dot",
+                on_frame=lambda fb: time.sleep(0.1),  # a slow consumer: ~3 intervals a frame
+            ),
         )
     assert result.dropped >= 4
     assert src.dropped - before == result.dropped
@@ -185,7 +187,7 @@ def test_a_pause_before_a_redone_capture_is_not_counted_as_dropped(
         [cam],
         source,  # type: ignore[arg-type]  # a stand-in source that pauses between captures
         Pausing(),
-        frames=3,
+        capture=CaptureSettings(frames=3),
     )
     with SessionReader(out) as r:
         windows = [e for e in r.iter_entries() if isinstance(e, CaptureWindow)]
