@@ -68,16 +68,22 @@ class LoopbackGuard:
         self.port = int(self._server.sockets[0].getsockname()[1])
 
     def _check(self, connection: Any, request: Any) -> Any:
-        """403 for a handshake from a web page or under a foreign host name."""
-        host = request.headers.get("Host", "")
-        origin = request.headers.get("Origin")
-        if not is_loopback_host(host):
+        """403 for a handshake from a web page or under a foreign host name.
+
+        One ``Host`` and at most one ``Origin``: a header given twice is refused rather than
+        judged by one of its copies (and never reaches the header lookup that would raise).
+        """
+        hosts = request.headers.get_all("Host")
+        origins = request.headers.get_all("Origin")
+        if len(hosts) != 1 or not is_loopback_host(hosts[0]):
+            shown = hosts[0] if len(hosts) == 1 else hosts
             return connection.respond(
-                HTTPStatus.FORBIDDEN, f"the live view answers loopback hosts only, not {host!r}\n"
+                HTTPStatus.FORBIDDEN, f"the live view answers loopback hosts only, not {shown!r}\n"
             )
-        if origin is not None and not is_loopback_origin(origin):
+        if len(origins) > 1 or (origins and not is_loopback_origin(origins[0])):
+            shown = origins[0] if len(origins) == 1 else origins
             return connection.respond(
-                HTTPStatus.FORBIDDEN, f"the live view refuses web pages of {origin!r}\n"
+                HTTPStatus.FORBIDDEN, f"the live view refuses web pages of {shown!r}\n"
             )
         return None
 
