@@ -205,6 +205,9 @@ class ConsoleGuard:
 
     def _refusal(self, scope: Scope, headers: Headers, cookie: str) -> tuple[int, str]:
         """(status, why) of a request refused on its headers alone; (0, "") if not."""
+        hosts, origins = headers.getlist("host"), headers.getlist("origin")
+        if len(hosts) > 1 or len(origins) > 1:  # judged by one copy, the other would pass
+            return 403, "the console refuses a request that gives Host or Origin twice"
         host = headers.get("host", "")
         if not self._host_allowed(host):
             return 403, f"the console answers only its own address, not Host {host[:80]!r}"

@@ -11,6 +11,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import httpx
 import pytest
 from starlette.testclient import TestClient
 
@@ -108,6 +109,18 @@ def test_a_foreign_origin_is_refused_null_included(console: tuple[TestClient, Pa
     assert client.get("/api/state").json()["phase"] == "setup"  # nothing started
     assert not out.exists()
     assert client.get("/api/state", headers={"Origin": ORIGIN}).status_code == 200
+
+
+def test_a_host_or_origin_given_twice_is_refused(console: tuple[TestClient, Path]) -> None:
+    client, out = console
+    for doubled in (
+        [("Origin", ORIGIN), ("Origin", "http://evil.example")],
+        [("Host", "127.0.0.1:8765"), ("Host", "evil.example")],
+    ):
+        answer = client.post("/api/setup", json=LINE_SETUP, headers=httpx.Headers(doubled))
+        assert answer.status_code == 403, doubled
+        assert "twice" in strict_json(answer.text)["error"]
+    assert not out.exists()
 
 
 def test_other_sites_fetch_metadata_is_refused(console: tuple[TestClient, Path]) -> None:
