@@ -1,0 +1,32 @@
+"""Fixtures the analysis tests share."""
+
+from __future__ import annotations
+
+import dataclasses
+import sys
+from pathlib import Path
+
+import pytest
+
+from recorder.simulate import simulate_session
+from twopose.rig import RigConstants
+from twopose.sim.scene import Scene
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "sessions"))
+from make_sessions import THESIS_POSES  # type: ignore[import-not-found]  # on sys.path at run time
+
+from tests.analysis.rig_helpers import RIG
+
+
+@pytest.fixture(scope="session")
+def rig_sessions(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """Two 10-trial point sessions of one seed, simulated with the constants RIG and without."""
+    folder = tmp_path_factory.mktemp("rig")
+    out = {}
+    for name, rig in (("with", RIG), ("without", RigConstants())):
+        out[name] = folder / f"{name}.mcap"
+        # No typing error: what remains is the constants' bias and the pixels' noise.
+        poses = dataclasses.replace(THESIS_POSES, noise_sigma=0.0)
+        scene = Scene(poses=poses, systematic=rig)
+        simulate_session(out[name], method="point", trials=10, frames=2, seed=41, scene=scene)
+    return out
