@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import contextlib
-import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -124,6 +124,29 @@ RigOption = Annotated[
 ]
 
 
+@dataclass(frozen=True, kw_only=True)
+class CameraMode:
+    """What ``new`` asks of the camera (``--width``, ``--height``, ``--fps``)."""
+
+    width: int = 640
+    height: int = 480
+    fps: float = 30.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class NewRequest:
+    """What ``new`` records, whichever way it runs (terminal, ``--plan``, ``--ui``)."""
+
+    out: Path
+    source: str
+    frames: int = 5
+    poses: int = 2
+    camera: CameraMode = CameraMode()
+    notes: str = ""
+    rig: RigConstants | None = None
+    live_port: int | None = None  # --live: serve the Foxglove live view on this port
+
+
 def _load_rig(path: Path | None) -> RigConstants | None:
     from twopose.rig import load_rig
 
@@ -185,20 +208,26 @@ def new(
 
     with handle_errors(), contextlib.ExitStack() as stack:
         refuse_existing(out)  # before the first question
-        constants = _load_rig(rig)
-        answers = (method, units, calibration, focal, principal, ground_height)
-        mode = (frames, poses, width, height, fps)
-        if ui:
-            given = _console_given(*answers, ground_truth, operator)
-            _console(out, source, given, mode, notes, (host, port), constants)
-            return
-        if plan is not None:
-            view_port = live_port if live else None
-            summary = _planned(out, plan, source, (width, height, fps), stack, view_port, constants)
+        request = NewRequest(
+            out=out,
+            source=source,
+            frames=frames,
+            poses=poses,
+            camera=CameraMode(width=width, height=height, fps=fps),
+            notes=notes,
+            rig=_load_rig(rig),
+            live_port=live_port if live else None,
+        )
+        if plan is not None and not ui:
+            summary = _planned(request, plan, stack)
         else:
-            given = _console_given(*answers, ground_truth, operator)
-            view = (stack, live_port) if live else None
-            summary = _interactive(out, source, given, mode, (notes, constants), view)
+            given = _console_given(
+                method, units, calibration, focal, principal, ground_height, ground_truth, operator
+            )
+            if ui:
+                _console(request, given, host=host, port=port)
+                return
+            summary = _interactive(request, given, stack)
     typer.echo(summary.line())
     if summary.interrupted:
         typer.secho("interrupted", err=True)
@@ -231,77 +260,53 @@ def _report_capture(trial: int, pose: int, result: CaptureResult) -> None:
 
 
 def _interactive(
-    out: Path,
-    source: str,
-    given: dict[str, Any],
-    capture: tuple[int, int, int, int, float],
-    session: tuple[str, RigConstants | None],
-    live: tuple[contextlib.ExitStack, int] | None = None,
+    request: NewRequest, given: dict[str, Any], stack: contextlib.ExitStack
 ) -> RecordingSummary:
     """Ask for whatever the options did not give (``given``: :func:`_console_given`), then
-    run the guided procedure; ``session``: its notes and the rig's constants."""
+    run the guided procedure."""
+    from recorder.capture import CaptureSettings
     from recorder.interactive import Operator, ask_setup, record_interactive
+    from recorder.setup_rules import PoseTyping
     from recorder.sources import open_source
-    from twopose.camera import Camera
-    from twopose.format.entries import GroundPlane, SessionInfo
 
-    frames, poses, width, height, fps = capture
-    notes, rig = session
+    mode = request.camera
     op = Operator(_prompt, typer.echo)
-    setup = ask_setup(op, size=(width, height), **given)
-    src = open_source(source, method=setup.method, width=width, height=height, fps=fps)
-    camera = Camera(
-        camera_id="cam0", intrinsics=setup.intrinsics, intrinsics_sigma=setup.intrinsics_sigma
+    setup = ask_setup(op, size=(mode.width, mode.height), **given)
+    src = open_source(
+        request.source, method=setup.method, width=mode.width, height=mode.height, fps=mode.fps
     )
-    info = SessionInfo(
-        method=setup.method,
-        units=setup.units,
-        operator=setup.operator,
-        notes=notes,
-        created_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
-    )
-    view = _live_view(live[0], [camera], live[1]) if live is not None else None
-    ground = GroundPlane(offset=setup.ground_height) if setup.ground_height else None
+    view = _live_view(stack, [setup.camera()], request.live_port) if request.live_port else None
     return record_interactive(
-        out,
+        request.out,
         src,
         op,
-        info=info,
-        camera=camera,
-        ground=ground,
-        ground_truth=setup.ground_truth,
-        frames=frames,
-        poses_per_trial=poses,
-        live=view,
-        rig=rig,
+        setup=setup,
+        notes=request.notes,
+        capture=CaptureSettings(frames=request.frames, live=view, rig=request.rig),
+        typing=PoseTyping(poses_per_trial=request.poses),
     )
 
 
-def _planned(
-    out: Path,
-    plan: Path,
-    source: str,
-    mode: tuple[int, int, float],
-    stack: contextlib.ExitStack,
-    live_port: int | None,
-    rig: RigConstants | None = None,
-) -> RecordingSummary:
+def _planned(request: NewRequest, plan: Path, stack: contextlib.ExitStack) -> RecordingSummary:
     """``new --plan``: the plan recorded, each capture and live result printed."""
     from recorder.plan import load_plan, record_plan
     from recorder.sources import open_source
 
     the_plan = load_plan(plan)
-    width, height, fps = mode
-    src = open_source(source, method=the_plan.method, width=width, height=height, fps=fps)
-    view = _live_view(stack, list(the_plan.cameras), live_port) if live_port is not None else None
+    mode = request.camera
+    src = open_source(
+        request.source, method=the_plan.method, width=mode.width, height=mode.height, fps=mode.fps
+    )
+    cameras = list(the_plan.cameras)
+    view = _live_view(stack, cameras, request.live_port) if request.live_port is not None else None
     return record_plan(
         the_plan,
-        out,
+        request.out,
         src,
         on_capture=_report_capture,
         live=view,
         on_result=lambda result: typer.echo(f"  result: {result.text()}"),
-        rig=rig,
+        rig=request.rig,
     )
 
 
@@ -333,26 +338,18 @@ def _console_given(
     }
 
 
-def _console(
-    out: Path,
-    source: str,
-    given: dict[str, Any],
-    capture: tuple[int, int, int, int, float],
-    notes: str,
-    address: tuple[str, int],
-    rig: RigConstants | None = None,
-) -> None:
+def _console(request: NewRequest, given: dict[str, Any], *, host: str, port: int) -> None:
     """The web console until Ctrl-C or SIGTERM. The recording thread prints the summary,
     once, when the session ends; an interrupted session exits 130 (KeyboardInterrupt, as
     the terminal's), a failed one 3."""
     from recorder.console_server import ConsoleOptions, serve_console
 
-    frames, poses, width, height, fps = capture
+    mode = request.camera
     options = ConsoleOptions(
-        source, given, frames=frames, poses=poses, size=(width, height), fps=fps, notes=notes,
-        rig=rig,
+        request.source, given, frames=request.frames, poses=request.poses,
+        size=(mode.width, mode.height), fps=mode.fps, notes=request.notes, rig=request.rig,
     )  # fmt: skip
-    serve_console(out, options, host=address[0], port=address[1])
+    serve_console(request.out, options, host=host, port=port)
 
 
 def _prompt(question: str, default: str) -> str:

@@ -47,7 +47,7 @@ from recorder.procedure import (
     Shortfall,
     detection_shortfall,
 )
-from recorder.setup_rules import form_fields
+from recorder.setup_rules import PoseTyping, form_fields
 from recorder.summary import RecordingSummary
 from twopose.format.entries import GroundTruth, Note, PoseEntry, TruthKind, TypedEntry
 from twopose.methods import spec_of
@@ -249,14 +249,12 @@ class WebDriver(Driver):
         source: FrameSource | None,
         camera_id: str,
         ground_truth: tuple[Vec3, ...],
-        poses_per_trial: int,
-        resolution: tuple[float, float],
+        typing: PoseTyping,
         preview: Callable[[FrameSource, ConsoleSession], None] | None = None,
     ) -> None:
         self.session, self.source, self.camera_id = session, source, camera_id
         self.ground_truth = ground_truth
-        self.poses_per_trial = poses_per_trial
-        self.resolution = resolution
+        self.typing = typing
         self.preview = preview
         self._note = ""
         self._pending: tuple[str, Any] | None = None  # a pose typed before its trial began
@@ -290,7 +288,7 @@ class WebDriver(Driver):
         return True
 
     def trial_entries(self, trial: int) -> tuple[TypedEntry, ...]:
-        self.session.update(trial=trial, n_poses=self.poses_per_trial)
+        self.session.update(trial=trial, n_poses=self.typing.poses_per_trial)
         if not self.ground_truth:
             return ()
         kind: TruthKind = spec_of(self.session.method).truth_kind
@@ -332,10 +330,11 @@ class WebDriver(Driver):
         form = {} if typed is None else {"t": _vec(typed[0]), "r_deg": _vec(typed[1])}
         self._accepted.discard(pose)
         self._show_poses(pose, "")
+        n_poses = self.typing.poses_per_trial
         self.session.update(
             pose=pose,
             pose_form=form,
-            message=f"trial {trial}: type pose {pose} of {self.poses_per_trial}, then capture",
+            message=f"trial {trial}: type pose {pose} of {n_poses}, then capture",
             level="info",
         )
         command, self._pending = self._pending or self._wait("pose"), None
@@ -350,15 +349,14 @@ class WebDriver(Driver):
             shortfall=Shortfall.OK.value,
             refusal={},
         )
-        t_res, r_res = self.resolution
         entry = PoseEntry(
             trial=trial,
             pose=pose,
             camera_id=self.camera_id,
             t_grid=t,
             r_deg=r,
-            translation_resolution=t_res,
-            rotation_resolution_deg=r_res,
+            translation_resolution=self.typing.translation_resolution,
+            rotation_resolution_deg=self.typing.rotation_resolution_deg,
         )
         return Placement(entry=entry)
 

@@ -155,34 +155,24 @@ def _recording(
     summary, once, when the procedure ends (the page's quit, or the server stopping)."""
     from recorder.capture import CaptureSettings
     from recorder.procedure import record
+    from recorder.setup_rules import PoseTyping
     from recorder.sources import open_source
-    from twopose.camera import Camera
-    from twopose.format.entries import GroundPlane, SessionInfo
 
     try:
         width, height = options.size
         src = open_source(
             options.source, method=setup.method, width=width, height=height, fps=options.fps
         )
-        camera = Camera(
-            camera_id="cam0", intrinsics=setup.intrinsics, intrinsics_sigma=setup.intrinsics_sigma
-        )
-        info = SessionInfo(
-            method=setup.method,
-            units=setup.units,
-            operator=setup.operator,
-            notes=options.notes,
-            created_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
-        )
-        driver = WebDriver(
-            session, src, "cam0", setup.ground_truth, options.poses, (0.0625, 0.5), preview
-        )
-        ground = GroundPlane(offset=setup.ground_height) if setup.ground_height else None
+        camera, info = setup.camera(), setup.info(options.notes)
+        typing = PoseTyping(poses_per_trial=options.poses)
+        driver = WebDriver(session, src, camera.camera_id, setup.ground_truth, typing, preview)
         target = spec_of(setup.method).target
         capture = CaptureSettings(
             frames=options.frames, target=target, live=session, rig=options.rig
         )
-        summary = record(session.out, info, [camera], src, driver, ground=ground, capture=capture)
+        summary = record(
+            session.out, info, [camera], src, driver, ground=setup.ground(), capture=capture
+        )
         hint = "" if stopping.is_set() else "\n(the console shows it; Ctrl-C stops the console)"
         print(summary.line() + hint, flush=True)
     except TwoposeError as err:

@@ -8,6 +8,7 @@ trial after trial: type each pose, capture, accept or redo. The questions go thr
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -27,6 +28,7 @@ from recorder.procedure import (
     record,
 )
 from recorder.setup_rules import (
+    PoseTyping,
     Setup,
     default_ground_height,
     distinct_point,
@@ -40,7 +42,6 @@ from recorder.summary import RecordingSummary
 from twopose.camera import Camera, Intrinsics
 from twopose.errors import InputValueError
 from twopose.format.entries import (
-    GroundPlane,
     GroundTruth,
     Note,
     PoseEntry,
@@ -53,8 +54,6 @@ from twopose.units import UNITS, Units
 from twopose.values import Vec3
 
 if TYPE_CHECKING:
-    from recorder.live import LiveView
-    from twopose.rig import RigConstants
     from twopose.trial_result import TrialResult
 
 __all__ = ["Operator", "Setup", "ask_setup", "parse_vector", "record_interactive"]
@@ -211,14 +210,11 @@ class _OperatorDriver(Driver):
         info: SessionInfo,
         camera: Camera,
         ground_truth: tuple[Vec3, ...],
-        poses_per_trial: int,
-        translation_resolution: float,
-        rotation_resolution_deg: float,
+        typing: PoseTyping,
     ) -> None:
         self.op, self.info, self.camera = op, info, camera
         self.ground_truth = ground_truth
-        self.poses_per_trial = poses_per_trial
-        self.resolution = (translation_resolution, rotation_resolution_deg)
+        self.typing = typing
 
     def start(self, source: SourceInfo, path: Path) -> None:
         self.op.say(
@@ -246,15 +242,14 @@ class _OperatorDriver(Driver):
             lambda s: parse_vector(s, units, what="rotation", limit=180.0),
             "0, 0, 0",
         )
-        t_res, r_res = self.resolution
         entry = PoseEntry(
             trial=trial,
             pose=pose,
             camera_id=self.camera.camera_id,
             t_grid=t,
             r_deg=r,
-            translation_resolution=t_res,
-            rotation_resolution_deg=r_res,
+            translation_resolution=self.typing.translation_resolution,
+            rotation_resolution_deg=self.typing.rotation_resolution_deg,
         )
         return Placement(entry=entry)
 
@@ -290,21 +285,15 @@ class _OperatorDriver(Driver):
         return Note(text=self.op.ask("note", str), trial=trial)
 
 
-def record_interactive(  # noqa: PLR0913 - keyword-only settings, one per command-line option
+def record_interactive(
     out: str | Path,
     source: FrameSource,
     operator: Operator,
     *,
-    info: SessionInfo,
-    camera: Camera,
-    ground: GroundPlane | None,
-    ground_truth: tuple[Vec3, ...],
-    frames: int = 5,
-    poses_per_trial: int = 2,
-    translation_resolution: float = 0.0625,
-    rotation_resolution_deg: float = 0.5,
-    live: LiveView | None = None,
-    rig: RigConstants | None = None,
+    setup: Setup,
+    notes: str = "",
+    capture: CaptureSettings | None = None,
+    typing: PoseTyping | None = None,
 ) -> RecordingSummary:
     """The guided procedure: trial after trial, type each pose, capture, accept or redo.
 
@@ -315,27 +304,11 @@ def record_interactive(  # noqa: PLR0913 - keyword-only settings, one per comman
     another trial (``y``) or finish (``n``). Ctrl-C closes the file cleanly and returns the
     summary with ``interrupted`` set.
     """
-    driver = _OperatorDriver(
-        operator,
-        info,
-        camera,
-        ground_truth,
-        poses_per_trial,
-        translation_resolution,
-        rotation_resolution_deg,
+    info, camera = setup.info(notes), setup.camera()
+    driver = _OperatorDriver(operator, info, camera, setup.ground_truth, typing or PoseTyping())
+    settings = dataclasses.replace(
+        capture or CaptureSettings(),
+        target=spec_of(info.method).target,
+        on_frame=lambda fb: operator.say(fb.line()),
     )
-    return record(
-        out,
-        info,
-        [camera],
-        source,
-        driver,
-        ground=ground,
-        capture=CaptureSettings(
-            frames=frames,
-            target=spec_of(info.method).target,
-            live=live,
-            on_frame=lambda fb: operator.say(fb.line()),
-            rig=rig,
-        ),
-    )
+    return record(out, info, [camera], source, driver, ground=setup.ground(), capture=settings)

@@ -27,6 +27,8 @@ from twopose.camera import Camera, Intrinsics
 from twopose.config import read_toml
 from twopose.errors import InputValueError, SourceError
 from twopose.format.entries import (
+    DEFAULT_ROTATION_RESOLUTION_DEG,
+    DEFAULT_TRANSLATION_RESOLUTION,
     GroundPlane,
     GroundTruth,
     PoseEntry,
@@ -122,8 +124,8 @@ class Plan:
     ground_height: float | None = None
     operator: str = ""
     notes: str = ""
-    translation_resolution: float = 0.0625
-    rotation_resolution_deg: float = 0.5
+    translation_resolution: float = DEFAULT_TRANSLATION_RESOLUTION
+    rotation_resolution_deg: float = DEFAULT_ROTATION_RESOLUTION_DEG
 
 
 def _vec(value: Any, where: str) -> Vec3:
@@ -173,8 +175,16 @@ def load_plan(path: str | Path) -> Plan:
     height = None if ground is None else finite(ground, "plan: ground_height", positive=True)
     res = _known_keys(data.get("resolution", {}), "resolution", "resolution")
     resolution = (
-        finite(res.get("translation", 0.0625), "plan: resolution.translation", positive=True),
-        finite(res.get("rotation_deg", 0.5), "plan: resolution.rotation_deg", positive=True),
+        finite(
+            res.get("translation", DEFAULT_TRANSLATION_RESOLUTION),
+            "plan: resolution.translation",
+            positive=True,
+        ),
+        finite(
+            res.get("rotation_deg", DEFAULT_ROTATION_RESOLUTION_DEG),
+            "plan: resolution.rotation_deg",
+            positive=True,
+        ),
     )
     raw_trials = data.get("trials", [])
     if not isinstance(raw_trials, list) or not raw_trials:

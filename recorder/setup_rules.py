@@ -11,13 +11,20 @@ the other's wording.
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 from recorder.plan import MAX_TRANSLATION, off_ground
-from twopose.camera import Intrinsics
+from twopose.camera import Camera, Intrinsics
 from twopose.errors import InputValueError
+from twopose.format.entries import (
+    DEFAULT_ROTATION_RESOLUTION_DEG,
+    DEFAULT_TRANSLATION_RESOLUTION,
+    GroundPlane,
+    SessionInfo,
+)
 from twopose.methods import METHODS, Method, spec_of
 from twopose.units import UNITS, Units
 from twopose.values import Vec3, finite, numbers, vec3
@@ -42,6 +49,18 @@ __all__ = [
 #: ground 9 5/8 in below the camera centre. Offered as defaults, never assumed silently.
 THESIS_FOCAL_PX = 525.0
 THESIS_GROUND_HEIGHT_IN = 9.625
+#: The camera of a session set up by hand (terminal or browser): one laptop webcam.
+CAMERA_ID = "cam0"
+
+
+@dataclass(frozen=True, kw_only=True)
+class PoseTyping:
+    """How the operator types poses: how many a trial has, and the 1-sigma of each typed
+    translation component and angle (the thesis': grid paper read to 1/16, 0.5 degree)."""
+
+    poses_per_trial: int = 2
+    translation_resolution: float = DEFAULT_TRANSLATION_RESOLUTION
+    rotation_resolution_deg: float = DEFAULT_ROTATION_RESOLUTION_DEG
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -55,6 +74,26 @@ class Setup:
     ground_truth: tuple[Vec3, ...]
     operator: str
     intrinsics_sigma: dict[str, float] = field(default_factory=dict, compare=False)
+
+    def camera(self) -> Camera:
+        """The session's one camera (``cam0``), with its calibration's sigma."""
+        return Camera(
+            camera_id=CAMERA_ID, intrinsics=self.intrinsics, intrinsics_sigma=self.intrinsics_sigma
+        )
+
+    def ground(self) -> GroundPlane | None:
+        """The ground plane ``y = h`` (method 2), or None."""
+        return GroundPlane(offset=self.ground_height) if self.ground_height else None
+
+    def info(self, notes: str = "") -> SessionInfo:
+        """The session's opening entry, created now."""
+        return SessionInfo(
+            method=self.method,
+            units=self.units,
+            operator=self.operator,
+            notes=notes,
+            created_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+        )
 
 
 class FormRefusedError(InputValueError):

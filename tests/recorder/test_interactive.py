@@ -10,17 +10,18 @@ from numpy.typing import NDArray
 from typer.testing import CliRunner
 
 from analysis.pipeline import analyse_session
+from recorder.capture import CaptureSettings
 from recorder.cli import app
 from recorder.interactive import Operator, record_interactive
+from recorder.setup_rules import Setup
 from recorder.sources import SyntheticSource
-from twopose.camera import Camera, Intrinsics
+from twopose.camera import Intrinsics
 from twopose.errors import EXIT_ERROR, EXIT_INTERRUPTED
 from twopose.format.entries import (
     CaptureDecision,
     CaptureWindow,
     GroundTruth,
     PoseEntry,
-    SessionInfo,
 )
 from twopose.format.reader import SessionReader
 from twopose.methods import Method
@@ -163,14 +164,15 @@ def test_the_undo_then_interrupt_scenario_never_reports_a_wrong_ok(tmp_path: Pat
         out,
         _CtrlCSource(at=10),  # 2 frames a capture: read 10 is the retyped pose's second
         op,
-        info=SessionInfo(method=Method.POINT, units=Units.IN),
-        camera=Camera(
-            camera_id="cam0",
+        setup=Setup(
+            method=Method.POINT,
+            units=Units.IN,
             intrinsics=Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0),
+            ground_height=None,
+            ground_truth=((0.5, 1.5, 11.0),),
+            operator="",
         ),
-        ground=None,
-        ground_truth=((0.5, 1.5, 11.0),),
-        frames=2,
+        capture=CaptureSettings(frames=2),
     )
     assert summary.interrupted
     assert next(answers, None) is None  # every answer was used

@@ -25,6 +25,8 @@ from twopose.units import UNIT_SPECS, UNITS, Units, unit_spec
 from twopose.values import CAMERA_ID_PATTERN, Vec3, camera_id, finite, index, numbers, vec3
 
 __all__ = [
+    "DEFAULT_ROTATION_RESOLUTION_DEG",
+    "DEFAULT_TRANSLATION_RESOLUTION",
     "FORMAT_MAJOR",
     "FORMAT_VERSION",
     "INCHES_PER_UNIT",
@@ -283,6 +285,12 @@ class SessionInfo(TypedEntry):
             object.__setattr__(self, "intrinsics_sigma", sigma)
 
 
+#: What a typed pose's components are good to when nothing else is said (1-sigma): the
+#: thesis' operator read the grid paper to 1/16 in and turned the laptop to 0.5 degree.
+DEFAULT_TRANSLATION_RESOLUTION = 0.0625
+DEFAULT_ROTATION_RESOLUTION_DEG = 0.5
+
+
 @entry(
     "/twopose/pose",
     "PoseEntry",
@@ -310,10 +318,14 @@ class PoseEntry(TypedEntry):
         default=(0.0, 0.0, 0.0),
     )
     translation_resolution: float = json_field(
-        "resolution.translation", {"type": "number", "exclusiveMinimum": 0}, default=0.0625
+        "resolution.translation",
+        {"type": "number", "exclusiveMinimum": 0},
+        default=DEFAULT_TRANSLATION_RESOLUTION,
     )
     rotation_resolution_deg: float = json_field(
-        "resolution.rotation_deg", {"type": "number", "exclusiveMinimum": 0}, default=0.5
+        "resolution.rotation_deg",
+        {"type": "number", "exclusiveMinimum": 0},
+        default=DEFAULT_ROTATION_RESOLUTION_DEG,
     )
     capture: int | None = json_field("capture", _CAPTURE_SCHEMA, required=False, default=None)
 
