@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 import cv2
 import numpy as np
@@ -14,7 +13,6 @@ from recorder.capture import (
     CaptureResult,
     CaptureSettings,
     Shortfall,
-    capture_frames,
     detection_shortfall,
 )
 from recorder.procedure import (
@@ -52,34 +50,6 @@ def _frames(folder: Path, n: int = 60) -> Path:
     for k in range(n):
         cv2.imwrite(str(folder / f"{k:03d}.png"), np.full((24, 32, 3), k, np.uint8))
     return folder
-
-
-def test_a_source_that_stops_mid_capture_leaves_an_incomplete_capture(tmp_path: Path) -> None:
-    out = tmp_path / "s.mcap"
-    cam = Camera(
-        camera_id="cam0",
-        intrinsics=Intrinsics(width=64, height=48, fx=50.0, fy=50.0, cx=32.0, cy=24.0),
-    )
-    with (
-        VideoSource(write_video(tmp_path / "v.avi", 3)) as src,
-        SessionWriter(out, INFO, [cam]) as w,
-    ):
-        entry = PoseEntry(
-            trial=1,
-            pose=1,
-            camera_id="cam0",
-            t_grid=(0.0, 0.0, 0.0),
-            capture=w.new_capture_number(),
-        )
-        result = capture_frames(w, src, entry, CaptureSettings(frames=5, target="dot"))
-    assert not result.complete
-    assert result.n_frames == 3
-    assert "no more frames" in result.reason
-    assert len(result.feedback) == 3
-    with SessionReader(out) as r:  # the session stays valid
-        (window,) = [e for e in r.iter_entries() if isinstance(e, CaptureWindow)]
-    assert (window.status, window.n_frames, window.capture) == ("incomplete", 3, 1)
-    assert "no more frames" in window.reason
 
 
 def test_events_the_state_does_not_allow_are_errors(tmp_path: Path) -> None:
@@ -247,21 +217,6 @@ def test_ctrl_c_during_a_capture_closes_a_valid_file_and_discards_it(tmp_path: P
     assert [(d.capture, d.decision) for d in decisions] == [(1, "accept"), (2, "discard")]
     assert [p.entry.pose for p in trial.poses] == [1]
     assert "fewer than two" in trial.why_not_measured()
-
-
-def test_the_summary_line_counts_in_words() -> None:
-    from recorder.summary import RecordingSummary
-
-    counts: dict[str, Any] = {"n_incomplete": 0, "n_frames": 1, "n_found": 1, "seconds": 2.0}
-    one = RecordingSummary(path=Path("s.mcap"), n_trials=1, n_captures=1, n_accepted=1, **counts)
-    assert "1 trial (0 complete), 1 capture (1 accepted" in one.line()
-    assert "1 frame (1 detected" in one.line()
-    two = RecordingSummary(
-        path=Path("s.mcap"), n_trials=2, n_captures=3, n_incomplete=1, n_frames=6, n_found=5,
-        seconds=2.0,
-    )  # fmt: skip
-    assert "2 trials" in two.line()
-    assert "3 captures" in two.line()
 
 
 def test_an_accepted_capture_is_synced_to_disk(

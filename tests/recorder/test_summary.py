@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from recorder.capture import CaptureResult, FrameFeedback
 from recorder.summary import RecordingSummary, Tally
@@ -57,3 +58,16 @@ def test_the_line_in_words_and_its_endings() -> None:
     assert stopped.line().endswith(" (interrupted: the file is closed and valid)")
     empty = RecordingSummary(**{**summary.__dict__, "kept": False})
     assert empty.line() == "nothing was recorded: no session file written at s.mcap"
+
+
+def test_the_summary_line_counts_in_words() -> None:
+    counts: dict[str, Any] = {"n_incomplete": 0, "n_frames": 1, "n_found": 1, "seconds": 2.0}
+    one = RecordingSummary(path=Path("s.mcap"), n_trials=1, n_captures=1, n_accepted=1, **counts)
+    assert "1 trial (0 complete), 1 capture (1 accepted" in one.line()
+    assert "1 frame (1 detected" in one.line()
+    two = RecordingSummary(
+        path=Path("s.mcap"), n_trials=2, n_captures=3, n_incomplete=1, n_frames=6, n_found=5,
+        seconds=2.0,
+    )  # fmt: skip
+    assert "2 trials" in two.line()
+    assert "3 captures" in two.line()
