@@ -275,7 +275,8 @@ def _interactive(
     src = open_source(
         request.source, method=setup.method, width=mode.width, height=mode.height, fps=mode.fps
     )
-    view = _live_view(stack, [setup.camera()], request.live_port) if request.live_port else None
+    port = request.live_port
+    view = _live_view(stack, [setup.camera()], port) if port is not None else None
     return record_interactive(
         request.out,
         src,
