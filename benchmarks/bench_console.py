@@ -52,9 +52,9 @@ def make_video(folder: Path, n_frames: int) -> Path:
     return video
 
 
-def count_stream(url: str, stop: threading.Event, stamps: list[float]) -> None:
+def count_stream(client: httpx.Client, stop: threading.Event, stamps: list[float]) -> None:
     """Read the MJPEG stream as a page does, stamping every frame received."""
-    with httpx.stream("GET", url + "stream.mjpg", timeout=30) as response:
+    with client.stream("GET", "/stream.mjpg") as response:
         for chunk in response.iter_bytes():
             stamps.extend(time.monotonic() for _ in range(chunk.count(b"Content-Type: image/jpeg")))
             if stop.is_set():
@@ -79,11 +79,12 @@ def main() -> int:
         url = process.stdout.readline().split()[2]
         client = httpx.Client(base_url=url, timeout=30)
         try:
+            client.get("/")  # the page sets the session's token (a cookie); the API needs it
             while client.get("/api/state").json()["waiting"] != "pose":
                 time.sleep(0.05)
             stamps: list[float] = []
             stop = threading.Event()
-            reader = threading.Thread(target=count_stream, args=(url, stop, stamps), daemon=True)
+            reader = threading.Thread(target=count_stream, args=(client, stop, stamps), daemon=True)
             reader.start()
             time.sleep(0.5)
             started = time.monotonic()
