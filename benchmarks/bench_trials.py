@@ -49,11 +49,6 @@ print(total, time.perf_counter() - t)
 FIGURE = "trials.txt"
 
 
-def _best(code: str, *args: str, repeat: int) -> list[float]:
-    runs = [_python(code, *args) for _ in range(repeat)]
-    return [min(values) for values in zip(*runs, strict=True)]
-
-
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--workdir", type=Path, default=None)
@@ -78,7 +73,7 @@ def main() -> int:
         for key, path in (("s", small), ("l", large)):
             out = work / f"out_{key}"
             shutil.rmtree(out, ignore_errors=True)
-            total, report = _python(RUN_AND_REPORT, str(path), str(out))
+            total, report, _cpu_s = _python(RUN_AND_REPORT, str(path), str(out))
             timings[f"run_{key}"].append(total)
             reports[key].append(report)
     best = {k: min(v) for k, v in timings.items()}

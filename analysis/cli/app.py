@@ -4,12 +4,10 @@ several commands share (options, the skipped-inputs and note lines)."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated
+from typing import Annotated
 
 import typer
 
-if TYPE_CHECKING:
-    pass
 from twopose.version import VersionOption
 
 # Everything heavy (numpy, rich, mcap, pandas, matplotlib) is imported inside the command
