@@ -30,9 +30,53 @@ from twopose.estimate import EstimateOptions
 from twopose.rig import RigConstants, check_applicable
 from twopose.session_estimate import SessionTrials, estimate_session
 
-__all__ = ["calibrate", "check_rig_for_sessions", "rig_for_run"]
+__all__ = [
+    "RigCalibration",
+    "calibrate",
+    "calibrate_rig",
+    "check_rig_for_sessions",
+    "rig_for_run",
+]
 
 Note = Callable[[str], None]
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class RigCalibration:
+    """What ``twopose-analyze rig`` found: the fit, the sessions that informed it (in the
+    order given), what it was fitted on (in words) and the fit's warnings."""
+
+    fit: RigFit
+    sessions: tuple[str, ...]
+    basis: str
+    warnings: tuple[str, ...] = ()
+
+
+def calibrate_rig(
+    paths: Sequence[str], groups: Sequence[str] | None = None, on_note: Note | None = None
+) -> RigCalibration:
+    """``twopose-analyze rig``: the constants from board sessions
+    (:func:`analysis.board_calibration.calibrate_board`) or from target sessions
+    (:func:`calibrate`), not a mix of the two."""
+    from analysis.board_calibration import calibrate_board, is_board_session
+
+    boards = {str(p): is_board_session(p) for p in paths}
+    if any(boards.values()) and not all(boards.values()):
+        named = ", ".join(p for p, board in boards.items() if board)
+        raise InputValueError(
+            f"board sessions ({named}) and target sessions fit the rig in different ways: "
+            "calibrate with one kind (board sessions alone are enough)"
+        )
+    if paths and all(boards.values()):
+        board = calibrate_board(paths, groups, on_note)
+        b = board.board
+        basis = f"{b.n_captures} board capture(s), {b.n_corners} corners, RMS {b.rms_px:.3f} px"
+        return RigCalibration(
+            fit=board.fit, sessions=board.sessions, basis=basis, warnings=b.warnings
+        )
+    fit, data = calibrate(paths, groups, on_note)
+    basis = f"{len(data.trial_ids)} trial(s) with ground truth"
+    return RigCalibration(fit=fit, sessions=data.sessions, basis=basis)
 
 
 def calibrate(

@@ -23,7 +23,7 @@ import pandas as pd
 from analysis.outputs import check_results_table, read_results_table, session_keys
 from twopose.config import build_dataclass, read_toml
 from twopose.errors import InputValueError
-from twopose.methods import Method
+from twopose.methods import MEASURING_METHODS
 
 __all__ = [
     "CHECKED_METRICS",
@@ -81,7 +81,7 @@ CHECKED_METRICS = (
 )
 
 #: The methods a tolerance file may name (``[methods.<method>.<metric>]``).
-METHODS = tuple(sorted(str(m) for m in Method))
+METHODS = tuple(sorted(str(m) for m in MEASURING_METHODS))
 
 COMPARISON_COLUMNS = [
     "session",

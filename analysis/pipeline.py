@@ -25,7 +25,7 @@ from twopose.arrays import F64
 from twopose.camera import Intrinsics
 from twopose.choices import Target
 from twopose.detect import Detection, DotParams, GloveParams, detect
-from twopose.errors import SessionFormatError
+from twopose.errors import InputValueError, SessionFormatError
 from twopose.estimate import GroundSpec, PoseView, pose_view
 from twopose.format.entries import PoseEntry
 from twopose.format.messages import Frame
@@ -189,12 +189,18 @@ def _replay(
     """Stream the session trial by trial, detecting the target in every frame; a trial's
     frames are dropped once detected, so memory does not grow with session length."""
     info = reader.info
+    if not spec_of(info.method).measures:
+        raise InputValueError(
+            f"{session} is a board session (it calibrates the rig; nothing to reconstruct): "
+            "give it to `twopose-analyze rig`"
+        )
     ground: GroundSpec | None = None
     if spec_of(info.method).needs_ground:
         if reader.ground is None:
             raise SessionFormatError(f"{session}: a ground session without a /twopose/ground plane")
         ground = (np.array(reader.ground.normal_grid), reader.ground.offset)
     target = spec_of(info.method).target
+    assert target is not None  # measures
     rows: list[dict[str, Any]] = []
     trial_ids, truths, views, last_ns = [], [], [], []
     notes, unmeasured = [], []

@@ -32,6 +32,7 @@ import numpy as np
 
 from twopose.camera import rotation_from_angles_deg
 from twopose.errors import InputValueError
+from twopose.methods import spec_of
 from twopose.optimal_lines import centroid_segments, optimal_lines
 from twopose.solve import (
     image_lines,
@@ -123,6 +124,11 @@ def _optimal_line(
 
 def solve_request(method: str, request: Any) -> dict[str, Any]:
     """Validate a request, solve it, and return the JSON-ready answer."""
+    if not spec_of(method).measures:
+        raise InputValueError(
+            f"{method} reconstructs nothing (a board session calibrates the rig: "
+            "`twopose-analyze rig`); solve point, line or ground"
+        )
     views = _field(request, "views", "the request")
     if not isinstance(views, list) or len(views) < 2:
         n = len(views) if isinstance(views, list) else "no"

@@ -306,9 +306,12 @@ def _f_test(smaller: RigFit, larger: RigFit) -> float:
     return float(f_distribution.sf(statistic, added, larger.dof))
 
 
-def rig_toml(fit: RigFit, sources: Sequence[str]) -> str:
+def rig_toml(
+    fit: RigFit, sources: Sequence[str], warnings: Sequence[str] = (), basis: str = ""
+) -> str:
     """The rig file: ``[rig]`` (what ``--rig`` reads), ``[sigma]`` (1-sigma, 0 if fixed),
-    ``[fixed]`` (why a constant was not estimated)."""
+    ``[fixed]`` (why a constant was not estimated); what it was fitted on and the fit's
+    warnings as comments."""
     c = fit.constants
     sigma = dict(zip(_NAMES, np.nan_to_num(fit.sigma), strict=True))
 
@@ -320,6 +323,8 @@ def rig_toml(fit: RigFit, sources: Sequence[str]) -> str:
         *(f"#   {s}" for s in sources),
         f"# chi-square {fit.chi2:.1f} on {fit.dof} degrees of freedom; fitted: "
         + (", ".join(fit.free) or "nothing (none supported)"),
+        *([f"# fitted on {basis}"] if basis else []),
+        *(f"# warning: {w}" for w in warnings),
         "[rig]",
         *([f'units = "{c.units}"  # of camera_offset and ground_height_error'] if c.units else []),
         f"mount_rotation_deg = {vec(c.mount_rotation_deg)}",

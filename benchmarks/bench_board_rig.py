@@ -44,16 +44,13 @@ from twopose.board_rig import BoardRigFit, board_order, fit_board_rig  # noqa: E
 from twopose.detect import find_board  # noqa: E402
 from twopose.rig import RIG_PARAMETERS  # noqa: E402
 from twopose.sim.camera import SyntheticCamera  # noqa: E402
-from twopose.sim.layout import board_corners, board_layout  # noqa: E402
+from twopose.sim.layout import BOARD_POSES, board_corners, board_layout  # noqa: E402
 from twopose.sim.scene import Scene, load_scene  # noqa: E402
 
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "board_rig.txt"
 
-POSES = np.array(
-    [[0, 0, 0], [2, 0, 0], [-2, 0, 0], [0, 0, -2], [2, 0, -2], [-1, 0, 3], [1, 0, -4], [-2, 0, 2]],
-    dtype=np.float64,
-)
+POSES = np.array(BOARD_POSES, dtype=np.float64)  # what `simulate --method board` types
 FRAMES = 5
 PLACING_SIGMA = 0.04  # inches per axis, the thesis sessions' placing error
 NAMES = [n for g in RIG_PARAMETERS for n in RIG_PARAMETERS[g]][:-1]  # the ground's not seen

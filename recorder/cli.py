@@ -26,6 +26,7 @@ if TYPE_CHECKING:
     from recorder.summary import RecordingSummary
     from twopose.camera import Camera, Intrinsics
     from twopose.rig import RigConstants
+    from twopose.targets import BoardPlacement
 
 __all__ = ["app", "main"]
 
@@ -75,12 +76,12 @@ def simulate(
     from rich.console import Console
     from rich.progress import Progress
 
-    from recorder.simulate import simulate_session
+    from recorder.simulate import poses_per_trial, simulate_session
     from twopose.sim.scene import load_scene
 
     with handle_errors():
         loaded = load_scene(scene)
-        total = trials * (poses or loaded.poses.count) * frames
+        total = trials * poses_per_trial(loaded, method, poses) * frames
         # A bar on stderr at a terminal (rendering takes about 0.1 s a frame), nothing in a pipe.
         with Progress(console=Console(stderr=True), transient=True) as progress:
             task = progress.add_task("frames rendered", total=total)
@@ -180,6 +181,20 @@ def new(
         list[str] | None,
         typer.Option(help="Measured 'x,y,z' (twice for a line). Asked if not given."),
     ] = None,
+    board: Annotated[
+        str | None,
+        typer.Option(help="Board session: the checkerboard's inner corners 'COLSxROWS'."),
+    ] = None,
+    square: Annotated[
+        float | None, typer.Option(help="Board session: the board's square side, session units.")
+    ] = None,
+    board_corner: Annotated[
+        str | None,
+        typer.Option(
+            help="Board session: the measured grid point 'x,y,z' of the board's first inner "
+            "corner (lower left, seen from the camera)."
+        ),
+    ] = None,
     operator: Annotated[str | None, typer.Option(help="Who records.")] = None,
     notes: Annotated[str, typer.Option(help="Free text about the session.")] = "",
     frames: Annotated[int, typer.Option(min=1, help="Frames captured per pose.")] = 5,
@@ -222,8 +237,9 @@ def new(
             summary = _planned(request, plan, stack)
         else:
             given = _console_given(
-                method, units, calibration, focal, principal, ground_height, ground_truth, operator
-            )
+                method, units, calibration, focal, principal, ground_height, ground_truth, operator,
+                _board_given(method, units, board, square, board_corner),
+            )  # fmt: skip
             if ui:
                 _console(request, given, host=host, port=port)
                 return
@@ -320,6 +336,7 @@ def _console_given(
     ground_height: float | None,
     ground_truth: list[str] | None,
     operator: str | None,
+    board: BoardPlacement | None = None,
 ) -> dict[str, Any]:
     """What the command line gave, as :func:`recorder.interactive.ask_setup` takes it."""
     from recorder.interactive import parse_vector
@@ -336,7 +353,42 @@ def _console_given(
             parse_vector(g, units or "in", what="ground truth") for g in ground_truth or []
         ],
         "operator": operator,
+        "board": board,
     }
+
+
+def _board_given(
+    method: Method | None,
+    units: str | None,
+    board: str | None,
+    square: float | None,
+    corner: str | None,
+) -> BoardPlacement | None:
+    """A board session's board from ``--board``, ``--square`` and ``--board-corner`` (given
+    together, for a board session only; None: asked)."""
+    from recorder.setup_rules import board_corner, inner_corners, positive_number
+    from twopose.methods import spec_of
+    from twopose.targets import BoardPlacement
+
+    parts = {"--board": board, "--square": square, "--board-corner": corner}
+    given = [name for name, value in parts.items() if value is not None]
+    if not given:
+        return None
+    if method is not None and spec_of(method).measures:
+        raise InputValueError(f"{', '.join(given)}: for a board session (--method board) only")
+    missing = [name for name, value in parts.items() if value is None]
+    if missing:
+        raise InputValueError(
+            f"give {', '.join(missing)} with {', '.join(given)}: a board session records the "
+            "board's size and where it stands together"
+        )
+    if board is None or square is None or corner is None:  # said above, as missing
+        return None
+    return BoardPlacement(
+        inner_corners=inner_corners(board),
+        square=positive_number(f"{square!r}"),
+        first_corner=board_corner(corner, units or "in"),
+    )
 
 
 def _console(request: NewRequest, given: dict[str, Any], *, host: str, port: int) -> None:
@@ -406,15 +458,14 @@ def calibrate(
     intrinsic, each view's error, outlier views dropped, and the image's coverage."""
     from recorder.calibrate import calibrate as run_calibration
     from recorder.calibrate import save_calibration
+    from recorder.setup_rules import inner_corners
     from recorder.sources import open_source
 
     with handle_errors():
         try:
-            cols, rows = (int(v) for v in board.lower().split("x"))
-        except ValueError as err:
-            raise InputValueError(f"--board must look like 9x6, got {board!r}") from err
-        if not (2 <= cols <= 100 and 2 <= rows <= 100):
-            raise InputValueError(f"--board: 2-100 inner corners each way, got {board!r}")
+            cols, rows = inner_corners(board)
+        except InputValueError as err:
+            raise InputValueError(f"--board: {err}") from err
         if out.exists():
             raise TwoposeError(f"{out} already exists; choose another calibration file")
         result = run_calibration(

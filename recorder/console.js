@@ -161,7 +161,7 @@ function applyMethod() {
   const method = $("f-method") ? $("f-method").value : "";
   for (const cell of $("setup-fields").children) {
     const methods = cell.dataset.methods.split(" ");
-    show(cell, !method || methods.length >= 3 || methods.includes(method));
+    show(cell, !method || methods.includes(method));
   }
 }
 

@@ -255,6 +255,7 @@ class WebDriver(Driver):
         self.session, self.source, self.camera_id = session, source, camera_id
         self.ground_truth = ground_truth
         self.typing = typing
+        self.poses_per_trial = typing.poses_per_trial  # --poses (d18a7fc had lost it: 2 always)
         self.preview = preview
         self._note = ""
         self._pending: tuple[str, Any] | None = None  # a pose typed before its trial began
@@ -289,9 +290,9 @@ class WebDriver(Driver):
 
     def trial_entries(self, trial: int) -> tuple[TypedEntry, ...]:
         self.session.update(trial=trial, n_poses=self.typing.poses_per_trial)
-        if not self.ground_truth:
+        kind: TruthKind | None = spec_of(self.session.method).truth_kind
+        if not self.ground_truth or kind is None:
             return ()
-        kind: TruthKind = spec_of(self.session.method).truth_kind
         return (GroundTruth(trial=trial, kind=kind, points_grid=self.ground_truth),)
 
     def _wait(self, what: str) -> tuple[str, Any]:

@@ -140,8 +140,8 @@ def preview(source: FrameSource, session: ConsoleSession) -> None:
     ok, encoded = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, 80])
     if ok:
         target = spec_of(session.method).target
-        try:
-            detection = detect(image, target)
+        try:  # nothing to outline on a board session's page (the rig fit finds its corners)
+            detection = detect(image, target) if target is not None else None
         except Exception as err:  # the overlay is a courtesy; it must not stop the recording
             session.update(live_error=f"the live detection failed ({type(err).__name__}: {err})")
             detection = None

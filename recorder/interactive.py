@@ -30,8 +30,10 @@ from recorder.procedure import (
 from recorder.setup_rules import (
     PoseTyping,
     Setup,
+    board_corner,
     default_ground_height,
     distinct_point,
+    inner_corners,
     number_pair,
     one_of,
     parse_vector,
@@ -50,6 +52,7 @@ from twopose.format.entries import (
     TypedEntry,
 )
 from twopose.methods import METHODS, Method, spec_of
+from twopose.targets import BoardPlacement
 from twopose.units import UNITS, Units
 from twopose.values import Vec3
 
@@ -91,10 +94,12 @@ def ask_setup(  # noqa: PLR0913 - one keyword per setup value the operator may h
     ground_truth: Sequence[Vec3],
     operator: str | None,
     intrinsics_sigma: dict[str, float] | None = None,
+    board: BoardPlacement | None = None,
 ) -> Setup:
     """Ask for whatever is None (or missing) above; answers are checked as they are typed.
-    ``intrinsics_sigma`` (a calibration file's) travels with the intrinsics."""
-    m = Method(method or op.ask("method (point, line, ground)", one_of(METHODS)))
+    ``intrinsics_sigma`` (a calibration file's) travels with the intrinsics; ``board`` is a
+    board session's board, asked part by part where the command line did not give it."""
+    m = Method(method or op.ask(f"method ({', '.join(METHODS)})", one_of(METHODS)))
     u = Units(units if units in UNITS else op.ask("units (in, mm, cm, m)", one_of(UNITS), "in"))
     if intrinsics is None:
         f = focal if focal and focal > 0 else op.ask("focal parameter, px", positive_number, "525")
@@ -109,6 +114,8 @@ def ask_setup(  # noqa: PLR0913 - one keyword per setup value the operator may h
             default_ground_height(u),
         )
     truth = _ask_truth(op, m, u, h, list(ground_truth))
+    if not spec_of(m).measures and board is None:
+        board = _ask_board(op, u)
     who = operator if operator is not None else op.ask("operator", str, "")
     return Setup(
         method=m,
@@ -118,7 +125,19 @@ def ask_setup(  # noqa: PLR0913 - one keyword per setup value the operator may h
         ground_truth=truth,
         operator=who,
         intrinsics_sigma=dict(intrinsics_sigma or {}),
+        board=board if not spec_of(m).measures else None,
     )
+
+
+def _ask_board(op: Operator, units: str) -> BoardPlacement:
+    """A board session's board: its inner corners, its square and where it stands."""
+    corners = op.ask("board's inner corners COLSxROWS", inner_corners, "9x6")
+    square = op.ask(f"board's square side ({units})", positive_number)
+    corner = op.ask(
+        f"board's first inner corner x, y, z ({units}; lower left, seen from the camera)",
+        lambda s: board_corner(s, units),
+    )
+    return BoardPlacement(inner_corners=corners, square=square, first_corner=corner)
 
 
 def _ask_truth(
@@ -178,10 +197,8 @@ def capture_lines(pose: int, result: CaptureResult) -> list[str]:
     """What the terminal and plan print after a capture: the counts, the pose's averaged
     centroid and orientation (the thesis GUI's per-pose numbers), and a shortfall."""
     state = "complete" if result.complete else f"INCOMPLETE ({result.reason})"
-    lines = [
-        f"pose {pose}: {result.n_frames} frames, {result.n_found} detected, {state}, "
-        f"{result.dropped} dropped"
-    ]
+    detected = f"{result.n_found} detected, " if result.feedback else ""  # a board: none live
+    lines = [f"pose {pose}: {result.n_frames} frames, {detected}{state}, {result.dropped} dropped"]
     average = result.pose_average()
     if average is not None and average.found:
         u, v = average.centroid_px
@@ -215,6 +232,7 @@ class _OperatorDriver(Driver):
         self.op, self.info, self.camera = op, info, camera
         self.ground_truth = ground_truth
         self.typing = typing
+        self.poses_per_trial = typing.poses_per_trial  # --poses (d18a7fc had lost it: 2 always)
 
     def start(self, source: SourceInfo, path: Path) -> None:
         self.op.say(
@@ -227,9 +245,9 @@ class _OperatorDriver(Driver):
 
     def trial_entries(self, trial: int) -> Sequence[TypedEntry]:
         self.op.say(f"trial {trial}")
-        if not self.ground_truth:
+        kind: TruthKind | None = spec_of(self.info.method).truth_kind
+        if not self.ground_truth or kind is None:
             return ()
-        kind: TruthKind = spec_of(self.info.method).truth_kind
         return (GroundTruth(trial=trial, kind=kind, points_grid=self.ground_truth),)
 
     def place(self, trial: int, pose: int) -> Placement:

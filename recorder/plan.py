@@ -37,6 +37,7 @@ from twopose.format.entries import (
     TypedEntry,
 )
 from twopose.methods import METHODS, Method, spec_of
+from twopose.targets import BoardPlacement
 from twopose.units import UNIT_SPECS, UNITS, Units
 from twopose.values import Vec3, finite, numbers, vec3
 
@@ -64,7 +65,8 @@ GROUND_TOLERANCE = {str(u): spec.ground_tolerance for u, spec in UNIT_SPECS.item
 #: The keys a plan may hold, per table (anything else is a typo that would be ignored).
 _PLAN_KEYS = {
     "": {"method", "units", "camera", "cameras", "frames", "ground_height", "trials"}
-    | {"operator", "notes", "resolution"},
+    | {"operator", "notes", "resolution", "board"},
+    "board": {"inner_corners", "square", "first_corner"},
     "camera": {"id", "calibration", "focal", "fx", "fy", "principal", "cx", "cy"}
     | {"width", "height", "distortion"},
     "trials": {"poses", "ground_truth"},
@@ -126,6 +128,7 @@ class Plan:
     notes: str = ""
     translation_resolution: float = DEFAULT_TRANSLATION_RESOLUTION
     rotation_resolution_deg: float = DEFAULT_ROTATION_RESOLUTION_DEG
+    board: BoardPlacement | None = None  # a board session's board and where it stands
 
 
 def _vec(value: Any, where: str) -> Vec3:
@@ -186,6 +189,7 @@ def load_plan(path: str | Path) -> Plan:
             positive=True,
         ),
     )
+    board = _board(data.get("board"), method, units)
     raw_trials = data.get("trials", [])
     if not isinstance(raw_trials, list) or not raw_trials:
         raise InputValueError("plan: no [[trials]]")
@@ -204,7 +208,40 @@ def load_plan(path: str | Path) -> Plan:
         notes=str(data.get("notes", "")),
         translation_resolution=resolution[0],
         rotation_resolution_deg=resolution[1],
+        board=board,
     )
+
+
+def _board(table: Any, method: Method, units: str) -> BoardPlacement | None:
+    """``[board]`` of a board session: ``inner_corners = [cols, rows]``, ``square`` and
+    ``first_corner = [x, y, z]`` (required there, refused elsewhere)."""
+    if spec_of(method).measures:
+        if table is not None:
+            raise InputValueError('plan: [board] is for a board session (method = "board")')
+        return None
+    if table is None:
+        raise InputValueError(
+            "plan: a board session needs [board]: inner_corners = [cols, rows], square and "
+            "first_corner = [x, y, z] (the measured grid point of its first inner corner)"
+        )
+    b = _known_keys(table, "board", "board")
+    missing = sorted({"inner_corners", "square", "first_corner"} - set(b))
+    if missing:
+        raise InputValueError(f"plan: board.{missing[0]} is missing")
+    corners = b["inner_corners"]
+    if not isinstance(corners, list) or len(corners) != 2:
+        raise InputValueError(f"plan: board.inner_corners must be [cols, rows], got {corners!r}")
+    corner = _vec(b["first_corner"], "board.first_corner")
+    if max(abs(v) for v in corner) > MAX_TRANSLATION[units]:
+        raise InputValueError(
+            f"plan: board.first_corner = {corner} is implausibly large for {units}"
+        )
+    try:
+        return BoardPlacement(
+            inner_corners=(corners[0], corners[1]), square=b["square"], first_corner=corner
+        )
+    except InputValueError as err:
+        raise InputValueError(f"plan: [board]: {err}") from err
 
 
 def _trial(
@@ -233,6 +270,8 @@ def _trial(
     if any(max(abs(v) for v in g) > MAX_TRANSLATION[units] for g in gt):
         raise InputValueError(f"plan: {where} = {gt} is implausibly large for {units}")
     spec = spec_of(method)
+    if gt and not spec.truth_points:
+        raise InputValueError(f"plan: {where}: a board session's truth is its [board], not points")
     if gt and len(gt) != spec.truth_points:
         raise InputValueError(
             f"plan: {where} needs {spec.truth_points} point(s) for {method}, got {len(gt)}"
@@ -271,9 +310,9 @@ class _PlanDriver(Driver):
 
     def trial_entries(self, trial: int) -> Sequence[TypedEntry]:
         truth = self.plan.trials[trial - 1].ground_truth
-        if not truth:
+        kind: TruthKind | None = spec_of(self.plan.method).truth_kind
+        if not truth or kind is None:
             return ()
-        kind: TruthKind = spec_of(self.plan.method).truth_kind
         return (GroundTruth(trial=trial, kind=kind, points_grid=truth),)
 
     def poses_in(self, trial: int) -> int:
@@ -341,6 +380,7 @@ def record_plan(
         operator=plan.operator,
         notes=plan.notes,
         created_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+        board=plan.board,
     )
     ground = GroundPlane(offset=plan.ground_height) if plan.ground_height is not None else None
     return record(

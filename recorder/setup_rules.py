@@ -25,7 +25,8 @@ from twopose.format.entries import (
     GroundPlane,
     SessionInfo,
 )
-from twopose.methods import METHODS, Method, spec_of
+from twopose.methods import MEASURING_METHODS, METHODS, Method, spec_of
+from twopose.targets import BoardPlacement
 from twopose.units import UNITS, Units
 from twopose.values import Vec3, finite, numbers, vec3
 
@@ -34,9 +35,11 @@ __all__ = [
     "FormRefusedError",
     "Setup",
     "SetupField",
+    "board_corner",
     "default_ground_height",
     "distinct_point",
     "form_fields",
+    "inner_corners",
     "number_pair",
     "one_of",
     "parse_pose_form",
@@ -74,6 +77,7 @@ class Setup:
     ground_truth: tuple[Vec3, ...]
     operator: str
     intrinsics_sigma: dict[str, float] = field(default_factory=dict, compare=False)
+    board: BoardPlacement | None = None  # a board session's board and where it stands
 
     def camera(self) -> Camera:
         """The session's one camera (``cam0``), with its calibration's sigma."""
@@ -93,6 +97,7 @@ class Setup:
             operator=self.operator,
             notes=notes,
             created_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+            board=self.board,
         )
 
 
@@ -186,6 +191,19 @@ def number_pair(text: str) -> tuple[float, float]:
     return a, b
 
 
+def inner_corners(text: str) -> tuple[int, int]:
+    """A checkerboard's inner corners typed as ``COLSxROWS`` (2-100 each way), e.g. 9x6."""
+    try:
+        cols, rows = (int(v) for v in text.strip().lower().split("x"))
+    except ValueError as err:
+        raise InputValueError(
+            f"type the board's inner corners as COLSxROWS, e.g. 9x6 (got {text!r})"
+        ) from err
+    if not (2 <= cols <= 100 and 2 <= rows <= 100):
+        raise InputValueError(f"2-100 inner corners each way, got {text!r}")
+    return cols, rows
+
+
 def distinct_point(point: Vec3, earlier: Sequence[Vec3]) -> Vec3:
     if point in earlier:
         raise InputValueError("this point was already given; a line needs two different points")
@@ -222,7 +240,22 @@ SETUP_FIELDS: tuple[SetupField, ...] = (
         kind="text",
         methods=("ground",),
     ),
-    SetupField(name="truth1", label="ground-truth point x, y, z", kind="text"),
+    SetupField(
+        name="board",
+        label="board's inner corners COLSxROWS",
+        kind="text",
+        methods=("board",),
+    ),
+    SetupField(name="square", label="board's square side", kind="text", methods=("board",)),
+    SetupField(
+        name="board_corner",
+        label="board's first inner corner x, y, z (lower left)",
+        kind="text",
+        methods=("board",),
+    ),
+    SetupField(
+        name="truth1", label="ground-truth point x, y, z", kind="text", methods=MEASURING_METHODS
+    ),
     SetupField(
         name="truth2", label="second ground-truth point x, y, z", kind="text", methods=("line",)
     ),
@@ -241,6 +274,7 @@ def _given_text(name: str, given: Mapping[str, Any]) -> str | None:
     """The command line's answer for a field, as text (None: not given)."""
     k = given.get("intrinsics")
     truth = list(given.get("ground_truth") or [])
+    b = given.get("board")
     texts: dict[str, Any] = {
         "method": given.get("method"),
         "units": given.get("units") if given.get("units") in UNITS else None,
@@ -250,6 +284,9 @@ def _given_text(name: str, given: Mapping[str, Any]) -> str | None:
         "truth1": truth[0] if truth else None,
         "truth2": truth[1] if len(truth) > 1 else None,
         "keep_off_ground": None,
+        "board": "x".join(str(n) for n in b.inner_corners) if b is not None else None,
+        "square": b.square if b is not None else None,
+        "board_corner": b.first_corner if b is not None else None,
         "operator": given.get("operator"),
     }
     value = texts[name]
@@ -326,6 +363,7 @@ def setup_from_answers(form: Mapping[str, str], given: Mapping[str, Any]) -> Set
     if method is not None and spec_of(method).needs_ground:
         height = a.check("ground_height", lambda s: _ground_height(s, units))
     truth = _truth(a, method, units, height) if method is not None else ()
+    board = _board(a, units) if method is not None and not spec_of(method).measures else None
     operator = a.text("operator")
     if a.errors:
         raise FormRefusedError(a.errors)
@@ -339,13 +377,29 @@ def setup_from_answers(form: Mapping[str, str], given: Mapping[str, Any]) -> Set
         ground_truth=truth,
         operator=operator,
         intrinsics_sigma=sigma,
+        board=board,
     )
 
 
 def _method(text: str) -> Method:
     if not text:
-        raise InputValueError("choose point, line or ground")
+        raise InputValueError(f"choose {', '.join(METHODS)}")
     return Method(one_of(METHODS)(text))
+
+
+def board_corner(text: str, units: str) -> Vec3:
+    """The board's first inner corner: a measured grid point, checked as a typed one."""
+    return parse_vector(text, units, what="board corner")
+
+
+def _board(a: _Answers, units: str) -> BoardPlacement | None:
+    """The board's size and placement (every part required: it is the session's truth)."""
+    corners = a.check("board", inner_corners)
+    square = a.check("square", positive_number)
+    corner = a.check("board_corner", lambda s: board_corner(s, units))
+    if corners is None or square is None or corner is None:
+        return None
+    return BoardPlacement(inner_corners=corners, square=square, first_corner=corner)
 
 
 def _ground_height(text: str, units: str) -> float:

@@ -41,12 +41,18 @@ from twopose.format.entries import (
 )
 from twopose.methods import spec_of
 from twopose.sim.camera import SyntheticCamera, camera_pose, true_intrinsics
-from twopose.sim.layout import Layout, build_layout, finger_axis
+from twopose.sim.layout import BOARD_POSES, Layout, build_layout, finger_axis
 from twopose.sim.scene import CameraParams, PoseParams, Scene
 from twopose.units import unit_spec
 from twopose.values import Vec3
 
-__all__ = ["SimulationSummary", "calibrated_cameras", "simulate_session", "target_points"]
+__all__ = [
+    "SimulationSummary",
+    "calibrated_cameras",
+    "poses_per_trial",
+    "simulate_session",
+    "target_points",
+]
 
 # The thesis' running-average script is dated 2011-12-31; simulated clocks start there.
 SIMULATION_EPOCH_NS = 1_325_289_600 * 1_000_000_000
@@ -140,6 +146,20 @@ def _draw_trial_poses(
         f"scene: could not place {n_poses} poses at least {p.min_baseline} apart with the target "
         f"in view after {_MAX_POSE_DRAWS} draws; widen poses.*_range or move the target"
     )
+
+
+def _board_poses(scene: Scene, rng: np.random.Generator) -> list[tuple[F64, F64, F64, F64]]:
+    """A board session's poses: (typed t, typed r, true t, true r) at :data:`BOARD_POSES`,
+    placed with the scene's typing error and seen through its rig's constants."""
+    p = scene.poses
+    poses = []
+    for t in BOARD_POSES:
+        t_typed, r_typed = np.array(t, dtype=np.float64), np.zeros(3)
+        t_placed = t_typed + p.noise_sigma * rng.standard_normal(3)
+        r_placed = r_typed + p.rotation_noise_deg * rng.standard_normal(3)
+        t_true, r_true = camera_pose(scene.systematic, t_placed, r_placed)
+        poses.append((t_typed, r_typed, t_true, r_true))
+    return poses
 
 
 def calibrated_cameras(scene: Scene, seed: int) -> tuple[Scene, list[Camera]]:
@@ -278,16 +298,24 @@ class _SimulatedOperator(Driver):
     ) -> None:
         self.scene, self.method, self.trials = scene, method, trials
         self.rng, self.clock, self.source = rng, clock, source
-        self.kind, truth = target_points(scene, method)
-        self.truth = tuple(_vec(p) for p in truth)
+        self.board = not spec_of(method).measures  # a board session: its poses, no truth
+        self.kind: TruthKind = "point"
+        self.truth: tuple[Vec3, ...] = ()
+        if not self.board:
+            self.kind, truth = target_points(scene, method)
+            self.truth = tuple(_vec(p) for p in truth)
         self.pose_dt = int(scene.sensor.seconds_between_poses * 1e9)
         self.drawn: list[tuple[F64, F64, F64, F64]] = []
-        self.poses_per_trial = scene.poses.count
+        self.poses_per_trial = poses_per_trial(scene, method)
 
     def next_trial(self, trial: int) -> bool:
         return trial <= self.trials
 
     def trial_entries(self, trial: int) -> Sequence[TypedEntry]:
+        if self.board:
+            self.drawn = _board_poses(self.scene, self.rng)
+            self.clock.advance(self.pose_dt)
+            return ()  # the board's placement is in the session entry
         self.drawn = _draw_trial_poses(self.scene, self.method, self.poses_per_trial, self.rng)
         self.clock.advance(self.pose_dt)
         return (GroundTruth(trial=trial, kind=self.kind, points_grid=self.truth),)
@@ -309,6 +337,9 @@ class _SimulatedOperator(Driver):
         return Placement(entry=entry, true_pose=(_vec(t_true), _vec(r_true)))
 
     def end_trial(self, trial: int) -> Sequence[TypedEntry]:
+        if self.board:
+            self.clock.advance(self.source.frame_dt)
+            return ()
         cams = self.scene.cameras
         true_poses = tuple(
             TruePose(pose=k, camera_id=cams[(k - 1) % len(cams)].id, t_grid=_vec(t), r_deg=_vec(r))
@@ -322,6 +353,14 @@ class _SimulatedOperator(Driver):
                 trial=trial, poses=true_poses, kind=self.kind, points_grid=self.truth, rig=constants
             ),
         )
+
+
+def poses_per_trial(scene: Scene, method: str, poses: int | None = None) -> int:
+    """How many poses each simulated trial types: a board session's :data:`BOARD_POSES`,
+    else ``poses`` or the scene's count."""
+    if not spec_of(method).measures:
+        return len(BOARD_POSES)
+    return poses or scene.poses.count
 
 
 def _scene_with(scene: Scene | None, pose_noise: float | None, poses: int | None) -> Scene:
@@ -369,13 +408,19 @@ def simulate_session(  # noqa: PLR0913 - keyword-only settings, one per command-
         Called after every frame rendered and written (``trials * poses * frames`` times).
     """
     method = spec_of(method).method  # refuses an unknown method, naming the known ones
+    if poses is not None and not spec_of(method).measures:
+        raise InputValueError(
+            f"a simulated board session types the {len(BOARD_POSES)} poses of "
+            "twopose.sim.layout.BOARD_POSES in each trial; leave --poses out"
+        )
     if trials < 1:
         raise InputValueError(f"trials must be >= 1, got {trials}")
     if frames < 1:
         raise InputValueError(f"frames must be >= 1, got {frames}")
     scene, cameras = calibrated_cameras(_scene_with(scene, pose_noise, poses), seed)
     rng = np.random.default_rng(seed)
-    layout = build_layout(scene, method, rng)
+    measures = spec_of(method).measures
+    layout = build_layout(scene, method, rng)  # a board session's: the scene's board alone
     clock = _SimClock(SIMULATION_EPOCH_NS)
     camera = _SimulatedCamera(scene, layout, rng, clock)
     info = SessionInfo(
@@ -390,6 +435,7 @@ def simulate_session(  # noqa: PLR0913 - keyword-only settings, one per command-
         ),
         created_utc=datetime.fromtimestamp(SIMULATION_EPOCH_NS / 1e9, UTC).isoformat(),
         simulated=True,
+        board=None if measures else scene.board.placement(),
     )
     try:
         summary = record(
@@ -415,7 +461,7 @@ def simulate_session(  # noqa: PLR0913 - keyword-only settings, one per command-
         path=summary.path,
         method=method,
         n_trials=trials,
-        n_poses=trials * scene.poses.count,
+        n_poses=trials * poses_per_trial(scene, method),
         n_frames=summary.n_frames,
         size_bytes=summary.path.stat().st_size,
     )

@@ -21,10 +21,11 @@ from the board. A constant the fit pushes more than two prior sigmas from nomina
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
 from twopose.arrays import F64
@@ -69,6 +70,7 @@ class BoardRigFit:
     rms_px: float  # RMS corner residual
     n_captures: int
     n_corners: int
+    free: tuple[str, ...] = FITTED_NAMES  # the fitted scalars (the rest nominal, sigma NaN)
     warnings: tuple[str, ...] = ()
 
 
@@ -96,10 +98,11 @@ def _prior_sigma(units: str) -> F64:
     )
 
 
-def check_identifiable(t_typed: ArrayLike, board_depth: float) -> None:
+def check_identifiable(t_typed: ArrayLike, board_depth: ArrayLike) -> None:
     """Refuse, naming the poses to add, when the typed poses cannot determine the rig.
 
-    ``t_typed`` (C, 3) typed camera centres; ``board_depth`` the board's z (its plane).
+    ``t_typed`` (C, 3) typed camera centres; ``board_depth`` the board's z (its plane), one
+    for all captures or (C,) one per capture.
     """
     t = np.asarray(t_typed, dtype=np.float64)
     if len(t) < 3:
@@ -113,7 +116,7 @@ def check_identifiable(t_typed: ArrayLike, board_depth: float) -> None:
             "the typed poses move along one direction only: the mount's rotation and the "
             "tape's scale need moves in two non-parallel directions (e.g. along x and along z)"
         )
-    depth = board_depth - t[:, 2]
+    depth = np.asarray(board_depth, dtype=np.float64) - t[:, 2]
     if np.any(depth <= 0):
         raise InputValueError("a typed pose is at or beyond the board's plane; stand back from it")
     if (depth.max() - depth.min()) < MIN_DEPTH_SPREAD * depth.mean():
@@ -127,17 +130,29 @@ def check_identifiable(t_typed: ArrayLike, board_depth: float) -> None:
 def _project(params: F64, corners: F64, t_typed: F64, r_typed: F64, intrinsics: F64) -> F64:
     """The corners' pixels (C, K, 2) predicted for the constants ``params``.
 
-    (C, K, 2) the corners' pixels for the constants ``params`` (10, FITTED order, then
-    optionally each capture's placing error (C, 3): where the laptop really was).
+    ``params``: the 10 constants (FITTED order), then optionally each capture's placing
+    error (C, 3): where the laptop really was. ``corners`` (C, K, 3) and ``intrinsics``
+    (C, 4) per capture.
     """
-    n = len(RigConstants().vector()) - 1
+    n = len(FITTED_NAMES)
     rig = RigConstants.from_vector(np.append(params[:n], 0.0))
     placed = t_typed + params[n:].reshape(-1, 3) if len(params) > n else t_typed
     t, R = rig.true_poses(placed, r_typed)
-    fx, fy, cx, cy = rig.true_intrinsics(intrinsics)
-    p_cam = np.einsum("cji,ckj->cki", R, corners[None] - t[:, None])  # R^T (X - t)
+    k = rig.true_intrinsics(intrinsics)[:, None, :]  # (C, 1, 4)
+    p_cam = np.einsum("cji,ckj->cki", R, corners - t[:, None])  # R^T (X - t)
     z = p_cam[..., 2]
-    return np.stack([fx * p_cam[..., 0] / z + cx, fy * p_cam[..., 1] / z + cy], axis=-1)
+    u = k[..., 0] * p_cam[..., 0] / z + k[..., 2]
+    return np.stack([u, k[..., 1] * p_cam[..., 1] / z + k[..., 3]], axis=-1)
+
+
+def _per_capture(value: ArrayLike, n_captures: int, shape: tuple[int, ...], what: str) -> F64:
+    """``value`` of ``shape`` (one for all captures) or ``(C, *shape)``, as ``(C, *shape)``."""
+    a = np.asarray(value, dtype=np.float64)
+    if a.shape == shape:
+        a = np.broadcast_to(a, (n_captures, *shape))
+    if a.shape[1:] != shape or len(a) != n_captures or not np.isfinite(a).all():
+        raise InputValueError(f"board captures: {what} must be finite {shape} or (C, *{shape})")
+    return a
 
 
 def fit_board_rig(
@@ -149,66 +164,93 @@ def fit_board_rig(
     *,
     units: str = "in",
     t_sigma: float = 0.0,
+    groups: Sequence[str] = FITTED,
 ) -> BoardRigFit:
     """The rig's constants from board captures.
 
     Parameters
     ----------
-    corners_grid : (K, 3) array_like
-        The board's inner corners in the grid frame (session units).
+    corners_grid : (K, 3) or (C, K, 3) array_like
+        The board's inner corners in the grid frame (session units), for every capture or
+        per capture (captures of sessions whose boards stood in different places).
     observed_px : (C, K, 2) array_like
         Each capture's detected corners, in the order of ``corners_grid`` (pixels).
     t_typed, r_typed_deg : (C, 3) array_like
         Each capture's typed camera centre and angles.
-    intrinsics : (4,) array_like
-        The nominal ``fx, fy, cx, cy`` (the camera's calibration).
+    intrinsics : (4,) or (C, 4) array_like
+        The nominal ``fx, fy, cx, cy`` (the camera's calibration), for all or per capture.
     t_sigma : float
         The typed translations' 1-sigma per component (the entries' resolution: tape and
         placing): each capture's placing error is fitted with it as its prior, so the
         constants' sigma includes what the poses' typing leaves unknown (0: typed exactly).
+    groups : sequence of str
+        The constants' groups to fit (:data:`FITTED`, the default, or some of them); the
+        rest stay nominal, with sigma NaN.
     """
-    X = np.asarray(corners_grid, dtype=np.float64)
-    u = np.asarray(observed_px, dtype=np.float64)
     t, r = np.asarray(t_typed, dtype=np.float64), np.asarray(r_typed_deg, dtype=np.float64)
-    k = np.asarray(intrinsics, dtype=np.float64)
-    if u.shape != (len(t), len(X), 2) or r.shape != t.shape or not np.isfinite(u).all():
+    u = np.asarray(observed_px, dtype=np.float64)
+    n_corners = np.shape(corners_grid)[-2] if np.ndim(corners_grid) >= 2 else 0
+    X = _per_capture(corners_grid, len(t), (n_corners, 3), "corners_grid")
+    k = _per_capture(intrinsics, len(t), (4,), "intrinsics")
+    if u.shape != (len(t), n_corners, 2) or r.shape != t.shape or not np.isfinite(u).all():
         raise InputValueError(
-            f"board captures: want (captures, corners, 2) = ({len(t)}, {len(X)}, 2) finite "
+            f"board captures: want (captures, corners, 2) = ({len(t)}, {n_corners}, 2) finite "
             f"pixels, got {u.shape}"
         )
-    check_identifiable(t, float(X[:, 2].mean()))
-    n_rig = len(FITTED_NAMES)
+    free = _free_mask(groups)
+    check_identifiable(t, X[:, :, 2].mean(axis=1))
     placing = t_sigma > 0
     nominal = np.concatenate([RigConstants().vector()[:-1], np.zeros(t.size if placing else 0)])
     prior = np.concatenate([_prior_sigma(units), np.full(t.size if placing else 0, t_sigma)])
+    fitted = np.concatenate([free, np.ones(t.size if placing else 0, dtype=bool)])
+
+    def full(p: F64) -> F64:
+        out = nominal.copy()
+        out[fitted] = p
+        return out
 
     def residuals(p: F64, sigma_px: float) -> F64:
-        corners = (_project(p, X, t, r, k) - u).ravel() / sigma_px
-        return np.concatenate([corners, (p - nominal) / prior])
+        corners = (_project(full(p), X, t, r, k) - u).ravel() / sigma_px
+        return np.concatenate([corners, (p - nominal[fitted]) / prior[fitted]])
 
-    sigma_px = 1.0
-    for _ in range(2):  # the corners' noise estimated from the first fit's residuals
-        fit = least_squares(residuals, nominal, args=(sigma_px,), x_scale=prior, method="trf")
-        corner_res = (_project(fit.x, X, t, r, k) - u).ravel()
+    sigma_px, p = 1.0, nominal[fitted]
+    for _ in range(3):  # the corners' noise estimated from the previous fit's residuals
+        fit = least_squares(residuals, p, args=(sigma_px,), x_scale=prior[fitted], method="trf")
+        p = fit.x
+        corner_res = (_project(full(p), X, t, r, k) - u).ravel()
         sigma_px = max(float(np.sqrt(np.mean(corner_res**2))), 1e-6)
-    fit = least_squares(residuals, fit.x, args=(sigma_px,), x_scale=prior, method="trf")
-    cov = np.linalg.pinv(fit.jac.T @ fit.jac)[:n_rig, :n_rig]
+    fit = least_squares(residuals, p, args=(sigma_px,), x_scale=prior[fitted], method="trf")
+    n_free = int(free.sum())
+    cov = np.full((len(FITTED_NAMES), len(FITTED_NAMES)), np.nan)
+    cov[np.ix_(free, free)] = np.linalg.pinv(fit.jac.T @ fit.jac)[:n_free, :n_free]
     sigma = np.append(np.sqrt(np.clip(np.diag(cov), 0.0, None)), np.nan)
-    rig = RigConstants.from_vector(np.append(fit.x[:n_rig], 0.0), units)
+    x = full(fit.x)
+    n_rig = len(FITTED_NAMES)
     return BoardRigFit(
-        rig=rig,
+        rig=RigConstants.from_vector(np.append(x[:n_rig], 0.0), units),
         sigma=sigma,
         cov=cov,
-        rms_px=float(np.sqrt(np.mean((_project(fit.x, X, t, r, k) - u) ** 2))),
+        rms_px=float(np.sqrt(np.mean((_project(x, X, t, r, k) - u) ** 2))),
         n_captures=len(t),
         n_corners=u.shape[0] * u.shape[1],
-        warnings=_against_priors(fit.x[:n_rig] - nominal[:n_rig], prior[:n_rig]),
+        free=tuple(n for n, f in zip(FITTED_NAMES, free, strict=True) if f),
+        warnings=_against_priors((x[:n_rig] - nominal[:n_rig])[free], prior[:n_rig][free], free),
     )
 
 
-def _against_priors(delta: F64, prior: F64) -> tuple[str, ...]:
-    """A warning per constant the fit moved more than two prior sigmas from nominal."""
-    names = FITTED_NAMES
+def _free_mask(groups: Sequence[str]) -> NDArray[np.bool_]:
+    """Which of :data:`FITTED_NAMES` the groups free; a group a board cannot see is refused."""
+    unknown = sorted(set(groups) - set(FITTED))
+    if unknown:
+        raise InputValueError(
+            f"a board cannot determine {', '.join(unknown)}; it fits {', '.join(FITTED)}"
+        )
+    return np.array([any(n in RIG_PARAMETERS[g] for g in groups) for n in FITTED_NAMES])
+
+
+def _against_priors(delta: F64, prior: F64, free: NDArray[np.bool_]) -> tuple[str, ...]:
+    """A warning per fitted constant the fit moved more than two prior sigmas from nominal."""
+    names = [n for n, f in zip(FITTED_NAMES, free, strict=True) if f]
     return tuple(
         f"{name} = nominal {d:+.4g} is {abs(d) / s:.1f} prior sigmas off (prior sigma {s:.3g}): "
         "the data push it against its prior; check the board's placement and the typed poses"

@@ -587,18 +587,25 @@ def combine_frames(
 
 
 def find_board(
-    image_bgr: Image, inner_corners: tuple[int, int], *, window_px: int = 11
+    image_bgr: Image, inner_corners: tuple[int, int], *, window_px: int | None = 11
 ) -> NDArray[np.float32] | None:
     """A checkerboard's inner corners, refined to sub-pixel; None if not found.
 
     A checkerboard's inner corners (cols * rows, 1, 2), refined to sub-pixel
     (``cv2.findChessboardCorners`` then ``cv2.cornerSubPix`` in a (2 window + 1)^2 window:
-    keep it under half a square), in OpenCV's order; None where the board is not found.
+    keep it under half a square; None: a third of the smallest spacing of the corners
+    found, so a small or distant board is refined within its squares), in OpenCV's order;
+    None where the board is not found.
     """
     grey = cv2.cvtColor(image_bgr, cv2.COLOR_BGR2GRAY)
     found, corners = cv2.findChessboardCorners(grey, inner_corners)
     if not found:
         return None
+    if window_px is None:
+        grid = corners.reshape(inner_corners[1], inner_corners[0], 2)
+        along = np.linalg.norm(np.diff(grid, axis=1), axis=-1).min()
+        across = np.linalg.norm(np.diff(grid, axis=0), axis=-1).min()
+        window_px = max(2, int(min(along, across) / 3))
     criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 1e-3)
     window = (window_px, window_px)
     return np.asarray(cv2.cornerSubPix(grey, corners, window, (-1, -1), criteria), np.float32)

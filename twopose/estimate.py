@@ -21,6 +21,7 @@ from twopose.camera import Intrinsics, rotation_from_angles_deg
 from twopose.choices import CombineMethod
 from twopose.conditioning import parallax_sine
 from twopose.detect import PoseMeasurement, combine_frames
+from twopose.errors import InputValueError
 from twopose.format.entries import PoseEntry
 from twopose.methods import METHOD_SPECS, Method, spec_of
 from twopose.solve import (
@@ -229,7 +230,10 @@ def solve_batch(
     method: str, batch: ViewBatch, ground: GroundSpec | None, options: EstimateSettings
 ) -> Solved:
     """Batch-solve rows of N >= 2 pose measurements with every estimator."""
-    return _SOLVERS[spec_of(method).method](batch, ground, options.min_conditioning)
+    solver = _SOLVERS.get(spec_of(method).method)
+    if solver is None:
+        raise InputValueError(f"{method} sessions reconstruct nothing (the rig's calibration)")
+    return solver(batch, ground, options.min_conditioning)
 
 
 def _solve_points(batch: ViewBatch, _ground: GroundSpec | None, mc: float) -> Solved:

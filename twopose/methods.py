@@ -21,7 +21,7 @@ from typing import Literal
 from twopose.choices import Target
 from twopose.errors import InputValueError
 
-__all__ = ["METHODS", "METHOD_SPECS", "Method", "MethodSpec", "spec_of"]
+__all__ = ["MEASURING_METHODS", "METHODS", "METHOD_SPECS", "Method", "MethodSpec", "spec_of"]
 
 
 class Method(StrEnum):
@@ -30,6 +30,7 @@ class Method(StrEnum):
     POINT = "point"  # method 1: a fixed dot, two rays (thesis eq. for [p1, -R p2] a = d)
     LINE = "line"  # a fixed line: each image line back-projects to a plane
     GROUND = "ground"  # method 2: the glove's planes meet the ground plane y = h
+    BOARD = "board"  # no reconstruction: a checkerboard's corners calibrate the rig (issue 24)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -37,10 +38,12 @@ class MethodSpec:
     """What one method is, for every stage that depends on it."""
 
     method: Method
-    #: What the detector looks for in each frame (twopose.detect): the dark dot or the glove.
-    target: Target
-    #: The ground truth a trial carries: one point, or a line's two points.
-    truth_kind: Literal["point", "line"]
+    #: What the detector looks for in each frame (twopose.detect): the dark dot or the glove;
+    #: None for a board session, whose corners the rig calibration finds (twopose.board_rig).
+    target: Target | None
+    #: The ground truth a trial carries: one point, or a line's two points; None for a board
+    #: session, whose truth is the board's placement (the session entry's ``board``).
+    truth_kind: Literal["point", "line"] | None
     #: Whether the estimate needs the ground plane y = h (the session's ground height).
     needs_ground: bool
     #: Degeneracy margins (trials.csv columns, degrees) that apply to the method.
@@ -52,9 +55,14 @@ class MethodSpec:
     label: str
 
     @property
+    def measures(self) -> bool:
+        """Whether the session reconstructs something (a board session calibrates the rig)."""
+        return self.target is not None
+
+    @property
     def truth_points(self) -> int:
-        """How many ground-truth points a trial has (a line's two ends)."""
-        return 2 if self.truth_kind == "line" else 1
+        """How many ground-truth points a trial has (a line's two ends; none on a board)."""
+        return {"line": 2, "point": 1, None: 0}[self.truth_kind]
 
     @property
     def estimates_line(self) -> bool:
@@ -99,10 +107,22 @@ METHOD_SPECS: Mapping[Method, MethodSpec] = MappingProxyType(
             thesis_name="method 2",
             label="ground (method 2)",
         ),
+        Method.BOARD: MethodSpec(
+            method=Method.BOARD,
+            target=None,
+            truth_kind=None,
+            needs_ground=False,
+            margins=(),
+            extra_columns=(),
+            thesis_name="board (rig calibration)",
+            label="board (rig calibration)",
+        ),
     }
 )
-#: The methods' names, in the order the thesis presents them.
+#: The methods' names, in the order the thesis presents them, then the board.
 METHODS: tuple[Method, ...] = tuple(METHOD_SPECS)
+#: The methods that reconstruct something (every one but the board).
+MEASURING_METHODS: tuple[Method, ...] = tuple(m for m, s in METHOD_SPECS.items() if s.measures)
 
 
 def spec_of(method: str) -> MethodSpec:

@@ -1,4 +1,4 @@
-"""The thesis' pointing finger as geometry (method 2 and the fixed line).
+"""The targets as geometry: the pointing finger and the rig calibration's checkerboard.
 
 The finger is a straight axis that points at a spot on the ground: tilted ``tilt_deg`` from
 straight down (+y), its horizontal part heading ``azimuth_deg`` from +z toward +x (180
@@ -8,11 +8,16 @@ sensitivity sweeps to measure it, so both mean the same finger.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Any
+
 import numpy as np
 
 from twopose.arrays import F64
+from twopose.errors import InputValueError
+from twopose.values import Vec3, finite, vec3
 
-__all__ = ["FINGER_LENGTH", "FINGER_TIP_HEIGHT", "finger_axis"]
+__all__ = ["FINGER_LENGTH", "FINGER_TIP_HEIGHT", "BoardPlacement", "finger_axis"]
 
 #: The simulated finger's tip height above the ground (along its axis' vertical) and length.
 FINGER_TIP_HEIGHT = 6.0
@@ -38,3 +43,65 @@ def finger_axis(
     tip = ground - direction * (tip_height / np.cos(tilt))
     base = tip - direction * length
     return tip, base
+
+
+@dataclass(frozen=True, kw_only=True)
+class BoardPlacement:
+    """A printed checkerboard standing upright on the grid paper (a board session's truth).
+
+    ``inner_corners`` (columns, rows) of squares of side ``square`` (session units), its first
+    inner corner at the measured grid point ``first_corner``, its rows along +x and its
+    columns rising (-y, up from the table), in the plane z = ``first_corner`` z, facing the
+    camera (-z).
+    """
+
+    inner_corners: tuple[int, int]
+    square: float
+    first_corner: Vec3
+
+    def __post_init__(self) -> None:
+        """Check the corners (at least 2 x 2 whole numbers), the square and the corner."""
+        cols_rows = tuple(self.inner_corners)
+        if len(cols_rows) != 2 or not all(
+            isinstance(n, int | np.integer) and not isinstance(n, bool) and n >= 2
+            for n in cols_rows
+        ):
+            raise InputValueError(
+                f"a board's inner corners must be two whole numbers >= 2 (columns, rows), "
+                f"got {self.inner_corners!r}"
+            )
+        object.__setattr__(self, "inner_corners", (int(cols_rows[0]), int(cols_rows[1])))
+        object.__setattr__(self, "square", finite(self.square, "board square", positive=True))
+        object.__setattr__(self, "first_corner", vec3(self.first_corner, "board first corner"))
+
+    def corners_grid(self) -> F64:
+        """The inner corners (cols * rows, 3) in the grid frame.
+
+        Row by row from the first (rows along +x, columns rising along -y), as
+        ``cv2.findChessboardCorners`` lists them for an upright board (put in this order by
+        :func:`twopose.board_rig.board_order`).
+        """
+        cols, rows = self.inner_corners
+        i, j = np.meshgrid(np.arange(cols), np.arange(rows))
+        x0, y0, z0 = self.first_corner
+        return np.stack(
+            [x0 + self.square * i.ravel(), y0 - self.square * j.ravel(), np.full(i.size, z0)],
+            axis=1,
+        )
+
+    def to_json(self) -> dict[str, Any]:
+        """The session entry's ``board`` object."""
+        return {
+            "inner_corners": list(self.inner_corners),
+            "square": self.square,
+            "first_corner": list(self.first_corner),
+        }
+
+    @classmethod
+    def from_json(cls, data: Any) -> BoardPlacement:
+        """Inverse of :meth:`to_json` (the JSON Schema has checked the keys)."""
+        return cls(
+            inner_corners=tuple(data["inner_corners"]),
+            square=data["square"],
+            first_corner=data["first_corner"],
+        )

@@ -28,7 +28,11 @@ from analysis.cli.app import app, note
 @app.command("rig")
 def rig_command(
     sessions: Annotated[
-        list[Path], typer.Argument(help="Calibration sessions (one method, known targets).")
+        list[Path],
+        typer.Argument(
+            help="Calibration sessions: board sessions, or sessions of one method with known "
+            "targets."
+        ),
     ],
     out: Annotated[Path, typer.Option("--out", help="The rig file to write.")] = Path("rig.toml"),
     constants: Annotated[
@@ -41,23 +45,27 @@ def rig_command(
         ),
     ] = None,
 ) -> None:
-    """Estimate the rig's hidden constants from sessions with known targets; write them
-    for `run --rig` and `twopose-record new --rig`."""
-    from analysis.calibration import calibrate
+    """Estimate the rig's hidden constants from board sessions or from sessions with known
+    targets; write them for `run --rig` and `twopose-record new --rig`."""
+    from analysis.calibration import calibrate_rig
     from analysis.outputs import run_inputs, write_file
     from analysis.rig import rig_toml
 
     with handle_errors():
         run_inputs(sessions).check_file("--out", out)  # never a session, FIFO or device
-        fit, data = calibrate([str(s) for s in sessions], constants, on_note=note)
-        write_file(out, rig_toml(fit, data.sessions).encode())
+        found = calibrate_rig([str(s) for s in sessions], constants, on_note=note)
+        text = rig_toml(found.fit, found.sessions, found.warnings, found.basis)
+        write_file(out, text.encode())
+    fit = found.fit
     fitted = ", ".join(fit.free) or "nothing"
-    typer.echo(f"{len(data.trial_ids)} trial(s) with ground truth; fitted: {fitted}")
+    typer.echo(f"{found.basis}; fitted: {fitted}")
     for row in fit.rows():
         if row["fitted"]:
             typer.echo(f"  {row['constant']} = {row['value']:.4g} ± {row['sigma']:.2g}")
     for name, why in fit.fixed.items():
         typer.echo(f"  {name}: fixed ({why})")
+    for warning in found.warnings:
+        typer.secho(f"warning: {warning}", err=True, fg=typer.colors.YELLOW)
     typer.echo(f"wrote {out}")
 
 

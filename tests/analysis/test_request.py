@@ -70,3 +70,10 @@ def test_identical_views_are_degenerate_not_ok() -> None:
 def test_malformed_requests_say_what_is_wrong(request_: dict[str, object], message: str) -> None:
     with pytest.raises(InputValueError, match=message):
         solve_request("point", request_)
+
+
+def test_a_board_reconstructs_nothing_and_says_where_to_go() -> None:
+    from twopose.errors import InputValueError
+
+    with pytest.raises(InputValueError, match="twopose-analyze rig"):
+        solve_request("board", {"views": []})

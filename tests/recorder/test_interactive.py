@@ -274,3 +274,44 @@ def test_ctrl_c_at_a_prompt_closes_the_file_prints_the_summary_once_and_exits_13
         ("accept", ""),
         ("discard", "interrupted (Ctrl-C)"),
     ]
+
+
+def test_a_board_session_asks_for_its_board_and_no_truth(tmp_path: Path) -> None:
+    out = tmp_path / "board.mcap"
+    answers = ["9by6", "9x6", "0.75", "-3, 8.125", "-3, 8.125, 24"]  # two typos, refused
+    for t in ("0, 0, 0", "2, 0, 0", "0, 0, -2"):
+        answers += [t, "", "a"]
+    answers += ["n"]  # no other trial
+    options = ["--source", "synthetic", "--frames", "1", "--method", "board", "--poses", "3"]
+    options += ["--units", "in", "--focal", "525", "--principal", "320,240", "--operator", "Bo"]
+    result = runner.invoke(app, ["new", str(out), *options], input="\n".join(answers) + "\n")
+    assert result.exit_code == 0, result.output
+    assert "COLSxROWS" in result.output  # the typo's refusal, then asked again
+    assert "ground truth" not in result.output
+    with SessionReader(out) as r:
+        assert r.info.board is not None
+        assert (r.info.board.inner_corners, r.info.board.square) == ((9, 6), 0.75)
+        assert r.info.board.first_corner == (-3.0, 8.125, 24.0)
+        poses = [e.t_grid for e in r.iter_entries() if isinstance(e, PoseEntry)]
+    assert poses == [(0.0, 0.0, 0.0), (2.0, 0.0, 0.0), (0.0, 0.0, -2.0)]
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        (["--method", "point", "--board", "9x6"], "for a board session (--method board) only"),
+        (["--method", "board", "--board", "9x6"], "give --square, --board-corner with --board"),
+        (
+            ["--method", "board", "--board", "9", "--square", "1", "--board-corner", "0,0,20"],
+            "COLSxROWS",
+        ),
+    ],
+)
+def test_board_options_that_do_not_make_a_board_are_refused_before_recording(
+    tmp_path: Path, options: list[str], message: str
+) -> None:
+    out = tmp_path / "s.mcap"
+    result = runner.invoke(app, ["new", str(out), "--source", "synthetic", *options])
+    assert result.exit_code == EXIT_ERROR, result.output
+    assert message in result.output
+    assert not out.exists()

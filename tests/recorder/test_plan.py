@@ -123,6 +123,25 @@ def test_plan_mode_with_a_source_that_runs_out(tmp_path: Path) -> None:
             "poses = [{t=[0,0,0]},{t=[1,0,0]}]\n",
             "ground_truth = ((1e+300, 0.0, 1.0),) is implausibly large",
         ),
+        ('method = "point"\n[board]\nsquare = 1\n', "[board] is for a board session"),
+        ('method = "board"\n[[trials]]\nposes = [{t=[0,0,0]},{t=[1,0,0]}]\n', "needs [board]"),
+        ('method = "board"\n[board]\nsquare = 1\n', "board.first_corner is missing"),
+        (
+            'method = "board"\n[board]\ninner_corners = [9, 1]\nsquare = 1\n'
+            "first_corner = [0, 0, 20]\n",
+            "inner corners must be two whole numbers >= 2",
+        ),
+        (
+            'method = "board"\n[board]\ninner_corners = [9, 6]\nsquare = 1\n'
+            "first_corner = [0, 0, 20]\nsize = 3\n",
+            "unknown key board.size",
+        ),
+        (
+            'method = "board"\n[board]\ninner_corners = [9, 6]\nsquare = 1\n'
+            "first_corner = [0, 0, 20]\n[[trials]]\nground_truth = [[0, 0, 1]]\n"
+            "poses = [{t=[0,0,0]},{t=[1,0,0]}]\n",
+            "a board session's truth is its [board]",
+        ),
     ],
 )
 def test_bad_plans_name_the_problem(tmp_path: Path, text: str, message: str) -> None:
@@ -130,6 +149,43 @@ def test_bad_plans_name_the_problem(tmp_path: Path, text: str, message: str) -> 
     plan.write_text(text)
     with pytest.raises(InputValueError, match=re.escape(message)):
         load_plan(plan)
+
+
+BOARD_PLAN = """
+method = "board"
+frames = 2
+
+[board]
+inner_corners = [9, 6]
+square = 0.75
+first_corner = [-3.0, 8.125, 24.0]
+
+[[trials]]
+poses = [
+    { t = [0, 0, 0] }, { t = [2, 0, 0] }, { t = [-2, 0, 0] }, { t = [0, 0, -2] },
+    { t = [2, 0, -2] }, { t = [-1, 0, 3] }, { t = [1, 0, -4] }, { t = [-2, 0, 2] },
+]
+"""
+
+
+def test_a_board_plan_records_a_board_session_rig_reads(tmp_path: Path) -> None:
+    """The synthetic camera renders the board; the session holds the board, no truth; the
+    analysis' rig finds the board in every capture, and run says it is not a measurement."""
+    from analysis.board_calibration import read_board_session
+
+    plan = tmp_path / "board.toml"
+    plan.write_text(BOARD_PLAN)
+    out = tmp_path / "board.mcap"
+    result = runner.invoke(app, ["new", str(out), "--plan", str(plan), "--source", "synthetic"])
+    assert result.exit_code == 0, result.output
+    with SessionReader(out) as reader:
+        assert reader.info.method == "board"
+        assert reader.info.board is not None
+        assert reader.info.board.first_corner == (-3.0, 8.125, 24.0)
+        assert reader.message_counts().get("/twopose/ground_truth", 0) == 0
+    captures = read_board_session(out)
+    assert captures.left_out == ()
+    assert captures.observed_px.shape == (8, 54, 2)
 
 
 def test_record_plan_python_api(tmp_path: Path) -> None:

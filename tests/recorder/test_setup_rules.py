@@ -107,6 +107,35 @@ def test_fields_say_which_methods_they_apply_to() -> None:
     assert applies["truth2"] == ("line",)
     assert applies["keep_off_ground"] == ("ground",)
     assert set(applies["truth1"]) == {"point", "line", "ground"}
+    assert applies["board"] == applies["square"] == applies["board_corner"] == ("board",)
+
+
+def test_a_board_session_is_set_up_with_its_board_and_no_truth() -> None:
+    setup = setup_from_answers(
+        {"method": "board", "board": "9x6", "square": "0.75", "board_corner": "-3, 8.125, 24"},
+        NOTHING_GIVEN,
+    )
+    assert setup.board is not None
+    assert (setup.board.inner_corners, setup.board.square) == ((9, 6), 0.75)
+    assert setup.board.first_corner == (-3.0, 8.125, 24.0)
+    assert setup.ground_truth == ()
+    assert setup.info().board == setup.board  # into the session entry
+    with pytest.raises(FormRefusedError) as caught:
+        setup_from_answers(
+            {"method": "board", "board": "9by6", "board_corner": "1,2"}, NOTHING_GIVEN
+        )
+    assert set(caught.value.errors) == {"board", "square", "board_corner"}
+    assert "COLSxROWS" in caught.value.errors["board"]
+    board = setup_from_answers(
+        {"method": "board", "board": "9x6", "square": "1", "board_corner": "0,0,20"}, NOTHING_GIVEN
+    ).board
+    fields = {
+        f["name"]: f for f in form_fields({**NOTHING_GIVEN, "method": "board", "board": board})
+    }
+    assert (fields["board"]["value"], fields["square"]["value"]) == ("9x6", "1")
+    assert fields["board_corner"] == {**fields["board_corner"], "given": True, "value": "0, 0, 20"}
+    point = setup_from_answers({"method": "point", "board": "9x6"}, NOTHING_GIVEN)
+    assert point.board is None  # a field of another method is not read
 
 
 def test_the_pose_form_refuses_each_field() -> None:

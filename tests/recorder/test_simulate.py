@@ -325,3 +325,23 @@ def test_the_rig_constants_render_and_are_recorded(tmp_path: Path) -> None:
     with SessionReader(plain) as r:
         assert all(t.simulation_truth.rig is None for t in iter_trials(r, with_frames=False))  # type: ignore[union-attr]
     assert np.abs(analyse_session(plain).trials[["err_x", "err_y", "err_z"]].mean()).max() < 0.08
+
+
+def test_a_simulated_board_session_types_the_board_poses_and_records_the_board(
+    tmp_path: Path,
+) -> None:
+    from twopose.format.entries import PoseEntry
+    from twopose.sim.layout import BOARD_POSES
+
+    out = tmp_path / "board.mcap"
+    summary = simulate_session(out, method="board", trials=1, frames=1, seed=0)
+    assert summary.n_poses == len(BOARD_POSES)
+    with SessionReader(out) as reader:
+        assert reader.info.method == "board"
+        assert reader.info.board == Scene().board.placement()
+        typed = [e.t_grid for e in reader.iter_entries() if isinstance(e, PoseEntry)]
+        assert reader.message_counts().get("/twopose/ground_truth", 0) == 0
+    assert typed == list(BOARD_POSES)
+    with pytest.raises(InputValueError, match="leave --poses out"):
+        simulate_session(tmp_path / "b2.mcap", method="board", poses=3)
+    assert not (tmp_path / "b2.mcap").exists()

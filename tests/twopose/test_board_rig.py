@@ -14,7 +14,7 @@ from twopose.detect import find_board
 from twopose.errors import InputValueError
 from twopose.rig import RigConstants
 from twopose.sim.camera import SyntheticCamera
-from twopose.sim.layout import board_corners, board_layout
+from twopose.sim.layout import BOARD_POSES, board_corners, board_layout
 from twopose.sim.scene import load_scene
 
 K = np.array([525.0, 525.0, 320.0, 240.0])
@@ -25,12 +25,9 @@ TRUE = RigConstants(
     focal_scale=1.03,
     principal_offset_px=(4.0, -3.0),
 )
-#: Eight typed poses: moves along x and z, 21 to 28 in from the board (z = 24), where the
-#: whole board, its margin included, is in view.
-POSES = np.array(
-    [[0, 0, 0], [2, 0, 0], [-2, 0, 0], [0, 0, -2], [2, 0, -2], [-1, 0, 3], [1, 0, -4], [-2, 0, 2]],
-    dtype=np.float64,
-)
+#: A board session's eight typed poses: moves along x and z, 21 to 28 in from the board
+#: (z = 24), where the whole board, its margin included, is in view.
+POSES = np.array(BOARD_POSES, dtype=np.float64)
 #: chi-square with 10 degrees of freedom, 99.9%: the fitted constants' joint test.
 CHI2_10_999 = 29.59
 

@@ -9,13 +9,14 @@ import pytest
 
 from twopose.errors import InputValueError
 from twopose.format.entries import SessionInfo, decode_entry, encode_entry
-from twopose.methods import METHOD_SPECS, METHODS, Method, spec_of
+from twopose.methods import MEASURING_METHODS, METHOD_SPECS, METHODS, Method, spec_of
 from twopose.units import UNIT_SPECS, UNITS, Units, unit_spec
 
 
 def test_every_method_and_unit_has_its_spec() -> None:
     assert set(METHOD_SPECS) == set(Method)
-    assert METHODS == (Method.POINT, Method.LINE, Method.GROUND)  # the thesis' order
+    assert METHODS == (Method.POINT, Method.LINE, Method.GROUND, Method.BOARD)  # the thesis'
+    assert MEASURING_METHODS == (Method.POINT, Method.LINE, Method.GROUND)
     assert set(UNIT_SPECS) == set(Units)
     assert UNITS[0] == Units.IN  # the default
     for method, spec in METHOD_SPECS.items():
@@ -37,6 +38,17 @@ def test_what_each_method_is() -> None:
     assert "line_ground_angle_deg" not in line.margins
 
 
+def test_a_board_session_reconstructs_nothing_and_carries_its_board() -> None:
+    board = spec_of("board")
+    assert not board.measures
+    assert board.target is None
+    assert board.truth_kind is None
+    assert board.truth_points == 0
+    assert not board.needs_ground
+    assert (board.margins, board.extra_columns) == ((), ())
+    assert all(spec_of(m).measures for m in MEASURING_METHODS)
+
+
 def test_units_agree_with_each_other() -> None:
     assert unit_spec("mm").inches == pytest.approx(1 / 25.4)
     for spec in UNIT_SPECS.values():
@@ -55,7 +67,7 @@ def test_the_types_are_their_names() -> None:
 @pytest.mark.parametrize(
     ("call", "name", "message"),
     [
-        (spec_of, "plane", "method must be one of point, line, ground, got 'plane'"),
+        (spec_of, "plane", "method must be one of point, line, ground, board, got 'plane'"),
         (spec_of, "", "method must be one of"),
         (spec_of, "POINT", "got 'POINT'"),
         (unit_spec, "furlongs", "units must be one of in, mm, cm, m, got 'furlongs'"),

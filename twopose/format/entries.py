@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 from twopose.camera import SIGMA_KEYS, intrinsics_sigma, rotation_from_angles_deg
 from twopose.errors import InputValueError, SessionFormatError
 from twopose.methods import METHODS, Method, spec_of
+from twopose.targets import BoardPlacement
 from twopose.units import UNIT_SPECS, UNITS, Units, unit_spec
 from twopose.values import CAMERA_ID_PATTERN, Vec3, camera_id, finite, index, numbers, vec3
 
@@ -110,6 +111,8 @@ def object_schema(cls: type[Any]) -> dict[str, Any]:
 def _encode(value: Any) -> Any:
     if isinstance(value, tuple | list):
         return [_encode(v) for v in value]
+    if isinstance(value, BoardPlacement):
+        return value.to_json()
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
         return to_json(value)
     return value
@@ -265,6 +268,28 @@ class SessionInfo(TypedEntry):
         default=None,
         compare=False,
     )
+    board: BoardPlacement | None = json_field(
+        "board",
+        {
+            "type": "object",
+            "description": "format 1.2, board sessions: the checkerboard and where it stands",
+            "properties": {
+                "inner_corners": {
+                    "type": "array",
+                    "items": {"type": "integer", "minimum": 2},
+                    "minItems": 2,
+                    "maxItems": 2,
+                },
+                "square": {"type": "number", "exclusiveMinimum": 0},
+                "first_corner": _vec3_schema("the first inner corner, grid frame"),
+            },
+            "required": ["inner_corners", "square", "first_corner"],
+            "additionalProperties": False,
+        },
+        required=False,
+        default=None,
+        decode=BoardPlacement.from_json,
+    )
 
     def __post_init__(self) -> None:
         """Hold the method and units as their types; check the cameras and the version."""
@@ -277,6 +302,11 @@ class SessionInfo(TypedEntry):
             camera_id(cid)
         if len(set(self.camera_ids)) != len(self.camera_ids):
             raise InputValueError(f"camera ids must be unique, got {self.camera_ids}")
+        if (self.board is not None) != (self.method == Method.BOARD):
+            raise InputValueError(
+                "a board session needs its board (inner corners, square, first corner), and "
+                "only a board session has one"
+            )
         if self.intrinsics_sigma is not None:
             unknown = sorted(set(self.intrinsics_sigma) - set(self.camera_ids))
             if unknown:

@@ -14,10 +14,12 @@ import numpy as np
 
 from twopose.arrays import F64
 from twopose.camera import Intrinsics, project_points, rotation_from_angles_deg
+from twopose.methods import spec_of
 from twopose.sim.scene import BoardParams, Scene
 from twopose.targets import finger_axis as target_finger_axis
 
 __all__ = [
+    "BOARD_POSES",
     "Decal",
     "Layout",
     "Primitive",
@@ -129,7 +131,13 @@ def _stand(scene: Scene, attach: F64) -> list[Primitive]:
 
 
 def build_layout(scene: Scene, method: str, rng: np.random.Generator) -> Layout:
-    """Place the target for ``method`` (point | line | ground), the stand and the clutter."""
+    """Place the target for ``method``, the stand and the clutter.
+
+    The target of point, line or ground; a board session's scene is the board alone
+    (:func:`board_layout`).
+    """
+    if not spec_of(method).measures:
+        return board_layout(scene)
     prims: list[Primitive] = []
     if method == "point":
         pt = scene.point
@@ -168,6 +176,21 @@ def build_layout(scene: Scene, method: str, rng: np.random.Generator) -> Layout:
     return Layout(primitives=tuple(prims), decals=tuple(_clutter(scene, method, rng)))
 
 
+#: A board session's typed camera centres (the default scene's inches; no typed rotation):
+#: moves along x and along z, 21 to 28 in from the default board, so that every constant
+#: the board determines is seen (twopose.board_rig.check_identifiable).
+BOARD_POSES: tuple[tuple[float, float, float], ...] = (
+    (0.0, 0.0, 0.0),
+    (2.0, 0.0, 0.0),
+    (-2.0, 0.0, 0.0),
+    (0.0, 0.0, -2.0),
+    (2.0, 0.0, -2.0),
+    (-1.0, 0.0, 3.0),
+    (1.0, 0.0, -4.0),
+    (-2.0, 0.0, 2.0),
+)
+
+
 def board_layout(scene: Scene) -> Layout:
     """What a board session sees: the checkerboard alone on the grid paper.
 
@@ -180,17 +203,9 @@ def board_layout(scene: Scene) -> Layout:
 def board_corners(board: BoardParams) -> F64:
     """The board's inner corners (cols * rows, 3) in the grid frame.
 
-    (cols * rows, 3) the board's inner corners in the grid frame, row by row from the first
-    (rows along +x, columns rising along -y), as ``cv2.findChessboardCorners`` lists them
-    for an upright board.
+    (:meth:`twopose.targets.BoardPlacement.corners_grid` of the scene's board.)
     """
-    cols, rows = board.inner_corners
-    i, j = np.meshgrid(np.arange(cols), np.arange(rows))
-    x0, y0, z0 = board.first_corner
-    return np.stack(
-        [x0 + board.square * i.ravel(), y0 - board.square * j.ravel(), np.full(i.size, z0)],
-        axis=1,
-    )
+    return board.placement().corners_grid()
 
 
 def _board(board: BoardParams) -> Primitive:

@@ -24,7 +24,7 @@ from twopose.camera import Intrinsics
 from twopose.config import build_dataclass, read_toml
 from twopose.errors import SceneError
 from twopose.rig import RigConstants
-from twopose.targets import FINGER_LENGTH, FINGER_TIP_HEIGHT
+from twopose.targets import FINGER_LENGTH, FINGER_TIP_HEIGHT, BoardPlacement
 
 __all__ = [
     "CameraParams",
@@ -211,6 +211,12 @@ class BoardParams:
     first_corner: tuple[float, float, float] = (-3.0, 8.125, 24.0)
     dark_color: RGB = (20, 20, 22)
     light_color: RGB = (238, 238, 232)
+
+    def placement(self) -> BoardPlacement:
+        """Where the board stands, as a board session records it."""
+        return BoardPlacement(
+            inner_corners=self.inner_corners, square=self.square, first_corner=self.first_corner
+        )
 
 
 @dataclass(frozen=True, kw_only=True)

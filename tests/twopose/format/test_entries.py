@@ -28,9 +28,18 @@ from twopose.format.entries import (
     object_schema,
 )
 from twopose.methods import Method
+from twopose.targets import BoardPlacement
 from twopose.units import Units
 
 EXAMPLES = [
+    SessionInfo(  # the first of its kind has every field (the schema's order is checked on it)
+        method=Method.BOARD,
+        units=Units.IN,
+        operator="Ada",
+        simulated=True,
+        intrinsics_sigma={"cam0": {"fx": 0.93, "cy": 1.07}},
+        board=BoardPlacement(inner_corners=(9, 6), square=0.75, first_corner=(-3, 8.125, 24)),
+    ),
     SessionInfo(
         method=Method.GROUND,
         units=Units.MM,
@@ -106,6 +115,25 @@ def test_a_session_refuses_a_malformed_intrinsics_sigma(sigma: object, message: 
 
     with pytest.raises(InputValueError, match=message):
         SessionInfo(method=Method.POINT, units=Units.IN, intrinsics_sigma=sigma)  # type: ignore[arg-type]
+
+
+def test_a_board_session_and_only_a_board_session_has_a_board() -> None:
+    from twopose.errors import InputValueError
+
+    board = BoardPlacement(inner_corners=(9, 6), square=0.75, first_corner=(-3, 8.125, 24))
+    with pytest.raises(InputValueError, match="a board session needs its board"):
+        SessionInfo(method=Method.BOARD, units=Units.IN)
+    with pytest.raises(InputValueError, match="only a board session has one"):
+        SessionInfo(method=Method.POINT, units=Units.IN, board=board)
+    data = json.loads(encode_entry(SessionInfo(method=Method.BOARD, units=Units.IN, board=board)))
+    assert data["board"] == {
+        "inner_corners": [9, 6],
+        "square": 0.75,
+        "first_corner": [-3.0, 8.125, 24.0],
+    }
+    data["board"]["inner_corners"] = [9, 1]  # a file's board that is no board
+    with pytest.raises(SessionFormatError, match="inner_corners"):
+        decode_entry(SessionInfo.SCHEMA_NAME, json.dumps(data).encode())
 
 
 def test_a_1_0_entry_leaves_the_capture_number_out() -> None:

@@ -1,0 +1,127 @@
+"""analysis.board_calibration: ``twopose-analyze rig`` on board sessions, through real MCAP
+files the simulator records (its one synthetic camera applies the rig's constants). The
+constants come back within their uncertainty; the rig file is the one ``run --rig`` reads;
+board and target sessions are not mixed; a board session is not analysed as a measurement;
+a session named twice counts once; a capture that never saw the board is left out, said."""
+
+from __future__ import annotations
+
+import shutil
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from analysis import run
+from analysis.board_calibration import calibrate_board, read_board_session
+from analysis.calibration import calibrate_rig
+from analysis.cli import app
+from recorder.simulate import simulate_session
+from twopose.errors import InputValueError
+from twopose.rig import RigConstants, load_rig
+from twopose.sim.layout import BOARD_POSES
+from twopose.sim.scene import load_scene
+
+runner = CliRunner()
+
+#: benchmarks/bench_rig.py's constants, with a principal offset.
+TRUE = RigConstants(
+    mount_rotation_deg=(0.8, -0.5, 0.3),
+    camera_offset=(0.3, 0.2, 0.4),
+    focal_scale=1.03,
+    principal_offset_px=(4.0, -3.0),
+)
+
+
+@pytest.fixture(scope="module")
+def board_session(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """One board session of the default board, 8 typed poses of 3 frames, the laptop placed
+    with the thesis sessions' error (0.04 in per axis), seen through TRUE."""
+    scene = load_scene(
+        None,
+        systematic={
+            "mount_rotation_deg": list(TRUE.mount_rotation_deg),
+            "camera_offset": list(TRUE.camera_offset),
+            "focal_scale": TRUE.focal_scale,
+            "principal_offset_px": list(TRUE.principal_offset_px),
+        },
+        poses={"noise_sigma": 0.04, "rotation_noise_deg": 0.0},
+    )
+    path = tmp_path_factory.mktemp("board") / "board.mcap"
+    simulate_session(path, method="board", trials=1, frames=3, seed=3, scene=scene)
+    return path
+
+
+def test_a_board_sessions_captures_are_every_pose_with_the_board_found(board_session: Path) -> None:
+    captures = read_board_session(board_session)
+    assert captures.left_out == ()
+    assert captures.observed_px.shape == (len(BOARD_POSES), 54, 2)
+    np.testing.assert_array_equal(captures.t_typed, np.array(BOARD_POSES))
+    assert captures.t_sigma == pytest.approx(0.04)
+    assert captures.units == "in"
+
+
+def test_the_constants_come_back_within_their_uncertainty(board_session: Path) -> None:
+    found = calibrate_board([board_session])
+    error = found.board.rig.vector()[:-1] - TRUE.vector()[:-1]
+    sigma = found.board.sigma[:-1]
+    assert np.isfinite(sigma).all()
+    assert (np.abs(error) <= 3 * sigma).all(), error / sigma
+    assert found.board.rms_px < 0.5
+    assert found.fit.fixed["ground_height_error"] == "a board does not see the ground"
+    assert found.sessions == (str(board_session),)
+
+
+def test_rig_writes_the_file_run_reads(board_session: Path, tmp_path: Path) -> None:
+    out = tmp_path / "rig.toml"
+    result = runner.invoke(app, ["rig", str(board_session), "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    assert "8 board capture(s), 432 corners" in result.stdout
+    assert "  focal_scale = 1.0" in result.stdout  # 1.03 within its sigma, with it
+    assert "# fitted on 8 board capture(s), 432 corners" in out.read_text()
+    rig = load_rig(out)
+    assert rig.focal_scale == pytest.approx(TRUE.focal_scale, abs=0.01)
+    with out.open("rb") as f:
+        assert tomllib.load(f)["sigma"]["focal_scale"] > 0
+    assert str(board_session) in out.read_text()
+
+
+def test_a_session_named_twice_or_copied_counts_once(board_session: Path, tmp_path: Path) -> None:
+    copy = tmp_path / "copy.mcap"
+    shutil.copy(board_session, copy)
+    notes: list[str] = []
+    once = calibrate_board([board_session])
+    twice = calibrate_board([board_session, copy, board_session], on_note=notes.append)
+    assert twice.board.n_captures == once.board.n_captures
+    np.testing.assert_allclose(twice.board.rig.vector(), once.board.rig.vector())
+    assert any("counted once" in n for n in notes), notes
+
+
+def test_board_and_target_sessions_are_not_mixed(board_session: Path, tmp_path: Path) -> None:
+    target = tmp_path / "point.mcap"
+    simulate_session(target, method="point", trials=2, frames=2, seed=1)
+    with pytest.raises(InputValueError, match="calibrate with one kind"):
+        calibrate_rig([str(board_session), str(target)])
+    out = tmp_path / "r.toml"
+    result = runner.invoke(app, ["rig", str(target), str(board_session), "--out", str(out)])
+    assert result.exit_code != 0
+    assert "calibrate with one kind" in result.output
+    assert not out.exists()
+
+
+def test_run_says_a_board_session_is_for_rig(board_session: Path) -> None:
+    result = run([board_session], None)
+    assert result.trials.empty
+    assert len(result.errors) == 1
+    assert "give it to `twopose-analyze rig`" in str(result.errors.iloc[0]["error"])
+
+
+def test_a_constant_a_board_cannot_see_is_refused(board_session: Path) -> None:
+    with pytest.raises(InputValueError, match="cannot determine ground_height_error"):
+        calibrate_board([board_session], groups=["ground_height_error"])
+    only_focal = calibrate_board([board_session], groups=["focal_scale"])
+    assert only_focal.fit.free == ("focal_scale",)
+    assert np.isnan(only_focal.fit.sigma[0])  # the mount: not asked for, nominal
+    assert only_focal.fit.fixed["mount_rx_deg"] == "not asked for (--constant)"
