@@ -381,10 +381,10 @@ class WebDriver(Driver):
             sum(result.overhead_s) / len(result.overhead_s) * self.fps if result.overhead_s else 0.0
         )
         self._show_poses(pose, "awaiting decision")
+        found = f"{result.n_found} with the target found, " if result.feedback else ""  # board
         self.session.update(
-            last_capture=f"{result.n_frames} frames, {result.n_found} with the target found, "
-            f"{state}, {result.dropped} dropped; recorder overhead {100 * overhead:.0f}% of "
-            "the frame interval",
+            last_capture=f"{result.n_frames} frames, {found}{state}, {result.dropped} dropped; "
+            f"recorder overhead {100 * overhead:.0f}% of the frame interval",
             frames=[f.to_json() for f in result.feedback],
             average=None if average is None else _average(average),
             shortfall=shortfall.value,

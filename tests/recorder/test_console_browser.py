@@ -210,3 +210,50 @@ def test_the_setup_shows_what_the_command_line_gave(browser: Any, tmp_path: Path
     finally:
         process.terminate()
         process.wait(timeout=30)
+
+
+def test_a_board_session_in_the_browser(browser: Any, tmp_path: Path) -> None:
+    """The board's fields, and no ground truth, for a board session; a board that is no
+    board is refused by its fields; three poses typed (``--poses 3``) into a board session
+    that the rig calibration reads."""
+    from analysis.board_calibration import read_board_session
+    from twopose.format.reader import SessionReader
+
+    out = tmp_path / "board.mcap"
+    process, url, _ = start_console(out, "--poses", "3")
+    try:
+        browser.get(url)
+        page = Page(browser)
+        page.wait(lambda: browser.find_elements(By.ID, "f-method"), "the setup form")
+        Select(browser.find_element(By.ID, "f-method")).select_by_visible_text("board")
+        assert browser.find_element(By.ID, "cell-board").is_displayed()
+        assert browser.find_element(By.ID, "cell-board_corner").is_displayed()
+        assert not browser.find_element(By.ID, "cell-truth1").is_displayed()
+        page.type("field-board", "9 by 6")
+        page.type("field-board_corner", "-3, 8.125")
+        page.click("setup-submit")
+        page.wait(lambda: page.text("field-error-board") != "", "the board refused")
+        assert "COLSxROWS" in page.text("field-error-board")
+        assert "type a number" in page.text("field-error-square")
+        assert "three numbers" in page.text("field-error-board_corner")
+        assert not out.exists()
+        page.type("field-board", "9x6")
+        page.type("field-square", "0.75")
+        page.type("field-board_corner", "-3, 8.125, 24")
+        page.click("setup-submit")
+        page.wait(lambda: "type pose 1 of 3" in page.status(), "the first pose")
+        for x, z in (("0", "0"), ("2", "0"), ("0", "-2")):
+            page.capture(x, z)
+            page.click("accept")
+        page.wait(lambda: "trial 2" in page.status(), "the next trial")
+        page.click("quit")
+        page.click("quit-confirm")
+        summary = browser.find_element(By.ID, "summary")
+        page.wait(lambda: "1 trial (1 complete)" in summary.text, "the summary")
+    finally:
+        process.terminate()
+        process.wait(timeout=30)
+    with SessionReader(out) as reader:
+        assert reader.info.board is not None
+        assert reader.info.board.first_corner == (-3.0, 8.125, 24.0)
+    assert read_board_session(out).observed_px.shape == (3, 54, 2)
