@@ -76,7 +76,7 @@ def calibrate_rig(
         )
     fit, data = calibrate(paths, groups, on_note)
     basis = f"{len(data.trial_ids)} trial(s) with ground truth"
-    return RigCalibration(fit=fit, sessions=data.sessions, basis=basis)
+    return RigCalibration(fit=fit, sessions=data.sessions, basis=basis, warnings=fit.warnings)
 
 
 def calibrate(

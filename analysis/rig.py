@@ -33,7 +33,13 @@ from analysis.rig_data import RigData, combine, prepare, prepare_session, requir
 from twopose.arrays import F64
 from twopose.errors import InputValueError
 from twopose.estimate import ViewBatch
-from twopose.rig import RIG_PARAMETERS, RigConstants, angles_deg_from_rotation
+from twopose.rig import (
+    RIG_PARAMETERS,
+    RigConstants,
+    against_priors,
+    angles_deg_from_rotation,
+    prior_sigma,
+)
 from twopose.session_estimate import SessionEstimate
 from twopose.solve import image_lines, triangulate_ground, triangulate_lines, triangulate_points
 from twopose.truth import Reported, line_errors, reported_line_point
@@ -145,6 +151,9 @@ class RigFit:
     dof: int
     press: float
     cov_scaled: F64 = field(default_factory=lambda: np.zeros((0, 0)))  # free, scaled units
+    #: Constants the fit pushed more than two prior sigmas from nominal, or to a bound of
+    #: the plausible (there the value is the bound's, not the data's).
+    warnings: tuple[str, ...] = ()
 
     def rows(self, truth: RigConstants | None = None) -> list[dict[str, object]]:
         """One row per scalar: ``constant, value, sigma, fitted, why_fixed, truth``."""
@@ -224,12 +233,19 @@ def fit_constants(data: RigData, groups: Sequence[str] = GROUPS) -> RigFit:
     data = data.fitting()
     wanted = np.array([any(n in RIG_PARAMETERS[g] for g in groups) for n in _NAMES])
     free, fixed = identifiable(data, wanted)
+    # The physical priors (twopose.rig.RIG_PRIORS), in the fit's scaled units: each free
+    # constant's (value - nominal) / prior sigma joins the residuals (maximum a posteriori).
+    prior = prior_sigma(data.units)[free] / _SCALE[free]
     x0 = np.zeros(int(free.sum()))
+    lower, upper = data.bounds()
+    bounds = ((lower - _NOMINAL)[free] / _SCALE[free], (upper - _NOMINAL)[free] / _SCALE[free])
     if free.any():
-        lower, upper = data.bounds()
-        bounds = ((lower - _NOMINAL)[free] / _SCALE[free], (upper - _NOMINAL)[free] / _SCALE[free])
         solution = least_squares(
-            lambda x: residuals(data, RigConstants.from_vector(_vector(x, free))), x0, bounds=bounds
+            lambda x: np.concatenate(
+                [residuals(data, RigConstants.from_vector(_vector(x, free))), x / prior]
+            ),
+            x0,
+            bounds=bounds,
         )
         x = solution.x
     else:
@@ -242,9 +258,17 @@ def fit_constants(data: RigData, groups: Sequence[str] = GROUPS) -> RigFit:
     press = _press(r, J)
     cov: F64 = np.zeros((0, 0))
     if free.any():
-        cov = np.asarray(np.linalg.pinv(J.T @ J) * max(1.0, chi2 / dof), dtype=np.float64)
+        information = J.T @ J + np.diag(1.0 / prior**2)
+        cov = np.asarray(np.linalg.pinv(information) * max(1.0, chi2 / dof), dtype=np.float64)
         sigma[free] = np.sqrt(np.diag(cov)) * _SCALE[free]
     names = tuple(n for n, f in zip(_NAMES, free, strict=True) if f)
+    at_bound = tuple(
+        f"{name} = {value:.4g} is at the bound of the plausible: the value is the bound's, "
+        "not the data's; check the rig, the typed poses and the targets"
+        for name, value, xi, lo, hi in zip(names, _vector(x, free)[free], x, *bounds, strict=True)
+        if min(xi - lo, hi - xi) < 1e-6 * max(1.0, abs(hi - lo))
+    )
+    delta = _vector(x, free) - _NOMINAL
     return RigFit(
         constants=constants,
         sigma=sigma,
@@ -254,6 +278,7 @@ def fit_constants(data: RigData, groups: Sequence[str] = GROUPS) -> RigFit:
         dof=dof,
         press=press,
         cov_scaled=cov,
+        warnings=against_priors(delta, data.units, names) + at_bound,
     )
 
 

@@ -30,22 +30,10 @@ from scipy.optimize import least_squares
 
 from twopose.arrays import F64
 from twopose.errors import InputValueError
-from twopose.rig import RIG_PARAMETERS, RigConstants
-from twopose.units import unit_spec
+from twopose.rig import RIG_PARAMETERS, RIG_PRIORS, RigConstants, against_priors, prior_sigma
 
 __all__ = ["RIG_PRIORS", "BoardRigFit", "board_order", "check_identifiable", "fit_board_rig"]
 
-#: Prior 1-sigma of each constant about its nominal value (lengths in inches, converted to
-#: the session's units): a mount is set to a few degrees, a camera sits within about an inch
-#: of where one would guess, a webcam's focal parameter is good to about 10% and its
-#: principal point to ~20 px, a tape to 0.1%.
-RIG_PRIORS = {
-    "mount_rotation_deg": 3.0,
-    "camera_offset": 1.0,  # inches
-    "focal_scale": 0.10,
-    "principal_offset_px": 20.0,
-    "tape_scale": 0.001,
-}
 #: The constants a board determines (RIG_PARAMETERS order, without the ground's).
 FITTED = tuple(g for g in RIG_PARAMETERS if g != "ground_height_error")
 FITTED_NAMES = tuple(n for g in FITTED for n in RIG_PARAMETERS[g])
@@ -91,11 +79,8 @@ def board_order(found_px: ArrayLike, inner_corners: tuple[int, int]) -> F64:
 
 
 def _prior_sigma(units: str) -> F64:
-    per_group = dict(RIG_PRIORS)
-    per_group["camera_offset"] = RIG_PRIORS["camera_offset"] / unit_spec(units).inches
-    return np.concatenate(
-        [np.full(len(RIG_PARAMETERS[g]), per_group[g], dtype=np.float64) for g in FITTED]
-    )
+    """The priors' sigma of the constants a board fits (:func:`twopose.rig.prior_sigma`)."""
+    return prior_sigma(units)[:-1]
 
 
 def check_identifiable(t_typed: ArrayLike, board_depth: ArrayLike) -> None:
@@ -233,9 +218,13 @@ def fit_board_rig(
         rms_px=float(np.sqrt(np.mean((_project(x, X, t, r, k) - u) ** 2))),
         n_captures=len(t),
         n_corners=u.shape[0] * u.shape[1],
-        free=tuple(n for n, f in zip(FITTED_NAMES, free, strict=True) if f),
-        warnings=_against_priors((x[:n_rig] - nominal[:n_rig])[free], prior[:n_rig][free], free),
+        free=_names(free),
+        warnings=against_priors(np.append(x[:n_rig] - nominal[:n_rig], 0.0), units, _names(free)),
     )
+
+
+def _names(free: NDArray[np.bool_]) -> tuple[str, ...]:
+    return tuple(n for n, f in zip(FITTED_NAMES, free, strict=True) if f)
 
 
 def _free_mask(groups: Sequence[str]) -> NDArray[np.bool_]:
@@ -246,14 +235,3 @@ def _free_mask(groups: Sequence[str]) -> NDArray[np.bool_]:
             f"a board cannot determine {', '.join(unknown)}; it fits {', '.join(FITTED)}"
         )
     return np.array([any(n in RIG_PARAMETERS[g] for g in groups) for n in FITTED_NAMES])
-
-
-def _against_priors(delta: F64, prior: F64, free: NDArray[np.bool_]) -> tuple[str, ...]:
-    """A warning per fitted constant the fit moved more than two prior sigmas from nominal."""
-    names = [n for n, f in zip(FITTED_NAMES, free, strict=True) if f]
-    return tuple(
-        f"{name} = nominal {d:+.4g} is {abs(d) / s:.1f} prior sigmas off (prior sigma {s:.3g}): "
-        "the data push it against its prior; check the board's placement and the typed poses"
-        for name, d, s in zip(names, delta, prior, strict=True)
-        if abs(d) > 2 * s
-    )

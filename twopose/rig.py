@@ -44,7 +44,9 @@ from twopose.units import unit_spec
 __all__ = [
     "LIMITS",
     "RIG_PARAMETERS",
+    "RIG_PRIORS",
     "RigConstants",
+    "against_priors",
     "angles_deg_from_rotation",
     "check_applicable",
     "check_plausible",
@@ -53,6 +55,7 @@ __all__ = [
     "ground_height",
     "load_rig",
     "plausible_bounds",
+    "prior_sigma",
 ]
 
 
@@ -199,6 +202,51 @@ def ground_height(ground: GroundSpec | None) -> float | None:
         return None
     normal, offset = ground
     return abs(float(offset)) / float(np.linalg.norm(normal))
+
+
+#: Prior 1-sigma of each constant about its nominal value (lengths in inches, converted to a
+#: rig's units), used by both rig calibrations (board and target trials): a mount is set to a
+#: few degrees, a camera sits within about an inch of where one would guess, a webcam's focal
+#: parameter is good to about 10% and its principal point to ~20 px, a tape to 0.1%, and the
+#: ground height, measured to a camera centre one cannot see, to about half an inch.
+RIG_PRIORS = {
+    "mount_rotation_deg": 3.0,
+    "camera_offset": 1.0,  # inches
+    "focal_scale": 0.10,
+    "principal_offset_px": 20.0,
+    "tape_scale": 0.001,
+    "ground_height_error": 0.5,  # inches
+}
+_PRIOR_LENGTHS = ("camera_offset", "ground_height_error")
+
+
+def prior_sigma(units: str | None) -> F64:
+    """The priors' 1-sigma per scalar (11, :data:`RIG_PARAMETERS` order).
+
+    Lengths in ``units`` (inches when None).
+    """
+    per_inch = 1.0 / INCHES_PER_UNIT[units] if units is not None else 1.0
+    scale = {g: per_inch if g in _PRIOR_LENGTHS else 1.0 for g in RIG_PARAMETERS}
+    return np.concatenate(
+        [np.full(len(RIG_PARAMETERS[g]), RIG_PRIORS[g] * scale[g]) for g in RIG_PARAMETERS]
+    )
+
+
+def against_priors(delta: F64, units: str | None, names: tuple[str, ...] = ()) -> tuple[str, ...]:
+    """A warning per constant moved more than two prior sigmas from nominal.
+
+    ``delta`` (11,): the constants minus nominal (NaN or 0 where not fitted); ``names`` the
+    fitted scalars (all when empty). A fit that pushes a constant that far says so, rather
+    than reporting the value as if the data had decided it alone.
+    """
+    sigma = prior_sigma(units)
+    all_names = [n for g in RIG_PARAMETERS for n in RIG_PARAMETERS[g]]
+    return tuple(
+        f"{name} = nominal {d:+.4g} is {abs(d) / s:.1f} prior sigmas off (prior sigma {s:.3g}): "
+        "the data push it against its prior; check the rig, the typed poses and the targets"
+        for name, d, s in zip(all_names, delta, sigma, strict=True)
+        if (not names or name in names) and np.isfinite(d) and abs(d) > 2 * s
+    )
 
 
 #: What a laptop on grid paper allows (the plausibility of a rig, :func:`check_plausible`):

@@ -186,3 +186,27 @@ def test_a_ground_height_error_is_found_off_the_typed_plane(tmp_path: Path) -> N
     value, sigma = fit.constants.ground_height_error, fit.sigma[-1]
     assert abs(value - 0.5) < 0.05
     assert abs(value - 0.5) <= 3 * sigma
+
+
+def test_a_constant_pushed_against_its_prior_is_said(
+    rig_sessions: dict[str, Path], tmp_path: Path
+) -> None:
+    """A mount turned 8 degrees (prior 3): the fit finds it and says that the data push it
+    past two prior sigmas, in the fit and in the rig file's header; RIG's mount (under a
+    degree) is found without a word."""
+    session = tmp_path / "tilted.mcap"
+    poses = dataclasses.replace(THESIS_POSES, noise_sigma=0.0)
+    scene = Scene(poses=poses, systematic=RigConstants(mount_rotation_deg=(8.0, 0.0, 0.0)))
+    simulate_session(session, method="point", trials=10, frames=2, seed=41, scene=scene)
+    fit = fit_constants(rig_data(session), ["mount_rotation_deg"])
+    assert fit.constants.mount_rotation_deg[0] > 6.0
+    assert any(w.startswith("mount_rx_deg = nominal +") for w in fit.warnings), fit.warnings
+    out = tmp_path / "rig.toml"
+    result = runner.invoke(
+        app, ["rig", str(session), "--out", str(out), "--constant", "mount_rotation_deg"]
+    )
+    assert result.exit_code == 0, result.output
+    assert "prior sigmas off" in result.output
+    assert "# warning: mount_rx_deg" in out.read_text()
+    quiet = fit_constants(rig_data(rig_sessions["with"]), ["mount_rotation_deg"])
+    assert quiet.warnings == ()

@@ -52,3 +52,20 @@ def test_the_constants_act_as_documented() -> None:
 def test_impossible_constants_are_refused(kwargs: dict[str, float]) -> None:
     with pytest.raises(InputValueError, match="rig constants"):
         RigConstants(**kwargs)  # type: ignore[arg-type]
+
+
+def test_the_priors_are_per_scalar_and_in_the_rigs_units() -> None:
+    from twopose.rig import RIG_PRIORS, against_priors, prior_sigma
+
+    inches, mm = prior_sigma("in"), prior_sigma("mm")
+    assert inches.shape == (11,)
+    assert inches[3] == RIG_PRIORS["camera_offset"]
+    assert mm[3] == pytest.approx(25.4 * RIG_PRIORS["camera_offset"])
+    assert mm[6] == inches[6] == RIG_PRIORS["focal_scale"]  # unitless: the same
+    assert mm[10] == pytest.approx(25.4 * RIG_PRIORS["ground_height_error"])
+    delta = np.zeros(11)
+    delta[9] = 0.005  # a tape 0.5% long: 5 prior sigmas
+    (warning,) = against_priors(delta, "in")
+    assert warning.startswith("tape_scale = nominal +0.005 is 5.0 prior sigmas off")
+    assert against_priors(delta, "in", ("focal_scale",)) == ()  # only the fitted are judged
+    assert against_priors(np.zeros(11), "mm") == ()
