@@ -125,3 +125,26 @@ def test_a_constant_a_board_cannot_see_is_refused(board_session: Path) -> None:
     assert only_focal.fit.free == ("focal_scale",)
     assert np.isnan(only_focal.fit.sigma[0])  # the mount: not asked for, nominal
     assert only_focal.fit.fixed["mount_rx_deg"] == "not asked for (--constant)"
+
+
+def test_a_capture_that_never_saw_the_board_is_left_out_and_said(tmp_path: Path) -> None:
+    from recorder.plan import load_plan, record_plan
+    from recorder.sources import SyntheticSource
+
+    poses = [*BOARD_POSES, (40.0, 0.0, 0.0)]  # the last one looks past the board
+    plan = tmp_path / "plan.toml"
+    plan.write_text(
+        'method = "board"\nframes = 2\n[board]\ninner_corners = [9, 6]\nsquare = 0.75\n'
+        "first_corner = [-3.0, 8.125, 24.0]\n[[trials]]\nposes = ["
+        + ", ".join(f"{{ t = [{x}, {y}, {z}] }}" for x, y, z in poses)
+        + "]\n"
+    )
+    out = tmp_path / "board.mcap"
+    record_plan(load_plan(plan), out, SyntheticSource(None, "board", realtime=False))
+    captures = read_board_session(out)
+    assert captures.observed_px.shape[0] == len(BOARD_POSES)
+    (why,) = captures.left_out
+    assert why.endswith("trial 1, pose 9: the whole board was found in none of its frames")
+    notes: list[str] = []
+    calibrate_board([out], on_note=notes.append)
+    assert notes == [f"left out {why}"]
