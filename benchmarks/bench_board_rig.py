@@ -3,7 +3,8 @@ corrects separate measurement sessions.
 
     .venv/bin/python benchmarks/bench_board_rig.py [--seeds 3] [--methods point ground]
 
-Per seed: a board session of 8 typed poses (moves along x and z, 21-28 in from the board),
+Per seed: a board session of 8 typed poses (twopose.sim.layout.BOARD_POSES: moves along x and z,
+20-38 in from the board),
 5 frames each, rendered by the one synthetic camera (``twopose.sim.camera``) through the
 constants of ``bench_rig.py`` (mount rotation (0.8, -0.5, 0.3) deg, camera offset
 (0.3, 0.2, 0.4) in, focal scale 1.03), the laptop placed off each typed pose by the
@@ -79,7 +80,7 @@ def board_fit(seed: int) -> BoardRigFit:
         camera.place(t_typed + PLACING_SIGMA * rng.standard_normal(3), np.zeros(3))
         frames = []
         for _ in range(FRAMES):
-            found = find_board(camera.expose(), scene.board.inner_corners, window_px=5)
+            found = find_board(camera.expose(), scene.board.inner_corners, window_px=None)
             if found is None:
                 raise SystemExit(f"the board was not found at the typed pose {t_typed}")
             frames.append(board_order(found, scene.board.inner_corners))
@@ -97,12 +98,14 @@ def board_fit(seed: int) -> BoardRigFit:
 
 def corrected(method: str, seed: int, fit: BoardRigFit, folder: Path) -> tuple[float, ...]:
     """RMSE of the seed's session without constants, with them uncorrected, corrected by the
-    board's rig, and corrected leave-one-out by its own target trials (bench_rig)."""
+    board's rig, corrected leave-one-out by its own target trials (bench_rig), and corrected
+    by the true constants (the floor: the two sessions differ in more than the rig)."""
     paths = simulate_pair(method, seed, folder)
     loo = run(list(paths.values()), None, options=AnalysisOptions(rig_calibration="loo")).trials
     by = {Path(str(s)).stem.rsplit("_", 1)[1]: g for s, g in loo.groupby("session")}
     both = set.intersection(*(set(used_trials(g)["trial"]) for g in by.values()))
     board = run([paths["with"]], None, options=AnalysisOptions(rig=fit.rig)).trials
+    true = run([paths["with"]], None, options=AnalysisOptions(rig=RIG)).trials
 
     def over_both(table: pd.DataFrame, column: str) -> float:
         return float(rmse(table[table["trial"].isin(both)][column].to_numpy()))
@@ -112,6 +115,7 @@ def corrected(method: str, seed: int, fit: BoardRigFit, folder: Path) -> tuple[f
         over_both(by["with"], "err"),
         over_both(board, "err"),
         over_both(by["with"], "err_rig"),
+        over_both(true, "err"),
     )
 
 
@@ -132,15 +136,19 @@ def main() -> int:
         ok &= within == len(z)
         worst = NAMES[int(np.argmax(z))]
         print(f"{seed:4}  {within:2} of {len(z)}  ({z.max():.2f}, {worst})  {fit.rms_px:.3f}")
-    print("\nmethod seed  RMSE without  with, raw  with, board rig (ratio)  with, loo (ratio)")
+    print(
+        "\nmethod seed  RMSE without  with, raw  with, board rig (ratio)  with, loo (ratio)"
+        "  with, true rig (ratio)"
+    )
     with tempfile.TemporaryDirectory(prefix="twopose-board-rig-") as tmp:
         for method in args.methods:
             for seed in range(args.seeds):
-                base, raw, board, loo = corrected(method, seed, fits[seed], Path(tmp))
+                base, raw, board, loo, true = corrected(method, seed, fits[seed], Path(tmp))
                 ok &= board <= 1.05 * base
                 print(
                     f"{method:6} {seed:4}  {base:12.3f}  {raw:9.3f}  {board:9.3f} "
                     f"({board / base:.3f})         {loo:8.3f} ({loo / base:.3f})"
+                    f"       {true:8.3f} ({true / base:.3f})"
                 )
     print(
         "targets (every constant within 2 sigma; corrected RMSE <= 1.05x): "
