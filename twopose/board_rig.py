@@ -205,9 +205,7 @@ def fit_board_rig(
         corner_res = (_project(full(p), X, t, r, k) - u).ravel()
         sigma_px = max(float(np.sqrt(np.mean(corner_res**2))), 1e-6)
     fit = least_squares(residuals, p, args=(sigma_px,), x_scale=prior[fitted], method="trf")
-    n_free = int(free.sum())
-    cov = np.full((len(FITTED_NAMES), len(FITTED_NAMES)), np.nan)
-    cov[np.ix_(free, free)] = np.linalg.pinv(fit.jac.T @ fit.jac)[:n_free, :n_free]
+    cov = _covariance(fit.jac, free)
     sigma = np.append(np.sqrt(np.clip(np.diag(cov), 0.0, None)), np.nan)
     x = full(fit.x)
     n_rig = len(FITTED_NAMES)
@@ -221,6 +219,17 @@ def fit_board_rig(
         free=_names(free),
         warnings=against_priors(np.append(x[:n_rig] - nominal[:n_rig], 0.0), units, _names(free)),
     )
+
+
+def _covariance(jac: F64, free: NDArray[np.bool_]) -> F64:
+    """The fitted constants' covariance (10, 10; NaN where not fitted).
+
+    ``(J^T J)^-1`` of the whitened problem, the placing errors marginalised out.
+    """
+    n_free = int(free.sum())
+    cov = np.full((len(FITTED_NAMES), len(FITTED_NAMES)), np.nan)
+    cov[np.ix_(free, free)] = np.linalg.pinv(jac.T @ jac)[:n_free, :n_free]
+    return cov
 
 
 def _names(free: NDArray[np.bool_]) -> tuple[str, ...]:
