@@ -398,21 +398,49 @@ def _refine(
 ) -> _Fit:
     T, N = ok.shape
     centres = camera_centres(P)
-    origin = np.where(ok[..., None], centres, 0.0).sum(1) / ok.sum(1)[:, None]
+    origin, scale = _working_frame(point, direction, centres, ok)
     last = centres[np.arange(T), (ok * np.arange(N)).argmax(axis=1)]
-    # The origin at the cameras' centroid, moved off the line if the line passes by it; the
-    # unit of length the line's distance from it.
+    # Weights relative to each row's largest: the same minimum, no overflow for a tiny sigma.
+    top = weight.max(axis=1)
+    problem = _Problem(seg, P, ok, weight / top[:, None], origin, scale)
+    U, w = _orthonormal((point - origin) / scale[:, None], direction)
+    U, w, cost, used = _levenberg_marquardt(problem, U, w, iterations)
+    x, u, cov6 = _reported_covariance(problem, U, w, origin, scale, last)
+    sq = (problem.distances(*_plucker(U, w)) ** 2).sum(axis=(1, 2))
+    with np.errstate(over="ignore", under="ignore", invalid="ignore"):  # absurd sigma: inf
+        return _Fit(
+            point=x,
+            direction=u,
+            cov=cov6 * (1 / top[:, None, None]) ** 2,
+            cost=cost * top**2,
+            sq_px=sq,
+            iterations=used,
+        )
+
+
+def _working_frame(
+    point: F64, direction: F64, centres: F64, ok: NDArray[np.bool_]
+) -> tuple[F64, F64]:
+    """The refinement's origin (T, 3) and unit of length (T,).
+
+    The origin at the cameras' centroid, moved off the line if the line passes by it; the
+    unit of length the line's distance from it.
+    """
+    origin = np.where(ok[..., None], centres, 0.0).sum(1) / ok.sum(1)[:, None]
     spread = np.linalg.norm(np.where(ok[..., None], centres - point[:, None], 0.0), axis=2).max(1)
     close = _distance(point, direction, origin) < 0.1 * spread
     if close.any():
         side = np.cross(direction[close], np.eye(3)[np.abs(direction[close]).argmin(axis=1)])
         side /= np.linalg.norm(side, axis=1, keepdims=True)
         origin[close] = point[close] - spread[close, None] * side
-    scale = _distance(point, direction, origin)
-    # Weights relative to each row's largest: the same minimum, no overflow for a tiny sigma.
-    top = weight.max(axis=1)
-    problem = _Problem(seg, P, ok, weight / top[:, None], origin, scale)
-    U, w = _orthonormal((point - origin) / scale[:, None], direction)
+    return origin, _distance(point, direction, origin)
+
+
+def _levenberg_marquardt(
+    problem: _Problem, U: F64, w: F64, iterations: int
+) -> tuple[F64, F64, F64, NDArray[np.int64]]:
+    """Refine every trial's (U, w) at once; returns them, the cost and the iterations used."""
+    T = U.shape[0]
     r = problem.residuals(*_plucker(U, w))
     cost = (r**2).sum(axis=1)
     lam = np.full(T, 1e-3)
@@ -460,7 +488,18 @@ def _refine(
         cost = np.where(better, cost_new, cost)
         done = (better & (gain <= 1e-14 * cost)) | small_step | (lam > 1e12) | (cost <= EXACT)
         active &= ~done
-    # The covariance of the 4 parameters, carried to (point nearest the last camera, u).
+    return U, w, cost, used
+
+
+def _reported_covariance(
+    problem: _Problem, U: F64, w: F64, origin: F64, scale: F64, last: F64
+) -> tuple[F64, F64, F64]:
+    """The reported (point nearest the last camera, u) and their (T, 6, 6) covariance.
+
+    The 4 parameters' covariance from the information J^T J, carried by central
+    differences; u's sign is fixed so that its largest component is positive.
+    """
+    T = U.shape[0]
     J = problem.jacobian(U, w)
     info = np.einsum("tki,tkj->tij", J, J)
     cov4 = np.full((T, 4, 4), np.nan)
@@ -477,16 +516,5 @@ def _refine(
         G[:, :3, k], G[:, 3:, k] = (xp - xm) / (2 * h), (up - um) / (2 * h)
     flip = np.take_along_axis(u, np.abs(u).argmax(axis=1)[:, None], 1) < 0
     sign = np.where(flip, -1.0, 1.0)
-    u = u * sign
     G[:, 3:] *= sign[:, :, None]
-    cov6 = np.einsum("tik,tkl,tjl->tij", G, cov4, G)
-    sq = (problem.distances(*_plucker(U, w)) ** 2).sum(axis=(1, 2))
-    with np.errstate(over="ignore", under="ignore", invalid="ignore"):  # absurd sigma: inf
-        return _Fit(
-            point=x,
-            direction=u,
-            cov=cov6 * (1 / top[:, None, None]) ** 2,
-            cost=cost * top**2,
-            sq_px=sq,
-            iterations=used,
-        )
+    return x, u * sign, np.einsum("tik,tkl,tjl->tij", G, cov4, G)

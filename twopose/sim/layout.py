@@ -15,7 +15,7 @@ import numpy as np
 from twopose.arrays import F64
 from twopose.camera import Intrinsics, project_points, rotation_from_angles_deg
 from twopose.methods import spec_of
-from twopose.sim.scene import BoardParams, Scene
+from twopose.sim.scene import BoardParams, ClutterParams, Scene
 from twopose.targets import finger_axis as target_finger_axis
 
 __all__ = [
@@ -270,99 +270,81 @@ def _too_close_to_target(
 def _clutter(scene: Scene, method: str, rng: np.random.Generator) -> list[Decal]:
     c = scene.clutter
     decals: list[Decal] = []
-    blue, navy = srgb_to_linear(c.color), srgb_to_linear(c.navy_color)
     views = _sample_views(scene)
     if method == "point":
         target = np.asarray([scene.point.position], dtype=np.float64)
     else:
         target = np.stack(finger_axis(scene))
     for i in range(c.count):
-        kind = c.kinds[i % len(c.kinds)]
-        for _ in range(50):  # keep clutter off the target in every view; give up on a crowded scene
-            on_wall = rng.random() < 0.5
-            if on_wall:
-                center = np.array([rng.uniform(*c.wall_x_range), rng.uniform(*c.wall_y_range)])
-                scale = 3.0  # the wall is far: bigger shapes to stay visible
-                point = np.array([center[0], center[1], scene.wall_z])
-            else:
-                center = np.array([rng.uniform(*c.table_x_range), rng.uniform(*c.table_z_range)])
-                scale = 1.6
-                point = np.array([center[0], scene.ground_height, center[1]])
-            apart = all(
-                d.surface != ("wall" if on_wall else "table")
-                or np.linalg.norm(d.center - center) > 2.2 * scale + 1.0
-                for d in decals
-            )
-            if apart and not _too_close_to_target(point, 2.5 * scale, target, views):
-                break
-        else:
-            continue
-        angle = float(rng.uniform(0, np.pi))
-        surface = "wall" if on_wall else "table"
-        if kind == "disk":
-            r = scale * rng.uniform(0.6, 1.0)
-            decals.append(
-                Decal(
-                    surface=surface,
-                    shape="disk",
-                    center=center,
-                    size=np.array([r, r]),
-                    angle=angle,
-                    color=blue,
-                )
-            )
-        elif kind == "speck":
-            r = rng.uniform(0.08, 0.15)
-            decals.append(
-                Decal(
-                    surface=surface,
-                    shape="disk",
-                    center=center,
-                    size=np.array([r, r]),
-                    angle=angle,
-                    color=blue,
-                )
-            )
-        elif kind == "ring":
-            a = scale * rng.uniform(1.0, 1.4)
-            decals.append(
-                Decal(
-                    surface=surface,
-                    shape="ring",
-                    center=center,
-                    size=np.array([a, a * 0.35]),
-                    angle=angle,
-                    color=blue,
-                )
-            )
-        elif kind == "triangle":
-            length, width = scale * rng.uniform(1.5, 2.2), scale * rng.uniform(0.4, 0.6)
-            local = np.array(
-                [[-length / 2, -width / 2], [-length / 2, width / 2], [length / 2, 0.0]]
-            )
-            rot = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
-            verts = local @ rot.T + center
-            decals.append(
-                Decal(
-                    surface=surface,
-                    shape="triangle",
-                    center=center,
-                    size=np.zeros(2),
-                    angle=angle,
-                    color=blue,
-                    vertices=verts,
-                )
-            )
-        else:  # navy: a glove-shaped blob of the wrong colour
-            a = scale * rng.uniform(0.8, 1.1)
-            decals.append(
-                Decal(
-                    surface=surface,
-                    shape="ellipse",
-                    center=center,
-                    size=np.array([a, a * 0.3]),
-                    angle=angle,
-                    color=navy,
-                )
-            )
+        placed = _clutter_place(scene, decals, target, views, rng)
+        if placed is not None:
+            surface, center, scale = placed
+            decals.append(_clutter_decal(c, c.kinds[i % len(c.kinds)], surface, center, scale, rng))
     return decals
+
+
+def _clutter_place(
+    scene: Scene,
+    decals: list[Decal],
+    target: F64,
+    views: list[tuple[Intrinsics, F64, F64]],
+    rng: np.random.Generator,
+) -> tuple[str, F64, float] | None:
+    """A decal's surface, centre and scale, off the other decals and the target in every view.
+
+    None on a crowded scene (50 draws failed): the decal is left out.
+    """
+    c = scene.clutter
+    for _ in range(50):
+        on_wall = rng.random() < 0.5
+        if on_wall:
+            center = np.array([rng.uniform(*c.wall_x_range), rng.uniform(*c.wall_y_range)])
+            scale = 3.0  # the wall is far: bigger shapes to stay visible
+            point = np.array([center[0], center[1], scene.wall_z])
+        else:
+            center = np.array([rng.uniform(*c.table_x_range), rng.uniform(*c.table_z_range)])
+            scale = 1.6
+            point = np.array([center[0], scene.ground_height, center[1]])
+        surface = "wall" if on_wall else "table"
+        apart = all(
+            d.surface != surface or np.linalg.norm(d.center - center) > 2.2 * scale + 1.0
+            for d in decals
+        )
+        if apart and not _too_close_to_target(point, 2.5 * scale, target, views):
+            return surface, center, scale
+    return None
+
+
+def _clutter_decal(
+    c: ClutterParams, kind: str, surface: str, center: F64, scale: float, rng: np.random.Generator
+) -> Decal:
+    """One clutter decal of `kind`; its random draws in the order the scenes were made with."""
+    angle = float(rng.uniform(0, np.pi))
+    blue = srgb_to_linear(c.color)
+    shape, color, vertices = "disk", blue, np.zeros((3, 2))
+    if kind == "disk":
+        r = scale * rng.uniform(0.6, 1.0)
+        size = np.array([r, r])
+    elif kind == "speck":
+        r = rng.uniform(0.08, 0.15)
+        size = np.array([r, r])
+    elif kind == "ring":
+        a = scale * rng.uniform(1.0, 1.4)
+        shape, size = "ring", np.array([a, a * 0.35])
+    elif kind == "triangle":
+        length, width = scale * rng.uniform(1.5, 2.2), scale * rng.uniform(0.4, 0.6)
+        local = np.array([[-length / 2, -width / 2], [-length / 2, width / 2], [length / 2, 0.0]])
+        rot = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+        shape, size, vertices = "triangle", np.zeros(2), local @ rot.T + center
+    else:  # navy: a glove-shaped blob of the wrong colour
+        a = scale * rng.uniform(0.8, 1.1)
+        shape, size, color = "ellipse", np.array([a, a * 0.3]), srgb_to_linear(c.navy_color)
+    return Decal(
+        surface=surface,
+        shape=shape,
+        center=center,
+        size=size,
+        angle=angle,
+        color=color,
+        vertices=vertices,
+    )
