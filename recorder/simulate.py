@@ -39,7 +39,7 @@ from twopose.format.entries import (
     TruthKind,
     TypedEntry,
 )
-from twopose.methods import spec_of
+from twopose.methods import Method, spec_of
 from twopose.sim.camera import SyntheticCamera, camera_pose, true_intrinsics
 from twopose.sim.layout import BOARD_POSES, Layout, build_layout, finger_axis
 from twopose.sim.scene import CameraParams, PoseParams, Scene
@@ -376,6 +376,41 @@ def _scene_with(scene: Scene | None, pose_noise: float | None, poses: int | None
     return scene
 
 
+def _checked_settings(method: str, trials: int, frames: int, poses: int | None) -> Method:
+    """The method, once the command line's settings are known to make a session."""
+    checked = spec_of(method).method  # refuses an unknown method, naming the known ones
+    if poses is not None and not spec_of(checked).measures:
+        raise InputValueError(
+            f"a simulated board session types the {len(BOARD_POSES)} poses of "
+            "twopose.sim.layout.BOARD_POSES in each trial; leave --poses out"
+        )
+    if trials < 1:
+        raise InputValueError(f"trials must be >= 1, got {trials}")
+    if frames < 1:
+        raise InputValueError(f"frames must be >= 1, got {frames}")
+    return checked
+
+
+def _session_info(
+    scene: Scene, cameras: list[Camera], method: Method, settings: str
+) -> SessionInfo:
+    """The simulated session's opening entry; its notes say how it was made."""
+    return SessionInfo(
+        method=method,
+        units=unit_spec(scene.units).units,
+        camera_ids=tuple(c.id for c in scene.cameras),
+        operator="twopose simulator",
+        notes=(
+            f"simulated: {settings}, "
+            f"poses={scene.poses.count}, pose_noise={scene.poses.noise_sigma}"
+            + _drawn_note(scene, cameras)
+        ),
+        created_utc=datetime.fromtimestamp(SIMULATION_EPOCH_NS / 1e9, UTC).isoformat(),
+        simulated=True,
+        board=None if spec_of(method).measures else scene.board.placement(),
+    )
+
+
 def simulate_session(  # noqa: PLR0913 - keyword-only settings, one per command-line option
     out: str | Path,
     *,
@@ -407,36 +442,13 @@ def simulate_session(  # noqa: PLR0913 - keyword-only settings, one per command-
     on_progress : callable, optional
         Called after every frame rendered and written (``trials * poses * frames`` times).
     """
-    method = spec_of(method).method  # refuses an unknown method, naming the known ones
-    if poses is not None and not spec_of(method).measures:
-        raise InputValueError(
-            f"a simulated board session types the {len(BOARD_POSES)} poses of "
-            "twopose.sim.layout.BOARD_POSES in each trial; leave --poses out"
-        )
-    if trials < 1:
-        raise InputValueError(f"trials must be >= 1, got {trials}")
-    if frames < 1:
-        raise InputValueError(f"frames must be >= 1, got {frames}")
+    method = _checked_settings(method, trials, frames, poses)
     scene, cameras = calibrated_cameras(_scene_with(scene, pose_noise, poses), seed)
     rng = np.random.default_rng(seed)
-    measures = spec_of(method).measures
     layout = build_layout(scene, method, rng)  # a board session's: the scene's board alone
     clock = _SimClock(SIMULATION_EPOCH_NS)
     camera = _SimulatedCamera(scene, layout, rng, clock)
-    info = SessionInfo(
-        method=method,
-        units=unit_spec(scene.units).units,
-        camera_ids=tuple(c.id for c in scene.cameras),
-        operator="twopose simulator",
-        notes=(
-            f"simulated: seed={seed}, trials={trials}, frames={frames}, "
-            f"poses={scene.poses.count}, pose_noise={scene.poses.noise_sigma}"
-            + _drawn_note(scene, cameras)
-        ),
-        created_utc=datetime.fromtimestamp(SIMULATION_EPOCH_NS / 1e9, UTC).isoformat(),
-        simulated=True,
-        board=None if measures else scene.board.placement(),
-    )
+    info = _session_info(scene, cameras, method, f"seed={seed}, trials={trials}, frames={frames}")
     try:
         summary = record(
             out,

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from twopose.arrays import F64
+from twopose.arrays import F64, Bools
 from twopose.camera import camera_centres
 from twopose.errors import InputValueError
 from twopose.solve import (
@@ -114,6 +114,34 @@ def _signed_distances(lines: F64, segments: F64) -> F64:
         )
 
 
+def _checked_inputs(
+    segments_px: ArrayLike, P: ArrayLike, valid: ArrayLike | None, sigma_px: ArrayLike | None
+) -> tuple[F64, F64, Bools, F64]:
+    """The segments (unused views zeroed), cameras, the views used and each view's weight.
+
+    A view is used when its segment is finite (and ``valid`` says so); its weight is
+    ``1 / sigma_px`` (1 without sigmas, 0 unused).
+    """
+    seg = np.asarray(segments_px, dtype=np.float64)
+    p = np.asarray(P, dtype=np.float64)
+    if seg.ndim != 3 or seg.shape[2] != 4 or p.shape != (*seg.shape[:2], 3, 4):
+        raise InputValueError(
+            f"segments must be (T, N, 4) and P (T, N, 3, 4); got {seg.shape}, {p.shape}"
+        )
+    ok = np.asarray(np.isfinite(seg).all(axis=2))
+    if valid is not None:
+        ok &= np.asarray(valid, dtype=bool)
+    if sigma_px is None:
+        weight = np.ones(seg.shape[:2])
+    else:
+        sigma = np.broadcast_to(np.asarray(sigma_px, dtype=np.float64), seg.shape[:2])
+        if not (np.isfinite(sigma[ok]).all() and (sigma[ok] > 0).all()):
+            raise InputValueError("sigma_px must be finite and > 0 for every view used")
+        weight = np.where(ok, 1.0 / np.where(ok, sigma, 1.0), 0.0)
+    weight = np.where(ok, weight, 0.0)
+    return np.where(ok[..., None], seg, 0.0), p, ok, weight
+
+
 def optimal_lines(
     segments_px: ArrayLike,
     P: ArrayLike,
@@ -148,25 +176,8 @@ def optimal_lines(
         weights and ``cov`` scaled by the a-posteriori ``variance_factor`` (NaN with two
         views, which leave no redundancy to estimate it from).
     """
-    seg = np.asarray(segments_px, dtype=np.float64)
-    p = np.asarray(P, dtype=np.float64)
-    if seg.ndim != 3 or seg.shape[2] != 4 or p.shape != (*seg.shape[:2], 3, 4):
-        raise InputValueError(
-            f"segments must be (T, N, 4) and P (T, N, 3, 4); got {seg.shape}, {p.shape}"
-        )
-    T, N = seg.shape[:2]
-    ok = np.asarray(np.isfinite(seg).all(axis=2))
-    if valid is not None:
-        ok &= np.asarray(valid, dtype=bool)
-    if sigma_px is None:
-        weight = np.ones((T, N))
-    else:
-        sigma = np.broadcast_to(np.asarray(sigma_px, dtype=np.float64), (T, N))
-        if not (np.isfinite(sigma[ok]).all() and (sigma[ok] > 0).all()):
-            raise InputValueError("sigma_px must be finite and > 0 for every view used")
-        weight = np.where(ok, 1.0 / np.where(ok, sigma, 1.0), 0.0)
-    weight = np.where(ok, weight, 0.0)
-    seg = np.where(ok[..., None], seg, 0.0)
+    seg, p, ok, weight = _checked_inputs(segments_px, P, valid, sigma_px)
+    T = seg.shape[0]
     start = triangulate_lines(segment_lines(seg), p, valid=ok, min_conditioning=min_conditioning)
     out_point = np.full((T, 3), np.nan)
     out_dir = np.full((T, 3), np.nan)
@@ -178,15 +189,7 @@ def optimal_lines(
     rows = np.flatnonzero(start.status == "ok")
     if rows.size:
         x0, u0 = _best_start(start, seg[rows], p[rows], ok[rows], weight[rows], rows)
-        fit = _refine(
-            x0,
-            u0,
-            seg[rows],
-            p[rows],
-            ok[rows],
-            weight[rows],
-            iterations,
-        )
+        fit = _refine(x0, u0, seg[rows], p[rows], ok[rows], weight[rows], iterations)
         n_res = 2 * ok[rows].sum(axis=1)
         dof = n_res - 4
         with np.errstate(invalid="ignore", divide="ignore"):

@@ -135,6 +135,54 @@ class Propagated:
     shared_variance: F64 | None = None  # (T,) trace share of the shared inputs
 
 
+def _jacobians(
+    estimate: Callable[[F64], F64],
+    x: F64,
+    C: F64,
+    shared: Shared | None,
+    Cs: F64,
+    rel_step: float,
+) -> tuple[F64, F64]:
+    """The estimate's derivatives by central differences.
+
+    Per view (T, 3, N, D) and per shared group (T, 3, G, S); steps of ``rel_step`` sigma.
+    """
+    T, N, D = x.shape
+    sigma = np.sqrt(np.clip(np.diagonal(C, axis1=2, axis2=3), 0.0, None))  # (T, N, 9)
+    J = np.zeros((T, 3, N, D))
+    # An exact input (or an unused one: a dot's angle) contributes nothing: skip it.
+    columns: list[_Column] = [
+        (n, d, None) for n in range(N) for d in range(D) if (sigma[:, n, d] > 0).any()
+    ]
+    group_sigma = np.sqrt(np.clip(np.diagonal(Cs, axis1=2, axis2=3), 0.0, None))  # (T, G, S)
+    Js = np.zeros((T, 3, *Cs.shape[1:3]))
+    if shared is not None:
+        x = np.concatenate([x, np.asarray(shared.values, dtype=np.float64)], axis=-1)
+        G, S = Cs.shape[1], Cs.shape[2]
+        columns += [
+            (g, D + s, shared.group == g)
+            for g in range(G)
+            for s in range(S)
+            if (group_sigma[:, g, s] > 0).any()
+        ]
+    # All perturbed copies go through the estimator together, in batches of about 2e5
+    # views: one vectorized call per batch instead of 2 N D calls.
+    per_batch = max(1, 200_000 // max(2 * T * N, 1))
+    for start in range(0, len(columns), per_batch):
+        batch = columns[start : start + per_batch]
+        steps = [
+            rel_step * (sigma[:, n, d] if views is None else group_sigma[:, n, d - D])
+            for n, d, views in batch
+        ]
+        derivatives = _difference_columns(estimate, x, steps, batch)
+        for (n, d, views), column in zip(batch, derivatives, strict=True):
+            if views is None:
+                J[:, :, n, d] = column
+            else:
+                Js[:, :, n, d - D] = column
+    return J, Js
+
+
 def propagate(
     estimate: Callable[[F64], F64],
     inputs: F64,
@@ -172,45 +220,14 @@ def propagate(
     """
     x = np.asarray(inputs, dtype=np.float64)
     C = np.asarray(input_cov, dtype=np.float64)
-    T, N, D = x.shape
-    sigma = np.sqrt(np.clip(np.diagonal(C, axis1=2, axis2=3), 0.0, None))  # (T, N, 9)
-    J = np.zeros((T, 3, N, D))
-    # An exact input (or an unused one: a dot's angle) contributes nothing: skip it.
-    columns: list[_Column] = [
-        (n, d, None) for n in range(N) for d in range(D) if (sigma[:, n, d] > 0).any()
-    ]
+    T, N, _ = x.shape
     Cs = np.zeros((T, 0, 0, 0)) if shared is None else np.asarray(shared.cov, dtype=np.float64)
-    group_sigma = np.sqrt(np.clip(np.diagonal(Cs, axis1=2, axis2=3), 0.0, None))  # (T, G, S)
-    Js = np.zeros((T, 3, *Cs.shape[1:3]))
-    if shared is not None:
-        x = np.concatenate([x, np.asarray(shared.values, dtype=np.float64)], axis=-1)
-        G, S = Cs.shape[1], Cs.shape[2]
-        columns += [
-            (g, D + s, shared.group == g)
-            for g in range(G)
-            for s in range(S)
-            if (group_sigma[:, g, s] > 0).any()
-        ]
-    # All perturbed copies go through the estimator together, in batches of about 2e5
-    # views: one vectorized call per batch instead of 2 N D calls.
-    per_batch = max(1, 200_000 // max(2 * T * N, 1))
-    for start in range(0, len(columns), per_batch):
-        batch = columns[start : start + per_batch]
-        steps = [
-            rel_step * (sigma[:, n, d] if views is None else group_sigma[:, n, d - D])
-            for n, d, views in batch
-        ]
-        derivatives = _difference_columns(estimate, x, steps, batch)
-        for (n, d, views), column in zip(batch, derivatives, strict=True):
-            if views is None:
-                J[:, :, n, d] = column
-            else:
-                Js[:, :, n, d - D] = column
+    J, Js = _jacobians(estimate, x, C, shared, Cs, rel_step)
     # Views are independent: Sigma = sum_n J_n C_n J_n^T.
     JC = np.einsum("tinj,tnjk->tink", J, C)
     cov = np.einsum("tink,tlnk->til", JC, J)
     group_var = np.zeros((T, N, len(_GROUPS)))
-    for g, (_, sl) in enumerate(_GROUPS):
+    for g, (_, sl) in enumerate(_GROUPS):  # each input group's share, for dominant_input
         Jg, Cg = J[:, :, :, sl], C[:, :, sl, sl]
         group_var[:, :, g] = np.einsum("tinj,tnjk,tink->tn", Jg, Cg, Jg)
     if shared is None:
