@@ -74,3 +74,23 @@ def test_every_benchmark_writes_the_figure_a_docs_page_includes() -> None:
             if f'--8<-- "figures/{figure}"' in text and f"benchmarks/{script.name}" in text
         ]
         assert len(including) == 1, (script.name, including)
+
+
+def test_the_readmes_figures_are_lines_of_their_benchmarks_figures() -> None:
+    """Each output block of the README that follows a ``benchmarks/<script>.py`` command is
+    an excerpt of the figure that script last wrote (docs/figures/<its FIGURE>), line for
+    line: a rerun that changes a figure fails here until the README says the same."""
+    readme = (REPO / "README.md").read_text()
+    pairs = re.findall(
+        r"```bash\n[^`]*?benchmarks/(\w+)\.py[^`]*?```\n\n```\n(.*?)```", readme, re.S
+    )
+    assert len(pairs) >= 3, "the README's benchmark excerpts"
+    for script, block in pairs:
+        source = (REPO / "benchmarks" / f"{script}.py").read_text()
+        figure = re.search(r'^FIGURE = "([^"]+)"', source, re.M)
+        assert figure, script
+        printed = (REPO / "docs" / "figures" / figure.group(1)).read_text().splitlines()
+        lines = [line for line in block.splitlines() if line.strip()]
+        assert lines, script
+        stale = [line for line in lines if line not in printed]
+        assert not stale, f"{script}: not in docs/figures/{figure.group(1)}: {stale}"
