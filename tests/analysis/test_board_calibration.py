@@ -26,6 +26,10 @@ from twopose.sim.scene import load_scene
 
 runner = CliRunner()
 
+#: Board sessions rendered and fitted: behind the slow marker (CI runs them; the fit's own
+#: tests on seeded corners, tests/twopose/test_board_rig.py, stay in the quick loop).
+pytestmark = pytest.mark.slow
+
 #: benchmarks/bench_rig.py's constants, with a principal offset.
 TRUE = RigConstants(
     mount_rotation_deg=(0.8, -0.5, 0.3),

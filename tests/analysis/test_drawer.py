@@ -33,6 +33,7 @@ def _files(folder: Path) -> dict[str, bytes]:
     return {p.name: p.read_bytes() for p in sorted(folder.iterdir()) if p.is_file()}
 
 
+@pytest.mark.slow
 def test_a_batch_writes_the_same_files_with_figures_drawn_beside_or_in_line(
     tmp_path: Path,
     ground_session: Path,
@@ -144,6 +145,7 @@ def _wait_for(condition: object, seconds: float) -> bool:
     return False
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc").is_dir(), reason="reads /proc")
 @pytest.mark.parametrize(("jobs", "helper"), [(1, "analysis.drawer"), (2, "spawn_main")])
 def test_ctrl_c_in_a_batch_exits_130_promptly_and_leaves_no_process(
@@ -153,7 +155,7 @@ def test_ctrl_c_in_a_batch_exits_130_promptly_and_leaves_no_process(
     the whole batch first): 130 within seconds, nothing left running, no partial file."""
     folder = tmp_path / "in"
     folder.mkdir()
-    for k in range(60):  # long enough that Ctrl-C comes mid-batch
+    for k in range(200):  # a batch of about 40 s here: Ctrl-C comes early in it
         shutil.copy(ground_session, folder / f"s{k:02d}.mcap")
     env = {**os.environ, "PYTHONPATH": str(REPO)}
     out = tmp_path / "o"
@@ -179,7 +181,9 @@ def test_ctrl_c_in_a_batch_exits_130_promptly_and_leaves_no_process(
             os.killpg(proc.pid, signal.SIGKILL)
     assert proc.returncode == 130, err
     assert "Traceback" not in err
-    assert took < 10, f"Ctrl-C took {took:.1f} s"
+    # Finishing the batch would take over 30 s more; stopping takes a few seconds, more
+    # with spawned workers on a loaded machine (10.4 s seen once), hence 20.
+    assert took < 20, f"Ctrl-C took {took:.1f} s"
     assert _wait_for(lambda: not _group(proc.pid), 10), _group(proc.pid)
     assert not list(out.glob(".*.partial"))
 

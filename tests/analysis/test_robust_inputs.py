@@ -64,6 +64,7 @@ def _written(path: Path, trials: tuple[int, ...], truth: tuple[float, float, flo
     return path
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", ["no_truth", "absurd_truth", "repeated_trial"])
 def test_an_odd_session_in_a_batch_keeps_the_report(
     tmp_path: Path, odd_sessions: dict[str, Path], kind: str
@@ -184,6 +185,7 @@ def test_a_fifo_named_mcap_is_refused_not_waited_on(tmp_path: Path) -> None:
     assert "no session files" in result.output
 
 
+@pytest.mark.slow
 def test_ctrl_c_with_two_jobs_exits_130_without_a_worker_traceback(
     tmp_path: Path, odd_sessions: dict[str, Path]
 ) -> None:

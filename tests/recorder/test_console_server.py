@@ -106,6 +106,7 @@ def test_the_server_killed_mid_capture_loses_nothing_accepted(tmp_path: Path) ->
     assert trials["err"].iloc[0] < 0.5
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_ctrl_c_or_sigterm_closes_the_file_prints_the_summary_once_and_exits_130(
     tmp_path: Path, sig: signal.Signals
@@ -137,6 +138,7 @@ def test_ctrl_c_or_sigterm_closes_the_file_prints_the_summary_once_and_exits_130
     assert list(trials["status"]) == ["incomplete"]
 
 
+@pytest.mark.slow
 def test_ctrl_c_before_the_setup_records_nothing_and_exits_130(tmp_path: Path) -> None:
     out = tmp_path / "never.mcap"
     process, _, _ = start_console(out)

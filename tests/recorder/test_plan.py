@@ -168,6 +168,7 @@ poses = [
 """
 
 
+@pytest.mark.slow
 def test_a_board_plan_records_a_board_session_rig_reads(tmp_path: Path) -> None:
     """The synthetic camera renders the board; the session holds the board, no truth; the
     analysis' rig finds the board in every capture, and run says it is not a measurement."""

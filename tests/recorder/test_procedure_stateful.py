@@ -268,6 +268,7 @@ class ProcedureModel(RuleBasedStateMachine):
             assert _replay(self._final()) == self.accepted
 
 
+@pytest.mark.slow
 def test_the_procedure_matches_its_model() -> None:
     before = dict(RUNS)
     run_state_machine_as_test(

@@ -114,6 +114,7 @@ def test_bad_captures_are_refused() -> None:
         fit_board_rig(_corners(), np.zeros((8, 3, 2)), POSES, np.zeros_like(POSES), K)
 
 
+@pytest.mark.slow
 def test_rendered_frames_give_the_rig_back() -> None:
     """End to end: the one synthetic camera renders the board through the rig at each
     typed pose; OpenCV finds the corners; the fit recovers the constants within 2 sigma."""
