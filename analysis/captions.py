@@ -12,9 +12,9 @@ import html
 
 import pandas as pd
 
-from analysis.console import UNIT_NAMES
 from analysis.figure_style import common_units
 from analysis.metrics import by_session_set, used_trials, warned
+from analysis.terminal import UNIT_NAMES
 
 __all__ = ["run_captions", "session_captions"]
 

@@ -10,7 +10,7 @@ import pandas as pd
 
 from analysis.choices import RigCalibrationMode
 from analysis.columns import VIEW_COLUMNS
-from twopose.choices import CombineMethod
+from twopose.choices import CombineRule
 from twopose.detect import DotParams, GloveParams
 from twopose.estimate import (
     DEFAULT_MIN_GROUND_ANGLE_DEG,
@@ -27,7 +27,7 @@ __all__ = ["AnalysisOptions", "RunResult", "SessionFailure", "SessionResult"]
 class AnalysisOptions:
     """How frames become measurements and measurements become estimates."""
 
-    combine: CombineMethod = "mean"
+    combine: CombineRule = "mean"
     glove: GloveParams = field(default_factory=GloveParams)
     dot: DotParams = field(default_factory=DotParams)
     min_conditioning: float = DEFAULT_MIN_CONDITIONING

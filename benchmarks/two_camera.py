@@ -4,7 +4,7 @@
 
 The 13 left/right photographs of a 9x6 checkerboard with 25 mm squares (two real cameras
 side by side). Leave-one-out over the pairs: each camera calibrated on the other 12 views
-(``recorder.calibrate.fit_views``, the fit of ``twopose-record calibrate``), their relative
+(``recorder.camera_calibration.fit_views``, the fit of ``twopose-record calibrate``), their relative
 pose by ``cv2.stereoCalibrate`` (intrinsics fixed) on the other 12 pairs; the held-out
 pair's 54 corners undistorted, reconstructed from the two views by
 ``twopose.solve.triangulate_two_views`` (the thesis' midpoint and the reprojection-optimal
@@ -30,7 +30,7 @@ import numpy as np
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 from numpy.typing import NDArray
 
-from recorder.calibrate import fit_views
+from recorder.camera_calibration import fit_views
 from twopose.camera import Intrinsics
 from twopose.solve import projection_matrices, triangulate_two_views
 

@@ -20,7 +20,7 @@ from twopose.methods import Method
 from twopose.version import VersionOption
 
 if TYPE_CHECKING:
-    from recorder.calibrate import Calibration
+    from recorder.camera_calibration import Calibration
     from recorder.capture import CaptureResult
     from recorder.live import LiveView
     from recorder.summary import RecordingSummary
@@ -414,7 +414,7 @@ def _prompt(question: str, default: str) -> str:
 
 
 def _calibration_sigma(path: Path | None) -> dict[str, float]:
-    from recorder.calibrate import load_calibration_sigma
+    from recorder.camera_calibration import load_calibration_sigma
 
     return load_calibration_sigma(path) if path is not None else {}
 
@@ -422,7 +422,7 @@ def _calibration_sigma(path: Path | None) -> dict[str, float]:
 def _calibration(path: Path | None) -> Intrinsics | None:
     if path is None:
         return None
-    from recorder.calibrate import load_calibration
+    from recorder.camera_calibration import load_calibration
 
     return load_calibration(path)
 
@@ -456,8 +456,8 @@ def calibrate(
 ) -> None:
     """Calibrate a camera from a checkerboard: every distinct view, the sigma of every
     intrinsic, each view's error, outlier views dropped, and the image's coverage."""
-    from recorder.calibrate import calibrate as run_calibration
-    from recorder.calibrate import save_calibration
+    from recorder.camera_calibration import calibrate as run_calibration
+    from recorder.camera_calibration import save_calibration
     from recorder.setup_rules import inner_corners
     from recorder.sources import open_source
 

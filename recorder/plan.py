@@ -141,7 +141,7 @@ def _camera(table: Any) -> Camera:
     table = _known_keys(table, "camera", "camera")
     camera_id = str(table.get("id", "cam0"))
     if "calibration" in table:  # a file from `twopose-record calibrate`
-        from recorder.calibrate import load_calibration, load_calibration_sigma
+        from recorder.camera_calibration import load_calibration, load_calibration_sigma
 
         path = str(table["calibration"])
         return Camera(

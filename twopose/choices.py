@@ -12,13 +12,13 @@ from __future__ import annotations
 
 from typing import Literal, get_args
 
-__all__ = ["COMBINE_METHODS", "TARGETS", "CombineMethod", "Target"]
+__all__ = ["COMBINE_RULES", "TARGETS", "CombineRule", "Target"]
 
 #: How a pose's frames are combined into one measurement (:func:`twopose.detect.combine_frames`;
 #: the thesis averages, section 5.3).
-CombineMethod = Literal["mean", "median", "robust"]
+CombineRule = Literal["mean", "median", "robust"]
 #: What the detector looks for in a frame: the gloved finger (method 2, the line) or the dot.
 Target = Literal["glove", "dot"]
 
-COMBINE_METHODS: tuple[CombineMethod, ...] = get_args(CombineMethod)
+COMBINE_RULES: tuple[CombineRule, ...] = get_args(CombineRule)
 TARGETS: tuple[Target, ...] = get_args(Target)

@@ -19,7 +19,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from twopose.choices import CombineMethod, Target
+from twopose.choices import CombineRule, Target
 
 __all__ = [
     "Detection",
@@ -509,7 +509,7 @@ def combine_frames(
     centroids_px: NDArray[np.float64],
     thetas_deg: NDArray[np.float64],
     found: NDArray[np.bool_],
-    method: CombineMethod = "mean",
+    method: CombineRule = "mean",
     *,
     outlier_sigmas: float = 3.5,
 ) -> PoseMeasurement:

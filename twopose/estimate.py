@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from twopose.arrays import F64
 from twopose.camera import Intrinsics, rotation_from_angles_deg
-from twopose.choices import CombineMethod
+from twopose.choices import CombineRule
 from twopose.conditioning import parallax_sine
 from twopose.detect import PoseMeasurement, combine_frames
 from twopose.errors import InputValueError
@@ -72,7 +72,7 @@ class EstimateSettings(Protocol):
     """
 
     @property
-    def combine(self) -> CombineMethod:
+    def combine(self) -> CombineRule:
         """How a pose's frames are combined into one measurement."""
 
     @property
@@ -96,7 +96,7 @@ class EstimateSettings(Protocol):
 class EstimateOptions:
     """How a pose's frames are combined and when a margin warns: the analysis' defaults."""
 
-    combine: CombineMethod = "mean"
+    combine: CombineRule = "mean"
     min_conditioning: float = DEFAULT_MIN_CONDITIONING
     min_parallax_deg: float = DEFAULT_MIN_PARALLAX_DEG
     min_plane_angle_deg: float = DEFAULT_MIN_PLANE_ANGLE_DEG

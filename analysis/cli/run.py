@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from twopose.choices import CombineMethod
+from twopose.choices import CombineRule
 from twopose.errors import (
     EXIT_SOME_INPUTS_FAILED,
     handle_errors,
@@ -64,7 +64,7 @@ def run_command(
         typer.Option(help="Address of an existing Dask scheduler to run the sessions on."),
     ] = None,
     combine: Annotated[
-        CombineMethod, typer.Option(help="How a pose's frames are combined (thesis: mean).")
+        CombineRule, typer.Option(help="How a pose's frames are combined (thesis: mean).")
     ] = "mean",
     min_parallax: Annotated[
         float, typer.Option(help="Warn when a point's ray parallax is below this (deg).")
@@ -105,7 +105,7 @@ def run_command(
     with handle_errors(), _session_progress() as (found, done):
         check_run_outputs(paths, out, junit, rig)  # before anything is written
         if rig is not None:
-            from analysis.calibration import rig_for_run
+            from analysis.rig_calibration import rig_for_run
 
             options = dataclasses.replace(options, rig=rig_for_run(rig, paths, note))
         result = run(
@@ -157,7 +157,7 @@ def _print_run(result: RunResult, out: Path, *, include_warned: bool) -> None:
     piped), the skipped and failed inputs; exit 1 if any input failed."""
     import shutil
 
-    from analysis.console import closing_lines, summary_lines, wrap_phrases
+    from analysis.terminal import closing_lines, summary_lines, wrap_phrases
 
     width = min(shutil.get_terminal_size().columns, 100) if sys.stdout.isatty() else None
     typer.echo(f"twopose: {len(result.sessions)} session(s), results in {out}")

@@ -47,9 +47,9 @@ def rig_command(
 ) -> None:
     """Estimate the rig's hidden constants from board sessions or from sessions with known
     targets; write them for `run --rig` and `twopose-record new --rig`."""
-    from analysis.calibration import calibrate_rig
     from analysis.outputs import run_inputs, write_file
     from analysis.rig import rig_toml
+    from analysis.rig_calibration import calibrate_rig
 
     with handle_errors():
         run_inputs(sessions).check_file("--out", out)  # never a session, FIFO or device

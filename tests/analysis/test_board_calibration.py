@@ -16,8 +16,8 @@ from typer.testing import CliRunner
 
 from analysis import run
 from analysis.board_calibration import calibrate_board, read_board_session
-from analysis.calibration import calibrate_rig
 from analysis.cli import app
+from analysis.rig_calibration import calibrate_rig
 from recorder.simulate import simulate_session
 from twopose.errors import InputValueError
 from twopose.rig import RigConstants, load_rig

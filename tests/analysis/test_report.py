@@ -288,8 +288,8 @@ def test_the_console_answers_per_session_set_and_ends_with_verdicts_and_the_repo
 ) -> None:
     """Sessions of two sets: the thesis' first, each set's rows under its name, then one
     verdict line per set and method, then where report.html is."""
-    from analysis.console import closing_lines, summary_lines
     from analysis.metrics import summarize
+    from analysis.terminal import closing_lines, summary_lines
 
     trials = pd.concat(
         [

@@ -1,4 +1,4 @@
-"""The run's answer as console text: readable in an 80-column terminal and in a CI log.
+"""The run's answer as terminal text: readable in an 80-column terminal and in a CI log.
 
 A per-method table (pooled over the sessions, per session set when the run has more than
 one: ``thesis_*`` first) that fits 80 columns, then one line per session, wrapped at the

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from recorder.calibrate import (
+from recorder.camera_calibration import (
     OUTER_THIRD,
     calibrate,
     fit_views,

@@ -9,7 +9,7 @@ from typer.testing import CliRunner
 
 from analysis.batch import run
 from analysis.cli import app
-from analysis.console import summary_lines, wrap_phrases
+from analysis.terminal import summary_lines, wrap_phrases
 
 SESSIONS = Path(__file__).resolve().parents[2] / "sessions"
 
