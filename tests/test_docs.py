@@ -55,6 +55,13 @@ def test_the_docs_real_data_figures_are_what_their_benchmarks_print(
     assert f'--8<-- "figures/{figure}"' in (REPO / "docs" / "real-data.md").read_text()
 
 
+def _figure_of(script: Path) -> str:
+    """The figure a benchmark records (its ``FIGURE``, under docs/figures/)."""
+    found = re.search(r'^FIGURE = "([^"]+)"$', script.read_text(), re.M)
+    assert found, f"{script.name} has no FIGURE"
+    return found.group(1)
+
+
 def test_every_benchmark_writes_the_figure_a_docs_page_includes() -> None:
     """No pasted benchmark output: each script records its figure (``--write-docs``), the file
     is there, and exactly one page includes it next to the command that made it."""
@@ -62,11 +69,8 @@ def test_every_benchmark_writes_the_figure_a_docs_page_includes() -> None:
     assert len(scripts) >= 20
     pages = {p.name: p.read_text() for p in (REPO / "docs").glob("*.md")}
     for script in scripts:
-        source = script.read_text()
-        found = re.search(r'^FIGURE = "([^"]+)"$', source, re.M)
-        assert found, f"{script.name} has no FIGURE"
-        assert "raise SystemExit(run_recorded(" in source, script.name
-        figure = found.group(1)
+        assert "raise SystemExit(run_recorded(" in script.read_text(), script.name
+        figure = _figure_of(script)
         assert (REPO / "docs" / "figures" / figure).is_file(), f"run {script.name} --write-docs"
         including = [
             name
@@ -86,11 +90,9 @@ def test_the_readmes_figures_are_lines_of_their_benchmarks_figures() -> None:
     )
     assert len(pairs) >= 3, "the README's benchmark excerpts"
     for script, block in pairs:
-        source = (REPO / "benchmarks" / f"{script}.py").read_text()
-        figure = re.search(r'^FIGURE = "([^"]+)"', source, re.M)
-        assert figure, script
-        printed = (REPO / "docs" / "figures" / figure.group(1)).read_text().splitlines()
+        figure = _figure_of(REPO / "benchmarks" / f"{script}.py")
+        printed = (REPO / "docs" / "figures" / figure).read_text().splitlines()
         lines = [line for line in block.splitlines() if line.strip()]
         assert lines, script
         stale = [line for line in lines if line not in printed]
-        assert not stale, f"{script}: not in docs/figures/{figure.group(1)}: {stale}"
+        assert not stale, f"{script}: not in docs/figures/{figure}: {stale}"
