@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twopose.board_rig import board_order, fit_board_rig
+from twopose.board_rig import FITTED_NAMES, board_order, fit_board_rig
 from twopose.detect import find_board
 from twopose.errors import InputValueError
 from twopose.rig import RigConstants
@@ -25,8 +25,8 @@ TRUE = RigConstants(
     focal_scale=1.03,
     principal_offset_px=(4.0, -3.0),
 )
-#: A board session's eight typed poses: moves along x and z, 20 to 38 in from the board
-#: (z = 24), where the whole board, its margin included, is in view.
+#: A board session's eight typed poses: moves along x and z, 19 to 58 in from the board
+#: (z = 24), where its every inner corner is in view and found.
 POSES = np.array(BOARD_POSES, dtype=np.float64)
 #: chi-square with 10 degrees of freedom, 99.9%: the fitted constants' joint test.
 CHI2_10_999 = 29.59
@@ -79,6 +79,28 @@ def test_placing_errors_are_fitted_with_the_typed_resolution_as_their_prior() ->
         error = naive.rig.vector()[:-1] - TRUE.vector()[:-1]
         hits += bool((np.abs(error) > 3 * naive.sigma[:-1]).any())
     assert hits >= 3  # ignoring the placing error claims a precision the data do not have
+
+
+def test_the_poses_depth_spread_sets_how_well_the_depth_offset_and_focal_scale_part() -> None:
+    """Each capture's depth is known only to the placing error, so the depth offset and the
+    focal scale part by the ratio of that error to the poses' spread of depths: the
+    benchmark's poses (19-58 in from the board) leave the depth offset to under 0.05 in and
+    the principal point to under 0.7 px (1 sigma); the same eight moves squeezed into 20-38
+    in leave more, on the same corners' noise."""
+
+    def sigma(poses: np.ndarray) -> dict[str, float]:
+        observed = _observed(TRUE, poses, 0.2, 0)
+        fit = fit_board_rig(_corners(), observed, poses, np.zeros_like(poses), K, t_sigma=0.04)
+        names = ("offset_z", "focal_scale", "principal_dx_px")
+        return {n: float(fit.sigma[FITTED_NAMES.index(n)]) for n in names}
+
+    spread = sigma(POSES)
+    assert spread["offset_z"] < 0.05
+    assert spread["principal_dx_px"] < 0.7
+    near = POSES.copy()
+    near[:, 2] = np.interp(POSES[:, 2], [-34.0, 5.0], [-14.0, 4.0])  # 20-38 in
+    squeezed = sigma(near)
+    assert all(squeezed[n] > 1.3 * spread[n] for n in spread), (squeezed, spread)
 
 
 def test_translation_along_one_direction_is_refused() -> None:

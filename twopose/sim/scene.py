@@ -202,13 +202,14 @@ class BoardParams:
     (columns, rows) of squares of side ``square`` (session units), its first inner corner at
     the grid point ``first_corner``, its rows along +x and its columns rising (-y), in the
     plane z = ``first_corner`` z; a white margin of one square around the pattern. Rendered
-    when ``present``.
+    when ``present``. The default is OpenCV's sample board at 1 in squares, its pattern
+    centred on x = 0, its margin on the grid paper.
     """
 
     present: bool = False
     inner_corners: tuple[int, int] = (9, 6)
-    square: float = 0.75
-    first_corner: tuple[float, float, float] = (-3.0, 8.125, 24.0)
+    square: float = 1.0
+    first_corner: tuple[float, float, float] = (-4.0, 7.625, 24.0)
     dark_color: RGB = (20, 20, 22)
     light_color: RGB = (238, 238, 232)
 
