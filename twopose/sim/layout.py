@@ -179,12 +179,12 @@ def build_layout(scene: Scene, method: str, rng: np.random.Generator) -> Layout:
 #: A board session's typed camera centres (the default scene's inches; no typed rotation):
 #: moves along x and along z, so that every constant the board determines is seen
 #: (twopose.board_rig.check_identifiable), three as near the default board as keeps its
-#: lowest corners in view (19 in), three far (58 in, squares of about 9 px; at 64 in the
-#: rendered corners carry a bias their noise does not explain) and two between. The
-#: depths' spread decides how well the focal scale parts from the camera's depth offset, and
-#: the lateral offset from the principal point (each capture's depth is known only to the
-#: placing error): the depth offset's 1 sigma was 0.15 in for poses 21-28 in away, 0.061 in
-#: for 20-38 in (0.75 in squares), 0.043 in for these; the principal point's 1.04 px, 0.55 px.
+#: lowest corners in view (19 in), three far (58 in, squares of about 9 px) and two between.
+#: The depths' spread decides how well the focal scale parts from the camera's depth offset,
+#: and the lateral offset from the principal point (each capture's depth is known only to
+#: the placing error): with 0.2 px corners and 0.04 in placing, the depth offset's 1 sigma
+#: is 0.044 in and the principal point's 0.61 px, where the same moves at 20-38 in leave
+#: 0.061 in and 1.04 px (tests/twopose/test_board_rig.py), and 21-28 in left 0.15 in.
 BOARD_POSES: tuple[tuple[float, float, float], ...] = (
     (-3.0, 0.0, 5.0),
     (3.0, 0.0, 5.0),

@@ -8,11 +8,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from twopose.board_rig import board_order
 from twopose.camera import project_points, rotation_from_angles_deg
 from twopose.detect import find_board
 from twopose.errors import SceneError
 from twopose.sim.camera import SyntheticCamera
-from twopose.sim.layout import board_corners, board_layout, build_layout
+from twopose.sim.layout import BOARD_POSES, board_corners, board_layout, build_layout
 from twopose.sim.scene import load_scene
 
 BOARD = """
@@ -81,3 +82,26 @@ def test_corners_are_spaced_by_the_square_in_rows_along_x() -> None:
 def test_a_bad_board_is_refused_naming_the_key(board: dict[str, object], message: str) -> None:
     with pytest.raises(SceneError, match=message):
         load_scene(None, board=board)
+
+
+def test_a_board_aligned_with_the_pixels_is_found_without_a_bias() -> None:
+    """At the board session's poses (the board's edges along the pixel rows and columns),
+    OpenCV's corners lie within 0.08 px RMS of the exact projection, every pose: rendered
+    point-sampled, the squares' edges moved in steps of a sample and the corners carried
+    a bias of 0.14 px RMS, up to 0.4 px across the board at 58 in, which the rig's fit read
+    as a mount rotation of 5 sigma."""
+    scene = load_scene(None, board={"present": True})
+    camera = SyntheticCamera(scene, board_layout(scene), np.random.default_rng(0))
+    corners = board_corners(scene.board)
+    rms = []
+    for t in BOARD_POSES:
+        camera.place(np.array(t), np.zeros(3))
+        frames = []
+        for _ in range(5):
+            found = find_board(camera.expose(), scene.board.inner_corners, window_px=None)
+            assert found is not None, t
+            frames.append(board_order(found, scene.board.inner_corners))
+        projected = project_points(corners, scene.cameras[0].intrinsics, np.eye(3), np.array(t))
+        rms.append(float(np.sqrt(np.mean((np.mean(frames, axis=0) - projected) ** 2))))
+    assert len(rms) == len(BOARD_POSES)
+    assert max(rms) < 0.08, rms

@@ -8,7 +8,7 @@ import numpy as np
 
 from twopose.camera import project_points
 from twopose.sim.layout import GAMMA, build_layout
-from twopose.sim.render import expose, render_radiance
+from twopose.sim.render import _box_filtered_checker, expose, render_radiance
 from twopose.sim.scene import load_scene
 
 R = np.eye(3)
@@ -63,3 +63,31 @@ def test_a_still_noiseless_exposure_is_the_gamma_of_the_radiance_in_bgr() -> Non
     assert (frame[..., 2] == red).all()  # BGR: red last
     assert (frame[..., 1] == 0).all()
     assert (frame[..., 0] == 255).all()
+
+
+def test_the_board_is_averaged_over_each_sample_exactly() -> None:
+    """The box-filtered checker equals a brute-force average over the footprint, is 0 off
+    the pattern and the point-sampled parity when the footprint shrinks."""
+    rng = np.random.default_rng(4)
+    x, y = rng.uniform(-1.5, 11.5, 200), rng.uniform(-1.5, 8.5, 200)
+    width = rng.uniform(0.05, 2.5, (200, 2))
+    squares = (10, 7)
+    exact = _box_filtered_checker(x, y, width, squares)
+    grid = (np.arange(400) + 0.5) / 400 - 0.5  # 400 x 400 samples across the footprint
+    sx = x[:, None] + grid[None] * width[:, :1]
+    sy = y[:, None] + grid[None] * width[:, 1:]
+    inside_x = (sx >= 0) & (sx < squares[0])
+    inside_y = (sy >= 0) & (sy < squares[1])
+    even_x, even_y = np.floor(sx) % 2 == 0, np.floor(sy) % 2 == 0
+    inside = inside_x[:, :, None] & inside_y[:, None, :]
+    dark = inside & (even_x[:, :, None] == even_y[:, None, :])
+    np.testing.assert_allclose(exact, dark.mean(axis=(1, 2)), atol=0.01)
+    assert exact.min() >= 0
+    assert exact.max() <= 1
+    outside = np.array([-3.0, 20.0])
+    off = _box_filtered_checker(outside, np.array([2.0, 2.0]), np.ones((2, 2)), squares)
+    np.testing.assert_array_equal(off, 0.0)
+    tiny = _box_filtered_checker(x, y, np.full((200, 2), 1e-6), squares)
+    parity = (np.floor(x) + np.floor(y)) % 2 == 0
+    on = (x >= 0) & (x < squares[0]) & (y >= 0) & (y < squares[1])
+    np.testing.assert_allclose(tiny, (parity & on).astype(float), atol=1e-3)
