@@ -14,7 +14,7 @@ import multiprocessing
 import signal
 import threading
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import Future, ProcessPoolExecutor, as_completed, wait
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import Any
@@ -330,6 +330,7 @@ def _run_processes(batch: _Batch, jobs: int) -> list[Outcome]:
         with ProcessPoolExecutor(
             max_workers=jobs - 1, mp_context=context, initializer=_worker_init, initargs=(claims,)
         ) as pool:
+            futures: list[Future[Outcome | None]] = []
             try:
                 with sigint_blocked():  # the workers start as the sessions are submitted
                     futures = [
@@ -355,7 +356,7 @@ def _run_processes(batch: _Batch, jobs: int) -> list[Outcome]:
                     if outcome is not None:
                         done(i, outcome)
             except BaseException:  # Ctrl-C, or this process's own failure: stop at once
-                _stop_workers(pool, results)
+                _stop_workers(pool, claims, futures, results)
                 raise
     finally:
         cv2.setNumThreads(threads)
@@ -364,16 +365,38 @@ def _run_processes(batch: _Batch, jobs: int) -> list[Outcome]:
     return [o for o in outcomes if o is not None]
 
 
-def _stop_workers(pool: ProcessPoolExecutor, results: list[str | None]) -> None:
-    """End the pool now: queued sessions are dropped and the workers (which ignore Ctrl-C)
-    terminated, rather than left to finish the batch; the results.mcap a worker was
-    writing leaves no temporary file (``.<name>.<pid>.partial``) behind."""
+#: How long the workers may take to finish the session in hand once stopped, before they are
+#: terminated (a session takes well under a second on the sample sessions).
+STOP_GRACE_S = 5.0
+
+
+def _stop_workers(
+    pool: ProcessPoolExecutor,
+    claims: Any,
+    futures: list[Future[Outcome | None]],
+    results: list[str | None],
+) -> None:
+    """End the pool now: queued sessions are dropped and the workers stopped, rather than left
+    to finish the batch; the results.mcap a worker was writing leaves no temporary file
+    (``.<name>.<pid>.partial``) behind.
+
+    Every session is claimed first, so a worker returns from whatever it is handed next,
+    and the workers get :data:`STOP_GRACE_S` to finish the session in hand before they are
+    terminated: a worker terminated while it sends its result can leave half a message in
+    the pool's result pipe, which the pool's own thread then waits on for ever (a Ctrl-C in
+    CI once never returned).
+    """
+    with claims.get_lock():
+        claims[:] = [1] * len(claims)
     processes = list((getattr(pool, "_processes", None) or {}).values())
     pool.shutdown(wait=False, cancel_futures=True)
-    for process in processes:
+    in_hand = [f for f in futures if not f.cancelled()]  # wait() never counts a cancelled one
+    with contextlib.suppress(KeyboardInterrupt):  # a second Ctrl-C: stop waiting
+        wait(in_hand, timeout=STOP_GRACE_S)
+    for process in processes:  # idle now (their results all read), or over the grace
         process.terminate()
     for process in processes:
-        process.join(5.0)
+        process.join(STOP_GRACE_S)
         if process.is_alive():
             process.kill()
             process.join()
