@@ -24,6 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from recorder.sources import FrameSource
+from twopose.arrays import F32
 from twopose.camera import SIGMA_KEYS, Intrinsics, intrinsics_sigma
 from twopose.config import read_toml
 from twopose.detect import find_board
@@ -48,8 +49,6 @@ OUTLIER_FLOOR_PX = 2.0
 #: The corners should reach beyond this share of the half-diagonal from the image centre
 #: (the outer third of the frame) at least once.
 OUTER_THIRD = 2.0 / 3.0
-
-F32 = NDArray[np.float32]
 
 
 @dataclass(frozen=True, kw_only=True)

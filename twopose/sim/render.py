@@ -17,14 +17,12 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from twopose.arrays import F64
+from twopose.arrays import F32, F64
 from twopose.camera import Intrinsics
 from twopose.sim.layout import GAMMA, Decal, Layout, Primitive, srgb_to_linear
 from twopose.sim.scene import Scene
 
 __all__ = ["expose", "render_radiance"]
-
-F32 = NDArray[np.float32]
 
 
 def _decal_mask(decal: Decal, ab: F64) -> NDArray[np.bool_]:
