@@ -162,7 +162,8 @@ def new(
         typer.Option(exists=True, dir_okay=False, help="Run this plan (TOML) without prompts."),
     ] = None,
     source: Annotated[
-        str, typer.Option(help="camera:N, video:PATH, images:DIR or synthetic[:SCENE.toml].")
+        str,
+        typer.Option(help="camera:N, video:PATH, images:DIR[/PATTERN] or synthetic[:SCENE.toml]."),
     ] = "camera:0",
     method: Annotated[Method | None, typer.Option(help="Asked if not given.")] = None,
     units: Annotated[str | None, typer.Option(help="in, mm, cm or m. Asked if not given.")] = None,
@@ -442,7 +443,12 @@ def _principal(text: str | None) -> tuple[float, float] | None:
 @app.command()
 def calibrate(
     out: Annotated[Path, typer.Argument(help="Calibration file to write (TOML).")],
-    source: Annotated[str, typer.Option(help="camera:N, video:PATH or images:DIR.")] = "camera:0",
+    source: Annotated[
+        str,
+        typer.Option(
+            help="camera:N, video:PATH or images:DIR[/PATTERN] (e.g. images:photos/left*.jpg)."
+        ),
+    ] = "camera:0",
     board: Annotated[
         str, typer.Option(help="Inner corners 'COLSxROWS' of the checkerboard.")
     ] = "9x6",

@@ -1,10 +1,10 @@
 """Frame sources behind one interface: a camera, a video file, a folder of images, or the
 synthetic camera that renders the simulator's scene from the pose the operator types.
 
-``open_source("camera:0" | "video:PATH" | "images:DIR" | "synthetic[:SCENE.toml]")`` gives a
-:class:`FrameSource`; use it as a context manager and call :meth:`FrameSource.read`. A source
-that cannot open, stops delivering, or times out raises :class:`SourceError` with a message
-saying which and what to try.
+``open_source("camera:0" | "video:PATH" | "images:DIR[/PATTERN]" | "synthetic[:SCENE.toml]")``
+gives a :class:`FrameSource`; use it as a context manager and call
+:meth:`FrameSource.read`. A source that cannot open, stops delivering, or times out raises
+:class:`SourceError` with a message saying which and what to try.
 """
 
 from __future__ import annotations
@@ -248,24 +248,32 @@ class VideoSource(FrameSource):
 
 
 class ImagesSource(FrameSource):
-    """The images of a folder, in file-name order."""
+    """The images of a folder, in file-name order: ``DIR`` (every image in it) or
+    ``DIR/PATTERN`` (a shell pattern such as ``photos/left*.jpg``: a folder often holds
+    more than one camera's views)."""
 
     stills = True
 
     def __init__(self, folder: str | Path) -> None:
-        self.folder = Path(folder)
+        self.spelled = Path(folder)
+        name = self.spelled.name
+        self.pattern = name if any(c in name for c in "*?[") else None
+        self.folder = self.spelled.parent if self.pattern else self.spelled
         self._files: list[Path] = []
         self._next = 0
 
     def open(self) -> SourceInfo:
         if not self.folder.is_dir():
             raise SourceError(f"image folder {self.folder} does not exist")
-        self._files = sorted(p for p in self.folder.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
+        names = self.folder.glob(self.pattern) if self.pattern else self.folder.iterdir()
+        self._files = sorted(p for p in names if p.suffix.lower() in IMAGE_SUFFIXES)
+        if not self._files and self.pattern:
+            raise SourceError(f"no image in {self.folder} matches {self.pattern}")
         if not self._files:
-            raise SourceError(f"{self.folder} holds no images ({', '.join(IMAGE_SUFFIXES)})")
+            raise SourceError(f"{self.spelled} holds no images ({', '.join(IMAGE_SUFFIXES)})")
         first = self._load(self._files[0])
         self.info = SourceInfo(
-            description=f"images:{self.folder}",
+            description=f"images:{self.spelled}",
             width=first.shape[1],
             height=first.shape[0],
             fps=30.0,
@@ -283,7 +291,7 @@ class ImagesSource(FrameSource):
     @override
     def read(self, timeout_s: float = 2.0) -> Image:
         if self._next >= len(self._files):
-            raise SourceError(f"no more images in {self.folder} ({len(self._files)} used)")
+            raise SourceError(f"no more images in {self.spelled} ({len(self._files)} used)")
         path = self._files[self._next]
         self._next += 1
         return self._load(path)
@@ -367,7 +375,8 @@ def open_source(
 ) -> FrameSource:
     """A source from its command-line spelling (not yet opened).
 
-    ``camera:N`` (device N), ``video:PATH``, ``images:DIR``, ``synthetic`` or
+    ``camera:N`` (device N), ``video:PATH``, ``images:DIR`` or ``images:DIR/PATTERN``,
+    ``synthetic`` or
     ``synthetic:SCENE.toml``.
     """
     kind, _, arg = spec.partition(":")
@@ -383,5 +392,6 @@ def open_source(
     if kind == "synthetic":
         return SyntheticSource(arg or None, method, realtime=realtime)
     raise SourceError(
-        f"unknown source {spec!r}; use camera:N, video:PATH, images:DIR or synthetic[:SCENE.toml]"
+        f"unknown source {spec!r}; use camera:N, video:PATH, images:DIR[/PATTERN] or "
+        "synthetic[:SCENE.toml]"
     )

@@ -208,3 +208,16 @@ def test_a_camera_drops_frames_queued_before_the_capture_without_counting_them()
     cam.start_capture()
     assert cam._frames.empty()
     assert cam.dropped == 7  # the capture counts from here
+
+
+def test_an_images_pattern_takes_only_the_files_it_matches(tmp_path: Path) -> None:
+    for side, value in (("left", 10), ("right", 200)):
+        for i in range(2):
+            cv2.imwrite(str(tmp_path / f"{side}{i:02d}.png"), np.full((10, 20, 3), value, np.uint8))
+    with open_source(f"images:{tmp_path / 'left*.png'}") as src:
+        assert src.info.description == f"images:{tmp_path / 'left*.png'}"
+        assert [int(src.read()[0, 0, 0]) for _ in range(2)] == [10, 10]
+        with pytest.raises(SourceError, match="no more images"):
+            src.read()
+    with pytest.raises(SourceError, match=r"matches centre\*\.png"):
+        open_source(f"images:{tmp_path / 'centre*.png'}").open()
