@@ -10,11 +10,15 @@ Done as the careful tools do it (OpenCV's sample, mrcal's advice):
 - the fit reports the standard deviation of every intrinsic, the RMS of every view, and
   drops a view whose RMS is far above the others (then fits again, naming it);
 - it says how much of the image the corners covered, and warns when they never reached
-  the outer third of the frame (where the distortion is, and so where it is learned).
+  the outer third of the frame (where the distortion is, and so where it is learned);
+- it warns when the views' file names fall into more than one family (``left*`` and
+  ``right*``): one calibration is one camera's, and a folder of two cameras' stills fits as
+  one camera with nothing else to show for it.
 """
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -219,7 +223,7 @@ def fit_views(
         distortion=(d[0], d[1], d[2], d[3], d[4]),
     )  # fmt: skip
     coverage, reach = _coverage(image_points, size)
-    warnings = []
+    warnings = _name_families(names)
     if reach < OUTER_THIRD:
         warnings.append(
             f"the corners never reached the outer third of the image (farthest at {reach:.0%} "
@@ -238,6 +242,23 @@ def fit_views(
         reach=reach,
         warnings=tuple(warnings),
     )
+
+
+def _name_families(names: list[str]) -> list[str]:
+    """A warning when the views' names, numbers and suffix set aside, fall into several
+    families of two or more (``left01.jpg`` ... and ``right01.jpg`` ...)."""
+    families: dict[str, int] = {}
+    for name in names:
+        family = re.sub(r"[\d_\-. ]+$", "", Path(name).stem)
+        families[family] = families.get(family, 0) + 1
+    several = sorted(f"{f}*" for f, n in families.items() if n >= 2)
+    if len(several) < 2:
+        return []
+    return [
+        f"the views' file names fall into {len(several)} families ({', '.join(several)}): a "
+        "calibration is one camera's; if these are several cameras' photographs, calibrate "
+        f"each on its own files, e.g. --source 'images:DIR/{several[0]}'"
+    ]
 
 
 def _coverage(image_points: list[F32], size: tuple[int, int]) -> tuple[float, float]:

@@ -154,6 +154,43 @@ def test_real_photographs_use_every_view_and_agree_with_opencv(tmp_path: Path) -
     kept = load_calibration_sigma(out)
     assert set(kept) >= {"fx", "fy", "cx", "cy", "k1", "k2", "k3"}
     assert kept["fx"] == pytest.approx(sigma["fx"], rel=0.05)
+    assert "families" not in result.output
+
+
+@pytest.mark.skipif(not REAL.is_dir(), reason="../shared/data/opencv-chessboard is not here")
+def test_a_folder_of_two_cameras_photographs_is_warned_about(tmp_path: Path) -> None:
+    """The shared folder holds the left and the right camera's 13 each: fitted as one camera
+    (what the operator asked), with a warning that names the two families and the way out."""
+    out = tmp_path / "cal.toml"
+    args = ["calibrate", str(out), "--source", f"images:{REAL}", "--board", "9x6"]
+    result = runner.invoke(app, [*args, "--square", "25"])
+    assert result.exit_code == 0, result.output
+    assert "over 26 views" in result.output
+    assert "2 families (left*, right*)" in result.output
+    assert "images:DIR/left*" in result.output
+    assert "families" in out.read_text()  # and in the file's warnings
+
+
+@pytest.mark.parametrize(
+    ("names", "families"),
+    [
+        (["left01.jpg", "left02.jpg", "right01.jpg", "right02.jpg"], 2),
+        (["IMG_0001.jpg", "IMG_0002.jpg", "IMG_0003.jpg"], 0),
+        (["frame 1", "frame 2", "frame 12"], 0),
+        (["a.png", "b.png", "c1.png", "c2.png"], 0),  # one family of two and single names
+    ],
+)
+def test_only_several_families_of_view_names_are_warned_about(
+    tmp_path: Path, names: list[str], families: int
+) -> None:
+    corners, _ = _rendered_corners(tmp_path)
+    pattern = np.zeros((54, 3), np.float32)
+    pattern[:, :2] = np.mgrid[0:9, 0:6].T.reshape(-1, 2)
+    fit = fit_views(corners[: len(names)], names, (640, 480), pattern)
+    said = [w for w in fit.warnings if "families" in w]
+    assert len(said) == (1 if families else 0), fit.warnings
+    if families:
+        assert f"{families} families" in said[0]
 
 
 def _rendered_corners(tmp_path: Path) -> tuple[list[np.ndarray], list[str]]:
