@@ -151,10 +151,12 @@ def corrected(
     )
 
 
-def pooled(folder: Path, method: str, boths: dict[int, set[int]], rig: RigConstants) -> float:
-    """The RMSE of every seed's session with constants, corrected by ``rig``, over all their
-    common trials at once."""
-    paths = [session_path(folder, method, seed, "with") for seed in boths]
+def pooled(
+    folder: Path, method: str, boths: dict[int, set[int]], rig: RigConstants | None, name: str
+) -> float:
+    """The RMSE of every seed's session ``name`` ("with" or "without" constants), corrected
+    by ``rig``, over all their common trials at once."""
+    paths = [session_path(folder, method, seed, name) for seed in boths]
     trials = run(paths, None, options=AnalysisOptions(rig=rig)).trials
     errors = [
         g[g["trial"].isin(boths[int(Path(str(s)).stem.split("_")[1])])]["err"].to_numpy()
@@ -164,19 +166,20 @@ def pooled(folder: Path, method: str, boths: dict[int, set[int]], rig: RigConsta
 
 
 def once_for_all(
-    method: str, fits: dict[int, BoardRigFit], folder: Path, boths: dict[int, set[int]], base: float
-) -> tuple[str, bool]:
+    method: str, fits: dict[int, BoardRigFit], folder: Path, boths: dict[int, set[int]]
+) -> str:
     """Calibrate once, measure many: each seed's board rig corrects every seed's session, the
     RMSE pooled over all of them (a 15-trial session's RMSE turns on its two or three
-    worst-conditioned trials; the pool of every seed's trials much less). One line."""
-    ratios = [pooled(folder, method, boths, fit.rig) / base for fit in fits.values()]
-    floor = pooled(folder, method, boths, RIG) / base
+    worst-conditioned trials; the pool of every seed's trials much less), against the same
+    pool without constants. One line."""
+    base = pooled(folder, method, boths, None, "without")
+    ratios = [pooled(folder, method, boths, fit.rig, "with") / base for fit in fits.values()]
+    floor = pooled(folder, method, boths, RIG, "with") / base
     n = sum(len(b) for b in boths.values())
-    line = (
+    return (
         f"{method}: each seed's board rig on every seed's session ({n} trials, pooled; true rig "
         f"{floor:.3f}): " + " ".join(f"{r:.3f}" for r in ratios) + f"  (worst {max(ratios):.3f})"
     )
-    return line, max(ratios) <= 1.05
 
 
 def main() -> int:
@@ -187,15 +190,12 @@ def main() -> int:
     args = ap.parse_args()
     fits, ok = fit_table(args.seeds)
     with tempfile.TemporaryDirectory(prefix="twopose-board-rig-") as tmp:
-        boths, bases, per_seed_ok = seed_table(args, fits, Path(tmp))
+        boths, per_seed_ok = seed_table(args, fits, Path(tmp))
         print(
             "calibrated once, applied to every seed's session (ratio to the pooled RMSE without):"
         )
         for method in args.methods:
-            n = sum(k for k, _ in bases[method])
-            base = float(np.sqrt(sum(k * b**2 for k, b in bases[method]) / n))
-            line, _ = once_for_all(method, fits, Path(tmp), boths[method], base)
-            print(line)
+            print(once_for_all(method, fits, Path(tmp), boths[method]))
     print(
         "targets (every constant within 2 sigma; corrected RMSE <= 1.05x): "
         + ("met" if ok and per_seed_ok else "MISSED")
@@ -223,10 +223,10 @@ def fit_table(seeds: int) -> tuple[dict[int, BoardRigFit], bool]:
 
 def seed_table(
     args: argparse.Namespace, fits: dict[int, BoardRigFit], folder: Path
-) -> tuple[dict[str, dict[int, set[int]]], dict[str, list[tuple[int, float]]], bool]:
+) -> tuple[dict[str, dict[int, set[int]]], bool]:
     """Each seed's board rig on the same seed's measurement session, one line per seed and
     method, then the board's distance from the floor. The trials judged per method and seed,
-    their number and RMSE without constants, and whether every row met 1.05x."""
+    and whether every row met 1.05x."""
     print(
         "\nmethod seed  RMSE without  with, raw  with, board rig (ratio)  with, loo (ratio)"
         f"  with, true rig (ratio)  board - true  drawn over 1.05x (of {args.draws})"
@@ -234,14 +234,12 @@ def seed_table(
     ok = True
     gaps: dict[str, list[float]] = {}
     boths: dict[str, dict[int, set[int]]] = {}
-    bases: dict[str, list[tuple[int, float]]] = {}
     for method in args.methods:
         for seed in range(args.seeds):
             (base, raw, board, loo, true), drawn, both = corrected(
                 method, seed, fits[seed], folder, args.draws
             )
             boths.setdefault(method, {})[seed] = both
-            bases.setdefault(method, []).append((len(both), base))
             ok &= board <= 1.05 * base
             over = sum(d > 1.05 * base for d in drawn)
             gaps.setdefault(method, []).append((board - true) / base)
@@ -256,7 +254,7 @@ def seed_table(
             f"{method}: the board's rig within {np.mean(np.abs(gap)):.3f} (mean) and "
             f"{np.max(np.abs(gap)):.3f} (worst) of the true rig's ratio over {len(gap)} seeds"
         )
-    return boths, bases, ok
+    return boths, ok
 
 
 if __name__ == "__main__":
