@@ -69,6 +69,52 @@ class LiveSink(Protocol):
     ) -> None: ...
 
 
+class LiveSinks(LiveSink):
+    """Several live sinks as one: the web console and the Foxglove live view at once
+    (``new --ui --live``)."""
+
+    def __init__(self, *sinks: LiveSink) -> None:
+        self.sinks = sinks
+
+    def frame(
+        self,
+        camera_id: str,
+        data: bytes,
+        image_format: str,
+        log_time_ns: int,
+        detection: Detection | None,
+        label: str,
+    ) -> None:
+        for sink in self.sinks:
+            sink.frame(camera_id, data, image_format, log_time_ns, detection, label)
+
+    def status(
+        self,
+        log_time_ns: int,
+        *,
+        trial: int,
+        pose: int,
+        frame: int,
+        n_frames: int,
+        message: str,
+        found: bool | None = None,
+    ) -> None:
+        for sink in self.sinks:
+            sink.status(
+                log_time_ns,
+                trial=trial,
+                pose=pose,
+                frame=frame,
+                n_frames=n_frames,
+                message=message,
+                found=found,
+            )
+
+    def trial_result(self, result: TrialResult, scene: TrialScene | None, log_time_ns: int) -> None:
+        for sink in self.sinks:
+            sink.trial_result(result, scene, log_time_ns)
+
+
 @dataclass(frozen=True, kw_only=True)
 class FrameFeedback:
     """What the operator sees for each captured frame."""

@@ -224,6 +224,11 @@ def new(
 
     with handle_errors(), contextlib.ExitStack() as stack:
         refuse_existing(out)  # before the first question
+        if plan is not None and ui:
+            raise InputValueError(
+                "--plan records unattended and --ui asks in the browser: give one of them "
+                "(the plan's setup and poses are not asked again in the page)"
+            )
         request = NewRequest(
             out=out,
             source=source,
@@ -234,7 +239,7 @@ def new(
             rig=_load_rig(rig),
             live_port=live_port if live else None,
         )
-        if plan is not None and not ui:
+        if plan is not None:
             summary = _planned(request, plan, stack)
         else:
             given = _console_given(
@@ -283,12 +288,13 @@ def _interactive(
     run the guided procedure."""
     from recorder.capture import CaptureSettings
     from recorder.interactive import Operator, ask_setup, record_interactive
-    from recorder.setup_rules import PoseTyping
+    from recorder.setup_rules import PoseTyping, check_rig
     from recorder.sources import open_source
 
     mode = request.camera
     op = Operator(_prompt, typer.echo)
     setup = ask_setup(op, size=(mode.width, mode.height), **given)
+    check_rig(request.rig, setup.method, setup.units, [setup.camera()], setup.ground())
     src = open_source(
         request.source, method=setup.method, width=mode.width, height=mode.height, fps=mode.fps
     )
@@ -308,9 +314,11 @@ def _interactive(
 def _planned(request: NewRequest, plan: Path, stack: contextlib.ExitStack) -> RecordingSummary:
     """``new --plan``: the plan recorded, each capture and live result printed."""
     from recorder.plan import load_plan, record_plan
+    from recorder.setup_rules import check_rig
     from recorder.sources import open_source
 
     the_plan = load_plan(plan)
+    check_rig(request.rig, the_plan.method, the_plan.units, the_plan.cameras, the_plan.ground())
     mode = request.camera
     src = open_source(
         request.source, method=the_plan.method, width=mode.width, height=mode.height, fps=mode.fps
@@ -400,8 +408,9 @@ def _console(request: NewRequest, given: dict[str, Any], *, host: str, port: int
 
     mode = request.camera
     options = ConsoleOptions(
-        request.source, given, frames=request.frames, poses=request.poses,
+        source=request.source, given=given, frames=request.frames, poses=request.poses,
         size=(mode.width, mode.height), fps=mode.fps, notes=request.notes, rig=request.rig,
+        live_port=request.live_port,
     )  # fmt: skip
     serve_console(request.out, options, host=host, port=port)
 

@@ -55,8 +55,10 @@ from twopose.values import Vec3
 
 if TYPE_CHECKING:
     from recorder.capture import CaptureResult
+    from recorder.setup_rules import Setup
     from recorder.sources import FrameSource, SourceInfo
     from twopose.detect import Detection
+    from twopose.rig import RigConstants
     from twopose.scene3d import TrialScene
     from twopose.trial_result import TrialResult
 
@@ -105,6 +107,7 @@ class ConsoleSession(LiveSink):
         self.out = out
         self.lock = threading.Condition()
         self.commands: queue.Queue[tuple[str, Any]] = queue.Queue()
+        self.closing = threading.Event()  # the server is stopping (Ctrl-C, SIGTERM)
         self.phase = "setup"  # setup, recording, done, failed
         self.setup_fields = form_fields(given or {})
         self.method = ""
@@ -122,6 +125,9 @@ class ConsoleSession(LiveSink):
         self.level = "info"  # info, warning, error: how the page colours the message
         self.refusal: dict[str, Any] = {}  # {control, message, seq}: shown by that control
         self.live_error = ""
+        self.notices: list[str] = []  # what the operator should know, that is no failure
+        self.session_setup: dict[str, Any] = {}  # what is recorded: shown while recording
+        self.notes: list[dict[str, Any]] = []  # the operator's notes: {trial, text}
         self.last_capture = ""
         self.results: dict[int, dict[str, Any]] = {}
         self.topview: dict[str, Any] | None = None
@@ -156,6 +162,9 @@ class ConsoleSession(LiveSink):
                 "level": self.level,
                 "refusal": dict(self.refusal),
                 "live_error": self.live_error,
+                "notices": list(self.notices),
+                "setup": dict(self.session_setup),
+                "notes": list(self.notes),
                 "last_capture": self.last_capture,
                 "results": [self.results[t] for t in sorted(self.results)],
                 "topview": self.topview,
@@ -168,6 +177,28 @@ class ConsoleSession(LiveSink):
             for name, value in fields.items():
                 setattr(self, name, value)
             self.lock.notify_all()
+
+    def begin(self, setup: Setup, rig: RigConstants | None) -> None:
+        """The setup is accepted: recording starts, and what it records stays in view."""
+        k = setup.intrinsics
+        shown: dict[str, Any] = {
+            "method": setup.method.value,
+            "units": setup.units.value,
+            "camera": f"f {k.fx:g} px, principal point ({k.cx:g}, {k.cy:g}) px, "
+            f"{k.width}x{k.height}",
+            "truth": [_vec(p) for p in setup.ground_truth],
+            "ground_height": setup.ground_height,
+            "operator": setup.operator,
+            "rig": "" if rig is None else "a calibrated rig corrects the live result",
+        }
+        if setup.board is not None:
+            b = setup.board
+            shown["board"] = (
+                f"{b.inner_corners[0]}x{b.inner_corners[1]} inner corners, squares of "
+                f"{b.square:g} {setup.units.value}, first corner at "
+                f"({', '.join(f'{v:g}' for v in b.first_corner)})"
+            )
+        self.update(method=setup.method, units=setup.units, phase="recording", session_setup=shown)
 
     def refuse(self, control: str, message: str) -> None:
         """A refusal the page shows next to ``control`` (a decision button, a form)."""
@@ -308,6 +339,9 @@ class WebDriver(Driver):
             if command[0] == "quit":
                 self.session.update(waiting="")
                 raise QuitRecording
+            if command[0] == "interrupt":  # the server stops: as Ctrl-C at a terminal
+                self.session.update(waiting="")
+                raise KeyboardInterrupt
             if command[0] in _EXPECTED[what]:
                 self.session.update(waiting="")
                 return command
@@ -398,6 +432,11 @@ class WebDriver(Driver):
     def live_failed(self, message: str) -> None:
         self.session.update(live_error=message)
 
+    def notice(self, message: str) -> None:
+        with self.session.lock:
+            self.session.notices.append(message)
+            self.session.lock.notify_all()
+
     @override
     def decide(self, trial: int, pose: int, result: CaptureResult) -> Decision:
         kind, value = self._wait("decision")
@@ -413,6 +452,8 @@ class WebDriver(Driver):
         return Decision(decision)
 
     def note(self, trial: int) -> Note:
+        with self.session.lock:
+            self.session.notes.append({"trial": trial, "text": self._note})
         self.session.update(message=f"note added to trial {trial}", level="info")
         return Note(text=self._note, trial=trial)
 

@@ -19,19 +19,27 @@ wrapped around the whole app, refuses before any route runs:
   a cross-site page cannot send without a preflight, and none is granted);
 - **413** for a body over :data:`MAX_BODY_BYTES`: refused on its ``Content-Length``
   before a byte is read, and counted while it streams otherwise;
-- **400** for a body that is not a JSON object of text or finite numbers (deeper than
-  :data:`MAX_DEPTH`, a list, an object or NaN anywhere), or with text that is too long or
-  holds control characters.
+- **408** for a body that does not arrive within :data:`BODY_TIMEOUT_S`;
+- **400** for a body that is not a JSON object of distinct fields holding text or finite
+  numbers of sane size (deeper than :data:`MAX_DEPTH`, a list, an object, NaN or a
+  400-digit number anywhere; numbers are judged as the text they were sent as, by
+  :func:`twopose.values.parse_number`), or with text that is too long or holds control
+  characters;
+- no WebSocket handshake at all (the console has none).
 
 Every response carries ``X-Frame-Options: DENY`` and a ``Content-Security-Policy`` with
-``frame-ancestors 'none'`` and scripts, styles and connections from the console only.
+``frame-ancestors 'none'`` and scripts, styles and connections from the console only,
+errors included: a failure inside the console answers a 500 with them, never bare. The
+socket itself (header deadlines, a bound on connections, oversized headers) is guarded in
+:mod:`recorder.console_transport`.
 """
 
 from __future__ import annotations
 
+import asyncio
 import ipaddress
 import json
-import math
+import logging
 import secrets
 from typing import Any
 from urllib.parse import urlsplit
@@ -42,8 +50,10 @@ from starlette.responses import JSONResponse
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from twopose import jsonsafe
+from twopose.errors import InputValueError
 from twopose.loopback import is_loopback_host, split_host
 from twopose.text import first_control
+from twopose.values import parse_number
 
 __all__ = [
     "MAX_BODY_BYTES",
@@ -52,7 +62,9 @@ __all__ = [
     "SECURITY_HEADERS",
     "ConsoleGuard",
     "ConsoleJSONResponse",
+    "NumberText",
     "body_refusal",
+    "parsed_body",
     "text_refusal",
 ]
 
@@ -60,6 +72,9 @@ MAX_BODY_BYTES = 64 * 1024
 MAX_DEPTH = 2  # the API's bodies are flat objects: {"field": "text"}
 MAX_TEXT_CHARS = 2000  # any one field; the note and the operator have their own, smaller
 PROTECTED = ("/api/", "/stream.mjpg")  # prefixes that need the session's token
+BODY_TIMEOUT_S = 10.0  # a request's body, once its headers came (the socket times those)
+
+_log = logging.getLogger("twopose.console")
 
 SECURITY_HEADERS = {
     "X-Frame-Options": "DENY",
@@ -122,11 +137,53 @@ def _no_constant(name: str) -> float:
     raise ValueError(f"{name} is not a number JSON allows")
 
 
+class NumberText(str):
+    """A JSON number as the text it was sent as: judged by the one number parser
+    (:func:`twopose.values.parse_number`), never converted by :mod:`json` first (a
+    400-digit integer overflows the float ``math.isfinite`` would make of it)."""
+
+    __slots__ = ()
+
+
+def _fields(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """A JSON object's fields; a field given twice is refused (judged by one copy, the
+    other would pass)."""
+    fields: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in fields:
+            raise ValueError(f"the field {key[:40]!r} is given twice")
+        fields[key] = value
+    return fields
+
+
+def _parse_json(text: str) -> Any:
+    return json.loads(
+        text,
+        parse_int=NumberText,
+        parse_float=NumberText,
+        parse_constant=_no_constant,
+        object_pairs_hook=_fields,
+    )
+
+
+def _value_refusal(key: str, value: Any) -> str:
+    """Why one field's value is refused (empty: it is not)."""
+    if isinstance(value, NumberText):
+        try:
+            parse_number(value, key[:40])
+        except InputValueError as err:
+            return str(err).removeprefix(f"{key[:40]}: ").removeprefix(key[:40] + " ")
+        return ""
+    if isinstance(value, str):
+        return text_refusal(value)
+    return f"must be text, not {type(value).__name__.replace('NoneType', 'null')}"
+
+
 def body_refusal(body: bytes) -> tuple[str, dict[str, str]]:
     """Why a request body is refused (an empty message: it is not), and which fields:
-    it must be a JSON object, at most :data:`MAX_DEPTH` deep, whose values are text of
-    at most :data:`MAX_TEXT_CHARS` characters without control characters, or finite
-    numbers."""
+    it must be a JSON object of distinct fields, at most :data:`MAX_DEPTH` deep, whose
+    values are text of at most :data:`MAX_TEXT_CHARS` characters without control
+    characters, or finite numbers of sane size (:func:`twopose.values.parse_number`)."""
     try:
         text = body.decode("utf-8")
     except UnicodeDecodeError:
@@ -134,24 +191,22 @@ def body_refusal(body: bytes) -> tuple[str, dict[str, str]]:
     if _depth(text) > MAX_DEPTH:
         return f"the request is nested deeper than {MAX_DEPTH} levels", {}
     try:
-        data = json.loads(text, parse_constant=_no_constant) if text.strip() else {}
+        data = _parse_json(text) if text.strip() else {}
     except ValueError as err:
         return f"the request is not valid JSON ({err})", {}
     if not isinstance(data, dict):
         return "the request must be a JSON object of fields", {}
-    errors: dict[str, str] = {}
-    for key, value in data.items():
-        if isinstance(value, str):
-            reason = text_refusal(value)
-        elif isinstance(value, int | float) and not isinstance(value, bool):
-            reason = "" if math.isfinite(value) else "must be a finite number"
-        else:
-            reason = f"must be text, not {type(value).__name__.replace('NoneType', 'null')}"
-        if reason:
-            errors[key[:40]] = reason
+    errors = {key[:40]: why for key, value in data.items() if (why := _value_refusal(key, value))}
     if errors:
         return "; ".join(f"{k}: {v}" for k, v in errors.items()), errors
     return "", {}
+
+
+def parsed_body(body: bytes) -> dict[str, Any]:
+    """A body :func:`body_refusal` let through, parsed as it judged it: numbers as their
+    text (:class:`NumberText`)."""
+    data = _parse_json(body.decode("utf-8")) if body.strip() else {}
+    return data if isinstance(data, dict) else {}
 
 
 class ConsoleGuard:
@@ -168,15 +223,21 @@ class ConsoleGuard:
             self.wildcard = False
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        if scope["type"] != "http":
+        if scope["type"] == "lifespan":
             await self.app(scope, receive, send)
+            return
+        if scope["type"] != "http":  # the console has no WebSocket: refuse every handshake
+            await send({"type": "websocket.close", "code": 1008})
             return
         headers = Headers(scope=scope)
         cookie = self._cookie_name(scope)
         page = scope["path"] == "/" and scope["method"] in ("GET", "HEAD")
+        started = False
 
         async def send_guarded(message: Message) -> None:
+            nonlocal started
             if message["type"] == "http.response.start":
+                started = True
                 out = MutableHeaders(scope=message)
                 for name, value in SECURITY_HEADERS.items():
                     out[name] = value
@@ -186,16 +247,29 @@ class ConsoleGuard:
                     )
             await send(message)
 
+        try:
+            await self._answer(scope, receive, send_guarded, headers, cookie)
+        except Exception:  # a bug: said in the log, and a 500 with the headers, never bare
+            _log.exception("the console failed on %s %s", scope["method"], scope["path"][:80])
+            if not started:
+                failed = {"error": "the recorder failed on this request (see its terminal)"}
+                await ConsoleJSONResponse({**failed, "errors": {}}, 500)(
+                    scope, receive, send_guarded
+                )
+
+    async def _answer(
+        self, scope: Scope, receive: Receive, send: Send, headers: Headers, cookie: str
+    ) -> None:
         status, message = self._refusal(scope, headers, cookie)
         if status:
             await ConsoleJSONResponse({"error": message, "errors": {}}, status)(
-                scope, receive, send_guarded
+                scope, receive, send
             )
             return
         if scope["method"] in ("GET", "HEAD", "OPTIONS"):
-            await self.app(scope, receive, send_guarded)
+            await self.app(scope, receive, send)
             return
-        await self._with_body(scope, receive, send_guarded)
+        await self._with_body(scope, receive, send)
 
     def _cookie_name(self, scope: Scope) -> str:
         """The token's cookie, named by the port (cookies ignore ports: two consoles on one
@@ -257,7 +331,12 @@ class ConsoleGuard:
         size = 0
         more = True
         while more:
-            message = await receive()
+            try:
+                message = await asyncio.wait_for(receive(), BODY_TIMEOUT_S)
+            except TimeoutError:
+                slow = {"error": f"the request's body did not arrive within {BODY_TIMEOUT_S:g} s"}
+                await ConsoleJSONResponse({**slow, "errors": {}}, 408)(scope, receive, send)
+                return
             if message["type"] == "http.disconnect":
                 return
             chunk = message.get("body", b"")

@@ -12,6 +12,7 @@ import signal
 import threading
 import time
 from collections.abc import AsyncIterator
+from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 from types import FrameType
@@ -28,12 +29,19 @@ from starlette.routing import Route
 from typing_extensions import override
 
 from recorder.console import DECISIONS, ConsoleSession, WebDriver
-from recorder.console_guard import ConsoleGuard, ConsoleJSONResponse, text_refusal
+from recorder.console_guard import (
+    ConsoleGuard,
+    ConsoleJSONResponse,
+    parsed_body,
+    text_refusal,
+)
+from recorder.console_transport import ACCEPT_BURST, MAX_HEADER_BYTES, GuardedH11Protocol
 from recorder.procedure import Shortfall
 from recorder.setup_rules import (
     SETUP_FIELDS,
     FormRefusedError,
     Setup,
+    check_rig,
     parse_pose_form,
     setup_from_answers,
 )
@@ -42,6 +50,7 @@ from twopose.loopback import is_loopback_host
 from twopose.methods import spec_of
 
 if TYPE_CHECKING:
+    from recorder.live import LiveView
     from recorder.sources import FrameSource
     from twopose.detect import Detection
     from twopose.rig import RigConstants
@@ -56,23 +65,20 @@ _POSE_LIMITS = {"x": 50, "y": 50, "z": 50, "rotation": 100}
 _PREVIEW_INTERVAL_S = 0.1
 
 
+@dataclass(kw_only=True)
 class ConsoleOptions:
     """What the command line gave (``given``: ask_setup's arguments) and how to record."""
 
-    def __init__(
-        self,
-        source: str,
-        given: dict[str, Any],
-        *,
-        frames: int = 5,
-        poses: int = 2,
-        size: tuple[int, int] = (640, 480),
-        fps: float = 30.0,
-        notes: str = "",
-        rig: RigConstants | None = None,
-    ) -> None:
-        self.source, self.given, self.rig = source, given, rig
-        self.frames, self.poses, self.size, self.fps, self.notes = frames, poses, size, fps, notes
+    source: str
+    given: dict[str, Any]
+    frames: int = 5
+    poses: int = 2
+    size: tuple[int, int] = (640, 480)
+    fps: float = 30.0
+    notes: str = ""
+    rig: RigConstants | None = None
+    live_port: int | None = None  # --live: the Foxglove live view too, on this port
+    origin: str = ""  # the console's own page (the live view lets it in), once served
 
 
 def draw_detection(image: np.ndarray, det: Detection | None) -> np.ndarray:
@@ -149,11 +155,16 @@ def preview(source: FrameSource, session: ConsoleSession) -> None:
 
 
 def _recording(
-    session: ConsoleSession, setup: Setup, options: ConsoleOptions, stopping: threading.Event
+    session: ConsoleSession,
+    setup: Setup,
+    options: ConsoleOptions,
+    stopping: threading.Event,
+    view: LiveView | None,
 ) -> None:
-    """The recording thread: the procedure with the page as its driver. It prints the
-    summary, once, when the procedure ends (the page's quit, or the server stopping)."""
-    from recorder.capture import CaptureSettings
+    """The recording thread: the procedure with the page as its driver (and the live view,
+    with ``--live``). It prints the summary, once, when the procedure ends (the page's
+    quit, or the server stopping)."""
+    from recorder.capture import CaptureSettings, LiveSinks
     from recorder.procedure import record
     from recorder.setup_rules import PoseTyping
     from recorder.sources import open_source
@@ -167,9 +178,8 @@ def _recording(
         typing = PoseTyping(poses_per_trial=options.poses)
         driver = WebDriver(session, src, camera.camera_id, setup.ground_truth, typing, preview)
         target = spec_of(setup.method).target
-        capture = CaptureSettings(
-            frames=options.frames, target=target, live=session, rig=options.rig
-        )
+        live = session if view is None else LiveSinks(session, view)
+        capture = CaptureSettings(frames=options.frames, target=target, live=live, rig=options.rig)
         summary = record(
             session.out, info, [camera], src, driver, ground=setup.ground(), capture=capture
         )
@@ -179,21 +189,29 @@ def _recording(
         session.update(phase="failed", waiting="", message=str(err))
     except Exception as err:  # the page must say it, not a thread's traceback
         session.update(phase="failed", waiting="", message=f"{type(err).__name__}: {err}")
+    finally:
+        if view is not None:
+            view.close()
 
 
 class _Console:
     """The routes of one recording session (see :mod:`recorder.console`)."""
 
-    def __init__(self, session: ConsoleSession, options: ConsoleOptions) -> None:
-        self.session, self.options = session, options
+    def __init__(
+        self, session: ConsoleSession, options: ConsoleOptions, ready: Setup | None = None
+    ) -> None:
+        self.session, self.options, self.ready = session, options, ready
         self.threads: list[threading.Thread] = []
         self.stopping = threading.Event()  # the server is stopping (Ctrl-C, SIGTERM)
 
     def start(self, setup: Setup) -> None:
-        self.session.update(method=setup.method, units=setup.units, phase="recording")
+        """Record ``setup`` (checked: :func:`checked_setup`); the live view is opened here,
+        so a busy ``--live-port`` is said before the recording starts."""
+        view = _open_live_view(setup, self.options)
+        self.session.begin(setup, self.options.rig)
         thread = threading.Thread(
             target=_recording,
-            args=(self.session, setup, self.options, self.stopping),
+            args=(self.session, setup, self.options, self.stopping, view),
             name="recording",
         )
         thread.daemon = True
@@ -214,10 +232,11 @@ class _Console:
         if self.session.phase != "setup":
             return _refused("the session is already set up")
         try:
-            chosen = setup_from_answers(form, _given(self.options))
+            self.start(checked_setup(form, self.options))
         except FormRefusedError as err:
             return _refused(str(err), err.errors)
-        self.start(chosen)
+        except TwoposeError as err:  # a busy --live-port
+            return _refused(str(err), {"setup": str(err)})
         return ConsoleJSONResponse({"ok": True})
 
     async def pose(self, request: Request) -> Response:
@@ -273,13 +292,12 @@ class _Console:
 
     @contextlib.asynccontextmanager
     async def lifespan(self, _app: Starlette) -> AsyncIterator[None]:
-        given = _given(self.options)
-        if not any(v is None for k, v in given.items() if k != "intrinsics"):
-            with contextlib.suppress(InputValueError):  # all given: no form to fill
-                self.start(setup_from_answers({}, given))
+        if self.ready is not None:  # all given on the command line: no form to fill
+            self.start(self.ready)
         yield
         self.stopping.set()
-        self.session.commands.put(("quit", None))  # the server stops: close the file cleanly
+        # The server stops (Ctrl-C, SIGTERM): the session is interrupted, its file closed.
+        self.session.commands.put(("interrupt", None))
         for thread in self.threads:
             thread.join(timeout=30)
 
@@ -290,11 +308,13 @@ def console_app(
     *,
     host: str = "127.0.0.1",
     token: str | None = None,
+    ready: Setup | None = None,
 ) -> Starlette:
     """The ASGI app of one recording session, behind its guard (``host``: the address it
     listens on, ``--host``; ``token``: the session's, random by default; see
-    :mod:`recorder.console_guard`)."""
-    c = _Console(session, options)
+    :mod:`recorder.console_guard`). ``ready``: a setup the command line gave whole
+    (:func:`checked_setup`), recorded at once."""
+    c = _Console(session, options, ready)
     routes = [
         Route("/", c.page),
         Route("/api/state", c.state),
@@ -325,18 +345,54 @@ def _given(options: ConsoleOptions) -> dict[str, Any]:
     return dict(options.given, size=options.size)
 
 
+def checked_setup(form: dict[str, str], options: ConsoleOptions) -> Setup:
+    """The setup the form and the command line describe, with the rig file checked
+    against it as the terminal and a plan check it (:func:`recorder.setup_rules.check_rig`);
+    raises :class:`FormRefusedError` holding every refusal, by field."""
+    setup = setup_from_answers(form, _given(options))
+    try:
+        check_rig(options.rig, setup.method, setup.units, [setup.camera()], setup.ground())
+    except InputValueError as err:
+        raise FormRefusedError({"rig": str(err).removeprefix("the rig file: ")}) from err
+    return setup
+
+
+def _complete_setup(options: ConsoleOptions) -> Setup | None:
+    """The setup when the command line gave every answer (None: the page asks); refused
+    here, at the terminal, when it is wrong: the page could not change what was given."""
+    given = _given(options)
+    if any(v is None for k, v in given.items() if k != "intrinsics"):
+        return None
+    return checked_setup({}, options)
+
+
+def _open_live_view(setup: Setup, options: ConsoleOptions) -> LiveView | None:
+    """``--live``: the Foxglove live view for this setup's camera (None without it)."""
+    if options.live_port is None:
+        return None
+    import sys
+
+    from recorder.live import LiveView
+
+    view = LiveView([setup.camera()], port=options.live_port, origins=[options.origin])
+    print(
+        f"live view on {view.url}: in Foxglove, Open connection > Foxglove WebSocket",
+        file=sys.stderr,
+        flush=True,
+    )
+    return view
+
+
 async def _form(request: Request, limits: dict[str, int]) -> tuple[dict[str, str], Response | None]:
     """The request's fields named in ``limits`` (others are ignored), as text, and a 400
     naming each field whose text is too long or holds control characters (None: none).
     The guard has already refused bodies that are not a flat JSON object of text or
     numbers (:mod:`recorder.console_guard`)."""
     try:
-        data = await request.json()
-    except ValueError:
-        data = None
-    if not isinstance(data, dict):
+        data = parsed_body(await request.body())
+    except ValueError:  # the guard judged it already; a body read twice would differ
         return {}, _refused("the request must be a JSON object of fields")
-    form = {k: str(v) for k, v in data.items() if k in limits and isinstance(v, str | int | float)}
+    form = {k: str(v) for k, v in data.items() if k in limits and isinstance(v, str)}
     errors = {k: why for k, v in form.items() if (why := text_refusal(v, limits[k]))}
     if errors:
         return form, _refused("; ".join(f"{k}: {v}" for k, v in errors.items()), errors)
@@ -371,7 +427,7 @@ async def _mjpeg(session: ConsoleSession, request: Request) -> AsyncIterator[byt
         session.viewers += 1
     try:
         seq = 0
-        while not await request.is_disconnected():
+        while not session.closing.is_set() and not await request.is_disconnected():
             frame = await asyncio.to_thread(session.next_frame, seq, 0.5)
             if frame is None:
                 continue
@@ -404,6 +460,7 @@ class _Server(uvicorn.Server):
     def handle_exit(self, sig: int, frame: FrameType | None) -> None:
         if not self.phase_at_signal:
             self.phase_at_signal = self.session.phase
+        self.session.closing.set()  # the live image's streams end: nothing left to cancel
         if self.should_exit and sig == signal.SIGINT:
             self.force_exit = True  # a second Ctrl-C: stop waiting for connections
         self.should_exit = True
@@ -421,6 +478,7 @@ def serve_console(
     import typer
 
     _check_source(options)
+    ready = _complete_setup(options)
     if not is_loopback_host(host):
         typer.secho(
             f"warning: --host {host} exposes the console beyond this machine; anyone who "
@@ -432,18 +490,23 @@ def serve_console(
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
     try:
         sock.bind((host, port))
-        sock.listen(64)  # connections queue from the moment the URL is printed
+        sock.listen(ACCEPT_BURST)  # connections queue from the moment the URL is printed
     except OSError as err:
         raise TwoposeError(f"cannot listen on {host}:{port} ({err.strerror}); pick --port") from err
     session = ConsoleSession(out, _given(options))
     bound = sock.getsockname()[1]
     shown = f"[{host}]" if ":" in host else host
-    typer.echo(f"twopose console: http://{shown}:{bound}/  (Ctrl-C to stop)", err=False)
+    options.origin = f"http://{shown}:{bound}"
+    typer.echo(f"twopose console: {options.origin}/  (Ctrl-C to stop)", err=False)
     config = uvicorn.Config(
-        console_app(session, options, host=host),
+        console_app(session, options, host=host, ready=ready),
         log_level="warning",
         lifespan="on",
-        timeout_graceful_shutdown=2,  # a watching page's MJPEG stream never ends by itself
+        timeout_graceful_shutdown=2,
+        http=GuardedH11Protocol,  # the socket's limits (recorder/console_transport.py)
+        h11_max_incomplete_event_size=MAX_HEADER_BYTES,
+        backlog=ACCEPT_BURST,  # accepted per wake-up: evictions keep pace, descriptors last
+        ws="none",  # no WebSocket route: an upgrade is a request like any other, guarded
     )
     server = _Server(config, session)
     server.run(sockets=[sock])

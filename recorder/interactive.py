@@ -282,6 +282,9 @@ class _OperatorDriver(Driver):
     def live_failed(self, message: str) -> None:
         self.op.say(f"  WARNING {message}")
 
+    def notice(self, message: str) -> None:
+        self.op.say(f"  note: {message}")
+
     @override
     def decide(self, trial: int, pose: int, result: CaptureResult) -> Decision:
         accept = "[a]ccept"

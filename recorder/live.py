@@ -5,12 +5,14 @@ loopback, ws://127.0.0.1:8765 by default. Connect Foxglove with *Open connection
 WebSocket*. Per frame it sends the image as it was written to the session, the detection
 overlay (the same ``foxglove.ImageAnnotations`` as results.mcap: outline, centroid and
 orientation in green, turned-down candidates in red with the reason) and the trial status
-as JSON. Off by default; the server only ever binds to a loopback address.
+as JSON. Off by default; the server only ever binds to a loopback address, and web pages
+are kept out of every socket it opens (:mod:`recorder.live_guard`).
 """
 
 from __future__ import annotations
 
 import json
+from collections.abc import Iterable
 from types import TracebackType
 from typing import TYPE_CHECKING, Any, Self
 
@@ -81,23 +83,40 @@ class LiveView:
         0 picks a free port (see :attr:`port`).
     host : str
         Must be a loopback address: the live view is for the operator's own machine.
+    origins : iterable of str
+        Web pages let in (exactly these origins, such as the recorder's own console);
+        clients without an ``Origin`` (Foxglove's desktop app, scripts) always are.
     """
 
     def __init__(
-        self, cameras: list[Camera], *, port: int = DEFAULT_LIVE_PORT, host: str = "127.0.0.1"
+        self,
+        cameras: list[Camera],
+        *,
+        port: int = DEFAULT_LIVE_PORT,
+        host: str = "127.0.0.1",
+        origins: Iterable[str] = (),
     ):
         if not is_loopback_host(host):
             raise InputValueError(f"the live view only binds to loopback, not {host!r}")
         import foxglove
 
         from recorder.live_guard import LoopbackGuard
+        from recorder.live_tls import UpstreamSecret
 
         self._context = foxglove.Context()
-        try:  # the SDK's server on a private port; the guard faces the operator
+        secret = UpstreamSecret.generate()
+        try:  # the SDK's server, TLS only, on a private port; the guard faces the operator
             self._server = foxglove.start_server(
-                name="twopose recorder", host="127.0.0.1", port=0, context=self._context
+                name="twopose recorder",
+                host="127.0.0.1",
+                port=0,
+                context=self._context,
+                tls_cert=secret.cert_pem,
+                tls_key=secret.key_pem,
             )
-            self._guard = LoopbackGuard(host, port, int(self._server.port))
+            self._guard = LoopbackGuard(
+                host, port, int(self._server.port), secret=secret, origins=origins
+            )
         except Exception as err:  # the SDK raises its own error types for a busy port
             if hasattr(self, "_server"):
                 self._server.stop()

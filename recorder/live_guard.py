@@ -1,14 +1,20 @@
 """The live view's front door: WebSocket handshakes from anything but the operator's own
-machine are refused before they reach the Foxglove server.
+tools are refused before they reach the Foxglove server.
 
 Binding to 127.0.0.1 keeps other machines out, but not web pages: a page open in the
-operator's browser may open ``ws://127.0.0.1:PORT`` (its ``Origin`` is the page's site),
-and a DNS-rebinding page reaches it under its own host name (its ``Host`` is not
-loopback). The Foxglove SDK's server has no hook for the handshake, so it listens on a
-private loopback port and :class:`LoopbackGuard` (``websockets``) faces the operator: it
-answers 403 unless ``Host`` names a loopback address and ``Origin`` is absent (Foxglove's
-desktop app, scripts) or loopback too (:mod:`twopose.loopback`, the one rule), then
-relays every message both ways.
+operator's browser may open ``ws://127.0.0.1:PORT`` (its ``Origin`` is the page's site,
+and a page served from another local port is a foreign page too), and a DNS-rebinding
+page reaches it under its own host name (its ``Host`` is not loopback). The Foxglove
+SDK's server has no hook for the handshake, so :class:`LoopbackGuard` (``websockets``)
+faces the operator: it answers 403 unless ``Host`` names a loopback address and
+``Origin`` is absent (Foxglove's desktop app, scripts) or exactly one of the origins it
+was given (the recorder's own console), then relays every message both ways.
+
+The SDK's server still listens on a loopback port of its own, which any page could scan
+for. It speaks TLS only, with a key made for this run whose certificate the guard alone
+pins (:mod:`recorder.live_tls`): a page's ``ws://`` handshake is not TLS and is dropped,
+and its ``wss://`` one fails on a certificate no browser trusts (a page cannot override
+that). So the only socket a browser can talk to is the guard's.
 """
 
 from __future__ import annotations
@@ -16,10 +22,14 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import threading
+from collections.abc import Iterable
 from http import HTTPStatus
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from twopose.loopback import is_loopback_host, is_loopback_origin
+from twopose.loopback import is_loopback_host
+
+if TYPE_CHECKING:
+    from recorder.live_tls import UpstreamSecret
 
 __all__ = ["LoopbackGuard"]
 
@@ -29,10 +39,25 @@ SUBPROTOCOLS = ["foxglove.sdk.v1", "foxglove.websocket.v1"]
 
 class LoopbackGuard:
     """Serve ``host:port`` (0: a free port, see :attr:`port`) and relay accepted
-    connections to the Foxglove server on ``upstream_port``; runs on its own thread."""
+    connections to the Foxglove server on ``upstream_port``; runs on its own thread.
 
-    def __init__(self, host: str, port: int, upstream_port: int) -> None:
+    ``secret``: the upstream's TLS certificate to pin (None: plain ``ws://``, for a test's
+    stand-in server). ``origins``: the page origins let in besides none at all (exact
+    ``scheme://host:port`` text, such as the console's own).
+    """
+
+    def __init__(
+        self,
+        host: str,
+        port: int,
+        upstream_port: int,
+        *,
+        secret: UpstreamSecret | None = None,
+        origins: Iterable[str] = (),
+    ) -> None:
         self.host, self.port, self.upstream_port = host, port, upstream_port
+        self._secret = secret
+        self._origins = frozenset(o.strip().lower().rstrip("/") for o in origins)
         self._loop = asyncio.new_event_loop()
         self._server: Any = None
         self._error: BaseException | None = None
@@ -80,12 +105,17 @@ class LoopbackGuard:
             return connection.respond(
                 HTTPStatus.FORBIDDEN, f"the live view answers loopback hosts only, not {shown!r}\n"
             )
-        if len(origins) > 1 or (origins and not is_loopback_origin(origins[0])):
+        if len(origins) > 1 or (origins and not self._origin_allowed(origins[0])):
             shown = origins[0] if len(origins) == 1 else origins
             return connection.respond(
                 HTTPStatus.FORBIDDEN, f"the live view refuses web pages of {shown!r}\n"
             )
         return None
+
+    def _origin_allowed(self, origin: str) -> bool:
+        """Exactly an origin given at start: any other page, loopback ones included (a
+        notebook, a dev server in another tab), is foreign."""
+        return origin.strip().lower().rstrip("/") in self._origins
 
     async def _relay(self, client: Any) -> None:
         """Pipe messages both ways until either side closes."""
@@ -94,8 +124,13 @@ class LoopbackGuard:
 
         chosen = [client.subprotocol] if client.subprotocol else SUBPROTOCOLS
         wanted = [Subprotocol(p) for p in chosen]
+        scheme = "wss" if self._secret is not None else "ws"
+        tls = self._secret.client_context() if self._secret is not None else None
         async with connect(
-            f"ws://127.0.0.1:{self.upstream_port}", subprotocols=wanted, max_size=None
+            f"{scheme}://127.0.0.1:{self.upstream_port}",
+            subprotocols=wanted,
+            max_size=None,
+            ssl=tls,
         ) as upstream:
 
             async def pump(source: Any, sink: Any) -> None:

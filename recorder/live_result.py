@@ -44,9 +44,7 @@ class LiveResults:
         self.rig = rig  # a calibrated rig (`twopose-analyze rig`): views corrected by it
         self.options = options or EstimateOptions()
         self._cameras = {c.camera_id: c for c in cameras}
-        self._ground: GroundSpec | None = (
-            (np.array(ground.normal_grid, dtype=np.float64), ground.offset) if ground else None
-        )
+        self._ground: GroundSpec | None = ground.spec() if ground else None
         #: what the operator should know about the rig (e.g. a file without units)
         self.notes: list[str] = []
         if rig is not None:  # the analysis' own check (`run --rig`): units and plausibility

@@ -130,6 +130,10 @@ class Plan:
     rotation_resolution_deg: float = DEFAULT_ROTATION_RESOLUTION_DEG
     board: BoardPlacement | None = None  # a board session's board and where it stands
 
+    def ground(self) -> GroundPlane | None:
+        """The ground plane ``y = h`` (method 2), or None."""
+        return GroundPlane(offset=self.ground_height) if self.ground_height is not None else None
+
 
 def _vec(value: Any, where: str) -> Vec3:
     return vec3(value, f"plan: {where}")
@@ -347,6 +351,11 @@ class _PlanDriver(Driver):
 
         print(f"  WARNING {message}", file=sys.stderr, flush=True)
 
+    def notice(self, message: str) -> None:
+        import sys
+
+        print(f"  note: {message}", file=sys.stderr, flush=True)
+
     def decide(self, trial: int, pose: int, result: CaptureResult) -> Decision:
         if not result.complete:
             raise SourceError(
@@ -382,7 +391,7 @@ def record_plan(
         created_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
         board=plan.board,
     )
-    ground = GroundPlane(offset=plan.ground_height) if plan.ground_height is not None else None
+    ground = plan.ground()
     return record(
         out,
         info,

@@ -387,8 +387,12 @@ class Driver:
         accepted (from the trial's second pose on), shown before the decision."""
 
     def live_failed(self, message: str) -> None:
-        """The live result or the overlay failed, or its rig file needs a word; the
-        recording goes on (the analysis solves the file). Shown to the operator."""
+        """The live result or the overlay failed; the recording goes on (the analysis
+        solves the file). Shown to the operator as a warning."""
+
+    def notice(self, message: str) -> None:
+        """Something the operator should know that is no failure (a rig file without
+        units, taken in the session's). Shown as a note."""
 
     def finish(self, summary: RecordingSummary) -> None:
         """The session is closed."""
@@ -451,7 +455,7 @@ def record(
             proc = Procedure(w)
             driver.start(source.info, out)
             for note in getattr(results, "notes", ()):
-                driver.live_failed(note)
+                driver.notice(note)
             try:
                 _run(proc, source, driver, tally, options)
                 proc.close("quit")

@@ -14,7 +14,7 @@ import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from recorder.plan import MAX_TRANSLATION, off_ground
 from twopose.camera import Camera, Intrinsics
@@ -28,7 +28,10 @@ from twopose.format.entries import (
 from twopose.methods import MEASURING_METHODS, METHODS, Method, spec_of
 from twopose.targets import BoardPlacement
 from twopose.units import UNITS, Units
-from twopose.values import Vec3, finite, numbers, vec3
+from twopose.values import Vec3, finite, numbers, parse_number, vec3
+
+if TYPE_CHECKING:
+    from twopose.rig import RigConstants
 
 __all__ = [
     "SETUP_FIELDS",
@@ -36,6 +39,7 @@ __all__ = [
     "Setup",
     "SetupField",
     "board_corner",
+    "check_rig",
     "default_ground_height",
     "distinct_point",
     "form_fields",
@@ -101,6 +105,35 @@ class Setup:
         )
 
 
+def check_rig(
+    rig: RigConstants | None,
+    method: Method,
+    units: Units,
+    cameras: Sequence[Camera],
+    ground: GroundPlane | None,
+) -> list[str]:
+    """Refuse a rig file (``--rig``) this session cannot use; the notes to show about it.
+
+    Every front end (the terminal, a plan, the browser) calls this once its setup is known
+    and before anything is recorded, so they refuse the same rig with the same words: a
+    board session calibrates a rig and takes none; otherwise the rig's units must be the
+    session's and its constants plausible for this camera's images and ground height
+    (:func:`twopose.rig.check_applicable`, the analysis' own check).
+    """
+    if rig is None:
+        return []
+    if not spec_of(method).measures:
+        raise InputValueError(
+            "the rig file: a board session calibrates the rig (twopose-analyze rig) and "
+            "is recorded without one; leave out --rig"
+        )
+    from twopose.rig import check_applicable
+
+    sizes = [(c.intrinsics.width, c.intrinsics.height) for c in cameras]
+    spec = ground.spec() if ground is not None else None
+    return check_applicable(rig, units, spec, sizes, "the rig file")
+
+
 class FormRefusedError(InputValueError):
     """A form's answers refused; ``errors`` holds every refusal by field name, in the
     operator's words (the console shows each next to its field)."""
@@ -118,8 +151,8 @@ def parse_pose_form(form: Mapping[str, str], units: str) -> tuple[Vec3, Vec3]:
     for axis in "xyz":
         text = str(form.get(axis, "") or "").strip()
         try:
-            xyz.append(finite(float(text), axis) if text else math.nan)
-        except (ValueError, InputValueError):
+            xyz.append(parse_number(text, axis) if text else math.nan)
+        except InputValueError:
             errors[axis] = f"type a number for {axis} ({units}), e.g. 1.5"
             continue
         if not text:
@@ -149,8 +182,8 @@ def parse_vector(
     if len(parts) != 3:
         raise InputValueError(f"{what}: type three numbers, e.g. {example} (got {text!r})")
     try:
-        v = vec3([float(p) for p in parts], what)
-    except ValueError as err:
+        v = vec3([parse_number(p, what) for p in parts], what)
+    except InputValueError as err:
         raise InputValueError(f"{what}: {text!r} is not three numbers, e.g. {example}") from err
     bound = MAX_TRANSLATION[units] if limit is None else limit
     if max(abs(x) for x in v) > bound:
@@ -175,9 +208,9 @@ def positive_number(text: str) -> float:
     if not text.strip():
         raise InputValueError("type a number")
     try:
-        v = finite(float(text), repr(text), positive=True)
-    except ValueError as err:
-        raise InputValueError(f"{text!r} is not a positive number") from err
+        v = finite(parse_number(text, repr(text)), repr(text), positive=True)
+    except InputValueError as err:
+        raise InputValueError(f"{text.strip()[:40]!r} is not a positive number") from err
     if v >= 1e6:
         raise InputValueError(f"{text!r} is implausibly large")
     return v
@@ -185,8 +218,9 @@ def positive_number(text: str) -> float:
 
 def number_pair(text: str) -> tuple[float, float]:
     try:
-        a, b = numbers([float(p) for p in text.replace(",", " ").split()], 2, "cx, cy")
-    except (ValueError, InputValueError) as err:
+        parts = text.replace(",", " ").split()
+        a, b = numbers([parse_number(p, "cx, cy") for p in parts], 2, "cx, cy")
+    except InputValueError as err:
         raise InputValueError(f"type two numbers 'cx, cy', e.g. 320, 240 (got {text!r})") from err
     return a, b
 
@@ -267,7 +301,7 @@ SETUP_FIELDS: tuple[SetupField, ...] = (
     ),
     SetupField(name="operator", label="operator", kind="text"),
 )
-_LABELS = {f.name: f.label for f in SETUP_FIELDS} | {"rotation": "rotation"}
+_LABELS = {f.name: f.label for f in SETUP_FIELDS} | {"rotation": "rotation", "rig": "rig file"}
 
 
 def _given_text(name: str, given: Mapping[str, Any]) -> str | None:
@@ -446,5 +480,5 @@ def _truth(a: _Answers, method: str, units: str, height: float | None) -> tuple[
     if height is not None and points and not keep:
         off = off_ground(points[0], height, units)
         if off:
-            a.errors["truth1"] = f"{off}; tick 'keep anyway' to keep it"
+            a.errors["truth1"] = f"{off}; tick '{_LABELS['keep_off_ground']}' to keep it"
     return tuple(points)

@@ -12,13 +12,11 @@ names above are trusted.
 from __future__ import annotations
 
 import ipaddress
-from urllib.parse import urlsplit
 
 __all__ = [
     "host_name",
     "is_loopback_host",
     "is_loopback_name",
-    "is_loopback_origin",
     "split_host",
 ]
 
@@ -77,17 +75,3 @@ def is_loopback_host(host: str) -> bool:
     """
     name = host_name(host)
     return bool(name) and is_loopback_name(name)
-
-
-def is_loopback_origin(origin: str) -> bool:
-    """Whether an ``Origin`` header names a page served from this machine.
-
-    Over http(s) (``null``, the origin of sandboxed and file pages, does not).
-    """
-    try:
-        parts = urlsplit(origin.strip())
-        name = parts.hostname
-        parts.port  # noqa: B018  (raises ValueError for a malformed port)
-    except ValueError:
-        return False
-    return parts.scheme in ("http", "https") and name is not None and is_loopback_name(name)

@@ -13,7 +13,18 @@ from typing import Any
 
 from twopose.errors import InputValueError
 
-__all__ = ["CAMERA_ID_PATTERN", "Vec3", "camera_id", "finite", "index", "numbers", "vec3"]
+__all__ = [
+    "CAMERA_ID_PATTERN",
+    "MAX_MAGNITUDE",
+    "MAX_NUMBER_CHARS",
+    "Vec3",
+    "camera_id",
+    "finite",
+    "index",
+    "numbers",
+    "parse_number",
+    "vec3",
+]
 
 Vec3 = tuple[float, float, float]
 CAMERA_ID_PATTERN = r"^[A-Za-z0-9_-]{1,32}$"
@@ -28,6 +39,39 @@ def _number(value: Any, what: str) -> float:
         return float(value)
     except OverflowError as err:  # an integer beyond the float range
         raise InputValueError(f"{what} is too large, got {value!r}") from err
+
+
+#: The largest magnitude a typed or sent number may have: beyond any length, angle or pixel
+#: coordinate a session holds, and far inside a float's range (a 400-digit integer would
+#: overflow the float it is judged as).
+MAX_MAGNITUDE = 1e9
+#: The longest text read as one number (a 64-bit float needs 24 characters at most).
+MAX_NUMBER_CHARS = 40
+
+
+def parse_number(text: str, what: str, *, limit: float = MAX_MAGNITUDE) -> float:
+    """Typed or sent text as a finite float of sane size, ``|v| <= limit``.
+
+    The one parser of numbers that arrive as text (the terminal's answers, the console's
+    forms and request bodies): anything else raises :class:`InputValueError` naming
+    ``what``, never ``ValueError`` or ``OverflowError``.
+    """
+    stripped = str(text).strip()
+    if not stripped:
+        raise InputValueError(f"{what}: type a number")
+    if len(stripped) > MAX_NUMBER_CHARS:
+        raise InputValueError(
+            f"{what}: {stripped[:12]}... ({len(stripped)} characters) is not a number of sane size"
+        )
+    try:
+        value = float(stripped)
+    except ValueError as err:
+        raise InputValueError(f"{what}: {stripped!r} is not a number") from err
+    if not math.isfinite(value):
+        raise InputValueError(f"{what} must be a finite number, got {stripped!r}")
+    if abs(value) > limit:
+        raise InputValueError(f"{what}: {stripped} is too large (at most {limit:g})")
+    return value
 
 
 def finite(value: Any, what: str, *, positive: bool = False) -> float:

@@ -13,6 +13,8 @@ from typing import Any
 
 import httpx
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from starlette.testclient import TestClient
 
 from recorder.console import ConsoleSession
@@ -70,7 +72,7 @@ def console(tmp_path: Path) -> Iterator[tuple[TestClient, Path]]:
     scene = tmp_path / "scene.toml"
     scene.write_text(SCENE)
     out = tmp_path / "s.mcap"
-    options = ConsoleOptions(f"synthetic:{scene}", GIVEN, frames=2, size=(320, 240))
+    options = ConsoleOptions(source=f"synthetic:{scene}", given=GIVEN, frames=2, size=(320, 240))
     session = ConsoleSession(out, dict(GIVEN, size=(320, 240)))
     with TestClient(console_app(session, options), base_url=ORIGIN) as client:
         assert client.get("/").status_code == 200
@@ -276,7 +278,15 @@ def test_body_refusal_rules() -> None:
     assert body_refusal(b'{"a": "[[[[[[[[[["}') == ("", {})  # brackets in text are text
     assert body_refusal(b'{"a": [[[]]]}')[0].startswith("the request is nested deeper")
     _, errors = body_refusal(b'{"a": 1e999}')
-    assert errors == {"a": "must be a finite number"}
+    assert errors == {"a": "must be a finite number, got '1e999'"}
+    # judged as sent: 400 digits would overflow the float math.isfinite makes of them
+    _, errors = body_refusal(b'{"decision": ' + b"9" * 400 + b"}")
+    assert "not a number of sane size" in errors["decision"]
+    _, errors = body_refusal(b'{"x": 1e300}')
+    assert "too large" in errors["x"]
+    assert body_refusal(b'{"x": -0, "y": 1e-300}') == ("", {})
+    why, _ = body_refusal(b'{"decision": "redo", "decision": "accept"}')
+    assert "given twice" in why
 
 
 # -- never blind: a line whose glove is not found, the same pose typed twice
@@ -331,3 +341,63 @@ def test_the_console_refuses_exactly_what_a_terminal_would_obey() -> None:
     for code in range(0x3000):
         char = chr(code)
         assert bool(text_refusal(f"a{char}b")) == is_control(char), hex(code)
+
+
+# -- parse before you judge: any JSON value on any route, never a 5xx, always the headers
+
+_NUMBER_TEXTS = st.sampled_from(
+    ["9" * 400, "-0", "0.0", "1e308", "1e-320", "-1e999", "123456789012345678901234567890"]
+)
+_VALUES = st.recursive(
+    st.none()
+    | st.booleans()
+    | st.integers(min_value=-(10**500), max_value=10**500)
+    | st.floats(allow_nan=False, allow_infinity=False)
+    | st.text(max_size=30),
+    lambda inner: st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=8), inner),
+    max_leaves=6,
+)
+_FIELDS = ["decision", "x", "y", "z", "rotation", "text", "method", "focal", "operator", "\u00e9"]
+
+
+@st.composite
+def _bodies(draw: st.DrawFn) -> bytes:
+    """A JSON object text: the routes' fields and others, any values, numbers given as
+    raw text too (400 digits, -0), and keys given twice."""
+    keys = draw(st.lists(st.sampled_from(_FIELDS) | st.text(max_size=6), max_size=4))
+    parts = []
+    for key in keys + draw(st.lists(st.sampled_from(keys or ["x"]), max_size=1)):
+        raw = draw(_NUMBER_TEXTS) if draw(st.booleans()) else json.dumps(draw(_VALUES))
+        parts.append(f"{json.dumps(key)}: {raw}")
+    return ("{" + ", ".join(parts) + "}").encode()
+
+
+@settings(
+    max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    route=st.sampled_from(["/api/setup", "/api/pose", "/api/decide", "/api/note"]), body=_bodies()
+)
+def test_any_json_on_any_route_is_answered_with_the_headers(
+    console: tuple[TestClient, Path], route: str, body: bytes
+) -> None:
+    client, _ = console
+    answer = client.post(route, content=body, headers=JSON)
+    assert answer.status_code < 500, (route, body[:200], answer.text[:300])
+    for name, value in SECURITY_HEADERS.items():
+        assert answer.headers[name] == value, (route, name)
+    strict_json(answer.text)
+
+
+def test_a_failure_inside_the_console_is_a_500_with_the_headers() -> None:
+    """A bug in a route: a 500 that says so in JSON, framing forbidden, never bare."""
+
+    async def broken(scope: Any, receive: Any, send: Any) -> None:
+        raise OverflowError("int too large to convert to float")
+
+    client = TestClient(ConsoleGuard(broken), base_url="http://127.0.0.1:8765")
+    answer = client.get("/")
+    assert answer.status_code == 500
+    assert "failed" in answer.json()["error"]
+    for name, value in SECURITY_HEADERS.items():
+        assert answer.headers[name] == value

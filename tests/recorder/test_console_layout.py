@@ -350,7 +350,7 @@ def by_hand(tmp_path: Path) -> Iterator[tuple[str, Any]]:
     from recorder.console_server import ConsoleOptions, console_app
 
     session = ConsoleSession(tmp_path / "by-hand.mcap")
-    app = console_app(session, ConsoleOptions("synthetic", {}))
+    app = console_app(session, ConsoleOptions(source="synthetic", given={}))
     sock = socket.socket()
     sock.bind(("127.0.0.1", 0))
     sock.listen(16)

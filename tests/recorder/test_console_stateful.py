@@ -356,7 +356,7 @@ class ConsoleModel(RuleBasedStateMachine):
             "operator": None,
         }  # fmt: skip
         options = ConsoleOptions(
-            f"synthetic:{scene}", given, frames=FRAMES, poses=n_poses, size=SIZE
+            source=f"synthetic:{scene}", given=given, frames=FRAMES, poses=n_poses, size=SIZE
         )
         self.session = _CountingSession(self.out, dict(given, size=SIZE))
         self.client = TestClient(console_app(self.session, options), base_url=HOST)

@@ -182,8 +182,11 @@ def _handshake(port: int, host: str, origin: str | None) -> str:
     ("host", "origin", "allowed"),
     [
         ("127.0.0.1:{port}", None, True),  # Foxglove desktop, scripts: no Origin
-        ("localhost:{port}", "http://localhost:3000", True),  # a page served from here
-        ("[::1]:{port}", "http://127.0.0.1:8080", True),
+        ("localhost:{port}", "http://localhost:3000", False),  # another local page
+        ("[::1]:{port}", "http://127.0.0.1:8080", False),  # a notebook, a dev server
+        ("127.0.0.1:{port}", "http://127.0.0.1:8799", True),  # the console's own page
+        ("127.0.0.1:{port}", "http://127.0.0.1:8799/", True),
+        ("127.0.0.1:{port}", "http://127.0.0.1:87990", False),
         ("127.0.0.1:{port}", "https://evil.example", False),  # a web page elsewhere
         ("127.0.0.1:{port}", "null", False),  # a sandboxed or file page
         ("evil.example:{port}", None, False),  # DNS rebinding: a foreign Host
@@ -203,6 +206,7 @@ def test_the_live_view_refuses_handshakes_from_web_pages(
             )
         ],
         port=0,
+        origins=["http://127.0.0.1:8799"],
     ) as view:
         status = _handshake(view.port, host.format(port=view.port), origin)
         if allowed:
@@ -212,3 +216,44 @@ def test_the_live_view_refuses_handshakes_from_web_pages(
         if origin is None and allowed:  # and a real client still talks through the guard
             with connect(view.url, subprotocols=SUBPROTOCOLS, open_timeout=10) as ws:
                 assert json.loads(ws.recv(timeout=10))["op"] == "serverInfo"
+
+
+def _listening_ports() -> set[int]:
+    """The loopback TCP ports this process listens on."""
+    import os
+
+    import psutil
+
+    return {
+        c.laddr.port
+        for c in psutil.Process(os.getpid()).net_connections(kind="tcp")
+        if c.status == psutil.CONN_LISTEN
+    }
+
+
+def test_no_socket_of_the_live_view_lets_a_foreign_page_in() -> None:
+    """Every port the live view opens (the guard's and the SDK server's behind it) gets a
+    foreign page's handshake: none answers 101, and the guard answers 403."""
+    from twopose.camera import Camera, Intrinsics
+
+    before = _listening_ports()
+    cam = Camera(
+        camera_id="cam0", intrinsics=Intrinsics(width=64, height=48, fx=50, fy=50, cx=32, cy=24)
+    )
+    with LiveView([cam], port=0) as view:
+        opened = _listening_ports() - before
+        assert view.port in opened
+        assert len(opened) == 2, opened  # the guard and the SDK's server
+        for port in opened:
+            for host, origin in [
+                ("evil.test:8799", "http://evil.test:8799"),  # DNS rebinding
+                (f"127.0.0.1:{port}", "http://127.0.0.1:8080"),  # another local page
+                (f"127.0.0.1:{port}", "https://evil.example"),
+            ]:
+                try:
+                    status = _handshake(port, host, origin)
+                except (ConnectionError, TimeoutError):
+                    status = "dropped"
+                assert " 101 " not in status + " ", (port, status)
+                if port == view.port:
+                    assert " 403 " in status + " ", status

@@ -7,6 +7,7 @@ from __future__ import annotations
 import socket
 import threading
 from collections.abc import Iterator
+from typing import Any
 
 import pytest
 from websockets.exceptions import InvalidStatus
@@ -36,7 +37,7 @@ def upstream() -> Iterator[tuple[int, list[str]]]:
 
 @pytest.fixture
 def guard(upstream: tuple[int, list[str]]) -> Iterator[LoopbackGuard]:
-    g = LoopbackGuard("127.0.0.1", 0, upstream[0])
+    g = LoopbackGuard("127.0.0.1", 0, upstream[0], origins=["http://127.0.0.1:8799"])
     yield g
     g.close()
 
@@ -48,11 +49,11 @@ def test_a_loopback_client_is_relayed_both_ways(guard: LoopbackGuard) -> None:
         assert ws.recv(timeout=5) == "echo hello"
     with connect(
         f"ws://127.0.0.1:{guard.port}",
-        origin=Origin("http://localhost:8000"),  # a page of this machine
+        origin=Origin("http://127.0.0.1:8799"),  # the origin it was given: the console's
         subprotocols=SUBPROTOCOLS,  # type: ignore[arg-type]
     ) as ws:
-        ws.send("from a local page")
-        assert ws.recv(timeout=5) == "echo from a local page"
+        ws.send("from the console")
+        assert ws.recv(timeout=5) == "echo from the console"
 
 
 def _refused(port: int, uri_host: str = "127.0.0.1", **headers: str) -> str:
@@ -82,6 +83,9 @@ def _refused(port: int, uri_host: str = "127.0.0.1", **headers: str) -> str:
             "refuses web pages of 'https://evil.example'",
         ),
         ("127.0.0.1", {"Origin": "null"}, "refuses web pages of 'null'"),
+        # a page served from another local port: a notebook, a dev server
+        ("127.0.0.1", {"Origin": "http://localhost:8000"}, "refuses web pages of"),
+        ("127.0.0.1", {"Origin": "http://127.0.0.1:8798"}, "refuses web pages of"),
         ("rebound.example", {}, "loopback hosts only, not 'rebound.example:"),  # DNS rebinding
         ("127.0.0.1", {"Host": "rebound.example"}, "loopback hosts only"),  # Host given twice
     ],
@@ -119,3 +123,44 @@ def test_a_busy_port_is_an_error_at_start(upstream: tuple[int, list[str]]) -> No
         taken.listen()
         with pytest.raises(OSError, match=r"\S"):
             LoopbackGuard("127.0.0.1", taken.getsockname()[1], upstream[0])
+
+
+def test_the_pinned_upstream_is_reached_over_tls_only() -> None:
+    """The SDK's server speaks TLS with this run's key: the guard, pinning it, gets through;
+    a plain handshake (a page's ws://) and a client trusting the usual roots do not."""
+    import ssl
+
+    import foxglove
+    from websockets.exceptions import InvalidMessage
+
+    from recorder.live_tls import UpstreamSecret
+
+    secret = UpstreamSecret.generate()
+    server = foxglove.start_server(
+        host="127.0.0.1",
+        port=0,
+        context=foxglove.Context(),
+        tls_cert=secret.cert_pem,
+        tls_key=secret.key_pem,
+    )
+    try:
+        up = int(server.port)
+        protocols: Any = SUBPROTOCOLS
+        with (
+            pytest.raises((InvalidMessage, ConnectionError, TimeoutError)),
+            connect(f"ws://127.0.0.1:{up}", subprotocols=protocols, open_timeout=5),
+        ):
+            pass
+        with (
+            pytest.raises(ssl.SSLCertVerificationError),
+            connect(f"wss://127.0.0.1:{up}", subprotocols=protocols, open_timeout=5),
+        ):
+            pass
+        g = LoopbackGuard("127.0.0.1", 0, up, secret=secret)
+        try:
+            with connect(f"ws://127.0.0.1:{g.port}", subprotocols=SUBPROTOCOLS) as ws:  # type: ignore[arg-type]
+                assert '"serverInfo"' in str(ws.recv(timeout=10))
+        finally:
+            g.close()
+    finally:
+        server.stop()

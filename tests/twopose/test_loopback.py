@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from twopose.loopback import host_name, is_loopback_host, is_loopback_origin, split_host
+from twopose.loopback import host_name, is_loopback_host, split_host
 
 LOOPBACK = (
     "localhost",
@@ -70,26 +70,6 @@ def test_host_names_and_ports() -> None:
     assert host_name("127.0.0.1:65536") == ""
 
 
-@pytest.mark.parametrize(
-    ("origin", "loopback"),
-    [
-        ("http://127.0.0.1:8765", True),
-        ("http://localhost", True),
-        ("https://LOCALHOST:1", True),
-        ("http://[::1]:8765", True),
-        ("null", False),
-        ("file://", False),
-        ("http://evil.example:8765", False),
-        ("http://127.0.0.1.nip.io", False),
-        ("http://127.0.0.1:bad", False),
-        ("ws://127.0.0.1", False),
-        ("", False),
-    ],
-)
-def test_loopback_origins(origin: str, loopback: bool) -> None:
-    assert is_loopback_origin(origin) is loopback
-
-
 def test_one_rule_everywhere() -> None:
     """The live view, its guard and the console's guard hold no copy of their own."""
     import recorder.console_guard
@@ -100,6 +80,5 @@ def test_one_rule_everywhere() -> None:
     users = (recorder.live, recorder.live_guard, recorder.console_server, recorder.console_guard)
     for module in users:
         assert vars(module)["is_loopback_host"] is is_loopback_host, module.__name__
-    assert vars(recorder.live_guard)["is_loopback_origin"] is is_loopback_origin
     for module in (recorder.live, recorder.live_guard, recorder.console_server):
         assert "ipaddress" not in vars(module), module.__name__

@@ -480,6 +480,10 @@ class GroundPlane(TypedEntry):
         object.__setattr__(self, "normal_grid", vec3(n / norm, "ground normal"))
         object.__setattr__(self, "offset", finite(self.offset, "ground height") / norm)
 
+    def spec(self) -> tuple[np.ndarray, float]:
+        """The plane as the solvers take it (:data:`twopose.estimate.GroundSpec`)."""
+        return np.array(self.normal_grid, dtype=np.float64), self.offset
+
 
 @entry(
     "/twopose/ground_truth",

@@ -1,0 +1,61 @@
+"""The secret between the live view's guard and the Foxglove SDK's server behind it.
+
+The SDK's server listens on a loopback port of its own, which a web page could find by
+scanning. Started with :class:`UpstreamSecret`'s key it speaks TLS only; the guard
+(:mod:`recorder.live_guard`) pins this run's certificate, and no browser trusts it, so
+no page's handshake gets through (see the guard's docstring).
+"""
+
+from __future__ import annotations
+
+import datetime
+import ipaddress
+import ssl
+from dataclasses import dataclass
+
+__all__ = ["UpstreamSecret"]
+
+_VALID_FOR = datetime.timedelta(days=30)  # longer than any session; made anew each run
+
+
+@dataclass(frozen=True)
+class UpstreamSecret:
+    """A TLS key and self-signed certificate for the SDK's server, made for one run and
+    trusted by the guard alone (see the module docstring)."""
+
+    cert_pem: bytes
+    key_pem: bytes
+
+    @classmethod
+    def generate(cls) -> UpstreamSecret:
+        from cryptography import x509
+        from cryptography.hazmat.primitives import hashes, serialization
+        from cryptography.hazmat.primitives.asymmetric import ec
+        from cryptography.x509.oid import NameOID
+
+        key = ec.generate_private_key(ec.SECP256R1())
+        name = x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, "twopose live upstream")])
+        now = datetime.datetime.now(datetime.UTC)
+        loopback = x509.IPAddress(ipaddress.ip_address("127.0.0.1"))
+        cert = (
+            x509.CertificateBuilder()
+            .subject_name(name)
+            .issuer_name(name)
+            .public_key(key.public_key())
+            .serial_number(x509.random_serial_number())
+            .not_valid_before(now - datetime.timedelta(minutes=5))
+            .not_valid_after(now + _VALID_FOR)
+            .add_extension(x509.SubjectAlternativeName([loopback]), critical=False)
+            .add_extension(x509.BasicConstraints(ca=True, path_length=None), critical=True)
+            .sign(key, hashes.SHA256())
+        )
+        key_pem = key.private_bytes(
+            serialization.Encoding.PEM,
+            serialization.PrivateFormat.PKCS8,  # the SDK's server takes PKCS#8 only
+            serialization.NoEncryption(),
+        )
+        return cls(cert.public_bytes(serialization.Encoding.PEM), key_pem)
+
+    def client_context(self) -> ssl.SSLContext:
+        """What the guard connects with: this certificate, and no other, trusted."""
+        return ssl.create_default_context(cadata=self.cert_pem.decode("ascii"))
