@@ -26,6 +26,7 @@ from recorder.console_guard import (
     text_refusal,
 )
 from recorder.console_server import ConsoleOptions, console_app
+from twopose.rig import RigConstants
 from twopose.text import is_control
 
 # A small synthetic camera: a pose renders in ~70 ms (as tests/recorder/test_console_stateful.py).
@@ -401,3 +402,31 @@ def test_a_failure_inside_the_console_is_a_500_with_the_headers() -> None:
     assert "failed" in answer.json()["error"]
     for name, value in SECURITY_HEADERS.items():
         assert answer.headers[name] == value
+
+
+@pytest.mark.parametrize(
+    ("rig", "method", "said"),
+    [
+        (RigConstants(principal_offset_px=(300.0, 0.0), units="in"), "point", "implausible"),
+        (RigConstants(units="cm"), "point", "is in cm, the session in in"),
+        (RigConstants(units="in"), "board", "a board session calibrates the rig"),
+    ],
+)
+def test_the_page_refuses_a_rig_at_setup_as_the_terminal_does(
+    tmp_path: Path, rig: RigConstants, method: str, said: str
+) -> None:
+    """The rig is judged with the setup (setup_rules.check_rig, as at the terminal and in a
+    plan): a 400 by the rig field, the page still in its setup, nothing recorded."""
+    out = tmp_path / "s.mcap"
+    options = ConsoleOptions(source="synthetic", given=GIVEN, rig=rig)
+    session = ConsoleSession(out, GIVEN)
+    with TestClient(console_app(session, options), base_url=ORIGIN) as client:
+        client.get("/")
+        form = {"method": method, "units": "in", "truth1": "1, 2, 30", "operator": "Ada"}
+        if method == "board":
+            form = {**form, "board": "9x6", "square": "1", "board_corner": "-3, 8, 24"}
+        answer = client.post("/api/setup", json=form)
+        assert answer.status_code == 400
+        assert said in answer.json()["errors"]["rig"]
+        assert client.get("/api/state").json()["phase"] == "setup"
+    assert not out.exists()

@@ -4,9 +4,11 @@ killed with SIGKILL mid-capture."""
 
 from __future__ import annotations
 
+import contextlib
 import signal
 import socket
 import subprocess
+import threading
 import time
 from pathlib import Path
 
@@ -17,6 +19,8 @@ from typer.testing import CliRunner
 import analysis
 from recorder.cli import app
 from tests.helpers import RECORD, start_console
+from twopose.format import SessionReader
+from twopose.format.entries import CaptureDecision
 
 
 def test_the_api_refuses_what_the_state_does_not_allow(tmp_path: Path) -> None:
@@ -106,11 +110,35 @@ def test_the_server_killed_mid_capture_loses_nothing_accepted(tmp_path: Path) ->
     assert trials["err"].iloc[0] < 0.5
 
 
+def _wait_for(client: httpx.Client, what: str) -> None:
+    for _ in range(600):
+        if client.get("/api/state").json()["waiting"] == what:
+            return
+        time.sleep(0.05)
+    raise AssertionError(f"the console never waited for {what}")
+
+
+def _watch_stream(url: str, cookies: httpx.Cookies) -> threading.Thread:
+    """A page watching the live image (its MJPEG stream open) until the server stops."""
+
+    def watch() -> None:
+        with contextlib.suppress(httpx.HTTPError):
+            with httpx.stream("GET", url + "stream.mjpg", cookies=cookies, timeout=60) as r:
+                for _ in r.iter_bytes():
+                    pass
+
+    thread = threading.Thread(target=watch, daemon=True)
+    thread.start()
+    return thread
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_ctrl_c_or_sigterm_closes_the_file_prints_the_summary_once_and_exits_130(
     tmp_path: Path, sig: signal.Signals
 ) -> None:
+    """With the page watching the live image and a capture awaiting its decision: the
+    summary once, exit 130, no traceback, and the capture discarded as interrupted."""
     out = tmp_path / "stopped.mcap"
     process, url, _ = start_console(out)
     client = httpx.Client(base_url=url, timeout=10)
@@ -120,25 +148,30 @@ def test_ctrl_c_or_sigterm_closes_the_file_prints_the_summary_once_and_exits_130
     for what, path, body in (
         ("pose", "/api/pose", {"x": "0", "y": "0", "z": "0"}),
         ("decision", "/api/decide", {"decision": "accept"}),
+        ("pose", "/api/pose", {"x": "1", "y": "0", "z": "0"}),
     ):
-        for _ in range(600):
-            if client.get("/api/state").json()["waiting"] == what:
-                break
-            time.sleep(0.05)
+        _wait_for(client, what)
         assert client.post(path, json=body).status_code == 200
-    time.sleep(0.3)
+    _wait_for(client, "decision")
+    watcher = _watch_stream(url, client.cookies)
+    time.sleep(0.5)
     process.send_signal(sig)
     rest, _ = process.communicate(timeout=60)
+    watcher.join(timeout=10)
     assert process.returncode == 130, rest
     assert rest.count(f"wrote {out}") == 1, rest  # the summary, once
-    assert "1 capture (1 accepted" in rest
+    assert "2 captures (1 accepted, 1 discarded" in rest
     assert rest.strip().endswith("interrupted")
-    assert "Traceback" not in rest
+    for noise in ("Traceback", "Exception in ASGI", "Cancel", "ERROR"):
+        assert noise not in rest, rest
     trials = analysis.run([out], None, scene=False).trials  # closed: readable as it is
     assert list(trials["status"]) == ["incomplete"]
+    with SessionReader(out) as reader:
+        decisions = [e for e in reader.iter_entries() if isinstance(e, CaptureDecision)]
+    assert decisions[-1].decision == "discard"
+    assert decisions[-1].reason.startswith("interrupted"), decisions[-1]
 
 
-@pytest.mark.slow
 def test_ctrl_c_before_the_setup_records_nothing_and_exits_130(tmp_path: Path) -> None:
     out = tmp_path / "never.mcap"
     process, _, _ = start_console(out)
@@ -162,3 +195,74 @@ def test_a_missing_camera_is_said_before_the_setup_naming_source(tmp_path: Path)
     assert "error: --source video:/no/such/video.mp4:" in done.stderr
     assert "twopose console" not in done.stdout  # no page to fill in for nothing
     assert not out.exists()
+
+
+def _listening_ports(pid: int) -> set[int]:
+    import psutil
+
+    return {
+        c.laddr.port
+        for c in psutil.Process(pid).net_connections(kind="tcp")
+        if c.status == psutil.CONN_LISTEN
+    }
+
+
+def _foreign_handshake(port: int, host: str, origin: str) -> str:
+    """A WebSocket handshake as a page on another site sends it: the status line, or why
+    there was none."""
+    lines = [
+        "GET / HTTP/1.1",
+        f"Host: {host}",
+        "Upgrade: websocket",
+        "Connection: Upgrade",
+        "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==",
+        "Sec-WebSocket-Version: 13",
+        "Sec-WebSocket-Protocol: foxglove.websocket.v1",
+        f"Origin: {origin}",
+    ]
+    try:
+        with socket.create_connection(("127.0.0.1", port), timeout=10) as sock:
+            sock.sendall(("\r\n".join(lines) + "\r\n\r\n").encode())
+            answer = sock.recv(4096).decode(errors="replace")
+    except OSError as err:
+        return f"dropped ({err})"
+    return answer.split("\r\n", 1)[0] or "dropped"
+
+
+@pytest.mark.slow
+def test_no_socket_of_the_recorder_lets_a_foreign_page_in(tmp_path: Path) -> None:
+    """``new --ui --live`` while it records: every listening socket of the process (the
+    console, the live view's guard, the Foxglove server behind it) gets a foreign page's
+    handshake, under a rebound host name and from another local page: none answers 101."""
+    out = tmp_path / "s.mcap"
+    process, url, _ = start_console(out, "--live", "--live-port", "0")
+    try:
+        client = httpx.Client(base_url=url, timeout=10)
+        client.get("/")
+        setup = {"method": "point", "truth1": "0.5, 1.5, 11", "operator": "Ada"}
+        assert client.post("/api/setup", json=setup).status_code == 200
+        _wait_for(client, "pose")
+        ports = _listening_ports(process.pid)
+        assert len(ports) == 3, ports  # the console, the live guard, the SDK's server
+        for port in ports:
+            for host, origin in [
+                ("evil.test:8799", "http://evil.test:8799"),
+                (f"127.0.0.1:{port}", "http://127.0.0.1:8080"),
+                (f"localhost:{port}", "http://localhost:3000"),
+            ]:
+                status = _foreign_handshake(port, host, origin)
+                assert " 101 " not in status + " ", (port, status)
+        console = int(url.rstrip("/").rsplit(":", 1)[1])
+        assert " 403 " in _foreign_handshake(console, "evil.test", "http://evil.test") + " "
+    finally:
+        process.terminate()
+        process.communicate(timeout=30)
+
+
+def test_ui_refuses_a_plan_instead_of_ignoring_it(tmp_path: Path) -> None:
+    plan = tmp_path / "plan.toml"
+    plan.write_text('method = "point"\n')
+    result = CliRunner().invoke(app, ["new", str(tmp_path / "s.mcap"), "--ui", "--plan", str(plan)])
+    assert result.exit_code == 3
+    assert "--plan records unattended and --ui asks in the browser" in result.output
+    assert not (tmp_path / "s.mcap").exists()
