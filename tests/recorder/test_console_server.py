@@ -122,10 +122,12 @@ def _watch_stream(url: str, cookies: httpx.Cookies) -> threading.Thread:
     """A page watching the live image (its MJPEG stream open) until the server stops."""
 
     def watch() -> None:
-        with contextlib.suppress(httpx.HTTPError):
-            with httpx.stream("GET", url + "stream.mjpg", cookies=cookies, timeout=60) as r:
-                for _ in r.iter_bytes():
-                    pass
+        with (
+            contextlib.suppress(httpx.HTTPError),
+            httpx.stream("GET", url + "stream.mjpg", cookies=cookies, timeout=60) as r,
+        ):
+            for _ in r.iter_bytes():
+                pass
 
     thread = threading.Thread(target=watch, daemon=True)
     thread.start()
