@@ -342,6 +342,31 @@ def thesis_estimate(
     return estimate
 
 
+def thesis_direction(
+    batch: ViewBatch, options: EstimateSettings, reference: F64
+) -> Callable[[F64], F64]:
+    """A line's unit direction as a function of the (perturbed) inputs, for propagation.
+
+    The thesis' line (two planes, eq. 3.17), its sign that of ``reference`` (T, 3), so a
+    perturbation never flips it.
+    """
+    mc, T = options.min_conditioning, batch.valid.shape[0]
+
+    def direction(x: F64) -> F64:
+        reps = x.shape[0] // T
+        valid = np.tile(batch.valid, (reps, 1))
+        R = rotation_from_angles_deg(x[..., 6:9])
+        D = len(INPUTS_PER_VIEW)
+        intr = x[..., D:] if x.shape[-1] > D else np.tile(batch.intrinsics, (reps, 1, 1))
+        P = projection_matrices(intr, R, x[..., 3:6])
+        lines = image_lines(x[..., :2], x[..., 2])
+        d = triangulate_lines(lines, P, valid=valid, min_conditioning=mc).direction_grid
+        sign = np.sign(np.einsum("ti,ti->t", d, np.tile(reference, (reps, 1))))
+        return np.asarray(d * np.where(sign == 0, 1.0, sign)[:, None])
+
+    return direction
+
+
 def nearest_on_line(point: F64, direction: F64, reference: F64) -> F64:
     """(T, 3) the point of each line nearest its reference point."""
     s = np.einsum("ti,ti->t", reference - point, direction)

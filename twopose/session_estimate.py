@@ -34,6 +34,7 @@ from twopose.estimate import (
     scatter_of,
     shared_intrinsics,
     solve_batch,
+    thesis_direction,
     thesis_estimate,
 )
 from twopose.methods import Method, spec_of
@@ -153,6 +154,23 @@ class SessionEstimate:
             self.trials.method, p.batch, self.trials.ground, self.options, reference[p.rows]
         )
         return _uncertainty(T, p, propagate(estimate, p.batch.inputs, p.cov_in, shared=p.shared))
+
+    def direction_cov(self) -> F64:
+        """(T, 3, 3) lines: the covariance of each ok trial's unit direction (NaN else).
+
+        Propagated from the same inputs as the point's; it lies across the direction.
+        """
+        T = len(self.trials)
+        cov = np.full((T, 3, 3), np.nan)
+        p = self._propagation
+        if p is None or p.solved.direction is None:
+            return cov
+        d = p.solved.direction
+        f = thesis_direction(p.batch, self.options, np.nan_to_num(d))
+        propagated = propagate(f, p.batch.inputs, p.cov_in, shared=p.shared)
+        ok = p.solved.status == "ok"
+        cov[p.rows[ok]] = propagated.cov_grid[ok]
+        return cov
 
 
 def estimate_session(trials: SessionTrials, options: EstimateSettings) -> SessionEstimate:

@@ -139,15 +139,22 @@ def _ground_traces(scene: TrialScene, estimate: F64 | None, reach: F64) -> list[
 
 
 def _lines(scene: TrialScene, estimate: F64 | None, reach: F64) -> list[tuple[str, XZ, XZ]]:
+    """The estimated line, and the true line drawn as long as it (after it, so on top):
+    between its two typed points alone it can hide under the estimate and look right."""
     out: list[tuple[str, XZ, XZ]] = []
     direction = scene.direction
+    span = 0.6 * float(np.mean(reach))
     if estimate is not None and direction is not None and np.isfinite(direction).all():
-        span = 0.6 * float(np.mean(reach))
         out += _segments(
             "line", (estimate - span * direction)[None], (estimate + span * direction)[None]
         )
     if np.isfinite(scene.truth).all():
-        out += _segments("truth_line", scene.truth[:1], scene.truth[1:])
+        a, b = scene.truth[0], scene.truth[1]
+        length = float(np.linalg.norm(b - a))
+        if length > 0:
+            mid, along = 0.5 * (a + b), (b - a) / length
+            half = max(span, 0.5 * length)
+            out += _segments("truth_line", (mid - half * along)[None], (mid + half * along)[None])
     return out
 
 

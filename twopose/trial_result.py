@@ -21,11 +21,22 @@ import numpy as np
 from twopose.arrays import F64
 from twopose.estimate import EstimateOptions, EstimateSettings
 from twopose.methods import spec_of
-from twopose.session_estimate import SessionTrials, estimate_session
-from twopose.truth import reported
+from twopose.session_estimate import SessionEstimate, SessionTrials, estimate_session
+from twopose.truth import line_errors, reported
 from twopose.uncertainty import uncertainty_columns
 
-__all__ = ["TrialResult", "trial_results"]
+__all__ = ["STATUS_WORDS", "TrialResult", "trial_results"]
+
+#: A trial's status (trials.csv's codes) in the operator's words.
+STATUS_WORDS = {
+    "ok": "solved",
+    "degenerate": "no estimate: the poses' geometry is degenerate",
+    "no_detection": "no estimate: the target was not found in a pose",
+    "incomplete": "no estimate yet: fewer than two usable poses",
+}
+#: sqrt of chi-square's 95% quantile with 2 degrees of freedom: a unit direction's
+#: covariance lies in the plane across it.
+_CHI2_95_2DOF_SQRT = 2.4477
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -47,28 +58,58 @@ class TrialResult:
     error: float = math.nan  # against the typed ground truth (NaN: none)
     error_xyz: tuple[float, float, float] = (math.nan, math.nan, math.nan)
     cov: tuple[tuple[float, float, float], ...] = ()  # (3, 3) of ``point``, propagated
+    angle95_deg: float = math.nan  # lines: the direction's 95% half-angle
+    angle_err_deg: float = math.nan  # lines: against the true line (as trials.csv)
 
     def text(self) -> str:
         """The result in one line, then its warning; or why there is none.
 
         One line: ``trial 3 (2 views): x 1.915 y 9.625 z 8.402 in; 95% within 0.183 in;
-        error 0.052 in``, then the warning; or why there is no estimate.
+        error 0.052 in``, then the warning; or why there is no estimate. A line gives its
+        direction's too: ``direction (...) 95% within 1.2 deg; angle error 0.8 deg;
+        distance error 0.052 in (95% within 0.183 in)``.
         """
         head = f"trial {self.trial} ({self.n_views} views)"
         if self.status != "ok":
-            return f"{head}: {self.status}: {self.reason}"
+            said = STATUS_WORDS.get(self.status, self.status)
+            return f"{head}: {said}: {self.reason}" if self.reason else f"{head}: {said}"
         x, y, z = self.point
         parts = [f"{head}: x {x:.3f} y {y:.3f} z {z:.3f} {self.units}"]
         if self.direction is not None:
-            dx, dy, dz = self.direction
-            parts.append(f"direction ({dx:.3f}, {dy:.3f}, {dz:.3f})")
-        if math.isfinite(self.semiaxis95):
-            parts.append(f"95% within {self.semiaxis95:.3f} {self.units}")
-        if math.isfinite(self.error):
-            parts.append(f"error {self.error:.3f} {self.units}")
+            parts += self._line_parts()
+        else:
+            if math.isfinite(self.semiaxis95):
+                parts.append(f"95% within {self.semiaxis95:.3f} {self.units}")
+            if math.isfinite(self.error):
+                parts.append(f"error {self.error:.3f} {self.units}")
         if self.warning:
             parts.append(f"WARNING {self.warning}")
         return "; ".join(parts)
+
+    def _line_parts(self) -> list[str]:
+        """A line's direction and its errors, each with its 95% region.
+
+        An angle and a distance, never the distance alone: a line 69 degrees off can pass
+        through its true midpoint.
+        """
+        assert self.direction is not None
+        dx, dy, dz = self.direction
+        direction = f"direction ({dx:.3f}, {dy:.3f}, {dz:.3f})"
+        if math.isfinite(self.angle95_deg):
+            direction += f" 95% within {self.angle95_deg:.1f} deg"
+        parts = [direction]
+        region = (
+            f" (95% within {self.semiaxis95:.3f} {self.units})"
+            if math.isfinite(self.semiaxis95)
+            else ""
+        )
+        if math.isfinite(self.angle_err_deg):
+            parts.append(f"angle error {self.angle_err_deg:.1f} deg")
+        if math.isfinite(self.error):
+            parts.append(f"distance error {self.error:.3f} {self.units}{region}")
+        elif region:
+            parts.append(f"position{region}")
+        return parts
 
     def to_json(self) -> dict[str, object]:
         """The result as a JSON-ready object for the web console and live view.
@@ -93,6 +134,8 @@ class TrialResult:
             "error": self.error,
             "error_xyz": list(self.error_xyz),
             "cov": [list(row) for row in self.cov],
+            "angle95_deg": self.angle95_deg,
+            "angle_err_deg": self.angle_err_deg,
             "text": self.text(),
         }
 
@@ -110,6 +153,7 @@ def trial_results(
     est, rep = estimate.estimates, reported(estimate)
     spread = uncertainty_columns(rep.error, rep.cov)
     line = spec_of(trials.method).estimates_line
+    angle95, angle_err = _line_angles(estimate) if line else (None, None)
     return [
         TrialResult(
             trial=int(trial),
@@ -127,9 +171,29 @@ def trial_results(
             error=float(np.linalg.norm(rep.error[i])),
             error_xyz=_triple(rep.error[i]),
             cov=tuple(_triple(row) for row in rep.cov[i]),
+            angle95_deg=math.nan if angle95 is None else float(angle95[i]),
+            angle_err_deg=math.nan if angle_err is None else float(angle_err[i]),
         )
         for i, trial in enumerate(trials.trial_ids)
     ]
+
+
+def _line_angles(estimate: SessionEstimate) -> tuple[F64, F64]:
+    """Lines (T,): the direction's 95% half-angle and the angle to the true line.
+
+    The half-angle (degrees) comes from the propagated direction covariance's largest
+    variance across it; the angle error is trials.csv's ``angle_err_deg`` (NaN without
+    truth).
+    """
+    est, truth = estimate.estimates, estimate.trials.truth
+    cov = estimate.direction_cov()
+    with np.errstate(invalid="ignore"):
+        largest = np.array(
+            [np.linalg.eigvalsh(c)[-1] if np.isfinite(c).all() else np.nan for c in cov]
+        )
+        angle95 = np.degrees(_CHI2_95_2DOF_SQRT * np.sqrt(np.clip(largest, 0.0, None)))
+        _, _, angle_err, _ = line_errors(est.point, est.direction, truth[:, 0], truth[:, 1])
+    return angle95, angle_err
 
 
 def _triple(values: F64) -> tuple[float, float, float]:
