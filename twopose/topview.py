@@ -139,8 +139,10 @@ def _ground_traces(scene: TrialScene, estimate: F64 | None, reach: F64) -> list[
 
 
 def _lines(scene: TrialScene, estimate: F64 | None, reach: F64) -> list[tuple[str, XZ, XZ]]:
-    """The estimated line, and the true line drawn as long as it (after it, so on top):
-    between its two typed points alone it can hide under the estimate and look right."""
+    """The estimated line, and the true line drawn as long as it, after it (on top).
+
+    Between its two typed points alone the true line can hide under the estimate.
+    """
     out: list[tuple[str, XZ, XZ]] = []
     direction = scene.direction
     span = 0.6 * float(np.mean(reach))
