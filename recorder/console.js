@@ -138,9 +138,12 @@ function buildSetup(fields) {
     if (f.given) {
       cell.append(el("span", "from the command line (fixed for this session)", "note given"));
     } else if (f.value && ["focal", "principal", "ground_height"].includes(f.name)) {
+      // Said beside the thesis' value only: once changed, the field holds the operator's.
       const note = el("span", "the thesis' rig: change it if yours differs", "note");
       note.id = "default-" + f.name;
+      note.dataset.default = f.value;
       cell.append(note);
+      input.addEventListener("input", () => show(note, input.value.trim() === note.dataset.default));
     }
     const error = el("span", "", "field-error hidden");
     error.id = "error-" + f.name;
@@ -158,10 +161,12 @@ function buildSetup(fields) {
 }
 
 function applyMethod() {
+  // The chosen method's fields only; before one is chosen, those every method has.
   const method = $("f-method") ? $("f-method").value : "";
+  const all = $("f-method") ? $("f-method").options.length - ($("f-method").options[0].value ? 0 : 1) : 0;
   for (const cell of $("setup-fields").children) {
     const methods = cell.dataset.methods.split(" ");
-    show(cell, !method || methods.includes(method));
+    show(cell, method ? methods.includes(method) : methods.length >= all);
   }
 }
 
@@ -173,7 +178,7 @@ function applyUnits() {
   if (!inches && height.value === "9.625") height.value = "";
   if (inches && !height.value) height.value = "9.625";
   const note = $("default-ground_height");
-  if (note) show(note, inches && height.value === "9.625");
+  if (note) show(note, height.value.trim() === note.dataset.default);
 }
 
 function clearErrors(names) {
@@ -263,6 +268,7 @@ async function addNote() {
   const answer = await post("/api/note", {text});
   if (answer.ok) {
     $("note-text").value = "";
+    $("note-text").blur(); // the keys decide again: the next "a" accepts, it types nothing
   } else {
     setText($("note-refusal"), answer.error);
     show($("note-refusal"), true);
@@ -289,12 +295,15 @@ function render() {
   const s = state;
   const main = $("main");
   main.className = "phase-" + s.phase;
+  document.body.classList.toggle("stopped", !connected);
   setText($("out"), s.out);
-  setText($("phase"), {setup: "setting up", recording: "recording", done: "finished", failed: "stopped"}[s.phase] || s.phase);
+  const phase = {setup: "setting up", recording: "recording", done: "finished", failed: "stopped"}[s.phase] || s.phase;
+  setText($("phase"), connected || s.phase === "done" ? phase : "not answering");
   renderStatus(s);
 
   if (s.phase === "setup" && !setupBuilt && s.setup_fields.length) buildSetup(s.setup_fields);
   show($("setup"), s.phase === "setup");
+  $("setup-submit").disabled = !connected;
 
   renderCapture(s);
   renderPose(s);
@@ -308,9 +317,13 @@ function renderStatus(s) {
   const status = $("status");
   let level = s.level || "info";
   let message = s.message;
-  if (!connected) {
+  if (!connected && s.phase === "done") {
+    level = "done";
+    message = "the session is finished and the recorder has stopped: the file is closed";
+  } else if (!connected) {
     level = "error";
-    message = "reconnecting to the recorder... (" + (s.message || "") + ")";
+    message = "the recorder has stopped or cannot be reached (Ctrl-C, or the connection " +
+      "dropped): the controls are off; what was accepted is in the file. Still trying...";
   } else if (s.phase === "failed") {
     level = "error";
   } else if (s.phase === "done") {
@@ -321,6 +334,36 @@ function renderStatus(s) {
   status.className = "level-" + level;
   setText($("live-error"), s.live_error);
   show($("live-error"), !!s.live_error);
+  if (changed("notices", s.notices)) {
+    $("notices").replaceChildren(...(s.notices || []).map((n) => el("li", "note: " + n)));
+    show($("notices"), !!(s.notices || []).length);
+  }
+  renderSetupSummary(s);
+}
+
+function renderSetupSummary(s) {
+  // What is being recorded stays in view: method, units, camera, ground truth.
+  const shown = s.setup || {};
+  if (!changed("setup-summary", shown)) return;
+  const box = $("session-setup");
+  show(box, !!shown.method);
+  if (!shown.method) return;
+  const units = shown.units;
+  const parts = [["method", shown.method], ["units", units], ["camera", shown.camera]];
+  const truth = (shown.truth || []).map((p) => "(" + p.map((v) => num(v)).join(", ") + ")");
+  if (shown.board) parts.push(["board", shown.board]);
+  else parts.push(["ground truth", truth.length ? truth.join(" to ") + " " + units : "none typed"]);
+  if (shown.ground_height !== null && shown.ground_height !== undefined) {
+    parts.push(["ground height", num(shown.ground_height) + " " + units]);
+  }
+  if (shown.rig) parts.push(["rig", shown.rig]);
+  if (shown.operator) parts.push(["operator", shown.operator]);
+  const children = [];
+  parts.forEach(([name, value], i) => {
+    if (i) children.push(document.createTextNode(" · "));
+    children.push(el("span", name + " "), el("b", value));
+  });
+  box.replaceChildren(...children);
 }
 
 let capturedAt = ""; // the trial and pose whose capture the frames table shows
@@ -331,15 +374,20 @@ function renderCapture(s) {
   else if (s.phase === "recording" && !$("live").naturalWidth) note = "waiting for the camera's first frame...";
   // The table is this pose's capture while it is taken and decided; afterwards it is
   // the last capture's, and says so.
-  if (s.phase === "recording" && s.waiting !== "pose" && s.frames.length) {
-    capturedAt = "trial " + s.trial + " pose " + s.pose;
-  }
+  const of = s.frames_of || {};
+  capturedAt = of.trial ? "trial " + of.trial + " pose " + of.pose : "";
   const current = s.phase === "recording" && s.waiting !== "pose";
   setText($("frames-title"), !s.frames.length ? "This pose's capture, frame by frame"
     : current ? "This capture (" + capturedAt + "), frame by frame"
     : "The last capture" + (capturedAt ? " (" + capturedAt + ")" : "") + ", frame by frame");
   setText($("live-note"), note);
   show($("live-note"), !!note);
+  let caption = "";
+  if (s.phase === "done") caption = "the last frame: the session is finished, the camera is off";
+  else if (s.phase === "failed") caption = "the last frame: the session stopped";
+  else if (!connected && s.phase !== "setup") caption = "the last frame: the recorder is not answering";
+  setText($("live-caption"), caption);
+  show($("live-caption"), !!caption);
   const n = s.capture.n_frames || 0;
   $("progress").max = n || 1;
   $("progress").value = Math.min(s.capture.frame || 0, n || 1);
@@ -409,8 +457,8 @@ function renderPose(s) {
     clearErrors(Object.keys(POSE_INPUTS));
     show($("pose-refusal"), false);
   }
-  for (const id of Object.values(POSE_INPUTS)) $(id).disabled = !typing;
-  $("capture").disabled = !typing;
+  for (const id of Object.values(POSE_INPUTS)) $(id).disabled = !typing || !connected;
+  $("capture").disabled = !typing || !connected;
   if (typing && wasWaiting !== "pose" && !quitAsked) {
     const active = document.activeElement;
     if (!active || active === document.body || active.tagName === "BUTTON") $("pose-x").focus();
@@ -422,9 +470,9 @@ function renderPose(s) {
 }
 
 function renderDecision(s) {
-  const recording = s.phase === "recording";
+  const recording = s.phase === "recording" && connected;
   const deciding = recording && s.waiting === "decision";
-  show($("decision"), recording);
+  show($("decision"), s.phase === "recording"); // shown, but off, while unreachable
   show($("finished"), s.phase === "done" || s.phase === "failed");
   if (changed("summary", [s.phase, s.summary, s.message])) {
     // "wrote PATH: counts" on two lines: where the file is, then what it holds.
@@ -484,9 +532,14 @@ function renderDecision(s) {
   const p = deciding ? s.preview : null;
   show(preview, !!p);
   setText($("preview-result"), p ? p.text : "");
-  preview.classList.toggle("warned", !!p && (!!p.warning || p.status !== "ok"));
+  preview.classList.toggle("warned", !!p && (!!p.warning || p.outside95 || p.status !== "ok"));
   if (!deciding) {
     show($("note-refusal"), false);
+  }
+  if (changed("notes", s.notes)) {
+    const notes = s.notes || [];
+    $("notes-list").replaceChildren(...notes.map((n) => el("li", "trial " + n.trial + ": " + n.text)));
+    show($("notes-list"), notes.length > 0);
   }
 }
 
@@ -518,8 +571,7 @@ function renderResults(s) {
       const li = el("li", r.text);
       li.dataset.testid = "trial-result";
       li.dataset.trial = r.trial;
-      if (r.status !== "ok") li.classList.add("failed");
-      else if (r.warning) li.classList.add("warned");
+      if (r.status !== "ok" || r.warning || r.outside95) li.classList.add("warned");
       return li;
     }));
     if (!s.results.length) list.append(el("li", "none yet: a trial's result shows once its poses are accepted", "small"));
@@ -548,7 +600,8 @@ function legendItems(view) {
     const what = view.method === "ground" ? "ground point (estimate)" : view.method === "line" ? "line's point (estimate)" : "estimate";
     items.push(["estimate", "✕", what]);
   }
-  if (view.truth) items.push(["truth", "○", view.method === "ground" ? "true ground point" : "true point"]);
+  const truthWord = {ground: "true ground point", line: "true line, seen end-on", point: "true point"};
+  if (view.truth) items.push(["truth", "○", truthWord[view.method] || "true point"]);
   return items;
 }
 

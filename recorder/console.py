@@ -118,6 +118,7 @@ class ConsoleSession(LiveSink):
         self.pose_form: dict[str, Any] = {}  # what the pose form shows (after undo: retyped)
         self.capture = {"frame": 0, "n_frames": 0}
         self.frames: list[dict[str, Any]] = []  # the capture's per-frame numbers
+        self.frames_of: dict[str, int] = {}  # {trial, pose} of the capture they belong to
         self.average: dict[str, Any] | None = None  # the capture's pose average
         self.shortfall = Shortfall.OK.value
         self.preview: dict[str, Any] | None = None  # the result if the capture is accepted
@@ -155,9 +156,11 @@ class ConsoleSession(LiveSink):
                 "pose_form": dict(self.pose_form),
                 "capture": dict(self.capture),
                 "frames": list(self.frames),
+                "frames_of": dict(self.frames_of),
                 "average": self.average,
                 "shortfall": self.shortfall,
-                "preview": self.preview,
+                # No preview of a result the operator cannot accept (nothing was found).
+                "preview": None if self.shortfall == Shortfall.NONE_FOUND.value else self.preview,
                 "message": self.message,
                 "level": self.level,
                 "refusal": dict(self.refusal),
@@ -379,6 +382,7 @@ class WebDriver(Driver):
         self.session.update(
             message=f"trial {trial} pose {pose}: capturing",
             frames=[],
+            frames_of={"trial": trial, "pose": pose},
             average=None,
             preview=None,
             shortfall=Shortfall.OK.value,

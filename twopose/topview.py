@@ -72,7 +72,7 @@ def top_view(scene: TrialScene) -> TopView:
         segments = _ground_traces(scene, estimate, reach)
     else:
         segments = _lines(scene, estimate, reach)
-    truth = None if spec.truth_kind == "line" else _xz(scene.truth[0])
+    truth = _xz(scene.truth[0]) if spec.truth_kind != "line" else _end_on(scene.truth)
     cameras = tuple(c for c in (_xz(t) for t in scene.t_grid) if c is not None)
     return TopView(
         trial=scene.trial,
@@ -82,6 +82,20 @@ def top_view(scene: TrialScene) -> TopView:
         estimate=None if estimate is None else _xz(estimate),
         truth=truth,
     )
+
+
+def _end_on(truth: F64) -> XZ | None:
+    """A true line seen end-on from above (near vertical): its midpoint, as a point.
+
+    Its segment would be drawn as nothing.
+    """
+    if not np.isfinite(truth).all():
+        return None
+    d = truth[1] - truth[0]
+    length = float(np.linalg.norm(d))
+    if length == 0 or np.hypot(d[0], d[2]) > 0.05 * length:
+        return None
+    return _xz(0.5 * (truth[0] + truth[1]))
 
 
 def _reach(scene: TrialScene, estimate: F64 | None) -> F64:

@@ -84,7 +84,19 @@ class TrialResult:
                 parts.append(f"error {self.error:.3f} {self.units}")
         if self.warning:
             parts.append(f"WARNING {self.warning}")
+        if self.outside95:
+            parts.append("WARNING the error is beyond its 95% region: check the truth and poses")
         return "; ".join(parts)
+
+    @property
+    def outside95(self) -> bool:
+        """Whether the error against the typed truth is beyond its 95% region.
+
+        The region's largest semi-axis; for a line, its angle or its distance. A wrong
+        truth, pose or setup, or a 1-in-20 trial.
+        """
+        beyond = self.error > self.semiaxis95  # False where either is NaN
+        return bool(beyond or self.angle_err_deg > self.angle95_deg)
 
     def _line_parts(self) -> list[str]:
         """A line's direction and its errors, each with its 95% region.
@@ -136,6 +148,7 @@ class TrialResult:
             "cov": [list(row) for row in self.cov],
             "angle95_deg": self.angle95_deg,
             "angle_err_deg": self.angle_err_deg,
+            "outside95": self.outside95,
             "text": self.text(),
         }
 

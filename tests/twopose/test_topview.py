@@ -107,3 +107,13 @@ def test_rays_without_an_estimate_reach_ten_units() -> None:
     lengths = [np.hypot(*np.subtract(end, start)) for _, start, end in view.segments]
     assert len(lengths) == 3
     assert max(lengths) <= 10.0 + 1e-9
+
+
+def test_a_vertical_true_line_is_drawn_as_a_point_seen_end_on() -> None:
+    a, b = np.array([1.91, 9.625, 8.375]), np.array([1.91, 0.0, 8.375])
+    est = np.array([1.3, 6.4, 10.6])
+    direction = np.array([0.148, 0.821, -0.551])
+    view = top_view(
+        _scene("line", _px(est), np.zeros(3), est, direction=direction, truth=np.stack([a, b]))
+    )
+    assert view.truth == (1.91, 8.375)  # from above, the line is this point

@@ -95,3 +95,20 @@ def test_the_angle_region_covers_the_true_direction() -> None:
                 inside += r.angle_err_deg <= r.angle95_deg
     assert total >= 100
     assert 0.85 <= inside / total <= 1.0, (inside, total)
+
+
+def test_an_error_beyond_its_region_is_warned_in_words() -> None:
+    """A line whose typed truth is 35 degrees off: the result says the error is beyond its
+    95% region (the page colours it as a warning), never only a distance that looks fine."""
+    views, truth = _trials("line", np.random.default_rng(25), [2.0])
+    tilted = truth.copy()
+    tilted[:, 1] = tilted[:, 0] + (truth[:, 1] - truth[:, 0]) @ np.array(
+        [[1.0, 0.0, 0.0], [0.0, 0.82, 0.57], [0.0, -0.57, 0.82]]
+    )
+    (good,) = trial_results(_estimate("line", views, truth).trials)
+    (bad,) = trial_results(_estimate("line", views, tilted).trials)
+    assert not good.outside95
+    assert bad.outside95
+    assert bad.angle_err_deg > 20
+    assert "beyond its 95% region" in bad.text()
+    assert json.loads(dumps(bad.to_json()))["outside95"] is True
