@@ -11,7 +11,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from enum import StrEnum
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -20,11 +20,14 @@ from twopose.choices import Target
 from twopose.errors import SourceError
 from twopose.format.entries import PoseEntry
 from twopose.format.writer import Capture, SessionWriter
+from twopose.methods import spec_of
 
 if TYPE_CHECKING:
     from twopose.detect import Detection, PoseMeasurement
+    from twopose.format.entries import SessionInfo
     from twopose.rig import RigConstants
     from twopose.scene3d import TrialScene
+    from twopose.targets import BoardPlacement
     from twopose.trial_result import TrialResult
 
 __all__ = [
@@ -127,12 +130,21 @@ class FrameFeedback:
     reason: str
     area_px: float = math.nan
     eccentricity: float = math.nan
+    is_board: bool = False  # a board session's frame: the board's corners were sought
+    board_corners: int = 0  # a board session: the inner corners found (all, or none)
+    board_coverage: float = math.nan  # the share of the image the corners span
 
     def line(self) -> str:
         """What the thesis' GUI showed per frame (section 5.2.4): centroid, orientation
-        and the image line through them, area, eccentricity, object count."""
+        and the image line through them, area, eccentricity, object count; for a board,
+        its corners and the share of the image they cover."""
         if not self.found:
             return f"  frame {self.index + 1}: not found ({self.reason})"
+        if self.board_corners:
+            return (
+                f"  frame {self.index + 1}: board found, {self.board_corners} corners, "
+                f"covering {self.board_coverage:.0%} of the image"
+            )
         col, row = self.centroid_px
         parts = [f"  frame {self.index + 1}: found at ({col:.1f}, {row:.1f})"]
         if math.isfinite(self.theta_deg):
@@ -161,6 +173,9 @@ class FrameFeedback:
             "n_objects": self.n_blobs,
             "line": line,
             "reason": self.reason,
+            "is_board": self.is_board,
+            "board_corners": self.board_corners,
+            "board_coverage": self.board_coverage,
         }
 
 
@@ -189,13 +204,18 @@ class CaptureResult:
     def n_found(self) -> int:
         return sum(f.found for f in self.feedback)
 
+    @property
+    def sought(self) -> str:
+        """What the live detection looked for, in the operator's words."""
+        return "the board" if any(f.is_board for f in self.feedback) else "the target"
+
     def pose_average(self) -> PoseMeasurement | None:
         """The pose's frames combined as the analysis combines them by default (the
         thesis' mean, section 5.2.5); None without live detection."""
         from twopose.detect import combine_frames
 
-        if not self.feedback:
-            return None
+        if not self.feedback or any(f.is_board for f in self.feedback):
+            return None  # a board's corners are averaged by the rig calibration
         fb = self.feedback
         return combine_frames(
             np.array([f.centroid_px for f in fb], dtype=np.float64),
@@ -239,6 +259,15 @@ class CaptureSettings:
     on_progress: Callable[[], None] | None = None
     rig: RigConstants | None = None
     timeout_s: float = 2.0  # a frame later than this: the source has stopped
+    #: A board session's board: each frame's corners are looked for, live (the rig
+    #: calibration finds them again in the file); a pose that never saw it is refused.
+    board: BoardPlacement | None = None
+
+    @classmethod
+    def live_detection(cls, info: SessionInfo, **settings: Any) -> CaptureSettings:
+        """Settings that detect, live, what the session's method looks for: its target
+        (:class:`twopose.methods.MethodSpec`), or the board of a board session."""
+        return cls(target=spec_of(info.method).target, board=info.board, **settings)
 
 
 def capture_frames(
@@ -275,8 +304,15 @@ def capture_frames(
             cap.add_encoded(data)
             # Detected on the frame as stored (decoded), as the analysis will: the live
             # result is then the analysis' own, to the last digit.
-            d = None if target is None else detect(decode_image(data, "the frame"), target)
+            decoded = (
+                None
+                if target is None and settings.board is None
+                else decode_image(data, "the frame")
+            )
+            d = None if target is None or decoded is None else detect(decoded, target)
             fb = None if d is None else _feedback(k, d)
+            if settings.board is not None and decoded is not None:
+                fb = board_feedback(k, decoded, settings.board)
             if fb is not None:
                 feedback.append(fb)
             if live is not None:
@@ -309,6 +345,30 @@ def _feedback(k: int, d: Detection) -> FrameFeedback:
         area_px=d.area_px,
         eccentricity=d.eccentricity,
     )
+
+
+def board_feedback(k: int, image: Any, board: BoardPlacement) -> FrameFeedback:
+    """Frame ``k``'s board: its inner corners found (all of them, or none: OpenCV finds a
+    board whole) and the share of the image their bounding box covers."""
+    from twopose.detect import find_board
+
+    cols, rows = board.inner_corners
+    corners = find_board(image, (cols, rows), window_px=None)
+    if corners is None:
+        reason = f"the {cols}x{rows} board was not found whole (is all of it in view?)"
+        return FrameFeedback(
+            index=k, found=False, centroid_px=(math.nan, math.nan), theta_deg=math.nan,
+            n_blobs=0, reason=reason, is_board=True,
+        )  # fmt: skip
+    px = corners.reshape(-1, 2).astype(np.float64)
+    span = np.ptp(px, axis=0)
+    height, width = image.shape[:2]
+    centre = px.mean(axis=0)
+    return FrameFeedback(
+        index=k, found=True, centroid_px=(float(centre[0]), float(centre[1])),
+        theta_deg=math.nan, n_blobs=1, reason="", is_board=True, board_corners=len(px),
+        board_coverage=float(span[0] * span[1] / (width * height)),
+    )  # fmt: skip
 
 
 def _show_live(

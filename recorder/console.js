@@ -393,6 +393,14 @@ function renderCapture(s) {
   $("progress").value = Math.min(s.capture.frame || 0, n || 1);
   setText($("progress-text"), n ? "frame " + s.capture.frame + " of " + n : "");
   setText($("last-capture"), s.last_capture ? "last capture: " + s.last_capture : "");
+  if (changed("frames-head", s.method === "board")) {
+    setText($("camera-aside"), s.method === "board"
+      ? "each frame's board corners are looked for (nothing drawn)"
+      : "detection drawn: green found, red turned down");
+    const head = $("frames-table").tHead.rows[0];
+    for (const th of head.cells) show(th, s.method !== "board" || th.cellIndex < 2);
+    head.cells[1].textContent = s.method === "board" ? "the board" : "obj.";
+  }
   if (changed("frames", s.frames)) {
     const body = $("frames-table").tBodies[0];
     body.replaceChildren(...s.frames.map(frameRow));
@@ -419,6 +427,16 @@ function renderCapture(s) {
 function frameRow(f) {
   const tr = el("tr");
   tr.append(el("td", f.frame));
+  if (f.is_board) {
+    // A board session: was the whole board found, and how much of the image it covers.
+    const said = f.found
+      ? "board found: " + f.board_corners + " corners, covering " + Math.round(100 * f.board_coverage) + "% of the image"
+      : "not found: " + (f.reason || "the board");
+    const cell = el("td", said, f.found ? "" : "no");
+    cell.colSpan = 6;
+    tr.append(cell);
+    return tr;
+  }
   if (f.found === null || f.found === undefined) {
     const none = el("td", "no live detection", "no");
     none.colSpan = 6;
@@ -522,7 +540,8 @@ function renderDecision(s) {
     setText(shortfall, "the target was found in fewer than half the frames: redo, or accept anyway");
     shortfall.className = "warning";
   } else if (none) {
-    setText(shortfall, "the target was not found in any frame: nothing to measure, so accept is off; redo");
+    const what = s.method === "board" ? "the board" : "the target";
+    setText(shortfall, what + " was not found in any frame: nothing to measure, so accept is off; redo");
     shortfall.className = "error";
   } else {
     shortfall.className = "hidden";
@@ -565,6 +584,23 @@ function renderPoses(s) {
 }
 
 function renderResults(s) {
+  const board = s.method === "board";
+  show($("trials-section"), !board);
+  show($("rig-section"), board && s.phase !== "setup");
+  if (board) {
+    const accepted = s.topview ? s.topview.cameras.length : 0;
+    const box = $("rig-readiness");
+    if (!accepted) {
+      setText(box, "no capture has seen the board yet: the rig needs at least 3, at several distances and in two directions");
+      box.className = "neutral";
+    } else if (s.rig_readiness) {
+      setText(box, "these " + accepted + " poses cannot determine the rig yet: " + s.rig_readiness);
+      box.className = "warning";
+    } else {
+      setText(box, "these " + accepted + " poses can determine the rig (twopose-analyze rig); more, spread wider, narrow it");
+      box.className = "ok";
+    }
+  }
   if (changed("results", s.results)) {
     const list = $("trials");
     list.replaceChildren(...s.results.map((r) => {
@@ -585,12 +621,17 @@ function renderResults(s) {
 // --------------------------------------------------------------------------- the top view
 
 const COLOURS = {
+  board: "#333f4d",
   camera: "#1f5fbf", ray: "#e07b00", trace: "#8e44ad", line: "#d62728",
   truth_line: "#2ca02c", estimate: "#d62728", truth: "#2ca02c", grid: "#e3e7ec", axis: "#5b6673",
 };
 
 function legendItems(view) {
   const kinds = new Set(view.segments.map((g) => g.kind));
+  if (view.method === "board") {
+    return [["camera", "▲", "camera centre (each capture that saw the board)"],
+      ["board", "━", "the board (its inner corners, from above)"]];
+  }
   const items = [["camera", "▲", "camera centre (each pose)"]];
   if (kinds.has("ray")) items.push(["ray", "—", "ray through the dot, per pose"]);
   if (kinds.has("trace")) items.push(["trace", "—", "finger's plane on the ground, per pose"]);
@@ -628,11 +669,12 @@ function drawTopView(view, units, method) {
     ctx.fillStyle = COLOURS.axis;
     ctx.font = "13px sans-serif";
     ctx.textAlign = "center";
-    ctx.fillText("a trial, from above,", w / 2, h / 2 - 9);
-    ctx.fillText("once it has two poses", w / 2, h / 2 + 9);
+    const board = method === "board";
+    ctx.fillText(board ? "the board and the poses" : "a trial, from above,", w / 2, h / 2 - 9);
+    ctx.fillText(board ? "once a capture has seen it" : "once it has two poses", w / 2, h / 2 + 9);
     return;
   }
-  setText($("topview-title"), "trial " + view.trial + ", from above");
+  setText($("topview-title"), view.method === "board" ? "the board session, from above" : "trial " + view.trial + ", from above");
   legend.replaceChildren(...legendItems(view).map(([kind, mark, text]) => {
     const li = el("li");
     li.append(el("span", mark, "mark " + kind), el("span", text));
@@ -698,7 +740,7 @@ function drawTopView(view, units, method) {
   ctx.clip();
   for (const g of view.segments) {
     ctx.strokeStyle = COLOURS[g.kind] || COLOURS.axis;
-    ctx.lineWidth = g.kind === "line" ? 3 : 2;
+    ctx.lineWidth = g.kind === "line" || g.kind === "board" ? 3 : 2;
     ctx.setLineDash(g.kind === "truth_line" ? [7, 5] : []);
     ctx.beginPath();
     ctx.moveTo(X(g.from[0]), Y(g.from[1]));

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import queue
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -60,6 +60,7 @@ if TYPE_CHECKING:
     from twopose.detect import Detection
     from twopose.rig import RigConstants
     from twopose.scene3d import TrialScene
+    from twopose.targets import BoardPlacement
     from twopose.trial_result import TrialResult
 
 __all__ = ["DECISIONS", "ConsoleSession", "WebDriver"]
@@ -129,6 +130,8 @@ class ConsoleSession(LiveSink):
         self.notices: list[str] = []  # what the operator should know, that is no failure
         self.session_setup: dict[str, Any] = {}  # what is recorded: shown while recording
         self.notes: list[dict[str, Any]] = []  # the operator's notes: {trial, text}
+        self.board: BoardPlacement | None = None  # a board session's board
+        self.rig_readiness = ""  # a board session: why its poses cannot determine the rig
         self.last_capture = ""
         self.results: dict[int, dict[str, Any]] = {}
         self.topview: dict[str, Any] | None = None
@@ -168,6 +171,7 @@ class ConsoleSession(LiveSink):
                 "notices": list(self.notices),
                 "setup": dict(self.session_setup),
                 "notes": list(self.notes),
+                "rig_readiness": self.rig_readiness,
                 "last_capture": self.last_capture,
                 "results": [self.results[t] for t in sorted(self.results)],
                 "topview": self.topview,
@@ -201,7 +205,13 @@ class ConsoleSession(LiveSink):
                 f"{b.square:g} {setup.units.value}, first corner at "
                 f"({', '.join(f'{v:g}' for v in b.first_corner)})"
             )
-        self.update(method=setup.method, units=setup.units, phase="recording", session_setup=shown)
+        self.update(
+            method=setup.method,
+            units=setup.units,
+            phase="recording",
+            session_setup=shown,
+            board=setup.board,
+        )
 
     def refuse(self, control: str, message: str) -> None:
         """A refusal the page shows next to ``control`` (a decision button, a form)."""
@@ -406,12 +416,12 @@ class WebDriver(Driver):
         if not result.complete:
             message, level = f"trial {trial} pose {pose}: the capture is incomplete: redo", "error"
         elif shortfall is Shortfall.NONE_FOUND:
-            message = f"trial {trial} pose {pose}: the target was not found in any frame: redo"
+            message = f"trial {trial} pose {pose}: {result.sought} was not found in any frame: redo"
             level = "error"
         elif shortfall is Shortfall.FEW_FOUND:
             message = (
-                f"trial {trial} pose {pose}: the target was found in only {result.n_found} of "
-                f"{len(result.feedback)} frames: redo, or accept anyway"
+                f"trial {trial} pose {pose}: {result.sought} was found in only "
+                f"{result.n_found} of {len(result.feedback)} frames: redo, or accept anyway"
             )
             level = "warning"
         average = result.pose_average()
@@ -419,7 +429,7 @@ class WebDriver(Driver):
             sum(result.overhead_s) / len(result.overhead_s) * self.fps if result.overhead_s else 0.0
         )
         self._show_poses(pose, "awaiting decision")
-        found = f"{result.n_found} with the target found, " if result.feedback else ""  # board
+        found = f"{result.n_found} with {result.sought} found, " if result.feedback else ""
         self.session.update(
             last_capture=f"{result.n_frames} frames, {found}{state}, {result.dropped} dropped; "
             f"recorder overhead {100 * overhead:.0f}% of the frame interval",
@@ -435,6 +445,13 @@ class WebDriver(Driver):
 
     def live_failed(self, message: str) -> None:
         self.session.update(live_error=message)
+
+    def board_progress(self, seen_from: Sequence[Vec3], problem: str) -> None:
+        from twopose.topview import board_top_view
+
+        board = self.session.board
+        view = None if board is None else board_top_view(board, seen_from).to_json()
+        self.session.update(rig_readiness=problem, topview=view)
 
     def notice(self, message: str) -> None:
         with self.session.lock:

@@ -177,9 +177,10 @@ def _recording(
         camera, info = setup.camera(), setup.info(options.notes)
         typing = PoseTyping(poses_per_trial=options.poses)
         driver = WebDriver(session, src, camera.camera_id, setup.ground_truth, typing, preview)
-        target = spec_of(setup.method).target
         live = session if view is None else LiveSinks(session, view)
-        capture = CaptureSettings(frames=options.frames, target=target, live=live, rig=options.rig)
+        capture = CaptureSettings.live_detection(
+            info, frames=options.frames, live=live, rig=options.rig
+        )
         summary = record(
             session.out, info, [camera], src, driver, ground=setup.ground(), capture=capture
         )
@@ -414,10 +415,11 @@ def _decision_refusal(session: ConsoleSession, choice: str) -> str:
             f"nothing to undo: this is the first pose of trial {session.trial}; "
             "redo captures it again"
         )
+    what = "the board" if session.board is not None else "the target"
     if choice in ("accept", "accept_anyway") and session.shortfall == Shortfall.NONE_FOUND:
-        return "the target was not found in any frame, so this pose has nothing to measure: redo"
+        return f"{what} was not found in any frame, so this pose has nothing to measure: redo"
     if choice == "accept" and session.shortfall == Shortfall.FEW_FOUND:
-        return "the target was found in fewer than half the frames: redo, or accept anyway"
+        return f"{what} was found in fewer than half the frames: redo, or accept anyway"
     return ""
 
 

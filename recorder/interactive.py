@@ -233,6 +233,7 @@ class _OperatorDriver(Driver):
         self.ground_truth = ground_truth
         self.typing = typing
         self.poses_per_trial = typing.poses_per_trial  # --poses (d18a7fc had lost it: 2 always)
+        self._rig_problem = ""  # a board session: why its poses cannot determine the rig yet
 
     def start(self, source: SourceInfo, path: Path) -> None:
         self.op.say(
@@ -285,6 +286,11 @@ class _OperatorDriver(Driver):
     def notice(self, message: str) -> None:
         self.op.say(f"  note: {message}")
 
+    def board_progress(self, seen_from: Sequence[Vec3], problem: str) -> None:  # noqa: ARG002 - the terminal says the problem only
+        if problem != self._rig_problem:  # said when it changes, not after every pose
+            self.op.say(f"  rig: {problem}" if problem else "  rig: these poses can determine it")
+        self._rig_problem = problem
+
     @override
     def decide(self, trial: int, pose: int, result: CaptureResult) -> Decision:
         accept = "[a]ccept"
@@ -327,9 +333,11 @@ def record_interactive(
     """
     info, camera = setup.info(notes), setup.camera()
     driver = _OperatorDriver(operator, info, camera, setup.ground_truth, typing or PoseTyping())
+    sought = CaptureSettings.live_detection(info)  # the method's target, or the board
     settings = dataclasses.replace(
         capture or CaptureSettings(),
-        target=spec_of(info.method).target,
+        target=sought.target,
+        board=sought.board,
         on_frame=lambda fb: operator.say(fb.line()),
     )
     return record(out, info, [camera], source, driver, ground=setup.ground(), capture=settings)

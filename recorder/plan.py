@@ -304,10 +304,18 @@ class _PlanDriver(Driver):
         self.on_capture = on_capture
         self.on_result = on_result
         self.path = Path()
+        self.rig_problem = ""  # a board session: why its poses cannot determine the rig
 
     @override
     def start(self, source: object, path: Path) -> None:
         self.path = path
+
+    @override
+    def finish(self, summary: RecordingSummary) -> None:
+        import sys
+
+        if self.rig_problem:  # the plan's poses, all recorded, cannot calibrate the rig
+            print(f"  WARNING rig: {self.rig_problem}", file=sys.stderr, flush=True)
 
     def next_trial(self, trial: int) -> bool:
         return trial <= len(self.plan.trials)
@@ -356,6 +364,9 @@ class _PlanDriver(Driver):
 
         print(f"  note: {message}", file=sys.stderr, flush=True)
 
+    def board_progress(self, seen_from: Sequence[Vec3], problem: str) -> None:  # noqa: ARG002 - a plan says the problem only
+        self.rig_problem = problem  # said once, at the end (a plan's poses are all planned)
+
     def decide(self, trial: int, pose: int, result: CaptureResult) -> Decision:
         if not result.complete:
             raise SourceError(
@@ -399,11 +410,7 @@ def record_plan(
         source,
         _PlanDriver(plan, on_capture, on_result),
         ground=ground,
-        capture=CaptureSettings(
-            frames=plan.frames,
-            target=spec_of(plan.method).target,
-            live=live,
-            on_frame=on_frame,
-            rig=rig,
+        capture=CaptureSettings.live_detection(
+            info, frames=plan.frames, live=live, on_frame=on_frame, rig=rig
         ),
     )

@@ -43,6 +43,8 @@ from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from recorder.capture import (
     CaptureResult,
     CaptureSettings,
@@ -69,6 +71,7 @@ from twopose.format.writer import SessionWriter
 from twopose.values import Vec3
 
 if TYPE_CHECKING:
+    from twopose.targets import BoardPlacement
     from twopose.trial_result import TrialResult
 
 __all__ = [
@@ -140,6 +143,8 @@ class Procedure:
         self.entry: PoseEntry | None = None  # the typed pose being captured or decided
         self.result: CaptureResult | None = None
         self.accepted: dict[int, PoseEntry] = {}  # this trial: pose -> accepted entry
+        #: the session: capture number -> its accepted entry and how the capture went
+        self.kept: dict[int, tuple[PoseEntry, CaptureResult]] = {}
         self.n_accepted = 0
         self.n_discarded = 0
         self.n_complete_trials = 0
@@ -243,18 +248,21 @@ class Procedure:
             )
         shortfall = detection_shortfall(self.result)
         if shortfall is Shortfall.NONE_FOUND and not unattended:
+            what = self.result.sought
             raise ProcedureRefusedError(
-                f"the target was found in none of the {self.result.n_frames} frames, so "
-                "this pose has nothing to measure: redo it (is the target in view?)"
+                f"{what} was found in none of the {self.result.n_frames} frames, so "
+                f"this pose has nothing to measure: redo it (is {what} in view?)"
             )
         if shortfall is Shortfall.FEW_FOUND and not (anyway or unattended):
             raise LowDetectionError(
-                f"the target was found in only {self.result.n_found} of "
+                f"{self.result.sought} was found in only {self.result.n_found} of "
                 f"{self.result.n_frames} frames: accept anyway, or redo"
             )
         self._decide(self.entry, "accept")
         self.writer.sync()  # an accepted capture survives a power cut too
         self.accepted[self.pose] = self.entry
+        assert self.entry.capture is not None
+        self.kept[self.entry.capture] = (self.entry, self.result)
         self.entry = None
         if self.pose >= self.n_poses:
             self.n_complete_trials += 1
@@ -283,6 +291,7 @@ class Procedure:
         self._decide(self.entry, "discard", "undo")
         previous = self.accepted.pop(self.pose - 1)
         self._decide(previous, "discard", f"undone by capture {self.entry.capture}")
+        self.kept.pop(previous.capture or -1, None)
         self.n_accepted -= 1  # counted once, by its final decision: discarded
         self.entry = None
         self.pose -= 1
@@ -393,6 +402,12 @@ class Driver:
     def notice(self, message: str) -> None:
         """Something the operator should know that is no failure (a rig file without
         units, taken in the session's). Shown as a note."""
+
+    def board_progress(self, seen_from: Sequence[Vec3], problem: str) -> None:
+        """A board session after each decision: the typed camera centres of the accepted
+        captures that saw the board, and why they cannot determine the rig yet (empty:
+        they can), by the rule ``twopose-analyze rig`` applies
+        (:func:`twopose.board_rig.check_identifiable`)."""
 
     def finish(self, summary: RecordingSummary) -> None:
         """The session is closed."""
@@ -525,9 +540,24 @@ def _record_trial(
             _live(driver, _preview_step, opts.results, proc, driver, result)
         if not _decide(proc, driver, result):
             return False
+        if opts.settings.board is not None:
+            driver.board_progress(*board_progress(proc, opts.settings.board))
         if opts.results is not None:
             _live(driver, _result_step, trial, proc, driver, opts)
     return True
+
+
+def board_progress(proc: Procedure, board: BoardPlacement) -> tuple[list[Vec3], str]:
+    """The accepted captures that saw the board (their typed camera centres), and why they
+    cannot determine the rig yet ("": they can): the rule the rig calibration applies."""
+    from twopose.board_rig import check_identifiable
+
+    seen = [entry.t_grid for entry, result in proc.kept.values() if result.n_found > 0]
+    try:
+        check_identifiable(np.array(seen, dtype=np.float64).reshape(-1, 3), board.first_corner[2])
+    except InputValueError as err:
+        return seen, str(err)
+    return seen, ""
 
 
 def _live(driver: Driver, step: Callable[..., None], *args: Any) -> None:

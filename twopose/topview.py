@@ -8,7 +8,8 @@ measured, drawn so that it meets where the solver says the target is.
 - method 2 (ground): each view's plane (the finger's image line back-projected, thesis
   eq. 3.15) cut by the ground plane, a line on the table; the traces meet at the ground
   point the finger points at, which is the estimate (not at the finger);
-- the fixed line: the estimated 3-D line, and the true one when typed.
+- the fixed line: the estimated 3-D line, and the true one when typed;
+- a board session (:func:`board_top_view`): the board and where it was seen from.
 
 Pure geometry from a :class:`twopose.scene3d.TrialScene`, for the web console's canvas
 (:mod:`recorder.console`); no drawing here.
@@ -16,6 +17,7 @@ Pure geometry from a :class:`twopose.scene3d.TrialScene`, for the web console's 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -24,8 +26,10 @@ from twopose.arrays import F64
 from twopose.methods import spec_of
 from twopose.scene3d import TrialScene
 from twopose.solve import image_lines, projection_matrices
+from twopose.targets import BoardPlacement
+from twopose.values import Vec3
 
-__all__ = ["TopView", "top_view"]
+__all__ = ["TopView", "board_top_view", "top_view"]
 
 XZ = tuple[float, float]
 
@@ -38,7 +42,8 @@ class TopView:
     method: str
     cameras: tuple[XZ, ...]
     #: (kind, start, end): ``ray`` (point), ``trace`` (method 2 plane on the ground),
-    #: ``line`` (the estimated 3-D line), ``truth_line``.
+    #: ``line`` (the estimated 3-D line), ``truth_line``, ``board`` (a board session's
+    #: board, its inner corners' row from above).
     segments: tuple[tuple[str, XZ, XZ], ...]
     estimate: XZ | None
     truth: XZ | None  # a point target's true position (lines: a truth_line segment)
@@ -55,6 +60,22 @@ class TopView:
             "estimate": None if self.estimate is None else list(self.estimate),
             "truth": None if self.truth is None else list(self.truth),
         }
+
+
+def board_top_view(board: BoardPlacement, seen_from: Sequence[Vec3]) -> TopView:
+    """A board session from above: the board, and where it was seen from.
+
+    The board is the span of its inner corners in its plane z = const; the cameras are
+    the typed centres of the accepted captures that saw it.
+    """
+    corners = board.corners_grid()
+    left, right = corners[np.argmin(corners[:, 0])], corners[np.argmax(corners[:, 0])]
+    cameras = tuple(c for c in (_xz(np.asarray(t, dtype=np.float64)) for t in seen_from) if c)
+    ends = (_xz(left), _xz(right))
+    segments = (("board", ends[0], ends[1]),) if ends[0] and ends[1] else ()
+    return TopView(
+        trial=0, method="board", cameras=cameras, segments=segments, estimate=None, truth=None
+    )
 
 
 def _xz(p: F64) -> XZ | None:

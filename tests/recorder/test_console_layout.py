@@ -368,7 +368,7 @@ def by_hand(tmp_path: Path) -> Iterator[tuple[str, Any]]:
 @pytest.mark.slow
 def test_states_a_synthetic_session_does_not_reach(by_hand: tuple[str, Any]) -> None:
     """Few frames found: accept anyway offered and accept refused by its button; the result
-    before the decision with its warning; a failing live result in red; a failed session."""
+    before the decision with its warning; a failing live result in amber; a failed session."""
     url, session = by_hand
     session.update(**_FEW, setup_fields=[])
     with headless_chromium(1366, 768) as browser:
@@ -381,8 +381,10 @@ def test_states_a_synthetic_session_does_not_reach(by_hand: tuple[str, Any]) -> 
         assert "WARNING parallax" in page.text("preview-result")
         assert page.shown("live-error")
         assert "a test's fault" in page.text("live-error")
-        red = page.el("live-error").value_of_css_property("background-color")
-        assert red.startswith("rgba(204, 17, 17"), red
+        # Amber, not red: the live result failed, the recording goes on (red is for what
+        # stops or refuses).
+        amber = page.el("live-error").value_of_css_property("background-color")
+        assert amber.startswith("rgba(255, 240, 207"), amber
         assert "1 of 3 frames" in page.text("pose-average")
         assert page.text("frames-table").count("not found") == 2
         assert "awaiting decision" in page.text("pose-list")
