@@ -353,7 +353,7 @@ def board_feedback(k: int, image: Any, board: BoardPlacement) -> FrameFeedback:
     from twopose.detect import find_board
 
     cols, rows = board.inner_corners
-    corners = find_board(image, (cols, rows), window_px=None)
+    corners = find_board(image, (cols, rows), window_px=None, quick=True)  # keeps up live
     if corners is None:
         reason = f"the {cols}x{rows} board was not found whole (is all of it in view?)"
         return FrameFeedback(

@@ -228,14 +228,23 @@ class _Console:
 
     async def setup(self, request: Request) -> Response:
         form, refused = await _form(request, _SETUP_LIMITS)
-        if refused is not None:
-            return refused
         if self.session.phase != "setup":
             return _refused("the session is already set up")
+        # Every refusal at once: a field too long is judged beside the others, not first.
+        too_long = _field_errors(form, _SETUP_LIMITS)
+        if refused is not None and not too_long:
+            return refused
         try:
-            self.start(checked_setup(form, self.options))
+            setup = checked_setup(
+                {k: v for k, v in form.items() if k not in too_long}, self.options
+            )
         except FormRefusedError as err:
-            return _refused(str(err), err.errors)
+            errors = {**err.errors, **too_long}
+            return _refused(str(FormRefusedError(errors)), errors)
+        if too_long:
+            return _refused(str(FormRefusedError(too_long)), too_long)
+        try:
+            self.start(setup)
         except TwoposeError as err:  # a busy --live-port
             return _refused(str(err), {"setup": str(err)})
         return ConsoleJSONResponse({"ok": True})
@@ -394,10 +403,15 @@ async def _form(request: Request, limits: dict[str, int]) -> tuple[dict[str, str
     except ValueError:  # the guard judged it already; a body read twice would differ
         return {}, _refused("the request must be a JSON object of fields")
     form = {k: str(v) for k, v in data.items() if k in limits and isinstance(v, str)}
-    errors = {k: why for k, v in form.items() if (why := text_refusal(v, limits[k]))}
+    errors = _field_errors(form, limits)
     if errors:
         return form, _refused("; ".join(f"{k}: {v}" for k, v in errors.items()), errors)
     return form, None
+
+
+def _field_errors(form: dict[str, str], limits: dict[str, int]) -> dict[str, str]:
+    """Each field whose text is too long or holds a control character, and why."""
+    return {k: why for k, v in form.items() if (why := text_refusal(v, limits[k]))}
 
 
 def _refused(message: str, errors: dict[str, str] | None = None) -> Response:

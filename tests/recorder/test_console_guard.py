@@ -430,3 +430,16 @@ def test_the_page_refuses_a_rig_at_setup_as_the_terminal_does(
         assert said in answer.json()["errors"]["rig"]
         assert client.get("/api/state").json()["phase"] == "setup"
     assert not out.exists()
+
+
+def test_setup_refusals_come_at_once_a_long_operator_name_among_them(
+    console: tuple[TestClient, Path],
+) -> None:
+    """A name over its limit is refused beside the other fields' refusals, not in a round
+    of its own before them."""
+    client, out = console
+    form = {"method": "point", "focal": "abc", "truth1": "1, 2", "operator": "A" * 200}
+    answer = client.post("/api/setup", json=form)
+    assert answer.status_code == 400
+    assert set(answer.json()["errors"]) == {"focal", "truth1", "operator"}
+    assert not out.exists()

@@ -232,3 +232,21 @@ def test_fast_components_agree_with_opencv_stats(seed: int) -> None:
     got = sorted((int(s.area), round(s.centroid[0], 6), round(s.centroid[1], 6)) for s in shapes)
     assert got == want
     assert len(want) > 3
+
+
+def test_the_quick_board_search_finds_what_the_full_one_finds_and_skips_blank_frames() -> None:
+    """``quick`` (the recorder's live check) finds a board exactly as the full search does,
+    and turns a frame without one down at once (the full search takes a third of a second)."""
+    from twopose.detect import find_board
+
+    squares = (np.indices((7, 10)).sum(axis=0) % 2).astype(np.uint8) * 255
+    board = np.kron(squares, np.ones((30, 30), np.uint8))
+    image = np.full((480, 640), 255, np.uint8)
+    image[135:345, 170:470] = board
+    bgr = np.asarray(cv2.cvtColor(image, cv2.COLOR_GRAY2BGR), dtype=np.uint8)
+    full, quick = find_board(bgr, (9, 6)), find_board(bgr, (9, 6), quick=True)
+    assert full is not None
+    assert quick is not None
+    np.testing.assert_array_equal(full, quick)
+    blank = np.random.default_rng(0).integers(80, 100, (480, 640, 3), dtype=np.uint8)
+    assert find_board(blank, (9, 6), quick=True) is None
