@@ -305,6 +305,22 @@ _SOLVERS: dict[Method, Callable[[ViewBatch, GroundSpec | None, float], Solved]] 
 }
 
 
+def _perturbed_views(batch: ViewBatch, x: F64) -> tuple[int, NDArray[np.bool_], F64]:
+    """The views of perturbed inputs ``x``, for propagation.
+
+    How many copies of the batch's T trials ``x`` stacks, their valid views, and each
+    view's projection matrix from the (perturbed) inputs.
+    """
+    reps = x.shape[0] // batch.valid.shape[0]  # propagate stacks copies of the T trials
+    valid = np.tile(batch.valid, (reps, 1))
+    R = rotation_from_angles_deg(x[..., 6:9])
+    # With the intrinsics' uncertainty (twopose.uncertainty.Shared) they follow the view's
+    # inputs; otherwise they are the batch's, exact.
+    D = len(INPUTS_PER_VIEW)
+    intr = x[..., D:] if x.shape[-1] > D else np.tile(batch.intrinsics, (reps, 1, 1))
+    return reps, valid, projection_matrices(intr, R, x[..., 3:6])
+
+
 def thesis_estimate(
     method: str,
     batch: ViewBatch,
@@ -316,18 +332,11 @@ def thesis_estimate(
 
     Lines report their point nearest ``reference`` (T, 3), held fixed.
     """
-    mc, T = options.min_conditioning, batch.valid.shape[0]
+    mc = options.min_conditioning
     spec = spec_of(method)
 
     def estimate(x: F64) -> F64:
-        reps = x.shape[0] // T  # propagate stacks copies of the T trials
-        valid = np.tile(batch.valid, (reps, 1))
-        R = rotation_from_angles_deg(x[..., 6:9])
-        # With the intrinsics' uncertainty (twopose.uncertainty.Shared) they follow the
-        # view's inputs; otherwise they are the batch's, exact.
-        D = len(INPUTS_PER_VIEW)
-        intr = x[..., D:] if x.shape[-1] > D else np.tile(batch.intrinsics, (reps, 1, 1))
-        P = projection_matrices(intr, R, x[..., 3:6])
+        reps, valid, P = _perturbed_views(batch, x)
         if not spec.uses_image_lines:  # method 1: the dot's rays
             return triangulate_points(x[..., :2], P, valid=valid, min_conditioning=mc).point_grid
         lines = image_lines(x[..., :2], x[..., 2])
@@ -350,15 +359,10 @@ def thesis_direction(
     The thesis' line (two planes, eq. 3.17), its sign that of ``reference`` (T, 3), so a
     perturbation never flips it.
     """
-    mc, T = options.min_conditioning, batch.valid.shape[0]
+    mc = options.min_conditioning
 
     def direction(x: F64) -> F64:
-        reps = x.shape[0] // T
-        valid = np.tile(batch.valid, (reps, 1))
-        R = rotation_from_angles_deg(x[..., 6:9])
-        D = len(INPUTS_PER_VIEW)
-        intr = x[..., D:] if x.shape[-1] > D else np.tile(batch.intrinsics, (reps, 1, 1))
-        P = projection_matrices(intr, R, x[..., 3:6])
+        reps, valid, P = _perturbed_views(batch, x)
         lines = image_lines(x[..., :2], x[..., 2])
         d = triangulate_lines(lines, P, valid=valid, min_conditioning=mc).direction_grid
         sign = np.sign(np.einsum("ti,ti->t", d, np.tile(reference, (reps, 1))))

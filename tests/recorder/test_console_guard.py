@@ -443,3 +443,22 @@ def test_setup_refusals_come_at_once_a_long_operator_name_among_them(
     assert answer.status_code == 400
     assert set(answer.json()["errors"]) == {"focal", "truth1", "operator"}
     assert not out.exists()
+
+
+def test_a_rig_without_units_is_a_note_not_an_alert(tmp_path: Path) -> None:
+    """A rig file from before rig files had units: said once as a neutral note (taken in
+    the session's units), never in the live-failure bar."""
+    scene = tmp_path / "scene.toml"
+    scene.write_text(SCENE)
+    options = ConsoleOptions(
+        source=f"synthetic:{scene}", given=GIVEN, frames=2, size=(320, 240), rig=RigConstants()
+    )
+    session = ConsoleSession(tmp_path / "s.mcap", dict(GIVEN, size=(320, 240)))
+    with TestClient(console_app(session, options), base_url=ORIGIN) as client:
+        client.get("/")
+        form = {"method": "point", "focal": "262.5", "principal": "160, 120", "operator": "A"}
+        assert client.post("/api/setup", json=form).status_code == 200
+        state = wait_for(client, "pose")
+        assert any("records no units" in n for n in state["notices"]), state["notices"]
+        assert state["live_error"] == ""
+        assert client.post("/api/decide", json={"decision": "quit"}).status_code == 200
