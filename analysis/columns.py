@@ -23,6 +23,9 @@ __all__ = [
     "RIG_COLUMNS",
     "RIG_TABLE_COLUMNS",
     "SUMMARY_COLUMNS",
+    "SUMMARY_COUNT_ORDER",
+    "SUMMARY_DOMAINS",
+    "TABLE_DOMAINS",
     "TRIAL_COLUMNS",
     "TRIAL_TABLE_COLUMNS",
     "UNCERTAINTY_COLUMNS",
@@ -137,6 +140,25 @@ SUMMARY_COLUMNS = [
     "median_err_all_ok",
     "max_err_all_ok",
 ]
+#: What each number of ``summary.csv`` can be: ``count`` a whole number >= 0, ``length``
+#: a finite length >= 0 (session units), ``signed`` any finite number, ``share`` 0 to 1.
+#: Empty is "not measured"; anything else outside its domain no run writes, so ``check``
+#: and ``compare`` refuse it (:func:`analysis.outputs.check_results_table`).
+_LENGTHS = (
+    "bias_x_ci95", "bias_y_ci95", "bias_z_ci95", "std_x", "std_y", "std_z", "rmse",
+    "rmse_ci95_low", "rmse_ci95_high", "median_err", "max_err", "rmse_all_ok",
+    "median_err_all_ok", "max_err_all_ok",
+)  # fmt: skip
+SUMMARY_DOMAINS: dict[str, str] = {
+    **dict.fromkeys(("n_trials", "n_ok", "n_warned", "n_used"), "count"),
+    **dict.fromkeys(("bias_x", "bias_y", "bias_z"), "signed"),
+    **dict.fromkeys(_LENGTHS, "length"),
+    **dict.fromkeys(("within_1", "coverage95"), "share"),
+}
+#: The domains of the tables ``check`` and ``compare`` read, by file name.
+TABLE_DOMAINS = {"summary.csv": SUMMARY_DOMAINS}
+#: Counts that bound each other in one row of ``summary.csv`` (each at most the next).
+SUMMARY_COUNT_ORDER = (("n_used", "n_ok"), ("n_warned", "n_ok"), ("n_ok", "n_trials"))
 #: ``frames.csv``: every frame's detection.
 FRAME_COLUMNS = [
     "session",

@@ -107,6 +107,12 @@ def compare_runs(
     summaries = [summarize(u, include_warned=True) for u in used]  # already filtered
     side = _side_by_side(*summaries)
     paired = _paired(*used)
+    if paired.empty:  # nothing to compare: no figure, no table, and no "ok"
+        raise InputValueError(
+            f"no trial measured in both runs ({run_a} and {run_b}): they share no session, "
+            "method, units and trial that each measured with ground truth"
+            + ("" if include_warned else " and without a warning (--include-warned counts those)")
+        )
     return Comparison(
         a=sides[0], b=sides[1], side_by_side=side, paired=paired, tests=_tests(paired)
     )
@@ -218,6 +224,12 @@ def _side_by_side(summary_a: pd.DataFrame, summary_b: pd.DataFrame) -> pd.DataFr
     return table
 
 
+#: Differences of errors smaller than this, relative to the larger error (or absolute
+#: under errors of 1), are ties: the two runs' floating point, not a better estimate
+#: (a run that re-solves the same trials differs by about 1e-13).
+TIE_TOLERANCE = 1e-9
+
+
 def _paired(used_a: pd.DataFrame, used_b: pd.DataFrame) -> pd.DataFrame:
     keys = ["session", "method", "units", "trial"]
     pairs = pd.merge(
@@ -234,13 +246,16 @@ def _tests(paired: pd.DataFrame) -> pd.DataFrame:
     rows = []
     for (method, units), g in paired.groupby(["method", "units"], sort=True):
         diff = g["diff"].to_numpy(dtype=np.float64)
+        errors = g[["err_a", "err_b"]].abs().to_numpy(dtype=np.float64)
+        scale = np.maximum(1.0, errors.max(axis=1))
+        tie = TIE_TOLERANCE * scale
         rows.append(
             {
                 "method": method,
                 "units": units,
                 **paired_difference(diff),
-                "n_b_better": int(np.sum(diff < 0)),
-                "n_a_better": int(np.sum(diff > 0)),
+                "n_b_better": int(np.sum(diff < -tie)),
+                "n_a_better": int(np.sum(diff > tie)),
             }
         )
     tests = pd.DataFrame(rows, columns=TEST_COLUMNS)

@@ -20,6 +20,7 @@ from typing import Any
 
 import pandas as pd
 
+from analysis.columns import SUMMARY_DOMAINS
 from analysis.outputs import check_results_table, read_results_table, session_keys
 from twopose.config import build_dataclass, read_toml
 from twopose.errors import InputValueError
@@ -42,6 +43,11 @@ __all__ = [
 ]
 
 
+#: The largest relative allowance: a metric may double, no more (a gate that lets RMSE
+#: grow fivefold checks nothing; 5 is most likely "5%" meant as 0.05).
+MAX_RELATIVE = 1.0
+
+
 @dataclass(frozen=True, kw_only=True)
 class Allowance:
     """How much worse a metric may get: ``max(absolute, relative * |baseline|)``."""
@@ -52,6 +58,14 @@ class Allowance:
     def __post_init__(self) -> None:
         if self.relative < 0 or self.absolute < 0:
             raise InputValueError("a tolerance cannot be negative")
+        if not (math.isfinite(self.relative) and math.isfinite(self.absolute)):
+            raise InputValueError("a tolerance must be a finite number")
+        if self.relative > MAX_RELATIVE:
+            raise InputValueError(
+                f"a relative tolerance of {self.relative:g} lets a metric grow by "
+                f"{self.relative:.0%}: at most {MAX_RELATIVE:g} (100%); is it a percentage? "
+                "write 0.10 for 10%"
+            )
 
     def of(self, baseline: float) -> float:
         return max(self.absolute, self.relative * abs(baseline))
@@ -91,7 +105,9 @@ COMPARISON_COLUMNS = [
     "result",
     "change",
     "allowed",
-    "status",  # better, same, worse (within tolerance), regressed, missing, new
+    # better, same, worse (within tolerance), regressed, missing, new, unheld (the baseline
+    # has no value for the metric: not compared, said in a note)
+    "status",
 ]
 
 
@@ -203,7 +219,9 @@ def compare_summaries(
     missing from either is an error, but for one the baseline predates
     (:data:`BASELINE_MAY_LACK`): that metric is not compared, and a note says so."""
     for table, name in zip((result, baseline), names, strict=True):
-        check_results_table(table, f"{name}/summary.csv", numeric=_CHECKED_COLUMNS)
+        check_results_table(
+            table, f"{name}/summary.csv", numeric=_CHECKED_COLUMNS, domains=SUMMARY_DOMAINS
+        )
     skipped = [c for c in BASELINE_MAY_LACK if c not in baseline.columns]
     for table, name, fix in (
         (baseline, names[1], "replace the baseline with a summary.csv of this twopose"),
@@ -246,7 +264,14 @@ def compare_summaries(
                     allowed,
                 )
             )
-    return CheckResult(comparisons=pd.DataFrame(rows, columns=COMPARISON_COLUMNS), notes=notes)
+    table = pd.DataFrame(rows, columns=COMPARISON_COLUMNS)
+    unheld = table[table["status"] == "unheld"]
+    notes += tuple(
+        f"not compared: {r['metric']} of {r['session']} ({r['method']}): the baseline has no "
+        "value for it, so any value passes; replace the baseline to check it"
+        for _, r in unheld.iterrows()
+    )
+    return CheckResult(comparisons=table, notes=notes)
 
 
 def _value(row: pd.Series, column: str) -> float:
@@ -255,8 +280,8 @@ def _value(row: pd.Series, column: str) -> float:
 
 
 def _status(before: float, after: float, sign: int, allowed: float) -> str:
-    if math.isnan(before):
-        return "same" if math.isnan(after) else "better"
+    if math.isnan(before):  # the baseline measured nothing: nothing to hold the run to
+        return "same" if math.isnan(after) else "unheld"
     if math.isnan(after):
         return "regressed"  # measured before, not now
     worsening = sign * (after - before)

@@ -28,7 +28,7 @@ import fcntl
 import json
 import os
 import stat
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
@@ -422,7 +422,16 @@ def read_results_table(
     twice = sorted({c for c in header if header.count(c) > 1})
     if twice:
         raise InputValueError(f"{path}: column(s) {', '.join(twice)} given twice")
-    return check_results_table(table, str(path), key=key, required=required, numeric=numeric)
+    from analysis.columns import TABLE_DOMAINS
+
+    return check_results_table(
+        table,
+        str(path),
+        key=key,
+        required=required,
+        numeric=numeric,
+        domains=TABLE_DOMAINS.get(name),
+    )
 
 
 def check_results_table(
@@ -432,11 +441,14 @@ def check_results_table(
     key: Sequence[str] = ("session", "method"),
     required: Iterable[str] = (),
     numeric: Iterable[str] = (),
+    domains: dict[str, str] | None = None,
 ) -> pd.DataFrame:
     """The one check of a run's table before ``check`` or ``compare`` reads it: the
     ``key`` and ``required`` columns present, every row with its key, no key twice (a
-    session and method, or a trial, in two rows: which is the run's?), and the ``numeric``
-    columns present numbers or empty (not measured). Returns ``table``."""
+    session and method, or a trial, in two rows: which is the run's?), the ``numeric``
+    columns present numbers or empty (not measured), and with ``domains`` (column ->
+    domain, :data:`analysis.columns.SUMMARY_DOMAINS`) every number inside its column's
+    domain and the counts adding up. Returns ``table``."""
     import pandas as pd
 
     missing = [c for c in (*key, *required) if c not in table.columns]
@@ -473,7 +485,68 @@ def check_results_table(
             raise InputValueError(
                 f"{what}: {column} in row {i + 1} (below the header) is {value!r}, not a number"
             )
+    if domains:
+        _check_domains(table, what, domains)
     return table
+
+
+def _count(v: float) -> bool:
+    return v >= 0 and float(v).is_integer()
+
+
+def _length(v: float) -> bool:
+    return v >= 0
+
+
+def _signed(_v: float) -> bool:
+    return True
+
+
+def _share(v: float) -> bool:
+    return 0 <= v <= 1
+
+
+#: Each domain of :data:`analysis.columns.SUMMARY_DOMAINS`: whether a (finite) number is
+#: in it, and what it should be, in words.
+_DOMAINS: dict[str, tuple[Callable[[float], bool], str]] = {
+    "count": (_count, "a whole number of trials, >= 0"),
+    "length": (_length, "a length, >= 0"),
+    "signed": (_signed, "a finite number"),
+    "share": (_share, "a share between 0 and 1"),
+}
+
+
+def _check_domains(table: pd.DataFrame, what: str, domains: dict[str, str]) -> None:
+    """Refuse a number no run can write: outside its column's domain, infinite, or counts
+    that do not add up (more trials used than ok). Empty cells are "not measured"."""
+    import math
+
+    import pandas as pd
+
+    from analysis.columns import SUMMARY_COUNT_ORDER
+
+    problems: list[str] = []
+    for column, domain in domains.items():
+        if column not in table.columns:
+            continue
+        inside, words = _DOMAINS[domain]
+        for i, value in pd.to_numeric(table[column], errors="coerce").items():
+            if math.isnan(value):
+                continue
+            if not (math.isfinite(value) and inside(value)):
+                problems.append(f"{column} = {value:g} in row {int(str(i)) + 1} ({words})")
+    for low, high in SUMMARY_COUNT_ORDER:
+        if low in table.columns and high in table.columns:
+            a, b = pd.to_numeric(table[low]), pd.to_numeric(table[high])
+            for i in table.index[(a > b).fillna(value=False)]:
+                problems.append(f"{low} = {a[i]:g} > {high} = {b[i]:g} in row {int(str(i)) + 1}")
+    if problems:
+        more = f"; and {len(problems) - 5} more" if len(problems) > 5 else ""
+        shown = "; ".join(problems[:5]) + more
+        raise InputValueError(
+            f"{what}: values no run writes: {shown}. Was it edited by hand? Run "
+            "`twopose-analyze run` again to write it"
+        )
 
 
 def _key_name(key: Sequence[str], values: Iterable[object]) -> str:

@@ -128,3 +128,36 @@ def test_compare_is_one_call_from_python(two_runs: tuple[Path, Path], tmp_path: 
     comparison = analysis.compare(two_runs[0], two_runs[1], tmp_path / "cmp")
     assert (tmp_path / "cmp" / "compare.html").is_file()
     assert list(comparison.tests["method"]) == ["ground", "point"]
+
+
+def test_runs_with_no_trial_in_common_are_refused(
+    two_runs: tuple[Path, Path], tmp_path: Path
+) -> None:
+    """Nothing to compare is exit 3 with nothing written, never 'ok' and an empty figure."""
+    mean_run, _ = two_runs
+    other = tmp_path / "other"
+    shutil.copytree(mean_run, other)
+    trials = pd.read_csv(other / "trials.csv", keep_default_na=False, na_values=[""])
+    trials.assign(trial=trials["trial"] + 1000).to_csv(other / "trials.csv", index=False)
+    out = tmp_path / "cmp"
+    result = runner.invoke(app, ["compare", str(mean_run), str(other), "--out", str(out)])
+    assert result.exit_code == 3, result.output
+    assert "no trial measured in both runs" in result.output
+    assert not out.exists() or not any(out.iterdir())
+
+
+def test_differences_at_floating_point_level_are_ties(
+    two_runs: tuple[Path, Path], tmp_path: Path
+) -> None:
+    """A re-solve that differs by 1e-13 is neither run better: the counts say ties."""
+    mean_run, _ = two_runs
+    nudged = tmp_path / "nudged"
+    shutil.copytree(mean_run, nudged)
+    trials = pd.read_csv(nudged / "trials.csv", keep_default_na=False, na_values=[""])
+    sign = np.where(np.arange(len(trials)) % 2 == 0, 1.0, -1.0)
+    trials["x"] = trials["x"] + sign * 1e-13
+    trials.to_csv(nudged / "trials.csv", index=False)
+    tests = compare_runs(mean_run, nudged).tests
+    assert (tests["n_pairs"] > 0).all()
+    assert (tests["n_a_better"] == 0).all()
+    assert (tests["n_b_better"] == 0).all()

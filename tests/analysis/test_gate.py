@@ -14,6 +14,7 @@ from typer.testing import CliRunner
 from analysis.cli import app
 from analysis.gate import Tolerance, check, load_tolerance
 from analysis.outputs import session_keys
+from twopose.errors import InputValueError
 
 runner = CliRunner()
 
@@ -99,8 +100,10 @@ def test_worse_within_tolerance_is_printed_but_passes(baseline: Path, tmp_path: 
 def test_fewer_ok_trials_and_lower_coverage_regress(baseline: Path, tmp_path: Path) -> None:
     run = _copy(baseline, tmp_path)
     summary = pd.read_csv(run / "summary.csv")
-    summary["n_ok"] -= 1
-    summary["coverage95"] -= 0.5
+    summary["n_ok"] -= 1  # and what it bounds with it: the counts still add up
+    summary["n_used"] = summary[["n_used", "n_ok"]].min(axis=1)
+    summary["n_warned"] = summary[["n_warned", "n_ok"]].min(axis=1)
+    summary["coverage95"] = (summary["coverage95"] - 0.5).clip(lower=0.0)
     summary.to_csv(run / "summary.csv", index=False)
     outcome = check(run, baseline)
     regressed = outcome.comparisons[outcome.comparisons["status"] == "regressed"]
@@ -207,3 +210,56 @@ def test_the_bundled_sessions_match_the_committed_baseline(bundled_run: Path) ->
     assert result.exit_code == 0, result.output
     assert "checked 7 session/method pair(s)" in result.output
     assert load_tolerance(ci / "tolerance.toml")["ground"].rmse.relative == 0.15
+
+
+@pytest.mark.parametrize(
+    ("column", "value", "said"),
+    [
+        ("rmse", -1.0, "rmse = -1"),
+        ("rmse", float("-inf"), "rmse = -inf"),
+        ("rmse", float("inf"), "rmse = inf"),
+        ("coverage95", 7.0, "coverage95 = 7"),
+        ("n_ok", 2.5, "n_ok = 2.5"),
+        ("n_used", 999.0, "n_used = 999 > n_ok"),
+        ("bias_x", float("inf"), "bias_x = inf"),
+    ],
+)
+@pytest.mark.parametrize("side", ["run", "baseline"])
+def test_values_no_run_writes_are_refused_on_either_side(
+    baseline: Path, tmp_path: Path, column: str, value: float, said: str, side: str
+) -> None:
+    """A gate that knows what cannot be: exit 3 naming the value, in the run or the
+    baseline, never 'no regression' (an RMSE of -1 or -inf is no measurement)."""
+    edited = _copy(baseline, tmp_path)
+    summary = pd.read_csv(edited / "summary.csv")
+    summary[column] = summary[column].astype(float)
+    summary.loc[0, column] = value
+    summary.to_csv(edited / "summary.csv", index=False)
+    run, base = (edited, baseline) if side == "run" else (baseline, edited)
+    result = runner.invoke(app, ["check", str(run), "--baseline", str(base)])
+    assert result.exit_code == 3, result.output
+    assert said in result.output
+    assert "values no run writes" in result.output
+
+
+def test_an_empty_baseline_metric_is_said_not_passed_silently(
+    baseline: Path, tmp_path: Path
+) -> None:
+    edited = _copy(baseline, tmp_path)
+    summary = pd.read_csv(edited / "summary.csv")
+    summary.loc[0, "rmse"] = float("nan")
+    summary.to_csv(edited / "summary.csv", index=False)
+    result = runner.invoke(app, ["check", str(baseline), "--baseline", str(edited)])
+    assert result.exit_code == 0, result.output
+    assert "not compared: rmse of" in result.output
+    assert "the baseline has no value for it" in result.output
+
+
+@pytest.mark.parametrize("relative", [5, 1.5, float("inf")])
+def test_a_tolerance_beyond_doubling_is_refused(tmp_path: Path, relative: float) -> None:
+    path = tmp_path / "tolerance.toml"
+    path.write_text(f"[rmse]\nrelative = {'inf' if relative == float('inf') else relative}\n")
+    with pytest.raises(InputValueError, match=r"relative tolerance|finite"):
+        load_tolerance(path)
+    path.write_text("[rmse]\nrelative = 1.0\n")
+    assert load_tolerance(path)[""].rmse.relative == 1.0

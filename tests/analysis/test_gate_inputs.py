@@ -304,7 +304,10 @@ def _valid_table(table: Any) -> bool:
     return isinstance(table, dict) and all(
         k in METRICS
         and isinstance(v, dict)
-        and all(f in ("relative", "absolute") and _valid_number(x) for f, x in v.items())
+        and all(
+            f in ("relative", "absolute") and _valid_number(x) and (f != "relative" or x <= 1)
+            for f, x in v.items()
+        )
         for k, v in table.items()
     )
 
