@@ -143,7 +143,7 @@ def compare(
     )
     if out_dir is not None:
         with OutputFolder.prepare(Path(out_dir)) as folder:
-            folder.record(write_comparison(comparison, out_dir))
+            folder.record(write_comparison(comparison, folder.path))
     return comparison
 
 

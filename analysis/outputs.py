@@ -1,9 +1,12 @@
 """The output folder of a run: created safely, written atomically, one run at a time.
 
+* A run is one transaction (:class:`OutputFolder`): it writes into a staging folder inside
+  ``--out`` and moves its files in only when it has finished, so Ctrl-C, SIGTERM, a crash
+  or a full disk leave the previous results exactly as they were and no stray file.
 * Every file a run writes into ``--out`` is listed in ``.twopose-outputs.json`` there. The
-  next run into the same folder first removes the files that list names (and only those:
-  never a file it did not write), so no stale per-session file of an earlier run survives
-  with numbering that no longer matches.
+  commit replaces the files that list names (and only those: never a file it did not
+  write), so no stale per-session file of an earlier run survives with numbering that no
+  longer matches.
 * Every file twopose-analyze writes is written under a temporary name, synced and renamed
   into place, and its folder synced (:func:`replacing`, :func:`write_atomically`: the one
   way): a full disk or a crash leaves the previous file or none, never half of one; a
@@ -12,8 +15,8 @@
 * No output replaces an input (:class:`Inputs`): an output file or folder that is an
   input, lies inside a run folder being read, or (a file) is not a regular file or a new
   name is refused before anything is written.
-* ``.twopose-run.lock`` (an advisory ``flock``, released when the process ends, however it
-  ends) refuses a second run into the same folder while one is writing.
+* An advisory ``flock`` on the folder itself (released when the process ends, however it
+  ends; no lock file) refuses a second run into the same folder while one is writing.
 * A finished run's tables are read back (``check``, ``compare``) with
   :func:`read_results_table`, which checks them (:func:`check_results_table`: columns,
   one row per key, numbers), its sessions named by :func:`session_keys`.
@@ -27,6 +30,7 @@ import errno
 import fcntl
 import json
 import os
+import shutil
 import stat
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
@@ -35,6 +39,7 @@ from types import TracebackType
 from typing import TYPE_CHECKING, Self
 
 from twopose.errors import InputValueError, TwoposeError
+from twopose.format.reader import STAGING_FOLDER
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -42,6 +47,7 @@ if TYPE_CHECKING:
 __all__ = [
     "LOCK_NAME",
     "MANIFEST_NAME",
+    "STAGING_NAME",
     "Inputs",
     "OutputFolder",
     "check_results_table",
@@ -57,7 +63,9 @@ __all__ = [
 ]
 
 MANIFEST_NAME = ".twopose-outputs.json"
-LOCK_NAME = ".twopose-run.lock"
+LOCK_NAME = ".twopose-run.lock"  # twopose before 0.2 locked with this file; removed when seen
+STAGING_NAME = STAGING_FOLDER  # inside --out: where a run writes until it commits
+_COMMITTING = ".committing"  # in the staging folder: its outputs are being moved in
 
 
 def printable_stem(session: str | Path) -> str:
@@ -153,17 +161,28 @@ def _refuse_special(path: Path) -> None:
 
 
 class OutputFolder:
-    """A run's ``--out`` folder (see the module docstring); a context manager that holds
-    the folder's lock."""
+    """A run's ``--out`` folder, written as one transaction (see the module docstring).
 
-    def __init__(self, path: Path) -> None:
-        self.path = path
-        self._lock: int | None = None
+    :attr:`path` is where the run writes: a staging folder inside the destination
+    (:data:`STAGING_NAME`). Leaving the ``with`` block normally after :meth:`record`
+    commits: each listed file replaces its namesake in :attr:`destination`, the previous
+    run's other outputs are removed and the new list written, with Ctrl-C and SIGTERM held
+    back for those few renames. Leaving it any other way (an error, Ctrl-C, a full disk)
+    discards the staging folder: the previous results stay exactly as they were. A run
+    killed outright leaves its staging folder, which the next run into the folder rolls
+    forward (if it was committing) or removes (if not) before anything else.
+    """
+
+    def __init__(self, destination: Path, lock_fd: int) -> None:
+        self.destination = destination
+        self.path = destination / STAGING_NAME
+        self._lock: int | None = lock_fd
+        self._recorded = False
 
     @classmethod
     def prepare(cls, path: str | Path) -> OutputFolder:
-        """Create the folder (and parents), take its lock, and remove what the previous run
-        wrote there.
+        """Create the folder (and parents), take its lock, finish or discard what a killed
+        run left, and open a fresh staging folder.
 
         Raises
         ------
@@ -182,33 +201,17 @@ class OutputFolder:
             ) from err
         if not os.access(folder, os.W_OK | os.X_OK):
             raise InputValueError(f"cannot write into the output folder {folder}")
-        out = cls(folder)
-        out._take_lock()
+        out = cls(folder, _lock_folder(folder))
         try:
-            out._remove_previous()
+            out._recover()
+            out.path.mkdir()
         except BaseException:
             out.close()
             raise
         return out
 
-    def _take_lock(self) -> None:
-        lock = self.path / LOCK_NAME
-        try:
-            fd = os.open(lock, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW, 0o644)
-        except OSError as err:
-            raise InputValueError(f"cannot lock the output folder {self.path}: {err}") from err
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError as err:
-            os.close(fd)
-            raise InputValueError(
-                f"another twopose-analyze run is writing into {self.path}; wait for it to "
-                "finish or choose another --out"
-            ) from err
-        self._lock = fd
-
     def close(self) -> None:
-        """Release the lock (the lock file stays: removing it would race a waiting run)."""
+        """Release the lock (a lock on the folder itself: no lock file is left behind)."""
         if self._lock is not None:
             os.close(self._lock)
             self._lock = None
@@ -222,40 +225,118 @@ class OutputFolder:
         exc: BaseException | None,
         tb: TracebackType | None,
     ) -> None:
-        self.close()
+        try:
+            if exc_type is None and self._recorded:
+                self.commit()
+            else:
+                self.discard()
+        finally:
+            self.close()
 
     def _manifest(self) -> Path:
-        return self.path / MANIFEST_NAME
+        return self.destination / MANIFEST_NAME
 
     def previous_outputs(self) -> list[str]:
         """The file names the previous run listed (an unreadable list counts as empty)."""
-        try:
-            names = json.loads(self._manifest().read_text(encoding="utf-8"))["files"]
-        except (OSError, ValueError, KeyError, TypeError):
-            return []
-        return [n for n in names if isinstance(n, str) and _plain_name(n)]
-
-    def _remove_previous(self) -> None:
-        for name in self.previous_outputs():
-            try:
-                (self.path / name).unlink(missing_ok=True)  # a symlink itself, not its target
-            except OSError as err:
-                raise TwoposeError(
-                    f"cannot replace {self.path / name} from an earlier run: {err.strerror}"
-                ) from err
-        for stale in self.path.glob(".*.partial"):  # left by a run that was killed
-            with contextlib.suppress(OSError):
-                stale.unlink()
-        self._manifest().unlink(missing_ok=True)
+        return _listed(self._manifest())
 
     def write_bytes(self, name: str, data: bytes) -> None:
         write_atomically(self.path / name, data)
 
     def record(self, names: Iterable[str]) -> None:
-        """List the files this run wrote (those that exist), for the next run to replace."""
+        """List the files this run wrote (those that exist in staging): what the commit
+        moves into the destination, and what the next run will replace."""
         present = sorted({n for n in names if _plain_name(n) and (self.path / n).is_file()})
         text = json.dumps({"written_by": "twopose-analyze run", "files": present}, indent=1)
         self.write_bytes(MANIFEST_NAME, (text + "\n").encode())
+        self._recorded = True
+
+    def commit(self) -> None:
+        """Move the staged outputs into the destination (signals held back meanwhile)."""
+        with _signals_held():
+            write_atomically(self.path / _COMMITTING, b"")  # from here on: roll forward
+            _move_staged(self.path, self.destination)
+
+    def discard(self) -> None:
+        """Remove the staging folder: the destination keeps the previous results."""
+        shutil.rmtree(self.path, ignore_errors=True)
+
+    def _recover(self) -> None:
+        """What a killed run left: a commit half done is finished, anything else staged is
+        removed; the lock file of twopose before 0.2 is removed too."""
+        if (self.path / _COMMITTING).exists():
+            _move_staged(self.path, self.destination)
+        shutil.rmtree(self.path, ignore_errors=True)
+        with contextlib.suppress(OSError):
+            legacy = self.destination / LOCK_NAME
+            if legacy.is_file() and not legacy.is_symlink():
+                legacy.unlink()
+
+
+def _lock_folder(folder: Path) -> int:
+    """An advisory lock on the folder itself (released when the process ends, however it
+    ends); refuses a second run into it while one is writing."""
+    try:
+        fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY)
+    except OSError as err:
+        raise InputValueError(f"cannot lock the output folder {folder}: {err}") from err
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError as err:
+        os.close(fd)
+        raise InputValueError(
+            f"another twopose-analyze run is writing into {folder}; wait for it to "
+            "finish or choose another --out"
+        ) from err
+    return fd
+
+
+def _listed(manifest: Path) -> list[str]:
+    try:
+        names = json.loads(manifest.read_text(encoding="utf-8"))["files"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return []
+    return [n for n in names if isinstance(n, str) and _plain_name(n)]
+
+
+def _move_staged(staging: Path, destination: Path) -> None:
+    """The commit (idempotent, so a killed one is finished by the next run): each staged
+    output over its namesake, the previous run's other outputs removed, then the new list;
+    the destination folder synced."""
+    new = _listed(staging / MANIFEST_NAME)
+    previous = _listed(destination / MANIFEST_NAME)
+    try:
+        for name in new:
+            if (staging / name).is_file():
+                _refuse_special(destination / name)
+                os.replace(staging / name, destination / name)
+        for name in sorted(set(previous) - set(new)):
+            (destination / name).unlink(missing_ok=True)  # a symlink itself, not its target
+        if (staging / MANIFEST_NAME).is_file():
+            os.replace(staging / MANIFEST_NAME, destination / MANIFEST_NAME)
+        _fsync(destination, os.O_RDONLY | os.O_DIRECTORY)
+    except OSError as err:
+        raise TwoposeError(
+            f"cannot move the results into {destination}: {err.strerror or err}; the next "
+            "run into it finishes the move"
+        ) from err
+    shutil.rmtree(staging, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def _signals_held() -> Iterator[None]:
+    """Ctrl-C and SIGTERM held back (not lost) for the commit's few renames."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 def _plain_name(name: str) -> bool:
@@ -386,10 +467,11 @@ def check_run_outputs(
 
 def run_inputs(paths: Iterable[str | Path], *more: Path | None) -> Inputs:
     """The files a ``run`` or ``rig`` reads: the sessions under ``paths`` (a folder is only
-    searched: results may go below it) and ``more`` (a rig file)."""
-    from twopose.format.reader import find_sessions
+    searched: results may go below it; the results files of an earlier run found there are
+    not read, so its output folder stays ours, run after run) and ``more`` (a rig file)."""
+    from twopose.format.reader import find_sessions, is_results_file
 
-    sessions = tuple(find_sessions(paths))
+    sessions = tuple(p for p in find_sessions(paths) if not is_results_file(p))
     return Inputs(files=sessions + tuple(p for p in more if p is not None))
 
 

@@ -104,7 +104,7 @@ def _on_interrupt(_signum: int, _frame: object) -> None:
 
 
 def watch_interrupts() -> None:
-    """Remember a Ctrl-C even where Python swallows its KeyboardInterrupt.
+    """Remember a Ctrl-C (or SIGTERM) even where Python swallows its KeyboardInterrupt.
 
     Remember a Ctrl-C even where Python swallows the KeyboardInterrupt it raises (in a
     finalizer or weakref callback it is printed and ignored, and the command would then
@@ -116,6 +116,10 @@ def watch_interrupts() -> None:
     import sys
 
     signal.signal(signal.SIGINT, _on_interrupt)
+    # SIGTERM (kill, a CI runner's timeout, a service manager) stops a command as Ctrl-C
+    # does: files closed, a run's staged outputs discarded, exit 130; never a process
+    # ended mid-write.
+    signal.signal(signal.SIGTERM, _on_interrupt)
     sys.unraisablehook = _unraisable
 
 

@@ -88,10 +88,12 @@ def sensitivity_command(
         x_translation_effect,
     )
 
-    with handle_errors(), OutputFolder.prepare(out):  # the same checks and lock as run's --out
+    # The same checks, lock and transaction as run's --out.
+    with handle_errors(), OutputFolder.prepare(out) as folder:
         table = sensitivity(samples=samples, seed=seed)
-        write_atomically(out / "sensitivity.csv", table.to_csv(index=False).encode())
-        write_atomically(out / "sensitivity.png", png_bytes(plot_sensitivity(table)))
+        write_atomically(folder.path / "sensitivity.csv", table.to_csv(index=False).encode())
+        write_atomically(folder.path / "sensitivity.png", png_bytes(plot_sensitivity(table)))
+        folder.record(["sensitivity.csv", "sensitivity.png"])
     ours = x_translation_effect()
     worst, tilt, azimuth = worst_x_translation_effect()
     typer.echo(f"wrote {out / 'sensitivity.csv'} ({len(table)} rows) and {out / 'sensitivity.png'}")

@@ -32,6 +32,7 @@ from twopose.format.messages import (
 from twopose.format.writer import METADATA_NAME
 
 __all__ = [
+    "STAGING_FOLDER",
     "Entry",
     "SessionReader",
     "check_version",
@@ -290,17 +291,27 @@ class SessionReader:
         return decoded
 
 
+#: Where an analysis run writes until it commits (inside its --out folder): never searched
+#: for sessions (a run killed there leaves half-written results files).
+STAGING_FOLDER = ".twopose-staging"
+
+
 def find_sessions(paths: Iterable[Path | str]) -> list[Path]:
     """Session files named by ``paths``: files as given, folders searched recursively for *.mcap.
 
-    Sorted within each folder so that results do not depend on directory order.
+    A run's staging folder (:data:`STAGING_FOLDER`) is not searched. Sorted within each
+    folder so that results do not depend on directory order.
     Raises :class:`~twopose.errors.InputValueError` for a path that does not exist.
     """
     found: list[Path] = []
     for raw in paths:
         p = Path(raw)
         if p.is_dir():
-            found += sorted(q for q in p.rglob("*.mcap") if q.is_file())
+            found += sorted(
+                q
+                for q in p.rglob("*.mcap")
+                if q.is_file() and STAGING_FOLDER not in q.relative_to(p).parts
+            )
         elif p.is_file():
             found.append(p)
         elif p.exists():  # a FIFO or a device would block the reader forever

@@ -1,0 +1,143 @@
+"""A run is one transaction (analysis.outputs.OutputFolder): a re-run into an existing
+results folder that is interrupted (Ctrl-C, SIGTERM, kill -9, an error) leaves the
+previous results byte for byte, no lock file and no stray file; a commit a kill cut short
+is finished by the next run; an output folder inside the sessions folder stays ours."""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from analysis.cli import app
+from analysis.outputs import LOCK_NAME, MANIFEST_NAME, STAGING_NAME, OutputFolder
+
+runner = CliRunner()
+SAMPLES = Path(__file__).resolve().parents[2] / "sessions"
+
+
+def _snapshot(folder: Path) -> dict[str, str]:
+    """Every file under ``folder`` (the staging folder apart) and its content's hash."""
+    return {
+        str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
+        for p in sorted(folder.rglob("*"))
+        if p.is_file() and STAGING_NAME not in p.relative_to(folder).parts
+    }
+
+
+def test_a_failure_inside_the_run_leaves_the_previous_results(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    with OutputFolder.prepare(out) as folder:
+        folder.write_bytes("a.csv", b"first")
+        folder.record(["a.csv"])
+    before = _snapshot(out)
+
+    def failing_run() -> None:
+        with OutputFolder.prepare(out) as folder:
+            folder.write_bytes("a.csv", b"second, half written")
+            folder.write_bytes("b.csv", b"new")
+            raise RuntimeError("the disk filled up")
+
+    with pytest.raises(RuntimeError):
+        failing_run()
+    assert _snapshot(out) == before
+    assert sorted(p.name for p in out.iterdir()) == [MANIFEST_NAME, "a.csv"]  # no lock file
+
+
+def test_a_commit_cut_short_is_finished_by_the_next_run(tmp_path: Path) -> None:
+    """A kill between the commit's renames: the next run moves the rest in first."""
+    out = tmp_path / "out"
+    with OutputFolder.prepare(out) as folder:
+        folder.write_bytes("old.csv", b"old")
+        folder.record(["old.csv"])
+    staging = out / STAGING_NAME
+    staging.mkdir()
+    (staging / "new.csv").write_bytes(b"new")
+    (staging / MANIFEST_NAME).write_text('{"files": ["new.csv"]}')
+    (staging / ".committing").write_bytes(b"")
+    with OutputFolder.prepare(out):
+        pass  # nothing recorded: this run leaves what it found, finished
+    assert (out / "new.csv").read_bytes() == b"new"
+    assert not (out / "old.csv").exists()
+    assert not staging.exists()
+
+
+def test_a_run_never_committing_is_removed_by_the_next(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    (out / STAGING_NAME).mkdir(parents=True)
+    (out / STAGING_NAME / "results_00_x.mcap").write_bytes(b"half")
+    (out / LOCK_NAME).write_bytes(b"")  # an older twopose's lock file
+    with OutputFolder.prepare(out) as folder:
+        folder.record([])
+    assert sorted(p.name for p in out.iterdir()) == [MANIFEST_NAME]
+
+
+def test_an_output_folder_inside_the_sessions_folder_stays_ours(tmp_path: Path) -> None:
+    """``run S --out S/results`` twice: the second run reads the sessions, not the first
+    run's results files, and does not take its own folder for an input."""
+    sessions = tmp_path / "S"
+    sessions.mkdir()
+    shutil.copy(SAMPLES / "thesis_line.mcap", sessions)
+    for _ in range(2):
+        result = runner.invoke(
+            app, ["run", str(sessions), "--out", str(sessions / "results"), "--no-scene"]
+        )
+        assert result.exit_code == 0, result.output
+    result = runner.invoke(app, ["run", str(sessions), "--out", str(sessions / "results")])
+    assert result.exit_code == 0, result.output
+    result = runner.invoke(app, ["run", str(sessions), "--out", str(sessions / "results")])
+    assert result.exit_code == 0, result.output
+    assert "skipped 1 results file(s)" in result.output
+
+
+def _rerun(folder: Path, out: Path) -> subprocess.Popen[str]:
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
+    return subprocess.Popen(
+        [sys.executable, "-m", "analysis", "run", folder, "--out", out, "--jobs", "2"],
+        stderr=subprocess.PIPE,
+        stdout=subprocess.DEVNULL,
+        text=True,
+        env=env,
+        start_new_session=True,  # a signal reaches the whole group, as at a terminal
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("sig", "after_s"), [(signal.SIGINT, 3.0), (signal.SIGTERM, 5.0), (signal.SIGKILL, 4.0)]
+)
+def test_an_interrupted_rerun_leaves_the_previous_results_byte_for_byte(
+    tmp_path: Path, sig: signal.Signals, after_s: float
+) -> None:
+    folder = tmp_path / "in"
+    folder.mkdir()
+    for k in range(16):  # enough that the re-run is still running when the signal comes
+        shutil.copy(SAMPLES / "thesis_method2_ground.mcap", folder / f"s{k:02d}.mcap")
+    out = tmp_path / "r"
+    first = runner.invoke(app, ["run", str(folder), "--out", str(out)])
+    assert first.exit_code == 0, first.output
+    before = _snapshot(out)
+    assert len(before) > 30
+    proc = _rerun(folder, out)
+    time.sleep(after_s)
+    os.killpg(proc.pid, sig)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode != 0, err
+    assert "Traceback" not in err
+    assert _snapshot(out) == before  # the previous results, byte for byte
+    if sig is not signal.SIGKILL:  # a run that could clean up left nothing behind
+        assert not (out / STAGING_NAME).exists()
+    assert not (out / LOCK_NAME).exists()
+    # The next run goes ahead (a killed run's lock died with it) and cleans up.
+    again = runner.invoke(app, ["run", str(folder), "--out", str(out), "--no-scene"])
+    assert again.exit_code == 0, again.output
+    assert not (out / STAGING_NAME).exists()
