@@ -99,6 +99,7 @@ def run(
         result = dataclasses.replace(
             gather(outcomes, include_warned=options.include_warned),
             skipped=tuple(skipped),
+            rig_source=options.rig_source,
         )
         if folder is not None:
             from analysis.report import write_outputs

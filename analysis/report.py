@@ -153,6 +153,7 @@ def summary_document(result: RunResult) -> dict[str, object]:
         "summary": _records(result.summary),
         "verdict": thesis_verdict(result.trials, include_warned=result.include_warned),
         "failed": _records(result.errors),
+        "rig": None if result.rig_source is None else result.rig_source.to_json(),
     }
 
 
@@ -207,6 +208,7 @@ def _answer_section(result: RunResult) -> list[str]:
         "<h1>twopose report</h1>",
         f"<p>{len(result.sessions)} session(s) analysed, {len(result.errors)} failed, "
         f"{len(result.trials)} trial(s), {n_ok} ok.</p>",
+        *_rig_used(result),
         "<nav><a href='#answer'>Answer per method</a> · <a href='#thesis'>The thesis</a> · "
         "<a href='#summary'>Per session</a> · "
         "<a href='#figures'>Overview figures</a> · "
@@ -321,6 +323,14 @@ def rig_before_after(trials: pd.DataFrame, *, include_warned: bool = False) -> p
             "systematic_dominant",
         ],
     )
+
+
+def _rig_used(result: RunResult) -> list[str]:
+    """``run --rig``: which file corrected every view (and none said when none did)."""
+    source = result.rig_source
+    if source is None:
+        return ["<p class='rig-used'>No rig file: the views are as typed.</p>"]
+    return [f"<p class='rig-used'><strong>{html.escape(source.line().capitalize())}.</strong></p>"]
 
 
 def _rig_section(result: RunResult) -> list[str]:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import pandas as pd
@@ -44,6 +45,38 @@ class AnalysisOptions:
     rig: RigConstants | None = None
     # "loo": also each trial corrected by the constants its session's other trials give.
     rig_calibration: RigCalibrationMode = "none"
+    # Where ``rig`` came from (``run --rig``): recorded in summary.json and the report.
+    rig_source: RigSource | None = None
+
+
+@dataclass(frozen=True, kw_only=True)
+class RigSource:
+    """The rig file a run corrected every view by (``run --rig``): where it was, its
+    content's SHA-256 and its constants, so a corrected run is never mistaken for an
+    uncorrected one (``summary.json``'s ``rig``, the terminal, the report)."""
+
+    path: str
+    sha256: str
+    constants: RigConstants
+
+    @classmethod
+    def read(cls, path: str | Path, constants: RigConstants) -> RigSource:
+        import hashlib
+
+        digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
+        return cls(path=str(path), sha256=digest, constants=constants)
+
+    def to_json(self) -> dict[str, object]:
+        from dataclasses import asdict
+
+        values = {
+            k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self.constants).items()
+        }
+        return {"path": self.path, "sha256": self.sha256, "constants": values}
+
+    def line(self) -> str:
+        """One line for the terminal and the report."""
+        return f"every view corrected by the rig file {self.path} (sha256 {self.sha256[:16]}...)"
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -82,6 +115,7 @@ class RunResult:
     skipped: tuple[str, ...] = ()  # results files of an earlier run found among the inputs
     include_warned: bool = False  # whether the summary counts trials with a warning
     rig: pd.DataFrame = field(default_factory=pd.DataFrame)  # --rig-calibration: rig.csv
+    rig_source: RigSource | None = None  # --rig: the file every view was corrected by
 
     @property
     def failed(self) -> bool:

@@ -105,9 +105,12 @@ def run_command(
     with handle_errors(), _session_progress() as (found, done):
         check_run_outputs(paths, out, junit, rig)  # before anything is written
         if rig is not None:
+            from analysis.results import RigSource
             from analysis.rig_calibration import rig_for_run
 
-            options = dataclasses.replace(options, rig=rig_for_run(rig, paths, note))
+            constants = rig_for_run(rig, paths, note)
+            source = RigSource.read(rig, constants)
+            options = dataclasses.replace(options, rig=constants, rig_source=source)
         result = run(
             paths,
             out,
@@ -161,6 +164,8 @@ def _print_run(result: RunResult, out: Path, *, include_warned: bool) -> None:
 
     width = min(shutil.get_terminal_size().columns, 100) if sys.stdout.isatty() else None
     typer.echo(f"twopose: {len(result.sessions)} session(s), results in {out}")
+    if result.rig_source is not None:
+        typer.echo(result.rig_source.line())
     for line in summary_lines(
         result.trials, result.summary, include_warned=include_warned, width=width
     ):

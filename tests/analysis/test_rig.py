@@ -77,6 +77,24 @@ def test_rig_writes_a_file_that_run_applies(rig_sessions: dict[str, Path], tmp_p
     bias = [np.abs(t[["err_x", "err_y", "err_z"]].mean()).max() for t in (before, after)]
     assert bias[1] < 0.5 * bias[0]  # the constants' bias is gone (in-sample)
     assert np.sqrt((after["err"] ** 2).mean()) < np.sqrt((before["err"] ** 2).mean())
+    # The run says which rig corrected it: terminal, summary.json and report.
+    import hashlib
+    import json
+
+    digest = hashlib.sha256(rig_file.read_bytes()).hexdigest()
+    assert f"every view corrected by the rig file {rig_file}" in run.output
+    recorded = json.loads((tmp_path / "o" / "summary.json").read_text())["rig"]
+    assert recorded["path"] == str(rig_file)
+    assert recorded["sha256"] == digest
+    assert recorded["constants"]["units"] == "in"
+    assert len(recorded["constants"]["camera_offset"]) == 3
+    assert digest[:16] in (tmp_path / "o" / "report.html").read_text()
+    plain = runner.invoke(
+        app, ["run", str(rig_sessions["with"]), "--out", str(tmp_path / "p"), "--no-scene"]
+    )
+    assert plain.exit_code == 0, plain.output
+    assert json.loads((tmp_path / "p" / "summary.json").read_text())["rig"] is None
+    assert "No rig file" in (tmp_path / "p" / "report.html").read_text()
 
 
 def test_a_bad_rig_file_is_refused(rig_sessions: dict[str, Path], tmp_path: Path) -> None:
