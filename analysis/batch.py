@@ -29,12 +29,12 @@ from analysis.columns import (
     VIEW_COLUMNS,
 )
 from analysis.drawer import FigureDrawer, note, sigint_blocked
+from analysis.input_set import resolve_inputs
 from analysis.metrics import summarize
 from analysis.outputs import OutputFolder, printable_stem
 from analysis.pipeline import analyse_session, keep_frame_buffers
 from analysis.results import AnalysisOptions, RunResult, SessionFailure, SessionResult
 from twopose.errors import InputValueError, TwoposeError
-from twopose.format.reader import find_sessions, is_results_file
 
 __all__ = ["Outcome", "analyse_or_fail", "results_mcap_name", "run", "split_inputs"]
 
@@ -80,7 +80,8 @@ def run(
     options = options or AnalysisOptions()
     if jobs < 1:
         raise InputValueError(f"jobs must be >= 1, got {jobs}")
-    files, skipped = split_inputs(paths)
+    inputs = resolve_inputs(paths)  # once: copies, kinds, empty sessions, units
+    files, skipped = inputs.files, list(inputs.skipped)
     if on_sessions_found is not None:
         on_sessions_found(len(files))
     folder = OutputFolder.prepare(out_dir) if out_dir is not None else None
@@ -100,6 +101,7 @@ def run(
             gather(outcomes, include_warned=options.include_warned),
             skipped=tuple(skipped),
             rig_source=options.rig_source,
+            input_notes=tuple(inputs.run_notes()),
         )
         if folder is not None:
             from analysis.report import write_outputs
@@ -120,11 +122,11 @@ def _thesis_sweeps() -> pd.DataFrame:
 
 
 def split_inputs(paths: Sequence[str | Path]) -> tuple[list[str], list[str]]:
-    """The session files under ``paths``, and the results files of an earlier run found
-    among them (skipped: they are not sessions)."""
-    found = find_sessions(paths)
-    skipped = [str(p) for p in found if is_results_file(p)]
-    return [str(p) for p in found if str(p) not in skipped], skipped
+    """The measurement sessions under ``paths`` (each once, :func:`resolve_inputs`), and
+    the results files of an earlier run found among them (skipped: they are not
+    sessions)."""
+    inputs = resolve_inputs(paths)
+    return inputs.files, list(inputs.skipped)
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)

@@ -204,16 +204,26 @@ def _answer_section(result: RunResult) -> list[str]:
         else "the ok trials without a near-degeneracy warning (“warned” counts those left "
         "out; trials.csv has them all)"
     )
+    inputs = _inputs_section(result)
     parts = [
         "<h1>twopose report</h1>",
         f"<p>{len(result.sessions)} session(s) analysed, {len(result.errors)} failed, "
-        f"{len(result.trials)} trial(s), {n_ok} ok.</p>",
+        f"{len(result.trials)} trial(s), {n_ok} ok"
+        + (
+            f"; {len(result.input_notes)} input(s) not analysed as given"
+            if result.input_notes
+            else ""
+        )
+        + ".</p>",
         *_rig_used(result),
-        "<nav><a href='#answer'>Answer per method</a> · <a href='#thesis'>The thesis</a> · "
+        "<nav>"
+        + ("<a href='#inputs'>Inputs: failed, left out, copies</a> · " if inputs else "")
+        + "<a href='#answer'>Answer per method</a> · <a href='#thesis'>The thesis</a> · "
         "<a href='#summary'>Per session</a> · "
         "<a href='#figures'>Overview figures</a> · "
         "<a href='#dominant'>What dominates the error</a> · "
         "<a href='#sensitivity'>Sensitivity</a> · <a href='#sessions'>Sessions</a></nav>",
+        *inputs,
         "<h2 id='answer'>Answer per method</h2>",
         f"<p>Pooled over the sessions, over {which}. Errors are distances from the truth; "
         "RMSE with its 95% bootstrap interval, biases (mean error) with the half-widths of "
@@ -256,7 +266,7 @@ def _thesis_section(result: RunResult) -> list[str]:
 def _overview_section(result: RunResult, images: dict[str, Image]) -> list[str]:
     captions = run_captions(result.trials, include_warned=result.include_warned)
     summary = session_order(result.summary)
-    parts = [
+    return [
         "<h2 id='summary'>Per session</h2>",
         "<p>As the answer, per session (every column: <code>summary.csv</code>).</p>",
         table_html(readable(summary, include_warned=result.include_warned)) if len(summary) else "",
@@ -268,10 +278,21 @@ def _overview_section(result: RunResult, images: dict[str, Image]) -> list[str]:
             ]
         ),
     ]
+
+
+def _inputs_section(result: RunResult) -> list[str]:
+    """At the top: the inputs that failed, and those not analysed as given (copies counted
+    once, board sessions left to `rig`, empty sessions)."""
+    parts: list[str] = []
     if not result.errors.empty:
-        parts.append("<h2>Inputs that failed</h2>")
-        parts.append(f"<div class='err'>{table_html(result.errors, text=True)}</div>")
-    return parts
+        parts += [
+            "<h3>Inputs that failed</h3>",
+            f"<div class='err'>{table_html(result.errors, text=True)}</div>",
+        ]
+    if result.input_notes:
+        items = "".join(f"<li>{html.escape(n)}</li>" for n in result.input_notes)
+        parts += ["<h3>Inputs not analysed as given</h3>", f"<ul>{items}</ul>"]
+    return ["<h2 id='inputs'>Inputs</h2>", *parts] if parts else []
 
 
 def _method_sections(

@@ -116,6 +116,9 @@ class RunResult:
     include_warned: bool = False  # whether the summary counts trials with a warning
     rig: pd.DataFrame = field(default_factory=pd.DataFrame)  # --rig-calibration: rig.csv
     rig_source: RigSource | None = None  # --rig: the file every view was corrected by
+    #: What the run says about its inputs: copies counted once, board sessions (for
+    #: `rig`), empty sessions (analysis.input_set.InputSet.notes)
+    input_notes: tuple[str, ...] = ()
 
     @property
     def failed(self) -> bool:

@@ -30,9 +30,8 @@ _HEADER = (
 )
 
 
-def _units(summary: pd.DataFrame) -> str:
-    units = sorted(set(summary["units"]))
-    return UNIT_NAMES.get(units[0], units[0]) if len(units) == 1 else "session units"
+def _units_name(units: str) -> str:
+    return UNIT_NAMES.get(units, units)
 
 
 def summary_lines(
@@ -42,31 +41,24 @@ def summary_lines(
     include_warned: bool = False,
     width: int | None = 80,
 ) -> list[str]:
-    """The console summary: per-method table, then per-session lines wrapped at ``width``
+    """The console summary: per-method tables (one per session set and units: no number
+    ever pools two units), then per-session lines with their units, wrapped at ``width``
     (None: never wrapped, for pipes)."""
     if summary.empty:
         return []
     which = "every ok trial" if include_warned else "ok trials without a warning"
-    lines = [f"per method, over {which}; errors in {_units(summary)}:", _HEADER]
+    lines = [f"per method, over {which}:"]
     groups = by_session_set(trials)
     for name, group in groups:
-        if len(groups) > 1:
-            lines.append(SESSION_SETS.get(name, "sessions in no set") + ":")
-        pooled = summarize(group.assign(session="all"), include_warned=include_warned)
-        mine = summary[summary["session"].isin(set(group["session"]))]
-        sessions = mine.groupby("method")["session"].nunique()
-        for _, r in pooled.iterrows():
-            lines.append(
-                f"{r['method']!s:<7}{sessions.get(r['method'], 0):>8}{r['n_trials']:>7}"
-                f"{r['n_ok']:>5}{r['n_warned']:>7}{_num(r['rmse']):>7}"
-                f"{_num(r['median_err']):>7}{_num(r['max_err']):>7}"
-                f"{_num(r['bias_x'], signed=True):>7}{_num(r['bias_z'], signed=True):>7}"
-                f"{_share(r['within_1']):>6}"
-            )
+        for units, part in group.groupby("units", sort=False):
+            where = f"{SESSION_SETS.get(name, 'sessions in no set')}, " if len(groups) > 1 else ""
+            title = f"{where}errors in {_units_name(str(units))}:"
+            lines += [*wrap_phrases(title.split(" "), width), _HEADER]
+            lines += _method_rows(part, summary, include_warned=include_warned)
     lines.append("per session:")
     for _, r in session_order(summary).iterrows():
         phrases = [
-            f"{Path(str(r['session'])).name} ({r['method']}):",
+            f"{Path(str(r['session'])).name} ({r['method']}, {r['units']}):",
             f"{r['n_ok']}/{r['n_trials']} ok,",
             f"{r['n_warned']} warned;",
             f"rmse {_num(r['rmse'])},",
@@ -77,6 +69,21 @@ def summary_lines(
         ]
         lines += wrap_phrases(phrases, width, indent="  ")
     return lines
+
+
+def _method_rows(part: pd.DataFrame, summary: pd.DataFrame, *, include_warned: bool) -> list[str]:
+    """One row per method over ``part``'s trials (one set, one units)."""
+    pooled = summarize(part.assign(session="all"), include_warned=include_warned)
+    mine = summary[summary["session"].isin(set(part["session"]))]
+    sessions = mine.groupby("method")["session"].nunique()
+    return [
+        f"{r['method']!s:<7}{sessions.get(r['method'], 0):>8}{r['n_trials']:>7}"
+        f"{r['n_ok']:>5}{r['n_warned']:>7}{_num(r['rmse']):>7}"
+        f"{_num(r['median_err']):>7}{_num(r['max_err']):>7}"
+        f"{_num(r['bias_x'], signed=True):>7}{_num(r['bias_z'], signed=True):>7}"
+        f"{_share(r['within_1']):>6}"
+        for _, r in pooled.iterrows()
+    ]
 
 
 _KEEP = "\x00"  # joins the words of a phrase: textwrap only breaks at real whitespace

@@ -17,7 +17,7 @@ from twopose.text import for_terminal
 if TYPE_CHECKING:
     from twopose.format.trials import SessionOverview
 
-from analysis.cli.app import app, say_skipped
+from analysis.cli.app import app, note, say_skipped
 
 
 @app.command()
@@ -31,13 +31,16 @@ def info(
     from rich.markup import escape
     from rich.table import Table
 
-    from analysis.batch import split_inputs
+    from analysis.input_set import resolve_inputs
     from twopose.format.trials import describe_session
 
     console = Console()
     with handle_errors():
-        sessions, skipped = split_inputs(paths)
-    say_skipped(skipped)
+        inputs = resolve_inputs(paths)  # each session once, empty and board ones included
+    say_skipped(list(inputs.skipped))
+    for text in inputs.notes():
+        note(text)
+    sessions = [s.path for s in inputs.found]
     overviews: list[SessionOverview] = []
     failed: list[tuple[str, str]] = []
     for path in sessions:

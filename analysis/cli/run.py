@@ -180,6 +180,8 @@ def _print_run(result: RunResult, out: Path, *, include_warned: bool) -> None:
         for line in wrap_phrases(footer, width):
             typer.echo(line)
     say_skipped(list(result.skipped))
+    for text in result.input_notes:
+        note(text)
     for _, e in result.errors.iterrows():
         typer.secho(f"failed: {e['error']}", err=True, fg=typer.colors.RED)
     for line in closing_lines(result.trials, out, include_warned=include_warned, width=width):

@@ -299,10 +299,12 @@ def test_the_console_answers_per_session_set_and_ends_with_verdicts_and_the_repo
         ignore_index=True,
     )
     lines = summary_lines(trials, summarize(trials), width=None)
-    thesis = lines.index("thesis_* sessions: the thesis' experiments:")
-    stress = lines.index("stress_* sessions: free poses, some near a degenerate geometry:")
+    thesis = lines.index("thesis_* sessions: the thesis' experiments, errors in inches:")
+    stress = lines.index(
+        "stress_* sessions: free poses, some near a degenerate geometry, errors in inches:"
+    )
     assert thesis < stress
-    assert lines[thesis + 1].startswith("point ")
+    assert lines[thesis + 2].startswith("point ")  # under the table's header
     per_session = lines[lines.index("per session:") + 1 :]
     assert per_session[0].startswith("  thesis_point.mcap")
     (tmp_path / "report.html").write_text("<html></html>")

@@ -24,7 +24,7 @@ def test_at_80_columns_nothing_is_cut(sample_run: object) -> None:
     assert max(len(line) for line in lines) <= 80
     text = " ".join(line.strip() for line in lines)
     assert "errors in inches" in text
-    for name in ("stress_method2_ground.mcap (ground)", "stress_line.mcap (line)"):
+    for name in ("stress_method2_ground.mcap (ground, in)", "stress_line.mcap (line, in)"):
         assert name in text  # whole names, no ellipsis
     assert "…" not in text
     assert any(line.startswith("ground ") for line in lines)
@@ -36,7 +36,9 @@ def test_piped_output_keeps_every_session_on_one_line(tmp_path: Path) -> None:
         app, ["run", str(SESSIONS / "stress_line.mcap"), "--out", str(tmp_path / "o"), "--no-scene"]
     )
     assert result.exit_code == 0, result.output
-    (line,) = [x for x in result.stdout.splitlines() if x.startswith("  stress_line.mcap (line):")]
+    (line,) = [
+        x for x in result.stdout.splitlines() if x.startswith("  stress_line.mcap (line, in):")
+    ]
     assert "rmse" in line
     assert "within 1:" in line
     assert "left out of these statistics" in result.stdout  # the line session has warnings

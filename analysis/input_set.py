@@ -1,0 +1,160 @@
+"""A batch's inputs, resolved once into one value every command takes.
+
+``run``, ``rig`` and ``info`` are given paths: files and folders, named twice, holding
+copies, sessions in several units, board sessions beside target ones, empty sessions and
+results files of an earlier run. :func:`resolve_inputs` turns them, once, into an
+:class:`InputSet`:
+
+- every session file found (folders searched as :func:`twopose.format.reader.find_sessions`
+  searches them), in the order given;
+- identified by content (the SHA-256 of its bytes): a session named twice, by another path,
+  a symlink or a copy, is counted once, and the copy is noted;
+- sorted by kind: measurement sessions (what ``run`` analyses), board sessions (for
+  ``rig``), empty sessions (no pose recorded: nothing to analyse, noted), results files of
+  an earlier run (skipped), and files that cannot be read as sessions (analysed all the
+  same, so that the analysis says why they fail, by session);
+- grouped by units, so that no statistic pools two units.
+
+Each command reads what applies to it from the one value, and the notes it gives are the
+same words wherever they are printed (terminal, report, JUnit).
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from twopose.errors import TwoposeError
+from twopose.format.entries import PoseEntry
+from twopose.format.reader import SessionReader, find_sessions, is_results_file
+from twopose.methods import spec_of
+
+__all__ = ["FoundSession", "InputSet", "resolve_inputs"]
+
+_CHUNK = 1 << 20
+
+
+@dataclass(frozen=True, kw_only=True)
+class FoundSession:
+    """One session file found, what it is and what it holds (``method`` and ``units``
+    empty when the file cannot be read as a session: the analysis says why)."""
+
+    path: str
+    digest: str  # SHA-256 of the file's bytes: its identity
+    method: str = ""
+    units: str = ""
+    n_poses: int = 0  # poses typed (0: an empty session)
+    readable: bool = True
+
+    @property
+    def is_board(self) -> bool:
+        return self.readable and bool(self.method) and not spec_of(self.method).measures
+
+    @property
+    def is_empty(self) -> bool:
+        return self.readable and self.n_poses == 0
+
+
+@dataclass(frozen=True, kw_only=True)
+class InputSet:
+    """A batch's inputs, resolved once (see the module docstring)."""
+
+    found: tuple[FoundSession, ...] = ()  # every session once (its first path), in order
+    copies: tuple[tuple[str, str], ...] = ()  # (path, the path it is a copy of)
+    skipped: tuple[str, ...] = ()  # results files of an earlier run
+
+    @property
+    def measured(self) -> tuple[FoundSession, ...]:
+        """What ``run`` analyses: every session but board and empty ones (unreadable files
+        included: the analysis says why they fail)."""
+        return tuple(s for s in self.found if not (s.is_board or s.is_empty))
+
+    @property
+    def boards(self) -> tuple[FoundSession, ...]:
+        """Board sessions: for ``rig``."""
+        return tuple(s for s in self.found if s.is_board)
+
+    @property
+    def empty(self) -> tuple[FoundSession, ...]:
+        """Sessions with no pose recorded."""
+        return tuple(s for s in self.found if s.is_empty)
+
+    @property
+    def files(self) -> list[str]:
+        """The measurement sessions' paths, in input order (what ``run`` analyses)."""
+        return [s.path for s in self.measured]
+
+    @property
+    def units(self) -> tuple[str, ...]:
+        """The units of the measurement sessions, in order of first appearance."""
+        return tuple(dict.fromkeys(s.units for s in self.measured if s.units))
+
+    def notes(self) -> list[str]:
+        """What any command says about inputs it does not take as given: copies counted
+        once, empty sessions."""
+        copies = [
+            f"{path}: the same session as {first}; counted once" for path, first in self.copies
+        ]
+        return copies + [
+            f"{s.path}: an empty session (no pose was recorded): nothing to analyse"
+            for s in self.empty
+        ]
+
+    def run_notes(self) -> list[str]:
+        """What ``run`` says: :meth:`notes`, and the board sessions it leaves to ``rig``."""
+        return self.notes() + [
+            f"{s.path}: a board session (it calibrates the rig): for `twopose-analyze rig`, "
+            "not analysed here"
+            for s in self.boards
+        ]
+
+
+def resolve_inputs(paths: Sequence[str | Path]) -> InputSet:
+    """The one resolution of a batch's paths (see the module docstring); raises
+    :class:`~twopose.errors.InputValueError` for a path that does not exist."""
+    found: list[FoundSession] = []
+    copies: list[tuple[str, str]] = []
+    skipped: list[str] = []
+    first_of: dict[str, str] = {}
+    for path in find_sessions(paths):
+        if is_results_file(path):
+            skipped.append(str(path))
+            continue
+        session = _found(path)
+        if session.digest in first_of:
+            copies.append((session.path, first_of[session.digest]))
+            continue
+        first_of[session.digest] = session.path
+        found.append(session)
+    return InputSet(found=tuple(found), copies=tuple(copies), skipped=tuple(skipped))
+
+
+def _found(path: Path) -> FoundSession:
+    digest = _digest(path)
+    try:
+        with SessionReader(path) as reader:
+            info = reader.info
+            n_poses = reader.message_counts().get(PoseEntry.TOPIC, 0)
+    except (TwoposeError, OSError, AssertionError, ValueError):
+        # Not readable as a session: the analysis fails it with its own words.
+        return FoundSession(path=str(path), digest=digest, readable=False)
+    return FoundSession(
+        path=str(path),
+        digest=digest,
+        method=str(info.method),
+        units=str(info.units),
+        n_poses=int(n_poses),
+    )
+
+
+def _digest(path: Path) -> str:
+    sha = hashlib.sha256()
+    try:
+        with open(path, "rb") as stream:
+            while chunk := stream.read(_CHUNK):
+                sha.update(chunk)
+    except OSError as err:  # unreadable: its own identity, the analysis says why
+        return f"unreadable:{path}:{err.errno}"
+    return sha.hexdigest()

@@ -1,0 +1,136 @@
+"""analysis.input_set: a batch's inputs resolved once. Copies are counted once, board
+sessions are left to `rig` (not failed), empty sessions are said, results files skipped;
+`run`'s tables do not depend on copies or order, and its terminal never pools two units."""
+
+from __future__ import annotations
+
+import shutil
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pandas as pd
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from typer.testing import CliRunner
+
+from analysis.batch import run
+from analysis.cli import app
+from analysis.input_set import resolve_inputs
+from recorder.simulate import simulate_session
+from twopose.camera import Camera, Intrinsics
+from twopose.format.entries import SessionInfo
+from twopose.format.writer import SessionWriter
+from twopose.methods import Method
+from twopose.units import Units
+
+runner = CliRunner()
+
+
+@pytest.fixture(scope="module")
+def kinds(tmp_path_factory: pytest.TempPathFactory, point_session: Path) -> dict[str, Path]:
+    """A point session (and a copy), a session in centimetres, a board session, an empty
+    session."""
+    root = tmp_path_factory.mktemp("kinds")
+    copy = root / "copy_of_point.mcap"
+    shutil.copy(point_session, copy)
+    scene = root / "cm.toml"
+    scene.write_text('units = "cm"\n')
+    from twopose.sim.scene import load_scene
+
+    centimetres = root / "cm_point.mcap"
+    simulate_session(
+        centimetres, method="point", trials=2, frames=2, seed=3, scene=load_scene(scene)
+    )
+    board = root / "board.mcap"
+    simulate_session(board, method="board", trials=1, frames=1, seed=4)
+    empty = root / "empty.mcap"
+    cam = Camera(
+        camera_id="cam0",
+        intrinsics=Intrinsics(width=32, height=24, fx=30.0, fy=30.0, cx=16.0, cy=12.0),
+    )
+    with SessionWriter(empty, SessionInfo(method=Method.POINT, units=Units.IN), [cam], start_ns=0):
+        pass
+    return {
+        "point": point_session,
+        "copy": copy,
+        "cm": centimetres,
+        "board": board,
+        "empty": empty,
+    }
+
+
+def test_each_input_is_resolved_once_by_content_and_kind(kinds: dict[str, Path]) -> None:
+    inputs = resolve_inputs([kinds[k] for k in ("point", "copy", "cm", "board", "empty")])
+    assert inputs.files == [str(kinds["point"]), str(kinds["cm"])]
+    assert inputs.copies == ((str(kinds["copy"]), str(kinds["point"])),)
+    assert [s.path for s in inputs.boards] == [str(kinds["board"])]
+    assert [s.path for s in inputs.empty] == [str(kinds["empty"])]
+    assert inputs.units == ("in", "cm")
+    said = " ".join(inputs.run_notes())
+    assert "the same session as" in said
+    assert "a board session" in said
+    assert "`twopose-analyze rig`" in said
+    assert "an empty session" in said
+
+
+def test_run_counts_a_copy_once_leaves_boards_to_rig_and_says_so(
+    kinds: dict[str, Path], tmp_path: Path
+) -> None:
+    junit = tmp_path / "run.xml"
+    args = [str(kinds[k]) for k in ("point", "copy", "board", "empty")]
+    result = runner.invoke(
+        app, ["run", *args, "--out", str(tmp_path / "o"), "--no-scene", "--junit", str(junit)]
+    )
+    assert result.exit_code == 0, result.output  # a board session is no failure
+    assert "twopose: 1 session(s)" in result.output
+    assert "counted once" in result.output
+    assert "for `twopose-analyze rig`" in result.output
+    assert "an empty session" in result.output
+    trials = pd.read_csv(tmp_path / "o" / "trials.csv")
+    assert set(trials["session"]) == {str(kinds["point"])}
+    suite = ET.parse(junit).getroot()
+    assert suite.get("failures") in ("0", None)
+    assert not list(suite.iter("failure"))
+    page = (tmp_path / "o" / "report.html").read_text()
+    assert "id='inputs'" in page
+    assert "href='#inputs'" in page  # linked from the contents, at the top
+    assert page.index("id='inputs'") < page.index("id='answer'")
+
+
+def test_the_terminal_never_pools_two_units(kinds: dict[str, Path], tmp_path: Path) -> None:
+    result = runner.invoke(
+        app,
+        ["run", str(kinds["point"]), str(kinds["cm"]), "--out", str(tmp_path / "o"), "--no-scene"],
+    )
+    assert result.exit_code == 0, result.output
+    lines = result.output.splitlines()
+    assert "errors in inches:" in lines
+    assert "errors in centimetres:" in lines or "errors in centimeters:" in lines
+    assert not any("session units" in line for line in lines)
+    point_rows = [line for line in lines if line.startswith("point ")]
+    assert len(point_rows) == 2  # one per units, never one over both
+    assert sum(1 for line in lines if "(point, cm)" in line) == 1
+
+
+@settings(
+    max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(order=st.permutations(["point", "copy", "cm", "board", "empty"]), twice=st.booleans())
+def test_the_tables_do_not_depend_on_order_or_copies(
+    kinds: dict[str, Path], order: list[str], twice: bool
+) -> None:
+    paths = [kinds[k] for k in order] + ([kinds["point"]] if twice else [])
+    summary = run(paths).summary
+    assert sorted(summary["session"].map(lambda s: Path(s).name)) in (
+        ["cm_point.mcap", "point.mcap"],
+        ["cm_point.mcap", "copy_of_point.mcap"],  # the copy named first is the one kept
+    )
+    key = summary.sort_values("units").reset_index(drop=True)
+    numbers = key[["units", "n_trials", "n_ok", "rmse", "median_err"]]
+    reference = (
+        run([kinds["point"], kinds["cm"]]).summary.sort_values("units").reset_index(drop=True)
+    )
+    pd.testing.assert_frame_equal(
+        numbers, reference[["units", "n_trials", "n_ok", "rmse", "median_err"]]
+    )
