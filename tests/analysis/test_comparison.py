@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import shutil
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -130,15 +131,20 @@ def test_compare_is_one_call_from_python(two_runs: tuple[Path, Path], tmp_path: 
     assert list(comparison.tests["method"]) == ["ground", "point"]
 
 
+def _edited_copy(run: Path, copy: Path, edit: Callable[[pd.DataFrame], pd.DataFrame]) -> Path:
+    """A copy of ``run`` whose trials.csv is ``edit`` of the original's."""
+    shutil.copytree(run, copy)
+    trials = pd.read_csv(copy / "trials.csv", keep_default_na=False, na_values=[""])
+    edit(trials).to_csv(copy / "trials.csv", index=False)
+    return copy
+
+
 def test_runs_with_no_trial_in_common_are_refused(
     two_runs: tuple[Path, Path], tmp_path: Path
 ) -> None:
     """Nothing to compare is exit 3 with nothing written, never 'ok' and an empty figure."""
     mean_run, _ = two_runs
-    other = tmp_path / "other"
-    shutil.copytree(mean_run, other)
-    trials = pd.read_csv(other / "trials.csv", keep_default_na=False, na_values=[""])
-    trials.assign(trial=trials["trial"] + 1000).to_csv(other / "trials.csv", index=False)
+    other = _edited_copy(mean_run, tmp_path / "other", lambda t: t.assign(trial=t["trial"] + 1000))
     out = tmp_path / "cmp"
     result = runner.invoke(app, ["compare", str(mean_run), str(other), "--out", str(out)])
     assert result.exit_code == 3, result.output
@@ -151,12 +157,12 @@ def test_differences_at_floating_point_level_are_ties(
 ) -> None:
     """A re-solve that differs by 1e-13 is neither run better: the counts say ties."""
     mean_run, _ = two_runs
-    nudged = tmp_path / "nudged"
-    shutil.copytree(mean_run, nudged)
-    trials = pd.read_csv(nudged / "trials.csv", keep_default_na=False, na_values=[""])
-    sign = np.where(np.arange(len(trials)) % 2 == 0, 1.0, -1.0)
-    trials["x"] = trials["x"] + sign * 1e-13
-    trials.to_csv(nudged / "trials.csv", index=False)
+
+    def nudge(trials: pd.DataFrame) -> pd.DataFrame:
+        sign = np.where(np.arange(len(trials)) % 2 == 0, 1.0, -1.0)
+        return trials.assign(x=trials["x"] + sign * 1e-13)
+
+    nudged = _edited_copy(mean_run, tmp_path / "nudged", nudge)
     tests = compare_runs(mean_run, nudged).tests
     assert (tests["n_pairs"] > 0).all()
     assert (tests["n_a_better"] == 0).all()
