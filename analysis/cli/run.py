@@ -188,5 +188,10 @@ def _print_run(result: RunResult, out: Path, *, include_warned: bool) -> None:
         typer.echo(line)
     if result.failed or not result.sessions:
         if not result.sessions and result.errors.empty:
-            typer.secho("no session files (*.mcap) found", err=True, fg=typer.colors.YELLOW)
+            said = (
+                "no measurement session to analyse (see the notes above)"
+                if result.input_notes
+                else "no session files (*.mcap) found"
+            )
+            typer.secho(said, err=True, fg=typer.colors.YELLOW)
         raise typer.Exit(EXIT_SOME_INPUTS_FAILED)

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import contextlib
 import os
-import shutil
 import signal
 import subprocess
 import sys
@@ -20,6 +19,7 @@ import analysis.batch
 from analysis.drawer import FigureDrawer, draw_session_figures
 from analysis.pipeline import analyse_session
 from analysis.results import SessionResult
+from tests.helpers import distinct_copies
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -154,9 +154,9 @@ def test_ctrl_c_in_a_batch_exits_130_promptly_and_leaves_no_process(
     """With the figures' process (--jobs 1) or the workers (--jobs 2, which used to finish
     the whole batch first): 130 within seconds, nothing left running, no partial file."""
     folder = tmp_path / "in"
-    folder.mkdir()
-    for k in range(200):  # a batch of about 40 s here: Ctrl-C comes early in it
-        shutil.copy(ground_session, folder / f"s{k:02d}.mcap")
+    # A batch of about 40 s here: Ctrl-C comes early in it. Distinct files: copies of one
+    # session would be counted once.
+    distinct_copies(ground_session, folder, 200)
     env = {**os.environ, "PYTHONPATH": str(REPO)}
     out = tmp_path / "o"
     proc = subprocess.Popen(

@@ -190,16 +190,17 @@ def test_ctrl_c_with_two_jobs_exits_130_without_a_worker_traceback(
     tmp_path: Path, odd_sessions: dict[str, Path]
 ) -> None:
     import os
-    import shutil
     import signal
     import subprocess
     import sys
     import time
 
+    from tests.helpers import distinct_copies
+
     folder = tmp_path / "in"
-    folder.mkdir()
-    for k in range(24):  # enough that the batch is still running when Ctrl-C comes
-        shutil.copy(odd_sessions["normal"], folder / f"s{k}.mcap")
+    # Enough that the batch is still running when Ctrl-C comes (distinct files: copies of
+    # one session would be counted once).
+    distinct_copies(odd_sessions["normal"], folder, 24)
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
     proc = subprocess.Popen(
         [sys.executable, "-m", "analysis", "run", folder, "--out", tmp_path / "o", "--jobs", "2"],

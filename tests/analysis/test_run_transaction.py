@@ -19,6 +19,7 @@ from typer.testing import CliRunner
 
 from analysis.cli import app
 from analysis.outputs import LOCK_NAME, MANIFEST_NAME, STAGING_NAME, OutputFolder
+from tests.helpers import distinct_copies
 
 runner = CliRunner()
 SAMPLES = Path(__file__).resolve().parents[2] / "sessions"
@@ -119,9 +120,9 @@ def test_an_interrupted_rerun_leaves_the_previous_results_byte_for_byte(
     tmp_path: Path, sig: signal.Signals, after_s: float
 ) -> None:
     folder = tmp_path / "in"
-    folder.mkdir()
-    for k in range(16):  # enough that the re-run is still running when the signal comes
-        shutil.copy(SAMPLES / "thesis_method2_ground.mcap", folder / f"s{k:02d}.mcap")
+    # Enough that the re-run is still running when the signal comes (distinct files:
+    # copies of one session would be counted once).
+    distinct_copies(SAMPLES / "thesis_method2_ground.mcap", folder, 16)
     out = tmp_path / "r"
     first = runner.invoke(app, ["run", str(folder), "--out", str(out)])
     assert first.exit_code == 0, first.output
