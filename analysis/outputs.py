@@ -204,7 +204,7 @@ class OutputFolder:
         out = cls(folder, _lock_folder(folder))
         try:
             out._recover()
-            out.path.mkdir()
+            out.path.mkdir(exist_ok=True)  # a staging folder that could not be removed: reused
         except BaseException:
             out.close()
             raise

@@ -105,21 +105,23 @@ class GuardedH11Protocol(H11Protocol):
 
     @override
     def send_400_response(self, msg: str) -> None:
-        """The request could not be parsed: say why, in a page (``msg`` is uvicorn's)."""
+        """The request could not be parsed: say why, in a page (``msg`` is uvicorn's).
+
+        Written as raw bytes, not through h11: the request may never have been parsed (too
+        large for it), and the connection is closed right after.
+        """
         from recorder.console_guard import SECURITY_HEADERS
 
         body = _TOO_LARGE_PAGE.format(limit=MAX_HEADER_BYTES // 1024).encode()
-        headers = [(b"content-type", b"text/html; charset=utf-8"), (b"connection", b"close")]
-        headers += [(k.lower().encode(), v.encode()) for k, v in SECURITY_HEADERS.items()]
-        try:
-            for event in (
-                h11.Response(status_code=400, headers=headers, reason=b"Bad Request"),
-                h11.Data(data=body),
-                h11.EndOfMessage(),
-            ):
-                self.transport.write(self.conn.send(event) or b"")
-        except h11.LocalProtocolError:  # a response had begun: nothing more can be said
-            pass
+        head = [
+            "HTTP/1.1 400 Bad Request",
+            "Content-Type: text/html; charset=utf-8",
+            f"Content-Length: {len(body)}",
+            "Connection: close",
+            *(f"{k}: {v}" for k, v in SECURITY_HEADERS.items()),
+        ]
+        if not self.transport.is_closing():
+            self.transport.write(("\r\n".join(head) + "\r\n\r\n").encode("latin-1") + body)
         self.transport.close()
 
     def _await_headers(self) -> None:
