@@ -41,7 +41,7 @@ from twopose.format.entries import (
 )
 from twopose.methods import Method, spec_of
 from twopose.sim.camera import SyntheticCamera, camera_pose, true_intrinsics
-from twopose.sim.layout import BOARD_POSES, Layout, build_layout, finger_axis
+from twopose.sim.layout import BOARD_POSES, Layout, board_poses, build_layout, finger_axis
 from twopose.sim.scene import CameraParams, PoseParams, Scene
 from twopose.units import unit_spec
 from twopose.values import Vec3
@@ -153,7 +153,7 @@ def _board_poses(scene: Scene, rng: np.random.Generator) -> list[tuple[F64, F64,
     placed with the scene's typing error and seen through its rig's constants."""
     p = scene.poses
     poses = []
-    for t in BOARD_POSES:
+    for t in board_poses(scene):
         t_typed, r_typed = np.array(t, dtype=np.float64), np.zeros(3)
         t_placed = t_typed + p.noise_sigma * rng.standard_normal(3)
         r_placed = r_typed + p.rotation_noise_deg * rng.standard_normal(3)

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -39,7 +39,7 @@ from twopose.camera import rotation_from_angles_deg
 from twopose.errors import InputValueError
 from twopose.estimate import GroundSpec, PoseView
 from twopose.format.entries import INCHES_PER_UNIT, UNITS
-from twopose.units import unit_spec
+from twopose.units import IS_LENGTH, unit_spec
 
 __all__ = [
     "LIMITS",
@@ -75,11 +75,11 @@ class RigConstants:
     """The rig's constants (see the module docstring); the defaults change nothing."""
 
     mount_rotation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    camera_offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    camera_offset: tuple[float, float, float] = field(default=(0.0, 0.0, 0.0), metadata=IS_LENGTH)
     focal_scale: float = 1.0
     principal_offset_px: tuple[float, float] = (0.0, 0.0)
     tape_scale: float = 1.0
-    ground_height_error: float = 0.0
+    ground_height_error: float = field(default=0.0, metadata=IS_LENGTH)
     #: The lengths' units (a rig file's ``units``); None: not recorded (a file from before).
     units: str | None = None
 

@@ -9,14 +9,29 @@ symbols (``Units.IN == "in"``), so files and tables are unchanged.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass
 from enum import StrEnum
 from types import MappingProxyType
+from typing import Any, TypeVar
 
 from twopose.errors import InputValueError
 
-__all__ = ["UNITS", "UNIT_SPECS", "UnitSpec", "Units", "unit_spec"]
+__all__ = [
+    "IS_LENGTH",
+    "LENGTH",
+    "UNITS",
+    "UNIT_SPECS",
+    "UnitSpec",
+    "Units",
+    "length_values",
+    "scale_lengths",
+    "unit_factor",
+    "unit_spec",
+]
+
+T = TypeVar("T")
 
 
 class Units(StrEnum):
@@ -72,3 +87,62 @@ def unit_spec(units: str) -> UnitSpec:
         return UNIT_SPECS[Units(units)]
     except ValueError:
         raise InputValueError(f"units must be one of {', '.join(UNITS)}, got {units!r}") from None
+
+
+def unit_factor(from_units: str, to_units: str) -> float:
+    """How many ``to_units`` make one ``from_units`` (``unit_factor("in", "cm") == 2.54``)."""
+    return unit_spec(from_units).inches / unit_spec(to_units).inches
+
+
+# --------------------------------------------------------------------------- lengths
+
+#: The metadata key that marks a dataclass field as a length (a float or a tuple of
+#: floats in its object's units): the one registry of which numbers a change of units
+#: scales. Angles, pixels, colours and counts are not marked.
+LENGTH = "twopose.length"
+
+
+#: A length field's metadata: ``x: float = field(default=1.0, metadata=IS_LENGTH)``.
+IS_LENGTH: Mapping[str, bool] = MappingProxyType({LENGTH: True})
+
+
+def scale_lengths(obj: T, factor: float) -> T:
+    """``obj`` (a frozen dataclass) with every length field times ``factor``.
+
+    Recursively, through fields holding dataclasses or tuples of them; everything not
+    marked by :data:`IS_LENGTH` is kept as it is.
+    """
+    changes: dict[str, Any] = {}
+    for f in dataclasses.fields(obj):  # type: ignore[arg-type]
+        value = getattr(obj, f.name)
+        if f.metadata.get(LENGTH):
+            changes[f.name] = _scaled(value, factor)
+        elif dataclasses.is_dataclass(value) and not isinstance(value, type):
+            changes[f.name] = scale_lengths(value, factor)
+        elif isinstance(value, tuple) and value and dataclasses.is_dataclass(value[0]):
+            changes[f.name] = tuple(scale_lengths(v, factor) for v in value)
+    return dataclasses.replace(obj, **changes)  # type: ignore[type-var]
+
+
+def _scaled(value: Any, factor: float) -> Any:
+    if isinstance(value, tuple):
+        return tuple(float(v) * factor for v in value)
+    return float(value) * factor
+
+
+def length_values(obj: Any) -> dict[str, Any]:
+    """The length fields of ``obj`` (a dataclass), nested as a table of its file would be.
+
+    Fields holding one dataclass recurse; tuples of dataclasses (a list of tables) are left
+    out: a file that gives such a list gives it whole.
+    """
+    found: dict[str, Any] = {}
+    for f in dataclasses.fields(obj):
+        value = getattr(obj, f.name)
+        if f.metadata.get(LENGTH):
+            found[f.name] = list(value) if isinstance(value, tuple) else value
+        elif dataclasses.is_dataclass(value) and not isinstance(value, type):
+            nested = length_values(value)
+            if nested:
+                found[f.name] = nested
+    return found

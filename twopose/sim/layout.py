@@ -17,6 +17,7 @@ from twopose.camera import Intrinsics, project_points, rotation_from_angles_deg
 from twopose.methods import spec_of
 from twopose.sim.scene import BoardParams, ClutterParams, Scene
 from twopose.targets import finger_axis as target_finger_axis
+from twopose.units import unit_factor
 
 __all__ = [
     "BOARD_POSES",
@@ -25,6 +26,7 @@ __all__ = [
     "Primitive",
     "board_corners",
     "board_layout",
+    "board_poses",
     "build_layout",
     "finger_axis",
     "srgb_to_linear",
@@ -102,7 +104,7 @@ def _stand(scene: Scene, attach: F64) -> list[Primitive]:
     h = scene.ground_height
     rod_xz = np.array([attach[0] + st.rod_offset[0], attach[2] + st.rod_offset[1]])
     color = srgb_to_linear(st.color)
-    rod_top = np.array([rod_xz[0], attach[1] - 0.6, rod_xz[1]])
+    rod_top = np.array([rod_xz[0], attach[1] - st.rod_above, rod_xz[1]])
     rod_bottom = np.array([rod_xz[0], h - st.base_height, rod_xz[1]])
     arm_start = np.array([rod_xz[0], attach[1], rod_xz[1]])
     half = np.array([st.base_size[0] / 2, 0.0, st.base_size[1] / 2])
@@ -155,7 +157,7 @@ def build_layout(scene: Scene, method: str, rng: np.random.Generator) -> Layout:
                 dot_radius=pt.dot_radius,
             )
         )
-        attach = card_center + np.array([0.0, 0.0, 0.15])
+        attach = card_center + np.array([0.0, 0.0, scene.stand.arm_gap])
         prims += _stand(scene, attach)
     else:
         tip, base = finger_axis(scene)
@@ -176,7 +178,8 @@ def build_layout(scene: Scene, method: str, rng: np.random.Generator) -> Layout:
     return Layout(primitives=tuple(prims), decals=tuple(_clutter(scene, method, rng)))
 
 
-#: A board session's typed camera centres (the default scene's inches; no typed rotation):
+#: A board session's typed camera centres in inches (no typed rotation; :func:`board_poses`
+#: gives them in a scene's units):
 #: moves along x and along z, so that every constant the board determines is seen
 #: (twopose.board_rig.check_identifiable), three as near the default board as keeps its
 #: lowest corners in view (19 in), three far (58 in, squares of about 9 px) and two between.
@@ -195,6 +198,12 @@ BOARD_POSES: tuple[tuple[float, float, float], ...] = (
     (-6.0, 0.0, -12.0),
     (6.0, 0.0, -12.0),
 )
+
+
+def board_poses(scene: Scene) -> tuple[tuple[float, float, float], ...]:
+    """:data:`BOARD_POSES` in the scene's units."""
+    k = unit_factor("in", scene.units)
+    return tuple((x * k, y * k, z * k) for x, y, z in BOARD_POSES)
 
 
 def board_layout(scene: Scene) -> Layout:
@@ -293,7 +302,7 @@ def _clutter_place(
     views: list[tuple[Intrinsics, F64, F64]],
     rng: np.random.Generator,
 ) -> tuple[str, F64, float] | None:
-    """A decal's surface, centre and scale, off the other decals and the target in every view.
+    """A decal's surface, centre and size (scene units), off the other decals and the target.
 
     None on a crowded scene (50 draws failed): the decal is left out.
     """
@@ -302,15 +311,15 @@ def _clutter_place(
         on_wall = rng.random() < 0.5
         if on_wall:
             center = np.array([rng.uniform(*c.wall_x_range), rng.uniform(*c.wall_y_range)])
-            scale = 3.0  # the wall is far: bigger shapes to stay visible
+            scale = c.wall_size
             point = np.array([center[0], center[1], scene.wall_z])
         else:
             center = np.array([rng.uniform(*c.table_x_range), rng.uniform(*c.table_z_range)])
-            scale = 1.6
+            scale = c.table_size
             point = np.array([center[0], scene.ground_height, center[1]])
         surface = "wall" if on_wall else "table"
         apart = all(
-            d.surface != surface or np.linalg.norm(d.center - center) > 2.2 * scale + 1.0
+            d.surface != surface or np.linalg.norm(d.center - center) > 2.2 * scale + c.gap
             for d in decals
         )
         if apart and not _too_close_to_target(point, 2.5 * scale, target, views):
@@ -329,7 +338,7 @@ def _clutter_decal(
         r = scale * rng.uniform(0.6, 1.0)
         size = np.array([r, r])
     elif kind == "speck":
-        r = rng.uniform(0.08, 0.15)
+        r = rng.uniform(*c.speck_radius)
         size = np.array([r, r])
     elif kind == "ring":
         a = scale * rng.uniform(1.0, 1.4)

@@ -11,6 +11,11 @@ A scene file overrides any subset of the defaults below, table by table, e.g.::
 Unknown tables or keys, wrong types and impossible values raise :class:`SceneError`
 naming the key. Lengths are in the scene's ``units``; angles in degrees; colours are
 8-bit sRGB as the camera would report them under full light.
+
+Every length is a field marked by :data:`twopose.units.IS_LENGTH`: the defaults are the
+thesis' inches, a file in other units gets them converted (``units = "cm"`` alone is the
+default scene in centimetres), and :meth:`Scene.in_units` converts a whole scene, so the
+same scene in any units renders the same images.
 """
 
 from __future__ import annotations
@@ -25,6 +30,14 @@ from twopose.config import build_dataclass, read_toml
 from twopose.errors import SceneError
 from twopose.rig import RigConstants
 from twopose.targets import FINGER_LENGTH, FINGER_TIP_HEIGHT, BoardPlacement
+from twopose.units import (
+    IS_LENGTH,
+    UNITS,
+    length_values,
+    scale_lengths,
+    unit_factor,
+    unit_spec,
+)
 
 __all__ = [
     "CameraParams",
@@ -42,6 +55,7 @@ __all__ = [
 Pair = tuple[float, float]
 Vec3 = tuple[float, float, float]
 RGB = tuple[int, int, int]
+Quad = tuple[float, float, float, float]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -82,10 +96,11 @@ class CameraParams:
 class PointTargetParams:
     """Method 1: a black dot on a white index card facing the camera (normal -z)."""
 
-    position: Vec3 = (0.5, 1.5, 11.0)
-    dot_radius: float = 0.15
-    card_size: Pair = (5.0, 3.0)
-    card_offset: Pair = (0.8, -0.3)  # card centre minus dot centre, (x, y)
+    position: Vec3 = field(default=(0.5, 1.5, 11.0), metadata=IS_LENGTH)
+    dot_radius: float = field(default=0.15, metadata=IS_LENGTH)
+    card_size: Pair = field(default=(5.0, 3.0), metadata=IS_LENGTH)
+    # The card's centre minus the dot's centre, (x, y).
+    card_offset: Pair = field(default=(0.8, -0.3), metadata=IS_LENGTH)
     dot_color: RGB = (25, 25, 28)
     card_color: RGB = (236, 236, 230)
 
@@ -99,12 +114,13 @@ class FingerParams:
     The tip sits ``tip_height`` above the ground along that line.
     """
 
-    ground_point: Pair = (1.91, 8.375)  # (x, z) on the ground: the thesis' target (Appendix D)
+    # (x, z) on the ground: the thesis' target (Appendix D).
+    ground_point: Pair = field(default=(1.91, 8.375), metadata=IS_LENGTH)
     tilt_deg: float = 35.0
     azimuth_deg: float = 165.0
-    tip_height: float = FINGER_TIP_HEIGHT
-    length: float = FINGER_LENGTH
-    radius: float = 0.33
+    tip_height: float = field(default=FINGER_TIP_HEIGHT, metadata=IS_LENGTH)
+    length: float = field(default=FINGER_LENGTH, metadata=IS_LENGTH)
+    radius: float = field(default=0.33, metadata=IS_LENGTH)
     color: RGB = (38, 108, 192)
     specular: float = 0.10
 
@@ -113,10 +129,15 @@ class FingerParams:
 class StandParams:
     """The laboratory test stand holding the target: base plate, vertical rod, arm."""
 
-    rod_offset: Pair = (2.5, 1.5)  # rod (x, z) minus the held object's attachment point
-    rod_radius: float = 0.22
-    base_size: Pair = (4.0, 6.0)
-    base_height: float = 0.4
+    # The rod's (x, z) minus the held object's attachment point.
+    rod_offset: Pair = field(default=(2.5, 1.5), metadata=IS_LENGTH)
+    rod_radius: float = field(default=0.22, metadata=IS_LENGTH)
+    base_size: Pair = field(default=(4.0, 6.0), metadata=IS_LENGTH)
+    base_height: float = field(default=0.4, metadata=IS_LENGTH)
+    # The rod's top above the arm.
+    rod_above: float = field(default=0.6, metadata=IS_LENGTH)
+    # The arm's end behind the point target's card.
+    arm_gap: float = field(default=0.15, metadata=IS_LENGTH)
     color: RGB = (128, 130, 135)
     base_color: RGB = (60, 60, 64)
 
@@ -135,19 +156,19 @@ class PoseParams:
     """
 
     count: int = 2
-    x_range: Pair = (-2.0, 2.0)
-    y_range: Pair = (0.0, 0.0)
-    z_range: Pair = (-2.0, 1.0)
+    x_range: Pair = field(default=(-2.0, 2.0), metadata=IS_LENGTH)
+    y_range: Pair = field(default=(0.0, 0.0), metadata=IS_LENGTH)
+    z_range: Pair = field(default=(-2.0, 1.0), metadata=IS_LENGTH)
     rx_range: Pair = (0.0, 0.0)
     ry_range: Pair = (0.0, 0.0)
     rz_range: Pair = (0.0, 0.0)
-    step: float = 0.25
+    step: float = field(default=0.25, metadata=IS_LENGTH)
     rotation_step_deg: float = 1.0
-    min_baseline: float = 1.0
-    noise_sigma: float = 0.1
+    min_baseline: float = field(default=1.0, metadata=IS_LENGTH)
+    noise_sigma: float = field(default=0.1, metadata=IS_LENGTH)
     rotation_noise_deg: float = 0.0
     moves: Literal["free", "thesis"] = "free"
-    move_range: Pair = (1.0, 3.0)
+    move_range: Pair = field(default=(1.0, 3.0), metadata=IS_LENGTH)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -188,10 +209,16 @@ class ClutterParams:
     kinds: tuple[str, ...] = ("disk", "ring", "triangle", "speck", "navy")
     color: RGB = (40, 100, 190)
     navy_color: RGB = (22, 32, 110)
-    table_x_range: Pair = (-10.0, 12.0)
-    table_z_range: Pair = (24.0, 36.0)
-    wall_x_range: Pair = (-22.0, 22.0)
-    wall_y_range: Pair = (-14.0, 2.0)
+    table_x_range: Pair = field(default=(-10.0, 12.0), metadata=IS_LENGTH)
+    table_z_range: Pair = field(default=(24.0, 36.0), metadata=IS_LENGTH)
+    wall_x_range: Pair = field(default=(-22.0, 22.0), metadata=IS_LENGTH)
+    wall_y_range: Pair = field(default=(-14.0, 2.0), metadata=IS_LENGTH)
+    # The shapes' sizes: the wall is far, so its shapes are bigger to stay visible; a
+    # speck's radius is drawn in speck_radius; decals keep a gap between their extents.
+    wall_size: float = field(default=3.0, metadata=IS_LENGTH)
+    table_size: float = field(default=1.6, metadata=IS_LENGTH)
+    speck_radius: Pair = field(default=(0.08, 0.15), metadata=IS_LENGTH)
+    gap: float = field(default=1.0, metadata=IS_LENGTH)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -208,8 +235,8 @@ class BoardParams:
 
     present: bool = False
     inner_corners: tuple[int, int] = (9, 6)
-    square: float = 1.0
-    first_corner: tuple[float, float, float] = (-4.0, 7.625, 24.0)
+    square: float = field(default=1.0, metadata=IS_LENGTH)
+    first_corner: Vec3 = field(default=(-4.0, 7.625, 24.0), metadata=IS_LENGTH)
     dark_color: RGB = (20, 20, 22)
     light_color: RGB = (238, 238, 232)
 
@@ -225,7 +252,8 @@ class Scene:
     """Everything the synthetic camera renders; defaults mirror the thesis' set-up."""
 
     units: str = "in"
-    ground_height: float = 9.625  # camera centre down to the table top (thesis: h)
+    # The camera centre down to the table top (thesis: h).
+    ground_height: float = field(default=9.625, metadata=IS_LENGTH)
     cameras: tuple[CameraParams, ...] = (CameraParams(),)
     point: PointTargetParams = field(default_factory=PointTargetParams)
     finger: FingerParams = field(default_factory=FingerParams)
@@ -238,11 +266,12 @@ class Scene:
     # The rig's hidden constants (twopose.rig): frames are rendered with them, the typed
     # poses, intrinsics and ground height are not. None by default.
     systematic: RigConstants = field(default_factory=RigConstants)
-    grid_spacing: float = 0.5
-    grid_line_width: float = 0.02
-    paper_extent: tuple[float, float, float, float] = (-14.0, 14.0, -4.0, 28.0)  # x0 x1 z0 z1
-    table_extent: tuple[float, float, float, float] = (-30.0, 30.0, -12.0, 48.0)
-    wall_z: float = 48.0
+    grid_spacing: float = field(default=0.5, metadata=IS_LENGTH)
+    grid_line_width: float = field(default=0.02, metadata=IS_LENGTH)
+    # x0 x1 z0 z1
+    paper_extent: Quad = field(default=(-14.0, 14.0, -4.0, 28.0), metadata=IS_LENGTH)
+    table_extent: Quad = field(default=(-30.0, 30.0, -12.0, 48.0), metadata=IS_LENGTH)
+    wall_z: float = field(default=48.0, metadata=IS_LENGTH)
     paper_color: RGB = (232, 233, 226)
     grid_color: RGB = (150, 192, 212)
     table_color: RGB = (150, 108, 72)
@@ -252,6 +281,20 @@ class Scene:
     def __post_init__(self) -> None:
         """Check the scene (units, sizes, cameras, targets)."""
         _check_scene(self)
+
+    def in_units(self, units: str) -> Scene:
+        """The same scene with every length in ``units`` (the images are the same).
+
+        The lengths are the fields marked by :data:`twopose.units.IS_LENGTH`, the rig's
+        constants' among them (their ``units`` follow when they name one).
+        """
+        factor = unit_factor(self.units, units)
+        scene = scale_lengths(dataclasses.replace(self, units=str(unit_spec(units).units)), factor)
+        if self.systematic.units is not None:
+            scene = dataclasses.replace(
+                scene, systematic=dataclasses.replace(scene.systematic, units=scene.units)
+            )
+        return scene
 
 
 def _check_scene(s: Scene) -> None:
@@ -298,7 +341,12 @@ def _check_scene(s: Scene) -> None:
     )
     need(p.noise_sigma >= 0 and p.rotation_noise_deg >= 0, "poses.noise_sigma", "must be >= 0")
     lo, hi = p.move_range
-    need(0 < lo <= hi <= 100, "poses.move_range", f"must be 0 < low <= high <= 100, got {lo}, {hi}")
+    longest = 100.0 * unit_factor("in", s.units)
+    need(
+        0 < lo <= hi <= longest,
+        "poses.move_range",
+        f"must be 0 < low <= high <= {longest:g} ({s.units}), got {lo}, {hi}",
+    )
     f = s.finger
     need(0 <= f.tilt_deg < 85, "finger.tilt_deg", "must be in [0, 85) degrees from straight down")
     need(f.length > 2 * f.radius > 0, "finger.length", "must exceed the finger's diameter")
@@ -348,4 +396,25 @@ def load_scene(path: str | Path | None = None, **overrides: Any) -> Scene:
     """
     data = read_toml(path, "scene file", SceneError) if path is not None else {}
     data.update(overrides)
-    return build_dataclass(Scene, data, "scene", SceneError)
+    return build_dataclass(Scene, _over_defaults_in_units(data), "scene", SceneError)
+
+
+def _over_defaults_in_units(data: dict[str, Any]) -> dict[str, Any]:
+    """``data`` over the default scene's lengths converted to ``data``'s units.
+
+    A file in centimetres that leaves a length out gets the default length in centimetres,
+    not the inch number read as centimetres: the same scene, whatever its units.
+    """
+    units = data.get("units", Scene.units)
+    if units not in UNITS or units == Scene.units:
+        return data  # an unknown unit: the scene's check names it
+    return _merged(length_values(Scene().in_units(units)), data)
+
+
+def _merged(base: dict[str, Any], top: dict[str, Any]) -> dict[str, Any]:
+    merged = dict(base)
+    for key, value in top.items():
+        below = merged.get(key)
+        both_tables = isinstance(below, dict) and isinstance(value, dict)
+        merged[key] = _merged(below, value) if both_tables else value  # type: ignore[arg-type]
+    return merged

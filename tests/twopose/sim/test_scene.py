@@ -27,7 +27,8 @@ def test_a_file_overrides_table_by_table(tmp_path: Path) -> None:
     assert s.finger.tilt_deg == 40.0
     assert isinstance(s.finger.tilt_deg, float)
     assert s.poses.x_range == (-3.0, 3.0)
-    assert s.finger.length == Scene().finger.length  # untouched keys keep their defaults
+    assert s.finger.azimuth_deg == Scene().finger.azimuth_deg  # untouched keys: defaults
+    assert s.finger.length == pytest.approx(Scene().finger.length * 25.4)  # in the units
 
 
 @pytest.mark.parametrize(
