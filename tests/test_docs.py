@@ -35,14 +35,19 @@ def test_the_readmes_links_point_at_files_that_exist() -> None:
 
 
 @pytest.mark.parametrize(
-    ("script", "figure"),
-    [("merton_check.py", "merton_check.md"), ("two_camera.py", "two_camera.txt")],
+    ("script", "figure", "page"),
+    [
+        ("merton_check.py", "merton_check.md", "real-data.md"),
+        ("two_camera.py", "two_camera.txt", "real-data.md"),
+        ("thesis_reproduced.py", "thesis_reproduced.txt", "sample-sessions.md"),
+    ],
 )
-def test_the_docs_real_data_figures_are_what_their_benchmarks_print(
-    script: str, figure: str
+def test_the_docs_deterministic_figures_are_what_their_scripts_print(
+    script: str, figure: str, page: str
 ) -> None:
     """The docs include docs/figures/<figure>, written by ``<script> --write-docs``: the
-    deterministic real-data benchmarks are rerun here and must print it exactly."""
+    deterministic scripts (real data, the bundled sessions) are rerun here and must print
+    it exactly."""
     printed = subprocess.run(
         [sys.executable, str(REPO / "benchmarks" / script)],
         capture_output=True,
@@ -52,7 +57,7 @@ def test_the_docs_real_data_figures_are_what_their_benchmarks_print(
     ).stdout
     assert printed.strip(), script
     assert printed == (REPO / "docs" / "figures" / figure).read_text(encoding="utf-8")
-    assert f'--8<-- "figures/{figure}"' in (REPO / "docs" / "real-data.md").read_text()
+    assert f'--8<-- "figures/{figure}"' in (REPO / "docs" / page).read_text()
 
 
 def _figure_of(script: Path) -> str:
