@@ -29,6 +29,7 @@ from analysis.columns import (
     VIEW_COLUMNS,
 )
 from analysis.drawer import FigureDrawer, note, sigint_blocked
+from analysis.figure_cache import FigureCache, FigureJob
 from analysis.input_set import resolve_inputs
 from analysis.metrics import summarize
 from analysis.outputs import OutputFolder, printable_stem
@@ -95,6 +96,11 @@ def run(
             options=options,
             images=folder is not None,
             on_done=on_session_done,
+            figure_cache=(
+                FigureCache.of(folder.destination, folder.previous_outputs())
+                if folder is not None
+                else None
+            ),
         )
         outcomes = _execute(batch, jobs=jobs, dask_address=dask_address)
         result = dataclasses.replace(
@@ -108,7 +114,9 @@ def run(
 
             # The sweeps are in the thesis' geometry, not the sessions': what the method
             # can do, beside what each trial's own covariance says dominated it.
-            written = write_outputs(result, folder.path, _thesis_sweeps().copy())
+            written = write_outputs(
+                result, folder.path, _thesis_sweeps().copy(), figure_cache=batch.figure_cache
+            )
             folder.record(written + [Path(r).name for r in results_mcap if r is not None])
     return result
 
@@ -138,6 +146,8 @@ class _Batch:
     options: AnalysisOptions
     images: bool  # whether the session figures are drawn (only when an --out is written)
     on_done: OnDone | None
+    # The figures the previous run into --out drew: reused where nothing they show changed.
+    figure_cache: FigureCache | None = None
 
     def without_images(self) -> _Batch:
         """The same batch, its figures drawn elsewhere (by a :class:`FigureDrawer`)."""
@@ -151,8 +161,7 @@ def _execute(batch: _Batch, *, jobs: int, dask_address: str | None) -> list[Outc
         return _run_dask(batch, dask_address)
     if jobs > 1 and n > 1:  # each process draws its own sessions' figures
         return _run_processes(batch, min(jobs, n))
-    # --include-warned: the report draws the session figures itself, with that rule.
-    if not batch.images or n <= 1 or batch.options.include_warned:
+    if not batch.images or n <= 1:
         return _run_here(batch, None)
     with FigureDrawer.started() as drawer:
         return _run_here(batch if drawer is None else batch.without_images(), drawer)
@@ -161,13 +170,19 @@ def _execute(batch: _Batch, *, jobs: int, dask_address: str | None) -> list[Outc
 def _run_here(batch: _Batch, drawer: FigureDrawer | None) -> list[Outcome]:
     """The sessions one after the other in this process; with a ``drawer``, each one's
     figures are drawn in its process while this one analyses the next."""
-    files, options, on_done = batch.files, batch.options, batch.on_done
+    files, options, on_done, cache = batch.files, batch.options, batch.on_done, batch.figure_cache
     outcomes: list[Outcome] = []
     for i, (f, r) in enumerate(zip(files, batch.results_mcap, strict=True)):
-        outcomes.append(analyse_or_fail(f, options, images=batch.images, results=r))
-        if drawer is not None and isinstance(outcomes[-1], SessionResult):
-            drawer.submit(i, outcomes[-1])
-        _report(on_done, f, outcomes[-1])
+        outcome = analyse_or_fail(f, options, images=batch.images, results=r, figure_cache=cache)
+        if drawer is not None and isinstance(outcome, SessionResult):
+            job = FigureJob.of(outcome, include_warned=options.include_warned)
+            reused = cache.reuse(job) if cache is not None else None
+            if reused is None:
+                drawer.submit(i, job)
+            else:
+                outcome = dataclasses.replace(outcome, images=reused, figures_reused=True)
+        outcomes.append(outcome)
+        _report(on_done, f, outcome)
     if drawer is None:
         return outcomes
     for i, (figures, why_not) in sorted(drawer.collect().items()):
@@ -225,13 +240,24 @@ def results_mcap_name(index: int, session: str | Path) -> str:
 
 
 def analyse_or_fail(
-    path: str, options: AnalysisOptions, *, images: bool, results: str | None = None
+    path: str,
+    options: AnalysisOptions,
+    *,
+    images: bool,
+    results: str | None = None,
+    figure_cache: FigureCache | None = None,
 ) -> Outcome:
     """One session's result, or a :class:`SessionFailure` saying why (never raises but for
     Ctrl-C); a session over ``options.session_timeout_s`` is stopped and fails."""
     try:
         with _time_limit(options.session_timeout_s):
-            return analyse_session(path, options, render_images=images, results_path=results)
+            return analyse_session(
+                path,
+                options,
+                render_images=images,
+                results_path=results,
+                figure_cache=figure_cache,
+            )
     except _SessionTimeoutError:
         return SessionFailure(
             session=path,
@@ -301,13 +327,13 @@ def _claim(claims: Any, index: int) -> bool:
         return True
 
 
-def _worker_task(
-    index: int, path: str, options: AnalysisOptions, results: str | None, *, images: bool
-) -> Outcome | None:
+def _worker_task(index: int, path: str, batch: _Batch, results: str | None) -> Outcome | None:
     """A worker's session, or None when the main process took it first."""
     if not _claim(_CLAIMS, index):
         return None
-    return analyse_or_fail(path, options, images=images, results=results)
+    return analyse_or_fail(
+        path, batch.options, images=batch.images, results=results, figure_cache=batch.figure_cache
+    )
 
 
 def _run_processes(batch: _Batch, jobs: int) -> list[Outcome]:
@@ -336,14 +362,22 @@ def _run_processes(batch: _Batch, jobs: int) -> list[Outcome]:
             futures: list[Future[Outcome | None]] = []
             try:
                 with sigint_blocked():  # the workers start as the sessions are submitted
+                    task = dataclasses.replace(batch, on_done=None)  # what a worker needs
                     futures = [
-                        pool.submit(_worker_task, i, f, options, results[i], images=images)
+                        pool.submit(_worker_task, i, f, task, results[i])
                         for i, f in enumerate(files)
                     ]
                 for i in reversed(range(len(files))):
                     if not _claim(claims, i):
                         break  # the workers, going forward, have reached this one
-                    done(i, analyse_or_fail(files[i], options, images=images, results=results[i]))
+                    here = analyse_or_fail(
+                        files[i],
+                        options,
+                        images=images,
+                        results=results[i],
+                        figure_cache=batch.figure_cache,
+                    )
+                    done(i, here)
                 index = {fut: i for i, fut in enumerate(futures)}
                 for fut in as_completed(futures):  # progress as sessions finish, in any order
                     i = index[fut]
@@ -412,10 +446,15 @@ def _stop_workers(
 
 
 def _analyse_to(
-    path: str, results: str | None, *, options: AnalysisOptions, images: bool
+    path: str,
+    results: str | None,
+    *,
+    options: AnalysisOptions,
+    images: bool,
+    figure_cache: FigureCache | None,
 ) -> Outcome:
     """:func:`analyse_or_fail` with the per-session argument second, for ``client.map``."""
-    return analyse_or_fail(path, options, images=images, results=results)
+    return analyse_or_fail(path, options, images=images, results=results, figure_cache=figure_cache)
 
 
 def _run_dask(batch: _Batch, address: str) -> list[Outcome]:
@@ -439,7 +478,13 @@ def _run_dask(batch: _Batch, address: str) -> list[Outcome]:
         # A worker that dies mid-session (killed, out of memory) loses its task to the
         # scheduler, which runs it again on another worker (``allowed-failures``, 3).
         futures = client.map(
-            _analyse_to, files, results, options=batch.options, images=batch.images, pure=False
+            _analyse_to,
+            files,
+            results,
+            options=batch.options,
+            images=batch.images,
+            figure_cache=batch.figure_cache,
+            pure=False,
         )
         index = {fut.key: i for i, fut in enumerate(futures)}
         outcomes: list[Outcome | None] = [None] * len(files)

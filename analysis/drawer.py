@@ -17,9 +17,7 @@ from collections.abc import Iterator
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    import pandas as pd
-
-    from analysis.results import SessionResult
+    from analysis.figure_cache import FigureJob
 
 __all__ = ["FigureDrawer", "draw_session_figures", "not_drawn_png", "note", "sigint_blocked"]
 
@@ -28,19 +26,24 @@ __all__ = ["FigureDrawer", "draw_session_figures", "not_drawn_png", "note", "sig
 Drawn = tuple[dict[str, bytes], str]
 
 
-def draw_session_figures(
-    session: str, trials: pd.DataFrame, averaging: pd.DataFrame, views: pd.DataFrame
-) -> Drawn:
+def draw_session_figures(job: FigureJob) -> Drawn:
     """The session's figures as PNGs (:func:`analysis.figures.session_figures`); if drawing
     them fails, one image that says so in the first figure's place, and the reason."""
     try:
         from analysis.figures import png_bytes, session_figures
 
-        figures = session_figures(session, trials, averaging, views)
+        figures = session_figures(
+            job.session,
+            job.trials,
+            job.averaging,
+            job.views,
+            include_warned=job.include_warned,
+            units=job.units,
+        )
         return {kind: png_bytes(fig) for kind, fig in figures.items()}, ""
     except Exception as err:  # a bug in a figure must not cost the session its numbers
         reason = f"{type(err).__name__}: {err}"
-        return {"scatter": not_drawn_png(session, reason)}, reason
+        return {"scatter": not_drawn_png(job.session, reason)}, reason
 
 
 def not_drawn_png(session: str, reason: str) -> bytes:
@@ -97,7 +100,7 @@ class FigureDrawer:
                 stdout=subprocess.PIPE,
                 env=env,
             )
-        self._submitted: dict[int, SessionResult] = {}
+        self._submitted: dict[int, FigureJob] = {}
         self._waiting: list[int] = []  # submitted, not yet sent (oldest first)
         self._sent: set[int] = set()  # sent, not yet drawn
         self._drawn: dict[int, Drawn] = {}
@@ -128,10 +131,10 @@ class FigureDrawer:
         finally:
             drawer.close()
 
-    def submit(self, index: int, result: SessionResult) -> None:
-        """Draw ``result``'s figures (``index`` names it in :meth:`collect`)."""
+    def submit(self, index: int, job: FigureJob) -> None:
+        """Draw ``job``'s figures (``index`` names it in :meth:`collect`)."""
         with self._changed:
-            self._submitted[index] = result
+            self._submitted[index] = job
             self._waiting.append(index)
             self._changed.notify_all()
 
@@ -142,8 +145,7 @@ class FigureDrawer:
         assert stdin is not None
         try:
             while (index := self._next_to_send()) is not None:
-                s = self._submitted[index]
-                task = (index, s.session, s.trials, s.averaging, s.views)
+                task = (index, self._submitted[index])
                 _send(stdin, pickle.dumps(task, protocol=pickle.HIGHEST_PROTOCOL))
             stdin.close()
         except (OSError, ValueError):  # the child is gone: the reader says so
@@ -196,8 +198,8 @@ class FigureDrawer:
                     self._changed.wait(0.5)
                     continue
                 index = self._waiting.pop()
-                s = self._submitted[index]
-            drawn = draw_session_figures(s.session, s.trials, s.averaging, s.views)
+                job = self._submitted[index]
+            drawn = draw_session_figures(job)
             with self._changed:
                 self._drawn[index] = drawn
         # A child that died may not have been seen by the reader yet (its EOF races with
@@ -274,8 +276,8 @@ def _main() -> None:
     import analysis.figures  # noqa: F401  (matplotlib loads while the first session runs)
 
     while (message := _receive(stdin)) is not None:
-        index, session, trials, averaging, views = pickle.loads(message)
-        drawn = draw_session_figures(session, trials, averaging, views)
+        index, job = pickle.loads(message)
+        drawn = draw_session_figures(job)
         _send(stdout, pickle.dumps((index, drawn), protocol=pickle.HIGHEST_PROTOCOL))
 
 

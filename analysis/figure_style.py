@@ -5,12 +5,16 @@ most of a figure's drawing time) and a legend below the axes, never on the data.
 from __future__ import annotations
 
 import math
+import textwrap
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pandas as pd
 from matplotlib.axes import Axes
 from matplotlib.cm import ScalarMappable
-from matplotlib.colors import BoundaryNorm, Colormap, Normalize
+from matplotlib.colors import BoundaryNorm, Colormap, ListedColormap, Normalize
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.ticker import MaxNLocator
@@ -20,21 +24,32 @@ from twopose.format.entries import INCHES_PER_UNIT
 __all__ = [
     "DPI",
     "LABEL",
+    "MAX_LEGEND",
     "TICK",
     "TITLE",
+    "TrialColours",
+    "beyond_note",
     "colour_key",
     "common_units",
+    "equal_scales",
+    "frame",
     "key",
     "layout",
     "legend_below",
+    "mark_beyond",
     "method_colour",
     "place_colour_key",
+    "set_title",
     "trial_colours",
 ]
 
 #: Pixels per inch of the PNGs (a 5 in figure is 550 px wide).
 DPI = 110
 TICK, LABEL, TITLE = 9, 10, 10  # font sizes (points)
+NOTE = 8  # a note under a legend
+
+#: Series in one legend; beyond it, a figure keys its colours with a colour bar.
+MAX_LEGEND = 8
 
 _METHOD_COLOURS = {"ground": "C0", "point": "C1", "line": "C2"}  # as the sensitivity figure
 
@@ -55,19 +70,29 @@ def layout(
     )
 
 
-def legend_below(fig: Figure, handles: list[Line2D], columns: int) -> float:
-    """A legend along the figure's bottom edge, out of every axes; the inches it takes."""
+def legend_below(fig: Figure, handles: list[Line2D], columns: int, note: str = "") -> float:
+    """A legend along the figure's bottom edge, out of every axes, and under it ``note``
+    (wrapped to the figure's width); the inches they take. Both are placed in inches from
+    the bottom, so a figure that grows taller afterwards keeps them in place."""
+    width = float(fig.get_size_inches()[0])
+    below = 0.0
+    if note:
+        lines = textwrap.wrap(note, int(width * 72 / (0.56 * NOTE)))
+        fig.text(0.12, 0.08, "\n".join(lines), fontsize=NOTE, va="bottom", ha="left",
+                 transform=fig.dpi_scale_trans)  # fmt: skip
+        below = 0.1 + 0.16 * len(lines)
     if not handles:
-        return 0.0
+        return below
     fig.legend(
         handles=handles,
         loc="lower center",
         ncol=columns,
         fontsize=TICK,
         frameon=False,
-        bbox_to_anchor=(0.5, 0.0),
+        bbox_to_anchor=(width / 2, below),
+        bbox_transform=fig.dpi_scale_trans,
     )
-    return 0.1 + 0.22 * math.ceil(len(handles) / columns)
+    return below + 0.1 + 0.22 * math.ceil(len(handles) / columns)
 
 
 def key(label: str, **style: object) -> Line2D:
@@ -120,3 +145,145 @@ def place_colour_key(fig: Figure, cax: Axes, beside: Axes, below: Axes | None = 
     top, bottom = beside.get_position(), (below or beside).get_position()
     width = fig.get_size_inches()[0]
     cax.set_position((top.x1 + 0.12 / width, bottom.y0, 0.12 / width, top.y1 - bottom.y0))
+
+
+def set_title(ax: Axes, title: str) -> None:
+    """An axes' title at a fixed height: matplotlib's automatic placement measures every
+    tick label of the axes again at each draw (a tenth of a figure's drawing time)."""
+    ax.set_title(title, fontsize=TITLE, y=1.0, pad=5.0)
+
+
+@dataclass(frozen=True)
+class TrialColours:
+    """One colour per trial of a session, the same in every figure of it, with its key:
+    tab10's distinct colours up to 10 trials (in trial order), a viridis ramp beyond;
+    named in the legend up to :data:`MAX_LEGEND` trials, by a colour bar beyond."""
+
+    trials: tuple[int, ...]
+
+    @classmethod
+    def of(cls, trial_ids: object) -> TrialColours:
+        """The colours of these trial numbers (repeats and order do not matter)."""
+        ids = pd.Series(trial_ids, dtype="float64").dropna().astype(int)
+        return cls(tuple(sorted(set(ids.tolist()))))
+
+    @property
+    def named(self) -> bool:
+        """Whether the legend names each trial (else a colour bar keys them)."""
+        return len(self.trials) <= MAX_LEGEND
+
+    def _map(self) -> tuple[Colormap, Normalize]:
+        from matplotlib import colormaps
+
+        n = len(self.trials)
+        if n > 20:
+            return colormaps["viridis"], Normalize(self.trials[0], self.trials[-1])
+        if n <= 10:
+            colours = [colormaps["tab10"](k) for k in range(max(n, 1))]
+        else:  # a ramp: distinct neighbours, and never so light it fades on white
+            colours = [colormaps["viridis"](0.9 * k / (n - 1)) for k in range(n)]
+        listed = ListedColormap(colours)
+        return listed, BoundaryNorm(np.arange(max(n, 1) + 1) - 0.5, max(n, 1))
+
+    def colour(self, trial: object) -> tuple[float, float, float, float]:
+        """The trial's colour (grey for a trial not in the session's set)."""
+        cmap, norm = self._map()
+        t = int(trial)  # type: ignore[call-overload]
+        if t not in self.trials:
+            return (0.5, 0.5, 0.5, 1.0)
+        value = t if len(self.trials) > 20 else self.trials.index(t)
+        rgba = cmap(norm(value))
+        return (float(rgba[0]), float(rgba[1]), float(rgba[2]), float(rgba[3]))
+
+    def colours(self, trials: object) -> list[tuple[float, float, float, float]]:
+        """The colours of ``trials`` (an iterable of trial numbers), in order."""
+        return [self.colour(t) for t in trials]  # type: ignore[attr-defined]
+
+    def legend(self, **style: object) -> list[Line2D]:
+        """Legend entries naming each trial in its colour, drawn by ``style``."""
+        return [key(f"trial {t}", **(style | {"color": self.colour(t)})) for t in self.trials]
+
+    def colour_bar(self, fig: Figure) -> Axes:
+        """The trials' colour bar (place it with :func:`place_colour_key`)."""
+        cmap, norm = self._map()
+        cax = fig.add_axes((0.86, 0.3, 0.03, 0.6), label="<colorbar>")
+        bar = fig.colorbar(ScalarMappable(norm, cmap), cax=cax)
+        bar.set_label("trial number (colour key)", fontsize=LABEL)
+        if len(self.trials) <= 20:
+            step = max(1, math.ceil(len(self.trials) / 8))
+            ranks = list(range(0, len(self.trials), step))
+            bar.set_ticks(ranks, labels=[str(self.trials[k]) for k in ranks])
+        else:
+            bar.locator = MaxNLocator(nbins=8, integer=True)
+            bar.update_ticks()
+        bar.ax.tick_params(labelsize=TICK)
+        bar.ax.minorticks_off()
+        return cax
+
+
+def frame(ax: Axes, points: np.ndarray, *, pad: float = 0.08, least: float = 1e-9) -> None:
+    """Axis limits around the finite rows of ``points`` (n, 2), padded by ``pad`` of their
+    span (at least ``least`` wide): the points the statistics use set the scale."""
+    xy = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    xy = xy[np.isfinite(xy).all(axis=1)]
+    if not len(xy):
+        xy = np.array([[-1.0, -1.0], [1.0, 1.0]])
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    span = np.maximum(hi - lo, least)
+    centre = (lo + hi) / 2
+    lo, hi = centre - span * (0.5 + pad), centre + span * (0.5 + pad)
+    ax.set_xlim(float(lo[0]), float(hi[0]))
+    ax.set_ylim(float(lo[1]), float(hi[1]))
+
+
+def equal_scales(ax: Axes, box_inches: tuple[float, float]) -> None:
+    """Widen the axes' limits about their centres so that a unit is as long on both axes
+    in a box of ``box_inches`` (width, height): nothing framed leaves the view."""
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    per_inch = max((x1 - x0) / box_inches[0], (y1 - y0) / box_inches[1])
+    cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
+    ax.set_xlim(cx - per_inch * box_inches[0] / 2, cx + per_inch * box_inches[0] / 2)
+    ax.set_ylim(cy - per_inch * box_inches[1] / 2, cy + per_inch * box_inches[1] / 2)
+
+
+#: Trials listed by name in a figure's "beyond the frame" legend entry (the rest counted).
+MAX_BEYOND_LISTED = 6
+
+
+def mark_beyond(ax: Axes, points: np.ndarray, colours: Sequence[Any]) -> np.ndarray:
+    """Points outside the axes' (final) limits drawn at the edge they lie beyond: an
+    arrowhead pointing out, in their colour. Returns which points were outside (the
+    caller lists them, with their values, under the legend: :func:`beyond_note`)."""
+    xy = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    finite = np.isfinite(xy).all(axis=1)
+    inside = (xy[:, 0] >= x0) & (xy[:, 0] <= x1) & (xy[:, 1] >= y0) & (xy[:, 1] <= y1)
+    beyond = finite & ~inside
+    if not beyond.any():
+        return beyond
+    span = np.array([x1 - x0, y1 - y0])
+    edge = np.clip(xy[beyond], [x0, y0] + 0.02 * span, [x1, y1] - 0.02 * span)
+    # how far beyond each side, in spans: the largest names the arrow's direction
+    over = np.stack(
+        [(xy[beyond, 0] - x1), (x0 - xy[beyond, 0]), (xy[beyond, 1] - y1), (y0 - xy[beyond, 1])],
+        axis=1,
+    ) / np.repeat(span, 2)
+    markers = np.array([">", "<", "^", "v"])[over.argmax(axis=1)]
+    chosen = [c for c, b in zip(colours, beyond, strict=True) if b]
+    for marker in set(markers.tolist()):
+        pick = markers == marker
+        ax.scatter(edge[pick, 0], edge[pick, 1], marker=marker, s=55, linewidths=0.6,
+                   c=[c for c, k in zip(chosen, pick, strict=True) if k], edgecolors="k",
+                   zorder=8, clip_on=False)  # fmt: skip
+    return beyond
+
+
+def beyond_note(listed: Sequence[str]) -> str:
+    """The note under a legend naming the points drawn at the frame's edge, with their
+    values (the first :data:`MAX_BEYOND_LISTED`; the rest counted); "" when none."""
+    if not listed:
+        return ""
+    names = list(listed[:MAX_BEYOND_LISTED])
+    if len(listed) > MAX_BEYOND_LISTED:
+        names.append(f"and {len(listed) - MAX_BEYOND_LISTED} more")
+    return "\u25b2 beyond the frame, drawn at its edge: " + "; ".join(names) + "."

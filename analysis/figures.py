@@ -31,16 +31,20 @@ from analysis.answer import session_order
 from analysis.figure_style import (
     DPI,
     LABEL,
+    MAX_LEGEND,
     TICK,
     TITLE,
-    colour_key,
+    TrialColours,
+    beyond_note,
     common_units,
+    frame,
     key,
     layout,
     legend_below,
+    mark_beyond,
     method_colour,
     place_colour_key,
-    trial_colours,
+    set_title,
 )
 from analysis.metrics import by_session_set, session_set, used_trials, warned
 from analysis.outputs import printable_stem
@@ -66,8 +70,6 @@ __all__ = [
     "session_figures",
 ]
 
-#: Series in one legend; beyond it, a figure switches to small multiples.
-MAX_LEGEND = 8
 #: Figures are at most this wide (inches): at 110 dpi, 528 px, shown on a 390 px phone
 #: at two thirds, their 9 pt labels about 9 px high.
 WIDTH = 4.8
@@ -75,7 +77,7 @@ HISTOGRAM_BINS = 20
 
 
 def _style(ax: Axes, title: str, xlabel: str, ylabel: str) -> None:
-    ax.set_title(title, fontsize=TITLE)
+    set_title(ax, title)
     ax.set_xlabel(xlabel, fontsize=LABEL)
     ax.set_ylabel(ylabel, fontsize=LABEL)
     ax.tick_params(labelsize=TICK)
@@ -90,7 +92,9 @@ def _covariances_xz(trials: pd.DataFrame) -> np.ndarray:
     return np.nan_to_num(C, posinf=0.0, neginf=0.0)
 
 
-def error_ellipses(trials: pd.DataFrame, chi2: float = CHI2_95[2]) -> EllipseCollection:
+def error_ellipses(
+    trials: pd.DataFrame, chi2: float = CHI2_95[2], colours: object = "C0"
+) -> EllipseCollection:
     """The x-z marginal 95% ellipse of each trial's covariance, centred on its error: the
     truth (the origin) lies inside about 95% of them when the uncertainty is honest."""
     w, V = np.linalg.eigh(_covariances_xz(trials))
@@ -104,9 +108,9 @@ def error_ellipses(trials: pd.DataFrame, chi2: float = CHI2_95[2]) -> EllipseCol
         offsets=trials[["err_x", "err_z"]].to_numpy(dtype=np.float64),
         offset_transform=None,
         facecolors="none",
-        edgecolors="C0",
-        linewidths=0.6,
-        alpha=0.45,
+        edgecolors=colours,
+        linewidths=0.7,
+        alpha=0.55,
     )
 
 
@@ -124,56 +128,77 @@ def _ellipse_bounds(trials: pd.DataFrame, chi2: float = CHI2_95[2]) -> np.ndarra
     return np.array([np.minimum(lo, 0.0), np.maximum(hi, 0.0)])  # the truth is in view
 
 
+def _units_of(trials: pd.DataFrame, units: str = "") -> str:
+    """The trials' length unit, else ``units`` (the session's, when it has no trial)."""
+    if len(trials) and "units" in trials:
+        return str(trials["units"].iloc[0])
+    return units or "session units"
+
+
 def plot_error_scatter(
-    ax: Axes, trials: pd.DataFrame, title: str, *, include_warned: bool = False
-) -> list[Line2D]:
-    """Estimate minus truth in x-z, ok trials (the thesis' Figures 11 and 21), each with its
-    95% error ellipse, every ellipse inside the axes. Trials with a near-degeneracy warning
-    are hollow red and drawn without their (degenerate) ellipses; the bias is over the
-    trials the statistics use. Returns the legend's entries."""
+    ax: Axes,
+    trials: pd.DataFrame,
+    title: str,
+    *,
+    include_warned: bool = False,
+    palette: TrialColours | None = None,
+    units: str = "",
+) -> tuple[list[Line2D], str]:
+    """Estimate minus truth in x-z, ok trials (the thesis' Figures 11 and 21), each in its
+    trial's colour with its 95% error ellipse. The axes are framed by the trials the
+    statistics use (their points and ellipses, and the truth at the origin); a warned trial
+    left out is hollow, without its (degenerate) ellipse, and when it lies beyond the frame
+    it is drawn at the edge with an arrowhead. Returns the legend's entries (the trials'
+    own when ``palette`` names them) and the note that lists what lies beyond the frame."""
     ok = used_trials(trials, include_warned=True, measured=True)
+    palette = palette or TrialColours.of(ok["trial"])
     doubted = warned(ok)
-    clean, doubtful = ok[~doubted], ok[doubted]
-    used = ok if include_warned else clean
-    units = str(trials["units"].iloc[0]) if len(trials) else "session units"
-    ax.axhline(0, color="0.8", lw=0.8)
-    ax.axvline(0, color="0.8", lw=0.8)
+    used, left_out = (ok, ok.head(0)) if include_warned else (ok[~doubted], ok[doubted])
+    units = _units_of(trials, units)
+    ax.axhline(0, color="0.75", lw=0.8, zorder=0)
+    ax.axvline(0, color="0.75", lw=0.8, zorder=0)
     handles = []
-    if len(clean) and "sigma_x" in clean:
-        ellipses = error_ellipses(clean)
+    if len(used) and "sigma_x" in used:
+        ellipses = error_ellipses(used, colours=palette.colours(used["trial"]))
         ellipses.set_offset_transform(ax.transData)
         ax.add_collection(ellipses, autolim=False)
-        handles.append(key("95% ellipses", color="C0", lw=0.6, alpha=0.45, linestyle="-"))
-    ax.scatter(clean["err_x"], clean["err_z"], s=18, color="C0")
-    handles.append(key(f"{len(clean)} ok trials", marker="o", color="C0", ms=5))
-    if len(doubtful):
-        ax.scatter(doubtful["err_x"], doubtful["err_z"], s=22, facecolors="none", edgecolors="C3")
-        fate = "included" if include_warned else "left out"
-        handles.append(key(f"{len(doubtful)} warned ({fate})", marker="o", mfc="none", mec="C3"))
+        handles.append(key("95% ellipses", color="0.3", lw=0.7, linestyle="-"))
+    ax.scatter(used["err_x"], used["err_z"], s=20, c=palette.colours(used["trial"]), zorder=3)
+    handles.append(key(f"{len(used)} trials used", marker="o", color="0.3", ms=5))
+    if len(left_out):
+        colours = palette.colours(left_out["trial"])
+        ax.scatter(left_out["err_x"], left_out["err_z"], s=24, facecolors="none",
+                   edgecolors=colours, zorder=3)  # fmt: skip
+        handles.append(key(f"{len(left_out)} warned (left out)", marker="o", mfc="none", mec="0.3"))
     if len(used):
-        ax.scatter([used["err_x"].mean()], [used["err_z"].mean()], marker="x", s=60, color="k")
+        ax.scatter([used["err_x"].mean()], [used["err_z"].mean()], marker="x", s=60,
+                   color="k", zorder=4)  # fmt: skip
         handles.append(key("bias (mean error)", marker="x", color="k", ms=7))
-    _limits_around(ax, clean, doubtful)
+    ax.scatter([0.0], [0.0], marker="+", s=90, color="k", linewidths=1.4, zorder=5)
+    handles.append(key("truth (zero error)", marker="+", color="k", ms=9, mew=1.4))
+    bounds = _ellipse_bounds(used) if len(used) and "sigma_x" in used else np.zeros((2, 2))
+    frame(ax, np.vstack([bounds, used[["err_x", "err_z"]].to_numpy(dtype=np.float64)]),
+          least=1e-3 if len(used) else 2.0)  # fmt: skip
+    note = _mark_left_out(ax, left_out, ["err_x", "err_z"], palette, units)
     _style(ax, title, f"x error ({units})", f"z error ({units})")
     ax.xaxis.set_major_locator(MaxNLocator(nbins=5))  # tick labels that never touch
-    return handles
+    return [*handles, *(palette.legend(marker="o", ms=5) if palette.named else [])], note
 
 
-def _limits_around(ax: Axes, clean: pd.DataFrame, doubtful: pd.DataFrame) -> None:
-    """Axis limits that hold every drawn ellipse, every point and the origin."""
-    bounds = [np.zeros((2, 2))]
-    if len(clean) and "sigma_x" in clean:
-        bounds.append(_ellipse_bounds(clean))
-    for points in (clean, doubtful):
-        xz = points[["err_x", "err_z"]].to_numpy(dtype=np.float64)
-        xz = xz[np.isfinite(xz).all(axis=1)]
-        if len(xz):
-            bounds.append(np.array([xz.min(axis=0), xz.max(axis=0)]))
-    lo = np.min([b[0] for b in bounds], axis=0)
-    hi = np.max([b[1] for b in bounds], axis=0)
-    pad = 0.08 * np.maximum(hi - lo, 1e-9)
-    ax.set_xlim(lo[0] - pad[0], hi[0] + pad[0])
-    ax.set_ylim(lo[1] - pad[1], hi[1] + pad[1])
+def _mark_left_out(
+    ax: Axes, left_out: pd.DataFrame, columns: list[str], palette: TrialColours, units: str
+) -> str:
+    """Left-out trials beyond the frame: drawn at its edge, and listed with their value
+    (the note returned)."""
+    xy = left_out[columns].to_numpy(dtype=np.float64)
+    beyond = mark_beyond(ax, xy, palette.colours(left_out["trial"]))
+    return beyond_note(
+        [
+            f"trial {t} ({x:+.3g}, {y:+.3g} {units})"
+            for t, (x, y), b in zip(left_out["trial"], xy, beyond, strict=True)
+            if b
+        ]
+    )
 
 
 def running_errors(averaging: pd.DataFrame, trials: pd.DataFrame) -> pd.DataFrame:
@@ -204,59 +229,71 @@ def _running_axes(fig: Figure, units: str) -> tuple[Axes, Axes]:
     return ax_x, ax_z
 
 
-def plot_running_averages(fig: Figure, errors: pd.DataFrame, units: str) -> list[Line2D]:
-    """Up to :data:`MAX_LEGEND` trials: the x and the z error of the running average
-    against the frames averaged (Figures 22-23, as errors), one named line per trial (a
-    warned one dashed), the two panels on one y scale. Returns the legend's entries."""
+def plot_running_averages(
+    fig: Figure,
+    errors: pd.DataFrame,
+    units: str,
+    palette: TrialColours | None = None,
+    *,
+    include_warned: bool = False,
+) -> tuple[list[Line2D], str]:
+    """The x and the z error of each trial's running average against the frames averaged
+    (Figures 22-23, as errors), one line per trial in its colour (a warned one dashed),
+    one collection per panel, the two panels on one y scale framed by the trials the
+    statistics use; a left-out trial's line beyond the frame ends at its edge with an
+    arrowhead. Returns the legend's entries and the note listing what lies beyond."""
+    palette = palette or TrialColours.of(errors["trial"])
     axes = _running_axes(fig, units)
     by_trial = list(errors.groupby("trial", sort=True))
-    for ax, axis in zip(axes, ("x", "z"), strict=True):
-        for k, (_, g) in enumerate(by_trial):
-            style = "--" if g["warned"].any() else "-"
-            ax.plot(g["n_frames"], g[f"err_{axis}"], style, color=f"C{k}", lw=1.0)
-    handles = []
-    for k, (trial, g) in enumerate(by_trial):
-        doubt = bool(g["warned"].any())
-        label = f"trial {trial}" + (" (warned)" if doubt else "")
-        handles.append(key(label, color=f"C{k}", linestyle="--" if doubt else "-"))
-    return [*handles, key("truth (zero error)", color="0.6", linestyle="-")]
-
-
-def plot_running_averages_keyed(fig: Figure, errors: pd.DataFrame, units: str) -> Axes:
-    """More trials: the same two panels, one collection of lines per panel, each trial's
-    colour its number's (the colour key returned, to place once the layout is set), a
-    warned trial dashed; what is drawn does not grow with the trials."""
-    axes = _running_axes(fig, units)
-    cmap, norm = trial_colours([int(t) for t in errors["trial"].unique()])
-    by_trial = list(errors.groupby("trial", sort=True))
-    colours = [cmap(norm(int(g["trial"].iloc[0]))) for _, g in by_trial]
-    styles = ["--" if g["warned"].any() else "-" for _, g in by_trial]
+    colours = palette.colours(t for t, _ in by_trial)
+    doubt = [bool(g["warned"].any()) for _, g in by_trial]
+    styles = [(0, (4, 2)) if d else "solid" for d in doubt]
+    used = errors if include_warned else errors[~errors["warned"].astype(bool)]
+    spread = used[["err_x", "err_z"]].to_numpy(dtype=np.float64).ravel()
+    top = float(errors["n_frames"].max()) if len(errors) else 1.0
     for ax, axis in zip(axes, ("x", "z"), strict=True):
         lines = [g[["n_frames", f"err_{axis}"]].to_numpy(dtype=np.float64) for _, g in by_trial]
         ax.add_collection(
-            LineCollection(lines, colors=colours, linestyles=styles, linewidths=0.9, alpha=0.9)
+            LineCollection(lines, colors=colours, linestyles=styles, linewidths=1.0),
+            autolim=False,
         )
-        ax.autoscale_view()
-    return colour_key(fig, cmap, norm)
+        points = np.column_stack([np.full(len(spread) + 1, 1.0), [*spread, 0.0]])
+        frame(ax, np.vstack([points, [[top, 0.0]]]), pad=0.06, least=1e-6)
+        ax.set_xlim(0.0, top * 1.04)
+    listed: list[str] = []
+    if not include_warned:  # a left-out trial's last running average, beyond the frame
+        last = [(t, g.iloc[-1]) for (t, g), d in zip(by_trial, doubt, strict=True) if d]
+        for ax, axis in zip(axes, ("x", "z"), strict=True):
+            xy = np.array([[r["n_frames"], r[f"err_{axis}"]] for _, r in last]).reshape(-1, 2)
+            beyond = mark_beyond(ax, xy, palette.colours(t for t, _ in last))
+            listed += [
+                f"trial {t} {axis} {r[f'err_{axis}']:+.3g} {units}"
+                for (t, r), b in zip(last, beyond, strict=True)
+                if b
+            ]
+    handles = palette.legend(linestyle="-") if palette.named else []
+    if any(doubt):
+        fate = "included" if include_warned else "left out"
+        handles.append(key(f"warned trial ({fate})", color="0.3", linestyle="--"))
+    handles.append(key("truth (zero error)", color="0.6", linestyle="-"))
+    return handles, beyond_note(listed)
 
 
-def _running_figure(name: str, errors: pd.DataFrame, units: str) -> Figure:
-    """The running averages' figure: named lines, or lines keyed by colour beyond
-    :data:`MAX_LEGEND` trials."""
-    many = errors["trial"].nunique() > MAX_LEGEND
+def _running_figure(
+    name: str, errors: pd.DataFrame, units: str, palette: TrialColours, *, include_warned: bool
+) -> Figure:
+    """The running averages' figure: the trials named in the legend, or keyed by a colour
+    bar beyond :data:`MAX_LEGEND` trials."""
 
     def draw(fig: Figure) -> None:
-        if many:
-            cax = plot_running_averages_keyed(fig, errors, units)
-            handles = [key("truth (zero error)", color="0.6", linestyle="-")]
-            if errors["warned"].any():
-                handles.insert(0, key("warned trial", color="0.3", linestyle="--"))
-            bottom = legend_below(fig, handles, 2)
-            layout(fig, left=0.8, right=1.2, top=0.6, bottom=0.6 + bottom, wspace=0.08)
-            place_colour_key(fig, cax, fig.axes[1])
-        else:
-            bottom = legend_below(fig, plot_running_averages(fig, errors, units), 3)
-            layout(fig, left=0.8, right=0.15, top=0.6, bottom=0.6 + bottom, wspace=0.08)
+        handles, note = plot_running_averages(
+            fig, errors, units, palette, include_warned=include_warned
+        )
+        bottom = legend_below(fig, handles, 3, note)
+        right = 0.15 if palette.named else 1.2
+        layout(fig, left=0.8, right=right, top=0.6, bottom=0.6 + bottom, wspace=0.08)
+        if not palette.named:
+            place_colour_key(fig, palette.colour_bar(fig), fig.axes[1])
         height = fig.get_size_inches()[1]
         fig.supxlabel(
             "number of frames averaged per pose",
@@ -276,27 +313,41 @@ def session_figures(
     views: pd.DataFrame,
     *,
     include_warned: bool = False,
+    units: str = "",
 ) -> dict[str, Figure]:
     """One session's figures: ``scatter``, ``topview`` (ok trials with views) and, with
-    more than one frame per pose, ``averaging``."""
+    more than one frame per pose, ``averaging``; each trial in one colour in all of them
+    (:class:`~analysis.figure_style.TrialColours`). ``units``: the session's, named on
+    the axes when it has no trial to name them."""
     name = printable_stem(session)
-    units = str(trials["units"].iloc[0]) if len(trials) else "session units"
+    units = _units_of(trials, units)
+    palette = TrialColours.of(used_trials(trials, include_warned=True)["trial"])
 
     def scatter(fig: Figure) -> None:
         ax = fig.add_subplot()
         title = f"{name}: estimate - truth"
-        handles = plot_error_scatter(ax, trials, title, include_warned=include_warned)
-        bottom = legend_below(fig, handles, 2)
-        layout(fig, left=0.75, right=0.2, top=0.35, bottom=0.5 + bottom)
+        handles, note = plot_error_scatter(
+            ax, trials, title, include_warned=include_warned, palette=palette, units=units
+        )
+        bottom = legend_below(fig, handles, 2, note)
+        right = 0.2 if palette.named else 1.2
+        layout(fig, left=0.75, right=right, top=0.35, bottom=0.5 + bottom)
+        if not palette.named:
+            place_colour_key(fig, palette.colour_bar(fig), ax)
 
-    figures = {"scatter": _figure((WIDTH - 0.3, 4.9), scatter)}
-    if not views.empty and not used_trials(trials, include_warned=True).empty:
+    figures = {"scatter": _figure((WIDTH, 4.9), scatter)}
+    if not views.empty and palette.trials:
         figures["topview"] = _figure(
-            (WIDTH, 5.2), lambda fig: plot_top_view(fig, trials, views, f"{name}: top view")
+            (WIDTH, 5.2),
+            lambda fig: plot_top_view(
+                fig, trials, views, f"{name}: top view", palette, include_warned=include_warned
+            ),
         )
     errors = running_errors(averaging, trials) if not averaging.empty else averaging
     if not errors.empty and errors["n_frames"].max() > 1:
-        figures["averaging"] = _running_figure(name, errors, units)
+        figures["averaging"] = _running_figure(
+            name, errors, units, palette, include_warned=include_warned
+        )
     return figures
 
 
@@ -351,6 +402,7 @@ def plot_error_histogram(
         if methods:
             ax.hist(data, bins=list(edges), color=[method_colour(m) for m in methods])
         _style(ax, _set_title(name, "Error per trial"), "", "number of trials")
+        ax.yaxis.set_major_locator(MaxNLocator(integer=True))  # counts: whole trials
     width = f"{edges[1] - edges[0]:.3g}"
     panels[-1][1].set_xlabel(f"error ({units}); bins {width} {units} wide", fontsize=LABEL)
     handles = [key(str(m), marker="s", color=method_colour(m), ms=7) for m in methods]
@@ -364,30 +416,45 @@ def _run_layout(fig: Figure, panels: int, legend: float) -> None:
 
 def plot_error_by_trial(fig: Figure, trials: pd.DataFrame, *, include_warned: bool = False) -> None:
     """Each used trial's error, with the radius of its 95% ellipsoid for scale; one series
-    per session (beyond :data:`MAX_LEGEND` sessions, one grey collection, unnamed)."""
-    used, units = common_units(used_trials(trials, include_warned=include_warned, measured=True))
+    per session (beyond :data:`MAX_LEGEND` sessions, one grey collection, unnamed). A
+    series is broken where a trial is left out (a warned one): a line never joins two
+    trials across one the statistics do not use."""
+    measured, units = common_units(used_trials(trials, include_warned=True, measured=True))
+    used = used_trials(measured, include_warned=include_warned, measured=True)
     ax = fig.add_subplot()
     handles = []
     rest = []
-    for k, (session, g) in enumerate(session_order(used).groupby("session", sort=False)):
-        xy = g[["trial", "err"]].to_numpy(dtype=np.float64)
+    for k, (session, g) in enumerate(session_order(measured).groupby("session", sort=False)):
+        g = g.sort_values("trial")
+        keep = g.index.isin(used.index)
+        err = np.where(keep, g["err"].to_numpy(dtype=np.float64), np.nan)
+        xy = np.column_stack([g["trial"].to_numpy(dtype=np.float64), err])
         if k >= MAX_LEGEND:
-            rest.append(xy)
+            rest += _runs(xy)
             continue
         ax.plot(xy[:, 0], xy[:, 1], "o-", color=f"C{k}", ms=3, lw=0.8)
         if "semiaxis95" in g:
-            ax.plot(g["trial"], g["semiaxis95"], ":", color=f"C{k}", lw=0.8)
+            semi = np.where(keep, g["semiaxis95"].to_numpy(dtype=np.float64), np.nan)
+            ax.plot(xy[:, 0], semi, ":", color=f"C{k}", lw=0.8)
         name = printable_stem(str(session))
         handles.append(key(name, color=f"C{k}", marker="o", ms=3, linestyle="-"))
     if rest:
         ax.add_collection(LineCollection(rest, colors="0.6", linewidths=0.6))
-        handles.append(key(f"{len(rest)} more sessions", color="0.6", linestyle="-"))
+        handles.append(key(f"{len(rest)} more series", color="0.6", linestyle="-"))
     handles.append(key("95% ellipsoid, longest semi-axis", linestyle=":", lw=0.8))
     ax.set_yscale("log")
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     _style(ax, "Error by trial, per session", "trial number", f"error ({units}, log scale)")
     legend = legend_below(fig, handles, 2)
     fig.set_size_inches(WIDTH, 3.4 + legend)
     layout(fig, left=0.75, right=0.2, top=0.35, bottom=0.55 + legend)
+
+
+def _runs(xy: np.ndarray) -> list[np.ndarray]:
+    """The unbroken runs of finite rows of ``xy`` (a line split where a value is missing)."""
+    finite = np.isfinite(xy).all(axis=1)
+    edges = np.flatnonzero(np.diff(np.r_[0, finite.astype(int), 0]))
+    return [xy[a:b] for a, b in zip(edges[::2], edges[1::2], strict=True)]
 
 
 def plot_error_vs_baseline(

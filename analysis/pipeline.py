@@ -12,7 +12,7 @@ import dataclasses
 from collections.abc import Generator, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -42,6 +42,9 @@ from twopose.session_estimate import (
 )
 from twopose.truth import Reported, reported
 
+if TYPE_CHECKING:
+    from analysis.figure_cache import FigureCache
+
 __all__ = ["analyse_session", "keep_frame_buffers"]
 
 
@@ -66,6 +69,7 @@ def analyse_session(
     *,
     render_images: bool = False,
     results_path: str | Path | None = None,
+    figure_cache: FigureCache | None = None,
 ) -> SessionResult:
     """Replay one session through detection and the solvers.
 
@@ -76,6 +80,8 @@ def analyse_session(
     With ``results_path``, also writes the session's results.mcap there (images with the
     detections drawn on them, and each trial's geometry as a 3-D scene; see
     :mod:`analysis.results_mcap`); a session that fails leaves no half-written file.
+    With ``render_images``, its figures as PNGs (``images``), reused from ``figure_cache``
+    where a previous run drew the same ones (:mod:`analysis.figure_cache`).
 
     Raises
     ------
@@ -102,18 +108,17 @@ def analyse_session(
     ids, truth = replay.trials.trial_ids, replay.trials.truth
     averaging = averaging_table(replay.session, ids, keys, solved, truth)
     views = view_table(replay.session, ids, replay.trials.views, estimate.measurements)
-    images = _figures(replay.session, trials, averaging, views) if render_images else {}
     frames = pd.DataFrame(replay.frame_rows, columns=FRAME_COLUMNS)
-    return SessionResult(
+    result = SessionResult(
         session=replay.session,
         metadata=replay.metadata,
         frames=frames,
         trials=trials,
         averaging=averaging,
-        images=images,
         views=views,
         rig=rig,
     )
+    return _with_figures(result, options, figure_cache) if render_images else result
 
 
 @contextlib.contextmanager
@@ -405,17 +410,20 @@ def _write_trial_scenes(
         results.add_trial(scene, replay.last_ns[i])
 
 
-def _figures(
-    session: str, trials: pd.DataFrame, averaging: pd.DataFrame, views: pd.DataFrame
-) -> dict[str, bytes]:
-    """The session's figures as PNGs, drawn here so that a batch renders them in parallel;
+def _with_figures(
+    result: SessionResult, options: AnalysisOptions, cache: FigureCache | None
+) -> SessionResult:
+    """The session with its figures as PNGs, drawn here so that a batch renders them in
+    parallel, or reused from ``cache`` (a previous run's, when nothing they show changed);
     figures that fail to draw are said, and shown as such, never the session's end."""
-    from analysis.drawer import draw_session_figures, note
+    from analysis.drawer import note
+    from analysis.figure_cache import FigureCache, FigureJob
 
-    images, why_not = draw_session_figures(session, trials, averaging, views)
+    job = FigureJob.of(result, include_warned=options.include_warned)
+    images, why_not, reused = (cache or FigureCache()).figures(job)
     if why_not:
-        note(f"the figures of {session} were not drawn ({why_not}); the report says so")
-    return images
+        note(f"the figures of {result.session} were not drawn ({why_not}); the report says so")
+    return dataclasses.replace(result, images=images, figures_reused=reused)
 
 
 _ALLOCATOR_TUNED = False

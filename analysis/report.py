@@ -13,15 +13,25 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
-from analysis.answer import ANSWER_COLUMNS, answer_table, readable, session_order, share
+from analysis.answer import (
+    ANSWER_COLUMNS,
+    METHOD_NAMES,
+    answer_table,
+    number,
+    readable,
+    session_order,
+    share,
+)
 from analysis.captions import run_captions, session_captions
-from analysis.figures import figure_key, png_bytes, run_figures, session_figures
+from analysis.figure_cache import FIGURE_INDEX, FigureCache, FigureJob, index_document
+from analysis.figures import figure_key, png_bytes, run_figures
 from analysis.html_page import Image, figure_html, figure_row, image, page_html, table_html
 from analysis.metrics import SESSION_SETS, by_session_set, session_set, used_trials
+from analysis.table_labels import metadata_table, readable_columns
 from analysis.thesis import thesis_sessions, thesis_table, thesis_verdict
 
 if TYPE_CHECKING:
-    from analysis.results import RunResult
+    from analysis.results import RunResult, SessionResult
 
 __all__ = [
     "ANSWER_COLUMNS",
@@ -59,6 +69,13 @@ REPORT_TRIAL_COLUMNS = [
 ]
 
 
+def _units_of(session: SessionResult) -> str:
+    """A session's length unit, from its trials or, when it has none, its metadata."""
+    if len(session.trials):
+        return str(session.trials["units"].iloc[0])
+    return session.metadata.get("units", "")
+
+
 def _trial_table(trials: pd.DataFrame) -> pd.DataFrame:
     """The report's view of a session's trials: what was measured, its error and why not;
     the line's columns only for a line session."""
@@ -68,10 +85,17 @@ def _trial_table(trials: pd.DataFrame) -> pd.DataFrame:
     return trials[columns]
 
 
-def write_outputs(result: RunResult, out_dir: Path, sweeps: pd.DataFrame) -> list[str]:
-    """Write the CSV tables, one PNG per figure, the sensitivity ``sweeps`` and
-    ``report.html`` into ``out_dir`` (each atomically: :mod:`analysis.outputs`); the names
-    of the files written."""
+def write_outputs(
+    result: RunResult,
+    out_dir: Path,
+    sweeps: pd.DataFrame,
+    *,
+    figure_cache: FigureCache | None = None,
+) -> list[str]:
+    """Write the CSV tables, one PNG per figure, ``figures.json`` (each session figure's
+    digest), the sensitivity ``sweeps`` and ``report.html`` into ``out_dir`` (each
+    atomically: :mod:`analysis.outputs`); the names of the files written. A session whose
+    figures were not drawn by the batch is drawn here, or reused from ``figure_cache``."""
     from analysis.outputs import write_atomically
 
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -94,18 +118,18 @@ def write_outputs(result: RunResult, out_dir: Path, sweeps: pd.DataFrame) -> lis
         write_atomically(out_dir / name, csv)
     document = json.dumps(summary_document(result), indent=1, allow_nan=False)
     write_atomically(out_dir / "summary.json", document.encode() + b"\n")
-    # Session figures were rendered by the workers (in parallel); a session analysed
-    # without them is drawn here. Only what spans sessions is always drawn here.
+    # Session figures were drawn by the batch (in parallel, or reused from the previous
+    # run); a session analysed without them is drawn here. Only what spans sessions is
+    # always drawn here.
     pngs: dict[str, bytes] = {}
+    digests: dict[str, str] = {}
     for i, s in enumerate(result.sessions):
-        # Workers draw with the default rule; --include-warned redraws here.
-        rendered = (s.images if not result.include_warned else {}) or {
-            kind: png_bytes(fig)
-            for kind, fig in session_figures(
-                s.session, s.trials, s.averaging, s.views, include_warned=result.include_warned
-            ).items()
-        }
-        pngs |= {figure_key(kind, i, s.session): data for kind, data in rendered.items()}
+        job = FigureJob.of(s, include_warned=result.include_warned)
+        rendered = s.images or (figure_cache or FigureCache()).figures(job)[0]
+        digest = job.digest()
+        for kind, data in rendered.items():
+            pngs[figure_key(kind, i, s.session)] = data
+            digests[f"{figure_key(kind, i, s.session)}.png"] = digest
     pngs |= {name: png_bytes(fig) for name, fig in run_figures(result).items()}
     from analysis.sensitivity import plot_sensitivity
 
@@ -114,9 +138,11 @@ def write_outputs(result: RunResult, out_dir: Path, sweeps: pd.DataFrame) -> lis
     for name, data in pngs.items():
         write_atomically(out_dir / f"{name}.png", data)
         images[name] = image(data)
+    write_atomically(out_dir / FIGURE_INDEX, index_document(digests))
     page = _report_html(result, images, sweeps).encode("utf-8", "backslashreplace")
     write_atomically(out_dir / "report.html", page)
-    return [*tables, "summary.json", *(f"{name}.png" for name in pngs), "report.html"]
+    names = [f"{name}.png" for name in pngs]
+    return [*tables, "summary.json", FIGURE_INDEX, *names, "report.html"]
 
 
 def _records(table: pd.DataFrame) -> list[dict[str, object]]:
@@ -187,11 +213,15 @@ def _sensitivity_table(sweeps: pd.DataFrame) -> pd.DataFrame:
     table = sweeps.pivot_table(
         index=["sweep", "value", "unit"], columns="method", values="rmse", sort=False
     ).reset_index()
-    table.columns = [str(c) if c in ("sweep", "value", "unit") else f"rmse {c}" for c in table]
     order = {s: i for i, s in enumerate(dict.fromkeys(sweeps["sweep"]))}
-    return table.sort_values(
+    table = table.sort_values(
         ["sweep", "value"], key=lambda c: c.map(order) if c.name == "sweep" else c
     )
+    shown = readable_columns(table[["sweep", "value", "unit"]])
+    for method in [c for c in table.columns if c not in ("sweep", "value", "unit")]:
+        name = METHOD_NAMES.get(str(method), str(method))
+        shown[f"RMS error, {name} (in)"] = [number(v) for v in table[method]]
+    return shown
 
 
 def _answer_section(result: RunResult) -> list[str]:
@@ -287,7 +317,7 @@ def _inputs_section(result: RunResult) -> list[str]:
     if not result.errors.empty:
         parts += [
             "<h3>Inputs that failed</h3>",
-            f"<div class='err'>{table_html(result.errors, text=True)}</div>",
+            f"<div class='err'>{table_html(readable_columns(result.errors), text=True)}</div>",
         ]
     if result.input_notes:
         items = "".join(f"<li>{html.escape(n)}</li>" for n in result.input_notes)
@@ -346,6 +376,12 @@ def rig_before_after(trials: pd.DataFrame, *, include_warned: bool = False) -> p
     )
 
 
+def _run_units(result: RunResult) -> str:
+    """The run's length unit when its sessions share one ("" otherwise)."""
+    units = set(result.trials["units"].astype(str)) if "units" in result.trials else set()
+    return units.pop() if len(units) == 1 else ""
+
+
 def _rig_used(result: RunResult) -> list[str]:
     """``run --rig``: which file corrected every view (and none said when none did)."""
     source = result.rig_source
@@ -365,8 +401,13 @@ def _rig_section(result: RunResult) -> list[str]:
         "one out: selected and fitted without it; trials.csv <code>x_rig, y_rig, z_rig, "
         "err_rig</code>), over the trials the summary uses, and the constants each "
         "session supports (rig.csv; <code>truth</code>: the simulation's).</p>",
-        table_html(rig_before_after(result.trials, include_warned=result.include_warned)),
-        table_html(fitted if not fitted.empty else result.rig.head(0)),
+        table_html(
+            readable_columns(
+                rig_before_after(result.trials, include_warned=result.include_warned),
+                _run_units(result),
+            )
+        ),
+        table_html(readable_columns(fitted if not fitted.empty else result.rig.head(0))),
     ]
 
 
@@ -392,7 +433,7 @@ def _session_sections(result: RunResult, images: dict[str, Image]) -> list[str]:
     for i in order:  # thesis_* first, as the answer; figures keep the run's numbering
         s = result.sessions[i]
         parts.append(f"<h3>{html.escape(s.session)}</h3>")
-        metadata = pd.DataFrame({"": list(s.metadata), " ": list(s.metadata.values())})
+        metadata = metadata_table(s.metadata)
         parts.append(table_html(metadata, text=True).replace("<thead>", "<thead hidden>", 1))
         parts.append(_notes(s.metadata))
         captions = session_captions(s.trials, include_warned=result.include_warned)
@@ -400,7 +441,7 @@ def _session_sections(result: RunResult, images: dict[str, Image]) -> list[str]:
         figures = [figure_html(key, images.get(key), captions.get(kind, "")) for kind, key in keys]
         parts.append(figure_row(figures))
         parts.append("<p>Trials (every column: <code>trials.csv</code>):</p>")
-        parts.append(table_html(_trial_table(s.trials)))
+        parts.append(table_html(readable_columns(_trial_table(s.trials), _units_of(s))))
     return parts
 
 

@@ -89,6 +89,7 @@ class SessionResult:
     trials: pd.DataFrame
     averaging: pd.DataFrame
     images: dict[str, bytes] = field(default_factory=dict)  # PNGs by figure kind, if asked
+    figures_reused: bool = False  # the images are a previous run's (analysis.figure_cache)
     views: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=VIEW_COLUMNS))
     rig: pd.DataFrame = field(default_factory=pd.DataFrame)  # --rig-calibration: rig.csv rows
 
@@ -123,6 +124,11 @@ class RunResult:
     @property
     def failed(self) -> bool:
         return not self.errors.empty
+
+    @property
+    def figures_reused(self) -> int:
+        """Sessions whose figures a previous run had drawn (reused, not drawn again)."""
+        return sum(s.figures_reused for s in self.sessions)
 
     @functools.cached_property
     def figures(self) -> dict[str, Any]:

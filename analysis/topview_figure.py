@@ -3,8 +3,10 @@
 rays through the dot meeting at the estimate (method 1), each view plane's trace on the
 ground meeting at the estimate, not at the finger (method 2), the estimated line (lines).
 
-One artist per kind, whatever the number of trials; a colour per trial with its key (a
-colour bar); warned trials dashed; legends below the axes, never on the data.
+One artist per kind, whatever the number of trials; a colour per trial (the session's, as
+in its other figures) with its key; warned trials dashed; the truth drawn over the rays;
+the axes framed by the trials the statistics use; legends below the axes, never on the
+data.
 """
 
 from __future__ import annotations
@@ -15,19 +17,21 @@ import numpy as np
 import pandas as pd
 from matplotlib.axes import Axes
 from matplotlib.collections import LineCollection
-from matplotlib.colors import Colormap, Normalize
 from matplotlib.figure import Figure
-from matplotlib.lines import Line2D
 
 from analysis.figure_style import (
     LABEL,
     TICK,
-    TITLE,
-    colour_key,
+    TrialColours,
+    beyond_note,
+    equal_scales,
+    frame,
+    key,
     layout,
     legend_below,
+    mark_beyond,
     place_colour_key,
-    trial_colours,
+    set_title,
 )
 from analysis.metrics import used_trials, warned
 from twopose.camera import rotation_from_angles_deg
@@ -102,51 +106,83 @@ def top_views(trials: pd.DataFrame, views: pd.DataFrame) -> list[Drawn]:
     return out
 
 
-def plot_top_view(fig: Figure, trials: pd.DataFrame, views: pd.DataFrame, title: str) -> None:
+def plot_top_view(
+    fig: Figure,
+    trials: pd.DataFrame,
+    views: pd.DataFrame,
+    title: str,
+    palette: TrialColours | None = None,
+    *,
+    include_warned: bool = False,
+) -> None:
     """Looking down the y axis (x-z): each ok trial's typed camera centres, what each view
-    measured (:data:`_SEGMENT_NAME`), the estimate and the truth; a colour bar for the
-    trials; the legend of the kinds below."""
+    measured (:data:`_SEGMENT_NAME`), the estimate and the truth (on top of the rays), each
+    trial in its colour (``palette``: the session's, the same in its other figures). The
+    axes are framed by the trials the statistics use; a left-out (warned) trial is dashed,
+    and its estimate beyond the frame is drawn at the edge with its value."""
     drawn = top_views(trials, views)
     units = str(trials["units"].iloc[0]) if len(trials) else "session units"
     method = str(trials["method"].iloc[0]) if len(trials) else "point"
+    palette = palette or TrialColours.of([d.view.trial for d in drawn])
     ax = fig.add_subplot()
-    if drawn:
-        cmap, norm = trial_colours([d.view.trial for d in drawn])
-        _draw(ax, drawn, cmap, norm)
-        cax = colour_key(fig, cmap, norm)
-    ax.set_title(title, fontsize=TITLE)
+    _draw(ax, drawn, palette)
+    set_title(ax, title)
     ax.set_xlabel(f"x ({units})", fontsize=LABEL)
     ax.set_ylabel(f"z, depth ({units})", fontsize=LABEL)
     ax.tick_params(labelsize=TICK)
-    ax.set_aspect("equal", adjustable="datalim")
+    used = [d for d in drawn if include_warned or not d.warned]
+    right = 0.2 if palette.named else 1.2
+    box = (float(fig.get_size_inches()[0]) - _LEFT - right, _BOX_HEIGHT)
+    frame(ax, _framed_points(used), pad=0.1, least=1.0)
+    equal_scales(ax, box)  # the frame widened, never cut, to one scale on both axes
+    left_out = [
+        (d.view.trial, d.view.estimate)
+        for d in drawn
+        if d.warned and not include_warned and d.view.estimate is not None
+    ]
+    xz = np.array([e for _, e in left_out], dtype=np.float64).reshape(-1, 2)
+    beyond = mark_beyond(ax, xz, palette.colours(t for t, _ in left_out))
+    listed = [
+        f"trial {t} ({x:+.3g}, {z:+.3g} {units})"
+        for (t, _), (x, z), b in zip(left_out, xz, beyond, strict=True)
+        if b
+    ]
     handles = [
-        Line2D([], [], marker="^", color="0.3", linestyle="none", label="camera (typed)"),
-        Line2D([], [], color="0.3", lw=0.8, label=_SEGMENT_NAME.get(method, "segment")),
-        Line2D([], [], marker="x", color="0.3", linestyle="none", label="estimate"),
-        Line2D(
-            [],
-            [],
-            marker="o",
-            mfc="none",
-            color="0.3",
-            linestyle="none",
-            label=_TRUTH_NAME.get(method, "truth"),
-        ),
+        key("camera (typed)", marker="^", color="0.3"),
+        key(_SEGMENT_NAME.get(method, "segment"), color="0.3", lw=0.8, linestyle="-"),
+        key("estimate", marker="x", color="0.3"),
+        key(_TRUTH_NAME.get(method, "truth"), marker="o", mfc="white", mec="k", mew=1.2),
     ]
     if any(d.warned for d in drawn):
-        handles.append(Line2D([], [], color="0.3", lw=0.8, ls="--", label="warned trial"))
-    bottom = legend_below(fig, handles, 2)
-    layout(fig, left=0.75, right=1.2, top=0.35, bottom=0.5 + bottom)
-    if drawn:
-        place_colour_key(fig, cax, ax)
+        fate = "included" if include_warned else "left out"
+        handles.append(key(f"warned trial ({fate})", color="0.3", lw=0.8, linestyle="--"))
+    handles += palette.legend(marker="s", ms=6) if palette.named else []
+    bottom = legend_below(fig, handles, 2, beyond_note(listed))
+    fig.set_size_inches(fig.get_size_inches()[0], _TOP + box[1] + 0.5 + bottom)
+    layout(fig, left=_LEFT, right=right, top=_TOP, bottom=0.5 + bottom)
+    if not palette.named:
+        place_colour_key(fig, palette.colour_bar(fig), ax)
 
 
-def _draw(ax: Axes, drawn: list[Drawn], cmap: Colormap, norm: Normalize) -> None:
-    """One collection per kind: segments, cameras, estimates, truths."""
+_LEFT, _TOP = 0.75, 0.35  # margins (inches)
+_BOX_HEIGHT = 3.4  # the axes' height (inches): the figure grows with its legend
+
+
+def _framed_points(drawn: list[Drawn]) -> np.ndarray:
+    """What sets the scale: the cameras, estimates and truths of ``drawn``."""
+    points: list[object] = []
+    for d in drawn:
+        points += list(d.view.cameras)
+        points += [d.truth] + ([d.view.estimate] if d.view.estimate is not None else [])
+    return np.array(points, dtype=np.float64).reshape(-1, 2)
+
+
+def _draw(ax: Axes, drawn: list[Drawn], palette: TrialColours) -> None:
+    """One collection per kind: segments, cameras, estimates, then the truths on top."""
     segments, seg_colour, seg_style = [], [], []
     cameras, cam_colour = [], []
     for d in drawn:
-        colour = cmap(norm(d.view.trial))
+        colour = palette.colour(d.view.trial)
         for _kind, a, b in d.view.segments:
             segments.append([a, b])
             seg_colour.append(colour)
@@ -157,15 +193,19 @@ def _draw(ax: Axes, drawn: list[Drawn], cmap: Colormap, norm: Normalize) -> None
         ax.add_collection(
             LineCollection(
                 segments, colors=seg_colour, linestyles=seg_style, linewidths=0.8, alpha=0.8
-            )
+            ),
+            autolim=False,
         )
     if cameras:
         xy = np.array(cameras)
-        ax.scatter(xy[:, 0], xy[:, 1], marker="^", s=25, c=cam_colour)
-    colours = [cmap(norm(d.view.trial)) for d in drawn]
+        ax.scatter(xy[:, 0], xy[:, 1], marker="^", s=25, c=cam_colour, zorder=3)
+    if not drawn:
+        return
+    colours = palette.colours(d.view.trial for d in drawn)
     nowhere = (np.nan, np.nan)
     est = np.array([d.view.estimate if d.view.estimate is not None else nowhere for d in drawn])
-    ax.scatter(est[:, 0], est[:, 1], marker="x", s=45, c=colours)
+    ax.scatter(est[:, 0], est[:, 1], marker="x", s=45, c=colours, zorder=4)
     truth = np.array([d.truth for d in drawn])
-    ax.scatter(truth[:, 0], truth[:, 1], marker="o", s=45, facecolors="none", edgecolors=colours)
-    ax.autoscale_view()
+    ax.scatter(truth[:, 0], truth[:, 1], marker="o", s=42, facecolors="white",
+               edgecolors="k", linewidths=1.2, zorder=6)  # fmt: skip
+    ax.scatter(truth[:, 0], truth[:, 1], marker="o", s=10, c=colours, zorder=7)

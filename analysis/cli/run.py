@@ -184,6 +184,11 @@ def _print_run(result: RunResult, out: Path, *, include_warned: bool) -> None:
         note(text)
     for _, e in result.errors.iterrows():
         typer.secho(f"failed: {e['error']}", err=True, fg=typer.colors.RED)
+    if result.figures_reused:
+        typer.echo(
+            f"figures: {result.figures_reused} of {len(result.sessions)} session(s)' reused "
+            f"from the last run into {out} (nothing they show changed)"
+        )
     for line in closing_lines(result.trials, out, include_warned=include_warned, width=width):
         typer.echo(line)
     if result.failed or not result.sessions:

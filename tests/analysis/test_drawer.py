@@ -17,6 +17,7 @@ import pytest
 
 import analysis.batch
 from analysis.drawer import FigureDrawer, draw_session_figures
+from analysis.figure_cache import FigureJob
 from analysis.pipeline import analyse_session
 from analysis.results import SessionResult
 from tests.helpers import distinct_copies
@@ -53,24 +54,25 @@ def test_a_batch_writes_the_same_files_with_figures_drawn_beside_or_in_line(
     assert written == _files(tmp_path / "in_line")  # tables, figures, report, results MCAPs
 
 
-def _without_units(result: SessionResult) -> SessionResult:
-    """A session whose figures cannot be drawn (session_figures needs the units)."""
+def _broken(result: SessionResult) -> FigureJob:
+    """A session whose figures cannot be drawn (its trials have lost their errors)."""
     import dataclasses
 
-    return dataclasses.replace(result, trials=result.trials.drop(columns=["units"]))
+    job = FigureJob.of(result)
+    return dataclasses.replace(job, trials=result.trials.drop(columns=["trial"]))
 
 
 def test_the_drawer_draws_what_this_process_draws_and_says_what_fails(
     ground_session: Path,
 ) -> None:
-    good = analyse_session(ground_session)
-    bad = _without_units(good)
+    good = FigureJob.of(analyse_session(ground_session))
+    bad = _broken(analyse_session(ground_session))
     with FigureDrawer.started() as drawer:
         assert drawer is not None
         drawer.submit(3, good)
         drawer.submit(5, bad)
         drawn = drawer.collect()
-    assert drawn[3] == draw_session_figures(good.session, good.trials, good.averaging, good.views)
+    assert drawn[3] == draw_session_figures(good)
     assert drawn[3][1] == ""
     assert "scatter" in drawn[3][0]
     images, why_not = drawn[5]
@@ -82,14 +84,14 @@ def test_the_drawer_draws_what_this_process_draws_and_says_what_fails(
 def test_a_drawer_that_dies_leaves_its_sessions_drawn_here(
     ground_session: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    good = analyse_session(ground_session)
+    good = FigureJob.of(analyse_session(ground_session))
     with FigureDrawer.started() as drawer:
         assert drawer is not None
         drawer._child.kill()
         drawer._child.wait()
         drawer.submit(0, good)
         drawn = drawer.collect()
-    assert drawn[0] == draw_session_figures(good.session, good.trials, good.averaging, good.views)
+    assert drawn[0] == draw_session_figures(good)
     assert "ended early" in capsys.readouterr().err
 
 
@@ -106,7 +108,6 @@ def test_a_figure_that_fails_is_said_and_shown_and_the_numbers_stay(
         raise TypeError("a bug in a figure")
 
     monkeypatch.setattr("analysis.figures.session_figures", broken)
-    monkeypatch.setattr("analysis.report.session_figures", broken)
     monkeypatch.setattr(FigureDrawer, "started", staticmethod(_in_line))
     result = analysis.batch.run([ground_session, point_session], tmp_path / "out")
     assert not result.failed

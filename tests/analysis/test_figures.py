@@ -15,7 +15,7 @@ from matplotlib.patches import Rectangle
 from analysis.answer import answer_table
 from analysis.captions import largest_errors, run_captions
 from analysis.figures import plot_error_by_trial, plot_error_histogram, plot_error_vs_baseline
-from analysis.metrics import by_session_set, session_set, used_trials
+from analysis.metrics import by_session_set, session_set, used_trials, warned
 from analysis.pipeline import analyse_session
 from analysis.topview_figure import top_views
 
@@ -91,7 +91,10 @@ def test_error_by_trial_and_baseline_draw_no_warned_trial() -> None:
     plot_error_by_trial(fig, trials)
     (ax,) = fig.axes
     drawn = [line.get_ydata() for line in ax.get_lines() if line.get_linestyle() == "-"]
-    assert max(np.max(y) for y in drawn) == pytest.approx(largest)
+    assert max(np.nanmax(y) for y in drawn) == pytest.approx(largest)
+    # a left-out trial breaks its session's line (a gap), never joins its neighbours
+    gaps = sum(int(np.isnan(np.asarray(y, dtype=float)).sum()) for y in drawn)
+    assert gaps == int(warned(used_trials(trials, include_warned=True, measured=True)).sum())
     assert ax.get_ylabel() == "error (in, log scale)"
     assert ax.get_legend() is None
     fig = Figure()

@@ -56,13 +56,14 @@ def test_error_ellipses_have_the_95_percent_size_of_each_covariance() -> None:
 def test_error_scatter_draws_ok_trials_on_a_given_axes() -> None:
     fig = Figure()
     ax = fig.add_subplot()
-    handles = plot_error_scatter(ax, _trials(), "the title")
+    handles, note = plot_error_scatter(ax, _trials(), "the title")
     assert ax.get_title() == "the title"
     points = np.asarray(ax.collections[1].get_offsets())  # ellipses first, then the ok trials
     np.testing.assert_allclose(points, np.array([[0.2, 0.1], [-0.4, 0.3]]))
     # The legend's entries are returned for the caller to place off the data.
     assert ax.get_legend() is None
-    assert "2 ok trials" in [h.get_label() for h in handles]
+    assert "2 trials used" in [h.get_label() for h in handles]
+    assert note == ""  # nothing beyond the frame
     assert png_bytes(fig).startswith(b"\x89PNG")
 
 
@@ -116,7 +117,7 @@ def test_error_scatter_keeps_every_ellipse_inside_the_axes() -> None:
     trials = _wide_trials(12)
     fig = Figure()
     ax = fig.add_subplot()
-    handles = plot_error_scatter(ax, trials, "t")
+    handles, _ = plot_error_scatter(ax, trials, "t")
     clean = trials[trials["warning"] == ""]
     half_x = np.sqrt(CHI2_95[2]) * clean["sigma_x"]
     half_z = np.sqrt(CHI2_95[2]) * clean["sigma_z"]
@@ -129,7 +130,7 @@ def test_error_scatter_keeps_every_ellipse_inside_the_axes() -> None:
     # The warned trials are drawn apart, named, and without ellipses.
     labels = [h.get_label() for h in handles]
     assert "3 warned (left out)" in labels
-    assert "9 ok trials" in labels
+    assert "9 trials used" in labels
     assert len(np.asarray(ax.collections[0].get_offsets())) == 9  # ellipses: the clean trials only
 
 
@@ -156,13 +157,13 @@ def test_running_average_names_every_series_or_draws_small_multiples() -> None:
     # One legend, below the panels (never on the data), naming every trial.
     assert all(ax.get_legend() is None for ax in axes)
     labels = [t.get_text() for t in fig.legends[0].get_texts()]
-    warned = (trials["warning"] != "").map({True: " (warned)", False: ""})
-    named = list("trial " + trials["trial"].astype(str) + warned)
+    named = list("trial " + trials["trial"].astype(str))
     assert labels[:MAX_LEGEND] == named
-    assert "trial 1 (warned)" in labels  # drawn dashed, and said so
+    assert "warned trial (left out)" in labels  # drawn dashed, and said so
     for ax in axes:
-        colours = {str(line.get_color()) for line in ax.get_lines()} - {"0.6"}
-        assert len(colours) >= MAX_LEGEND  # no colour repeats
+        (lines,) = [c for c in ax.collections if isinstance(c, LineCollection)]
+        colours = {tuple(c) for c in np.asarray(lines.get_colors())}
+        assert len(colours) == MAX_LEGEND  # no colour repeats
     # The error (not the estimate), with its unit, and the two panels on one y scale.
     assert axes[0].get_ylabel() == "error of the running average (in)"
     assert fig.get_supxlabel() == "number of frames averaged per pose"
@@ -182,7 +183,7 @@ def test_running_average_names_every_series_or_draws_small_multiples() -> None:
     assert bar.get_ylabel() == "trial number (colour key)"
     assert panels[0].get_ylim() == panels[1].get_ylim()
     assert panels[0].get_ylabel() == "error of the running average (in)"
-    assert "warned trial" in [t.get_text() for t in fig.legends[0].get_texts()]
+    assert "warned trial (left out)" in [t.get_text() for t in fig.legends[0].get_texts()]
 
 
 def test_figures_cost_the_same_whatever_the_trial_count() -> None:

@@ -1,0 +1,153 @@
+"""A session's figures as a job with a digest, and the figures a previous run drew.
+
+Drawing a session's figures is most of a run's cost beside decoding its frames. What they
+show is a function of the job (:class:`FigureJob`: the session's name, units and tables, and
+the rule for warned trials) and of the code that draws them; so a digest of both names the
+PNGs exactly. A run writes ``figures.json`` (each session figure's digest) beside its
+figures; a re-run into the same folder reuses every PNG whose digest it finds there instead
+of drawing it again (:class:`FigureCache`), and says how many it reused.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import json
+from collections.abc import Collection, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import pandas as pd
+
+if TYPE_CHECKING:
+    from analysis.results import SessionResult
+
+__all__ = ["FIGURE_INDEX", "FigureCache", "FigureJob", "code_version", "index_document"]
+
+#: The run's index of its session figures: ``{"<png file>": "<digest>"}``.
+FIGURE_INDEX = "figures.json"
+#: Modules whose source decides what a session figure looks like.
+_DRAWING_MODULES = (
+    "analysis/figures.py",
+    "analysis/figure_style.py",
+    "analysis/topview_figure.py",
+    "analysis/drawer.py",
+    "analysis/metrics.py",
+    "twopose/topview.py",
+)
+_PNG = b"\x89PNG\r\n\x1a\n"
+
+
+@functools.cache
+def code_version() -> str:
+    """A digest of the drawing code and of matplotlib's version: a change to either makes
+    every figure be drawn anew."""
+    import matplotlib
+
+    root = Path(__file__).resolve().parents[1]
+    h = hashlib.sha256(matplotlib.__version__.encode())
+    for name in _DRAWING_MODULES:
+        h.update(name.encode() + b"\0" + (root / name).read_bytes())
+    return h.hexdigest()
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class FigureJob:
+    """What one session's figures are drawn from."""
+
+    session: str
+    trials: pd.DataFrame
+    averaging: pd.DataFrame
+    views: pd.DataFrame
+    units: str = ""  # the session's, for the axes when it has no trial
+    include_warned: bool = False
+
+    @classmethod
+    def of(cls, result: SessionResult, *, include_warned: bool = False) -> FigureJob:
+        """The figures of an analysed session, warned trials included or not."""
+        return cls(
+            session=result.session,
+            trials=result.trials,
+            averaging=result.averaging,
+            views=result.views,
+            units=result.metadata.get("units", ""),
+            include_warned=include_warned,
+        )
+
+    def digest(self) -> str:
+        """The figures' name: the same digest, the same PNGs (:func:`code_version` in it)."""
+        h = hashlib.sha256(code_version().encode())
+        h.update(f"{self.session}\0{self.units}\0{self.include_warned}".encode())
+        for table in (self.trials, self.averaging, self.views):
+            h.update("\0".join(map(str, table.columns)).encode() + b"\1")
+            h.update(pd.util.hash_pandas_object(table, index=False).to_numpy().tobytes())
+        return h.hexdigest()
+
+
+@dataclass(frozen=True)
+class FigureCache:
+    """The session figures a previous run wrote into ``folder``, by digest and kind.
+
+    Picklable (a path and a table), so worker processes and Dask workers look in it too.
+    A missing, unreadable or odd index, or a PNG that is gone or not a PNG, is a miss:
+    the figure is drawn.
+    """
+
+    folder: str | None = None
+    index: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
+
+    @classmethod
+    def of(cls, folder: str | Path, listed: Collection[str] | None = None) -> FigureCache:
+        """What ``folder`` (a previous run's results) holds, of the files ``listed`` (the
+        previous run's list of its outputs, when it has one); empty when nothing."""
+        try:
+            listed = json.loads((Path(folder) / FIGURE_INDEX).read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            return cls(str(folder))
+        index: dict[str, dict[str, str]] = {}
+        if isinstance(listed, dict):
+            for name, digest in listed.items():
+                kind = str(name).split("_", 1)[0]
+                mine = listed is None or str(name) in listed
+                if isinstance(digest, str) and _plain_png(str(name)) and mine:
+                    index.setdefault(digest, {})[kind] = str(name)
+        return cls(str(folder), index)
+
+    def reuse(self, job: FigureJob, digest: str | None = None) -> dict[str, bytes] | None:
+        """The PNGs of ``job`` by kind, as the previous run drew them; None when any is
+        missing."""
+        names = self.index.get(digest or job.digest())
+        if not names or self.folder is None:
+            return None
+        pngs = {}
+        for kind, name in names.items():
+            try:
+                data = (Path(self.folder) / name).read_bytes()
+            except OSError:
+                return None
+            if not data.startswith(_PNG):
+                return None
+            pngs[kind] = data
+        return pngs
+
+    def figures(self, job: FigureJob) -> tuple[dict[str, bytes], str, bool]:
+        """``job``'s PNGs by kind, why they are not its figures ("" when they are), and
+        whether they were reused rather than drawn."""
+        from analysis.drawer import draw_session_figures
+
+        reused = self.reuse(job)
+        if reused is not None:
+            return reused, "", True
+        pngs, why_not = draw_session_figures(job)
+        return pngs, why_not, False
+
+
+def _plain_png(name: str) -> bool:
+    """A figure file's name as a run writes it (no folder, no way out of the folder)."""
+    return name.endswith(".png") and "/" not in name and "\\" not in name and name[0] != "."
+
+
+def index_document(digests: Mapping[str, str]) -> bytes:
+    """``figures.json``'s bytes: each session figure's file name and its digest."""
+    return (json.dumps(dict(sorted(digests.items())), indent=1) + "\n").encode()

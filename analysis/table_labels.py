@@ -1,0 +1,164 @@
+"""How the report shows a table that is not the answer: every column's label in words, its
+unit in the header, and its cells with the answer's rounding (:func:`analysis.answer.number`:
+two decimals, signed errors, shares in percent, yes/no for flags).
+
+One registry (:data:`LABELS`): a column's name, its kind (how a cell reads) and whether
+its header carries the session's unit. The CSV files keep their names; the report shows
+these.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from types import MappingProxyType
+
+import pandas as pd
+
+from analysis.answer import METHOD_NAMES, number, share
+
+__all__ = ["LABELS", "Label", "metadata_table", "readable_columns"]
+
+
+def _count(value: object) -> str:
+    if not isinstance(value, int | float) or math.isnan(value):
+        return "-"
+    return f"{int(value)}"
+
+
+def _flag(value: object) -> str:
+    if isinstance(value, str):
+        value = {"true": 1.0, "false": 0.0, "1": 1.0, "0": 0.0}.get(value.strip().lower(), value)
+    if not isinstance(value, int | float) or math.isnan(value):
+        return "-"
+    return "yes" if value else "no"
+
+
+def _text(value: object) -> str:
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return ""
+    return str(value)
+
+
+def _plain(value: object) -> str:
+    """A value as given (a sweep's setting): up to four significant digits."""
+    if isinstance(value, int | float) and not isinstance(value, bool):
+        return "-" if math.isnan(value) else f"{value:.4g}"
+    return _text(value)
+
+
+#: How a cell of each kind reads.
+_FORMAT: Mapping[str, Callable[[object], str]] = MappingProxyType(
+    {
+        "length": number,
+        "signed": lambda v: number(v, signed=True),
+        "angle": number,
+        "share": share,
+        "count": _count,
+        "flag": _flag,
+        "text": _text,
+        "plain": _plain,
+        "method": lambda v: METHOD_NAMES.get(str(v), _text(v)),
+    }
+)
+
+
+@dataclass(frozen=True)
+class Label:
+    """A column as the report shows it: ``name`` in words, ``kind`` (a key of the cell
+    formats), and the header's unit: ``"session"`` (the table's length unit), a fixed
+    one (``"°"``), or none."""
+
+    name: str
+    kind: str
+    unit: str = ""
+
+
+_LENGTH = "session"
+#: Every column the report shows outside the answer and the per-session summary.
+LABELS: Mapping[str, Label] = MappingProxyType(
+    {
+        "session": Label("session", "text"),
+        "trial": Label("trial", "count"),
+        "status": Label("status", "text"),
+        "n_views": Label("views", "count"),
+        "x": Label("estimate x", "signed", _LENGTH),
+        "y": Label("estimate y", "signed", _LENGTH),
+        "z": Label("estimate z", "signed", _LENGTH),
+        "gt_x": Label("truth x", "signed", _LENGTH),
+        "gt_y": Label("truth y", "signed", _LENGTH),
+        "gt_z": Label("truth z", "signed", _LENGTH),
+        "err_x": Label("error x", "signed", _LENGTH),
+        "err_y": Label("error y", "signed", _LENGTH),
+        "err_z": Label("error z", "signed", _LENGTH),
+        "err": Label("error", "length", _LENGTH),
+        "angle_err_deg": Label("direction error", "angle", "°"),
+        "dist_err": Label("distance from the true line", "length", _LENGTH),
+        "semiaxis95": Label("95% region, largest semi-axis", "length", _LENGTH),
+        "within95": Label("truth inside its 95% ellipsoid", "flag"),
+        "warning": Label("warning", "text"),
+        "reason": Label("why not measured", "text"),
+        "notes": Label("operator's notes", "text"),
+        "error": Label("why it failed", "text"),
+        # the rig correction's before and after (--rig-calibration loo)
+        "trials": Label("trials", "count"),
+        "rmse": Label("RMSE", "length", _LENGTH),
+        "rmse_rig_loo": Label("RMSE, rig corrected (leave one out)", "length", _LENGTH),
+        "coverage95": Label("truth inside its 95% ellipsoid", "share"),
+        "coverage95_rig": Label("the same, rig corrected", "share"),
+        "systematic_dominant": Label("trials the rig dominates", "count"),
+        "constant": Label("constant", "text"),
+        "value": Label("value", "plain"),
+        "sigma": Label("1-sigma", "plain"),
+        "fitted": Label("fitted", "flag"),
+        "why_fixed": Label("why fixed", "text"),
+        "truth": Label("truth (simulated)", "plain"),
+        # a sensitivity sweep
+        "sweep": Label("input varied", "text"),
+        "unit": Label("its unit", "text"),
+        "method": Label("method", "method"),
+    }
+)
+
+#: A session's metadata keys as the report names them (others: underscores as spaces).
+_METADATA_NAMES: Mapping[str, str] = MappingProxyType(
+    {
+        "format_version": "session format version",
+        "notes": "recorder's notes",
+        "simulated": "simulated",
+    }
+)
+
+
+def readable_columns(table: pd.DataFrame, units: str = "") -> pd.DataFrame:
+    """``table`` with each column of :data:`LABELS` in words (lengths' headers naming
+    ``units``) and its cells as the answer rounds them; other columns kept as they are."""
+    out: dict[str, object] = {}
+    for column in table.columns:
+        label = LABELS.get(str(column))
+        if label is None:
+            out[str(column)] = table[column]
+            continue
+        unit = units if label.unit == _LENGTH else label.unit
+        header = f"{label.name} ({unit})" if unit else label.name
+        out[header] = [_FORMAT[label.kind](v) for v in table[column]]
+    return pd.DataFrame(out, index=table.index)
+
+
+def metadata_table(metadata: Mapping[str, str]) -> pd.DataFrame:
+    """A session's metadata as two columns of words (the operator's notes are shown apart,
+    by the report, so they are left out here)."""
+    shown = {k: v for k, v in metadata.items() if k not in _SHOWN_APART}
+    names = [_METADATA_NAMES.get(k, k.replace("_", " ")) for k in shown]
+    values = [_metadata_value(k, v) for k, v in shown.items()]
+    return pd.DataFrame({"": names, " ": values})
+
+
+_SHOWN_APART = ("operator_notes", "trial_notes")
+
+
+def _metadata_value(key: str, value: str) -> str:
+    if key == "method":
+        return METHOD_NAMES.get(value, value)
+    return {"True": "yes", "False": "no"}.get(value, value)
