@@ -78,11 +78,21 @@ class FigureJob:
     def digest(self) -> str:
         """The figures' name: the same digest, the same PNGs (:func:`code_version` in it)."""
         h = hashlib.sha256(code_version().encode())
-        h.update(f"{self.session}\0{self.units}\0{self.include_warned}".encode())
+        h.update(_text(f"{self.session}\0{self.units}\0{self.include_warned}"))
         for table in (self.trials, self.averaging, self.views):
-            h.update("\0".join(map(str, table.columns)).encode() + b"\1")
-            h.update(pd.util.hash_pandas_object(table, index=False).to_numpy().tobytes())
+            for column in table.columns:
+                h.update(_text(f"\1{column}\0{table[column].dtype}\0"))
+                values = table[column]
+                if pd.api.types.is_numeric_dtype(values) and values.dtype != object:
+                    h.update(values.to_numpy().tobytes())
+                else:  # text: any file name, even one that is not valid UTF-8
+                    h.update(_text("\0".join(map(str, values))))
         return h.hexdigest()
+
+
+def _text(text: str) -> bytes:
+    """``text`` as bytes, whatever it holds (a file name's undecodable bytes too)."""
+    return text.encode("utf-8", "surrogatepass")
 
 
 @dataclass(frozen=True)

@@ -4,6 +4,7 @@ most of a figure's drawing time) and a legend below the axes, never on the data.
 
 from __future__ import annotations
 
+import functools
 import math
 import textwrap
 from collections.abc import Sequence
@@ -13,23 +14,22 @@ from typing import Any
 import numpy as np
 import pandas as pd
 from matplotlib.axes import Axes
-from matplotlib.cm import ScalarMappable
+from matplotlib.collections import PolyCollection
 from matplotlib.colors import BoundaryNorm, Colormap, ListedColormap, Normalize
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
-from matplotlib.ticker import MaxNLocator
 
 from twopose.format.entries import INCHES_PER_UNIT
 
 __all__ = [
     "DPI",
+    "KEY_MARGIN",
     "LABEL",
     "MAX_LEGEND",
     "TICK",
     "TITLE",
     "TrialColours",
     "beyond_note",
-    "colour_key",
     "common_units",
     "equal_scales",
     "frame",
@@ -38,7 +38,6 @@ __all__ = [
     "legend_below",
     "mark_beyond",
     "method_colour",
-    "place_colour_key",
     "set_title",
     "trial_colours",
 ]
@@ -127,26 +126,6 @@ def trial_colours(trial_ids: list[int]) -> tuple[Colormap, Normalize]:
     return cmap, Normalize(lo, hi)
 
 
-def colour_key(fig: Figure, cmap: Colormap, norm: Normalize) -> Axes:
-    """The trials' colour key, a colour bar (place it with :func:`place_colour_key` once
-    the layout is set; keep 1.2 in of right margin for it)."""
-    cax = fig.add_axes((0.86, 0.3, 0.03, 0.6), label="<colorbar>")  # as matplotlib names it
-    bar = fig.colorbar(ScalarMappable(norm, cmap), cax=cax)
-    bar.set_label("trial number (colour key)", fontsize=LABEL)
-    bar.locator = MaxNLocator(nbins=8, integer=True)
-    bar.update_ticks()
-    bar.ax.tick_params(labelsize=TICK)
-    return cax
-
-
-def place_colour_key(fig: Figure, cax: Axes, beside: Axes, below: Axes | None = None) -> None:
-    """The colour key right of ``beside``, 0.12 in wide and 0.12 in away, from the bottom
-    of ``below`` (``beside`` by default) to its top."""
-    top, bottom = beside.get_position(), (below or beside).get_position()
-    width = fig.get_size_inches()[0]
-    cax.set_position((top.x1 + 0.12 / width, bottom.y0, 0.12 / width, top.y1 - bottom.y0))
-
-
 def set_title(ax: Axes, title: str) -> None:
     """An axes' title at a fixed height: matplotlib's automatic placement measures every
     tick label of the axes again at each draw (a tenth of a figure's drawing time)."""
@@ -172,6 +151,14 @@ class TrialColours:
         """Whether the legend names each trial (else a colour bar keys them)."""
         return len(self.trials) <= MAX_LEGEND
 
+    @functools.cached_property
+    def _table(self) -> dict[int, tuple[float, float, float, float]]:
+        """Every trial's colour, computed once."""
+        cmap, norm = self._map()
+        values = self.trials if len(self.trials) > 20 else range(len(self.trials))
+        rgba = cmap(norm(np.asarray(list(values), dtype=np.float64)))
+        return {t: tuple(float(v) for v in c) for t, c in zip(self.trials, rgba, strict=True)}  # type: ignore[misc]
+
     def _map(self) -> tuple[Colormap, Normalize]:
         from matplotlib import colormaps
 
@@ -187,13 +174,7 @@ class TrialColours:
 
     def colour(self, trial: object) -> tuple[float, float, float, float]:
         """The trial's colour (grey for a trial not in the session's set)."""
-        cmap, norm = self._map()
-        t = int(trial)  # type: ignore[call-overload]
-        if t not in self.trials:
-            return (0.5, 0.5, 0.5, 1.0)
-        value = t if len(self.trials) > 20 else self.trials.index(t)
-        rgba = cmap(norm(value))
-        return (float(rgba[0]), float(rgba[1]), float(rgba[2]), float(rgba[3]))
+        return self._table.get(int(trial), (0.5, 0.5, 0.5, 1.0))  # type: ignore[call-overload]
 
     def colours(self, trials: object) -> list[tuple[float, float, float, float]]:
         """The colours of ``trials`` (an iterable of trial numbers), in order."""
@@ -203,22 +184,39 @@ class TrialColours:
         """Legend entries naming each trial in its colour, drawn by ``style``."""
         return [key(f"trial {t}", **(style | {"color": self.colour(t)})) for t in self.trials]
 
-    def colour_bar(self, fig: Figure) -> Axes:
-        """The trials' colour bar (place it with :func:`place_colour_key`)."""
-        cmap, norm = self._map()
-        cax = fig.add_axes((0.86, 0.3, 0.03, 0.6), label="<colorbar>")
-        bar = fig.colorbar(ScalarMappable(norm, cmap), cax=cax)
-        bar.set_label("trial number (colour key)", fontsize=LABEL)
-        if len(self.trials) <= 20:
-            step = max(1, math.ceil(len(self.trials) / 8))
-            ranks = list(range(0, len(self.trials), step))
-            bar.set_ticks(ranks, labels=[str(self.trials[k]) for k in ranks])
-        else:
-            bar.locator = MaxNLocator(nbins=8, integer=True)
-            bar.update_ticks()
-        bar.ax.tick_params(labelsize=TICK)
-        bar.ax.minorticks_off()
-        return cax
+    def colour_key(self, fig: Figure, beside: Axes) -> None:
+        """The trials' colour key right of ``beside``: a strip of one swatch per trial
+        (one collection) with their numbers, drawn on the figure, not as another axes (a
+        colour bar's axes cost as much to draw as the plot). Call it once the layout is set;
+        keep :data:`KEY_MARGIN` inches of right margin for it."""
+        box = beside.get_position()
+        width = float(fig.get_size_inches()[0])
+        x0, w = box.x1 + 0.12 / width, 0.12 / width
+        n = max(len(self.trials), 1)
+        cell = (box.y1 - box.y0) / n
+        cells = [
+            [(x0, box.y0 + k * cell), (x0 + w, box.y0 + k * cell),
+             (x0 + w, box.y0 + (k + 1) * cell), (x0, box.y0 + (k + 1) * cell)]
+            for k in range(len(self.trials))
+        ]  # fmt: skip
+        strip = PolyCollection(
+            cells,
+            facecolors=[self.colour(t) for t in self.trials],
+            edgecolors="none",
+            transform=fig.transFigure,
+            label="<colour key>",
+        )
+        fig.add_artist(strip)
+        step = max(1, math.ceil(len(self.trials) / 8))
+        for k in range(0, len(self.trials), step):
+            fig.text(x0 + w + 0.05 / width, box.y0 + (k + 0.5) * cell, str(self.trials[k]),
+                     fontsize=TICK, va="center", ha="left")  # fmt: skip
+        fig.text(x0 + w + 0.42 / width, (box.y0 + box.y1) / 2, "trial number (colour key)",
+                 fontsize=LABEL, rotation=90, va="center", ha="left")  # fmt: skip
+
+
+#: The right margin (inches) a figure keeps for :meth:`TrialColours.colour_key`.
+KEY_MARGIN = 1.0
 
 
 def frame(ax: Axes, points: np.ndarray, *, pad: float = 0.08, least: float = 1e-9) -> None:

@@ -30,6 +30,7 @@ from matplotlib.ticker import MaxNLocator
 from analysis.answer import session_order
 from analysis.figure_style import (
     DPI,
+    KEY_MARGIN,
     LABEL,
     MAX_LEGEND,
     TICK,
@@ -43,7 +44,6 @@ from analysis.figure_style import (
     legend_below,
     mark_beyond,
     method_colour,
-    place_colour_key,
     set_title,
 )
 from analysis.metrics import by_session_set, session_set, used_trials, warned
@@ -290,10 +290,10 @@ def _running_figure(
             fig, errors, units, palette, include_warned=include_warned
         )
         bottom = legend_below(fig, handles, 3, note)
-        right = 0.15 if palette.named else 1.2
+        right = 0.15 if palette.named else KEY_MARGIN
         layout(fig, left=0.8, right=right, top=0.6, bottom=0.6 + bottom, wspace=0.08)
         if not palette.named:
-            place_colour_key(fig, palette.colour_bar(fig), fig.axes[1])
+            palette.colour_key(fig, fig.axes[1])
         height = fig.get_size_inches()[1]
         fig.supxlabel(
             "number of frames averaged per pose",
@@ -330,10 +330,10 @@ def session_figures(
             ax, trials, title, include_warned=include_warned, palette=palette, units=units
         )
         bottom = legend_below(fig, handles, 2, note)
-        right = 0.2 if palette.named else 1.2
+        right = 0.2 if palette.named else KEY_MARGIN
         layout(fig, left=0.75, right=right, top=0.35, bottom=0.5 + bottom)
         if not palette.named:
-            place_colour_key(fig, palette.colour_bar(fig), ax)
+            palette.colour_key(fig, ax)
 
     figures = {"scatter": _figure((WIDTH, 4.9), scatter)}
     if not views.empty and palette.trials:

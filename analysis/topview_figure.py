@@ -20,6 +20,7 @@ from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 
 from analysis.figure_style import (
+    KEY_MARGIN,
     LABEL,
     TICK,
     TrialColours,
@@ -30,7 +31,6 @@ from analysis.figure_style import (
     layout,
     legend_below,
     mark_beyond,
-    place_colour_key,
     set_title,
 )
 from analysis.metrics import used_trials, warned
@@ -51,33 +51,31 @@ _SEGMENT_NAME = {
 _TRUTH_NAME = {"line": "truth (true segment's midpoint)"}
 
 
-def _scene(trial: pd.Series, views: pd.DataFrame) -> TrialScene:
-    """A trial's scene from its trials.csv row and its views.csv rows."""
+#: views.csv columns a trial's scene is built from, in this order.
+_VIEW_ARRAY = ["fx", "fy", "cx", "cy", "r_x_deg", "r_y_deg", "r_z_deg", "t_x", "t_y", "t_z",
+               "col", "row", "theta_deg"]  # fmt: skip
+
+
+def _scene(row: dict[str, object], views: np.ndarray) -> TrialScene:
+    """A trial's scene from its trials.csv values and its views (rows of
+    :data:`_VIEW_ARRAY`), as arrays: a session's hundred trials in milliseconds."""
     n = len(views)
-    estimate = trial[["x", "y", "z"]].to_numpy(dtype=np.float64)
-    line = trial["method"] == "line"
-    direction = (
-        trial[["dir_x", "dir_y", "dir_z"]].to_numpy(dtype=np.float64)
-        if line and "dir_x" in trial
-        else None
-    )
+    line = row["method"] == "line"
     truth = np.full((2, 3), np.nan)  # a line's true segment is not in trials.csv
     if not line:
-        truth[:] = trial[["gt_x", "gt_y", "gt_z"]].to_numpy(dtype=np.float64)
+        truth[:] = row["truth"]
     return TrialScene(
-        trial=int(trial["trial"]),
-        method=str(trial["method"]),
-        status=str(trial["status"]),
-        intrinsics=views[["fx", "fy", "cx", "cy"]].to_numpy(dtype=np.float64),
+        trial=int(row["trial"]),  # type: ignore[call-overload]
+        method=str(row["method"]),
+        status=str(row["status"]),
+        intrinsics=views[:, 0:4],
         width_height=np.full((n, 2), np.nan),
-        R_cam_to_grid=rotation_from_angles_deg(
-            views[["r_x_deg", "r_y_deg", "r_z_deg"]].to_numpy(dtype=np.float64)
-        ),
-        t_grid=views[["t_x", "t_y", "t_z"]].to_numpy(dtype=np.float64),
-        px=views[["col", "row"]].to_numpy(dtype=np.float64),
-        theta_deg=views["theta_deg"].to_numpy(dtype=np.float64),
-        estimate=estimate,
-        direction=direction,
+        R_cam_to_grid=rotation_from_angles_deg(views[:, 4:7]),
+        t_grid=views[:, 7:10],
+        px=views[:, 10:12],
+        theta_deg=views[:, 12],
+        estimate=np.asarray(row["estimate"], dtype=np.float64),
+        direction=np.asarray(row["direction"], dtype=np.float64) if line else None,
         truth=truth,
         cov=np.full((3, 3), np.nan),
     )
@@ -95,14 +93,26 @@ def top_views(trials: pd.DataFrame, views: pd.DataFrame) -> list[Drawn]:
     if views.empty or not set(VIEW_GEOMETRY) <= set(views):
         return []
     ok = used_trials(trials, include_warned=True).drop_duplicates("trial", keep="last")
-    by_trial = dict(tuple(views.groupby("trial")))
-    doubted = warned(ok)
+    arrays = views[_VIEW_ARRAY].to_numpy(dtype=np.float64)
+    rows_of = views.groupby("trial").indices  # trial -> positions in views
+    doubted = warned(ok).to_numpy()
+    estimate = ok[["x", "y", "z"]].to_numpy(dtype=np.float64)
+    truth = ok[["gt_x", "gt_y", "gt_z"]].to_numpy(dtype=np.float64)
+    dirs = (
+        ok[["dir_x", "dir_y", "dir_z"]].to_numpy(dtype=np.float64)
+        if "dir_x" in ok
+        else np.full((len(ok), 3), np.nan)
+    )
     out = []
-    for (_, row), doubt in zip(ok.iterrows(), doubted, strict=True):
-        rows = by_trial.get(row["trial"])
-        if rows is not None and len(rows) >= 2:
-            truth = (float(row["gt_x"]), float(row["gt_z"]))
-            out.append(Drawn(top_view(_scene(row, rows)), bool(doubt), truth))
+    columns = zip(ok["trial"], ok["method"].astype(str), ok["status"].astype(str), strict=True)
+    for k, (trial, method, status) in enumerate(columns):
+        positions = rows_of.get(trial)
+        if positions is None or len(positions) < 2:
+            continue
+        row = {"trial": trial, "method": method, "status": status, "estimate": estimate[k],
+               "direction": dirs[k], "truth": truth[k]}  # fmt: skip
+        scene = _scene(row, arrays[positions])
+        out.append(Drawn(top_view(scene), bool(doubted[k]), (truth[k, 0], truth[k, 2])))
     return out
 
 
@@ -131,7 +141,7 @@ def plot_top_view(
     ax.set_ylabel(f"z, depth ({units})", fontsize=LABEL)
     ax.tick_params(labelsize=TICK)
     used = [d for d in drawn if include_warned or not d.warned]
-    right = 0.2 if palette.named else 1.2
+    right = 0.2 if palette.named else KEY_MARGIN
     box = (float(fig.get_size_inches()[0]) - _LEFT - right, _BOX_HEIGHT)
     frame(ax, _framed_points(used), pad=0.1, least=1.0)
     equal_scales(ax, box)  # the frame widened, never cut, to one scale on both axes
@@ -161,7 +171,7 @@ def plot_top_view(
     fig.set_size_inches(fig.get_size_inches()[0], _TOP + box[1] + 0.5 + bottom)
     layout(fig, left=_LEFT, right=right, top=_TOP, bottom=0.5 + bottom)
     if not palette.named:
-        place_colour_key(fig, palette.colour_bar(fig), ax)
+        palette.colour_key(fig, ax)
 
 
 _LEFT, _TOP = 0.75, 0.35  # margins (inches)

@@ -151,7 +151,7 @@ def test_run_rig_calibration_loo_is_honest(rig_sessions: dict[str, Path], tmp_pa
     assert (dominant.get_group("without") == "systematic").sum() == 0
     page = (out / "report.html").read_text()
     assert "The rig's constants" in page
-    assert "rmse_rig_loo" in page
+    assert "RMSE, rig corrected (leave one out)" in page
     assert not rig[rig["session"].str.endswith("without.mcap")]["fitted"].any()
 
 

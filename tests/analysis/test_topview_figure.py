@@ -67,8 +67,10 @@ def test_the_figure_has_one_artist_per_kind_and_a_colour_key(bundled_run: Path) 
     trials, views = _tables(bundled_run, "thesis_method2_ground")
     fig = Figure(figsize=(6.4, 4.8))
     plot_top_view(fig, trials, views, "thesis_method2_ground")
-    ax, *others = fig.axes
-    assert [a.get_label() for a in others] == ["<colorbar>"]
+    (ax,) = fig.axes  # the key is drawn on the figure, not as another axes
+    (key,) = [a for a in fig.get_children() if a.get_label() == "<colour key>"]
+    assert len(key.get_paths()) == trials["trial"].nunique()  # a swatch per trial
+    assert "trial number (colour key)" in [t.get_text() for t in fig.texts]
     assert len(ax.collections) <= 6  # collections, not an artist per trial
     assert "(in)" in ax.get_xlabel()
     assert fig.legends  # below the axes, not on the data
