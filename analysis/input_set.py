@@ -64,6 +64,9 @@ class InputSet:
     found: tuple[FoundSession, ...] = ()  # every session once (its first path), in order
     copies: tuple[tuple[str, str], ...] = ()  # (path, the path it is a copy of)
     skipped: tuple[str, ...] = ()  # results files of an earlier run
+    #: (path, the path first naming the same file): a file named twice, directly, by a
+    #: folder holding it, or by a symbolic link to it
+    repeats: tuple[tuple[str, str], ...] = ()
 
     @property
     def measured(self) -> tuple[FoundSession, ...]:
@@ -94,10 +97,14 @@ class InputSet:
     def notes(self) -> list[str]:
         """What any command says about inputs it does not take as given: copies counted
         once, empty sessions."""
+        repeats = [
+            f"{path}: named more than once (the same file as {first}); counted once"
+            for path, first in self.repeats
+        ]
         copies = [
             f"{path}: the same session as {first}; counted once" for path, first in self.copies
         ]
-        return copies + [
+        return repeats + copies + [
             f"{s.path}: an empty session (no pose was recorded): nothing to analyse"
             for s in self.empty
         ]
@@ -118,7 +125,14 @@ def resolve_inputs(paths: Sequence[str | Path]) -> InputSet:
     copies: list[tuple[str, str]] = []
     skipped: list[str] = []
     first_of: dict[str, str] = {}
-    for path in find_sessions(paths):
+    repeats: list[tuple[str, str]] = []
+    named: dict[Path, str] = {}  # each file (resolved) -> the path first naming it
+    for path in find_sessions(paths, unique=False):
+        key = path.resolve()
+        if key in named:
+            repeats.append((str(path), named[key]))
+            continue
+        named[key] = str(path)
         if is_results_file(path):
             skipped.append(str(path))
             continue
@@ -128,7 +142,9 @@ def resolve_inputs(paths: Sequence[str | Path]) -> InputSet:
             continue
         first_of[session.digest] = session.path
         found.append(session)
-    return InputSet(found=tuple(found), copies=tuple(copies), skipped=tuple(skipped))
+    return InputSet(
+        found=tuple(found), copies=tuple(copies), skipped=tuple(skipped), repeats=tuple(repeats)
+    )
 
 
 def _found(path: Path) -> FoundSession:

@@ -374,6 +374,7 @@ class Inputs:
             for f in self.files:
                 if _same(target, f):
                     raise InputValueError(f"{where} is the input {f}; give a new file name")
+            self._no_link_into_folders(where, target)
         self._outside_folders(where, path)
         ancestor = _nearest_existing(path.parent)
         if ancestor is not None and not ancestor.is_dir():
@@ -404,6 +405,19 @@ class Inputs:
                         f"results (e.g. {path / 'results'})"
                     )
 
+    def _no_link_into_folders(self, where: str, target: os.stat_result) -> None:
+        """A file with other names (a hard link) is refused when one of them lies in an
+        input folder: writing it would change what is being read."""
+        if target.st_nlink < 2:
+            return
+        for folder in self.folders:
+            for f in _files_below(folder):
+                if _same(target, f):
+                    raise InputValueError(
+                        f"{where} is the file {f} of the run folder {folder} being read (a "
+                        "hard link to it); give a new file name"
+                    )
+
     def _outside_folders(self, where: str, path: Path) -> None:
         for folder in self.folders:
             if _inside(path, folder):
@@ -411,6 +425,13 @@ class Inputs:
                     f"{where} is, or is inside, the run folder {folder} being read; "
                     "write it elsewhere"
                 )
+
+
+def _files_below(folder: Path) -> Iterator[Path]:
+    """Every file below ``folder`` (none when it cannot be listed)."""
+    for root, _dirs, names in os.walk(folder):
+        for name in names:
+            yield Path(root) / name
 
 
 def _stat(path: Path) -> os.stat_result | None:

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import os
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -58,23 +57,26 @@ def calibrate_rig(
     """``twopose-analyze rig``: the constants from board sessions
     (:func:`analysis.board_calibration.calibrate_board`) or from target sessions
     (:func:`calibrate`), not a mix of the two."""
-    from analysis.board_calibration import calibrate_board, is_board_session
+    from analysis.board_calibration import calibrate_board
+    from analysis.input_set import resolve_inputs
 
-    boards = {str(p): is_board_session(p) for p in paths}
-    if any(boards.values()) and not all(boards.values()):
-        named = ", ".join(p for p, board in boards.items() if board)
+    inputs = resolve_inputs(paths)  # once, as run and info: each file once, copies said
+    for text in inputs.notes():
+        (on_note or (lambda _text: None))(text)
+    boards, targets = [s.path for s in inputs.boards], inputs.files
+    if boards and targets:
         raise InputValueError(
-            f"board sessions ({named}) and target sessions fit the rig in different ways: "
-            "calibrate with one kind (board sessions alone are enough)"
+            f"board sessions ({', '.join(boards)}) and target sessions fit the rig in "
+            "different ways: calibrate with one kind (board sessions alone are enough)"
         )
-    if paths and all(boards.values()):
-        board = calibrate_board(paths, groups, on_note)
+    if boards:
+        board = calibrate_board(boards, groups, on_note)
         b = board.board
         basis = f"{b.n_captures} board capture(s), {b.n_corners} corners, RMS {b.rms_px:.3f} px"
         return RigCalibration(
             fit=board.fit, sessions=board.sessions, basis=basis, warnings=b.warnings
         )
-    fit, data = calibrate(paths, groups, on_note)
+    fit, data = calibrate(targets, groups, on_note)
     basis = f"{len(data.trial_ids)} trial(s) with ground truth"
     return RigCalibration(fit=fit, sessions=data.sessions, basis=basis, warnings=fit.warnings)
 
@@ -131,20 +133,12 @@ class _Distinct:
 
 
 def _distinct(paths: Sequence[str], note: Note) -> list[_Distinct]:
-    """Each session once, in the order given: the same file (by path, link or inode) is
-    not replayed again, and a session with the same content as an earlier one is left
-    out; both with a note."""
-    seen_files: dict[tuple[int, int] | str, str] = {}
+    """Each session once, in the order given (the same file or a byte copy was taken once
+    already: :func:`analysis.input_set.resolve_inputs`): a session whose trials are those
+    of an earlier one (a rewritten file) is left out, with a note."""
     seen_content: dict[str, str] = {}
     out: list[_Distinct] = []
     for path in paths:
-        key = _file_key(path)
-        if key in seen_files:
-            first = seen_files[key]
-            also = "" if first == path else f" (as {first})"
-            note(f"{path} given twice{also}: counted once")
-            continue
-        seen_files[key] = path
         r = replay_views(path)
         replay = _Distinct(session=path, trials=r, fingerprint=_fingerprint(r))
         if replay.fingerprint in seen_content:
@@ -154,16 +148,6 @@ def _distinct(paths: Sequence[str], note: Note) -> list[_Distinct]:
         seen_content[replay.fingerprint] = path
         out.append(replay)
     return out
-
-
-def _file_key(path: str) -> tuple[int, int] | str:
-    """The file's identity: device and inode (hard links, symlinks, other spellings of
-    the path), else its resolved path."""
-    try:
-        st = os.stat(path)
-    except OSError:
-        return str(Path(path).resolve())
-    return (st.st_dev, st.st_ino)
 
 
 def _fingerprint(replay: SessionTrials) -> str:

@@ -86,7 +86,7 @@ def timed(owner, name):
 for owner, name in (
     (analysis.pipeline, "_with_figures"),  # in line, after each session
     (analysis.drawer.FigureDrawer, "collect"),  # waiting for the drawing process
-    (analysis.report, "session_figures"),  # the report's own drawing
+    (analysis.figure_cache.FigureCache, "figures"),  # a session drawn by the report
     (analysis.report, "run_figures"),
     (analysis.report, "png_bytes"),
     (analysis.sensitivity, "plot_sensitivity"),

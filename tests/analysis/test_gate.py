@@ -263,3 +263,33 @@ def test_a_tolerance_beyond_doubling_is_refused(tmp_path: Path, relative: float)
         load_tolerance(path)
     path.write_text("[rmse]\nrelative = 1.0\n")
     assert load_tolerance(path)[""].rmse.relative == 1.0
+
+
+def test_an_output_that_is_a_hard_link_to_an_input_is_refused(
+    baseline: Path, tmp_path: Path
+) -> None:
+    """``check --junit`` naming a hard link to the baseline's summary.csv: the rename would
+    leave the original intact, but an output never names an input, by any name."""
+    import os
+
+    run = _copy(baseline, tmp_path)
+    link = tmp_path / "elsewhere.xml"
+    os.link(baseline / "summary.csv", link)
+    before = (baseline / "summary.csv").read_bytes()
+    result = runner.invoke(
+        app, ["check", str(run), "--baseline", str(baseline), "--junit", str(link)]
+    )
+    assert result.exit_code == 3, result.output
+    assert "hard link" in result.output
+    assert str(baseline / "summary.csv") in result.output
+    assert (baseline / "summary.csv").read_bytes() == before
+    # a hard link to a session, as rig's --out
+    session = tmp_path / "s.mcap"
+    shutil.copy(
+        next(iter(sorted(Path(__file__).resolve().parents[2].glob("sessions/*.mcap")))), session
+    )
+    other = tmp_path / "rig.toml"
+    os.link(session, other)
+    result = runner.invoke(app, ["rig", str(session), "--out", str(other)])
+    assert result.exit_code == 3, result.output
+    assert "is the input" in result.output

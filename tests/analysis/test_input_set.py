@@ -134,3 +134,22 @@ def test_the_tables_do_not_depend_on_order_or_copies(
     pd.testing.assert_frame_equal(
         numbers, reference[["units", "n_trials", "n_ok", "rmse", "median_err"]]
     )
+
+
+def test_a_file_named_twice_is_counted_once_and_said(
+    kinds: dict[str, Path], tmp_path: Path
+) -> None:
+    """By the same path, through a symbolic link, or as a file of a folder also named:
+    one session, and a note for each other naming (before, a silent dedupe)."""
+    link = tmp_path / "link.mcap"
+    link.symlink_to(kinds["point"])
+    given = [kinds["point"], kinds["point"], link, kinds["point"].parent]
+    inputs = resolve_inputs(given)
+    assert inputs.files.count(str(kinds["point"])) == 1
+    said = inputs.notes()
+    repeats = [n for n in said if "named more than once" in n]
+    assert len(repeats) == 3  # the same path again, the link, the folder's own listing
+    assert all(f"(the same file as {kinds['point']}); counted once" in n for n in repeats)
+    result = runner.invoke(app, ["info", *map(str, given[:3])])
+    assert result.exit_code == 0, result.output
+    assert "named more than once" in result.output

@@ -56,12 +56,12 @@ def test_a_session_given_twice_is_counted_once(
     once, _ = rig_file(tmp_path, rig_sessions["with"])
     twice, output = rig_file(tmp_path, rig_sessions["with"], rig_sessions["with"])
     assert twice == once
-    assert "given twice: counted once" in output
+    assert "named more than once (the same file as" in output  # as run and info say it
     copy = tmp_path / "copy.mcap"
     shutil.copyfile(rig_sessions["with"], copy)
     copied, output = rig_file(tmp_path, rig_sessions["with"], copy)
     assert copied == once
-    assert f"{copy} holds the same session as {rig_sessions['with']}" in output
+    assert f"{copy}: the same session as {rig_sessions['with']}; counted once" in output
 
 
 def test_tables_at_two_heights_fit_no_ground_height_error(
@@ -85,13 +85,16 @@ def test_a_session_without_trials_changes_nothing(tables: dict[str, Path], tmp_p
     alone, _ = rig_file(tmp_path, tables["9.625"], tables["10.5"])
     with_empty, output = rig_file(tmp_path, empty, tables["9.625"], tables["10.5"])
     assert with_empty == alone
-    assert f"{empty}: no ok trial with ground truth; it informs nothing" in output
+    assert f"{empty}: an empty session (no pose was recorded)" in output  # as run says it
 
 
 def test_sessions_in_different_units_are_refused(
     rig_sessions: dict[str, Path], tmp_path: Path
 ) -> None:
-    metric = empty_session(tmp_path / "metric.mcap", "point", "mm")
+    metric = tmp_path / "metric.mcap"  # trials to fit, in millimetres
+    simulate_session(
+        metric, method="point", trials=2, frames=1, seed=5, scene=Scene().in_units("mm")
+    )
     out = tmp_path / "rig.toml"
     result = runner.invoke(app, ["rig", str(rig_sessions["with"]), str(metric), "--out", str(out)])
     assert result.exit_code == 3, result.output

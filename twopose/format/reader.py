@@ -296,11 +296,13 @@ class SessionReader:
 STAGING_FOLDER = ".twopose-staging"
 
 
-def find_sessions(paths: Iterable[Path | str]) -> list[Path]:
+def find_sessions(paths: Iterable[Path | str], *, unique: bool = True) -> list[Path]:
     """Session files named by ``paths``: files as given, folders searched recursively for *.mcap.
 
     A run's staging folder (:data:`STAGING_FOLDER`) is not searched. Sorted within each
-    folder so that results do not depend on directory order.
+    folder so that results do not depend on directory order. A file named twice (by two
+    paths, a folder and a file in it, a symbolic link) is listed once, unless ``unique`` is
+    False (the caller says so: :func:`analysis.input_set.resolve_inputs`).
     Raises :class:`~twopose.errors.InputValueError` for a path that does not exist.
     """
     found: list[Path] = []
@@ -318,14 +320,16 @@ def find_sessions(paths: Iterable[Path | str]) -> list[Path]:
             raise InputValueError(f"{p} is not a regular file")
         else:
             raise InputValueError(f"{p} does not exist")
+    if not unique:
+        return found
     seen: set[Path] = set()
-    unique = []
+    distinct = []
     for p in found:
         key = p.resolve()
         if key not in seen:
             seen.add(key)
-            unique.append(p)
-    return unique
+            distinct.append(p)
+    return distinct
 
 
 def is_results_file(path: str | Path) -> bool:
