@@ -104,10 +104,11 @@ class InputSet:
         copies = [
             f"{path}: the same session as {first}; counted once" for path, first in self.copies
         ]
-        return repeats + copies + [
+        empty = [
             f"{s.path}: an empty session (no pose was recorded): nothing to analyse"
             for s in self.empty
         ]
+        return repeats + copies + empty
 
     def run_notes(self) -> list[str]:
         """What ``run`` says: :meth:`notes`, and the board sessions it leaves to ``rig``."""
