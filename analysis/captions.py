@@ -12,7 +12,7 @@ import html
 
 import pandas as pd
 
-from analysis.figure_style import common_units
+from analysis.figure_style import MAX_LEGEND, common_units
 from analysis.metrics import by_session_set, used_trials, warned
 from analysis.terminal import UNIT_NAMES
 
@@ -88,9 +88,13 @@ _TOP_VIEW = {
 }
 
 
-def session_captions(trials: pd.DataFrame, *, include_warned: bool) -> dict[str, str]:
-    """The captions of one session's figures, by figure kind."""
-    units = html.escape(str(trials["units"].iloc[0])) if len(trials) else "session units"
+def session_captions(
+    trials: pd.DataFrame, *, include_warned: bool, units: str = ""
+) -> dict[str, str]:
+    """The captions of one session's figures, by figure kind (``units``: the session's,
+    when it has no trial to name them)."""
+    shown = str(trials["units"].iloc[0]) if len(trials) else units or "session units"
+    units = html.escape(shown)
     method = str(trials["method"].iloc[0]) if len(trials) else ""
     ok = used_trials(trials, include_warned=True)
     n_warned = int(warned(ok).sum())
@@ -98,18 +102,32 @@ def session_captions(trials: pd.DataFrame, *, include_warned: bool) -> dict[str,
     not_ok = len(trials) - len(ok)
     skipped = f" {not_ok} trial(s) not ok are not drawn." if not_ok else ""
     doubt = f" {n_warned} warned trial(s) {{how}}, {fate}." if n_warned else ""
+    key = "the legend" if ok["trial"].nunique() <= MAX_LEGEND else "the key at the right"
+    colour = f" Each trial has one colour in all of this session's figures ({key})."
+    framed = (
+        ""
+        if include_warned or not n_warned
+        else " The axes are framed by the trials the statistics use; a left-out trial beyond "
+        "them is drawn at the edge (▲), its value under the legend."
+    )
     return {
         "scatter": f"Estimate minus truth in x and z ({units}) of each ok trial, with its 95% "
-        "error ellipse (about 95% of them hold the origin when the uncertainty is honest); "
-        "the cross is the bias over the trials the statistics use."
-        + doubt.format(how="hollow red, without an ellipse")
+        "error ellipse (about 95% of them hold the truth, the + at the origin, when the "
+        "uncertainty is honest); the x is the bias over the trials the statistics use."
+        + colour
+        + doubt.format(how="hollow, without an ellipse")
+        + framed
         + skipped,
         "topview": f"Seen from above (x across, z in depth, {units}): "
-        f"{_TOP_VIEW.get(method, 'each view')}. The colour is the trial (key at the right)."
+        f"{_TOP_VIEW.get(method, 'each view')}; the truth is drawn over them."
+        + colour
         + doubt.format(how="dashed")
+        + framed
         + skipped,
         "averaging": "The error of the estimate from the first n frames of each pose "
         f"({units}), against n; zero is the truth; x and z on one scale."
+        + colour
         + doubt.format(how="dashed")
+        + framed
         + skipped,
     }

@@ -436,7 +436,9 @@ def _session_sections(result: RunResult, images: dict[str, Image]) -> list[str]:
         metadata = metadata_table(s.metadata)
         parts.append(table_html(metadata, text=True).replace("<thead>", "<thead hidden>", 1))
         parts.append(_notes(s.metadata))
-        captions = session_captions(s.trials, include_warned=result.include_warned)
+        captions = session_captions(
+            s.trials, include_warned=result.include_warned, units=_units_of(s)
+        )
         keys = [(kind, figure_key(kind, i, s.session)) for kind in _SESSION_FIGURES]
         figures = [figure_html(key, images.get(key), captions.get(kind, "")) for kind, key in keys]
         parts.append(figure_row(figures))

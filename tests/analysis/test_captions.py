@@ -50,7 +50,12 @@ def test_a_sessions_captions_say_what_became_of_its_trials(trials: pd.DataFrame)
     assert set(captions) == {"scatter", "topview", "averaging"}
     assert "the ground point the finger points at" in captions["topview"]
     assert n_warned > 0  # the stress session warns
-    assert f"{n_warned} warned trial(s) hollow red" in captions["scatter"]
+    assert f"{n_warned} warned trial(s) hollow, without an ellipse" in captions["scatter"]
+    assert (
+        "one colour in all of this session's figures (the key at the right)" in captions["topview"]
+    )
+    assert "framed by the trials the statistics use" in captions["scatter"]
+    assert "framed" not in session_captions(session, include_warned=True)["scatter"]
     assert "left out of the statistics" in captions["scatter"]
     assert f"{n_warned} warned trial(s) dashed, left out" in captions["averaging"]
     assert ("not ok are not drawn" in captions["averaging"]) == (n_not_ok > 0)

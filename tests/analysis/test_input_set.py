@@ -51,12 +51,15 @@ def kinds(tmp_path_factory: pytest.TempPathFactory, point_session: Path) -> dict
     )
     with SessionWriter(empty, SessionInfo(method=Method.POINT, units=Units.IN), [cam], start_ns=0):
         pass
+    broken = root / "broken.mcap"  # an MCAP cut short: the analysis says why it fails
+    broken.write_bytes(point_session.read_bytes()[:3000])
     return {
         "point": point_session,
         "copy": copy,
         "cm": centimetres,
         "board": board,
         "empty": empty,
+        "broken": broken,
     }
 
 
@@ -116,12 +119,17 @@ def test_the_terminal_never_pools_two_units(kinds: dict[str, Path], tmp_path: Pa
 @settings(
     max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
 )
-@given(order=st.permutations(["point", "copy", "cm", "board", "empty"]), twice=st.booleans())
+@given(
+    order=st.permutations(["point", "copy", "cm", "board", "empty", "broken"]),
+    twice=st.booleans(),
+)
 def test_the_tables_do_not_depend_on_order_or_copies(
     kinds: dict[str, Path], order: list[str], twice: bool
 ) -> None:
     paths = [kinds[k] for k in order] + ([kinds["point"]] if twice else [])
-    summary = run(paths).summary
+    result = run(paths)
+    assert list(result.errors["session"]) == [str(kinds["broken"])]  # said, by name
+    summary = result.summary
     assert sorted(summary["session"].map(lambda s: Path(s).name)) in (
         ["cm_point.mcap", "point.mcap"],
         ["cm_point.mcap", "copy_of_point.mcap"],  # the copy named first is the one kept
