@@ -30,6 +30,7 @@ from analysis.metrics import paired_difference, summarize, used_trials
 from analysis.outputs import read_results_table, session_keys, write_atomically
 from analysis.report import page_html, table_html
 from twopose.errors import InputValueError
+from twopose.format.entries import INCHES_PER_UNIT
 
 __all__ = [
     "ESTIMATORS",
@@ -279,12 +280,22 @@ def describe_test(row: pd.Series) -> str:
     )
 
 
+def _in_one_unit(table: pd.DataFrame, columns: list[str]) -> tuple[pd.DataFrame, str]:
+    """``table``'s length ``columns`` in its one unit, or in inches when its rows differ."""
+    units = sorted({str(u) for u in table["units"]}) if len(table) else []
+    if len(units) <= 1:
+        return table, units[0] if units else "no trial"
+    scale = table["units"].map(INCHES_PER_UNIT).astype(float)
+    return table.assign(**{c: table[c] * scale for c in columns}), "in"
+
+
 def plot_comparison(comparison: Comparison) -> Figure:
     """Left: each shared trial's error in A against B (below the diagonal: B better).
-    Right: per method, the mean difference B - A with its 95% interval."""
+    Right: per method, the mean difference B - A with its 95% interval. Every axis names
+    its unit (the sessions', or inches when they differ)."""
     fig = Figure(figsize=(9.0, 3.8), layout="constrained")
     left, right = fig.subplots(1, 2)
-    paired = comparison.paired
+    paired, units = _in_one_unit(comparison.paired, ["err_a", "err_b"])
     for method, g in paired.groupby("method", sort=True):
         left.scatter(g["err_a"], g["err_b"], s=14, alpha=0.8, label=str(method))
     if len(paired):
@@ -292,10 +303,12 @@ def plot_comparison(comparison: Comparison) -> Figure:
         lo, hi = float(np.nanmin(both)), float(np.nanmax(both))
         left.plot([lo, hi], [lo, hi], color="0.5", lw=0.8, label="equal")
         left.legend(fontsize=7)
-    left.set_xlabel("error in A (session units)")
-    left.set_ylabel("error in B (session units)")
+    left.set_xlabel(f"error in A ({units})")
+    left.set_ylabel(f"error in B ({units})")
     left.set_title("Error per shared trial (below the line: B better)", fontsize=9)
-    tests = comparison.tests[comparison.tests["n_pairs"] > 0]
+    tests, _ = _in_one_unit(
+        comparison.tests[comparison.tests["n_pairs"] > 0], ["mean_diff", "ci95_low", "ci95_high"]
+    )
     y = np.arange(len(tests))
     mean = tests["mean_diff"].to_numpy(dtype=np.float64)
     low = np.nan_to_num(mean - tests["ci95_low"].to_numpy(dtype=np.float64))
@@ -305,7 +318,7 @@ def plot_comparison(comparison: Comparison) -> Figure:
     right.set_yticks(
         y, [f"{m} (n={n})" for m, n in zip(tests["method"], tests["n_pairs"], strict=True)]
     )
-    right.set_xlabel("mean error B - A, 95% interval (session units)")
+    right.set_xlabel(f"mean error B - A, 95% interval ({units})")
     right.set_title("Paired difference per method", fontsize=9)
     fig.suptitle(f"A: {comparison.a.label}   B: {comparison.b.label}", fontsize=8)
     return fig

@@ -167,3 +167,13 @@ def test_differences_at_floating_point_level_are_ties(
     assert (tests["n_pairs"] > 0).all()
     assert (tests["n_a_better"] == 0).all()
     assert (tests["n_b_better"] == 0).all()
+
+
+def test_the_comparison_figure_names_its_units(two_runs: tuple[Path, Path]) -> None:
+    """Before: every axis said "session units" where the runs' units are known."""
+    from analysis.comparison import plot_comparison
+
+    mean_run, median_run = two_runs
+    fig = plot_comparison(compare_runs(mean_run, median_run))
+    labels = [ax.get_xlabel() for ax in fig.axes] + [fig.axes[0].get_ylabel()]
+    assert labels == ["error in A (in)", "mean error B - A, 95% interval (in)", "error in B (in)"]
