@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from matplotlib.collections import LineCollection
+from matplotlib.collections import LineCollection, PolyCollection
 from matplotlib.figure import Figure
 
 from analysis.figures import (
@@ -179,7 +179,11 @@ def test_running_average_names_every_series_or_draws_small_multiples() -> None:
         (lines,) = [c for c in ax.collections if isinstance(c, LineCollection)]
         assert len(lines.get_segments()) == 40
         assert len({tuple(c) for c in np.asarray(lines.get_colors())}) > MAX_LEGEND
-    (key,) = [a for a in fig.get_children() if a.get_label() == "<colour key>"]
+    (key,) = [
+        a
+        for a in fig.get_children()
+        if isinstance(a, PolyCollection) and a.get_label() == "<colour key>"
+    ]
     assert len(key.get_paths()) == 40
     assert "trial number (colour key)" in [t.get_text() for t in fig.texts]
     assert panels[0].get_ylim() == panels[1].get_ylim()

@@ -13,6 +13,7 @@ matplotlib.use("Agg")
 import numpy as np
 import pandas as pd
 import pytest
+from matplotlib.collections import PolyCollection
 from matplotlib.figure import Figure
 
 from analysis.metrics import used_trials, warned
@@ -68,7 +69,11 @@ def test_the_figure_has_one_artist_per_kind_and_a_colour_key(bundled_run: Path) 
     fig = Figure(figsize=(6.4, 4.8))
     plot_top_view(fig, trials, views, "thesis_method2_ground")
     (ax,) = fig.axes  # the key is drawn on the figure, not as another axes
-    (key,) = [a for a in fig.get_children() if a.get_label() == "<colour key>"]
+    (key,) = [
+        a
+        for a in fig.get_children()
+        if isinstance(a, PolyCollection) and a.get_label() == "<colour key>"
+    ]
     assert len(key.get_paths()) == trials["trial"].nunique()  # a swatch per trial
     assert "trial number (colour key)" in [t.get_text() for t in fig.texts]
     assert len(ax.collections) <= 6  # collections, not an artist per trial
