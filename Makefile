@@ -27,7 +27,7 @@ check: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
 	$(BIN)/mypy
-	$(BIN)/mkdocs build --strict --quiet
+	$(BIN)/mkdocs build --strict
 
 # The quick loop: everything but the tests marked slow (browsers, clusters, many-session fits).
 test: check $(if $(shell command -v npm),$(NODE_STAMP))

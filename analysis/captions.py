@@ -15,6 +15,7 @@ import pandas as pd
 from analysis.figure_style import MAX_LEGEND, common_units
 from analysis.metrics import by_session_set, used_trials, warned
 from analysis.terminal import UNIT_NAMES
+from twopose.methods import spec_of
 
 __all__ = ["run_captions", "session_captions"]
 
@@ -78,16 +79,6 @@ def run_captions(trials: pd.DataFrame, *, include_warned: bool) -> dict[str, str
     }
 
 
-_TOP_VIEW = {
-    "point": "each view's ray through the dot, from its typed camera centre: the rays meet "
-    "at the estimate",
-    "ground": "each view's plane (the finger's image line back-projected) cut by the ground: "
-    "the traces meet at the estimate, the ground point the finger points at (not the finger)",
-    "line": "the estimated line through its reported point; the circle is the true "
-    "segment's midpoint",
-}
-
-
 def session_captions(
     trials: pd.DataFrame, *, include_warned: bool, units: str = ""
 ) -> dict[str, str]:
@@ -95,7 +86,7 @@ def session_captions(
     when it has no trial to name them)."""
     shown = str(trials["units"].iloc[0]) if len(trials) else units or "session units"
     units = html.escape(shown)
-    method = str(trials["method"].iloc[0]) if len(trials) else ""
+    top_view = spec_of(str(trials["method"].iloc[0])).top_view if len(trials) else "each view"
     ok = used_trials(trials, include_warned=True)
     n_warned = int(warned(ok).sum())
     fate = "included in the statistics" if include_warned else "left out of the statistics"
@@ -119,7 +110,7 @@ def session_captions(
         + framed
         + skipped,
         "topview": f"Seen from above (x across, z in depth, {units}): "
-        f"{_TOP_VIEW.get(method, 'each view')}; the truth is drawn over them."
+        f"{top_view}; the truth is drawn over them."
         + colour
         + doubt.format(how="dashed")
         + framed

@@ -19,7 +19,9 @@ from matplotlib.colors import BoundaryNorm, Colormap, ListedColormap, Normalize
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
+from twopose.errors import InputValueError
 from twopose.format.entries import INCHES_PER_UNIT
+from twopose.methods import spec_of
 
 __all__ = [
     "DPI",
@@ -50,12 +52,14 @@ NOTE = 8  # a note under a legend
 #: Series in one legend; beyond it, a figure keys its colours with a colour bar.
 MAX_LEGEND = 8
 
-_METHOD_COLOURS = {"ground": "C0", "point": "C1", "line": "C2"}  # as the sensitivity figure
-
 
 def method_colour(method: object) -> str:
-    """One colour per method in every figure."""
-    return _METHOD_COLOURS.get(str(method), "C4")
+    """One colour per method in every figure (the registry's
+    :attr:`~twopose.methods.MethodSpec.colour`; another for a name it does not know)."""
+    try:
+        return spec_of(str(method)).colour
+    except InputValueError:
+        return "C4"
 
 
 def layout(

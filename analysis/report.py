@@ -29,6 +29,7 @@ from analysis.html_page import Image, figure_html, figure_row, image, page_html,
 from analysis.metrics import SESSION_SETS, by_session_set, session_set, used_trials
 from analysis.table_labels import metadata_table, readable_columns
 from analysis.thesis import thesis_sessions, thesis_table, thesis_verdict
+from twopose.methods import spec_of
 
 if TYPE_CHECKING:
     from analysis.results import RunResult, SessionResult
@@ -80,7 +81,7 @@ def _trial_table(trials: pd.DataFrame) -> pd.DataFrame:
     """The report's view of a session's trials: what was measured, its error and why not;
     the line's columns only for a line session."""
     columns = [c for c in REPORT_TRIAL_COLUMNS if c in trials]
-    if not (trials["method"] == "line").any():
+    if not any(spec_of(str(m)).estimates_line for m in trials["method"].unique()):
         columns = [c for c in columns if c not in ("angle_err_deg", "dist_err")]
     return trials[columns]
 

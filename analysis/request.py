@@ -25,13 +25,13 @@ point, across the line) and ``cov_direction`` (of the unit direction).
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
 
 from twopose.camera import rotation_from_angles_deg
 from twopose.errors import InputValueError
+from twopose.jsonsafe import finite_or_none
 from twopose.methods import spec_of
 from twopose.optimal_lines import centroid_segments, optimal_lines
 from twopose.solve import (
@@ -134,16 +134,15 @@ def solve_request(method: str, request: Any) -> dict[str, Any]:
         n = len(views) if isinstance(views, list) else "no"
         raise InputValueError(f"the request has {n} view(s); a reconstruction needs 2 or more")
     estimator = request.get("estimator", "thesis")
-    allowed = {"point": ("thesis", "optimal"), "line": ("thesis", "weighted", "optimal")}.get(
-        method, ("thesis",)
-    )
+    allowed = spec_of(method).estimators
     if estimator not in allowed:
         raise InputValueError(
             f"estimator for {method} must be {' or '.join(allowed)}, got {estimator!r}"
         )
     P = np.stack([_projection(v, f"views[{i}]") for i, v in enumerate(views)])[None]
     answer: dict[str, Any]
-    if method == "point":
+    spec = spec_of(method)
+    if not spec.uses_image_lines:  # a pixel per view: rays
         px = np.array(
             [
                 [
@@ -155,9 +154,9 @@ def solve_request(method: str, request: Any) -> dict[str, Any]:
         s = triangulate_points(px, P, estimator=estimator)
         answer = {"point": _vec(s.point_grid[0]), "reprojection_rms_px": _num(s.rms_px[0])}
         status, reason, cond = s.status[0], s.reason[0], s.conditioning[0]
-    elif method in ("line", "ground"):
+    else:  # an image line per view: planes
         lines = np.stack([_image_line(v, f"views[{i}]") for i, v in enumerate(views)])[None]
-        if method == "line":
+        if spec.estimates_line:
             sigma = [
                 _numbers([v.get("sigma_px", 1.0)], 1, f"views[{i}].sigma_px")[0]
                 for i, v in enumerate(views)
@@ -180,8 +179,6 @@ def solve_request(method: str, request: Any) -> dict[str, Any]:
             g = triangulate_ground(lines, P, [0.0, 1.0, 0.0], h)
             answer = {"point": _vec(g.point_grid[0])}
             status, reason, cond = g.status[0], g.reason[0], g.conditioning[0]
-    else:
-        raise InputValueError(f"method must be point, line or ground, got {method!r}")
     answer |= {
         "status": str(status),
         "reason": str(reason),
@@ -193,7 +190,7 @@ def solve_request(method: str, request: Any) -> dict[str, Any]:
 
 
 def _num(v: float) -> float | None:
-    return None if not math.isfinite(v) else float(v)
+    return finite_or_none(float(v))
 
 
 def _vec(v: np.ndarray) -> list[float] | None:

@@ -33,12 +33,14 @@ from analysis.rig_data import RigData, combine, prepare, prepare_session, requir
 from twopose.arrays import F64
 from twopose.errors import InputValueError
 from twopose.estimate import ViewBatch
+from twopose.methods import spec_of
 from twopose.rig import (
     RIG_PARAMETERS,
     RigConstants,
     against_priors,
     angles_deg_from_rotation,
     prior_sigma,
+    true_ground,
 )
 from twopose.session_estimate import SessionEstimate
 from twopose.solve import image_lines, triangulate_ground, triangulate_lines, triangulate_points
@@ -96,18 +98,18 @@ def corrected_estimates(data: RigData, rig: RigConstants) -> tuple[F64, F64]:
     P, valid, mc = batch.P(), batch.valid, data.options.min_conditioning
     px, th = batch.inputs[..., :2], batch.inputs[..., 2]
     no_direction = np.full((len(data.trial_ids), 3), np.nan)
-    if data.method == "point":
+    spec = spec_of(data.method)
+    if not spec.uses_image_lines:  # rays through the dot
         solved = triangulate_points(px, P, valid=valid, min_conditioning=mc)
         return np.asarray(solved.point_grid), no_direction
     lines = image_lines(px, th)
-    if data.method == "ground":
+    if spec.needs_ground:
         point = np.full((len(data.trial_ids), 3), np.nan)
         for s in np.unique(data.origin):  # each session on its own ground plane
             rows = data.origin == s
             ground = data.grounds[int(s)]
             assert ground is not None
-            normal, typed = ground
-            true = typed - rig.ground_height_error * float(np.linalg.norm(normal))
+            normal, true = true_ground(ground, rig)
             g = triangulate_ground(
                 lines[rows], P[rows], normal, true, valid=valid[rows], min_conditioning=mc
             )
@@ -448,7 +450,7 @@ def _loo_columns(data: RigData, loo: LeaveOneOut) -> pd.DataFrame:
     columns: dict[str, F64] = {f"{a}_rig": loo.points[:, i] for i, a in enumerate("xyz")}
     columns["err_rig"] = np.linalg.norm(loo.points - reference, axis=1)
     columns["within95_rig"] = loo.within95
-    if data.method == "line":
+    if spec_of(data.method).estimates_line:
         with np.errstate(invalid="ignore"):
             _, _, angle, dist = line_errors(
                 loo.points, loo.directions, data.truth[:, 0], data.truth[:, 1]

@@ -18,8 +18,12 @@ import pandas as pd
 
 from twopose.arrays import F64
 from twopose.camera import Intrinsics, project_points
+from twopose.methods import Method, spec_of
 from twopose.solve import image_lines, projection_matrices, triangulate_ground, triangulate_points
 from twopose.targets import finger_axis
+
+#: The methods the sweeps cover: the thesis' two (the line has its own tests).
+SWEPT: tuple[Method, ...] = (Method.POINT, Method.GROUND)
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -83,7 +87,7 @@ def _estimate(g: Geometry, method: str, samples: int, rng: np.random.Generator) 
     P = projection_matrices(
         np.broadcast_to(K, (samples, 2, 4)), np.broadcast_to(np.eye(3), (samples, 2, 3, 3)), typed
     )
-    if method == "point":
+    if not spec_of(method).uses_image_lines:  # the dot's pixel in each view
         px = np.stack(
             [
                 project_points(np.asarray(g.point_target), g.intrinsics, np.eye(3), c)[0]
@@ -106,7 +110,7 @@ def _estimate(g: Geometry, method: str, samples: int, rng: np.random.Generator) 
 
 
 def _truth(g: Geometry, method: str) -> F64:
-    if method == "point":
+    if not spec_of(method).needs_ground:  # the dot
         return np.asarray(g.point_target, dtype=np.float64)
     return np.array([g.ground_point[0], g.ground_height, g.ground_point[1]])
 
@@ -141,7 +145,7 @@ def sensitivity(samples: int = 2000, seed: int = 0, base: Geometry | None = None
     """
     g0 = base or Geometry()
     rows = []
-    for method in ("point", "ground"):
+    for method in SWEPT:
         for s in (0.1, 0.25, 0.5, 1.0, 2.0):
             rows.append(
                 _row(replace(g0, pixel_sigma=s), method, "pixel noise", s, "px", samples, seed)
@@ -162,13 +166,13 @@ def sensitivity(samples: int = 2000, seed: int = 0, base: Geometry | None = None
             )
             rows.append(_row(g, method, "baseline direction", angle, "deg from x", samples, seed))
         for scale in (0.75, 1.0, 1.5, 2.0):
-            if method == "point":
+            if not spec_of(method).needs_ground:  # the dot, farther away
                 x, y, z = g0.point_target
                 g = replace(g0, point_target=(x, y, z * scale))
             else:
                 g = replace(g0, ground_point=(g0.ground_point[0], g0.ground_point[1] * scale))
             rows.append(_row(g, method, "target distance", scale, "x the thesis'", samples, seed))
-        if method == "ground":
+        if spec_of(method).needs_ground:  # the finger's tilt
             for tilt in (15.0, 25.0, 35.0, 45.0, 55.0):
                 rows.append(
                     _row(
@@ -191,7 +195,7 @@ def x_translation_effect(error: float = 0.1, base: Geometry | None = None) -> fl
     to about 0.2 in; this measures it, noise-free, in the thesis' geometry.
     """
     g = replace(base or Geometry(), pixel_sigma=0.0, theta_sigma_deg=0.0)
-    truth = _truth(g, "ground")
+    truth = _truth(g, Method.GROUND)
     worst = 0.0
     for camera in (0, 1):
         for sign in (-1.0, 1.0):

@@ -68,7 +68,8 @@ def _method_columns(method: str, est: Estimates, truth: F64) -> dict[str, Any]:
             _, _, angle, dist = line_errors(est.point, est.direction, truth[:, 0], truth[:, 1])
         extra = {f"dir_{a}": est.direction[:, i] for i, a in enumerate("xyz")}
         return extra | {"angle_err_deg": angle, "dist_err": dist}
-    if method == "point":  # the estimators side by side
+    if "optimal" in spec_of(method).estimators and not spec_of(method).estimates_line:
+        # the point's estimators side by side
         opt_err = est.optimal - truth[:, 0]
         extra = {f"{a}_optimal": est.optimal[:, i] for i, a in enumerate("xyz")}
         return extra | {"err_optimal": np.linalg.norm(opt_err, axis=1)}

@@ -41,8 +41,8 @@ def thesis_table(
     trials, averaging = thesis_sessions(trials), thesis_sessions(averaging)
     used = _used(trials, include_warned=include_warned)
     rows = [
-        _within_row(used, "point", "method 1 (fixed point) errors"),
-        _within_row(used, "ground", "method 2 (pointed ground point) errors"),
+        _within_row(used, Method.POINT, "method 1 (fixed point) errors"),
+        _within_row(used, Method.GROUND, "method 2 (pointed ground point) errors"),
         _x_bias_row(used),
         _x_translation_row(),
         _averaging_row(trials, averaging),
@@ -169,7 +169,7 @@ def _x_bias_row(used: pd.DataFrame) -> dict[str, str]:
     yes; under :data:`_X_BIAS_MATERIAL_IN`, no (any overestimate is below half of what the
     thesis attributes to it); else can't tell."""
     row = {"claim": "method 2 overestimates x", "thesis": "most x overestimated (a bias)"}
-    g = used[used["method"] == "ground"]
+    g = used[used["method"] == Method.GROUND]
     if len(g) < 2:
         return row | {"twopose": f"{len(g)} trial(s): too few", "reproduced": NO_DATA}
     bias, half = _mean_interval(g["err_x_in"].to_numpy(dtype=np.float64))

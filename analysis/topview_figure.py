@@ -35,6 +35,7 @@ from analysis.figure_style import (
 )
 from analysis.metrics import used_trials, warned
 from twopose.camera import rotation_from_angles_deg
+from twopose.methods import Method, spec_of
 from twopose.scene3d import TrialScene
 from twopose.topview import TopView, top_view
 
@@ -42,14 +43,6 @@ __all__ = ["VIEW_GEOMETRY", "plot_top_view", "top_views"]
 
 #: views.csv columns a top view needs beyond the camera centre and the pixel.
 VIEW_GEOMETRY = ["fx", "fy", "cx", "cy", "r_x_deg", "r_y_deg", "r_z_deg"]
-
-_SEGMENT_NAME = {
-    "point": "ray through the dot, per view",
-    "ground": "view plane's trace on the ground",
-    "line": "estimated line",
-}
-_TRUTH_NAME = {"line": "truth (true segment's midpoint)"}
-
 
 #: views.csv columns a trial's scene is built from, in this order.
 _VIEW_ARRAY = ["fx", "fy", "cx", "cy", "r_x_deg", "r_y_deg", "r_z_deg", "t_x", "t_y", "t_z",
@@ -60,7 +53,7 @@ def _scene(row: dict[str, object], views: np.ndarray) -> TrialScene:
     """A trial's scene from its trials.csv values and its views (rows of
     :data:`_VIEW_ARRAY`), as arrays: a session's hundred trials in milliseconds."""
     n = len(views)
-    line = row["method"] == "line"
+    line = spec_of(str(row["method"])).estimates_line
     truth = np.full((2, 3), np.nan)  # a line's true segment is not in trials.csv
     if not line:
         truth[:] = row["truth"]
@@ -126,13 +119,14 @@ def plot_top_view(
     include_warned: bool = False,
 ) -> None:
     """Looking down the y axis (x-z): each ok trial's typed camera centres, what each view
-    measured (:data:`_SEGMENT_NAME`), the estimate and the truth (on top of the rays), each
-    trial in its colour (``palette``: the session's, the same in its other figures). The
-    axes are framed by the trials the statistics use; a left-out (warned) trial is dashed,
-    and its estimate beyond the frame is drawn at the edge with its value."""
+    measured (the method's :attr:`~twopose.methods.MethodSpec.view_segment`), the estimate
+    and the truth (on top of the rays), each trial in its colour (``palette``: the
+    session's, the same in its other figures). The axes are framed by the trials the
+    statistics use; a left-out (warned) trial is dashed, and its estimate beyond the frame
+    is drawn at the edge with its value."""
     drawn = top_views(trials, views)
     units = str(trials["units"].iloc[0]) if len(trials) else "session units"
-    method = str(trials["method"].iloc[0]) if len(trials) else "point"
+    spec = spec_of(str(trials["method"].iloc[0]) if len(trials) else Method.POINT)
     palette = palette or TrialColours.of([d.view.trial for d in drawn])
     ax = fig.add_subplot()
     _draw(ax, drawn, palette)
@@ -159,9 +153,9 @@ def plot_top_view(
     ]
     handles = [
         key("camera (typed)", marker="^", color="0.3"),
-        key(_SEGMENT_NAME.get(method, "segment"), color="0.3", lw=0.8, linestyle="-"),
+        key(spec.view_segment, color="0.3", lw=0.8, linestyle="-"),
         key("estimate", marker="x", color="0.3"),
-        key(_TRUTH_NAME.get(method, "truth"), marker="o", mfc="white", mec="k", mew=1.2),
+        key(spec.truth_name, marker="o", mfc="white", mec="k", mew=1.2),
     ]
     if any(d.warned for d in drawn):
         fate = "included" if include_warned else "left out"

@@ -1,6 +1,6 @@
 """Reconstruct Merton College I (three real calibrated views) and compare with its reference.
 
-    .venv/bin/python benchmarks/merton_check.py [--data ../shared/data/merton1]
+    .venv/bin/python benchmarks/merton_check.py [--data data/merton1]
 
 Points: N-view triangulation of the matched corners, thesis least squares and reprojection
 optimal (Gauss-Newton), against ``p3d`` (itself a reprojection-optimal reconstruction).
@@ -26,7 +26,7 @@ from twopose.solve import NViewLines, segment_lines, triangulate_lines, triangul
 
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "merton_check.md"
-DEFAULT = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "merton1"
+DEFAULT = Path(__file__).resolve().parents[1] / "data" / "merton1"
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,6 @@
 """Two real cameras: OpenCV's stereo photographs measured with twopose's point solver.
 
-    .venv/bin/python benchmarks/two_camera.py [--data ../shared/data/opencv-chessboard]
+    .venv/bin/python benchmarks/two_camera.py [--data data/opencv-chessboard]
 
 The 13 left/right photographs of a 9x6 checkerboard with 25 mm squares (two real cameras
 side by side). Leave-one-out over the pairs: each camera calibrated on the other 12 views
@@ -36,7 +36,7 @@ from twopose.solve import projection_matrices, triangulate_two_views
 
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "two_camera.txt"
-DEFAULT = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "opencv-chessboard"
+DEFAULT = Path(__file__).resolve().parents[1] / "data" / "opencv-chessboard"
 BOARD = (9, 6)  # inner corners, (cols, rows)
 SQUARE_MM = 25.0
 SIZE = (640, 480)

@@ -39,7 +39,7 @@ from twopose.format.entries import (
     TruthKind,
     TypedEntry,
 )
-from twopose.methods import Method, spec_of
+from twopose.methods import LINE_TRUTH, POINT_TRUTH, Method, spec_of
 from twopose.sim.camera import SyntheticCamera, camera_pose, true_intrinsics
 from twopose.sim.layout import BOARD_POSES, Layout, board_poses, build_layout, finger_axis
 from twopose.sim.scene import CameraParams, PoseParams, Scene
@@ -87,17 +87,18 @@ def target_points(scene: Scene, method: str) -> tuple[TruthKind, NDArray[np.floa
     point: the dot centre; ground: where the finger axis meets the ground;
     line: the finger axis' tip and base.
     """
-    if method == "point":
-        return "point", np.asarray([scene.point.position], dtype=np.float64)
+    spec = spec_of(method)
+    if not spec.uses_image_lines:  # the dot
+        return POINT_TRUTH, np.asarray([scene.point.position], dtype=np.float64)
     tip, base = finger_axis(scene)
-    if method == "line":
-        return "line", np.stack([tip, base])
+    if spec.estimates_line:
+        return LINE_TRUTH, np.stack([tip, base])
     g = scene.finger.ground_point
-    return "point", np.array([[g[0], scene.ground_height, g[1]]])
+    return POINT_TRUTH, np.array([[g[0], scene.ground_height, g[1]]])
 
 
 def _visible_points(scene: Scene, method: str) -> NDArray[np.float64]:
-    if method == "point":
+    if not spec_of(method).uses_image_lines:  # the dot
         return np.asarray([scene.point.position], dtype=np.float64)
     tip, base = finger_axis(scene)
     return np.stack([tip, base])
@@ -299,7 +300,7 @@ class _SimulatedOperator(Driver):
         self.scene, self.method, self.trials = scene, method, trials
         self.rng, self.clock, self.source = rng, clock, source
         self.board = not spec_of(method).measures  # a board session: its poses, no truth
-        self.kind: TruthKind = "point"
+        self.kind: TruthKind = POINT_TRUTH
         self.truth: tuple[Vec3, ...] = ()
         if not self.board:
             self.kind, truth = target_points(scene, method)

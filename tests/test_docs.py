@@ -40,6 +40,8 @@ def test_the_readmes_links_point_at_files_that_exist() -> None:
         ("merton_check.py", "merton_check.md", "real-data.md"),
         ("two_camera.py", "two_camera.txt", "real-data.md"),
         ("thesis_reproduced.py", "thesis_reproduced.txt", "sample-sessions.md"),
+        ("command_help.py", "command_help.txt", "commands.md"),
+        ("census.py", "census.txt", "layout.md"),
     ],
 )
 def test_the_docs_deterministic_figures_are_what_their_scripts_print(

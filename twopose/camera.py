@@ -1,6 +1,6 @@
 """The pinhole camera model and pose conventions shared by every stage.
 
-Conventions (``../shared/DESIGN.md``): camera frame x right, y down, z forward;
+Conventions (``docs/method.md``): camera frame x right, y down, z forward;
 grid frame G x right, y down (toward the table), z forward. A pose is the camera
 centre ``t_grid`` in G and ``R_cam_to_grid`` built from typed angles as
 ``Rx(rx) Ry(ry) Rz(rz)``, so that ``p_grid = R_cam_to_grid @ p_cam + t_grid``.

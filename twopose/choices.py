@@ -10,15 +10,12 @@ command lines can read it at start-up.
 
 from __future__ import annotations
 
-from typing import Literal, get_args
+from typing import Literal
 
-__all__ = ["COMBINE_RULES", "TARGETS", "CombineRule", "Target"]
+__all__ = ["CombineRule", "Target"]
 
 #: How a pose's frames are combined into one measurement (:func:`twopose.detect.combine_frames`;
 #: the thesis averages, section 5.3).
 CombineRule = Literal["mean", "median", "robust"]
 #: What the detector looks for in a frame: the gloved finger (method 2, the line) or the dot.
 Target = Literal["glove", "dot"]
-
-COMBINE_RULES: tuple[CombineRule, ...] = get_args(CombineRule)
-TARGETS: tuple[Target, ...] = get_args(Target)

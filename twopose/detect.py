@@ -41,7 +41,7 @@ Image = NDArray[np.uint8]
 
 @dataclass(frozen=True, kw_only=True)
 class GloveParams:
-    """Thresholds of the thesis' glove filter (DESIGN.md: the code's inequalities).
+    """Thresholds of the thesis' glove filter (docs/method.md: the code's inequalities).
 
     A pixel is glove-coloured when its normalized RGB ``(R, G, B) / |RGB|`` has
     ``Rn <= r_max``, ``Gn >= g_min`` and ``Bn >= b_min``; blobs must have area
@@ -496,7 +496,7 @@ class PoseMeasurement:
 
 
 def _doubled_angle_mean(theta_deg: NDArray[np.float64]) -> float:
-    """Mean line direction: average (cos 2t, sin 2t), never raw angles (DESIGN.md)."""
+    """Mean line direction: average (cos 2t, sin 2t), never raw angles (docs/method.md)."""
     t2 = np.deg2rad(2.0 * theta_deg)
     return float(wrap_theta_deg(np.rad2deg(0.5 * math.atan2(np.sin(t2).mean(), np.cos(t2).mean()))))
 

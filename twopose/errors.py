@@ -14,7 +14,6 @@ from contextlib import contextmanager
 __all__ = [
     "EXIT_ERROR",
     "EXIT_INTERRUPTED",
-    "EXIT_OK",
     "EXIT_SOME_INPUTS_FAILED",
     "EXIT_USAGE",
     "InputValueError",
@@ -58,7 +57,6 @@ class SourceError(TwoposeError):
 
 
 #: Exit codes of the command-line tools (documented in the README and docs/commands.md).
-EXIT_OK = 0
 EXIT_SOME_INPUTS_FAILED = 1
 EXIT_USAGE = 2  # click/typer's own code for a malformed command line
 EXIT_ERROR = 3

@@ -21,11 +21,29 @@ from typing import Literal
 from twopose.choices import Target
 from twopose.errors import InputValueError
 
-__all__ = ["MEASURING_METHODS", "METHODS", "METHOD_SPECS", "Method", "MethodSpec", "spec_of"]
+__all__ = [
+    "LINE_TRUTH",
+    "MEASURING_METHODS",
+    "METHODS",
+    "METHOD_SPECS",
+    "POINT_TRUTH",
+    "TRUTH_POINTS",
+    "Method",
+    "MethodSpec",
+    "TruthKind",
+    "spec_of",
+]
+
+#: The ground truth a trial carries: one point, or a line's two points.
+TruthKind = Literal["point", "line"]
+POINT_TRUTH: TruthKind = "point"
+LINE_TRUTH: TruthKind = "line"
+#: How many grid points each kind of truth has.
+TRUTH_POINTS: Mapping[str, int] = MappingProxyType({POINT_TRUTH: 1, LINE_TRUTH: 2})
 
 
 class Method(StrEnum):
-    """What a session reconstructs (DESIGN.md; the thesis' method 1, the line, method 2)."""
+    """What a session reconstructs (docs/method.md; the thesis' method 1, the line, method 2)."""
 
     POINT = "point"  # method 1: a fixed dot, two rays (thesis eq. for [p1, -R p2] a = d)
     LINE = "line"  # a fixed line: each image line back-projects to a plane
@@ -43,7 +61,7 @@ class MethodSpec:
     target: Target | None
     #: The ground truth a trial carries: one point, or a line's two points; None for a board
     #: session, whose truth is the board's placement (the session entry's ``board``).
-    truth_kind: Literal["point", "line"] | None
+    truth_kind: TruthKind | None
     #: Whether the estimate needs the ground plane y = h (the session's ground height).
     needs_ground: bool
     #: Degeneracy margins (trials.csv columns, degrees) that apply to the method.
@@ -53,6 +71,15 @@ class MethodSpec:
     #: How the thesis names it, and how tables and verdicts label it.
     thesis_name: str
     label: str
+    #: The estimators a measurement of it can be solved by (``thesis`` first): the
+    #: thesis' formulas, the reprojection-optimal fit, the weighted plane fit.
+    estimators: tuple[str, ...] = ("thesis",)
+    #: Its colour in every figure over a run (matplotlib's cycle; the sensitivity figure's).
+    colour: str = "C4"
+    #: What a top view draws for one view, how it names the truth, and its caption.
+    view_segment: str = "segment"
+    truth_name: str = "truth"
+    top_view: str = "each view"
 
     @property
     def measures(self) -> bool:
@@ -62,12 +89,12 @@ class MethodSpec:
     @property
     def truth_points(self) -> int:
         """How many ground-truth points a trial has (a line's two ends; none on a board)."""
-        return {"line": 2, "point": 1, None: 0}[self.truth_kind]
+        return TRUTH_POINTS.get(self.truth_kind, 0) if self.truth_kind else 0
 
     @property
     def estimates_line(self) -> bool:
         """Whether the estimate is a 3-D line (a point on it and a direction)."""
-        return self.truth_kind == "line"
+        return self.truth_kind == LINE_TRUTH
 
     @property
     def uses_image_lines(self) -> bool:
@@ -86,6 +113,11 @@ METHOD_SPECS: Mapping[Method, MethodSpec] = MappingProxyType(
             extra_columns=("x_optimal", "y_optimal", "z_optimal", "err_optimal"),
             thesis_name="method 1",
             label="point (method 1)",
+            estimators=("thesis", "optimal"),
+            colour="C1",
+            view_segment="ray through the dot, per view",
+            top_view="each view's ray through the dot, from its typed camera centre: the rays "
+            "meet at the estimate",
         ),
         Method.LINE: MethodSpec(
             method=Method.LINE,
@@ -96,6 +128,12 @@ METHOD_SPECS: Mapping[Method, MethodSpec] = MappingProxyType(
             extra_columns=("dir_x", "dir_y", "dir_z", "angle_err_deg", "dist_err"),
             thesis_name="fixed line",
             label="line",
+            estimators=("thesis", "weighted", "optimal"),
+            colour="C2",
+            view_segment="estimated line",
+            truth_name="truth (true segment's midpoint)",
+            top_view="the estimated line through its reported point; the circle is the true "
+            "segment's midpoint",
         ),
         Method.GROUND: MethodSpec(
             method=Method.GROUND,
@@ -106,6 +144,11 @@ METHOD_SPECS: Mapping[Method, MethodSpec] = MappingProxyType(
             extra_columns=(),
             thesis_name="method 2",
             label="ground (method 2)",
+            colour="C0",
+            view_segment="view plane's trace on the ground",
+            top_view="each view's plane (the finger's image line back-projected) cut by the "
+            "ground: the traces meet at the estimate, the ground point the finger points at "
+            "(not the finger)",
         ),
         Method.BOARD: MethodSpec(
             method=Method.BOARD,

@@ -56,6 +56,7 @@ __all__ = [
     "load_rig",
     "plausible_bounds",
     "prior_sigma",
+    "true_ground",
 ]
 
 
@@ -144,10 +145,6 @@ class RigConstants:
         k[..., 2:] += np.asarray(self.principal_offset_px)
         return k
 
-    def true_ground_height(self, typed: float) -> float:
-        """The true ground height for a typed one."""
-        return typed - self.ground_height_error
-
 
 def angles_deg_from_rotation(R: ArrayLike) -> F64:
     """The angles ``(rx, ry, rz)`` in degrees of rotations ``R = Rx Ry Rz``.
@@ -188,6 +185,15 @@ def corrected_ground(ground: GroundSpec | None, rig: RigConstants) -> GroundSpec
     if ground is None:
         return None
     check_plausible(rig, ground_height=ground_height(ground), only=["ground_height_error"])
+    return true_ground(ground, rig)
+
+
+def true_ground(ground: GroundSpec, rig: RigConstants) -> GroundSpec:
+    """The typed ground plane moved to its true height (``n . p = h - error |n|``).
+
+    Without the plausibility check: the rig fit tries constants on its way to them
+    (:func:`corrected_ground` checks the ones a run corrects by).
+    """
     normal, offset = ground
     return normal, offset - rig.ground_height_error * float(np.linalg.norm(normal))
 

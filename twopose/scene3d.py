@@ -257,7 +257,7 @@ def trial_scene(s: TrialScene, log_time_ns: int) -> SceneUpdate:
     if np.isfinite(s.truth).all():
         e = _entity(update, log_time_ns, "truth", s.trial)
         size = 0.04 * float(np.mean(reach))
-        if spec_of(s.method).truth_kind == "line":
+        if spec_of(s.method).estimates_line:
             _line(e, LinePrimitive.Type.LINE_STRIP, s.truth, GREEN, 4.0)
         else:
             _sphere(e, s.truth[0], np.full(3, size), np.eye(3), GREEN)

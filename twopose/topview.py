@@ -93,7 +93,7 @@ def top_view(scene: TrialScene) -> TopView:
         segments = _ground_traces(scene, estimate, reach)
     else:
         segments = _lines(scene, estimate, reach)
-    truth = _xz(scene.truth[0]) if spec.truth_kind != "line" else _end_on(scene.truth)
+    truth = _end_on(scene.truth) if spec.estimates_line else _xz(scene.truth[0])
     cameras = tuple(c for c in (_xz(t) for t in scene.t_grid) if c is not None)
     return TopView(
         trial=scene.trial,

@@ -4,20 +4,20 @@ the sweeps, and one image or one measurement by hand."""
 from __future__ import annotations
 
 import json
-import math
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
 import typer
 
+from twopose import jsonsafe
 from twopose.choices import Target
 from twopose.errors import (
     EXIT_SOME_INPUTS_FAILED,
     InputValueError,
     handle_errors,
 )
-from twopose.methods import Method
+from twopose.methods import MEASURING_METHODS, Method
 
 if TYPE_CHECKING:
     pass
@@ -104,8 +104,10 @@ def sensitivity_command(
     )
 
 
-def _json_float(v: float) -> float | None:
-    return None if math.isnan(v) else round(v, 4)
+def _json_float(v: float) -> float:
+    """A detection's number to four decimals (a non-finite one becomes null when written:
+    :func:`twopose.jsonsafe.dumps`)."""
+    return round(v, 4)
 
 
 @app.command()
@@ -148,13 +150,20 @@ def detect(
                 "eccentricity": _json_float(d.eccentricity) if d.found else None,
                 "reason": d.reason,
             }
-        typer.echo(json.dumps(out))
+        typer.echo(jsonsafe.dumps(out))
     if failed:
         raise typer.Exit(EXIT_SOME_INPUTS_FAILED)
 
 
+_MEASURING = "|".join(MEASURING_METHODS)  # what can be solved (the registry's)
+
+
 @app.command()
-def solve(method: Annotated[Method, typer.Argument(help="Which reconstruction.")]) -> None:
+def solve(
+    method: Annotated[
+        Method, typer.Argument(help="Which reconstruction.", metavar=_MEASURING, show_choices=False)
+    ],
+) -> None:
     """Solve one measurement by hand: a JSON request on stdin, a JSON answer on stdout.
 
     \b
@@ -192,4 +201,4 @@ def solve(method: Annotated[Method, typer.Argument(help="Which reconstruction.")
         except (ValueError, RecursionError) as err:  # bad JSON, 5000-digit or 1e5-deep values
             raise InputValueError(f"the request is not valid JSON: {err}") from err
         answer = solve_request(method.value, request)
-    typer.echo(json.dumps(answer))
+    typer.echo(jsonsafe.dumps(answer))

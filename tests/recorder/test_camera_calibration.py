@@ -115,10 +115,9 @@ def test_no_board_in_view_is_a_clear_error(tmp_path: Path) -> None:
     assert not (tmp_path / "cal.toml").exists()
 
 
-REAL = Path(__file__).resolve().parents[3] / "shared" / "data" / "opencv-chessboard"
+REAL = Path(__file__).resolve().parents[2] / "data" / "opencv-chessboard"
 
 
-@pytest.mark.skipif(not REAL.is_dir(), reason="../shared/data/opencv-chessboard is not here")
 def test_real_photographs_use_every_view_and_agree_with_opencv(tmp_path: Path) -> None:
     """OpenCV's 13 real photographs (left camera): every view is used, and the intrinsics
     are within 2 sigma of OpenCV's own fit of all 13, computed here with OpenCV directly. The
@@ -157,7 +156,6 @@ def test_real_photographs_use_every_view_and_agree_with_opencv(tmp_path: Path) -
     assert "families" not in result.output
 
 
-@pytest.mark.skipif(not REAL.is_dir(), reason="../shared/data/opencv-chessboard is not here")
 def test_a_folder_of_two_cameras_photographs_is_warned_about(tmp_path: Path) -> None:
     """The shared folder holds the left and the right camera's 13 each: fitted as one camera
     (what the operator asked), with a warning that names the two families and the way out."""

@@ -25,7 +25,7 @@ from twopose.solve import (
 
 K4 = np.array([525.0, 520.0, 318.0, 242.0])
 INTR = Intrinsics(width=640, height=480, fx=K4[0], fy=K4[1], cx=K4[2], cy=K4[3])
-MERTON = Path(__file__).resolve().parents[3] / "shared" / "data" / "merton1"
+MERTON = Path(__file__).resolve().parents[2] / "data" / "merton1"
 
 
 def _views(rng: np.random.Generator, T: int, N: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -84,9 +84,6 @@ def _merton() -> ModuleType:
     return load_benchmark("merton_check")
 
 
-@pytest.mark.skipif(
-    not MERTON.is_dir(), reason="../shared/data/merton1 is not beside this checkout"
-)
 def test_merton_reconstruction_meets_its_targets() -> None:
     m = _merton()
     figures = m.check(m.load(MERTON))
@@ -121,9 +118,6 @@ def test_limap_length_share_in_closed_form() -> None:
     assert m.length_within(a, b, point[:1], direction[:1], 2.0) == pytest.approx(1.0)
 
 
-@pytest.mark.skipif(
-    not MERTON.is_dir(), reason="../shared/data/merton1 is not beside this checkout"
-)
 def test_merton_through_the_solve_command() -> None:
     m = _merton()
     data = m.load(MERTON)

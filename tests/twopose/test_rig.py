@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from twopose.camera import rotation_from_angles_deg
 from twopose.errors import InputValueError
-from twopose.rig import RIG_PARAMETERS, RigConstants, angles_deg_from_rotation
+from twopose.rig import RIG_PARAMETERS, RigConstants, angles_deg_from_rotation, true_ground
 
 angle = st.floats(-89.0, 89.0)
 
@@ -39,7 +39,8 @@ def test_the_constants_act_as_documented() -> None:
     np.testing.assert_allclose(
         rig.true_intrinsics([525, 525, 320, 240]), [540.75, 540.75, 322, 239]
     )
-    assert rig.true_ground_height(9.625) == pytest.approx(9.525)
+    _, height = true_ground((np.array([0.0, 2.0, 0.0]), 2 * 9.625), rig)  # n . p = h |n|
+    assert height / 2 == pytest.approx(9.525)
     assert RigConstants.from_vector(rig.vector()) == rig
     assert len(rig.vector()) == sum(len(v) for v in RIG_PARAMETERS.values()) == 11
     assert RigConstants().is_identity

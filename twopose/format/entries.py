@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from twopose.camera import SIGMA_KEYS, intrinsics_sigma, rotation_from_angles_deg
 from twopose.errors import InputValueError, SessionFormatError
-from twopose.methods import METHODS, Method, spec_of
+from twopose.methods import LINE_TRUTH, METHODS, TRUTH_POINTS, Method, TruthKind, spec_of
 from twopose.targets import BoardPlacement
 from twopose.units import UNIT_SPECS, UNITS, Units, unit_spec
 from twopose.values import CAMERA_ID_PATTERN, Vec3, camera_id, finite, index, numbers, vec3
@@ -57,7 +57,6 @@ FORMAT_MAJOR = 1
 
 #: Inches in one session unit (the thesis reports in inches): twopose.units' registry.
 INCHES_PER_UNIT = {str(u): spec.inches for u, spec in UNIT_SPECS.items()}
-TruthKind = Literal["point", "line"]
 CaptureStatus = Literal["complete", "incomplete"]
 Verdict = Literal["accept", "discard"]
 
@@ -215,7 +214,7 @@ _CAPTURE_SCHEMA = {
     "description": "the capture's number, unique in the session (format 1.1)",
 }
 _CAMERA_SCHEMA = {"type": "string", "pattern": CAMERA_ID_PATTERN}
-_POINTS_SCHEMA = {"enum": ["point", "line"]}
+_POINTS_SCHEMA = {"enum": list(TRUTH_POINTS)}
 
 # --------------------------------------------------------------------------- the entries
 
@@ -510,13 +509,13 @@ class GroundTruth(TypedEntry):
     def __post_init__(self) -> None:
         """Check the trial, the kind and its number of points."""
         index(self.trial, "trial")
-        if self.kind not in ("point", "line"):
+        want = TRUTH_POINTS.get(self.kind)
+        if want is None:
             raise InputValueError(f"ground truth kind must be point or line, got {self.kind!r}")
         pts = tuple(vec3(p, "ground-truth point") for p in self.points_grid)
-        want = 1 if self.kind == "point" else 2
         if len(pts) != want:
             raise InputValueError(f"{self.kind} ground truth needs {want} point(s), got {len(pts)}")
-        if self.kind == "line" and np.allclose(pts[0], pts[1]):
+        if self.kind == LINE_TRUTH and np.allclose(pts[0], pts[1]):
             raise InputValueError("the two ground-truth points of a line must differ")
         object.__setattr__(self, "points_grid", pts)
 

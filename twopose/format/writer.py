@@ -30,7 +30,6 @@ from twopose.format.entries import (
     Note,
     PoseEntry,
     SessionInfo,
-    SimulationTruth,
     TypedEntry,
     encode_entry,
 )
@@ -301,12 +300,6 @@ class SessionWriter:
         """Write an operator's note."""
         self.write_entry(entry, log_time_ns)
 
-    def write_simulation_truth(
-        self, entry: SimulationTruth, log_time_ns: int | None = None
-    ) -> None:
-        """Write a simulation's true pose or truth."""
-        self.write_entry(entry, log_time_ns)
-
     def write_decision(self, entry: CaptureDecision, log_time_ns: int | None = None) -> None:
         """Write the operator's decision on a capture."""
         self.write_entry(entry, log_time_ns)
@@ -429,8 +422,3 @@ class Capture:
             capture=self.number,
         )
         self._writer.write_entry(window, now)
-
-    @property
-    def incomplete_reason(self) -> str:
-        """Why the capture is incomplete (empty when it is not)."""
-        return self._incomplete_reason

@@ -48,7 +48,7 @@ class Primitive:
     """A renderable surface. ``kind`` selects the intersection routine.
 
     kinds: ``capsule`` (a, b, radius), ``box`` (lo, hi), ``card`` (centre, half size,
-    dot centre and radius, in the plane z = centre z, facing -z), ``board`` (a card whose
+    dot centre and radius, in the plane z = centre z, facing -z), ``checkerboard`` (a card whose
     face is a checkerboard: squares of side ``square`` from the pattern's corner
     ``dot_center``, ``color`` light and ``dot_color`` dark, the margin light).
     """
@@ -141,7 +141,7 @@ def build_layout(scene: Scene, method: str, rng: np.random.Generator) -> Layout:
     if not spec_of(method).measures:
         return board_layout(scene)
     prims: list[Primitive] = []
-    if method == "point":
+    if not spec_of(method).uses_image_lines:  # the dot on its card
         pt = scene.point
         dot = np.asarray(pt.position, dtype=np.float64)
         card_center = dot + np.array([pt.card_offset[0], pt.card_offset[1], 0.0])
@@ -237,7 +237,7 @@ def _board(board: BoardParams) -> Primitive:
     centre = corner + np.array([size[0] / 2, -size[1] / 2, 0.0])
     half = np.array([size[0] / 2 + s, size[1] / 2 + s, 0.0])  # with the margin
     return Primitive(
-        kind="board",
+        kind="checkerboard",
         color=srgb_to_linear(board.light_color),
         a=centre,
         b=half,
@@ -283,7 +283,7 @@ def _clutter(scene: Scene, method: str, rng: np.random.Generator) -> list[Decal]
     c = scene.clutter
     decals: list[Decal] = []
     views = _sample_views(scene)
-    if method == "point":
+    if not spec_of(method).uses_image_lines:  # the dot
         target = np.asarray([scene.point.position], dtype=np.float64)
     else:
         target = np.stack(finger_axis(scene))

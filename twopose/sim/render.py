@@ -220,7 +220,7 @@ def _surface(
             sub = albedo[m]
             sub[on_dot] = prim.dot_color
             albedo[m] = sub
-        elif prim.kind == "board":
+        elif prim.kind == "checkerboard":
             p = o + d[m] * t_best[m, None]
             width = t_best[m, None] * footprint / prim.square  # (R, 2), in squares
             dark = _box_filtered_checker(

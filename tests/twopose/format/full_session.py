@@ -103,7 +103,7 @@ def write_full_session(path: Path, image_format: str) -> dict[str, object]:
                 for j, img in enumerate(images[pose.camera_id]):
                     cap.add_frame(img, t + 20 + 100 * k + j)
         w.write_note(note, t + 500)
-        w.write_simulation_truth(truth, t + 600)
+        w.write_entry(truth, t + 600)
     return {
         "info": info,
         "ground": ground,

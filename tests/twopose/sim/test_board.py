@@ -61,9 +61,9 @@ def test_the_board_is_found_where_its_corners_project(
 def test_a_scene_with_a_board_renders_it_beside_the_target() -> None:
     scene = load_scene(None, board={"present": True})
     layout = build_layout(scene, "ground", np.random.default_rng(0))
-    assert [p.kind for p in layout.primitives].count("board") == 1
+    assert [p.kind for p in layout.primitives].count("checkerboard") == 1
     plain = build_layout(load_scene(None), "ground", np.random.default_rng(0))
-    assert "board" not in [p.kind for p in plain.primitives]
+    assert "checkerboard" not in [p.kind for p in plain.primitives]
 
 
 def test_corners_are_spaced_by_the_square_in_rows_along_x() -> None:

@@ -55,7 +55,7 @@ def test_a_present_board_joins_the_target_and_stands_alone_in_a_board_layout() -
     scene = load_scene(board={"present": True})
     kinds = [p.kind for p in build_layout(scene, "point", np.random.default_rng(0)).primitives]
     assert kinds[0] == "card"
-    assert kinds[-1] == "board"
+    assert kinds[-1] == "checkerboard"
     alone = board_layout(scene)
-    assert [p.kind for p in alone.primitives] == ["board"]
+    assert [p.kind for p in alone.primitives] == ["checkerboard"]
     assert alone.decals == ()
