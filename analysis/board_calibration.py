@@ -27,6 +27,7 @@ from twopose.format.reader import SessionReader
 from twopose.format.trials import PoseCapture, iter_trials
 from twopose.methods import spec_of
 from twopose.rig import RIG_PARAMETERS
+from twopose.units import Units
 
 __all__ = ["BoardCalibration", "BoardCaptures", "calibrate_board", "is_board_session"]
 
@@ -165,7 +166,7 @@ def calibrate_board(
         stacked("t_typed"),
         stacked("r_typed_deg"),
         stacked("intrinsics"),
-        units=units.pop(),
+        units=Units(units.pop()),
         t_sigma=max(p.t_sigma for p in ordered),
         groups=FITTED if groups is None else tuple(groups),
     )

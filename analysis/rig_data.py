@@ -18,6 +18,7 @@ from twopose.estimate import EstimateOptions, EstimateSettings, GroundSpec, View
 from twopose.rig import ground_height, plausible_bounds
 from twopose.session_estimate import SessionEstimate, SessionTrials, estimate_session
 from twopose.truth import Reported, reported
+from twopose.units import Units
 
 __all__ = [
     "RigData",
@@ -50,7 +51,7 @@ class RigData:
     cov: F64  # (T, 3, 3): each trial's propagated (random) covariance
     trusted: NDArray[np.bool_]  # (T,): no near-degeneracy warning
     options: EstimateSettings = field(default_factory=EstimateOptions)
-    units: str | None = None
+    units: Units | None = None
     image_size: tuple[int, int] | None = None
     sessions: tuple[str, ...] = ()  # the sessions' names, where known
 
@@ -82,7 +83,7 @@ class RigData:
         (lengths taken in inches when the units are not known)."""
         heights = [h for h in (ground_height(g) for g in self.grounds) if h is not None]
         return plausible_bounds(
-            self.units or "in", min(heights) if heights else None, self.image_size
+            self.units or Units.IN, min(heights) if heights else None, self.image_size
         )
 
 
@@ -130,7 +131,7 @@ def prepare_session(estimate: SessionEstimate, reported_: Reported | None = None
         cov=cov[keep],
         trusted=np.array([estimate.warnings[i] == "" for i in keep], dtype=bool),
         options=estimate.options,
-        units=trials.units,
+        units=Units(trials.units),
         image_size=(min(w for w, _ in sizes), min(h for _, h in sizes)),
     )
 

@@ -24,6 +24,7 @@ from twopose.rig import RigConstants, check_applicable, corrected_ground, correc
 from twopose.scene3d import TrialScene, scene_of_views
 from twopose.session_estimate import SessionTrials
 from twopose.trial_result import TrialResult, trial_results
+from twopose.units import Units
 
 __all__ = ["LiveResults"]
 
@@ -49,7 +50,7 @@ class LiveResults:
         self.notes: list[str] = []
         if rig is not None:  # the analysis' own check (`run --rig`): units and plausibility
             sizes = [(c.intrinsics.width, c.intrinsics.height) for c in cameras]
-            self.notes = check_applicable(rig, units, self._ground, sizes, "the rig file")
+            self.notes = check_applicable(rig, Units(units), self._ground, sizes, "the rig file")
             self._ground = corrected_ground(self._ground, rig)
         self._captures: dict[int, PoseView] = {}  # capture number -> its detections
         self._truth: dict[int, np.ndarray] = {}  # trial -> (2, 3)

@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 from typing_extensions import override
 
 from twopose.errors import InputValueError, SourceError
+from twopose.methods import Method
 
 __all__ = [
     "CameraSource",
@@ -332,7 +333,7 @@ class SyntheticSource(FrameSource):
         from twopose.sim.camera import SyntheticCamera
         from twopose.sim.layout import build_layout
 
-        layout = build_layout(self.scene, self.method, self._rng)
+        layout = build_layout(self.scene, Method(self.method), self._rng)
         self._camera = SyntheticCamera(self.scene, layout, self._rng)
         cam = self.scene.cameras[0]
         self.info = SourceInfo(

@@ -31,6 +31,7 @@ from scipy.optimize import least_squares
 from twopose.arrays import F64
 from twopose.errors import InputValueError
 from twopose.rig import RIG_PARAMETERS, RIG_PRIORS, RigConstants, against_priors, prior_sigma
+from twopose.units import Units
 
 __all__ = ["RIG_PRIORS", "BoardRigFit", "board_order", "check_identifiable", "fit_board_rig"]
 
@@ -78,7 +79,7 @@ def board_order(found_px: ArrayLike, inner_corners: tuple[int, int]) -> F64:
     return best.reshape(-1, 2)
 
 
-def _prior_sigma(units: str) -> F64:
+def _prior_sigma(units: Units) -> F64:
     """The priors' sigma of the constants a board fits (:func:`twopose.rig.prior_sigma`)."""
     return prior_sigma(units)[:-1]
 
@@ -147,7 +148,7 @@ def fit_board_rig(
     r_typed_deg: ArrayLike,
     intrinsics: ArrayLike,
     *,
-    units: str = "in",
+    units: Units = Units.IN,
     t_sigma: float = 0.0,
     groups: Sequence[str] = FITTED,
 ) -> BoardRigFit:

@@ -227,7 +227,7 @@ class Solved:
 
 
 def solve_batch(
-    method: str, batch: ViewBatch, ground: GroundSpec | None, options: EstimateSettings
+    method: Method, batch: ViewBatch, ground: GroundSpec | None, options: EstimateSettings
 ) -> Solved:
     """Batch-solve rows of N >= 2 pose measurements with every estimator."""
     solver = _SOLVERS.get(spec_of(method).method)
@@ -322,7 +322,7 @@ def _perturbed_views(batch: ViewBatch, x: F64) -> tuple[int, NDArray[np.bool_], 
 
 
 def thesis_estimate(
-    method: str,
+    method: Method,
     batch: ViewBatch,
     ground: GroundSpec | None,
     options: EstimateSettings,

@@ -39,7 +39,7 @@ from twopose.camera import rotation_from_angles_deg
 from twopose.errors import InputValueError
 from twopose.estimate import GroundSpec, PoseView
 from twopose.format.entries import INCHES_PER_UNIT, UNITS
-from twopose.units import IS_LENGTH, unit_spec
+from twopose.units import IS_LENGTH, Units, unit_spec
 
 __all__ = [
     "LIMITS",
@@ -82,10 +82,13 @@ class RigConstants:
     tape_scale: float = 1.0
     ground_height_error: float = field(default=0.0, metadata=IS_LENGTH)
     #: The lengths' units (a rig file's ``units``); None: not recorded (a file from before).
-    units: str | None = None
+    units: Units | None = None
 
     def __post_init__(self) -> None:
-        """Check that the constants are finite and the scales plausible."""
+        """Check that the constants are finite and the scales plausible.
+
+        A units' symbol given as text becomes its :class:`~twopose.units.Units`.
+        """
         values = self.vector()
         if not np.isfinite(values).all():
             raise InputValueError(f"rig constants must be finite numbers, got {self}")
@@ -98,6 +101,8 @@ class RigConstants:
             raise InputValueError(
                 f"rig constants: units must be one of {', '.join(UNITS)}, got {self.units!r}"
             )
+        if self.units is not None:
+            object.__setattr__(self, "units", Units(self.units))
 
     @property
     def is_identity(self) -> bool:
@@ -113,7 +118,7 @@ class RigConstants:
         return np.array(parts, dtype=np.float64)
 
     @classmethod
-    def from_vector(cls, values: ArrayLike, units: str | None = None) -> RigConstants:
+    def from_vector(cls, values: ArrayLike, units: Units | None = None) -> RigConstants:
         """The constants from the 11 scalars in :data:`RIG_PARAMETERS` order."""
         v = [float(x) for x in np.asarray(values, dtype=np.float64)]
         return cls(
@@ -226,7 +231,7 @@ RIG_PRIORS = {
 _PRIOR_LENGTHS = ("camera_offset", "ground_height_error")
 
 
-def prior_sigma(units: str | None) -> F64:
+def prior_sigma(units: Units | None) -> F64:
     """The priors' 1-sigma per scalar (11, :data:`RIG_PARAMETERS` order).
 
     Lengths in ``units`` (inches when None).
@@ -238,7 +243,7 @@ def prior_sigma(units: str | None) -> F64:
     )
 
 
-def against_priors(delta: F64, units: str | None, names: tuple[str, ...] = ()) -> tuple[str, ...]:
+def against_priors(delta: F64, units: Units | None, names: tuple[str, ...] = ()) -> tuple[str, ...]:
     """A warning per constant moved more than two prior sigmas from nominal.
 
     ``delta`` (11,): the constants minus nominal (NaN or 0 where not fitted); ``names`` the
@@ -275,7 +280,7 @@ LIMITS = {
 
 
 def _limits(
-    units: str | None, height: float | None, image: tuple[int, int] | None
+    units: Units | None, height: float | None, image: tuple[int, int] | None
 ) -> dict[str, tuple[float | F64, str]]:
     """Per constant, the largest plausible deviation from nominal and its words.
 
@@ -319,7 +324,7 @@ def _limits(
 
 
 def plausible_bounds(
-    units: str | None, ground_height: float | None = None, image: tuple[int, int] | None = None
+    units: Units | None, ground_height: float | None = None, image: tuple[int, int] | None = None
 ) -> tuple[F64, F64]:
     """The plausible constants' lower and upper bounds.
 
@@ -337,7 +342,7 @@ def plausible_bounds(
 def check_plausible(
     rig: RigConstants,
     *,
-    units: str | None = None,
+    units: Units | None = None,
     ground_height: float | None = None,
     image_size: tuple[int, int] | None = None,
     what: str = "rig",
@@ -378,7 +383,7 @@ def _shown(value: float | tuple[float, ...]) -> str:
 
 def check_applicable(
     rig: RigConstants,
-    units: str,
+    units: Units,
     ground: GroundSpec | None = None,
     image_sizes: Iterable[tuple[int, int]] = (),
     what: str = "rig",

@@ -23,7 +23,7 @@ from twopose.arrays import F64
 from twopose.camera import quaternion_xyzw_from_matrix, rotation_from_angles_deg
 from twopose.format.entries import GroundPlane
 from twopose.format.messages import GRID_FRAME
-from twopose.methods import spec_of
+from twopose.methods import Method, spec_of
 from twopose.overlay import GREEN, RED, set_color
 from twopose.uncertainty import CHI2_95
 
@@ -65,7 +65,7 @@ class TrialScene:
 
 def scene_of_views(  # noqa: PLR0913 - one per TrialScene field its two callers know
     trial: int,
-    method: str,
+    method: Method,
     status: str,
     views: Sequence[PoseView],
     measurements: Sequence[PoseMeasurement],

@@ -245,7 +245,7 @@ def _with_rows(base: _A, rows: Ints, values: NDArray[Any]) -> _A:
     return out
 
 
-def _unsolved(T: int, method: str, complete: Bools) -> Estimates:
+def _unsolved(T: int, method: Method, complete: Bools) -> Estimates:
     """Every trial as not solved: incomplete, or missing a detection."""
     status = np.where(complete, "no_detection", "incomplete").astype("<U12")
     reason = np.where(

@@ -15,6 +15,7 @@ from analysis.cli import app
 from recorder.simulate import simulate_session
 from tests.analysis.rig_helpers import empty_session, rig_file, runner
 from twopose.sim.scene import Scene
+from twopose.units import Units
 
 pytestmark = pytest.mark.slow
 
@@ -93,7 +94,7 @@ def test_sessions_in_different_units_are_refused(
 ) -> None:
     metric = tmp_path / "metric.mcap"  # trials to fit, in millimetres
     simulate_session(
-        metric, method="point", trials=2, frames=1, seed=5, scene=Scene().in_units("mm")
+        metric, method="point", trials=2, frames=1, seed=5, scene=Scene().in_units(Units.MM)
     )
     out = tmp_path / "rig.toml"
     result = runner.invoke(app, ["rig", str(rig_sessions["with"]), str(metric), "--out", str(out)])

@@ -28,6 +28,7 @@ from recorder.console_guard import (
 from recorder.console_server import ConsoleOptions, console_app
 from twopose.rig import RigConstants
 from twopose.text import is_control
+from twopose.units import Units
 
 # A small synthetic camera: a pose renders in ~70 ms (as tests/recorder/test_console_stateful.py).
 SCENE = """
@@ -407,9 +408,9 @@ def test_a_failure_inside_the_console_is_a_500_with_the_headers() -> None:
 @pytest.mark.parametrize(
     ("rig", "method", "said"),
     [
-        (RigConstants(principal_offset_px=(300.0, 0.0), units="in"), "point", "implausible"),
-        (RigConstants(units="cm"), "point", "is in cm, the session in in"),
-        (RigConstants(units="in"), "board", "a board session calibrates the rig"),
+        (RigConstants(principal_offset_px=(300.0, 0.0), units=Units.IN), "point", "implausible"),
+        (RigConstants(units=Units.CM), "point", "is in cm, the session in in"),
+        (RigConstants(units=Units.IN), "board", "a board session calibrates the rig"),
     ],
 )
 def test_the_page_refuses_a_rig_at_setup_as_the_terminal_does(

@@ -14,6 +14,7 @@ from twopose.camera import project_points, rotation_from_angles_deg
 from twopose.errors import InputValueError, SceneError
 from twopose.format.reader import SessionReader
 from twopose.format.trials import iter_trials
+from twopose.methods import Method
 from twopose.sim.layout import build_layout, finger_axis
 from twopose.sim.render import expose, render_radiance
 from twopose.sim.scene import Scene, load_scene
@@ -156,7 +157,7 @@ def test_frames_vary_between_frames_of_one_pose(ground_session: Path) -> None:
 def test_clutter_is_rendered_and_blue(tmp_path: Path) -> None:
     scene = load_scene(clutter={"count": 8})
     rng = np.random.default_rng(0)
-    layout = build_layout(scene, "ground", rng)
+    layout = build_layout(scene, Method.GROUND, rng)
     assert len(layout.decals) == 8
     assert {d.shape for d in layout.decals} >= {"disk", "ring", "triangle", "ellipse"}
     intr = scene.cameras[0].intrinsics
@@ -164,7 +165,7 @@ def test_clutter_is_rendered_and_blue(tmp_path: Path) -> None:
     with_c = render_radiance(scene, layout, intr, np.eye(3), np.zeros(3))
     without = render_radiance(
         no_clutter,
-        build_layout(no_clutter, "ground", np.random.default_rng(0)),
+        build_layout(no_clutter, Method.GROUND, np.random.default_rng(0)),
         intr,
         np.eye(3),
         np.zeros(3),

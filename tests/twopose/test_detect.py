@@ -19,6 +19,7 @@ from twopose.detect import (
     detect_glove,
     wrap_theta_deg,
 )
+from twopose.methods import Method
 from twopose.sim.layout import build_layout, finger_axis
 from twopose.sim.render import expose, render_radiance
 from twopose.sim.scene import load_scene
@@ -76,7 +77,7 @@ def _render(
     seed: int = 0,
 ) -> tuple[np.ndarray, np.ndarray]:
     scene = load_scene(**scene_overrides)
-    layout = build_layout(scene, method, np.random.default_rng(seed))
+    layout = build_layout(scene, Method(method), np.random.default_rng(seed))
     intr = scene.cameras[0].intrinsics
     rad = render_radiance(scene, layout, intr, np.eye(3), np.array(t_grid))
     img = expose(rad, scene, np.random.default_rng(seed + 1))

@@ -10,6 +10,7 @@ from hypothesis import strategies as st
 from twopose.camera import rotation_from_angles_deg
 from twopose.errors import InputValueError
 from twopose.rig import RIG_PARAMETERS, RigConstants, angles_deg_from_rotation, true_ground
+from twopose.units import Units
 
 angle = st.floats(-89.0, 89.0)
 
@@ -58,7 +59,7 @@ def test_impossible_constants_are_refused(kwargs: dict[str, float]) -> None:
 def test_the_priors_are_per_scalar_and_in_the_rigs_units() -> None:
     from twopose.rig import RIG_PRIORS, against_priors, prior_sigma
 
-    inches, mm = prior_sigma("in"), prior_sigma("mm")
+    inches, mm = prior_sigma(Units.IN), prior_sigma(Units.MM)
     assert inches.shape == (11,)
     assert inches[3] == RIG_PRIORS["camera_offset"]
     assert mm[3] == pytest.approx(25.4 * RIG_PRIORS["camera_offset"])
@@ -66,7 +67,7 @@ def test_the_priors_are_per_scalar_and_in_the_rigs_units() -> None:
     assert mm[10] == pytest.approx(25.4 * RIG_PRIORS["ground_height_error"])
     delta = np.zeros(11)
     delta[9] = 0.005  # a tape 0.5% long: 5 prior sigmas
-    (warning,) = against_priors(delta, "in")
+    (warning,) = against_priors(delta, Units.IN)
     assert warning.startswith("tape_scale = nominal +0.005 is 5.0 prior sigmas off")
-    assert against_priors(delta, "in", ("focal_scale",)) == ()  # only the fitted are judged
-    assert against_priors(np.zeros(11), "mm") == ()
+    assert against_priors(delta, Units.IN, ("focal_scale",)) == ()  # only the fitted are judged
+    assert against_priors(np.zeros(11), Units.MM) == ()

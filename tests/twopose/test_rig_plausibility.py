@@ -18,6 +18,7 @@ from twopose.rig import (
     load_rig,
     plausible_bounds,
 )
+from twopose.units import Units
 
 GROUND = (np.array([0.0, 1.0, 0.0]), 9.625)
 
@@ -73,27 +74,27 @@ def test_a_plausible_file_loads_with_its_units(tmp_path: Path) -> None:
 
 
 def test_where_a_rig_meets_a_session_its_units_ground_and_image_are_checked() -> None:
-    rig = RigConstants(ground_height_error=0.5, units="in")
-    assert check_applicable(rig, "in", GROUND, [(640, 480)]) == []
+    rig = RigConstants(ground_height_error=0.5, units=Units.IN)
+    assert check_applicable(rig, Units.IN, GROUND, [(640, 480)]) == []
     with pytest.raises(InputValueError, match="is in in, the session in mm"):
-        check_applicable(rig, "mm", GROUND, [(640, 480)])
-    notes = check_applicable(RigConstants(ground_height_error=0.5), "mm", None, [])
+        check_applicable(rig, Units.MM, GROUND, [(640, 480)])
+    notes = check_applicable(RigConstants(ground_height_error=0.5), Units.MM, None, [])
     assert len(notes) == 1
     assert "records no units" in notes[0]
-    high = RigConstants(ground_height_error=5.0, units="in")  # 9.625 in: half is 4.8125
+    high = RigConstants(ground_height_error=5.0, units=Units.IN)  # 9.625 in: half is 4.8125
     with pytest.raises(InputValueError, match=r"ground_height_error = 5 \(within half the ground"):
-        check_applicable(high, "in", GROUND, [(640, 480)])
+        check_applicable(high, Units.IN, GROUND, [(640, 480)])
     with pytest.raises(InputValueError, match="within half the ground height"):
         corrected_ground(GROUND, high)  # every application, not only the command line's
-    shifted = RigConstants(principal_offset_px=(100.0, 0.0), units="in")  # 320 x 240: 80 px
-    assert check_applicable(shifted, "in", None, [(640, 480)]) == []
+    shifted = RigConstants(principal_offset_px=(100.0, 0.0), units=Units.IN)  # 320 x 240: 80 px
+    assert check_applicable(shifted, Units.IN, None, [(640, 480)]) == []
     with pytest.raises(InputValueError, match=r"quarter of the image: ±80 px in x, ±60 px"):
-        check_applicable(shifted, "in", None, [(640, 480), (320, 240)])
+        check_applicable(shifted, Units.IN, None, [(640, 480), (320, 240)])
 
 
 def test_the_fit_looks_only_where_the_validator_accepts() -> None:
     """The fit's bounds are the validator's limits, so it never writes a refused file."""
-    lower, upper = plausible_bounds("mm", ground_height=250.0, image=(640, 480))
+    lower, upper = plausible_bounds(Units.MM, ground_height=250.0, image=(640, 480))
     np.testing.assert_allclose(upper[:3], 30.0)
     np.testing.assert_allclose(upper[3:6], 76.2)
     np.testing.assert_allclose([lower[6], upper[6]], [0.8, 1.2])
@@ -102,7 +103,7 @@ def test_the_fit_looks_only_where_the_validator_accepts() -> None:
     np.testing.assert_allclose([lower[10], upper[10]], [-125.0, 125.0])
     for bound in (lower, upper):
         check_plausible(
-            RigConstants.from_vector(bound, "mm"), ground_height=250.0, image_size=(640, 480)
+            RigConstants.from_vector(bound, Units.MM), ground_height=250.0, image_size=(640, 480)
         )
 
 

@@ -14,7 +14,7 @@ import numpy as np
 
 from twopose.arrays import F64
 from twopose.camera import Intrinsics, project_points, rotation_from_angles_deg
-from twopose.methods import spec_of
+from twopose.methods import Method, spec_of
 from twopose.sim.scene import BoardParams, ClutterParams, Scene
 from twopose.targets import finger_axis as target_finger_axis
 from twopose.units import unit_factor
@@ -132,7 +132,7 @@ def _stand(scene: Scene, attach: F64) -> list[Primitive]:
     ]
 
 
-def build_layout(scene: Scene, method: str, rng: np.random.Generator) -> Layout:
+def build_layout(scene: Scene, method: Method, rng: np.random.Generator) -> Layout:
     """Place the target for ``method``, the stand and the clutter.
 
     The target of point, line or ground; a board session's scene is the board alone
@@ -279,7 +279,7 @@ def _too_close_to_target(
     return False
 
 
-def _clutter(scene: Scene, method: str, rng: np.random.Generator) -> list[Decal]:
+def _clutter(scene: Scene, method: Method, rng: np.random.Generator) -> list[Decal]:
     c = scene.clutter
     decals: list[Decal] = []
     views = _sample_views(scene)

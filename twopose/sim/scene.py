@@ -33,6 +33,7 @@ from twopose.targets import FINGER_LENGTH, FINGER_TIP_HEIGHT, BoardPlacement
 from twopose.units import (
     IS_LENGTH,
     UNITS,
+    Units,
     length_values,
     scale_lengths,
     unit_factor,
@@ -282,7 +283,7 @@ class Scene:
         """Check the scene (units, sizes, cameras, targets)."""
         _check_scene(self)
 
-    def in_units(self, units: str) -> Scene:
+    def in_units(self, units: Units) -> Scene:
         """The same scene with every length in ``units`` (the images are the same).
 
         The lengths are the fields marked by :data:`twopose.units.IS_LENGTH`, the rig's
@@ -292,7 +293,7 @@ class Scene:
         scene = scale_lengths(dataclasses.replace(self, units=str(unit_spec(units).units)), factor)
         if self.systematic.units is not None:
             scene = dataclasses.replace(
-                scene, systematic=dataclasses.replace(scene.systematic, units=scene.units)
+                scene, systematic=dataclasses.replace(scene.systematic, units=Units(scene.units))
             )
         return scene
 

@@ -12,6 +12,7 @@ from twopose.board_rig import board_order
 from twopose.camera import project_points, rotation_from_angles_deg
 from twopose.detect import find_board
 from twopose.errors import SceneError
+from twopose.methods import Method
 from twopose.sim.camera import SyntheticCamera
 from twopose.sim.layout import BOARD_POSES, board_corners, board_layout, build_layout
 from twopose.sim.scene import load_scene
@@ -60,9 +61,9 @@ def test_the_board_is_found_where_its_corners_project(
 
 def test_a_scene_with_a_board_renders_it_beside_the_target() -> None:
     scene = load_scene(None, board={"present": True})
-    layout = build_layout(scene, "ground", np.random.default_rng(0))
+    layout = build_layout(scene, Method.GROUND, np.random.default_rng(0))
     assert [p.kind for p in layout.primitives].count("checkerboard") == 1
-    plain = build_layout(load_scene(None), "ground", np.random.default_rng(0))
+    plain = build_layout(load_scene(None), Method.GROUND, np.random.default_rng(0))
     assert "checkerboard" not in [p.kind for p in plain.primitives]
 
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from twopose.camera import project_points
+from twopose.methods import Method
 from twopose.sim.layout import GAMMA, build_layout
 from twopose.sim.render import _box_filtered_checker, expose, render_radiance
 from twopose.sim.scene import load_scene
@@ -18,7 +19,7 @@ T = np.zeros(3)
 def test_the_dot_is_dark_where_it_projects_on_a_light_card() -> None:
     scene = load_scene(clutter={"count": 0})
     intr = scene.cameras[0].intrinsics
-    layout = build_layout(scene, "point", np.random.default_rng(0))
+    layout = build_layout(scene, Method.POINT, np.random.default_rng(0))
     radiance = render_radiance(scene, layout, intr, R, T)
     assert radiance.shape == (intr.height, intr.width, 3)
     assert radiance.dtype == np.float32
@@ -30,7 +31,7 @@ def test_the_dot_is_dark_where_it_projects_on_a_light_card() -> None:
     assert card > 5 * dot
     # Without the target the same pixel is the background, not a dot.
     empty = render_radiance(
-        scene, build_layout(scene, "ground", np.random.default_rng(0)), intr, R, T
+        scene, build_layout(scene, Method.GROUND, np.random.default_rng(0)), intr, R, T
     )
     assert empty[round(row), round(col)].mean() > 2 * dot
 

@@ -15,10 +15,11 @@ import pytest
 
 from analysis.pipeline import analyse_session
 from recorder.simulate import simulate_session
+from twopose.methods import Method
 from twopose.sim.camera import SyntheticCamera
 from twopose.sim.layout import BOARD_POSES, board_poses, build_layout
 from twopose.sim.scene import Scene, load_scene
-from twopose.units import LENGTH, unit_factor
+from twopose.units import LENGTH, Units, unit_factor
 
 UNITS = ("in", "cm", "mm")
 
@@ -44,12 +45,12 @@ def test_a_file_in_other_units_gets_the_default_lengths_converted(tmp_path: Path
     assert scene.finger.radius == 1.0  # given in the file: in the file's units
     assert scene.finger.length == pytest.approx(Scene().finger.length * 2.54)
     assert scene.finger.tilt_deg == Scene().finger.tilt_deg  # an angle is not a length
-    assert load_scene(units="mm") == Scene().in_units("mm")
+    assert load_scene(units=Units.MM) == Scene().in_units(Units.MM)
 
 
 def test_in_units_scales_every_length_and_nothing_else() -> None:
     inch = Scene()
-    mm = inch.in_units("mm")
+    mm = inch.in_units(Units.MM)
     a, b = _lengths(inch), _lengths(mm)
     assert set(a) == set(b)
     assert {"clutter.speck_radius", "clutter.wall_size", "stand.rod_above", "ground_height"} <= set(
@@ -59,7 +60,7 @@ def test_in_units_scales_every_length_and_nothing_else() -> None:
         np.testing.assert_allclose(np.asarray(b[key]), np.asarray(value) * 25.4, err_msg=key)
     assert mm.lighting == inch.lighting
     assert mm.cameras == inch.cameras
-    assert _close(mm.in_units("in"), inch)
+    assert _close(mm.in_units(Units.IN), inch)
     assert board_poses(mm) == pytest.approx(np.array(BOARD_POSES) * 25.4)
 
 
@@ -73,9 +74,9 @@ def _close(x: Scene, y: Scene) -> bool:
 def test_the_same_scene_in_any_units_renders_the_same_image(method: str) -> None:
     images = []
     for units in UNITS:
-        scene = Scene().in_units(units)
+        scene = Scene().in_units(Units(units))
         k = unit_factor("in", units)
-        layout = build_layout(scene, method, np.random.default_rng(5))
+        layout = build_layout(scene, Method(method), np.random.default_rng(5))
         camera = SyntheticCamera(scene, layout, np.random.default_rng(6))
         camera.place(np.array([0.5, 0.0, -1.0]) * k, np.zeros(3))
         images.append(camera.expose().astype(np.int16))
