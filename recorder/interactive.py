@@ -17,7 +17,6 @@ from typing import TYPE_CHECKING, Any, cast
 from typing_extensions import override
 
 from recorder.capture import CaptureResult, CaptureSettings
-from recorder.plan import off_ground
 from recorder.procedure import (
     Decision,
     Driver,
@@ -28,13 +27,16 @@ from recorder.procedure import (
     record,
 )
 from recorder.setup_rules import (
+    THESIS_FOCAL_PX,
     PoseTyping,
     Setup,
     board_corner,
     default_ground_height,
+    default_principal,
     distinct_point,
     inner_corners,
     number_pair,
+    off_ground,
     one_of,
     parse_vector,
     positive_number,
@@ -102,8 +104,13 @@ def ask_setup(  # noqa: PLR0913 - one keyword per setup value the operator may h
     m = Method(method or op.ask(f"method ({', '.join(METHODS)})", one_of(METHODS)))
     u = Units(units if units in UNITS else op.ask("units (in, mm, cm, m)", one_of(UNITS), "in"))
     if intrinsics is None:
-        f = focal if focal and focal > 0 else op.ask("focal parameter, px", positive_number, "525")
-        cx, cy = principal or op.ask("principal point cx, cy (px)", number_pair, "320, 240")
+        f = (
+            focal
+            if focal and focal > 0
+            else op.ask("focal parameter, px", positive_number, f"{THESIS_FOCAL_PX:g}")
+        )
+        centre = ", ".join(f"{v:g}" for v in default_principal(size))
+        cx, cy = principal or op.ask("principal point cx, cy (px)", number_pair, centre)
         intrinsics = Intrinsics(width=size[0], height=size[1], fx=f, fy=f, cx=cx, cy=cy)
     h = None
     if spec_of(m).needs_ground:

@@ -21,6 +21,14 @@ from recorder.procedure import (
     Placement,
     record,
 )
+from recorder.setup_rules import (
+    MAX_ROTATION_DEG,
+    THESIS_FOCAL_PX,
+    THESIS_IMAGE_SIZE,
+    default_principal,
+    off_ground,
+    too_large,
+)
 from recorder.sources import FrameSource
 from recorder.summary import RecordingSummary
 from twopose.camera import Camera, Intrinsics
@@ -38,7 +46,7 @@ from twopose.format.entries import (
 )
 from twopose.methods import METHODS, Method, spec_of
 from twopose.targets import BoardPlacement
-from twopose.units import UNIT_SPECS, UNITS, Units
+from twopose.units import UNITS, Units
 from twopose.values import Vec3, finite, numbers, vec3
 
 if TYPE_CHECKING:
@@ -47,20 +55,12 @@ if TYPE_CHECKING:
     from twopose.trial_result import TrialResult
 
 __all__ = [
-    "MAX_TRANSLATION",
     "Plan",
     "PlannedPose",
     "PlannedTrial",
     "load_plan",
-    "off_ground",
     "record_plan",
 ]
-
-#: Plausible magnitude of a typed translation (session units); beyond it, a typo is likelier.
-MAX_TRANSLATION = {str(u): spec.max_translation for u, spec in UNIT_SPECS.items()}
-#: How far (session units) a method 2 ground truth may sit off the ground plane before it is
-#: questioned: half a 1/16 in tape tick, or half a millimetre.
-GROUND_TOLERANCE = {str(u): spec.ground_tolerance for u, spec in UNIT_SPECS.items()}
 
 #: The keys a plan may hold, per table (anything else is a typo that would be ignored).
 _PLAN_KEYS = {
@@ -69,23 +69,14 @@ _PLAN_KEYS = {
     "board": {"inner_corners", "square", "first_corner"},
     "camera": {"id", "calibration", "focal", "fx", "fy", "principal", "cx", "cy"}
     | {"width", "height", "distortion"},
-    "trials": {"poses", "ground_truth"},
+    "trials": {"poses", "ground_truth", "keep_off_ground"},
     "poses": {"t", "r_deg", "camera"},
     "resolution": {"translation", "rotation_deg"},
 }
 
 
-def off_ground(point: Vec3, height: float, units: str) -> str:
-    """Why a method 2 ground truth point is not on the ground plane ``y = height`` (empty
-    when it is, within :data:`GROUND_TOLERANCE`)."""
-    gap = point[1] - height
-    if abs(gap) <= GROUND_TOLERANCE[units]:
-        return ""
-    return (
-        f"the ground truth {point} has y = {point[1]:g} {units}, but the ground plane is at "
-        f"y = {height:g} {units} ({gap:+g} {units}): the finger points at the table, so "
-        "its y should be the ground height"
-    )
+def _whole(*values: Any) -> bool:
+    return all(isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in values)
 
 
 def _known_keys(table: Any, kind: str, where: str) -> dict[str, Any]:
@@ -153,9 +144,14 @@ def _camera(table: Any) -> Camera:
             intrinsics=load_calibration(path),
             intrinsics_sigma=load_calibration_sigma(path),
         )
-    focal = finite(table.get("focal", 525.0), "plan: camera.focal", positive=True)
-    cx, cy = numbers(table.get("principal", [320.0, 240.0]), 2, "plan: camera.principal")
-    values = {"width": 640, "height": 480, "fx": focal, "cx": cx, "cy": cy} | table
+    focal = finite(table.get("focal", THESIS_FOCAL_PX), "plan: camera.focal", positive=True)
+    width, height = (
+        table.get("width", THESIS_IMAGE_SIZE[0]),
+        table.get("height", THESIS_IMAGE_SIZE[1]),
+    )
+    centre = default_principal((int(width), int(height))) if _whole(width, height) else (0.0, 0.0)
+    cx, cy = numbers(table.get("principal", list(centre)), 2, "plan: camera.principal")
+    values = {"width": width, "height": height, "fx": focal, "cx": cx, "cy": cy} | table
     values.setdefault("fy", values["fx"])
     return Camera(camera_id=camera_id, intrinsics=Intrinsics.from_dict(values, "plan: [camera]"))
 
@@ -236,7 +232,7 @@ def _board(table: Any, method: Method, units: str) -> BoardPlacement | None:
     if not isinstance(corners, list) or len(corners) != 2:
         raise InputValueError(f"plan: board.inner_corners must be [cols, rows], got {corners!r}")
     corner = _vec(b["first_corner"], "board.first_corner")
-    if max(abs(v) for v in corner) > MAX_TRANSLATION[units]:
+    if too_large(corner, units):
         raise InputValueError(
             f"plan: board.first_corner = {corner} is implausibly large for {units}"
         )
@@ -261,9 +257,14 @@ def _trial(
         where = f"trials[{i}].poses[{j}]"
         p = _known_keys(p, "poses", where)
         tg = _vec(p.get("t"), f"{where}.t")
-        if max(abs(v) for v in tg) > MAX_TRANSLATION[units]:
+        if too_large(tg, units):
             raise InputValueError(f"plan: {where}.t = {tg} is implausibly large for {units}")
         r_deg = _vec(p.get("r_deg", [0, 0, 0]), f"{where}.r_deg")
+        if max(abs(v) for v in r_deg) > MAX_ROTATION_DEG:
+            raise InputValueError(
+                f"plan: {where}.r_deg = {r_deg} is implausibly large (over "
+                f"{MAX_ROTATION_DEG:g} deg); a typo?"
+            )
         poses.append(
             PlannedPose(t_grid=tg, r_deg=r_deg, camera_id=str(p.get("camera", default_camera)))
         )
@@ -271,7 +272,7 @@ def _trial(
         raise InputValueError(f"plan: trials[{i}] needs at least 2 poses, got {len(poses)}")
     where = f"trials[{i}].ground_truth"
     gt = tuple(_vec(g, where) for g in t.get("ground_truth", []))
-    if any(max(abs(v) for v in g) > MAX_TRANSLATION[units] for g in gt):
+    if any(too_large(g, units) for g in gt):
         raise InputValueError(f"plan: {where} = {gt} is implausibly large for {units}")
     spec = spec_of(method)
     if gt and not spec.truth_points:
@@ -282,8 +283,14 @@ def _trial(
         )
     if spec.truth_points == 2 and gt and gt[0] == gt[1]:
         raise InputValueError(f"plan: {where}: the line's two points must differ")
-    if spec.needs_ground and gt and height is not None and off_ground(gt[0], height, units):
-        raise InputValueError(f"plan: {where}: {off_ground(gt[0], height, units)}")
+    keep = t.get("keep_off_ground", False)
+    if not isinstance(keep, bool):
+        raise InputValueError(f"plan: trials[{i}].keep_off_ground must be true or false")
+    off = off_ground(gt[0], height, units) if spec.needs_ground and gt and height else ""
+    if off and not keep:  # the rule the terminal and the browser apply: kept if confirmed
+        raise InputValueError(
+            f"plan: {where}: {off}; set keep_off_ground = true in this trial to keep it"
+        )
     return PlannedTrial(poses=tuple(poses), ground_truth=gt)
 
 

@@ -16,7 +16,6 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from recorder.plan import MAX_TRANSLATION, off_ground
 from twopose.camera import Camera, Intrinsics
 from twopose.errors import InputValueError
 from twopose.format.entries import (
@@ -26,36 +25,47 @@ from twopose.format.entries import (
     SessionInfo,
 )
 from twopose.methods import MEASURING_METHODS, METHODS, Method, spec_of
-from twopose.targets import BoardPlacement
-from twopose.units import UNITS, Units
+from twopose.targets import MAX_INNER_CORNERS, BoardPlacement
+from twopose.units import UNITS, Units, unit_spec
 from twopose.values import Vec3, finite, numbers, parse_number, vec3
 
 if TYPE_CHECKING:
     from twopose.rig import RigConstants
 
 __all__ = [
+    "MAX_ROTATION_DEG",
     "SETUP_FIELDS",
+    "THESIS_FOCAL_PX",
+    "THESIS_IMAGE_SIZE",
     "FormRefusedError",
     "Setup",
     "SetupField",
     "board_corner",
     "check_rig",
     "default_ground_height",
+    "default_principal",
     "distinct_point",
     "form_fields",
     "inner_corners",
+    "max_translation",
     "number_pair",
+    "off_ground",
     "one_of",
     "parse_pose_form",
     "parse_vector",
     "positive_number",
     "setup_from_answers",
+    "too_large",
 ]
 
 #: The thesis' rig (section 5.2): f = 525 px, principal point at the centre of 640x480, a
-#: ground 9 5/8 in below the camera centre. Offered as defaults, never assumed silently.
+#: ground 9 5/8 in below the camera centre. Offered as defaults, never assumed silently, by
+#: the terminal, the browser and a plan alike.
 THESIS_FOCAL_PX = 525.0
+THESIS_IMAGE_SIZE = (640, 480)
 THESIS_GROUND_HEIGHT_IN = 9.625
+#: A typed rotation's angles, at most (degrees): beyond, a typo.
+MAX_ROTATION_DEG = 180.0
 #: The camera of a session set up by hand (terminal or browser): one laptop webcam.
 CAMERA_ID = "cam0"
 
@@ -157,12 +167,12 @@ def parse_pose_form(form: Mapping[str, str], units: str) -> tuple[Vec3, Vec3]:
             continue
         if not text:
             errors[axis] = f"type the camera centre's {axis} ({units})"
-        elif abs(xyz[-1]) > MAX_TRANSLATION[units]:
+        elif abs(xyz[-1]) > max_translation(units):
             errors[axis] = f"{text} {units} is implausibly large; a typo?"
     rotation = str(form.get("rotation", "") or "").strip() or "0, 0, 0"
     r: Vec3 = (0.0, 0.0, 0.0)
     try:
-        r = parse_vector(rotation, units, what="rotation", limit=180.0)
+        r = parse_vector(rotation, units, what="rotation", limit=MAX_ROTATION_DEG)
     except InputValueError as err:
         errors["rotation"] = str(err).removeprefix("rotation: ")
     if errors:
@@ -185,7 +195,7 @@ def parse_vector(
         v = vec3([parse_number(p, what) for p in parts], what)
     except InputValueError as err:
         raise InputValueError(f"{what}: {text!r} is not three numbers, e.g. {example}") from err
-    bound = MAX_TRANSLATION[units] if limit is None else limit
+    bound = max_translation(units) if limit is None else limit
     if max(abs(x) for x in v) > bound:
         unit = "deg" if what == "rotation" else units
         raise InputValueError(
@@ -233,8 +243,8 @@ def inner_corners(text: str) -> tuple[int, int]:
         raise InputValueError(
             f"type the board's inner corners as COLSxROWS, e.g. 9x6 (got {text!r})"
         ) from err
-    if not (2 <= cols <= 100 and 2 <= rows <= 100):
-        raise InputValueError(f"2-100 inner corners each way, got {text!r}")
+    if not (2 <= cols <= MAX_INNER_CORNERS and 2 <= rows <= MAX_INNER_CORNERS):
+        raise InputValueError(f"2-{MAX_INNER_CORNERS} inner corners each way, got {text!r}")
     return cols, rows
 
 
@@ -242,6 +252,38 @@ def distinct_point(point: Vec3, earlier: Sequence[Vec3]) -> Vec3:
     if point in earlier:
         raise InputValueError("this point was already given; a line needs two different points")
     return point
+
+
+def max_translation(units: str) -> float:
+    """A typed translation's plausible magnitude (session units): beyond it, a typo is
+    likelier (:attr:`twopose.units.UnitSpec.max_translation`)."""
+    return unit_spec(units).max_translation
+
+
+def too_large(vector: Vec3, units: str) -> bool:
+    """Whether a typed position (a pose, a ground truth, a board corner) is implausible."""
+    return max(abs(v) for v in vector) > max_translation(units)
+
+
+def default_principal(size: tuple[int, int]) -> tuple[float, float]:
+    """The principal point assumed when none is given: the image's centre (the thesis'
+    320, 240 for its 640x480 webcam)."""
+    return size[0] / 2, size[1] / 2
+
+
+def off_ground(point: Vec3, height: float, units: str) -> str:
+    """Why a method 2 ground truth point is not on the ground plane ``y = height`` (empty
+    when it is, within the units' tolerance: half a 1/16 in tape tick, or half a
+    millimetre). Every front end refuses such a point unless the operator keeps it: the
+    terminal asks, the browser has a box to tick, a plan says ``keep_off_ground = true``."""
+    gap = point[1] - height
+    if abs(gap) <= unit_spec(units).ground_tolerance:
+        return ""
+    return (
+        f"the ground truth {point} has y = {point[1]:g} {units}, but the ground plane is at "
+        f"y = {height:g} {units} ({gap:+g} {units}): the finger points at the table, so "
+        "its y should be the ground height"
+    )
 
 
 def default_ground_height(units: str) -> str:
@@ -444,9 +486,9 @@ def _ground_height(text: str, units: str) -> float:
 
 def _intrinsics(a: _Answers, size: tuple[int, int]) -> Intrinsics:
     focal = a.check("focal", lambda s: positive_number(s or f"{THESIS_FOCAL_PX:g}"))
-    principal = a.check("principal", lambda s: number_pair(s or "320, 240"))
+    principal = a.check("principal", lambda s: number_pair(s) if s else default_principal(size))
     f = focal or THESIS_FOCAL_PX
-    cx, cy = principal or (size[0] / 2, size[1] / 2)
+    cx, cy = principal or default_principal(size)
     if not (0 <= cx <= size[0] and 0 <= cy <= size[1]):  # a typo: it lies in the image
         a.errors["principal"] = (
             f"the principal point ({cx:g}, {cy:g}) px is outside the {size[0]}x{size[1]} "

@@ -17,7 +17,16 @@ from twopose.arrays import F64
 from twopose.errors import InputValueError
 from twopose.values import Vec3, finite, vec3
 
-__all__ = ["FINGER_LENGTH", "FINGER_TIP_HEIGHT", "BoardPlacement", "finger_axis"]
+__all__ = [
+    "FINGER_LENGTH",
+    "FINGER_TIP_HEIGHT",
+    "MAX_INNER_CORNERS",
+    "BoardPlacement",
+    "finger_axis",
+]
+
+#: A printed checkerboard's inner corners each way, at most (a larger count is a typo).
+MAX_INNER_CORNERS = 100
 
 #: The simulated finger's tip height above the ground (along its axis' vertical) and length.
 FINGER_TIP_HEIGHT = 6.0
@@ -63,12 +72,14 @@ class BoardPlacement:
         """Check the corners (at least 2 x 2 whole numbers), the square and the corner."""
         cols_rows = tuple(self.inner_corners)
         if len(cols_rows) != 2 or not all(
-            isinstance(n, int | np.integer) and not isinstance(n, bool) and n >= 2
+            isinstance(n, int | np.integer)
+            and not isinstance(n, bool)
+            and 2 <= n <= MAX_INNER_CORNERS
             for n in cols_rows
         ):
             raise InputValueError(
-                f"a board's inner corners must be two whole numbers >= 2 (columns, rows), "
-                f"got {self.inner_corners!r}"
+                f"a board's inner corners must be two whole numbers 2-{MAX_INNER_CORNERS} "
+                f"(columns, rows), got {self.inner_corners!r}"
             )
         object.__setattr__(self, "inner_corners", (int(cols_rows[0]), int(cols_rows[1])))
         object.__setattr__(self, "square", finite(self.square, "board square", positive=True))

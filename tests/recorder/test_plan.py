@@ -115,7 +115,21 @@ def test_plan_mode_with_a_source_that_runs_out(tmp_path: Path) -> None:
         (
             'method = "ground"\nground_height = 9.625\n[[trials]]\n'
             "ground_truth = [[1.9, 5.0, 8.4]]\nposes = [{t=[0,0,0]},{t=[1,0,0]}]\n",
-            "ground plane is at y = 9.625",
+            "set keep_off_ground = true in this trial to keep it",
+        ),
+        (
+            'method = "board"\n[board]\ninner_corners = [9, 101]\nsquare = 1\n'
+            "first_corner = [0, 0, 20]\n",
+            "inner corners must be two whole numbers 2-100",  # as the terminal and browser
+        ),
+        (
+            'method = "point"\n[[trials]]\nposes = [{t=[0,0,0], r_deg=[0,200,0]},{t=[1,0,0]}]\n',
+            "r_deg = (0.0, 200.0, 0.0) is implausibly large (over 180 deg)",
+        ),
+        (
+            'method = "ground"\nground_height = 9.625\n[[trials]]\nkeep_off_ground = "yes"\n'
+            "poses = [{t=[0,0,0]},{t=[1,0,0]}]\n",
+            "keep_off_ground must be true or false",
         ),
         ('method = "point"\n[resolution]\ntranslation = -1\n', "resolution.translation"),
         (
@@ -129,7 +143,7 @@ def test_plan_mode_with_a_source_that_runs_out(tmp_path: Path) -> None:
         (
             'method = "board"\n[board]\ninner_corners = [9, 1]\nsquare = 1\n'
             "first_corner = [0, 0, 20]\n",
-            "inner corners must be two whole numbers >= 2",
+            "inner corners must be two whole numbers 2-100",
         ),
         (
             'method = "board"\n[board]\ninner_corners = [9, 6]\nsquare = 1\n'
@@ -276,3 +290,21 @@ def test_a_calibration_s_sigma_is_recorded_with_its_camera(tmp_path: Path) -> No
         assert reader.info.format_version == "1.2"
         assert reader.info.intrinsics_sigma == {"cam0": {"fx": 0.93, "cx": 1.07}}
         assert reader.cameras["cam0"].intrinsics_sigma == {"fx": 0.93, "cx": 1.07}
+
+
+def test_one_set_of_setup_rules_whatever_the_front_end(tmp_path: Path) -> None:
+    """The terminal and the browser keep an off-ground truth when the operator confirms
+    it; a plan does with keep_off_ground = true (before, a plan refused it outright). A
+    plan's camera without a principal point has it at its image's centre, as the terminal
+    and the browser assume (before, 320, 240 whatever its size)."""
+    plan = tmp_path / "plan.toml"
+    plan.write_text(
+        'method = "ground"\nground_height = 9.625\n[camera]\nwidth = 1280\nheight = 720\n'
+        "[[trials]]\nground_truth = [[1.9, 5.0, 8.4]]\nkeep_off_ground = true\n"
+        "poses = [{t=[0,0,0]},{t=[1,0,0]}]\n"
+    )
+    loaded = load_plan(plan)
+    assert loaded.trials[0].ground_truth == ((1.9, 5.0, 8.4),)
+    intrinsics = loaded.cameras[0].intrinsics
+    assert (intrinsics.cx, intrinsics.cy) == (640.0, 360.0)
+    assert intrinsics.fx == 525.0
