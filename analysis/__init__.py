@@ -6,6 +6,7 @@ The whole job is one call::
     import analysis
     result = analysis.run(["sessions/"], "results/", jobs=2)
     result.trials, result.summary, result.averaging, result.frames, result.errors
+    analysis.make_figures(result)  # the run's matplotlib Figures, by name
 
 The names below load on first use, so ``import analysis.cli`` stays fast.
 """
@@ -17,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from analysis.batch import run
     from analysis.comparison import compare
+    from analysis.figures import make_figures
     from analysis.gate import check
     from analysis.pipeline import analyse_session
     from analysis.results import AnalysisOptions, RunResult, SessionFailure, SessionResult
@@ -29,6 +31,7 @@ __all__ = [
     "analyse_session",
     "check",
     "compare",
+    "make_figures",
     "run",
 ]
 
@@ -36,6 +39,7 @@ _HOMES = {
     "run": "analysis.batch",
     "check": "analysis.gate",
     "compare": "analysis.comparison",
+    "make_figures": "analysis.figures",
     "analyse_session": "analysis.pipeline",
     "AnalysisOptions": "analysis.results",
     "RunResult": "analysis.results",

@@ -17,9 +17,16 @@ from collections.abc import Iterator
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from analysis.figure_cache import FigureJob
+    from analysis.figure_cache import FigureCache, FigureJob
 
-__all__ = ["FigureDrawer", "draw_session_figures", "not_drawn_png", "note", "sigint_blocked"]
+__all__ = [
+    "FigureDrawer",
+    "draw_session_figures",
+    "not_drawn_png",
+    "note",
+    "session_pngs",
+    "sigint_blocked",
+]
 
 #: What :func:`draw_session_figures` gives: PNGs by figure kind, and why they are not the
 #: session's figures ("" when they are).
@@ -44,6 +51,16 @@ def draw_session_figures(job: FigureJob) -> Drawn:
     except Exception as err:  # a bug in a figure must not cost the session its numbers
         reason = f"{type(err).__name__}: {err}"
         return {"scatter": not_drawn_png(job.session, reason)}, reason
+
+
+def session_pngs(job: FigureJob, cache: FigureCache | None) -> tuple[dict[str, bytes], str, bool]:
+    """``job``'s PNGs by kind, why they are not its figures ("" when they are), and whether
+    they were reused from ``cache`` (a previous run's) rather than drawn."""
+    reused = cache.reuse(job) if cache is not None else None
+    if reused is not None:
+        return reused, "", True
+    pngs, why_not = draw_session_figures(job)
+    return pngs, why_not, False
 
 
 def not_drawn_png(session: str, reason: str) -> bytes:

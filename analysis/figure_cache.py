@@ -141,17 +141,6 @@ class FigureCache:
             pngs[kind] = data
         return pngs
 
-    def figures(self, job: FigureJob) -> tuple[dict[str, bytes], str, bool]:
-        """``job``'s PNGs by kind, why they are not its figures ("" when they are), and
-        whether they were reused rather than drawn."""
-        from analysis.drawer import draw_session_figures
-
-        reused = self.reuse(job)
-        if reused is not None:
-            return reused, "", True
-        pngs, why_not = draw_session_figures(job)
-        return pngs, why_not, False
-
 
 def _plain_png(name: str) -> bool:
     """A figure file's name as a run writes it (no folder, no way out of the folder)."""

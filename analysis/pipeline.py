@@ -416,11 +416,11 @@ def _with_figures(
     """The session with its figures as PNGs, drawn here so that a batch renders them in
     parallel, or reused from ``cache`` (a previous run's, when nothing they show changed);
     figures that fail to draw are said, and shown as such, never the session's end."""
-    from analysis.drawer import note
-    from analysis.figure_cache import FigureCache, FigureJob
+    from analysis.drawer import note, session_pngs
+    from analysis.figure_cache import FigureJob
 
     job = FigureJob.of(result, include_warned=options.include_warned)
-    images, why_not, reused = (cache or FigureCache()).figures(job)
+    images, why_not, reused = session_pngs(job, cache)
     if why_not:
         note(f"the figures of {result.session} were not drawn ({why_not}); the report says so")
     return dataclasses.replace(result, images=images, figures_reused=reused)

@@ -23,6 +23,7 @@ from analysis.answer import (
     share,
 )
 from analysis.captions import run_captions, session_captions
+from analysis.drawer import session_pngs
 from analysis.figure_cache import FIGURE_INDEX, FigureCache, FigureJob, index_document
 from analysis.figures import figure_key, png_bytes, run_figures
 from analysis.html_page import Image, figure_html, figure_row, image, page_html, table_html
@@ -126,7 +127,7 @@ def write_outputs(
     digests: dict[str, str] = {}
     for i, s in enumerate(result.sessions):
         job = FigureJob.of(s, include_warned=result.include_warned)
-        rendered = s.images or (figure_cache or FigureCache()).figures(job)[0]
+        rendered = s.images or session_pngs(job, figure_cache)[0]
         digest = job.digest()
         for kind, data in rendered.items():
             pngs[figure_key(kind, i, s.session)] = data

@@ -2,10 +2,8 @@
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import pandas as pd
 
@@ -129,10 +127,3 @@ class RunResult:
     def figures_reused(self) -> int:
         """Sessions whose figures a previous run had drawn (reused, not drawn again)."""
         return sum(s.figures_reused for s in self.sessions)
-
-    @functools.cached_property
-    def figures(self) -> dict[str, Any]:
-        """Named matplotlib Figures of the run (built on first use, for notebooks)."""
-        from analysis.figures import make_figures
-
-        return make_figures(self)

@@ -86,7 +86,7 @@ def timed(owner, name):
 for owner, name in (
     (analysis.pipeline, "_with_figures"),  # in line, after each session
     (analysis.drawer.FigureDrawer, "collect"),  # waiting for the drawing process
-    (analysis.figure_cache.FigureCache, "figures"),  # a session drawn by the report
+    (analysis.report, "session_pngs"),  # a session drawn by the report
     (analysis.report, "run_figures"),
     (analysis.report, "png_bytes"),
     (analysis.sensitivity, "plot_sensitivity"),
@@ -97,7 +97,8 @@ if mode == "free":
     import analysis.pipeline, analysis.report, analysis.sensitivity
     buf = io.BytesIO(); Image.new("RGB", (1, 1)).save(buf, "PNG"); PNG = buf.getvalue()
     batch.FigureDrawer.started = staticmethod(lambda: contextlib.nullcontext())
-    analysis.figure_cache.FigureCache.figures = lambda self, job: ({}, "", False)
+    analysis.drawer.session_pngs = lambda job, cache: ({}, "", False)
+    analysis.report.session_pngs = analysis.drawer.session_pngs
     analysis.report.run_figures = lambda result: {}
     analysis.report.png_bytes = lambda fig: PNG
     analysis.sensitivity.plot_sensitivity = lambda sweeps: None

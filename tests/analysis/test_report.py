@@ -13,6 +13,7 @@ from analysis.figures import (
     MAX_LEGEND,
     error_ellipses,
     figure_key,
+    make_figures,
     plot_error_scatter,
     png_bytes,
     session_figures,
@@ -216,8 +217,8 @@ def test_every_run_figure_has_a_title(tmp_path: Path, point_session: Path) -> No
     from analysis.batch import run
 
     result = run([point_session], None, scene=False)
-    assert len(result.figures) >= 5
-    for name, fig in result.figures.items():
+    assert len(make_figures(result)) >= 5
+    for name, fig in make_figures(result).items():
         panels = [ax for ax in fig.axes if ax.axison]
         titled = fig.get_suptitle() or all(ax.get_title() for ax in panels)
         assert titled, name
