@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from analysis.choices import RigCalibrationMode
+from analysis.choices import DEFAULT_SESSION_TIMEOUT_S, RigCalibrationMode
 from analysis.columns import VIEW_COLUMNS
 from twopose.choices import CombineRule
 from twopose.detect import DotParams, GloveParams
@@ -36,7 +36,7 @@ class AnalysisOptions:
     min_ground_angle_deg: float = DEFAULT_MIN_GROUND_ANGLE_DEG
     # A session still running after this many seconds is stopped and listed as failed, so
     # that one pathological file cannot stall a batch (None: no limit).
-    session_timeout_s: float | None = 600.0
+    session_timeout_s: float | None = DEFAULT_SESSION_TIMEOUT_S
     # The summary's statistics include ok trials with a near-degeneracy warning.
     include_warned: bool = False
     # The rig's constants (`twopose-analyze rig`): every view corrected before solving.

@@ -23,6 +23,11 @@ from twopose.conditioning import parallax_sine
 from twopose.detect import PoseMeasurement, combine_frames
 from twopose.errors import InputValueError
 from twopose.format.entries import PoseEntry
+from twopose.margins import (  # the degeneracy margins' defaults: one home, light for the CLI
+    DEFAULT_MIN_GROUND_ANGLE_DEG,
+    DEFAULT_MIN_PARALLAX_DEG,
+    DEFAULT_MIN_PLANE_ANGLE_DEG,
+)
 from twopose.methods import METHOD_SPECS, Method, spec_of
 from twopose.solve import (
     DEFAULT_MIN_CONDITIONING,
@@ -56,12 +61,6 @@ __all__ = [
     "scatter_of",
     "solve_batch",
 ]
-
-
-# Degeneracy margins: an ok trial under one of these gets a warning (degrees).
-DEFAULT_MIN_PARALLAX_DEG = 1.0  # ray parallax, points
-DEFAULT_MIN_PLANE_ANGLE_DEG = 5.0  # between back-projected planes, lines and method 2
-DEFAULT_MIN_GROUND_ANGLE_DEG = 10.0  # between the line and the ground, method 2
 
 
 class EstimateSettings(Protocol):

@@ -16,11 +16,16 @@ from twopose.errors import (
     EXIT_SOME_INPUTS_FAILED,
     handle_errors,
 )
+from twopose.margins import (
+    DEFAULT_MIN_GROUND_ANGLE_DEG,
+    DEFAULT_MIN_PARALLAX_DEG,
+    DEFAULT_MIN_PLANE_ANGLE_DEG,
+)
 
 if TYPE_CHECKING:
     from analysis.results import RunResult
 
-from analysis.choices import RigCalibrationMode
+from analysis.choices import DEFAULT_SESSION_TIMEOUT_S, RigCalibrationMode
 from analysis.cli.app import IncludeWarnedOption, JunitOption, app, note, say_skipped
 
 SessionTimeoutOption = Annotated[
@@ -68,13 +73,13 @@ def run_command(
     ] = "mean",
     min_parallax: Annotated[
         float, typer.Option(help="Warn when a point's ray parallax is below this (deg).")
-    ] = 1.0,
+    ] = DEFAULT_MIN_PARALLAX_DEG,
     min_plane_angle: Annotated[
         float, typer.Option(help="Warn when back-projected planes meet below this (deg).")
-    ] = 5.0,
+    ] = DEFAULT_MIN_PLANE_ANGLE_DEG,
     min_ground_angle: Annotated[
         float, typer.Option(help="Warn when the line meets the ground below this (deg).")
-    ] = 10.0,
+    ] = DEFAULT_MIN_GROUND_ANGLE_DEG,
     scene: Annotated[
         bool,
         typer.Option(
@@ -82,7 +87,7 @@ def run_command(
             "detections drawn, and each trial's 3-D geometry, for Foxglove."
         ),
     ] = True,
-    session_timeout: SessionTimeoutOption = 600.0,
+    session_timeout: SessionTimeoutOption = DEFAULT_SESSION_TIMEOUT_S,
     include_warned: IncludeWarnedOption = False,
     junit: JunitOption = None,
     rig: RigFileOption = None,
