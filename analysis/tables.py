@@ -16,7 +16,7 @@ import pandas as pd
 
 from analysis.columns import AVERAGING_COLUMNS, TRIAL_COLUMNS, VIEW_COLUMNS
 from twopose.arrays import F64
-from twopose.camera import rotation_from_angles_deg
+from twopose.camera import grid_rays, rotation_from_angles_deg
 from twopose.detect import Detection, PoseMeasurement
 from twopose.methods import spec_of
 from twopose.truth import Reported, line_errors
@@ -180,10 +180,7 @@ def view_table(
     rows = []
     for trial, row_views, ms in zip(trial_ids, views, measurements, strict=True):
         for v, m in zip(row_views, ms, strict=False):  # incomplete trials have none
-            fx, fy, cx, cy = v.intrinsics
-            cam = np.array([(m.centroid_px[0] - cx) / fx, (m.centroid_px[1] - cy) / fy, 1.0])
-            ray = rotation_from_angles_deg(v.r_deg) @ cam
-            ray /= np.linalg.norm(ray)
+            ray = grid_rays(m.centroid_px, v.intrinsics, rotation_from_angles_deg(v.r_deg))
             rows.append(
                 {
                     "session": session,

@@ -23,6 +23,8 @@ __all__ = [
     "Camera",
     "Intrinsics",
     "camera_centres",
+    "camera_rays",
+    "grid_rays",
     "intrinsics_sigma",
     "project_points",
     "quaternion_xyzw_from_matrix",
@@ -226,6 +228,29 @@ def project_points(
     px = np.stack([intrinsics.fx * x + intrinsics.cx, intrinsics.fy * y + intrinsics.cy], axis=1)
     px[z <= 0] = np.nan
     return px
+
+
+def camera_rays(px: ArrayLike, intrinsics: ArrayLike) -> FloatArray:
+    """Back-projection of pixels ``px`` (..., 2) to camera-frame directions (..., 3).
+
+    ``((col - cx) / fx, (row - cy) / fy, 1)`` by pinhole ``intrinsics`` (..., 4: fx, fy,
+    cx, cy): the one place a pixel becomes a ray (no distortion: undistort it first).
+    """
+    p = np.asarray(px, dtype=np.float64)
+    k = np.asarray(intrinsics, dtype=np.float64)
+    x = (p[..., 0] - k[..., 2]) / k[..., 0]
+    y = (p[..., 1] - k[..., 3]) / k[..., 1]
+    return np.stack([x, y, np.ones_like(x)], axis=-1)
+
+
+def grid_rays(px: ArrayLike, intrinsics: ArrayLike, R_cam_to_grid: ArrayLike) -> FloatArray:
+    """Unit directions in the grid frame (..., 3) of pixels ``px`` (..., 2).
+
+    Seen by cameras of ``intrinsics`` (..., 4) turned by ``R_cam_to_grid`` (..., 3, 3).
+    """
+    d = np.einsum("...ij,...j->...i", np.asarray(R_cam_to_grid, dtype=np.float64),
+                  camera_rays(px, intrinsics))  # fmt: skip
+    return np.asarray(d / np.linalg.norm(d, axis=-1, keepdims=True))
 
 
 def camera_centres(P: ArrayLike) -> FloatArray:

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from twopose.arrays import F64
+from twopose.camera import grid_rays
 from twopose.methods import spec_of
 from twopose.scene3d import TrialScene
 from twopose.solve import image_lines, projection_matrices
@@ -127,17 +128,8 @@ def _reach(scene: TrialScene, estimate: F64 | None) -> F64:
 
 
 def _rays(scene: TrialScene, reach: F64) -> list[tuple[str, XZ, XZ]]:
-    k = scene.intrinsics
-    cam = np.stack(
-        [
-            (scene.px[:, 0] - k[:, 2]) / k[:, 0],
-            (scene.px[:, 1] - k[:, 3]) / k[:, 1],
-            np.ones(len(k)),
-        ],
-        axis=-1,
-    )
-    d = np.einsum("nij,nj->ni", scene.R_cam_to_grid, cam)
-    ends = scene.t_grid + d / np.linalg.norm(d, axis=1, keepdims=True) * reach[:, None]
+    d = grid_rays(scene.px, scene.intrinsics, scene.R_cam_to_grid)
+    ends = scene.t_grid + d * reach[:, None]
     return _segments("ray", scene.t_grid, ends)
 
 

@@ -114,3 +114,23 @@ def test_intrinsics_from_and_to_a_dict() -> None:
         Intrinsics.from_dict({"width": 1, "height": 1, "fx": 1, "fy": 1}, "calibration x")
     with pytest.raises(InputValueError, match="calibration x: fx must be a number"):
         Intrinsics.from_dict(intr.to_dict() | {"fx": "big"}, "calibration x")
+
+
+def test_a_pixels_ray_passes_through_the_point_it_sees() -> None:
+    """twopose.camera.grid_rays, the one back-projection (the views table, the top view and
+    the simulator's pixels read it): project points, back-project their pixels, and each
+    ray from the camera centre meets its point."""
+    from twopose.camera import grid_rays
+
+    rng = np.random.default_rng(3)
+    intr = Intrinsics(width=640, height=480, fx=525.0, fy=520.0, cx=318.0, cy=243.0)
+    R = rotation_from_angles_deg([4.0, -7.0, 2.0])
+    t = np.array([1.0, -0.5, -2.0])
+    points = rng.uniform([-3, -2, 8], [3, 2, 15], (20, 3))
+    px = project_points(points, intr, R, t)
+    k = [intr.fx, intr.fy, intr.cx, intr.cy]
+    rays = grid_rays(px, np.broadcast_to(k, (20, 4)), np.broadcast_to(R, (20, 3, 3)))
+    to_points = points - t
+    along = np.einsum("ij,ij->i", to_points, rays)
+    np.testing.assert_allclose(rays * along[:, None], to_points, atol=1e-9)
+    np.testing.assert_allclose(np.linalg.norm(rays, axis=1), 1.0)

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twopose.arrays import F32, F64
-from twopose.camera import Intrinsics
+from twopose.camera import Intrinsics, camera_rays
 from twopose.sim.layout import GAMMA, Decal, Layout, Primitive, srgb_to_linear
 from twopose.sim.scene import Scene
 
@@ -60,9 +60,8 @@ def _pixel_rays(intr: Intrinsics, s: int) -> F64:
         norm = cv2.undistortPoints(
             px.reshape(-1, 1, 2), intr.K, np.asarray(intr.distortion, dtype=np.float64)
         ).reshape(-1, 2)
-    else:
-        norm = np.stack([(px[:, 0] - intr.cx) / intr.fx, (px[:, 1] - intr.cy) / intr.fy], axis=1)
-    return np.concatenate([norm, np.ones((norm.shape[0], 1))], axis=1)
+        return np.concatenate([norm, np.ones((norm.shape[0], 1))], axis=1)
+    return camera_rays(px, [intr.fx, intr.fy, intr.cx, intr.cy])
 
 
 def _capsule(o: F64, d: F64, a: F64, b: F64, r: float) -> tuple[F64, F64]:
