@@ -6,7 +6,6 @@ The page reads at 1280 px and at 390 px (:mod:`analysis.html_page`)."""
 from __future__ import annotations
 
 import html
-import json
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -30,6 +29,8 @@ from analysis.html_page import Image, figure_html, figure_row, image, page_html,
 from analysis.metrics import SESSION_SETS, by_session_set, session_set, used_trials
 from analysis.table_labels import metadata_table, readable_columns
 from analysis.thesis import thesis_sessions, thesis_table, thesis_verdict
+from twopose import jsonsafe
+from twopose.jsonsafe import jsonable
 from twopose.methods import spec_of
 
 if TYPE_CHECKING:
@@ -118,7 +119,7 @@ def write_outputs(
     for name, table in tables.items():
         csv = table.to_csv(index=False).encode("utf-8", "backslashreplace")
         write_atomically(out_dir / name, csv)
-    document = json.dumps(summary_document(result), indent=1, allow_nan=False)
+    document = jsonsafe.dumps(summary_document(result), indent=1)
     write_atomically(out_dir / "summary.json", document.encode() + b"\n")
     # Session figures were drawn by the batch (in parallel, or reused from the previous
     # run); a session analysed without them is drawn here. Only what spans sessions is
@@ -148,19 +149,10 @@ def write_outputs(
 
 
 def _records(table: pd.DataFrame) -> list[dict[str, object]]:
-    """Rows as JSON objects: NaN and infinities become null, numpy scalars Python's."""
-    clean = table.astype(object).where(table.map(_finite_or_text), None)
-    return [{str(k): _plain(v) for k, v in row.items()} for row in clean.to_dict("records")]
-
-
-def _finite_or_text(value: object) -> bool:
-    if isinstance(value, float | np.floating):
-        return bool(np.isfinite(value))
-    return value is not None
-
-
-def _plain(value: object) -> object:
-    return value.item() if isinstance(value, np.generic) else value
+    """Rows as JSON objects (NaN and infinities as null, NumPy's scalars as Python's: the
+    one encoder's rule, :func:`twopose.jsonsafe.jsonable`)."""
+    records: list[dict[str, object]] = jsonable(table.to_dict("records"))
+    return records
 
 
 def summary_document(result: RunResult) -> dict[str, object]:
