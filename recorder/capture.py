@@ -17,6 +17,7 @@ import numpy as np
 
 from recorder.sources import FrameSource
 from twopose.choices import Target
+from twopose.detect import detection_json
 from twopose.errors import SourceError
 from twopose.format.entries import PoseEntry
 from twopose.format.writer import Capture, SessionWriter
@@ -163,16 +164,19 @@ class FrameFeedback:
         line = ""
         if self.found and math.isfinite(self.theta_deg):
             line = image_line_equation(self.centroid_px, self.theta_deg)
+        numbers = detection_json(
+            found=self.found,
+            centroid_px=self.centroid_px,
+            theta_deg=self.theta_deg,
+            area_px=self.area_px,
+            eccentricity=self.eccentricity,
+            n_blobs=self.n_blobs,
+            reason=self.reason,
+        )
         return {
             "frame": self.index + 1,
-            "found": self.found,
-            "centroid": list(self.centroid_px),
-            "theta_deg": self.theta_deg,
-            "area_px": self.area_px,
-            "eccentricity": self.eccentricity,
-            "n_objects": self.n_blobs,
+            **numbers,
             "line": line,
-            "reason": self.reason,
             "is_board": self.is_board,
             "board_corners": self.board_corners,
             "board_coverage": self.board_coverage,

@@ -414,8 +414,8 @@ function renderCapture(s) {
     setText(avg, "pose average: none (the target was found in 0 of " + a.n_frames + " frames)");
     avg.classList.add("none");
   } else {
-    const c = a.centroid || [];
-    const sd = a.centroid_std || [];
+    const c = a.centroid_px || [];
+    const sd = a.centroid_std_px || [];
     setText(avg,
       "pose average over " + a.n_used + " of " + a.n_frames + " frames: centroid (" +
       fixed(c[0], 1) + ", " + fixed(c[1], 1) + ") px ± (" + fixed(sd[0], 1) + ", " +
@@ -446,12 +446,12 @@ function frameRow(f) {
   if (!f.found) {
     const reason = el("td", f.reason ? "not found: " + f.reason : "not found", "no");
     reason.colSpan = 5;
-    tr.append(el("td", f.n_objects), reason);
+    tr.append(el("td", f.n_blobs), reason);
     return tr;
   }
-  const c = f.centroid || [];
+  const c = f.centroid_px || [];
   tr.append(
-    el("td", f.n_objects),
+    el("td", f.n_blobs),
     el("td", fixed(c[0], 1) + ", " + fixed(c[1], 1)),
     el("td", fixed(f.theta_deg, 1)),
     el("td", fixed(f.area_px, 0)),

@@ -507,9 +507,9 @@ def _average(m: Any) -> dict[str, Any]:
         "found": m.found,
         "n_used": m.n_used,
         "n_frames": m.n_frames,
-        "centroid": list(m.centroid_px),
+        "centroid_px": list(m.centroid_px),
         "theta_deg": m.theta_deg,
-        "centroid_std": list(m.centroid_std_px),
+        "centroid_std_px": list(m.centroid_std_px),
     }
 
 

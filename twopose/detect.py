@@ -102,6 +102,45 @@ class Detection:
     outline_px: NDArray[np.float64] | None = field(default=None, repr=False, compare=False)
     rejected_blobs: tuple[RejectedBlob, ...] = field(default=(), repr=False, compare=False)
 
+    def to_json(self) -> dict[str, object]:
+        """Its numbers under the one set of key names (:func:`detection_json`)."""
+        return detection_json(
+            found=self.found,
+            centroid_px=self.centroid_px,
+            theta_deg=self.theta_deg,
+            area_px=self.area_px,
+            eccentricity=self.eccentricity,
+            n_blobs=self.n_blobs,
+            reason=self.reason,
+        )
+
+
+def detection_json(
+    *,
+    found: bool,
+    centroid_px: tuple[float, float],
+    theta_deg: float,
+    area_px: float,
+    eccentricity: float,
+    n_blobs: int,
+    reason: str,
+) -> dict[str, object]:
+    """A detection's numbers under the one set of key names every front end writes.
+
+    The web console's frames and ``twopose-analyze detect``: ``found, centroid_px,
+    theta_deg, area_px, eccentricity, n_blobs, reason``, as frames.csv names them. NaN
+    stays NaN: the one encoder (:mod:`twopose.jsonsafe`) writes it as null.
+    """
+    return {
+        "found": found,
+        "centroid_px": [centroid_px[0], centroid_px[1]],
+        "theta_deg": theta_deg,
+        "area_px": area_px,
+        "eccentricity": eccentricity,
+        "n_blobs": n_blobs,
+        "reason": reason,
+    }
+
 
 def wrap_theta_deg(theta_deg: NDArray[np.float64] | float) -> NDArray[np.float64]:
     """Map line directions (degrees) into (-90, 90]."""

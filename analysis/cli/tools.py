@@ -4,6 +4,7 @@ the sweeps, and one image or one measurement by hand."""
 from __future__ import annotations
 
 import json
+import math
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
@@ -104,10 +105,16 @@ def sensitivity_command(
     )
 
 
-def _json_float(v: float) -> float:
-    """A detection's number to four decimals (a non-finite one becomes null when written:
+def _rounded(numbers: dict[str, object]) -> dict[str, object]:
+    """A detection's numbers to four decimals (a non-finite one becomes null when written:
     :func:`twopose.jsonsafe.dumps`)."""
-    return round(v, 4)
+
+    def r(v: object) -> object:
+        if isinstance(v, float):
+            return round(v, 4) if math.isfinite(v) else v
+        return [r(x) for x in v] if isinstance(v, list) else v
+
+    return {k: r(v) for k, v in numbers.items()}
 
 
 @app.command()
@@ -116,6 +123,7 @@ def detect(
     target: Annotated[Target, typer.Option(help="What to look for.")],
 ) -> None:
     """Detect the glove or the dot in images; one JSON object per image."""
+    from twopose.detect import Detection
     from twopose.detect import detect as detect_image
     from twopose.images import decode_image
 
@@ -128,28 +136,10 @@ def detect(
             img, reason = None, str(err)
         if img is None:
             failed = True
-            out = {
-                "image": str(path),
-                "found": False,
-                "centroid_px": None,
-                "theta_deg": None,
-                "area_px": None,
-                "eccentricity": None,
-                "reason": reason or "not a readable image",
-            }
+            numbers = Detection(found=False, reason=reason or "not a readable image").to_json()
         else:
-            d = detect_image(img, target)
-            out = {
-                "image": str(path),
-                "found": d.found,
-                "centroid_px": [_json_float(d.centroid_px[0]), _json_float(d.centroid_px[1])]
-                if d.found
-                else None,
-                "theta_deg": _json_float(d.theta_deg) if d.found else None,
-                "area_px": _json_float(d.area_px) if d.found else None,
-                "eccentricity": _json_float(d.eccentricity) if d.found else None,
-                "reason": d.reason,
-            }
+            numbers = _rounded(detect_image(img, target).to_json())
+        out = {"image": str(path), **numbers}
         typer.echo(jsonsafe.dumps(out))
     if failed:
         raise typer.Exit(EXIT_SOME_INPUTS_FAILED)

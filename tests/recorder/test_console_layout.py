@@ -274,11 +274,11 @@ def _missed(frame: int, reason: str, objects: int) -> dict[str, Any]:
     return {
         "frame": frame,
         "found": False,
-        "centroid": [None, None],
+        "centroid_px": [None, None],
         "theta_deg": None,
         "area_px": None,
         "eccentricity": None,
-        "n_objects": objects,
+        "n_blobs": objects,
         "line": "",
         "reason": reason,
     }
@@ -289,11 +289,11 @@ def _missed(frame: int, reason: str, objects: int) -> dict[str, Any]:
 _FOUND = {
     "frame": 2,
     "found": True,
-    "centroid": [321.5, 240.25],
+    "centroid_px": [321.5, 240.25],
     "theta_deg": 12.5,
     "area_px": 151.0,
     "eccentricity": 0.31,
-    "n_objects": 2,
+    "n_blobs": 2,
     "line": "line -0.216 u +0.976 v = 165.1",
     "reason": "",
 }
@@ -316,9 +316,9 @@ _FEW = {
         "found": True,
         "n_used": 1,
         "n_frames": 3,
-        "centroid": [321.5, 240.25],
+        "centroid_px": [321.5, 240.25],
         "theta_deg": 12.5,
-        "centroid_std": [0.0, 0.0],
+        "centroid_std_px": [0.0, 0.0],
     },
     "shortfall": "few",
     "preview": {

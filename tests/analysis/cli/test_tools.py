@@ -54,8 +54,9 @@ def test_detect_prints_one_json_object_per_image(tmp_path: Path, ground_session:
         "theta_deg",
         "area_px",
         "eccentricity",
+        "n_blobs",
         "reason",
-    }
+    }  # the one set of key names: the web console's frames carry the same
     assert first["found"] is True
     assert -90 < first["theta_deg"] <= 90
     assert second["found"] is False
