@@ -11,11 +11,10 @@ import math
 import pandas as pd
 
 from analysis.metrics import by_session_set, summarize
-from twopose.methods import METHOD_SPECS
+from twopose.methods import label_of
 
 __all__ = [
     "ANSWER_COLUMNS",
-    "METHOD_NAMES",
     "answer_table",
     "number",
     "readable",
@@ -43,9 +42,6 @@ ANSWER_COLUMNS = [
     "coverage95",
     "within_1",
 ]
-
-#: How the report names a method (the thesis' numbering where it has one).
-METHOD_NAMES = {str(m): spec.label for m, spec in METHOD_SPECS.items()}
 
 
 def answer_table(trials: pd.DataFrame, *, include_warned: bool = False) -> pd.DataFrame:
@@ -110,7 +106,7 @@ def readable(table: pd.DataFrame, *, include_warned: bool = False) -> pd.DataFra
         row: dict[str, object] = {}
         if "session" in table:
             row["session"] = str(r["session"]).replace("\\", "/").rsplit("/", 1)[-1]
-        row["method"] = METHOD_NAMES.get(str(r["method"]), str(r["method"]))
+        row["method"] = label_of(r["method"])
         if not one:
             row["units"] = r["units"]
         row |= {

@@ -14,7 +14,6 @@ import pandas as pd
 
 from analysis.answer import (
     ANSWER_COLUMNS,
-    METHOD_NAMES,
     answer_table,
     number,
     readable,
@@ -31,7 +30,7 @@ from analysis.table_labels import metadata_table, readable_columns
 from analysis.thesis import thesis_sessions, thesis_table, thesis_verdict
 from twopose import jsonsafe
 from twopose.jsonsafe import jsonable
-from twopose.methods import spec_of
+from twopose.methods import label_of, spec_of
 
 if TYPE_CHECKING:
     from analysis.results import RunResult, SessionResult
@@ -213,7 +212,7 @@ def _sensitivity_table(sweeps: pd.DataFrame) -> pd.DataFrame:
     )
     shown = readable_columns(table[["sweep", "value", "unit"]])
     for method in [c for c in table.columns if c not in ("sweep", "value", "unit")]:
-        name = METHOD_NAMES.get(str(method), str(method))
+        name = label_of(method)
         shown[f"RMS error, {name} (in)"] = [number(v) for v in table[method]]
     return shown
 

@@ -16,7 +16,8 @@ from types import MappingProxyType
 
 import pandas as pd
 
-from analysis.answer import METHOD_NAMES, number, share
+from analysis.answer import number, share
+from twopose.methods import label_of
 
 __all__ = ["LABELS", "Label", "metadata_table", "readable_columns"]
 
@@ -59,7 +60,7 @@ _FORMAT: Mapping[str, Callable[[object], str]] = MappingProxyType(
         "flag": _flag,
         "text": _text,
         "plain": _plain,
-        "method": lambda v: METHOD_NAMES.get(str(v), _text(v)),
+        "method": label_of,
     }
 )
 
@@ -160,5 +161,5 @@ _SHOWN_APART = ("operator_notes", "trial_notes")
 
 def _metadata_value(key: str, value: str) -> str:
     if key == "method":
-        return METHOD_NAMES.get(value, value)
+        return label_of(value)
     return {"True": "yes", "False": "no"}.get(value, value)

@@ -22,7 +22,7 @@ import pandas as pd
 
 from analysis.metrics import by_session_set, session_set, used_trials
 from twopose.format.entries import INCHES_PER_UNIT
-from twopose.methods import METHOD_SPECS, Method
+from twopose.methods import Method, spec_of
 
 __all__ = ["THESIS_COLUMNS", "fisher_p", "thesis_sessions", "thesis_table", "thesis_verdict"]
 
@@ -52,7 +52,6 @@ def thesis_table(
 
 
 # The thesis tested methods 1 and 2, not the line.
-_THESIS_NAME = {str(m): METHOD_SPECS[m].thesis_name for m in (Method.POINT, Method.GROUND)}
 
 
 def thesis_sessions(table: pd.DataFrame) -> pd.DataFrame:
@@ -82,9 +81,10 @@ def _verdict(method: str, g: pd.DataFrame) -> str:
     """The thesis table's rule in a line: all within 1 in, as the thesis; or some not,
     consistent with its 15 of 15 (Fisher's exact test, p > 0.05) or not."""
     n_in, counts = _within(g)
-    name = _THESIS_NAME.get(method)
-    if name is None:
+    spec = spec_of(method)
+    if not spec.thesis_tested:
         return f"{method}: {counts}; the thesis did not test this method."
+    name = spec.thesis_name
     if n_in == len(g):
         return f"{method} ({name}): {counts}; reproduced: the thesis reports all within 1 in."
     p_value = fisher_p(n_in, len(g))

@@ -28,7 +28,7 @@ from twopose.margins import (  # the degeneracy margins' defaults: one home, lig
     DEFAULT_MIN_PARALLAX_DEG,
     DEFAULT_MIN_PLANE_ANGLE_DEG,
 )
-from twopose.methods import METHOD_SPECS, Method, spec_of
+from twopose.methods import Method, spec_of
 from twopose.solve import (
     DEFAULT_MIN_CONDITIONING,
     NViewLines,
@@ -50,7 +50,6 @@ __all__ = [
     "DEFAULT_MIN_GROUND_ANGLE_DEG",
     "DEFAULT_MIN_PARALLAX_DEG",
     "DEFAULT_MIN_PLANE_ANGLE_DEG",
-    "MARGINS",
     "EstimateOptions",
     "EstimateSettings",
     "GroundSpec",
@@ -104,8 +103,6 @@ class EstimateOptions:
 
 #: The ground plane as ``(normal_grid (3,), offset)``.
 GroundSpec = tuple[F64, float]
-#: The degeneracy margins (degrees) each method reports: the method registry's.
-MARGINS = {str(m): spec.margins for m, spec in METHOD_SPECS.items()}
 
 
 @dataclass(frozen=True, kw_only=True)

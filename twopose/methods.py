@@ -31,6 +31,7 @@ __all__ = [
     "Method",
     "MethodSpec",
     "TruthKind",
+    "label_of",
     "spec_of",
 ]
 
@@ -76,6 +77,8 @@ class MethodSpec:
     estimators: tuple[str, ...] = ("thesis",)
     #: Its colour in every figure over a run (matplotlib's cycle; the sensitivity figure's).
     colour: str = "C4"
+    #: Whether the thesis tested it (its verdict lines set a run against the thesis).
+    thesis_tested: bool = False
     #: What a top view draws for one view, how it names the truth, and its caption.
     view_segment: str = "segment"
     truth_name: str = "truth"
@@ -113,6 +116,7 @@ METHOD_SPECS: Mapping[Method, MethodSpec] = MappingProxyType(
             extra_columns=("x_optimal", "y_optimal", "z_optimal", "err_optimal"),
             thesis_name="method 1",
             label="point (method 1)",
+            thesis_tested=True,
             estimators=("thesis", "optimal"),
             colour="C1",
             view_segment="ray through the dot, per view",
@@ -144,6 +148,7 @@ METHOD_SPECS: Mapping[Method, MethodSpec] = MappingProxyType(
             extra_columns=(),
             thesis_name="method 2",
             label="ground (method 2)",
+            thesis_tested=True,
             colour="C0",
             view_segment="view plane's trace on the ground",
             top_view="each view's plane (the finger's image line back-projected) cut by the "
@@ -166,6 +171,17 @@ METHOD_SPECS: Mapping[Method, MethodSpec] = MappingProxyType(
 METHODS: tuple[Method, ...] = tuple(METHOD_SPECS)
 #: The methods that reconstruct something (every one but the board).
 MEASURING_METHODS: tuple[Method, ...] = tuple(m for m, s in METHOD_SPECS.items() if s.measures)
+
+
+def label_of(method: object) -> str:
+    """How tables and verdicts name ``method``: its :attr:`MethodSpec.label`.
+
+    A name the registry does not know is shown as it is.
+    """
+    try:
+        return spec_of(str(method)).label
+    except InputValueError:
+        return str(method)
 
 
 def spec_of(method: str) -> MethodSpec:

@@ -21,7 +21,6 @@ from twopose.arrays import F64, Bools, Ints
 from twopose.camera import camera_centres
 from twopose.detect import PoseMeasurement, combine_frames
 from twopose.estimate import (
-    MARGINS,
     EstimateSettings,
     GroundSpec,
     PoseView,
@@ -261,7 +260,7 @@ def _unsolved(T: int, method: Method, complete: Bools) -> Estimates:
         weighted_line=np.full((T, 2, 3), np.nan),
         optimal_line=np.full((T, 2, 3), np.nan),
         conditioning=np.full(T, np.nan),
-        margins={name: np.full(T, np.nan) for name in MARGINS[method]},
+        margins={name: np.full(T, np.nan) for name in spec_of(method).margins},
         cov=none.cov,
         dominant=none.dominant,
         dominant_share=none.dominant_share,
