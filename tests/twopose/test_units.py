@@ -17,13 +17,20 @@ def test_members_are_their_symbols_inches_first() -> None:
     assert unit_spec(Units.M).name == "metres"
 
 
+#: The finest tick of the tape each unit is measured with: 1/16 in, or 1 mm.
+TAPE_TICK_MM = {Units.IN: 25.4 / 16, Units.MM: 1.0, Units.CM: 1.0, Units.M: 1.0}
+
+
 @pytest.mark.parametrize("units", list(Units))
 def test_limits_are_one_length_in_every_unit(units: Units) -> None:
-    """The same physical limit in each unit (within the rounding the table chose)."""
+    """The largest typed position is the same length in every unit (200 in, rounded to a
+    round number: within 2%); the ground tolerance is exactly half the finest tick of the
+    unit's tape (1/32 in, 0.5 mm), not "about" a length."""
     spec, inch = unit_spec(units), unit_spec("in")
     assert spec.units is units
     assert spec.max_translation * spec.inches == pytest.approx(inch.max_translation, rel=0.02)
-    assert spec.ground_tolerance * spec.inches == pytest.approx(inch.ground_tolerance, rel=0.4)
+    tolerance_mm = spec.ground_tolerance * spec.inches * 25.4
+    assert tolerance_mm == pytest.approx(TAPE_TICK_MM[units] / 2, rel=1e-12)
 
 
 def test_an_unknown_unit_lists_the_known_ones() -> None:
