@@ -164,18 +164,9 @@ class FrameFeedback:
         line = ""
         if self.found and math.isfinite(self.theta_deg):
             line = image_line_equation(self.centroid_px, self.theta_deg)
-        numbers = detection_json(
-            found=self.found,
-            centroid_px=self.centroid_px,
-            theta_deg=self.theta_deg,
-            area_px=self.area_px,
-            eccentricity=self.eccentricity,
-            n_blobs=self.n_blobs,
-            reason=self.reason,
-        )
         return {
             "frame": self.index + 1,
-            **numbers,
+            **detection_json(self),
             "line": line,
             "is_board": self.is_board,
             "board_corners": self.board_corners,

@@ -14,6 +14,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import cv2
 import numpy as np
@@ -104,27 +105,29 @@ class Detection:
 
     def to_json(self) -> dict[str, object]:
         """Its numbers under the one set of key names (:func:`detection_json`)."""
-        return detection_json(
-            found=self.found,
-            centroid_px=self.centroid_px,
-            theta_deg=self.theta_deg,
-            area_px=self.area_px,
-            eccentricity=self.eccentricity,
-            n_blobs=self.n_blobs,
-            reason=self.reason,
-        )
+        return detection_json(self)
 
 
-def detection_json(
-    *,
-    found: bool,
-    centroid_px: tuple[float, float],
-    theta_deg: float,
-    area_px: float,
-    eccentricity: float,
-    n_blobs: int,
-    reason: str,
-) -> dict[str, object]:
+class DetectedNumbers(Protocol):
+    """What a detection's JSON is made of: a :class:`Detection`, or a frame's feedback."""
+
+    @property
+    def found(self) -> bool: ...
+    @property
+    def centroid_px(self) -> tuple[float, float]: ...
+    @property
+    def theta_deg(self) -> float: ...
+    @property
+    def area_px(self) -> float: ...
+    @property
+    def eccentricity(self) -> float: ...
+    @property
+    def n_blobs(self) -> int: ...
+    @property
+    def reason(self) -> str: ...
+
+
+def detection_json(d: DetectedNumbers) -> dict[str, object]:
     """A detection's numbers under the one set of key names every front end writes.
 
     The web console's frames and ``twopose-analyze detect``: ``found, centroid_px,
@@ -132,13 +135,13 @@ def detection_json(
     stays NaN: the one encoder (:mod:`twopose.jsonsafe`) writes it as null.
     """
     return {
-        "found": found,
-        "centroid_px": [centroid_px[0], centroid_px[1]],
-        "theta_deg": theta_deg,
-        "area_px": area_px,
-        "eccentricity": eccentricity,
-        "n_blobs": n_blobs,
-        "reason": reason,
+        "found": d.found,
+        "centroid_px": [d.centroid_px[0], d.centroid_px[1]],
+        "theta_deg": d.theta_deg,
+        "area_px": d.area_px,
+        "eccentricity": d.eccentricity,
+        "n_blobs": d.n_blobs,
+        "reason": d.reason,
     }
 
 
