@@ -24,12 +24,12 @@ from twopose.format.writer import Capture, SessionWriter
 from twopose.methods import spec_of
 
 if TYPE_CHECKING:
+    from recorder.trial_result import TrialResult
     from twopose.detect import Detection, PoseMeasurement
     from twopose.format.entries import SessionInfo
     from twopose.rig import RigConstants
     from twopose.scene3d import TrialScene
     from twopose.targets import BoardPlacement
-    from twopose.trial_result import TrialResult
 
 __all__ = [
     "CaptureResult",

@@ -57,11 +57,11 @@ if TYPE_CHECKING:
     from recorder.capture import CaptureResult
     from recorder.setup_rules import Setup
     from recorder.sources import FrameSource, SourceInfo
+    from recorder.trial_result import TrialResult
     from twopose.detect import Detection
     from twopose.rig import RigConstants
     from twopose.scene3d import TrialScene
     from twopose.targets import BoardPlacement
-    from twopose.trial_result import TrialResult
 
 __all__ = ["DECISIONS", "ConsoleSession", "WebDriver"]
 

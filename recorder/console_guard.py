@@ -6,7 +6,7 @@ page open in the operator's browser can send requests to ``http://127.0.0.1:PORT
 page reaches it under a host name of its own. :class:`ConsoleGuard`, an ASGI middleware
 wrapped around the whole app, refuses before any route runs:
 
-- **403** unless ``Host`` is loopback (:mod:`twopose.loopback`, the one rule) or the
+- **403** unless ``Host`` is loopback (:mod:`recorder.loopback`, the one rule) or the
   address the operator chose with ``--host`` (for ``0.0.0.0`` or ``::``: any IP address,
   never a name, since a rebinding page needs a name);
 - **403** when ``Origin`` is present and not the console's own origin (``null``, the
@@ -49,9 +49,9 @@ from starlette.requests import cookie_parser
 from starlette.responses import JSONResponse
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
+from recorder.loopback import is_loopback_host, split_host
 from twopose import jsonsafe
 from twopose.errors import InputValueError
-from twopose.loopback import is_loopback_host, split_host
 from twopose.text import first_control
 from twopose.values import parse_number
 

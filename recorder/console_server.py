@@ -36,6 +36,7 @@ from recorder.console_guard import (
     text_refusal,
 )
 from recorder.console_transport import ACCEPT_BURST, MAX_HEADER_BYTES, GuardedH11Protocol
+from recorder.loopback import is_loopback_host
 from recorder.procedure import Shortfall
 from recorder.setup_rules import (
     SETUP_FIELDS,
@@ -46,7 +47,6 @@ from recorder.setup_rules import (
     setup_from_answers,
 )
 from twopose.errors import InputValueError, SourceError, TwoposeError
-from twopose.loopback import is_loopback_host
 from twopose.methods import spec_of
 
 if TYPE_CHECKING:

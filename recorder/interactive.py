@@ -59,7 +59,7 @@ from twopose.units import UNITS, Units
 from twopose.values import Vec3
 
 if TYPE_CHECKING:
-    from twopose.trial_result import TrialResult
+    from recorder.trial_result import TrialResult
 
 __all__ = ["Operator", "Setup", "ask_setup", "parse_vector", "record_interactive"]
 

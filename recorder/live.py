@@ -22,6 +22,7 @@ from foxglove_schemas_protobuf.ImageAnnotations_pb2 import ImageAnnotations
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from mcap_protobuf.schema import build_file_descriptor_set
 
+from recorder.loopback import is_loopback_host
 from twopose import jsonsafe
 from twopose.camera import Camera
 from twopose.errors import InputValueError, TwoposeError
@@ -31,13 +32,12 @@ from twopose.format.messages import (
     image_message,
     image_topic,
 )
-from twopose.loopback import is_loopback_host
 from twopose.overlay import image_annotations
 from twopose.scene3d import TrialScene, trial_scene
 
 if TYPE_CHECKING:
+    from recorder.trial_result import TrialResult
     from twopose.detect import Detection
-    from twopose.trial_result import TrialResult
 
 __all__ = [
     "DEFAULT_LIVE_PORT",

@@ -26,7 +26,7 @@ from collections.abc import Iterable
 from http import HTTPStatus
 from typing import TYPE_CHECKING, Any
 
-from twopose.loopback import is_loopback_host
+from recorder.loopback import is_loopback_host
 
 if TYPE_CHECKING:
     from recorder.live_tls import UpstreamSecret

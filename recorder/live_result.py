@@ -4,7 +4,7 @@ the point on the spot, section 5.2.4).
 :class:`LiveResults` follows the procedure: the captures' live detections, which of them
 the operator accepted, each trial's typed ground truth. After every accepted pose of a
 trial with two or more, it solves every trial so far with the core's estimation
-(:func:`twopose.trial_result.trial_results`, the analysis' own), so a third pose updates
+(:func:`recorder.trial_result.trial_results`, the analysis' own), so a third pose updates
 the result, and an undone pose withdraws it. Nothing is written: the file holds what the
 operator did, the analysis stays the reference.
 """
@@ -16,6 +16,7 @@ from collections.abc import Iterable, Mapping, Sequence
 import numpy as np
 
 from recorder.capture import CaptureResult
+from recorder.trial_result import TrialResult, trial_results
 from twopose.camera import Camera
 from twopose.estimate import EstimateOptions, GroundSpec, PoseView, measure, pose_view
 from twopose.format.entries import GroundPlane, GroundTruth, PoseEntry, TypedEntry
@@ -23,7 +24,6 @@ from twopose.methods import Method
 from twopose.rig import RigConstants, check_applicable, corrected_ground, corrected_view
 from twopose.scene3d import TrialScene, scene_of_views
 from twopose.session_estimate import SessionTrials
-from twopose.trial_result import TrialResult, trial_results
 from twopose.units import Units
 
 __all__ = ["LiveResults"]

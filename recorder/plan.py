@@ -51,8 +51,8 @@ from twopose.values import Vec3, finite, numbers, vec3
 
 if TYPE_CHECKING:
     from recorder.live import LiveView
+    from recorder.trial_result import TrialResult
     from twopose.rig import RigConstants
-    from twopose.trial_result import TrialResult
 
 __all__ = [
     "Plan",

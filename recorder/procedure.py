@@ -71,8 +71,8 @@ from twopose.format.writer import SessionWriter
 from twopose.values import Vec3
 
 if TYPE_CHECKING:
+    from recorder.trial_result import TrialResult
     from twopose.targets import BoardPlacement
-    from twopose.trial_result import TrialResult
 
 __all__ = [
     "TRANSITIONS",

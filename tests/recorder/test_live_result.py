@@ -13,7 +13,7 @@ from analysis.pipeline import analyse_session
 from recorder.cli import app
 from recorder.plan import load_plan, record_plan
 from recorder.sources import SyntheticSource
-from twopose.trial_result import TrialResult
+from recorder.trial_result import TrialResult
 
 runner = CliRunner()
 

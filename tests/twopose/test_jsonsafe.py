@@ -8,8 +8,8 @@ import math
 
 import numpy as np
 
+from recorder.trial_result import TrialResult
 from twopose import jsonsafe
-from twopose.trial_result import TrialResult
 
 
 def strict(text: str) -> object:

@@ -1,11 +1,11 @@
-"""The one loopback rule (twopose/loopback.py), and that the console, the live view and
+"""The one loopback rule (recorder/loopback.py), and that the console, the live view and
 its guard all use it."""
 
 from __future__ import annotations
 
 import pytest
 
-from twopose.loopback import host_name, is_loopback_host, split_host
+from recorder.loopback import host_name, is_loopback_host, split_host
 
 LOOPBACK = (
     "localhost",

@@ -1,4 +1,4 @@
-"""twopose.trial_result directly: the live result is the analysis' estimate and error for each
+"""recorder.trial_result directly: the live result is the analysis' estimate and error for each
 trial, its one-line text says why when there is none, and its JSON has no NaN."""
 
 from __future__ import annotations
@@ -8,12 +8,12 @@ import json
 import numpy as np
 import pytest
 
+from recorder.trial_result import trial_results
 from tests.twopose.synthetic_trials import estimate as _estimate
 from tests.twopose.synthetic_trials import trials as _trials
 from twopose.jsonsafe import dumps
 from twopose.methods import Method
 from twopose.session_estimate import SessionTrials
-from twopose.trial_result import trial_results
 from twopose.truth import line_errors, reported
 
 
