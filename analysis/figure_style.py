@@ -41,7 +41,6 @@ __all__ = [
     "mark_beyond",
     "method_colour",
     "set_title",
-    "trial_colours",
 ]
 
 #: Pixels per inch of the PNGs (a 5 in figure is 550 px wide).
@@ -117,17 +116,6 @@ def common_units(trials: pd.DataFrame) -> tuple[pd.DataFrame, str]:
     converted = {c: trials[c] * scale for c in lengths if c in trials}
     inches: pd.DataFrame = trials.assign(**converted)
     return inches, "in"
-
-
-def trial_colours(trial_ids: list[int]) -> tuple[Colormap, Normalize]:
-    """A colour per trial number: distinct steps up to 20 trials, a ramp beyond."""
-    from matplotlib import colormaps
-
-    cmap = colormaps["viridis"].resampled(256)
-    lo, hi = min(trial_ids), max(trial_ids)
-    if len(trial_ids) <= 20:
-        return cmap, BoundaryNorm(np.arange(lo - 0.5, hi + 1.0), cmap.N)
-    return cmap, Normalize(lo, hi)
 
 
 def set_title(ax: Axes, title: str) -> None:

@@ -5,9 +5,8 @@ from __future__ import annotations
 
 import pandas as pd
 import pytest
-from matplotlib.colors import BoundaryNorm, Normalize
 
-from analysis.figure_style import common_units, method_colour, trial_colours
+from analysis.figure_style import TrialColours, common_units, method_colour
 
 
 def test_one_unit_per_figure() -> None:
@@ -27,13 +26,18 @@ def test_one_unit_per_figure() -> None:
 
 
 def test_a_colour_per_trial() -> None:
-    cmap, norm = trial_colours(list(range(1, 16)))
-    assert isinstance(norm, BoundaryNorm)  # distinct steps: one colour per trial
-    colours = {tuple(cmap(norm(t))) for t in range(1, 16)}
-    assert len(colours) == 15
-    _, ramp = trial_colours(list(range(1, 31)))
-    assert type(ramp) is Normalize
-    assert (ramp.vmin, ramp.vmax) == (1, 30)
+    """TrialColours: distinct colours up to 20 trials, named up to 8, whatever the order
+    or repeats of the numbers given; a trial it does not hold is grey."""
+    palette = TrialColours.of([15, *range(1, 16), 3])
+    assert palette.trials == tuple(range(1, 16))
+    assert len({palette.colour(t) for t in range(1, 16)}) == 15
+    assert not palette.named
+    assert palette.colour(99) == (0.5, 0.5, 0.5, 1.0)
+    few = TrialColours.of([2, 4, 6])
+    assert few.named
+    assert [h.get_label() for h in few.legend()] == ["trial 2", "trial 4", "trial 6"]
+    many = TrialColours.of(range(1, 31))
+    assert len({many.colour(t) for t in range(1, 31)}) == 30
 
 
 def test_one_colour_per_method() -> None:
