@@ -14,8 +14,10 @@ import pandas as pd
 
 from analysis.figure_style import MAX_LEGEND, common_units
 from analysis.metrics import by_session_set, used_trials, warned
+from analysis.table_labels import table_units, unit_label
 from analysis.terminal import UNIT_NAMES
 from twopose.methods import spec_of
+from twopose.units import Units
 
 __all__ = ["run_captions", "session_captions"]
 
@@ -40,7 +42,7 @@ def largest_errors(trials: pd.DataFrame, *, include_warned: bool) -> list[tuple[
     return out
 
 
-def _largest(trials: pd.DataFrame, units: str, *, include_warned: bool) -> str:
+def _largest(trials: pd.DataFrame, label: str, *, include_warned: bool) -> str:
     """The largest error drawn, per set and method, marked up for a reader and a test."""
     parts: dict[str, list[str]] = {}
     for name, method, value in largest_errors(trials, include_warned=include_warned):
@@ -50,7 +52,7 @@ def _largest(trials: pd.DataFrame, units: str, *, include_warned: bool) -> str:
         )
         parts.setdefault(name, []).append(cell)
     groups = [
-        (f"{name}_*: " if name else "") + ", ".join(cells) + f" {html.escape(units)}"
+        (f"{name}_*: " if name else "") + ", ".join(cells) + f" {html.escape(label)}"
         for name, cells in parts.items()
     ]
     return "Largest error drawn: " + "; ".join(groups) + ", as in the answer."
@@ -80,12 +82,11 @@ def run_captions(trials: pd.DataFrame, *, include_warned: bool) -> dict[str, str
 
 
 def session_captions(
-    trials: pd.DataFrame, *, include_warned: bool, units: str = ""
+    trials: pd.DataFrame, *, include_warned: bool, units: Units | None = None
 ) -> dict[str, str]:
     """The captions of one session's figures, by figure kind (``units``: the session's,
     when it has no trial to name them)."""
-    shown = str(trials["units"].iloc[0]) if len(trials) else units or "session units"
-    units = html.escape(shown)
+    label = html.escape(unit_label(table_units(trials) or units))
     top_view = spec_of(str(trials["method"].iloc[0])).top_view if len(trials) else "each view"
     ok = used_trials(trials, include_warned=True)
     n_warned = int(warned(ok).sum())
@@ -102,21 +103,21 @@ def session_captions(
         "them is drawn at the edge (▲), its value under the legend."
     )
     return {
-        "scatter": f"Estimate minus truth in x and z ({units}) of each ok trial, with its 95% "
+        "scatter": f"Estimate minus truth in x and z ({label}) of each ok trial, with its 95% "
         "error ellipse (about 95% of them hold the truth, the + at the origin, when the "
         "uncertainty is honest); the x is the bias over the trials the statistics use."
         + colour
         + doubt.format(how="hollow, without an ellipse")
         + framed
         + skipped,
-        "topview": f"Seen from above (x across, z in depth, {units}): "
+        "topview": f"Seen from above (x across, z in depth, {label}): "
         f"{top_view}; the truth is drawn over them."
         + colour
         + doubt.format(how="dashed")
         + framed
         + skipped,
         "averaging": "The error of the estimate from the first n frames of each pose "
-        f"({units}), against n; zero is the truth; x and z on one scale."
+        f"({label}), against n; zero is the truth; x and z on one scale."
         + colour
         + doubt.format(how="dashed")
         + framed

@@ -20,6 +20,9 @@ from typing import TYPE_CHECKING
 
 import pandas as pd
 
+from analysis.table_labels import table_units
+from twopose.units import Units
+
 if TYPE_CHECKING:
     from analysis.results import SessionResult
 
@@ -60,7 +63,7 @@ class FigureJob:
     trials: pd.DataFrame
     averaging: pd.DataFrame
     views: pd.DataFrame
-    units: str = ""  # the session's, for the axes when it has no trial
+    units: Units | None = None  # the session's, for the axes when it has no trial
     include_warned: bool = False
 
     @classmethod
@@ -71,7 +74,7 @@ class FigureJob:
             trials=result.trials,
             averaging=result.averaging,
             views=result.views,
-            units=result.metadata.get("units", ""),
+            units=table_units(result.trials, result.metadata.get("units", "")),
             include_warned=include_warned,
         )
 

@@ -19,9 +19,8 @@ from matplotlib.colors import BoundaryNorm, Colormap, ListedColormap, Normalize
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
-from twopose.errors import InputValueError
 from twopose.format.entries import INCHES_PER_UNIT
-from twopose.methods import spec_of
+from twopose.methods import Method, spec_of
 
 __all__ = [
     "DPI",
@@ -52,13 +51,10 @@ NOTE = 8  # a note under a legend
 MAX_LEGEND = 8
 
 
-def method_colour(method: object) -> str:
-    """One colour per method in every figure (the registry's
-    :attr:`~twopose.methods.MethodSpec.colour`; another for a name it does not know)."""
-    try:
-        return spec_of(str(method)).colour
-    except InputValueError:
-        return "C4"
+def method_colour(method: Method) -> str:
+    """One colour per method in every figure: the registry's
+    :attr:`~twopose.methods.MethodSpec.colour`."""
+    return spec_of(method).colour
 
 
 def layout(

@@ -48,8 +48,11 @@ from analysis.figure_style import (
 )
 from analysis.metrics import by_session_set, session_set, used_trials, warned
 from analysis.outputs import printable_stem
+from analysis.table_labels import table_units, unit_label
 from analysis.topview_figure import plot_top_view
+from twopose.methods import Method
 from twopose.uncertainty import CHI2_95
+from twopose.units import Units
 
 if TYPE_CHECKING:
     from analysis.results import RunResult
@@ -128,11 +131,10 @@ def _ellipse_bounds(trials: pd.DataFrame, chi2: float = CHI2_95[2]) -> np.ndarra
     return np.array([np.minimum(lo, 0.0), np.maximum(hi, 0.0)])  # the truth is in view
 
 
-def _units_of(trials: pd.DataFrame, units: str = "") -> str:
-    """The trials' length unit, else ``units`` (the session's, when it has no trial)."""
-    if len(trials) and "units" in trials:
-        return str(trials["units"].iloc[0])
-    return units or "session units"
+def _unit_label(trials: pd.DataFrame, units: Units | None) -> str:
+    """How the axes name the trials' length unit, else ``units`` (the session's, when it
+    has no trial)."""
+    return unit_label(table_units(trials) or units)
 
 
 def plot_error_scatter(
@@ -142,7 +144,7 @@ def plot_error_scatter(
     *,
     include_warned: bool = False,
     palette: TrialColours | None = None,
-    units: str = "",
+    units: Units | None = None,
 ) -> tuple[list[Line2D], str]:
     """Estimate minus truth in x-z, ok trials (the thesis' Figures 11 and 21), each in its
     trial's colour with its 95% error ellipse. The axes are framed by the trials the
@@ -154,7 +156,7 @@ def plot_error_scatter(
     palette = palette or TrialColours.of(ok["trial"])
     doubted = warned(ok)
     used, left_out = (ok, ok.head(0)) if include_warned else (ok[~doubted], ok[doubted])
-    units = _units_of(trials, units)
+    label = _unit_label(trials, units)
     ax.axhline(0, color="0.75", lw=0.8, zorder=0)
     ax.axvline(0, color="0.75", lw=0.8, zorder=0)
     handles = []
@@ -179,14 +181,14 @@ def plot_error_scatter(
     bounds = _ellipse_bounds(used) if len(used) and "sigma_x" in used else np.zeros((2, 2))
     frame(ax, np.vstack([bounds, used[["err_x", "err_z"]].to_numpy(dtype=np.float64)]),
           least=1e-3 if len(used) else 2.0)  # fmt: skip
-    note = _mark_left_out(ax, left_out, ["err_x", "err_z"], palette, units)
-    _style(ax, title, f"x error ({units})", f"z error ({units})")
+    note = _mark_left_out(ax, left_out, ["err_x", "err_z"], palette, label)
+    _style(ax, title, f"x error ({label})", f"z error ({label})")
     ax.xaxis.set_major_locator(MaxNLocator(nbins=5))  # tick labels that never touch
     return [*handles, *(palette.legend(marker="o", ms=5) if palette.named else [])], note
 
 
 def _mark_left_out(
-    ax: Axes, left_out: pd.DataFrame, columns: list[str], palette: TrialColours, units: str
+    ax: Axes, left_out: pd.DataFrame, columns: list[str], palette: TrialColours, label: str
 ) -> str:
     """Left-out trials beyond the frame: drawn at its edge, and listed with their value
     (the note returned)."""
@@ -194,7 +196,7 @@ def _mark_left_out(
     beyond = mark_beyond(ax, xy, palette.colours(left_out["trial"]))
     return beyond_note(
         [
-            f"trial {t} ({x:+.3g}, {y:+.3g} {units})"
+            f"trial {t} ({x:+.3g}, {y:+.3g} {label})"
             for t, (x, y), b in zip(left_out["trial"], xy, beyond, strict=True)
             if b
         ]
@@ -219,20 +221,20 @@ def running_errors(averaging: pd.DataFrame, trials: pd.DataFrame) -> pd.DataFram
     )
 
 
-def _running_axes(fig: Figure, units: str) -> tuple[Axes, Axes]:
+def _running_axes(fig: Figure, label: str) -> tuple[Axes, Axes]:
     """The running averages' two panels, x and z error, on one y scale."""
     ax_x, ax_z = fig.subplots(1, 2, sharey=True, squeeze=False)[0]
     for ax, axis in ((ax_x, "x"), (ax_z, "z")):
         ax.axhline(0.0, color="0.6", lw=0.8)
         _style(ax, f"{axis} error", "", "")
-    ax_x.set_ylabel(f"error of the running average ({units})", fontsize=LABEL)
+    ax_x.set_ylabel(f"error of the running average ({label})", fontsize=LABEL)
     return ax_x, ax_z
 
 
 def plot_running_averages(
     fig: Figure,
     errors: pd.DataFrame,
-    units: str,
+    units: Units | None,
     palette: TrialColours | None = None,
     *,
     include_warned: bool = False,
@@ -243,7 +245,8 @@ def plot_running_averages(
     statistics use; a left-out trial's line beyond the frame ends at its edge with an
     arrowhead. Returns the legend's entries and the note listing what lies beyond."""
     palette = palette or TrialColours.of(errors["trial"])
-    axes = _running_axes(fig, units)
+    label = unit_label(units)
+    axes = _running_axes(fig, label)
     by_trial = list(errors.groupby("trial", sort=True))
     colours = palette.colours(t for t, _ in by_trial)
     doubt = [bool(g["warned"].any()) for _, g in by_trial]
@@ -267,7 +270,7 @@ def plot_running_averages(
             xy = np.array([[r["n_frames"], r[f"err_{axis}"]] for _, r in last]).reshape(-1, 2)
             beyond = mark_beyond(ax, xy, palette.colours(t for t, _ in last))
             listed += [
-                f"trial {t} {axis} {r[f'err_{axis}']:+.3g} {units}"
+                f"trial {t} {axis} {r[f'err_{axis}']:+.3g} {label}"
                 for (t, r), b in zip(last, beyond, strict=True)
                 if b
             ]
@@ -280,7 +283,12 @@ def plot_running_averages(
 
 
 def _running_figure(
-    name: str, errors: pd.DataFrame, units: str, palette: TrialColours, *, include_warned: bool
+    name: str,
+    errors: pd.DataFrame,
+    units: Units | None,
+    palette: TrialColours,
+    *,
+    include_warned: bool,
 ) -> Figure:
     """The running averages' figure: the trials named in the legend, or keyed by a colour
     bar beyond :data:`MAX_LEGEND` trials."""
@@ -313,14 +321,14 @@ def session_figures(
     views: pd.DataFrame,
     *,
     include_warned: bool = False,
-    units: str = "",
+    units: Units | None = None,
 ) -> dict[str, Figure]:
     """One session's figures: ``scatter``, ``topview`` (ok trials with views) and, with
     more than one frame per pose, ``averaging``; each trial in one colour in all of them
     (:class:`~analysis.figure_style.TrialColours`). ``units``: the session's, named on
     the axes when it has no trial to name them."""
     name = printable_stem(session)
-    units = _units_of(trials, units)
+    units = table_units(trials) or units
     palette = TrialColours.of(used_trials(trials, include_warned=True)["trial"])
 
     def scatter(fig: Figure) -> None:
@@ -394,7 +402,7 @@ def plot_error_histogram(
     used, units = common_units(used_trials(trials, include_warned=include_warned, measured=True))
     top = float(used["err"].max()) if len(used) else 1.0
     edges = np.linspace(0.0, top if top > 0 else 1.0, HISTOGRAM_BINS + 1)
-    methods = sorted(used["method"].unique()) if len(used) else []
+    methods = sorted(Method(m) for m in used["method"].unique()) if len(used) else []
     panels = _grouped_axes(fig, used)
     for name, ax in panels:
         g = used if not name else used[used["session"].map(session_set) == name]
@@ -464,11 +472,12 @@ def plot_error_vs_baseline(
     method, one panel per session set on shared scales."""
     used, units = common_units(used_trials(trials, include_warned=include_warned, measured=True))
     used = used[used["baseline"].notna()] if "baseline" in used else used.head(0)
-    methods = sorted(used["method"].unique()) if len(used) else []
+    methods = sorted(Method(m) for m in used["method"].unique()) if len(used) else []
     panels = _grouped_axes(fig, used)
     for name, ax in panels:
         g = used if not name else used[used["session"].map(session_set) == name]
-        for method, m in g.groupby("method"):
+        for method in methods:
+            m = g[g["method"] == method]
             ax.scatter(m["baseline"], m["err"], s=14, color=method_colour(method), alpha=0.8)
         ax.set_yscale("log")
         _style(ax, _set_title(name, "Error against baseline"), "", f"error ({units}, log)")

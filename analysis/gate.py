@@ -24,7 +24,7 @@ from analysis.columns import SUMMARY_DOMAINS
 from analysis.outputs import check_results_table, read_results_table, session_keys
 from twopose.config import build_dataclass, read_toml
 from twopose.errors import InputValueError
-from twopose.methods import MEASURING_METHODS
+from twopose.methods import MEASURING_METHODS, Method
 
 __all__ = [
     "CHECKED_METRICS",
@@ -294,7 +294,7 @@ def _status(before: float, after: float, sign: int, allowed: float) -> str:
 
 def _row(
     session: str,
-    method: str,
+    method: Method,
     metric: str,
     before: float,
     after: float,

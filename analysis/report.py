@@ -26,11 +26,12 @@ from analysis.figure_cache import FIGURE_INDEX, FigureCache, FigureJob, index_do
 from analysis.figures import figure_key, png_bytes, run_figures
 from analysis.html_page import Image, figure_html, figure_row, image, page_html, table_html
 from analysis.metrics import SESSION_SETS, by_session_set, session_set, used_trials
-from analysis.table_labels import metadata_table, readable_columns
+from analysis.table_labels import metadata_table, readable_columns, table_units
 from analysis.thesis import thesis_sessions, thesis_table, thesis_verdict
 from twopose import jsonsafe
 from twopose.jsonsafe import jsonable
 from twopose.methods import label_of, spec_of
+from twopose.units import Units
 
 if TYPE_CHECKING:
     from analysis.results import RunResult, SessionResult
@@ -71,11 +72,9 @@ REPORT_TRIAL_COLUMNS = [
 ]
 
 
-def _units_of(session: SessionResult) -> str:
+def _units_of(session: SessionResult) -> Units | None:
     """A session's length unit, from its trials or, when it has none, its metadata."""
-    if len(session.trials):
-        return str(session.trials["units"].iloc[0])
-    return session.metadata.get("units", "")
+    return table_units(session.trials, session.metadata.get("units", ""))
 
 
 def _trial_table(trials: pd.DataFrame) -> pd.DataFrame:
@@ -369,10 +368,9 @@ def rig_before_after(trials: pd.DataFrame, *, include_warned: bool = False) -> p
     )
 
 
-def _run_units(result: RunResult) -> str:
-    """The run's length unit when its sessions share one ("" otherwise)."""
-    units = set(result.trials["units"].astype(str)) if "units" in result.trials else set()
-    return units.pop() if len(units) == 1 else ""
+def _run_units(result: RunResult) -> Units | None:
+    """The run's length unit when its sessions share one (None otherwise)."""
+    return table_units(result.trials)
 
 
 def _rig_used(result: RunResult) -> list[str]:

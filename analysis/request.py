@@ -32,7 +32,7 @@ import numpy as np
 from twopose.camera import rotation_from_angles_deg
 from twopose.errors import InputValueError
 from twopose.jsonsafe import finite_or_none
-from twopose.methods import spec_of
+from twopose.methods import Method, spec_of
 from twopose.optimal_lines import centroid_segments, optimal_lines
 from twopose.solve import (
     image_lines,
@@ -122,7 +122,7 @@ def _optimal_line(
     return answer, str(ls.status[0]), str(ls.reason[0]), float(ls.conditioning[0])
 
 
-def solve_request(method: str, request: Any) -> dict[str, Any]:
+def solve_request(method: Method, request: Any) -> dict[str, Any]:
     """Validate a request, solve it, and return the JSON-ready answer."""
     if not spec_of(method).measures:
         raise InputValueError(

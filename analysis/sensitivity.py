@@ -79,7 +79,7 @@ class Geometry:
         )
 
 
-def _estimate(g: Geometry, method: str, samples: int, rng: np.random.Generator) -> F64:
+def _estimate(g: Geometry, method: Method, samples: int, rng: np.random.Generator) -> F64:
     """(samples, 3) estimates under the geometry's noise; NaN where the solver gave up."""
     centres = np.array([[0.0, 0.0, 0.0], g.baseline])
     K = np.array([g.focal_px, g.focal_px, 320.0, 240.0])
@@ -109,14 +109,14 @@ def _estimate(g: Geometry, method: str, samples: int, rng: np.random.Generator) 
     return sol.point_grid
 
 
-def _truth(g: Geometry, method: str) -> F64:
+def _truth(g: Geometry, method: Method) -> F64:
     if not spec_of(method).needs_ground:  # the dot
         return np.asarray(g.point_target, dtype=np.float64)
     return np.array([g.ground_point[0], g.ground_height, g.ground_point[1]])
 
 
 def _row(
-    g: Geometry, method: str, sweep: str, value: float, unit: str, samples: int, seed: int
+    g: Geometry, method: Method, sweep: str, value: float, unit: str, samples: int, seed: int
 ) -> dict[str, object]:
     est = _estimate(g, method, samples, np.random.default_rng(seed))
     err = est - _truth(g, method)

@@ -18,8 +18,9 @@ import pandas as pd
 
 from analysis.answer import number, share
 from twopose.methods import label_of
+from twopose.units import Units
 
-__all__ = ["LABELS", "Label", "metadata_table", "readable_columns"]
+__all__ = ["LABELS", "Label", "metadata_table", "readable_columns", "table_units", "unit_label"]
 
 
 def _count(value: object) -> str:
@@ -132,7 +133,7 @@ _METADATA_NAMES: Mapping[str, str] = MappingProxyType(
 )
 
 
-def readable_columns(table: pd.DataFrame, units: str = "") -> pd.DataFrame:
+def readable_columns(table: pd.DataFrame, units: Units | None = None) -> pd.DataFrame:
     """``table`` with each column of :data:`LABELS` in words (lengths' headers naming
     ``units``) and its cells as the answer rounds them; other columns kept as they are."""
     out: dict[str, object] = {}
@@ -141,7 +142,7 @@ def readable_columns(table: pd.DataFrame, units: str = "") -> pd.DataFrame:
         if label is None:
             out[str(column)] = table[column]
             continue
-        unit = units if label.unit == _LENGTH else label.unit
+        unit = (units or "") if label.unit == _LENGTH else label.unit
         header = f"{label.name} ({unit})" if unit else label.name
         out[header] = [_FORMAT[label.kind](v) for v in table[column]]
     return pd.DataFrame(out, index=table.index)
@@ -163,3 +164,17 @@ def _metadata_value(key: str, value: str) -> str:
     if key == "method":
         return label_of(value)
     return {"True": "yes", "False": "no"}.get(value, value)
+
+
+def table_units(trials: pd.DataFrame, recorded: str = "") -> Units | None:
+    """The length unit ``trials`` share, else ``recorded`` (a session's metadata, when it
+    has no trial); None when neither says one (or the trials are in several units)."""
+    units = set(trials["units"].astype(str)) if "units" in trials else set()
+    if not units and recorded:
+        units = {recorded}
+    return Units(units.pop()) if len(units) == 1 else None
+
+
+def unit_label(units: Units | None) -> str:
+    """How axes and captions name a length unit ("session units" when it is not known)."""
+    return Units(units).value if units is not None else "session units"

@@ -18,7 +18,7 @@ from analysis.columns import AVERAGING_COLUMNS, TRIAL_COLUMNS, VIEW_COLUMNS
 from twopose.arrays import F64
 from twopose.camera import grid_rays, rotation_from_angles_deg
 from twopose.detect import Detection, PoseMeasurement
-from twopose.methods import spec_of
+from twopose.methods import Method, spec_of
 from twopose.truth import Reported, line_errors
 from twopose.uncertainty import uncertainty_columns
 
@@ -60,7 +60,7 @@ def frame_row(
     }
 
 
-def _method_columns(method: str, est: Estimates, truth: F64) -> dict[str, Any]:
+def _method_columns(method: Method, est: Estimates, truth: F64) -> dict[str, Any]:
     """The method's extra columns: a line's direction and errors; a point's
     reprojection-optimal estimate beside the thesis' one."""
     if spec_of(method).estimates_line:

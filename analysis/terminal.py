@@ -18,7 +18,7 @@ from analysis.answer import number as _num
 from analysis.answer import session_order
 from analysis.answer import share as _share
 from analysis.metrics import SESSION_SETS, by_session_set, summarize
-from twopose.units import UNIT_SPECS
+from twopose.units import UNIT_SPECS, Units, unit_spec
 
 __all__ = ["UNIT_NAMES", "closing_lines", "summary_lines", "wrap_phrases"]
 
@@ -30,8 +30,8 @@ _HEADER = (
 )
 
 
-def _units_name(units: str) -> str:
-    return UNIT_NAMES.get(units, units)
+def _units_name(units: Units) -> str:
+    return unit_spec(units).name
 
 
 def summary_lines(
@@ -52,7 +52,7 @@ def summary_lines(
     for name, group in groups:
         for units, part in group.groupby("units", sort=False):
             where = f"{SESSION_SETS.get(name, 'sessions in no set')}, " if len(groups) > 1 else ""
-            title = f"{where}errors in {_units_name(str(units))}:"
+            title = f"{where}errors in {_units_name(Units(str(units)))}:"
             lines += [*wrap_phrases(title.split(" "), width), _HEADER]
             lines += _method_rows(part, summary, include_warned=include_warned)
     lines.append("per session:")

@@ -73,11 +73,11 @@ def thesis_verdict(trials: pd.DataFrame, *, include_warned: bool = False) -> lis
     for name, group in groups:
         prefix = f"{name}_*: " if name else ("other sessions: " if len(groups) > 1 else "")
         for method, g in _used(group, include_warned=include_warned).groupby("method", sort=True):
-            lines.append(prefix + _verdict(str(method), g))
+            lines.append(prefix + _verdict(Method(str(method)), g))
     return lines
 
 
-def _verdict(method: str, g: pd.DataFrame) -> str:
+def _verdict(method: Method, g: pd.DataFrame) -> str:
     """The thesis table's rule in a line: all within 1 in, as the thesis; or some not,
     consistent with its 15 of 15 (Fisher's exact test, p > 0.05) or not."""
     n_in, counts = _within(g)
@@ -149,7 +149,7 @@ def _mean_interval(values: np.ndarray) -> tuple[float, float]:
     return float(values.mean()), t95(len(values) - 1) * values.std(ddof=1) / np.sqrt(len(values))
 
 
-def _within_row(used: pd.DataFrame, method: str, claim: str) -> dict[str, str]:
+def _within_row(used: pd.DataFrame, method: Method, claim: str) -> dict[str, str]:
     """Within ±1 in. Test: all within, yes; some not, Fisher's exact test against the
     thesis' 15 of 15: p <= 0.05, no; else can't tell (too few trials to tell them apart)."""
     g = used[used["method"] == method]

@@ -44,7 +44,12 @@ def _names(node: ast.AST) -> bool:
 
 
 def _annotation(arg: ast.arg) -> str:
-    return ast.unparse(arg.annotation) if arg.annotation is not None else ""
+    """The parameter's type (of ``Annotated[T, ...]``, ``T`` alone: its metadata is not)."""
+    node = arg.annotation
+    if isinstance(node, ast.Subscript) and ast.unparse(node.value).endswith("Annotated"):
+        first = node.slice.elts[0] if isinstance(node.slice, ast.Tuple) else node.slice
+        return ast.unparse(first)
+    return ast.unparse(node) if node is not None else ""
 
 
 def census(path: Path) -> Counter[str]:
@@ -95,7 +100,12 @@ def main() -> int:
             if counts:
                 by_file[name] = counts
                 totals.update(counts)
-    keys = {"comparisons with a method's name", "dicts keyed by methods' names", *totals}
+    keys = {
+        "comparisons with a method's name",
+        "dicts keyed by methods' names",
+        *(f"{name}: {kind}" for name, typed in _TYPES.items() for kind in (typed, "str")),
+        *totals,
+    }
     for key in sorted(keys):
         print(f"{key}: {totals[key]}")
     print()

@@ -17,6 +17,7 @@ from twopose.errors import (
     run_command_line,
 )
 from twopose.methods import Method
+from twopose.units import Units
 from twopose.version import VersionOption
 
 if TYPE_CHECKING:
@@ -87,7 +88,7 @@ def simulate(
             task = progress.add_task("frames rendered", total=total)
             summary = simulate_session(
                 out,
-                method=method.value,
+                method=method,
                 trials=trials,
                 frames=frames,
                 seed=seed,
@@ -166,7 +167,9 @@ def new(
         typer.Option(help="camera:N, video:PATH, images:DIR[/PATTERN] or synthetic[:SCENE.toml]."),
     ] = "camera:0",
     method: Annotated[Method | None, typer.Option(help="Asked if not given.")] = None,
-    units: Annotated[str | None, typer.Option(help="in, mm, cm or m. Asked if not given.")] = None,
+    units: Annotated[
+        Units | None, typer.Option(help="Every length's unit. Asked if not given.")
+    ] = None,
     calibration: Annotated[
         Path | None,
         typer.Option(
@@ -338,7 +341,7 @@ def _planned(request: NewRequest, plan: Path, stack: contextlib.ExitStack) -> Re
 
 def _console_given(
     method: Method | None,
-    units: str | None,
+    units: Units | None,
     calibration: Path | None,
     focal: float | None,
     principal: str | None,
@@ -359,7 +362,7 @@ def _console_given(
         "principal": _principal(principal),
         "ground_height": ground_height,
         "ground_truth": [
-            parse_vector(g, units or "in", what="ground truth") for g in ground_truth or []
+            parse_vector(g, units or Units.IN, what="ground truth") for g in ground_truth or []
         ],
         "operator": operator,
         "board": board,
@@ -368,7 +371,7 @@ def _console_given(
 
 def _board_given(
     method: Method | None,
-    units: str | None,
+    units: Units | None,
     board: str | None,
     square: float | None,
     corner: str | None,
@@ -396,7 +399,7 @@ def _board_given(
     return BoardPlacement(
         inner_corners=inner_corners(board),
         square=positive_number(f"{square!r}"),
-        first_corner=board_corner(corner, units or "in"),
+        first_corner=board_corner(corner, units or Units.IN),
     )
 
 

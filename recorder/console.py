@@ -50,7 +50,8 @@ from recorder.procedure import (
 from recorder.setup_rules import PoseTyping, form_fields
 from recorder.summary import RecordingSummary
 from twopose.format.entries import GroundTruth, Note, PoseEntry, TruthKind, TypedEntry
-from twopose.methods import spec_of
+from twopose.methods import Method, MethodSpec, spec_of
+from twopose.units import Units
 from twopose.values import Vec3
 
 if TYPE_CHECKING:
@@ -111,8 +112,8 @@ class ConsoleSession(LiveSink):
         self.closing = threading.Event()  # the server is stopping (Ctrl-C, SIGTERM)
         self.phase = "setup"  # setup, recording, done, failed
         self.setup_fields = form_fields(given or {})
-        self.method = ""
-        self.units = ""
+        self.method: Method | None = None  # set when the setup is accepted
+        self.units: Units | None = None
         self.waiting = ""  # pose, decision, or "" (capturing, between steps)
         self.trial = self.pose = self.n_poses = 0
         self.poses: list[dict[str, Any]] = []  # this trial's typed poses so far
@@ -148,8 +149,8 @@ class ConsoleSession(LiveSink):
             return {
                 "phase": self.phase,
                 "out": str(self.out),
-                "method": self.method,
-                "units": self.units,
+                "method": self.method or "",
+                "units": self.units or "",
                 "setup_fields": self.setup_fields if self.phase == "setup" else [],
                 "waiting": self.waiting,
                 "trial": self.trial,
@@ -184,6 +185,10 @@ class ConsoleSession(LiveSink):
             for name, value in fields.items():
                 setattr(self, name, value)
             self.lock.notify_all()
+
+    def method_spec(self) -> MethodSpec | None:
+        """The session's method's spec (None before the setup is accepted)."""
+        return None if self.method is None else spec_of(self.method)
 
     def begin(self, setup: Setup, rig: RigConstants | None) -> None:
         """The setup is accepted: recording starts, and what it records stays in view."""
@@ -334,7 +339,8 @@ class WebDriver(Driver):
 
     def trial_entries(self, trial: int) -> tuple[TypedEntry, ...]:
         self.session.update(trial=trial, n_poses=self.typing.poses_per_trial)
-        kind: TruthKind | None = spec_of(self.session.method).truth_kind
+        spec = self.session.method_spec()
+        kind: TruthKind | None = spec.truth_kind if spec is not None else None
         if not self.ground_truth or kind is None:
             return ()
         return (GroundTruth(trial=trial, kind=kind, points_grid=self.ground_truth),)

@@ -47,7 +47,7 @@ from recorder.setup_rules import (
     setup_from_answers,
 )
 from twopose.errors import InputValueError, SourceError, TwoposeError
-from twopose.methods import spec_of
+from twopose.methods import Method
 
 if TYPE_CHECKING:
     from recorder.live import LiveView
@@ -145,7 +145,8 @@ def preview(source: FrameSource, session: ConsoleSession) -> None:
         return
     ok, encoded = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, 80])
     if ok:
-        target = spec_of(session.method).target
+        spec = session.method_spec()
+        target = spec.target if spec is not None else None
         try:  # nothing to outline on a board session's page (the rig fit finds its corners)
             detection = detect(image, target) if target is not None else None
         except Exception as err:  # the overlay is a courtesy; it must not stop the recording
@@ -253,10 +254,11 @@ class _Console:
         form, refused = await _form(request, _POSE_LIMITS)
         if refused is not None:
             return refused
-        if self.session.waiting != "pose":
+        units = self.session.units
+        if self.session.waiting != "pose" or units is None:
             return _refused("not now: the recorder is not waiting for a pose")
         try:
-            t, r = parse_pose_form(form, self.session.units)
+            t, r = parse_pose_form(form, units)
         except FormRefusedError as err:
             return _refused(str(err), err.errors)
         self.session.commands.put(("pose", (t, r)))
@@ -541,7 +543,7 @@ def _check_source(options: ConsoleOptions) -> None:
     from recorder.sources import open_source
 
     width, height = options.size
-    method = str(options.given.get("method") or "point")
+    method = Method(options.given.get("method") or Method.POINT)
     try:
         source = open_source(options.source, method=method, width=width, height=height)
         with source:

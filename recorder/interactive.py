@@ -86,8 +86,8 @@ class Operator:
 def ask_setup(  # noqa: PLR0913 - one keyword per setup value the operator may have given
     op: Operator,
     *,
-    method: str | None,
-    units: str | None,
+    method: Method | None,
+    units: Units | None,
     intrinsics: Intrinsics | None,
     focal: float | None,
     principal: tuple[float, float] | None,
@@ -136,7 +136,7 @@ def ask_setup(  # noqa: PLR0913 - one keyword per setup value the operator may h
     )
 
 
-def _ask_board(op: Operator, units: str) -> BoardPlacement:
+def _ask_board(op: Operator, units: Units) -> BoardPlacement:
     """A board session's board: its inner corners, its square and where it stands."""
     corners = op.ask("board's inner corners COLSxROWS", inner_corners, "9x6")
     square = op.ask(f"board's square side ({units})", positive_number)
@@ -148,7 +148,7 @@ def _ask_board(op: Operator, units: str) -> BoardPlacement:
 
 
 def _ask_truth(
-    op: Operator, method: str, units: str, height: float | None, given: list[Vec3]
+    op: Operator, method: Method, units: Units, height: float | None, given: list[Vec3]
 ) -> tuple[Vec3, ...]:
     """The ground truth, checked as typed: a line's two points must differ, and a method 2
     point off the ground plane is kept only if the operator confirms it."""
@@ -168,7 +168,7 @@ def _ask_truth(
     return tuple(given)
 
 
-def _keep(op: Operator, point: Vec3, height: float, units: str) -> bool:
+def _keep(op: Operator, point: Vec3, height: float, units: Units) -> bool:
     """True if ``point`` is on the ground plane, or the operator keeps it anyway."""
     off = off_ground(point, height, units)
     if not off:

@@ -34,8 +34,8 @@ class LiveResults:
 
     def __init__(
         self,
-        method: Method | str,
-        units: str,
+        method: Method,
+        units: Units,
         cameras: Sequence[Camera],
         ground: GroundPlane | None,
         options: EstimateOptions | None = None,

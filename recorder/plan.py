@@ -212,7 +212,7 @@ def load_plan(path: str | Path) -> Plan:
     )
 
 
-def _board(table: Any, method: Method, units: str) -> BoardPlacement | None:
+def _board(table: Any, method: Method, units: Units) -> BoardPlacement | None:
     """``[board]`` of a board session: ``inner_corners = [cols, rows]``, ``square`` and
     ``first_corner = [x, y, z]`` (required there, refused elsewhere)."""
     if spec_of(method).measures:
@@ -245,7 +245,7 @@ def _board(table: Any, method: Method, units: str) -> BoardPlacement | None:
 
 
 def _trial(
-    table: Any, i: int, method: str, units: str, default_camera: str, height: float | None
+    table: Any, i: int, method: Method, units: Units, default_camera: str, height: float | None
 ) -> PlannedTrial:
     """``[[trials]]`` number ``i``: its poses and its ground truth, checked."""
     t = _known_keys(table, "trials", f"trials[{i}]")

@@ -153,7 +153,7 @@ class FormRefusedError(InputValueError):
         super().__init__("; ".join(f"{_LABELS.get(k, k)}: {v}" for k, v in self.errors.items()))
 
 
-def parse_pose_form(form: Mapping[str, str], units: str) -> tuple[Vec3, Vec3]:
+def parse_pose_form(form: Mapping[str, str], units: Units) -> tuple[Vec3, Vec3]:
     """A pose typed in a form (``x``, ``y``, ``z``, ``rotation``), each field checked;
     raises :class:`FormRefusedError` with every refusal."""
     errors: dict[str, str] = {}
@@ -184,7 +184,7 @@ def parse_pose_form(form: Mapping[str, str], units: str) -> tuple[Vec3, Vec3]:
 
 
 def parse_vector(
-    text: str, units: str, *, what: str = "translation", limit: float | None = None
+    text: str, units: Units, *, what: str = "translation", limit: float | None = None
 ) -> Vec3:
     """Three numbers typed as ``x, y, z`` (commas or spaces); raises InputValueError."""
     example = "0, 0, 0" if what == "rotation" else "1.1, 0, 0"
@@ -254,13 +254,13 @@ def distinct_point(point: Vec3, earlier: Sequence[Vec3]) -> Vec3:
     return point
 
 
-def max_translation(units: str) -> float:
+def max_translation(units: Units) -> float:
     """A typed translation's plausible magnitude (session units): beyond it, a typo is
     likelier (:attr:`twopose.units.UnitSpec.max_translation`)."""
     return unit_spec(units).max_translation
 
 
-def too_large(vector: Vec3, units: str) -> bool:
+def too_large(vector: Vec3, units: Units) -> bool:
     """Whether a typed position (a pose, a ground truth, a board corner) is implausible."""
     return max(abs(v) for v in vector) > max_translation(units)
 
@@ -271,7 +271,7 @@ def default_principal(size: tuple[int, int]) -> tuple[float, float]:
     return size[0] / 2, size[1] / 2
 
 
-def off_ground(point: Vec3, height: float, units: str) -> str:
+def off_ground(point: Vec3, height: float, units: Units) -> str:
     """Why a method 2 ground truth point is not on the ground plane ``y = height`` (empty
     when it is, within the units' tolerance: half a 1/16 in tape tick, or half a
     millimetre). Every front end refuses such a point unless the operator keeps it: the
@@ -286,7 +286,7 @@ def off_ground(point: Vec3, height: float, units: str) -> str:
     )
 
 
-def default_ground_height(units: str) -> str:
+def default_ground_height(units: Units) -> str:
     """The thesis' ground height where the units are inches; nothing to assume otherwise."""
     return f"{THESIS_GROUND_HEIGHT_IN:g}" if units == "in" else ""
 
@@ -373,11 +373,11 @@ def _given_text(name: str, given: Mapping[str, Any]) -> str | None:
     return f"{value:g}" if isinstance(value, float) else str(value)
 
 
-def _default_text(name: str, units: str) -> str:
+def _default_text(name: str, units: Units) -> str:
     defaults = {
-        "units": "in",
+        "units": Units.IN.value,
         "focal": f"{THESIS_FOCAL_PX:g}",
-        "principal": "320, 240",
+        "principal": ", ".join(f"{v:g}" for v in default_principal(THESIS_IMAGE_SIZE)),
         "ground_height": default_ground_height(units),
     }
     return defaults.get(name, "")
@@ -386,7 +386,7 @@ def _default_text(name: str, units: str) -> str:
 def form_fields(given: Mapping[str, Any]) -> list[dict[str, Any]]:
     """The setup form as the page draws it: each field with what the command line gave
     (shown read-only), or its default (the thesis' rig), and the methods it applies to."""
-    units = str(given.get("units") or "in")
+    units = Units(given.get("units") or Units.IN)
     fields = []
     for f in SETUP_FIELDS:
         fixed = _given_text(f.name, given)
@@ -463,12 +463,12 @@ def _method(text: str) -> Method:
     return Method(one_of(METHODS)(text))
 
 
-def board_corner(text: str, units: str) -> Vec3:
+def board_corner(text: str, units: Units) -> Vec3:
     """The board's first inner corner: a measured grid point, checked as a typed one."""
     return parse_vector(text, units, what="board corner")
 
 
-def _board(a: _Answers, units: str) -> BoardPlacement | None:
+def _board(a: _Answers, units: Units) -> BoardPlacement | None:
     """The board's size and placement (every part required: it is the session's truth)."""
     corners = a.check("board", inner_corners)
     square = a.check("square", positive_number)
@@ -478,7 +478,7 @@ def _board(a: _Answers, units: str) -> BoardPlacement | None:
     return BoardPlacement(inner_corners=corners, square=square, first_corner=corner)
 
 
-def _ground_height(text: str, units: str) -> float:
+def _ground_height(text: str, units: Units) -> float:
     if not text:
         raise InputValueError(f"type the height of the camera centre above the table ({units})")
     return positive_number(text)
@@ -502,7 +502,7 @@ def _intrinsics(a: _Answers, size: tuple[int, int]) -> Intrinsics:
         return Intrinsics(width=size[0], height=size[1], fx=f, fy=f, cx=size[0] / 2, cy=size[1] / 2)
 
 
-def _truth(a: _Answers, method: str, units: str, height: float | None) -> tuple[Vec3, ...]:
+def _truth(a: _Answers, method: Method, units: Units, height: float | None) -> tuple[Vec3, ...]:
     """The ground truth (optional): a line's two points must differ, and a method 2 point
     off the ground plane is kept only when the operator ticked that it should be."""
     names = ("truth1", "truth2")[: spec_of(method).truth_points]

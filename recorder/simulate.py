@@ -81,7 +81,7 @@ def _vec(a: NDArray[np.float64]) -> Vec3:
     return (float(a[0]), float(a[1]), float(a[2]))
 
 
-def target_points(scene: Scene, method: str) -> tuple[TruthKind, NDArray[np.float64]]:
+def target_points(scene: Scene, method: Method) -> tuple[TruthKind, NDArray[np.float64]]:
     """Ground-truth kind and points (grid frame) of ``method`` in ``scene``.
 
     point: the dot centre; ground: where the finger axis meets the ground;
@@ -97,7 +97,7 @@ def target_points(scene: Scene, method: str) -> tuple[TruthKind, NDArray[np.floa
     return POINT_TRUTH, np.array([[g[0], scene.ground_height, g[1]]])
 
 
-def _visible_points(scene: Scene, method: str) -> NDArray[np.float64]:
+def _visible_points(scene: Scene, method: Method) -> NDArray[np.float64]:
     if not spec_of(method).uses_image_lines:  # the dot
         return np.asarray([scene.point.position], dtype=np.float64)
     tip, base = finger_axis(scene)
@@ -110,7 +110,7 @@ def _lattice(rng: np.random.Generator, lo: float, hi: float, step: float) -> flo
 
 
 def _draw_trial_poses(
-    scene: Scene, method: str, n_poses: int, rng: np.random.Generator
+    scene: Scene, method: Method, n_poses: int, rng: np.random.Generator
 ) -> list[
     tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
 ]:
@@ -291,7 +291,7 @@ class _SimulatedOperator(Driver):
     def __init__(
         self,
         scene: Scene,
-        method: str,
+        method: Method,
         trials: int,
         rng: np.random.Generator,
         clock: _SimClock,
@@ -356,7 +356,7 @@ class _SimulatedOperator(Driver):
         )
 
 
-def poses_per_trial(scene: Scene, method: str, poses: int | None = None) -> int:
+def poses_per_trial(scene: Scene, method: Method, poses: int | None = None) -> int:
     """How many poses each simulated trial types: a board session's :data:`BOARD_POSES`,
     else ``poses`` or the scene's count."""
     if not spec_of(method).measures:
@@ -377,7 +377,7 @@ def _scene_with(scene: Scene | None, pose_noise: float | None, poses: int | None
     return scene
 
 
-def _checked_settings(method: str, trials: int, frames: int, poses: int | None) -> Method:
+def _checked_settings(method: Method, trials: int, frames: int, poses: int | None) -> Method:
     """The method, once the command line's settings are known to make a session."""
     checked = spec_of(method).method  # refuses an unknown method, naming the known ones
     if poses is not None and not spec_of(checked).measures:
@@ -415,7 +415,7 @@ def _session_info(
 def simulate_session(  # noqa: PLR0913 - keyword-only settings, one per command-line option
     out: str | Path,
     *,
-    method: str,
+    method: Method,
     trials: int = 15,
     frames: int = 5,
     seed: int = 0,

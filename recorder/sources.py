@@ -312,7 +312,7 @@ class SyntheticSource(FrameSource):
     def __init__(
         self,
         scene_path: str | Path | None = None,
-        method: str = "ground",
+        method: Method = Method.GROUND,
         *,
         seed: int = 0,
         realtime: bool = True,
@@ -368,7 +368,7 @@ class SyntheticSource(FrameSource):
 def open_source(
     spec: str,
     *,
-    method: str = "ground",
+    method: Method = Method.GROUND,
     width: int = 640,
     height: int = 480,
     fps: float = 30.0,

@@ -190,5 +190,5 @@ def solve(
             request = json.loads(sys.stdin.read())
         except (ValueError, RecursionError) as err:  # bad JSON, 5000-digit or 1e5-deep values
             raise InputValueError(f"the request is not valid JSON: {err}") from err
-        answer = solve_request(method.value, request)
+        answer = solve_request(method, request)
     typer.echo(jsonsafe.dumps(answer))

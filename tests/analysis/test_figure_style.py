@@ -7,6 +7,7 @@ import pandas as pd
 import pytest
 
 from analysis.figure_style import TrialColours, common_units, method_colour
+from twopose.methods import MEASURING_METHODS, spec_of
 
 
 def test_one_unit_per_figure() -> None:
@@ -41,6 +42,6 @@ def test_a_colour_per_trial() -> None:
 
 
 def test_one_colour_per_method() -> None:
-    colours = {method_colour(m) for m in ("point", "line", "ground")}
-    assert len(colours) == 3
-    assert method_colour("something else") == "C4"
+    colours = {method_colour(m) for m in MEASURING_METHODS}
+    assert len(colours) == len(MEASURING_METHODS)
+    assert all(method_colour(m) == spec_of(m).colour for m in MEASURING_METHODS)

@@ -25,6 +25,7 @@ from analysis.figures import plot_error_histogram, session_figures
 from analysis.metrics import used_trials, warned
 from analysis.pipeline import analyse_session
 from analysis.results import AnalysisOptions
+from twopose.units import Units
 
 SESSIONS = Path(__file__).resolve().parents[2] / "sessions"
 
@@ -106,7 +107,7 @@ def test_left_out_trials_never_set_the_scale_and_are_drawn_at_the_edge(
     # --include-warned: the warned trials are used, so they set the frame
     job = dataclasses.replace(stress_ground, include_warned=True)
     wide = session_figures(
-        job.session, job.trials, job.averaging, job.views, include_warned=True, units="in"
+        job.session, job.trials, job.averaging, job.views, include_warned=True, units=Units.IN
     )
     (ax,) = wide["scatter"].axes
     assert ax.get_ylim()[1] > far["err_z"].max()
@@ -131,7 +132,7 @@ def test_counts_have_integer_ticks_and_an_empty_session_names_its_units() -> Non
     ticks = locator.tick_values(0, 1.8)
     assert np.allclose(ticks, np.round(ticks))  # never 0.25 of a trial
     empty = pd.DataFrame(columns=TRIAL_TABLE_COLUMNS)  # an empty session's trials
-    figures = session_figures("e.mcap", empty, pd.DataFrame(), pd.DataFrame(), units="mm")
+    figures = session_figures("e.mcap", empty, pd.DataFrame(), pd.DataFrame(), units=Units.MM)
     (ax,) = figures["scatter"].axes
     assert ax.get_xlabel() == "x error (mm)"
     assert "session units" not in ax.get_ylabel()
