@@ -46,6 +46,9 @@ from twopose.values import numbers
 
 __all__ = ["solve_request"]
 
+#: An answer's fields, its status, reason and conditioning.
+_Answer = tuple[dict[str, Any], str, str, float]
+
 
 def _numbers(value: Any, n: int, where: str) -> list[float]:
     if not isinstance(value, list):  # JSON arrays only: a string or object is a mistake
@@ -103,9 +106,7 @@ def _segment(view: Any, sigma_px: float, where: str) -> tuple[np.ndarray, float]
     return segment, float(sigma)
 
 
-def _optimal_line(
-    views: list[Any], P: np.ndarray, sigma: list[float]
-) -> tuple[dict[str, Any], str, str, float]:
+def _optimal_line(views: list[Any], P: np.ndarray, sigma: list[float]) -> _Answer:
     """The reprojection-optimal line's answer, its status, reason and conditioning."""
     pairs = [
         _segment(v, s, f"views[{i}]") for i, (v, s) in enumerate(zip(views, sigma, strict=True))
@@ -120,6 +121,46 @@ def _optimal_line(
         "cov_direction": _matrix(ls.cov[0, 3:, 3:]),
     }
     return answer, str(ls.status[0]), str(ls.reason[0]), float(ls.conditioning[0])
+
+
+def _point_answer(views: list[Any], P: np.ndarray, estimator: str) -> _Answer:
+    """Method 1: the rays through each view's pixel."""
+    px = np.array(
+        [
+            [
+                _numbers(_field(v, "px", f"views[{i}]"), 2, f"views[{i}].px")
+                for i, v in enumerate(views)
+            ]
+        ]
+    )
+    s = triangulate_points(px, P, estimator=estimator)
+    answer = {"point": _vec(s.point_grid[0]), "reprojection_rms_px": _num(s.rms_px[0])}
+    return answer, str(s.status[0]), str(s.reason[0]), float(s.conditioning[0])
+
+
+def _line_answer(views: list[Any], P: np.ndarray, estimator: str) -> _Answer:
+    """The fixed line: the views' planes' line (weighted by each view's ``sigma_px``)."""
+    sigma = [
+        _numbers([v.get("sigma_px", 1.0)], 1, f"views[{i}].sigma_px")[0]
+        for i, v in enumerate(views)
+    ]
+    if min(sigma) <= 0:
+        raise InputValueError(f"sigma_px must be > 0, got {sigma}")
+    if estimator == "optimal":
+        return _optimal_line(views, P, sigma)
+    lines = np.stack([_image_line(v, f"views[{i}]") for i, v in enumerate(views)])[None]
+    ls = triangulate_lines(lines, P, estimator=estimator, sigma_px=[sigma])
+    answer = {"line": {"point": _vec(ls.point_grid[0]), "direction": _vec(ls.direction_grid[0])}}
+    return answer, str(ls.status[0]), str(ls.reason[0]), float(ls.conditioning[0])
+
+
+def _ground_answer(request: Any, views: list[Any], P: np.ndarray) -> _Answer:
+    """Method 2: the views' planes and the ground plane ``y = ground_y``."""
+    lines = np.stack([_image_line(v, f"views[{i}]") for i, v in enumerate(views)])[None]
+    h = _numbers([_field(request, "ground_y", "a ground request")], 1, "ground_y")[0]
+    g = triangulate_ground(lines, P, [0.0, 1.0, 0.0], h)
+    answer = {"point": _vec(g.point_grid[0])}
+    return answer, str(g.status[0]), str(g.reason[0]), float(g.conditioning[0])
 
 
 def solve_request(method: Method, request: Any) -> dict[str, Any]:
@@ -140,45 +181,13 @@ def solve_request(method: Method, request: Any) -> dict[str, Any]:
             f"estimator for {method} must be {' or '.join(allowed)}, got {estimator!r}"
         )
     P = np.stack([_projection(v, f"views[{i}]") for i, v in enumerate(views)])[None]
-    answer: dict[str, Any]
     spec = spec_of(method)
     if not spec.uses_image_lines:  # a pixel per view: rays
-        px = np.array(
-            [
-                [
-                    _numbers(_field(v, "px", f"views[{i}]"), 2, f"views[{i}].px")
-                    for i, v in enumerate(views)
-                ]
-            ]
-        )
-        s = triangulate_points(px, P, estimator=estimator)
-        answer = {"point": _vec(s.point_grid[0]), "reprojection_rms_px": _num(s.rms_px[0])}
-        status, reason, cond = s.status[0], s.reason[0], s.conditioning[0]
-    else:  # an image line per view: planes
-        lines = np.stack([_image_line(v, f"views[{i}]") for i, v in enumerate(views)])[None]
-        if spec.estimates_line:
-            sigma = [
-                _numbers([v.get("sigma_px", 1.0)], 1, f"views[{i}].sigma_px")[0]
-                for i, v in enumerate(views)
-            ]
-            if min(sigma) <= 0:
-                raise InputValueError(f"sigma_px must be > 0, got {sigma}")
-            if estimator == "optimal":
-                answer, status, reason, cond = _optimal_line(views, P, sigma)
-            else:
-                ls = triangulate_lines(lines, P, estimator=estimator, sigma_px=[sigma])
-                answer = {
-                    "line": {
-                        "point": _vec(ls.point_grid[0]),
-                        "direction": _vec(ls.direction_grid[0]),
-                    }
-                }
-                status, reason, cond = ls.status[0], ls.reason[0], ls.conditioning[0]
-        else:
-            h = _numbers([_field(request, "ground_y", "a ground request")], 1, "ground_y")[0]
-            g = triangulate_ground(lines, P, [0.0, 1.0, 0.0], h)
-            answer = {"point": _vec(g.point_grid[0])}
-            status, reason, cond = g.status[0], g.reason[0], g.conditioning[0]
+        answer, status, reason, cond = _point_answer(views, P, estimator)
+    elif spec.estimates_line:  # an image line per view: planes, their line
+        answer, status, reason, cond = _line_answer(views, P, estimator)
+    else:  # the planes' line on the ground plane
+        answer, status, reason, cond = _ground_answer(request, views, P)
     answer |= {
         "status": str(status),
         "reason": str(reason),

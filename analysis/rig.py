@@ -32,7 +32,7 @@ from analysis.columns import RIG_COLUMNS
 from analysis.rig_data import RigData, combine, prepare, prepare_session, require_trusted
 from twopose.arrays import F64
 from twopose.errors import InputValueError
-from twopose.estimate import ViewBatch
+from twopose.estimate import ViewBatch, solve_batch
 from twopose.methods import spec_of
 from twopose.rig import (
     RIG_PARAMETERS,
@@ -43,7 +43,6 @@ from twopose.rig import (
     true_ground,
 )
 from twopose.session_estimate import SessionEstimate
-from twopose.solve import image_lines, triangulate_ground, triangulate_lines, triangulate_points
 from twopose.truth import Reported, line_errors, reported_line_point
 from twopose.uncertainty import CHI2_95, nees
 
@@ -93,31 +92,23 @@ def solve_corrected(data: RigData, rig: RigConstants) -> F64:
 
 def corrected_estimates(data: RigData, rig: RigConstants) -> tuple[F64, F64]:
     """Every trial's reported point and, for lines, the line's unit direction (T, 3)
-    each (NaN for the other methods), with the constants applied."""
+    each (NaN for the other methods), with the constants applied: the estimation's own
+    solver (:func:`twopose.estimate.solve_batch`), each session on its own ground plane."""
     batch = corrected_batch(data.batch, rig)
-    P, valid, mc = batch.P(), batch.valid, data.options.min_conditioning
-    px, th = batch.inputs[..., :2], batch.inputs[..., 2]
-    no_direction = np.full((len(data.trial_ids), 3), np.nan)
-    spec = spec_of(data.method)
-    if not spec.uses_image_lines:  # rays through the dot
-        solved = triangulate_points(px, P, valid=valid, min_conditioning=mc)
-        return np.asarray(solved.point_grid), no_direction
-    lines = image_lines(px, th)
-    if spec.needs_ground:
-        point = np.full((len(data.trial_ids), 3), np.nan)
-        for s in np.unique(data.origin):  # each session on its own ground plane
-            rows = data.origin == s
-            ground = data.grounds[int(s)]
-            assert ground is not None
-            normal, true = true_ground(ground, rig)
-            g = triangulate_ground(
-                lines[rows], P[rows], normal, true, valid=valid[rows], min_conditioning=mc
-            )
-            point[rows] = g.point_grid
-        return point, no_direction
-    solved_lines = triangulate_lines(lines, P, valid=valid, min_conditioning=mc)
-    point, _ = reported_line_point(solved_lines.point_grid, solved_lines.direction_grid, data.truth)
-    return point, np.asarray(solved_lines.direction_grid)
+    point = np.full((len(data.trial_ids), 3), np.nan)
+    direction = np.full_like(point, np.nan)
+    needs_ground = spec_of(data.method).needs_ground
+    for s in np.unique(data.origin):
+        rows = data.origin == s
+        ground = data.grounds[int(s)]
+        corrected = true_ground(ground, rig) if needs_ground and ground is not None else None
+        solved = solve_batch(data.method, batch.rows(rows), corrected, data.options)
+        point[rows] = solved.point
+        if solved.direction is not None:
+            direction[rows] = solved.direction
+    if spec_of(data.method).estimates_line:
+        point, _ = reported_line_point(point, direction, data.truth)
+    return point, direction
 
 
 def raw_residuals(data: RigData, rig: RigConstants) -> F64:

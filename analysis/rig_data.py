@@ -15,6 +15,7 @@ from numpy.typing import NDArray
 from twopose.arrays import F64
 from twopose.errors import InputValueError
 from twopose.estimate import EstimateOptions, EstimateSettings, GroundSpec, ViewBatch
+from twopose.methods import Method
 from twopose.rig import ground_height, plausible_bounds
 from twopose.session_estimate import SessionEstimate, SessionTrials, estimate_session
 from twopose.truth import Reported, reported
@@ -41,7 +42,7 @@ class RigData:
     covariance understates its error and would steer the fit; every trial is corrected.
     ``units`` are the sessions' (one for all), ``image_size`` the smallest image."""
 
-    method: str
+    method: Method
     trial_ids: tuple[int, ...]
     batch: ViewBatch
     truth: F64  # (T, 2, 3)
@@ -57,15 +58,10 @@ class RigData:
 
     def subset(self, rows: Sequence[int]) -> RigData:
         idx = np.asarray(rows, dtype=int)
-        batch = ViewBatch(
-            inputs=self.batch.inputs[idx],
-            intrinsics=self.batch.intrinsics[idx],
-            valid=self.batch.valid[idx],
-        )
         return dataclasses.replace(
             self,
             trial_ids=tuple(self.trial_ids[i] for i in idx),
-            batch=batch,
+            batch=self.batch.rows(idx),
             truth=self.truth[idx],
             origin=self.origin[idx],
             whiten=self.whiten[idx],

@@ -18,9 +18,10 @@ import pandas as pd
 
 from twopose.arrays import F64
 from twopose.camera import Intrinsics, project_points
+from twopose.estimate import EstimateOptions, ViewBatch, solve_batch
 from twopose.methods import Method, spec_of
-from twopose.solve import image_lines, projection_matrices, triangulate_ground, triangulate_points
 from twopose.targets import finger_axis
+from twopose.uncertainty import INPUTS_PER_VIEW
 
 #: The methods the sweeps cover: the thesis' two (the line has its own tests).
 SWEPT: tuple[Method, ...] = (Method.POINT, Method.GROUND)
@@ -79,34 +80,43 @@ class Geometry:
         )
 
 
+def _measured(g: Geometry, method: Method) -> tuple[F64, F64]:
+    """The true image measurements in each view: (2, 2) pixels and (2,) orientations (deg),
+    the dot's centroid (its orientation unused) or the finger's tip and direction."""
+    centres = np.array([[0.0, 0.0, 0.0], g.baseline])
+    if not spec_of(method).uses_image_lines:
+        target = np.asarray(g.point_target, dtype=np.float64)[None]
+        px = np.stack([project_points(target, g.intrinsics, np.eye(3), c)[0] for c in centres])
+        return px, np.zeros(2)
+    tip, base = g.finger()
+    obs = [project_points(np.stack([tip, base]), g.intrinsics, np.eye(3), c) for c in centres]
+    theta = np.array([math.degrees(math.atan2(*(o[1] - o[0])[::-1])) for o in obs])
+    return np.stack([o[0] for o in obs]), theta
+
+
+def _solved(g: Geometry, method: Method, px: F64, theta: F64, typed: F64) -> F64:
+    """(S, 3) estimates of S samples' pixels (S, 2, 2), orientations (S, 2) and typed camera
+    centres (S, 2, 3), through the estimation's own solver; NaN where it gave up."""
+    inputs = np.zeros((len(px), 2, len(INPUTS_PER_VIEW)))  # unrotated cameras: angles 0
+    inputs[..., :2], inputs[..., 2], inputs[..., 3:6] = px, theta, typed
+    k = g.intrinsics
+    batch = ViewBatch(
+        inputs=inputs,
+        intrinsics=np.broadcast_to([k.fx, k.fy, k.cx, k.cy], (*inputs.shape[:2], 4)).copy(),
+        valid=np.ones(inputs.shape[:2], dtype=bool),
+    )
+    ground = (np.array([0.0, 1.0, 0.0]), g.ground_height)
+    return solve_batch(method, batch, ground, EstimateOptions()).point
+
+
 def _estimate(g: Geometry, method: Method, samples: int, rng: np.random.Generator) -> F64:
     """(samples, 3) estimates under the geometry's noise; NaN where the solver gave up."""
     centres = np.array([[0.0, 0.0, 0.0], g.baseline])
-    K = np.array([g.focal_px, g.focal_px, 320.0, 240.0])
     typed = centres[None] + rng.normal(size=(samples, 2, 3)) * np.asarray(g.pose_sigma)
-    P = projection_matrices(
-        np.broadcast_to(K, (samples, 2, 4)), np.broadcast_to(np.eye(3), (samples, 2, 3, 3)), typed
-    )
-    if not spec_of(method).uses_image_lines:  # the dot's pixel in each view
-        px = np.stack(
-            [
-                project_points(np.asarray(g.point_target), g.intrinsics, np.eye(3), c)[0]
-                for c in centres
-            ]
-        )
-        noisy = px[None] + rng.normal(0.0, g.pixel_sigma, (samples, 2, 2))
-        sol = triangulate_points(noisy, P)
-        return sol.point_grid
-    tip, base = g.finger()
-    obs = [project_points(np.stack([tip, base]), g.intrinsics, np.eye(3), c) for c in centres]
-    px = np.stack([o[0] for o in obs])
-    theta = np.array([math.degrees(math.atan2(*(o[1] - o[0])[::-1])) for o in obs])
+    px, theta = _measured(g, method)
     noisy_px = px[None] + rng.normal(0.0, g.pixel_sigma, (samples, 2, 2))
     noisy_theta = theta[None] + rng.normal(0.0, g.theta_sigma_deg, (samples, 2))
-    sol = triangulate_ground(
-        image_lines(noisy_px, noisy_theta), P, [0.0, 1.0, 0.0], g.ground_height
-    )
-    return sol.point_grid
+    return _solved(g, method, noisy_px, noisy_theta, typed)
 
 
 def _truth(g: Geometry, method: Method) -> F64:
@@ -207,15 +217,10 @@ def x_translation_effect(error: float = 0.1, base: Geometry | None = None) -> fl
 
 
 def _estimate_with_typed_offset(g: Geometry, offset: F64) -> F64:
-    centres = np.array([[0.0, 0.0, 0.0], g.baseline])
-    tip, base = g.finger()
-    obs = [project_points(np.stack([tip, base]), g.intrinsics, np.eye(3), c) for c in centres]
-    px = np.stack([o[0] for o in obs])[None]
-    theta = np.array([[math.degrees(math.atan2(*(o[1] - o[0])[::-1])) for o in obs]])
-    K = np.array([[g.focal_px, g.focal_px, 320.0, 240.0]] * 2)[None]
-    P = projection_matrices(K, np.broadcast_to(np.eye(3), (1, 2, 3, 3)), (centres + offset)[None])
-    sol = triangulate_ground(image_lines(px, theta), P, [0.0, 1.0, 0.0], g.ground_height)
-    return np.asarray(sol.point_grid[0])
+    """Method 2's noise-free estimate with the typed camera centres off by ``offset`` (2, 3)."""
+    px, theta = _measured(g, Method.GROUND)
+    typed = np.array([[0.0, 0.0, 0.0], g.baseline]) + offset
+    return np.asarray(_solved(g, Method.GROUND, px[None], theta[None], typed[None])[0])
 
 
 def worst_x_translation_effect(

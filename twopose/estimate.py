@@ -202,6 +202,12 @@ class ViewBatch:
                 intr[i, j], valid[i, j] = v.intrinsics, True
         return cls(inputs=x, intrinsics=intr, valid=valid)
 
+    def rows(self, which: NDArray[np.bool_] | NDArray[np.int_]) -> ViewBatch:
+        """The batch of some of its trials (a boolean mask or indices over T)."""
+        return ViewBatch(
+            inputs=self.inputs[which], intrinsics=self.intrinsics[which], valid=self.valid[which]
+        )
+
     def P(self, inputs: F64 | None = None) -> F64:
         """Projection matrices (T, N, 3, 4) of these (or perturbed) inputs."""
         x = self.inputs if inputs is None else inputs
