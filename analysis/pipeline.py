@@ -96,7 +96,7 @@ def analyse_session(
         if results_path is not None:
             results = stack.enter_context(_results_writer(Path(results_path), reader))
         replay = _corrected(_replay(reader, str(path), options, results), options.rig)
-        estimate = estimate_session(replay.trials, options)
+        estimate = estimate_session(replay.trials, options.estimate)
         reported_ = reported(estimate)
         trials = trial_table(replay.session, estimate, reported_, replay.notes, replay.unmeasured)
         if results is not None:

@@ -9,15 +9,9 @@ import pandas as pd
 
 from analysis.choices import DEFAULT_SESSION_TIMEOUT_S, RigCalibrationMode
 from analysis.columns import VIEW_COLUMNS
-from twopose.choices import CombineRule
 from twopose.detect import DotParams, GloveParams
-from twopose.estimate import (
-    DEFAULT_MIN_GROUND_ANGLE_DEG,
-    DEFAULT_MIN_PARALLAX_DEG,
-    DEFAULT_MIN_PLANE_ANGLE_DEG,
-)
+from twopose.estimate import EstimateOptions
 from twopose.rig import RigConstants
-from twopose.solve import DEFAULT_MIN_CONDITIONING
 
 __all__ = ["AnalysisOptions", "RunResult", "SessionFailure", "SessionResult"]
 
@@ -26,14 +20,11 @@ __all__ = ["AnalysisOptions", "RunResult", "SessionFailure", "SessionResult"]
 class AnalysisOptions:
     """How frames become measurements and measurements become estimates."""
 
-    combine: CombineRule = "mean"
     glove: GloveParams = field(default_factory=GloveParams)
     dot: DotParams = field(default_factory=DotParams)
-    min_conditioning: float = DEFAULT_MIN_CONDITIONING
-    # Degeneracy margins: an ok trial under one of these gets a warning (degrees).
-    min_parallax_deg: float = DEFAULT_MIN_PARALLAX_DEG
-    min_plane_angle_deg: float = DEFAULT_MIN_PLANE_ANGLE_DEG
-    min_ground_angle_deg: float = DEFAULT_MIN_GROUND_ANGLE_DEG
+    # How frames are combined and when a near-degenerate trial warns: the one record the
+    # recorder's live result and the command line's defaults read too.
+    estimate: EstimateOptions = field(default_factory=EstimateOptions)
     # A session still running after this many seconds is stopped and listed as failed, so
     # that one pathological file cannot stall a batch (None: no limit).
     session_timeout_s: float | None = DEFAULT_SESSION_TIMEOUT_S

@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 
 from twopose.arrays import F64
 from twopose.errors import InputValueError
-from twopose.estimate import EstimateOptions, EstimateSettings, GroundSpec, ViewBatch
+from twopose.estimate import EstimateOptions, GroundSpec, ViewBatch
 from twopose.methods import Method
 from twopose.rig import ground_height, plausible_bounds
 from twopose.session_estimate import SessionEstimate, SessionTrials, estimate_session
@@ -51,7 +51,7 @@ class RigData:
     whiten: F64  # (T, 3, 3): residual -> whitened residual (pseudo-inverse square root)
     cov: F64  # (T, 3, 3): each trial's propagated (random) covariance
     trusted: NDArray[np.bool_]  # (T,): no near-degeneracy warning
-    options: EstimateSettings = field(default_factory=EstimateOptions)
+    options: EstimateOptions = field(default_factory=EstimateOptions)
     units: Units | None = None
     image_size: tuple[int, int] | None = None
     sessions: tuple[str, ...] = ()  # the sessions' names, where known
@@ -132,7 +132,7 @@ def prepare_session(estimate: SessionEstimate, reported_: Reported | None = None
     )
 
 
-def prepare_trials(trials: SessionTrials, options: EstimateSettings | None = None) -> RigData:
+def prepare_trials(trials: SessionTrials, options: EstimateOptions | None = None) -> RigData:
     """:func:`prepare` of a session's trials, estimated here (the rig fit from a notebook)."""
     return prepare(estimate_session(trials, options or EstimateOptions()))
 

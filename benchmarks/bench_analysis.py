@@ -36,6 +36,7 @@ from recorder.simulate import simulate_session
 from twopose.format.reader import SessionReader
 from twopose.format.trials import iter_trials
 from twopose.format.writer import SessionWriter
+from twopose.methods import Method
 
 PY = sys.executable
 
@@ -171,7 +172,7 @@ def main() -> int:
     work.mkdir(parents=True, exist_ok=True)
     base = work / "base.mcap"
     if not base.exists():
-        simulate_session(base, method="ground", trials=10, frames=50, seed=11)  # 1,000 frames
+        simulate_session(base, method=Method.GROUND, trials=10, frames=50, seed=11)  # 1,000 frames
     short, long_, huge = work / "short.mcap", work / "long.mcap", work / "huge.mcap"
     for path, copies in ((long_, 4), (huge, 10)):
         if not path.exists():

@@ -25,6 +25,8 @@ import cv2
 import httpx
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
+from twopose.methods import Method
+
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
@@ -41,7 +43,7 @@ RECORD = Path(sys.executable).with_name("twopose-record")
 def make_video(folder: Path, n_frames: int) -> Path:
     """Real synthetic frames of the thesis' finger, as a 30 fps video."""
     session = folder / "frames.mcap"
-    simulate_session(session, method="ground", trials=1, frames=max(2, n_frames // 2), seed=5)
+    simulate_session(session, method=Method.GROUND, trials=1, frames=max(2, n_frames // 2), seed=5)
     video = folder / "frames.avi"
     writer = cv2.VideoWriter(str(video), cv2.VideoWriter.fourcc(*"MJPG"), 30.0, (640, 480))
     with SessionReader(session) as reader:

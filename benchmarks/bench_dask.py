@@ -16,6 +16,8 @@ from pathlib import Path
 
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
+from twopose.methods import Method
+
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
@@ -56,7 +58,9 @@ def main() -> int:
         paths = [folder / f"s{k:02d}.mcap" for k in range(args.sessions)]
         for k, path in enumerate(paths):
             method = ("point", "line", "ground")[k % 3]
-            simulate_session(path, method=method, trials=args.trials, frames=args.frames, seed=k)
+            simulate_session(
+                path, method=Method(method), trials=args.trials, frames=args.frames, seed=k
+            )
         one, two = (batch_seconds(paths, _folder(folder, n), n) for n in (1, 2))
     frames = args.sessions * args.trials * 2 * args.frames
     print(

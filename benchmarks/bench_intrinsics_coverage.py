@@ -35,6 +35,8 @@ import numpy as np
 import pandas as pd
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
+from twopose.methods import Method
+
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "sessions"))
@@ -72,7 +74,7 @@ def _simulate(job: tuple[str, int, float, str]) -> str:
         with replacing(Path(out)) as partial:
             simulate_session(
                 partial,
-                method=method,
+                method=Method(method),
                 trials=TRIALS_PER_SESSION,
                 frames=FRAMES,
                 seed=seed,
@@ -89,7 +91,7 @@ def without_sigma(path: str) -> pd.DataFrame:
     views = [
         [dataclasses.replace(v, intrinsics_sigma=np.zeros(4)) for v in row] for row in replay.views
     ]
-    estimate = estimate_session(dataclasses.replace(replay, views=views), options)
+    estimate = estimate_session(dataclasses.replace(replay, views=views), options.estimate)
     rep = reported(estimate)
     within = uncertainty_columns(rep.error, rep.cov)["within95"]
     return pd.DataFrame(

@@ -47,7 +47,7 @@ def _scene(work: Path, width: int, height: int) -> Path:
 def _video(work: Path, scene: Path, width: int, height: int, frames: int) -> Path:
     """A video of the synthetic scene (what a camera recording would be)."""
     path = work / f"video_{width}.avi"
-    src = SyntheticSource(scene, "ground", realtime=False)
+    src = SyntheticSource(scene, Method.GROUND, realtime=False)
     writer = cv2.VideoWriter(str(path), cv2.VideoWriter.fourcc(*"MJPG"), FPS, (width, height))
     with src:
         for _ in range(frames):
@@ -99,7 +99,7 @@ def main() -> int:
             scene = _scene(work, width, height)
             video = _video(work, scene, width, height, 2 * frames + 10)
             for name, source in (
-                ("synthetic", SyntheticSource(scene, "ground", realtime=True)),
+                ("synthetic", SyntheticSource(scene, Method.GROUND, realtime=True)),
                 ("video", VideoSource(video, realtime=True)),
             ):
                 n, dropped, share = measure(

@@ -39,6 +39,8 @@ from pathlib import Path
 import numpy as np
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
+from twopose.methods import Method
+
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "sessions"))
@@ -106,7 +108,7 @@ def simulate_pair(method: str, seed: int, folder: Path) -> dict[str, Path]:
         paths[name] = session_path(folder, method, seed, name)
         scene = Scene(poses=THESIS_POSES, systematic=rig)
         simulate_session(
-            paths[name], method=method, trials=15, frames=5, seed=100 + seed, scene=scene
+            paths[name], method=Method(method), trials=15, frames=5, seed=100 + seed, scene=scene
         )
     return paths
 

@@ -34,6 +34,8 @@ from pathlib import Path
 
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
+from twopose.methods import Method
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(1, str(Path(__file__).resolve().parents[1]))  # tests.helpers
 
@@ -184,7 +186,7 @@ def marginal_frame(work: Path, repeat: int) -> bool:
     """Target 2: a frame's marginal cost in ``run`` against a bare decode loop."""
     base = work / "base.mcap"
     if not base.exists():  # 20 trials x 2 poses x 10 frames = 400 real frames
-        simulate_session(base, method="ground", trials=20, frames=10, seed=13)
+        simulate_session(base, method=Method.GROUND, trials=20, frames=10, seed=13)
     small, large = work / "t100.mcap", work / "t500.mcap"
     for path, copies in ((small, 5), (large, 25)):
         if not path.exists():

@@ -18,6 +18,8 @@ from pathlib import Path
 import numpy as np
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
+from twopose.methods import Method
+
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
@@ -34,7 +36,9 @@ def session_seconds(folder: Path, poses: int) -> float:
     path = folder / f"p{poses}.mcap"
     scene = Scene()  # many poses only fit the default ranges closer together
     scene = dataclasses.replace(scene, poses=dataclasses.replace(scene.poses, min_baseline=0.0))
-    simulate_session(path, method="ground", trials=2, frames=2, seed=1, poses=poses, scene=scene)
+    simulate_session(
+        path, method=Method.GROUND, trials=2, frames=2, seed=1, poses=poses, scene=scene
+    )
     started = time.perf_counter()
     trials = analyse_session(path).trials
     seconds = time.perf_counter() - started
@@ -57,7 +61,7 @@ def solve_seconds(views: int) -> float:
             }
         )
     started = time.perf_counter()
-    solve_request("point", json.loads(json.dumps(request)))
+    solve_request(Method.POINT, json.loads(json.dumps(request)))
     return time.perf_counter() - started
 
 

@@ -19,6 +19,8 @@ from pathlib import Path
 
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
+from twopose.methods import Method
+
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
@@ -53,7 +55,7 @@ def main() -> int:
         record_plan(
             load_plan(folder / "plan.toml"),
             session,
-            SyntheticSource(None, "ground", realtime=False),
+            SyntheticSource(None, Method.GROUND, realtime=False),
         )
         data = session.read_bytes()
         for i, (case, damaged) in enumerate(mutants(data, args.mutants, args.seed)):

@@ -25,6 +25,7 @@ from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchm
 from analysis import run
 from analysis.outputs import replacing
 from recorder.simulate import simulate_session
+from twopose.methods import Method
 
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "uncertainty_calibration.txt"
@@ -38,7 +39,9 @@ def _simulate(job: tuple[str, int, int, str]) -> str:
     method, seed, trials, out = job
     if not Path(out).exists():  # written under another name first: a kill leaves no half file
         with replacing(Path(out)) as partial:
-            simulate_session(partial, method=method, trials=trials, frames=FRAMES, seed=seed)
+            simulate_session(
+                partial, method=Method(method), trials=trials, frames=FRAMES, seed=seed
+            )
     return out
 
 

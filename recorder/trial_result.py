@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from twopose.arrays import F64
-from twopose.estimate import EstimateOptions, EstimateSettings
+from twopose.estimate import EstimateOptions
 from twopose.methods import spec_of
 from twopose.session_estimate import SessionEstimate, SessionTrials, estimate_session
 from twopose.truth import line_errors, reported
@@ -154,7 +154,7 @@ class TrialResult:
 
 
 def trial_results(
-    trials: SessionTrials, options: EstimateSettings | None = None
+    trials: SessionTrials, options: EstimateOptions | None = None
 ) -> list[TrialResult]:
     """Every trial's result, estimated as the analysis estimates a session.
 

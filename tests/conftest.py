@@ -7,6 +7,7 @@ from pathlib import Path
 import pytest
 
 from recorder.simulate import simulate_session
+from twopose.methods import Method
 
 REPO = Path(__file__).resolve().parents[1]
 SESSIONS = REPO / "sessions"
@@ -21,21 +22,21 @@ def sim_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def ground_session(sim_dir: Path) -> Path:
     """A small simulated method-2 session: 2 trials x 2 poses x 3 frames."""
     out = sim_dir / "ground.mcap"
-    simulate_session(out, method="ground", trials=2, frames=3, seed=7)
+    simulate_session(out, method=Method.GROUND, trials=2, frames=3, seed=7)
     return out
 
 
 @pytest.fixture(scope="session")
 def point_session(sim_dir: Path) -> Path:
     out = sim_dir / "point.mcap"
-    simulate_session(out, method="point", trials=2, frames=3, seed=8)
+    simulate_session(out, method=Method.POINT, trials=2, frames=3, seed=8)
     return out
 
 
 @pytest.fixture(scope="session")
 def line_session(sim_dir: Path) -> Path:
     out = sim_dir / "line.mcap"
-    simulate_session(out, method="line", trials=2, frames=3, seed=9)
+    simulate_session(out, method=Method.LINE, trials=2, frames=3, seed=9)
     return out
 
 
@@ -46,7 +47,7 @@ def exact_sessions(tmp_path_factory: pytest.TempPathFactory) -> Path:
     for seed, method in enumerate(("point", "line", "ground")):
         simulate_session(
             folder / f"{method}.mcap",
-            method=method,
+            method=Method(method),
             trials=4,
             frames=2,
             seed=20 + seed,

@@ -15,6 +15,7 @@ from recorder.plan import load_plan, record_plan
 from recorder.sources import SyntheticSource
 from tests.fuzzing import Outcomes, check_command, mutants
 from twopose.format.reader import SessionReader
+from twopose.methods import Method
 
 # Slow (a real browser, a cluster, or fits over many sessions): make test-all and CI run it.
 pytestmark = pytest.mark.slow
@@ -38,7 +39,7 @@ def session(tmp_path_factory: pytest.TempPathFactory) -> bytes:
     (folder / "plan.toml").write_text(PLAN)
     path = folder / "s.mcap"
     record_plan(
-        load_plan(folder / "plan.toml"), path, SyntheticSource(None, "point", realtime=False)
+        load_plan(folder / "plan.toml"), path, SyntheticSource(None, Method.POINT, realtime=False)
     )
     return path.read_bytes()
 

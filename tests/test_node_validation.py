@@ -64,7 +64,7 @@ def written(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
     """The sample sessions, plus one of each kind we write, made fresh."""
     tmp = tmp_path_factory.mktemp("node")
     simulated = tmp / "simulated.mcap"
-    simulate_session(simulated, method="line", trials=2, frames=2, seed=3)
+    simulate_session(simulated, method=Method.LINE, trials=2, frames=2, seed=3)
     plan = tmp / "plan.toml"
     plan.write_text(
         'method = "ground"\nframes = 2\nground_height = 9.625\n[camera]\nfocal = 525.0\n'
@@ -72,7 +72,7 @@ def written(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
         "poses = [{ t = [0.0, 0.0, 0.0] }, { t = [1.5, 0.0, -1.0] }]\n"
     )
     recorded = tmp / "recorded.mcap"
-    record_plan(load_plan(plan), recorded, SyntheticSource(None, "ground", realtime=False))
+    record_plan(load_plan(plan), recorded, SyntheticSource(None, Method.GROUND, realtime=False))
     truncated = tmp / "truncated.mcap"
     data = simulated.read_bytes()
     truncated.write_bytes(data[: len(data) * 2 // 3])
@@ -103,7 +103,7 @@ def _decided(path: Path) -> Path:
         intrinsics=Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0),
     )
     with (
-        SyntheticSource(None, "point", realtime=False) as src,
+        SyntheticSource(None, Method.POINT, realtime=False) as src,
         SessionWriter(path, SessionInfo(method=Method.POINT, units=Units.IN), [cam]) as w,
     ):
         proc = Procedure(w)

@@ -11,26 +11,24 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
 from twopose.arrays import F64
 from twopose.camera import Intrinsics, rotation_from_angles_deg
-from twopose.choices import CombineRule
 from twopose.conditioning import parallax_sine
 from twopose.detect import PoseMeasurement, combine_frames
 from twopose.errors import InputValueError
 from twopose.format.entries import PoseEntry
-from twopose.margins import (  # the degeneracy margins' defaults: one home, light for the CLI
+from twopose.margins import (  # the options' one home, light for the CLI
     DEFAULT_MIN_GROUND_ANGLE_DEG,
     DEFAULT_MIN_PARALLAX_DEG,
     DEFAULT_MIN_PLANE_ANGLE_DEG,
+    EstimateOptions,
 )
 from twopose.methods import Method, spec_of
 from twopose.solve import (
-    DEFAULT_MIN_CONDITIONING,
     NViewLines,
     image_lines,
     projection_matrices,
@@ -51,7 +49,6 @@ __all__ = [
     "DEFAULT_MIN_PARALLAX_DEG",
     "DEFAULT_MIN_PLANE_ANGLE_DEG",
     "EstimateOptions",
-    "EstimateSettings",
     "GroundSpec",
     "PoseView",
     "ViewBatch",
@@ -60,45 +57,6 @@ __all__ = [
     "scatter_of",
     "solve_batch",
 ]
-
-
-class EstimateSettings(Protocol):
-    """What estimation reads from its options.
-
-    What estimation reads from its options (``analysis.AnalysisOptions`` has it all; the
-    recorder's live result uses :class:`EstimateOptions`).
-    """
-
-    @property
-    def combine(self) -> CombineRule:
-        """How a pose's frames are combined into one measurement."""
-
-    @property
-    def min_conditioning(self) -> float:
-        """Below this conditioning a trial is degenerate."""
-
-    @property
-    def min_parallax_deg(self) -> float:
-        """Warn when the rays' parallax is below this (degrees)."""
-
-    @property
-    def min_plane_angle_deg(self) -> float:
-        """Warn when the back-projected planes meet below this (degrees)."""
-
-    @property
-    def min_ground_angle_deg(self) -> float:
-        """Warn when the line meets the ground below this (degrees)."""
-
-
-@dataclass(frozen=True, kw_only=True)
-class EstimateOptions:
-    """How a pose's frames are combined and when a margin warns: the analysis' defaults."""
-
-    combine: CombineRule = "mean"
-    min_conditioning: float = DEFAULT_MIN_CONDITIONING
-    min_parallax_deg: float = DEFAULT_MIN_PARALLAX_DEG
-    min_plane_angle_deg: float = DEFAULT_MIN_PLANE_ANGLE_DEG
-    min_ground_angle_deg: float = DEFAULT_MIN_GROUND_ANGLE_DEG
 
 
 #: The ground plane as ``(normal_grid (3,), offset)``.
@@ -157,7 +115,7 @@ def pose_view(
 
 
 def measure(
-    views: list[list[PoseView]], options: EstimateSettings
+    views: list[list[PoseView]], options: EstimateOptions
 ) -> tuple[list[list[PoseMeasurement]], NDArray[np.bool_], NDArray[np.bool_]]:
     """Each pose's frames combined into one measurement.
 
@@ -229,7 +187,7 @@ class Solved:
 
 
 def solve_batch(
-    method: Method, batch: ViewBatch, ground: GroundSpec | None, options: EstimateSettings
+    method: Method, batch: ViewBatch, ground: GroundSpec | None, options: EstimateOptions
 ) -> Solved:
     """Batch-solve rows of N >= 2 pose measurements with every estimator."""
     solver = _SOLVERS.get(spec_of(method).method)
@@ -327,7 +285,7 @@ def thesis_estimate(
     method: Method,
     batch: ViewBatch,
     ground: GroundSpec | None,
-    options: EstimateSettings,
+    options: EstimateOptions,
     reference: F64,
 ) -> Callable[[F64], F64]:
     """The thesis' estimate as a function of the (perturbed) inputs, for propagation.
@@ -354,7 +312,7 @@ def thesis_estimate(
 
 
 def thesis_direction(
-    batch: ViewBatch, options: EstimateSettings, reference: F64
+    batch: ViewBatch, options: EstimateOptions, reference: F64
 ) -> Callable[[F64], F64]:
     """A line's unit direction as a function of the (perturbed) inputs, for propagation.
 
@@ -386,7 +344,7 @@ def degrees_from_sine(sine: F64) -> F64:
 
 
 def margin_warnings(
-    status: NDArray[np.str_], margins: dict[str, F64], options: EstimateSettings
+    status: NDArray[np.str_], margins: dict[str, F64], options: EstimateOptions
 ) -> list[str]:
     """Per trial, the margins under their thresholds (empty when none, or not ok)."""
     limits = {

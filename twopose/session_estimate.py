@@ -21,7 +21,7 @@ from twopose.arrays import F64, Bools, Ints
 from twopose.camera import camera_centres
 from twopose.detect import PoseMeasurement, combine_frames
 from twopose.estimate import (
-    EstimateSettings,
+    EstimateOptions,
     GroundSpec,
     PoseView,
     Solved,
@@ -136,7 +136,7 @@ class SessionEstimate:
     detected: Bools  # (T,) complete and every pose detected
     estimates: Estimates
     warnings: list[str]  # per trial, the margins under their thresholds ("" when none)
-    options: EstimateSettings
+    options: EstimateOptions
     _propagation: _Propagation | None = None
 
     def uncertainty_at(self, reference: F64) -> Uncertainty:
@@ -172,7 +172,7 @@ class SessionEstimate:
         return cov
 
 
-def estimate_session(trials: SessionTrials, options: EstimateSettings) -> SessionEstimate:
+def estimate_session(trials: SessionTrials, options: EstimateOptions) -> SessionEstimate:
     """Solve every detected trial with every estimator, and propagate.
 
     Solve every detected trial with every estimator, in one batch, and propagate each one's
@@ -222,7 +222,7 @@ def _session_estimate(
     complete: Bools,
     detected: Bools,
     est: Estimates,
-    options: EstimateSettings,
+    options: EstimateOptions,
     context: _Propagation | None = None,
 ) -> SessionEstimate:
     return SessionEstimate(
@@ -276,7 +276,7 @@ def _no_uncertainty(T: int) -> Uncertainty:
 
 
 def _solved_estimates(
-    trials: SessionTrials, complete: Bools, p: _Propagation, options: EstimateSettings
+    trials: SessionTrials, complete: Bools, p: _Propagation, options: EstimateOptions
 ) -> Estimates:
     """The solved rows' estimates at their trials, with every other trial unsolved."""
     T, rows, solved = len(trials), p.rows, p.solved
@@ -338,7 +338,7 @@ def _uncertainty(T: int, p: _Propagation, propagated: Propagated) -> Uncertainty
     )
 
 
-def _weighted_lines(p: _Propagation, options: EstimateSettings) -> F64:
+def _weighted_lines(p: _Propagation, options: EstimateOptions) -> F64:
     """The weighted/robust line fit (R, 2, 3) beside the thesis' one.
 
     (R, 2, 3) the weighted/robust line fit beside the thesis' one, weighted by each view's
@@ -359,7 +359,7 @@ def _weighted_lines(p: _Propagation, options: EstimateSettings) -> F64:
     return np.stack([weighted.point_grid, weighted.direction_grid], axis=1)
 
 
-def _optimal_lines(p: _Propagation, options: EstimateSettings) -> F64:
+def _optimal_lines(p: _Propagation, options: EstimateOptions) -> F64:
     """(R, 2, 3) the reprojection-optimal line beside the thesis' one.
 
     Each view's centroid and angle become their equivalent segment

@@ -33,6 +33,7 @@ from twopose.conditioning import (
     pairwise_max_sine,
 )
 from twopose.errors import InputValueError
+from twopose.margins import DEFAULT_MIN_CONDITIONING
 
 __all__ = [
     "DEFAULT_MIN_CONDITIONING",
@@ -49,9 +50,6 @@ __all__ = [
 ]
 
 Status = NDArray[np.str_]
-
-#: Below this conditioning (a sine: ray parallax, plane angle) a trial is degenerate.
-DEFAULT_MIN_CONDITIONING = 1e-6
 
 
 def _unit(v: F64) -> tuple[F64, F64]:

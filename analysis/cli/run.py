@@ -16,17 +16,16 @@ from twopose.errors import (
     EXIT_SOME_INPUTS_FAILED,
     handle_errors,
 )
-from twopose.margins import (
-    DEFAULT_MIN_GROUND_ANGLE_DEG,
-    DEFAULT_MIN_PARALLAX_DEG,
-    DEFAULT_MIN_PLANE_ANGLE_DEG,
-)
+from twopose.margins import EstimateOptions
 
 if TYPE_CHECKING:
     from analysis.results import RunResult
 
 from analysis.choices import DEFAULT_SESSION_TIMEOUT_S, RigCalibrationMode
 from analysis.cli.app import IncludeWarnedOption, JunitOption, app, note, say_skipped
+
+#: The options' defaults, from their one record.
+_ESTIMATE = EstimateOptions()
 
 SessionTimeoutOption = Annotated[
     float,
@@ -70,16 +69,16 @@ def run_command(
     ] = None,
     combine: Annotated[
         CombineRule, typer.Option(help="How a pose's frames are combined (thesis: mean).")
-    ] = "mean",
+    ] = _ESTIMATE.combine,
     min_parallax: Annotated[
         float, typer.Option(help="Warn when a point's ray parallax is below this (deg).")
-    ] = DEFAULT_MIN_PARALLAX_DEG,
+    ] = _ESTIMATE.min_parallax_deg,
     min_plane_angle: Annotated[
         float, typer.Option(help="Warn when back-projected planes meet below this (deg).")
-    ] = DEFAULT_MIN_PLANE_ANGLE_DEG,
+    ] = _ESTIMATE.min_plane_angle_deg,
     min_ground_angle: Annotated[
         float, typer.Option(help="Warn when the line meets the ground below this (deg).")
-    ] = DEFAULT_MIN_GROUND_ANGLE_DEG,
+    ] = _ESTIMATE.min_ground_angle_deg,
     scene: Annotated[
         bool,
         typer.Option(
@@ -99,10 +98,12 @@ def run_command(
     from analysis.results import AnalysisOptions
 
     options = AnalysisOptions(
-        combine=combine,
-        min_parallax_deg=min_parallax,
-        min_plane_angle_deg=min_plane_angle,
-        min_ground_angle_deg=min_ground_angle,
+        estimate=EstimateOptions(
+            combine=combine,
+            min_parallax_deg=min_parallax,
+            min_plane_angle_deg=min_plane_angle,
+            min_ground_angle_deg=min_ground_angle,
+        ),
         session_timeout_s=session_timeout or None,
         include_warned=include_warned,
         rig_calibration=rig_calibration,

@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 
 from recorder.simulate import simulate_session
+from twopose.methods import Method
 from twopose.rig import RigConstants
 from twopose.sim.scene import Scene
 
@@ -28,5 +29,5 @@ def rig_sessions(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
         # No typing error: what remains is the constants' bias and the pixels' noise.
         poses = dataclasses.replace(THESIS_POSES, noise_sigma=0.0)
         scene = Scene(poses=poses, systematic=rig)
-        simulate_session(out[name], method="point", trials=10, frames=2, seed=41, scene=scene)
+        simulate_session(out[name], method=Method.POINT, trials=10, frames=2, seed=41, scene=scene)
     return out

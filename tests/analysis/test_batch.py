@@ -16,6 +16,7 @@ from analysis.results import AnalysisOptions
 from tests.helpers import write_accepted_capture
 from twopose.camera import Camera, Intrinsics
 from twopose.errors import InputValueError
+from twopose.estimate import EstimateOptions
 from twopose.format.entries import GroundTruth, PoseEntry, SessionInfo
 from twopose.format.writer import SessionWriter
 from twopose.methods import Method
@@ -132,8 +133,12 @@ def test_running_average_with_all_frames_equals_the_trial_estimate(ground_sessio
 
 
 def test_combine_option_changes_nothing_on_clean_data_but_runs(ground_session: Path) -> None:
-    mean = analyse_session(ground_session, AnalysisOptions(combine="mean")).trials
-    robust = analyse_session(ground_session, AnalysisOptions(combine="robust")).trials
+    mean = analyse_session(
+        ground_session, AnalysisOptions(estimate=EstimateOptions(combine="mean"))
+    ).trials
+    robust = analyse_session(
+        ground_session, AnalysisOptions(estimate=EstimateOptions(combine="robust"))
+    ).trials
     assert len(mean) == len(robust) == 2
     assert np.isfinite(mean[["x", "z"]].to_numpy()).all()
     np.testing.assert_allclose(mean[["x", "z"]], robust[["x", "z"]], atol=0.05)
@@ -258,7 +263,9 @@ def test_trials_with_more_than_two_poses_use_every_view(tmp_path: Path, method: 
     from recorder.simulate import simulate_session
 
     out = tmp_path / f"{method}.mcap"
-    simulate_session(out, method=method, trials=3, frames=2, seed=31, pose_noise=0.0, poses=4)
+    simulate_session(
+        out, method=Method(method), trials=3, frames=2, seed=31, pose_noise=0.0, poses=4
+    )
     t = analyse_session(out).trials
     assert list(t["n_views"]) == [4, 4, 4]
     assert (t["status"] == "ok").all()
@@ -279,14 +286,20 @@ def test_degeneracy_margins_and_configurable_warnings(
     ground_session: Path, point_session: Path
 ) -> None:
     strict = AnalysisOptions(
-        min_plane_angle_deg=90.0, min_ground_angle_deg=90.0, min_parallax_deg=90.0
+        estimate=EstimateOptions(
+            min_plane_angle_deg=90.0, min_ground_angle_deg=90.0, min_parallax_deg=90.0
+        )
     )
     g = analyse_session(ground_session, strict).trials
     assert (g["plane_angle_deg"] > 0).all()
     assert (g["line_ground_angle_deg"] > 0).all()
     assert g["warning"].str.contains("plane angle").all()
     assert g["warning"].str.contains("line-ground angle").all()
-    lax = AnalysisOptions(min_plane_angle_deg=0.0, min_ground_angle_deg=0.0, min_parallax_deg=0.0)
+    lax = AnalysisOptions(
+        estimate=EstimateOptions(
+            min_plane_angle_deg=0.0, min_ground_angle_deg=0.0, min_parallax_deg=0.0
+        )
+    )
     assert (analyse_session(ground_session, lax).trials["warning"] == "").all()
     p = analyse_session(point_session, strict).trials
     np.testing.assert_allclose(np.sin(np.radians(p["parallax_deg"])), p["conditioning"], atol=1e-12)
@@ -333,7 +346,9 @@ def test_outlier_frames_are_rejected_and_reported(tmp_path: Path, point_session:
         w.write_ground_truth(record.ground_truth, 1)
         for k, entry in entries.items():
             write_accepted_capture(w, entry, frames[k], 10 * k)
-    robust = analyse_session(out, AnalysisOptions(combine="robust")).trials.iloc[0]
+    robust = analyse_session(
+        out, AnalysisOptions(estimate=EstimateOptions(combine="robust"))
+    ).trials.iloc[0]
     mean = analyse_session(out).trials.iloc[0]
     clean = analyse_session(point_session).trials.iloc[0]
     assert robust["rejected_frames"] == "pose 1: 3"

@@ -20,6 +20,7 @@ from analysis.cli import app
 from analysis.rig_calibration import calibrate_rig
 from recorder.simulate import simulate_session
 from twopose.errors import InputValueError
+from twopose.methods import Method
 from twopose.rig import RigConstants, load_rig
 from twopose.sim.layout import BOARD_POSES
 from twopose.sim.scene import load_scene
@@ -54,7 +55,7 @@ def board_session(tmp_path_factory: pytest.TempPathFactory) -> Path:
         poses={"noise_sigma": 0.04, "rotation_noise_deg": 0.0},
     )
     path = tmp_path_factory.mktemp("board") / "board.mcap"
-    simulate_session(path, method="board", trials=1, frames=3, seed=3, scene=scene)
+    simulate_session(path, method=Method.BOARD, trials=1, frames=3, seed=3, scene=scene)
     return path
 
 
@@ -105,7 +106,7 @@ def test_a_session_named_twice_or_copied_counts_once(board_session: Path, tmp_pa
 
 def test_board_and_target_sessions_are_not_mixed(board_session: Path, tmp_path: Path) -> None:
     target = tmp_path / "point.mcap"
-    simulate_session(target, method="point", trials=2, frames=2, seed=1)
+    simulate_session(target, method=Method.POINT, trials=2, frames=2, seed=1)
     with pytest.raises(InputValueError, match="calibrate with one kind"):
         calibrate_rig([str(board_session), str(target)])
     out = tmp_path / "r.toml"
@@ -147,7 +148,7 @@ def test_a_capture_that_never_saw_the_board_is_left_out_and_said(tmp_path: Path)
         + "]\n"
     )
     out = tmp_path / "board.mcap"
-    record_plan(load_plan(plan), out, SyntheticSource(None, "board", realtime=False))
+    record_plan(load_plan(plan), out, SyntheticSource(None, Method.BOARD, realtime=False))
     captures = read_board_session(out)
     assert captures.observed_px.shape[0] == len(BOARD_POSES)
     (why,) = captures.left_out

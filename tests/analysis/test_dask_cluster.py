@@ -16,6 +16,7 @@ import pytest
 from analysis.batch import run
 from recorder.simulate import simulate_session
 from tests.helpers import DaskCluster
+from twopose.methods import Method
 
 # Slow (a real browser, a cluster, or fits over many sessions): make test-all and CI run it.
 pytestmark = pytest.mark.slow
@@ -28,10 +29,10 @@ def batch(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
     """One heavy session first, then light ones: completion order is not submission order."""
     folder = tmp_path_factory.mktemp("dask_batch")
     paths = [folder / "s0_heavy.mcap"]
-    simulate_session(paths[0], method="ground", trials=6, frames=6, seed=30)
+    simulate_session(paths[0], method=Method.GROUND, trials=6, frames=6, seed=30)
     for k in range(1, 6):
         paths.append(folder / f"s{k}.mcap")
-        simulate_session(paths[-1], method="point", trials=1, frames=2, seed=30 + k)
+        simulate_session(paths[-1], method=Method.POINT, trials=1, frames=2, seed=30 + k)
     return paths
 
 

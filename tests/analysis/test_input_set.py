@@ -40,10 +40,10 @@ def kinds(tmp_path_factory: pytest.TempPathFactory, point_session: Path) -> dict
 
     centimetres = root / "cm_point.mcap"
     simulate_session(
-        centimetres, method="point", trials=2, frames=2, seed=3, scene=load_scene(scene)
+        centimetres, method=Method.POINT, trials=2, frames=2, seed=3, scene=load_scene(scene)
     )
     board = root / "board.mcap"
-    simulate_session(board, method="board", trials=1, frames=1, seed=4)
+    simulate_session(board, method=Method.BOARD, trials=1, frames=1, seed=4)
     empty = root / "empty.mcap"
     cam = Camera(
         camera_id="cam0",

@@ -12,6 +12,7 @@ import pytest
 from analysis import analyse_session
 from analysis.batch import run
 from analysis.comparison import compare_runs
+from twopose.methods import Method
 
 
 def test_two_views_report_the_thesis_line(line_session: Path) -> None:
@@ -30,7 +31,7 @@ def test_three_views_in_the_run_and_in_compare(tmp_path: Path) -> None:
 
     session = tmp_path / "sessions" / "line3.mcap"
     session.parent.mkdir()
-    simulate_session(session, method="line", trials=4, frames=3, seed=12, poses=3)
+    simulate_session(session, method=Method.LINE, trials=4, frames=3, seed=12, poses=3)
     out = tmp_path / "out"
     result = run([session.parent], out, scene=False)
     t = result.trials

@@ -101,7 +101,7 @@ def _noted_session(path: Path) -> Path:
     )
     truth = GroundTruth(trial=0, kind="point", points_grid=((0.5, 1.5, 11.0),))
     with (
-        SyntheticSource(None, "point", realtime=False) as src,
+        SyntheticSource(None, Method.POINT, realtime=False) as src,
         SessionWriter(path, SessionInfo(method=Method.POINT, units=Units.IN), [cam]) as w,
     ):
         proc = Procedure(w)

@@ -8,6 +8,7 @@ import pytest
 from analysis.request import solve_request
 from twopose.camera import Intrinsics, project_points, rotation_from_angles_deg
 from twopose.errors import InputValueError
+from twopose.methods import Method
 
 INTR = Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0)
 POSES = [((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)), ((1.1, 0.0, 0.0), (0.0, 5.0, 0.0))]
@@ -29,7 +30,7 @@ def _px(p: np.ndarray, t: tuple[float, ...], r: tuple[float, ...]) -> list[float
 def test_point_request_recovers_the_point(estimator: str) -> None:
     target = np.array([0.5, 1.5, 11.0])
     views = [_view(t, r, px=_px(target, t, r)) for t, r in POSES]
-    answer = solve_request("point", {"views": views, "estimator": estimator})
+    answer = solve_request(Method.POINT, {"views": views, "estimator": estimator})
     assert answer["status"] == "ok"
     np.testing.assert_allclose(answer["point"], target, atol=1e-6)
     assert answer["n_views"] == 2
@@ -42,16 +43,16 @@ def test_ground_and_line_requests_from_a_projected_segment() -> None:
     for t, r in POSES:
         seg = _px(a, t, r) + _px(b, t, r)
         views.append(_view(t, r, line={"segment_px": seg}))
-    ground = solve_request("ground", {"views": views, "ground_y": 9.625})
+    ground = solve_request(Method.GROUND, {"views": views, "ground_y": 9.625})
     np.testing.assert_allclose(ground["point"], a, atol=1e-6)
-    line = solve_request("line", {"views": views})
+    line = solve_request(Method.LINE, {"views": views})
     d = np.array(line["line"]["direction"])
     np.testing.assert_allclose(abs(d @ (b - a)) / np.linalg.norm(b - a), 1.0, atol=1e-9)
 
 
 def test_identical_views_are_degenerate_not_ok() -> None:
     view = _view(*POSES[0], px=[320.0, 240.0])
-    answer = solve_request("point", {"views": [view, view]})
+    answer = solve_request(Method.POINT, {"views": [view, view]})
     assert answer["status"] == "degenerate"
     assert answer["point"] is None
 
@@ -69,11 +70,11 @@ def test_identical_views_are_degenerate_not_ok() -> None:
 )
 def test_malformed_requests_say_what_is_wrong(request_: dict[str, object], message: str) -> None:
     with pytest.raises(InputValueError, match=message):
-        solve_request("point", request_)
+        solve_request(Method.POINT, request_)
 
 
 def test_a_board_reconstructs_nothing_and_says_where_to_go() -> None:
     from twopose.errors import InputValueError
 
     with pytest.raises(InputValueError, match="twopose-analyze rig"):
-        solve_request("board", {"views": []})
+        solve_request(Method.BOARD, {"views": []})

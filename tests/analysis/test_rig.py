@@ -14,6 +14,7 @@ from analysis.cli import app
 from analysis.pipeline import analyse_session
 from analysis.rig import fit_constants, residuals, select_constants
 from recorder.simulate import simulate_session
+from twopose.methods import Method
 from twopose.rig import RigConstants
 from twopose.sim.scene import Scene
 
@@ -163,7 +164,7 @@ def test_line_trials_get_the_corrected_line_columns(tmp_path: Path) -> None:
     session = tmp_path / "line.mcap"
     poses = dataclasses.replace(THESIS_POSES, noise_sigma=0.0)
     scene = Scene(poses=poses, systematic=RIG)
-    simulate_session(session, method="line", trials=8, frames=2, seed=43, scene=scene)
+    simulate_session(session, method=Method.LINE, trials=8, frames=2, seed=43, scene=scene)
     out = tmp_path / "o"
     args = ["run", str(session), "--out", str(out), "--no-scene", "--rig-calibration", "loo"]
     result = runner.invoke(app, args)
@@ -189,7 +190,7 @@ def test_a_ground_height_error_is_found_off_the_typed_plane(tmp_path: Path) -> N
     session = tmp_path / "ground.mcap"
     rig = RigConstants(ground_height_error=0.5)
     poses = dataclasses.replace(THESIS_POSES, noise_sigma=0.0)
-    simulate_session(session, method="ground", trials=8, frames=2, seed=11,
+    simulate_session(session, method=Method.GROUND, trials=8, frames=2, seed=11,
                      scene=Scene(poses=poses, systematic=rig))  # fmt: skip
     data = rig_data(session).fitting()
     ground = rig_data(session).grounds[0]
@@ -215,7 +216,7 @@ def test_a_constant_pushed_against_its_prior_is_said(
     session = tmp_path / "tilted.mcap"
     poses = dataclasses.replace(THESIS_POSES, noise_sigma=0.0)
     scene = Scene(poses=poses, systematic=RigConstants(mount_rotation_deg=(8.0, 0.0, 0.0)))
-    simulate_session(session, method="point", trials=10, frames=2, seed=41, scene=scene)
+    simulate_session(session, method=Method.POINT, trials=10, frames=2, seed=41, scene=scene)
     fit = fit_constants(rig_data(session), ["mount_rotation_deg"])
     assert fit.constants.mount_rotation_deg[0] > 6.0
     assert any(w.startswith("mount_rx_deg = nominal +") for w in fit.warnings), fit.warnings

@@ -14,6 +14,7 @@ import pytest
 from analysis.cli import app
 from recorder.simulate import simulate_session
 from tests.analysis.rig_helpers import empty_session, rig_file, runner
+from twopose.methods import Method
 from twopose.sim.scene import Scene
 from twopose.units import Units
 
@@ -25,7 +26,7 @@ def tables(exact_sessions: Path, tmp_path_factory: pytest.TempPathFactory) -> di
     """Two clean method 2 sessions, the tables at 9.625 in (the shared exact session) and
     10.5 in (the same seed, typing and trials; only the table is lower)."""
     high = tmp_path_factory.mktemp("tables") / "table_10.5.mcap"
-    simulate_session(high, method="ground", trials=4, frames=2, seed=22, pose_noise=0.0,
+    simulate_session(high, method=Method.GROUND, trials=4, frames=2, seed=22, pose_noise=0.0,
                      scene=Scene(ground_height=10.5))  # fmt: skip
     return {"9.625": exact_sessions / "ground.mcap", "10.5": high}
 
@@ -94,7 +95,7 @@ def test_sessions_in_different_units_are_refused(
 ) -> None:
     metric = tmp_path / "metric.mcap"  # trials to fit, in millimetres
     simulate_session(
-        metric, method="point", trials=2, frames=1, seed=5, scene=Scene().in_units(Units.MM)
+        metric, method=Method.POINT, trials=2, frames=1, seed=5, scene=Scene().in_units(Units.MM)
     )
     out = tmp_path / "rig.toml"
     result = runner.invoke(app, ["rig", str(rig_sessions["with"]), str(metric), "--out", str(out)])

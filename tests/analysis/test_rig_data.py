@@ -11,6 +11,7 @@ import pytest
 from analysis.pipeline import analyse_session
 from analysis.rig import fit_constants
 from recorder.simulate import simulate_session
+from twopose.methods import Method
 from twopose.sim.scene import Scene
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "sessions"))
@@ -25,7 +26,7 @@ def test_only_trusted_trials_inform_the_constants(tmp_path: Path) -> None:
     """A near-degenerate trial (a warning in trials.csv) is corrected but does not steer
     the fit: its linearized covariance understates its error."""
     session = tmp_path / "ground.mcap"
-    simulate_session(session, method="ground", trials=8, frames=2, seed=7,
+    simulate_session(session, method=Method.GROUND, trials=8, frames=2, seed=7,
                      scene=Scene(poses=THESIS_POSES, systematic=RIG))  # fmt: skip
     trials = analyse_session(session).trials
     ok = trials[(trials["status"] == "ok") & trials["gt_x"].notna()]

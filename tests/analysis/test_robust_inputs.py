@@ -26,7 +26,7 @@ def _planned(path: Path, truth: str) -> Path:
     plan = path.with_suffix(".toml")
     trial = f"[[trials]]\n{truth}{TWO_TRIALS}"
     plan.write_text(f'method = "point"\nframes = 2\n[camera]\nfocal = 525.0\n{trial}{trial}')
-    record_plan(load_plan(plan), path, SyntheticSource(None, "point", realtime=False))
+    record_plan(load_plan(plan), path, SyntheticSource(None, Method.POINT, realtime=False))
     return path
 
 
@@ -49,7 +49,7 @@ def _written(path: Path, trials: tuple[int, ...], truth: tuple[float, float, flo
         intrinsics=Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0),
     )
     with (
-        SyntheticSource(None, "point", realtime=False) as src,
+        SyntheticSource(None, Method.POINT, realtime=False) as src,
         SessionWriter(
             path, SessionInfo(method=Method.POINT, units=Units.IN), [cam], start_ns=0
         ) as w,
@@ -110,7 +110,7 @@ def test_one_bad_frame_is_one_rejected_frame(tmp_path: Path, bad: str) -> None:
     )
     path = tmp_path / "s.mcap"
     with (
-        SyntheticSource(None, "point", realtime=False) as src,
+        SyntheticSource(None, Method.POINT, realtime=False) as src,
         SessionWriter(
             path, SessionInfo(method=Method.POINT, units=Units.IN), [cam], start_ns=0
         ) as w,
@@ -149,7 +149,7 @@ def test_poses_typed_identical_are_degenerate_not_ok(tmp_path: Path, method: str
         + trial * 2
     )
     path = tmp_path / "s.mcap"
-    record_plan(load_plan(plan), path, SyntheticSource(None, method, realtime=False))
+    record_plan(load_plan(plan), path, SyntheticSource(None, Method(method), realtime=False))
     trials = analyse_session(path).trials
     assert (trials["status"] != "ok").all(), trials[["status", "reason"]]
     found = trials[trials["status"] == "degenerate"]

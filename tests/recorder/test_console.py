@@ -13,12 +13,13 @@ from recorder.setup_rules import PoseTyping
 from recorder.sources import SyntheticSource
 from twopose.camera import Camera, Intrinsics
 from twopose.format.entries import SessionInfo
+from twopose.methods import Method
 
 
 @pytest.mark.parametrize("poses", [2, 3, 8])
 def test_both_drivers_type_the_poses_a_trial_was_asked_for(tmp_path: Path, poses: int) -> None:
     typing = PoseTyping(poses_per_trial=poses)
-    source = SyntheticSource(None, "point", realtime=False)
+    source = SyntheticSource(None, Method.POINT, realtime=False)
     web = WebDriver(ConsoleSession(tmp_path / "s.mcap"), source, "cam0", (), typing)
     camera = Camera(
         camera_id="cam0",

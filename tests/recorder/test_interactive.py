@@ -136,7 +136,7 @@ class _CtrlCSource(SyntheticSource):
     """The synthetic camera (real rendering); Ctrl-C arrives at read number ``at``."""
 
     def __init__(self, at: int) -> None:
-        super().__init__(None, "point", realtime=False)
+        super().__init__(None, Method.POINT, realtime=False)
         self.at, self.reads = at, 0
 
     def read(self, timeout_s: float = 2.0) -> NDArray[np.uint8]:

@@ -22,6 +22,7 @@ from recorder.plan import load_plan, record_plan
 from recorder.sources import SyntheticSource
 from twopose.errors import InputValueError
 from twopose.format.messages import image_topic
+from twopose.methods import Method
 
 PLAN = """
 method = "ground"
@@ -88,7 +89,7 @@ def test_a_client_sees_frames_overlays_and_status(tmp_path: Path) -> None:
             subscriptions = _subscribe(ws, topics)
             time.sleep(0.5)  # the server takes the subscription asynchronously
             out = tmp_path / "s.mcap"
-            record_plan(plan, out, SyntheticSource(None, "ground", realtime=False), live=view)
+            record_plan(plan, out, SyntheticSource(None, Method.GROUND, realtime=False), live=view)
             want = dict.fromkeys(per_frame, 4) | {SCENE_TOPIC: 1, RESULT_TOPIC: 1}
             got = _collect(ws, subscriptions, want)
     session = analyse_session(out)

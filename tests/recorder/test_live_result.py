@@ -14,6 +14,7 @@ from recorder.cli import app
 from recorder.plan import load_plan, record_plan
 from recorder.sources import SyntheticSource
 from recorder.trial_result import TrialResult
+from twopose.methods import Method
 
 runner = CliRunner()
 
@@ -53,7 +54,7 @@ def test_each_trial_is_solved_live_as_the_analysis_solves_it(method: str, tmp_pa
     record_plan(
         load_plan(plan_file),
         out,
-        SyntheticSource(None, method, realtime=False),
+        SyntheticSource(None, Method(method), realtime=False),
         on_result=shown.append,
     )
     # Trial 1: after its 2nd pose, updated after its 3rd; trial 2: after its 2nd.
@@ -136,7 +137,7 @@ def test_a_live_result_that_fails_is_said_and_the_recording_goes_on(
     summary = record_plan(
         load_plan(plan_file),
         out,
-        SyntheticSource(None, "point", realtime=False),
+        SyntheticSource(None, Method.POINT, realtime=False),
         on_result=shown.append,
     )
     assert (summary.n_trials, summary.n_complete_trials, summary.n_accepted) == (2, 2, 5)

@@ -16,6 +16,7 @@ from tests.helpers import write_video
 from twopose.errors import EXIT_ERROR, InputValueError
 from twopose.format.entries import CaptureWindow
 from twopose.format.reader import SessionReader
+from twopose.methods import Method
 
 runner = CliRunner()
 
@@ -212,7 +213,7 @@ def test_record_plan_python_api(tmp_path: Path) -> None:
     summary = record_plan(
         plan,
         tmp_path / "s.mcap",
-        SyntheticSource(None, "ground", realtime=False),
+        SyntheticSource(None, Method.GROUND, realtime=False),
         on_frame=lambda f: seen.append(f.line()),
     )
     assert (summary.n_trials, summary.n_captures, summary.n_frames, summary.n_incomplete) == (

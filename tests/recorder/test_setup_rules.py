@@ -18,6 +18,7 @@ from recorder.setup_rules import (
     setup_from_answers,
 )
 from twopose.camera import Intrinsics
+from twopose.units import Units
 
 NOTHING_GIVEN: dict[str, Any] = {
     "method": None,
@@ -140,9 +141,9 @@ def test_a_board_session_is_set_up_with_its_board_and_no_truth() -> None:
 
 
 def test_the_pose_form_refuses_each_field() -> None:
-    assert parse_pose_form({"x": "1", "y": "0", "z": "-2"}, "in") == ((1, 0, -2), (0, 0, 0))
+    assert parse_pose_form({"x": "1", "y": "0", "z": "-2"}, Units.IN) == ((1, 0, -2), (0, 0, 0))
     with pytest.raises(FormRefusedError) as caught:
-        parse_pose_form({"x": "a", "y": "", "z": "1e9", "rotation": "1, 2"}, "in")
+        parse_pose_form({"x": "a", "y": "", "z": "1e9", "rotation": "1, 2"}, Units.IN)
     assert set(caught.value.errors) == {"x", "y", "z", "rotation"}
     assert "0, 0, 0" in caught.value.errors["rotation"]  # a rotation's example is a rotation
 

@@ -28,7 +28,7 @@ def _sha(path: Path) -> str:
 def test_same_seed_same_bytes_other_seed_other_bytes(tmp_path: Path) -> None:
     a, b, c = tmp_path / "a.mcap", tmp_path / "b.mcap", tmp_path / "c.mcap"
     for path, seed in ((a, 3), (b, 3), (c, 4)):
-        simulate_session(path, method="point", trials=1, frames=2, seed=seed)
+        simulate_session(path, method=Method.POINT, trials=1, frames=2, seed=seed)
     assert _sha(a) == _sha(b)
     assert _sha(a) != _sha(c)
 
@@ -60,7 +60,7 @@ def test_typed_poses_carry_the_typing_error_truth_does_not(ground_session: Path)
 
 def test_pose_noise_zero_makes_typed_equal_true(tmp_path: Path) -> None:
     out = tmp_path / "exact.mcap"
-    simulate_session(out, method="line", trials=2, frames=1, seed=1, pose_noise=0.0)
+    simulate_session(out, method=Method.LINE, trials=2, frames=1, seed=1, pose_noise=0.0)
     compared = 0
     with SessionReader(out) as r:
         for t in iter_trials(r, with_frames=False):
@@ -209,7 +209,7 @@ count = 3
     )
     out = tmp_path / "two.mcap"
     summary = simulate_session(
-        out, method="point", trials=1, frames=1, seed=2, scene=load_scene(scene_file)
+        out, method=Method.POINT, trials=1, frames=1, seed=2, scene=load_scene(scene_file)
     )
     assert summary.n_poses == 3
     with SessionReader(out) as r:
@@ -251,7 +251,7 @@ def test_scene_overrides_apply() -> None:
 def test_impossible_pose_ranges_are_a_scene_error(tmp_path: Path) -> None:
     scene = load_scene(poses={"x_range": [0.0, 0.0], "z_range": [0.0, 0.0]})
     with pytest.raises(SceneError, match="could not place"):
-        simulate_session(tmp_path / "x.mcap", method="point", trials=1, frames=1, scene=scene)
+        simulate_session(tmp_path / "x.mcap", method=Method.POINT, trials=1, frames=1, scene=scene)
     assert not (tmp_path / "x.mcap").exists()  # stopped before its first pose: no file
 
 
@@ -293,7 +293,7 @@ def test_progress_is_reported_for_every_frame(tmp_path: Path) -> None:
     seen: list[int] = []
     summary = simulate_session(
         tmp_path / "p.mcap",
-        method="point",
+        method=Method.POINT,
         trials=2,
         frames=2,
         seed=1,
@@ -314,7 +314,9 @@ def test_the_rig_constants_render_and_are_recorded(tmp_path: Path) -> None:
     rig = RigConstants(camera_offset=(0.3, 0.2, 0.4))
     scene = dataclasses.replace(Scene(), systematic=rig)
     out = tmp_path / "rig.mcap"
-    simulate_session(out, method="point", trials=3, frames=2, seed=4, scene=scene, pose_noise=0.0)
+    simulate_session(
+        out, method=Method.POINT, trials=3, frames=2, seed=4, scene=scene, pose_noise=0.0
+    )
     with SessionReader(out) as r:
         truths = [t.simulation_truth for t in iter_trials(r, with_frames=False)]
     assert all(t is not None and t.rig == tuple(rig.vector()) for t in truths)
@@ -323,7 +325,7 @@ def test_the_rig_constants_render_and_are_recorded(tmp_path: Path) -> None:
     np.testing.assert_allclose(bias, [-0.3, -0.2, -0.4], atol=0.08)
     # Without constants, no such bias, and the truth says none.
     plain = tmp_path / "plain.mcap"
-    simulate_session(plain, method="point", trials=3, frames=2, seed=4, pose_noise=0.0)
+    simulate_session(plain, method=Method.POINT, trials=3, frames=2, seed=4, pose_noise=0.0)
     with SessionReader(plain) as r:
         assert all(t.simulation_truth.rig is None for t in iter_trials(r, with_frames=False))  # type: ignore[union-attr]
     assert np.abs(analyse_session(plain).trials[["err_x", "err_y", "err_z"]].mean()).max() < 0.08
@@ -336,7 +338,7 @@ def test_a_simulated_board_session_types_the_board_poses_and_records_the_board(
     from twopose.sim.layout import BOARD_POSES
 
     out = tmp_path / "board.mcap"
-    summary = simulate_session(out, method="board", trials=1, frames=1, seed=0)
+    summary = simulate_session(out, method=Method.BOARD, trials=1, frames=1, seed=0)
     assert summary.n_poses == len(BOARD_POSES)
     with SessionReader(out) as reader:
         assert reader.info.method == "board"
@@ -345,5 +347,5 @@ def test_a_simulated_board_session_types_the_board_poses_and_records_the_board(
         assert reader.message_counts().get("/twopose/ground_truth", 0) == 0
     assert typed == list(BOARD_POSES)
     with pytest.raises(InputValueError, match="leave --poses out"):
-        simulate_session(tmp_path / "b2.mcap", method="board", poses=3)
+        simulate_session(tmp_path / "b2.mcap", method=Method.BOARD, poses=3)
     assert not (tmp_path / "b2.mcap").exists()

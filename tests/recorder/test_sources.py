@@ -41,7 +41,7 @@ def test_images_source(tmp_path: Path) -> None:
 
 
 def test_synthetic_source_renders_the_typed_pose() -> None:
-    with SyntheticSource(None, "point", realtime=False) as src:
+    with SyntheticSource(None, Method.POINT, realtime=False) as src:
         src.set_pose((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
         a = src.read()
         src.set_pose((1.5, 0.0, 0.0), (0.0, 0.0, 0.0))
@@ -79,7 +79,7 @@ def test_a_late_reader_of_a_paced_source_drops_frames_and_they_are_counted(tmp_p
         intrinsics=Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0),
     )
     with (
-        SyntheticSource(None, "point") as src,
+        SyntheticSource(None, Method.POINT) as src,
         SessionWriter(out, SessionInfo(method=Method.POINT, units=Units.IN), [cam]) as w,
     ):
         src.read()
@@ -161,7 +161,7 @@ def test_a_pause_before_a_redone_capture_is_not_counted_as_dropped(
             return self.decisions.pop(0)
 
     if kind == "synthetic":
-        source: object = SyntheticSource(None, "point", realtime=True)
+        source: object = SyntheticSource(None, Method.POINT, realtime=True)
         cam = Camera(
             camera_id="cam0",
             intrinsics=Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0),

@@ -222,7 +222,7 @@ def test_a_sessions_sigma_reaches_every_trials_covariance(tmp_path: Path) -> Non
     traces = []
     for name, scene in (("exact", fast), ("sigma", calibrated)):
         path = simulate_session(
-            tmp_path / f"{name}.mcap", method="point", trials=1, frames=2, seed=9, scene=scene
+            tmp_path / f"{name}.mcap", method=Method.POINT, trials=1, frames=2, seed=9, scene=scene
         )
         with SessionReader(path.path) as reader:
             sigma = dict(reader.cameras["cam0"].intrinsics_sigma)

@@ -13,6 +13,7 @@ from recorder.simulate import target_points
 from recorder.sources import open_source
 from twopose.camera import project_points, rotation_from_angles_deg
 from twopose.detect import detect_dot
+from twopose.methods import Method
 from twopose.rig import RigConstants
 from twopose.sim.camera import camera_pose, true_intrinsics
 from twopose.sim.scene import load_scene
@@ -31,7 +32,7 @@ TYPED = ((0.5, 0.0, 0.0), (0.0, 0.0, 0.0))
 
 
 def _dot_seen(scene_path: Path) -> np.ndarray:
-    source = open_source(f"synthetic:{scene_path}", method="point", realtime=False)
+    source = open_source(f"synthetic:{scene_path}", method=Method.POINT, realtime=False)
     source.open()
     try:
         source.set_pose(*TYPED)  # what the operator typed
@@ -46,7 +47,7 @@ def _projected(rig: RigConstants, scene_path: Path) -> np.ndarray:
     scene = load_scene(scene_path)
     t, r = camera_pose(rig, np.array(TYPED[0]), np.array(TYPED[1]))
     intrinsics = true_intrinsics(rig, scene.cameras[0].intrinsics)
-    _, dot = target_points(scene, "point")
+    _, dot = target_points(scene, Method.POINT)
     projected: np.ndarray = project_points(dot, intrinsics, rotation_from_angles_deg(r), t)
     return projected[0]
 

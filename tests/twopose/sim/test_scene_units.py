@@ -92,7 +92,12 @@ def sessions_by_units(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Pat
     for units in UNITS:
         made[units] = root / f"point_{units}.mcap"
         simulate_session(
-            made[units], method="point", trials=3, frames=2, seed=11, scene=load_scene(units=units)
+            made[units],
+            method=Method.POINT,
+            trials=3,
+            frames=2,
+            seed=11,
+            scene=load_scene(units=units),
         )
     return made
 
