@@ -27,7 +27,7 @@ from twopose.margins import (  # the options' one home, light for the CLI
     DEFAULT_MIN_PLANE_ANGLE_DEG,
     EstimateOptions,
 )
-from twopose.methods import Method, spec_of
+from twopose.methods import Method, Solver, spec_of
 from twopose.solve import (
     NViewLines,
     image_lines,
@@ -190,7 +190,8 @@ def solve_batch(
     method: Method, batch: ViewBatch, ground: GroundSpec | None, options: EstimateOptions
 ) -> Solved:
     """Batch-solve rows of N >= 2 pose measurements with every estimator."""
-    solver = _SOLVERS.get(spec_of(method).method)
+    spec = spec_of(method)
+    solver = _SOLVERS.get(spec.solver) if spec.solver is not None else None
     if solver is None:
         raise InputValueError(f"{method} sessions reconstruct nothing (the rig's calibration)")
     return solver(batch, ground, options.min_conditioning)
@@ -258,10 +259,10 @@ def _solve_ground(batch: ViewBatch, ground: GroundSpec | None, mc: float) -> Sol
     )
 
 
-_SOLVERS: dict[Method, Callable[[ViewBatch, GroundSpec | None, float], Solved]] = {
-    Method.POINT: _solve_points,
-    Method.LINE: _solve_lines,
-    Method.GROUND: _solve_ground,
+_SOLVERS: dict[Solver, Callable[[ViewBatch, GroundSpec | None, float], Solved]] = {
+    "rays": _solve_points,
+    "planes": _solve_lines,
+    "planes and ground": _solve_ground,
 }
 
 

@@ -30,6 +30,7 @@ __all__ = [
     "TRUTH_POINTS",
     "Method",
     "MethodSpec",
+    "Solver",
     "TruthKind",
     "label_of",
     "spec_of",
@@ -37,6 +38,10 @@ __all__ = [
 
 #: The ground truth a trial carries: one point, or a line's two points.
 TruthKind = Literal["point", "line"]
+#: How a method's measurements become its estimate (:func:`twopose.estimate.solve_batch`):
+#: the rays through each view's dot (thesis eq. 3.9), the planes of each view's image line
+#: and their line (eq. 3.17), or those planes cut by the ground plane y = h (method 2).
+Solver = Literal["rays", "planes", "planes and ground"]
 POINT_TRUTH: TruthKind = "point"
 LINE_TRUTH: TruthKind = "line"
 #: How many grid points each kind of truth has.
@@ -65,6 +70,8 @@ class MethodSpec:
     truth_kind: TruthKind | None
     #: Whether the estimate needs the ground plane y = h (the session's ground height).
     needs_ground: bool
+    #: How its measurements are solved (None: a board session reconstructs nothing).
+    solver: Solver | None
     #: Degeneracy margins (trials.csv columns, degrees) that apply to the method.
     margins: tuple[str, ...]
     #: The method's own trials.csv columns beside the common ones (analysis/columns.py).
@@ -112,6 +119,7 @@ METHOD_SPECS: Mapping[Method, MethodSpec] = MappingProxyType(
             target="dot",
             truth_kind="point",
             needs_ground=False,
+            solver="rays",
             margins=("parallax_deg",),
             extra_columns=("x_optimal", "y_optimal", "z_optimal", "err_optimal"),
             thesis_name="method 1",
@@ -128,6 +136,7 @@ METHOD_SPECS: Mapping[Method, MethodSpec] = MappingProxyType(
             target="glove",
             truth_kind="line",
             needs_ground=False,
+            solver="planes",
             margins=("parallax_deg", "plane_angle_deg"),
             extra_columns=("dir_x", "dir_y", "dir_z", "angle_err_deg", "dist_err"),
             thesis_name="fixed line",
@@ -144,6 +153,7 @@ METHOD_SPECS: Mapping[Method, MethodSpec] = MappingProxyType(
             target="glove",
             truth_kind="point",
             needs_ground=True,
+            solver="planes and ground",
             margins=("parallax_deg", "plane_angle_deg", "line_ground_angle_deg"),
             extra_columns=(),
             thesis_name="method 2",
@@ -160,6 +170,7 @@ METHOD_SPECS: Mapping[Method, MethodSpec] = MappingProxyType(
             target=None,
             truth_kind=None,
             needs_ground=False,
+            solver=None,
             margins=(),
             extra_columns=(),
             thesis_name="board (rig calibration)",

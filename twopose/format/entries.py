@@ -301,7 +301,7 @@ class SessionInfo(TypedEntry):
             camera_id(cid)
         if len(set(self.camera_ids)) != len(self.camera_ids):
             raise InputValueError(f"camera ids must be unique, got {self.camera_ids}")
-        if (self.board is not None) != (self.method == Method.BOARD):
+        if (self.board is not None) == spec_of(self.method).measures:
             raise InputValueError(
                 "a board session needs its board (inner corners, square, first corner), and "
                 "only a board session has one"
