@@ -30,14 +30,14 @@ from analysis.columns import (
 )
 from analysis.drawer import FigureDrawer, note, sigint_blocked
 from analysis.figure_cache import FigureCache, FigureJob
-from analysis.input_set import resolve_inputs
+from analysis.input_set import InputSet, resolve_inputs
 from analysis.metrics import summarize
 from analysis.outputs import OutputFolder, printable_stem
 from analysis.pipeline import analyse_session, keep_frame_buffers
 from analysis.results import AnalysisOptions, RunResult, SessionFailure, SessionResult
 from twopose.errors import InputValueError, TwoposeError
 
-__all__ = ["Outcome", "analyse_or_fail", "results_mcap_name", "run", "split_inputs"]
+__all__ = ["Outcome", "analyse_or_fail", "results_mcap_name", "run"]
 
 #: What one session's analysis gives: its tables, or why it failed.
 Outcome = SessionResult | SessionFailure
@@ -46,7 +46,7 @@ OnDone = Callable[[str, bool], None]
 
 
 def run(
-    paths: Sequence[str | Path],
+    paths: Sequence[str | Path] | InputSet,
     out_dir: str | Path | None = None,
     *,
     jobs: int = 1,
@@ -60,8 +60,9 @@ def run(
 
     Parameters
     ----------
-    paths : sequence of path-like
-        Session files and folders (searched recursively for ``*.mcap``).
+    paths : sequence of path-like, or InputSet
+        Session files and folders (searched recursively for ``*.mcap``), or the set a
+        caller already resolved (:func:`analysis.input_set.resolve_inputs`).
     out_dir : path-like, optional
         Where to write ``trials.csv``, ``summary.csv``, ``averaging.csv``, ``frames.csv``,
         ``errors.csv``, ``views.csv``, ``sensitivity.csv``, the figures and
@@ -127,14 +128,6 @@ def _thesis_sweeps() -> pd.DataFrame:
     from analysis.sensitivity import sensitivity
 
     return sensitivity()
-
-
-def split_inputs(paths: Sequence[str | Path]) -> tuple[list[str], list[str]]:
-    """The measurement sessions under ``paths`` (each once, :func:`resolve_inputs`), and
-    the results files of an earlier run found among them (skipped: they are not
-    sessions)."""
-    inputs = resolve_inputs(paths)
-    return inputs.files, list(inputs.skipped)
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)

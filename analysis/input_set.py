@@ -90,6 +90,15 @@ class InputSet:
         return [s.path for s in self.measured]
 
     @property
+    def paths(self) -> tuple[str, ...]:
+        """Every session path it read (copies and repeats too): what no output may replace."""
+        return (
+            *(s.path for s in self.found),
+            *(path for path, _ in self.copies),
+            *(path for path, _ in self.repeats),
+        )
+
+    @property
     def units(self) -> tuple[str, ...]:
         """The units of the measurement sessions, in order of first appearance."""
         return tuple(dict.fromkeys(s.units for s in self.measured if s.units))
@@ -119,9 +128,13 @@ class InputSet:
         ]
 
 
-def resolve_inputs(paths: Sequence[str | Path]) -> InputSet:
+def resolve_inputs(paths: Sequence[str | Path] | InputSet) -> InputSet:
     """The one resolution of a batch's paths (see the module docstring); raises
-    :class:`~twopose.errors.InputValueError` for a path that does not exist."""
+    :class:`~twopose.errors.InputValueError` for a path that does not exist. An
+    :class:`InputSet` is already resolved: returned as it is, so a command resolves once
+    and hands the set to each step."""
+    if isinstance(paths, InputSet):
+        return paths
     found: list[FoundSession] = []
     copies: list[tuple[str, str]] = []
     skipped: list[str] = []

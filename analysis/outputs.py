@@ -44,6 +44,8 @@ from twopose.format.reader import STAGING_FOLDER
 if TYPE_CHECKING:
     import pandas as pd
 
+    from analysis.input_set import InputSet
+
 __all__ = [
     "LOCK_NAME",
     "MANIFEST_NAME",
@@ -477,23 +479,19 @@ def _nearest_existing(path: Path) -> Path | None:
     return None
 
 
-def check_run_outputs(
-    paths: Iterable[str | Path], out: Path, junit: Path | None, rig: Path | None
-) -> None:
+def check_run_outputs(sessions: InputSet, out: Path, junit: Path | None, rig: Path | None) -> None:
     """``run``'s ``--out`` and ``--junit`` checked against its inputs (:class:`Inputs`)."""
-    inputs = run_inputs(paths, rig)
+    inputs = run_inputs(sessions, rig)
     inputs.check_folder("--out", out)
     inputs.check_file("--junit", junit, beside=out)
 
 
-def run_inputs(paths: Iterable[str | Path], *more: Path | None) -> Inputs:
-    """The files a ``run`` or ``rig`` reads: the sessions under ``paths`` (a folder is only
+def run_inputs(sessions: InputSet, *more: Path | None) -> Inputs:
+    """The files a ``run`` or ``rig`` reads: its resolved sessions (a folder is only
     searched: results may go below it; the results files of an earlier run found there are
     not read, so its output folder stays ours, run after run) and ``more`` (a rig file)."""
-    from twopose.format.reader import find_sessions, is_results_file
-
-    sessions = tuple(p for p in find_sessions(paths) if not is_results_file(p))
-    return Inputs(files=sessions + tuple(p for p in more if p is not None))
+    files = tuple(Path(p) for p in sessions.paths)
+    return Inputs(files=files + tuple(p for p in more if p is not None))
 
 
 def read_results_table(

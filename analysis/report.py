@@ -27,7 +27,7 @@ from analysis.figures import figure_key, png_bytes, run_figures
 from analysis.html_page import Image, figure_html, figure_row, image, page_html, table_html
 from analysis.metrics import SESSION_SETS, by_session_set, session_set, used_trials
 from analysis.table_labels import metadata_table, readable_columns, table_units
-from analysis.thesis import thesis_sessions, thesis_table, thesis_verdict
+from analysis.thesis import thesis_sessions
 from twopose import jsonsafe
 from twopose.jsonsafe import jsonable
 from twopose.methods import label_of, spec_of
@@ -103,9 +103,7 @@ def write_outputs(
     tables = {
         "trials.csv": result.trials,
         "summary.csv": result.summary,
-        "thesis.csv": thesis_table(
-            result.trials, result.averaging, include_warned=result.include_warned
-        ),
+        "thesis.csv": result.thesis,
         "averaging.csv": result.averaging,
         "frames.csv": result.frames,
         "errors.csv": result.errors,
@@ -169,7 +167,7 @@ def summary_document(result: RunResult) -> dict[str, object]:
         "n_ok": int((result.trials["status"] == "ok").sum()),
         "methods": _records(answer_table(result.trials, include_warned=result.include_warned)),
         "summary": _records(result.summary),
-        "verdict": thesis_verdict(result.trials, include_warned=result.include_warned),
+        "verdict": result.verdict,
         "failed": _records(result.errors),
         "rig": None if result.rig_source is None else result.rig_source.to_json(),
     }
@@ -258,14 +256,14 @@ def _answer_section(result: RunResult) -> list[str]:
             "<p>Per session set, as the file names declare it: <code>thesis_*</code> "
             "repeat the thesis' experiments, <code>stress_*</code> go beyond them.</p>"
         )
+    verdicts = dict(result.verdicts)
     for name, group in groups:
         if len(groups) > 1:
             title = SESSION_SETS.get(name, "sessions in no set")
             parts.append(f"<h3 id='set-{name or 'other'}'>{html.escape(title)}</h3>")
         table = answer_table(group, include_warned=result.include_warned)
         parts.append(table_html(readable(table, include_warned=result.include_warned)))
-        verdict = thesis_verdict(group, include_warned=result.include_warned)
-        parts += [f"<p class='verdict'>{html.escape(line)}</p>" for line in verdict]
+        parts += [f"<p class='verdict'>{html.escape(line)}</p>" for line in verdicts[name]]
     return parts + _thesis_section(result)
 
 
@@ -276,7 +274,7 @@ def _thesis_section(result: RunResult) -> list[str]:
         if sessions < result.trials["session"].nunique()
         else "every session"
     )
-    table = thesis_table(result.trials, result.averaging, include_warned=result.include_warned)
+    table = result.thesis
     return [
         "<h2 id='thesis'>The thesis, reproduced</h2>",
         "<p>What the thesis reported (sections 3.4, 5.3, 5.4) against this run, over "

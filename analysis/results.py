@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -9,6 +10,7 @@ import pandas as pd
 
 from analysis.choices import DEFAULT_SESSION_TIMEOUT_S, RigCalibrationMode
 from analysis.columns import VIEW_COLUMNS
+from analysis.thesis import Verdicts, thesis_table, verdict_lines, verdicts_by_set
 from twopose.detect import DotParams, GloveParams
 from twopose.estimate import EstimateOptions
 from twopose.rig import RigConstants
@@ -113,6 +115,22 @@ class RunResult:
     @property
     def failed(self) -> bool:
         return not self.errors.empty
+
+    @functools.cached_property
+    def verdicts(self) -> Verdicts:
+        """The run against the thesis, per session set: computed once, read by the
+        terminal, ``summary.json`` and the report."""
+        return verdicts_by_set(self.trials, include_warned=self.include_warned)
+
+    @property
+    def verdict(self) -> list[str]:
+        """:attr:`verdicts` as lines (each naming its set when the run has several)."""
+        return verdict_lines(self.verdicts)
+
+    @functools.cached_property
+    def thesis(self) -> pd.DataFrame:
+        """What the thesis reported against this run (``thesis.csv``): computed once."""
+        return thesis_table(self.trials, self.averaging, include_warned=self.include_warned)
 
     @property
     def figures_reused(self) -> int:

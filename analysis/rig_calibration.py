@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from analysis.input_set import InputSet
 from analysis.pipeline import replay_views
 from analysis.rig import RigFit, fit_constants, select_constants
 from analysis.rig_data import RigData, combine, prepare_session, require_trusted
@@ -52,7 +53,9 @@ class RigCalibration:
 
 
 def calibrate_rig(
-    paths: Sequence[str], groups: Sequence[str] | None = None, on_note: Note | None = None
+    paths: Sequence[str | Path] | InputSet,
+    groups: Sequence[str] | None = None,
+    on_note: Note | None = None,
 ) -> RigCalibration:
     """``twopose-analyze rig``: the constants from board sessions
     (:func:`analysis.board_calibration.calibrate_board`) or from target sessions
@@ -60,7 +63,7 @@ def calibrate_rig(
     from analysis.board_calibration import calibrate_board
     from analysis.input_set import resolve_inputs
 
-    inputs = resolve_inputs(paths)  # once, as run and info: each file once, copies said
+    inputs = resolve_inputs(paths)  # once (or as given), as run and info: copies said
     for text in inputs.notes():
         (on_note or (lambda _text: None))(text)
     boards, targets = [s.path for s in inputs.boards], inputs.files
@@ -212,14 +215,13 @@ def check_rig_for_sessions(rig: RigConstants, paths: Sequence[str], what: str) -
     return notes
 
 
-def rig_for_run(path: str | Path, inputs: Sequence[str | Path], on_note: Note) -> RigConstants:
+def rig_for_run(path: str | Path, inputs: InputSet, on_note: Note) -> RigConstants:
     """``run --rig``: the rig file, refused (exit 3, before any analysis) if implausible,
     or for a session under ``inputs`` in other units, or whose ground height or image it
     does not fit; ``on_note`` hears the notes (a rig file without units)."""
-    from analysis.batch import split_inputs
     from twopose.rig import load_rig
 
     rig = load_rig(path)
-    for text in check_rig_for_sessions(rig, split_inputs(inputs)[0], f"rig file {path}"):
+    for text in check_rig_for_sessions(rig, inputs.files, f"rig file {path}"):
         on_note(text)
     return rig

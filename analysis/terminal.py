@@ -102,16 +102,13 @@ def wrap_phrases(phrases: list[str], width: int | None, indent: str = "") -> lis
     return [line.replace(_KEEP, " ") for line in wrapped]
 
 
-def closing_lines(
-    trials: pd.DataFrame, out: Path, *, include_warned: bool = False, width: int | None = 80
-) -> list[str]:
+def closing_lines(verdict: list[str], out: Path, *, width: int | None = 80) -> list[str]:
     """The run's last lines: one verdict per method against the thesis (per session set,
-    ``thesis_*`` first), then where ``report.html`` is (when it was written)."""
-    from analysis.thesis import thesis_verdict
-
+    ``thesis_*`` first: :attr:`analysis.results.RunResult.verdict`), then where
+    ``report.html`` is (when it was written)."""
     lines = []
-    for verdict in thesis_verdict(trials, include_warned=include_warned):
-        lines += wrap_phrases(["verdict:", *verdict.split(" ")], width)
+    for line in verdict:
+        lines += wrap_phrases(["verdict:", *line.split(" ")], width)
     report = out / "report.html"
     if report.is_file():
         lines.append(f"report: {report}")

@@ -64,17 +64,40 @@ def thesis_sessions(table: pd.DataFrame) -> pd.DataFrame:
     return picked
 
 
-def thesis_verdict(trials: pd.DataFrame, *, include_warned: bool = False) -> list[str]:
+#: Per session set (its name, ``thesis_*`` first), one verdict line per method.
+Verdicts = tuple[tuple[str, tuple[str, ...]], ...]
+
+
+def verdicts_by_set(trials: pd.DataFrame, *, include_warned: bool = False) -> Verdicts:
     """One line per method set against the thesis' figure (errors within 1 in): how many
     of the trials the summary uses are within it, and so whether twopose reproduces it;
-    per session set (``thesis_*`` first) when the run has more than one."""
+    per session set (``thesis_*`` first)."""
+    return tuple(
+        (
+            name,
+            tuple(
+                _verdict(Method(str(method)), g)
+                for method, g in _used(group, include_warned=include_warned).groupby(
+                    "method", sort=True
+                )
+            ),
+        )
+        for name, group in by_session_set(trials)
+    )
+
+
+def verdict_lines(verdicts: Verdicts) -> list[str]:
+    """The verdicts as lines, each naming its session set when the run has more than one."""
     lines = []
-    groups = by_session_set(trials)
-    for name, group in groups:
-        prefix = f"{name}_*: " if name else ("other sessions: " if len(groups) > 1 else "")
-        for method, g in _used(group, include_warned=include_warned).groupby("method", sort=True):
-            lines.append(prefix + _verdict(Method(str(method)), g))
+    for name, verdict in verdicts:
+        prefix = f"{name}_*: " if name else ("other sessions: " if len(verdicts) > 1 else "")
+        lines += [prefix + line for line in verdict]
     return lines
+
+
+def thesis_verdict(trials: pd.DataFrame, *, include_warned: bool = False) -> list[str]:
+    """:func:`verdicts_by_set` as lines (:func:`verdict_lines`)."""
+    return verdict_lines(verdicts_by_set(trials, include_warned=include_warned))
 
 
 def _verdict(method: Method, g: pd.DataFrame) -> str:

@@ -94,6 +94,7 @@ def run_command(
 ) -> None:
     """Replay sessions through detection and solvers into error tables, figures and a report."""
     from analysis.batch import run
+    from analysis.input_set import resolve_inputs
     from analysis.outputs import check_run_outputs, write_file
     from analysis.results import AnalysisOptions
 
@@ -109,16 +110,17 @@ def run_command(
         rig_calibration=rig_calibration,
     )
     with handle_errors(), _session_progress() as (found, done):
-        check_run_outputs(paths, out, junit, rig)  # before anything is written
+        inputs = resolve_inputs(paths)  # once: every step below takes this set
+        check_run_outputs(inputs, out, junit, rig)  # before anything is written
         if rig is not None:
             from analysis.results import RigSource
             from analysis.rig_calibration import rig_for_run
 
-            constants = rig_for_run(rig, paths, note)
+            constants = rig_for_run(rig, inputs, note)
             source = RigSource.read(rig, constants)
             options = dataclasses.replace(options, rig=constants, rig_source=source)
         result = run(
-            paths,
+            inputs,
             out,
             jobs=jobs,
             dask_address=dask,
@@ -195,7 +197,7 @@ def _print_run(result: RunResult, out: Path, *, include_warned: bool) -> None:
             f"figures: {result.figures_reused} of {len(result.sessions)} session(s)' reused "
             f"from the last run into {out} (nothing they show changed)"
         )
-    for line in closing_lines(result.trials, out, include_warned=include_warned, width=width):
+    for line in closing_lines(result.verdict, out, width=width):
         typer.echo(line)
     if result.failed or not result.sessions:
         if not result.sessions and result.errors.empty:

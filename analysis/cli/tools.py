@@ -48,13 +48,15 @@ def rig_command(
 ) -> None:
     """Estimate the rig's hidden constants from board sessions or from sessions with known
     targets; write them for `run --rig` and `twopose-record new --rig`."""
+    from analysis.input_set import resolve_inputs
     from analysis.outputs import run_inputs, write_file
     from analysis.rig import rig_toml
     from analysis.rig_calibration import calibrate_rig
 
     with handle_errors():
-        run_inputs(sessions).check_file("--out", out)  # never a session, FIFO or device
-        found = calibrate_rig([str(s) for s in sessions], constants, on_note=note)
+        inputs = resolve_inputs(sessions)  # once: the check and the fit take this set
+        run_inputs(inputs).check_file("--out", out)  # never a session, FIFO or device
+        found = calibrate_rig(inputs, constants, on_note=note)
         text = rig_toml(found.fit, found.sessions, found.warnings, found.basis)
         write_file(out, text.encode())
     fit = found.fit

@@ -6,7 +6,9 @@ from __future__ import annotations
 
 import shutil
 import xml.etree.ElementTree as ET
+from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 import pytest
@@ -161,3 +163,32 @@ def test_a_file_named_twice_is_counted_once_and_said(
     result = runner.invoke(app, ["info", *map(str, given[:3])])
     assert result.exit_code == 0, result.output
     assert "named more than once" in result.output
+
+
+def test_each_command_finds_and_reads_its_inputs_once(
+    kinds: dict[str, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """run (with and without --rig) and rig resolve their inputs once: the output checks,
+    the rig file's check and the analysis take the one set (each resolution hashes every
+    file: a second would read a batch twice)."""
+    import analysis.input_set as input_set
+    from twopose.format.reader import find_sessions
+
+    searches: list[tuple[str, ...]] = []
+
+    def counted(paths: Sequence[str | Path], **kwargs: Any) -> list[Path]:
+        searches.append(tuple(map(str, paths)))
+        return find_sessions(paths, **kwargs)
+
+    monkeypatch.setattr(input_set, "find_sessions", counted)
+    rig_file = tmp_path / "rig.toml"
+    rig_file.write_text("[rig]\nfocal_scale = 1.0\n")
+    point = str(kinds["point"])
+    for args in (
+        ["run", point, "--out", str(tmp_path / "a"), "--no-scene"],
+        ["run", point, "--out", str(tmp_path / "b"), "--no-scene", "--rig", str(rig_file)],
+        ["rig", point, str(kinds["copy"]), "--out", str(tmp_path / "rig_out.toml")],
+    ):
+        searches.clear()
+        result = runner.invoke(app, args)
+        assert len(searches) == 1, (args, searches, result.output)

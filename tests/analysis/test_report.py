@@ -315,11 +315,13 @@ def test_the_console_answers_per_session_set_and_ends_with_verdicts_and_the_repo
     per_session = lines[lines.index("per session:") + 1 :]
     assert per_session[0].startswith("  thesis_point.mcap")
     (tmp_path / "report.html").write_text("<html></html>")
-    closing = closing_lines(trials, tmp_path, width=None)
+    closing = closing_lines(thesis_verdict(trials), tmp_path, width=None)
     assert [line.split(":")[:2] for line in closing[:2]] == [
         ["verdict", " thesis_*"],
         ["verdict", " stress_*"],
     ]
     assert "point (method 1)" in closing[0]
     assert closing[-1] == f"report: {tmp_path / 'report.html'}"
-    assert closing_lines(trials, tmp_path / "none", width=None)[-1].startswith("verdict:")
+    assert closing_lines(thesis_verdict(trials), tmp_path / "none", width=None)[-1].startswith(
+        "verdict:"
+    )
