@@ -1,7 +1,7 @@
 """A trial's result as the analysis reports it, for the live view.
 
-A trial's result as the analysis reports it, for the recorder's live view (the thesis' GUI
-computed the point on the spot, section 5.2.4).
+The thesis' GUI computed the point on the spot (section 5.2.4); the recorder's live view shows the
+analysis' own result.
 
 :func:`trial_results` runs the analysis' own estimation
 (:func:`twopose.session_estimate.estimate_session`: the same frame combination, solvers,
@@ -126,8 +126,7 @@ class TrialResult:
     def to_json(self) -> dict[str, object]:
         """The result as a JSON-ready object for the web console and live view.
 
-        The result as a JSON-ready object for the web console and the live view. NaN and
-        infinity are left as floats: whoever serialises it uses the one encoder,
+        NaN and infinity are left as floats: whoever serialises it uses the one encoder,
         :func:`twopose.jsonsafe.dumps`, which writes them as ``null``.
         """
         return {
@@ -158,9 +157,8 @@ def trial_results(
 ) -> list[TrialResult]:
     """Every trial's result, estimated as the analysis estimates a session.
 
-    Every trial's result, estimated in one batch as the analysis estimates a session
-    (:func:`twopose.session_estimate.estimate_session`) and compared with the truth by the
-    analysis' rule (:func:`twopose.truth.reported`).
+    In one batch, as :func:`twopose.session_estimate.estimate_session` estimates a session, and
+    compared with the truth by the analysis' rule (:func:`twopose.truth.reported`).
     """
     estimate = estimate_session(trials, options or EstimateOptions())
     est, rep = estimate.estimates, reported(estimate)

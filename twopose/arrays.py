@@ -1,7 +1,7 @@
 """The array aliases every module annotates with.
 
-The array aliases every module annotates with (one home, so that a change of dtype policy is
-one edit): shapes are documented where the arrays are, in the docstrings.
+One home, so that a change of dtype policy is one edit: shapes are documented where the arrays are,
+in the docstrings.
 """
 
 from __future__ import annotations

@@ -49,8 +49,8 @@ MIN_DEPTH_SPREAD = 0.1
 class BoardRigFit:
     """The fitted constants, their 1-sigma and how well the corners fit.
 
-    The fitted constants, their 1-sigma (11, RIG_PARAMETERS order; the ground height error
-    is not fitted: 0 with sigma NaN) and how well the corners fit.
+    The constants are in RIG_PARAMETERS order (11); the ground height error is not fitted: 0 with
+    sigma NaN.
     """
 
     rig: RigConstants

@@ -116,8 +116,8 @@ SIGMA_KEYS = ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3")
 class Camera:
     """A camera of a session: its id, its calibration and the calibration's sigma.
 
-    A camera of a session: its id, its calibration and (format 1.2) the calibration's
-    1-sigma per intrinsic (:data:`SIGMA_KEYS`; empty when unknown, e.g. typed by hand).
+    The sigma (format 1.2) is a 1-sigma per intrinsic (:data:`SIGMA_KEYS`), empty when unknown,
+    e.g. typed by hand.
     """
 
     camera_id: str

@@ -41,8 +41,7 @@ def pairwise_max_sine(u: F64, valid: NDArray[np.bool_]) -> F64:
 def pairwise_max_abs_dot(a: F64, b: F64, valid: NDArray[np.bool_]) -> F64:
     """Largest ``|a_i . b_j|`` over pairs of valid views of each row.
 
-    Largest ``|a_i . b_j|`` over pairs of valid views of each row (T, N, 3), blocked like
-    :func:`pairwise_max_sine`.
+    The vectors are (T, N, 3); blocked like :func:`pairwise_max_sine`.
     """
     T, N = a.shape[:2]
     best = np.zeros(T)

@@ -38,8 +38,8 @@ def read_toml(path: str | Path, what: str, error: type[TwoposeError]) -> dict[st
 def build_dataclass(cls: type[T], data: Any, what: str, error: type[TwoposeError]) -> T:
     """``cls(**data)`` with every key checked against ``cls``'s fields and hints.
 
-    ``cls(**data)`` with every key checked against ``cls``'s fields and type hints,
-    recursively for nested dataclasses; ``error`` messages start with ``what``.
+    Type hints are checked too, recursively for nested dataclasses; ``error`` messages start with
+    ``what``.
     """
     built: T = _build(cls, data, "", what, error)
     return built

@@ -154,9 +154,8 @@ def wrap_theta_deg(theta_deg: NDArray[np.float64] | float) -> NDArray[np.float64
 def _wrapped_deg(theta_deg: float) -> float:
     """:func:`wrap_theta_deg` of one angle, in Python floats.
 
-    :func:`wrap_theta_deg` of one angle, in Python floats (the same IEEE operations:
-    Python's ``%`` and NumPy's ``mod`` both take C's ``fmod`` and add the divisor when the
-    signs differ).
+    The same IEEE operations: Python's ``%`` and NumPy's ``mod`` both take C's ``fmod`` and add the
+    divisor when the signs differ.
     """
     t = (theta_deg + 90.0) % 180.0 - 90.0
     return 90.0 if t == -90.0 else t
@@ -257,8 +256,8 @@ _GREY_WEIGHTS = (3735, 19235, 9798)
 def _grey_weights_hold() -> bool:
     """Whether :data:`_GREY_WEIGHTS` are this OpenCV's grey conversion.
 
-    Whether :data:`_GREY_WEIGHTS` are this OpenCV's (every colour agrees in the tests; here
-    65,536 random colours and the extremes, once per process): if not, ``cvtColor``.
+    Every colour agrees in the tests; here 65,536 random colours and the extremes are checked, once
+    per process. If they do not hold, ``cvtColor`` is used.
     """
     rng = np.random.default_rng(0)
     colours = np.concatenate(

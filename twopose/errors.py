@@ -161,11 +161,10 @@ def safe_console() -> None:
 def run_command_line(app: Callable[[], object]) -> None:
     """The one ``main`` of both command lines.
 
-    The one ``main`` of both command lines (``twopose-record``, ``twopose-analyze``): output
-    streams that never crash on a file name, a Ctrl-C anywhere exits 130 with one line (even
-    one Python swallowed in a finalizer, :func:`watch_interrupts`), and every other exit is
-    the command's own (:func:`handle_errors` turns a :class:`TwoposeError` into its message
-    and exit code inside each command).
+    For ``twopose-record`` and ``twopose-analyze``: output streams that never crash on a file name,
+    a Ctrl-C anywhere exits 130 with one line (even one Python swallowed in a finalizer,
+    :func:`watch_interrupts`), and every other exit is the command's own (:func:`handle_errors`
+    turns a :class:`TwoposeError` into its message and exit code inside each command).
     """
     import sys
 

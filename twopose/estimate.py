@@ -119,9 +119,8 @@ def measure(
 ) -> tuple[list[list[PoseMeasurement]], NDArray[np.bool_], NDArray[np.bool_]]:
     """Each pose's frames combined into one measurement.
 
-    Each pose's frames combined into one measurement (the thesis' mean, or median / robust).
-    Returns the measurements (empty for a trial with fewer than two poses), and per trial
-    whether it is complete and whether every pose was detected.
+    The thesis' mean, or median / robust. Returns the measurements (empty for a trial with fewer
+    than two poses), and per trial whether it is complete and whether every pose was detected.
     """
     complete = np.array([len(v) >= 2 for v in views], dtype=bool)
     measurements = [

@@ -233,9 +233,9 @@ def _best_start(
 ) -> tuple[F64, F64]:
     """The start of least cost among the candidate lines.
 
-    The start of least cost among the algebraic line, the weighted one and (up to
-    :data:`MAX_VIEWS_FOR_PAIRS` views) each pair of views' line: an algebraic line can sit
-    in another basin than the optimum when the planes meet at a small angle.
+    The candidates: the algebraic line, the weighted one and (up to :data:`MAX_VIEWS_FOR_PAIRS`
+    views) each pair of views' line. An algebraic line can sit in another basin than the optimum
+    when the planes meet at a small angle.
     """
     lines = segment_lines(seg)
     candidates = [(start.point_grid[rows], start.direction_grid[rows])]

@@ -1,8 +1,7 @@
 """A detection drawn on its image as ``foxglove.ImageAnnotations``.
 
-A detection drawn on its image: ``foxglove.ImageAnnotations`` (used live by the recorder and
-offline in results.mcap): the detected blob's outline, centroid and orientation in green,
-candidates the filters turned down in red with the reason, and the verdict.
+Used live by the recorder and offline in results.mcap: the detected blob's outline, centroid and
+orientation in green, candidates the filters turned down in red with the reason, and the verdict.
 """
 
 from __future__ import annotations

@@ -154,8 +154,8 @@ class RigConstants:
 def angles_deg_from_rotation(R: ArrayLike) -> F64:
     """The angles ``(rx, ry, rz)`` in degrees of rotations ``R = Rx Ry Rz``.
 
-    The angles ``(rx, ry, rz)`` (..., 3) in degrees with ``rotation_from_angles_deg`` giving
-    ``R`` (..., 3, 3) (``R = Rx Ry Rz``; ry in [-90, 90]).
+    Shapes (..., 3, 3) to (..., 3); ``rotation_from_angles_deg`` of the result gives ``R`` back,
+    with ry in [-90, 90].
     """
     m = np.asarray(R, dtype=np.float64)
     ry = np.arcsin(np.clip(m[..., 0, 2], -1.0, 1.0))
@@ -168,8 +168,7 @@ def angles_deg_from_rotation(R: ArrayLike) -> F64:
 def corrected_view(view: PoseView, rig: RigConstants) -> PoseView:
     """A pose as the rig really had it: centre, angles and intrinsics corrected.
 
-    A pose as the rig really had it: typed centre, angles and intrinsics corrected (refused
-    if the rig's principal offset is beyond a quarter of this view's image).
+    Refused if the rig's principal offset is beyond a quarter of this view's image.
     """
     check_plausible(rig, image_size=view.width_height, only=["principal_offset_px"])
     t, R = rig.true_poses(view.t_grid, view.r_deg)
@@ -184,8 +183,7 @@ def corrected_view(view: PoseView, rig: RigConstants) -> PoseView:
 def corrected_ground(ground: GroundSpec | None, rig: RigConstants) -> GroundSpec | None:
     """The ground plane at its true height.
 
-    The ground plane at its true height (the typed one minus the rig's error; refused if the
-    error is beyond half the ground height).
+    The typed plane minus the rig's error; refused if the error is beyond half the ground height.
     """
     if ground is None:
         return None
@@ -206,8 +204,8 @@ def true_ground(ground: GroundSpec, rig: RigConstants) -> GroundSpec:
 def ground_height(ground: GroundSpec | None) -> float | None:
     """The typed distance from the grid's origin down to the ground plane.
 
-    The typed distance from the grid's origin (the camera centre's height) down to the
-    ground plane ``n . p = offset``, in the session's units (None: no ground).
+    The grid's origin is the camera centre's height; the plane is ``n . p = offset``; the distance
+    is in the session's units (None: no ground).
     """
     if ground is None:
         return None
@@ -328,8 +326,8 @@ def plausible_bounds(
 ) -> tuple[F64, F64]:
     """The plausible constants' lower and upper bounds.
 
-    The plausible constants' lower and upper bounds (11 each, :data:`RIG_PARAMETERS` order):
-    where a fit may look, so that it never writes a rig that is refused.
+    11 each, in :data:`RIG_PARAMETERS` order: where a fit may look, so that it never writes a rig
+    that is refused.
     """
     nominal = RigConstants().vector()
     limits = _limits(units, ground_height, image)
@@ -350,10 +348,10 @@ def check_plausible(
 ) -> None:
     """Refuse a rig a laptop on grid paper cannot have.
 
-    Refuse a rig a laptop on grid paper cannot have (:data:`LIMITS`), naming each constant
-    beyond its limit and the limit. The lengths are judged in ``rig.units`` (else ``units``;
-    neither: not judged); ``ground_height`` (session units) and ``image_size`` (width,
-    height) are the session's, where known; ``only``: these constants alone.
+    The limits are :data:`LIMITS`; each constant beyond its limit is named with the limit. The
+    lengths are judged in ``rig.units`` (else ``units``; neither: not judged); ``ground_height``
+    (session units) and ``image_size`` (width, height) are the session's, where known; ``only``:
+    these constants alone.
     """
     units = rig.units or units
     limits = _limits(units, ground_height, image_size)
@@ -390,9 +388,9 @@ def check_applicable(
 ) -> list[str]:
     """Refuse a rig for a session it cannot apply to; return the notes to show.
 
-    Refuse a rig for a session in other units than the rig's, or implausible for its ground
-    height and images (each camera's ``(width, height)``); returns the notes to show (a rig
-    without units, from before they were recorded, is taken in the session's).
+    Refused: a session in other units than the rig's, or one the rig is implausible for (its ground
+    height and each camera's ``(width, height)``). A rig without units, from before they were
+    recorded, is taken in the session's, with a note.
     """
     notes = []
     if rig.units is None:
@@ -417,9 +415,8 @@ def check_applicable(
 def load_rig(path: str | Path) -> RigConstants:
     """A rig file written by ``twopose-analyze rig``, checked for plausibility.
 
-    A rig file written by ``twopose-analyze rig`` (its ``[rig]`` table), checked for
-    plausibility (:func:`check_plausible`; the session's ground height and image are judged
-    when it is applied, :func:`check_applicable`).
+    Its ``[rig]`` table, checked by :func:`check_plausible`; the session's ground height and image
+    are judged when it is applied (:func:`check_applicable`).
     """
     from twopose.config import build_dataclass, read_toml
 

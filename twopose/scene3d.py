@@ -1,10 +1,10 @@
 """A trial's 3-D geometry as a ``foxglove.SceneUpdate``.
 
-A trial's 3-D geometry as a ``foxglove.SceneUpdate`` (grid frame, session units): the camera
-frustums, the back-projected rays (points) or planes (lines, method 2), the estimate with
-its 95% ellipsoid, the ground truth and the error vector; and the static grid and ground
-plane. Pure builders, shared by the analysis' results.mcap and the recorder's live view. The
-geometry is the solver's grid frame: ``p_grid = R_cam_to_grid p_cam + t_grid``, y down.
+In the grid frame and session units: the camera frustums, the back-projected rays (points) or
+planes (lines, method 2), the estimate with its 95% ellipsoid, the ground truth and the error
+vector; and the static grid and ground plane. Pure builders, shared by the analysis' results.mcap
+and the recorder's live view. The geometry is the solver's grid frame: ``p_grid = R_cam_to_grid
+p_cam + t_grid``, y down.
 """
 
 from __future__ import annotations
@@ -76,8 +76,7 @@ def scene_of_views(  # noqa: PLR0913 - one per TrialScene field its two callers 
 ) -> TrialScene:
     """A trial's scene from its poses and their combined measurements.
 
-    A trial's scene from its poses and their combined measurements (NaN where a pose had
-    none): the one way results.mcap and the live view build it.
+    NaN where a pose had no measurement; the one way results.mcap and the live view build it.
     """
     n = len(views)
     px, theta = np.full((n, 2), np.nan), np.full(n, np.nan)

@@ -175,9 +175,9 @@ class SessionEstimate:
 def estimate_session(trials: SessionTrials, options: EstimateOptions) -> SessionEstimate:
     """Solve every detected trial with every estimator, and propagate.
 
-    Solve every detected trial with every estimator, in one batch, and propagate each one's
-    input covariance (pixels from the frame scatter, poses from the typed resolution,
-    intrinsics from the calibration's 1-sigma: one error for all views of a camera).
+    In one batch; each trial's input covariance is propagated: pixels from the frame scatter, poses
+    from the typed resolution, intrinsics from the calibration's 1-sigma (one error for all views
+    of a camera).
 
     Each pose's frames are combined first (the thesis' mean, or median / robust); trials
     with fewer than two poses are ``incomplete``, and those with a pose never detected

@@ -414,8 +414,8 @@ def triangulate_ground(
 ) -> NViewPoints:
     """Method 2 with N >= 2 views: the planes' point on the ground plane.
 
-    Method 2 with N >= 2 views: the least-squares point of the N back-projected planes and
-    the ground plane ``n3 . p = h`` (for two views exactly eq. 19's solution).
+    The least-squares point of the N back-projected planes and the ground plane ``n3 . p = h``; for
+    two views exactly eq. 19's solution.
     """
     lin = np.asarray(lines, dtype=np.float64)
     p = np.asarray(P, dtype=np.float64)
@@ -538,8 +538,8 @@ def _midpoint(
 ) -> tuple[F64, F64, F64, F64]:
     """Eq. 7-8 per point: the two rays' midpoint in closed form.
 
-    Eq. 7-8 per point: rays ``d = M^-1 [u, v, 1]``, ``[d1, -d2] (a1, a2)^T = c2 - c1`` by
-    its 2x2 normal equations in closed form; returns (midpoint, a1, a2, parallax sine).
+    Rays ``d = M^-1 [u, v, 1]``, ``[d1, -d2] (a1, a2)^T = c2 - c1`` by its 2x2 normal equations;
+    returns (midpoint, a1, a2, parallax sine).
     """
     d1 = [Ai[i, 0] * u1 + Ai[i, 1] * v1 + Ai[i, 2] for i in range(3)]
     d2 = [Bi[i, 0] * u2 + Bi[i, 1] * v2 + Bi[i, 2] for i in range(3)]

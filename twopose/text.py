@@ -34,8 +34,7 @@ def first_control(text: str) -> str | None:
 def for_terminal(text: str) -> str:
     r"""``text`` with every control character written as its escape.
 
-    ``text`` with every control character written as its escape (``\x1b``, ``\u202e``),
-    everything else as it is (accents, CJK, emoji).
+    Escapes such as ``\x1b`` and ``\u202e``; everything else as it is (accents, CJK, emoji).
     """
     if first_control(text) is None:
         return text

@@ -1,7 +1,7 @@
 """A trial seen from above, drawn as the solver solved it.
 
-A trial seen from above (the grid's x across, z in depth, session units): what each view
-measured, drawn so that it meets where the solver says the target is.
+The grid's x across, z in depth, session units: what each view measured, drawn so that it meets
+where the solver says the target is.
 
 - method 1 (point): each view's ray through the dot's centroid, from the camera centre;
   the rays meet at the estimate;
@@ -136,8 +136,7 @@ def _rays(scene: TrialScene, reach: F64) -> list[tuple[str, XZ, XZ]]:
 def _view_planes(scene: TrialScene) -> F64:
     """Each view's image line back-projected to its plane (N, 4).
 
-    Each view's image line back-projected: the plane ``pi = P^T l`` (N, 4) in the grid
-    frame, ``pi . (x, y, z, 1) = 0``.
+    The plane ``pi = P^T l`` in the grid frame: ``pi . (x, y, z, 1) = 0``.
     """
     P = projection_matrices(scene.intrinsics, scene.R_cam_to_grid, scene.t_grid)
     lines = image_lines(scene.px, scene.theta_deg)

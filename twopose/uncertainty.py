@@ -253,8 +253,7 @@ def _difference_columns(
 ) -> list[F64]:
     """Central differences of ``columns`` of the Jacobian, in one call.
 
-    Central differences of ``columns`` of the Jacobian, each (T, 3), in one call; ``steps``
-    (T,) per column (0: an exact input, its column 0).
+    Each column (T, 3); ``steps`` (T,) per column (0: an exact input, its column 0).
     """
     T = x.shape[0]
     K = len(columns)
@@ -291,9 +290,8 @@ def dominant_input(
 ) -> tuple[list[str], F64]:
     """Per trial, the kind of input with the largest share of the variance.
 
-    Per trial, the kind of input (summed over poses) with the largest share of the variance,
-    and that share: e.g. ``"x translation", 0.97``; with ``shared_variance`` (T,), the
-    intrinsics compete too.
+    Inputs are summed over poses; the share is of the variance, e.g. ``"x translation", 0.97``;
+    with ``shared_variance`` (T,), the intrinsics compete too.
     """
     flat = variance_by_group.sum(axis=1)  # (T, 5)
     if shared_variance is not None:

@@ -84,10 +84,10 @@ def register_session_channels(
 ) -> Channels:
     """Every schema and channel of a session, in the documented order.
 
-    Every schema and channel of a session, in the order ``docs/session-format.md`` fixes:
-    the format 1.0 typed entries, the Foxglove schemas, ``/tf``, per camera its calibration
-    and image channels, then (format 1.1) ``/twopose/decision``. Appending the 1.1 channel
-    keeps the 1.0 ids, so ``recover`` rebuilds files of either version.
+    The order ``docs/session-format.md`` fixes: the format 1.0 typed entries, the Foxglove schemas,
+    ``/tf``, per camera its calibration and image channels, then (format 1.1)
+    ``/twopose/decision``. Appending the 1.1 channel keeps the 1.0 ids, so ``recover`` rebuilds
+    files of either version.
     """
     channels = Channels(writer)
     for cls in TYPED_ENTRIES:

@@ -74,9 +74,9 @@ def json_field(
 ) -> Any:
     """A dataclass field with its JSON name, its JSON Schema and its decoding.
 
-    A dataclass field with its JSON name (dots nest), its JSON Schema, whether the schema
-    requires it, and how a JSON value becomes the attribute (``decode``); ``compare=False``
-    for a mutable value (kept out of equality and the hash).
+    Its JSON name may nest (dots); the field also says whether the schema requires it and how a
+    JSON value becomes the attribute (``decode``); ``compare=False`` for a mutable value (kept out
+    of equality and the hash).
     """
     meta = {"json": key, "schema": schema, "required": required, "decode": decode}
     return dataclasses.field(default=default, metadata=meta, compare=compare)

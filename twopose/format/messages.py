@@ -69,9 +69,9 @@ class Frame:
     def decode(self, expected_size: tuple[int, int] | None = None) -> NDArray[np.uint8]:
         """The image as an (H, W, 3) BGR uint8 array, its header checked first.
 
-        The image as an (H, W, 3) BGR uint8 array (OpenCV's order); its header is checked
-        first against ``expected_size`` (the camera's calibrated width, height) and the
-        pixel limit (:mod:`twopose.images`), so a bad frame costs no memory.
+        OpenCV's channel order. The header is checked against ``expected_size`` (the camera's
+        calibrated width, height) and the pixel limit (:mod:`twopose.images`) before decoding, so a
+        bad frame costs no memory.
         """
         from twopose.images import decode_image
 

@@ -162,8 +162,7 @@ class SessionReader:
     def _check_chunk_sizes(self, summary: Any) -> None:
         """Refuse a file whose index declares a chunk over the limit.
 
-        Refuse a file whose index declares a chunk over :func:`max_chunk_bytes`, before
-        anything is decompressed.
+        The limit is :func:`max_chunk_bytes`; the check runs before anything is decompressed.
         """
         limit = max_chunk_bytes()
         for index in summary.chunk_indexes:
@@ -335,9 +334,8 @@ def find_sessions(paths: Iterable[Path | str], *, unique: bool = True) -> list[P
 def is_results_file(path: str | Path) -> bool:
     """Whether ``path`` is an analysis results file of ours.
 
-    Whether ``path`` is an analysis results file of ours (its channels are all under
-    ``/twopose/results/``, ``/tf`` and the camera topics, with no ``twopose`` metadata):
-    such files are not sessions, and a run over a folder skips them.
+    Its channels are all under ``/twopose/results/``, ``/tf`` and the camera topics, with no
+    ``twopose`` metadata: such files are not sessions, and a run over a folder skips them.
     """
     try:
         with open(path, "rb") as stream:

@@ -28,9 +28,8 @@ __all__ = ["SyntheticCamera", "camera_pose", "true_intrinsics"]
 def camera_pose(rig: RigConstants, t_placed: F64, r_placed: F64) -> tuple[F64, F64]:
     """Where the camera really is when the laptop is placed at a typed pose.
 
-    Where the camera really is when the laptop is placed at ``t_placed, r_placed`` (grid
-    frame, session units; degrees): the rig's mount rotation, camera offset and tape scale
-    (:mod:`twopose.rig`).
+    The placed pose is ``t_placed, r_placed`` (grid frame, session units; degrees); the rig's mount
+    rotation, camera offset and tape scale move it (:mod:`twopose.rig`).
     """
     if rig.is_identity:
         return t_placed, r_placed
@@ -63,8 +62,7 @@ class SyntheticCamera:
     def place(self, t_placed: F64, r_placed_deg: F64) -> None:
         """Render from where the camera really is when the laptop is placed here.
 
-        Render from where the camera really is when the laptop is placed here (grid frame,
-        session units; degrees): the rig's constants applied.
+        Grid frame, session units, degrees; the rig's constants applied.
         """
         t, r = camera_pose(self.scene.systematic, np.asarray(t_placed), np.asarray(r_placed_deg))
         self.place_camera(t, r)

@@ -209,8 +209,7 @@ def board_poses(scene: Scene) -> tuple[tuple[float, float, float], ...]:
 def board_layout(scene: Scene) -> Layout:
     """What a board session sees: the checkerboard alone on the grid paper.
 
-    What a board session sees: the scene's checkerboard alone on the grid paper (no target,
-    stand or clutter in front of it).
+    No target, stand or clutter in front of it.
     """
     return Layout(primitives=(_board(scene.board),), decals=())
 
@@ -226,8 +225,8 @@ def board_corners(board: BoardParams) -> F64:
 def _board(board: BoardParams) -> Primitive:
     """The board as a card of (cols + 1) x (rows + 1) squares and a margin.
 
-    The board as a card: the pattern of (cols + 1) x (rows + 1) squares, the first inner
-    corner one square in from the pattern's lower left, a one-square margin around.
+    The first inner corner lies one square in from the pattern's lower left; the margin is one
+    square around.
     """
     cols, rows = board.inner_corners
     s = board.square
