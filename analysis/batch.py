@@ -70,6 +70,8 @@ def run(
         session for Foxglove (:mod:`analysis.results_mcap`).
     jobs : int
         Worker processes; results are identical whatever the number.
+    options : AnalysisOptions, optional
+        Detection, estimation and rig settings (default: the thesis' procedure).
     dask_address : str, optional
         Run the per-session tasks on this existing Dask distributed scheduler instead.
     on_session_done : callable(path, ok), optional
@@ -78,6 +80,12 @@ def run(
         Called once with the number of sessions found, before the first is analysed.
     scene : bool
         With ``out_dir``: also write each session's results.mcap.
+
+    Returns
+    -------
+    RunResult
+        Every session's tables, concatenated, with the failures (``errors``), the notes
+        on the inputs, the verdict and the thesis table.
     """
     options = options or AnalysisOptions()
     if jobs < 1:

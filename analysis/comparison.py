@@ -128,9 +128,28 @@ def compare(
     estimator_b: Estimator = "thesis",
     include_warned: bool = False,
 ) -> Comparison:
-    """``twopose-analyze compare`` in one call: :func:`compare_runs`, and with ``out_dir``
-    its files written there (:func:`write_comparison`, in a checked, locked folder that is
-    neither run nor inside one: :class:`analysis.outputs.Inputs`)."""
+    """``twopose-analyze compare`` in one call: :func:`compare_runs`, files written.
+
+    With ``out_dir``, the comparison's files are written there (:func:`write_comparison`,
+    in a checked, locked folder that is neither run nor inside one:
+    :class:`analysis.outputs.Inputs`).
+
+    Parameters
+    ----------
+    run_a, run_b : path-like
+        Two run folders (``twopose-analyze run --out``).
+    out_dir : path-like, optional
+        Where to write the comparison's tables, figure and page.
+    estimator_a, estimator_b : {"thesis", "optimal", "weighted"}
+        Which estimate of each run is compared.
+    include_warned : bool
+        Count ok trials with a near-degeneracy warning too.
+
+    Returns
+    -------
+    Comparison
+        The trial-by-trial comparison and its summary.
+    """
     from analysis.outputs import Inputs, OutputFolder
 
     if out_dir is not None:

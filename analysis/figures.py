@@ -505,8 +505,21 @@ def run_figures(result: RunResult) -> dict[str, Figure]:
 
 
 def make_figures(result: RunResult) -> dict[str, Figure]:
-    """Named figures of a run: per session its scatter, top view and running averages;
-    then the histogram, the error by trial and the error against baseline."""
+    """Named figures of a run, as matplotlib Figures (for a notebook).
+
+    Per session its scatter, top view and running averages; then the histogram, the error
+    by trial and the error against baseline.
+
+    Parameters
+    ----------
+    result : RunResult
+        What :func:`analysis.run` returned.
+
+    Returns
+    -------
+    dict of str to Figure
+        The figures by the name of the PNG the run writes for each.
+    """
     figures: dict[str, Figure] = {}
     for i, s in enumerate(result.sessions):
         drawn = session_figures(

@@ -194,9 +194,25 @@ _CHECKED_COLUMNS = tuple(dict.fromkeys(column for _, column, _, _ in CHECKED_MET
 def check(
     results_dir: str | Path, baseline_dir: str | Path, tolerance: str | Path | None = None
 ) -> CheckResult:
-    """``twopose-analyze check``: ``results_dir``'s summary.csv against ``baseline_dir``'s,
-    both checked first (:func:`analysis.outputs.read_results_table`: one row per session
-    and method, numbers where numbers belong)."""
+    """``twopose-analyze check``: a run's ``summary.csv`` against a baseline run's.
+
+    Both tables are checked first (:func:`analysis.outputs.read_results_table`: one row
+    per session and method, numbers where numbers belong).
+
+    Parameters
+    ----------
+    results_dir : path-like
+        The run folder checked (its ``summary.csv``).
+    baseline_dir : path-like
+        The baseline run folder.
+    tolerance : path-like, optional
+        A tolerance TOML (how much worse each metric may get); default: the built-in ones.
+
+    Returns
+    -------
+    CheckResult
+        Every comparison with its status (``regressed``, ``missing``, ``new``, ...).
+    """
     tolerances = load_tolerance(tolerance)
     result, baseline = (
         read_results_table(folder, "summary.csv", numeric=_CHECKED_COLUMNS)

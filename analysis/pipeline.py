@@ -83,6 +83,24 @@ def analyse_session(
     With ``render_images``, its figures as PNGs (``images``), reused from ``figure_cache``
     where a previous run drew the same ones (:mod:`analysis.figure_cache`).
 
+    Parameters
+    ----------
+    path : path-like
+        The session file.
+    options : AnalysisOptions, optional
+        Detection, estimation and rig settings (default: the thesis' procedure).
+    render_images : bool
+        Also draw the session's figures as PNGs.
+    results_path : path-like, optional
+        Where to write the session's results.mcap.
+    figure_cache : FigureCache, optional
+        Figures a previous run drew, reused when their digest matches.
+
+    Returns
+    -------
+    SessionResult
+        The session's trials, averaging, frames and views tables and its metadata.
+
     Raises
     ------
     SessionFormatError

@@ -164,7 +164,25 @@ def _ground_answer(request: Any, views: list[Any], P: np.ndarray) -> _Answer:
 
 
 def solve_request(method: Method, request: Any) -> dict[str, Any]:
-    """Validate a request, solve it, and return the JSON-ready answer."""
+    """Validate a request, solve it, and return the JSON-ready answer.
+
+    Parameters
+    ----------
+    method : Method
+        What the request reconstructs.
+    request : object
+        The parsed JSON request (the module docstring gives its fields).
+
+    Returns
+    -------
+    dict
+        The answer: the point or line, status, reason, conditioning, views, estimator.
+
+    Raises
+    ------
+    InputValueError
+        A field is missing or malformed; the message names it.
+    """
     if not spec_of(method).measures:
         raise InputValueError(
             f"{method} reconstructs nothing (a board session calibrates the rig: "

@@ -57,9 +57,25 @@ def calibrate_rig(
     groups: Sequence[str] | None = None,
     on_note: Note | None = None,
 ) -> RigCalibration:
-    """``twopose-analyze rig``: the constants from board sessions
-    (:func:`analysis.board_calibration.calibrate_board`) or from target sessions
-    (:func:`calibrate`), not a mix of the two."""
+    """``twopose-analyze rig``: the rig's constants from board or from target sessions.
+
+    Board sessions are fitted by :func:`analysis.board_calibration.calibrate_board`, target
+    sessions by :func:`calibrate`; a mix of the two is refused.
+
+    Parameters
+    ----------
+    paths : sequence of path-like, or InputSet
+        Session files and folders, or a set already resolved.
+    groups : sequence of str, optional
+        The constants to fit (``--constant``); default: those the sessions support.
+    on_note : callable, optional
+        Hears what the command says about its inputs (copies counted once, ...).
+
+    Returns
+    -------
+    RigCalibration
+        The fit, the sessions it used, its warnings and its basis (board or targets).
+    """
     from analysis.board_calibration import calibrate_board
     from analysis.input_set import resolve_inputs
 

@@ -152,6 +152,20 @@ def sensitivity(samples: int = 2000, seed: int = 0, base: Geometry | None = None
     Every sweep varies one thing from ``base`` (the thesis' geometry with 0.25 px centroid
     noise and 0.1 deg orientation noise): pixel noise; pose error on x, y, z; baseline length
     along x; baseline direction in the x-z plane; target distance; finger tilt (method 2).
+
+    Parameters
+    ----------
+    samples : int
+        Monte Carlo samples per row.
+    seed : int
+        The random seed: the same seed, the same table.
+    base : Geometry, optional
+        The geometry each sweep varies (default: the thesis').
+
+    Returns
+    -------
+    DataFrame
+        One row per method, sweep and value (:data:`SENSITIVITY_COLUMNS`).
     """
     g0 = base or Geometry()
     rows = []

@@ -152,9 +152,19 @@ def calibrate(
         Side of a board square, in the session's units (scale does not change intrinsics).
     views : int, optional
         Stop after this many views (default: every still; 15 from a camera or video).
+    max_frames : int
+        Read at most this many frames.
+    on_view : callable, optional
+        Called with each frame's index and whether the board was found in it.
     min_motion_px : float, optional
         From a camera or video, a view is kept when its corners moved this far on average
         since the last kept one (default: 5% of the image diagonal).
+
+    Returns
+    -------
+    Calibration
+        The intrinsics and distortion, their 1-sigma, the RMS reprojection error and the
+        views used.
     """
     cols, rows = board
     if cols < 2 or rows < 2:

@@ -157,7 +157,24 @@ def _camera(table: Any) -> Camera:
 
 
 def load_plan(path: str | Path) -> Plan:
-    """Read and check a plan file (TOML); every error names the offending key."""
+    """Read and check a plan file (TOML); every error names the offending key.
+
+    Parameters
+    ----------
+    path : path-like
+        The plan (``docs/examples/ground_plan.toml`` shows every key).
+
+    Returns
+    -------
+    Plan
+        The setup and each trial's typed poses and ground truth, checked by the setup
+        rules the terminal and the browser use (:mod:`recorder.setup_rules`).
+
+    Raises
+    ------
+    InputValueError
+        A key is unknown, missing or out of its range; the message names it.
+    """
     data = _known_keys(read_toml(path, "plan", InputValueError), "", "")
     method = data.get("method")
     if method not in METHODS:
@@ -399,6 +416,28 @@ def record_plan(
     A capture that fails is kept (incomplete) and the recording stops there with a
     :class:`SourceError`; everything written before it is in the file, which is closed.
     ``on_result`` receives each trial's live result (new or updated).
+
+    Parameters
+    ----------
+    plan : Plan
+        From :func:`load_plan`.
+    out : path-like
+        The new session file (never overwritten).
+    source : FrameSource
+        Where frames come from (opened and closed here): a camera, a video, stills or
+        the synthetic camera.
+    on_frame, on_capture, on_result : callable, optional
+        Called with each frame's detection feedback, each capture's outcome and each
+        trial's live result.
+    live : LiveView, optional
+        Foxglove's live view, fed as the session is recorded.
+    rig : RigConstants, optional
+        A calibrated rig, correcting the live result.
+
+    Returns
+    -------
+    RecordingSummary
+        What was recorded: trials, poses, frames and the file.
     """
     info = SessionInfo(
         method=plan.method,

@@ -121,6 +121,18 @@ class _Salvage:
 def recover_session(broken: str | Path, output: str | Path) -> RecoveryReport:
     """Salvage every complete chunk of ``broken`` into the new session file ``output``.
 
+    Parameters
+    ----------
+    broken : path-like
+        An interrupted or damaged session file (read only).
+    output : path-like
+        The new session file written from what survived.
+
+    Returns
+    -------
+    RecoveryReport
+        What was kept and what was lost, by channel.
+
     Raises
     ------
     SessionExistsError

@@ -429,7 +429,10 @@ def simulate_session(  # noqa: PLR0913 - keyword-only settings, one per command-
 
     Parameters
     ----------
-    method : {"point", "line", "ground"}
+    out : path-like
+        The new session file (never overwritten).
+    method : Method
+        What the session measures (``board``: a rig-calibration session).
     trials, frames : int
         Trials in the session and frames captured per pose.
     seed : int
@@ -442,6 +445,11 @@ def simulate_session(  # noqa: PLR0913 - keyword-only settings, one per command-
         Overrides ``scene.poses.count`` (poses per trial, >= 2).
     on_progress : callable, optional
         Called after every frame rendered and written (``trials * poses * frames`` times).
+
+    Returns
+    -------
+    SimulationSummary
+        What was written: trials, poses, frames and the file.
     """
     method = _checked_settings(method, trials, frames, poses)
     scene, cameras = calibrated_cameras(_scene_with(scene, pose_noise, poses), seed)

@@ -510,7 +510,22 @@ def detect_dot(image_bgr: Image, params: DotParams | None = None) -> Detection:
 def detect(
     image_bgr: Image, target: Target, params: GloveParams | DotParams | None = None
 ) -> Detection:
-    """Dispatch on ``target``: ``"glove"`` or ``"dot"``."""
+    """Detect ``target`` in one frame: the gloved finger or the dark dot.
+
+    Parameters
+    ----------
+    image_bgr : (H, W, 3) uint8 array
+        The frame, OpenCV's BGR order.
+    target : {"glove", "dot"}
+        What to look for (the method's :attr:`~twopose.methods.MethodSpec.target`).
+    params : GloveParams or DotParams, optional
+        The filters' thresholds (default: the thesis').
+
+    Returns
+    -------
+    Detection
+        Found or not (with the reason), the centroid and orientation, area, eccentricity.
+    """
     if target == "glove":
         return detect_glove(image_bgr, params if isinstance(params, GloveParams) else None)
     if target == "dot":

@@ -182,6 +182,20 @@ def estimate_session(trials: SessionTrials, options: EstimateOptions) -> Session
     Each pose's frames are combined first (the thesis' mean, or median / robust); trials
     with fewer than two poses are ``incomplete``, and those with a pose never detected
     ``no_detection``.
+
+    Parameters
+    ----------
+    trials : SessionTrials
+        The session's trials as replayed: each pose's typed view and its frames'
+        detections (:func:`analysis.pipeline.replay_views` or the recorder's live result).
+    options : EstimateOptions
+        How frames are combined and when a trial is degenerate or warned.
+
+    Returns
+    -------
+    SessionEstimate
+        Every estimator's estimate per trial, its status and margins, and its propagated
+        covariance.
     """
     measurements, complete, detected = measure(trials.views, options)
     solvable = np.flatnonzero(detected)
