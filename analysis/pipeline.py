@@ -32,7 +32,7 @@ from twopose.format.messages import Frame
 from twopose.format.reader import SessionReader
 from twopose.format.trials import PoseCapture, TrialRecord, iter_trials, read_notes
 from twopose.methods import spec_of
-from twopose.rig import RigConstants, corrected_ground, corrected_view
+from twopose.rig.constants import RigConstants, corrected_ground, corrected_view
 from twopose.scene3d import scene_of_views
 from twopose.session_estimate import (
     SessionEstimate,
@@ -160,7 +160,7 @@ def _rig_columns(
     """``--rig-calibration loo``: each trial corrected by constants estimated without it
     (:data:`analysis.rig.RIG_COLUMNS`), and the session's constants (rig.csv rows), from
     the session's one estimate."""
-    from analysis.rig import loo_calibration
+    from analysis.rig.fit import loo_calibration
 
     columns, rows = loo_calibration(replay.session, estimate, reported_, replay.rig_truth)
     corrected = columns.reindex(trials["trial"].to_numpy()).set_index(trials.index)
@@ -201,7 +201,7 @@ def _corrected(replay: _Replay, rig: RigConstants | None) -> _Replay:
 
 def replay_views(path: str | Path, options: AnalysisOptions | None = None) -> SessionTrials:
     """A session's trials as the estimation takes them (ids, truth, usable poses): what
-    the rig's constants are fitted on (:mod:`analysis.rig`)."""
+    the rig's constants are fitted on (:mod:`analysis.rig.fit`)."""
     with SessionReader(path) as reader:
         return _replay(reader, str(path), options or AnalysisOptions(), None).trials
 

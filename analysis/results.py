@@ -13,7 +13,7 @@ from analysis.columns import VIEW_COLUMNS
 from analysis.thesis import Verdicts, thesis_table, verdict_lines, verdicts_by_set
 from twopose.detect import DotParams, GloveParams
 from twopose.estimate import EstimateOptions
-from twopose.rig import RigConstants
+from twopose.rig.constants import RigConstants
 
 __all__ = ["AnalysisOptions", "RunResult", "SessionFailure", "SessionResult"]
 

@@ -9,7 +9,7 @@ rendered by the one synthetic camera (``twopose.sim.camera``) through the consta
 ``bench_rig.py`` (mount rotation (0.8, -0.5, 0.3) deg, camera offset (0.3, 0.2, 0.4) in,
 focal scale 1.03), the laptop placed off each typed pose by the thesis' placing error (0.04
 in per axis); each pose's corners found by OpenCV and averaged over its frames;
-:func:`twopose.board_rig.fit_board_rig` gives the constants and their sigma. Then
+:func:`twopose.rig.board.fit_board_rig` gives the constants and their sigma. Then
 ``bench_rig.py``'s measurement sessions of the same seed (15 trials, the thesis' geometry,
 with the constants and without), the one with constants analysed with ``run --rig`` (the
 board's constants), judged on the trials both sessions use.
@@ -49,9 +49,9 @@ from bench_rig import RIG, rmse, session_path, simulate_pair  # type: ignore[imp
 from analysis.batch import run  # noqa: E402
 from analysis.metrics import used_trials  # noqa: E402
 from analysis.results import AnalysisOptions  # noqa: E402
-from twopose.board_rig import BoardRigFit, board_order, fit_board_rig  # noqa: E402
 from twopose.detect import find_board  # noqa: E402
-from twopose.rig import RIG_PARAMETERS, RigConstants  # noqa: E402
+from twopose.rig.board import BoardRigFit, board_order, fit_board_rig  # noqa: E402
+from twopose.rig.constants import RIG_PARAMETERS, RigConstants  # noqa: E402
 from twopose.sim.camera import SyntheticCamera  # noqa: E402
 from twopose.sim.layout import BOARD_POSES, board_corners, board_layout  # noqa: E402
 from twopose.sim.scene import Scene, load_scene  # noqa: E402

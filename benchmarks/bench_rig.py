@@ -20,7 +20,7 @@ on the same targets; coverage is over every ok trial. Targets:
    default 9 seeds x 2 methods x 2 sessions x 15 trials = 540).
 
 Then the real workflow, calibrate once and measure: for each seed, ``rig`` on the other
-seeds' sessions with constants (``analysis.rig_calibration.calibrate``, default selection),
+seeds' sessions with constants (``analysis.rig.calibrate.calibrate``, default selection),
 applied to this seed's with ``run --rig``; its RMSE against the same base (target 1
 again, reported beside the leave-one-out one, and the pooled RMSE per method).
 
@@ -50,9 +50,9 @@ from make_sessions import THESIS_POSES  # type: ignore[import-not-found]  # noqa
 from analysis.batch import run  # noqa: E402
 from analysis.metrics import used_trials  # noqa: E402
 from analysis.results import AnalysisOptions  # noqa: E402
-from analysis.rig_calibration import calibrate  # noqa: E402
+from analysis.rig.calibrate import calibrate  # noqa: E402
 from recorder.simulate import simulate_session  # noqa: E402
-from twopose.rig import RigConstants  # noqa: E402
+from twopose.rig.constants import RigConstants  # noqa: E402
 from twopose.sim.scene import Scene  # noqa: E402
 
 #: The docs include this file (``--write-docs`` writes it).

@@ -27,7 +27,7 @@ if TYPE_CHECKING:
     from recorder.trial_result import TrialResult
     from twopose.detect import Detection, PoseMeasurement
     from twopose.format.entries import SessionInfo
-    from twopose.rig import RigConstants
+    from twopose.rig.constants import RigConstants
     from twopose.scene3d import TrialScene
     from twopose.targets import BoardPlacement
 

@@ -26,7 +26,7 @@ if TYPE_CHECKING:
     from recorder.live import LiveView
     from recorder.summary import RecordingSummary
     from twopose.camera import Camera, Intrinsics
-    from twopose.rig import RigConstants
+    from twopose.rig.constants import RigConstants
     from twopose.targets import BoardPlacement
 
 __all__ = ["app", "main"]
@@ -150,7 +150,7 @@ class NewRequest:
 
 
 def _load_rig(path: Path | None) -> RigConstants | None:
-    from twopose.rig import load_rig
+    from twopose.rig.constants import load_rig
 
     return load_rig(path) if path is not None else None
 

@@ -60,7 +60,7 @@ if TYPE_CHECKING:
     from recorder.sources import FrameSource, SourceInfo
     from recorder.trial_result import TrialResult
     from twopose.detect import Detection
-    from twopose.rig import RigConstants
+    from twopose.rig.constants import RigConstants
     from twopose.scene3d import TrialScene
     from twopose.targets import BoardPlacement
 

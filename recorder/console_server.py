@@ -53,7 +53,7 @@ if TYPE_CHECKING:
     from recorder.live import LiveView
     from recorder.sources import FrameSource
     from twopose.detect import Detection
-    from twopose.rig import RigConstants
+    from twopose.rig.constants import RigConstants
 
 __all__ = ["ConsoleOptions", "console_app", "draw_detection", "serve_console"]
 

@@ -21,7 +21,7 @@ from twopose.camera import Camera
 from twopose.estimate import EstimateOptions, GroundSpec, PoseView, measure, pose_view
 from twopose.format.entries import GroundPlane, GroundTruth, PoseEntry, TypedEntry
 from twopose.methods import Method
-from twopose.rig import RigConstants, check_applicable, corrected_ground, corrected_view
+from twopose.rig.constants import RigConstants, check_applicable, corrected_ground, corrected_view
 from twopose.scene3d import TrialScene, scene_of_views
 from twopose.session_estimate import SessionTrials
 from twopose.units import Units

@@ -52,7 +52,7 @@ from twopose.values import Vec3, finite, numbers, vec3
 if TYPE_CHECKING:
     from recorder.live import LiveView
     from recorder.trial_result import TrialResult
-    from twopose.rig import RigConstants
+    from twopose.rig.constants import RigConstants
 
 __all__ = [
     "Plan",

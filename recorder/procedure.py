@@ -407,7 +407,7 @@ class Driver:
         """A board session after each decision: the typed camera centres of the accepted
         captures that saw the board, and why they cannot determine the rig yet (empty:
         they can), by the rule ``twopose-analyze rig`` applies
-        (:func:`twopose.board_rig.check_identifiable`)."""
+        (:func:`twopose.rig.board.check_identifiable`)."""
 
     def finish(self, summary: RecordingSummary) -> None:
         """The session is closed."""
@@ -550,7 +550,7 @@ def _record_trial(
 def board_progress(proc: Procedure, board: BoardPlacement) -> tuple[list[Vec3], str]:
     """The accepted captures that saw the board (their typed camera centres), and why they
     cannot determine the rig yet ("": they can): the rule the rig calibration applies."""
-    from twopose.board_rig import check_identifiable
+    from twopose.rig.board import check_identifiable
 
     seen = [entry.t_grid for entry, result in proc.kept.values() if result.n_found > 0]
     try:

@@ -30,7 +30,7 @@ from twopose.units import UNITS, Units, unit_spec
 from twopose.values import Vec3, finite, numbers, parse_number, vec3
 
 if TYPE_CHECKING:
-    from twopose.rig import RigConstants
+    from twopose.rig.constants import RigConstants
 
 __all__ = [
     "MAX_ROTATION_DEG",
@@ -137,7 +137,7 @@ def check_rig(
             "the rig file: a board session calibrates the rig (twopose-analyze rig) and "
             "is recorded without one; leave out --rig"
         )
-    from twopose.rig import check_applicable
+    from twopose.rig.constants import check_applicable
 
     sizes = [(c.intrinsics.width, c.intrinsics.height) for c in cameras]
     spec = ground.spec() if ground is not None else None

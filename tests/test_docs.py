@@ -35,7 +35,7 @@ ENTRY_POINTS = [
     "analysis.figures:make_figures",
     "analysis.gate:check",
     "analysis.comparison:compare",
-    "analysis.rig_calibration:calibrate_rig",
+    "analysis.rig.calibrate:calibrate_rig",
     "analysis.sensitivity:sensitivity",
     "analysis.request:solve_request",
     "recorder.simulate:simulate_session",
@@ -163,3 +163,18 @@ def test_the_readmes_figures_are_lines_of_their_benchmarks_figures() -> None:
         assert lines, script
         stale = [line for line in lines if line not in printed]
         assert not stale, f"{script}: not in docs/figures/{figure}: {stale}"
+
+
+def test_the_docs_screenshots_are_the_browser_tests_and_the_pages_show_them() -> None:
+    """Every image in docs/images is one a browser test writes and checks
+    (tests/doc_images.py), and the home, recording and analysis pages each show one."""
+    images = {p.name for p in (REPO / "docs" / "images").glob("*.png")}
+    tests = "".join(p.read_text() for p in (REPO / "tests").rglob("test_*browser*.py"))
+    tests += (REPO / "tests" / "recorder" / "test_console_layout.py").read_text()
+    assert images
+    assert all(f'"{name}"' in tests for name in images), images
+    for page in ("index.md", "recording.md", "analysis.md"):
+        text = (REPO / "docs" / page).read_text()
+        assert re.search(r"!\[[^\]]+\]\(images/[\w-]+\.png\)", text), page
+    shown = "".join(p.read_text() for p in (REPO / "docs").glob("*.md"))
+    assert all(f"images/{name}" in shown for name in images)

@@ -63,7 +63,7 @@ class MethodSpec:
 
     method: Method
     #: What the detector looks for in each frame (twopose.detect): the dark dot or the glove;
-    #: None for a board session, whose corners the rig calibration finds (twopose.board_rig).
+    #: None for a board session, whose corners the rig calibration finds (twopose.rig.board).
     target: Target | None
     #: The ground truth a trial carries: one point, or a line's two points; None for a board
     #: session, whose truth is the board's placement (the session entry's ``board``).

@@ -90,7 +90,7 @@ class BoardPlacement:
 
         Row by row from the first (rows along +x, columns rising along -y), as
         ``cv2.findChessboardCorners`` lists them for an upright board (put in this order by
-        :func:`twopose.board_rig.board_order`).
+        :func:`twopose.rig.board.board_order`).
         """
         cols, rows = self.inner_corners
         i, j = np.meshgrid(np.arange(cols), np.arange(rows))

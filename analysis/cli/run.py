@@ -114,7 +114,7 @@ def run_command(
         check_run_outputs(inputs, out, junit, rig)  # before anything is written
         if rig is not None:
             from analysis.results import RigSource
-            from analysis.rig_calibration import rig_for_run
+            from analysis.rig.calibrate import rig_for_run
 
             constants = rig_for_run(rig, inputs, note)
             source = RigSource.read(rig, constants)

@@ -50,8 +50,8 @@ def rig_command(
     targets; write them for `run --rig` and `twopose-record new --rig`."""
     from analysis.input_set import resolve_inputs
     from analysis.outputs import run_inputs, write_file
-    from analysis.rig import rig_toml
-    from analysis.rig_calibration import calibrate_rig
+    from analysis.rig.calibrate import calibrate_rig
+    from analysis.rig.fit import rig_toml
 
     with handle_errors():
         inputs = resolve_inputs(sessions)  # once: the check and the fit take this set

@@ -10,7 +10,7 @@ import pytest
 
 from recorder.simulate import simulate_session
 from twopose.methods import Method
-from twopose.rig import RigConstants
+from twopose.rig.constants import RigConstants
 from twopose.sim.scene import Scene
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "sessions"))

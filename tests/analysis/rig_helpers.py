@@ -10,9 +10,9 @@ from typer.testing import CliRunner
 
 from analysis.cli import app
 from analysis.pipeline import replay_views
-from analysis.rig_data import RigData, prepare_trials
+from analysis.rig.data import RigData, prepare_trials
 from twopose.methods import Method
-from twopose.rig import RigConstants
+from twopose.rig.constants import RigConstants
 from twopose.units import Units
 
 runner = CliRunner()

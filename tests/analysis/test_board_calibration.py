@@ -1,4 +1,4 @@
-"""analysis.board_calibration: ``twopose-analyze rig`` on board sessions, through real MCAP
+"""analysis.rig.board: ``twopose-analyze rig`` on board sessions, through real MCAP
 files the simulator records (its one synthetic camera applies the rig's constants). The
 constants come back within their uncertainty; the rig file is the one ``run --rig`` reads;
 board and target sessions are not mixed; a board session is not analysed as a measurement;
@@ -15,13 +15,13 @@ import pytest
 from typer.testing import CliRunner
 
 from analysis import run
-from analysis.board_calibration import calibrate_board, read_board_session
 from analysis.cli import app
-from analysis.rig_calibration import calibrate_rig
+from analysis.rig.board import calibrate_board, read_board_session
+from analysis.rig.calibrate import calibrate_rig
 from recorder.simulate import simulate_session
 from twopose.errors import InputValueError
 from twopose.methods import Method
-from twopose.rig import RigConstants, load_rig
+from twopose.rig.constants import RigConstants, load_rig
 from twopose.sim.layout import BOARD_POSES
 from twopose.sim.scene import load_scene
 

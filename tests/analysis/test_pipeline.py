@@ -73,13 +73,13 @@ def test_leave_one_out_reuses_the_sessions_one_estimate(
     """``--rig-calibration loo`` takes the session's estimate (its units included): the
     session is estimated once, not again for the rig."""
     import analysis.pipeline
-    import analysis.rig
-    import analysis.rig_data
+    import analysis.rig.data
+    import analysis.rig.fit
 
     units: list[str] = []
     estimated: list[int] = []
     real_loo, real_estimate = (
-        analysis.rig.loo_calibration,
+        analysis.rig.fit.loo_calibration,
         twopose.session_estimate.estimate_session,
     )
 
@@ -91,9 +91,9 @@ def test_leave_one_out_reuses_the_sessions_one_estimate(
         estimated.append(1)
         return real_estimate(*args)
 
-    monkeypatch.setattr(analysis.rig, "loo_calibration", loo_spy)
+    monkeypatch.setattr(analysis.rig.fit, "loo_calibration", loo_spy)
     monkeypatch.setattr(analysis.pipeline, "estimate_session", estimate_spy)
-    monkeypatch.setattr(analysis.rig_data, "estimate_session", estimate_spy)
+    monkeypatch.setattr(analysis.rig.data, "estimate_session", estimate_spy)
     result = analyse_session(ground_session, AnalysisOptions(rig_calibration="loo"))
     assert units == ["in"]  # the simulated session's units
     assert len(estimated) == 1

@@ -19,6 +19,7 @@ import pytest
 from PIL import Image
 
 from tests.browser import headless_chromium, require_chromium
+from tests.doc_images import doc_image
 
 require_chromium()
 
@@ -189,3 +190,17 @@ def test_screenshot_of_the_top_of_the_report_is_the_window_and_has_content(
     assert dark.mean() > 0.005  # text and table rules
     columns_with_ink = np.flatnonzero(dark.any(axis=0))
     assert columns_with_ink.max() < inner_width - 10  # nothing runs to the right edge
+
+
+def test_the_docs_show_the_reports_answer_and_a_figure_as_a_laptop_sees_them(
+    report: Path,
+) -> None:
+    """docs/analysis.md and the home page show the report at 1366x768: its top (the
+    answer) and the first session's scatter figure, as this browser draws them."""
+    with headless_chromium(1366, 768) as laptop:
+        laptop.get(report.as_uri())
+        doc_image("report-answer.png", laptop.get_screenshot_as_png())
+        figure = laptop.find_element(By.CSS_SELECTOR, "img[data-name^='scatter_']")
+        laptop.execute_script("arguments[0].scrollIntoView({block: 'center'})", figure)
+        assert laptop.execute_script("return arguments[0].naturalWidth", figure) > 0
+        doc_image("report-figure.png", figure.screenshot_as_png)

@@ -1,4 +1,4 @@
-"""The rig's constants (analysis/rig.py): estimated from a session's own ground truth,
+"""The rig's constants (analysis/rig/fit.py): estimated from a session's own ground truth,
 checked for identifiability, selected by cross-validation, written and applied."""
 
 from __future__ import annotations
@@ -12,10 +12,10 @@ import pytest
 
 from analysis.cli import app
 from analysis.pipeline import analyse_session
-from analysis.rig import fit_constants, residuals, select_constants
+from analysis.rig.fit import fit_constants, residuals, select_constants
 from recorder.simulate import simulate_session
 from twopose.methods import Method
-from twopose.rig import RigConstants
+from twopose.rig.constants import RigConstants
 from twopose.sim.scene import Scene
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "sessions"))

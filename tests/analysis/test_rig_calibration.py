@@ -1,4 +1,4 @@
-"""The rig over several sessions (analysis/rig_calibration.py, issue 22): each solved with its own
+"""The rig over several sessions (analysis/rig/calibrate.py, issue 22): each solved with its own
 ground plane, intrinsics and units; given in any order, or twice, they give the same
 constants; sessions in other units, and rigs implausible for them, refused."""
 
@@ -37,7 +37,7 @@ def test_the_constants_do_not_depend_on_the_order_of_the_sessions(
 ) -> None:
     """Every permutation of three sessions, one of them a copy of another: the same
     constants and sigmas, to the last digit, as the two distinct sessions give."""
-    from analysis.rig_calibration import calibrate
+    from analysis.rig.calibrate import calibrate
 
     copy = tmp_path / "copy_of_with.mcap"
     shutil.copyfile(rig_sessions["with"], copy)

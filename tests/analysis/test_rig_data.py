@@ -1,4 +1,4 @@
-"""A session's trials as the rig fit takes them (analysis/rig_data.py): only trusted trials
+"""A session's trials as the rig fit takes them (analysis/rig/data.py): only trusted trials
 inform the constants."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from analysis.pipeline import analyse_session
-from analysis.rig import fit_constants
+from analysis.rig.fit import fit_constants
 from recorder.simulate import simulate_session
 from twopose.methods import Method
 from twopose.sim.scene import Scene

@@ -1,4 +1,6 @@
-"""recorder.console directly: the web console's driver types as many poses a trial as the
+"""recorder.console directly: the page's state before and after the setup (the method and
+units from the registry's types, the setup form's defaults from the setup rules), refusals,
+captured frames against previews, and the web driver typing as many poses a trial as the
 command line asked (``--poses``), like the terminal's."""
 
 from __future__ import annotations
@@ -9,11 +11,18 @@ import pytest
 
 from recorder.console import ConsoleSession, WebDriver
 from recorder.interactive import _OperatorDriver
-from recorder.setup_rules import PoseTyping
+from recorder.setup_rules import (
+    THESIS_FOCAL_PX,
+    THESIS_IMAGE_SIZE,
+    PoseTyping,
+    Setup,
+    default_principal,
+)
 from recorder.sources import SyntheticSource
 from twopose.camera import Camera, Intrinsics
 from twopose.format.entries import SessionInfo
-from twopose.methods import Method
+from twopose.methods import Method, spec_of
+from twopose.units import Units
 
 
 @pytest.mark.parametrize("poses", [2, 3, 8])
@@ -28,3 +37,62 @@ def test_both_drivers_type_the_poses_a_trial_was_asked_for(tmp_path: Path, poses
     terminal = _OperatorDriver(None, SessionInfo(method="point", units="in"), camera, (), typing)  # type: ignore[arg-type]
     assert web.poses_in(1) == poses
     assert terminal.poses_in(1) == poses
+
+
+def _setup(method: Method, units: Units) -> Setup:
+    return Setup(
+        method=method,
+        units=units,
+        intrinsics=Intrinsics(width=640, height=480, fx=525, fy=525, cx=320, cy=240),
+        ground_height=9.625 if spec_of(method).needs_ground else None,
+        ground_truth=(),
+        operator="t",
+    )
+
+
+def test_the_page_knows_no_method_before_the_setup_and_the_registrys_after(tmp_path: Path) -> None:
+    session = ConsoleSession(tmp_path / "s.mcap")
+    before = session.snapshot()
+    assert (before["phase"], before["method"], before["units"]) == ("setup", "", "")
+    assert session.method_spec() is None
+    assert [f["name"] for f in before["setup_fields"]][:2] == ["method", "units"]
+    session.begin(_setup(Method.LINE, Units.CM), None)
+    after = session.snapshot()
+    assert (after["phase"], after["method"], after["units"]) == ("recording", "line", "cm")
+    assert after["setup_fields"] == []  # the form is gone once the setup is accepted
+    assert session.method_spec() == spec_of(Method.LINE)
+    assert after["setup"]["camera"].startswith("f 525 px")
+
+
+def test_the_setup_form_shows_the_thesis_defaults_from_the_setup_rules(tmp_path: Path) -> None:
+    fields = {f["name"]: f for f in ConsoleSession(tmp_path / "s.mcap").snapshot()["setup_fields"]}
+    assert fields["focal"]["value"] == f"{THESIS_FOCAL_PX:g}"
+    cx, cy = default_principal(THESIS_IMAGE_SIZE)
+    assert fields["principal"]["value"] == f"{cx:g}, {cy:g}"
+    given = ConsoleSession(tmp_path / "t.mcap", {"units": Units.MM, "focal": 600.0})
+    shown = {f["name"]: f for f in given.snapshot()["setup_fields"]}
+    assert shown["focal"] == {**shown["focal"], "given": True, "value": "600"}
+    assert shown["units"]["value"] == "mm"
+
+
+def test_refusals_are_numbered_so_the_page_shows_each_once(tmp_path: Path) -> None:
+    session = ConsoleSession(tmp_path / "s.mcap")
+    session.refuse("pose", "x: not a number")
+    first = session.snapshot()["refusal"]
+    session.refuse("pose", "x: not a number")
+    second = session.snapshot()["refusal"]
+    assert first["message"] == second["message"] == "x: not a number"
+    assert second["seq"] == first["seq"] + 1
+
+
+def test_a_captured_frame_is_listed_a_preview_is_not(tmp_path: Path) -> None:
+    session = ConsoleSession(tmp_path / "s.mcap")
+    session.frame("cam0", b"jpeg", "jpeg", 0, None, "")  # a preview
+    session.frame("cam0", b"jpeg", "jpeg", 1, None, "trial 1 pose 1 frame 1")
+    frames = session.snapshot()["frames"]
+    assert len(frames) == 1
+    assert frames[0]["found"] is None  # no detector ran (as on a board session): not "not found"
+    latest = session.next_frame(after=0, timeout_s=0.1)
+    assert latest is not None
+    assert latest.seq == 2
+    assert session.next_frame(after=2, timeout_s=0.05) is None  # nothing newer: no wait forever

@@ -216,7 +216,7 @@ def test_a_board_session_in_the_browser(browser: Any, tmp_path: Path) -> None:
     """The board's fields, and no ground truth, for a board session; a board that is no
     board is refused by its fields; three poses typed (``--poses 3``) into a board session
     that the rig calibration reads."""
-    from analysis.board_calibration import read_board_session
+    from analysis.rig.board import read_board_session
     from twopose.format.reader import SessionReader
 
     out = tmp_path / "board.mcap"

@@ -26,7 +26,7 @@ from recorder.console_guard import (
     text_refusal,
 )
 from recorder.console_server import ConsoleOptions, console_app
-from twopose.rig import RigConstants
+from twopose.rig.constants import RigConstants
 from twopose.text import is_control
 from twopose.units import Units
 

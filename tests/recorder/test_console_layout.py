@@ -25,6 +25,7 @@ from typing import Any
 import pytest
 
 from tests.browser import headless_chromium, require_chromium
+from tests.doc_images import doc_image
 from tests.helpers import start_console
 
 require_chromium()
@@ -90,6 +91,8 @@ return {problems, width: innerWidth, height: innerHeight};
 
 
 SCREENSHOTS = Path(__file__).resolve().parents[2] / "results" / "screenshots"
+#: The steps the docs show (docs/recording.md, docs/index.md), by the image's name.
+DOC_STEPS = {"pose-2": "console-pose.png", "preview": "console-preview.png"}
 
 
 def _folder(name: str) -> Path:
@@ -102,8 +105,9 @@ def _folder(name: str) -> Path:
 class Steps:
     """The page at each step: what must be in view, and its screenshot."""
 
-    def __init__(self, browser: Any, folder: Path) -> None:
+    def __init__(self, browser: Any, folder: Path, docs: dict[str, str] | None = None) -> None:
         self.browser, self.folder, self.n = browser, folder, 0
+        self.docs = docs or {}  # step -> the docs' image it is (tests/doc_images.py)
 
     def el(self, testid: str) -> Any:
         return self.browser.find_element(By.CSS_SELECTOR, f"[data-testid={testid}]")
@@ -134,9 +138,12 @@ class Steps:
         seen = self.browser.execute_script(IN_VIEW, list(REFUSALS), required)
         self.n += 1
         path = self.folder / f"{self.n:02d}-{name}.png"
-        self.browser.save_screenshot(str(path))
+        png = self.browser.get_screenshot_as_png()
+        path.write_bytes(png)
         size = f"{seen['width']}x{seen['height']}"
         assert not seen["problems"], f"{name} ({size}): {seen['problems']}"
+        if name in self.docs:
+            doc_image(self.docs[name], png)
 
 
 @pytest.fixture
@@ -166,7 +173,9 @@ def test_every_step_fits_the_screen(
     url, _ = console
     bad, refused, good, absent = SETUPS[method]
     with headless_chromium(*size) as browser:
-        page = Steps(browser, _folder(f"{method}-{size[0]}x{size[1]}"))
+        # The docs' recording page shows the ground console at the laptop's size.
+        docs = DOC_STEPS if (method, size) == ("ground", (1366, 768)) else {}
+        page = Steps(browser, _folder(f"{method}-{size[0]}x{size[1]}"), docs)
         browser.get(url)
         page.wait(lambda: browser.find_elements(By.ID, "f-method"), "the setup form")
         Select(browser.find_element(By.ID, "f-method")).select_by_value(method)

@@ -187,7 +187,7 @@ poses = [
 def test_a_board_plan_records_a_board_session_rig_reads(tmp_path: Path) -> None:
     """The synthetic camera renders the board; the session holds the board, no truth; the
     analysis' rig finds the board in every capture, and run says it is not a measurement."""
-    from analysis.board_calibration import read_board_session
+    from analysis.rig.board import read_board_session
 
     plan = tmp_path / "board.toml"
     plan.write_text(BOARD_PLAN)

@@ -309,7 +309,7 @@ def test_the_rig_constants_render_and_are_recorded(tmp_path: Path) -> None:
     import dataclasses
 
     from analysis.pipeline import analyse_session
-    from twopose.rig import RigConstants
+    from twopose.rig.constants import RigConstants
 
     rig = RigConstants(camera_offset=(0.3, 0.2, 0.4))
     scene = dataclasses.replace(Scene(), systematic=rig)

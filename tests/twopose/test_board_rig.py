@@ -1,4 +1,4 @@
-"""twopose.board_rig: the rig's constants from board captures. Seeded synthetic corners
+"""twopose.rig.board: the rig's constants from board captures. Seeded synthetic corners
 from known constants are recovered within 2 sigma (several seeds); poses that cannot
 determine the rig are refused naming what to add; a fit against its priors says so; and
 frames rendered by the one synthetic camera through the rig, found by OpenCV, give the
@@ -9,10 +9,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twopose.board_rig import FITTED_NAMES, board_order, fit_board_rig
 from twopose.detect import find_board
 from twopose.errors import InputValueError
-from twopose.rig import RigConstants
+from twopose.rig.board import FITTED_NAMES, board_order, fit_board_rig
+from twopose.rig.constants import RigConstants
 from twopose.sim.camera import SyntheticCamera
 from twopose.sim.layout import BOARD_POSES, board_corners, board_layout
 from twopose.sim.scene import load_scene

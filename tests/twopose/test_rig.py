@@ -1,4 +1,4 @@
-"""twopose.rig: the rig's constants and how they map typed poses to true ones."""
+"""twopose.rig.constants: the rig's constants and how they map typed poses to true ones."""
 
 from __future__ import annotations
 
@@ -9,7 +9,12 @@ from hypothesis import strategies as st
 
 from twopose.camera import rotation_from_angles_deg
 from twopose.errors import InputValueError
-from twopose.rig import RIG_PARAMETERS, RigConstants, angles_deg_from_rotation, true_ground
+from twopose.rig.constants import (
+    RIG_PARAMETERS,
+    RigConstants,
+    angles_deg_from_rotation,
+    true_ground,
+)
 from twopose.units import Units
 
 angle = st.floats(-89.0, 89.0)
@@ -57,7 +62,7 @@ def test_impossible_constants_are_refused(kwargs: dict[str, float]) -> None:
 
 
 def test_the_priors_are_per_scalar_and_in_the_rigs_units() -> None:
-    from twopose.rig import RIG_PRIORS, against_priors, prior_sigma
+    from twopose.rig.constants import RIG_PRIORS, against_priors, prior_sigma
 
     inches, mm = prior_sigma(Units.IN), prior_sigma(Units.MM)
     assert inches.shape == (11,)

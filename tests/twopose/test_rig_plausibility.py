@@ -1,4 +1,4 @@
-"""A rig's physical plausibility (issue 22): one validator in twopose.rig, used by every
+"""A rig's physical plausibility (issue 22): one validator in twopose.rig.constants, used by every
 reader of a rig file and wherever a rig meets a session; its units recorded and checked."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import pytest
 from typer.testing import CliRunner
 
 from twopose.errors import InputValueError
-from twopose.rig import (
+from twopose.rig.constants import (
     RigConstants,
     check_applicable,
     check_plausible,

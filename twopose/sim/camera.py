@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 
 from twopose.arrays import F64
 from twopose.camera import Intrinsics, rotation_from_angles_deg
-from twopose.rig import RigConstants, angles_deg_from_rotation
+from twopose.rig.constants import RigConstants, angles_deg_from_rotation
 from twopose.sim.layout import Layout
 from twopose.sim.render import expose, render_radiance
 from twopose.sim.scene import CameraParams, Scene
@@ -29,7 +29,7 @@ def camera_pose(rig: RigConstants, t_placed: F64, r_placed: F64) -> tuple[F64, F
     """Where the camera really is when the laptop is placed at a typed pose.
 
     The placed pose is ``t_placed, r_placed`` (grid frame, session units; degrees); the rig's mount
-    rotation, camera offset and tape scale move it (:mod:`twopose.rig`).
+    rotation, camera offset and tape scale move it (:mod:`twopose.rig.constants`).
     """
     if rig.is_identity:
         return t_placed, r_placed

@@ -181,7 +181,7 @@ def build_layout(scene: Scene, method: Method, rng: np.random.Generator) -> Layo
 #: A board session's typed camera centres in inches (no typed rotation; :func:`board_poses`
 #: gives them in a scene's units):
 #: moves along x and along z, so that every constant the board determines is seen
-#: (twopose.board_rig.check_identifiable), three as near the default board as keeps its
+#: (twopose.rig.board.check_identifiable), three as near the default board as keeps its
 #: lowest corners in view (19 in), three far (58 in, squares of about 9 px) and two between.
 #: The depths' spread decides how well the focal scale parts from the camera's depth offset,
 #: and the lateral offset from the principal point (each capture's depth is known only to

@@ -28,7 +28,7 @@ from typing import Any, Literal
 from twopose.camera import Intrinsics
 from twopose.config import build_dataclass, read_toml
 from twopose.errors import SceneError
-from twopose.rig import RigConstants
+from twopose.rig.constants import RigConstants
 from twopose.targets import FINGER_LENGTH, FINGER_TIP_HEIGHT, BoardPlacement
 from twopose.units import (
     IS_LENGTH,
@@ -264,7 +264,7 @@ class Scene:
     sensor: SensorParams = field(default_factory=SensorParams)
     clutter: ClutterParams = field(default_factory=ClutterParams)
     board: BoardParams = field(default_factory=BoardParams)
-    # The rig's hidden constants (twopose.rig): frames are rendered with them, the typed
+    # The rig's hidden constants (twopose.rig.constants): frames are rendered with them, the typed
     # poses, intrinsics and ground height are not. None by default.
     systematic: RigConstants = field(default_factory=RigConstants)
     grid_spacing: float = field(default=0.5, metadata=IS_LENGTH)

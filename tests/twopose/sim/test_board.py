@@ -8,11 +8,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twopose.board_rig import board_order
 from twopose.camera import project_points, rotation_from_angles_deg
 from twopose.detect import find_board
 from twopose.errors import SceneError
 from twopose.methods import Method
+from twopose.rig.board import board_order
 from twopose.sim.camera import SyntheticCamera
 from twopose.sim.layout import BOARD_POSES, board_corners, board_layout, build_layout
 from twopose.sim.scene import load_scene

@@ -14,7 +14,7 @@ from recorder.sources import open_source
 from twopose.camera import project_points, rotation_from_angles_deg
 from twopose.detect import detect_dot
 from twopose.methods import Method
-from twopose.rig import RigConstants
+from twopose.rig.constants import RigConstants
 from twopose.sim.camera import camera_pose, true_intrinsics
 from twopose.sim.scene import load_scene
 

@@ -30,7 +30,13 @@ from scipy.optimize import least_squares
 
 from twopose.arrays import F64
 from twopose.errors import InputValueError
-from twopose.rig import RIG_PARAMETERS, RIG_PRIORS, RigConstants, against_priors, prior_sigma
+from twopose.rig.constants import (
+    RIG_PARAMETERS,
+    RIG_PRIORS,
+    RigConstants,
+    against_priors,
+    prior_sigma,
+)
 from twopose.units import Units
 
 __all__ = ["RIG_PRIORS", "BoardRigFit", "board_order", "check_identifiable", "fit_board_rig"]

@@ -1,4 +1,4 @@
-"""Estimating a rig's hidden constants (:mod:`twopose.rig`) from a session's own ground
+"""Estimating a rig's hidden constants (:mod:`twopose.rig.constants`) from a session's own ground
 truth, and judging them honestly.
 
 The likelihood is the analysis' own, linearized: every trial with ground truth is solved
@@ -29,12 +29,12 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from analysis.columns import RIG_COLUMNS
-from analysis.rig_data import RigData, combine, prepare, prepare_session, require_trusted
+from analysis.rig.data import RigData, combine, prepare, prepare_session, require_trusted
 from twopose.arrays import F64
 from twopose.errors import InputValueError
 from twopose.estimate import ViewBatch, solve_batch
 from twopose.methods import spec_of
-from twopose.rig import (
+from twopose.rig.constants import (
     RIG_PARAMETERS,
     RigConstants,
     against_priors,

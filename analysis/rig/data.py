@@ -1,4 +1,4 @@
-"""The trials a rig's constants are fitted on (:mod:`analysis.rig`): each session's ok
+"""The trials a rig's constants are fitted on (:mod:`analysis.rig.fit`): each session's ok
 trials with ground truth, prepared once (detections combined per pose, the propagated
 covariance and its whitening), and several sessions combined, each trial keeping its own
 session's ground plane, intrinsics and units."""
@@ -16,7 +16,7 @@ from twopose.arrays import F64
 from twopose.errors import InputValueError
 from twopose.estimate import EstimateOptions, GroundSpec, ViewBatch
 from twopose.methods import Method
-from twopose.rig import ground_height, plausible_bounds
+from twopose.rig.constants import ground_height, plausible_bounds
 from twopose.session_estimate import SessionEstimate, SessionTrials, estimate_session
 from twopose.truth import Reported, reported
 from twopose.units import Units

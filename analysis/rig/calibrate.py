@@ -1,6 +1,6 @@
 """``twopose-analyze rig``: the rig's constants from calibration sessions (sessions with
 known targets), in one call: replay them (:mod:`analysis.pipeline`), then estimate
-(:mod:`analysis.rig`).
+(:mod:`analysis.rig.fit`).
 
 Each session is solved with its own ground plane, intrinsics and units; sessions in
 different units are refused (the constants' lengths have one unit, which the rig file
@@ -23,11 +23,11 @@ import numpy as np
 
 from analysis.input_set import InputSet
 from analysis.pipeline import replay_views
-from analysis.rig import RigFit, fit_constants, select_constants
-from analysis.rig_data import RigData, combine, prepare_session, require_trusted
+from analysis.rig.data import RigData, combine, prepare_session, require_trusted
+from analysis.rig.fit import RigFit, fit_constants, select_constants
 from twopose.errors import InputValueError
 from twopose.estimate import EstimateOptions
-from twopose.rig import RigConstants, check_applicable
+from twopose.rig.constants import RigConstants, check_applicable
 from twopose.session_estimate import SessionTrials, estimate_session
 
 __all__ = [
@@ -59,7 +59,7 @@ def calibrate_rig(
 ) -> RigCalibration:
     """``twopose-analyze rig``: the rig's constants from board or from target sessions.
 
-    Board sessions are fitted by :func:`analysis.board_calibration.calibrate_board`, target
+    Board sessions are fitted by :func:`analysis.rig.board.calibrate_board`, target
     sessions by :func:`calibrate`; a mix of the two is refused.
 
     Parameters
@@ -76,8 +76,8 @@ def calibrate_rig(
     RigCalibration
         The fit, the sessions it used, its warnings and its basis (board or targets).
     """
-    from analysis.board_calibration import calibrate_board
     from analysis.input_set import resolve_inputs
+    from analysis.rig.board import calibrate_board
 
     inputs = resolve_inputs(paths)  # once (or as given), as run and info: copies said
     for text in inputs.notes():
@@ -235,7 +235,7 @@ def rig_for_run(path: str | Path, inputs: InputSet, on_note: Note) -> RigConstan
     """``run --rig``: the rig file, refused (exit 3, before any analysis) if implausible,
     or for a session under ``inputs`` in other units, or whose ground height or image it
     does not fit; ``on_note`` hears the notes (a rig file without units)."""
-    from twopose.rig import load_rig
+    from twopose.rig.constants import load_rig
 
     rig = load_rig(path)
     for text in check_rig_for_sessions(rig, inputs.files, f"rig file {path}"):

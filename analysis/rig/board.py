@@ -1,5 +1,5 @@
 """``twopose-analyze rig`` on board sessions: the rig's constants from a checkerboard standing
-at a measured place (:mod:`twopose.board_rig`), in one call.
+at a measured place (:mod:`twopose.rig.board`), in one call.
 
 Each accepted, complete capture of a board session gives one observation: the board's
 corners found in each of its frames (``cv2.findChessboardCorners``, put in the board's own
@@ -18,15 +18,15 @@ from pathlib import Path
 
 import numpy as np
 
-from analysis.rig import RigFit
+from analysis.rig.fit import RigFit
 from twopose.arrays import F64
-from twopose.board_rig import FITTED, BoardRigFit, board_order, fit_board_rig
 from twopose.detect import find_board
 from twopose.errors import InputValueError
 from twopose.format.reader import SessionReader
 from twopose.format.trials import PoseCapture, iter_trials
 from twopose.methods import spec_of
-from twopose.rig import RIG_PARAMETERS
+from twopose.rig.board import FITTED, BoardRigFit, board_order, fit_board_rig
+from twopose.rig.constants import RIG_PARAMETERS
 from twopose.units import Units
 
 __all__ = ["BoardCalibration", "BoardCaptures", "calibrate_board", "is_board_session"]
@@ -36,7 +36,7 @@ Note = Callable[[str], None]
 
 @dataclass(frozen=True, kw_only=True)
 class BoardCaptures:
-    """A board session's captures, ready for :func:`twopose.board_rig.fit_board_rig`.
+    """A board session's captures, ready for :func:`twopose.rig.board.fit_board_rig`.
 
     Per usable capture (C of them): the board's corners in the grid frame ``corners_grid``
     (C, K, 3), the corners found (C, K, 2, pixels, averaged over the frames that found the
