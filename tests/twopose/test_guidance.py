@@ -1,0 +1,140 @@
+"""twopose.guidance at a known geometry: the suggestion is the brute-force best of the
+lattice (each candidate solved alone, as the analysis solves a session), the stop rule says
+complete exactly when the region is within the target, and a suggestion keeps the target in
+view."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from twopose.estimate import EstimateOptions, PoseView
+from twopose.guidance import (
+    Guidance,
+    Reach,
+    advise,
+    lattice,
+    regions95,
+    suggest,
+)
+from twopose.methods import Method
+from twopose.session_estimate import SessionTrials
+from twopose.solve import projection_matrices
+from twopose.units import Units
+
+K = np.array([525.0, 525.0, 320.0, 240.0])
+#: Frame-to-frame scatter (px, deg) every view repeats: five frames of a steady target.
+JITTER = np.array([[0.2, -0.1], [-0.15, 0.2], [0.05, 0.1], [-0.1, -0.15], [0.0, -0.05]])
+THETA_JITTER = np.array([0.1, -0.05, 0.08, -0.1, -0.03])
+POINT = np.array([0.5, 2.0, 11.0])  # a dot ahead of the home pose, inches
+FINGER = (np.array([1.5, 4.0, 12.0]), np.array([1.0, 1.5, 13.5]))  # tip, base (inches)
+GROUND_H = 9.625
+
+
+def _view(t: tuple[float, float, float], points: np.ndarray, pose: int, lines: bool) -> PoseView:
+    P = projection_matrices(K, np.eye(3), np.asarray(t))
+    h = np.column_stack([points, np.ones(len(points))]) @ P.T
+    px = h[:, :2] / h[:, 2:3]
+    theta = math.degrees(math.atan2(*(px[1] - px[0])[::-1])) if lines else math.nan
+    return PoseView(
+        pose=pose, intrinsics=K, width_height=(640, 480), t_grid=np.asarray(t, dtype=float),
+        r_deg=np.zeros(3), t_sigma=0.05, r_sigma_deg=0.0,
+        centroids=px[0] + JITTER, thetas=theta + THETA_JITTER if lines else np.full(5, np.nan),
+        found=np.ones(5, dtype=bool), camera_id="cam0",
+    )  # fmt: skip
+
+
+def _trial(method: Method, centres: list[tuple[float, float, float]]) -> SessionTrials:
+    lines = method is not Method.POINT
+    points = np.stack(FINGER) if lines else np.stack([POINT, POINT])
+    views = [_view(t, points, i + 1, lines) for i, t in enumerate(centres)]
+    truth = np.array([[FINGER[0], FINGER[1]]]) if method is Method.LINE else None
+    if truth is None:
+        target = (
+            POINT if method is Method.POINT else np.array([2.625, GROUND_H, 8.625])
+        )  # where the finger points
+        truth = np.array([[target, target]])
+    ground = (np.array([0.0, 1.0, 0.0]), GROUND_H) if method is Method.GROUND else None
+    return SessionTrials(
+        method=method, units="in", trial_ids=(1,), views=[views], truth=truth, ground=ground
+    )
+
+
+@pytest.mark.parametrize("method", [Method.POINT, Method.LINE, Method.GROUND])
+def test_the_suggestion_is_the_brute_force_best_of_the_lattice(method: Method) -> None:
+    trial = _trial(method, [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0)])
+    options = EstimateOptions()
+    reach = Reach(radius=2.0, spacing=0.5)
+    from twopose.session_estimate import estimate_session
+
+    point = estimate_session(trial, options).estimates.point[0]
+    found = suggest(trial, reach, options, point=point)
+    assert found is not None
+    assert not found.provisional
+    # Brute force: each reachable centre's trial solved on its own, its view predicted
+    # from the same target (the one the two poses locate).
+    from twopose.guidance import _predicted_view, located_target
+
+    target = located_target(method, trial.views[0], point, options)
+    best, best_region = None, math.inf
+    taken = np.array([v.t_grid for v in trial.views[0]])
+    for centre in lattice(taken[0], reach, taken):
+        view = _predicted_view(trial.views[0][-1], centre, target, lines=method is not Method.POINT)
+        if view is None:
+            continue
+        one = SessionTrials(
+            method=method, units="in", trial_ids=(1,), views=[[*trial.views[0], view]],
+            truth=trial.truth, ground=trial.ground,
+        )  # fmt: skip
+        region = float(regions95(one, options)[0])
+        if region < best_region:
+            best, best_region = centre, region
+    assert best is not None
+    # The batch pools the candidates' frame scatter as the analysis pools a session's:
+    # every candidate repeats the same scatter, so the pooled one is each one's own.
+    assert found.predicted95 == pytest.approx(best_region, rel=1e-6)
+    assert found.t_grid == pytest.approx(tuple(best))
+    assert found.predicted95 < float(regions95(trial, options)[0])  # a third pose helps
+    assert math.isfinite(found.thesis95)
+    assert found.predicted95 <= found.thesis95  # never worse than the thesis' own move
+
+
+@pytest.mark.parametrize("method", [Method.POINT, Method.LINE, Method.GROUND])
+def test_one_pose_gives_a_provisional_suggestion_that_says_so(method: Method) -> None:
+    trial = _trial(method, [(0.0, 0.0, 0.0)])
+    found = suggest(trial, Reach.thesis(Units.IN))
+    assert found is not None
+    assert found.provisional
+    assert "one pose cannot locate the target yet" in found.text("in")
+    assert found.t_grid != (0.0, 0.0, 0.0)
+
+
+def test_the_stop_rule_says_complete_exactly_when_within_the_target() -> None:
+    trial = _trial(Method.POINT, [(0.0, 0.0, 0.0), (2.0, 0.0, 0.0)])
+    region = float(regions95(trial, EstimateOptions())[0])
+    point = [0.5, 2.0, 11.0]
+    loose = advise(trial, Guidance(reach=Reach.thesis(Units.IN), target95=region * 1.01),
+                   point=point, region95=region)  # fmt: skip
+    assert loose.complete
+    assert loose.text == f"95% within {region:.3g} in <= {region * 1.01:g}: trial complete"
+    tight = advise(trial, Guidance(reach=Reach.thesis(Units.IN), target95=region * 0.6),
+                   point=point, region95=region)  # fmt: skip
+    assert not tight.complete
+    assert tight.suggestion is not None
+    assert tight.more_poses is not None
+    assert f"{tight.more_poses} more pose(s) predicted" in tight.text
+    at_most = advise(trial, Guidance(reach=Reach.thesis(Units.IN), target95=region * 0.6,
+                                     max_poses=2), point=point, region95=region)  # fmt: skip
+    assert at_most.complete
+    assert "the most for a trial" in at_most.text
+
+
+def test_a_reach_without_a_lattice_and_a_bad_target_are_refused() -> None:
+    with pytest.raises(ValueError, match="spacing"):
+        Reach(radius=0.1, spacing=0.5)
+    with pytest.raises(ValueError, match="precision"):
+        Guidance(reach=Reach.thesis(Units.IN), target95=0.0)
+    with pytest.raises(ValueError, match="max_poses"):
+        Guidance(reach=Reach.thesis(Units.IN), max_poses=1)
