@@ -27,6 +27,7 @@ if TYPE_CHECKING:
     from recorder.trial_result import TrialResult
     from twopose.detect import Detection, PoseMeasurement
     from twopose.format.entries import SessionInfo
+    from twopose.guidance import Guidance
     from twopose.rig.constants import RigConstants
     from twopose.scene3d import TrialScene
     from twopose.targets import BoardPlacement
@@ -257,6 +258,9 @@ class CaptureSettings:
     #: A board session's board: each frame's corners are looked for, live (the rig
     #: calibration finds them again in the file); a pose that never saw it is refused.
     board: BoardPlacement | None = None
+    #: With live detection: after each decision the next pose is suggested and, with a
+    #: target precision, the driver is told when the trial is precise enough (issue 36).
+    guidance: Guidance | None = None
 
     @classmethod
     def live_detection(cls, info: SessionInfo, **settings: Any) -> CaptureSettings:

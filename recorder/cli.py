@@ -336,6 +336,7 @@ def _planned(request: NewRequest, plan: Path, stack: contextlib.ExitStack) -> Re
         live=view,
         on_result=lambda result: typer.echo(f"  result: {result.text()}"),
         rig=request.rig,
+        on_advice=lambda trial, advice: typer.echo(f"  guidance: trial {trial}: {advice.text}"),
     )
 
 

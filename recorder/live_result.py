@@ -11,7 +11,9 @@ operator did, the analysis stays the reference.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -27,6 +29,9 @@ from twopose.session_estimate import SessionTrials
 from twopose.units import Units
 
 __all__ = ["LiveResults"]
+
+if TYPE_CHECKING:
+    from twopose.guidance import Advice, Guidance
 
 
 class LiveResults:
@@ -120,6 +125,32 @@ class LiveResults:
         )
         solved = trial_results(session, self.options)
         return dict(zip(trials, solved, strict=True))
+
+    def advise(self, trial: int, guidance: Guidance) -> Advice | None:
+        """After a decision: the trial complete, or its next pose (:mod:`twopose.guidance`),
+        from its accepted poses and its result now; None before its first pose."""
+        from twopose.guidance import advise
+
+        views = self._views.get(trial, [])
+        if not views:
+            return None
+        session = SessionTrials(
+            method=self.method,
+            units=self.units,
+            trial_ids=(trial,),
+            views=[views],
+            truth=self._truth.get(trial, np.full((2, 3), np.nan))[None],
+            ground=self._ground,
+        )
+        result = self.results.get(trial) if len(views) >= 2 else None
+        ok = result is not None and result.status == "ok"
+        return advise(
+            session,
+            guidance,
+            self.options,
+            point=result.point if ok and result is not None else None,
+            region95=result.semiaxis95 if ok and result is not None else math.nan,
+        )
 
     def scene(self, trial: int) -> TrialScene | None:
         """The trial's geometry for the live view's 3-D panel (None: no result yet)."""

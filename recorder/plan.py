@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
 from typing_extensions import override
 
 from recorder.capture import CaptureResult, CaptureSettings, FrameFeedback
@@ -44,14 +45,16 @@ from twopose.format.entries import (
     TruthKind,
     TypedEntry,
 )
+from twopose.guidance import THESIS_MOVE_IN, Guidance, Reach
 from twopose.methods import METHODS, Method, spec_of
 from twopose.targets import BoardPlacement
-from twopose.units import UNITS, Units
+from twopose.units import UNITS, Units, unit_factor
 from twopose.values import Vec3, finite, numbers, vec3
 
 if TYPE_CHECKING:
     from recorder.live import LiveView
     from recorder.trial_result import TrialResult
+    from twopose.guidance import Advice
     from twopose.rig.constants import RigConstants
 
 __all__ = [
@@ -65,11 +68,12 @@ __all__ = [
 #: The keys a plan may hold, per table (anything else is a typo that would be ignored).
 _PLAN_KEYS = {
     "": {"method", "units", "camera", "cameras", "frames", "ground_height", "trials"}
-    | {"operator", "notes", "resolution", "board"},
+    | {"operator", "notes", "resolution", "board", "guidance"},
+    "guidance": {"target_95", "reach", "spacing", "max_poses", "seed"},
     "board": {"inner_corners", "square", "first_corner"},
     "camera": {"id", "calibration", "focal", "fx", "fy", "principal", "cx", "cy"}
     | {"width", "height", "distortion"},
-    "trials": {"poses", "ground_truth", "keep_off_ground"},
+    "trials": {"poses", "ground_truth", "keep_off_ground", "max_poses", "start"},
     "poses": {"t", "r_deg", "camera"},
     "resolution": {"translation", "rotation_deg"},
 }
@@ -103,6 +107,15 @@ class PlannedPose:
 class PlannedTrial:
     poses: tuple[PlannedPose, ...]
     ground_truth: tuple[Vec3, ...] = ()
+    #: ``poses = "guided"``: the first pose at ``start``, each next one the recorder's
+    #: suggestion, until the trial is precise enough or has ``max_poses`` (issue 36).
+    max_poses: int | None = None
+    start: PlannedPose | None = None
+
+    @property
+    def guided(self) -> bool:
+        """Whether the recorder chooses its poses after the first."""
+        return self.max_poses is not None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -120,6 +133,9 @@ class Plan:
     translation_resolution: float = DEFAULT_TRANSLATION_RESOLUTION
     rotation_resolution_deg: float = DEFAULT_ROTATION_RESOLUTION_DEG
     board: BoardPlacement | None = None  # a board session's board and where it stands
+    #: ``[guidance]``: suggestions and the stop rule (with guided trials, or to see them)
+    guidance: Guidance | None = None
+    placing_seed: int = 0  # the simulated operator's placing error on guided poses
 
     def ground(self) -> GroundPlane | None:
         """The ground plane ``y = h`` (method 2), or None."""
@@ -210,10 +226,18 @@ def load_plan(path: str | Path) -> Plan:
     raw_trials = data.get("trials", [])
     if not isinstance(raw_trials, list) or not raw_trials:
         raise InputValueError("plan: no [[trials]]")
+    guidance, seed = _guidance(data.get("guidance"), units)
+    max_poses = guidance.max_poses if guidance is not None else _DEFAULT_MAX_POSES
     trials = tuple(
-        _trial(t, i, method, units, cameras[0].camera_id, height)
+        _trial(t, i, method, units, cameras[0].camera_id, height, max_poses)
         for i, t in enumerate(raw_trials, start=1)
     )
+    if any(t.guided for t in trials) and not spec_of(method).measures:
+        raise InputValueError(
+            'plan: poses = "guided" needs a target to locate; a board session plans its poses'
+        )
+    if guidance is None and any(t.guided for t in trials):
+        guidance = Guidance(reach=Reach.thesis(units), max_poses=max_poses)
     return Plan(
         method=method,
         units=units,
@@ -226,7 +250,36 @@ def load_plan(path: str | Path) -> Plan:
         translation_resolution=resolution[0],
         rotation_resolution_deg=resolution[1],
         board=board,
+        guidance=guidance,
+        placing_seed=seed,
     )
+
+
+#: A guided trial's most poses when the plan does not say.
+_DEFAULT_MAX_POSES = 6
+
+
+def _guidance(table: Any, units: Units) -> tuple[Guidance | None, int]:
+    """``[guidance]``: ``target_95`` (the stop rule's precision, session units), ``reach``
+    and ``spacing`` (the lattice of suggested poses; default the thesis'), ``max_poses``
+    and ``seed`` (the synthetic operator's placing error)."""
+    if table is None:
+        return None, 0
+    g = _known_keys(table, "guidance", "guidance")
+    thesis = Reach.thesis(units)
+    target = g.get("target_95")
+    radius = finite(g.get("reach", thesis.radius), "plan: guidance.reach", positive=True)
+    spacing = finite(g.get("spacing", thesis.spacing), "plan: guidance.spacing", positive=True)
+    if spacing > radius:
+        raise InputValueError(f"plan: guidance.spacing {spacing:g} is beyond reach {radius:g}")
+    max_poses, seed = g.get("max_poses", _DEFAULT_MAX_POSES), g.get("seed", 0)
+    if not _whole(max_poses) or max_poses < 2 or max_poses > 100:
+        raise InputValueError(f"plan: guidance.max_poses must be 2-100, got {max_poses!r}")
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise InputValueError(f"plan: guidance.seed must be a whole number >= 0, got {seed!r}")
+    target95 = None if target is None else finite(target, "plan: guidance.target_95", positive=True)
+    reach = Reach(radius=radius, spacing=spacing)
+    return Guidance(reach=reach, target95=target95, max_poses=max_poses), seed
 
 
 def _board(table: Any, method: Method, units: Units) -> BoardPlacement | None:
@@ -262,10 +315,22 @@ def _board(table: Any, method: Method, units: Units) -> BoardPlacement | None:
 
 
 def _trial(
-    table: Any, i: int, method: Method, units: Units, default_camera: str, height: float | None
+    table: Any,
+    i: int,
+    method: Method,
+    units: Units,
+    default_camera: str,
+    height: float | None,
+    max_poses: int,
 ) -> PlannedTrial:
     """``[[trials]]`` number ``i``: its poses and its ground truth, checked."""
     t = _known_keys(table, "trials", f"trials[{i}]")
+    gt = _truth(t, i, method, units, height)
+    if t.get("poses") == "guided":
+        return _guided_trial(t, i, units, default_camera, max_poses, gt)
+    for key in ("max_poses", "start"):
+        if key in t:
+            raise InputValueError(f'plan: trials[{i}].{key} is for poses = "guided" only')
     poses = []
     raw_poses = t.get("poses", [])
     if not isinstance(raw_poses, list):
@@ -287,6 +352,27 @@ def _trial(
         )
     if len(poses) < 2:
         raise InputValueError(f"plan: trials[{i}] needs at least 2 poses, got {len(poses)}")
+    return PlannedTrial(poses=tuple(poses), ground_truth=gt)
+
+
+def _guided_trial(
+    t: dict[str, Any], i: int, units: Units, camera: str, max_poses: int, gt: tuple[Vec3, ...]
+) -> PlannedTrial:
+    """A ``poses = "guided"`` trial: where it starts, and its most poses."""
+    most = t.get("max_poses", max_poses)
+    if not _whole(most) or most < 2 or most > 100:
+        raise InputValueError(f"plan: trials[{i}].max_poses must be 2-100, got {most!r}")
+    start = _vec(t.get("start", [0, 0, 0]), f"trials[{i}].start")
+    if too_large(start, units):
+        raise InputValueError(f"plan: trials[{i}].start = {start} is implausibly large")
+    first = PlannedPose(t_grid=start, camera_id=camera)
+    return PlannedTrial(poses=(), ground_truth=gt, max_poses=most, start=first)
+
+
+def _truth(
+    t: dict[str, Any], i: int, method: Method, units: Units, height: float | None
+) -> tuple[Vec3, ...]:
+    """A trial's ground truth, checked by the setup rules."""
     where = f"trials[{i}].ground_truth"
     gt = tuple(_vec(g, where) for g in t.get("ground_truth", []))
     if any(too_large(g, units) for g in gt):
@@ -308,7 +394,7 @@ def _trial(
         raise InputValueError(
             f"plan: {where}: {off}; set keep_off_ground = true in this trial to keep it"
         )
-    return PlannedTrial(poses=tuple(poses), ground_truth=gt)
+    return gt
 
 
 class _PlanDriver(Driver):
@@ -323,12 +409,17 @@ class _PlanDriver(Driver):
         plan: Plan,
         on_capture: Callable[[int, int, CaptureResult], None] | None,
         on_result: Callable[[TrialResult], None] | None = None,
+        on_advice: Callable[[int, Advice], None] | None = None,
     ) -> None:
         self.plan = plan
         self.on_capture = on_capture
         self.on_result = on_result
+        self.on_advice = on_advice
         self.path = Path()
         self.rig_problem = ""  # a board session: why its poses cannot determine the rig
+        self.suggested: Vec3 | None = None  # a guided trial's next pose, as advised
+        self.typed: Vec3 = (0.0, 0.0, 0.0)  # the last pose typed
+        self.placing = np.random.default_rng(plan.placing_seed)
 
     @override
     def start(self, source: object, path: Path) -> None:
@@ -352,21 +443,52 @@ class _PlanDriver(Driver):
         return (GroundTruth(trial=trial, kind=kind, points_grid=truth),)
 
     def poses_in(self, trial: int) -> int:
-        return len(self.plan.trials[trial - 1].poses)
+        planned = self.plan.trials[trial - 1]
+        return planned.max_poses if planned.max_poses is not None else len(planned.poses)
 
     def place(self, trial: int, pose: int) -> Placement:
-        p = self.plan.trials[trial - 1].poses[pose - 1]
-        return Placement(
-            entry=PoseEntry(
-                trial=trial,
-                pose=pose,
-                camera_id=p.camera_id,
-                t_grid=p.t_grid,
-                r_deg=p.r_deg,
-                translation_resolution=self.plan.translation_resolution,
-                rotation_resolution_deg=self.plan.rotation_resolution_deg,
-            )
+        planned = self.plan.trials[trial - 1]
+        if not planned.guided:
+            return self._placement(trial, pose, planned.poses[pose - 1])
+        assert planned.start is not None
+        if pose == 1:
+            t_grid = planned.start.t_grid
+        elif self.suggested is not None:
+            t_grid = self.suggested
+        else:  # no reachable pose keeps the target in view: the thesis' move
+            (x, y, z), (dx, dy, dz) = self.typed, _thesis_move(self.plan)
+            t_grid = (x + dx, y + dy, z + dz)
+        self.suggested = None
+        # The simulated operator types the suggestion and places the laptop there with its
+        # placing error: the resolution each entry promises the analysis.
+        error = self.placing.normal(0.0, self.plan.translation_resolution, 3)
+        true = tuple(float(v) for v in np.asarray(t_grid) + error)
+        typed = PlannedPose(t_grid=t_grid, camera_id=planned.start.camera_id)
+        return self._placement(trial, pose, typed, true_pose=((true[0], true[1], true[2]),
+                                                               typed.r_deg))  # fmt: skip
+
+    def _placement(
+        self, trial: int, pose: int, p: PlannedPose, true_pose: tuple[Vec3, Vec3] | None = None
+    ) -> Placement:
+        self.typed = p.t_grid
+        entry = PoseEntry(
+            trial=trial,
+            pose=pose,
+            camera_id=p.camera_id,
+            t_grid=p.t_grid,
+            r_deg=p.r_deg,
+            translation_resolution=self.plan.translation_resolution,
+            rotation_resolution_deg=self.plan.rotation_resolution_deg,
         )
+        return Placement(entry=entry, true_pose=true_pose)
+
+    def advice(self, trial: int, advice: Advice) -> bool:
+        if self.on_advice is not None:
+            self.on_advice(trial, advice)
+        guided = self.plan.trials[trial - 1].guided
+        if guided and advice.suggestion is not None:
+            self.suggested = advice.suggestion.t_grid
+        return guided and advice.complete
 
     def captured(self, trial: int, pose: int, result: CaptureResult) -> None:
         if self.on_capture is not None:
@@ -400,7 +522,7 @@ class _PlanDriver(Driver):
         return Decision.ACCEPT
 
 
-def record_plan(
+def record_plan(  # noqa: PLR0913 - keyword-only callbacks, one per thing a caller shows
     plan: Plan,
     out: str | Path,
     source: FrameSource,
@@ -410,6 +532,7 @@ def record_plan(
     live: LiveView | None = None,
     on_result: Callable[[TrialResult], None] | None = None,
     rig: RigConstants | None = None,
+    on_advice: Callable[[int, Advice], None] | None = None,
 ) -> RecordingSummary:
     """Record ``plan`` into the new session ``out`` from an (unopened) ``source``.
 
@@ -429,6 +552,9 @@ def record_plan(
     on_frame, on_capture, on_result : callable, optional
         Called with each frame's detection feedback, each capture's outcome and each
         trial's live result.
+    on_advice : callable, optional
+        Called with each trial's guidance after a decision (``[guidance]`` or guided
+        trials): the next pose suggested, or the trial complete.
     live : LiveView, optional
         Foxglove's live view, fed as the session is recorded.
     rig : RigConstants, optional
@@ -454,9 +580,21 @@ def record_plan(
         info,
         plan.cameras,
         source,
-        _PlanDriver(plan, on_capture, on_result),
+        _PlanDriver(plan, on_capture, on_result, on_advice),
         ground=ground,
         capture=CaptureSettings.live_detection(
-            info, frames=plan.frames, live=live, on_frame=on_frame, rig=rig
+            info,
+            frames=plan.frames,
+            live=live,
+            on_frame=on_frame,
+            rig=rig,
+            guidance=plan.guidance,
         ),
     )
+
+
+def _thesis_move(plan: Plan) -> Vec3:
+    """The thesis' move from one pose to the next, in the plan's units."""
+    factor = unit_factor(Units.IN, plan.units)
+    x, y, z = THESIS_MOVE_IN
+    return (x * factor, y * factor, z * factor)

@@ -72,6 +72,7 @@ from twopose.values import Vec3
 
 if TYPE_CHECKING:
     from recorder.trial_result import TrialResult
+    from twopose.guidance import Advice
     from twopose.targets import BoardPlacement
 
 __all__ = [
@@ -106,7 +107,7 @@ class State(StrEnum):
 #: The events each state allows (what :class:`Procedure` checks before every event).
 TRANSITIONS: dict[State, frozenset[str]] = {
     State.READY: frozenset({"begin_trial", "write", "note", "close"}),
-    State.TYPING: frozenset({"type_pose", "write", "note", "close"}),
+    State.TYPING: frozenset({"type_pose", "complete_trial", "write", "note", "close"}),
     State.PLACED: frozenset({"type_pose", "capture", "note", "close"}),
     State.DECIDING: frozenset({"accept", "redo", "undo", "note", "close"}),
     State.CLOSED: frozenset(),
@@ -271,6 +272,15 @@ class Procedure:
             self.pose += 1
             self.state = State.TYPING
 
+    def complete_trial(self) -> None:
+        """End the trial before its last planned pose: the stop rule says it is precise
+        enough (:mod:`twopose.guidance`); it needs two accepted poses."""
+        self._event("complete_trial")
+        if len(self.accepted) < 2:
+            raise ProcedureError(f"trial {self.trial} has {len(self.accepted)} pose(s): two needed")
+        self.n_complete_trials += 1
+        self.state = State.READY
+
     def redo(self) -> None:
         """Discard the capture; the same pose is typed (it may be corrected) and captured."""
         self._event("redo")
@@ -385,6 +395,11 @@ class Driver:
         """Entries written when the trial is done (the simulation truth)."""
         return ()
 
+    def advice(self, trial: int, advice: Advice) -> bool:  # noqa: ARG002 - the default ignores it
+        """Guidance after a decision (the next pose, or the trial precise enough); True to
+        complete the trial now (the stop rule), which the default driver never does."""
+        return False
+
     def trial_result(self, result: TrialResult) -> None:
         """A trial's live result, new or updated (shown to the operator)."""
 
@@ -469,6 +484,10 @@ def record(
             )
             proc = Procedure(w)
             driver.start(source.info, out)
+            if settings.guidance is not None and results is not None:
+                # Recorded, not typed: a session ended before its first pose still leaves
+                # no file.
+                w.write_note(Note(text=settings.guidance.describe(info.units)))
             for note in getattr(results, "notes", ()):
                 driver.notice(note)
             try:
@@ -544,6 +563,8 @@ def _record_trial(
             driver.board_progress(*board_progress(proc, opts.settings.board))
         if opts.results is not None:
             _live(driver, _result_step, trial, proc, driver, opts)
+            if opts.settings.guidance is not None and proc.accepted:
+                _live(driver, _guidance_step, trial, proc, driver, opts)
     return True
 
 
@@ -598,6 +619,20 @@ def _result_step(trial: int, proc: Procedure, driver: Driver, opts: _CaptureOpti
     if opts.settings.live is not None:
         scene = opts.results.scene(trial)
         opts.settings.live.trial_result(result, scene, time.time_ns())
+
+
+def _guidance_step(trial: int, proc: Procedure, driver: Driver, opts: _CaptureOptions) -> None:
+    """After a decision: the driver hears the trial's guidance and decides whether the stop
+    rule ends it; the file records a trial ended so (a note, for the analyst)."""
+    assert opts.results is not None
+    assert opts.settings.guidance is not None
+    advice = opts.results.advise(trial, opts.settings.guidance)
+    if advice is None:
+        return
+    stop = driver.advice(trial, advice)
+    if stop and advice.complete and proc.state is State.TYPING:
+        proc.note(f"guidance: {advice.text}")
+        proc.complete_trial()
 
 
 def _decide(proc: Procedure, driver: Driver, result: CaptureResult) -> bool:

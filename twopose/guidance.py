@@ -31,6 +31,7 @@ import numpy as np
 
 from twopose.arrays import F64
 from twopose.camera import grid_rays, rotation_from_angles_deg
+from twopose.detect import wrap_theta_deg
 from twopose.estimate import EstimateOptions, GroundSpec, PoseView, measure
 from twopose.methods import Method, spec_of
 from twopose.session_estimate import SessionTrials, estimate_session
@@ -58,7 +59,7 @@ THESIS_MOVE_IN = (1.0, 0.0, 0.0)
 #: Where a target seen from one pose is assumed, along its ray (the thesis' ~10 in).
 NOMINAL_DEPTH_IN = 10.0
 #: A predicted view keeps its target this far inside the image (a share of its size).
-_IN_VIEW_MARGIN = 0.05
+_IN_VIEW_MARGIN = 0.12  # the centroid; the finger reaches beyond it
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -172,12 +173,14 @@ def _predicted_view(
         return None
     centroid = px[0]
     used = template.found
-    mean = template.centroids[used].mean(axis=0) if used.any() else centroid
-    centroids = centroid + (template.centroids - mean)
+    if not used.any():
+        return None
+    centroids = centroid + (template.centroids - template.centroids[used].mean(axis=0))
     if lines:
         d = px[1] - px[0]
         theta = math.degrees(math.atan2(d[1], d[0]))
-        thetas = theta + (template.thetas - np.nanmean(template.thetas[used]))
+        dev = wrap_theta_deg(template.thetas - template.thetas[used][0])  # lines: no arrow
+        thetas = theta + (dev - dev[used].mean())
     else:
         thetas = template.thetas.copy()
     return dataclasses.replace(
@@ -263,8 +266,10 @@ def predicted_regions(
     """
     lines = spec_of(trials.method).uses_image_lines
     rows, where = [], []
+    detected = [v for v in views if v.found.any()]
+    template = detected[-1] if detected else views[-1]  # frames that scatter as a pose's do
     for k, t in enumerate(centres):
-        view = _predicted_view(views[-1], t, target, lines=lines)
+        view = _predicted_view(template, t, target, lines=lines)
         if view is not None:
             rows.append([*views, view])
             where.append(k)
