@@ -58,8 +58,9 @@ __all__ = [
 THESIS_MOVE_IN = (1.0, 0.0, 0.0)
 #: Where a target seen from one pose is assumed, along its ray (the thesis' ~10 in).
 NOMINAL_DEPTH_IN = 10.0
-#: A predicted view keeps its target this far inside the image (a share of its size).
-_IN_VIEW_MARGIN = 0.12  # the centroid; the finger reaches beyond it
+#: A predicted view keeps its centroid this far inside the image (a share of its size):
+#: the finger reaches beyond its centroid, and a blob at the edge is lost.
+_IN_VIEW_MARGIN = 0.2
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -29,7 +29,7 @@ K = np.array([525.0, 525.0, 320.0, 240.0])
 JITTER = np.array([[0.2, -0.1], [-0.15, 0.2], [0.05, 0.1], [-0.1, -0.15], [0.0, -0.05]])
 THETA_JITTER = np.array([0.1, -0.05, 0.08, -0.1, -0.03])
 POINT = np.array([0.5, 2.0, 11.0])  # a dot ahead of the home pose, inches
-FINGER = (np.array([1.5, 4.0, 12.0]), np.array([1.0, 1.5, 13.5]))  # tip, base (inches)
+FINGER = (np.array([1.0, 2.5, 12.0]), np.array([0.5, 0.0, 13.5]))  # tip, base (inches)
 GROUND_H = 9.625
 
 
