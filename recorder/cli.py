@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
+from recorder.setup_rules import GuidanceAsked
 from twopose.errors import (
     EXIT_INTERRUPTED,
     InputValueError,
@@ -24,6 +25,7 @@ if TYPE_CHECKING:
     from recorder.camera_calibration import Calibration
     from recorder.capture import CaptureResult
     from recorder.live import LiveView
+    from recorder.setup_rules import GuidanceAsked
     from recorder.summary import RecordingSummary
     from twopose.camera import Camera, Intrinsics
     from twopose.rig.constants import RigConstants
@@ -147,6 +149,18 @@ class NewRequest:
     notes: str = ""
     rig: RigConstants | None = None
     live_port: int | None = None  # --live: serve the Foxglove live view on this port
+    guidance: GuidanceAsked | None = None  # the next pose suggested; the stop rule
+
+
+def _guidance_asked(
+    target95: float | None = None,
+    max_poses: int = 6,
+    reach: float | None = None,
+    spacing: float | None = None,
+) -> GuidanceAsked:
+    from recorder.setup_rules import GuidanceAsked
+
+    return GuidanceAsked(target95=target95, max_poses=max_poses, reach=reach, spacing=spacing)
 
 
 def _load_rig(path: Path | None) -> RigConstants | None:
@@ -217,8 +231,39 @@ def new(
     port: PortOption = 0,
     host: HostOption = "127.0.0.1",
     rig: RigOption = None,
+    target_precision: Annotated[
+        float | None,
+        typer.Option(
+            min=0.0,
+            help="Stop rule: a trial is complete once its 95% region's largest semi-axis is "
+            "within this (session units), or at --max-poses.",
+        ),
+    ] = None,
+    max_poses: Annotated[
+        int, typer.Option(min=2, max=100, help="With --target-precision: a trial's most poses.")
+    ] = 6,
+    reach: Annotated[
+        float | None,
+        typer.Option(
+            min=0.0,
+            help="Suggested poses lie within this of a trial's first, in x and z (session "
+            "units) [default: the thesis' 3 in].",
+        ),
+    ] = None,
+    grid: Annotated[
+        float | None,
+        typer.Option(
+            min=0.0,
+            help="The grid paper's spacing: suggested poses lie on it (session units) "
+            "[default: the thesis' 1/2 in].",
+        ),
+    ] = None,
 ) -> None:
     """Record a session: the guided laptop-on-grid procedure, or a plan file (--plan).
+
+    After each accepted pose the recorder suggests the next one (the reachable pose that
+    shrinks the trial's predicted 95% region most); with --target-precision a trial ends
+    as soon as its region is within it. A plan sets these in its [guidance] table.
 
     Ctrl-C at any point closes the file (valid, with everything accepted so far), prints
     the summary and exits with 130.
@@ -241,6 +286,7 @@ def new(
             notes=notes,
             rig=_load_rig(rig),
             live_port=live_port if live else None,
+            guidance=_guidance_asked(target_precision, max_poses, reach, grid),
         )
         if plan is not None:
             summary = _planned(request, plan, stack)
@@ -298,19 +344,21 @@ def _interactive(
     op = Operator(_prompt, typer.echo)
     setup = ask_setup(op, size=(mode.width, mode.height), **given)
     check_rig(request.rig, setup.method, setup.units, [setup.camera()], setup.ground())
+    guidance = (request.guidance or _guidance_asked()).guidance(setup.units, request.poses)
     src = open_source(
         request.source, method=setup.method, width=mode.width, height=mode.height, fps=mode.fps
     )
     port = request.live_port
     view = _live_view(stack, [setup.camera()], port) if port is not None else None
+    capture = CaptureSettings(frames=request.frames, live=view, rig=request.rig, guidance=guidance)
     return record_interactive(
         request.out,
         src,
         op,
         setup=setup,
         notes=request.notes,
-        capture=CaptureSettings(frames=request.frames, live=view, rig=request.rig),
-        typing=PoseTyping(poses_per_trial=request.poses),
+        capture=capture,
+        typing=PoseTyping(poses_per_trial=guidance.max_poses),
     )
 
 
@@ -414,7 +462,7 @@ def _console(request: NewRequest, given: dict[str, Any], *, host: str, port: int
     options = ConsoleOptions(
         source=request.source, given=given, frames=request.frames, poses=request.poses,
         size=(mode.width, mode.height), fps=mode.fps, notes=request.notes, rig=request.rig,
-        live_port=request.live_port,
+        live_port=request.live_port, guidance=request.guidance,
     )  # fmt: skip
     serve_console(request.out, options, host=host, port=port)
 

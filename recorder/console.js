@@ -481,10 +481,33 @@ function renderPose(s) {
     const active = document.activeElement;
     if (!active || active === document.body || active.tagName === "BUTTON") $("pose-x").focus();
   }
+  renderGuidance(s, typing);
   setText($("where"), s.trial ? "trial " + s.trial + ", pose " + s.pose + " of " + s.n_poses : "");
   setText($("units-note"), s.units ? "the camera centre on the grid, in " + s.units + "; rotation empty: 0, 0, 0" : "");
   show($("pose-form"), s.phase === "recording");
   show($("poses-box"), s.phase === "recording");
+}
+
+// The recorder's guidance: the next pose it suggests (taken into the form with g or the
+// button), or the trial complete by the stop rule.
+function renderGuidance(s, typing) {
+  const a = s.advice && s.advice.trial === s.trial ? s.advice : null;
+  show($("guidance"), !!a && s.phase === "recording");
+  setText($("guidance-text"), a ? a.text : "");
+  const take = $("take-suggestion");
+  show(take, !!(a && a.suggestion));
+  take.disabled = !(typing && connected && a && a.suggestion);
+}
+
+function takeSuggestion() {
+  const a = state && state.advice;
+  if (!a || !a.suggestion || state.waiting !== "pose") return;
+  const [x, y, z] = a.suggestion.t_grid;
+  $("pose-x").value = num(x);
+  $("pose-y").value = num(y);
+  $("pose-z").value = num(z);
+  $("pose-rotation").value = a.suggestion.r_deg.map((v) => num(v)).join(", ");
+  $("capture").focus();
 }
 
 function renderDecision(s) {
@@ -615,7 +638,9 @@ function renderResults(s) {
   }
   const canvas = $("topview");
   const size = [canvas.clientWidth, canvas.clientHeight, window.devicePixelRatio || 1];
-  if (changed("topview", [s.topview, s.units, size])) drawTopView(s.topview, s.units, s.method);
+  const next = s.advice && s.advice.suggestion && s.topview && s.advice.trial === s.topview.trial
+    ? s.advice.suggestion.t_grid : null;
+  if (changed("topview", [s.topview, s.units, size, next])) drawTopView(s.topview, s.units, s.method, next);
 }
 
 // --------------------------------------------------------------------------- the top view
@@ -626,13 +651,14 @@ const COLOURS = {
   truth_line: "#2ca02c", estimate: "#d62728", truth: "#2ca02c", grid: "#e3e7ec", axis: "#5b6673",
 };
 
-function legendItems(view) {
+function legendItems(view, next) {
   const kinds = new Set(view.segments.map((g) => g.kind));
   if (view.method === "board") {
     return [["camera", "▲", "camera centre (each capture that saw the board)"],
       ["board", "━", "the board (its inner corners, from above)"]];
   }
   const items = [["camera", "▲", "camera centre (each pose)"]];
+  if (next) items.push(["camera", "△", "suggested next pose (g takes it)"]);
   if (kinds.has("ray")) items.push(["ray", "—", "ray through the dot, per pose"]);
   if (kinds.has("trace")) items.push(["trace", "—", "finger's plane on the ground, per pose"]);
   if (kinds.has("line")) items.push(["line", "━", "estimated line"]);
@@ -653,7 +679,7 @@ function niceStep(span) {
   return (m < 1.5 ? 1 : m < 3.5 ? 2 : m < 7.5 ? 5 : 10) * p;
 }
 
-function drawTopView(view, units, method) {
+function drawTopView(view, units, method, next) {
   const canvas = $("topview");
   const dpr = window.devicePixelRatio || 1;
   const w = Math.max(1, canvas.clientWidth), h = Math.max(1, canvas.clientHeight);
@@ -675,13 +701,15 @@ function drawTopView(view, units, method) {
     return;
   }
   setText($("topview-title"), view.method === "board" ? "the board session, from above" : "trial " + view.trial + ", from above");
-  legend.replaceChildren(...legendItems(view).map(([kind, mark, text]) => {
+  legend.replaceChildren(...legendItems(view, next).map(([kind, mark, text]) => {
     const li = el("li");
     li.append(el("span", mark, "mark " + kind), el("span", text));
     return li;
   }));
 
   const points = [...view.cameras];
+  const suggested = next ? [next[0], next[2]] : null; // the top view is x across, z in depth
+  if (suggested) points.push(suggested);
   for (const g of view.segments) points.push(g.from, g.to);
   if (view.estimate) points.push(view.estimate);
   if (view.truth) points.push(view.truth);
@@ -753,6 +781,12 @@ function drawTopView(view, units, method) {
     const cx = X(c[0]), cy = Y(c[1]);
     ctx.beginPath(); ctx.moveTo(cx, cy - 8); ctx.lineTo(cx - 7, cy + 5); ctx.lineTo(cx + 7, cy + 5); ctx.closePath(); ctx.fill();
   }
+  if (suggested) { // the suggested next pose: a hollow camera, dashed
+    const cx = X(suggested[0]), cy = Y(suggested[1]);
+    ctx.strokeStyle = COLOURS.camera; ctx.lineWidth = 2; ctx.setLineDash([3, 2]);
+    ctx.beginPath(); ctx.moveTo(cx, cy - 8); ctx.lineTo(cx - 7, cy + 5); ctx.lineTo(cx + 7, cy + 5); ctx.closePath(); ctx.stroke();
+    ctx.setLineDash([]);
+  }
   if (view.truth) {
     ctx.strokeStyle = COLOURS.truth; ctx.lineWidth = 2;
     ctx.beginPath(); ctx.arc(X(view.truth[0]), Y(view.truth[1]), 7, 0, 2 * Math.PI); ctx.stroke();
@@ -811,6 +845,11 @@ document.addEventListener("keydown", (event) => {
     askQuit(false);
     return;
   }
+  if (!typingIn(event.target) && event.key === "g" && state && state.waiting === "pose") {
+    event.preventDefault();
+    takeSuggestion();
+    return;
+  }
   if (typingIn(event.target) || !state || state.waiting !== "decision" || quitAsked) return;
   const choice = DECISIONS[event.key];
   if (!choice) return;
@@ -830,6 +869,16 @@ for (const [choice, id] of Object.entries(BUTTON_OF)) {
   $(id).addEventListener("click", () => act(() => decide(choice)));
 }
 $("note-add").addEventListener("click", () => act(addNote));
+$("take-suggestion").addEventListener("click", takeSuggestion);
+for (const id of ["pose-x", "pose-y", "pose-z", "pose-rotation"]) {
+  // A pose is numbers: "g" in its fields takes the suggestion instead of typing a letter.
+  $(id).addEventListener("keydown", (event) => {
+    if (event.key === "g" && !event.ctrlKey && !event.metaKey && !event.altKey) {
+      event.preventDefault();
+      takeSuggestion();
+    }
+  });
+}
 $("note-text").addEventListener("keydown", (event) => {
   if (event.key === "Enter") {
     event.preventDefault();

@@ -60,6 +60,7 @@ if TYPE_CHECKING:
     from recorder.sources import FrameSource, SourceInfo
     from recorder.trial_result import TrialResult
     from twopose.detect import Detection
+    from twopose.guidance import Advice
     from twopose.rig.constants import RigConstants
     from twopose.scene3d import TrialScene
     from twopose.targets import BoardPlacement
@@ -135,6 +136,8 @@ class ConsoleSession(LiveSink):
         self.rig_readiness = ""  # a board session: why its poses cannot determine the rig
         self.last_capture = ""
         self.results: dict[int, dict[str, Any]] = {}
+        #: the latest guidance: the next pose suggested, or the trial complete (issue 36)
+        self.advice: dict[str, Any] | None = None
         self.topview: dict[str, Any] | None = None
         self.summary = ""
         self.latest: _Frame | None = None
@@ -175,6 +178,7 @@ class ConsoleSession(LiveSink):
                 "rig_readiness": self.rig_readiness,
                 "last_capture": self.last_capture,
                 "results": [self.results[t] for t in sorted(self.results)],
+                "advice": self.advice,
                 "topview": self.topview,
                 "summary": self.summary,
                 "frame_seq": self.latest.seq if self.latest else 0,
@@ -328,6 +332,7 @@ class WebDriver(Driver):
             pose=1,
             poses=[],
             pose_form={},
+            advice=None,
             message=f"trial {trial}: type pose 1, then capture (or quit to finish)",
             level="info",
         )
@@ -488,6 +493,19 @@ class WebDriver(Driver):
         self._accepted.discard(self.session.pose)
         control = "accept" if isinstance(error, LowDetectionError) else self._control
         self.session.refuse(control or "decision", str(error))
+
+    def advice(self, trial: int, advice: Advice) -> bool:
+        s = advice.suggestion
+        self.session.update(
+            advice={
+                "trial": trial,
+                "text": advice.text,
+                "complete": advice.complete,
+                "region95": advice.region95,
+                "suggestion": None if s is None else s.to_json(),
+            }
+        )
+        return advice.complete
 
     def trial_result(self, result: TrialResult) -> None:
         level = "warning" if result.warning or result.status != "ok" else "info"

@@ -51,6 +51,7 @@ from twopose.methods import Method
 
 if TYPE_CHECKING:
     from recorder.live import LiveView
+    from recorder.setup_rules import GuidanceAsked
     from recorder.sources import FrameSource
     from twopose.detect import Detection
     from twopose.rig.constants import RigConstants
@@ -79,6 +80,7 @@ class ConsoleOptions:
     rig: RigConstants | None = None
     live_port: int | None = None  # --live: the Foxglove live view too, on this port
     origin: str = ""  # the console's own page (the live view lets it in), once served
+    guidance: GuidanceAsked | None = None  # --target-precision and the suggestions' reach
 
 
 def draw_detection(image: np.ndarray, det: Detection | None) -> np.ndarray:
@@ -167,20 +169,21 @@ def _recording(
     quit, or the server stopping)."""
     from recorder.capture import CaptureSettings, LiveSinks
     from recorder.procedure import record
-    from recorder.setup_rules import PoseTyping
+    from recorder.setup_rules import GuidanceAsked, PoseTyping
     from recorder.sources import open_source
 
     try:
+        guidance = (options.guidance or GuidanceAsked()).guidance(setup.units, options.poses)
         width, height = options.size
         src = open_source(
             options.source, method=setup.method, width=width, height=height, fps=options.fps
         )
         camera, info = setup.camera(), setup.info(options.notes)
-        typing = PoseTyping(poses_per_trial=options.poses)
+        typing = PoseTyping(poses_per_trial=guidance.max_poses)
         driver = WebDriver(session, src, camera.camera_id, setup.ground_truth, typing, preview)
         live = session if view is None else LiveSinks(session, view)
         capture = CaptureSettings.live_detection(
-            info, frames=options.frames, live=live, rig=options.rig
+            info, frames=options.frames, live=live, rig=options.rig, guidance=guidance
         )
         summary = record(
             session.out, info, [camera], src, driver, ground=setup.ground(), capture=capture

@@ -60,6 +60,7 @@ from twopose.values import Vec3
 
 if TYPE_CHECKING:
     from recorder.trial_result import TrialResult
+    from twopose.guidance import Advice
 
 __all__ = ["Operator", "Setup", "ask_setup", "parse_vector", "record_interactive"]
 
@@ -286,6 +287,10 @@ class _OperatorDriver(Driver):
 
     def preview_result(self, result: TrialResult) -> None:
         self.op.say(f"  result if accepted: {result.text()}")
+
+    def advice(self, trial: int, advice: Advice) -> bool:  # noqa: ARG002 - said, not kept
+        self.op.say(f"  guidance: {advice.text}")
+        return advice.complete
 
     def live_failed(self, message: str) -> None:
         self.op.say(f"  WARNING {message}")

@@ -30,6 +30,7 @@ from twopose.units import UNITS, Units, unit_spec
 from twopose.values import Vec3, finite, numbers, parse_number, vec3
 
 if TYPE_CHECKING:
+    from twopose.guidance import Guidance
     from twopose.rig.constants import RigConstants
 
 __all__ = [
@@ -524,3 +525,37 @@ def _truth(a: _Answers, method: Method, units: Units, height: float | None) -> t
         if off:
             a.errors["truth1"] = f"{off}; tick '{_LABELS['keep_off_ground']}' to keep it"
     return tuple(points)
+
+
+@dataclass(frozen=True, kw_only=True)
+class GuidanceAsked:
+    """The guidance a recording was asked for (``new``'s options, the browser's setup):
+    the stop rule's precision (None: suggestions only), the most poses of a trial, and
+    the reach of the suggestions (None: the thesis')."""
+
+    target95: float | None = None
+    max_poses: int = 6
+    reach: float | None = None
+    spacing: float | None = None
+
+    def guidance(self, units: Units, poses: int) -> Guidance:
+        """The recording's guidance in the session's units; without a target, a trial
+        has ``poses`` poses (``--poses``), as without guidance."""
+        from twopose.guidance import Guidance, Reach
+
+        thesis = Reach.thesis(units)
+        radius = self.reach if self.reach is not None else thesis.radius
+        spacing = self.spacing if self.spacing is not None else thesis.spacing
+        if not (0 < spacing <= radius):
+            raise InputValueError(
+                f"the grid spacing ({spacing:g} {units}) must be > 0 and within the reach "
+                f"({radius:g} {units})"
+            )
+        most = self.max_poses if self.target95 is not None else poses
+        try:
+            return Guidance(
+                reach=Reach(radius=radius, spacing=spacing), target95=self.target95,
+                max_poses=most,
+            )  # fmt: skip
+        except ValueError as err:
+            raise InputValueError(str(err)) from None

@@ -257,3 +257,56 @@ def test_a_board_session_in_the_browser(browser: Any, tmp_path: Path) -> None:
         assert reader.info.board is not None
         assert reader.info.board.first_corner == (-3.0, 8.125, 24.0)
     assert read_board_session(out).observed_px.shape == (3, 54, 2)
+
+
+def test_the_console_suggests_the_next_pose_and_stops_by_the_rule(tmp_path: Path) -> None:
+    """Issue 36 in the browser at a laptop's 1366x768: after pose 1 the page shows the
+    suggested next pose, ``g`` in the pose form takes it, the top view marks the next one,
+    and with --target-precision a trial ends as soon as its region is within it."""
+    from tests.doc_images import doc_image
+
+    out = tmp_path / "guided.mcap"
+    process, url, _ = start_console(out, "--target-precision", "1.0", "--max-poses", "4")
+    try:
+        with headless_chromium(1366, 768) as laptop:
+            laptop.get(url)
+            page = Page(laptop)
+            page.wait(lambda: laptop.find_elements(By.ID, "f-method"), "the setup form")
+            Select(laptop.find_element(By.ID, "f-method")).select_by_visible_text("point")
+            page.type("field-truth1", "0.5, 1.5, 11")
+            page.type("field-operator", "Ada")
+            page.click("setup-submit")
+            page.capture("0", "0")
+            page.click("accept")
+            page.wait(lambda: "next pose" in page.text("guidance-text"), "a suggestion")
+            said = page.text("guidance-text")
+            assert "one pose cannot locate the target yet" in said
+            page.wait(lambda: page.el("pose-x").is_enabled(), "the pose form")
+            page.el("pose-x").send_keys("g")  # one key takes the suggestion into the form
+            suggested = [page.el(f"pose-{axis}").get_attribute("value") for axis in "xyz"]
+            assert f"x {suggested[0]}, y {suggested[1]}, z {suggested[2]} in" in said
+            page.click("capture")
+            page.wait(lambda: page.el("accept").is_enabled(), "the capture to end")
+            page.click("accept")
+            page.wait(lambda: "trial 1 (2 views)" in " ".join(page.results()), "the result")
+            page.wait(
+                lambda: (
+                    "next pose" in page.text("guidance-text")
+                    or "trial complete" in page.text("guidance-text")
+                ),
+                "the next advice",
+            )
+            if "next pose" in page.text("guidance-text"):
+                legend = laptop.find_element(By.ID, "topview-legend").text
+                assert "suggested next pose" in legend
+                doc_image("console-suggestion.png", laptop.get_screenshot_as_png())
+                page.el("pose-x").send_keys("g")
+                page.click("capture")
+                page.wait(lambda: page.el("accept").is_enabled(), "the capture to end")
+                page.click("accept")
+            page.wait(lambda: "trial complete" in page.text("guidance-text")
+                      or "type pose 1" in page.status(), "the stop rule")  # fmt: skip
+    finally:
+        process.terminate()
+        process.wait(timeout=30)
+    assert out.exists()
