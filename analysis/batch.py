@@ -110,6 +110,7 @@ def run(
                 if folder is not None
                 else None
             ),
+            continuations=inputs.continuations,
         )
         outcomes = _execute(batch, jobs=jobs, dask_address=dask_address)
         result = dataclasses.replace(
@@ -149,6 +150,8 @@ class _Batch:
     on_done: OnDone | None
     # The figures the previous run into --out drew: reused where nothing they show changed.
     figure_cache: FigureCache | None = None
+    #: per session's first part, its continuations (InputSet.continuations): one session
+    continuations: dict[str, tuple[str, ...]] = dataclasses.field(default_factory=dict)
 
     def without_images(self) -> _Batch:
         """The same batch, its figures drawn elsewhere (by a :class:`FigureDrawer`)."""
@@ -174,7 +177,10 @@ def _run_here(batch: _Batch, drawer: FigureDrawer | None) -> list[Outcome]:
     files, options, on_done, cache = batch.files, batch.options, batch.on_done, batch.figure_cache
     outcomes: list[Outcome] = []
     for i, (f, r) in enumerate(zip(files, batch.results_mcap, strict=True)):
-        outcome = analyse_or_fail(f, options, images=batch.images, results=r, figure_cache=cache)
+        outcome = analyse_or_fail(
+            f, options, images=batch.images, results=r, figure_cache=cache,
+            continuations=batch.continuations.get(f, ()),
+        )  # fmt: skip
         if drawer is not None and isinstance(outcome, SessionResult):
             job = FigureJob.of(outcome, include_warned=options.include_warned)
             reused = cache.reuse(job) if cache is not None else None
@@ -247,6 +253,7 @@ def analyse_or_fail(
     images: bool,
     results: str | None = None,
     figure_cache: FigureCache | None = None,
+    continuations: Sequence[str] = (),
 ) -> Outcome:
     """One session's result, or a :class:`SessionFailure` saying why (never raises but for
     Ctrl-C); a session over ``options.session_timeout_s`` is stopped and fails."""
@@ -258,6 +265,7 @@ def analyse_or_fail(
                 render_images=images,
                 results_path=results,
                 figure_cache=figure_cache,
+                continuations=continuations,
             )
     except _SessionTimeoutError:
         return SessionFailure(
@@ -333,8 +341,9 @@ def _worker_task(index: int, path: str, batch: _Batch, results: str | None) -> O
     if not _claim(_CLAIMS, index):
         return None
     return analyse_or_fail(
-        path, batch.options, images=batch.images, results=results, figure_cache=batch.figure_cache
-    )
+        path, batch.options, images=batch.images, results=results,
+        figure_cache=batch.figure_cache, continuations=batch.continuations.get(path, ()),
+    )  # fmt: skip
 
 
 def _run_processes(batch: _Batch, jobs: int) -> list[Outcome]:
@@ -377,6 +386,7 @@ def _run_processes(batch: _Batch, jobs: int) -> list[Outcome]:
                         images=images,
                         results=results[i],
                         figure_cache=batch.figure_cache,
+                        continuations=batch.continuations.get(files[i], ()),
                     )
                     done(i, here)
                 index = {fut: i for i, fut in enumerate(futures)}
@@ -449,13 +459,17 @@ def _stop_workers(
 def _analyse_to(
     path: str,
     results: str | None,
+    continuations: tuple[str, ...],
     *,
     options: AnalysisOptions,
     images: bool,
     figure_cache: FigureCache | None,
 ) -> Outcome:
-    """:func:`analyse_or_fail` with the per-session argument second, for ``client.map``."""
-    return analyse_or_fail(path, options, images=images, results=results, figure_cache=figure_cache)
+    """:func:`analyse_or_fail` with the per-session arguments first, for ``client.map``."""
+    return analyse_or_fail(
+        path, options, images=images, results=results, figure_cache=figure_cache,
+        continuations=continuations,
+    )  # fmt: skip
 
 
 def _run_dask(batch: _Batch, address: str) -> list[Outcome]:
@@ -482,6 +496,7 @@ def _run_dask(batch: _Batch, address: str) -> list[Outcome]:
             _analyse_to,
             files,
             results,
+            [batch.continuations.get(f, ()) for f in files],
             options=batch.options,
             images=batch.images,
             figure_cache=batch.figure_cache,

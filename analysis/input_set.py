@@ -47,6 +47,11 @@ class FoundSession:
     units: str = ""
     n_poses: int = 0  # poses typed (0: an empty session)
     readable: bool = True
+    #: The session it belongs to: its id, or (before format 1.3) its content's; a
+    #: continuation (``new --continue``) shares its first part's.
+    session_key: str = ""
+    after_trial: int | None = None  # a continuation: the last trial of the part it continues
+    continues: str = ""  # a continuation: the file name it continues
 
     @property
     def is_board(self) -> bool:
@@ -86,8 +91,28 @@ class InputSet:
 
     @property
     def files(self) -> list[str]:
-        """The measurement sessions' paths, in input order (what ``run`` analyses)."""
-        return [s.path for s in self.measured]
+        """The measurement sessions' paths, in input order (what ``run`` analyses): each
+        session once, by its first part (its continuations: :attr:`continuations`)."""
+        later = {p for parts in self.continuations.values() for p in parts}
+        return [s.path for s in self.measured if s.path not in later]
+
+    @property
+    def continuations(self) -> dict[str, tuple[str, ...]]:
+        """Per session's first part given, its continuations given, in trial order: one
+        session. A continuation whose first part is not given is a session of its own."""
+        groups: dict[str, list[FoundSession]] = {}
+        for s in self.measured:
+            if s.session_key:
+                groups.setdefault(s.session_key, []).append(s)
+        out: dict[str, tuple[str, ...]] = {}
+        for parts in groups.values():
+            first = [s for s in parts if s.after_trial is None]
+            if len(parts) < 2 or len(first) != 1:
+                continue
+            later = sorted((s for s in parts if s.after_trial is not None),
+                           key=lambda s: (s.after_trial or 0, s.path))  # fmt: skip
+            out[first[0].path] = tuple(s.path for s in later)
+        return out
 
     @property
     def paths(self) -> tuple[str, ...]:
@@ -117,7 +142,15 @@ class InputSet:
             f"{s.path}: an empty session (no pose was recorded): nothing to analyse"
             for s in self.empty
         ]
-        return repeats + copies + empty
+        joined = {p: first for first, parts in self.continuations.items() for p in parts}
+        continued = [
+            f"{s.path}: continues {s.continues} after trial {s.after_trial}; "
+            + (f"one session with {joined[s.path]}" if s.path in joined
+               else f"{s.continues} is not among the inputs: analysed alone")
+            for s in self.measured
+            if s.after_trial is not None
+        ]  # fmt: skip
+        return repeats + copies + empty + continued
 
     def run_notes(self) -> list[str]:
         """What ``run`` says: :meth:`notes`, and the board sessions it leaves to ``rig``."""
@@ -176,6 +209,9 @@ def _found(path: Path) -> FoundSession:
         method=str(info.method),
         units=str(info.units),
         n_poses=int(n_poses),
+        session_key=info.session_id or digest[:32],
+        after_trial=info.continues_after_trial,
+        continues=info.continues_file or "",
     )
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-from collections.abc import Generator, Iterator
+from collections.abc import Generator, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -70,6 +70,7 @@ def analyse_session(
     render_images: bool = False,
     results_path: str | Path | None = None,
     figure_cache: FigureCache | None = None,
+    continuations: Sequence[str | Path] = (),
 ) -> SessionResult:
     """Replay one session through detection and the solvers.
 
@@ -95,6 +96,9 @@ def analyse_session(
         Where to write the session's results.mcap.
     figure_cache : FigureCache, optional
         Figures a previous run drew, reused when their digest matches.
+    continuations : sequence of path-like
+        The session's continuations (``new --continue``), in trial order: replayed after
+        ``path`` into one session, a trial number already seen counted once.
 
     Returns
     -------
@@ -113,7 +117,11 @@ def analyse_session(
         results = None
         if results_path is not None:
             results = stack.enter_context(_results_writer(Path(results_path), reader))
-        replay = _corrected(_replay(reader, str(path), options, results), options.rig)
+        parts = [_replay(reader, str(path), options, results)]
+        for later in continuations:
+            with SessionReader(later) as part:
+                parts.append(_replay(part, str(path), options, results))
+        replay = _corrected(_joined(parts, [str(p) for p in continuations]), options.rig)
         estimate = estimate_session(replay.trials, options.estimate)
         reported_ = reported(estimate)
         trials = trial_table(replay.session, estimate, reported_, replay.notes, replay.unmeasured)
@@ -186,6 +194,40 @@ def _systematic_dominance(trials: pd.DataFrame) -> pd.DataFrame:
     return out
 
 
+def _joined(parts: list[_Replay], later: list[str]) -> _Replay:
+    """A session's parts as one replay: each trial once (a number a continuation repeats,
+    as two continuations of one part may, is kept from the part first given), and the
+    metadata saying where the session continued."""
+    if len(parts) == 1:
+        return parts[0]
+    first, seen, keep = parts[0], set[int](), list[tuple[int, list[int]]]()
+    for k, part in enumerate(parts):
+        rows = [i for i, t in enumerate(part.trials.trial_ids) if t not in seen]
+        seen.update(part.trials.trial_ids)
+        keep.append((k, rows))
+    pick = [(parts[k], i) for k, rows in keep for i in rows]
+    trials = dataclasses.replace(
+        first.trials,
+        trial_ids=tuple(p.trials.trial_ids[i] for p, i in pick),
+        views=[p.trials.views[i] for p, i in pick],
+        truth=np.array([p.trials.truth[i] for p, i in pick]).reshape(-1, 2, 3),
+    )
+    dropped = sum(len(p.trials.trial_ids) for p in parts) - len(pick)
+    said = f"continued in {', '.join(later)}" + (
+        f"; {dropped} trial(s) numbered twice counted once" if dropped else ""
+    )
+    kept = [{parts[k].trials.trial_ids[i] for i in rows} for k, rows in keep]
+    return dataclasses.replace(
+        first,
+        trials=trials,
+        metadata={**first.metadata, "continuations": said},
+        last_ns=[p.last_ns[i] for p, i in pick],
+        frame_rows=[r for k, p in enumerate(parts) for r in p.frame_rows if r["trial"] in kept[k]],
+        notes=[p.notes[i] for p, i in pick],
+        unmeasured=[p.unmeasured[i] for p, i in pick],
+    )
+
+
 def _corrected(replay: _Replay, rig: RigConstants | None) -> _Replay:
     """The replay with every view (and the ground) as the rig really had them."""
     if rig is None or rig.is_identity:
@@ -199,11 +241,20 @@ def _corrected(replay: _Replay, rig: RigConstants | None) -> _Replay:
     return dataclasses.replace(replay, trials=corrected)
 
 
-def replay_views(path: str | Path, options: AnalysisOptions | None = None) -> SessionTrials:
-    """A session's trials as the estimation takes them (ids, truth, usable poses): what
-    the rig's constants are fitted on (:mod:`analysis.rig.fit`)."""
-    with SessionReader(path) as reader:
-        return _replay(reader, str(path), options or AnalysisOptions(), None).trials
+def replay_views(
+    path: str | Path,
+    options: AnalysisOptions | None = None,
+    continuations: Sequence[str | Path] = (),
+) -> SessionTrials:
+    """A session's trials as the estimation takes them (ids, truth, usable poses), its
+    continuations' after its own: what the rig's constants are fitted on
+    (:mod:`analysis.rig.fit`)."""
+    options = options or AnalysisOptions()
+    parts = []
+    for part in (path, *continuations):
+        with SessionReader(part) as reader:
+            parts.append(_replay(reader, str(path), options, None))
+    return _joined(parts, [str(p) for p in continuations]).trials
 
 
 def _replay(

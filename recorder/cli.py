@@ -24,6 +24,7 @@ from twopose.version import VersionOption
 if TYPE_CHECKING:
     from recorder.camera_calibration import Calibration
     from recorder.capture import CaptureResult
+    from recorder.continuation import Continued
     from recorder.live import LiveView
     from recorder.setup_rules import GuidanceAsked
     from recorder.summary import RecordingSummary
@@ -150,6 +151,7 @@ class NewRequest:
     rig: RigConstants | None = None
     live_port: int | None = None  # --live: serve the Foxglove live view on this port
     guidance: GuidanceAsked | None = None  # the next pose suggested; the stop rule
+    continued: Continued | None = None  # --continue: the session this one continues
 
 
 def _guidance_asked(
@@ -161,6 +163,34 @@ def _guidance_asked(
     from recorder.setup_rules import GuidanceAsked
 
     return GuidanceAsked(target95=target95, max_poses=max_poses, reach=reach, spacing=spacing)
+
+
+def _continued(path: Path | None, **setup: object) -> Continued | None:
+    """``--continue``: the session continued, read once; the setup options are its."""
+    if path is None:
+        return None
+    given = [f"--{k.replace('_', '-')}" for k, v in setup.items() if v not in (None, [])]
+    if given:
+        raise InputValueError(
+            f"{', '.join(given)}: a continuation keeps the setup of {path}; leave them out"
+        )
+    from recorder.continuation import read_continued
+
+    return read_continued(path)
+
+
+def _continued_given(continued: Continued) -> dict[str, Any]:
+    """The browser's setup form, filled with the continued session's setup (read-only)."""
+    from recorder.setup_rules import Setup
+
+    setup = Setup.of(continued)
+    k = setup.intrinsics
+    return {
+        "method": setup.method.value, "units": setup.units, "intrinsics": k,
+        "intrinsics_sigma": setup.intrinsics_sigma, "focal": None, "principal": None,
+        "ground_height": setup.ground_height, "ground_truth": list(setup.ground_truth),
+        "operator": setup.operator, "board": setup.board,
+    }  # fmt: skip
 
 
 def _load_rig(path: Path | None) -> RigConstants | None:
@@ -250,6 +280,16 @@ def new(
             "units) [default: the thesis' 3 in].",
         ),
     ] = None,
+    continue_from: Annotated[
+        Path | None,
+        typer.Option(
+            "--continue",
+            exists=True,
+            dir_okay=False,
+            help="Continue this session (closed, or recovered by `recover`): its setup and "
+            "id, the trials numbered after its last.",
+        ),
+    ] = None,
     grid: Annotated[
         float | None,
         typer.Option(
@@ -287,9 +327,25 @@ def new(
             rig=_load_rig(rig),
             live_port=live_port if live else None,
             guidance=_guidance_asked(target_precision, max_poses, reach, grid),
+            continued=_continued(
+                continue_from,
+                method=method,
+                units=units,
+                calibration=calibration,
+                focal=focal,
+                principal=principal,
+                ground_height=ground_height,
+                ground_truth=ground_truth,
+                board=board,
+            ),
         )
         if plan is not None:
             summary = _planned(request, plan, stack)
+        elif request.continued is not None:
+            if ui:
+                _console(request, _continued_given(request.continued), host=host, port=port)
+                return
+            summary = _interactive(request, {}, stack)
         else:
             given = _console_given(
                 method, units, calibration, focal, principal, ground_height, ground_truth, operator,
@@ -337,12 +393,18 @@ def _interactive(
     run the guided procedure."""
     from recorder.capture import CaptureSettings
     from recorder.interactive import Operator, ask_setup, record_interactive
-    from recorder.setup_rules import PoseTyping, check_rig
+    from recorder.setup_rules import PoseTyping, Setup, check_rig
     from recorder.sources import open_source
 
     mode = request.camera
     op = Operator(_prompt, typer.echo)
-    setup = ask_setup(op, size=(mode.width, mode.height), **given)
+    if request.continued is not None:
+        setup = Setup.of(request.continued)
+        typer.echo(
+            f"continuing {request.continued.path} after trial {request.continued.last_trial}"
+        )
+    else:
+        setup = ask_setup(op, size=(mode.width, mode.height), **given)
     check_rig(request.rig, setup.method, setup.units, [setup.camera()], setup.ground())
     guidance = (request.guidance or _guidance_asked()).guidance(setup.units, request.poses)
     src = open_source(
@@ -359,6 +421,7 @@ def _interactive(
         notes=request.notes,
         capture=capture,
         typing=PoseTyping(poses_per_trial=guidance.max_poses),
+        continued=request.continued,
     )
 
 
@@ -385,6 +448,7 @@ def _planned(request: NewRequest, plan: Path, stack: contextlib.ExitStack) -> Re
         on_result=lambda result: typer.echo(f"  result: {result.text()}"),
         rig=request.rig,
         on_advice=lambda trial, advice: typer.echo(f"  guidance: trial {trial}: {advice.text}"),
+        continued=request.continued,
     )
 
 
@@ -462,7 +526,7 @@ def _console(request: NewRequest, given: dict[str, Any], *, host: str, port: int
     options = ConsoleOptions(
         source=request.source, given=given, frames=request.frames, poses=request.poses,
         size=(mode.width, mode.height), fps=mode.fps, notes=request.notes, rig=request.rig,
-        live_port=request.live_port, guidance=request.guidance,
+        live_port=request.live_port, guidance=request.guidance, continued=request.continued,
     )  # fmt: skip
     serve_console(request.out, options, host=host, port=port)
 

@@ -324,7 +324,7 @@ class WebDriver(Driver):
     def next_trial(self, trial: int) -> bool:
         """The first trial begins at once; another when its first pose is typed (quit
         instead ends the session, with no empty trial left in the file)."""
-        if trial == 1:
+        if trial == self.first_trial:
             return True
         self._typed, self._accepted = {}, set()
         self.session.update(

@@ -50,6 +50,7 @@ from twopose.errors import InputValueError, SourceError, TwoposeError
 from twopose.methods import Method
 
 if TYPE_CHECKING:
+    from recorder.continuation import Continued
     from recorder.live import LiveView
     from recorder.setup_rules import GuidanceAsked
     from recorder.sources import FrameSource
@@ -81,6 +82,7 @@ class ConsoleOptions:
     live_port: int | None = None  # --live: the Foxglove live view too, on this port
     origin: str = ""  # the console's own page (the live view lets it in), once served
     guidance: GuidanceAsked | None = None  # --target-precision and the suggestions' reach
+    continued: Continued | None = None  # --continue: the session this one continues
 
 
 def draw_detection(image: np.ndarray, det: Detection | None) -> np.ndarray:
@@ -178,7 +180,10 @@ def _recording(
         src = open_source(
             options.source, method=setup.method, width=width, height=height, fps=options.fps
         )
+        continued = options.continued
         camera, info = setup.camera(), setup.info(options.notes)
+        if continued is not None:  # the same session: its id, cameras, trials numbered on
+            camera, info = continued.cameras[0], continued.info_for(options.notes)
         typing = PoseTyping(poses_per_trial=guidance.max_poses)
         driver = WebDriver(session, src, camera.camera_id, setup.ground_truth, typing, preview)
         live = session if view is None else LiveSinks(session, view)
@@ -186,8 +191,9 @@ def _recording(
             info, frames=options.frames, live=live, rig=options.rig, guidance=guidance
         )
         summary = record(
-            session.out, info, [camera], src, driver, ground=setup.ground(), capture=capture
-        )
+            session.out, info, [camera], src, driver, ground=setup.ground(), capture=capture,
+            after_trial=continued.last_trial if continued is not None else 0,
+        )  # fmt: skip
         hint = "" if stopping.is_set() else "\n(the console shows it; Ctrl-C stops the console)"
         print(summary.line() + hint, flush=True)
     except TwoposeError as err:

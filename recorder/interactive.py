@@ -59,6 +59,7 @@ from twopose.units import UNITS, Units
 from twopose.values import Vec3
 
 if TYPE_CHECKING:
+    from recorder.continuation import Continued
     from recorder.trial_result import TrialResult
     from twopose.guidance import Advice
 
@@ -250,7 +251,8 @@ class _OperatorDriver(Driver):
         )
 
     def next_trial(self, trial: int) -> bool:
-        return trial == 1 or bool(self.op.ask("another trial? [Y/n]", _yes_no, "y"))
+        first = trial == self.first_trial
+        return first or bool(self.op.ask("another trial? [Y/n]", _yes_no, "y"))
 
     def trial_entries(self, trial: int) -> Sequence[TypedEntry]:
         self.op.say(f"trial {trial}")
@@ -333,6 +335,7 @@ def record_interactive(
     notes: str = "",
     capture: CaptureSettings | None = None,
     typing: PoseTyping | None = None,
+    continued: Continued | None = None,
 ) -> RecordingSummary:
     """The guided procedure: trial after trial, type each pose, capture, accept or redo.
 
@@ -343,7 +346,8 @@ def record_interactive(
     another trial (``y``) or finish (``n``). Ctrl-C closes the file cleanly and returns the
     summary with ``interrupted`` set.
     """
-    info, camera = setup.info(notes), setup.camera()
+    info = continued.info_for(notes) if continued is not None else setup.info(notes)
+    camera = continued.cameras[0] if continued is not None else setup.camera()
     driver = _OperatorDriver(operator, info, camera, setup.ground_truth, typing or PoseTyping())
     sought = CaptureSettings.live_detection(info)  # the method's target, or the board
     settings = dataclasses.replace(
@@ -352,4 +356,8 @@ def record_interactive(
         board=sought.board,
         on_frame=lambda fb: operator.say(fb.line()),
     )
-    return record(out, info, [camera], source, driver, ground=setup.ground(), capture=settings)
+    after = continued.last_trial if continued is not None else 0
+    return record(
+        out, info, [camera], source, driver, ground=setup.ground(), capture=settings,
+        after_trial=after,
+    )  # fmt: skip

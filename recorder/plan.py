@@ -7,6 +7,7 @@ it through the one procedure loop (:func:`recorder.procedure.record`).
 from __future__ import annotations
 
 import time
+import uuid
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -52,6 +53,7 @@ from twopose.units import UNITS, Units, unit_factor
 from twopose.values import Vec3, finite, numbers, vec3
 
 if TYPE_CHECKING:
+    from recorder.continuation import Continued
     from recorder.live import LiveView
     from recorder.trial_result import TrialResult
     from twopose.guidance import Advice
@@ -433,21 +435,21 @@ class _PlanDriver(Driver):
             print(f"  WARNING rig: {self.rig_problem}", file=sys.stderr, flush=True)
 
     def next_trial(self, trial: int) -> bool:
-        return trial <= len(self.plan.trials)
+        return trial - self.first_trial < len(self.plan.trials)
 
     def trial_entries(self, trial: int) -> Sequence[TypedEntry]:
-        truth = self.plan.trials[trial - 1].ground_truth
+        truth = self.plan.trials[trial - self.first_trial].ground_truth
         kind: TruthKind | None = spec_of(self.plan.method).truth_kind
         if not truth or kind is None:
             return ()
         return (GroundTruth(trial=trial, kind=kind, points_grid=truth),)
 
     def poses_in(self, trial: int) -> int:
-        planned = self.plan.trials[trial - 1]
+        planned = self.plan.trials[trial - self.first_trial]
         return planned.max_poses if planned.max_poses is not None else len(planned.poses)
 
     def place(self, trial: int, pose: int) -> Placement:
-        planned = self.plan.trials[trial - 1]
+        planned = self.plan.trials[trial - self.first_trial]
         if not planned.guided:
             return self._placement(trial, pose, planned.poses[pose - 1])
         assert planned.start is not None
@@ -485,7 +487,7 @@ class _PlanDriver(Driver):
     def advice(self, trial: int, advice: Advice) -> bool:
         if self.on_advice is not None:
             self.on_advice(trial, advice)
-        guided = self.plan.trials[trial - 1].guided
+        guided = self.plan.trials[trial - self.first_trial].guided
         if guided and advice.suggestion is not None:
             self.suggested = advice.suggestion.t_grid
         return guided and advice.complete
@@ -533,6 +535,7 @@ def record_plan(  # noqa: PLR0913 - keyword-only callbacks, one per thing a call
     on_result: Callable[[TrialResult], None] | None = None,
     rig: RigConstants | None = None,
     on_advice: Callable[[int, Advice], None] | None = None,
+    continued: Continued | None = None,
 ) -> RecordingSummary:
     """Record ``plan`` into the new session ``out`` from an (unopened) ``source``.
 
@@ -555,6 +558,9 @@ def record_plan(  # noqa: PLR0913 - keyword-only callbacks, one per thing a call
     on_advice : callable, optional
         Called with each trial's guidance after a decision (``[guidance]`` or guided
         trials): the next pose suggested, or the trial complete.
+    continued : Continued, optional
+        The session this recording continues (``new --continue``): its setup, its id, and
+        its trials numbered on (the plan's method and units must be its).
     live : LiveView, optional
         Foxglove's live view, fed as the session is recorded.
     rig : RigConstants, optional
@@ -573,15 +579,20 @@ def record_plan(  # noqa: PLR0913 - keyword-only callbacks, one per thing a call
         notes=plan.notes,
         created_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
         board=plan.board,
+        session_id=uuid.uuid4().hex,
     )
-    ground = plan.ground()
+    cameras, ground = plan.cameras, plan.ground()
+    if continued is not None:
+        continued.check_plan(plan.method, plan.units)
+        info, cameras, ground = continued.info_for(plan.notes), continued.cameras, continued.ground
     return record(
         out,
         info,
-        plan.cameras,
+        cameras,
         source,
         _PlanDriver(plan, on_capture, on_result, on_advice),
         ground=ground,
+        after_trial=continued.last_trial if continued is not None else 0,
         capture=CaptureSettings.live_detection(
             info,
             frames=plan.frames,

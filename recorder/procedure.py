@@ -356,6 +356,9 @@ class Driver:
     defaults record one trial of two poses and accept every capture."""
 
     poses_per_trial = 2
+    #: The recording's first trial: 1, or after the last trial of the session a
+    #: continuation continues (:func:`record`'s ``after_trial`` sets it).
+    first_trial = 1
     #: True for a driver that cannot ask (a plan): a capture whose target was rarely or
     #: never found is recorded as accepted, and the driver says so in :meth:`captured`.
     unattended = False
@@ -364,8 +367,8 @@ class Driver:
         """The session file and the source are open."""
 
     def next_trial(self, trial: int) -> bool:
-        """Whether to record trial ``trial`` (numbered from 1)."""
-        return trial == 1
+        """Whether to record trial ``trial`` (numbered from :attr:`first_trial`)."""
+        return trial == self.first_trial
 
     def trial_entries(self, trial: int) -> Sequence[TypedEntry]:  # noqa: ARG002 - the Driver's default ignores it
         """Entries written when the trial begins (its ground truth)."""
@@ -446,7 +449,7 @@ class _CaptureOptions:
     results: LiveResults | None = None  # with live detection: each trial's live result
 
 
-def record(
+def record(  # noqa: PLR0913 - keyword-only settings of a recording
     path: str | Path,
     info: SessionInfo,
     cameras: Sequence[Camera],
@@ -456,6 +459,7 @@ def record(
     ground: GroundPlane | None = None,
     capture: CaptureSettings | None = None,
     writer_options: dict[str, Any] | None = None,
+    after_trial: int = 0,
 ) -> RecordingSummary:
     """Record a new session at ``path`` from the (unopened) ``source``, as ``driver`` says.
 
@@ -465,6 +469,7 @@ def record(
     everything captured so far, with an undecided capture discarded. Ctrl-C returns the
     summary with ``interrupted`` set; any other error propagates after the file is closed.
     A recording that ends before the first pose is typed leaves no file (``kept`` False).
+    ``after_trial``: a continuation's trials are numbered after the session's it continues.
     """
     out = Path(path)
     refuse_existing(out)
@@ -483,6 +488,7 @@ def record(
                 SessionWriter(out, info, cameras, ground=ground, **(writer_options or {}))
             )
             proc = Procedure(w)
+            proc.trial, driver.first_trial = after_trial, after_trial + 1
             driver.start(source.info, out)
             if settings.guidance is not None and results is not None:
                 # Recorded, not typed: a session ended before its first pose still leaves

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import time
+import uuid
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -30,6 +31,7 @@ from twopose.units import UNITS, Units, unit_spec
 from twopose.values import Vec3, finite, numbers, parse_number, vec3
 
 if TYPE_CHECKING:
+    from recorder.continuation import Continued
     from twopose.guidance import Guidance
     from twopose.rig.constants import RigConstants
 
@@ -113,6 +115,22 @@ class Setup:
             notes=notes,
             created_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
             board=self.board,
+            session_id=uuid.uuid4().hex,  # its continuations share it
+        )
+
+    @classmethod
+    def of(cls, continued: Continued) -> Setup:
+        """The setup of the session a continuation continues (``new --continue``)."""
+        camera = continued.cameras[0]
+        return cls(
+            method=continued.info.method,
+            units=continued.info.units,
+            intrinsics=camera.intrinsics,
+            ground_height=continued.ground.offset if continued.ground else None,
+            ground_truth=continued.truth,
+            operator=continued.info.operator,
+            intrinsics_sigma=dict(camera.intrinsics_sigma),
+            board=continued.info.board,
         )
 
 

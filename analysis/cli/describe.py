@@ -40,7 +40,13 @@ def info(
     say_skipped(list(inputs.skipped))
     for text in inputs.notes():
         note(text)
-    sessions = [s.path for s in inputs.found]
+    order = {p: k for k, p in enumerate(inputs.files)}  # a session's parts together
+    first_of = {p: f for f, later in inputs.continuations.items() for p in later}
+
+    def place(path: str) -> tuple[int, bool]:
+        return order.get(first_of.get(path) or path, len(order)), path in first_of
+
+    sessions = sorted((s.path for s in inputs.found), key=place)
     overviews: list[SessionOverview] = []
     failed: list[tuple[str, str]] = []
     for path in sessions:
@@ -48,7 +54,11 @@ def info(
             overviews.append(describe_session(path))
         except TwoposeError as err:
             failed.append((path, str(err)))
-    table = Table(title=f"{len(overviews)} session(s)")
+    # A session and its continuations are one session: its parts listed under it.
+    parts = {p: first for first, later in inputs.continuations.items() for p in later}
+    joined = sum(1 for o in overviews if str(o.path) in parts)
+    title = f"{len(overviews) - joined} session(s)"
+    table = Table(title=title + (f", {joined} continued in a later file" if joined else ""))
     for col in (
         "session",
         "method",
@@ -68,8 +78,10 @@ def info(
             if o.n_set_aside or o.n_incomplete_captures
             else ""
         )
+        after = o.info.continues_after_trial
+        where = escape(for_terminal(str(o.path)))
         table.add_row(
-            escape(for_terminal(str(o.path))),
+            f"+ {where} (after trial {after})" if str(o.path) in parts else where,
             o.info.method + (" (sim)" if o.info.simulated else ""),
             o.info.units,
             cams,

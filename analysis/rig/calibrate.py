@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -95,20 +95,23 @@ def calibrate_rig(
         return RigCalibration(
             fit=board.fit, sessions=board.sessions, basis=basis, warnings=b.warnings
         )
-    fit, data = calibrate(targets, groups, on_note)
+    fit, data = calibrate(targets, groups, on_note, inputs.continuations)
     basis = f"{len(data.trial_ids)} trial(s) with ground truth"
     return RigCalibration(fit=fit, sessions=data.sessions, basis=basis, warnings=fit.warnings)
 
 
 def calibrate(
-    paths: Sequence[str], groups: Sequence[str] | None = None, on_note: Note | None = None
+    paths: Sequence[str],
+    groups: Sequence[str] | None = None,
+    on_note: Note | None = None,
+    continuations: Mapping[str, Sequence[str]] | None = None,
 ) -> tuple[RigFit, RigData]:
     """``twopose-analyze rig``: the constants of the sessions' rig (one method, one unit,
     every trial with ground truth), the groups given or those cross-validation supports.
     ``on_note`` hears what was left out and why (a session given twice, one without
     trials). The data's ``sessions`` are those that informed the fit, in the order given."""
     note = on_note or (lambda _text: None)
-    replays = _distinct(paths, note)
+    replays = _distinct(paths, note, continuations or {})
     _one_of(replays, "method", "calibrate the rig with sessions of one method")
     _one_of(
         replays,
@@ -151,14 +154,16 @@ class _Distinct:
         return self.trials.units
 
 
-def _distinct(paths: Sequence[str], note: Note) -> list[_Distinct]:
+def _distinct(
+    paths: Sequence[str], note: Note, continuations: Mapping[str, Sequence[str]]
+) -> list[_Distinct]:
     """Each session once, in the order given (the same file or a byte copy was taken once
     already: :func:`analysis.input_set.resolve_inputs`): a session whose trials are those
     of an earlier one (a rewritten file) is left out, with a note."""
     seen_content: dict[str, str] = {}
     out: list[_Distinct] = []
     for path in paths:
-        r = replay_views(path)
+        r = replay_views(path, continuations=continuations.get(path, ()))
         replay = _Distinct(session=path, trials=r, fingerprint=_fingerprint(r))
         if replay.fingerprint in seen_content:
             first = seen_content[replay.fingerprint]

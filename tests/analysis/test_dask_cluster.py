@@ -93,3 +93,24 @@ def test_a_worker_killed_mid_batch_loses_nothing(
     pd.testing.assert_frame_equal(result.trials, local)
     with distributed.Client(cluster.address, timeout=30) as client:
         assert len(client.scheduler_info()["workers"]) == 1  # the survivor did the rest
+
+
+def test_a_session_and_its_continuation_are_one_session_on_the_cluster(
+    cluster: DaskCluster, tmp_path: Path
+) -> None:
+    """Issue 36: the Dask path joins a continuation to its first part, as one job does."""
+    from recorder.continuation import read_continued
+    from recorder.plan import load_plan, record_plan
+    from recorder.sources import SyntheticSource
+    from tests.recorder.test_continuation import _plan
+
+    first, later = tmp_path / "S.mcap", tmp_path / "S2.mcap"
+    record_plan(load_plan(_plan(tmp_path, "a.toml", 2)), first,
+                SyntheticSource(None, Method.GROUND, realtime=False))  # fmt: skip
+    record_plan(load_plan(_plan(tmp_path, "b.toml", 2)), later,
+                SyntheticSource(None, Method.GROUND, realtime=False),
+                continued=read_continued(first))  # fmt: skip
+    local = run([later, first], None, jobs=2).trials
+    remote = run([later, first], None, dask_address=cluster.address).trials
+    assert list(remote["trial"]) == [1, 2, 3, 4]
+    pd.testing.assert_frame_equal(remote, local)

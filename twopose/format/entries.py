@@ -52,7 +52,7 @@ __all__ = [
     "json_field",
 ]
 
-FORMAT_VERSION = "1.2"
+FORMAT_VERSION = "1.3"
 FORMAT_MAJOR = 1
 
 #: Inches in one session unit (the thesis reports in inches): twopose.units' registry.
@@ -289,6 +289,39 @@ class SessionInfo(TypedEntry):
         default=None,
         decode=BoardPlacement.from_json,
     )
+
+    session_id: str | None = json_field(
+        "session_id",
+        {"type": "string", "pattern": "^[0-9a-f]{16,64}$",
+         "description": "1.3: the session's identity; its continuations share it"},
+        required=False,
+        default=None,
+    )  # fmt: skip
+    continues_after_trial: int | None = json_field(
+        "continues.after_trial",
+        {"type": "integer", "minimum": 0,
+         "description": "1.3, a continuation: the last trial of the part it continues"},
+        required=False,
+        default=None,
+    )  # fmt: skip
+    continues_file: str | None = json_field(
+        "continues.file",
+        {"type": "string", "description": "1.3, a continuation: the file it continues"},
+        required=False,
+        default=None,
+    )
+    continues_sha256: str | None = json_field(
+        "continues.sha256",
+        {"type": "string", "pattern": "^[0-9a-f]{64}$",
+         "description": "1.3, a continuation: the SHA-256 of the file it continues"},
+        required=False,
+        default=None,
+    )  # fmt: skip
+
+    @property
+    def is_continuation(self) -> bool:
+        """Whether the session continues an earlier file (``new --continue``)."""
+        return self.continues_after_trial is not None
 
     def __post_init__(self) -> None:
         """Hold the method and units as their types; check the cameras and the version."""

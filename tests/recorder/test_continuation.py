@@ -1,0 +1,137 @@
+"""``new --continue`` (issue 36): a session recorded on after a file ends, normally or after
+a crash and ``recover``, is one session to the analysis: its id, its setup, its trials
+numbered after the first part's, nothing counted twice, in any order of the inputs."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from analysis.batch import run
+from analysis.cli import app as analyze
+from analysis.input_set import resolve_inputs
+from recorder.cli import app as record
+from twopose.format.reader import SessionReader
+
+runner = CliRunner()
+PLAN = """method = "ground"
+units = "in"
+frames = 2
+ground_height = 9.625
+operator = "Ada"
+
+[camera]
+focal = 525.0
+principal = [320.0, 240.0]
+"""
+TRIAL = """
+[[trials]]
+ground_truth = [[1.91, 9.625, 8.375]]
+poses = [{{ t = [{x}, 0.0, 0.0] }}, {{ t = [{x2}, 0.0, 0.0] }}]
+"""
+
+
+def _plan(tmp: Path, name: str, trials: int) -> Path:
+    path = tmp / name
+    text = PLAN + "".join(TRIAL.format(x=k * 0.5, x2=k * 0.5 + 1.5) for k in range(trials))
+    path.write_text(text)
+    return path
+
+
+def _new(*args: str) -> None:
+    result = runner.invoke(record, ["new", *args, "--source", "synthetic"])
+    assert result.exit_code == 0, result.output
+
+
+def _trials(*paths: Path, out: Path) -> pd.DataFrame:
+    result = runner.invoke(analyze, ["run", *map(str, paths), "--out", str(out), "--no-scene"])
+    assert result.exit_code == 0, result.output
+    return pd.read_csv(out / "trials.csv")
+
+
+def test_two_trials_continued_with_two_more_are_one_session_of_four(tmp_path: Path) -> None:
+    first, later = tmp_path / "S.mcap", tmp_path / "S2.mcap"
+    _new(str(first), "--plan", str(_plan(tmp_path, "a.toml", 2)))
+    _new(str(later), "--plan", str(_plan(tmp_path, "b.toml", 2)), "--continue", str(first))
+    with SessionReader(first) as a, SessionReader(later) as b:
+        assert b.info.session_id == a.info.session_id
+        assert b.info.continues_after_trial == 2
+        assert b.info.continues_file == "S.mcap"
+        assert b.info.method == a.info.method
+        assert b.cameras == a.cameras
+    # One session with trials 1-4, the folder found or the files named, in either order.
+    for inputs in ([tmp_path], [later, first], [first, later]):
+        trials = _trials(*inputs, out=tmp_path / f"out{len(inputs)}{inputs[0].name}")
+        assert list(trials["trial"]) == [1, 2, 3, 4]
+        assert set(trials["session"]) == {str(first)}
+    info = runner.invoke(analyze, ["info", str(later), str(first)], env={"COLUMNS": "200"})
+    assert info.exit_code == 0, info.output
+    assert "1 session(s), 1 continued in a later file" in info.output
+    found = resolve_inputs([str(later), str(first)])
+    assert found.files == [str(first)]
+    assert found.continuations == {str(first): (str(later),)}
+    assert any("one session with" in n for n in found.notes())
+    # Alone, a continuation is a session of its own, said.
+    alone = run([str(later)], None)
+    assert list(alone.trials["trial"]) == [3, 4]
+    assert any("is not among the inputs: analysed alone" in n for n in alone.input_notes)
+
+
+def test_a_continuation_keeps_the_setup_and_refuses_another(tmp_path: Path) -> None:
+    first = tmp_path / "S.mcap"
+    _new(str(first), "--plan", str(_plan(tmp_path, "a.toml", 1)))
+    result = runner.invoke(
+        record, ["new", str(tmp_path / "x.mcap"), "--continue", str(first), "--units", "cm",
+                 "--source", "synthetic"],
+    )  # fmt: skip
+    assert result.exit_code != 0
+    assert "--units: a continuation keeps the setup of" in result.output
+    other = _plan(tmp_path, "cm.toml", 1)
+    other.write_text(other.read_text().replace('units = "in"', 'units = "cm"'))
+    result = runner.invoke(
+        record, ["new", str(tmp_path / "y.mcap"), "--plan", str(other), "--continue", str(first),
+                 "--source", "synthetic"],
+    )  # fmt: skip
+    assert result.exit_code != 0
+    assert "a continuation keeps the session's setup" in result.output
+    assert not (tmp_path / "y.mcap").exists()
+
+
+@pytest.mark.slow
+def test_killed_during_trial_3_recovered_and_continued(tmp_path: Path) -> None:
+    """kill -9 during trial 3, recover, continue: trials 1-2 kept, the continuation's
+    numbered after everything the salvaged file holds, nothing counted twice."""
+    crashed, fixed, later = tmp_path / "S.mcap", tmp_path / "FIXED.mcap", tmp_path / "S2.mcap"
+    plan = _plan(tmp_path, "four.toml", 4)
+    recorder = Path(sys.executable).parent / "twopose-record"
+    process = subprocess.Popen(
+        [str(recorder), "new", str(crashed), "--plan", str(plan), "--source", "synthetic"],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+    )  # fmt: skip
+    assert process.stdout is not None
+    for line in process.stdout:
+        if line.startswith("trial 3 pose 1"):  # trial 3 under way: its first pose captured
+            os.kill(process.pid, signal.SIGKILL)
+            break
+    process.wait(timeout=60)
+    assert process.returncode == -signal.SIGKILL
+    result = runner.invoke(record, ["recover", str(crashed), "-o", str(fixed)])
+    assert result.exit_code == 0, result.output
+    _new(str(later), "--plan", str(_plan(tmp_path, "two.toml", 2)), "--continue", str(fixed))
+    with SessionReader(later) as reader:
+        after = reader.info.continues_after_trial
+    assert after is not None
+    assert after >= 2
+    trials = _trials(fixed, later, out=tmp_path / "out")
+    numbers = list(trials["trial"])
+    assert numbers[:2] == [1, 2]
+    assert numbers[-2:] == [after + 1, after + 2]
+    assert len(numbers) == len(set(numbers))  # nothing counted twice
+    assert (trials[trials["trial"].isin([1, 2, after + 1, after + 2])]["status"] == "ok").all()
