@@ -310,3 +310,46 @@ def test_the_console_suggests_the_next_pose_and_stops_by_the_rule(tmp_path: Path
         process.terminate()
         process.wait(timeout=30)
     assert out.exists()
+
+
+def test_a_session_continued_in_the_browser(browser: Any, tmp_path: Path) -> None:
+    """Issue 36: ``--ui --continue S.mcap``: the setup is the session's, read-only; the
+    page's trial is numbered after S's last; run sees one session."""
+    from recorder.plan import load_plan, record_plan
+    from recorder.sources import SyntheticSource
+    from tests.recorder.test_continuation import _plan
+    from twopose.format.reader import SessionReader
+    from twopose.methods import Method
+
+    first, later = tmp_path / "S.mcap", tmp_path / "S2.mcap"
+    record_plan(load_plan(_plan(tmp_path, "a.toml", 2)), first,
+                SyntheticSource(None, Method.GROUND, realtime=False))  # fmt: skip
+    process, url, _ = start_console(later, "--continue", str(first))
+    try:
+        browser.get(url)
+        page = Page(browser)
+        page.wait(lambda: browser.find_elements(By.ID, "f-method"), "the setup form")
+        method = browser.find_element(By.ID, "f-method")
+        assert method.get_attribute("value") == "ground"
+        assert not method.is_enabled()
+        height = browser.find_element(By.ID, "f-ground_height")
+        assert height.get_attribute("value") == "9.625"
+        assert height.get_attribute("readonly") is not None
+        page.click("setup-submit")
+        page.wait(lambda: "trial 3" in page.status(), "trial 3, after the session's two")
+        page.capture("0", "0")
+        page.click("accept")
+        page.capture("1.5", "0")
+        page.click("accept")
+        page.wait(lambda: any("trial 3 (2 views)" in r for r in page.results()), "its result")
+        page.click("quit")
+        page.click("quit-confirm")
+        page.wait(lambda: "wrote" in page.text("summary"), "the summary")
+    finally:
+        process.terminate()
+        process.wait(timeout=30)
+    with SessionReader(first) as a, SessionReader(later) as b:
+        assert b.info.session_id == a.info.session_id
+        assert b.info.continues_after_trial == 2
+    trials = analysis.run([later, first], None).trials
+    assert list(trials["trial"]) == [1, 2, 3]
