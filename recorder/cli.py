@@ -9,7 +9,6 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
-from recorder.setup_rules import GuidanceAsked
 from twopose.errors import (
     EXIT_INTERRUPTED,
     InputValueError,

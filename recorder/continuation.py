@@ -28,6 +28,8 @@ from twopose.format.entries import (
     SessionInfo,
 )
 from twopose.format.reader import SessionReader
+from twopose.methods import Method
+from twopose.units import Units
 from twopose.values import Vec3
 
 __all__ = ["Continued", "read_continued"]
@@ -66,7 +68,7 @@ class Continued:
             notes="; ".join(n for n in (notes or self.info.notes, said) if n),
         )
 
-    def check_plan(self, method: str, units: str) -> None:
+    def check_plan(self, method: Method, units: Units) -> None:
         """Refuse a plan whose setup is not the session's (its trials are recorded on)."""
         if (method, units) != (self.info.method, self.info.units):
             raise InputValueError(

@@ -490,10 +490,11 @@ def record(  # noqa: PLR0913 - keyword-only settings of a recording
             proc = Procedure(w)
             proc.trial, driver.first_trial = after_trial, after_trial + 1
             driver.start(source.info, out)
-            if settings.guidance is not None and results is not None:
+            guidance = settings.guidance
+            if guidance is not None and guidance.target95 is not None and results is not None:
                 # Recorded, not typed: a session ended before its first pose still leaves
                 # no file.
-                w.write_note(Note(text=settings.guidance.describe(info.units)))
+                w.write_note(Note(text=guidance.describe(info.units)))
             for note in getattr(results, "notes", ()):
                 driver.notice(note)
             try:

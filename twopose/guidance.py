@@ -94,7 +94,7 @@ class Suggestion:
     provisional: bool  # one pose: the target's place along its ray was assumed
     n_candidates: int
 
-    def text(self, units: str) -> str:
+    def text(self, units: Units) -> str:
         """One line for the operator."""
         x, y, z = self.t_grid
         line = (
@@ -365,7 +365,7 @@ class Guidance:
         if self.max_poses < 2:
             raise ValueError(f"max_poses must be >= 2, got {self.max_poses}")
 
-    def describe(self, units: str) -> str:
+    def describe(self, units: Units) -> str:
         """The settings in words (the session records them as a note)."""
         stop = (
             f"a trial is complete once its 95% region is within {self.target95:g} {units}, "
@@ -404,7 +404,7 @@ def advise(
     with one pose.
     """
     options = options or EstimateOptions()
-    views, units, target95 = trial.views[0], trial.units, guidance.target95
+    views, units, target95 = trial.views[0], Units(trial.units), guidance.target95
     n = len(views)
     if target95 is not None and n >= 2 and region95 <= target95:
         return Advice(complete=True, region95=region95, text=(

@@ -14,7 +14,7 @@ from recorder.plan import load_plan, record_plan
 from recorder.sources import SyntheticSource
 from tests.helpers import write_video
 from twopose.errors import EXIT_ERROR, InputValueError
-from twopose.format.entries import CaptureWindow
+from twopose.format.entries import FORMAT_VERSION, CaptureWindow
 from twopose.format.reader import SessionReader
 from twopose.methods import Method
 
@@ -288,7 +288,7 @@ def test_a_calibration_s_sigma_is_recorded_with_its_camera(tmp_path: Path) -> No
     result = runner.invoke(app, ["new", str(out), "--plan", str(plan), "--source", "synthetic"])
     assert result.exit_code == 0, result.output
     with SessionReader(out) as reader:
-        assert reader.info.format_version == "1.2"
+        assert reader.info.format_version == FORMAT_VERSION
         assert reader.info.intrinsics_sigma == {"cam0": {"fx": 0.93, "cx": 1.07}}
         assert reader.cameras["cam0"].intrinsics_sigma == {"fx": 0.93, "cx": 1.07}
 

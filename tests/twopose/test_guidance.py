@@ -107,7 +107,7 @@ def test_one_pose_gives_a_provisional_suggestion_that_says_so(method: Method) ->
     found = suggest(trial, Reach.thesis(Units.IN))
     assert found is not None
     assert found.provisional
-    assert "one pose cannot locate the target yet" in found.text("in")
+    assert "one pose cannot locate the target yet" in found.text(Units.IN)
     assert found.t_grid != (0.0, 0.0, 0.0)
 
 

@@ -39,6 +39,10 @@ EXAMPLES = [
         simulated=True,
         intrinsics_sigma={"cam0": {"fx": 0.93, "cy": 1.07}},
         board=BoardPlacement(inner_corners=(9, 6), square=0.75, first_corner=(-3, 8.125, 24)),
+        session_id="0123456789abcdef0123456789abcdef",
+        continues_after_trial=2,
+        continues_file="S.mcap",
+        continues_sha256="ab" * 32,
     ),
     SessionInfo(
         method=Method.GROUND,

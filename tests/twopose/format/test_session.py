@@ -20,6 +20,7 @@ from twopose.errors import (
     InputValueError,
 )
 from twopose.format.entries import (
+    FORMAT_VERSION,
     CaptureWindow,
     GroundTruth,
     Note,
@@ -43,7 +44,7 @@ def test_every_entry_round_trips(tmp_path: Path, image_format: str) -> None:
         assert r.info == sent["info"]
         assert r.ground == sent["ground"]
         assert r.cameras == {"cam0": CAM0, "right": CAM1}
-        assert r.format_version == "1.2"
+        assert r.format_version == FORMAT_VERSION
         items = list(r.iter_entries())
         typed = [i for i in items if not isinstance(i, Frame | FrameTransform | Camera)]
         assert [p for p in typed if isinstance(p, PoseEntry)] == sent["poses"]
@@ -89,7 +90,7 @@ def test_file_passes_mcap_crc_validation_and_foxglove_decoding(tmp_path: Path) -
         for _, channel, message in reader.iter_messages():
             by_topic.setdefault(channel.topic, []).append(message.data)
         metadata = {m.name: m.metadata for m in reader.iter_metadata()}
-    assert metadata["twopose"]["format_version"] == "1.2"
+    assert metadata["twopose"]["format_version"] == FORMAT_VERSION
     # Foxglove's own protobuf classes parse what we wrote.
     cal = CameraCalibration.FromString(by_topic["/twopose/camera/right/calibration"][0])
     assert (cal.width, cal.height, cal.distortion_model) == (320, 240, "plumb_bob")
@@ -124,7 +125,7 @@ def test_the_calibrations_sigma_travels_with_its_camera(tmp_path: Path) -> None:
     with SessionWriter(path, info, cams):
         pass
     with SessionReader(path) as r:
-        assert r.format_version == "1.2"
+        assert r.format_version == FORMAT_VERSION
         assert r.info.intrinsics_sigma == {"cam0": sigma}
         assert r.cameras["cam0"].intrinsics_sigma == sigma
         assert r.cameras["right"].intrinsics_sigma == {}
