@@ -140,7 +140,7 @@ def lattice(first_t: F64, reach: Reach, taken: F64) -> F64:
 
 def regions95(trials: SessionTrials, options: EstimateOptions) -> F64:
     """(T,) each trial's 95% region as the analysis reports it (NaN: not solved)."""
-    estimate = estimate_session(trials, options)
+    estimate = estimate_session(trials, options, line_fits=False)  # the thesis' line's region
     rep = reported(estimate)
     regions = uncertainty_columns(rep.error, rep.cov)["semiaxis95"]
     return np.where(estimate.estimates.status == "ok", regions, np.nan)

@@ -172,7 +172,9 @@ class SessionEstimate:
         return cov
 
 
-def estimate_session(trials: SessionTrials, options: EstimateOptions) -> SessionEstimate:
+def estimate_session(
+    trials: SessionTrials, options: EstimateOptions, *, line_fits: bool = True
+) -> SessionEstimate:
     """Solve every detected trial with every estimator, and propagate.
 
     In one batch; each trial's input covariance is propagated: pixels from the frame scatter, poses
@@ -190,6 +192,9 @@ def estimate_session(trials: SessionTrials, options: EstimateOptions) -> Session
         detections (:func:`analysis.pipeline.replay_views` or the recorder's live result).
     options : EstimateOptions
         How frames are combined and when a trial is degenerate or warned.
+    line_fits : bool
+        Lines: also the weighted and the reprojection-optimal line (iterative); without
+        them (NaN), what the thesis' line and its region need, as guidance ranks poses.
 
     Returns
     -------
@@ -226,7 +231,7 @@ def estimate_session(trials: SessionTrials, options: EstimateOptions) -> Session
         shared=shared_intrinsics(rows_v, batch),
         solved=solved,
     )
-    est = _solved_estimates(trials, complete, context, options)
+    est = _solved_estimates(trials, complete, context, options, line_fits=line_fits)
     return _session_estimate(trials, measurements, complete, detected, est, options, context)
 
 
@@ -290,7 +295,12 @@ def _no_uncertainty(T: int) -> Uncertainty:
 
 
 def _solved_estimates(
-    trials: SessionTrials, complete: Bools, p: _Propagation, options: EstimateOptions
+    trials: SessionTrials,
+    complete: Bools,
+    p: _Propagation,
+    options: EstimateOptions,
+    *,
+    line_fits: bool = True,
 ) -> Estimates:
     """The solved rows' estimates at their trials, with every other trial unsolved."""
     T, rows, solved = len(trials), p.rows, p.solved
@@ -306,7 +316,7 @@ def _solved_estimates(
             shared=p.shared,
         ),
     )
-    lines = spec_of(trials.method).estimates_line
+    lines = spec_of(trials.method).estimates_line and line_fits
     return Estimates(
         status=_with_rows(base.status, rows, solved.status),
         reason=_with_rows(base.reason, rows, solved.reason),
