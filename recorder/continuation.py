@@ -92,9 +92,11 @@ def read_continued(path: str | Path) -> Continued:
                 if isinstance(entry, GroundTruth):
                     truth = entry.points_grid
     except SessionFormatError as err:
+        said = str(err).rstrip(".")
+        if "recover" not in said:
+            said += f"; `twopose-record recover {src} -o FIXED.mcap` salvages what it holds"
         raise InputValueError(
-            f"--continue {src}: {err}. A session that was interrupted is continued after "
-            f"`twopose-record recover {src} -o FIXED.mcap`, from FIXED.mcap"
+            f"--continue {src}: {said}; then continue from that: --continue FIXED.mcap"
         ) from None
     h = hashlib.sha256()
     with src.open("rb") as f:

@@ -135,3 +135,18 @@ def test_killed_during_trial_3_recovered_and_continued(tmp_path: Path) -> None:
     assert numbers[-2:] == [after + 1, after + 2]
     assert len(numbers) == len(set(numbers))  # nothing counted twice
     assert (trials[trials["trial"].isin([1, 2, after + 1, after + 2])]["status"] == "ok").all()
+
+
+def test_an_interrupted_file_is_refused_with_the_recover_command(tmp_path: Path) -> None:
+    first = tmp_path / "S.mcap"
+    _new(str(first), "--plan", str(_plan(tmp_path, "a.toml", 1)))
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(first.read_bytes()[:20_000])  # what a power cut leaves
+    result = runner.invoke(
+        record, ["new", str(tmp_path / "x.mcap"), "--continue", str(cut), "--source", "synthetic"]
+    )
+    assert result.exit_code == 3
+    assert f"twopose-record recover {cut} -o FIXED.mcap" in result.output
+    assert "then continue from that: --continue FIXED.mcap" in result.output
+    assert "Traceback" not in result.output
+    assert not (tmp_path / "x.mcap").exists()
