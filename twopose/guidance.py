@@ -151,7 +151,8 @@ def _project(points: F64, view: PoseView, t_grid: F64) -> F64:
     R = rotation_from_angles_deg(view.r_deg)
     P = projection_matrices(view.intrinsics, R, t_grid)
     h = np.column_stack([points, np.ones(len(points))]) @ P.T
-    return np.asarray(h[:, :2] / h[:, 2:3])
+    ahead = h[:, 2:3] > 0  # a point behind the camera has no pixel
+    return np.asarray(np.where(ahead, h[:, :2] / np.where(ahead, h[:, 2:3], 1.0), np.nan))
 
 
 def _in_view(px: F64, view: PoseView) -> bool:
