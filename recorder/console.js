@@ -492,7 +492,8 @@ function renderPose(s) {
 // button), or the trial complete by the stop rule.
 function renderGuidance(s, typing) {
   const a = s.advice && s.advice.trial === s.trial ? s.advice : null;
-  show($("guidance"), !!a && s.phase === "recording");
+  // While a capture awaits its decision the advice is the last pose's: shown again after it.
+  show($("guidance"), !!a && s.phase === "recording" && (typing || a.complete));
   setText($("guidance-text"), a ? a.text : "");
   const take = $("take-suggestion");
   show(take, !!(a && a.suggestion));
