@@ -316,6 +316,13 @@ def new(
                 "--plan records unattended and --ui asks in the browser: give one of them "
                 "(the plan's setup and poses are not asked again in the page)"
             )
+        guiding = {"--target-precision": target_precision, "--reach": reach, "--grid": grid}
+        given_guidance = [k for k, v in guiding.items() if v is not None]
+        if plan is not None and (given_guidance or max_poses != 6):
+            raise InputValueError(
+                f"{', '.join(given_guidance or ['--max-poses'])}: a plan sets its guidance in "
+                "its [guidance] table (target_95, reach, spacing, max_poses)"
+            )
         request = NewRequest(
             out=out,
             source=source,

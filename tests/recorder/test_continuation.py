@@ -150,3 +150,14 @@ def test_an_interrupted_file_is_refused_with_the_recover_command(tmp_path: Path)
     assert "then continue from that: --continue FIXED.mcap" in result.output
     assert "Traceback" not in result.output
     assert not (tmp_path / "x.mcap").exists()
+
+
+def test_guidance_options_beside_a_plan_are_refused_not_ignored(tmp_path: Path) -> None:
+    plan = _plan(tmp_path, "a.toml", 1)
+    result = runner.invoke(
+        record, ["new", str(tmp_path / "x.mcap"), "--plan", str(plan), "--target-precision",
+                 "0.5", "--source", "synthetic"],
+    )  # fmt: skip
+    assert result.exit_code == 3
+    assert "--target-precision: a plan sets its guidance in its [guidance] table" in result.output
+    assert not (tmp_path / "x.mcap").exists()
