@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import contextlib
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -154,14 +154,11 @@ class NewRequest:
 
 
 def _guidance_asked(
-    target95: float | None = None,
-    max_poses: int = 6,
-    reach: float | None = None,
-    spacing: float | None = None,
+    max_poses: int = 6, reach: float | None = None, spacing: float | None = None
 ) -> GuidanceAsked:
     from recorder.setup_rules import GuidanceAsked
 
-    return GuidanceAsked(target95=target95, max_poses=max_poses, reach=reach, spacing=spacing)
+    return GuidanceAsked(max_poses=max_poses, reach=reach, spacing=spacing)
 
 
 def _continued(path: Path | None, **setup: object) -> Continued | None:
@@ -178,8 +175,9 @@ def _continued(path: Path | None, **setup: object) -> Continued | None:
     return read_continued(path)
 
 
-def _continued_given(continued: Continued) -> dict[str, Any]:
-    """The browser's setup form, filled with the continued session's setup (read-only)."""
+def _continued_given(continued: Continued, target_precision: float | None) -> dict[str, Any]:
+    """The browser's setup form, filled with the continued session's setup (read-only);
+    the stop rule is the continuation's own."""
     from recorder.setup_rules import Setup
 
     setup = Setup.of(continued)
@@ -188,7 +186,7 @@ def _continued_given(continued: Continued) -> dict[str, Any]:
         "method": setup.method.value, "units": setup.units, "intrinsics": k,
         "intrinsics_sigma": setup.intrinsics_sigma, "focal": None, "principal": None,
         "ground_height": setup.ground_height, "ground_truth": list(setup.ground_truth),
-        "operator": setup.operator, "board": setup.board,
+        "operator": setup.operator, "board": setup.board, "target_precision": target_precision,
     }  # fmt: skip
 
 
@@ -332,7 +330,7 @@ def new(
             notes=notes,
             rig=_load_rig(rig),
             live_port=live_port if live else None,
-            guidance=_guidance_asked(target_precision, max_poses, reach, grid),
+            guidance=_guidance_asked(max_poses, reach, grid),
             continued=_continued(
                 continue_from,
                 method=method,
@@ -349,13 +347,14 @@ def new(
             summary = _planned(request, plan, stack)
         elif request.continued is not None:
             if ui:
-                _console(request, _continued_given(request.continued), host=host, port=port)
+                given = _continued_given(request.continued, target_precision)
+                _console(request, given, host=host, port=port)
                 return
-            summary = _interactive(request, {}, stack)
+            summary = _interactive(request, {"target_precision": target_precision}, stack)
         else:
             given = _console_given(
                 method, units, calibration, focal, principal, ground_height, ground_truth, operator,
-                _board_given(method, units, board, square, board_corner),
+                _board_given(method, units, board, square, board_corner), target_precision,
             )  # fmt: skip
             if ui:
                 _console(request, given, host=host, port=port)
@@ -405,14 +404,16 @@ def _interactive(
     mode = request.camera
     op = Operator(_prompt, typer.echo)
     if request.continued is not None:
-        setup = Setup.of(request.continued)
         typer.echo(
             f"continuing {request.continued.path} after trial {request.continued.last_trial}"
         )
+        # The continued session's setup, with the continuation's own stop rule.
+        setup = replace(Setup.of(request.continued), target95=given["target_precision"])
     else:
         setup = ask_setup(op, size=(mode.width, mode.height), **given)
     check_rig(request.rig, setup.method, setup.units, [setup.camera()], setup.ground())
-    guidance = (request.guidance or _guidance_asked()).guidance(setup.units, request.poses)
+    asked = request.guidance or _guidance_asked()
+    guidance = asked.guidance(setup.units, request.poses, setup.target95)
     src = open_source(
         request.source, method=setup.method, width=mode.width, height=mode.height, fps=mode.fps
     )
@@ -468,6 +469,7 @@ def _console_given(
     ground_truth: list[str] | None,
     operator: str | None,
     board: BoardPlacement | None = None,
+    target_precision: float | None = None,
 ) -> dict[str, Any]:
     """What the command line gave, as :func:`recorder.interactive.ask_setup` takes it."""
     from recorder.interactive import parse_vector
@@ -485,6 +487,7 @@ def _console_given(
         ],
         "operator": operator,
         "board": board,
+        "target_precision": target_precision,
     }
 
 

@@ -81,7 +81,7 @@ class ConsoleOptions:
     rig: RigConstants | None = None
     live_port: int | None = None  # --live: the Foxglove live view too, on this port
     origin: str = ""  # the console's own page (the live view lets it in), once served
-    guidance: GuidanceAsked | None = None  # --target-precision and the suggestions' reach
+    guidance: GuidanceAsked | None = None  # --max-poses and the suggestions' reach
     continued: Continued | None = None  # --continue: the session this one continues
 
 
@@ -175,7 +175,8 @@ def _recording(
     from recorder.sources import open_source
 
     try:
-        guidance = (options.guidance or GuidanceAsked()).guidance(setup.units, options.poses)
+        asked = options.guidance or GuidanceAsked()
+        guidance = asked.guidance(setup.units, options.poses, setup.target95)
         width, height = options.size
         src = open_source(
             options.source, method=setup.method, width=width, height=height, fps=options.fps
@@ -382,7 +383,8 @@ def _complete_setup(options: ConsoleOptions) -> Setup | None:
     """The setup when the command line gave every answer (None: the page asks); refused
     here, at the terminal, when it is wrong: the page could not change what was given."""
     given = _given(options)
-    if any(v is None for k, v in given.items() if k != "intrinsics"):
+    optional = ("intrinsics", "target_precision")  # no stop rule unless one is given
+    if any(v is None for k, v in given.items() if k not in optional):
         return None
     return checked_setup({}, options)
 

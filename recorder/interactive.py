@@ -1,8 +1,8 @@
 """The guided procedure at the terminal: the operator answers, :func:`record` records.
 
 :func:`ask_setup` asks for whatever the command line did not give (method, units,
-intrinsics, ground height, ground truth, operator); :func:`record_interactive` then runs
-trial after trial: type each pose, capture, accept or redo. The questions go through an
+intrinsics, ground height, ground truth, operator, the stop rule); :func:`record_interactive`
+then runs trial after trial: type each pose, capture, accept or redo. The questions go through an
 :class:`Operator` (``ask`` and ``say``), so tests drive it with scripted answers.
 """
 
@@ -40,6 +40,7 @@ from recorder.setup_rules import (
     one_of,
     parse_vector,
     positive_number,
+    target_precision,
 )
 from recorder.sources import FrameSource, SourceInfo
 from recorder.summary import RecordingSummary
@@ -63,7 +64,14 @@ if TYPE_CHECKING:
     from recorder.trial_result import TrialResult
     from twopose.guidance import Advice
 
-__all__ = ["Operator", "Setup", "ask_setup", "parse_vector", "record_interactive"]
+__all__ = [
+    "Operator",
+    "Setup",
+    "ask_setup",
+    "ask_target",
+    "parse_vector",
+    "record_interactive",
+]
 
 
 class Operator:
@@ -71,9 +79,11 @@ class Operator:
 
     def __init__(self, ask: Callable[[str, str], str], say: Callable[[str], None]) -> None:
         self.ask_raw, self.say = ask, say
+        self.questions = 0  # asked so far
 
     def ask(self, question: str, parse: Callable[[str], Any], default: str = "") -> Any:
         """Ask until the answer parses; say why an answer was refused."""
+        self.questions += 1
         while True:
             answer = self.ask_raw(question, default).strip()
             try:
@@ -99,10 +109,14 @@ def ask_setup(  # noqa: PLR0913 - one keyword per setup value the operator may h
     operator: str | None,
     intrinsics_sigma: dict[str, float] | None = None,
     board: BoardPlacement | None = None,
+    target_precision: float | None = None,
 ) -> Setup:
     """Ask for whatever is None (or missing) above; answers are checked as they are typed.
     ``intrinsics_sigma`` (a calibration file's) travels with the intrinsics; ``board`` is a
-    board session's board, asked part by part where the command line did not give it."""
+    board session's board, asked part by part where the command line did not give it. The
+    stop rule's precision is asked last (Enter: none) when anything else was: a command
+    line that gives the whole setup is asked nothing (``--target-precision`` sets it)."""
+    asked_before = op.questions
     m = Method(method or op.ask(f"method ({', '.join(METHODS)})", one_of(METHODS)))
     u = Units(units if units in UNITS else op.ask("units (in, mm, cm, m)", one_of(UNITS), "in"))
     if intrinsics is None:
@@ -126,6 +140,9 @@ def ask_setup(  # noqa: PLR0913 - one keyword per setup value the operator may h
     if not spec_of(m).measures and board is None:
         board = _ask_board(op, u)
     who = operator if operator is not None else op.ask("operator", str, "")
+    target = target_precision
+    if target is None and spec_of(m).measures and op.questions > asked_before:
+        target = ask_target(op, u)
     return Setup(
         method=m,
         units=u,
@@ -135,7 +152,16 @@ def ask_setup(  # noqa: PLR0913 - one keyword per setup value the operator may h
         operator=who,
         intrinsics_sigma=dict(intrinsics_sigma or {}),
         board=board if not spec_of(m).measures else None,
+        target95=target,
     )
+
+
+def ask_target(op: Operator, units: Units) -> float | None:
+    """The stop rule's precision (``--target-precision``): a trial is complete once its
+    predicted 95% region is within it; ``none`` (the default): suggestions only."""
+    question = f"stop a trial when its 95% region is within ({units}; none: no stop rule)"
+    answer: float | None = op.ask(question, target_precision, "none")
+    return answer
 
 
 def _ask_board(op: Operator, units: Units) -> BoardPlacement:

@@ -95,6 +95,9 @@ class Setup:
     operator: str
     intrinsics_sigma: dict[str, float] = field(default_factory=dict, compare=False)
     board: BoardPlacement | None = None  # a board session's board and where it stands
+    # The stop rule's precision (session units; None: suggestions only): a capture setting,
+    # not written in the session entry, but asked with the setup (issue 36).
+    target95: float | None = None
 
     def camera(self) -> Camera:
         """The session's one camera (``cam0``), with its calibration's sigma."""
@@ -232,6 +235,16 @@ def one_of(options: Sequence[str]) -> Callable[[str], str]:
     return parse
 
 
+def target_precision(text: str) -> float | None:
+    """The stop rule's precision: a positive length, or none ("", "none": no stop rule)."""
+    if text.strip().lower() in ("", "none", "-"):
+        return None
+    try:
+        return positive_number(text)
+    except InputValueError as err:
+        raise InputValueError(f"{err}: type a length, or none for no stop rule") from None
+
+
 def positive_number(text: str) -> float:
     """A positive number below a million (a typed length or focal length)."""
     if not text.strip():
@@ -361,6 +374,12 @@ SETUP_FIELDS: tuple[SetupField, ...] = (
         methods=("ground",),
     ),
     SetupField(name="operator", label="operator", kind="text"),
+    SetupField(
+        name="target_precision",
+        label="stop a trial when its 95% region is within (session units; empty: none)",
+        kind="text",
+        methods=MEASURING_METHODS,
+    ),
 )
 _LABELS = {f.name: f.label for f in SETUP_FIELDS} | {"rotation": "rotation", "rig": "rig file"}
 
@@ -383,6 +402,7 @@ def _given_text(name: str, given: Mapping[str, Any]) -> str | None:
         "square": b.square if b is not None else None,
         "board_corner": b.first_corner if b is not None else None,
         "operator": given.get("operator"),
+        "target_precision": given.get("target_precision"),
     }
     value = texts[name]
     if value is None or (value == "" and name != "operator"):
@@ -460,6 +480,9 @@ def setup_from_answers(form: Mapping[str, str], given: Mapping[str, Any]) -> Set
     truth = _truth(a, method, units, height) if method is not None else ()
     board = _board(a, units) if method is not None and not spec_of(method).measures else None
     operator = a.text("operator")
+    target = None
+    if method is not None and spec_of(method).measures:
+        target = a.check("target_precision", target_precision)
     if a.errors:
         raise FormRefusedError(a.errors)
     sigma = dict(given.get("intrinsics_sigma") or {})
@@ -473,6 +496,7 @@ def setup_from_answers(form: Mapping[str, str], given: Mapping[str, Any]) -> Set
         operator=operator,
         intrinsics_sigma=sigma,
         board=board,
+        target95=target,
     )
 
 
@@ -547,16 +571,15 @@ def _truth(a: _Answers, method: Method, units: Units, height: float | None) -> t
 
 @dataclass(frozen=True, kw_only=True)
 class GuidanceAsked:
-    """The guidance a recording was asked for (``new``'s options, the browser's setup):
-    the stop rule's precision (None: suggestions only), the most poses of a trial, and
-    the reach of the suggestions (None: the thesis')."""
+    """The guidance a recording was asked for (``new``'s options): the most poses of a
+    trial with a stop rule, and the reach of the suggestions (None: the thesis'). The stop
+    rule's precision is the setup's (:attr:`Setup.target95`), given or answered."""
 
-    target95: float | None = None
     max_poses: int = 6
     reach: float | None = None
     spacing: float | None = None
 
-    def guidance(self, units: Units, poses: int) -> Guidance:
+    def guidance(self, units: Units, poses: int, target95: float | None) -> Guidance:
         """The recording's guidance in the session's units; without a target, a trial
         has ``poses`` poses (``--poses``), as without guidance."""
         from twopose.guidance import Guidance, Reach
@@ -569,10 +592,10 @@ class GuidanceAsked:
                 f"the grid spacing ({spacing:g} {units}) must be > 0 and within the reach "
                 f"({radius:g} {units})"
             )
-        most = self.max_poses if self.target95 is not None else poses
+        most = self.max_poses if target95 is not None else poses
         try:
             return Guidance(
-                reach=Reach(radius=radius, spacing=spacing), target95=self.target95,
+                reach=Reach(radius=radius, spacing=spacing), target95=target95,
                 max_poses=most,
             )  # fmt: skip
         except ValueError as err:

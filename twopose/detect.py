@@ -14,7 +14,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Any, Protocol
 
 import cv2
 import numpy as np
@@ -69,6 +69,11 @@ class DotParams:
     min_area_px: float = 12.0
     max_eccentricity: float = 0.85
     min_contrast: float = 40.0  # grey levels darker than the local background
+    # The dot is black: a dark blob whose colour (normalised r, g, b, weighted by its
+    # contrast) strays further than this from grey is a coloured thing (a navy mark on the
+    # grid paper was taken for the dot in 2 of 80 rendered views, every frame alike, so no
+    # scatter could flag it). A black dot under a warm lamp stays within about 0.1.
+    max_chroma: float = 0.15
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -433,12 +438,27 @@ def _glove_rejection(s: BlobShape, p: GloveParams) -> str:
     return ""
 
 
+def _chroma(patch_bgr: Image, weights: NDArray[Any]) -> float:
+    """How far a patch's colour, weighted by ``weights``, strays from grey.
+
+    The largest distance of its normalised (b, g, r) from 1/3: 0 for grey, 2/3 for a pure
+    primary.
+    """
+    w = weights.astype(np.float64)[..., None]
+    colour = (patch_bgr.astype(np.float64) * w).sum(axis=(0, 1)) / max(float(w.sum()), 1e-9)
+    total = float(colour.sum())
+    if total <= 0:
+        return 0.0  # black: no colour at all
+    return float(np.abs(colour / total - 1.0 / 3.0).max())
+
+
 def detect_dot(image_bgr: Image, params: DotParams | None = None) -> Detection:
     """Find the dark dot on the white card; sub-pixel intensity-weighted centroid.
 
     A morphological black-hat (closing minus image) with a kernel wider than the dot
-    turns small dark features on bright surfaces into peaks; the roundest, most contrasted
-    peak is the dot, and its centroid is weighted by the black-hat response.
+    turns small dark features on bright surfaces into peaks; among the round, grey ones
+    (a dark coloured mark is not the dot), the most contrasted peak is the dot, and its
+    centroid is weighted by the black-hat response.
     """
     p = params or DotParams()
     gray = cv2.cvtColor(image_bgr, cv2.COLOR_BGR2GRAY)
@@ -460,9 +480,20 @@ def detect_dot(image_bgr: Image, params: DotParams | None = None) -> Detection:
                 )
             )
             continue
-        n_round += 1
         c, r = round(shape.centroid[0]), round(shape.centroid[1])
-        peak = float(hat[max(r - 2, 0) : r + 3, max(c - 2, 0) : c + 3].max())
+        window = (slice(max(r - 2, 0), r + 3), slice(max(c - 2, 0), c + 3))
+        chroma = _chroma(image_bgr[window], hat[window])
+        if chroma > p.max_chroma:
+            turned_down.append(
+                RejectedBlob(
+                    outline_px=shape.outline_px,
+                    centroid_px=shape.centroid,
+                    reason=f"coloured (chroma {chroma:.2f})",
+                )
+            )
+            continue
+        n_round += 1
+        peak = float(hat[window].max())
         if best is None or peak > best[0]:
             if best is not None:
                 turned_down.append(
@@ -478,7 +509,8 @@ def detect_dot(image_bgr: Image, params: DotParams | None = None) -> Detection:
                 )
             )
     if best is None:
-        reason = "no round dark blob" if n_blobs else "no dark feature on a bright background"
+        dark = "no dark feature on a bright background"
+        reason = "no round, dark, grey blob" if n_blobs else dark
         return Detection(
             found=False, n_blobs=n_blobs, reason=reason, rejected_blobs=tuple(turned_down)
         )

@@ -14,9 +14,12 @@ from recorder.interactive import _OperatorDriver
 from recorder.setup_rules import (
     THESIS_FOCAL_PX,
     THESIS_IMAGE_SIZE,
+    FormRefusedError,
+    GuidanceAsked,
     PoseTyping,
     Setup,
     default_principal,
+    setup_from_answers,
 )
 from recorder.sources import SyntheticSource
 from twopose.camera import Camera, Intrinsics
@@ -73,6 +76,35 @@ def test_the_setup_form_shows_the_thesis_defaults_from_the_setup_rules(tmp_path:
     shown = {f["name"]: f for f in given.snapshot()["setup_fields"]}
     assert shown["focal"] == {**shown["focal"], "given": True, "value": "600"}
     assert shown["units"]["value"] == "mm"
+
+
+def test_the_stop_rule_is_a_setup_field_checked_like_the_terminals(tmp_path: Path) -> None:
+    """Empty: no stop rule; a length: the setup's target; anything else refused under its
+    field; given on the command line: shown read-only and taken over the form's."""
+    fields = {f["name"]: f for f in ConsoleSession(tmp_path / "s.mcap").snapshot()["setup_fields"]}
+    assert fields["target_precision"]["value"] == ""
+    assert "board" not in fields["target_precision"]["methods"]
+    form = {"method": "point", "truth1": "0.5, 1.5, 11", "operator": "Ada"}
+    assert setup_from_answers(form, {}).target95 is None
+    assert setup_from_answers(form | {"target_precision": "0.5"}, {}).target95 == 0.5
+    with pytest.raises(FormRefusedError) as refused:
+        setup_from_answers(form | {"target_precision": "-1"}, {})
+    assert set(refused.value.errors) == {"target_precision"}
+    given = {"target_precision": 0.25}
+    shown = {
+        f["name"]: f for f in ConsoleSession(tmp_path / "t.mcap", given).snapshot()["setup_fields"]
+    }
+    assert shown["target_precision"] == {
+        **shown["target_precision"],
+        "given": True,
+        "value": "0.25",
+    }
+    assert setup_from_answers(form | {"target_precision": "9"}, given).target95 == 0.25
+    board = {"method": "board", "board": "9x6", "square": "1", "board_corner": "0, 9.625, 20"}
+    assert setup_from_answers(board | {"target_precision": "junk"}, {}).target95 is None
+    guidance = GuidanceAsked().guidance(Units.IN, 2, 0.5)
+    assert (guidance.target95, guidance.max_poses) == (0.5, 6)
+    assert GuidanceAsked().guidance(Units.IN, 2, None).max_poses == 2
 
 
 def test_refusals_are_numbered_so_the_page_shows_each_once(tmp_path: Path) -> None:

@@ -43,6 +43,8 @@ def test_interactive_procedure_with_valid_and_invalid_answers(tmp_path: Path) ->
         "1.91, 9.625",  # ground truth: refused (two numbers)
         "1.91, 9.625, 8.375",
         "Ada",  # operator
+        "-1",  # the stop rule's precision: refused
+        "",  # none: the trial has --poses poses
         "0, 0, 0",  # trial 1 pose 1
         "",  # rotation: default 0, 0, 0
         "r",  # redo pose 1
@@ -66,7 +68,7 @@ def test_interactive_procedure_with_valid_and_invalid_answers(tmp_path: Path) ->
     )
     assert result.exit_code == 0, result.output
     out_text = result.output
-    assert out_text.count("not accepted") == 6
+    assert out_text.count("not accepted") == 7
     assert "implausibly large" in out_text
     assert "found at (" in out_text
     assert "1 trial (1 complete), 3 captures (2 accepted, 1 discarded; 0 incomplete)" in out_text
@@ -211,7 +213,7 @@ def test_an_existing_file_is_refused_before_the_first_question(tmp_path: Path) -
 
 def test_identical_line_points_are_refused_at_the_prompt(tmp_path: Path) -> None:
     out = tmp_path / "s.mcap"
-    answers = ["line", "0, 0, 10", "0, 0, 10", "1, 0, 10", "Ada"]  # then the input ends
+    answers = ["line", "0, 0, 10", "0, 0, 10", "1, 0, 10", "Ada", ""]  # then the input ends
     result = runner.invoke(
         app,
         ["new", str(out), *SETUP_OPTIONS],
@@ -229,6 +231,7 @@ def test_identical_line_points_are_refused_at_the_prompt(tmp_path: Path) -> None
 def test_a_method_2_truth_off_the_ground_is_questioned(tmp_path: Path, keep: str) -> None:
     out = tmp_path / "s.mcap"
     answers = ["1.9, 5, 8.4", keep] + (["1.9, 9.625, 8.4"] if keep == "n" else [])
+    answers += [""]  # no stop rule
     answers += ["0, 0, 0", "", "a", "1.5, 0, -1", "", "a", "n"]
     result = runner.invoke(
         app,
@@ -240,6 +243,35 @@ def test_a_method_2_truth_off_the_ground_is_questioned(tmp_path: Path, keep: str
     with SessionReader(out) as r:
         (truth,) = [e for e in r.iter_entries() if isinstance(e, GroundTruth)]
     assert truth.points_grid[0][1] == (5.0 if keep == "y" else 9.625)
+
+
+TRUTH = ["--ground-truth", "0.5,1.5,11"]
+
+
+def test_the_stop_rule_is_asked_with_the_setup_and_ends_the_trial(tmp_path: Path) -> None:
+    """Asked last when the setup is asked (the option skips it): a trial whose region is
+    within the answer is complete at its second pose, with no --poses asked of it."""
+    out = tmp_path / "s.mcap"
+    answers = ["0.5, 1.5, 11", "0", "5"]  # the truth; the precision: 0 refused, then 5 in
+    answers += ["0, 0, 0", "", "a", "1.5, 0, 0", "", "a", "n"]
+    result = runner.invoke(
+        app,
+        ["new", str(out), *POINT_OPTIONS, "--poses", "4"],
+        input="\n".join(answers) + "\n",
+    )
+    assert result.exit_code == 0, result.output
+    assert "stop a trial when its 95% region is within (in; none: no stop rule)" in result.output
+    assert "not a positive number: type a length, or none for no stop rule" in result.output
+    assert "<= 5: trial complete" in result.output
+    assert "1 trial (1 complete), 2 captures (2 accepted" in result.output
+    given = runner.invoke(
+        app,
+        ["new", str(tmp_path / "t.mcap"), *POINT_OPTIONS, "--target-precision", "5", *TRUTH],
+        input="\n".join(["0, 0, 0", "", "a", "1.5, 0, 0", "", "a", "n"]) + "\n",
+    )
+    assert given.exit_code == 0, given.output
+    assert "stop a trial" not in given.output
+    assert "<= 5: trial complete" in given.output
 
 
 def test_undo_at_the_first_pose_says_there_is_nothing_to_undo(tmp_path: Path) -> None:

@@ -160,6 +160,24 @@ def test_dot_subpixel_centroid(t_grid: tuple[float, float, float]) -> None:
     assert np.linalg.norm(np.array(d.centroid_px) - truth[0]) < 0.15
 
 
+def test_a_dark_coloured_mark_is_not_the_dot() -> None:
+    """A navy mark on bright paper out-contrasts the black dot on its greyer card (as in a
+    rendered view where every frame took the mark): the dot is grey, the mark is not."""
+    img = np.full((480, 640, 3), 200, np.uint8)
+    img[380:, :] = 250  # the bright paper
+    cv2.circle(img, (200, 300), 8, (22, 20, 21), -1, lineType=cv2.LINE_AA)
+    cv2.ellipse(img, (420, 450), (10, 7), 0, 0, 360, (104, 30, 20), -1, lineType=cv2.LINE_AA)
+    d = detect_dot(img)
+    assert d.found, d.reason
+    assert np.linalg.norm(np.array(d.centroid_px) - (200, 300)) < 0.5
+    assert any("coloured" in b.reason for b in d.rejected_blobs)
+    only_the_mark = img.copy()
+    cv2.circle(only_the_mark, (200, 300), 12, (200, 200, 200), -1)
+    missed = detect_dot(only_the_mark)
+    assert not missed.found
+    assert "grey" in missed.reason
+
+
 def test_dot_not_found_on_a_blank_image() -> None:
     d = detect_dot(np.full((480, 640, 3), 200, np.uint8))
     assert not d.found
