@@ -14,7 +14,8 @@ Each session is analysed twice: by ``run`` (the sigma propagated into every tria
 covariance), and by the same replay and estimation with the cameras' sigma set aside (the
 intrinsics taken as exact, as before format 1.2). Printed per method and over all: the
 share of ok trials whose truth lies inside the reported 95% region. Targets: with the sigma,
-90-99% over >= 500 trials; without it, fewer (the intrinsics' error is not covered). Sessions
+every method 93-97% over >= 500 trials; without it, fewer (the intrinsics' error is not
+covered). Sessions
 are kept in --workdir, so a second run only re-analyses. Exits 1 if a target is missed.
 
 ``--sigma 0`` is the control: the same seeds (the same poses, placing errors and noise: the
@@ -161,16 +162,19 @@ def main(argv: list[str]) -> int:
     )
     print(table.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
     overall = table[table["method"] == "all"].iloc[0]
-    ok = (
+    per_method = table[table["method"] != "all"]
+    # Issue 36: every method's regions honest, 93-97%, with the detector's floor and the
+    # calibration's sigma propagated; without the sigma they must under-cover.
+    ok = bool(
         overall["trials"] >= 500
-        and 0.90 <= overall["coverage95_with_sigma"] <= 0.99
+        and per_method["coverage95_with_sigma"].between(0.93, 0.97).all()
         and (
             args.sigma == 0
             or overall["coverage95_without"] < overall["coverage95_with_sigma"] - 0.02
         )
     )
     print(
-        "target (with: 90-99% over >= 500 trials; without: under-covers): "
+        "target (with: every method 93-97%, >= 500 trials; without: under-covers): "
         + ("met" if ok else "MISSED")
     )
     return 0 if ok else 1

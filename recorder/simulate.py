@@ -49,6 +49,7 @@ from twopose.values import Vec3
 __all__ = [
     "SimulationSummary",
     "calibrated_cameras",
+    "draw_trial_poses",
     "poses_per_trial",
     "simulate_session",
     "target_points",
@@ -109,7 +110,7 @@ def _lattice(rng: np.random.Generator, lo: float, hi: float, step: float) -> flo
     return float(lo + step * rng.integers(0, n + 1)) if n > 0 else float(lo)
 
 
-def _draw_trial_poses(
+def draw_trial_poses(
     scene: Scene, method: Method, n_poses: int, rng: np.random.Generator
 ) -> list[
     tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
@@ -317,7 +318,7 @@ class _SimulatedOperator(Driver):
             self.drawn = _board_poses(self.scene, self.rng)
             self.clock.advance(self.pose_dt)
             return ()  # the board's placement is in the session entry
-        self.drawn = _draw_trial_poses(self.scene, self.method, self.poses_per_trial, self.rng)
+        self.drawn = draw_trial_poses(self.scene, self.method, self.poses_per_trial, self.rng)
         self.clock.advance(self.pose_dt)
         return (GroundTruth(trial=trial, kind=self.kind, points_grid=self.truth),)
 

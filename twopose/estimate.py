@@ -381,10 +381,12 @@ def input_covariance(
     batch: ViewBatch,
     *,
     median: bool,
+    floor: tuple[float, float] = (0.0, 0.0),
 ) -> F64:
     """Each view's input covariance (T, N, 9, 9): pixels and typed pose.
 
-    (T, N, 9, 9): each view's pixel covariance from its frame scatter, and its typed pose's
+    (T, N, 9, 9): each view's pixel covariance from its frame scatter and the detector's
+    ``floor`` (:func:`~twopose.uncertainty.measurement_covariance`), and its typed pose's
     1-sigma resolutions on the diagonal (padding views: zero).
     """
     T, N, D = batch.inputs.shape
@@ -393,7 +395,9 @@ def input_covariance(
         zip(measurements, views, scatters, strict=True)
     ):
         for j, (m, v, (S, dof)) in enumerate(zip(row, row_views, row_scatter, strict=True)):
-            C[i, j, :3, :3] = measurement_covariance(S, dof, pooled, m.n_used, median=median)
+            C[i, j, :3, :3] = measurement_covariance(
+                S, dof, pooled, m.n_used, median=median, floor=floor
+            )
             C[i, j, 3:6, 3:6] = np.eye(3) * v.t_sigma**2
             C[i, j, 6:9, 6:9] = np.eye(3) * v.r_sigma_deg**2
     return C

@@ -86,6 +86,12 @@ class MethodSpec:
     colour: str = "C4"
     #: Whether the thesis tested it (its verdict lines set a run against the thesis).
     thesis_tested: bool = False
+    #: The detector's systematic error per view, (centroid px, orientation degrees) 1-sigma:
+    #: what stays when its frames are averaged (the blob's centroid and axis against the
+    #: target's projection, the same in every frame of a pose), so the frame scatter cannot
+    #: see it. Measured on rendered views (benchmarks/bench_detector_floor.py, which fails
+    #: if a measured error exceeds it); added to each view's pixel covariance.
+    detector_floor: tuple[float, float] = (0.0, 0.0)
     #: What a top view draws for one view, how it names the truth, and its caption.
     view_segment: str = "segment"
     truth_name: str = "truth"
@@ -126,6 +132,7 @@ METHOD_SPECS: Mapping[Method, MethodSpec] = MappingProxyType(
             label="point (method 1)",
             thesis_tested=True,
             estimators=("thesis", "optimal"),
+            detector_floor=(0.05, 0.0),
             colour="C1",
             view_segment="ray through the dot, per view",
             top_view="each view's ray through the dot, from its typed camera centre: the rays "
@@ -142,6 +149,7 @@ METHOD_SPECS: Mapping[Method, MethodSpec] = MappingProxyType(
             thesis_name="fixed line",
             label="line",
             estimators=("thesis", "weighted", "optimal"),
+            detector_floor=(0.1, 0.08),
             colour="C2",
             view_segment="estimated line",
             truth_name="truth (true segment's midpoint)",
@@ -159,6 +167,7 @@ METHOD_SPECS: Mapping[Method, MethodSpec] = MappingProxyType(
             thesis_name="method 2",
             label="ground (method 2)",
             thesis_tested=True,
+            detector_floor=(0.1, 0.08),
             colour="C0",
             view_segment="view plane's trace on the ground",
             top_view="each view's plane (the finger's image line back-projected) cut by the "

@@ -223,6 +223,7 @@ def estimate_session(
         pooled_scatter([s for row in scatters for s in row]),
         batch,
         median=options.combine == "median",
+        floor=spec_of(trials.method).detector_floor,
     )
     context = _Propagation(
         rows=solvable,

@@ -3,7 +3,8 @@
 The inputs of a trial are, per view, ``[col, row, theta_deg, tx, ty, tz, rx_deg, ry_deg,
 rz_deg]``: the combined pixel measurement and the typed pose. Views are independent; within
 a view the pixel part's 3x3 covariance comes from the frame-to-frame scatter of its frames
-(:func:`measurement_covariance`) and the pose part is diagonal, from the 1-sigma resolution
+and the detector's systematic error, which averaging does not shrink
+(:func:`measurement_covariance`), and the pose part is diagonal, from the 1-sigma resolution
 recorded with each typed entry. A camera's intrinsics ``(fx, fy, cx, cy)`` are inputs too
 when its calibration's 1-sigma is known (:class:`Shared`): their error is the same in every
 view that camera took, so they are perturbed in all of a trial's views of that camera at
@@ -96,16 +97,26 @@ def pooled_scatter(scatters: list[tuple[F64, int]]) -> F64:
 
 
 def measurement_covariance(
-    scatter: F64, dof: int, pooled: F64, n_used: int, *, median: bool = False
+    scatter: F64,
+    dof: int,
+    pooled: F64,
+    n_used: int,
+    *,
+    median: bool = False,
+    floor: tuple[float, float] = (0.0, 0.0),
 ) -> F64:
     """Covariance (3, 3) of a pose's combined measurement.
 
     The pose's own scatter is shrunk toward the session's pooled scatter (weight
     :data:`PRIOR_DOF`), then divided by the frames averaged; a median costs pi/2 in variance.
+    The detector's ``floor`` (centroid px, orientation degrees; 1-sigma:
+    :attr:`twopose.methods.MethodSpec.detector_floor`) is added whatever the frames: the
+    same in each of them, averaging leaves it.
     """
     shrunk = (PRIOR_DOF * pooled + dof * scatter) / (PRIOR_DOF + dof)
     factor = (math.pi / 2 if median else 1.0) / max(n_used, 1)
-    return np.asarray(shrunk * factor)
+    px, deg = floor
+    return np.asarray(shrunk * factor + np.diag([px**2, px**2, deg**2]))
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -9,6 +9,7 @@ from hypothesis import strategies as st
 from numpy.typing import NDArray
 
 from twopose.camera import rotation_from_angles_deg
+from twopose.methods import spec_of
 from twopose.solve import image_lines, projection_matrices, triangulate_ground, triangulate_points
 from twopose.uncertainty import (
     CHI2_95,
@@ -97,6 +98,50 @@ def test_measurement_covariance_shrinks_toward_the_pooled_scatter() -> None:
     np.testing.assert_allclose(single[0, 0], 1.0)  # one frame: the session's scatter
     median = measurement_covariance(own, 4, pooled, n_used=5, median=True)
     np.testing.assert_allclose(median[:2, :2], few[:2, :2] * np.pi / 2)
+
+
+@pytest.mark.parametrize("method", ["point", "line", "ground"])
+def test_the_detectors_floor_stays_however_many_frames_are_averaged(method: str) -> None:
+    """The registry's floor is added after the frames' average: many frames of a perfectly
+    still target leave exactly the floor (a pose's variance never reaches zero)."""
+    floor = spec_of(method).detector_floor
+    assert floor[0] > 0
+    assert (floor[1] > 0) == spec_of(method).uses_image_lines
+    zero = np.zeros((3, 3))
+    many = measurement_covariance(zero, 99, zero, n_used=100, floor=floor)
+    np.testing.assert_allclose(np.diag(many), [floor[0] ** 2, floor[0] ** 2, floor[1] ** 2])
+    noisy = np.diag([1.0, 1.0, 0.5])
+    few = measurement_covariance(noisy, 4, noisy, n_used=5, floor=floor)
+    np.testing.assert_allclose(np.diag(few), np.diag(noisy) / 5 + np.diag(many))
+
+
+def test_a_trial_of_still_frames_and_exact_poses_keeps_the_detectors_floor() -> None:
+    """Through the whole estimation: frames that never move and poses typed exactly still
+    leave the region the detector's floor gives (not a zero region that nothing covers)."""
+    from twopose.estimate import EstimateOptions, PoseView
+    from twopose.session_estimate import SessionTrials, estimate_session
+    from twopose.truth import reported
+
+    K = np.array([525.0, 525.0, 320.0, 240.0])
+    point = np.array([0.5, 2.0, 11.0])
+    views = []
+    for pose, x in enumerate((0.0, 2.0), start=1):
+        (P,) = projection_matrices(K[None], np.eye(3)[None], np.array([[x, 0.0, 0.0]]))
+        h = P @ np.append(point, 1.0)
+        view = PoseView(
+            pose=pose, intrinsics=K, width_height=(640, 480), t_grid=np.array([x, 0, 0.0]),
+            r_deg=np.zeros(3), t_sigma=1e-9, r_sigma_deg=0.0,
+            centroids=np.tile(h[:2] / h[2], (5, 1)), thetas=np.full(5, np.nan),
+            found=np.ones(5, dtype=bool), camera_id="cam0",
+        )  # fmt: skip
+        views.append(view)
+    trials = SessionTrials(
+        method="point", units="in", trial_ids=(1,), views=[views], truth=np.array([[point, point]])
+    )
+    rep = reported(estimate_session(trials, EstimateOptions()))
+    assert np.linalg.norm(rep.error) < 1e-9
+    depth = 11.0 * spec_of("point").detector_floor[0] / 525.0 * 11.0 / 2.0  # ray angle, baseline
+    assert np.sqrt(np.linalg.eigvalsh(rep.cov[0]).max()) == pytest.approx(depth, rel=0.5)
 
 
 def test_nees_uses_the_non_degenerate_directions_only() -> None:
