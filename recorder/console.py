@@ -514,6 +514,9 @@ class WebDriver(Driver):
     def result_withdrawn(self, trial: int) -> None:
         self.session.withdraw(trial)
 
+    def advice_withdrawn(self, trial: int) -> None:  # noqa: ARG002 - the page shows one trial
+        self.session.update(advice=None)
+
     def finish(self, summary: RecordingSummary) -> None:
         self.session.update(
             phase="done",

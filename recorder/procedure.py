@@ -403,6 +403,9 @@ class Driver:
         complete the trial now (the stop rule), which the default driver never does."""
         return False
 
+    def advice_withdrawn(self, trial: int) -> None:
+        """The trial's guidance is gone (an undo left it no accepted pose to advise from)."""
+
     def trial_result(self, result: TrialResult) -> None:
         """A trial's live result, new or updated (shown to the operator)."""
 
@@ -570,7 +573,7 @@ def _record_trial(
             driver.board_progress(*board_progress(proc, opts.settings.board))
         if opts.results is not None:
             _live(driver, _result_step, trial, proc, driver, opts)
-            if opts.settings.guidance is not None and proc.accepted:
+            if opts.settings.guidance is not None:
                 _live(driver, _guidance_step, trial, proc, driver, opts)
     return True
 
@@ -633,8 +636,9 @@ def _guidance_step(trial: int, proc: Procedure, driver: Driver, opts: _CaptureOp
     rule ends it; the file records a trial ended so (a note, for the analyst)."""
     assert opts.results is not None
     assert opts.settings.guidance is not None
-    advice = opts.results.advise(trial, opts.settings.guidance)
-    if advice is None:
+    advice = opts.results.advise(trial, opts.settings.guidance) if proc.accepted else None
+    if advice is None:  # an undo left the trial no accepted pose: no advice stands
+        driver.advice_withdrawn(trial)
         return
     stop = driver.advice(trial, advice)
     if stop and advice.complete and proc.state is State.TYPING:

@@ -35,6 +35,7 @@ from twopose.format.entries import CaptureDecision, CaptureWindow, Note, PoseEnt
 from twopose.format.reader import SessionReader
 from twopose.format.trials import iter_trials
 from twopose.format.writer import SessionWriter
+from twopose.guidance import Advice
 from twopose.methods import Method
 from twopose.units import Units
 
@@ -339,3 +340,43 @@ def test_accepting_a_capture_that_rarely_found_its_target_needs_the_operator(
             proc.accept(unattended=True)  # a plan cannot ask: it records it
         assert (proc.state, proc.pose, proc.n_accepted) == (State.TYPING, 2, 1)
         proc.close("test")
+
+
+class _Guided(_Scripted):
+    """The scripted driver, hearing the guidance: what it was told, in order."""
+
+    def __init__(self, decisions: list[Decision]) -> None:
+        super().__init__(decisions)
+        self.heard: list[str] = []
+
+    def place(self, trial: int, pose: int) -> Placement:
+        self.placed.append((trial, pose))
+        x = (0.0, 2.0)[min(pose, 2) - 1]  # the dot in view from both
+        return Placement(
+            entry=PoseEntry(trial=trial, pose=pose, camera_id="cam0", t_grid=(x, 0, 0))
+        )
+
+    def advice(self, trial: int, advice: Advice) -> bool:
+        self.heard.append("advice")
+        return False
+
+    def advice_withdrawn(self, trial: int) -> None:
+        self.heard.append("withdrawn")
+
+
+def test_an_undo_back_to_no_accepted_pose_withdraws_the_guidance(tmp_path: Path) -> None:
+    """Pose 1 accepted (advice), then pose 2's capture undone: pose 1 is retyped and no
+    pose is accepted, so the advice it was given is withdrawn, not left standing."""
+    from recorder.sources import SyntheticSource
+    from twopose.guidance import Guidance, Reach
+
+    driver = _Guided([A, U, A, A])
+    source = SyntheticSource(None, Method.POINT, realtime=False)
+    guidance = Guidance(reach=Reach.thesis(Units.IN), target95=None, max_poses=2)
+    capture = CaptureSettings.live_detection(INFO, frames=1, guidance=guidance)
+    thesis = Camera(
+        camera_id="cam0",
+        intrinsics=Intrinsics(width=640, height=480, fx=525, fy=525, cx=320, cy=240),
+    )
+    record(tmp_path / "s.mcap", INFO, [thesis], source, driver, capture=capture)
+    assert driver.heard[:3] == ["advice", "withdrawn", "advice"]

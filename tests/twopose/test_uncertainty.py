@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from numpy.typing import NDArray
 
 from twopose.camera import rotation_from_angles_deg
-from twopose.methods import spec_of
+from twopose.methods import Method, spec_of
 from twopose.solve import image_lines, projection_matrices, triangulate_ground, triangulate_points
 from twopose.uncertainty import (
     CHI2_95,
@@ -136,7 +136,11 @@ def test_a_trial_of_still_frames_and_exact_poses_keeps_the_detectors_floor() -> 
         )  # fmt: skip
         views.append(view)
     trials = SessionTrials(
-        method="point", units="in", trial_ids=(1,), views=[views], truth=np.array([[point, point]])
+        method=Method.POINT,
+        units="in",
+        trial_ids=(1,),
+        views=[views],
+        truth=np.array([[point, point]]),
     )
     rep = reported(estimate_session(trials, EstimateOptions()))
     assert np.linalg.norm(rep.error) < 1e-9
