@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from enum import StrEnum
 from typing import TYPE_CHECKING, Any, Protocol
@@ -21,7 +21,7 @@ from twopose.detect import detection_json
 from twopose.errors import SourceError
 from twopose.format.entries import PoseEntry
 from twopose.format.writer import Capture, SessionWriter
-from twopose.methods import spec_of
+from twopose.methods import Method, spec_of
 
 if TYPE_CHECKING:
     from recorder.trial_result import TrialResult
@@ -33,6 +33,7 @@ if TYPE_CHECKING:
     from twopose.targets import BoardPlacement
 
 __all__ = [
+    "AdaptiveFrames",
     "CaptureResult",
     "CaptureSettings",
     "FrameFeedback",
@@ -195,6 +196,7 @@ class CaptureResult:
     dropped: int = 0
     overhead_s: tuple[float, ...] = ()  # per frame: encode + write + detection
     capture: int | None = None  # its number in the session (format 1.1)
+    enough: bool = False  # adaptive frames: it stopped early, more would not have helped
 
     @property
     def n_found(self) -> int:
@@ -261,19 +263,57 @@ class CaptureSettings:
     #: With live detection: after each decision the next pose is suggested and, with a
     #: target precision, the driver is told when the trial is precise enough (issue 36).
     guidance: Guidance | None = None
+    #: Adaptive frames (``--adaptive-frames``): ``frames`` is then the most, and a capture
+    #: stops once another frame would not shrink the pose's measurement (the detector's
+    #: floor, with whether the method reads an orientation: :meth:`live_detection` sets it).
+    adaptive: AdaptiveFrames | None = None
 
     @classmethod
-    def live_detection(cls, info: SessionInfo, **settings: Any) -> CaptureSettings:
+    def live_detection(
+        cls, info: SessionInfo, *, adaptive_frames: bool = False, **settings: Any
+    ) -> CaptureSettings:
         """Settings that detect, live, what the session's method looks for: its target
-        (:class:`twopose.methods.MethodSpec`), or the board of a board session."""
-        return cls(target=spec_of(info.method).target, board=info.board, **settings)
+        (:class:`twopose.methods.MethodSpec`), or the board of a board session; with
+        ``adaptive_frames``, the method's :class:`AdaptiveFrames`."""
+        adaptive = AdaptiveFrames.asked(info.method, asked=adaptive_frames)
+        return cls(
+            target=spec_of(info.method).target, board=info.board, adaptive=adaptive, **settings
+        )
+
+
+@dataclass(frozen=True, kw_only=True)
+class AdaptiveFrames:
+    """When a pose has frames enough (:func:`twopose.uncertainty.enough_frames`)."""
+
+    floor: tuple[float, float]  # the detector's systematic error: px, degrees
+    orientation: bool  # whether the method reads the frames' orientation (the glove's line)
+
+    @classmethod
+    def asked(cls, method: Method, *, asked: bool) -> AdaptiveFrames | None:
+        """The method's rule, from the registry, when asked (a board session has none: it
+        measures no target)."""
+        spec = spec_of(method)
+        if not (asked and spec.measures):
+            return None
+        return cls(floor=spec.detector_floor, orientation=spec.uses_image_lines)
+
+    def enough(self, feedback: Sequence[FrameFeedback]) -> bool:
+        """Whether the capture's found frames so far are enough."""
+        from twopose.uncertainty import enough_frames
+
+        found = [f for f in feedback if f.found]
+        if not found:
+            return False
+        centroids = np.array([f.centroid_px for f in found], dtype=np.float64)
+        thetas = np.array([f.theta_deg for f in found]) if self.orientation else None
+        return enough_frames(centroids, thetas, self.floor)
 
 
 def capture_frames(
     writer: SessionWriter, source: FrameSource, entry: PoseEntry, settings: CaptureSettings
 ) -> CaptureResult:
     """Capture ``settings.frames`` frames for the already written pose ``entry`` (the source
-    is already placed there).
+    is already placed there); with ``settings.adaptive``, fewer once they are enough.
 
     Dropped frames are counted from the start of this capture only: the source restarts
     its clock here (:meth:`FrameSource.start_capture`), so the operator's pause before a
@@ -289,7 +329,7 @@ def capture_frames(
     dropped_before = source.dropped
     feedback: list[FrameFeedback] = []
     overhead: list[float] = []
-    reason = ""
+    reason, enough = "", False
     with writer.capture(entry.trial, entry.pose, entry.camera_id, entry.capture) as cap:
         for k in range(n_frames):
             try:
@@ -322,6 +362,9 @@ def capture_frames(
             if settings.on_progress is not None:
                 settings.on_progress()
             cap.dropped_frames = source.dropped - dropped_before
+            enough = settings.adaptive is not None and settings.adaptive.enough(feedback)
+            if enough and k + 1 < n_frames:
+                break  # more frames would not shrink the pose's region: the floor dominates
     return CaptureResult(
         n_frames=cap.n_frames,
         complete=not reason,
@@ -330,6 +373,7 @@ def capture_frames(
         dropped=source.dropped - dropped_before,
         overhead_s=tuple(overhead),
         capture=entry.capture,
+        enough=enough and cap.n_frames < n_frames,
     )
 
 

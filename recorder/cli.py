@@ -144,6 +144,7 @@ class NewRequest:
     out: Path
     source: str
     frames: int = 5
+    adaptive_frames: bool = False  # --adaptive-frames: ``frames`` is then the most
     poses: int = 2
     camera: CameraMode = CameraMode()
     notes: str = ""
@@ -243,6 +244,14 @@ def new(
     operator: Annotated[str | None, typer.Option(help="Who records.")] = None,
     notes: Annotated[str, typer.Option(help="Free text about the session.")] = "",
     frames: Annotated[int, typer.Option(min=1, help="Frames captured per pose.")] = 5,
+    adaptive_frames: Annotated[
+        bool,
+        typer.Option(
+            help="--frames is the most: a pose stops at 3 or more frames once another would "
+            "shrink its measurement's variance by less than 5% (the detector's floor "
+            "dominates). A plan sets adaptive_frames."
+        ),
+    ] = False,
     poses: Annotated[int, typer.Option(min=2, help="Poses per trial.")] = 2,
     width: Annotated[int, typer.Option(min=1, help="Camera width to request.")] = 640,
     height: Annotated[int, typer.Option(min=1, help="Camera height to request.")] = 480,
@@ -316,15 +325,19 @@ def new(
             )
         guiding = {"--target-precision": target_precision, "--reach": reach, "--grid": grid}
         given_guidance = [k for k, v in guiding.items() if v is not None]
+        if adaptive_frames:
+            given_guidance.append("--adaptive-frames")
         if plan is not None and (given_guidance or max_poses != 6):
             raise InputValueError(
                 f"{', '.join(given_guidance or ['--max-poses'])}: a plan sets its guidance in "
-                "its [guidance] table (target_95, reach, spacing, max_poses)"
+                "its [guidance] table (target_95, reach, spacing, max_poses), and "
+                "adaptive_frames at its top"
             )
         request = NewRequest(
             out=out,
             source=source,
             frames=frames,
+            adaptive_frames=adaptive_frames,
             poses=poses,
             camera=CameraMode(width=width, height=height, fps=fps),
             notes=notes,
@@ -396,7 +409,7 @@ def _interactive(
 ) -> RecordingSummary:
     """Ask for whatever the options did not give (``given``: :func:`_console_given`), then
     run the guided procedure."""
-    from recorder.capture import CaptureSettings
+    from recorder.capture import AdaptiveFrames, CaptureSettings
     from recorder.interactive import Operator, ask_setup, record_interactive
     from recorder.setup_rules import PoseTyping, Setup, check_rig
     from recorder.sources import open_source
@@ -419,7 +432,10 @@ def _interactive(
     )
     port = request.live_port
     view = _live_view(stack, [setup.camera()], port) if port is not None else None
-    capture = CaptureSettings(frames=request.frames, live=view, rig=request.rig, guidance=guidance)
+    capture = CaptureSettings(
+        frames=request.frames, live=view, rig=request.rig, guidance=guidance,
+        adaptive=AdaptiveFrames.asked(setup.method, asked=request.adaptive_frames),
+    )  # fmt: skip
     return record_interactive(
         request.out,
         src,
@@ -534,6 +550,7 @@ def _console(request: NewRequest, given: dict[str, Any], *, host: str, port: int
     mode = request.camera
     options = ConsoleOptions(
         source=request.source, given=given, frames=request.frames, poses=request.poses,
+        adaptive_frames=request.adaptive_frames,
         size=(mode.width, mode.height), fps=mode.fps, notes=request.notes, rig=request.rig,
         live_port=request.live_port, guidance=request.guidance, continued=request.continued,
     )  # fmt: skip

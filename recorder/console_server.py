@@ -74,6 +74,7 @@ class ConsoleOptions:
     source: str
     given: dict[str, Any]
     frames: int = 5
+    adaptive_frames: bool = False  # --adaptive-frames: frames is then the most
     poses: int = 2
     size: tuple[int, int] = (640, 480)
     fps: float = 30.0
@@ -189,7 +190,12 @@ def _recording(
         driver = WebDriver(session, src, camera.camera_id, setup.ground_truth, typing, preview)
         live = session if view is None else LiveSinks(session, view)
         capture = CaptureSettings.live_detection(
-            info, frames=options.frames, live=live, rig=options.rig, guidance=guidance
+            info,
+            frames=options.frames,
+            live=live,
+            rig=options.rig,
+            guidance=guidance,
+            adaptive_frames=options.adaptive_frames,
         )
         summary = record(
             session.out, info, [camera], src, driver, ground=setup.ground(), capture=capture,

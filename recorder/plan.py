@@ -70,7 +70,7 @@ __all__ = [
 #: The keys a plan may hold, per table (anything else is a typo that would be ignored).
 _PLAN_KEYS = {
     "": {"method", "units", "camera", "cameras", "frames", "ground_height", "trials"}
-    | {"operator", "notes", "resolution", "board", "guidance"},
+    | {"operator", "notes", "resolution", "board", "guidance", "adaptive_frames"},
     "guidance": {"target_95", "reach", "spacing", "max_poses", "seed"},
     "board": {"inner_corners", "square", "first_corner"},
     "camera": {"id", "calibration", "focal", "fx", "fy", "principal", "cx", "cy"}
@@ -129,6 +129,7 @@ class Plan:
     cameras: tuple[Camera, ...]
     trials: tuple[PlannedTrial, ...]
     frames: int = 5
+    adaptive_frames: bool = False  # frames is then the most a pose takes
     ground_height: float | None = None
     operator: str = ""
     notes: str = ""
@@ -207,6 +208,9 @@ def load_plan(path: str | Path) -> Plan:
     frames = data.get("frames", 5)
     if isinstance(frames, bool) or not isinstance(frames, int) or frames < 1:
         raise InputValueError(f"plan: frames must be a whole number >= 1, got {frames!r}")
+    adaptive = data.get("adaptive_frames", False)
+    if not isinstance(adaptive, bool):
+        raise InputValueError(f"plan: adaptive_frames must be true or false, got {adaptive!r}")
     ground = data.get("ground_height")
     if spec_of(method).needs_ground and ground is None:
         raise InputValueError("plan: a ground session needs ground_height (camera centre to table)")
@@ -246,6 +250,7 @@ def load_plan(path: str | Path) -> Plan:
         cameras=cameras,
         trials=trials,
         frames=frames,
+        adaptive_frames=adaptive,
         ground_height=height,
         operator=str(data.get("operator", "")),
         notes=str(data.get("notes", "")),
@@ -596,6 +601,7 @@ def record_plan(  # noqa: PLR0913 - keyword-only callbacks, one per thing a call
         capture=CaptureSettings.live_detection(
             info,
             frames=plan.frames,
+            adaptive_frames=plan.adaptive_frames,
             live=live,
             on_frame=on_frame,
             rig=rig,

@@ -36,6 +36,7 @@ __all__ = [
     "Propagated",
     "Shared",
     "dominant_input",
+    "enough_frames",
     "frame_scatter",
     "measurement_covariance",
     "nees",
@@ -117,6 +118,41 @@ def measurement_covariance(
     factor = (math.pi / 2 if median else 1.0) / max(n_used, 1)
     px, deg = floor
     return np.asarray(shrunk * factor + np.diag([px**2, px**2, deg**2]))
+
+
+#: Adaptive frames: a pose's capture stops once another frame would shrink its measurement's
+#: variance by less than this share (:func:`enough_frames`).
+FRAME_GAIN = 0.05
+#: ... but never before this many frames were found (the scatter of fewer is no estimate).
+LEAST_FRAMES = 3
+
+
+def enough_frames(
+    centroids_px: F64,
+    thetas_deg: F64 | None,
+    floor: tuple[float, float],
+    *,
+    gain: float = FRAME_GAIN,
+) -> bool:
+    """Whether a pose has frames enough: another would not shrink its measurement by ``gain``.
+
+    ``centroids_px`` (K, 2) and ``thetas_deg`` (K,) are the pose's found frames (None: the
+    method has no orientation, the dot's blob's is noise). Averaging K frames leaves the
+    scatter S over K plus the detector's ``floor`` squared (:func:`measurement_covariance`);
+    frame K + 1 takes S / (K (K + 1)) off it. Once that is below ``gain`` of what is left,
+    in the centroid's and the orientation's variance alike, more frames no longer shrink the
+    region (the floor dominates). Never before :data:`LEAST_FRAMES` frames.
+    """
+    k = len(centroids_px)
+    if k < LEAST_FRAMES:
+        return False
+    thetas = np.full(k, np.nan) if thetas_deg is None else thetas_deg
+    S, _ = frame_scatter(centroids_px, thetas, np.ones(k, dtype=bool))
+    scatter = np.diag(S)
+    px, deg = floor
+    left = scatter / k + np.array([px**2, px**2, deg**2])
+    taken = scatter / (k * (k + 1))
+    return bool(np.all(taken <= gain * left))
 
 
 @dataclass(frozen=True, kw_only=True)

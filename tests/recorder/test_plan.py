@@ -56,6 +56,32 @@ def test_plan_mode_records_a_session_analysis_reads(tmp_path: Path) -> None:
     assert trials["err"].max() < 0.5
 
 
+def test_adaptive_frames_stop_a_pose_once_more_would_not_help(tmp_path: Path) -> None:
+    """The synthetic camera's frames scatter far under the glove's floor: with adaptive
+    frames every pose stops at the least (3 of the plan's 12), said, and the analysis reads
+    the file as any other; in a plan only (beside --plan the option is refused), and only
+    as true or false."""
+    plan = tmp_path / "plan.toml"
+    plan.write_text(PLAN.replace("frames = 3", "frames = 12\nadaptive_frames = true"))
+    out = tmp_path / "s.mcap"
+    result = runner.invoke(app, ["new", str(out), "--plan", str(plan), "--source", "synthetic"])
+    assert result.exit_code == 0, result.output
+    said = "3 frames, 3 detected, complete (frames enough: another would not shrink the region)"
+    assert result.output.count(said) == 4
+    assert list(analyse_session(out).trials["status"]) == ["ok", "ok"]
+    with SessionReader(out) as r:
+        windows = [e for e in r.iter_entries() if isinstance(e, CaptureWindow)]
+    assert [w.n_frames for w in windows] == [3, 3, 3, 3]
+    beside = runner.invoke(
+        app, ["new", str(tmp_path / "t.mcap"), "--plan", str(plan), "--adaptive-frames"]
+    )
+    assert beside.exit_code == EXIT_ERROR
+    assert "adaptive_frames at its top" in beside.output
+    plan.write_text(PLAN.replace("frames = 3", 'frames = 12\nadaptive_frames = "yes"'))
+    with pytest.raises(InputValueError, match="adaptive_frames must be true or false"):
+        load_plan(plan)
+
+
 def test_plan_mode_with_a_source_that_runs_out(tmp_path: Path) -> None:
     plan = tmp_path / "plan.toml"
     plan.write_text(PLAN)

@@ -15,6 +15,7 @@ from twopose.uncertainty import (
     CHI2_95,
     INPUT_GROUPS,
     dominant_input,
+    enough_frames,
     frame_scatter,
     measurement_covariance,
     nees,
@@ -146,6 +147,27 @@ def test_a_trial_of_still_frames_and_exact_poses_keeps_the_detectors_floor() -> 
     assert np.linalg.norm(rep.error) < 1e-9
     depth = 11.0 * spec_of("point").detector_floor[0] / 525.0 * 11.0 / 2.0  # ray angle, baseline
     assert np.sqrt(np.linalg.eigvalsh(rep.cov[0]).max()) == pytest.approx(depth, rel=0.5)
+
+
+def test_frames_are_enough_once_another_would_not_shrink_the_measurement() -> None:
+    """Still frames: enough at the least (3); frames scattered well beyond the floor: not
+    until the next one's share falls under 5% (1 / (K + 1) of the scatter part); the dot's
+    orientation (noise) is not read."""
+    rng = np.random.default_rng(3)
+    floor = (0.1, 0.08)
+    still = np.tile([320.0, 240.0], (3, 1))
+    assert not enough_frames(still[:2], np.zeros(2), floor)
+    assert enough_frames(still, np.zeros(3), floor)
+    noisy = [320.0, 240.0] + 0.3 * rng.standard_normal((40, 2))
+    thetas = 0.05 * rng.standard_normal(40)
+    needed = next(k for k in range(3, 41) if enough_frames(noisy[:k], thetas[:k], floor))
+    assert 6 <= needed <= 30
+    S = np.var(noisy[:needed], axis=0, ddof=1)
+    left = S / needed + floor[0] ** 2
+    assert np.all(S / (needed * (needed + 1)) <= 0.05 * left)
+    spun = rng.uniform(-90, 90, 40)  # a round dot's blob orientation
+    assert not enough_frames(still[:3].repeat(2, 0), spun[:6], (0.05, 0.0))
+    assert enough_frames(still[:3].repeat(2, 0), None, (0.05, 0.0))
 
 
 def test_nees_uses_the_non_degenerate_directions_only() -> None:
