@@ -452,6 +452,18 @@ def _chroma(patch_bgr: Image, weights: NDArray[Any]) -> float:
     return float(np.abs(colour / total - 1.0 / 3.0).max())
 
 
+def _turned_down(shape: BlobShape, reason: str) -> RejectedBlob:
+    return RejectedBlob(outline_px=shape.outline_px, centroid_px=shape.centroid, reason=reason)
+
+
+def _not_the_dot(shape: BlobShape, patch_bgr: Image, hat: NDArray[Any], p: DotParams) -> str:
+    """Why a dark blob is not the dot ("": it may be): too elongated, or coloured."""
+    if shape.eccentricity > p.max_eccentricity:
+        return f"eccentricity {shape.eccentricity:.2f}"
+    chroma = _chroma(patch_bgr, hat)
+    return f"coloured (chroma {chroma:.2f})" if chroma > p.max_chroma else ""
+
+
 def detect_dot(image_bgr: Image, params: DotParams | None = None) -> Detection:
     """Find the dark dot on the white card; sub-pixel intensity-weighted centroid.
 
@@ -471,43 +483,20 @@ def detect_dot(image_bgr: Image, params: DotParams | None = None) -> Detection:
     n_round = 0
     turned_down: list[RejectedBlob] = []
     for shape in blobs:
-        if shape.eccentricity > p.max_eccentricity:
-            turned_down.append(
-                RejectedBlob(
-                    outline_px=shape.outline_px,
-                    centroid_px=shape.centroid,
-                    reason=f"eccentricity {shape.eccentricity:.2f}",
-                )
-            )
-            continue
         c, r = round(shape.centroid[0]), round(shape.centroid[1])
         window = (slice(max(r - 2, 0), r + 3), slice(max(c - 2, 0), c + 3))
-        chroma = _chroma(image_bgr[window], hat[window])
-        if chroma > p.max_chroma:
-            turned_down.append(
-                RejectedBlob(
-                    outline_px=shape.outline_px,
-                    centroid_px=shape.centroid,
-                    reason=f"coloured (chroma {chroma:.2f})",
-                )
-            )
+        refusal = _not_the_dot(shape, image_bgr[window], hat[window], p)
+        if refusal:
+            turned_down.append(_turned_down(shape, refusal))
             continue
         n_round += 1
         peak = float(hat[window].max())
-        if best is None or peak > best[0]:
-            if best is not None:
-                turned_down.append(
-                    RejectedBlob(
-                        outline_px=best[1].outline_px, centroid_px=best[1].centroid, reason="weaker"
-                    )
-                )
-            best = (peak, shape)
-        else:
-            turned_down.append(
-                RejectedBlob(
-                    outline_px=shape.outline_px, centroid_px=shape.centroid, reason="weaker"
-                )
-            )
+        if best is not None and peak <= best[0]:
+            turned_down.append(_turned_down(shape, "weaker"))
+            continue
+        if best is not None:
+            turned_down.append(_turned_down(best[1], "weaker"))
+        best = (peak, shape)
     if best is None:
         dark = "no dark feature on a bright background"
         reason = "no round, dark, grey blob" if n_blobs else dark
