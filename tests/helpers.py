@@ -123,14 +123,18 @@ class DaskCluster:
         )
 
     def close(self) -> None:
-        for process in [*self.workers, self.scheduler]:
-            if process.poll() is None:
-                process.terminate()
-        for process in [*self.workers, self.scheduler]:
-            try:
-                process.wait(timeout=20)
-            except subprocess.TimeoutExpired:
-                process.kill()
+        # The workers first, then their scheduler: a worker whose scheduler went first
+        # keeps trying to reconnect and ignores SIGTERM for up to 20 s (a test's teardown).
+        for group in (self.workers, [self.scheduler]):
+            for process in group:
+                if process.poll() is None:
+                    process.terminate()
+            for process in group:
+                try:
+                    process.wait(timeout=5)
+                except subprocess.TimeoutExpired:
+                    process.kill()
+                    process.wait(timeout=5)
 
 
 RECORD = Path(sys.executable).with_name("twopose-record")
