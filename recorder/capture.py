@@ -199,6 +199,15 @@ class CaptureResult:
     enough: bool = False  # adaptive frames: it stopped early, more would not have helped
 
     @property
+    def state(self) -> str:
+        """How it ended, in the operator's words (the terminal, a plan's log, the page)."""
+        if not self.complete:
+            return f"INCOMPLETE ({self.reason})"
+        if self.enough:
+            return "complete (frames enough: another would not shrink the region)"
+        return "complete"
+
+    @property
     def n_found(self) -> int:
         return sum(f.found for f in self.feedback)
 

@@ -421,7 +421,7 @@ class WebDriver(Driver):
         return Placement(entry=entry)
 
     def captured(self, trial: int, pose: int, result: CaptureResult) -> None:
-        state = "complete" if result.complete else f"INCOMPLETE ({result.reason})"
+        state = result.state
         shortfall = detection_shortfall(result)
         message, level = f"trial {trial} pose {pose}: accept, redo, undo or quit", "info"
         if not result.complete:

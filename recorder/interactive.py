@@ -231,9 +231,7 @@ def _choice(text: str) -> Decision:
 def capture_lines(pose: int, result: CaptureResult) -> list[str]:
     """What the terminal and plan print after a capture: the counts, the pose's averaged
     centroid and orientation (the thesis GUI's per-pose numbers), and a shortfall."""
-    state = "complete" if result.complete else f"INCOMPLETE ({result.reason})"
-    if result.enough:
-        state += " (frames enough: another would not shrink the region)"
+    state = result.state
     detected = f"{result.n_found} detected, " if result.feedback else ""  # a board: none live
     lines = [f"pose {pose}: {result.n_frames} frames, {detected}{state}, {result.dropped} dropped"]
     average = result.pose_average()
