@@ -112,29 +112,20 @@ def _rerun(folder: Path, out: Path) -> subprocess.Popen[str]:
     )
 
 
-@pytest.fixture(scope="module")
-def first_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
-    """Sessions and the results of a first run over them, copied by each test that reruns."""
-    base = tmp_path_factory.mktemp("first")
-    folder, out = base / "in", base / "r"
-    # Enough that the re-run is still running when the signal comes (distinct files:
-    # copies of one session would be counted once).
-    distinct_copies(SAMPLES / "thesis_method2_ground.mcap", folder, 16)
-    first = runner.invoke(app, ["run", str(folder), "--out", str(out)])
-    assert first.exit_code == 0, first.output
-    return folder, out
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize(
     ("sig", "after_s"), [(signal.SIGINT, 3.0), (signal.SIGTERM, 5.0), (signal.SIGKILL, 4.0)]
 )
 def test_an_interrupted_rerun_leaves_the_previous_results_byte_for_byte(
-    tmp_path: Path, first_run: tuple[Path, Path], sig: signal.Signals, after_s: float
+    tmp_path: Path, sig: signal.Signals, after_s: float
 ) -> None:
-    folder, out = tmp_path / "in", tmp_path / "r"
-    shutil.copytree(first_run[0], folder)
-    shutil.copytree(first_run[1], out)
+    folder = tmp_path / "in"
+    # Enough that the re-run is still running when the signal comes (distinct files:
+    # copies of one session would be counted once).
+    distinct_copies(SAMPLES / "thesis_method2_ground.mcap", folder, 16)
+    out = tmp_path / "r"
+    first = runner.invoke(app, ["run", str(folder), "--out", str(out)])
+    assert first.exit_code == 0, first.output
     before = _snapshot(out)
     assert len(before) > 30
     proc = _rerun(folder, out)
