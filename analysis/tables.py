@@ -17,7 +17,8 @@ import pandas as pd
 from analysis.columns import AVERAGING_COLUMNS, TRIAL_COLUMNS, VIEW_COLUMNS
 from twopose.arrays import F64
 from twopose.camera import grid_rays, rotation_from_angles_deg
-from twopose.detect import Detection, PoseMeasurement
+from twopose.detect import Detection
+from twopose.frames import PoseMeasurement
 from twopose.methods import Method, spec_of
 from twopose.truth import Reported, line_errors
 from twopose.uncertainty import uncertainty_columns

@@ -25,8 +25,9 @@ from twopose.methods import Method, spec_of
 
 if TYPE_CHECKING:
     from recorder.trial_result import TrialResult
-    from twopose.detect import Detection, PoseMeasurement
+    from twopose.detect import Detection
     from twopose.format.entries import SessionInfo
+    from twopose.frames import PoseMeasurement
     from twopose.guidance import Guidance
     from twopose.rig.constants import RigConstants
     from twopose.scene3d import TrialScene
@@ -219,7 +220,7 @@ class CaptureResult:
     def pose_average(self) -> PoseMeasurement | None:
         """The pose's frames combined as the analysis combines them by default (the
         thesis' mean, section 5.2.5); None without live detection."""
-        from twopose.detect import combine_frames
+        from twopose.frames import combine_frames
 
         if not self.feedback or any(f.is_board for f in self.feedback):
             return None  # a board's corners are averaged by the rig calibration

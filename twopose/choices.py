@@ -14,7 +14,7 @@ from typing import Literal
 
 __all__ = ["CombineRule", "Target"]
 
-#: How a pose's frames are combined into one measurement (:func:`twopose.detect.combine_frames`;
+#: How a pose's frames are combined into one measurement (:func:`twopose.frames.combine_frames`;
 #: the thesis averages, section 5.3).
 CombineRule = Literal["mean", "median", "robust"]
 #: What the detector looks for in a frame: the gloved finger (method 2, the line) or the dot.

@@ -18,9 +18,9 @@ from numpy.typing import NDArray
 from twopose.arrays import F64
 from twopose.camera import Intrinsics, rotation_from_angles_deg
 from twopose.conditioning import parallax_sine
-from twopose.detect import PoseMeasurement, combine_frames
 from twopose.errors import InputValueError
 from twopose.format.entries import PoseEntry
+from twopose.frames import PoseMeasurement, combine_frames
 from twopose.margins import (  # the options' one home, light for the CLI
     DEFAULT_MIN_GROUND_ANGLE_DEG,
     DEFAULT_MIN_PARALLAX_DEG,

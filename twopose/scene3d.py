@@ -30,8 +30,8 @@ from twopose.uncertainty import CHI2_95
 __all__ = ["TrialScene", "scene_of_views", "static_scene", "trial_scene"]
 
 if TYPE_CHECKING:
-    from twopose.detect import PoseMeasurement
     from twopose.estimate import PoseView
+    from twopose.frames import PoseMeasurement
 
 
 ORANGE = (1.0, 0.55, 0.0, 1.0)

@@ -19,7 +19,6 @@ from numpy.typing import NDArray
 
 from twopose.arrays import F64, Bools, Ints
 from twopose.camera import camera_centres
-from twopose.detect import PoseMeasurement, combine_frames
 from twopose.estimate import (
     EstimateOptions,
     GroundSpec,
@@ -36,6 +35,7 @@ from twopose.estimate import (
     thesis_direction,
     thesis_estimate,
 )
+from twopose.frames import PoseMeasurement, combine_frames
 from twopose.methods import Method, spec_of
 from twopose.optimal_lines import centroid_segments, optimal_lines
 from twopose.solve import image_lines, triangulate_lines

@@ -414,8 +414,10 @@ def triangulate_ground(
 ) -> NViewPoints:
     """Method 2 with N >= 2 views: the planes' point on the ground plane.
 
-    The least-squares point of the N back-projected planes and the ground plane ``n3 . p = h``; for
-    two views exactly eq. 19's solution.
+    The point of the ground plane ``n3 . p = h`` nearest, in least squares, to the N
+    back-projected planes; for two views exactly eq. 19's solution. The ground is a
+    constraint, not a third equation among the planes: with N >= 3 an unconstrained fit
+    would leave the point off the ground by the planes' disagreement.
     """
     lin = np.asarray(lines, dtype=np.float64)
     p = np.asarray(P, dtype=np.float64)
@@ -428,9 +430,6 @@ def triangulate_ground(
     planes = np.where(ok[..., None], planes, 0.0)
     n3, norm = _unit(np.asarray(ground_normal_grid, dtype=np.float64))
     h = float(ground_offset) / float(norm)
-    T = ok.shape[0]
-    A = np.concatenate([planes[..., :3], np.broadcast_to(n3, (T, 1, 3))], axis=1)
-    b = np.concatenate([-planes[..., 3], np.full((T, 1), h)], axis=1)
     # |det [p_i; p_j; n3]| = |p_i . (p_j x n3)|: the largest over view pairs (eq. 19).
     best = pairwise_max_abs_dot(planes[..., :3], np.cross(planes[..., :3], n3), ok)
     status, reason = _view_status(best, ok, min_conditioning, "line parallel to the ground")
@@ -440,12 +439,33 @@ def triangulate_ground(
     )
     flag_no_baseline(camera_centres(p), ok, status, reason)
     usable = status == "ok"
+    point = _on_ground(planes, n3, h, usable)
+    return NViewPoints(
+        point_grid=point,
+        conditioning=best,
+        status=status,
+        reason=reason,
+        rms_px=np.full(len(point), np.nan),
+    )
+
+
+def _on_ground(planes: F64, n3: F64, h: float, usable: NDArray[np.bool_]) -> F64:
+    """The (T, 3) points of the ground plane least-squares nearest the (T, N, 4) planes.
+
+    ``p = p0 + B q`` with ``p0 = h n3`` and B an orthonormal basis of the plane; unused
+    views are zero rows.
+    """
+    # Any vector not parallel to n3, crossed with it, spans the plane with n3 x a.
+    helper = np.eye(3)[int(np.argmin(np.abs(n3)))]
+    a = np.cross(n3, helper)
+    a /= np.linalg.norm(a)
+    B = np.stack([a, np.cross(n3, a)], axis=1)  # (3, 2)
+    A = planes[..., :3] @ B  # (T, N, 2)
+    b = -(planes[..., 3] + planes[..., :3] @ (h * n3))  # (T, N)
     AtA = np.einsum("tki,tkj->tij", A, A)
     Atb = np.einsum("tki,tk->ti", A, b)
-    point = _safe_solve(np.where(usable[:, None, None], AtA, np.eye(3)), Atb, usable)
-    return NViewPoints(
-        point_grid=point, conditioning=best, status=status, reason=reason, rms_px=np.full(T, np.nan)
-    )
+    q = _safe_solve(np.where(usable[:, None, None], AtA, np.eye(2)), Atb, usable)
+    return np.asarray(h * n3 + q @ B.T)
 
 
 def triangulate_two_views(
