@@ -1,0 +1,227 @@
+"""What ``twopose-record new`` runs once its options are read: the terminal's dialogue, a
+plan, or the browser console, each from one :class:`NewRequest` (one call from Python too)."""
+
+from __future__ import annotations
+
+import contextlib
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import typer
+
+from twopose.errors import InputValueError
+
+if TYPE_CHECKING:
+    from recorder.capture import CaptureResult
+    from recorder.continuation import Continued
+    from recorder.live import LiveView
+    from recorder.setup_rules import GuidanceAsked
+    from recorder.summary import RecordingSummary
+    from twopose.camera import Camera
+    from twopose.rig.constants import RigConstants
+
+__all__ = [
+    "CameraMode",
+    "NewRequest",
+    "continued_given",
+    "continued_session",
+    "guidance_asked",
+    "load_rig",
+    "record_planned",
+    "record_terminal",
+    "serve_console_until_stopped",
+]
+
+
+@dataclass(frozen=True, kw_only=True)
+class CameraMode:
+    """What ``new`` asks of the camera (``--width``, ``--height``, ``--fps``)."""
+
+    width: int = 640
+    height: int = 480
+    fps: float = 30.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class NewRequest:
+    """What ``new`` records, whichever way it runs (terminal, ``--plan``, ``--ui``)."""
+
+    out: Path
+    source: str
+    frames: int = 5
+    adaptive_frames: bool = False  # --adaptive-frames: ``frames`` is then the most
+    poses: int = 2
+    camera: CameraMode = CameraMode()
+    notes: str = ""
+    rig: RigConstants | None = None
+    live_port: int | None = None  # --live: serve the Foxglove live view on this port
+    guidance: GuidanceAsked | None = None  # the next pose suggested; the stop rule
+    continued: Continued | None = None  # --continue: the session this one continues
+
+
+def guidance_asked(
+    max_poses: int = 6, reach: float | None = None, spacing: float | None = None
+) -> GuidanceAsked:
+    from recorder.setup_rules import GuidanceAsked
+
+    return GuidanceAsked(max_poses=max_poses, reach=reach, spacing=spacing)
+
+
+def continued_session(path: Path | None, **setup: object) -> Continued | None:
+    """``--continue``: the session continued, read once; the setup options are its."""
+    if path is None:
+        return None
+    given = [f"--{k.replace('_', '-')}" for k, v in setup.items() if v not in (None, [])]
+    if given:
+        raise InputValueError(
+            f"{', '.join(given)}: a continuation keeps the setup of {path}; leave them out"
+        )
+    from recorder.continuation import read_continued
+
+    return read_continued(path)
+
+
+def continued_given(continued: Continued, target_precision: float | None) -> dict[str, Any]:
+    """The browser's setup form, filled with the continued session's setup (read-only);
+    the stop rule is the continuation's own."""
+    from recorder.setup_rules import Setup
+
+    setup = Setup.of(continued)
+    k = setup.intrinsics
+    return {
+        "method": setup.method.value, "units": setup.units, "intrinsics": k,
+        "intrinsics_sigma": setup.intrinsics_sigma, "focal": None, "principal": None,
+        "ground_height": setup.ground_height, "ground_truth": list(setup.ground_truth),
+        "operator": setup.operator, "board": setup.board, "target_precision": target_precision,
+    }  # fmt: skip
+
+
+def load_rig(path: Path | None) -> RigConstants | None:
+    from twopose.rig.constants import load_rig
+
+    return load_rig(path) if path is not None else None
+
+
+def _live_view(stack: contextlib.ExitStack, cameras: list[Camera], port: int) -> LiveView:
+    from recorder.live import LiveView
+
+    view = stack.enter_context(LiveView(cameras, port=port))
+    typer.echo(
+        f"live view on {view.url}: in Foxglove, Open connection > Foxglove WebSocket", err=True
+    )
+    return view
+
+
+def _report_capture(trial: int, pose: int, result: CaptureResult) -> None:
+    from recorder.interactive import capture_lines
+
+    for fb in result.feedback:
+        typer.echo(fb.line())
+    from recorder.procedure import Shortfall, detection_shortfall
+
+    head, *rest = capture_lines(pose, result)
+    typer.echo(f"trial {trial} {head}")
+    for line in rest:
+        typer.echo(line)
+    if detection_shortfall(result) is not Shortfall.OK:
+        typer.echo("  a plan cannot ask: this capture is recorded as accepted all the same")
+
+
+def record_terminal(
+    request: NewRequest, given: dict[str, Any], stack: contextlib.ExitStack
+) -> RecordingSummary:
+    """Ask for whatever the options did not give (``given``: :func:`console_given`), then
+    run the guided procedure."""
+    from recorder.capture import AdaptiveFrames, CaptureSettings
+    from recorder.interactive import Operator, ask_setup, record_interactive
+    from recorder.setup_rules import PoseTyping, Setup, check_rig
+    from recorder.sources import open_source
+
+    mode = request.camera
+    op = Operator(_prompt, typer.echo)
+    if request.continued is not None:
+        typer.echo(
+            f"continuing {request.continued.path} after trial {request.continued.last_trial}"
+        )
+        # The continued session's setup, with the continuation's own stop rule.
+        setup = replace(Setup.of(request.continued), target95=given["target_precision"])
+    else:
+        setup = ask_setup(op, size=(mode.width, mode.height), **given)
+    check_rig(request.rig, setup.method, setup.units, [setup.camera()], setup.ground())
+    asked = request.guidance or guidance_asked()
+    guidance = asked.guidance(setup.units, request.poses, setup.target95)
+    src = open_source(
+        request.source, method=setup.method, width=mode.width, height=mode.height, fps=mode.fps
+    )
+    port = request.live_port
+    view = _live_view(stack, [setup.camera()], port) if port is not None else None
+    capture = CaptureSettings(
+        frames=request.frames, live=view, rig=request.rig, guidance=guidance,
+        adaptive=AdaptiveFrames.asked(setup.method, asked=request.adaptive_frames),
+    )  # fmt: skip
+    return record_interactive(
+        request.out,
+        src,
+        op,
+        setup=setup,
+        notes=request.notes,
+        capture=capture,
+        typing=PoseTyping(poses_per_trial=guidance.max_poses),
+        continued=request.continued,
+    )
+
+
+def record_planned(
+    request: NewRequest, plan: Path, stack: contextlib.ExitStack
+) -> RecordingSummary:
+    """``new --plan``: the plan recorded, each capture and live result printed."""
+    from recorder.plan import load_plan, record_plan
+    from recorder.setup_rules import check_rig
+    from recorder.sources import open_source
+
+    the_plan = load_plan(plan)
+    check_rig(request.rig, the_plan.method, the_plan.units, the_plan.cameras, the_plan.ground())
+    mode = request.camera
+    src = open_source(
+        request.source, method=the_plan.method, width=mode.width, height=mode.height, fps=mode.fps
+    )
+    cameras = list(the_plan.cameras)
+    view = _live_view(stack, cameras, request.live_port) if request.live_port is not None else None
+    return record_plan(
+        the_plan,
+        request.out,
+        src,
+        on_capture=_report_capture,
+        live=view,
+        on_result=lambda result: typer.echo(f"  result: {result.text()}"),
+        rig=request.rig,
+        on_advice=lambda trial, advice: typer.echo(f"  guidance: trial {trial}: {advice.text}"),
+        continued=request.continued,
+    )
+
+
+def serve_console_until_stopped(
+    request: NewRequest, given: dict[str, Any], *, host: str, port: int
+) -> None:
+    """The web console until Ctrl-C or SIGTERM. The recording thread prints the summary,
+    once, when the session ends; an interrupted session exits 130 (KeyboardInterrupt, as
+    the terminal's), a failed one 3."""
+    from recorder.console_server import ConsoleOptions, serve_console
+
+    mode = request.camera
+    options = ConsoleOptions(
+        source=request.source, given=given, frames=request.frames, poses=request.poses,
+        adaptive_frames=request.adaptive_frames,
+        size=(mode.width, mode.height), fps=mode.fps, notes=request.notes, rig=request.rig,
+        live_port=request.live_port, guidance=request.guidance, continued=request.continued,
+    )  # fmt: skip
+    serve_console(request.out, options, host=host, port=port)
+
+
+def _prompt(question: str, default: str) -> str:
+    """One question at the terminal; Ctrl-C or a closed input is an interrupt."""
+    try:
+        return str(typer.prompt(question, default=default or None, show_default=bool(default)))
+    except typer.Abort:
+        raise KeyboardInterrupt from None
