@@ -37,11 +37,9 @@ from typing import TYPE_CHECKING, Any
 from typing_extensions import override
 
 from recorder.capture import LiveSink
+from recorder.driver import Decision, Driver, Placement
 from recorder.procedure import (
-    Decision,
-    Driver,
     LowDetectionError,
-    Placement,
     ProcedureRefusedError,
     QuitRecording,
     Shortfall,

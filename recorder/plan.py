@@ -17,12 +17,8 @@ import numpy as np
 from typing_extensions import override
 
 from recorder.capture import CaptureResult, CaptureSettings, FrameFeedback
-from recorder.procedure import (
-    Decision,
-    Driver,
-    Placement,
-    record,
-)
+from recorder.driver import Decision, Driver, Placement
+from recorder.procedure import record
 from recorder.setup_rules import (
     MAX_ROTATION_DEG,
     THESIS_FOCAL_PX,

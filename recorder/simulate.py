@@ -24,7 +24,8 @@ from numpy.typing import NDArray
 from typing_extensions import override
 
 from recorder.capture import CaptureSettings
-from recorder.procedure import Driver, Placement, record
+from recorder.driver import Driver, Placement
+from recorder.procedure import record
 from recorder.sources import FrameSource, SourceInfo
 from twopose.arrays import F64
 from twopose.camera import Camera, Intrinsics, project_points, rotation_from_angles_deg

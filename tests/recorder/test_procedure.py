@@ -15,12 +15,10 @@ from recorder.capture import (
     Shortfall,
     detection_shortfall,
 )
+from recorder.driver import Decision, Driver, Placement
 from recorder.procedure import (
     TRANSITIONS,
-    Decision,
-    Driver,
     LowDetectionError,
-    Placement,
     Procedure,
     ProcedureError,
     ProcedureRefusedError,

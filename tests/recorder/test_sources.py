@@ -143,7 +143,8 @@ def test_a_pause_before_a_redone_capture_is_not_counted_as_dropped(
     import time
 
     from recorder.capture import CaptureResult
-    from recorder.procedure import Decision, Driver, Placement, record
+    from recorder.driver import Decision, Driver, Placement
+    from recorder.procedure import record
 
     pause_s = 0.6  # 18 frame intervals at 30 fps
 
