@@ -1,4 +1,4 @@
-"""entries: each field declared once; schema, encoding and decoding follow from it."""
+"""entries: every typed entry round-trips through its schema-checked JSON."""
 
 from __future__ import annotations
 
@@ -24,8 +24,6 @@ from twopose.format.entries import (
     TruePose,
     decode_entry,
     encode_entry,
-    json_field,
-    object_schema,
 )
 from twopose.methods import Method
 from twopose.targets import BoardPlacement
@@ -170,23 +168,6 @@ def test_a_decision_is_accept_or_discard() -> None:
             CaptureDecision.SCHEMA_NAME,
             b'{"capture":1,"trial":1,"pose":1,"camera":"c","decision":"ok"}',
         )
-
-
-def test_dotted_names_nest_and_required_follows_the_declaration() -> None:
-    @dataclasses.dataclass(frozen=True)
-    class Probe:
-        a: int = json_field("a", {"type": "integer"})
-        lo: float = json_field("range.lo", {"type": "number"})
-        hi: float = json_field("range.hi", {"type": "number"}, required=False, default=1.0)
-        c: str = json_field("c", {"type": "string"}, required=False, default="")
-
-    schema = object_schema(Probe)
-    assert schema["required"] == ["a", "range"]
-    assert schema["properties"]["range"] == {
-        "type": "object",
-        "properties": {"lo": {"type": "number"}, "hi": {"type": "number"}},
-        "required": ["lo"],
-    }
 
 
 def test_pose_entry_json_is_the_documented_shape() -> None:
