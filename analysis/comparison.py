@@ -27,8 +27,9 @@ from matplotlib.figure import Figure
 from analysis.choices import Estimator
 from analysis.figures import png_bytes
 from analysis.metrics import paired_difference, summarize, used_trials
-from analysis.outputs import read_results_table, session_keys, write_atomically
+from analysis.outputs import write_atomically
 from analysis.report import page_html, table_html
+from analysis.run_tables import read_results_table, session_keys
 from twopose.errors import InputValueError
 from twopose.format.entries import INCHES_PER_UNIT
 

@@ -21,7 +21,7 @@ from typing import Any
 import pandas as pd
 
 from analysis.columns import SUMMARY_DOMAINS
-from analysis.outputs import check_results_table, read_results_table, session_keys
+from analysis.run_tables import check_results_table, read_results_table, session_keys
 from twopose.config import build_dataclass, read_toml
 from twopose.errors import InputValueError
 from twopose.methods import MEASURING_METHODS, Method

@@ -13,7 +13,7 @@ from typer.testing import CliRunner
 
 from analysis.cli import app
 from analysis.gate import Tolerance, check, load_tolerance
-from analysis.outputs import session_keys
+from analysis.run_tables import session_keys
 from twopose.errors import InputValueError
 
 runner = CliRunner()

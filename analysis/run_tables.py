@@ -1,0 +1,198 @@
+"""A finished run's tables read back (``check``, ``compare``): checked, or refused in words.
+
+:func:`read_results_table` reads one and checks it (:func:`check_results_table`: the
+columns, one row per key, numbers, each inside its column's domain, counts adding up); its
+sessions are named by :func:`session_keys`, so that two runs of the same sessions from
+different places match.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+from collections.abc import Callable, Iterable, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from twopose.errors import InputValueError
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+__all__ = ["check_results_table", "read_results_table", "session_keys"]
+
+
+def read_results_table(
+    folder: str | Path,
+    name: str,
+    *,
+    key: Sequence[str] = ("session", "method"),
+    required: Iterable[str] = (),
+    numeric: Iterable[str] = (),
+) -> pd.DataFrame:
+    """``folder/name``, a CSV table a run wrote, checked as ``check`` and ``compare`` need
+    it (:func:`check_results_table`), or an error saying what is wrong and what to do."""
+    import pandas as pd
+
+    where = Path(folder)
+    path = where / name
+    if not where.is_dir():
+        raise InputValueError(f"{folder} is not a folder: give a run's --out folder")
+    if not path.is_file():  # a FIFO or a device would block the read forever
+        raise InputValueError(
+            f"no {name} in {folder}: give the --out folder of a finished `twopose-analyze run`"
+        )
+    try:
+        with open(path, encoding="utf-8", newline="") as fh:
+            header = next(csv.reader(fh), [])
+        table = pd.read_csv(path, keep_default_na=True, dtype={"session": str, "method": str})
+    except (OSError, ValueError, UnicodeDecodeError, csv.Error) as err:
+        raise InputValueError(f"cannot read {path}: {err}") from err
+    twice = sorted({c for c in header if header.count(c) > 1})
+    if twice:
+        raise InputValueError(f"{path}: column(s) {', '.join(twice)} given twice")
+    from analysis.columns import TABLE_DOMAINS
+
+    return check_results_table(
+        table,
+        str(path),
+        key=key,
+        required=required,
+        numeric=numeric,
+        domains=TABLE_DOMAINS.get(name),
+    )
+
+
+def check_results_table(
+    table: pd.DataFrame,
+    what: str,
+    *,
+    key: Sequence[str] = ("session", "method"),
+    required: Iterable[str] = (),
+    numeric: Iterable[str] = (),
+    domains: dict[str, str] | None = None,
+) -> pd.DataFrame:
+    """The one check of a run's table before ``check`` or ``compare`` reads it: the
+    ``key`` and ``required`` columns present, every row with its key, no key twice (a
+    session and method, or a trial, in two rows: which is the run's?), the ``numeric``
+    columns present numbers or empty (not measured), and with ``domains`` (column ->
+    domain, :data:`analysis.columns.SUMMARY_DOMAINS`) every number inside its column's
+    domain and the counts adding up. Returns ``table``."""
+    import pandas as pd
+
+    missing = [c for c in (*key, *required) if c not in table.columns]
+    if missing:
+        raise InputValueError(
+            f"{what} has no column {', '.join(missing)}: not a table of this twopose's run; "
+            "run `twopose-analyze run` again to write it"
+        )
+    blank = table[list(key)].isna().any(axis=1) | (
+        table[list(key)].astype(str).apply(lambda c: c.str.strip()).eq("").any(axis=1)
+    )
+    if blank.any():
+        rows = ", ".join(str(i + 1) for i in table.index[blank][:5])
+        raise InputValueError(
+            f"{what}: row(s) {rows} (below the header) have no {' or '.join(key)}"
+        )
+    keyed = table.assign(session=session_keys(table["session"])) if "session" in key else table
+    doubled = keyed[keyed.duplicated(list(key), keep=False)]
+    if len(doubled):
+        names = sorted({_key_name(key, row) for row in doubled[list(key)].itertuples(index=False)})
+        shown = "; ".join(names[:5]) + (f"; and {len(names) - 5} more" if len(names) > 5 else "")
+        raise InputValueError(
+            f"{what}: more than one row for {shown}; a run writes one per "
+            f"{', '.join(key)}: which is the run's? Keep one and check again"
+        )
+    for column in numeric:
+        if column not in table.columns:
+            continue
+        values = pd.to_numeric(table[column], errors="coerce")
+        bad = values.isna() & table[column].notna()
+        if bad.any():
+            i = table.index[bad][0]
+            value = table[column][i]
+            raise InputValueError(
+                f"{what}: {column} in row {i + 1} (below the header) is {value!r}, not a number"
+            )
+    if domains:
+        _check_domains(table, what, domains)
+    return table
+
+
+def _count(v: float) -> bool:
+    return v >= 0 and float(v).is_integer()
+
+
+def _length(v: float) -> bool:
+    return v >= 0
+
+
+def _signed(_v: float) -> bool:
+    return True
+
+
+def _share(v: float) -> bool:
+    return 0 <= v <= 1
+
+
+#: Each domain of :data:`analysis.columns.SUMMARY_DOMAINS`: whether a (finite) number is
+#: in it, and what it should be, in words.
+_DOMAINS: dict[str, tuple[Callable[[float], bool], str]] = {
+    "count": (_count, "a whole number of trials, >= 0"),
+    "length": (_length, "a length, >= 0"),
+    "signed": (_signed, "a finite number"),
+    "share": (_share, "a share between 0 and 1"),
+}
+
+
+def _check_domains(table: pd.DataFrame, what: str, domains: dict[str, str]) -> None:
+    """Refuse a number no run can write: outside its column's domain, infinite, or counts
+    that do not add up (more trials used than ok). Empty cells are "not measured"."""
+    import math
+
+    import pandas as pd
+
+    from analysis.columns import SUMMARY_COUNT_ORDER
+
+    problems: list[str] = []
+    for column, domain in domains.items():
+        if column not in table.columns:
+            continue
+        inside, words = _DOMAINS[domain]
+        for i, value in pd.to_numeric(table[column], errors="coerce").items():
+            if math.isnan(value):
+                continue
+            if not (math.isfinite(value) and inside(value)):
+                problems.append(f"{column} = {value:g} in row {int(str(i)) + 1} ({words})")
+    for low, high in SUMMARY_COUNT_ORDER:
+        if low in table.columns and high in table.columns:
+            a, b = pd.to_numeric(table[low]), pd.to_numeric(table[high])
+            for i in table.index[(a > b).fillna(value=False)]:
+                problems.append(f"{low} = {a[i]:g} > {high} = {b[i]:g} in row {int(str(i)) + 1}")
+    if problems:
+        more = f"; and {len(problems) - 5} more" if len(problems) > 5 else ""
+        shown = "; ".join(problems[:5]) + more
+        raise InputValueError(
+            f"{what}: values no run writes: {shown}. Was it edited by hand? Run "
+            "`twopose-analyze run` again to write it"
+        )
+
+
+def _key_name(key: Sequence[str], values: Iterable[object]) -> str:
+    """``a.mcap (point)``, ``a.mcap (point) trial 3``: a row's key as the messages name it."""
+    named = [str(v) for v in values]
+    extra = "".join(f" {k} {v}" for k, v in zip(key[2:], named[2:], strict=True))
+    return f"{named[0]} ({named[1]}){extra}" if len(named) > 1 else named[0]
+
+
+def session_keys(sessions: pd.Series) -> pd.Series:
+    """Each session's path below the run's common folder: ``sessions/a.mcap`` and
+    ``/ci/clone/sessions/a.mcap`` are both ``a.mcap``, so that two runs of the same
+    sessions from different places match."""
+    paths = [str(s) for s in sessions]
+    parents = {os.path.dirname(p) for p in paths}
+    try:
+        common = os.path.commonpath(list(parents)) if parents and "" not in parents else ""
+    except ValueError:  # absolute and relative paths mixed
+        common = ""
+    return sessions.map(lambda s: os.path.relpath(str(s), common) if common else str(s))
