@@ -7,7 +7,7 @@ side by side). Leave-one-out over the pairs: each camera calibrated on the other
 (``recorder.camera_calibration.fit_views``, the fit of ``twopose-record calibrate``), their relative
 pose by ``cv2.stereoCalibrate`` (intrinsics fixed) on the other 12 pairs; the held-out
 pair's 54 corners undistorted, reconstructed from the two views by
-``twopose.solve.triangulate_two_views`` (the thesis' midpoint and the reprojection-optimal
+``twopose.two_view.triangulate_two_views`` (the thesis' midpoint and the reprojection-optimal
 pair), and every adjacent corner spacing (93 a pair) compared with the true 25 mm. OpenCV's
 own ``triangulatePoints`` on the same pixels is the reference column.
 
@@ -32,7 +32,8 @@ from numpy.typing import NDArray
 
 from recorder.camera_calibration import fit_views
 from twopose.camera import Intrinsics
-from twopose.solve import projection_matrices, triangulate_two_views
+from twopose.solve import projection_matrices
+from twopose.two_view import triangulate_two_views
 
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "two_camera.txt"

@@ -175,7 +175,7 @@ def test_merton_through_the_solve_command() -> None:
 
 @pytest.mark.parametrize("estimator", ["thesis", "optimal"])
 def test_fast_two_view_path_agrees_with_the_general_solver(estimator: str) -> None:
-    from twopose.solve import triangulate_two_views
+    from twopose.two_view import triangulate_two_views
 
     rng = np.random.default_rng(9)
     T = 500
@@ -212,7 +212,7 @@ def test_fast_two_view_path_agrees_with_the_general_solver(estimator: str) -> No
 
 
 def test_fast_two_view_degenerate_cases() -> None:
-    from twopose.solve import triangulate_two_views
+    from twopose.two_view import triangulate_two_views
 
     P1 = projection_matrices(K4, np.eye(3), np.zeros(3))
     same_centre = projection_matrices(K4, rotation_from_angles_deg([0.0, 10.0, 0.0]), np.zeros(3))
