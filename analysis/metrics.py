@@ -26,7 +26,9 @@ def warned(trials: pd.DataFrame) -> pd.Series:
     """Which trials carry a near-degeneracy warning (part of :func:`used_trials`' rule)."""
     if "warning" not in trials:
         return pd.Series(data=False, index=trials.index)
-    return trials["warning"].fillna("").astype(str) != ""
+    # A column read back from a CSV with no warning at all is float NaN: not a warning.
+    text = trials["warning"].astype(object).where(trials["warning"].notna(), "")
+    return text.astype(str) != ""
 
 
 def used_trials(

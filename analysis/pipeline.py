@@ -41,6 +41,7 @@ from twopose.session_estimate import (
     running_estimates,
 )
 from twopose.truth import Reported, reported
+from twopose.units import UnitSpec, unit_spec
 
 if TYPE_CHECKING:
     from analysis.figure_cache import FigureCache
@@ -286,11 +287,12 @@ def _replay(
                 rig_truth = RigConstants.from_vector(record.simulation_truth.rig)
             views.append(_trial_views(record, detections, session, rows, results))
             trial_ids.append(record.trial)
-            truths.append(_truth(record))
+            truth, why_not_compared = _truth(record, unit_spec(info.units))
+            truths.append(truth)
             last_ns.append(
                 max((pc.frames[-1].log_time_ns for pc in record.poses if pc.frames), default=0)
             )
-            notes.append(" | ".join(record.notes))
+            notes.append(" | ".join((*record.notes, *why_not_compared)))
             unmeasured.append(record.why_not_measured())
     trials_value = SessionTrials(
         method=info.method,
@@ -337,12 +339,23 @@ def _metadata(reader: SessionReader) -> dict[str, str]:
     }
 
 
-def _truth(record: TrialRecord) -> F64:
-    """(2, 3): the point twice, or the two line points; NaN when the trial has no truth."""
+def _truth(record: TrialRecord, units: UnitSpec) -> tuple[F64, tuple[str, ...]]:
+    """(2, 3): the point twice, or the two line points; NaN when the trial has no truth, or
+    one beyond any grid (said in the second value: twopose refuses it when typed, so it
+    is another writer's, and compared with it every number would be noise or overflow)."""
+    none = np.full((2, 3), np.nan)
     if record.ground_truth is None:
-        return np.full((2, 3), np.nan)
-    pts = np.array(record.ground_truth.points_grid)
-    return pts if len(pts) == 2 else np.stack([pts[0], pts[0]])
+        return none, ()
+    points = record.ground_truth.points_grid
+    beyond = [p for p in points if units.too_large(p)]
+    if beyond:
+        shown = ", ".join(f"({', '.join(f'{v:g}' for v in p)})" for p in beyond)
+        return none, (
+            f"ground truth {shown} lies beyond any grid (|x|, |y|, |z| <= "
+            f"{units.max_translation:g} {units.units}): not compared",
+        )
+    pts = np.array(points)
+    return (pts if len(pts) == 2 else np.stack([pts[0], pts[0]])), ()
 
 
 #: Threads decoding and detecting frames beside the one reading the session and writing

@@ -50,10 +50,21 @@ __all__ = ["solve_request"]
 _Answer = tuple[dict[str, Any], str, str, float]
 
 
+#: No pixel, focal length, translation or matrix entry of a real camera comes near this
+#: (in any unit): beyond it a number is a mistake, and the solvers' products would overflow.
+_LARGEST = 1e12
+
+
 def _numbers(value: Any, n: int, where: str) -> list[float]:
     if not isinstance(value, list):  # JSON arrays only: a string or object is a mistake
         raise InputValueError(f"{where} must be a list of {n} numbers, got {value!r}")
-    return list(numbers(value, n, where))
+    got = list(numbers(value, n, where))
+    if any(abs(v) > _LARGEST for v in got):
+        raise InputValueError(
+            f"{where}: {', '.join(f'{v:g}' for v in got)} lies beyond any camera or grid "
+            f"(|value| <= {_LARGEST:g}): check the request"
+        )
+    return got
 
 
 def _field(obj: Any, key: str, where: str) -> Any:

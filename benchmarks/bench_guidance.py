@@ -271,11 +271,11 @@ def _print(table: pd.DataFrame, args: argparse.Namespace) -> list[str]:
     print("\nsaved: 1 - guided poses* / thesis poses*; per method, over its three D (the "
           f"target: at least {SAVED_TARGET:.0%}):")  # fmt: skip
     missed = []
-    for method, saved in saved_by_method.items():
-        mean = float(np.mean(saved))
-        print(f"  {method:<7}{mean:>5.0%}")
+    for name, shares in saved_by_method.items():
+        mean = float(np.mean(shares))
+        print(f"  {name:<7}{mean:>5.0%}")
         if mean < SAVED_TARGET:
-            missed.append(f"{method}: guidance saves {mean:.0%} of the thesis' poses")
+            missed.append(f"{name}: guidance saves {mean:.0%} of the thesis' poses")
     guided = table[table["strategy"] == "guided"]
     lo, hi = COVERAGE_TARGET
     print("\nregions of guided trials stopped by the rule (at D, or at max_poses): coverage of "
@@ -289,7 +289,7 @@ def _print(table: pd.DataFrame, args: argparse.Namespace) -> list[str]:
         per_trial = g.groupby("trial")["within"].mean().dropna()  # a trial is one sample
         cover = _coverage_row(f"{method!s:<7}   all", g, per_trial)
         if not lo <= cover <= hi:
-            missed.append(f"{method}: stopped trials' regions cover {cover:.1%}")
+            missed.append(f"{method!s}: stopped trials' regions cover {cover:.1%}")
     return missed
 
 

@@ -25,7 +25,6 @@ from recorder.setup_rules import (
     THESIS_IMAGE_SIZE,
     default_principal,
     off_ground,
-    too_large,
 )
 from recorder.sources import FrameSource
 from recorder.summary import RecordingSummary
@@ -45,7 +44,7 @@ from twopose.format.entries import (
 from twopose.guidance import THESIS_MOVE_IN, Guidance, Reach
 from twopose.methods import METHODS, Method, spec_of
 from twopose.targets import BoardPlacement
-from twopose.units import UNITS, Units, unit_factor
+from twopose.units import UNITS, Units, unit_factor, unit_spec
 from twopose.values import Vec3, finite, numbers, vec3
 
 if TYPE_CHECKING:
@@ -305,7 +304,7 @@ def _board(table: Any, method: Method, units: Units) -> BoardPlacement | None:
     if not isinstance(corners, list) or len(corners) != 2:
         raise InputValueError(f"plan: board.inner_corners must be [cols, rows], got {corners!r}")
     corner = _vec(b["first_corner"], "board.first_corner")
-    if too_large(corner, units):
+    if unit_spec(units).too_large(corner):
         raise InputValueError(
             f"plan: board.first_corner = {corner} is implausibly large for {units}"
         )
@@ -342,7 +341,7 @@ def _trial(
         where = f"trials[{i}].poses[{j}]"
         p = _known_keys(p, "poses", where)
         tg = _vec(p.get("t"), f"{where}.t")
-        if too_large(tg, units):
+        if unit_spec(units).too_large(tg):
             raise InputValueError(f"plan: {where}.t = {tg} is implausibly large for {units}")
         r_deg = _vec(p.get("r_deg", [0, 0, 0]), f"{where}.r_deg")
         if max(abs(v) for v in r_deg) > MAX_ROTATION_DEG:
@@ -366,7 +365,7 @@ def _guided_trial(
     if not _whole(most) or most < 2 or most > 100:
         raise InputValueError(f"plan: trials[{i}].max_poses must be 2-100, got {most!r}")
     start = _vec(t.get("start", [0, 0, 0]), f"trials[{i}].start")
-    if too_large(start, units):
+    if unit_spec(units).too_large(start):
         raise InputValueError(f"plan: trials[{i}].start = {start} is implausibly large")
     first = PlannedPose(t_grid=start, camera_id=camera)
     return PlannedTrial(poses=(), ground_truth=gt, max_poses=most, start=first)
@@ -378,7 +377,7 @@ def _truth(
     """A trial's ground truth, checked by the setup rules."""
     where = f"trials[{i}].ground_truth"
     gt = tuple(_vec(g, where) for g in t.get("ground_truth", []))
-    if any(too_large(g, units) for g in gt):
+    if any(unit_spec(units).too_large(g) for g in gt):
         raise InputValueError(f"plan: {where} = {gt} is implausibly large for {units}")
     spec = spec_of(method)
     if gt and not spec.truth_points:

@@ -58,7 +58,6 @@ __all__ = [
     "parse_vector",
     "positive_number",
     "setup_from_answers",
-    "too_large",
 ]
 
 #: The thesis' rig (section 5.2): f = 525 px, principal point at the centre of 640x480, a
@@ -290,11 +289,6 @@ def max_translation(units: Units) -> float:
     """A typed translation's plausible magnitude (session units): beyond it, a typo is
     likelier (:attr:`twopose.units.UnitSpec.max_translation`)."""
     return unit_spec(units).max_translation
-
-
-def too_large(vector: Vec3, units: Units) -> bool:
-    """Whether a typed position (a pose, a ground truth, a board corner) is implausible."""
-    return max(abs(v) for v in vector) > max_translation(units)
 
 
 def default_principal(size: tuple[int, int]) -> tuple[float, float]:

@@ -1,6 +1,7 @@
 """A reusable fuzz harness: seeded damage to files, and the invariant every entry point
 must keep on any input (an exit code of 0, 1, 2, 3 or 130 with a message; never a
-traceback; never a hang).
+traceback; never a hang; never a numerical warning printed at the user, such as NumPy's
+``RuntimeWarning: overflow encountered``: the input is refused, or the result flagged).
 
 Used by the CI-sized sweeps in ``tests/`` and the large ones in ``benchmarks/fuzz.py``.
 """
@@ -8,6 +9,7 @@ Used by the CI-sized sweeps in ``tests/`` and the large ones in ``benchmarks/fuz
 from __future__ import annotations
 
 import signal
+import warnings
 from collections import Counter
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -80,10 +82,19 @@ def check_command(
     """Run one command in-process; record its exit code or the invariant it broke."""
     runner = CliRunner()
     try:
-        with time_limit(seconds):
+        with time_limit(seconds), warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", RuntimeWarning)
             result = runner.invoke(app, list(args), input=stdin)
     except HangError as err:
         outcomes.violations.append(f"{case}: {' '.join(args)}: {err}")
+        return None
+    numerical = [w for w in caught if issubclass(w.category, RuntimeWarning)]
+    if numerical:
+        first = numerical[0]
+        outcomes.violations.append(
+            f"{case}: {' '.join(args)}: {first.category.__name__} {first.message} "
+            f"({first.filename}:{first.lineno})"
+        )
         return None
     if result.exception is not None and not isinstance(result.exception, SystemExit):
         kind = type(result.exception).__name__

@@ -10,7 +10,7 @@ symbols (``Units.IN == "in"``), so files and tables are unchanged.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from enum import StrEnum
 from types import MappingProxyType
@@ -52,6 +52,14 @@ class UnitSpec:
     name: str  # in words, plural ("inches")
     max_translation: float  # the largest typed translation a plan or the operator may give
     ground_tolerance: float  # how far off y = h a method 2 ground truth may lie unflagged
+
+    def too_large(self, vector: Sequence[float]) -> bool:
+        """Whether a typed position (a pose, a ground truth, a board corner) lies beyond any grid.
+
+        The recorder refuses one as a typo; the analysis compares with no such truth
+        (another writer's file may hold one).
+        """
+        return max(abs(float(v)) for v in vector) > self.max_translation
 
 
 UNIT_SPECS: Mapping[Units, UnitSpec] = MappingProxyType(

@@ -11,7 +11,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-import httpx
+import httpx2
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -121,7 +121,7 @@ def test_a_host_or_origin_given_twice_is_refused(console: tuple[TestClient, Path
         [("Origin", ORIGIN), ("Origin", "http://evil.example")],
         [("Host", "127.0.0.1:8765"), ("Host", "evil.example")],
     ):
-        answer = client.post("/api/setup", json=LINE_SETUP, headers=httpx.Headers(doubled))
+        answer = client.post("/api/setup", json=LINE_SETUP, headers=httpx2.Headers(doubled))
         assert answer.status_code == 403, doubled
         assert "twice" in strict_json(answer.text)["error"]
     assert not out.exists()

@@ -25,7 +25,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Concatenate, ParamSpec, TypeVar
 
-import httpx
+import httpx2
 import pytest
 from hypothesis import HealthCheck, settings
 from hypothesis import strategies as st
@@ -265,7 +265,7 @@ class ConsoleModel(RuleBasedStateMachine):
         self.notes: dict[int, list[str]] = {}
 
     # -- talking to the console
-    def _request(self, method: str, path: str, body: Any = None) -> httpx.Response:
+    def _request(self, method: str, path: str, body: Any = None) -> httpx2.Response:
         assert self.client is not None
         try:
             answer = self.client.get(path) if method == "GET" else self.client.post(path, json=body)
@@ -286,7 +286,7 @@ class ConsoleModel(RuleBasedStateMachine):
         state: dict[str, Any] = _strict_json(answer.text)
         return state
 
-    def _post(self, path: str, body: Any, ok: bool) -> httpx.Response:
+    def _post(self, path: str, body: Any, ok: bool) -> httpx2.Response:
         """POST, expecting 200 (``ok``) or a refusal (400 with a message)."""
         answer = self._request("POST", path, body)
         want = 200 if ok else 400
