@@ -325,13 +325,17 @@ class WebDriver(Driver):
         if trial == self.first_trial:
             return True
         self._typed, self._accepted = {}, set()
+        # How the last trial ended (the stop rule, or its most poses) stays said until the
+        # next trial's first pose: its advice goes with it.
+        ended = self.session.advice
+        said = f"trial {ended['trial']}: {ended['text']}. " if ended and ended["complete"] else ""
         self.session.update(
             trial=trial,
             pose=1,
             poses=[],
             pose_form={},
             advice=None,
-            message=f"trial {trial}: type pose 1, then capture (or quit to finish)",
+            message=f"{said}trial {trial}: type pose 1, then capture (or quit to finish)",
             level="info",
         )
         try:
