@@ -306,7 +306,8 @@ def test_the_console_suggests_the_next_pose_and_stops_by_the_rule(tmp_path: Path
                 page.click("accept")
             page.wait(lambda: "trial 2: type pose 1" in page.status(), "the stop rule")
             # How trial 1 ended stays said until trial 2's first pose.
-            assert "trial 1: " in page.status() and "trial complete" in page.status()
+            assert "trial 1: " in page.status()
+            assert "trial complete" in page.status()
     finally:
         process.terminate()
         process.wait(timeout=30)
