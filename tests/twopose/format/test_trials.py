@@ -207,3 +207,19 @@ def test_notes_reach_their_trial_wherever_they_were_typed(tmp_path: Path) -> Non
     notes = describe_session(path).notes
     assert notes.session == ("before anything",)
     assert notes.by_trial == {1: ("about trial 1, typed late",)}
+
+
+def test_a_typed_pose_beyond_any_grid_is_set_aside_with_why(tmp_path: Path) -> None:
+    """Another writer's pose typed at 6000 mm (the recorder refuses past 5000 mm) is kept in
+    the file but never measured from: solved with it, an "ok" trial would be nonsense."""
+    path = tmp_path / "s.mcap"
+    info = SessionInfo(method=Method.POINT, units=Units.MM)
+    with SessionWriter(path, info, [CAM], image_format="png", start_ns=0) as w:
+        _numbered(w, 1, 1, 10, "accept")  # typed at x 10 mm
+        _numbered(w, 1, 2, 6000, "accept")  # typed at x 6000 mm
+    with SessionReader(path) as reader:
+        (record,) = iter_trials(reader)
+    assert [pc.entry.pose for pc in record.poses] == [1]
+    assert "(6000, 0, 0) lies beyond any grid (|x|, |y|, |z| <= 5000 mm)" in (
+        record.why_not_measured()
+    )
