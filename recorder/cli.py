@@ -244,9 +244,9 @@ def new(
         continued_given,
         continued_session,
         guidance_asked,
-        load_rig,
         record_planned,
         record_terminal,
+        rig_file,
         serve_console_until_stopped,
     )
     from recorder.procedure import refuse_existing
@@ -276,7 +276,7 @@ def new(
             poses=poses,
             camera=CameraMode(width=width, height=height, fps=fps),
             notes=notes,
-            rig=load_rig(rig),
+            rig=rig_file(rig),
             live_port=live_port if live else None,
             guidance=guidance_asked(max_poses, reach, grid),
             continued=continued_session(

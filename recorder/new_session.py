@@ -27,9 +27,9 @@ __all__ = [
     "continued_given",
     "continued_session",
     "guidance_asked",
-    "load_rig",
     "record_planned",
     "record_terminal",
+    "rig_file",
     "serve_console_until_stopped",
 ]
 
@@ -97,7 +97,8 @@ def continued_given(continued: Continued, target_precision: float | None) -> dic
     }  # fmt: skip
 
 
-def load_rig(path: Path | None) -> RigConstants | None:
+def rig_file(path: Path | None) -> RigConstants | None:
+    """``--rig``: the calibrated rig's constants, or None."""
     from twopose.rig.constants import load_rig
 
     return load_rig(path) if path is not None else None
