@@ -339,7 +339,7 @@ def _metadata(reader: SessionReader) -> dict[str, str]:
     }
 
 
-def _truth(record: TrialRecord, units: UnitSpec) -> tuple[F64, tuple[str, ...]]:
+def _truth(record: TrialRecord, unit: UnitSpec) -> tuple[F64, tuple[str, ...]]:
     """(2, 3): the point twice, or the two line points; NaN when the trial has no truth, or
     one beyond any grid (said in the second value: twopose refuses it when typed, so it
     is another writer's, and compared with it every number would be noise or overflow)."""
@@ -347,12 +347,12 @@ def _truth(record: TrialRecord, units: UnitSpec) -> tuple[F64, tuple[str, ...]]:
     if record.ground_truth is None:
         return none, ()
     points = record.ground_truth.points_grid
-    beyond = [p for p in points if units.too_large(p)]
+    beyond = [p for p in points if unit.too_large(p)]
     if beyond:
         shown = ", ".join(f"({', '.join(f'{v:g}' for v in p)})" for p in beyond)
         return none, (
             f"ground truth {shown} lies beyond any grid (|x|, |y|, |z| <= "
-            f"{units.max_translation:g} {units.units}): not compared",
+            f"{unit.max_translation:g} {unit.units}): not compared",
         )
     pts = np.array(points)
     return (pts if len(pts) == 2 else np.stack([pts[0], pts[0]])), ()

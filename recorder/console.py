@@ -37,14 +37,15 @@ from typing import TYPE_CHECKING, Any
 from typing_extensions import override
 
 from recorder.capture import LiveSink
-from recorder.driver import Decision, Driver, Placement
-from recorder.procedure import (
+from recorder.driver import (
+    Decision,
+    Driver,
     LowDetectionError,
+    Placement,
     ProcedureRefusedError,
     QuitRecording,
-    Shortfall,
-    detection_shortfall,
 )
+from recorder.procedure import Shortfall, detection_shortfall
 from recorder.setup_rules import PoseTyping, form_fields
 from recorder.summary import RecordingSummary
 from twopose.format.entries import GroundTruth, Note, PoseEntry, TruthKind, TypedEntry

@@ -3,7 +3,8 @@
 The operator at the terminal (:mod:`recorder.interactive`), in the browser
 (:mod:`recorder.console`), a plan file (:mod:`recorder.plan`) and the simulator
 (:mod:`recorder.simulate`) each implement it; the procedure asks it where each pose goes
-(:class:`Placement`) and what to do after each capture (:class:`Decision`).
+(:class:`Placement`) and what to do after each capture (:class:`Decision`), and tells it
+what it refuses (:class:`ProcedureRefusedError`).
 """
 
 from __future__ import annotations
@@ -14,18 +15,50 @@ from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from twopose.errors import InputValueError, TwoposeError
 from twopose.format.entries import Note, PoseEntry, TypedEntry
 from twopose.values import Vec3
 
 if TYPE_CHECKING:
     from recorder.capture import CaptureResult
-    from recorder.procedure import ProcedureRefusedError
     from recorder.sources import SourceInfo
     from recorder.summary import RecordingSummary
     from recorder.trial_result import TrialResult
     from twopose.guidance import Advice
 
-__all__ = ["Decision", "Driver", "Placement"]
+__all__ = [
+    "Decision",
+    "Driver",
+    "LowDetectionError",
+    "Placement",
+    "ProcedureError",
+    "ProcedureRefusedError",
+    "QuitRecording",
+]
+
+
+# What the procedure refuses or raises, and what a driver raises to end the recording.
+
+
+class ProcedureError(TwoposeError):
+    """An event the current state does not allow (a driver's mistake)."""
+
+
+class QuitRecording(Exception):  # noqa: N818 - a request, not an error
+    """Raised by a driver that ends the recording while asked for something else (the
+    web console's quit button while a pose is being typed): closes like a quit."""
+
+
+class ProcedureRefusedError(InputValueError):
+    """A decision the operator cannot take now; the message says what to do instead."""
+
+
+class LowDetectionError(ProcedureRefusedError):
+    """Accept refused because the target was found in fewer than half the frames: the
+    operator may confirm it (accept anyway)."""
+
+
+# --------------------------------------------------------------------------- the driver
 
 
 class Decision(StrEnum):

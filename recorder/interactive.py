@@ -17,8 +17,8 @@ from typing import TYPE_CHECKING, Any, cast
 from typing_extensions import override
 
 from recorder.capture import CaptureResult, CaptureSettings
-from recorder.driver import Decision, Driver, Placement
-from recorder.procedure import ProcedureRefusedError, Shortfall, detection_shortfall, record
+from recorder.driver import Decision, Driver, Placement, ProcedureRefusedError
+from recorder.procedure import Shortfall, detection_shortfall, record
 from recorder.setup_rules import (
     THESIS_FOCAL_PX,
     PoseTyping,

@@ -22,8 +22,9 @@ any open   note                            unchanged   the note
 any open   quit / interrupt / error        closed      discard n if undecided
 =========  ==============================  ==========  =====================================
 
-Refused (:class:`ProcedureRefusedError`, the state is unchanged): accepting an incomplete
-capture, and undo at a trial's first pose (there is nothing to undo). A kill -9 leaves the
+Refused (:class:`recorder.driver.ProcedureRefusedError`, the state is unchanged):
+accepting an incomplete capture, and undo at a trial's first pose (there is nothing to
+undo). A kill -9 leaves the
 file as the last flush left it: ``recover`` closes it, and whatever was not yet accepted is
 not measured.
 
@@ -53,7 +54,14 @@ from recorder.capture import (
     capture_frames,
     detection_shortfall,
 )
-from recorder.driver import Decision, Driver
+from recorder.driver import (
+    Decision,
+    Driver,
+    LowDetectionError,
+    ProcedureError,
+    ProcedureRefusedError,
+    QuitRecording,
+)
 from recorder.live_result import LiveResults
 from recorder.sources import FrameSource, SourceInfo
 from recorder.summary import RecordingSummary, Tally
@@ -78,11 +86,7 @@ __all__ = [
     "TRANSITIONS",
     "CaptureResult",
     "FrameFeedback",
-    "LowDetectionError",
     "Procedure",
-    "ProcedureError",
-    "ProcedureRefusedError",
-    "QuitRecording",
     "RecordingSummary",
     "Shortfall",
     "State",
@@ -108,24 +112,6 @@ TRANSITIONS: dict[State, frozenset[str]] = {
     State.DECIDING: frozenset({"accept", "redo", "undo", "note", "close"}),
     State.CLOSED: frozenset(),
 }
-
-
-class ProcedureError(TwoposeError):
-    """An event the current state does not allow (a driver's mistake)."""
-
-
-class QuitRecording(Exception):  # noqa: N818 - a request, not an error
-    """Raised by a driver that ends the recording while asked for something else (the
-    web console's quit button while a pose is being typed): closes like a quit."""
-
-
-class ProcedureRefusedError(InputValueError):
-    """A decision the operator cannot take now; the message says what to do instead."""
-
-
-class LowDetectionError(ProcedureRefusedError):
-    """Accept refused because the target was found in fewer than half the frames: the
-    operator may confirm it (accept anyway)."""
 
 
 class Procedure:

@@ -15,16 +15,15 @@ from recorder.capture import (
     Shortfall,
     detection_shortfall,
 )
-from recorder.driver import Decision, Driver, Placement
-from recorder.procedure import (
-    TRANSITIONS,
+from recorder.driver import (
+    Decision,
+    Driver,
     LowDetectionError,
-    Procedure,
+    Placement,
     ProcedureError,
     ProcedureRefusedError,
-    State,
-    record,
 )
+from recorder.procedure import TRANSITIONS, Procedure, State, record
 from recorder.sources import ImagesSource, VideoSource
 from tests.helpers import write_video
 from twopose.camera import Camera, Intrinsics

@@ -30,7 +30,8 @@ from hypothesis.stateful import (
 from numpy.typing import NDArray
 
 from recorder.capture import CaptureSettings
-from recorder.procedure import Procedure, ProcedureRefusedError, State
+from recorder.driver import ProcedureRefusedError
+from recorder.procedure import Procedure, State
 from recorder.recover import recover_session
 from recorder.sources import FrameSource, SourceInfo
 from twopose.camera import Camera, Intrinsics

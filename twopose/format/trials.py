@@ -135,13 +135,13 @@ class _Capture:
     frames: tuple[Frame, ...] = ()
     decision: CaptureDecision | None = None
 
-    def reason_unused(self, cameras: dict[str, Camera], units: UnitSpec) -> str:
+    def reason_unused(self, cameras: dict[str, Camera], unit: UnitSpec) -> str:
         """Why this capture is not measured; empty if it is usable."""
         if self.entry is None:
             return "its pose entry is missing"
         if self.entry.camera_id not in cameras:
             return f"its camera {self.entry.camera_id!r} has no calibration in the session"
-        if beyond := beyond_any_grid(self.entry, units):
+        if beyond := beyond_any_grid(self.entry, unit):
             return beyond
         if self.window is None:
             return "no capture was recorded for this typed pose (the recording stopped)"
@@ -156,25 +156,25 @@ class _Capture:
         return ""
 
 
-def beyond_any_grid(entry: PoseEntry, units: UnitSpec) -> str:
+def beyond_any_grid(entry: PoseEntry, unit: UnitSpec) -> str:
     """Why a typed pose cannot be measured from: its translation beyond any grid ("": it can).
 
     The recorder refuses such a pose; another writer's file may hold one, and solved with
     it an "ok" trial would be nonsense.
     """
-    if not units.too_large(entry.t_grid):
+    if not unit.too_large(entry.t_grid):
         return ""
     shown = ", ".join(f"{v:g}" for v in entry.t_grid)
     return (
         f"its typed translation ({shown}) lies beyond any grid (|x|, |y|, |z| <= "
-        f"{units.max_translation:g} {units.units})"
+        f"{unit.max_translation:g} {unit.units})"
     )
 
 
 @dataclass(kw_only=True)
 class _TrialBuilder:
     trial: int
-    units: UnitSpec
+    unit: UnitSpec  # the session's
     poses: dict[int, PoseEntry] = field(default_factory=dict)  # format 1.0
     captures_1_0: dict[int, tuple[CaptureWindow, tuple[Frame, ...]]] = field(default_factory=dict)
     captures: dict[int, _Capture] = field(default_factory=dict)  # format 1.1, by number
@@ -208,7 +208,7 @@ class _TrialBuilder:
         for k in sorted(self.poses):  # format 1.0 files
             entry = self.poses[k]
             window, frames = self.captures_1_0.get(k, (None, ()))
-            why = beyond_any_grid(entry, self.units)
+            why = beyond_any_grid(entry, self.unit)
             if entry.camera_id not in cameras:
                 why = f"its camera {entry.camera_id!r} has no calibration in the session"
             if why:
@@ -240,7 +240,7 @@ class _TrialBuilder:
             c = self.captures[number]
             pose = c.entry.pose if c.entry is not None else c.window.pose if c.window else -1
             n_frames = c.window.n_frames if c.window is not None else 0
-            reason = c.reason_unused(cameras, self.units)
+            reason = c.reason_unused(cameras, self.unit)
             if reason:
                 set_aside.append(
                     SetAside(pose=pose, capture=number, n_frames=n_frames, reason=reason)
@@ -279,7 +279,7 @@ def iter_trials(reader: SessionReader, *, with_frames: bool = True) -> Iterator[
         False skips the image topics entirely (fast: typed entries only).
     """
     cameras = reader.cameras
-    units = unit_spec(reader.info.units)
+    unit = unit_spec(reader.info.units)
     notes = read_notes(reader).by_trial
     topics = [cls.TOPIC for cls in _TRIAL_ENTRIES]
     if with_frames:
@@ -295,7 +295,7 @@ def iter_trials(reader: SessionReader, *, with_frames: bool = True) -> Iterator[
         if current is not None and current.trial != item.trial:
             yield current.build(cameras, notes.get(current.trial, ()))
             current = None
-        current = current or _TrialBuilder(trial=item.trial, units=units)
+        current = current or _TrialBuilder(trial=item.trial, unit=unit)
         if isinstance(item, PoseEntry):
             current.add_pose(item)
         elif isinstance(item, CaptureWindow):
