@@ -347,13 +347,9 @@ def _truth(record: TrialRecord, unit: UnitSpec) -> tuple[F64, tuple[str, ...]]:
     if record.ground_truth is None:
         return none, ()
     points = record.ground_truth.points_grid
-    beyond = [p for p in points if unit.too_large(p)]
+    beyond = [why for p in points if (why := unit.beyond_grid("ground truth", p))]
     if beyond:
-        shown = ", ".join(f"({', '.join(f'{v:g}' for v in p)})" for p in beyond)
-        return none, (
-            f"ground truth {shown} lies beyond any grid (|x|, |y|, |z| <= "
-            f"{unit.max_translation:g} {unit.units}): not compared",
-        )
+        return none, tuple(f"{why}: not compared" for why in beyond)
     pts = np.array(points)
     return (pts if len(pts) == 2 else np.stack([pts[0], pts[0]])), ()
 

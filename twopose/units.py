@@ -61,6 +61,16 @@ class UnitSpec:
         """
         return max(abs(float(v)) for v in vector) > self.max_translation
 
+    def beyond_grid(self, what: str, vector: Sequence[float]) -> str:
+        """Why ``what`` at ``vector`` cannot be used, in words ("" when it is within the grid)."""
+        if not self.too_large(vector):
+            return ""
+        shown = ", ".join(f"{float(v):g}" for v in vector)
+        return (
+            f"{what} ({shown}) lies beyond any grid (|x|, |y|, |z| <= "
+            f"{self.max_translation:g} {self.units})"
+        )
+
 
 UNIT_SPECS: Mapping[Units, UnitSpec] = MappingProxyType(
     {

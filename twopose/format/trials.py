@@ -162,13 +162,7 @@ def beyond_any_grid(entry: PoseEntry, unit: UnitSpec) -> str:
     The recorder refuses such a pose; another writer's file may hold one, and solved with
     it an "ok" trial would be nonsense.
     """
-    if not unit.too_large(entry.t_grid):
-        return ""
-    shown = ", ".join(f"{v:g}" for v in entry.t_grid)
-    return (
-        f"its typed translation ({shown}) lies beyond any grid (|x|, |y|, |z| <= "
-        f"{unit.max_translation:g} {unit.units})"
-    )
+    return unit.beyond_grid("its typed translation", entry.t_grid)
 
 
 @dataclass(kw_only=True)
