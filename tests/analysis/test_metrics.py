@@ -100,3 +100,17 @@ def test_warned_trials_are_counted_and_left_out_unless_asked() -> None:
     (everything,) = summarize(trials, include_warned=True).to_dict("records")
     assert everything["n_used"] == 3
     assert everything["max_err"] == pytest.approx(10.0)
+
+
+@pytest.mark.filterwarnings("error")
+def test_a_warning_column_read_back_empty_warns_of_nothing() -> None:
+    """trials.csv read back with no warning at all has a float NaN column: no trial is
+    warned, and pandas is not asked to fill floats with text (a warning, an error in 4)."""
+    from analysis.metrics import warned
+
+    assert not warned(pd.DataFrame({"warning": [np.nan, np.nan]})).any()
+    assert warned(pd.DataFrame({"warning": ["", "near-degenerate", None]})).tolist() == [
+        False,
+        True,
+        False,
+    ]
