@@ -1,18 +1,23 @@
 """A batch's inputs, resolved once into one value every command takes.
 
-``run``, ``rig`` and ``info`` are given paths: files and folders, named twice, holding
-copies, sessions in several units, board sessions beside target ones, empty sessions and
-results files of an earlier run. :func:`resolve_inputs` turns them, once, into an
-:class:`InputSet`:
+``run``, ``rig``, ``info`` (and, through the tables a run writes, ``check`` and
+``compare``) are given paths: files and folders, named twice, holding copies, recovered
+copies, continuations and forks, sessions in several units, board sessions beside target
+ones, empty sessions and results files of an earlier run. :func:`resolve_inputs` turns
+them, once, into an :class:`InputSet` by the one definition of what a session is
+(:mod:`twopose.format.identity`):
 
 - every session file found (folders searched as :func:`twopose.format.reader.find_sessions`
-  searches them), in the order given;
-- identified by content (the SHA-256 of its bytes): a session named twice, by another path,
-  a symlink or a copy, is counted once, and the copy is noted;
+  searches them: links followed, ``.mcap`` in any case), in the order given;
+- a file named twice, by another path or a symlink, read once; a byte copy, a renamed copy
+  or a recovered copy of one part counted once, the others said with why;
 - sorted by kind: measurement sessions (what ``run`` analyses), board sessions (for
   ``rig``), empty sessions (no pose recorded: nothing to analyse, noted), results files of
   an earlier run (skipped), and files that cannot be read as sessions (analysed all the
   same, so that the analysis says why they fail, by session);
+- the measurement sessions as strands (a session's parts in trial order, a fork's other
+  branches on their own), each with its session id, its parts' branches and a label that
+  tells it from every other input;
 - grouped by units, so that no statistic pools two units.
 
 Each command reads what applies to it from the one value, and the notes it gives are the
@@ -21,105 +26,130 @@ same words wherever they are printed (terminal, report, JUnit).
 
 from __future__ import annotations
 
-import hashlib
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from twopose.errors import TwoposeError
-from twopose.format.entries import PoseEntry
-from twopose.format.reader import SessionReader, find_sessions, is_results_file
-from twopose.methods import spec_of
+from twopose.format.identity import (
+    SessionFile,
+    Strand,
+    file_digest,
+    identify_file,
+    path_labels,
+    resolve_session_files,
+)
+from twopose.format.reader import find_sessions, is_results_file
 
-__all__ = ["FoundSession", "InputSet", "resolve_inputs"]
+__all__ = ["FoundSession", "InputSet", "SessionIdentity", "resolve_inputs"]
 
-_CHUNK = 1 << 20
+#: One session file found (:class:`twopose.format.identity.SessionFile`).
+FoundSession = SessionFile
 
 
 @dataclass(frozen=True, kw_only=True)
-class FoundSession:
-    """One session file found, what it is and what it holds (``method`` and ``units``
-    empty when the file cannot be read as a session: the analysis says why)."""
+class SessionIdentity:
+    """What names one strand in a run's tables: its session, its label, its parts' branches."""
 
-    path: str
-    digest: str  # SHA-256 of the file's bytes: its identity
-    method: str = ""
-    units: str = ""
-    n_poses: int = 0  # poses typed (0: an empty session)
-    readable: bool = True
-    #: The session it belongs to: its id, or (before format 1.3) its content's; a
-    #: continuation (``new --continue``) shares its first part's.
-    session_key: str = ""
-    after_trial: int | None = None  # a continuation: the last trial of the part it continues
-    continues: str = ""  # a continuation: the file name it continues
+    session_id: str
+    label: str
+    branches: tuple[tuple[str, str], ...] = ()  # (part path, branch) in trial order
 
-    @property
-    def is_board(self) -> bool:
-        return self.readable and bool(self.method) and not spec_of(self.method).measures
-
-    @property
-    def is_empty(self) -> bool:
-        return self.readable and self.n_poses == 0
+    def branch_of(self, part: str) -> str:
+        """The branch of the part at ``part`` ("" when the session never forked)."""
+        return dict(self.branches).get(str(part), "")
 
 
 @dataclass(frozen=True, kw_only=True)
 class InputSet:
     """A batch's inputs, resolved once (see the module docstring)."""
 
-    found: tuple[FoundSession, ...] = ()  # every session once (its first path), in order
-    copies: tuple[tuple[str, str], ...] = ()  # (path, the path it is a copy of)
+    found: tuple[FoundSession, ...] = ()  # every file once (its first path), in order
+    #: (path, the path kept for the same part, why): byte copies, renamed and recovered
+    #: copies, interrupted originals beside their recovered twin
+    others: tuple[tuple[str, str, str], ...] = ()
     skipped: tuple[str, ...] = ()  # results files of an earlier run
     #: (path, the path first naming the same file): a file named twice, directly, by a
     #: folder holding it, or by a symbolic link to it
     repeats: tuple[tuple[str, str], ...] = ()
+    strands: tuple[Strand, ...] = ()  # what ``run`` analyses, one strand each
+    strand_notes: tuple[str, ...] = ()  # continuations and forks, in words
+
+    @property
+    def copies(self) -> tuple[tuple[str, str], ...]:
+        """(path, the path kept for it): every file not analysed for another holds it."""
+        return tuple((path, kept) for path, kept, _ in self.others)
 
     @property
     def measured(self) -> tuple[FoundSession, ...]:
-        """What ``run`` analyses: every session but board and empty ones (unreadable files
-        included: the analysis says why they fail)."""
-        return tuple(s for s in self.found if not (s.is_board or s.is_empty))
+        """Every measurement file analysed (unreadable ones included: the analysis says why
+        they fail), copies and twins left out."""
+        return tuple(part.file for strand in self.strands for part in strand.parts)
 
     @property
     def boards(self) -> tuple[FoundSession, ...]:
         """Board sessions: for ``rig``."""
-        return tuple(s for s in self.found if s.is_board)
+        return tuple(s for s in self.found if s.is_board and s.path not in self._set_aside)
 
     @property
     def empty(self) -> tuple[FoundSession, ...]:
-        """Sessions with no pose recorded."""
-        return tuple(s for s in self.found if s.is_empty)
+        """Sessions with no pose recorded (in a strand with none either)."""
+        kept = {s.path for strand in self._analysed for s in (p.file for p in strand.parts)}
+        return tuple(
+            s
+            for s in self.found
+            if s.is_empty
+            and not s.is_board
+            and s.path not in kept
+            and s.path not in self._set_aside
+        )
+
+    @property
+    def _set_aside(self) -> set[str]:
+        return {path for path, _, _ in self.others}
+
+    @property
+    def _analysed(self) -> tuple[Strand, ...]:
+        """The strands with at least one pose, or unreadable (the analysis says why)."""
+        return tuple(
+            s for s in self.strands if any(not p.file.readable or p.file.n_poses for p in s.parts)
+        )
 
     @property
     def files(self) -> list[str]:
-        """The measurement sessions' paths, in input order (what ``run`` analyses): each
-        session once, by its first part (its continuations: :attr:`continuations`)."""
-        later = {p for parts in self.continuations.values() for p in parts}
-        return [s.path for s in self.measured if s.path not in later]
+        """What ``run`` analyses, in input order: each strand once, by its first part's
+        path (its later parts: :attr:`continuations`)."""
+        return [s.head for s in self._analysed]
 
     @property
     def continuations(self) -> dict[str, tuple[str, ...]]:
-        """Per session's first part given, its continuations given, in trial order: one
-        session. A continuation whose first part is not given is a session of its own."""
-        groups: dict[str, list[FoundSession]] = {}
-        for s in self.measured:
-            if s.session_key:
-                groups.setdefault(s.session_key, []).append(s)
-        out: dict[str, tuple[str, ...]] = {}
-        for parts in groups.values():
-            first = [s for s in parts if s.after_trial is None]
-            if len(parts) < 2 or len(first) != 1:
-                continue
-            later = sorted((s for s in parts if s.after_trial is not None),
-                           key=lambda s: (s.after_trial or 0, s.path))  # fmt: skip
-            out[first[0].path] = tuple(s.path for s in later)
-        return out
+        """Per strand's first part, its later parts in trial order: one session."""
+        return {s.head: s.later for s in self._analysed if s.later}
+
+    @property
+    def labels(self) -> dict[str, str]:
+        """Every input's label: its shortest tail of folders no other input shares."""
+        return path_labels([*(s.path for s in self.found), *(p for p, _, _ in self.others)])
+
+    def identity(self, head: str) -> SessionIdentity:
+        """The identity of the strand whose first part is ``head``."""
+        strand = next(s for s in self.strands if s.head == head)
+        return SessionIdentity(
+            session_id=strand.session_id,
+            label=self.labels.get(head, Path(head).name),
+            branches=tuple(strand.branches.items()),
+        )
+
+    @property
+    def identities(self) -> dict[str, SessionIdentity]:
+        """:meth:`identity` of every strand ``run`` analyses, by its first part's path."""
+        return {head: self.identity(head) for head in self.files}
 
     @property
     def paths(self) -> tuple[str, ...]:
         """Every session path it read (copies and repeats too): what no output may replace."""
         return (
             *(s.path for s in self.found),
-            *(path for path, _ in self.copies),
+            *(path for path, _, _ in self.others),
             *(path for path, _ in self.repeats),
         )
 
@@ -129,28 +159,21 @@ class InputSet:
         return tuple(dict.fromkeys(s.units for s in self.measured if s.units))
 
     def notes(self) -> list[str]:
-        """What any command says about inputs it does not take as given: copies counted
-        once, empty sessions."""
+        """What any command says about inputs it does not take as given: repeats, copies
+        and twins counted once, empty sessions, continuations and forks."""
         repeats = [
             f"{path}: named more than once (the same file as {first}); counted once"
             for path, first in self.repeats
         ]
         copies = [
-            f"{path}: the same session as {first}; counted once" for path, first in self.copies
+            f"{path}: the same session as {kept} ({why}); counted once"
+            for path, kept, why in self.others
         ]
         empty = [
             f"{s.path}: an empty session (no pose was recorded): nothing to analyse"
             for s in self.empty
         ]
-        joined = {p: first for first, parts in self.continuations.items() for p in parts}
-        continued = [
-            f"{s.path}: continues {s.continues} after trial {s.after_trial}; "
-            + (f"one session with {joined[s.path]}" if s.path in joined
-               else f"{s.continues} is not among the inputs: analysed alone")
-            for s in self.measured
-            if s.after_trial is not None
-        ]  # fmt: skip
-        return repeats + copies + empty + continued
+        return repeats + copies + empty + list(self.strand_notes)
 
     def run_notes(self) -> list[str]:
         """What ``run`` says: :meth:`notes`, and the board sessions it leaves to ``rig``."""
@@ -161,15 +184,20 @@ class InputSet:
         ]
 
 
-def resolve_inputs(paths: Sequence[str | Path] | InputSet) -> InputSet:
-    """The one resolution of a batch's paths (see the module docstring); raises
-    :class:`~twopose.errors.InputValueError` for a path that does not exist. An
-    :class:`InputSet` is already resolved: returned as it is, so a command resolves once
-    and hands the set to each step."""
+def resolve_inputs(paths: str | Path | Sequence[str | Path] | InputSet) -> InputSet:
+    """The one resolution of a batch's paths (see the module docstring).
+
+    ``paths`` is a path, a sequence of paths (files and folders), or an :class:`InputSet`
+    already resolved (returned as it is, so a command resolves once and hands the set to
+    each step). Raises :class:`~twopose.errors.InputValueError` for a path that does not
+    exist.
+    """
     if isinstance(paths, InputSet):
         return paths
+    if isinstance(paths, str | Path):
+        paths = [paths]
     found: list[FoundSession] = []
-    copies: list[tuple[str, str]] = []
+    others: list[tuple[str, str, str]] = []
     skipped: list[str] = []
     first_of: dict[str, str] = {}
     repeats: list[tuple[str, str]] = []
@@ -183,44 +211,19 @@ def resolve_inputs(paths: Sequence[str | Path] | InputSet) -> InputSet:
         if is_results_file(path):
             skipped.append(str(path))
             continue
-        session = _found(path)
-        if session.digest in first_of:
-            copies.append((session.path, first_of[session.digest]))
+        digest = file_digest(path)
+        if digest in first_of:  # a byte copy: never read again
+            others.append((str(path), first_of[digest], "a byte copy"))
             continue
-        first_of[session.digest] = session.path
-        found.append(session)
+        first_of[digest] = str(path)
+        found.append(identify_file(path, digest))
+    measuring = [s for s in found if not s.is_board]
+    resolution = resolve_session_files(measuring)
     return InputSet(
-        found=tuple(found), copies=tuple(copies), skipped=tuple(skipped), repeats=tuple(repeats)
+        found=tuple(found),
+        others=(*others, *resolution.others),
+        skipped=tuple(skipped),
+        repeats=tuple(repeats),
+        strands=resolution.strands,
+        strand_notes=resolution.notes,
     )
-
-
-def _found(path: Path) -> FoundSession:
-    digest = _digest(path)
-    try:
-        with SessionReader(path) as reader:
-            info = reader.info
-            n_poses = reader.message_counts().get(PoseEntry.TOPIC, 0)
-    except (TwoposeError, OSError, AssertionError, ValueError):
-        # Not readable as a session: the analysis fails it with its own words.
-        return FoundSession(path=str(path), digest=digest, readable=False)
-    return FoundSession(
-        path=str(path),
-        digest=digest,
-        method=str(info.method),
-        units=str(info.units),
-        n_poses=int(n_poses),
-        session_key=info.session_id or digest[:32],
-        after_trial=info.continues_after_trial,
-        continues=info.continues_file or "",
-    )
-
-
-def _digest(path: Path) -> str:
-    sha = hashlib.sha256()
-    try:
-        with open(path, "rb") as stream:
-            while chunk := stream.read(_CHUNK):
-                sha.update(chunk)
-    except OSError as err:  # unreadable: its own identity, the analysis says why
-        return f"unreadable:{path}:{err.errno}"
-    return sha.hexdigest()

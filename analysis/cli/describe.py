@@ -19,6 +19,9 @@ if TYPE_CHECKING:
 
 from analysis.cli.app import app, note, say_skipped
 
+#: From this many columns on, ``info`` gives the cameras and the format columns of their own.
+_WIDE = 110
+
 
 @app.command()
 def info(
@@ -27,6 +30,7 @@ def info(
     ],
 ) -> None:
     """Check and describe sessions: method, cameras, trials, poses, captures, frames."""
+    from rich import box
     from rich.console import Console
     from rich.markup import escape
     from rich.table import Table
@@ -40,13 +44,11 @@ def info(
     say_skipped(list(inputs.skipped))
     for text in inputs.notes():
         note(text)
-    order = {p: k for k, p in enumerate(inputs.files)}  # a session's parts together
-    first_of = {p: f for f, later in inputs.continuations.items() for p in later}
-
-    def place(path: str) -> tuple[int, bool]:
-        return order.get(first_of.get(path) or path, len(order)), path in first_of
-
-    sessions = sorted((s.path for s in inputs.found), key=place)
+    # A session's parts together, in trial order (its head first), then board sessions.
+    later = {p: s.head for s in inputs.strands for p in s.later}
+    sessions = [p.file.path for s in inputs.strands for p in s.parts]
+    sessions += [s.path for s in inputs.boards]
+    labels = inputs.labels
     overviews: list[SessionOverview] = []
     failed: list[tuple[str, str]] = []
     for path in sessions:
@@ -54,23 +56,24 @@ def info(
             overviews.append(describe_session(path))
         except TwoposeError as err:
             failed.append((path, str(err)))
-    # A session and its continuations are one session: its parts listed under it.
-    parts = {p: first for first, later in inputs.continuations.items() for p in later}
-    joined = sum(1 for o in overviews if str(o.path) in parts)
+    joined = sum(1 for o in overviews if str(o.path) in later)
     title = f"{len(overviews) - joined} session(s)"
-    table = Table(title=title + (f", {joined} continued in a later file" if joined else ""))
-    for col in (
-        "session",
-        "method",
-        "units",
-        "cameras",
-        "trials",
-        "poses",
-        "captures",
-        "frames",
-        "format",
-    ):
-        table.add_column(col)
+    # At a narrow terminal (80 columns, a pipe) the cameras and the format go under the
+    # session's label, so that the label (the shortest tail of its path no other input
+    # shares: what tells two rows apart) keeps its width and folds, never cut.
+    narrow = console.width < _WIDE
+    columns = ["method", "units", "trials", "poses", "captures", "frames"]
+    if not narrow:
+        columns[2:2] = ["cameras"]
+        columns.append("format")
+    table = Table(
+        title=title + (f", {joined} continued in a later file" if joined else ""),
+        box=box.SIMPLE_HEAD if narrow else box.HEAVY_HEAD,
+        pad_edge=not narrow,
+    )
+    table.add_column("session", overflow="fold", ratio=1)
+    for col in columns:
+        table.add_column(col, overflow="fold", no_wrap=narrow)
     for o in overviews:
         cams = ", ".join(f"{c.camera_id} f={c.intrinsics.fx:g}" for c in o.cameras)
         captures = f"{o.n_captures}" + (
@@ -79,18 +82,22 @@ def info(
             else ""
         )
         after = o.info.continues_after_trial
-        where = escape(for_terminal(str(o.path)))
-        table.add_row(
-            f"+ {where} (after trial {after})" if str(o.path) in parts else where,
-            o.info.method + (" (sim)" if o.info.simulated else ""),
-            o.info.units,
-            cams,
-            str(o.n_trials),
-            str(o.n_poses),
-            captures,
-            str(o.n_frames),
-            o.format_version,
-        )
+        where = escape(for_terminal(labels.get(str(o.path), str(o.path))))
+        where = f"+ {where} (after trial {after})" if str(o.path) in later else where
+        sim = " (sim)" if o.info.simulated else ""
+        if narrow:
+            where += f"\n[dim]{escape(cams)}, format {o.format_version}{sim}[/dim]"
+        cells = {
+            "method": o.info.method + ("" if narrow else sim),
+            "units": o.info.units,
+            "cameras": cams,
+            "trials": str(o.n_trials),
+            "poses": str(o.n_poses),
+            "captures": captures,
+            "frames": str(o.n_frames),
+            "format": o.format_version,
+        }
+        table.add_row(where, *(cells[c] for c in columns))
     console.print(table)
     for o in overviews:
         _print_notes(o)

@@ -48,7 +48,7 @@ __all__ = [
     "encode_entry",
 ]
 
-FORMAT_VERSION = "1.3"
+FORMAT_VERSION = "1.4"
 FORMAT_MAJOR = 1
 
 #: Inches in one session unit (the thesis reports in inches): twopose.units' registry.
@@ -174,6 +174,29 @@ class SessionInfo(TypedEntry):
         "continues.sha256",
         {"type": "string", "pattern": "^[0-9a-f]{64}$",
          "description": "1.3, a continuation: the SHA-256 of the file it continues"},
+        required=False,
+        default=None,
+    )  # fmt: skip
+
+    part_id: str | None = json_field(
+        "part_id",
+        {"type": "string", "pattern": "^[0-9a-f]{16,64}$",
+         "description": "1.4: this file's part of the session; a recovered copy keeps it"},
+        required=False,
+        default=None,
+    )  # fmt: skip
+    continues_part: str | None = json_field(
+        "continues.part",
+        {"type": "string", "pattern": "^[0-9a-f]{16,64}$",
+         "description": "1.4, a continuation: the part_id of the part it continues"},
+        required=False,
+        default=None,
+    )  # fmt: skip
+    continues_branch: str | None = json_field(
+        "continues.branch",
+        {"type": "string", "pattern": "^[A-Z]{0,8}$",
+         "description": "1.4, a continuation: its branch (empty: the part's only "
+         "continuation when recorded; B, C, ...: another file already continued that part)"},
         required=False,
         default=None,
     )  # fmt: skip

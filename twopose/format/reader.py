@@ -296,23 +296,21 @@ STAGING_FOLDER = ".twopose-staging"
 
 
 def find_sessions(paths: Iterable[Path | str], *, unique: bool = True) -> list[Path]:
-    """Session files named by ``paths``: files as given, folders searched recursively for *.mcap.
+    """Session files named by ``paths``: files as given, folders searched recursively.
 
-    A run's staging folder (:data:`STAGING_FOLDER`) is not searched. Sorted within each
-    folder so that results do not depend on directory order. A file named twice (by two
-    paths, a folder and a file in it, a symbolic link) is listed once, unless ``unique`` is
-    False (the caller says so: :func:`analysis.input_set.resolve_inputs`).
+    A folder yields every regular file whose name ends in ``.mcap`` in any case, through
+    symbolic links to folders too (each real folder once, so a link cycle ends); a run's
+    staging folder (:data:`STAGING_FOLDER`) is not searched. Sorted within each folder
+    so that results do not depend on directory order. A file named twice (by two paths, a
+    folder and a file in it, a symbolic link) is listed once, unless ``unique`` is False
+    (the caller says so: :func:`analysis.input_set.resolve_inputs`).
     Raises :class:`~twopose.errors.InputValueError` for a path that does not exist.
     """
     found: list[Path] = []
     for raw in paths:
         p = Path(raw)
         if p.is_dir():
-            found += sorted(
-                q
-                for q in p.rglob("*.mcap")
-                if q.is_file() and STAGING_FOLDER not in q.relative_to(p).parts
-            )
+            found += _search(p)
         elif p.is_file():
             found.append(p)
         elif p.exists():  # a FIFO or a device would block the reader forever
@@ -329,6 +327,30 @@ def find_sessions(paths: Iterable[Path | str], *, unique: bool = True) -> list[P
             seen.add(key)
             distinct.append(p)
     return distinct
+
+
+def _search(folder: Path) -> list[Path]:
+    """Every ``*.mcap`` (any case) below ``folder``, following links to folders once each."""
+    import os
+
+    found: list[Path] = []
+    visited: set[tuple[int, int]] = set()
+    for here, dirs, files in os.walk(folder, followlinks=True):
+        try:
+            stat = os.stat(here)
+        except OSError:  # vanished or unreadable while walking: nothing of it to list
+            dirs[:] = []
+            continue
+        if (stat.st_dev, stat.st_ino) in visited:  # reached again through a link: a cycle
+            dirs[:] = []
+            continue
+        visited.add((stat.st_dev, stat.st_ino))
+        dirs[:] = sorted(d for d in dirs if d != STAGING_FOLDER)
+        for name in files:
+            q = Path(here) / name
+            if name.lower().endswith(".mcap") and q.is_file():
+                found.append(q)
+    return sorted(found)
 
 
 def is_results_file(path: str | Path) -> bool:

@@ -1,0 +1,420 @@
+"""What a session is, once, for every command: files -> sessions -> parts -> trials.
+
+A lab's folders hold the same recording many times over: a file named twice or reached
+through a symbolic link, a byte copy, a renamed copy, the recovered copy of an interrupted
+file beside the original, a continuation (``new --continue``) recorded on another day or
+on two laptops at once. Every command (``run``, ``rig``, ``info``, ``check``, ``compare``,
+the report, JUnit, the results files) takes what :func:`resolve_session_files` makes of
+them, so they agree on what is counted and what is said.
+
+- A **session** is its ``session_id`` (format 1.3; before it, the first 32 hex digits of
+  its first file's SHA-256, which its continuations record as theirs).
+- A **part** is the stretch of a session one file records: its ``part_id`` (format 1.4),
+  or before it the session id with where the file continues and when it was created; a
+  file with no session id is a part by its bytes. A byte copy, a renamed copy and a
+  recovered copy of one file hold the same part: one is kept (a readable file before an
+  interrupted one, then the one holding more poses, then the first given), the others are
+  listed with why.
+- A continuation's part links to the part it continues (its ``continues.part``, else the
+  SHA-256 of the file it continued, matched against every file given). The parts of a
+  session form a tree; a part continued twice (two laptops continuing one file) is a
+  **fork**, and each continuation starts a **branch** (``A``, ``B``, ...; a fork within a
+  branch ``B`` gives ``BA``, ``BB``). A branch's trials are told apart from the others'.
+- A **strand** is what is analysed as one: a root part and the first continuation of each
+  part after it, in trial order; every other branch is a strand of its own, holding only
+  its own parts, so that every capture is counted once.
+- A **trial** is its session, its branch and its number.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import os
+import string
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from mcap.records import Chunk, Metadata
+from mcap.stream_reader import StreamReader
+
+from twopose.errors import TwoposeError
+from twopose.format.entries import PoseEntry, SessionInfo, decode_entry
+from twopose.format.reader import SessionReader
+from twopose.format.writer import METADATA_NAME
+from twopose.methods import spec_of
+
+__all__ = [
+    "Part",
+    "Resolution",
+    "SessionFile",
+    "Strand",
+    "file_digest",
+    "identify_file",
+    "path_labels",
+    "resolve_session_files",
+]
+
+_CHUNK = 1 << 20
+#: How many records at a file's start are read for its opening metadata (the writer puts
+#: it before the first chunk).
+_OPENING_RECORDS = 64
+
+
+def file_digest(path: str | Path) -> str:
+    """Return the SHA-256 of a file's bytes.
+
+    An unreadable file gets a name of its own, so that it is never taken for another.
+    """
+    sha = hashlib.sha256()
+    try:
+        with open(path, "rb") as stream:
+            while chunk := stream.read(_CHUNK):
+                sha.update(chunk)
+    except OSError as err:
+        return f"unreadable:{path}:{err.errno}"
+    return sha.hexdigest()
+
+
+@dataclass(frozen=True, kw_only=True)
+class SessionFile:
+    """One session file and what it says it is.
+
+    ``info`` is read from the summary of a readable file, or from the opening metadata of
+    an interrupted one (so that it can be known as the original of its recovered copy);
+    None when neither can be read.
+    """
+
+    path: str
+    digest: str  # SHA-256 of the file's bytes
+    readable: bool
+    info: SessionInfo | None = None
+    n_poses: int = -1  # poses typed (-1: unknown, the file is not readable)
+
+    @property
+    def method(self) -> str:
+        """The method it records ("" when unknown)."""
+        return str(self.info.method) if self.info is not None else ""
+
+    @property
+    def units(self) -> str:
+        """The units it records in ("" when unknown)."""
+        return str(self.info.units) if self.info is not None else ""
+
+    @property
+    def session_id(self) -> str:
+        """The session: its recorded id, or (before format 1.3) its content's."""
+        recorded = self.info.session_id if self.info is not None else None
+        return recorded or self.digest[:32]
+
+    @property
+    def part_key(self) -> str:
+        """The part of its session this file records.
+
+        The same for a byte copy, a renamed copy and a recovered copy (see the module
+        docstring).
+        """
+        info = self.info
+        if info is None or not info.session_id:
+            return f"file:{self.digest}"
+        if info.part_id:
+            return f"part:{info.part_id}"
+        where = (info.session_id, info.continues_after_trial, info.continues_sha256)
+        return "made:" + hashlib.sha256(json.dumps([*where, info.created_utc]).encode()).hexdigest()
+
+    @property
+    def part_id(self) -> str:
+        """The part's id as the tables name it.
+
+        The recorded ``part_id`` (format 1.4), else 32 hex digits of :attr:`part_key`'s
+        hash.
+        """
+        if self.info is not None and self.info.part_id:
+            return self.info.part_id
+        return hashlib.sha256(self.part_key.encode()).hexdigest()[:32]
+
+    @property
+    def is_board(self) -> bool:
+        """Whether it is a readable board session (for ``rig``)."""
+        return self.readable and self.info is not None and not spec_of(self.info.method).measures
+
+    @property
+    def is_empty(self) -> bool:
+        """Whether it is a readable session with no pose recorded."""
+        return self.readable and self.n_poses == 0
+
+    @property
+    def continues_after(self) -> int | None:
+        """The last trial of the part it continues (None: not a continuation)."""
+        return self.info.continues_after_trial if self.info is not None else None
+
+
+def identify_file(path: str | Path, digest: str | None = None) -> SessionFile:
+    """Identify the session file ``path``.
+
+    Never raises for a bad file: it is a :class:`SessionFile` that is not readable, whose
+    analysis then says why.
+    """
+    digest = digest or file_digest(path)
+    try:
+        with SessionReader(path) as reader:
+            info = reader.info
+            n_poses = reader.message_counts().get(PoseEntry.TOPIC, 0)
+    except (TwoposeError, OSError, AssertionError, ValueError):
+        return SessionFile(path=str(path), digest=digest, readable=False, info=_opening(path))
+    return SessionFile(path=str(path), digest=digest, readable=True, info=info, n_poses=n_poses)
+
+
+def _opening(path: str | Path) -> SessionInfo | None:
+    """Read the session entry of a file that cannot be read whole (no summary).
+
+    It is in the metadata record the writer puts before the first chunk.
+    """
+    try:
+        size = max(os.path.getsize(path), 1)
+        with open(path, "rb") as stream:
+            records = StreamReader(stream, record_size_limit=size).records
+            for _, record in zip(range(_OPENING_RECORDS), records, strict=False):
+                if isinstance(record, Metadata) and record.name == METADATA_NAME:
+                    entry = decode_entry(
+                        SessionInfo.SCHEMA_NAME, record.metadata["session"].encode()
+                    )
+                    return entry if isinstance(entry, SessionInfo) else None
+                if isinstance(record, Chunk):
+                    return None
+    except Exception:  # any damage: no identity beyond its bytes
+        return None
+    return None
+
+
+@dataclass(frozen=True, kw_only=True)
+class Part:
+    """A part of a session: the file kept for it, and the other files holding it."""
+
+    file: SessionFile
+    others: tuple[tuple[str, str], ...] = ()  # (path, why it is not the one kept)
+    parent: str | None = None  # the part key of the part it continues, when given
+    branch: str = ""
+
+
+@dataclass(frozen=True, kw_only=True)
+class Strand:
+    """What is analysed as one (see the module docstring): parts in trial order."""
+
+    session_id: str
+    parts: tuple[Part, ...]
+
+    @property
+    def head(self) -> str:
+        """Its first part's path: what names it in the tables."""
+        return self.parts[0].file.path
+
+    @property
+    def later(self) -> tuple[str, ...]:
+        """The paths of its parts after the first, in trial order."""
+        return tuple(p.file.path for p in self.parts[1:])
+
+    @property
+    def branches(self) -> dict[str, str]:
+        """Each part's path -> its branch ("" on a session that never forked)."""
+        return {p.file.path: p.branch for p in self.parts}
+
+    @property
+    def branch(self) -> str:
+        """The branch its last part is on (its first part's, for a strand of one)."""
+        return self.parts[-1].branch
+
+
+@dataclass(frozen=True, kw_only=True)
+class Resolution:
+    """Session files resolved: the strands, and what was not taken as given, said."""
+
+    strands: tuple[Strand, ...] = ()
+    #: (path, the path of the file kept for the same part, why): copies and twins
+    others: tuple[tuple[str, str, str], ...] = ()
+    notes: tuple[str, ...] = ()
+    forks: tuple[str, ...] = ()  # one sentence per fork found
+
+
+def resolve_session_files(files: Sequence[SessionFile]) -> Resolution:
+    """Resolve measurement session files into strands, in input order.
+
+    Copies and twins are set aside, parts linked to the parts they continue, forks split
+    into branches. ``files`` may be readable or not; board sessions are not for this (each
+    calibrates on its own).
+    """
+    parts, others = _parts(files)
+    by_digest = {f.digest: key for key, part in parts.items() for f in _files_of(part, files)}
+    linked = {key: _linked(part, parts, by_digest) for key, part in parts.items()}
+    children: dict[str, list[str]] = {}
+    for key, part in linked.items():
+        if part.parent is not None:
+            children.setdefault(part.parent, []).append(key)
+    order = {key: k for k, key in enumerate(parts)}
+    strands: list[Strand] = []
+    forks: list[str] = []
+    pending = [key for key, part in linked.items() if part.parent is None]
+    while pending:
+        strands_here, new_forks, more = _walk(pending.pop(0), linked, children, order)
+        strands += strands_here
+        forks += new_forks
+        pending = more + pending
+    notes = [*_joined_notes(strands, linked), *forks]
+    return Resolution(
+        strands=tuple(strands), others=tuple(others), notes=tuple(notes), forks=tuple(forks)
+    )
+
+
+def _parts(files: Sequence[SessionFile]) -> tuple[dict[str, Part], list[tuple[str, str, str]]]:
+    """One part per part key, the best file kept (readable, more poses, first given)."""
+    groups: dict[str, list[SessionFile]] = {}
+    for f in files:
+        groups.setdefault(f.part_key, []).append(f)
+    parts: dict[str, Part] = {}
+    others: list[tuple[str, str, str]] = []
+    for key, group in groups.items():
+        rank = {id(f): k for k, f in enumerate(group)}
+        kept = max(group, key=lambda f: (f.readable, f.n_poses, -rank[id(f)]))
+        why = [(f.path, kept.path, _why_not_kept(f, kept)) for f in group if f is not kept]
+        others += why
+        parts[key] = Part(file=kept, others=tuple((p, w) for p, _, w in why))
+    return parts, others
+
+
+def _why_not_kept(f: SessionFile, kept: SessionFile) -> str:
+    if f.digest == kept.digest:
+        return "a byte copy"
+    if not f.readable:
+        return "an interrupted copy of the same part (its recovered or complete twin is kept)"
+    if f.n_poses < kept.n_poses:
+        return (
+            f"an earlier copy of the same part ({f.n_poses} poses; the one kept has {kept.n_poses})"
+        )
+    return "another copy of the same part"
+
+
+def _files_of(part: Part, files: Sequence[SessionFile]) -> list[SessionFile]:
+    paths = {part.file.path, *(p for p, _ in part.others)}
+    return [f for f in files if f.path in paths]
+
+
+def _linked(part: Part, parts: dict[str, Part], by_digest: dict[str, str]) -> Part:
+    """``part`` with the key of the part it continues, when that is among the inputs."""
+    info = part.file.info
+    if info is None or info.continues_after_trial is None:
+        return part
+    parent: str | None = None
+    if info.continues_part and f"part:{info.continues_part}" in parts:
+        parent = f"part:{info.continues_part}"
+    elif info.continues_sha256 in by_digest:
+        parent = by_digest[info.continues_sha256]
+    if parent is not None and parts[parent].file.session_id != part.file.session_id:
+        parent = None  # another session's file: not what it continued
+    return dataclasses.replace(part, parent=parent)
+
+
+def _walk(
+    root: str, parts: dict[str, Part], children: dict[str, list[str]], order: dict[str, int]
+) -> tuple[list[Strand], list[str], list[str]]:
+    """Follow the strand from ``root``: its first continuation after each part.
+
+    Returns the strand, the forks met on the way, and the roots of the branches it leaves
+    for strands of their own. Each continuation's branch is set in ``parts`` as it is met.
+    """
+    keys = [root]
+    forks: list[str] = []
+    left: list[str] = []
+    while kids := children.get(keys[-1], []):
+        kids = sorted(kids, key=lambda k: _sibling_order(parts[k], order[k]))
+        here = parts[keys[-1]]
+        for k, name in zip(kids, _branch_names(here.branch, [parts[k] for k in kids]), strict=True):
+            parts[k] = dataclasses.replace(parts[k], branch=name)
+        if len(kids) > 1:
+            forks.append(_fork_sentence(here, [parts[k] for k in kids]))
+        keys.append(kids[0])
+        left += kids[1:]
+    chain = tuple(parts[k] for k in keys)
+    return [Strand(session_id=chain[0].file.session_id, parts=chain)], forks, left
+
+
+def _sibling_order(part: Part, given: int) -> tuple[str, str, int]:
+    info = part.file.info
+    assert info is not None
+    return (info.continues_branch or "", info.created_utc, given)
+
+
+def _branch_names(parent: str, kids: list[Part]) -> list[str]:
+    """Name each continuation's branch.
+
+    A lone continuation is on its parent's; at a fork each takes a letter after the
+    parent's (a letter the recorder wrote is kept, the others take the next free ones
+    from A).
+    """
+    recorded = [(p.file.info.continues_branch or "") if p.file.info else "" for p in kids]
+    if len(kids) == 1:
+        return [recorded[0] if len(recorded[0]) > len(parent) else parent]
+    taken = {r for r in recorded if len(r) > len(parent)}
+    free = (parent + c for c in string.ascii_uppercase if parent + c not in taken)
+    return [r if r in taken else next(free) for r in recorded]
+
+
+def _fork_sentence(parent: Part, kids: list[Part]) -> str:
+    after = kids[0].file.continues_after
+    named = ", ".join(f"{k.file.path} (branch {k.branch})" for k in kids)
+    return (
+        f"{parent.file.path} is continued after trial {after} by {len(kids)} files: {named}; "
+        "each branch's trials are kept, told apart by their branch"
+    )
+
+
+def _joined_notes(strands: Sequence[Strand], parts: dict[str, Part]) -> list[str]:
+    """What each continuation is taken as, in words that are true of these inputs."""
+    path_of = {key: p.file.path for key, p in parts.items()}
+    notes: list[str] = []
+    for strand in strands:
+        for k, part in enumerate(strand.parts):
+            info = part.file.info
+            if info is None or info.continues_after_trial is None:
+                continue
+            after = info.continues_after_trial
+            if part.parent is None:
+                name = info.continues_file or "the file it continues"
+                notes.append(
+                    f"{part.file.path}: continues {name} after trial {after}; {name} is not "
+                    f"among the inputs: analysed alone (its trials up to {after} are not in "
+                    "this run)"
+                )
+            elif k == 0:
+                notes.append(
+                    f"{part.file.path}: branch {part.branch} of the session, continuing "
+                    f"{path_of[part.parent]} after trial {after}: its own trials analysed "
+                    "on their own"
+                )
+            else:
+                notes.append(
+                    f"{part.file.path}: continues {path_of[part.parent]} after trial {after}; "
+                    f"one session with {strand.head}"
+                )
+    return notes
+
+
+def path_labels(paths: Iterable[str]) -> dict[str, str]:
+    """Label each path by its shortest tail of folders that no other path shares.
+
+    ``a/s.mcap`` and ``b/s.mcap`` stay ``a/s.mcap`` and ``b/s.mcap``; a lone ``x/t.mcap``
+    is ``t.mcap``. What names a session at the terminal, in the report's tables and
+    figures and in the names of a run's output files.
+    """
+    given = list(dict.fromkeys(str(p) for p in paths))
+    split = {p: Path(os.path.normpath(p)).parts for p in given}
+    labels: dict[str, str] = {}
+    for p in given:
+        parts = split[p]
+        for n in range(1, len(parts) + 1):
+            tail = parts[-n:]
+            if all(q == p or split[q][-n:] != tail for q in given):
+                break
+        labels[p] = str(Path(*tail))
+    return labels
