@@ -5,15 +5,20 @@ setup (method, units, cameras and their calibration, ground plane, the last grou
 typed, operator), its session id (a file from before format 1.3 has none: the first 32
 hex digits of its SHA-256 stand for it, so every continuation of it agrees), numbers its
 trials after the last trial ``S`` mentions, and records where it continued
-(``continues``: the trial, the file's name and SHA-256). The analysis treats a session
-and its continuations as one session (:mod:`analysis.input_set`).
+(``continues``: the trial, the file's name and SHA-256, the part it continues). Each
+recording is a part of its own (a fresh ``part_id``). A file beside ``S`` that already
+continues the same part (a second laptop continuing one file) makes this one a new branch
+(``continues.branch``: ``B``, ``C``, ...), said once at the start and never refused. The
+analysis treats a session and its continuations as one session, each branch's trials
+apart (:mod:`twopose.format.identity`).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import hashlib
+import string
 import time
+import uuid
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -27,6 +32,7 @@ from twopose.format.entries import (
     PoseEntry,
     SessionInfo,
 )
+from twopose.format.identity import SessionFile, identify_file
 from twopose.format.reader import SessionReader
 from twopose.methods import Method
 from twopose.units import Units
@@ -34,7 +40,8 @@ from twopose.values import Vec3
 
 __all__ = ["Continued", "read_continued"]
 
-_CHUNK = 1 << 20
+#: The longest branch name the format allows (``continues.branch``: ``^[A-Z]{0,8}$``).
+_MAX_BRANCH = 8
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -48,6 +55,11 @@ class Continued:
     last_trial: int  # the last trial the file mentions (0: none)
     truth: tuple[Vec3, ...]  # the last ground truth typed (the setup's)
     sha256: str
+    #: The continued part's id: the recorded one, or (before format 1.4) the one the
+    #: analysis derives for it (:attr:`SessionFile.part_id`).
+    part_id: str
+    #: Files beside it already continuing the same part, one per part, by name.
+    continued_by: tuple[SessionFile, ...] = ()
 
     @property
     def session_id(self) -> str:
@@ -64,8 +76,42 @@ class Continued:
             continues_after_trial=self.last_trial,
             continues_file=self.path.name,
             continues_sha256=self.sha256,
+            part_id=uuid.uuid4().hex,
+            continues_part=self.part_id,
+            continues_branch=self.branch,
             created_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
             notes="; ".join(n for n in (notes or self.info.notes, said) if n),
+        )
+
+    @property
+    def branch(self) -> str | None:
+        """The continuation's branch (``continues.branch``).
+
+        The continued part's own when no other file beside it continues it; else the next
+        letter after it (the second continuation of a part on no branch is ``B``, the
+        third ``C``; the second of a part on ``B`` is ``BB``); None when the format has no
+        name left (the analysis then names it).
+        """
+        own = self.info.continues_branch or ""
+        if not self.continued_by:
+            return own
+        taken = {f.info.continues_branch or "" for f in self.continued_by if f.info is not None}
+        letters = string.ascii_uppercase[len(self.continued_by) :]
+        free = [own + c for c in letters if own + c not in taken]
+        return free[0] if free and len(own) < _MAX_BRANCH else None
+
+    @property
+    def fork_warning(self) -> str | None:
+        """What to say at the start when another file already continues this part."""
+        if not self.continued_by:
+            return None
+        by = ", ".join(
+            f"{Path(f.path).name} (after trial {f.continues_after})" for f in self.continued_by
+        )
+        branch = f"branch {self.branch}" if self.branch else "another branch"
+        return (
+            f"{self.path.name} is already continued by {by}: this file starts {branch} of "
+            "the session; the analysis keeps each branch's trials apart"
         )
 
     def check_plan(self, method: Method, units: Units) -> None:
@@ -98,10 +144,7 @@ def read_continued(path: str | Path) -> Continued:
         raise InputValueError(
             f"--continue {src}: {said}; then continue from that: --continue FIXED.mcap"
         ) from None
-    h = hashlib.sha256()
-    with src.open("rb") as f:
-        while block := f.read(_CHUNK):
-            h.update(block)
+    identity = identify_file(src)
     return Continued(
         path=src,
         info=info,
@@ -109,5 +152,34 @@ def read_continued(path: str | Path) -> Continued:
         ground=ground,
         last_trial=last,
         truth=tuple(truth),
-        sha256=h.hexdigest(),
+        sha256=identity.digest,
+        part_id=identity.part_id,
+        continued_by=_continued_beside(identity),
     )
+
+
+def _continued_beside(continued: SessionFile) -> tuple[SessionFile, ...]:
+    """The files in ``continued``'s folder that already continue its part, one per part.
+
+    Any ``*.mcap`` (in any case) but itself; a file that says nothing of what it is
+    (unreadable, no session entry) is passed over quietly.
+    """
+    src = Path(continued.path)
+    try:
+        beside = sorted(p for p in src.parent.iterdir() if p.suffix.lower() == ".mcap")
+    except OSError:
+        return ()
+    found: dict[str, SessionFile] = {}
+    for path in beside:
+        try:
+            if not path.is_file() or path.samefile(src):
+                continue
+        except OSError:
+            continue
+        other = identify_file(path)
+        info = other.info
+        if info is None or info.continues_after_trial is None:
+            continue
+        if info.continues_part == continued.part_id or info.continues_sha256 == continued.digest:
+            found.setdefault(other.part_key, other)
+    return tuple(found.values())

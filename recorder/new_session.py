@@ -69,7 +69,11 @@ def guidance_asked(
 
 
 def continued_session(path: Path | None, **setup: object) -> Continued | None:
-    """``--continue``: the session continued, read once; the setup options are its."""
+    """``--continue``: the session continued, read once; the setup options are its.
+
+    When a file beside it already continues the same part, that is said here, once, on
+    every path (terminal, ``--plan``, ``--ui``): this recording starts a branch.
+    """
     if path is None:
         return None
     given = [f"--{k.replace('_', '-')}" for k, v in setup.items() if v not in (None, [])]
@@ -79,7 +83,10 @@ def continued_session(path: Path | None, **setup: object) -> Continued | None:
         )
     from recorder.continuation import read_continued
 
-    return read_continued(path)
+    continued = read_continued(path)
+    if continued.fork_warning is not None:  # said once, before any path asks or records
+        typer.secho(f"warning: {continued.fork_warning}", fg=typer.colors.YELLOW, err=True)
+    return continued
 
 
 def continued_given(continued: Continued, target_precision: float | None) -> dict[str, Any]:

@@ -458,8 +458,9 @@ class _PlanDriver(Driver):
         elif self.suggested is not None:
             t_grid = self.suggested
         else:  # no reachable pose keeps the target in view: the thesis' move
-            (x, y, z), (dx, dy, dz) = self.typed, _thesis_move(self.plan)
-            t_grid = (x + dx, y + dy, z + dz)
+            f = unit_factor(Units.IN, self.plan.units)
+            (x, y, z), (dx, dy, dz) = self.typed, THESIS_MOVE_IN
+            t_grid = (x + dx * f, y + dy * f, z + dz * f)
         self.suggested = None
         # The simulated operator types the suggestion and places the laptop there with its
         # placing error: the resolution each entry promises the analysis.
@@ -580,6 +581,7 @@ def record_plan(  # noqa: PLR0913 - keyword-only callbacks, one per thing a call
         created_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
         board=plan.board,
         session_id=uuid.uuid4().hex,
+        part_id=uuid.uuid4().hex,
     )
     cameras, ground = plan.cameras, plan.ground()
     if continued is not None:
@@ -603,10 +605,3 @@ def record_plan(  # noqa: PLR0913 - keyword-only callbacks, one per thing a call
             guidance=plan.guidance,
         ),
     )
-
-
-def _thesis_move(plan: Plan) -> Vec3:
-    """The thesis' move from one pose to the next, in the plan's units."""
-    factor = unit_factor(Units.IN, plan.units)
-    x, y, z = THESIS_MOVE_IN
-    return (x * factor, y * factor, z * factor)

@@ -118,6 +118,7 @@ class Setup:
             created_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
             board=self.board,
             session_id=uuid.uuid4().hex,  # its continuations share it
+            part_id=uuid.uuid4().hex,  # this recording's part of it
         )
 
     @classmethod

@@ -4,10 +4,12 @@ numbered after the first part's, nothing counted twice, in any order of the inpu
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import signal
 import subprocess
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
@@ -18,6 +20,8 @@ from analysis.batch import run
 from analysis.cli import app as analyze
 from analysis.input_set import resolve_inputs
 from recorder.cli import app as record
+from recorder.continuation import read_continued
+from twopose.format.identity import identify_file, resolve_session_files
 from twopose.format.reader import SessionReader
 
 runner = CliRunner()
@@ -161,3 +165,121 @@ def test_guidance_options_beside_a_plan_are_refused_not_ignored(tmp_path: Path) 
     assert result.exit_code == 3
     assert "--target-precision: a plan sets its guidance in its [guidance] table" in result.output
     assert not (tmp_path / "x.mcap").exists()
+
+
+# Issue 43, part 2: the recorder knows forks. A small synthetic camera (a pose renders in
+# tens of ms, as tests/recorder/test_console_guard.py's) and one-trial plans, recorded once
+# for the module: a session S and two continuations of it beside it, as two laptops would.
+SMALL_SCENE = """
+[[cameras]]
+id = "cam0"
+width = 320
+height = 240
+fx = 262.5
+fy = 262.5
+cx = 160.0
+cy = 120.0
+
+[sensor]
+supersample = 1
+
+[clutter]
+count = 0
+"""
+SECOND_WARNING = (
+    "S.mcap is already continued by S_laptop1.MCAP (after trial 1): this file starts branch "
+    "B of the session; the analysis keeps each branch's trials apart"
+)
+
+
+@dataclass(frozen=True)
+class Forked:
+    session: Path
+    first: Path  # the first continuation (S_laptop1.MCAP)
+    second: Path  # the second, beside the first (S_laptop2.mcap)
+    said: tuple[str, str]  # what each continuation's `new` printed
+
+
+@pytest.fixture(scope="module")
+def forked(tmp_path_factory: pytest.TempPathFactory) -> Forked:
+    setup = tmp_path_factory.mktemp("setup")
+    scene = setup / "scene.toml"
+    scene.write_text(SMALL_SCENE)
+    plan = _plan(setup, "one.toml", 1)
+    small = "focal = 262.5\nprincipal = [160.0, 120.0]\nwidth = 320\nheight = 240\n"
+    plan.write_text(plan.read_text().replace("focal = 525.0\nprincipal = [320.0, 240.0]\n", small))
+    folder = tmp_path_factory.mktemp("sessions")
+    (folder / "junk.mcap").write_bytes(b"not a session")  # passed over quietly
+    paths = folder / "S.mcap", folder / "S_laptop1.MCAP", folder / "S_laptop2.mcap"
+    said: list[str] = []
+    for k, path in enumerate(paths):
+        more = ["--continue", str(paths[0])] if k else []
+        args = ["new", str(path), "--plan", str(plan), *more, "--source", f"synthetic:{scene}"]
+        result = runner.invoke(record, args)
+        assert result.exit_code == 0, result.output
+        said.append(result.output)
+    return Forked(session=paths[0], first=paths[1], second=paths[2], said=(said[1], said[2]))
+
+
+def test_every_recording_is_a_fresh_part_and_a_second_continuation_a_branch(
+    forked: Forked,
+) -> None:
+    """Two laptops continue one file: the first continuation is the part's only one (no
+    warning, no branch), the second is warned, once, and records branch B; each file is
+    a part of its own, each continuation naming the part it continues as the analysis
+    does."""
+    s = identify_file(forked.session)
+    infos = [identify_file(p).info for p in (forked.session, forked.first, forked.second)]
+    assert all(i is not None for i in infos)
+    session, first, second = (i for i in infos if i is not None)
+    assert session.part_id is not None
+    assert s.part_id == session.part_id
+    parts = {session.part_id, first.part_id, second.part_id}
+    assert None not in parts
+    assert len(parts) == 3  # fresh, distinct
+    for info in (first, second):
+        assert info.session_id == session.session_id
+        assert info.continues_part == s.part_id
+        assert info.continues_sha256 == s.digest
+    assert first.continues_branch == ""
+    assert "already continued" not in forked.said[0]
+    assert second.continues_branch == "B"
+    assert forked.said[1].startswith(f"warning: {SECOND_WARNING}\n")  # at the start, once
+    assert forked.said[1].count("already continued") == 1
+    assert "junk.mcap" not in forked.said[1]
+    # The analysis' identity agrees: S forks, the second laptop's part is branch B.
+    resolved = resolve_session_files(
+        [identify_file(p) for p in (forked.session, forked.first, forked.second)]
+    )
+    assert len(resolved.forks) == 1
+    branches = {p: b for strand in resolved.strands for p, b in strand.branches.items()}
+    assert branches[str(forked.second)] == "B"
+
+
+def test_a_branch_takes_the_next_free_letter_after_the_continued_part(forked: Forked) -> None:
+    """The third continuation of a part is C; a second continuation of a part on branch B
+    is BB (no file rendered: the continued session read once)."""
+    continued = read_continued(forked.session)
+    first = identify_file(forked.first)
+    assert continued.part_id == identify_file(forked.session).part_id
+    assert {Path(f.path).name for f in continued.continued_by} == {
+        "S_laptop1.MCAP",
+        "S_laptop2.mcap",
+    }
+    assert continued.branch == "C"
+    assert continued.info_for().continues_branch == "C"
+    assert first.info is not None
+    on_b = dataclasses.replace(
+        continued,
+        info=dataclasses.replace(continued.info, continues_branch="B"),
+        continued_by=(first,),
+    )
+    assert on_b.branch == "BB"
+    assert on_b.fork_warning is not None
+    assert "starts branch BB of the session" in on_b.fork_warning
+    alone = dataclasses.replace(continued, continued_by=())
+    assert alone.branch == ""
+    assert alone.fork_warning is None
+    fresh = {alone.info_for().part_id for _ in range(2)}
+    assert len(fresh) == 2
+    assert continued.part_id not in fresh
