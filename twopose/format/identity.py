@@ -287,11 +287,9 @@ def _why_not_kept(f: SessionFile, kept: SessionFile) -> str:
     if f.digest == kept.digest:
         return "a byte copy"
     if not f.readable:
-        return "an interrupted copy of the same part (its recovered or complete twin is kept)"
+        return "interrupted; the complete or recovered copy of the same part is kept"
     if f.n_poses < kept.n_poses:
-        return (
-            f"an earlier copy of the same part ({f.n_poses} poses; the one kept has {kept.n_poses})"
-        )
+        return f"an earlier copy of the same part: {f.n_poses} poses, the one kept {kept.n_poses}"
     return "another copy of the same part"
 
 

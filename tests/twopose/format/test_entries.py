@@ -41,6 +41,9 @@ EXAMPLES = [
         continues_after_trial=2,
         continues_file="S.mcap",
         continues_sha256="ab" * 32,
+        part_id="fedcba9876543210fedcba9876543210",
+        continues_part="00112233445566778899aabbccddeeff",
+        continues_branch="B",
     ),
     SessionInfo(
         method=Method.GROUND,

@@ -1,0 +1,96 @@
+"""A lab's session files, made fast: what happens to them (record, continue, fork, copy,
+rename, recover, a recording killed), through the real writer, the real continuation
+(:func:`recorder.continuation.read_continued`) and the real ``recover``.
+
+Frames are tiny blank images: nothing is detected, so every trial is a row of its own
+(``no_detection``) whatever happens to it, and a test counts captures and trials by what
+they are, not by what they measured.
+"""
+
+from __future__ import annotations
+
+import uuid
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from recorder.continuation import read_continued
+from twopose.camera import Camera, Intrinsics
+from twopose.format.entries import CaptureDecision, GroundTruth, PoseEntry, SessionInfo
+from twopose.format.writer import SessionWriter
+from twopose.methods import Method
+from twopose.units import Units
+
+CAMERA = Camera(
+    camera_id="cam0",
+    intrinsics=Intrinsics(width=64, height=48, fx=52.5, fy=52.5, cx=32.0, cy=24.0),
+)
+_BLANK = np.full((48, 64, 3), 200, dtype=np.uint8)
+
+
+def new_info(*, units: Units = Units.IN, created: str = "2026-11-27T00:00:00Z") -> SessionInfo:
+    """A new session's opening entry, as the recorder writes one (a fresh id and part)."""
+    return SessionInfo(
+        method=Method.POINT,
+        units=units,
+        camera_ids=("cam0",),
+        operator="lab",
+        created_utc=created,
+        session_id=uuid.uuid4().hex,
+        part_id=uuid.uuid4().hex,
+    )
+
+
+def write_part(path: Path, info: SessionInfo, trials: Sequence[int]) -> None:
+    """A session file holding ``trials``, each two accepted captures of one frame."""
+    t = 1_000_000_000
+    with SessionWriter(path, info, [CAMERA], start_ns=t) as w:
+        for trial in trials:
+            w.write_ground_truth(
+                GroundTruth(trial=trial, kind="point", points_grid=((1.0, 2.0, 11.0),)), t
+            )
+            for pose in (1, 2):
+                number = w.new_capture_number()
+                w.write_pose(
+                    PoseEntry(
+                        trial=trial,
+                        pose=pose,
+                        camera_id="cam0",
+                        t_grid=(float(pose), 0.0, 0.0),
+                        r_deg=(0.0, 0.0, 0.0),
+                        capture=number,
+                    ),
+                    t + 1,
+                )
+                with w.capture(trial, pose, "cam0", number) as cap:
+                    cap.add_frame(_BLANK, t + 2)
+                w.write_decision(
+                    CaptureDecision(
+                        capture=number, trial=trial, pose=pose, camera_id="cam0", decision="accept"
+                    ),
+                    t + 3,
+                )
+                t += 10
+
+
+def record(path: Path, n_trials: int, **info: object) -> SessionInfo:
+    """A new session of ``n_trials`` trials (1..n)."""
+    opening = new_info(**info)  # type: ignore[arg-type]
+    write_part(path, opening, range(1, n_trials + 1))
+    return opening
+
+
+def continue_session(of: Path, path: Path, n_trials: int) -> SessionInfo:
+    """``new path --continue of``: ``n_trials`` more, numbered after ``of``'s last."""
+    continued = read_continued(of)
+    opening = continued.info_for()
+    first = continued.last_trial + 1
+    write_part(path, opening, range(first, first + n_trials))
+    return opening
+
+
+def kill_midway(path: Path, keep: float = 0.6) -> None:
+    """What kill -9 leaves of a recording: the file cut before its summary was written."""
+    data = path.read_bytes()
+    path.write_bytes(data[: max(64, int(len(data) * keep))])
