@@ -316,9 +316,13 @@ _CLAIMS: Any = None  # in worker processes: the shared claim flags of the batch
 
 def _worker_init(claims: Any) -> None:
     """One OpenCV thread per worker: the processes already fill the cores. Ctrl-C is the
-    parent's to handle (a worker would print a traceback of its own)."""
+    parent's to handle (a worker would print a traceback of its own); a parent killed
+    outright ends its workers (:func:`analysis.parent_watch.watch_parent`)."""
     import cv2
 
+    from analysis.parent_watch import watch_parent
+
+    watch_parent()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})  # held back at its start
     global _CLAIMS

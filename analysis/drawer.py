@@ -97,7 +97,9 @@ class FigureDrawer:
     child is a fresh interpreter, not a fork (OpenCV's threads) nor a multiprocessing
     spawn (which would import the caller's main script again). Ctrl-C is the caller's:
     the child ignores it and is ended with the block; it also ends when its stdin closes,
-    so it never outlives its parent. Sessions a dead child did not draw are drawn here.
+    and at once when this process dies (:func:`analysis.parent_watch.watch_parent`: a
+    parent killed mid-session left it drawing, then printing a ``BrokenPipeError``), so it
+    never outlives its parent. Sessions a dead child did not draw are drawn here.
     """
 
     #: Sessions handed to the child before it has returned the first of them.
@@ -112,7 +114,7 @@ class FigureDrawer:
         env = {**os.environ, "PYTHONPATH": root + (os.pathsep + path if path else "")}
         with sigint_blocked():  # held back in the child too, until it ignores it
             self._child = subprocess.Popen(
-                [sys.executable, "-m", "analysis.drawer"],
+                [sys.executable, "-m", "analysis.drawer", str(os.getpid())],
                 stdin=subprocess.PIPE,
                 stdout=subprocess.PIPE,
                 env=env,
@@ -283,7 +285,13 @@ def sigint_blocked() -> Iterator[None]:
 
 def _main() -> None:
     """The child: draw every session read from stdin, send each one's figures to stdout;
-    stop at the end of stdin (the parent closed it, or died). Ctrl-C is the parent's."""
+    stop at the end of stdin (the parent closed it, or died), or when the parent (its pid
+    the first argument) is gone, silently. Ctrl-C is the parent's."""
+    from analysis.parent_watch import end_quietly_on_closed_pipe, watch_parent
+
+    if len(sys.argv) > 1:
+        watch_parent(int(sys.argv[1]))
+    end_quietly_on_closed_pipe()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     stdin = sys.stdin.buffer
