@@ -93,6 +93,11 @@ def _plus_minus(value: object, half: object) -> str:
     )
 
 
+#: The share within 1 unit, its header naming the unit (``within 1 cm``: 1 cm, not the
+#: thesis' 1 in, which the verdict lines count), or the rows' own in a mixed table.
+_WITHIN, _WITHIN_MIXED = "within 1 {}", "within 1 (the row's units)"
+
+
 def readable(table: pd.DataFrame, *, include_warned: bool = False) -> pd.DataFrame:
     """An answer table or a summary (``summary.csv``'s columns) as a reader sees it: labels
     in words, the units in the headers (a ``units`` column when they differ), lengths with
@@ -114,7 +119,7 @@ def readable(table: pd.DataFrame, *, include_warned: bool = False) -> pd.DataFra
             f"RMSE 95% interval{u}": _interval(r["rmse_ci95_low"], r["rmse_ci95_high"]),
             f"median{u}": number(r["median_err"]),
             f"largest{u}": number(r["max_err"]),
-            f"within 1 {one or 'unit'}": share(r["within_1"]),
+            _WITHIN.format(one) if one else _WITHIN_MIXED: share(r["within_1"]),
             f"bias x ± 95%{u}": _plus_minus(r["bias_x"], r["bias_x_ci95"]),
             f"bias z ± 95%{u}": _plus_minus(r["bias_z"], r["bias_z_ci95"]),
             "truth inside its 95% ellipsoid": share(r["coverage95"]),

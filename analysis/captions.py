@@ -55,6 +55,8 @@ def _largest(trials: pd.DataFrame, label: str, *, include_warned: bool) -> str:
         (f"{name}_*: " if name else "") + ", ".join(cells) + f" {html.escape(label)}"
         for name, cells in parts.items()
     ]
+    if not groups:
+        return "No trial drawn: none is usable, as the verdict lines say."
     return "Largest error drawn: " + "; ".join(groups) + ", as in the answer."
 
 

@@ -394,12 +394,24 @@ def _set_title(name: str, base: str) -> str:
     return f"{base}: {name}_* sessions" if name else base
 
 
+def _drawn(trials: pd.DataFrame, *, include_warned: bool) -> tuple[pd.DataFrame, str, str]:
+    """The trials a run figure draws, in one unit; that unit, the run's own when none is
+    drawn (all warned: never "session units"); and what was converted to it, in words."""
+    used, units = common_units(used_trials(trials, include_warned=include_warned, measured=True))
+    if used.empty:
+        return used, common_units(trials)[1], ""
+    others = sorted({str(u) for u in used["units"]} - {units})
+    said = f"; {', '.join(others)} converted to {units}"
+    return used, units, said if others else ""
+
+
 def plot_error_histogram(
     fig: Figure, trials: pd.DataFrame, *, include_warned: bool = False
 ) -> None:
     """The error of each trial the answer uses, by method, one panel per session set, every
-    panel with the same bins (one width, from 0 to the largest error) and y scale."""
-    used, units = common_units(used_trials(trials, include_warned=include_warned, measured=True))
+    panel with the same bins (one width, from 0 to the largest error) and y scale; the x
+    axis names the unit and what was converted to it."""
+    used, units, converted = _drawn(trials, include_warned=include_warned)
     top = float(used["err"].max()) if len(used) else 1.0
     edges = np.linspace(0.0, top if top > 0 else 1.0, HISTOGRAM_BINS + 1)
     methods = sorted(Method(m) for m in used["method"].unique()) if len(used) else []
@@ -409,10 +421,13 @@ def plot_error_histogram(
         data = [g.loc[g["method"] == m, "err"].to_numpy() for m in methods]
         if methods:
             ax.hist(data, bins=list(edges), color=[method_colour(m) for m in methods])
+        else:
+            ax.text(0.5, 0.5, "no trial usable", ha="center", transform=ax.transAxes)
         _style(ax, _set_title(name, "Error per trial"), "", "number of trials")
         ax.yaxis.set_major_locator(MaxNLocator(integer=True))  # counts: whole trials
     width = f"{edges[1] - edges[0]:.3g}"
-    panels[-1][1].set_xlabel(f"error ({units}); bins {width} {units} wide", fontsize=LABEL)
+    label = f"error ({units}); bins {width} {units} wide{converted}"
+    panels[-1][1].set_xlabel(label, fontsize=LABEL)
     handles = [key(str(m), marker="s", color=method_colour(m), ms=7) for m in methods]
     _run_layout(fig, len(panels), legend_below(fig, handles, 3))
 
@@ -470,7 +485,7 @@ def plot_error_vs_baseline(
 ) -> None:
     """Error against the distance between the cameras (the thesis' strongest lever), by
     method, one panel per session set on shared scales."""
-    used, units = common_units(used_trials(trials, include_warned=include_warned, measured=True))
+    used, units, _ = _drawn(trials, include_warned=include_warned)
     used = used[used["baseline"].notna()] if "baseline" in used else used.head(0)
     methods = sorted(Method(m) for m in used["method"].unique()) if len(used) else []
     panels = _grouped_axes(fig, used)

@@ -31,7 +31,7 @@ from analysis.thesis import thesis_sessions
 from twopose import jsonsafe
 from twopose.jsonsafe import jsonable
 from twopose.methods import label_of, spec_of
-from twopose.units import Units
+from twopose.units import UNITS, Units
 
 if TYPE_CHECKING:
     from analysis.results import RunResult, SessionResult
@@ -248,7 +248,9 @@ def _answer_section(result: RunResult) -> list[str]:
         f"<p>Pooled over the sessions, over {which}. Errors are distances from the truth; "
         "RMSE with its 95% bootstrap interval, biases (mean error) with the half-widths of "
         "their 95% intervals; the last column is the share of trials whose truth lies "
-        "inside their own 95% uncertainty ellipsoid (95% when the uncertainty is honest).</p>",
+        "inside their own 95% uncertainty ellipsoid (95% when the uncertainty is honest). "
+        "A table per unit: its “within 1” is 1 of that unit; the verdict lines count the "
+        "thesis' 1 in, saying which errors they converted to inches.</p>",
     ]
     groups = by_session_set(result.trials)
     if len(groups) > 1:
@@ -262,7 +264,10 @@ def _answer_section(result: RunResult) -> list[str]:
             title = SESSION_SETS.get(name, "sessions in no set")
             parts.append(f"<h3 id='set-{name or 'other'}'>{html.escape(title)}</h3>")
         table = answer_table(group, include_warned=result.include_warned)
-        parts.append(table_html(readable(table, include_warned=result.include_warned)))
+        units = sorted({str(u) for u in table["units"]}, key=lambda u: UNITS.index(Units(u)))
+        per_unit = [table[table["units"].astype(str) == u] for u in units] or [table]
+        for part in per_unit:  # a table per unit, the registry's order: its headers name it
+            parts.append(table_html(readable(part, include_warned=result.include_warned)))
         parts += [f"<p class='verdict'>{html.escape(line)}</p>" for line in verdicts[name]]
     return parts + _thesis_section(result)
 
@@ -278,7 +283,8 @@ def _thesis_section(result: RunResult) -> list[str]:
     return [
         "<h2 id='thesis'>The thesis, reproduced</h2>",
         "<p>What the thesis reported (sections 3.4, 5.3, 5.4) against this run, over "
-        f"{over} (thesis.csv; errors in inches).</p>",
+        f"{over} (thesis.csv; errors in inches, the thesis' unit: a row that converted "
+        "sessions in other units says from what).</p>",
         table_html(table, text=True),
     ]
 

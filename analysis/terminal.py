@@ -1,10 +1,12 @@
 """The run's answer as terminal text: readable in an 80-column terminal and in a CI log.
 
 A per-method table (pooled over the sessions, per session set when the run has more than
-one: ``thesis_*`` first) that fits 80 columns, then one line per session, wrapped at the
-terminal's width when printing to a terminal and left whole when piped (a log or a file
-keeps every number on its line); the run ends with one verdict line per method against
-the thesis and the path of ``report.html``.
+one: ``thesis_*`` first, and per units: its share "within 1" names the unit, ``≤1 cm``)
+that fits 80 columns, then one line per session, wrapped at the terminal's width when
+printing to a terminal and left whole when piped (a log or a file keeps every number on
+its line); the run ends with one verdict line per method against the thesis (in inches,
+the thesis' unit: a line that converted errors says from what; a method with no usable
+trial says so) and the path of ``report.html``.
 """
 
 from __future__ import annotations
@@ -24,10 +26,15 @@ __all__ = ["UNIT_NAMES", "closing_lines", "summary_lines", "wrap_phrases"]
 
 UNIT_NAMES = {str(u): spec.name for u, spec in UNIT_SPECS.items()}
 
-_HEADER = (
-    f"{'method':<7}{'sessions':>8}{'trials':>7}{'ok':>5}{'warned':>7}"
-    f"{'rmse':>7}{'median':>7}{'max':>7}{'bias x':>7}{'bias z':>7}{'≤1':>6}"
-)
+
+def _header(unit: Units) -> str:
+    """A per-method table's header; its last column, the share within 1 ``unit``, names
+    it (``≤1 cm``: 1 cm, not the thesis' 1 in, which the verdict lines count)."""
+    within = f"≤1 {unit}"
+    return (
+        f"{'method':<7}{'sessions':>8}{'trials':>7}{'ok':>5}{'warned':>7}"
+        f"{'rmse':>7}{'median':>7}{'max':>7}{'bias x':>7}{'bias z':>7}{within:>6}"
+    )
 
 
 def _units_name(units: Units) -> str:
@@ -53,7 +60,7 @@ def summary_lines(
         for units, part in group.groupby("units", sort=False):
             where = f"{SESSION_SETS.get(name, 'sessions in no set')}, " if len(groups) > 1 else ""
             title = f"{where}errors in {_units_name(Units(str(units)))}:"
-            lines += [*wrap_phrases(title.split(" "), width), _HEADER]
+            lines += [*wrap_phrases(title.split(" "), width), _header(Units(str(units)))]
             lines += _method_rows(part, summary, include_warned=include_warned)
     lines.append("per session:")
     for _, r in session_order(summary).iterrows():
@@ -65,7 +72,7 @@ def summary_lines(
             f"median {_num(r['median_err'])},",
             f"max {_num(r['max_err'])},",
             f"bias x {_num(r['bias_x'], signed=True)} z {_num(r['bias_z'], signed=True)},",
-            f"within 1: {_share(r['within_1'])}",
+            f"within 1 {r['units']}: {_share(r['within_1'])}",
         ]
         lines += wrap_phrases(phrases, width, indent="  ")
     return lines
@@ -104,8 +111,9 @@ def wrap_phrases(phrases: list[str], width: int | None, indent: str = "") -> lis
 
 def closing_lines(verdict: list[str], out: Path, *, width: int | None = 80) -> list[str]:
     """The run's last lines: one verdict per method against the thesis (per session set,
-    ``thesis_*`` first: :attr:`analysis.results.RunResult.verdict`), then where
-    ``report.html`` is (when it was written)."""
+    ``thesis_*`` first: :attr:`analysis.results.RunResult.verdict`; in inches, each line
+    saying which errors it converted, a method with no usable trial saying so), then
+    where ``report.html`` is (when it was written)."""
     lines = []
     for line in verdict:
         lines += wrap_phrases(["verdict:", *line.split(" ")], width)

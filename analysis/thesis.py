@@ -8,6 +8,12 @@ is computed from the run's trials of that method (errors converted to inches), f
 sensitivity model, or from the running averages of trials with 50 frames or more per pose,
 and judged by the test it states (``yes``, ``no``, ``can't tell``; ``no data``).
 
+The thesis' claims are in inches, so the errors of sessions in other units are converted
+to inches, and every verdict line and row that converted any says so and from what
+(``errors converted from cm``): no line pools units silently. A method whose trials are
+all left out (warned, failed, or without ground truth) still has its verdict line, saying
+that no trial is usable and why.
+
 When a run holds sessions of the ``thesis`` set (``thesis_*.mcap``,
 :data:`analysis.metrics.SESSION_SETS`), the table is over those alone: the thesis'
 experiments, not the stress sessions beside them. The verdict lines are per set.
@@ -20,14 +26,25 @@ import math
 import numpy as np
 import pandas as pd
 
-from analysis.metrics import by_session_set, session_set, used_trials
-from twopose.format.entries import INCHES_PER_UNIT
+from analysis.metrics import by_session_set, session_set, used_trials, warned
 from twopose.methods import Method, spec_of
+from twopose.units import UNITS, Units, unit_factor
 
-__all__ = ["THESIS_COLUMNS", "fisher_p", "thesis_sessions", "thesis_table", "thesis_verdict"]
+__all__ = [
+    "THESIS_COLUMNS",
+    "THESIS_UNITS",
+    "converted_from",
+    "fisher_p",
+    "thesis_sessions",
+    "thesis_table",
+    "thesis_verdict",
+    "unusable",
+]
 
 THESIS_COLUMNS = ["claim", "thesis", "twopose", "reproduced"]
 
+#: The unit the thesis reports in (the registry's first): what the verdict converts to.
+THESIS_UNITS: Units = UNITS[0]
 _WITHIN_IN = 1.0  # the thesis' "within ± 1 inch"
 _AVERAGES = (5, 50)  # section 5.4: five averages against fifty
 
@@ -40,10 +57,16 @@ def thesis_table(
     over :func:`thesis_sessions`."""
     trials, averaging = thesis_sessions(trials), thesis_sessions(averaging)
     used = _used(trials, include_warned=include_warned)
+    within = [
+        _within_row(trials, used, method, claim, include_warned=include_warned)
+        for method, claim in (
+            (Method.POINT, "method 1 (fixed point) errors"),
+            (Method.GROUND, "method 2 (pointed ground point) errors"),
+        )
+    ]
     rows = [
-        _within_row(used, Method.POINT, "method 1 (fixed point) errors"),
-        _within_row(used, Method.GROUND, "method 2 (pointed ground point) errors"),
-        _x_bias_row(used),
+        *within,
+        _x_bias_row(trials, used, include_warned=include_warned),
         _x_translation_row(),
         _averaging_row(trials, averaging),
     ]
@@ -71,15 +94,16 @@ Verdicts = tuple[tuple[str, tuple[str, ...]], ...]
 def verdicts_by_set(trials: pd.DataFrame, *, include_warned: bool = False) -> Verdicts:
     """One line per method set against the thesis' figure (errors within 1 in): how many
     of the trials the summary uses are within it, and so whether twopose reproduces it;
-    per session set (``thesis_*`` first)."""
+    per session set (``thesis_*`` first). Every method of the set has its line, one
+    whose trials are all left out too (:func:`unusable` says why)."""
+    if trials.empty:
+        return (("", ()),)
     return tuple(
         (
             name,
             tuple(
-                _verdict(Method(str(method)), g)
-                for method, g in _used(group, include_warned=include_warned).groupby(
-                    "method", sort=True
-                )
+                _verdict(Method(str(method)), g, include_warned=include_warned)
+                for method, g in group.groupby("method", sort=True)
             ),
         )
         for name, group in by_session_set(trials)
@@ -100,11 +124,18 @@ def thesis_verdict(trials: pd.DataFrame, *, include_warned: bool = False) -> lis
     return verdict_lines(verdicts_by_set(trials, include_warned=include_warned))
 
 
-def _verdict(method: Method, g: pd.DataFrame) -> str:
-    """The thesis table's rule in a line: all within 1 in, as the thesis; or some not,
-    consistent with its 15 of 15 (Fisher's exact test, p > 0.05) or not."""
-    n_in, counts = _within(g)
+def _verdict(method: Method, trials: pd.DataFrame, *, include_warned: bool) -> str:
+    """The thesis table's rule in a line, over ``trials`` (one method's): all within 1 in,
+    as the thesis; or some not, consistent with its 15 of 15 (Fisher's exact test,
+    p > 0.05) or not; or no trial usable, and why."""
+    g = _used(trials, include_warned=include_warned)
     spec = spec_of(method)
+    if g.empty:
+        why = unusable(trials, include_warned=include_warned)
+        if not spec.thesis_tested:
+            return f"{method}: {why}; the thesis did not test this method."
+        return f"{method} ({spec.thesis_name}): {why}; nothing to set against the thesis."
+    n_in, counts = _within(g)
     if not spec.thesis_tested:
         return f"{method}: {counts}; the thesis did not test this method."
     name = spec.thesis_name
@@ -115,18 +146,49 @@ def _verdict(method: Method, g: pd.DataFrame) -> str:
     return f"{method} ({name}): {counts}; {agrees} the thesis' 15 of 15 (Fisher p = {p_value:.2f})."
 
 
+def unusable(trials: pd.DataFrame, *, include_warned: bool) -> str:
+    """Why none of ``trials`` (one method's) is used, in words: ``no trial usable: ...``
+    (none ok; every ok one warned and left out; or none with a known error)."""
+    ok = trials[trials["status"] == "ok"]
+    if ok.empty:
+        return f"no trial usable: none of its {len(trials)} trial(s) is ok"
+    if not include_warned and bool(warned(ok).all()):
+        return (
+            f"no trial usable: all {len(ok)} ok trial(s) warned, left out "
+            "(--include-warned keeps them)"
+        )
+    return f"no trial usable: none of its {len(ok)} ok trial(s) has a known error (no truth)"
+
+
 def _used(trials: pd.DataFrame, *, include_warned: bool) -> pd.DataFrame:
     """The trials the statistics use (:func:`analysis.metrics.used_trials`) with a known
-    error, in inches (``err_in``, ``err_x_in``)."""
+    error, in inches (``err_in``, ``err_x_in``), converted from their own units by the
+    registry's sizes (:data:`THESIS_UNITS`)."""
     used = used_trials(trials, include_warned=include_warned, measured=True)
-    scale = used["units"].map(INCHES_PER_UNIT).astype(float)
+    per_unit = {str(u): unit_factor(u, THESIS_UNITS) for u in UNITS}
+    scale = used["units"].astype(str).map(per_unit).astype(float)
     inches: pd.DataFrame = used.assign(err_in=used["err"] * scale, err_x_in=used["err_x"] * scale)
     return inches
 
 
+def converted_from(trial_units: pd.Series) -> str:
+    """What of a pool of trials (their ``units``) was converted to the thesis' inches, in
+    words: ``""`` when none was, else ``", errors converted from cm"`` (every trial's) or
+    ``", 4 of 6 errors converted from cm"`` (per unit, when some were in inches)."""
+    counts = {str(u): int(n) for u, n in trial_units.astype(str).value_counts().items()}
+    other = {u: n for u, n in sorted(counts.items()) if Units(u) is not THESIS_UNITS}
+    if not other:
+        return ""
+    if len(other) == len(counts):
+        return ", errors converted from " + " and ".join(other)
+    parts = [f"{n} of {len(trial_units)} errors converted from {u}" for u, n in other.items()]
+    return ", " + " and ".join(parts)
+
+
 def _within(g: pd.DataFrame) -> tuple[int, str]:
     n_in = int((g["err_in"] <= _WITHIN_IN).sum())
-    return n_in, f"{n_in} of {len(g)} trials within 1 in (largest {g['err_in'].max():.2f} in)"
+    largest = f"(largest {g['err_in'].max():.2f} in){converted_from(g['units'])}"
+    return n_in, f"{n_in} of {len(g)} trials within 1 in {largest}"
 
 
 _THESIS_TRIALS = 15  # each of its experiments: 15 trials, every one within 1 in
@@ -172,13 +234,17 @@ def _mean_interval(values: np.ndarray) -> tuple[float, float]:
     return float(values.mean()), t95(len(values) - 1) * values.std(ddof=1) / np.sqrt(len(values))
 
 
-def _within_row(used: pd.DataFrame, method: Method, claim: str) -> dict[str, str]:
+def _within_row(
+    trials: pd.DataFrame, used: pd.DataFrame, method: Method, claim: str, *, include_warned: bool
+) -> dict[str, str]:
     """Within ±1 in. Test: all within, yes; some not, Fisher's exact test against the
     thesis' 15 of 15: p <= 0.05, no; else can't tell (too few trials to tell them apart)."""
     g = used[used["method"] == method]
     row = {"claim": claim, "thesis": "within ±1 in"}
     if g.empty:
-        return row | {"twopose": "no trials", "reproduced": NO_DATA}
+        mine = trials[trials["method"] == method] if len(trials) else trials
+        why = unusable(mine, include_warned=include_warned) if len(mine) else "no trials"
+        return row | {"twopose": why, "reproduced": NO_DATA}
     n_in, text = _within(g)
     if n_in == len(g):
         return row | {"twopose": f"{text}; test: all within 1 in", "reproduced": YES}
@@ -187,19 +253,25 @@ def _within_row(used: pd.DataFrame, method: Method, claim: str) -> dict[str, str
     return row | {"twopose": text, "reproduced": NO if p_value <= 0.05 else CANT_TELL}
 
 
-def _x_bias_row(used: pd.DataFrame) -> dict[str, str]:
+def _x_bias_row(
+    trials: pd.DataFrame, used: pd.DataFrame, *, include_warned: bool
+) -> dict[str, str]:
     """x overestimated (section 5.3). Test: the mean x error's 95% t-interval: above 0,
     yes; under :data:`_X_BIAS_MATERIAL_IN`, no (any overestimate is below half of what the
     thesis attributes to it); else can't tell."""
     row = {"claim": "method 2 overestimates x", "thesis": "most x overestimated (a bias)"}
     g = used[used["method"] == Method.GROUND]
+    if g.empty and len(trials) and (trials["method"] == Method.GROUND).any():
+        why = unusable(trials[trials["method"] == Method.GROUND], include_warned=include_warned)
+        return row | {"twopose": why, "reproduced": NO_DATA}
     if len(g) < 2:
         return row | {"twopose": f"{len(g)} trial(s): too few", "reproduced": NO_DATA}
     bias, half = _mean_interval(g["err_x_in"].to_numpy(dtype=np.float64))
     low, high = bias - half, bias + half
     over = int((g["err_x_in"] > 0).sum())
     text = (
-        f"x bias {bias:+.2f} ± {half:.2f} in (95%), {over} of {len(g)} trials over; test: "
+        f"x bias {bias:+.2f} ± {half:.2f} in (95%){converted_from(g['units'])}, "
+        f"{over} of {len(g)} trials over; test: "
         f"the interval above 0 (yes) or under {_X_BIAS_MATERIAL_IN:g} in (no)"
     )
     verdict = YES if low > 0 else NO if high < _X_BIAS_MATERIAL_IN else CANT_TELL

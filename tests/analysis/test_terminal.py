@@ -40,7 +40,7 @@ def test_piped_output_keeps_every_session_on_one_line(tmp_path: Path) -> None:
         x for x in result.stdout.splitlines() if x.startswith("  stress_line.mcap (line, in):")
     ]
     assert "rmse" in line
-    assert "within 1:" in line
+    assert "within 1 in:" in line  # the share within 1 names its unit
     assert "left out of these statistics" in result.stdout  # the line session has warnings
 
 
@@ -50,7 +50,7 @@ def test_lines_break_between_phrases_never_inside_one(sample_run: object) -> Non
     assert len(session_lines) > len(sample_run.summary)  # type: ignore[attr-defined]  # wrapped
     for line in session_lines:
         assert len(line) <= 60
-        for label in ("rmse", "median", "max", "bias x", "within 1:"):
+        for label in ("rmse", "median", "max", "bias x", "within 1 in:"):
             if line.rstrip().endswith(label):
                 raise AssertionError(f"{label!r} cut from its value: {line!r}")
     assert wrap_phrases(["a b", "c d"], None, indent="  ") == ["  a b c d"]
