@@ -1,7 +1,9 @@
 """Every output table's columns, declared once, in the order the files write them.
 
 ``docs/analysis.md`` documents each column (``tests/analysis/test_columns.py`` checks that
-every one declared here is); the stages that fill a table import its list from here. What
+every one declared here is); the stages that fill a table import its list from here, and
+give each column its dtype (:data:`DTYPES`, :func:`typed`: text never NaN, flags boolean),
+as :func:`analysis.run_tables.read_table` reads the CSV back. What
 depends on the method (its extra columns, its degeneracy margins) is read from the method
 registry (:mod:`twopose.methods`), and the uncertainty columns from
 :data:`twopose.uncertainty.SPREAD_COLUMNS`, the keys that
@@ -10,11 +12,19 @@ registry (:mod:`twopose.methods`), and the uncertainty columns from
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 from twopose.methods import METHOD_SPECS, Method
 from twopose.uncertainty import SPREAD_COLUMNS
 
+if TYPE_CHECKING:
+    import pandas as pd
+
 __all__ = [
     "AVERAGING_COLUMNS",
+    "DTYPES",
+    "ERROR_COLUMNS",
     "FRAME_COLUMNS",
     "LINE_COLUMNS",
     "MARGIN_COLUMNS",
@@ -22,6 +32,7 @@ __all__ = [
     "OPTIMAL_COLUMNS",
     "RIG_COLUMNS",
     "RIG_TABLE_COLUMNS",
+    "RUN_TABLES",
     "SUMMARY_COLUMNS",
     "SUMMARY_COUNT_ORDER",
     "SUMMARY_DOMAINS",
@@ -31,6 +42,7 @@ __all__ = [
     "UNCERTAINTY_COLUMNS",
     "VIEW_COLUMNS",
     "WEIGHTED_COLUMNS",
+    "typed",
 ]
 
 # trials.csv: one row per trial.
@@ -179,7 +191,7 @@ FRAME_COLUMNS = [
     "reason",
 ]
 #: ``averaging.csv``: the estimate from each trial's first 1..K frames per pose.
-AVERAGING_COLUMNS = ["session", "trial", "n_frames", "x", "y", "z", "err"]
+AVERAGING_COLUMNS = ["session", "trial", "n_frames", "units", "x", "y", "z", "err"]
 #: One row per used pose: its typed camera centre, combined measurement, the unit ray
 #: through the measured pixel (grid frame), and the intrinsics and typed angles (degrees,
 #: ``R_cam_to_grid = Rx Ry Rz``) the solver used: with them, the report's top view draws
@@ -188,6 +200,7 @@ VIEW_COLUMNS = [
     "session",
     "trial",
     "pose",
+    "units",
     "t_x",
     "t_y",
     "t_z",
@@ -205,5 +218,75 @@ VIEW_COLUMNS = [
     "r_y_deg",
     "r_z_deg",
 ]
-#: ``rig.csv``: one row per session and rig constant.
-RIG_TABLE_COLUMNS = ["session", "constant", "value", "sigma", "fitted", "why_fixed", "truth"]
+#: ``rig.csv``: one row per session and rig constant (``units``: the session's, in which
+#: the length constants are; the others' unit ends their name, ``_deg``, ``_px``, or none).
+RIG_TABLE_COLUMNS = [
+    "session",
+    "constant",
+    "units",
+    "value",
+    "sigma",
+    "fitted",
+    "why_fixed",
+    "truth",
+]
+#: ``errors.csv``: one row per input that could not be analysed.
+ERROR_COLUMNS = ["session", "error"]
+#: The run's tables by file name (``thesis.csv`` and ``sensitivity.csv`` are their
+#: modules' own).
+RUN_TABLES = {
+    "trials.csv": TRIAL_TABLE_COLUMNS,
+    "summary.csv": SUMMARY_COLUMNS,
+    "averaging.csv": AVERAGING_COLUMNS,
+    "frames.csv": FRAME_COLUMNS,
+    "views.csv": VIEW_COLUMNS,
+    "errors.csv": ERROR_COLUMNS,
+    "rig.csv": RIG_TABLE_COLUMNS,
+}
+
+# Each column's dtype, one for a name in every table (:func:`typed`
+# applies them; :func:`analysis.run_tables.read_table` reads a CSV back to the same).
+#: Text: ``str``, "" when there is none, never NaN (in memory as read back).
+_TEXT = (
+    "session", "method", "units", "status", "reason", "warning", "dominant_input",
+    "rejected_frames", "notes", "camera", "constant", "why_fixed", "error",
+)  # fmt: skip
+#: Whole numbers, always known.
+_WHOLE = (
+    "trial", "n_views", "nees_dof", "pose", "frame", "log_time_ns", "n_blobs",
+    "n_candidates", "n_frames", "n_trials", "n_ok", "n_warned", "n_used",
+)  # fmt: skip
+#: Every declared column's dtype: ``str`` (text), ``bool`` (always known: a frame's
+#: ``found``, a rig constant's ``fitted``), ``boolean`` (pandas' nullable: True, False,
+#: or <NA> when not known, as for a trial without a usable covariance), ``int64``, and
+#: ``float64`` for every other number (NaN: not measured).
+DTYPES: dict[str, str] = {
+    **dict.fromkeys((c for columns in RUN_TABLES.values() for c in columns), "float64"),
+    **dict.fromkeys(_TEXT, "str"),
+    **dict.fromkeys(_WHOLE, "int64"),
+    **dict.fromkeys(("found", "fitted"), "bool"),
+    **dict.fromkeys(("within95", "within95_rig"), "boolean"),
+}
+
+
+def typed(table: pd.DataFrame, columns: Sequence[str] | None = None) -> pd.DataFrame:
+    """``table`` with each declared column as its :data:`DTYPES` dtype: text as ``str``
+    with "" where there is none (never NaN, so that a table reads back from its CSV the
+    same), flags as ``bool`` or ``boolean``, whole numbers as ``int64``, other numbers as
+    ``float64``. With ``columns`` (a table's declared list), only those of them it has,
+    in their order (the run's tables concatenated: :func:`analysis.batch.gather`)."""
+    if columns is not None:
+        table = table[[c for c in columns if c in table.columns]]
+    return table.assign(**{c: _as(table[c], DTYPES[c]) for c in table.columns if c in DTYPES})
+
+
+def _as(values: pd.Series, dtype: str) -> pd.Series:
+    """``values`` as ``dtype``; a ``bool`` or ``int64`` column with a missing value (which
+    no table should have) as its nullable kin, never a made-up value."""
+    from pandas.api.types import pandas_dtype
+
+    if dtype == "str":
+        return values.astype(object).where(values.notna(), "").astype("str")
+    if dtype in ("bool", "int64") and values.isna().any():
+        dtype = "boolean" if dtype == "bool" else "Int64"
+    return values.astype(pandas_dtype(dtype))

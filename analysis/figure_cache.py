@@ -87,7 +87,12 @@ class FigureJob:
                 h.update(_text(f"\1{column}\0{table[column].dtype}\0"))
                 values = table[column]
                 if pd.api.types.is_numeric_dtype(values) and values.dtype != object:
-                    h.update(values.to_numpy().tobytes())
+                    array = values.to_numpy()
+                    # A flag with <NA> (within95) gives objects, whose bytes are their
+                    # addresses (another in every run): <NA> as NaN.
+                    if array.dtype == object:
+                        array = values.to_numpy(dtype=float, na_value=float("nan"))
+                    h.update(array.tobytes())
                 else:  # text: any file name, even one that is not valid UTF-8
                     h.update(_text("\0".join(map(str, values))))
         return h.hexdigest()

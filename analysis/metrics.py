@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from analysis.columns import SUMMARY_COLUMNS
+from analysis.columns import SUMMARY_COLUMNS, typed
 
 __all__ = [
     "SESSION_SETS",
@@ -107,7 +107,7 @@ def summarize(trials: pd.DataFrame, *, include_warned: bool = False) -> pd.DataF
                 "max_err_all_ok": all_ok["max_err"],
             }
         )
-    return pd.DataFrame(rows, columns=SUMMARY_COLUMNS)
+    return typed(pd.DataFrame(rows, columns=SUMMARY_COLUMNS))
 
 
 #: Two-sided 95% Student t quantiles by degrees of freedom (1-30); beyond, the normal's.

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
-from analysis.columns import FRAME_COLUMNS, RIG_TABLE_COLUMNS
+from analysis.columns import FRAME_COLUMNS, RIG_TABLE_COLUMNS, typed
 from analysis.results import AnalysisOptions, SessionResult
 from analysis.results_mcap import ResultsWriter
 from analysis.tables import averaging_table, frame_row, trial_table, view_table
@@ -128,14 +128,14 @@ def analyse_session(
         trials = trial_table(replay.session, estimate, reported_, replay.notes, replay.unmeasured)
         if results is not None:
             _write_trial_scenes(results, replay, estimate, reported_)
-    rig = pd.DataFrame(columns=RIG_TABLE_COLUMNS)
+    rig = typed(pd.DataFrame(columns=RIG_TABLE_COLUMNS))
     if options.rig_calibration == "loo":
         trials, rig = _rig_columns(replay, estimate, reported_, trials)
     keys, solved = running_estimates(estimate)
-    ids, truth = replay.trials.trial_ids, replay.trials.truth
-    averaging = averaging_table(replay.session, ids, keys, solved, truth)
-    views = view_table(replay.session, ids, replay.trials.views, estimate.measurements)
-    frames = pd.DataFrame(replay.frame_rows, columns=FRAME_COLUMNS)
+    ids, truth, units = replay.trials.trial_ids, replay.trials.truth, str(replay.trials.units)
+    averaging = averaging_table(replay.session, ids, keys, solved, truth, units=units)
+    views = view_table(replay.session, ids, replay.trials.views, estimate.measurements, units=units)
+    frames = typed(pd.DataFrame(replay.frame_rows, columns=FRAME_COLUMNS))
     result = SessionResult(
         session=replay.session,
         metadata=replay.metadata,
@@ -173,9 +173,10 @@ def _rig_columns(
 
     columns, rows = loo_calibration(replay.session, estimate, reported_, replay.rig_truth)
     corrected = columns.reindex(trials["trial"].to_numpy()).set_index(trials.index)
-    return _systematic_dominance(trials.assign(**corrected)), pd.DataFrame(
-        rows, columns=RIG_TABLE_COLUMNS
-    )
+    # A session that could not inform the rig has one row, saying why: nothing fitted.
+    rig = pd.DataFrame([{"fitted": False} | r for r in rows], columns=RIG_TABLE_COLUMNS)
+    rig["units"] = str(replay.trials.units)
+    return typed(_systematic_dominance(trials.assign(**corrected))), typed(rig)
 
 
 def _systematic_dominance(trials: pd.DataFrame) -> pd.DataFrame:

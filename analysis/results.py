@@ -9,7 +9,7 @@ from pathlib import Path
 import pandas as pd
 
 from analysis.choices import DEFAULT_SESSION_TIMEOUT_S, RigCalibrationMode
-from analysis.columns import VIEW_COLUMNS
+from analysis.columns import RIG_TABLE_COLUMNS, VIEW_COLUMNS, typed
 from analysis.thesis import Verdicts, thesis_table, verdict_lines, verdicts_by_set
 from twopose.detect import DotParams, GloveParams
 from twopose.estimate import EstimateOptions
@@ -70,6 +70,11 @@ class RigSource:
         return f"every view corrected by the rig file {self.path} (sha256 {self.sha256[:16]}...)"
 
 
+def _empty(columns: list[str]) -> pd.DataFrame:
+    """A table with no rows, its declared columns and their dtypes."""
+    return typed(pd.DataFrame(columns=columns))
+
+
 @dataclass(frozen=True, kw_only=True)
 class SessionResult:
     """One session's tables and what the report says about it."""
@@ -81,8 +86,8 @@ class SessionResult:
     averaging: pd.DataFrame
     images: dict[str, bytes] = field(default_factory=dict)  # PNGs by figure kind, if asked
     figures_reused: bool = False  # the images are a previous run's (analysis.figure_cache)
-    views: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=VIEW_COLUMNS))
-    rig: pd.DataFrame = field(default_factory=pd.DataFrame)  # --rig-calibration: rig.csv rows
+    views: pd.DataFrame = field(default_factory=lambda: _empty(VIEW_COLUMNS))
+    rig: pd.DataFrame = field(default_factory=lambda: _empty(RIG_TABLE_COLUMNS))  # rig.csv rows
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -103,10 +108,10 @@ class RunResult:
     frames: pd.DataFrame
     errors: pd.DataFrame
     sessions: tuple[SessionResult, ...]
-    views: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=VIEW_COLUMNS))
+    views: pd.DataFrame = field(default_factory=lambda: _empty(VIEW_COLUMNS))
     skipped: tuple[str, ...] = ()  # results files of an earlier run found among the inputs
     include_warned: bool = False  # whether the summary counts trials with a warning
-    rig: pd.DataFrame = field(default_factory=pd.DataFrame)  # --rig-calibration: rig.csv
+    rig: pd.DataFrame = field(default_factory=lambda: _empty(RIG_TABLE_COLUMNS))  # rig.csv
     rig_source: RigSource | None = None  # --rig: the file every view was corrected by
     #: What the run says about its inputs: copies counted once, board sessions (for
     #: `rig`), empty sessions (analysis.input_set.InputSet.notes)

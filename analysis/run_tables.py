@@ -1,5 +1,7 @@
 """A finished run's tables read back (``check``, ``compare``): checked, or refused in words.
 
+:func:`read_table` reads a run's CSV as the run held it in memory (each declared column's
+dtype, :data:`analysis.columns.DTYPES`: text "" where empty, never NaN; flags boolean);
 :func:`read_results_table` reads one and checks it (:func:`check_results_table`: the
 columns, one row per key, numbers, each inside its column's domain, counts adding up); its
 sessions are named by :func:`session_keys`, so that two runs of the same sessions from
@@ -19,7 +21,53 @@ from twopose.errors import InputValueError
 if TYPE_CHECKING:
     import pandas as pd
 
-__all__ = ["check_results_table", "read_results_table", "session_keys"]
+__all__ = ["NA_TEXTS", "check_results_table", "read_results_table", "read_table", "session_keys"]
+
+#: What a number's cell reads as "not measured" (pandas' defaults; a run writes "").
+NA_TEXTS = (
+    "", "#N/A", "#N/A N/A", "#NA", "-1.#IND", "-1.#QNAN", "-NaN", "-nan", "1.#IND",
+    "1.#QNAN", "<NA>", "N/A", "NA", "NULL", "NaN", "None", "n/a", "nan", "null",
+)  # fmt: skip
+#: A flag's cell (``within95``; ``1.0`` and ``0.0`` as runs before the flags were
+#: boolean wrote them), any case; empty: not known.
+_FLAG_WORDS = {"true": True, "1": True, "1.0": True, "false": False, "0": False, "0.0": False}
+
+
+def read_table(path: str | Path) -> pd.DataFrame:
+    """``path``, a CSV table a run wrote, with the dtypes the run's table had in memory
+    (:func:`analysis.columns.typed`): declared text columns as ``str``, an empty cell
+    ``""`` (so "NA" in the notes stays "NA"); declared flags as ``bool``, or ``boolean``
+    (<NA>: not known) when a cell is empty; numbers as pandas reads them, an empty cell
+    NaN. A flag's cell that is not one is kept as written, for the caller to refuse.
+    Raises what :func:`pandas.read_csv` raises (OSError, ValueError...)."""
+    import pandas as pd
+
+    from analysis.columns import DTYPES
+
+    with open(path, encoding="utf-8", newline="") as fh:
+        header = next(csv.reader(fh), [])
+    text = [c for c in header if DTYPES.get(c) in ("str", "bool", "boolean")]
+    table = pd.read_csv(
+        path,
+        dtype=dict.fromkeys(text, "str"),
+        keep_default_na=False,
+        na_values={c: list(NA_TEXTS) for c in header if c not in text},
+    )
+    for column in text:
+        if DTYPES[column] != "str" and column in table.columns:
+            table[column] = _flags(table[column], DTYPES[column])
+    return table
+
+
+def _flags(cells: pd.Series, dtype: str) -> pd.Series:
+    """A flag column's cells (text) as ``dtype``, ``boolean`` when one is empty; as written
+    (empty cells NaN) when one is not a flag."""
+    words = cells.str.strip().str.lower()
+    empty = words.eq("")
+    flags = words.map(_FLAG_WORDS)
+    if (flags.isna() & ~empty).any():
+        return flags.astype(object).where(flags.notna(), cells.where(~empty))
+    return flags.astype("boolean" if empty.any() or dtype == "boolean" else "bool")
 
 
 def read_results_table(
@@ -31,9 +79,8 @@ def read_results_table(
     numeric: Iterable[str] = (),
 ) -> pd.DataFrame:
     """``folder/name``, a CSV table a run wrote, checked as ``check`` and ``compare`` need
-    it (:func:`check_results_table`), or an error saying what is wrong and what to do."""
-    import pandas as pd
-
+    it (:func:`check_results_table`), or an error saying what is wrong and what to do; the
+    columns' dtypes as the run had them (:func:`read_table`)."""
     where = Path(folder)
     path = where / name
     if not where.is_dir():
@@ -45,7 +92,7 @@ def read_results_table(
     try:
         with open(path, encoding="utf-8", newline="") as fh:
             header = next(csv.reader(fh), [])
-        table = pd.read_csv(path, keep_default_na=True, dtype={"session": str, "method": str})
+        table = read_table(path)
     except (OSError, ValueError, UnicodeDecodeError, csv.Error) as err:
         raise InputValueError(f"cannot read {path}: {err}") from err
     twice = sorted({c for c in header if header.count(c) > 1})

@@ -2,7 +2,8 @@
 
 Pure functions from arrays to one row per frame (``frames.csv``), per trial
 (``trials.csv``), per used pose (``views.csv``) and per running average
-(``averaging.csv``); the column lists are the documented ones.
+(``averaging.csv``); the column lists are the documented ones, each column as its
+declared dtype (:func:`analysis.columns.typed`).
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
-from analysis.columns import AVERAGING_COLUMNS, TRIAL_COLUMNS, VIEW_COLUMNS
+from analysis.columns import AVERAGING_COLUMNS, TRIAL_COLUMNS, VIEW_COLUMNS, typed
 from twopose.arrays import F64
 from twopose.camera import grid_rays, rotation_from_angles_deg
 from twopose.detect import Detection
@@ -139,7 +140,7 @@ def trial_table(
         for ms, vs in zip(estimate.measurements, trials.views, strict=True)
     ]
     table["notes"] = list(notes) if notes is not None else [""] * T
-    return table
+    return typed(table)
 
 
 def _reasons(est: Estimates, unmeasured: Sequence[str] | None) -> list[str]:
@@ -176,8 +177,11 @@ def view_table(
     trial_ids: Sequence[int],
     views: list[list[PoseView]],
     measurements: list[list[PoseMeasurement]],
+    *,
+    units: str,
 ) -> pd.DataFrame:
-    """One row per measured pose (``views.csv``): camera centre, pixel and grid-frame ray."""
+    """One row per measured pose (``views.csv``): camera centre (in the session's
+    ``units``), pixel and grid-frame ray."""
     rows = []
     for trial, row_views, ms in zip(trial_ids, views, measurements, strict=True):
         for v, m in zip(row_views, ms, strict=False):  # incomplete trials have none
@@ -187,6 +191,7 @@ def view_table(
                     "session": session,
                     "trial": trial,
                     "pose": v.pose,
+                    "units": units,
                     **{f"t_{a}": v.t_grid[i] for i, a in enumerate("xyz")},
                     "col": m.centroid_px[0],
                     "row": m.centroid_px[1],
@@ -196,7 +201,7 @@ def view_table(
                     **{f"r_{a}_deg": float(v.r_deg[i]) for i, a in enumerate("xyz")},
                 }
             )
-    return pd.DataFrame(rows, columns=VIEW_COLUMNS)
+    return typed(pd.DataFrame(rows, columns=VIEW_COLUMNS))
 
 
 def averaging_table(
@@ -205,10 +210,13 @@ def averaging_table(
     keys: list[tuple[int, int]],
     solved: Solved | None,
     truth: F64,
+    *,
+    units: str,
 ) -> pd.DataFrame:
-    """``averaging.csv``: the estimate from the first ``n_frames`` frames of each pose."""
+    """``averaging.csv``: the estimate from the first ``n_frames`` frames of each pose, in
+    the session's ``units``."""
     if solved is None:
-        return pd.DataFrame(columns=AVERAGING_COLUMNS)
+        return typed(pd.DataFrame(columns=AVERAGING_COLUMNS))
     idx = np.array([i for i, _ in keys])
     point = solved.point
     if solved.direction is not None:
@@ -218,11 +226,12 @@ def averaging_table(
             )
     else:
         reference = truth[idx, 0]
-    return pd.DataFrame(
+    table = pd.DataFrame(
         {
             "session": session,
             "trial": [trial_ids[i] for i in idx],
             "n_frames": [n for _, n in keys],
+            "units": units,
             "x": point[:, 0],
             "y": point[:, 1],
             "z": point[:, 2],
@@ -230,3 +239,4 @@ def averaging_table(
         },
         columns=AVERAGING_COLUMNS,
     )
+    return typed(table)

@@ -135,7 +135,8 @@ def one_seed(method: str, seed: int, folder: Path) -> SeedResult:
     ok = {name: g[g["trial"].isin(both)] for name, g in by.items()}
     # Coverage is a property of every ok trial's region, warned ones' (wide) included.
     covered = [
-        float(v) for g in by.values() for v in g[g["status"] == "ok"]["within95_rig"]
+        float(v) for g in by.values()
+        for v in g[g["status"] == "ok"]["within95_rig"].astype(float)  # <NA>: NaN
         if np.isfinite(v)
     ]  # fmt: skip
     within, fitted = constants_within(paths["with"])

@@ -90,7 +90,16 @@ def test_output_files_columns_and_report(
         assert col in summary.columns
     assert list(summary["n_trials"]) == [2, 2]
     averaging = pd.read_csv(out / "averaging.csv")
-    assert list(averaging.columns) == ["session", "trial", "n_frames", "x", "y", "z", "err"]
+    assert list(averaging.columns) == [
+        "session",
+        "trial",
+        "n_frames",
+        "units",
+        "x",
+        "y",
+        "z",
+        "err",
+    ]
     assert sorted(averaging["n_frames"].unique()) == [1, 2, 3]
     frames = pd.read_csv(out / "frames.csv")
     assert len(frames) == 2 * 2 * 2 * 3

@@ -94,9 +94,10 @@ def test_a_trial_table_has_the_documented_columns_and_exact_errors(method: str) 
 def test_the_views_table_rays_point_from_each_camera_at_the_target() -> None:
     views, truth = _session("point")
     ms, _, _ = measure(views, EstimateOptions())
-    table = view_table("s.mcap", [1, 2], views, ms)
+    table = view_table("s.mcap", [1, 2], views, ms, units="in")
     assert list(table.columns) == VIEW_COLUMNS
     assert len(table) == 4
+    assert list(table["units"]) == ["in"] * 4
     for row in table.itertuples():
         centre = np.array([row.t_x, row.t_y, row.t_z])
         to_target = truth[0, 0] - centre
