@@ -7,6 +7,7 @@ shares in percent), per session set (``thesis_*`` first, then ``stress_*``,
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import pandas as pd
 
@@ -20,6 +21,7 @@ __all__ = [
     "readable",
     "session_order",
     "share",
+    "shown_name",
 ]
 
 ANSWER_COLUMNS = [
@@ -64,6 +66,13 @@ def session_order(summary: pd.DataFrame) -> pd.DataFrame:
     groups = by_session_set(summary)
     ordered: pd.DataFrame = pd.concat([g for _, g in groups]) if len(groups) > 1 else summary
     return ordered
+
+
+def shown_name(row: pd.Series) -> str:
+    """How a reader is shown a row's session: its label (the shortest tail of its path
+    that no other input of the run shares), or, in a table without one, its file name."""
+    label = str(row.get("label", "") or "")
+    return label or Path(str(row["session"])).name
 
 
 def number(value: object, *, signed: bool = False) -> str:

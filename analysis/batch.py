@@ -23,14 +23,16 @@ import pandas as pd
 
 from analysis.columns import (
     AVERAGING_COLUMNS,
+    ERROR_COLUMNS,
     FRAME_COLUMNS,
     RIG_TABLE_COLUMNS,
     TRIAL_TABLE_COLUMNS,
     VIEW_COLUMNS,
+    typed,
 )
 from analysis.drawer import FigureDrawer, note, sigint_blocked
 from analysis.figure_cache import FigureCache, FigureJob
-from analysis.input_set import InputSet, resolve_inputs
+from analysis.input_set import InputSet, SessionIdentity, resolve_inputs
 from analysis.metrics import summarize
 from analysis.outputs import OutputFolder, printable_stem
 from analysis.pipeline import analyse_session, keep_frame_buffers
@@ -46,7 +48,7 @@ OnDone = Callable[[str, bool], None]
 
 
 def run(
-    paths: Sequence[str | Path] | InputSet,
+    paths: str | Path | Sequence[str | Path] | InputSet,
     out_dir: str | Path | None = None,
     *,
     jobs: int = 1,
@@ -60,9 +62,10 @@ def run(
 
     Parameters
     ----------
-    paths : sequence of path-like, or InputSet
-        Session files and folders (searched recursively for ``*.mcap``), or the set a
-        caller already resolved (:func:`analysis.input_set.resolve_inputs`).
+    paths : path-like, sequence of path-like, or InputSet
+        A session file or folder, or several (folders searched recursively for ``*.mcap``
+        in any case, through links), or the set a caller already resolved
+        (:func:`analysis.input_set.resolve_inputs`).
     out_dir : path-like, optional
         Where to write ``trials.csv``, ``summary.csv``, ``averaging.csv``, ``frames.csv``,
         ``errors.csv``, ``views.csv``, ``sensitivity.csv``, the figures and
@@ -98,7 +101,11 @@ def run(
     with folder or contextlib.nullcontext():
         results_mcap: list[str | None] = [None] * len(files)
         if folder is not None and scene:
-            results_mcap = [str(folder.path / results_mcap_name(i, f)) for i, f in enumerate(files)]
+            labels = inputs.labels
+            results_mcap = [
+                str(folder.path / results_mcap_name(i, labels.get(f, f)))
+                for i, f in enumerate(files)
+            ]
         batch = _Batch(
             files=files,
             results_mcap=results_mcap,
@@ -111,6 +118,7 @@ def run(
                 else None
             ),
             continuations=inputs.continuations,
+            identities=inputs.identities,
         )
         outcomes = _execute(batch, jobs=jobs, dask_address=dask_address)
         result = dataclasses.replace(
@@ -152,6 +160,22 @@ class _Batch:
     figure_cache: FigureCache | None = None
     #: per session's first part, its continuations (InputSet.continuations): one session
     continuations: dict[str, tuple[str, ...]] = dataclasses.field(default_factory=dict)
+    #: per session's first part, what it is (InputSet.identities): its id, label, parts
+    identities: dict[str, SessionIdentity] = dataclasses.field(default_factory=dict)
+
+    def analyse(self, index: int, results: str | None = None, *, images: bool) -> Outcome:
+        """Session ``index``'s outcome (:func:`analyse_or_fail`), wherever it runs."""
+        path = self.files[index]
+        outcome = analyse_or_fail(
+            path, self.options, images=images, results=results,
+            figure_cache=self.figure_cache, continuations=self.continuations.get(path, ()),
+            identity=self.identities.get(path),
+        )  # fmt: skip
+        return (
+            dataclasses.replace(outcome, index=index)
+            if isinstance(outcome, SessionResult)
+            else outcome
+        )
 
     def without_images(self) -> _Batch:
         """The same batch, its figures drawn elsewhere (by a :class:`FigureDrawer`)."""
@@ -177,10 +201,7 @@ def _run_here(batch: _Batch, drawer: FigureDrawer | None) -> list[Outcome]:
     files, options, on_done, cache = batch.files, batch.options, batch.on_done, batch.figure_cache
     outcomes: list[Outcome] = []
     for i, (f, r) in enumerate(zip(files, batch.results_mcap, strict=True)):
-        outcome = analyse_or_fail(
-            f, options, images=batch.images, results=r, figure_cache=cache,
-            continuations=batch.continuations.get(f, ()),
-        )  # fmt: skip
+        outcome = batch.analyse(i, r, images=batch.images)
         if drawer is not None and isinstance(outcome, SessionResult):
             job = FigureJob.of(outcome, include_warned=options.include_warned)
             reused = cache.reuse(job) if cache is not None else None
@@ -210,13 +231,15 @@ def gather(outcomes: list[Outcome], *, include_warned: bool = False) -> RunResul
     """The run's tables: every session's rows concatenated in input order; the summary
     leaves warned trials out unless ``include_warned`` (:func:`analysis.metrics.summarize`)."""
     results = tuple(o for o in outcomes if isinstance(o, SessionResult))
-    errors = pd.DataFrame(
-        [
-            {"session": o.session, "error": o.reason}
-            for o in outcomes
-            if isinstance(o, SessionFailure)
-        ],
-        columns=["session", "error"],
+    errors = typed(
+        pd.DataFrame(
+            [
+                {"session": o.session, "error": o.reason}
+                for o in outcomes
+                if isinstance(o, SessionFailure)
+            ],
+            columns=ERROR_COLUMNS,
+        )
     )
     trials = _concat([r.trials for r in results], TRIAL_TABLE_COLUMNS)
     return RunResult(
@@ -233,11 +256,11 @@ def gather(outcomes: list[Outcome], *, include_warned: bool = False) -> RunResul
 
 
 def _concat(frames: list[pd.DataFrame], columns: list[str]) -> pd.DataFrame:
+    """The sessions' tables as one, each column its declared dtype (:func:`typed`)."""
     present = [f for f in frames if not f.empty]
     if not present:
-        return pd.DataFrame(columns=columns)
-    table = pd.concat(present, ignore_index=True)
-    return table[[c for c in columns if c in table.columns]]
+        return typed(pd.DataFrame(columns=columns))
+    return typed(pd.concat(present, ignore_index=True), columns)
 
 
 def results_mcap_name(index: int, session: str | Path) -> str:
@@ -254,6 +277,7 @@ def analyse_or_fail(
     results: str | None = None,
     figure_cache: FigureCache | None = None,
     continuations: Sequence[str] = (),
+    identity: SessionIdentity | None = None,
 ) -> Outcome:
     """One session's result, or a :class:`SessionFailure` saying why (never raises but for
     Ctrl-C); a session over ``options.session_timeout_s`` is stopped and fails."""
@@ -266,6 +290,7 @@ def analyse_or_fail(
                 results_path=results,
                 figure_cache=figure_cache,
                 continuations=continuations,
+                identity=identity,
             )
     except _SessionTimeoutError:
         return SessionFailure(
@@ -340,14 +365,11 @@ def _claim(claims: Any, index: int) -> bool:
         return True
 
 
-def _worker_task(index: int, path: str, batch: _Batch, results: str | None) -> Outcome | None:
+def _worker_task(index: int, batch: _Batch, results: str | None) -> Outcome | None:
     """A worker's session, or None when the main process took it first."""
     if not _claim(_CLAIMS, index):
         return None
-    return analyse_or_fail(
-        path, batch.options, images=batch.images, results=results,
-        figure_cache=batch.figure_cache, continuations=batch.continuations.get(path, ()),
-    )  # fmt: skip
+    return batch.analyse(index, results, images=batch.images)
 
 
 def _run_processes(batch: _Batch, jobs: int) -> list[Outcome]:
@@ -355,7 +377,7 @@ def _run_processes(batch: _Batch, jobs: int) -> list[Outcome]:
     list, this (already warm) process from the back, each claiming a session through a
     shared flag; so no session runs twice and no core waits for a worker to start."""
     # Spawned, not forked: a fork after OpenCV has started its thread pool can deadlock.
-    files, results, options, images = batch.files, batch.results_mcap, batch.options, batch.images
+    files, results, images = batch.files, batch.results_mcap, batch.images
     on_done = batch.on_done
     context = multiprocessing.get_context("spawn")
     claims = context.Array("b", len(files))
@@ -378,20 +400,12 @@ def _run_processes(batch: _Batch, jobs: int) -> list[Outcome]:
                 with sigint_blocked():  # the workers start as the sessions are submitted
                     task = dataclasses.replace(batch, on_done=None)  # what a worker needs
                     futures = [
-                        pool.submit(_worker_task, i, f, task, results[i])
-                        for i, f in enumerate(files)
+                        pool.submit(_worker_task, i, task, results[i]) for i in range(len(files))
                     ]
                 for i in reversed(range(len(files))):
                     if not _claim(claims, i):
                         break  # the workers, going forward, have reached this one
-                    here = analyse_or_fail(
-                        files[i],
-                        options,
-                        images=images,
-                        results=results[i],
-                        figure_cache=batch.figure_cache,
-                        continuations=batch.continuations.get(files[i], ()),
-                    )
+                    here = batch.analyse(i, results[i], images=images)
                     done(i, here)
                 index = {fut: i for i, fut in enumerate(futures)}
                 for fut in as_completed(futures):  # progress as sessions finish, in any order
@@ -460,20 +474,9 @@ def _stop_workers(
 # --------------------------------------------------------------------------- Dask
 
 
-def _analyse_to(
-    path: str,
-    results: str | None,
-    continuations: tuple[str, ...],
-    *,
-    options: AnalysisOptions,
-    images: bool,
-    figure_cache: FigureCache | None,
-) -> Outcome:
-    """:func:`analyse_or_fail` with the per-session arguments first, for ``client.map``."""
-    return analyse_or_fail(
-        path, options, images=images, results=results, figure_cache=figure_cache,
-        continuations=continuations,
-    )  # fmt: skip
+def _analyse_at(index: int, results: str | None, *, batch: _Batch) -> Outcome:
+    """:meth:`_Batch.analyse` with the per-session arguments first, for ``client.map``."""
+    return batch.analyse(index, results, images=batch.images)
 
 
 def _run_dask(batch: _Batch, address: str) -> list[Outcome]:
@@ -496,16 +499,8 @@ def _run_dask(batch: _Batch, address: str) -> list[Outcome]:
     try:
         # A worker that dies mid-session (killed, out of memory) loses its task to the
         # scheduler, which runs it again on another worker (``allowed-failures``, 3).
-        futures = client.map(
-            _analyse_to,
-            files,
-            results,
-            [batch.continuations.get(f, ()) for f in files],
-            options=batch.options,
-            images=batch.images,
-            figure_cache=batch.figure_cache,
-            pure=False,
-        )
+        task = dataclasses.replace(batch, on_done=None)  # what a worker needs
+        futures = client.map(_analyse_at, range(len(files)), results, batch=task, pure=False)
         index = {fut.key: i for i, fut in enumerate(futures)}
         outcomes: list[Outcome | None] = [None] * len(files)
         for fut in as_completed(futures):  # progress as sessions finish, in any order

@@ -26,6 +26,7 @@ __all__ = [
     "DTYPES",
     "ERROR_COLUMNS",
     "FRAME_COLUMNS",
+    "IDENTITY_COLUMNS",
     "LINE_COLUMNS",
     "MARGIN_COLUMNS",
     "NOTES_COLUMNS",
@@ -45,9 +46,15 @@ __all__ = [
     "typed",
 ]
 
+#: What a trial is besides its session's path and its number (:mod:`twopose.format.identity`):
+#: its session's label (the shortest tail of its path no other input shares), the session's
+#: id, the part (file) that recorded it, and its branch ("" on a session that never forked;
+#: A, B, ... for the continuations of a part continued twice).
+IDENTITY_COLUMNS = ["label", "session_id", "part", "branch"]
 # trials.csv: one row per trial.
 TRIAL_COLUMNS = [
     "session",
+    *IDENTITY_COLUMNS,
     "trial",
     "method",
     "units",
@@ -126,6 +133,10 @@ TRIAL_TABLE_COLUMNS = (
 #: ``summary.csv``: one row per session and method.
 SUMMARY_COLUMNS = [
     "session",
+    "label",
+    "session_id",
+    "branch",  # the branch the session's strand ends on
+    "trials_key",  # which trials the row is over (their parts and numbers, hashed)
     "method",
     "units",
     "n_trials",
@@ -175,6 +186,7 @@ SUMMARY_COUNT_ORDER = (("n_used", "n_ok"), ("n_warned", "n_ok"), ("n_ok", "n_tri
 FRAME_COLUMNS = [
     "session",
     "trial",
+    "branch",
     "pose",
     "camera",
     "frame",
@@ -191,7 +203,7 @@ FRAME_COLUMNS = [
     "reason",
 ]
 #: ``averaging.csv``: the estimate from each trial's first 1..K frames per pose.
-AVERAGING_COLUMNS = ["session", "trial", "n_frames", "units", "x", "y", "z", "err"]
+AVERAGING_COLUMNS = ["session", "trial", "branch", "n_frames", "units", "x", "y", "z", "err"]
 #: One row per used pose: its typed camera centre, combined measurement, the unit ray
 #: through the measured pixel (grid frame), and the intrinsics and typed angles (degrees,
 #: ``R_cam_to_grid = Rx Ry Rz``) the solver used: with them, the report's top view draws
@@ -199,6 +211,7 @@ AVERAGING_COLUMNS = ["session", "trial", "n_frames", "units", "x", "y", "z", "er
 VIEW_COLUMNS = [
     "session",
     "trial",
+    "branch",
     "pose",
     "units",
     "t_x",
@@ -248,7 +261,8 @@ RUN_TABLES = {
 # applies them; :func:`analysis.run_tables.read_table` reads a CSV back to the same).
 #: Text: ``str``, "" when there is none, never NaN (in memory as read back).
 _TEXT = (
-    "session", "method", "units", "status", "reason", "warning", "dominant_input",
+    "session", "label", "session_id", "part", "branch", "trials_key",
+    "method", "units", "status", "reason", "warning", "dominant_input",
     "rejected_frames", "notes", "camera", "constant", "why_fixed", "error",
 )  # fmt: skip
 #: Whole numbers, always known.

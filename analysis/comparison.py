@@ -26,10 +26,11 @@ from matplotlib.figure import Figure
 
 from analysis.choices import Estimator
 from analysis.figures import png_bytes
+from analysis.gate_match import trial_keys
 from analysis.metrics import paired_difference, summarize, used_trials
 from analysis.outputs import write_atomically
 from analysis.report import page_html, table_html
-from analysis.run_tables import read_results_table, session_keys
+from analysis.run_tables import read_results_table
 from twopose.errors import InputValueError
 from twopose.format.entries import INCHES_PER_UNIT
 
@@ -107,7 +108,8 @@ def compare_runs(
         _used_trials(_with_errors(_read_trials(s), s), include_warned=include_warned) for s in sides
     ]
     summaries = [summarize(u, include_warned=True) for u in used]  # already filtered
-    side = _side_by_side(*summaries)
+    labels = {str(k): str(v) for u in used for k, v in zip(u["session"], u["label"], strict=True)}
+    side = _side_by_side(summaries[0], summaries[1], labels)
     paired = _paired(*used)
     if paired.empty:  # nothing to compare: no figure, no table, and no "ok"
         raise InputValueError(
@@ -206,13 +208,24 @@ def _read_trials(side: RunSide) -> pd.DataFrame:
 
 def _with_errors(trials: pd.DataFrame, side: RunSide) -> pd.DataFrame:
     """``trials`` with ``err_x, err_y, err_z, err`` of ``side``'s estimator against the
-    truth; ``within95`` only for the thesis estimator, whose covariance it is."""
+    truth; ``within95`` only for the thesis estimator, whose covariance it is. Each trial is
+    keyed by what it is (``_pair``: its session, part and number), never by its path."""
+    missing = [c for c in ("session_id", "part") if c not in trials.columns]
+    if missing:
+        raise InputValueError(
+            f"{side.folder}/trials.csv has no column {', '.join(missing)}: it predates session "
+            "identities (trials are matched by what they are, not by path); run "
+            "`twopose-analyze run` again with this twopose to write it"
+        )
     columns = ESTIMATORS[side.estimator]
     estimate = trials[list(columns)].apply(pd.to_numeric, errors="coerce").to_numpy()
     truth = trials[["gt_x", "gt_y", "gt_z"]].apply(pd.to_numeric, errors="coerce").to_numpy()
     err = estimate - truth
+    label = trials["label"] if "label" in trials.columns else trials["session"]
     out = trials.assign(
-        session=session_keys(trials["session"]),
+        session=trials["session_id"].astype(str),
+        label=label.astype(str),
+        _pair=trials["session_id"].astype(str) + "|" + trial_keys(trials),
         err_x=err[:, 0],
         err_y=err[:, 1],
         err_z=err[:, 2],
@@ -230,7 +243,10 @@ def _used_trials(trials: pd.DataFrame, *, include_warned: bool) -> pd.DataFrame:
     return known
 
 
-def _side_by_side(summary_a: pd.DataFrame, summary_b: pd.DataFrame) -> pd.DataFrame:
+def _side_by_side(
+    summary_a: pd.DataFrame, summary_b: pd.DataFrame, labels: dict[str, str]
+) -> pd.DataFrame:
+    """Per session (by id) and method, each side's statistics; ``session`` its label."""
     keys = ["session", "method", "units"]
     table = pd.merge(
         summary_a[keys + SIDE_COLUMNS],
@@ -242,7 +258,7 @@ def _side_by_side(summary_a: pd.DataFrame, summary_b: pd.DataFrame) -> pd.DataFr
     )
     for column in ("rmse", "median_err"):
         table[f"{column}_diff"] = table[f"{column}_b"] - table[f"{column}_a"]
-    return table
+    return table.assign(session=table["session"].map(lambda s: labels.get(str(s), str(s))))
 
 
 #: Differences of errors smaller than this, relative to the larger error (or absolute
@@ -252,15 +268,26 @@ TIE_TOLERANCE = 1e-9
 
 
 def _paired(used_a: pd.DataFrame, used_b: pd.DataFrame) -> pd.DataFrame:
-    keys = ["session", "method", "units", "trial"]
+    """Each trial both runs measured, matched by what it is; A's error in B's units where a
+    session's units differ between the runs."""
+    keep = ["_pair", "method", "units", "err"]
     pairs = pd.merge(
-        used_a[[*keys, "err"]].drop_duplicates(keys, keep="last"),
-        used_b[[*keys, "err"]].drop_duplicates(keys, keep="last"),
-        on=keys,
+        used_a[keep].drop_duplicates("_pair", keep="last"),
+        used_b[[*keep, "label", "trial"]].drop_duplicates("_pair", keep="last"),
+        on=["_pair", "method"],
         suffixes=("_a", "_b"),
         sort=True,
     )
-    return pairs.assign(diff=pairs["err_b"] - pairs["err_a"])
+    scale = pairs["units_a"].map(INCHES_PER_UNIT).astype(float) / pairs["units_b"].map(
+        INCHES_PER_UNIT
+    ).astype(float)
+    pairs = pairs.assign(
+        session=pairs["label"], units=pairs["units_b"], err_a=pairs["err_a"] * scale
+    )
+    pairs = pairs.sort_values(["session", "method", "trial"], kind="stable")
+    columns = ["session", "method", "units", "trial", "err_a", "err_b"]
+    out = pairs[columns].reset_index(drop=True)
+    return out.assign(diff=out["err_b"] - out["err_a"])
 
 
 def _tests(paired: pd.DataFrame) -> pd.DataFrame:

@@ -70,7 +70,7 @@ class FigureJob:
     def of(cls, result: SessionResult, *, include_warned: bool = False) -> FigureJob:
         """The figures of an analysed session, warned trials included or not."""
         return cls(
-            session=result.session,
+            session=result.name,
             trials=result.trials,
             averaging=result.averaging,
             views=result.views,

@@ -459,7 +459,7 @@ def plot_error_by_trial(fig: Figure, trials: pd.DataFrame, *, include_warned: bo
         if "semiaxis95" in g:
             semi = np.where(keep, g["semiaxis95"].to_numpy(dtype=np.float64), np.nan)
             ax.plot(xy[:, 0], semi, ":", color=f"C{k}", lw=0.8)
-        name = printable_stem(str(session))
+        name = printable_stem(str(g["label"].iloc[0] if "label" in g else session))
         handles.append(key(name, color=f"C{k}", marker="o", ms=3, linestyle="-"))
     if rest:
         ax.add_collection(LineCollection(rest, colors="0.6", linewidths=0.6))
@@ -538,9 +538,10 @@ def make_figures(result: RunResult) -> dict[str, Figure]:
     figures: dict[str, Figure] = {}
     for i, s in enumerate(result.sessions):
         drawn = session_figures(
-            s.session, s.trials, s.averaging, s.views, include_warned=result.include_warned
+            s.name, s.trials, s.averaging, s.views, include_warned=result.include_warned
         )
-        figures |= {figure_key(kind, i, s.session): fig for kind, fig in drawn.items()}
+        number = s.index if s.index >= 0 else i
+        figures |= {figure_key(kind, number, s.name): fig for kind, fig in drawn.items()}
     return figures | run_figures(result)
 
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import xml.etree.ElementTree as ET
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -21,7 +22,8 @@ from typing import Any
 import pandas as pd
 
 from analysis.columns import SUMMARY_DOMAINS
-from analysis.run_tables import check_results_table, read_results_table, session_keys
+from analysis.gate_match import Pair, match_rows, require_identity, run_trials
+from analysis.run_tables import check_results_table, read_results_table
 from twopose.config import build_dataclass, read_toml
 from twopose.errors import InputValueError
 from twopose.methods import MEASURING_METHODS, Method
@@ -219,7 +221,11 @@ def check(
         for folder in (results_dir, baseline_dir)
     )
     return compare_summaries(
-        result, baseline, tolerances, names=(str(results_dir), str(baseline_dir))
+        result,
+        baseline,
+        tolerances,
+        names=(str(results_dir), str(baseline_dir)),
+        trials=(run_trials(results_dir), run_trials(baseline_dir)),
     )
 
 
@@ -229,11 +235,16 @@ def compare_summaries(
     tolerances: dict[str, Tolerance],
     *,
     names: tuple[str, str] = ("the run", "the baseline"),
+    trials: tuple[pd.DataFrame | None, pd.DataFrame | None] = (None, None),
 ) -> CheckResult:
-    """Each (session, method) and checked metric of ``baseline`` against ``result``; the
-    sessions are matched by their path below each run's common folder. A checked column
-    missing from either is an error, but for one the baseline predates
-    (:data:`BASELINE_MAY_LACK`): that metric is not compared, and a note says so."""
+    """Each session and method and checked metric of ``baseline`` against ``result``.
+
+    Sessions are matched by identity, never by path (:mod:`analysis.gate_match`: a session
+    whose trials differ between the runs is compared over the trials both hold, from
+    ``trials``, the two runs' ``trials.csv``; a baseline in other units is converted). A
+    checked column missing from either is an error, but for one the baseline predates
+    (:data:`BASELINE_MAY_LACK`): that metric is not compared, and a note says so.
+    """
     for table, name in zip((result, baseline), names, strict=True):
         check_results_table(
             table, f"{name}/summary.csv", numeric=_CHECKED_COLUMNS, domains=SUMMARY_DOMAINS
@@ -243,43 +254,20 @@ def compare_summaries(
         (baseline, names[1], "replace the baseline with a summary.csv of this twopose"),
         (result, names[0], "run `twopose-analyze run` with this twopose to write it"),
     ):
+        require_identity(table, f"{name}/summary.csv", fix)
         lacking = [c for c in _CHECKED_COLUMNS if c not in table.columns and c not in skipped]
         if lacking:
             raise InputValueError(
                 f"{name}/summary.csv has no column {', '.join(lacking)}: cannot check it; {fix}"
             )
-    notes = tuple(
+    notes: tuple[str, ...] = tuple(
         f"not compared: {c} (the baseline predates it; replace the baseline to check it)"
         for c in skipped
     )
-    new = result.assign(session=session_keys(result["session"])).set_index(["session", "method"])
-    old = baseline.assign(session=session_keys(baseline["session"])).set_index(
-        ["session", "method"]
-    )
     rows: list[dict[str, Any]] = []
-    for key in old.index.union(new.index, sort=True):
-        session, method = key
-        if key not in new.index or key not in old.index:
-            status = "missing" if key not in new.index else "new"
-            rows.append(_row(session, method, "(session and method)", math.nan, math.nan, status))
-            continue
-        tolerance = tolerances.get(str(method), tolerances[""])
-        for metric, column, field, sign in CHECKED_METRICS:
-            if column in skipped:
-                continue
-            before, after = _value(old.loc[key], column), _value(new.loc[key], column)
-            allowed = getattr(tolerance, field).of(before)
-            rows.append(
-                _row(
-                    session,
-                    method,
-                    metric,
-                    before,
-                    after,
-                    _status(before, after, sign, allowed),
-                    allowed,
-                )
-            )
+    for pair in match_rows(result, baseline, trials, names=names):
+        notes += pair.notes
+        rows += _pair_rows(pair, tolerances, skipped)
     table = pd.DataFrame(rows, columns=COMPARISON_COLUMNS)
     unheld = table[table["status"] == "unheld"]
     notes += tuple(
@@ -287,7 +275,31 @@ def compare_summaries(
         "value for it, so any value passes; replace the baseline to check it"
         for _, r in unheld.iterrows()
     )
-    return CheckResult(comparisons=table, notes=notes)
+    return CheckResult(comparisons=table, notes=tuple(dict.fromkeys(notes)))
+
+
+def _pair_rows(
+    pair: Pair, tolerances: dict[str, Tolerance], skipped: list[str]
+) -> list[dict[str, Any]]:
+    """One session and method's comparison rows: its metrics, or why it has none."""
+    session, method = pair.session, pair.method
+    if pair.baseline is None or pair.result is None:
+        status = "missing" if pair.result is None else "new"
+        if pair.baseline is None and pair.result is None:  # no trial both runs hold
+            status = "missing"
+        return [_row(session, method, "(session and method)", math.nan, math.nan, status)]
+    rows = []
+    if pair.lost:
+        rows.append(_row(session, method, "(trials)", float(pair.lost), math.nan, "missing"))
+    tolerance = tolerances.get(method, tolerances[""])
+    for metric, column, field, sign in CHECKED_METRICS:
+        if column in skipped:
+            continue
+        before, after = _value(pair.baseline, column), _value(pair.result, column)
+        allowed = getattr(tolerance, field).of(before)
+        status = _status(before, after, sign, allowed)
+        rows.append(_row(session, method, metric, before, after, status, allowed))
+    return rows
 
 
 def _value(row: pd.Series, column: str) -> float:
@@ -332,6 +344,11 @@ def _row(
 def describe(row: pd.Series) -> str:
     """One line of what got worse: ``session (method) metric: a -> b (+d, +p%; allowed e)``."""
     where = f"{row['session']} ({row['method']})"
+    if row["status"] == "missing" and row["metric"] == "(trials)":
+        return (
+            f"REGRESSED {where}: {int(row['baseline'])} trial(s) of the baseline not in this "
+            "run (a part not read, or a session that failed)"
+        )
     if row["status"] == "missing":
         return f"REGRESSED {where}: in the baseline, not in this run (failed or not measured)"
     before, after = float(row["baseline"]), float(row["result"])
@@ -382,9 +399,13 @@ def run_cases(summary: pd.DataFrame, errors: pd.DataFrame) -> list[tuple[str, st
     return cases
 
 
-def junit_xml(suite: str, cases: list[tuple[str, str, str | None]]) -> bytes:
+def junit_xml(
+    suite: str, cases: list[tuple[str, str, str | None]], notes: Sequence[str] = ()
+) -> bytes:
     """JUnit XML (the schema Jenkins, GitLab and GitHub reporters read): one ``testcase``
-    per (session, method) with ``classname`` the method, failing with ``message``."""
+    per (session, method) with ``classname`` the method, failing with ``message``; the
+    ``notes`` (what the run or check said of its inputs: copies, forks, empty and board
+    sessions, conversions) as the suite's ``system-out``, which the reporters show."""
     failures = sum(message is not None for _, _, message in cases)
     root = ET.Element("testsuites", name=suite, tests=str(len(cases)), failures=str(failures))
     node = ET.SubElement(
@@ -395,6 +416,8 @@ def junit_xml(suite: str, cases: list[tuple[str, str, str | None]]) -> bytes:
         if message is not None:
             failure = ET.SubElement(case, "failure", message=message[:500])
             failure.text = message
+    if notes:
+        ET.SubElement(node, "system-out").text = "\n".join(f"note: {n}" for n in notes)
     ET.indent(root)
     body: bytes = ET.tostring(root, encoding="utf-8", xml_declaration=True)
     return body + b"\n"

@@ -26,9 +26,11 @@ same words wherever they are printed (terminal, report, JUnit).
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Self
 
 from twopose.format.identity import (
     SessionFile,
@@ -48,15 +50,29 @@ FoundSession = SessionFile
 
 @dataclass(frozen=True, kw_only=True)
 class SessionIdentity:
-    """What names one strand in a run's tables: its session, its label, its parts' branches."""
+    """What names one strand in a run's tables: its session, its label, and each part's id
+    and branch (what tells a trial from every other: its session, its part, its number)."""
 
     session_id: str
     label: str
-    branches: tuple[tuple[str, str], ...] = ()  # (part path, branch) in trial order
+    parts: tuple[tuple[str, str, str], ...] = ()  # (part's path, part id, branch), in order
 
-    def branch_of(self, part: str) -> str:
-        """The branch of the part at ``part`` ("" when the session never forked)."""
-        return dict(self.branches).get(str(part), "")
+    def part(self, path: str) -> tuple[str, str]:
+        """The part id and branch of the part at ``path`` (unknown: ``("", "")``)."""
+        return next(((p, b) for q, p, b in self.parts if q == str(path)), ("", ""))
+
+    @property
+    def branch(self) -> str:
+        """The branch the strand ends on."""
+        return self.parts[-1][2] if self.parts else ""
+
+    @classmethod
+    def of_files(cls, path: str | Path, continuations: Sequence[str | Path] = ()) -> Self:
+        """The identity of ``path`` and its continuations analysed on their own (a notebook's
+        ``analyse_session``): ids from the files, no other input to tell them from."""
+        files = [identify_file(p) for p in (path, *continuations)]
+        parts = tuple((f.path, f.part_id, "") for f in files)
+        return cls(session_id=files[0].session_id, label=Path(path).name, parts=parts)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -125,7 +141,7 @@ class InputSet:
         """Per strand's first part, its later parts in trial order: one session."""
         return {s.head: s.later for s in self._analysed if s.later}
 
-    @property
+    @functools.cached_property
     def labels(self) -> dict[str, str]:
         """Every input's label: its shortest tail of folders no other input shares."""
         return path_labels([*(s.path for s in self.found), *(p for p, _, _ in self.others)])
@@ -136,7 +152,7 @@ class InputSet:
         return SessionIdentity(
             session_id=strand.session_id,
             label=self.labels.get(head, Path(head).name),
-            branches=tuple(strand.branches.items()),
+            parts=tuple((p.file.path, p.file.part_id, p.branch) for p in strand.parts),
         )
 
     @property

@@ -5,6 +5,8 @@ Vectors are ``x, y, z`` columns in the grid frame and the session's units.
 
 from __future__ import annotations
 
+import hashlib
+
 import numpy as np
 import pandas as pd
 
@@ -95,6 +97,7 @@ def summarize(trials: pd.DataFrame, *, include_warned: bool = False) -> pd.DataF
         rows.append(
             {
                 "session": session,
+                **_identity(g),
                 "method": method,
                 "units": g["units"].iloc[0],
                 "n_trials": len(g),
@@ -108,6 +111,21 @@ def summarize(trials: pd.DataFrame, *, include_warned: bool = False) -> pd.DataF
             }
         )
     return typed(pd.DataFrame(rows, columns=SUMMARY_COLUMNS))
+
+
+def _identity(trials: pd.DataFrame) -> dict[str, str]:
+    """A session's summary row's identity: its label, session id, the branch it ends on,
+    and which trials it is over (their parts and numbers, hashed: ``check`` compares two
+    rows as given only when they are over the same trials)."""
+    if "session_id" not in trials.columns:  # a table from before identities (compare)
+        return {}
+    held = sorted(f"{p}:{int(t)}" for p, t in zip(trials["part"], trials["trial"], strict=True))
+    return {
+        "label": str(trials["label"].iloc[0]),
+        "session_id": str(trials["session_id"].iloc[0]),
+        "branch": str(trials["branch"].iloc[-1]),
+        "trials_key": hashlib.sha256(" ".join(held).encode()).hexdigest()[:16],
+    }
 
 
 #: Two-sided 95% Student t quantiles by degrees of freedom (1-30); beyond, the normal's.

@@ -64,10 +64,13 @@ _COMMITTING = ".committing"  # in the staging folder: its outputs are being move
 
 
 def printable_stem(session: str | Path) -> str:
-    """A session's file stem for output names: UTF-8-safe, at most 100 characters (names
-    are limited to 255 bytes, and a non-UTF-8 name cannot go into a CSV or a page)."""
-    stem = Path(session).stem.encode("utf-8", "surrogateescape").decode("utf-8", "replace")
-    return stem[:100]
+    """A session's stem for output names, from its label (``a/session.mcap``:
+    ``a_session``, the folders that tell it apart kept): UTF-8-safe, at most 100 characters
+    (names are limited to 255 bytes, and a non-UTF-8 name cannot go into a CSV or a page)."""
+    path = Path(session)
+    stem = "_".join([*path.parent.parts, path.stem]) if not path.is_absolute() else path.stem
+    stem = stem.lstrip("._") or path.stem
+    return stem.encode("utf-8", "surrogateescape").decode("utf-8", "replace")[:100]
 
 
 def partial_name(path: Path) -> Path:

@@ -18,9 +18,17 @@ import numpy as np
 import pandas as pd
 
 from analysis.columns import FRAME_COLUMNS, RIG_TABLE_COLUMNS, typed
+from analysis.input_set import SessionIdentity
 from analysis.results import AnalysisOptions, SessionResult
 from analysis.results_mcap import ResultsWriter
-from analysis.tables import averaging_table, frame_row, trial_table, view_table
+from analysis.tables import (
+    averaging_table,
+    frame_row,
+    trial_table,
+    view_table,
+    with_branch,
+    with_identity,
+)
 from twopose.arrays import F64
 from twopose.camera import Intrinsics
 from twopose.choices import Target
@@ -62,6 +70,7 @@ class _Replay:
     notes: list[str]  # per trial, the operator's notes joined with " | "
     unmeasured: list[str]  # per trial, why it has fewer than two usable poses ("" if not)
     rig_truth: RigConstants | None = None  # a simulated session's constants, if it had any
+    part_of: list[str] = dataclasses.field(default_factory=list)  # per trial, its part's path
 
 
 def analyse_session(
@@ -72,6 +81,7 @@ def analyse_session(
     results_path: str | Path | None = None,
     figure_cache: FigureCache | None = None,
     continuations: Sequence[str | Path] = (),
+    identity: SessionIdentity | None = None,
 ) -> SessionResult:
     """Replay one session through detection and the solvers.
 
@@ -100,6 +110,10 @@ def analyse_session(
     continuations : sequence of path-like
         The session's continuations (``new --continue``), in trial order: replayed after
         ``path`` into one session, a trial number already seen counted once.
+    identity : SessionIdentity, optional
+        What the session is in its run (:meth:`analysis.input_set.InputSet.identity`: its
+        id, label, parts and branches); default: from the files alone, labelled by the
+        file's name.
 
     Returns
     -------
@@ -121,7 +135,7 @@ def analyse_session(
         parts = [_replay(reader, str(path), options, results)]
         for later in continuations:
             with SessionReader(later) as part:
-                parts.append(_replay(part, str(path), options, results))
+                parts.append(_replay(part, str(path), options, results, part=str(later)))
         replay = _corrected(_joined(parts, [str(p) for p in continuations]), options.rig)
         estimate = estimate_session(replay.trials, options.estimate)
         reported_ = reported(estimate)
@@ -132,17 +146,25 @@ def analyse_session(
     if options.rig_calibration == "loo":
         trials, rig = _rig_columns(replay, estimate, reported_, trials)
     keys, solved = running_estimates(estimate)
-    ids, truth, units = replay.trials.trial_ids, replay.trials.truth, str(replay.trials.units)
+    ids, truth, units = (
+        replay.trials.trial_ids,
+        replay.trials.truth,
+        unit_spec(replay.trials.units).units,
+    )
     averaging = averaging_table(replay.session, ids, keys, solved, truth, units=units)
     views = view_table(replay.session, ids, replay.trials.views, estimate.measurements, units=units)
     frames = typed(pd.DataFrame(replay.frame_rows, columns=FRAME_COLUMNS))
+    # What each trial is (its session, part, branch), whoever named the file how.
+    identity = identity or SessionIdentity.of_files(path, continuations)
+    part_of = dict(zip(ids, replay.part_of, strict=True))
     result = SessionResult(
         session=replay.session,
+        label=identity.label,
         metadata=replay.metadata,
-        frames=frames,
-        trials=trials,
-        averaging=averaging,
-        views=views,
+        frames=with_branch(frames, identity, part_of),
+        trials=with_identity(trials, identity, part_of),
+        averaging=with_branch(averaging, identity, part_of),
+        views=with_branch(views, identity, part_of),
         rig=rig,
     )
     return _with_figures(result, options, figure_cache) if render_images else result
@@ -227,6 +249,7 @@ def _joined(parts: list[_Replay], later: list[str]) -> _Replay:
         frame_rows=[r for k, p in enumerate(parts) for r in p.frame_rows if r["trial"] in kept[k]],
         notes=[p.notes[i] for p, i in pick],
         unmeasured=[p.unmeasured[i] for p, i in pick],
+        part_of=[p.part_of[i] for p, i in pick],
     )
 
 
@@ -255,15 +278,21 @@ def replay_views(
     parts = []
     for part in (path, *continuations):
         with SessionReader(part) as reader:
-            parts.append(_replay(reader, str(path), options, None))
+            parts.append(_replay(reader, str(path), options, None, part=str(part)))
     return _joined(parts, [str(p) for p in continuations]).trials
 
 
 def _replay(
-    reader: SessionReader, session: str, options: AnalysisOptions, results: ResultsWriter | None
+    reader: SessionReader,
+    session: str,
+    options: AnalysisOptions,
+    results: ResultsWriter | None,
+    *,
+    part: str | None = None,
 ) -> _Replay:
     """Stream the session trial by trial, detecting the target in every frame; a trial's
-    frames are dropped once detected, so memory does not grow with session length."""
+    frames are dropped once detected, so memory does not grow with session length.
+    ``part``: the path of the file read (a continuation's; default ``session``)."""
     info = reader.info
     if not spec_of(info.method).measures:
         raise InputValueError(
@@ -312,6 +341,7 @@ def _replay(
         notes=notes,
         unmeasured=unmeasured,
         rig_truth=rig_truth,
+        part_of=[part or session] * len(trial_ids),
     )
 
 

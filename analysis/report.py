@@ -19,6 +19,7 @@ from analysis.answer import (
     readable,
     session_order,
     share,
+    shown_name,
 )
 from analysis.captions import run_captions, session_captions
 from analysis.drawer import session_pngs
@@ -127,8 +128,8 @@ def write_outputs(
         rendered = s.images or session_pngs(job, figure_cache)[0]
         digest = job.digest()
         for kind, data in rendered.items():
-            pngs[figure_key(kind, i, s.session)] = data
-            digests[f"{figure_key(kind, i, s.session)}.png"] = digest
+            pngs[figure_key(kind, _number(s, i), s.name)] = data
+            digests[f"{figure_key(kind, _number(s, i), s.name)}.png"] = digest
     pngs |= {name: png_bytes(fig) for name, fig in run_figures(result).items()}
     from analysis.sensitivity import plot_sensitivity
 
@@ -178,11 +179,15 @@ def dominant_inputs(trials: pd.DataFrame) -> pd.DataFrame:
     ok = trials[(trials["status"] == "ok") & (trials["dominant_input"] != "")]
     if ok.empty:
         return pd.DataFrame(columns=["session", "dominant_input", "trials", "median_share"])
-    return (
+    table = (
         ok.groupby(["session", "dominant_input"], sort=True)
         .agg(trials=("trial", "size"), median_share=("dominant_share", "median"))
         .reset_index()
     )
+    if "label" in ok.columns:  # how the session is shown
+        labels = dict(zip(ok["session"], ok["label"], strict=True))
+        table.insert(1, "label", table["session"].map(labels))
+    return table
 
 
 def _dominant_shown(table: pd.DataFrame) -> pd.DataFrame:
@@ -190,7 +195,7 @@ def _dominant_shown(table: pd.DataFrame) -> pd.DataFrame:
     ordered = session_order(table)
     return pd.DataFrame(
         {
-            "session": [Path(str(s)).name for s in ordered["session"]],
+            "session": [shown_name(r) for _, r in ordered.iterrows()],
             "dominant input": ordered["dominant_input"],
             "trials": ordered["trials"],
             "its median share of the variance": [share(v) for v in ordered["median_share"]],
@@ -419,6 +424,11 @@ def _notes(metadata: dict[str, str]) -> str:
     return f"<p>Operator notes:</p><ul>{items}</ul>"
 
 
+def _number(session: SessionResult, i: int) -> int:
+    """The number a session's output files carry: its place among the run's inputs."""
+    return session.index if session.index >= 0 else i
+
+
 def _session_sections(result: RunResult, images: dict[str, Image]) -> list[str]:
     parts = ["<h2 id='sessions'>Sessions</h2>" if result.sessions else ""]
     rank = {name: k for k, name in enumerate([*SESSION_SETS, ""])}
@@ -427,14 +437,14 @@ def _session_sections(result: RunResult, images: dict[str, Image]) -> list[str]:
     )
     for i in order:  # thesis_* first, as the answer; figures keep the run's numbering
         s = result.sessions[i]
-        parts.append(f"<h3>{html.escape(s.session)}</h3>")
+        parts.append(f"<h3 title='{html.escape(s.session)}'>{html.escape(s.name)}</h3>")
         metadata = metadata_table(s.metadata)
         parts.append(table_html(metadata, text=True).replace("<thead>", "<thead hidden>", 1))
         parts.append(_notes(s.metadata))
         captions = session_captions(
             s.trials, include_warned=result.include_warned, units=_units_of(s)
         )
-        keys = [(kind, figure_key(kind, i, s.session)) for kind in _SESSION_FIGURES]
+        keys = [(kind, figure_key(kind, _number(s, i), s.name)) for kind in _SESSION_FIGURES]
         figures = [figure_html(key, images.get(key), captions.get(kind, "")) for kind, key in keys]
         parts.append(figure_row(figures))
         parts.append("<p>Trials (every column: <code>trials.csv</code>):</p>")

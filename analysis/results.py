@@ -88,6 +88,17 @@ class SessionResult:
     figures_reused: bool = False  # the images are a previous run's (analysis.figure_cache)
     views: pd.DataFrame = field(default_factory=lambda: _empty(VIEW_COLUMNS))
     rig: pd.DataFrame = field(default_factory=lambda: _empty(RIG_TABLE_COLUMNS))  # rig.csv rows
+    #: What names it to a reader: the shortest tail of its path no other input shares
+    #: (:attr:`analysis.input_set.InputSet.labels`); its file name when analysed alone.
+    label: str = ""
+    #: Its place among the run's inputs (failed ones included): the number of every output
+    #: file of it (``results_<index>_...``, ``scatter_<index>_...``); -1 outside a run.
+    index: int = -1
+
+    @property
+    def name(self) -> str:
+        """Its label, or its file name."""
+        return self.label or Path(self.session).name
 
 
 @dataclass(frozen=True, kw_only=True)

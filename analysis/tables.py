@@ -9,13 +9,19 @@ declared dtype (:func:`analysis.columns.typed`).
 from __future__ import annotations
 
 import itertools
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
 
-from analysis.columns import AVERAGING_COLUMNS, TRIAL_COLUMNS, VIEW_COLUMNS, typed
+from analysis.columns import (
+    AVERAGING_COLUMNS,
+    IDENTITY_COLUMNS,
+    TRIAL_COLUMNS,
+    VIEW_COLUMNS,
+    typed,
+)
 from twopose.arrays import F64
 from twopose.camera import grid_rays, rotation_from_angles_deg
 from twopose.detect import Detection
@@ -23,8 +29,10 @@ from twopose.frames import PoseMeasurement
 from twopose.methods import Method, spec_of
 from twopose.truth import Reported, line_errors
 from twopose.uncertainty import uncertainty_columns
+from twopose.units import Units
 
 if TYPE_CHECKING:
+    from analysis.input_set import SessionIdentity
     from twopose.estimate import PoseView, Solved
     from twopose.format.entries import PoseEntry
     from twopose.format.messages import Frame
@@ -123,7 +131,8 @@ def trial_table(
             **_method_columns(method, est, trials.truth),
         }
     )
-    table = table[[*TRIAL_COLUMNS, *spec_of(method).extra_columns]]
+    declared = [c for c in TRIAL_COLUMNS if c not in IDENTITY_COLUMNS]  # with_identity's
+    table = table[[*declared, *spec_of(method).extra_columns]]
     for name, values in est.margins.items():
         table[name] = values
     table["warning"] = estimate.warnings
@@ -178,7 +187,7 @@ def view_table(
     views: list[list[PoseView]],
     measurements: list[list[PoseMeasurement]],
     *,
-    units: str,
+    units: Units,
 ) -> pd.DataFrame:
     """One row per measured pose (``views.csv``): camera centre (in the session's
     ``units``), pixel and grid-frame ray."""
@@ -211,7 +220,7 @@ def averaging_table(
     solved: Solved | None,
     truth: F64,
     *,
-    units: str,
+    units: Units,
 ) -> pd.DataFrame:
     """``averaging.csv``: the estimate from the first ``n_frames`` frames of each pose, in
     the session's ``units``."""
@@ -240,3 +249,30 @@ def averaging_table(
         columns=AVERAGING_COLUMNS,
     )
     return typed(table)
+
+
+def with_identity(
+    trials: pd.DataFrame, identity: SessionIdentity, part_of: Mapping[int, str]
+) -> pd.DataFrame:
+    """The trials table with what each trial is (:data:`~analysis.columns.IDENTITY_COLUMNS`,
+    after ``session``): its label, its session, its part and its branch. ``part_of``: each
+    trial's part's path."""
+    parts = [identity.part(part_of.get(int(t), "")) for t in trials["trial"]]
+    values = {
+        "label": [identity.label] * len(trials),
+        "session_id": [identity.session_id] * len(trials),
+        "part": [p for p, _ in parts],
+        "branch": [b for _, b in parts],
+    }
+    out = trials.copy()
+    for k, column in enumerate(IDENTITY_COLUMNS):
+        out.insert(1 + k, column, values[column])
+    return typed(out)
+
+
+def with_branch(
+    table: pd.DataFrame, identity: SessionIdentity, part_of: Mapping[int, str]
+) -> pd.DataFrame:
+    """A per-trial table (views, frames, averaging) with each row's trial's ``branch``."""
+    branches = [identity.part(part_of.get(int(t), ""))[1] for t in table["trial"]]
+    return typed(table.assign(branch=branches))

@@ -17,7 +17,7 @@ from pathlib import Path
 import pandas as pd
 
 from analysis.answer import number as _num
-from analysis.answer import session_order
+from analysis.answer import session_order, shown_name
 from analysis.answer import share as _share
 from analysis.metrics import SESSION_SETS, by_session_set, summarize
 from twopose.units import UNIT_SPECS, Units, unit_spec
@@ -65,7 +65,7 @@ def summary_lines(
     lines.append("per session:")
     for _, r in session_order(summary).iterrows():
         phrases = [
-            f"{Path(str(r['session'])).name} ({r['method']}, {r['units']}):",
+            f"{shown_name(r)} ({r['method']}, {r['units']}):",
             f"{r['n_ok']}/{r['n_trials']} ok,",
             f"{r['n_warned']} warned;",
             f"rmse {_num(r['rmse'])},",

@@ -46,7 +46,9 @@ def check_command(
         read.check_file("--junit", junit)
         outcome = check(results, baseline, tolerance)
         if junit is not None:
-            write_file(junit, junit_xml("twopose-analyze check", check_cases(outcome)))
+            write_file(
+                junit, junit_xml("twopose-analyze check", check_cases(outcome), outcome.notes)
+            )
     typer.echo("\n".join(check_lines(outcome, baseline)))
     if outcome.regressed:
         raise typer.Exit(EXIT_SOME_INPUTS_FAILED)

@@ -133,7 +133,8 @@ def run_command(
             from analysis.gate import junit_xml, run_cases
 
             cases = run_cases(result.summary, result.errors)
-            write_file(junit, junit_xml("twopose-analyze run", cases))
+            notes = [*result.input_notes, *(f"skipped: {p}" for p in result.skipped)]
+            write_file(junit, junit_xml("twopose-analyze run", cases, notes))
     _print_run(result, out, include_warned=include_warned)
 
 

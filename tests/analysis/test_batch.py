@@ -93,6 +93,7 @@ def test_output_files_columns_and_report(
     assert list(averaging.columns) == [
         "session",
         "trial",
+        "branch",
         "n_frames",
         "units",
         "x",

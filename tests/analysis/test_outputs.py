@@ -152,7 +152,7 @@ def test_a_symlink_in_out_is_replaced_never_written_through(
     run([point_session], out, scene=False)
     assert outside.read_text() == "not yours to overwrite"
     assert not (out / "trials.csv").is_symlink()
-    assert "session,trial" in (out / "trials.csv").read_text()
+    assert (out / "trials.csv").read_text().startswith("session,")
 
 
 def test_a_second_run_into_the_same_out_is_refused_while_one_writes(

@@ -197,6 +197,9 @@ class Part:
     others: tuple[tuple[str, str], ...] = ()  # (path, why it is not the one kept)
     parent: str | None = None  # the part key of the part it continues, when given
     branch: str = ""
+    #: The path of the part it continues when that is given but interrupted (unreadable,
+    #: with no recovered copy): analysed alone until it is recovered.
+    interrupted_parent: str = ""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -301,8 +304,8 @@ def _files_of(part: Part, files: Sequence[SessionFile]) -> list[SessionFile]:
 def _linked(part: Part, parts: dict[str, Part], by_digest: dict[str, str]) -> Part:
     """``part`` with the key of the part it continues, when that is among the inputs."""
     info = part.file.info
-    if info is None or info.continues_after_trial is None:
-        return part
+    if info is None or info.continues_after_trial is None or not part.file.readable:
+        return part  # an interrupted continuation fails alone, never with what it continues
     parent: str | None = None
     if info.continues_part and f"part:{info.continues_part}" in parts:
         parent = f"part:{info.continues_part}"
@@ -310,6 +313,9 @@ def _linked(part: Part, parts: dict[str, Part], by_digest: dict[str, str]) -> Pa
         parent = by_digest[info.continues_sha256]
     if parent is not None and parts[parent].file.session_id != part.file.session_id:
         parent = None  # another session's file: not what it continued
+    if parent is not None and not parts[parent].file.readable:
+        # Its only copy was interrupted: joined to it, this part would fail with it.
+        return dataclasses.replace(part, interrupted_parent=parts[parent].file.path)
     return dataclasses.replace(part, parent=parent)
 
 
@@ -377,7 +383,14 @@ def _joined_notes(strands: Sequence[Strand], parts: dict[str, Part]) -> list[str
             if info is None or info.continues_after_trial is None:
                 continue
             after = info.continues_after_trial
-            if part.parent is None:
+            if part.interrupted_parent:
+                broken = part.interrupted_parent
+                notes.append(
+                    f"{part.file.path}: continues {broken} after trial {after}, which was "
+                    f"interrupted: analysed alone; `twopose-record recover {broken} -o "
+                    "FIXED.mcap` salvages it, and a run with FIXED.mcap joins them"
+                )
+            elif part.parent is None:
                 name = info.continues_file or "the file it continues"
                 notes.append(
                     f"{part.file.path}: continues {name} after trial {after}; {name} is not "
