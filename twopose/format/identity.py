@@ -380,8 +380,8 @@ def _joined_notes(strands: Sequence[Strand], parts: dict[str, Part]) -> list[str
     for strand in strands:
         for k, part in enumerate(strand.parts):
             info = part.file.info
-            if info is None or info.continues_after_trial is None:
-                continue
+            if info is None or info.continues_after_trial is None or not part.file.readable:
+                continue  # an interrupted file fails with its own reason: recover it
             after = info.continues_after_trial
             if part.interrupted_parent:
                 broken = part.interrupted_parent
