@@ -119,7 +119,7 @@ def readable(table: pd.DataFrame, *, include_warned: bool = False) -> pd.DataFra
     for _, r in table.iterrows():
         row: dict[str, object] = {}
         if "session" in table:
-            row["session"] = str(r["session"]).replace("\\", "/").rsplit("/", 1)[-1]
+            row["session"] = shown_name(r)
         row["method"] = label_of(r["method"])
         if not one:
             row["units"] = r["units"]

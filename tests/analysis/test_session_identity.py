@@ -92,7 +92,9 @@ def test_an_interrupted_original_beside_its_recovered_copy_is_not_a_failure(
     record(original, 2)
     kill_midway(original)
     recover_session(original, tmp_path / "visit_fixed.mcap")
-    result = runner.invoke(app, ["run", str(tmp_path), "--out", str(tmp_path / "out"), "--no-scene"])
+    result = runner.invoke(
+        app, ["run", str(tmp_path), "--out", str(tmp_path / "out"), "--no-scene"]
+    )
     assert result.exit_code == 0, result.output  # was 1, on every run after recover
     assert "interrupted" in result.output
     errors = pd.read_csv(tmp_path / "out" / "errors.csv")
@@ -138,6 +140,14 @@ def test_two_sessions_of_one_name_are_told_apart_everywhere(
         assert len({n.split("_")[1] for n in numbered}) == 1, numbered
         assert any(n.startswith("results_") for n in numbered)
         assert any(n.startswith("scatter_") for n in numbered)
+    report = (out / "report.html").read_text()
+    assert report.count("<td class='l'>a/session.mcap</td>") >= 1  # the per-session table
+    figure = analysis.make_figures(analysis.run(lab))["error_by_trial"]
+    legend = [t.get_text() for leg in figure.legends for t in leg.get_texts()]
+    legend += [
+        t.get_text() for ax in figure.axes if ax.get_legend() for t in ax.get_legend().get_texts()
+    ]
+    assert {"a_session", "b_session"} <= set(legend), legend
     info = _run("info", lab / "a", lab / "b", columns=80)
     assert "a/session.mcap" in info
     assert "b/session.mcap" in info
