@@ -136,7 +136,7 @@ def test_two_sessions_of_one_name_are_told_apart_everywhere(
     names = sorted(p.name for p in out.iterdir())
     # One numbering: a session's results file and its figures carry the same number.
     for stem in ("a_session", "b_session"):
-        numbered = [n for n in names if n.endswith(f"_{stem}.mcap") or n.endswith(f"_{stem}.png")]
+        numbered = [n for n in names if n.endswith((f"_{stem}.mcap", f"_{stem}.png"))]
         assert len({n.split("_")[1] for n in numbered}) == 1, numbered
         assert any(n.startswith("results_") for n in numbered)
         assert any(n.startswith("scatter_") for n in numbered)
