@@ -143,10 +143,8 @@ def test_two_sessions_of_one_name_are_told_apart_everywhere(
     report = (out / "report.html").read_text()
     assert report.count("<td class='l'>a/session.mcap</td>") >= 1  # the per-session table
     figure = analysis.make_figures(analysis.run(lab))["error_by_trial"]
-    legend = [t.get_text() for leg in figure.legends for t in leg.get_texts()]
-    legend += [
-        t.get_text() for ax in figure.axes if ax.get_legend() for t in ax.get_legend().get_texts()
-    ]
+    legends = [*figure.legends, *(ax.get_legend() for ax in figure.axes)]
+    legend = [t.get_text() for leg in legends if leg is not None for t in leg.get_texts()]
     assert {"a_session", "b_session"} <= set(legend), legend
     info = _run("info", lab / "a", lab / "b", columns=80)
     assert "a/session.mcap" in info
