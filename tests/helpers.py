@@ -20,6 +20,25 @@ from numpy.typing import NDArray
 from twopose.format.entries import CaptureDecision, PoseEntry
 from twopose.format.writer import SessionWriter
 
+#: A small synthetic camera (320x240, no supersampling, no clutter): a new pose renders in
+#: ~70 ms instead of ~500 ms, and the target is found exactly where it is in the default.
+SMALL_SCENE = """
+[[cameras]]
+id = "cam0"
+width = 320
+height = 240
+fx = 262.5
+fy = 262.5
+cx = 160.0
+cy = 120.0
+
+[sensor]
+supersample = 1
+
+[clutter]
+count = 0
+"""
+
 
 def write_video(path: Path, n: int, size: tuple[int, int] = (64, 48), step: int = 20) -> Path:
     w = cv2.VideoWriter(str(path), cv2.VideoWriter.fourcc(*"MJPG"), 30.0, size)

@@ -26,27 +26,11 @@ from recorder.console_guard import (
     text_refusal,
 )
 from recorder.console_server import ConsoleOptions, console_app
+from tests.helpers import SMALL_SCENE
 from twopose.rig.constants import RigConstants
 from twopose.text import is_control
 from twopose.units import Units
 
-# A small synthetic camera: a pose renders in ~70 ms (as tests/recorder/test_console_stateful.py).
-SCENE = """
-[[cameras]]
-id = "cam0"
-width = 320
-height = 240
-fx = 262.5
-fy = 262.5
-cx = 160.0
-cy = 120.0
-
-[sensor]
-supersample = 1
-
-[clutter]
-count = 0
-"""
 ORIGIN = "http://127.0.0.1:8765"
 GIVEN: dict[str, Any] = {
     "method": None, "units": None, "intrinsics": None, "intrinsics_sigma": {}, "focal": None,
@@ -72,7 +56,7 @@ def strict_json(text: str) -> Any:
 def console(tmp_path: Path) -> Iterator[tuple[TestClient, Path]]:
     """The console in-process (Host 127.0.0.1:8765, the page loaded: the token cookie set)."""
     scene = tmp_path / "scene.toml"
-    scene.write_text(SCENE)
+    scene.write_text(SMALL_SCENE)
     out = tmp_path / "s.mcap"
     options = ConsoleOptions(source=f"synthetic:{scene}", given=GIVEN, frames=2, size=(320, 240))
     session = ConsoleSession(out, dict(GIVEN, size=(320, 240)))
@@ -450,7 +434,7 @@ def test_a_rig_without_units_is_a_note_not_an_alert(tmp_path: Path) -> None:
     """A rig file from before rig files had units: said once as a neutral note (taken in
     the session's units), never in the live-failure bar."""
     scene = tmp_path / "scene.toml"
-    scene.write_text(SCENE)
+    scene.write_text(SMALL_SCENE)
     options = ConsoleOptions(
         source=f"synthetic:{scene}", given=GIVEN, frames=2, size=(320, 240), rig=RigConstants()
     )

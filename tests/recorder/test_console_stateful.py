@@ -44,6 +44,7 @@ import analysis
 from recorder.cli import app
 from recorder.console import ConsoleSession
 from recorder.console_server import ConsoleOptions, console_app
+from tests.helpers import SMALL_SCENE
 from twopose.format.reader import SessionReader
 from twopose.format.trials import iter_trials, read_notes
 
@@ -51,24 +52,6 @@ Vec3 = tuple[float, float, float]
 Pose = tuple[Vec3, Vec3]  # typed (t_grid, r_deg)
 Accepted = dict[int, dict[int, Pose]]  # trial -> pose -> typed pose
 
-# A small synthetic camera (320x240, no supersampling, no clutter): a new pose renders in
-# ~70 ms instead of ~500 ms, and the target is found exactly where it is in the default.
-SCENE = """
-[[cameras]]
-id = "cam0"
-width = 320
-height = 240
-fx = 262.5
-fy = 262.5
-cx = 160.0
-cy = 120.0
-
-[sensor]
-supersample = 1
-
-[clutter]
-count = 0
-"""
 SIZE = (320, 240)
 FOCAL, PRINCIPAL = "262.5", "160, 120"
 FRAMES = 2
@@ -349,7 +332,7 @@ class ConsoleModel(RuleBasedStateMachine):
         """Start the console, load the page, send a refused form (maybe), then a good one."""
         self.min_steps, self.n_poses = min_steps, n_poses
         scene = self.dir / "scene.toml"
-        scene.write_text(SCENE)
+        scene.write_text(SMALL_SCENE)
         given: dict[str, Any] = {
             "method": None, "units": None, "intrinsics": None, "intrinsics_sigma": {},
             "focal": None, "principal": None, "ground_height": None, "ground_truth": [],

@@ -21,6 +21,7 @@ from analysis.cli import app as analyze
 from analysis.input_set import resolve_inputs
 from recorder.cli import app as record
 from recorder.continuation import read_continued
+from tests.helpers import SMALL_SCENE
 from twopose.format.identity import identify_file, resolve_session_files
 from twopose.format.reader import SessionReader
 
@@ -167,25 +168,6 @@ def test_guidance_options_beside_a_plan_are_refused_not_ignored(tmp_path: Path) 
     assert not (tmp_path / "x.mcap").exists()
 
 
-# Issue 43, part 2: the recorder knows forks. A small synthetic camera (a pose renders in
-# tens of ms, as tests/recorder/test_console_guard.py's) and one-trial plans, recorded once
-# for the module: a session S and two continuations of it beside it, as two laptops would.
-SMALL_SCENE = """
-[[cameras]]
-id = "cam0"
-width = 320
-height = 240
-fx = 262.5
-fy = 262.5
-cx = 160.0
-cy = 120.0
-
-[sensor]
-supersample = 1
-
-[clutter]
-count = 0
-"""
 SECOND_WARNING = (
     "S.mcap is already continued by S_laptop1.MCAP (after trial 1): this file starts branch "
     "B of the session; the analysis keeps each branch's trials apart"
