@@ -137,6 +137,7 @@ def test_run_rig_calibration_loo_is_honest(rig_sessions: dict[str, Path], tmp_pa
     assert list(rig.columns) == [
         "session",
         "constant",
+        "units",
         "value",
         "sigma",
         "fitted",
