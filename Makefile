@@ -29,14 +29,18 @@ check: $(STAMP)
 	$(BIN)/mypy
 	$(BIN)/mkdocs build --strict
 
+# Tests run on both cores (pytest-xdist; a test file's tests in one process, so its
+# module-scoped fixtures are built once) and print the 15 slowest.
+PYTEST := $(BIN)/pytest -q -n 2 --dist loadfile --durations=15
+
 # The quick loop: everything but the tests marked slow (browsers, clusters, many-session fits).
 test: check $(if $(shell command -v npm),$(NODE_STAMP))
-	$(BIN)/pytest -q -m "not slow"
+	$(PYTEST) -m "not slow"
 
 # The whole test suite, slow tests included (with the Node.js validation when node is here):
 # what CI runs.
 test-all: check $(if $(shell command -v npm),$(NODE_STAMP))
-	$(BIN)/pytest -q
+	$(PYTEST)
 
 # The documentation site (docs/, mkdocs.yml) into site/, warnings as errors.
 docs: $(STAMP)
