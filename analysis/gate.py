@@ -374,7 +374,8 @@ def check_lines(outcome: CheckResult, baseline: str | Path) -> list[str]:
         f"new: {row['session']} ({row['method']}): not in the baseline"
         for _, row in table[table["status"] == "new"].iterrows()
     ]
-    n_pairs = len(table[["session", "method"]].drop_duplicates())
+    compared = table[table["status"] != "new"]  # a new one is said, not checked
+    n_pairs = len(compared[["session", "method"]].drop_duplicates())
     n_bad = int(worse["status"].isin(["regressed", "missing"]).sum())
     verdict = f"{n_bad} regression(s)" if n_bad else "no regression"
     return [*lines, f"checked {n_pairs} session/method pair(s) against {baseline}: {verdict}"]

@@ -178,8 +178,10 @@ class InputSet:
         """What any command says about inputs it does not take as given: repeats, copies
         and twins counted once, empty sessions, continuations and forks."""
         repeats = [
-            f"{path}: named more than once (the same file as {first}); counted once"
-            for path, first in self.repeats
+            f"{path}: named more than once"
+            + ("" if path == first else f" (the same file as {first})")
+            + "; counted once"
+            for path, first in dict.fromkeys(self.repeats)
         ]
         copies = [
             f"{path}: the same session as {kept} ({why}); counted once"

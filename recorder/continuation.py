@@ -33,7 +33,7 @@ from twopose.format.entries import (
     SessionInfo,
 )
 from twopose.format.identity import SessionFile, identify_file
-from twopose.format.reader import SessionReader
+from twopose.format.reader import SessionReader, recover_command
 from twopose.methods import Method
 from twopose.units import Units
 from twopose.values import Vec3
@@ -140,7 +140,7 @@ def read_continued(path: str | Path) -> Continued:
     except SessionFormatError as err:
         said = str(err).rstrip(".")
         if "recover" not in said:
-            said += f"; `twopose-record recover {src} -o FIXED.mcap` salvages what it holds"
+            said += f"; `{recover_command(src)}` salvages what it holds"
         raise InputValueError(
             f"--continue {src}: {said}; then continue from that: --continue FIXED.mcap"
         ) from None

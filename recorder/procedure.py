@@ -76,6 +76,7 @@ from twopose.format.entries import (
     TypedEntry,
     Verdict,
 )
+from twopose.format.reader import recover_command
 from twopose.format.writer import SessionWriter
 from twopose.values import Vec3
 
@@ -391,7 +392,7 @@ def record(  # noqa: PLR0913 - keyword-only settings of a recording
         full = err.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
         raise TwoposeError(
             f"writing {out} failed: {'the disk is full' if full else err.strerror or err}. "
-            f"What reached the disk can be salvaged: twopose-record recover {out} -o FIXED.mcap"
+            f"What reached the disk can be salvaged: {recover_command(out)}"
         ) from err
     kept = proc.n_operator_entries > 0
     if not kept:  # an empty session would only block the name for the next attempt

@@ -15,6 +15,7 @@ from twopose.errors import (
 from twopose.text import for_terminal
 
 if TYPE_CHECKING:
+    from analysis.input_set import InputSet
     from twopose.format.trials import SessionOverview
 
 from analysis.cli.app import app, note, say_skipped
@@ -32,7 +33,6 @@ def info(
     """Check and describe sessions: method, cameras, trials, poses, captures, frames."""
     from rich import box
     from rich.console import Console
-    from rich.markup import escape
     from rich.table import Table
 
     from analysis.input_set import resolve_inputs
@@ -45,10 +45,8 @@ def info(
     for text in inputs.notes():
         note(text)
     # A session's parts together, in trial order (its head first), then board sessions.
-    later = {p: s.head for s in inputs.strands for p in s.later}
-    sessions = [p.file.path for s in inputs.strands for p in s.parts]
-    sessions += [s.path for s in inputs.boards]
-    labels = inputs.labels
+    names = _names(inputs)
+    sessions = [*names, *(s.path for s in inputs.boards)]
     overviews: list[SessionOverview] = []
     failed: list[tuple[str, str]] = []
     for path in sessions:
@@ -56,7 +54,7 @@ def info(
             overviews.append(describe_session(path))
         except TwoposeError as err:
             failed.append((path, str(err)))
-    joined = sum(1 for o in overviews if str(o.path) in later)
+    joined = sum(1 for o in overviews if names.get(str(o.path), "").startswith("+ "))
     title = f"{len(overviews) - joined} session(s)"
     # At a narrow terminal (80 columns, a pipe) the cameras and the format go under the
     # session's label, so that the label (the shortest tail of its path no other input
@@ -75,38 +73,63 @@ def info(
     for col in columns:
         table.add_column(col, overflow="fold", no_wrap=narrow)
     for o in overviews:
-        cams = ", ".join(f"{c.camera_id} f={c.intrinsics.fx:g}" for c in o.cameras)
-        captures = f"{o.n_captures}" + (
-            f" ({o.n_set_aside} set aside, {o.n_incomplete_captures} incomplete)"
-            if o.n_set_aside or o.n_incomplete_captures
-            else ""
+        path = str(o.path)
+        table.add_row(
+            *_row(o, names.get(path, inputs.labels.get(path, path)), columns, narrow=narrow)
         )
-        after = o.info.continues_after_trial
-        where = escape(for_terminal(labels.get(str(o.path), str(o.path))))
-        where = f"+ {where} (after trial {after})" if str(o.path) in later else where
-        sim = " (sim)" if o.info.simulated else ""
-        if narrow:
-            where += f"\n[dim]{escape(cams)}, format {o.format_version}{sim}[/dim]"
-        cells = {
-            "method": o.info.method + ("" if narrow else sim),
-            "units": o.info.units,
-            "cameras": cams,
-            "trials": str(o.n_trials),
-            "poses": str(o.n_poses),
-            "captures": captures,
-            "frames": str(o.n_frames),
-            "format": o.format_version,
-        }
-        table.add_row(where, *(cells[c] for c in columns))
     console.print(table)
     for o in overviews:
         _print_notes(o)
     for path, reason in failed:
-        typer.secho(f"failed: {path}: {reason}", err=True, fg=typer.colors.RED)
+        said = reason if reason.startswith(path) else f"{path}: {reason}"
+        typer.secho(f"failed: {said}", err=True, fg=typer.colors.RED)
     if not sessions:
         typer.secho("no session files (*.mcap) found", err=True, fg=typer.colors.YELLOW)
     if failed or not sessions:
         raise typer.Exit(EXIT_SOME_INPUTS_FAILED)
+
+
+def _names(inputs: InputSet) -> dict[str, str]:
+    """Each measurement session's part, in trial order, by the name ``info`` shows: its
+    label, a later part marked ``+ ... (after trial N)``, a branch ``[branch B]``."""
+    labels = inputs.labels
+    names: dict[str, str] = {}
+    for strand in inputs.strands:
+        for k, part in enumerate(strand.parts):
+            path = part.file.path
+            name = labels.get(path, path)
+            if k:
+                name = f"+ {name} (after trial {part.file.continues_after})"
+            names[path] = name + (f" [branch {part.branch}]" if part.branch else "")
+    return names
+
+
+def _row(o: SessionOverview, name: str, columns: list[str], *, narrow: bool) -> list[str]:
+    """One session's cells: its name (escaped: a file name is anyone's text), then
+    ``columns``; at a narrow terminal the cameras and format under the name."""
+    from rich.markup import escape
+
+    cams = ", ".join(f"{c.camera_id} f={c.intrinsics.fx:g}" for c in o.cameras)
+    captures = f"{o.n_captures}" + (
+        f" ({o.n_set_aside} set aside, {o.n_incomplete_captures} incomplete)"
+        if o.n_set_aside or o.n_incomplete_captures
+        else ""
+    )
+    sim = " (sim)" if o.info.simulated else ""
+    where = escape(for_terminal(name))
+    if narrow:
+        where += f"\n[dim]{escape(cams)}, format {o.format_version}{sim}[/dim]"
+    cells = {
+        "method": o.info.method + ("" if narrow else sim),
+        "units": o.info.units,
+        "cameras": cams,
+        "trials": str(o.n_trials),
+        "poses": str(o.n_poses),
+        "captures": captures,
+        "frames": str(o.n_frames),
+        "format": o.format_version,
+    }
+    return [where, *(cells[c] for c in columns)]
 
 
 def _print_notes(o: SessionOverview) -> None:

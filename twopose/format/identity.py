@@ -42,7 +42,7 @@ from mcap.stream_reader import StreamReader
 
 from twopose.errors import TwoposeError
 from twopose.format.entries import PoseEntry, SessionInfo, decode_entry
-from twopose.format.reader import SessionReader
+from twopose.format.reader import SessionReader, recover_command
 from twopose.format.writer import METADATA_NAME
 from twopose.methods import spec_of
 
@@ -387,8 +387,8 @@ def _joined_notes(strands: Sequence[Strand], parts: dict[str, Part]) -> list[str
                 broken = part.interrupted_parent
                 notes.append(
                     f"{part.file.path}: continues {broken} after trial {after}, which was "
-                    f"interrupted: analysed alone; `twopose-record recover {broken} -o "
-                    "FIXED.mcap` salvages it, and a run with FIXED.mcap joins them"
+                    f"interrupted: analysed alone; `{recover_command(broken)}` salvages it, and "
+                    "a run with FIXED.mcap joins them"
                 )
             elif part.parent is None:
                 name = info.continues_file or "the file it continues"

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+import shlex
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 from types import TracebackType
@@ -39,6 +40,7 @@ __all__ = [
     "find_sessions",
     "is_results_file",
     "max_chunk_bytes",
+    "recover_command",
 ]
 
 
@@ -61,6 +63,11 @@ Entry = TypedEntry | Frame | Camera | Any  # Any: a decoded foxglove.FrameTransf
 
 _FOXGLOVE_CLASSES: dict[str, Any] = {cls.DESCRIPTOR.full_name: cls for cls in SESSION_PROTOBUF}
 _JSON_SCHEMAS = {cls.SCHEMA_NAME for cls in TYPED_ENTRIES}
+
+
+def recover_command(path: str | Path) -> str:
+    """The command that salvages an interrupted session, ready to paste into a shell."""
+    return f"twopose-record recover {shlex.quote(str(path))} -o FIXED.mcap"
 
 
 def check_version(path: Path, version: str) -> None:
@@ -128,7 +135,7 @@ class SessionReader:
     def _fail(self, what: str, err: BaseException) -> SessionFormatError:
         return SessionFormatError(
             f"{self.path}: {what} ({type(err).__name__}: {err}). If the recording was "
-            f"interrupted, `twopose-record recover {self.path} -o FIXED.mcap` salvages it."
+            f"interrupted, `{recover_command(self.path)}` salvages it."
         )
 
     def _open(self) -> None:
@@ -145,7 +152,7 @@ class SessionReader:
         if summary is None:
             raise SessionFormatError(
                 f"{self.path}: the file has no summary section, so it was truncated or never "
-                f"closed. `twopose-record recover {self.path} -o FIXED.mcap` salvages it."
+                f"closed. `{recover_command(self.path)}` salvages it."
             )
         self._check_chunk_sizes(summary)
         if METADATA_NAME not in metadata:
