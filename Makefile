@@ -30,8 +30,8 @@ check: $(STAMP)
 	$(BIN)/mkdocs build --strict
 
 # Tests run on both cores (pytest-xdist, each test to whichever process is free: 16.6 min
-# for the whole suite here, against 24 on one core and 20.8 with a file's tests kept in one
-# process) and print the 15 slowest.
+# for the whole suite here, against 24 on one core; a file's tests kept in one process
+# took 20.8 on a busier machine) and print the 15 slowest.
 PYTEST := $(BIN)/pytest -q -n 2 --dist load --durations=15
 
 # The quick loop: everything but the tests marked slow (browsers, clusters, many-session fits).
