@@ -17,6 +17,7 @@ __all__ = [
     "CAMERA_ID_PATTERN",
     "MAX_MAGNITUDE",
     "MAX_NUMBER_CHARS",
+    "NUMBER_GRAMMAR",
     "Vec3",
     "camera_id",
     "finite",
@@ -47,6 +48,10 @@ def _number(value: Any, what: str) -> float:
 MAX_MAGNITUDE = 1e9
 #: The longest text read as one number (a 64-bit float needs 24 characters at most).
 MAX_NUMBER_CHARS = 40
+#: The one grammar of a number typed or sent as text: ASCII digits, an optional sign, one
+#: decimal point, an optional exponent. Python's own ``float`` takes more (``1_0`` as 10,
+#: full-width and Arabic-Indic digits, ``inf``), which an operator never means.
+NUMBER_GRAMMAR = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 
 
 def parse_number(text: str, what: str, *, limit: float = MAX_MAGNITUDE) -> float:
@@ -63,10 +68,12 @@ def parse_number(text: str, what: str, *, limit: float = MAX_MAGNITUDE) -> float
         raise InputValueError(
             f"{what}: {stripped[:12]}... ({len(stripped)} characters) is not a number of sane size"
         )
-    try:
-        value = float(stripped)
-    except ValueError as err:
-        raise InputValueError(f"{what}: {stripped!r} is not a number") from err
+    if NUMBER_GRAMMAR.fullmatch(stripped) is None:
+        raise InputValueError(
+            f"{what}: {stripped!r} is not a number (digits 0-9, a sign, a decimal point, an "
+            "exponent: -1.5, 2e-3)"
+        )
+    value = float(stripped)
     if not math.isfinite(value):
         raise InputValueError(f"{what} must be a finite number, got {stripped!r}")
     if abs(value) > limit:

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from twopose.errors import InputValueError
-from twopose.values import camera_id, finite, index, numbers, vec3
+from twopose.values import camera_id, finite, index, numbers, parse_number, vec3
 
 
 def test_numbers_accept_lists_tuples_arrays_and_numpy_scalars() -> None:
@@ -45,3 +45,36 @@ def test_scalars_indices_and_camera_ids() -> None:
     assert camera_id("cam_0-a") == "cam_0-a"
     with pytest.raises(InputValueError, match="camera id"):
         camera_id("cam 0")
+
+
+@pytest.mark.parametrize(
+    ("text", "value"),
+    [("10", 10.0), ("-1.5", -1.5), (" +2e-3 ", 0.002), (".5", 0.5), ("5.", 5.0), ("-0", -0.0)],
+)
+def test_a_typed_number_is_ascii_digits_a_sign_a_point_an_exponent(text: str, value: float) -> None:
+    assert parse_number(text, "x") == value
+
+
+@pytest.mark.parametrize(
+    "text",
+    # Full-width 525 and Arabic-Indic 3, written as escapes (they look like digits).
+    [
+        "1_0",
+        "\uff15\uff12\uff15",
+        "\u0663",
+        "1e",
+        "e5",
+        "--1",
+        "1.2.3",
+        "0x10",
+        "inf",
+        "nan",
+        "1,5",
+        "1 0",
+    ],
+)
+def test_python_float_grammar_beyond_ascii_is_refused(text: str) -> None:
+    """Python's float() reads 1_0 as 10 and full-width or Arabic-Indic digits as digits
+    (issue 44): a typed pose or precision means none of them."""
+    with pytest.raises(InputValueError, match=r"is not a number|finite"):
+        parse_number(text, "x")
