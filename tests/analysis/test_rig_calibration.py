@@ -58,7 +58,8 @@ def test_a_session_given_twice_is_counted_once(
     once, _ = rig_file(tmp_path, rig_sessions["with"])
     twice, output = rig_file(tmp_path, rig_sessions["with"], rig_sessions["with"])
     assert twice == once
-    assert "named more than once (the same file as" in output  # as run and info say it
+    # As run and info say it (the same path twice: no "the same file as" itself).
+    assert f"{rig_sessions['with']}: named more than once; counted once" in output
     copy = tmp_path / "copy.mcap"
     shutil.copyfile(rig_sessions["with"], copy)
     copied, output = rig_file(tmp_path, rig_sessions["with"], copy)
