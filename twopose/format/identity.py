@@ -249,7 +249,7 @@ def resolve_session_files(files: Sequence[SessionFile]) -> Resolution:
     calibrates on its own).
     """
     parts, others = _parts(files)
-    by_digest = {f.digest: key for key, part in parts.items() for f in _files_of(part, files)}
+    by_digest = {f.digest: f.part_key for f in files}  # every copy names its part
     linked = {key: _linked(part, parts, by_digest) for key, part in parts.items()}
     children: dict[str, list[str]] = {}
     for key, part in linked.items():
@@ -294,11 +294,6 @@ def _why_not_kept(f: SessionFile, kept: SessionFile) -> str:
     if f.n_poses < kept.n_poses:
         return f"an earlier copy of the same part: {f.n_poses} poses, the one kept {kept.n_poses}"
     return "another copy of the same part"
-
-
-def _files_of(part: Part, files: Sequence[SessionFile]) -> list[SessionFile]:
-    paths = {part.file.path, *(p for p, _ in part.others)}
-    return [f for f in files if f.path in paths]
 
 
 def _linked(part: Part, parts: dict[str, Part], by_digest: dict[str, str]) -> Part:
