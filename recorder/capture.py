@@ -402,13 +402,22 @@ def _feedback(k: int, d: Detection) -> FrameFeedback:
 
 def board_feedback(k: int, image: Any, board: BoardPlacement) -> FrameFeedback:
     """Frame ``k``'s board: its inner corners found (all of them, or none: OpenCV finds a
-    board whole) and the share of the image their bounding box covers."""
-    from twopose.detect import find_board
+    board whole) and the share of the image their bounding box covers.
+
+    Found as ``twopose-analyze rig`` finds it (:func:`twopose.detect.find_board_live`: the
+    rig's full search, bounded in time, behind OpenCV's fast check)."""
+    from twopose.detect import LIVE_BOARD_BUDGET_S, find_board_live
 
     cols, rows = board.inner_corners
-    corners = find_board(image, (cols, rows), window_px=None, quick=True)  # keeps up live
+    search = find_board_live(image, (cols, rows))
+    corners = search.corners
     if corners is None:
         reason = f"the {cols}x{rows} board was not found whole (is all of it in view?)"
+        if search.timed_out:
+            reason = (
+                f"the {cols}x{rows} board was not found within {LIVE_BOARD_BUDGET_S:g} s "
+                "(is all of it in view?)"
+            )
         return FrameFeedback(
             index=k, found=False, centroid_px=(math.nan, math.nan), theta_deg=math.nan,
             n_blobs=0, reason=reason, is_board=True,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from typing import Any
 
 import cv2
@@ -216,19 +217,40 @@ def test_fast_components_agree_with_opencv_stats(seed: int) -> None:
     assert len(want) > 3
 
 
-def test_the_quick_board_search_finds_what_the_full_one_finds_and_skips_blank_frames() -> None:
-    """``quick`` (the recorder's live check) finds a board exactly as the full search does,
-    and turns a frame without one down at once (the full search takes a third of a second)."""
-    from twopose.detect import find_board
+def test_the_live_board_search_finds_what_the_full_one_finds_and_turns_down_blank_frames() -> None:
+    """The recorder's live check (fast pre-check, then the full search) finds a board
+    exactly as the full search does, and a frame without one is not found, in time."""
+    from twopose.detect import find_board, find_board_live
 
     squares = (np.indices((7, 10)).sum(axis=0) % 2).astype(np.uint8) * 255
     board = np.kron(squares, np.ones((30, 30), np.uint8))
     image = np.full((480, 640), 255, np.uint8)
     image[135:345, 170:470] = board
     bgr = np.asarray(cv2.cvtColor(image, cv2.COLOR_GRAY2BGR), dtype=np.uint8)
-    full, quick = find_board(bgr, (9, 6)), find_board(bgr, (9, 6), quick=True)
+    full, live = find_board(bgr, (9, 6), window_px=None), find_board_live(bgr, (9, 6))
     assert full is not None
-    assert quick is not None
-    np.testing.assert_array_equal(full, quick)
+    assert live.corners is not None
+    assert live.fast
+    np.testing.assert_array_equal(full, live.corners)
     blank = np.random.default_rng(0).integers(80, 100, (480, 640, 3), dtype=np.uint8)
-    assert find_board(blank, (9, 6), quick=True) is None
+    none = find_board_live(blank, (9, 6))
+    assert none.corners is None
+    assert not none.timed_out
+    assert none.full_s < 1.5
+
+
+def test_the_live_board_search_is_bounded_in_time() -> None:
+    """A full search that outlasts its budget is given up (the board counts as not found,
+    said as out of time); the one still running delays the next only within its budget."""
+    from twopose.detect import find_board_live
+
+    blank = np.random.default_rng(1).integers(80, 100, (240, 320, 3), dtype=np.uint8)
+    started = time.perf_counter()
+    late = find_board_live(blank, (9, 6), budget_s=0.0)
+    assert time.perf_counter() - started < 0.2
+    assert late.corners is None
+    assert late.timed_out
+    again = find_board_live(blank, (9, 6), budget_s=5.0)
+    assert not again.timed_out
+    assert again.corners is None
+    assert again.full_s < 5.0
