@@ -180,8 +180,9 @@ def _recording(
         guidance = asked.guidance(setup.units, options.poses, setup.target95)
         width, height = options.size
         src = open_source(
-            options.source, method=setup.method, width=width, height=height, fps=options.fps
-        )
+            options.source, method=setup.method, width=width, height=height, fps=options.fps,
+            units=setup.units,  # the synthetic scene in the session's units
+        )  # fmt: skip
         continued = options.continued
         camera, info = setup.camera(), setup.info(options.notes)
         if continued is not None:  # the same session: its id, cameras, trials numbered on

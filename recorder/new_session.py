@@ -160,8 +160,9 @@ def record_terminal(
     asked = request.guidance or guidance_asked()
     guidance = asked.guidance(setup.units, request.poses, setup.target95)
     src = open_source(
-        request.source, method=setup.method, width=mode.width, height=mode.height, fps=mode.fps
-    )
+        request.source, method=setup.method, width=mode.width, height=mode.height, fps=mode.fps,
+        units=setup.units,  # the synthetic scene in the session's units
+    )  # fmt: skip
     port = request.live_port
     view = _live_view(stack, [setup.camera()], port) if port is not None else None
     capture = CaptureSettings(
@@ -192,8 +193,9 @@ def record_planned(
     check_rig(request.rig, the_plan.method, the_plan.units, the_plan.cameras, the_plan.ground())
     mode = request.camera
     src = open_source(
-        request.source, method=the_plan.method, width=mode.width, height=mode.height, fps=mode.fps
-    )
+        request.source, method=the_plan.method, width=mode.width, height=mode.height, fps=mode.fps,
+        units=the_plan.units,  # the synthetic scene in the plan's units
+    )  # fmt: skip
     cameras = list(the_plan.cameras)
     view = _live_view(stack, cameras, request.live_port) if request.live_port is not None else None
     return record_plan(

@@ -26,6 +26,7 @@ from typing_extensions import override
 
 from twopose.errors import InputValueError, SourceError
 from twopose.methods import Method
+from twopose.units import Units
 
 __all__ = [
     "CameraSource",
@@ -317,10 +318,15 @@ class SyntheticSource(FrameSource):
         seed: int = 0,
         realtime: bool = True,
         bank: int = 8,
+        units: Units | None = None,
     ) -> None:
         from twopose.sim.scene import load_scene
 
         self.scene = load_scene(scene_path)
+        if units is not None and self.scene.units != units:
+            # The session's units (issue 44, 4): the typed poses are read in them, so the
+            # same scene is rendered with its lengths converted (twopose.units' factors).
+            self.scene = self.scene.in_units(units)
         self.method = method
         self.realtime = realtime
         self.bank_size = bank
@@ -373,12 +379,14 @@ def open_source(
     height: int = 480,
     fps: float = 30.0,
     realtime: bool = True,
+    units: Units | None = None,
 ) -> FrameSource:
     """A source from its command-line spelling (not yet opened).
 
     ``camera:N`` (device N), ``video:PATH``, ``images:DIR`` or ``images:DIR/PATTERN``,
     ``synthetic`` or
-    ``synthetic:SCENE.toml``.
+    ``synthetic:SCENE.toml``; the synthetic camera renders its scene in the session's
+    ``units`` (converted from the scene's own).
     """
     kind, _, arg = spec.partition(":")
     if kind == "camera":
@@ -391,7 +399,7 @@ def open_source(
     if kind == "images" and arg:
         return ImagesSource(arg)
     if kind == "synthetic":
-        return SyntheticSource(arg or None, method, realtime=realtime)
+        return SyntheticSource(arg or None, method, realtime=realtime, units=units)
     raise SourceError(
         f"unknown source {spec!r}; use camera:N, video:PATH, images:DIR[/PATTERN] or "
         "synthetic[:SCENE.toml]"

@@ -125,7 +125,9 @@ def test_the_live_board_check_finds_the_far_board_rig_finds(tmp_path: Path) -> N
     board = BoardPlacement(inner_corners=(9, 6), square=1.0, first_corner=(-4.0, 7.625, 24.0))
     info = SessionInfo(method=Method.BOARD, units=Units.IN, board=board)
     settings = CaptureSettings.live_detection(info, frames=2)
-    source = SyntheticSource(method=Method.BOARD, realtime=False, bank=1)
+    scene = tmp_path / "scene.toml"  # the default scene; one ray per pixel (the board's
+    scene.write_text("[sensor]\nsupersample = 1\n")  # squares are box-filtered exactly)
+    source = SyntheticSource(scene, Method.BOARD, realtime=False, bank=1)
     out = tmp_path / "board.mcap"
     full_s: list[float] = []
     with source:
