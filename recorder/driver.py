@@ -150,6 +150,10 @@ class Driver:
         """The live result or the overlay failed; the recording goes on (the analysis
         solves the file). Shown to the operator as a warning."""
 
+    def computing(self, what: str) -> None:
+        """A step the operator waits for has started (the next suggestion): the terminal
+        says so; the page shows its own state, and a plan waits for no one."""
+
     def notice(self, message: str) -> None:
         """Something the operator should know that is no failure (a rig file without
         units, taken in the session's). Shown as a note."""

@@ -309,6 +309,9 @@ class _OperatorDriver(Driver):
     def preview_result(self, result: TrialResult) -> None:
         self.op.say(f"  result if accepted: {result.text()}")
 
+    def computing(self, what: str) -> None:
+        self.op.say(f"  {what}")
+
     def advice(self, trial: int, advice: Advice) -> bool:  # noqa: ARG002 - said, not kept
         self.op.say(f"  guidance: {advice.text}")
         return advice.complete

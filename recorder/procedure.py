@@ -451,6 +451,8 @@ def _record_trial(
         if opts.results is not None:
             _live(driver, _result_step, trial, proc, driver, opts)
             if opts.settings.guidance is not None:
+                if proc.state is State.TYPING and proc.accepted:  # a next pose to suggest
+                    driver.computing("computing the next suggestion…")
                 _live(driver, _guidance_step, trial, proc, driver, opts)
     return True
 
@@ -510,7 +512,8 @@ def _result_step(trial: int, proc: Procedure, driver: Driver, opts: _CaptureOpti
 
 def _guidance_step(trial: int, proc: Procedure, driver: Driver, opts: _CaptureOptions) -> None:
     """After a decision: the driver hears the trial's guidance and decides whether the stop
-    rule ends it; the file records a trial ended so (a note, for the analyst)."""
+    rule ends it; the file records a trial ended so, or ended at ``max_poses`` (a note,
+    for the analyst)."""
     assert opts.results is not None
     assert opts.settings.guidance is not None
     advice = opts.results.advise(trial, opts.settings.guidance) if proc.accepted else None
@@ -518,7 +521,9 @@ def _guidance_step(trial: int, proc: Procedure, driver: Driver, opts: _CaptureOp
         driver.advice_withdrawn(trial)
         return
     stop = driver.advice(trial, advice)
-    if stop and advice.complete and proc.state is State.TYPING:
+    if advice.complete and proc.state is State.READY:  # its last pose: max_poses
+        proc.note(f"guidance: {advice.text}")
+    elif stop and advice.complete and proc.state is State.TYPING:
         proc.note(f"guidance: {advice.text}")
         proc.complete_trial()
 

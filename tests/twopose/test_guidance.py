@@ -74,14 +74,18 @@ def test_the_suggestion_is_the_brute_force_best_of_the_lattice(method: Method) -
     assert found is not None
     assert not found.provisional
     # Brute force: each reachable centre's trial solved on its own, its view predicted
-    # from the same target (the one the two poses locate).
-    from twopose.guidance import _predicted_view, located_target
+    # from the same target (the one the two poses locate), those that keep the target
+    # clear of the image's edges (the lattice is small: the search predicts it whole).
+    from twopose.guidance import _predicted_view, clear_of_edges, located_target
 
     target = located_target(method, trial.views[0], point, options)
     best, best_region = None, math.inf
     taken = np.array([v.t_grid for v in trial.views[0]])
+    lines = method is not Method.POINT
     for centre in lattice(taken[0], reach, taken):
-        view = _predicted_view(trial.views[0][-1], centre, target, lines=method is not Method.POINT)
+        if not clear_of_edges(trial.views[0][-1], centre, target, Units.IN, lines=lines)[0]:
+            continue
+        view = _predicted_view(trial.views[0][-1], centre, target, lines=lines)
         if view is None:
             continue
         one = SessionTrials(
