@@ -30,6 +30,7 @@ from analysis.tables import (
     with_identity,
 )
 from twopose.arrays import F64
+from twopose.bounds import GROUND_TRUTH
 from twopose.camera import Intrinsics
 from twopose.choices import Target
 from twopose.detect import Detection, DotParams, GloveParams, detect
@@ -378,7 +379,7 @@ def _truth(record: TrialRecord, unit: UnitSpec) -> tuple[F64, tuple[str, ...]]:
     if record.ground_truth is None:
         return none, ()
     points = record.ground_truth.points_grid
-    beyond = [why for p in points if (why := unit.beyond_grid("ground truth", p))]
+    beyond = [why for p in points if (why := GROUND_TRUTH.vector_refusal(p, unit.units))]
     if beyond:
         return none, tuple(f"{why}: not compared" for why in beyond)
     pts = np.array(points)

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import contextlib
+from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any, TypeVar
 
 import typer
 
@@ -26,6 +28,8 @@ if TYPE_CHECKING:
 
 __all__ = ["app", "main"]
 
+T = TypeVar("T")
+
 app = typer.Typer(
     name="twopose-record",
     help="Record twopose measurement sessions (frames, typed poses, ground truth) into MCAP.",
@@ -41,12 +45,54 @@ def _group(version: VersionOption = False) -> None:
     """Record twopose measurement sessions."""
 
 
+class _Typed(float):
+    """A number as read from the command line, with the text it was typed as."""
+
+    text: str = ""
+
+
+def _read(quantity: str) -> dict[str, Any]:
+    """An option's parser and callback: the text as typed, read by the quantity's one
+    reader (:mod:`twopose.bounds`: the grammar and the bound every other path applies), in
+    ``--units`` when they were given (an eager option, read first), else in whichever unit
+    takes it (the setup reads it again once the units are chosen)."""
+    from twopose import bounds
+
+    q: bounds.Quantity = getattr(bounds, quantity)
+    count = q.kind is bounds.Kind.COUNT
+
+    def parse(value: Any) -> Any:
+        if not isinstance(value, str):  # a default
+            return value
+        try:
+            typed = _Typed(q.parse_text(value.strip()))
+        except InputValueError as err:
+            raise typer.BadParameter(str(err)) from None
+        typed.text = value
+        return typed
+
+    def in_units(ctx: typer.Context, value: Any) -> Any:
+        if value is None:
+            return None
+        units = ctx.params.get("units")
+        try:
+            v = q.read(getattr(value, "text", value), Units(units) if units else None)
+        except InputValueError as err:
+            raise typer.BadParameter(str(err)) from None
+        return int(v) if count else v
+
+    lo, hi = q.limits(Units.IN)
+    unit = "" if q.kind in (bounds.Kind.COUNT, bounds.Kind.LENGTH) else f" {q.unit_label(Units.IN)}"
+    span = "length" if q.kind is bounds.Kind.LENGTH else f"{lo:g}-{hi:g}{unit}"
+    return {"parser": parse, "callback": in_units, "metavar": f"<{span}>"}
+
+
 @app.command()
 def simulate(
     out: Annotated[Path, typer.Argument(help="New session file to write (never overwritten).")],
     method: Annotated[Method, typer.Option(help="What the session measures.")],
     trials: Annotated[int, typer.Option(min=1, help="Trials in the session.")] = 15,
-    frames: Annotated[int, typer.Option(min=1, help="Frames captured per pose.")] = 5,
+    frames: Annotated[int, typer.Option(**_read("FRAMES"), help="Frames captured per pose.")] = 5,
     seed: Annotated[
         int, typer.Option(min=0, help="Random seed; the same seed writes the same bytes.")
     ] = 0,
@@ -61,7 +107,7 @@ def simulate(
     ] = None,
     poses: Annotated[
         int | None,
-        typer.Option(min=2, max=100, help="Poses per trial [default: the scene's, 2]."),
+        typer.Option(**_read("POSES"), help="Poses per trial [default: the scene's, 2]."),
     ] = None,
     scene: Annotated[
         Path | None,
@@ -134,7 +180,8 @@ def new(
     ] = "camera:0",
     method: Annotated[Method | None, typer.Option(help="Asked if not given.")] = None,
     units: Annotated[
-        Units | None, typer.Option(help="Every length's unit. Asked if not given.")
+        Units | None,
+        typer.Option(is_eager=True, help="Every length's unit. Asked if not given."),
     ] = None,
     calibration: Annotated[
         Path | None,
@@ -142,10 +189,13 @@ def new(
             exists=True, dir_okay=False, help="Intrinsics from `twopose-record calibrate`."
         ),
     ] = None,
-    focal: Annotated[float | None, typer.Option(help="Focal parameter, px (thesis: 525).")] = None,
+    focal: Annotated[
+        float | None, typer.Option(**_read("FOCAL"), help="Focal parameter, px (thesis: 525).")
+    ] = None,
     principal: Annotated[str | None, typer.Option(help="Principal point 'cx,cy', px.")] = None,
     ground_height: Annotated[
-        float | None, typer.Option(help="Camera centre to table top (method 2).")
+        float | None,
+        typer.Option(**_read("GROUND_HEIGHT"), help="Camera centre to table top (method 2)."),
     ] = None,
     ground_truth: Annotated[
         list[str] | None,
@@ -156,7 +206,11 @@ def new(
         typer.Option(help="Board session: the checkerboard's inner corners 'COLSxROWS'."),
     ] = None,
     square: Annotated[
-        float | None, typer.Option(help="Board session: the board's square side, session units.")
+        float | None,
+        typer.Option(
+            **_read("BOARD_SQUARE"),
+            help="Board session: the board's square side, session units.",
+        ),
     ] = None,
     board_corner: Annotated[
         str | None,
@@ -167,7 +221,7 @@ def new(
     ] = None,
     operator: Annotated[str | None, typer.Option(help="Who records.")] = None,
     notes: Annotated[str, typer.Option(help="Free text about the session.")] = "",
-    frames: Annotated[int, typer.Option(min=1, help="Frames captured per pose.")] = 5,
+    frames: Annotated[int, typer.Option(**_read("FRAMES"), help="Frames captured per pose.")] = 5,
     adaptive_frames: Annotated[
         bool,
         typer.Option(
@@ -176,9 +230,13 @@ def new(
             "dominates). A plan sets adaptive_frames."
         ),
     ] = False,
-    poses: Annotated[int, typer.Option(min=2, help="Poses per trial.")] = 2,
-    width: Annotated[int, typer.Option(min=1, help="Camera width to request.")] = 640,
-    height: Annotated[int, typer.Option(min=1, help="Camera height to request.")] = 480,
+    poses: Annotated[int, typer.Option(**_read("POSES"), help="Poses per trial.")] = 2,
+    width: Annotated[
+        int, typer.Option(**_read("IMAGE_SIDE"), help="Camera width to request.")
+    ] = 640,
+    height: Annotated[
+        int, typer.Option(**_read("IMAGE_SIDE"), help="Camera height to request.")
+    ] = 480,
     fps: Annotated[float, typer.Option(min=1, help="Camera frame rate to request.")] = 30.0,
     live: Annotated[
         bool,
@@ -194,18 +252,19 @@ def new(
     target_precision: Annotated[
         float | None,
         typer.Option(
-            min=0.0,
+            **_read("TARGET_PRECISION"),
             help="Stop rule: a trial is complete once its 95% region's largest semi-axis is "
             "within this (session units), or at --max-poses.",
         ),
     ] = None,
     max_poses: Annotated[
-        int, typer.Option(min=2, max=100, help="With --target-precision: a trial's most poses.")
+        int,
+        typer.Option(**_read("MAX_POSES"), help="With --target-precision: a trial's most poses."),
     ] = 6,
     reach: Annotated[
         float | None,
         typer.Option(
-            min=0.0,
+            **_read("REACH"),
             help="Suggested poses lie within this of a trial's first, in x and z (session "
             "units) [default: the thesis' 3 in].",
         ),
@@ -223,7 +282,7 @@ def new(
     grid: Annotated[
         float | None,
         typer.Option(
-            min=0.0,
+            **_read("GRID"),
             help="The grid paper's spacing: suggested poses lie on it (session units) "
             "[default: the thesis' 1/2 in].",
         ),
@@ -250,6 +309,8 @@ def new(
         serve_console_until_stopped,
     )
     from recorder.procedure import refuse_existing
+    from recorder.setup_rules import board_refusal
+    from twopose.methods import spec_of
 
     with handle_errors(), contextlib.ExitStack() as stack:
         refuse_existing(out)  # before the first question
@@ -262,6 +323,9 @@ def new(
         given_guidance = [k for k, v in guiding.items() if v is not None]
         if adaptive_frames:
             given_guidance.append("--adaptive-frames")
+        board_options = given_guidance + (["--max-poses"] if max_poses != 6 else [])
+        if method is not None and not spec_of(method).measures and board_options:
+            raise InputValueError(board_refusal(board_options))
         if plan is not None and (given_guidance or max_poses != 6):
             raise InputValueError(
                 f"{', '.join(given_guidance or ['--max-poses'])}: a plan sets its guidance in "
@@ -278,7 +342,7 @@ def new(
             notes=notes,
             rig=rig_file(rig),
             live_port=live_port if live else None,
-            guidance=guidance_asked(max_poses, reach, grid),
+            guidance=replace(guidance_asked(max_poses, reach, grid), given=tuple(board_options)),
             continued=continued_session(
                 continue_from,
                 method=method,
@@ -327,7 +391,8 @@ def _console_given(
     target_precision: float | None = None,
 ) -> dict[str, Any]:
     """What the command line gave, as :func:`recorder.interactive.ask_setup` takes it."""
-    from recorder.interactive import parse_vector
+    from recorder.setup_rules import parse_vector
+    from twopose.bounds import GROUND_TRUTH
 
     return {
         "method": method.value if method else None,
@@ -338,7 +403,8 @@ def _console_given(
         "principal": _principal(principal),
         "ground_height": ground_height,
         "ground_truth": [
-            parse_vector(g, units or Units.IN, what="ground truth") for g in ground_truth or []
+            _option("--ground-truth", parse_vector, g, units, quantity=GROUND_TRUTH)
+            for g in ground_truth or []
         ],
         "operator": operator,
         "board": board,
@@ -355,7 +421,7 @@ def _board_given(
 ) -> BoardPlacement | None:
     """A board session's board from ``--board``, ``--square`` and ``--board-corner`` (given
     together, for a board session only; None: asked)."""
-    from recorder.setup_rules import board_corner, inner_corners, positive_number
+    from recorder.setup_rules import board_corner, inner_corners
     from twopose.methods import spec_of
     from twopose.targets import BoardPlacement
 
@@ -374,10 +440,19 @@ def _board_given(
     if board is None or square is None or corner is None:  # said above, as missing
         return None
     return BoardPlacement(
-        inner_corners=inner_corners(board),
-        square=positive_number(f"{square!r}"),
-        first_corner=board_corner(corner, units or Units.IN),
+        inner_corners=_option("--board", inner_corners, board),
+        square=square,  # read by its option's parser
+        first_corner=_option("--board-corner", board_corner, corner, units),
     )
+
+
+def _option(option: str, read: Callable[..., T], *args: Any, **kwargs: Any) -> T:
+    """An option's text read as the setup reads it (:mod:`twopose.bounds`); a refusal is
+    a malformed command line (exit 2) naming the option."""
+    try:
+        return read(*args, **kwargs)
+    except InputValueError as err:
+        raise typer.BadParameter(str(err), param_hint=f"'{option}'") from None
 
 
 def _calibration_sigma(path: Path | None) -> dict[str, float]:
@@ -397,13 +472,9 @@ def _calibration(path: Path | None) -> Intrinsics | None:
 def _principal(text: str | None) -> tuple[float, float] | None:
     if not text:
         return None
-    from twopose.values import numbers
+    from recorder.setup_rules import number_pair
 
-    try:
-        cx, cy = numbers([float(p) for p in text.replace(",", " ").split()], 2, "--principal")
-    except ValueError as err:
-        raise InputValueError(f"--principal must be 'cx,cy', got {text!r}") from err
-    return cx, cy
+    return _option("--principal", number_pair, text)
 
 
 @app.command()
@@ -418,7 +489,9 @@ def calibrate(
     board: Annotated[
         str, typer.Option(help="Inner corners 'COLSxROWS' of the checkerboard.")
     ] = "9x6",
-    square: Annotated[float, typer.Option(min=0, help="Square side, session units.")] = 1.0,
+    square: Annotated[
+        float, typer.Option(**_read("BOARD_SQUARE"), help="Square side, session units.")
+    ] = 1.0,
     views: Annotated[
         int | None,
         typer.Option(

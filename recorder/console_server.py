@@ -379,6 +379,10 @@ def checked_setup(form: dict[str, str], options: ConsoleOptions) -> Setup:
     against it as the terminal and a plan check it (:func:`recorder.setup_rules.check_rig`);
     raises :class:`FormRefusedError` holding every refusal, by field."""
     setup = setup_from_answers(form, _given(options))
+    if options.guidance is not None:  # the guidance options' bounds in these units
+        refused = options.guidance.refusals(setup.method, setup.units)
+        if refused:
+            raise FormRefusedError(refused)
     try:
         check_rig(options.rig, setup.method, setup.units, [setup.camera()], setup.ground())
     except InputValueError as err:

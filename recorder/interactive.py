@@ -21,6 +21,7 @@ from recorder.driver import Decision, Driver, Placement, ProcedureRefusedError
 from recorder.procedure import Shortfall, detection_shortfall, record
 from recorder.setup_rules import (
     THESIS_FOCAL_PX,
+    GuidanceAsked,
     PoseTyping,
     Setup,
     board_corner,
@@ -32,11 +33,23 @@ from recorder.setup_rules import (
     off_ground,
     one_of,
     parse_vector,
-    positive_number,
+    reader,
     target_precision,
 )
 from recorder.sources import FrameSource, SourceInfo
 from recorder.summary import RecordingSummary
+from twopose.bounds import (
+    BOARD_CORNER,
+    BOARD_SQUARE,
+    FOCAL,
+    GROUND_HEIGHT,
+    GROUND_TRUTH,
+    PRINCIPAL,
+    ROTATION,
+    TARGET_PRECISION,
+    Quantity,
+    shown,
+)
 from twopose.camera import Camera, Intrinsics
 from twopose.errors import InputValueError
 from twopose.format.entries import (
@@ -103,32 +116,56 @@ def ask_setup(  # noqa: PLR0913 - one keyword per setup value the operator may h
     intrinsics_sigma: dict[str, float] | None = None,
     board: BoardPlacement | None = None,
     target_precision: float | None = None,
+    guidance: GuidanceAsked | None = None,
 ) -> Setup:
     """Ask for whatever is None (or missing) above; answers are checked as they are typed.
     ``intrinsics_sigma`` (a calibration file's) travels with the intrinsics; ``board`` is a
     board session's board, asked part by part where the command line did not give it. The
     stop rule's precision is asked last (Enter: none) when anything else was: a command
-    line that gives the whole setup is asked nothing (``--target-precision`` sets it)."""
+    line that gives the whole setup is asked nothing (``--target-precision`` sets it).
+
+    A value given is checked against its bound in the units chosen
+    (:mod:`twopose.bounds`) and refused, never asked again; so are ``guidance``'s options
+    (a board session takes none), as soon as the method and units are known."""
     asked_before = op.questions
     m = Method(method or op.ask(f"method ({', '.join(METHODS)})", one_of(METHODS)))
     u = Units(units if units in UNITS else op.ask("units (in, mm, cm, m)", one_of(UNITS), "in"))
+    refused = (guidance or GuidanceAsked()).refusals(m, u)
+    if refused:
+        raise InputValueError("; ".join(refused.values()))
     if intrinsics is None:
         f = (
-            focal
-            if focal and focal > 0
-            else op.ask("focal parameter, px", positive_number, f"{THESIS_FOCAL_PX:g}")
+            _given(FOCAL, focal, u, "--focal")
+            if focal is not None
+            else op.ask("focal parameter, px", reader(FOCAL, None), shown(THESIS_FOCAL_PX))
         )
-        centre = ", ".join(f"{v:g}" for v in default_principal(size))
-        cx, cy = principal or op.ask("principal point cx, cy (px)", number_pair, centre)
+        centre = ", ".join(shown(v) for v in default_principal(size))
+        if principal is not None:
+            cx, cy = (_given(PRINCIPAL, v, u, "--principal", axis=a) for v, a in
+                      zip(principal, PRINCIPAL.axes, strict=True))  # fmt: skip
+        else:
+            cx, cy = op.ask("principal point cx, cy (px)", number_pair, centre)
         intrinsics = Intrinsics(width=size[0], height=size[1], fx=f, fy=f, cx=cx, cy=cy)
     h = None
     if spec_of(m).needs_ground:
-        h = ground_height if ground_height and ground_height > 0 else None
-        h = h or op.ask(
-            f"ground height: camera centre to table ({u})",
-            positive_number,
-            default_ground_height(u),
+        h = (
+            _given(GROUND_HEIGHT, ground_height, u, "--ground-height")
+            if ground_height is not None
+            else op.ask(
+                f"ground height: camera centre to table ({u})",
+                reader(GROUND_HEIGHT, u),
+                default_ground_height(u),
+            )
         )
+    for point in ground_truth:
+        for v, a in zip(point, GROUND_TRUTH.axes, strict=True):
+            _given(GROUND_TRUTH, v, u, "--ground-truth", axis=a)
+    if board is not None:
+        _given(BOARD_SQUARE, board.square, u, "--square")
+        for v, a in zip(board.first_corner, BOARD_CORNER.axes, strict=True):
+            _given(BOARD_CORNER, v, u, "--board-corner", axis=a)
+    if target_precision is not None:
+        _given(TARGET_PRECISION, target_precision, u, "--target-precision")
     truth = _ask_truth(op, m, u, h, list(ground_truth))
     if not spec_of(m).measures and board is None:
         board = _ask_board(op, u)
@@ -153,14 +190,23 @@ def ask_target(op: Operator, units: Units) -> float | None:
     """The stop rule's precision (``--target-precision``): a trial is complete once its
     predicted 95% region is within it; ``none`` (the default): suggestions only."""
     question = f"stop a trial when its 95% region is within ({units}; none: no stop rule)"
-    answer: float | None = op.ask(question, target_precision, "none")
+    answer: float | None = op.ask(question, lambda s: target_precision(s, units), "none")
     return answer
+
+
+def _given(quantity: Quantity, value: float, units: Units, option: str, *, axis: str = "") -> float:
+    """A value the command line (or a caller) gave, checked as a typed one would be;
+    refused, naming its option, when past its bound in ``units``."""
+    try:
+        return quantity.read(value, units, axis=axis)
+    except InputValueError as err:
+        raise InputValueError(f"{option}: {err}") from None
 
 
 def _ask_board(op: Operator, units: Units) -> BoardPlacement:
     """A board session's board: its inner corners, its square and where it stands."""
     corners = op.ask("board's inner corners COLSxROWS", inner_corners, "9x6")
-    square = op.ask(f"board's square side ({units})", positive_number)
+    square = op.ask(f"board's square side ({units})", reader(BOARD_SQUARE, units))
     corner = op.ask(
         f"board's first inner corner x, y, z ({units}; lower left, seen from the camera)",
         lambda s: board_corner(s, units),
@@ -182,7 +228,7 @@ def _ask_truth(
     while len(given) < n_truth:
         point = op.ask(
             f"ground truth point {len(given) + 1} x, y, z ({units})",
-            lambda s: distinct_point(parse_vector(s, units, what="ground truth"), given),
+            lambda s: distinct_point(parse_vector(s, units, quantity=GROUND_TRUTH), given),
         )
         if height is None or _keep(op, point, height, units):
             given.append(point)
@@ -287,7 +333,7 @@ class _OperatorDriver(Driver):
         )
         r = self.op.ask(
             "rotation rx, ry, rz (deg)",
-            lambda s: parse_vector(s, units, what="rotation", limit=180.0),
+            lambda s: parse_vector(s, units, quantity=ROTATION),
             "0, 0, 0",
         )
         entry = PoseEntry(

@@ -155,9 +155,12 @@ def record_terminal(
         # The continued session's setup, with the continuation's own stop rule.
         setup = replace(Setup.of(request.continued), target95=given["target_precision"])
     else:
-        setup = ask_setup(op, size=(mode.width, mode.height), **given)
+        setup = ask_setup(op, size=(mode.width, mode.height), guidance=request.guidance, **given)
     check_rig(request.rig, setup.method, setup.units, [setup.camera()], setup.ground())
     asked = request.guidance or guidance_asked()
+    refused = asked.refusals(setup.method, setup.units)  # a continued board session's
+    if refused:
+        raise InputValueError("; ".join(refused.values()))
     guidance = asked.guidance(setup.units, request.poses, setup.target95)
     src = open_source(
         request.source, method=setup.method, width=mode.width, height=mode.height, fps=mode.fps,

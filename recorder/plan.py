@@ -20,14 +20,32 @@ from recorder.capture import CaptureResult, CaptureSettings, FrameFeedback
 from recorder.driver import Decision, Driver, Placement
 from recorder.procedure import record
 from recorder.setup_rules import (
-    MAX_ROTATION_DEG,
     THESIS_FOCAL_PX,
     THESIS_IMAGE_SIZE,
+    board_refusal,
     default_principal,
     off_ground,
 )
 from recorder.sources import FrameSource
 from recorder.summary import RecordingSummary
+from twopose.bounds import (
+    BOARD_CORNER,
+    BOARD_SQUARE,
+    FOCAL,
+    FRAMES,
+    GRID,
+    GROUND_HEIGHT,
+    GROUND_TRUTH,
+    IMAGE_SIDE,
+    INNER_CORNERS,
+    MAX_POSES,
+    POSE_TRANSLATION,
+    PRINCIPAL,
+    REACH,
+    ROTATION,
+    TARGET_PRECISION,
+    Quantity,
+)
 from twopose.camera import Camera, Intrinsics
 from twopose.config import read_toml
 from twopose.errors import InputValueError, SourceError
@@ -44,8 +62,8 @@ from twopose.format.entries import (
 from twopose.guidance import THESIS_MOVE_IN, Guidance, Reach
 from twopose.methods import METHODS, Method, spec_of
 from twopose.targets import BoardPlacement
-from twopose.units import UNITS, Units, unit_factor, unit_spec
-from twopose.values import Vec3, finite, numbers, vec3
+from twopose.units import UNITS, Units, unit_factor
+from twopose.values import Vec3, finite
 
 if TYPE_CHECKING:
     from recorder.continuation import Continued
@@ -74,10 +92,6 @@ _PLAN_KEYS = {
     "poses": {"t", "r_deg", "camera"},
     "resolution": {"translation", "rotation_deg"},
 }
-
-
-def _whole(*values: Any) -> bool:
-    return all(isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in values)
 
 
 def _known_keys(table: Any, kind: str, where: str) -> dict[str, Any]:
@@ -140,8 +154,26 @@ class Plan:
         return GroundPlane(offset=self.ground_height) if self.ground_height is not None else None
 
 
-def _vec(value: Any, where: str) -> Vec3:
-    return vec3(value, f"plan: {where}")
+def _read(quantity: Quantity, value: Any, where: str, units: Units | None) -> float:
+    """A plan's number, read by the quantity's one reader (:mod:`twopose.bounds`); a refusal
+    names its key."""
+    try:
+        return quantity.read(value, units, text=False)
+    except InputValueError as err:
+        raise InputValueError(f"plan: {where}: {err}") from None
+
+
+def _vec(quantity: Quantity, value: Any, where: str, units: Units | None) -> Vec3:
+    """A plan's point (``[x, y, z]``), each number within ``quantity``'s bound."""
+    try:
+        x, y, z = quantity.read_vector(value, units, text=False)
+    except InputValueError as err:
+        raise InputValueError(f"plan: {where}: {err}") from None
+    return (x, y, z)
+
+
+def _count(quantity: Quantity, value: Any, where: str) -> int:
+    return int(_read(quantity, value, where, None))
 
 
 def _camera(table: Any) -> Camera:
@@ -158,13 +190,15 @@ def _camera(table: Any) -> Camera:
             intrinsics=load_calibration(path),
             intrinsics_sigma=load_calibration_sigma(path),
         )
-    focal = finite(table.get("focal", THESIS_FOCAL_PX), "plan: camera.focal", positive=True)
-    width, height = (
-        table.get("width", THESIS_IMAGE_SIZE[0]),
-        table.get("height", THESIS_IMAGE_SIZE[1]),
-    )
-    centre = default_principal((int(width), int(height))) if _whole(width, height) else (0.0, 0.0)
-    cx, cy = numbers(table.get("principal", list(centre)), 2, "plan: camera.principal")
+    focal = _read(FOCAL, table.get("focal", THESIS_FOCAL_PX), "camera.focal", None)
+    width = _count(IMAGE_SIDE, table.get("width", THESIS_IMAGE_SIZE[0]), "camera.width")
+    height = _count(IMAGE_SIDE, table.get("height", THESIS_IMAGE_SIZE[1]), "camera.height")
+    try:
+        cx, cy = PRINCIPAL.read_vector(
+            table.get("principal", list(default_principal((width, height)))), None, text=False
+        )
+    except InputValueError as err:
+        raise InputValueError(f"plan: camera.principal: {err}") from None
     values = {"width": width, "height": height, "fx": focal, "cx": cx, "cy": cy} | table
     values.setdefault("fy", values["fx"])
     return Camera(camera_id=camera_id, intrinsics=Intrinsics.from_dict(values, "plan: [camera]"))
@@ -200,16 +234,17 @@ def load_plan(path: str | Path) -> Plan:
     units = Units(units)
     cameras_data = data.get("cameras") or [data.get("camera", {})]
     cameras = tuple(_camera(c) for c in cameras_data)
-    frames = data.get("frames", 5)
-    if isinstance(frames, bool) or not isinstance(frames, int) or frames < 1:
-        raise InputValueError(f"plan: frames must be a whole number >= 1, got {frames!r}")
+    frames = _count(FRAMES, data.get("frames", 5), "frames")
     adaptive = data.get("adaptive_frames", False)
     if not isinstance(adaptive, bool):
         raise InputValueError(f"plan: adaptive_frames must be true or false, got {adaptive!r}")
+    board_guidance = [k for k in ("guidance", "adaptive_frames") if data.get(k)]
+    if not spec_of(method).measures and board_guidance:
+        raise InputValueError(f"plan: {board_refusal(board_guidance)}")
     ground = data.get("ground_height")
     if spec_of(method).needs_ground and ground is None:
         raise InputValueError("plan: a ground session needs ground_height (camera centre to table)")
-    height = None if ground is None else finite(ground, "plan: ground_height", positive=True)
+    height = None if ground is None else _read(GROUND_HEIGHT, ground, "ground_height", units)
     res = _known_keys(data.get("resolution", {}), "resolution", "resolution")
     resolution = (
         finite(
@@ -270,16 +305,17 @@ def _guidance(table: Any, units: Units) -> tuple[Guidance | None, int]:
     g = _known_keys(table, "guidance", "guidance")
     thesis = Reach.thesis(units)
     target = g.get("target_95")
-    radius = finite(g.get("reach", thesis.radius), "plan: guidance.reach", positive=True)
-    spacing = finite(g.get("spacing", thesis.spacing), "plan: guidance.spacing", positive=True)
+    radius = _read(REACH, g.get("reach", thesis.radius), "guidance.reach", units)
+    spacing = _read(GRID, g.get("spacing", thesis.spacing), "guidance.spacing", units)
     if spacing > radius:
         raise InputValueError(f"plan: guidance.spacing {spacing:g} is beyond reach {radius:g}")
-    max_poses, seed = g.get("max_poses", _DEFAULT_MAX_POSES), g.get("seed", 0)
-    if not _whole(max_poses) or max_poses < 2 or max_poses > 100:
-        raise InputValueError(f"plan: guidance.max_poses must be 2-100, got {max_poses!r}")
+    max_poses = _count(MAX_POSES, g.get("max_poses", _DEFAULT_MAX_POSES), "guidance.max_poses")
+    seed = g.get("seed", 0)
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise InputValueError(f"plan: guidance.seed must be a whole number >= 0, got {seed!r}")
-    target95 = None if target is None else finite(target, "plan: guidance.target_95", positive=True)
+    target95 = (
+        None if target is None else _read(TARGET_PRECISION, target, "guidance.target_95", units)
+    )
     reach = Reach(radius=radius, spacing=spacing)
     return Guidance(reach=reach, target95=target95, max_poses=max_poses), seed
 
@@ -300,18 +336,16 @@ def _board(table: Any, method: Method, units: Units) -> BoardPlacement | None:
     missing = sorted({"inner_corners", "square", "first_corner"} - set(b))
     if missing:
         raise InputValueError(f"plan: board.{missing[0]} is missing")
-    corners = b["inner_corners"]
-    if not isinstance(corners, list) or len(corners) != 2:
-        raise InputValueError(f"plan: board.inner_corners must be [cols, rows], got {corners!r}")
-    corner = _vec(b["first_corner"], "board.first_corner")
-    if unit_spec(units).too_large(corner):
-        raise InputValueError(
-            f"plan: board.first_corner = {corner} is implausibly large for {units}"
-        )
     try:
-        return BoardPlacement(
-            inner_corners=(corners[0], corners[1]), square=b["square"], first_corner=corner
+        cols, rows = (
+            int(v) for v in INNER_CORNERS.read_vector(b["inner_corners"], None, text=False)
         )
+    except InputValueError as err:
+        raise InputValueError(f"plan: board.inner_corners: {err}") from None
+    corner = _vec(BOARD_CORNER, b["first_corner"], "board.first_corner", units)
+    square = _read(BOARD_SQUARE, b["square"], "board.square", units)
+    try:
+        return BoardPlacement(inner_corners=(cols, rows), square=square, first_corner=corner)
     except InputValueError as err:
         raise InputValueError(f"plan: [board]: {err}") from err
 
@@ -340,15 +374,8 @@ def _trial(
     for j, p in enumerate(raw_poses, start=1):
         where = f"trials[{i}].poses[{j}]"
         p = _known_keys(p, "poses", where)
-        tg = _vec(p.get("t"), f"{where}.t")
-        if unit_spec(units).too_large(tg):
-            raise InputValueError(f"plan: {where}.t = {tg} is implausibly large for {units}")
-        r_deg = _vec(p.get("r_deg", [0, 0, 0]), f"{where}.r_deg")
-        if max(abs(v) for v in r_deg) > MAX_ROTATION_DEG:
-            raise InputValueError(
-                f"plan: {where}.r_deg = {r_deg} is implausibly large (over "
-                f"{MAX_ROTATION_DEG:g} deg); a typo?"
-            )
+        tg = _vec(POSE_TRANSLATION, p.get("t"), f"{where}.t", units)
+        r_deg = _vec(ROTATION, p.get("r_deg", [0, 0, 0]), f"{where}.r_deg", units)
         poses.append(
             PlannedPose(t_grid=tg, r_deg=r_deg, camera_id=str(p.get("camera", default_camera)))
         )
@@ -361,12 +388,8 @@ def _guided_trial(
     t: dict[str, Any], i: int, units: Units, camera: str, max_poses: int, gt: tuple[Vec3, ...]
 ) -> PlannedTrial:
     """A ``poses = "guided"`` trial: where it starts, and its most poses."""
-    most = t.get("max_poses", max_poses)
-    if not _whole(most) or most < 2 or most > 100:
-        raise InputValueError(f"plan: trials[{i}].max_poses must be 2-100, got {most!r}")
-    start = _vec(t.get("start", [0, 0, 0]), f"trials[{i}].start")
-    if unit_spec(units).too_large(start):
-        raise InputValueError(f"plan: trials[{i}].start = {start} is implausibly large")
+    most = _count(MAX_POSES, t.get("max_poses", max_poses), f"trials[{i}].max_poses")
+    start = _vec(POSE_TRANSLATION, t.get("start", [0, 0, 0]), f"trials[{i}].start", units)
     first = PlannedPose(t_grid=start, camera_id=camera)
     return PlannedTrial(poses=(), ground_truth=gt, max_poses=most, start=first)
 
@@ -376,9 +399,7 @@ def _truth(
 ) -> tuple[Vec3, ...]:
     """A trial's ground truth, checked by the setup rules."""
     where = f"trials[{i}].ground_truth"
-    gt = tuple(_vec(g, where) for g in t.get("ground_truth", []))
-    if any(unit_spec(units).too_large(g) for g in gt):
-        raise InputValueError(f"plan: {where} = {gt} is implausibly large for {units}")
+    gt = tuple(_vec(GROUND_TRUTH, g, where, units) for g in t.get("ground_truth", []))
     spec = spec_of(method)
     if gt and not spec.truth_points:
         raise InputValueError(f"plan: {where}: a board session's truth is its [board], not points")

@@ -10,13 +10,30 @@ the other's wording.
 
 from __future__ import annotations
 
-import math
 import time
 import uuid
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+from twopose.bounds import (
+    BOARD_CORNER,
+    BOARD_SQUARE,
+    FOCAL,
+    GRID,
+    GROUND_HEIGHT,
+    GROUND_TRUTH,
+    INNER_CORNERS,
+    MAX_POSES,
+    POSE_TRANSLATION,
+    POSES,
+    PRINCIPAL,
+    REACH,
+    ROTATION,
+    TARGET_PRECISION,
+    Quantity,
+    shown,
+)
 from twopose.camera import Camera, Intrinsics
 from twopose.errors import InputValueError
 from twopose.format.entries import (
@@ -26,9 +43,9 @@ from twopose.format.entries import (
     SessionInfo,
 )
 from twopose.methods import MEASURING_METHODS, METHODS, Method, spec_of
-from twopose.targets import MAX_INNER_CORNERS, BoardPlacement
+from twopose.targets import BoardPlacement
 from twopose.units import UNITS, Units, unit_spec
-from twopose.values import Vec3, finite, numbers, parse_number, vec3
+from twopose.values import Vec3
 
 if TYPE_CHECKING:
     from recorder.continuation import Continued
@@ -36,7 +53,6 @@ if TYPE_CHECKING:
     from twopose.rig.constants import RigConstants
 
 __all__ = [
-    "MAX_ROTATION_DEG",
     "SETUP_FIELDS",
     "THESIS_FOCAL_PX",
     "THESIS_IMAGE_SIZE",
@@ -44,20 +60,21 @@ __all__ = [
     "Setup",
     "SetupField",
     "board_corner",
+    "board_refusal",
     "check_rig",
     "default_ground_height",
     "default_principal",
     "distinct_point",
     "form_fields",
     "inner_corners",
-    "max_translation",
     "number_pair",
     "off_ground",
     "one_of",
     "parse_pose_form",
     "parse_vector",
-    "positive_number",
+    "reader",
     "setup_from_answers",
+    "target_precision",
 ]
 
 #: The thesis' rig (section 5.2): f = 525 px, principal point at the centre of 640x480, a
@@ -66,8 +83,6 @@ __all__ = [
 THESIS_FOCAL_PX = 525.0
 THESIS_IMAGE_SIZE = (640, 480)
 THESIS_GROUND_HEIGHT_IN = 9.625
-#: A typed rotation's angles, at most (degrees): beyond, a typo.
-MAX_ROTATION_DEG = 180.0
 #: The camera of a session set up by hand (terminal or browser): one laptop webcam.
 CAMERA_ID = "cam0"
 
@@ -176,27 +191,22 @@ class FormRefusedError(InputValueError):
 
 
 def parse_pose_form(form: Mapping[str, str], units: Units) -> tuple[Vec3, Vec3]:
-    """A pose typed in a form (``x``, ``y``, ``z``, ``rotation``), each field checked;
-    raises :class:`FormRefusedError` with every refusal."""
+    """A pose typed in a form (``x``, ``y``, ``z``, ``rotation``), each field read as the
+    terminal reads it (:mod:`twopose.bounds`); raises :class:`FormRefusedError` with every
+    refusal."""
     errors: dict[str, str] = {}
     xyz: list[float] = []
     for axis in "xyz":
-        text = str(form.get(axis, "") or "").strip()
         try:
-            xyz.append(parse_number(text, axis) if text else math.nan)
-        except InputValueError:
-            errors[axis] = f"type a number for {axis} ({units}), e.g. 1.5"
-            continue
-        if not text:
-            errors[axis] = f"type the camera centre's {axis} ({units})"
-        elif abs(xyz[-1]) > max_translation(units):
-            errors[axis] = f"{text} {units} is implausibly large; a typo?"
+            xyz.append(POSE_TRANSLATION.read(str(form.get(axis, "") or ""), units, axis=axis))
+        except InputValueError as err:
+            errors[axis] = str(err)
     rotation = str(form.get("rotation", "") or "").strip() or "0, 0, 0"
     r: Vec3 = (0.0, 0.0, 0.0)
     try:
-        r = parse_vector(rotation, units, what="rotation", limit=MAX_ROTATION_DEG)
+        r = parse_vector(rotation, units, quantity=ROTATION)
     except InputValueError as err:
-        errors["rotation"] = str(err).removeprefix("rotation: ")
+        errors["rotation"] = str(err)
     if errors:
         raise FormRefusedError(errors)
     return (xyz[0], xyz[1], xyz[2]), r
@@ -205,25 +215,17 @@ def parse_pose_form(form: Mapping[str, str], units: Units) -> tuple[Vec3, Vec3]:
 # --------------------------------------------------------------------------- the checks
 
 
-def parse_vector(
-    text: str, units: Units, *, what: str = "translation", limit: float | None = None
-) -> Vec3:
-    """Three numbers typed as ``x, y, z`` (commas or spaces); raises InputValueError."""
-    example = "0, 0, 0" if what == "rotation" else "1.1, 0, 0"
-    parts = text.replace(",", " ").split()
-    if len(parts) != 3:
-        raise InputValueError(f"{what}: type three numbers, e.g. {example} (got {text!r})")
-    try:
-        v = vec3([parse_number(p, what) for p in parts], what)
-    except InputValueError as err:
-        raise InputValueError(f"{what}: {text!r} is not three numbers, e.g. {example}") from err
-    bound = max_translation(units) if limit is None else limit
-    if max(abs(x) for x in v) > bound:
-        unit = "deg" if what == "rotation" else units
-        raise InputValueError(
-            f"{what}: {text!r} is implausibly large (over {bound:g} {unit}); a typo?"
-        )
-    return v
+def parse_vector(text: str, units: Units | None, *, quantity: Quantity = POSE_TRANSLATION) -> Vec3:
+    """Three numbers typed as ``x, y, z`` (commas or spaces), each within ``quantity``'s
+    bound (:mod:`twopose.bounds`); raises InputValueError."""
+    x, y, z = quantity.read_vector(text, units)
+    return (x, y, z)
+
+
+def reader(quantity: Quantity, units: Units | None) -> Callable[[str], float]:
+    """The parser of one typed ``quantity`` (the terminal asks with it, the page's fields
+    are read with it)."""
+    return lambda text: quantity.read(text, units)
 
 
 def one_of(options: Sequence[str]) -> Callable[[str], str]:
@@ -235,61 +237,38 @@ def one_of(options: Sequence[str]) -> Callable[[str], str]:
     return parse
 
 
-def target_precision(text: str) -> float | None:
-    """The stop rule's precision: a positive length, or none ("", "none": no stop rule)."""
+def target_precision(text: str, units: Units | None) -> float | None:
+    """The stop rule's precision: a length within its bound, or none ("", "none": no stop
+    rule)."""
     if text.strip().lower() in ("", "none", "-"):
         return None
     try:
-        return positive_number(text)
+        return TARGET_PRECISION.read(text, units)
     except InputValueError as err:
-        raise InputValueError(f"{err}: type a length, or none for no stop rule") from None
-
-
-def positive_number(text: str) -> float:
-    """A positive number below a million (a typed length or focal length)."""
-    if not text.strip():
-        raise InputValueError("type a number")
-    try:
-        v = finite(parse_number(text, repr(text)), repr(text), positive=True)
-    except InputValueError as err:
-        raise InputValueError(f"{text.strip()[:40]!r} is not a positive number") from err
-    if v >= 1e6:
-        raise InputValueError(f"{text!r} is implausibly large")
-    return v
+        raise InputValueError(f"{err}; or none for no stop rule") from None
 
 
 def number_pair(text: str) -> tuple[float, float]:
-    try:
-        parts = text.replace(",", " ").split()
-        a, b = numbers([parse_number(p, "cx, cy") for p in parts], 2, "cx, cy")
-    except InputValueError as err:
-        raise InputValueError(f"type two numbers 'cx, cy', e.g. 320, 240 (got {text!r})") from err
-    return a, b
+    """The principal point typed as ``cx, cy`` (px)."""
+    cx, cy = PRINCIPAL.read_vector(text, None)
+    return cx, cy
 
 
 def inner_corners(text: str) -> tuple[int, int]:
-    """A checkerboard's inner corners typed as ``COLSxROWS`` (2-100 each way), e.g. 9x6."""
-    try:
-        cols, rows = (int(v) for v in text.strip().lower().split("x"))
-    except ValueError as err:
+    """A checkerboard's inner corners typed as ``COLSxROWS`` (each within its bound), e.g. 9x6."""
+    parts = text.strip().lower().split("x")
+    if len(parts) != 2:
         raise InputValueError(
-            f"type the board's inner corners as COLSxROWS, e.g. 9x6 (got {text!r})"
-        ) from err
-    if not (2 <= cols <= MAX_INNER_CORNERS and 2 <= rows <= MAX_INNER_CORNERS):
-        raise InputValueError(f"2-{MAX_INNER_CORNERS} inner corners each way, got {text!r}")
-    return cols, rows
+            f"type the board's inner corners as COLSxROWS, e.g. 9x6 (got {text.strip()[:40]!r})"
+        )
+    cols, rows = INNER_CORNERS.read_vector(parts, None)
+    return int(cols), int(rows)
 
 
 def distinct_point(point: Vec3, earlier: Sequence[Vec3]) -> Vec3:
     if point in earlier:
         raise InputValueError("this point was already given; a line needs two different points")
     return point
-
-
-def max_translation(units: Units) -> float:
-    """A typed translation's plausible magnitude (session units): beyond it, a typo is
-    likelier (:attr:`twopose.units.UnitSpec.max_translation`)."""
-    return unit_spec(units).max_translation
 
 
 def default_principal(size: tuple[int, int]) -> tuple[float, float]:
@@ -387,8 +366,8 @@ def _given_text(name: str, given: Mapping[str, Any]) -> str | None:
     texts: dict[str, Any] = {
         "method": given.get("method"),
         "units": given.get("units") if given.get("units") in UNITS else None,
-        "focal": f"{k.fx:g}" if k is not None else given.get("focal"),
-        "principal": f"{k.cx:g}, {k.cy:g}" if k is not None else given.get("principal"),
+        "focal": shown(k.fx) if k is not None else given.get("focal"),
+        "principal": f"{shown(k.cx)}, {shown(k.cy)}" if k is not None else given.get("principal"),
         "ground_height": given.get("ground_height"),
         "truth1": truth[0] if truth else None,
         "truth2": truth[1] if len(truth) > 1 else None,
@@ -403,8 +382,8 @@ def _given_text(name: str, given: Mapping[str, Any]) -> str | None:
     if value is None or (value == "" and name != "operator"):
         return None
     if isinstance(value, tuple):
-        return ", ".join(f"{v:g}" for v in value)
-    return f"{value:g}" if isinstance(value, float) else str(value)
+        return ", ".join(shown(v) for v in value)
+    return shown(value) if isinstance(value, float) else str(value)
 
 
 def _default_text(name: str, units: Units) -> str:
@@ -477,7 +456,7 @@ def setup_from_answers(form: Mapping[str, str], given: Mapping[str, Any]) -> Set
     operator = a.text("operator")
     target = None
     if method is not None and spec_of(method).measures:
-        target = a.check("target_precision", target_precision)
+        target = a.check("target_precision", lambda s: target_precision(s, units))
     if a.errors:
         raise FormRefusedError(a.errors)
     sigma = dict(given.get("intrinsics_sigma") or {})
@@ -501,15 +480,15 @@ def _method(text: str) -> Method:
     return Method(one_of(METHODS)(text))
 
 
-def board_corner(text: str, units: Units) -> Vec3:
+def board_corner(text: str, units: Units | None) -> Vec3:
     """The board's first inner corner: a measured grid point, checked as a typed one."""
-    return parse_vector(text, units, what="board corner")
+    return parse_vector(text, units, quantity=BOARD_CORNER)
 
 
 def _board(a: _Answers, units: Units) -> BoardPlacement | None:
     """The board's size and placement (every part required: it is the session's truth)."""
     corners = a.check("board", inner_corners)
-    square = a.check("square", positive_number)
+    square = a.check("square", reader(BOARD_SQUARE, units))
     corner = a.check("board_corner", lambda s: board_corner(s, units))
     if corners is None or square is None or corner is None:
         return None
@@ -519,11 +498,11 @@ def _board(a: _Answers, units: Units) -> BoardPlacement | None:
 def _ground_height(text: str, units: Units) -> float:
     if not text:
         raise InputValueError(f"type the height of the camera centre above the table ({units})")
-    return positive_number(text)
+    return GROUND_HEIGHT.read(text, units)
 
 
 def _intrinsics(a: _Answers, size: tuple[int, int]) -> Intrinsics:
-    focal = a.check("focal", lambda s: positive_number(s or f"{THESIS_FOCAL_PX:g}"))
+    focal = a.check("focal", lambda s: FOCAL.read(s or shown(THESIS_FOCAL_PX), None))
     principal = a.check("principal", lambda s: number_pair(s) if s else default_principal(size))
     f = focal or THESIS_FOCAL_PX
     cx, cy = principal or default_principal(size)
@@ -549,7 +528,7 @@ def _truth(a: _Answers, method: Method, units: Units, height: float | None) -> t
         if not a.text(name):
             continue
         point = a.check(
-            name, lambda s: distinct_point(parse_vector(s, units, what="ground truth"), points)
+            name, lambda s: distinct_point(parse_vector(s, units, quantity=GROUND_TRUTH), points)
         )
         if point is not None:
             points.append(point)
@@ -568,11 +547,27 @@ def _truth(a: _Answers, method: Method, units: Units, height: float | None) -> t
 class GuidanceAsked:
     """The guidance a recording was asked for (``new``'s options): the most poses of a
     trial with a stop rule, and the reach of the suggestions (None: the thesis'). The stop
-    rule's precision is the setup's (:attr:`Setup.target95`), given or answered."""
+    rule's precision is the setup's (:attr:`Setup.target95`), given or answered.
+    ``given`` names the guidance options the command line gave (a board session refuses
+    them: :meth:`refusals`)."""
 
     max_poses: int = 6
     reach: float | None = None
     spacing: float | None = None
+    given: tuple[str, ...] = ()
+
+    def refusals(self, method: Method, units: Units) -> dict[str, str]:
+        """Why these options cannot guide a session of ``method`` in ``units``, by the
+        setup field the page shows it at ({}: they can). The terminal, the page and the
+        command line refuse with these words (a plan: :func:`recorder.plan.load_plan`)."""
+        if not spec_of(method).measures and self.given:
+            return {"method": board_refusal(self.given)}
+        errors = {}
+        for value, quantity in ((self.reach, REACH), (self.spacing, GRID)):
+            why = quantity.refusal(value, units) if value is not None else ""
+            if why:
+                errors["units"] = f"--{'grid' if quantity is GRID else 'reach'}: {why}"
+        return errors
 
     def guidance(self, units: Units, poses: int, target95: float | None) -> Guidance:
         """The recording's guidance in the session's units; without a target, a trial
@@ -582,12 +577,14 @@ class GuidanceAsked:
         thesis = Reach.thesis(units)
         radius = self.reach if self.reach is not None else thesis.radius
         spacing = self.spacing if self.spacing is not None else thesis.spacing
-        if not (0 < spacing <= radius):
+        for value, quantity in ((radius, REACH), (spacing, GRID)):
+            quantity.read(value, units)
+        if spacing > radius:
             raise InputValueError(
-                f"the grid spacing ({spacing:g} {units}) must be > 0 and within the reach "
+                f"the grid spacing ({spacing:g} {units}) must be within the reach "
                 f"({radius:g} {units})"
             )
-        most = self.max_poses if target95 is not None else poses
+        most = MAX_POSES.count(self.max_poses) if target95 is not None else POSES.count(poses)
         try:
             return Guidance(
                 reach=Reach(radius=radius, spacing=spacing), target95=target95,
@@ -595,3 +592,13 @@ class GuidanceAsked:
             )  # fmt: skip
         except ValueError as err:
             raise InputValueError(str(err)) from None
+
+
+def board_refusal(options: Sequence[str]) -> str:
+    """Why a board session refuses guidance options (``--target-precision``, ``--reach``,
+    ``--grid``, ``--max-poses``, ``--adaptive-frames``; a plan's ``[guidance]``)."""
+    return (
+        f"{', '.join(options)}: a board session has no guidance: it locates no target, so "
+        "nothing suggests its poses, says when a trial is precise enough or when a pose has "
+        "frames enough; leave them out"
+    )

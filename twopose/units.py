@@ -1,7 +1,8 @@
 """The session's length units as a type, with one registry.
 
 Of what each one is: its size in inches (the thesis reports in inches), its name in words,
-and the recorder's limits expressed in it. Every per-unit table reads it here.
+and the ground tolerance in it. Every per-unit table reads it here; the bounds of typed
+values, stated in inches and converted, are :mod:`twopose.bounds`'.
 
 ``Units`` is a :class:`~enum.StrEnum`: its members equal, print and serialise as their
 symbols (``Units.IN == "in"``), so files and tables are unchanged.
@@ -10,7 +11,7 @@ symbols (``Units.IN == "in"``), so files and tables are unchanged.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass
 from enum import StrEnum
 from types import MappingProxyType
@@ -45,49 +46,30 @@ class Units(StrEnum):
 
 @dataclass(frozen=True, kw_only=True)
 class UnitSpec:
-    """One unit: its size, its name, and the recorder's limits in it."""
+    """One unit: its size, its name, and the ground tolerance in it."""
 
     units: Units
     inches: float  # inches in one unit
     name: str  # in words, plural ("inches")
-    max_translation: float  # the largest typed translation a plan or the operator may give
     ground_tolerance: float  # how far off y = h a method 2 ground truth may lie unflagged
-
-    def too_large(self, vector: Sequence[float]) -> bool:
-        """Whether a typed position (a pose, a ground truth, a board corner) lies beyond any grid.
-
-        The recorder refuses one as a typo; the analysis compares with no such truth
-        (another writer's file may hold one).
-        """
-        return max(abs(float(v)) for v in vector) > self.max_translation
-
-    def beyond_grid(self, what: str, vector: Sequence[float]) -> str:
-        """Why ``what`` at ``vector`` cannot be used, in words ("" when it is within the grid)."""
-        if not self.too_large(vector):
-            return ""
-        shown = ", ".join(f"{float(v):g}" for v in vector)
-        return (
-            f"{what} ({shown}) lies beyond any grid (|x|, |y|, |z| <= "
-            f"{self.max_translation:g} {self.units})"
-        )
 
 
 UNIT_SPECS: Mapping[Units, UnitSpec] = MappingProxyType(
     {
         Units.IN: UnitSpec(
-            units=Units.IN, inches=1.0, name="inches", max_translation=200.0,
+            units=Units.IN, inches=1.0, name="inches",
             ground_tolerance=1 / 32,
         ),
         Units.MM: UnitSpec(
-            units=Units.MM, inches=1 / 25.4, name="millimetres", max_translation=5000.0,
+            units=Units.MM, inches=1 / 25.4, name="millimetres",
             ground_tolerance=0.5,
         ),
         Units.CM: UnitSpec(
-            units=Units.CM, inches=1 / 2.54, name="centimetres", max_translation=500.0,
+            units=Units.CM, inches=1 / 2.54, name="centimetres",
             ground_tolerance=0.05,
         ),
         Units.M: UnitSpec(
-            units=Units.M, inches=1000 / 25.4, name="metres", max_translation=5.0,
+            units=Units.M, inches=1000 / 25.4, name="metres",
             ground_tolerance=0.0005,
         ),
     }

@@ -108,11 +108,11 @@ def test_plan_mode_with_a_source_that_runs_out(tmp_path: Path) -> None:
         ('method = "point"\n[[trials]]\nposes = [{t=[0,0]},{t=[1,0,0]}]\n', "poses[1].t"),
         (
             'method = "point"\n[[trials]]\nposes = [{t=[0,0,"a"]},{t=[1,0,0]}]\n',
-            "t must be a number",
+            "t: camera centre z must be a number, got 'a'",
         ),
         (
             'method = "point"\n[[trials]]\nposes = [{t=[0,0,0]},{t=[9000,0,0]}]\n',
-            "implausibly large",
+            "poses[2].t: camera centre x must be from -200 to 200 in, got 9000",
         ),
         ('method = "point"\nframes = 0\n', "frames"),
         ('method = "point"\n', "no [[trials]]"),
@@ -147,11 +147,11 @@ def test_plan_mode_with_a_source_that_runs_out(tmp_path: Path) -> None:
         (
             'method = "board"\n[board]\ninner_corners = [9, 101]\nsquare = 1\n'
             "first_corner = [0, 0, 20]\n",
-            "inner corners must be two whole numbers 2-100",  # as the terminal and browser
+            "inner corners rows must be a whole number from 2 to 100, got 101",  # as everywhere
         ),
         (
             'method = "point"\n[[trials]]\nposes = [{t=[0,0,0], r_deg=[0,200,0]},{t=[1,0,0]}]\n',
-            "r_deg = (0.0, 200.0, 0.0) is implausibly large (over 180 deg)",
+            "r_deg: rotation ry must be from -180 to 180 deg, got 200",
         ),
         (
             'method = "ground"\nground_height = 9.625\n[[trials]]\nkeep_off_ground = "yes"\n'
@@ -162,7 +162,7 @@ def test_plan_mode_with_a_source_that_runs_out(tmp_path: Path) -> None:
         (
             'method = "point"\n[[trials]]\nground_truth = [[1e300, 0, 1]]\n'
             "poses = [{t=[0,0,0]},{t=[1,0,0]}]\n",
-            "ground_truth = ((1e+300, 0.0, 1.0),) is implausibly large",
+            "ground_truth: ground truth x must be from -200 to 200 in, got 1e+300",
         ),
         ('method = "point"\n[board]\nsquare = 1\n', "[board] is for a board session"),
         ('method = "board"\n[[trials]]\nposes = [{t=[0,0,0]},{t=[1,0,0]}]\n', "needs [board]"),
@@ -170,7 +170,7 @@ def test_plan_mode_with_a_source_that_runs_out(tmp_path: Path) -> None:
         (
             'method = "board"\n[board]\ninner_corners = [9, 1]\nsquare = 1\n'
             "first_corner = [0, 0, 20]\n",
-            "inner corners must be two whole numbers 2-100",
+            "inner corners rows must be a whole number from 2 to 100, got 1",
         ),
         (
             'method = "board"\n[board]\ninner_corners = [9, 6]\nsquare = 1\n'

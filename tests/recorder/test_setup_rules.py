@@ -145,7 +145,7 @@ def test_the_pose_form_refuses_each_field() -> None:
     with pytest.raises(FormRefusedError) as caught:
         parse_pose_form({"x": "a", "y": "", "z": "1e9", "rotation": "1, 2"}, Units.IN)
     assert set(caught.value.errors) == {"x", "y", "z", "rotation"}
-    assert "0, 0, 0" in caught.value.errors["rotation"]  # a rotation's example is a rotation
+    assert "rx, ry, rz" in caught.value.errors["rotation"]  # a rotation's axes are a rotation's
 
 
 @given(st.dictionaries(st.sampled_from([f.name for f in SETUP_FIELDS]), st.text(max_size=12)))
@@ -160,11 +160,18 @@ def test_any_form_is_a_setup_or_a_refusal_by_known_field(form: dict[str, str]) -
     assert set(errors) <= {f.name for f in SETUP_FIELDS}
 
 
-@pytest.mark.parametrize("principal", ["900, 900", "-1, 240", "320, 481"])
-def test_a_principal_point_outside_the_image_is_refused(principal: str) -> None:
+@pytest.mark.parametrize(
+    ("principal", "why"),
+    [
+        ("900, 900", "outside the 640x480 image"),
+        ("-1, 240", "principal point cx must be from 0 to 10000 px, got -1"),
+        ("320, 481", "outside the 640x480 image"),
+    ],
+)
+def test_a_principal_point_outside_the_image_is_refused(principal: str, why: str) -> None:
     with pytest.raises(FormRefusedError) as caught:
         setup_from_answers({"method": "point", "principal": principal}, NOTHING_GIVEN)
     assert set(caught.value.errors) == {"principal"}
-    assert "outside the 640x480 image" in caught.value.errors["principal"]
+    assert why in caught.value.errors["principal"]
     setup = setup_from_answers({"method": "point", "principal": "0, 480"}, NOTHING_GIVEN)
     assert (setup.intrinsics.cx, setup.intrinsics.cy) == (0, 480)  # the edge is inside

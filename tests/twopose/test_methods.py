@@ -7,6 +7,7 @@ import json
 
 import pytest
 
+from twopose.bounds import POSE_TRANSLATION
 from twopose.errors import InputValueError
 from twopose.format.entries import SessionInfo, decode_entry, encode_entry
 from twopose.methods import MEASURING_METHODS, METHOD_SPECS, METHODS, Method, spec_of
@@ -52,9 +53,10 @@ def test_a_board_session_reconstructs_nothing_and_carries_its_board() -> None:
 def test_units_agree_with_each_other() -> None:
     assert unit_spec("mm").inches == pytest.approx(1 / 25.4)
     for spec in UNIT_SPECS.values():
-        # The limits are the same lengths in every unit (to the nearest round number); the
-        # ground tolerance is checked exactly in tests/twopose/test_units.py.
-        assert spec.max_translation * spec.inches == pytest.approx(200, rel=0.02)
+        # The limits are the same lengths in every unit (twopose.bounds); the ground
+        # tolerance is checked exactly in tests/twopose/test_units.py.
+        high = POSE_TRANSLATION.limits(spec.units)[1]
+        assert high * spec.inches == pytest.approx(200, rel=1e-6)
 
 
 def test_the_types_are_their_names() -> None:

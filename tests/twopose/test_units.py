@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import pytest
 
+from twopose.bounds import POSE_TRANSLATION
 from twopose.errors import InputValueError
 from twopose.units import UNIT_SPECS, UNITS, Units, unit_spec
 
@@ -23,12 +24,14 @@ TAPE_TICK_MM = {Units.IN: 25.4 / 16, Units.MM: 1.0, Units.CM: 1.0, Units.M: 1.0}
 
 @pytest.mark.parametrize("units", list(Units))
 def test_limits_are_one_length_in_every_unit(units: Units) -> None:
-    """The largest typed position is the same length in every unit (200 in, rounded to a
-    round number: within 2%); the ground tolerance is exactly half the finest tick of the
+    """The largest typed position is the same length in every unit (200 in, converted and
+    shown to six digits); the ground tolerance is exactly half the finest tick of the
     unit's tape (1/32 in, 0.5 mm), not "about" a length."""
     spec, inch = unit_spec(units), unit_spec("in")
     assert spec.units is units
-    assert spec.max_translation * spec.inches == pytest.approx(inch.max_translation, rel=0.02)
+    high = POSE_TRANSLATION.limits(units)[1]
+    assert high * spec.inches == pytest.approx(POSE_TRANSLATION.limits(Units.IN)[1], rel=1e-6)
+    assert inch.inches == 1.0
     tolerance_mm = spec.ground_tolerance * spec.inches * 25.4
     assert tolerance_mm == pytest.approx(TAPE_TICK_MM[units] / 2, rel=1e-12)
 

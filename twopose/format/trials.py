@@ -21,6 +21,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from twopose.bounds import POSE_TRANSLATION, ROTATION
 from twopose.camera import Camera
 from twopose.format.entries import (
     CaptureDecision,
@@ -157,12 +158,15 @@ class _Capture:
 
 
 def beyond_any_grid(entry: PoseEntry, unit: UnitSpec) -> str:
-    """Why a typed pose cannot be measured from: its translation beyond any grid ("": it can).
+    """Why a typed pose cannot be measured from ("": it can).
 
-    The recorder refuses such a pose; another writer's file may hold one, and solved with
-    it an "ok" trial would be nonsense.
+    Its translation or rotation is past the bound the recorder takes
+    (:mod:`twopose.bounds`). The recorder refuses such a pose; another writer's file may
+    hold one, and solved with it an "ok" trial would be nonsense.
     """
-    return unit.beyond_grid("its typed translation", entry.t_grid)
+    why = POSE_TRANSLATION.vector_refusal(entry.t_grid, unit.units)
+    why = why or ROTATION.vector_refusal(entry.r_deg, unit.units)
+    return f"its typed pose: {why}" if why else ""
 
 
 @dataclass(kw_only=True)

@@ -210,7 +210,7 @@ def test_notes_reach_their_trial_wherever_they_were_typed(tmp_path: Path) -> Non
 
 
 def test_a_typed_pose_beyond_any_grid_is_set_aside_with_why(tmp_path: Path) -> None:
-    """Another writer's pose typed at 6000 mm (the recorder refuses past 5000 mm) is kept in
+    """Another writer's pose typed at 6000 mm (the recorder refuses past 5080 mm) is kept in
     the file but never measured from: solved with it, an "ok" trial would be nonsense."""
     path = tmp_path / "s.mcap"
     info = SessionInfo(method=Method.POINT, units=Units.MM)
@@ -220,6 +220,6 @@ def test_a_typed_pose_beyond_any_grid_is_set_aside_with_why(tmp_path: Path) -> N
     with SessionReader(path) as reader:
         (record,) = iter_trials(reader)
     assert [pc.entry.pose for pc in record.poses] == [1]
-    assert "(6000, 0, 0) lies beyond any grid (|x|, |y|, |z| <= 5000 mm)" in (
+    assert "its typed pose: camera centre x must be from -5080 to 5080 mm, got 6000" in (
         record.why_not_measured()
     )
