@@ -345,6 +345,7 @@ def new(
             guidance=replace(guidance_asked(max_poses, reach, grid), given=tuple(board_options)),
             continued=continued_session(
                 continue_from,
+                operator=operator,  # who records this part: recorded, not ignored
                 method=method,
                 units=units,
                 calibration=calibration,

@@ -136,7 +136,19 @@ function buildSetup(fields) {
     if (f.kind === "check") cell.append(input, name);
     else cell.append(name, input);
     if (f.given) {
-      cell.append(el("span", "from the command line (fixed for this session)", "note given"));
+      // Where a fixed value comes from: the command line, or the continued session's file.
+      const from = f.from || "the command line";
+      const said = from === "the command line" ? "from the command line (fixed for this session)"
+        : "from " + from + " (the session's setup, fixed)";
+      const note = el("span", said, "note given");
+      note.dataset.testid = "from-" + f.name;
+      cell.append(note);
+    } else if (f.from) {
+      // Filled in from the continued session, but this file's own to change.
+      const whose = f.name === "operator" ? "operator" : "stop rule";
+      const note = el("span", "from " + f.from + ": its " + whose + "; this file's own, change it if it differs", "note given");
+      note.dataset.testid = "from-" + f.name;
+      cell.append(note);
     } else if (f.value && ["focal", "principal", "ground_height"].includes(f.name)) {
       // Said beside the thesis' value only: once changed, the field holds the operator's.
       const note = el("span", "the thesis' rig: change it if yours differs", "note");
@@ -302,6 +314,9 @@ function render() {
   renderStatus(s);
 
   if (s.phase === "setup" && !setupBuilt && s.setup_fields.length) buildSetup(s.setup_fields);
+  if (s.continuing) {
+    setText($("setup-aside"), "the setup of " + s.continuing.file + ", kept; the operator and the stop rule are this file's");
+  }
   show($("setup"), s.phase === "setup");
   $("setup-submit").disabled = !connected;
 
@@ -320,10 +335,20 @@ function renderStatus(s) {
   if (!connected && s.phase === "done") {
     level = "done";
     message = "the session is finished and the recorder has stopped: the file is closed";
-  } else if (!connected) {
+  } else if (!connected && s.phase === "setup") {
     level = "error";
-    message = "the recorder has stopped or cannot be reached (Ctrl-C, or the connection " +
-      "dropped): the controls are off; what was accepted is in the file. Still trying...";
+    message = "the recorder stopped (or cannot be reached) before the session started: " +
+      "nothing was recorded. Still trying to reach it...";
+  } else if (!connected) {
+    // Killed, crashed or stopped: the page cannot tell which, so it says what salvages
+    // the file (harmless after Ctrl-C, which closes it).
+    level = "error";
+    message = "the recorder stopped: run " + s.recover + " to salvage what was accepted " +
+      "(not needed if it was stopped with Ctrl-C: that closes the file). The controls are " +
+      "off; still trying to reach it...";
+  } else if (s.phase === "recording" && s.computing) {
+    level = "info"; // working, not a warning: the last result's colour is its own, below
+    message = s.computing + "...";
   } else if (s.phase === "failed") {
     level = "error";
   } else if (s.phase === "done") {
@@ -358,6 +383,8 @@ function renderSetupSummary(s) {
   }
   if (shown.rig) parts.push(["rig", shown.rig]);
   if (shown.operator) parts.push(["operator", shown.operator]);
+  if (shown.stop_rule) parts.push(["stop rule", shown.stop_rule]);
+  if (shown.continues) parts.push(["continues", shown.continues]);
   const children = [];
   parts.forEach(([name, value], i) => {
     if (i) children.push(document.createTextNode(" · "));
@@ -369,9 +396,16 @@ function renderSetupSummary(s) {
 let capturedAt = ""; // the trial and pose whose capture the frames table shows
 
 function renderCapture(s) {
+  const live = $("live");
+  const kept = keepLastFrame(live);
+  // Stopped or unreachable: the last frame stays (the stream's image goes blank when the
+  // connection drops), greyed, under one caption.
+  const frozen = !connected && s.phase !== "setup";
+  show(live, !frozen || !kept);
+  show($("live-last"), frozen && kept);
   let note = "";
   if (s.phase === "setup") note = "the camera is shown here once the session starts";
-  else if (s.phase === "recording" && !$("live").naturalWidth) note = "waiting for the camera's first frame...";
+  else if (s.phase === "recording" && connected && !live.naturalWidth) note = "waiting for the camera's first frame...";
   // The table is this pose's capture while it is taken and decided; afterwards it is
   // the last capture's, and says so.
   const of = s.frames_of || {};
@@ -385,7 +419,7 @@ function renderCapture(s) {
   let caption = "";
   if (s.phase === "done") caption = "the last frame: the session is finished, the camera is off";
   else if (s.phase === "failed") caption = "the last frame: the session stopped";
-  else if (!connected && s.phase !== "setup") caption = "the last frame: the recorder is not answering";
+  else if (frozen) caption = kept ? "the last frame before the recorder stopped" : "the recorder stopped before the camera's first frame";
   setText($("live-caption"), caption);
   show($("live-caption"), !!caption);
   const n = s.capture.n_frames || 0;
@@ -422,6 +456,23 @@ function renderCapture(s) {
       fixed(sd[1], 1) + "), orientation " + fixed(a.theta_deg, 1) + "°");
     avg.classList.remove("none");
   }
+}
+
+// The live image's last frame, copied while the stream shows it (false: none yet).
+let lastFrameSeq = -1;
+function keepLastFrame(live) {
+  const canvas = $("live-last");
+  if (connected && live.naturalWidth && state && state.frame_seq !== lastFrameSeq) {
+    lastFrameSeq = state.frame_seq;
+    canvas.width = live.naturalWidth;
+    canvas.height = live.naturalHeight;
+    try {
+      canvas.getContext("2d").drawImage(live, 0, 0);
+    } catch (err) {
+      return lastFrameSeq > 0; // a frame half-decoded: the one before stays
+    }
+  }
+  return lastFrameSeq >= 0;
 }
 
 function frameRow(f) {
@@ -491,6 +542,15 @@ function renderPose(s) {
 // The recorder's guidance: the next pose it suggests (taken into the form with g or the
 // button), or the trial complete by the stop rule.
 function renderGuidance(s, typing) {
+  if (s.phase === "recording" && s.computing) {
+    // Between a decision and the next step: the suggestion is being worked out.
+    show($("guidance"), true);
+    $("guidance").classList.add("computing");
+    setText($("guidance-text"), s.method === "board" ? "working out what the poses say of the rig..." : "computing the next pose to suggest...");
+    show($("take-suggestion"), false);
+    return;
+  }
+  $("guidance").classList.remove("computing");
   const a = s.advice && s.advice.trial === s.trial ? s.advice : null;
   // While a capture awaits its decision the advice is the last pose's: shown again after it.
   show($("guidance"), !!a && s.phase === "recording" && (typing || a.complete));

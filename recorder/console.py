@@ -36,6 +36,7 @@ from typing import TYPE_CHECKING, Any
 
 from typing_extensions import override
 
+from recorder import stops
 from recorder.capture import LiveSink
 from recorder.driver import (
     Decision,
@@ -49,6 +50,7 @@ from recorder.procedure import Shortfall, detection_shortfall
 from recorder.setup_rules import PoseTyping, form_fields
 from recorder.summary import RecordingSummary
 from twopose.format.entries import GroundTruth, Note, PoseEntry, TruthKind, TypedEntry
+from twopose.format.reader import recover_command
 from twopose.methods import Method, MethodSpec, spec_of
 from twopose.units import Units
 from twopose.values import Vec3
@@ -112,6 +114,11 @@ class ConsoleSession(LiveSink):
         self.closing = threading.Event()  # the server is stopping (Ctrl-C, SIGTERM)
         self.phase = "setup"  # setup, recording, done, failed
         self.setup_fields = form_fields(given or {})
+        #: A continuation's file, its last trial and the next (``new --continue``), or None.
+        self.continuing: dict[str, Any] | None = (given or {}).get("continuing")
+        #: What the recorder works out while no control is on (after a decision: the
+        #: trial's result, the next pose to suggest), in words; "" when it waits or records.
+        self.computing = ""
         self.method: Method | None = None  # set when the setup is accepted
         self.units: Units | None = None
         self.waiting = ""  # pose, decision, or "" (capturing, between steps)
@@ -125,6 +132,12 @@ class ConsoleSession(LiveSink):
         self.shortfall = Shortfall.OK.value
         self.preview: dict[str, Any] | None = None  # the result if the capture is accepted
         self.message = "fill in the setup"
+        if self.continuing is not None:
+            c = self.continuing
+            self.message = (
+                f"Continuing {c['file']}; the next trial is {c['next_trial']}. Its setup is "
+                "kept (fixed below): check the operator and the stop rule, then start"
+            )
         self.level = "info"  # info, warning, error: how the page colours the message
         self.refusal: dict[str, Any] = {}  # {control, message, seq}: shown by that control
         self.live_error = ""
@@ -155,6 +168,10 @@ class ConsoleSession(LiveSink):
                 "units": self.units or "",
                 "setup_fields": self.setup_fields if self.phase == "setup" else [],
                 "waiting": self.waiting,
+                "computing": self.computing,
+                "continuing": self.continuing,
+                # What salvages the file if the recorder dies (the page says it then).
+                "recover": recover_command(self.out),
                 "trial": self.trial,
                 "pose": self.pose,
                 "n_poses": self.n_poses,
@@ -205,7 +222,11 @@ class ConsoleSession(LiveSink):
             "ground_height": setup.ground_height,
             "operator": setup.operator,
             "rig": "" if rig is None else "a calibrated rig corrects the live result",
+            "stop_rule": "" if setup.board is not None else stop_rule(setup),
         }
+        if self.continuing is not None:
+            c = self.continuing
+            shown["continues"] = f"{c['file']} after trial {c['after_trial']}"
         if setup.board is not None:
             b = setup.board
             shown["board"] = (
@@ -287,6 +308,13 @@ class ConsoleSession(LiveSink):
             return latest if latest is not None and latest.seq > after else None
 
 
+def stop_rule(setup: Setup) -> str:
+    """The stop rule in force, as the page's setup line says it."""
+    if setup.target95 is None:
+        return "none (suggestions only)"
+    return f"a trial is complete once its 95% region is within {setup.target95:g} {setup.units}"
+
+
 def _vec(v: Vec3) -> list[float]:
     return [float(x) for x in v]
 
@@ -336,6 +364,7 @@ class WebDriver(Driver):
             poses=[],
             pose_form={},
             advice=None,
+            computing="",
             message=f"{said}trial {trial}: type pose 1, then capture (or quit to finish)",
             level="info",
         )
@@ -355,8 +384,9 @@ class WebDriver(Driver):
 
     def _wait(self, what: str) -> tuple[str, Any]:
         """The page's next command for ``what`` (pose or decision); quit ends it all."""
-        self.session.update(waiting=what)
+        self.session.update(waiting=what, computing="")
         while True:
+            stops.check()  # the server is stopping (Ctrl-C, SIGTERM, SIGHUP)
             try:
                 command = self.session.commands.get(timeout=0.05)
             except queue.Empty:
@@ -396,6 +426,7 @@ class WebDriver(Driver):
         self.session.update(
             pose=pose,
             pose_form=form,
+            computing="",
             message=f"trial {trial}: type pose {pose} of {n_poses}, then capture",
             level="info",
         )
@@ -484,7 +515,31 @@ class WebDriver(Driver):
             self._accepted.add(pose)
         elif decision is Decision.UNDO and pose > 1:
             self._accepted.discard(pose - 1)
+        self._computing(trial, pose, Decision(decision))
         return Decision(decision)
+
+    @override
+    def computing(self, what: str) -> None:
+        """The procedure computes the next suggestion: the page says so (the decision said
+        it already; this keeps it said until the form comes back)."""
+        if not self.session.computing:
+            self.session.update(computing=f"trial {self.session.trial}: {what.rstrip('….')}")
+
+    def _computing(self, trial: int, pose: int, decision: Decision) -> None:
+        """Between a decision and the next step the recorder works (the trial's result,
+        the next pose to suggest: seconds on fine grid paper) with every control off: the
+        page says so, and lists the pose as decided, not as awaiting a decision."""
+        done = {Decision.REDO: "to be captured again", Decision.UNDO: "undone"}
+        what = (
+            "checking what the poses so far say of the rig"
+            if self.session.board is not None
+            else "computing the trial's result and the next pose to suggest"
+        )
+        self._show_poses(pose + 1 if pose in self._accepted else pose, "")
+        self.session.update(
+            computing=f"trial {trial} pose {pose} {done.get(decision, 'accepted')}: {what}; "
+            "the form comes back when it is done"
+        )
 
     def note(self, trial: int) -> Note:
         with self.session.lock:
@@ -494,6 +549,7 @@ class WebDriver(Driver):
 
     def refused(self, error: ProcedureRefusedError) -> None:
         self._accepted.discard(self.session.pose)
+        self._show_poses(self.session.pose, "awaiting decision")
         control = "accept" if isinstance(error, LowDetectionError) else self._control
         self.session.refuse(control or "decision", str(error))
 
@@ -524,6 +580,7 @@ class WebDriver(Driver):
         self.session.update(
             phase="done",
             waiting="",
+            computing="",
             poses=[],
             summary=summary.line(),
             message="the session is finished: " + summary.line(),

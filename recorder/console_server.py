@@ -186,7 +186,8 @@ def _recording(
         continued = options.continued
         camera, info = setup.camera(), setup.info(options.notes)
         if continued is not None:  # the same session: its id, cameras, trials numbered on
-            camera, info = continued.cameras[0], continued.info_for(options.notes)
+            camera = continued.cameras[0]
+            info = continued.info_for(options.notes, operator=setup.operator)
         typing = PoseTyping(poses_per_trial=guidance.max_poses)
         driver = WebDriver(session, src, camera.camera_id, setup.ground_truth, typing, preview)
         live = session if view is None else LiveSinks(session, view)

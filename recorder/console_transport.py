@@ -18,6 +18,10 @@ is uvicorn's HTTP/1.1 protocol with three rules added:
   accepts at most :data:`ACCEPT_BURST` connections each time it wakes (asyncio accepts
   up to its backlog at once, uvicorn's 2048 by default), so evictions keep pace and the
   descriptors never run out.
+- **Upgrades refused quietly.** The console has no WebSocket (``ws="none"``): an upgrade
+  request is judged by the guard like any other (403 from a foreign page). uvicorn would
+  print two warnings for each, one advising to install a WebSocket library; the first
+  is said in one line instead, the rest not at all (a hostile page may send thousands).
 - **Headers of sane size, said in words.** Headers up to :data:`MAX_HEADER_BYTES` are read
   (cookies that other local pages set for the console's host count here: cookies ignore
   ports), and a request beyond that gets a page that says why and what to do, with the
@@ -28,7 +32,7 @@ from __future__ import annotations
 
 import asyncio
 import time
-from typing import Any
+from typing import Any, ClassVar
 
 import h11
 from typing_extensions import override
@@ -64,6 +68,9 @@ class GuardedH11Protocol(H11Protocol):
     Pass the class as ``uvicorn.Config(http=GuardedH11Protocol,
     h11_max_incomplete_event_size=MAX_HEADER_BYTES)``.
     """
+
+    #: Whether an upgrade request was said already (once a process: see the module).
+    upgrade_said: ClassVar[bool] = False
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
@@ -102,6 +109,17 @@ class GuardedH11Protocol(H11Protocol):
         super().on_response_complete()
         if not self.transport.is_closing() and self.conn.their_state is h11.IDLE:
             self._await_headers()  # the next request on a kept-alive connection
+
+    @override
+    def _unsupported_upgrade_warning(self) -> None:
+        """An upgrade request (a WebSocket handshake): one line the first time, no
+        install advice (the console has no WebSocket by design); the guard answers it."""
+        if not GuardedH11Protocol.upgrade_said:
+            GuardedH11Protocol.upgrade_said = True
+            self.logger.warning(
+                "the console refused a WebSocket handshake (it has none: a page or program "
+                "that is not the console's); further ones are refused without a word"
+            )
 
     @override
     def send_400_response(self, msg: str) -> None:

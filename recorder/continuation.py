@@ -16,6 +16,7 @@ apart (:mod:`twopose.format.identity`).
 from __future__ import annotations
 
 import dataclasses
+import re
 import string
 import time
 import uuid
@@ -33,7 +34,7 @@ from twopose.format.entries import (
     SessionInfo,
 )
 from twopose.format.identity import SessionFile, identify_file
-from twopose.format.reader import SessionReader, recover_command
+from twopose.format.reader import SessionReader, is_results_file, recover_command
 from twopose.methods import Method
 from twopose.units import Units
 from twopose.values import Vec3
@@ -42,6 +43,11 @@ __all__ = ["Continued", "read_continued"]
 
 #: The longest branch name the format allows (``continues.branch``: ``^[A-Z]{0,8}$``).
 _MAX_BRANCH = 8
+#: The stop rule a session recorded, in the note :meth:`twopose.guidance.Guidance.describe`
+#: writes at its start ("guidance: a trial is complete once its 95% region is within 0.8 in,").
+_STOP_RULE = re.compile(r"^guidance: a trial is complete once its 95% region is within (\S+) ")
+#: How every MCAP file begins (a session's first bytes, even when it was cut short).
+_MCAP_MAGIC = b"\x89MCAP"
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -60,17 +66,29 @@ class Continued:
     part_id: str
     #: Files beside it already continuing the same part, one per part, by name.
     continued_by: tuple[SessionFile, ...] = ()
+    #: The stop rule the file recorded (its 95% target, session units; None: none).
+    target95: float | None = None
+    #: Who records the continuation (``--operator``; None: the session's operator).
+    operator: str | None = None
 
     @property
     def session_id(self) -> str:
         """The session's id: the file's, or (before format 1.3) its content's."""
         return self.info.session_id or self.sha256[:32]
 
-    def info_for(self, notes: str = "") -> SessionInfo:
-        """The continuation's opening entry: the same session, created now."""
+    @property
+    def next_trial(self) -> int:
+        """The continuation's first trial."""
+        return self.last_trial + 1
+
+    def info_for(self, notes: str = "", *, operator: str | None = None) -> SessionInfo:
+        """The continuation's opening entry: the same session, created now, recorded by
+        ``operator`` (else :attr:`operator`, else the session's own)."""
         said = f"continues {self.path.name} after trial {self.last_trial}"
+        who = next((o for o in (operator, self.operator) if o is not None), self.info.operator)
         return dataclasses.replace(
             self.info,
+            operator=who,
             format_version=FORMAT_VERSION,
             session_id=self.session_id,
             continues_after_trial=self.last_trial,
@@ -123,22 +141,34 @@ class Continued:
             )
 
 
-def read_continued(path: str | Path) -> Continued:
-    """What a continuation of ``path`` takes from it (see the module docstring)."""
+def read_continued(path: str | Path, *, operator: str | None = None) -> Continued:
+    """What a continuation of ``path`` takes from it (see the module docstring);
+    ``operator``: who records the continuation (``--operator``; None: the session's)."""
     src = Path(path)
+    not_session = _not_a_session(src)
+    if not_session:
+        raise InputValueError(f"--continue {src}: {not_session}")
     try:
         with SessionReader(src) as reader:
             info, cameras, ground = reader.info, reader.cameras, reader.ground
             last = 0
             truth: tuple[Vec3, ...] = ()
+            target95 = None
             for entry in reader.iter_entries():
                 trial = getattr(entry, "trial", None)
                 if isinstance(entry, PoseEntry | GroundTruth | Note) and trial:
                     last = max(last, int(trial))
                 if isinstance(entry, GroundTruth):
                     truth = entry.points_grid
+                if isinstance(entry, Note) and entry.trial is None:
+                    target95 = _stop_rule(entry.text, target95)
     except SessionFormatError as err:
         said = str(err).rstrip(".")
+        if "not a twopose session" in said:  # a closed MCAP file of something else
+            raise InputValueError(
+                f"--continue {src}: not a session file: {said}; nothing can be continued "
+                "from it (continue the session file `twopose-record new` wrote)"
+            ) from None
         if "recover" not in said:
             said += f"; `{recover_command(src)}` salvages what it holds"
         raise InputValueError(
@@ -155,7 +185,48 @@ def read_continued(path: str | Path) -> Continued:
         sha256=identity.digest,
         part_id=identity.part_id,
         continued_by=_continued_beside(identity),
+        target95=target95,
+        operator=operator,
     )
+
+
+def _stop_rule(note: str, before: float | None) -> float | None:
+    """The stop rule's target a session note records (``before`` if it records none)."""
+    found = _STOP_RULE.match(note)
+    if found is None:
+        return before
+    try:
+        return float(found.group(1))
+    except ValueError:
+        return before
+
+
+def _not_a_session(path: Path) -> str:
+    """Why ``path`` is no session file at all ("" when it may be one, whole or cut short).
+
+    A session's file begins with MCAP's magic from its first write, so a file that does
+    not (a CSV, a figure) was never one and ``recover`` cannot make it one; an analysis
+    results file (``results_*.mcap``) is an MCAP file but no session.
+    """
+    try:
+        with path.open("rb") as stream:
+            head = stream.read(len(_MCAP_MAGIC))
+    except OSError as err:
+        return f"cannot be read ({err.strerror or err})"
+    if not head:
+        return "not a session file: the file is empty"
+    if head != _MCAP_MAGIC:
+        kind = f"a {path.suffix.lstrip('.').upper()} file, " if path.suffix else ""
+        return (
+            f"not a session file ({kind}not MCAP); a session is the .mcap file "
+            "`twopose-record new` wrote"
+        )
+    if is_results_file(path):
+        return (
+            "not a session file: an analysis results file written by `twopose-analyze run`; "
+            "continue the session file it was made from"
+        )
+    return ""
 
 
 def _continued_beside(continued: SessionFile) -> tuple[SessionFile, ...]:

@@ -57,6 +57,10 @@ class LoopbackGuard:
     ) -> None:
         self.host, self.port, self.upstream_port = host, port, upstream_port
         self._secret = secret
+        if secret is not None:  # a foreign page's handshake there: one quiet line at most
+            from recorder.live_tls import quiet_foreign_handshakes
+
+            quiet_foreign_handshakes()
         self._origins = frozenset(o.strip().lower().rstrip("/") for o in origins)
         self._loop = asyncio.new_event_loop()
         self._server: Any = None

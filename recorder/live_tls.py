@@ -10,10 +10,14 @@ from __future__ import annotations
 
 import datetime
 import ipaddress
+import logging
 import ssl
 from dataclasses import dataclass
 
-__all__ = ["UpstreamSecret"]
+__all__ = ["UpstreamSecret", "quiet_foreign_handshakes"]
+
+#: The Foxglove SDK's server logs here (through Python's logging) each client it drops.
+SDK_SERVER_LOGGER = "foxglove.websocket.server"
 
 _VALID_FOR = datetime.timedelta(days=30)  # longer than any session; made anew each run
 
@@ -59,3 +63,34 @@ class UpstreamSecret:
     def client_context(self) -> ssl.SSLContext:
         """What the guard connects with: this certificate, and no other, trusted."""
         return ssl.create_default_context(cadata=self.cert_pem.decode("ascii"))
+
+
+class _OneLine(logging.Filter):
+    """The SDK server's "Dropping client ...: secure handshake failed: ..." (rustls' words
+    for a ``ws://`` handshake or a certificate a browser does not trust): a foreign page
+    refused, as designed. The first becomes one plain line; the rest are not printed."""
+
+    said = False
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        text = record.getMessage()
+        if not text.startswith("Dropping client"):
+            return True
+        if _OneLine.said:
+            return False
+        _OneLine.said = True
+        record.msg, record.args = (
+            "the live view's private port dropped a connection that did not speak its TLS "
+            "(a web page or a port scan, refused as designed; the recording is not affected); "
+            "further ones are dropped without a word",
+            (),
+        )
+        record.levelno, record.levelname = logging.WARNING, "WARNING"
+        return True
+
+
+def quiet_foreign_handshakes() -> None:
+    """Install :class:`_OneLine` on the SDK server's logger (once a process)."""
+    logger = logging.getLogger(SDK_SERVER_LOGGER)
+    if not any(isinstance(f, _OneLine) for f in logger.filters):
+        logger.addFilter(_OneLine())

@@ -68,9 +68,13 @@ def guidance_asked(
     return GuidanceAsked(max_poses=max_poses, reach=reach, spacing=spacing)
 
 
-def continued_session(path: Path | None, **setup: object) -> Continued | None:
+def continued_session(
+    path: Path | None, *, operator: str | None = None, **setup: object
+) -> Continued | None:
     """``--continue``: the session continued, read once; the setup options are its.
 
+    ``--operator`` is who records the continuation (a part of its own, perhaps another
+    day or another laptop): recorded as this file's operator, the session's otherwise.
     When a file beside it already continues the same part, that is said here, once, on
     every path (terminal, ``--plan``, ``--ui``): this recording starts a branch.
     """
@@ -83,24 +87,36 @@ def continued_session(path: Path | None, **setup: object) -> Continued | None:
         )
     from recorder.continuation import read_continued
 
-    continued = read_continued(path)
+    continued = read_continued(path, operator=operator)
     if continued.fork_warning is not None:  # said once, before any path asks or records
         typer.secho(f"warning: {continued.fork_warning}", fg=typer.colors.YELLOW, err=True)
     return continued
 
 
 def continued_given(continued: Continued, target_precision: float | None) -> dict[str, Any]:
-    """The browser's setup form, filled with the continued session's setup (read-only);
-    the stop rule is the continuation's own."""
-    from recorder.setup_rules import Setup
+    """The browser's setup form, filled with the continued session's setup (read-only,
+    each field said to come from its file); the stop rule (the file's unless
+    ``--target-precision`` is given) and the operator (``--operator``, else the file's)
+    are the continuation's own, the page's to change unless the command line gave them."""
+    from recorder.setup_rules import SETUP_FIELDS, Setup
 
     setup = Setup.of(continued)
     k = setup.intrinsics
+    name = continued.path.name
+    own = {"operator": continued.operator, "target_precision": target_precision}
+    prefill = {"operator": setup.operator, "target_precision": continued.target95}
     return {
         "method": setup.method.value, "units": setup.units, "intrinsics": k,
         "intrinsics_sigma": setup.intrinsics_sigma, "focal": None, "principal": None,
         "ground_height": setup.ground_height, "ground_truth": list(setup.ground_truth),
-        "operator": setup.operator, "board": setup.board, "target_precision": target_precision,
+        "board": setup.board, **own,
+        # Where each fixed field comes from, and what the page fills in for the others.
+        "given_from": {f.name: name for f in SETUP_FIELDS if f.name not in own},
+        "prefill": {k: (v, name) for k, v in prefill.items() if v is not None},
+        "continuing": {
+            "file": name, "path": str(continued.path), "after_trial": continued.last_trial,
+            "next_trial": continued.next_trial, "target95": continued.target95,
+        },
     }  # fmt: skip
 
 
@@ -149,11 +165,20 @@ def record_terminal(
     mode = request.camera
     op = Operator(_prompt, typer.echo)
     if request.continued is not None:
+        c = request.continued
         typer.echo(
-            f"continuing {request.continued.path} after trial {request.continued.last_trial}"
+            f"continuing {c.path} after trial {c.last_trial}: the next trial is {c.next_trial}"
         )
-        # The continued session's setup, with the continuation's own stop rule.
-        setup = replace(Setup.of(request.continued), target95=given["target_precision"])
+        # The continued session's setup, with the continuation's own stop rule (the
+        # file's unless --target-precision gives another).
+        target = given["target_precision"]
+        if target is None:
+            target = request.continued.target95
+        setup = replace(Setup.of(request.continued), target95=target)
+        rule = "none" if target is None else f"95% within {target:g} {setup.units}"
+        kept = target is not None and given["target_precision"] is None
+        said = f" ({c.path.name}'s)" if kept else ""
+        typer.echo(f"  operator {setup.operator or '(none)'}; stop rule: {rule}{said}")
     else:
         setup = ask_setup(op, size=(mode.width, mode.height), guidance=request.guidance, **given)
     check_rig(request.rig, setup.method, setup.units, [setup.camera()], setup.ground())

@@ -353,7 +353,7 @@ def record(  # noqa: PLR0913 - keyword-only settings of a recording
     """
     out = Path(path)
     refuse_existing(out)
-    tally = Tally()
+    tally = Tally(after_trial=after_trial)  # the summary counts this file's trials
     settings = capture or CaptureSettings()
     results = None
     if settings.target is not None:  # the live result needs the live detection

@@ -146,7 +146,7 @@ class Setup:
             intrinsics=camera.intrinsics,
             ground_height=continued.ground.offset if continued.ground else None,
             ground_truth=continued.truth,
-            operator=continued.info.operator,
+            operator=continued.info.operator if continued.operator is None else continued.operator,
             intrinsics_sigma=dict(camera.intrinsics_sigma),
             board=continued.info.board,
         )
@@ -398,11 +398,26 @@ def _default_text(name: str, units: Units) -> str:
 
 def form_fields(given: Mapping[str, Any]) -> list[dict[str, Any]]:
     """The setup form as the page draws it: each field with what the command line gave
-    (shown read-only), or its default (the thesis' rig), and the methods it applies to."""
+    (shown read-only), or its default (the thesis' rig), and the methods it applies to.
+
+    ``from`` says where a field's value comes from: ``given["given_from"]`` names the file
+    a continuation's fixed fields come from (else the command line), and
+    ``given["prefill"]`` holds ``(value, from)`` for fields filled in but the operator's
+    to change (a continuation's stop rule and operator).
+    """
     units = Units(given.get("units") or Units.IN)
+    given_from: Mapping[str, str] = given.get("given_from") or {}
+    prefill: Mapping[str, tuple[Any, str]] = given.get("prefill") or {}
     fields = []
     for f in SETUP_FIELDS:
         fixed = _given_text(f.name, given)
+        value, source = fixed, given_from.get(f.name, "the command line")
+        if fixed is None:
+            filled = prefill.get(f.name)
+            value = _given_text(f.name, {f.name: filled[0]}) if filled else None
+            source = filled[1] if filled else ""
+            if value is None:
+                value = _default_text(f.name, units)
         fields.append(
             {
                 "name": f.name,
@@ -411,7 +426,8 @@ def form_fields(given: Mapping[str, Any]) -> list[dict[str, Any]]:
                 "options": list(f.options),
                 "methods": list(f.methods),
                 "given": fixed is not None,
-                "value": fixed if fixed is not None else _default_text(f.name, units),
+                "from": source,
+                "value": value,
             }
         )
     return fields

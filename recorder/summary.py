@@ -64,6 +64,7 @@ class RecordingSummary:
 @dataclass(kw_only=True)
 class Tally:
     started: float = field(default_factory=time.monotonic)
+    after_trial: int = 0  # a continuation's trials are numbered after this: not its own
     captures: int = 0
     incomplete: int = 0
     frames: int = 0
@@ -83,7 +84,7 @@ class Tally:
         """The summary of a recording whose procedure is ``proc``."""
         return RecordingSummary(
             path=path,
-            n_trials=proc.trial,
+            n_trials=max(0, proc.trial - self.after_trial),  # this file's trials
             n_captures=self.captures,
             n_incomplete=self.incomplete,
             n_frames=self.frames,

@@ -41,3 +41,13 @@ def headless_chromium(width: int, height: int) -> Iterator[Any]:
         yield driver
     finally:
         driver.quit()
+
+
+def emulate_phone(driver: Any, width: int = 390, height: int = 844) -> None:
+    """Make the page a phone's: a ``width`` x ``height`` viewport laid out as a phone does
+    (headless Chromium's window is at least 500 px wide; a page wider than the phone's
+    screen widens the layout viewport, as the phone's browser does)."""
+    driver.execute_cdp_cmd(
+        "Emulation.setDeviceMetricsOverride",
+        {"width": width, "height": height, "deviceScaleFactor": 1, "mobile": True},
+    )

@@ -178,6 +178,29 @@ def start_console(out: Path, *args: str) -> tuple[subprocess.Popen[str], str, st
     return process, line.split()[2], preamble
 
 
+def small_session(folder: Path, *, target95: float | None = 0.8) -> tuple[Path, Path]:
+    """A one-trial method 2 session recorded from a plan with :data:`SMALL_SCENE`'s camera
+    (about 2 s; with ``target95``, the stop rule it records): the session and the scene
+    (``--source synthetic:SCENE`` records on with the same camera)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    scene, plan, out = folder / "scene.toml", folder / "plan.toml", folder / "S.mcap"
+    scene.write_text(SMALL_SCENE)
+    guidance = "" if target95 is None else f"[guidance]\ntarget_95 = {target95}\n"
+    plan.write_text(
+        'method = "ground"\nunits = "in"\nframes = 2\nground_height = 9.625\n'
+        'operator = "Ada"\n[camera]\nfocal = 262.5\nprincipal = [160.0, 120.0]\n'
+        f"width = 320\nheight = 240\n{guidance}[[trials]]\n"
+        "ground_truth = [[1.91, 9.625, 8.375]]\n"
+        "poses = [{ t = [0.0, 0.0, 0.0] }, { t = [1.5, 0.0, 0.0] }]\n"
+    )
+    done = subprocess.run(
+        [str(RECORD), "new", str(out), "--plan", str(plan), "--source", f"synthetic:{scene}"],
+        capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stdout + done.stderr
+    return out, scene
+
+
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 
 

@@ -17,16 +17,19 @@ The window is the screen's size: its viewport is what a browser leaves of the sc
 
 from __future__ import annotations
 
+import contextlib
 import os
+import signal
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
 
-from tests.browser import headless_chromium, require_chromium
+from tests.browser import emulate_phone, headless_chromium, require_chromium
 from tests.doc_images import doc_image
-from tests.helpers import start_console
+from tests.helpers import small_session, start_console
 
 require_chromium()
 
@@ -350,15 +353,22 @@ _FEW = {
 def by_hand(tmp_path: Path) -> Iterator[tuple[str, Any]]:
     """The console's app in this process, its session's state set by the test (nothing
     records: no recording thread is started)."""
+    from recorder.console import ConsoleSession
+
+    with _serving(ConsoleSession(tmp_path / "by-hand.mcap")) as served:
+        yield served
+
+
+@contextlib.contextmanager
+def _serving(session: Any) -> Iterator[tuple[str, Any]]:
+    """Serve ``session``'s page from this process (its URL and the session)."""
     import socket
     import threading
 
     import uvicorn
 
-    from recorder.console import ConsoleSession
     from recorder.console_server import ConsoleOptions, console_app
 
-    session = ConsoleSession(tmp_path / "by-hand.mcap")
     app = console_app(session, ConsoleOptions(source="synthetic", given={}))
     sock = socket.socket()
     sock.bind(("127.0.0.1", 0))
@@ -369,6 +379,7 @@ def by_hand(tmp_path: Path) -> Iterator[tuple[str, Any]]:
     try:
         yield f"http://127.0.0.1:{sock.getsockname()[1]}/", session
     finally:
+        session.closing.set()  # the page's live-image stream ends, as when the server stops
         server.should_exit = True
         thread.join(timeout=10)
         sock.close()
@@ -410,3 +421,131 @@ def test_states_a_synthetic_session_does_not_reach(by_hand: tuple[str, Any]) -> 
         assert "the camera stopped" in page.text("summary")
         assert "error" in str(page.el("status").get_attribute("class"))
         page.step("failed", recording=False)
+
+
+# --------------------------------------------------------------------------- issue 44
+
+
+#: What a phone's page must show without scrolling sideways: the page no wider than the
+#: screen, and each of these (when shown) within its width.
+NARROW = """
+const [selectors] = arguments;
+const problems = [];
+const width = document.documentElement.clientWidth;
+if (innerWidth !== width || document.documentElement.scrollWidth > width) {
+  problems.push(`the page is ${document.documentElement.scrollWidth} px wide in ${width}`);
+}
+for (const selector of selectors) {
+  for (const e of document.querySelectorAll(selector)) {
+    if (!e.getClientRects().length) continue;
+    const r = e.getBoundingClientRect();
+    if (r.left < 0 || r.right > width + 0.5) problems.push(`${selector}: ${r.left}-${r.right}`);
+  }
+}
+return problems;
+"""
+
+
+def _fits(page: Steps, size: tuple[int, int], name: str, selectors: list[str]) -> None:
+    """At 390 px: nothing to scroll sideways to; at the laptop's size: everything in view."""
+    if size[0] < 500:
+        problems = page.browser.execute_script(NARROW, ["[data-testid=status]", *selectors])
+        page.n += 1
+        page.browser.save_screenshot(str(page.folder / f"{page.n:02d}-{name}.png"))
+        assert not problems, f"{name} at {size}: {problems}"
+    else:
+        page.step(name, recording=name != "continuing")
+
+
+_PIXELS = """
+const c = document.getElementById("live-last");
+const d = c.getContext("2d").getImageData(0, 0, c.width, c.height).data;
+let bright = 0;
+for (let i = 0; i < d.length; i += 4) bright = Math.max(bright, d[i], d[i + 1], d[i + 2]);
+return [c.width, c.height, bright];
+"""
+
+
+@pytest.fixture(scope="module")
+def continued(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """A session with a stop rule (95% within 0.8 in) to continue, and its scene."""
+    return small_session(tmp_path_factory.mktemp("continued"))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("size", [(1366, 768), (390, 844)])
+def test_computing_continuing_and_a_dead_recorder_are_said(
+    size: tuple[int, int], continued: tuple[Path, Path], tmp_path: Path
+) -> None:
+    """Issue 44 (2, 7, 8), at the laptop's size and a phone's: while the next suggestion is
+    computed the page says so (not "accept, redo, undo or quit", the pose not "awaiting
+    decision"); a continuation's page says what it continues, the next trial, where each
+    field comes from and the stop rule; after kill -9 the last frame stays under one
+    caption and the status gives the command that salvages the file."""
+    from recorder.console import ConsoleSession
+
+    session_file, scene = continued
+    with headless_chromium(*size) as browser:
+        if size[0] < 500:
+            emulate_phone(browser, *size)
+        page = Steps(browser, _folder(f"issue44-{size[0]}x{size[1]}"))
+        decided = [{"pose": 1, "t": [0.0, 0.0, 0.0], "r_deg": [0.0, 0.0, 0.0], "state": "accepted"}]
+        busy = ConsoleSession(tmp_path / "busy.mcap")
+        with _serving(busy) as (url, session):
+            computing = "trial 4 pose 1 accepted: computing the trial's result and the next "
+            session.update(**{
+                **_FEW, "live_error": "", "preview": None, "shortfall": "ok", "waiting": "",
+                "pose": 1, "poses": decided, "setup_fields": [],
+                "message": "trial 4 (1 view): no result yet",
+                "computing": computing + "pose to suggest; the form comes back when it is done",
+            })  # fmt: skip
+            browser.get(url)
+            page.wait(lambda: "computing" in page.text("status"), "computing said")
+            assert "accept, redo" not in page.text("status")
+            assert "computing the next pose to suggest" in page.text("guidance")
+            assert "awaiting" not in page.text("pose-list")
+            assert "accepted" in page.text("pose-list")
+            assert not page.el("accept").is_enabled()
+            shown = ["#operator-col", "[data-testid=accept]", "[data-testid=guidance]"]
+            _fits(page, size, "computing", shown)
+
+        out = tmp_path / "S2.mcap"
+        process, url, _ = start_console(
+            out, "--source", f"synthetic:{scene}", "--continue", str(session_file),
+            "--operator", "eve",
+        )  # fmt: skip
+        try:
+            browser.get(url)
+            page.wait(lambda: browser.find_elements(By.ID, "f-target_precision"), "the form")
+            assert "Continuing S.mcap; the next trial is 2" in page.text("status")
+            assert page.text("from-method") == "from S.mcap (the session's setup, fixed)"
+            assert page.text("from-truth1") == "from S.mcap (the session's setup, fixed)"
+            assert "from the command line" in page.text("from-operator")
+            assert page.el("field-operator").get_attribute("value") == "eve"
+            assert page.el("field-target_precision").get_attribute("value") == "0.8"
+            assert "from S.mcap: its stop rule" in page.text("from-target_precision")
+            _fits(page, size, "continuing", ["#setup", "[data-testid=setup-submit]"])
+            page.el("setup-submit").click()
+            page.wait(lambda: "trial 2: type pose 1" in page.text("status"), "trial 2")
+            said = page.text("session-setup")
+            assert "stop rule a trial is complete once its 95% region is within 0.8 in" in said
+            assert "continues S.mcap after trial 1" in said
+            assert "operator eve" in said
+            page.wait(lambda: browser.execute_script(_PIXELS)[0] == 320, "a frame kept")
+            process.send_signal(signal.SIGKILL)
+            process.wait(timeout=10)
+            page.wait(lambda: "the recorder stopped" in page.text("status"), "the death said")
+            assert f"twopose-record recover {out} -o FIXED.mcap" in page.text("status")
+            time.sleep(0.6)  # the stream's image has gone by now, on a page that lost it
+            assert page.shown("live-last")
+            assert not page.shown("live-image")
+            width, height, bright = browser.execute_script(_PIXELS)
+            assert (width, height) == (320, 240)
+            assert bright > 60, "the last frame is black"
+            assert page.text("live-caption") == "the last frame before the recorder stopped"
+            assert not page.shown("live-note")  # never "waiting for the camera's first frame"
+            _fits(page, size, "crashed", ["[data-testid=live-caption]", "[data-testid=accept]"])
+        finally:
+            if process.poll() is None:
+                process.kill()
+            process.communicate(timeout=30)

@@ -258,7 +258,12 @@ def test_no_socket_of_the_recorder_lets_a_foreign_page_in(tmp_path: Path) -> Non
         assert " 403 " in _foreign_handshake(console, "evil.test", "http://evil.test") + " "
     finally:
         process.terminate()
-        process.communicate(timeout=30)
+        said, _ = process.communicate(timeout=30)
+    # Refused quietly (issue 44): a line a socket at most, no advice to install anything.
+    for noise in ("pip install", "WebSocket library", "Dropping client", "handshake failed"):
+        assert noise not in said, said
+    assert said.count("refused a WebSocket handshake") <= 1, said
+    assert said.count("did not speak its TLS") <= 1, said
 
 
 def test_ui_refuses_a_plan_instead_of_ignoring_it(tmp_path: Path) -> None:
