@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
+from recorder import stops
 from recorder.sources import FrameSource
 from twopose.choices import Target
 from twopose.detect import detection_json
@@ -342,6 +343,7 @@ def capture_frames(
     reason, enough = "", False
     with writer.capture(entry.trial, entry.pose, entry.camera_id, entry.capture) as cap:
         for k in range(n_frames):
+            stops.check()  # a stop: this capture is kept, incomplete (recorder/stops.py)
             try:
                 image = source.read(settings.timeout_s)
             except SourceError as err:

@@ -8,14 +8,12 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import math
-import signal
 import threading
 import time
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Iterator
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from types import FrameType
 from typing import TYPE_CHECKING, Any
 
 import cv2
@@ -28,6 +26,7 @@ from starlette.responses import HTMLResponse, Response, StreamingResponse
 from starlette.routing import Route
 from typing_extensions import override
 
+from recorder import stops
 from recorder.console import DECISIONS, ConsoleSession, WebDriver
 from recorder.console_guard import (
     ConsoleGuard,
@@ -65,6 +64,7 @@ MAX_OPERATOR_CHARS = 80  # who records
 _SETUP_LIMITS = {f.name: 200 for f in SETUP_FIELDS} | {"operator": MAX_OPERATOR_CHARS}
 _POSE_LIMITS = {"x": 50, "y": 50, "z": 50, "rotation": 100}
 _PREVIEW_INTERVAL_S = 0.1
+_CLOSE_TIMEOUT_S = 10.0  # after the first second: the recording thread is stuck
 
 
 @dataclass(kw_only=True)
@@ -203,7 +203,8 @@ def _recording(
             session.out, info, [camera], src, driver, ground=setup.ground(), capture=capture,
             after_trial=continued.last_trial if continued is not None else 0,
         )  # fmt: skip
-        hint = "" if stopping.is_set() else "\n(the console shows it; Ctrl-C stops the console)"
+        stopped = stopping.is_set() or stops.requested()
+        hint = "" if stopped else "\n(the console shows it; Ctrl-C stops the console)"
         print(summary.line() + hint, flush=True)
     except TwoposeError as err:
         session.update(phase="failed", waiting="", message=str(err))
@@ -326,10 +327,13 @@ class _Console:
             self.start(self.ready)
         yield
         self.stopping.set()
-        # The server stops (Ctrl-C, SIGTERM): the session is interrupted, its file closed.
+        # The server stops (Ctrl-C, SIGTERM, SIGHUP): the session is interrupted, its file
+        # closed (the recording thread saw the stop already: recorder/stops.py).
+        stop = stops.active()
+        if stop is not None:
+            stop.request()
         self.session.commands.put(("interrupt", None))
-        for thread in self.threads:
-            thread.join(timeout=30)
+        await asyncio.to_thread(_join_recording, self.threads, self.session.out)
 
 
 def console_app(
@@ -488,9 +492,11 @@ async def _mjpeg(session: ConsoleSession, request: Request) -> AsyncIterator[byt
 
 
 class _Server(uvicorn.Server):
-    """uvicorn's server, told what the session was doing when Ctrl-C or SIGTERM came (it
-    stops gracefully, as uvicorn does, but does not raise the signal again afterwards:
-    :func:`serve_console` reports it)."""
+    """uvicorn's server, stopped by the recording's stop (:mod:`recorder.stops`: Ctrl-C,
+    SIGTERM or SIGHUP; told what the session was doing when it came). It stops gracefully,
+    as uvicorn does, but a second signal never forces it (that would cancel the closing of
+    the file), and the signals are not raised again afterwards: :func:`serve_console`
+    reports them."""
 
     def __init__(self, config: uvicorn.Config, session: ConsoleSession) -> None:
         super().__init__(config)
@@ -498,13 +504,36 @@ class _Server(uvicorn.Server):
         self.phase_at_signal = ""  # the session's phase when the first signal came
 
     @override
-    def handle_exit(self, sig: int, frame: FrameType | None) -> None:
+    @contextlib.contextmanager
+    def capture_signals(self) -> Iterator[None]:
+        yield  # the handlers are the recording's (stops.handled), in place before and after
+
+    def stop(self) -> None:
+        """The recording is asked to stop: the page's streams end, the server stops."""
         if not self.phase_at_signal:
             self.phase_at_signal = self.session.phase
         self.session.closing.set()  # the live image's streams end: nothing left to cancel
-        if self.should_exit and sig == signal.SIGINT:
-            self.force_exit = True  # a second Ctrl-C: stop waiting for connections
         self.should_exit = True
+
+
+def _join_recording(threads: list[threading.Thread], out: Path) -> None:
+    """Wait for the recording thread to close the file (it stops within a frame, or at
+    once when it waits for the page or a suggestion); said once if it takes long, and
+    what to do if it never ends (a camera stuck in its driver)."""
+    import sys
+
+    for thread in threads:
+        thread.join(timeout=1.0)
+        if thread.is_alive():
+            stop = stops.active()
+            if stop is not None:
+                stop.say_closing()
+            thread.join(timeout=_CLOSE_TIMEOUT_S)
+        if thread.is_alive():
+            sys.stderr.write(
+                f"the recording did not stop within {_CLOSE_TIMEOUT_S + 1:.0f} s; what reached "
+                f"the disk can be salvaged: twopose-record recover {out} -o FIXED.mcap\n"
+            )
 
 
 def serve_console(
@@ -550,7 +579,9 @@ def serve_console(
         ws="none",  # no WebSocket route: an upgrade is a request like any other, guarded
     )
     server = _Server(config, session)
-    server.run(sockets=[sock])
+    with stops.handled() as stop:
+        stop.on_request(server.stop)
+        server.run(sockets=[sock])
     if session.phase == "failed":
         raise TwoposeError(session.message)
     if server.phase_at_signal in ("setup", "recording"):

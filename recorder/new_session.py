@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 
 import typer
 
+from recorder import stops
 from twopose.errors import InputValueError
 
 if TYPE_CHECKING:
@@ -157,6 +158,7 @@ def record_terminal(
 ) -> RecordingSummary:
     """Ask for whatever the options did not give (``given``: :func:`console_given`), then
     run the guided procedure."""
+    stack.enter_context(stops.handled())  # every stop closes the file
     from recorder.capture import AdaptiveFrames, CaptureSettings
     from recorder.interactive import Operator, ask_setup, record_interactive
     from recorder.setup_rules import PoseTyping, Setup, check_rig
@@ -213,6 +215,7 @@ def record_planned(
     request: NewRequest, plan: Path, stack: contextlib.ExitStack
 ) -> RecordingSummary:
     """``new --plan``: the plan recorded, each capture and live result printed."""
+    stack.enter_context(stops.handled())  # every stop closes the file
     from recorder.plan import load_plan, record_plan
     from recorder.setup_rules import check_rig
     from recorder.sources import open_source
@@ -258,8 +261,10 @@ def serve_console_until_stopped(
 
 
 def _prompt(question: str, default: str) -> str:
-    """One question at the terminal; Ctrl-C or a closed input is an interrupt."""
+    """One question at the terminal; Ctrl-C (SIGTERM, SIGHUP) or a closed input is an
+    interrupt, at once: nothing is written while the operator types."""
     try:
-        return str(typer.prompt(question, default=default or None, show_default=bool(default)))
+        with stops.interruptible():
+            return str(typer.prompt(question, default=default or None, show_default=bool(default)))
     except typer.Abort:
         raise KeyboardInterrupt from None

@@ -46,6 +46,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from recorder import stops
 from recorder.capture import (
     CaptureResult,
     CaptureSettings,
@@ -379,12 +380,13 @@ def record(  # noqa: PLR0913 - keyword-only settings of a recording
                 driver.notice(note)
             try:
                 _run(proc, source, driver, tally, options)
+                stops.check()  # a stop asked as the last step ended: still an interrupt
                 proc.close("quit")
             except QuitRecording:
                 proc.close("quit")
             except KeyboardInterrupt:
                 interrupted = True
-                proc.close("interrupted (Ctrl-C)")
+                proc.close(f"interrupted ({stops.describe()})")
             except BaseException as err:
                 proc.close(f"the recording stopped: {type(err).__name__}: {err}")
                 raise
@@ -419,7 +421,7 @@ def _run(
     proc: Procedure, source: FrameSource, driver: Driver, tally: Tally, opts: _CaptureOptions
 ) -> None:
     """Trial after trial, as long as the driver wants one and does not quit."""
-    while driver.next_trial(proc.trial + 1):
+    while not stops.requested() and driver.next_trial(proc.trial + 1):
         trial = proc.trial + 1
         entries = driver.trial_entries(trial)
         proc.begin_trial(trial, driver.poses_in(trial), entries)
@@ -436,6 +438,7 @@ def _record_trial(
 ) -> bool:
     """Pose after pose until the trial's last is accepted; False when the driver quits."""
     while proc.state is not State.READY:
+        stops.check()  # a stop asked between steps (recorder/stops.py)
         placed = driver.place(proc.trial, proc.pose)
         proc.type_pose(placed.entry)
         result = proc.capture(source, opts.settings, true_pose=placed.true_pose)
@@ -444,6 +447,7 @@ def _record_trial(
         trial = proc.trial
         if opts.results is not None and proc.entry is not None:
             _live(driver, _preview_step, opts.results, proc, driver, result)
+        stops.check()  # a capture the stop cut short is never accepted
         if not _decide(proc, driver, result):
             return False
         if opts.settings.board is not None:
@@ -516,7 +520,12 @@ def _guidance_step(trial: int, proc: Procedure, driver: Driver, opts: _CaptureOp
     for the analyst)."""
     assert opts.results is not None
     assert opts.settings.guidance is not None
-    advice = opts.results.advise(trial, opts.settings.guidance) if proc.accepted else None
+    # Abandoned at once if the recording is asked to stop meanwhile (Ctrl-C, SIGTERM).
+    advice = (
+        stops.abandonable(opts.results.advise, trial, opts.settings.guidance)
+        if proc.accepted
+        else None
+    )
     if advice is None:  # an undo left the trial no accepted pose: no advice stands
         driver.advice_withdrawn(trial)
         return

@@ -24,6 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 from typing_extensions import override
 
+from recorder import stops
 from twopose.errors import InputValueError, SourceError
 from twopose.methods import Method
 from twopose.units import Units
@@ -357,10 +358,13 @@ class SyntheticSource(FrameSource):
         does (one synthetic camera: :class:`twopose.sim.camera.SyntheticCamera`)."""
         if (t_grid, r_deg) == self._pose:
             return
-        self._pose = (t_grid, r_deg)
         self._camera.place(np.asarray(t_grid, dtype=np.float64), np.asarray(r_deg))
-        self._bank = [self._camera.expose() for _ in range(self.bank_size)]
-        self._next = 0
+        bank = []
+        for _ in range(self.bank_size):
+            if self._pose is not None:  # open() renders at once; a capture's pose stops
+                stops.check()  # between frames when the recording is to (recorder/stops.py)
+            bank.append(self._camera.expose())
+        self._pose, self._bank, self._next = (t_grid, r_deg), bank, 0
 
     @override
     def read(self, timeout_s: float = 2.0) -> Image:
