@@ -50,8 +50,9 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from twopose.estimate import EstimateOptions, PoseView  # noqa: E402
-from twopose.guidance import THESIS_MOVE_IN, Reach, lattice, suggest  # noqa: E402
+from twopose.guidance import THESIS_MOVE_IN, Reach, suggest  # noqa: E402
 from twopose.methods import Method, spec_of  # noqa: E402
+from twopose.paper_search import lattice  # noqa: E402
 from twopose.session_estimate import SessionTrials, estimate_session  # noqa: E402
 from twopose.sim.scene import load_scene  # noqa: E402
 from twopose.solve import projection_matrices  # noqa: E402

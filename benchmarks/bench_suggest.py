@@ -45,16 +45,14 @@ from twopose.estimate import EstimateOptions, PoseView  # noqa: E402
 from twopose.guidance import (  # noqa: E402
     Guidance,
     Reach,
-    _field,
-    _half_planes,
     _target,
     _template,
     advise,
-    clear_of_edges,
     predicted_regions,
     suggest,
 )
 from twopose.methods import Method, spec_of  # noqa: E402
+from twopose.paper_search import clear_of_edges, field_in_view, half_planes  # noqa: E402
 from twopose.session_estimate import SessionTrials, estimate_session  # noqa: E402
 from twopose.sim.scene import load_scene  # noqa: E402
 from twopose.solve import projection_matrices  # noqa: E402
@@ -187,9 +185,9 @@ def _reference(case: Case) -> tuple[float, float, int, bool]:
     target = _target(trial, options, located)
     lines = spec_of(trial.method).uses_image_lines
     taken = np.array([v.t_grid for v in views])
-    planes = _half_planes(_template(views), target, Units(trial.units), float(taken[0][1]),
+    planes = half_planes(_template(views), target, Units(trial.units), float(taken[0][1]),
                           lines=lines)  # fmt: skip
-    field = _field(taken[0], reach, planes)
+    field = field_in_view(taken[0], reach, planes)
     total = field.count()
     step = 1 if total <= FULL_LIMIT else math.ceil(math.sqrt(total / FULL_LIMIT))
     ij = _lattice_points(field, step)

@@ -15,11 +15,11 @@ from twopose.guidance import (
     Guidance,
     Reach,
     advise,
-    lattice,
     regions95,
     suggest,
 )
 from twopose.methods import Method
+from twopose.paper_search import lattice
 from twopose.session_estimate import SessionTrials
 from twopose.solve import projection_matrices
 from twopose.units import Units
@@ -76,7 +76,8 @@ def test_the_suggestion_is_the_brute_force_best_of_the_lattice(method: Method) -
     # Brute force: each reachable centre's trial solved on its own, its view predicted
     # from the same target (the one the two poses locate), those that keep the target
     # clear of the image's edges (the lattice is small: the search predicts it whole).
-    from twopose.guidance import _predicted_view, clear_of_edges, located_target
+    from twopose.guidance import _predicted_view, located_target
+    from twopose.paper_search import clear_of_edges
 
     target = located_target(method, trial.views[0], point, options)
     best, best_region = None, math.inf

@@ -17,19 +17,15 @@ from recorder.sources import SyntheticSource
 from twopose.detect import detect_glove
 from twopose.estimate import EstimateOptions, PoseView
 from twopose.guidance import (
-    EDGE,
     LOOKAHEAD_POSES,
-    TAKEN,
     Guidance,
-    Reach,
     _target,
     advise,
-    clear_of_edges,
-    lattice,
     predicted_regions,
     suggest,
 )
 from twopose.methods import Method
+from twopose.paper_search import EDGE, TAKEN, Reach, clear_of_edges, lattice
 from twopose.session_estimate import SessionTrials, estimate_session
 from twopose.sim.scene import load_scene
 from twopose.units import Units, unit_factor
