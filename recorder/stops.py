@@ -42,9 +42,12 @@ __all__ = [
 T = TypeVar("T")
 
 #: The signals that stop a recording (each closes the file; SIGKILL cannot be caught).
-STOP_SIGNALS: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+#: SIGHUP where the system has it (not on Windows).
+STOP_SIGNALS: tuple[signal.Signals, ...] = tuple(
+    signal.Signals[name] for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name)
+)
 
-_NAMES = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM", signal.SIGHUP: "SIGHUP"}
+_NAMES = {signal.SIGINT: "Ctrl-C"}
 _POLL_S = 0.05  # how often a wait looks whether the recording is to stop
 
 
@@ -54,7 +57,8 @@ class Stop:
     def __init__(self) -> None:
         self.event = threading.Event()
         self.signal: int | None = None  # what stopped it (None: not a signal)
-        self._lock = threading.Lock()
+        # Reentrant: the handler may run in the main thread while it holds the lock.
+        self._lock = threading.RLock()
         self._interruptible = 0  # the main thread waits for the operator: raise at once
         self._said = False
         self._listeners: list[Callable[[], None]] = []
@@ -173,7 +177,7 @@ def handled(*, install: bool = True) -> Iterator[Stop]:
     if install and threading.current_thread() is threading.main_thread():
         for sig in STOP_SIGNALS:
             current = signal.getsignal(sig)
-            if sig == signal.SIGHUP and current == signal.SIG_IGN:
+            if sig.name == "SIGHUP" and current == signal.SIG_IGN:
                 continue  # started under nohup: the operator wants it to go on
             previous[sig] = current
             signal.signal(sig, stop.handle)
