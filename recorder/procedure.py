@@ -361,9 +361,10 @@ def record(  # noqa: PLR0913 - keyword-only settings of a recording
         results = LiveResults(info.method, info.units, cameras, ground, rig=settings.rig)
     options = _CaptureOptions(settings=settings, results=results)
     interrupted = False
+    proc: Procedure | None = None
     try:
         with contextlib.ExitStack() as stack:
-            stack.enter_context(source)
+            stack.enter_context(source)  # a stop while it opens: nothing recorded, below
             _check_frame_size(source.info, cameras)  # before the file exists
             w = stack.enter_context(
                 SessionWriter(out, info, cameras, ground=ground, **(writer_options or {}))
@@ -396,12 +397,27 @@ def record(  # noqa: PLR0913 - keyword-only settings of a recording
             f"writing {out} failed: {'the disk is full' if full else err.strerror or err}. "
             f"What reached the disk can be salvaged: {recover_command(out)}"
         ) from err
-    kept = proc.n_operator_entries > 0
-    if not kept:  # an empty session would only block the name for the next attempt
+    except KeyboardInterrupt:  # a stop before the procedure began (a source opening)
+        if proc is not None:
+            raise
+        interrupted = True
+    kept = proc is not None and proc.n_operator_entries > 0
+    if not kept and proc is not None:  # an empty session would only block the name
         out.unlink(missing_ok=True)
-    summary = tally.summary(out, proc, interrupted=interrupted, kept=kept)
+    counts = proc if proc is not None else _NothingDecided(trial=after_trial)
+    summary = tally.summary(out, counts, interrupted=interrupted, kept=kept)
     driver.finish(summary)
     return summary
+
+
+@dataclass(kw_only=True)  # mutable, as the procedure's counts (DecisionCounts)
+class _NothingDecided:
+    """The counts of a recording stopped before its procedure began."""
+
+    trial: int
+    n_complete_trials: int = 0
+    n_accepted: int = 0
+    n_discarded: int = 0
 
 
 def _check_frame_size(source: SourceInfo, cameras: Sequence[Camera]) -> None:

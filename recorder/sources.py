@@ -361,8 +361,7 @@ class SyntheticSource(FrameSource):
         self._camera.place(np.asarray(t_grid, dtype=np.float64), np.asarray(r_deg))
         bank = []
         for _ in range(self.bank_size):
-            if self._pose is not None:  # open() renders at once; a capture's pose stops
-                stops.check()  # between frames when the recording is to (recorder/stops.py)
+            stops.check()  # between frames when the recording is to stop (recorder/stops.py)
             bank.append(self._camera.expose())
         self._pose, self._bank, self._next = (t_grid, r_deg), bank, 0
 

@@ -137,6 +137,25 @@ def test_a_suggestion_in_progress_is_abandoned_and_the_file_closed_at_once(
     assert len(accepted_captures(out)) == 1  # the pose accepted before the suggestion
 
 
+def test_a_stop_while_the_source_opens_records_nothing_at_once(tmp_path: Path) -> None:
+    """The synthetic camera renders its first pose as it opens (seconds with the default
+    scene on a busy machine): a stop then is not waited for, and leaves no file."""
+    from recorder.plan import load_plan, record_plan
+    from recorder.sources import open_source
+    from twopose.methods import Method
+
+    plan = load_plan(_plan(tmp_path, trials=1))
+    out = tmp_path / "s.mcap"
+    source = open_source("synthetic", method=Method.POINT, width=320, height=240)
+    with stops.handled(install=False) as stop:
+        stop.request(signal.SIGTERM)
+        summary = record_plan(plan, out, source)
+    assert summary.interrupted
+    assert not summary.kept
+    assert not out.exists()
+    assert summary.line().startswith("nothing was recorded")
+
+
 # --------------------------------------------------------------------------- real processes
 
 
