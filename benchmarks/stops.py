@@ -8,7 +8,7 @@ that opens without ``recover`` holding every capture accepted before the signal 
 checks of ``tests/recorder/test_stops.py``, which runs twelve of these). Prints the
 distribution of the time from the signal to the exit, per front end.
 
-    python benchmarks/stops.py [--runs 48] [--seed 0] [--longest 8]
+    python benchmarks/stops.py [--runs 48] [--seed 0] [--longest 8] [--write-docs]
 """
 
 from __future__ import annotations
@@ -25,6 +25,8 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from doc_figures import run_recorded  # type: ignore[import-not-found]  # noqa: E402
+
 from tests.helpers import SMALL_SCENE  # noqa: E402
 from tests.recorder import test_stops as t  # noqa: E402
 
@@ -40,7 +42,7 @@ def one_run(tmp: Path, scene: str, front: str, name: str, delay: float, seed: in
         rec.wait_for("recording")
         script = t.terminal_operator(rec, rng, acked)
     elif front == "plan":
-        rec = t.Recorder([str(out), "--plan", str(t._plan(tmp, trials=12)), "--source", scene])
+        rec = t.Recorder([str(out), "--plan", str(t._plan(tmp, trials=40)), "--source", scene])
         rec.wait_for("recording|trial 1")
         script = t._count_plan_accepts(rec, acked)
     else:
@@ -56,7 +58,11 @@ def one_run(tmp: Path, scene: str, front: str, name: str, delay: float, seed: in
     return rec.exited_at - rec.signalled_at
 
 
-def main() -> None:
+FIGURE = "stops.txt"
+
+
+def main() -> int:
+    """Stop ``--runs`` recorders; 0 if every stop closed its file in time."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=48)
     parser.add_argument("--seed", type=int, default=0)
@@ -78,7 +84,7 @@ def main() -> None:
                 took[front].append(one_run(tmp, f"synthetic:{scene_path}", front, name, delay, k))
             except AssertionError as err:
                 failed += 1
-                print(f"run {k} ({front}, {name} at {delay:.1f} s) FAILED: {err}")
+                print(f"run {k} ({front}, {name} at {delay:.1f} s) FAILED: {str(err)[-300:]}")
     print(f"{args.runs} runs, {failed} failed; seconds from the signal to the exit (file closed):")
     for front, times in took.items():
         if times:
@@ -86,9 +92,8 @@ def main() -> None:
             print(
                 f"  {front}: {len(times)} runs, median {q[0]:.2f}, p95 {q[1]:.2f}, max {q[2]:.2f}"
             )
-    if failed:
-        raise SystemExit(1)
+    return 1 if failed else 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(run_recorded(main, FIGURE))

@@ -546,7 +546,8 @@ def _guidance_step(trial: int, proc: Procedure, driver: Driver, opts: _CaptureOp
         driver.advice_withdrawn(trial)
         return
     stop = driver.advice(trial, advice)
-    if advice.complete and proc.state is State.READY:  # its last pose: max_poses
+    rule = opts.settings.guidance.target95 is not None  # else --poses ends every trial
+    if rule and advice.complete and proc.state is State.READY:  # its last pose: max_poses
         proc.note(f"guidance: {advice.text}")
     elif stop and advice.complete and proc.state is State.TYPING:
         proc.note(f"guidance: {advice.text}")
