@@ -449,7 +449,7 @@ class WebDriver(Driver):
             camera_id=self.camera_id,
             t_grid=t,
             r_deg=r,
-            translation_resolution=self.typing.translation_resolution,
+            translation_resolution=self.typing.translation_sigma(self.session.units or Units.IN),
             rotation_resolution_deg=self.typing.rotation_resolution_deg,
         )
         return Placement(entry=entry)

@@ -342,7 +342,7 @@ class _OperatorDriver(Driver):
             camera_id=self.camera.camera_id,
             t_grid=t,
             r_deg=r,
-            translation_resolution=self.typing.translation_resolution,
+            translation_resolution=self.typing.translation_sigma(units),
             rotation_resolution_deg=self.typing.rotation_resolution_deg,
         )
         return Placement(entry=entry)

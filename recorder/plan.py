@@ -58,6 +58,7 @@ from twopose.format.entries import (
     SessionInfo,
     TruthKind,
     TypedEntry,
+    default_translation_resolution,
 )
 from twopose.guidance import THESIS_MOVE_IN, Guidance, Reach
 from twopose.methods import METHODS, Method, spec_of
@@ -142,6 +143,7 @@ class Plan:
     ground_height: float | None = None
     operator: str = ""
     notes: str = ""
+    # Session units: load_plan's default is 1/16 in converted (default_translation_resolution).
     translation_resolution: float = DEFAULT_TRANSLATION_RESOLUTION
     rotation_resolution_deg: float = DEFAULT_ROTATION_RESOLUTION_DEG
     board: BoardPlacement | None = None  # a board session's board and where it stands
@@ -248,7 +250,7 @@ def load_plan(path: str | Path) -> Plan:
     res = _known_keys(data.get("resolution", {}), "resolution", "resolution")
     resolution = (
         finite(
-            res.get("translation", DEFAULT_TRANSLATION_RESOLUTION),
+            res.get("translation", default_translation_resolution(units)),
             "plan: resolution.translation",
             positive=True,
         ),

@@ -38,9 +38,9 @@ from twopose.camera import Camera, Intrinsics
 from twopose.errors import InputValueError
 from twopose.format.entries import (
     DEFAULT_ROTATION_RESOLUTION_DEG,
-    DEFAULT_TRANSLATION_RESOLUTION,
     GroundPlane,
     SessionInfo,
+    default_translation_resolution,
 )
 from twopose.methods import MEASURING_METHODS, METHODS, Method, spec_of
 from twopose.targets import BoardPlacement
@@ -93,8 +93,14 @@ class PoseTyping:
     translation component and angle (the thesis': grid paper read to 1/16, 0.5 degree)."""
 
     poses_per_trial: int = 2
-    translation_resolution: float = DEFAULT_TRANSLATION_RESOLUTION
+    translation_resolution: float | None = None  # session units; None: 1/16 in in them
     rotation_resolution_deg: float = DEFAULT_ROTATION_RESOLUTION_DEG
+
+    def translation_sigma(self, units: Units) -> float:
+        """The typed translation's 1-sigma in ``units`` (1/16 in, converted, unless given)."""
+        if self.translation_resolution is not None:
+            return self.translation_resolution
+        return default_translation_resolution(units)
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -335,3 +335,24 @@ def test_one_set_of_setup_rules_whatever_the_front_end(tmp_path: Path) -> None:
     intrinsics = loaded.cameras[0].intrinsics
     assert (intrinsics.cx, intrinsics.cy) == (640.0, 360.0)
     assert intrinsics.fx == 525.0
+
+
+@pytest.mark.parametrize(("units", "factor"), [("in", 1.0), ("cm", 2.54), ("mm", 25.4)])
+def test_the_default_placing_resolution_is_a_sixteenth_of_an_inch_in_any_units(
+    tmp_path: Path, units: str, factor: float
+) -> None:
+    """A plan, the terminal and the page that say nothing of the resolution type poses to
+    1/16 in in the session's units (was 1/16 of whatever unit: 1/16 mm in a mm session made
+    every region about 12% too small and the stop rule end trials early)."""
+    from recorder.setup_rules import PoseTyping
+    from twopose.units import Units
+
+    plan = tmp_path / "p.toml"
+    plan.write_text(
+        f'method = "point"\nunits = "{units}"\n[camera]\nfocal = 525.0\n'
+        "[[trials]]\nground_truth = [[0.0, 0.0, 10.0]]\n"
+        "poses = [{ t = [0.0, 0.0, 0.0] }, { t = [1.0, 0.0, 0.0] }]\n"
+    )
+    assert load_plan(plan).translation_resolution == pytest.approx(0.0625 * factor)
+    assert PoseTyping().translation_sigma(Units(units)) == pytest.approx(0.0625 * factor)
+    assert PoseTyping(translation_resolution=0.3).translation_sigma(Units(units)) == 0.3

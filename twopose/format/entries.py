@@ -19,7 +19,7 @@ from twopose.errors import InputValueError, SessionFormatError
 from twopose.format.declared import TypedEntry, entry, from_json, json_field, object_schema
 from twopose.methods import LINE_TRUTH, METHODS, TRUTH_POINTS, Method, TruthKind, spec_of
 from twopose.targets import BoardPlacement
-from twopose.units import UNIT_SPECS, UNITS, Units, unit_spec
+from twopose.units import UNIT_SPECS, UNITS, Units, unit_factor, unit_spec
 from twopose.values import CAMERA_ID_PATTERN, Vec3, camera_id, finite, index, numbers, vec3
 
 __all__ = [
@@ -45,6 +45,7 @@ __all__ = [
     "TypedEntry",
     "Verdict",
     "decode_entry",
+    "default_translation_resolution",
     "encode_entry",
 ]
 
@@ -232,8 +233,17 @@ class SessionInfo(TypedEntry):
 
 #: What a typed pose's components are good to when nothing else is said (1-sigma): the
 #: thesis' operator read the grid paper to 1/16 in and turned the laptop to 0.5 degree.
+#: The translation's is in inches: a recording in other units takes it converted
+#: (:func:`default_translation_resolution`; 1/16 mm in a mm session would make every
+#: region too small). A pose entry without its resolution (none is written so) reads it
+#: as given here, in the session's units.
 DEFAULT_TRANSLATION_RESOLUTION = 0.0625
 DEFAULT_ROTATION_RESOLUTION_DEG = 0.5
+
+
+def default_translation_resolution(units: Units) -> float:
+    """The typed translation's 1-sigma when nothing else is said: 1/16 in, in ``units``."""
+    return DEFAULT_TRANSLATION_RESOLUTION * unit_factor(Units.IN, units)
 
 
 @entry(
