@@ -49,6 +49,7 @@ from recorder.driver import (
 from recorder.procedure import Shortfall, detection_shortfall
 from recorder.setup_rules import PoseTyping, form_fields
 from recorder.summary import RecordingSummary
+from twopose.bounds import shown
 from twopose.format.entries import GroundTruth, Note, PoseEntry, TruthKind, TypedEntry
 from twopose.format.reader import recover_command
 from twopose.methods import Method, MethodSpec, spec_of
@@ -213,10 +214,10 @@ class ConsoleSession(LiveSink):
     def begin(self, setup: Setup, rig: RigConstants | None) -> None:
         """The setup is accepted: recording starts, and what it records stays in view."""
         k = setup.intrinsics
-        shown: dict[str, Any] = {
+        line: dict[str, Any] = {
             "method": setup.method.value,
             "units": setup.units.value,
-            "camera": f"f {k.fx:g} px, principal point ({k.cx:g}, {k.cy:g}) px, "
+            "camera": f"f {shown(k.fx)} px, principal point ({shown(k.cx)}, {shown(k.cy)}) px, "
             f"{k.width}x{k.height}",
             "truth": [_vec(p) for p in setup.ground_truth],
             "ground_height": setup.ground_height,
@@ -226,19 +227,19 @@ class ConsoleSession(LiveSink):
         }
         if self.continuing is not None:
             c = self.continuing
-            shown["continues"] = f"{c['file']} after trial {c['after_trial']}"
+            line["continues"] = f"{c['file']} after trial {c['after_trial']}"
         if setup.board is not None:
             b = setup.board
-            shown["board"] = (
+            line["board"] = (
                 f"{b.inner_corners[0]}x{b.inner_corners[1]} inner corners, squares of "
-                f"{b.square:g} {setup.units.value}, first corner at "
-                f"({', '.join(f'{v:g}' for v in b.first_corner)})"
+                f"{shown(b.square)} {setup.units.value}, first corner at "
+                f"({', '.join(shown(v) for v in b.first_corner)})"
             )
         self.update(
             method=setup.method,
             units=setup.units,
             phase="recording",
-            session_setup=shown,
+            session_setup=line,
             board=setup.board,
         )
 
@@ -312,7 +313,8 @@ def stop_rule(setup: Setup) -> str:
     """The stop rule in force, as the page's setup line says it."""
     if setup.target95 is None:
         return "none (suggestions only)"
-    return f"a trial is complete once its 95% region is within {setup.target95:g} {setup.units}"
+    within = f"{shown(setup.target95)} {setup.units}"
+    return f"a trial is complete once its 95% region is within {within}"
 
 
 def _vec(v: Vec3) -> list[float]:

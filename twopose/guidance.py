@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from twopose.arrays import F64
+from twopose.bounds import shown
 from twopose.camera import grid_rays, rotation_from_angles_deg
 from twopose.detect import wrap_theta_deg
 from twopose.estimate import EstimateOptions, GroundSpec, PoseView, measure
@@ -97,12 +98,12 @@ class Suggestion:
         """One line for the operator."""
         x, y, z = self.t_grid
         line = (
-            f"next pose: x {x:g}, y {y:g}, z {z:g} {units} "
+            f"next pose: x {shown(x)}, y {shown(y)}, z {shown(z)} {units} "
             f"(predicted 95% within {self.predicted95:.3g} {units}"
         )
         if math.isfinite(self.thesis95):
-            tx, ty, tz = self.thesis_t_grid
-            line += f"; the thesis' move to {tx:g}, {ty:g}, {tz:g} would give {self.thesis95:.3g}"
+            moved = ", ".join(shown(v) for v in self.thesis_t_grid)
+            line += f"; the thesis' move to {moved} would give {self.thesis95:.3g}"
         line += ")"
         if self.provisional:
             line += (
@@ -302,7 +303,8 @@ def _best(
     """
     taken = np.array([v.t_grid for v in views], dtype=np.float64)
     units = Units(trial.units)
-    thesis_t = taken[-1] + np.asarray(THESIS_MOVE_IN) * unit_factor(Units.IN, units)
+    # Rounded as the lattice's poses are (shown to the operator: 1.2, not 1.2000000000000002).
+    thesis_t = np.round(taken[-1] + np.asarray(THESIS_MOVE_IN) * unit_factor(Units.IN, units), 10)
     lines = spec_of(trial.method).uses_image_lines
     planes = half_planes(_template(views), target, units, float(taken[0][1]), lines=lines)
     field = field_in_view(taken[0], reach, planes)
@@ -371,14 +373,14 @@ class Guidance:
     def describe(self, units: Units) -> str:
         """The settings in words (the session records them as a note)."""
         stop = (
-            f"a trial is complete once its 95% region is within {self.target95:g} {units}, "
+            f"a trial is complete once its 95% region is within {shown(self.target95)} {units}, "
             if self.target95 is not None
             else "no target precision, "
         )
         return (
             f"guidance: {stop}or at {self.max_poses} poses; next poses suggested on the "
-            f"{self.reach.spacing:g} {units} grid within {self.reach.radius:g} {units} of "
-            "the first pose"
+            f"{shown(self.reach.spacing)} {units} grid within {shown(self.reach.radius)} {units} "
+            "of the first pose"
         )
 
 
@@ -411,10 +413,10 @@ def advise(
     n = len(views)
     if target95 is not None and n >= 2 and region95 <= target95:
         return Advice(complete=True, region95=region95, text=(
-            f"95% within {region95:.3g} {units} <= {target95:g}: trial complete"))  # fmt: skip
+            f"95% within {region95:.3g} {units} <= {shown(target95)}: trial complete"))  # fmt: skip
     if n >= guidance.max_poses:
         within = f"; 95% within {region95:.3g} {units}" if math.isfinite(region95) else ""
-        beyond = f" > {target95:g}" if target95 is not None and math.isfinite(region95) else ""
+        beyond = f" > {shown(target95)}" if target95 is not None and math.isfinite(region95) else ""
         return Advice(complete=True, region95=region95, text=(
             f"{n} poses, the most for a trial: trial complete{within}{beyond}"))  # fmt: skip
     suggestion = suggest(trial, guidance.reach, options, point=point)
@@ -433,9 +435,9 @@ def advise(
     said = suggestion.text(units)
     if target95 is not None:
         said += (
-            f"; {more} more pose(s) predicted to reach {target95:g} {units}"
+            f"; {more} more pose(s) predicted to reach {shown(target95)} {units}"
             if more is not None
-            else f"; {target95:g} {units} is not predicted within {horizon} poses"
+            else f"; {shown(target95)} {units} is not predicted within {horizon} poses"
         )
     return Advice(
         complete=False, text=said, region95=region95, suggestion=suggestion, more_poses=more

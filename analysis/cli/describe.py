@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
+from twopose.bounds import shown
 from twopose.errors import (
     EXIT_SOME_INPUTS_FAILED,
     TwoposeError,
@@ -109,7 +110,7 @@ def _row(o: SessionOverview, name: str, columns: list[str], *, narrow: bool) -> 
     ``columns``; at a narrow terminal the cameras and format under the name."""
     from rich.markup import escape
 
-    cams = ", ".join(f"{c.camera_id} f={c.intrinsics.fx:g}" for c in o.cameras)
+    cams = ", ".join(f"{c.camera_id} f={shown(c.intrinsics.fx)}" for c in o.cameras)
     captures = f"{o.n_captures}" + (
         f" ({o.n_set_aside} set aside, {o.n_incomplete_captures} incomplete)"
         if o.n_set_aside or o.n_incomplete_captures

@@ -128,3 +128,27 @@ def test_a_captured_frame_is_listed_a_preview_is_not(tmp_path: Path) -> None:
     assert latest is not None
     assert latest.seq == 2
     assert session.next_frame(after=2, timeout_s=0.05) is None  # nothing newer: no wait forever
+
+
+def test_values_given_are_shown_back_as_given_while_recording(tmp_path: Path) -> None:
+    """A value shown back is the value given (issue 44): the page's setup line, the stop
+    rule, a suggestion the operator types and info's cameras never round to six digits
+    (``--focal 1234.56789`` was shown as 1234.57 once recording started)."""
+    import dataclasses
+
+    from twopose.guidance import Suggestion
+
+    k = Intrinsics(width=640, height=480, fx=1234.56789, fy=1234.56789, cx=320.25, cy=240.125)
+    setup = dataclasses.replace(_setup(Method.POINT, Units.MM), intrinsics=k, target95=0.123456789)
+    session = ConsoleSession(tmp_path / "s.mcap")
+    session.begin(setup, None)
+    line = session.snapshot()["setup"]
+    assert line["camera"].startswith("f 1234.56789 px, principal point (320.25, 240.125) px")
+    assert line["stop_rule"].endswith("within 0.123456789 mm")
+    suggestion = Suggestion(
+        t_grid=(123.5625, 0.0, -1001.0625), r_deg=(0.0, 0.0, 0.0), predicted95=1.0,
+        thesis_t_grid=(1.2, 0.0, 0.0), thesis95=2.0, provisional=False, n_candidates=1,
+    )  # fmt: skip
+    text = suggestion.text(Units.MM)
+    assert "x 123.5625, y 0, z -1001.0625 mm" in text
+    assert "the thesis' move to 1.2, 0, 0 would" in text

@@ -10,6 +10,7 @@ import math
 import numpy as np
 import pytest
 
+from twopose.bounds import shown
 from twopose.estimate import EstimateOptions, PoseView
 from twopose.guidance import (
     Guidance,
@@ -123,7 +124,7 @@ def test_the_stop_rule_says_complete_exactly_when_within_the_target() -> None:
     loose = advise(trial, Guidance(reach=Reach.thesis(Units.IN), target95=region * 1.01),
                    point=point, region95=region)  # fmt: skip
     assert loose.complete
-    assert loose.text == f"95% within {region:.3g} in <= {region * 1.01:g}: trial complete"
+    assert loose.text == f"95% within {region:.3g} in <= {shown(region * 1.01)}: trial complete"
     tight = advise(trial, Guidance(reach=Reach.thesis(Units.IN), target95=region * 0.6),
                    point=point, region95=region)  # fmt: skip
     assert not tight.complete
