@@ -542,7 +542,7 @@ function renderPose(s) {
 // The recorder's guidance: the next pose it suggests (taken into the form with g or the
 // button), or the trial complete by the stop rule.
 function renderGuidance(s, typing) {
-  if (s.phase === "recording" && s.computing) {
+  if (s.phase === "recording" && s.computing && connected) {
     // Between a decision and the next step: the suggestion is being worked out.
     show($("guidance"), true);
     $("guidance").classList.add("computing");
@@ -873,6 +873,9 @@ async function poll() {
     state = await response.json();
     connected = true;
   } catch (err) {
+    // Lost: the header and the status say what happened (and how to salvage the file); on
+    // a small screen the operator may be scrolled down to the buttons: back to the top.
+    if (connected) window.scrollTo({top: 0});
     connected = false;
   } finally {
     polling = false;

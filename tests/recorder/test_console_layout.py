@@ -457,6 +457,11 @@ def _fits(page: Steps, size: tuple[int, int], name: str, selectors: list[str]) -
         page.step(name, recording=name != "continuing")
 
 
+_IN_VIEW = """
+const r = document.querySelector(arguments[0]).getBoundingClientRect();
+return r.top > -1 && r.top < window.innerHeight;
+"""
+
 _PIXELS = """
 const c = document.getElementById("live-last");
 const d = c.getContext("2d").getImageData(0, 0, c.width, c.height).data;
@@ -532,10 +537,13 @@ def test_computing_continuing_and_a_dead_recorder_are_said(
             assert "continues S.mcap after trial 1" in said
             assert "operator eve" in said
             page.wait(lambda: browser.execute_script(_PIXELS)[0] == 320, "a frame kept")
+            # The operator scrolled down to the buttons (a phone): the death is brought into view.
+            browser.execute_script("window.scrollTo(0, document.body.scrollHeight)")
             process.send_signal(signal.SIGKILL)
             process.wait(timeout=10)
             page.wait(lambda: "the recorder stopped" in page.text("status"), "the death said")
             assert f"twopose-record recover {out} -o FIXED.mcap" in page.text("status")
+            assert browser.execute_script(_IN_VIEW, "[data-testid=status]"), "status scrolled off"
             time.sleep(0.6)  # the stream's image has gone by now, on a page that lost it
             assert page.shown("live-last")
             assert not page.shown("live-image")
