@@ -179,15 +179,16 @@ def _recording(
         asked = options.guidance or GuidanceAsked()
         guidance = asked.guidance(setup.units, options.poses, setup.target95)
         width, height = options.size
-        src = open_source(
-            options.source, method=setup.method, width=width, height=height, fps=options.fps,
-            units=setup.units,  # the synthetic scene in the session's units
-        )  # fmt: skip
         continued = options.continued
         camera, info = setup.camera(), setup.info(options.notes)
         if continued is not None:  # the same session: its id, cameras, trials numbered on
             camera = continued.cameras[0]
             info = continued.info_for(options.notes, operator=setup.operator)
+        src = open_source(
+            options.source, method=setup.method, width=width, height=height, fps=options.fps,
+            units=setup.units,  # the synthetic scene in the session's units, through its camera
+            cameras=[camera],
+        )  # fmt: skip
         typing = PoseTyping(poses_per_trial=guidance.max_poses)
         driver = WebDriver(session, src, camera.camera_id, setup.ground_truth, typing, preview)
         live = session if view is None else LiveSinks(session, view)

@@ -191,7 +191,8 @@ def record_terminal(
     guidance = asked.guidance(setup.units, request.poses, setup.target95)
     src = open_source(
         request.source, method=setup.method, width=mode.width, height=mode.height, fps=mode.fps,
-        units=setup.units,  # the synthetic scene in the session's units
+        units=setup.units,  # the synthetic scene in the session's units, through its camera
+        cameras=[setup.camera()],
     )  # fmt: skip
     port = request.live_port
     view = _live_view(stack, [setup.camera()], port) if port is not None else None
@@ -223,9 +224,11 @@ def record_planned(
     the_plan = load_plan(plan)
     check_rig(request.rig, the_plan.method, the_plan.units, the_plan.cameras, the_plan.ground())
     mode = request.camera
+    recorded = request.continued.cameras if request.continued else the_plan.cameras
     src = open_source(
         request.source, method=the_plan.method, width=mode.width, height=mode.height, fps=mode.fps,
-        units=the_plan.units,  # the synthetic scene in the plan's units
+        units=the_plan.units,  # the synthetic scene in the plan's units, through its cameras
+        cameras=recorded,
     )  # fmt: skip
     cameras = list(the_plan.cameras)
     view = _live_view(stack, cameras, request.live_port) if request.live_port is not None else None

@@ -17,7 +17,7 @@ from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
-from typing import Any, Self
+from typing import TYPE_CHECKING, Any, Self
 
 import cv2
 import numpy as np
@@ -28,6 +28,12 @@ from recorder import stops
 from twopose.errors import InputValueError, SourceError
 from twopose.methods import Method
 from twopose.units import Units
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from twopose.camera import Camera
+    from twopose.sim.scene import Scene
 
 __all__ = [
     "CameraSource",
@@ -320,6 +326,7 @@ class SyntheticSource(FrameSource):
         realtime: bool = True,
         bank: int = 8,
         units: Units | None = None,
+        cameras: Sequence[Camera] | None = None,
     ) -> None:
         from twopose.sim.scene import load_scene
 
@@ -328,6 +335,10 @@ class SyntheticSource(FrameSource):
             # The session's units (issue 44, 4): the typed poses are read in them, so the
             # same scene is rendered with its lengths converted (twopose.units' factors).
             self.scene = self.scene.in_units(units)
+        if cameras:
+            # The session's camera (issue 44, 4): its intrinsics are what the analysis
+            # reads the frames with, so the scene is seen through them.
+            self.scene = _seen_through(self.scene, cameras, scene_path)
         self.method = method
         self.realtime = realtime
         self.bank_size = bank
@@ -374,6 +385,32 @@ class SyntheticSource(FrameSource):
         return frame
 
 
+def _seen_through(scene: Scene, cameras: Sequence[Camera], scene_path: object) -> Scene:
+    """``scene`` seen through the session's camera, or an :class:`InputValueError` saying
+    why it cannot be (before anything is recorded)."""
+    from twopose.errors import SceneError
+
+    first = cameras[0]
+    differ = [c.camera_id for c in cameras[1:] if c.intrinsics != first.intrinsics]
+    if differ:
+        raise InputValueError(
+            f"the synthetic camera renders one camera, and the session's cameras "
+            f"{first.camera_id} and {', '.join(differ)} have different intrinsics: record "
+            "each camera's poses as a session of its own, or give them the same intrinsics"
+        )
+    k = first.intrinsics
+    try:
+        return scene.with_intrinsics(k)
+    except SceneError as err:
+        where = f"the scene {scene_path}" if scene_path else "the default scene"
+        raise InputValueError(
+            f"the synthetic camera cannot render the session's camera {first.camera_id} "
+            f"({k.width}x{k.height}, fx {k.fx:g}, fy {k.fy:g}, principal {k.cx:g}, {k.cy:g} px) "
+            f"with {where}: {err}; change the session's camera (the plan's [camera], "
+            "--focal/--principal/--width/--height) or the scene's [[cameras]]"
+        ) from err
+
+
 def open_source(
     spec: str,
     *,
@@ -383,13 +420,16 @@ def open_source(
     fps: float = 30.0,
     realtime: bool = True,
     units: Units | None = None,
+    cameras: Sequence[Camera] | None = None,
 ) -> FrameSource:
     """A source from its command-line spelling (not yet opened).
 
     ``camera:N`` (device N), ``video:PATH``, ``images:DIR`` or ``images:DIR/PATTERN``,
     ``synthetic`` or
     ``synthetic:SCENE.toml``; the synthetic camera renders its scene in the session's
-    ``units`` (converted from the scene's own).
+    ``units`` (converted from the scene's own) and through the session's ``cameras``'
+    intrinsics (focal, principal point, image size, distortion; the scene's own camera
+    when they are its). Intrinsics it cannot render raise :class:`InputValueError`.
     """
     kind, _, arg = spec.partition(":")
     if kind == "camera":
@@ -402,7 +442,7 @@ def open_source(
     if kind == "images" and arg:
         return ImagesSource(arg)
     if kind == "synthetic":
-        return SyntheticSource(arg or None, method, realtime=realtime, units=units)
+        return SyntheticSource(arg or None, method, realtime=realtime, units=units, cameras=cameras)
     raise SourceError(
         f"unknown source {spec!r}; use camera:N, video:PATH, images:DIR[/PATTERN] or "
         "synthetic[:SCENE.toml]"

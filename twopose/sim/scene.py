@@ -297,6 +297,29 @@ class Scene:
             )
         return scene
 
+    def with_intrinsics(self, intrinsics: Intrinsics) -> Scene:
+        """The same scene seen through ``intrinsics``.
+
+        Its first camera's focal, principal point, image size and distortion are replaced
+        (its id and calibration sigma kept); the scene itself when they are its camera's
+        already. Raises :class:`SceneError` when the scene cannot render them (a calibration
+        sigma over a tenth of the new focal, say).
+        """
+        first = self.cameras[0]
+        if first.intrinsics == intrinsics:
+            return self
+        camera = dataclasses.replace(
+            first,
+            width=intrinsics.width,
+            height=intrinsics.height,
+            fx=intrinsics.fx,
+            fy=intrinsics.fy,
+            cx=intrinsics.cx,
+            cy=intrinsics.cy,
+            distortion=intrinsics.distortion,
+        )
+        return dataclasses.replace(self, cameras=(camera, *self.cameras[1:]))
+
 
 def _check_scene(s: Scene) -> None:
     def need(ok: bool, key: str, msg: str) -> None:  # noqa: FBT001 - an assertion: condition first
