@@ -70,9 +70,14 @@ def info(
         box=box.SIMPLE_HEAD if narrow else box.HEAVY_HEAD,
         pad_edge=not narrow,
     )
-    table.add_column("session", overflow="fold", ratio=1)
+    # The label keeps room for a file name (a long captures cell wraps instead of
+    # squeezing it to a letter a line).
+    table.add_column("session", overflow="fold", ratio=1, min_width=_LABEL_MIN)
     for col in columns:
-        table.add_column(col, overflow="fold", no_wrap=narrow)
+        wraps = narrow and col == "captures"  # "2 (1 set aside, 0 incomplete)" on lines
+        table.add_column(
+            col, overflow="fold", no_wrap=narrow and not wraps, max_width=14 if wraps else None
+        )
     for o in overviews:
         path = str(o.path)
         table.add_row(
@@ -88,6 +93,10 @@ def info(
         typer.secho("no session files (*.mcap) found", err=True, fg=typer.colors.YELLOW)
     if failed or not sessions:
         raise typer.Exit(EXIT_SOME_INPUTS_FAILED)
+
+
+#: The session column's least width at a narrow terminal (characters).
+_LABEL_MIN = 18
 
 
 def _names(inputs: InputSet) -> dict[str, str]:
