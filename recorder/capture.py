@@ -36,6 +36,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "AdaptiveFrames",
+    "CaptureInterrupted",
     "CaptureResult",
     "CaptureSettings",
     "FrameFeedback",
@@ -233,6 +234,15 @@ class CaptureResult:
         )
 
 
+class CaptureInterrupted(KeyboardInterrupt):
+    """A stop (Ctrl-C, SIGTERM, ...) cut a capture short: its window is in the file, marked
+    incomplete, and ``result`` says how far it went (its frames are in the file too)."""
+
+    def __init__(self, result: CaptureResult) -> None:
+        super().__init__(result.reason)
+        self.result = result
+
+
 class Shortfall(StrEnum):
     """How a capture's live detection falls short of a measurement."""
 
@@ -329,8 +339,9 @@ def capture_frames(
     Dropped frames are counted from the start of this capture only: the source restarts
     its clock here (:meth:`FrameSource.start_capture`), so the operator's pause before a
     capture is never counted. A source that fails mid-capture leaves the capture in the
-    file, marked incomplete with the reason; an interrupt (Ctrl-C) does the same, then
-    propagates.
+    file, marked incomplete with the reason; an interrupt (Ctrl-C, a stop) does the same,
+    then propagates as :class:`CaptureInterrupted`, which carries how the capture went (its
+    window is in the file: the summary counts it).
     """
     from twopose.detect import detect
     from twopose.images import decode_image
@@ -341,42 +352,58 @@ def capture_frames(
     feedback: list[FrameFeedback] = []
     overhead: list[float] = []
     reason, enough = "", False
-    with writer.capture(entry.trial, entry.pose, entry.camera_id, entry.capture) as cap:
-        for k in range(n_frames):
-            stops.check()  # a stop: this capture is kept, incomplete (recorder/stops.py)
-            try:
-                image = source.read(settings.timeout_s)
-            except SourceError as err:
-                reason = str(err)
-                cap.mark_incomplete(reason)
-                break
-            started = time.perf_counter()
-            data = writer.encode_image(image)
-            cap.add_encoded(data)
-            # Detected on the frame as stored (decoded), as the analysis will: the live
-            # result is then the analysis' own, to the last digit.
-            decoded = (
-                None
-                if target is None and settings.board is None
-                else decode_image(data, "the frame")
+    cap = writer.capture(entry.trial, entry.pose, entry.camera_id, entry.capture)
+    try:
+        with cap:
+            for k in range(n_frames):
+                stops.check()  # a stop: this capture is kept, incomplete (recorder/stops.py)
+                try:
+                    image = source.read(settings.timeout_s)
+                except SourceError as err:
+                    reason = str(err)
+                    cap.mark_incomplete(reason)
+                    break
+                started = time.perf_counter()
+                data = writer.encode_image(image)
+                cap.add_encoded(data)
+                # Detected on the frame as stored (decoded), as the analysis will: the live
+                # result is then the analysis' own, to the last digit.
+                decoded = (
+                    None
+                    if target is None and settings.board is None
+                    else decode_image(data, "the frame")
+                )
+                d = None if target is None or decoded is None else detect(decoded, target)
+                fb = None if d is None else _feedback(k, d)
+                if settings.board is not None and decoded is not None:
+                    fb = board_feedback(k, decoded, settings.board)
+                if fb is not None:
+                    feedback.append(fb)
+                if live is not None:
+                    _show_live(live, writer, cap, entry, data, (k, n_frames), d)
+                overhead.append(time.perf_counter() - started)
+                if fb is not None and settings.on_frame is not None:
+                    settings.on_frame(fb)
+                if settings.on_progress is not None:
+                    settings.on_progress()
+                cap.dropped_frames = source.dropped - dropped_before
+                enough = settings.adaptive is not None and settings.adaptive.enough(feedback)
+                if enough and k + 1 < n_frames:
+                    break  # more frames would not shrink the pose's region: the floor rules
+    except KeyboardInterrupt as stop:
+        if not writer.is_open:  # no window was written: nothing to count
+            raise
+        raise CaptureInterrupted(
+            CaptureResult(
+                n_frames=cap.n_frames,
+                complete=False,
+                reason=cap.incomplete_reason,
+                feedback=tuple(feedback),
+                dropped=cap.dropped_frames,  # as its window says
+                overhead_s=tuple(overhead),
+                capture=entry.capture,
             )
-            d = None if target is None or decoded is None else detect(decoded, target)
-            fb = None if d is None else _feedback(k, d)
-            if settings.board is not None and decoded is not None:
-                fb = board_feedback(k, decoded, settings.board)
-            if fb is not None:
-                feedback.append(fb)
-            if live is not None:
-                _show_live(live, writer, cap, entry, data, (k, n_frames), d)
-            overhead.append(time.perf_counter() - started)
-            if fb is not None and settings.on_frame is not None:
-                settings.on_frame(fb)
-            if settings.on_progress is not None:
-                settings.on_progress()
-            cap.dropped_frames = source.dropped - dropped_before
-            enough = settings.adaptive is not None and settings.adaptive.enough(feedback)
-            if enough and k + 1 < n_frames:
-                break  # more frames would not shrink the pose's region: the floor dominates
+        ) from stop
     return CaptureResult(
         n_frames=cap.n_frames,
         complete=not reason,

@@ -48,6 +48,7 @@ import numpy as np
 
 from recorder import stops
 from recorder.capture import (
+    CaptureInterrupted,
     CaptureResult,
     CaptureSettings,
     FrameFeedback,
@@ -119,8 +120,11 @@ TRANSITIONS: dict[State, frozenset[str]] = {
 class Procedure:
     """The recording procedure over an open :class:`SessionWriter` (see the module docs)."""
 
-    def __init__(self, writer: SessionWriter) -> None:
+    def __init__(self, writer: SessionWriter, tally: Tally | None = None) -> None:
         self.writer = writer
+        #: what was written: every capture window and each capture's last decision (the
+        #: summary's counts, as the file holds them)
+        self.tally = tally if tally is not None else Tally()
         self.state = State.READY
         self.trial = 0
         self.pose = 0
@@ -130,10 +134,18 @@ class Procedure:
         self.accepted: dict[int, PoseEntry] = {}  # this trial: pose -> accepted entry
         #: the session: capture number -> its accepted entry and how the capture went
         self.kept: dict[int, tuple[PoseEntry, CaptureResult]] = {}
-        self.n_accepted = 0
-        self.n_discarded = 0
         self.n_complete_trials = 0
         self.n_operator_entries = 0  # typed poses and notes: what an empty session lacks
+
+    @property
+    def n_accepted(self) -> int:
+        """Captures in the file whose last decision is accept."""
+        return self.tally.n_accepted
+
+    @property
+    def n_discarded(self) -> int:
+        """Captures in the file whose last decision is discard."""
+        return self.tally.n_discarded
 
     def _event(self, name: str) -> None:
         if name not in TRANSITIONS[self.state]:
@@ -185,8 +197,8 @@ class Procedure:
     ) -> CaptureResult:
         """Place ``source`` at the pose (the simulator's true pose, if given) and capture.
 
-        An interrupt during the capture leaves its window in the file (incomplete) and the
-        machine deciding, so that closing discards it.
+        An interrupt during the capture leaves its window in the file (incomplete, with the
+        frames it got, and counted so) and the machine deciding, so that closing discards it.
         """
         self._event("capture")
         assert self.entry is not None
@@ -194,8 +206,13 @@ class Procedure:
         try:
             source.set_pose(t_grid, r_deg)
             self.result = capture_frames(self.writer, source, self.entry, settings)
+        except CaptureInterrupted as stop:
+            self.result = stop.result  # its window is in the file
+            raise
         finally:
             self.state = State.DECIDING
+            if self.result is not None:  # a window was written
+                self.tally.add(self.result)
         return self.result
 
     # -- decisions
@@ -211,10 +228,7 @@ class Procedure:
                 reason=reason,
             )
         )
-        if verdict == "accept":
-            self.n_accepted += 1
-        else:
-            self.n_discarded += 1
+        self.tally.decided(entry.capture, verdict)
 
     def accept(self, *, anyway: bool = False, unattended: bool = False) -> None:
         """Accept the capture: next pose, or the trial is complete (back to ready).
@@ -286,7 +300,6 @@ class Procedure:
         previous = self.accepted.pop(self.pose - 1)
         self._decide(previous, "discard", f"undone by capture {self.entry.capture}")
         self.kept.pop(previous.capture or -1, None)
-        self.n_accepted -= 1  # counted once, by its final decision: discarded
         self.entry = None
         self.pose -= 1
         self.state = State.TYPING
@@ -369,7 +382,7 @@ def record(  # noqa: PLR0913 - keyword-only settings of a recording
             w = stack.enter_context(
                 SessionWriter(out, info, cameras, ground=ground, **(writer_options or {}))
             )
-            proc = Procedure(w)
+            proc = Procedure(w, tally)
             proc.trial, driver.first_trial = after_trial, after_trial + 1
             driver.start(source.info, out)
             guidance = settings.guidance
@@ -380,7 +393,7 @@ def record(  # noqa: PLR0913 - keyword-only settings of a recording
             for note in getattr(results, "notes", ()):
                 driver.notice(note)
             try:
-                _run(proc, source, driver, tally, options)
+                _run(proc, source, driver, options)
                 stops.check()  # a stop asked as the last step ended: still an interrupt
                 proc.close("quit")
             except QuitRecording:
@@ -404,20 +417,18 @@ def record(  # noqa: PLR0913 - keyword-only settings of a recording
     kept = proc is not None and proc.n_operator_entries > 0
     if not kept and proc is not None:  # an empty session would only block the name
         out.unlink(missing_ok=True)
-    counts = proc if proc is not None else _NothingDecided(trial=after_trial)
+    counts = proc if proc is not None else _NothingBegun(trial=after_trial)
     summary = tally.summary(out, counts, interrupted=interrupted, kept=kept)
     driver.finish(summary)
     return summary
 
 
-@dataclass(kw_only=True)  # mutable, as the procedure's counts (DecisionCounts)
-class _NothingDecided:
+@dataclass(kw_only=True)  # mutable, as the procedure's counts (TrialCounts)
+class _NothingBegun:
     """The counts of a recording stopped before its procedure began."""
 
     trial: int
     n_complete_trials: int = 0
-    n_accepted: int = 0
-    n_discarded: int = 0
 
 
 def _check_frame_size(source: SourceInfo, cameras: Sequence[Camera]) -> None:
@@ -433,9 +444,7 @@ def _check_frame_size(source: SourceInfo, cameras: Sequence[Camera]) -> None:
         )
 
 
-def _run(
-    proc: Procedure, source: FrameSource, driver: Driver, tally: Tally, opts: _CaptureOptions
-) -> None:
+def _run(proc: Procedure, source: FrameSource, driver: Driver, opts: _CaptureOptions) -> None:
     """Trial after trial, as long as the driver wants one and does not quit."""
     while not stops.requested() and driver.next_trial(proc.trial + 1):
         trial = proc.trial + 1
@@ -443,14 +452,14 @@ def _run(
         proc.begin_trial(trial, driver.poses_in(trial), entries)
         if opts.results is not None:
             opts.results.begin(trial, entries)
-        if not _record_trial(proc, source, driver, tally, opts):
+        if not _record_trial(proc, source, driver, opts):
             return
         for entry in driver.end_trial(trial):
             proc.write(entry)
 
 
 def _record_trial(
-    proc: Procedure, source: FrameSource, driver: Driver, tally: Tally, opts: _CaptureOptions
+    proc: Procedure, source: FrameSource, driver: Driver, opts: _CaptureOptions
 ) -> bool:
     """Pose after pose until the trial's last is accepted; False when the driver quits."""
     while proc.state is not State.READY:
@@ -458,7 +467,6 @@ def _record_trial(
         placed = driver.place(proc.trial, proc.pose)
         proc.type_pose(placed.entry)
         result = proc.capture(source, opts.settings, true_pose=placed.true_pose)
-        tally.add(result)
         driver.captured(proc.trial, proc.pose, result)
         trial = proc.trial
         if opts.results is not None and proc.entry is not None:

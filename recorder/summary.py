@@ -1,5 +1,5 @@
 """What a recording holds and how it ended: the one summary line every recording path
-prints (terminal, plan, browser), counted as the procedure decided."""
+prints (terminal, plan, browser), counted from what the procedure wrote to the file."""
 
 from __future__ import annotations
 
@@ -13,13 +13,11 @@ from recorder.capture import CaptureResult
 __all__ = ["RecordingSummary", "Tally"]
 
 
-class DecisionCounts(Protocol):
-    """What the procedure counted (:class:`recorder.procedure.Procedure`)."""
+class TrialCounts(Protocol):
+    """The trials the procedure counted (:class:`recorder.procedure.Procedure`)."""
 
     trial: int
     n_complete_trials: int
-    n_accepted: int
-    n_discarded: int
 
 
 def _count(n: int, what: str) -> str:
@@ -63,37 +61,56 @@ class RecordingSummary:
 
 @dataclass(kw_only=True)
 class Tally:
+    """What the procedure wrote, entry for entry: every capture window (with how its
+    capture went) and each capture's last decision. The summary counts them as
+    ``twopose-analyze info`` reads the file (:func:`twopose.format.trials.describe_session`):
+    a capture is a window in the file, complete or not (one a stop cut short is counted,
+    incomplete, with its frames); it is accepted if its last decision is ``accept`` and
+    discarded if it is ``discard``. The procedure decides every capture it wrote before it
+    closes, so ``accepted + discarded == captures``."""
+
     started: float = field(default_factory=time.monotonic)
     after_trial: int = 0  # a continuation's trials are numbered after this: not its own
-    captures: int = 0
-    incomplete: int = 0
-    frames: int = 0
-    found: int = 0
-    dropped: int = 0
+    windows: list[CaptureResult] = field(default_factory=list)  # in the order written
+    verdicts: dict[int, str] = field(default_factory=dict)  # capture number -> last decision
 
     def add(self, result: CaptureResult) -> None:
-        self.captures += 1
-        self.incomplete += not result.complete
-        self.frames += result.n_frames
-        self.found += result.n_found
-        self.dropped += result.dropped
+        """A capture window was written (complete, or cut short)."""
+        self.windows.append(result)
+
+    def decided(self, capture: int, verdict: str) -> None:
+        """A decision on capture ``capture`` was written (a later one overrides it)."""
+        self.verdicts[capture] = verdict
+
+    def _final(self, verdict: str) -> int:
+        return sum(
+            r.capture is not None and self.verdicts.get(r.capture) == verdict for r in self.windows
+        )
+
+    @property
+    def n_accepted(self) -> int:
+        return self._final("accept")
+
+    @property
+    def n_discarded(self) -> int:
+        return self._final("discard")
 
     def summary(
-        self, path: Path, proc: DecisionCounts, *, interrupted: bool, kept: bool
+        self, path: Path, proc: TrialCounts, *, interrupted: bool, kept: bool
     ) -> RecordingSummary:
         """The summary of a recording whose procedure is ``proc``."""
         return RecordingSummary(
             path=path,
             n_trials=max(0, proc.trial - self.after_trial),  # this file's trials
-            n_captures=self.captures,
-            n_incomplete=self.incomplete,
-            n_frames=self.frames,
-            n_found=self.found,
+            n_captures=len(self.windows),
+            n_incomplete=sum(not r.complete for r in self.windows),
+            n_frames=sum(r.n_frames for r in self.windows),
+            n_found=sum(r.n_found for r in self.windows),
             seconds=time.monotonic() - self.started,
-            dropped=self.dropped,
+            dropped=sum(r.dropped for r in self.windows),
             n_complete_trials=proc.n_complete_trials,
-            n_accepted=proc.n_accepted,
-            n_discarded=proc.n_discarded,
+            n_accepted=self.n_accepted,
+            n_discarded=self.n_discarded,
             interrupted=interrupted,
             kept=kept,
         )

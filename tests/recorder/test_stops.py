@@ -20,13 +20,23 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+import cv2
 import httpx
+import numpy as np
 import pytest
 
 from recorder import stops
+from recorder.capture import CaptureResult, CaptureSettings
+from recorder.driver import Decision, Driver, Placement
+from recorder.procedure import record
+from recorder.sources import ImagesSource
 from tests.helpers import RECORD, SMALL_SCENE
+from twopose.camera import Camera, Intrinsics
 from twopose.format import SessionReader
-from twopose.format.entries import CaptureDecision, CaptureWindow
+from twopose.format.entries import CaptureDecision, CaptureWindow, PoseEntry, SessionInfo
+from twopose.format.trials import describe_session
+from twopose.methods import Method
+from twopose.units import Units
 
 #: What the issue asks: the file closed and the process gone within 2 s of the signal.
 STOP_WITHIN_S = 2.0
@@ -156,6 +166,74 @@ def test_a_stop_while_the_source_opens_records_nothing_at_once(tmp_path: Path) -
     assert summary.line().startswith("nothing was recorded")
 
 
+class _Scripted(Driver):
+    """Three poses a trial, decided from a script; pose k placed at x = k."""
+
+    poses_per_trial = 3
+
+    def __init__(self, decisions: list[Decision]) -> None:
+        self.decisions = decisions
+
+    def place(self, trial: int, pose: int) -> Placement:
+        return Placement(
+            entry=PoseEntry(trial=trial, pose=pose, camera_id="cam0", t_grid=(pose, 0, 0))
+        )
+
+    def decide(self, trial: int, pose: int, result: CaptureResult) -> Decision:
+        return self.decisions.pop(0)
+
+
+_A, _R, _U = Decision.ACCEPT, Decision.REDO, Decision.UNDO
+
+
+@pytest.mark.parametrize(
+    ("decisions", "expected"),
+    [
+        ([], (1, 0, 1, 1, 3)),  # the issue's terminal case: the first capture cut
+        ([_A, _A], (3, 2, 1, 1, 13)),  # the issue's plan case: 2 accepted, then the stop
+        ([_A, _R, _U, _A], (5, 1, 4, 1, 23)),  # redone, undone (capture 1 discarded too)
+    ],
+)
+def test_a_stop_in_the_middle_of_a_capture_is_counted_as_the_file_holds_it(
+    tmp_path: Path, decisions: list[Decision], expected: tuple[int, int, int, int, int]
+) -> None:
+    """Issue 44: a stop mid-capture printed ``0 captures (0 accepted, 1 discarded;
+    0 incomplete), 0 frames`` while the file held the capture (incomplete, discarded) and
+    its frames; after accepted captures A + D exceeded N. The summary now counts what the
+    file holds: the cut capture counted, incomplete, with its frames, and discarded. Here
+    the stop cuts the capture after the decisions after 3 of its 5 frames."""
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    for k in range(30):
+        cv2.imwrite(str(frames / f"{k:03d}.png"), np.full((24, 32, 3), k, np.uint8))
+    intrinsics = Intrinsics(width=32, height=24, fx=30.0, fy=30.0, cx=16.0, cy=12.0)
+    out = tmp_path / "s.mcap"
+    written = [0]
+    with stops.handled(install=False) as stop:
+
+        def progress() -> None:
+            written[0] += 1
+            if written[0] == 5 * len(decisions) + 3:
+                stop.request(signal.SIGTERM)
+
+        summary = record(
+            out,
+            SessionInfo(method=Method.POINT, units=Units.IN),
+            [Camera(camera_id="cam0", intrinsics=intrinsics)],
+            ImagesSource(frames),
+            _Scripted(list(decisions)),
+            capture=CaptureSettings(frames=5, on_progress=progress),
+        )
+    assert summary.interrupted
+    said = summary_counts(summary.line(), out)
+    assert said == file_counts(out), summary.line()
+    captures, accepted, discarded, incomplete, n_frames = expected
+    assert said["captures"] == captures, summary.line()
+    assert (said["accepted"], said["discarded"]) == (accepted, discarded), summary.line()
+    assert (said["incomplete"], said["frames"]) == (incomplete, n_frames), summary.line()
+    assert said["accepted"] + said["discarded"] == said["captures"]
+
+
 # --------------------------------------------------------------------------- real processes
 
 
@@ -251,9 +329,47 @@ def accepted_captures(path: Path) -> set[int]:
     return accepted
 
 
+_SUMMARY = (
+    r"\d+ trials? \(\d+ complete\), (?P<captures>\d+) captures? \((?P<accepted>\d+) accepted, "
+    r"(?P<discarded>\d+) discarded; (?P<incomplete>\d+) incomplete\), (?P<frames>\d+) frames? "
+    r"\(\d+ detected, (?P<dropped>\d+) dropped\)"
+)
+
+
+def summary_counts(text: str, out: Path) -> dict[str, int]:
+    """The counts of the summary line printed for ``out`` (it must be printed once)."""
+    said = re.findall(rf"wrote {re.escape(str(out))}: {_SUMMARY}", text)
+    assert len(said) == 1, text  # the summary, once
+    return dict(zip(re.compile(_SUMMARY).groupindex, map(int, said[0]), strict=True))
+
+
+def file_counts(path: Path) -> dict[str, int]:
+    """What the summary says, as the file holds it: ``twopose-analyze info``'s counts
+    (:func:`describe_session`; its poses measured from are exactly the accepted captures)
+    and each capture window's last decision."""
+    overview = describe_session(path)
+    with SessionReader(path) as reader:
+        topics = [CaptureWindow.TOPIC, CaptureDecision.TOPIC]
+        entries = list(reader.iter_entries(topics=topics))
+    windows = {e.capture: e for e in entries if isinstance(e, CaptureWindow)}
+    final = {e.capture: e.decision for e in entries if isinstance(e, CaptureDecision)}
+    last = [final.get(c) if c is not None else None for c in windows]
+    assert overview.n_poses == last.count("accept"), overview
+    return {
+        "captures": overview.n_captures,
+        "accepted": last.count("accept"),
+        "discarded": last.count("discard"),
+        "incomplete": overview.n_incomplete_captures,
+        "frames": overview.n_frames,
+        "dropped": sum(w.dropped_frames for w in windows.values()),
+    }
+
+
 def check_stopped(rec: Recorder, out: Path, acknowledged: int) -> None:
-    """Exit 130 within 2 s of the signal, the summary once, no traceback, and the file read
-    without ``recover`` holding every capture accepted before the signal."""
+    """Exit 130 within 2 s of the signal, the summary once, no traceback, the file read
+    without ``recover`` holding every capture accepted before the signal, and the summary's
+    counts those of the file (``twopose-analyze info``'s, each capture by its last
+    decision: accepted + discarded = captures)."""
     code, took = rec.finish()
     text = rec.text
     assert code == 130, text
@@ -265,10 +381,11 @@ def check_stopped(rec: Recorder, out: Path, acknowledged: int) -> None:
         assert acknowledged == 0, text
         assert "nothing was recorded" in text or "nothing recorded" in text, text
         return
-    summary = re.findall(rf"wrote {re.escape(str(out))}: .*?\((\d+) accepted", text)
-    assert len(summary) == 1, text  # the summary, once
+    said = summary_counts(text, out)
+    assert said == file_counts(out), text
+    assert said["accepted"] + said["discarded"] == said["captures"], text
     accepted = accepted_captures(out)
-    assert len(accepted) == int(summary[0]), text
+    assert len(accepted) == said["accepted"], text
     assert len(accepted) >= acknowledged, text
 
 

@@ -1,5 +1,6 @@
-"""recorder.summary directly: the tally counts each capture once, and the one summary line
-says what the file holds, how it ended, and that nothing was written when nothing was."""
+"""recorder.summary directly: the tally counts each capture window once, by its last
+decision (as the file holds them), and the one summary line says what the file holds, how
+it ended, and that nothing was written when nothing was."""
 
 from __future__ import annotations
 
@@ -15,8 +16,6 @@ from recorder.summary import RecordingSummary, Tally
 class _Counts:
     trial: int = 2
     n_complete_trials: int = 1
-    n_accepted: int = 2
-    n_discarded: int = 1
 
 
 def _feedback(found: list[bool]) -> tuple[FrameFeedback, ...]:
@@ -28,19 +27,29 @@ def _feedback(found: list[bool]) -> tuple[FrameFeedback, ...]:
     )
 
 
-def test_the_tally_adds_every_capture_once() -> None:
+def test_the_tally_counts_every_window_once_by_its_last_decision() -> None:
     tally = Tally()
-    tally.add(CaptureResult(n_frames=5, complete=True, reason="", feedback=_feedback([True] * 5)))
+    tally.add(
+        CaptureResult(
+            n_frames=5, complete=True, reason="", feedback=_feedback([True] * 5), capture=1
+        )
+    )
     tally.add(
         CaptureResult(
             n_frames=3, complete=False, reason="the camera stopped", dropped=2,
-            feedback=_feedback([True, False, False]),
+            feedback=_feedback([True, False, False]), capture=2,
         )
     )  # fmt: skip
-    tally.add(CaptureResult(n_frames=5, complete=True, reason=""))  # no live detection
+    tally.add(CaptureResult(n_frames=5, complete=True, reason="", capture=3))  # no detection
+    tally.decided(1, "accept")
+    tally.decided(2, "discard")
+    tally.decided(3, "accept")
+    tally.decided(1, "discard")  # undone by a later capture: its last decision counts
+    tally.decided(4, "discard")  # a typed pose the stop left without a window: no capture
     summary = tally.summary(Path("s.mcap"), _Counts(), interrupted=False, kept=True)
     assert (summary.n_captures, summary.n_incomplete, summary.n_frames) == (3, 1, 13)
     assert (summary.n_found, summary.dropped) == (6, 2)
+    assert (summary.n_accepted, summary.n_discarded) == (1, 2)
     assert summary.n_accepted + summary.n_discarded == summary.n_captures
     assert summary.seconds >= 0
 

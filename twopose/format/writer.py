@@ -394,6 +394,11 @@ class Capture:
         """Mark the capture incomplete, with the reason."""
         self._incomplete_reason = reason or "incomplete"
 
+    @property
+    def incomplete_reason(self) -> str:
+        """Why the capture is incomplete ("": complete so far); after the exit, its window's."""
+        return self._incomplete_reason
+
     def __exit__(
         self,
         exc_type: type[BaseException] | None,
