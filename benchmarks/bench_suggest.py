@@ -282,8 +282,9 @@ def main() -> int:
             right = f"{poses[k]:>6}{sel.sum():>7}{np.percentile(costs[sel], 95):>8.2f}"
         print(f"{left:<24}      {right}")
     worst = np.argsort(costs)[::-1][:3]
-    print("\nslowest: " + "; ".join(f"{_describe(cases[k]).split()} {costs[k]:.2f} s"
-                                     for k in worst))  # fmt: skip
+    print("\nslowest (method, units, grid, reach, poses):")
+    for k in worst:
+        print(f"  {_describe(cases[k])}  {costs[k]:.2f} s")
     print(
         f"\nregret: the pick's region / the lattice's best - 1, {args.regret_cases} cases "
         f"(a lattice of more than {FULL_LIMIT} poses in view: sampled, see the docstring)"
