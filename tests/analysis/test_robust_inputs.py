@@ -85,14 +85,15 @@ def test_an_odd_session_in_a_batch_keeps_the_report(
         assert np.isnan(odd["rmse"])
         assert np.isnan(odd["within_1"])  # unknown, not "none within 1 in"
     if kind == "absurd_truth":
-        # Beyond the bound of a ground-truth point: not compared (no overflowing error, no "0% within 1 in"), and
-        # said in the trial's notes; the estimates stay.
+        # Beyond the bound of a ground-truth point: not compared (no overflowing error, no
+        # "0% within 1 in"), and said in the trial's notes; the estimates stay.
         assert np.isnan(odd["rmse"])
         assert np.isnan(odd["within_1"])
         trials = pd.read_csv(out / "trials.csv")
         absurd = trials[trials["session"] == str(odd_sessions[kind])]
         assert (absurd["status"] == "ok").all()
-        assert absurd["notes"].str.contains("ground truth x must be from -200 to 200 in").all(), absurd["notes"]
+        said = absurd["notes"].str.contains("ground truth x must be from -200 to 200 in")
+        assert said.all(), absurd["notes"]
 
 
 @pytest.mark.parametrize("bad", ["bomb", "empty", "wrong_size"])
