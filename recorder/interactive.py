@@ -62,7 +62,7 @@ from twopose.format.entries import (
 )
 from twopose.methods import METHODS, Method, spec_of
 from twopose.targets import BoardPlacement
-from twopose.units import UNITS, Units
+from twopose.units import DEFAULT_UNITS, UNITS, Units
 from twopose.values import Vec3
 
 if TYPE_CHECKING:
@@ -129,7 +129,11 @@ def ask_setup(  # noqa: PLR0913 - one keyword per setup value the operator may h
     (a board session takes none), as soon as the method and units are known."""
     asked_before = op.questions
     m = Method(method or op.ask(f"method ({', '.join(METHODS)})", one_of(METHODS)))
-    u = Units(units if units in UNITS else op.ask("units (in, mm, cm, m)", one_of(UNITS), "in"))
+    u = Units(
+        units
+        if units in UNITS
+        else op.ask(f"units ({', '.join(UNITS)})", one_of(UNITS), DEFAULT_UNITS)
+    )
     refused = (guidance or GuidanceAsked()).refusals(m, u)
     if refused:
         raise InputValueError("; ".join(refused.values()))

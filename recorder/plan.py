@@ -63,7 +63,7 @@ from twopose.format.entries import (
 from twopose.guidance import THESIS_MOVE_IN, Guidance, Reach
 from twopose.methods import METHODS, Method, spec_of
 from twopose.targets import BoardPlacement
-from twopose.units import UNITS, Units, unit_factor
+from twopose.units import DEFAULT_UNITS, UNITS, Units, unit_factor
 from twopose.values import Vec3, finite
 
 if TYPE_CHECKING:
@@ -230,7 +230,7 @@ def load_plan(path: str | Path) -> Plan:
     if method not in METHODS:
         raise InputValueError(f"plan: method must be one of {', '.join(METHODS)}, got {method!r}")
     method = Method(method)
-    units = data.get("units", "in")
+    units = data.get("units", DEFAULT_UNITS)
     if units not in UNITS:
         raise InputValueError(f"plan: units must be one of {', '.join(UNITS)}, got {units!r}")
     units = Units(units)

@@ -16,6 +16,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+import twopose.methods as registry
 from twopose.bounds import (
     BOARD_CORNER,
     BOARD_SQUARE,
@@ -42,9 +43,9 @@ from twopose.format.entries import (
     SessionInfo,
     default_translation_resolution,
 )
-from twopose.methods import MEASURING_METHODS, METHODS, Method, spec_of
+from twopose.methods import METHODS, Method, MethodSpec, spec_of
 from twopose.targets import BoardPlacement
-from twopose.units import UNITS, Units, unit_spec
+from twopose.units import DEFAULT_UNITS, UNITS, Units, unit_spec
 from twopose.values import Vec3
 
 if TYPE_CHECKING:
@@ -299,22 +300,63 @@ def off_ground(point: Vec3, height: float, units: Units) -> str:
 
 
 def default_ground_height(units: Units) -> str:
-    """The thesis' ground height where the units are inches; nothing to assume otherwise."""
-    return f"{THESIS_GROUND_HEIGHT_IN:g}" if units == "in" else ""
+    """The thesis' ground height where the units are the thesis' (the units registry's
+    default, :data:`twopose.units.DEFAULT_UNITS`); nothing to assume otherwise."""
+    return f"{THESIS_GROUND_HEIGHT_IN:g}" if units == DEFAULT_UNITS else ""
 
 
 # --------------------------------------------------------------------------- the fields
 
 
+def _every_method(_spec: MethodSpec) -> bool:
+    return True
+
+
+def _measuring(spec: MethodSpec) -> bool:
+    """A method that reconstructs something: it has a ground truth and a stop rule."""
+    return spec.measures
+
+
+def _calibrating(spec: MethodSpec) -> bool:
+    """A method that reconstructs nothing (the board): its truth is the board's placement."""
+    return not spec.measures
+
+
+def _on_the_ground(spec: MethodSpec) -> bool:
+    """A method whose estimate needs the ground plane y = h: it asks the ground height."""
+    return spec.needs_ground
+
+
+def _two_truth_points(spec: MethodSpec) -> bool:
+    """A method whose ground truth is a line's two points."""
+    return spec.truth_points >= 2
+
+
 @dataclass(frozen=True, kw_only=True)
 class SetupField:
-    """One answer of the setup, as the page shows it."""
+    """One answer of the setup, as the page shows it.
+
+    Which methods ask it is decided by each method's spec (:class:`twopose.methods.MethodSpec`:
+    ``needs_ground``, ``measures``, ``truth_points``), never by naming methods: a method
+    added to the registry is asked what its flags say, by the page, the terminal and
+    :func:`setup_from_answers` alike.
+    """
 
     name: str  # the form's key
     label: str  # the operator's words
     kind: str  # choice, text or check
-    methods: tuple[str, ...] = METHODS  # the methods it applies to
+    #: Whether a method asks it, from the method's spec (default: every method).
+    asked_by: Callable[[MethodSpec], bool] = field(default=_every_method, repr=False)
     options: tuple[str, ...] = ()
+
+    @property
+    def methods(self) -> tuple[Method, ...]:
+        """The methods that ask it: those of the registry whose spec says so."""
+        return tuple(m for m, spec in registry.METHOD_SPECS.items() if self.asked_by(spec))
+
+    def asks(self, method: str) -> bool:
+        """Whether a session of ``method`` asks this field."""
+        return self.asked_by(spec_of(method))
 
 
 SETUP_FIELDS: tuple[SetupField, ...] = (
@@ -326,41 +368,43 @@ SETUP_FIELDS: tuple[SetupField, ...] = (
         name="ground_height",
         label="ground height: camera centre to table",
         kind="text",
-        methods=("ground",),
+        asked_by=_on_the_ground,
     ),
     SetupField(
         name="board",
         label="board's inner corners COLSxROWS",
         kind="text",
-        methods=("board",),
+        asked_by=_calibrating,
     ),
-    SetupField(name="square", label="board's square side", kind="text", methods=("board",)),
+    SetupField(name="square", label="board's square side", kind="text", asked_by=_calibrating),
     SetupField(
         name="board_corner",
         label="board's first inner corner x, y, z (lower left)",
         kind="text",
-        methods=("board",),
+        asked_by=_calibrating,
     ),
+    SetupField(name="truth1", label="ground-truth point x, y, z", kind="text", asked_by=_measuring),
     SetupField(
-        name="truth1", label="ground-truth point x, y, z", kind="text", methods=MEASURING_METHODS
-    ),
-    SetupField(
-        name="truth2", label="second ground-truth point x, y, z", kind="text", methods=("line",)
+        name="truth2",
+        label="second ground-truth point x, y, z",
+        kind="text",
+        asked_by=_two_truth_points,
     ),
     SetupField(
         name="keep_off_ground",
         label="keep a ground-truth point that is off the ground",
         kind="check",
-        methods=("ground",),
+        asked_by=_on_the_ground,
     ),
     SetupField(name="operator", label="operator", kind="text"),
     SetupField(
         name="target_precision",
         label="stop a trial when its 95% region is within (session units; empty: none)",
         kind="text",
-        methods=MEASURING_METHODS,
+        asked_by=_measuring,
     ),
 )
+_FIELDS = {f.name: f for f in SETUP_FIELDS}
 _LABELS = {f.name: f.label for f in SETUP_FIELDS} | {"rotation": "rotation", "rig": "rig file"}
 
 
@@ -394,7 +438,7 @@ def _given_text(name: str, given: Mapping[str, Any]) -> str | None:
 
 def _default_text(name: str, units: Units) -> str:
     defaults = {
-        "units": Units.IN.value,
+        "units": DEFAULT_UNITS.value,
         "focal": f"{THESIS_FOCAL_PX:g}",
         "principal": ", ".join(f"{v:g}" for v in default_principal(THESIS_IMAGE_SIZE)),
         "ground_height": default_ground_height(units),
@@ -411,7 +455,7 @@ def form_fields(given: Mapping[str, Any]) -> list[dict[str, Any]]:
     ``given["prefill"]`` holds ``(value, from)`` for fields filled in but the operator's
     to change (a continuation's stop rule and operator).
     """
-    units = Units(given.get("units") or Units.IN)
+    units = Units(given.get("units") or DEFAULT_UNITS)
     given_from: Mapping[str, str] = given.get("given_from") or {}
     prefill: Mapping[str, tuple[Any, str]] = given.get("prefill") or {}
     fields = []
@@ -468,16 +512,16 @@ def setup_from_answers(form: Mapping[str, str], given: Mapping[str, Any]) -> Set
     :class:`FormRefusedError` holding every refusal, by field."""
     a = _Answers(form, given)
     method = a.check("method", _method)
-    units = a.check("units", lambda s: Units(one_of(UNITS)(s or "in"))) or Units.IN
+    units = a.check("units", lambda s: Units(one_of(UNITS)(s or DEFAULT_UNITS))) or DEFAULT_UNITS
     intrinsics = given.get("intrinsics") or _intrinsics(a, given.get("size", (640, 480)))
     height = None
-    if method is not None and spec_of(method).needs_ground:
+    if method is not None and _FIELDS["ground_height"].asks(method):
         height = a.check("ground_height", lambda s: _ground_height(s, units))
     truth = _truth(a, method, units, height) if method is not None else ()
-    board = _board(a, units) if method is not None and not spec_of(method).measures else None
+    board = _board(a, units) if method is not None and _FIELDS["board"].asks(method) else None
     operator = a.text("operator")
     target = None
-    if method is not None and spec_of(method).measures:
+    if method is not None and _FIELDS["target_precision"].asks(method):
         target = a.check("target_precision", lambda s: target_precision(s, units))
     if a.errors:
         raise FormRefusedError(a.errors)

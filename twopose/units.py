@@ -20,6 +20,7 @@ from typing import Any, TypeVar
 from twopose.errors import InputValueError
 
 __all__ = [
+    "DEFAULT_UNITS",
     "IS_LENGTH",
     "LENGTH",
     "UNITS",
@@ -76,6 +77,8 @@ UNIT_SPECS: Mapping[Units, UnitSpec] = MappingProxyType(
 )  # fmt: skip
 #: The units' symbols, inches first (the thesis' unit and the default).
 UNITS: tuple[Units, ...] = tuple(UNIT_SPECS)
+#: The thesis' unit, a session's when none is given: the registry's first (inches).
+DEFAULT_UNITS: Units = UNITS[0]
 
 
 def unit_spec(units: str) -> UnitSpec:

@@ -4,6 +4,13 @@ the thesis' defaults; the fields that apply to each method."""
 
 from __future__ import annotations
 
+import ast
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -175,3 +182,99 @@ def test_a_principal_point_outside_the_image_is_refused(principal: str, why: str
     assert why in caught.value.errors["principal"]
     setup = setup_from_answers({"method": "point", "principal": "0, 480"}, NOTHING_GIVEN)
     assert (setup.intrinsics.cx, setup.intrinsics.cy) == (0, 480)  # the edge is inside
+
+
+# --------------------------------------------------------------------------- the registry decides
+
+REPO = Path(__file__).resolve().parents[2]
+#: The registry's anchors (as tests/test_registry.py patches a copy of it).
+ANCHOR = "#: The methods' names, in the order the thesis presents them, then the board."
+WALL_SPEC = f"""
+METHOD_SPECS = MappingProxyType(
+    {{
+        **METHOD_SPECS,
+        Method.WALL: dataclasses.replace(
+            METHOD_SPECS[Method.GROUND], method=Method.WALL, label="wall (a test's)"
+        ),
+    }}
+)
+{ANCHOR}"""
+#: Run in the copy: the page's fields for the new method and for ground, and the setup
+#: a form for the new method gives.
+PROBE = """
+import json
+from recorder.setup_rules import form_fields, setup_from_answers
+given = {"method": None, "units": None, "intrinsics": None, "size": (640, 480),
+         "ground_height": None, "ground_truth": []}
+fields = form_fields(given)
+asked = {m: sorted(f["name"] for f in fields if m in f["methods"]) for m in ("wall", "ground")}
+setup = setup_from_answers(
+    {"method": "wall", "ground_height": "9.625", "truth1": "1.91, 9.625, 8.375"}, given
+)
+print(json.dumps({"asked": asked, "method": setup.method, "height": setup.ground_height}))
+"""
+
+
+def test_a_method_added_to_the_registry_alone_is_asked_what_its_spec_says(
+    tmp_path: Path,
+) -> None:
+    """A fourth method, a copy of ground added through ``twopose/methods.py`` alone: the page
+    shows it the ground height (the fields are the ground's) and a form with it is a setup.
+    Before, the fields named their methods, the page hid the height and the form demanded
+    it."""
+    for package in ("twopose", "recorder"):
+        shutil.copytree(
+            REPO / package, tmp_path / package, ignore=shutil.ignore_patterns("__pycache__")
+        )
+    methods = tmp_path / "twopose" / "methods.py"
+    text = methods.read_text(encoding="utf-8")
+    board = '    BOARD = "board"'
+    assert board in text, "the registry's layout changed: update this test"
+    assert ANCHOR in text, "the registry's layout changed: update this test"
+    text = text.replace(board, f'{board}\n    WALL = "wall"', 1).replace(ANCHOR, WALL_SPEC, 1)
+    text = text.replace(
+        "from __future__ import annotations\n",
+        "from __future__ import annotations\n\nimport dataclasses\n",
+        1,
+    )
+    methods.write_text(text, encoding="utf-8")
+    env = {**os.environ, "PYTHONPATH": str(tmp_path)}
+    done = subprocess.run(
+        [sys.executable, "-c", PROBE], cwd=tmp_path, env=env, capture_output=True, text=True,
+        timeout=120, check=False,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    found = json.loads(done.stdout.splitlines()[-1])
+    assert "ground_height" in found["asked"]["wall"]
+    assert found["asked"]["wall"] == found["asked"]["ground"]
+    assert (found["method"], found["height"]) == ("wall", 9.625)
+
+
+METHOD_NAMES = {"point", "line", "ground", "board"}
+#: The modules that describe a session's setup: none names a method to decide by it.
+SETUP_MODULES = ("recorder/setup_rules.py", "recorder/interactive.py", "recorder/plan.py")
+
+
+def _method_names(node: ast.AST) -> set[str]:
+    """The method names ``node`` spells: a string, or a tuple or list of strings."""
+    if isinstance(node, ast.Constant) and isinstance(node.value, str):
+        return {node.value} & METHOD_NAMES
+    if isinstance(node, ast.Tuple | ast.List):
+        return set().union(*(_method_names(e) for e in node.elts))
+    return set()
+
+
+@pytest.mark.parametrize("module", SETUP_MODULES)
+def test_the_setup_names_no_method(module: str) -> None:
+    tree = ast.parse((REPO / module).read_text(encoding="utf-8"))
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Compare):
+            names = set().union(*(_method_names(n) for n in [node.left, *node.comparators]))
+        elif isinstance(node, ast.Tuple | ast.List):
+            names = _method_names(node)
+        else:
+            continue
+        if names:
+            found.append(f"{module}:{node.lineno}: {ast.unparse(node)}")
+    assert not found, "decided by naming methods (read the method's spec):\n" + "\n".join(found)
