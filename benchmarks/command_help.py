@@ -1,6 +1,6 @@
-"""Every command's ``--help``, as the reference docs/commands.md includes (not pasted: this
-script writes it, and ``tests/test_docs.py`` reruns it, so an option added without its
-docs, or docs of an option that is gone, fails the tests).
+"""Every command's ``--help`` and the kinds of ``--source``, as the reference docs/commands.md
+includes (not pasted: this script writes it, and ``tests/test_docs.py`` reruns it, so an
+option or a source kind added without its docs, or docs of one that is gone, fails the tests).
 
     .venv/bin/python benchmarks/command_help.py [--write-docs]
 """
@@ -13,6 +13,7 @@ from typer.testing import CliRunner
 
 from analysis.cli import app as analyze_app
 from recorder.cli import app as record_app
+from recorder.sources import source_kinds_table
 
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "command_help.txt"
@@ -32,6 +33,8 @@ def main() -> int:
             print(f"$ {program} {name} --help")
             print(result.output.rstrip())
             print()
+    print("Sources (--source), one entry each in recorder/sources.py's SOURCE_KINDS:")
+    print(source_kinds_table())
     return 0
 
 

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Annotated, Any, TypeVar
 
 import typer
 
+from recorder.sources import source_help
 from twopose.errors import (
     EXIT_INTERRUPTED,
     InputValueError,
@@ -176,7 +177,7 @@ def new(
     ] = None,
     source: Annotated[
         str,
-        typer.Option(help="camera:N, video:PATH, images:DIR[/PATTERN] or synthetic[:SCENE.toml]."),
+        typer.Option(help=source_help()),
     ] = "camera:0",
     method: Annotated[Method | None, typer.Option(help="Asked if not given.")] = None,
     units: Annotated[
@@ -483,9 +484,7 @@ def calibrate(
     out: Annotated[Path, typer.Argument(help="Calibration file to write (TOML).")],
     source: Annotated[
         str,
-        typer.Option(
-            help="camera:N, video:PATH or images:DIR[/PATTERN] (e.g. images:photos/left*.jpg)."
-        ),
+        typer.Option(help=source_help(calibration=True)),
     ] = "camera:0",
     board: Annotated[
         str, typer.Option(help="Inner corners 'COLSxROWS' of the checkerboard.")

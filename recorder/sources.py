@@ -19,9 +19,6 @@ from pathlib import Path
 from types import TracebackType
 from typing import TYPE_CHECKING, Any, Self
 
-import cv2
-import numpy as np
-from numpy.typing import NDArray
 from typing_extensions import override
 
 from recorder import stops
@@ -30,22 +27,35 @@ from twopose.methods import Method
 from twopose.units import Units
 
 if TYPE_CHECKING:
-    from collections.abc import Sequence
+    from collections.abc import Callable, Sequence
+
+    import numpy as np
+    from numpy.typing import NDArray
 
     from twopose.camera import Camera
     from twopose.sim.scene import Scene
 
+    Image = NDArray[np.uint8]
+
 __all__ = [
+    "SOURCE_KINDS",
     "CameraSource",
     "FrameSource",
     "ImagesSource",
     "SourceInfo",
+    "SourceKind",
+    "SourceOptions",
     "SyntheticSource",
     "VideoSource",
+    "open_from",
     "open_source",
+    "source_help",
+    "source_kinds_table",
 ]
 
-Image = NDArray[np.uint8]
+# OpenCV and NumPy are imported where a source opens or reads (Image is NumPy's array, for
+# the type checker alone), so that the command line's --help, which lists the SOURCE_KINDS,
+# loads neither (tests/test_layering.py).
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
 
 
@@ -154,6 +164,8 @@ class CameraSource(FrameSource):
         self._thread: threading.Thread | None = None
 
     def open(self) -> SourceInfo:
+        import cv2
+
         cap = cv2.VideoCapture(self.device)
         if not cap.isOpened():
             raise SourceError(
@@ -175,6 +187,8 @@ class CameraSource(FrameSource):
         return self.info
 
     def _grab(self) -> None:
+        import numpy as np
+
         while not self._stop.is_set():
             ok, frame = self._cap.read()
             if not ok:
@@ -222,6 +236,8 @@ class VideoSource(FrameSource):
         self._cap: Any = None
 
     def open(self) -> SourceInfo:
+        import cv2
+
         if not self.path.is_file():
             raise SourceError(f"video {self.path} does not exist")
         cap = cv2.VideoCapture(str(self.path))
@@ -241,6 +257,8 @@ class VideoSource(FrameSource):
 
     @override
     def read(self, timeout_s: float = 2.0) -> Image:
+        import numpy as np
+
         if self._pacer is not None:
             missed = self._pacer.wait()
             for _ in range(missed):  # the camera moved on without us
@@ -328,6 +346,8 @@ class SyntheticSource(FrameSource):
         units: Units | None = None,
         cameras: Sequence[Camera] | None = None,
     ) -> None:
+        import numpy as np
+
         from twopose.sim.scene import load_scene
 
         self.scene = load_scene(scene_path)
@@ -367,6 +387,8 @@ class SyntheticSource(FrameSource):
         """The operator typed this pose and placed the laptop there: the camera renders
         from where the scene's rig (``[systematic]``) really puts it, as ``simulate``
         does (one synthetic camera: :class:`twopose.sim.camera.SyntheticCamera`)."""
+        import numpy as np
+
         if (t_grid, r_deg) == self._pose:
             return
         self._camera.place(np.asarray(t_grid, dtype=np.float64), np.asarray(r_deg))
@@ -411,6 +433,113 @@ def _seen_through(scene: Scene, cameras: Sequence[Camera], scene_path: object) -
         ) from err
 
 
+@dataclass(frozen=True, kw_only=True)
+class SourceOptions:
+    """What the session asks of a source; each kind's opener takes what it uses."""
+
+    method: Method = Method.GROUND
+    width: int = 640
+    height: int = 480
+    fps: float = 30.0
+    realtime: bool = True
+    units: Units | None = None
+    cameras: Sequence[Camera] | None = None
+
+
+@dataclass(frozen=True, kw_only=True)
+class SourceKind:
+    """One kind of frame source, as the operator types it: ``NAME`` or ``NAME:ARG``.
+
+    Registered once in :data:`SOURCE_KINDS`; :func:`open_source`, the CLI's ``--source``
+    help (:func:`source_help`) and the docs' list of sources all read it from there.
+    """
+
+    #: What the operator types before the colon (``camera``).
+    name: str
+    #: The syntax as the operator types it (``camera:N``), for help and error messages.
+    syntax: str
+    #: One line saying what it is, for the docs' list.
+    help: str
+    #: Opens the kind from the text after the colon ("" when none) and the session's options.
+    opener: Callable[[str, SourceOptions], FrameSource]
+    #: Whether the text after the colon is required (``video:PATH``).
+    needs_arg: bool = False
+    #: Whether ``twopose-record calibrate`` takes it (a camera's checkerboard views).
+    calibrates: bool = True
+    #: An example the calibrate help shows, if any.
+    example: str = ""
+
+    def matches(self, spec: str) -> bool:
+        """Whether ``spec`` (as typed) names this kind."""
+        kind, _, arg = spec.partition(":")
+        return kind == self.name and (bool(arg) or not self.needs_arg)
+
+
+def _open_camera(arg: str, o: SourceOptions) -> FrameSource:
+    try:
+        return CameraSource(int(arg or "0"), o.width, o.height, o.fps)
+    except ValueError as err:
+        raise SourceError(f"camera:{arg}: the device must be a number, e.g. camera:0") from err
+
+
+def _open_synthetic(arg: str, o: SourceOptions) -> FrameSource:
+    return SyntheticSource(
+        arg or None, o.method, realtime=o.realtime, units=o.units, cameras=o.cameras
+    )
+
+
+#: Every kind of frame source, in the order help and docs list them.
+SOURCE_KINDS: tuple[SourceKind, ...] = (
+    SourceKind(
+        name="camera",
+        syntax="camera:N",
+        help="OpenCV device N (0 if omitted); --width/--height/--fps are requested",
+        opener=_open_camera,
+    ),
+    SourceKind(
+        name="video",
+        syntax="video:PATH",
+        help="a video file's frames in order, paced like a camera at its frame rate",
+        opener=lambda arg, o: VideoSource(arg, realtime=o.realtime),
+        needs_arg=True,
+    ),
+    SourceKind(
+        name="images",
+        syntax="images:DIR[/PATTERN]",
+        help="a folder's images in file-name order, or those a shell pattern matches",
+        opener=lambda arg, _: ImagesSource(arg),
+        needs_arg=True,
+        example="images:photos/left*.jpg",
+    ),
+    SourceKind(
+        name="synthetic",
+        syntax="synthetic[:SCENE.toml]",
+        help="the simulator's camera, rendering its scene from the typed pose",
+        opener=_open_synthetic,
+        calibrates=False,
+    ),
+)
+
+
+def _listed(items: Sequence[str]) -> str:
+    return items[0] if len(items) == 1 else f"{', '.join(items[:-1])} or {items[-1]}"
+
+
+def source_help(kinds: Sequence[SourceKind] = SOURCE_KINDS, *, calibration: bool = False) -> str:
+    """The ``--source`` help: the kinds' syntaxes (only those a calibration takes, with
+    their examples, when ``calibration``)."""
+    chosen = [k for k in kinds if k.calibrates or not calibration]
+    text = _listed([k.syntax for k in chosen])
+    examples = [k.example for k in chosen if k.example] if calibration else []
+    return f"{text} (e.g. {', '.join(examples)})." if examples else f"{text}."
+
+
+def source_kinds_table(kinds: Sequence[SourceKind] = SOURCE_KINDS) -> str:
+    """The docs' list of source kinds, one a line: syntax, then what it is."""
+    width = max(len(k.syntax) for k in kinds)
+    return "\n".join(f"  {k.syntax:<{width}}  {k.help}" for k in kinds)
+
+
 def open_source(
     spec: str,
     *,
@@ -426,24 +555,27 @@ def open_source(
 
     ``camera:N`` (device N), ``video:PATH``, ``images:DIR`` or ``images:DIR/PATTERN``,
     ``synthetic`` or
-    ``synthetic:SCENE.toml``; the synthetic camera renders its scene in the session's
+    ``synthetic:SCENE.toml`` (the kinds of :data:`SOURCE_KINDS`: :func:`open_from`);
+    the synthetic camera renders its scene in the session's
     ``units`` (converted from the scene's own) and through the session's ``cameras``'
     intrinsics (focal, principal point, image size, distortion; the scene's own camera
     when they are its). Intrinsics it cannot render raise :class:`InputValueError`.
     """
-    kind, _, arg = spec.partition(":")
-    if kind == "camera":
-        try:
-            return CameraSource(int(arg or "0"), width, height, fps)
-        except ValueError as err:
-            raise SourceError(f"camera:{arg}: the device must be a number, e.g. camera:0") from err
-    if kind == "video" and arg:
-        return VideoSource(arg, realtime=realtime)
-    if kind == "images" and arg:
-        return ImagesSource(arg)
-    if kind == "synthetic":
-        return SyntheticSource(arg or None, method, realtime=realtime, units=units, cameras=cameras)
-    raise SourceError(
-        f"unknown source {spec!r}; use camera:N, video:PATH, images:DIR[/PATTERN] or "
-        "synthetic[:SCENE.toml]"
+    options = SourceOptions(
+        method=method,
+        width=width,
+        height=height,
+        fps=fps,
+        realtime=realtime,
+        units=units,
+        cameras=cameras,
     )
+    return open_from(SOURCE_KINDS, spec, options)
+
+
+def open_from(kinds: Sequence[SourceKind], spec: str, options: SourceOptions) -> FrameSource:
+    """The source ``spec`` names among ``kinds`` (not yet opened), by its kind's opener."""
+    for kind in kinds:
+        if kind.matches(spec):
+            return kind.opener(spec.partition(":")[2], options)
+    raise SourceError(f"unknown source {spec!r}; use {_listed([k.syntax for k in kinds])}")

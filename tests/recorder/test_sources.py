@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import ast
 from pathlib import Path
 
 import cv2
@@ -9,7 +10,14 @@ import numpy as np
 import pytest
 
 from recorder.capture import CaptureSettings, capture_frames
-from recorder.sources import ImagesSource, SyntheticSource, VideoSource, open_source
+from recorder.sources import (
+    CameraSource,
+    FrameSource,
+    ImagesSource,
+    SyntheticSource,
+    VideoSource,
+    open_source,
+)
 from tests.helpers import write_video
 from twopose.camera import Camera, Intrinsics
 from twopose.errors import SourceError
@@ -222,3 +230,133 @@ def test_an_images_pattern_takes_only_the_files_it_matches(tmp_path: Path) -> No
             src.read()
     with pytest.raises(SourceError, match=r"matches centre\*\.png"):
         open_source(f"images:{tmp_path / 'centre*.png'}").open()
+
+
+def test_a_kind_added_to_the_registry_is_opened_and_listed() -> None:
+    """A new kind is one entry: ``open_from`` opens it and the help lists it, no other code."""
+    from dataclasses import replace
+
+    from recorder.sources import (
+        SOURCE_KINDS,
+        SourceInfo,
+        SourceKind,
+        SourceOptions,
+        open_from,
+        source_help,
+        source_kinds_table,
+    )
+
+    class Blank(FrameSource):
+        def __init__(self, arg: str, options: SourceOptions) -> None:
+            self.arg, self.options = arg, options
+
+        def open(self) -> SourceInfo:
+            self.info = SourceInfo(description=f"blank:{self.arg}", width=4, height=2, fps=1.0)
+            return self.info
+
+        def read(self, timeout_s: float = 2.0) -> np.ndarray:
+            return np.zeros((2, 4, 3), np.uint8)
+
+    blank = SourceKind(
+        name="blank", syntax="blank:LABEL", help="black frames", opener=Blank, needs_arg=True
+    )
+    kinds = (*SOURCE_KINDS, blank)
+    options = SourceOptions(fps=12.0)
+    with open_from(kinds, "blank:x", options) as src:
+        assert isinstance(src, Blank)
+        assert (src.arg, src.options.fps, src.info.description) == ("x", 12.0, "blank:x")
+        assert src.read().shape == (2, 4, 3)
+    assert isinstance(open_from(kinds, "video:a.avi", options), VideoSource)  # the others stay
+    with pytest.raises(SourceError, match=r"unknown source 'blank'; use .* or blank:LABEL$"):
+        open_from(kinds, "blank", options)  # its argument is required
+    with pytest.raises(SourceError, match="unknown source"):
+        open_from(SOURCE_KINDS, "blank:x", options)  # the registry itself is untouched
+    assert source_help(kinds).endswith("synthetic[:SCENE.toml] or blank:LABEL.")
+    assert "blank:LABEL" in source_help(kinds, calibration=True)
+    no_calibration = (*SOURCE_KINDS, replace(blank, calibrates=False))
+    assert "blank" not in source_help(no_calibration, calibration=True)
+    assert source_kinds_table(kinds).splitlines()[-1].split() == ["blank:LABEL", "black", "frames"]
+
+
+def test_the_command_line_help_and_errors_list_the_registry() -> None:
+    """The CLI's ``--source`` help and the unknown-source message read the registry (the
+    spellings the tests and docs have always shown)."""
+    from recorder.sources import SOURCE_KINDS, source_help
+
+    assert [k.syntax for k in SOURCE_KINDS] == [
+        "camera:N",
+        "video:PATH",
+        "images:DIR[/PATTERN]",
+        "synthetic[:SCENE.toml]",
+    ]
+    assert source_help() == "camera:N, video:PATH, images:DIR[/PATTERN] or synthetic[:SCENE.toml]."
+    assert source_help(calibration=True) == (
+        "camera:N, video:PATH or images:DIR[/PATTERN] (e.g. images:photos/left*.jpg)."
+    )
+    with pytest.raises(SourceError) as err:
+        open_source("video")
+    assert str(err.value) == (
+        "unknown source 'video'; use camera:N, video:PATH, images:DIR[/PATTERN] or "
+        "synthetic[:SCENE.toml]"
+    )
+    assert isinstance(open_source("camera"), CameraSource)  # the device defaults to 0
+    camera = open_source("camera:")
+    assert isinstance(camera, CameraSource)
+    assert camera.device == 0
+
+
+_NAME_TESTS = {"startswith", "endswith", "removeprefix", "removesuffix", "partition"}
+
+
+def _source_name_comparisons(tree: ast.AST, names: set[str], skip: set[int]) -> list[int]:
+    """Lines comparing a string with a source name (``== "synthetic"``, ``in ("camera",
+    ...)``, ``.startswith("video:")``), outside the nodes in ``skip``."""
+
+    def named(node: ast.AST) -> bool:
+        values = node.elts if isinstance(node, ast.Tuple | ast.List | ast.Set) else [node]
+        return any(
+            isinstance(v, ast.Constant)
+            and isinstance(v.value, str)
+            and (v.value in names or (v.value.partition(":")[0] in names and ":" in v.value))
+            for v in values
+        )
+
+    found = []
+    for node in ast.walk(tree):
+        if id(node) in skip:
+            continue
+        if isinstance(node, ast.Compare):
+            operands = [node.left, *node.comparators]
+        elif (
+            isinstance(node, ast.Call)
+            and isinstance(node.func, ast.Attribute)
+            and node.func.attr in _NAME_TESTS
+        ):
+            operands = list(node.args)
+        else:
+            continue
+        if any(named(o) for o in operands):
+            found.append(node.lineno)
+    return found
+
+
+def test_no_source_name_is_compared_outside_the_registry() -> None:
+    """Which kind a source text is, is decided by its registry entry alone: no module of the
+    recorder compares a text with a source name (the registry's entries are skipped)."""
+    from recorder.sources import SOURCE_KINDS
+
+    names = {k.name for k in SOURCE_KINDS}
+    recorder = Path(__file__).resolve().parents[2] / "recorder"
+    found = []
+    for path in sorted(recorder.glob("*.py")):
+        tree = ast.parse(path.read_text(), str(path))
+        skip: set[int] = set()
+        for node in ast.walk(tree):
+            target = node.target if isinstance(node, ast.AnnAssign) else None
+            if isinstance(target, ast.Name) and target.id == "SOURCE_KINDS":
+                skip |= {id(n) for n in ast.walk(node)}
+        found += [f"{path.name}:{line}" for line in _source_name_comparisons(tree, names, skip)]
+    assert found == []
+    # The scan sees what it looks for.
+    code = 'a == "synthetic"\nb.startswith("video:")\nc in ("camera", "x")\nd == "cam"\n'
+    assert _source_name_comparisons(ast.parse(code), names, set()) == [1, 2, 3]
