@@ -354,7 +354,7 @@ class SetupField:
         """The methods that ask it: those of the registry whose spec says so."""
         return tuple(m for m, spec in registry.METHOD_SPECS.items() if self.asked_by(spec))
 
-    def asks(self, method: str) -> bool:
+    def asks(self, method: Method) -> bool:
         """Whether a session of ``method`` asks this field."""
         return self.asked_by(spec_of(method))
 
