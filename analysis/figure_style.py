@@ -44,7 +44,12 @@ __all__ = [
 
 #: Pixels per inch of the PNGs (a 5 in figure is 550 px wide).
 DPI = 110
-TICK, LABEL, TITLE = 9, 10, 10  # font sizes (points)
+#: The tick labels' font size (points).
+TICK = 9
+#: The axis labels' font size (points).
+LABEL = 10
+#: The titles' font size (points).
+TITLE = 10
 NOTE = 8  # a note under a legend
 
 #: Series in one legend; beyond it, a figure keys its colours with a colour bar.

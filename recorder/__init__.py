@@ -3,10 +3,120 @@ live view), frame sources, camera calibration, recovery of interrupted sessions,
 simulator that renders what the thesis' webcam would see.
 
 It writes the session format of :mod:`twopose.format` and never imports ``analysis``.
+
+Every command of ``twopose-record`` is one call from Python, exported here and loaded on
+first use (``import recorder.cli`` stays light)::
+
+    import recorder
+    recorder.simulate_session("sim.mcap", method=twopose.Method.GROUND)  # simulate
+    source = recorder.open_source("camera:0")
+    recorder.record_plan(recorder.load_plan("plan.toml"), "out.mcap", source)  # new --plan
+    recorder.record_terminal(request, given, stack)  # new, at the terminal
+    recorder.serve_console_until_stopped(request, given, host=..., port=...)  # new --ui
+    recorder.recover_session("cut.mcap", "fixed.mcap")  # recover
+    recorder.calibrate(source, (9, 6), 25.0)  # calibrate
+
+The frame sources' registry (:data:`SOURCE_KINDS`, :func:`open_source`), the procedure
+(:class:`Procedure`, :func:`record`) and reading a session to continue
+(:func:`read_continued`) are here too.
 """
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 from twopose import __version__
 
-__all__ = ["__version__"]
+if TYPE_CHECKING:
+    from recorder.camera_calibration import (
+        Calibration,
+        calibrate,
+        load_calibration,
+        save_calibration,
+    )
+    from recorder.continuation import Continued, read_continued
+    from recorder.interactive import record_interactive
+    from recorder.new_session import (
+        NewRequest,
+        record_planned,
+        record_terminal,
+        serve_console_until_stopped,
+    )
+    from recorder.plan import Plan, load_plan, record_plan
+    from recorder.procedure import Procedure, record
+    from recorder.recover import RecoveryReport, recover_session
+    from recorder.simulate import SimulationSummary, simulate_session
+    from recorder.sources import SOURCE_KINDS, FrameSource, SourceKind, SourceOptions, open_source
+    from recorder.summary import RecordingSummary
+
+__all__ = [
+    "SOURCE_KINDS",
+    "Calibration",
+    "Continued",
+    "FrameSource",
+    "NewRequest",
+    "Plan",
+    "Procedure",
+    "RecordingSummary",
+    "RecoveryReport",
+    "SimulationSummary",
+    "SourceKind",
+    "SourceOptions",
+    "__version__",
+    "calibrate",
+    "load_calibration",
+    "load_plan",
+    "open_source",
+    "read_continued",
+    "record",
+    "record_interactive",
+    "record_plan",
+    "record_planned",
+    "record_terminal",
+    "recover_session",
+    "save_calibration",
+    "serve_console_until_stopped",
+    "simulate_session",
+]
+
+#: Where each exported name lives; it is imported from there on first use.
+_HOMES = {
+    "SimulationSummary": "recorder.simulate",
+    "simulate_session": "recorder.simulate",
+    "Plan": "recorder.plan",
+    "load_plan": "recorder.plan",
+    "record_plan": "recorder.plan",
+    "NewRequest": "recorder.new_session",
+    "record_planned": "recorder.new_session",
+    "record_terminal": "recorder.new_session",
+    "serve_console_until_stopped": "recorder.new_session",
+    "record_interactive": "recorder.interactive",
+    "Procedure": "recorder.procedure",
+    "record": "recorder.procedure",
+    "RecordingSummary": "recorder.summary",
+    "RecoveryReport": "recorder.recover",
+    "recover_session": "recorder.recover",
+    "Calibration": "recorder.camera_calibration",
+    "calibrate": "recorder.camera_calibration",
+    "load_calibration": "recorder.camera_calibration",
+    "save_calibration": "recorder.camera_calibration",
+    "SOURCE_KINDS": "recorder.sources",
+    "FrameSource": "recorder.sources",
+    "SourceKind": "recorder.sources",
+    "SourceOptions": "recorder.sources",
+    "open_source": "recorder.sources",
+    "Continued": "recorder.continuation",
+    "read_continued": "recorder.continuation",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _HOMES:
+        import importlib
+
+        return getattr(importlib.import_module(_HOMES[name]), name)
+    raise AttributeError(f"module 'recorder' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

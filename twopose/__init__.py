@@ -6,15 +6,200 @@ the detectors (:mod:`twopose.detect`), the solvers and their uncertainty
 (:mod:`twopose.overlay`), the TOML reader (:mod:`twopose.config`) and the session file
 format (:mod:`twopose.format`). It imports neither ``recorder`` nor ``analysis``; importing
 this package loads nothing heavy.
+
+What a notebook or another program uses is exported here, each name loaded on first use::
+
+    import twopose
+    spec = twopose.spec_of("ground")  # the method registry: twopose.METHOD_SPECS
+    for path in twopose.find_sessions(["sessions/"]):
+        with twopose.SessionReader(path) as session:
+            ...
+    from twopose.detect import detect  # the module twopose.detect holds it
+    detection = detect(frame_bgr, spec.target)
+
+The camera model (:class:`Camera`, :class:`Intrinsics`), the method and unit registries
+(:data:`METHOD_SPECS`, :data:`UNIT_SPECS`), the errors (every one a :class:`TwoposeError`),
+reading and writing sessions, detection, the solvers' one-call functions
+(:func:`triangulate_points`, :func:`triangulate_lines`, :func:`triangulate_ground`,
+:func:`estimate_session`), their uncertainty (:func:`propagate`) and the guidance
+(:class:`Guidance`). Everything else is in its module.
 """
 
 from __future__ import annotations
 
 from importlib.metadata import PackageNotFoundError, version
+from typing import TYPE_CHECKING, Any
 
 try:
     __version__ = version("twopose")
 except PackageNotFoundError:  # running from a source tree without installing
     __version__ = "0.0.0+unknown"
 
-__all__ = ["__version__"]
+if TYPE_CHECKING:
+    from twopose.camera import Camera, Intrinsics, camera_rays, project_points
+    from twopose.detect import Detection, DotParams, GloveParams
+    from twopose.errors import (
+        InputValueError,
+        SceneError,
+        SessionExistsError,
+        SessionFormatError,
+        SessionVersionError,
+        SourceError,
+        TwoposeError,
+    )
+    from twopose.estimate import EstimateOptions, solve_batch
+    from twopose.format import (
+        FORMAT_VERSION,
+        GroundPlane,
+        GroundTruth,
+        SessionInfo,
+        SessionReader,
+        SessionWriter,
+        TruePose,
+        find_sessions,
+    )
+    from twopose.guidance import Advice, Guidance, advise, suggest
+    from twopose.methods import (
+        MEASURING_METHODS,
+        METHOD_SPECS,
+        METHODS,
+        Method,
+        MethodSpec,
+        label_of,
+        spec_of,
+    )
+    from twopose.session_estimate import SessionEstimate, SessionTrials, estimate_session
+    from twopose.solve import (
+        NViewLines,
+        NViewPoints,
+        triangulate_ground,
+        triangulate_lines,
+        triangulate_points,
+    )
+    from twopose.two_view import triangulate_two_views
+    from twopose.uncertainty import Propagated, propagate
+    from twopose.units import DEFAULT_UNITS, UNIT_SPECS, UNITS, Units, UnitSpec, unit_spec
+
+__all__ = [
+    "DEFAULT_UNITS",
+    "FORMAT_VERSION",
+    "MEASURING_METHODS",
+    "METHODS",
+    "METHOD_SPECS",
+    "UNITS",
+    "UNIT_SPECS",
+    "Advice",
+    "Camera",
+    "Detection",
+    "DotParams",
+    "EstimateOptions",
+    "GloveParams",
+    "GroundPlane",
+    "GroundTruth",
+    "Guidance",
+    "InputValueError",
+    "Intrinsics",
+    "Method",
+    "MethodSpec",
+    "NViewLines",
+    "NViewPoints",
+    "Propagated",
+    "SceneError",
+    "SessionEstimate",
+    "SessionExistsError",
+    "SessionFormatError",
+    "SessionInfo",
+    "SessionReader",
+    "SessionTrials",
+    "SessionVersionError",
+    "SessionWriter",
+    "SourceError",
+    "TruePose",
+    "TwoposeError",
+    "UnitSpec",
+    "Units",
+    "__version__",
+    "advise",
+    "camera_rays",
+    "estimate_session",
+    "find_sessions",
+    "label_of",
+    "project_points",
+    "propagate",
+    "solve_batch",
+    "spec_of",
+    "suggest",
+    "triangulate_ground",
+    "triangulate_lines",
+    "triangulate_points",
+    "triangulate_two_views",
+    "unit_spec",
+]
+
+#: Where each exported name lives; it is imported from there on first use.
+_HOMES = {
+    "Camera": "twopose.camera",
+    "Intrinsics": "twopose.camera",
+    "camera_rays": "twopose.camera",
+    "project_points": "twopose.camera",
+    "MEASURING_METHODS": "twopose.methods",
+    "METHOD_SPECS": "twopose.methods",
+    "METHODS": "twopose.methods",
+    "Method": "twopose.methods",
+    "MethodSpec": "twopose.methods",
+    "label_of": "twopose.methods",
+    "spec_of": "twopose.methods",
+    "DEFAULT_UNITS": "twopose.units",
+    "UNIT_SPECS": "twopose.units",
+    "UNITS": "twopose.units",
+    "UnitSpec": "twopose.units",
+    "Units": "twopose.units",
+    "unit_spec": "twopose.units",
+    "InputValueError": "twopose.errors",
+    "SceneError": "twopose.errors",
+    "SessionExistsError": "twopose.errors",
+    "SessionFormatError": "twopose.errors",
+    "SessionVersionError": "twopose.errors",
+    "SourceError": "twopose.errors",
+    "TwoposeError": "twopose.errors",
+    "FORMAT_VERSION": "twopose.format",
+    "GroundPlane": "twopose.format",
+    "GroundTruth": "twopose.format",
+    "SessionInfo": "twopose.format",
+    "SessionReader": "twopose.format",
+    "SessionWriter": "twopose.format",
+    "TruePose": "twopose.format",
+    "find_sessions": "twopose.format",
+    "Detection": "twopose.detect",
+    "DotParams": "twopose.detect",
+    "GloveParams": "twopose.detect",
+    "NViewLines": "twopose.solve",
+    "NViewPoints": "twopose.solve",
+    "triangulate_ground": "twopose.solve",
+    "triangulate_lines": "twopose.solve",
+    "triangulate_points": "twopose.solve",
+    "triangulate_two_views": "twopose.two_view",
+    "EstimateOptions": "twopose.estimate",
+    "solve_batch": "twopose.estimate",
+    "SessionEstimate": "twopose.session_estimate",
+    "SessionTrials": "twopose.session_estimate",
+    "estimate_session": "twopose.session_estimate",
+    "Propagated": "twopose.uncertainty",
+    "propagate": "twopose.uncertainty",
+    "Advice": "twopose.guidance",
+    "Guidance": "twopose.guidance",
+    "advise": "twopose.guidance",
+    "suggest": "twopose.guidance",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _HOMES:
+        import importlib
+
+        return getattr(importlib.import_module(_HOMES[name]), name)
+    raise AttributeError(f"module 'twopose' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -42,7 +42,9 @@ TruthKind = Literal["point", "line"]
 #: the rays through each view's dot (thesis eq. 3.9), the planes of each view's image line
 #: and their line (eq. 3.17), or those planes cut by the ground plane y = h (method 2).
 Solver = Literal["rays", "planes", "planes and ground"]
+#: A trial's truth is one point (the point and ground methods).
 POINT_TRUTH: TruthKind = "point"
+#: A trial's truth is a line's two points (the line method).
 LINE_TRUTH: TruthKind = "line"
 #: How many grid points each kind of truth has.
 TRUTH_POINTS: Mapping[str, int] = MappingProxyType({POINT_TRUTH: 1, LINE_TRUTH: 2})
@@ -61,6 +63,7 @@ class Method(StrEnum):
 class MethodSpec:
     """What one method is, for every stage that depends on it."""
 
+    #: The method this entry describes (its key in :data:`METHOD_SPECS`).
     method: Method
     #: What the detector looks for in each frame (twopose.detect): the dark dot or the glove;
     #: None for a board session, whose corners the rig calibration finds (twopose.rig.board).
@@ -78,6 +81,7 @@ class MethodSpec:
     extra_columns: tuple[str, ...]
     #: How the thesis names it, and how tables and verdicts label it.
     thesis_name: str
+    #: Its label in tables, figures and the console ("point (method 1)", "line").
     label: str
     #: The estimators a measurement of it can be solved by (``thesis`` first): the
     #: thesis' formulas, the reprojection-optimal fit, the weighted plane fit.
@@ -94,7 +98,9 @@ class MethodSpec:
     detector_floor: tuple[float, float] = (0.0, 0.0)
     #: What a top view draws for one view, how it names the truth, and its caption.
     view_segment: str = "segment"
+    #: How a top view names the truth in its legend.
     truth_name: str = "truth"
+    #: The top view's caption: what it draws for each view.
     top_view: str = "each view"
 
     @property
@@ -118,6 +124,8 @@ class MethodSpec:
         return self.target == "glove"
 
 
+#: The method registry: each method's :class:`MethodSpec`, in the order the thesis presents
+#: them, then the board. Every rule that depends on the method reads it here.
 METHOD_SPECS: Mapping[Method, MethodSpec] = MappingProxyType(
     {
         Method.POINT: MethodSpec(

@@ -80,8 +80,13 @@ _EDGE_WALK = 4
 _MAX_ROUNDS = 40
 #: A prediction: (M, 3) camera centres to their (M,) regions (NaN: out of view, unsolved).
 Predict = Callable[[F64], F64]
-#: Why a lattice pose in reach was not suggested (:attr:`Suggestion.left_out`).
-EDGE, TAKEN, UNSOLVED = "near the image's edge", "taken", "not solved"
+#: Why a lattice pose in reach was not suggested (:attr:`Suggestion.left_out`): too near
+#: the image's edge.
+EDGE = "near the image's edge"
+#: ... already taken.
+TAKEN = "taken"
+#: ... its prediction did not solve.
+UNSOLVED = "not solved"
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -49,12 +49,18 @@ class Units(StrEnum):
 class UnitSpec:
     """One unit: its size, its name, and the ground tolerance in it."""
 
+    #: The unit's symbol (its key in :data:`UNIT_SPECS`).
     units: Units
-    inches: float  # inches in one unit
-    name: str  # in words, plural ("inches")
-    ground_tolerance: float  # how far off y = h a method 2 ground truth may lie unflagged
+    #: Inches in one unit.
+    inches: float
+    #: The unit in words, plural ("inches").
+    name: str
+    #: How far off y = h a method 2 ground truth may lie unflagged, in this unit.
+    ground_tolerance: float
 
 
+#: The unit registry: each unit's :class:`UnitSpec`, inches first. Every rule that depends
+#: on the units reads it here.
 UNIT_SPECS: Mapping[Units, UnitSpec] = MappingProxyType(
     {
         Units.IN: UnitSpec(
