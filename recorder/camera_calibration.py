@@ -30,8 +30,8 @@ from numpy.typing import NDArray
 from recorder.sources import FrameSource
 from twopose.arrays import F32
 from twopose.camera import SIGMA_KEYS, Intrinsics, intrinsics_sigma
+from twopose.checkerboard import find_board
 from twopose.config import read_toml
-from twopose.detect import find_board
 from twopose.errors import InputValueError, SessionExistsError, SourceError
 
 __all__ = [

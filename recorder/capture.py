@@ -433,9 +433,9 @@ def board_feedback(k: int, image: Any, board: BoardPlacement) -> FrameFeedback:
     """Frame ``k``'s board: its inner corners found (all of them, or none: OpenCV finds a
     board whole) and the share of the image their bounding box covers.
 
-    Found as ``twopose-analyze rig`` finds it (:func:`twopose.detect.find_board_live`: the
+    Found as ``twopose-analyze rig`` finds it (:func:`twopose.checkerboard.find_board_live`: the
     rig's full search, bounded in time, behind OpenCV's fast check)."""
-    from twopose.detect import LIVE_BOARD_BUDGET_S, find_board_live
+    from twopose.checkerboard import LIVE_BOARD_BUDGET_S, find_board_live
 
     cols, rows = board.inner_corners
     search = find_board_live(image, (cols, rows))

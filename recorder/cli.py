@@ -168,126 +168,148 @@ RigOption = Annotated[
 ]
 
 
+#: ``new``'s options, one alias each (as :data:`UiOption`), so ``new`` stays readable.
+OutArgument = Annotated[Path, typer.Argument(help="New session file (never overwritten).")]
+PlanOption = Annotated[
+    Path | None,
+    typer.Option(exists=True, dir_okay=False, help="Run this plan (TOML) without prompts."),
+]
+SourceOption = Annotated[str, typer.Option(help=source_help())]
+MethodOption = Annotated[Method | None, typer.Option(help="Asked if not given.")]
+UnitsOption = Annotated[
+    Units | None,
+    typer.Option(is_eager=True, help="Every length's unit. Asked if not given."),
+]
+CalibrationOption = Annotated[
+    Path | None,
+    typer.Option(exists=True, dir_okay=False, help="Intrinsics from `twopose-record calibrate`."),
+]
+FocalOption = Annotated[
+    float | None, typer.Option(**_read("FOCAL"), help="Focal parameter, px (thesis: 525).")
+]
+PrincipalOption = Annotated[str | None, typer.Option(help="Principal point 'cx,cy', px.")]
+GroundHeightOption = Annotated[
+    float | None,
+    typer.Option(**_read("GROUND_HEIGHT"), help="Camera centre to table top (method 2)."),
+]
+GroundTruthOption = Annotated[
+    list[str] | None,
+    typer.Option(help="Measured 'x,y,z' (twice for a line). Asked if not given."),
+]
+BoardOption = Annotated[
+    str | None,
+    typer.Option(help="Board session: the checkerboard's inner corners 'COLSxROWS'."),
+]
+SquareOption = Annotated[
+    float | None,
+    typer.Option(
+        **_read("BOARD_SQUARE"),
+        help="Board session: the board's square side, session units.",
+    ),
+]
+BoardCornerOption = Annotated[
+    str | None,
+    typer.Option(
+        help="Board session: the measured grid point 'x,y,z' of the board's first inner "
+        "corner (lower left, seen from the camera)."
+    ),
+]
+OperatorOption = Annotated[str | None, typer.Option(help="Who records.")]
+NotesOption = Annotated[str, typer.Option(help="Free text about the session.")]
+FramesOption = Annotated[int, typer.Option(**_read("FRAMES"), help="Frames captured per pose.")]
+AdaptiveFramesOption = Annotated[
+    bool,
+    typer.Option(
+        help="--frames is the most: a pose stops at 3 or more frames once another would "
+        "shrink its measurement's variance by less than 5% (the detector's floor "
+        "dominates). A plan sets adaptive_frames."
+    ),
+]
+PosesOption = Annotated[int, typer.Option(**_read("POSES"), help="Poses per trial.")]
+WidthOption = Annotated[int, typer.Option(**_read("IMAGE_SIDE"), help="Camera width to request.")]
+HeightOption = Annotated[int, typer.Option(**_read("IMAGE_SIDE"), help="Camera height to request.")]
+FpsOption = Annotated[float, typer.Option(min=1, help="Camera frame rate to request.")]
+LiveOption = Annotated[
+    bool,
+    typer.Option(
+        help="Serve frames, detections and status to Foxglove (WebSocket, loopback only)."
+    ),
+]
+LivePortOption = Annotated[int, typer.Option(min=0, max=65535, help="Port of --live.")]
+TargetPrecisionOption = Annotated[
+    float | None,
+    typer.Option(
+        **_read("TARGET_PRECISION"),
+        help="Stop rule: a trial is complete once its 95% region's largest semi-axis is "
+        "within this (session units), or at --max-poses.",
+    ),
+]
+MaxPosesOption = Annotated[
+    int,
+    typer.Option(**_read("MAX_POSES"), help="With --target-precision: a trial's most poses."),
+]
+ReachOption = Annotated[
+    float | None,
+    typer.Option(
+        **_read("REACH"),
+        help="Suggested poses lie within this of a trial's first, in x and z (session "
+        "units) [default: the thesis' 3 in].",
+    ),
+]
+ContinueFromOption = Annotated[
+    Path | None,
+    typer.Option(
+        "--continue",
+        exists=True,
+        dir_okay=False,
+        help="Continue this session (closed, or recovered by `recover`): its setup and "
+        "id, the trials numbered after its last.",
+    ),
+]
+GridOption = Annotated[
+    float | None,
+    typer.Option(
+        **_read("GRID"),
+        help="The grid paper's spacing: suggested poses lie on it (session units) "
+        "[default: the thesis' 1/2 in].",
+    ),
+]
+
+
 @app.command()
 def new(
-    out: Annotated[Path, typer.Argument(help="New session file (never overwritten).")],
-    plan: Annotated[
-        Path | None,
-        typer.Option(exists=True, dir_okay=False, help="Run this plan (TOML) without prompts."),
-    ] = None,
-    source: Annotated[
-        str,
-        typer.Option(help=source_help()),
-    ] = "camera:0",
-    method: Annotated[Method | None, typer.Option(help="Asked if not given.")] = None,
-    units: Annotated[
-        Units | None,
-        typer.Option(is_eager=True, help="Every length's unit. Asked if not given."),
-    ] = None,
-    calibration: Annotated[
-        Path | None,
-        typer.Option(
-            exists=True, dir_okay=False, help="Intrinsics from `twopose-record calibrate`."
-        ),
-    ] = None,
-    focal: Annotated[
-        float | None, typer.Option(**_read("FOCAL"), help="Focal parameter, px (thesis: 525).")
-    ] = None,
-    principal: Annotated[str | None, typer.Option(help="Principal point 'cx,cy', px.")] = None,
-    ground_height: Annotated[
-        float | None,
-        typer.Option(**_read("GROUND_HEIGHT"), help="Camera centre to table top (method 2)."),
-    ] = None,
-    ground_truth: Annotated[
-        list[str] | None,
-        typer.Option(help="Measured 'x,y,z' (twice for a line). Asked if not given."),
-    ] = None,
-    board: Annotated[
-        str | None,
-        typer.Option(help="Board session: the checkerboard's inner corners 'COLSxROWS'."),
-    ] = None,
-    square: Annotated[
-        float | None,
-        typer.Option(
-            **_read("BOARD_SQUARE"),
-            help="Board session: the board's square side, session units.",
-        ),
-    ] = None,
-    board_corner: Annotated[
-        str | None,
-        typer.Option(
-            help="Board session: the measured grid point 'x,y,z' of the board's first inner "
-            "corner (lower left, seen from the camera)."
-        ),
-    ] = None,
-    operator: Annotated[str | None, typer.Option(help="Who records.")] = None,
-    notes: Annotated[str, typer.Option(help="Free text about the session.")] = "",
-    frames: Annotated[int, typer.Option(**_read("FRAMES"), help="Frames captured per pose.")] = 5,
-    adaptive_frames: Annotated[
-        bool,
-        typer.Option(
-            help="--frames is the most: a pose stops at 3 or more frames once another would "
-            "shrink its measurement's variance by less than 5% (the detector's floor "
-            "dominates). A plan sets adaptive_frames."
-        ),
-    ] = False,
-    poses: Annotated[int, typer.Option(**_read("POSES"), help="Poses per trial.")] = 2,
-    width: Annotated[
-        int, typer.Option(**_read("IMAGE_SIDE"), help="Camera width to request.")
-    ] = 640,
-    height: Annotated[
-        int, typer.Option(**_read("IMAGE_SIDE"), help="Camera height to request.")
-    ] = 480,
-    fps: Annotated[float, typer.Option(min=1, help="Camera frame rate to request.")] = 30.0,
-    live: Annotated[
-        bool,
-        typer.Option(
-            help="Serve frames, detections and status to Foxglove (WebSocket, loopback only)."
-        ),
-    ] = False,
-    live_port: Annotated[int, typer.Option(min=0, max=65535, help="Port of --live.")] = 8765,
+    out: OutArgument,
+    plan: PlanOption = None,
+    source: SourceOption = "camera:0",
+    method: MethodOption = None,
+    units: UnitsOption = None,
+    calibration: CalibrationOption = None,
+    focal: FocalOption = None,
+    principal: PrincipalOption = None,
+    ground_height: GroundHeightOption = None,
+    ground_truth: GroundTruthOption = None,
+    board: BoardOption = None,
+    square: SquareOption = None,
+    board_corner: BoardCornerOption = None,
+    operator: OperatorOption = None,
+    notes: NotesOption = "",
+    frames: FramesOption = 5,
+    adaptive_frames: AdaptiveFramesOption = False,
+    poses: PosesOption = 2,
+    width: WidthOption = 640,
+    height: HeightOption = 480,
+    fps: FpsOption = 30.0,
+    live: LiveOption = False,
+    live_port: LivePortOption = 8765,
     ui: UiOption = False,
     port: PortOption = 0,
     host: HostOption = "127.0.0.1",
     rig: RigOption = None,
-    target_precision: Annotated[
-        float | None,
-        typer.Option(
-            **_read("TARGET_PRECISION"),
-            help="Stop rule: a trial is complete once its 95% region's largest semi-axis is "
-            "within this (session units), or at --max-poses.",
-        ),
-    ] = None,
-    max_poses: Annotated[
-        int,
-        typer.Option(**_read("MAX_POSES"), help="With --target-precision: a trial's most poses."),
-    ] = 6,
-    reach: Annotated[
-        float | None,
-        typer.Option(
-            **_read("REACH"),
-            help="Suggested poses lie within this of a trial's first, in x and z (session "
-            "units) [default: the thesis' 3 in].",
-        ),
-    ] = None,
-    continue_from: Annotated[
-        Path | None,
-        typer.Option(
-            "--continue",
-            exists=True,
-            dir_okay=False,
-            help="Continue this session (closed, or recovered by `recover`): its setup and "
-            "id, the trials numbered after its last.",
-        ),
-    ] = None,
-    grid: Annotated[
-        float | None,
-        typer.Option(
-            **_read("GRID"),
-            help="The grid paper's spacing: suggested poses lie on it (session units) "
-            "[default: the thesis' 1/2 in].",
-        ),
-    ] = None,
+    target_precision: TargetPrecisionOption = None,
+    max_poses: MaxPosesOption = 6,
+    reach: ReachOption = None,
+    continue_from: ContinueFromOption = None,
+    grid: GridOption = None,
 ) -> None:
     """Record a session: the guided laptop-on-grid procedure, or a plan file (--plan).
 
@@ -310,8 +332,6 @@ def new(
         serve_console_until_stopped,
     )
     from recorder.procedure import refuse_existing
-    from recorder.setup_rules import board_refusal
-    from twopose.methods import spec_of
 
     with handle_errors(), contextlib.ExitStack() as stack:
         refuse_existing(out)  # before the first question
@@ -321,18 +341,8 @@ def new(
                 "(the plan's setup and poses are not asked again in the page)"
             )
         guiding = {"--target-precision": target_precision, "--reach": reach, "--grid": grid}
-        given_guidance = [k for k, v in guiding.items() if v is not None]
-        if adaptive_frames:
-            given_guidance.append("--adaptive-frames")
-        board_options = given_guidance + (["--max-poses"] if max_poses != 6 else [])
-        if method is not None and not spec_of(method).measures and board_options:
-            raise InputValueError(board_refusal(board_options))
-        if plan is not None and (given_guidance or max_poses != 6):
-            raise InputValueError(
-                f"{', '.join(given_guidance or ['--max-poses'])}: a plan sets its guidance in "
-                "its [guidance] table (target_95, reach, spacing, max_poses), and "
-                "adaptive_frames at its top"
-            )
+        guiding["--adaptive-frames"] = True if adaptive_frames else None
+        board_options = _guidance_given(guiding, max_poses, method, planned=plan is not None)
         request = NewRequest(
             out=out,
             source=source,
@@ -378,6 +388,27 @@ def new(
     if summary.interrupted:
         typer.secho("interrupted", err=True)
         raise typer.Exit(EXIT_INTERRUPTED)
+
+
+def _guidance_given(
+    guiding: dict[str, Any], max_poses: int, method: Method | None, *, planned: bool
+) -> list[str]:
+    """The guidance options ``new`` was given (those of ``guiding`` not None, and
+    ``--max-poses`` if not its default); refused for a board session and with a plan."""
+    from recorder.setup_rules import board_refusal
+    from twopose.methods import spec_of
+
+    given_guidance = [k for k, v in guiding.items() if v is not None]
+    board_options = given_guidance + (["--max-poses"] if max_poses != 6 else [])
+    if method is not None and not spec_of(method).measures and board_options:
+        raise InputValueError(board_refusal(board_options))
+    if planned and (given_guidance or max_poses != 6):
+        raise InputValueError(
+            f"{', '.join(given_guidance or ['--max-poses'])}: a plan sets its guidance in "
+            "its [guidance] table (target_95, reach, spacing, max_poses), and "
+            "adaptive_frames at its top"
+        )
+    return board_options
 
 
 def _console_given(

@@ -3,11 +3,12 @@
 
 The page (``console.html``, no build step) polls ``GET /api/state`` and sends the operator's
 answers; the recording runs :func:`recorder.procedure.record` in a thread with a
-:class:`WebDriver`, exactly as the terminal and plan modes do, so the file, the checks
-and the crash safety are theirs: closing the tab loses nothing (reopening it shows the
-running session), killing the server loses at most the capture in progress (``recover``
-salvages the rest). The setup form is checked by the terminal's own questions
-(:func:`recorder.interactive.ask_setup`, answered from the form); poses by its parser.
+:class:`recorder.console_driver.WebDriver`, exactly as the terminal and plan modes do, so
+the file, the checks and the crash safety are theirs: closing the tab loses nothing
+(reopening it shows the running session), killing the server loses at most the capture in
+progress (``recover`` salvages the rest). The setup form is checked by the terminal's own
+questions (:func:`recorder.interactive.ask_setup`, answered from the form); poses by its
+parser.
 
 Routes (Starlette, served by uvicorn on 127.0.0.1 unless ``--host`` says otherwise):
 
@@ -29,45 +30,33 @@ from __future__ import annotations
 
 import queue
 import threading
-from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from typing_extensions import override
 
-from recorder import stops
 from recorder.capture import LiveSink
 from recorder.driver import (
     Decision,
-    Driver,
-    LowDetectionError,
-    Placement,
-    ProcedureRefusedError,
-    QuitRecording,
 )
-from recorder.procedure import Shortfall, detection_shortfall
-from recorder.setup_rules import PoseTyping, form_fields
-from recorder.summary import RecordingSummary
+from recorder.procedure import Shortfall
+from recorder.setup_form import form_fields
 from twopose.bounds import shown
-from twopose.format.entries import GroundTruth, Note, PoseEntry, TruthKind, TypedEntry
 from twopose.format.reader import recover_command
 from twopose.methods import Method, MethodSpec, spec_of
 from twopose.units import Units
 from twopose.values import Vec3
 
 if TYPE_CHECKING:
-    from recorder.capture import CaptureResult
     from recorder.setup_rules import Setup
-    from recorder.sources import FrameSource, SourceInfo
     from recorder.trial_result import TrialResult
     from twopose.detect import Detection
-    from twopose.guidance import Advice
     from twopose.rig.constants import RigConstants
     from twopose.scene3d import TrialScene
     from twopose.targets import BoardPlacement
 
-__all__ = ["DECISIONS", "ConsoleSession", "WebDriver"]
+__all__ = ["DECISIONS", "ConsoleSession", "vec_json"]
 
 #: The decision buttons (``POST /api/decide``) and what each tells the procedure.
 DECISIONS = {
@@ -219,7 +208,7 @@ class ConsoleSession(LiveSink):
             "units": setup.units.value,
             "camera": f"f {shown(k.fx)} px, principal point ({shown(k.cx)}, {shown(k.cy)}) px, "
             f"{k.width}x{k.height}",
-            "truth": [_vec(p) for p in setup.ground_truth],
+            "truth": [vec_json(p) for p in setup.ground_truth],
             "ground_height": setup.ground_height,
             "operator": setup.operator,
             "rig": "" if rig is None else "a calibrated rig corrects the live result",
@@ -317,289 +306,6 @@ def stop_rule(setup: Setup) -> str:
     return f"a trial is complete once its 95% region is within {within}"
 
 
-def _vec(v: Vec3) -> list[float]:
+def vec_json(v: Vec3) -> list[float]:
+    """Three numbers as the page's JSON takes them (a list of floats)."""
     return [float(x) for x in v]
-
-
-class WebDriver(Driver):
-    """The page decides: the pose form captures, the buttons decide, quit ends. While it
-    waits for the operator it shows the camera live (preview frames, not recorded)."""
-
-    def __init__(
-        self,
-        session: ConsoleSession,
-        source: FrameSource | None,
-        camera_id: str,
-        ground_truth: tuple[Vec3, ...],
-        typing: PoseTyping,
-        preview: Callable[[FrameSource, ConsoleSession], None] | None = None,
-    ) -> None:
-        self.session, self.source, self.camera_id = session, source, camera_id
-        self.ground_truth = ground_truth
-        self.typing = typing
-        self.poses_per_trial = typing.poses_per_trial  # --poses (d18a7fc had lost it: 2 always)
-        self.preview = preview
-        self._note = ""
-        self._pending: tuple[str, Any] | None = None  # a pose typed before its trial began
-        self._typed: dict[int, tuple[Vec3, Vec3]] = {}  # this trial: pose -> last typed
-        self._accepted: set[int] = set()  # this trial's accepted poses
-        self._control = ""  # the decision button last pressed (where a refusal shows)
-        self.fps = 30.0
-
-    def start(self, source: SourceInfo, path: Path) -> None:
-        self.fps = source.fps
-        self.session.update(phase="recording", message=f"recording {path}", level="info")
-
-    def next_trial(self, trial: int) -> bool:
-        """The first trial begins at once; another when its first pose is typed (quit
-        instead ends the session, with no empty trial left in the file)."""
-        if trial == self.first_trial:
-            return True
-        self._typed, self._accepted = {}, set()
-        # How the last trial ended (the stop rule, or its most poses) stays said until the
-        # next trial's first pose: its advice goes with it.
-        ended = self.session.advice
-        said = f"trial {ended['trial']}: {ended['text']}. " if ended and ended["complete"] else ""
-        self.session.update(
-            trial=trial,
-            pose=1,
-            poses=[],
-            pose_form={},
-            advice=None,
-            computing="",
-            message=f"{said}trial {trial}: type pose 1, then capture (or quit to finish)",
-            level="info",
-        )
-        try:
-            self._pending = self._wait("pose")
-        except QuitRecording:
-            return False
-        return True
-
-    def trial_entries(self, trial: int) -> tuple[TypedEntry, ...]:
-        self.session.update(trial=trial, n_poses=self.typing.poses_per_trial)
-        spec = self.session.method_spec()
-        kind: TruthKind | None = spec.truth_kind if spec is not None else None
-        if not self.ground_truth or kind is None:
-            return ()
-        return (GroundTruth(trial=trial, kind=kind, points_grid=self.ground_truth),)
-
-    def _wait(self, what: str) -> tuple[str, Any]:
-        """The page's next command for ``what`` (pose or decision); quit ends it all."""
-        self.session.update(waiting=what, computing="")
-        while True:
-            stops.check()  # the server is stopping (Ctrl-C, SIGTERM, SIGHUP)
-            try:
-                command = self.session.commands.get(timeout=0.05)
-            except queue.Empty:
-                if self.preview is not None and self.source is not None:
-                    self.preview(self.source, self.session)
-                continue
-            if command[0] == "quit":
-                self.session.update(waiting="")
-                raise QuitRecording
-            if command[0] == "interrupt":  # the server stops: as Ctrl-C at a terminal
-                self.session.update(waiting="")
-                raise KeyboardInterrupt
-            if command[0] in _EXPECTED[what]:
-                self.session.update(waiting="")
-                return command
-
-    def _show_poses(self, current: int, state: str) -> None:
-        """This trial's poses: the accepted ones, then the one being typed or decided."""
-        listed = sorted(p for p in self._typed if p in self._accepted and p < current)
-        rows = [self._pose_row(p, "accepted") for p in listed]
-        if current in self._typed and state:
-            rows.append(self._pose_row(current, state))
-        self.session.update(poses=rows)
-
-    def _pose_row(self, pose: int, state: str) -> dict[str, Any]:
-        t, r = self._typed[pose]
-        return {"pose": pose, "t": _vec(t), "r_deg": _vec(r), "state": state}
-
-    def place(self, trial: int, pose: int) -> Placement:
-        # The form shows this pose's last typed values when it is retyped (after redo or
-        # undo); a new pose starts empty, never with another pose's values.
-        typed = self._typed.get(pose)
-        form = {} if typed is None else {"t": _vec(typed[0]), "r_deg": _vec(typed[1])}
-        self._accepted.discard(pose)
-        self._show_poses(pose, "")
-        n_poses = self.typing.poses_per_trial
-        self.session.update(
-            pose=pose,
-            pose_form=form,
-            computing="",
-            message=f"trial {trial}: type pose {pose} of {n_poses}, then capture",
-            level="info",
-        )
-        command, self._pending = self._pending or self._wait("pose"), None
-        _, (t, r) = command
-        self._typed[pose] = (t, r)
-        self._show_poses(pose, "capturing")
-        self.session.update(
-            message=f"trial {trial} pose {pose}: capturing",
-            frames=[],
-            frames_of={"trial": trial, "pose": pose},
-            average=None,
-            preview=None,
-            shortfall=Shortfall.OK.value,
-            refusal={},
-        )
-        entry = PoseEntry(
-            trial=trial,
-            pose=pose,
-            camera_id=self.camera_id,
-            t_grid=t,
-            r_deg=r,
-            translation_resolution=self.typing.translation_sigma(self.session.units or Units.IN),
-            rotation_resolution_deg=self.typing.rotation_resolution_deg,
-        )
-        return Placement(entry=entry)
-
-    def captured(self, trial: int, pose: int, result: CaptureResult) -> None:
-        state = result.state
-        shortfall = detection_shortfall(result)
-        message, level = f"trial {trial} pose {pose}: accept, redo, undo or quit", "info"
-        if not result.complete:
-            message, level = f"trial {trial} pose {pose}: the capture is incomplete: redo", "error"
-        elif shortfall is Shortfall.NONE_FOUND:
-            message = f"trial {trial} pose {pose}: {result.sought} was not found in any frame: redo"
-            level = "error"
-        elif shortfall is Shortfall.FEW_FOUND:
-            message = (
-                f"trial {trial} pose {pose}: {result.sought} was found in only "
-                f"{result.n_found} of {len(result.feedback)} frames: redo, or accept anyway"
-            )
-            level = "warning"
-        average = result.pose_average()
-        overhead = (
-            sum(result.overhead_s) / len(result.overhead_s) * self.fps if result.overhead_s else 0.0
-        )
-        self._show_poses(pose, "awaiting decision")
-        found = f"{result.n_found} with {result.sought} found, " if result.feedback else ""
-        self.session.update(
-            last_capture=f"{result.n_frames} frames, {found}{state}, {result.dropped} dropped; "
-            f"recorder overhead {100 * overhead:.0f}% of the frame interval",
-            frames=[f.to_json() for f in result.feedback],
-            average=None if average is None else _average(average),
-            shortfall=shortfall.value,
-            message=message,
-            level=level,
-        )
-
-    def preview_result(self, result: TrialResult) -> None:
-        self.session.update(preview=result.to_json())
-
-    def live_failed(self, message: str) -> None:
-        self.session.update(live_error=message)
-
-    def board_progress(self, seen_from: Sequence[Vec3], problem: str) -> None:
-        from twopose.topview import board_top_view
-
-        board = self.session.board
-        view = None if board is None else board_top_view(board, seen_from).to_json()
-        self.session.update(rig_readiness=problem, topview=view)
-
-    def notice(self, message: str) -> None:
-        with self.session.lock:
-            self.session.notices.append(message)
-            self.session.lock.notify_all()
-
-    @override
-    def decide(self, trial: int, pose: int, result: CaptureResult) -> Decision:
-        kind, value = self._wait("decision")
-        if kind == "note":
-            self._note = str(value)
-            return Decision.NOTE
-        control, decision = value
-        self._control = control
-        if decision in (Decision.ACCEPT, Decision.ACCEPT_ANYWAY):
-            self._accepted.add(pose)
-        elif decision is Decision.UNDO and pose > 1:
-            self._accepted.discard(pose - 1)
-        self._computing(trial, pose, Decision(decision))
-        return Decision(decision)
-
-    @override
-    def computing(self, what: str) -> None:
-        """The procedure computes the next suggestion: the page says so (the decision said
-        it already; this keeps it said until the form comes back)."""
-        if not self.session.computing:
-            self.session.update(computing=f"trial {self.session.trial}: {what.rstrip('….')}")
-
-    def _computing(self, trial: int, pose: int, decision: Decision) -> None:
-        """Between a decision and the next step the recorder works (the trial's result,
-        the next pose to suggest: seconds on fine grid paper) with every control off: the
-        page says so, and lists the pose as decided, not as awaiting a decision."""
-        done = {Decision.REDO: "to be captured again", Decision.UNDO: "undone"}
-        what = (
-            "checking what the poses so far say of the rig"
-            if self.session.board is not None
-            else "computing the trial's result and the next pose to suggest"
-        )
-        self._show_poses(pose + 1 if pose in self._accepted else pose, "")
-        self.session.update(
-            computing=f"trial {trial} pose {pose} {done.get(decision, 'accepted')}: {what}; "
-            "the form comes back when it is done"
-        )
-
-    def note(self, trial: int) -> Note:
-        with self.session.lock:
-            self.session.notes.append({"trial": trial, "text": self._note})
-        self.session.update(message=f"note added to trial {trial}", level="info")
-        return Note(text=self._note, trial=trial)
-
-    def refused(self, error: ProcedureRefusedError) -> None:
-        self._accepted.discard(self.session.pose)
-        self._show_poses(self.session.pose, "awaiting decision")
-        control = "accept" if isinstance(error, LowDetectionError) else self._control
-        self.session.refuse(control or "decision", str(error))
-
-    def advice(self, trial: int, advice: Advice) -> bool:
-        s = advice.suggestion
-        self.session.update(
-            advice={
-                "trial": trial,
-                "text": advice.text,
-                "complete": advice.complete,
-                "region95": advice.region95,
-                "suggestion": None if s is None else s.to_json(),
-            }
-        )
-        return advice.complete
-
-    def trial_result(self, result: TrialResult) -> None:
-        level = "warning" if result.warning or result.status != "ok" else "info"
-        self.session.update(message=result.text(), level=level, preview=None)
-
-    def result_withdrawn(self, trial: int) -> None:
-        self.session.withdraw(trial)
-
-    def advice_withdrawn(self, trial: int) -> None:  # noqa: ARG002 - the page shows one trial
-        self.session.update(advice=None)
-
-    def finish(self, summary: RecordingSummary) -> None:
-        self.session.update(
-            phase="done",
-            waiting="",
-            computing="",
-            poses=[],
-            summary=summary.line(),
-            message="the session is finished: " + summary.line(),
-            level="info",
-        )
-
-
-def _average(m: Any) -> dict[str, Any]:
-    """The pose's combined measurement, as the page shows it."""
-    return {
-        "found": m.found,
-        "n_used": m.n_used,
-        "n_frames": m.n_frames,
-        "centroid_px": list(m.centroid_px),
-        "theta_deg": m.theta_deg,
-        "centroid_std_px": list(m.centroid_std_px),
-    }
-
-
-_EXPECTED = {"pose": {"pose"}, "decision": {"decision", "note"}}

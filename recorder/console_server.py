@@ -1,23 +1,19 @@
 """The web console's server (see :mod:`recorder.console` for the routes): a Starlette
 app served by uvicorn, the recording thread, and the live image as MJPEG with the
-detection drawn on it (drawn here, per viewer frame, so the capture thread only hands
-the stored JPEG over)."""
+detection drawn on it (:mod:`recorder.console_frames`, per viewer frame, so the capture
+thread only hands the stored JPEG over)."""
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
-import math
 import threading
-import time
 from collections.abc import AsyncIterator, Iterator
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import cv2
-import numpy as np
 import uvicorn
 from starlette.applications import Starlette
 from starlette.middleware import Middleware
@@ -27,7 +23,9 @@ from starlette.routing import Route
 from typing_extensions import override
 
 from recorder import stops
-from recorder.console import DECISIONS, ConsoleSession, WebDriver
+from recorder.console import DECISIONS, ConsoleSession
+from recorder.console_driver import WebDriver
+from recorder.console_frames import BOUNDARY, mjpeg, preview
 from recorder.console_guard import (
     ConsoleGuard,
     ConsoleJSONResponse,
@@ -37,14 +35,8 @@ from recorder.console_guard import (
 from recorder.console_transport import ACCEPT_BURST, MAX_HEADER_BYTES, GuardedH11Protocol
 from recorder.loopback import is_loopback_host
 from recorder.procedure import Shortfall
-from recorder.setup_rules import (
-    SETUP_FIELDS,
-    FormRefusedError,
-    Setup,
-    check_rig,
-    parse_pose_form,
-    setup_from_answers,
-)
+from recorder.setup_form import SETUP_FIELDS, FormRefusedError, parse_pose_form, setup_from_answers
+from recorder.setup_rules import Setup, check_rig
 from twopose.errors import InputValueError, SourceError, TwoposeError
 from twopose.methods import Method
 
@@ -52,18 +44,14 @@ if TYPE_CHECKING:
     from recorder.continuation import Continued
     from recorder.live import LiveView
     from recorder.setup_rules import GuidanceAsked
-    from recorder.sources import FrameSource
-    from twopose.detect import Detection
     from twopose.rig.constants import RigConstants
 
-__all__ = ["ConsoleOptions", "console_app", "draw_detection", "serve_console"]
+__all__ = ["ConsoleOptions", "console_app", "serve_console"]
 
-_BOUNDARY = "twoposeframe"
 MAX_NOTE_CHARS = 500  # a note about a trial
 MAX_OPERATOR_CHARS = 80  # who records
 _SETUP_LIMITS = {f.name: 200 for f in SETUP_FIELDS} | {"operator": MAX_OPERATOR_CHARS}
 _POSE_LIMITS = {"x": 50, "y": 50, "z": 50, "rotation": 100}
-_PREVIEW_INTERVAL_S = 0.1
 _CLOSE_TIMEOUT_S = 10.0  # after the first second: the recording thread is stuck
 
 
@@ -84,80 +72,6 @@ class ConsoleOptions:
     origin: str = ""  # the console's own page (the live view lets it in), once served
     guidance: GuidanceAsked | None = None  # --max-poses and the suggestions' reach
     continued: Continued | None = None  # --continue: the session this one continues
-
-
-def draw_detection(image: np.ndarray, det: Detection | None) -> np.ndarray:
-    """The detection on the image (BGR, in place): candidates turned down in red, the
-    blob's outline, centroid and orientation in green, or why nothing was found."""
-    if det is None:
-        return image
-    for blob in det.rejected_blobs:
-        if blob.outline_px is not None and len(blob.outline_px) > 1:
-            cv2.polylines(
-                image, [blob.outline_px.astype(np.int32)], isClosed=True, color=(0, 0, 255)
-            )
-    if det.found:
-        if det.outline_px is not None and len(det.outline_px) > 1:
-            cv2.polylines(
-                image,
-                [det.outline_px.astype(np.int32)],
-                isClosed=True,
-                color=(0, 200, 0),
-                thickness=2,
-            )
-        c = np.array(det.centroid_px)
-        cv2.circle(image, (int(c[0]), int(c[1])), 4, (0, 200, 0), -1)
-        if math.isfinite(det.theta_deg):
-            t = math.radians(det.theta_deg)
-            d = 60 * np.array([math.cos(t), math.sin(t)])
-            a, b = (c - d).astype(int), (c + d).astype(int)
-            cv2.line(image, (int(a[0]), int(a[1])), (int(b[0]), int(b[1])), (0, 200, 0), 2)
-    else:
-        cv2.putText(
-            image, f"not found: {det.reason}"[:70], (8, 24), cv2.FONT_HERSHEY_SIMPLEX, 0.55,
-            (0, 0, 255), 2,
-        )  # fmt: skip
-    return image
-
-
-def _overlay_jpeg(data: bytes, det: Detection | None) -> bytes:
-    """The frame with its detection drawn; the frame as it is if drawing fails (the
-    overlay is a courtesy and must never stop the stream)."""
-    try:
-        image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
-        if image is None:
-            return data
-        drawn = draw_detection(image, det)
-        ok, encoded = cv2.imencode(".jpg", drawn, [cv2.IMWRITE_JPEG_QUALITY, 80])
-    except Exception:
-        return data
-    return encoded.tobytes() if ok else data
-
-
-def preview(source: FrameSource, session: ConsoleSession) -> None:
-    """One live frame while the operator types or decides (shown, not recorded), at most
-    every ``_PREVIEW_INTERVAL_S``, and only while someone watches."""
-    from twopose.detect import detect
-
-    now = time.monotonic()
-    if session.viewers == 0 or now - session.preview_at < _PREVIEW_INTERVAL_S:
-        time.sleep(0.02)
-        return
-    session.preview_at = now
-    try:
-        image = source.read(0.5)
-    except TwoposeError:
-        return
-    ok, encoded = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, 80])
-    if ok:
-        spec = session.method_spec()
-        target = spec.target if spec is not None else None
-        try:  # nothing to outline on a board session's page (the rig fit finds its corners)
-            detection = detect(image, target) if target is not None else None
-        except Exception as err:  # the overlay is a courtesy; it must not stop the recording
-            session.update(live_error=f"the live detection failed ({type(err).__name__}: {err})")
-            detection = None
-        session.frame("", encoded.tobytes(), "jpeg", time.time_ns(), detection, "")
 
 
 def _recording(
@@ -317,8 +231,8 @@ class _Console:
 
     async def stream(self, request: Request) -> Response:
         return StreamingResponse(
-            _mjpeg(self.session, request),
-            media_type=f"multipart/x-mixed-replace; boundary={_BOUNDARY}",
+            mjpeg(self.session, request),
+            media_type=f"multipart/x-mixed-replace; boundary={BOUNDARY}",
             headers={"Cache-Control": "no-store"},
         )
 
@@ -465,31 +379,6 @@ def _decision_refusal(session: ConsoleSession, choice: str) -> str:
     if choice == "accept" and session.shortfall == Shortfall.FEW_FOUND:
         return f"{what} was found in fewer than half the frames: redo, or accept anyway"
     return ""
-
-
-async def _mjpeg(session: ConsoleSession, request: Request) -> AsyncIterator[bytes]:
-    """Every new frame, with its detection drawn, until the page goes away."""
-    with session.lock:
-        session.viewers += 1
-    try:
-        seq = 0
-        while not session.closing.is_set() and not await request.is_disconnected():
-            frame = await asyncio.to_thread(session.next_frame, seq, 0.5)
-            if frame is None:
-                continue
-            seq = frame.seq
-            jpeg = await asyncio.to_thread(_overlay_jpeg, frame.data, frame.detection)
-            yield (
-                (
-                    f"--{_BOUNDARY}\r\nContent-Type: image/jpeg\r\n"
-                    f"Content-Length: {len(jpeg)}\r\n\r\n"
-                ).encode()
-                + jpeg
-                + b"\r\n"
-            )
-    finally:
-        with session.lock:
-            session.viewers -= 1
 
 
 class _Server(uvicorn.Server):

@@ -99,7 +99,8 @@ def continued_given(continued: Continued, target_precision: float | None) -> dic
     each field said to come from its file); the stop rule (the file's unless
     ``--target-precision`` is given) and the operator (``--operator``, else the file's)
     are the continuation's own, the page's to change unless the command line gave them."""
-    from recorder.setup_rules import SETUP_FIELDS, Setup
+    from recorder.setup_form import SETUP_FIELDS
+    from recorder.setup_rules import Setup
 
     setup = Setup.of(continued)
     k = setup.intrinsics

@@ -1,7 +1,8 @@
 """Plan files: a whole session to record unattended (scripted rigs, tests).
 
-:func:`load_plan` reads and checks a plan (TOML, see docs/recording.md); :func:`record_plan` runs
-it through the one procedure loop (:func:`recorder.procedure.record`).
+:func:`load_plan` (:mod:`recorder.plan_file`) reads and checks a plan (TOML, see
+docs/recording.md); :func:`record_plan` runs it through the one procedure loop
+(:func:`recorder.procedure.record`).
 """
 
 from __future__ import annotations
@@ -9,62 +10,30 @@ from __future__ import annotations
 import time
 import uuid
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from typing_extensions import override
 
 from recorder.capture import CaptureResult, CaptureSettings, FrameFeedback
 from recorder.driver import Decision, Driver, Placement
+from recorder.plan_file import Plan, PlannedPose, PlannedTrial, load_plan
 from recorder.procedure import record
-from recorder.setup_rules import (
-    THESIS_FOCAL_PX,
-    THESIS_IMAGE_SIZE,
-    board_refusal,
-    default_principal,
-    off_ground,
-)
 from recorder.sources import FrameSource
 from recorder.summary import RecordingSummary
-from twopose.bounds import (
-    BOARD_CORNER,
-    BOARD_SQUARE,
-    FOCAL,
-    FRAMES,
-    GRID,
-    GROUND_HEIGHT,
-    GROUND_TRUTH,
-    IMAGE_SIDE,
-    INNER_CORNERS,
-    MAX_POSES,
-    POSE_TRANSLATION,
-    PRINCIPAL,
-    REACH,
-    ROTATION,
-    TARGET_PRECISION,
-    Quantity,
-)
-from twopose.camera import Camera, Intrinsics
-from twopose.config import read_toml
-from twopose.errors import InputValueError, SourceError
+from twopose.errors import SourceError
 from twopose.format.entries import (
-    DEFAULT_ROTATION_RESOLUTION_DEG,
-    DEFAULT_TRANSLATION_RESOLUTION,
-    GroundPlane,
     GroundTruth,
     PoseEntry,
     SessionInfo,
     TruthKind,
     TypedEntry,
-    default_translation_resolution,
 )
-from twopose.guidance import THESIS_MOVE_IN, Guidance, Reach
-from twopose.methods import METHODS, Method, spec_of
-from twopose.targets import BoardPlacement
-from twopose.units import DEFAULT_UNITS, UNITS, Units, unit_factor
-from twopose.values import Vec3, finite
+from twopose.guidance import THESIS_MOVE_IN
+from twopose.methods import spec_of
+from twopose.units import Units, unit_factor
+from twopose.values import Vec3
 
 if TYPE_CHECKING:
     from recorder.continuation import Continued
@@ -73,6 +42,7 @@ if TYPE_CHECKING:
     from twopose.guidance import Advice
     from twopose.rig.constants import RigConstants
 
+
 __all__ = [
     "Plan",
     "PlannedPose",
@@ -80,346 +50,6 @@ __all__ = [
     "load_plan",
     "record_plan",
 ]
-
-#: The keys a plan may hold, per table (anything else is a typo that would be ignored).
-_PLAN_KEYS = {
-    "": {"method", "units", "camera", "cameras", "frames", "ground_height", "trials"}
-    | {"operator", "notes", "resolution", "board", "guidance", "adaptive_frames"},
-    "guidance": {"target_95", "reach", "spacing", "max_poses", "seed"},
-    "board": {"inner_corners", "square", "first_corner"},
-    "camera": {"id", "calibration", "focal", "fx", "fy", "principal", "cx", "cy"}
-    | {"width", "height", "distortion"},
-    "trials": {"poses", "ground_truth", "keep_off_ground", "max_poses", "start"},
-    "poses": {"t", "r_deg", "camera"},
-    "resolution": {"translation", "rotation_deg"},
-}
-
-
-def _known_keys(table: Any, kind: str, where: str) -> dict[str, Any]:
-    """``table`` as a dict whose keys are all known for ``kind``; else the key is named."""
-    if not isinstance(table, dict):
-        raise InputValueError(f"plan: {where or 'the plan'} must be a table")
-    unknown = sorted(set(table) - _PLAN_KEYS[kind])
-    if unknown:
-        raise InputValueError(
-            f"plan: unknown key {where + '.' if where else ''}{unknown[0]}; "
-            f"known here: {', '.join(sorted(_PLAN_KEYS[kind]))}"
-        )
-    return table
-
-
-@dataclass(frozen=True, kw_only=True)
-class PlannedPose:
-    t_grid: Vec3
-    r_deg: Vec3 = (0.0, 0.0, 0.0)
-    camera_id: str = "cam0"
-
-
-@dataclass(frozen=True, kw_only=True)
-class PlannedTrial:
-    poses: tuple[PlannedPose, ...]
-    ground_truth: tuple[Vec3, ...] = ()
-    #: ``poses = "guided"``: the first pose at ``start``, each next one the recorder's
-    #: suggestion, until the trial is precise enough or has ``max_poses`` (issue 36).
-    max_poses: int | None = None
-    start: PlannedPose | None = None
-
-    @property
-    def guided(self) -> bool:
-        """Whether the recorder chooses its poses after the first."""
-        return self.max_poses is not None
-
-
-@dataclass(frozen=True, kw_only=True)
-class Plan:
-    """A whole session to record unattended (scripted rigs, tests)."""
-
-    method: Method
-    units: Units
-    cameras: tuple[Camera, ...]
-    trials: tuple[PlannedTrial, ...]
-    frames: int = 5
-    adaptive_frames: bool = False  # frames is then the most a pose takes
-    ground_height: float | None = None
-    operator: str = ""
-    notes: str = ""
-    # Session units: load_plan's default is 1/16 in converted (default_translation_resolution).
-    translation_resolution: float = DEFAULT_TRANSLATION_RESOLUTION
-    rotation_resolution_deg: float = DEFAULT_ROTATION_RESOLUTION_DEG
-    board: BoardPlacement | None = None  # a board session's board and where it stands
-    #: ``[guidance]``: suggestions and the stop rule (with guided trials, or to see them)
-    guidance: Guidance | None = None
-    placing_seed: int = 0  # the simulated operator's placing error on guided poses
-
-    def ground(self) -> GroundPlane | None:
-        """The ground plane ``y = h`` (method 2), or None."""
-        return GroundPlane(offset=self.ground_height) if self.ground_height is not None else None
-
-
-def _read(quantity: Quantity, value: Any, where: str, units: Units | None) -> float:
-    """A plan's number, read by the quantity's one reader (:mod:`twopose.bounds`); a refusal
-    names its key."""
-    try:
-        return quantity.read(value, units, text=False)
-    except InputValueError as err:
-        raise InputValueError(f"plan: {where}: {err}") from None
-
-
-def _vec(quantity: Quantity, value: Any, where: str, units: Units | None) -> Vec3:
-    """A plan's point (``[x, y, z]``), each number within ``quantity``'s bound."""
-    try:
-        x, y, z = quantity.read_vector(value, units, text=False)
-    except InputValueError as err:
-        raise InputValueError(f"plan: {where}: {err}") from None
-    return (x, y, z)
-
-
-def _count(quantity: Quantity, value: Any, where: str) -> int:
-    return int(_read(quantity, value, where, None))
-
-
-def _camera(table: Any) -> Camera:
-    """``[camera]``: ``calibration = FILE``, or ``focal`` (or ``fx``/``fy``), ``principal =
-    [cx, cy]`` (or ``cx``/``cy``), ``width``, ``height``, ``distortion``; and ``id``."""
-    table = _known_keys(table, "camera", "camera")
-    camera_id = str(table.get("id", "cam0"))
-    if "calibration" in table:  # a file from `twopose-record calibrate`
-        from recorder.camera_calibration import load_calibration, load_calibration_sigma
-
-        path = str(table["calibration"])
-        return Camera(
-            camera_id=camera_id,
-            intrinsics=load_calibration(path),
-            intrinsics_sigma=load_calibration_sigma(path),
-        )
-    focal = _read(FOCAL, table.get("focal", THESIS_FOCAL_PX), "camera.focal", None)
-    width = _count(IMAGE_SIDE, table.get("width", THESIS_IMAGE_SIZE[0]), "camera.width")
-    height = _count(IMAGE_SIDE, table.get("height", THESIS_IMAGE_SIZE[1]), "camera.height")
-    try:
-        cx, cy = PRINCIPAL.read_vector(
-            table.get("principal", list(default_principal((width, height)))), None, text=False
-        )
-    except InputValueError as err:
-        raise InputValueError(f"plan: camera.principal: {err}") from None
-    values = {"width": width, "height": height, "fx": focal, "cx": cx, "cy": cy} | table
-    values.setdefault("fy", values["fx"])
-    return Camera(camera_id=camera_id, intrinsics=Intrinsics.from_dict(values, "plan: [camera]"))
-
-
-def load_plan(path: str | Path) -> Plan:
-    """Read and check a plan file (TOML); every error names the offending key.
-
-    Parameters
-    ----------
-    path : path-like
-        The plan (``docs/examples/ground_plan.toml`` shows every key).
-
-    Returns
-    -------
-    Plan
-        The setup and each trial's typed poses and ground truth, checked by the setup
-        rules the terminal and the browser use (:mod:`recorder.setup_rules`).
-
-    Raises
-    ------
-    InputValueError
-        A key is unknown, missing or out of its range; the message names it.
-    """
-    data = _known_keys(read_toml(path, "plan", InputValueError), "", "")
-    method = data.get("method")
-    if method not in METHODS:
-        raise InputValueError(f"plan: method must be one of {', '.join(METHODS)}, got {method!r}")
-    method = Method(method)
-    units = data.get("units", DEFAULT_UNITS)
-    if units not in UNITS:
-        raise InputValueError(f"plan: units must be one of {', '.join(UNITS)}, got {units!r}")
-    units = Units(units)
-    cameras_data = data.get("cameras") or [data.get("camera", {})]
-    cameras = tuple(_camera(c) for c in cameras_data)
-    frames = _count(FRAMES, data.get("frames", 5), "frames")
-    adaptive = data.get("adaptive_frames", False)
-    if not isinstance(adaptive, bool):
-        raise InputValueError(f"plan: adaptive_frames must be true or false, got {adaptive!r}")
-    board_guidance = [k for k in ("guidance", "adaptive_frames") if data.get(k)]
-    if not spec_of(method).measures and board_guidance:
-        raise InputValueError(f"plan: {board_refusal(board_guidance)}")
-    ground = data.get("ground_height")
-    if spec_of(method).needs_ground and ground is None:
-        raise InputValueError("plan: a ground session needs ground_height (camera centre to table)")
-    height = None if ground is None else _read(GROUND_HEIGHT, ground, "ground_height", units)
-    res = _known_keys(data.get("resolution", {}), "resolution", "resolution")
-    resolution = (
-        finite(
-            res.get("translation", default_translation_resolution(units)),
-            "plan: resolution.translation",
-            positive=True,
-        ),
-        finite(
-            res.get("rotation_deg", DEFAULT_ROTATION_RESOLUTION_DEG),
-            "plan: resolution.rotation_deg",
-            positive=True,
-        ),
-    )
-    board = _board(data.get("board"), method, units)
-    raw_trials = data.get("trials", [])
-    if not isinstance(raw_trials, list) or not raw_trials:
-        raise InputValueError("plan: no [[trials]]")
-    guidance, seed = _guidance(data.get("guidance"), units)
-    max_poses = guidance.max_poses if guidance is not None else _DEFAULT_MAX_POSES
-    trials = tuple(
-        _trial(t, i, method, units, cameras[0].camera_id, height, max_poses)
-        for i, t in enumerate(raw_trials, start=1)
-    )
-    if any(t.guided for t in trials) and not spec_of(method).measures:
-        raise InputValueError(
-            'plan: poses = "guided" needs a target to locate; a board session plans its poses'
-        )
-    if guidance is None and any(t.guided for t in trials):
-        guidance = Guidance(reach=Reach.thesis(units), max_poses=max_poses)
-    return Plan(
-        method=method,
-        units=units,
-        cameras=cameras,
-        trials=trials,
-        frames=frames,
-        adaptive_frames=adaptive,
-        ground_height=height,
-        operator=str(data.get("operator", "")),
-        notes=str(data.get("notes", "")),
-        translation_resolution=resolution[0],
-        rotation_resolution_deg=resolution[1],
-        board=board,
-        guidance=guidance,
-        placing_seed=seed,
-    )
-
-
-#: A guided trial's most poses when the plan does not say.
-_DEFAULT_MAX_POSES = 6
-
-
-def _guidance(table: Any, units: Units) -> tuple[Guidance | None, int]:
-    """``[guidance]``: ``target_95`` (the stop rule's precision, session units), ``reach``
-    and ``spacing`` (the lattice of suggested poses; default the thesis'), ``max_poses``
-    and ``seed`` (the synthetic operator's placing error)."""
-    if table is None:
-        return None, 0
-    g = _known_keys(table, "guidance", "guidance")
-    thesis = Reach.thesis(units)
-    target = g.get("target_95")
-    radius = _read(REACH, g.get("reach", thesis.radius), "guidance.reach", units)
-    spacing = _read(GRID, g.get("spacing", thesis.spacing), "guidance.spacing", units)
-    if spacing > radius:
-        raise InputValueError(f"plan: guidance.spacing {spacing:g} is beyond reach {radius:g}")
-    max_poses = _count(MAX_POSES, g.get("max_poses", _DEFAULT_MAX_POSES), "guidance.max_poses")
-    seed = g.get("seed", 0)
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise InputValueError(f"plan: guidance.seed must be a whole number >= 0, got {seed!r}")
-    target95 = (
-        None if target is None else _read(TARGET_PRECISION, target, "guidance.target_95", units)
-    )
-    reach = Reach(radius=radius, spacing=spacing)
-    return Guidance(reach=reach, target95=target95, max_poses=max_poses), seed
-
-
-def _board(table: Any, method: Method, units: Units) -> BoardPlacement | None:
-    """``[board]`` of a board session: ``inner_corners = [cols, rows]``, ``square`` and
-    ``first_corner = [x, y, z]`` (required there, refused elsewhere)."""
-    if spec_of(method).measures:
-        if table is not None:
-            raise InputValueError('plan: [board] is for a board session (method = "board")')
-        return None
-    if table is None:
-        raise InputValueError(
-            "plan: a board session needs [board]: inner_corners = [cols, rows], square and "
-            "first_corner = [x, y, z] (the measured grid point of its first inner corner)"
-        )
-    b = _known_keys(table, "board", "board")
-    missing = sorted({"inner_corners", "square", "first_corner"} - set(b))
-    if missing:
-        raise InputValueError(f"plan: board.{missing[0]} is missing")
-    try:
-        cols, rows = (
-            int(v) for v in INNER_CORNERS.read_vector(b["inner_corners"], None, text=False)
-        )
-    except InputValueError as err:
-        raise InputValueError(f"plan: board.inner_corners: {err}") from None
-    corner = _vec(BOARD_CORNER, b["first_corner"], "board.first_corner", units)
-    square = _read(BOARD_SQUARE, b["square"], "board.square", units)
-    try:
-        return BoardPlacement(inner_corners=(cols, rows), square=square, first_corner=corner)
-    except InputValueError as err:
-        raise InputValueError(f"plan: [board]: {err}") from err
-
-
-def _trial(
-    table: Any,
-    i: int,
-    method: Method,
-    units: Units,
-    default_camera: str,
-    height: float | None,
-    max_poses: int,
-) -> PlannedTrial:
-    """``[[trials]]`` number ``i``: its poses and its ground truth, checked."""
-    t = _known_keys(table, "trials", f"trials[{i}]")
-    gt = _truth(t, i, method, units, height)
-    if t.get("poses") == "guided":
-        return _guided_trial(t, i, units, default_camera, max_poses, gt)
-    for key in ("max_poses", "start"):
-        if key in t:
-            raise InputValueError(f'plan: trials[{i}].{key} is for poses = "guided" only')
-    poses = []
-    raw_poses = t.get("poses", [])
-    if not isinstance(raw_poses, list):
-        raise InputValueError(f"plan: trials[{i}].poses must be a list of poses")
-    for j, p in enumerate(raw_poses, start=1):
-        where = f"trials[{i}].poses[{j}]"
-        p = _known_keys(p, "poses", where)
-        tg = _vec(POSE_TRANSLATION, p.get("t"), f"{where}.t", units)
-        r_deg = _vec(ROTATION, p.get("r_deg", [0, 0, 0]), f"{where}.r_deg", units)
-        poses.append(
-            PlannedPose(t_grid=tg, r_deg=r_deg, camera_id=str(p.get("camera", default_camera)))
-        )
-    if len(poses) < 2:
-        raise InputValueError(f"plan: trials[{i}] needs at least 2 poses, got {len(poses)}")
-    return PlannedTrial(poses=tuple(poses), ground_truth=gt)
-
-
-def _guided_trial(
-    t: dict[str, Any], i: int, units: Units, camera: str, max_poses: int, gt: tuple[Vec3, ...]
-) -> PlannedTrial:
-    """A ``poses = "guided"`` trial: where it starts, and its most poses."""
-    most = _count(MAX_POSES, t.get("max_poses", max_poses), f"trials[{i}].max_poses")
-    start = _vec(POSE_TRANSLATION, t.get("start", [0, 0, 0]), f"trials[{i}].start", units)
-    first = PlannedPose(t_grid=start, camera_id=camera)
-    return PlannedTrial(poses=(), ground_truth=gt, max_poses=most, start=first)
-
-
-def _truth(
-    t: dict[str, Any], i: int, method: Method, units: Units, height: float | None
-) -> tuple[Vec3, ...]:
-    """A trial's ground truth, checked by the setup rules."""
-    where = f"trials[{i}].ground_truth"
-    gt = tuple(_vec(GROUND_TRUTH, g, where, units) for g in t.get("ground_truth", []))
-    spec = spec_of(method)
-    if gt and not spec.truth_points:
-        raise InputValueError(f"plan: {where}: a board session's truth is its [board], not points")
-    if gt and len(gt) != spec.truth_points:
-        raise InputValueError(
-            f"plan: {where} needs {spec.truth_points} point(s) for {method}, got {len(gt)}"
-        )
-    if spec.truth_points == 2 and gt and gt[0] == gt[1]:
-        raise InputValueError(f"plan: {where}: the line's two points must differ")
-    keep = t.get("keep_off_ground", False)
-    if not isinstance(keep, bool):
-        raise InputValueError(f"plan: trials[{i}].keep_off_ground must be true or false")
-    off = off_ground(gt[0], height, units) if spec.needs_ground and gt and height else ""
-    if off and not keep:  # the rule the terminal and the browser apply: kept if confirmed
-        raise InputValueError(
-            f"plan: {where}: {off}; set keep_off_ground = true in this trial to keep it"
-        )
-    return gt
 
 
 class _PlanDriver(Driver):

@@ -20,7 +20,7 @@ import numpy as np
 
 from analysis.rig.fit import RigFit
 from twopose.arrays import F64
-from twopose.detect import find_board
+from twopose.checkerboard import find_board
 from twopose.errors import InputValueError
 from twopose.format.reader import SessionReader
 from twopose.format.trials import PoseCapture, iter_trials

@@ -16,14 +16,8 @@ from recorder.cli import app
 from recorder.console_server import ConsoleOptions, checked_setup
 from recorder.interactive import Operator, ask_setup, ask_target
 from recorder.plan import load_plan
-from recorder.setup_rules import (
-    FormRefusedError,
-    GuidanceAsked,
-    form_fields,
-    parse_pose_form,
-    parse_vector,
-    setup_from_answers,
-)
+from recorder.setup_form import FormRefusedError, form_fields, parse_pose_form, setup_from_answers
+from recorder.setup_rules import GuidanceAsked, parse_vector
 from twopose.bounds import FOCAL, GROUND_HEIGHT, ROTATION, TARGET_PRECISION, Quantity, shown
 from twopose.errors import EXIT_ERROR, EXIT_USAGE, InputValueError
 from twopose.methods import Method

@@ -20,7 +20,7 @@ from recorder.cli import app
 from recorder.plan import load_plan
 from recorder.sources import ImagesSource, VideoSource
 from twopose.camera import rotation_from_angles_deg
-from twopose.detect import find_board
+from twopose.checkerboard import find_board
 from twopose.errors import EXIT_ERROR, InputValueError
 
 runner = CliRunner()

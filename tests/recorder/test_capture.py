@@ -117,7 +117,7 @@ def test_the_live_board_check_finds_the_far_board_rig_finds(tmp_path: Path) -> N
     on. OpenCV's fast check alone (the live check before) turned down every frame of the
     far poses; the full search behind it finds each, in time."""
     from recorder.sources import SyntheticSource
-    from twopose.detect import LIVE_BOARD_BUDGET_S, find_board, find_board_live
+    from twopose.checkerboard import LIVE_BOARD_BUDGET_S, find_board, find_board_live
     from twopose.images import decode_image
     from twopose.sim.layout import BOARD_POSES
     from twopose.targets import BoardPlacement

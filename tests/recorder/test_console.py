@@ -9,17 +9,17 @@ from pathlib import Path
 
 import pytest
 
-from recorder.console import ConsoleSession, WebDriver
+from recorder.console import ConsoleSession
+from recorder.console_driver import WebDriver
 from recorder.interactive import _OperatorDriver
+from recorder.setup_form import FormRefusedError, setup_from_answers
 from recorder.setup_rules import (
     THESIS_FOCAL_PX,
     THESIS_IMAGE_SIZE,
-    FormRefusedError,
     GuidanceAsked,
     PoseTyping,
     Setup,
     default_principal,
-    setup_from_answers,
 )
 from recorder.sources import SyntheticSource
 from twopose.camera import Camera, Intrinsics

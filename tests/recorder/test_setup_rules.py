@@ -17,7 +17,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from recorder.setup_rules import (
+from recorder.setup_form import (
     SETUP_FIELDS,
     FormRefusedError,
     form_fields,
@@ -203,7 +203,7 @@ METHOD_SPECS = MappingProxyType(
 #: a form for the new method gives.
 PROBE = """
 import json
-from recorder.setup_rules import form_fields, setup_from_answers
+from recorder.setup_form import form_fields, setup_from_answers
 given = {"method": None, "units": None, "intrinsics": None, "size": (640, 480),
          "ground_height": None, "ground_truth": []}
 fields = form_fields(given)
@@ -252,7 +252,13 @@ def test_a_method_added_to_the_registry_alone_is_asked_what_its_spec_says(
 
 METHOD_NAMES = {"point", "line", "ground", "board"}
 #: The modules that describe a session's setup: none names a method to decide by it.
-SETUP_MODULES = ("recorder/setup_rules.py", "recorder/interactive.py", "recorder/plan.py")
+SETUP_MODULES = (
+    "recorder/setup_rules.py",
+    "recorder/setup_form.py",
+    "recorder/interactive.py",
+    "recorder/plan.py",
+    "recorder/plan_file.py",
+)
 
 
 def _method_names(node: ast.AST) -> set[str]:

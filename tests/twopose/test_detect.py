@@ -11,14 +11,7 @@ import pytest
 
 from twopose.camera import project_points
 from twopose.choices import Target
-from twopose.detect import (
-    DotParams,
-    GloveParams,
-    detect,
-    detect_dot,
-    detect_glove,
-    wrap_theta_deg,
-)
+from twopose.detect import DotParams, GloveParams, detect, detect_dot, detect_glove, wrap_theta_deg
 from twopose.methods import Method
 from twopose.sim.layout import build_layout, finger_axis
 from twopose.sim.render import expose, render_radiance
@@ -221,7 +214,7 @@ def test_the_live_board_search_finds_what_the_full_one_finds_and_turns_down_blan
     """The recorder's live check (fast pre-check, then the full search) finds a board
     exactly as the full search does, and a frame without one is not found (the full
     search ran, and said so)."""
-    from twopose.detect import find_board, find_board_live
+    from twopose.checkerboard import find_board, find_board_live
 
     squares = (np.indices((7, 10)).sum(axis=0) % 2).astype(np.uint8) * 255
     board = np.kron(squares, np.ones((30, 30), np.uint8))
@@ -243,7 +236,7 @@ def test_the_live_board_search_finds_what_the_full_one_finds_and_turns_down_blan
 def test_the_live_board_search_is_bounded_in_time() -> None:
     """A full search that outlasts its budget is given up (the board counts as not found,
     said as out of time); the one still running delays the next only within its budget."""
-    from twopose.detect import find_board_live
+    from twopose.checkerboard import find_board_live
 
     blank = np.random.default_rng(1).integers(80, 100, (240, 320, 3), dtype=np.uint8)
     started = time.perf_counter()

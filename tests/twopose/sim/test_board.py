@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from twopose.camera import project_points, rotation_from_angles_deg
-from twopose.detect import find_board
+from twopose.checkerboard import find_board
 from twopose.errors import SceneError
 from twopose.methods import Method
 from twopose.rig.board import board_order

@@ -1,0 +1,386 @@
+"""The setup's form: the field table and a whole form's answers read into a setup.
+
+The field table says which answers the page shows, asked by which methods, with their
+labels; :func:`setup_from_answers` reads a form into a :class:`recorder.setup_rules.Setup`,
+every refusal reported at once, by field. The checks themselves are
+:mod:`recorder.setup_rules`' parsers, the terminal's, called directly: the page and the
+terminal refuse the same answers with the same words.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import twopose.methods as registry
+from recorder.setup_rules import (
+    THESIS_FOCAL_PX,
+    THESIS_IMAGE_SIZE,
+    Setup,
+    board_corner,
+    default_ground_height,
+    default_principal,
+    distinct_point,
+    inner_corners,
+    number_pair,
+    off_ground,
+    one_of,
+    parse_vector,
+    reader,
+    target_precision,
+)
+from twopose.bounds import (
+    BOARD_SQUARE,
+    FOCAL,
+    GROUND_HEIGHT,
+    GROUND_TRUTH,
+    POSE_TRANSLATION,
+    ROTATION,
+    shown,
+)
+from twopose.camera import Intrinsics
+from twopose.errors import InputValueError
+from twopose.methods import METHODS, Method, MethodSpec, spec_of
+from twopose.targets import BoardPlacement
+from twopose.units import DEFAULT_UNITS, UNITS, Units
+from twopose.values import Vec3
+
+__all__ = [
+    "SETUP_FIELDS",
+    "FormRefusedError",
+    "SetupField",
+    "form_fields",
+    "parse_pose_form",
+    "setup_from_answers",
+]
+
+
+class FormRefusedError(InputValueError):
+    """A form's answers refused; ``errors`` holds every refusal by field name, in the
+    operator's words (the console shows each next to its field)."""
+
+    def __init__(self, errors: Mapping[str, str]) -> None:
+        self.errors = dict(errors)
+        super().__init__("; ".join(f"{_LABELS.get(k, k)}: {v}" for k, v in self.errors.items()))
+
+
+def parse_pose_form(form: Mapping[str, str], units: Units) -> tuple[Vec3, Vec3]:
+    """A pose typed in a form (``x``, ``y``, ``z``, ``rotation``), each field read as the
+    terminal reads it (:mod:`twopose.bounds`); raises :class:`FormRefusedError` with every
+    refusal."""
+    errors: dict[str, str] = {}
+    xyz: list[float] = []
+    for axis in "xyz":
+        try:
+            xyz.append(POSE_TRANSLATION.read(str(form.get(axis, "") or ""), units, axis=axis))
+        except InputValueError as err:
+            errors[axis] = str(err)
+    rotation = str(form.get("rotation", "") or "").strip() or "0, 0, 0"
+    r: Vec3 = (0.0, 0.0, 0.0)
+    try:
+        r = parse_vector(rotation, units, quantity=ROTATION)
+    except InputValueError as err:
+        errors["rotation"] = str(err)
+    if errors:
+        raise FormRefusedError(errors)
+    return (xyz[0], xyz[1], xyz[2]), r
+
+
+# --------------------------------------------------------------------------- the fields
+
+
+def _every_method(_spec: MethodSpec) -> bool:
+    return True
+
+
+def _measuring(spec: MethodSpec) -> bool:
+    """A method that reconstructs something: it has a ground truth and a stop rule."""
+    return spec.measures
+
+
+def _calibrating(spec: MethodSpec) -> bool:
+    """A method that reconstructs nothing (the board): its truth is the board's placement."""
+    return not spec.measures
+
+
+def _on_the_ground(spec: MethodSpec) -> bool:
+    """A method whose estimate needs the ground plane y = h: it asks the ground height."""
+    return spec.needs_ground
+
+
+def _two_truth_points(spec: MethodSpec) -> bool:
+    """A method whose ground truth is a line's two points."""
+    return spec.truth_points >= 2
+
+
+@dataclass(frozen=True, kw_only=True)
+class SetupField:
+    """One answer of the setup, as the page shows it.
+
+    Which methods ask it is decided by each method's spec (:class:`twopose.methods.MethodSpec`:
+    ``needs_ground``, ``measures``, ``truth_points``), never by naming methods: a method
+    added to the registry is asked what its flags say, by the page, the terminal and
+    :func:`setup_from_answers` alike.
+    """
+
+    name: str  # the form's key
+    label: str  # the operator's words
+    kind: str  # choice, text or check
+    #: Whether a method asks it, from the method's spec (default: every method).
+    asked_by: Callable[[MethodSpec], bool] = field(default=_every_method, repr=False)
+    options: tuple[str, ...] = ()
+
+    @property
+    def methods(self) -> tuple[Method, ...]:
+        """The methods that ask it: those of the registry whose spec says so."""
+        return tuple(m for m, spec in registry.METHOD_SPECS.items() if self.asked_by(spec))
+
+    def asks(self, method: Method) -> bool:
+        """Whether a session of ``method`` asks this field."""
+        return self.asked_by(spec_of(method))
+
+
+SETUP_FIELDS: tuple[SetupField, ...] = (
+    SetupField(name="method", label="method", kind="choice", options=METHODS),
+    SetupField(name="units", label="units", kind="choice", options=UNITS),
+    SetupField(name="focal", label="focal length (px)", kind="text"),
+    SetupField(name="principal", label="principal point cx, cy (px)", kind="text"),
+    SetupField(
+        name="ground_height",
+        label="ground height: camera centre to table",
+        kind="text",
+        asked_by=_on_the_ground,
+    ),
+    SetupField(
+        name="board",
+        label="board's inner corners COLSxROWS",
+        kind="text",
+        asked_by=_calibrating,
+    ),
+    SetupField(name="square", label="board's square side", kind="text", asked_by=_calibrating),
+    SetupField(
+        name="board_corner",
+        label="board's first inner corner x, y, z (lower left)",
+        kind="text",
+        asked_by=_calibrating,
+    ),
+    SetupField(name="truth1", label="ground-truth point x, y, z", kind="text", asked_by=_measuring),
+    SetupField(
+        name="truth2",
+        label="second ground-truth point x, y, z",
+        kind="text",
+        asked_by=_two_truth_points,
+    ),
+    SetupField(
+        name="keep_off_ground",
+        label="keep a ground-truth point that is off the ground",
+        kind="check",
+        asked_by=_on_the_ground,
+    ),
+    SetupField(name="operator", label="operator", kind="text"),
+    SetupField(
+        name="target_precision",
+        label="stop a trial when its 95% region is within (session units; empty: none)",
+        kind="text",
+        asked_by=_measuring,
+    ),
+)
+_FIELDS = {f.name: f for f in SETUP_FIELDS}
+_LABELS = {f.name: f.label for f in SETUP_FIELDS} | {"rotation": "rotation", "rig": "rig file"}
+
+
+def _given_text(name: str, given: Mapping[str, Any]) -> str | None:
+    """The command line's answer for a field, as text (None: not given)."""
+    k = given.get("intrinsics")
+    truth = list(given.get("ground_truth") or [])
+    b = given.get("board")
+    texts: dict[str, Any] = {
+        "method": given.get("method"),
+        "units": given.get("units") if given.get("units") in UNITS else None,
+        "focal": shown(k.fx) if k is not None else given.get("focal"),
+        "principal": f"{shown(k.cx)}, {shown(k.cy)}" if k is not None else given.get("principal"),
+        "ground_height": given.get("ground_height"),
+        "truth1": truth[0] if truth else None,
+        "truth2": truth[1] if len(truth) > 1 else None,
+        "keep_off_ground": None,
+        "board": "x".join(str(n) for n in b.inner_corners) if b is not None else None,
+        "square": b.square if b is not None else None,
+        "board_corner": b.first_corner if b is not None else None,
+        "operator": given.get("operator"),
+        "target_precision": given.get("target_precision"),
+    }
+    value = texts[name]
+    if value is None or (value == "" and name != "operator"):
+        return None
+    if isinstance(value, tuple):
+        return ", ".join(shown(v) for v in value)
+    return shown(value) if isinstance(value, float) else str(value)
+
+
+def _default_text(name: str, units: Units) -> str:
+    defaults = {
+        "units": DEFAULT_UNITS.value,
+        "focal": f"{THESIS_FOCAL_PX:g}",
+        "principal": ", ".join(f"{v:g}" for v in default_principal(THESIS_IMAGE_SIZE)),
+        "ground_height": default_ground_height(units),
+    }
+    return defaults.get(name, "")
+
+
+def form_fields(given: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """The setup form as the page draws it: each field with what the command line gave
+    (shown read-only), or its default (the thesis' rig), and the methods it applies to.
+
+    ``from`` says where a field's value comes from: ``given["given_from"]`` names the file
+    a continuation's fixed fields come from (else the command line), and
+    ``given["prefill"]`` holds ``(value, from)`` for fields filled in but the operator's
+    to change (a continuation's stop rule and operator).
+    """
+    units = Units(given.get("units") or DEFAULT_UNITS)
+    given_from: Mapping[str, str] = given.get("given_from") or {}
+    prefill: Mapping[str, tuple[Any, str]] = given.get("prefill") or {}
+    fields = []
+    for f in SETUP_FIELDS:
+        fixed = _given_text(f.name, given)
+        value, source = fixed, given_from.get(f.name, "the command line")
+        if fixed is None:
+            filled = prefill.get(f.name)
+            value = _given_text(f.name, {f.name: filled[0]}) if filled else None
+            source = filled[1] if filled else ""
+            if value is None:
+                value = _default_text(f.name, units)
+        fields.append(
+            {
+                "name": f.name,
+                "label": f.label,
+                "kind": f.kind,
+                "options": list(f.options),
+                "methods": list(f.methods),
+                "given": fixed is not None,
+                "from": source,
+                "value": value,
+            }
+        )
+    return fields
+
+
+# --------------------------------------------------------------------------- a whole form
+
+
+class _Answers:
+    """The form's answers with the command line's on top; refusals collected by field."""
+
+    def __init__(self, form: Mapping[str, str], given: Mapping[str, Any]) -> None:
+        self.form, self.given = form, given
+        self.errors: dict[str, str] = {}
+
+    def text(self, name: str) -> str:
+        fixed = _given_text(name, self.given)
+        return fixed if fixed is not None else str(self.form.get(name, "") or "").strip()
+
+    def check(self, name: str, parse: Callable[[str], Any]) -> Any:
+        """The parsed answer, or None with the refusal kept under ``name``."""
+        try:
+            return parse(self.text(name))
+        except InputValueError as err:
+            self.errors[name] = str(err)
+            return None
+
+
+def setup_from_answers(form: Mapping[str, str], given: Mapping[str, Any]) -> Setup:
+    """The setup a form describes, with what the command line gave taking precedence over
+    the form (the page shows it read-only); empty text fields take their defaults. Raises
+    :class:`FormRefusedError` holding every refusal, by field."""
+    a = _Answers(form, given)
+    method = a.check("method", _method)
+    units = a.check("units", lambda s: Units(one_of(UNITS)(s or DEFAULT_UNITS))) or DEFAULT_UNITS
+    intrinsics = given.get("intrinsics") or _intrinsics(a, given.get("size", (640, 480)))
+    height = None
+    if method is not None and _FIELDS["ground_height"].asks(method):
+        height = a.check("ground_height", lambda s: _ground_height(s, units))
+    truth = _truth(a, method, units, height) if method is not None else ()
+    board = _board(a, units) if method is not None and _FIELDS["board"].asks(method) else None
+    operator = a.text("operator")
+    target = None
+    if method is not None and _FIELDS["target_precision"].asks(method):
+        target = a.check("target_precision", lambda s: target_precision(s, units))
+    if a.errors:
+        raise FormRefusedError(a.errors)
+    sigma = dict(given.get("intrinsics_sigma") or {})
+    assert method is not None  # a.errors holds its refusal otherwise
+    return Setup(
+        method=method,
+        units=units,
+        intrinsics=intrinsics,
+        ground_height=height,
+        ground_truth=truth,
+        operator=operator,
+        intrinsics_sigma=sigma,
+        board=board,
+        target95=target,
+    )
+
+
+def _method(text: str) -> Method:
+    if not text:
+        raise InputValueError(f"choose {', '.join(METHODS)}")
+    return Method(one_of(METHODS)(text))
+
+
+def _board(a: _Answers, units: Units) -> BoardPlacement | None:
+    """The board's size and placement (every part required: it is the session's truth)."""
+    corners = a.check("board", inner_corners)
+    square = a.check("square", reader(BOARD_SQUARE, units))
+    corner = a.check("board_corner", lambda s: board_corner(s, units))
+    if corners is None or square is None or corner is None:
+        return None
+    return BoardPlacement(inner_corners=corners, square=square, first_corner=corner)
+
+
+def _ground_height(text: str, units: Units) -> float:
+    if not text:
+        raise InputValueError(f"type the height of the camera centre above the table ({units})")
+    return GROUND_HEIGHT.read(text, units)
+
+
+def _intrinsics(a: _Answers, size: tuple[int, int]) -> Intrinsics:
+    focal = a.check("focal", lambda s: FOCAL.read(s or shown(THESIS_FOCAL_PX), None))
+    principal = a.check("principal", lambda s: number_pair(s) if s else default_principal(size))
+    f = focal or THESIS_FOCAL_PX
+    cx, cy = principal or default_principal(size)
+    if not (0 <= cx <= size[0] and 0 <= cy <= size[1]):  # a typo: it lies in the image
+        a.errors["principal"] = (
+            f"the principal point ({cx:g}, {cy:g}) px is outside the {size[0]}x{size[1]} "
+            "image; type a point inside it (its centre if you do not know)"
+        )
+        return Intrinsics(width=size[0], height=size[1], fx=f, fy=f, cx=size[0] / 2, cy=size[1] / 2)
+    try:
+        return Intrinsics(width=size[0], height=size[1], fx=f, fy=f, cx=cx, cy=cy)
+    except InputValueError as err:  # e.g. a principal point outside the image
+        a.errors["principal"] = str(err)
+        return Intrinsics(width=size[0], height=size[1], fx=f, fy=f, cx=size[0] / 2, cy=size[1] / 2)
+
+
+def _truth(a: _Answers, method: Method, units: Units, height: float | None) -> tuple[Vec3, ...]:
+    """The ground truth (optional): a line's two points must differ, and a method 2 point
+    off the ground plane is kept only when the operator ticked that it should be."""
+    names = ("truth1", "truth2")[: spec_of(method).truth_points]
+    points: list[Vec3] = []
+    for name in names:
+        if not a.text(name):
+            continue
+        point = a.check(
+            name, lambda s: distinct_point(parse_vector(s, units, quantity=GROUND_TRUTH), points)
+        )
+        if point is not None:
+            points.append(point)
+    if spec_of(method).truth_points == 2 and len(points) == 1 and not a.errors:
+        missing = "truth2" if a.text("truth1") else "truth1"
+        a.errors[missing] = "a line needs two points (or leave both empty: no ground truth)"
+    keep = a.text("keep_off_ground").lower() in ("y", "yes", "true", "on", "1")
+    if height is not None and points and not keep:
+        off = off_ground(points[0], height, units)
+        if off:
+            a.errors["truth1"] = f"{off}; tick '{_LABELS['keep_off_ground']}' to keep it"
+    return tuple(points)
