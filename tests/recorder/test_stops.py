@@ -492,7 +492,9 @@ def test_every_stop_at_a_random_moment_closes_the_file(
         rec.wait_for("recording")
         script = terminal_operator(rec, rng, acked)
     elif front == "plan":
-        rec = Recorder([str(out), "--plan", str(_plan(tmp_path)), "--source", scene])
+        # Long enough to be recording at the latest signal (6 trials took 2.9 s, then
+        # a signal at 3 s found the plan done: exit 0).
+        rec = Recorder([str(out), "--plan", str(_plan(tmp_path, trials=40)), "--source", scene])
         rec.wait_for("recording|trial 1")
         script = _count_plan_accepts(rec, acked)
     else:
