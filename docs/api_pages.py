@@ -1,5 +1,6 @@
 """The API reference's pages: one per public module of the three packages, each package with
-an overview page listing its modules by their summary lines, and the site's nav to them.
+an overview page listing its modules, each by its docstring's first sentence (whole), and the
+site's nav to them.
 
     .venv/bin/python docs/api_pages.py [--write-docs]
 
@@ -40,12 +41,44 @@ def modules(package: str) -> list[str]:
     return sorted(found, key=lambda m: (m != package, m))
 
 
-def summary(module: str) -> str:
-    """The module docstring's first line (its summary)."""
+#: Words that end in a full stop without ending a sentence.
+ABBREVIATIONS = ("e.g.", "i.e.", "etc.", "vs.", "cf.", "resp.", "approx.", "Fig.", "Eq.")
+
+
+def first_sentence(doc: str) -> str:
+    """The first sentence of a docstring, whole: its first paragraph up to the first ``.``,
+    ``?`` or ``!`` outside brackets and backticks, not an abbreviation's, that ends the
+    paragraph or is followed by a space and a capital, a backtick or a bracket (the whole
+    paragraph when none does), its lines joined."""
+    text = " ".join(line.strip() for line in doc.strip().split("\n\n")[0].splitlines())
+    depth, code = 0, False
+    for i, char in enumerate(text):
+        if char == "`":
+            code = not code
+        elif code:
+            continue
+        elif char in "([":
+            depth += 1
+        elif char in ")]":
+            depth = max(0, depth - 1)
+        elif char in ".?!" and depth == 0 and text[i + 1 : i + 2] in ("", " "):
+            after = text[i + 2 : i + 3]
+            if text[: i + 1].rsplit(" ", 1)[-1] in ABBREVIATIONS:
+                continue
+            if not after or after.isupper() or after in "`([":
+                return text[: i + 1]
+    return text
+
+
+def docstring(module: str) -> str:
     path = REPO / Path(*module.split("."))
     path = path / "__init__.py" if path.is_dir() else path.with_suffix(".py")
-    doc = ast.get_docstring(ast.parse(path.read_text(encoding="utf-8"))) or ""
-    return doc.strip().split("\n")[0]
+    return ast.get_docstring(ast.parse(path.read_text(encoding="utf-8"))) or ""
+
+
+def summary(module: str) -> str:
+    """The module's summary on its package's overview: its docstring's first sentence."""
+    return first_sentence(docstring(module))
 
 
 def module_page(module: str) -> str:
