@@ -1,7 +1,8 @@
 """The documentation keeps up with the code: every module of the three packages has its
-page in the API reference (docs/api/<package>/<module>.md), every command's Python call
-documents its parameters, no docstring says its summary twice, and the README's links
-resolve."""
+page in the API reference (docs/api/<package>/<module>.md) and a whole sentence on its
+package's overview, docs/layout.md names every file of the packages and every script, every
+command's Python call documents its parameters, no docstring says its summary twice, and the
+README's links resolve."""
 
 from __future__ import annotations
 
@@ -26,6 +27,69 @@ def test_the_api_reference_has_a_page_per_module_and_is_current() -> None:
     pages = list((REPO / "docs" / "api").rglob("*.md"))
     assert len(pages) > 80  # one per module, and an overview per package
     assert max(p.stat().st_size for p in pages) < 20_000
+
+
+def _overview_rows() -> list[tuple[str, str]]:
+    """Each package overview's (module, summary) rows (docs/api/<package>/index.md)."""
+    rows = []
+    for package in ("twopose", "recorder", "analysis"):
+        page = (REPO / "docs" / "api" / package / "index.md").read_text(encoding="utf-8")
+        rows += re.findall(r"^- \[`([\w.]+)`\]\([\w.]+\.md\): (.*)$", page, re.M)
+    return rows
+
+
+def test_the_api_overviews_summaries_are_whole_sentences() -> None:
+    """Each module's summary on its package's overview is its docstring's first sentence,
+    whole: it ends a sentence (``.``, ``?``, ``!``, possibly inside a closing bracket or
+    quote), its brackets and backticks close, and the first paragraph goes on, if at all,
+    with a new sentence, never mid-sentence (as a first line cut at its line break did)."""
+    import ast
+
+    rows = _overview_rows()
+    assert len(rows) > 80
+    cut = []
+    for module, summary in rows:
+        path = REPO / Path(*module.split("."))
+        path = path / "__init__.py" if path.is_dir() else path.with_suffix(".py")
+        doc = ast.get_docstring(ast.parse(path.read_text(encoding="utf-8"))) or ""
+        text = " ".join(doc.split("\n\n")[0].split())  # the first paragraph's lines joined
+        rest = text.removeprefix(summary)
+        whole = (
+            re.search(r"[.?!][)\]\"'`]*$", summary)
+            and summary.count("(") == summary.count(")")
+            and summary.count("`") % 2 == 0
+            and text.startswith(summary)
+            and (not rest or re.match(r" [A-Z`(\[]", rest))
+        )
+        if not whole:
+            cut.append(f"{module}: {summary!r}")
+    assert not cut, "not a whole sentence:\n" + "\n".join(cut)
+
+
+def _package_files() -> list[str]:
+    """Every file of the packages (Python, JavaScript, CSS, HTML) and the scripts beside
+    them (benchmarks/, docs/, sessions/, .ci/run), as paths from the repository's root."""
+    found = [
+        p
+        for package in ("twopose", "recorder", "analysis")
+        for p in (REPO / package).rglob("*")
+        if p.suffix in {".py", ".js", ".css", ".html"} and "__pycache__" not in p.parts
+    ]
+    for folder in ("benchmarks", "docs", "sessions"):
+        found += (REPO / folder).glob("*.py")
+    found.append(REPO / ".ci" / "run")
+    return sorted(str(p.relative_to(REPO).as_posix()) for p in found)
+
+
+def test_the_layout_names_every_file_of_the_packages() -> None:
+    """docs/layout.md names every module, script, style sheet and page: a file added (or a
+    module split in two) without its line in the layout fails here."""
+    layout = (REPO / "docs" / "layout.md").read_text(encoding="utf-8")
+    files = _package_files()
+    assert len(files) > 150
+    assert "recorder/console.js" in files
+    unnamed = [f for f in files if f"`{f}`" not in layout]
+    assert not unnamed, "not named in docs/layout.md: " + ", ".join(unnamed)
 
 
 #: The Python call of every command (``Everything the CLI does is one call from Python``).
