@@ -69,7 +69,7 @@ def _plan(width: int, height: int, frames: int) -> Plan:
         cameras=(camera,),
         trials=(PlannedTrial(poses=poses, ground_truth=((1.91, 9.625, 8.375),)),),
         frames=frames,
-        ground_height=9.625,
+        plane_offset=9.625,
     )
 
 

@@ -426,6 +426,7 @@ def _console_given(
     """What the command line gave, as :func:`recorder.interactive.ask_setup` takes it."""
     from recorder.setup_rules import parse_vector
     from twopose.bounds import GROUND_TRUTH
+    from twopose.planes import GROUND_PLANE
 
     return {
         "method": method.value if method else None,
@@ -434,7 +435,8 @@ def _console_given(
         "intrinsics_sigma": _calibration_sigma(calibration),
         "focal": focal,
         "principal": _principal(principal),
-        "ground_height": ground_height,
+        # --ground-height is the ground plane's offset (another plane's is asked).
+        GROUND_PLANE.setup_key: ground_height,
         "ground_truth": [
             _option("--ground-truth", parse_vector, g, units, quantity=GROUND_TRUTH)
             for g in ground_truth or []

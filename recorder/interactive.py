@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
 
@@ -25,12 +25,12 @@ from recorder.setup_rules import (
     PoseTyping,
     Setup,
     board_corner,
-    default_ground_height,
+    default_plane_offset,
     default_principal,
     distinct_point,
     inner_corners,
     number_pair,
-    off_ground,
+    off_plane,
     one_of,
     parse_vector,
     reader,
@@ -42,7 +42,6 @@ from twopose.bounds import (
     BOARD_CORNER,
     BOARD_SQUARE,
     FOCAL,
-    GROUND_HEIGHT,
     GROUND_TRUTH,
     PRINCIPAL,
     ROTATION,
@@ -60,7 +59,8 @@ from twopose.format.entries import (
     TruthKind,
     TypedEntry,
 )
-from twopose.methods import METHODS, Method, spec_of
+from twopose.methods import METHODS, PLANES, Method, spec_of
+from twopose.planes import ConstraintPlane
 from twopose.targets import BoardPlacement
 from twopose.units import DEFAULT_UNITS, UNITS, Units
 from twopose.values import Vec3
@@ -110,13 +110,13 @@ def ask_setup(  # noqa: PLR0913 - one keyword per setup value the operator may h
     focal: float | None,
     principal: tuple[float, float] | None,
     size: tuple[int, int],
-    ground_height: float | None,
     ground_truth: Sequence[Vec3],
     operator: str | None,
     intrinsics_sigma: dict[str, float] | None = None,
     board: BoardPlacement | None = None,
     target_precision: float | None = None,
     guidance: GuidanceAsked | None = None,
+    **plane_offsets: float | None,
 ) -> Setup:
     """Ask for whatever is None (or missing) above; answers are checked as they are typed.
     ``intrinsics_sigma`` (a calibration file's) travels with the intrinsics; ``board`` is a
@@ -126,7 +126,9 @@ def ask_setup(  # noqa: PLR0913 - one keyword per setup value the operator may h
 
     A value given is checked against its bound in the units chosen
     (:mod:`twopose.bounds`) and refused, never asked again; so are ``guidance``'s options
-    (a board session takes none), as soon as the method and units are known."""
+    (a board session takes none), as soon as the method and units are known.
+    ``plane_offsets`` are the planes' offsets given, each under its plane's setup key
+    (``ground_height=`` for method 2's ground, :data:`twopose.methods.PLANES`)."""
     asked_before = op.questions
     m = Method(method or op.ask(f"method ({', '.join(METHODS)})", one_of(METHODS)))
     u = Units(
@@ -150,17 +152,7 @@ def ask_setup(  # noqa: PLR0913 - one keyword per setup value the operator may h
         else:
             cx, cy = op.ask("principal point cx, cy (px)", number_pair, centre)
         intrinsics = Intrinsics(width=size[0], height=size[1], fx=f, fy=f, cx=cx, cy=cy)
-    h = None
-    if spec_of(m).needs_ground:
-        h = (
-            _given(GROUND_HEIGHT, ground_height, u, "--ground-height")
-            if ground_height is not None
-            else op.ask(
-                f"ground height: camera centre to table ({u})",
-                reader(GROUND_HEIGHT, u),
-                default_ground_height(u),
-            )
-        )
+    h = _plane_offset(op, m, u, _known_planes(plane_offsets))
     for point in ground_truth:
         for v, a in zip(point, GROUND_TRUTH.axes, strict=True):
             _given(GROUND_TRUTH, v, u, "--ground-truth", axis=a)
@@ -181,7 +173,7 @@ def ask_setup(  # noqa: PLR0913 - one keyword per setup value the operator may h
         method=m,
         units=u,
         intrinsics=intrinsics,
-        ground_height=h,
+        plane_offset=h,
         ground_truth=truth,
         operator=who,
         intrinsics_sigma=dict(intrinsics_sigma or {}),
@@ -196,6 +188,35 @@ def ask_target(op: Operator, units: Units) -> float | None:
     question = f"stop a trial when its 95% region is within ({units}; none: no stop rule)"
     answer: float | None = op.ask(question, lambda s: target_precision(s, units), "none")
     return answer
+
+
+def _known_planes(given: Mapping[str, float | None]) -> dict[str, float]:
+    """The planes' offsets given (None: not given), each key a plane's setup key."""
+    keys = {p.setup_key for p in PLANES}
+    unknown = sorted(set(given) - keys)
+    if unknown:
+        raise TypeError(f"ask_setup() got unexpected keyword arguments {unknown}")
+    return {k: v for k, v in given.items() if v is not None}
+
+
+def _plane_offset(
+    op: Operator, method: Method, units: Units, given: Mapping[str, float]
+) -> float | None:
+    """The offset of the method's plane (method 2's ground height): the one given under
+    the plane's setup key (``--ground-height``), checked, or asked; None on no plane."""
+    plane = spec_of(method).plane
+    if plane is None:
+        return None
+    if plane.setup_key in given:
+        option = "--" + plane.setup_key.replace("_", "-")
+        return _given(plane.bound, given[plane.setup_key], units, option)
+    return float(
+        op.ask(
+            f"{plane.label} ({units})",
+            reader(plane.bound, units),
+            default_plane_offset(plane, units),
+        )
+    )
 
 
 def _given(quantity: Quantity, value: float, units: Units, option: str, *, axis: str = "") -> float:
@@ -221,27 +242,33 @@ def _ask_board(op: Operator, units: Units) -> BoardPlacement:
 def _ask_truth(
     op: Operator, method: Method, units: Units, height: float | None, given: list[Vec3]
 ) -> tuple[Vec3, ...]:
-    """The ground truth, checked as typed: a line's two points must differ, and a method 2
-    point off the ground plane is kept only if the operator confirms it."""
+    """The ground truth, checked as typed: a line's two points must differ, and a point off
+    the method's plane (method 2's ground) is kept only if the operator confirms it."""
     n_truth = spec_of(method).truth_points
     if n_truth == 2 and len(given) >= 2 and given[0] == given[1]:
         raise InputValueError(f"the two ground-truth points of a line must differ, got {given}")
     given = given[:n_truth]
-    if height is not None and given and not _keep(op, given[0], height, units):
+    plane = spec_of(method).plane
+    if (
+        plane is not None
+        and height is not None
+        and given
+        and not _keep(op, plane, given[0], height, units)
+    ):
         given = []  # the option's point is off the ground and not confirmed: ask again
     while len(given) < n_truth:
         point = op.ask(
             f"ground truth point {len(given) + 1} x, y, z ({units})",
             lambda s: distinct_point(parse_vector(s, units, quantity=GROUND_TRUTH), given),
         )
-        if height is None or _keep(op, point, height, units):
+        if plane is None or height is None or _keep(op, plane, point, height, units):
             given.append(point)
     return tuple(given)
 
 
-def _keep(op: Operator, point: Vec3, height: float, units: Units) -> bool:
-    """True if ``point`` is on the ground plane, or the operator keeps it anyway."""
-    off = off_ground(point, height, units)
+def _keep(op: Operator, plane: ConstraintPlane, point: Vec3, offset: float, units: Units) -> bool:
+    """True if ``point`` is on the method's plane, or the operator keeps it anyway."""
+    off = off_plane(plane, point, offset, units)
     if not off:
         return True
     op.say(f"  warning: {off}")

@@ -110,7 +110,7 @@ def continued_given(continued: Continued, target_precision: float | None) -> dic
     return {
         "method": setup.method.value, "units": setup.units, "intrinsics": k,
         "intrinsics_sigma": setup.intrinsics_sigma, "focal": None, "principal": None,
-        "ground_height": setup.ground_height, "ground_truth": list(setup.ground_truth),
+        **setup.plane_offsets(), "ground_truth": list(setup.ground_truth),
         "board": setup.board, **own,
         # Where each fixed field comes from, and what the page fills in for the others.
         "given_from": {f.name: name for f in SETUP_FIELDS if f.name not in own},

@@ -16,7 +16,8 @@ from recorder.setup_rules import (
     THESIS_IMAGE_SIZE,
     board_refusal,
     default_principal,
-    off_ground,
+    off_plane,
+    plane_entry,
 )
 from twopose.bounds import (
     BOARD_CORNER,
@@ -24,7 +25,6 @@ from twopose.bounds import (
     FOCAL,
     FRAMES,
     GRID,
-    GROUND_HEIGHT,
     GROUND_TRUTH,
     IMAGE_SIDE,
     INNER_CORNERS,
@@ -42,24 +42,24 @@ from twopose.errors import InputValueError
 from twopose.format.entries import (
     DEFAULT_ROTATION_RESOLUTION_DEG,
     DEFAULT_TRANSLATION_RESOLUTION,
-    GroundPlane,
     default_translation_resolution,
 )
 from twopose.guidance import Guidance, Reach
-from twopose.methods import METHODS, Method, spec_of
+from twopose.methods import METHODS, PLANES, Method, spec_of
 from twopose.targets import BoardPlacement
 from twopose.units import DEFAULT_UNITS, UNITS, Units
 from twopose.values import Vec3, finite
 
 if TYPE_CHECKING:
-    pass
+    from twopose.format.entries import GroundPlane
 
 
 __all__ = ["Plan", "PlannedPose", "PlannedTrial", "load_plan"]
 
 _PLAN_KEYS = {
-    "": {"method", "units", "camera", "cameras", "frames", "ground_height", "trials"}
-    | {"operator", "notes", "resolution", "board", "guidance", "adaptive_frames"},
+    "": {"method", "units", "camera", "cameras", "frames", "trials"}
+    | {"operator", "notes", "resolution", "board", "guidance", "adaptive_frames"}
+    | {p.setup_key for p in PLANES},  # each plane's offset (method 2's ground_height)
     "guidance": {"target_95", "reach", "spacing", "max_poses", "seed"},
     "board": {"inner_corners", "square", "first_corner"},
     "camera": {"id", "calibration", "focal", "fx", "fy", "principal", "cx", "cy"}
@@ -115,7 +115,8 @@ class Plan:
     trials: tuple[PlannedTrial, ...]
     frames: int = 5
     adaptive_frames: bool = False  # frames is then the most a pose takes
-    ground_height: float | None = None
+    # The offset of the method's plane (its spec's ``plane``: method 2's ground height).
+    plane_offset: float | None = None
     operator: str = ""
     notes: str = ""
     # Session units: load_plan's default is 1/16 in converted (default_translation_resolution).
@@ -127,8 +128,28 @@ class Plan:
     placing_seed: int = 0  # the simulated operator's placing error on guided poses
 
     def ground(self) -> GroundPlane | None:
-        """The ground plane ``y = h`` (method 2), or None."""
-        return GroundPlane(offset=self.ground_height) if self.ground_height is not None else None
+        """The method's plane at the plan's offset (method 2's ground ``y = h``), or None."""
+        return plane_entry(self.method, self.plane_offset)
+
+
+def _plane_offset(data: dict[str, Any], method: Method, units: Units) -> float | None:
+    """The offset of the method's plane, under the plane's key (method 2's
+    ``ground_height``): required on a plane, another plane's refused (a method on no plane
+    has nothing to cut its estimate with, and ignores them as it always did)."""
+    plane = spec_of(method).plane
+    if plane is None:
+        return None
+    for key in sorted({p.setup_key for p in PLANES} - {plane.setup_key}):
+        if key in data:
+            raise InputValueError(
+                f"plan: {key} is not a {method} session's: its plane is {plane.name}, "
+                f"{plane.equation}, given as {plane.setup_key}"
+            )
+    if plane.setup_key not in data:
+        raise InputValueError(
+            f"plan: a {method} session needs {plane.setup_key} ({plane.label}, {plane.equation})"
+        )
+    return _read(plane.bound, data[plane.setup_key], plane.setup_key, units)
 
 
 def _read(quantity: Quantity, value: Any, where: str, units: Units | None) -> float:
@@ -218,10 +239,7 @@ def load_plan(path: str | Path) -> Plan:
     board_guidance = [k for k in ("guidance", "adaptive_frames") if data.get(k)]
     if not spec_of(method).measures and board_guidance:
         raise InputValueError(f"plan: {board_refusal(board_guidance)}")
-    ground = data.get("ground_height")
-    if spec_of(method).needs_ground and ground is None:
-        raise InputValueError("plan: a ground session needs ground_height (camera centre to table)")
-    height = None if ground is None else _read(GROUND_HEIGHT, ground, "ground_height", units)
+    height = _plane_offset(data, method, units)
     res = _known_keys(data.get("resolution", {}), "resolution", "resolution")
     resolution = (
         finite(
@@ -258,7 +276,7 @@ def load_plan(path: str | Path) -> Plan:
         trials=trials,
         frames=frames,
         adaptive_frames=adaptive,
-        ground_height=height,
+        plane_offset=height,
         operator=str(data.get("operator", "")),
         notes=str(data.get("notes", "")),
         translation_resolution=resolution[0],
@@ -389,7 +407,8 @@ def _truth(
     keep = t.get("keep_off_ground", False)
     if not isinstance(keep, bool):
         raise InputValueError(f"plan: trials[{i}].keep_off_ground must be true or false")
-    off = off_ground(gt[0], height, units) if spec.needs_ground and gt and height else ""
+    plane = spec.plane
+    off = off_plane(plane, gt[0], height, units) if plane and gt and height is not None else ""
     if off and not keep:  # the rule the terminal and the browser apply: kept if confirmed
         raise InputValueError(
             f"plan: {where}: {off}; set keep_off_ground = true in this trial to keep it"

@@ -19,12 +19,12 @@ from recorder.setup_rules import (
     THESIS_IMAGE_SIZE,
     Setup,
     board_corner,
-    default_ground_height,
+    default_plane_offset,
     default_principal,
     distinct_point,
     inner_corners,
     number_pair,
-    off_ground,
+    off_plane,
     one_of,
     parse_vector,
     reader,
@@ -33,7 +33,6 @@ from recorder.setup_rules import (
 from twopose.bounds import (
     BOARD_SQUARE,
     FOCAL,
-    GROUND_HEIGHT,
     GROUND_TRUTH,
     POSE_TRANSLATION,
     ROTATION,
@@ -42,6 +41,7 @@ from twopose.bounds import (
 from twopose.camera import Intrinsics
 from twopose.errors import InputValueError
 from twopose.methods import METHODS, Method, MethodSpec, spec_of
+from twopose.planes import ConstraintPlane
 from twopose.targets import BoardPlacement
 from twopose.units import DEFAULT_UNITS, UNITS, Units
 from twopose.values import Vec3
@@ -104,9 +104,10 @@ def _calibrating(spec: MethodSpec) -> bool:
     return not spec.measures
 
 
-def _on_the_ground(spec: MethodSpec) -> bool:
-    """A method whose estimate needs the ground plane y = h: it asks the ground height."""
-    return spec.needs_ground
+def _on_a_plane(spec: MethodSpec) -> bool:
+    """A method whose estimate lies on a plane (method 2's ground y = h): it asks whether
+    to keep a ground-truth point off that plane."""
+    return spec.plane is not None
 
 
 def _two_truth_points(spec: MethodSpec) -> bool:
@@ -119,9 +120,10 @@ class SetupField:
     """One answer of the setup, as the page shows it.
 
     Which methods ask it is decided by each method's spec (:class:`twopose.methods.MethodSpec`:
-    ``needs_ground``, ``measures``, ``truth_points``), never by naming methods: a method
+    ``plane``, ``measures``, ``truth_points``), never by naming methods: a method
     added to the registry is asked what its flags say, by the page, the terminal and
-    :func:`setup_from_answers` alike.
+    :func:`setup_from_answers` alike. A plane's offset is one field per plane of the
+    registry (:func:`plane_fields`), keyed, labelled and bounded by the plane.
     """
 
     name: str  # the form's key
@@ -141,17 +143,28 @@ class SetupField:
         return self.asked_by(spec_of(method))
 
 
+def _asked_by_the_plane(plane: ConstraintPlane) -> Callable[[MethodSpec], bool]:
+    def asked(spec: MethodSpec) -> bool:
+        return spec.plane == plane
+
+    return asked
+
+
+def plane_fields() -> tuple[SetupField, ...]:
+    """One field per plane of the method registry (method 2's ground height): the plane's
+    offset, under the plane's setup key, asked by the methods on that plane."""
+    return tuple(
+        SetupField(name=p.setup_key, label=p.label, kind="text", asked_by=_asked_by_the_plane(p))
+        for p in registry.PLANES
+    )
+
+
 SETUP_FIELDS: tuple[SetupField, ...] = (
     SetupField(name="method", label="method", kind="choice", options=METHODS),
     SetupField(name="units", label="units", kind="choice", options=UNITS),
     SetupField(name="focal", label="focal length (px)", kind="text"),
     SetupField(name="principal", label="principal point cx, cy (px)", kind="text"),
-    SetupField(
-        name="ground_height",
-        label="ground height: camera centre to table",
-        kind="text",
-        asked_by=_on_the_ground,
-    ),
+    *plane_fields(),
     SetupField(
         name="board",
         label="board's inner corners COLSxROWS",
@@ -176,7 +189,7 @@ SETUP_FIELDS: tuple[SetupField, ...] = (
         name="keep_off_ground",
         label="keep a ground-truth point that is off the ground",
         kind="check",
-        asked_by=_on_the_ground,
+        asked_by=_on_a_plane,
     ),
     SetupField(name="operator", label="operator", kind="text"),
     SetupField(
@@ -200,7 +213,6 @@ def _given_text(name: str, given: Mapping[str, Any]) -> str | None:
         "units": given.get("units") if given.get("units") in UNITS else None,
         "focal": shown(k.fx) if k is not None else given.get("focal"),
         "principal": f"{shown(k.cx)}, {shown(k.cy)}" if k is not None else given.get("principal"),
-        "ground_height": given.get("ground_height"),
         "truth1": truth[0] if truth else None,
         "truth2": truth[1] if len(truth) > 1 else None,
         "keep_off_ground": None,
@@ -210,7 +222,7 @@ def _given_text(name: str, given: Mapping[str, Any]) -> str | None:
         "operator": given.get("operator"),
         "target_precision": given.get("target_precision"),
     }
-    value = texts[name]
+    value = texts[name] if name in texts else given.get(name)  # a plane's offset: its key
     if value is None or (value == "" and name != "operator"):
         return None
     if isinstance(value, tuple):
@@ -223,8 +235,7 @@ def _default_text(name: str, units: Units) -> str:
         "units": DEFAULT_UNITS.value,
         "focal": f"{THESIS_FOCAL_PX:g}",
         "principal": ", ".join(f"{v:g}" for v in default_principal(THESIS_IMAGE_SIZE)),
-        "ground_height": default_ground_height(units),
-    }
+    } | {p.setup_key: default_plane_offset(p, units) for p in registry.PLANES}
     return defaults.get(name, "")
 
 
@@ -235,7 +246,9 @@ def form_fields(given: Mapping[str, Any]) -> list[dict[str, Any]]:
     ``from`` says where a field's value comes from: ``given["given_from"]`` names the file
     a continuation's fixed fields come from (else the command line), and
     ``given["prefill"]`` holds ``(value, from)`` for fields filled in but the operator's
-    to change (a continuation's stop rule and operator).
+    to change (a continuation's stop rule and operator). ``unit_defaults`` is the default
+    under each unit (the thesis' ground height, offered for inches only): the page refills
+    a field whose default depends on the units when they change.
     """
     units = Units(given.get("units") or DEFAULT_UNITS)
     given_from: Mapping[str, str] = given.get("given_from") or {}
@@ -260,6 +273,7 @@ def form_fields(given: Mapping[str, Any]) -> list[dict[str, Any]]:
                 "given": fixed is not None,
                 "from": source,
                 "value": value,
+                "unit_defaults": {u.value: _default_text(f.name, u) for u in UNITS},
             }
         )
     return fields
@@ -296,10 +310,11 @@ def setup_from_answers(form: Mapping[str, str], given: Mapping[str, Any]) -> Set
     method = a.check("method", _method)
     units = a.check("units", lambda s: Units(one_of(UNITS)(s or DEFAULT_UNITS))) or DEFAULT_UNITS
     intrinsics = given.get("intrinsics") or _intrinsics(a, given.get("size", (640, 480)))
-    height = None
-    if method is not None and _FIELDS["ground_height"].asks(method):
-        height = a.check("ground_height", lambda s: _ground_height(s, units))
-    truth = _truth(a, method, units, height) if method is not None else ()
+    plane = spec_of(method).plane if method is not None else None
+    offset = None
+    if plane is not None:
+        offset = a.check(plane.setup_key, lambda s: _plane_offset(plane, s, units))
+    truth = _truth(a, method, units, offset) if method is not None else ()
     board = _board(a, units) if method is not None and _FIELDS["board"].asks(method) else None
     operator = a.text("operator")
     target = None
@@ -313,7 +328,7 @@ def setup_from_answers(form: Mapping[str, str], given: Mapping[str, Any]) -> Set
         method=method,
         units=units,
         intrinsics=intrinsics,
-        ground_height=height,
+        plane_offset=offset,
         ground_truth=truth,
         operator=operator,
         intrinsics_sigma=sigma,
@@ -338,10 +353,10 @@ def _board(a: _Answers, units: Units) -> BoardPlacement | None:
     return BoardPlacement(inner_corners=corners, square=square, first_corner=corner)
 
 
-def _ground_height(text: str, units: Units) -> float:
+def _plane_offset(plane: ConstraintPlane, text: str, units: Units) -> float:
     if not text:
-        raise InputValueError(f"type the height of the camera centre above the table ({units})")
-    return GROUND_HEIGHT.read(text, units)
+        raise InputValueError(f"type {plane.measured} ({units})")
+    return plane.bound.read(text, units)
 
 
 def _intrinsics(a: _Answers, size: tuple[int, int]) -> Intrinsics:
@@ -362,9 +377,10 @@ def _intrinsics(a: _Answers, size: tuple[int, int]) -> Intrinsics:
         return Intrinsics(width=size[0], height=size[1], fx=f, fy=f, cx=size[0] / 2, cy=size[1] / 2)
 
 
-def _truth(a: _Answers, method: Method, units: Units, height: float | None) -> tuple[Vec3, ...]:
-    """The ground truth (optional): a line's two points must differ, and a method 2 point
-    off the ground plane is kept only when the operator ticked that it should be."""
+def _truth(a: _Answers, method: Method, units: Units, offset: float | None) -> tuple[Vec3, ...]:
+    """The ground truth (optional): a line's two points must differ, and a point off the
+    method's plane (method 2's ground) is kept only when the operator ticked that it
+    should be."""
     names = ("truth1", "truth2")[: spec_of(method).truth_points]
     points: list[Vec3] = []
     for name in names:
@@ -379,8 +395,9 @@ def _truth(a: _Answers, method: Method, units: Units, height: float | None) -> t
         missing = "truth2" if a.text("truth1") else "truth1"
         a.errors[missing] = "a line needs two points (or leave both empty: no ground truth)"
     keep = a.text("keep_off_ground").lower() in ("y", "yes", "true", "on", "1")
-    if height is not None and points and not keep:
-        off = off_ground(points[0], height, units)
+    plane = spec_of(method).plane
+    if plane is not None and offset is not None and points and not keep:
+        off = off_plane(plane, points[0], offset, units)
         if off:
             a.errors["truth1"] = f"{off}; tick '{_LABELS['keep_off_ground']}' to keep it"
     return tuple(points)

@@ -37,6 +37,7 @@ from twopose.format.entries import (
     default_translation_resolution,
 )
 from twopose.methods import Method, spec_of
+from twopose.planes import ConstraintPlane
 from twopose.targets import BoardPlacement
 from twopose.units import DEFAULT_UNITS, Units, unit_spec
 from twopose.values import Vec3
@@ -53,24 +54,24 @@ __all__ = [
     "board_corner",
     "board_refusal",
     "check_rig",
-    "default_ground_height",
+    "default_plane_offset",
     "default_principal",
     "distinct_point",
     "inner_corners",
     "number_pair",
-    "off_ground",
+    "off_plane",
     "one_of",
     "parse_vector",
+    "plane_entry",
     "reader",
     "target_precision",
 ]
 
-#: The thesis' rig (section 5.2): f = 525 px, principal point at the centre of 640x480, a
-#: ground 9 5/8 in below the camera centre. Offered as defaults, never assumed silently, by
-#: the terminal, the browser and a plan alike.
+#: The thesis' rig (section 5.2): f = 525 px, principal point at the centre of 640x480 (its
+#: ground, 9 5/8 in below the camera centre, is :data:`twopose.planes.GROUND_PLANE`'s).
+#: Offered as defaults, never assumed silently, by the terminal, the browser and a plan.
 THESIS_FOCAL_PX = 525.0
 THESIS_IMAGE_SIZE = (640, 480)
-THESIS_GROUND_HEIGHT_IN = 9.625
 #: The camera of a session set up by hand (terminal or browser): one laptop webcam.
 CAMERA_ID = "cam0"
 
@@ -98,7 +99,9 @@ class Setup:
     method: Method
     units: Units
     intrinsics: Intrinsics
-    ground_height: float | None
+    # The offset of the method's plane (its spec's ``plane``: method 2's ground height), in
+    # session units; None for a method on no plane.
+    plane_offset: float | None
     ground_truth: tuple[Vec3, ...]
     operator: str
     intrinsics_sigma: dict[str, float] = field(default_factory=dict, compare=False)
@@ -114,8 +117,15 @@ class Setup:
         )
 
     def ground(self) -> GroundPlane | None:
-        """The ground plane ``y = h`` (method 2), or None."""
-        return GroundPlane(offset=self.ground_height) if self.ground_height else None
+        """The method's plane at the typed offset (method 2's ground ``y = h``), or None."""
+        return plane_entry(self.method, self.plane_offset)
+
+    def plane_offsets(self) -> dict[str, float]:
+        """The plane's offset under its setup key (``{"ground_height": h}``), or nothing."""
+        plane = spec_of(self.method).plane
+        if plane is None or self.plane_offset is None:
+            return {}
+        return {plane.setup_key: self.plane_offset}
 
     def info(self, notes: str = "") -> SessionInfo:
         """The session's opening entry, created now."""
@@ -138,7 +148,7 @@ class Setup:
             method=continued.info.method,
             units=continued.info.units,
             intrinsics=camera.intrinsics,
-            ground_height=continued.ground.offset if continued.ground else None,
+            plane_offset=continued.ground.offset if continued.ground else None,
             ground_truth=continued.truth,
             operator=continued.info.operator if continued.operator is None else continued.operator,
             intrinsics_sigma=dict(camera.intrinsics_sigma),
@@ -240,25 +250,38 @@ def default_principal(size: tuple[int, int]) -> tuple[float, float]:
     return size[0] / 2, size[1] / 2
 
 
-def off_ground(point: Vec3, height: float, units: Units) -> str:
-    """Why a method 2 ground truth point is not on the ground plane ``y = height`` (empty
-    when it is, within the units' tolerance: half a 1/16 in tape tick, or half a
-    millimetre). Every front end refuses such a point unless the operator keeps it: the
+def plane_entry(method: Method, offset: float | None) -> GroundPlane | None:
+    """The session's plane entry for ``method`` at the typed ``offset`` (its spec's plane,
+    :class:`twopose.planes.ConstraintPlane`), or None (no plane, or no offset)."""
+    plane = spec_of(method).plane
+    if plane is None or offset is None:
+        return None
+    normal, c = plane.plane(offset)
+    return GroundPlane(normal_grid=normal, offset=c)
+
+
+def off_plane(plane: ConstraintPlane, point: Vec3, offset: float, units: Units) -> str:
+    """Why a ground-truth point is not on the method's plane (method 2: the ground ``y =
+    h``), empty when it is, within the units' tolerance: half a 1/16 in tape tick, or half
+    a millimetre. Every front end refuses such a point unless the operator keeps it: the
     terminal asks, the browser has a box to tick, a plan says ``keep_off_ground = true``."""
-    gap = point[1] - height
+    gap = plane.gap(point, offset)
     if abs(gap) <= unit_spec(units).ground_tolerance:
         return ""
+    a = plane.axis
     return (
-        f"the ground truth {point} has y = {point[1]:g} {units}, but the ground plane is at "
-        f"y = {height:g} {units} ({gap:+g} {units}): the finger points at the table, so "
-        "its y should be the ground height"
+        f"the ground truth {point} has {a} = {gap + offset:g} {units}, but {plane.name} is at "
+        f"{a} = {offset:g} {units} ({gap:+g} {units}): the finger points at {plane.name}, "
+        f"so its {a} should be the {plane.bound.words}"
     )
 
 
-def default_ground_height(units: Units) -> str:
-    """The thesis' ground height where the units are the thesis' (the units registry's
-    default, :data:`twopose.units.DEFAULT_UNITS`); nothing to assume otherwise."""
-    return f"{THESIS_GROUND_HEIGHT_IN:g}" if units == DEFAULT_UNITS else ""
+def default_plane_offset(plane: ConstraintPlane, units: Units) -> str:
+    """The thesis' offset of the plane (its ground height) where the units are the
+    thesis' (the units registry's default, :data:`twopose.units.DEFAULT_UNITS`); nothing
+    to assume otherwise."""
+    known = plane.thesis_offset_in
+    return f"{known:g}" if known is not None and units == DEFAULT_UNITS else ""
 
 
 def board_corner(text: str, units: Units | None) -> Vec3:

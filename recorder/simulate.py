@@ -41,6 +41,7 @@ from twopose.format.entries import (
     TypedEntry,
 )
 from twopose.methods import LINE_TRUTH, POINT_TRUTH, Method, spec_of
+from twopose.planes import GROUND_PLANE
 from twopose.sim.camera import SyntheticCamera, camera_pose, true_intrinsics
 from twopose.sim.layout import BOARD_POSES, Layout, board_poses, build_layout, finger_axis
 from twopose.sim.scene import CameraParams, PoseParams, Scene
@@ -92,17 +93,26 @@ def target_points(scene: Scene, method: Method) -> tuple[TruthKind, NDArray[np.f
     spec = spec_of(method)
     if not spec.uses_image_lines:  # the dot
         return POINT_TRUTH, np.asarray([scene.point.position], dtype=np.float64)
-    tip, base = finger_axis(scene)
+    tip, base = finger_axis(scene, spec.plane)
     if spec.estimates_line:
         return LINE_TRUTH, np.stack([tip, base])
-    g = scene.finger.ground_point
-    return POINT_TRUTH, np.array([[g[0], scene.ground_height, g[1]]])
+    plane = spec.plane or GROUND_PLANE  # the finger's, as the layout places it
+    return POINT_TRUTH, plane.point(scene.finger.ground_point, scene.ground_height)[None]
+
+
+def _typed_plane(scene: Scene, method: Method) -> GroundPlane:
+    """The method's plane as the operator types it (a method on none: the ground, as the
+    thesis' setup has one): its offset, the scene's ``ground_height``, off by the rig's
+    error."""
+    plane = spec_of(method).plane or GROUND_PLANE
+    normal, offset = plane.plane(scene.ground_height + scene.systematic.ground_height_error)
+    return GroundPlane(normal_grid=normal, offset=offset)
 
 
 def _visible_points(scene: Scene, method: Method) -> NDArray[np.float64]:
     if not spec_of(method).uses_image_lines:  # the dot
         return np.asarray([scene.point.position], dtype=np.float64)
-    tip, base = finger_axis(scene)
+    tip, base = finger_axis(scene, spec_of(method).plane)
     return np.stack([tip, base])
 
 
@@ -467,8 +477,9 @@ def simulate_session(  # noqa: PLR0913 - keyword-only settings, one per command-
             cameras,
             camera,
             _SimulatedOperator(scene, method, trials, rng, clock, camera),
-            # The operator types the ground height off by the rig's error (the true one renders).
-            ground=GroundPlane(offset=scene.ground_height + scene.systematic.ground_height_error),
+            # The operator types the plane's offset (the ground height) off by the rig's error
+            # (the true one renders).
+            ground=_typed_plane(scene, method),
             capture=CaptureSettings(frames=frames, on_progress=on_progress),
             writer_options={
                 "image_format": scene.sensor.image_format,

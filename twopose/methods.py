@@ -13,22 +13,25 @@ same as when the method was a plain string.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from enum import StrEnum
 from types import MappingProxyType
 from typing import Literal
 
 from twopose.choices import Target
 from twopose.errors import InputValueError
+from twopose.planes import GROUND_PLANE, ConstraintPlane
 
 __all__ = [
     "LINE_TRUTH",
     "MEASURING_METHODS",
     "METHODS",
     "METHOD_SPECS",
+    "PLANES",
     "POINT_TRUTH",
     "TRUTH_POINTS",
     "Method",
+    "MethodPage",
     "MethodSpec",
     "Solver",
     "TruthKind",
@@ -60,6 +63,49 @@ class Method(StrEnum):
 
 
 @dataclass(frozen=True, kw_only=True)
+class MethodPage:
+    """What the operator's web console shows for a method (recorder/console*.js).
+
+    Its panels, its table's heading and its words: the page reads them from the server's
+    state (``page``) and never names a method; the defaults are a measuring method's.
+    """
+
+    #: Whether the page shows the rig's readiness in place of the trials' results (a board
+    #: session calibrates the rig; it has no trial result).
+    reports_rig: bool = False
+    #: What each capture looks for, as the decision's shortfall names it.
+    sought: str = "the target"
+    #: The camera panel's aside: what the live image has drawn on it.
+    camera_aside: str = "detection drawn: green found, red turned down"
+    #: The frames table's second column heading (each frame's objects, or its board).
+    objects_header: str = "obj."
+    #: Whether the frames table shows the detection's columns (centroid, orientation, area,
+    #: eccentricity, image line) after the objects' column.
+    detection_columns: bool = True
+    #: What the guidance says while the recorder works out the next step after a decision.
+    computing: str = "computing the next pose to suggest..."
+    #: The top view's title once it draws a trial (``{trial}``: the trial's number).
+    topview_title: str = "trial {trial}, from above"
+    #: The top view's two lines before there is anything to draw.
+    topview_empty: tuple[str, str] = ("a trial, from above,", "once it has two poses")
+    #: The top view's legend entry of the camera centres.
+    legend_cameras: str = "camera centre (each pose)"
+    #: The legend entry of the suggested next pose ("": the page shows none in the legend).
+    legend_next: str = "suggested next pose (g takes it)"
+    #: The legend entries of what each view measured: ``(kind, mark, words)``, ``kind`` a
+    #: segment kind of :class:`twopose.topview.TopView`, listed when the view has one.
+    legend_segments: tuple[tuple[str, str, str], ...] = ()
+    #: The legend entry of the estimate (what the cross marks).
+    estimate_label: str = "estimate"
+    #: The legend entry of the truth (what the circle marks).
+    truth_label: str = "true point"
+
+    def to_json(self) -> dict[str, object]:
+        """The description as the page's state carries it (``page``)."""
+        return asdict(self)
+
+
+@dataclass(frozen=True, kw_only=True)
 class MethodSpec:
     """What one method is, for every stage that depends on it."""
 
@@ -71,8 +117,9 @@ class MethodSpec:
     #: The ground truth a trial carries: one point, or a line's two points; None for a board
     #: session, whose truth is the board's placement (the session entry's ``board``).
     truth_kind: TruthKind | None
-    #: Whether the estimate needs the ground plane y = h (the session's ground height).
-    needs_ground: bool
+    #: The plane its estimate lies on (:class:`twopose.planes.ConstraintPlane`: method 2's
+    #: ground y = h), whose offset the setup asks; None: the estimate is not constrained.
+    plane: ConstraintPlane | None
     #: How its measurements are solved (None: a board session reconstructs nothing).
     solver: Solver | None
     #: Degeneracy margins (trials.csv columns, degrees) that apply to the method.
@@ -102,11 +149,18 @@ class MethodSpec:
     truth_name: str = "truth"
     #: The top view's caption: what it draws for each view.
     top_view: str = "each view"
+    #: What the operator's web console shows for it (:class:`MethodPage`).
+    page: MethodPage = MethodPage()
 
     @property
     def measures(self) -> bool:
         """Whether the session reconstructs something (a board session calibrates the rig)."""
         return self.target is not None
+
+    @property
+    def needs_ground(self) -> bool:
+        """Whether the estimate needs its plane (:attr:`plane`) and the setup its offset."""
+        return self.plane is not None
 
     @property
     def truth_points(self) -> int:
@@ -132,7 +186,7 @@ METHOD_SPECS: Mapping[Method, MethodSpec] = MappingProxyType(
             method=Method.POINT,
             target="dot",
             truth_kind="point",
-            needs_ground=False,
+            plane=None,
             solver="rays",
             margins=("parallax_deg",),
             extra_columns=("x_optimal", "y_optimal", "z_optimal", "err_optimal"),
@@ -142,6 +196,9 @@ METHOD_SPECS: Mapping[Method, MethodSpec] = MappingProxyType(
             estimators=("thesis", "optimal"),
             detector_floor=(0.05, 0.0),
             colour="C1",
+            page=MethodPage(
+                legend_segments=(("ray", "\u2014", "ray through the dot, per pose"),),
+            ),
             view_segment="ray through the dot, per view",
             top_view="each view's ray through the dot, from its typed camera centre: the rays "
             "meet at the estimate",
@@ -150,7 +207,7 @@ METHOD_SPECS: Mapping[Method, MethodSpec] = MappingProxyType(
             method=Method.LINE,
             target="glove",
             truth_kind="line",
-            needs_ground=False,
+            plane=None,
             solver="planes",
             margins=("parallax_deg", "plane_angle_deg"),
             extra_columns=("dir_x", "dir_y", "dir_z", "angle_err_deg", "dist_err"),
@@ -159,6 +216,14 @@ METHOD_SPECS: Mapping[Method, MethodSpec] = MappingProxyType(
             estimators=("thesis", "weighted", "optimal"),
             detector_floor=(0.1, 0.08),
             colour="C2",
+            page=MethodPage(
+                legend_segments=(
+                    ("estimated_line", "\u2501", "estimated line"),
+                    ("truth_line", "\u254c", "true line"),
+                ),
+                estimate_label="line's point (estimate)",
+                truth_label="true line, seen end-on",
+            ),
             view_segment="estimated line",
             truth_name="truth (true segment's midpoint)",
             top_view="the estimated line through its reported point; the circle is the true "
@@ -168,7 +233,7 @@ METHOD_SPECS: Mapping[Method, MethodSpec] = MappingProxyType(
             method=Method.GROUND,
             target="glove",
             truth_kind="point",
-            needs_ground=True,
+            plane=GROUND_PLANE,
             solver="planes and ground",
             margins=("parallax_deg", "plane_angle_deg", "line_ground_angle_deg"),
             extra_columns=(),
@@ -177,6 +242,11 @@ METHOD_SPECS: Mapping[Method, MethodSpec] = MappingProxyType(
             thesis_tested=True,
             detector_floor=(0.1, 0.08),
             colour="C0",
+            page=MethodPage(
+                legend_segments=(("trace", "\u2014", "finger's plane on the ground, per pose"),),
+                estimate_label="ground point (estimate)",
+                truth_label="true ground point",
+            ),
             view_segment="view plane's trace on the ground",
             top_view="each view's plane (the finger's image line back-projected) cut by the "
             "ground: the traces meet at the estimate, the ground point the finger points at "
@@ -186,17 +256,37 @@ METHOD_SPECS: Mapping[Method, MethodSpec] = MappingProxyType(
             method=Method.BOARD,
             target=None,
             truth_kind=None,
-            needs_ground=False,
+            plane=None,
             solver=None,
             margins=(),
             extra_columns=(),
             thesis_name="board (rig calibration)",
             label="board (rig calibration)",
+            page=MethodPage(
+                reports_rig=True,
+                sought="the board",
+                camera_aside="each frame's board corners are looked for (nothing drawn)",
+                objects_header="the board",
+                detection_columns=False,
+                computing="working out what the poses say of the rig...",
+                topview_title="the board session, from above",
+                topview_empty=("the board and the poses", "once a capture has seen it"),
+                legend_cameras="camera centre (each capture that saw the board)",
+                legend_next="",
+                legend_segments=(
+                    ("corners", "\u2501", "the board (its inner corners, from above)"),
+                ),
+            ),
         ),
     }
 )
 #: The methods' names, in the order the thesis presents them, then the board.
 METHODS: tuple[Method, ...] = tuple(METHOD_SPECS)
+#: The planes the registry's methods constrain their estimates to (method 2's ground), each
+#: once: the setup asks each one's offset (recorder.setup_form's plane fields).
+PLANES: tuple[ConstraintPlane, ...] = tuple(
+    dict.fromkeys(s.plane for s in METHOD_SPECS.values() if s.plane is not None)
+)
 #: The methods that reconstruct something (every one but the board).
 MEASURING_METHODS: tuple[Method, ...] = tuple(m for m, s in METHOD_SPECS.items() if s.measures)
 

@@ -15,6 +15,7 @@ import numpy as np
 
 from twopose.arrays import F64
 from twopose.errors import InputValueError
+from twopose.planes import GROUND_PLANE, ConstraintPlane
 from twopose.values import Vec3, finite, vec3
 
 __all__ = [
@@ -40,16 +41,23 @@ def finger_axis(
     azimuth_deg: float,
     tip_height: float = FINGER_TIP_HEIGHT,
     length: float = FINGER_LENGTH,
+    *,
+    plane: ConstraintPlane = GROUND_PLANE,
 ) -> tuple[F64, F64]:
-    """Tip and base of a finger whose axis meets the ground at ``(x, h, z)``.
+    """Tip and base of a finger whose axis meets ``plane`` at ``ground_point_xz``.
 
-    Tip and base (grid frame) of a finger whose axis meets the ground ``y = h`` at ``(x, h,
-    z)``; the tip is ``tip_height`` above the ground, the base ``length`` behind it.
+    Tip and base (grid frame) of a finger whose axis meets the plane (the ground ``y = h``
+    by default, ``h = ground_height``) at its point ``ground_point_xz`` (the ground's ``(x,
+    z)``); tilted ``tilt_deg`` from the plane's normal, the tip ``tip_height`` off the
+    plane along the normal, on the camera's side, the base ``length`` behind it.
     """
-    tilt, az = np.deg2rad(tilt_deg), np.deg2rad(azimuth_deg)
-    direction = np.array([np.sin(tilt) * np.sin(az), np.cos(tilt), np.sin(tilt) * np.cos(az)])
-    ground = np.array([ground_point_xz[0], ground_height, ground_point_xz[1]])
-    tip = ground - direction * (tip_height / np.cos(tilt))
+    direction = plane.toward(tilt_deg, azimuth_deg)
+    toward_plane = direction @ np.asarray(plane.normal_grid)  # cos(tilt)
+    # The camera (the grid origin) is on the side the offset's sign says: approach from it.
+    side = 1.0 if plane.gap((0.0, 0.0, 0.0), ground_height) <= 0 else -1.0
+    direction = direction * side
+    target = plane.point(ground_point_xz, ground_height)
+    tip = target - direction * (tip_height / toward_plane)
     base = tip - direction * length
     return tip, base
 

@@ -254,7 +254,8 @@ def test_a_ground_height_given_is_refused_never_asked_again() -> None:
     with pytest.raises(InputValueError) as caught:
         ask_setup(
             script.op, method=Method.GROUND, units=Units.IN, intrinsics=None, focal=525.0,
-            principal=(320.0, 240.0), size=(640, 480), ground_height=-3.0, ground_truth=[],
+            principal=(320.0, 240.0), size=(640, 480), ground_height=-3.0,
+            ground_truth=[],
             operator="Bo",
         )  # fmt: skip
     assert str(caught.value) == (

@@ -47,7 +47,7 @@ def _setup(method: Method, units: Units) -> Setup:
         method=method,
         units=units,
         intrinsics=Intrinsics(width=640, height=480, fx=525, fy=525, cx=320, cy=240),
-        ground_height=9.625 if spec_of(method).needs_ground else None,
+        plane_offset=9.625 if spec_of(method).needs_ground else None,
         ground_truth=(),
         operator="t",
     )

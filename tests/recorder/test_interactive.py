@@ -170,7 +170,7 @@ def test_the_undo_then_interrupt_scenario_never_reports_a_wrong_ok(tmp_path: Pat
             method=Method.POINT,
             units=Units.IN,
             intrinsics=Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0),
-            ground_height=None,
+            plane_offset=None,
             ground_truth=((0.5, 1.5, 11.0),),
             operator="",
         ),

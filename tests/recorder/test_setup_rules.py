@@ -93,7 +93,7 @@ def test_what_the_command_line_gave_wins_and_is_shown_read_only() -> None:
     assert fields["focal"]["value"] == "525"
     # The form cannot override it: a different method typed there is not used.
     setup = setup_from_answers({"method": "point", "ground_height": "3"}, given)
-    assert (setup.method, setup.ground_height) == ("ground", 9.625)
+    assert (setup.method, setup.plane_offset) == ("ground", 9.625)
     calibrated = {
         **NOTHING_GIVEN,
         "intrinsics": Intrinsics(width=640, height=480, fx=530, fy=531, cx=321, cy=239),
@@ -211,7 +211,7 @@ asked = {m: sorted(f["name"] for f in fields if m in f["methods"]) for m in ("wa
 setup = setup_from_answers(
     {"method": "wall", "ground_height": "9.625", "truth1": "1.91, 9.625, 8.375"}, given
 )
-print(json.dumps({"asked": asked, "method": setup.method, "height": setup.ground_height}))
+print(json.dumps({"asked": asked, "method": setup.method, "height": setup.plane_offset}))
 """
 
 

@@ -15,6 +15,7 @@ import numpy as np
 from twopose.arrays import F64
 from twopose.camera import Intrinsics, project_points, rotation_from_angles_deg
 from twopose.methods import Method, spec_of
+from twopose.planes import GROUND_PLANE, ConstraintPlane
 from twopose.sim.scene import BoardParams, ClutterParams, Scene
 from twopose.targets import finger_axis as target_finger_axis
 from twopose.units import unit_factor
@@ -91,12 +92,18 @@ class Layout:
     decals: tuple[Decal, ...]
 
 
-def finger_axis(scene: Scene) -> tuple[F64, F64]:
-    """Tip and base of the scene's finger axis in the grid frame (it meets the ground point)."""
+def finger_axis(scene: Scene, plane: ConstraintPlane | None = None) -> tuple[F64, F64]:
+    """Tip and base of the scene's finger axis in the grid frame.
+
+    It meets ``plane`` (the method's; the ground ``y = h`` when None, the line method's
+    finger too) at the finger's ``ground_point``, the plane's offset the scene's
+    ``ground_height``.
+    """
     f = scene.finger
     return target_finger_axis(
-        f.ground_point, scene.ground_height, f.tilt_deg, f.azimuth_deg, f.tip_height, f.length
-    )
+        f.ground_point, scene.ground_height, f.tilt_deg, f.azimuth_deg, f.tip_height, f.length,
+        plane=plane or GROUND_PLANE,
+    )  # fmt: skip
 
 
 def _stand(scene: Scene, attach: F64) -> list[Primitive]:
@@ -160,7 +167,7 @@ def build_layout(scene: Scene, method: Method, rng: np.random.Generator) -> Layo
         attach = card_center + np.array([0.0, 0.0, scene.stand.arm_gap])
         prims += _stand(scene, attach)
     else:
-        tip, base = finger_axis(scene)
+        tip, base = finger_axis(scene, spec_of(method).plane)
         f = scene.finger
         prims.append(
             Primitive(
@@ -285,7 +292,7 @@ def _clutter(scene: Scene, method: Method, rng: np.random.Generator) -> list[Dec
     if not spec_of(method).uses_image_lines:  # the dot
         target = np.asarray([scene.point.position], dtype=np.float64)
     else:
-        target = np.stack(finger_axis(scene))
+        target = np.stack(finger_axis(scene, spec_of(method).plane))
     for i in range(c.count):
         placed = _clutter_place(scene, decals, target, views, rng)
         if placed is not None:

@@ -1,0 +1,115 @@
+"""The planes a method's estimate is constrained to: what a plane is, once.
+
+Method 2 (thesis section 3.3) finds where the finger points by cutting the line of its two
+back-projected planes with the ground plane ``y = h`` (thesis eq. 19, DESIGN.md's method 2),
+``h`` the camera centre's height above the table, typed by the operator. Nothing in that
+solution needs the plane to be the ground: any plane ``n . p = c`` of the grid frame whose
+offset ``c`` the operator measures serves (a wall ``x = c``). A :class:`ConstraintPlane`
+says which plane, and every layer reads it from the method's spec
+(:attr:`twopose.methods.MethodSpec.plane`):
+
+- the setup asks its offset under :attr:`ConstraintPlane.setup_key` (the terminal's
+  question, the page's field, a plan's key), with its words and its bound;
+- the session stores it as a :class:`twopose.format.entries.GroundPlane` (normal, offset);
+- the solver cuts the planes' line with it (:func:`twopose.solve.triangulate_ground`);
+- a typed ground-truth point is checked to lie on it (:meth:`ConstraintPlane.gap`);
+- the simulator places the finger's target on it (:meth:`ConstraintPlane.point`,
+  :meth:`ConstraintPlane.toward`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from twopose.bounds import GROUND_HEIGHT, Quantity
+from twopose.values import Vec3
+
+__all__ = ["GROUND_PLANE", "ConstraintPlane"]
+
+F64 = NDArray[np.float64]
+
+
+@dataclass(frozen=True, kw_only=True)
+class ConstraintPlane:
+    """A plane ``normal_grid . p = offset`` of the grid frame, its offset typed per session.
+
+    ``in_plane_grid`` are two unit axes spanning the plane (with ``normal_grid``, a right- or
+    left-handed frame, it does not matter): a point of the plane is ``offset * normal +
+    a * in_plane[0] + b * in_plane[1]``. For the ground, ``(x, z)`` on the table.
+    """
+
+    #: What the plane is, in the operator's words ("the ground", "the wall").
+    name: str
+    #: The plane's unit normal in the grid frame ((0, 1, 0): y down to the table).
+    normal_grid: Vec3
+    #: Two unit axes spanning the plane, orthogonal to the normal and to each other.
+    in_plane_grid: tuple[Vec3, Vec3]
+    #: The setup's key for the offset: the page's field, a plan's key, the session's
+    #: setup record ("ground_height").
+    setup_key: str
+    #: The setup's label for the offset (the page's field and the terminal's question).
+    label: str
+    #: What the operator measures for the offset, for an empty answer's message ("the
+    #: height of the camera centre above the table").
+    measured: str
+    #: The offset's equation, for messages ("y = h").
+    equation: str
+    #: The axis letter a ground-truth point's coordinate on the normal is named by ("y").
+    axis: str
+    #: The offset's range and words (:mod:`twopose.bounds`): what a typed offset may be.
+    bound: Quantity
+    #: The offset in the thesis' setup, in inches (None: nothing to assume); the setup
+    #: offers it where the units are the thesis'.
+    thesis_offset_in: float | None = None
+
+    def __post_init__(self) -> None:
+        """Check the axes: unit length and orthogonal (a typo in a new plane's entry)."""
+        n, (u, v) = np.asarray(self.normal_grid), (np.asarray(a) for a in self.in_plane_grid)
+        for a in (n, u, v):
+            if not np.isclose(np.linalg.norm(a), 1.0):
+                raise ValueError(f"{self.name}: every axis must be a unit vector")
+        if not np.allclose([n @ u, n @ v, u @ v], 0.0):
+            raise ValueError(f"{self.name}: the normal and in-plane axes must be orthogonal")
+
+    def plane(self, offset: float) -> tuple[Vec3, float]:
+        """``(normal_grid, offset)``: the plane as sessions store it and solvers take it."""
+        return self.normal_grid, float(offset)
+
+    def gap(self, point: Vec3 | F64, offset: float) -> float:
+        """How far ``point`` lies off the plane, along its normal (+: beyond it)."""
+        return float(np.asarray(self.normal_grid) @ np.asarray(point, dtype=np.float64)) - offset
+
+    def point(self, in_plane: tuple[float, float], offset: float) -> F64:
+        """The plane's point at ``in_plane`` coordinates (the ground's ``(x, z)``)."""
+        n, (u, v) = np.asarray(self.normal_grid), (np.asarray(a) for a in self.in_plane_grid)
+        return np.asarray(offset * n + in_plane[0] * u + in_plane[1] * v, dtype=np.float64)
+
+    def toward(self, tilt_deg: float, azimuth_deg: float) -> F64:
+        """A unit direction ``tilt_deg`` off the normal, turned by ``azimuth_deg``.
+
+        Turned from the second in-plane axis toward the first: the simulated finger's axis.
+        """
+        tilt, az = np.deg2rad(tilt_deg), np.deg2rad(azimuth_deg)
+        n, (u, v) = np.asarray(self.normal_grid), (np.asarray(a) for a in self.in_plane_grid)
+        return np.asarray(
+            np.cos(tilt) * n + np.sin(tilt) * (np.sin(az) * u + np.cos(az) * v), dtype=np.float64
+        )
+
+
+#: The thesis' ground: the table top ``y = h``, ``h`` the camera centre's height above it
+#: (9.625 in in the thesis' setup), method 2's plane.
+GROUND_PLANE = ConstraintPlane(
+    name="the ground",
+    normal_grid=(0.0, 1.0, 0.0),
+    in_plane_grid=((1.0, 0.0, 0.0), (0.0, 0.0, 1.0)),
+    setup_key="ground_height",
+    label="ground height: camera centre to table",
+    measured="the height of the camera centre above the table",
+    equation="y = h",
+    axis="y",
+    bound=GROUND_HEIGHT,
+    thesis_offset_in=9.625,
+)
