@@ -1,10 +1,11 @@
 // The operator's console (recorder/console.html): polls GET /api/state and sends the
-// operator's answers as same-origin JSON POSTs. Every text goes in by textContent; the
-// page never builds HTML from data. No inline script or style (the page's
-// Content-Security-Policy allows scripts from this origin only).
+// operator's answers as same-origin JSON POSTs. No inline script or style (the page's
+// Content-Security-Policy allows scripts from this origin only). What differs by method
+// (panels, headings, words) comes with the state (its "page"): the page names no method.
+// The helpers, the setup form, the camera panel and the top view are in console_util.js,
+// console_setup.js, console_capture.js and console_topview.js, loaded before this one.
 "use strict";
 
-const $ = (id) => document.getElementById(id);
 const POLL_MS = 250;
 const DECISIONS = {a: "accept", A: "accept_anyway", r: "redo", u: "undo"};
 const BUTTON_OF = {accept: "accept", accept_anyway: "accept-anyway", redo: "redo", undo: "undo"};
@@ -18,67 +19,6 @@ let dismissedRefusal = 0; // the recorder's refusals up to this seq are answered
 let localRefusal = null; // {control, message}: a decision the server refused at once
 let quitAsked = false;
 let busy = false;
-const drawn = {}; // what each part of the page was last drawn from (JSON), to redraw on change
-
-// --------------------------------------------------------------------------- helpers
-
-function el(tag, text, className) {
-  const e = document.createElement(tag);
-  if (text !== undefined && text !== null) e.textContent = String(text);
-  if (className) e.className = className;
-  return e;
-}
-
-function show(element, visible) {
-  element.classList.toggle("hidden", !visible);
-}
-
-function setText(element, text) {
-  const value = text === undefined || text === null ? "" : String(text);
-  if (element.textContent !== value) element.textContent = value;
-}
-
-function changed(part, value) {
-  const key = JSON.stringify(value);
-  if (drawn[part] === key) return false;
-  drawn[part] = key;
-  return true;
-}
-
-function num(v, digits = 3) {
-  if (v === null || v === undefined || !Number.isFinite(v)) return "–";
-  return String(Number(v.toFixed(digits)));
-}
-
-function fixed(v, digits) {
-  return v === null || v === undefined || !Number.isFinite(v) ? "–" : v.toFixed(digits);
-}
-
-async function post(path, body) {
-  let response;
-  let answer = {};
-  try {
-    response = await fetch(path, {
-      method: "POST",
-      headers: {"Content-Type": "application/json"},
-      body: JSON.stringify(body),
-      credentials: "same-origin",
-      cache: "no-store",
-    });
-  } catch (err) {
-    return {ok: false, error: "the recorder cannot be reached (" + err.message + ")", errors: {}};
-  }
-  try {
-    answer = await response.json();
-  } catch (err) {
-    answer = {};
-  }
-  if (response.ok) return {ok: true, errors: {}};
-  const error = typeof answer.error === "string" && answer.error
-    ? answer.error : "refused by the recorder (HTTP " + response.status + ")";
-  const errors = answer.errors && typeof answer.errors === "object" ? answer.errors : {};
-  return {ok: false, error, errors};
-}
 
 async function act(action) {
   // One operator action at a time: a double click does not send twice.
@@ -90,157 +30,6 @@ async function act(action) {
     busy = false;
   }
   await poll();
-}
-
-// --------------------------------------------------------------------------- setup
-
-function buildSetup(fields) {
-  const box = $("setup-fields");
-  box.replaceChildren();
-  for (const f of fields) {
-    const cell = el("div", null, "cell" + (f.kind === "check" ? " check" : ""));
-    cell.id = "cell-" + f.name;
-    cell.dataset.methods = f.methods.join(" ");
-    let input;
-    if (f.kind === "choice") {
-      input = el("select");
-      if (!f.value) {
-        const choose = el("option", "choose...");
-        choose.value = "";
-        input.append(choose);
-      }
-      for (const option of f.options) {
-        const o = el("option", option);
-        o.value = option;
-        input.append(o);
-      }
-      input.value = f.value || "";
-      input.disabled = f.given;
-    } else if (f.kind === "check") {
-      input = el("input");
-      input.type = "checkbox";
-      input.checked = ["y", "yes", "true", "on", "1"].includes(String(f.value).toLowerCase());
-      input.disabled = f.given;
-    } else {
-      input = el("input");
-      input.type = "text";
-      input.autocomplete = "off";
-      input.value = f.value || "";
-      input.readOnly = f.given;
-    }
-    input.id = "f-" + f.name;
-    input.dataset.testid = "field-" + f.name;
-    input.name = f.name;
-    const name = el("label", f.label, "name");
-    name.htmlFor = input.id;
-    if (f.kind === "check") cell.append(input, name);
-    else cell.append(name, input);
-    if (f.given) {
-      // Where a fixed value comes from: the command line, or the continued session's file.
-      const from = f.from || "the command line";
-      const said = from === "the command line" ? "from the command line (fixed for this session)"
-        : "from " + from + " (the session's setup, fixed)";
-      const note = el("span", said, "note given");
-      note.dataset.testid = "from-" + f.name;
-      cell.append(note);
-    } else if (f.from) {
-      // Filled in from the continued session, but this file's own to change.
-      const whose = f.name === "operator" ? "operator" : "stop rule";
-      const note = el("span", "from " + f.from + ": its " + whose + "; this file's own, change it if it differs", "note given");
-      note.dataset.testid = "from-" + f.name;
-      cell.append(note);
-    } else if (f.value && ["focal", "principal", "ground_height"].includes(f.name)) {
-      // Said beside the thesis' value only: once changed, the field holds the operator's.
-      const note = el("span", "the thesis' rig: change it if yours differs", "note");
-      note.id = "default-" + f.name;
-      note.dataset.default = f.value;
-      cell.append(note);
-      input.addEventListener("input", () => show(note, input.value.trim() === note.dataset.default));
-    }
-    const error = el("span", "", "field-error hidden");
-    error.id = "error-" + f.name;
-    error.dataset.testid = "field-error-" + f.name;
-    error.setAttribute("role", "alert");
-    cell.append(error);
-    box.append(cell);
-  }
-  const method = $("f-method");
-  if (method) method.addEventListener("change", applyMethod);
-  const units = $("f-units");
-  if (units) units.addEventListener("change", applyUnits);
-  applyMethod();
-  setupBuilt = true;
-}
-
-function applyMethod() {
-  // The chosen method's fields only; before one is chosen, those every method has.
-  const method = $("f-method") ? $("f-method").value : "";
-  const all = $("f-method") ? $("f-method").options.length - ($("f-method").options[0].value ? 0 : 1) : 0;
-  for (const cell of $("setup-fields").children) {
-    const methods = cell.dataset.methods.split(" ");
-    show(cell, method ? methods.includes(method) : methods.length >= all);
-  }
-}
-
-function applyUnits() {
-  // The thesis' ground height is in inches: offered for inches only, never converted.
-  const height = $("f-ground_height");
-  if (!height || height.readOnly) return;
-  const inches = $("f-units").value === "in";
-  if (!inches && height.value === "9.625") height.value = "";
-  if (inches && !height.value) height.value = "9.625";
-  const note = $("default-ground_height");
-  if (note) show(note, height.value.trim() === note.dataset.default);
-}
-
-function clearErrors(names) {
-  for (const name of names) {
-    const error = $("error-" + name);
-    if (error) {
-      setText(error, "");
-      show(error, false);
-    }
-    const input = name in POSE_INPUTS ? $(POSE_INPUTS[name]) : $("f-" + name);
-    if (input) input.classList.remove("invalid");
-  }
-}
-
-function showErrors(errors, inputOf) {
-  // Each refusal next to its field; returns the ones that have no field shown.
-  const left = [];
-  for (const [name, message] of Object.entries(errors)) {
-    const error = $("error-" + name);
-    const input = inputOf(name);
-    if (error && input && input.getClientRects().length) {
-      setText(error, message);
-      show(error, true);
-      input.classList.add("invalid");
-    } else {
-      left.push(message);
-    }
-  }
-  return left;
-}
-
-async function submitSetup() {
-  if (!state || state.phase !== "setup") return;
-  const form = {};
-  const names = [];
-  for (const input of $("setup-fields").querySelectorAll("input, select")) {
-    names.push(input.name);
-    const visible = input.getClientRects().length > 0;
-    if (input.type === "checkbox") form[input.name] = visible && input.checked ? "yes" : "";
-    else form[input.name] = visible ? input.value.trim() : "";
-  }
-  clearErrors(names);
-  show($("setup-refusal"), false);
-  const answer = await post("/api/setup", form);
-  if (answer.ok) return;
-  const left = showErrors(answer.errors, (name) => $("f-" + name));
-  if (left.length || !Object.keys(answer.errors).length) {
-    setText($("setup-refusal"), left.length ? left.join("; ") : answer.error);
-    show($("setup-refusal"), true);
-  }
 }
 
 // --------------------------------------------------------------------------- pose, decision
@@ -366,152 +155,6 @@ function renderStatus(s) {
   renderSetupSummary(s);
 }
 
-function renderSetupSummary(s) {
-  // What is being recorded stays in view: method, units, camera, ground truth.
-  const shown = s.setup || {};
-  if (!changed("setup-summary", shown)) return;
-  const box = $("session-setup");
-  show(box, !!shown.method);
-  if (!shown.method) return;
-  const units = shown.units;
-  const parts = [["method", shown.method], ["units", units], ["camera", shown.camera]];
-  const truth = (shown.truth || []).map((p) => "(" + p.map((v) => num(v)).join(", ") + ")");
-  if (shown.board) parts.push(["board", shown.board]);
-  else parts.push(["ground truth", truth.length ? truth.join(" to ") + " " + units : "none typed"]);
-  if (shown.ground_height !== null && shown.ground_height !== undefined) {
-    parts.push(["ground height", num(shown.ground_height) + " " + units]);
-  }
-  if (shown.rig) parts.push(["rig", shown.rig]);
-  if (shown.operator) parts.push(["operator", shown.operator]);
-  if (shown.stop_rule) parts.push(["stop rule", shown.stop_rule]);
-  if (shown.continues) parts.push(["continues", shown.continues]);
-  const children = [];
-  parts.forEach(([name, value], i) => {
-    if (i) children.push(document.createTextNode(" · "));
-    children.push(el("span", name + " "), el("b", value));
-  });
-  box.replaceChildren(...children);
-}
-
-let capturedAt = ""; // the trial and pose whose capture the frames table shows
-
-function renderCapture(s) {
-  const live = $("live");
-  const kept = keepLastFrame(live);
-  // Stopped or unreachable: the last frame stays (the stream's image goes blank when the
-  // connection drops), greyed, under one caption.
-  const frozen = !connected && s.phase !== "setup";
-  show(live, !frozen || !kept);
-  show($("live-last"), frozen && kept);
-  let note = "";
-  if (s.phase === "setup") note = "the camera is shown here once the session starts";
-  else if (s.phase === "recording" && connected && !live.naturalWidth) note = "waiting for the camera's first frame...";
-  // The table is this pose's capture while it is taken and decided; afterwards it is
-  // the last capture's, and says so.
-  const of = s.frames_of || {};
-  capturedAt = of.trial ? "trial " + of.trial + " pose " + of.pose : "";
-  const current = s.phase === "recording" && s.waiting !== "pose";
-  setText($("frames-title"), !s.frames.length ? "This pose's capture, frame by frame"
-    : current ? "This capture (" + capturedAt + "), frame by frame"
-    : "The last capture" + (capturedAt ? " (" + capturedAt + ")" : "") + ", frame by frame");
-  setText($("live-note"), note);
-  show($("live-note"), !!note);
-  let caption = "";
-  if (s.phase === "done") caption = "the last frame: the session is finished, the camera is off";
-  else if (s.phase === "failed") caption = "the last frame: the session stopped";
-  else if (frozen) caption = kept ? "the last frame before the recorder stopped" : "the recorder stopped before the camera's first frame";
-  setText($("live-caption"), caption);
-  show($("live-caption"), !!caption);
-  const n = s.capture.n_frames || 0;
-  $("progress").max = n || 1;
-  $("progress").value = Math.min(s.capture.frame || 0, n || 1);
-  setText($("progress-text"), n ? "frame " + s.capture.frame + " of " + n : "");
-  setText($("last-capture"), s.last_capture ? "last capture: " + s.last_capture : "");
-  if (changed("frames-head", s.method === "board")) {
-    setText($("camera-aside"), s.method === "board"
-      ? "each frame's board corners are looked for (nothing drawn)"
-      : "detection drawn: green found, red turned down");
-    const head = $("frames-table").tHead.rows[0];
-    for (const th of head.cells) show(th, s.method !== "board" || th.cellIndex < 2);
-    head.cells[1].textContent = s.method === "board" ? "the board" : "obj.";
-  }
-  if (changed("frames", s.frames)) {
-    const body = $("frames-table").tBodies[0];
-    body.replaceChildren(...s.frames.map(frameRow));
-  }
-  const avg = $("pose-average");
-  const a = s.average;
-  if (!a) {
-    setText(avg, s.frames.length ? "" : "no capture yet");
-    avg.classList.remove("none");
-  } else if (!a.found) {
-    setText(avg, "pose average: none (the target was found in 0 of " + a.n_frames + " frames)");
-    avg.classList.add("none");
-  } else {
-    const c = a.centroid_px || [];
-    const sd = a.centroid_std_px || [];
-    setText(avg,
-      "pose average over " + a.n_used + " of " + a.n_frames + " frames: centroid (" +
-      fixed(c[0], 1) + ", " + fixed(c[1], 1) + ") px ± (" + fixed(sd[0], 1) + ", " +
-      fixed(sd[1], 1) + "), orientation " + fixed(a.theta_deg, 1) + "°");
-    avg.classList.remove("none");
-  }
-}
-
-// The live image's last frame, copied while the stream shows it (false: none yet).
-let lastFrameSeq = -1;
-function keepLastFrame(live) {
-  const canvas = $("live-last");
-  if (connected && live.naturalWidth && state && state.frame_seq !== lastFrameSeq) {
-    lastFrameSeq = state.frame_seq;
-    canvas.width = live.naturalWidth;
-    canvas.height = live.naturalHeight;
-    try {
-      canvas.getContext("2d").drawImage(live, 0, 0);
-    } catch (err) {
-      return lastFrameSeq > 0; // a frame half-decoded: the one before stays
-    }
-  }
-  return lastFrameSeq >= 0;
-}
-
-function frameRow(f) {
-  const tr = el("tr");
-  tr.append(el("td", f.frame));
-  if (f.is_board) {
-    // A board session: was the whole board found, and how much of the image it covers.
-    const said = f.found
-      ? "board found: " + f.board_corners + " corners, covering " + Math.round(100 * f.board_coverage) + "% of the image"
-      : "not found: " + (f.reason || "the board");
-    const cell = el("td", said, f.found ? "" : "no");
-    cell.colSpan = 6;
-    tr.append(cell);
-    return tr;
-  }
-  if (f.found === null || f.found === undefined) {
-    const none = el("td", "no live detection", "no");
-    none.colSpan = 6;
-    tr.append(none);
-    return tr;
-  }
-  if (!f.found) {
-    const reason = el("td", f.reason ? "not found: " + f.reason : "not found", "no");
-    reason.colSpan = 5;
-    tr.append(el("td", f.n_blobs), reason);
-    return tr;
-  }
-  const c = f.centroid_px || [];
-  tr.append(
-    el("td", f.n_blobs),
-    el("td", fixed(c[0], 1) + ", " + fixed(c[1], 1)),
-    el("td", fixed(f.theta_deg, 1)),
-    el("td", fixed(f.area_px, 0)),
-    el("td", fixed(f.eccentricity, 2)),
-    el("td", (f.line || "").replace(/^line /, "").replace(/ ([uv])\b/g, "$1"), "line"),
-  );
-  return tr;
-}
-
 function renderPose(s) {
   const typing = s.phase === "recording" && s.waiting === "pose";
   if (typing && wasWaiting !== "pose") {
@@ -546,7 +189,7 @@ function renderGuidance(s, typing) {
     // Between a decision and the next step: the suggestion is being worked out.
     show($("guidance"), true);
     $("guidance").classList.add("computing");
-    setText($("guidance-text"), s.method === "board" ? "working out what the poses say of the rig..." : "computing the next pose to suggest...");
+    setText($("guidance-text"), s.page.computing);
     show($("take-suggestion"), false);
     return;
   }
@@ -624,8 +267,7 @@ function renderDecision(s) {
     setText(shortfall, "the target was found in fewer than half the frames: redo, or accept anyway");
     shortfall.className = "warning";
   } else if (none) {
-    const what = s.method === "board" ? "the board" : "the target";
-    setText(shortfall, what + " was not found in any frame: nothing to measure, so accept is off; redo");
+    setText(shortfall, s.page.sought + " was not found in any frame: nothing to measure, so accept is off; redo");
     shortfall.className = "error";
   } else {
     shortfall.className = "hidden";
@@ -668,10 +310,10 @@ function renderPoses(s) {
 }
 
 function renderResults(s) {
-  const board = s.method === "board";
-  show($("trials-section"), !board);
-  show($("rig-section"), board && s.phase !== "setup");
-  if (board) {
+  const rig = s.page.reports_rig; // a board session: the rig's readiness, no trial result
+  show($("trials-section"), !rig);
+  show($("rig-section"), rig && s.phase !== "setup");
+  if (rig) {
     const accepted = s.topview ? s.topview.cameras.length : 0;
     const box = $("rig-readiness");
     if (!accepted) {
@@ -701,163 +343,7 @@ function renderResults(s) {
   const size = [canvas.clientWidth, canvas.clientHeight, window.devicePixelRatio || 1];
   const next = s.advice && s.advice.suggestion && s.topview && s.advice.trial === s.topview.trial
     ? s.advice.suggestion.t_grid : null;
-  if (changed("topview", [s.topview, s.units, size, next])) drawTopView(s.topview, s.units, s.method, next);
-}
-
-// --------------------------------------------------------------------------- the top view
-
-const COLOURS = {
-  board: "#333f4d",
-  camera: "#1f5fbf", ray: "#e07b00", trace: "#8e44ad", line: "#d62728",
-  truth_line: "#2ca02c", estimate: "#d62728", truth: "#2ca02c", grid: "#e3e7ec", axis: "#5b6673",
-};
-
-function legendItems(view, next) {
-  const kinds = new Set(view.segments.map((g) => g.kind));
-  if (view.method === "board") {
-    return [["camera", "▲", "camera centre (each capture that saw the board)"],
-      ["board", "━", "the board (its inner corners, from above)"]];
-  }
-  const items = [["camera", "▲", "camera centre (each pose)"]];
-  if (next) items.push(["camera", "△", "suggested next pose (g takes it)"]);
-  if (kinds.has("ray")) items.push(["ray", "—", "ray through the dot, per pose"]);
-  if (kinds.has("trace")) items.push(["trace", "—", "finger's plane on the ground, per pose"]);
-  if (kinds.has("line")) items.push(["line", "━", "estimated line"]);
-  if (kinds.has("truth_line")) items.push(["truth_line", "╌", "true line"]);
-  if (view.estimate) {
-    const what = view.method === "ground" ? "ground point (estimate)" : view.method === "line" ? "line's point (estimate)" : "estimate";
-    items.push(["estimate", "✕", what]);
-  }
-  const truthWord = {ground: "true ground point", line: "true line, seen end-on", point: "true point"};
-  if (view.truth) items.push(["truth", "○", truthWord[view.method] || "true point"]);
-  return items;
-}
-
-function niceStep(span) {
-  const raw = span / 5;
-  const p = Math.pow(10, Math.floor(Math.log10(raw)));
-  const m = raw / p;
-  return (m < 1.5 ? 1 : m < 3.5 ? 2 : m < 7.5 ? 5 : 10) * p;
-}
-
-function drawTopView(view, units, method, next) {
-  const canvas = $("topview");
-  const dpr = window.devicePixelRatio || 1;
-  const w = Math.max(1, canvas.clientWidth), h = Math.max(1, canvas.clientHeight);
-  canvas.width = Math.round(w * dpr);
-  canvas.height = Math.round(h * dpr);
-  const ctx = canvas.getContext("2d");
-  ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
-  ctx.clearRect(0, 0, w, h);
-  const legend = $("topview-legend");
-  if (!view) {
-    setText($("topview-title"), "");
-    legend.replaceChildren();
-    ctx.fillStyle = COLOURS.axis;
-    ctx.font = "13px sans-serif";
-    ctx.textAlign = "center";
-    const board = method === "board";
-    ctx.fillText(board ? "the board and the poses" : "a trial, from above,", w / 2, h / 2 - 9);
-    ctx.fillText(board ? "once a capture has seen it" : "once it has two poses", w / 2, h / 2 + 9);
-    return;
-  }
-  setText($("topview-title"), view.method === "board" ? "the board session, from above" : "trial " + view.trial + ", from above");
-  legend.replaceChildren(...legendItems(view, next).map(([kind, mark, text]) => {
-    const li = el("li");
-    li.append(el("span", mark, "mark " + kind), el("span", text));
-    return li;
-  }));
-
-  const points = [...view.cameras];
-  const suggested = next ? [next[0], next[2]] : null; // the top view is x across, z in depth
-  if (suggested) points.push(suggested);
-  for (const g of view.segments) points.push(g.from, g.to);
-  if (view.estimate) points.push(view.estimate);
-  if (view.truth) points.push(view.truth);
-  const finite = points.filter((p) => p && Number.isFinite(p[0]) && Number.isFinite(p[1]));
-  if (!finite.length) return;
-  let x0 = Math.min(...finite.map((p) => p[0])), x1 = Math.max(...finite.map((p) => p[0]));
-  let z0 = Math.min(...finite.map((p) => p[1])), z1 = Math.max(...finite.map((p) => p[1]));
-  const span = Math.max(x1 - x0, z1 - z0, 1e-6);
-  x0 -= 0.06 * span; x1 += 0.06 * span; z0 -= 0.06 * span; z1 += 0.06 * span;
-  const left = 46, right = w - 10, top = 10, bottom = h - 30;
-  const pw = Math.max(10, right - left), ph = Math.max(10, bottom - top);
-  const scale = Math.min(pw / Math.max(x1 - x0, 1e-9), ph / Math.max(z1 - z0, 1e-9));
-  const xc = (x0 + x1) / 2, zc = (z0 + z1) / 2;
-  const X = (x) => left + pw / 2 + (x - xc) * scale;
-  const Y = (z) => top + ph / 2 - (z - zc) * scale; // z grows upwards: away from the rig
-  const visX = [xc - pw / 2 / scale, xc + pw / 2 / scale];
-  const visZ = [zc - ph / 2 / scale, zc + ph / 2 / scale];
-
-  // Grid and axes, labelled in the session's units.
-  const step = niceStep(Math.max(visX[1] - visX[0], visZ[1] - visZ[0]));
-  const label = (v) => String(Number(v.toFixed(6)));
-  ctx.lineWidth = 1;
-  ctx.font = "12px sans-serif";
-  ctx.fillStyle = COLOURS.axis;
-  ctx.textAlign = "center";
-  ctx.textBaseline = "top";
-  for (let x = Math.ceil(visX[0] / step) * step; x <= visX[1]; x += step) {
-    ctx.strokeStyle = Math.abs(x) < step / 1e6 ? "#b9c2cc" : COLOURS.grid;
-    ctx.beginPath(); ctx.moveTo(X(x), top); ctx.lineTo(X(x), bottom); ctx.stroke();
-    ctx.fillText(label(x), X(x), bottom + 3);
-  }
-  ctx.textAlign = "right";
-  ctx.textBaseline = "middle";
-  for (let z = Math.ceil(visZ[0] / step) * step; z <= visZ[1]; z += step) {
-    ctx.strokeStyle = Math.abs(z) < step / 1e6 ? "#b9c2cc" : COLOURS.grid;
-    ctx.beginPath(); ctx.moveTo(left, Y(z)); ctx.lineTo(right, Y(z)); ctx.stroke();
-    ctx.fillText(label(z), left - 4, Y(z));
-  }
-  ctx.strokeStyle = COLOURS.axis;
-  ctx.strokeRect(left, top, pw, ph);
-  ctx.textAlign = "right";
-  ctx.textBaseline = "bottom";
-  ctx.fillText("x (" + units + ") →", right, h - 1);
-  ctx.save();
-  ctx.translate(12, top + ph / 2);
-  ctx.rotate(-Math.PI / 2);
-  ctx.textAlign = "center";
-  ctx.textBaseline = "middle";
-  ctx.fillText("z (" + units + ") →", 0, 0);
-  ctx.restore();
-
-  // What each view measured, then the cameras, the truth and the estimate on top.
-  ctx.save();
-  ctx.beginPath();
-  ctx.rect(left, top, pw, ph);
-  ctx.clip();
-  for (const g of view.segments) {
-    ctx.strokeStyle = COLOURS[g.kind] || COLOURS.axis;
-    ctx.lineWidth = g.kind === "line" || g.kind === "board" ? 3 : 2;
-    ctx.setLineDash(g.kind === "truth_line" ? [7, 5] : []);
-    ctx.beginPath();
-    ctx.moveTo(X(g.from[0]), Y(g.from[1]));
-    ctx.lineTo(X(g.to[0]), Y(g.to[1]));
-    ctx.stroke();
-  }
-  ctx.setLineDash([]);
-  ctx.fillStyle = COLOURS.camera;
-  for (const c of view.cameras) {
-    const cx = X(c[0]), cy = Y(c[1]);
-    ctx.beginPath(); ctx.moveTo(cx, cy - 8); ctx.lineTo(cx - 7, cy + 5); ctx.lineTo(cx + 7, cy + 5); ctx.closePath(); ctx.fill();
-  }
-  if (suggested) { // the suggested next pose: a hollow camera, dashed
-    const cx = X(suggested[0]), cy = Y(suggested[1]);
-    ctx.strokeStyle = COLOURS.camera; ctx.lineWidth = 2; ctx.setLineDash([3, 2]);
-    ctx.beginPath(); ctx.moveTo(cx, cy - 8); ctx.lineTo(cx - 7, cy + 5); ctx.lineTo(cx + 7, cy + 5); ctx.closePath(); ctx.stroke();
-    ctx.setLineDash([]);
-  }
-  if (view.truth) {
-    ctx.strokeStyle = COLOURS.truth; ctx.lineWidth = 2;
-    ctx.beginPath(); ctx.arc(X(view.truth[0]), Y(view.truth[1]), 7, 0, 2 * Math.PI); ctx.stroke();
-  }
-  if (view.estimate) {
-    const ex = X(view.estimate[0]), ey = Y(view.estimate[1]);
-    ctx.strokeStyle = COLOURS.estimate; ctx.lineWidth = 2.5;
-    ctx.beginPath(); ctx.moveTo(ex - 6, ey - 6); ctx.lineTo(ex + 6, ey + 6); ctx.moveTo(ex + 6, ey - 6); ctx.lineTo(ex - 6, ey + 6); ctx.stroke();
-  }
-  ctx.restore();
+  if (changed("topview", [s.topview, s.units, size, next, s.page])) drawTopView(s.topview, s.units, s.page, next);
 }
 
 // --------------------------------------------------------------------------- polling, input

@@ -15,8 +15,9 @@ Routes (Starlette, served by uvicorn on 127.0.0.1 unless ``--host`` says otherwi
 =====================  ====================================================================
 ``GET /``              the page
 ``GET /api/state``     everything the page shows, as JSON (:meth:`ConsoleSession.snapshot`)
-``POST /api/setup``    the setup form: ``method, units, focal, principal, ground_height,
-                       truth1, truth2, keep_off_ground, operator``
+``POST /api/setup``    the setup form: ``method, units, focal, principal``, the method's
+                       plane's offset under its key (``ground_height``), ``truth1,
+                       truth2, keep_off_ground, operator``
 ``POST /api/pose``     ``x, y, z, rotation``: type the pose and capture it
 ``POST /api/decide``   ``decision``: ``accept``, ``redo``, ``undo`` or ``quit``
 ``POST /api/note``     ``text``: a note about the current trial (after a capture)
@@ -44,7 +45,7 @@ from recorder.procedure import Shortfall
 from recorder.setup_form import form_fields
 from twopose.bounds import shown
 from twopose.format.reader import recover_command
-from twopose.methods import Method, MethodSpec, spec_of
+from twopose.methods import Method, MethodPage, MethodSpec, spec_of
 from twopose.units import Units
 from twopose.values import Vec3
 
@@ -155,6 +156,9 @@ class ConsoleSession(LiveSink):
                 "phase": self.phase,
                 "out": str(self.out),
                 "method": self.method or "",
+                # What the page shows for the method: panels, headings, words (before the
+                # setup is accepted, a measuring method's).
+                "page": (spec_of(self.method).page if self.method else MethodPage()).to_json(),
                 "units": self.units or "",
                 "setup_fields": self.setup_fields if self.phase == "setup" else [],
                 "waiting": self.waiting,
@@ -201,22 +205,17 @@ class ConsoleSession(LiveSink):
         return None if self.method is None else spec_of(self.method)
 
     def begin(self, setup: Setup, rig: RigConstants | None) -> None:
-        """The setup is accepted: recording starts, and what it records stays in view."""
+        """The setup is accepted: recording starts, and what it records stays in view.
+
+        The page shows the setup line's entries in this order, each named by its key (a
+        board session's board in place of the ground truth; empty ones left out)."""
         k = setup.intrinsics
         line: dict[str, Any] = {
             "method": setup.method.value,
             "units": setup.units.value,
             "camera": f"f {shown(k.fx)} px, principal point ({shown(k.cx)}, {shown(k.cy)}) px, "
             f"{k.width}x{k.height}",
-            "truth": [vec_json(p) for p in setup.ground_truth],
-            "ground_height": setup.ground_height,
-            "operator": setup.operator,
-            "rig": "" if rig is None else "a calibrated rig corrects the live result",
-            "stop_rule": "" if setup.board is not None else stop_rule(setup),
         }
-        if self.continuing is not None:
-            c = self.continuing
-            line["continues"] = f"{c['file']} after trial {c['after_trial']}"
         if setup.board is not None:
             b = setup.board
             line["board"] = (
@@ -224,6 +223,18 @@ class ConsoleSession(LiveSink):
                 f"{shown(b.square)} {setup.units.value}, first corner at "
                 f"({', '.join(shown(v) for v in b.first_corner)})"
             )
+        else:
+            line["truth"] = [vec_json(p) for p in setup.ground_truth]
+        line |= {
+            # The method's plane (method 2's ground height): its words and offset.
+            "plane": _plane_line(setup),
+            "rig": "" if rig is None else "a calibrated rig corrects the live result",
+            "operator": setup.operator,
+            "stop_rule": "" if setup.board is not None else stop_rule(setup),
+        }
+        if self.continuing is not None:
+            c = self.continuing
+            line["continues"] = f"{c['file']} after trial {c['after_trial']}"
         self.update(
             method=setup.method,
             units=setup.units,
@@ -309,3 +320,11 @@ def stop_rule(setup: Setup) -> str:
 def vec_json(v: Vec3) -> list[float]:
     """Three numbers as the page's JSON takes them (a list of floats)."""
     return [float(x) for x in v]
+
+
+def _plane_line(setup: Setup) -> dict[str, Any] | None:
+    """The setup line's plane: its offset's words and value (None: the method has none)."""
+    plane = spec_of(setup.method).plane
+    if plane is None or setup.plane_offset is None:
+        return None
+    return {"words": plane.bound.words, "offset": setup.plane_offset}

@@ -272,11 +272,23 @@ def console_app(
         Route("/api/decide", c.decide, methods=["POST"]),
         Route("/api/note", c.note, methods=["POST"]),
         Route("/stream.mjpg", c.stream),
-        Route("/console.js", _asset("console.js", "text/javascript; charset=utf-8")),
-        Route("/console.css", _asset("console.css", "text/css; charset=utf-8")),
+        *(Route(f"/{name}", _asset(name, media)) for name, media in PAGE_FILES.items()),
     ]
     guard = Middleware(ConsoleGuard, host=host, token=token)
     return Starlette(routes=routes, lifespan=c.lifespan, middleware=[guard])
+
+
+#: The page's files beside ``console.html``, each served at ``/NAME``: its style and its
+#: scripts, one per concern (``console.html`` loads them in this order; ``console.js``,
+#: last, polls the state and wires the controls).
+PAGE_FILES: dict[str, str] = {
+    "console.css": "text/css; charset=utf-8",
+    **{
+        f"{script}.js": "text/javascript; charset=utf-8"
+        for script in ("console_util", "console_setup", "console_capture", "console_topview")
+    },
+    "console.js": "text/javascript; charset=utf-8",
+}
 
 
 def _asset(name: str, media_type: str) -> Any:

@@ -14,11 +14,9 @@ PACKAGES = ("twopose", "recorder", "analysis")
 MAX_MODULE_LINES = 600
 MAX_FUNCTION_LINES = 120
 
-#: Files allowed over the module rule for now, each with why. Nothing else is.
-ALLOWED_LONG = {
-    # split by concern: issue 45, in progress (another session's work)
-    "recorder/console.js",
-}
+#: Files allowed over the module rule for now, each with why (a comment beside it, e.g.
+#: ``"recorder/x.js",  # split by concern: issue N, in progress``). Nothing else is.
+ALLOWED_LONG: set[str] = set()
 
 
 def _lines(path: Path) -> int:
@@ -54,7 +52,7 @@ def _functions(path: Path) -> list[tuple[str, int]]:
 def test_the_checks_see_the_packages_and_the_scripts() -> None:
     names = {p.relative_to(REPO).as_posix() for p in _modules()}
     assert {"recorder/cli.py", "twopose/detect.py", "analysis/batch.py"} <= names
-    assert "recorder/console.js" in names
+    assert {"recorder/console.js", "recorder/console_topview.js"} <= names
     assert names >= ALLOWED_LONG, "an allowlisted file is gone: take it off the list"
 
 

@@ -24,7 +24,7 @@ import numpy as np
 
 from twopose.arrays import F64
 from twopose.camera import grid_rays
-from twopose.methods import spec_of
+from twopose.methods import Method, spec_of
 from twopose.scene3d import TrialScene
 from twopose.solve import image_lines, projection_matrices
 from twopose.targets import BoardPlacement
@@ -43,8 +43,9 @@ class TopView:
     method: str
     cameras: tuple[XZ, ...]
     #: (kind, start, end): ``ray`` (point), ``trace`` (method 2 plane on the ground),
-    #: ``line`` (the estimated 3-D line), ``truth_line``, ``board`` (a board session's
-    #: board, its inner corners' row from above).
+    #: ``estimated_line`` (the estimated 3-D line), ``truth_line``, ``corners`` (a board
+    #: session's board, its inner corners' row from above). The console's legend names
+    #: each kind as the method's :attr:`twopose.methods.MethodPage.legend_segments` says.
     segments: tuple[tuple[str, XZ, XZ], ...]
     estimate: XZ | None
     truth: XZ | None  # a point target's true position (lines: a truth_line segment)
@@ -72,10 +73,14 @@ def board_top_view(board: BoardPlacement, seen_from: Sequence[Vec3]) -> TopView:
     corners = board.corners_grid()
     left, right = corners[np.argmin(corners[:, 0])], corners[np.argmax(corners[:, 0])]
     cameras = tuple(c for c in (_xz(np.asarray(t, dtype=np.float64)) for t in seen_from) if c)
-    ends = (_xz(left), _xz(right))
-    segments = (("board", ends[0], ends[1]),) if ends[0] and ends[1] else ()
+    segments = _segments("corners", left[None], right[None])
     return TopView(
-        trial=0, method="board", cameras=cameras, segments=segments, estimate=None, truth=None
+        trial=0,
+        method=Method.BOARD,
+        cameras=cameras,
+        segments=tuple(segments),
+        estimate=None,
+        truth=None,
     )
 
 
@@ -174,7 +179,9 @@ def _lines(scene: TrialScene, estimate: F64 | None, reach: F64) -> list[tuple[st
     span = 0.6 * float(np.mean(reach))
     if estimate is not None and direction is not None and np.isfinite(direction).all():
         out += _segments(
-            "line", (estimate - span * direction)[None], (estimate + span * direction)[None]
+            "estimated_line",
+            (estimate - span * direction)[None],
+            (estimate + span * direction)[None],
         )
     if np.isfinite(scene.truth).all():
         a, b = scene.truth[0], scene.truth[1]

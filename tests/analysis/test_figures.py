@@ -146,7 +146,7 @@ def test_the_top_view_meets_at_the_estimate(
     for d in drawn:
         estimate = np.array(d.view.estimate)
         kinds = {kind for kind, _, _ in d.view.segments}
-        assert kinds == {"point": {"ray"}, "ground": {"trace"}, "line": {"line"}}[method]
+        assert kinds == {"point": {"ray"}, "ground": {"trace"}, "line": {"estimated_line"}}[method]
         for _, start, end in d.view.segments:
             a, b = np.array(start), np.array(end)
             along = (b - a) / np.linalg.norm(b - a)

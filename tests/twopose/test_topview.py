@@ -88,7 +88,7 @@ def test_a_line_is_drawn_about_its_estimate_beside_the_true_line() -> None:
         _scene("line", _px((a + b) / 2), np.zeros(3), (a + b) / 2, direction=direction, truth=truth)
     )
     kinds = [kind for kind, _, _ in view.segments]
-    assert kinds == ["line", "truth_line"]
+    assert kinds == ["estimated_line", "truth_line"]
     _, start, end = view.segments[0]
     np.testing.assert_allclose(np.add(start, end) / 2, (2.0, 32.0))
     # The true line, about its midpoint along its direction, as long as the estimate's:
