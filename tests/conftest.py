@@ -1,7 +1,15 @@
-"""Shared fixtures: small real sessions written through the real writer and simulator."""
+"""Shared fixtures: small real sessions written through the real writer and simulator.
+
+Each is built once per test run, not once per pytest-xdist worker (:func:`built_once`):
+the workers share the run's temporary root, and whichever asks first builds while the
+other waits for it. Tests read them and never write into them.
+"""
 
 from __future__ import annotations
 
+import os
+import shutil
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -13,55 +21,86 @@ REPO = Path(__file__).resolve().parents[1]
 SESSIONS = REPO / "sessions"
 
 
-@pytest.fixture(scope="session")
-def sim_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    return tmp_path_factory.mktemp("sim")
+def built_once(
+    tmp_path_factory: pytest.TempPathFactory, name: str, build: Callable[[Path], None]
+) -> Path:
+    """The folder ``name``, filled by ``build(folder)`` once per test run: under pytest-xdist
+    in the workers' common temporary root, under a lock (the first worker to ask builds it,
+    the others wait and reuse it); in one process, in its own temporary root."""
+    root = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        root = root.parent  # pytest-of-<user>/pytest-<n>: every worker's basetemp is in it
+    folder, done = root / f"shared-{name}", root / f"shared-{name}.done"
+    try:
+        import fcntl
+    except ImportError:  # no flock (Windows): one build per process
+        return _build(tmp_path_factory.mktemp(name), build)
+    with open(root / f"shared-{name}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not done.exists():
+            shutil.rmtree(folder, ignore_errors=True)
+            _build(folder, build)
+            done.touch()
+    return folder
+
+
+def _build(folder: Path, build: Callable[[Path], None]) -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    build(folder)
+    return folder
+
+
+def _simulated(
+    tmp_path_factory: pytest.TempPathFactory, name: str, method: Method, seed: int
+) -> Path:
+    def build(folder: Path) -> None:
+        simulate_session(folder / f"{name}.mcap", method=method, trials=2, frames=3, seed=seed)
+
+    return built_once(tmp_path_factory, name, build) / f"{name}.mcap"
 
 
 @pytest.fixture(scope="session")
-def ground_session(sim_dir: Path) -> Path:
+def ground_session(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A small simulated method-2 session: 2 trials x 2 poses x 3 frames."""
-    out = sim_dir / "ground.mcap"
-    simulate_session(out, method=Method.GROUND, trials=2, frames=3, seed=7)
-    return out
+    return _simulated(tmp_path_factory, "ground", Method.GROUND, 7)
 
 
 @pytest.fixture(scope="session")
-def point_session(sim_dir: Path) -> Path:
-    out = sim_dir / "point.mcap"
-    simulate_session(out, method=Method.POINT, trials=2, frames=3, seed=8)
-    return out
+def point_session(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return _simulated(tmp_path_factory, "point", Method.POINT, 8)
 
 
 @pytest.fixture(scope="session")
-def line_session(sim_dir: Path) -> Path:
-    out = sim_dir / "line.mcap"
-    simulate_session(out, method=Method.LINE, trials=2, frames=3, seed=9)
-    return out
+def line_session(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return _simulated(tmp_path_factory, "line", Method.LINE, 9)
 
 
 @pytest.fixture(scope="session")
 def exact_sessions(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """One session per method with no pose-typing error: only detection error remains."""
-    folder = tmp_path_factory.mktemp("exact")
-    for seed, method in enumerate(("point", "line", "ground")):
-        simulate_session(
-            folder / f"{method}.mcap",
-            method=Method(method),
-            trials=4,
-            frames=2,
-            seed=20 + seed,
-            pose_noise=0.0,
-        )
-    return folder
+
+    def build(folder: Path) -> None:
+        for seed, method in enumerate(("point", "line", "ground")):
+            simulate_session(
+                folder / f"{method}.mcap",
+                method=Method(method),
+                trials=4,
+                frames=2,
+                seed=20 + seed,
+                pose_noise=0.0,
+            )
+
+    return built_once(tmp_path_factory, "exact", build)
 
 
 @pytest.fixture(scope="session")
 def bundled_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The --out folder of ``make run``'s job on the bundled sessions (without the Foxglove
     files), made once for the tests that read it."""
-    import analysis
 
-    out = tmp_path_factory.mktemp("bundled") / "results"
-    analysis.run([SESSIONS], out, scene=False)
-    return out
+    def build(folder: Path) -> None:
+        import analysis
+
+        analysis.run([SESSIONS], folder / "results", scene=False)
+
+    return built_once(tmp_path_factory, "bundled", build) / "results"
