@@ -102,6 +102,10 @@ def _simulated_trials(root: Path, method: str) -> pd.DataFrame:
     return pd.read_csv(out / "trials.csv")
 
 
+# Subprocess-heavy (simulate, info and run on the copy, twice: ~28 s idle): make test-all runs
+# it; the quick loop keeps the commands' --help above and the census (tests/test_docs.py),
+# which counts every comparison with a method's name.
+@pytest.mark.slow
 def test_the_new_method_is_recorded_analysed_and_solved(with_fake: Path) -> None:
     trials = _simulated_trials(with_fake, "fake")
     assert set(trials["method"]) == {"fake"}
@@ -139,6 +143,7 @@ poses = [{ t = [0.0, 0.0, 0.0] }, { t = [2.5, 0.0, 0.0] }]
 """
 
 
+@pytest.mark.slow  # a plan recorded and run in subprocesses (~10 s): as the test above
 def test_the_new_method_is_recorded_from_a_plan(with_fake: Path) -> None:
     plan = with_fake / "fake_plan.toml"
     plan.write_text(PLAN, encoding="utf-8")

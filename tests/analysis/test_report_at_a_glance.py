@@ -152,11 +152,15 @@ def test_the_report_tables_read_in_words_with_the_answers_rounding(bundled_run: 
     assert f">{first['err']:.2f}<" in page
 
 
-def test_a_rerun_reuses_the_figures_nothing_changed(tmp_path: Path, point_session: Path) -> None:
+def test_a_rerun_reuses_the_figures_nothing_changed(
+    tmp_path: Path, point_session: Path, line_session: Path, ground_session: Path
+) -> None:
+    """Four runs into one folder (two-trial simulated sessions: with two 15-trial samples
+    this took ~18 s)."""
     sessions = tmp_path / "sessions"
     sessions.mkdir()
-    for name in ("thesis_averaging_ground.mcap", "thesis_line.mcap"):
-        shutil.copy(SESSIONS / name, sessions / name)
+    for session in (point_session, line_session):
+        shutil.copy(session, sessions / session.name)
     out = tmp_path / "out"
     first = run([sessions], out, scene=False)
     assert first.figures_reused == 0
@@ -168,12 +172,12 @@ def test_a_rerun_reuses_the_figures_nothing_changed(tmp_path: Path, point_sessio
     # another rule for warned trials: other figures, drawn anew
     assert run([sessions], out, scene=False, options=_warned_in()).figures_reused == 0
     # one session more: the others' figures are reused (by content, not by position)
-    shutil.copy(point_session, sessions / "another.mcap")
+    shutil.copy(ground_session, sessions / "another.mcap")
     assert run([sessions], out, scene=False, options=_warned_in()).figures_reused == 2
     # a figure file that is not a PNG any more is drawn again, not copied
-    (next(out.glob("scatter_*_thesis_line.png"))).write_bytes(b"not a png")
+    (next(out.glob("scatter_*_line.png"))).write_bytes(b"not a png")
     cache = FigureCache.of(out)
-    job = FigureJob.of(analyse_session(sessions / "thesis_line.mcap"), include_warned=True)
+    job = FigureJob.of(analyse_session(sessions / "line.mcap"), include_warned=True)
     assert cache.reuse(job) is None
 
 

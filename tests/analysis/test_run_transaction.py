@@ -81,12 +81,15 @@ def test_a_run_never_committing_is_removed_by_the_next(tmp_path: Path) -> None:
     assert sorted(p.name for p in out.iterdir()) == [MANIFEST_NAME]
 
 
-def test_an_output_folder_inside_the_sessions_folder_stays_ours(tmp_path: Path) -> None:
+def test_an_output_folder_inside_the_sessions_folder_stays_ours(
+    tmp_path: Path, line_session: Path
+) -> None:
     """``run S --out S/results`` twice: the second run reads the sessions, not the first
-    run's results files, and does not take its own folder for an input."""
+    run's results files, and does not take its own folder for an input (a small simulated
+    session: four runs of a 15-trial sample took ~16 s)."""
     sessions = tmp_path / "S"
     sessions.mkdir()
-    shutil.copy(SAMPLES / "thesis_line.mcap", sessions)
+    shutil.copy(line_session, sessions)
     for _ in range(2):
         result = runner.invoke(
             app, ["run", str(sessions), "--out", str(sessions / "results"), "--no-scene"]

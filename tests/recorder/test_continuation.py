@@ -50,9 +50,19 @@ def _plan(tmp: Path, name: str, trials: int) -> Path:
     return path
 
 
-def _new(*args: str) -> None:
-    result = runner.invoke(record, ["new", *args, "--source", "synthetic"])
+def _new(*args: str, source: str = "synthetic") -> None:
+    result = runner.invoke(record, ["new", *args, "--source", source])
     assert result.exit_code == 0, result.output
+
+
+def _small(plan: Path) -> str:
+    """The plan's camera made :data:`SMALL_SCENE`'s (a pose renders in ~70 ms, not ~500),
+    and the ``--source`` that records with it."""
+    scene = plan.with_name("scene.toml")
+    scene.write_text(SMALL_SCENE)
+    small = "focal = 262.5\nprincipal = [160.0, 120.0]\nwidth = 320\nheight = 240\n"
+    plan.write_text(plan.read_text().replace("focal = 525.0\nprincipal = [320.0, 240.0]\n", small))
+    return f"synthetic:{scene}"
 
 
 def _trials(*paths: Path, out: Path) -> pd.DataFrame:
@@ -63,17 +73,26 @@ def _trials(*paths: Path, out: Path) -> pd.DataFrame:
 
 def test_two_trials_continued_with_two_more_are_one_session_of_four(tmp_path: Path) -> None:
     first, later = tmp_path / "S.mcap", tmp_path / "S2.mcap"
-    _new(str(first), "--plan", str(_plan(tmp_path, "a.toml", 2)))
-    _new(str(later), "--plan", str(_plan(tmp_path, "b.toml", 2)), "--continue", str(first))
+    plans = tmp_path / "plans"
+    plans.mkdir()
+    plan_a, plan_b = _plan(plans, "a.toml", 2), _plan(plans, "b.toml", 2)
+    source = _small(plan_a)
+    _small(plan_b)
+    _new(str(first), "--plan", str(plan_a), source=source)
+    _new(str(later), "--plan", str(plan_b), "--continue", str(first), source=source)
     with SessionReader(first) as a, SessionReader(later) as b:
         assert b.info.session_id == a.info.session_id
         assert b.info.continues_after_trial == 2
         assert b.info.continues_file == "S.mcap"
         assert b.info.method == a.info.method
         assert b.cameras == a.cameras
-    # One session with trials 1-4, the folder found or the files named, in either order.
-    for inputs in ([tmp_path], [later, first], [first, later]):
-        trials = _trials(*inputs, out=tmp_path / f"out{len(inputs)}{inputs[0].name}")
+    # One session with trials 1-4, the folder found or the files named, in either order
+    # (the command line once, writing its tables; the library's call, writing nothing, twice).
+    for trials in (
+        _trials(tmp_path, out=tmp_path / "out"),
+        run([later, first], None).trials,
+        run([first, later], None).trials,
+    ):
         assert list(trials["trial"]) == [1, 2, 3, 4]
         assert set(trials["session"]) == {str(first)}
     info = runner.invoke(analyze, ["info", str(later), str(first)], env={"COLUMNS": "200"})
@@ -185,18 +204,15 @@ class Forked:
 @pytest.fixture(scope="module")
 def forked(tmp_path_factory: pytest.TempPathFactory) -> Forked:
     setup = tmp_path_factory.mktemp("setup")
-    scene = setup / "scene.toml"
-    scene.write_text(SMALL_SCENE)
     plan = _plan(setup, "one.toml", 1)
-    small = "focal = 262.5\nprincipal = [160.0, 120.0]\nwidth = 320\nheight = 240\n"
-    plan.write_text(plan.read_text().replace("focal = 525.0\nprincipal = [320.0, 240.0]\n", small))
+    source = _small(plan)
     folder = tmp_path_factory.mktemp("sessions")
     (folder / "junk.mcap").write_bytes(b"not a session")  # passed over quietly
     paths = folder / "S.mcap", folder / "S_laptop1.MCAP", folder / "S_laptop2.mcap"
     said: list[str] = []
     for k, path in enumerate(paths):
         more = ["--continue", str(paths[0])] if k else []
-        args = ["new", str(path), "--plan", str(plan), *more, "--source", f"synthetic:{scene}"]
+        args = ["new", str(path), "--plan", str(plan), *more, "--source", source]
         result = runner.invoke(record, args)
         assert result.exit_code == 0, result.output
         said.append(result.output)
