@@ -33,6 +33,7 @@ from analysis.report import page_html, table_html
 from analysis.run_tables import read_results_table
 from twopose.errors import InputValueError
 from twopose.format.entries import INCHES_PER_UNIT
+from twopose.units import DEFAULT_UNITS, unit_factor
 
 __all__ = [
     "ESTIMATORS",
@@ -332,8 +333,8 @@ def _in_one_unit(table: pd.DataFrame, columns: list[str]) -> tuple[pd.DataFrame,
     units = sorted({str(u) for u in table["units"]}) if len(table) else []
     if len(units) <= 1:
         return table, units[0] if units else "no trial"
-    scale = table["units"].map(INCHES_PER_UNIT).astype(float)
-    return table.assign(**{c: table[c] * scale for c in columns}), "in"
+    scale = table["units"].map(lambda u: unit_factor(u, DEFAULT_UNITS)).astype(float)
+    return table.assign(**{c: table[c] * scale for c in columns}), str(DEFAULT_UNITS)
 
 
 def plot_comparison(comparison: Comparison) -> Figure:

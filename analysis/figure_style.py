@@ -19,8 +19,8 @@ from matplotlib.colors import BoundaryNorm, Colormap, ListedColormap, Normalize
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
-from twopose.format.entries import INCHES_PER_UNIT
 from twopose.methods import Method, spec_of
+from twopose.units import DEFAULT_UNITS, unit_factor
 
 __all__ = [
     "DPI",
@@ -112,11 +112,11 @@ def common_units(trials: pd.DataFrame) -> tuple[pd.DataFrame, str]:
         return trials, units[0]
     if not units:
         return trials, "session units"
-    scale = trials["units"].map(INCHES_PER_UNIT).astype(float)
+    scale = trials["units"].map(lambda u: unit_factor(u, DEFAULT_UNITS)).astype(float)
     lengths = ("err", "err_x", "err_y", "err_z", "semiaxis95", "baseline")
     converted = {c: trials[c] * scale for c in lengths if c in trials}
     inches: pd.DataFrame = trials.assign(**converted)
-    return inches, "in"
+    return inches, str(DEFAULT_UNITS)
 
 
 def set_title(ax: Axes, title: str) -> None:

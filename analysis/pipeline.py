@@ -32,7 +32,7 @@ from analysis.tables import (
 from twopose.arrays import F64
 from twopose.bounds import GROUND_TRUTH
 from twopose.camera import Intrinsics
-from twopose.choices import Target
+from twopose.choices import TARGET_SPECS, Target
 from twopose.detect import Detection, DotParams, GloveParams, detect
 from twopose.errors import InputValueError, SessionFormatError
 from twopose.estimate import GroundSpec, PoseView, pose_view
@@ -311,7 +311,7 @@ def _replay(
     trial_ids, truths, views, last_ns = [], [], [], []
     notes, unmeasured = [], []
     rig_truth: RigConstants | None = None
-    params = options.dot if target == "dot" else options.glove
+    params = getattr(options, TARGET_SPECS[target].options_field)
     with contextlib.closing(_detected(iter_trials(reader), target, params)) as trials:
         for record, detections in trials:
             if record.simulation_truth is not None and record.simulation_truth.rig is not None:

@@ -25,6 +25,7 @@ point, across the line) and ``cov_direction`` (of the unit direction).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -32,7 +33,7 @@ import numpy as np
 from twopose.camera import rotation_from_angles_deg
 from twopose.errors import InputValueError
 from twopose.jsonsafe import finite_or_none
-from twopose.methods import Method, spec_of
+from twopose.methods import Method, Solver, spec_of
 from twopose.optimal_lines import centroid_segments, optimal_lines
 from twopose.solve import (
     image_lines,
@@ -46,8 +47,8 @@ from twopose.values import numbers
 
 __all__ = ["solve_request"]
 
-#: An answer's fields, its status, reason and conditioning.
-_Answer = tuple[dict[str, Any], str, str, float]
+#: An answer's fields: its point or line, then its status, reason and conditioning.
+_Answer = dict[str, Any]
 
 
 #: No pixel, focal length, translation or matrix entry of a real camera comes near this
@@ -125,16 +126,25 @@ def _optimal_line(views: list[Any], P: np.ndarray, sigma: list[float]) -> _Answe
     ls = optimal_lines(
         np.stack([seg for seg, _ in pairs])[None], P, sigma_px=[[s for _, s in pairs]]
     )
-    answer = {
+    return {
         "line": {"point": _vec(ls.point_grid[0]), "direction": _vec(ls.direction_grid[0])},
         "reprojection_rms_px": _num(ls.rms_px[0]),
         "cov_point": _matrix(ls.cov[0, :3, :3]),
         "cov_direction": _matrix(ls.cov[0, 3:, 3:]),
+        **_outcome(ls),
     }
-    return answer, str(ls.status[0]), str(ls.reason[0]), float(ls.conditioning[0])
 
 
-def _point_answer(views: list[Any], P: np.ndarray, estimator: str) -> _Answer:
+def _outcome(result: Any) -> dict[str, Any]:
+    """A solver's one result's status, reason and conditioning."""
+    return {
+        "status": str(result.status[0]),
+        "reason": str(result.reason[0]),
+        "conditioning": _num(float(result.conditioning[0])),
+    }
+
+
+def _point_answer(_request: Any, views: list[Any], P: np.ndarray, estimator: str) -> _Answer:
     """Method 1: the rays through each view's pixel."""
     px = np.array(
         [
@@ -145,11 +155,10 @@ def _point_answer(views: list[Any], P: np.ndarray, estimator: str) -> _Answer:
         ]
     )
     s = triangulate_points(px, P, estimator=estimator)
-    answer = {"point": _vec(s.point_grid[0]), "reprojection_rms_px": _num(s.rms_px[0])}
-    return answer, str(s.status[0]), str(s.reason[0]), float(s.conditioning[0])
+    return {"point": _vec(s.point_grid[0]), "reprojection_rms_px": _num(s.rms_px[0]), **_outcome(s)}
 
 
-def _line_answer(views: list[Any], P: np.ndarray, estimator: str) -> _Answer:
+def _line_answer(_request: Any, views: list[Any], P: np.ndarray, estimator: str) -> _Answer:
     """The fixed line: the views' planes' line (weighted by each view's ``sigma_px``)."""
     sigma = [
         _numbers([v.get("sigma_px", 1.0)], 1, f"views[{i}].sigma_px")[0]
@@ -161,17 +170,26 @@ def _line_answer(views: list[Any], P: np.ndarray, estimator: str) -> _Answer:
         return _optimal_line(views, P, sigma)
     lines = np.stack([_image_line(v, f"views[{i}]") for i, v in enumerate(views)])[None]
     ls = triangulate_lines(lines, P, estimator=estimator, sigma_px=[sigma])
-    answer = {"line": {"point": _vec(ls.point_grid[0]), "direction": _vec(ls.direction_grid[0])}}
-    return answer, str(ls.status[0]), str(ls.reason[0]), float(ls.conditioning[0])
+    line = {"point": _vec(ls.point_grid[0]), "direction": _vec(ls.direction_grid[0])}
+    return {"line": line, **_outcome(ls)}
 
 
-def _ground_answer(request: Any, views: list[Any], P: np.ndarray) -> _Answer:
+def _ground_answer(request: Any, views: list[Any], P: np.ndarray, _estimator: str) -> _Answer:
     """Method 2: the views' planes and the ground plane ``y = ground_y``."""
     lines = np.stack([_image_line(v, f"views[{i}]") for i, v in enumerate(views)])[None]
     h = _numbers([_field(request, "ground_y", "a ground request")], 1, "ground_y")[0]
     g = triangulate_ground(lines, P, [0.0, 1.0, 0.0], h)
-    answer = {"point": _vec(g.point_grid[0])}
-    return answer, str(g.status[0]), str(g.reason[0]), float(g.conditioning[0])
+    return {"point": _vec(g.point_grid[0]), **_outcome(g)}
+
+
+#: Each solver's answer (the method's spec names its solver): the rays through each view's
+#: pixel, the planes of each view's image line and their line, or those planes and the
+#: ground plane.
+_ANSWERS: dict[Solver, Callable[[Any, list[Any], np.ndarray, str], _Answer]] = {
+    "rays": _point_answer,
+    "planes": _line_answer,
+    "planes and ground": _ground_answer,
+}
 
 
 def solve_request(method: Method, request: Any) -> dict[str, Any]:
@@ -210,21 +228,12 @@ def solve_request(method: Method, request: Any) -> dict[str, Any]:
             f"estimator for {method} must be {' or '.join(allowed)}, got {estimator!r}"
         )
     P = np.stack([_projection(v, f"views[{i}]") for i, v in enumerate(views)])[None]
-    spec = spec_of(method)
-    if not spec.uses_image_lines:  # a pixel per view: rays
-        answer, status, reason, cond = _point_answer(views, P, estimator)
-    elif spec.estimates_line:  # an image line per view: planes, their line
-        answer, status, reason, cond = _line_answer(views, P, estimator)
-    else:  # the planes' line on the ground plane
-        answer, status, reason, cond = _ground_answer(request, views, P)
-    answer |= {
-        "status": str(status),
-        "reason": str(reason),
-        "conditioning": _num(cond),
+    solver = spec_of(method).solver
+    assert solver is not None  # it measures
+    return _ANSWERS[solver](request, views, P, estimator) | {
         "n_views": len(views),
         "estimator": estimator,
     }
-    return answer
 
 
 def _num(v: float) -> float | None:

@@ -19,12 +19,13 @@ import pandas as pd
 from twopose.arrays import F64
 from twopose.camera import Intrinsics, project_points
 from twopose.estimate import EstimateOptions, ViewBatch, solve_batch
-from twopose.methods import Method, spec_of
+from twopose.methods import METHOD_SPECS, Method, spec_of
 from twopose.targets import finger_axis
 from twopose.uncertainty import INPUTS_PER_VIEW
 
-#: The methods the sweeps cover: the thesis' two (the line has its own tests).
-SWEPT: tuple[Method, ...] = (Method.POINT, Method.GROUND)
+#: The methods the sweeps cover: those the thesis tested, in its geometry (the registry's
+#: ``thesis_tested``: methods 1 and 2; the line has its own tests).
+SWEPT: tuple[Method, ...] = tuple(m for m, s in METHOD_SPECS.items() if s.thesis_tested)
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure

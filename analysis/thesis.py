@@ -27,7 +27,7 @@ import numpy as np
 import pandas as pd
 
 from analysis.metrics import by_session_set, session_set, used_trials, warned
-from twopose.methods import Method, spec_of
+from twopose.methods import METHOD_SPECS, Method, spec_of
 from twopose.units import UNITS, Units, unit_factor
 
 __all__ = [
@@ -47,6 +47,16 @@ THESIS_COLUMNS = ["claim", "thesis", "twopose", "reproduced"]
 THESIS_UNITS: Units = UNITS[0]
 _WITHIN_IN = 1.0  # the thesis' "within ± 1 inch"
 _AVERAGES = (5, 50)  # section 5.4: five averages against fifty
+#: What each method the thesis tested (the registry's ``thesis_tested``) reconstructs, in
+#: its words, by its name there (the registry's ``thesis_name``).
+_TESTED = {"method 1": "fixed point", "method 2": "pointed ground point"}
+#: The method the thesis found overestimating x (section 5.3), by its name there.
+_X_BIASED = "method 2"
+
+
+def _thesis_method(thesis_name: str) -> Method:
+    """The method the thesis calls ``thesis_name`` (its spec's ``thesis_name``)."""
+    return next(m for m, s in METHOD_SPECS.items() if s.thesis_name == thesis_name)
 
 
 def thesis_table(
@@ -58,11 +68,15 @@ def thesis_table(
     trials, averaging = thesis_sessions(trials), thesis_sessions(averaging)
     used = _used(trials, include_warned=include_warned)
     within = [
-        _within_row(trials, used, method, claim, include_warned=include_warned)
-        for method, claim in (
-            (Method.POINT, "method 1 (fixed point) errors"),
-            (Method.GROUND, "method 2 (pointed ground point) errors"),
+        _within_row(
+            trials,
+            used,
+            spec.method,
+            f"{spec.thesis_name} ({_TESTED[spec.thesis_name]}) errors",
+            include_warned=include_warned,
         )
+        for spec in METHOD_SPECS.values()
+        if spec.thesis_tested
     ]
     rows = [
         *within,
@@ -259,10 +273,11 @@ def _x_bias_row(
     """x overestimated (section 5.3). Test: the mean x error's 95% t-interval: above 0,
     yes; under :data:`_X_BIAS_MATERIAL_IN`, no (any overestimate is below half of what the
     thesis attributes to it); else can't tell."""
-    row = {"claim": "method 2 overestimates x", "thesis": "most x overestimated (a bias)"}
-    g = used[used["method"] == Method.GROUND]
-    if g.empty and len(trials) and (trials["method"] == Method.GROUND).any():
-        why = unusable(trials[trials["method"] == Method.GROUND], include_warned=include_warned)
+    row = {"claim": f"{_X_BIASED} overestimates x", "thesis": "most x overestimated (a bias)"}
+    biased = _thesis_method(_X_BIASED)
+    g = used[used["method"] == biased]
+    if g.empty and len(trials) and (trials["method"] == biased).any():
+        why = unusable(trials[trials["method"] == biased], include_warned=include_warned)
         return row | {"twopose": why, "reproduced": NO_DATA}
     if len(g) < 2:
         return row | {"twopose": f"{len(g)} trial(s): too few", "reproduced": NO_DATA}

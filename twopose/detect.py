@@ -19,7 +19,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from twopose.choices import Target
+from twopose.choices import TARGET_SPECS, TARGETS, Target
 
 __all__ = [
     "Detection",
@@ -543,8 +543,8 @@ def detect(
     Detection
         Found or not (with the reason), the centroid and orientation, area, eccentricity.
     """
-    if target == "glove":
-        return detect_glove(image_bgr, params if isinstance(params, GloveParams) else None)
-    if target == "dot":
-        return detect_dot(image_bgr, params if isinstance(params, DotParams) else None)
-    raise ValueError(f"target must be glove or dot, got {target!r}")
+    spec = TARGET_SPECS.get(target)
+    if spec is None:
+        raise ValueError(f"target must be {' or '.join(TARGETS)}, got {target!r}")
+    detector, params_type = globals()[spec.detector], globals()[spec.params]
+    return detector(image_bgr, params if isinstance(params, params_type) else None)  # type: ignore[no-any-return]

@@ -189,11 +189,16 @@ def solve_batch(
     method: Method, batch: ViewBatch, ground: GroundSpec | None, options: EstimateOptions
 ) -> Solved:
     """Batch-solve rows of N >= 2 pose measurements with every estimator."""
-    spec = spec_of(method)
-    solver = _SOLVERS.get(spec.solver) if spec.solver is not None else None
-    if solver is None:
+    return _solver_of(method).solve(batch, ground, options.min_conditioning)
+
+
+def _solver_of(method: Method) -> _SolverEntry:
+    """What solves ``method``'s measurements: its spec's :attr:`~MethodSpec.solver`."""
+    solver = spec_of(method).solver
+    entry = _SOLVERS.get(solver) if solver is not None else None
+    if entry is None:
         raise InputValueError(f"{method} sessions reconstruct nothing (the rig's calibration)")
-    return solver(batch, ground, options.min_conditioning)
+    return entry
 
 
 def _solve_points(batch: ViewBatch, _ground: GroundSpec | None, mc: float) -> Solved:
@@ -258,10 +263,49 @@ def _solve_ground(batch: ViewBatch, ground: GroundSpec | None, mc: float) -> Sol
     )
 
 
-_SOLVERS: dict[Solver, Callable[[ViewBatch, GroundSpec | None, float], Solved]] = {
-    "rays": _solve_points,
-    "planes": _solve_lines,
-    "planes and ground": _solve_ground,
+def _thesis_point(
+    x: F64, P: F64, valid: NDArray[np.bool_], _ground: GroundSpec | None, mc: float, _ref: F64
+) -> F64:
+    """Method 1's thesis estimate of perturbed inputs: the dot's rays."""
+    return triangulate_points(x[..., :2], P, valid=valid, min_conditioning=mc).point_grid
+
+
+def _thesis_line(
+    x: F64, P: F64, valid: NDArray[np.bool_], _ground: GroundSpec | None, mc: float, ref: F64
+) -> F64:
+    """The fixed line's thesis estimate of perturbed inputs: its point nearest ``ref``."""
+    lines = image_lines(x[..., :2], x[..., 2])
+    ls = triangulate_lines(lines, P, valid=valid, min_conditioning=mc)
+    return nearest_on_line(ls.point_grid, ls.direction_grid, ref)
+
+
+def _thesis_ground(
+    x: F64, P: F64, valid: NDArray[np.bool_], ground: GroundSpec | None, mc: float, _ref: F64
+) -> F64:
+    """Method 2's thesis estimate of perturbed inputs: the planes and the ground."""
+    assert ground is not None
+    lines = image_lines(x[..., :2], x[..., 2])
+    return triangulate_ground(
+        lines, P, ground[0], ground[1], valid=valid, min_conditioning=mc
+    ).point_grid
+
+
+@dataclass(frozen=True, kw_only=True)
+class _SolverEntry:
+    """What one solver does (a method's spec names it: :data:`twopose.methods.Solver`)."""
+
+    #: Every estimator's answer for a batch: (batch, ground, min_conditioning).
+    solve: Callable[[ViewBatch, GroundSpec | None, float], Solved]
+    #: The thesis' estimate of perturbed inputs, for propagation: (inputs, cameras, valid
+    #: views, ground, min_conditioning, reference point (a line reports its point nearest it)).
+    thesis: Callable[[F64, F64, NDArray[np.bool_], GroundSpec | None, float, F64], F64]
+
+
+#: The solvers, by the name a method's spec gives (:attr:`MethodSpec.solver`).
+_SOLVERS: Mapping[Solver, _SolverEntry] = {
+    "rays": _SolverEntry(solve=_solve_points, thesis=_thesis_point),
+    "planes": _SolverEntry(solve=_solve_lines, thesis=_thesis_line),
+    "planes and ground": _SolverEntry(solve=_solve_ground, thesis=_thesis_ground),
 }
 
 
@@ -293,20 +337,11 @@ def thesis_estimate(
     Lines report their point nearest ``reference`` (T, 3), held fixed.
     """
     mc = options.min_conditioning
-    spec = spec_of(method)
+    thesis = _solver_of(method).thesis
 
     def estimate(x: F64) -> F64:
         reps, valid, P = _perturbed_views(batch, x)
-        if not spec.uses_image_lines:  # method 1: the dot's rays
-            return triangulate_points(x[..., :2], P, valid=valid, min_conditioning=mc).point_grid
-        lines = image_lines(x[..., :2], x[..., 2])
-        if spec.needs_ground:  # method 2: the planes and the ground
-            assert ground is not None
-            return triangulate_ground(
-                lines, P, ground[0], ground[1], valid=valid, min_conditioning=mc
-            ).point_grid
-        ls = triangulate_lines(lines, P, valid=valid, min_conditioning=mc)
-        return nearest_on_line(ls.point_grid, ls.direction_grid, np.tile(reference, (reps, 1)))
+        return thesis(x, P, valid, ground, mc, np.tile(reference, (reps, 1)))
 
     return estimate
 

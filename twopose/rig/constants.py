@@ -292,6 +292,8 @@ def _limits(
     principal = LIMITS["principal_fraction"] * size
     of_image = "the image" if image is not None else f"a {largest:g} px image, the largest"
     in_units = f" {units}" if units is not None else ""
+    # The offset's limit is stated in inches: said too when the units are others.
+    also_in_inches = units is not None and unit_spec(units).inches != 1.0
     if height is not None:
         ground = LIMITS["ground_fraction"] * height
         ground_text = f"within half the ground height, ±{ground:.4g}{in_units}"
@@ -309,7 +311,7 @@ def _limits(
         "camera_offset": (
             offset,
             f"each component within ±{offset:.4g}{in_units}"
-            + (f" ({LIMITS['camera_offset_in']:g} in)" if units not in (None, "in") else ""),
+            + (f" ({LIMITS['camera_offset_in']:g} in)" if also_in_inches else ""),
         ),
         "focal_scale": (LIMITS["focal_scale"], f"within 1 ± {LIMITS['focal_scale']:g}"),
         "principal_offset_px": (

@@ -326,7 +326,8 @@ def _check_scene(s: Scene) -> None:
         if not ok:
             raise SceneError(f"scene: {key} {msg}")
 
-    need(s.units in ("in", "mm", "cm", "m"), "units", f"must be in, mm, cm or m, got {s.units!r}")
+    known = f"{', '.join(UNITS[:-1])} or {UNITS[-1]}"  # the registry's: "in, mm, cm or m"
+    need(s.units in UNITS, "units", f"must be {known}, got {s.units!r}")
     need(s.ground_height > 0, "ground_height", "must be > 0 (the table is below the camera)")
     need(len(s.cameras) >= 1, "cameras", "needs at least one camera")
     need(len({c.id for c in s.cameras}) == len(s.cameras), "cameras", "ids must be unique")
