@@ -19,19 +19,17 @@ from typing_extensions import override
 from recorder.capture import CaptureResult, CaptureSettings
 from recorder.driver import Decision, Driver, Placement, ProcedureRefusedError
 from recorder.procedure import Shortfall, detection_shortfall, record
+from recorder.setup_form import SETUP_FIELDS
 from recorder.setup_rules import (
-    THESIS_FOCAL_PX,
     GuidanceAsked,
     PoseTyping,
     Setup,
     board_corner,
-    default_plane_offset,
     default_principal,
     distinct_point,
     inner_corners,
     number_pair,
     off_plane,
-    one_of,
     parse_vector,
     reader,
     target_precision,
@@ -59,7 +57,7 @@ from twopose.format.entries import (
     TruthKind,
     TypedEntry,
 )
-from twopose.methods import METHODS, PLANES, Method, spec_of
+from twopose.methods import PLANES, Method, spec_of
 from twopose.planes import ConstraintPlane
 from twopose.targets import BoardPlacement
 from twopose.units import DEFAULT_UNITS, UNITS, Units
@@ -130,21 +128,13 @@ def ask_setup(  # noqa: PLR0913 - one keyword per setup value the operator may h
     ``plane_offsets`` are the planes' offsets given, each under its plane's setup key
     (``ground_height=`` for method 2's ground, :data:`twopose.methods.PLANES`)."""
     asked_before = op.questions
-    m = Method(method or op.ask(f"method ({', '.join(METHODS)})", one_of(METHODS)))
-    u = Units(
-        units
-        if units in UNITS
-        else op.ask(f"units ({', '.join(UNITS)})", one_of(UNITS), DEFAULT_UNITS)
-    )
+    m = Method(method or _ask(op, "method", DEFAULT_UNITS))
+    u = Units(units if units in UNITS else _ask(op, "units", DEFAULT_UNITS))
     refused = (guidance or GuidanceAsked()).refusals(m, u)
     if refused:
         raise InputValueError("; ".join(refused.values()))
     if intrinsics is None:
-        f = (
-            _given(FOCAL, focal, u, "--focal")
-            if focal is not None
-            else op.ask("focal parameter, px", reader(FOCAL, None), shown(THESIS_FOCAL_PX))
-        )
+        f = _given(FOCAL, focal, u, "--focal") if focal is not None else _ask(op, "focal", u)
         centre = ", ".join(shown(v) for v in default_principal(size))
         if principal is not None:
             cx, cy = (_given(PRINCIPAL, v, u, "--principal", axis=a) for v, a in
@@ -165,7 +155,7 @@ def ask_setup(  # noqa: PLR0913 - one keyword per setup value the operator may h
     truth = _ask_truth(op, m, u, h, list(ground_truth))
     if not spec_of(m).measures and board is None:
         board = _ask_board(op, u)
-    who = operator if operator is not None else op.ask("operator", str, "")
+    who = operator if operator is not None else _ask(op, "operator", u)
     target = target_precision
     if target is None and spec_of(m).measures and op.questions > asked_before:
         target = ask_target(op, u)
@@ -190,6 +180,10 @@ def ask_target(op: Operator, units: Units) -> float | None:
     return answer
 
 
+#: The setup's fields by name: what the terminal asks and how it reads the answers.
+SETUP_FIELD = {f.name: f for f in SETUP_FIELDS}
+
+
 def _known_planes(given: Mapping[str, float | None]) -> dict[str, float]:
     """The planes' offsets given (None: not given), each key a plane's setup key."""
     keys = {p.setup_key for p in PLANES}
@@ -210,13 +204,14 @@ def _plane_offset(
     if plane.setup_key in given:
         option = "--" + plane.setup_key.replace("_", "-")
         return _given(plane.bound, given[plane.setup_key], units, option)
-    return float(
-        op.ask(
-            f"{plane.label} ({units})",
-            reader(plane.bound, units),
-            default_plane_offset(plane, units),
-        )
-    )
+    return float(_ask(op, plane.setup_key, units))
+
+
+def _ask(op: Operator, name: str, units: Units) -> Any:
+    """The setup field ``name`` asked as the page's form asks it: its label, its reader and
+    its default (:data:`recorder.setup_form.SETUP_FIELDS`, the one description)."""
+    f = SETUP_FIELD[name]
+    return op.ask(f.question(units), lambda s: f.answer(s, units), f.default(units))
 
 
 def _given(quantity: Quantity, value: float, units: Units, option: str, *, axis: str = "") -> float:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Any
 
 import twopose.methods as registry
@@ -115,6 +116,31 @@ def _two_truth_points(spec: MethodSpec) -> bool:
     return spec.truth_points >= 2
 
 
+def _method(text: str, _units: Units) -> Method:
+    if not text:
+        raise InputValueError(f"choose {', '.join(METHODS)}")
+    return Method(one_of(METHODS)(text))
+
+
+def _units(text: str, _units: Units) -> Units:
+    return Units(one_of(UNITS)(text))
+
+
+def _focal(text: str, _units: Units) -> float:
+    return FOCAL.read(text, None)
+
+
+def _plane_offset(plane: ConstraintPlane, text: str, units: Units) -> float:
+    """The plane's offset typed (method 2's ground height), read by its bound."""
+    if not text:
+        raise InputValueError(f"type {plane.measured} ({units})")
+    return plane.bound.read(text, units)
+
+
+def _no_default(_units: Units) -> str:
+    return ""
+
+
 @dataclass(frozen=True, kw_only=True)
 class SetupField:
     """One answer of the setup, as the page shows it.
@@ -132,6 +158,25 @@ class SetupField:
     #: Whether a method asks it, from the method's spec (default: every method).
     asked_by: Callable[[MethodSpec], bool] = field(default=_every_method, repr=False)
     options: tuple[str, ...] = ()
+    #: The one reader of its typed text in the session's units, empty text its default's:
+    #: the page's form and the terminal's question both call it (None: read with others,
+    #: as a truth's points and a board's parts are).
+    read: Callable[[str, Units], Any] | None = field(default=None, repr=False)
+    #: The answer offered when nothing is typed, in the session's units ("": none).
+    default: Callable[[Units], str] = field(default=_no_default, repr=False)
+    #: Whether it is a length: the terminal's question then says the session's units.
+    length: bool = False
+
+    def question(self, units: Units) -> str:
+        """The terminal's question for it: its label, with its options or units."""
+        if self.options:
+            return f"{self.label} ({', '.join(self.options)})"
+        return f"{self.label} ({units})" if self.length else self.label
+
+    def answer(self, text: str, units: Units) -> Any:
+        """``text`` read by :attr:`read` (empty: the default's answer)."""
+        assert self.read is not None, f"{self.name} is read with other fields"
+        return self.read(text.strip() or self.default(units), units)
 
     @property
     def methods(self) -> tuple[Method, ...]:
@@ -154,15 +199,32 @@ def plane_fields() -> tuple[SetupField, ...]:
     """One field per plane of the method registry (method 2's ground height): the plane's
     offset, under the plane's setup key, asked by the methods on that plane."""
     return tuple(
-        SetupField(name=p.setup_key, label=p.label, kind="text", asked_by=_asked_by_the_plane(p))
+        SetupField(
+            name=p.setup_key, label=p.label, kind="text", asked_by=_asked_by_the_plane(p),
+            read=partial(_plane_offset, p), default=partial(default_plane_offset, p),
+            length=True,
+        )
         for p in registry.PLANES
-    )
+    )  # fmt: skip
 
 
 SETUP_FIELDS: tuple[SetupField, ...] = (
-    SetupField(name="method", label="method", kind="choice", options=METHODS),
-    SetupField(name="units", label="units", kind="choice", options=UNITS),
-    SetupField(name="focal", label="focal length (px)", kind="text"),
+    SetupField(name="method", label="method", kind="choice", options=METHODS, read=_method),
+    SetupField(
+        name="units",
+        label="units",
+        kind="choice",
+        options=UNITS,
+        read=_units,
+        default=lambda _u: DEFAULT_UNITS.value,
+    ),
+    SetupField(
+        name="focal",
+        label="focal length (px)",
+        kind="text",
+        read=_focal,
+        default=lambda _u: shown(THESIS_FOCAL_PX),
+    ),
     SetupField(name="principal", label="principal point cx, cy (px)", kind="text"),
     *plane_fields(),
     SetupField(
@@ -191,12 +253,13 @@ SETUP_FIELDS: tuple[SetupField, ...] = (
         kind="check",
         asked_by=_on_a_plane,
     ),
-    SetupField(name="operator", label="operator", kind="text"),
+    SetupField(name="operator", label="operator", kind="text", read=lambda s, _u: s),
     SetupField(
         name="target_precision",
         label="stop a trial when its 95% region is within (session units; empty: none)",
         kind="text",
         asked_by=_measuring,
+        read=lambda s, u: target_precision(s, u),
     ),
 )
 _FIELDS = {f.name: f for f in SETUP_FIELDS}
@@ -231,12 +294,9 @@ def _given_text(name: str, given: Mapping[str, Any]) -> str | None:
 
 
 def _default_text(name: str, units: Units) -> str:
-    defaults = {
-        "units": DEFAULT_UNITS.value,
-        "focal": f"{THESIS_FOCAL_PX:g}",
-        "principal": ", ".join(f"{v:g}" for v in default_principal(THESIS_IMAGE_SIZE)),
-    } | {p.setup_key: default_plane_offset(p, units) for p in registry.PLANES}
-    return defaults.get(name, "")
+    if name == "principal":  # the thesis' image's centre (the terminal knows the camera's)
+        return ", ".join(f"{v:g}" for v in default_principal(THESIS_IMAGE_SIZE))
+    return _FIELDS[name].default(units)
 
 
 def form_fields(given: Mapping[str, Any]) -> list[dict[str, Any]]:
@@ -307,19 +367,22 @@ def setup_from_answers(form: Mapping[str, str], given: Mapping[str, Any]) -> Set
     the form (the page shows it read-only); empty text fields take their defaults. Raises
     :class:`FormRefusedError` holding every refusal, by field."""
     a = _Answers(form, given)
-    method = a.check("method", _method)
-    units = a.check("units", lambda s: Units(one_of(UNITS)(s or DEFAULT_UNITS))) or DEFAULT_UNITS
+    method = a.check("method", lambda s: _FIELDS["method"].answer(s, DEFAULT_UNITS))
+    units = a.check("units", lambda s: _FIELDS["units"].answer(s, DEFAULT_UNITS)) or DEFAULT_UNITS
     intrinsics = given.get("intrinsics") or _intrinsics(a, given.get("size", (640, 480)))
     plane = spec_of(method).plane if method is not None else None
     offset = None
     if plane is not None:
-        offset = a.check(plane.setup_key, lambda s: _plane_offset(plane, s, units))
+        # Read as typed: an emptied field is refused, never the thesis' height assumed.
+        read_offset = _FIELDS[plane.setup_key].read
+        assert read_offset is not None
+        offset = a.check(plane.setup_key, lambda s: read_offset(s, units))
     truth = _truth(a, method, units, offset) if method is not None else ()
     board = _board(a, units) if method is not None and _FIELDS["board"].asks(method) else None
     operator = a.text("operator")
     target = None
     if method is not None and _FIELDS["target_precision"].asks(method):
-        target = a.check("target_precision", lambda s: target_precision(s, units))
+        target = a.check("target_precision", lambda s: _FIELDS["target_precision"].answer(s, units))
     if a.errors:
         raise FormRefusedError(a.errors)
     sigma = dict(given.get("intrinsics_sigma") or {})
@@ -337,12 +400,6 @@ def setup_from_answers(form: Mapping[str, str], given: Mapping[str, Any]) -> Set
     )
 
 
-def _method(text: str) -> Method:
-    if not text:
-        raise InputValueError(f"choose {', '.join(METHODS)}")
-    return Method(one_of(METHODS)(text))
-
-
 def _board(a: _Answers, units: Units) -> BoardPlacement | None:
     """The board's size and placement (every part required: it is the session's truth)."""
     corners = a.check("board", inner_corners)
@@ -353,14 +410,8 @@ def _board(a: _Answers, units: Units) -> BoardPlacement | None:
     return BoardPlacement(inner_corners=corners, square=square, first_corner=corner)
 
 
-def _plane_offset(plane: ConstraintPlane, text: str, units: Units) -> float:
-    if not text:
-        raise InputValueError(f"type {plane.measured} ({units})")
-    return plane.bound.read(text, units)
-
-
 def _intrinsics(a: _Answers, size: tuple[int, int]) -> Intrinsics:
-    focal = a.check("focal", lambda s: FOCAL.read(s or shown(THESIS_FOCAL_PX), None))
+    focal = a.check("focal", lambda s: _FIELDS["focal"].answer(s, DEFAULT_UNITS))
     principal = a.check("principal", lambda s: number_pair(s) if s else default_principal(size))
     f = focal or THESIS_FOCAL_PX
     cx, cy = principal or default_principal(size)
