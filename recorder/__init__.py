@@ -23,9 +23,10 @@ The frame sources' registry (:data:`SOURCE_KINDS`, :func:`open_source`), the pro
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from twopose import __version__
+from twopose.lazy import lazy_exports
 
 if TYPE_CHECKING:
     from recorder.camera_calibration import (
@@ -110,13 +111,4 @@ _HOMES = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    if name in _HOMES:
-        import importlib
-
-        return getattr(importlib.import_module(_HOMES[name]), name)
-    raise AttributeError(f"module 'recorder' has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_exports("recorder", _HOMES, __all__)

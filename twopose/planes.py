@@ -19,17 +19,17 @@ says which plane, and every layer reads it from the method's spec
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
-
-import numpy as np
-from numpy.typing import NDArray
+from typing import TYPE_CHECKING
 
 from twopose.bounds import GROUND_HEIGHT, Quantity
 from twopose.values import Vec3
 
-__all__ = ["GROUND_PLANE", "ConstraintPlane"]
+if TYPE_CHECKING:
+    from twopose.arrays import F64
 
-F64 = NDArray[np.float64]
+__all__ = ["GROUND_PLANE", "ConstraintPlane"]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -67,11 +67,15 @@ class ConstraintPlane:
 
     def __post_init__(self) -> None:
         """Check the axes: unit length and orthogonal (a typo in a new plane's entry)."""
-        n, (u, v) = np.asarray(self.normal_grid), (np.asarray(a) for a in self.in_plane_grid)
-        for a in (n, u, v):
-            if not np.isclose(np.linalg.norm(a), 1.0):
-                raise ValueError(f"{self.name}: every axis must be a unit vector")
-        if not np.allclose([n @ u, n @ v, u @ v], 0.0):
+
+        # Plain Python: the registry builds its planes on import, which loads no NumPy.
+        def dot(a: Vec3, b: Vec3) -> float:
+            return sum(x * y for x, y in zip(a, b, strict=True))
+
+        n, (u, v) = self.normal_grid, self.in_plane_grid
+        if not all(math.isclose(dot(a, a), 1.0, abs_tol=1e-9) for a in (n, u, v)):
+            raise ValueError(f"{self.name}: every axis must be a unit vector")
+        if not all(math.isclose(dot(a, b), 0.0, abs_tol=1e-9) for a, b in ((n, u), (n, v), (u, v))):
             raise ValueError(f"{self.name}: the normal and in-plane axes must be orthogonal")
 
     def plane(self, offset: float) -> tuple[Vec3, float]:
@@ -80,10 +84,14 @@ class ConstraintPlane:
 
     def gap(self, point: Vec3 | F64, offset: float) -> float:
         """How far ``point`` lies off the plane, along its normal (+: beyond it)."""
+        import numpy as np  # on use: importing the registry stays light
+
         return float(np.asarray(self.normal_grid) @ np.asarray(point, dtype=np.float64)) - offset
 
     def point(self, in_plane: tuple[float, float], offset: float) -> F64:
         """The plane's point at ``in_plane`` coordinates (the ground's ``(x, z)``)."""
+        import numpy as np  # on use: importing the registry stays light
+
         n, (u, v) = np.asarray(self.normal_grid), (np.asarray(a) for a in self.in_plane_grid)
         return np.asarray(offset * n + in_plane[0] * u + in_plane[1] * v, dtype=np.float64)
 
@@ -92,6 +100,8 @@ class ConstraintPlane:
 
         Turned from the second in-plane axis toward the first: the simulated finger's axis.
         """
+        import numpy as np  # on use: importing the registry stays light
+
         tilt, az = np.deg2rad(tilt_deg), np.deg2rad(azimuth_deg)
         n, (u, v) = np.asarray(self.normal_grid), (np.asarray(a) for a in self.in_plane_grid)
         return np.asarray(
