@@ -4,10 +4,9 @@
 every one declared here is); the stages that fill a table import its list from here, and
 give each column its dtype (:data:`DTYPES`, :func:`typed`: text never NaN, flags boolean),
 as :func:`analysis.run_tables.read_table` reads the CSV back. What
-depends on the method (its extra columns, its degeneracy margins) is read from the method
-registry (:mod:`twopose.methods`), and the uncertainty columns from
-:data:`twopose.uncertainty.SPREAD_COLUMNS`, the keys that
-:func:`~twopose.uncertainty.uncertainty_columns` fills.
+``trials.csv``'s columns are each one declaration of :mod:`analysis.trial_columns` (name,
+label, unit, domain, dtype and what fills it); what depends on the method (its extra
+columns, its degeneracy margins) its spec names (:mod:`twopose.methods`).
 """
 
 from __future__ import annotations
@@ -15,8 +14,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
-from twopose.methods import METHOD_SPECS, Method
-from twopose.uncertainty import SPREAD_COLUMNS
+from analysis.trial_columns import TRIAL_TABLE, group
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -50,84 +48,31 @@ __all__ = [
 #: its session's label (the shortest tail of its path no other input shares), the session's
 #: id, the part (file) that recorded it, and its branch ("" on a session that never forked;
 #: A, B, ... for the continuations of a part continued twice).
-IDENTITY_COLUMNS = ["label", "session_id", "part", "branch"]
-# trials.csv: one row per trial.
-TRIAL_COLUMNS = [
-    "session",
-    *IDENTITY_COLUMNS,
-    "trial",
-    "method",
-    "units",
-    "status",
-    "reason",
-    "n_views",
-    "conditioning",
-    "x",
-    "y",
-    "z",
-    "gt_x",
-    "gt_y",
-    "gt_z",
-    "err_x",
-    "err_y",
-    "err_z",
-    "err",
-]
-#: Line trials: the line's direction and its angle and distance errors (the method's own
-#: extra columns, :attr:`twopose.methods.MethodSpec.extra_columns`).
-LINE_COLUMNS = list(METHOD_SPECS[Method.LINE].extra_columns)
+IDENTITY_COLUMNS = group("identity")
+#: trials.csv: one row per trial; every trial's columns.
+TRIAL_COLUMNS = [c.name for c in TRIAL_TABLE if c.group in ("trial", "identity")]
+#: Line trials: the line's direction and its angle and distance errors.
+LINE_COLUMNS = group("line")
 #: The operator's notes about the trial, joined with " | " (session-wide notes: the report).
-NOTES_COLUMNS = ["notes"]
+NOTES_COLUMNS = group("notes")
 #: Line trials: the weighted/robust fit beside the thesis' (solve.triangulate_lines), and
 #: the reprojection-optimal line's errors (twopose.optimal_lines; its point is ``x_optimal``...).
-WEIGHTED_COLUMNS = [
-    "x_weighted",
-    "y_weighted",
-    "z_weighted",
-    "angle_err_weighted_deg",
-    "dist_err_weighted",
-    "angle_err_optimal_deg",
-    "dist_err_optimal",
-]
-#: Degeneracy margins (degrees; each method's from the registry), the warning when one is
+WEIGHTED_COLUMNS = group("line fits")
+#: Degeneracy margins (degrees; each method's named by its spec), the warning when one is
 #: under its threshold, and the trial's baseline (the longest distance between two typed
 #: camera centres).
-MARGIN_COLUMNS = [
-    *dict.fromkeys(margin for spec in METHOD_SPECS.values() for margin in spec.margins),
-    "warning",
-    "baseline",
-]
-#: Point trials: the reprojection-optimal estimate beside the thesis' (x, y, z), the point
-#: method's extra columns; line trials: the optimal line's point nearest the true midpoint
-#: and its distance from it.
-OPTIMAL_COLUMNS = list(METHOD_SPECS[Method.POINT].extra_columns)
+MARGIN_COLUMNS = group("margins")
+#: Point trials: the reprojection-optimal estimate beside the thesis' (x, y, z); line
+#: trials: the optimal line's point nearest the true midpoint and its distance from it.
+OPTIMAL_COLUMNS = group("optimal")
 #: First-order uncertainty of (x, y, z) (:mod:`twopose.uncertainty`), then the input that
 #: dominates the variance, its share, and the frames rejected as outliers.
-UNCERTAINTY_COLUMNS = [*SPREAD_COLUMNS, "dominant_input", "dominant_share", "rejected_frames"]
+UNCERTAINTY_COLUMNS = group("uncertainty")
 #: trials.csv's columns from ``--rig-calibration loo`` (the last five: line trials only).
-RIG_COLUMNS = [
-    "x_rig",
-    "y_rig",
-    "z_rig",
-    "err_rig",
-    "within95_rig",
-    "dir_x_rig",
-    "dir_y_rig",
-    "dir_z_rig",
-    "angle_err_rig_deg",
-    "dist_err_rig",
-]
-#: ``trials.csv``, every session and method concatenated (a column a method lacks is empty).
-TRIAL_TABLE_COLUMNS = (
-    TRIAL_COLUMNS
-    + LINE_COLUMNS
-    + WEIGHTED_COLUMNS
-    + OPTIMAL_COLUMNS
-    + MARGIN_COLUMNS
-    + UNCERTAINTY_COLUMNS
-    + NOTES_COLUMNS
-    + RIG_COLUMNS
-)
+RIG_COLUMNS = group("rig")
+#: ``trials.csv``, every session and method concatenated (a column a method lacks is empty):
+#: :data:`analysis.trial_columns.TRIAL_TABLE`, one declaration per column.
+TRIAL_TABLE_COLUMNS = [c.name for c in TRIAL_TABLE]
 
 # The other tables.
 #: ``summary.csv``: one row per session and method.
@@ -260,15 +205,16 @@ RUN_TABLES = {
 # Each column's dtype, one for a name in every table (:func:`typed`
 # applies them; :func:`analysis.run_tables.read_table` reads a CSV back to the same).
 #: Text: ``str``, "" when there is none, never NaN (in memory as read back).
+#: (trials.csv's columns: their declarations' dtypes, which the other tables' columns of the
+#: same name share.)
 _TEXT = (
-    "session", "label", "session_id", "part", "branch", "trials_key",
-    "method", "units", "status", "reason", "warning", "dominant_input",
-    "rejected_frames", "notes", "camera", "constant", "why_fixed", "error",
+    "session", "label", "session_id", "branch", "trials_key", "method", "units", "reason",
+    "camera", "constant", "why_fixed", "error",
 )  # fmt: skip
 #: Whole numbers, always known.
 _WHOLE = (
-    "trial", "n_views", "nees_dof", "pose", "frame", "log_time_ns", "n_blobs",
-    "n_candidates", "n_frames", "n_trials", "n_ok", "n_warned", "n_used",
+    "trial", "pose", "frame", "log_time_ns", "n_blobs", "n_candidates", "n_frames",
+    "n_trials", "n_ok", "n_warned", "n_used",
 )  # fmt: skip
 #: Every declared column's dtype: ``str`` (text), ``bool`` (always known: a frame's
 #: ``found``, a rig constant's ``fitted``), ``boolean`` (pandas' nullable: True, False,
@@ -279,7 +225,7 @@ DTYPES: dict[str, str] = {
     **dict.fromkeys(_TEXT, "str"),
     **dict.fromkeys(_WHOLE, "int64"),
     **dict.fromkeys(("found", "fitted"), "bool"),
-    **dict.fromkeys(("within95", "within95_rig"), "boolean"),
+    **{c.name: c.dtype for c in TRIAL_TABLE},
 }
 
 

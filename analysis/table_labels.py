@@ -3,8 +3,10 @@ unit in the header, and its cells with the answer's rounding (:func:`analysis.an
 two decimals, signed errors, shares in percent, yes/no for flags).
 
 One registry (:data:`LABELS`): a column's name, its kind (how a cell reads) and whether
-its header carries the session's unit. The CSV files keep their names; the report shows
-these.
+its header carries the session's unit. ``trials.csv``'s columns' labels are read from their
+declarations (:data:`analysis.trial_columns.TRIAL_TABLE`: label, unit kind, domain and
+dtype); the other tables' columns are listed here. The CSV files keep their names; the
+report shows these.
 """
 
 from __future__ import annotations
@@ -17,10 +19,19 @@ from types import MappingProxyType
 import pandas as pd
 
 from analysis.answer import number, share
-from twopose.methods import label_of
+from analysis.trial_columns import TRIAL_TABLE, Column
+from twopose.methods import METHODS, label_of
 from twopose.units import Units
 
-__all__ = ["LABELS", "Label", "metadata_table", "readable_columns", "table_units", "unit_label"]
+__all__ = [
+    "LABELS",
+    "Label",
+    "label_of_column",
+    "metadata_table",
+    "readable_columns",
+    "table_units",
+    "unit_label",
+]
 
 
 def _count(value: object) -> str:
@@ -78,30 +89,38 @@ class Label:
 
 
 _LENGTH = "session"
+#: The header's unit of each unit kind of a declared column (``squared length``: none, as
+#: the session's unit squared has no name of its own here).
+_HEADER_UNIT: Mapping[str, str] = MappingProxyType({"length": _LENGTH, "degrees": "°"})
+
+
+def label_of_column(column: Column) -> Label:
+    """How the report shows a declared ``trials.csv`` column: its label, a cell kind from its
+    dtype, unit and domain (a length that can be negative is signed; the methods' names as
+    their labels), and its unit in the header."""
+    if column.domain.values and set(column.domain.values) == set(METHODS):
+        kind = "method"
+    elif column.dtype == "str":
+        kind = "text"
+    elif column.dtype in ("bool", "boolean"):
+        kind = "flag"
+    elif column.dtype == "int64":
+        kind = "count"
+    elif column.unit == "share":
+        kind = "share"
+    elif column.unit == "degrees":
+        kind = "angle"
+    elif column.unit in ("length", "squared length"):
+        kind = "signed" if column.domain.kind == "finite" else "length"
+    else:
+        kind = "plain"
+    return Label(column.label, kind, _HEADER_UNIT.get(column.unit, ""))
+
+
 #: Every column the report shows outside the answer and the per-session summary.
 LABELS: Mapping[str, Label] = MappingProxyType(
     {
-        "session": Label("session", "text"),
-        "trial": Label("trial", "count"),
-        "status": Label("status", "text"),
-        "n_views": Label("views", "count"),
-        "x": Label("estimate x", "signed", _LENGTH),
-        "y": Label("estimate y", "signed", _LENGTH),
-        "z": Label("estimate z", "signed", _LENGTH),
-        "gt_x": Label("truth x", "signed", _LENGTH),
-        "gt_y": Label("truth y", "signed", _LENGTH),
-        "gt_z": Label("truth z", "signed", _LENGTH),
-        "err_x": Label("error x", "signed", _LENGTH),
-        "err_y": Label("error y", "signed", _LENGTH),
-        "err_z": Label("error z", "signed", _LENGTH),
-        "err": Label("error", "length", _LENGTH),
-        "angle_err_deg": Label("direction error", "angle", "°"),
-        "dist_err": Label("distance from the true line", "length", _LENGTH),
-        "semiaxis95": Label("95% region, largest semi-axis", "length", _LENGTH),
-        "within95": Label("truth inside its 95% ellipsoid", "flag"),
-        "warning": Label("warning", "text"),
-        "reason": Label("why not measured", "text"),
-        "notes": Label("operator's notes", "text"),
+        **{column.name: label_of_column(column) for column in TRIAL_TABLE},
         "error": Label("why it failed", "text"),
         # the rig correction's before and after (--rig-calibration loo)
         "trials": Label("trials", "count"),
@@ -119,7 +138,6 @@ LABELS: Mapping[str, Label] = MappingProxyType(
         # a sensitivity sweep
         "sweep": Label("input varied", "text"),
         "unit": Label("its unit", "text"),
-        "method": Label("method", "method"),
     }
 )
 

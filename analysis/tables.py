@@ -8,27 +8,19 @@ declared dtype (:func:`analysis.columns.typed`).
 
 from __future__ import annotations
 
-import itertools
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
 
-from analysis.columns import (
-    AVERAGING_COLUMNS,
-    IDENTITY_COLUMNS,
-    TRIAL_COLUMNS,
-    VIEW_COLUMNS,
-    typed,
-)
+from analysis.columns import AVERAGING_COLUMNS, IDENTITY_COLUMNS, VIEW_COLUMNS, typed
+from analysis.trial_columns import TrialResult, columns_of
 from twopose.arrays import F64
 from twopose.camera import grid_rays, rotation_from_angles_deg
 from twopose.detect import Detection
 from twopose.frames import PoseMeasurement
-from twopose.methods import Method, spec_of
 from twopose.truth import Reported, line_errors
-from twopose.uncertainty import uncertainty_columns
 from twopose.units import Units
 
 if TYPE_CHECKING:
@@ -36,7 +28,7 @@ if TYPE_CHECKING:
     from twopose.estimate import PoseView, Solved
     from twopose.format.entries import PoseEntry
     from twopose.format.messages import Frame
-    from twopose.session_estimate import Estimates, SessionEstimate
+    from twopose.session_estimate import SessionEstimate
 
 __all__ = [
     "averaging_table",
@@ -70,37 +62,6 @@ def frame_row(
     }
 
 
-def _method_columns(method: Method, est: Estimates, truth: F64) -> dict[str, Any]:
-    """The method's extra columns: a line's direction and errors; a point's
-    reprojection-optimal estimate beside the thesis' one."""
-    if spec_of(method).estimates_line:
-        with np.errstate(invalid="ignore"):
-            _, _, angle, dist = line_errors(est.point, est.direction, truth[:, 0], truth[:, 1])
-        extra = {f"dir_{a}": est.direction[:, i] for i, a in enumerate("xyz")}
-        return extra | {"angle_err_deg": angle, "dist_err": dist}
-    if "optimal" in spec_of(method).estimators and not spec_of(method).estimates_line:
-        # the point's estimators side by side
-        opt_err = est.optimal - truth[:, 0]
-        extra = {f"{a}_optimal": est.optimal[:, i] for i, a in enumerate("xyz")}
-        return extra | {"err_optimal": np.linalg.norm(opt_err, axis=1)}
-    return {}
-
-
-def _other_line_columns(est: Estimates, truth: F64) -> dict[str, Any]:
-    """Line trials: the weighted/robust fit (``*_weighted``) and the reprojection-optimal
-    line (``*_optimal``), each compared with the truth as the thesis' line."""
-    columns: dict[str, Any] = {}
-    for name, line in (("weighted", est.weighted_line), ("optimal", est.optimal_line)):
-        with np.errstate(invalid="ignore"):
-            point, mid, angle, dist = line_errors(line[:, 0], line[:, 1], truth[:, 0], truth[:, 1])
-        point = np.where(np.isfinite(mid), point, line[:, 0])
-        columns |= {f"{a}_{name}": point[:, i] for i, a in enumerate("xyz")}
-        if name == "optimal":
-            columns["err_optimal"] = np.linalg.norm(point - mid, axis=1)
-        columns |= {f"angle_err_{name}_deg": angle, f"dist_err_{name}": dist}
-    return columns
-
-
 def trial_table(
     session: str,
     estimate: SessionEstimate,
@@ -110,75 +71,12 @@ def trial_table(
 ) -> pd.DataFrame:
     """One row per trial (``trials.csv``): estimate, truth, error, margins, uncertainty,
     the operator's ``notes``; ``unmeasured`` (per trial, why its captures do not make two
-    usable poses) replaces the generic reason of an ``incomplete`` trial."""
-    trials, est = estimate.trials, estimate.estimates
-    method, T = trials.method, len(trials)
-    point, reference, err = reported_.point, reported_.reference, reported_.error
-    table = pd.DataFrame(
-        {
-            "session": [session] * T,
-            "trial": list(trials.trial_ids),
-            "method": [str(method)] * T,
-            "units": [str(trials.units)] * T,
-            "status": est.status,
-            "reason": _reasons(est, unmeasured),
-            "n_views": [len(v) if len(v) >= 2 else 0 for v in trials.views],
-            "conditioning": est.conditioning,
-            **{a: point[:, i] for i, a in enumerate("xyz")},
-            **{f"gt_{a}": reference[:, i] for i, a in enumerate("xyz")},
-            **{f"err_{a}": err[:, i] for i, a in enumerate("xyz")},
-            "err": np.linalg.norm(err, axis=1),
-            **_method_columns(method, est, trials.truth),
-        }
-    )
-    declared = [c for c in TRIAL_COLUMNS if c not in IDENTITY_COLUMNS]  # with_identity's
-    table = table[[*declared, *spec_of(method).extra_columns]]
-    for name, values in est.margins.items():
-        table[name] = values
-    table["warning"] = estimate.warnings
-    table["baseline"] = [_baseline(v) for v in trials.views]
-    if spec_of(method).estimates_line:
-        for name, values in _other_line_columns(est, trials.truth).items():
-            table[name] = values
-    for name, values in uncertainty_columns(err, reported_.cov).items():
-        table[name] = values
-    table["dominant_input"] = reported_.dominant
-    table["dominant_share"] = reported_.dominant_share
-    table["rejected_frames"] = [
-        _rejected(ms, vs) if ms else ""
-        for ms, vs in zip(estimate.measurements, trials.views, strict=True)
-    ]
-    table["notes"] = list(notes) if notes is not None else [""] * T
-    return typed(table)
-
-
-def _reasons(est: Estimates, unmeasured: Sequence[str] | None) -> list[str]:
-    """Each trial's reason; an incomplete trial's says which captures were set aside."""
-    reasons = [str(r) for r in est.reason]
-    if unmeasured is None:
-        return reasons
-    return [
-        why if status == "incomplete" and why else reason
-        for reason, status, why in zip(reasons, est.status, unmeasured, strict=True)
-    ]
-
-
-def _baseline(views: list[PoseView]) -> float:
-    """The longest distance between two typed camera centres of a trial (NaN: one pose)."""
-    return max(
-        (float(np.linalg.norm(a.t_grid - b.t_grid)) for a, b in itertools.combinations(views, 2)),
-        default=np.nan,
-    )
-
-
-def _rejected(measurements: list[PoseMeasurement], views: list[PoseView]) -> str:
-    """Frames dropped as outliers, per pose: ``"pose 2: 3, 4"`` (frame indices as in
-    frames.csv; empty when none)."""
-    return "; ".join(
-        f"pose {v.pose}: {', '.join(str(i) for i in m.rejected)}"
-        for m, v in zip(measurements, views, strict=True)
-        if m.rejected
-    )
+    usable poses) replaces the generic reason of an ``incomplete`` trial. Each column is
+    filled by its declaration (:mod:`analysis.trial_columns`): the common ones, and the
+    ones the method's spec names, in the table's order."""
+    result = TrialResult(session, estimate, reported_, notes, unmeasured)
+    columns = columns_of(result.spec)
+    return typed(pd.DataFrame({c.name: c.fill(result) for c in columns if c.fill is not None}))
 
 
 def view_table(
