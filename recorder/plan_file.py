@@ -56,17 +56,25 @@ if TYPE_CHECKING:
 
 __all__ = ["Plan", "PlannedPose", "PlannedTrial", "load_plan"]
 
-_PLAN_KEYS = {
-    "": {"method", "units", "camera", "cameras", "frames", "trials"}
-    | {"operator", "notes", "resolution", "board", "guidance", "adaptive_frames"}
-    | {p.setup_key for p in PLANES},  # each plane's offset (method 2's ground_height)
+#: The key a pose names the camera it was taken by ([[trials]] poses' ``camera``).
+POSE_CAMERA_KEY = "camera"
+#: The keys of each table of a plan, by the table's name.
+_TABLE_KEYS = {
     "guidance": {"target_95", "reach", "spacing", "max_poses", "seed"},
     "board": {"inner_corners", "square", "first_corner"},
     "camera": {"id", "calibration", "focal", "fx", "fy", "principal", "cx", "cy"}
     | {"width", "height", "distortion"},
     "trials": {"poses", "ground_truth", "keep_off_ground", "max_poses", "start"},
-    "poses": {"t", "r_deg", "camera"},
+    "poses": {"t", "r_deg", POSE_CAMERA_KEY},
     "resolution": {"translation", "rotation_deg"},
+}
+#: The keys a plan knows: its top level's (its tables but the poses, which are its trials'),
+#: then each table's.
+_PLAN_KEYS = {
+    "": {"method", "units", "cameras", "frames", "operator", "notes", "adaptive_frames"}
+    | (set(_TABLE_KEYS) - {"poses"})
+    | {p.setup_key for p in PLANES},  # each plane's offset (method 2's ground_height)
+    **_TABLE_KEYS,
 }
 
 
@@ -372,7 +380,9 @@ def _trial(
         tg = _vec(POSE_TRANSLATION, p.get("t"), f"{where}.t", units)
         r_deg = _vec(ROTATION, p.get("r_deg", [0, 0, 0]), f"{where}.r_deg", units)
         poses.append(
-            PlannedPose(t_grid=tg, r_deg=r_deg, camera_id=str(p.get("camera", default_camera)))
+            PlannedPose(
+                t_grid=tg, r_deg=r_deg, camera_id=str(p.get(POSE_CAMERA_KEY, default_camera))
+            )
         )
     if len(poses) < 2:
         raise InputValueError(f"plan: trials[{i}] needs at least 2 poses, got {len(poses)}")

@@ -20,9 +20,6 @@ census = load_benchmark("census")
 #: Files others are rewriting now, whose sites their rewrite removes. Shrinking: the test
 #: fails on a file here that has become clean (take it off), and on any site elsewhere.
 ALLOWLIST = {
-    # Plan files' TOML keys: the top level's "camera" and "board" tables (a record's fields,
-    # but a stranger counts a set holding a name).
-    "recorder/plan_file.py",
     # frames.csv and views.csv columns: "camera" (a column, counted as a list holding a name).
     "analysis/columns.py",
 }
