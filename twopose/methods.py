@@ -18,7 +18,7 @@ from enum import StrEnum
 from types import MappingProxyType
 from typing import Literal
 
-from twopose.choices import Target
+from twopose.choices import TARGET_SPECS, Target
 from twopose.errors import InputValueError
 from twopose.planes import GROUND_PLANE, ConstraintPlane
 
@@ -174,8 +174,8 @@ class MethodSpec:
 
     @property
     def uses_image_lines(self) -> bool:
-        """Whether each view's measurement is an image line (orientation) and not a point."""
-        return self.target == "glove"
+        """Whether each view's measurement is an image line, as its target's entry says."""
+        return self.target is not None and TARGET_SPECS[self.target].image_line
 
 
 #: The method registry: each method's :class:`MethodSpec`, in the order the thesis presents
