@@ -127,13 +127,15 @@ SUMMARY_DOMAINS: dict[str, str] = {
 TABLE_DOMAINS = {"summary.csv": SUMMARY_DOMAINS}
 #: Counts that bound each other in one row of ``summary.csv`` (each at most the next).
 SUMMARY_COUNT_ORDER = (("n_used", "n_ok"), ("n_warned", "n_ok"), ("n_ok", "n_trials"))
+#: The column naming the camera a frame or view was taken by (its id, ``cam0``).
+CAMERA_COLUMN = "camera"
 #: ``frames.csv``: every frame's detection.
 FRAME_COLUMNS = [
     "session",
     "trial",
     "branch",
     "pose",
-    "camera",
+    CAMERA_COLUMN,
     "frame",
     "log_time_ns",
     "found",
@@ -209,7 +211,7 @@ RUN_TABLES = {
 #: same name share.)
 _TEXT = (
     "session", "label", "session_id", "branch", "trials_key", "method", "units", "reason",
-    "camera", "constant", "why_fixed", "error",
+    CAMERA_COLUMN, "constant", "why_fixed", "error",
 )  # fmt: skip
 #: Whole numbers, always known.
 _WHOLE = (

@@ -295,12 +295,13 @@ def main() -> int:
     for site in sites:
         table[(site.kind, site.category, "js" if site.path.endswith(".js") else "py")] += 1
     print("sites (a registered name compared, collected or keyed outside its registry)")
-    print(f"{'kind':<8} {'names':<28} " + " ".join(f"{c:>12}" for c in CATEGORIES))
+    width = max(len(", ".join(sorted(n))) for n in names.values())
+    print(f"{'kind':<8} {'names':<{width}} " + " ".join(f"{c:>12}" for c in CATEGORIES))
     for kind, kind_names in names.items():
         for lang in ("py", "js"):
             cells = " ".join(f"{table[(kind, c, lang)]:>12}" for c in CATEGORIES)
             label = ", ".join(sorted(kind_names)) if lang == "py" else "  (recorder/*.js)"
-            print(f"{kind:<8} {label:<28} {cells}")
+            print(f"{kind:<8} {label:<{width}} {cells}")
     print(f"total: {len(sites)}")
     print()
     params: Counter[str] = Counter()
