@@ -50,29 +50,32 @@ def _build(folder: Path, build: Callable[[Path], None]) -> Path:
     return folder
 
 
-def _simulated(
-    tmp_path_factory: pytest.TempPathFactory, name: str, method: Method, seed: int
-) -> Path:
-    def build(folder: Path) -> None:
-        simulate_session(folder / f"{name}.mcap", method=method, trials=2, frames=3, seed=seed)
+def _simulated(tmp_path_factory: pytest.TempPathFactory, name: str) -> Path:
+    """One of the three small sessions, all in one folder (a session's label in a run's
+    messages is its path from the inputs' common folder: here, its file name)."""
 
-    return built_once(tmp_path_factory, name, build) / f"{name}.mcap"
+    def build(folder: Path) -> None:
+        for method, seed in ((Method.GROUND, 7), (Method.POINT, 8), (Method.LINE, 9)):
+            path = folder / f"{method.value}.mcap"
+            simulate_session(path, method=method, trials=2, frames=3, seed=seed)
+
+    return built_once(tmp_path_factory, "sim", build) / f"{name}.mcap"
 
 
 @pytest.fixture(scope="session")
 def ground_session(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A small simulated method-2 session: 2 trials x 2 poses x 3 frames."""
-    return _simulated(tmp_path_factory, "ground", Method.GROUND, 7)
+    return _simulated(tmp_path_factory, "ground")
 
 
 @pytest.fixture(scope="session")
 def point_session(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    return _simulated(tmp_path_factory, "point", Method.POINT, 8)
+    return _simulated(tmp_path_factory, "point")
 
 
 @pytest.fixture(scope="session")
 def line_session(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    return _simulated(tmp_path_factory, "line", Method.LINE, 9)
+    return _simulated(tmp_path_factory, "line")
 
 
 @pytest.fixture(scope="session")
