@@ -175,10 +175,13 @@ def _line_answer(_request: Any, views: list[Any], P: np.ndarray, estimator: str)
 
 
 def _ground_answer(request: Any, views: list[Any], P: np.ndarray, _estimator: str) -> _Answer:
-    """Method 2: the views' planes and the ground plane ``y = ground_y``."""
+    """Method 2: the views' planes and the method's plane (the ground ``y = ground_y``;
+    another plane's offset under its key, :attr:`twopose.planes.ConstraintPlane.request_key`)."""
+    plane = request["_plane"]
+    key = plane.request_key or plane.setup_key
     lines = np.stack([_image_line(v, f"views[{i}]") for i, v in enumerate(views)])[None]
-    h = _numbers([_field(request, "ground_y", "a ground request")], 1, "ground_y")[0]
-    g = triangulate_ground(lines, P, [0.0, 1.0, 0.0], h)
+    c = _numbers([_field(request, key, f"a request on {plane.name}")], 1, key)[0]
+    g = triangulate_ground(lines, P, *plane.plane(c))
     return {"point": _vec(g.point_grid[0]), **_outcome(g)}
 
 
@@ -230,6 +233,8 @@ def solve_request(method: Method, request: Any) -> dict[str, Any]:
     P = np.stack([_projection(v, f"views[{i}]") for i, v in enumerate(views)])[None]
     solver = spec_of(method).solver
     assert solver is not None  # it measures
+    # The method's plane (method 2's ground): its offset read under the plane's request key.
+    request = {**request, "_plane": spec_of(method).plane} if isinstance(request, dict) else request
     return _ANSWERS[solver](request, views, P, estimator) | {
         "n_views": len(views),
         "estimator": estimator,

@@ -424,10 +424,14 @@ def _console_given(
     target_precision: float | None = None,
 ) -> dict[str, Any]:
     """What the command line gave, as :func:`recorder.interactive.ask_setup` takes it."""
-    from recorder.setup_rules import parse_vector
+    from recorder.setup_rules import other_plane_refusal, parse_vector, plane_option
     from twopose.bounds import GROUND_TRUTH
     from twopose.planes import GROUND_PLANE
 
+    if method is not None and ground_height is not None:  # the page would not ask it
+        refused = other_plane_refusal(method, [GROUND_PLANE.setup_key], plane_option)
+        if refused:
+            raise InputValueError(refused)
     return {
         "method": method.value if method else None,
         "units": units,

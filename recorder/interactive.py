@@ -30,7 +30,9 @@ from recorder.setup_rules import (
     inner_corners,
     number_pair,
     off_plane,
+    other_plane_refusal,
     parse_vector,
+    plane_option,
     reader,
     target_precision,
 )
@@ -201,9 +203,11 @@ def _plane_offset(
     plane = spec_of(method).plane
     if plane is None:
         return None
+    refused = other_plane_refusal(method, given, plane_option)
+    if refused:
+        raise InputValueError(refused)
     if plane.setup_key in given:
-        option = "--" + plane.setup_key.replace("_", "-")
-        return _given(plane.bound, given[plane.setup_key], units, option)
+        return _given(plane.bound, given[plane.setup_key], units, plane_option(plane.setup_key))
     return float(_ask(op, plane.setup_key, units))
 
 

@@ -17,6 +17,7 @@ from recorder.setup_rules import (
     board_refusal,
     default_principal,
     off_plane,
+    other_plane_refusal,
     plane_entry,
 )
 from twopose.bounds import (
@@ -147,12 +148,9 @@ def _plane_offset(data: dict[str, Any], method: Method, units: Units) -> float |
     plane = spec_of(method).plane
     if plane is None:
         return None
-    for key in sorted({p.setup_key for p in PLANES} - {plane.setup_key}):
-        if key in data:
-            raise InputValueError(
-                f"plan: {key} is not a {method} session's: its plane is {plane.name}, "
-                f"{plane.equation}, given as {plane.setup_key}"
-            )
+    refused = other_plane_refusal(method, data, str)
+    if refused:
+        raise InputValueError(f"plan: {refused}")
     if plane.setup_key not in data:
         raise InputValueError(
             f"plan: a {method} session needs {plane.setup_key} ({plane.label}, {plane.equation})"

@@ -249,7 +249,7 @@ SETUP_FIELDS: tuple[SetupField, ...] = (
     ),
     SetupField(
         name="keep_off_ground",
-        label="keep a ground-truth point that is off the ground",
+        label="keep a ground-truth point that is off its plane (method 2: the ground)",
         kind="check",
         asked_by=_on_a_plane,
     ),

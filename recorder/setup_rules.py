@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import time
 import uuid
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -36,8 +36,8 @@ from twopose.format.entries import (
     SessionInfo,
     default_translation_resolution,
 )
-from twopose.methods import Method, spec_of
-from twopose.planes import ConstraintPlane
+from twopose.methods import PLANES, Method, spec_of
+from twopose.planes import GROUND_PLANE, ConstraintPlane
 from twopose.targets import BoardPlacement
 from twopose.units import DEFAULT_UNITS, Units, unit_spec
 from twopose.values import Vec3
@@ -61,8 +61,10 @@ __all__ = [
     "number_pair",
     "off_plane",
     "one_of",
+    "other_plane_refusal",
     "parse_vector",
     "plane_entry",
+    "plane_option",
     "reader",
     "target_precision",
 ]
@@ -258,6 +260,28 @@ def plane_entry(method: Method, offset: float | None) -> GroundPlane | None:
         return None
     normal, c = plane.plane(offset)
     return GroundPlane(normal_grid=normal, offset=c)
+
+
+def plane_option(setup_key: str) -> str:
+    """How the command line gives a plane's offset: ``--ground-height`` for the ground's
+    (its one plane option); another plane's offset is asked."""
+    return "--ground-height" if setup_key == GROUND_PLANE.setup_key else f"{setup_key} (asked)"
+
+
+def other_plane_refusal(method: Method, given: Iterable[str], how: Callable[[str], str]) -> str:
+    """Why offsets of another plane than the method's may not be given (a wall session
+    given the ground height), ``how`` naming a key as its front end does (``--ground-height``,
+    a plan's ``ground_height``); empty when none is. A method on no plane ignores them."""
+    plane = spec_of(method).plane
+    if plane is None:
+        return ""
+    others = sorted(set(given) & ({p.setup_key for p in PLANES} - {plane.setup_key}))
+    if not others:
+        return ""
+    return (
+        f"{how(others[0])} is not a {method} session's: its plane is {plane.name}, "
+        f"{plane.equation}, given as {how(plane.setup_key)}"
+    )
 
 
 def off_plane(plane: ConstraintPlane, point: Vec3, offset: float, units: Units) -> str:

@@ -6,7 +6,7 @@ offset a setup value like the ground height), and nothing else changed.
 The copy simulates it, records it at the terminal and from a plan (the synthetic camera
 rendering the finger pointing at the wall), and analyses each: the estimates land on the
 wall's point. The browser's part is ``tests/recorder/test_wall_page.py``.
-docs/method.md ("A method on another plane") shows the same entry.
+docs/development.md ("Adding a method") shows the same entry.
 """
 
 from __future__ import annotations
@@ -46,13 +46,17 @@ METHOD_SPECS = MappingProxyType(
     {{
         **METHOD_SPECS,
         Method.WALL: dataclasses.replace(
-            METHOD_SPECS[Method.GROUND],
-            method=Method.WALL,
-            plane=WALL_PLANE,
-            thesis_name="the wall (a test's)",
-            label="wall (a test's)",
-            colour="C5",
-            thesis_tested=False,
+            METHOD_SPECS[Method.GROUND], method=Method.WALL, plane=WALL_PLANE,
+            thesis_name="the wall", label="wall", colour="C5", thesis_tested=False,
+            # The ground's words, said of the wall: the page's (MethodPage) and the top
+            # view's; a copy keeps the ground's ("finger's plane on the ground") otherwise.
+            page=dataclasses.replace(
+                METHOD_SPECS[Method.GROUND].page,
+                legend_segments=(("trace", "\\u2014", "finger's plane at the point's height"),),
+                estimate_label="wall point (estimate)", truth_label="true wall point",
+            ),
+            view_segment="view plane's trace at the estimate's height",
+            truth_name="true wall point",
         ),
     }}
 )
@@ -220,3 +224,44 @@ def test_recorded_at_the_terminal_and_analysed(walled: Path) -> None:
     )  # fmt: skip
     assert "wall: its x on the grid (in)" in said
     assert_on_the_wall(analysed(walled, session), 1, within=0.5)
+
+
+def test_the_command_line_refuses_the_ground_height_for_the_wall(walled: Path) -> None:
+    """``--ground-height`` is the ground's; a wall session asks its wall's x (before, the
+    option was silently ignored)."""
+    env = {**os.environ, "PYTHONPATH": str(walled), "NO_COLOR": "1"}
+    for ui in ([], ["--ui"]):
+        done = subprocess.run(
+            [sys.executable, "-m", "recorder", "new", str(walled / "no.mcap"), "--method",
+             "wall", "--ground-height", "6", "--source", "synthetic", *ui],
+            cwd=walled, env=env, capture_output=True, text=True, timeout=300, check=False,
+            stdin=subprocess.DEVNULL,
+        )  # fmt: skip
+        said = done.stdout + done.stderr
+        assert done.returncode == 3, said  # a message naming the input (docs/bad-input.md)
+        assert "--ground-height is not a wall session's: its plane is the wall, x = c" in said
+        assert "Traceback" not in said
+        assert not (walled / "no.mcap").exists()
+
+
+def test_solve_cuts_the_planes_line_with_the_wall(walled: Path) -> None:
+    """``twopose-analyze solve wall`` reads the wall's x under its key and answers a point
+    on the wall (before, the ground's y = h was used whatever the plane)."""
+    import json
+
+    import numpy as np
+
+    truth = np.array(TRUTH)
+    direction = np.array([np.sqrt(0.5), np.sqrt(0.5), 0.0])  # the finger, down to the wall
+    views = []
+    for t in ((0.0, 0.0, 0.0), (3.0, 0.0, 0.0)):
+        ends = [truth - 5 * direction - np.array(t), truth - 8 * direction - np.array(t)]
+        px = [[320 + 525 * p[0] / p[2], 240 + 525 * p[1] / p[2]] for p in ends]
+        views.append(
+            {"K": [525, 525, 320, 240], "pose": {"t": list(t), "r_deg": [0, 0, 0]},
+             "line": {"segment_px": [*px[0], *px[1]]}}
+        )  # fmt: skip
+    request = json.dumps({"views": views, "wall_x": WALL_X})
+    answer = json.loads(run_in(walled, "-m", "analysis", "solve", "wall", stdin=request))
+    assert answer["status"] == "ok", answer
+    assert answer["point"] == pytest.approx(list(TRUTH), abs=1e-6)

@@ -64,6 +64,8 @@ class ConstraintPlane:
     #: The offset in the thesis' setup, in inches (None: nothing to assume); the setup
     #: offers it where the units are the thesis'.
     thesis_offset_in: float | None = None
+    #: The offset's key in ``twopose-analyze solve``'s request (None: :attr:`setup_key`).
+    request_key: str | None = None
 
     def __post_init__(self) -> None:
         """Check the axes: unit length and orthogonal (a typo in a new plane's entry)."""
@@ -122,4 +124,5 @@ GROUND_PLANE = ConstraintPlane(
     axis="y",
     bound=GROUND_HEIGHT,
     thesis_offset_in=9.625,
+    request_key="ground_y",
 )

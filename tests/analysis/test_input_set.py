@@ -28,6 +28,11 @@ from twopose.units import Units
 
 runner = CliRunner()
 
+# Slow: its fixture simulates sessions of every kind and units (~30 s) and its tests run
+# whole batches and every command (~40 s more); make test-all and CI run it. The quick loop
+# keeps the rule through tests/analysis/test_session_identity.py's copies and links.
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def kinds(tmp_path_factory: pytest.TempPathFactory, point_session: Path) -> dict[str, Path]:

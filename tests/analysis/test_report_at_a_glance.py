@@ -152,6 +152,7 @@ def test_the_report_tables_read_in_words_with_the_answers_rounding(bundled_run: 
     assert f">{first['err']:.2f}<" in page
 
 
+@pytest.mark.slow  # four runs into one folder (~18 s): make test-all and CI run it
 def test_a_rerun_reuses_the_figures_nothing_changed(
     tmp_path: Path, point_session: Path, line_session: Path, ground_session: Path
 ) -> None:

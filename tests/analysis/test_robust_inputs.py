@@ -164,16 +164,15 @@ def test_poses_typed_identical_are_degenerate_not_ok(tmp_path: Path, method: str
     assert found["reason"].str.contains("no baseline").all()
 
 
-def test_a_session_over_the_time_limit_fails_alone(
-    tmp_path: Path, odd_sessions: dict[str, Path]
-) -> None:
+def test_a_session_over_the_time_limit_fails_alone(tmp_path: Path, point_session: Path) -> None:
     from analysis.results import AnalysisOptions
 
+    # The shared small session (the odd sessions' fixture costs 25 s of the quick loop).
     options = AnalysisOptions(session_timeout_s=1e-3)
-    result = run([odd_sessions["normal"]], None, options=options)
+    result = run([point_session], None, options=options)
     assert len(result.errors) == 1
     assert "stopped after 0.001 s (--session-timeout)" in result.errors["error"].iloc[0]
-    assert len(run([odd_sessions["normal"]], None).sessions) == 1  # the default: no problem
+    assert len(run([point_session], None).sessions) == 1  # the default: no problem
 
 
 def test_a_fifo_named_mcap_is_refused_not_waited_on(tmp_path: Path) -> None:

@@ -169,6 +169,7 @@ def lab_runs(tmp_path_factory: pytest.TempPathFactory, point_session: Path) -> d
     return runs
 
 
+@pytest.mark.slow  # lab_runs: four full runs (~24 s); make test-all and CI run it
 def test_adding_a_folder_to_the_ci_command_is_no_regression(lab_runs: dict[str, Path]) -> None:
     outcome = check(lab_runs["both"], lab_runs["in"])
     assert not outcome.regressed, outcome.worse()  # was 3 false regressions
@@ -178,6 +179,7 @@ def test_adding_a_folder_to_the_ci_command_is_no_regression(lab_runs: dict[str, 
     assert "shared trial" in compared
 
 
+@pytest.mark.slow  # lab_runs, as above
 def test_a_baseline_in_another_unit_is_converted_and_one_without_units_refused(
     tmp_path: Path, lab_runs: dict[str, Path]
 ) -> None:

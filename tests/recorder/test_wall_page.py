@@ -82,6 +82,11 @@ def test_the_wall_method_is_recorded_in_the_browser(
         page.click("accept")
         page.wait(lambda: len(page.results()) == 1, "the trial's result")
         browser.save_screenshot(str(root / "wall_page.png"))
+        # The page's words are the wall's spec's (its MethodPage), none of the ground's.
+        body = browser.find_element(By.TAG_NAME, "body").text
+        assert "wall point (estimate)" in body
+        assert "wall's x 9.625 in" in body
+        assert "on the ground" not in body
         page.click("quit")
         page.click("quit-confirm")
         summary = browser.find_element(By.ID, "summary")

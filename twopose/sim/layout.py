@@ -75,7 +75,7 @@ class Decal:
     table (x, z), wall (x, y).
     """
 
-    surface: str  # "table" | "wall"
+    surface: str  # "table" | "back_wall" (the scene's wall z = wall_z)
     shape: str  # disk | ring | ellipse | triangle
     center: F64
     size: F64  # disk: (r, r); ring: (a, b) outer semi-axes; triangle unused
@@ -323,7 +323,7 @@ def _clutter_place(
             center = np.array([rng.uniform(*c.table_x_range), rng.uniform(*c.table_z_range)])
             scale = c.table_size
             point = np.array([center[0], scene.ground_height, center[1]])
-        surface = "wall" if on_wall else "table"
+        surface = "back_wall" if on_wall else "table"
         apart = all(
             d.surface != surface or np.linalg.norm(d.center - center) > 2.2 * scale + c.gap
             for d in decals

@@ -331,7 +331,7 @@ def _shade_background(
     wall_tex = np.tile(srgb_to_linear(scene.wall_color), (int(on_wall.sum()), 1))
     wall_pts = pw[on_wall][:, [0, 1]]
     for decal in layout.decals:
-        if decal.surface == "wall":
+        if decal.surface == "back_wall":
             wall_tex[_decal_mask(decal, wall_pts)] = decal.color
     albedo[on_wall] = wall_tex
     normals[on_wall] = (0.0, 0.0, -1.0)

@@ -45,7 +45,7 @@ def test_the_clutter_is_one_draw_per_generator() -> None:
     again = build_layout(scene, Method.GROUND, np.random.default_rng(5)).decals
     other = build_layout(scene, Method.GROUND, np.random.default_rng(6)).decals
     assert len(first) > 0
-    assert {d.surface for d in first} <= {"table", "wall"}
+    assert {d.surface for d in first} <= {"table", "back_wall"}
     assert [d.center.tolist() for d in first] == [d.center.tolist() for d in again]
     assert [d.center.tolist() for d in first] != [d.center.tolist() for d in other]
     none = load_scene(clutter={"count": 0})

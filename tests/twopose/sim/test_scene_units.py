@@ -102,6 +102,7 @@ def sessions_by_units(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Pat
     return made
 
 
+@pytest.mark.slow  # three sessions simulated and analysed (~22 s): make test-all and CI
 def test_the_same_session_in_any_units_gives_the_same_results_up_to_scale(
     sessions_by_units: dict[str, Path],
 ) -> None:
