@@ -424,14 +424,12 @@ def _console_given(
     target_precision: float | None = None,
 ) -> dict[str, Any]:
     """What the command line gave, as :func:`recorder.interactive.ask_setup` takes it."""
-    from recorder.setup_rules import other_plane_refusal, parse_vector, plane_option
+    from recorder.setup_rules import parse_vector, refuse_other_planes
     from twopose.bounds import GROUND_TRUTH
     from twopose.planes import GROUND_PLANE
 
     if method is not None and ground_height is not None:  # the page would not ask it
-        refused = other_plane_refusal(method, [GROUND_PLANE.setup_key], plane_option)
-        if refused:
-            raise InputValueError(refused)
+        refuse_other_planes(method, [GROUND_PLANE.setup_key])
     return {
         "method": method.value if method else None,
         "units": units,
@@ -439,8 +437,7 @@ def _console_given(
         "intrinsics_sigma": _calibration_sigma(calibration),
         "focal": focal,
         "principal": _principal(principal),
-        # --ground-height is the ground plane's offset (another plane's is asked).
-        GROUND_PLANE.setup_key: ground_height,
+        GROUND_PLANE.setup_key: ground_height,  # the one plane option (others are asked)
         "ground_truth": [
             _option("--ground-truth", parse_vector, g, units, quantity=GROUND_TRUTH)
             for g in ground_truth or []

@@ -30,10 +30,10 @@ from recorder.setup_rules import (
     inner_corners,
     number_pair,
     off_plane,
-    other_plane_refusal,
     parse_vector,
     plane_option,
     reader,
+    refuse_other_planes,
     target_precision,
 )
 from recorder.sources import FrameSource, SourceInfo
@@ -203,9 +203,7 @@ def _plane_offset(
     plane = spec_of(method).plane
     if plane is None:
         return None
-    refused = other_plane_refusal(method, given, plane_option)
-    if refused:
-        raise InputValueError(refused)
+    refuse_other_planes(method, given)
     if plane.setup_key in given:
         return _given(plane.bound, given[plane.setup_key], units, plane_option(plane.setup_key))
     return float(_ask(op, plane.setup_key, units))

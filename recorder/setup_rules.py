@@ -66,6 +66,7 @@ __all__ = [
     "plane_entry",
     "plane_option",
     "reader",
+    "refuse_other_planes",
     "target_precision",
 ]
 
@@ -282,6 +283,14 @@ def other_plane_refusal(method: Method, given: Iterable[str], how: Callable[[str
         f"{how(others[0])} is not a {method} session's: its plane is {plane.name}, "
         f"{plane.equation}, given as {how(plane.setup_key)}"
     )
+
+
+def refuse_other_planes(method: Method, given: Iterable[str]) -> None:
+    """Raise :class:`InputValueError` if the command line (or a caller) gave another
+    plane's offset than the method's (:func:`other_plane_refusal`)."""
+    refused = other_plane_refusal(method, given, plane_option)
+    if refused:
+        raise InputValueError(refused)
 
 
 def off_plane(plane: ConstraintPlane, point: Vec3, offset: float, units: Units) -> str:

@@ -318,7 +318,7 @@ def test_degeneracy_margins_and_configurable_warnings(
 
 
 def test_every_estimate_carries_its_uncertainty(
-    point_session: Path, line_session: Path, ground_session: Path, exact_sessions: Path
+    point_session: Path, line_session: Path, ground_session: Path
 ) -> None:
     t = run([point_session, line_session, ground_session]).trials
     assert (t["status"] == "ok").all()
@@ -332,6 +332,13 @@ def test_every_estimate_carries_its_uncertainty(
         assert (g["dominant_input"].str.endswith("translation")).all(), method
         assert g["dominant_share"].between(0.34, 1.0).all()
     assert by["ground"]["sigma_y"].max() < 1e-6  # the ground plane fixes the height
+
+
+@pytest.mark.slow  # the exact sessions' fixture simulates three sessions (~12 s)
+def test_poses_typed_exactly_leave_the_pixels_dominant(
+    point_session: Path, exact_sessions: Path
+) -> None:
+    by = dict(list(run([point_session]).trials.groupby("method")))
     # Poses typed exactly (recorded 1-sigma 1e-9): what remains is the pixels' scatter.
     exact = run([exact_sessions]).trials
     assert (exact["dominant_input"] == "pixels").all()
