@@ -201,6 +201,7 @@ def test_a_full_disk_is_a_clear_error_and_leaves_no_half_written_file(
     assert all(p.stat().st_size > 0 for p in out.iterdir() if p.is_file() and p.suffix == ".csv")
 
 
+@pytest.mark.slow  # a full run per name (~6 s each): make test-all and CI run it
 @pytest.mark.parametrize("name", ["na\udcefve.mcap", "s" * 235 + ".mcap"])
 def test_odd_session_file_names_are_analysed(
     tmp_path: Path, point_session: Path, name: str

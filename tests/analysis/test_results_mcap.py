@@ -117,6 +117,7 @@ def test_images_carry_their_detections(results: tuple[Path, Any]) -> None:
         assert f"trial {row['trial']} pose {row['pose']}" in overlay.texts[-1].text
 
 
+@pytest.mark.slow  # two full runs into folders (~7.5 s): make test-all and CI run it
 def test_no_scene_and_failed_sessions_leave_no_results_file(
     tmp_path: Path, point_session: Path
 ) -> None:

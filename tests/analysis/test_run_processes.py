@@ -164,6 +164,7 @@ def test_kill_9_of_a_run_leaves_no_process(
     assert "Traceback" not in err.read_text()
 
 
+@pytest.mark.slow  # a run's process tree started and interrupted (~8 s): make test-all, CI
 def test_an_interrupted_run_exits_130_and_leaves_no_process(sessions: Path, tmp_path: Path) -> None:
     """Ctrl-C to the run alone (not its group): its workers are stopped by it."""
     proc = _start(sessions, tmp_path / "out", tmp_path / "stderr")
@@ -182,6 +183,7 @@ def test_an_interrupted_run_exits_130_and_leaves_no_process(sessions: Path, tmp_
     assert not left, f"still running {GONE_S:g} s after the run ended: {left}"
 
 
+@pytest.mark.slow  # a run's process tree into a closed pipe (~8 s): make test-all, CI
 def test_a_run_into_a_closed_pipe_leaves_no_process_and_no_traceback(
     sessions: Path, tmp_path: Path
 ) -> None:

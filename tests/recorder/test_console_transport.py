@@ -90,6 +90,7 @@ def test_slow_connections_do_not_lock_the_operator_out(
     assert "Too many open files" not in (tmp_path / "err.txt").read_text()
 
 
+@pytest.mark.slow  # waits out the server's 10 s header timeout: make test-all and CI
 def test_headers_that_never_finish_are_cut_off(
     console: tuple[str, subprocess.Popen[str]],
 ) -> None:
