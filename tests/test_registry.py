@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -19,12 +18,11 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-REPO = Path(__file__).resolve().parents[1]
-PACKAGES = ("twopose", "recorder", "analysis")
-ANCHOR = "#: The methods' names, in the order the thesis presents them, then the board."
-FAKE_SPEC = f"""
+from tests.helpers import copy_with_method
+
+FAKE_SPEC = """
 METHOD_SPECS = MappingProxyType(
-    {{
+    {
         **METHOD_SPECS,
         Method.FAKE: dataclasses.replace(
             METHOD_SPECS[Method.POINT],
@@ -34,33 +32,15 @@ METHOD_SPECS = MappingProxyType(
             colour="C5",
             thesis_tested=False,
         ),
-    }}
+    }
 )
-{ANCHOR}"""
+"""
 
 
 @pytest.fixture(scope="module")
 def with_fake(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A copy of the packages whose registry holds one more method, ``fake``."""
-    root = tmp_path_factory.mktemp("registry")
-    for package in PACKAGES:
-        shutil.copytree(
-            REPO / package, root / package, ignore=shutil.ignore_patterns("__pycache__")
-        )
-    methods = root / "twopose" / "methods.py"
-    text = methods.read_text(encoding="utf-8")
-    board = '    BOARD = "board"'
-    assert board in text, "the registry's layout changed: update this test"
-    assert ANCHOR in text, "the registry's layout changed: update this test"
-    text = text.replace(board, f'{board}\n    FAKE = "fake"', 1)
-    text = text.replace(ANCHOR, FAKE_SPEC, 1)
-    text = text.replace(
-        "from __future__ import annotations\n",
-        "from __future__ import annotations\n\nimport dataclasses\n",
-        1,
-    )
-    methods.write_text(text, encoding="utf-8")
-    return root
+    return copy_with_method(tmp_path_factory.mktemp("registry"), 'FAKE = "fake"', FAKE_SPEC)
 
 
 def _run(root: Path, *args: str, stdin: str | None = None) -> subprocess.CompletedProcess[str]:

@@ -12,7 +12,6 @@ docs/development.md ("Adding a method") shows the same entry.
 from __future__ import annotations
 
 import os
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -20,14 +19,13 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from tests.helpers import copy_with_method
+
 # Slow: copies the packages and records and analyses in subprocesses (make test-all, CI).
 pytestmark = pytest.mark.slow
 
-REPO = Path(__file__).resolve().parents[1]
-PACKAGES = ("twopose", "recorder", "analysis")
-ANCHOR = "#: The methods' names, in the order the thesis presents them, then the board."
 #: The wall's entry, as docs/method.md gives it: the wall x = c, c typed as ``wall_x``.
-WALL_ENTRY = f"""
+WALL_ENTRY = """
 from twopose.bounds import Kind, Quantity
 from twopose.planes import ConstraintPlane
 
@@ -43,7 +41,7 @@ WALL_PLANE = ConstraintPlane(
     bound=Quantity(key="wall_x", words="wall's x", kind=Kind.LENGTH, low=-200.0, high=200.0),
 )
 METHOD_SPECS = MappingProxyType(
-    {{
+    {
         **METHOD_SPECS,
         Method.WALL: dataclasses.replace(
             METHOD_SPECS[Method.GROUND], method=Method.WALL, plane=WALL_PLANE,
@@ -58,9 +56,9 @@ METHOD_SPECS = MappingProxyType(
             view_segment="view plane's trace at the estimate's height",
             truth_name="true wall point",
         ),
-    }}
+    }
 )
-{ANCHOR}"""
+"""
 #: The synthetic scene's finger points at its ``ground_point`` of its method's plane, whose
 #: offset is the scene's ``ground_height`` (9.625 in): here (y, z) = (6, 14) on the wall
 #: x = 9.625, the finger coming down to it at 45 degrees from the wall's normal (a finger
@@ -79,22 +77,7 @@ POSES = ((0.0, 0.0, 0.0), (3.0, 0.0, 0.0), (-2.0, 0.0, 1.0))
 
 def add_the_wall(root: Path) -> Path:
     """Copy the packages under ``root`` and add the wall method to the copy's registry."""
-    for package in PACKAGES:
-        shutil.copytree(
-            REPO / package, root / package, ignore=shutil.ignore_patterns("__pycache__")
-        )
-    methods = root / "twopose" / "methods.py"
-    text = methods.read_text(encoding="utf-8")
-    board = '    BOARD = "board"'
-    assert board in text, "the registry's layout changed: update this test"
-    assert ANCHOR in text, "the registry's layout changed: update this test"
-    text = text.replace(board, f'{board}\n    WALL = "wall"', 1).replace(ANCHOR, WALL_ENTRY, 1)
-    text = text.replace(
-        "from __future__ import annotations\n",
-        "from __future__ import annotations\n\nimport dataclasses\n",
-        1,
-    )
-    methods.write_text(text, encoding="utf-8")
+    copy_with_method(root, 'WALL = "wall"', WALL_ENTRY)
     (root / "wall_scene.toml").write_text(SCENE, encoding="utf-8")
     return root
 

@@ -7,7 +7,6 @@ from __future__ import annotations
 import ast
 import json
 import os
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -24,6 +23,7 @@ from recorder.setup_form import (
     parse_pose_form,
     setup_from_answers,
 )
+from tests.helpers import copy_with_method
 from twopose.camera import Intrinsics
 from twopose.units import Units
 
@@ -187,18 +187,16 @@ def test_a_principal_point_outside_the_image_is_refused(principal: str, why: str
 # --------------------------------------------------------------------------- the registry decides
 
 REPO = Path(__file__).resolve().parents[2]
-#: The registry's anchors (as tests/test_registry.py patches a copy of it).
-ANCHOR = "#: The methods' names, in the order the thesis presents them, then the board."
-WALL_SPEC = f"""
+WALL_SPEC = """
 METHOD_SPECS = MappingProxyType(
-    {{
+    {
         **METHOD_SPECS,
         Method.WALL: dataclasses.replace(
             METHOD_SPECS[Method.GROUND], method=Method.WALL, label="wall (a test's)"
         ),
-    }}
+    }
 )
-{ANCHOR}"""
+"""
 #: Run in the copy: the page's fields for the new method and for ground, and the setup
 #: a form for the new method gives.
 PROBE = """
@@ -222,22 +220,7 @@ def test_a_method_added_to_the_registry_alone_is_asked_what_its_spec_says(
     shows it the ground height (the fields are the ground's) and a form with it is a setup.
     Before, the fields named their methods, the page hid the height and the form demanded
     it."""
-    for package in ("twopose", "recorder"):
-        shutil.copytree(
-            REPO / package, tmp_path / package, ignore=shutil.ignore_patterns("__pycache__")
-        )
-    methods = tmp_path / "twopose" / "methods.py"
-    text = methods.read_text(encoding="utf-8")
-    board = '    BOARD = "board"'
-    assert board in text, "the registry's layout changed: update this test"
-    assert ANCHOR in text, "the registry's layout changed: update this test"
-    text = text.replace(board, f'{board}\n    WALL = "wall"', 1).replace(ANCHOR, WALL_SPEC, 1)
-    text = text.replace(
-        "from __future__ import annotations\n",
-        "from __future__ import annotations\n\nimport dataclasses\n",
-        1,
-    )
-    methods.write_text(text, encoding="utf-8")
+    copy_with_method(tmp_path, 'WALL = "wall"', WALL_SPEC, packages=("twopose", "recorder"))
     env = {**os.environ, "PYTHONPATH": str(tmp_path)}
     done = subprocess.run(
         [sys.executable, "-c", PROBE], cwd=tmp_path, env=env, capture_output=True, text=True,
