@@ -10,37 +10,16 @@ difference (``tests/twopose/test_bounds.py`` runs the comparison in the quick lo
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[1]
-PAGE = REPO / "docs" / "recording.md"
-BEGIN = "<!-- bounds table: written by docs/bounds_table.py --write-docs -->\n"
-END = "<!-- end of the bounds table -->\n"
-
-
-def written(page: str) -> str:
-    """``page`` with the table between its markers as the code states it."""
-    sys.path.insert(0, str(REPO))
-    from twopose.bounds import markdown_table
-
-    head, rest = page.split(BEGIN, 1)
-    _, tail = rest.split(END, 1)
-    return head + BEGIN + markdown_table() + END + tail
+from marked_table import REPO, write_or_check  # type: ignore[import-not-found]  # docs/ is sys.path[0]
 
 
 def main() -> int:
-    page = PAGE.read_text("utf-8")
-    new = written(page)
-    if "--write-docs" in sys.argv[1:]:
-        PAGE.write_text(new, "utf-8")
-        return 0
-    if new != page:
-        print(
-            f"{PAGE.relative_to(REPO)}: the bounds table is stale; run: "
-            ".venv/bin/python docs/bounds_table.py --write-docs"
-        )
-        return 1
-    return 0
+    sys.path.insert(0, str(REPO))
+    from twopose.bounds import markdown_table
+
+    return write_or_check(REPO / "docs" / "recording.md", "bounds table", markdown_table,
+                          "bounds_table.py")  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -10,37 +10,16 @@ difference (``tests/analysis/test_trial_columns.py`` runs the comparison in the 
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[1]
-PAGE = REPO / "docs" / "analysis.md"
-BEGIN = "<!-- trials.csv columns: written by docs/trial_columns_table.py --write-docs -->\n"
-END = "<!-- end of the trials.csv columns -->\n"
-
-
-def written(page: str) -> str:
-    """``page`` with the table between its markers as the code states it."""
-    sys.path.insert(0, str(REPO))
-    from analysis.trial_columns import markdown_table
-
-    head, rest = page.split(BEGIN, 1)
-    _, tail = rest.split(END, 1)
-    return head + BEGIN + markdown_table() + END + tail
+from marked_table import REPO, write_or_check  # type: ignore[import-not-found]  # docs/ is sys.path[0]
 
 
 def main() -> int:
-    page = PAGE.read_text("utf-8")
-    new = written(page)
-    if "--write-docs" in sys.argv[1:]:
-        PAGE.write_text(new, "utf-8")
-        return 0
-    if new != page:
-        print(
-            f"{PAGE.relative_to(REPO)}: the trials.csv columns' table is stale; run: "
-            ".venv/bin/python docs/trial_columns_table.py --write-docs"
-        )
-        return 1
-    return 0
+    sys.path.insert(0, str(REPO))
+    from analysis.trial_columns import markdown_table
+
+    return write_or_check(REPO / "docs" / "analysis.md", "trials.csv columns", markdown_table,
+                          "trial_columns_table.py")  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -242,3 +242,29 @@ def test_the_docs_screenshots_are_the_browser_tests_and_the_pages_show_them() ->
         assert re.search(r"!\[[^\]]+\]\(images/[\w-]+\.png\)", text), page
     shown = "".join(p.read_text() for p in (REPO / "docs").glob("*.md"))
     assert all(f"images/{name}" in shown for name in images)
+
+
+def test_a_marked_table_is_refused_when_stale_and_written_with_write_docs(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """docs/marked_table.py, the one --write-docs mechanism of the docs' generated tables."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("marked_table", REPO / "docs" / "marked_table.py")
+    assert spec is not None
+    assert spec.loader is not None
+    marked = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(marked)
+    monkeypatch.setattr(marked, "REPO", tmp_path)
+    page = tmp_path / "page.md"
+    begin, end = "<!-- t: written by docs/s.py --write-docs -->\n", "<!-- end of the t -->\n"
+    page.write_text(f"before\n{begin}old\n{end}after\n", "utf-8")
+    monkeypatch.setattr(sys, "argv", ["s.py"])
+    assert marked.write_or_check(page, "t", lambda: "new\n", "s.py") == 1
+    assert "page.md: its t are not the code's; run: " in capsys.readouterr().out
+    assert "old" in page.read_text("utf-8")  # a check writes nothing
+    monkeypatch.setattr(sys, "argv", ["s.py", "--write-docs"])
+    assert marked.write_or_check(page, "t", lambda: "new\n", "s.py") == 0
+    assert page.read_text("utf-8") == f"before\n{begin}new\n{end}after\n"
+    monkeypatch.setattr(sys, "argv", ["s.py"])
+    assert marked.write_or_check(page, "t", lambda: "new\n", "s.py") == 0
