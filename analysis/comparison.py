@@ -211,7 +211,7 @@ def _with_errors(trials: pd.DataFrame, side: RunSide) -> pd.DataFrame:
     """``trials`` with ``err_x, err_y, err_z, err`` of ``side``'s estimator against the
     truth; ``within95`` only for the thesis estimator, whose covariance it is. Each trial is
     keyed by what it is (``_pair``: its session, part and number), never by its path."""
-    missing = [c for c in ("session_id", "part") if c not in trials.columns]
+    missing = [c for c in ("session_id", "part", "branch") if c not in trials.columns]
     if missing:
         raise InputValueError(
             f"{side.folder}/trials.csv has no column {', '.join(missing)}: it predates session "

@@ -117,6 +117,22 @@ def test_an_older_run_without_new_columns_still_compares(
     assert comparison.tests["n_pairs"].sum() == len(comparison.paired) > 0
 
 
+@pytest.mark.parametrize("column", ["session_id", "part", "branch"])
+def test_a_run_without_a_trial_identity_column_is_refused_not_a_traceback(
+    two_runs: tuple[Path, Path], tmp_path: Path, column: str
+) -> None:
+    """A trials.csv without ``branch`` (hypothesis dropped column 4 in CI) was a KeyError."""
+    old = tmp_path / "old"
+    shutil.copytree(two_runs[0], old)
+    trials = pd.read_csv(old / "trials.csv")
+    trials.drop(columns=[column]).to_csv(old / "trials.csv", index=False)
+    result = runner.invoke(
+        app, ["compare", str(old), str(two_runs[1]), "--out", str(tmp_path / "c")]
+    )
+    assert result.exit_code == 3, result.output
+    assert f"trials.csv has no column {column}: it predates session identities" in result.output
+
+
 def test_compare_refuses_a_folder_that_is_not_a_run(tmp_path: Path) -> None:
     result = runner.invoke(app, ["compare", str(tmp_path), str(tmp_path), "--out", "x"])
     assert result.exit_code == 3
