@@ -65,6 +65,7 @@ __all__ = [
     "predicted_regions",
     "regions95",
     "suggest",
+    "target_of",
 ]
 
 #: The thesis' move from one pose to the next: about an inch along x (Appendix D's 1.1 in).
@@ -285,7 +286,13 @@ def predicted_regions(
     return out
 
 
-def _target(trial: SessionTrials, options: EstimateOptions, point: F64 | None) -> F64:
+def target_of(trial: SessionTrials, options: EstimateOptions, point: F64 | None) -> F64:
+    """(2, 3) the trial's target as guidance uses it.
+
+    With two poses or more and the trial's estimate ``point``: the target they locate
+    (:func:`located_target`). With one pose (or no estimate): the provisional target on the
+    first view's ray at the depth the suggestion assumes (:func:`provisional_target`).
+    """
     views = trial.views[0]
     if len(views) < 2 or point is None:
         return provisional_target(views[0], Units(trial.units), trial.ground, options)
@@ -334,7 +341,7 @@ def suggest(
     views = trial.views[0]
     located = None if point is None else np.asarray(point, dtype=np.float64)
     provisional = len(views) < 2 or located is None
-    best = _best(trial, views, _target(trial, options, located), reach, options)
+    best = _best(trial, views, target_of(trial, options, located), reach, options)
     if best is None:
         return None
     found, thesis_t = best
@@ -430,7 +437,7 @@ def advise(
     horizon = min(guidance.max_poses, n + LOOKAHEAD_POSES)  # the prediction's cost is bounded
     if target95 is not None:
         located = None if point is None else np.asarray(point, dtype=np.float64)
-        more = _more_poses(trial, guidance, options, _target(trial, options, located),
+        more = _more_poses(trial, guidance, options, target_of(trial, options, located),
                            suggestion, horizon)  # fmt: skip
     said = suggestion.text(units)
     if target95 is not None:

@@ -144,3 +144,30 @@ def test_a_reach_without_a_lattice_and_a_bad_target_are_refused() -> None:
         Guidance(reach=Reach.thesis(Units.IN), target95=0.0)
     with pytest.raises(ValueError, match="max_poses"):
         Guidance(reach=Reach.thesis(Units.IN), max_poses=1)
+
+
+@pytest.mark.parametrize("method", [Method.POINT, Method.LINE])
+def test_target_of_is_the_located_target_with_two_poses_and_on_the_ray_with_one(
+    method: Method,
+) -> None:
+    from twopose.guidance import target_of
+    from twopose.session_estimate import estimate_session
+
+    options = EstimateOptions()
+    two = _trial(method, [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0)])
+    point = estimate_session(two, options).estimates.point[0]
+    located = target_of(two, options, point)
+    assert located.shape == (2, 3)
+    truth = POINT if method is Method.POINT else FINGER[0]
+    # The located target lies on the true target (the point, or the finger's line).
+    if method is Method.POINT:
+        assert located[0] == pytest.approx(truth, abs=0.05)
+    else:
+        d = FINGER[1] - FINGER[0]
+        off = np.cross(located[0] - FINGER[0], d) / np.linalg.norm(d)
+        assert np.linalg.norm(off) < 0.1
+    one = _trial(method, [(0.0, 0.0, 0.0)])
+    provisional = target_of(one, options, None)
+    # One pose: on the first view's ray through the target (its direction, not its depth).
+    ray = provisional[0] / np.linalg.norm(provisional[0])
+    assert ray == pytest.approx(truth / np.linalg.norm(truth), abs=0.01)
