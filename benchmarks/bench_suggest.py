@@ -45,11 +45,11 @@ from twopose.estimate import EstimateOptions, PoseView  # noqa: E402
 from twopose.guidance import (  # noqa: E402
     Guidance,
     Reach,
-    _target,
     _template,
     advise,
     predicted_regions,
     suggest,
+    target_of,
 )
 from twopose.methods import Method, spec_of  # noqa: E402
 from twopose.paper_search import clear_of_edges, field_in_view, half_planes  # noqa: E402
@@ -182,7 +182,7 @@ def _reference(case: Case) -> tuple[float, float, int, bool]:
     if found is None:
         return math.nan, math.nan, 0, False
     located = None if point is None else np.asarray(point)
-    target = _target(trial, options, located)
+    target = target_of(trial, options, located)
     lines = spec_of(trial.method).uses_image_lines
     taken = np.array([v.t_grid for v in views])
     planes = half_planes(_template(views), target, Units(trial.units), float(taken[0][1]),

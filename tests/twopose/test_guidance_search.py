@@ -19,10 +19,10 @@ from twopose.estimate import EstimateOptions, PoseView
 from twopose.guidance import (
     LOOKAHEAD_POSES,
     Guidance,
-    _target,
     advise,
     predicted_regions,
     suggest,
+    target_of,
 )
 from twopose.methods import Method
 from twopose.paper_search import EDGE, TAKEN, Reach, clear_of_edges, lattice
@@ -138,7 +138,7 @@ def test_every_pose_the_search_predicts_keeps_the_target_clear_and_the_left_out_
     trial = _trial(method, [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0)])
     options = EstimateOptions()
     point = _point(trial)
-    target = _target(trial, options, None if point is None else np.asarray(point))
+    target = target_of(trial, options, None if point is None else np.asarray(point))
     reach = Reach(radius=6.0, spacing=0.5)
     found = suggest(trial, reach, options, point=point)
     assert found is not None
@@ -189,7 +189,7 @@ def test_the_pick_is_within_2_percent_of_the_whole_lattices_best(method: Method)
     assert found is not None
     assert found.n_predicted < found.n_candidates  # not the whole lattice
     every = lattice(np.zeros(3), reach, np.array([v.t_grid for v in trial.views[0]]))
-    target = _target(trial, options, None if point is None else np.asarray(point))
+    target = target_of(trial, options, None if point is None else np.asarray(point))
     regions = predicted_regions(trial, trial.views[0], target, every, options)
     best = float(np.nanmin(regions))
     assert found.predicted95 <= best * 1.02
