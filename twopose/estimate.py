@@ -417,12 +417,14 @@ def input_covariance(
     *,
     median: bool,
     floor: tuple[float, float] = (0.0, 0.0),
+    t_sigma: float | None = None,
 ) -> F64:
     """Each view's input covariance (T, N, 9, 9): pixels and typed pose.
 
     (T, N, 9, 9): each view's pixel covariance from its frame scatter and the detector's
     ``floor`` (:func:`~twopose.uncertainty.measurement_covariance`), and its typed pose's
-    1-sigma resolutions on the diagonal (padding views: zero).
+    1-sigma resolutions on the diagonal (padding views: zero). ``t_sigma``: a measured
+    placing sigma (session units) in place of each pose's typed resolution.
     """
     T, N, D = batch.inputs.shape
     C = np.zeros((T, N, D, D))
@@ -433,7 +435,7 @@ def input_covariance(
             C[i, j, :3, :3] = measurement_covariance(
                 S, dof, pooled, m.n_used, median=median, floor=floor
             )
-            C[i, j, 3:6, 3:6] = np.eye(3) * v.t_sigma**2
+            C[i, j, 3:6, 3:6] = np.eye(3) * (v.t_sigma if t_sigma is None else t_sigma) ** 2
             C[i, j, 6:9, 6:9] = np.eye(3) * v.r_sigma_deg**2
     return C
 

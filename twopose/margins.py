@@ -8,9 +8,10 @@ solvers so that the command line takes its defaults from it without importing Nu
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from twopose.choices import CombineRule
+from twopose.noise import NoiseModel
 
 __all__ = [
     "DEFAULT_MIN_CONDITIONING",
@@ -39,3 +40,6 @@ class EstimateOptions:
     min_parallax_deg: float = DEFAULT_MIN_PARALLAX_DEG
     min_plane_angle_deg: float = DEFAULT_MIN_PLANE_ANGLE_DEG
     min_ground_angle_deg: float = DEFAULT_MIN_GROUND_ANGLE_DEG
+    #: The noise every region assumes: the placing sigma (typed or measured) and the
+    #: variance factor's test (:mod:`twopose.noise`).
+    noise: NoiseModel = field(default_factory=NoiseModel)

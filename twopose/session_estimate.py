@@ -47,6 +47,7 @@ __all__ = [
     "SessionTrials",
     "Uncertainty",
     "estimate_session",
+    "placing_sigma",
     "running_estimates",
 ]
 
@@ -224,6 +225,7 @@ def estimate_session(
         batch,
         median=options.combine == "median",
         floor=spec_of(trials.method).detector_floor,
+        t_sigma=placing_sigma(trials, options),
     )
     context = _Propagation(
         rows=solvable,
@@ -234,6 +236,15 @@ def estimate_session(
     )
     est = _solved_estimates(trials, complete, context, options, line_fits=line_fits)
     return _session_estimate(trials, measurements, complete, detected, est, options, context)
+
+
+def placing_sigma(trials: SessionTrials, options: EstimateOptions) -> float | None:
+    """The placing sigma in the session's units, measured (:mod:`twopose.noise`).
+
+    None: each pose's typed resolution stands.
+    """
+    placing = options.noise.placing
+    return None if placing is None or not trials.units else placing.sigma(trials.units)
 
 
 def _session_estimate(

@@ -1,0 +1,180 @@
+"""The noise a trial's 95% region assumes, defined once (issue 46).
+
+Every region (the analysis' ``trials.csv``, the recorder's live result, guidance's
+predictions) propagates three inputs (:mod:`twopose.uncertainty`): each pose's frame
+scatter, the calibration's 1-sigma and the operator's **placing error**, the 1-sigma of each
+typed translation component. That last one dominates a trial's region, and it is the one
+nobody measured: it was the resolution the operator typed. Here it is
+
+* :class:`PlacingSigma`: the placing error, typed (each pose's recorded resolution) or
+  **measured** by a board session (:func:`twopose.rig.board.fit_board_rig`: each capture's
+  camera position, known from the board's corners to a fraction of a millimetre, against
+  its typed pose after the rig's constants), with its own 1-sigma and where it came from;
+* :class:`VarianceFactor`: the **a-posteriori variance factor** ``sigma0^2`` of
+  photogrammetry, pooled over the trials that share an operator and a setup (a session):
+  trials with redundant measurements (three poses or more, or two rays of a point) test the
+  whole noise model by their misclosures. When the data contradict the model (the test's
+  upper 5% tail), every region widens by ``sigma0^2`` with the quantile of Fisher's F
+  instead of the chi-square (the factor is itself estimated, from ``dof`` degrees of
+  freedom); when they agree, nothing changes;
+* :class:`NoiseModel`: the two as the estimation's options carry them
+  (:attr:`twopose.margins.EstimateOptions.noise`).
+
+Light: the command lines read it; NumPy and SciPy are imported where a number is computed.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+__all__ = [
+    "FACTOR_TEST_LEVEL",
+    "NoiseModel",
+    "PlacingSigma",
+    "VarianceFactor",
+    "region_quantile",
+]
+
+#: The variance factor's test: the model is contradicted when ``dof * sigma0^2`` lies in
+#: the chi-square's upper 5% tail.
+FACTOR_TEST_LEVEL = 0.05
+#: The regions' level.
+_REGION_LEVEL = 0.95
+
+
+def _inches_per(units: str) -> float:
+    from twopose.units import unit_spec
+
+    return unit_spec(units).inches
+
+
+@dataclass(frozen=True, kw_only=True)
+class PlacingSigma:
+    """The operator's placing error: the 1-sigma of each typed translation component.
+
+    In inches (converted per session); ``sigma_sigma_in`` is the estimate's own 1-sigma
+    (NaN: not measured); ``measured_by`` names the board session(s) that measured it, over
+    ``captures`` captures.
+    """
+
+    sigma_in: float
+    sigma_sigma_in: float = math.nan
+    measured_by: str = ""
+    captures: int = 0
+
+    def __post_init__(self) -> None:
+        """Refuse a placing sigma that is not a positive finite length."""
+        from twopose.errors import InputValueError
+
+        if not (math.isfinite(self.sigma_in) and self.sigma_in > 0):
+            raise InputValueError(
+                f"the placing sigma must be a positive length, got {self.sigma_in!r}; "
+                "measure it again with `twopose-analyze rig` on a board session"
+            )
+
+    def sigma(self, units: str) -> float:
+        """The placing sigma in ``units``."""
+        return self.sigma_in / _inches_per(units)
+
+    def describe(self, units: str) -> str:
+        """Which placing sigma a run used and where it came from, in words."""
+        value = f"{self.sigma(units):.3g}"
+        if math.isfinite(self.sigma_sigma_in):
+            value += f" ± {self.sigma_sigma_in / _inches_per(units):.2g}"
+        where = f"measured by {self.measured_by}" if self.measured_by else "given"
+        if self.captures:
+            where += f" ({self.captures} captures)"
+        return f"placing sigma {value} {units}, {where}"
+
+
+def typed_placing(resolutions: list[float], units: str) -> str:
+    """The typed placing sigma in words (each pose's recorded resolution)."""
+    if not resolutions:
+        return "placing sigma: typed (no pose recorded)"
+    low, high = min(resolutions), max(resolutions)
+    value = f"{low:.3g}" if math.isclose(low, high) else f"{low:.3g} to {high:.3g}"
+    return f"placing sigma {value} {units}, typed (the poses' recorded resolution)"
+
+
+def region_quantile(k: int, dof: float = math.inf) -> float:
+    """The 95% region's squared radius, in sigmas, for ``k`` dimensions.
+
+    With the covariance known (``dof`` infinite): the chi-square's 95% quantile on ``k``
+    degrees of freedom. With it scaled by a variance factor estimated from ``dof`` degrees
+    of freedom: ``k F(k, dof)``, Fisher's F, wider, and the chi-square's limit as ``dof``
+    grows.
+    """
+    from scipy import stats
+
+    if not math.isfinite(dof):
+        return float(stats.chi2.ppf(_REGION_LEVEL, k))
+    return float(k * stats.f.ppf(_REGION_LEVEL, k, dof))
+
+
+@dataclass(frozen=True, kw_only=True)
+class VarianceFactor:
+    """The a-posteriori variance factor of a session's redundant trials (see the module).
+
+    ``sigma0_sq``: the misclosures' chi-square over their ``dof`` degrees of freedom (1
+    when the noise model is right); ``trials``: the trials that carried redundancy.
+    """
+
+    sigma0_sq: float
+    dof: int
+    trials: int = 0
+
+    @property
+    def tested(self) -> bool:
+        """Whether any redundancy was there to test the model."""
+        return self.dof > 0 and math.isfinite(self.sigma0_sq)
+
+    @property
+    def contradicted(self) -> bool:
+        """The data contradict the noise model: ``dof sigma0^2`` beyond its 95% quantile."""
+        if not self.tested:
+            return False
+        from scipy import stats
+
+        limit = float(stats.chi2.ppf(1.0 - FACTOR_TEST_LEVEL, self.dof))
+        return self.dof * self.sigma0_sq > limit
+
+    def widening(self, k: int) -> float:
+        """The covariance's multiplier for a ``k``-dimensional region (1: unchanged).
+
+        ``sigma0^2 k F(k, dof) / chi2(k)``: the region's radius is then the F quantile's
+        of the scaled covariance, with every column (sigmas, 95% half-widths, NEES)
+        read from one covariance.
+        """
+        if not self.contradicted or k < 1:
+            return 1.0
+        return self.sigma0_sq * region_quantile(k, self.dof) / region_quantile(k)
+
+    def describe(self) -> str:
+        """The test in words: what the terminal, the report and the console say."""
+        if not self.tested:
+            return "noise model not tested (no trial with redundant poses)"
+        s0 = math.sqrt(self.sigma0_sq)
+        head = f"sigma0 {s0:.2f} over {self.dof} degrees of freedom ({self.trials} trials)"
+        if self.contradicted:
+            return (
+                f"{head}: the data contradict the noise model (the placing error or the "
+                f"detector's noise is larger than assumed); the 95% regions are widened "
+                f"{s0:.2f}x and more (Fisher's F on {self.dof} dof)"
+            )
+        return f"{head}: the data agree with the noise model; regions unchanged"
+
+
+@dataclass(frozen=True, kw_only=True)
+class NoiseModel:
+    """The noise every region assumes: the placing sigma and the variance factor's rule.
+
+    ``placing``: None takes each pose's typed resolution. ``test_redundancy``: estimate the
+    variance factor from the trials' misclosures and widen when they contradict the model.
+    ``factor``: a factor already estimated (guidance's predicted regions use the session's,
+    never one from predicted views); when given, it is applied as is.
+    """
+
+    placing: PlacingSigma | None = None
+    test_redundancy: bool = True
+    factor: VarianceFactor | None = field(default=None)
