@@ -23,7 +23,7 @@ from twopose.estimate import EstimateOptions
 from twopose.methods import spec_of
 from twopose.session_estimate import SessionEstimate, SessionTrials, estimate_session
 from twopose.truth import line_errors, reported
-from twopose.uncertainty import uncertainty_columns
+from twopose.uncertainty import semiaxis95, uncertainty_columns
 
 __all__ = ["STATUS_WORDS", "TrialResult", "trial_results"]
 
@@ -34,9 +34,6 @@ STATUS_WORDS = {
     "no_detection": "no estimate: the target was not found in a pose",
     "incomplete": "no estimate yet: fewer than two usable poses",
 }
-#: sqrt of chi-square's 95% quantile with 2 degrees of freedom: a unit direction's
-#: covariance lies in the plane across it.
-_CHI2_95_2DOF_SQRT = 2.4477
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -198,11 +195,10 @@ def _line_angles(estimate: SessionEstimate) -> tuple[F64, F64]:
     """
     est, truth = estimate.estimates, estimate.trials.truth
     cov = estimate.direction_cov()
+    # A unit direction's covariance lies in the plane across it: a 2-dof region, its
+    # semi-axis by the one rule (radians, as the direction is a unit vector).
+    angle95 = np.degrees(semiaxis95(cov))
     with np.errstate(invalid="ignore"):
-        largest = np.array(
-            [np.linalg.eigvalsh(c)[-1] if np.isfinite(c).all() else np.nan for c in cov]
-        )
-        angle95 = np.degrees(_CHI2_95_2DOF_SQRT * np.sqrt(np.clip(largest, 0.0, None)))
         _, _, angle_err, _ = line_errors(est.point, est.direction, truth[:, 0], truth[:, 1])
     return angle95, angle_err
 

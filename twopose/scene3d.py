@@ -25,7 +25,7 @@ from twopose.format.entries import GroundPlane
 from twopose.format.messages import GRID_FRAME
 from twopose.methods import Method, spec_of
 from twopose.overlay import GREEN, RED, set_color
-from twopose.uncertainty import CHI2_95
+from twopose.uncertainty import chi2_95, region_dof
 
 __all__ = ["TrialScene", "scene_of_views", "static_scene", "trial_scene"]
 
@@ -251,7 +251,9 @@ def trial_scene(s: TrialScene, log_time_ns: int) -> SceneUpdate:
             vals, vecs = np.linalg.eigh(s.cov)
             if np.linalg.det(vecs) < 0:
                 vecs[:, 0] = -vecs[:, 0]
-            axes = 2.0 * np.sqrt(CHI2_95[3] * np.clip(vals, 0.0, None))
+            # The region's own quantile (a rank-2 region: 2 dof), as its semiaxis95 is.
+            quantile = float(np.nan_to_num(chi2_95(region_dof(s.cov[None]))[0]))
+            axes = 2.0 * np.sqrt(quantile * np.clip(vals, 0.0, None))
             _sphere(e, s.estimate, np.maximum(axes, size / 4), vecs, (1.0, 0.55, 0.0, 0.2))
     if np.isfinite(s.truth).all():
         e = _entity(update, log_time_ns, "truth", s.trial)

@@ -35,6 +35,7 @@ __all__ = [
     "SPREAD_COLUMNS",
     "Propagated",
     "Shared",
+    "chi2_95",
     "dominant_input",
     "enough_frames",
     "frame_scatter",
@@ -42,14 +43,16 @@ __all__ = [
     "nees",
     "pooled_scatter",
     "propagate",
+    "region_dof",
+    "semiaxis95",
     "uncertainty_columns",
 ]
 
 
 #: Per-view input layout of :func:`propagate`.
 INPUTS_PER_VIEW = ("col", "row", "theta_deg", "tx", "ty", "tz", "rx_deg", "ry_deg", "rz_deg")
-#: The 95% quantile of chi-square with 3 degrees of freedom: the 95% ellipsoid is
-#: ``e^T Sigma^-1 e <= CHI2_3DOF_95``.
+#: The 95% quantile of chi-square with 3 degrees of freedom: a full-rank 95% ellipsoid is
+#: ``e^T Sigma^-1 e <= CHI2_3DOF_95`` (a region of fewer dimensions: :data:`CHI2_95`).
 CHI2_3DOF_95 = 7.814727903251178
 #: Input groups for "which input dominates": slices of the per-view layout.
 _GROUPS = (
@@ -362,6 +365,47 @@ CHI2_95 = {1: 3.841458820694124, 2: 5.991464547107979, 3: CHI2_3DOF_95}
 _RANK_TOLERANCE = 1e-9
 
 
+def _kept(w: F64) -> NDArray[np.bool_]:
+    """(T, 3) which of the eigenvalues ``w`` (ascending) are the region's directions."""
+    return np.asarray(w > _RANK_TOLERANCE * w[:, -1:])
+
+
+def region_dof(cov: F64) -> NDArray[np.int_]:
+    """(T,) each 95% region's degrees of freedom: its covariance's non-degenerate directions.
+
+    3 for a point, 2 for a ground point (its height is the ground's) or a line's point (it
+    moves across the line only); 0 where the covariance is not finite.
+    """
+    S = np.asarray(cov, dtype=np.float64)
+    dof = np.zeros(S.shape[0], dtype=np.int_)
+    good = np.isfinite(S).all(axis=(1, 2))
+    if good.any():
+        dof[good] = _kept(np.asarray(np.linalg.eigvalsh(S[good]), dtype=np.float64)).sum(axis=1)
+    return dof
+
+
+def chi2_95(dof: NDArray[np.int_]) -> F64:
+    """(T,) the 95% quantile of chi-square on each region's ``dof`` (NaN for 0)."""
+    return np.array([CHI2_95.get(int(d), np.nan) for d in np.atleast_1d(dof)], dtype=np.float64)
+
+
+def semiaxis95(cov: F64) -> F64:
+    """(T,) the 95% region's longest semi-axis, ``sqrt(CHI2_95[dof] * largest eigenvalue)``.
+
+    Judged by the region's own degrees of freedom (:func:`region_dof`): a rank-2 region (a
+    ground point, a line's point) by chi-square's 2-dof quantile, not the 3-dof one. The
+    one rule for a 95% region's size; NaN where the covariance is not finite.
+    """
+    S = np.asarray(cov, dtype=np.float64)
+    out = np.full(S.shape[0], np.nan)
+    good = np.isfinite(S).all(axis=(1, 2))
+    if good.any():
+        largest = np.clip(np.linalg.eigvalsh(S[good])[:, -1], 0.0, None)
+        with np.errstate(invalid="ignore"):  # an exact estimate (no noise): a point, 0
+            out[good] = np.where(largest > 0, np.sqrt(chi2_95(region_dof(S[good])) * largest), 0.0)
+    return out
+
+
 def nees(error: F64, cov: F64) -> tuple[F64, NDArray[np.int_]]:
     """Normalized estimation error squared ``e^T Sigma^+ e`` and its degrees of freedom.
 
@@ -375,7 +419,7 @@ def nees(error: F64, cov: F64) -> tuple[F64, NDArray[np.int_]]:
     good = np.isfinite(e).all(axis=1) & np.isfinite(S).all(axis=(1, 2))
     if good.any():
         w, V = np.linalg.eigh(S[good])
-        keep = w > _RANK_TOLERANCE * w[:, -1:]
+        keep = _kept(w)
         z = np.einsum("tji,tj->ti", V, e[good])  # error in the eigenbasis
         with np.errstate(divide="ignore", invalid="ignore"):
             out[good] = np.where(keep, z**2 / w, 0.0).sum(axis=1)
@@ -385,7 +429,8 @@ def nees(error: F64, cov: F64) -> tuple[F64, NDArray[np.int_]]:
 
 
 #: The columns :func:`uncertainty_columns` fills, in order: 1-sigma per axis, the
-#: covariances, 95% half-widths per axis, the 95% ellipsoid's longest semi-axis, the
+#: covariances, 95% half-widths per axis, the 95% region's longest semi-axis (by its own
+#: degrees of freedom, :func:`semiaxis95`), the
 #: normalized error ``nees`` over its ``nees_dof`` non-degenerate directions (a ground
 #: point has 2, its height being exact) and whether the truth is inside the 95% ellipsoid.
 SPREAD_COLUMNS = (
@@ -409,12 +454,8 @@ def uncertainty_columns(error: F64, cov: F64) -> dict[str, F64]:
     """The :data:`SPREAD_COLUMNS` from errors (T, 3) and covariances (T, 3, 3)."""
     sigma = np.sqrt(np.diagonal(cov, axis1=1, axis2=2))
     with np.errstate(invalid="ignore"):
-        eig = np.full(len(cov), np.nan)
-        finite = np.isfinite(cov).all(axis=(1, 2))
-        if finite.any():
-            eig[finite] = np.linalg.eigvalsh(cov[finite])[:, -1]
         score, dof = nees(error, cov)
-        limit = np.array([CHI2_95.get(int(d), np.nan) for d in dof])
+        limit = chi2_95(dof)
         within = np.where(np.isfinite(score), score <= limit, np.nan)
     half95 = NormalDist().inv_cdf(0.975)
     values = (
@@ -423,7 +464,7 @@ def uncertainty_columns(error: F64, cov: F64) -> dict[str, F64]:
         cov[:, 0, 2],
         cov[:, 1, 2],
         *(half95 * sigma[:, i] for i in range(3)),
-        np.sqrt(CHI2_3DOF_95 * eig),
+        semiaxis95(cov),
         score,
         dof,
         within,

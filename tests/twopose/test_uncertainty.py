@@ -21,6 +21,9 @@ from twopose.uncertainty import (
     nees,
     pooled_scatter,
     propagate,
+    region_dof,
+    semiaxis95,
+    uncertainty_columns,
 )
 
 F64 = NDArray[np.float64]
@@ -179,6 +182,22 @@ def test_nees_uses_the_non_degenerate_directions_only() -> None:
     s_nan, d_nan = nees(np.array([[np.nan, 0, 0]]), np.eye(3)[None])
     assert np.isnan(s_nan[0])
     assert d_nan[0] == 0
+
+
+def test_a_rank_2_region_gets_the_2_dof_semi_axis() -> None:
+    # A ground point: its height is the ground's, so its region has two dimensions and is
+    # judged by chi-square's 2-dof quantile (5.99), not the 3-dof one (7.81) (issue 46).
+    rot = np.linalg.qr(np.random.default_rng(3).standard_normal((3, 3)))[0]
+    flat = rot @ np.diag([0.0, 0.04, 0.25]) @ rot.T
+    cov = np.stack([flat, np.diag([0.04, 0.01, 0.25]), np.zeros((3, 3)), np.full((3, 3), np.nan)])
+    assert region_dof(cov).tolist() == [2, 3, 0, 0]
+    expected = [np.sqrt(5.991464547107979 * 0.25), np.sqrt(7.814727903251178 * 0.25), 0.0]
+    np.testing.assert_allclose(semiaxis95(cov)[:3], expected, rtol=1e-9)
+    assert np.isnan(semiaxis95(cov)[3])
+    # The trial columns read the same rule, whether or not a truth is known.
+    for error in (np.zeros((4, 3)), np.full((4, 3), np.nan)):
+        cols = uncertainty_columns(error, cov)
+        np.testing.assert_allclose(cols["semiaxis95"][:3], expected, rtol=1e-9)
 
 
 def test_dominant_input_sums_over_poses() -> None:
