@@ -344,6 +344,14 @@ function renderResults(s) {
   const next = s.advice && s.advice.suggestion && s.topview && s.advice.trial === s.topview.trial
     ? s.advice.suggestion.t_grid : null;
   if (changed("topview", [s.topview, s.units, size, next, s.page])) drawTopView(s.topview, s.units, s.page, next);
+  // The map of the next pose's predicted regions, under the top view (this trial's, while
+  // it needs a next pose).
+  const a = s.advice && s.advice.trial === s.trial && !s.advice.complete ? s.advice : null;
+  const map = a && s.phase === "recording" ? a.map : null;
+  const mapNext = map && a.suggestion ? a.suggestion.t_grid : null;
+  const mapCanvas = $("regionmap");
+  const mapSize = [mapCanvas.clientWidth, mapCanvas.clientHeight, window.devicePixelRatio || 1];
+  if (changed("regionmap", [map, mapNext, mapSize])) drawRegionMap(map, mapNext);
 }
 
 // --------------------------------------------------------------------------- polling, input

@@ -277,7 +277,11 @@ class WebDriver(Driver):
         self.session.refuse(control or "decision", str(error))
 
     def advice(self, trial: int, advice: Advice) -> bool:
+        from recorder.live_result import MappedAdvice
+
         s = advice.suggestion
+        # The map of every reachable pose's region (drawn under the top view), if any.
+        region_map = advice.region_map if isinstance(advice, MappedAdvice) else None
         self.session.update(
             advice={
                 "trial": trial,
@@ -285,6 +289,7 @@ class WebDriver(Driver):
                 "complete": advice.complete,
                 "region95": advice.region95,
                 "suggestion": None if s is None else s.to_json(),
+                "map": None if region_map is None else region_map.to_json(),
             }
         )
         return advice.complete

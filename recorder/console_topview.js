@@ -149,3 +149,173 @@ function drawTopView(view, units, page, next) {
   }
   ctx.restore();
 }
+
+// ---------------------------------------------------------------------------- the map
+// Under the top view: the trial's predicted 95% region with one more pose from each cell
+// of the grid paper in reach (twopose.region_map.RegionMap.to_json), so an operator who
+// cannot reach the suggestion sees the good poses near it. Darker green is better; a cell
+// that would put the target near the image's edge is blank, one taken or that would not
+// solve is hatched: none of them ever looks good.
+const MAP_SCALE = ["#006837", "#31a354", "#78c679", "#c2e699", "#ffffcc"]; // best .. worst
+
+function mapColour(value, scale) {
+  const [lo, hi] = scale;
+  const t = hi > lo ? Math.min(1, Math.max(0, (value - lo) / (hi - lo))) : 0;
+  const at = t * (MAP_SCALE.length - 1);
+  const k = Math.min(MAP_SCALE.length - 2, Math.floor(at));
+  const mix = (a, b, f) => Math.round(a + (b - a) * f);
+  const rgb = (hex) => [1, 3, 5].map((i) => parseInt(hex.slice(i, i + 2), 16));
+  const [a, b] = [rgb(MAP_SCALE[k]), rgb(MAP_SCALE[k + 1])];
+  return "rgb(" + a.map((v, i) => mix(v, b[i], at - k)).join(",") + ")";
+}
+
+function hatch(ctx, colour) {
+  const tile = document.createElement("canvas");
+  tile.width = tile.height = 8;
+  const t = tile.getContext("2d");
+  t.fillStyle = "#ffffff"; t.fillRect(0, 0, 8, 8);
+  t.strokeStyle = colour; t.lineWidth = 1.5;
+  t.beginPath(); t.moveTo(0, 8); t.lineTo(8, 0); t.moveTo(-2, 2); t.lineTo(2, -2); t.moveTo(6, 10); t.lineTo(10, 6); t.stroke();
+  return ctx.createPattern(tile, "repeat");
+}
+
+function triangle(ctx, cx, cy) {
+  ctx.beginPath(); ctx.moveTo(cx, cy - 8); ctx.lineTo(cx - 7, cy + 5); ctx.lineTo(cx + 7, cy + 5); ctx.closePath();
+}
+
+function mapFrame(map, next, w, h) {
+  // The cells' extent (and the poses', the suggestion's) mapped onto the canvas, x across
+  // and z upwards as in the top view, one scale for both.
+  const half = map.cell / 2;
+  const xs = [map.x[0] - half, map.x[map.x.length - 1] + half, ...map.taken.map((p) => p[0])];
+  const zs = [map.z[0] - half, map.z[map.z.length - 1] + half, ...map.taken.map((p) => p[1])];
+  if (next) { xs.push(next[0]); zs.push(next[2]); }
+  const x0 = Math.min(...xs), x1 = Math.max(...xs), z0 = Math.min(...zs), z1 = Math.max(...zs);
+  const room = [Math.max(10, w - 54), Math.max(10, h - 40)];
+  const scale = Math.min(room[0] / Math.max(x1 - x0, 1e-9), room[1] / Math.max(z1 - z0, 1e-9)) * 0.96;
+  // The frame fits the map (no empty paper either side), centred in the canvas.
+  const pw = Math.min(room[0], (x1 - x0) * scale / 0.96), ph = Math.min(room[1], (z1 - z0) * scale / 0.96);
+  const left = 46 + (room[0] - pw) / 2, top = 10;
+  const xc = (x0 + x1) / 2, zc = (z0 + z1) / 2;
+  return {
+    left, top, pw, ph, scale,
+    X: (x) => left + pw / 2 + (x - xc) * scale,
+    Y: (z) => top + ph / 2 - (z - zc) * scale,
+    visX: [xc - pw / 2 / scale, xc + pw / 2 / scale],
+    visZ: [zc - ph / 2 / scale, zc + ph / 2 / scale],
+  };
+}
+
+function drawMapAxes(ctx, f, units, w, h) {
+  const step = niceStep(Math.max(f.visX[1] - f.visX[0], f.visZ[1] - f.visZ[0]));
+  const label = (v) => String(Number(v.toFixed(6)));
+  ctx.font = "12px sans-serif";
+  ctx.fillStyle = COLOURS.axis;
+  ctx.textAlign = "center"; ctx.textBaseline = "top";
+  for (let x = Math.ceil(f.visX[0] / step) * step; x <= f.visX[1]; x += step) ctx.fillText(label(x), f.X(x), f.top + f.ph + 3);
+  ctx.textAlign = "right"; ctx.textBaseline = "middle";
+  for (let z = Math.ceil(f.visZ[0] / step) * step; z <= f.visZ[1]; z += step) ctx.fillText(label(z), f.left - 4, f.Y(z));
+  ctx.strokeStyle = COLOURS.axis;
+  ctx.strokeRect(f.left, f.top, f.pw, f.ph);
+  ctx.textAlign = "right"; ctx.textBaseline = "bottom";
+  ctx.fillText("x (" + units + ") →", f.left + f.pw, f.top + f.ph + 29);
+  ctx.save();
+  ctx.translate(f.left - 34, f.top + f.ph / 2); ctx.rotate(-Math.PI / 2);
+  ctx.textAlign = "center"; ctx.textBaseline = "middle";
+  ctx.fillText("z (" + units + ") →", 0, 0);
+  ctx.restore();
+}
+
+function drawMapCells(ctx, map, f) {
+  const size = map.cell * f.scale;
+  const hatched = hatch(ctx, "#8d96a0");
+  for (let j = 0; j < map.z.length; j++) {
+    for (let i = 0; i < map.x.length; i++) {
+      const reason = map.reason[j][i], value = map.region95[j][i];
+      const x = f.X(map.x[i]) - size / 2, y = f.Y(map.z[j]) - size / 2;
+      if (reason === 0 && value !== null) ctx.fillStyle = mapColour(value, map.scale);
+      else if (reason === 1) continue; // near the image's edge: blank
+      else ctx.fillStyle = hatched; // taken, or would not solve
+      ctx.fillRect(x, y, size + 0.5, size + 0.5);
+    }
+  }
+}
+
+function drawMapMarks(ctx, map, f, next) {
+  ctx.lineWidth = 1.5;
+  for (const [x, z] of map.taken) { // the poses taken: the top view's cameras
+    triangle(ctx, f.X(x), f.Y(z));
+    ctx.fillStyle = COLOURS.centre; ctx.fill(); ctx.strokeStyle = "#ffffff"; ctx.stroke();
+  }
+  map.top.slice(1).forEach((p, k) => { // the next best, numbered
+    const cx = f.X(p.t_grid[0]), cy = f.Y(p.t_grid[2]);
+    ctx.fillStyle = "#ffffff"; ctx.strokeStyle = "#1d232b";
+    ctx.beginPath(); ctx.arc(cx, cy, 7, 0, 2 * Math.PI); ctx.fill(); ctx.stroke();
+    ctx.fillStyle = "#1d232b"; ctx.font = "bold 10px sans-serif";
+    ctx.textAlign = "center"; ctx.textBaseline = "middle";
+    ctx.fillText(String(k + 2), cx, cy + 0.5);
+  });
+  if (map.best) { // the best: a ring
+    const cx = f.X(map.best.t_grid[0]), cy = f.Y(map.best.t_grid[2]);
+    ctx.strokeStyle = "#ffffff"; ctx.lineWidth = 5;
+    ctx.beginPath(); ctx.arc(cx, cy, 11, 0, 2 * Math.PI); ctx.stroke();
+    ctx.strokeStyle = "#c0392b"; ctx.lineWidth = 2.5;
+    ctx.beginPath(); ctx.arc(cx, cy, 11, 0, 2 * Math.PI); ctx.stroke();
+  }
+  if (next) { // the suggestion: the top view's hollow camera, dashed
+    triangle(ctx, f.X(next[0]), f.Y(next[2]));
+    ctx.fillStyle = "#ffffff"; ctx.fill();
+    ctx.strokeStyle = COLOURS.centre; ctx.lineWidth = 2; ctx.setLineDash([3, 2]); ctx.stroke();
+    ctx.setLineDash([]);
+  }
+}
+
+function drawMapScale(map) {
+  // The colour scale: its ends in the session's units, the worse end "or more".
+  const canvas = $("regionmap-scale");
+  const dpr = window.devicePixelRatio || 1;
+  const w = Math.max(1, canvas.clientWidth), h = Math.max(1, canvas.clientHeight);
+  canvas.width = Math.round(w * dpr); canvas.height = Math.round(h * dpr);
+  const ctx = canvas.getContext("2d");
+  ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+  const gradient = ctx.createLinearGradient(0, 0, w, 0);
+  MAP_SCALE.forEach((c, k) => gradient.addColorStop(k / (MAP_SCALE.length - 1), c));
+  ctx.fillStyle = gradient;
+  ctx.fillRect(0, 0, w, h);
+  const [lo, hi] = map.scale;
+  setText($("regionmap-lo"), num(lo) + " " + map.units + " (best)");
+  setText($("regionmap-hi"), num(hi) + " " + map.units + " or more");
+}
+
+function mapPoseText(p, units) {
+  const [x, y, z] = p.t_grid;
+  return "x " + num(x) + ", y " + num(y) + ", z " + num(z) + " " + units + ": within " + num(p.region95) + " " + units;
+}
+
+function drawRegionMap(map, next) {
+  show($("regionmap-section"), !!map);
+  if (!map) return;
+  const canvas = $("regionmap");
+  const dpr = window.devicePixelRatio || 1;
+  const w = Math.max(1, canvas.clientWidth), h = Math.max(1, canvas.clientHeight);
+  canvas.width = Math.round(w * dpr); canvas.height = Math.round(h * dpr);
+  const ctx = canvas.getContext("2d");
+  ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+  ctx.clearRect(0, 0, w, h);
+  const f = mapFrame(map, next, w, h);
+  ctx.save();
+  ctx.beginPath(); ctx.rect(f.left, f.top, f.pw, f.ph); ctx.clip();
+  if (map.x.length && map.z.length) drawMapCells(ctx, map, f);
+  ctx.restore();
+  drawMapMarks(ctx, map, f, next); // unclipped: a mark on the map's edge shows whole
+  drawMapAxes(ctx, f, map.units, w, h);
+  setText($("regionmap-units"), "predicted 95% region, " + map.units);
+  drawMapScale(map);
+  const every = map.step > 1 ? "a cell every " + map.step + " lines of the paper; " : "a cell a pose; ";
+  setText($("regionmap-title"), "the trial's region with the next pose there: " + every + map.n_predicted + " predicted of the " + map.n_in_view + " poses in view");
+  $("regionmap-best").replaceChildren(...map.top.map((p, k) => {
+    const li = el("li", mapPoseText(p, map.units) + (k === 0 ? " (ringed)" : ""));
+    li.dataset.testid = "region-map-pose";
+    return li;
+  }));
+}

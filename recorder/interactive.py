@@ -387,7 +387,13 @@ class _OperatorDriver(Driver):
         self.op.say(f"  {what}")
 
     def advice(self, trial: int, advice: Advice) -> bool:  # noqa: ARG002 - said, not kept
+        from recorder.live_result import MappedAdvice
+
         self.op.say(f"  guidance: {advice.text}")
+        # The good poses beside the suggestion, for an operator who cannot reach it.
+        region_map = advice.region_map if isinstance(advice, MappedAdvice) else None
+        for line in [] if region_map is None else region_map.best_lines(3):
+            self.op.say(f"  {line}")
         return advice.complete
 
     def live_failed(self, message: str) -> None:

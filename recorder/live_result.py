@@ -11,8 +11,10 @@ operator did, the analysis stays the reference.
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -22,16 +24,34 @@ from recorder.trial_result import TrialResult, trial_results
 from twopose.camera import Camera
 from twopose.estimate import EstimateOptions, GroundSpec, PoseView, measure, pose_view
 from twopose.format.entries import GroundPlane, GroundTruth, PoseEntry, TypedEntry
+from twopose.guidance import Advice
 from twopose.methods import Method
 from twopose.rig.constants import RigConstants, check_applicable, corrected_ground, corrected_view
 from twopose.scene3d import TrialScene, scene_of_views
 from twopose.session_estimate import SessionTrials
 from twopose.units import Units
 
-__all__ = ["LiveResults"]
+__all__ = ["LiveResults", "MappedAdvice"]
 
 if TYPE_CHECKING:
-    from twopose.guidance import Advice, Guidance
+    from twopose.guidance import Guidance
+    from twopose.region_map import RegionMap
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class MappedAdvice(Advice):
+    """The advice with the map of every reachable pose's predicted region
+    (:mod:`twopose.region_map`), computed when a driver first asks for it: the console and
+    the terminal show it, a plan (which takes the suggestion) never pays for it."""
+
+    map_of: Callable[[], RegionMap | None] = dataclasses.field(
+        default=lambda: None, repr=False, compare=False
+    )
+
+    @functools.cached_property
+    def region_map(self) -> RegionMap | None:
+        """The map (None: the trial is complete, or no map was asked for)."""
+        return self.map_of()
 
 
 class LiveResults:
@@ -126,10 +146,12 @@ class LiveResults:
         solved = trial_results(session, self.options)
         return dict(zip(trials, solved, strict=True))
 
-    def advise(self, trial: int, guidance: Guidance) -> Advice | None:
+    def advise(self, trial: int, guidance: Guidance) -> MappedAdvice | None:
         """After a decision: the trial complete, or its next pose (:mod:`twopose.guidance`),
-        from its accepted poses and its result now; None before its first pose."""
+        from its accepted poses and its result now, with the map of every reachable pose
+        beside it (:attr:`MappedAdvice.region_map`); None before its first pose."""
         from twopose.guidance import advise
+        from twopose.region_map import region_map
 
         views = self._views.get(trial, [])
         if not views:
@@ -144,12 +166,21 @@ class LiveResults:
         )
         result = self.results.get(trial) if len(views) >= 2 else None
         ok = result is not None and result.status == "ok"
-        return advise(
+        point = np.asarray(result.point) if ok and result is not None else None
+        advice = advise(
             session,
             guidance,
             self.options,
-            point=result.point if ok and result is not None else None,
+            point=None if point is None else point.tolist(),
             region95=result.semiaxis95 if ok and result is not None else math.nan,
+        )
+        said = {f.name: getattr(advice, f.name) for f in dataclasses.fields(advice)}
+        if advice.complete:
+            return MappedAdvice(**said)
+        s, options = advice.suggestion, self.options
+        return MappedAdvice(
+            **said,
+            map_of=lambda: region_map(session, guidance.reach, options, point=point, suggestion=s),
         )
 
     def scene(self, trial: int) -> TrialScene | None:
