@@ -30,6 +30,7 @@ if TYPE_CHECKING:
     from twopose.format.entries import SessionInfo
     from twopose.frames import PoseMeasurement
     from twopose.guidance import Guidance
+    from twopose.noise import PlacingSigma
     from twopose.rig.constants import RigConstants
     from twopose.scene3d import TrialScene
     from twopose.targets import BoardPlacement
@@ -277,6 +278,10 @@ class CaptureSettings:
     on_frame: Callable[[FrameFeedback], None] | None = None
     on_progress: Callable[[], None] | None = None
     rig: RigConstants | None = None
+    #: The operator's placing sigma a board session measured (the rig file's
+    #: ``[placing]``): every live region and guidance's predictions take it instead of
+    #: each pose's typed resolution (None: typed).
+    placing: PlacingSigma | None = None
     timeout_s: float = 2.0  # a frame later than this: the source has stopped
     #: A board session's board: each frame's corners are looked for, live (the rig
     #: calibration finds them again in the file); a pose that never saw it is refused.

@@ -351,7 +351,7 @@ def new(
             poses=poses,
             camera=CameraMode(width=width, height=height, fps=fps),
             notes=notes,
-            rig=rig_file(rig),
+            **rig_file(rig),
             live_port=live_port if live else None,
             guidance=replace(guidance_asked(max_poses, reach, grid), given=tuple(board_options)),
             continued=continued_session(

@@ -44,6 +44,7 @@ if TYPE_CHECKING:
     from recorder.continuation import Continued
     from recorder.live import LiveView
     from recorder.setup_rules import GuidanceAsked
+    from twopose.noise import PlacingSigma
     from twopose.rig.constants import RigConstants
 
 __all__ = ["ConsoleOptions", "console_app", "serve_console"]
@@ -68,6 +69,7 @@ class ConsoleOptions:
     fps: float = 30.0
     notes: str = ""
     rig: RigConstants | None = None
+    placing: PlacingSigma | None = None  # the rig file's measured placing sigma
     live_port: int | None = None  # --live: the Foxglove live view too, on this port
     origin: str = ""  # the console's own page (the live view lets it in), once served
     guidance: GuidanceAsked | None = None  # --max-poses and the suggestions' reach
@@ -111,6 +113,7 @@ def _recording(
             frames=options.frames,
             live=live,
             rig=options.rig,
+            placing=options.placing,
             guidance=guidance,
             adaptive_frames=options.adaptive_frames,
         )

@@ -20,6 +20,7 @@ if TYPE_CHECKING:
     from recorder.setup_rules import GuidanceAsked
     from recorder.summary import RecordingSummary
     from twopose.camera import Camera
+    from twopose.noise import PlacingSigma
     from twopose.rig.constants import RigConstants
 
 __all__ = [
@@ -56,6 +57,8 @@ class NewRequest:
     camera: CameraMode = CameraMode()
     notes: str = ""
     rig: RigConstants | None = None
+    #: The rig file's measured placing sigma (its ``[placing]``; None: typed).
+    placing: PlacingSigma | None = None
     live_port: int | None = None  # --live: serve the Foxglove live view on this port
     guidance: GuidanceAsked | None = None  # the next pose suggested; the stop rule
     continued: Continued | None = None  # --continue: the session this one continues
@@ -122,11 +125,15 @@ def continued_given(continued: Continued, target_precision: float | None) -> dic
     }  # fmt: skip
 
 
-def rig_file(path: Path | None) -> RigConstants | None:
-    """``--rig``: the calibrated rig's constants, or None."""
-    from twopose.rig.constants import load_rig
+def rig_file(path: Path | None) -> dict[str, Any]:
+    """``--rig``: the :class:`NewRequest` fields the rig file gives (its constants, ``rig``,
+    and its measured placing sigma, ``placing``; None without a file)."""
+    from twopose.rig.constants import load_rig_file
 
-    return load_rig(path) if path is not None else None
+    if path is None:
+        return {"rig": None, "placing": None}
+    found = load_rig_file(path)
+    return {"rig": found.constants, "placing": found.placing}
 
 
 def _live_view(stack: contextlib.ExitStack, cameras: list[Camera], port: int) -> LiveView:
@@ -198,7 +205,8 @@ def record_terminal(
     port = request.live_port
     view = _live_view(stack, [setup.camera()], port) if port is not None else None
     capture = CaptureSettings(
-        frames=request.frames, live=view, rig=request.rig, guidance=guidance,
+        frames=request.frames, live=view, rig=request.rig, placing=request.placing,
+        guidance=guidance,
         adaptive=AdaptiveFrames.asked(setup.method, asked=request.adaptive_frames),
     )  # fmt: skip
     return record_interactive(
@@ -241,6 +249,7 @@ def record_planned(
         live=view,
         on_result=lambda result: typer.echo(f"  result: {result.text()}"),
         rig=request.rig,
+        placing=request.placing,
         on_advice=lambda trial, advice: typer.echo(f"  guidance: trial {trial}: {advice.text}"),
         continued=request.continued,
     )
@@ -259,6 +268,7 @@ def serve_console_until_stopped(
         source=request.source, given=given, frames=request.frames, poses=request.poses,
         adaptive_frames=request.adaptive_frames,
         size=(mode.width, mode.height), fps=mode.fps, notes=request.notes, rig=request.rig,
+        placing=request.placing,
         live_port=request.live_port, guidance=request.guidance, continued=request.continued,
     )  # fmt: skip
     serve_console(request.out, options, host=host, port=port)

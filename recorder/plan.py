@@ -40,6 +40,7 @@ if TYPE_CHECKING:
     from recorder.live import LiveView
     from recorder.trial_result import TrialResult
     from twopose.guidance import Advice
+    from twopose.noise import PlacingSigma
     from twopose.rig.constants import RigConstants
 
 
@@ -188,6 +189,7 @@ def record_plan(  # noqa: PLR0913 - keyword-only callbacks, one per thing a call
     live: LiveView | None = None,
     on_result: Callable[[TrialResult], None] | None = None,
     rig: RigConstants | None = None,
+    placing: PlacingSigma | None = None,
     on_advice: Callable[[int, Advice], None] | None = None,
     continued: Continued | None = None,
 ) -> RecordingSummary:
@@ -219,6 +221,9 @@ def record_plan(  # noqa: PLR0913 - keyword-only callbacks, one per thing a call
         Foxglove's live view, fed as the session is recorded.
     rig : RigConstants, optional
         A calibrated rig, correcting the live result.
+    placing : PlacingSigma, optional
+        The placing sigma the rig file's board session measured: the live result's
+        regions take it (default: each pose's typed resolution).
 
     Returns
     -------
@@ -255,6 +260,7 @@ def record_plan(  # noqa: PLR0913 - keyword-only callbacks, one per thing a call
             live=live,
             on_frame=on_frame,
             rig=rig,
+            placing=placing,
             guidance=plan.guidance,
         ),
     )

@@ -57,7 +57,7 @@ def rig_command(
         inputs = resolve_inputs(sessions)  # once: the check and the fit take this set
         run_inputs(inputs).check_file("--out", out)  # never a session, FIFO or device
         found = calibrate_rig(inputs, constants, on_note=note)
-        text = rig_toml(found.fit, found.sessions, found.warnings, found.basis)
+        text = rig_toml(found.fit, found.sessions, found.warnings, found.basis, found.placing)
         write_file(out, text.encode())
     fit = found.fit
     fitted = ", ".join(fit.free) or "nothing"
@@ -67,6 +67,10 @@ def rig_command(
             typer.echo(f"  {row['constant']} = {row['value']:.4g} ± {row['sigma']:.2g}")
     for name, why in fit.fixed.items():
         typer.echo(f"  {name}: fixed ({why})")
+    if found.placing is not None:
+        typer.echo(f"  {found.placing.describe(fit.constants.units or 'in')}")
+    else:
+        typer.echo("  placing sigma: not measured (only a board session measures it)")
     for warning in found.warnings:
         typer.secho(f"warning: {warning}", err=True, fg=typer.colors.YELLOW)
     typer.echo(f"wrote {out}")

@@ -11,6 +11,7 @@ of their content, not of the command line; a session named twice counts once.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -172,6 +173,11 @@ def calibrate_board(
     )
     used = {p.session for p in ordered}
     sessions = tuple(dict.fromkeys(str(p) for p in paths if str(p) in used))
+    if board.placing is not None:  # measured by these sessions, named as the rig file's
+        named = ", ".join(Path(s).name for s in sessions)
+        board = dataclasses.replace(
+            board, placing=dataclasses.replace(board.placing, measured_by=named)
+        )
     return BoardCalibration(fit=as_rig_fit(board), board=board, sessions=sessions)
 
 

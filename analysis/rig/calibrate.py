@@ -17,7 +17,7 @@ import dataclasses
 import hashlib
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -27,16 +27,23 @@ from analysis.rig.data import RigData, combine, prepare_session, require_trusted
 from analysis.rig.fit import RigFit, fit_constants, select_constants
 from twopose.errors import InputValueError
 from twopose.estimate import EstimateOptions
-from twopose.rig.constants import RigConstants, check_applicable
+from twopose.noise import PlacingSigma
+from twopose.rig.constants import RigConstants, RigFile, check_applicable
 from twopose.session_estimate import SessionTrials, estimate_session
 
 __all__ = [
+    "RIG_BESIDE",
     "RigCalibration",
     "calibrate",
     "calibrate_rig",
     "check_rig_for_sessions",
+    "rig_beside",
     "rig_for_run",
+    "with_rig",
 ]
+
+if TYPE_CHECKING:
+    from analysis.results import AnalysisOptions
 
 Note = Callable[[str], None]
 
@@ -50,6 +57,8 @@ class RigCalibration:
     sessions: tuple[str, ...]
     basis: str
     warnings: tuple[str, ...] = ()
+    #: The operator's placing sigma a board measured (None: target sessions, which do not).
+    placing: PlacingSigma | None = None
 
 
 def calibrate_rig(
@@ -93,7 +102,11 @@ def calibrate_rig(
         b = board.board
         basis = f"{b.n_captures} board capture(s), {b.n_corners} corners, RMS {b.rms_px:.3f} px"
         return RigCalibration(
-            fit=board.fit, sessions=board.sessions, basis=basis, warnings=b.warnings
+            fit=board.fit,
+            sessions=board.sessions,
+            basis=basis,
+            warnings=b.warnings,
+            placing=b.placing,
         )
     fit, data = calibrate(targets, groups, on_note, inputs.continuations)
     basis = f"{len(data.trial_ids)} trial(s) with ground truth"
@@ -236,13 +249,58 @@ def check_rig_for_sessions(rig: RigConstants, paths: Sequence[str], what: str) -
     return notes
 
 
-def rig_for_run(path: str | Path, inputs: InputSet, on_note: Note) -> RigConstants:
-    """``run --rig``: the rig file, refused (exit 3, before any analysis) if implausible,
-    or for a session under ``inputs`` in other units, or whose ground height or image it
-    does not fit; ``on_note`` hears the notes (a rig file without units)."""
-    from twopose.rig.constants import load_rig
+def rig_for_run(path: str | Path, inputs: InputSet, on_note: Note) -> RigFile:
+    """``run --rig``: the rig file (its constants and any measured placing sigma), refused
+    (exit 3, before any analysis) if implausible, or for a session under ``inputs`` in
+    other units, or whose ground height or image it does not fit; ``on_note`` hears the
+    notes (a rig file without units)."""
+    from twopose.rig.constants import load_rig_file
 
-    rig = load_rig(path)
-    for text in check_rig_for_sessions(rig, inputs.files, f"rig file {path}"):
+    found = load_rig_file(path)
+    for text in check_rig_for_sessions(found.constants, inputs.files, f"rig file {path}"):
         on_note(text)
-    return rig
+    return found
+
+
+#: A rig file of this name in a folder ``run`` is given, or beside a session file it is
+#: given, is used as ``--rig`` would use it, and said; ``--rig FILE`` names another,
+#: ``--no-rig`` none.
+RIG_BESIDE = "rig.toml"
+
+
+def rig_beside(paths: Sequence[str | Path]) -> Path | None:
+    """The :data:`RIG_BESIDE` file beside the sessions ``run`` is given, if any.
+
+    Looked for in each folder given (not below it) and beside each file given; the same
+    content found twice is one file; different files are refused, naming them (which one
+    applies is the analyst's choice, never an order's).
+    """
+    found: dict[str, Path] = {}
+    for given in map(Path, paths):
+        candidate = (given if given.is_dir() else given.parent) / RIG_BESIDE
+        if candidate.is_file():
+            found.setdefault(hashlib.sha256(candidate.read_bytes()).hexdigest(), candidate)
+    if len(found) > 1:
+        named = ", ".join(str(p) for p in found.values())
+        raise InputValueError(
+            f"different rig files beside the sessions ({named}): name the one to use with "
+            "--rig FILE, or --no-rig to use none"
+        )
+    return next(iter(found.values()), None)
+
+
+def with_rig(
+    options: AnalysisOptions, path: str | Path, inputs: InputSet, on_note: Note
+) -> AnalysisOptions:
+    """``options`` with the rig file at ``path`` (:func:`rig_for_run`): every view corrected
+    by its constants, and every region given its measured placing sigma
+    (``estimate.noise.placing``) when the file records one."""
+    from analysis.results import RigSource
+
+    found = rig_for_run(path, inputs, on_note)
+    estimate = options.estimate
+    if found.placing is not None:
+        noise = dataclasses.replace(estimate.noise, placing=found.placing)
+        estimate = dataclasses.replace(estimate, noise=noise)
+    source = RigSource.read(path, found.constants)
+    return dataclasses.replace(options, rig=found.constants, rig_source=source, estimate=estimate)

@@ -34,11 +34,13 @@ from twopose.arrays import F64
 from twopose.errors import InputValueError
 from twopose.estimate import ViewBatch, solve_batch
 from twopose.methods import spec_of
+from twopose.noise import PlacingSigma
 from twopose.rig.constants import (
     RIG_PARAMETERS,
     RigConstants,
     against_priors,
     angles_deg_from_rotation,
+    placing_table,
     prior_sigma,
     true_ground,
 )
@@ -325,11 +327,17 @@ def _f_test(smaller: RigFit, larger: RigFit) -> float:
 
 
 def rig_toml(
-    fit: RigFit, sources: Sequence[str], warnings: Sequence[str] = (), basis: str = ""
+    fit: RigFit,
+    sources: Sequence[str],
+    warnings: Sequence[str] = (),
+    basis: str = "",
+    placing: PlacingSigma | None = None,
 ) -> str:
     """The rig file: ``[rig]`` (what ``--rig`` reads), ``[sigma]`` (1-sigma, 0 if fixed),
-    ``[fixed]`` (why a constant was not estimated); what it was fitted on and the fit's
-    warnings as comments."""
+    ``[fixed]`` (why a constant was not estimated), ``[placing]`` (the operator's placing
+    sigma a board measured, :func:`twopose.rig.placing_table`; target sessions measure
+    none, and the file says so); what it was fitted on and the fit's warnings as
+    comments."""
     c = fit.constants
     sigma = dict(zip(_NAMES, np.nan_to_num(fit.sigma), strict=True))
 
@@ -357,6 +365,14 @@ def rig_toml(
     ]
     if fit.fixed:
         lines += ["", "[fixed]", *(f'{k} = "{v}"' for k, v in fit.fixed.items())]
+    if placing is not None:
+        lines += ["", *placing_table(placing, c.units or "in")]
+    else:
+        lines += [
+            "",
+            "# no [placing]: only a board session measures the operator's placing error;",
+            "# the regions take each pose's typed resolution",
+        ]
     return "\n".join(lines) + "\n"
 
 

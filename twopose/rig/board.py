@@ -16,20 +16,34 @@ What the poses cannot determine is refused before fitting (:func:`check_identifi
 the mount's rotation and the tape's scale need typed moves in at least two non-parallel
 directions, the camera's depth offset and the focal scale need poses at several distances
 from the board. A constant the fit pushes more than two prior sigmas from nominal is said
-(``warnings``), never reported silently as if the data had decided it. No I/O.
+(``warnings``), never reported silently as if the data had decided it.
+
+The operator's **placing error** (issue 46): each capture's camera position, known from
+the corners to a fraction of a millimetre, differs from its typed pose by where the laptop
+really was. The fit carries it as three parameters per capture with a Gaussian prior of
+sigma ``s``, and ``s`` is itself estimated, a variance component: each round refits with
+the current ``s`` and sets it by EM on the fit's linearization (:func:`_placing_em`, the
+marginal likelihood's maximum; the constants integrated out under their priors, so a
+shift common to all captures goes to the camera offset and the tape's scale, not to the
+placing). Its 1-sigma is from that likelihood's Fisher information. The model is the
+recorder's and the analysis': one sigma on each of x, y and z (a laptop on a table has
+its y fixed by the table, yet the placing y of the simulator and of a tilted or shimmed
+laptop is not zero, and the corners see it). No I/O.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import least_squares
+from scipy.optimize import OptimizeResult, least_squares
 
 from twopose.arrays import F64
 from twopose.errors import InputValueError
+from twopose.noise import PlacingSigma
 from twopose.rig.constants import (
     RIG_PARAMETERS,
     RIG_PRIORS,
@@ -37,7 +51,7 @@ from twopose.rig.constants import (
     against_priors,
     prior_sigma,
 )
-from twopose.units import Units
+from twopose.units import Units, unit_spec
 
 __all__ = ["RIG_PRIORS", "BoardRigFit", "board_order", "check_identifiable", "fit_board_rig"]
 
@@ -49,6 +63,13 @@ FITTED_NAMES = tuple(n for g in FITTED for n in RIG_PARAMETERS[g])
 MIN_DIRECTION_RATIO = 0.2
 #: Poses are at several distances when their depths spread over this fraction of the mean.
 MIN_DEPTH_SPREAD = 0.1
+#: The placing sigma's estimate is refitted at most this many times (it settles in 3-5).
+MAX_ROUNDS = 10
+#: EM's rounds on one linearization (each a (P, P) inverse; it converges in tens).
+EM_ROUNDS = 500
+#: The smallest placing sigma reported (inches): below what any tape and hand can place,
+#: and kept off zero, which EM approaches without reaching.
+PLACING_FLOOR_IN = 1e-3
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -67,6 +88,10 @@ class BoardRigFit:
     n_corners: int
     free: tuple[str, ...] = FITTED_NAMES  # the fitted scalars (the rest nominal, sigma NaN)
     warnings: tuple[str, ...] = ()
+    #: The operator's placing sigma the captures measured (None: typed exactly, or not
+    #: measured), and the degrees of freedom its 1-sigma is from.
+    placing: PlacingSigma | None = None
+    placing_dof: float = 0.0
 
 
 def board_order(found_px: ArrayLike, inner_corners: tuple[int, int]) -> F64:
@@ -147,7 +172,7 @@ def _per_capture(value: ArrayLike, n_captures: int, shape: tuple[int, ...], what
     return a
 
 
-def fit_board_rig(
+def fit_board_rig(  # noqa: PLR0913 - the captures' arrays, then how to fit them
     corners_grid: ArrayLike,
     observed_px: ArrayLike,
     t_typed: ArrayLike,
@@ -157,8 +182,9 @@ def fit_board_rig(
     units: Units = Units.IN,
     t_sigma: float = 0.0,
     groups: Sequence[str] = FITTED,
+    measure_placing: bool = True,
 ) -> BoardRigFit:
-    """The rig's constants from board captures.
+    """The rig's constants from board captures, and the operator's placing sigma.
 
     Parameters
     ----------
@@ -173,11 +199,15 @@ def fit_board_rig(
         The nominal ``fx, fy, cx, cy`` (the camera's calibration), for all or per capture.
     t_sigma : float
         The typed translations' 1-sigma per component (the entries' resolution: tape and
-        placing): each capture's placing error is fitted with it as its prior, so the
-        constants' sigma includes what the poses' typing leaves unknown (0: typed exactly).
+        placing): each capture's placing error is fitted with it as its starting prior, so
+        the constants' sigma includes what the poses' placing leaves unknown (0: typed
+        exactly, no placing error fitted nor measured).
     groups : sequence of str
         The constants' groups to fit (:data:`FITTED`, the default, or some of them); the
         rest stay nominal, with sigma NaN.
+    measure_placing : bool
+        Estimate the placing sigma itself (:func:`_placing_em`) and fit with it
+        (``BoardRigFit.placing``); False keeps ``t_sigma`` as a fixed prior.
     """
     t, r = np.asarray(t_typed, dtype=np.float64), np.asarray(r_typed_deg, dtype=np.float64)
     u = np.asarray(observed_px, dtype=np.float64)
@@ -191,31 +221,53 @@ def fit_board_rig(
         )
     free = _free_mask(groups)
     check_identifiable(t, X[:, :, 2].mean(axis=1))
-    placing = t_sigma > 0
-    nominal = np.concatenate([RigConstants().vector()[:-1], np.zeros(t.size if placing else 0)])
-    prior = np.concatenate([_prior_sigma(units), np.full(t.size if placing else 0, t_sigma)])
-    fitted = np.concatenate([free, np.ones(t.size if placing else 0, dtype=bool)])
+    n_placed = t.size if t_sigma > 0 else 0
+    nominal = np.concatenate([RigConstants().vector()[:-1], np.zeros(n_placed)])
+    fitted = np.concatenate([free, np.ones(n_placed, dtype=bool)])
+    rig_prior = _prior_sigma(units)[free]
+
+    def prior(s: float) -> F64:
+        return np.concatenate([rig_prior, np.full(n_placed, s)])
 
     def full(p: F64) -> F64:
         out = nominal.copy()
         out[fitted] = p
         return out
 
-    def residuals(p: F64, sigma_px: float) -> F64:
+    def residuals(p: F64, sigma_px: float, s: float) -> F64:
         corners = (_project(full(p), X, t, r, k) - u).ravel() / sigma_px
-        return np.concatenate([corners, (p - nominal[fitted]) / prior[fitted]])
+        return np.concatenate([corners, (p - nominal[fitted]) / prior(s)])
 
-    sigma_px, p = 1.0, nominal[fitted]
-    for _ in range(3):  # the corners' noise estimated from the previous fit's residuals
-        fit = least_squares(residuals, p, args=(sigma_px,), x_scale=prior[fitted], method="trf")
+    def solve(p: F64, sigma_px: float, s: float) -> OptimizeResult:
+        return least_squares(residuals, p, args=(sigma_px, s), x_scale=prior(s), method="trf")
+
+    measuring = measure_placing and n_placed > 0
+    floor = PLACING_FLOOR_IN / unit_spec(units).inches
+    sigma_px, s, p, dof = 1.0, float(t_sigma), nominal[fitted], 0.0
+    for round_ in range(MAX_ROUNDS):
+        # The corners' noise from the previous fit's residuals, the placing sigma by EM on
+        # the fit's linearization; refitted until both settle.
+        fit = solve(p, sigma_px, s)
         p = fit.x
         corner_res = (_project(full(p), X, t, r, k) - u).ravel()
-        sigma_px = max(float(np.sqrt(np.mean(corner_res**2))), 1e-6)
-    fit = least_squares(residuals, p, args=(sigma_px,), x_scale=prior[fitted], method="trf")
+        new_px = max(float(np.sqrt(np.mean(corner_res**2))), 1e-6)
+        new_s = s
+        if measuring:
+            n_res = corner_res.size
+            jac = np.asarray(fit.jac)[:n_res] * (sigma_px / new_px)
+            new_s, dof = _placing_em(
+                jac, corner_res / new_px, p, nominal[fitted], rig_prior, s, floor
+            )
+        settled = abs(new_px / sigma_px - 1) < 0.01 and abs(new_s / s - 1 if s else 0) < 0.01
+        sigma_px, s = new_px, new_s
+        if round_ >= 2 and settled:
+            break
+    fit = solve(p, sigma_px, s)
     cov = _covariance(fit.jac, free)
     sigma = np.append(np.sqrt(np.clip(np.diag(cov), 0.0, None)), np.nan)
     x = full(fit.x)
     n_rig = len(FITTED_NAMES)
+    inches = unit_spec(units).inches
     return BoardRigFit(
         rig=RigConstants.from_vector(np.append(x[:n_rig], 0.0), units),
         sigma=sigma,
@@ -225,7 +277,51 @@ def fit_board_rig(
         n_corners=u.shape[0] * u.shape[1],
         free=_names(free),
         warnings=against_priors(np.append(x[:n_rig] - nominal[:n_rig], 0.0), units, _names(free)),
+        placing=(
+            PlacingSigma(
+                sigma_in=s * inches,
+                sigma_sigma_in=s * inches / math.sqrt(2.0 * max(dof, 0.5)),
+                measured_by="the board's captures",
+                captures=len(t),
+            )
+            if measuring
+            else None
+        ),
+        placing_dof=dof,
     )
+
+
+def _placing_em(
+    jac: F64, res: F64, p: F64, nominal: F64, rig_prior: F64, s: float, floor: float
+) -> tuple[float, float]:
+    """The placing sigma that maximises the linearized fit's marginal likelihood (EM).
+
+    ``jac`` (N, P) and ``res`` (N,): the whitened corners' Jacobian and residuals at the
+    fitted parameters ``p`` (the constants, then the C x 3 placing errors). Each round takes
+    the placing errors' posterior (mean ``e``, variance ``v``, the constants integrated
+    out under their priors: a common shift goes to the camera offset and the tape's scale,
+    not to the placing) and sets ``s^2 = mean(e^2 + v)``. Returns the sigma and its degrees
+    of freedom ``tr(H^2)``, ``H = I - V / s^2`` with ``V`` the errors' posterior covariance:
+    the components the corners determine, less what the constants absorb, so that the
+    estimate's 1-sigma, from the marginal likelihood's Fisher information, is
+    ``s / sqrt(2 dof)``.
+    """
+    n_rig = len(rig_prior)
+    gram, grad0 = jac.T @ jac, jac.T @ res
+    dof = 0.0
+    for _ in range(EM_ROUNDS):
+        precision = np.concatenate([rig_prior, np.full(len(p) - n_rig, s)]) ** -2.0
+        a = gram + np.diag(precision)
+        a_inv = np.linalg.inv(a)
+        mean = p - a_inv @ (grad0 + precision * (p - nominal))  # Gauss-Newton's posterior
+        e, v = mean[n_rig:], a_inv[n_rig:, n_rig:]
+        new_s = max(float(np.sqrt(np.mean(e**2 + np.diag(v)))), floor)
+        h = np.eye(len(e)) - v / new_s**2  # what the corners determine of each error
+        dof = float(np.sum(h * h.T))  # tr(H^2): the Fisher information's 2 s^4 I(s^2)
+        if abs(new_s / s - 1) < 1e-4:
+            return new_s, dof
+        s = new_s
+    return s, dof
 
 
 def _covariance(jac: F64, free: NDArray[np.bool_]) -> F64:

@@ -39,13 +39,17 @@ from twopose.camera import rotation_from_angles_deg
 from twopose.errors import InputValueError
 from twopose.estimate import GroundSpec, PoseView
 from twopose.format.entries import INCHES_PER_UNIT, UNITS
+from twopose.noise import PlacingSigma
 from twopose.units import IS_LENGTH, Units, unit_spec
 
 __all__ = [
     "LIMITS",
+    "PLACING_KEYS",
+    "PLACING_LIMIT_IN",
     "RIG_PARAMETERS",
     "RIG_PRIORS",
     "RigConstants",
+    "RigFile",
     "against_priors",
     "angles_deg_from_rotation",
     "check_applicable",
@@ -54,6 +58,8 @@ __all__ = [
     "corrected_view",
     "ground_height",
     "load_rig",
+    "load_rig_file",
+    "placing_table",
     "plausible_bounds",
     "prior_sigma",
     "true_ground",
@@ -414,11 +420,97 @@ def check_applicable(
     return notes
 
 
-def load_rig(path: str | Path) -> RigConstants:
-    """A rig file written by ``twopose-analyze rig``, checked for plausibility.
+#: The most placing sigma a rig file may record (inches): a laptop placed on grid paper by
+#: hand is off by a fraction of an inch; beyond 2 in the file is wrong (a typo, a unit).
+PLACING_LIMIT_IN = 2.0
+#: The ``[placing]`` table's keys and what each holds (docs/rig-file.md).
+PLACING_KEYS = {
+    "sigma": "the placing error's 1-sigma per translation component (x, y, z)",
+    "sigma_sigma": "the estimate's own 1-sigma",
+    "units": "of sigma and sigma_sigma",
+    "measured_by": "the board session(s) that measured it",
+    "captures": "how many captures it was measured over",
+}
 
-    Its ``[rig]`` table, checked by :func:`check_plausible`; the session's ground height and image
-    are judged when it is applied (:func:`check_applicable`).
+
+@dataclass(frozen=True, kw_only=True)
+class RigFile:
+    """A rig file's content: its constants and the operator's placing sigma.
+
+    ``constants``: the ``[rig]`` table; ``placing``: the ``[placing]`` table a board session
+    measured (None: the file records none).
+    """
+
+    constants: RigConstants
+    placing: PlacingSigma | None = None
+
+
+def placing_table(placing: PlacingSigma, units: str) -> list[str]:
+    """The ``[placing]`` table's lines (what :func:`load_rig_file` reads), in ``units``."""
+    inches = unit_spec(units).inches
+    spread = placing.sigma_sigma_in / inches
+    measured_by = placing.measured_by.replace("\\", "/").replace('"', "'")
+    return [
+        "[placing]  # the operator's placing error, measured: every region uses it",
+        f"sigma = {placing.sigma_in / inches:.6g}",
+        *([f"sigma_sigma = {spread:.6g}"] if np.isfinite(spread) else []),
+        f'units = "{units}"',
+        f'measured_by = "{measured_by}"',
+        f"captures = {placing.captures}",
+    ]
+
+
+def _placing(table: object, rig_units: str | None, path: str | Path) -> PlacingSigma | None:
+    """A rig file's ``[placing]`` table, refused in words unless a plausible length."""
+    if table is None:
+        return None
+    what = f"rig file {path}: [placing]"
+    if not isinstance(table, dict):
+        raise InputValueError(f"{what} must be a table (sigma, units, ...)")
+    unknown = sorted(set(table) - set(PLACING_KEYS))
+    if unknown:
+        raise InputValueError(
+            f"{what}: unknown key(s) {', '.join(unknown)}; it holds {', '.join(PLACING_KEYS)}"
+        )
+    units = table.get("units", rig_units)
+    if units not in UNITS:
+        raise InputValueError(f"{what}: units must be one of {', '.join(UNITS)}, got {units!r}")
+    inches = unit_spec(units).inches
+    sigma, spread = table.get("sigma"), table.get("sigma_sigma", float("nan"))
+    limit = PLACING_LIMIT_IN / inches
+    for key, value in (("sigma", sigma), ("sigma_sigma", spread)):
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise InputValueError(f"{what}: {key} must be a number, got {value!r}")
+    assert isinstance(sigma, int | float)
+    assert isinstance(spread, int | float)
+    if not (np.isfinite(sigma) and 0 < sigma <= limit):
+        raise InputValueError(
+            f"{what}: sigma = {sigma!r} {units} is not a placing error (a positive length up "
+            f"to {limit:g} {units}); measure it again with `twopose-analyze rig` on a board "
+            "session, or delete the [placing] table to use the typed resolution"
+        )
+    if spread < 0 or np.isinf(spread):
+        raise InputValueError(f"{what}: sigma_sigma must be a finite length >= 0, got {spread!r}")
+    measured_by, captures = table.get("measured_by", ""), table.get("captures", 0)
+    if not isinstance(measured_by, str):
+        raise InputValueError(f"{what}: measured_by must be text, got {measured_by!r}")
+    if isinstance(captures, bool) or not isinstance(captures, int) or captures < 0:
+        raise InputValueError(f"{what}: captures must be a count >= 0, got {captures!r}")
+    return PlacingSigma(
+        sigma_in=float(sigma) * inches,
+        sigma_sigma_in=float(spread) * inches,
+        measured_by=measured_by or f"rig file {path}",
+        captures=captures,
+    )
+
+
+def load_rig_file(path: str | Path) -> RigFile:
+    """A rig file written by ``twopose-analyze rig``, checked: the one reader.
+
+    Its ``[rig]`` table, checked by :func:`check_plausible` (the session's ground height
+    and image are judged when it is applied, :func:`check_applicable`), and its
+    ``[placing]`` table when there is one: a positive finite length up to
+    :data:`PLACING_LIMIT_IN`, refused in words otherwise.
     """
     from twopose.config import build_dataclass, read_toml
 
@@ -434,4 +526,9 @@ def load_rig(path: str | Path) -> RigConstants:
     rig = build_dataclass(RigConstants, numbers, what, InputValueError)
     rig = dataclasses.replace(rig, units=units)
     check_plausible(rig, what=what)
-    return rig
+    return RigFile(constants=rig, placing=_placing(data.get("placing"), units, path))
+
+
+def load_rig(path: str | Path) -> RigConstants:
+    """A rig file's constants (:func:`load_rig_file`, which checks the whole file)."""
+    return load_rig_file(path).constants
