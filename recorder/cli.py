@@ -106,6 +106,16 @@ def simulate(
             "session units [default: the scene's poses.noise_sigma, 0.1 in].",
         ),
     ] = None,
+    typed_resolution: Annotated[
+        float | None,
+        typer.Option(
+            "--typed-resolution",
+            metavar="SIGMA",
+            help="The 1-sigma each pose entry records as its resolution, session units: an "
+            "operator whose real placing error (--pose-noise) differs from what they type "
+            "[default: the scene's poses.typed_resolution, else the real error].",
+        ),
+    ] = None,
     poses: Annotated[
         int | None,
         typer.Option(**_read("POSES"), help="Poses per trial [default: the scene's, 2]."),
@@ -136,6 +146,7 @@ def simulate(
                 seed=seed,
                 scene=loaded,
                 pose_noise=pose_noise,
+                typed_resolution=typed_resolution,
                 poses=poses,
                 on_progress=lambda: progress.advance(task),
             )

@@ -3,7 +3,7 @@
 Per trial the simulated operator picks typed poses on a lattice (``poses.step``), places
 the laptop there with an error of ``poses.noise_sigma`` on every translation component
 (``poses.rotation_noise_deg`` on every angle), records those as each entry's 1-sigma
-``resolution``, and
+``resolution`` (or ``poses.typed_resolution``: an operator who types another), and
 captures ``frames`` frames per pose rendered from the *true* pose. Typed poses go to
 ``/twopose/pose``; the true poses and target go to ``/simulation/truth``. A camera with a
 ``calibration_sigma`` is recorded with its intrinsics and that sigma, and rendered with true
@@ -344,7 +344,7 @@ class _SimulatedOperator(Driver):
             camera_id=self.source.camera.id,
             t_grid=_vec(t_typed),
             r_deg=_vec(r_typed),
-            translation_resolution=max(p.noise_sigma, EXACT_RESOLUTION),
+            translation_resolution=max(p.typed_sigma, EXACT_RESOLUTION),
             rotation_resolution_deg=max(p.rotation_noise_deg, EXACT_RESOLUTION),
         )
         return Placement(entry=entry, true_pose=(_vec(t_true), _vec(r_true)))
@@ -376,14 +376,27 @@ def poses_per_trial(scene: Scene, method: Method, poses: int | None = None) -> i
     return poses or scene.poses.count
 
 
-def _scene_with(scene: Scene | None, pose_noise: float | None, poses: int | None) -> Scene:
-    """The scene with the command line's overrides of its pose noise and pose count."""
+def _scene_with(
+    scene: Scene | None,
+    pose_noise: float | None,
+    poses: int | None,
+    typed_resolution: float | None = None,
+) -> Scene:
+    """The scene with the command line's overrides of its pose noise, the resolution the
+    operator types and the pose count."""
     scene = scene or Scene()
     if pose_noise is not None:
         if not (pose_noise >= 0 and np.isfinite(pose_noise)):
             raise InputValueError(f"pose noise must be a finite number >= 0, got {pose_noise}")
         noise = dataclasses.replace(scene.poses, noise_sigma=float(pose_noise))
         scene = dataclasses.replace(scene, poses=noise)
+    if typed_resolution is not None:
+        if not (typed_resolution > 0 and np.isfinite(typed_resolution)):
+            raise InputValueError(
+                f"the typed resolution must be a positive length, got {typed_resolution}"
+            )
+        typed = dataclasses.replace(scene.poses, typed_resolution=float(typed_resolution))
+        scene = dataclasses.replace(scene, poses=typed)
     if poses is not None:
         scene = dataclasses.replace(scene, poses=dataclasses.replace(scene.poses, count=poses))
     return scene
@@ -416,6 +429,11 @@ def _session_info(
         notes=(
             f"simulated: {settings}, "
             f"poses={scene.poses.count}, pose_noise={scene.poses.noise_sigma}"
+            + (
+                f", typed_resolution={scene.poses.typed_resolution}"
+                if scene.poses.typed_sigma != scene.poses.noise_sigma
+                else ""
+            )
             + _drawn_note(scene, cameras)
         ),
         created_utc=datetime.fromtimestamp(SIMULATION_EPOCH_NS / 1e9, UTC).isoformat(),
@@ -435,6 +453,7 @@ def simulate_session(  # noqa: PLR0913 - keyword-only settings, one per command-
     pose_noise: float | None = None,
     poses: int | None = None,
     on_progress: Callable[[], None] | None = None,
+    typed_resolution: float | None = None,
 ) -> SimulationSummary:
     """Simulate a whole session into ``out`` (which must not exist), through the same
     procedure loop as a recording (:func:`recorder.procedure.record`).
@@ -452,7 +471,11 @@ def simulate_session(  # noqa: PLR0913 - keyword-only settings, one per command-
     scene : Scene, optional
         Defaults mirror the thesis (f = 525 px, 640x480, h = 9.625 in).
     pose_noise : float, optional
-        Overrides ``scene.poses.noise_sigma`` (session units).
+        Overrides ``scene.poses.noise_sigma`` (session units): the real placing error.
+    typed_resolution : float, optional
+        Overrides ``scene.poses.typed_resolution`` (session units): the placing error each
+        pose entry claims (default: the real one; another simulates an operator who types
+        a resolution other than their placing error).
     poses : int, optional
         Overrides ``scene.poses.count`` (poses per trial, >= 2).
     on_progress : callable, optional
@@ -464,7 +487,9 @@ def simulate_session(  # noqa: PLR0913 - keyword-only settings, one per command-
         What was written: trials, poses, frames and the file.
     """
     method = _checked_settings(method, trials, frames, poses)
-    scene, cameras = calibrated_cameras(_scene_with(scene, pose_noise, poses), seed)
+    scene, cameras = calibrated_cameras(
+        _scene_with(scene, pose_noise, poses, typed_resolution), seed
+    )
     rng = np.random.default_rng(seed)
     layout = build_layout(scene, method, rng)  # a board session's: the scene's board alone
     clock = _SimClock(SIMULATION_EPOCH_NS)

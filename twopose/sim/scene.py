@@ -21,6 +21,7 @@ same scene in any units renders the same images.
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -148,7 +149,10 @@ class PoseParams:
     """How the operator places the laptop: nominal (typed) poses on a lattice, per trial.
 
     True pose = typed pose + N(0, noise_sigma) per translation component (and
-    N(0, rotation_noise_deg) per angle): frames are rendered from the true pose.
+    N(0, rotation_noise_deg) per angle): frames are rendered from the true pose. Each pose
+    entry records ``typed_resolution`` as its translation resolution, the placing error the
+    operator claims: NaN (the default) is ``noise_sigma``, an honest operator; another value
+    simulates one whose real placing error differs from what they type (issue 46).
 
     ``moves``: ``"free"`` draws every pose of a trial anywhere in the ranges; ``"thesis"``
     draws the first so and moves the laptop from each pose to the next as the thesis did
@@ -167,9 +171,18 @@ class PoseParams:
     rotation_step_deg: float = 1.0
     min_baseline: float = field(default=1.0, metadata=IS_LENGTH)
     noise_sigma: float = field(default=0.1, metadata=IS_LENGTH)
+    typed_resolution: float = field(default=math.nan, metadata=IS_LENGTH)
     rotation_noise_deg: float = 0.0
     moves: Literal["free", "thesis"] = "free"
     move_range: Pair = field(default=(1.0, 3.0), metadata=IS_LENGTH)
+
+    @property
+    def typed_sigma(self) -> float:
+        """The translation resolution each pose entry records.
+
+        ``typed_resolution``, else the real placing error ``noise_sigma``.
+        """
+        return self.noise_sigma if math.isnan(self.typed_resolution) else self.typed_resolution
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -365,6 +378,11 @@ def _check_scene(s: Scene) -> None:
         "makes a lattice of over a million steps across the ranges",
     )
     need(p.noise_sigma >= 0 and p.rotation_noise_deg >= 0, "poses.noise_sigma", "must be >= 0")
+    need(
+        math.isnan(p.typed_resolution) or 0 < p.typed_resolution < math.inf,
+        "poses.typed_resolution",
+        "must be a positive length (leave it out to type noise_sigma)",
+    )
     lo, hi = p.move_range
     longest = 100.0 * unit_factor("in", s.units)
     need(
