@@ -1,0 +1,118 @@
+"""The operator's placing sigma (issue 46, part 1): measured by the board fit from seeded
+synthetic captures within its stated 1-sigma; written into a rig file's ``[placing]`` and
+read back by the one reader; a ``[placing]`` that is no placing error refused in words."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from twopose.errors import InputValueError
+from twopose.noise import PlacingSigma
+from twopose.rig.board import fit_board_rig
+from twopose.rig.constants import load_rig, load_rig_file, placing_table
+from twopose.sim.layout import BOARD_POSES, board_corners
+from twopose.sim.scene import load_scene
+
+K = np.array([525.0, 525.0, 320.0, 240.0])
+POSES = np.array(BOARD_POSES, dtype=np.float64)
+X = board_corners(load_scene(None, board={"present": True}).board)
+
+
+def _observed(t_true: np.ndarray, noise_px: float, seed: int) -> np.ndarray:
+    """The board's corners seen from cameras at ``t_true`` (no rotation, a perfect rig)."""
+    p = X[None] - t_true[:, None]
+    u = np.stack([K[0] * p[..., 0] / p[..., 2] + K[2], K[1] * p[..., 1] / p[..., 2] + K[3]], -1)
+    return u + noise_px * np.random.default_rng(seed).standard_normal(u.shape)
+
+
+@pytest.mark.parametrize(("truth_in", "seed"), [(0.1, 0), (0.1, 1), (0.04, 2)])
+def test_the_board_fit_measures_the_placing_sigma_within_its_stated_sigma(
+    truth_in: float, seed: int
+) -> None:
+    """The laptop placed off each of the 8 typed poses by ``truth_in`` per axis, 1/16 in
+    typed: the measured sigma is within 2.5 of its own sigmas of the truth, and that sigma
+    is what 8 captures can say (about 15-25%)."""
+    rng = np.random.default_rng(100 + seed)
+    placed = POSES + truth_in * rng.standard_normal(POSES.shape)
+    fit = fit_board_rig(
+        X, _observed(placed, 0.2, seed), POSES, np.zeros_like(POSES), K, t_sigma=1 / 16
+    )
+    placing = fit.placing
+    assert placing is not None
+    assert placing.captures == 8
+    assert abs(placing.sigma_in - truth_in) < 2.5 * placing.sigma_sigma_in, placing
+    assert 0.12 < placing.sigma_sigma_in / placing.sigma_in < 0.3, placing
+    assert 10 < fit.placing_dof < 24  # 24 components, less what the constants absorb
+
+
+def test_typed_exactly_or_held_fixed_measures_nothing() -> None:
+    observed = _observed(POSES, 0.2, 0)
+    assert fit_board_rig(X, observed, POSES, np.zeros_like(POSES), K).placing is None
+    held = fit_board_rig(
+        X, observed, POSES, np.zeros_like(POSES), K, t_sigma=0.04, measure_placing=False
+    )
+    assert held.placing is None
+
+
+def _rig_file(tmp_path: Path, placing: str, units: str = "in") -> Path:
+    path = tmp_path / "rig.toml"
+    path.write_text(f'[rig]\nunits = "{units}"\nfocal_scale = 1.01\n\n{placing}\n')
+    return path
+
+
+@pytest.mark.parametrize("units", ["in", "mm"])
+def test_the_placing_table_round_trips(tmp_path: Path, units: str) -> None:
+    measured = PlacingSigma(
+        sigma_in=0.0987, sigma_sigma_in=0.0171, measured_by="board.mcap", captures=8
+    )
+    path = _rig_file(tmp_path, "\n".join(placing_table(measured, units)), units)
+    found = load_rig_file(path)
+    assert found.placing is not None
+    assert found.placing.sigma_in == pytest.approx(0.0987, rel=1e-5)
+    assert found.placing.sigma_sigma_in == pytest.approx(0.0171, rel=1e-5)
+    assert (found.placing.measured_by, found.placing.captures) == ("board.mcap", 8)
+    assert found.constants == load_rig(path)  # one reader: the constants are the same
+    assert "measured by board.mcap (8 captures)" in found.placing.describe(units)
+
+
+def test_a_rig_file_without_placing_has_none(tmp_path: Path) -> None:
+    assert load_rig_file(_rig_file(tmp_path, "")).placing is None
+
+
+BAD = {
+    "sigma = 0.0": "not a placing error",
+    "sigma = -0.1": "not a placing error",
+    "sigma = nan": "not a placing error",
+    "sigma = inf": "not a placing error",
+    "sigma = 2.5": "up to 2 in",
+    'sigma = "0.1"': "sigma must be a number",
+    "sigma_sigma = 0.01": "sigma must be a number",  # no sigma at all
+    "sigma = 0.1\nsigma_sigma = -1": "sigma_sigma must be a finite length",
+    'sigma = 0.1\nunits = "furlong"': "units must be one of",
+    "sigma = 0.1\nsigmaa = 0.2": "unknown key(s) sigmaa",
+    "sigma = 0.1\ncaptures = -3": "captures must be a count",
+}
+
+
+@pytest.mark.parametrize(("body", "said"), BAD.items())
+def test_a_bad_placing_table_is_refused_in_words(tmp_path: Path, body: str, said: str) -> None:
+    with pytest.raises(InputValueError, match=r"\[placing\]") as err:
+        load_rig_file(_rig_file(tmp_path, "[placing]\n" + body))
+    assert said in str(err.value)
+
+
+def test_the_limit_is_in_the_files_units(tmp_path: Path) -> None:
+    """50 mm is within 2 in; 60 mm is not, and the limit is said in mm."""
+    ok = load_rig_file(_rig_file(tmp_path, "[placing]\nsigma = 50.0", "mm"))
+    assert ok.placing is not None
+    assert ok.placing.sigma_in == pytest.approx(50 / 25.4)
+    with pytest.raises(InputValueError, match=r"up to 50\.8 mm"):
+        load_rig_file(_rig_file(tmp_path, "[placing]\nsigma = 60.0", "mm"))
+    unmeasured = load_rig_file(_rig_file(tmp_path, "[placing]\nsigma = 1.0")).placing
+    assert unmeasured is not None
+    assert math.isnan(unmeasured.sigma_sigma_in)  # not stated: the words say none
+    assert "±" not in unmeasured.describe("in")
