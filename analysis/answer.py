@@ -17,6 +17,7 @@ from twopose.methods import label_of
 __all__ = [
     "ANSWER_COLUMNS",
     "answer_table",
+    "noise_phrases",
     "number",
     "readable",
     "session_order",
@@ -73,6 +74,38 @@ def shown_name(row: pd.Series) -> str:
     that no other input of the run shares), or, in a table without one, its file name."""
     label = str(row.get("label", "") or "")
     return label or Path(str(row["session"])).name
+
+
+def noise_phrases(row: pd.Series) -> list[str]:
+    """A session's noise model in words (a ``summary.csv`` row): the placing sigma its
+    regions assumed and where it came from, and sigma0's test (:func:`twopose.noise.noise_words`);
+    none for a table from before these columns. The terminal and the report say these."""
+    from twopose.noise import noise_words
+
+    if "sigma0_dof" not in row or pd.isna(row["sigma0_dof"]):
+        return []
+    sigma = row.get("placing_sigma", math.nan)
+    source = str(row.get("placing_source", "") or "typed")
+    widening = row.get("noise_widening", math.nan)
+    radius = math.sqrt(widening) if isinstance(widening, int | float) and widening > 0 else 1.0
+    sigma0 = row.get("sigma0", math.nan)
+    words = noise_words(
+        float(sigma0) if pd.notna(sigma0) else math.nan, int(row["sigma0_dof"]), radius
+    )
+    # phrases a terminal may break between: never inside a number and its name
+    parts = words.split(": ")
+    return [
+        f"placing sigma {_sig(sigma)} {row['units']} {source};",
+        *(p + ":" for p in parts[:-1]),
+        parts[-1],
+    ]
+
+
+def _sig(value: object) -> str:
+    """Three significant digits (1/16 in reads 0.0625), ``-`` when unknown."""
+    if not isinstance(value, int | float) or math.isnan(value):
+        return "-"
+    return f"{value:.3g}"
 
 
 def number(value: object, *, signed: bool = False) -> str:

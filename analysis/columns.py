@@ -27,6 +27,7 @@ __all__ = [
     "IDENTITY_COLUMNS",
     "LINE_COLUMNS",
     "MARGIN_COLUMNS",
+    "NOISE_COLUMNS",
     "NOTES_COLUMNS",
     "OPTIMAL_COLUMNS",
     "RIG_COLUMNS",
@@ -68,6 +69,9 @@ OPTIMAL_COLUMNS = group("optimal")
 #: First-order uncertainty of (x, y, z) (:mod:`twopose.uncertainty`), then the input that
 #: dominates the variance, its share, and the frames rejected as outliers.
 UNCERTAINTY_COLUMNS = group("uncertainty")
+#: The noise model each trial's region assumed (:mod:`twopose.noise`): its placing sigma and
+#: where it came from, its misclosure's chi-square and dof, and the widening applied.
+NOISE_COLUMNS = group("noise")
 #: trials.csv's columns from ``--rig-calibration loo`` (the last five: line trials only).
 RIG_COLUMNS = group("rig")
 #: ``trials.csv``, every session and method concatenated (a column a method lacks is empty):
@@ -107,6 +111,13 @@ SUMMARY_COLUMNS = [
     "rmse_all_ok",  # the same over every ok trial, warned ones included
     "median_err_all_ok",
     "max_err_all_ok",
+    # the noise model its regions assumed (twopose.noise; docs/analysis.md)
+    "placing_sigma",  # the placing sigma (session units): measured, or the typed mean
+    "placing_source",  # typed, or measured by which board session
+    "sigma0",  # the a-posteriori sigma0 of its trials' misclosures (1: the model holds)
+    "sigma0_dof",  # its degrees of freedom (0: no trial with redundancy)
+    "noise_contradicted",  # the data contradict the noise model: the regions were widened
+    "noise_widening",  # the largest covariance multiplier applied (1: unchanged)
 ]
 #: What each number of ``summary.csv`` can be: ``count`` a whole number >= 0, ``length``
 #: a finite length >= 0 (session units), ``signed`` any finite number, ``share`` 0 to 1.
@@ -115,7 +126,7 @@ SUMMARY_COLUMNS = [
 _LENGTHS = (
     "bias_x_ci95", "bias_y_ci95", "bias_z_ci95", "std_x", "std_y", "std_z", "rmse",
     "rmse_ci95_low", "rmse_ci95_high", "median_err", "max_err", "rmse_all_ok",
-    "median_err_all_ok", "max_err_all_ok",
+    "median_err_all_ok", "max_err_all_ok", "placing_sigma", "sigma0", "noise_widening",
 )  # fmt: skip
 SUMMARY_DOMAINS: dict[str, str] = {
     **dict.fromkeys(("n_trials", "n_ok", "n_warned", "n_used"), "count"),
@@ -216,7 +227,7 @@ _TEXT = (
 #: Whole numbers, always known.
 _WHOLE = (
     "trial", "pose", "frame", "log_time_ns", "n_blobs", "n_candidates", "n_frames",
-    "n_trials", "n_ok", "n_warned", "n_used",
+    "n_trials", "n_ok", "n_warned", "n_used", "sigma0_dof",
 )  # fmt: skip
 #: Every declared column's dtype: ``str`` (text), ``bool`` (always known: a frame's
 #: ``found``, a rig constant's ``fitted``), ``boolean`` (pandas' nullable: True, False,
@@ -226,7 +237,7 @@ DTYPES: dict[str, str] = {
     **dict.fromkeys((c for columns in RUN_TABLES.values() for c in columns), "float64"),
     **dict.fromkeys(_TEXT, "str"),
     **dict.fromkeys(_WHOLE, "int64"),
-    **dict.fromkeys(("found", "fitted"), "bool"),
+    **dict.fromkeys(("found", "fitted", "noise_contradicted"), "bool"),
     **{c.name: c.dtype for c in TRIAL_TABLE},
 }
 

@@ -15,6 +15,7 @@ from analysis.columns import SUMMARY_COLUMNS, typed
 __all__ = [
     "SESSION_SETS",
     "by_session_set",
+    "noise_summary",
     "paired_difference",
     "session_set",
     "summarize",
@@ -108,9 +109,40 @@ def summarize(trials: pd.DataFrame, *, include_warned: bool = False) -> pd.DataF
                 "rmse_all_ok": all_ok["rmse"],
                 "median_err_all_ok": all_ok["median_err"],
                 "max_err_all_ok": all_ok["max_err"],
+                **noise_summary(g),
             }
         )
     return typed(pd.DataFrame(rows, columns=SUMMARY_COLUMNS))
+
+
+def noise_summary(trials: pd.DataFrame) -> dict[str, object]:
+    """A session's noise model (``summary.csv``'s last columns): the placing sigma its
+    regions assumed and where it came from, and sigma0 pooled over its ok trials'
+    misclosures (:func:`twopose.misclosure.pooled`'s rule) with its test. A table from
+    before the columns: not known."""
+    from twopose.noise import VarianceFactor
+
+    if "misclosure_dof" not in trials:
+        return {}
+    ok = trials[trials["status"] == "ok"]
+    chi2 = pd.to_numeric(ok["misclosure_chi2"], errors="coerce").to_numpy(dtype=np.float64)
+    dof = pd.to_numeric(ok["misclosure_dof"], errors="coerce").fillna(0).to_numpy()
+    use = np.isfinite(chi2) & (dof > 0)
+    total = int(dof[use].sum())
+    factor = VarianceFactor(
+        sigma0_sq=float(chi2[use].sum() / total) if total else np.nan, dof=total
+    )
+    widening = pd.to_numeric(ok["noise_widening"], errors="coerce")
+    sigma = pd.to_numeric(trials["placing_sigma"], errors="coerce")
+    sources = [s for s in trials["placing_source"].astype(str) if s]
+    return {
+        "placing_sigma": float(sigma.median()) if sigma.notna().any() else np.nan,
+        "placing_source": sources[0] if sources else "",
+        "sigma0": float(np.sqrt(factor.sigma0_sq)) if total else np.nan,
+        "sigma0_dof": total,
+        "noise_contradicted": bool((widening > 1).any()),
+        "noise_widening": float(widening.max()) if widening.notna().any() else np.nan,
+    }
 
 
 def _identity(trials: pd.DataFrame) -> dict[str, str]:

@@ -16,8 +16,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from analysis.answer import noise_phrases, session_order, shown_name
 from analysis.answer import number as _num
-from analysis.answer import session_order, shown_name
 from analysis.answer import share as _share
 from analysis.metrics import SESSION_SETS, by_session_set, summarize
 from twopose.units import UNIT_SPECS, Units, unit_spec
@@ -74,6 +74,9 @@ def summary_lines(
             f"bias x {_num(r['bias_x'], signed=True)} z {_num(r['bias_z'], signed=True)},",
             f"within 1 {r['units']}: {_share(r['within_1'])}",
         ]
+        noise = noise_phrases(r)
+        if noise:  # the noise model its regions assumed (twopose.noise)
+            phrases = [*phrases[:-1], phrases[-1] + ";", *noise]
         lines += wrap_phrases(phrases, width, indent="  ")
     return lines
 

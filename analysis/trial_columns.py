@@ -285,6 +285,39 @@ def _rejected(measurements: list[PoseMeasurement], views: list[PoseView]) -> str
     )
 
 
+def _placing_sigma(t: TrialResult) -> F64:
+    """The placing sigma each trial's region assumed (:func:`placing_sigmas`)."""
+    from twopose.session_estimate import placing_sigmas
+
+    return placing_sigmas(t.estimate.trials, t.estimate.options)
+
+
+def _placing_source(t: TrialResult) -> list[str]:
+    """Where the placing sigma came from (typed, or measured by which board session)."""
+    from twopose.session_estimate import placing_source
+
+    return [placing_source(t.estimate.options)] * len(t.estimate.trials)
+
+
+def _misclosure_chi2(t: TrialResult) -> F64:
+    """Each trial's misclosure chi-square (NaN: no redundancy, or not tested)."""
+    m = t.estimate.misclosure
+    return np.full(len(t.estimate.trials), np.nan) if m is None else m.chi2
+
+
+def _misclosure_dof(t: TrialResult) -> Any:
+    """Each trial's redundant measurements tested (0: none, or not tested)."""
+    m = t.estimate.misclosure
+    return np.zeros(len(t.estimate.trials), dtype=np.int64) if m is None else m.dof
+
+
+def _noise_widening(t: TrialResult) -> F64:
+    """The multiplier each ok trial's covariance was widened by (1: unchanged)."""
+    from twopose.session_estimate import widening_of
+
+    return widening_of(t.reported.cov, t.estimate.factor)
+
+
 def _per_trial(value: Callable[[TrialResult], object]) -> Fill:
     """The same ``value`` for every trial."""
     return lambda t: [value(t)] * len(t.estimate.trials)
@@ -401,6 +434,15 @@ TRIAL_TABLE: tuple[Column, ...] = (
     _text("rejected_frames", "frames rejected", "uncertainty",
           lambda t: [_rejected(ms, vs) if ms else "" for ms, vs in
                      zip(t.estimate.measurements, t.estimate.trials.views, strict=True)]),
+    # the noise model (twopose.noise): the placing sigma assumed, the misclosure's test
+    _length("placing_sigma", "placing sigma assumed", "noise", _placing_sigma, NON_NEGATIVE),
+    _text("placing_source", "placing sigma's source", "noise", _placing_source),
+    Column(name="misclosure_chi2", label="misclosure chi-square", unit="none",
+           domain=NON_NEGATIVE, group="noise", fill=_misclosure_chi2),
+    Column(name="misclosure_dof", label="misclosure degrees of freedom", unit="count",
+           domain=COUNT, dtype="int64", group="noise", fill=_misclosure_dof),
+    Column(name="noise_widening", label="covariance widened by", unit="none",
+           domain=NON_NEGATIVE, group="noise", fill=_noise_widening),
     _text("notes", "operator's notes", "notes",
           lambda t: list(t.notes) if t.notes is not None else [""] * len(t.estimate.trials)),
     # --rig-calibration loo: each trial corrected by its session's other trials' constants

@@ -13,7 +13,9 @@ the analysis pools the whole session.
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -21,11 +23,17 @@ import numpy as np
 from twopose.arrays import F64
 from twopose.estimate import EstimateOptions
 from twopose.methods import spec_of
-from twopose.session_estimate import SessionEstimate, SessionTrials, estimate_session
+from twopose.noise import VarianceFactor, noise_words
+from twopose.session_estimate import (
+    SessionEstimate,
+    SessionTrials,
+    estimate_session,
+    widening_of,
+)
 from twopose.truth import line_errors, reported
 from twopose.uncertainty import semiaxis95, uncertainty_columns
 
-__all__ = ["STATUS_WORDS", "TrialResult", "trial_results"]
+__all__ = ["STATUS_WORDS", "TrialResult", "guidance_options", "trial_results"]
 
 #: A trial's status (trials.csv's codes) in the operator's words.
 STATUS_WORDS = {
@@ -57,6 +65,18 @@ class TrialResult:
     cov: tuple[tuple[float, float, float], ...] = ()  # (3, 3) of ``point``, propagated
     angle95_deg: float = math.nan  # lines: the direction's 95% half-angle
     angle_err_deg: float = math.nan  # lines: against the true line (as trials.csv)
+    #: The session's variance factor so far (:mod:`twopose.noise`; None: not tested), and
+    #: the multiplier of this trial's 95% region's size it applied (1: unchanged).
+    factor: VarianceFactor | None = None
+    widened: float = 1.0
+
+    @property
+    def noise(self) -> str:
+        """The noise model's test in words (:func:`twopose.noise.noise_words`)."""
+        if self.factor is None:
+            return ""
+        sigma0 = math.sqrt(self.factor.sigma0_sq) if self.factor.tested else math.nan
+        return noise_words(sigma0, self.factor.dof, self.widened)
 
     def text(self) -> str:
         """The result in one line, then its warning; or why there is none.
@@ -79,6 +99,8 @@ class TrialResult:
                 parts.append(f"95% within {self.semiaxis95:.3f} {self.units}")
             if math.isfinite(self.error):
                 parts.append(f"error {self.error:.3f} {self.units}")
+        if self.widened > 1:  # said only when it changed the region
+            parts.append(self.noise)
         if self.warning:
             parts.append(f"WARNING {self.warning}")
         if self.outside95:
@@ -145,6 +167,10 @@ class TrialResult:
             "angle95_deg": self.angle95_deg,
             "angle_err_deg": self.angle_err_deg,
             "outside95": self.outside95,
+            "sigma0": math.sqrt(self.factor.sigma0_sq) if self.factor else math.nan,
+            "sigma0_dof": self.factor.dof if self.factor else 0,
+            "widened": self.widened,
+            "noise": self.noise,
             "text": self.text(),
         }
 
@@ -162,6 +188,8 @@ def trial_results(
     spread = uncertainty_columns(rep.error, rep.cov)
     line = spec_of(trials.method).estimates_line
     angle95, angle_err = _line_angles(estimate) if line else (None, None)
+    with np.errstate(invalid="ignore"):  # a region's size: the covariance's square root
+        widened = np.sqrt(widening_of(rep.cov, estimate.factor))
     return [
         TrialResult(
             trial=int(trial),
@@ -181,9 +209,25 @@ def trial_results(
             cov=tuple(_triple(row) for row in rep.cov[i]),
             angle95_deg=math.nan if angle95 is None else float(angle95[i]),
             angle_err_deg=math.nan if angle_err is None else float(angle_err[i]),
+            factor=estimate.factor,
+            widened=float(widened[i]) if np.isfinite(widened[i]) else 1.0,
         )
         for i, trial in enumerate(trials.trial_ids)
     ]
+
+
+def guidance_options(options: EstimateOptions, results: Iterable[TrialResult]) -> EstimateOptions:
+    """``options`` with the session's variance factor fixed, for guidance's predictions.
+
+    The factor its solved trials estimated (or an untested one before any): a predicted
+    view has no noise of its own, so guidance never estimates a factor from it, and its
+    predicted regions widen as the session's did. A factor the options give stands.
+    """
+    if options.noise.factor is not None or not options.noise.test_redundancy:
+        return options
+    factor = next((r.factor for r in results if r.factor is not None), None)
+    fixed = factor or VarianceFactor(sigma0_sq=math.nan, dof=0)
+    return dataclasses.replace(options, noise=dataclasses.replace(options.noise, factor=fixed))
 
 
 def _line_angles(estimate: SessionEstimate) -> tuple[F64, F64]:

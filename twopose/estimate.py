@@ -28,6 +28,7 @@ from twopose.margins import (  # the options' one home, light for the CLI
     EstimateOptions,
 )
 from twopose.methods import Method, Solver, spec_of
+from twopose.misclosure import PLANES, RAYS, MisclosureModel
 from twopose.solve import (
     NViewLines,
     image_lines,
@@ -299,13 +300,18 @@ class _SolverEntry:
     #: The thesis' estimate of perturbed inputs, for propagation: (inputs, cameras, valid
     #: views, ground, min_conditioning, reference point (a line reports its point nearest it)).
     thesis: Callable[[F64, F64, NDArray[np.bool_], GroundSpec | None, float, F64], F64]
+    #: What its estimate predicts of each view, for the misclosure (:mod:`twopose.misclosure`):
+    #: method 2's misclosure is its planes' line's (the ground adds no redundancy).
+    misclosure: MisclosureModel
 
 
 #: The solvers, by the name a method's spec gives (:attr:`MethodSpec.solver`).
 _SOLVERS: Mapping[Solver, _SolverEntry] = {
-    "rays": _SolverEntry(solve=_solve_points, thesis=_thesis_point),
-    "planes": _SolverEntry(solve=_solve_lines, thesis=_thesis_line),
-    "planes and ground": _SolverEntry(solve=_solve_ground, thesis=_thesis_ground),
+    "rays": _SolverEntry(solve=_solve_points, thesis=_thesis_point, misclosure=RAYS),
+    "planes": _SolverEntry(solve=_solve_lines, thesis=_thesis_line, misclosure=PLANES),
+    "planes and ground": _SolverEntry(
+        solve=_solve_ground, thesis=_thesis_ground, misclosure=PLANES
+    ),
 }
 
 
@@ -344,6 +350,21 @@ def thesis_estimate(
         return thesis(x, P, valid, ground, mc, np.tile(reference, (reps, 1)))
 
     return estimate
+
+
+def misclosure_residuals(method: Method, batch: ViewBatch) -> tuple[Callable[[F64], F64], int]:
+    """Each view's residuals as a function of the (perturbed) inputs, and the parameters.
+
+    The residuals (R T, N, 2) of the method's solver's :class:`MisclosureModel`, for
+    :func:`twopose.misclosure.misclosures`; the estimate's parameter count beside them.
+    """
+    model = _solver_of(method).misclosure
+
+    def residuals(x: F64) -> F64:
+        _, valid, P = _perturbed_views(batch, x)
+        return model.residuals(x, P, valid)
+
+    return residuals, model.parameters
 
 
 def thesis_direction(

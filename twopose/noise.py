@@ -33,6 +33,7 @@ __all__ = [
     "NoiseModel",
     "PlacingSigma",
     "VarianceFactor",
+    "noise_words",
     "region_quantile",
 ]
 
@@ -163,6 +164,21 @@ class VarianceFactor:
                 f"{s0:.2f}x and more (Fisher's F on {self.dof} dof)"
             )
         return f"{head}: the data agree with the noise model; regions unchanged"
+
+
+def noise_words(sigma0: float, dof: int, region_widening: float) -> str:
+    """The variance factor's test in a few words, one home for every place that says it.
+
+    ``region_widening``: the 95% region's radius multiplier (the square root of the
+    covariance's, :meth:`VarianceFactor.widening`; 1: unchanged).
+    """
+    if dof <= 0 or not math.isfinite(sigma0):
+        return "sigma0 not tested (no trial with redundant poses)"
+    head = f"sigma0 {sigma0:.2f} on {dof} dof"
+    if region_widening > 1:
+        said = "the data contradict the noise model"
+        return f"{head}: regions widened x{region_widening:.1f}: {said}"
+    return f"{head}: the data agree with the noise model"
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -11,6 +11,7 @@ point a trial reports and how it compares with the truth is :mod:`twopose.truth`
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
@@ -29,6 +30,7 @@ from twopose.estimate import (
     input_covariance,
     margin_warnings,
     measure,
+    misclosure_residuals,
     scatter_of,
     shared_intrinsics,
     solve_batch,
@@ -37,9 +39,18 @@ from twopose.estimate import (
 )
 from twopose.frames import PoseMeasurement, combine_frames
 from twopose.methods import Method, spec_of
+from twopose.misclosure import Misclosure, misclosures, pooled
+from twopose.noise import VarianceFactor
 from twopose.optimal_lines import centroid_segments, optimal_lines
 from twopose.solve import image_lines, triangulate_lines
-from twopose.uncertainty import Propagated, Shared, dominant_input, pooled_scatter, propagate
+from twopose.uncertainty import (
+    Propagated,
+    Shared,
+    dominant_input,
+    pooled_scatter,
+    propagate,
+    region_dof,
+)
 
 __all__ = [
     "Estimates",
@@ -48,7 +59,12 @@ __all__ = [
     "Uncertainty",
     "estimate_session",
     "placing_sigma",
+    "placing_sigmas",
+    "placing_source",
+    "placing_words",
     "running_estimates",
+    "widened",
+    "widening_of",
 ]
 
 
@@ -125,6 +141,8 @@ class _Propagation:
     cov_in: F64
     shared: Shared | None
     solved: Solved
+    #: The variance factor every region is widened by when it is contradicted (None: none).
+    factor: VarianceFactor | None = None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -138,6 +156,11 @@ class SessionEstimate:
     estimates: Estimates
     warnings: list[str]  # per trial, the margins under their thresholds ("" when none)
     options: EstimateOptions
+    #: The session's a-posteriori variance factor (:mod:`twopose.noise`): estimated from
+    #: its trials' misclosures, or the one the options gave; None when not tested.
+    factor: VarianceFactor | None = None
+    #: Per trial, the misclosure's chi-square and dof (None: not estimated here).
+    misclosure: Misclosure | None = None
     _propagation: _Propagation | None = None
 
     def uncertainty_at(self, reference: F64) -> Uncertainty:
@@ -169,7 +192,7 @@ class SessionEstimate:
         f = thesis_direction(p.batch, self.options, np.nan_to_num(d))
         propagated = propagate(f, p.batch.inputs, p.cov_in, shared=p.shared)
         ok = p.solved.status == "ok"
-        cov[p.rows[ok]] = propagated.cov_grid[ok]
+        cov[p.rows[ok]] = widened(propagated.cov_grid[ok], p.factor)
         return cov
 
 
@@ -234,8 +257,60 @@ def estimate_session(
         shared=shared_intrinsics(rows_v, batch),
         solved=solved,
     )
+    factor, misclosure = _variance_factor(trials, context, options)
+    context = dataclasses.replace(context, factor=factor)
     est = _solved_estimates(trials, complete, context, options, line_fits=line_fits)
-    return _session_estimate(trials, measurements, complete, detected, est, options, context)
+    return dataclasses.replace(
+        _session_estimate(trials, measurements, complete, detected, est, options, context),
+        factor=factor,
+        misclosure=misclosure,
+    )
+
+
+def _variance_factor(
+    trials: SessionTrials, p: _Propagation, options: EstimateOptions
+) -> tuple[VarianceFactor | None, Misclosure | None]:
+    """The session's variance factor and its trials' misclosures (:mod:`twopose.misclosure`).
+
+    A factor the options give is applied as is (guidance's predicted views never estimate
+    one); without the test (``test_redundancy`` off), none.
+    """
+    noise = options.noise
+    if noise.factor is not None or not noise.test_redundancy:
+        return noise.factor, None
+    residuals, parameters = misclosure_residuals(trials.method, p.batch)
+    m = misclosures(residuals, p.batch.inputs, p.cov_in, p.batch.valid, parameters, shared=p.shared)
+    ok = p.solved.status == "ok"
+    T = len(trials)
+    chi2, dof = np.full(T, np.nan), np.zeros(T, dtype=np.int_)
+    chi2[p.rows[ok]], dof[p.rows[ok]] = m.chi2[ok], m.dof[ok]
+    per_trial = Misclosure(chi2=chi2, dof=dof)
+    return pooled(per_trial), per_trial
+
+
+def widened(cov: F64, factor: VarianceFactor | None) -> F64:
+    """Covariances (T, 3, 3) widened by a contradicted ``factor`` (unchanged otherwise).
+
+    Each by :func:`widening_of`, so every column and figure reads the widened region.
+    """
+    if factor is None or not factor.contradicted or not len(cov):
+        return cov
+    return np.asarray(cov * widening_of(cov, factor)[:, None, None])
+
+
+def widening_of(cov: F64, factor: VarianceFactor | None) -> F64:
+    """(T,) each covariance's multiplier (1: unchanged; NaN: no finite covariance).
+
+    :meth:`VarianceFactor.widening` for its region's own dimensions
+    (:func:`twopose.uncertainty.region_dof`: 3 for a point, 2 for a ground point or a
+    line's point). Widening keeps the dimensions: a widened covariance gives its own.
+    """
+    k = region_dof(cov)
+    scale = np.where(k > 0, 1.0, np.nan)
+    if factor is not None and factor.contradicted:
+        for dims in np.unique(k[k > 0]):
+            scale[k == dims] = factor.widening(int(dims))
+    return scale
 
 
 def placing_sigma(trials: SessionTrials, options: EstimateOptions) -> float | None:
@@ -245,6 +320,45 @@ def placing_sigma(trials: SessionTrials, options: EstimateOptions) -> float | No
     """
     placing = options.noise.placing
     return None if placing is None or not trials.units else placing.sigma(trials.units)
+
+
+def placing_sigmas(trials: SessionTrials, options: EstimateOptions) -> F64:
+    """(T,) the placing sigma each trial's region assumed, in the session's units.
+
+    The measured one (:func:`placing_sigma`), else the mean of its poses' typed resolution
+    (NaN: no pose).
+    """
+    measured = placing_sigma(trials, options)
+    return np.array(
+        [
+            measured
+            if measured is not None and row
+            else (float(np.mean([v.t_sigma for v in row])) if row else np.nan)
+            for row in trials.views
+        ],
+        dtype=np.float64,
+    )
+
+
+def placing_source(options: EstimateOptions) -> str:
+    """Where the placing sigma came from, briefly.
+
+    ``typed``, ``measured by <board session>`` or ``given``.
+    """
+    placing = options.noise.placing
+    if placing is None:
+        return "typed"
+    return f"measured by {placing.measured_by}" if placing.measured_by else "given"
+
+
+def placing_words(trials: SessionTrials, options: EstimateOptions) -> str:
+    """Which placing sigma the session's regions assumed and where it came from, in words."""
+    from twopose.noise import typed_placing
+
+    placing = options.noise.placing
+    if placing is not None and trials.units:
+        return placing.describe(trials.units)
+    return typed_placing([v.t_sigma for row in trials.views for v in row], trials.units)
 
 
 def _session_estimate(
@@ -365,6 +479,7 @@ def _uncertainty(T: int, p: _Propagation, propagated: Propagated) -> Uncertainty
         d = p.solved.direction
         across = np.eye(3) - np.einsum("ti,tj->tij", d, d)
         cov = across @ cov @ across
+    cov = widened(cov, p.factor)
     names, share = dominant_input(propagated.variance_by_group, propagated.shared_variance)
     none, rows = _no_uncertainty(T), p.rows[ok]
     return Uncertainty(

@@ -1,0 +1,83 @@
+"""The noise model said everywhere (issue 46): which placing sigma a run used and where it
+came from, and sigma0's test, in summary.csv / summary.json, the terminal and the report."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from analysis.answer import noise_phrases
+from analysis.batch import run
+from analysis.report import _noise_section, summary_document
+from analysis.results import AnalysisOptions
+from analysis.terminal import summary_lines
+from twopose.estimate import EstimateOptions
+from twopose.noise import NoiseModel
+
+POINT = Path(__file__).resolve().parents[2] / "sessions" / "thesis_method1_point.mcap"
+
+
+def _row(**values: object) -> pd.Series:
+    return pd.Series({"units": "in", "placing_sigma": 0.0625, "placing_source": "typed", **values})
+
+
+def test_the_words_say_widened_only_when_the_data_contradict_the_model() -> None:
+    widened = noise_phrases(_row(sigma0=1.55, sigma0_dof=50, noise_widening=2.56))
+    said = " ".join(widened)
+    assert "placing sigma 0.0625 in typed;" in said
+    assert "sigma0 1.55 on 50 dof:" in said
+    assert "regions widened x1.6:" in said
+    assert "contradict the noise model" in said
+    agreed = " ".join(noise_phrases(_row(sigma0=1.02, sigma0_dof=40, noise_widening=1.0)))
+    assert "agree with the noise model" in agreed
+    assert "widened" not in agreed
+    untested = " ".join(noise_phrases(_row(sigma0=math.nan, sigma0_dof=0, noise_widening=1.0)))
+    assert "not tested" in untested
+    assert noise_phrases(pd.Series({"units": "in"})) == []  # a table from before the columns
+
+
+@pytest.fixture(scope="module")
+def point_run() -> object:
+    return run([POINT])
+
+
+@pytest.mark.slow  # the sample point session through the analysis (~2.5 s with the imports)
+def test_summary_terminal_and_report_say_the_sessions_noise_model(point_run: object) -> None:
+    row = point_run.summary.iloc[0]  # type: ignore[attr-defined]
+    trials = point_run.trials  # type: ignore[attr-defined]
+    # two-pose point trials: one redundant pixel coordinate each
+    assert (trials["misclosure_dof"] == 1).all()
+    assert row["sigma0_dof"] == 15
+    assert 0.5 < row["sigma0"] < 2.0
+    assert row["placing_source"] == "typed"
+    assert row["placing_sigma"] > 0
+    assert not row["noise_contradicted"]
+    assert row["noise_widening"] == 1.0
+    assert math.isclose(row["sigma0"] ** 2, trials["misclosure_chi2"].sum() / 15, rel_tol=1e-9)
+    session = summary_document(point_run)["summary"][0]  # type: ignore[arg-type,index]
+    for key in ("sigma0", "sigma0_dof", "noise_contradicted", "placing_sigma", "placing_source"):
+        assert key in session
+    text = " ".join(summary_lines(trials, point_run.summary, width=None))  # type: ignore[attr-defined]
+    assert f"sigma0 {row['sigma0']:.2f} on 15 dof: the data agree with the noise model" in text
+    assert "placing sigma" in text
+    assert "typed" in text
+    html = " ".join(_noise_section(point_run))  # type: ignore[arg-type]
+    assert "The noise model the regions assumed" in html
+    assert "sigma0" in html
+
+
+@pytest.mark.slow  # a second run of the session (~1 s after the first): without the test
+def test_without_the_test_no_sigma0_and_the_regions_unchanged(point_run: object) -> None:
+    plain = run(
+        [POINT],
+        options=AnalysisOptions(estimate=EstimateOptions(noise=NoiseModel(test_redundancy=False))),
+    )
+    assert (plain.trials["misclosure_dof"] == 0).all()
+    assert plain.summary.iloc[0]["sigma0_dof"] == 0
+    pd.testing.assert_series_equal(
+        plain.trials["semiaxis95"],
+        point_run.trials["semiaxis95"],  # type: ignore[attr-defined]
+    )
