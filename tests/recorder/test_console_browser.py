@@ -278,9 +278,22 @@ def test_the_console_suggests_the_next_pose_and_stops_by_the_rule(tmp_path: Path
             page.click("setup-submit")
             page.capture("0", "0")
             page.click("accept")
-            page.wait(lambda: "next pose" in page.text("guidance-text"), "a suggestion")
+            page.wait(lambda: "next pose:" in page.text("guidance-text"), "a suggestion")
             said = page.text("guidance-text")
             assert "one pose cannot locate the target yet" in said
+            # Issue 46: the map under the top view, its cells painted (green: the good
+            # ones), its scale in the session's units and its three best listed.
+            page.wait(lambda: page.el("region-map-section").is_displayed(), "the map")
+            painted = laptop.execute_script(
+                "const c = document.getElementById('regionmap');"
+                "const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;"
+                "let n = 0; for (let k = 0; k < d.length; k += 4)"
+                " if (d[k + 1] > d[k] + 20 && d[k + 1] > d[k + 2] + 20) n++; return n;"
+            )
+            assert painted > 500
+            assert "predicted 95% region, in" in page.text("region-map-scale")
+            poses = laptop.find_elements(By.CSS_SELECTOR, "[data-testid=region-map-pose]")
+            assert len(poses) == 3
             page.wait(lambda: page.el("pose-x").is_enabled(), "the pose form")
             page.el("pose-x").send_keys("g")  # one key takes the suggestion into the form
             suggested = [page.el(f"pose-{axis}").get_attribute("value") for axis in "xyz"]
@@ -291,12 +304,12 @@ def test_the_console_suggests_the_next_pose_and_stops_by_the_rule(tmp_path: Path
             page.wait(lambda: "trial 1 (2 views)" in " ".join(page.results()), "the result")
             page.wait(
                 lambda: (
-                    "next pose" in page.text("guidance-text")
+                    "next pose:" in page.text("guidance-text")
                     or "trial complete" in page.text("guidance-text")
                 ),
                 "the next advice",
             )
-            if "next pose" in page.text("guidance-text"):
+            if "next pose:" in page.text("guidance-text"):
                 legend = laptop.find_element(By.ID, "topview-legend").text
                 assert "suggested next pose" in legend
                 doc_image("console-suggestion.png", laptop.get_screenshot_as_png())

@@ -176,3 +176,41 @@ def test_a_rig_that_does_not_apply_is_refused_before_the_file_exists(
     assert message in result.output
     assert "Traceback" not in result.output
     assert not out.exists()
+
+
+# Slow: it records a guided plan, a suggestion searched after each of its three poses (~3 s).
+@pytest.mark.slow
+def test_the_advice_carries_its_map_computed_only_when_asked_and_the_page_gets_it(
+    tmp_path: Path,
+) -> None:
+    """Issue 46: a plan (which takes the suggestion) never computes the map of every
+    reachable pose; the console's driver asks for it and sends it to the page."""
+    from recorder.console import ConsoleSession
+    from recorder.console_driver import WebDriver
+    from recorder.live_result import MappedAdvice
+    from recorder.setup_rules import PoseTyping
+    from twopose.guidance import Advice
+    from twopose.jsonsafe import dumps
+
+    plan_file = tmp_path / "plan.toml"
+    text = PLAN.format(method="point", truth=TRUTH["point"]).split("[[trials]]")
+    plan_file.write_text(text[0] + "[guidance]\ntarget_95 = 0.001\n\n[[trials]]" + text[1])
+    said: list[Advice] = []
+    record_plan(load_plan(plan_file), tmp_path / "s.mcap",
+                SyntheticSource(None, Method.POINT, realtime=False),
+                on_advice=lambda _, advice: said.append(advice))  # fmt: skip
+    assert len(said) == 3  # after each of the three poses
+    assert all(isinstance(a, MappedAdvice) and not a.complete for a in said)
+    assert all("region_map" not in vars(a) for a in said)  # never computed by the plan
+    advice = said[1]
+    session = ConsoleSession(tmp_path / "c.mcap")
+    WebDriver(session, None, "cam0", (), PoseTyping()).advice(1, advice)
+    page = session.snapshot()["advice"]
+    drawn = page["map"]
+    assert drawn is not None
+    assert drawn["units"] == "in"
+    assert drawn["taken"] == [[0.0, 0.0], [1.5, -1.0]]
+    assert drawn["best"]["region95"] <= min(
+        v for row in drawn["region95"] for v in row if v is not None
+    )
+    assert "NaN" not in dumps(page)
