@@ -14,9 +14,10 @@ pose's did. Each batch of candidates is one vectorized estimate (:func:`predicte
 
 With one pose the target cannot be located yet (one ray, or one plane). The suggestion is
 then the move that best conditions the next intersection for a *provisional* target on the
-first view's ray (its centroid's) at :data:`NOMINAL_DEPTH_IN` (nearer if the ray meets the
-ground first); for the finger, the provisional line is the one in the view's plane that
-points most steeply down. It says so.
+first view's ray (its centroid's), wherever along it the scene allows
+(:mod:`twopose.first_pose`: the pose of least worst regret over the depths, its predicted
+region a range), or at the operator's taped distance; for the finger, the provisional line
+is the one in the view's plane that points most steeply down. It says so.
 """
 
 from __future__ import annotations
@@ -30,9 +31,18 @@ import numpy as np
 
 from twopose.arrays import F64
 from twopose.bounds import shown
-from twopose.camera import grid_rays, rotation_from_angles_deg
 from twopose.detect import wrap_theta_deg
-from twopose.estimate import EstimateOptions, GroundSpec, PoseView, measure
+from twopose.estimate import EstimateOptions, PoseView
+from twopose.first_pose import (
+    OTHER_DEPTHS_MARGIN,
+    RANGE_SLACK,
+    FirstPick,
+    assumed_depth,
+    first_depths,
+    first_ray,
+    minimax_pick,
+    provisional_target,
+)
 from twopose.methods import Method, spec_of
 from twopose.paper_search import (
     COARSE_CANDIDATES,
@@ -55,7 +65,10 @@ from twopose.units import Units, unit_factor
 
 __all__ = [
     "LOOKAHEAD_POSES",
-    "NOMINAL_DEPTH_IN",
+    "MIN_GAIN",
+    "STOP_MAX_POSES",
+    "STOP_MIN_GAIN",
+    "STOP_TARGET",
     "THESIS_MOVE_IN",
     "Advice",
     "Guidance",
@@ -70,13 +83,14 @@ __all__ = [
 
 #: The thesis' move from one pose to the next: about an inch along x (Appendix D's 1.1 in).
 THESIS_MOVE_IN = (1.0, 0.0, 0.0)
-#: Where a target seen from one pose is assumed, along its ray (the thesis' ~10 in).
-NOMINAL_DEPTH_IN = 10.0
 #: The prediction of how many poses are still needed searches more coarsely (no pattern
 #: search) ...
 _LOOKAHEAD_COARSE = 10
 #: ... and looks at most this many poses ahead (its cost grows with each).
 LOOKAHEAD_POSES = 4
+#: The information-gain stop's default least share (:attr:`Guidance.min_gain`): what
+#: ``benchmarks/bench_guidance.py`` supports (docs/guidance.md says why).
+MIN_GAIN = 0.05
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -94,14 +108,33 @@ class Suggestion:
     #: :data:`UNSOLVED`: of those predicted), the reasons with none omitted.
     left_out: tuple[tuple[str, int], ...] = ()
     n_predicted: int = 0  # candidates whose region was predicted (the search's cost)
+    #: One pose: the least and the most predicted region over the depths weighed (None:
+    #: the target was located).
+    predicted95_range: tuple[float, float] | None = None
+    #: One pose: the nearest and farthest depth weighed along the first view's ray
+    #: (session units; one depth twice when taped).
+    depth_range: tuple[float, float] | None = None
+    taped: bool = False  # one pose: the depth is the operator's taped distance
+
+    def region_text(self, units: Units) -> str:
+        """The predicted region in words: a range over the depths with one pose."""
+        if self.predicted95_range is None or self.depth_range is None:
+            return f"predicted 95% within {self.predicted95:.3g} {units}"
+        lo, hi = self.predicted95_range
+        near, far = self.depth_range
+        if self.taped:
+            taped = f"for the target taped at {shown(near)} {units}"
+            return f"predicted 95% within {self.predicted95:.3g} {units} {taped}"
+        return (
+            f"predicted 95% within {lo:.3g}-{hi:.3g} {units} for a target "
+            f"{shown(round(near, 2))}-{shown(round(far, 2))} {units} away"
+        )
 
     def text(self, units: Units) -> str:
         """One line for the operator."""
         x, y, z = self.t_grid
-        line = (
-            f"next pose: x {shown(x)}, y {shown(y)}, z {shown(z)} {units} "
-            f"(predicted 95% within {self.predicted95:.3g} {units}"
-        )
+        line = f"next pose: x {shown(x)}, y {shown(y)}, z {shown(z)} {units} "
+        line += f"({self.region_text(units)}"
         if math.isfinite(self.thesis95):
             moved = ", ".join(shown(v) for v in self.thesis_t_grid)
             line += f"; the thesis' move to {moved} would give {self.thesis95:.3g}"
@@ -109,7 +142,10 @@ class Suggestion:
         if self.provisional:
             line += (
                 "; one pose cannot locate the target yet: this move best conditions the "
-                "next intersection, the target assumed on the first view's ray"
+                "next intersection wherever along the first view's ray the target is"
+                if not self.taped
+                else "; one pose cannot locate the target yet: this move best conditions "
+                "the next intersection for the taped distance"
             )
         said = self.left_out_text()
         if said:
@@ -136,6 +172,9 @@ class Suggestion:
             "thesis95": self.thesis95,
             "provisional": self.provisional,
             "left_out": self.left_out_text(),
+            "predicted95_range": self.predicted95_range and list(self.predicted95_range),
+            "depth_range": self.depth_range and list(self.depth_range),
+            "taped": self.taped,
         }
 
 
@@ -181,46 +220,6 @@ def _predicted_view(
     return _shifted_view(template, t_grid, px, lines=lines)
 
 
-def _first_ray(view: PoseView, options: EstimateOptions) -> tuple[F64, F64, F64]:
-    """The first view's camera centre, its centroid's unit ray and its plane's normal.
-
-    The normal (of its image line's plane) is a unit vector in the grid frame; NaN for a dot.
-    """
-    m = measure([[view, view]], options)[0][0][0]
-    R = rotation_from_angles_deg(view.r_deg)
-    centre = np.asarray(view.t_grid, dtype=np.float64)
-    ray = grid_rays(np.asarray(m.centroid_px), view.intrinsics, R)
-    if not math.isfinite(m.theta_deg):
-        return centre, ray, np.full(3, np.nan)
-    step = np.array([math.cos(math.radians(m.theta_deg)), math.sin(math.radians(m.theta_deg))])
-    other = grid_rays(np.asarray(m.centroid_px) + 10.0 * step, view.intrinsics, R)
-    normal = np.cross(ray, other)
-    return centre, ray, normal / np.linalg.norm(normal)
-
-
-def provisional_target(
-    view: PoseView, units: Units, ground: GroundSpec | None, options: EstimateOptions
-) -> F64:
-    """(2, 3) a target one pose cannot locate, assumed (see the module docstring).
-
-    The point twice, or two points of the finger's line (the first its centroid).
-    """
-    centre, ray, normal = _first_ray(view, options)
-    depth = NOMINAL_DEPTH_IN * unit_factor(Units.IN, units)
-    if ground is not None:  # the finger is above the ground: nearer than where its ray meets it
-        n, offset = ground
-        along = float(np.dot(n, ray))
-        if along > 1e-9:
-            depth = min(depth, 0.9 * (offset - float(np.dot(n, centre))) / along)
-    point = centre + depth * ray
-    if not np.isfinite(normal).all():
-        return np.stack([point, point])
-    down = np.array([0.0, 1.0, 0.0])  # y is down: the finger points at the ground
-    direction = down - np.dot(down, normal) * normal
-    direction /= np.linalg.norm(direction)
-    return np.stack([point, point + depth * 0.02 * direction])
-
-
 def located_target(
     method: Method, views: list[PoseView], point: F64, options: EstimateOptions
 ) -> F64:
@@ -237,7 +236,7 @@ def located_target(
     )  # fmt: skip
     est = estimate_session(line, options).estimates
     p0, d = est.point[0], est.direction[0]
-    centre, ray, _ = _first_ray(views[0], options)
+    centre, ray, _ = first_ray(views[0], options)
     # The line's point nearest the centroid ray: the closest points of two lines.
     w = p0 - centre
     b, dd, e = float(ray @ d), float(d @ d), float(d @ w)
@@ -256,12 +255,12 @@ def _template(views: list[PoseView]) -> PoseView:
 
 def predicted_regions(
     trials: SessionTrials, views: list[PoseView], target: F64, centres: F64,
-    options: EstimateOptions,
+    options: EstimateOptions, *, margin: float = 1.0,
 ) -> F64:  # fmt: skip
     """(K,) the trial's 95% region with one more view from each of ``centres`` (K, 3).
 
-    NaN where the target would not be clear of the image's edges (:func:`clear_of_edges`)
-    or the geometry is degenerate.
+    NaN where the target would not be clear of the image's edges (:func:`clear_of_edges`,
+    its margins times ``margin``) or the geometry is degenerate.
     """
     centres = np.asarray(centres, dtype=np.float64).reshape(-1, 3)
     lines = spec_of(trials.method).uses_image_lines
@@ -269,7 +268,9 @@ def predicted_regions(
     out = np.full(len(centres), np.nan)
     if not template.found.any() or not len(centres):
         return out
-    clear = clear_of_edges(template, centres, target, Units(trials.units), lines=lines)
+    clear = clear_of_edges(
+        template, centres, target, Units(trials.units), lines=lines, margin=margin
+    )
     where = np.flatnonzero(clear)
     if not where.size:
         return out
@@ -278,6 +279,12 @@ def predicted_regions(
         [*views, _shifted_view(template, centres[k], px[n], lines=lines)]
         for n, k in enumerate(where)
     ]
+    if options.noise.factor is None and options.noise.test_redundancy:
+        # A predicted view has no noise of its own: the batch's candidates never estimate a
+        # variance factor (the recorder fixes the session's: trial_result.guidance_options).
+        options = dataclasses.replace(
+            options, noise=dataclasses.replace(options.noise, test_redundancy=False)
+        )
     batch = dataclasses.replace(
         trials, trial_ids=tuple(range(1, len(rows) + 1)), views=rows,
         truth=np.repeat(trials.truth[:1], len(rows), axis=0),
@@ -286,16 +293,22 @@ def predicted_regions(
     return out
 
 
-def target_of(trial: SessionTrials, options: EstimateOptions, point: F64 | None) -> F64:
+def target_of(
+    trial: SessionTrials, options: EstimateOptions, point: F64 | None, *,
+    target_distance: float | None = None,
+) -> F64:  # fmt: skip
     """(2, 3) the trial's target as guidance uses it.
 
     With two poses or more and the trial's estimate ``point``: the target they locate
     (:func:`located_target`). With one pose (or no estimate): the provisional target on the
-    first view's ray at the depth the suggestion assumes (:func:`provisional_target`).
+    first view's ray at the depth the suggestion's single figures assume (``predicted95``:
+    the taped ``target_distance``, session units, or the middle of the scene's range).
     """
     views = trial.views[0]
     if len(views) < 2 or point is None:
-        return provisional_target(views[0], Units(trial.units), trial.ground, options)
+        units = Units(trial.units)
+        depths = first_depths(views[0], units, trial.ground, options, target_distance)
+        return provisional_target(views[0], units, trial.ground, options, assumed_depth(depths))
     return located_target(trial.method, views, point, options)
 
 
@@ -310,8 +323,7 @@ def _best(
     """
     taken = np.array([v.t_grid for v in views], dtype=np.float64)
     units = Units(trial.units)
-    # Rounded as the lattice's poses are (shown to the operator: 1.2, not 1.2000000000000002).
-    thesis_t = np.round(taken[-1] + np.asarray(THESIS_MOVE_IN) * unit_factor(Units.IN, units), 10)
+    thesis_t = _thesis_move(taken, units)
     lines = spec_of(trial.method).uses_image_lines
     planes = half_planes(_template(views), target, units, float(taken[0][1]), lines=lines)
     field = field_in_view(taken[0], reach, planes)
@@ -323,24 +335,37 @@ def _best(
     return None if found is None else (found, thesis_t)
 
 
+def _thesis_move(taken: F64, units: Units) -> F64:
+    """(3,) the last pose moved by the thesis' move, rounded as the lattice's poses are.
+
+    Shown to the operator: 1.2, not 1.2000000000000002.
+    """
+    moved = taken[-1] + np.asarray(THESIS_MOVE_IN) * unit_factor(Units.IN, units)
+    return np.asarray(np.round(moved, 10), dtype=np.float64)
+
+
 def suggest(
     trial: SessionTrials,
     reach: Reach,
     options: EstimateOptions | None = None,
     *,
     point: Sequence[float] | None = None,
+    target_distance: float | None = None,
 ) -> Suggestion | None:
     """The next pose for a trial of one or more accepted poses.
 
     ``trial``: one trial, its views in pose order, its truth as known (NaN when none is
     typed, which a line's reported point then does without). ``point``: the trial's
-    estimate with two poses or more (else its target is provisional). None when no
-    reachable pose keeps the target in view.
+    estimate with two poses or more (else its target is provisional: the pose for every
+    depth the scene allows, :mod:`twopose.first_pose`, or for ``target_distance``, the
+    taped distance from the first pose's camera, session units). None when no reachable
+    pose keeps the target in view.
     """
     options = options or EstimateOptions()
     views = trial.views[0]
     located = None if point is None else np.asarray(point, dtype=np.float64)
-    provisional = len(views) < 2 or located is None
+    if len(views) < 2 or located is None:
+        return _first_suggestion(trial, reach, options, target_distance)
     best = _best(trial, views, target_of(trial, options, located), reach, options)
     if best is None:
         return None
@@ -351,24 +376,79 @@ def suggest(
         predicted95=found.region,
         thesis_t_grid=_triple(thesis_t),
         thesis95=float(found.extra_regions[0]),
-        provisional=provisional,
+        provisional=False,
         n_candidates=found.n_candidates,
         left_out=found.left_out,
         n_predicted=found.n_predicted,
     )
 
 
+def _first_pick(
+    trial: SessionTrials, reach: Reach, options: EstimateOptions, depths: F64
+) -> FirstPick | None:
+    """The pose for a target at any of ``depths`` along the first view's ray."""
+    views, units = trial.views[0], Units(trial.units)
+    targets = [provisional_target(views[0], units, trial.ground, options, d) for d in depths]
+    taken = np.array([v.t_grid for v in views], dtype=np.float64)
+    lines = spec_of(trial.method).uses_image_lines
+    # Each depth's best over the poses that keep a target there clear of the image's
+    # edges; the pick keeps it in view wherever along the ray it is (by a narrower margin).
+    y, seen = float(taken[0][1]), _template(views)
+    margin = OTHER_DEPTHS_MARGIN if len(depths) > 1 else 1.0  # a taped depth: the full margin
+    fields = [field_in_view(taken[0], reach, half_planes(seen, t, units, y, lines=lines))
+              for t in targets]  # fmt: skip
+    field = field_in_view(taken[0], reach, np.vstack([
+        half_planes(seen, t, units, y, lines=lines, margin=margin) for t in targets
+    ]))  # fmt: skip
+
+    def predict(centres: F64, rows: list[int]) -> F64:
+        return np.stack([predicted_regions(trial, views, targets[d], centres, options,
+                                           margin=margin) for d in rows])  # fmt: skip
+
+    extra = _thesis_move(taken, units)[None]
+    return minimax_pick(predict, fields, field, taken, extra=extra)
+
+
+def _first_suggestion(
+    trial: SessionTrials, reach: Reach, options: EstimateOptions, taped: float | None
+) -> Suggestion | None:
+    """The suggestion of a trial whose target is not located yet (see :func:`suggest`)."""
+    views, units = trial.views[0], Units(trial.units)
+    depths = first_depths(views[0], units, trial.ground, options, taped)
+    pick = _first_pick(trial, reach, options, depths)
+    if pick is None:
+        return None
+    k = len(depths) // 2  # the assumed depth's (:func:`assumed_depth`)
+    found, taken = pick.found, np.array([v.t_grid for v in views], dtype=np.float64)
+    solved = pick.regions[np.isfinite(pick.regions)]
+    return Suggestion(
+        t_grid=_triple(found.centre), r_deg=_triple(views[-1].r_deg),
+        predicted95=float(pick.regions[k]), thesis_t_grid=_triple(_thesis_move(taken, units)),
+        thesis95=float(pick.extra_regions[k, 0]), provisional=True,
+        n_candidates=found.n_candidates, left_out=found.left_out, n_predicted=pick.n_predicted,
+        predicted95_range=(float(solved.min()) * (1 - RANGE_SLACK),
+                           float(solved.max()) * (1 + RANGE_SLACK)) if solved.size else None,
+        depth_range=(float(depths[0]), float(depths[-1])), taped=taped is not None,
+    )  # fmt: skip
+
+
 @dataclass(frozen=True, kw_only=True)
 class Guidance:
     """Guidance for a recording: suggestions within ``reach``, and the stop rule.
 
-    With ``target95``, a trial is complete once its 95% region is within it, or at
-    ``max_poses``.
+    With ``target95``, a trial is complete once its 95% region is within it; with
+    ``min_gain``, once the next pose would shrink its region by less than that share (the
+    information-gain stop, as Kalibr's ``--mi-tol``); at ``max_poses`` in any case.
+    ``target_distance``: the operator's taped distance from the first pose's camera to the
+    target (session units), which the first suggestion then assumes (else every depth the
+    scene allows, :mod:`twopose.first_pose`).
     """
 
     reach: Reach
     target95: float | None = None  # session units: the region's largest semi-axis
     max_poses: int = 6
+    min_gain: float | None = MIN_GAIN
+    target_distance: float | None = None
 
     def __post_init__(self) -> None:
         """Refuse a target that is not a positive length, or fewer than two poses."""
@@ -376,6 +456,16 @@ class Guidance:
             raise ValueError(f"the target precision must be > 0, got {self.target95}")
         if self.max_poses < 2:
             raise ValueError(f"max_poses must be >= 2, got {self.max_poses}")
+        if self.min_gain is not None and not 0 < self.min_gain < 1:
+            raise ValueError(f"the least gain must be a share in (0, 1), got {self.min_gain}")
+        d = self.target_distance
+        if d is not None and not (math.isfinite(d) and d > 0):
+            raise ValueError(f"the target distance must be > 0, got {d}")
+
+    @property
+    def stops(self) -> bool:
+        """Whether a rule may end a trial before ``max_poses`` (a target or a least gain)."""
+        return self.target95 is not None or self.min_gain is not None
 
     def describe(self, units: Units) -> str:
         """The settings in words (the session records them as a note)."""
@@ -384,11 +474,26 @@ class Guidance:
             if self.target95 is not None
             else "no target precision, "
         )
+        if self.min_gain is not None:
+            stop += f"once the next pose would shrink it by less than {self.min_gain:.0%}, "
+        taped = (
+            f"; the target taped {shown(self.target_distance)} {units} from the first pose"
+            if self.target_distance is not None
+            else ""
+        )
         return (
             f"guidance: {stop}or at {self.max_poses} poses; next poses suggested on the "
             f"{shown(self.reach.spacing)} {units} grid within {shown(self.reach.radius)} {units} "
-            "of the first pose"
+            f"of the first pose{taped}"
         )
+
+
+#: Why a trial is complete (:attr:`Advice.reason`): its region within the target, ...
+STOP_TARGET = "target precision"
+#: ... the next pose would gain less than ``min_gain``, ...
+STOP_MIN_GAIN = "least gain"
+#: ... or it has ``max_poses``.
+STOP_MAX_POSES = "max poses"
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -400,6 +505,7 @@ class Advice:
     region95: float  # the trial's region now (NaN: fewer than two poses)
     suggestion: Suggestion | None = None
     more_poses: int | None = None  # predicted poses still needed (None: none predicted)
+    reason: str = ""  # complete: why (:data:`STOP_TARGET`, ...); "" while it is not
 
 
 def advise(
@@ -419,26 +525,34 @@ def advise(
     views, units, target95 = trial.views[0], Units(trial.units), guidance.target95
     n = len(views)
     if target95 is not None and n >= 2 and region95 <= target95:
-        return Advice(complete=True, region95=region95, text=(
+        return Advice(complete=True, region95=region95, reason=STOP_TARGET, text=(
             f"95% within {region95:.3g} {units} <= {shown(target95)}: trial complete"))  # fmt: skip
     if n >= guidance.max_poses:
         within = f"; 95% within {region95:.3g} {units}" if math.isfinite(region95) else ""
         beyond = f" > {shown(target95)}" if target95 is not None and math.isfinite(region95) else ""
-        return Advice(complete=True, region95=region95, text=(
+        return Advice(complete=True, region95=region95, reason=STOP_MAX_POSES, text=(
             f"{n} poses, the most for a trial: trial complete{within}{beyond}"))  # fmt: skip
-    suggestion = suggest(trial, guidance.reach, options, point=point)
+    suggestion = suggest(
+        trial, guidance.reach, options, point=point, target_distance=guidance.target_distance
+    )
     if suggestion is None:
         text = (
             "no pose on the grid within reach keeps the target clear of the image's edge "
             "and solves the trial: choose the next pose yourself"
         )
         return Advice(complete=False, region95=region95, text=text)
+    gain = 1.0 - suggestion.predicted95 / region95 if math.isfinite(region95) else math.nan
+    if guidance.min_gain is not None and not suggestion.provisional and gain < guidance.min_gain:
+        return Advice(complete=True, region95=region95, reason=STOP_MIN_GAIN, text=(
+            f"the next pose would shrink the 95% region by only {max(gain, 0.0):.1%} (to "
+            f"{suggestion.predicted95:.3g} {units} from {region95:.3g}; less than "
+            f"{guidance.min_gain:.0%}, the least gain): trial complete"))  # fmt: skip
     more = None
     horizon = min(guidance.max_poses, n + LOOKAHEAD_POSES)  # the prediction's cost is bounded
     if target95 is not None:
         located = None if point is None else np.asarray(point, dtype=np.float64)
-        more = _more_poses(trial, guidance, options, target_of(trial, options, located),
-                           suggestion, horizon)  # fmt: skip
+        target = target_of(trial, options, located, target_distance=guidance.target_distance)
+        more = _more_poses(trial, guidance, options, target, suggestion, horizon)
     said = suggestion.text(units)
     if target95 is not None:
         said += (

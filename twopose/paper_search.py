@@ -161,14 +161,18 @@ def project(points: F64, view: PoseView, centres: F64) -> F64:
 
 
 def clear_of_edges(
-    view: PoseView, centres: F64, target: F64, units: Units, *, lines: bool
-) -> Bools:
+    view: PoseView, centres: F64, target: F64, units: Units, *, lines: bool,
+    margin: float = 1.0,
+) -> Bools:  # fmt: skip
     """(K,) whether ``view``'s camera moved to each of ``centres`` keeps the target clear.
 
     Clear of the image's edges: its centroid :data:`IN_VIEW_MARGIN` inside, the finger's
-    ends :data:`END_MARGIN` inside (a share of the image's width and height).
+    ends :data:`END_MARGIN` inside (a share of the image's width and height), each margin
+    times ``margin`` (a first pose's pick for a target whose depth is not known keeps it
+    clear by less at the other depths: :data:`twopose.first_pose.OTHER_DEPTHS_MARGIN`).
     """
     points, margins = _view_checks(target, units, lines=lines)
+    margins = margins * margin
     px = project(points, view, np.atleast_2d(centres))
     w, h = view.width_height
     mx, my = margins * w, margins * h
@@ -179,7 +183,9 @@ def clear_of_edges(
     return np.asarray(inside.all(axis=1))
 
 
-def half_planes(view: PoseView, target: F64, units: Units, y: float, *, lines: bool) -> F64:
+def half_planes(
+    view: PoseView, target: F64, units: Units, y: float, *, lines: bool, margin: float = 1.0
+) -> F64:
     """(H, 3) rows ``(a, b, c)``: a centre keeps the target clear if every ``a x + b z < c``.
 
     Clear of the image's edges as :func:`clear_of_edges` says, for the centre ``(x, y, z)``.
@@ -187,6 +193,7 @@ def half_planes(view: PoseView, target: F64, units: Units, y: float, *, lines: b
     point in front of the camera: linear in the camera centre ``c``.
     """
     points, margins = _view_checks(target, units, lines=lines)
+    margins = margins * margin
     fx, fy, cx, cy = view.intrinsics
     K = np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
     A = K @ rotation_from_angles_deg(view.r_deg).T

@@ -171,3 +171,62 @@ def test_target_of_is_the_located_target_with_two_poses_and_on_the_ray_with_one(
     # One pose: on the first view's ray through the target (its direction, not its depth).
     ray = provisional[0] / np.linalg.norm(provisional[0])
     assert ray == pytest.approx(truth / np.linalg.norm(truth), abs=0.01)
+
+
+def test_one_pose_shows_its_region_as_a_range_over_the_depths_the_scene_allows() -> None:
+    from twopose.first_pose import FAR_DEPTH_IN, NEAR_DEPTH_IN, RANGE_SLACK
+
+    trial = _trial(Method.POINT, [(0.0, 0.0, 0.0)])
+    found = suggest(trial, Reach.thesis(Units.IN))
+    assert found is not None
+    assert found.predicted95_range is not None
+    lo, hi = found.predicted95_range
+    # The region grows with the depth: a target at 30 in is located far worse than at 8.
+    assert lo * (1 + RANGE_SLACK) / (1 - RANGE_SLACK) < found.predicted95 < hi
+    assert hi > 2 * lo
+    assert found.depth_range == (NEAR_DEPTH_IN, FAR_DEPTH_IN)
+    text = found.text(Units.IN)
+    assert f"predicted 95% within {lo:.3g}-{hi:.3g} in for a target 8-30 in away" in text
+    said = found.to_json()
+    assert said["predicted95_range"] == [lo, hi]
+    assert said["depth_range"] == [8.0, 30.0]
+    assert {"t_grid", "predicted95", "thesis95", "provisional", "left_out"} <= said.keys()
+
+
+def test_a_taped_distance_is_the_one_depth_the_first_suggestion_assumes() -> None:
+    from twopose.guidance import target_of
+
+    trial = _trial(Method.POINT, [(0.0, 0.0, 0.0)])
+    distance = float(np.linalg.norm(POINT))
+    found = suggest(trial, Reach.thesis(Units.IN), target_distance=distance)
+    assert found is not None
+    assert found.taped
+    assert found.depth_range == (distance, distance)
+    assert "taped" in found.text(Units.IN)
+    target = target_of(trial, EstimateOptions(), None, target_distance=distance)
+    assert target[0] == pytest.approx(POINT, abs=0.02)  # the taped distance on the ray
+    # The suggestion for the taped distance is the one for the known target.
+    two = _trial(Method.POINT, [(0.0, 0.0, 0.0)])
+    assert found.predicted95 == pytest.approx(
+        float(np.nanmin(_regions_of_lattice(two, target))), rel=0.02
+    )
+
+
+def _regions_of_lattice(trial: SessionTrials, target: np.ndarray) -> np.ndarray:
+    from twopose.guidance import predicted_regions
+
+    reach = Reach.thesis(Units.IN)
+    every = lattice(np.zeros(3), reach, np.zeros((1, 3)))
+    return predicted_regions(trial, trial.views[0], target, every, EstimateOptions())
+
+
+def test_the_depth_range_ends_where_the_ray_meets_the_ground() -> None:
+    from twopose.first_pose import DEPTHS, depth_range
+
+    ray = np.array([0.0, 0.6, 0.8])  # down and ahead: meets y = 9.625 at 9.625 / 0.6
+    depths = depth_range(np.zeros(3), ray, Units.IN, (np.array([0.0, 1.0, 0.0]), 9.625))
+    assert len(depths) == DEPTHS
+    assert depths[0] == pytest.approx(8.0)
+    assert depths[-1] == pytest.approx(9.625 / 0.6)
+    assert depth_range(np.zeros(3), ray, Units.CM, None)[-1] == pytest.approx(30 * 2.54)
+    assert depth_range(np.zeros(3), ray, Units.IN, None, taped=12.0).tolist() == [12.0]
