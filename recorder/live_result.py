@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from recorder.capture import CaptureResult
-from recorder.trial_result import TrialResult, trial_results
+from recorder.trial_result import TrialResult, guidance_options, trial_results
 from twopose.camera import Camera
 from twopose.estimate import EstimateOptions, GroundSpec, PoseView, measure, pose_view
 from twopose.format.entries import GroundPlane, GroundTruth, PoseEntry, TypedEntry
@@ -167,20 +167,29 @@ class LiveResults:
         result = self.results.get(trial) if len(views) >= 2 else None
         ok = result is not None and result.status == "ok"
         point = np.asarray(result.point) if ok and result is not None else None
+        # The session's variance factor, never one estimated from predicted views.
+        options = guidance_options(self.options, self.results.values())
         advice = advise(
             session,
             guidance,
-            self.options,
+            options,
             point=None if point is None else point.tolist(),
             region95=result.semiaxis95 if ok and result is not None else math.nan,
         )
         said = {f.name: getattr(advice, f.name) for f in dataclasses.fields(advice)}
         if advice.complete:
             return MappedAdvice(**said)
-        s, options = advice.suggestion, self.options
+        s = advice.suggestion
         return MappedAdvice(
             **said,
-            map_of=lambda: region_map(session, guidance.reach, options, point=point, suggestion=s),
+            map_of=lambda: region_map(
+                session,
+                guidance.reach,
+                options,
+                point=point,
+                suggestion=s,
+                target_distance=guidance.target_distance,
+            ),
         )
 
     def scene(self, trial: int) -> TrialScene | None:

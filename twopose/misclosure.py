@@ -8,7 +8,8 @@ point projected; the 3-D line projected: the centroid's distance across it and i
 angle). Under the noise model (the same input covariance the regions assume: frame
 scatter and detector floor, placing sigma, calibration sigma) they have the covariance
 ``Cov(r) = J_r C J_r^T``, from the perturbation machinery of
-:func:`twopose.uncertainty.propagate`; ``chi2 = r^T Cov(r)^+ r`` on its ``dof`` redundant
+:func:`twopose.uncertainty.propagate` (:func:`twopose.uncertainty.jacobians`);
+``chi2 = r^T Cov(r)^+ r`` on its ``dof`` redundant
 directions is chi-square with ``dof`` degrees of freedom when the model is right, whatever
 the estimator (to first order, the residual is an oblique projection of the input error).
 
@@ -29,7 +30,7 @@ from twopose.arrays import F64, Bools, Ints
 from twopose.detect import wrap_theta_deg
 from twopose.noise import VarianceFactor
 from twopose.solve import image_lines, triangulate_lines, triangulate_points
-from twopose.uncertainty import Shared, propagate
+from twopose.uncertainty import Shared, jacobians
 
 __all__ = [
     "PLANES",
@@ -122,7 +123,11 @@ def misclosures(
     T, N, _ = inputs.shape
     M = 2 * N
     r = residuals(inputs).reshape(T, M)
-    J, Js = _residual_jacobian(residuals, inputs, input_cov, M, shared)
+
+    def flat(x: F64) -> F64:
+        return residuals(x).reshape(x.shape[0], M)
+
+    J, Js = jacobians(flat, inputs, input_cov, M, shared=shared)
     cov = np.einsum("tinj,tnjk,tlnk->til", J, input_cov, J)
     if Js is not None and shared is not None:
         cov = cov + np.einsum("tigs,tgsr,tjgr->tij", Js, shared.cov, Js)
@@ -132,40 +137,6 @@ def misclosures(
     if good.any():
         chi2[good] = _chi2(r[good], cov[good], dof[good])
     return Misclosure(chi2=chi2, dof=np.where(np.isfinite(chi2), dof, 0))
-
-
-def _residual_jacobian(
-    residuals: Callable[[F64], F64],
-    inputs: F64,
-    input_cov: F64,
-    M: int,
-    shared: Shared | None,
-) -> tuple[F64, F64 | None]:
-    """(T, M, N, D) and (T, M, G, S): the residuals' derivatives, by propagate's differences.
-
-    :func:`twopose.uncertainty.propagate` differentiates three outputs per call: the
-    residuals go through it three at a time.
-    """
-    T = inputs.shape[0]
-    parts, shared_parts = [], []
-    for start in range(0, M, 3):
-
-        def three(x: F64, start: int = start) -> F64:
-            flat = residuals(x).reshape(x.shape[0], M)
-            out = np.zeros((x.shape[0], 3))
-            part = flat[:, start : start + 3]
-            out[:, : part.shape[1]] = part
-            return out
-
-        p = propagate(three, inputs, input_cov, shared=shared)
-        width = min(3, M - start)
-        parts.append(p.jacobian[:, :width])
-        if p.shared_jacobian is not None:
-            shared_parts.append(p.shared_jacobian[:, :width])
-    J = np.concatenate(parts, axis=1)
-    Js = np.concatenate(shared_parts, axis=1) if shared_parts else None
-    assert J.shape[:2] == (T, M)
-    return J, Js
 
 
 def _chi2(r: F64, cov: F64, dof: Ints) -> F64:

@@ -39,6 +39,7 @@ __all__ = [
     "dominant_input",
     "enough_frames",
     "frame_scatter",
+    "jacobians",
     "measurement_covariance",
     "nees",
     "pooled_scatter",
@@ -192,20 +193,22 @@ def _jacobians(
     shared: Shared | None,
     Cs: F64,
     rel_step: float,
+    width: int = 3,
 ) -> tuple[F64, F64]:
     """The estimate's derivatives by central differences.
 
-    Per view (T, 3, N, D) and per shared group (T, 3, G, S); steps of ``rel_step`` sigma.
+    Per view (T, W, N, D) and per shared group (T, W, G, S), W the estimate's ``width``;
+    steps of ``rel_step`` sigma.
     """
     T, N, D = x.shape
     sigma = np.sqrt(np.clip(np.diagonal(C, axis1=2, axis2=3), 0.0, None))  # (T, N, 9)
-    J = np.zeros((T, 3, N, D))
+    J = np.zeros((T, width, N, D))
     # An exact input (or an unused one: a dot's angle) contributes nothing: skip it.
     columns: list[_Column] = [
         (n, d, None) for n in range(N) for d in range(D) if (sigma[:, n, d] > 0).any()
     ]
     group_sigma = np.sqrt(np.clip(np.diagonal(Cs, axis1=2, axis2=3), 0.0, None))  # (T, G, S)
-    Js = np.zeros((T, 3, *Cs.shape[1:3]))
+    Js = np.zeros((T, width, *Cs.shape[1:3]))
     if shared is not None:
         x = np.concatenate([x, np.asarray(shared.values, dtype=np.float64)], axis=-1)
         G, S = Cs.shape[1], Cs.shape[2]
@@ -231,6 +234,30 @@ def _jacobians(
             else:
                 Js[:, :, n, d - D] = column
     return J, Js
+
+
+def jacobians(
+    function: Callable[[F64], F64],
+    inputs: F64,
+    input_cov: F64,
+    width: int,
+    *,
+    rel_step: float = 1e-3,
+    shared: Shared | None = None,
+) -> tuple[F64, F64 | None]:
+    """Any batched ``function``'s derivatives, as :func:`propagate` takes an estimate's.
+
+    ``function`` maps stacked (perturbed) inputs to (R T, ``width``) outputs (what
+    :func:`propagate` calls with three); returns (T, W, N, 9) per view and, with
+    ``shared``, (T, W, G, S) per shared group (None without). The misclosure's residuals
+    (:mod:`twopose.misclosure`) go through it.
+    """
+    x = np.asarray(inputs, dtype=np.float64)
+    C = np.asarray(input_cov, dtype=np.float64)
+    T = x.shape[0]
+    Cs = np.zeros((T, 0, 0, 0)) if shared is None else np.asarray(shared.cov, dtype=np.float64)
+    J, Js = _jacobians(function, x, C, shared, Cs, rel_step, width)
+    return J, None if shared is None else Js
 
 
 def propagate(
@@ -303,7 +330,7 @@ def _difference_columns(
 ) -> list[F64]:
     """Central differences of ``columns`` of the Jacobian, in one call.
 
-    Each column (T, 3); ``steps`` (T,) per column (0: an exact input, its column 0).
+    Each column (T, W); ``steps`` (T,) per column (0: an exact input, its column 0).
     """
     T = x.shape[0]
     K = len(columns)
@@ -318,8 +345,8 @@ def _difference_columns(
             batch[k, ..., d] += np.where(views, step[k][:, None], 0.0)
             batch[K + k, ..., d] -= np.where(views, step[k][:, None], 0.0)
     with np.errstate(invalid="ignore", divide="ignore"):
-        est = estimate(batch.reshape(2 * K * T, *x.shape[1:])).reshape(2, K, T, 3)
-        col = (est[0] - est[1]) / (2.0 * step[..., None])  # (K, T, 3)
+        est = estimate(batch.reshape(2 * K * T, *x.shape[1:])).reshape(2, K, T, -1)
+        col = (est[0] - est[1]) / (2.0 * step[..., None])  # (K, T, W)
     return [np.where((h[k] > 0)[:, None], col[k], 0.0) for k in range(K)]
 
 
