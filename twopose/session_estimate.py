@@ -61,7 +61,6 @@ __all__ = [
     "placing_sigma",
     "placing_sigmas",
     "placing_source",
-    "placing_words",
     "running_estimates",
     "widened",
     "widening_of",
@@ -349,16 +348,6 @@ def placing_source(options: EstimateOptions) -> str:
     if placing is None:
         return "typed"
     return f"measured by {placing.measured_by}" if placing.measured_by else "given"
-
-
-def placing_words(trials: SessionTrials, options: EstimateOptions) -> str:
-    """Which placing sigma the session's regions assumed and where it came from, in words."""
-    from twopose.noise import typed_placing
-
-    placing = options.noise.placing
-    if placing is not None and trials.units:
-        return placing.describe(trials.units)
-    return typed_placing([v.t_sigma for row in trials.views for v in row], trials.units)
 
 
 def _session_estimate(

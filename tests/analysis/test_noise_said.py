@@ -15,7 +15,7 @@ from analysis.report import _noise_section, summary_document
 from analysis.results import AnalysisOptions
 from analysis.terminal import summary_lines
 from twopose.estimate import EstimateOptions
-from twopose.noise import NoiseModel
+from twopose.noise import NoiseModel, PlacingSigma
 
 POINT = Path(__file__).resolve().parents[2] / "sessions" / "thesis_method1_point.mcap"
 
@@ -69,15 +69,16 @@ def test_summary_terminal_and_report_say_the_sessions_noise_model(point_run: obj
     assert "sigma0" in html
 
 
-@pytest.mark.slow  # a second run of the session (~1 s after the first): without the test
-def test_without_the_test_no_sigma0_and_the_regions_unchanged(point_run: object) -> None:
-    plain = run(
-        [POINT],
-        options=AnalysisOptions(estimate=EstimateOptions(noise=NoiseModel(test_redundancy=False))),
-    )
-    assert (plain.trials["misclosure_dof"] == 0).all()
-    assert plain.summary.iloc[0]["sigma0_dof"] == 0
-    pd.testing.assert_series_equal(
-        plain.trials["semiaxis95"],
-        point_run.trials["semiaxis95"],  # type: ignore[attr-defined]
-    )
+@pytest.mark.slow  # a second run of the session (~1 s after the first)
+def test_a_measured_placing_sigma_is_said_with_its_board_session_and_no_test() -> None:
+    measured = PlacingSigma(sigma_in=0.1, sigma_sigma_in=0.01, measured_by="board.mcap")
+    noise = NoiseModel(placing=measured, test_redundancy=False)  # run --rig ... --no-sigma0
+    done = run([POINT], options=AnalysisOptions(estimate=EstimateOptions(noise=noise)))
+    assert (done.trials["misclosure_dof"] == 0).all()
+    assert (done.trials["placing_sigma"] == 0.1).all()
+    row = done.summary.iloc[0]
+    assert row["sigma0_dof"] == 0
+    assert row["placing_source"] == "measured by board.mcap"
+    text = " ".join(summary_lines(done.trials, done.summary, width=None))
+    assert "placing sigma 0.1 in measured by board.mcap;" in text
+    assert "sigma0 not tested" in text
