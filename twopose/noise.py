@@ -173,7 +173,7 @@ def noise_words(sigma0: float, dof: int, region_widening: float) -> str:
     covariance's, :meth:`VarianceFactor.widening`; 1: unchanged).
     """
     if dof <= 0 or not math.isfinite(sigma0):
-        return "sigma0 not tested (no trial with redundant poses)"
+        return "sigma0 not tested (no redundant trial, or --no-sigma0)"
     head = f"sigma0 {sigma0:.2f} on {dof} dof"
     if region_widening > 1:
         said = "the data contradict the noise model"
