@@ -17,6 +17,7 @@ from twopose.errors import (
     handle_errors,
 )
 from twopose.margins import EstimateOptions
+from twopose.noise import NoiseModel
 
 if TYPE_CHECKING:
     from analysis.results import RunResult
@@ -91,6 +92,14 @@ def run_command(
     junit: JunitOption = None,
     rig: RigFileOption = None,
     rig_calibration: RigCalibrationOption = "none",
+    sigma0: Annotated[
+        bool,
+        typer.Option(
+            "--sigma0/--no-sigma0",
+            help="Test the noise model by each session's redundant trials (sigma0) and widen "
+            "every 95% region of a session whose data contradict it (docs/uncertainty.md).",
+        ),
+    ] = _ESTIMATE.noise.test_redundancy,
 ) -> None:
     """Replay sessions through detection and solvers into error tables, figures and a report."""
     from analysis.batch import run
@@ -104,6 +113,7 @@ def run_command(
             min_parallax_deg=min_parallax,
             min_plane_angle_deg=min_plane_angle,
             min_ground_angle_deg=min_ground_angle,
+            noise=NoiseModel(test_redundancy=sigma0),
         ),
         session_timeout_s=session_timeout or None,
         include_warned=include_warned,
