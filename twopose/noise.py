@@ -74,19 +74,55 @@ class PlacingSigma:
                 "measure it again with `twopose-analyze rig` on a board session"
             )
 
+    @property
+    def dof(self) -> float:
+        """The degrees of freedom the estimate is from, ``(sigma / sigma_sigma)^2 / 2``.
+
+        (A variance from ``dof`` degrees of freedom has a relative 1-sigma of
+        ``sqrt(2 / dof)``, its square root half that); infinite when no 1-sigma is stated.
+        """
+        if not (math.isfinite(self.sigma_sigma_in) and self.sigma_sigma_in > 0):
+            return math.inf
+        return 0.5 * (self.sigma_in / self.sigma_sigma_in) ** 2
+
+    @property
+    def widening(self) -> float:
+        """The factor on the measured sigma that the regions assume (1: stated exactly).
+
+        A sigma estimated from few degrees of freedom (a board session's 8 captures give
+        about 17) is itself uncertain: a region built on it covers less than 95% on
+        average. As for the variance factor, the region's quantile becomes Fisher's F
+        instead of the chi-square (:func:`region_quantile`), carried on the sigma as
+        ``sqrt(3 F(3, dof) / chi2_3)``: the 3-D region's (the widest of a region's
+        1-3 dimensions), exact where the placing dominates the region.
+        """
+        if not math.isfinite(self.dof):
+            return 1.0
+        return math.sqrt(region_quantile(3, self.dof) / region_quantile(3))
+
     def sigma(self, units: str) -> float:
-        """The placing sigma in ``units``."""
-        return self.sigma_in / _inches_per(units)
+        """The placing sigma the regions assume, in ``units``.
+
+        The measured one, widened for its own uncertainty (:attr:`widening`).
+        """
+        return self.sigma_in * self.widening / _inches_per(units)
 
     def describe(self, units: str) -> str:
         """Which placing sigma a run used and where it came from, in words."""
-        value = f"{self.sigma(units):.3g}"
+        inches = _inches_per(units)
+        value = f"{self.sigma_in / inches:.3g}"
         if math.isfinite(self.sigma_sigma_in):
-            value += f" ± {self.sigma_sigma_in / _inches_per(units):.2g}"
+            value += f" ± {self.sigma_sigma_in / inches:.2g}"
         where = f"measured by {self.measured_by}" if self.measured_by else "given"
         if self.captures:
             where += f" ({self.captures} captures)"
-        return f"placing sigma {value} {units}, {where}"
+        said = f"placing sigma {value} {units}, {where}"
+        if self.widening > 1.0:
+            said += (
+                f"; regions assume {self.sigma(units):.3g} {units} (x{self.widening:.2f} for "
+                f"the estimate's own uncertainty, {self.dof:.0f} degrees of freedom)"
+            )
+        return said
 
 
 def typed_placing(resolutions: list[float], units: str) -> str:
