@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import sys
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -43,8 +42,14 @@ RigFileOption = Annotated[
     typer.Option(
         exists=True,
         dir_okay=False,
-        help="Correct every view by the rig's constants from `twopose-analyze rig`.",
+        help="Correct every view by the rig's constants from `twopose-analyze rig`, and "
+        "give every region its measured placing sigma when the file has one [default: a "
+        "rig.toml in a folder given, or beside a session file given].",
     ),
+]
+NoRigOption = Annotated[
+    bool,
+    typer.Option("--no-rig", help="Use no rig file, not even a rig.toml beside the sessions."),
 ]
 RigCalibrationOption = Annotated[
     RigCalibrationMode,
@@ -91,6 +96,7 @@ def run_command(
     include_warned: IncludeWarnedOption = False,
     junit: JunitOption = None,
     rig: RigFileOption = None,
+    no_rig: NoRigOption = False,
     rig_calibration: RigCalibrationOption = "none",
     sigma0: Annotated[
         bool,
@@ -121,14 +127,12 @@ def run_command(
     )
     with handle_errors(), _session_progress() as (found, done):
         inputs = resolve_inputs(paths)  # once: every step below takes this set
+        rig = _rig_file(rig, no_rig, paths)
         check_run_outputs(inputs, out, junit, rig)  # before anything is written
         if rig is not None:
-            from analysis.results import RigSource
-            from analysis.rig.calibrate import rig_for_run
+            from analysis.rig.calibrate import with_rig
 
-            constants = rig_for_run(rig, inputs, note)
-            source = RigSource.read(rig, constants)
-            options = dataclasses.replace(options, rig=constants, rig_source=source)
+            options = with_rig(options, rig, inputs, note)
         result = run(
             inputs,
             out,
@@ -146,6 +150,25 @@ def run_command(
             notes = [*result.input_notes, *(f"skipped: {p}" for p in result.skipped)]
             write_file(junit, junit_xml("twopose-analyze run", cases, notes))
     _print_run(result, out, include_warned=include_warned)
+
+
+def _rig_file(rig: Path | None, no_rig: bool, paths: list[Path]) -> Path | None:
+    """The rig file ``run`` uses: ``--rig``'s, else a rig.toml beside the sessions (said),
+    none with ``--no-rig`` (both at once refused)."""
+    from twopose.errors import InputValueError
+
+    if no_rig:
+        if rig is not None:
+            raise InputValueError("--rig and --no-rig contradict each other: give one")
+        return None
+    if rig is not None:
+        return rig
+    from analysis.rig.calibrate import rig_beside
+
+    beside = rig_beside(paths)
+    if beside is not None:
+        note(f"using the rig file {beside} found beside the sessions (--no-rig: none)")
+    return beside
 
 
 @contextlib.contextmanager
