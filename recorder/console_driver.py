@@ -9,6 +9,7 @@ each capture's and trial's result to the page.
 from __future__ import annotations
 
 import queue
+import threading
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -34,6 +35,7 @@ from twopose.values import Vec3
 
 if TYPE_CHECKING:
     from recorder.capture import CaptureResult
+    from recorder.live_result import MappedAdvice
     from recorder.sources import FrameSource, SourceInfo
     from recorder.trial_result import TrialResult
     from twopose.guidance import Advice
@@ -280,19 +282,35 @@ class WebDriver(Driver):
         from recorder.live_result import MappedAdvice
 
         s = advice.suggestion
-        # The map of every reachable pose's region (drawn under the top view), if any.
-        region_map = advice.region_map if isinstance(advice, MappedAdvice) else None
-        self.session.update(
-            advice={
-                "trial": trial,
-                "text": advice.text,
-                "complete": advice.complete,
-                "region95": advice.region95,
-                "suggestion": None if s is None else s.to_json(),
-                "map": None if region_map is None else region_map.to_json(),
-            }
-        )
+        shown = {
+            "trial": trial,
+            "text": advice.text,
+            "complete": advice.complete,
+            "region95": advice.region95,
+            "suggestion": None if s is None else s.to_json(),
+            "map": None,
+        }
+        self.session.update(advice=shown)
+        if isinstance(advice, MappedAdvice) and not advice.complete:
+            # The map of every reachable pose's region (drawn under the top view) follows
+            # the suggestion: the form comes back without waiting for it.
+            threading.Thread(
+                target=self._map, args=(shown, advice), name="region-map", daemon=True
+            ).start()
         return advice.complete
+
+    def _map(self, shown: dict[str, Any], advice: MappedAdvice) -> None:
+        """The advice's map, to the page if its advice is still the one shown."""
+        try:
+            region_map = advice.region_map
+        except Exception as error:  # a map that fails leaves the advice as it is
+            self.session.update(live_error=f"the map of the next poses failed: {error}")
+            return
+        drawn = None if region_map is None else region_map.to_json()
+        with self.session.lock:
+            if self.session.advice is shown:
+                self.session.advice = {**shown, "map": drawn}
+                self.session.lock.notify_all()
 
     def trial_result(self, result: TrialResult) -> None:
         level = "warning" if result.warning or result.status != "ok" else "info"

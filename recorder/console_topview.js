@@ -312,7 +312,10 @@ function drawRegionMap(map, next) {
   setText($("regionmap-units"), "predicted 95% region, " + map.units);
   drawMapScale(map);
   const every = map.step > 1 ? "a cell every " + map.step + " lines of the paper; " : "a cell a pose; ";
-  setText($("regionmap-title"), "the trial's region with the next pose there: " + every + map.n_predicted + " predicted of the " + map.n_in_view + " poses in view");
+  const assumed = map.assumed_depth === null ? "" : "; one pose: the target assumed " +
+    num(map.assumed_depth) + " " + map.units + " along its ray (the suggestion is chosen for every depth the scene allows)";
+  setText($("regionmap-title"), "the trial's region with the next pose there: " + every + map.n_predicted +
+    " predicted of the " + map.n_in_view + " poses in view" + assumed);
   $("regionmap-best").replaceChildren(...map.top.map((p, k) => {
     const li = el("li", mapPoseText(p, map.units) + (k === 0 ? " (ringed)" : ""));
     li.dataset.testid = "region-map-pose";

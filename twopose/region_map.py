@@ -42,8 +42,8 @@ from twopose.units import Units
 
 __all__ = ["MAP_POSES", "REASONS", "RegionMap", "region_map"]
 
-#: The most cells a map predicts (one batch): about 0.1-0.3 s of CPU, measured by
-#: ``benchmarks/bench_suggest.py``.
+#: The most cells a map predicts (one batch; its cost is measured by
+#: ``benchmarks/bench_suggest.py``).
 MAP_POSES = 240
 #: A map covers at most this many times :data:`MAP_POSES` cells (in view or not): the part
 #: of the reach in view is convex, so its bounding box is at most about twice its area.
@@ -75,6 +75,9 @@ class RegionMap:
     suggested95: float  # its predicted region (NaN: none)
     n_reach: int  # lattice poses in reach
     n_in_view: int  # of those, the ones that keep the target clear of the image's edges
+    #: With one pose: how far along the first view's ray the target is assumed (session
+    #: units; the suggestion is chosen for every depth the scene allows); NaN: located.
+    assumed_depth: float = math.nan
 
     def candidates(self) -> tuple[F64, F64]:
         """(M, 3) every pose with a region, (M,) its region: the cells, then the suggestion."""
@@ -116,7 +119,10 @@ class RegionMap:
         if not top:
             return []
         units = self.units
-        lines = [f"the {len(top)} best poses of the map (predicted 95% region):"]
+        assumed = ""
+        if math.isfinite(self.assumed_depth):
+            assumed = f", the target assumed {self.assumed_depth:.3g} {units} along the first ray"
+        lines = [f"the {len(top)} best poses of the map (predicted 95% region{assumed}):"]
         for centre, region in top:
             x, y, z = (shown(float(v)) for v in centre)
             mark = ""
@@ -149,6 +155,7 @@ class RegionMap:
             "taken": self.taken[:, [0, 2]].tolist(),
             "n_reach": self.n_reach,
             "n_in_view": self.n_in_view,
+            "assumed_depth": _rounded(self.assumed_depth),
             "n_predicted": int(
                 np.sum(self.reason == _PREDICTED) + np.sum(self.reason == _UNSOLVED)
             ),
@@ -244,16 +251,19 @@ def _cells(field: Field, ii: Ints, jj: Ints, step: int) -> tuple[Ints, Ints, np.
 def region_map(
     trial: SessionTrials, reach: Reach, options: EstimateOptions | None = None, *,
     point: F64 | None = None, suggestion: Suggestion | None = None, max_poses: int = MAP_POSES,
+    target_distance: float | None = None,
 ) -> RegionMap:  # fmt: skip
     """The map of a trial of one or more accepted poses (see the module docstring).
 
-    ``trial``, ``point``: as :func:`twopose.guidance.suggest` takes them; ``suggestion``:
-    its pick, drawn on the map and among its best (its region was predicted alike).
+    ``trial``, ``point``, ``target_distance``: as :func:`twopose.guidance.suggest` takes
+    them; ``suggestion``: its pick, drawn on the map and among its best (its region was
+    predicted alike).
     """
     options = options or EstimateOptions()
     views = trial.views[0]
     units = Units(trial.units)
-    target = target_of(trial, options, None if point is None else np.asarray(point, np.float64))
+    located = None if point is None else np.asarray(point, np.float64)
+    target = target_of(trial, options, located, target_distance=target_distance)
     lines = spec_of(trial.method).uses_image_lines
     taken = np.array([v.t_grid for v in views], dtype=np.float64)
     s = reach.spacing
@@ -290,4 +300,6 @@ def region_map(
         taken=taken, suggested=None if suggestion is None else np.asarray(suggestion.t_grid),
         suggested95=math.nan if suggestion is None else suggestion.predicted95,
         n_reach=field.n_reach, n_in_view=field.count(),
+        assumed_depth=float(np.linalg.norm(target[0] - taken[0]))
+        if len(views) < 2 or located is None else math.nan,
     )  # fmt: skip

@@ -312,6 +312,8 @@ def test_the_console_suggests_the_next_pose_and_stops_by_the_rule(tmp_path: Path
             if "next pose:" in page.text("guidance-text"):
                 legend = laptop.find_element(By.ID, "topview-legend").text
                 assert "suggested next pose" in legend
+                # The map follows the suggestion: the picture waits for it.
+                page.wait(lambda: page.el("region-map-section").is_displayed(), "the map")
                 doc_image("console-suggestion.png", laptop.get_screenshot_as_png())
                 page.el("pose-x").send_keys("g")
                 page.click("capture")

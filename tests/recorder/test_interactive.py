@@ -269,7 +269,8 @@ def test_the_stop_rule_is_asked_with_the_setup_and_ends_the_trial(tmp_path: Path
     assert "1 trial (1 complete), 2 captures (2 accepted" in result.output
     # Issue 46: after the suggestion, the three best poses of the map, each with its region.
     said = result.output.split("guidance: next pose:")[1].splitlines()
-    assert said[1].strip() == "the 3 best poses of the map (predicted 95% region):"
+    assert said[1].strip().startswith("the 3 best poses of the map (predicted 95% region, the ")
+    assert said[1].endswith(" along the first ray):")  # one pose: the target's depth assumed
     assert all(" in: within " in line and line.strip().startswith("x ") for line in said[2:5])
     assert len(set(said[2:5])) == 3
     given = runner.invoke(

@@ -205,6 +205,8 @@ def test_the_advice_carries_its_map_computed_only_when_asked_and_the_page_gets_i
     advice = said[1]
     session = ConsoleSession(tmp_path / "c.mcap")
     WebDriver(session, None, "cam0", (), PoseTyping()).advice(1, advice)
+    with session.lock:  # the map follows the suggestion (computed beside the recording)
+        session.lock.wait_for(lambda: (session.advice or {}).get("map") is not None, timeout=30)
     page = session.snapshot()["advice"]
     drawn = page["map"]
     assert drawn is not None

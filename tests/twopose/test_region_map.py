@@ -139,7 +139,10 @@ def test_one_pose_has_a_map_and_the_three_best_are_apart() -> None:
             gap = np.abs(top[a][0] - top[b][0])[[0, 2]].max()
             assert gap > 1.5 * m.cell  # not neighbours
     lines = m.best_lines(3)
-    assert lines[0] == "the 3 best poses of the map (predicted 95% region):"
+    # One pose: the map says where along the first view's ray it assumes the target.
+    assert math.isfinite(m.assumed_depth)
+    assumed = f"the target assumed {m.assumed_depth:.3g} in along the first ray"
+    assert lines[0] == f"the 3 best poses of the map (predicted 95% region, {assumed}):"
     best = m.best()
     assert best is not None
     assert best[1] == regions[0]
@@ -163,3 +166,4 @@ def test_the_json_is_what_the_page_draws() -> None:
     assert min(v for v, _ in cells if v is not None) >= lo
     assert len(page["top"]) == 3
     assert page["taken"] == [[0.0, 0.0], [-1.5, 0.5]]
+    assert page["assumed_depth"] is None  # two poses locate the target
