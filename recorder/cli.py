@@ -10,6 +10,15 @@ from typing import TYPE_CHECKING, Annotated, Any, TypeVar
 
 import typer
 
+from recorder.cli_options import (
+    GridOption,
+    MaxPosesOption,
+    MinGainOption,
+    ReachOption,
+    TargetDistanceOption,
+    TargetPrecisionOption,
+)
+from recorder.cli_options import read_option as _read
 from recorder.sources import source_help
 from twopose.errors import (
     EXIT_INTERRUPTED,
@@ -44,48 +53,6 @@ app = typer.Typer(
 @app.callback()
 def _group(version: VersionOption = False) -> None:
     """Record twopose measurement sessions."""
-
-
-class _Typed(float):
-    """A number as read from the command line, with the text it was typed as."""
-
-    text: str = ""
-
-
-def _read(quantity: str) -> dict[str, Any]:
-    """An option's parser and callback: the text as typed, read by the quantity's one
-    reader (:mod:`twopose.bounds`: the grammar and the bound every other path applies), in
-    ``--units`` when they were given (an eager option, read first), else in whichever unit
-    takes it (the setup reads it again once the units are chosen)."""
-    from twopose import bounds
-
-    q: bounds.Quantity = getattr(bounds, quantity)
-    count = q.kind is bounds.Kind.COUNT
-
-    def parse(value: Any) -> Any:
-        if not isinstance(value, str):  # a default
-            return value
-        try:
-            typed = _Typed(q.parse_text(value.strip()))
-        except InputValueError as err:
-            raise typer.BadParameter(str(err)) from None
-        typed.text = value
-        return typed
-
-    def in_units(ctx: typer.Context, value: Any) -> Any:
-        if value is None:
-            return None
-        units = ctx.params.get("units")
-        try:
-            v = q.read(getattr(value, "text", value), Units(units) if units else None)
-        except InputValueError as err:
-            raise typer.BadParameter(str(err)) from None
-        return int(v) if count else v
-
-    lo, hi = q.limits(Units.IN)
-    unit = "" if q.kind in (bounds.Kind.COUNT, bounds.Kind.LENGTH) else f" {q.unit_label(Units.IN)}"
-    span = "length" if q.kind is bounds.Kind.LENGTH else f"{lo:g}-{hi:g}{unit}"
-    return {"parser": parse, "callback": in_units, "metavar": f"<{span}>"}
 
 
 @app.command()
@@ -247,26 +214,6 @@ LiveOption = Annotated[
     ),
 ]
 LivePortOption = Annotated[int, typer.Option(min=0, max=65535, help="Port of --live.")]
-TargetPrecisionOption = Annotated[
-    float | None,
-    typer.Option(
-        **_read("TARGET_PRECISION"),
-        help="Stop rule: a trial is complete once its 95% region's largest semi-axis is "
-        "within this (session units), or at --max-poses.",
-    ),
-]
-MaxPosesOption = Annotated[
-    int,
-    typer.Option(**_read("MAX_POSES"), help="With --target-precision: a trial's most poses."),
-]
-ReachOption = Annotated[
-    float | None,
-    typer.Option(
-        **_read("REACH"),
-        help="Suggested poses lie within this of a trial's first, in x and z (session "
-        "units) [default: the thesis' 3 in].",
-    ),
-]
 ContinueFromOption = Annotated[
     Path | None,
     typer.Option(
@@ -275,14 +222,6 @@ ContinueFromOption = Annotated[
         dir_okay=False,
         help="Continue this session (closed, or recovered by `recover`): its setup and "
         "id, the trials numbered after its last.",
-    ),
-]
-GridOption = Annotated[
-    float | None,
-    typer.Option(
-        **_read("GRID"),
-        help="The grid paper's spacing: suggested poses lie on it (session units) "
-        "[default: the thesis' 1/2 in].",
     ),
 ]
 
@@ -321,6 +260,8 @@ def new(
     reach: ReachOption = None,
     continue_from: ContinueFromOption = None,
     grid: GridOption = None,
+    target_distance: TargetDistanceOption = None,
+    min_gain: MinGainOption = None,
 ) -> None:
     """Record a session: the guided laptop-on-grid procedure, or a plan file (--plan).
 
@@ -351,7 +292,8 @@ def new(
                 "--plan records unattended and --ui asks in the browser: give one of them "
                 "(the plan's setup and poses are not asked again in the page)"
             )
-        guiding = {"--target-precision": target_precision, "--reach": reach, "--grid": grid}
+        guiding = {"--target-precision": target_precision, "--reach": reach, "--grid": grid,
+                   "--target-distance": target_distance, "--min-gain": min_gain}  # fmt: skip
         guiding["--adaptive-frames"] = True if adaptive_frames else None
         board_options = _guidance_given(guiding, max_poses, method, planned=plan is not None)
         request = NewRequest(
@@ -364,7 +306,10 @@ def new(
             notes=notes,
             **rig_file(rig),
             live_port=live_port if live else None,
-            guidance=replace(guidance_asked(max_poses, reach, grid), given=tuple(board_options)),
+            guidance=replace(
+                guidance_asked(max_poses, reach, grid, target_distance, min_gain),
+                given=tuple(board_options),
+            ),
             continued=continued_session(
                 continue_from,
                 operator=operator,  # who records this part: recorded, not ignored
@@ -416,7 +361,8 @@ def _guidance_given(
     if planned and (given_guidance or max_poses != 6):
         raise InputValueError(
             f"{', '.join(given_guidance or ['--max-poses'])}: a plan sets its guidance in "
-            "its [guidance] table (target_95, reach, spacing, max_poses), and "
+            "its [guidance] table (target_95, reach, spacing, max_poses, target_distance, "
+            "min_gain), and "
             "adaptive_frames at its top"
         )
     return board_options

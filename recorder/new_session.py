@@ -65,11 +65,15 @@ class NewRequest:
 
 
 def guidance_asked(
-    max_poses: int = 6, reach: float | None = None, spacing: float | None = None
-) -> GuidanceAsked:
+    max_poses: int = 6, reach: float | None = None, spacing: float | None = None,
+    target_distance: float | None = None, min_gain: float | None = None,
+) -> GuidanceAsked:  # fmt: skip
     from recorder.setup_rules import GuidanceAsked
 
-    return GuidanceAsked(max_poses=max_poses, reach=reach, spacing=spacing)
+    return GuidanceAsked(
+        max_poses=max_poses, reach=reach, spacing=spacing, target_distance=target_distance,
+        min_gain=min_gain,
+    )  # fmt: skip
 
 
 def continued_session(

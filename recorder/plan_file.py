@@ -30,10 +30,12 @@ from twopose.bounds import (
     IMAGE_SIDE,
     INNER_CORNERS,
     MAX_POSES,
+    MIN_GAIN,
     POSE_TRANSLATION,
     PRINCIPAL,
     REACH,
     ROTATION,
+    TARGET_DISTANCE,
     TARGET_PRECISION,
     Quantity,
 )
@@ -45,6 +47,7 @@ from twopose.format.entries import (
     DEFAULT_TRANSLATION_RESOLUTION,
     default_translation_resolution,
 )
+from twopose.guidance import MIN_GAIN as DEFAULT_MIN_GAIN
 from twopose.guidance import Guidance, Reach
 from twopose.methods import METHODS, PLANES, Method, spec_of
 from twopose.targets import BoardPlacement
@@ -61,7 +64,8 @@ __all__ = ["Plan", "PlannedPose", "PlannedTrial", "load_plan"]
 POSE_CAMERA_KEY = "camera"
 #: The keys of each table of a plan, by the table's name.
 _TABLE_KEYS = {
-    "guidance": {"target_95", "reach", "spacing", "max_poses", "seed"},
+    "guidance": {"target_95", "reach", "spacing", "max_poses", "seed"}
+    | {"target_distance", "min_gain"},
     "board": {"inner_corners", "square", "first_corner"},
     "camera": {"id", "calibration", "focal", "fx", "fy", "principal", "cx", "cy"}
     | {"width", "height", "distortion"},
@@ -274,7 +278,7 @@ def load_plan(path: str | Path) -> Plan:
             'plan: poses = "guided" needs a target to locate; a board session plans its poses'
         )
     if guidance is None and any(t.guided for t in trials):
-        guidance = Guidance(reach=Reach.thesis(units), max_poses=max_poses)
+        guidance = Guidance(reach=Reach.thesis(units), max_poses=max_poses, min_gain=None)
     return Plan(
         method=method,
         units=units,
@@ -299,8 +303,11 @@ _DEFAULT_MAX_POSES = 6
 
 def _guidance(table: Any, units: Units) -> tuple[Guidance | None, int]:
     """``[guidance]``: ``target_95`` (the stop rule's precision, session units), ``reach``
-    and ``spacing`` (the lattice of suggested poses; default the thesis'), ``max_poses``
-    and ``seed`` (the synthetic operator's placing error)."""
+    and ``spacing`` (the lattice of suggested poses; default the thesis'), ``max_poses``,
+    ``target_distance`` (taped from the first pose's camera to the target, session units),
+    ``min_gain`` (the information-gain stop's least share, with ``target_95``; default
+    :data:`twopose.guidance.MIN_GAIN`, 0: none) and ``seed`` (the synthetic operator's
+    placing error)."""
     if table is None:
         return None, 0
     g = _known_keys(table, "guidance", "guidance")
@@ -318,7 +325,15 @@ def _guidance(table: Any, units: Units) -> tuple[Guidance | None, int]:
         None if target is None else _read(TARGET_PRECISION, target, "guidance.target_95", units)
     )
     reach = Reach(radius=radius, spacing=spacing)
-    return Guidance(reach=reach, target95=target95, max_poses=max_poses), seed
+    distance = g.get("target_distance")
+    if distance is not None:
+        distance = _read(TARGET_DISTANCE, distance, "guidance.target_distance", units)
+    gain = _read(MIN_GAIN, g.get("min_gain", DEFAULT_MIN_GAIN), "guidance.min_gain", units)
+    return Guidance(
+        reach=reach, target95=target95, max_poses=max_poses, target_distance=distance,
+        # As on the command line: the information-gain stop with a target precision only.
+        min_gain=(gain or None) if target95 is not None else None,
+    ), seed  # fmt: skip
 
 
 def _board(table: Any, method: Method, units: Units) -> BoardPlacement | None:

@@ -25,9 +25,11 @@ from twopose.bounds import (
     POSES,
     PRINCIPAL,
     REACH,
+    TARGET_DISTANCE,
     TARGET_PRECISION,
     Quantity,
 )
+from twopose.bounds import MIN_GAIN as MIN_GAIN_BOUND
 from twopose.camera import Camera, Intrinsics
 from twopose.errors import InputValueError
 from twopose.format.entries import (
@@ -334,6 +336,12 @@ class GuidanceAsked:
     reach: float | None = None
     spacing: float | None = None
     given: tuple[str, ...] = ()
+    #: ``--target-distance``: taped from the first pose's camera to the target (session
+    #: units; None: not taped, the first suggestion weighs every depth the scene allows).
+    target_distance: float | None = None
+    #: ``--min-gain``: the information-gain stop's least share (None: the default,
+    #: :data:`twopose.guidance.MIN_GAIN`; 0: none). With a target precision only.
+    min_gain: float | None = None
 
     def refusals(self, method: Method, units: Units) -> dict[str, str]:
         """Why these options cannot guide a session of ``method`` in ``units``, by the
@@ -342,16 +350,18 @@ class GuidanceAsked:
         if not spec_of(method).measures and self.given:
             return {"method": board_refusal(self.given)}
         errors = {}
-        for value, quantity in ((self.reach, REACH), (self.spacing, GRID)):
+        flags = ((self.reach, REACH, "--reach"), (self.spacing, GRID, "--grid"),
+                 (self.target_distance, TARGET_DISTANCE, "--target-distance"))  # fmt: skip
+        for value, quantity, flag in flags:
             why = quantity.refusal(value, units) if value is not None else ""
             if why:
-                errors["units"] = f"--{'grid' if quantity is GRID else 'reach'}: {why}"
+                errors["units"] = f"{flag}: {why}"
         return errors
 
     def guidance(self, units: Units, poses: int, target95: float | None) -> Guidance:
         """The recording's guidance in the session's units; without a target, a trial
         has ``poses`` poses (``--poses``), as without guidance."""
-        from twopose.guidance import Guidance, Reach
+        from twopose.guidance import MIN_GAIN, Guidance, Reach
 
         thesis = Reach.thesis(units)
         radius = self.reach if self.reach is not None else thesis.radius
@@ -364,10 +374,17 @@ class GuidanceAsked:
                 f"({radius:g} {units})"
             )
         most = MAX_POSES.count(self.max_poses) if target95 is not None else POSES.count(poses)
+        distance = self.target_distance
+        if distance is not None:
+            distance = TARGET_DISTANCE.read(distance, units)
+        gain = MIN_GAIN if self.min_gain is None else MIN_GAIN_BOUND.read(self.min_gain, None)
         try:
             return Guidance(
                 reach=Reach(radius=radius, spacing=spacing), target95=target95,
-                max_poses=most,
+                max_poses=most, target_distance=distance,
+                # The information-gain stop ends a trial early, as the target does: without
+                # a target precision a trial has its --poses poses, as without guidance.
+                min_gain=gain or None if target95 is not None else None,
             )  # fmt: skip
         except ValueError as err:
             raise InputValueError(str(err)) from None

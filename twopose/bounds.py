@@ -1,7 +1,7 @@
 """Every quantity a person types, a plan gives or a command line passes, with its one bound.
 
 One table (:data:`QUANTITIES`) holds each quantity's words, its kind (a length, an angle,
-pixels or a count) and its range; a length's range is stated in inches and converted with
+pixels, a count or a share) and its range; a length's range is stated in inches and converted with
 :func:`twopose.units.unit_factor` (rounded to six significant digits, so the bound shown is
 the bound applied). One function reads a value of a quantity from text or a number,
 :meth:`Quantity.read` (three of them: :meth:`Quantity.read_vector`), and one message form
@@ -42,12 +42,14 @@ __all__ = [
     "IMAGE_SIDE",
     "INNER_CORNERS",
     "MAX_POSES",
+    "MIN_GAIN",
     "POSES",
     "POSE_TRANSLATION",
     "PRINCIPAL",
     "QUANTITIES",
     "REACH",
     "ROTATION",
+    "TARGET_DISTANCE",
     "TARGET_PRECISION",
     "Kind",
     "Quantity",
@@ -65,6 +67,7 @@ class Kind(StrEnum):
     ANGLE = "angle"
     PIXELS = "px"
     COUNT = "count"
+    SHARE = "share"
 
 
 def shown(value: float) -> str:
@@ -322,6 +325,16 @@ TARGET_PRECISION = Quantity(
     key="target_precision", words="target precision", kind=Kind.LENGTH, low=0.0, high=100.0,
     low_open=True, given_as="`--target-precision`, the setup, plan `guidance.target_95`",
 )  # fmt: skip
+TARGET_DISTANCE = Quantity(
+    key="target_distance", words="target distance", kind=Kind.LENGTH, low=0.0, high=200.0,
+    low_open=True,
+    given_as="`--target-distance`, plan `guidance.target_distance` (taped from the first "
+    "pose's camera)",
+)  # fmt: skip
+MIN_GAIN = Quantity(
+    key="min_gain", words="least gain", kind=Kind.SHARE, low=0.0, high=0.5,
+    given_as="`--min-gain`, plan `guidance.min_gain` (a share; 0: no information-gain stop)",
+)  # fmt: skip
 MAX_POSES = Quantity(
     key="max_poses", words="max poses", kind=Kind.COUNT, low=2, high=100,
     given_as="`--max-poses`, plan `guidance.max_poses`, a guided trial's `max_poses`",
@@ -342,8 +355,8 @@ INNER_CORNERS = Quantity(
 #: Every quantity, in the order of the docs' table.
 QUANTITIES: tuple[Quantity, ...] = (
     POSE_TRANSLATION, ROTATION, GROUND_TRUTH, BOARD_CORNER, GROUND_HEIGHT, BOARD_SQUARE,
-    FOCAL, PRINCIPAL, IMAGE_SIDE, GRID, REACH, TARGET_PRECISION, MAX_POSES, POSES, FRAMES,
-    INNER_CORNERS,
+    FOCAL, PRINCIPAL, IMAGE_SIDE, GRID, REACH, TARGET_PRECISION, TARGET_DISTANCE, MIN_GAIN,
+    MAX_POSES, POSES, FRAMES, INNER_CORNERS,
 )  # fmt: skip
 
 

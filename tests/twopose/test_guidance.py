@@ -230,3 +230,30 @@ def test_the_depth_range_ends_where_the_ray_meets_the_ground() -> None:
     assert depths[-1] == pytest.approx(9.625 / 0.6)
     assert depth_range(np.zeros(3), ray, Units.CM, None)[-1] == pytest.approx(30 * 2.54)
     assert depth_range(np.zeros(3), ray, Units.IN, None, taped=12.0).tolist() == [12.0]
+
+
+def test_the_information_gain_stop_ends_a_trial_whose_next_pose_buys_too_little() -> None:
+    from twopose.guidance import STOP_MIN_GAIN
+    from twopose.session_estimate import estimate_session
+
+    trial = _trial(Method.POINT, [(0.0, 0.0, 0.0), (1.5, 0.0, 0.0), (-1.5, 0.0, 1.0)])
+    options = EstimateOptions()
+    point = estimate_session(trial, options).estimates.point[0]
+    region = float(regions95(trial, options)[0])
+    reach = Reach(radius=1.5, spacing=0.5)
+    going = advise(trial, Guidance(reach=reach, min_gain=None), options, point=point,
+                   region95=region)  # fmt: skip
+    assert not going.complete
+    assert going.suggestion is not None
+    gain = 1 - going.suggestion.predicted95 / region
+    assert 0 < gain < 0.5
+    # A least gain above the next pose's: complete, and the advice says why.
+    stopped = advise(trial, Guidance(reach=reach, min_gain=gain + 0.01), options, point=point,
+                     region95=region)  # fmt: skip
+    assert stopped.complete
+    assert stopped.reason == STOP_MIN_GAIN
+    assert f"by only {gain:.1%}" in stopped.text
+    assert "the least gain" in stopped.text
+    below = advise(trial, Guidance(reach=reach, min_gain=gain - 0.01), options, point=point,
+                   region95=region)  # fmt: skip
+    assert not below.complete
