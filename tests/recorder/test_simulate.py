@@ -73,6 +73,31 @@ def test_pose_noise_zero_makes_typed_equal_true(tmp_path: Path) -> None:
     assert compared == 2 * Scene().poses.count  # every pose of both trials
 
 
+# Slow: it renders a trial (2 frames, about 2-3 s with the scene's set-up).
+@pytest.mark.slow
+def test_an_operator_can_type_another_resolution_than_their_placing_error(
+    tmp_path: Path,
+) -> None:
+    """``typed_resolution``: each entry records 1/16 in while the laptop is placed with 0.2
+    in (issue 46's hurried operator); the default types the real error; a typed resolution
+    that is no length is refused."""
+    out = tmp_path / "hurried.mcap"
+    simulate_session(out, method=Method.LINE, trials=1, frames=1, seed=2, pose_noise=0.2,
+                     typed_resolution=0.0625)  # fmt: skip
+    offsets = []
+    with SessionReader(out) as r:
+        assert "typed_resolution=0.0625" in r.info.notes
+        for t in iter_trials(r, with_frames=False):
+            assert t.simulation_truth is not None
+            for pc, true in zip(t.poses, t.simulation_truth.poses, strict=True):
+                assert pc.entry.translation_resolution == pytest.approx(0.0625)
+                offsets.append(np.subtract(pc.entry.t_grid, true.t_grid))
+    assert np.std(offsets) > 0.1  # placed with the real 0.2 in, not the typed 1/16 in
+    assert Scene().poses.typed_sigma == Scene().poses.noise_sigma  # honest by default
+    with pytest.raises(InputValueError, match="typed resolution must be a positive length"):
+        simulate_session(tmp_path / "x.mcap", method=Method.LINE, typed_resolution=0.0)
+
+
 def _dark_centroid(img: np.ndarray, near: np.ndarray, half: int = 15) -> np.ndarray:
     gray = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY).astype(float)
     c, r = np.round(near).astype(int)
