@@ -21,7 +21,7 @@ from analysis.rig.calibrate import calibrate_rig
 from recorder.simulate import simulate_session
 from twopose.errors import InputValueError
 from twopose.methods import Method
-from twopose.rig.constants import RigConstants, load_rig
+from twopose.rig.constants import RigConstants, load_rig, load_rig_file
 from twopose.sim.layout import BOARD_POSES
 from twopose.sim.scene import load_scene
 
@@ -91,6 +91,13 @@ def test_rig_writes_the_file_run_reads(board_session: Path, tmp_path: Path) -> N
     with out.open("rb") as f:
         assert tomllib.load(f)["sigma"]["focal_scale"] > 0
     assert str(board_session) in out.read_text()
+    # The operator's placing error (0.04 in here) measured and written: [placing].
+    placing = load_rig_file(out).placing
+    assert placing is not None
+    assert placing.measured_by == board_session.name
+    assert placing.captures == 8
+    assert abs(placing.sigma_in - 0.04) < 3 * placing.sigma_sigma_in, placing
+    assert f"placing sigma {placing.sigma_in:.3g} ± " in result.stdout
 
 
 def test_a_session_named_twice_or_copied_counts_once(board_session: Path, tmp_path: Path) -> None:
