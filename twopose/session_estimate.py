@@ -342,12 +342,15 @@ def placing_sigmas(trials: SessionTrials, options: EstimateOptions) -> F64:
 def placing_source(options: EstimateOptions) -> str:
     """Where the placing sigma came from, briefly.
 
-    ``typed``, ``measured by <board session>`` or ``given``.
+    ``typed``, ``measured by <board session> (<n> captures)`` or ``given``.
     """
     placing = options.noise.placing
     if placing is None:
         return "typed"
-    return f"measured by {placing.measured_by}" if placing.measured_by else "given"
+    if not placing.measured_by:
+        return "given"
+    captures = f" ({placing.captures} captures)" if placing.captures else ""
+    return f"measured by {placing.measured_by}{captures}"
 
 
 def _session_estimate(

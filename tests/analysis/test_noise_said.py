@@ -71,14 +71,14 @@ def test_summary_terminal_and_report_say_the_sessions_noise_model(point_run: obj
 
 @pytest.mark.slow  # a second run of the session (~1 s after the first)
 def test_a_measured_placing_sigma_is_said_with_its_board_session_and_no_test() -> None:
-    measured = PlacingSigma(sigma_in=0.1, sigma_sigma_in=0.01, measured_by="board.mcap")
+    measured = PlacingSigma(sigma_in=0.1, measured_by="board.mcap", captures=8)
     noise = NoiseModel(placing=measured, test_redundancy=False)  # run --rig ... --no-sigma0
     done = run([POINT], options=AnalysisOptions(estimate=EstimateOptions(noise=noise)))
     assert (done.trials["misclosure_dof"] == 0).all()
     assert (done.trials["placing_sigma"] == 0.1).all()
     row = done.summary.iloc[0]
     assert row["sigma0_dof"] == 0
-    assert row["placing_source"] == "measured by board.mcap"
+    assert row["placing_source"] == "measured by board.mcap (8 captures)"
     text = " ".join(summary_lines(done.trials, done.summary, width=None))
-    assert "placing sigma 0.1 in measured by board.mcap;" in text
+    assert "placing sigma 0.1 in measured by board.mcap (8 captures);" in text
     assert "sigma0 not tested" in text
