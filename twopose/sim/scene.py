@@ -151,8 +151,8 @@ class PoseParams:
     True pose = typed pose + N(0, noise_sigma) per translation component (and
     N(0, rotation_noise_deg) per angle): frames are rendered from the true pose. Each pose
     entry records ``typed_resolution`` as its translation resolution, the placing error the
-    operator claims: NaN (the default) is ``noise_sigma``, an honest operator; another value
-    simulates one whose real placing error differs from what they type (issue 46).
+    operator claims: 0 (the default) is ``noise_sigma``, an honest operator; a positive
+    length simulates one whose real placing error differs from what they type (issue 46).
 
     ``moves``: ``"free"`` draws every pose of a trial anywhere in the ranges; ``"thesis"``
     draws the first so and moves the laptop from each pose to the next as the thesis did
@@ -171,7 +171,7 @@ class PoseParams:
     rotation_step_deg: float = 1.0
     min_baseline: float = field(default=1.0, metadata=IS_LENGTH)
     noise_sigma: float = field(default=0.1, metadata=IS_LENGTH)
-    typed_resolution: float = field(default=math.nan, metadata=IS_LENGTH)
+    typed_resolution: float = field(default=0.0, metadata=IS_LENGTH)
     rotation_noise_deg: float = 0.0
     moves: Literal["free", "thesis"] = "free"
     move_range: Pair = field(default=(1.0, 3.0), metadata=IS_LENGTH)
@@ -182,7 +182,7 @@ class PoseParams:
 
         ``typed_resolution``, else the real placing error ``noise_sigma``.
         """
-        return self.noise_sigma if math.isnan(self.typed_resolution) else self.typed_resolution
+        return self.typed_resolution if self.typed_resolution > 0 else self.noise_sigma
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -379,9 +379,9 @@ def _check_scene(s: Scene) -> None:
     )
     need(p.noise_sigma >= 0 and p.rotation_noise_deg >= 0, "poses.noise_sigma", "must be >= 0")
     need(
-        math.isnan(p.typed_resolution) or 0 < p.typed_resolution < math.inf,
+        0 <= p.typed_resolution < math.inf,
         "poses.typed_resolution",
-        "must be a positive length (leave it out to type noise_sigma)",
+        "must be a length >= 0 (0: the operator types noise_sigma)",
     )
     lo, hi = p.move_range
     longest = 100.0 * unit_factor("in", s.units)
