@@ -8,6 +8,7 @@ from typing import Annotated, Any
 
 import typer
 
+from twopose.bounds import DEFAULT_MIN_GAIN
 from twopose.errors import InputValueError
 from twopose.units import Units
 
@@ -110,6 +111,6 @@ MinGainOption = Annotated[
         **_read("MIN_GAIN"),
         help="With --target-precision: a trial is also complete once the next pose would "
         "shrink its 95% region by less than this share (the information-gain stop; 0: "
-        "none) [default: 0.05].",
+        f"none) [default: {DEFAULT_MIN_GAIN:g}].",
     ),
 ]

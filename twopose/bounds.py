@@ -34,6 +34,7 @@ from twopose.values import MAX_NUMBER_CHARS, NUMBER_GRAMMAR
 __all__ = [
     "BOARD_CORNER",
     "BOARD_SQUARE",
+    "DEFAULT_MIN_GAIN",
     "FOCAL",
     "FRAMES",
     "GRID",
@@ -331,6 +332,10 @@ TARGET_DISTANCE = Quantity(
     given_as="`--target-distance`, plan `guidance.target_distance` (taped from the first "
     "pose's camera)",
 )  # fmt: skip
+#: The information-gain stop's default least share (``twopose.guidance.MIN_GAIN``; here so
+#: that the command line states it without importing NumPy): a sixth guided pose seldom
+#: shrinks a region by 10% (``benchmarks/bench_guidance.py``; docs/guidance.md says why).
+DEFAULT_MIN_GAIN = 0.10
 MIN_GAIN = Quantity(
     key="min_gain", words="least gain", kind=Kind.SHARE, low=0.0, high=0.5,
     given_as="`--min-gain`, plan `guidance.min_gain` (a share; 0: no information-gain stop)",

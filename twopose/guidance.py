@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from twopose.arrays import F64
-from twopose.bounds import shown
+from twopose.bounds import DEFAULT_MIN_GAIN, shown
 from twopose.detect import wrap_theta_deg
 from twopose.estimate import EstimateOptions, PoseView
 from twopose.first_pose import (
@@ -90,7 +90,7 @@ _LOOKAHEAD_COARSE = 10
 LOOKAHEAD_POSES = 4
 #: The information-gain stop's default least share (:attr:`Guidance.min_gain`): what
 #: ``benchmarks/bench_guidance.py`` supports (docs/guidance.md says why).
-MIN_GAIN = 0.05
+MIN_GAIN = DEFAULT_MIN_GAIN
 
 
 @dataclass(frozen=True, kw_only=True)
