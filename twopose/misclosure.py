@@ -135,19 +135,25 @@ def misclosures(
     chi2 = np.full(T, np.nan)
     good = (dof > 0) & np.isfinite(r).all(axis=1) & np.isfinite(cov).all(axis=(1, 2))
     if good.any():
-        chi2[good] = _chi2(r[good], cov[good], dof[good])
-    return Misclosure(chi2=chi2, dof=np.where(np.isfinite(chi2), dof, 0))
+        chi2[good], dof[good] = _chi2(r[good], cov[good], dof[good])
+    tested = np.isfinite(chi2) & (dof > 0)
+    return Misclosure(chi2=np.where(tested, chi2, np.nan), dof=np.where(tested, dof, 0))
 
 
-def _chi2(r: F64, cov: F64, dof: Ints) -> F64:
-    """``r^T Cov^+ r`` over each covariance's ``dof`` largest directions (its range)."""
+def _chi2(r: F64, cov: F64, dof: Ints) -> tuple[F64, Ints]:
+    """``r^T Cov^+ r`` over each covariance's ``dof`` largest directions (its range).
+
+    With the directions the model gives no noise left out (exact inputs: nothing to test),
+    and their count: the chi-square's degrees of freedom.
+    """
     w, V = np.linalg.eigh(cov)  # ascending
     M = w.shape[1]
     rank = np.arange(M)[None, :] >= (M - dof)[:, None]
-    keep = rank & (w > _RANK_TOLERANCE * w[:, -1:])
+    keep = rank & (w > _RANK_TOLERANCE * np.abs(w[:, -1:])) & (w > 0)
     z = np.einsum("tji,tj->ti", V, r)
     with np.errstate(divide="ignore", invalid="ignore"):
-        return np.asarray(np.where(keep, z**2 / w, 0.0).sum(axis=1))
+        chi2 = np.where(keep, z**2 / w, 0.0).sum(axis=1)
+    return np.asarray(chi2), keep.sum(axis=1).astype(np.int_)
 
 
 def pooled(m: Misclosure, rows: NDArray[np.bool_] | None = None) -> VarianceFactor:

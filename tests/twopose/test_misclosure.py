@@ -12,6 +12,7 @@ import pytest
 from tests.helpers import load_benchmark
 from twopose.estimate import EstimateOptions
 from twopose.methods import Method
+from twopose.misclosure import misclosures, pooled
 from twopose.noise import NoiseModel, VarianceFactor
 from twopose.session_estimate import estimate_session, widening_of
 from twopose.uncertainty import region_dof
@@ -99,3 +100,14 @@ def test_method2s_misclosure_is_its_planes_line_s() -> None:
     assert b is not None
     np.testing.assert_allclose(a.chi2, b.chi2)
     np.testing.assert_array_equal(a.dof, b.dof)
+
+
+def test_inputs_the_model_takes_as_exact_test_nothing() -> None:
+    # no noise anywhere: no direction of the residuals to test (not chi2 0 on 3 dof)
+    T, N = 2, 3
+    zero = np.zeros((T, N, 9))
+    m = misclosures(lambda x: np.zeros((x.shape[0], N, 2)), zero, np.zeros((T, N, 9, 9)),
+                    np.ones((T, N), dtype=bool), 3)  # fmt: skip
+    assert (m.dof == 0).all()
+    assert np.isnan(m.chi2).all()
+    assert not pooled(m).tested
