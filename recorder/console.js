@@ -339,19 +339,20 @@ function renderResults(s) {
     if (!s.results.length) list.append(el("li", "none yet: a trial's result shows once its poses are accepted", "small"));
     $("trials-box").scrollTop = $("trials-box").scrollHeight;
   }
+  // The map of the next pose's predicted regions, under the top view: this trial's, while
+  // its next pose is typed (as the suggestion), drawn first: showing it resizes the top view.
+  const a = s.advice && s.advice.trial === s.trial && !s.advice.complete ? s.advice : null;
+  const typing = s.phase === "recording" && s.waiting === "pose" && !s.computing;
+  const map = a && typing ? a.map : null;
+  const mapNext = map && a.suggestion ? a.suggestion.t_grid : null;
+  const mapCanvas = $("regionmap");
+  const mapSize = [mapCanvas.clientWidth, mapCanvas.clientHeight, window.devicePixelRatio || 1];
+  if (changed("regionmap", [map, mapNext, mapSize])) drawRegionMap(map, mapNext);
   const canvas = $("topview");
   const size = [canvas.clientWidth, canvas.clientHeight, window.devicePixelRatio || 1];
   const next = s.advice && s.advice.suggestion && s.topview && s.advice.trial === s.topview.trial
     ? s.advice.suggestion.t_grid : null;
   if (changed("topview", [s.topview, s.units, size, next, s.page])) drawTopView(s.topview, s.units, s.page, next);
-  // The map of the next pose's predicted regions, under the top view (this trial's, while
-  // it needs a next pose).
-  const a = s.advice && s.advice.trial === s.trial && !s.advice.complete ? s.advice : null;
-  const map = a && s.phase === "recording" ? a.map : null;
-  const mapNext = map && a.suggestion ? a.suggestion.t_grid : null;
-  const mapCanvas = $("regionmap");
-  const mapSize = [mapCanvas.clientWidth, mapCanvas.clientHeight, window.devicePixelRatio || 1];
-  if (changed("regionmap", [map, mapNext, mapSize])) drawRegionMap(map, mapNext);
 }
 
 // --------------------------------------------------------------------------- polling, input

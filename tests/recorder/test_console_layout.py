@@ -248,6 +248,8 @@ def test_every_step_fits_the_screen(
         assert [page.el(f"pose-{k}").get_attribute("value") for k in "xyz"] == ["", "", ""]
         assert "accepted" in page.text("pose-list")
         assert not page.shown("refusal")
+        # The map of the next poses follows the suggestion (issue 46): in the picture too.
+        page.wait(lambda: page.shown("region-map-section"), "the map")
         page.step("pose-2")
 
         for testid, value in (("pose-x", "1.5"), ("pose-y", "0"), ("pose-z", "-1")):
