@@ -15,6 +15,9 @@ grid is drawn from 1 mm to 1 in and its reach from 1 in to 100 in (:data:`GRIDS_
   the poses still needed looks as far ahead as it may) and ``max_poses`` 10: what the
   operator waits from accept to the next prompt. Its 95th percentile over the cases, and
   per reach and per pose count.
+- **map**: the CPU time of :func:`twopose.region_map.region_map` after that advice: what
+  the terminal (which waits for it) and the console (which draws it when ready) add to it;
+  a plan computes no map.
 - **regret**: the suggestion's predicted region over the best region of every lattice pose
   in reach that keeps the target clear of the image's edges (each predicted by the same
   batch estimate), less one. A lattice of more than :data:`FULL_LIMIT` such poses is not
@@ -53,6 +56,7 @@ from twopose.guidance import (  # noqa: E402
 )
 from twopose.methods import Method, spec_of  # noqa: E402
 from twopose.paper_search import clear_of_edges, field_in_view, half_planes  # noqa: E402
+from twopose.region_map import MAP_POSES, region_map  # noqa: E402
 from twopose.session_estimate import SessionTrials, estimate_session  # noqa: E402
 from twopose.sim.scene import load_scene  # noqa: E402
 from twopose.solve import projection_matrices  # noqa: E402
@@ -164,13 +168,17 @@ def _cases(n: int, seed: int) -> list[Case]:
     return out
 
 
-def _cost(case: Case) -> tuple[float, float]:
-    """The wall and the CPU time of the advice after the case's last pose."""
+def _cost(case: Case) -> tuple[float, float, float]:
+    """The wall and the CPU time of the advice after the case's last pose, and the CPU
+    time of the map the console and the terminal add to it (:mod:`twopose.region_map`)."""
     trial, point, reach = _trial(case)
     guidance = Guidance(reach=reach, target95=1e-6, max_poses=10)
     wall, cpu = time.perf_counter(), time.process_time()
-    advise(trial, guidance, point=None if point is None else point.tolist())
-    return time.perf_counter() - wall, time.process_time() - cpu
+    advice = advise(trial, guidance, point=None if point is None else point.tolist())
+    spent = time.perf_counter() - wall, time.process_time() - cpu
+    cpu = time.process_time()
+    region_map(trial, reach, point=point, suggestion=advice.suggestion)
+    return spent[0], spent[1], time.process_time() - cpu
 
 
 def _reference(case: Case) -> tuple[float, float, int, bool]:
@@ -255,7 +263,7 @@ def main() -> int:
     cases = _cases(args.cases, args.seed)
     load = os.getloadavg()[0]
     both = np.array([_cost(c) for c in cases])
-    walls, costs = both[:, 0], both[:, 1]
+    walls, costs, maps = both[:, 0], both[:, 1], both[:, 2]
     p95 = float(np.percentile(costs, 95))
     print(f"{len(cases)} cases: grids 1 mm to 1 in, reaches 1 to 100 in (or their cm, mm), "
           "units in/cm/mm, 1-6 poses, point/line/ground; the time of advise() from accept to "
@@ -268,6 +276,13 @@ def main() -> int:
         f"wall time: median {np.median(walls):.2f} s, 95th percentile "
         f"{np.percentile(walls, 95):.2f} s (load average {load:.1f} on {os.cpu_count()} "
         "cores when it started: the wall time is the CPU time on an idle machine)"
+    )
+    print(
+        f"the map of every reachable pose (at most {MAP_POSES} predicted in one batch), the CPU "
+        f"it adds per accepted pose (the terminal waits for it, the console draws it when "
+        f"ready): median {np.median(maps):.2f} s, 95th percentile {np.percentile(maps, 95):.2f} s, "
+        f"largest {maps.max():.2f} s; the advice with it: 95th percentile "
+        f"{np.percentile(costs + maps, 95):.2f} s"
     )
     print(f"\n{'reach in':>9}{'cases':>7}{'p95 s':>8}      {'poses':>6}{'cases':>7}{'p95 s':>8}")
     reaches = sorted({c.reach_in for c in cases})
