@@ -69,7 +69,7 @@ def _map(method: Method, poses: int, reach: Reach) -> tuple[SessionTrials, Regio
 def test_the_best_is_at_least_as_good_as_every_cell_and_cells_are_the_prediction(
     method: Method,
 ) -> None:
-    reach = Reach(radius=3.0, spacing=0.5)
+    reach = Reach(radius=2.0, spacing=0.5)
     trial, m, point = _map(method, 2, reach)
     best = m.best()
     assert best is not None
