@@ -30,10 +30,12 @@ if TYPE_CHECKING:
     from twopose.format.entries import SessionInfo
     from twopose.frames import PoseMeasurement
     from twopose.guidance import Guidance
+    from twopose.margins import EstimateOptions
     from twopose.noise import PlacingSigma
     from twopose.rig.constants import RigConstants
     from twopose.scene3d import TrialScene
     from twopose.targets import BoardPlacement
+    from twopose.units import Units
 
 __all__ = [
     "AdaptiveFrames",
@@ -293,6 +295,20 @@ class CaptureSettings:
     #: stops once another frame would not shrink the pose's measurement (the detector's
     #: floor, with whether the method reads an orientation: :meth:`live_detection` sets it).
     adaptive: AdaptiveFrames | None = None
+
+    def estimate_options(self) -> EstimateOptions:
+        """The live result's estimation: its regions (and guidance's predictions) take the
+        measured placing sigma (:attr:`placing`), else each pose's typed resolution."""
+        from twopose.margins import EstimateOptions
+        from twopose.noise import NoiseModel
+
+        return EstimateOptions(noise=NoiseModel(placing=self.placing))
+
+    def placing_words(self, units: Units) -> str:
+        """Which placing sigma the live result uses, in words (the recording says it)."""
+        if self.placing is None:
+            return "placing sigma: typed (each pose's recorded resolution)"
+        return self.placing.describe(units)
 
     @classmethod
     def live_detection(

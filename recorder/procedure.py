@@ -337,31 +337,6 @@ def refuse_existing(path: str | Path) -> None:
         )
 
 
-def live_results(
-    info: SessionInfo,
-    cameras: Sequence[Camera],
-    ground: GroundPlane | None,
-    settings: CaptureSettings,
-) -> LiveResults:
-    """The live result of a recording: views corrected by the rig, regions with the
-    measured placing sigma (``settings.placing``) or each pose's typed resolution; which,
-    said first among its notes (the terminal prints them as the recording starts)."""
-    from twopose.margins import EstimateOptions
-    from twopose.noise import NoiseModel
-
-    options = EstimateOptions(noise=NoiseModel(placing=settings.placing))
-    results = LiveResults(
-        info.method, info.units, cameras, ground, options=options, rig=settings.rig
-    )
-    said = (
-        settings.placing.describe(info.units)
-        if settings.placing is not None
-        else "placing sigma: typed (each pose's recorded resolution)"
-    )
-    results.notes.insert(0, said)
-    return results
-
-
 @dataclass(frozen=True, kw_only=True)
 class _CaptureOptions:
     settings: CaptureSettings
@@ -396,7 +371,9 @@ def record(  # noqa: PLR0913 - keyword-only settings of a recording
     settings = capture or CaptureSettings()
     results = None
     if settings.target is not None:  # the live result needs the live detection
-        results = live_results(info, cameras, ground, settings)
+        estimate = settings.estimate_options()  # the rig file's placing sigma, or typed
+        results = LiveResults(info.method, info.units, cameras, ground, estimate, settings.rig)
+        results.notes.insert(0, settings.placing_words(info.units))  # said as it starts
     options = _CaptureOptions(settings=settings, results=results)
     interrupted = False
     proc: Procedure | None = None
