@@ -18,7 +18,9 @@ grid is drawn from 1 mm to 1 in and its reach from 1 in to 100 in (:data:`GRIDS_
 - **map**: the CPU time of :func:`twopose.region_map.region_map` after that advice: what
   the terminal (which waits for it) and the console (which draws it when ready) add to it;
   a plan computes no map.
-- **regret**: the suggestion's predicted region over the best region of every lattice pose
+- **regret** (cases of two poses or more: a first pose's pick weighs every depth along its
+  ray, and ``bench_first_pose.py`` measures it): the suggestion's predicted region over the
+  best region of every lattice pose
   in reach that keeps the target clear of the image's edges (each predicted by the same
   batch estimate), less one. A lattice of more than :data:`FULL_LIMIT` such poses is not
   predicted whole: its reference is the best of a sub-lattice of about that many poses and
@@ -307,7 +309,9 @@ def main() -> int:
     print(f"{'method':<7}{'units':>4}{'grid':>8}{'reach':>8}{'poses':>6}{'predicted':>10}"
           f"{'pick':>9}{'best':>9}{'regret':>8}")  # fmt: skip
     regrets = []
-    for case in cases[: args.regret_cases]:
+    # A pick from one pose weighs every depth along the ray (twopose/first_pose.py): it is
+    # no search for one target's best, so its regret is bench_first_pose.py's measure.
+    for case in [c for c in cases if c.poses >= 2][: args.regret_cases]:
         pick, best, n, sampled = _reference(case)
         if not math.isfinite(best):
             print(f"{_describe(case)}  no pose keeps the target in view")
