@@ -289,14 +289,14 @@ def _placing_sigma(t: TrialResult) -> F64:
     """The placing sigma each trial's region assumed (:func:`placing_sigmas`)."""
     from twopose.session_estimate import placing_sigmas
 
-    return placing_sigmas(t.estimate.trials, t.estimate.options)
+    return placing_sigmas(t.estimate.trials, t.estimate.options, t.estimate.factor)
 
 
 def _placing_source(t: TrialResult) -> list[str]:
     """Where the placing sigma came from (typed, or measured by which board session)."""
     from twopose.session_estimate import placing_source
 
-    return [placing_source(t.estimate.options)] * len(t.estimate.trials)
+    return [placing_source(t.estimate.options, t.estimate.factor)] * len(t.estimate.trials)
 
 
 def _misclosure_chi2(t: TrialResult) -> F64:
@@ -312,10 +312,8 @@ def _misclosure_dof(t: TrialResult) -> Any:
 
 
 def _noise_widening(t: TrialResult) -> F64:
-    """The multiplier each ok trial's covariance was widened by (1: unchanged)."""
-    from twopose.session_estimate import widening_of
-
-    return widening_of(t.reported.cov, t.estimate.factor)
+    """Each ok trial's region's largest variance against the typed placing's (1: unchanged)."""
+    return t.estimate.estimates.widening
 
 
 def _per_trial(value: Callable[[TrialResult], object]) -> Fill:

@@ -24,12 +24,7 @@ from twopose.arrays import F64
 from twopose.estimate import EstimateOptions
 from twopose.methods import spec_of
 from twopose.noise import VarianceFactor, noise_words
-from twopose.session_estimate import (
-    SessionEstimate,
-    SessionTrials,
-    estimate_session,
-    widening_of,
-)
+from twopose.session_estimate import SessionEstimate, SessionTrials, estimate_session
 from twopose.truth import line_errors, reported
 from twopose.uncertainty import semiaxis95, uncertainty_columns
 
@@ -189,7 +184,7 @@ def trial_results(
     line = spec_of(trials.method).estimates_line
     angle95, angle_err = _line_angles(estimate) if line else (None, None)
     with np.errstate(invalid="ignore"):  # a region's size: the covariance's square root
-        widened = np.sqrt(widening_of(rep.cov, estimate.factor))
+        widened = np.sqrt(est.widening)
     return [
         TrialResult(
             trial=int(trial),

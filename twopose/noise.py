@@ -13,10 +13,15 @@ nobody measured: it was the resolution the operator typed. Here it is
 * :class:`VarianceFactor`: the **a-posteriori variance factor** ``sigma0^2`` of
   photogrammetry, pooled over the trials that share an operator and a setup (a session):
   trials with redundant measurements (three poses or more, or two rays of a point) test the
-  whole noise model by their misclosures. When the data contradict the model (the test's
-  upper 5% tail), every region widens by ``sigma0^2`` with the quantile of Fisher's F
-  instead of the chi-square (the factor is itself estimated, from ``dof`` degrees of
-  freedom); when they agree, nothing changes;
+  noise model by their misclosures. The component the model is unsure of, the placing
+  variance, is **measured** from them by variance component estimation (Helmert, Förstner):
+  each trial's misclosure has the covariance ``A + lambda B`` (``A`` from the pixels, the
+  rotation resolution and the calibration, ``B`` from the placing sigma), and ``lambda`` is
+  the maximum of their joint likelihood. When a likelihood-ratio test contradicts
+  ``lambda = 1`` (one-sided, 5%), every region is propagated again with the placing sigma
+  times ``sqrt(lambda)`` and widened by the quantile of Fisher's F instead of the
+  chi-square (``lambda`` is itself estimated, from few degrees of freedom); when the data
+  agree, nothing changes;
 * :class:`NoiseModel`: the two as the estimation's options carry them
   (:attr:`twopose.margins.EstimateOptions.noise`).
 
@@ -27,6 +32,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from twopose.units import Units
 
 __all__ = [
     "FACTOR_TEST_LEVEL",
@@ -44,7 +53,7 @@ FACTOR_TEST_LEVEL = 0.05
 _REGION_LEVEL = 0.95
 
 
-def _inches_per(units: str) -> float:
+def _inches_per(units: Units) -> float:
     from twopose.units import unit_spec
 
     return unit_spec(units).inches
@@ -100,14 +109,14 @@ class PlacingSigma:
             return 1.0
         return math.sqrt(region_quantile(3, self.dof) / region_quantile(3))
 
-    def sigma(self, units: str) -> float:
+    def sigma(self, units: Units) -> float:
         """The placing sigma the regions assume, in ``units``.
 
         The measured one, widened for its own uncertainty (:attr:`widening`).
         """
         return self.sigma_in * self.widening / _inches_per(units)
 
-    def describe(self, units: str) -> str:
+    def describe(self, units: Units) -> str:
         """Which placing sigma a run used and where it came from, in words."""
         inches = _inches_per(units)
         value = f"{self.sigma_in / inches:.3g}"
@@ -125,7 +134,7 @@ class PlacingSigma:
         return said
 
 
-def typed_placing(resolutions: list[float], units: str) -> str:
+def typed_placing(resolutions: list[float], units: Units) -> str:
     """The typed placing sigma in words (each pose's recorded resolution)."""
     if not resolutions:
         return "placing sigma: typed (no pose recorded)"
@@ -151,15 +160,25 @@ def region_quantile(k: int, dof: float = math.inf) -> float:
 
 @dataclass(frozen=True, kw_only=True)
 class VarianceFactor:
-    """The a-posteriori variance factor of a session's redundant trials (see the module).
+    """The noise model tested by a session's redundant trials (see the module).
 
     ``sigma0_sq``: the misclosures' chi-square over their ``dof`` degrees of freedom (1
     when the noise model is right); ``trials``: the trials that carried redundancy.
+
+    The placing variance's multiplier ``lambda`` is estimated from the same misclosures by
+    variance component estimation (:func:`twopose.misclosure.placing_component`):
+    ``placing_scale`` is ``sqrt(lambda)`` (NaN: not estimated), ``placing_dof`` the
+    degrees of freedom it is estimated from and ``placing_lr`` the likelihood-ratio
+    statistic of ``lambda`` against 1. A factor without them (built from sigma0 alone)
+    puts all of the misfit on the placing: ``lambda = sigma0^2`` on ``dof``.
     """
 
     sigma0_sq: float
     dof: int
     trials: int = 0
+    placing_scale: float = math.nan
+    placing_dof: float = math.nan
+    placing_lr: float = math.nan
 
     @property
     def tested(self) -> bool:
@@ -167,52 +186,84 @@ class VarianceFactor:
         return self.dof > 0 and math.isfinite(self.sigma0_sq)
 
     @property
+    def estimated(self) -> bool:
+        """Whether the placing variance's multiplier was estimated (variance components)."""
+        return math.isfinite(self.placing_scale) and math.isfinite(self.placing_lr)
+
+    @property
     def contradicted(self) -> bool:
-        """The data contradict the noise model: ``dof sigma0^2`` beyond its 95% quantile."""
+        """The data contradict the typed placing sigma: the regions are re-propagated.
+
+        With ``lambda`` estimated: ``lambda > 1`` and its likelihood-ratio statistic beyond
+        the chi-square's (1 dof) upper ``2 x 5%`` quantile (one-sided 5%: only a larger
+        placing error widens). Without: ``dof sigma0^2`` beyond its 95% quantile.
+        """
         if not self.tested:
             return False
         from scipy import stats
 
+        if self.estimated:
+            limit = float(stats.chi2.ppf(1.0 - 2 * FACTOR_TEST_LEVEL, 1))
+            return self.placing_scale > 1.0 and self.placing_lr > limit
         limit = float(stats.chi2.ppf(1.0 - FACTOR_TEST_LEVEL, self.dof))
         return self.dof * self.sigma0_sq > limit
 
-    def widening(self, k: int) -> float:
-        """The covariance's multiplier for a ``k``-dimensional region (1: unchanged).
+    @property
+    def placing_variance(self) -> float:
+        """The multiplier of the placing variance the regions assume (1: unchanged)."""
+        if not self.contradicted:
+            return 1.0
+        return self.placing_scale**2 if self.estimated else self.sigma0_sq
 
-        ``sigma0^2 k F(k, dof) / chi2(k)``: the region's radius is then the F quantile's
-        of the scaled covariance, with every column (sigmas, 95% half-widths, NEES)
-        read from one covariance.
+    @property
+    def variance_dof(self) -> float:
+        """The degrees of freedom :attr:`placing_variance` is estimated from."""
+        return self.placing_dof if self.estimated else float(self.dof)
+
+    def widening(self, k: int) -> float:
+        """The re-propagated covariance's multiplier for a ``k``-dimensional region.
+
+        ``k F(k, f) / chi2_k``, ``f`` = :attr:`variance_dof`: the region's radius is then
+        the F quantile's of the covariance re-propagated with the placing sigma times
+        ``sqrt(lambda)`` (1: unchanged), every column read from one covariance.
         """
         if not self.contradicted or k < 1:
             return 1.0
-        return self.sigma0_sq * region_quantile(k, self.dof) / region_quantile(k)
+        return region_quantile(k, self.variance_dof) / region_quantile(k)
 
-    def describe(self) -> str:
-        """The test in words: what the terminal, the report and the console say."""
+    def describe(self, placing: float = math.nan, units: Units | str = "") -> str:
+        """The test in words; ``placing``: the placing sigma typed (or given), in ``units``."""
         if not self.tested:
             return "noise model not tested (no trial with redundant poses)"
         s0 = math.sqrt(self.sigma0_sq)
         head = f"sigma0 {s0:.2f} over {self.dof} degrees of freedom ({self.trials} trials)"
-        if self.contradicted:
-            return (
-                f"{head}: the data contradict the noise model (the placing error or the "
-                f"detector's noise is larger than assumed); the 95% regions are widened "
-                f"{s0:.2f}x and more (Fisher's F on {self.dof} dof)"
+        if not self.contradicted:
+            return f"{head}: the data agree with the noise model; regions unchanged"
+        scale = math.sqrt(self.placing_variance)
+        if math.isfinite(placing):
+            measured = (
+                f"the sessions' redundancy measures the placing sigma at {placing * scale:.2g} "
+                f"{units} ({scale:.1f}x the typed {placing:.3g} {units})"
             )
-        return f"{head}: the data agree with the noise model; regions unchanged"
+        else:
+            measured = f"the sessions' redundancy measures the placing sigma {scale:.1f}x the typed"
+        return (
+            f"{measured}, from {self.variance_dof:.0f} degrees of freedom ({head}); every "
+            f"95% region is propagated with it and widened by Fisher's F for its uncertainty"
+        )
 
 
 def noise_words(sigma0: float, dof: int, region_widening: float) -> str:
     """The variance factor's test in a few words, one home for every place that says it.
 
-    ``region_widening``: the 95% region's radius multiplier (the square root of the
-    covariance's, :meth:`VarianceFactor.widening`; 1: unchanged).
+    ``region_widening``: the 95% region's radius multiplier against the typed placing
+    sigma's (its largest semi-axis; 1: unchanged).
     """
     if dof <= 0 or not math.isfinite(sigma0):
         return "sigma0 not tested (no redundant trial, or --no-sigma0)"
     head = f"sigma0 {sigma0:.2f} on {dof} dof"
     if region_widening > 1:
-        said = "the data contradict the noise model"
+        said = "the data contradict the noise model (the placing error is larger than typed)"
         return f"{head}: regions widened x{region_widening:.1f}: {said}"
     return f"{head}: the data agree with the noise model"
 

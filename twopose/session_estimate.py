@@ -39,18 +39,26 @@ from twopose.estimate import (
 )
 from twopose.frames import PoseMeasurement, combine_frames
 from twopose.methods import Method, spec_of
-from twopose.misclosure import Misclosure, misclosures, pooled
+from twopose.misclosure import (
+    Misclosure,
+    misclosures,
+    placed,
+    pooled,
+    region_widening,
+    widened,
+)
 from twopose.noise import VarianceFactor
 from twopose.optimal_lines import centroid_segments, optimal_lines
 from twopose.solve import image_lines, triangulate_lines
 from twopose.uncertainty import (
+    PLACING,
     Propagated,
     Shared,
     dominant_input,
     pooled_scatter,
     propagate,
-    region_dof,
 )
+from twopose.units import Units
 
 __all__ = [
     "Estimates",
@@ -62,8 +70,6 @@ __all__ = [
     "placing_sigmas",
     "placing_source",
     "running_estimates",
-    "widened",
-    "widening_of",
 ]
 
 
@@ -96,12 +102,15 @@ class Uncertainty:
     """Per trial: an estimate's covariance and the input dominating it.
 
     Per trial (T rows, NaN and "" where not ok): an estimate's propagated covariance (T, 3,
-    3), the input dominating its variance and that input's share (T,).
+    3), the input dominating its variance and that input's share (T,), and how much the
+    noise model's test widened it (T,).
     """
 
     cov: F64
     dominant: NDArray[np.object_]
     dominant_share: F64
+    #: The 95% region's largest variance against the typed placing sigma's (1: unchanged).
+    widening: F64
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -125,6 +134,9 @@ class Estimates:
     cov: F64  # (T, 3, 3) of ``point``
     dominant: NDArray[np.object_]  # (T,) the input dominating the variance ("" if none)
     dominant_share: F64  # (T,)
+    #: (T,) the region's largest variance against the typed placing sigma's (1: unchanged;
+    #: NaN: no region): :mod:`twopose.noise`'s re-propagation and F quantile.
+    widening: F64
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -257,7 +269,7 @@ def estimate_session(
         solved=solved,
     )
     factor, misclosure = _variance_factor(trials, context, options)
-    context = dataclasses.replace(context, factor=factor)
+    context = dataclasses.replace(context, factor=factor, cov_in=placed(cov_in, factor))
     est = _solved_estimates(trials, complete, context, options, line_fits=line_fits)
     return dataclasses.replace(
         _session_estimate(trials, measurements, complete, detected, est, options, context),
@@ -279,37 +291,14 @@ def _variance_factor(
         return noise.factor, None
     residuals, parameters = misclosure_residuals(trials.method, p.batch)
     m = misclosures(residuals, p.batch.inputs, p.cov_in, p.batch.valid, parameters, shared=p.shared)
-    ok = p.solved.status == "ok"
-    T = len(trials)
-    chi2, dof = np.full(T, np.nan), np.zeros(T, dtype=np.int_)
-    chi2[p.rows[ok]], dof[p.rows[ok]] = m.chi2[ok], m.dof[ok]
-    per_trial = Misclosure(chi2=chi2, dof=dof)
+    ok, rows, T = p.solved.status == "ok", p.rows[p.solved.status == "ok"], len(trials)
+    per_trial = Misclosure(
+        chi2=_with_rows(np.full(T, np.nan), rows, m.chi2[ok]),
+        dof=_with_rows(np.zeros(T, dtype=np.int_), rows, m.dof[ok]),
+        placing_share=_with_rows(np.zeros((T, m.z2.shape[1])), rows, m.placing_share[ok]),
+        z2=_with_rows(np.zeros((T, m.z2.shape[1])), rows, m.z2[ok]),
+    )
     return pooled(per_trial), per_trial
-
-
-def widened(cov: F64, factor: VarianceFactor | None) -> F64:
-    """Covariances (T, 3, 3) widened by a contradicted ``factor`` (unchanged otherwise).
-
-    Each by :func:`widening_of`, so every column and figure reads the widened region.
-    """
-    if factor is None or not factor.contradicted or not len(cov):
-        return cov
-    return np.asarray(cov * widening_of(cov, factor)[:, None, None])
-
-
-def widening_of(cov: F64, factor: VarianceFactor | None) -> F64:
-    """(T,) each covariance's multiplier (1: unchanged; NaN: no finite covariance).
-
-    :meth:`VarianceFactor.widening` for its region's own dimensions
-    (:func:`twopose.uncertainty.region_dof`: 3 for a point, 2 for a ground point or a
-    line's point). Widening keeps the dimensions: a widened covariance gives its own.
-    """
-    k = region_dof(cov)
-    scale = np.where(k > 0, 1.0, np.nan)
-    if factor is not None and factor.contradicted:
-        for dims in np.unique(k[k > 0]):
-            scale[k == dims] = factor.widening(int(dims))
-    return scale
 
 
 def placing_sigma(trials: SessionTrials, options: EstimateOptions) -> float | None:
@@ -318,17 +307,21 @@ def placing_sigma(trials: SessionTrials, options: EstimateOptions) -> float | No
     None: each pose's typed resolution stands.
     """
     placing = options.noise.placing
-    return None if placing is None or not trials.units else placing.sigma(trials.units)
+    return None if placing is None or not trials.units else placing.sigma(Units(trials.units))
 
 
-def placing_sigmas(trials: SessionTrials, options: EstimateOptions) -> F64:
+def placing_sigmas(
+    trials: SessionTrials, options: EstimateOptions, factor: VarianceFactor | None = None
+) -> F64:
     """(T,) the placing sigma each trial's region assumed, in the session's units.
 
     The measured one (:func:`placing_sigma`), else the mean of its poses' typed resolution
-    (NaN: no pose).
+    (NaN: no pose); times ``sqrt(lambda)`` when the session's redundancy measured it
+    (``factor`` contradicted: :attr:`twopose.noise.VarianceFactor.placing_variance`).
     """
     measured = placing_sigma(trials, options)
-    return np.array(
+    scale = 1.0 if factor is None else float(np.sqrt(factor.placing_variance))
+    return scale * np.array(
         [
             measured
             if measured is not None and row
@@ -339,12 +332,15 @@ def placing_sigmas(trials: SessionTrials, options: EstimateOptions) -> F64:
     )
 
 
-def placing_source(options: EstimateOptions) -> str:
+def placing_source(options: EstimateOptions, factor: VarianceFactor | None = None) -> str:
     """Where the placing sigma came from, briefly.
 
-    ``typed``, ``measured by <board session> (<n> captures)`` or ``given``.
+    ``typed``, ``measured by <board session> (<n> captures)``, ``given``, or ``measured by
+    the session's redundancy`` when its trials' misclosures contradicted the others.
     """
     placing = options.noise.placing
+    if factor is not None and factor.contradicted:
+        return "measured by the session's redundancy"
     if placing is None:
         return "typed"
     if not placing.measured_by:
@@ -401,6 +397,7 @@ def _unsolved(T: int, method: Method, complete: Bools) -> Estimates:
         cov=none.cov,
         dominant=none.dominant,
         dominant_share=none.dominant_share,
+        widening=none.widening,
     )
 
 
@@ -409,6 +406,7 @@ def _no_uncertainty(T: int) -> Uncertainty:
         cov=np.full((T, 3, 3), np.nan),
         dominant=np.full(T, "", dtype=object),
         dominant_share=np.full(T, np.nan),
+        widening=np.full(T, np.nan),
     )
 
 
@@ -459,25 +457,37 @@ def _solved_estimates(
         cov=uncertainty.cov,
         dominant=uncertainty.dominant,
         dominant_share=uncertainty.dominant_share,
+        widening=uncertainty.widening,
     )
 
 
 def _uncertainty(T: int, p: _Propagation, propagated: Propagated) -> Uncertainty:
     """The covariance and dominant input of every ok trial (T rows)."""
     ok, cov = p.solved.status == "ok", propagated.cov_grid
+    lam = 1.0 if p.factor is None else p.factor.placing_variance
+    J = propagated.jacobian[..., PLACING]
+    # the region the typed placing sigma gives: the placing's part back at 1 / lambda
+    model = (
+        cov
+        if lam == 1.0
+        else cov
+        - (1 - 1 / lam) * np.einsum("tinj,tnjk,tlnk->til", J, p.cov_in[..., PLACING, PLACING], J)
+    )
     if p.solved.direction is not None:
         # A line's reported point moves only across the line to first order (its error
         # is perpendicular by construction): keep the covariance of that offset.
         d = p.solved.direction
         across = np.eye(3) - np.einsum("ti,tj->tij", d, d)
-        cov = across @ cov @ across
+        cov, model = across @ cov @ across, across @ model @ across
     cov = widened(cov, p.factor)
+    widening = region_widening(cov, model)
     names, share = dominant_input(propagated.variance_by_group, propagated.shared_variance)
     none, rows = _no_uncertainty(T), p.rows[ok]
     return Uncertainty(
         cov=_with_rows(none.cov, rows, cov[ok]),
         dominant=_with_rows(none.dominant, rows, np.array(names, dtype=object)[ok]),
         dominant_share=_with_rows(none.dominant_share, rows, share[ok]),
+        widening=_with_rows(none.widening, rows, widening[ok]),
     )
 
 

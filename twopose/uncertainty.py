@@ -31,6 +31,7 @@ __all__ = [
     "CHI2_95",
     "INPUTS_PER_VIEW",
     "INPUT_GROUPS",
+    "PLACING",
     "SHARED_INPUTS",
     "SPREAD_COLUMNS",
     "Propagated",
@@ -52,6 +53,8 @@ __all__ = [
 
 #: Per-view input layout of :func:`propagate`.
 INPUTS_PER_VIEW = ("col", "row", "theta_deg", "tx", "ty", "tz", "rx_deg", "ry_deg", "rz_deg")
+#: The inputs the placing sigma is the 1-sigma of: each view's typed translation.
+PLACING = slice(3, 6)
 #: The 95% quantile of chi-square with 3 degrees of freedom: a full-rank 95% ellipsoid is
 #: ``e^T Sigma^-1 e <= CHI2_3DOF_95`` (a region of fewer dimensions: :data:`CHI2_95`).
 CHI2_3DOF_95 = 7.814727903251178

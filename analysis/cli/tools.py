@@ -19,6 +19,7 @@ from twopose.errors import (
     handle_errors,
 )
 from twopose.methods import MEASURING_METHODS, Method
+from twopose.units import Units
 
 if TYPE_CHECKING:
     pass
@@ -68,7 +69,7 @@ def rig_command(
     for name, why in fit.fixed.items():
         typer.echo(f"  {name}: fixed ({why})")
     if found.placing is not None:
-        typer.echo(f"  {found.placing.describe(fit.constants.units or 'in')}")
+        typer.echo(f"  {found.placing.describe(fit.constants.units or Units.IN)}")
     else:
         typer.echo("  placing sigma: not measured (only a board session measures it)")
     for warning in found.warnings:

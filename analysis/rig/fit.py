@@ -47,6 +47,7 @@ from twopose.rig.constants import (
 from twopose.session_estimate import SessionEstimate
 from twopose.truth import Reported, line_errors, reported_line_point
 from twopose.uncertainty import CHI2_95, nees
+from twopose.units import Units
 
 __all__ = [
     "GROUPS",
@@ -366,7 +367,7 @@ def rig_toml(
     if fit.fixed:
         lines += ["", "[fixed]", *(f'{k} = "{v}"' for k, v in fit.fixed.items())]
     if placing is not None:
-        lines += ["", *placing_table(placing, c.units or "in")]
+        lines += ["", *placing_table(placing, c.units or Units.IN)]
     else:
         lines += [
             "",

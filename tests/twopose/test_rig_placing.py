@@ -16,6 +16,7 @@ from twopose.rig.board import fit_board_rig
 from twopose.rig.constants import load_rig, load_rig_file, placing_table
 from twopose.sim.layout import BOARD_POSES, board_corners
 from twopose.sim.scene import load_scene
+from twopose.units import Units
 
 K = np.array([525.0, 525.0, 320.0, 240.0])
 POSES = np.array(BOARD_POSES, dtype=np.float64)
@@ -64,8 +65,8 @@ def _rig_file(tmp_path: Path, placing: str, units: str = "in") -> Path:
     return path
 
 
-@pytest.mark.parametrize("units", ["in", "mm"])
-def test_the_placing_table_round_trips(tmp_path: Path, units: str) -> None:
+@pytest.mark.parametrize("units", [Units.IN, Units.MM])
+def test_the_placing_table_round_trips(tmp_path: Path, units: Units) -> None:
     measured = PlacingSigma(
         sigma_in=0.0987, sigma_sigma_in=0.0171, measured_by="board.mcap", captures=8
     )
@@ -115,4 +116,4 @@ def test_the_limit_is_in_the_files_units(tmp_path: Path) -> None:
     unmeasured = load_rig_file(_rig_file(tmp_path, "[placing]\nsigma = 1.0")).placing
     assert unmeasured is not None
     assert math.isnan(unmeasured.sigma_sigma_in)  # not stated: the words say none
-    assert "±" not in unmeasured.describe("in")
+    assert "±" not in unmeasured.describe(Units.IN)

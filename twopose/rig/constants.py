@@ -445,7 +445,7 @@ class RigFile:
     placing: PlacingSigma | None = None
 
 
-def placing_table(placing: PlacingSigma, units: str) -> list[str]:
+def placing_table(placing: PlacingSigma, units: Units) -> list[str]:
     """The ``[placing]`` table's lines (what :func:`load_rig_file` reads), in ``units``."""
     inches = unit_spec(units).inches
     spread = placing.sigma_sigma_in / inches
