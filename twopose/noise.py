@@ -231,7 +231,7 @@ class VarianceFactor:
             return 1.0
         return region_quantile(k, self.variance_dof) / region_quantile(k)
 
-    def describe(self, placing: float = math.nan, units: Units | str = "") -> str:
+    def describe(self, placing: float = math.nan, units: Units | None = None) -> str:
         """The test in words; ``placing``: the placing sigma typed (or given), in ``units``."""
         if not self.tested:
             return "noise model not tested (no trial with redundant poses)"
@@ -240,7 +240,7 @@ class VarianceFactor:
         if not self.contradicted:
             return f"{head}: the data agree with the noise model; regions unchanged"
         scale = math.sqrt(self.placing_variance)
-        if math.isfinite(placing):
+        if math.isfinite(placing) and units is not None:
             measured = (
                 f"the sessions' redundancy measures the placing sigma at {placing * scale:.2g} "
                 f"{units} ({scale:.1f}x the typed {placing:.3g} {units})"

@@ -23,6 +23,7 @@ from twopose.session_estimate import (
     placing_source,
 )
 from twopose.uncertainty import region_dof
+from twopose.units import Units
 
 bench = load_benchmark("bench_sigma0")
 TYPED = bench.TYPED_IN
@@ -141,7 +142,7 @@ def test_the_test_is_one_sided_and_says_the_measured_sigma() -> None:
     assert larger.placing_variance == pytest.approx(2.56)
     assert larger.widening(3) > 1.0
     assert smaller.widening(3) == weak.widening(3) == 1.0
-    said = larger.describe(0.0625, "in")
+    said = larger.describe(0.0625, Units.IN)
     assert "measures the placing sigma at 0.1 in (1.6x the typed 0.0625 in)" in said
 
 
