@@ -71,7 +71,8 @@ class TrialResult:
         if self.factor is None:
             return ""
         sigma0 = math.sqrt(self.factor.sigma0_sq) if self.factor.tested else math.nan
-        return noise_words(sigma0, self.factor.dof, self.widened)
+        scale = math.sqrt(self.factor.placing_variance)
+        return noise_words(sigma0, self.factor.dof, self.widened, scale)
 
     def text(self) -> str:
         """The result in one line, then its warning; or why there is none.

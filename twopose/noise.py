@@ -253,17 +253,20 @@ class VarianceFactor:
         )
 
 
-def noise_words(sigma0: float, dof: int, region_widening: float) -> str:
+def noise_words(sigma0: float, dof: int, region_widening: float, placing_scale: float = 1.0) -> str:
     """The variance factor's test in a few words, one home for every place that says it.
 
     ``region_widening``: the 95% region's radius multiplier against the typed placing
-    sigma's (its largest semi-axis; 1: unchanged).
+    sigma's (its largest semi-axis; 1: unchanged); ``placing_scale``: the placing sigma the
+    session's redundancy measured, over the typed (1: not said).
     """
     if dof <= 0 or not math.isfinite(sigma0):
         return "sigma0 not tested (no redundant trial, or --no-sigma0)"
     head = f"sigma0 {sigma0:.2f} on {dof} dof"
     if region_widening > 1:
         said = "the data contradict the noise model (the placing error is larger than typed)"
+        if placing_scale > 1:
+            said += f": placing sigma measured {placing_scale:.1f}x the typed"
         return f"{head}: regions widened x{region_widening:.1f}: {said}"
     return f"{head}: the data agree with the noise model"
 

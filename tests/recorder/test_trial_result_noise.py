@@ -23,6 +23,8 @@ def test_a_widened_region_is_said_in_the_live_result() -> None:
         assert r.widened > 1.5
         assert "regions widened x" in r.text()
         assert "the data contradict the noise model" in r.text()
+        # 2.5 x the typed placing simulated: the session's redundancy measures it
+        assert "placing sigma measured 2." in r.text()
         said = r.to_json()
         assert said["widened"] == r.widened
         assert said["sigma0_dof"] == r.factor.dof > 0  # type: ignore[union-attr]
