@@ -410,7 +410,10 @@ def _detection_threads() -> int:
 
     import cv2
 
-    cores = os.cpu_count() or 1
+    # The cores this process may run on (``taskset``, a container's CPU set), not the
+    # machine's: threads on a core the process cannot use only take turns with this one.
+    affinity = getattr(os, "sched_getaffinity", None)
+    cores = len(affinity(0)) if affinity is not None else (os.cpu_count() or 1)
     if threading.current_thread() is not threading.main_thread() or cv2.getNumThreads() < 2:
         return 0
     return min(DETECTION_THREADS, cores) if cores > 1 else 0

@@ -46,6 +46,26 @@ def test_threads_only_where_the_cores_are_this_process_own(
         cv2.setNumThreads(threads)
 
 
+def test_no_threads_on_a_process_given_one_core(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A process held to one core (taskset, a container's CPU set) has no core for detection
+    threads, however many the machine has: they would only take turns with the reader."""
+    import os
+
+    if not hasattr(os, "sched_getaffinity"):
+        pytest.skip("no CPU affinity on this platform")
+    import cv2
+
+    threads = cv2.getNumThreads()
+    try:
+        cv2.setNumThreads(2)
+        monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1})
+        assert analysis.pipeline._detection_threads() == analysis.pipeline.DETECTION_THREADS
+        monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0})
+        assert analysis.pipeline._detection_threads() == 0
+    finally:
+        cv2.setNumThreads(threads)
+
+
 def test_an_undecodable_frame_is_a_rejected_frame_with_threads(
     tmp_path: Path, ground_session: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
