@@ -110,7 +110,7 @@ def run(
             files=files,
             results_mcap=results_mcap,
             options=options,
-            images=folder is not None,
+            images=folder is not None and "png" in options.figures,  # run --figures
             on_done=on_session_done,
             figure_cache=(
                 FigureCache.of(folder.destination, folder.previous_outputs())
@@ -133,7 +133,11 @@ def run(
             # The sweeps are in the thesis' geometry, not the sessions': what the method
             # can do, beside what each trial's own covariance says dominated it.
             written = write_outputs(
-                result, folder.path, _thesis_sweeps().copy(), figure_cache=batch.figure_cache
+                result,
+                folder.path,
+                _thesis_sweeps().copy(),
+                figure_cache=batch.figure_cache,
+                figures=options.figures,
             )
             folder.record(written + [Path(r).name for r in results_mcap if r is not None])
     return result

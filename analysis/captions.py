@@ -125,3 +125,42 @@ def session_captions(
         + framed
         + skipped,
     }
+
+
+#: What every chart of the report lets a reader do (analysis.charts).
+EXPLORE = (
+    "Hover a point for its session, trial and values; drag or turn the wheel over a chart to "
+    "zoom it, double-click to restore it."
+)
+
+
+def overview_caption(trials: pd.DataFrame, *, include_warned: bool) -> str:
+    """The caption of the run's overview charts (one colour per method)."""
+    if trials.empty:
+        return ""
+    _, units = common_units(trials)
+    mixed = trials["units"].nunique() > 1 if "units" in trials else False
+    which = _which(trials, include_warned=include_warned)
+    said = f"errors in {UNIT_NAMES.get(units, units)}" + (
+        " (sessions in other units converted)" if mixed else ""
+    )
+    largest = _largest(trials, units, include_warned=include_warned)
+    return (
+        "One colour per method on these charts. The histogram counts trials per error bin; "
+        "“error by trial” draws each session's trials as ticks on one row (log scale), the "
+        "sessions sorted by their median error; the last chart puts each trial's error "
+        f"against its baseline (the longest distance between two of its typed camera "
+        f"centres). Drawn: {which}; {said}. {largest} {EXPLORE}"
+    )
+
+
+def session_caption(
+    trials: pd.DataFrame, *, include_warned: bool, units: Units | None = None
+) -> str:
+    """The caption of a session's charts (one colour per trial, one click picks one)."""
+    captions = session_captions(trials, include_warned=include_warned, units=units)
+    scatter = captions["scatter"].replace("the + at the origin", "the dashed cross at 0")
+    return (
+        f"{scatter} Click a trial (a point in any chart) to pick it out in every chart of "
+        f"this session; shift-click adds another, a click on empty space shows all. {EXPLORE}"
+    )

@@ -9,7 +9,13 @@ from __future__ import annotations
 
 from typing import Literal
 
-__all__ = ["DEFAULT_SESSION_TIMEOUT_S", "Estimator", "RigCalibrationMode"]
+__all__ = [
+    "DEFAULT_SESSION_TIMEOUT_S",
+    "FIGURE_FORMATS",
+    "Estimator",
+    "FigureFormat",
+    "RigCalibrationMode",
+]
 
 #: The estimate a comparison reads from a run (``thesis``: ``x, y, z``; ``optimal``: the
 #: reprojection-optimal estimate; ``weighted``: the weighted/robust line fit).
@@ -17,5 +23,9 @@ Estimator = Literal["thesis", "optimal", "weighted"]
 #: ``--rig-calibration``: ``loo`` also corrects each trial by the rig constants that its
 #: session's other trials give.
 RigCalibrationMode = Literal["none", "loo"]
+
+#: ``run --figures``: the static figures' formats (matplotlib's savefig formats).
+FigureFormat = Literal["png", "svg", "pdf"]
+FIGURE_FORMATS: tuple[FigureFormat, ...] = ("png", "svg", "pdf")
 #: How long one session may run before a batch stops it and lists it as failed (seconds).
 DEFAULT_SESSION_TIMEOUT_S = 600.0

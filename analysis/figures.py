@@ -568,14 +568,21 @@ def _axes_labels(axes: Iterable[Axes]) -> list[str]:
 def png_bytes(fig: Figure) -> bytes:
     """The figure as a PNG whose ``Description`` is :func:`describe`'s; a figure whose data
     defeat rendering becomes one that says why."""
+    return saved(fig, "png")
+
+
+def saved(fig: Figure, fmt: str) -> bytes:
+    """The figure in ``fmt`` (``png``, ``svg``, ``pdf``: ``run --figures``); a PNG carries
+    :func:`describe`'s ``Description``; a figure whose data defeat rendering says why."""
     buf = io.BytesIO()
+    png = fmt == "png"  # PNG's metadata keys; SVG's and PDF's differ
     try:
-        fig.savefig(buf, format="png", dpi=DPI, metadata=_metadata(fig))
+        fig.savefig(buf, format=fmt, dpi=DPI, metadata=_metadata(fig) if png else None)
     except (ValueError, OverflowError, FloatingPointError) as err:
         buf = io.BytesIO()
         size = fig.get_size_inches()
         fallback = _not_drawn((float(size[0]), float(size[1])), err)
-        fallback.savefig(buf, format="png", dpi=DPI, metadata=_metadata(fallback))
+        fallback.savefig(buf, format=fmt, dpi=DPI, metadata=_metadata(fallback) if png else None)
     return buf.getvalue()
 
 

@@ -19,6 +19,8 @@ import pandas as pd
 __all__ = [
     "MIN_FIGURE_SCALE",
     "Image",
+    "chart_html",
+    "chart_scripts",
     "figure_html",
     "figure_row",
     "image",
@@ -122,6 +124,48 @@ def figure_html(name: str, img: Image | None, caption: str = "") -> str:
     return f"<figure style='width:{img.width}px'>{wide(tag)}{text}</figure>"
 
 
+def chart_html(name: str, spec: dict[str, object] | None, caption: str = "") -> str:
+    """A chart the page's script draws from ``spec`` (a Vega-Lite spec with its data), in
+    a box that scrolls sideways when wider than the page, and its caption."""
+    if spec is None:
+        return ""
+    from twopose import jsonsafe
+
+    # "</" never closes the script element early; JSON reads "<\/" as "</".
+    data = jsonsafe.dumps(spec).replace("</", "<\\/")
+    text = f"<figcaption>{caption}</figcaption>" if caption else ""
+    box = wide(f"<div class='chart' data-chart='{html.escape(name, quote=True)}'></div>")
+    return (
+        f"<figure class='chart-figure'>{box}"
+        f"<script type='application/json' class='chart-spec'>{data}</script>{text}</figure>"
+    )
+
+
+#: The scripts that draw the charts, carried in the package (analysis/report_js/VERSIONS).
+CHART_SCRIPTS = ("vega.min.js", "vega-lite.min.js", "vega-embed.min.js")
+
+# Draws every chart from the spec beside it: one column on a narrow page; each view kept
+# by name (window.twoposeViews) for the tests and the console of a curious reader.
+_CHART_SCRIPT = (
+    "window.twoposeViews={};function drawCharts(){"
+    "document.querySelectorAll('div.chart').forEach(function(el){"
+    "var spec=JSON.parse(el.parentElement.parentElement.nextElementSibling.textContent);"
+    "if(spec.columns&&innerWidth<700)spec.columns=1;"
+    "vegaEmbed(el,spec,{actions:false,renderer:'svg',mode:'vega-lite'}).then(function(r){"
+    "window.twoposeViews[el.dataset.chart]=r.view;cues()}).catch(function(e){"
+    "el.textContent='This chart could not be drawn: '+e.message})})}"
+    "addEventListener('DOMContentLoaded',drawCharts);"
+)
+
+
+def chart_scripts() -> list[str]:
+    """The chart scripts, inline (the page opens offline, from a file), then ours."""
+    from importlib.resources import files
+
+    folder = files("analysis") / "report_js"
+    return [*(folder.joinpath(n).read_text("utf-8") for n in CHART_SCRIPTS), _CHART_SCRIPT]
+
+
 def figure_row(figures: list[str]) -> str:
     """Figures side by side where the page is wide enough, one under the other where not."""
     return f"<div class='figs'>{''.join(figures)}</div>"
@@ -149,6 +193,8 @@ _STYLE = (
     "{position:sticky;left:0;background:#fff}"
     "table.text td,table.text th{text-align:left;white-space:normal;min-width:9em;"
     "max-width:30em}"
+    ".chart-figure{width:auto}.chart{min-height:60px}"
+    "#vg-tooltip-element{font-size:12px}"
     "figure{margin:1.2em 0;max-width:100%}figcaption{font-size:13px;color:#444}"
     ".figs{display:flex;flex-wrap:wrap;column-gap:2.5em;align-items:flex-start}"
     "nav a{white-space:nowrap}.err{color:#a00}.verdict{font-weight:bold;margin:0.4em 0}"
@@ -168,13 +214,16 @@ _SCRIPT = (
 )
 
 
-def page_html(title: str, body: list[str]) -> str:
-    """A self-contained page: our style, no horizontal overflow, ``body``'s parts."""
+def page_html(title: str, body: list[str], scripts: tuple[str, ...] | list[str] = ()) -> str:
+    """A self-contained page: our style, no horizontal overflow, ``body``'s parts and
+    ``scripts`` inline (:func:`chart_scripts` for charts)."""
     parts = [
         "<!doctype html><html><head><meta charset='utf-8'>",
         "<meta name='viewport' content='width=device-width, initial-scale=1'>",
         f"<title>{html.escape(title)}</title><style>{_STYLE}</style>",
-        f"<script>{_SCRIPT}</script></head><body>",
+        f"<script>{_SCRIPT}</script>",
+        *(f"<script>{s}</script>" for s in scripts),
+        "</head><body>",
         *body,
         "</body></html>",
     ]

@@ -22,13 +22,12 @@ from analysis.answer import (
     share,
     shown_name,
 )
-from analysis.captions import run_captions, session_captions
-from analysis.drawer import session_pngs
-from analysis.figure_cache import FIGURE_INDEX, FigureCache, FigureJob, index_document
-from analysis.figures import figure_key, png_bytes, run_figures
-from analysis.html_page import Image, figure_html, figure_row, image, page_html, table_html
+from analysis.captions import overview_caption, session_caption
+from analysis.charts import session_chart
+from analysis.html_page import chart_html, chart_scripts, page_html, table_html
 from analysis.metrics import SESSION_SETS, by_session_set, session_set, used_trials
-from analysis.table_labels import metadata_table, readable_columns, table_units
+from analysis.run_charts import overview_charts, sensitivity_chart
+from analysis.table_labels import metadata_table, readable_columns, table_units, unit_label
 from analysis.thesis import thesis_sessions
 from twopose import jsonsafe
 from twopose.jsonsafe import jsonable
@@ -36,6 +35,7 @@ from twopose.methods import label_of, spec_of
 from twopose.units import UNITS, Units
 
 if TYPE_CHECKING:
+    from analysis.figure_cache import FigureCache
     from analysis.results import RunResult, SessionResult
 
 __all__ = [
@@ -94,11 +94,15 @@ def write_outputs(
     sweeps: pd.DataFrame,
     *,
     figure_cache: FigureCache | None = None,
+    figures: tuple[str, ...] = (),
 ) -> list[str]:
-    """Write the CSV tables, one PNG per figure, ``figures.json`` (each session figure's
-    digest), the sensitivity ``sweeps`` and ``report.html`` into ``out_dir`` (each
-    atomically: :mod:`analysis.outputs`); the names of the files written. A session whose
-    figures were not drawn by the batch is drawn here, or reused from ``figure_cache``."""
+    """Write the CSV tables, ``summary.json``, the sensitivity ``sweeps`` and
+    ``report.html`` (its charts drawn by the reader's browser: :mod:`analysis.charts`) into
+    ``out_dir`` (each atomically: :mod:`analysis.outputs`); the names of the files written.
+    With ``figures`` (formats: ``png``, ``svg``, ``pdf``; ``run --figures``), also the
+    matplotlib figures in each, and ``figures.json`` (each session figure's digest): a
+    session whose PNGs were not drawn by the batch is drawn here, or reused from
+    ``figure_cache``."""
     from analysis.outputs import write_atomically
 
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -119,31 +123,48 @@ def write_outputs(
         write_atomically(out_dir / name, csv)
     document = jsonsafe.dumps(summary_document(result), indent=1)
     write_atomically(out_dir / "summary.json", document.encode() + b"\n")
-    # Session figures were drawn by the batch (in parallel, or reused from the previous
-    # run); a session analysed without them is drawn here. Only what spans sessions is
-    # always drawn here.
-    pngs: dict[str, bytes] = {}
-    digests: dict[str, str] = {}
-    for i, s in enumerate(result.sessions):
-        job = FigureJob.of(s, include_warned=result.include_warned)
-        rendered = s.images or session_pngs(job, figure_cache)[0]
-        digest = job.digest()
-        for kind, data in rendered.items():
-            pngs[figure_key(kind, _number(s, i), s.name)] = data
-            digests[f"{figure_key(kind, _number(s, i), s.name)}.png"] = digest
-    pngs |= {name: png_bytes(fig) for name, fig in run_figures(result).items()}
+    names = _write_figures(result, out_dir, sweeps, figure_cache, figures) if figures else []
+    page = _report_html(result, sweeps).encode("utf-8", "backslashreplace")
+    write_atomically(out_dir / "report.html", page)
+    return [*tables, "summary.json", *names, "report.html"]
+
+
+def _write_figures(
+    result: RunResult,
+    out_dir: Path,
+    sweeps: pd.DataFrame,
+    figure_cache: FigureCache | None,
+    formats: tuple[str, ...],
+) -> list[str]:
+    """``run --figures``: the matplotlib figures as PNG (drawn by the batch, or here, or
+    reused from ``figure_cache``; ``figures.json``), and in any other of ``formats``."""
+    from analysis.drawer import session_pngs
+    from analysis.figure_cache import FIGURE_INDEX, FigureJob, index_document
+    from analysis.figures import figure_key, png_bytes, run_figures
+    from analysis.outputs import write_atomically
     from analysis.sensitivity import plot_sensitivity
 
-    pngs["sensitivity"] = png_bytes(plot_sensitivity(sweeps))
-    images = {}
-    for name, data in pngs.items():
-        write_atomically(out_dir / f"{name}.png", data)
-        images[name] = image(data)
-    write_atomically(out_dir / FIGURE_INDEX, index_document(digests))
-    page = _report_html(result, images, sweeps).encode("utf-8", "backslashreplace")
-    write_atomically(out_dir / "report.html", page)
-    names = [f"{name}.png" for name in pngs]
-    return [*tables, "summary.json", FIGURE_INDEX, *names, "report.html"]
+    files: dict[str, bytes] = {}
+    if "png" in formats:
+        digests: dict[str, str] = {}
+        for i, s in enumerate(result.sessions):
+            job = FigureJob.of(s, include_warned=result.include_warned)
+            rendered = s.images or session_pngs(job, figure_cache)[0]
+            for kind, data in rendered.items():
+                files[f"{figure_key(kind, _number(s, i), s.name)}.png"] = data
+                digests[f"{figure_key(kind, _number(s, i), s.name)}.png"] = job.digest()
+        pngs = run_figures(result) | {"sensitivity": plot_sensitivity(sweeps)}
+        files |= {f"{name}.png": png_bytes(fig) for name, fig in pngs.items()}
+        files[FIGURE_INDEX] = index_document(digests)
+    others = [f for f in formats if f != "png"]
+    if others:
+        from analysis.figures import make_figures, saved
+
+        drawn = make_figures(result) | {"sensitivity": plot_sensitivity(sweeps)}
+        files |= {f"{n}.{f}": saved(fig, f) for n, fig in drawn.items() for f in others}
+    for name, data in files.items():
+        write_atomically(out_dir / name, data)
+    return list(files)
 
 
 def _records(table: pd.DataFrame) -> list[dict[str, object]]:
@@ -241,15 +262,15 @@ def _answer_section(result: RunResult) -> list[str]:
             else ""
         )
         + ".</p>",
+        *_inputs_line(result),
         *_rig_used(result),
-        "<nav>"
+        "<nav><a href='#answer'>Answer per method</a> · "
         + ("<a href='#inputs'>Inputs: failed, left out, copies</a> · " if inputs else "")
-        + "<a href='#answer'>Answer per method</a> · <a href='#thesis'>The thesis</a> · "
+        + "<a href='#thesis'>The thesis</a> · "
         "<a href='#summary'>Per session</a> · "
-        "<a href='#figures'>Overview figures</a> · "
+        "<a href='#figures'>Overview charts</a> · "
         "<a href='#dominant'>What dominates the error</a> · "
         "<a href='#sensitivity'>Sensitivity</a> · <a href='#sessions'>Sessions</a></nav>",
-        *inputs,
         "<h2 id='answer'>Answer per method</h2>",
         f"<p>Pooled over the sessions, over {which}. Errors are distances from the truth; "
         "RMSE with its 95% bootstrap interval, biases (mean error) with the half-widths of "
@@ -275,7 +296,21 @@ def _answer_section(result: RunResult) -> list[str]:
         for part in per_unit:  # a table per unit, the registry's order: its headers name it
             parts.append(table_html(readable(part, include_warned=result.include_warned)))
         parts += [f"<p class='verdict'>{html.escape(line)}</p>" for line in verdicts[name]]
-    return parts + _noise_section(result) + _thesis_section(result)
+    # The inputs' lists come after the answer: it stays on the first screen whatever failed.
+    return parts + inputs + _noise_section(result) + _thesis_section(result)
+
+
+def _inputs_line(result: RunResult) -> list[str]:
+    """One line above the answer counting the inputs that failed or were left out, with a
+    link to their list (after the answer)."""
+    failed, notes = len(result.errors), len(result.input_notes)
+    if not (failed or notes):
+        return []
+    return [
+        f"<p class='inputs-line err'>{failed} input(s) failed and {notes} not analysed as "
+        "given (copies, board sessions, empty sessions): "
+        "<a href='#inputs'>the list, after the answer</a>.</p>"
+    ]
 
 
 def _noise_section(result: RunResult) -> list[str]:
@@ -319,19 +354,17 @@ def _thesis_section(result: RunResult) -> list[str]:
     ]
 
 
-def _overview_section(result: RunResult, images: dict[str, Image]) -> list[str]:
-    captions = run_captions(result.trials, include_warned=result.include_warned)
+def _overview_section(result: RunResult) -> list[str]:
     summary = session_order(result.summary)
     return [
         "<h2 id='summary'>Per session</h2>",
         "<p>As the answer, per session (every column: <code>summary.csv</code>).</p>",
         table_html(readable(summary, include_warned=result.include_warned)) if len(summary) else "",
-        "<h2 id='figures'>Overview figures</h2>",
-        figure_row(
-            [
-                figure_html(key, images.get(key), captions.get(key, ""))
-                for key in ("error_histogram", "error_by_trial", "error_vs_baseline")
-            ]
+        "<h2 id='figures'>Overview charts</h2>",
+        chart_html(
+            "overview",
+            overview_charts(result.trials, include_warned=result.include_warned),
+            overview_caption(result.trials, include_warned=result.include_warned),
         ),
     ]
 
@@ -351,9 +384,7 @@ def _inputs_section(result: RunResult) -> list[str]:
     return ["<h2 id='inputs'>Inputs</h2>", *parts] if parts else []
 
 
-def _method_sections(
-    result: RunResult, images: dict[str, Image], sweeps: pd.DataFrame
-) -> list[str]:
+def _method_sections(result: RunResult, sweeps: pd.DataFrame) -> list[str]:
     return [
         "<h2 id='dominant'>What dominates the error</h2>",
         "<p>Per trial, the input whose uncertainty contributes most to the estimate's "
@@ -365,7 +396,7 @@ def _method_sections(
         "<p>Seeded Monte Carlo sweeps through the solvers, one input varied at a time, in the "
         "thesis' geometry (f = 525 px, h = 9.625 in, a 1.1 in baseline along x; "
         "<code>twopose-analyze sensitivity</code>; sensitivity.csv).</p>",
-        figure_html("sensitivity", images.get("sensitivity")),
+        chart_html("sensitivity", sensitivity_chart(sweeps)),
         table_html(_sensitivity_table(sweeps)),
     ]
 
@@ -454,7 +485,7 @@ def _number(session: SessionResult, i: int) -> int:
     return session.index if session.index >= 0 else i
 
 
-def _session_sections(result: RunResult, images: dict[str, Image]) -> list[str]:
+def _session_sections(result: RunResult) -> list[str]:
     parts = ["<h2 id='sessions'>Sessions</h2>" if result.sessions else ""]
     rank = {name: k for k, name in enumerate([*SESSION_SETS, ""])}
     order = sorted(
@@ -466,26 +497,28 @@ def _session_sections(result: RunResult, images: dict[str, Image]) -> list[str]:
         metadata = metadata_table(s.metadata)
         parts.append(table_html(metadata, text=True).replace("<thead>", "<thead hidden>", 1))
         parts.append(_notes(s.metadata))
-        captions = session_captions(
-            s.trials, include_warned=result.include_warned, units=_units_of(s)
+        units = _units_of(s)
+        spec = session_chart(
+            s.name,
+            s.trials,
+            s.averaging,
+            s.views,
+            units=unit_label(units),
+            include_warned=result.include_warned,
         )
-        keys = [(kind, figure_key(kind, _number(s, i), s.name)) for kind in _SESSION_FIGURES]
-        figures = [figure_html(key, images.get(key), captions.get(kind, "")) for kind, key in keys]
-        parts.append(figure_row(figures))
+        caption = session_caption(s.trials, include_warned=result.include_warned, units=units)
+        parts.append(chart_html(f"session_{_number(s, i):02d}", spec, caption))
         parts.append("<p>Trials (every column: <code>trials.csv</code>):</p>")
         parts.append(table_html(readable_columns(_trial_table(s.trials), _units_of(s))))
     return parts
 
 
-_SESSION_FIGURES = ("scatter", "topview", "averaging")
-
-
-def _report_html(result: RunResult, images: dict[str, Image], sweeps: pd.DataFrame) -> str:
+def _report_html(result: RunResult, sweeps: pd.DataFrame) -> str:
     body = [
         *_answer_section(result),
-        *_overview_section(result, images),
+        *_overview_section(result),
         *_rig_section(result),
-        *_method_sections(result, images, sweeps),
-        *_session_sections(result, images),
+        *_method_sections(result, sweeps),
+        *_session_sections(result),
     ]
-    return page_html("twopose report", body)
+    return page_html("twopose report", body, chart_scripts())

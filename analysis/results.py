@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from analysis.choices import DEFAULT_SESSION_TIMEOUT_S, RigCalibrationMode
+from analysis.choices import DEFAULT_SESSION_TIMEOUT_S, FigureFormat, RigCalibrationMode
 from analysis.columns import RIG_TABLE_COLUMNS, VIEW_COLUMNS, typed
 from analysis.thesis import Verdicts, thesis_table, verdict_lines, verdicts_by_set
 from twopose.detect import DotParams, GloveParams
@@ -38,6 +38,9 @@ class AnalysisOptions:
     rig_calibration: RigCalibrationMode = "none"
     # Where ``rig`` came from (``run --rig``): recorded in summary.json and the report.
     rig_source: RigSource | None = None
+    # ``run --figures``: the static matplotlib figures written, in these formats (png, svg,
+    # pdf); none by default: the report's charts are drawn by the reader's browser.
+    figures: tuple[FigureFormat, ...] = ()
 
 
 @dataclass(frozen=True, kw_only=True)

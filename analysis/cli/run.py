@@ -21,7 +21,7 @@ from twopose.noise import NoiseModel
 if TYPE_CHECKING:
     from analysis.results import RunResult
 
-from analysis.choices import DEFAULT_SESSION_TIMEOUT_S, RigCalibrationMode
+from analysis.choices import DEFAULT_SESSION_TIMEOUT_S, FigureFormat, RigCalibrationMode
 from analysis.cli.app import IncludeWarnedOption, JunitOption, app, note, say_skipped
 
 #: The options' defaults, from their one record.
@@ -56,6 +56,16 @@ RigCalibrationOption = Annotated[
     typer.Option(
         help="loo: also each trial corrected by constants its session's other trials give "
         "(x_rig, y_rig, z_rig, err_rig; rig.csv).",
+    ),
+]
+
+FiguresOption = Annotated[
+    FigureFormat | None,
+    typer.Option(
+        "--figures",
+        help="Also write the static figures (matplotlib) in this format, for papers "
+        "(--figures png). Without it no figure is drawn: report.html's charts are drawn "
+        "by the browser from the run's tables.",
     ),
 ]
 
@@ -106,6 +116,7 @@ def run_command(
             "every 95% region of a session whose data contradict it (docs/uncertainty.md).",
         ),
     ] = _ESTIMATE.noise.test_redundancy,
+    figures: FiguresOption = None,
 ) -> None:
     """Replay sessions through detection and solvers into error tables, figures and a report."""
     from analysis.batch import run
@@ -124,6 +135,7 @@ def run_command(
         session_timeout_s=session_timeout or None,
         include_warned=include_warned,
         rig_calibration=rig_calibration,
+        figures=(figures,) if figures else (),
     )
     with handle_errors(), _session_progress() as (found, done):
         inputs = resolve_inputs(paths)  # once: every step below takes this set

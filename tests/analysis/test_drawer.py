@@ -19,10 +19,12 @@ import analysis.batch
 from analysis.drawer import FigureDrawer, draw_session_figures
 from analysis.figure_cache import FigureJob
 from analysis.pipeline import analyse_session
-from analysis.results import SessionResult
+from analysis.results import AnalysisOptions, SessionResult
 from tests.helpers import distinct_copies
 
 REPO = Path(__file__).resolve().parents[2]
+#: The static figures are drawn only when asked (``run --figures png``).
+FIGURES = AnalysisOptions(figures=("png",))
 
 
 @contextlib.contextmanager
@@ -43,9 +45,9 @@ def test_a_batch_writes_the_same_files_with_figures_drawn_beside_or_in_line(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     sessions = [ground_session, point_session, line_session]
-    beside = analysis.batch.run(sessions, tmp_path / "beside")
+    beside = analysis.batch.run(sessions, tmp_path / "beside", options=FIGURES)
     monkeypatch.setattr(FigureDrawer, "started", staticmethod(_in_line))
-    in_line = analysis.batch.run(sessions, tmp_path / "in_line")
+    in_line = analysis.batch.run(sessions, tmp_path / "in_line", options=FIGURES)
     assert not beside.failed
     assert not in_line.failed
     assert [s.images for s in beside.sessions] == [s.images for s in in_line.sessions]
@@ -109,14 +111,15 @@ def test_a_figure_that_fails_is_said_and_shown_and_the_numbers_stay(
 
     monkeypatch.setattr("analysis.figures.session_figures", broken)
     monkeypatch.setattr(FigureDrawer, "started", staticmethod(_in_line))
-    result = analysis.batch.run([ground_session, point_session], tmp_path / "out")
+    result = analysis.batch.run([ground_session, point_session], tmp_path / "out", options=FIGURES)
     assert not result.failed
     assert len(result.trials) > 0
     assert len(result.summary) > 0
     err = capsys.readouterr().err
     assert err.count("were not drawn (TypeError: a bug in a figure)") == 2
-    page = (tmp_path / "out" / "report.html").read_text()
-    assert "were not drawn: TypeError: a bug in a figure" in page
+    # Each figure is a picture that says why it was not drawn; the report's charts stay.
+    assert len(list((tmp_path / "out").glob("scatter_*.png"))) == 2
+    assert "class='chart'" in (tmp_path / "out" / "report.html").read_text()
     assert (tmp_path / "out" / "trials.csv").read_text().count("\n") == len(result.trials) + 1
 
 
@@ -160,8 +163,9 @@ def test_ctrl_c_in_a_batch_exits_130_promptly_and_leaves_no_process(
     distinct_copies(ground_session, folder, 200)
     env = {**os.environ, "PYTHONPATH": str(REPO)}
     out = tmp_path / "o"
+    command: list[str | Path] = [sys.executable, "-m", "analysis", "run", folder, "--out", out]
     proc = subprocess.Popen(
-        [sys.executable, "-m", "analysis", "run", folder, "--out", out, "--jobs", str(jobs)],
+        [*command, "--jobs", str(jobs), "--figures", "png"],
         stderr=subprocess.PIPE,
         stdout=subprocess.DEVNULL,
         text=True,

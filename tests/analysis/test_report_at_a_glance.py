@@ -163,11 +163,12 @@ def test_a_rerun_reuses_the_figures_nothing_changed(
     for session in (point_session, line_session):
         shutil.copy(session, sessions / session.name)
     out = tmp_path / "out"
-    first = run([sessions], out, scene=False)
+    figures = AnalysisOptions(figures=("png",))  # drawn only when asked
+    first = run([sessions], out, scene=False, options=figures)
     assert first.figures_reused == 0
     drawn = {p.name: p.read_bytes() for p in out.glob("*_0?_*.png")}
     assert len(drawn) == 6
-    again = run([sessions], out, scene=False)
+    again = run([sessions], out, scene=False, options=figures)
     assert again.figures_reused == 2
     assert {p.name: p.read_bytes() for p in out.glob("*_0?_*.png")} == drawn
     # another rule for warned trials: other figures, drawn anew
@@ -183,4 +184,4 @@ def test_a_rerun_reuses_the_figures_nothing_changed(
 
 
 def _warned_in() -> AnalysisOptions:
-    return AnalysisOptions(include_warned=True)
+    return AnalysisOptions(include_warned=True, figures=("png",))

@@ -1,0 +1,172 @@
+"""The run's charts as Vega-Lite specs (:mod:`analysis.charts` says how and why): the
+overview over every session (one colour per method, no trial colour on that screen) and
+the sensitivity sweeps."""
+
+from __future__ import annotations
+
+import pandas as pd
+
+from analysis.charts import WIDTH, Spec, error_tip, hex_colour, records, who, zoom
+from analysis.metrics import by_session_set, session_set, used_trials
+from twopose.methods import Method, spec_of
+
+__all__ = ["overview_charts", "sensitivity_chart"]
+
+
+def overview_charts(trials: pd.DataFrame, *, include_warned: bool = False) -> Spec | None:
+    """The run's overview, one colour per method (no trial colour on this screen): the
+    error histogram, each session's trials as a strip sorted by error, the error against
+    the baseline, per session set."""
+    from analysis.figure_style import common_units
+
+    used, units = common_units(used_trials(trials, include_warned=include_warned, measured=True))
+    if used.empty:
+        return None
+    methods = sorted(Method(m) for m in used["method"].unique())
+    table = used.assign(
+        session_name=used["label"] if "label" in used else used["session"],
+        set=used["session"].map(lambda s: session_set(s) or "no set"),
+        method=used["method"].astype(str),
+        trial=used["trial"].astype(int),
+    )
+    colour = {
+        "field": "method",
+        "type": "nominal",
+        "title": "method",
+        "scale": {
+            "domain": [str(m) for m in methods],
+            "range": [hex_colour(spec_of(m).colour) for m in methods],
+        },
+    }
+    tips = [*who(), {"field": "method"}, *error_tip(units)[:1]]
+    order = table.groupby("session_name")["err"].median().sort_values().index.tolist()
+    top = float(table["err"].max())
+    positive = table["err"][table["err"] > 0]
+    low = float(positive.min()) / 1.5 if len(positive) else top / 100
+    charts: list[Spec] = [
+        {
+            "title": "Error per trial (histogram)",
+            "width": WIDTH,
+            "height": 180,
+            "mark": "bar",
+            "encoding": {
+                "x": {
+                    "field": "err",
+                    "bin": {"maxbins": 20, "extent": [0, top]},
+                    "title": f"error ({units})",
+                },
+                "y": {"aggregate": "count", "title": "number of trials"},
+                "color": colour,
+                "tooltip": [
+                    {
+                        "field": "err",
+                        "bin": {"maxbins": 20, "extent": [0, top]},
+                        "title": f"error ({units})",
+                    },
+                    {"aggregate": "count", "title": "number of trials"},
+                ],
+            },
+        },
+        {
+            "title": "Error by trial: each session a row, sorted by its median",
+            "width": WIDTH,
+            "height": {"step": 16},
+            "params": zoom("by_trial", ("x",)),
+            "mark": {"type": "tick", "thickness": 2, "clip": True},
+            "encoding": {
+                "x": {
+                    "field": "err",
+                    "type": "quantitative",
+                    "title": f"error ({units}, log scale)",
+                    "scale": {"type": "log", "domain": [low, top * 1.5]},
+                },
+                "y": {
+                    "field": "session_name",
+                    "type": "nominal",
+                    "title": "session",
+                    "sort": order,
+                },
+                "color": colour,
+                "tooltip": tips,
+            },
+        },
+        {
+            "title": "Error against baseline",
+            "width": WIDTH,
+            "height": 180,
+            "transform": [{"filter": "datum.baseline != null"}],
+            "params": zoom("baseline"),
+            "mark": {"type": "point", "filled": True, "clip": True},
+            "encoding": {
+                "x": {"field": "baseline", "type": "quantitative", "title": f"baseline ({units})"},
+                "y": {
+                    "field": "err",
+                    "type": "quantitative",
+                    "title": f"error ({units}, log scale)",
+                    "scale": {"type": "log", "domain": [low, top * 1.5]},
+                },
+                "color": colour,
+                "tooltip": [
+                    *tips,
+                    {"field": "baseline", "title": f"baseline ({units})", "format": ".3f"},
+                ],
+            },
+        },
+    ]
+    if len(by_session_set(table)) > 1:  # the baseline chart tells the sets apart
+        charts[2]["encoding"]["shape"] = {"field": "set", "type": "nominal", "title": "session set"}
+    return {
+        "data": {"values": records(table[_OVERVIEW_COLUMNS])},
+        "concat": charts,
+        "columns": 2,
+        "spacing": 24,
+        "resolve": {"scale": {"x": "independent", "y": "independent"}},
+    }
+
+
+_OVERVIEW_COLUMNS = ["session_name", "set", "method", "trial", "err", "baseline"]
+
+
+def sensitivity_chart(sweeps: pd.DataFrame) -> Spec | None:
+    """The RMS error against each swept input, one chart per sweep (its own unit), one
+    colour per method."""
+    if sweeps.empty:
+        return None
+    methods = sorted(Method(m) for m in sweeps["method"].unique())
+    colour = {
+        "field": "method",
+        "type": "nominal",
+        "title": "method",
+        "scale": {
+            "domain": [str(m) for m in methods],
+            "range": [hex_colour(spec_of(m).colour) for m in methods],
+        },
+    }
+    charts: list[Spec] = []
+    for sweep, g in sweeps.groupby("sweep", sort=False):
+        unit = str(g["unit"].iloc[0])
+        charts.append(
+            {
+                "title": str(sweep),
+                "width": 220,
+                "height": 150,
+                "data": {
+                    "values": records(
+                        g[["method", "value", "rmse", "n_ok"]].astype({"method": str})
+                    )
+                },
+                "params": zoom(f"sweep_{len(charts)}"),
+                "mark": {"type": "line", "point": True},
+                "encoding": {
+                    "x": {"field": "value", "type": "quantitative", "title": f"{sweep} ({unit})"},
+                    "y": {"field": "rmse", "type": "quantitative", "title": "RMS error (in)"},
+                    "color": colour,
+                    "tooltip": [
+                        {"field": "method"},
+                        {"field": "value", "title": f"{sweep} ({unit})"},
+                        {"field": "rmse", "title": "RMS error (in)", "format": ".3f"},
+                    ],
+                },
+            }
+        )
+    return {"concat": charts, "columns": 3, "spacing": 20}

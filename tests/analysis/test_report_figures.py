@@ -1,0 +1,94 @@
+"""Issue 47: a run draws no matplotlib figure unless asked; report.html carries its charts
+as Vega-Lite specs with their data and the scripts that draw them; ``run --figures FORMAT``
+writes the static figures (PNG through the drawer and its cache, SVG or PDF drawn here)."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from analysis.batch import run
+from analysis.charts import session_chart
+from analysis.cli import app
+from analysis.html_page import CHART_SCRIPTS
+
+
+def _specs(page: str) -> list[dict[str, object]]:
+    found = re.findall(r"<script type='application/json' class='chart-spec'>(.*?)</script>", page)
+    return [json.loads(s) for s in found]
+
+
+@pytest.mark.slow  # a whole run (tables, report) of one session: ~3 s
+def test_a_default_run_draws_no_figure_and_its_report_carries_its_charts_and_scripts(
+    tmp_path: Path, point_session: Path
+) -> None:
+    out = tmp_path / "out"
+    result = run([point_session], out, scene=False)
+    assert not [p.name for p in out.iterdir() if p.suffix in (".png", ".svg", ".pdf")]
+    assert not (out / "figures.json").exists()
+    assert all(not s.images for s in result.sessions)  # the batch drew nothing either
+    page = (out / "report.html").read_text()
+    assert "<img" not in re.sub(r"<script>.*?</script>", "", page, flags=re.S)
+    for script in CHART_SCRIPTS:  # inline: the page opens offline, from a file
+        assert f"src='{script}'" not in page
+    assert page.count("<script>") == 1 + len(CHART_SCRIPTS) + 1
+    specs = _specs(page)
+    assert len(specs) == 3  # the overview, sensitivity, the session
+    session = specs[-1]
+    trials = pd.read_csv(out / "trials.csv")
+    ok = trials[trials["status"] == "ok"]
+    rows = session["datasets"]["trials"]  # type: ignore[index]
+    assert sorted(r["trial"] for r in rows) == sorted(ok["trial"])  # the run's own table
+    assert {r["session_name"] for r in rows} == {point_session.name}
+
+
+@pytest.mark.slow  # two runs drawing every static figure: ~8 s
+def test_figures_png_writes_the_static_figures_and_svg_writes_them_as_svg(
+    tmp_path: Path, point_session: Path
+) -> None:
+    cli = CliRunner()
+    for fmt in ("png", "svg"):
+        out = tmp_path / fmt
+        done = cli.invoke(app, ["run", str(point_session), "--out", str(out), "--no-scene",
+                                "--figures", fmt])  # fmt: skip
+        assert done.exit_code == 0, done.output
+        drawn = sorted(p.name for p in out.glob(f"*.{fmt}"))
+        assert "error_histogram." + fmt in drawn
+        assert any(name.startswith("scatter_00_") for name in drawn), drawn
+        assert "sensitivity." + fmt in drawn
+        assert (out / "figures.json").exists() == (fmt == "png")
+    assert (tmp_path / "svg" / "sensitivity.svg").read_text().lstrip().startswith("<?xml")
+    refused = cli.invoke(app, ["run", str(point_session), "--out", str(tmp_path / "x"),
+                               "--figures", "gif"])  # fmt: skip
+    assert refused.exit_code != 0
+    assert "gif" in refused.output
+
+
+@pytest.mark.slow  # analyses a session (1-3 s)
+def test_a_sessions_chart_frames_by_the_used_trials_and_draws_an_outlier_at_the_edge(
+    point_session: Path,
+) -> None:
+    """Honesty: a warned trial far away never sets the axes; it is drawn at the frame's
+    edge and its tooltip keeps its real error."""
+    from analysis.pipeline import analyse_session
+
+    s = analyse_session(point_session)
+    trials = s.trials.copy()
+    far = trials.index[0]
+    trials.loc[far, "err_x"] = 1000.0
+    trials.loc[far, "warning"] = "near-degenerate"
+    spec = session_chart(s.name, trials, s.averaging, s.views, units="in")
+    assert spec is not None
+    scatter = spec["concat"][0]
+    points = scatter["layer"][-1]["encoding"]
+    assert points["x"]["scale"]["domain"][1] < 1000.0
+    [row] = [r for r in spec["datasets"]["trials"] if r["err_x"] == 1000.0]
+    assert row["sx"] == points["x"]["scale"]["domain"][1]
+    assert row["shown"] == "beyond the frame, at its edge"
+    titles = [points["x"]["title"], points["y"]["title"]]
+    assert titles == ["x error (in)", "z error (in)"]
