@@ -35,8 +35,9 @@ from analysis.figure_cache import FigureCache, FigureJob
 from analysis.input_set import InputSet, SessionIdentity, resolve_inputs
 from analysis.metrics import summarize
 from analysis.outputs import OutputFolder, printable_stem
-from analysis.pipeline import analyse_session, keep_frame_buffers
+from analysis.pipeline import _with_figures, analyse_session, keep_frame_buffers
 from analysis.results import AnalysisOptions, RunResult, SessionFailure, SessionResult
+from analysis.session_cache import SessionCache
 from twopose.errors import InputValueError, TwoposeError
 
 __all__ = ["Outcome", "analyse_or_fail", "results_mcap_name", "run"]
@@ -47,7 +48,7 @@ Outcome = SessionResult | SessionFailure
 OnDone = Callable[[str, bool], None]
 
 
-def run(
+def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
     paths: str | Path | Sequence[str | Path] | InputSet,
     out_dir: str | Path | None = None,
     *,
@@ -57,6 +58,7 @@ def run(
     on_session_done: OnDone | None = None,
     on_sessions_found: Callable[[int], None] | None = None,
     scene: bool = True,
+    reuse: bool = True,
 ) -> RunResult:
     """Analyse every session under ``paths`` and (with ``out_dir``) write the results.
 
@@ -83,6 +85,10 @@ def run(
         Called once with the number of sessions found, before the first is analysed.
     scene : bool
         With ``out_dir``: also write each session's results.mcap.
+    reuse : bool
+        With ``out_dir``: reuse what the previous run into it kept where nothing it depends
+        on changed (each session's analysis, :mod:`analysis.session_cache`; its figures,
+        :mod:`analysis.figure_cache`); False: everything computed afresh.
 
     Returns
     -------
@@ -114,8 +120,11 @@ def run(
             on_done=on_session_done,
             figure_cache=(
                 FigureCache.of(folder.destination, folder.previous_outputs())
-                if folder is not None
+                if folder is not None and reuse
                 else None
+            ),
+            session_cache=(
+                SessionCache.of(folder.destination, options, reuse=reuse) if folder else None
             ),
             continuations=inputs.continuations,
             identities=inputs.identities,
@@ -132,14 +141,23 @@ def run(
 
             # The sweeps are in the thesis' geometry, not the sessions': what the method
             # can do, beside what each trial's own covariance says dominated it.
-            written = write_outputs(
-                result,
-                folder.path,
-                _thesis_sweeps().copy(),
-                figure_cache=batch.figure_cache,
-                figures=options.figures,
-            )
+            cache = batch.session_cache
+
+            def write() -> list[str]:
+                sweeps = cache.computed("sweeps", _thesis_sweeps) if cache else _thesis_sweeps()
+                return write_outputs(
+                    result,
+                    folder.path,
+                    sweeps.copy(),
+                    figure_cache=batch.figure_cache,
+                    figures=options.figures,
+                )
+
+            notes = [*result.input_notes, *result.skipped]  # with the sessions: the outputs
+            written = cache.outputs(outcomes, notes, folder.path, write) if cache else write()
             folder.record(written + [Path(r).name for r in results_mcap if r is not None])
+    if batch.session_cache is not None:  # committed: what this run did not use goes
+        batch.session_cache.prune()
     return result
 
 
@@ -166,15 +184,24 @@ class _Batch:
     continuations: dict[str, tuple[str, ...]] = dataclasses.field(default_factory=dict)
     #: per session's first part, what it is (InputSet.identities): its id, label, parts
     identities: dict[str, SessionIdentity] = dataclasses.field(default_factory=dict)
+    #: each session's analysis as the previous run into --out kept it (None: no --out)
+    session_cache: SessionCache | None = None
 
     def analyse(self, index: int, results: str | None = None, *, images: bool) -> Outcome:
         """Session ``index``'s outcome (:func:`analyse_or_fail`), wherever it runs."""
-        path = self.files[index]
-        outcome = analyse_or_fail(
-            path, self.options, images=images, results=results,
-            figure_cache=self.figure_cache, continuations=self.continuations.get(path, ()),
-            identity=self.identities.get(path),
+        path, cache = self.files[index], self.session_cache
+        continuations, identity = self.continuations.get(path, ()), self.identities.get(path)
+        analysed = functools.partial(
+            analyse_or_fail, path, self.options, images=images, results=results,
+            figure_cache=self.figure_cache, continuations=continuations, identity=identity,
         )  # fmt: skip
+        outcome = (
+            analysed()
+            if cache is None
+            else cache.outcome(path, continuations, identity, results, analysed)
+        )
+        if images and isinstance(outcome, SessionResult) and outcome.analysis_reused:
+            outcome = _with_figures(outcome, self.options, self.figure_cache)
         return (
             dataclasses.replace(outcome, index=index)
             if isinstance(outcome, SessionResult)

@@ -89,6 +89,8 @@ class SessionResult:
     averaging: pd.DataFrame
     images: dict[str, bytes] = field(default_factory=dict)  # PNGs by figure kind, if asked
     figures_reused: bool = False  # the images are a previous run's (analysis.figure_cache)
+    analysis_reused: bool = False  # the tables are a previous run's (analysis.session_cache)
+    analysis_key: str = ""  # its entry in the run's session cache (analysis.session_cache)
     views: pd.DataFrame = field(default_factory=lambda: _empty(VIEW_COLUMNS))
     rig: pd.DataFrame = field(default_factory=lambda: _empty(RIG_TABLE_COLUMNS))  # rig.csv rows
     #: What names it to a reader: the shortest tail of its path no other input shares
@@ -155,3 +157,8 @@ class RunResult:
     def figures_reused(self) -> int:
         """Sessions whose figures a previous run had drawn (reused, not drawn again)."""
         return sum(s.figures_reused for s in self.sessions)
+
+    @property
+    def sessions_reused(self) -> int:
+        """Sessions whose analysis a previous run had kept (reused, not analysed again)."""
+        return sum(s.analysis_reused for s in self.sessions)

@@ -69,6 +69,16 @@ FiguresOption = Annotated[
     ),
 ]
 
+ReuseOption = Annotated[
+    bool,
+    typer.Option(
+        "--reuse/--no-reuse",
+        help="Reuse each session's analysis and figures from the last run into --out where "
+        "nothing they depend on changed (the session's files and identity, the options, the "
+        "rig file, twopose's code); --no-reuse: analyse and draw everything afresh.",
+    ),
+]
+
 
 @app.command("run")
 def run_command(
@@ -117,6 +127,7 @@ def run_command(
         ),
     ] = _ESTIMATE.noise.test_redundancy,
     figures: FiguresOption = None,
+    reuse: ReuseOption = True,
 ) -> None:
     """Replay sessions through detection and solvers into error tables, figures and a report."""
     from analysis.batch import run
@@ -154,6 +165,7 @@ def run_command(
             on_session_done=done,
             on_sessions_found=found,
             scene=scene,
+            reuse=reuse,
         )
         if junit is not None:
             from analysis.gate import junit_xml, run_cases
@@ -242,6 +254,11 @@ def _print_run(result: RunResult, out: Path, *, include_warned: bool) -> None:
         typer.echo(
             f"figures: {result.figures_reused} of {len(result.sessions)} session(s)' reused "
             f"from the last run into {out} (nothing they show changed)"
+        )
+    if result.sessions_reused:
+        typer.echo(
+            f"analysis: {result.sessions_reused} of {len(result.sessions)} session(s)' reused "
+            f"from the last run into {out} (nothing it depends on changed)"
         )
     for line in closing_lines(result.verdict, out, width=width):
         typer.echo(line)

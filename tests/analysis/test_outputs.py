@@ -14,6 +14,7 @@ from typer.testing import CliRunner
 from analysis.batch import run
 from analysis.cli import app
 from analysis.outputs import LOCK_NAME, MANIFEST_NAME
+from analysis.session_cache import CACHE_FOLDER
 from recorder.capture import CaptureSettings
 from recorder.procedure import Procedure
 from recorder.sources import SyntheticSource
@@ -44,7 +45,7 @@ def test_a_rerun_replaces_its_own_outputs_and_nothing_else(
     assert not any(n.startswith("scatter_01") for n in second)
     assert (out / "mine.txt").read_text() == "the analyst's own file"
     listed = json.loads((out / MANIFEST_NAME).read_text())["files"]
-    assert set(listed) == second - {"mine.txt", MANIFEST_NAME, LOCK_NAME}
+    assert set(listed) == second - {"mine.txt", MANIFEST_NAME, LOCK_NAME, CACHE_FOLDER}
     assert set(pd.read_csv(out / "trials.csv")["session"]) == {str(line_session)}
 
 

@@ -1,0 +1,411 @@
+"""A session's analysis reused by a re-run into the same output folder.
+
+A session's tables (:class:`~analysis.results.SessionResult`) are a function of four
+things, and its entry in the cache is named by a digest of all four (:meth:`SessionCache.key`):
+
+* its **identity**: the path it was given by and its continuations' paths, in order, and
+  what the run says it is (:class:`~analysis.input_set.SessionIdentity`: its id, label,
+  parts and branches). A renamed or copied file, a continuation added or another input
+  that changes its label is another session: analysed again;
+* its **content**: the SHA-256 of every part's bytes, read in full (never a size or a
+  modification time alone);
+* the **options**: every field of :class:`~analysis.results.AnalysisOptions`, the
+  estimation's and its noise model's (sigma0, the placing sigma) included, and the rig's
+  constants with the rig file's SHA-256;
+* the **code**: twopose's version, a digest of every file of the ``analysis`` and
+  ``twopose`` packages, and the versions of Python, NumPy, pandas and OpenCV.
+
+Entries live in ``<out>/.twopose-cache/sessions/<key>.pickle``, written atomically
+(:func:`analysis.outputs.write_atomically`); the folder is not an output of the run (not in
+its list of outputs) and holds no session file, so it is never read as an input. A run that
+finishes removes the entries it did not use: the cache holds the last run's sessions. A
+failed session is never cached (a failure may be a time limit or a worker that died). An
+entry that cannot be read is ignored with a note and the session analysed again; only the
+tables, names and plain values an entry is known to hold are unpickled, never other code.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import enum
+import functools
+import hashlib
+import io
+import json
+import os
+import pickle
+import sys
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, cast
+
+from twopose.errors import TwoposeError
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from analysis.input_set import SessionIdentity
+    from analysis.results import AnalysisOptions, SessionFailure, SessionResult
+
+__all__ = ["CACHE_FOLDER", "SessionCache", "code_version", "options_digest"]
+
+#: Inside ``--out``: what a run keeps for the next one (not one of its outputs).
+CACHE_FOLDER = ".twopose-cache"
+_SESSIONS = "sessions"
+_SUFFIX = ".pickle"
+_FORMAT = 1  # an entry's layout; another one is a miss
+_STARTED = ".run-started"  # its modification time: entries older were not used by the run
+#: The SessionResult fields an entry keeps (the figures are the figure cache's).
+_FIELDS = ("session", "metadata", "frames", "trials", "averaging", "views", "rig", "label")
+
+
+@functools.cache
+def code_version() -> str:
+    """A digest of the code that computes a session's tables: twopose's version, every
+    file of the ``analysis`` and ``twopose`` packages, and the versions of the libraries
+    that compute (a change to any makes every session be analysed anew)."""
+    import cv2
+    import numpy
+    import pandas
+
+    from twopose import __version__
+
+    root = Path(__file__).resolve().parents[1]
+    h = hashlib.sha256(_text(f"{__version__}\0{sys.version}\0{numpy.__version__}\0"))
+    h.update(_text(f"{pandas.__version__}\0{cv2.__version__}\0"))
+    for package in ("analysis", "twopose"):
+        for path in sorted((root / package).rglob("*")):
+            if path.is_file() and "__pycache__" not in path.parts:
+                h.update(_text(f"\1{path.relative_to(root).as_posix()}\0") + path.read_bytes())
+    return h.hexdigest()
+
+
+def options_digest(options: AnalysisOptions) -> str:
+    """A digest of every field of ``options``, nested records and the rig included."""
+    return hashlib.sha256(_text(json.dumps(_canonical(options)))).hexdigest()
+
+
+def _canonical(value: Any) -> Any:
+    """``value`` as plain JSON, exactly (floats by their ``repr``, which round-trips)."""
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        fields = {f.name: _canonical(getattr(value, f.name)) for f in dataclasses.fields(value)}
+        return {"type": type(value).__qualname__, "fields": fields}
+    if isinstance(value, enum.Enum):
+        return {"enum": type(value).__qualname__, "value": _canonical(value.value)}
+    if isinstance(value, bool | int | str) or value is None:
+        return value
+    if isinstance(value, float):
+        return {"float": repr(value)}
+    if isinstance(value, list | tuple):
+        return [_canonical(v) for v in value]
+    if isinstance(value, dict):
+        return [[_canonical(k), _canonical(v)] for k, v in sorted(value.items(), key=str)]
+    if hasattr(value, "tobytes") and hasattr(value, "dtype"):  # a NumPy array or scalar
+        digest = hashlib.sha256(value.tobytes()).hexdigest()
+        return {"array": [str(value.dtype), list(getattr(value, "shape", ())), digest]}
+    return {"repr": f"{type(value).__qualname__}:{value!r}"}
+
+
+def _text(text: str) -> bytes:
+    return text.encode("utf-8", "surrogatepass")
+
+
+@dataclass(frozen=True)
+class SessionCache:
+    """The analyses a previous run into ``--out`` kept, and where this run keeps its own.
+
+    Picklable (paths and a digest), so worker processes look in it and add to it too.
+    ``reuse`` False (``run --no-reuse``): nothing is read, every session is analysed and
+    its entry written afresh for the next run.
+    """
+
+    folder: str  # <out>/.twopose-cache/sessions
+    destination: str  # <out>: where the previous run's results.mcap files are
+    setting: str  # the options' and the code's digest, computed once per run
+    reuse: bool = True
+
+    @classmethod
+    def of(cls, out: str | Path, options: AnalysisOptions, *, reuse: bool = True) -> SessionCache:
+        """The cache of the output folder ``out`` for a run with ``options``; marks the
+        run's start (entries it neither reuses nor writes are removed by :meth:`prune`)."""
+        folder = Path(out) / CACHE_FOLDER / _SESSIONS
+        cache = cls(str(folder), str(out), f"{options_digest(options)}:{code_version()}", reuse)
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+            _write(folder / _STARTED, b"")
+        except (OSError, TwoposeError) as err:
+            _note(
+                f"cannot keep the sessions' analyses in {folder} ({err}); a re-run analyses again"
+            )
+        return cache
+
+    def key(self, path: str, continuations: Sequence[str], identity: SessionIdentity) -> str:
+        """The entry's name: a digest of the session's identity, its parts' bytes, the
+        options and the code (see the module docstring)."""
+        h = hashlib.sha256(_text(f"{_FORMAT}\0{self.setting}\0"))
+        h.update(_text(json.dumps(_canonical([str(path), [str(c) for c in continuations]]))))
+        h.update(_text(json.dumps(_canonical(identity))))
+        for part in (path, *continuations):
+            with open(part, "rb") as fh:
+                h.update(hashlib.file_digest(fh, "sha256").digest())
+        return h.hexdigest()
+
+    def outcome(
+        self,
+        path: str,
+        continuations: Sequence[str],
+        identity: SessionIdentity | None,
+        results: str | None,
+        analyse: Callable[[], SessionResult | SessionFailure],
+    ) -> SessionResult | SessionFailure:
+        """Session ``path``'s outcome: the kept analysis when its entry is there (see
+        :meth:`key`), else ``analyse()``'s, kept for the next run when it succeeded and its
+        files did not change while it ran."""
+        parts = (path, *continuations)
+        try:
+            before = [_stamp(p) for p in parts]
+            if identity is None:  # as the analysis names it (analysis.pipeline)
+                from analysis.input_set import SessionIdentity
+
+                identity = SessionIdentity.of_files(path, continuations)
+            key = self.key(path, continuations, identity)
+        except OSError:  # unreadable: the analysis says why
+            return analyse()
+        kept = self.load(key, results)
+        if kept is not None:
+            return dataclasses.replace(kept, analysis_key=key)
+        outcome = analyse()
+        from analysis.results import SessionResult
+
+        with contextlib.suppress(OSError):
+            if isinstance(outcome, SessionResult) and [_stamp(p) for p in parts] == before:
+                self.store(key, outcome, results)
+                return dataclasses.replace(outcome, analysis_key=key)
+        return outcome
+
+    def load(self, key: str, results: str | None) -> SessionResult | None:
+        """The session as the entry ``key`` keeps it, with its results.mcap linked to
+        ``results`` when asked; None when there is no usable entry (a session to analyse)."""
+        if not self.reuse:
+            return None
+        path = Path(self.folder) / f"{key}{_SUFFIX}"
+        try:
+            data = path.read_bytes()
+        except OSError:
+            return None
+        try:
+            entry = _SafeUnpickler(io.BytesIO(data)).load()
+            if entry["format"] != _FORMAT or entry["key"] != key:
+                raise ValueError("it belongs to another key")
+            fields = {name: entry["fields"][name] for name in _FIELDS}
+            scene = entry["results_mcap"]
+        except Exception as err:  # corrupt, truncated, tampered: analysed again, said
+            _note(f"ignored the unreadable cached analysis {path} ({type(err).__name__}); "
+                  "the session is analysed again")  # fmt: skip
+            return None
+        if results is not None and not self._link_scene(scene, Path(results)):
+            return None
+        from analysis.results import SessionResult
+
+        result = SessionResult(**fields, analysis_reused=True)
+        if results is not None and scene["name"] != Path(results).name:
+            self.store(key, result, results)  # its results.mcap has another number now
+        else:
+            os.utime(path)  # used by this run: kept by prune
+        return result
+
+    def _link_scene(self, scene: Any, results: Path) -> bool:
+        """The previous run's results.mcap of the session, unchanged since it was written,
+        linked (or else copied) to ``results``; False when there is none."""
+        if not isinstance(scene, dict):
+            return False
+        previous = Path(self.destination) / str(scene.get("name", ""))
+        try:
+            st = previous.stat()
+            if (st.st_size, st.st_mtime_ns) != (scene.get("size"), scene.get("mtime_ns")):
+                return False
+            results.unlink(missing_ok=True)
+            try:
+                os.link(previous, results)
+            except OSError:  # a file system without hard links
+                import shutil
+
+                shutil.copy2(previous, results)
+        except OSError:
+            return False
+        return True
+
+    def store(self, key: str, result: SessionResult, results: str | None) -> None:
+        """Keep ``result`` (an analysed session, with the results.mcap it wrote, if any)
+        under ``key`` for the next run; a failure to write is said, never the run's end."""
+        scene = None
+        if results is not None:
+            try:
+                st = Path(results).stat()
+            except OSError:
+                return  # no results.mcap where one was asked: nothing safe to keep
+            scene = {"name": Path(results).name, "size": st.st_size, "mtime_ns": st.st_mtime_ns}
+        entry = {
+            "format": _FORMAT,
+            "key": key,
+            "fields": {name: getattr(result, name) for name in _FIELDS},
+            "results_mcap": scene,
+        }
+        try:
+            _write(Path(self.folder) / f"{key}{_SUFFIX}", pickle.dumps(entry, protocol=5))
+        except Exception as err:  # the cache is a saving, never a reason to fail
+            _note(f"cannot keep the analysis of {result.session} for a re-run ({err})")
+
+    def computed(self, name: str, compute: Callable[[], pd.DataFrame]) -> pd.DataFrame:
+        """A table that depends on the code alone (the report's seeded sensitivity sweeps),
+        as the previous run kept it in ``<out>/.twopose-cache/<name>.pickle`` for the same
+        :func:`code_version`; else ``compute()``'s, kept for the next run."""
+        path = Path(self.folder).parent / f"{name}{_SUFFIX}"
+        key = f"{_FORMAT}:{code_version()}"
+        if self.reuse and path.is_file():
+            try:
+                entry = _SafeUnpickler(io.BytesIO(path.read_bytes())).load()
+                if entry["key"] == key:
+                    return cast("pd.DataFrame", entry["table"])
+            except Exception as err:  # corrupt: computed again, said
+                _note(f"ignored the unreadable {path} ({type(err).__name__}); computed again")
+        table = compute()
+        try:
+            _write(path, pickle.dumps({"key": key, "table": table}, protocol=5))
+        except Exception as err:  # a saving, never a reason to fail
+            _note(f"cannot keep {path} for a re-run ({err})")
+        return table
+
+    def outputs(
+        self,
+        outcomes: Sequence[SessionResult | SessionFailure],
+        notes: Sequence[str],
+        staging: Path,
+        write: Callable[[], list[str]],
+    ) -> list[str]:
+        """The run's own outputs (tables, summary.json, report) in ``staging``: the
+        previous run's, linked, when every session and the ``notes`` on the inputs are the
+        same as then and its files are unchanged; else ``write()``'s, kept for the next run.
+        Their names."""
+        from analysis.results import SessionResult
+
+        keys = [o.analysis_key if isinstance(o, SessionResult) else "" for o in outcomes]
+        if not keys or not all(keys):  # a failure, or a session not kept: written anew
+            return write()
+        h = hashlib.sha256(_text(f"{_FORMAT}\0{self.setting}\0"))
+        h.update(_text(json.dumps([keys, list(notes)])))
+        run_key = h.hexdigest()
+        index = Path(self.folder).parent / "outputs.json"
+        linked = self._link_outputs(index, run_key, staging) if self.reuse else None
+        if linked is not None:
+            return linked
+        names = write()
+        with contextlib.suppress(OSError):
+            stamps = {n: list(_stamp(str(staging / n))[1:]) for n in names}
+            document = json.dumps({"key": run_key, "files": stamps}, indent=1)
+            with contextlib.suppress(TwoposeError):
+                _write(index, document.encode())
+        return names
+
+    def _link_outputs(self, index: Path, run_key: str, staging: Path) -> list[str] | None:
+        """The previous run's outputs listed in ``index`` for ``run_key``, each unchanged
+        since it was written (size, modification time), linked into ``staging``."""
+        try:
+            entry = json.loads(index.read_text(encoding="utf-8"))
+            if entry["key"] != run_key:
+                return None
+            files = {str(n): tuple(v) for n, v in entry["files"].items()}
+        except (OSError, ValueError, KeyError, TypeError, AttributeError):
+            return None
+        linked: list[str] = []
+        for name, stamp in files.items():
+            previous, here = Path(self.destination) / name, staging / name
+            try:
+                st = previous.stat()
+                if Path(name).name != name or (st.st_size, st.st_mtime_ns) != stamp:
+                    raise FileNotFoundError(name)
+                here.unlink(missing_ok=True)
+                os.link(previous, here)
+            except OSError:  # changed, gone or not linkable: everything written anew
+                for done in linked:
+                    (staging / done).unlink(missing_ok=True)
+                return None
+            linked.append(name)
+        return linked
+
+    def prune(self) -> None:
+        """Remove the entries this run neither reused nor wrote (a finished run's)."""
+        folder = Path(self.folder)
+        try:
+            started = (folder / _STARTED).stat().st_mtime_ns
+            entries = list(folder.iterdir())
+        except OSError:
+            return
+        for path in entries:
+            try:
+                if path.name != _STARTED and path.stat().st_mtime_ns < started:
+                    path.unlink()
+            except OSError:
+                continue
+
+
+def _stamp(path: str) -> tuple[int, int, int]:
+    """What tells a file changed while it was analysed (its bytes are hashed before)."""
+    st = os.stat(path)
+    return st.st_ino, st.st_size, st.st_mtime_ns
+
+
+def _write(path: Path, data: bytes) -> None:
+    from analysis.outputs import write_atomically
+
+    write_atomically(path, data)
+
+
+def _note(text: str) -> None:
+    from analysis.drawer import note
+
+    note(text)
+
+
+#: What an entry may hold, exactly (module, name): tables, plain values and the enums of
+#: a session's metadata; anything else (a file someone else put there) is refused unread.
+_ALLOWED = frozenset(
+    {
+        ("builtins", "slice"),
+        ("numpy", "dtype"),
+        ("numpy", "ndarray"),
+        ("numpy._core.multiarray", "_reconstruct"),
+        ("numpy._core.numeric", "_frombuffer"),
+        ("numpy.core.multiarray", "_reconstruct"),
+        ("numpy.core.numeric", "_frombuffer"),
+        ("pandas", "BooleanDtype"),
+        ("pandas", "DataFrame"),
+        ("pandas", "Float64Dtype"),
+        ("pandas", "Index"),
+        ("pandas", "Int64Dtype"),
+        ("pandas", "RangeIndex"),
+        ("pandas", "StringDtype"),
+        ("pandas._libs.arrays", "__pyx_unpickle_NDArrayBacked"),
+        ("pandas._libs.internals", "_unpickle_block"),
+        ("pandas.arrays", "BooleanArray"),
+        ("pandas.arrays", "FloatingArray"),
+        ("pandas.arrays", "IntegerArray"),
+        ("pandas.arrays", "StringArray"),
+        ("pandas.core.indexes.base", "_new_Index"),
+        ("pandas.core.internals.managers", "BlockManager"),
+        ("twopose.methods", "Method"),
+        ("twopose.units", "Units"),
+    }
+)
+
+
+class _SafeUnpickler(pickle.Unpickler):
+    """Unpickles only what an entry holds (:data:`_ALLOWED`), so that a file put in the
+    cache folder by someone else cannot run code."""
+
+    def find_class(self, module: str, name: str) -> Any:
+        if (module, name) not in _ALLOWED:
+            raise pickle.UnpicklingError(f"{module}.{name} is not what a cached analysis holds")
+        return super().find_class(module, name)

@@ -1,0 +1,210 @@
+"""A re-run into the same --out reuses each session's analysis (analysis.session_cache),
+and never a stale one: a change to a session's bytes, its identity, an option, the rig file
+or the code's version makes it be analysed again."""
+
+from __future__ import annotations
+
+import dataclasses
+import pickle
+import shutil
+from pathlib import Path
+
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+import analysis.session_cache as session_cache
+from analysis.batch import run
+from analysis.cli import app
+from analysis.input_set import SessionIdentity, resolve_inputs
+from analysis.pipeline import analyse_session
+from analysis.results import AnalysisOptions, SessionResult
+from analysis.rig.calibrate import with_rig
+from analysis.session_cache import CACHE_FOLDER, SessionCache, options_digest
+from tests.helpers import distinct_copies
+from tests.lab import continue_session
+from twopose.detect import GloveParams
+from twopose.estimate import EstimateOptions
+from twopose.noise import NoiseModel
+from twopose.rig.constants import RigConstants
+
+runner = CliRunner()
+#: A rig file with a placing sigma (as tests/analysis/test_rig_placing.py's).
+PLACING = '[rig]\nunits = "in"\n\n[placing]\nsigma = 0.2\nmeasured_by = "board.mcap"\n'
+REUSED = "analysis: {n} of {m} session(s)' reused from the last run into"
+
+
+def _entries(out: Path) -> list[Path]:
+    return sorted((out / CACHE_FOLDER / "sessions").glob("*.pickle"))
+
+
+def _run(folder: Path, out: Path, *extra: str) -> str:
+    result = runner.invoke(app, ["run", str(folder), "--out", str(out), "--no-scene", *extra])
+    assert result.exit_code == 0, result.output
+    return result.output
+
+
+@pytest.fixture(scope="module")
+def analysed(point_session: Path) -> SessionResult:
+    return analyse_session(point_session)
+
+
+def test_each_change_makes_the_session_analysed_again(
+    tmp_path: Path, point_session: Path, analysed: SessionResult, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    folder, out = tmp_path / "sessions", tmp_path / "out"
+    folder.mkdir()
+    session = folder / "s.mcap"
+    shutil.copy(point_session, session)
+    calls: list[str] = []
+
+    def analyse() -> SessionResult:  # the session's analysis, as a run would do it
+        calls.append("analysed")
+        return analysed
+
+    def again(
+        options: AnalysisOptions | None, *parts: Path, identity: SessionIdentity | None = None
+    ) -> bool:
+        """Whether a re-run with ``options`` analyses the session (``parts``) again."""
+        cache = SessionCache.of(out, options or AnalysisOptions())
+        first, *later = [str(p) for p in parts or (session,)]
+        before = len(calls)
+        outcome = cache.outcome(first, later, identity, None, analyse)
+        assert isinstance(outcome, SessionResult)
+        assert outcome.analysis_key
+        assert outcome.analysis_reused == (len(calls) == before)
+        return len(calls) > before
+
+    assert again(None)
+    assert not again(None)
+    # its bytes: the same trials in another file (an extra metadata record)
+    shutil.copy(distinct_copies(point_session, tmp_path / "copies", 1)[0], session)
+    assert again(None)
+    assert not again(None)
+    # its identity: renamed or copied (its path is what the tables name it by)
+    renamed = session.rename(folder / "renamed.mcap")
+    assert again(None, renamed)
+    assert not again(None, renamed)
+    shutil.copy(renamed, folder / "copy.mcap")
+    assert again(None, folder / "copy.mcap")
+    # ... or a continuation added (the session now has two parts), or another label
+    day2 = folder / "renamed_day2.mcap"
+    continue_session(renamed, day2, 1)
+    assert again(None, renamed, day2)
+    assert not again(None, renamed, day2)
+    other = dataclasses.replace(SessionIdentity.of_files(renamed, [day2]), label="lab/renamed")
+    assert again(None, renamed, day2, identity=other)
+    # an option: the sigma0 setting
+    no_sigma0 = AnalysisOptions(estimate=EstimateOptions(noise=NoiseModel(test_redundancy=False)))
+    assert again(no_sigma0, renamed)
+    assert not again(no_sigma0, renamed)
+    # the rig file, and then its [placing] alone
+    rig = tmp_path / "rig.toml"
+    rig.write_text(PLACING)
+    inputs = resolve_inputs([renamed])
+    with_placing = with_rig(AnalysisOptions(), rig, inputs, print)
+    assert again(with_placing, renamed)
+    assert not again(with_placing, renamed)
+    rig.write_text(PLACING.replace("0.2", "0.3"))
+    assert again(with_rig(AnalysisOptions(), rig, inputs, print), renamed)
+    # the version
+    monkeypatch.setattr("twopose.__version__", "99.0")
+    session_cache.code_version.cache_clear()
+    try:
+        assert again(with_placing, renamed)
+    finally:
+        session_cache.code_version.cache_clear()
+
+
+def test_every_field_of_the_options_is_in_the_key() -> None:
+    """A change to any field, nested ones included, gives another digest."""
+    base = AnalysisOptions()
+    changed = [
+        AnalysisOptions(estimate=EstimateOptions(combine="median")),
+        AnalysisOptions(estimate=EstimateOptions(min_parallax_deg=1.5)),
+        AnalysisOptions(estimate=EstimateOptions(noise=NoiseModel(test_redundancy=False))),
+        AnalysisOptions(session_timeout_s=None),
+        AnalysisOptions(include_warned=True),
+        AnalysisOptions(rig=RigConstants(camera_offset=(0.1, 0.0, 0.0))),
+        AnalysisOptions(rig_calibration="loo"),
+        AnalysisOptions(glove=GloveParams(min_area_px=201.0)),
+    ]
+    digests = {options_digest(o) for o in [base, *changed]}
+    assert len(digests) == len(changed) + 1
+    assert options_digest(AnalysisOptions()) == options_digest(base)
+
+
+# Slow: four runs of one small session (about 5 s); the first of a process pays its imports.
+@pytest.mark.slow
+def test_a_rerun_reuses_the_analysis_and_the_outputs_and_says_so(
+    tmp_path: Path, point_session: Path
+) -> None:
+    out = tmp_path / "out"
+    args = ["run", str(point_session), "--out", str(out)]  # with its results.mcap
+    first = runner.invoke(app, args)
+    assert first.exit_code == 0, first.output
+    assert "reused" not in first.output
+    trials, report = (out / "trials.csv").read_bytes(), (out / "report.html").read_bytes()
+    (out / "report.html").write_text("edited by hand")  # an output changed since: rewritten
+    again = runner.invoke(app, args)
+    assert REUSED.format(n=1, m=1) in again.output
+    assert (out / "trials.csv").read_bytes() == trials
+    assert (out / "report.html").read_bytes() == report
+    assert [p.name for p in out.glob("results_*.mcap")] == ["results_00_point.mcap"]
+    assert len(_entries(out)) == 1
+    third = runner.invoke(app, args)  # every output as the last run left it: linked
+    assert REUSED.format(n=1, m=1) in third.output
+    assert (out / "report.html").read_bytes() == report
+    fresh = runner.invoke(app, [*args, "--no-reuse"])
+    assert fresh.exit_code == 0, fresh.output
+    assert "reused" not in fresh.output
+    assert (out / "trials.csv").read_bytes() == trials
+
+
+# Slow: three runs of one small session (about 3 s).
+@pytest.mark.slow
+def test_a_corrupt_or_foreign_cache_file_is_ignored_with_a_note(
+    tmp_path: Path, point_session: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "out"
+    first = run([point_session], out, scene=False)
+    (entry,) = _entries(out)
+    sweeps = out / CACHE_FOLDER / "sweeps.pickle"
+    for bad in (
+        entry.read_bytes()[:100],  # cut short
+        pickle.dumps({"format": 1, "run": print}),  # names code: refused, never called
+    ):
+        entry.write_bytes(bad)
+        sweeps.write_bytes(bad)
+        (out / "report.html").unlink()  # else the last run's outputs are linked, unread
+        capsys.readouterr()
+        again = run([point_session], out, scene=False)
+        assert again.sessions_reused == 0
+        said = capsys.readouterr().err
+        assert "ignored the unreadable cached analysis" in said
+        assert f"ignored the unreadable {sweeps}" in said
+        assert "Traceback" not in said
+        pd.testing.assert_frame_equal(first.trials, again.trials)
+
+
+# Slow: three runs of one small session and a broken one (about 3 s).
+@pytest.mark.slow
+def test_a_failed_session_is_not_kept_and_the_cache_is_not_an_input(
+    tmp_path: Path, point_session: Path
+) -> None:
+    folder = tmp_path / "sessions"
+    folder.mkdir()
+    shutil.copy(point_session, folder / "a.mcap")
+    (folder / "broken.mcap").write_bytes(b"\x89MCAP0\r\n" + b"\0" * 64)
+    out = folder / "results"  # the results (and the cache) inside the folder read
+    first = run([folder], out, scene=False)
+    assert len(first.errors) == 1
+    assert len(_entries(out)) == 1
+    again = run([folder], out, scene=False)
+    assert again.sessions_reused == 1
+    assert len(again.errors) == 1
+    assert len(again.sessions) == 1  # nothing in the cache was taken for a session
+    (folder / "broken.mcap").unlink()
+    shutil.copy(point_session, folder / "b.mcap")  # a copy of a: counted once, a's label kept
+    assert run([folder], out, scene=False).sessions_reused == 1
+    assert len(_entries(out)) == 1  # what the last run did not use is gone
