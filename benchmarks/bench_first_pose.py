@@ -138,15 +138,16 @@ def _case(method: Method, depth: float, seed: int) -> Case | None:
     started = time.process_time()
     picks: dict[str, Suggestion | None] = {"range": suggest(trial, REACH, options)}
     seconds = time.process_time() - started
-    # What any one pose can do: the pick's worst regret over the depths weighed, as the
-    # model predicts it (the least such over the poses the search saw).
+    # What any one pose can do: the least worst regret over the depths weighed, as the
+    # model predicts it, over every pose of the pick's field (each depth's best over its
+    # whole lattice too: a coarse pass of the whole lattice, no search's shortcut).
     depths = first_depths(view, Units.IN, trial.ground, options)
-    weighed = _first_pick(trial, REACH, options, depths)
+    every = lattice(first, REACH, first[None])
+    weighed = _first_pick(trial, REACH, options, depths, coarse=len(every))
     bound = math.nan if weighed is None else weighed.found.region - 1
     picks["10 in"] = suggest(trial, REACH, options, target_distance=10.0)
     picks["taped"] = suggest(trial, REACH, options, target_distance=depth)
     target = _true_target(truth)
-    every = lattice(first, REACH, first[None])
     best = float(np.nanmin(predicted_regions(trial, [view], target, every, options)))
     regret = {}
     for name, s in picks.items():

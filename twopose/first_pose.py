@@ -33,6 +33,7 @@ __all__ = [
     "NEAR_DEPTH_IN",
     "OTHER_DEPTHS_MARGIN",
     "RANGE_SLACK",
+    "REGRET_COARSE",
     "FirstPick",
     "assumed_depth",
     "depth_range",
@@ -53,13 +54,22 @@ FAR_DEPTH_IN = 30.0
 DEPTHS = 5
 #: The pick keeps the target in view at every depth weighed by this share of the margins
 #: a located target is kept clear by (:data:`twopose.paper_search.IN_VIEW_MARGIN`,
-#: :data:`~twopose.paper_search.END_MARGIN`): the full margins at 8 in rule out every
-#: forward move a far target needs (``bench_first_pose.py`` chose it).
-OTHER_DEPTHS_MARGIN = 0.5
+#: :data:`~twopose.paper_search.END_MARGIN`): the pose a far target needs often puts a
+#: near one close to the image's edge, and half the margins ruled it out (a worst regret of
+#: 38% at 25 in for the dot); with none, a placing error took a target at 8 in out of the
+#: second view (``bench_first_pose.py`` chose it).
+OTHER_DEPTHS_MARGIN = 0.1
+#: The search over the worst regret starts from a coarse pass of about this many poses: a
+#: worst over depths has kinks the pattern search stalls on (with 40 and no margin, a dot at
+#: 25 in got a pick 38% worse than its best, with 80 11%, as predicting the whole thesis'
+#: lattice); a wide reach costs about the same, its depths' own searches dominate.
+REGRET_COARSE = 2 * COARSE_CANDIDATES
 #: The range shown is widened by this share each way: the second pose's own frames and
-#: placing error move its region by a few percent about the prediction, so a target at
-#: the range's very end would fall outside as often as inside (``bench_first_pose.py``).
-RANGE_SLACK = 0.1
+#: placing error move its region by a few percent about the prediction, and for the finger
+#: the provisional line's direction (steepest down in the view's plane) is a guess (the
+#: taped distance's pick is up to 13% off for method 2): 10% left the second pose's region
+#: of a ground target at 30 in outside the range in 2 of 3 cases (``bench_first_pose.py``).
+RANGE_SLACK = 0.15
 
 
 def first_ray(view: PoseView, options: EstimateOptions) -> tuple[F64, F64, F64]:
@@ -208,7 +218,7 @@ def minimax_pick(
         ratio = cache.regions(centres, weighed) / best[weighed][:, None]
         return np.asarray(np.where(np.isnan(ratio).any(axis=0), np.nan, ratio.max(axis=0)))
 
-    found = search(regret, field, taken, coarse=coarse, seeds=seeds)
+    found = search(regret, field, taken, coarse=max(coarse, REGRET_COARSE), seeds=seeds)
     if found is None:
         return None
     every = list(range(n_depths))

@@ -384,9 +384,10 @@ def suggest(
 
 
 def _first_pick(
-    trial: SessionTrials, reach: Reach, options: EstimateOptions, depths: F64
-) -> FirstPick | None:
-    """The pose for a target at any of ``depths`` along the first view's ray."""
+    trial: SessionTrials, reach: Reach, options: EstimateOptions, depths: F64, *,
+    coarse: int = COARSE_CANDIDATES,
+) -> FirstPick | None:  # fmt: skip
+    """The pose for a target at any of ``depths`` on the first ray (``coarse``: a search's)."""
     views, units = trial.views[0], Units(trial.units)
     targets = [provisional_target(views[0], units, trial.ground, options, d) for d in depths]
     taken = np.array([v.t_grid for v in views], dtype=np.float64)
@@ -406,7 +407,7 @@ def _first_pick(
                                            margin=margin) for d in rows])  # fmt: skip
 
     extra = _thesis_move(taken, units)[None]
-    return minimax_pick(predict, fields, field, taken, extra=extra)
+    return minimax_pick(predict, fields, field, taken, extra=extra, coarse=coarse)
 
 
 def _first_suggestion(

@@ -193,6 +193,26 @@ def test_one_pose_shows_its_region_as_a_range_over_the_depths_the_scene_allows()
     assert {"t_grid", "predicted95", "thesis95", "provisional", "left_out"} <= said.keys()
 
 
+def test_the_first_pick_reaches_the_least_worst_regret_of_the_whole_lattice() -> None:
+    """The search over the worst regret finds what predicting every pose finds (issue 46:
+    its bench saw a coarse pass of 40 stall on the worst's kinks for a dot at 25 in)."""
+    from twopose.first_pose import first_depths
+    from twopose.guidance import _first_pick
+
+    options, reach = EstimateOptions(), Reach.thesis(Units.IN)
+    for method, first in ((Method.POINT, (-1.0, 0.0, 0.5)),):
+        trial = _trial(method, [first])
+        depths = first_depths(trial.views[0][0], Units.IN, trial.ground, options)
+        pick = _first_pick(trial, reach, options, depths)
+        every = lattice(np.asarray(first), reach, np.asarray([first]))
+        exact = _first_pick(trial, reach, options, depths, coarse=len(every))
+        assert pick is not None
+        assert exact is not None
+        assert pick.found.region == pytest.approx(exact.found.region, rel=0.01)
+        # Each depth's best is the lattice's; the pick's regret is its worst over them.
+        assert np.nanmax(pick.regions / exact.best) == pytest.approx(pick.found.region, rel=0.01)
+
+
 def test_a_taped_distance_is_the_one_depth_the_first_suggestion_assumes() -> None:
     from twopose.guidance import target_of
 
