@@ -328,16 +328,15 @@ def _topview(
     the estimate and the truth (x, z)."""
     if views.empty or not {"t_x", "t_z"} <= set(views):
         return None
-    est = table.set_index("trial")[["x", "z"]]
-    seen = views[views["trial"].isin(est.index)]
+    seen = _joined(views[["trial", "pose", "t_x", "t_z"]], views, table, ["x", "z"])
     rays = pd.DataFrame(
         {
             "trial": seen["trial"].astype(int).to_numpy(),
             "pose": seen["pose"].to_numpy(),
             "t_x": seen["t_x"].to_numpy(dtype=np.float64),
             "t_z": seen["t_z"].to_numpy(dtype=np.float64),
-            "x": est["x"].reindex(seen["trial"]).to_numpy(dtype=np.float64),
-            "z": est["z"].reindex(seen["trial"]).to_numpy(dtype=np.float64),
+            "x": seen["x"].to_numpy(dtype=np.float64),
+            "z": seen["z"].to_numpy(dtype=np.float64),
         }
     )
     framed = rays[rays["trial"].isin(used["trial"])]
@@ -412,21 +411,39 @@ def _topview(
     return chart, {"rays": records(rays)}
 
 
+def _joined(
+    rows: pd.DataFrame, keyed: pd.DataFrame, table: pd.DataFrame, columns: list[str]
+) -> pd.DataFrame:
+    """``rows`` (of ``keyed``, a per-view or per-frame table) with each one's trial's
+    ``columns`` from ``table``, matched by trial and branch (a trial number repeated in
+    another branch is another trial)."""
+    keys = ["trial", *(["branch"] if "branch" in keyed and "branch" in table else [])]
+
+    def key(t: pd.DataFrame) -> dict[str, pd.Series]:
+        return {"trial": t["trial"].astype(float).astype(int).astype(str)} | {
+            k: t[k].astype(str) for k in keys[1:]
+        }
+
+    left = rows.assign(**key(keyed))
+    right = table[keys + columns].assign(**key(table))
+    joined = left.merge(right.drop_duplicates(keys, keep="last"), on=keys, how="inner")
+    return joined.assign(trial=pd.to_numeric(joined["trial"]))
+
+
 def _running(
     averaging: pd.DataFrame, table: pd.DataFrame, units: str
 ) -> tuple[list[Spec], dict[str, Any]] | None:
     """Each trial's running average's error in x and in z against its frames used."""
     if averaging.empty or averaging["n_frames"].max() <= 1:
         return None
-    truth = table.set_index("trial")
-    picked = averaging[averaging["trial"].isin(truth.index)]
-    gt = truth.reindex(picked["trial"])
+    gt = _joined(averaging[["trial", "n_frames", "x", "z"]], averaging, table,
+                 ["gt_x", "gt_z", "shown"])  # fmt: skip
     rows = pd.DataFrame(
         {
-            "trial": picked["trial"].astype(int).to_numpy(),
-            "n_frames": picked["n_frames"].to_numpy(),
-            "ex": picked["x"].to_numpy(dtype=np.float64) - gt["gt_x"].to_numpy(np.float64),
-            "ez": picked["z"].to_numpy(dtype=np.float64) - gt["gt_z"].to_numpy(np.float64),
+            "trial": gt["trial"].astype(int).to_numpy(),
+            "n_frames": gt["n_frames"].to_numpy(),
+            "ex": gt["x"].to_numpy(dtype=np.float64) - gt["gt_x"].to_numpy(np.float64),
+            "ez": gt["z"].to_numpy(dtype=np.float64) - gt["gt_z"].to_numpy(np.float64),
             "used": gt["shown"].to_numpy() == "used",
         }
     )

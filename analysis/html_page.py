@@ -144,13 +144,17 @@ def chart_html(name: str, spec: dict[str, object] | None, caption: str = "") -> 
 #: The scripts that draw the charts, carried in the package (analysis/report_js/VERSIONS).
 CHART_SCRIPTS = ("vega.min.js", "vega-lite.min.js", "vega-embed.min.js")
 
-# Draws every chart from the spec beside it: one column on a narrow page; each view kept
+# Draws every chart from the spec beside it: on a narrow page (a phone) one column, as wide
+# as the page, the legends below and long titles cut short; each view kept
 # by name (window.twoposeViews) for the tests and the console of a curious reader.
 _CHART_SCRIPT = (
     "window.twoposeViews={};function drawCharts(){"
     "document.querySelectorAll('div.chart').forEach(function(el){"
     "var spec=JSON.parse(el.parentElement.parentElement.nextElementSibling.textContent);"
-    "if(spec.columns&&innerWidth<700)spec.columns=1;"
+    "if(innerWidth<700){if(spec.columns)spec.columns=1;var c=spec.config||{},w=innerWidth-135;"
+    "(spec.concat||[]).forEach(function(u){if(u.width>w)u.width=w});"
+    "spec.config=Object.assign({},c,{legend:Object.assign({},c.legend,{orient:'bottom'}),"
+    "title:Object.assign({},c.title,{limit:w+60})})}"
     "vegaEmbed(el,spec,{actions:false,renderer:'svg',mode:'vega-lite'}).then(function(r){"
     "window.twoposeViews[el.dataset.chart]=r.view;cues()}).catch(function(e){"
     "el.textContent='This chart could not be drawn: '+e.message})})}"

@@ -498,15 +498,19 @@ def _session_sections(result: RunResult) -> list[str]:
         parts.append(table_html(metadata, text=True).replace("<thead>", "<thead hidden>", 1))
         parts.append(_notes(s.metadata))
         units = _units_of(s)
-        spec = session_chart(
-            s.name,
-            s.trials,
-            s.averaging,
-            s.views,
-            units=unit_label(units),
-            include_warned=result.include_warned,
-        )
         caption = session_caption(s.trials, include_warned=result.include_warned, units=units)
+        try:
+            spec = session_chart(
+                s.name,
+                s.trials,
+                s.averaging,
+                s.views,
+                units=unit_label(units),
+                include_warned=result.include_warned,
+            )
+        except (ValueError, KeyError, TypeError) as err:  # said, never fatal: the numbers stay
+            spec, caption = None, f"This session's charts could not be drawn ({err!r})."
+            parts.append(f"<p class='err'>{html.escape(caption)}</p>")
         parts.append(chart_html(f"session_{_number(s, i):02d}", spec, caption))
         parts.append("<p>Trials (every column: <code>trials.csv</code>):</p>")
         parts.append(table_html(readable_columns(_trial_table(s.trials), _units_of(s))))

@@ -92,3 +92,22 @@ def test_a_sessions_chart_frames_by_the_used_trials_and_draws_an_outlier_at_the_
     assert row["shown"] == "beyond the frame, at its edge"
     titles = [points["x"]["title"], points["y"]["title"]]
     assert titles == ["x error (in)", "z error (in)"]
+
+
+@pytest.mark.slow  # analyses a session (1-3 s)
+def test_the_answer_comes_before_the_list_of_failed_inputs_which_one_line_counts(
+    point_session: Path,
+) -> None:
+    import dataclasses
+
+    from analysis.report import _report_html
+
+    result = run([point_session])
+    failed = pd.DataFrame([{"session": "bad.mcap", "error": "bad.mcap: not a session"}])
+    result = dataclasses.replace(result, errors=failed, input_notes=("copy.mcap: a copy",))
+    sweep = {"method": "point", "sweep": "pixel noise", "value": 0.1, "unit": "px", "rmse": 0.03}
+    page = _report_html(result, pd.DataFrame([sweep | {"n_ok": 10}]))
+    line = page.index("class='inputs-line")
+    assert "1 input(s) failed and 1 not analysed as given" in page
+    assert line < page.index("id='answer'") < page.index("id='inputs'")
+    assert page.index("href='#inputs'") < page.index("id='answer'")

@@ -10,6 +10,7 @@ import pandas as pd
 import pytest
 
 from analysis.batch import run
+from analysis.results import AnalysisOptions
 from recorder.plan import load_plan, record_plan
 from recorder.sources import SyntheticSource
 from tests.helpers import write_accepted_capture
@@ -70,7 +71,8 @@ def test_an_odd_session_in_a_batch_keeps_the_report(
     tmp_path: Path, odd_sessions: dict[str, Path], kind: str
 ) -> None:
     out = tmp_path / "out"
-    result = run([odd_sessions["normal"], odd_sessions[kind]], out)
+    figures = AnalysisOptions(figures=("png",))  # the static figures drawn, not merely charts
+    result = run([odd_sessions["normal"], odd_sessions[kind]], out, options=figures)
     assert result.errors.empty, result.errors
     assert (out / "report.html").is_file()
     for name in ("error_histogram", "error_by_trial", "error_vs_baseline"):

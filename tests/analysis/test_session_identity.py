@@ -127,7 +127,8 @@ def test_two_sessions_of_one_name_are_told_apart_everywhere(
     simulate_session(lab / "b" / "session.mcap", method=Method.POINT, trials=2, frames=2, seed=5)
     (lab / "0_broken.mcap").write_bytes(b"not a session")  # fails, before both
     out = tmp_path / "out"
-    result = runner.invoke(app, ["run", str(lab), "--out", str(out)], env={"COLUMNS": "80"})
+    command = ["run", str(lab), "--out", str(out), "--figures", "png"]
+    result = runner.invoke(app, command, env={"COLUMNS": "80"})
     assert result.exit_code == 1, result.output  # the broken file
     assert "a/session.mcap" in result.output
     assert "b/session.mcap" in result.output
