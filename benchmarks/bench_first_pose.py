@@ -38,7 +38,7 @@ from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchm
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from bench_guidance import REACH, Truth, _trial, _view  # type: ignore[import-not-found]  # noqa: E402
+from bench_guidance import REACH, Truth, _trial, geometric_view  # type: ignore[import-not-found]  # noqa: E402
 
 from twopose.estimate import EstimateOptions, PoseView  # noqa: E402
 from twopose.first_pose import first_depths  # noqa: E402
@@ -130,7 +130,7 @@ def _case(method: Method, depth: float, seed: int) -> Case | None:
     first = np.array([rng.integers(-2, 3) * 0.5, 0.0, rng.integers(-2, 3) * 0.5])
     truth = _truth_at(method, depth, first, rng)
     noise = np.random.default_rng(seed + 10_000)
-    view = _view(method, truth, first, 1, noise, sigma=True)
+    view = geometric_view(method, truth, first, 1, noise)
     if view is None:
         return None
     trial = _trial(method, truth, [view])
@@ -157,7 +157,7 @@ def _case(method: Method, depth: float, seed: int) -> Case | None:
     if chosen is None or chosen.predicted95_range is None:
         return Case(method=str(method), depth=depth, regret=regret, bound=bound, lo=math.nan,
                     hi=math.nan, second=math.nan, seconds=seconds)  # fmt: skip
-    second_view = _view(method, truth, np.asarray(chosen.t_grid), 2, noise, sigma=True)
+    second_view = geometric_view(method, truth, np.asarray(chosen.t_grid), 2, noise)
     second = (
         math.nan if second_view is None
         else float(regions95(_trial(method, truth, [view, second_view]), options)[0])

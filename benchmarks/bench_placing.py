@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from bench_guidance import FRAMES, K_SIGMA, PIXEL_SIGMA, THETA_SIGMA, K, Truth, _truth  # type: ignore[import-not-found]
+from bench_guidance import _truth, geometric_view  # type: ignore[import-not-found]
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
 REPO = Path(__file__).resolve().parents[1]
@@ -51,11 +51,10 @@ from analysis.rig.board import calibrate_board  # noqa: E402
 from recorder.simulate import simulate_session  # noqa: E402
 from twopose.estimate import EstimateOptions, PoseView  # noqa: E402
 from twopose.guidance import THESIS_MOVE_IN  # noqa: E402
-from twopose.methods import Method, spec_of  # noqa: E402
+from twopose.methods import Method  # noqa: E402
 from twopose.noise import NoiseModel, PlacingSigma  # noqa: E402
 from twopose.session_estimate import SessionTrials, estimate_session  # noqa: E402
 from twopose.sim.scene import load_scene  # noqa: E402
-from twopose.solve import projection_matrices  # noqa: E402
 from twopose.truth import reported  # noqa: E402
 from twopose.uncertainty import uncertainty_columns  # noqa: E402
 
@@ -81,33 +80,6 @@ def board_placing(seed: int, folder: Path) -> PlacingSigma:
     return placing
 
 
-def _view(method: Method, truth: Truth, typed: np.ndarray, pose: int, real_in: float,
-          rng: np.random.Generator) -> PoseView | None:  # fmt: skip
-    """The pose's frames seen from where the laptop really stands (typed + the real
-    placing error), typed with 1/16 in; None when the target is out of the image."""
-    placed = typed + real_in * rng.standard_normal(3)
-    P = projection_matrices(truth.k_true, np.eye(3), placed)
-    ends = np.column_stack([truth.points, np.ones(2)]) @ P.T
-    px = ends[:, :2] / ends[:, 2:3]
-    if not (np.isfinite(px).all() and (px[:, 0] > 0).all() and (px[:, 0] < 640).all()
-            and (px[:, 1] > 0).all() and (px[:, 1] < 480).all()):  # fmt: skip
-        return None
-    lines = spec_of(method).uses_image_lines
-    centroid = px.mean(axis=0) if lines else px[0]
-    d = px[1] - px[0]
-    theta = math.degrees(math.atan2(d[1], d[0])) if lines else math.nan
-    floor_px, floor_deg = spec_of(method).detector_floor
-    centroid = centroid + floor_px * rng.standard_normal(2)
-    theta += floor_deg * rng.standard_normal()
-    return PoseView(
-        pose=pose, intrinsics=K, width_height=(640, 480), t_grid=typed, r_deg=np.zeros(3),
-        t_sigma=TYPED_IN, r_sigma_deg=0.0,
-        centroids=centroid + PIXEL_SIGMA * rng.standard_normal((FRAMES, 2)),
-        thetas=theta + THETA_SIGMA * rng.standard_normal(FRAMES),
-        found=np.ones(FRAMES, dtype=bool), camera_id="cam0", intrinsics_sigma=K_SIGMA,
-    )  # fmt: skip
-
-
 def session(method: Method, seed: int, trials: int, real_in: float) -> SessionTrials:
     """``trials`` trials of :data:`POSES` poses each, the thesis' moves, one operator."""
     rng = np.random.default_rng([seed, int(real_in * 1e4), list(Method).index(method)])
@@ -118,7 +90,9 @@ def session(method: Method, seed: int, trials: int, real_in: float) -> SessionTr
         typed = np.array([rng.integers(-2, 3) * 0.5, 0.0, rng.integers(-2, 3) * 0.5])
         trial: list[PoseView] = []
         for pose in range(1, POSES + 1):
-            view = _view(method, truth, typed, pose, real_in, rng)
+            view = geometric_view(
+                method, truth, typed, pose, rng, placing_in=real_in, typed_in=TYPED_IN
+            )
             if view is None:
                 break
             trial.append(view)

@@ -40,7 +40,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from bench_guidance import FRAMES, K_SIGMA, PIXEL_SIGMA, THETA_SIGMA, K, Truth, _truth  # type: ignore[import-not-found]
+from bench_guidance import _truth, geometric_view  # type: ignore[import-not-found]
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
 REPO = Path(__file__).resolve().parents[1]
@@ -48,10 +48,9 @@ sys.path.insert(0, str(REPO))
 
 from twopose.estimate import EstimateOptions, PoseView  # noqa: E402
 from twopose.guidance import THESIS_MOVE_IN  # noqa: E402
-from twopose.methods import Method, spec_of  # noqa: E402
+from twopose.methods import Method  # noqa: E402
 from twopose.noise import NoiseModel  # noqa: E402
 from twopose.session_estimate import SessionEstimate, SessionTrials, estimate_session  # noqa: E402
-from twopose.solve import projection_matrices  # noqa: E402
 from twopose.truth import reported  # noqa: E402
 from twopose.uncertainty import uncertainty_columns  # noqa: E402
 
@@ -67,33 +66,6 @@ COVERAGE_TARGET = (0.93, 0.97)
 APPLIED_LIMIT, UNCHANGED_POINTS = 0.15, 0.02
 
 
-def view(method: Method, truth: Truth, typed: np.ndarray, pose: int, placing_in: float,
-         rng: np.random.Generator) -> PoseView | None:  # fmt: skip
-    """The pose's frames seen from where the laptop really stands (typed + placing error);
-    None when the target is out of the image."""
-    placed = typed + placing_in * rng.standard_normal(3)
-    P = projection_matrices(truth.k_true, np.eye(3), placed)
-    ends = np.column_stack([truth.points, np.ones(2)]) @ P.T
-    px = ends[:, :2] / ends[:, 2:3]
-    if not (np.isfinite(px).all() and (px[:, 0] > 0).all() and (px[:, 0] < 640).all()
-            and (px[:, 1] > 0).all() and (px[:, 1] < 480).all()):  # fmt: skip
-        return None
-    lines = spec_of(method).uses_image_lines
-    centroid = px.mean(axis=0) if lines else px[0]
-    d = px[1] - px[0]
-    theta = math.degrees(math.atan2(d[1], d[0])) if lines else math.nan
-    floor_px, floor_deg = spec_of(method).detector_floor
-    centroid = centroid + floor_px * rng.standard_normal(2)
-    theta += floor_deg * rng.standard_normal()
-    return PoseView(
-        pose=pose, intrinsics=K, width_height=(640, 480), t_grid=typed, r_deg=np.zeros(3),
-        t_sigma=TYPED_IN, r_sigma_deg=0.0,
-        centroids=centroid + PIXEL_SIGMA * rng.standard_normal((FRAMES, 2)),
-        thetas=theta + THETA_SIGMA * rng.standard_normal(FRAMES),
-        found=np.ones(FRAMES, dtype=bool), camera_id="cam0", intrinsics_sigma=K_SIGMA,
-    )  # fmt: skip
-
-
 def session(method: Method, seed: int, placing_in: float, trials: int = 10,
             poses: tuple[int, int] = (3, 5)) -> SessionTrials:  # fmt: skip
     """One operator's session: ``trials`` trials of ``poses`` (least, most) poses each."""
@@ -105,7 +77,9 @@ def session(method: Method, seed: int, placing_in: float, trials: int = 10,
         typed = np.array([rng.integers(-2, 1) * 0.5, 0.0, rng.integers(-2, 3) * 0.5])
         row: list[PoseView] = []
         for pose in range(int(rng.integers(poses[0], poses[1] + 1))):
-            v = view(method, truth, typed, pose + 1, placing_in, rng)
+            v = geometric_view(
+                method, truth, typed, pose + 1, rng, placing_in=placing_in, typed_in=TYPED_IN
+            )
             if v is not None:
                 row.append(v)
             typed = typed + np.asarray(THESIS_MOVE_IN)
