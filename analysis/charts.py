@@ -126,25 +126,25 @@ def _ellipses(used: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=["trial", "order", "ex", "ez"])
 
 
-def _scatter(units: str, used: pd.DataFrame) -> tuple[Spec, Spec]:
+def _scatter(unit_text: str, used: pd.DataFrame) -> tuple[Spec, Spec]:
     """The errors in the ground plane (x, z) with their 95% ellipses and the truth at 0."""
     ellipses = _ellipses(used) if {"sigma_x", "sigma_z", "cov_xz"} <= set(used) else None
     xs = [used["err_x"], *([ellipses["ex"]] if ellipses is not None else []), pd.Series([0.0])]
     zs = [used["err_z"], *([ellipses["ez"]] if ellipses is not None else []), pd.Series([0.0])]
     x_domain = _span(np.concatenate([np.asarray(v, dtype=np.float64) for v in xs]))
     z_domain = _span(np.concatenate([np.asarray(v, dtype=np.float64) for v in zs]))
-    x_tip = {"field": "err_x", "title": f"x error ({units})", "format": ".3f"}
-    z_tip = {"field": "err_z", "title": f"z error ({units})", "format": ".3f"}
+    x_tip = {"field": "err_x", "title": f"x error ({unit_text})", "format": ".3f"}
+    z_tip = {"field": "err_z", "title": f"z error ({unit_text})", "format": ".3f"}
     x = {
         "field": "sx",
         "type": "quantitative",
-        "title": f"x error ({units})",
+        "title": f"x error ({unit_text})",
         "scale": {"domain": x_domain},
     }
     z = {
         "field": "sz",
         "type": "quantitative",
-        "title": f"z error ({units})",
+        "title": f"z error ({unit_text})",
         "scale": {"domain": z_domain},
     }
     layers: list[Spec] = [
@@ -197,8 +197,8 @@ def _scatter(units: str, used: pd.DataFrame) -> tuple[Spec, Spec]:
                 "x": {"field": "mean_x", "type": "quantitative"},
                 "y": {"field": "mean_z", "type": "quantitative"},
                 "tooltip": [
-                    {"field": "mean_x", "title": f"bias x ({units})", "format": ".3f"},
-                    {"field": "mean_z", "title": f"bias z ({units})", "format": ".3f"},
+                    {"field": "mean_x", "title": f"bias x ({unit_text})", "format": ".3f"},
+                    {"field": "mean_z", "title": f"bias z ({unit_text})", "format": ".3f"},
                 ],
             },
         }
@@ -215,7 +215,7 @@ def _scatter(units: str, used: pd.DataFrame) -> tuple[Spec, Spec]:
                 "y": z,
                 "shape": _shape(),
                 "opacity": _picked(1.0, 0.15),
-                "tooltip": [*who(), x_tip, z_tip, *error_tip(units)],
+                "tooltip": [*who(), x_tip, z_tip, *error_tip(unit_text)],
             },
         }
     )
@@ -249,9 +249,9 @@ def who() -> list[Spec]:
     ]
 
 
-def error_tip(units: str) -> list[Spec]:
+def error_tip(unit_text: str) -> list[Spec]:
     return [
-        {"field": "err", "title": f"error ({units})", "format": ".3f"},
+        {"field": "err", "title": f"error ({unit_text})", "format": ".3f"},
         {"field": "shown", "title": "drawn"},
     ]
 
@@ -262,7 +262,7 @@ def session_chart(
     averaging: pd.DataFrame,
     views: pd.DataFrame,
     *,
-    units: str,
+    unit_text: str,
     include_warned: bool = False,
 ) -> Spec | None:
     """A session's charts in one spec: its errors' scatter, its top view and its running
@@ -273,18 +273,18 @@ def session_chart(
     used = used_trials(measured, include_warned=include_warned, measured=True)
     table = measured.assign(session_name=name, trial=measured["trial"].astype(int))
     table["shown"] = np.where(table.index.isin(used.index), "used", "left out (warned)")
-    scatter, extra = _scatter(units, used if len(used) else measured)
+    scatter, extra = _scatter(unit_text, used if len(used) else measured)
     for axis, column in (("x", "err_x"), ("z", "err_z")):
         shown, beyond = _clamped(table[column], extra["domain"][axis])
         table[f"s{axis}"] = shown
         table.loc[beyond, "shown"] = "beyond the frame, at its edge"
     charts = [scatter]
     datasets: dict[str, Any] = {"trials": records(table), "ellipses": extra["ellipses"]}
-    top = _topview(table, views, units, used if len(used) else measured)
+    top = _topview(table, views, unit_text, used if len(used) else measured)
     if top is not None:
         charts.append(top[0])
         datasets |= top[1]
-    running = _running(averaging, table, units)
+    running = _running(averaging, table, unit_text)
     if running is not None:
         charts += running[0]
         datasets |= running[1]
@@ -322,7 +322,7 @@ def _colour_by_trial(charts: list[Spec], colour: Spec) -> None:
 
 
 def _topview(
-    table: pd.DataFrame, views: pd.DataFrame, units: str, used: pd.DataFrame
+    table: pd.DataFrame, views: pd.DataFrame, unit_text: str, used: pd.DataFrame
 ) -> tuple[Spec, dict[str, Any]] | None:
     """The session from above: each view's camera, its sight line to the trial's estimate,
     the estimate and the truth (x, z)."""
@@ -342,15 +342,19 @@ def _topview(
     framed = rays[rays["trial"].isin(used["trial"])]
     x_domain = _span(np.concatenate([framed["t_x"], framed["x"], used["gt_x"]]))
     z_domain = _span(np.concatenate([framed["t_z"], framed["z"], used["gt_z"]]))
-    x_ax = {"type": "quantitative", "title": f"x ({units})", "scale": {"domain": x_domain}}
-    z_ax = {"type": "quantitative", "title": f"z, depth ({units})", "scale": {"domain": z_domain}}
+    x_ax = {"type": "quantitative", "title": f"x ({unit_text})", "scale": {"domain": x_domain}}
+    z_ax = {
+        "type": "quantitative",
+        "title": f"z, depth ({unit_text})",
+        "scale": {"domain": z_domain},
+    }
     tips = [
         *who(),
-        {"field": "x", "title": f"estimate x ({units})", "format": ".3f"},
-        {"field": "z", "title": f"estimate z ({units})", "format": ".3f"},
-        {"field": "gt_x", "title": f"truth x ({units})", "format": ".3f"},
-        {"field": "gt_z", "title": f"truth z ({units})", "format": ".3f"},
-        *error_tip(units),
+        {"field": "x", "title": f"estimate x ({unit_text})", "format": ".3f"},
+        {"field": "z", "title": f"estimate z ({unit_text})", "format": ".3f"},
+        {"field": "gt_x", "title": f"truth x ({unit_text})", "format": ".3f"},
+        {"field": "gt_z", "title": f"truth z ({unit_text})", "format": ".3f"},
+        *error_tip(unit_text),
     ]
     layers = [
         {
@@ -374,8 +378,8 @@ def _topview(
                 "tooltip": [
                     {"field": "trial"},
                     {"field": "pose"},
-                    {"field": "t_x", "title": f"camera x ({units})", "format": ".3f"},
-                    {"field": "t_z", "title": f"camera z ({units})", "format": ".3f"},
+                    {"field": "t_x", "title": f"camera x ({unit_text})", "format": ".3f"},
+                    {"field": "t_z", "title": f"camera z ({unit_text})", "format": ".3f"},
                 ],
             },
         },
@@ -431,7 +435,7 @@ def _joined(
 
 
 def _running(
-    averaging: pd.DataFrame, table: pd.DataFrame, units: str
+    averaging: pd.DataFrame, table: pd.DataFrame, unit_text: str
 ) -> tuple[list[Spec], dict[str, Any]] | None:
     """Each trial's running average's error in x and in z against its frames used."""
     if averaging.empty or averaging["n_frames"].max() <= 1:
@@ -475,7 +479,7 @@ def _running(
                     "y": {
                         "field": "shown_error",
                         "type": "quantitative",
-                        "title": f"{axis} error ({units})",
+                        "title": f"{axis} error ({unit_text})",
                         "scale": {"domain": domain},
                     },
                     "detail": {"field": "trial"},
@@ -483,7 +487,11 @@ def _running(
                     "tooltip": [
                         {"field": "trial"},
                         {"field": "n_frames", "title": "frames (number of)"},
-                        {"field": f"e{axis}", "title": f"{axis} error ({units})", "format": ".3f"},
+                        {
+                            "field": f"e{axis}",
+                            "title": f"{axis} error ({unit_text})",
+                            "format": ".3f",
+                        },
                     ],
                 },
             }

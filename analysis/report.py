@@ -505,7 +505,7 @@ def _session_sections(result: RunResult) -> list[str]:
                 s.trials,
                 s.averaging,
                 s.views,
-                units=unit_label(units),
+                unit_text=unit_label(units),
                 include_warned=result.include_warned,
             )
         except (ValueError, KeyError, TypeError) as err:  # said, never fatal: the numbers stay

@@ -82,7 +82,7 @@ def test_a_sessions_chart_frames_by_the_used_trials_and_draws_an_outlier_at_the_
     far = trials.index[0]
     trials.loc[far, "err_x"] = 1000.0
     trials.loc[far, "warning"] = "near-degenerate"
-    spec = session_chart(s.name, trials, s.averaging, s.views, units="in")
+    spec = session_chart(s.name, trials, s.averaging, s.views, unit_text="in")
     assert spec is not None
     scatter = spec["concat"][0]
     points = scatter["layer"][-1]["encoding"]
