@@ -141,7 +141,9 @@ RigOption = Annotated[
     typer.Option(
         exists=True,
         dir_okay=False,
-        help="A calibrated rig (twopose-analyze rig) for the live result.",
+        help="A calibrated rig (twopose-analyze rig) for the live result and guidance: its "
+        "constants correct every view, and its [placing] (measured by a board session) is "
+        "the placing sigma of every region [default: none: the typed resolution].",
     ),
 ]
 
