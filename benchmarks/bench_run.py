@@ -4,7 +4,9 @@
         [--only share|frames]
 
 Targets (issues 22, 34 and 47), every run ``twopose-analyze run --jobs 1`` in a fresh process
-(the command line itself, so what it does by default is what is measured):
+(the command line itself, so what it does by default is what is measured), of the committed
+code (HEAD's ``analysis/`` and ``twopose/``, copied into ``--workdir`` at the start, so that
+edits in the working tree during the run change nothing measured):
 
 1. figures cost at most 15% of a run's CPU at every batch size: 60 sessions of 18 frames
    (``--no-scene``, as a lab's day-to-day sessions were tried in issue 47), 100 distinct
@@ -40,10 +42,12 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import io
 import resource
 import shutil
 import subprocess
 import sys
+import tarfile
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
@@ -184,12 +188,46 @@ class Timing:
         self.sessions, self.reused = int(sessions), int(reused)
 
 
+#: Where the measured code is imported from (:func:`_snapshot`; the working tree until then).
+CODE = [REPO]
+
+
+def _snapshot(work: Path) -> Path:
+    """The committed code (HEAD's ``analysis/`` and ``twopose/``), copied once per commit
+    into ``work``: every run of the benchmark measures one version whatever others change in
+    the working tree meanwhile (a re-run's cache keys on the code's digest, so an edit
+    between a first run and its re-run would void the re-run). The working tree when it is
+    not a git clone."""
+    try:
+        head = subprocess.run(
+            ["git", "-C", str(REPO), "rev-parse", "HEAD"],
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout.strip()
+        code = work / f"code_{head[:12]}"
+        if not code.is_dir():
+            archive = subprocess.run(
+                ["git", "-C", str(REPO), "archive", "HEAD", "analysis", "twopose"],
+                capture_output=True,
+                check=True,
+            ).stdout
+            partial = work / f".{code.name}.partial"
+            shutil.rmtree(partial, ignore_errors=True)
+            with tarfile.open(fileobj=io.BytesIO(archive)) as tar:
+                tar.extractall(partial, filter="data")
+            partial.rename(code)
+        return code
+    except (OSError, subprocess.CalledProcessError):
+        return REPO
+
+
 def _python(code: str, *args: str) -> tuple[list[float], float]:
     """What ``code`` printed on its ``BENCH`` line, and the CPU seconds (user + system) it
-    and every child it waited for took."""
+    and every child it waited for took; it imports the measured code (:data:`CODE`)."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     out = subprocess.run(
-        [sys.executable, "-c", code, *args], capture_output=True, text=True, cwd=REPO
+        [sys.executable, "-c", code, *args], capture_output=True, text=True, cwd=CODE[0]
     )
     if out.returncode:
         raise SystemExit(f"benchmark run failed ({' '.join(args)}):\n{out.stderr[-3000:]}")
@@ -208,7 +246,10 @@ def _run(mode: str, out: Path, size: Size, path: Path) -> tuple[list[float], flo
 def _has_figures_option() -> bool:
     """Whether ``run`` offers ``--figures`` (static images on request, issue 47)."""
     shown = subprocess.run(
-        [sys.executable, "-m", "analysis", "run", "--help"], capture_output=True, text=True
+        [sys.executable, "-m", "analysis", "run", "--help"],
+        capture_output=True,
+        text=True,
+        cwd=CODE[0],
     )
     return "--figures" in shown.stdout
 
@@ -403,6 +444,7 @@ def main() -> int:
     args = parser.parse_args()
     work = args.workdir or Path(tempfile.mkdtemp(prefix="twopose-run-"))
     work.mkdir(parents=True, exist_ok=True)
+    CODE[0] = _snapshot(work)
     sizes, marginal = QUICK if args.quick else FULL
     if args.only == "frames":
         sizes = [s for s in sizes if s.name == marginal[1].name]
