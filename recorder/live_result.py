@@ -78,6 +78,9 @@ class LiveResults:
             self.notes = check_applicable(rig, Units(units), self._ground, sizes, "the rig file")
             self._ground = corrected_ground(self._ground, rig)
         self._captures: dict[int, PoseView] = {}  # capture number -> its detections
+        #: the same as typed: guidance suggests where the operator puts the laptop, on the
+        #: grid as typed, not where the rig says its camera then stands
+        self._typed: dict[int, PoseView] = {}
         self._truth: dict[int, np.ndarray] = {}  # trial -> (2, 3)
         self._views: dict[int, list[PoseView]] = {}  # trial -> its accepted poses, in order
         self._solved: dict[int, tuple[int, ...]] = {}  # trial -> captures last solved
@@ -106,6 +109,7 @@ class LiveResults:
             [f.theta_deg for f in fb],
             camera.intrinsics_sigma,
         )
+        self._typed[entry.capture] = view
         self._captures[entry.capture] = view if self.rig is None else corrected_view(view, self.rig)
 
     def update(self, trial: int, accepted: Mapping[int, PoseEntry]) -> TrialResult | None:
@@ -153,7 +157,7 @@ class LiveResults:
         from twopose.guidance import advise
         from twopose.region_map import region_map
 
-        views = self._views.get(trial, [])
+        views = [self._typed[c] for c in self._solved.get(trial, ()) if c in self._typed]
         if not views:
             return None
         session = SessionTrials(

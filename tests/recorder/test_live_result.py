@@ -216,3 +216,28 @@ def test_the_advice_carries_its_map_computed_only_when_asked_and_the_page_gets_i
         v for row in drawn["region95"] for v in row if v is not None
     )
     assert "NaN" not in dumps(page)
+
+
+@pytest.mark.slow  # records a guided plan (9 frames rendered) with a rig, a few s
+def test_with_a_rig_the_suggestions_stay_on_the_typed_grid(tmp_path: Path) -> None:
+    """Adversary, issue 46: ``new --rig`` suggested poses shifted by the rig's camera
+    offset (y -0.0395 for a laptop on the table at y 0). Guidance suggests where the
+    operator puts the laptop, as typed, whatever the rig says its camera then is."""
+    from twopose.guidance import Advice
+    from twopose.rig.constants import RigConstants
+
+    plan_file = tmp_path / "plan.toml"
+    text = PLAN.format(method="point", truth=TRUTH["point"]).split("[[trials]]")
+    plan_file.write_text(text[0] + "[guidance]\ntarget_95 = 0.001\n\n[[trials]]" + text[1])
+    rig = RigConstants(camera_offset=(0.3, -0.04, 0.4), mount_rotation_deg=(0.8, -0.5, 0.3))
+    said: list[Advice] = []
+    record_plan(load_plan(plan_file), tmp_path / "s.mcap",
+                SyntheticSource(None, Method.POINT, realtime=False), rig=rig,
+                on_advice=lambda _, advice: said.append(advice))  # fmt: skip
+    suggested = [a.suggestion for a in said if a.suggestion is not None]
+    assert suggested
+    for s in suggested:
+        x, y, z = s.t_grid
+        assert y == 0.0, s.t_grid  # the typed height, not the camera's
+        assert round(x * 2) == x * 2, s.t_grid  # on the 1/2 in grid
+        assert round(z * 2) == z * 2, s.t_grid
