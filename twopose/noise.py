@@ -39,6 +39,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "FACTOR_TEST_LEVEL",
+    "MIN_PLACING_DOF",
     "NoiseModel",
     "PlacingSigma",
     "VarianceFactor",
@@ -49,6 +50,10 @@ __all__ = [
 #: The variance factor's test: the model is contradicted when ``dof * sigma0^2`` lies in
 #: the chi-square's upper 5% tail.
 FACTOR_TEST_LEVEL = 0.05
+#: A measured placing sigma must rest on at least this many degrees of freedom (its
+#: 1-sigma at most sigma / sqrt(6)): below, its F quantile (:attr:`PlacingSigma.widening`)
+#: explodes, and a board session of the recommended size gives about 17.
+MIN_PLACING_DOF = 3
 #: The regions' level.
 _REGION_LEVEL = 0.95
 
@@ -81,6 +86,13 @@ class PlacingSigma:
             raise InputValueError(
                 f"the placing sigma must be a positive length, got {self.sigma_in!r}; "
                 "measure it again with `twopose-analyze rig` on a board session"
+            )
+        if math.isfinite(self.sigma_sigma_in) and self.dof < MIN_PLACING_DOF:
+            raise InputValueError(
+                f"the placing sigma {self.sigma_in:.3g} in is stated with a 1-sigma of "
+                f"{self.sigma_sigma_in:.3g} in: an estimate from {self.dof:.2g} degrees of "
+                f"freedom (fewer than {MIN_PLACING_DOF}), which says almost nothing; record a "
+                "board session of more captures (docs/rig.md) and fit it again"
             )
 
     @property

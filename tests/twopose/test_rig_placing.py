@@ -91,7 +91,11 @@ BAD = {
     "sigma = inf": "not a placing error",
     "sigma = 2.5": "up to 2 in",
     'sigma = "0.1"': "sigma must be a number",
-    "sigma_sigma = 0.01": "sigma must be a number",  # no sigma at all
+    "sigma_sigma = 0.01": "sigma is missing",  # no sigma at all
+    # A 1-sigma as large as the sigma: an estimate of almost no dof, whose F quantile made
+    # every region infinite (the adversary's 4e150 in); refused.
+    "sigma = 0.1\nsigma_sigma = 0.1": "fewer than 3",
+    "sigma = 0.1\nsigma_sigma = 5": "fewer than 3",
     "sigma = 0.1\nsigma_sigma = -1": "sigma_sigma must be a finite length",
     'sigma = 0.1\nunits = "furlong"': "units must be one of",
     "sigma = 0.1\nsigmaa = 0.2": "unknown key(s) sigmaa",

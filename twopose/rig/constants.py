@@ -476,8 +476,30 @@ def _placing(table: object, rig_units: str | None, path: str | Path) -> PlacingS
     if units not in UNITS:
         raise InputValueError(f"{what}: units must be one of {', '.join(UNITS)}, got {units!r}")
     inches = unit_spec(units).inches
+    sigma, spread = _placing_numbers(table, units, what)
+    measured_by, captures = table.get("measured_by", ""), table.get("captures", 0)
+    if not isinstance(measured_by, str):
+        raise InputValueError(f"{what}: measured_by must be text, got {measured_by!r}")
+    if isinstance(captures, bool) or not isinstance(captures, int) or captures < 0:
+        raise InputValueError(f"{what}: captures must be a count >= 0, got {captures!r}")
+    try:
+        return PlacingSigma(
+            sigma_in=float(sigma) * inches,
+            sigma_sigma_in=float(spread) * inches,
+            measured_by=measured_by or f"rig file {path}",
+            captures=captures,
+        )
+    except InputValueError as err:
+        raise InputValueError(f"{what}: {err}") from None
+
+
+def _placing_numbers(table: dict[str, object], units: str, what: str) -> tuple[float, float]:
+    """A ``[placing]`` table's sigma and sigma_sigma (NaN: not stated), refused in words."""
+    inches = unit_spec(units).inches
     sigma, spread = table.get("sigma"), table.get("sigma_sigma", float("nan"))
     limit = PLACING_LIMIT_IN / inches
+    if sigma is None:
+        raise InputValueError(f"{what}: sigma is missing (the placing error's 1-sigma, a length)")
     for key, value in (("sigma", sigma), ("sigma_sigma", spread)):
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise InputValueError(f"{what}: {key} must be a number, got {value!r}")
@@ -491,17 +513,7 @@ def _placing(table: object, rig_units: str | None, path: str | Path) -> PlacingS
         )
     if spread < 0 or np.isinf(spread):
         raise InputValueError(f"{what}: sigma_sigma must be a finite length >= 0, got {spread!r}")
-    measured_by, captures = table.get("measured_by", ""), table.get("captures", 0)
-    if not isinstance(measured_by, str):
-        raise InputValueError(f"{what}: measured_by must be text, got {measured_by!r}")
-    if isinstance(captures, bool) or not isinstance(captures, int) or captures < 0:
-        raise InputValueError(f"{what}: captures must be a count >= 0, got {captures!r}")
-    return PlacingSigma(
-        sigma_in=float(sigma) * inches,
-        sigma_sigma_in=float(spread) * inches,
-        measured_by=measured_by or f"rig file {path}",
-        captures=captures,
-    )
+    return float(sigma), float(spread)
 
 
 def load_rig_file(path: str | Path) -> RigFile:
