@@ -255,10 +255,13 @@ class VarianceFactor:
         if math.isfinite(placing) and units is not None:
             measured = (
                 f"the sessions' redundancy measures the placing sigma at {placing * scale:.2g} "
-                f"{units} ({scale:.1f}x the typed {placing:.3g} {units})"
+                f"{units} ({scale:.1f}x the assumed {placing:.3g} {units})"
             )
         else:
-            measured = f"the sessions' redundancy measures the placing sigma {scale:.1f}x the typed"
+            measured = (
+                f"the sessions' redundancy measures the placing sigma {scale:.1f}x the one "
+                "assumed"
+            )
         return (
             f"{measured}, from {self.variance_dof:.0f} degrees of freedom ({head}); every "
             f"95% region is propagated with it and widened by Fisher's F for its uncertainty"
@@ -276,11 +279,23 @@ def noise_words(sigma0: float, dof: int, region_widening: float, placing_scale: 
         return "sigma0 not tested (no redundant trial, or --no-sigma0)"
     head = f"sigma0 {sigma0:.2f} on {dof} dof"
     if region_widening > 1:
-        said = "the data contradict the noise model (the placing error is larger than typed)"
+        said = "the data contradict the noise model (the placing error is larger than assumed)"
         if placing_scale > 1:
-            said += f": placing sigma measured {placing_scale:.1f}x the typed"
-        return f"{head}: regions widened x{region_widening:.1f}: {said}"
+            said += f": placing sigma measured {placing_scale:.1f}x the one assumed"
+        return f"{head}: regions' largest semi-axis widened x{region_widening:.1f}: {said}"
+    if _below_model(sigma0, dof):
+        return (
+            f"{head}: the data scatter less than the noise model says (its regions may be "
+            "too wide; they are never narrowed)"
+        )
     return f"{head}: the data agree with the noise model"
+
+
+def _below_model(sigma0: float, dof: int) -> bool:
+    """``dof sigma0^2`` in the chi-square's lower 5% tail: the model overstates the noise."""
+    from scipy import stats
+
+    return dof * sigma0**2 < float(stats.chi2.ppf(FACTOR_TEST_LEVEL, dof))
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -29,7 +29,7 @@ def test_the_words_say_widened_only_when_the_data_contradict_the_model() -> None
     said = " ".join(widened)
     assert "placing sigma 0.0625 in typed;" in said
     assert "sigma0 1.55 on 50 dof:" in said
-    assert "regions widened x1.6:" in said
+    assert "regions' largest semi-axis widened x1.6:" in said
     assert "contradict the noise model" in said
     agreed = " ".join(noise_phrases(_row(sigma0=1.02, sigma0_dof=40, noise_widening=1.0)))
     assert "agree with the noise model" in agreed

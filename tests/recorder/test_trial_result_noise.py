@@ -21,7 +21,7 @@ def test_a_widened_region_is_said_in_the_live_result() -> None:
     assert ok
     for r in ok:
         assert r.widened > 1.5
-        assert "regions widened x" in r.text()
+        assert "largest semi-axis widened x" in r.text()
         assert "the data contradict the noise model" in r.text()
         # 2.5 x the typed placing simulated: the session's redundancy measures it
         assert "placing sigma measured 2." in r.text()

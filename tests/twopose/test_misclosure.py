@@ -143,7 +143,7 @@ def test_the_test_is_one_sided_and_says_the_measured_sigma() -> None:
     assert larger.widening(3) > 1.0
     assert smaller.widening(3) == weak.widening(3) == 1.0
     said = larger.describe(0.0625, Units.IN)
-    assert "measures the placing sigma at 0.1 in (1.6x the typed 0.0625 in)" in said
+    assert "measures the placing sigma at 0.1 in (1.6x the assumed 0.0625 in)" in said
 
 
 def test_two_pose_line_trials_carry_no_redundancy() -> None:
@@ -177,3 +177,15 @@ def test_inputs_the_model_takes_as_exact_test_nothing() -> None:
     assert (m.dof == 0).all()
     assert np.isnan(m.chi2).all()
     assert not pooled(m).tested
+
+
+def test_the_words_say_a_sigma0_far_below_one_and_never_call_a_measured_sigma_typed() -> None:
+    """Adversary, issue 46: sigma0 0.62 on 24 dof was said to agree (its regions about
+    1.8x too wide), and a board-measured sigma contradicted was called "typed"."""
+    from twopose.noise import noise_words
+
+    assert "scatter less than the noise model says" in noise_words(0.62, 24, 1.0)
+    assert noise_words(1.05, 24, 1.0).endswith("the data agree with the noise model")
+    said = noise_words(1.6, 24, 1.8, placing_scale=1.6)
+    assert "typed" not in said
+    assert "largest semi-axis widened x1.8" in said
