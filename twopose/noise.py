@@ -259,8 +259,7 @@ class VarianceFactor:
             )
         else:
             measured = (
-                f"the sessions' redundancy measures the placing sigma {scale:.1f}x the one "
-                "assumed"
+                f"the sessions' redundancy measures the placing sigma {scale:.1f}x the one assumed"
             )
         return (
             f"{measured}, from {self.variance_dof:.0f} degrees of freedom ({head}); every "
