@@ -326,9 +326,10 @@ TARGET_PRECISION = Quantity(
     key="target_precision", words="target precision", kind=Kind.LENGTH, low=0.0, high=100.0,
     low_open=True, given_as="`--target-precision`, the setup, plan `guidance.target_95`",
 )  # fmt: skip
+#: A target nearer than 2 in is not one a webcam sees in focus: such a distance is a slip
+#: of units (11 typed in a mm session for 11 in), refused rather than trusted.
 TARGET_DISTANCE = Quantity(
-    key="target_distance", words="target distance", kind=Kind.LENGTH, low=0.0, high=200.0,
-    low_open=True,
+    key="target_distance", words="target distance", kind=Kind.LENGTH, low=2.0, high=200.0,
     given_as="`--target-distance`, plan `guidance.target_distance` (taped from the first "
     "pose's camera)",
 )  # fmt: skip

@@ -57,6 +57,7 @@ def _plan(quantity: Quantity, text: str, tmp: Path) -> str | None:
         (MIN_GAIN, "-0.1", True),
         (TARGET_DISTANCE, "30.5", False),
         (TARGET_DISTANCE, "0", True),
+        (TARGET_DISTANCE, "1.1", True),  # 11 mm typed as cm: nearer than a webcam focuses
         (TARGET_DISTANCE, "600", True),  # 508 cm is the bound
     ],
 )
