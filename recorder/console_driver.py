@@ -224,6 +224,11 @@ class WebDriver(Driver):
         self.session.update(rig_readiness=problem, topview=view)
 
     def notice(self, message: str) -> None:
+        import sys
+
+        # Also at the terminal the console was started from, as the other drivers say it
+        # (the placing sigma the regions assume: its log keeps it).
+        print(f"note: {message}", file=sys.stderr, flush=True)
         with self.session.lock:
             self.session.notices.append(message)
             self.session.lock.notify_all()

@@ -59,3 +59,18 @@ def test_the_live_result_takes_the_measured_placing_sigma(
     assert wider.point == typed.point  # the same frames: only the region changes
     # 3.2x the typed sigma on the term that dominates the region (the pixels' share stays)
     assert wider.semiaxis95 > 1.5 * typed.semiaxis95, (typed.semiaxis95, wider.semiaxis95)
+
+
+def test_the_console_says_its_notes_at_its_terminal_too(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Adversary, issue 46: with ``--ui`` the placing sigma the regions assume reached the
+    page only; the terminal's log (docs/rig.md: said as the recording starts) missed it."""
+    from recorder.console import ConsoleSession
+    from recorder.console_driver import WebDriver
+    from recorder.setup_rules import PoseTyping
+
+    session = ConsoleSession(tmp_path / "c.mcap")
+    WebDriver(session, None, "cam0", (), PoseTyping()).notice("placing sigma: typed")
+    assert "note: placing sigma: typed" in capsys.readouterr().err
+    assert session.snapshot()["notices"] == ["placing sigma: typed"]
