@@ -53,29 +53,3 @@ def test_the_pixel_limit_is_read_when_decoding(monkeypatch: pytest.MonkeyPatch) 
         decode_image(png.tobytes(), "f")
     monkeypatch.setenv("TWOPOSE_MAX_IMAGE_MPIX", "many")  # a typo keeps the default
     assert decode_image(png.tobytes(), "f").shape == (48, 64, 3)
-
-
-@pytest.mark.parametrize(
-    ("ext", "params"),
-    [
-        (".jpg", []),
-        (".jpg", [cv2.IMWRITE_JPEG_PROGRESSIVE, 1]),  # its size in an SOF2 segment
-        (".jpg", [cv2.IMWRITE_JPEG_OPTIMIZE, 1, cv2.IMWRITE_JPEG_RST_INTERVAL, 4]),
-        (".png", []),
-    ],
-)
-def test_the_header_read_here_is_pillows(ext: str, params: list[int]) -> None:
-    """image_size reads a JPEG's or PNG's header itself (a replay pays it every frame): the
-    same size as Pillow's, also after an application segment and fill bytes."""
-    import io
-
-    from PIL import Image
-
-    for width, height in ((64, 48), (641, 479), (7, 300)):
-        _ok, buf = cv2.imencode(ext, np.zeros((height, width, 3), np.uint8), params)
-        data = buf.tobytes()
-        if ext == ".jpg":  # an APP1 segment and two fill bytes before the rest
-            data = data[:2] + b"\xff\xe1\x00\x06Exif" + b"\xff\xff" + data[2:]
-        with Image.open(io.BytesIO(data)) as img:
-            assert image_size(data, "f") == img.size == (width, height)
-        assert decode_image(data, "f").shape == (height, width, 3)
