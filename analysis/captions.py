@@ -12,9 +12,8 @@ import html
 
 import pandas as pd
 
-from analysis.figure_style import MAX_LEGEND, common_units
 from analysis.metrics import by_session_set, used_trials, warned
-from analysis.table_labels import table_units, unit_label
+from analysis.table_labels import MAX_LEGEND, common_units, table_units, unit_label
 from analysis.terminal import UNIT_NAMES
 from twopose.methods import spec_of
 from twopose.units import Units

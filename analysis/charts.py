@@ -48,7 +48,14 @@ WIDTH, _HEIGHT = 300, 240
 
 
 def hex_colour(colour: str) -> str:
-    """A method's colour (matplotlib's name, e.g. ``C1``) as the browser names it."""
+    """A method's colour (matplotlib's cycle name, ``C0``-``C9``; the registry's
+    :attr:`~twopose.methods.MethodSpec.colour`) as the browser names it.
+
+    Read from :data:`TAB10` (the default cycle), not by matplotlib, which a run that draws
+    no figure never imports; any other name is matplotlib's to read.
+    """
+    if len(colour) == 2 and colour[0] == "C" and colour[1].isdigit():
+        return TAB10[int(colour[1])]
     from matplotlib.colors import to_hex
 
     return str(to_hex(colour))

@@ -19,8 +19,8 @@ from matplotlib.colors import BoundaryNorm, Colormap, ListedColormap, Normalize
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
+from analysis.table_labels import MAX_LEGEND, common_units
 from twopose.methods import Method, spec_of
-from twopose.units import DEFAULT_UNITS, unit_factor
 
 __all__ = [
     "DPI",
@@ -51,9 +51,6 @@ LABEL = 10
 #: The titles' font size (points).
 TITLE = 10
 NOTE = 8  # a note under a legend
-
-#: Series in one legend; beyond it, a figure keys its colours with a colour bar.
-MAX_LEGEND = 8
 
 
 def method_colour(method: Method) -> str:
@@ -102,21 +99,6 @@ def key(label: str, **style: object) -> Line2D:
     """A legend entry drawn by ``style`` (a marker or a line; none by default)."""
     defaults: dict[str, object] = {"color": "0.3", "linestyle": "none"}
     return Line2D([], [], label=label, **(defaults | style))  # type: ignore[arg-type]
-
-
-def common_units(trials: pd.DataFrame) -> tuple[pd.DataFrame, str]:
-    """``trials`` with their lengths in one unit, and its name: the sessions' own when they
-    share one, else every length converted to inches."""
-    units = sorted({str(u) for u in trials["units"]}) if "units" in trials else []
-    if len(units) == 1:
-        return trials, units[0]
-    if not units:
-        return trials, "session units"
-    scale = trials["units"].map(lambda u: unit_factor(u, DEFAULT_UNITS)).astype(float)
-    lengths = ("err", "err_x", "err_y", "err_z", "semiaxis95", "baseline")
-    converted = {c: trials[c] * scale for c in lengths if c in trials}
-    inches: pd.DataFrame = trials.assign(**converted)
-    return inches, str(DEFAULT_UNITS)
 
 
 def set_title(ax: Axes, title: str) -> None:

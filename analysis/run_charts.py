@@ -17,7 +17,7 @@ def overview_charts(trials: pd.DataFrame, *, include_warned: bool = False) -> Sp
     """The run's overview, one colour per method (no trial colour on this screen): the
     error histogram, each session's trials as a strip sorted by error, the error against
     the baseline, per session set."""
-    from analysis.figure_style import common_units
+    from analysis.table_labels import common_units
 
     used, units = common_units(used_trials(trials, include_warned=include_warned, measured=True))
     if used.empty:

@@ -21,17 +21,40 @@ import pandas as pd
 from analysis.answer import number, share
 from analysis.trial_columns import TRIAL_TABLE, Column
 from twopose.methods import METHODS, label_of
-from twopose.units import Units
+from twopose.units import DEFAULT_UNITS, Units, unit_factor
 
 __all__ = [
     "LABELS",
+    "MAX_LEGEND",
     "Label",
+    "common_units",
     "label_of_column",
     "metadata_table",
     "readable_columns",
     "table_units",
     "unit_label",
 ]
+
+
+#: Series in one legend (a figure's, a caption's list); beyond it, colours are keyed by a
+#: colour bar. Here, not with the figures' style, so that a run that draws no figure never
+#: imports matplotlib (issue 47: a re-run's fixed cost).
+MAX_LEGEND = 8
+
+
+def common_units(trials: pd.DataFrame) -> tuple[pd.DataFrame, str]:
+    """``trials`` with their lengths in one unit, and its name: the sessions' own when they
+    share one, else every length converted to inches."""
+    units = sorted({str(u) for u in trials["units"]}) if "units" in trials else []
+    if len(units) == 1:
+        return trials, units[0]
+    if not units:
+        return trials, "session units"
+    scale = trials["units"].map(lambda u: unit_factor(u, DEFAULT_UNITS)).astype(float)
+    lengths = ("err", "err_x", "err_y", "err_z", "semiaxis95", "baseline")
+    converted = {c: trials[c] * scale for c in lengths if c in trials}
+    inches: pd.DataFrame = trials.assign(**converted)
+    return inches, str(DEFAULT_UNITS)
 
 
 def _count(value: object) -> str:

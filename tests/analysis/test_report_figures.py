@@ -17,6 +17,8 @@ from analysis.charts import session_chart
 from analysis.cli import app
 from analysis.html_page import CHART_SCRIPTS
 
+REPO = Path(__file__).resolve().parents[2]
+
 
 def _specs(page: str) -> list[dict[str, object]]:
     found = re.findall(r"<script type='application/json' class='chart-spec'>(.*?)</script>", page)
@@ -111,3 +113,29 @@ def test_the_answer_comes_before_the_list_of_failed_inputs_which_one_line_counts
     assert "1 input(s) failed and 1 not analysed as given" in page
     assert line < page.index("id='answer'") < page.index("id='inputs'")
     assert page.index("href='#inputs'") < page.index("id='answer'")
+
+
+@pytest.mark.slow  # a fresh interpreter analyses a sample session (~4 s)
+def test_a_run_that_draws_no_figure_never_imports_matplotlib(tmp_path: Path) -> None:
+    """Issue 47: a run's fixed cost (a re-run's most of all) carries no figure library
+    unless ``--figures`` asks for static images; the charts are the browser's."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, analysis; "
+        f"analysis.run([{str(REPO / 'sessions' / 'thesis_line.mcap')!r}], "
+        f"{str(tmp_path / 'out')!r}, scene=False); "
+        "print('matplotlib' in sys.modules)"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          cwd=REPO, check=True)  # fmt: skip
+    assert done.stdout.strip().splitlines()[-1] == "False", done.stdout + done.stderr
+
+
+def test_the_method_colours_are_matplotlibs_without_matplotlib() -> None:
+    from matplotlib.colors import to_hex
+
+    from analysis.charts import hex_colour
+
+    assert [hex_colour(f"C{i}") for i in range(10)] == [to_hex(f"C{i}") for i in range(10)]
