@@ -493,7 +493,7 @@ def _placing(table: object, rig_units: str | None, path: str | Path) -> PlacingS
         raise InputValueError(f"{what}: {err}") from None
 
 
-def _placing_numbers(table: dict[str, object], units: str, what: str) -> tuple[float, float]:
+def _placing_numbers(table: dict[str, object], units: Units, what: str) -> tuple[float, float]:
     """A ``[placing]`` table's sigma and sigma_sigma (NaN: not stated), refused in words."""
     inches = unit_spec(units).inches
     sigma, spread = table.get("sigma"), table.get("sigma_sigma", float("nan"))
