@@ -206,17 +206,17 @@ def _snapshot(work: Path) -> Path:
             check=True,
         ).stdout.strip()
         code = work / f"code_{head[:12]}"
-        if not code.is_dir():
+        done = code / ".extracted"  # written last: a copy cut short is extracted again
+        if not done.is_file():
             archive = subprocess.run(
                 ["git", "-C", str(REPO), "archive", "HEAD", "analysis", "twopose"],
                 capture_output=True,
                 check=True,
             ).stdout
-            partial = work / f".{code.name}.partial"
-            shutil.rmtree(partial, ignore_errors=True)
+            shutil.rmtree(code, ignore_errors=True)
             with tarfile.open(fileobj=io.BytesIO(archive)) as tar:
-                tar.extractall(partial, filter="data")
-            partial.rename(code)
+                tar.extractall(code, filter="data")
+            done.write_text(head)
         return code
     except (OSError, subprocess.CalledProcessError):
         return REPO
