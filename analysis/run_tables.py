@@ -92,12 +92,16 @@ def read_results_table(
     try:
         with open(path, encoding="utf-8", newline="") as fh:
             header = next(csv.reader(fh), [])
-        table = read_table(path)
     except (OSError, ValueError, UnicodeDecodeError, csv.Error) as err:
         raise InputValueError(f"cannot read {path}: {err}") from err
+    # Before pandas reads it: a column given twice (a flag's above all) is no table to type.
     twice = sorted({c for c in header if header.count(c) > 1})
     if twice:
         raise InputValueError(f"{path}: column(s) {', '.join(twice)} given twice")
+    try:
+        table = read_table(path)
+    except (OSError, ValueError, UnicodeDecodeError, csv.Error) as err:
+        raise InputValueError(f"cannot read {path}: {err}") from err
     from analysis.columns import TABLE_DOMAINS
 
     return check_results_table(
