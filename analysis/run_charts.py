@@ -29,15 +29,7 @@ def overview_charts(trials: pd.DataFrame, *, include_warned: bool = False) -> Sp
         method=used["method"].astype(str),
         trial=used["trial"].astype(int),
     )
-    colour = {
-        "field": "method",
-        "type": "nominal",
-        "title": "method",
-        "scale": {
-            "domain": [str(m) for m in methods],
-            "range": [hex_colour(spec_of(m).colour) for m in methods],
-        },
-    }
+    colour = method_colours(methods)
     tips = [*who(), {"field": "method"}, *error_tip(units)[:1]]
     order = table.groupby("session_name")["err"].median().sort_values().index.tolist()
     top = float(table["err"].max())
@@ -127,13 +119,9 @@ def overview_charts(trials: pd.DataFrame, *, include_warned: bool = False) -> Sp
 _OVERVIEW_COLUMNS = ["session_name", "set", "method", "trial", "err", "baseline"]
 
 
-def sensitivity_chart(sweeps: pd.DataFrame) -> Spec | None:
-    """The RMS error against each swept input, one chart per sweep (its own unit), one
-    colour per method."""
-    if sweeps.empty:
-        return None
-    methods = sorted(Method(m) for m in sweeps["method"].unique())
-    colour = {
+def method_colours(methods: list[Method]) -> Spec:
+    """The colour encoding of a chart over methods: each method's registry colour."""
+    return {
         "field": "method",
         "type": "nominal",
         "title": "method",
@@ -142,6 +130,15 @@ def sensitivity_chart(sweeps: pd.DataFrame) -> Spec | None:
             "range": [hex_colour(spec_of(m).colour) for m in methods],
         },
     }
+
+
+def sensitivity_chart(sweeps: pd.DataFrame) -> Spec | None:
+    """The RMS error against each swept input, one chart per sweep (its own unit), one
+    colour per method."""
+    if sweeps.empty:
+        return None
+    methods = sorted(Method(m) for m in sweeps["method"].unique())
+    colour = method_colours(methods)
     charts: list[Spec] = []
     for sweep, g in sweeps.groupby("sweep", sort=False):
         unit = str(g["unit"].iloc[0])
