@@ -18,6 +18,12 @@ from twopose.rig.constants import RigConstants
 __all__ = ["AnalysisOptions", "RunResult", "SessionFailure", "SessionResult"]
 
 
+#: The metadata of an :class:`AnalysisOptions` field that shapes the run's own outputs (its
+#: summary, its figures, its time limit) and never a session's tables: a re-run that
+#: changes only such fields reuses every session's analysis (analysis.session_cache).
+RUN_ONLY = {"session_tables": False}
+
+
 @dataclass(frozen=True, kw_only=True)
 class AnalysisOptions:
     """How frames become measurements and measurements become estimates."""
@@ -29,9 +35,9 @@ class AnalysisOptions:
     estimate: EstimateOptions = field(default_factory=EstimateOptions)
     # A session still running after this many seconds is stopped and listed as failed, so
     # that one pathological file cannot stall a batch (None: no limit).
-    session_timeout_s: float | None = DEFAULT_SESSION_TIMEOUT_S
+    session_timeout_s: float | None = field(default=DEFAULT_SESSION_TIMEOUT_S, metadata=RUN_ONLY)
     # The summary's statistics include ok trials with a near-degeneracy warning.
-    include_warned: bool = False
+    include_warned: bool = field(default=False, metadata=RUN_ONLY)
     # The rig's constants (`twopose-analyze rig`): every view corrected before solving.
     rig: RigConstants | None = None
     # "loo": also each trial corrected by the constants its session's other trials give.
@@ -40,7 +46,7 @@ class AnalysisOptions:
     rig_source: RigSource | None = None
     # ``run --figures``: the static matplotlib figures written, in these formats (png, svg,
     # pdf); none by default: the report's charts are drawn by the reader's browser.
-    figures: tuple[FigureFormat, ...] = ()
+    figures: tuple[FigureFormat, ...] = field(default=(), metadata=RUN_ONLY)
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -9,9 +9,13 @@ things, and its entry in the cache is named by a digest of all four (:meth:`Sess
   that changes its label is another session: analysed again;
 * its **content**: the SHA-256 of every part's bytes, read in full (never a size or a
   modification time alone);
-* the **options**: every field of :class:`~analysis.results.AnalysisOptions`, the
-  estimation's and its noise model's (sigma0, the placing sigma) included, and the rig's
-  constants with the rig file's SHA-256;
+* the **options**: every field of :class:`~analysis.results.AnalysisOptions` that shapes
+  a session's tables, the estimation's and its noise model's (sigma0, the placing sigma)
+  included, and the rig's constants with the rig file's SHA-256. The fields marked
+  :data:`~analysis.results.RUN_ONLY` (``--include-warned``, ``--figures``,
+  ``--session-timeout``) shape the run's summary, figures or time limit and never a
+  session's tables: a re-run that changes only them reuses every session's analysis, and
+  writes its own outputs anew (their key holds every option);
 * the **code**: twopose's version, a digest of every file of the ``analysis`` and
   ``twopose`` packages, and the versions of Python, NumPy, pandas and OpenCV.
 
@@ -82,9 +86,17 @@ def code_version() -> str:
     return h.hexdigest()
 
 
-def options_digest(options: AnalysisOptions) -> str:
-    """A digest of every field of ``options``, nested records and the rig included."""
-    return hashlib.sha256(_text(json.dumps(_canonical(options)))).hexdigest()
+def options_digest(options: AnalysisOptions, *, tables_only: bool = False) -> str:
+    """A digest of every field of ``options``, nested records and the rig included; with
+    ``tables_only``, of those that shape a session's tables (every field but the ones
+    :data:`analysis.results.RUN_ONLY` marks: the summary's, the figures', the time limit's)."""
+    canonical = _canonical(options)
+    if tables_only:
+        shaping = {
+            f.name for f in dataclasses.fields(options) if f.metadata.get("session_tables", True)
+        }
+        canonical["fields"] = {k: v for k, v in canonical["fields"].items() if k in shaping}
+    return hashlib.sha256(_text(json.dumps(canonical))).hexdigest()
 
 
 def _canonical(value: Any) -> Any:
@@ -123,7 +135,8 @@ class SessionCache:
 
     folder: str  # <out>/.twopose-cache/sessions
     destination: str  # <out>: where the previous run's results.mcap files are
-    setting: str  # the options' and the code's digest, computed once per run
+    setting: str  # the options' (those that shape a session) and the code's digest
+    run_setting: str = ""  # every option's digest: the run's own outputs depend on all
     reuse: bool = True
 
     @classmethod
@@ -131,7 +144,8 @@ class SessionCache:
         """The cache of the output folder ``out`` for a run with ``options``; marks the
         run's start (entries it neither reuses nor writes are removed by :meth:`prune`)."""
         folder = Path(out) / CACHE_FOLDER / _SESSIONS
-        cache = cls(str(folder), str(out), f"{options_digest(options)}:{code_version()}", reuse)
+        setting = f"{options_digest(options, tables_only=True)}:{code_version()}"
+        cache = cls(str(folder), str(out), setting, options_digest(options), reuse)
         try:
             folder.mkdir(parents=True, exist_ok=True)
             _write(folder / _STARTED, b"")
@@ -294,7 +308,7 @@ class SessionCache:
         keys = [o.analysis_key if isinstance(o, SessionResult) else "" for o in outcomes]
         if not keys or not all(keys):  # a failure, or a session not kept: written anew
             return write()
-        h = hashlib.sha256(_text(f"{_FORMAT}\0{self.setting}\0"))
+        h = hashlib.sha256(_text(f"{_FORMAT}\0{self.setting}\0{self.run_setting}\0"))
         h.update(_text(json.dumps([keys, list(notes)])))
         run_key = h.hexdigest()
         index = Path(self.folder).parent / "outputs.json"

@@ -12,13 +12,16 @@ trials.csv, the live result, the rig fit and the scenes alike.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from twopose.arrays import F64
 from twopose.methods import spec_of
-from twopose.session_estimate import SessionEstimate
+
+if TYPE_CHECKING:  # the tables' readers (analysis.columns) need no estimation at import
+    from twopose.session_estimate import SessionEstimate
 
 __all__ = ["Reported", "line_errors", "reported", "reported_line_point"]
 

@@ -5,6 +5,7 @@ or the code's version makes it be analysed again."""
 from __future__ import annotations
 
 import dataclasses
+import json
 import pickle
 import shutil
 from pathlib import Path
@@ -18,7 +19,7 @@ from analysis.batch import run
 from analysis.cli import app
 from analysis.input_set import SessionIdentity, resolve_inputs
 from analysis.pipeline import analyse_session
-from analysis.results import AnalysisOptions, SessionResult
+from analysis.results import RUN_ONLY, AnalysisOptions, SessionResult
 from analysis.rig.calibrate import with_rig
 from analysis.session_cache import CACHE_FOLDER, SessionCache, options_digest
 from tests.helpers import distinct_copies
@@ -117,21 +118,53 @@ def test_each_change_makes_the_session_analysed_again(
 
 
 def test_every_field_of_the_options_is_in_the_key() -> None:
-    """A change to any field, nested ones included, gives another digest."""
+    """A change to any field, nested ones included, gives another digest; the fields that
+    shape only the run's own outputs (RUN_ONLY) leave the sessions' digest as it was."""
     base = AnalysisOptions()
-    changed = [
+    shaping = [
         AnalysisOptions(estimate=EstimateOptions(combine="median")),
         AnalysisOptions(estimate=EstimateOptions(min_parallax_deg=1.5)),
         AnalysisOptions(estimate=EstimateOptions(noise=NoiseModel(test_redundancy=False))),
-        AnalysisOptions(session_timeout_s=None),
-        AnalysisOptions(include_warned=True),
         AnalysisOptions(rig=RigConstants(camera_offset=(0.1, 0.0, 0.0))),
         AnalysisOptions(rig_calibration="loo"),
         AnalysisOptions(glove=GloveParams(min_area_px=201.0)),
     ]
-    digests = {options_digest(o) for o in [base, *changed]}
-    assert len(digests) == len(changed) + 1
+    run_only = [
+        AnalysisOptions(session_timeout_s=None),
+        AnalysisOptions(include_warned=True),
+        AnalysisOptions(figures=("png",)),
+    ]
+    digests = {options_digest(o) for o in [base, *shaping, *run_only]}
+    assert len(digests) == len(shaping) + len(run_only) + 1
     assert options_digest(AnalysisOptions()) == options_digest(base)
+    tables = {options_digest(o, tables_only=True) for o in [base, *shaping]}
+    assert len(tables) == len(shaping) + 1
+    assert {options_digest(o, tables_only=True) for o in run_only} == {
+        options_digest(base, tables_only=True)
+    }
+    marked = {f.name for f in dataclasses.fields(base) if f.metadata == RUN_ONLY}
+    assert marked == {"session_timeout_s", "include_warned", "figures"}
+
+
+# Slow: three runs of one small session (about 4 s).
+@pytest.mark.slow
+def test_a_rerun_that_changes_only_the_summary_or_the_figures_reuses_the_sessions(
+    tmp_path: Path, point_session: Path
+) -> None:
+    """--include-warned and --figures shape the run's outputs, not a session's tables: the
+    re-run reuses the analysis and writes what was asked anew."""
+    out = tmp_path / "out"
+    first = _run(point_session, out)
+    assert "report:" in first, first
+    assert "reused" not in first
+    assert not list(out.glob("*.png"))
+    warned = _run(point_session, out, "--include-warned")
+    assert REUSED.format(n=1, m=1) in warned
+    assert json.loads((out / "summary.json").read_text())["include_warned"] is True
+    drawn = _run(point_session, out, "--figures", "png")
+    assert REUSED.format(n=1, m=1) in drawn
+    assert json.loads((out / "summary.json").read_text())["include_warned"] is False
+    assert len(list(out.glob("*.png"))) >= 3  # the session's figures, drawn for the reused
 
 
 # Slow: four runs of one small session (about 5 s); the first of a process pays its imports.
@@ -208,3 +241,38 @@ def test_a_failed_session_is_not_kept_and_the_cache_is_not_an_input(
     shutil.copy(point_session, folder / "b.mcap")  # a copy of a: counted once, a's label kept
     assert run([folder], out, scene=False).sessions_reused == 1
     assert len(_entries(out)) == 1  # what the last run did not use is gone
+
+
+# Slow: two runs of a sample session, each in a fresh interpreter (about 6 s).
+@pytest.mark.slow
+def test_a_rerun_imports_no_estimation_library(tmp_path: Path) -> None:
+    """Issue 47: a re-run with nothing changed pays its start-up, not the solvers' or the
+    figures' libraries (scipy.stats alone cost a small batch's re-run 0.7 s of its 20%):
+    the command line, run twice in fresh interpreters, the second reusing everything."""
+    import subprocess
+    import sys
+
+    repo = Path(__file__).resolve().parents[2]
+    names = ("thesis_method1_point.mcap", "thesis_line.mcap")
+    sessions = [str(repo / "sessions" / n) for n in names]
+    code = (
+        "import sys\n"
+        "from analysis.cli import main\n"
+        f"sys.argv = ['twopose-analyze', 'run', *{sessions!r}, '--out', {str(tmp_path)!r}]\n"
+        "try:\n    main()\nexcept SystemExit:\n    pass\n"
+        "heavy = ('scipy.stats', 'scipy.optimize', 'matplotlib')\n"
+        "print('IMPORTED', *[m for m in heavy if m in sys.modules])\n"
+    )
+
+    def imported() -> tuple[str, list[str]]:
+        done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                              cwd=repo, check=True)  # fmt: skip
+        line = [ln for ln in done.stdout.splitlines() if ln.startswith("IMPORTED")][-1]
+        return done.stdout + done.stderr, line.split()[1:]
+
+    first, _ = imported()
+    assert "report:" in first, first
+    assert "reused" not in first
+    again, heavy = imported()
+    assert REUSED.format(n=2, m=2) in again, again
+    assert heavy == [], heavy
