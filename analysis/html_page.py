@@ -145,14 +145,20 @@ def chart_html(name: str, spec: dict[str, object] | None, caption: str = "") -> 
 CHART_SCRIPTS = ("vega.min.js", "vega-lite.min.js", "vega-embed.min.js")
 
 # Draws every chart from the spec beside it: on a narrow page (a phone) one column, as wide
-# as the page, the legends below and long titles cut short; each view kept
+# as the page, the legends below and long titles wrapped onto lines (about 8 px a character
+# of the 13 px bold title; cut only beyond a line's width); each view kept
 # by name (window.twoposeViews) for the tests and the console of a curious reader.
 _CHART_SCRIPT = (
-    "window.twoposeViews={};function drawCharts(){"
+    "window.twoposeViews={};function wrapTitle(u,n){var t=u.title;"
+    "if(typeof t!=='string'||t.length<=n)return;var lines=[''];"
+    "t.split(' ').forEach(function(x){var l=lines[lines.length-1];"
+    "if(l&&l.length+x.length+1>n)lines.push(x);else lines[lines.length-1]=l?l+' '+x:x});"
+    "u.title={text:lines}}function drawCharts(){"
     "document.querySelectorAll('div.chart').forEach(function(el){"
     "var spec=JSON.parse(el.parentElement.parentElement.nextElementSibling.textContent);"
     "if(innerWidth<700){if(spec.columns)spec.columns=1;var c=spec.config||{},w=innerWidth-135;"
-    "(spec.concat||[]).forEach(function(u){if(u.width>w)u.width=w});"
+    "(spec.concat||[]).forEach(function(u){if(u.width>w)u.width=w;"
+    "wrapTitle(u,Math.floor((Math.min(u.width||w,w)+60)/8))});"
     "spec.config=Object.assign({},c,{legend:Object.assign({},c.legend,{orient:'bottom'}),"
     "title:Object.assign({},c.title,{limit:w+60})})}"
     "vegaEmbed(el,spec,{actions:false,renderer:'svg',mode:'vega-lite'}).then(function(r){"

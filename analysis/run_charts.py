@@ -15,8 +15,8 @@ __all__ = ["overview_charts", "sensitivity_chart"]
 
 def overview_charts(trials: pd.DataFrame, *, include_warned: bool = False) -> Spec | None:
     """The run's overview, one colour per method (no trial colour on this screen): the
-    error histogram, each session's trials as a strip sorted by error, the error against
-    the baseline, per session set."""
+    error histogram (a panel per session set, as the static figure), each session's trials
+    as a strip sorted by error, the error against the baseline (a shape per session set)."""
     from analysis.table_labels import common_units
 
     used, units = common_units(used_trials(trials, include_warned=include_warned, measured=True))
@@ -105,7 +105,9 @@ def overview_charts(trials: pd.DataFrame, *, include_warned: bool = False) -> Sp
             },
         },
     ]
-    if len(by_session_set(table)) > 1:  # the baseline chart tells the sets apart
+    if len(by_session_set(table)) > 1:  # a histogram panel per set; shapes tell them apart
+        charts[0]["encoding"]["row"] = {"field": "set", "type": "nominal", "title": "session set"}
+        charts[0]["height"] = 120
         charts[2]["encoding"]["shape"] = {"field": "set", "type": "nominal", "title": "session set"}
     return {
         "data": {"values": records(table[_OVERVIEW_COLUMNS])},

@@ -156,6 +156,21 @@ def test_every_axis_names_its_unit_and_nothing_overflows_without_a_cue(
             assert cue in ("none", "normal", ""), cue
     if width == PHONE:
         assert overflowing  # the phone does scroll some tables, each with its cue
+    # no chart's title or label cut short ("…"): a phone wraps the long titles onto lines
+    for _ in range(100):
+        drawn = browser.execute_script(
+            "return Object.keys(window.twoposeViews || {}).length"
+            " === document.querySelectorAll('div.chart').length"
+        )
+        if drawn:
+            break
+        time.sleep(0.1)
+    cut = browser.execute_script(
+        "return [...document.querySelectorAll('div.chart svg text')]"
+        ".map(t => t.textContent).filter(t => t.includes('\u2026'))"
+    )
+    assert drawn
+    assert cut == [], cut
     _emulate(browser, None)
 
 

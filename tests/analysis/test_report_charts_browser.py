@@ -94,7 +94,8 @@ def test_every_chart_has_data_and_names_its_units(browser: Any) -> None:
         assert cells, name
         for cell in cells:
             assert cell["items"] > 0, (name, cell)
-            assert len(cell["titles"]) == 2, (name, cell["titles"])
+            # two axes named (a chart of a panel per session set repeats its y axis)
+            assert len(set(cell["titles"])) == 2, (name, cell["titles"])
             for title in cell["titles"]:  # a unit, or a count, or the sessions' names
                 counted = title.startswith("number of") or title == "session"
                 assert re.search(r"\(.+\)", title) or counted, (name, title)

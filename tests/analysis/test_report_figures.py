@@ -139,3 +139,21 @@ def test_the_method_colours_are_matplotlibs_without_matplotlib() -> None:
     from analysis.charts import hex_colour
 
     assert [hex_colour(f"C{i}") for i in range(10)] == [to_hex(f"C{i}") for i in range(10)]
+
+
+@pytest.mark.slow  # analyses two sample sessions (about 3 s)
+def test_the_histogram_has_a_panel_per_session_set_as_the_static_figure() -> None:
+    """With thesis_ and stress_ sessions the browser's histogram is one panel per set (its
+    rows), as the static figure's; with one set, one panel."""
+    from analysis.run_charts import overview_charts
+
+    names = ("thesis_line.mcap", "stress_line.mcap")
+    result = run([str(REPO / "sessions" / n) for n in names], None)
+    both = overview_charts(result.trials)
+    assert both is not None
+    histogram = both["concat"][0]
+    assert histogram["encoding"]["row"]["field"] == "set"
+    assert {r["set"] for r in both["data"]["values"]} == {"thesis", "stress"}
+    one = overview_charts(result.trials[result.trials["session"].str.contains("thesis_")])
+    assert one is not None
+    assert "row" not in one["concat"][0]["encoding"]
