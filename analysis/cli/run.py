@@ -6,7 +6,7 @@ import contextlib
 import sys
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated
+from typing import TYPE_CHECKING, Annotated, cast
 
 import typer
 
@@ -21,7 +21,12 @@ from twopose.noise import NoiseModel
 if TYPE_CHECKING:
     from analysis.results import RunResult
 
-from analysis.choices import DEFAULT_SESSION_TIMEOUT_S, FigureFormat, RigCalibrationMode
+from analysis.choices import (
+    DEFAULT_SESSION_TIMEOUT_S,
+    FIGURE_FORMATS,
+    FigureFormat,
+    RigCalibrationMode,
+)
 from analysis.cli.app import IncludeWarnedOption, JunitOption, app, note, say_skipped
 
 #: The options' defaults, from their one record.
@@ -59,15 +64,30 @@ RigCalibrationOption = Annotated[
     ),
 ]
 
+
+def _figure_formats(given: list[str] | None) -> list[str]:
+    """``--figures``, each a format of :data:`analysis.choices.FIGURE_FORMATS` (typer takes
+    no list of a Literal's choices, so they are checked here, by the one list)."""
+    for fmt in given or ():
+        if fmt not in FIGURE_FORMATS:
+            choices = ", ".join(FIGURE_FORMATS)
+            raise typer.BadParameter(f"{fmt!r} is not one of {choices}")
+    return list(given or ())
+
+
 FiguresOption = Annotated[
-    FigureFormat | None,
+    list[str] | None,
     typer.Option(
         "--figures",
+        metavar="[" + "|".join(FIGURE_FORMATS) + "]",
+        callback=_figure_formats,
         help="Also write the static figures (matplotlib) in this format, for papers "
-        "(--figures png). Without it no figure is drawn: report.html's charts are drawn "
-        "by the browser from the run's tables.",
+        "(--figures png; repeated for more formats: --figures png --figures pdf). Without "
+        "it no figure is drawn: report.html's charts are drawn by the browser from the "
+        "run's tables.",
     ),
 ]
+
 
 ReuseOption = Annotated[
     bool,
@@ -146,7 +166,7 @@ def run_command(
         session_timeout_s=session_timeout or None,
         include_warned=include_warned,
         rig_calibration=rig_calibration,
-        figures=(figures,) if figures else (),
+        figures=tuple(dict.fromkeys(cast("list[FigureFormat]", figures or ()))),  # each once
     )
     with handle_errors(), _session_progress() as (found, done):
         inputs = resolve_inputs(paths)  # once: every step below takes this set

@@ -49,7 +49,7 @@ def test_a_default_run_draws_no_figure_and_its_report_carries_its_charts_and_scr
     assert {r["session_name"] for r in rows} == {point_session.name}
 
 
-@pytest.mark.slow  # two runs drawing every static figure: ~8 s
+@pytest.mark.slow  # three runs drawing every static figure: ~12 s
 def test_figures_png_writes_the_static_figures_and_svg_writes_them_as_svg(
     tmp_path: Path, point_session: Path
 ) -> None:
@@ -69,6 +69,14 @@ def test_figures_png_writes_the_static_figures_and_svg_writes_them_as_svg(
                                "--figures", "gif"])  # fmt: skip
     assert refused.exit_code != 0
     assert "gif" in refused.output
+    assert "png, svg, pdf" in refused.output
+    both = tmp_path / "both"  # repeated: every format asked, each once
+    formats = ["--figures", "pdf", "--figures", "png", "--figures", "pdf"]
+    done = cli.invoke(app, ["run", str(point_session), "--out", str(both), "--no-scene",
+                            *formats])  # fmt: skip
+    assert done.exit_code == 0, done.output
+    assert {p.suffix for p in both.glob("error_histogram.*")} == {".png", ".pdf"}
+    assert (both / "error_histogram.pdf").read_bytes().startswith(b"%PDF")
 
 
 @pytest.mark.slow  # analyses a session (1-3 s)
