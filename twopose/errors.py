@@ -25,6 +25,7 @@ __all__ = [
     "TwoposeError",
     "handle_errors",
     "safe_console",
+    "say_interrupted",
 ]
 
 
@@ -68,13 +69,15 @@ def handle_errors() -> Iterator[None]:
     """Turn twopose errors into a one-line message and an exit code (the CLIs' only place)."""
     import typer  # only the command lines need it
 
+    global _said_interrupted
+    _said_interrupted = False  # a new command (CliRunner and notebooks run many a process)
     try:
         yield
     except TwoposeError as err:
         typer.secho(f"error: {err}", err=True, fg=typer.colors.RED)
         raise typer.Exit(EXIT_ERROR) from None
     except KeyboardInterrupt:
-        typer.secho("interrupted", err=True)
+        say_interrupted()
         raise typer.Exit(EXIT_INTERRUPTED) from None
     except (MemoryError, RecursionError, OverflowError, ArithmeticError, ValueError) as err:
         # Last resort: an input no check foresaw. Say what happened, never a traceback;
@@ -93,6 +96,18 @@ def handle_errors() -> Iterator[None]:
 
 
 _interrupted = False
+_said_interrupted = False
+
+
+def say_interrupted(text: str = "interrupted") -> None:
+    """Say on stderr, once per command, that a Ctrl-C stopped it (``text``: what it left)."""
+    import sys
+
+    global _said_interrupted
+    if not _said_interrupted:
+        _said_interrupted = True
+        sys.stderr.write(f"{text}\n")
+        sys.stderr.flush()
 
 
 def _on_interrupt(_signum: int, _frame: object) -> None:
@@ -166,17 +181,19 @@ def run_command_line(app: Callable[[], object]) -> None:
     :func:`watch_interrupts`), and every other exit is the command's own (:func:`handle_errors`
     turns a :class:`TwoposeError` into its message and exit code inside each command).
     """
-    import sys
-
+    global _said_interrupted
+    _said_interrupted = False
     safe_console()
     watch_interrupts()
     try:
         app()
     except KeyboardInterrupt:  # Ctrl-C outside a command's own handling: still 130
-        sys.stderr.write("interrupted\n")
+        say_interrupted()
         raise SystemExit(EXIT_INTERRUPTED) from None
     except SystemExit as done:
-        if interrupted() and done.code in (0, None):  # Ctrl-C swallowed along the way
-            sys.stderr.write("interrupted\n")
+        # A Ctrl-C swallowed along the way (exit 0), or one typer turned into a silent 130
+        # (outside handle_errors): 130, and said, once.
+        if interrupted() and done.code in (0, None, EXIT_INTERRUPTED):
+            say_interrupted()
             raise SystemExit(EXIT_INTERRUPTED) from None
         raise

@@ -12,8 +12,10 @@ import typer
 
 from twopose.choices import CombineRule
 from twopose.errors import (
+    EXIT_INTERRUPTED,
     EXIT_SOME_INPUTS_FAILED,
     handle_errors,
+    say_interrupted,
 )
 from twopose.margins import EstimateOptions
 from twopose.noise import NoiseModel
@@ -193,7 +195,13 @@ def run_command(
             cases = run_cases(result.summary, result.errors)
             notes = [*result.input_notes, *(f"skipped: {p}" for p in result.skipped)]
             write_file(junit, junit_xml("twopose-analyze run", cases, notes))
-    _print_run(result, out, include_warned=include_warned)
+    try:
+        _print_run(result, out, include_warned=include_warned)
+    except KeyboardInterrupt:  # the outputs are committed: say so, not just "interrupted"
+        say_interrupted(
+            f"interrupted while printing the summary; the results in {out} are complete"
+        )
+        raise typer.Exit(EXIT_INTERRUPTED) from None
 
 
 def _rig_file(rig: Path | None, no_rig: bool, paths: list[Path]) -> Path | None:

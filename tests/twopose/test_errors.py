@@ -83,3 +83,37 @@ def test_both_command_lines_share_the_one_main(monkeypatch: pytest.MonkeyPatch) 
     analysis.cli.main()
     recorder.cli.main()
     assert seen == [analysis.cli.app, recorder.cli.app]
+
+
+def test_a_ctrl_c_typer_turns_into_a_silent_130_is_said_once(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """Typer turns a KeyboardInterrupt outside handle_errors into exit 130 without a word
+    (an analyst's Ctrl-C while a run prints its summary): the one main says it."""
+    app = typer.Typer()
+
+    @app.command()
+    def printing() -> None:
+        typer.echo("twopose: 2 session(s)")
+        signal.raise_signal(signal.SIGINT)  # a real Ctrl-C, through our handler
+
+    with pytest.raises(SystemExit) as done:
+        run_command_line(lambda: app(args=[], prog_name="twopose-analyze"))
+    assert done.value.code == EXIT_INTERRUPTED
+    said = capsys.readouterr()
+    assert said.out == "twopose: 2 session(s)\n"
+    assert said.err == "interrupted\n"
+
+
+def test_a_ctrl_c_handle_errors_said_is_not_said_again(capsys: pytest.CaptureFixture[str]) -> None:
+    app = typer.Typer()
+
+    @app.command()
+    def analysing() -> None:
+        with handle_errors():
+            signal.raise_signal(signal.SIGINT)
+
+    with pytest.raises(SystemExit) as done:
+        run_command_line(lambda: app(args=[], prog_name="twopose-analyze"))
+    assert done.value.code == EXIT_INTERRUPTED
+    assert capsys.readouterr().err == "interrupted\n"

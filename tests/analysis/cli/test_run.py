@@ -5,10 +5,11 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
+import pytest
 from typer.testing import CliRunner
 
 from analysis.cli import app
-from twopose.errors import EXIT_ERROR, EXIT_SOME_INPUTS_FAILED, EXIT_USAGE
+from twopose.errors import EXIT_ERROR, EXIT_INTERRUPTED, EXIT_SOME_INPUTS_FAILED, EXIT_USAGE
 
 runner = CliRunner()
 
@@ -49,3 +50,25 @@ def test_run_missing_input_and_bad_options(tmp_path: Path) -> None:
     assert "does not exist" in result.output
     assert runner.invoke(app, ["run", str(tmp_path), "--jobs", "0"]).exit_code == EXIT_USAGE
     assert runner.invoke(app, ["run", str(tmp_path), "--combine", "mode"]).exit_code == EXIT_USAGE
+
+
+def test_a_ctrl_c_while_the_summary_prints_says_the_results_are_complete(
+    tmp_path: Path, point_session: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The outputs are committed before the summary is printed: a Ctrl-C then says so
+    (exit 130), instead of a bare "interrupted" an analyst would read as nothing written."""
+    import signal
+
+    import analysis.terminal
+
+    def interrupted(*_args: object, **_kwargs: object) -> list[str]:
+        signal.raise_signal(signal.SIGINT)
+        return []
+
+    monkeypatch.setattr(analysis.terminal, "closing_lines", interrupted)
+    out = tmp_path / "out"
+    result = runner.invoke(app, ["run", str(point_session), "--out", str(out), "--no-scene"])
+    assert result.exit_code == EXIT_INTERRUPTED, result.output
+    assert f"the results in {out} are complete" in result.output
+    assert (out / "report.html").is_file()
+    assert (out / "trials.csv").is_file()
