@@ -272,19 +272,8 @@ def _answer_section(result: RunResult) -> list[str]:
         "<a href='#dominant'>What dominates the error</a> · "
         "<a href='#sensitivity'>Sensitivity</a> · <a href='#sessions'>Sessions</a></nav>",
         "<h2 id='answer'>Answer per method</h2>",
-        f"<p>Pooled over the sessions, over {which}. Errors are distances from the truth; "
-        "RMSE with its 95% bootstrap interval, biases (mean error) with the half-widths of "
-        "their 95% intervals; the last column is the share of trials whose truth lies "
-        "inside their own 95% uncertainty ellipsoid (95% when the uncertainty is honest). "
-        "A table per unit: its “within 1” is 1 of that unit; the verdict lines count the "
-        "thesis' 1 in, saying which errors they converted to inches.</p>",
     ]
     groups = by_session_set(result.trials)
-    if len(groups) > 1:
-        parts.append(
-            "<p>Per session set, as the file names declare it: <code>thesis_*</code> "
-            "repeat the thesis' experiments, <code>stress_*</code> go beyond them.</p>"
-        )
     verdicts = dict(result.verdicts)
     for name, group in groups:
         if len(groups) > 1:
@@ -296,6 +285,24 @@ def _answer_section(result: RunResult) -> list[str]:
         for part in per_unit:  # a table per unit, the registry's order: its headers name it
             parts.append(table_html(readable(part, include_warned=result.include_warned)))
         parts += [f"<p class='verdict'>{html.escape(line)}</p>" for line in verdicts[name]]
+    # How to read the tables comes after them, so that the numbers are on the first
+    # screen of a phone too.
+    parts.append(
+        f"<p class='how-to-read'>Pooled over the sessions, over {which}. Errors are distances "
+        "from the truth; RMSE with its 95% bootstrap interval, biases (mean error) with the "
+        "half-widths of their 95% intervals; the “truth inside its 95% ellipsoid” column is "
+        "the share of trials whose truth lies inside their own 95% uncertainty ellipsoid "
+        "(95% when the uncertainty is honest). A table per unit: its “within 1” is 1 of that "
+        "unit; the verdict lines count the thesis' 1 in, saying which errors they converted "
+        "to inches."
+        + (
+            " Per session set, as the file names declare it: <code>thesis_*</code> repeat "
+            "the thesis' experiments, <code>stress_*</code> go beyond them."
+            if len(groups) > 1
+            else ""
+        )
+        + "</p>"
+    )
     # The inputs' lists come after the answer: it stays on the first screen whatever failed.
     return parts + inputs + _noise_section(result) + _thesis_section(result)
 

@@ -104,6 +104,34 @@ def test_report_answers_first(report: Path, browser: Any) -> None:
     assert all(browser.find_elements(By.ID, link.rsplit("#", 1)[1]) for link in links)
 
 
+def test_a_phone_sees_the_answers_numbers_on_its_first_screen_whatever_failed(
+    tmp_path: Path, browser: Any
+) -> None:
+    """Issue 47: with a failed input, at 390 px, the first answer table's rows and its
+    verdict are within the first screen (how to read them comes after)."""
+    from analysis.batch import run
+
+    folder = tmp_path / "sessions"
+    folder.mkdir()
+    line = Path(__file__).resolve().parents[2] / "sessions" / "thesis_line.mcap"
+    (folder / "thesis_line.mcap").write_bytes(line.read_bytes())
+    (folder / "zz_corrupt.mcap").write_bytes(line.read_bytes()[:5000])
+    result = run([folder], tmp_path / "out", scene=False)
+    assert result.failed
+    _emulate(browser, PHONE)
+    browser.get((tmp_path / "out" / "report.html").as_uri())
+    first_screen = browser.execute_script("return window.innerHeight")
+    row = browser.find_element(By.CSS_SELECTOR, "#answer ~ div table tbody tr")
+    verdict = browser.find_element(By.CSS_SELECTOR, "p.verdict")
+    failed = browser.find_element(By.CSS_SELECTOR, "p.inputs-line")
+    try:
+        assert failed.rect["y"] < row.rect["y"]  # the count of the failed first, one line
+        assert row.rect["y"] + row.rect["height"] <= first_screen, row.rect
+        assert verdict.rect["y"] < first_screen, verdict.rect
+    finally:
+        _emulate(browser, None)
+
+
 def _header(table: Any) -> list[str]:
     return [th.text.replace("\n", " ") for th in table.find_elements(By.CSS_SELECTOR, "thead th")]
 
