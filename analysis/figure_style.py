@@ -243,7 +243,7 @@ def mark_beyond(ax: Axes, points: np.ndarray, colours: Sequence[Any]) -> np.ndar
     ) / np.repeat(span, 2)
     markers = np.array([">", "<", "^", "v"])[over.argmax(axis=1)]
     chosen = [c for c, b in zip(colours, beyond, strict=True) if b]
-    for marker in set(markers.tolist()):
+    for marker in dict.fromkeys(markers.tolist()):  # in a fixed order: the same file each run
         pick = markers == marker
         ax.scatter(edge[pick, 0], edge[pick, 1], marker=marker, s=55, linewidths=0.6,
                    c=[c for c, k in zip(chosen, pick, strict=True) if k], edgecolors="k",

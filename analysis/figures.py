@@ -573,18 +573,26 @@ def png_bytes(fig: Figure) -> bytes:
 
 def saved(fig: Figure, fmt: str) -> bytes:
     """The figure in ``fmt`` (``png``, ``svg``, ``pdf``: ``run --figures``); a PNG carries
-    :func:`describe`'s ``Description``; a figure whose data defeat rendering says why."""
+    :func:`describe`'s ``Description``; a figure whose data defeat rendering says why. The
+    same figure gives the same bytes in every format (no date, no random SVG ids), so that
+    two runs' figures compare as their tables do."""
+    import matplotlib
+
     buf = io.BytesIO()
-    png = fmt == "png"  # PNG's metadata keys; SVG's and PDF's differ
-    try:
-        fig.savefig(buf, format=fmt, dpi=DPI, metadata=_metadata(fig) if png else None)
-    except (ValueError, OverflowError, FloatingPointError) as err:
-        buf = io.BytesIO()
-        size = fig.get_size_inches()
-        fallback = _not_drawn((float(size[0]), float(size[1])), err)
-        fallback.savefig(buf, format=fmt, dpi=DPI, metadata=_metadata(fallback) if png else None)
+    with matplotlib.rc_context({"svg.hashsalt": "twopose"}):  # SVG ids: else random
+        try:
+            fig.savefig(buf, format=fmt, dpi=DPI, metadata=_METADATA[fmt](fig))
+        except (ValueError, OverflowError, FloatingPointError) as err:
+            buf = io.BytesIO()
+            size = fig.get_size_inches()
+            fallback = _not_drawn((float(size[0]), float(size[1])), err)
+            fallback.savefig(buf, format=fmt, dpi=DPI, metadata=_METADATA[fmt](fallback))
     return buf.getvalue()
 
 
-def _metadata(fig: Figure) -> dict[str, str | None]:
-    return {"Software": None, "Description": describe(fig)}
+#: Each format's metadata (their keys differ): a PNG's description, no creation date.
+_METADATA: dict[str, Callable[[Figure], dict[str, str | None]]] = {
+    "png": lambda fig: {"Software": None, "Description": describe(fig)},
+    "svg": lambda _fig: {"Date": None},
+    "pdf": lambda _fig: {"CreationDate": None},
+}

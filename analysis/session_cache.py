@@ -211,13 +211,16 @@ class SessionCache:
             return None
         try:
             entry = _SafeUnpickler(io.BytesIO(data)).load()
-            if entry["format"] != _FORMAT or entry["key"] != key:
-                raise ValueError("it belongs to another key")
             fields = {name: entry["fields"][name] for name in _FIELDS}
             scene = entry["results_mcap"]
+            kept_for = (entry["format"], entry["key"])
         except Exception as err:  # corrupt, truncated, tampered: analysed again, said
             _note(f"ignored the unreadable cached analysis {path} ({type(err).__name__}); "
                   "the session is analysed again")  # fmt: skip
+            return None
+        if kept_for != (_FORMAT, key):  # renamed or copied in: another session's, or older
+            _note(f"ignored the cached analysis {path}: it was kept for another session, "
+                  "options or version; the session is analysed again")  # fmt: skip
             return None
         if results is not None and not self._link_scene(scene, Path(results)):
             return None

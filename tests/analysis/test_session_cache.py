@@ -220,6 +220,29 @@ def test_a_corrupt_or_foreign_cache_file_is_ignored_with_a_note(
         pd.testing.assert_frame_equal(first.trials, again.trials)
 
 
+# Slow: two runs of two small sessions (about 4 s).
+@pytest.mark.slow
+def test_an_entry_moved_under_another_sessions_name_is_refused_in_words(
+    tmp_path: Path, point_session: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Two entries swapped by hand: each names the session it was kept for, so neither is
+    used for the other, and the note says why (not "unreadable": it reads)."""
+    sessions = [point_session, *distinct_copies(point_session, tmp_path / "copies", 1)]
+    out = tmp_path / "out"
+    first = run(sessions, out, scene=False)
+    a, b = _entries(out)
+    data_a, data_b = a.read_bytes(), b.read_bytes()
+    a.write_bytes(data_b)
+    b.write_bytes(data_a)
+    capsys.readouterr()
+    again = run(sessions, out, scene=False)
+    said = capsys.readouterr().err
+    assert again.sessions_reused == 0
+    assert said.count("it was kept for another session, options or version") == 2, said
+    assert "unreadable" not in said
+    pd.testing.assert_frame_equal(first.trials, again.trials)
+
+
 # Slow: three runs of one small session and a broken one (about 3 s).
 @pytest.mark.slow
 def test_a_failed_session_is_not_kept_and_the_cache_is_not_an_input(
