@@ -24,6 +24,12 @@ __all__ = ["AnalysisOptions", "RunResult", "SessionFailure", "SessionResult"]
 RUN_ONLY = {"session_tables": False}
 
 
+def shapes_session_tables(name: str) -> bool:
+    """Whether the :class:`AnalysisOptions` field ``name`` shapes a session's tables (is
+    not :data:`RUN_ONLY`): the one reading of the mark (analysis.session_cache keys on it)."""
+    return bool(AnalysisOptions.__dataclass_fields__[name].metadata.get("session_tables", True))
+
+
 @dataclass(frozen=True, kw_only=True)
 class AnalysisOptions:
     """How frames become measurements and measurements become estimates."""

@@ -92,10 +92,10 @@ def options_digest(options: AnalysisOptions, *, tables_only: bool = False) -> st
     :data:`analysis.results.RUN_ONLY` marks: the summary's, the figures', the time limit's)."""
     canonical = _canonical(options)
     if tables_only:
-        shaping = {
-            f.name for f in dataclasses.fields(options) if f.metadata.get("session_tables", True)
-        }
-        canonical["fields"] = {k: v for k, v in canonical["fields"].items() if k in shaping}
+        from analysis.results import shapes_session_tables
+
+        fields = canonical["fields"].items()
+        canonical["fields"] = {k: v for k, v in fields if shapes_session_tables(k)}
     return hashlib.sha256(_text(json.dumps(canonical))).hexdigest()
 
 
