@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from analysis.metrics import by_session_set, summarize
+from analysis.metrics import MIN_INTERVAL_TRIALS, by_session_set, summarize, too_few_for_interval
 from twopose.methods import label_of
 
 __all__ = [
@@ -23,6 +23,7 @@ __all__ = [
     "session_order",
     "share",
     "shown_name",
+    "with_branch",
 ]
 
 ANSWER_COLUMNS = [
@@ -71,9 +72,16 @@ def session_order(summary: pd.DataFrame) -> pd.DataFrame:
 
 def shown_name(row: pd.Series) -> str:
     """How a reader is shown a row's session: its label (the shortest tail of its path
-    that no other input of the run shares), or, in a table without one, its file name."""
-    label = str(row.get("label", "") or "")
-    return label or Path(str(row["session"])).name
+    that no other input of the run shares), or, in a table without one, its file name;
+    with its branch when it is on one (a fork's: ``a3.mcap [branch B]``, as ``info``
+    shows it)."""
+    label = str(row.get("label", "") or "") or Path(str(row["session"])).name
+    return with_branch(label, str(row.get("branch", "") or ""))
+
+
+def with_branch(name: str, branch: str) -> str:
+    """A session's name with the branch it is on, when it is on one."""
+    return f"{name} [branch {branch}]" if branch else name
 
 
 def noise_phrases(row: pd.Series) -> list[str]:
@@ -123,16 +131,19 @@ def share(value: object) -> str:
     return f"{100 * value:.0f}%"
 
 
-def _interval(low: object, high: object) -> str:
-    return "-" if number(low) == "-" else f"{number(low)} to {number(high)}"
+def _interval(low: object, high: object, n_used: int) -> str:
+    """An interval, or why there is none (too few trials: :data:`MIN_INTERVAL_TRIALS`)."""
+    if number(low) != "-":
+        return f"{number(low)} to {number(high)}"
+    return f"none ({too_few_for_interval(n_used)})" if 0 < n_used < MIN_INTERVAL_TRIALS else "-"
 
 
-def _plus_minus(value: object, half: object) -> str:
-    return (
-        number(value, signed=True)
-        if number(half) == "-"
-        else f"{number(value, signed=True)} ± {number(half)}"
-    )
+def _plus_minus(value: object, half: object, n_used: int) -> str:
+    if number(half) != "-":
+        return f"{number(value, signed=True)} ± {number(half)}"
+    if number(value) != "-" and n_used < MIN_INTERVAL_TRIALS:
+        return f"{number(value, signed=True)} (no interval: {too_few_for_interval(n_used)})"
+    return number(value, signed=True)
 
 
 #: The share within 1 unit, its header naming the unit (``within 1 cm``: 1 cm, not the
@@ -156,14 +167,15 @@ def readable(table: pd.DataFrame, *, include_warned: bool = False) -> pd.DataFra
         row["method"] = label_of(r["method"])
         if not one:
             row["units"] = r["units"]
+        n_used = int(r["n_used"])
         row |= {
             f"RMSE{u}": number(r["rmse"]),
-            f"RMSE 95% interval{u}": _interval(r["rmse_ci95_low"], r["rmse_ci95_high"]),
+            f"RMSE 95% interval{u}": _interval(r["rmse_ci95_low"], r["rmse_ci95_high"], n_used),
             f"median{u}": number(r["median_err"]),
             f"largest{u}": number(r["max_err"]),
             _WITHIN.format(one) if one else _WITHIN_MIXED: share(r["within_1"]),
-            f"bias x ± 95%{u}": _plus_minus(r["bias_x"], r["bias_x_ci95"]),
-            f"bias z ± 95%{u}": _plus_minus(r["bias_z"], r["bias_z_ci95"]),
+            f"bias x ± 95%{u}": _plus_minus(r["bias_x"], r["bias_x_ci95"], n_used),
+            f"bias z ± 95%{u}": _plus_minus(r["bias_z"], r["bias_z_ci95"], n_used),
             "truth inside its 95% ellipsoid": share(r["coverage95"]),
             "trials": r["n_trials"],
             "ok": r["n_ok"],

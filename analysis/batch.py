@@ -135,6 +135,7 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
             skipped=tuple(skipped),
             rig_source=options.rig_source,
             input_notes=tuple(inputs.run_notes()),
+            inputs_set_aside=inputs.set_aside,
         )
         if folder is not None:
             from analysis.report import write_outputs

@@ -27,7 +27,7 @@ from matplotlib.figure import Figure
 from analysis.choices import Estimator
 from analysis.figures import png_bytes
 from analysis.gate_match import trial_keys
-from analysis.metrics import paired_difference, summarize, used_trials
+from analysis.metrics import paired_difference, summarize, too_few_for_interval, used_trials
 from analysis.outputs import write_atomically
 from analysis.report import page_html, table_html
 from analysis.run_tables import read_results_table
@@ -319,7 +319,7 @@ def describe_test(row: pd.Series) -> str:
     interval = (
         f" (95% CI {row['ci95_low']:+.3g} to {row['ci95_high']:+.3g})"
         if math.isfinite(row["ci95_low"])
-        else ""
+        else f" (no interval: {too_few_for_interval(n)})"
     )
     return (
         f"{row['method']}: {n} shared trial(s); B - A mean error {row['mean_diff']:+.3g} "

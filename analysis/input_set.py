@@ -27,7 +27,7 @@ same words wherever they are printed (terminal, report, JUnit).
 from __future__ import annotations
 
 import functools
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Self
@@ -42,7 +42,7 @@ from twopose.format.identity import (
 )
 from twopose.format.reader import find_sessions, is_results_file
 
-__all__ = ["FoundSession", "InputSet", "SessionIdentity", "resolve_inputs"]
+__all__ = ["FoundSession", "InputSet", "SessionIdentity", "resolve_inputs", "sessions_said"]
 
 #: One session file found (:class:`twopose.format.identity.SessionFile`).
 FoundSession = SessionFile
@@ -170,6 +170,22 @@ class InputSet:
         )
 
     @property
+    def set_aside(self) -> tuple[str, ...]:
+        """Every input not analysed as given: a file named twice, a copy or twin counted
+        once, an empty session, a board session (for ``rig``). Continuations and forks'
+        branches are not among them: they are analysed, joined or apart."""
+        return tuple(
+            dict.fromkeys(
+                [
+                    *(path for path, _ in self.repeats),
+                    *(path for path, _, _ in self.others),
+                    *(s.path for s in self.empty),
+                    *(s.path for s in self.boards),
+                ]
+            )
+        )
+
+    @property
     def units(self) -> tuple[str, ...]:
         """The units of the measurement sessions, in order of first appearance."""
         return tuple(dict.fromkeys(s.units for s in self.measured if s.units))
@@ -200,6 +216,32 @@ class InputSet:
             "not analysed here"
             for s in self.boards
         ]
+
+
+def sessions_said(strands: Iterable[tuple[str, str]], verb: str = "") -> str:
+    """How many sessions ``strands`` are, ``(session id, branch)`` each: ``3 session(s)``,
+    and when some session is in more than one strand (analysed apart), how: a fork's
+    branches, or the parts before and after a part not among the inputs (``verb`` after
+    the count: ``3 session(s) analysed, taken as 5 (...)``). Counts of
+    sessions count sessions (``info``, ``run``, the report), never files or strands."""
+    groups: dict[str, list[str]] = {}
+    for session_id, branch in strands:
+        groups.setdefault(session_id, []).append(branch)
+    n_strands = sum(len(g) for g in groups.values())
+    said = f"{len(groups)} session(s)" + (f" {verb}" if verb else "")
+    if n_strands == len(groups):
+        return said
+    forked = [g for g in groups.values() if len(set(g)) > 1]
+    # Two strands on one branch: a part between them is missing (its later part can only
+    # start a strand of its own).
+    broken = [g for g in groups.values() if len(g) > len(set(g))]
+    how = []
+    if forked:
+        n = sum(len(set(g)) for g in forked)
+        how.append(f"{len(forked)} forked into {n} branches")
+    if broken:
+        how.append(f"{len(broken)} split by a missing part")
+    return f"{said}, taken as {n_strands} ({'; '.join(how)})"
 
 
 def resolve_inputs(paths: str | Path | Sequence[str | Path] | InputSet) -> InputSet:

@@ -245,13 +245,38 @@ def _joined(parts: list[_Replay], later: list[str]) -> _Replay:
     return dataclasses.replace(
         first,
         trials=trials,
-        metadata={**first.metadata, "continuations": said},
+        metadata={**first.metadata, "continuations": said, **_operators(parts, kept, later)},
         last_ns=[p.last_ns[i] for p, i in pick],
         frame_rows=[r for k, p in enumerate(parts) for r in p.frame_rows if r["trial"] in kept[k]],
         notes=[p.notes[i] for p, i in pick],
         unmeasured=[p.unmeasured[i] for p, i in pick],
         part_of=[p.part_of[i] for p, i in pick],
     )
+
+
+def _operators(parts: list[_Replay], kept: list[set[int]], later: list[str]) -> dict[str, str]:
+    """The session's operator, each with the part and trials they recorded when the parts
+    were recorded by more than one (a continuation by another operator is never shown
+    under the first); nothing to change when one recorded them all."""
+    who = [p.metadata.get("operator", "") for p in parts]
+    if len(set(who)) <= 1:
+        return {}
+    names = [Path(parts[0].session).name, *(Path(p).name for p in later)]
+    said = [
+        f"{name or '(none)'} ({file}: {_trial_numbers(sorted(trials))})"
+        for name, file, trials in zip(who, names, kept, strict=True)
+        if trials
+    ]
+    return {"operator": "; ".join(said)}
+
+
+def _trial_numbers(ids: list[int]) -> str:
+    """``trial 3``, ``trials 1-2``, ``trials 1, 3, 5``."""
+    if len(ids) == 1:
+        return f"trial {ids[0]}"
+    if ids == list(range(ids[0], ids[-1] + 1)):
+        return f"trials {ids[0]}-{ids[-1]}"
+    return "trials " + ", ".join(str(i) for i in ids)
 
 
 def _corrected(replay: _Replay, rig: RigConstants | None) -> _Replay:

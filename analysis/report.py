@@ -21,11 +21,18 @@ from analysis.answer import (
     session_order,
     share,
     shown_name,
+    with_branch,
 )
 from analysis.captions import overview_caption, session_caption
 from analysis.charts import session_chart
 from analysis.html_page import chart_html, chart_scripts, page_html, table_html
-from analysis.metrics import SESSION_SETS, by_session_set, session_set, used_trials
+from analysis.metrics import (
+    MIN_INTERVAL_TRIALS,
+    SESSION_SETS,
+    by_session_set,
+    session_set,
+    used_trials,
+)
 from analysis.run_charts import overview_charts, sensitivity_chart
 from analysis.table_labels import metadata_table, readable_columns, table_units, unit_label
 from analysis.thesis import thesis_sessions
@@ -52,6 +59,7 @@ __all__ = [
 #: The per-trial columns the report shows (every column is in trials.csv).
 REPORT_TRIAL_COLUMNS = [
     "trial",
+    "branch",  # only in a session with a branch (:func:`_trial_table`)
     "status",
     "n_views",
     "x",
@@ -83,6 +91,8 @@ def _trial_table(trials: pd.DataFrame) -> pd.DataFrame:
     """The report's view of a session's trials: what was measured, its error and why not;
     the line's columns only for a line session."""
     columns = [c for c in REPORT_TRIAL_COLUMNS if c in trials]
+    if "branch" in trials and not trials["branch"].astype(str).ne("").any():
+        columns.remove("branch")  # a session that never forked: no column of blanks
     if not any(spec_of(str(m)).estimates_line for m in trials["method"].unique()):
         columns = [c for c in columns if c not in ("angle_err_deg", "dist_err")]
     return trials[columns]
@@ -184,7 +194,8 @@ def summary_document(result: RunResult) -> dict[str, object]:
         "twopose_version": __version__,
         "format_version": FORMAT_VERSION,
         "include_warned": result.include_warned,
-        "n_sessions": len(result.sessions),
+        "n_sessions": result.n_sessions,
+        "n_analysed_apart": len(result.sessions),
         "n_failed": len(result.errors),
         "n_trials": len(result.trials),
         "n_ok": int((result.trials["status"] == "ok").sum()),
@@ -254,11 +265,11 @@ def _answer_section(result: RunResult) -> list[str]:
     inputs = _inputs_section(result)
     parts = [
         "<h1>twopose report</h1>",
-        f"<p>{len(result.sessions)} session(s) analysed, {len(result.errors)} failed, "
+        f"<p>{html.escape(result.sessions_said('analysed'))}, {len(result.errors)} failed, "
         f"{len(result.trials)} trial(s), {n_ok} ok"
         + (
-            f"; {len(result.input_notes)} input(s) not analysed as given"
-            if result.input_notes
+            f"; {len(result.inputs_set_aside)} input(s) not analysed as given"
+            if result.inputs_set_aside
             else ""
         )
         + ".</p>",
@@ -290,7 +301,9 @@ def _answer_section(result: RunResult) -> list[str]:
     parts.append(
         f"<p class='how-to-read'>Pooled over the sessions, over {which}. Errors are distances "
         "from the truth; RMSE with its 95% bootstrap interval, biases (mean error) with the "
-        "half-widths of their 95% intervals; the “truth inside its 95% ellipsoid” column is "
+        f"half-widths of their 95% intervals, each from {MIN_INTERVAL_TRIALS} trials on (from "
+        "fewer, a bootstrap only reshuffles the few errors there are: none is shown, and the "
+        "cell says why); the “truth inside its 95% ellipsoid” column is "
         "the share of trials whose truth lies inside their own 95% uncertainty ellipsoid "
         "(95% when the uncertainty is honest). A table per unit: its “within 1” is 1 of that "
         "unit; the verdict lines count the thesis' 1 in, saying which errors they converted "
@@ -310,12 +323,12 @@ def _answer_section(result: RunResult) -> list[str]:
 def _inputs_line(result: RunResult) -> list[str]:
     """One line above the answer counting the inputs that failed or were left out, with a
     link to their list (after the answer)."""
-    failed, notes = len(result.errors), len(result.input_notes)
-    if not (failed or notes):
+    failed, aside = len(result.errors), len(result.inputs_set_aside)
+    if not (failed or aside):
         return []
     return [
-        f"<p class='inputs-line err'>{failed} input(s) failed and {notes} not analysed as "
-        "given (copies, board sessions, empty sessions): "
+        f"<p class='inputs-line err'>{failed} input(s) failed and {aside} not analysed as "
+        "given (copies, board sessions, empty sessions, files named twice): "
         "<a href='#inputs'>the list, after the answer</a>.</p>"
     ]
 
@@ -492,6 +505,11 @@ def _number(session: SessionResult, i: int) -> int:
     return session.index if session.index >= 0 else i
 
 
+def _heading(session: SessionResult) -> str:
+    """A session's heading: its name, with the branch its trials end on (a fork's)."""
+    return with_branch(session.name, session.branch)
+
+
 def _session_sections(result: RunResult) -> list[str]:
     parts = ["<h2 id='sessions'>Sessions</h2>" if result.sessions else ""]
     rank = {name: k for k, name in enumerate([*SESSION_SETS, ""])}
@@ -500,7 +518,7 @@ def _session_sections(result: RunResult) -> list[str]:
     )
     for i in order:  # thesis_* first, as the answer; figures keep the run's numbering
         s = result.sessions[i]
-        parts.append(f"<h3 title='{html.escape(s.session)}'>{html.escape(s.name)}</h3>")
+        parts.append(f"<h3 title='{html.escape(s.session)}'>{html.escape(_heading(s))}</h3>")
         metadata = metadata_table(s.metadata)
         parts.append(table_html(metadata, text=True).replace("<thead>", "<thead hidden>", 1))
         parts.append(_notes(s.metadata))

@@ -117,6 +117,19 @@ class SessionResult:
         """Its label, or its file name."""
         return self.label or Path(self.session).name
 
+    @property
+    def session_id(self) -> str:
+        """The session it is (a fork's branches and a session's parts around a missing one
+        are analysed apart, one id): from its trials, else its path."""
+        ids = self.trials["session_id"] if "session_id" in self.trials else ()
+        return str(ids.iloc[0]) if len(ids) and ids.iloc[0] else self.session
+
+    @property
+    def branch(self) -> str:
+        """The branch its trials end on ("" on a session that never forked)."""
+        branches = self.trials["branch"] if "branch" in self.trials else ()
+        return str(branches.iloc[-1]) if len(branches) else ""
+
 
 @dataclass(frozen=True, kw_only=True)
 class SessionFailure:
@@ -144,10 +157,27 @@ class RunResult:
     #: What the run says about its inputs: copies counted once, board sessions (for
     #: `rig`), empty sessions (analysis.input_set.InputSet.notes)
     input_notes: tuple[str, ...] = ()
+    #: The inputs not analysed as given (:attr:`analysis.input_set.InputSet.set_aside`):
+    #: what the report's counts count, where ``input_notes`` also says how continuations
+    #: and forks were joined (analysed, all of them)
+    inputs_set_aside: tuple[str, ...] = ()
 
     @property
     def failed(self) -> bool:
         return not self.errors.empty
+
+    @property
+    def n_sessions(self) -> int:
+        """The sessions analysed (a fork's branches are one session: :attr:`sessions`
+        holds each branch on its own)."""
+        return len({s.session_id for s in self.sessions})
+
+    def sessions_said(self, verb: str = "") -> str:
+        """The sessions analysed in words: ``3 session(s)``, and how some were taken apart
+        (:func:`analysis.input_set.sessions_said`)."""
+        from analysis.input_set import sessions_said
+
+        return sessions_said(((s.session_id, s.branch) for s in self.sessions), verb)
 
     @functools.cached_property
     def verdicts(self) -> Verdicts:

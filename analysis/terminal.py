@@ -85,7 +85,10 @@ def _method_rows(part: pd.DataFrame, summary: pd.DataFrame, *, include_warned: b
     """One row per method over ``part``'s trials (one set, one units)."""
     pooled = summarize(part.assign(session="all"), include_warned=include_warned)
     mine = summary[summary["session"].isin(set(part["session"]))]
-    sessions = mine.groupby("method")["session"].nunique()
+    # Sessions, not rows: a fork's branches are one session (so is a session whose middle
+    # part is missing, analysed in two rows).
+    key = "session_id" if "session_id" in mine else "session"
+    sessions = mine.groupby("method")[key].nunique()
     return [
         f"{r['method']!s:<7}{sessions.get(r['method'], 0):>8}{r['n_trials']:>7}"
         f"{r['n_ok']:>5}{r['n_warned']:>7}{_num(r['rmse']):>7}"

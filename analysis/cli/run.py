@@ -257,7 +257,7 @@ def _print_run(result: RunResult, out: Path, *, include_warned: bool) -> None:
     from analysis.terminal import closing_lines, summary_lines, wrap_phrases
 
     width = min(shutil.get_terminal_size().columns, 100) if sys.stdout.isatty() else None
-    typer.echo(f"twopose: {len(result.sessions)} session(s), results in {out}")
+    typer.echo(f"twopose: {result.sessions_said()}, results in {out}")
     if result.rig_source is not None:
         typer.echo(result.rig_source.line())
     for line in summary_lines(

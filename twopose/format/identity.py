@@ -386,12 +386,7 @@ def _joined_notes(strands: Sequence[Strand], parts: dict[str, Part]) -> list[str
                     "a run with FIXED.mcap joins them"
                 )
             elif part.parent is None:
-                name = info.continues_file or "the file it continues"
-                notes.append(
-                    f"{part.file.path}: continues {name} after trial {after}; {name} is not "
-                    f"among the inputs: analysed alone (its trials up to {after} are not in "
-                    "this run)"
-                )
+                notes.append(_missing_parent_note(part, strands))
             elif k == 0:
                 notes.append(
                     f"{part.file.path}: branch {part.branch} of the session, continuing "
@@ -404,6 +399,32 @@ def _joined_notes(strands: Sequence[Strand], parts: dict[str, Part]) -> list[str
                     f"one session with {strand.head}"
                 )
     return notes
+
+
+def _missing_parent_note(part: Part, strands: Sequence[Strand]) -> str:
+    """What a continuation whose continued file is not given is taken as: alone, or, when
+    the session's earlier parts are given, apart from them (one session in two rows: the
+    trials of the missing part between them are what the run lacks)."""
+    info = part.file.info
+    assert info is not None and info.continues_after_trial is not None
+    name, after = info.continues_file or "the file it continues", info.continues_after_trial
+    earlier = [
+        s.head
+        for s in strands
+        if s.session_id == part.file.session_id and part not in s.parts
+    ]
+    if not earlier:
+        return (
+            f"{part.file.path}: continues {name} after trial {after}; {name} is not among the "
+            f"inputs: analysed alone (its trials up to {after} are not in this run)"
+        )
+    before = ", ".join(earlier)
+    return (
+        f"{part.file.path}: continues {name} after trial {after}; {name} is not among the "
+        f"inputs: the session is analysed in two pieces with one session id ({before}, "
+        f"and this file on), and the trials {name} recorded after {before}'s, up to trial "
+        f"{after}, are not in this run"
+    )
 
 
 def path_labels(paths: Iterable[str]) -> dict[str, str]:
