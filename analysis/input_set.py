@@ -37,6 +37,7 @@ from twopose.format.identity import (
     Strand,
     file_digest,
     identify_file,
+    kept_of_copies,
     path_labels,
     resolve_session_files,
 )
@@ -89,6 +90,9 @@ class InputSet:
     repeats: tuple[tuple[str, str], ...] = ()
     strands: tuple[Strand, ...] = ()  # what ``run`` analyses, one strand each
     strand_notes: tuple[str, ...] = ()  # continuations and forks, in words
+    #: the path kept of copies that tie on all else -> why it
+    #: (:func:`twopose.format.identity.kept_of_copies`: outside a backup folder, the oldest)
+    kept_why: tuple[tuple[str, str], ...] = ()
 
     @property
     def copies(self) -> tuple[tuple[str, str], ...]:
@@ -199,8 +203,10 @@ class InputSet:
             + "; counted once"
             for path, first in dict.fromkeys(self.repeats)
         ]
+        chosen = dict(self.kept_why)
         copies = [
             f"{path}: the same session as {kept} ({why}); counted once"
+            + (f", {kept} kept: {chosen[kept]}" if kept in chosen else "")
             for path, kept, why in self.others
         ]
         empty = [
@@ -256,10 +262,8 @@ def resolve_inputs(paths: str | Path | Sequence[str | Path] | InputSet) -> Input
         return paths
     if isinstance(paths, str | Path):
         paths = [paths]
-    found: list[FoundSession] = []
-    others: list[tuple[str, str, str]] = []
     skipped: list[str] = []
-    first_of: dict[str, str] = {}
+    by_digest: dict[str, list[str]] = {}  # each content -> its paths, in the order given
     repeats: list[tuple[str, str]] = []
     named: dict[Path, str] = {}  # each file (resolved) -> the path first naming it
     for path in find_sessions(paths, unique=False):
@@ -271,12 +275,17 @@ def resolve_inputs(paths: str | Path | Sequence[str | Path] | InputSet) -> Input
         if is_results_file(path):
             skipped.append(str(path))
             continue
-        digest = file_digest(path)
-        if digest in first_of:  # a byte copy: never read again
-            others.append((str(path), first_of[digest], "a byte copy"))
-            continue
-        first_of[digest] = str(path)
-        found.append(identify_file(path, digest))
+        by_digest.setdefault(file_digest(path), []).append(str(path))
+    found: list[FoundSession] = []
+    others: list[tuple[str, str, str]] = []
+    kept_why: list[tuple[str, str]] = []
+    for digest, copies in by_digest.items():  # byte copies: one read, the others said
+        kept = copies[0]
+        if len(copies) > 1:
+            kept, why = kept_of_copies(copies)
+            kept_why.append((kept, why))
+            others += [(p, kept, "a byte copy") for p in copies if p != kept]
+        found.append(identify_file(kept, digest))
     measuring = [s for s in found if not s.is_board]
     resolution = resolve_session_files(measuring)
     return InputSet(
@@ -286,4 +295,5 @@ def resolve_inputs(paths: str | Path | Sequence[str | Path] | InputSet) -> Input
         repeats=tuple(repeats),
         strands=resolution.strands,
         strand_notes=resolution.notes,
+        kept_why=(*kept_why, *resolution.kept_why),
     )

@@ -121,14 +121,16 @@ class SessionResult:
     def session_id(self) -> str:
         """The session it is (a fork's branches and a session's parts around a missing one
         are analysed apart, one id): from its trials, else its path."""
-        ids = self.trials["session_id"] if "session_id" in self.trials else ()
-        return str(ids.iloc[0]) if len(ids) and ids.iloc[0] else self.session
+        if "session_id" not in self.trials or self.trials.empty:
+            return self.session
+        return str(self.trials["session_id"].iloc[0]) or self.session
 
     @property
     def branch(self) -> str:
         """The branch its trials end on ("" on a session that never forked)."""
-        branches = self.trials["branch"] if "branch" in self.trials else ()
-        return str(branches.iloc[-1]) if len(branches) else ""
+        if "branch" not in self.trials or self.trials.empty:
+            return ""
+        return str(self.trials["branch"].iloc[-1])
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -69,7 +69,7 @@ def compare_command(
 ) -> None:
     """Compare two runs: statistics side by side, and paired differences (B - A) on the
     trials both measured, with a 95% interval and a sign-flip test, per method."""
-    from analysis.comparison import compare, describe_test
+    from analysis.comparison import compare, describe_one_sided, describe_test
 
     with handle_errors():
         comparison = compare(
@@ -85,4 +85,6 @@ def compare_command(
         typer.echo(describe_test(row))
     if comparison.tests.empty:
         typer.echo("no trial measured in both runs")
+    for line in describe_one_sided(comparison.one_sided):
+        typer.echo(line)
     typer.echo(f"wrote {out / 'compare.html'} and its tables")

@@ -32,6 +32,7 @@ import dataclasses
 import hashlib
 import json
 import os
+import re
 import string
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -53,6 +54,8 @@ __all__ = [
     "Strand",
     "file_digest",
     "identify_file",
+    "kept_of_copies",
+    "looks_like_backup",
     "path_labels",
     "resolve_session_files",
 ]
@@ -189,6 +192,49 @@ def _opening(path: str | Path) -> SessionInfo | None:
     return None
 
 
+#: A folder or file name a copy is kept under: ``backup``, ``bak``, ``old``, ``copy``,
+#: ``archive``, ``usb``, ``trash`` as a word of it, ``Copy of ...``, ``... (1)``, ``...~``.
+_BACKUP_NAME = re.compile(
+    r"(?:^|[^a-z])(?:backups?|bak|bkp|old|copy|copies|archived?|archives|usb|trash)"
+    r"(?:$|[^a-z])|\(\d+\)$|~$",
+    re.IGNORECASE,
+)
+
+
+def looks_like_backup(path: str) -> bool:
+    """Whether ``path`` lies in a backup-looking folder or has a copy's name."""
+    parts = Path(os.path.normpath(path)).parts
+    names = [*parts[:-1], Path(parts[-1]).stem, Path(parts[-1]).suffix.lstrip(".")] if parts else []
+    return any(_BACKUP_NAME.search(name) for name in names)
+
+
+def kept_of_copies(paths: Sequence[str]) -> tuple[str, str]:
+    """Which of ``paths``, copies of one part that tie on all else, is kept, and why.
+
+    The one outside a backup-looking path (:func:`looks_like_backup`), else the oldest
+    (modified first), else the first given: so that a session is named by its original's
+    path, never by the backup's.
+    """
+    given = list(dict.fromkeys(paths))
+    outside = [p for p in given if not looks_like_backup(p)]
+    if outside and len(outside) < len(given):
+        if len(outside) == 1:
+            return outside[0], "the copy outside a backup-looking folder"
+        given = outside
+    ages = {p: _modified(p) for p in given}
+    oldest = min(given, key=lambda p: ages[p])  # the first given among equals
+    if sum(ages[p] == ages[oldest] for p in given) == 1:
+        return oldest, "the oldest copy"
+    return oldest, "the first given (the copies are as old)"
+
+
+def _modified(path: str) -> float:
+    try:
+        return os.stat(path).st_mtime
+    except OSError:
+        return float("inf")
+
+
 @dataclass(frozen=True, kw_only=True)
 class Part:
     """A part of a session: the file kept for it, and the other files holding it."""
@@ -239,6 +285,8 @@ class Resolution:
     others: tuple[tuple[str, str, str], ...] = ()
     notes: tuple[str, ...] = ()
     forks: tuple[str, ...] = ()  # one sentence per fork found
+    #: (the path kept, why it of copies that tie on all else: :func:`kept_of_copies`)
+    kept_why: tuple[tuple[str, str], ...] = ()
 
 
 def resolve_session_files(files: Sequence[SessionFile]) -> Resolution:
@@ -248,7 +296,7 @@ def resolve_session_files(files: Sequence[SessionFile]) -> Resolution:
     into branches. ``files`` may be readable or not; board sessions are not for this (each
     calibrates on its own).
     """
-    parts, others = _parts(files)
+    parts, others, kept_why = _parts(files)
     by_digest = {f.digest: f.part_key for f in files}  # every copy names its part
     linked = {key: _linked(part, parts, by_digest) for key, part in parts.items()}
     children: dict[str, list[str]] = {}
@@ -266,24 +314,39 @@ def resolve_session_files(files: Sequence[SessionFile]) -> Resolution:
         pending = more + pending
     notes = [*_joined_notes(strands, linked), *forks]
     return Resolution(
-        strands=tuple(strands), others=tuple(others), notes=tuple(notes), forks=tuple(forks)
+        strands=tuple(strands),
+        others=tuple(others),
+        notes=tuple(notes),
+        forks=tuple(forks),
+        kept_why=tuple(kept_why),
     )
 
 
-def _parts(files: Sequence[SessionFile]) -> tuple[dict[str, Part], list[tuple[str, str, str]]]:
-    """One part per part key, the best file kept (readable, more poses, first given)."""
+def _parts(
+    files: Sequence[SessionFile],
+) -> tuple[dict[str, Part], list[tuple[str, str, str]], list[tuple[str, str]]]:
+    """Keep one file per part key: the best (readable, more poses).
+
+    Of copies that tie, :func:`kept_of_copies`' choice, with why.
+    """
     groups: dict[str, list[SessionFile]] = {}
     for f in files:
         groups.setdefault(f.part_key, []).append(f)
     parts: dict[str, Part] = {}
     others: list[tuple[str, str, str]] = []
+    kept_why: list[tuple[str, str]] = []
     for key, group in groups.items():
-        rank = {id(f): k for k, f in enumerate(group)}
-        kept = max(group, key=lambda f: (f.readable, f.n_poses, -rank[id(f)]))
+        best = max((f.readable, f.n_poses) for f in group)
+        tied = [f for f in group if (f.readable, f.n_poses) == best]
+        kept = tied[0]
+        if len(tied) > 1:
+            path, reason = kept_of_copies([f.path for f in tied])
+            kept = next(f for f in tied if f.path == path)
+            kept_why.append((path, reason))
         why = [(f.path, kept.path, _why_not_kept(f, kept)) for f in group if f is not kept]
         others += why
         parts[key] = Part(file=kept, others=tuple((p, w) for p, _, w in why))
-    return parts, others
+    return parts, others, kept_why
 
 
 def _why_not_kept(f: SessionFile, kept: SessionFile) -> str:
@@ -402,16 +465,17 @@ def _joined_notes(strands: Sequence[Strand], parts: dict[str, Part]) -> list[str
 
 
 def _missing_parent_note(part: Part, strands: Sequence[Strand]) -> str:
-    """What a continuation whose continued file is not given is taken as: alone, or, when
-    the session's earlier parts are given, apart from them (one session in two rows: the
-    trials of the missing part between them are what the run lacks)."""
+    """Say what a continuation whose continued file is not given is taken as.
+
+    Alone, or, when the session's earlier parts are given, apart from them (one session
+    in two rows: the trials of the missing part between them are what the run lacks).
+    """
     info = part.file.info
-    assert info is not None and info.continues_after_trial is not None
+    assert info is not None
+    assert info.continues_after_trial is not None
     name, after = info.continues_file or "the file it continues", info.continues_after_trial
     earlier = [
-        s.head
-        for s in strands
-        if s.session_id == part.file.session_id and part not in s.parts
+        s.head for s in strands if s.session_id == part.file.session_id and part not in s.parts
     ]
     if not earlier:
         return (
