@@ -69,8 +69,10 @@ class FigureJob:
     @classmethod
     def of(cls, result: SessionResult, *, include_warned: bool = False) -> FigureJob:
         """The figures of an analysed session, warned trials included or not."""
+        from analysis.answer import with_branch
+
         return cls(
-            session=result.name,
+            session=with_branch(result.name, result.branch),
             trials=result.trials,
             averaging=result.averaging,
             views=result.views,

@@ -526,7 +526,7 @@ def _session_sections(result: RunResult) -> list[str]:
         caption = session_caption(s.trials, include_warned=result.include_warned, units=units)
         try:
             spec = session_chart(
-                s.name,
+                _heading(s),
                 s.trials,
                 s.averaging,
                 s.views,
