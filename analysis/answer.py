@@ -23,6 +23,7 @@ __all__ = [
     "session_order",
     "share",
     "shown_name",
+    "strand_names",
     "with_branch",
 ]
 
@@ -84,6 +85,21 @@ def with_branch(name: str, branch: str) -> str:
     return f"{name} [branch {branch}]" if branch else name
 
 
+def strand_names(trials: pd.DataFrame) -> pd.Series:
+    """Each trial's session as a reader is shown it (a chart's row, a figure's legend):
+    its label with the branch its session's trials end on (:func:`with_branch`), as the
+    report's tables name it. Over every trial of the run: a subset (the used trials) may
+    not hold its strand's last."""
+    label = (
+        trials["label"] if "label" in trials else trials["session"].map(lambda s: Path(str(s)).name)
+    )
+    if "branch" not in trials or trials.empty:
+        return label.astype(str)
+    last = trials.groupby("session", sort=False)["branch"].transform("last")
+    names = [with_branch(str(n), str(b)) for n, b in zip(label, last, strict=True)]
+    return pd.Series(names, index=trials.index, dtype="str")
+
+
 def noise_phrases(row: pd.Series) -> list[str]:
     """A session's noise model in words (a ``summary.csv`` row): the placing sigma its
     regions assumed and where it came from, and sigma0's test (:func:`twopose.noise.noise_words`);
@@ -141,8 +157,8 @@ def _interval(low: object, high: object, n_used: int) -> str:
 def _plus_minus(value: object, half: object, n_used: int) -> str:
     if number(half) != "-":
         return f"{number(value, signed=True)} ± {number(half)}"
-    if number(value) != "-" and n_used < MIN_INTERVAL_TRIALS:
-        return f"{number(value, signed=True)} (no interval: {too_few_for_interval(n_used)})"
+    if number(value) != "-" and n_used < MIN_INTERVAL_TRIALS:  # why: the RMSE's cell
+        return f"{number(value, signed=True)} (no interval)"
     return number(value, signed=True)
 
 

@@ -27,7 +27,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.ticker import MaxNLocator
 
-from analysis.answer import session_order, with_branch
+from analysis.answer import session_order, strand_names, with_branch
 from analysis.figure_style import (
     DPI,
     KEY_MARGIN,
@@ -445,10 +445,11 @@ def plot_error_by_trial(fig: Figure, trials: pd.DataFrame, *, include_warned: bo
     trials across one the statistics do not use."""
     measured, units = common_units(used_trials(trials, include_warned=True, measured=True))
     used = used_trials(measured, include_warned=include_warned, measured=True)
+    names = strand_names(trials)  # over every trial: a strand's last may not be measured
     ax = fig.add_subplot()
     handles = []
     rest = []
-    for k, (session, g) in enumerate(session_order(measured).groupby("session", sort=False)):
+    for k, (_session, g) in enumerate(session_order(measured).groupby("session", sort=False)):
         g = g.sort_values("trial")
         keep = g.index.isin(used.index)
         err = np.where(keep, g["err"].to_numpy(dtype=np.float64), np.nan)
@@ -460,8 +461,7 @@ def plot_error_by_trial(fig: Figure, trials: pd.DataFrame, *, include_warned: bo
         if "semiaxis95" in g:
             semi = np.where(keep, g["semiaxis95"].to_numpy(dtype=np.float64), np.nan)
             ax.plot(xy[:, 0], semi, ":", color=f"C{k}", lw=0.8)
-        label = str(g["label"].iloc[0] if "label" in g else session)
-        name = figure_name(with_branch(label, str(g["branch"].iloc[-1]) if "branch" in g else ""))
+        name = figure_name(str(names.loc[g.index[0]]))
         handles.append(key(name, color=f"C{k}", marker="o", ms=3, linestyle="-"))
     if rest:
         ax.add_collection(LineCollection(rest, colors="0.6", linewidths=0.6))
