@@ -36,6 +36,7 @@ from analysis.gate_tolerance import (
 from analysis.run_tables import check_results_table, read_results_table
 from twopose.errors import InputValueError
 from twopose.methods import Method
+from twopose.units import unit_spec
 
 __all__ = [
     "CHECKED_METRICS",
@@ -198,7 +199,7 @@ def _pair_rows(
     if pair.lost:
         rows.append(_row(session, method, "(trials)", float(pair.lost), math.nan, "missing"))
     tolerance = tolerances.get(method, tolerances[""])
-    units = str(pair.result["units"])
+    units = unit_spec(str(pair.result["units"])).units
     for metric in CHECKED_METRICS:
         if metric.column in skipped:
             continue

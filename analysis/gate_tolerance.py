@@ -23,7 +23,7 @@ from analysis.columns import SUMMARY_DOMAINS
 from twopose.config import build_dataclass, read_toml
 from twopose.errors import InputValueError
 from twopose.methods import MEASURING_METHODS
-from twopose.units import DEFAULT_UNITS, UNITS, unit_factor, unit_spec
+from twopose.units import DEFAULT_UNITS, UNITS, Units, unit_factor, unit_spec
 
 __all__ = [
     "CHECKED_METRICS",
@@ -68,7 +68,7 @@ class Tolerance:
     converted to each session's; ``n_ok``, ``n_used`` and ``n_warned`` count trials,
     ``coverage95`` is a share (0-1)."""
 
-    units: str = str(DEFAULT_UNITS)
+    units: Units = DEFAULT_UNITS
     rmse: Allowance = Allowance(relative=0.10)
     median_err: Allowance = Allowance(relative=0.10)
     bias: Allowance = Allowance(relative=0.10, absolute=0.05)
@@ -79,7 +79,7 @@ class Tolerance:
     n_warned: Allowance = Allowance()
     coverage95: Allowance = Allowance(absolute=0.05)
 
-    def allowed(self, metric: Metric, baseline: float, units: str) -> float:
+    def allowed(self, metric: Metric, baseline: float, units: Units) -> float:
         """How much worse ``metric`` may get from ``baseline``, in a session in ``units``
         (a length's absolute allowance converted from :attr:`units`)."""
         allowance: Allowance = getattr(self, metric.allowance)
@@ -106,7 +106,7 @@ class Metric:
         """Whether its values (and its absolute allowance) are lengths."""
         return SUMMARY_DOMAINS[self.column] in ("length", "signed")
 
-    def unit(self, units: str) -> str:
+    def unit(self, units: Units) -> str:
         """The unit its values are in, in a session in ``units``: that unit for a length,
         ``trials`` for a count, none for a share."""
         if self.is_length:
@@ -172,7 +172,7 @@ def load_tolerance(path: str | Path | None) -> dict[str, Tolerance]:
             # inherits from the file's tables in another unit.
             raise InputValueError(
                 f"{what}: methods.{method}.units: the unit is the whole file's, given once at "
-                'its top (units = "in")'
+                f'its top (units = "{DEFAULT_UNITS}")'
             )
         tolerances[method] = _tolerance(
             default, table, what, f"methods.{method}.", has_units=has_units
@@ -198,17 +198,21 @@ def _tolerance(
             if _unitless_length(metric, field, number) and not has_units:
                 raise InputValueError(
                     f"{what}: {prefix}{metric}.absolute = {number!r} is a length with no unit: "
-                    f'add units = "in" (or {", ".join(u for u in UNITS if u != "in")}) at the '
-                    "top of the file; it is converted to each session's units"
+                    f'add units = "{DEFAULT_UNITS}" (or '
+                    f"{', '.join(u for u in UNITS if u != DEFAULT_UNITS)}) at the top of the "
+                    "file; it is converted to each session's units"
                 )
-    if "units" in table:
-        _check_units(table["units"], f"{what}: {prefix}units")
+    units = _units(table.get("units", base.units), f"{what}: {prefix}units")
     merged = values | {
         k: values[k] | v if isinstance(v, dict) and isinstance(values.get(k), dict) else v
         for k, v in table.items()
+        if k != "units"  # a unit, not a number: read by _units
     }
+    merged.pop("units")
     where = f"{what}: {prefix.rstrip('.')}" if prefix else what
-    return build_dataclass(Tolerance, merged, where, InputValueError)
+    return dataclasses.replace(
+        build_dataclass(Tolerance, merged, where, InputValueError), units=units
+    )
 
 
 def _unitless_length(metric: str, field: str, number: object) -> bool:
@@ -220,10 +224,11 @@ def _unitless_length(metric: str, field: str, number: object) -> bool:
     return field == "absolute" and metric in _LENGTH_ALLOWANCES and number != 0
 
 
-def _check_units(units: object, what: str) -> None:
-    if not isinstance(units, str):
-        raise InputValueError(f"{what} must be one of {', '.join(UNITS)}, got {units!r}")
-    try:
-        unit_spec(units)
-    except InputValueError:
-        raise InputValueError(f"{what} must be one of {', '.join(UNITS)}, got {units!r}") from None
+def _units(given: object, what: str) -> Units:
+    """The file's ``units``, or a refusal naming the known ones."""
+    if isinstance(given, str):
+        try:
+            return unit_spec(given).units
+        except InputValueError:
+            pass
+    raise InputValueError(f"{what} must be one of {', '.join(UNITS)}, got {given!r}")

@@ -288,11 +288,18 @@ def _x_bias_row(
     if g.empty and len(trials) and (trials["method"] == biased).any():
         why = unusable(trials[trials["method"] == biased], include_warned=include_warned)
         return row | {"twopose": why, "reproduced": NO_DATA}
-    if len(g) < MIN_INTERVAL_TRIALS:  # its test is an interval: none from so few
-        return row | {"twopose": too_few_for_interval(len(g)), "reproduced": NO_DATA}
+    if len(g) < 2:
+        return row | {"twopose": f"{len(g)} trial(s): too few", "reproduced": NO_DATA}
     bias, half = _mean_interval(g["err_x_in"].to_numpy(dtype=np.float64))
     low, high = bias - half, bias + half
     over = int((g["err_x_in"] > 0).sum())
+    if math.isnan(half):  # its test is an interval: none from so few, so it cannot decide
+        text = (
+            f"x bias {bias:+.2f} in (no interval: {too_few_for_interval(len(g))})"
+            f"{converted_from(g['units'])}, {over} of {len(g)} trials over; test: the "
+            f"interval above 0 (yes) or under {_X_BIAS_MATERIAL_IN:g} in (no)"
+        )
+        return row | {"twopose": text, "reproduced": CANT_TELL}
     text = (
         f"x bias {bias:+.2f} ± {half:.2f} in (95%){converted_from(g['units'])}, "
         f"{over} of {len(g)} trials over; test: "
@@ -356,7 +363,8 @@ def _averaging_row(trials: pd.DataFrame, averaging: pd.DataFrame) -> dict[str, s
     if math.isnan(half):
         text = (
             f"gain {gain:+.2f}% of the target's distance (no interval: "
-            f"{too_few_for_interval(len(gains))})"
+            f"{too_few_for_interval(len(gains))}); test: the interval inside {lo:g}-{hi:g}% "
+            "(yes), outside it (no)"
         )
         return row | {"twopose": text, "reproduced": CANT_TELL}
     text = (

@@ -68,7 +68,8 @@ def compare_command(
     ] = False,
 ) -> None:
     """Compare two runs: statistics side by side, and paired differences (B - A) on the
-    trials both measured, with a 95% interval and a sign-flip test, per method."""
+    trials both measured, with a 95% interval and a sign-flip test, per method; and the
+    trials only one run holds."""
     from analysis.comparison import compare, describe_one_sided, describe_test
 
     with handle_errors():

@@ -146,7 +146,7 @@ def test_two_sessions_of_one_name_are_told_apart_everywhere(
     figure = analysis.make_figures(analysis.run(lab))["error_by_trial"]
     legends = [*figure.legends, *(ax.get_legend() for ax in figure.axes)]
     legend = [t.get_text() for leg in legends if leg is not None for t in leg.get_texts()]
-    assert {"a_session", "b_session"} <= set(legend), legend
+    assert {"a/session.mcap", "b/session.mcap"} <= set(legend), legend  # labels (issue 56)
     info = _run("info", lab / "a", lab / "b", columns=80)
     assert "a/session.mcap" in info
     assert "b/session.mcap" in info
