@@ -237,3 +237,50 @@ def test_the_docs_show_the_reports_answer_and_a_figure_as_a_laptop_sees_them(
         figure = laptop.find_element(By.CSS_SELECTOR, "div.chart[data-chart^='session_'] svg")
         laptop.execute_script("arguments[0].scrollIntoView({block: 'center'})", figure)
         doc_image("report-figure.png", figure.screenshot_as_png)
+
+
+@pytest.fixture(scope="module")
+def forked_report(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The report of a lab's forked session (:mod:`tests.lab`'s drawn sessions): ``a``
+    (5 trials) continued after trial 5 by ``a2`` (branch A, 1 trial) and ``a3`` (B, 2)."""
+    from analysis.batch import run
+    from tests.lab import continue_session, record
+
+    folder = tmp_path_factory.mktemp("forked")
+    record(folder / "a.mcap", 5, measured=True)
+    continue_session(folder / "a.mcap", folder / "a2.mcap", 1, measured=True)
+    continue_session(folder / "a.mcap", folder / "a3.mcap", 2, measured=True)
+    run([folder], folder / "out", scene=False)
+    return folder / "out" / "report.html"
+
+
+@pytest.mark.parametrize("width", [1366, PHONE])
+def test_a_forked_sessions_tables_show_branch_and_ellipsoid_within_the_page(
+    forked_report: Path, browser: Any, width: int
+) -> None:
+    """Issue 56: as a reader sees them at 1366 px and on a phone, a forked session's
+    heading and trial table name the branch, its "truth inside its 95% ellipsoid" cells
+    read yes/no (they read "-"), a 2-trial session's interval cell says why there is none,
+    and the wider tables scroll in their boxes, the page never wider than the screen."""
+    _emulate(browser, width)
+    try:
+        browser.get(forked_report.as_uri())
+        inner = browser.execute_script("return window.innerWidth")
+        assert browser.execute_script("return document.documentElement.scrollWidth") <= inner
+        headings = [h.text for h in browser.find_elements(By.CSS_SELECTOR, "h3")]
+        assert {"a.mcap [branch A]", "a3.mcap [branch B]"} <= set(headings)
+        cells = browser.execute_script(
+            "return [...document.querySelectorAll('table')].filter(t => {"
+            " const h = [...t.querySelectorAll('th')].map(x => x.textContent);"
+            " return h.includes('branch') && h.includes('status'); }).map(t => {"
+            " const h = [...t.querySelectorAll('th')].map(x => x.textContent);"
+            " const b = h.indexOf('branch'), w = h.indexOf('truth inside its 95% ellipsoid');"
+            " return [...t.querySelectorAll('tbody tr')].map(r =>"
+            " [r.children[b].textContent, r.children[w].textContent]); })"
+        )
+        assert [len(t) for t in cells] == [6, 2]  # a's 5 and a2's 1; a3's 2
+        assert sorted({b for t in cells for b, _ in t}) == ["", "A", "B"]
+        assert {w for t in cells for _, w in t} <= {"yes", "no"}
+        assert "none (2 trials: an interval needs 5)" in browser.page_source
+    finally:
+        _emulate(browser, None)
