@@ -445,7 +445,6 @@ def plot_error_by_trial(fig: Figure, trials: pd.DataFrame, *, include_warned: bo
     trials across one the statistics do not use."""
     measured, units = common_units(used_trials(trials, include_warned=True, measured=True))
     used = used_trials(measured, include_warned=include_warned, measured=True)
-    names = strand_names(trials)  # over every trial: a strand's last may not be measured
     ax = fig.add_subplot()
     handles = []
     rest = []
@@ -461,7 +460,7 @@ def plot_error_by_trial(fig: Figure, trials: pd.DataFrame, *, include_warned: bo
         if "semiaxis95" in g:
             semi = np.where(keep, g["semiaxis95"].to_numpy(dtype=np.float64), np.nan)
             ax.plot(xy[:, 0], semi, ":", color=f"C{k}", lw=0.8)
-        name = figure_name(str(names.loc[g.index[0]]))
+        name = figure_name(str(strand_names(trials).loc[g.index[0]]))  # all: its branch
         handles.append(key(name, color=f"C{k}", marker="o", ms=3, linestyle="-"))
     if rest:
         ax.add_collection(LineCollection(rest, colors="0.6", linewidths=0.6))
@@ -539,13 +538,8 @@ def make_figures(result: RunResult) -> dict[str, Figure]:
     """
     figures: dict[str, Figure] = {}
     for i, s in enumerate(result.sessions):
-        drawn = session_figures(
-            with_branch(s.name, s.branch),
-            s.trials,
-            s.averaging,
-            s.views,
-            include_warned=result.include_warned,
-        )
+        name, tables = with_branch(s.name, s.branch), (s.trials, s.averaging, s.views)
+        drawn = session_figures(name, *tables, include_warned=result.include_warned)
         number = s.index if s.index >= 0 else i
         figures |= {figure_key(kind, number, s.name): fig for kind, fig in drawn.items()}
     return figures | run_figures(result)

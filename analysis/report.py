@@ -1,7 +1,8 @@
 """Report: the CSV tables, one PNG per figure (:mod:`analysis.figures`) and a
 self-contained ``report.html`` that answers first: per session set and method (the
 ``thesis_*`` sessions first: the thesis reproduced, then ``stress_*``), then per session.
-The page reads at 1280 px and at 390 px (:mod:`analysis.html_page`)."""
+The page reads at 1280 px and at 390 px (:mod:`analysis.html_page`). (Near the 600-line
+bound: one page, a short function per section; its words and charts live elsewhere.)"""
 
 from __future__ import annotations
 
@@ -505,11 +506,6 @@ def _number(session: SessionResult, i: int) -> int:
     return session.index if session.index >= 0 else i
 
 
-def _heading(session: SessionResult) -> str:
-    """A session's heading: its name, with the branch its trials end on (a fork's)."""
-    return with_branch(session.name, session.branch)
-
-
 def _session_sections(result: RunResult) -> list[str]:
     parts = ["<h2 id='sessions'>Sessions</h2>" if result.sessions else ""]
     rank = {name: k for k, name in enumerate([*SESSION_SETS, ""])}
@@ -518,7 +514,8 @@ def _session_sections(result: RunResult) -> list[str]:
     )
     for i in order:  # thesis_* first, as the answer; figures keep the run's numbering
         s = result.sessions[i]
-        parts.append(f"<h3 title='{html.escape(s.session)}'>{html.escape(_heading(s))}</h3>")
+        heading = with_branch(s.name, s.branch)  # a fork's branch named wherever its trials are
+        parts.append(f"<h3 title='{html.escape(s.session)}'>{html.escape(heading)}</h3>")
         metadata = metadata_table(s.metadata)
         parts.append(table_html(metadata, text=True).replace("<thead>", "<thead hidden>", 1))
         parts.append(_notes(s.metadata))
@@ -526,7 +523,7 @@ def _session_sections(result: RunResult) -> list[str]:
         caption = session_caption(s.trials, include_warned=result.include_warned, units=units)
         try:
             spec = session_chart(
-                _heading(s),
+                heading,
                 s.trials,
                 s.averaging,
                 s.views,
