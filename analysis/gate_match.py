@@ -173,14 +173,17 @@ def trial_changes(
     )
 
 
-def _session_rows(table: pd.DataFrame | None, session: str, method: Method) -> pd.DataFrame | None:
-    """One summary row's trials in its run's ``trials.csv`` (its ``session`` and method)."""
+def _session_rows(
+    table: pd.DataFrame | None, row: pd.Series, method: Method
+) -> pd.DataFrame | None:
+    """One summary row's trials in its run's ``trials.csv`` (its ``session`` and method);
+    None when that table does not hold them all (a run without one, or a summary and a
+    trials.csv that do not agree: then only the counts are compared, never nothing)."""
     if table is None or not {"part", "status"} <= set(table.columns):
         return None
-    rows: pd.DataFrame = table[
-        (table["session"].astype(str) == session) & (table["method"] == method)
-    ]
-    return rows
+    mine = (table["session"].astype(str) == str(row["session"])) & (table["method"] == method)
+    rows: pd.DataFrame = table[mine]
+    return rows if len(rows) == pd.to_numeric(row["n_trials"], errors="coerce") else None
 
 
 def _label(rows: pd.DataFrame | None) -> str:
@@ -203,10 +206,7 @@ def _same_trials(
     for _, row in after.iterrows():
         base_row = by_key[str(row["trials_key"])]
         old, notes = _in_units_of(base_row, unit_spec(row["units"]).units)
-        held = (
-            _session_rows(trials[0], str(row["session"]), method),
-            _session_rows(trials[1], str(base_row["session"]), method),
-        )
+        held = (_session_rows(trials[0], row, method), _session_rows(trials[1], base_row, method))
         changes = (
             trial_changes(held[0], held[1], include)
             if held[0] is not None and held[1] is not None

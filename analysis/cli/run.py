@@ -249,6 +249,15 @@ def _session_progress() -> Iterator[tuple[Callable[[int], None], Callable[[str, 
         )
 
 
+def _sessions_whose(result: RunResult, flag: str) -> tuple[int, int]:
+    """How many sessions had ``flag`` (``analysis_reused``, ``figures_reused``) on every row
+    they were analysed as, of how many: sessions, not a fork's branches."""
+    rows: dict[str, list[bool]] = {}
+    for s in result.sessions:
+        rows.setdefault(s.session_id, []).append(bool(getattr(s, flag)))
+    return sum(all(flags) for flags in rows.values()), len(rows)
+
+
 def _print_run(result: RunResult, out: Path, *, include_warned: bool) -> None:
     """The per-method and per-session summary (80 columns at a terminal, whole lines when
     piped), the skipped and failed inputs; exit 1 if any input failed."""
@@ -279,13 +288,15 @@ def _print_run(result: RunResult, out: Path, *, include_warned: bool) -> None:
     for _, e in result.errors.iterrows():
         typer.secho(f"failed: {e['error']}", err=True, fg=typer.colors.RED)
     if result.figures_reused:
+        reused, of = _sessions_whose(result, "figures_reused")
         typer.echo(
-            f"figures: {result.figures_reused} of {len(result.sessions)} session(s)' reused "
+            f"figures: {reused} of {of} session(s)' reused "
             f"from the last run into {out} (nothing they show changed)"
         )
     if result.sessions_reused:
+        reused, of = _sessions_whose(result, "analysis_reused")
         typer.echo(
-            f"analysis: {result.sessions_reused} of {len(result.sessions)} session(s)' reused "
+            f"analysis: {reused} of {of} session(s)' reused "
             f"from the last run into {out} (nothing it depends on changed)"
         )
     for line in closing_lines(result.verdict, out, width=width):

@@ -326,6 +326,15 @@ def test_a_trial_left_out_of_the_statistics_is_a_regression(parallax_runs: Path)
     assert back.exit_code == 1  # (its RMSE rose with the trial back in: that regressed)
     assert "n_used" not in back.output
     assert "n_warned" not in back.output
+    # A run without its trials.csv (or one that does not hold the summary's trials): the
+    # counts are compared, never nothing.
+    bare = base.parent / "bare"
+    shutil.copytree(warned, bare)
+    trials = pd.read_csv(bare / "trials.csv")
+    trials[trials["trial"] != 1].to_csv(bare / "trials.csv", index=False)
+    counted = runner.invoke(app, ["check", str(bare), "--baseline", str(base)])
+    assert "REGRESSED point.mcap (point) n_used: 2 -> 1 trials" in counted.output
+    assert "used by the baseline's" not in counted.output  # no trial named: only counts
     # A tolerance that allows one trial left out lets it pass, said as worse.
     tolerance = base.parent / "one_trial.toml"
     tolerance.write_text("[n_used]\nabsolute = 1\n[n_warned]\nabsolute = 1\n")

@@ -176,6 +176,8 @@ def test_counts_of_sessions_count_sessions(lab: Path, lab_run: tuple[Path, str])
     assert row.split()[1] == "3"  # the per-method table's "sessions"
     page = (out / "report.html").read_text(encoding="utf-8")
     assert f"<p>{said.replace(',', ' analysed,', 1)}, 0 failed" in page
+    again = _run("run", lab, "--out", out, "--no-scene")  # the same run, reused: said so
+    assert "analysis: 3 of 3 session(s)' reused from the last run" in again
 
 
 def test_a_session_missing_its_middle_part_says_so(lab_run: tuple[Path, str]) -> None:
