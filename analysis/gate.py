@@ -205,26 +205,27 @@ def _pair_rows(
             continue
         before, after = _value(pair.baseline, metric.column), _value(pair.result, metric.column)
         allowed = tolerance.allowed(metric, before, units)
-        trials = _trials_changed(pair, metric)
         # A count of trials is held to the trials behind it, when both runs' are known: a
         # trial the baseline used and the run left out is worse even if another came in.
+        trials = _trials_changed(pair, metric)
         worsening = None if trials is None else float(len(trials))
         status = _status(before, after, metric.sign, allowed, worsening)
+        said = f"{metric.trials_said}: {'; '.join(trials)}" if trials else ""
         rows.append(
             _row(session, method, metric.name, before, after, status, allowed)
-            | {"unit": metric.unit(units), "trials": "; ".join(trials or ())}
+            | {"unit": metric.unit(units), "trials": said}
         )
     return rows
 
 
 def _trials_changed(pair: Pair, metric: Metric) -> tuple[str, ...] | None:
-    """The trials behind a count's change (:class:`analysis.gate_match.TrialChanges`), or
-    None for a metric that is no such count or a pair whose trials are not known."""
-    if pair.changes is None:
+    """The trials behind a count's change (its :class:`analysis.gate_match.TrialChanges`
+    field), or None for a metric that is no such count or a pair whose trials are not
+    known."""
+    if pair.changes is None or not metric.trials:
         return None
-    return {"n_used": pair.changes.left_out, "n_warned": pair.changes.newly_warned}.get(
-        metric.allowance
-    )
+    changed: tuple[str, ...] = getattr(pair.changes, metric.trials)
+    return changed
 
 
 def _value(row: pd.Series, column: str) -> float:
@@ -276,13 +277,6 @@ def _row(
     }
 
 
-#: What a count's trials are, as ``describe`` says them.
-_TRIALS_SAID = {
-    "n_used": "left out of this run's statistics, used by the baseline's",
-    "n_warned": "warned in this run, not in the baseline",
-}
-
-
 def describe(row: pd.Series) -> str:
     """One line of what got worse: ``session (method) metric: a -> b unit (+d unit, +p%;
     allowed e unit)``, and the trials behind a count's change."""
@@ -306,9 +300,7 @@ def describe(row: pd.Series) -> str:
         f"({change:+.4g}{unit}{share}; allowed {float(row['allowed']):.4g}{unit})"
     )
     trials = str(row.get("trials", "") or "")
-    if trials:
-        line += f"; {_TRIALS_SAID.get(str(row['metric']), 'trials')}: {trials}"
-    return line
+    return f"{line}; {trials}" if trials else line
 
 
 def check_lines(outcome: CheckResult, baseline: str | Path) -> list[str]:

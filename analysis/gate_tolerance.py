@@ -100,6 +100,10 @@ class Metric:
     column: str
     allowance: str
     sign: int
+    #: For a count held to its trials: the :class:`analysis.gate_match.TrialChanges` field
+    #: naming them, and how a line says them ("" for the others).
+    trials: str = ""
+    trials_said: str = ""
 
     @property
     def is_length(self) -> bool:
@@ -122,8 +126,22 @@ CHECKED_METRICS = (
     Metric(name="|bias_y|", column="bias_y", allowance="bias", sign=+1),
     Metric(name="|bias_z|", column="bias_z", allowance="bias", sign=+1),
     Metric(name="n_ok", column="n_ok", allowance="n_ok", sign=-1),
-    Metric(name="n_used", column="n_used", allowance="n_used", sign=-1),
-    Metric(name="n_warned", column="n_warned", allowance="n_warned", sign=+1),
+    Metric(
+        name="n_used",
+        column="n_used",
+        allowance="n_used",
+        sign=-1,
+        trials="left_out",
+        trials_said="left out of this run's statistics, used by the baseline's",
+    ),
+    Metric(
+        name="n_warned",
+        column="n_warned",
+        allowance="n_warned",
+        sign=+1,
+        trials="newly_warned",
+        trials_said="warned in this run, not in the baseline",
+    ),
     Metric(name="coverage95", column="coverage95", allowance="coverage95", sign=-1),
 )
 #: The allowances whose absolute value is a length (it needs the file's ``units``).
