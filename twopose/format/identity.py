@@ -474,8 +474,12 @@ def _missing_parent_note(part: Part, strands: Sequence[Strand]) -> str:
     assert info is not None
     assert info.continues_after_trial is not None
     name, after = info.continues_file or "the file it continues", info.continues_after_trial
-    earlier = [
-        s.head for s in strands if s.session_id == part.file.session_id and part not in s.parts
+    earlier = [  # the session's pieces whose trials come before this part's
+        s.head
+        for s in strands
+        if s.session_id == part.file.session_id
+        and part not in s.parts
+        and (s.parts[0].file.continues_after or 0) < after
     ]
     if not earlier:
         return (
