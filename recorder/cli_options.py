@@ -9,8 +9,7 @@ from typing import Annotated, Any
 import typer
 
 from twopose.bounds import DEFAULT_MIN_GAIN
-from twopose.errors import InputValueError
-from twopose.units import Units
+from twopose.options import read_option
 
 __all__ = [
     "GridOption",
@@ -21,49 +20,6 @@ __all__ = [
     "TargetPrecisionOption",
     "read_option",
 ]
-
-
-class _Typed(float):
-    """A number as read from the command line, with the text it was typed as."""
-
-    text: str = ""
-
-
-def read_option(quantity: str) -> dict[str, Any]:
-    """An option's parser and callback: the text as typed, read by the quantity's one
-    reader (:mod:`twopose.bounds`: the grammar and the bound every other path applies), in
-    ``--units`` when they were given (an eager option, read first), else in whichever unit
-    takes it (the setup reads it again once the units are chosen)."""
-    from twopose import bounds
-
-    q: bounds.Quantity = getattr(bounds, quantity)
-    count = q.kind is bounds.Kind.COUNT
-
-    def parse(value: Any) -> Any:
-        if not isinstance(value, str):  # a default
-            return value
-        try:
-            typed = _Typed(q.parse_text(value.strip()))
-        except InputValueError as err:
-            raise typer.BadParameter(str(err)) from None
-        typed.text = value
-        return typed
-
-    def in_units(ctx: typer.Context, value: Any) -> Any:
-        if value is None:
-            return None
-        units = ctx.params.get("units")
-        try:
-            v = q.read(getattr(value, "text", value), Units(units) if units else None)
-        except InputValueError as err:
-            raise typer.BadParameter(str(err)) from None
-        return int(v) if count else v
-
-    lo, hi = q.limits(Units.IN)
-    no_unit = (bounds.Kind.COUNT, bounds.Kind.LENGTH, bounds.Kind.SHARE)
-    unit = "" if q.kind in no_unit else f" {q.unit_label(Units.IN)}"
-    span = "length" if q.kind is bounds.Kind.LENGTH else f"{lo:g}-{hi:g}{unit}"
-    return {"parser": parse, "callback": in_units, "metavar": f"<{span}>"}
 
 
 _read = read_option

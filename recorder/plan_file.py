@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from recorder.setup_rules import (
+    DEFAULT_MAX_POSES,
     THESIS_FOCAL_PX,
     THESIS_IMAGE_SIZE,
     board_refusal,
@@ -19,6 +20,7 @@ from recorder.setup_rules import (
     off_plane,
     other_plane_refusal,
     plane_entry,
+    thesis_reach,
 )
 from twopose.bounds import (
     BOARD_CORNER,
@@ -35,9 +37,11 @@ from twopose.bounds import (
     PRINCIPAL,
     REACH,
     ROTATION,
+    SEED,
     TARGET_DISTANCE,
     TARGET_PRECISION,
     Quantity,
+    shown,
 )
 from twopose.camera import Camera, Intrinsics
 from twopose.config import read_toml
@@ -268,7 +272,7 @@ def load_plan(path: str | Path) -> Plan:
     if not isinstance(raw_trials, list) or not raw_trials:
         raise InputValueError("plan: no [[trials]]")
     guidance, seed = _guidance(data.get("guidance"), units)
-    max_poses = guidance.max_poses if guidance is not None else _DEFAULT_MAX_POSES
+    max_poses = guidance.max_poses if guidance is not None else DEFAULT_MAX_POSES
     trials = tuple(
         _trial(t, i, method, units, cameras[0].camera_id, height, max_poses)
         for i, t in enumerate(raw_trials, start=1)
@@ -278,7 +282,8 @@ def load_plan(path: str | Path) -> Plan:
             'plan: poses = "guided" needs a target to locate; a board session plans its poses'
         )
     if guidance is None and any(t.guided for t in trials):
-        guidance = Guidance(reach=Reach.thesis(units), max_poses=max_poses, min_gain=None)
+        guidance = Guidance(reach=thesis_reach(units), max_poses=max_poses, min_gain=None)
+    _refuse_partnerless(data.get("guidance"), guided=any(t.guided for t in trials))
     return Plan(
         method=method,
         units=units,
@@ -297,8 +302,21 @@ def load_plan(path: str | Path) -> Plan:
     )
 
 
-#: A guided trial's most poses when the plan does not say.
-_DEFAULT_MAX_POSES = 6
+def _refuse_partnerless(table: dict[str, Any] | None, *, guided: bool) -> None:
+    """Refuse ``[guidance]`` keys that would have no effect: ``min_gain`` ends a trial
+    early as ``target_95`` does, with it only; ``max_poses`` caps a stop rule's or a
+    guided trial's poses (a planned trial has the poses it lists)."""
+    if not table or "target_95" in table:
+        return
+    idle = [k for k in ("min_gain", "max_poses") if k in table and (k == "min_gain" or not guided)]
+    if idle:
+        keys = " and ".join(f"guidance.{k}" for k in idle)
+        raise InputValueError(
+            f"plan: {keys} would have no effect: {'they shape' if len(idle) > 1 else 'it shapes'} "
+            "the stop rule, which guidance.target_95 sets"
+            + ("" if "min_gain" in idle else ', or a trial of poses = "guided"')
+            + ": give it too, or leave them out"
+        )
 
 
 def _guidance(table: Any, units: Units) -> tuple[Guidance | None, int]:
@@ -311,16 +329,16 @@ def _guidance(table: Any, units: Units) -> tuple[Guidance | None, int]:
     if table is None:
         return None, 0
     g = _known_keys(table, "guidance", "guidance")
-    thesis = Reach.thesis(units)
+    thesis = thesis_reach(units)
     target = g.get("target_95")
     radius = _read(REACH, g.get("reach", thesis.radius), "guidance.reach", units)
     spacing = _read(GRID, g.get("spacing", thesis.spacing), "guidance.spacing", units)
     if spacing > radius:
-        raise InputValueError(f"plan: guidance.spacing {spacing:g} is beyond reach {radius:g}")
-    max_poses = _count(MAX_POSES, g.get("max_poses", _DEFAULT_MAX_POSES), "guidance.max_poses")
-    seed = g.get("seed", 0)
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise InputValueError(f"plan: guidance.seed must be a whole number >= 0, got {seed!r}")
+        raise InputValueError(
+            f"plan: guidance.spacing {shown(spacing)} is beyond reach {shown(radius)}"
+        )
+    max_poses = _count(MAX_POSES, g.get("max_poses", DEFAULT_MAX_POSES), "guidance.max_poses")
+    seed = _count(SEED, g.get("seed", 0), "guidance.seed")
     target95 = (
         None if target is None else _read(TARGET_PRECISION, target, "guidance.target_95", units)
     )

@@ -13,8 +13,8 @@ from __future__ import annotations
 import time
 import uuid
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING, Any
 
 from twopose.bounds import (
     BOARD_CORNER,
@@ -28,6 +28,7 @@ from twopose.bounds import (
     TARGET_DISTANCE,
     TARGET_PRECISION,
     Quantity,
+    shown,
 )
 from twopose.bounds import MIN_GAIN as MIN_GAIN_BOUND
 from twopose.camera import Camera, Intrinsics
@@ -46,7 +47,9 @@ from twopose.values import Vec3
 
 if TYPE_CHECKING:
     from recorder.continuation import Continued
+    from twopose.format.guidance_record import GuidanceRecord
     from twopose.guidance import Guidance
+    from twopose.paper_search import Reach
     from twopose.rig.constants import RigConstants
 
 __all__ = [
@@ -67,9 +70,11 @@ __all__ = [
     "parse_vector",
     "plane_entry",
     "plane_option",
+    "poses_refusal",
     "reader",
     "refuse_other_planes",
     "target_precision",
+    "thesis_reach",
 ]
 
 #: The thesis' rig (section 5.2): f = 525 px, principal point at the centre of 640x480 (its
@@ -324,15 +329,29 @@ def board_corner(text: str, units: Units | None) -> Vec3:
     return parse_vector(text, units, quantity=BOARD_CORNER)
 
 
+def thesis_reach(units: Units) -> Reach:
+    """The thesis' reach (3 in about the first pose, its 1/2 in grid) in ``units``, to six
+    significant digits as every converted bound is (76.2 mm, never 76.19999999999999)."""
+    from twopose.paper_search import Reach
+
+    exact = Reach.thesis(units)
+    return Reach(radius=float(f"{exact.radius:.6g}"), spacing=float(f"{exact.spacing:.6g}"))
+
+
+#: A trial's most poses under a stop rule when ``--max-poses`` does not say.
+DEFAULT_MAX_POSES = 6
+
+
 @dataclass(frozen=True, kw_only=True)
 class GuidanceAsked:
     """The guidance a recording was asked for (``new``'s options): the most poses of a
-    trial with a stop rule, and the reach of the suggestions (None: the thesis'). The stop
-    rule's precision is the setup's (:attr:`Setup.target95`), given or answered.
-    ``given`` names the guidance options the command line gave (a board session refuses
-    them: :meth:`refusals`)."""
+    trial with a stop rule (None: :data:`DEFAULT_MAX_POSES`), and the reach of the
+    suggestions (None: the thesis'). The stop rule's precision is the setup's
+    (:attr:`Setup.target95`), given or answered. ``given`` names the guidance options the
+    command line gave (a board session refuses them: :meth:`refusals`); ``poses`` is
+    ``--poses`` when it was given (every trial has that many poses: no stop rule)."""
 
-    max_poses: int = 6
+    max_poses: int | None = None
     reach: float | None = None
     spacing: float | None = None
     given: tuple[str, ...] = ()
@@ -342,11 +361,16 @@ class GuidanceAsked:
     #: ``--min-gain``: the information-gain stop's least share (None: the default,
     #: :data:`twopose.guidance.MIN_GAIN`; 0: none). With a target precision only.
     min_gain: float | None = None
+    #: ``--poses`` as given (None: not given): a trial's fixed number of poses.
+    poses: int | None = None
 
-    def refusals(self, method: Method, units: Units) -> dict[str, str]:
-        """Why these options cannot guide a session of ``method`` in ``units``, by the
-        setup field the page shows it at ({}: they can). The terminal, the page and the
-        command line refuse with these words (a plan: :func:`recorder.plan.load_plan`)."""
+    def refusals(
+        self, method: Method, units: Units, target95: float | None = None
+    ) -> dict[str, str]:
+        """Why these options cannot guide a session of ``method`` in ``units`` with the
+        stop rule ``target95``, by the setup field the page shows it at ({}: they can).
+        The terminal, the page and the command line refuse with these words (a plan:
+        :func:`recorder.plan.load_plan`)."""
         if not spec_of(method).measures and self.given:
             return {"method": board_refusal(self.given)}
         errors = {}
@@ -356,6 +380,8 @@ class GuidanceAsked:
             why = quantity.refusal(value, units) if value is not None else ""
             if why:
                 errors["units"] = f"{flag}: {why}"
+        if target95 is not None and self.poses is not None:
+            errors["target_precision"] = poses_refusal(self.poses)
         return errors
 
     def guidance(self, units: Units, poses: int, target95: float | None) -> Guidance:
@@ -363,17 +389,18 @@ class GuidanceAsked:
         has ``poses`` poses (``--poses``), as without guidance."""
         from twopose.guidance import MIN_GAIN, Guidance, Reach
 
-        thesis = Reach.thesis(units)
+        thesis = thesis_reach(units)
         radius = self.reach if self.reach is not None else thesis.radius
         spacing = self.spacing if self.spacing is not None else thesis.spacing
         for value, quantity in ((radius, REACH), (spacing, GRID)):
             quantity.read(value, units)
         if spacing > radius:
             raise InputValueError(
-                f"the grid spacing ({spacing:g} {units}) must be within the reach "
-                f"({radius:g} {units})"
+                f"the grid spacing ({shown(spacing)} {units}) must be within the reach "
+                f"({shown(radius)} {units})"
             )
-        most = MAX_POSES.count(self.max_poses) if target95 is not None else POSES.count(poses)
+        most_asked = DEFAULT_MAX_POSES if self.max_poses is None else self.max_poses
+        most = MAX_POSES.count(most_asked) if target95 is not None else POSES.count(poses)
         distance = self.target_distance
         if distance is not None:
             distance = TARGET_DISTANCE.read(distance, units)
@@ -388,6 +415,46 @@ class GuidanceAsked:
             )  # fmt: skip
         except ValueError as err:
             raise InputValueError(str(err)) from None
+
+    def inherited(self, record: GuidanceRecord | None) -> tuple[GuidanceAsked, list[str]]:
+        """A continuation's guidance: each setting the command line gave, else the one its
+        session recorded (``record``; None: a file that recorded none); and the settings
+        taken from the session, in words. A trial's most poses and the least gain are a
+        stop rule's, taken when the session had one; without one its trials' poses are
+        (``--poses``)."""
+        if record is None:
+            return self, []
+        taken: dict[str, Any] = {}
+        for name, value in (("reach", record.reach), ("spacing", record.spacing),
+                            ("target_distance", record.target_distance)):  # fmt: skip
+            if getattr(self, name) is None and value is not None:
+                taken[name] = value
+        if record.target95 is not None:
+            for name in ("max_poses", "min_gain"):
+                if getattr(self, name) is None:
+                    taken[name] = getattr(record, name)
+        elif self.poses is None:
+            taken["poses"] = record.max_poses
+        return replace(self, **taken), [_INHERITED_WORDS[k](v) for k, v in taken.items()]
+
+
+#: How a setting taken from the continued session is said.
+_INHERITED_WORDS: dict[str, Callable[[Any], str]] = {
+    "reach": lambda v: f"reach {shown(v)}",
+    "spacing": lambda v: f"grid {shown(v)}",
+    "target_distance": lambda v: f"target distance {shown(v)}",
+    "max_poses": lambda v: f"max poses {shown(v)}",
+    "min_gain": lambda v: f"least gain {shown(v)}" + (" (none)" if v == 0 else ""),
+    "poses": lambda v: f"poses {shown(v)}",
+}
+
+
+def poses_refusal(poses: int) -> str:
+    """Why ``--poses`` and a stop rule cannot go together (the page, the command line)."""
+    return (
+        f"--poses {poses} gives every trial {poses} poses, and a stop rule ends a trial when "
+        "it is precise enough (at most --max-poses poses): give one of them"
+    )
 
 
 def board_refusal(options: Sequence[str]) -> str:
