@@ -65,7 +65,7 @@ class NewRequest:
 
 
 def guidance_asked(
-    max_poses: int = 6, reach: float | None = None, spacing: float | None = None,
+    max_poses: int | None = None, reach: float | None = None, spacing: float | None = None,
     target_distance: float | None = None, min_gain: float | None = None,
 ) -> GuidanceAsked:  # fmt: skip
     from recorder.setup_rules import GuidanceAsked
@@ -201,9 +201,10 @@ def record_terminal(
     if refused:
         raise InputValueError("; ".join(refused.values()))
     guidance = asked.guidance(setup.units, request.poses, setup.target95)
+    size = setup.intrinsics  # --width/--height, a calibration's or a continued session's
     src = open_source(
-        request.source, method=setup.method, width=mode.width, height=mode.height, fps=mode.fps,
-        units=setup.units,  # the synthetic scene in the session's units, through its camera
+        request.source, method=setup.method, width=size.width, height=size.height,
+        fps=mode.fps, units=setup.units,  # the scene in the session's units, through its camera
         cameras=[setup.camera()],
     )  # fmt: skip
     port = request.live_port
@@ -238,9 +239,10 @@ def record_planned(
     check_rig(request.rig, the_plan.method, the_plan.units, the_plan.cameras, the_plan.ground())
     mode = request.camera
     recorded = request.continued.cameras if request.continued else the_plan.cameras
+    size = recorded[0].intrinsics  # the size recorded is the size asked of a camera
     src = open_source(
-        request.source, method=the_plan.method, width=mode.width, height=mode.height, fps=mode.fps,
-        units=the_plan.units,  # the synthetic scene in the plan's units, through its cameras
+        request.source, method=the_plan.method, width=size.width, height=size.height,
+        fps=mode.fps, units=the_plan.units,  # the scene in the plan's units, through its cameras
         cameras=recorded,
     )  # fmt: skip
     cameras = list(the_plan.cameras)

@@ -39,7 +39,7 @@ import contextlib
 import errno
 import time
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -80,6 +80,7 @@ from twopose.format.entries import (
 )
 from twopose.format.reader import recover_command
 from twopose.format.writer import SessionWriter
+from twopose.methods import spec_of
 from twopose.values import Vec3
 
 if TYPE_CHECKING:
@@ -375,6 +376,10 @@ def record(  # noqa: PLR0913 - keyword-only settings of a recording
         results = LiveResults(info.method, info.units, cameras, ground, estimate, settings.rig)
         results.notes.insert(0, settings.placing_words(info.units))  # said as it starts
     options = _CaptureOptions(settings=settings, results=results)
+    if settings.guidance is not None and spec_of(info.method).measures:
+        from recorder.setup_rules import guidance_record
+
+        info = replace(info, guidance=guidance_record(settings.guidance))  # format 1.5
     interrupted = False
     proc: Procedure | None = None
     try:

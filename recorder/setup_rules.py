@@ -62,6 +62,7 @@ __all__ = [
     "default_plane_offset",
     "default_principal",
     "distinct_point",
+    "guidance_record",
     "inner_corners",
     "number_pair",
     "off_plane",
@@ -416,12 +417,14 @@ class GuidanceAsked:
         except ValueError as err:
             raise InputValueError(str(err)) from None
 
-    def inherited(self, record: GuidanceRecord | None) -> tuple[GuidanceAsked, list[str]]:
+    def inherited(
+        self, record: GuidanceRecord | None, units: Units
+    ) -> tuple[GuidanceAsked, list[str]]:
         """A continuation's guidance: each setting the command line gave, else the one its
         session recorded (``record``; None: a file that recorded none); and the settings
-        taken from the session, in words. A trial's most poses and the least gain are a
-        stop rule's, taken when the session had one; without one its trials' poses are
-        (``--poses``)."""
+        taken from the session, in words (lengths in ``units``). A trial's most poses and
+        the least gain are a stop rule's, taken when the session had one; without one its
+        trials' poses are (``--poses``)."""
         if record is None:
             return self, []
         taken: dict[str, Any] = {}
@@ -435,18 +438,30 @@ class GuidanceAsked:
                     taken[name] = getattr(record, name)
         elif self.poses is None:
             taken["poses"] = record.max_poses
-        return replace(self, **taken), [_INHERITED_WORDS[k](v) for k, v in taken.items()]
+        words = [said(taken[k], units) for k, said in _INHERITED_WORDS.items() if k in taken]
+        return replace(self, **taken), words
 
 
-#: How a setting taken from the continued session is said.
-_INHERITED_WORDS: dict[str, Callable[[Any], str]] = {
-    "reach": lambda v: f"reach {shown(v)}",
-    "spacing": lambda v: f"grid {shown(v)}",
-    "target_distance": lambda v: f"target distance {shown(v)}",
-    "max_poses": lambda v: f"max poses {shown(v)}",
-    "min_gain": lambda v: f"least gain {shown(v)}" + (" (none)" if v == 0 else ""),
-    "poses": lambda v: f"poses {shown(v)}",
+#: How a setting taken from the continued session is said, in the session's units.
+_INHERITED_WORDS: dict[str, Callable[[Any, Units], str]] = {
+    "max_poses": lambda v, _: f"at most {shown(v)} poses",
+    "min_gain": lambda v, _: f"least gain {shown(v)}" + (" (none)" if v == 0 else ""),
+    "poses": lambda v, _: f"{shown(v)} poses a trial",
+    "spacing": lambda v, u: f"suggested on the {shown(v)} {u} grid",
+    "reach": lambda v, u: f"within {shown(v)} {u} of the first pose",
+    "target_distance": lambda v, u: f"the target taped {shown(v)} {u} from the first pose",
 }
+
+
+def guidance_record(guidance: Guidance) -> GuidanceRecord:
+    """The session entry's record of the guidance a recording runs with (format 1.5)."""
+    from twopose.format.guidance_record import GuidanceRecord
+
+    return GuidanceRecord.of(
+        target95=guidance.target95, max_poses=guidance.max_poses, min_gain=guidance.min_gain,
+        reach=guidance.reach.radius, spacing=guidance.reach.spacing,
+        target_distance=guidance.target_distance,
+    )  # fmt: skip
 
 
 def poses_refusal(poses: int) -> str:
