@@ -93,6 +93,12 @@ class Given(float):
         """Pickled with its text (a worker process or a copied setup keeps it)."""
         return (Given, (float(self), self.text))
 
+    def __repr__(self) -> str:
+        """As given (a message's ``got {value!r}`` says ``1e309``, never ``inf``)."""
+        return self.text
+
+    __str__ = __repr__
+
 
 class GivenWhole(int):
     """A whole number with the text it was given as (a TOML integer: ``+5``)."""
@@ -108,6 +114,12 @@ class GivenWhole(int):
     def __reduce__(self) -> tuple[type[GivenWhole], tuple[int, str]]:
         """Pickled with its text."""
         return (GivenWhole, (int(self), self.text))
+
+    def __repr__(self) -> str:
+        """As given."""
+        return self.text
+
+    __str__ = __repr__
 
 
 class Unread:
