@@ -54,7 +54,7 @@ _MAX_BRANCH = 8
 #: within 3 in of the first pose; the target taped 11 in from the first pose").
 _OLD_NOTE = re.compile(
     r"^guidance: a trial is complete once its 95% region is within (?P<target_95>\S+) \w+, "
-    r"(?:once the next pose would shrink it by less than (?P<percent>[0-9.]+)%, )?"
+    r"(?:once the next pose would shrink it by less than (?P<share>[0-9.e+-]+)(?P<percent>%)?, )?"
     r"or at (?P<max_poses>\d+) poses; next poses suggested on the (?P<spacing>\S+) \w+ grid "
     r"within (?P<reach>\S+) \w+ of the first pose"
     r"(?:; the target taped (?P<target_distance>\S+) \w+ from the first pose)?$"
@@ -216,10 +216,11 @@ def _old_note(note: str, before: GuidanceRecord | None) -> GuidanceRecord | None
     if found is None:
         return before
     try:
-        numbers = {k: float(v) for k, v in found.groupdict().items() if v is not None}
+        percent = found.group("percent") is not None  # before 1.5: "less than 10%"
+        numbers = {k: float(v) for k, v in found.groupdict().items() if v and k != "percent"}
         return GuidanceRecord(
             target95=numbers["target_95"], max_poses=int(numbers["max_poses"]),
-            min_gain=numbers.get("percent", 0.0) / 100, reach=numbers["reach"],
+            min_gain=numbers.get("share", 0.0) / (100 if percent else 1), reach=numbers["reach"],
             spacing=numbers["spacing"], target_distance=numbers.get("target_distance"),
         )  # fmt: skip
     except (ValueError, InputValueError):  # a note that only looks like one

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 import typer
 
 from recorder import stops
+from twopose.bounds import shown
 from twopose.errors import InputValueError
 
 if TYPE_CHECKING:
@@ -189,7 +190,7 @@ def record_terminal(
         if target is None:
             target = request.continued.target95
         setup = replace(Setup.of(request.continued), target95=target)
-        rule = "none" if target is None else f"95% within {target:g} {setup.units}"
+        rule = "none" if target is None else f"95% within {shown(target)} {setup.units}"
         kept = target is not None and given["target_precision"] is None
         said = f" ({c.path.name}'s)" if kept else ""
         typer.echo(f"  operator {setup.operator or '(none)'}; stop rule: {rule}{said}")

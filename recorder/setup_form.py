@@ -417,7 +417,7 @@ def _intrinsics(a: _Answers, size: tuple[int, int]) -> Intrinsics:
     cx, cy = principal or default_principal(size)
     if not (0 <= cx <= size[0] and 0 <= cy <= size[1]):  # a typo: it lies in the image
         a.errors["principal"] = (
-            f"the principal point ({cx:g}, {cy:g}) px is outside the {size[0]}x{size[1]} "
+            f"the principal point ({shown(cx)}, {shown(cy)}) px is outside the {size[0]}x{size[1]} "
             "image; type a point inside it (its centre if you do not know)"
         )
         return Intrinsics(width=size[0], height=size[1], fx=f, fy=f, cx=size[0] / 2, cy=size[1] / 2)

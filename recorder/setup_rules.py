@@ -312,7 +312,7 @@ def off_plane(plane: ConstraintPlane, point: Vec3, offset: float, units: Units) 
     a = plane.axis
     return (
         f"the ground truth {point} has {a} = {gap + offset:g} {units}, but {plane.name} is at "
-        f"{a} = {offset:g} {units} ({gap:+g} {units}): the finger points at {plane.name}, "
+        f"{a} = {shown(offset)} {units} ({gap:+g} {units}): the finger points at {plane.name}, "
         f"so its {a} should be the {plane.bound.words}"
     )
 
