@@ -48,7 +48,6 @@ from recorder.cli_options import (
 )
 from recorder.cli_options import read_option as _read
 from recorder.sources import source_help
-from twopose.bounds import shown
 from twopose.errors import (
     EXIT_INTERRUPTED,
     InputValueError,
@@ -308,9 +307,12 @@ def _inherited(
     settings taken from the session said once, at the start."""
     if continued is None:
         return asked
-    inherited, said = asked.inherited(continued.guidance, continued.info.units)
+    from recorder.setup_rules import inherited_words
+
+    units = continued.info.units
+    inherited, said = asked.inherited(continued.guidance, units)
     if target is None and continued.target95 is not None:
-        said.insert(0, f"95% within {shown(continued.target95)} {continued.info.units}")
+        said[:0] = inherited_words({"target_95": continued.target95}, units)
     if said:
         typer.echo(f"guidance from {continued.path.name}: {', '.join(said)}")
     elif continued.guidance is None and continued.target95 is None:

@@ -237,6 +237,12 @@ def record_planned(
     from recorder.sources import open_source
 
     the_plan = load_plan(plan)
+    if request.continued is not None:  # the session's guidance, where the plan gives none
+        from recorder.plan_file import continued_plan
+
+        the_plan, said = continued_plan(the_plan, request.continued.guidance)
+        if said:
+            typer.echo(f"guidance from {request.continued.path.name}: {', '.join(said)}")
     check_rig(request.rig, the_plan.method, the_plan.units, the_plan.cameras, the_plan.ground())
     mode = request.camera
     recorded = request.continued.cameras if request.continued else the_plan.cameras

@@ -7,7 +7,7 @@ returns.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -17,6 +17,7 @@ from recorder.setup_rules import (
     THESIS_IMAGE_SIZE,
     board_refusal,
     default_principal,
+    inherited_words,
     off_plane,
     other_plane_refusal,
     plane_entry,
@@ -60,9 +61,10 @@ from twopose.values import Vec3, finite
 
 if TYPE_CHECKING:
     from twopose.format.entries import GroundPlane
+    from twopose.format.guidance_record import GuidanceRecord
 
 
-__all__ = ["Plan", "PlannedPose", "PlannedTrial", "load_plan"]
+__all__ = ["Plan", "PlannedPose", "PlannedTrial", "continued_plan", "load_plan"]
 
 #: The key a pose names the camera it was taken by ([[trials]] poses' ``camera``).
 POSE_CAMERA_KEY = "camera"
@@ -143,6 +145,8 @@ class Plan:
     #: ``[guidance]``: suggestions and the stop rule (with guided trials, or to see them)
     guidance: Guidance | None = None
     placing_seed: int = 0  # the simulated operator's placing error on guided poses
+    #: The keys its ``[guidance]`` gave (a continuation takes the others from its session).
+    guidance_keys: frozenset[str] = frozenset()
 
     def ground(self) -> GroundPlane | None:
         """The method's plane at the plan's offset (method 2's ground ``y = h``), or None."""
@@ -299,6 +303,7 @@ def load_plan(path: str | Path) -> Plan:
         board=board,
         guidance=guidance,
         placing_seed=seed,
+        guidance_keys=frozenset(data.get("guidance") or ()),
     )
 
 
@@ -352,6 +357,36 @@ def _guidance(table: Any, units: Units) -> tuple[Guidance | None, int]:
         # As on the command line: the information-gain stop with a target precision only.
         min_gain=(gain or None) if target95 is not None else None,
     ), seed  # fmt: skip
+
+
+def continued_plan(plan: Plan, record: GuidanceRecord | None) -> tuple[Plan, list[str]]:
+    """A plan continuing a session: each guidance setting its ``[guidance]`` does not give
+    taken from the session's ``record`` (None: it recorded none); and those taken, in words.
+    A plan with no guidance of its own takes the session's whole."""
+    if record is None or not spec_of(plan.method).measures:
+        return plan, []
+    g = plan.guidance or Guidance(reach=thesis_reach(plan.units), min_gain=None)
+    keys = plan.guidance_keys
+    own_target = "target_95" in keys
+    target = g.target95 if own_target else record.target95
+    stop = target is not None  # a trial's most poses and the least gain are a stop rule's
+    offered: dict[str, float | None] = {
+        "target_95": None if own_target else record.target95,
+        "reach": None if "reach" in keys else record.reach,
+        "spacing": None if "spacing" in keys else record.spacing,
+        "target_distance": None if "target_distance" in keys else record.target_distance,
+        "max_poses": None if "max_poses" in keys or not stop else record.max_poses,
+        "min_gain": None if "min_gain" in keys or not stop else record.min_gain,
+    }
+    taken = {k: v for k, v in offered.items() if v is not None}
+    merged = Guidance(
+        reach=Reach(radius=taken.get("reach", g.reach.radius),
+                    spacing=taken.get("spacing", g.reach.spacing)),
+        target95=target, max_poses=int(taken.get("max_poses", g.max_poses)),
+        min_gain=(taken.get("min_gain", g.min_gain) or None) if target is not None else None,
+        target_distance=taken.get("target_distance", g.target_distance),
+    )  # fmt: skip
+    return replace(plan, guidance=merged), inherited_words(taken, plan.units)
 
 
 def _board(table: Any, method: Method, units: Units) -> BoardPlacement | None:

@@ -63,6 +63,7 @@ __all__ = [
     "default_principal",
     "distinct_point",
     "guidance_record",
+    "inherited_words",
     "inner_corners",
     "number_pair",
     "off_plane",
@@ -438,12 +439,18 @@ class GuidanceAsked:
                     taken[name] = getattr(record, name)
         elif self.poses is None:
             taken["poses"] = record.max_poses
-        words = [said(taken[k], units) for k, said in _INHERITED_WORDS.items() if k in taken]
-        return replace(self, **taken), words
+        return replace(self, **taken), inherited_words(taken, units)
+
+
+def inherited_words(taken: dict[str, Any], units: Units) -> list[str]:
+    """The settings a continuation took from its session (by the record's keys: ``max_poses``,
+    ``reach``, ...; ``poses``: a trial's without a stop rule), each as given, in words."""
+    return [said(taken[k], units) for k, said in _INHERITED_WORDS.items() if k in taken]
 
 
 #: How a setting taken from the continued session is said, in the session's units.
 _INHERITED_WORDS: dict[str, Callable[[Any, Units], str]] = {
+    "target_95": lambda v, u: f"95% within {shown(v)} {u}",
     "max_poses": lambda v, _: f"at most {shown(v)} poses",
     "min_gain": lambda v, _: f"least gain {shown(v)}" + (" (none)" if v == 0 else ""),
     "poses": lambda v, _: f"{shown(v)} poses a trial",
