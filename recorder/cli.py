@@ -249,7 +249,8 @@ def new(
             given=tuple(board_options), poses=poses,
         )  # fmt: skip
         refuse_idle(_combination(given, source, target_precision, continued))
-        asked = _inherited(asked, continued, target_precision)
+        if plan is None:  # a plan's continuation: record_planned takes its session's
+            asked = _inherited(asked, continued, target_precision)
         request = NewRequest(
             out=out, source=source, frames=frames or 5, adaptive_frames=adaptive_frames,
             poses=asked.poses or 2,
