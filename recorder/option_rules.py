@@ -50,9 +50,17 @@ _RULES: tuple[_Rule, ...] = (
         options=_PLAN_SETS,
         idle=lambda c: "--plan" in c.given,
         why=lambda _: (
-            "a plan sets these itself (method, units, [camera], ground_height, "
-            "ground_truth, [board], operator, notes, frames, each trial's poses): leave them out "
-            "or write them in the plan"
+            "a plan sets these itself (method, units, [camera], ground_height, ground_truth, "
+            "[board], notes, frames, each trial's poses): leave them out or write them in "
+            "the plan"
+        ),
+    ),
+    _Rule(
+        options=("--operator",),
+        idle=lambda c: "--plan" in c.given and not c.continued,
+        why=lambda _: (
+            "a plan names its operator itself (operator = ...); --operator names who records "
+            "a continuation (--continue): leave it out or write it in the plan"
         ),
     ),
     _Rule(
