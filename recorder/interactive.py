@@ -203,9 +203,9 @@ def _plane_offset(
     """The offset of the method's plane (method 2's ground height): the one given under
     the plane's setup key (``--ground-height``), checked, or asked; None on no plane."""
     plane = spec_of(method).plane
+    refuse_other_planes(method, given)  # another plane's, or any to a method on none
     if plane is None:
         return None
-    refuse_other_planes(method, given)
     if plane.setup_key in given:
         return _given(plane.bound, given[plane.setup_key], units, plane_option(plane.setup_key))
     return float(_ask(op, plane.setup_key, units))

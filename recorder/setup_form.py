@@ -24,6 +24,7 @@ from recorder.setup_rules import (
     default_principal,
     distinct_point,
     inner_corners,
+    no_plane_refusal,
     number_pair,
     off_plane,
     one_of,
@@ -372,6 +373,9 @@ def setup_from_answers(form: Mapping[str, str], given: Mapping[str, Any]) -> Set
     intrinsics = given.get("intrinsics") or _intrinsics(a, given.get("size", (640, 480)))
     plane = spec_of(method).plane if method is not None else None
     offset = None
+    refused = no_plane_refusal(method, [k for k in given if given[k] is not None]) if method else ""
+    if refused:  # the command line gave a plane's offset to a method on none
+        a.errors["method"] = refused
     if plane is not None:
         # Read as typed: an emptied field is refused, never the thesis' height assumed.
         read_offset = _FIELDS[plane.setup_key].read

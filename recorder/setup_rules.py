@@ -65,6 +65,7 @@ __all__ = [
     "guidance_record",
     "inherited_words",
     "inner_corners",
+    "no_plane_refusal",
     "number_pair",
     "off_plane",
     "one_of",
@@ -296,10 +297,23 @@ def other_plane_refusal(method: Method, given: Iterable[str], how: Callable[[str
 
 def refuse_other_planes(method: Method, given: Iterable[str]) -> None:
     """Raise :class:`InputValueError` if the command line (or a caller) gave another
-    plane's offset than the method's (:func:`other_plane_refusal`)."""
-    refused = other_plane_refusal(method, given, plane_option)
+    plane's offset than the method's (:func:`other_plane_refusal`), or any plane's to a
+    method on no plane (``--ground-height`` of a point session was ignored)."""
+    refused = other_plane_refusal(method, given, plane_option) or no_plane_refusal(method, given)
     if refused:
         raise InputValueError(refused)
+
+
+def no_plane_refusal(method: Method, given: Iterable[str]) -> str:
+    """Why a plane's offset given to a method on no plane is refused ("": none given, or
+    the method has a plane): nothing would use it."""
+    keys = sorted(set(given) & {p.setup_key for p in PLANES})
+    if spec_of(method).plane is not None or not keys:
+        return ""
+    return (
+        f"{plane_option(keys[0])}: a {method} session measures on no plane, so nothing "
+        "would use it; leave it out, or choose a method on a plane (ground)"
+    )
 
 
 def off_plane(plane: ConstraintPlane, point: Vec3, offset: float, units: Units) -> str:

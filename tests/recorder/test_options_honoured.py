@@ -19,7 +19,7 @@ from recorder.continuation import read_continued
 from recorder.interactive import Operator, ask_setup
 from recorder.option_rules import Combination, refuse_idle
 from recorder.plan import load_plan
-from recorder.setup_form import FormRefusedError, form_fields
+from recorder.setup_form import FormRefusedError, form_fields, setup_from_answers
 from recorder.setup_rules import GuidanceAsked, Setup
 from tests.helpers import SMALL_SCENE
 from twopose.camera import Camera, Intrinsics
@@ -94,9 +94,11 @@ def test_a_continuation_inherits_every_guidance_setting_and_says_which(
     )
     assert "stop rule: 95% within 5.0 mm (S.mcap's)" in recorded.said
     with SessionReader(recorded.session) as a, SessionReader(recorded.continuation) as b:
-        assert b.info.guidance == a.info.guidance  # what it ran with, recorded again
-        assert b.info.guidance is not None
-        assert b.info.guidance.given == a.info.guidance.given  # ... as given
+        first, again = a.info.guidance, b.info.guidance
+    assert again == first  # what it ran with, recorded again
+    assert again is not None
+    assert first is not None
+    assert again.given == first.given  # ... as given
 
 
 @pytest.mark.parametrize(
@@ -298,7 +300,12 @@ def test_a_plans_stop_rule_keys_need_its_target(
 def test_poses_given_leaves_the_stop_rule_unasked_and_the_page_refuses_one() -> None:
     """``--poses 4`` then a target typed at the terminal: the trial ended at the target."""
     asked: list[str] = []
-    op = Operator(lambda q, d: asked.append(q) or d, lambda _s: None)
+
+    def answer(question: str, default: str) -> str:
+        asked.append(question)
+        return default
+
+    op = Operator(answer, lambda _s: None)
     setup = ask_setup(
         op, method=Method.POINT, units=Units.IN, intrinsics=None, focal=None, principal=None,
         size=(640, 480), ground_truth=[(0.0, 1.0, 11.0)], operator=None,
@@ -313,6 +320,20 @@ def test_poses_given_leaves_the_stop_rule_unasked_and_the_page_refuses_one() -> 
     with pytest.raises(FormRefusedError) as caught:
         checked_setup(form, options)
     assert caught.value.errors["target_precision"].startswith("--poses 4 gives every trial 4")
+
+
+def test_a_ground_height_for_a_method_on_no_plane_is_refused_on_every_path(
+    tmp_path: Path,
+) -> None:
+    """``--method point --ground-height 9`` was taken and dropped (the page's too)."""
+    code, said = _new(tmp_path, "--method", "point", "--ground-height", "9")
+    assert code == EXIT_ERROR
+    assert "--ground-height: a point session measures on no plane" in said
+    code, said = _new(tmp_path, "--method", "ground", "--ground-height", "9")
+    assert code == EXIT_INTERRUPTED, said
+    with pytest.raises(FormRefusedError) as caught:  # the method chosen in the page
+        setup_from_answers({"method": "line", "units": "in"}, {"ground_height": 9.0})
+    assert caught.value.errors["method"].startswith("--ground-height: a line session measures")
 
 
 # --------------------------------------------------------------------------- as given

@@ -37,7 +37,7 @@ REPO = Path(__file__).resolve().parents[2]
 @pytest.mark.parametrize("quantity", QUANTITIES, ids=lambda q: q.key)
 def test_every_quantity_reads_only_ascii_numbers(quantity: Quantity, text: str) -> None:
     """Python's float takes 1_0, full-width and Arabic-Indic digits; no quantity does."""
-    with pytest.raises(InputValueError, match="is not a (whole )?number"):
+    with pytest.raises(InputValueError, match=r"is not a (whole )?number"):
         quantity.read(text, Units.IN)
 
 

@@ -46,9 +46,14 @@ EXAMPLES = [
         continues_part="00112233445566778899aabbccddeeff",
         continues_branch="B",
         guidance=GuidanceRecord(  # format 1.5, each given value with its text
-            target95=0.8, max_poses=5, min_gain=0.25, reach=2.5, spacing=0.25,
-            target_distance=11.0, given={"reach": "2.50", "min_gain": "2.5e-1"},
-        ),  # fmt: skip
+            target95=0.8,
+            max_poses=5,
+            min_gain=0.25,
+            reach=2.5,
+            spacing=0.25,
+            target_distance=11.0,
+            given={"reach": "2.50", "min_gain": "2.5e-1"},
+        ),
     ),
     SessionInfo(
         method=Method.GROUND,
