@@ -72,7 +72,24 @@ NUMBER_WORDS = "digits 0-9, a sign, a decimal point, an exponent: -1.5, 2e-3"
 WHOLE_WORDS = "digits 0-9 and a sign: 15, -3"
 
 
-class Given(float):
+class _AsGiven:
+    """What a number given as text shows, and how it travels: its text."""
+
+    __slots__ = ()
+    text: str
+
+    def __repr__(self) -> str:
+        """As given (a message's ``got {value!r}`` says ``1e309``, never ``inf``)."""
+        return self.text
+
+    __str__ = __repr__
+
+    def __reduce__(self) -> tuple[type, tuple[object, str]]:
+        """Pickled with its text (a worker process or a copied setup keeps it)."""
+        return (type(self), (getattr(self, "real"), self.text))  # noqa: B009 - float's, int's
+
+
+class Given(_AsGiven, float):
     """A number with the text it was given as.
 
     Typed, passed on a command line or written in a file: it computes as its float, and
@@ -81,7 +98,6 @@ class Given(float):
     """
 
     __slots__ = ("text",)
-    text: str
 
     def __new__(cls, value: float, text: str) -> Given:
         """The number ``value``, given as ``text``."""
@@ -89,37 +105,15 @@ class Given(float):
         made.text = text
         return made
 
-    def __reduce__(self) -> tuple[type[Given], tuple[float, str]]:
-        """Pickled with its text (a worker process or a copied setup keeps it)."""
-        return (Given, (float(self), self.text))
 
-    def __repr__(self) -> str:
-        """As given (a message's ``got {value!r}`` says ``1e309``, never ``inf``)."""
-        return self.text
-
-    __str__ = __repr__
-
-
-class GivenWhole(int):
+class GivenWhole(_AsGiven, int):  # an int takes no __slots__ of its own
     """A whole number with the text it was given as (a TOML integer: ``+5``)."""
-
-    text: str
 
     def __new__(cls, value: int, text: str) -> GivenWhole:
         """The whole number ``value``, given as ``text``."""
         made = super().__new__(cls, value)
         made.text = text
         return made
-
-    def __reduce__(self) -> tuple[type[GivenWhole], tuple[int, str]]:
-        """Pickled with its text."""
-        return (GivenWhole, (int(self), self.text))
-
-    def __repr__(self) -> str:
-        """As given."""
-        return self.text
-
-    __str__ = __repr__
 
 
 class Unread:
