@@ -249,8 +249,9 @@ def new(
             given=tuple(board_options), poses=poses,
         )  # fmt: skip
         refuse_idle(_combination(given, source, target_precision, continued))
-        if plan is None:  # a plan's continuation: record_planned takes its session's
-            asked = _inherited(asked, continued, target_precision)
+        taken = ""  # a plan's continuation: record_planned takes its session's guidance
+        if plan is None:
+            asked, taken = _inherited(asked, continued, target_precision)
         request = NewRequest(
             out=out, source=source, frames=frames or 5, adaptive_frames=adaptive_frames,
             poses=asked.poses or 2,
@@ -264,7 +265,7 @@ def new(
             summary = record_planned(request, plan, stack)
         elif continued is not None:
             if ui:
-                given_ui = continued_given(continued, target_precision)
+                given_ui = continued_given(continued, target_precision, guidance=taken)
                 serve_console_until_stopped(request, given_ui, host=host, port=port)
                 return
             summary = record_terminal(request, {"target_precision": target_precision}, stack)
@@ -303,22 +304,23 @@ def _combination(
 
 def _inherited(
     asked: GuidanceAsked, continued: Continued | None, target: float | None
-) -> GuidanceAsked:
-    """A continuation's guidance: what the command line gave, else its session's; the
-    settings taken from the session said once, at the start."""
+) -> tuple[GuidanceAsked, str]:
+    """A continuation's guidance: what the command line gave, else its session's; and the
+    settings taken from the session in words, said once, at the start (the page too)."""
     if continued is None:
-        return asked
+        return asked, ""
     from recorder.setup_rules import inherited_words
 
     units = continued.info.units
     inherited, said = asked.inherited(continued.guidance, units)
     if target is None and continued.target95 is not None:
         said[:0] = inherited_words({"target_95": continued.target95}, units)
-    if said:
-        typer.echo(f"guidance from {continued.path.name}: {', '.join(said)}")
-    elif continued.guidance is None and continued.target95 is None:
-        typer.echo(f"guidance: {continued.path.name} recorded none: the defaults")
-    return inherited
+    words = f"guidance from {continued.path.name}: {', '.join(said)}" if said else ""
+    if not said and continued.guidance is None and continued.target95 is None:
+        words = f"guidance: {continued.path.name} recorded none: the defaults"
+    if words:
+        typer.echo(words)
+    return inherited, words
 
 
 def _guidance_given(guiding: dict[str, Any], method: Method | None, *, planned: bool) -> list[str]:

@@ -129,6 +129,8 @@ class ConsoleSession(LiveSink):
                 f"Continuing {c['file']}; the next trial is {c['next_trial']}. Its setup is "
                 "kept (fixed below): check the operator and the stop rule, then start"
             )
+            if c.get("guidance"):  # the guidance settings it takes from the session
+                self.message += f". {c['guidance'][0].upper()}{c['guidance'][1:]}"
         self.level = "info"  # info, warning, error: how the page colours the message
         self.refusal: dict[str, Any] = {}  # {control, message, seq}: shown by that control
         self.live_error = ""

@@ -102,11 +102,15 @@ def continued_session(
     return continued
 
 
-def continued_given(continued: Continued, target_precision: float | None) -> dict[str, Any]:
+def continued_given(
+    continued: Continued, target_precision: float | None, *, guidance: str = ""
+) -> dict[str, Any]:
     """The browser's setup form, filled with the continued session's setup (read-only,
     each field said to come from its file); the stop rule (the file's unless
     ``--target-precision`` is given) and the operator (``--operator``, else the file's)
-    are the continuation's own, the page's to change unless the command line gave them."""
+    are the continuation's own, the page's to change unless the command line gave them.
+    ``guidance``: the guidance settings taken from the session, in words (the page says
+    them with what it continues)."""
     from recorder.setup_form import SETUP_FIELDS
     from recorder.setup_rules import Setup
 
@@ -126,6 +130,7 @@ def continued_given(continued: Continued, target_precision: float | None) -> dic
         "continuing": {
             "file": name, "path": str(continued.path), "after_trial": continued.last_trial,
             "next_trial": continued.next_trial, "target95": continued.target95,
+            "guidance": guidance,  # the guidance settings taken from it, in words
         },
     }  # fmt: skip
 

@@ -17,6 +17,7 @@ from recorder.console import ConsoleSession
 from recorder.console_server import ConsoleOptions, checked_setup
 from recorder.continuation import read_continued
 from recorder.interactive import Operator, ask_setup
+from recorder.new_session import continued_given
 from recorder.option_rules import Combination, refuse_idle
 from recorder.plan import load_plan
 from recorder.setup_form import FormRefusedError, form_fields, setup_from_answers
@@ -99,6 +100,14 @@ def test_a_continuation_inherits_every_guidance_setting_and_says_which(
     assert again is not None
     assert first is not None
     assert again.given == first.given  # ... as given
+
+
+def test_the_page_says_the_guidance_a_continuation_takes(recorded: Recorded) -> None:
+    continued = read_continued(recorded.session)
+    words = "guidance from S.mcap: 95% within 5.0 mm, at most 5 poses"
+    page = ConsoleSession(recorded.continuation, continued_given(continued, None, guidance=words))
+    assert page.message.startswith("Continuing S.mcap; the next trial is 2.")
+    assert page.message.endswith(". Guidance from S.mcap: 95% within 5.0 mm, at most 5 poses")
 
 
 @pytest.mark.parametrize(
