@@ -39,7 +39,7 @@ import contextlib
 import errno
 import time
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -65,6 +65,7 @@ from recorder.driver import (
     QuitRecording,
 )
 from recorder.live_result import LiveResults
+from recorder.setup_rules import with_guidance
 from recorder.sources import FrameSource, SourceInfo
 from recorder.summary import RecordingSummary, Tally
 from twopose.camera import Camera
@@ -80,7 +81,6 @@ from twopose.format.entries import (
 )
 from twopose.format.reader import recover_command
 from twopose.format.writer import SessionWriter
-from twopose.methods import spec_of
 from twopose.values import Vec3
 
 if TYPE_CHECKING:
@@ -376,10 +376,7 @@ def record(  # noqa: PLR0913 - keyword-only settings of a recording
         results = LiveResults(info.method, info.units, cameras, ground, estimate, settings.rig)
         results.notes.insert(0, settings.placing_words(info.units))  # said as it starts
     options = _CaptureOptions(settings=settings, results=results)
-    if settings.guidance is not None and spec_of(info.method).measures:
-        from recorder.setup_rules import guidance_record
-
-        info = replace(info, guidance=guidance_record(settings.guidance))  # format 1.5
+    info = with_guidance(info, settings.guidance)  # format 1.5: recorded, for continuations
     interrupted = False
     proc: Procedure | None = None
     try:

@@ -36,6 +36,7 @@ from twopose.errors import InputValueError
 from twopose.format.entries import (
     DEFAULT_ROTATION_RESOLUTION_DEG,
     GroundPlane,
+    GuidanceRecord,
     SessionInfo,
     default_translation_resolution,
 )
@@ -47,7 +48,6 @@ from twopose.values import Vec3
 
 if TYPE_CHECKING:
     from recorder.continuation import Continued
-    from twopose.format.guidance_record import GuidanceRecord
     from twopose.guidance import Guidance
     from twopose.paper_search import Reach
     from twopose.rig.constants import RigConstants
@@ -62,7 +62,6 @@ __all__ = [
     "default_plane_offset",
     "default_principal",
     "distinct_point",
-    "guidance_record",
     "inherited_words",
     "inner_corners",
     "no_plane_refusal",
@@ -78,6 +77,7 @@ __all__ = [
     "refuse_other_planes",
     "target_precision",
     "thesis_reach",
+    "with_guidance",
 ]
 
 #: The thesis' rig (section 5.2): f = 525 px, principal point at the centre of 640x480 (its
@@ -474,15 +474,16 @@ _INHERITED_WORDS: dict[str, Callable[[Any, Units], str]] = {
 }
 
 
-def guidance_record(guidance: Guidance) -> GuidanceRecord:
-    """The session entry's record of the guidance a recording runs with (format 1.5)."""
-    from twopose.format.guidance_record import GuidanceRecord
-
-    return GuidanceRecord.of(
+def with_guidance(info: SessionInfo, guidance: Guidance | None) -> SessionInfo:
+    """The session entry recording the guidance a recording runs with (format 1.5; a
+    board session has none)."""
+    if guidance is None or not spec_of(info.method).measures:
+        return info
+    return replace(info, guidance=GuidanceRecord.of(
         target95=guidance.target95, max_poses=guidance.max_poses, min_gain=guidance.min_gain,
         reach=guidance.reach.radius, spacing=guidance.reach.spacing,
         target_distance=guidance.target_distance,
-    )  # fmt: skip
+    ))  # fmt: skip
 
 
 def poses_refusal(poses: int) -> str:
