@@ -129,6 +129,8 @@ class ConsoleSession(LiveSink):
                 f"Continuing {c['file']}; the next trial is {c['next_trial']}. Its setup is "
                 "kept (fixed below): check the operator and the stop rule, then start"
             )
+            if c.get("guidance"):  # the guidance settings it takes from the session
+                self.message += f". {c['guidance'][0].upper()}{c['guidance'][1:]}"
         self.level = "info"  # info, warning, error: how the page colours the message
         self.refusal: dict[str, Any] = {}  # {control, message, seq}: shown by that control
         self.live_error = ""
@@ -224,7 +226,8 @@ class ConsoleSession(LiveSink):
                 f"({', '.join(shown(v) for v in b.first_corner)})"
             )
         else:
-            line["truth"] = [vec_json(p) for p in setup.ground_truth]
+            # As typed (4.8514, never the page's 4.851): the page shows text as it is.
+            line["truth"] = [[shown(x) for x in p] for p in setup.ground_truth]
         line |= {
             # The method's plane (method 2's ground height): its words and offset.
             "plane": _plane_line(setup),
@@ -327,4 +330,4 @@ def _plane_line(setup: Setup) -> dict[str, Any] | None:
     plane = spec_of(setup.method).plane
     if plane is None or setup.plane_offset is None:
         return None
-    return {"words": plane.bound.words, "offset": setup.plane_offset}
+    return {"words": plane.bound.words, "offset": shown(setup.plane_offset)}

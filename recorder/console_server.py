@@ -94,12 +94,12 @@ def _recording(
     try:
         asked = options.guidance or GuidanceAsked()
         guidance = asked.guidance(setup.units, options.poses, setup.target95)
-        width, height = options.size
         continued = options.continued
         camera, info = setup.camera(), setup.info(options.notes)
         if continued is not None:  # the same session: its id, cameras, trials numbered on
             camera = continued.cameras[0]
             info = continued.info_for(options.notes, operator=setup.operator)
+        width, height = camera.intrinsics.width, camera.intrinsics.height  # the size recorded
         src = open_source(
             options.source, method=setup.method, width=width, height=height, fps=options.fps,
             units=setup.units,  # the synthetic scene in the session's units, through its camera
@@ -315,7 +315,7 @@ def checked_setup(form: dict[str, str], options: ConsoleOptions) -> Setup:
     raises :class:`FormRefusedError` holding every refusal, by field."""
     setup = setup_from_answers(form, _given(options))
     if options.guidance is not None:  # the guidance options' bounds in these units
-        refused = options.guidance.refusals(setup.method, setup.units)
+        refused = options.guidance.refusals(setup.method, setup.units, setup.target95)
         if refused:
             raise FormRefusedError(refused)
     try:

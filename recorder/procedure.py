@@ -65,6 +65,7 @@ from recorder.driver import (
     QuitRecording,
 )
 from recorder.live_result import LiveResults
+from recorder.setup_rules import with_guidance
 from recorder.sources import FrameSource, SourceInfo
 from recorder.summary import RecordingSummary, Tally
 from twopose.camera import Camera
@@ -375,6 +376,7 @@ def record(  # noqa: PLR0913 - keyword-only settings of a recording
         results = LiveResults(info.method, info.units, cameras, ground, estimate, settings.rig)
         results.notes.insert(0, settings.placing_words(info.units))  # said as it starts
     options = _CaptureOptions(settings=settings, results=results)
+    info = with_guidance(info, settings.guidance)  # format 1.5: recorded, for continuations
     interrupted = False
     proc: Procedure | None = None
     try:

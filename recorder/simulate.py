@@ -45,7 +45,7 @@ from twopose.planes import GROUND_PLANE
 from twopose.sim.camera import SyntheticCamera, camera_pose, true_intrinsics
 from twopose.sim.layout import BOARD_POSES, Layout, board_poses, build_layout, finger_axis
 from twopose.sim.scene import CameraParams, PoseParams, Scene
-from twopose.units import unit_spec
+from twopose.units import Units, unit_spec
 from twopose.values import Vec3
 
 __all__ = [
@@ -384,18 +384,18 @@ def _scene_with(
 ) -> Scene:
     """The scene with the command line's overrides of its pose noise, the resolution the
     operator types and the pose count."""
+    from twopose.bounds import POSE_NOISE, TYPED_RESOLUTION
+
     scene = scene or Scene()
+    units = Units(scene.units)  # each length's bound in the scene's units (twopose.bounds)
     if pose_noise is not None:
-        if not (pose_noise >= 0 and np.isfinite(pose_noise)):
-            raise InputValueError(f"pose noise must be a finite number >= 0, got {pose_noise}")
-        noise = dataclasses.replace(scene.poses, noise_sigma=float(pose_noise))
+        noise = dataclasses.replace(
+            scene.poses, noise_sigma=float(POSE_NOISE.read(pose_noise, units))
+        )
         scene = dataclasses.replace(scene, poses=noise)
     if typed_resolution is not None:
-        if not (typed_resolution > 0 and np.isfinite(typed_resolution)):
-            raise InputValueError(
-                f"the typed resolution must be a positive length, got {typed_resolution}"
-            )
-        typed = dataclasses.replace(scene.poses, typed_resolution=float(typed_resolution))
+        resolution = float(TYPED_RESOLUTION.read(typed_resolution, units))
+        typed = dataclasses.replace(scene.poses, typed_resolution=resolution)
         scene = dataclasses.replace(scene, poses=typed)
     if poses is not None:
         scene = dataclasses.replace(scene, poses=dataclasses.replace(scene.poses, count=poses))

@@ -47,6 +47,7 @@ __all__ = [
     "SourceOptions",
     "SyntheticSource",
     "VideoSource",
+    "kind_of",
     "open_from",
     "open_source",
     "source_help",
@@ -468,6 +469,8 @@ class SourceKind:
     calibrates: bool = True
     #: An example the calibrate help shows, if any.
     example: str = ""
+    #: Whether ``--fps`` is asked of it (a camera's; others keep their own rate).
+    takes_fps: bool = False
 
     def matches(self, spec: str) -> bool:
         """Whether ``spec`` (as typed) names this kind."""
@@ -495,6 +498,7 @@ SOURCE_KINDS: tuple[SourceKind, ...] = (
         syntax="camera:N",
         help="OpenCV device N (0 if omitted); --width/--height/--fps are requested",
         opener=_open_camera,
+        takes_fps=True,
     ),
     SourceKind(
         name="video",
@@ -575,7 +579,12 @@ def open_source(
 
 def open_from(kinds: Sequence[SourceKind], spec: str, options: SourceOptions) -> FrameSource:
     """The source ``spec`` names among ``kinds`` (not yet opened), by its kind's opener."""
+    return kind_of(spec, kinds).opener(spec.partition(":")[2], options)
+
+
+def kind_of(spec: str, kinds: Sequence[SourceKind] = SOURCE_KINDS) -> SourceKind:
+    """The kind ``spec`` names among ``kinds``; raises :class:`SourceError` for none."""
     for kind in kinds:
         if kind.matches(spec):
-            return kind.opener(spec.partition(":")[2], options)
+            return kind
     raise SourceError(f"unknown source {spec!r}; use {_listed([k.syntax for k in kinds])}")

@@ -476,7 +476,8 @@ class Guidance:
             else "no target precision, "
         )
         if self.min_gain is not None:
-            stop += f"once the next pose would shrink it by less than {self.min_gain:.0%}, "
+            # the least gain as given (0.125, never a rounded 12%)
+            stop += f"once the next pose would shrink it by less than {shown(self.min_gain)}, "
         taped = (
             f"; the target taped {shown(self.target_distance)} {units} from the first pose"
             if self.target_distance is not None

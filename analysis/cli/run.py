@@ -14,11 +14,13 @@ from twopose.choices import CombineRule
 from twopose.errors import (
     EXIT_INTERRUPTED,
     EXIT_SOME_INPUTS_FAILED,
+    InputValueError,
     handle_errors,
     say_interrupted,
 )
 from twopose.margins import EstimateOptions
 from twopose.noise import NoiseModel
+from twopose.options import read_option
 
 if TYPE_CHECKING:
     from analysis.results import RunResult
@@ -37,7 +39,7 @@ _ESTIMATE = EstimateOptions()
 SessionTimeoutOption = Annotated[
     float,
     typer.Option(
-        min=0.0,
+        **read_option("SESSION_TIMEOUT"),
         help="Stop a session still running after this many seconds and list it as failed "
         "(0: no limit).",
     ),
@@ -109,8 +111,12 @@ def run_command(
         Path, typer.Option("--out", help="Output folder for tables, figures, report.")
     ] = Path("results"),
     jobs: Annotated[
-        int, typer.Option(min=1, help="Worker processes (results do not depend on it).")
-    ] = 1,
+        int | None,
+        typer.Option(
+            **read_option("JOBS"),
+            help="Worker processes (results do not depend on it) [default: 1].",
+        ),
+    ] = None,
     dask: Annotated[
         str | None,
         typer.Option(help="Address of an existing Dask scheduler to run the sessions on."),
@@ -119,13 +125,25 @@ def run_command(
         CombineRule, typer.Option(help="How a pose's frames are combined (thesis: mean).")
     ] = _ESTIMATE.combine,
     min_parallax: Annotated[
-        float, typer.Option(help="Warn when a point's ray parallax is below this (deg).")
+        float,
+        typer.Option(
+            **read_option("MARGIN_ANGLE"),
+            help="Warn when a point's ray parallax is below this (deg).",
+        ),
     ] = _ESTIMATE.min_parallax_deg,
     min_plane_angle: Annotated[
-        float, typer.Option(help="Warn when back-projected planes meet below this (deg).")
+        float,
+        typer.Option(
+            **read_option("MARGIN_ANGLE"),
+            help="Warn when back-projected planes meet below this (deg).",
+        ),
     ] = _ESTIMATE.min_plane_angle_deg,
     min_ground_angle: Annotated[
-        float, typer.Option(help="Warn when the line meets the ground below this (deg).")
+        float,
+        typer.Option(
+            **read_option("MARGIN_ANGLE"),
+            help="Warn when the line meets the ground below this (deg).",
+        ),
     ] = _ESTIMATE.min_ground_angle_deg,
     scene: Annotated[
         bool,
@@ -171,6 +189,11 @@ def run_command(
         figures=tuple(dict.fromkeys(cast("list[FigureFormat]", figures or ()))),  # each once
     )
     with handle_errors(), _session_progress() as (found, done):
+        if jobs is not None and dask is not None:  # given, it would be ignored
+            raise InputValueError(
+                "--jobs: the Dask scheduler (--dask) runs the sessions on its own workers; "
+                "leave --jobs out, or --dask"
+            )
         inputs = resolve_inputs(paths)  # once: every step below takes this set
         rig = _rig_file(rig, no_rig, paths)
         check_run_outputs(inputs, out, junit, rig)  # before anything is written
@@ -181,7 +204,7 @@ def run_command(
         result = run(
             inputs,
             out,
-            jobs=jobs,
+            jobs=jobs or 1,
             dask_address=dask,
             options=options,
             on_session_done=done,
@@ -207,8 +230,6 @@ def run_command(
 def _rig_file(rig: Path | None, no_rig: bool, paths: list[Path]) -> Path | None:
     """The rig file ``run`` uses: ``--rig``'s, else a rig.toml beside the sessions (said),
     none with ``--no-rig`` (both at once refused)."""
-    from twopose.errors import InputValueError
-
     if no_rig:
         if rig is not None:
             raise InputValueError("--rig and --no-rig contradict each other: give one")

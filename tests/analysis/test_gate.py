@@ -259,7 +259,7 @@ def test_an_empty_baseline_metric_is_said_not_passed_silently(
 def test_a_tolerance_beyond_doubling_is_refused(tmp_path: Path, relative: float) -> None:
     path = tmp_path / "tolerance.toml"
     path.write_text(f"[rmse]\nrelative = {'inf' if relative == float('inf') else relative}\n")
-    with pytest.raises(InputValueError, match=r"relative tolerance|finite"):
+    with pytest.raises(InputValueError, match=r"relative tolerance|'inf' is not a number"):
         load_tolerance(path)
     path.write_text("[rmse]\nrelative = 1.0\n")
     assert load_tolerance(path)[""].rmse.relative == 1.0

@@ -119,7 +119,7 @@ def test_a_misspelt_method_in_a_tolerance_file_is_refused(run_dir: Path, tmp_pat
         ("methods = 3\n", "methods must be a table"),
         ("[methods.line]\nrmse = 0.5\n", "methods.line: rmse must be a table"),
         ("[methods.line.bias]\nabsolute = -1\n", "methods.line.bias.absolute is -1"),
-        ("[bias]\nabsolute = nan\n", "bias.absolute must be a finite number"),
+        ("[bias]\nabsolute = nan\n", "bias.absolute: 'nan' is not a number"),
         ("[bias]\nabsolute = true\n", "bias.absolute must be a finite number"),
     ],
 )

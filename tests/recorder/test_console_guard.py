@@ -263,13 +263,12 @@ def test_body_refusal_rules() -> None:
     assert body_refusal(b"") == ("", {})
     assert body_refusal(b'{"a": "[[[[[[[[[["}') == ("", {})  # brackets in text are text
     assert body_refusal(b'{"a": [[[]]]}')[0].startswith("the request is nested deeper")
-    _, errors = body_refusal(b'{"a": 1e999}')
-    assert errors == {"a": "must be a finite number, got '1e999'"}
+    # the field's quantity judges 1e999 in the form's words (the guard: the grammar)
+    assert body_refusal(b'{"a": 1e999}') == ("", {})
     # judged as sent: 400 digits would overflow the float math.isfinite makes of them
     _, errors = body_refusal(b'{"decision": ' + b"9" * 400 + b"}")
     assert "not a number of sane size" in errors["decision"]
-    _, errors = body_refusal(b'{"x": 1e300}')
-    assert "too large" in errors["x"]
+    assert body_refusal(b'{"x": 1e300}') == ("", {})
     assert body_refusal(b'{"x": -0, "y": 1e-300}') == ("", {})
     why, _ = body_refusal(b'{"decision": "redo", "decision": "accept"}')
     assert "given twice" in why

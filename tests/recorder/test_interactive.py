@@ -239,7 +239,7 @@ def test_a_method_2_truth_off_the_ground_is_questioned(tmp_path: Path, keep: str
         input="\n".join(answers) + "\n",
     )
     assert result.exit_code == 0, result.output
-    assert "warning: the ground truth (1.9, 5.0, 8.4) has y = 5 in" in result.output
+    assert "warning: the ground truth (1.9, 5, 8.4) has y = 5 in" in result.output  # as typed
     with SessionReader(out) as r:
         (truth,) = [e for e in r.iter_entries() if isinstance(e, GroundTruth)]
     assert truth.points_grid[0][1] == (5.0 if keep == "y" else 9.625)
@@ -250,13 +250,13 @@ TRUTH = ["--ground-truth", "0.5,1.5,11"]
 
 def test_the_stop_rule_is_asked_with_the_setup_and_ends_the_trial(tmp_path: Path) -> None:
     """Asked last when the setup is asked (the option skips it): a trial whose region is
-    within the answer is complete at its second pose, with no --poses asked of it."""
+    within the answer is complete at its second pose."""
     out = tmp_path / "s.mcap"
     answers = ["0.5, 1.5, 11", "0", "5"]  # the truth; the precision: 0 refused, then 5 in
     answers += ["0, 0, 0", "", "a", "1.5, 0, 0", "", "a", "n"]
     result = runner.invoke(
         app,
-        ["new", str(out), *POINT_OPTIONS, "--poses", "4"],
+        ["new", str(out), *POINT_OPTIONS],
         input="\n".join(answers) + "\n",
     )
     assert result.exit_code == 0, result.output

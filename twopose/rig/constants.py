@@ -41,6 +41,7 @@ from twopose.estimate import GroundSpec, PoseView
 from twopose.format.entries import INCHES_PER_UNIT, UNITS
 from twopose.noise import PlacingSigma
 from twopose.units import IS_LENGTH, Units, unit_spec
+from twopose.values import Unread
 
 __all__ = [
     "LIMITS",
@@ -501,6 +502,8 @@ def _placing_numbers(table: dict[str, object], units: Units, what: str) -> tuple
     if sigma is None:
         raise InputValueError(f"{what}: sigma is missing (the placing error's 1-sigma, a length)")
     for key, value in (("sigma", sigma), ("sigma_sigma", spread)):
+        if isinstance(value, Unread):  # 0x1, 0.0_5, nan: the one grammar's words
+            value.refuse(f"{what}: {key}")
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise InputValueError(f"{what}: {key} must be a number, got {value!r}")
     assert isinstance(sigma, int | float)
