@@ -180,14 +180,14 @@ def test_a_rig_that_does_not_apply_is_refused_before_the_file_exists(
 
 # Slow: it records a guided plan, a suggestion searched after each of its three poses (~3 s).
 @pytest.mark.slow
-def test_the_advice_carries_its_map_computed_only_when_asked_and_the_page_gets_it(
+def test_the_advice_carries_the_map_its_suggestion_is_the_best_of_and_the_page_gets_it(
     tmp_path: Path,
 ) -> None:
-    """Issue 46: a plan (which takes the suggestion) never computes the map of every
-    reachable pose; the console's driver asks for it and sends it to the page."""
+    """Issue 46, 55: the advice carries the map of every reachable pose's predicted region,
+    whose cells the suggestion's search starts from (its best is the suggestion); the
+    console's driver sends it to the page."""
     from recorder.console import ConsoleSession
     from recorder.console_driver import WebDriver
-    from recorder.live_result import MappedAdvice
     from recorder.setup_rules import PoseTyping
     from twopose.guidance import Advice
     from twopose.jsonsafe import dumps
@@ -200,21 +200,25 @@ def test_the_advice_carries_its_map_computed_only_when_asked_and_the_page_gets_i
                 SyntheticSource(None, Method.POINT, realtime=False),
                 on_advice=lambda _, advice: said.append(advice))  # fmt: skip
     assert len(said) == 3  # after each of the three poses
-    assert all(isinstance(a, MappedAdvice) and not a.complete for a in said)
-    assert all("region_map" not in vars(a) for a in said)  # never computed by the plan
+    assert all(a.region_map is not None and not a.complete for a in said)
+    for a in said:
+        assert a.region_map is not None
+        assert a.suggestion is not None
+        best = a.region_map.best()
+        assert best is not None
+        assert best[0].tolist() == list(a.suggestion.t_grid)
     advice = said[1]
     session = ConsoleSession(tmp_path / "c.mcap")
     WebDriver(session, None, "cam0", (), PoseTyping()).advice(1, advice)
-    with session.lock:  # the map follows the suggestion (computed beside the recording)
+    with session.lock:  # the map follows the suggestion
         session.lock.wait_for(lambda: (session.advice or {}).get("map") is not None, timeout=30)
     page = session.snapshot()["advice"]
     drawn = page["map"]
     assert drawn is not None
     assert drawn["units"] == "in"
     assert drawn["taken"] == [[0.0, 0.0], [1.5, -1.0]]
-    assert drawn["best"]["region95"] <= min(
-        v for row in drawn["region95"] for v in row if v is not None
-    )
+    assert drawn["best"]["value"] <= min(v for row in drawn["values"] for v in row if v is not None)
+    assert drawn["best"]["t_grid"] == page["suggestion"]["t_grid"]
     assert "NaN" not in dumps(page)
 
 
