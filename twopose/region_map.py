@@ -332,9 +332,9 @@ class RegionMap:
     def label(self) -> str:
         """What the map's values are, briefly (its title)."""
         if self.regret and self.depth_range is not None:
-            near, far = (shown(round(d, 2)) for d in self.depth_range)
-            return f"next pose's worst regret, target {near}-{far} {self.units} away"
-        return f"next pose's predicted 95% region ({self.units})"
+            near, far = self.depth_range
+            return f"worst regret, a target {near:.3g}-{far:.3g} {self.units} away"
+        return f"predicted 95% region ({self.units})"
 
     def _end_text(self, value: float, end: str) -> str:
         """One end of the colour scale in words."""

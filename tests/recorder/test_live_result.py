@@ -245,3 +245,37 @@ def test_with_a_rig_the_suggestions_stay_on_the_typed_grid(tmp_path: Path) -> No
         assert y == 0.0, s.t_grid  # the typed height, not the camera's
         assert round(x * 2) == x * 2, s.t_grid  # on the 1/2 in grid
         assert round(z * 2) == z * 2, s.t_grid
+
+
+def test_guidance_keeps_the_target_off_the_blobs_the_last_frames_turned_down() -> None:
+    """Issue 55, for a real camera: the candidate blobs the live detector turned down in the
+    last frames of the pose that saw the target are the clutter guidance avoids; the
+    synthetic camera's scene, where the source knows it, wins."""
+    from recorder.capture import CaptureResult, _feedback
+    from recorder.live_result import LiveResults
+    from twopose.camera import Camera, Intrinsics
+    from twopose.clutter import Clutter
+    from twopose.detect import Detection, RejectedBlob
+    from twopose.format.entries import PoseEntry
+    from twopose.units import Units
+
+    outline = np.array([[100.0, 190.0], [110.0, 200.0], [100.0, 212.0], [90.0, 200.0]])
+    disk = RejectedBlob(outline_px=outline, centroid_px=(100.0, 200.0), reason="eccentricity")
+    seen = Detection(found=True, centroid_px=(320.0, 240.0), theta_deg=80.0, n_blobs=2,
+                     n_candidates=1, rejected_blobs=(disk,))  # fmt: skip
+    frames = tuple(_feedback(k, seen) for k in range(3))
+    assert frames[-1].turned_down_px == ((100.0, 200.0, 12.0),)
+    camera = Camera(camera_id="cam0", intrinsics=Intrinsics(width=640, height=480, fx=525.0,
+                                                            fy=525.0, cx=320.0, cy=240.0))  # fmt: skip
+    live = LiveResults(Method.LINE, Units.IN, [camera], None)
+    entry = PoseEntry(trial=1, pose=1, camera_id="cam0", t_grid=(0.0, 0.0, 0.0), capture=1)
+    live.captured(entry, CaptureResult(n_frames=3, complete=True, reason="", feedback=frames,
+                                       capture=1))  # fmt: skip
+    live.update(1, {1: entry})
+    clutter = live.clutter_for([1])
+    assert clutter is not None
+    assert clutter.source == "the last frames"
+    assert len(clutter) == 1
+    known = Clutter(points=np.zeros((1, 3)), radii=np.ones(1), source="the synthetic scene")
+    live.known_clutter = known
+    assert live.clutter_for([1]) is known

@@ -294,3 +294,50 @@ def test_the_information_gain_stop_ends_a_trial_whose_next_pose_buys_too_little(
     below = advise(trial, Guidance(reach=reach, min_gain=gain - 0.01), options, point=point,
                    region95=region)  # fmt: skip
     assert not below.complete
+
+
+def test_one_pose_the_thesis_move_is_said_at_the_depths_the_suggestion_weighs() -> None:
+    """Issue 55: "the thesis' move would give 9.12" was at an unstated 15.5 in (the middle
+    of the depths weighed; 5.07 in at the true 11 in), beside a range for the suggestion.
+    The thesis' move is said over the same depths, as a range; with a taped distance, at
+    that distance."""
+    trial = _trial(Method.LINE, [(0.0, 0.0, 0.0)])
+    found = suggest(trial, Reach.thesis(Units.IN))
+    assert found is not None
+    assert found.thesis95_range is not None
+    lo, hi = found.thesis95_range
+    assert lo < found.thesis95 < hi  # the single figure is the middle depth's
+    text = found.text(Units.IN)
+    assert f"the thesis' move to 1, 0, 0 would give {lo:.3g}-{hi:.3g} in there" in text
+    assert f"would give {found.thesis95:.3g})" not in text
+    assert found.to_json()["thesis95_range"] == [lo, hi]
+    assert found.assumed_depth == pytest.approx(15.49, abs=0.01)
+    taped = suggest(trial, Reach.thesis(Units.IN), target_distance=11.0)
+    assert taped is not None
+    said = taped.text(Units.IN)
+    assert "for the target taped at 11 in" in said
+    assert f"the thesis' move to 1, 0, 0 would give {taped.thesis95:.3g} in" in said
+
+
+def test_the_gain_stop_says_when_the_target_precision_was_missed() -> None:
+    """Issue 55: the gain stop said "trial complete" without saying the target precision
+    was missed, as the max-poses stop does."""
+    from twopose.guidance import STOP_MIN_GAIN
+    from twopose.session_estimate import estimate_session
+
+    trial = _trial(Method.POINT, [(0.0, 0.0, 0.0), (1.5, 0.0, 0.0), (-1.5, 0.0, 1.0)])
+    options = EstimateOptions()
+    point = estimate_session(trial, options).estimates.point[0]
+    region = float(regions95(trial, options)[0])
+    reach = Reach(radius=1.5, spacing=0.5)
+    guidance = Guidance(reach=reach, min_gain=0.49, target95=region / 2)
+    stopped = advise(trial, guidance, options, point=point, region95=region)
+    assert stopped.complete
+    assert stopped.reason == STOP_MIN_GAIN
+    assert stopped.text.endswith(
+        f"trial complete; 95% within {region:.3g} in > {shown(region / 2)}: the target "
+        "precision was not reached"
+    )
+    at_most = advise(trial, Guidance(reach=reach, target95=region / 2, max_poses=3), options,
+                     point=point, region95=region)  # fmt: skip
+    assert at_most.text.endswith("the target precision was not reached")

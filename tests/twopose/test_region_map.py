@@ -209,7 +209,7 @@ def test_the_json_is_what_the_page_draws() -> None:
     page = json.loads(dumps(m.to_json()))
     assert page["units"] == "in"
     assert page["measure"] == "region"
-    assert page["label"] == "next pose's predicted 95% region (in)"
+    assert page["label"] == "predicted 95% region (in)"
     assert len(page["values"]) == len(page["z"]) == len(page["reason"])
     assert all(len(row) == len(page["x"]) for row in page["values"])
     assert page["reasons"][0] == ""
