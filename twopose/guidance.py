@@ -176,7 +176,7 @@ def _suggestion(
     found = search(predict, field, taken, known=(cells.known, cells.step), blocked=blocked)
     region_map = RegionMap.of(
         cells,
-        str(t.units),
+        t.units,
         t.reach,
         taken,
         None if found is None else found.centre,
@@ -226,7 +226,7 @@ def _first_suggestion(t: _Trial, depths: F64) -> tuple[Suggestion | None, Region
         return None, None
     k = len(depths) // 2  # the assumed depth's (:func:`twopose.first_pose.assumed_depth`)
     found = pick.found
-    region_map = RegionMap.of(pick.cells, str(units), t.reach, taken, found.centre, found.region,
+    region_map = RegionMap.of(pick.cells, units, t.reach, taken, found.centre, found.region,
                               depth_range=(float(depths[0]), float(depths[-1])))  # fmt: skip
     solved = pick.regions[np.isfinite(pick.regions)]
     thesis = pick.extra_regions[:, 0]

@@ -32,6 +32,7 @@ from twopose.arrays import F64, Ints
 from twopose.bounds import shown
 from twopose.paper import REASONS, Field, Reach
 from twopose.paper_search import COARSE_CANDIDATES, Blocked, Known, Predict, coarse_sample
+from twopose.units import Units
 
 __all__ = ["FOCUS", "MAP_POSES", "REASONS", "RegionMap", "Survey", "survey"]
 
@@ -224,12 +225,13 @@ class RegionMap:
 
     @classmethod
     def of(
-        cls, cells: Survey, units: str, reach: Reach, taken: F64, suggested: F64 | None,
+        cls, cells: Survey, units: Units, reach: Reach, taken: F64, suggested: F64 | None,
         suggested_value: float, *, depth_range: tuple[float, float] | None = None,
     ) -> RegionMap:  # fmt: skip
         """The map of a survey, with the suggestion the search refined from it."""
         return cls(
-            units=units, x=cells.x, z=cells.z, poses=cells.poses, cell=cells.step * reach.spacing,
+            units=str(units), x=cells.x, z=cells.z, poses=cells.poses,
+            cell=cells.step * reach.spacing,
             step=cells.step, values=cells.values, reason=cells.reason, taken=taken,
             suggested=suggested, suggested_value=suggested_value, n_reach=cells.n_reach,
             n_in_view=cells.n_in_view, regret=depth_range is not None, depth_range=depth_range,
