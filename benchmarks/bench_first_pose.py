@@ -16,7 +16,8 @@ detector's floor, 1/16 in placing error, a 2 px calibration sigma). For each cas
   pick keeps the target clear of the image's edges by (the depths weighed:
   :data:`twopose.first_pose.OTHER_DEPTHS_MARGIN`; a taped distance: the whole margin), less
   1: what guessing the depth cost. A pick that would put the true target within that
-  margin has no region: ``lost``. For the suggestion over the depths the scene allows
+  margin (still in the image, but nearer its edge than the pick's margin allows; the true
+  target stands up to 1 in off the first view's ray) has no region there: ``edge``. For the suggestion over the depths the scene allows
   (``range``, :mod:`twopose.first_pose`), for the one at a fixed 10 in (``10 in``, the
   assumption it replaces) and for the one at the taped true distance (``taped``);
 - ``bound``: the least worst regret over the depths weighed that any lattice pose has for
@@ -118,7 +119,7 @@ class Case:
     method: str
     depth: float
     seed: int
-    regret: dict[str, float]  # inf: the pick loses the true target (within its margin)
+    regret: dict[str, float]  # inf: the pick puts the true target within its margin
     bound: float  # this case's least worst regret over the depths weighed, any pose
     lo: float
     hi: float
@@ -236,7 +237,7 @@ def main() -> int:
 
 
 def _pct(value: float) -> str:
-    return "lost" if math.isinf(value) else f"{value:.1%}"
+    return "edge" if math.isinf(value) else f"{value:.1%}"
 
 
 def _per_case(cases: list[Case]) -> None:
@@ -260,7 +261,7 @@ def _per_case(cases: list[Case]) -> None:
 def _summary(cases: list[Case], args: argparse.Namespace) -> list[str]:
     depths = ", ".join(f"{d:g}" for d in DEPTHS_IN)
     print(f"\n{args.cases} cases per method and true distance ({depths} in): regret mean and "
-          "worst per pick (lost: the pick puts the true target within its margin), the "
+          "worst per pick (edge: the pick puts the true target within its margin), the "
           "largest bound, the range shown and the second pose's region (medians), covered, "
           "and the poses the pick costs beside the best second pose (mean)\n")  # fmt: skip
     print(f"{'method':<7}{'in':>4}" + "".join(f"{n + ' mean':>12}{'worst':>8}" for n in PICKS)
@@ -276,7 +277,7 @@ def _summary(cases: list[Case], args: argparse.Namespace) -> list[str]:
             for n in PICKS:
                 r = np.array([c.regret[n] for c in part])
                 finite = r[np.isfinite(r)]
-                mean = f"{np.mean(finite):.1%}" if finite.size else "lost"
+                mean = f"{np.mean(finite):.1%}" if finite.size else "edge"
                 cells += f"{mean:>12}{_pct(float(np.max(r))):>8}"
             covered = [c.lo * (1 - 1e-9) <= c.second <= c.hi * (1 + 1e-9) for c in part]
             label = "all" if math.isnan(depth) else f"{depth:g}"

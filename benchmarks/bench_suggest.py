@@ -388,6 +388,7 @@ def _regrets(cases: list[Case], n: int) -> list[str]:
             print(f"{_describe(case)}  no pose keeps the target in view")
             continue
         regret = pick / best - 1
+        regret = 0.0 if -1e-9 < regret < 0 else regret  # 1.2, not 1.2000000000000002
         regrets.append(regret)
         print(f"{_describe(case)}{m:>10}{'s' if sampled else ' '}{pick:>8.4g}{best:>9.4g}"
               f"{regret:>8.2%}")  # fmt: skip

@@ -33,7 +33,9 @@ IN_VIEW = """
 const problems = [];
 for (const id of ["regionmap", "regionmap-key", "regionmap-legend", "regionmap-best",
                   "regionmap-note"]) {
-  const r = document.getElementById(id).getBoundingClientRect();
+  const e = document.getElementById(id);
+  if (!e) { problems.push(`${id} missing`); continue; }
+  const r = e.getBoundingClientRect();
   if (!r.height || r.top < 0 || r.left < 0 || r.bottom > innerHeight || r.right > innerWidth) {
     problems.push(`${id} at (${r.left}, ${r.top})-(${r.right}, ${r.bottom})`);
   }
