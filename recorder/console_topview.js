@@ -206,10 +206,12 @@ function mapFrame(ctx, map, next, w, h) {
   // The cells' extent (and the poses', the suggestion's) mapped onto the canvas, x across
   // and z upwards as in the top view, one scale for both, room left for the ticks.
   const half = map.cell / 2;
-  const xs = [map.x[0] - half, map.x[map.x.length - 1] + half, ...map.taken.map((p) => p[0])];
-  const zs = [map.z[0] - half, map.z[map.z.length - 1] + half, ...map.taken.map((p) => p[1])];
+  let xs = [map.x[0], map.x[map.x.length - 1], ...map.taken.map((p) => p[0])];
+  let zs = [map.z[0], map.z[map.z.length - 1], ...map.taken.map((p) => p[1])];
   if (next) { xs.push(next[0]); zs.push(next[2]); }
-  const x0 = Math.min(...xs), x1 = Math.max(...xs), z0 = Math.min(...zs), z1 = Math.max(...zs);
+  xs = xs.filter(Number.isFinite); zs = zs.filter(Number.isFinite); // no cells: the poses'
+  const x0 = Math.min(...xs) - half, x1 = Math.max(...xs) + half;
+  const z0 = Math.min(...zs) - half, z1 = Math.max(...zs) + half;
   ctx.font = MAP_FONT + "px sans-serif";
   // The widest z label there can be: the largest magnitude, negative, at a fine step.
   const fine = niceAbove(Math.max((z1 - z0) / 12, 1e-9));

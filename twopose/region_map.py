@@ -180,9 +180,11 @@ def _stride(field: Field, origin: tuple[int, int], box: tuple[int, int, int, int
 
 
 def _axis(lo: int, hi: int, origin: int, step: int) -> Ints:
-    """The sub-lattice's indices (``origin`` plus multiples of ``step``) from lo to hi."""
+    """The sub-lattice's indices (``origin`` plus multiples of ``step``) in lo..hi, one at least."""
     first = origin + math.ceil((lo - origin) / step) * step
     last = origin + math.floor((hi - origin) / step) * step
+    if first > last:  # a box narrower than a cell: the cell nearest its middle
+        first = last = origin + round(((lo + hi) / 2 - origin) / step) * step
     return np.arange(first, last + 1, step, dtype=np.int64)
 
 
