@@ -17,9 +17,10 @@ detector's floor, 1/16 in placing error, a 2 px calibration sigma). For each cas
   :data:`twopose.first_pose.OTHER_DEPTHS_MARGIN`; a taped distance: the whole margin), less
   1: what guessing the depth cost. A pick that would put the true target within that
   margin (still in the image, but nearer its edge than the pick's margin allows; the true
-  target stands up to 1 in off the first view's ray) has no region there: ``edge``. For the suggestion over the depths the scene allows
-  (``range``, :mod:`twopose.first_pose`), for the one at a fixed 10 in (``10 in``, the
-  assumption it replaces) and for the one at the taped true distance (``taped``);
+  target stands up to 1 in off the first view's ray) has no region there: ``edge``. For
+  the suggestion over the depths the scene allows (``range``, :mod:`twopose.first_pose`),
+  for the one at a fixed 10 in (``10 in``, the assumption it replaces) and for the one at
+  the taped true distance (``taped``);
 - ``bound``: the least worst regret over the depths weighed that any lattice pose has for
   this case's first view, as the model predicts it (every pose predicted): what no single
   first pose could beat here without the distance;

@@ -265,8 +265,8 @@ def test_guidance_keeps_the_target_off_the_blobs_the_last_frames_turned_down() -
                      n_candidates=1, rejected_blobs=(disk,))  # fmt: skip
     frames = tuple(_feedback(k, seen) for k in range(3))
     assert frames[-1].turned_down_px == ((100.0, 200.0, 12.0),)
-    camera = Camera(camera_id="cam0", intrinsics=Intrinsics(width=640, height=480, fx=525.0,
-                                                            fy=525.0, cx=320.0, cy=240.0))  # fmt: skip
+    intrinsics = Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0)
+    camera = Camera(camera_id="cam0", intrinsics=intrinsics)
     live = LiveResults(Method.LINE, Units.IN, [camera], None)
     entry = PoseEntry(trial=1, pose=1, camera_id="cam0", t_grid=(0.0, 0.0, 0.0), capture=1)
     live.captured(entry, CaptureResult(n_frames=3, complete=True, reason="", feedback=frames,
