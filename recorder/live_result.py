@@ -11,10 +11,8 @@ operator did, the analysis stays the reference.
 
 from __future__ import annotations
 
-import dataclasses
-import functools
 import math
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -34,24 +32,13 @@ from twopose.units import Units
 __all__ = ["LiveResults", "MappedAdvice"]
 
 if TYPE_CHECKING:
+    from twopose.clutter import Clutter
     from twopose.guidance import Guidance
-    from twopose.region_map import RegionMap
 
 
-@dataclasses.dataclass(frozen=True, kw_only=True)
-class MappedAdvice(Advice):
-    """The advice with the map of every reachable pose's predicted region
-    (:mod:`twopose.region_map`), computed when a driver first asks for it: the console and
-    the terminal show it, a plan (which takes the suggestion) never pays for it."""
-
-    map_of: Callable[[], RegionMap | None] = dataclasses.field(
-        default=lambda: None, repr=False, compare=False
-    )
-
-    @functools.cached_property
-    def region_map(self) -> RegionMap | None:
-        """The map (None: the trial is complete, or no map was asked for)."""
-        return self.map_of()
+#: The advice with the map it is the best of (:attr:`twopose.guidance.Advice.region_map`):
+#: the console and the terminal show the map, a plan takes the suggestion.
+MappedAdvice = Advice
 
 
 class LiveResults:
@@ -78,6 +65,10 @@ class LiveResults:
             self.notes = check_applicable(rig, Units(units), self._ground, sizes, "the rig file")
             self._ground = corrected_ground(self._ground, rig)
         self._captures: dict[int, PoseView] = {}  # capture number -> its detections
+        #: the scene's clutter where the source knows it (the synthetic camera), else None
+        self.known_clutter: Clutter | None = None
+        #: capture number -> the blobs its last frame's detector turned down (u, v, r px)
+        self._turned_down: dict[int, tuple[tuple[float, float, float], ...]] = {}
         #: the same as typed: guidance suggests where the operator puts the laptop, on the
         #: grid as typed, not where the rig says its camera then stands
         self._typed: dict[int, PoseView] = {}
@@ -110,6 +101,7 @@ class LiveResults:
             camera.intrinsics_sigma,
         )
         self._typed[entry.capture] = view
+        self._turned_down[entry.capture] = fb[-1].turned_down_px
         self._captures[entry.capture] = view if self.rig is None else corrected_view(view, self.rig)
 
     def update(self, trial: int, accepted: Mapping[int, PoseEntry]) -> TrialResult | None:
@@ -155,7 +147,6 @@ class LiveResults:
         from its accepted poses and its result now, with the map of every reachable pose
         beside it (:attr:`MappedAdvice.region_map`); None before its first pose."""
         from twopose.guidance import advise
-        from twopose.region_map import region_map
 
         views = [self._typed[c] for c in self._solved.get(trial, ()) if c in self._typed]
         if not views:
@@ -173,28 +164,28 @@ class LiveResults:
         point = np.asarray(result.point) if ok and result is not None else None
         # The session's variance factor, never one estimated from predicted views.
         options = guidance_options(self.options, self.results.values())
-        advice = advise(
+        return advise(
             session,
             guidance,
             options,
             point=None if point is None else point.tolist(),
             region95=result.semiaxis95 if ok and result is not None else math.nan,
+            clutter=self.clutter_for(self._solved.get(trial, ())),
         )
-        said = {f.name: getattr(advice, f.name) for f in dataclasses.fields(advice)}
-        if advice.complete:
-            return MappedAdvice(**said)
-        s = advice.suggestion
-        return MappedAdvice(
-            **said,
-            map_of=lambda: region_map(
-                session,
-                guidance.reach,
-                options,
-                point=point,
-                suggestion=s,
-                target_distance=guidance.target_distance,
-            ),
-        )
+
+    def clutter_for(self, captures: Sequence[int]) -> Clutter | None:
+        """What guidance keeps the target from being seen over: the scene's clutter where
+        the source knows it, else the blobs turned down in the last frames of the last of
+        ``captures`` that saw the target (:func:`twopose.clutter.seen_clutter`)."""
+        from twopose.clutter import seen_clutter
+
+        if self.known_clutter is not None:
+            return self.known_clutter
+        seen = [c for c in captures if c in self._typed and self._typed[c].found.any()]
+        if not seen:
+            return None
+        return seen_clutter(self._typed[seen[-1]], self._turned_down.get(seen[-1], ()),
+                            self._ground, Units(self.units))  # fmt: skip
 
     def scene(self, trial: int) -> TrialScene | None:
         """The trial's geometry for the live view's 3-D panel (None: no result yet)."""

@@ -382,6 +382,8 @@ def record(  # noqa: PLR0913 - keyword-only settings of a recording
     try:
         with contextlib.ExitStack() as stack:
             stack.enter_context(source)  # a stop while it opens: nothing recorded, below
+            if results is not None:  # the scene's clutter, where the source knows it
+                results.known_clutter = source.clutter()
             _check_frame_size(source.info, cameras)  # before the file exists
             w = stack.enter_context(
                 SessionWriter(out, info, cameras, ground=ground, **(writer_options or {}))

@@ -33,6 +33,7 @@ if TYPE_CHECKING:
     from numpy.typing import NDArray
 
     from twopose.camera import Camera
+    from twopose.clutter import Clutter
     from twopose.sim.scene import Scene
 
     Image = NDArray[np.uint8]
@@ -123,6 +124,11 @@ class FrameSource(ABC):
     ) -> None:
         """Tell the source where the camera is (only the synthetic camera uses it)."""
         return
+
+    def clutter(self) -> Clutter | None:
+        """The clutter in its scene, where the source knows it (only the synthetic camera
+        does: guidance keeps the target from being seen over it, :mod:`twopose.clutter`)."""
+        return None
 
 
 class _Pacer:
@@ -398,6 +404,14 @@ class SyntheticSource(FrameSource):
             stops.check()  # between frames when the recording is to stop (recorder/stops.py)
             bank.append(self._camera.expose())
         self._pose, self._bank, self._next = (t_grid, r_deg), bank, 0
+
+    @override
+    def clutter(self) -> Clutter | None:
+        from twopose.clutter import scene_clutter
+
+        return scene_clutter(
+            self._camera.layout.decals, self.scene.ground_height, self.scene.wall_z
+        )
 
     @override
     def read(self, timeout_s: float = 2.0) -> Image:

@@ -31,7 +31,7 @@ from twopose.estimate import (
     margin_warnings,
     measure,
     misclosure_residuals,
-    scatter_of,
+    scatters_of,
     shared_intrinsics,
     solve_batch,
     thesis_direction,
@@ -208,7 +208,11 @@ class SessionEstimate:
 
 
 def estimate_session(
-    trials: SessionTrials, options: EstimateOptions, *, line_fits: bool = True
+    trials: SessionTrials,
+    options: EstimateOptions,
+    *,
+    line_fits: bool = True,
+    report_near: F64 | None = None,
 ) -> SessionEstimate:
     """Solve every detected trial with every estimator, and propagate.
 
@@ -230,6 +234,9 @@ def estimate_session(
     line_fits : bool
         Lines: also the weighted and the reprojection-optimal line (iterative); without
         them (NaN), what the thesis' line and its region need, as guidance ranks poses.
+    report_near : (T, 3) ndarray, optional
+        Lines: propagate each one's point nearest this point (NaN rows: the solved point),
+        where :func:`twopose.truth.reported` reports it, at once (guidance ranks many).
 
     Returns
     -------
@@ -247,10 +254,7 @@ def estimate_session(
     batch = ViewBatch.of(rows_m, rows_v)
     solved = solve_batch(trials.method, batch, trials.ground, options)
     # Each pose's frame scatter, once, for the pooled and the per-pose covariances.
-    scatters = [
-        [scatter_of(v, m) for v, m in zip(vs, ms, strict=False)]
-        for vs, ms in zip(trials.views, measurements, strict=True)
-    ]
+    scatters = scatters_of(trials.views, measurements)
     cov_in = input_covariance(
         rows_m,
         rows_v,
@@ -270,7 +274,9 @@ def estimate_session(
     )
     factor, misclosure = _variance_factor(trials, context, options)
     context = dataclasses.replace(context, factor=factor, cov_in=placed(cov_in, factor))
-    est = _solved_estimates(trials, complete, context, options, line_fits=line_fits)
+    est = _solved_estimates(
+        trials, complete, context, options, line_fits=line_fits, report_near=report_near
+    )
     return dataclasses.replace(
         _session_estimate(trials, measurements, complete, detected, est, options, context),
         factor=factor,
@@ -417,16 +423,20 @@ def _solved_estimates(
     options: EstimateOptions,
     *,
     line_fits: bool = True,
+    report_near: F64 | None = None,
 ) -> Estimates:
     """The solved rows' estimates at their trials, with every other trial unsolved."""
     T, rows, solved = len(trials), p.rows, p.solved
     base = _unsolved(T, trials.method, complete)
     # Propagated at the solved point: a line's reported point is chosen by twopose.truth.
+    near = solved.point
+    if report_near is not None:
+        near = np.where(np.isfinite(report_near[rows]), report_near[rows], solved.point)
     uncertainty = _uncertainty(
         T,
         p,
         propagate(
-            thesis_estimate(trials.method, p.batch, trials.ground, options, solved.point),
+            thesis_estimate(trials.method, p.batch, trials.ground, options, near),
             p.batch.inputs,
             p.cov_in,
             shared=p.shared,

@@ -267,12 +267,19 @@ def test_the_stop_rule_is_asked_with_the_setup_and_ends_the_trial(tmp_path: Path
     )
     assert "<= 5: trial complete" in result.output
     assert "1 trial (1 complete), 2 captures (2 accepted" in result.output
-    # Issue 46: after the suggestion, the three best poses of the map, each with its region.
+    # Issue 46: after the suggestion, the three best poses of the map, each with its value;
+    # issue 55: with one pose each one's worst regret over the depths the suggestion
+    # weighs, so that the suggestion is the first listed.
     said = result.output.split("guidance: next pose:")[1].splitlines()
-    assert said[1].strip().startswith("the 3 best poses of the map (predicted 95% region, the ")
-    assert said[1].endswith(" along the first ray):")  # one pose: the target's depth assumed
-    assert all(" in: within " in line and line.strip().startswith("x ") for line in said[2:5])
+    assert said[1].strip() == (
+        "the 3 best poses of the map (worst regret for a target 8-30 in along the first ray):"
+    )
+    assert all(" at its worst depth" in line and line.strip().startswith("x ")
+               for line in said[2:5])  # fmt: skip
     assert len(set(said[2:5])) == 3
+    where = said[0].split(" in (")[0].strip()  # "x 3, y 0, z 3"
+    assert said[2].strip().startswith(where + " in: ")
+    assert said[2].endswith("(the suggestion)")
     given = runner.invoke(
         app,
         ["new", str(tmp_path / "t.mcap"), *POINT_OPTIONS, "--target-precision", "5", *TRUTH],
