@@ -49,7 +49,7 @@ from twopose.values import Vec3
 if TYPE_CHECKING:
     from recorder.continuation import Continued
     from twopose.guidance import Guidance
-    from twopose.paper_search import Reach
+    from twopose.paper import Reach
     from twopose.rig.constants import RigConstants
 
 __all__ = [
@@ -348,7 +348,7 @@ def board_corner(text: str, units: Units | None) -> Vec3:
 def thesis_reach(units: Units) -> Reach:
     """The thesis' reach (3 in about the first pose, its 1/2 in grid) in ``units``, to six
     significant digits as every converted bound is (76.2 mm, never 76.19999999999999)."""
-    from twopose.paper_search import Reach
+    from twopose.paper import Reach
 
     exact = Reach.thesis(units)
     return Reach(radius=float(f"{exact.radius:.6g}"), spacing=float(f"{exact.spacing:.6g}"))
