@@ -82,9 +82,9 @@ def handle_errors() -> Iterator[None]:
     except (MemoryError, RecursionError, OverflowError, ArithmeticError, ValueError) as err:
         # Last resort: an input no check foresaw. Say what happened, never a traceback;
         # TWOPOSE_DEBUG=1 shows it for a bug report.
-        import os
+        from twopose.environment import DEBUG
 
-        if os.environ.get("TWOPOSE_DEBUG"):
+        if DEBUG.read():
             raise
         typer.secho(
             f"error: unexpected {type(err).__name__}: {err} (an input twopose does not check "
