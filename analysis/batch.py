@@ -72,7 +72,9 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
         Where to write ``trials.csv``, ``summary.csv``, ``averaging.csv``, ``frames.csv``,
         ``errors.csv``, ``views.csv``, ``sensitivity.csv``, the figures and
         ``report.html``, and (with ``scene``) one ``results_<index>_<session>.mcap`` per
-        session for Foxglove (:mod:`analysis.results_mcap`).
+        session for Foxglove (:mod:`analysis.results_mcap`). A run that finds no session
+        to analyse, or stops before it has analysed one (an error, Ctrl-C), leaves it
+        exactly as it was: the previous run's results and cache.
     jobs : int
         Worker processes; results are identical whatever the number.
     options : AnalysisOptions, optional
@@ -94,7 +96,8 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
     -------
     RunResult
         Every session's tables, concatenated, with the failures (``errors``), the notes
-        on the inputs, the verdict and the thesis table.
+        on the inputs, the verdict and the thesis table; ``written_to``: ``out_dir`` when
+        the outputs were written there.
     """
     options = options or AnalysisOptions()
     if jobs < 1:
@@ -103,6 +106,13 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
     files, skipped = inputs.files, list(inputs.skipped)
     if on_sessions_found is not None:
         on_sessions_found(len(files))
+    if not files:  # nothing to analyse: not a run that replaces --out's results
+        return dataclasses.replace(
+            gather([], include_warned=options.include_warned),
+            skipped=tuple(skipped),
+            rig_source=options.rig_source,
+            input_notes=tuple(inputs.run_notes()),
+        )
     folder = OutputFolder.prepare(out_dir) if out_dir is not None else None
     with folder or contextlib.nullcontext():
         results_mcap: list[str | None] = [None] * len(files)
@@ -135,6 +145,7 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
             skipped=tuple(skipped),
             rig_source=options.rig_source,
             input_notes=tuple(inputs.run_notes()),
+            written_to=None if folder is None else str(folder.destination),
         )
         if folder is not None:
             from analysis.report import write_outputs

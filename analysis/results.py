@@ -144,6 +144,9 @@ class RunResult:
     #: What the run says about its inputs: copies counted once, board sessions (for
     #: `rig`), empty sessions (analysis.input_set.InputSet.notes)
     input_notes: tuple[str, ...] = ()
+    #: The folder the run wrote its outputs into; None when it wrote none (no ``out_dir``
+    #: given, or nothing to analyse: then ``--out`` is left as it was).
+    written_to: str | None = None
 
     @property
     def failed(self) -> bool:

@@ -257,7 +257,9 @@ def _print_run(result: RunResult, out: Path, *, include_warned: bool) -> None:
     from analysis.terminal import closing_lines, summary_lines, wrap_phrases
 
     width = min(shutil.get_terminal_size().columns, 100) if sys.stdout.isatty() else None
-    typer.echo(f"twopose: {len(result.sessions)} session(s), results in {out}")
+    written = result.written_to is not None
+    where = f"results in {out}" if written else f"nothing written, {out} left as it was"
+    typer.echo(f"twopose: {len(result.sessions)} session(s), {where}")
     if result.rig_source is not None:
         typer.echo(result.rig_source.line())
     for line in summary_lines(
@@ -288,7 +290,7 @@ def _print_run(result: RunResult, out: Path, *, include_warned: bool) -> None:
             f"analysis: {result.sessions_reused} of {len(result.sessions)} session(s)' reused "
             f"from the last run into {out} (nothing it depends on changed)"
         )
-    for line in closing_lines(result.verdict, out, width=width):
+    for line in closing_lines(result.verdict, out, width=width) if written else ():
         typer.echo(line)
     if result.failed or not result.sessions:
         if not result.sessions and result.errors.empty:
