@@ -379,18 +379,22 @@ def _time_limit(seconds: float | None) -> Iterator[None]:
 # --------------------------------------------------------------------------- processes
 
 _CLAIMS: Any = None  # in worker processes: the shared claim flags of the batch
+_BUSY = False  # in a worker process: analysing a session (a Ctrl-C ends that session)
+_STOPPED = False  # in a worker process: a Ctrl-C came (no session is started after it)
 
 
 def _worker_init(claims: Any) -> None:
-    """One OpenCV thread per worker: the processes already fill the cores. Ctrl-C is the
-    parent's to handle (a worker would print a traceback of its own); a parent killed
+    """One OpenCV thread per worker: the processes already fill the cores. A Ctrl-C (to
+    the process group, or passed on by the parent as it stops) ends the session in hand
+    at once, as an exception the pool hands back to the parent, never a traceback of the
+    worker's own; an idle worker ignores it (:func:`_interrupt_session`). A parent killed
     outright ends its workers (:func:`analysis.parent_watch.watch_parent`)."""
     import cv2
 
     from analysis.parent_watch import watch_parent
 
     watch_parent()
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGINT, _interrupt_session)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})  # held back at its start
     global _CLAIMS
     _CLAIMS = claims
@@ -398,20 +402,43 @@ def _worker_init(claims: Any) -> None:
     keep_frame_buffers()
 
 
-def _claim(claims: Any, index: int) -> bool:
-    """Take session ``index`` for this process unless another already did."""
+def _interrupt_session(_signum: int, _frame: Any) -> None:
+    """A worker's Ctrl-C: the session in hand stops here (KeyboardInterrupt inside the
+    pool's call, which sends it to the parent as the session's outcome); between sessions
+    it is only remembered, so that the worker's own loop is never interrupted."""
+    global _STOPPED
+    _STOPPED = True
+    if _BUSY:
+        raise KeyboardInterrupt
+
+
+#: Who took a session (the shared claim flags' values): nobody yet, the main process, a
+#: worker, or nobody, for good (the run is stopping).
+_FREE, _BY_MAIN, _BY_WORKER, _STOPPING = 0, 1, 2, 3
+
+
+def _claim(claims: Any, index: int, by: int = _BY_MAIN) -> bool:
+    """Take session ``index`` (for ``by``) unless another already did."""
     with claims.get_lock():
-        if claims[index]:
+        if claims[index] != _FREE:
             return False
-        claims[index] = 1
+        claims[index] = by
         return True
 
 
 def _worker_task(index: int, batch: _Batch, results: str | None) -> Outcome | None:
-    """A worker's session, or None when the main process took it first."""
-    if not _claim(_CLAIMS, index):
+    """A worker's session, or None when the main process took it first (or a Ctrl-C came);
+    a Ctrl-C while it is analysed raises KeyboardInterrupt out of it (:func:`_worker_init`)."""
+    global _BUSY
+    if not _claim(_CLAIMS, index, _BY_WORKER):
         return None
-    return batch.analyse(index, results, images=batch.images)
+    _BUSY = True
+    try:
+        if _STOPPED:
+            raise KeyboardInterrupt
+        return batch.analyse(index, results, images=batch.images)
+    finally:
+        _BUSY = False
 
 
 def _run_processes(batch: _Batch, jobs: int) -> list[Outcome]:
@@ -421,6 +448,7 @@ def _run_processes(batch: _Batch, jobs: int) -> list[Outcome]:
     # Spawned, not forked: a fork after OpenCV has started its thread pool can deadlock.
     files, results, images = batch.files, batch.results_mcap, batch.images
     on_done = batch.on_done
+    _quiet_resource_tracker()
     context = multiprocessing.get_context("spawn")
     claims = context.Array("b", len(files))
     outcomes: list[Outcome | None] = [None] * len(files)
@@ -473,9 +501,28 @@ def _run_processes(batch: _Batch, jobs: int) -> list[Outcome]:
     return [o for o in outcomes if o is not None]
 
 
-#: How long the workers may take to finish the session in hand once stopped, before they are
-#: terminated (a session takes well under a second on the sample sessions).
-STOP_GRACE_S = 5.0
+def _quiet_resource_tracker() -> None:
+    """Start multiprocessing's resource tracker (if this process has none yet) without its
+    shutdown warning. The pool's queues and the claim flags are named semaphores the
+    tracker removes when this process ends without removing them itself (kill -9); it then
+    printed ``resource_tracker: There appear to be 6 leaked semaphore objects to clean up at
+    shutdown``, after the run's own output, about semaphores it was removing as designed
+    (none is left behind: ``tests/analysis/test_run_processes.py`` looks in /dev/shm)."""
+    import sys
+    from multiprocessing import resource_tracker
+
+    quiet = "ignore:resource_tracker:UserWarning"  # passed to the tracker as -W
+    sys.warnoptions.append(quiet)
+    try:
+        resource_tracker.ensure_running()
+    finally:
+        sys.warnoptions.remove(quiet)
+
+
+#: How long the workers may take to end once stopped (a Ctrl-C ends the session in hand
+#: between two Python instructions: milliseconds, unless one call into a library runs long),
+#: before they are terminated.
+STOP_GRACE_S = 0.5
 
 
 def _stop_workers(
@@ -489,16 +536,27 @@ def _stop_workers(
     (``.<name>.<pid>.partial``) behind.
 
     Every session is claimed first, so a worker returns from whatever it is handed next,
-    and the workers get :data:`STOP_GRACE_S` to finish the session in hand before they are
-    terminated: a worker terminated while it sends its result can leave half a message in
-    the pool's result pipe, which the pool's own thread then waits on for ever (a Ctrl-C in
-    CI once never returned).
+    and each worker is sent a Ctrl-C (it may not have had one: a SIGINT or SIGTERM to this
+    process alone), which ends the session in hand at once (:func:`_worker_init`); those
+    not ended within :data:`STOP_GRACE_S` are terminated. They are not terminated first: a
+    worker terminated while it sends its result can leave half a message in the pool's
+    result pipe, which the pool's own thread then waits on for ever (a Ctrl-C in CI once
+    never returned); a worker that ends its session itself sends a whole one.
     """
+    import os
+
     with claims.get_lock():
-        claims[:] = [1] * len(claims)
+        taken = [i for i, by in enumerate(claims[:]) if by == _BY_WORKER]
+        claims[:] = [by or _STOPPING for by in claims[:]]
     processes = list((getattr(pool, "_processes", None) or {}).values())
+    for process in processes:
+        with contextlib.suppress(OSError, ValueError):  # already ended
+            if process.pid is not None and process.is_alive():
+                os.kill(process.pid, signal.SIGINT)
     pool.shutdown(wait=False, cancel_futures=True)
-    in_hand = [f for f in futures if not f.cancelled()]  # wait() never counts a cancelled one
+    # The sessions a worker is analysing (or sending): their whole result, before the end.
+    # A worker still starting, or idle, has none to send (or a message too small to be cut).
+    in_hand = [futures[i] for i in taken if i < len(futures)]
     with contextlib.suppress(KeyboardInterrupt):  # a second Ctrl-C: stop waiting
         wait(in_hand, timeout=STOP_GRACE_S)
     for process in processes:  # idle now (their results all read), or over the grace

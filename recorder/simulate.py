@@ -19,9 +19,9 @@ recovered) is known as that session by every command; other settings are another
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Sequence
 import hashlib
 import json
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path

@@ -265,10 +265,11 @@ def distinct_copies(session: Path, folder: Path, n: int, stem: str = "s") -> lis
                 writer.add_metadata(name, data)
             writer.add_metadata("test_copy", {"number": str(k)})
             for _schema, channel, message in messages:
+                entry = channel.topic == SessionInfo.TOPIC
                 writer.add_message(
                     channels[channel.id],
                     message.log_time,
-                    renamed(message.data, k) if channel.topic == SessionInfo.TOPIC else message.data,
+                    renamed(message.data, k) if entry else message.data,
                     message.publish_time,
                     message.sequence,
                 )

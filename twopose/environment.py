@@ -44,8 +44,11 @@ class EnvironmentSetting:
     numeric: bool = True
 
     def read(self) -> float | None:
-        """Its value now: the number given (a typo keeps the default), or for a switch
-        1.0 when set to anything but the empty string and None when not."""
+        """Its value now.
+
+        The number given (a typo keeps the default), or, for a switch, 1.0 when set to
+        anything but the empty string and None when not.
+        """
         text = os.environ.get(self.name)
         if not self.numeric:
             return 1.0 if text else None
@@ -88,6 +91,8 @@ ENVIRONMENT: tuple[EnvironmentSetting, ...] = (MAX_IMAGE_MPIX, MAX_CHUNK_MB, DEB
 
 
 def results_environment() -> dict[str, float | None]:
-    """The value of every setting a result depends on, as read now (by name): what the
-    analysis cache keys a session's tables by."""
+    """The value of every setting a result depends on, as read now, by name.
+
+    What the analysis cache keys a session's tables by.
+    """
     return {s.name: s.read() for s in ENVIRONMENT if s.shapes_results}

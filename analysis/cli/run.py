@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import errno
 import sys
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -14,6 +15,7 @@ from twopose.choices import CombineRule
 from twopose.errors import (
     EXIT_INTERRUPTED,
     EXIT_SOME_INPUTS_FAILED,
+    end_on_closed_pipe,
     handle_errors,
     say_interrupted,
 )
@@ -170,7 +172,7 @@ def run_command(
         rig_calibration=rig_calibration,
         figures=tuple(dict.fromkeys(cast("list[FigureFormat]", figures or ()))),  # each once
     )
-    with handle_errors(), _session_progress() as (found, done):
+    with handle_errors(), _session_progress(out) as (found, done):
         inputs = resolve_inputs(paths)  # once: every step below takes this set
         rig = _rig_file(rig, no_rig, paths)
         check_run_outputs(inputs, out, junit, rig)  # before anything is written
@@ -202,6 +204,8 @@ def run_command(
             f"interrupted while printing the summary; the results in {out} are complete"
         )
         raise typer.Exit(EXIT_INTERRUPTED) from None
+    except BrokenPipeError:  # `run ... | head -3`: the results are written; nobody reads on
+        end_on_closed_pipe()
 
 
 def _rig_file(rig: Path | None, no_rig: bool, paths: list[Path]) -> Path | None:
@@ -223,11 +227,30 @@ def _rig_file(rig: Path | None, no_rig: bool, paths: list[Path]) -> Path | None:
     return beside
 
 
+def _stdout_closed() -> bool:
+    """Whether stdout is a pipe whose reader has gone (``run ... | head -1`` once ``head``
+    has its line): a poll says so (POLLERR) without a write; never at a terminal or into a
+    file."""
+    import select
+
+    try:
+        fd = sys.stdout.fileno()
+    except (AttributeError, OSError, ValueError):  # not a file (a notebook, a test runner)
+        return False
+    poller = select.poll()
+    poller.register(fd, select.POLLOUT)
+    return any(events & select.POLLERR for _, events in poller.poll(0))
+
+
 @contextlib.contextmanager
-def _session_progress() -> Iterator[tuple[Callable[[int], None], Callable[[str, bool], None]]]:
+def _session_progress(
+    out: Path,
+) -> Iterator[tuple[Callable[[int], None], Callable[[str, bool], None]]]:
     """A progress bar on stderr at a terminal (nothing in a pipe): a spinner and the time
     since the start, so that one long session shows it is working, and the sessions
-    counted as they complete. Yields the callbacks ``run`` takes: sessions found, done."""
+    counted as they complete. Yields the callbacks ``run`` takes: sessions found (the run's
+    first line, said at once: how many and where), and done, where a stdout nobody reads
+    any more (``run ... | head -1``) stops the run as Ctrl-C would: ``--out`` as it was."""
     from rich.console import Console
     from rich.progress import (
         BarColumn,
@@ -243,10 +266,19 @@ def _session_progress() -> Iterator[tuple[Callable[[int], None], Callable[[str, 
         *columns, TimeElapsedColumn(), console=Console(stderr=True), transient=True
     ) as progress:
         task = progress.add_task("sessions", total=None)
-        yield (
-            lambda n: progress.update(task, total=n),
-            lambda _path, _ok: progress.advance(task),
-        )
+
+        def found(n: int) -> None:
+            progress.update(task, total=n)
+            if n:
+                typer.echo(f"twopose: analysing {n} session(s) into {out}")
+                sys.stdout.flush()
+
+        def done(_path: str, _ok: bool) -> None:
+            progress.advance(task)
+            if _stdout_closed():
+                raise BrokenPipeError(errno.EPIPE, "nobody reads the run's output any more")
+
+        yield found, done
 
 
 def _print_run(result: RunResult, out: Path, *, include_warned: bool) -> None:

@@ -164,9 +164,7 @@ def test_a_run_with_nothing_to_analyse_leaves_the_results_as_they_were(
 
     out = tmp_path / "out"
     analysis.run([point_session], out)
-    every = {
-        str(p.relative_to(out)): p.read_bytes() for p in sorted(out.rglob("*")) if p.is_file()
-    }
+    every = {str(p.relative_to(out)): p.read_bytes() for p in sorted(out.rglob("*")) if p.is_file()}
     assert "results_00_point.mcap" in every
     assert any(name.startswith(CACHE_FOLDER) and name.endswith(".pickle") for name in every)
     empty, results_only = tmp_path / "empty", tmp_path / "earlier"

@@ -186,11 +186,13 @@ def identify_file(path: str | Path, digest: str | None = None) -> SessionFile:
 
 
 def opening_digest(path: str | Path) -> str:
-    """The SHA-256 of what opens a session file: its ``twopose`` metadata record (the
-    writer's copy of the session entry, the cameras, the ground and the start time, written
-    before the first chunk), as names and values. The same for the file, a copy cut short
-    anywhere after it and a recovered copy (``recover`` copies it); "" when it cannot be
-    read."""
+    """Return the SHA-256 of what opens a session file.
+
+    Its ``twopose`` metadata record (the writer's copy of the session entry, the cameras,
+    the ground and the start time, written before the first chunk), as names and values:
+    the same for the file, a copy cut short anywhere after it and a recovered copy
+    (``recover`` copies it); "" when it cannot be read.
+    """
     metadata = _opening_metadata(path)
     return _digest_of(metadata) if metadata is not None else ""
 
@@ -209,9 +211,11 @@ def _session_entry(metadata: dict[str, str]) -> SessionInfo | None:
 
 
 def _opening_metadata(path: str | Path) -> dict[str, str] | None:
-    """The ``twopose`` metadata record at a file's start, read front to back (so also
-    from a file that cannot be read whole: no summary); None when there is none before
-    the first chunk or it cannot be read."""
+    """Read the ``twopose`` metadata record at a file's start, front to back.
+
+    So also from a file that cannot be read whole (no summary); None when there is none
+    before the first chunk or it cannot be read.
+    """
     try:
         size = max(os.path.getsize(path), 1)
         with open(path, "rb") as stream:
@@ -356,9 +360,11 @@ def _linked(
 
 
 def _of_session(parent: SessionFile, part: SessionFile) -> bool:
-    """Whether the continuation ``part`` is of ``parent``'s session: the same id, or, for
-    a parent with no id of its own, the id its continuations record (the first 32 hex
-    digits of the SHA-256 of the file they continued)."""
+    """Whether the continuation ``part`` is of ``parent``'s session.
+
+    The same id, or, for a parent with no id of its own, the id its continuations record
+    (the first 32 hex digits of the SHA-256 of the file they continued).
+    """
     if parent.session_id == part.session_id:
         return True
     info, recorded = part.info, parent.info.session_id if parent.info is not None else None
