@@ -21,6 +21,7 @@ __all__ = [
     "MAX_CHUNK_MB",
     "MAX_IMAGE_MPIX",
     "EnvironmentSetting",
+    "markdown_table",
     "results_environment",
 ]
 
@@ -42,6 +43,7 @@ class EnvironmentSetting:
     shapes_results: bool
     example: str
     numeric: bool = True
+    unit: str = ""  # of a number: how the docs say its default
 
     def read(self) -> float | None:
         """Its value now.
@@ -67,6 +69,7 @@ MAX_IMAGE_MPIX = EnvironmentSetting(
     help="the largest image decoded, in megapixels (a frame declaring more is rejected)",
     shapes_results=True,
     example="0.1",
+    unit="megapixels",
 )
 #: The largest chunk decompressed (MB): a session with a larger one is refused.
 MAX_CHUNK_MB = EnvironmentSetting(
@@ -75,6 +78,7 @@ MAX_CHUNK_MB = EnvironmentSetting(
     help="the largest chunk of a session file decompressed, in MB (a larger one is refused)",
     shapes_results=True,
     example="0.01",
+    unit="MB",
 )
 #: Show the traceback of an error no check foresaw (for a bug report).
 DEBUG = EnvironmentSetting(
@@ -96,3 +100,17 @@ def results_environment() -> dict[str, float | None]:
     What the analysis cache keys a session's tables by.
     """
     return {s.name: s.read() for s in ENVIRONMENT if s.shapes_results}
+
+
+def markdown_table() -> str:
+    """The table of :data:`ENVIRONMENT` as docs/bad-input.md shows it, one row a setting."""
+    head = (
+        "| variable | default | what it sets | a re-run under another value |\n"
+        "| --- | --- | --- | --- |\n"
+    )
+    rows = []
+    for s in ENVIRONMENT:
+        default = f"{s.default:g} {s.unit}" if s.default is not None else "unset"
+        rerun = "analyses again" if s.shapes_results else "reuses the analysis"
+        rows.append(f"| `{s.name}` | {default} | {s.help} | {rerun} |")
+    return head + "\n".join(rows) + "\n"

@@ -95,3 +95,18 @@ def test_the_results_environment_is_every_setting_a_result_depends_on(
         if not s.shapes_results:
             monkeypatch.setenv(s.name, s.example)
     assert results_environment() == before
+
+
+def test_the_docs_table_is_the_declared_list() -> None:
+    """docs/bad-input.md lists every setting from the declaration (run
+    ``.venv/bin/python docs/environment_table.py --write-docs`` after changing it)."""
+    import subprocess
+    import sys
+
+    done = subprocess.run(
+        [sys.executable, str(ROOT / "docs" / "environment_table.py")],
+        capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stdout + done.stderr
+    page = (ROOT / "docs" / "bad-input.md").read_text(encoding="utf-8")
+    assert all(f"| `{s.name}` |" in page for s in ENVIRONMENT)
