@@ -1,5 +1,6 @@
-"""Many sessions: discovery, execution (in this process, worker processes, or on a Dask
-cluster), gathering in input order (so results never depend on ``jobs``), and the outputs.
+"""Many sessions: discovery, execution (in this process, worker processes:
+:mod:`analysis.workers`, or on a Dask cluster), gathering in input order (so results never
+depend on ``jobs``), and the outputs.
 
 Everything the CLI's ``run`` does is :func:`run`, one call.
 """
@@ -9,13 +10,9 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import functools
-import glob
-import multiprocessing
 import signal
 import threading
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import Future, ProcessPoolExecutor, as_completed, wait
-from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import Any
 
@@ -30,20 +27,19 @@ from analysis.columns import (
     VIEW_COLUMNS,
     typed,
 )
-from analysis.drawer import FigureDrawer, note, sigint_blocked
+from analysis.drawer import FigureDrawer, note
 from analysis.figure_cache import FigureCache, FigureJob
 from analysis.input_set import InputSet, SessionIdentity, resolve_inputs
 from analysis.metrics import summarize
 from analysis.outputs import OutputFolder, printable_stem
-from analysis.pipeline import _with_figures, analyse_session, keep_frame_buffers
+from analysis.pipeline import _with_figures, analyse_session
 from analysis.results import AnalysisOptions, RunResult, SessionFailure, SessionResult
 from analysis.session_cache import SessionCache
+from analysis.workers import Outcome, run_processes
 from twopose.errors import InputValueError, TwoposeError
 
 __all__ = ["Outcome", "analyse_or_fail", "results_mcap_name", "run"]
 
-#: What one session's analysis gives: its tables, or why it failed.
-Outcome = SessionResult | SessionFailure
 #: Called as each session finishes: its path and whether it succeeded (progress bars).
 OnDone = Callable[[str, bool], None]
 
@@ -115,6 +111,9 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
         )
     folder = OutputFolder.prepare(out_dir) if out_dir is not None else None
     with folder or contextlib.nullcontext():
+        session_cache = (
+            SessionCache.of(folder.destination, options, reuse=reuse) if folder else None
+        )
         results_mcap: list[str | None] = [None] * len(files)
         if folder is not None and scene:
             labels = inputs.labels
@@ -129,13 +128,13 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
             images=folder is not None and "png" in options.figures,  # run --figures
             on_done=on_session_done,
             figure_cache=(
-                FigureCache.of(folder.destination, folder.previous_outputs())
-                if folder is not None and reuse
+                FigureCache.of(
+                    folder.destination, folder.previous_outputs(), session_cache.written_digests()
+                )
+                if folder is not None and session_cache is not None and reuse
                 else None
             ),
-            session_cache=(
-                SessionCache.of(folder.destination, options, reuse=reuse) if folder else None
-            ),
+            session_cache=session_cache,
             continuations=inputs.continuations,
             identities=inputs.identities,
         )
@@ -219,6 +218,10 @@ class _Batch:
             else outcome
         )
 
+    def for_workers(self) -> _Batch:
+        """The same batch without its progress callback (it stays in this process)."""
+        return dataclasses.replace(self, on_done=None)
+
     def without_images(self) -> _Batch:
         """The same batch, its figures drawn elsewhere (by a :class:`FigureDrawer`)."""
         return dataclasses.replace(self, images=False)
@@ -230,7 +233,7 @@ def _execute(batch: _Batch, *, jobs: int, dask_address: str | None) -> list[Outc
     if dask_address is not None:
         return _run_dask(batch, dask_address)
     if jobs > 1 and n > 1:  # each process draws its own sessions' figures
-        return _run_processes(batch, min(jobs, n))
+        return run_processes(batch, min(jobs, n))
     if not batch.images or n <= 1:
         return _run_here(batch, None)
     with FigureDrawer.started() as drawer:
@@ -265,6 +268,7 @@ def _run_here(batch: _Batch, drawer: FigureDrawer | None) -> list[Outcome]:
 
 
 def _report(on_done: OnDone | None, path: str, outcome: Outcome) -> None:
+    """Tell ``on_done`` (if any) that session ``path`` finished, and whether it succeeded."""
     if on_done is not None:
         on_done(path, isinstance(outcome, SessionResult))
 
@@ -376,201 +380,6 @@ def _time_limit(seconds: float | None) -> Iterator[None]:
         signal.signal(signal.SIGALRM, previous)
 
 
-# --------------------------------------------------------------------------- processes
-
-_CLAIMS: Any = None  # in worker processes: the shared claim flags of the batch
-_BUSY = False  # in a worker process: analysing a session (a Ctrl-C ends that session)
-_STOPPED = False  # in a worker process: a Ctrl-C came (no session is started after it)
-
-
-def _worker_init(claims: Any) -> None:
-    """One OpenCV thread per worker: the processes already fill the cores. A Ctrl-C (to
-    the process group, or passed on by the parent as it stops) ends the session in hand
-    at once, as an exception the pool hands back to the parent, never a traceback of the
-    worker's own; an idle worker ignores it (:func:`_interrupt_session`). A parent killed
-    outright ends its workers (:func:`analysis.parent_watch.watch_parent`)."""
-    import cv2
-
-    from analysis.parent_watch import watch_parent
-
-    watch_parent()
-    signal.signal(signal.SIGINT, _interrupt_session)
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})  # held back at its start
-    global _CLAIMS
-    _CLAIMS = claims
-    cv2.setNumThreads(1)
-    keep_frame_buffers()
-
-
-def _interrupt_session(_signum: int, _frame: Any) -> None:
-    """A worker's Ctrl-C: the session in hand stops here (KeyboardInterrupt inside the
-    pool's call, which sends it to the parent as the session's outcome); between sessions
-    it is only remembered, so that the worker's own loop is never interrupted."""
-    global _STOPPED
-    _STOPPED = True
-    if _BUSY:
-        raise KeyboardInterrupt
-
-
-#: Who took a session (the shared claim flags' values): nobody yet, the main process, a
-#: worker, or nobody, for good (the run is stopping).
-_FREE, _BY_MAIN, _BY_WORKER, _STOPPING = 0, 1, 2, 3
-
-
-def _claim(claims: Any, index: int, by: int = _BY_MAIN) -> bool:
-    """Take session ``index`` (for ``by``) unless another already did."""
-    with claims.get_lock():
-        if claims[index] != _FREE:
-            return False
-        claims[index] = by
-        return True
-
-
-def _worker_task(index: int, batch: _Batch, results: str | None) -> Outcome | None:
-    """A worker's session, or None when the main process took it first (or a Ctrl-C came);
-    a Ctrl-C while it is analysed raises KeyboardInterrupt out of it (:func:`_worker_init`)."""
-    global _BUSY
-    if not _claim(_CLAIMS, index, _BY_WORKER):
-        return None
-    _BUSY = True
-    try:
-        if _STOPPED:
-            raise KeyboardInterrupt
-        return batch.analyse(index, results, images=batch.images)
-    finally:
-        _BUSY = False
-
-
-def _run_processes(batch: _Batch, jobs: int) -> list[Outcome]:
-    """``jobs`` processes: ``jobs - 1`` spawned workers take sessions from the front of the
-    list, this (already warm) process from the back, each claiming a session through a
-    shared flag; so no session runs twice and no core waits for a worker to start."""
-    # Spawned, not forked: a fork after OpenCV has started its thread pool can deadlock.
-    files, results, images = batch.files, batch.results_mcap, batch.images
-    on_done = batch.on_done
-    _quiet_resource_tracker()
-    context = multiprocessing.get_context("spawn")
-    claims = context.Array("b", len(files))
-    outcomes: list[Outcome | None] = [None] * len(files)
-
-    def done(i: int, outcome: Outcome) -> None:
-        outcomes[i] = outcome
-        _report(on_done, files[i], outcome)
-
-    import cv2
-
-    threads = cv2.getNumThreads()
-    cv2.setNumThreads(1)  # this process is one of the ``jobs``, like each worker
-    try:
-        with ProcessPoolExecutor(
-            max_workers=jobs - 1, mp_context=context, initializer=_worker_init, initargs=(claims,)
-        ) as pool:
-            futures: list[Future[Outcome | None]] = []
-            try:
-                with sigint_blocked():  # the workers start as the sessions are submitted
-                    task = dataclasses.replace(batch, on_done=None)  # what a worker needs
-                    futures = [
-                        pool.submit(_worker_task, i, task, results[i]) for i in range(len(files))
-                    ]
-                for i in reversed(range(len(files))):
-                    if not _claim(claims, i):
-                        break  # the workers, going forward, have reached this one
-                    here = batch.analyse(i, results[i], images=images)
-                    done(i, here)
-                index = {fut: i for i, fut in enumerate(futures)}
-                for fut in as_completed(futures):  # progress as sessions finish, in any order
-                    i = index[fut]
-                    if outcomes[i] is not None:
-                        continue
-                    try:
-                        outcome = fut.result()
-                    except BrokenProcessPool as err:  # a worker died (killed, out of memory)
-                        outcome = SessionFailure(
-                            session=files[i],
-                            reason=f"{files[i]}: the worker process analysing it died ({err})",
-                        )
-                    if outcome is not None:
-                        done(i, outcome)
-            except BaseException:  # Ctrl-C, or this process's own failure: stop at once
-                _stop_workers(pool, claims, futures, results)
-                raise
-    finally:
-        cv2.setNumThreads(threads)
-    missing = [f for f, o in zip(files, outcomes, strict=True) if o is None]
-    assert not missing, f"sessions neither the workers nor this process analysed: {missing}"
-    return [o for o in outcomes if o is not None]
-
-
-def _quiet_resource_tracker() -> None:
-    """Start multiprocessing's resource tracker (if this process has none yet) without its
-    shutdown warning. The pool's queues and the claim flags are named semaphores the
-    tracker removes when this process ends without removing them itself (kill -9); it then
-    printed ``resource_tracker: There appear to be 6 leaked semaphore objects to clean up at
-    shutdown``, after the run's own output, about semaphores it was removing as designed
-    (none is left behind: ``tests/analysis/test_run_processes.py`` looks in /dev/shm)."""
-    import sys
-    from multiprocessing import resource_tracker
-
-    quiet = "ignore:resource_tracker:UserWarning"  # passed to the tracker as -W
-    sys.warnoptions.append(quiet)
-    try:
-        resource_tracker.ensure_running()
-    finally:
-        sys.warnoptions.remove(quiet)
-
-
-#: How long the workers may take to end once stopped (a Ctrl-C ends the session in hand
-#: between two Python instructions: milliseconds, unless one call into a library runs long),
-#: before they are terminated.
-STOP_GRACE_S = 0.5
-
-
-def _stop_workers(
-    pool: ProcessPoolExecutor,
-    claims: Any,
-    futures: list[Future[Outcome | None]],
-    results: list[str | None],
-) -> None:
-    """End the pool now: queued sessions are dropped and the workers stopped, rather than left
-    to finish the batch; the results.mcap a worker was writing leaves no temporary file
-    (``.<name>.<pid>.partial``) behind.
-
-    Every session is claimed first, so a worker returns from whatever it is handed next,
-    and each worker is sent a Ctrl-C (it may not have had one: a SIGINT or SIGTERM to this
-    process alone), which ends the session in hand at once (:func:`_worker_init`); those
-    not ended within :data:`STOP_GRACE_S` are terminated. They are not terminated first: a
-    worker terminated while it sends its result can leave half a message in the pool's
-    result pipe, which the pool's own thread then waits on for ever (a Ctrl-C in CI once
-    never returned); a worker that ends its session itself sends a whole one.
-    """
-    import os
-
-    with claims.get_lock():
-        taken = [i for i, by in enumerate(claims[:]) if by == _BY_WORKER]
-        claims[:] = [by or _STOPPING for by in claims[:]]
-    processes = list((getattr(pool, "_processes", None) or {}).values())
-    for process in processes:
-        with contextlib.suppress(OSError, ValueError):  # already ended
-            if process.pid is not None and process.is_alive():
-                os.kill(process.pid, signal.SIGINT)
-    pool.shutdown(wait=False, cancel_futures=True)
-    # The sessions a worker is analysing (or sending): their whole result, before the end.
-    # A worker still starting, or idle, has none to send (or a message too small to be cut).
-    in_hand = [futures[i] for i in taken if i < len(futures)]
-    with contextlib.suppress(KeyboardInterrupt):  # a second Ctrl-C: stop waiting
-        wait(in_hand, timeout=STOP_GRACE_S)
-    for process in processes:  # idle now (their results all read), or over the grace
-        process.terminate()
-    for process in processes:
-        process.join(STOP_GRACE_S)
-        if process.is_alive():
-            process.kill()
-            process.join()
-    for path in (Path(r) for r in results if r is not None):
-        for leftover in path.parent.glob(f".{glob.escape(path.name)}.*.partial"):
-            leftover.unlink(missing_ok=True)
-
-
 # --------------------------------------------------------------------------- Dask
 
 
@@ -599,7 +408,7 @@ def _run_dask(batch: _Batch, address: str) -> list[Outcome]:
     try:
         # A worker that dies mid-session (killed, out of memory) loses its task to the
         # scheduler, which runs it again on another worker (``allowed-failures``, 3).
-        task = dataclasses.replace(batch, on_done=None)  # what a worker needs
+        task = batch.for_workers()  # what a worker needs
         futures = client.map(_analyse_at, range(len(files)), results, batch=task, pure=False)
         index = {fut.key: i for i, fut in enumerate(futures)}
         outcomes: list[Outcome | None] = [None] * len(files)

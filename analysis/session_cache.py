@@ -70,6 +70,7 @@ _SESSIONS = "sessions"
 _SUFFIX = ".pickle"
 _FORMAT = 2  # an entry's layout; another one is a miss
 _STARTED = ".run-started"  # its modification time: entries older were not used by the run
+_OUTPUTS = "outputs.json"  # the last run's outputs: its key and each one's SHA-256
 #: The SessionResult fields an entry keeps (the figures are the figure cache's).
 _FIELDS = ("session", "metadata", "frames", "trials", "averaging", "views", "rig", "label")
 
@@ -322,29 +323,40 @@ class SessionCache:
         from analysis.results import SessionResult
 
         keys = [o.analysis_key if isinstance(o, SessionResult) else "" for o in outcomes]
-        if not keys or not all(keys):  # a failure, or a session not kept: written anew
-            return write()
-        h = hashlib.sha256(_text(f"{_FORMAT}\0{self.setting}\0{self.run_setting}\0"))
-        h.update(_text(json.dumps([keys, list(notes)])))
-        run_key = h.hexdigest()
-        index = Path(self.folder).parent / "outputs.json"
-        linked = self._link_outputs(index, run_key, staging) if self.reuse else None
-        if linked is not None:
-            return linked
+        run_key = ""  # a failure, or a session not kept: written anew, never linked
+        if keys and all(keys):
+            h = hashlib.sha256(_text(f"{_FORMAT}\0{self.setting}\0{self.run_setting}\0"))
+            h.update(_text(json.dumps([keys, list(notes)])))
+            run_key = h.hexdigest()
+        index = Path(self.folder).parent / _OUTPUTS
+        if run_key and self.reuse:
+            linked = self._link_outputs(index, run_key, staging)
+            if linked is not None:
+                return linked
         names = write()
-        with contextlib.suppress(OSError):
+        with contextlib.suppress(OSError):  # each file's bytes: what the next run checks
             digests = {n: _sha256(staging / n) for n in names}
             document = json.dumps({"key": run_key, "files": digests}, indent=1)
             with contextlib.suppress(TwoposeError):
                 _write(index, document.encode())
         return names
 
+    def written_digests(self) -> dict[str, str]:
+        """The SHA-256 of each output the previous run into ``--out`` wrote, by name (its
+        figures' among them: :class:`analysis.figure_cache.FigureCache` reuses only those
+        whose bytes these are); empty when it recorded none."""
+        try:
+            entry = json.loads((Path(self.folder).parent / _OUTPUTS).read_text(encoding="utf-8"))
+            return {str(n): str(v) for n, v in entry["files"].items()}
+        except (OSError, ValueError, KeyError, TypeError, AttributeError):
+            return {}
+
     def _link_outputs(self, index: Path, run_key: str, staging: Path) -> list[str] | None:
         """The previous run's outputs listed in ``index`` for ``run_key``, each one's bytes
         unchanged since it was written (its SHA-256), linked into ``staging``."""
         try:
             entry = json.loads(index.read_text(encoding="utf-8"))
-            if entry["key"] != run_key:
+            if not run_key or entry["key"] != run_key:
                 return None
             files = {str(n): str(v) for n, v in entry["files"].items()}
         except (OSError, ValueError, KeyError, TypeError, AttributeError):

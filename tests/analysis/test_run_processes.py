@@ -234,8 +234,9 @@ def test_a_ctrl_c_ends_the_session_a_worker_has_in_hand(tmp_path: Path) -> None:
     ends both at once (the worker's by the Ctrl-C passed on to it), not after 5 s."""
     import threading
 
-    from analysis.batch import _Batch, _run_processes
+    from analysis.batch import _Batch
     from analysis.results import AnalysisOptions
+    from analysis.workers import run_processes
 
     fifos = [tmp_path / f"never{k}.mcap" for k in range(2)]
     for fifo in fifos:
@@ -261,7 +262,7 @@ def test_a_ctrl_c_ends_the_session_a_worker_has_in_hand(tmp_path: Path) -> None:
     try:
         threading.Thread(target=interrupt_once_the_worker_reads, daemon=True).start()
         with pytest.raises(KeyboardInterrupt):
-            _run_processes(batch, 2)
+            run_processes(batch, 2)
         took = time.monotonic() - signalled[0]
     finally:
         signal.signal(signal.SIGINT, previous)
