@@ -10,9 +10,10 @@ them, so they agree on what is counted and what is said.
 - A **session** is its ``session_id`` (format 1.3). A file with none (before 1.3) is
   known by what opens it (:func:`opening_digest`: the ``twopose`` metadata record its
   writer puts before the first chunk, with the session entry, the cameras, the ground and
-  the start time; a cut copy keeps it and ``recover`` copies it), so that the file, a byte,
-  renamed, cut or recovered copy of it are one session and one part wherever they are
-  given; its continuations record the first 32 hex digits of its SHA-256 as their id.
+  the start time, and its first frame; a cut copy keeps both and ``recover`` copies them),
+  so that the file, a byte, renamed, cut or recovered copy of it are one session and one
+  part wherever they are given; its continuations record the first 32 hex digits of its
+  SHA-256 as their id.
 - A **part** is the stretch of a session one file records: its ``part_id`` (format 1.4),
   or before it the session id with where the file continues and when it was created, or
   (no session id) what opens the file. A byte copy, a renamed copy, a copy cut short and a
@@ -41,12 +42,12 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from mcap.records import Chunk, Metadata
-from mcap.stream_reader import StreamReader
+from mcap.records import Channel, Chunk, Message, Metadata
+from mcap.stream_reader import StreamReader, breakup_chunk
 
 from twopose.errors import TwoposeError
 from twopose.format.entries import PoseEntry, SessionInfo, decode_entry
-from twopose.format.reader import SessionReader, recover_command
+from twopose.format.reader import SessionReader, max_chunk_bytes, recover_command
 from twopose.format.writer import METADATA_NAME
 from twopose.methods import spec_of
 
@@ -64,8 +65,9 @@ __all__ = [
 
 _CHUNK = 1 << 20
 #: How many records at a file's start are read for its opening metadata (the writer puts
-#: it before the first chunk).
-_OPENING_RECORDS = 64
+#: it before the first chunk) and its first frame (in its first captures' chunks, each
+#: followed by its message indexes).
+_OPENING_RECORDS = 256
 
 
 def file_digest(path: str | Path) -> str:
@@ -175,10 +177,10 @@ def identify_file(path: str | Path, digest: str | None = None) -> SessionFile:
         info, n_poses, readable = None, -1, False
     opening: str = ""
     if info is None or not info.session_id:  # interrupted, or no id: what opens it
-        metadata = _opening_metadata(path)
+        metadata, first_frame = _opening(path)
         if metadata is not None:
             info = info or _session_entry(metadata)
-            opening = _digest_of(metadata) if info is not None else ""
+            opening = _digest_of(metadata, first_frame) if info is not None else ""
     return SessionFile(
         path=str(path), digest=digest, readable=readable, info=info, n_poses=n_poses,
         opening=opening if info is not None and not info.session_id else "",
@@ -189,16 +191,18 @@ def opening_digest(path: str | Path) -> str:
     """Return the SHA-256 of what opens a session file.
 
     Its ``twopose`` metadata record (the writer's copy of the session entry, the cameras,
-    the ground and the start time, written before the first chunk), as names and values:
-    the same for the file, a copy cut short anywhere after it and a recovered copy
-    (``recover`` copies it); "" when it cannot be read.
+    the ground and the start time, written before the first chunk), as names and values,
+    and its first frame (so that two files of identical openings, as another writer may
+    make them, are told apart by what they saw): the same for the file, a copy cut short
+    anywhere after its first frame and a recovered copy (``recover`` copies both); "" when
+    it has no metadata record to read.
     """
-    metadata = _opening_metadata(path)
-    return _digest_of(metadata) if metadata is not None else ""
+    metadata, first_frame = _opening(path)
+    return _digest_of(metadata, first_frame) if metadata is not None else ""
 
 
-def _digest_of(metadata: dict[str, str]) -> str:
-    return hashlib.sha256(json.dumps(sorted(metadata.items())).encode()).hexdigest()
+def _digest_of(metadata: dict[str, str], first_frame: str) -> str:
+    return hashlib.sha256(json.dumps([sorted(metadata.items()), first_frame]).encode()).hexdigest()
 
 
 def _session_entry(metadata: dict[str, str]) -> SessionInfo | None:
@@ -210,24 +214,36 @@ def _session_entry(metadata: dict[str, str]) -> SessionInfo | None:
     return entry if isinstance(entry, SessionInfo) else None
 
 
-def _opening_metadata(path: str | Path) -> dict[str, str] | None:
-    """Read the ``twopose`` metadata record at a file's start, front to back.
+def _opening(path: str | Path) -> tuple[dict[str, str] | None, str]:
+    """Read a file's start front to back: its metadata record and its first frame's digest.
 
-    So also from a file that cannot be read whole (no summary); None when there is none
-    before the first chunk or it cannot be read.
+    The ``twopose`` metadata record, and the SHA-256 of its first message on a camera's
+    image topic; so also from a file that cannot be read whole (no summary). The metadata
+    is None when there is none before the first chunk; the frame's digest "" when none is
+    read (a chunk over the size limit, damaged, or none in the first records).
     """
+    metadata: dict[str, str] | None = None
+    topics: dict[int, str] = {}
     try:
         size = max(os.path.getsize(path), 1)
         with open(path, "rb") as stream:
             records = StreamReader(stream, emit_chunks=True, record_size_limit=size).records
             for _, record in zip(range(_OPENING_RECORDS), records, strict=False):
                 if isinstance(record, Metadata) and record.name == METADATA_NAME:
-                    return {str(k): str(v) for k, v in record.metadata.items()}
-                if isinstance(record, Chunk):
-                    return None
-    except Exception:  # any damage: no identity beyond its bytes
-        return None
-    return None
+                    metadata = metadata or {str(k): str(v) for k, v in record.metadata.items()}
+                elif isinstance(record, Chunk):
+                    if metadata is None or record.uncompressed_size > max_chunk_bytes():
+                        break
+                    for inner in breakup_chunk(record, validate_crc=True):
+                        if isinstance(inner, Channel):
+                            topics[inner.id] = inner.topic
+                        elif isinstance(inner, Message) and topics.get(
+                            inner.channel_id, ""
+                        ).endswith("/image"):
+                            return metadata, hashlib.sha256(inner.data).hexdigest()
+    except Exception:  # any damage: no identity beyond what was read
+        return metadata, ""
+    return metadata, ""
 
 
 @dataclass(frozen=True, kw_only=True)
