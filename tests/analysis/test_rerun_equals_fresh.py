@@ -111,10 +111,10 @@ PLAIN: Setting = {
 }  # fmt: skip
 
 
-# Slow: three runs of two tiny sessions an example, four examples (about 7 s of CPU).
+# Slow: three runs of two tiny sessions an example, three examples (about 5 s of CPU).
 @pytest.mark.slow
 @settings(
-    max_examples=3, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+    max_examples=2, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
 )
 @given(runs=_runs())
 @example(runs=({**PLAIN, "TWOPOSE_MAX_IMAGE_MPIX": "0.1"}, PLAIN))  # issue 56's finding
