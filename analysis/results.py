@@ -163,6 +163,9 @@ class RunResult:
     #: what the report's counts count, where ``input_notes`` also says how continuations
     #: and forks were joined (analysed, all of them)
     inputs_set_aside: tuple[str, ...] = ()
+    #: The folder the run wrote its outputs into; None when it wrote none (no ``out_dir``
+    #: given, or nothing to analyse: then ``--out`` is left as it was).
+    written_to: str | None = None
 
     @property
     def failed(self) -> bool:

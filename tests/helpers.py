@@ -216,11 +216,24 @@ def load_benchmark(name: str) -> ModuleType:
 
 
 def distinct_copies(session: Path, folder: Path, n: int, stem: str = "s") -> list[Path]:
-    """``n`` sessions with ``session``'s content, each a different file (an extra MCAP
-    metadata record numbers it), so that a batch counts them as ``n`` sessions and not as
-    one session named ``n`` times (analysis.input_set identifies sessions by content)."""
+    """``n`` sessions with ``session``'s trials, each a session of its own: its session
+    entry (and the metadata's copy of it) given a session and part id of its own, and an
+    extra MCAP metadata record numbering it, so that a batch counts them as ``n`` sessions
+    and not as one session copied ``n`` times (twopose.format.identity)."""
+    import dataclasses
+    import hashlib
+
     from mcap.reader import make_reader
     from mcap.writer import Writer
+
+    from twopose.format.entries import SessionInfo, decode_entry, encode_entry
+    from twopose.format.writer import METADATA_NAME
+
+    def renamed(entry: bytes, k: int) -> bytes:
+        info = decode_entry(SessionInfo.SCHEMA_NAME, entry)
+        assert isinstance(info, SessionInfo)
+        ids = hashlib.sha256(f"{session}:{stem}:{k}".encode()).hexdigest()
+        return encode_entry(dataclasses.replace(info, session_id=ids[:32], part_id=ids[32:]))
 
     folder.mkdir(parents=True, exist_ok=True)
     with open(session, "rb") as stream:
@@ -247,13 +260,16 @@ def distinct_copies(session: Path, folder: Path, n: int, stem: str = "s") -> lis
                     dict(channel.metadata),
                 )
             for name, data in metadata:
+                if name == METADATA_NAME:
+                    data = {**data, "session": renamed(data["session"].encode(), k).decode()}
                 writer.add_metadata(name, data)
             writer.add_metadata("test_copy", {"number": str(k)})
             for _schema, channel, message in messages:
+                entry = channel.topic == SessionInfo.TOPIC
                 writer.add_message(
                     channels[channel.id],
                     message.log_time,
-                    message.data,
+                    renamed(message.data, k) if entry else message.data,
                     message.publish_time,
                     message.sequence,
                 )

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import errno
 import sys
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -15,6 +16,7 @@ from twopose.errors import (
     EXIT_INTERRUPTED,
     EXIT_SOME_INPUTS_FAILED,
     InputValueError,
+    end_on_closed_pipe,
     handle_errors,
     say_interrupted,
 )
@@ -188,7 +190,7 @@ def run_command(
         rig_calibration=rig_calibration,
         figures=tuple(dict.fromkeys(cast("list[FigureFormat]", figures or ()))),  # each once
     )
-    with handle_errors(), _session_progress() as (found, done):
+    with handle_errors(), _session_progress(out) as (found, done):
         if jobs is not None and dask is not None:  # given, it would be ignored
             raise InputValueError(
                 "--jobs: the Dask scheduler (--dask) runs the sessions on its own workers; "
@@ -225,6 +227,8 @@ def run_command(
             f"interrupted while printing the summary; the results in {out} are complete"
         )
         raise typer.Exit(EXIT_INTERRUPTED) from None
+    except BrokenPipeError:  # `run ... | head -3`: the results are written; nobody reads on
+        end_on_closed_pipe()
 
 
 def _rig_file(rig: Path | None, no_rig: bool, paths: list[Path]) -> Path | None:
@@ -244,11 +248,30 @@ def _rig_file(rig: Path | None, no_rig: bool, paths: list[Path]) -> Path | None:
     return beside
 
 
+def _stdout_closed() -> bool:
+    """Whether stdout is a pipe whose reader has gone (``run ... | head -1`` once ``head``
+    has its line): a poll says so (POLLERR) without a write; never at a terminal or into a
+    file."""
+    import select
+
+    try:
+        fd = sys.stdout.fileno()
+    except (AttributeError, OSError, ValueError):  # not a file (a notebook, a test runner)
+        return False
+    poller = select.poll()
+    poller.register(fd, select.POLLOUT)
+    return any(events & select.POLLERR for _, events in poller.poll(0))
+
+
 @contextlib.contextmanager
-def _session_progress() -> Iterator[tuple[Callable[[int], None], Callable[[str, bool], None]]]:
+def _session_progress(
+    out: Path,
+) -> Iterator[tuple[Callable[[int], None], Callable[[str, bool], None]]]:
     """A progress bar on stderr at a terminal (nothing in a pipe): a spinner and the time
     since the start, so that one long session shows it is working, and the sessions
-    counted as they complete. Yields the callbacks ``run`` takes: sessions found, done."""
+    counted as they complete. Yields the callbacks ``run`` takes: sessions found (the run's
+    first line, said at once: how many and where), and done, where a stdout nobody reads
+    any more (``run ... | head -1``) stops the run as Ctrl-C would: ``--out`` as it was."""
     from rich.console import Console
     from rich.progress import (
         BarColumn,
@@ -264,10 +287,19 @@ def _session_progress() -> Iterator[tuple[Callable[[int], None], Callable[[str, 
         *columns, TimeElapsedColumn(), console=Console(stderr=True), transient=True
     ) as progress:
         task = progress.add_task("sessions", total=None)
-        yield (
-            lambda n: progress.update(task, total=n),
-            lambda _path, _ok: progress.advance(task),
-        )
+
+        def found(n: int) -> None:
+            progress.update(task, total=n)
+            if n:
+                typer.echo(f"twopose: analysing {n} session(s) into {out}")
+                sys.stdout.flush()
+
+        def done(_path: str, _ok: bool) -> None:
+            progress.advance(task)
+            if _stdout_closed():
+                raise BrokenPipeError(errno.EPIPE, "nobody reads the run's output any more")
+
+        yield found, done
 
 
 def _sessions_whose(result: RunResult, flag: str) -> tuple[int, int]:
@@ -287,7 +319,9 @@ def _print_run(result: RunResult, out: Path, *, include_warned: bool) -> None:
     from analysis.terminal import closing_lines, summary_lines, wrap_phrases
 
     width = min(shutil.get_terminal_size().columns, 100) if sys.stdout.isatty() else None
-    typer.echo(f"twopose: {result.sessions_said()}, results in {out}")
+    written = result.written_to is not None
+    where = f"results in {out}" if written else f"nothing written, {out} left as it was"
+    typer.echo(f"twopose: {result.sessions_said()}, {where}")
     if result.rig_source is not None:
         typer.echo(result.rig_source.line())
     for line in summary_lines(
@@ -320,7 +354,7 @@ def _print_run(result: RunResult, out: Path, *, include_warned: bool) -> None:
             f"analysis: {reused} of {of} session(s)' reused "
             f"from the last run into {out} (nothing it depends on changed)"
         )
-    for line in closing_lines(result.verdict, out, width=width):
+    for line in closing_lines(result.verdict, out, width=width) if written else ():
         typer.echo(line)
     if result.failed or not result.sessions:
         if not result.sessions and result.errors.empty:

@@ -115,7 +115,8 @@ def test_a_phone_sees_the_answers_numbers_on_its_first_screen_whatever_failed(
     folder.mkdir()
     line = Path(__file__).resolve().parents[2] / "sessions" / "thesis_line.mcap"
     (folder / "thesis_line.mcap").write_bytes(line.read_bytes())
-    (folder / "zz_corrupt.mcap").write_bytes(line.read_bytes()[:5000])
+    point = line.with_name("thesis_method1_point.mcap")  # another session, cut short
+    (folder / "zz_corrupt.mcap").write_bytes(point.read_bytes()[:5000])
     result = run([folder], tmp_path / "out", scene=False)
     assert result.failed
     _emulate(browser, PHONE)
