@@ -45,7 +45,7 @@ function drawTopView(view, units, page, next) {
     setText($("topview-title"), "");
     legend.replaceChildren();
     ctx.fillStyle = COLOURS.axis;
-    ctx.font = "13px sans-serif";
+    ctx.font = "13px 'twopose Sans', sans-serif";
     ctx.textAlign = "center";
     ctx.fillText(page.topview_empty[0], w / 2, h / 2 - 9);
     ctx.fillText(page.topview_empty[1], w / 2, h / 2 + 9);
@@ -83,7 +83,7 @@ function drawTopView(view, units, page, next) {
   const step = niceStep(Math.max(visX[1] - visX[0], visZ[1] - visZ[0]));
   const label = (v) => String(Number(v.toFixed(6)));
   ctx.lineWidth = 1;
-  ctx.font = "12px sans-serif";
+  ctx.font = "12px 'twopose Sans', sans-serif";
   ctx.fillStyle = COLOURS.axis;
   ctx.textAlign = "center";
   ctx.textBaseline = "top";
@@ -209,7 +209,7 @@ function mapFrame(map, next, w, h) {
 function drawMapAxes(ctx, f, units, w, h) {
   const step = niceStep(Math.max(f.visX[1] - f.visX[0], f.visZ[1] - f.visZ[0]));
   const label = (v) => String(Number(v.toFixed(6)));
-  ctx.font = "12px sans-serif";
+  ctx.font = "12px 'twopose Sans', sans-serif";
   ctx.fillStyle = COLOURS.axis;
   ctx.textAlign = "center"; ctx.textBaseline = "top";
   for (let x = Math.ceil(f.visX[0] / step) * step; x <= f.visX[1]; x += step) ctx.fillText(label(x), f.X(x), f.top + f.ph + 3);
@@ -251,7 +251,7 @@ function drawMapMarks(ctx, map, f, next) {
     const cx = f.X(p.t_grid[0]), cy = f.Y(p.t_grid[2]);
     ctx.fillStyle = "#ffffff"; ctx.strokeStyle = "#1d232b";
     ctx.beginPath(); ctx.arc(cx, cy, 7, 0, 2 * Math.PI); ctx.fill(); ctx.stroke();
-    ctx.fillStyle = "#1d232b"; ctx.font = "bold 10px sans-serif";
+    ctx.fillStyle = "#1d232b"; ctx.font = "bold 10px 'twopose Sans', sans-serif";
     ctx.textAlign = "center"; ctx.textBaseline = "middle";
     ctx.fillText(String(k + 2), cx, cy + 0.5);
   });

@@ -1,0 +1,99 @@
+"""The fonts the pages ship (the report, the comparison, the operator's console).
+
+A page that names only ``sans-serif`` is drawn in whichever face the machine maps it to
+(DejaVu Sans on one machine, Liberation Sans on the next, which a browser's recommended
+packages bring): other widths, other line breaks, another picture. Our pages name their
+own fonts instead and carry them: subsets of DejaVu Sans (regular, bold) and DejaVu Sans
+Mono, written by ``twopose/fonts/make_fonts.py`` into ``twopose/fonts/`` (their licence
+beside them). The report embeds them as ``data:`` URIs (one file that opens offline); the
+console's server serves them. A character outside the subsets still shows, in the
+machine's font.
+"""
+
+from __future__ import annotations
+
+import base64
+from collections.abc import Callable
+from dataclasses import dataclass
+from importlib import resources
+
+__all__ = [
+    "FONTS",
+    "FONT_MEDIA_TYPE",
+    "MONO",
+    "MONO_CODEPOINTS",
+    "MONO_FAMILY",
+    "SANS",
+    "SANS_CODEPOINTS",
+    "SANS_FAMILY",
+    "WebFont",
+    "font_bytes",
+    "font_face_css",
+]
+
+
+@dataclass(frozen=True)
+class WebFont:
+    """One shipped font: its file in ``twopose/fonts/``, its CSS family and weight."""
+
+    file: str
+    family: str
+    weight: int
+
+
+#: The CSS family names of the shipped fonts.
+SANS_FAMILY = "twopose Sans"
+MONO_FAMILY = "twopose Mono"
+#: The font stacks the pages name (the generic family last, for characters outside ours).
+SANS = f'"{SANS_FAMILY}", sans-serif'
+MONO = f'"{MONO_FAMILY}", monospace'
+
+FONTS = (
+    WebFont("twopose-sans.woff", SANS_FAMILY, 400),
+    WebFont("twopose-sans-bold.woff", SANS_FAMILY, 700),
+    WebFont("twopose-mono.woff", MONO_FAMILY, 400),
+)
+FONT_MEDIA_TYPE = "font/woff"
+
+
+def _ranges(*spans: tuple[int, int]) -> frozenset[int]:
+    return frozenset(c for first, last in spans for c in range(first, last + 1))
+
+
+#: The characters of the sans fonts: Basic Latin, Latin-1, Latin Extended-A (names),
+#: Greek (sigma, mu), punctuation (dashes, quotes, the ellipsis), super- and subscripts,
+#: the euro sign, arrows, mathematical operators (<=, +-, the minus sign), geometric
+#: shapes (the top view's triangles and circles) and ticks and crosses.
+SANS_CODEPOINTS = _ranges(
+    (0x20, 0x7E), (0xA0, 0x17F), (0x391, 0x3C9), (0x2010, 0x2027), (0x2030, 0x203A),
+    (0x2070, 0x209F), (0x20AC, 0x20AC), (0x2190, 0x21FF), (0x2200, 0x22FF),
+    (0x25A0, 0x25FF), (0x2713, 0x2717),
+)  # fmt: skip
+#: The characters of the monospaced font (file names, numbers, code).
+MONO_CODEPOINTS = _ranges(
+    (0x20, 0x7E), (0xA0, 0x17F), (0x2010, 0x2027), (0x2190, 0x2193), (0x2212, 0x2212)
+)
+
+
+def font_bytes(file: str) -> bytes:
+    """The WOFF file ``file`` of :data:`FONTS`, from the package."""
+    if file not in {f.file for f in FONTS}:
+        raise KeyError(file)
+    return resources.files("twopose").joinpath("fonts", file).read_bytes()
+
+
+def _data_uri(file: str) -> str:
+    return f"data:{FONT_MEDIA_TYPE};base64,{base64.b64encode(font_bytes(file)).decode()}"
+
+
+def font_face_css(url: Callable[[str], str] | None = None) -> str:
+    """The ``@font-face`` rules of :data:`FONTS`, each at ``url(file)``.
+
+    Without ``url``, each font is the ``data:`` URI of itself: a page that is one file.
+    """
+    where = url or _data_uri
+    return "".join(
+        f"@font-face{{font-family:'{f.family}';font-weight:{f.weight};font-style:normal;"
+        f"src:url('{where(f.file)}') format('woff')}}"
+        for f in FONTS
+    )
