@@ -7,6 +7,7 @@ from __future__ import annotations
 import re
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 from selenium.webdriver.common.by import By
@@ -25,7 +26,7 @@ ORIGIN = "http://127.0.0.1:8765"
 
 @pytest.fixture
 def client(tmp_path: Path) -> Iterator[TestClient]:
-    given = {"method": None, "ground_truth": [], "intrinsics_sigma": {}}
+    given: dict[str, Any] = {"method": None, "ground_truth": [], "intrinsics_sigma": {}}
     session = ConsoleSession(tmp_path / "s.mcap", dict(given, size=(320, 240)))
     options = ConsoleOptions(source="synthetic", given=given, frames=2, size=(320, 240))
     with TestClient(console_app(session, options), base_url=ORIGIN) as client:
