@@ -4,18 +4,26 @@ A page that names only ``sans-serif`` is drawn in whichever face the machine map
 (DejaVu Sans on one machine, Liberation Sans on the next, which a browser's recommended
 packages bring): other widths, other line breaks, another picture. Our pages name their
 own fonts instead and carry them: subsets of DejaVu Sans (regular, bold) and DejaVu Sans
-Mono, written by ``twopose/fonts/make_fonts.py`` into ``twopose/fonts/`` (their licence
-beside them). The report embeds them as ``data:`` URIs (one file that opens offline); the
-console's server serves them. A character outside the subsets still shows, in the
+Mono, cut from the fonts matplotlib ships by :func:`make_fonts` (the same bytes every
+time: ``python -m twopose.webfonts twopose/fonts/``) as WOFF files without hinting
+instructions, so that a glyph is drawn the same whatever hinting a machine's settings ask
+for. Their licence (the Bitstream Vera licence, DejaVu's changes in the public domain) is
+``twopose/fonts/LICENSE-DejaVu.txt``; it allows subsets under names without "Bitstream",
+"Vera" or "Arev". The report embeds them as ``data:`` URIs (one file that opens offline);
+the console's server serves them. A character outside the subsets still shows, in the
 machine's font.
 """
 
 from __future__ import annotations
 
 import base64
+import io
+import shutil
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 from importlib import resources
+from pathlib import Path
 
 __all__ = [
     "FONTS",
@@ -29,6 +37,7 @@ __all__ = [
     "WebFont",
     "font_bytes",
     "font_face_css",
+    "make_fonts",
 ]
 
 
@@ -53,6 +62,12 @@ FONTS = (
     WebFont("twopose-sans-bold.woff", SANS_FAMILY, 700),
     WebFont("twopose-mono.woff", MONO_FAMILY, 400),
 )
+#: Each shipped font's source in matplotlib's fonts (``mpl-data/fonts/ttf``).
+SOURCES = {
+    "twopose-sans.woff": "DejaVuSans.ttf",
+    "twopose-sans-bold.woff": "DejaVuSans-Bold.ttf",
+    "twopose-mono.woff": "DejaVuSansMono.ttf",
+}
 FONT_MEDIA_TYPE = "font/woff"
 
 
@@ -97,3 +112,46 @@ def font_face_css(url: Callable[[str], str] | None = None) -> str:
         f"src:url('{where(f.file)}') format('woff')}}"
         for f in FONTS
     )
+
+
+def _subset_woff(source: Path, codepoints: frozenset[int]) -> bytes:
+    """``source`` cut to ``codepoints``, without hinting, as WOFF (zlib) bytes."""
+    from fontTools import subset
+    from fontTools.ttLib import TTFont
+
+    options = subset.Options()
+    options.flavor = "woff"
+    options.hinting = False
+    options.name_IDs = ["*"]  # the copyright and licence notices stay in the font
+    options.notdef_outline = True
+    options.drop_tables += ["FFTM"]  # FontForge's timestamps: nothing a browser reads
+    font = TTFont(source, recalcTimestamp=False)
+    subsetter = subset.Subsetter(options)
+    subsetter.populate(unicodes=sorted(codepoints))
+    subsetter.subset(font)
+    font.flavor = "woff"
+    out = io.BytesIO()
+    font.save(out, reorderTables=True)
+    return out.getvalue()
+
+
+def make_fonts(folder: Path) -> None:
+    """Write every font of :data:`FONTS` and their licence into ``folder``.
+
+    Each is its :data:`SOURCES` font (matplotlib's DejaVu) cut to its characters
+    (:data:`SANS_CODEPOINTS`, :data:`MONO_CODEPOINTS`), the same bytes every time.
+    """
+    import matplotlib
+
+    source = Path(matplotlib.__file__).parent / "mpl-data" / "fonts" / "ttf"
+    folder.mkdir(parents=True, exist_ok=True)
+    for font in FONTS:
+        codepoints = MONO_CODEPOINTS if font.family == MONO_FAMILY else SANS_CODEPOINTS
+        data = _subset_woff(source / SOURCES[font.file], codepoints)
+        (folder / font.file).write_bytes(data)
+        print(f"{font.file}: {len(data)} bytes")
+    shutil.copyfile(source / "LICENSE_DEJAVU", folder / "LICENSE-DejaVu.txt")
+
+
+if __name__ == "__main__":
+    make_fonts(Path(sys.argv[1] if len(sys.argv) > 1 else Path(__file__).parent / "fonts"))

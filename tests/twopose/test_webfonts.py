@@ -20,10 +20,9 @@ from twopose import webfonts
 REPO = Path(__file__).resolve().parents[2]
 FOLDER = REPO / "twopose" / "fonts"
 SOURCE = Path(matplotlib.__file__).parent / "mpl-data" / "fonts" / "ttf"
-SOURCES = {
-    "twopose-sans.woff": ("DejaVuSans.ttf", webfonts.SANS_CODEPOINTS),
-    "twopose-sans-bold.woff": ("DejaVuSans-Bold.ttf", webfonts.SANS_CODEPOINTS),
-    "twopose-mono.woff": ("DejaVuSansMono.ttf", webfonts.MONO_CODEPOINTS),
+CODEPOINTS = {
+    webfonts.SANS_FAMILY: webfonts.SANS_CODEPOINTS,
+    webfonts.MONO_FAMILY: webfonts.MONO_CODEPOINTS,
 }
 
 
@@ -31,8 +30,8 @@ SOURCES = {
 def test_each_font_is_the_subset_it_says_without_hinting(font: webfonts.WebFont) -> None:
     shipped = TTFont(io.BytesIO(webfonts.font_bytes(font.file)))
     assert shipped.flavor == "woff"
-    source_file, codepoints = SOURCES[font.file]
-    source = TTFont(SOURCE / source_file, lazy=True)
+    source = TTFont(SOURCE / webfonts.SOURCES[font.file], lazy=True)
+    codepoints = CODEPOINTS[font.family]
     has = set(shipped.getBestCmap())
     assert has == set(source.getBestCmap()) & codepoints  # nothing missing, nothing more
     assert ord("±") in has
@@ -54,7 +53,7 @@ def test_the_licence_is_beside_the_fonts_and_the_package_installs_both() -> None
     assert "DejaVu changes are in public domain" in licence
     pyproject = tomllib.loads((REPO / "pyproject.toml").read_text(encoding="utf-8"))
     patterns = pyproject["tool"]["setuptools"]["package-data"]["twopose"]
-    shipped = {p.name for p in FOLDER.iterdir() if p.name != "make_fonts.py"}
+    shipped = {p.name for p in FOLDER.iterdir()}
     assert shipped == {f.file for f in webfonts.FONTS} | {"LICENSE-DejaVu.txt"}
     for name in shipped:
         assert any(fnmatch.fnmatch(f"fonts/{name}", p) for p in patterns), name
@@ -77,3 +76,11 @@ def test_the_css_carries_every_font_or_names_where_it_is_served() -> None:
     assert webfonts.SANS.endswith("sans-serif")
     with pytest.raises(KeyError):
         webfonts.font_bytes("../__init__.py")
+
+
+def test_the_shipped_fonts_are_what_make_fonts_writes(tmp_path: Path) -> None:
+    """``python -m twopose.webfonts twopose/fonts/`` writes the committed files, byte for
+    byte (a character set changed without the fonts written again fails here)."""
+    webfonts.make_fonts(tmp_path)
+    for name in [f.file for f in webfonts.FONTS] + ["LICENSE-DejaVu.txt"]:
+        assert (tmp_path / name).read_bytes() == (FOLDER / name).read_bytes(), name
