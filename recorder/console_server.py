@@ -37,6 +37,7 @@ from recorder.loopback import is_loopback_host
 from recorder.procedure import Shortfall
 from recorder.setup_form import SETUP_FIELDS, FormRefusedError, parse_pose_form, setup_from_answers
 from recorder.setup_rules import Setup, check_rig
+from twopose import webfonts
 from twopose.errors import InputValueError, SourceError, TwoposeError
 from twopose.methods import Method
 
@@ -276,6 +277,7 @@ def console_app(
         Route("/api/note", c.note, methods=["POST"]),
         Route("/stream.mjpg", c.stream),
         *(Route(f"/{name}", _asset(name, media)) for name, media in PAGE_FILES.items()),
+        *(Route(f"/fonts/{font.file}", _font(font.file)) for font in webfonts.FONTS),
     ]
     guard = Middleware(ConsoleGuard, host=host, token=token)
     return Starlette(routes=routes, lifespan=c.lifespan, middleware=[guard])
@@ -301,6 +303,19 @@ def _asset(name: str, media_type: str) -> Any:
     async def serve(_request: Request) -> Response:
         text = resources.files("recorder").joinpath(name).read_text("utf-8")
         return Response(text, media_type=media_type, headers={"Cache-Control": "no-store"})
+
+    return serve
+
+
+def _font(file: str) -> Any:
+    """A route serving one of the page's fonts (console.css names them: the screen is drawn
+    the same whatever fonts the machine has)."""
+
+    async def serve(_request: Request) -> Response:
+        data = webfonts.font_bytes(file)
+        return Response(
+            data, media_type=webfonts.FONT_MEDIA_TYPE, headers={"Cache-Control": "max-age=86400"}
+        )
 
     return serve
 

@@ -45,7 +45,7 @@ function drawTopView(view, units, page, next) {
     setText($("topview-title"), "");
     legend.replaceChildren();
     ctx.fillStyle = COLOURS.axis;
-    ctx.font = "13px sans-serif";
+    ctx.font = "13px 'twopose Sans', sans-serif";
     ctx.textAlign = "center";
     ctx.fillText(page.topview_empty[0], w / 2, h / 2 - 9);
     ctx.fillText(page.topview_empty[1], w / 2, h / 2 + 9);
@@ -83,7 +83,7 @@ function drawTopView(view, units, page, next) {
   const step = niceStep(Math.max(visX[1] - visX[0], visZ[1] - visZ[0]));
   const label = (v) => String(Number(v.toFixed(6)));
   ctx.lineWidth = 1;
-  ctx.font = "12px sans-serif";
+  ctx.font = "12px 'twopose Sans', sans-serif";
   ctx.fillStyle = COLOURS.axis;
   ctx.textAlign = "center";
   ctx.textBaseline = "top";
@@ -212,7 +212,7 @@ function mapFrame(ctx, map, next, w, h) {
   xs = xs.filter(Number.isFinite); zs = zs.filter(Number.isFinite); // no cells: the poses'
   const x0 = Math.min(...xs) - half, x1 = Math.max(...xs) + half;
   const z0 = Math.min(...zs) - half, z1 = Math.max(...zs) + half;
-  ctx.font = MAP_FONT + "px sans-serif";
+  ctx.font = MAP_FONT + "px 'twopose Sans', sans-serif";
   // The widest z label there can be: the largest magnitude, negative, at a fine step.
   const fine = niceAbove(Math.max((z1 - z0) / 12, 1e-9));
   const most = Math.ceil(Math.max(Math.abs(z0), Math.abs(z1)) / fine) * fine;
@@ -236,7 +236,7 @@ function overlaps(a, b) {
 
 function drawMapAxes(ctx, f, labels) {
   // Ticks on both axes, each step wide enough for its labels (no "-1000-500").
-  ctx.font = MAP_FONT + "px sans-serif";
+  ctx.font = MAP_FONT + "px 'twopose Sans', sans-serif";
   ctx.fillStyle = COLOURS.axis;
   const wide = (step) => {
     let most = 0;
@@ -301,7 +301,7 @@ function drawMapMarks(ctx, map, f, next, labels) {
     if (marks.some((m) => overlaps(m, box))) return; // listed under the map all the same
     ctx.fillStyle = "#ffffff"; ctx.strokeStyle = "#1d232b"; ctx.lineWidth = 1.5;
     ctx.beginPath(); ctx.arc(cx, cy, r, 0, 2 * Math.PI); ctx.fill(); ctx.stroke();
-    ctx.fillStyle = "#1d232b"; ctx.font = "bold " + Math.round(r * 1.3) + "px sans-serif";
+    ctx.fillStyle = "#1d232b"; ctx.font = "bold " + Math.round(r * 1.3) + "px 'twopose Sans', sans-serif";
     ctx.textAlign = "center"; ctx.textBaseline = "middle";
     ctx.fillText(box.text, cx, cy + 0.5);
     marks.push(box);

@@ -8,10 +8,12 @@ import json
 import os
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from types import ModuleType
+from typing import Any, TypeVar
 
 import cv2
 import numpy as np
@@ -95,15 +97,89 @@ def jpeg_declaring(width: int, height: int) -> bytes:
 
 
 DASK = Path(sys.executable).with_name("dask")
+T = TypeVar("T")
 
 
-def _wait_for(predicate: Callable[[], bool], timeout_s: float, what: str) -> None:
+def read_when_complete(
+    path: Path,
+    parse: Callable[[str], T],
+    what: str,
+    *,
+    timeout_s: float = 60.0,
+    writer: subprocess.Popen[Any] | None = None,
+) -> T:
+    """``parse(text)`` of ``path``, a file another process writes, once it is complete:
+    read again until it exists and parses (a writer that does not rename its file into
+    place is seen half-written: an empty file, a JSON object without its end), for at
+    most ``timeout_s``, or until ``writer`` exits. Gives up saying what it waited for,
+    where, and what it last found."""
     deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        if predicate():
-            return
-        time.sleep(0.1)
-    raise AssertionError(f"timed out waiting for {what}")
+    found = "it does not exist"
+    while True:
+        try:
+            text = path.read_text(encoding="utf-8")
+        except FileNotFoundError:
+            found = "it does not exist"
+        else:
+            try:
+                return parse(text)
+            except (ValueError, KeyError, TypeError) as error:  # JSONDecodeError: a ValueError
+                found = f"it holds {len(text)} characters that do not parse ({error!r})"
+        ended = writer is not None and writer.poll() is not None
+        if ended or time.monotonic() >= deadline:
+            how = f"its writer exited ({writer.returncode})" if ended and writer else ""
+            waited = how or f"waited {timeout_s:g} s"
+            raise AssertionError(f"{waited} for {what} ({path}) to be complete: {found}")
+        time.sleep(0.05)
+
+
+def read_line_when_printed(
+    process: subprocess.Popen[str], pattern: str, what: str, *, timeout_s: float = 60.0
+) -> tuple[str, str]:
+    """The first line ``process`` prints (to its text stdout, a pipe) that contains
+    ``pattern``, and what it printed before: read in a thread, so that a process that
+    prints nothing or hangs is given up after ``timeout_s`` (and killed), the message
+    saying what was waited for and what came."""
+    assert process.stdout is not None
+    stream = process.stdout
+    before: list[str] = []
+    found: list[str] = []
+
+    def read() -> None:
+        for line in iter(stream.readline, ""):
+            if pattern in line:
+                found.append(line)
+                return
+            before.append(line)
+
+    reader = threading.Thread(target=read, daemon=True)
+    reader.start()
+    reader.join(timeout_s)
+    if found:
+        return found[0], "".join(before)
+    if reader.is_alive():
+        process.kill()
+        reader.join(10)
+        why = f"waited {timeout_s:g} s"
+    else:
+        why = f"the process ended ({process.wait(timeout=10)})"
+    raise AssertionError(
+        f"{why} for {what} (a line with {pattern!r}); it printed: {''.join(before)!r}"
+    )
+
+
+def scheduler_address(
+    file: Path, scheduler: subprocess.Popen[Any] | None = None, timeout_s: float = 60.0
+) -> str:
+    """The address in a ``dask scheduler --scheduler-file`` file, once the scheduler has
+    written it whole (it writes it in place: an empty file first)."""
+    return read_when_complete(
+        file,
+        lambda text: str(json.loads(text)["address"]),
+        "the Dask scheduler's file",
+        timeout_s=timeout_s,
+        writer=scheduler,
+    )
 
 
 class DaskCluster:
@@ -115,22 +191,26 @@ class DaskCluster:
         from distributed import Client
 
         self.file = folder / "scheduler.json"
+        self.workers: list[subprocess.Popen[bytes]] = []
         self.scheduler = self._spawn(
             "scheduler", "--port", "0", "--no-dashboard", "--scheduler-file", str(self.file)
         )
-        _wait_for(self.file.exists, 60, "the scheduler file")
-        self.address: str = json.loads(self.file.read_text())["address"]
-        self.workers = [
-            self._spawn(
-                "worker", "--scheduler-file", str(self.file), "--nthreads", "1", "--no-nanny",
-                "--no-dashboard", "--name", f"w{k}", "--memory-limit", "0",
-            )
-            for k in range(workers)
-        ]  # fmt: skip
-        with Client(self.address, timeout=30) as client:
-            client.wait_for_workers(workers, timeout=60)
-            # Imported once up front, so that the first task's time is its own work.
-            client.run(importlib.import_module, "analysis.pipeline")
+        try:  # a cluster that does not come up is stopped, not left running
+            self.address = scheduler_address(self.file, self.scheduler)
+            self.workers = [
+                self._spawn(
+                    "worker", "--scheduler-file", str(self.file), "--nthreads", "1",
+                    "--no-nanny", "--no-dashboard", "--name", f"w{k}", "--memory-limit", "0",
+                )
+                for k in range(workers)
+            ]  # fmt: skip
+            with Client(self.address, timeout=30) as client:
+                client.wait_for_workers(workers, timeout=60)
+                # Imported once up front, so that the first task's time is its own work.
+                client.run(importlib.import_module, "analysis.pipeline")
+        except BaseException:
+            self.close()
+            raise
 
     @staticmethod
     def _spawn(*args: str) -> subprocess.Popen[bytes]:
@@ -168,13 +248,7 @@ def start_console(out: Path, *args: str) -> tuple[subprocess.Popen[str], str, st
         stderr=subprocess.STDOUT,
         text=True,
     )
-    assert process.stdout is not None
-    preamble = ""
-    line = process.stdout.readline()
-    while line and "http://" not in line:
-        preamble += line
-        line = process.stdout.readline()
-    assert "http://" in line, preamble + line
+    line, preamble = read_line_when_printed(process, "http://", "the console's address")
     return process, line.split()[2], preamble
 
 

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from tests.browser import headless_chromium, require_chromium
+from tests.browser import fonts_drawn, headless_chromium, other_fonts, require_chromium
 from tests.doc_images import doc_image
 
 require_chromium()
@@ -234,10 +234,11 @@ def test_the_docs_show_the_reports_answer_and_a_figure_as_a_laptop_sees_them(
     answer) and the first session's charts, as this browser draws them."""
     with headless_chromium(1366, 768) as laptop:
         laptop.get(report.as_uri())
-        doc_image("report-answer.png", laptop.get_screenshot_as_png())
+        _wait_for_charts(laptop)
+        doc_image("report-answer.png", laptop.get_screenshot_as_png(), driver=laptop)
         figure = laptop.find_element(By.CSS_SELECTOR, "div.chart[data-chart^='session_'] svg")
         laptop.execute_script("arguments[0].scrollIntoView({block: 'center'})", figure)
-        doc_image("report-figure.png", figure.screenshot_as_png)
+        doc_image("report-figure.png", figure.screenshot_as_png, driver=laptop, element=figure)
 
 
 @pytest.fixture(scope="module")
@@ -285,3 +286,35 @@ def test_a_forked_sessions_tables_show_branch_and_ellipsoid_within_the_page(
         assert "none (2 trials: an interval needs 5)" in browser.page_source
     finally:
         _emulate(browser, None)
+
+
+def test_the_report_is_drawn_in_its_own_fonts_on_a_machine_with_other_fonts(
+    report: Path, tmp_path: Path
+) -> None:
+    """Issue 53: on a machine whose fonts are others (matplotlib's STIX and Computer
+    Modern alone: its sans-serif a serif), every kind of text and every character beyond
+    ASCII, charts' included, is drawn in the fonts the report carries, and its top is the
+    docs' picture, drawn with this machine's fonts."""
+    with headless_chromium(1366, 768, fonts=other_fonts(tmp_path)) as other:
+        other.get(report.as_uri())
+        _wait_for_charts(other)
+        doc_image("report-answer.png", other.get_screenshot_as_png(), driver=other)
+        drawn = fonts_drawn(other)
+    assert {family for family, _ in drawn} == {"DejaVu Sans", "DejaVu Sans Mono"}, drawn.keys()
+    not_ours = {font: where[:3] for font, where in drawn.items() if not font[1]}
+    assert not not_ours, not_ours
+    assert any("<text" in e for e in drawn[("DejaVu Sans", True)])  # the charts' labels
+
+
+def _wait_for_charts(browser: Any) -> None:
+    """Until the page's fonts are loaded and its script drew every chart with them."""
+    drawn = False
+    for _ in range(100):
+        drawn = browser.execute_script(
+            "return document.fonts.status === 'loaded' && Object.keys(window.twoposeViews"
+            " || {}).length === document.querySelectorAll('div.chart').length"
+        )
+        if drawn:
+            break
+        time.sleep(0.1)
+    assert drawn, "the charts were not drawn in 10 s"

@@ -263,7 +263,7 @@ def test_the_console_suggests_the_next_pose_and_stops_by_the_rule(tmp_path: Path
     """Issue 36 in the browser at a laptop's 1366x768: after pose 1 the page shows the
     suggested next pose, ``g`` in the pose form takes it, the top view marks the next one,
     and with --target-precision a trial ends as soon as its region is within it."""
-    from tests.doc_images import doc_image
+    from tests.doc_images import CONSOLE_VOLATILE, doc_image
 
     out = tmp_path / "guided.mcap"
     process, url, _ = start_console(out, "--target-precision", "1.0", "--max-poses", "4")
@@ -316,7 +316,8 @@ def test_the_console_suggests_the_next_pose_and_stops_by_the_rule(tmp_path: Path
                 assert "suggested next pose" in legend
                 # The map follows the suggestion: the picture waits for it.
                 page.wait(lambda: page.el("region-map-section").is_displayed(), "the map")
-                doc_image("console-suggestion.png", laptop.get_screenshot_as_png())
+                png = laptop.get_screenshot_as_png()
+                doc_image("console-suggestion.png", png, driver=laptop, volatile=CONSOLE_VOLATILE)
                 page.el("pose-x").send_keys("g")
                 page.click("capture")
                 page.wait(lambda: page.el("accept").is_enabled(), "the capture to end")

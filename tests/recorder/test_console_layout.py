@@ -28,7 +28,7 @@ from typing import Any
 import pytest
 
 from tests.browser import emulate_phone, headless_chromium, require_chromium
-from tests.doc_images import doc_image
+from tests.doc_images import CONSOLE_VOLATILE, doc_image
 from tests.helpers import small_session, start_console
 
 require_chromium()
@@ -146,7 +146,7 @@ class Steps:
         size = f"{seen['width']}x{seen['height']}"
         assert not seen["problems"], f"{name} ({size}): {seen['problems']}"
         if name in self.docs:
-            doc_image(self.docs[name], png)
+            doc_image(self.docs[name], png, driver=self.browser, volatile=CONSOLE_VOLATILE)
 
 
 @pytest.fixture
