@@ -1,0 +1,310 @@
+"""The two cameras' clock offset measured, with its 1-sigma.
+
+``offset_ns`` is camera 2's capture clock minus camera 1's for the same instant
+(``t1 = t2 - offset_ns``). It is measured, never assumed, two ways:
+
+- :func:`offset_from_flash`: a flash both cameras see. Each camera's frame brightness
+  steps up; the frame that straddles the onset is lit for the share of its exposure after
+  it, so the onset is found to a fraction of a frame (a capture time is taken as the
+  middle of its exposure; the exposure is the frame interval unless given, as an
+  auto-exposed webcam's is indoors). Its 1-sigma: the brightness noise over the step,
+  times the exposure; a step no frame straddles bounds the onset to the gap between two
+  exposures (uniform: gap / sqrt 12).
+- :func:`offset_from_ray_gap`: a dot both cameras see while it moves. For each candidate
+  offset, camera 1's pixel track is interpolated (linearly) to camera 2's capture times
+  and the rays' gap is measured in pixels (Sampson's first-order distance to the pair's
+  epipolar constraint); the offset is the candidates' minimum of the mean squared gap,
+  refined by a parabola through the three candidates about it. Its 1-sigma is that of a
+  least-squares parameter: ``var = 2 s^2 / S''``, ``S''`` the curvature of the summed
+  squared gap and ``s^2`` the gaps' variance at the minimum; a motion along the epipolar
+  lines (sideways, for cameras side by side) does not fix the offset and is refused.
+
+Both first fit each camera's frame times by a regular clock (:func:`regular_times`: a
+camera's frames are taken at a fixed rate; the stamps' jitter is the host's), so the
+stamps' jitter averages out instead of entering every frame. No I/O.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from twopose.arrays import F64, Bools
+from twopose.errors import InputValueError
+from twopose.pair.board_fit import LensModel
+from twopose.pair.calibration import PairCalibration
+
+__all__ = [
+    "ClockOffset",
+    "RegularTimes",
+    "epipolar_gap_px",
+    "offset_from_flash",
+    "offset_from_ray_gap",
+    "regular_times",
+]
+
+#: The stamps are too irregular to be fitted by one rate beyond this share of an interval
+#: (their frame numbers would be ambiguous): they are then used as they are.
+MAX_JITTER_SHARE = 1 / 6
+#: The fewest camera-2 frames an offset candidate's gap is averaged over.
+MIN_GAP_FRAMES = 10
+
+
+@dataclass(frozen=True, kw_only=True)
+class ClockOffset:
+    """A measured clock offset: camera 2's clock minus camera 1's (nanoseconds).
+
+    ``sigma_ns`` its 1-sigma, ``method`` how it was measured (``"flash"``, ``"ray gap"``),
+    ``n`` the frames (flash: both cameras') or pairs (ray gap) it rests on.
+    """
+
+    offset_ns: float
+    sigma_ns: float
+    method: str
+    n: int
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class RegularTimes:
+    """A camera's stamps fitted by a regular clock (:func:`regular_times`).
+
+    ``times_ns`` (N,) the fitted capture times, ``frame`` (N,) each stamp's frame number
+    from the first (gaps: dropped frames), ``interval_ns`` the fitted interval,
+    ``jitter_ns`` the stamps' scatter about the fit, ``sigma_ns`` (N,) each fitted time's
+    1-sigma; ``regular`` False when the stamps were too irregular to fit (then
+    ``times_ns`` are the stamps and ``sigma_ns`` their scatter).
+    """
+
+    times_ns: F64
+    frame: F64
+    interval_ns: float
+    jitter_ns: float
+    sigma_ns: F64
+    regular: bool
+
+
+def regular_times(t_ns: ArrayLike, *, interval_ns: float | None = None) -> RegularTimes:
+    """A camera's frame times fitted by a fixed rate: ``t = a + b k`` over frame numbers k.
+
+    The frame numbers come from the stamps (rounded by the interval, so dropped frames
+    keep their place); with ``interval_ns`` unknown, the stamps' median difference starts
+    the fit. Stamps too irregular for that (scatter beyond :data:`MAX_JITTER_SHARE` of an
+    interval) are returned as they are (``regular`` False).
+    """
+    t = np.asarray(t_ns, dtype=np.float64).reshape(-1)
+    if t.size < 3 or not np.isfinite(t).all():
+        raise InputValueError("a camera's clock needs three finite frame times at least")
+    origin = t[0]
+    x = t - origin
+    b = float(np.median(np.diff(x))) if interval_ns is None else float(interval_ns)
+    if not b > 0:
+        raise InputValueError("the frame times must increase")
+    a = 0.0
+    for _ in range(3):  # the frame numbers, then the rate, twice over
+        k = np.round((x - a) / b)
+        A = np.column_stack([np.ones_like(k), k])
+        (a, b), *_ = np.linalg.lstsq(A, x, rcond=None)
+    residual = x - (a + b * k)
+    jitter = float(np.sqrt((residual**2).sum() / max(t.size - 2, 1)))
+    if jitter > MAX_JITTER_SHARE * b or len(np.unique(k)) != k.size:
+        return RegularTimes(
+            times_ns=t, frame=k, interval_ns=b, jitter_ns=jitter,
+            sigma_ns=np.full(t.size, jitter), regular=False,
+        )  # fmt: skip
+    # Each fitted time's 1-sigma: the line's prediction error at its frame number.
+    km = k.mean()
+    spread = max(float(((k - km) ** 2).sum()), 1e-300)
+    sigma = jitter * np.sqrt(1.0 / k.size + (k - km) ** 2 / spread)
+    return RegularTimes(
+        times_ns=origin + a + b * k, frame=k, interval_ns=float(b), jitter_ns=jitter,
+        sigma_ns=sigma, regular=True,
+    )  # fmt: skip
+
+
+def _onset(
+    brightness: F64, times: RegularTimes, exposure_ns: float | None
+) -> tuple[float, float]:
+    """One camera's flash onset (its clock, ns) and its 1-sigma."""
+    b = brightness
+    span = float(b.max() - b.min())
+    if span <= 0:
+        raise InputValueError("no flash: the brightness never changes")
+    first_lit = int(np.argmax(b > b.min() + 0.5 * span))
+    if first_lit < 2:
+        raise InputValueError("the flash is in the first frames: start recording before it")
+    lit_end = first_lit + int(np.argmax(np.r_[b[first_lit:] < b.min() + 0.5 * span, True]))
+    before = b[: first_lit - 1]
+    after = b[first_lit + 1 : lit_end] if lit_end > first_lit + 1 else b[first_lit : first_lit + 1]
+    base, peak = float(np.median(before)), float(np.median(after))
+    noise = float(np.std(np.r_[before - base, after - peak], ddof=1)) if b.size > 3 else 0.0
+    step = peak - base
+    E = times.interval_ns if exposure_ns is None else float(exposure_ns)
+    t_prev, t_lit = times.times_ns[first_lit - 1], times.times_ns[first_lit]
+    s_time = float(np.hypot(times.sigma_ns[first_lit - 1], times.sigma_ns[first_lit]))
+    # The straddling frame: lit first_lit (mostly after the onset), or the one before.
+    f_lit = (b[first_lit] - base) / step
+    f_prev = (b[first_lit - 1] - base) / step
+    s_f = noise / step * np.sqrt(1 + 0.5 / max(before.size, 1) + 0.5 / max(after.size, 1))
+    if f_prev > 3 * s_f:  # the frame before caught the onset's start
+        return t_prev + E / 2 - f_prev * E, float(np.hypot(s_f * E, s_time))
+    if f_lit < 1 - 3 * s_f:  # the first lit frame straddles the onset
+        return t_lit + E / 2 - f_lit * E, float(np.hypot(s_f * E, s_time))
+    # No frame straddles: the onset lies between two exposures.
+    lo, hi = t_prev + E / 2, max(t_lit - E / 2, t_prev + E / 2)
+    return 0.5 * (lo + hi), float(np.hypot((hi - lo) / np.sqrt(12), s_time))
+
+
+def offset_from_flash(
+    brightness1: ArrayLike,
+    t1_ns: ArrayLike,
+    brightness2: ArrayLike,
+    t2_ns: ArrayLike,
+    *,
+    exposure_ns: tuple[float | None, float | None] = (None, None),
+) -> ClockOffset:
+    """The clock offset from a flash both cameras see (the module docstring).
+
+    Parameters
+    ----------
+    brightness1, brightness2 : (N1,), (N2,) array_like
+        Each frame's mean brightness (any linear unit), camera 1's and camera 2's.
+    t1_ns, t2_ns : (N1,), (N2,) array_like
+        Their capture times (nanoseconds, each camera's clock).
+    exposure_ns : (float or None, float or None)
+        Each camera's exposure (None: its frame interval).
+
+    Returns
+    -------
+    ClockOffset
+    """
+    onsets = []
+    for b, t, e in ((brightness1, t1_ns, exposure_ns[0]), (brightness2, t2_ns, exposure_ns[1])):
+        values = np.asarray(b, dtype=np.float64).reshape(-1)
+        times = np.asarray(t, dtype=np.float64).reshape(-1)
+        if values.shape != times.shape or not np.isfinite(values).all():
+            raise InputValueError("each frame needs one finite brightness and one time")
+        onsets.append(_onset(values, regular_times(times), e))
+    (a, sa), (b2, sb) = onsets
+    n = int(np.asarray(t1_ns).size + np.asarray(t2_ns).size)
+    return ClockOffset(offset_ns=b2 - a, sigma_ns=float(np.hypot(sa, sb)), method="flash", n=n)
+
+
+def epipolar_gap_px(pair: PairCalibration, u1: F64, u2: F64) -> F64:
+    """(N,) the rays' gap in pixels: Sampson's distance of undistorted pixels ``u1``, ``u2``.
+
+    (N, 2) each, camera 1's and camera 2's, to the pair's epipolar constraint
+    ``u1^T F u2 = 0`` (``F = K1^-T [t]x R K2^-1``, from ``p1 = R p2 + t``).
+    """
+    t = pair.t_2_in_1
+    tx = np.array([[0.0, -t[2], t[1]], [t[2], 0.0, -t[0]], [-t[1], t[0], 0.0]])
+    F = np.linalg.inv(pair.intrinsics1.K).T @ tx @ pair.R_2_to_1 @ np.linalg.inv(pair.intrinsics2.K)
+    F = F / np.linalg.norm(F)
+    h1 = np.concatenate([u1, np.ones((*u1.shape[:-1], 1))], axis=-1)
+    h2 = np.concatenate([u2, np.ones((*u2.shape[:-1], 1))], axis=-1)
+    Fx2 = h2 @ F.T
+    Ftx1 = h1 @ F
+    e = (h1 * Fx2).sum(axis=-1)
+    denom = Fx2[..., 0] ** 2 + Fx2[..., 1] ** 2 + Ftx1[..., 0] ** 2 + Ftx1[..., 1] ** 2
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.asarray(e / np.sqrt(denom))
+
+
+def _interpolated(track: F64, times: F64, found: Bools, at: F64, gap_ns: float) -> F64:
+    """Camera 1's track (N1, 2) at times ``at`` (C, N2), linearly; NaN where its two
+    neighbours are not both found, not within ``gap_ns`` of each other, or outside."""
+    j = np.clip(np.searchsorted(times, at, side="right"), 1, times.size - 1)
+    i = j - 1
+    w = (at - times[i]) / (times[j] - times[i])
+    ok = found[i] & found[j] & (times[j] - times[i] <= gap_ns) & (w >= 0) & (w <= 1)
+    out = track[i] * (1 - w)[..., None] + track[j] * w[..., None]
+    return np.where(ok[..., None], out, np.nan)
+
+
+def _mean_gap(
+    pair: PairCalibration, tracks: tuple[F64, F64], times: tuple[F64, F64], found: tuple[Bools, Bools],
+    candidates: F64, gap_ns: float,
+) -> tuple[F64, F64]:  # fmt: skip
+    """(C,) the mean squared gap at each candidate offset, and (C,) the frames it used."""
+    at = times[1][None, :] - candidates[:, None]  # camera 2's times on camera 1's clock
+    u1 = _interpolated(tracks[0], times[0], found[0], at, gap_ns)
+    u2 = np.where(found[1][None, :, None], tracks[1][None], np.nan)
+    g2 = epipolar_gap_px(pair, u1, np.broadcast_to(u2, u1.shape)) ** 2
+    used = np.isfinite(g2).sum(axis=1)
+    with np.errstate(invalid="ignore"):
+        mean = np.where(used >= MIN_GAP_FRAMES, np.nansum(g2, axis=1) / np.maximum(used, 1), np.nan)
+    return mean, used.astype(np.float64)
+
+
+def offset_from_ray_gap(
+    pair: PairCalibration,
+    track1_px: ArrayLike,
+    t1_ns: ArrayLike,
+    track2_px: ArrayLike,
+    t2_ns: ArrayLike,
+    *,
+    search_ns: tuple[float, float] = (-0.5e9, 0.5e9),
+) -> ClockOffset:
+    """The clock offset from a moving dot both cameras see (the module docstring).
+
+    Parameters
+    ----------
+    pair : PairCalibration
+        The calibrated pair.
+    track1_px, track2_px : (N1, 2), (N2, 2) array_like
+        The dot's pixel (col, row) in each frame of camera 1 and camera 2, as detected
+        (distorted); NaN where not found.
+    t1_ns, t2_ns : (N1,), (N2,) array_like
+        Their capture times (nanoseconds, each camera's clock).
+    search_ns : (float, float)
+        The range of offsets searched.
+
+    Returns
+    -------
+    ClockOffset
+    """
+    lenses = (LensModel.of(pair.intrinsics1), LensModel.of(pair.intrinsics2))
+    tracks, times, found = [], [], []
+    for n, (px, t) in enumerate(((track1_px, t1_ns), (track2_px, t2_ns))):
+        p = np.asarray(px, dtype=np.float64).reshape(-1, 2)
+        stamps = np.asarray(t, dtype=np.float64).reshape(-1)
+        if p.shape[0] != stamps.size:
+            raise InputValueError(f"camera {n + 1}: {p.shape[0]} pixels for {stamps.size} times")
+        ok = np.isfinite(p).all(axis=1)
+        tracks.append(np.where(ok[:, None], lenses[n].undistort(np.nan_to_num(p)), np.nan))
+        times.append(regular_times(stamps).times_ns)
+        found.append(ok)
+    interval = float(np.median(np.diff(times[0])))
+    gap = 2.5 * interval  # one dropped frame between two neighbours is interpolated over
+    lo, hi = sorted(float(x) for x in search_ns)
+    coarse = np.arange(lo, hi + interval / 8, interval / 4)
+    cost, _ = _mean_gap(pair, (tracks[0], tracks[1]), (times[0], times[1]), (found[0], found[1]), coarse, gap)
+    if not np.isfinite(cost).any():
+        raise InputValueError(
+            f"the dot was seen by both cameras at the same time in fewer than {MIN_GAP_FRAMES} "
+            "frames at any offset searched: record longer, or widen the search"
+        )
+    best = coarse[int(np.nanargmin(cost))]
+    fine = np.arange(best - interval / 2, best + interval / 2 + interval / 100, interval / 50)
+    args = ((tracks[0], tracks[1]), (times[0], times[1]), (found[0], found[1]))
+    cost, used = _mean_gap(pair, *args, fine, gap)
+    k = int(np.nanargmin(cost))
+    if k == 0 or k == fine.size - 1 or not np.isfinite(cost[k - 1 : k + 2]).all():
+        raise InputValueError("the rays' gap has no minimum inside the offsets searched")
+    h = fine[1] - fine[0]
+    c0, c1, c2 = cost[k - 1], cost[k], cost[k + 1]
+    curvature = (c0 - 2 * c1 + c2) / h**2  # of the mean squared gap
+    if not curvature > 0:
+        raise InputValueError(
+            "the dot's motion does not fix the clock offset (it moved along the epipolar "
+            "lines, or not at all): move it across them, up and down for cameras side by side"
+        )
+    vertex = fine[k] + 0.5 * h * (c0 - c2) / (c0 - 2 * c1 + c2)
+    n = float(used[k])
+    # Least squares on S = n * mean: var = 2 s^2 / S'', s^2 = S_min / (n - 1).
+    min_mean = c1 - 0.25 * (c0 - c2) ** 2 / (c0 - 2 * c1 + c2) / 2
+    variance = 2 * max(min_mean, 0.0) / ((n - 1) * curvature)
+    return ClockOffset(
+        offset_ns=float(vertex), sigma_ns=float(np.sqrt(variance)), method="ray gap", n=int(n)
+    )
