@@ -16,8 +16,10 @@
   epipolar constraint); the offset is the candidates' minimum of the mean squared gap,
   refined by a parabola through the three candidates about it. Its 1-sigma is that of a
   least-squares parameter: ``var = 2 s^2 / S''``, ``S''`` the curvature of the summed
-  squared gap and ``s^2`` the gaps' variance at the minimum; a motion along the epipolar
-  lines (sideways, for cameras side by side) does not fix the offset and is refused.
+  squared gap and ``s^2`` the gaps' variance at the minimum, times the factor by which
+  neighbouring gaps' shared camera-1 frames correlate them, plus the fitted clocks' own
+  error; a motion along the epipolar lines (sideways, for cameras side by side) does not
+  fix the offset and is refused.
 
 Both first fit each camera's frame times by a regular clock (:func:`regular_times`: a
 camera's frames are taken at a fixed rate; the stamps' jitter is the host's), so the
@@ -31,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from twopose.arrays import F64, Bools
+from twopose.arrays import F64, Bools, Ints
 from twopose.errors import InputValueError
 from twopose.pair.board_fit import LensModel
 from twopose.pair.calibration import PairCalibration
@@ -101,11 +103,14 @@ def regular_times(t_ns: ArrayLike, *, interval_ns: float | None = None) -> Regul
     b = float(np.median(np.diff(x))) if interval_ns is None else float(interval_ns)
     if not b > 0:
         raise InputValueError("the frame times must increase")
-    a = 0.0
-    for _ in range(3):  # the frame numbers, then the rate, twice over
-        k = np.round((x - a) / b)
+    # Frame numbers from each step (one interval, or more across dropped frames), so that
+    # a slightly wrong first interval does not slip them over a long stream; then the
+    # line, and the numbers again from it.
+    k = np.r_[0.0, np.cumsum(np.maximum(np.round(np.diff(x) / b), 1.0))]
+    for _ in range(2):
         A = np.column_stack([np.ones_like(k), k])
         (a, b), *_ = np.linalg.lstsq(A, x, rcond=None)
+        k = np.round((x - a) / b)
     residual = x - (a + b * k)
     jitter = float(np.sqrt((residual**2).sum() / max(t.size - 2, 1)))
     if jitter > MAX_JITTER_SHARE * b or len(np.unique(k)) != k.size:
@@ -123,9 +128,7 @@ def regular_times(t_ns: ArrayLike, *, interval_ns: float | None = None) -> Regul
     )  # fmt: skip
 
 
-def _onset(
-    brightness: F64, times: RegularTimes, exposure_ns: float | None
-) -> tuple[float, float]:
+def _onset(brightness: F64, times: RegularTimes, exposure_ns: float | None) -> tuple[float, float]:
     """One camera's flash onset (its clock, ns) and its 1-sigma."""
     b = brightness
     span = float(b.max() - b.min())
@@ -211,30 +214,83 @@ def epipolar_gap_px(pair: PairCalibration, u1: F64, u2: F64) -> F64:
         return np.asarray(e / np.sqrt(denom))
 
 
-def _interpolated(track: F64, times: F64, found: Bools, at: F64, gap_ns: float) -> F64:
-    """Camera 1's track (N1, 2) at times ``at`` (C, N2), linearly; NaN where its two
-    neighbours are not both found, not within ``gap_ns`` of each other, or outside."""
-    j = np.clip(np.searchsorted(times, at, side="right"), 1, times.size - 1)
-    i = j - 1
-    w = (at - times[i]) / (times[j] - times[i])
-    ok = found[i] & found[j] & (times[j] - times[i] <= gap_ns) & (w >= 0) & (w <= 1)
-    out = track[i] * (1 - w)[..., None] + track[j] * w[..., None]
-    return np.where(ok[..., None], out, np.nan)
+@dataclass(frozen=True, kw_only=True, eq=False)
+class _DotTracks:
+    """Both cameras' undistorted dot tracks (N, 2), fitted times (N,) and found flags."""
 
+    pair: PairCalibration
+    tracks: tuple[F64, F64]
+    times: tuple[F64, F64]
+    found: tuple[Bools, Bools]
+    gap_ns: float  # the widest span between two camera-1 frames interpolated between
+    clock_sigma: tuple[F64, F64]  # each fitted time's 1-sigma (regular_times)
 
-def _mean_gap(
-    pair: PairCalibration, tracks: tuple[F64, F64], times: tuple[F64, F64], found: tuple[Bools, Bools],
-    candidates: F64, gap_ns: float,
-) -> tuple[F64, F64]:  # fmt: skip
-    """(C,) the mean squared gap at each candidate offset, and (C,) the frames it used."""
-    at = times[1][None, :] - candidates[:, None]  # camera 2's times on camera 1's clock
-    u1 = _interpolated(tracks[0], times[0], found[0], at, gap_ns)
-    u2 = np.where(found[1][None, :, None], tracks[1][None], np.nan)
-    g2 = epipolar_gap_px(pair, u1, np.broadcast_to(u2, u1.shape)) ** 2
-    used = np.isfinite(g2).sum(axis=1)
-    with np.errstate(invalid="ignore"):
-        mean = np.where(used >= MIN_GAP_FRAMES, np.nansum(g2, axis=1) / np.maximum(used, 1), np.nan)
-    return mean, used.astype(np.float64)
+    def camera1_at(self, at: F64) -> F64:
+        """Camera 1's track at times ``at`` (C, N2), linearly.
+
+        NaN where its two neighbours are not both found, are further apart than
+        ``gap_ns``, or do not bracket the time.
+        """
+        track, times, found = self.tracks[0], self.times[0], self.found[0]
+        j = np.clip(np.searchsorted(times, at, side="right"), 1, times.size - 1)
+        i = j - 1
+        w = (at - times[i]) / (times[j] - times[i])
+        ok = found[i] & found[j] & (times[j] - times[i] <= self.gap_ns) & (w >= 0) & (w <= 1)
+        out = track[i] * (1 - w)[..., None] + track[j] * w[..., None]
+        return np.where(ok[..., None], out, np.nan)
+
+    def weights(self, offset_ns: float) -> tuple[Ints, F64, Bools]:
+        """Camera 2's frames' camera-1 neighbours at ``offset_ns``.
+
+        The left neighbour's index (N2,), the right one's weight (N2,), and which frames'
+        gap is measured (both neighbours found and close, camera 2's dot found).
+        """
+        at = self.times[1] - offset_ns
+        t, found = self.times[0], self.found[0]
+        j = np.clip(np.searchsorted(t, at, side="right"), 1, t.size - 1)
+        i = j - 1
+        w = (at - t[i]) / (t[j] - t[i])
+        ok = found[i] & found[j] & (t[j] - t[i] <= self.gap_ns) & (w >= 0) & (w <= 1)
+        return i.astype(np.intp), w, np.asarray(ok & self.found[1])
+
+    def correlation_factor(self, offset_ns: float) -> float:
+        """The variance factor of the gaps' sum: neighbouring gaps share a camera-1 frame.
+
+        Each gap holds camera 2's frame's error and camera 1's two frames' weighted by
+        ``1 - w`` and ``w`` (equal noise in both cameras taken); two successive gaps that
+        interpolate across a common camera-1 frame are correlated, which a sum over gaps
+        that change slowly (a smooth motion) feels as ``1 + 2 sum cov / sum var``.
+        """
+        i, w, ok = self.weights(offset_ns)
+        i, w = i[ok], w[ok]
+        if i.size < 2:
+            return 1.0
+        var = 1.0 + (1 - w) ** 2 + w**2
+        left = np.stack([i, i + 1], axis=1)  # each gap's two camera-1 frames
+        weight = np.stack([1 - w, w], axis=1)
+        a, b = left[:-1], left[1:]
+        wa, wb = weight[:-1], weight[1:]
+        same = a[:, :, None] == b[:, None, :]
+        cov = (same * wa[:, :, None] * wb[:, None, :]).sum(axis=(1, 2))
+        return float(1.0 + 2.0 * cov.sum() / var.sum())
+
+    def clock_sigma_ns(self) -> float:
+        """The two fitted clocks' error as the offset feels it, combined.
+
+        A gap averaged over a stream's frames feels each clock's error at its frames'
+        centre (the fit's least 1-sigma); its slope's error averages out.
+        """
+        return float(np.hypot(*(float(np.min(s)) for s in self.clock_sigma)))
+
+    def mean_gap(self, candidates: F64) -> tuple[F64, F64]:
+        """(C,) the mean squared gap at each candidate offset, and (C,) the frames used."""
+        u1 = self.camera1_at(self.times[1][None, :] - candidates[:, None])
+        u2 = np.where(self.found[1][:, None], self.tracks[1], np.nan)
+        g2 = epipolar_gap_px(self.pair, u1, np.broadcast_to(u2, u1.shape)) ** 2
+        used = np.isfinite(g2).sum(axis=1)
+        enough = used >= MIN_GAP_FRAMES
+        mean = np.where(enough, np.nansum(g2, axis=1) / np.maximum(used, 1), np.nan)
+        return mean, used.astype(np.float64)
 
 
 def offset_from_ray_gap(
@@ -264,22 +320,11 @@ def offset_from_ray_gap(
     -------
     ClockOffset
     """
-    lenses = (LensModel.of(pair.intrinsics1), LensModel.of(pair.intrinsics2))
-    tracks, times, found = [], [], []
-    for n, (px, t) in enumerate(((track1_px, t1_ns), (track2_px, t2_ns))):
-        p = np.asarray(px, dtype=np.float64).reshape(-1, 2)
-        stamps = np.asarray(t, dtype=np.float64).reshape(-1)
-        if p.shape[0] != stamps.size:
-            raise InputValueError(f"camera {n + 1}: {p.shape[0]} pixels for {stamps.size} times")
-        ok = np.isfinite(p).all(axis=1)
-        tracks.append(np.where(ok[:, None], lenses[n].undistort(np.nan_to_num(p)), np.nan))
-        times.append(regular_times(stamps).times_ns)
-        found.append(ok)
-    interval = float(np.median(np.diff(times[0])))
-    gap = 2.5 * interval  # one dropped frame between two neighbours is interpolated over
+    dots = _dot_tracks(pair, (track1_px, track2_px), (t1_ns, t2_ns))
+    interval = float(np.median(np.diff(dots.times[0])))
     lo, hi = sorted(float(x) for x in search_ns)
     coarse = np.arange(lo, hi + interval / 8, interval / 4)
-    cost, _ = _mean_gap(pair, (tracks[0], tracks[1]), (times[0], times[1]), (found[0], found[1]), coarse, gap)
+    cost, _ = dots.mean_gap(coarse)
     if not np.isfinite(cost).any():
         raise InputValueError(
             f"the dot was seen by both cameras at the same time in fewer than {MIN_GAP_FRAMES} "
@@ -287,8 +332,7 @@ def offset_from_ray_gap(
         )
     best = coarse[int(np.nanargmin(cost))]
     fine = np.arange(best - interval / 2, best + interval / 2 + interval / 100, interval / 50)
-    args = ((tracks[0], tracks[1]), (times[0], times[1]), (found[0], found[1]))
-    cost, used = _mean_gap(pair, *args, fine, gap)
+    cost, used = dots.mean_gap(fine)
     k = int(np.nanargmin(cost))
     if k == 0 or k == fine.size - 1 or not np.isfinite(cost[k - 1 : k + 2]).all():
         raise InputValueError("the rays' gap has no minimum inside the offsets searched")
@@ -301,10 +345,39 @@ def offset_from_ray_gap(
             "lines, or not at all): move it across them, up and down for cameras side by side"
         )
     vertex = fine[k] + 0.5 * h * (c0 - c2) / (c0 - 2 * c1 + c2)
-    n = float(used[k])
+    n = int(used[k])
     # Least squares on S = n * mean: var = 2 s^2 / S'', s^2 = S_min / (n - 1).
     min_mean = c1 - 0.25 * (c0 - c2) ** 2 / (c0 - 2 * c1 + c2) / 2
-    variance = 2 * max(min_mean, 0.0) / ((n - 1) * curvature)
+    variance = 2 * max(min_mean, 0.0) / ((n - 1) * curvature) * dots.correlation_factor(vertex)
+    variance += dots.clock_sigma_ns() ** 2
     return ClockOffset(
-        offset_ns=float(vertex), sigma_ns=float(np.sqrt(variance)), method="ray gap", n=int(n)
+        offset_ns=float(vertex), sigma_ns=float(np.sqrt(variance)), method="ray gap", n=n
+    )
+
+
+def _dot_tracks(
+    pair: PairCalibration, tracks: tuple[ArrayLike, ArrayLike], times: tuple[ArrayLike, ArrayLike]
+) -> _DotTracks:
+    """Both cameras' dot tracks checked, undistorted, their times fitted by a regular clock."""
+    lenses = (LensModel.of(pair.intrinsics1), LensModel.of(pair.intrinsics2))
+    undistorted, fitted, found, sigma = [], [], [], []
+    for n in (0, 1):
+        p = np.asarray(tracks[n], dtype=np.float64).reshape(-1, 2)
+        stamps = np.asarray(times[n], dtype=np.float64).reshape(-1)
+        if p.shape[0] != stamps.size:
+            raise InputValueError(f"camera {n + 1}: {p.shape[0]} pixels for {stamps.size} times")
+        ok = np.asarray(np.isfinite(p).all(axis=1))
+        undistorted.append(np.where(ok[:, None], lenses[n].undistort(np.nan_to_num(p)), np.nan))
+        clock = regular_times(stamps)
+        fitted.append(clock.times_ns)
+        sigma.append(clock.sigma_ns)
+        found.append(ok)
+    interval = float(np.median(np.diff(fitted[0])))
+    return _DotTracks(
+        pair=pair,
+        tracks=(undistorted[0], undistorted[1]),
+        times=(fitted[0], fitted[1]),
+        found=(found[0], found[1]),
+        gap_ns=2.5 * interval,  # one dropped frame between two neighbours is bridged
+        clock_sigma=(sigma[0], sigma[1]),
     )

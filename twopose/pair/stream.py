@@ -26,6 +26,7 @@ no I/O.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from dataclasses import dataclass, field
 
@@ -56,6 +57,7 @@ __all__ = [
     "CameraTrack",
     "StreamEstimate",
     "StreamNoise",
+    "StreamSettings",
     "estimate_stream",
 ]
 
@@ -113,6 +115,23 @@ class StreamNoise:
 
     centroid_px: float
     theta_deg: float = 0.0
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class StreamSettings:
+    """How a stream is estimated.
+
+    ``noise`` each frame's detection noise (both cameras); ``interpolate`` whether camera
+    1's measurement is interpolated to camera 2's time (False: the paired frame's, its skew
+    carried as a time error); ``ground`` the ground plane ``(normal (3,), offset)`` in
+    camera 1's frame, exact (None: the pair's floor, with its covariance); ``estimate``
+    the solvers' thresholds (the margins that flag a near-singular pair).
+    """
+
+    noise: StreamNoise
+    interpolate: bool = True
+    ground: GroundSpec | None = None
+    estimate: EstimateOptions = field(default_factory=EstimateOptions)
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -186,10 +205,14 @@ class _Camera1:
 
 
 def _camera1_at(
-    track: CameraTrack, c: F64, th: F64, at: F64, paired: Ints, offset: ClockOffset, *,
-    interpolate: bool,
+    track: CameraTrack, measured: tuple[F64, F64], at: F64, paired: Ints, offset: ClockOffset,
+    *, interpolate: bool,
 ) -> _Camera1:  # fmt: skip
-    """Camera 1's measurement at times ``at`` (P,) on its clock (the module docstring)."""
+    """Camera 1's measurement at times ``at`` (P,) on its clock (the module docstring).
+
+    ``measured``: its undistorted centroids (N, 2) and directions (N,).
+    """
+    c, th = measured
     t = track.t_ns
     interval = float(np.median(np.diff(t))) if t.size > 1 else np.inf
     j = np.clip(np.searchsorted(t, at, side="right"), 1, max(t.size - 1, 1))
@@ -230,12 +253,9 @@ def estimate_stream(
     camera1: CameraTrack,
     camera2: CameraTrack,
     offset: ClockOffset,
+    settings: StreamSettings,
     *,
-    noise: StreamNoise,
     pairing: Pairing | None = None,
-    interpolate: bool = True,
-    ground: GroundSpec | None = None,
-    options: EstimateOptions | None = None,
 ) -> StreamEstimate:
     """One estimate per frame pair (the module docstring).
 
@@ -244,31 +264,23 @@ def estimate_stream(
     method : Method
         The point, line or ground method.
     pair : PairCalibration
-        The calibrated pair; its floor is the ground plane unless ``ground`` is given.
+        The calibrated pair; its floor is the ground plane unless the settings give one.
     camera1, camera2 : CameraTrack
         Each camera's measurements.
     offset : ClockOffset
         Camera 2's clock minus camera 1's, with its 1-sigma.
-    noise : StreamNoise
-        Each frame's detection noise (both cameras).
+    settings : StreamSettings
+        The detection noise, interpolation, ground plane and the solvers' thresholds.
     pairing : Pairing, optional
         The frames' pairs (default: :func:`~twopose.pair.pairing.pair_frames` with the
         offset).
-    interpolate : bool
-        Whether camera 1's measurement is interpolated to camera 2's time (False: the
-        paired frame's, its skew carried as a time error).
-    ground : (normal (3,), offset), optional
-        The ground plane in camera 1's frame (method 2), exact.
-    options : EstimateOptions, optional
-        The solvers' thresholds (the margins that flag a near-singular pair).
 
     Returns
     -------
     StreamEstimate
     """
     spec = spec_of(method)
-    options = options or EstimateOptions()
-    ground_cov = None
+    ground, ground_cov = settings.ground, None
     if spec.needs_ground and ground is None:
         if pair.floor is None:
             raise InputValueError(
@@ -276,35 +288,40 @@ def estimate_stream(
                 "or give the ground plane"
             )
         ground, ground_cov = pair.floor.ground, pair.floor.cov
+    settings = dataclasses.replace(settings, ground=ground if spec.needs_ground else None)
     pairs = pairing or pair_frames(camera1.t_ns, camera2.t_ns, offset_ns=offset.offset_ns)
     lenses = (LensModel.of(pair.intrinsics1), LensModel.of(pair.intrinsics2))
     c1, th1 = _undistorted(camera1, lenses[0])
     c2, th2 = _undistorted(camera2, lenses[1])
     at = camera2.t_ns[pairs.i2] - offset.offset_ns
-    one = _camera1_at(camera1, c1, th1, at, pairs.i1, offset, interpolate=interpolate)
-    batch = _batch(pair, one, c2[pairs.i2], th2[pairs.i2], spec.uses_image_lines)
-    solved = solve_batch(spec.method, batch, ground, options)
+    one = _camera1_at(camera1, (c1, th1), at, pairs.i1, offset, interpolate=settings.interpolate)
+    batch = _batch(pair, one, c2[pairs.i2], th2[pairs.i2], lines=spec.uses_image_lines)
+    solved = solve_batch(spec.method, batch, settings.ground, settings.estimate)
     status, reason = solved.status.astype("<U24"), solved.reason.astype("<U96")
     late = ~one.ok & (status != "no_detection")
     status[late], reason[late] = NOT_INTERPOLATED, "camera 1 has no frames about camera 2's time"
-    warned = np.array(margin_warnings(status, solved.margins, options), dtype="<U96")
+    warned = np.array(margin_warnings(status, solved.margins, settings.estimate), dtype="<U96")
     near = (status == "ok") & (warned != "")
     status[near], reason[near] = NEAR_SINGULAR, warned[near]
     ok = status == "ok"
     point = np.where(ok[:, None], solved.point, np.nan)
-    cov, skew_share = _covariance(spec.method, pair, batch, point, one, noise, ground, ground_cov, options)
+    direction = solved.direction
+    cov, skew_share = _covariance(spec.method, pair, batch, point, one, settings, ground_cov)
     return StreamEstimate(
         i1=pairs.i1, i2=pairs.i2, skew_ns=pairs.skew_ns, t_ns=at, point=point,
-        direction=None if solved.direction is None else np.where(ok[:, None], solved.direction, np.nan),
+        direction=None if direction is None else np.where(ok[:, None], direction, np.nan),
         cov=cov, semiaxis95=semiaxis95(cov), status=status, reason=reason,
         conditioning=solved.conditioning, margins=solved.margins, skew_share=skew_share,
-        interpolated=np.full(at.size, interpolate) & one.ok,
+        interpolated=np.full(at.size, settings.interpolate) & one.ok,
     )  # fmt: skip
 
 
-def _batch(pair: PairCalibration, one: _Camera1, c2: F64, th2: F64, lines: bool) -> ViewBatch:
-    """The pairs as a two-view batch: camera 1 the typed pose at the origin, camera 2 the
-    typed pose of the pair's relative pose (the one-camera path's layout)."""
+def _batch(pair: PairCalibration, one: _Camera1, c2: F64, th2: F64, *, lines: bool) -> ViewBatch:
+    """The pairs as a two-view batch, in the one-camera path's layout.
+
+    Camera 1 is the typed pose at the origin, camera 2 the typed pose of the pair's
+    relative pose.
+    """
     t21, angles, _ = _pair_constants(pair)
     P = c2.shape[0]
     x = np.zeros((P, 2, 9))
@@ -322,12 +339,12 @@ def _batch(pair: PairCalibration, one: _Camera1, c2: F64, th2: F64, lines: bool)
 
 def _covariance(
     method: Method, pair: PairCalibration, batch: ViewBatch, point: F64, one: _Camera1,
-    noise: StreamNoise, ground: GroundSpec | None, ground_cov: F64 | None,
-    options: EstimateOptions,
+    settings: StreamSettings, ground_cov: F64 | None,
 ) -> tuple[F64, F64]:  # fmt: skip
     """(P, 3, 3) each estimate's covariance and (P,) the skew term's share of its trace."""
     P = point.shape[0]
-    ok = np.isfinite(point).all(axis=1)
+    noise, ground, options = settings.noise, settings.ground, settings.estimate
+    ok = np.asarray(np.isfinite(point).all(axis=1))
     cov = np.full((P, 3, 3), np.nan)
     share = np.full(P, np.nan)
     if not ok.any():
@@ -349,7 +366,7 @@ def _covariance(
     J0 = propagated.jacobian[:, :, 0, :3]  # d estimate / d camera 1's measurement
     skew_cov = np.einsum("pik,pkl,pjl->pij", J0, skew, J0)
     if ground is not None and ground_cov is not None:
-        total = total + _ground_term(method, b, ground, ground_cov, options, point[ok])
+        total = total + _ground_term(method, b, (ground, ground_cov), options, point[ok])
     cov[ok] = total
     with np.errstate(invalid="ignore", divide="ignore"):
         share[ok] = np.trace(skew_cov, axis1=1, axis2=2) / np.trace(total, axis1=1, axis2=2)
@@ -369,11 +386,15 @@ def _shared(pair: PairCalibration, batch: ViewBatch) -> Shared | None:
 
 
 def _ground_term(
-    method: Method, batch: ViewBatch, ground: GroundSpec, ground_cov: F64,
+    method: Method, batch: ViewBatch, ground: tuple[GroundSpec, F64],
     options: EstimateOptions, reference: F64, rel_step: float = 1e-3,
 ) -> F64:  # fmt: skip
-    """(P, 3, 3) the floor's covariance carried to each estimate (central differences)."""
-    n0, h0 = np.asarray(ground[0], dtype=np.float64), float(ground[1])
+    """(P, 3, 3) the floor's covariance carried to each estimate (central differences).
+
+    ``ground``: the plane ``(normal, offset)`` and its covariance (4, 4).
+    """
+    (normal, offset), ground_cov = ground
+    n0, h0 = np.asarray(normal, dtype=np.float64), float(offset)
     sigma = np.sqrt(np.clip(np.diag(ground_cov), 0.0, None))
     J = np.zeros((batch.inputs.shape[0], 3, 4))
     for k in range(4):
