@@ -280,7 +280,7 @@ class _DotTracks:
         A gap averaged over a stream's frames feels each clock's error at its frames'
         centre (the fit's least 1-sigma); its slope's error averages out.
         """
-        return float(np.hypot(*(float(np.min(s)) for s in self.clock_sigma)))
+        return float(np.hypot(np.min(self.clock_sigma[0]), np.min(self.clock_sigma[1])))
 
     def mean_gap(self, candidates: F64) -> tuple[F64, F64]:
         """(C,) the mean squared gap at each candidate offset, and (C,) the frames used."""
