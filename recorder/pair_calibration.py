@@ -132,7 +132,7 @@ class _Found:
 def _find_all(
     pairs: Iterable[StillPair],
     board: tuple[int, int],
-    on_pair: Callable[[str, bool, bool], None] | None,
+    on_pair: Callable[[str, tuple[bool, bool]], None] | None,
 ) -> _Found:
     """Every pair's board in both images; each camera's image size checked constant."""
     found = _Found(left=[], right=[], names=[], own=([], []), skipped=[], size=[None, None])
@@ -151,7 +151,7 @@ def _find_all(
             if c is not None:
                 found.own[n].append((name, c))
         if on_pair is not None:
-            on_pair(name, corners[0] is not None, corners[1] is not None)
+            on_pair(name, (corners[0] is not None, corners[1] is not None))
         if corners[0] is not None and corners[1] is not None:
             found.left.append(corners[0])
             found.right.append(corners[1])
@@ -212,7 +212,7 @@ def calibrate_pair_views(
     calibrations: tuple[Calibrated, Calibrated] | None = None,
     calibrations_from: str = "given intrinsics",
     floor: FloorStills | None = None,
-    on_pair: Callable[[str, bool, bool], None] | None = None,
+    on_pair: Callable[[str, tuple[bool, bool]], None] | None = None,
 ) -> PairCalibrationRun:
     """The pair's calibration from moments seen by both cameras (the module docstring).
 
@@ -234,7 +234,7 @@ def calibrate_pair_views(
     floor : FloorStills, optional
         A board lying on the floor, seen by camera 1 (and camera 2).
     on_pair : callable, optional
-        Called with each moment's name and whether each camera found the board.
+        Called with each moment's name and whether each camera (1, 2) found the board.
 
     Returns
     -------
@@ -329,7 +329,7 @@ def read_still_pairs(files: list[tuple[str, Path, Path]]) -> Iterator[StillPair]
 
 
 def calibrate_pair(
-    request: PairRequest, *, on_pair: Callable[[str, bool, bool], None] | None = None
+    request: PairRequest, *, on_pair: Callable[[str, tuple[bool, bool]], None] | None = None
 ) -> PairCalibrationRun:
     """``twopose-record calibrate-pair`` as one call: fit, check and write the pair file.
 
@@ -339,7 +339,7 @@ def calibrate_pair(
         The output, both cameras' stills, the board, the units, the calibration files and
         the floor board's stills.
     on_pair : callable, optional
-        Called with each moment's name and whether each camera found the board.
+        Called with each moment's name and whether each camera (1, 2) found the board.
 
     Returns
     -------
