@@ -15,7 +15,7 @@ first use (``import recorder.cli`` stays light)::
     recorder.serve_console_until_stopped(request, given, host=..., port=...)  # new --ui
     recorder.recover_session("cut.mcap", "fixed.mcap")  # recover
     recorder.calibrate(source, (9, 6), 25.0)  # calibrate
-    recorder.calibrate_pair(recorder.PairRequest(out=..., left=..., right=..., ...))  # calibrate-pair
+    recorder.calibrate_pair(recorder.PairRequest(...))  # calibrate-pair
 
 The frame sources' registry (:data:`SOURCE_KINDS`, :func:`open_source`), the procedure
 (:class:`Procedure`, :func:`record`) and reading a session to continue
@@ -38,17 +38,17 @@ if TYPE_CHECKING:
     )
     from recorder.continuation import Continued, read_continued
     from recorder.interactive import record_interactive
-    from recorder.pair_calibration import (
-        PairCalibrationRun,
-        PairRequest,
-        calibrate_pair,
-        calibrate_pair_views,
-    )
     from recorder.new_session import (
         NewRequest,
         record_planned,
         record_terminal,
         serve_console_until_stopped,
+    )
+    from recorder.pair_calibration import (
+        PairCalibrationRun,
+        PairRequest,
+        calibrate_pair,
+        calibrate_pair_views,
     )
     from recorder.plan import Plan, load_plan, record_plan
     from recorder.procedure import Procedure, record
