@@ -41,6 +41,7 @@ from twopose.estimate import (
     GroundSpec,
     ViewBatch,
     margin_warnings,
+    nearest_on_line,
     solve_batch,
     thesis_estimate,
 )
@@ -125,13 +126,17 @@ class StreamSettings:
     1's measurement is interpolated to camera 2's time (False: the paired frame's, its skew
     carried as a time error); ``ground`` the ground plane ``(normal (3,), offset)`` in
     camera 1's frame, exact (None: the pair's floor, with its covariance); ``estimate``
-    the solvers' thresholds (the margins that flag a near-singular pair).
+    the solvers' thresholds (the margins that flag a near-singular pair);
+    ``line_reference`` (3,) or (P, 3), camera 1's frame: a line is reported at its point
+    nearest it (None: nearest camera 2's centre, the solver's point), as a one-camera line
+    trial is reported nearest its true segment's midpoint.
     """
 
     noise: StreamNoise
     interpolate: bool = True
     ground: GroundSpec | None = None
     estimate: EstimateOptions = field(default_factory=EstimateOptions)
+    line_reference: F64 | None = None
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -306,6 +311,9 @@ def estimate_stream(
     ok = status == "ok"
     point = np.where(ok[:, None], solved.point, np.nan)
     direction = solved.direction
+    if direction is not None and settings.line_reference is not None:
+        reference = np.broadcast_to(np.asarray(settings.line_reference, np.float64), point.shape)
+        point = nearest_on_line(point, direction, reference)
     cov, skew_share = _covariance(spec.method, pair, batch, point, one, settings, ground_cov)
     return StreamEstimate(
         i1=pairs.i1, i2=pairs.i2, skew_ns=pairs.skew_ns, t_ns=at, point=point,
