@@ -4,12 +4,12 @@
 (``t1 = t2 - offset_ns``). It is measured, never assumed, two ways:
 
 - :func:`offset_from_flash`: a flash both cameras see. Each camera's frame brightness
-  steps up; the frame that straddles the onset is lit for the share of its exposure after
-  it, so the onset is found to a fraction of a frame (a capture time is taken as the
-  middle of its exposure; the exposure is the frame interval unless given, as an
-  auto-exposed webcam's is indoors). Its 1-sigma: the brightness noise over the step,
-  times the exposure; a step no frame straddles bounds the onset to the gap between two
-  exposures (uniform: gap / sqrt 12).
+  steps up; a frame whose exposure the onset falls in is lit for the share of its
+  exposure after it, so the onset is found to a fraction of a frame (a capture time is
+  taken as the middle of its exposure; the exposure is the frame interval unless given,
+  as an auto-exposed webcam's is indoors). Its 1-sigma: the brightness noise over the
+  step, times the exposure; an onset in the gap between two exposures (or a dropped
+  frame's) is known only to that gap, and says so.
 - :func:`offset_from_ray_gap`: a dot both cameras see while it moves. For each candidate
   offset, camera 1's pixel track is interpolated (linearly) to camera 2's capture times
   and the rays' gap is measured in pixels (Sampson's first-order distance to the pair's
@@ -128,35 +128,44 @@ def regular_times(t_ns: ArrayLike, *, interval_ns: float | None = None) -> Regul
     )  # fmt: skip
 
 
-def _onset(brightness: F64, times: RegularTimes, exposure_ns: float | None) -> tuple[float, float]:
-    """One camera's flash onset (its clock, ns) and its 1-sigma."""
+def _onset(
+    brightness: F64, times: RegularTimes, exposure_ns: float | None
+) -> tuple[float, float]:
+    """One camera's flash onset (its clock, ns) and its 1-sigma.
+
+    Over the two frames about the step, the lit share of each exposure after an onset ``tau``
+    is ``clip((t_k + E/2 - tau) / E, 0, 1)``; their sum ``L(tau)`` falls steadily through
+    exposures and stays flat across the gaps between them (and a dropped frame's). The
+    onset is where ``L`` meets the frames' measured lit shares' sum: the middle of the
+    ``tau`` where they agree within its 1-sigma, and half that span its 1-sigma (exact
+    where ``L`` slopes; an overestimate where a gap leaves the onset anywhere in it).
+    """
     b = brightness
     span = float(b.max() - b.min())
     if span <= 0:
         raise InputValueError("no flash: the brightness never changes")
     first_lit = int(np.argmax(b > b.min() + 0.5 * span))
-    if first_lit < 2:
+    if first_lit < 3:
         raise InputValueError("the flash is in the first frames: start recording before it")
     lit_end = first_lit + int(np.argmax(np.r_[b[first_lit:] < b.min() + 0.5 * span, True]))
-    before = b[: first_lit - 1]
-    after = b[first_lit + 1 : lit_end] if lit_end > first_lit + 1 else b[first_lit : first_lit + 1]
+    if lit_end < first_lit + 3:
+        raise InputValueError("the flash is lit in fewer than three frames: light it longer")
+    before, after = b[: first_lit - 2], b[first_lit + 2 : lit_end]
     base, peak = float(np.median(before)), float(np.median(after))
-    noise = float(np.std(np.r_[before - base, after - peak], ddof=1)) if b.size > 3 else 0.0
-    step = peak - base
+    noise = float(np.std(np.r_[before - base, after - peak], ddof=1))
+    window = np.arange(first_lit - 1, first_lit + 1)  # the onset is in one of these two
+    shares = (b[window] - base) / (peak - base)
+    s_sum = noise / (peak - base) * np.sqrt(window.size)
     E = times.interval_ns if exposure_ns is None else float(exposure_ns)
-    t_prev, t_lit = times.times_ns[first_lit - 1], times.times_ns[first_lit]
-    s_time = float(np.hypot(times.sigma_ns[first_lit - 1], times.sigma_ns[first_lit]))
-    # The straddling frame: lit first_lit (mostly after the onset), or the one before.
-    f_lit = (b[first_lit] - base) / step
-    f_prev = (b[first_lit - 1] - base) / step
-    s_f = noise / step * np.sqrt(1 + 0.5 / max(before.size, 1) + 0.5 / max(after.size, 1))
-    if f_prev > 3 * s_f:  # the frame before caught the onset's start
-        return t_prev + E / 2 - f_prev * E, float(np.hypot(s_f * E, s_time))
-    if f_lit < 1 - 3 * s_f:  # the first lit frame straddles the onset
-        return t_lit + E / 2 - f_lit * E, float(np.hypot(s_f * E, s_time))
-    # No frame straddles: the onset lies between two exposures.
-    lo, hi = t_prev + E / 2, max(t_lit - E / 2, t_prev + E / 2)
-    return 0.5 * (lo + hi), float(np.hypot((hi - lo) / np.sqrt(12), s_time))
+    t = times.times_ns[window]
+    grid = np.linspace(t[0] - E, t[-1] + E, 4001)
+    L = np.clip((t[None, :] + E / 2 - grid[:, None]) / E, 0.0, 1.0).sum(axis=1)
+    agree = np.abs(L - shares.sum()) <= max(s_sum, 1e-9)
+    if not agree.any():  # the shares disagree with one onset: take the nearest
+        agree = np.abs(L - shares.sum()) == np.abs(L - shares.sum()).min()
+    lo, hi = grid[agree].min(), grid[agree].max()
+    s_time = float(times.sigma_ns[window].max())
+    return 0.5 * (lo + hi), float(np.hypot(max(0.5 * (hi - lo), grid[1] - grid[0]), s_time))
 
 
 def offset_from_flash(
