@@ -52,6 +52,13 @@ __all__ = [
 MAX_JITTER_SHARE = 1 / 6
 #: The fewest camera-2 frames an offset candidate's gap is averaged over.
 MIN_GAP_FRAMES = 10
+#: A rays' gap whose minimum is this wide (1-sigma, a share of a frame interval) fixes no
+#: offset: the dot moved along the epipolar lines, or barely.
+MAX_SIGMA_SHARE = 0.25
+#: The least likelihood ratio (``n (S / S_min - 1)``, chi-square-like) by which every
+#: offset a frame or more from the best must fit worse: below it, another offset fits
+#: nearly as well and the offset is not known.
+MIN_LIKELIHOOD_RATIO = 25.0
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -128,9 +135,7 @@ def regular_times(t_ns: ArrayLike, *, interval_ns: float | None = None) -> Regul
     )  # fmt: skip
 
 
-def _onset(
-    brightness: F64, times: RegularTimes, exposure_ns: float | None
-) -> tuple[float, float]:
+def _onset(brightness: F64, times: RegularTimes, exposure_ns: float | None) -> tuple[float, float]:
     """One camera's flash onset (its clock, ns) and its 1-sigma.
 
     Over the two frames about the step, the lit share of each exposure after an onset ``tau``
@@ -234,8 +239,8 @@ class _DotTracks:
     gap_ns: float  # the widest span between two camera-1 frames interpolated between
     clock_sigma: tuple[F64, F64]  # each fitted time's 1-sigma (regular_times)
 
-    def camera1_at(self, at: F64) -> F64:
-        """Camera 1's track at times ``at`` (C, N2), linearly.
+    def camera1_at(self, at: F64) -> tuple[F64, F64]:
+        """Camera 1's track at times ``at`` (C, N2), linearly, and each one's weight ``w``.
 
         NaN where its two neighbours are not both found, are further apart than
         ``gap_ns``, or do not bracket the time.
@@ -246,7 +251,7 @@ class _DotTracks:
         w = (at - times[i]) / (times[j] - times[i])
         ok = found[i] & found[j] & (times[j] - times[i] <= self.gap_ns) & (w >= 0) & (w <= 1)
         out = track[i] * (1 - w)[..., None] + track[j] * w[..., None]
-        return np.where(ok[..., None], out, np.nan)
+        return np.where(ok[..., None], out, np.nan), w
 
     def weights(self, offset_ns: float) -> tuple[Ints, F64, Bools]:
         """Camera 2's frames' camera-1 neighbours at ``offset_ns``.
@@ -292,10 +297,17 @@ class _DotTracks:
         return float(np.hypot(np.min(self.clock_sigma[0]), np.min(self.clock_sigma[1])))
 
     def mean_gap(self, candidates: F64) -> tuple[F64, F64]:
-        """(C,) the mean squared gap at each candidate offset, and (C,) the frames used."""
-        u1 = self.camera1_at(self.times[1][None, :] - candidates[:, None])
+        """(C,) the mean squared gap at each candidate offset, and (C,) the frames used.
+
+        Each gap is weighed by its noise: camera 2's frame and camera 1's two, by ``1 - w``
+        and ``w`` (equal noise taken), ``1 + w^2 + (1 - w)^2`` times one frame's variance; a
+        cost not weighed so would favour offsets that put camera 2's frames on camera 1's
+        (where interpolation averages no noise away), the more so the slower the dot.
+        """
+        u1, w = self.camera1_at(self.times[1][None, :] - candidates[:, None])
         u2 = np.where(self.found[1][:, None], self.tracks[1], np.nan)
-        g2 = epipolar_gap_px(self.pair, u1, np.broadcast_to(u2, u1.shape)) ** 2
+        gap = epipolar_gap_px(self.pair, u1, np.broadcast_to(u2, u1.shape))
+        g2 = gap**2 / (1 + w**2 + (1 - w) ** 2)
         used = np.isfinite(g2).sum(axis=1)
         enough = used >= MIN_GAP_FRAMES
         mean = np.where(enough, np.nansum(g2, axis=1) / np.maximum(used, 1), np.nan)
@@ -339,6 +351,7 @@ def offset_from_ray_gap(
             f"the dot was seen by both cameras at the same time in fewer than {MIN_GAP_FRAMES} "
             "frames at any offset searched: record longer, or widen the search"
         )
+    coarse_cost, coarse_used = cost, _
     best = coarse[int(np.nanargmin(cost))]
     fine = np.arange(best - interval / 2, best + interval / 2 + interval / 100, interval / 50)
     cost, used = dots.mean_gap(fine)
@@ -348,16 +361,27 @@ def offset_from_ray_gap(
     h = fine[1] - fine[0]
     c0, c1, c2 = cost[k - 1], cost[k], cost[k + 1]
     curvature = (c0 - 2 * c1 + c2) / h**2  # of the mean squared gap
+    refused = InputValueError(
+        "the dot's motion does not fix the clock offset (it moved along the epipolar lines, "
+        "or too little): move it across them, up and down for cameras side by side"
+    )
     if not curvature > 0:
-        raise InputValueError(
-            "the dot's motion does not fix the clock offset (it moved along the epipolar "
-            "lines, or not at all): move it across them, up and down for cameras side by side"
-        )
+        raise refused
     vertex = fine[k] + 0.5 * h * (c0 - c2) / (c0 - 2 * c1 + c2)
     n = int(used[k])
     # Least squares on S = n * mean: var = 2 s^2 / S'', s^2 = S_min / (n - 1).
     min_mean = c1 - 0.25 * (c0 - c2) ** 2 / (c0 - 2 * c1 + c2) / 2
     variance = 2 * max(min_mean, 0.0) / ((n - 1) * curvature) * dots.correlation_factor(vertex)
+    if np.sqrt(variance) > MAX_SIGMA_SHARE * interval:
+        raise refused
+    # A likelihood ratio against every offset a frame or more away: one that fits nearly
+    # as well (the motion along the epipolar lines fits every offset; a periodic one
+    # several) leaves the offset unknown.
+    far = np.abs(coarse - vertex) > interval
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = coarse_used[far] * (coarse_cost[far] / max(min_mean, 1e-300) - 1.0)
+    if far.any() and np.nanmin(np.where(np.isfinite(ratio), ratio, np.inf)) < MIN_LIKELIHOOD_RATIO:
+        raise refused
     variance += dots.clock_sigma_ns() ** 2
     return ClockOffset(
         offset_ns=float(vertex), sigma_ns=float(np.sqrt(variance)), method="ray gap", n=n

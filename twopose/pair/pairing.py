@@ -19,6 +19,7 @@ measures it), a constant or one per camera-2 frame (a drifting clock's offset). 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -61,7 +62,9 @@ def half_interval_ns(t1_ns: ArrayLike, t2_ns: ArrayLike) -> float:
         if np.asarray(t).size >= 2
     ]
     if not intervals:
-        raise InputValueError("a frame interval needs two frames of a camera at least")
+        raise InputValueError(
+            "a frame interval needs two frames of a camera at least: give the slop"
+        )
     return 0.5 * min(intervals)
 
 
@@ -103,15 +106,16 @@ def pair_frames(
                 f"{name}'s capture times must increase strictly (on camera 1's clock): "
                 f"frame {int(np.argmax(np.diff(t) <= 0)) + 2} is not after the one before"
             )
+    if t1.size == 0 or t2.size == 0:  # nothing to pair (the slop as given, if at all)
+        empty = np.zeros(0, dtype=np.intp)
+        return Pairing(
+            i1=empty, i2=empty, skew_ns=np.zeros(0),
+            slop_ns=math.nan if slop_ns is None else float(slop_ns),
+            unpaired1=int(t1.size), unpaired2=int(t2.size),
+        )  # fmt: skip
     slop = half_interval_ns(t1, t2) if slop_ns is None else float(slop_ns)
     if not (np.isfinite(slop) and slop >= 0):
         raise InputValueError(f"the slop must be a duration >= 0, got {slop_ns}")
-    if t1.size == 0 or t2.size == 0:
-        empty = np.zeros(0, dtype=np.intp)
-        return Pairing(
-            i1=empty, i2=empty, skew_ns=np.zeros(0), slop_ns=slop,
-            unpaired1=int(t1.size), unpaired2=int(t2.size),
-        )  # fmt: skip
     near2 = _nearest(t2, t1)  # each camera-1 frame's nearest camera-2 frame
     near1 = _nearest(t1, t2)
     i1 = np.flatnonzero(near1[near2] == np.arange(t1.size))  # mutual nearest
