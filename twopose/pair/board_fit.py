@@ -60,7 +60,12 @@ class LensModel:
         if not np.any(self.distortion):
             return p
         flat = p.reshape(-1, 1, 2)
-        out = cv2.undistortPoints(flat, self.K, self.distortion, P=self.K)
+        # Iterated to 1e-12 (OpenCV's default stops after five steps: 1e-3 px off at a
+        # wide lens' edge, a thousandth of an inch at 14 in).
+        criteria = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 100, 1e-12)
+        out = cv2.undistortPoints(
+            flat, self.K, self.distortion, R=None, P=self.K, criteria=criteria
+        )
         return np.asarray(out, np.float64).reshape(p.shape)
 
 

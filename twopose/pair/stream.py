@@ -71,8 +71,9 @@ NOT_INTERPOLATED = "not_interpolated"
 #: Camera 1's two frames about camera 2's time are interpolated between when no more than
 #: this many frame intervals apart (one dropped frame between them).
 MAX_BRACKET_INTERVALS = 2.5
-#: The pixel step used to carry a line's direction through the lens' undistortion.
-_LINE_STEP_PX = 10.0
+#: The pixel step that carries a line's direction (its tangent at the centroid: the image
+#: of a straight line is bent by the lens) through the undistortion.
+_LINE_STEP_PX = 0.01  # a bent line departs its tangent by ~ step^2 / (2 radius)
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -358,7 +359,7 @@ def estimate_stream(
     batch = _batch(pair, one, c2[pairs.i2], th2[pairs.i2], lines=spec.uses_image_lines)
     solved = solve_batch(spec.method, batch, settings.ground, settings.estimate)
     status, reason = solved.status.astype("<U24"), solved.reason.astype("<U96")
-    late = ~one.ok & (status != "no_detection")
+    late = ~one.ok & camera2.found[pairs.i2]  # camera 2 saw it; camera 1 not about then
     status[late], reason[late] = NOT_INTERPOLATED, "camera 1 has no frames about camera 2's time"
     warned = np.array(margin_warnings(status, solved.margins, settings.estimate), dtype="<U96")
     near = (status == "ok") & (warned != "")
