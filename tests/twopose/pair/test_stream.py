@@ -69,7 +69,7 @@ def _one_camera(method: Method, one: CameraTrack, two: CameraTrack) -> np.ndarra
                 centroids=track.centroid_px[:3],
                 thetas=track.theta_deg[:3],
                 found=np.ones(3, dtype=bool),
-            )  # fmt: skip
+            )
         )
     options = EstimateOptions()
     measured, _, _ = measure([views], options)
@@ -189,10 +189,10 @@ def test_distorted_pixels_are_undistorted_first() -> None:
     one, two = _tracks(Method.LINE, _frames(0.01))
     distorted = [_distort(t, i) for t, i in ((one, bent.intrinsics1), (two, bent.intrinsics2))]
     plain = estimate_stream(Method.LINE, pair, one, two, OFFSET, SETTINGS)
-    through = estimate_stream(Method.LINE, bent, *distorted, OFFSET, SETTINGS)
+    through = estimate_stream(Method.LINE, bent, distorted[0], distorted[1], OFFSET, SETTINGS)
     assert np.abs(through.point - plain.point).max() < 1e-4
     assert np.abs(through.direction - plain.direction).max() < 1e-5  # type: ignore[operator]
-    naive = estimate_stream(Method.LINE, pair, *distorted, OFFSET, SETTINGS)
+    naive = estimate_stream(Method.LINE, pair, distorted[0], distorted[1], OFFSET, SETTINGS)
     assert np.abs(naive.point - plain.point).max() > 0.05  # what undistortion saves
 
 
