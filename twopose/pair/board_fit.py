@@ -28,9 +28,11 @@ __all__ = [
     "BoardCorners",
     "LensModel",
     "board_poses",
+    "disagreeing_views",
     "reprojection",
     "rotation_matrix",
     "rotation_vector",
+    "view_relative_poses",
 ]
 
 
@@ -310,20 +312,59 @@ def _first_guess(corners: BoardCorners, lenses: tuple[LensModel, LensModel]) -> 
     others' (a misfit view, such as one with its corners found in reverse, does not pull
     the start).
     """
+    left, relative = view_relative_poses(corners, lenses)
+    best = int(np.argmin(_disagreement(relative).sum(axis=1)))
+    return relative[best], left
+
+
+def view_relative_poses(
+    corners: BoardCorners, lenses: tuple[LensModel, LensModel]
+) -> tuple[F64, F64]:
+    """Each view's board pose in camera 1 (V, 6) and its own relative pose (V, 6).
+
+    The relative pose ``(r, T)`` that view alone gives: its board's pose in camera 2
+    (``solvePnP``) composed with the inverse of its pose in camera 1.
+    """
     left = board_poses(corners, lenses[0], "left")
     right = board_poses(corners, lenses[1], "right")
-    R = np.stack(
-        [
-            rotation_matrix(b[:3]) @ rotation_matrix(a[:3]).T
-            for a, b in zip(left, right, strict=True)
-        ]
-    )
+    R = rotation_matrix(right[:, :3]) @ np.swapaxes(rotation_matrix(left[:, :3]), -1, -2)
     T = right[:, 3:] - np.einsum("kij,kj->ki", R, left[:, 3:])
+    return left, np.column_stack([rotation_vector(R), T])
+
+
+def _disagreement(relative: F64) -> F64:
+    """(V, V) how far apart the views' own relative poses are (rotation + scaled shift)."""
+    R = rotation_matrix(relative[:, :3])
+    T = relative[:, 3:]
     spread = np.linalg.norm(R[:, None] - R[None], axis=(2, 3))
-    scale = np.median(np.linalg.norm(T, axis=1)) or 1.0
-    spread += np.linalg.norm(T[:, None] - T[None], axis=2) / scale
-    best = int(np.argmin(spread.sum(axis=1)))
-    return np.r_[rotation_vector(R[best]), T[best]], left
+    scale = float(np.median(np.linalg.norm(T, axis=1))) or 1.0
+    return np.asarray(spread + np.linalg.norm(T[:, None] - T[None], axis=2) / scale)
+
+
+def disagreeing_views(
+    corners: BoardCorners, lenses: tuple[LensModel, LensModel], *, max_deg: float, max_share: float
+) -> list[tuple[int, str]]:
+    """The views whose own relative pose is far from the others' (each with how far).
+
+    Far: a rotation beyond ``max_deg`` degrees from the view that agrees most with the
+    others, or a centre beyond ``max_share`` of the baseline from it: a corner grid found
+    in reverse in one camera, a board that moved between the two photographs, another
+    board. A least-squares fit would spread such a view over every other.
+    """
+    _, relative = view_relative_poses(corners, lenses)
+    best = int(np.argmin(_disagreement(relative).sum(axis=1)))
+    R0 = rotation_matrix(relative[best, :3])
+    angle = np.degrees(np.linalg.norm(
+        rotation_vector(rotation_matrix(relative[:, :3]) @ R0.T), axis=1
+    ))  # fmt: skip
+    baseline = float(np.linalg.norm(relative[best, 3:])) or 1.0
+    shift = np.linalg.norm(relative[:, 3:] - relative[best, 3:], axis=1) / baseline
+    return [
+        (k, f"its own relative pose {angle[k]:.1f} deg and {shift[k]:.0%} of the baseline "
+            "from the others'")
+        for k in range(corners.n_views)
+        if angle[k] > max_deg or shift[k] > max_share
+    ]  # fmt: skip
 
 
 def extrinsic_of(relative: F64) -> tuple[F64, F64]:

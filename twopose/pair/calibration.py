@@ -16,8 +16,10 @@ the lens model's errors repeat across a view), the covariance is widened by the
 jackknife's variance factor (the mean over the six parameters of the squared ratio of
 the jackknife's 1-sigma to the fit's; never narrowed). On OpenCV's 13 photographs that
 factor is about 4 (sigmas twice the fit's). A view that fits far worse than the others
-(a misdetected or reversed corner grid) is dropped by the rule every board fit shares
-(:func:`twopose.checkerboard.outlier_view`) and named. No I/O.
+(a misdetected or reversed corner grid) is dropped and named: first a view whose own
+relative pose (from its two photographs alone) disagrees with the others'
+(:func:`twopose.pair.board_fit.disagreeing_views`), then by the rule every board fit
+shares (:func:`twopose.checkerboard.outlier_view`). No I/O.
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ from twopose.errors import InputValueError
 from twopose.pair.board_fit import (
     BoardCorners,
     LensModel,
+    disagreeing_views,
     extrinsic_cov,
     extrinsic_of,
     fit_joint,
@@ -60,6 +63,12 @@ MIN_BASELINE_SQUARES = 0.05
 #: Two views whose corners are within this many pixels on average, in both cameras, are
 #: one still given twice.
 SAME_VIEW_PX = 0.5
+#: A view whose own relative pose (both cameras' single-view board poses) is further than
+#: this from the others' is dropped before the fit, named: its corners run backwards in one
+#: camera, or the board moved between the two photographs. The single views' own scatter
+#: on OpenCV's photographs is a fraction of a degree and a few percent of the baseline.
+MAX_VIEW_DEG = 5.0
+MAX_VIEW_SHIFT = 0.25
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -290,8 +299,14 @@ def fit_pair(
         raise InputValueError(f"{len(labels)} names for {corners.n_views} views")
     _check_views(corners, labels, intrinsics)
     lenses = (LensModel.of(intrinsics[0]), LensModel.of(intrinsics[1]))
-    fit = fit_joint(corners, lenses)
     dropped: list[str] = []
+    far = disagreeing_views(corners, lenses, max_deg=MAX_VIEW_DEG, max_share=MAX_VIEW_SHIFT)
+    if far and corners.n_views - len(far) >= MIN_VIEWS:
+        dropped += [f"{labels[k]} ({why})" for k, why in far]
+        keep = np.ones(corners.n_views, dtype=bool)
+        keep[[k for k, _ in far]] = False
+        corners, labels = corners.subset(keep), [n for n, k in zip(labels, keep, strict=True) if k]
+    fit = fit_joint(corners, lenses)
     while corners.n_views > MIN_VIEWS and (worst := outlier_view(fit.view_rms_px)) is not None:
         dropped.append(f"{labels[worst]} (RMS {fit.view_rms_px[worst]:.2f} px)")
         keep = np.arange(corners.n_views) != worst

@@ -120,9 +120,11 @@ def _fit_board(
         assert J is not None
         return r[rows], J[rows]
 
+    tight = 1e-15  # to the minimum (a noise-free board's floor to the nanometre)
     solved = least_squares(
-        lambda x: evaluate(x)[0], start, jac=lambda x: evaluate(x)[1][:, 6:], method="lm"
-    )
+        lambda x: evaluate(x)[0], start, jac=lambda x: evaluate(x)[1][:, 6:], method="lm",
+        xtol=tight, ftol=tight, gtol=tight,
+    )  # fmt: skip
     pose = np.asarray(solved.x, dtype=np.float64)
     res, J = evaluate(pose)
     return pose, J[:, 6:], J[:, :6], res

@@ -5,9 +5,11 @@ board_fit.fit_joint`), the held-out board's corners are reconstructed from its t
 photographs (:func:`twopose.two_view.triangulate_two_views`, the thesis' midpoint), and
 every spacing between neighbouring corners is compared with the board's true square. Each
 spacing's 1-sigma is predicted to first order from two sources: the pixels (each corner's
-1-sigma the larger of the fold's RMS and that corner's misfit in its own photograph, the
-board's single-view pose by ``solvePnP``: large where the corner finder misplaced a
-corner) and the fold's own extrinsic covariance. The check passes when every held-out
+1-sigma the larger of the fold's RMS per coordinate and that corner's misfit in its own
+photograph, the board's single-view pose by ``solvePnP``: large where the corner finder
+misplaced a corner) and the fold's own extrinsic covariance; and, a spacing being a length, the
+corners' errors across it lengthen it (second order: the error is compared less that
+expected lengthening, its spread added). The check passes when every held-out
 spacing is within :data:`CHECK_SIGMAS` of its sigma. The folds' spread of the relative pose
 (the jackknife's covariance) is set beside the fit's covariance too. No I/O.
 
@@ -44,6 +46,7 @@ __all__ = [
     "leave_one_out",
     "pixel_jacobian",
     "pnp_residual_px",
+    "spacing_second_order",
     "spacing_sigma",
     "spacings",
     "triangulated",
@@ -120,25 +123,56 @@ def spacings(points: F64, board: tuple[int, int]) -> F64:
     return np.concatenate([along, across])
 
 
+def _spacing_covariances(
+    points: F64, jac: F64, sigma_px: F64, board: tuple[int, int]
+) -> tuple[F64, F64]:
+    """Each spacing's vector (S, 3) and its two corners' summed covariance (S, 3, 3).
+
+    Each corner's covariance ``s^2 J J^T`` (``jac`` (M, 3, 4): its point by its four
+    pixels, ``sigma_px`` (M,) its pixels' 1-sigma); spacings in :func:`spacings`' order.
+    """
+    cols, rows = board
+    cov = (sigma_px**2)[:, None, None] * np.einsum("pik,pjk->pij", jac, jac)
+    g, c = points.reshape(rows, cols, 3), cov.reshape(rows, cols, 3, 3)
+    vectors, sums = [], []
+    for a, b, ca, cb in (
+        (g[:, :-1], g[:, 1:], c[:, :-1], c[:, 1:]),
+        (g[:-1], g[1:], c[:-1], c[1:]),
+    ):
+        vectors.append((b - a).reshape(-1, 3))
+        sums.append((ca + cb).reshape(-1, 3, 3))
+    return np.concatenate(vectors), np.concatenate(sums)
+
+
 def spacing_sigma(points: F64, jac: F64, sigma_px: F64, board: tuple[int, int]) -> F64:
     """(S,) first-order 1-sigma of each spacing from its corners' pixels.
 
     Each corner's covariance ``s^2 J J^T`` (``jac`` (M, 3, 4): its point by its four
     pixels, ``sigma_px`` (M,) its pixels' 1-sigma), carried along the spacing.
     """
-    cols, rows = board
-    cov = (sigma_px**2)[:, None, None] * np.einsum("pik,pjk->pij", jac, jac)
-    g, c = points.reshape(rows, cols, 3), cov.reshape(rows, cols, 3, 3)
-    out = []
-    for a, b, ca, cb in (
-        (g[:, :-1], g[:, 1:], c[:, :-1], c[:, 1:]),
-        (g[:-1], g[1:], c[:-1], c[1:]),
-    ):
-        d = b - a
-        u = d / np.linalg.norm(d, axis=-1, keepdims=True)
-        var = np.einsum("...i,...ij,...j", u, ca, u) + np.einsum("...i,...ij,...j", u, cb, u)
-        out.append(np.sqrt(var).ravel())
-    return np.concatenate(out)
+    d, C = _spacing_covariances(points, jac, sigma_px, board)
+    u = d / np.linalg.norm(d, axis=-1, keepdims=True)
+    return np.asarray(np.sqrt(np.einsum("si,sij,sj->s", u, C, u)))
+
+
+def spacing_second_order(
+    points: F64, jac: F64, sigma_px: F64, board: tuple[int, int]
+) -> tuple[F64, F64]:
+    """(S,) each spacing's second-order bias and variance from its corners' pixels.
+
+    A spacing is a length: the corners' errors across it (``e_perp``) lengthen it by
+    ``|e_perp|^2 / 2L``, on average ``tr C_perp / 2L`` with variance
+    ``tr(C_perp^2) / 2L^2``: small at a wide baseline, but a far board tilted away from a
+    narrow pair has millimetres of depth error across a 25 mm spacing.
+    """
+    d, C = _spacing_covariances(points, jac, sigma_px, board)
+    L = np.linalg.norm(d, axis=-1)
+    u = d / L[:, None]
+    across = np.eye(3) - np.einsum("si,sj->sij", u, u)
+    Cp = across @ C @ across
+    bias = np.trace(Cp, axis1=1, axis2=2) / (2 * L)
+    variance = np.einsum("sij,sji->s", Cp, Cp) / (2 * L**2)
+    return np.asarray(bias), np.asarray(variance)
 
 
 def pnp_residual_px(corners: F64, pattern: F64, lens: LensModel) -> F64:
@@ -151,15 +185,15 @@ def pnp_residual_px(corners: F64, pattern: F64, lens: LensModel) -> F64:
 
 
 def corner_sigma_px(
-    rms_px: float, left: F64, right: F64, pattern: F64, lenses: tuple[LensModel, LensModel]
+    floor_px: float, left: F64, right: F64, pattern: F64, lenses: tuple[LensModel, LensModel]
 ) -> F64:
     """(M,) each corner's pixel 1-sigma.
 
-    The larger of the fit's RMS and the corner's misfit in its own photograph (either
-    camera's).
+    The larger of ``floor_px`` (from the fit's RMS) and the corner's misfit in its own
+    photograph (either camera's).
     """
     return np.maximum(
-        float(rms_px),
+        float(floor_px),
         np.maximum(
             pnp_residual_px(left, pattern, lenses[0]), pnp_residual_px(right, pattern, lenses[1])
         ),
@@ -210,8 +244,14 @@ def _held_out(
     square = float(np.linalg.norm(corners.pattern[1] - corners.pattern[0]))
     errors = spacings(points, corners.board) - square
     pattern = np.asarray(corners.pattern, np.float64)
-    sigma_px = corner_sigma_px(fold.rms_px, corners.left[k], corners.right[k], pattern, lenses)
-    pixel = spacing_sigma(points, pixel_jacobian(u1, u2, P1, P2), sigma_px, corners.board)
+    # Each coordinate's 1-sigma: the fit's RMS is a corner's distance (two coordinates).
+    floor = fold.rms_px / np.sqrt(2)
+    sigma_px = corner_sigma_px(floor, corners.left[k], corners.right[k], pattern, lenses)
+    jac = pixel_jacobian(u1, u2, P1, P2)
+    pixel = spacing_sigma(points, jac, sigma_px, corners.board)
+    # The lengthening expected of the fit's typical noise; its spread from each corner's.
+    bias, _ = spacing_second_order(points, jac, np.full(sigma_px.size, floor), corners.board)
+    _, second = spacing_second_order(points, jac, sigma_px, corners.board)
     # The fold's extrinsic error, carried to the spacings by central differences over
     # (rotation vector, t), the rotation applied in camera 1's frame.
     scale = np.sqrt(np.clip(np.diag(cov_extrinsic), 1e-30, None)) * 1e-3
@@ -227,7 +267,7 @@ def _held_out(
             )
         J[:, i] = (ends[0] - ends[1]) / (2 * scale[i])
     extrinsic = np.einsum("si,ij,sj->s", J, cov_extrinsic, J)
-    return errors, np.sqrt(pixel**2 + extrinsic)
+    return errors - bias, np.sqrt(pixel**2 + second + extrinsic)
 
 
 def leave_one_out(
