@@ -38,7 +38,7 @@ from twopose.camera import Intrinsics
 from twopose.checkerboard import board_pattern, find_board
 from twopose.errors import InputValueError, SessionExistsError
 from twopose.pair.board_fit import BoardCorners
-from twopose.pair.calibration import FloorPlane, PairCalibration, fit_pair
+from twopose.pair.calibration import MIN_VIEWS, FloorPlane, PairCalibration, fit_pair
 from twopose.pair.floor import floor_from_board, with_floor
 from twopose.pair.pair_file import write_pair_file
 from twopose.units import Units, unit_spec
@@ -244,13 +244,14 @@ def calibrate_pair_views(
     found = _find_all(pairs, board, on_pair)
     if not found.names and not found.skipped:
         raise InputValueError("no stills: give both cameras' images of the board")
-    cameras, note, own = _intrinsics(found, board, square, calibrations, calibrations_from)
-    if len(found.names) < 3:
+    if len(found.names) < MIN_VIEWS:
         raise InputValueError(
             f"the board was found in both cameras in {len(found.names)} pair(s) of "
-            f"{len(found.names) + len(found.skipped)}; the pair's calibration needs 3 or more"
+            f"{len(found.names) + len(found.skipped)}; the pair's calibration needs "
+            f"{MIN_VIEWS} or more"
             + (f" (not in both: {', '.join(found.skipped)})" if found.skipped else "")
         )
+    cameras, note, own = _intrinsics(found, board, square, calibrations, calibrations_from)
     corners = BoardCorners.of(board, square, found.left, found.right)
     pair = fit_pair(
         corners,

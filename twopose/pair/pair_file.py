@@ -330,7 +330,9 @@ def _matrix(values: Any) -> str:
 
 
 def _vector(values: Any, spec: str) -> str:
-    return "(" + ", ".join(format(float(v), spec) for v in values) + ")"
+    """Numbers for a comment, rounded as shown (never ``-0.0000``)."""
+    digits = int(spec.strip(".f"))
+    return "(" + ", ".join(format(round(float(v), digits) + 0.0, spec) for v in values) + ")"
 
 
 def _quoted(text: str) -> str:
