@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
+from numpy.typing import ArrayLike
 
 from twopose.arrays import F64
 from twopose.errors import InputValueError
@@ -175,7 +176,7 @@ def spacing_second_order(
     return np.asarray(bias), np.asarray(variance)
 
 
-def pnp_residual_px(corners: F64, pattern: F64, lens: LensModel) -> F64:
+def pnp_residual_px(corners: ArrayLike, pattern: ArrayLike, lens: LensModel) -> F64:
     """(M,) each corner's distance (px) from the board's best single-view pose."""
     obj = np.asarray(pattern, np.float32)
     px = np.asarray(corners, np.float64).reshape(-1, 1, 2)
@@ -185,7 +186,11 @@ def pnp_residual_px(corners: F64, pattern: F64, lens: LensModel) -> F64:
 
 
 def corner_sigma_px(
-    floor_px: float, left: F64, right: F64, pattern: F64, lenses: tuple[LensModel, LensModel]
+    floor_px: float,
+    left: ArrayLike,
+    right: ArrayLike,
+    pattern: ArrayLike,
+    lenses: tuple[LensModel, LensModel],
 ) -> F64:
     """(M,) each corner's pixel 1-sigma.
 
