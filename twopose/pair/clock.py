@@ -50,6 +50,8 @@ __all__ = [
 #: The stamps are too irregular to be fitted by one rate beyond this share of an interval
 #: (their frame numbers would be ambiguous): they are then used as they are.
 MAX_JITTER_SHARE = 1 / 6
+#: The span of onsets a flash's frames agree with, in their lit shares' 1-sigmas.
+FLASH_SIGMAS = 3.0
 #: The fewest camera-2 frames an offset candidate's gap is averaged over.
 MIN_GAP_FRAMES = 10
 #: A rays' gap whose minimum is this wide (1-sigma, a share of a frame interval) fixes no
@@ -142,8 +144,9 @@ def _onset(brightness: F64, times: RegularTimes, exposure_ns: float | None) -> t
     is ``clip((t_k + E/2 - tau) / E, 0, 1)``; their sum ``L(tau)`` falls steadily through
     exposures and stays flat across the gaps between them (and a dropped frame's). The
     onset is where ``L`` meets the frames' measured lit shares' sum: the middle of the
-    ``tau`` where they agree within its 1-sigma, and half that span its 1-sigma (exact
-    where ``L`` slopes; an overestimate where a gap leaves the onset anywhere in it).
+    ``tau`` where they agree within :data:`FLASH_SIGMAS` of its 1-sigma, which is that
+    span over twice as many; where ``L`` is flat there, the flat span's middle, uniform
+    over it (``span / sqrt 12``).
     """
     b = brightness
     span = float(b.max() - b.min())
@@ -164,13 +167,23 @@ def _onset(brightness: F64, times: RegularTimes, exposure_ns: float | None) -> t
     E = times.interval_ns if exposure_ns is None else float(exposure_ns)
     t = times.times_ns[window]
     grid = np.linspace(t[0] - E, t[-1] + E, 4001)
+    step = grid[1] - grid[0]
     L = np.clip((t[None, :] + E / 2 - grid[:, None]) / E, 0.0, 1.0).sum(axis=1)
-    agree = np.abs(L - shares.sum()) <= max(s_sum, 1e-9)
+    miss = np.abs(L - shares.sum())
+    agree = miss <= FLASH_SIGMAS * max(s_sum, 1e-9)
     if not agree.any():  # the shares disagree with one onset: take the nearest
-        agree = np.abs(L - shares.sum()) == np.abs(L - shares.sum()).min()
-    lo, hi = grid[agree].min(), grid[agree].max()
+        agree = miss == miss.min()
+    # Where L is flat (between two exposures: a gap, or a dropped frame's) every onset in it
+    # gives the same shares: known to that span only (uniform), else to its slope.
+    flat = agree & (np.abs(np.gradient(L)) < 1e-12)
     s_time = float(times.sigma_ns[window].max())
-    return 0.5 * (lo + hi), float(np.hypot(max(0.5 * (hi - lo), grid[1] - grid[0]), s_time))
+    if flat.any():
+        lo, hi = grid[flat].min(), grid[flat].max()
+        sigma = float(np.sqrt((hi - lo + step) ** 2 / 12 + (s_sum * E) ** 2))
+    else:
+        lo, hi = grid[agree].min(), grid[agree].max()
+        sigma = max(0.5 * (hi - lo) / FLASH_SIGMAS, step)
+    return 0.5 * (lo + hi), float(np.hypot(sigma, s_time))
 
 
 def offset_from_flash(
