@@ -12,7 +12,7 @@ projection, chained through ``cv2.composeRT``'s. No I/O.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import cv2
@@ -28,6 +28,7 @@ __all__ = [
     "BoardCorners",
     "LensModel",
     "board_poses",
+    "central_jacobian",
     "disagreeing_views",
     "reprojection",
     "rotation_matrix",
@@ -385,16 +386,29 @@ def extrinsic_jacobian(relative: F64, step: float = 1e-7) -> F64:
     camera 2's centre.
     """
     R0, _ = extrinsic_of(relative)
-    G = np.zeros((6, 6))
-    for i in range(6):
-        ends = []
-        for sign in (1.0, -1.0):
-            x = relative.copy()
-            x[i] += sign * step
-            R, t = extrinsic_of(x)
-            ends.append(np.r_[rotation_vector(R @ R0.T), t])
-        G[:, i] = (ends[0] - ends[1]) / (2 * step)
-    return G
+
+    def pair_parameters(x: F64) -> F64:
+        R, t = extrinsic_of(x)
+        return np.asarray(np.r_[rotation_vector(R @ R0.T), t], dtype=np.float64)
+
+    return central_jacobian(pair_parameters, relative, step)
+
+
+def central_jacobian(function: Callable[[F64], F64], x: F64, step: float | F64) -> F64:
+    """(M, N) the derivatives of ``function`` (N,) -> (M,) at ``x``, by central differences.
+
+    ``step`` one for every parameter, or (N,) one each; the one numerical derivative of
+    the pair's covariances (its parameters, the floor's, a typed pose's angles, the held-out
+    spacings').
+    """
+    x = np.asarray(x, dtype=np.float64)
+    h = np.broadcast_to(np.asarray(step, dtype=np.float64), x.shape)
+    columns = []
+    for i in range(x.size):
+        e = np.zeros_like(x)
+        e[i] = h[i]
+        columns.append((np.asarray(function(x + e)) - np.asarray(function(x - e))) / (2 * h[i]))
+    return np.asarray(np.stack(columns, axis=-1), dtype=np.float64)
 
 
 def extrinsic_cov(fit: JointFit) -> F64:

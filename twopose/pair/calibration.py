@@ -37,6 +37,7 @@ from twopose.errors import InputValueError
 from twopose.pair.board_fit import (
     BoardCorners,
     LensModel,
+    central_jacobian,
     disagreeing_views,
     extrinsic_cov,
     extrinsic_of,
@@ -235,13 +236,9 @@ def typed_pose_cov(pair: PairCalibration, step: float = 1e-7) -> F64:
     """
     from twopose.rig.constants import angles_deg_from_rotation
 
-    A = np.zeros((3, 3))
-    for i in range(3):
-        d = np.zeros(3)
-        d[i] = step
-        plus = angles_deg_from_rotation(rotation_matrix(d) @ pair.R_2_to_1)
-        minus = angles_deg_from_rotation(rotation_matrix(-d) @ pair.R_2_to_1)
-        A[:, i] = (plus - minus) / (2 * step)
+    A = central_jacobian(
+        lambda d: angles_deg_from_rotation(rotation_matrix(d) @ pair.R_2_to_1), np.zeros(3), step
+    )
     G = np.zeros((6, 6))
     G[:3, 3:] = np.eye(3)  # t from the pair's second block
     G[3:, :3] = A

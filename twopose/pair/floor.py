@@ -23,6 +23,7 @@ from twopose.errors import InputValueError
 from twopose.pair.board_fit import (
     BoardCorners,
     LensModel,
+    central_jacobian,
     extrinsic_jacobian,
     reprojection,
     rotation_matrix,
@@ -142,15 +143,10 @@ def _plane(pose: F64, thickness: float) -> tuple[F64, float]:
 
 def _plane_jacobian(pose: F64, thickness: float, n0: F64, step: float = 1e-7) -> F64:
     """(4, 6) the floor's (normal, height) by the board's pose, by central differences."""
-    F = np.zeros((4, 6))
-    for i in range(6):
-        ends = []
-        for sign in (1.0, -1.0):
-            x = pose.copy()
-            x[i] += sign * step
-            n, h = _plane(x, thickness)
-            if n @ n0 < 0:  # the same side as the estimate's normal
-                n = -n
-            ends.append(np.r_[n, h])
-        F[:, i] = (ends[0] - ends[1]) / (2 * step)
-    return F
+
+    def plane(x: F64) -> F64:
+        n, h = _plane(x, thickness)
+        side = -1.0 if n @ n0 < 0 else 1.0  # the estimate's side of the normal
+        return np.asarray(np.r_[side * n, h], dtype=np.float64)
+
+    return central_jacobian(plane, pose, step)

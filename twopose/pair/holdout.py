@@ -31,6 +31,7 @@ from twopose.pair.board_fit import (
     BoardCorners,
     JointFit,
     LensModel,
+    central_jacobian,
     extrinsic_cov,
     extrinsic_of,
     fit_joint,
@@ -257,20 +258,15 @@ def _held_out(
     # The lengthening expected of the fit's typical noise; its spread from each corner's.
     bias, _ = spacing_second_order(points, jac, np.full(sigma_px.size, floor), corners.board)
     _, second = spacing_second_order(points, jac, sigma_px, corners.board)
+
     # The fold's extrinsic error, carried to the spacings by central differences over
     # (rotation vector, t), the rotation applied in camera 1's frame.
+    def moved(step: F64) -> F64:
+        cameras = _cameras(lenses, rotation_matrix(step[:3]) @ R, t + step[3:])
+        return spacings(triangulated(u1, u2, *cameras), corners.board)
+
     scale = np.sqrt(np.clip(np.diag(cov_extrinsic), 1e-30, None)) * 1e-3
-    J = np.zeros((errors.size, 6))
-    for i in range(6):
-        ends = []
-        for sign in (1.0, -1.0):
-            step = np.zeros(6)
-            step[i] = sign * scale[i]
-            Ri = rotation_matrix(step[:3]) @ R
-            ends.append(
-                spacings(triangulated(u1, u2, *_cameras(lenses, Ri, t + step[3:])), corners.board)
-            )
-        J[:, i] = (ends[0] - ends[1]) / (2 * scale[i])
+    J = central_jacobian(moved, np.zeros(6), scale)
     extrinsic = np.einsum("si,ij,sj->s", J, cov_extrinsic, J)
     return errors - bias, np.sqrt(pixel**2 + second + extrinsic)
 

@@ -13,7 +13,7 @@ and the key. The writer never overwrites a file.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -82,20 +82,6 @@ class _SigmaTable:
 
 
 @dataclass(frozen=True)
-class _CameraTable:
-    """``[camera1]``, ``[camera2]``."""
-
-    width: int
-    height: int
-    fx: float
-    fy: float
-    cx: float
-    cy: float
-    distortion: tuple[float, float, float, float, float] = (0.0, 0.0, 0.0, 0.0, 0.0)
-    sigma: _SigmaTable = field(default_factory=_SigmaTable)
-
-
-@dataclass(frozen=True)
 class _FloorTable:
     """``[floor]``."""
 
@@ -144,16 +130,37 @@ def read_pair_file(path: str | Path) -> PairCalibration:
             )
     _check_version(data["pair"].get("version"), what)
     pair = build_dataclass(_PairTable, data["pair"], f"{what}: [pair]", InputValueError)
-    tables = {
+    tables: dict[str, Any] = {
         name: build_dataclass(kind, data[name], f"{what}: [{name}]", InputValueError)
-        for name, kind in (("camera1", _CameraTable), ("camera2", _CameraTable),
-                           ("floor", _FloorTable), ("check", _CheckTable))
+        for name, kind in (("floor", _FloorTable), ("check", _CheckTable))
         if name in data
-    }  # fmt: skip
+    }
     try:
+        for name in ("camera1", "camera2"):  # intrinsics as a calibration file's, and sigma
+            camera = dict(data[name])
+            sigma = camera.pop("sigma", {})
+            where = f"{what}: [{name}]"
+            tables[name] = _intrinsics(camera, where)
+            tables[f"{name}.sigma"] = build_dataclass(
+                _SigmaTable, sigma, f"{where}.sigma", InputValueError
+            )
         return _calibration(pair, tables)
-    except InputValueError as err:  # the calibration's own checks: say which file
+    except InputValueError as err:  # the intrinsics' and the calibration's own checks
+        if str(err).startswith(what):
+            raise
         raise InputValueError(f"{what}: {err}") from None
+
+
+def _intrinsics(table: dict[str, Any], where: str) -> Intrinsics:
+    """A camera's table as its intrinsics: its keys and types, then their values, checked."""
+    from twopose.config import build_dataclass
+
+    try:
+        return build_dataclass(Intrinsics, table, where, InputValueError)
+    except InputValueError as err:
+        if str(err).startswith(where):
+            raise
+        raise InputValueError(f"{where}: {err}") from None  # the intrinsics' own check
 
 
 def _check_version(version: Any, what: str) -> None:
@@ -172,7 +179,7 @@ def _check_version(version: Any, what: str) -> None:
 
 def _calibration(pair: _PairTable, tables: dict[str, Any]) -> PairCalibration:
     """The tables as a calibration, its units and plausibility checked."""
-    cameras: list[_CameraTable] = [tables["camera1"], tables["camera2"]]
+    intrinsics: list[Intrinsics] = [tables["camera1"], tables["camera2"]]
     floor: _FloorTable | None = tables.get("floor")
     check: _CheckTable | None = tables.get("check")
     if pair.units not in UNITS:
@@ -189,11 +196,9 @@ def _calibration(pair: _PairTable, tables: dict[str, Any]) -> PairCalibration:
         )
     if pair.views < 0:
         raise InputValueError(f"[pair] views must be a count >= 0, got {pair.views}")
-    intrinsics, sigmas = [], []
-    for n, camera in enumerate(cameras, start=1):
-        values = {f.name: getattr(camera, f.name) for f in fields(camera) if f.name != "sigma"}
-        intrinsics.append(Intrinsics.from_dict(values, f"[camera{n}]"))
-        given = {k: getattr(camera.sigma, k) for k in SIGMA_KEYS}
+    sigmas = []
+    for name in ("camera1", "camera2"):
+        given = {k: getattr(tables[f"{name}.sigma"], k) for k in SIGMA_KEYS}
         sigmas.append({k: v for k, v in given.items() if not math.isnan(v)})
     plane = None
     if floor is not None:

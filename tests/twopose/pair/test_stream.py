@@ -10,9 +10,9 @@ import cv2
 import numpy as np
 import pytest
 
+from tests.helpers import load_benchmark
 from twopose.camera import Intrinsics
 from twopose.errors import InputValueError
-from twopose.estimate import EstimateOptions, PoseView, ViewBatch, measure, solve_batch
 from twopose.methods import MEASURING_METHODS, METHOD_SPECS, Method
 from twopose.pair.clock import ClockOffset
 from twopose.pair.motion import CameraClock, FingerMotion, Frames, observe, thesis_pair
@@ -50,32 +50,9 @@ def _tracks(
 
 
 def _one_camera(method: Method, one: CameraTrack, two: CameraTrack) -> np.ndarray:
-    """The one-camera path: poses typed at the origin and at the pair's pose."""
-    pair = thesis_pair()
-    views = []
-    for n, (track, t, r) in enumerate(
-        ((one, np.zeros(3), np.zeros(3)), (two, pair.t_2_in_1, pair.angles_deg))
-    ):
-        i = pair.intrinsics1 if n == 0 else pair.intrinsics2
-        views.append(
-            PoseView(
-                pose=n + 1,
-                intrinsics=np.array([i.fx, i.fy, i.cx, i.cy]),
-                width_height=(i.width, i.height),
-                t_grid=t,
-                r_deg=r,
-                t_sigma=0.1,
-                r_sigma_deg=0.1,
-                centroids=track.centroid_px[:3],
-                thetas=track.theta_deg[:3],
-                found=np.ones(3, dtype=bool),
-            )
-        )
-    options = EstimateOptions()
-    measured, _, _ = measure([views], options)
-    floor = pair.floor
-    assert floor is not None
-    return solve_batch(method, ViewBatch.of(measured, [views]), floor.ground, options).point[0]
+    """The one-camera path (the benchmark's): poses typed at the origin and the pair's."""
+    bench = load_benchmark("bench_stream")
+    return np.asarray(bench._one_camera(method, thesis_pair(), one, two))
 
 
 @pytest.mark.parametrize("method", MEASURING_METHODS)
