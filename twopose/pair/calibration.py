@@ -30,12 +30,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from twopose.arrays import F64
+from twopose.arrays import F64, Bools
 from twopose.camera import Intrinsics, intrinsics_sigma
 from twopose.checkerboard import outlier_view
 from twopose.errors import InputValueError
 from twopose.pair.board_fit import (
     BoardCorners,
+    JointFit,
     LensModel,
     central_jacobian,
     disagreeing_views,
@@ -296,19 +297,7 @@ def fit_pair(
         raise InputValueError(f"{len(labels)} names for {corners.n_views} views")
     _check_views(corners, labels, intrinsics)
     lenses = (LensModel.of(intrinsics[0]), LensModel.of(intrinsics[1]))
-    dropped: list[str] = []
-    far = disagreeing_views(corners, lenses, max_deg=MAX_VIEW_DEG, max_share=MAX_VIEW_SHIFT)
-    if far and corners.n_views - len(far) >= MIN_VIEWS:
-        dropped += [f"{labels[k]} ({why})" for k, why in far]
-        keep = np.ones(corners.n_views, dtype=bool)
-        keep[[k for k, _ in far]] = False
-        corners, labels = corners.subset(keep), [n for n, k in zip(labels, keep, strict=True) if k]
-    fit = fit_joint(corners, lenses)
-    while corners.n_views > MIN_VIEWS and (worst := outlier_view(fit.view_rms_px)) is not None:
-        dropped.append(f"{labels[worst]} (RMS {fit.view_rms_px[worst]:.2f} px)")
-        keep = np.arange(corners.n_views) != worst
-        corners, labels = corners.subset(keep), [n for n, k in zip(labels, keep, strict=True) if k]
-        fit = fit_joint(corners, lenses, start=(fit.relative, fit.boards[keep]))
+    fit, corners, labels, dropped = _fit_without_outliers(corners, labels, lenses)
     R, t = extrinsic_of(fit.relative)
     if np.linalg.norm(t) < MIN_BASELINE_SQUARES * square:
         raise InputValueError(
@@ -335,6 +324,34 @@ def fit_pair(
         check=checked,
         cov_factor=factor,
     )
+
+
+def _fit_without_outliers(
+    corners: BoardCorners, labels: list[str], lenses: tuple[LensModel, LensModel]
+) -> tuple[JointFit, BoardCorners, list[str], list[str]]:
+    """The joint fit, the views kept and their names, and the views dropped, each with why.
+
+    First the views whose own relative pose disagrees with the others', then, fit after
+    fit, the worst view while it is an outlier, never below :data:`MIN_VIEWS` views.
+    """
+
+    def kept(keep: Bools) -> tuple[BoardCorners, list[str]]:
+        return corners.subset(keep), [n for n, k in zip(labels, keep, strict=True) if k]
+
+    dropped: list[str] = []
+    far = disagreeing_views(corners, lenses, max_deg=MAX_VIEW_DEG, max_share=MAX_VIEW_SHIFT)
+    if far and corners.n_views - len(far) >= MIN_VIEWS:
+        dropped += [f"{labels[k]} ({why})" for k, why in far]
+        keep = np.ones(corners.n_views, dtype=bool)
+        keep[[k for k, _ in far]] = False
+        corners, labels = kept(keep)
+    fit = fit_joint(corners, lenses)
+    while corners.n_views > MIN_VIEWS and (worst := outlier_view(fit.view_rms_px)) is not None:
+        dropped.append(f"{labels[worst]} (RMS {fit.view_rms_px[worst]:.2f} px)")
+        keep = np.arange(corners.n_views) != worst
+        corners, labels = kept(keep)
+        fit = fit_joint(corners, lenses, start=(fit.relative, fit.boards[keep]))
+    return fit, corners, labels, dropped
 
 
 def widening(check: HoldoutCheck) -> float:
