@@ -208,6 +208,11 @@ def floor_errors(phase_s: float, rng: np.random.Generator) -> dict[str, float]:
     return out
 
 
+def _share(value: float) -> str:
+    """A share as a percentage; no skew, no error to predict: a dash."""
+    return "-" if np.isnan(value) else f"{value:.1%}"
+
+
 def _wrapped(degrees: np.ndarray) -> np.ndarray:
     return (np.asarray(degrees) + 90.0) % 180.0 - 90.0
 
@@ -323,7 +328,8 @@ def main() -> int:
         print(
             f"{phase:8.1f} | {e['offset_error_ms']:+15.3f} | {e['measured']:22.3f} | "
             f"{e['exact_interpolated']:10.4f} | {e['true']:26.3f} | {e['without']:21.3f} | "
-            f"{e['without_exact']:10.3f} | {e['predicted']:22.3f} | {e['worst_relative']:26.1%}"
+            f"{e['without_exact']:10.3f} | {e['predicted']:22.3f} | "
+            f"{_share(e['worst_relative']):>26}"
         )
     print(f"3. 95% region coverage, {args.draws} draws of 2 s per row (phase, calibration "
           f"error, offset error, noise):")  # fmt: skip

@@ -182,7 +182,7 @@ def test_pairs_without_the_board_in_both_are_said_and_too_few_refused(
         (["--left", "NOWHERE/left*.jpg"], EXIT_ERROR, "matches no image"),
         (["--calibration-left", "CAL"], EXIT_ERROR, "give both cameras' calibration files"),
         (["--floor-right", "RIGHT01"], EXIT_ERROR, "--floor-right needs --floor-left"),
-        (["--board", "9x"], EXIT_ERROR, "--board: inner corners rows: type a number"),
+        (["--board", "9x"], EXIT_ERROR, "--board: inner corners rows: type a"),
         (["--board", "nine"], EXIT_ERROR, "--board: type the board's inner corners as COLSxROWS"),
         (["--square", "0"], EXIT_USAGE, "--square"),
         (["--square", "1_0"], EXIT_USAGE, "--square"),
