@@ -39,6 +39,7 @@ from twopose.checkerboard import board_pattern, find_board
 from twopose.pair.board_fit import BoardCorners, rotation_matrix, rotation_vector
 from twopose.pair.calibration import FloorPlane, PairCalibration, fit_pair
 from twopose.pair.floor import floor_from_board
+from twopose.units import Units
 
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "pair_calibration.txt"
@@ -74,7 +75,7 @@ def against_opencv() -> tuple[bool, list[str]]:
     obj = board_pattern(BOARD, SQUARE_MM)
     cams = [fit_views(c, names, SIZE, obj).intrinsics for c in (left, right)]
     corners = BoardCorners.of(BOARD, SQUARE_MM, left, right)
-    pc = fit_pair(corners, (cams[0], cams[1]), units="mm", names=names)
+    pc = fit_pair(corners, (cams[0], cams[1]), units=Units.MM, names=names)
     # OpenCV's Levenberg-Marquardt run to its convergence (its default stops at 30
     # iterations or a 1e-6 step, which leaves it up to 1e-2 sigma short on some runs).
     criteria = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 200, 1e-12)
@@ -150,7 +151,7 @@ def simulated_coverage(fits: int, rng: np.random.Generator) -> tuple[bool, list[
         left, right = simulated_views(rng)
         corners = BoardCorners.of(BOARD, SQUARE_MM, left, right)
         check = k % 8 == 0
-        pc = fit_pair(corners, (SIM_INTRINSICS, SIM_INTRINSICS), units="mm", check=check)
+        pc = fit_pair(corners, (SIM_INTRINSICS, SIM_INTRINSICS), units=Units.MM, check=check)
         e = np.r_[rotation_vector(SIM_R @ pc.R_2_to_1.T), SIM_T - pc.t_2_in_1]
         score = e @ np.linalg.solve(pc.cov_extrinsic, e)
         if check:

@@ -42,7 +42,7 @@ import numpy as np
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
 from twopose.estimate import EstimateOptions, PoseView, ViewBatch, measure, solve_batch
-from twopose.methods import Method
+from twopose.methods import METHOD_SPECS, Method
 from twopose.pair.board_fit import rotation_matrix
 from twopose.pair.calibration import PairCalibration
 from twopose.pair.clock import ClockOffset, offset_from_ray_gap
@@ -60,7 +60,7 @@ PHASES_MS = (0.0, 5.0, 10.0, 16.7)
 #: The pair's extrinsic 1-sigma in the coverage draws: rotation (rad), translation (in).
 SIGMA_ROTATION = np.radians(0.05)
 SIGMA_T = 0.01
-METHODS = ("point", "line", "ground")
+METHODS = (Method.POINT, Method.LINE, Method.GROUND)
 SETTINGS = StreamSettings(noise=StreamNoise(centroid_px=NOISE[0], theta_deg=NOISE[1]))
 
 
@@ -96,7 +96,7 @@ def still_target(rng: np.random.Generator) -> tuple[float, float]:
     still = FingerMotion(speed=0.0)
     worst_one, worst_offsets = 0.0, 0.0
     for method in METHODS:
-        line = method != "point"
+        line = METHOD_SPECS[method].uses_image_lines
         frames = frames_of(0.01, 1.0, rng)
         one, two = tracks(pair, frames, line=line, noise=(0, 0), rng=rng, motion=still)
         error = rng.normal(0, 0.3, 2), rng.normal(0, 0.3, 2)  # one detection error, every frame
@@ -115,7 +115,7 @@ def still_target(rng: np.random.Generator) -> tuple[float, float]:
 
 
 def _one_camera(
-    method: str, pair: PairCalibration, one: CameraTrack, two: CameraTrack
+    method: Method, pair: PairCalibration, one: CameraTrack, two: CameraTrack
 ) -> np.ndarray:
     """The one-camera path: two typed poses (the origin, the pair's pose), five frames each."""
     from twopose.camera import Intrinsics
@@ -143,7 +143,7 @@ def _one_camera(
     batch = ViewBatch.of(measurements, [views])
     ground = thesis_pair().floor
     assert ground is not None
-    return solve_batch(Method(method), batch, ground.ground, options).point[0]
+    return solve_batch(method, batch, ground.ground, options).point[0]
 
 
 def measured_offset(pair: PairCalibration, phase_s: float, rng: np.random.Generator) -> ClockOffset:
@@ -173,14 +173,14 @@ def floor_errors(phase_s: float, rng: np.random.Generator) -> dict[str, float]:
         ("without_exact", exact, true, False),
     ):
         settings = dataclasses.replace(SETTINGS, interpolate=interpolate)
-        est = estimate_stream("ground", pair, one, two, offset, settings)
+        est = estimate_stream(Method.GROUND, pair, one, two, offset, settings)
         e = np.linalg.norm(est.point - truth[est.i2], axis=1)
         out[name] = float(np.sqrt(np.nanmean(e**2)))
     # The first-order prediction of the error without interpolation: the estimate's
     # derivative by camera 1's measurement times camera 1's motion over the skew.
     one, two = exact
     est = estimate_stream(
-        "ground", pair, one, two, true, dataclasses.replace(SETTINGS, interpolate=False)
+        Method.GROUND, pair, one, two, true, dataclasses.replace(SETTINGS, interpolate=False)
     )
     at = two.t_ns[est.i2] - true.offset_ns
     synced = observe(
@@ -228,7 +228,7 @@ def _synced_estimate(
     two = CameraTrack.of(two.t_ns[i2], two.centroid_px[i2], two.theta_deg[i2])
     offset = ClockOffset(offset_ns=OFFSET_S * 1e9, sigma_ns=0.0, method="true", n=0)
     settings = dataclasses.replace(SETTINGS, interpolate=False)
-    return estimate_stream("ground", pair, one, two, offset, settings).point
+    return estimate_stream(Method.GROUND, pair, one, two, offset, settings).point
 
 
 def perturbed(pair: PairCalibration, rng: np.random.Generator) -> PairCalibration:
@@ -240,7 +240,12 @@ def perturbed(pair: PairCalibration, rng: np.random.Generator) -> PairCalibratio
 
 
 def coverage(
-    method: str, draws: int, offset_sigma_ms: float, rng: np.random.Generator, *, terms: bool = True
+    method: Method,
+    draws: int,
+    offset_sigma_ms: float,
+    rng: np.random.Generator,
+    *,
+    terms: bool = True,
 ) -> tuple[float, int, float]:
     """The share of ok estimates whose truth is inside their 95% region (part 3), their
     count, and the median share of the skew term in the covariance."""
@@ -248,7 +253,7 @@ def coverage(
     floor = truth_pair.floor
     assert floor is not None
     motion = FingerMotion()
-    line = method != "point"
+    line = METHOD_SPECS[method].uses_image_lines
     inside, total, shares = 0, 0, []
     for _ in range(draws):
         phase = float(rng.uniform(0, 1 / FPS))
@@ -264,10 +269,10 @@ def coverage(
         t = frames[1].true_s
         pairing = pair_frames(one.t_ns, two.t_ns, offset_ns=offset.offset_ns)
         settings = dataclasses.replace(SETTINGS, ground=floor.ground)
-        if method == "line":  # reported nearest the finger's middle, as a trial's line is
+        if METHOD_SPECS[method].estimates_line:  # nearest the finger's middle, as a trial's
             settings = dataclasses.replace(settings, line_reference=motion.middle(t)[pairing.i2])
         est = estimate_stream(method, used, one, two, offset, settings, pairing=pairing)
-        truth = {"point": motion.tip, "line": motion.middle}
+        truth = {Method.POINT: motion.tip, Method.LINE: motion.middle}
         true = truth[method](t)[est.i2] if method in truth else motion.floor_point(t, floor)[est.i2]
         score, dof = nees(est.point - true, est.cov)
         ok = np.isfinite(score)
@@ -278,10 +283,10 @@ def coverage(
     return inside / max(total, 1), total, float(np.nanmedian(shares))
 
 
-def cost(method: str, rng: np.random.Generator) -> tuple[float, float, float]:
+def cost(method: Method, rng: np.random.Generator) -> tuple[float, float, float]:
     """CPU ms per pair: live (median, 95th percentile; one pair a call) and vectorized."""
     pair = pair_with_cov()
-    line = method != "point"
+    line = METHOD_SPECS[method].uses_image_lines
     frames = frames_of(0.0123, 10.0, rng)
     one, two = tracks(pair, frames, line=line, noise=NOISE, rng=rng)
     offset = ClockOffset(offset_ns=OFFSET_S * 1e9, sigma_ns=0.45e6, method="given", n=0)

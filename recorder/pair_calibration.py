@@ -207,7 +207,7 @@ def calibrate_pair_views(
     pairs: Iterable[StillPair],
     board: tuple[int, int],
     square: float,
-    units: Units | str,
+    units: Units,
     *,
     calibrations: tuple[Calibrated, Calibrated] | None = None,
     calibrations_from: str = "given intrinsics",
@@ -225,7 +225,7 @@ def calibrate_pair_views(
         The board's inner corners.
     square : float
         The side of a square, in ``units``.
-    units : Units or str
+    units : Units
         The unit of ``square``, and so of the pair's baseline and floor.
     calibrations : ((Intrinsics, sigma), (Intrinsics, sigma)), optional
         Each camera's intrinsics and their 1-sigma (None: fitted on each camera's stills).

@@ -106,7 +106,7 @@ def test_the_same_from_any_iterator_of_pairs_and_given_intrinsics(
         (load_calibration(tmp_path / f"{s}.toml"), load_calibration_sigma(tmp_path / f"{s}.toml"))
         for s in ("left", "right")
     )
-    run = calibrate_pair_views(frames(), (9, 6), 25.0, "mm", calibrations=given)  # type: ignore[arg-type]
+    run = calibrate_pair_views(frames(), (9, 6), 25.0, Units.MM, calibrations=given)  # type: ignore[arg-type]
     assert run.used == NUMBERS
     assert run.own == (None, None)
     assert run.pair.intrinsics1 == given[0][0]

@@ -202,7 +202,7 @@ class PairCalibration:
         """(3,) the 1-sigma of ``t_2_in_1`` (the pair's units)."""
         return np.sqrt(np.diag(self.cov_extrinsic)[3:])
 
-    def in_units(self, units: Units | str) -> PairCalibration:
+    def in_units(self, units: Units) -> PairCalibration:
         """The same calibration with its lengths in ``units``."""
         f = unit_factor(self.units, units)
         s = np.diag([1.0, 1.0, 1.0, f, f, f])
@@ -250,7 +250,7 @@ def fit_pair(
     corners: BoardCorners,
     intrinsics: tuple[Intrinsics, Intrinsics],
     *,
-    units: Units | str,
+    units: Units,
     names: Sequence[str] = (),
     sigmas: tuple[Mapping[str, float], Mapping[str, float]] = ({}, {}),
     intrinsics_from: str = "",
@@ -266,7 +266,7 @@ def fit_pair(
         right)``, the square in ``units``.
     intrinsics : (Intrinsics, Intrinsics)
         Camera 1's and camera 2's, held fixed.
-    units : Units or str
+    units : Units
         The unit of the board's square and so of ``t_2_in_1``.
     names : sequence of str
         Each view's name (its files), for the messages; default ``view 1`` ...

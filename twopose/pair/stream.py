@@ -309,7 +309,7 @@ def _unbracketed(
 
 
 def estimate_stream(
-    method: Method | str,
+    method: Method,
     pair: PairCalibration,
     camera1: CameraTrack,
     camera2: CameraTrack,

@@ -22,6 +22,7 @@ from twopose.pair.calibration import PairCalibration, fit_pair, typed_pose_cov, 
 from twopose.pair.floor import floor_from_board
 from twopose.pair.motion import thesis_pair
 from twopose.rig.constants import angles_deg_from_rotation
+from twopose.units import Units
 
 DATA = Path(__file__).resolve().parents[3] / "data" / "opencv-chessboard"
 CHI2_6DOF_999 = 22.457744484825323
@@ -38,7 +39,7 @@ def _fit(bench: ModuleType, seed: int, views: int = 6, **kwargs: object) -> Pair
     left, right = bench.simulated_views(np.random.default_rng(seed), views)
     corners = BoardCorners.of(bench.BOARD, bench.SQUARE_MM, left, right)
     cams = (bench.SIM_INTRINSICS, bench.SIM_INTRINSICS)
-    return fit_pair(corners, cams, units="mm", **kwargs)  # type: ignore[arg-type]
+    return fit_pair(corners, cams, units=Units.MM, **kwargs)  # type: ignore[arg-type]
 
 
 def _error(bench: ModuleType, pc: PairCalibration) -> np.ndarray:
@@ -87,7 +88,7 @@ def test_opencvs_photographs_give_stereo_calibrates_answer(
 ) -> None:
     left, right, cams = photographs
     corners = BoardCorners.of((9, 6), 25.0, left, right)
-    pc = fit_pair(corners, (cams[0], cams[1]), units="mm")
+    pc = fit_pair(corners, (cams[0], cams[1]), units=Units.MM)
     K1, K2 = cams[0].K, cams[1].K
     d1, d2 = np.array(cams[0].distortion), np.array(cams[1].distortion)
     criteria = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 200, 1e-12)
@@ -113,7 +114,7 @@ def test_a_view_whose_corners_run_backwards_in_one_camera_is_dropped_and_named(
     right[2] = right[2][::-1]  # the corner finder's order reversed in camera 2
     corners = BoardCorners.of(bench.BOARD, bench.SQUARE_MM, left, right)
     cams = (bench.SIM_INTRINSICS, bench.SIM_INTRINSICS)
-    pc = fit_pair(corners, cams, units="mm", names=[f"pair {k}" for k in range(6)], check=False)
+    pc = fit_pair(corners, cams, units=Units.MM, names=[f"pair {k}" for k in range(6)], check=False)
     assert len(pc.dropped) == 1
     assert pc.dropped[0].startswith("pair 2 (its own relative pose")
     assert pc.n_views == 5
@@ -127,7 +128,7 @@ def test_degenerate_sets_are_refused_in_words(bench: ModuleType) -> None:
     cams = (bench.SIM_INTRINSICS, bench.SIM_INTRINSICS)
 
     def fit(a: list[np.ndarray], b: list[np.ndarray]) -> PairCalibration:
-        return fit_pair(BoardCorners.of((9, 6), 25.0, a, b), cams, units="mm", check=False)
+        return fit_pair(BoardCorners.of((9, 6), 25.0, a, b), cams, units=Units.MM, check=False)
 
     with pytest.raises(InputValueError, match="in 2 view"):
         fit(left[:2], right[:2])
@@ -189,12 +190,12 @@ def test_a_pair_calibration_checks_itself() -> None:
         dataclasses.replace(pair, cov_factor=0.5)
     cov = np.diag([1e-6] * 3 + [0.01] * 3)
     inches = thesis_pair(cov_extrinsic=cov)
-    mm = inches.in_units("mm")
+    mm = inches.in_units(Units.MM)
     assert mm.t_2_in_1[0] == pytest.approx(152.4)
     assert mm.cov_extrinsic[3, 3] == pytest.approx(0.01 * 25.4**2)
     assert mm.cov_extrinsic[0, 0] == pytest.approx(1e-6)  # radians stay radians
     assert mm.floor is not None
     assert mm.floor.height == pytest.approx(9.625 * 25.4)
-    back = mm.in_units("in")
+    back = mm.in_units(Units.IN)
     assert np.allclose(back.t_2_in_1, inches.t_2_in_1)
     assert np.allclose(back.cov_extrinsic, inches.cov_extrinsic)
