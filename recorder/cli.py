@@ -530,3 +530,9 @@ def recover(
 def main() -> None:
     """The command line's entry point (``[project.scripts]``, ``python -m``)."""
     run_command_line(app)
+
+
+# The pair's calibration lives in its own module (issue 58), registered here.
+from recorder.cli_pair import COMMAND_SETTINGS, calibrate_pair_command  # noqa: E402
+
+app.command("calibrate-pair", context_settings=COMMAND_SETTINGS)(calibrate_pair_command)
