@@ -78,27 +78,36 @@ def shown_name(row: pd.Series) -> str:
 
 def noise_phrases(row: pd.Series) -> list[str]:
     """A session's noise model in words (a ``summary.csv`` row): the placing sigma its
-    regions assumed and where it came from, and sigma0's test (:func:`twopose.noise.noise_words`);
-    none for a table from before these columns. The terminal and the report say these."""
+    regions assumed and where it came from, and sigma0's test with the multiplier taken
+    (:func:`twopose.noise.noise_words`, the one home of these words); none for a table
+    from before these columns. The terminal and the report say these."""
     from twopose.noise import noise_words
 
     if "sigma0_dof" not in row or pd.isna(row["sigma0_dof"]):
         return []
     sigma = row.get("placing_sigma", math.nan)
-    source = str(row.get("placing_source", "") or "typed")
-    widening = row.get("noise_widening", math.nan)
-    radius = math.sqrt(widening) if isinstance(widening, int | float) and widening > 0 else 1.0
-    sigma0 = row.get("sigma0", math.nan)
+    source = str(row.get("placing_source", "") or "typed").split(", times ")[0]
+    widening = _known(row.get("noise_widening"))
+    sigma0 = _known(row.get("sigma0"))
     words = noise_words(
-        float(sigma0) if pd.notna(sigma0) else math.nan, int(row["sigma0_dof"]), radius
+        sigma0,
+        int(row["sigma0_dof"]),
+        math.sqrt(widening) if widening > 0 else math.nan,
+        placing_scale=_known(row.get("placing_scale")),
+        placing_dof=_known(row.get("placing_dof")),
+        flagged=int(_known(row.get("n_flagged"), 0.0)),
     )
     # phrases a terminal may break between: never inside a number and its name
-    parts = words.split(": ")
-    return [
-        f"placing sigma {_sig(sigma)} {row['units']} {source};",
-        *(p + ":" for p in parts[:-1]),
-        parts[-1],
-    ]
+    parts = words.split("; ")
+    return [f"placing sigma {_sig(sigma)} {row['units']} {source};",
+            *(p + ";" for p in parts[:-1]), parts[-1]]  # fmt: skip
+
+
+def _known(value: object, default: float = math.nan) -> float:
+    """A number from a table's cell (``default`` when it holds none)."""
+    if isinstance(value, bool) or not isinstance(value, int | float) or math.isnan(value):
+        return default
+    return float(value)
 
 
 def _sig(value: object) -> str:

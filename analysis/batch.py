@@ -34,16 +34,21 @@ from analysis.drawer import FigureDrawer, note, sigint_blocked
 from analysis.figure_cache import FigureCache, FigureJob
 from analysis.input_set import InputSet, SessionIdentity, resolve_inputs
 from analysis.metrics import summarize
+from analysis.noise_pass import NoisePass, noise_pass, prior_salt, with_prior
 from analysis.outputs import OutputFolder, printable_stem
-from analysis.pipeline import _with_figures, analyse_session, keep_frame_buffers
+from analysis.pipeline import Detections, _with_figures, analyse_session, keep_frame_buffers
 from analysis.results import AnalysisOptions, RunResult, SessionFailure, SessionResult
 from analysis.session_cache import SessionCache
 from twopose.errors import InputValueError, TwoposeError
+from twopose.noise import PlacingPrior
 
 __all__ = ["Outcome", "analyse_or_fail", "results_mcap_name", "run"]
 
-#: What one session's analysis gives: its tables, or why it failed.
-Outcome = SessionResult | SessionFailure
+#: What one session's analysis gives: its tables, or why it failed (its first pass: its
+#: statistics, :mod:`analysis.noise_pass`).
+Outcome = SessionResult | SessionFailure | NoisePass
+#: What a session's analysis (its second pass, or its only one) gives.
+Analysed = SessionResult | SessionFailure
 #: Called as each session finishes: its path and whether it succeeded (progress bars).
 OnDone = Callable[[str, bool], None]
 
@@ -129,7 +134,11 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
             continuations=inputs.continuations,
             identities=inputs.identities,
         )
-        outcomes = _execute(batch, jobs=jobs, dask_address=dask_address)
+        batch = _first_pass(batch, inputs, jobs=jobs, dask_address=dask_address)
+        outcomes = [
+            o for o in _execute(batch, jobs=jobs, dask_address=dask_address)
+            if not isinstance(o, NoisePass)  # never: the second pass analyses each session
+        ]  # fmt: skip
         result = dataclasses.replace(
             gather(outcomes, include_warned=options.include_warned),
             skipped=tuple(skipped),
@@ -161,6 +170,36 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
     return result
 
 
+def _first_pass(batch: _Batch, inputs: InputSet, *, jobs: int, dask_address: str | None) -> _Batch:
+    """The batch with each session's prior from its operator's other sessions and the
+    detections its first pass found (:mod:`analysis.noise_pass`); unchanged when no two
+    sessions share an operator and a method."""
+    from analysis.noise_pass import operator_priors_of, pooled_groups
+
+    heads = {}
+    for found in inputs.found:
+        if found.path in batch.files and found.info is not None:
+            heads[found.path] = (found.info.operator, str(found.info.method))
+    groups = pooled_groups(heads, batch.options)
+    if not groups:
+        return batch
+    files = [f for f in batch.files if f in groups]
+    first = dataclasses.replace(
+        batch, files=files, results_mcap=[None] * len(files), images=False, on_done=None,
+        stage="noise",
+    )  # fmt: skip
+    passes = _execute(first, jobs=jobs, dask_address=dask_address)
+    done = {o.session: o for o in passes if isinstance(o, NoisePass)}
+    failed = {o.session: o for o in passes if isinstance(o, SessionFailure)}
+    priors = operator_priors_of({f: p.statistics for f, p in done.items()}, groups, batch.options)
+    return dataclasses.replace(
+        batch,
+        priors=priors,
+        detections={f: p.detections for f, p in done.items() if p.detections is not None},
+        failed=failed,
+    )
+
+
 @functools.lru_cache(maxsize=1)
 def _thesis_sweeps() -> pd.DataFrame:
     """The report's sensitivity sweeps (seeded, so the same every time: computed once)."""
@@ -186,19 +225,34 @@ class _Batch:
     identities: dict[str, SessionIdentity] = dataclasses.field(default_factory=dict)
     #: each session's analysis as the previous run into --out kept it (None: no --out)
     session_cache: SessionCache | None = None
+    #: "noise": the run's first pass (analysis.noise_pass); "analysis": the sessions' own
+    stage: str = "analysis"
+    #: per session's first part, its prior from its operator's other sessions of the run
+    priors: dict[str, PlacingPrior] = dataclasses.field(default_factory=dict)
+    #: per session's first part, what its first pass detected (not detected again)
+    detections: dict[str, list[list[Detections]]] = dataclasses.field(default_factory=dict)
+    #: per session's first part, the failure of its first pass (the session's outcome)
+    failed: dict[str, SessionFailure] = dataclasses.field(default_factory=dict)
 
     def analyse(self, index: int, results: str | None = None, *, images: bool) -> Outcome:
         """Session ``index``'s outcome (:func:`analyse_or_fail`), wherever it runs."""
         path, cache = self.files[index], self.session_cache
         continuations, identity = self.continuations.get(path, ()), self.identities.get(path)
+        if self.stage == "noise":
+            first = functools.partial(_noise_or_fail, path, self.options, continuations)
+            return first() if cache is None else cache.noise(path, continuations, identity, first)
+        if path in self.failed:
+            return self.failed[path]
+        prior = self.priors.get(path)
         analysed = functools.partial(
-            analyse_or_fail, path, self.options, images=images, results=results,
-            figure_cache=self.figure_cache, continuations=continuations, identity=identity,
+            analyse_or_fail, path, with_prior(self.options, prior), images=images,
+            results=results, figure_cache=self.figure_cache, continuations=continuations,
+            identity=identity, detections=self.detections.get(path),
         )  # fmt: skip
         outcome = (
             analysed()
             if cache is None
-            else cache.outcome(path, continuations, identity, results, analysed)
+            else cache.outcome(path, continuations, identity, results, analysed, prior_salt(prior))
         )
         if images and isinstance(outcome, SessionResult) and outcome.analysis_reused:
             outcome = _with_figures(outcome, self.options, self.figure_cache)
@@ -211,6 +265,16 @@ class _Batch:
     def without_images(self) -> _Batch:
         """The same batch, its figures drawn elsewhere (by a :class:`FigureDrawer`)."""
         return dataclasses.replace(self, images=False)
+
+    def for_session(self, index: int) -> _Batch:
+        """What a worker needs for session ``index``: the batch with its detections alone
+        (not every session's, sent with each task)."""
+        if not self.detections:
+            return self
+        mine = self.detections.get(self.files[index])
+        return dataclasses.replace(
+            self, detections={} if mine is None else {self.files[index]: mine}
+        )
 
 
 def _execute(batch: _Batch, *, jobs: int, dask_address: str | None) -> list[Outcome]:
@@ -258,7 +322,7 @@ def _report(on_done: OnDone | None, path: str, outcome: Outcome) -> None:
         on_done(path, isinstance(outcome, SessionResult))
 
 
-def gather(outcomes: list[Outcome], *, include_warned: bool = False) -> RunResult:
+def gather(outcomes: Sequence[Analysed], *, include_warned: bool = False) -> RunResult:
     """The run's tables: every session's rows concatenated in input order; the summary
     leaves warned trials out unless ``include_warned`` (:func:`analysis.metrics.summarize`)."""
     results = tuple(o for o in outcomes if isinstance(o, SessionResult))
@@ -300,6 +364,29 @@ def results_mcap_name(index: int, session: str | Path) -> str:
     return f"results_{index:02d}_{printable_stem(session)}.mcap"
 
 
+def _noise_or_fail(
+    path: str, options: AnalysisOptions, continuations: Sequence[str]
+) -> NoisePass | SessionFailure:
+    """A session's first pass, or why it failed (:func:`analyse_or_fail`'s rules)."""
+    try:
+        with _time_limit(options.session_timeout_s):
+            return noise_pass(path, options, continuations)
+    except _SessionTimeoutError:
+        return SessionFailure(
+            session=path,
+            reason=f"{path}: stopped after {options.session_timeout_s:g} s (--session-timeout); "
+            "the session is too large or pathological for one analysis",
+        )
+    except TwoposeError as err:
+        return SessionFailure(
+            session=path, reason=str(err) if path in str(err) else f"{path}: {err}"
+        )
+    except Exception as err:  # one bad file never stops the batch; the reason is kept
+        return SessionFailure(
+            session=path, reason=f"{path}: unexpected {type(err).__name__}: {err}"
+        )
+
+
 def analyse_or_fail(
     path: str,
     options: AnalysisOptions,
@@ -309,7 +396,8 @@ def analyse_or_fail(
     figure_cache: FigureCache | None = None,
     continuations: Sequence[str] = (),
     identity: SessionIdentity | None = None,
-) -> Outcome:
+    detections: list[list[Detections]] | None = None,
+) -> Analysed:
     """One session's result, or a :class:`SessionFailure` saying why (never raises but for
     Ctrl-C); a session over ``options.session_timeout_s`` is stopped and fails."""
     try:
@@ -322,6 +410,7 @@ def analyse_or_fail(
                 figure_cache=figure_cache,
                 continuations=continuations,
                 identity=identity,
+                detections=detections,
             )
     except _SessionTimeoutError:
         return SessionFailure(
@@ -431,7 +520,8 @@ def _run_processes(batch: _Batch, jobs: int) -> list[Outcome]:
                 with sigint_blocked():  # the workers start as the sessions are submitted
                     task = dataclasses.replace(batch, on_done=None)  # what a worker needs
                     futures = [
-                        pool.submit(_worker_task, i, task, results[i]) for i in range(len(files))
+                        pool.submit(_worker_task, i, task.for_session(i), results[i])
+                        for i in range(len(files))
                     ]
                 for i in reversed(range(len(files))):
                     if not _claim(claims, i):
@@ -505,8 +595,8 @@ def _stop_workers(
 # --------------------------------------------------------------------------- Dask
 
 
-def _analyse_at(index: int, results: str | None, *, batch: _Batch) -> Outcome:
-    """:meth:`_Batch.analyse` with the per-session arguments first, for ``client.map``."""
+def _analyse_at(index: int, results: str | None, batch: _Batch) -> Outcome:
+    """:meth:`_Batch.analyse` with the per-session arguments, for ``client.map``."""
     return batch.analyse(index, results, images=batch.images)
 
 
@@ -531,7 +621,8 @@ def _run_dask(batch: _Batch, address: str) -> list[Outcome]:
         # A worker that dies mid-session (killed, out of memory) loses its task to the
         # scheduler, which runs it again on another worker (``allowed-failures``, 3).
         task = dataclasses.replace(batch, on_done=None)  # what a worker needs
-        futures = client.map(_analyse_at, range(len(files)), results, batch=task, pure=False)
+        tasks = [task.for_session(i) for i in range(len(files))]
+        futures = client.map(_analyse_at, range(len(files)), results, tasks, pure=False)
         index = {fut.key: i for i, fut in enumerate(futures)}
         outcomes: list[Outcome | None] = [None] * len(files)
         for fut in as_completed(futures):  # progress as sessions finish, in any order

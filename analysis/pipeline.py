@@ -55,7 +55,13 @@ from twopose.units import UnitSpec, unit_spec
 if TYPE_CHECKING:
     from analysis.figure_cache import FigureCache
 
-__all__ = ["analyse_session", "keep_frame_buffers"]
+__all__ = [
+    "Detections",
+    "analyse_session",
+    "corrected_trials",
+    "keep_frame_buffers",
+    "replay_views",
+]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -83,6 +89,7 @@ def analyse_session(
     figure_cache: FigureCache | None = None,
     continuations: Sequence[str | Path] = (),
     identity: SessionIdentity | None = None,
+    detections: Sequence[Sequence[Detections]] | None = None,
 ) -> SessionResult:
     """Replay one session through detection and the solvers.
 
@@ -115,6 +122,10 @@ def analyse_session(
         What the session is in its run (:meth:`analysis.input_set.InputSet.identity`: its
         id, label, parts and branches); default: from the files alone, labelled by the
         file's name.
+    detections : sequence, optional
+        Per part (the file, then each continuation), per trial, per pose, every frame's
+        detection, as a run's first pass found them (:mod:`analysis.noise_pass`): not
+        detected again.
 
     Returns
     -------
@@ -133,10 +144,12 @@ def analyse_session(
         results = None
         if results_path is not None:
             results = stack.enter_context(_results_writer(Path(results_path), reader))
-        parts = [_replay(reader, str(path), options, results)]
-        for later in continuations:
+        known = list(detections) if detections is not None else None
+        parts = [_replay(reader, str(path), options, results, known=_part(known, 0))]
+        for k, later in enumerate(continuations, start=1):
             with SessionReader(later) as part:
-                parts.append(_replay(part, str(path), options, results, part=str(later)))
+                parts.append(_replay(part, str(path), options, results, part=str(later),
+                                     known=_part(known, k)))  # fmt: skip
         replay = _corrected(_joined(parts, [str(p) for p in continuations]), options.rig)
         estimate = estimate_session(replay.trials, options.estimate)
         reported_ = reported(estimate)
@@ -169,6 +182,11 @@ def analyse_session(
         rig=rig,
     )
     return _with_figures(result, options, figure_cache) if render_images else result
+
+
+def _part(known: list[Sequence[Detections]] | None, k: int) -> Sequence[Detections] | None:
+    """Part ``k``'s detections found before (None: detect them)."""
+    return None if known is None else known[k]
 
 
 @contextlib.contextmanager
@@ -258,28 +276,38 @@ def _corrected(replay: _Replay, rig: RigConstants | None) -> _Replay:
     """The replay with every view (and the ground) as the rig really had them."""
     if rig is None or rig.is_identity:
         return replay
-    trials = replay.trials
-    corrected = dataclasses.replace(
+    return dataclasses.replace(replay, trials=corrected_trials(replay.trials, rig))
+
+
+def corrected_trials(trials: SessionTrials, rig: RigConstants | None) -> SessionTrials:
+    """The trials with every view (and the ground) as the rig really had them."""
+    if rig is None or rig.is_identity:
+        return trials
+    return dataclasses.replace(
         trials,
         views=[[corrected_view(v, rig) for v in row] for row in trials.views],
         ground=corrected_ground(trials.ground, rig),
     )
-    return dataclasses.replace(replay, trials=corrected)
 
 
 def replay_views(
     path: str | Path,
     options: AnalysisOptions | None = None,
     continuations: Sequence[str | Path] = (),
+    *,
+    keep: list[list[Detections]] | None = None,
 ) -> SessionTrials:
     """A session's trials as the estimation takes them (ids, truth, usable poses), its
     continuations' after its own: what the rig's constants are fitted on
-    (:mod:`analysis.rig.fit`)."""
+    (:mod:`analysis.rig.fit`). ``keep``: each part's detections are appended to it."""
     options = options or AnalysisOptions()
     parts = []
     for part in (path, *continuations):
         with SessionReader(part) as reader:
-            parts.append(_replay(reader, str(path), options, None, part=str(part)))
+            found: list[Detections] | None = None if keep is None else []
+            parts.append(_replay(reader, str(path), options, None, part=str(part), keep=found))
+            if keep is not None and found is not None:
+                keep.append(found)
     return _joined(parts, [str(p) for p in continuations]).trials
 
 
@@ -290,10 +318,14 @@ def _replay(
     results: ResultsWriter | None,
     *,
     part: str | None = None,
+    known: Sequence[Detections] | None = None,
+    keep: list[Detections] | None = None,
 ) -> _Replay:
     """Stream the session trial by trial, detecting the target in every frame; a trial's
     frames are dropped once detected, so memory does not grow with session length.
-    ``part``: the path of the file read (a continuation's; default ``session``)."""
+    ``part``: the path of the file read (a continuation's; default ``session``);
+    ``known``: each trial's detections found before (not detected again); ``keep``: each
+    trial's detections are appended to it."""
     info = reader.info
     if not spec_of(info.method).measures:
         raise InputValueError(
@@ -312,8 +344,15 @@ def _replay(
     notes, unmeasured = [], []
     rig_truth: RigConstants | None = None
     params = getattr(options, TARGET_SPECS[target].options_field)
-    with contextlib.closing(_detected(iter_trials(reader), target, params)) as trials:
+    found = (
+        _detected(iter_trials(reader), target, params)
+        if known is None
+        else _given(iter_trials(reader), known, session)
+    )
+    with contextlib.closing(found) as trials:
         for record, detections in trials:
+            if keep is not None:
+                keep.append(detections)
             if record.simulation_truth is not None and record.simulation_truth.rig is not None:
                 rig_truth = RigConstants.from_vector(record.simulation_truth.rig)
             views.append(_trial_views(record, detections, session, rows, results))
@@ -456,6 +495,16 @@ def _detected(
             yield done, [[f.result() for f in pose] for pose in pending]
     finally:  # Ctrl-C, a timeout or a failure: what has not started never will
         pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _given(
+    records: Iterator[TrialRecord], known: Sequence[Detections], session: str
+) -> Generator[tuple[TrialRecord, Detections], None, None]:
+    """Each trial with the detections found before (a run's first pass), in order."""
+    for k, record in enumerate(records):
+        if k >= len(known) or [len(p) for p in known[k]] != [len(pc.frames) for pc in record.poses]:
+            raise SessionFormatError(f"{session} changed since its first pass: analyse it again")
+        yield record, list(known[k])
 
 
 def _size(pc: PoseCapture) -> tuple[int, int]:

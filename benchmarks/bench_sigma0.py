@@ -120,7 +120,7 @@ def run(sessions: int, seed: int, trials: int) -> pd.DataFrame:
                              "n": len(a), "sigma0": math.sqrt(factor.sigma0_sq),
                              "dof": factor.dof, "applied": factor.contradicted,
                              "placing_measured": TYPED_IN * factor.placing_scale,
-                             "placing_dof": factor.placing_dof, "cost": cost})  # fmt: skip
+                             "placing_dof": factor.variance_dof, "cost": cost})  # fmt: skip
     return pd.DataFrame(rows)
 
 

@@ -20,15 +20,17 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from recorder.capture import CaptureResult
-from recorder.trial_result import TrialResult, guidance_options, trial_results
+from recorder.trial_result import TrialResult, guidance_options, results_of
 from twopose.camera import Camera
 from twopose.estimate import EstimateOptions, GroundSpec, PoseView, measure, pose_view
 from twopose.format.entries import GroundPlane, GroundTruth, PoseEntry, TypedEntry
 from twopose.guidance import Advice
 from twopose.methods import Method
+from twopose.placing_variance import SessionNoise
 from twopose.rig.constants import RigConstants, check_applicable, corrected_ground, corrected_view
 from twopose.scene3d import TrialScene, scene_of_views
-from twopose.session_estimate import SessionTrials
+from twopose.session_estimate import SessionTrials, estimate_session
+from twopose.session_noise import session_statistics
 from twopose.units import Units
 
 __all__ = ["LiveResults", "MappedAdvice"]
@@ -85,6 +87,8 @@ class LiveResults:
         self._views: dict[int, list[PoseView]] = {}  # trial -> its accepted poses, in order
         self._solved: dict[int, tuple[int, ...]] = {}  # trial -> captures last solved
         self.results: dict[int, TrialResult] = {}  # trial -> its latest result
+        #: what the trials so far say of the operator's placing (the noise file keeps it)
+        self.statistics: SessionNoise | None = None
 
     def begin(self, trial: int, entries: Iterable[TypedEntry]) -> None:
         """A trial begins; its ground truth (if typed) is among ``entries``."""
@@ -123,7 +127,7 @@ class LiveResults:
         if len(self._views[trial]) < 2:
             self.results.pop(trial, None)
             return None
-        self.results = self._solve(self._views)
+        self.results = self._solve(self._views, keep=True)
         return self.results[trial]
 
     def preview(self, trial: int, accepted: Mapping[int, PoseEntry]) -> TrialResult | None:
@@ -135,9 +139,12 @@ class LiveResults:
             return None
         return self._solve({**self._views, trial: views})[trial]
 
-    def _solve(self, views: Mapping[int, list[PoseView]]) -> dict[int, TrialResult]:
+    def _solve(
+        self, views: Mapping[int, list[PoseView]], *, keep: bool = False
+    ) -> dict[int, TrialResult]:
         """Every trial with two or more poses, in one batch (the 95% regions pool their
-        frame scatter, as the analysis pools a session's)."""
+        frame scatter, as the analysis pools a session's); ``keep``: their misclosures
+        are the session's statistics now (:attr:`statistics`)."""
         trials = sorted(t for t, v in views.items() if len(v) >= 2)
         session = SessionTrials(
             method=self.method,
@@ -147,8 +154,10 @@ class LiveResults:
             truth=np.array([self._truth.get(t, np.full((2, 3), np.nan)) for t in trials]),
             ground=self._ground,
         )
-        solved = trial_results(session, self.options)
-        return dict(zip(trials, solved, strict=True))
+        estimate = estimate_session(session, self.options)
+        if keep:
+            self.statistics = session_statistics("", estimate.misclosure)
+        return dict(zip(trials, results_of(estimate), strict=True))
 
     def advise(self, trial: int, guidance: Guidance) -> MappedAdvice | None:
         """After a decision: the trial complete, or its next pose (:mod:`twopose.guidance`),
