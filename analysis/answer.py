@@ -7,6 +7,7 @@ shares in percent), per session set (``thesis_*`` first, then ``stress_*``,
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import pandas as pd
@@ -97,10 +98,25 @@ def noise_phrases(row: pd.Series) -> list[str]:
         placing_dof=_known(row.get("placing_dof")),
         flagged=int(_known(row.get("n_flagged"), 0.0)),
     )
-    # phrases a terminal may break between: never inside a number and its name
-    parts = words.split("; ")
-    return [f"placing sigma {_sig(sigma)} {row['units']} {source};",
-            *(p + ";" for p in parts[:-1]), parts[-1]]  # fmt: skip
+    return [f"placing sigma {_sig(sigma)} {row['units']} {source};", *_phrases(words)]
+
+
+def _phrases(words: str) -> list[str]:
+    """``words`` in phrases a terminal may break between: a number kept with the words
+    either side of it (``sigma0 1.55 on``, ``50 dof``, ``p < 0.001``), never cut from them."""
+    phrases: list[str] = []
+    glued = False  # the last token was a number or a relation: the next one stays with it
+    for token in words.split(" "):
+        number = bool(_NUMBER.fullmatch(token))
+        if phrases and (number or glued):
+            phrases[-1] += " " + token
+        else:
+            phrases.append(token)
+        glued = number or token in ("=", "<", "p", "(p")
+    return phrases
+
+
+_NUMBER = re.compile(r"[(]?x?[-+]?[0-9][0-9.]*(x|%)?[),;:]*")
 
 
 def _known(value: object, default: float = math.nan) -> float:

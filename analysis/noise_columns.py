@@ -8,14 +8,22 @@ which pose's typed component looks off (:mod:`twopose.blunders`). Declared in
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
 if TYPE_CHECKING:
-    from analysis.trial_columns import TrialResult
     from twopose.arrays import F64
     from twopose.blunders import TrialTests
+    from twopose.session_estimate import SessionEstimate
+
+
+class TrialResult(Protocol):
+    """What a fill reads (:class:`analysis.trial_columns.TrialResult`'s session estimate)."""
+
+    @property
+    def estimate(self) -> SessionEstimate: ...
+
 
 __all__ = [
     "disagreement",

@@ -13,8 +13,8 @@ import pandas as pd
 
 from analysis.answer import noise_phrases, session_order, shown_name
 from twopose.blunders import EXPLAINS_LEVEL
-from twopose.noise import FACTOR_TEST_LEVEL, MIN_PLACING_DOF
-from twopose.placing_variance import BAARDA_LEVEL, TYPED_PRIOR_DOF
+from twopose.noise import FACTOR_TEST_LEVEL, MIN_PLACING_DOF, TYPED_PRIOR_DOF
+from twopose.placing_variance import BAARDA_LEVEL
 
 __all__ = ["RULE", "flagged_lines", "noise_section"]
 

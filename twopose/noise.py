@@ -40,6 +40,7 @@ if TYPE_CHECKING:
 __all__ = [
     "FACTOR_TEST_LEVEL",
     "MIN_PLACING_DOF",
+    "TYPED_PRIOR_DOF",
     "NoiseModel",
     "PlacingPrior",
     "PlacingSigma",
@@ -57,6 +58,9 @@ FACTOR_TEST_LEVEL = 0.05
 #: sigma0's test may say the data agree: below, its F quantile explodes and its test
 #: cannot tell.
 MIN_PLACING_DOF = 3
+#: The typed resolution's weight as a prior: a scaled inverse chi-square at 1 on this many
+#: degrees of freedom (what an operator's word is worth against their data: weak).
+TYPED_PRIOR_DOF = 2.0
 #: The regions' level.
 _REGION_LEVEL = 0.95
 
@@ -372,10 +376,8 @@ class NoiseModel:
         """The prior the regions' placing sigma itself is.
 
         A board's measurement on its degrees of freedom, else the typed resolution's weak
-        word (:data:`twopose.placing_variance.TYPED_PRIOR_DOF`).
+        word (:data:`TYPED_PRIOR_DOF`).
         """
-        from twopose.placing_variance import TYPED_PRIOR_DOF
-
         placing = self.placing
         if placing is None:
             return PlacingPrior(scale=1.0, dof=TYPED_PRIOR_DOF, source="the typed resolution")

@@ -46,7 +46,6 @@ from twopose.noise import MIN_PLACING_DOF, PlacingPrior
 __all__ = [
     "BAARDA_LEVEL",
     "GRID",
-    "TYPED_PRIOR_DOF",
     "Flags",
     "Posterior",
     "SessionNoise",
@@ -59,9 +58,6 @@ __all__ = [
 #: The multipliers searched: a placing sigma 1/100 to 1000 times the one assumed.
 GRID = np.geomspace(1e-4, 1e6, 241)
 _LOG_GRID = np.log(GRID)
-#: The typed resolution's weight as a prior: a scaled inverse chi-square at 1 on this many
-#: degrees of freedom (what an operator's word is worth against their data: weak).
-TYPED_PRIOR_DOF = 2.0
 #: Baarda's global test of a trial: 1% (see the module: at 0.1% a sixth of the 1 in
 #: blunders in the simulator's geometry hide in the misclosure's noise).
 BAARDA_LEVEL = 0.01

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
@@ -25,9 +25,22 @@ from twopose.uncertainty import PLACING, Shared, region_dof
 from twopose.units import Units
 
 if TYPE_CHECKING:
-    from twopose.estimate import EstimateOptions, ViewBatch
+    from twopose.estimate import EstimateOptions, PoseView, ViewBatch
     from twopose.methods import Method
-    from twopose.session_estimate import SessionTrials
+
+
+class SessionTrials(Protocol):
+    """What the placing sigma's words read of a session's trials.
+
+    Those of :class:`twopose.session_estimate.SessionTrials`.
+    """
+
+    @property
+    def units(self) -> str: ...
+
+    @property
+    def views(self) -> list[list[PoseView]]: ...
+
 
 __all__ = [
     "NoiseResult",
