@@ -33,7 +33,7 @@ RULE = (
     "degrees of freedom it rests on; with fewer than "
     f"{MIN_PLACING_DOF} beside the prior, nothing is estimated and the typed sigma stands. "
     "Before any pooling each trial is tested against the typed model and against the rest "
-    f"(Baarda's global test at {BAARDA_LEVEL:.1%}): a trial both reject is flagged (its "
+    f"(Baarda's global test at {BAARDA_LEVEL:.0%}): a trial both reject is flagged (its "
     "poses disagree), kept out of the pool and its own region widened by its own misfit; a "
     "pose is named when it alone, one typed component corrected, would make the trial agree "
     f"({EXPLAINS_LEVEL:.0%}). sigma0, the unflagged trials' misclosure under the typed model, "

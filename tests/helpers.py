@@ -219,46 +219,59 @@ def distinct_copies(session: Path, folder: Path, n: int, stem: str = "s") -> lis
     """``n`` sessions with ``session``'s content, each a different file (an extra MCAP
     metadata record numbers it), so that a batch counts them as ``n`` sessions and not as
     one session named ``n`` times (analysis.input_set identifies sessions by content)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    out = []
+    for k in range(n):
+        path = folder / f"{stem}{k:03d}.mcap"
+        rewrite_session(session, path, metadata={"test_copy": {"number": str(k)}})
+        out.append(path)
+    return out
+
+
+def rewrite_session(
+    session: Path,
+    out: Path,
+    *,
+    metadata: dict[str, dict[str, str]] | None = None,
+    edit: Callable[[str, bytes], bytes] | None = None,
+) -> Path:
+    """``session`` copied to ``out`` message by message: with ``metadata`` records added,
+    and each message's data through ``edit(topic, data)`` (a typed entry edited by hand)."""
     from mcap.reader import make_reader
     from mcap.writer import Writer
 
-    folder.mkdir(parents=True, exist_ok=True)
     with open(session, "rb") as stream:
         reader = make_reader(stream)
         summary = reader.get_summary()
         assert summary is not None
-        metadata = [(m.name, dict(m.metadata)) for m in reader.iter_metadata()]
+        kept = [(m.name, dict(m.metadata)) for m in reader.iter_metadata()]
         messages = list(reader.iter_messages(log_time_order=False))
-    out = []
-    for k in range(n):
-        path = folder / f"{stem}{k:03d}.mcap"
-        with open(path, "wb") as sink:
-            writer = Writer(sink)
-            writer.start(profile="", library="twopose tests")
-            schemas: dict[int, int] = {}
-            channels: dict[int, int] = {}
-            for sid, schema in summary.schemas.items():
-                schemas[sid] = writer.register_schema(schema.name, schema.encoding, schema.data)
-            for cid, channel in summary.channels.items():
-                channels[cid] = writer.register_channel(
-                    channel.topic,
-                    channel.message_encoding,
-                    schemas.get(channel.schema_id, 0),
-                    dict(channel.metadata),
-                )
-            for name, data in metadata:
-                writer.add_metadata(name, data)
-            writer.add_metadata("test_copy", {"number": str(k)})
-            for _schema, channel, message in messages:
-                writer.add_message(
-                    channels[channel.id],
-                    message.log_time,
-                    message.data,
-                    message.publish_time,
-                    message.sequence,
-                )
-            writer.finish()
-        out.append(path)
+    with open(out, "wb") as sink:
+        writer = Writer(sink)
+        writer.start(profile="", library="twopose tests")
+        schemas: dict[int, int] = {}
+        channels: dict[int, int] = {}
+        for sid, schema in summary.schemas.items():
+            schemas[sid] = writer.register_schema(schema.name, schema.encoding, schema.data)
+        for cid, channel in summary.channels.items():
+            channels[cid] = writer.register_channel(
+                channel.topic,
+                channel.message_encoding,
+                schemas.get(channel.schema_id, 0),
+                dict(channel.metadata),
+            )
+        for name, values in [*kept, *(metadata or {}).items()]:
+            writer.add_metadata(name, values)
+        for _schema, channel, message in messages:
+            data = message.data if edit is None else edit(channel.topic, message.data)
+            writer.add_message(
+                channels[channel.id],
+                message.log_time,
+                data,
+                message.publish_time,
+                message.sequence,
+            )
+        writer.finish()
     return out
 
 

@@ -12,8 +12,6 @@ import tomllib
 from pathlib import Path
 
 import pytest
-from mcap.reader import make_reader
-from mcap.writer import Writer
 from typer.testing import CliRunner
 
 from analysis.batch import run
@@ -22,7 +20,7 @@ from analysis.session_cache import CACHE_FOLDER
 from analysis.terminal import summary_lines
 from recorder.simulate import simulate_session
 from tests.conftest import built_once
-from tests.helpers import SMALL_SCENE, distinct_copies
+from tests.helpers import SMALL_SCENE, distinct_copies, rewrite_session
 from twopose.format.entries import PoseEntry
 from twopose.methods import Method
 from twopose.sim.scene import load_scene
@@ -34,33 +32,17 @@ REUSED = "analysis: {n} of {m} session(s)' reused from the last run into"
 def _mistyped(session: Path, out: Path, trial: int, pose: int, dx: float) -> Path:
     """``session`` with trial ``trial``'s pose ``pose`` typed ``dx`` off in x: every other
     byte of its messages the same (the camera stood where the file first said)."""
-    with open(session, "rb") as stream:
-        reader = make_reader(stream)
-        summary = reader.get_summary()
-        assert summary is not None
-        metadata = [(m.name, dict(m.metadata)) for m in reader.iter_metadata()]
-        messages = list(reader.iter_messages(log_time_order=False))
-    with open(out, "wb") as sink:
-        writer = Writer(sink)
-        writer.start(profile="", library="twopose tests")
-        schemas = {sid: writer.register_schema(s.name, s.encoding, s.data)
-                   for sid, s in summary.schemas.items()}  # fmt: skip
-        channels = {cid: writer.register_channel(c.topic, c.message_encoding,
-                                                 schemas.get(c.schema_id, 0), dict(c.metadata))
-                    for cid, c in summary.channels.items()}  # fmt: skip
-        for name, values in metadata:
-            writer.add_metadata(name, values)
-        for _schema, channel, message in messages:
-            data: bytes = message.data
-            if channel.topic == PoseEntry.TOPIC:
-                typed = json.loads(data)
-                if (typed["trial"], typed["pose"]) == (trial, pose):
-                    typed["translation"][0] += dx
-                    data = json.dumps(typed).encode()
-            writer.add_message(channels[channel.id], message.log_time, data,
-                               message.publish_time, message.sequence)  # fmt: skip
-        writer.finish()
-    return out
+
+    def edit(topic: str, data: bytes) -> bytes:
+        if topic != PoseEntry.TOPIC:
+            return data
+        typed = json.loads(data)
+        if (typed["trial"], typed["pose"]) != (trial, pose):
+            return data
+        typed["translation"][0] += dx
+        return json.dumps(typed).encode()
+
+    return rewrite_session(session, out, edit=edit)
 
 
 @pytest.fixture(scope="module")
