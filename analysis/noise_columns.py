@@ -130,5 +130,8 @@ def suspect_offset(t: TrialResult) -> F64:
 
 def disagreement(t: TrialResult) -> list[str]:
     """A flagged trial's poses' disagreement in words (the recorder's live words)."""
+    from twopose.units import Units
+
     tests, trials = _tests(t), t.estimate.trials
-    return [tests.words(i, str(trials.units), len(v)) for i, v in enumerate(trials.views)]
+    units = Units(trials.units)
+    return [tests.words(i, units, len(v)) for i, v in enumerate(trials.views)]

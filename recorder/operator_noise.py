@@ -32,8 +32,10 @@ import numpy as np
 
 from twopose.errors import InputValueError
 from twopose.margins import EstimateOptions
+from twopose.methods import Method
 from twopose.noise import PlacingPrior
 from twopose.placing_variance import SessionNoise, operator_priors
+from twopose.units import Units
 
 __all__ = ["FORMAT", "NoiseFile", "live_prior", "noise_dir", "remember_session"]
 
@@ -82,16 +84,16 @@ class NoiseFile:
             raise InputValueError(f"{self.path}: [[session]] must be an array of tables")
         return [s for s in sessions if isinstance(s, dict)]
 
-    def history(self, method: str, reference: str) -> list[SessionNoise]:
+    def history(self, method: Method, reference: str) -> list[SessionNoise]:
         """The recorded sessions of ``method`` relative to ``reference``, as statistics."""
         out = []
         for s in self.sessions():
-            if s.get("method") != method or s.get("reference") != reference:
+            if s.get("method") != str(method) or s.get("reference") != reference:
                 continue
             out.append(_statistics(s, f"{self.path}: a session"))
         return out
 
-    def prior(self, method: str, reference: str, anchor: PlacingPrior) -> PlacingPrior | None:
+    def prior(self, method: Method, reference: str, anchor: PlacingPrior) -> PlacingPrior | None:
         """The prior its sessions give a new session (the analysis' rule, with the new
         session as the one left out): None without enough of them."""
         history = self.history(method, reference)
@@ -111,7 +113,7 @@ class NoiseFile:
         return PlacingPrior(scale=prior.scale, dof=prior.dof, source=source, sessions=n)
 
     def remember(
-        self, session: str | Path, method: str, units: str, reference: str, stats: SessionNoise
+        self, session: str | Path, method: Method, units: Units, reference: str, stats: SessionNoise
     ) -> None:
         """Add a recorded session's statistics (none: nothing written); the oldest go
         beyond :data:`MAX_SESSIONS`. Written whole to a temporary file, then renamed."""
@@ -120,8 +122,8 @@ class NoiseFile:
         kept = self.sessions()[-(MAX_SESSIONS - 1) :]
         entry: dict[str, object] = {
             "file": str(session),
-            "method": method,
-            "units": units,
+            "method": str(method),
+            "units": str(units),
             "recorded_utc": datetime.now(UTC).isoformat(timespec="seconds"),
             "reference": reference,
             "chi2": [float(v) for v in stats.chi2],
@@ -219,7 +221,9 @@ def _reference(options: EstimateOptions) -> str:
     return f"placing {placing.sigma_in:.6g} in ({placing.measured_by or 'given'})"
 
 
-def live_prior(operator: str, method: str, options: EstimateOptions) -> tuple[EstimateOptions, str]:
+def live_prior(
+    operator: str, method: Method, options: EstimateOptions
+) -> tuple[EstimateOptions, str]:
     """The live result's options with the operator's prior from their noise file, and
     what to tell the operator about it ("" when the setup names no operator)."""
     import dataclasses
@@ -252,7 +256,7 @@ def live_prior(operator: str, method: str, options: EstimateOptions) -> tuple[Es
 
 
 def remember_session(
-    operator: str, method: str, units: str, session: str | Path, options: EstimateOptions,
+    operator: str, method: Method, units: Units, session: str | Path, options: EstimateOptions,
     stats: SessionNoise | None,
 ) -> str:  # fmt: skip
     """Add a finished recording's statistics to its operator's noise file; what went

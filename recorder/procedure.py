@@ -352,7 +352,7 @@ def _live_results(
     each pose's typed one), the operator's earlier sessions their prior
     (:mod:`recorder.operator_noise`); what they start from is said as it starts."""
     estimate = settings.estimate_options()
-    estimate, prior_words = live_prior(info.operator, str(info.method), estimate)
+    estimate, prior_words = live_prior(info.operator, info.method, estimate)
     results = LiveResults(info.method, info.units, cameras, ground, estimate, settings.rig)
     results.notes.insert(0, settings.placing_words(info.units))
     if prior_words:
@@ -363,7 +363,7 @@ def _live_results(
 def _remember(info: SessionInfo, out: Path, results: LiveResults, driver: Driver) -> None:
     """What the recording says of its operator's placing, kept in their noise file."""
     trouble = remember_session(
-        info.operator, str(info.method), str(info.units), out, results.options, results.statistics
+        info.operator, info.method, info.units, out, results.options, results.statistics
     )
     if trouble:
         driver.notice(trouble)

@@ -28,6 +28,7 @@ from twopose.noise import VarianceFactor, noise_words
 from twopose.session_estimate import SessionEstimate, SessionTrials, estimate_session
 from twopose.truth import line_errors, reported
 from twopose.uncertainty import semiaxis95, uncertainty_columns
+from twopose.units import Units
 
 __all__ = ["STATUS_WORDS", "TrialResult", "guidance_options", "results_of", "trial_results"]
 
@@ -230,7 +231,7 @@ def results_of(estimate: SessionEstimate) -> list[TrialResult]:
             factor=estimate.factor,
             widened=float(widened[i]) if np.isfinite(widened[i]) else 1.0,
             flagged=bool(tests.flagged[i]),
-            disagreement=tests.words(i, str(trials.units), len(trials.views[i])),
+            disagreement=tests.words(i, Units(trials.units), len(trials.views[i])),
         )
         for i, trial in enumerate(trials.trial_ids)
     ]

@@ -29,6 +29,7 @@ from scipy import special
 
 from twopose.arrays import F64, Bools, Ints
 from twopose.misclosure import Misclosure, pose_tests
+from twopose.units import Units
 
 __all__ = ["AXES", "EXPLAINS_LEVEL", "TrialTests", "trial_tests"]
 
@@ -78,7 +79,7 @@ class TrialTests:
             own_dof=np.zeros(T, dtype=np.int_),
         )
 
-    def words(self, i: int, units: str, poses: int) -> str:
+    def words(self, i: int, units: Units, poses: int) -> str:
         """Trial ``i``'s disagreement in the operator's words ("" when not flagged).
 
         ``poses``: how many it has (what to add to name the pose).
