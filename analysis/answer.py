@@ -98,7 +98,9 @@ def noise_phrases(row: pd.Series) -> list[str]:
         placing_dof=_known(row.get("placing_dof")),
         flagged=int(_known(row.get("n_flagged"), 0.0)),
     )
-    return [f"placing sigma {_sig(sigma)} {row['units']} {source};", *_phrases(words)]
+    scale = _known(row.get("placing_scale"))
+    start = sigma / scale if isinstance(sigma, int | float) and scale > 0 else sigma  # assumed
+    return [f"placing sigma {_sig(start)} {row['units']} {source};", *_phrases(words)]
 
 
 def _phrases(words: str) -> list[str]:

@@ -84,6 +84,7 @@ def test_a_mistyped_pose_is_flagged_and_said_in_trials_csv_the_terminal_and_the_
     assert row["sigma0_dof"] == 6  # the two others
     text = "\n".join(summary_lines(done.trials, done.summary, width=None))
     assert f"flagged: trial 2: {words}" in text
+    assert "placing sigma 0.0625 in typed;" in text  # the one typed, before the multiplier
     assert "1 trial flagged (poses disagree): kept out and widened" in text
     report = (out / "report.html").read_text()
     assert words.replace("'", "&#x27;") in report
