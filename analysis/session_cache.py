@@ -16,6 +16,9 @@ things, and its entry in the cache is named by a digest of all four (:meth:`Sess
   ``--session-timeout``) shape the run's summary, figures or time limit and never a
   session's tables: a re-run that changes only them reuses every session's analysis, and
   writes its own outputs anew (their key holds every option);
+* for a session pooled with its operator's other sessions of the run, its **prior** from
+  them (:func:`analysis.noise_pass.prior_salt`, the ``salt`` of :meth:`SessionCache.key`);
+  its first pass (:meth:`SessionCache.noise`) is kept under the session's own key;
 * the **code**: twopose's version, a digest of every file of the ``analysis`` and
   ``twopose`` packages, and the versions of Python, NumPy, pandas and OpenCV.
 
