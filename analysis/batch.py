@@ -1,5 +1,8 @@
 """Many sessions: discovery, execution (in this process, worker processes, or on a Dask
 cluster), gathering in input order (so results never depend on ``jobs``), and the outputs.
+(Near 600 lines: the three executors run the same batch, a pass at a time, and belong
+together; what a session's analysis is lives in :mod:`analysis.pipeline`, its first pass
+in :mod:`analysis.noise_pass`.)
 
 Everything the CLI's ``run`` does is :func:`run`, one call.
 """
@@ -17,7 +20,7 @@ from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, as_completed, wait
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import pandas as pd
 
@@ -34,7 +37,7 @@ from analysis.drawer import FigureDrawer, note, sigint_blocked
 from analysis.figure_cache import FigureCache, FigureJob
 from analysis.input_set import InputSet, SessionIdentity, resolve_inputs
 from analysis.metrics import summarize
-from analysis.noise_pass import NoisePass, noise_pass, prior_salt, with_prior
+from analysis.noise_pass import NoisePass, first_pass, noise_pass, prior_salt, with_prior
 from analysis.outputs import OutputFolder, printable_stem
 from analysis.pipeline import Detections, _with_figures, analyse_session, keep_frame_buffers
 from analysis.results import AnalysisOptions, RunResult, SessionFailure, SessionResult
@@ -49,6 +52,7 @@ __all__ = ["Outcome", "analyse_or_fail", "results_mcap_name", "run"]
 Outcome = SessionResult | SessionFailure | NoisePass
 #: What a session's analysis (its second pass, or its only one) gives.
 Analysed = SessionResult | SessionFailure
+_Done = TypeVar("_Done", SessionResult, NoisePass)
 #: Called as each session finishes: its path and whether it succeeded (progress bars).
 OnDone = Callable[[str, bool], None]
 
@@ -134,7 +138,9 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
             continuations=inputs.continuations,
             identities=inputs.identities,
         )
-        batch = _first_pass(batch, inputs, jobs=jobs, dask_address=dask_address)
+        batch = first_pass(
+            batch, inputs, lambda b: _execute(b, jobs=jobs, dask_address=dask_address)
+        )
         outcomes = [
             o for o in _execute(batch, jobs=jobs, dask_address=dask_address)
             if not isinstance(o, NoisePass)  # never: the second pass analyses each session
@@ -168,36 +174,6 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
     if batch.session_cache is not None:  # committed: what this run did not use goes
         batch.session_cache.prune()
     return result
-
-
-def _first_pass(batch: _Batch, inputs: InputSet, *, jobs: int, dask_address: str | None) -> _Batch:
-    """The batch with each session's prior from its operator's other sessions and the
-    detections its first pass found (:mod:`analysis.noise_pass`); unchanged when no two
-    sessions share an operator and a method."""
-    from analysis.noise_pass import operator_priors_of, pooled_groups
-
-    heads = {}
-    for found in inputs.found:
-        if found.path in batch.files and found.info is not None:
-            heads[found.path] = (found.info.operator, str(found.info.method))
-    groups = pooled_groups(heads, batch.options)
-    if not groups:
-        return batch
-    files = [f for f in batch.files if f in groups]
-    first = dataclasses.replace(
-        batch, files=files, results_mcap=[None] * len(files), images=False, on_done=None,
-        stage="noise",
-    )  # fmt: skip
-    passes = _execute(first, jobs=jobs, dask_address=dask_address)
-    done = {o.session: o for o in passes if isinstance(o, NoisePass)}
-    failed = {o.session: o for o in passes if isinstance(o, SessionFailure)}
-    priors = operator_priors_of({f: p.statistics for f, p in done.items()}, groups, batch.options)
-    return dataclasses.replace(
-        batch,
-        priors=priors,
-        detections={f: p.detections for f, p in done.items() if p.detections is not None},
-        failed=failed,
-    )
 
 
 @functools.lru_cache(maxsize=1)
@@ -368,23 +344,7 @@ def _noise_or_fail(
     path: str, options: AnalysisOptions, continuations: Sequence[str]
 ) -> NoisePass | SessionFailure:
     """A session's first pass, or why it failed (:func:`analyse_or_fail`'s rules)."""
-    try:
-        with _time_limit(options.session_timeout_s):
-            return noise_pass(path, options, continuations)
-    except _SessionTimeoutError:
-        return SessionFailure(
-            session=path,
-            reason=f"{path}: stopped after {options.session_timeout_s:g} s (--session-timeout); "
-            "the session is too large or pathological for one analysis",
-        )
-    except TwoposeError as err:
-        return SessionFailure(
-            session=path, reason=str(err) if path in str(err) else f"{path}: {err}"
-        )
-    except Exception as err:  # one bad file never stops the batch; the reason is kept
-        return SessionFailure(
-            session=path, reason=f"{path}: unexpected {type(err).__name__}: {err}"
-        )
+    return _or_fail(path, options, lambda: noise_pass(path, options, continuations))
 
 
 def analyse_or_fail(
@@ -400,18 +360,22 @@ def analyse_or_fail(
 ) -> Analysed:
     """One session's result, or a :class:`SessionFailure` saying why (never raises but for
     Ctrl-C); a session over ``options.session_timeout_s`` is stopped and fails."""
+    analyse = functools.partial(
+        analyse_session, path, options, render_images=images, results_path=results,
+        figure_cache=figure_cache, continuations=continuations, identity=identity,
+        detections=detections,
+    )  # fmt: skip
+    return _or_fail(path, options, analyse)
+
+
+def _or_fail(
+    path: str, options: AnalysisOptions, work: Callable[[], _Done]
+) -> _Done | SessionFailure:
+    """``work()``'s result, or a :class:`SessionFailure` saying why it failed or ran out
+    of ``options.session_timeout_s``."""
     try:
         with _time_limit(options.session_timeout_s):
-            return analyse_session(
-                path,
-                options,
-                render_images=images,
-                results_path=results,
-                figure_cache=figure_cache,
-                continuations=continuations,
-                identity=identity,
-                detections=detections,
-            )
+            return work()
     except _SessionTimeoutError:
         return SessionFailure(
             session=path,

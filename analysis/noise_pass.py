@@ -22,10 +22,12 @@ file's ``[placing]``).
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
@@ -36,8 +38,12 @@ from twopose.placing_variance import SessionNoise, operator_priors
 from twopose.session_estimate import estimate_session
 from twopose.session_noise import operator_group, session_statistics
 
+if TYPE_CHECKING:
+    from analysis.input_set import InputSet
+
 __all__ = [
     "NoisePass",
+    "first_pass",
     "noise_pass",
     "operator_priors_of",
     "pooled_groups",
@@ -74,6 +80,43 @@ def pooled_groups(heads: Mapping[str, tuple[str, str]], options: AnalysisOptions
     return {p: g for p, g in groups.items() if g and count[g] > 1}
 
 
+_Batch = TypeVar("_Batch")
+
+
+def first_pass(
+    batch: _Batch, inputs: InputSet, execute: Callable[[_Batch], Sequence[object]]
+) -> _Batch:
+    """The batch (:class:`analysis.batch._Batch`) with each session's prior from its
+    operator's other sessions and the detections its first pass found; unchanged when no
+    two sessions share an operator and a method. ``execute`` runs a batch wherever the run
+    runs its sessions (this process, worker processes, a Dask cluster)."""
+    from analysis.results import SessionFailure
+
+    b: Any = batch
+    heads = {
+        f.path: (f.info.operator, str(f.info.method))
+        for f in inputs.found
+        if f.path in b.files and f.info is not None
+    }
+    groups = pooled_groups(heads, b.options)
+    if not groups:
+        return batch
+    files = [f for f in b.files if f in groups]
+    first = dataclasses.replace(
+        b, files=files, results_mcap=[None] * len(files), images=False, on_done=None,
+        stage="noise",
+    )  # fmt: skip
+    passes = execute(first)
+    done = {o.session: o for o in passes if isinstance(o, NoisePass)}
+    priors = operator_priors_of({f: p.statistics for f, p in done.items()}, groups, b.options)
+    return dataclasses.replace(  # type: ignore[no-any-return]
+        b,
+        priors=priors,
+        detections={f: p.detections for f, p in done.items() if p.detections is not None},
+        failed={o.session: o for o in passes if isinstance(o, SessionFailure)},
+    )
+
+
 def noise_pass(path: str, options: AnalysisOptions, continuations: Sequence[str] = ()) -> NoisePass:
     """The session's trials replayed and detected, corrected by the rig, their misclosures
     (the group is the caller's to set: :func:`operator_priors_of`)."""
@@ -90,8 +133,6 @@ def operator_priors_of(
 ) -> dict[str, PlacingPrior]:
     """Every pooled session's prior from the other sessions of its group (in the run's
     order; a session with none to pool left out)."""
-    import dataclasses
-
     paths = [p for p in groups if p in passes]
     stats = [dataclasses.replace(passes[p], group=groups[p]) for p in paths]
     priors = operator_priors(stats, options.estimate.noise.anchor())
@@ -102,8 +143,6 @@ def with_prior(options: AnalysisOptions, prior: PlacingPrior | None) -> Analysis
     """``options`` with the session's prior from its operator (unchanged without one)."""
     if prior is None:
         return options
-    import dataclasses
-
     noise = dataclasses.replace(options.estimate.noise, prior=prior)
     return dataclasses.replace(options, estimate=dataclasses.replace(options.estimate, noise=noise))
 

@@ -2,7 +2,9 @@
 
 :func:`analyse_session` opens the session file once and runs the named steps below;
 :mod:`analysis.batch` runs it for many sessions. With ``results_path`` it also streams the
-session's results.mcap (:mod:`analysis.results_mcap`) as the frames are detected.
+session's results.mcap (:mod:`analysis.results_mcap`) as the frames are detected. (Near
+600 lines: the steps of one session's analysis, each short, read in order; the tables'
+columns, the results file and the figures are their own modules.)
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from analysis.allocator import keep_frame_buffers
 from analysis.columns import FRAME_COLUMNS, RIG_TABLE_COLUMNS, typed
 from analysis.input_set import SessionIdentity
 from analysis.results import AnalysisOptions, SessionResult
@@ -144,12 +147,14 @@ def analyse_session(
         results = None
         if results_path is not None:
             results = stack.enter_context(_results_writer(Path(results_path), reader))
-        known = list(detections) if detections is not None else None
-        parts = [_replay(reader, str(path), options, results, known=_part(known, 0))]
+        known: list[Sequence[Detections] | None] = (
+            [None] * (1 + len(continuations)) if detections is None else list(detections)
+        )
+        parts = [_replay(reader, str(path), options, results, known=known[0])]
         for k, later in enumerate(continuations, start=1):
             with SessionReader(later) as part:
                 parts.append(_replay(part, str(path), options, results, part=str(later),
-                                     known=_part(known, k)))  # fmt: skip
+                                     known=known[k]))  # fmt: skip
         replay = _corrected(_joined(parts, [str(p) for p in continuations]), options.rig)
         estimate = estimate_session(replay.trials, options.estimate)
         reported_ = reported(estimate)
@@ -182,11 +187,6 @@ def analyse_session(
         rig=rig,
     )
     return _with_figures(result, options, figure_cache) if render_images else result
-
-
-def _part(known: list[Sequence[Detections]] | None, k: int) -> Sequence[Detections] | None:
-    """Part ``k``'s detections found before (None: detect them)."""
-    return None if known is None else known[k]
 
 
 @contextlib.contextmanager
@@ -586,32 +586,3 @@ def _with_figures(
     if why_not:
         note(f"the figures of {result.session} were not drawn ({why_not}); the report says so")
     return dataclasses.replace(result, images=images, figures_reused=reused)
-
-
-_ALLOCATOR_TUNED = False
-
-
-def keep_frame_buffers() -> None:
-    """Let glibc reuse freed frame-sized buffers instead of returning them to the kernel.
-
-    Every frame allocates a few 0.3-1 MB temporaries; above glibc's default 128 KiB mmap
-    threshold each is a fresh mmap, page-faulted and zeroed, then unmapped. That costs
-    memory bandwidth that two workers on two cores share: with the threshold at 32 MiB,
-    a batch with ``jobs=2`` ran ~1.5x faster here. glibc only; a no-op elsewhere.
-    """
-    global _ALLOCATOR_TUNED
-    if _ALLOCATOR_TUNED:
-        return
-    _ALLOCATOR_TUNED = True
-    import ctypes
-    import ctypes.util
-
-    name = ctypes.util.find_library("c")
-    try:
-        libc = ctypes.CDLL(name or "libc.so.6")
-        mallopt = libc.mallopt
-    except (OSError, AttributeError):
-        return
-    m_trim_threshold, m_mmap_threshold = -1, -3  # from glibc's malloc.h
-    mallopt(m_mmap_threshold, 32 * 1024 * 1024)
-    mallopt(m_trim_threshold, 128 * 1024 * 1024)

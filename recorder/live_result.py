@@ -33,9 +33,13 @@ from twopose.session_estimate import SessionTrials, estimate_session
 from twopose.session_noise import session_statistics
 from twopose.units import Units
 
-__all__ = ["LiveResults", "MappedAdvice"]
+__all__ = ["LiveResults", "MappedAdvice", "live_results"]
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
+    from recorder.capture import CaptureSettings
+    from twopose.format.entries import SessionInfo
     from twopose.guidance import Guidance
     from twopose.region_map import RegionMap
 
@@ -205,6 +209,17 @@ class LiveResults:
             ),
         )
 
+    def remember(self, info: SessionInfo, out: Path, notice: Callable[[str], None]) -> None:
+        """What the recording said of its operator's placing, kept in their noise file
+        (:mod:`recorder.operator_noise`); what went wrong is told to ``notice``."""
+        from recorder.operator_noise import remember_session
+
+        trouble = remember_session(
+            info.operator, info.method, info.units, out, self.options, self.statistics
+        )
+        if trouble:
+            notice(trouble)
+
     def scene(self, trial: int) -> TrialScene | None:
         """The trial's geometry for the live view's 3-D panel (None: no result yet)."""
         result = self.results.get(trial)
@@ -228,3 +243,23 @@ class LiveResults:
 def _captures_of(accepted: Mapping[int, PoseEntry]) -> tuple[int, ...]:
     """The capture numbers of the accepted poses, in pose order."""
     return tuple(e.capture for _, e in sorted(accepted.items()) if e.capture is not None)
+
+
+def live_results(
+    info: SessionInfo,
+    cameras: Sequence[Camera],
+    ground: GroundPlane | None,
+    settings: CaptureSettings,
+) -> LiveResults:
+    """The live results of a recording: its regions from the rig file's placing sigma (or
+    each pose's typed one), the operator's earlier sessions their prior
+    (:mod:`recorder.operator_noise`); what they start from is said as it starts."""
+    from recorder.operator_noise import live_prior
+
+    estimate = settings.estimate_options()
+    estimate, prior_words = live_prior(info.operator, info.method, estimate)
+    results = LiveResults(info.method, info.units, cameras, ground, estimate, settings.rig)
+    results.notes.insert(0, settings.placing_words(info.units))
+    if prior_words:
+        results.notes.insert(1, prior_words)
+    return results

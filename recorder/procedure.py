@@ -64,8 +64,7 @@ from recorder.driver import (
     ProcedureRefusedError,
     QuitRecording,
 )
-from recorder.live_result import LiveResults
-from recorder.operator_noise import live_prior, remember_session
+from recorder.live_result import LiveResults, live_results
 from recorder.sources import FrameSource, SourceInfo
 from recorder.summary import RecordingSummary, Tally
 from twopose.camera import Camera
@@ -344,31 +343,6 @@ class _CaptureOptions:
     results: LiveResults | None = None  # with live detection: each trial's live result
 
 
-def _live_results(
-    info: SessionInfo, cameras: Sequence[Camera], ground: GroundPlane | None,
-    settings: CaptureSettings,
-) -> LiveResults:  # fmt: skip
-    """The live results of a recording: its regions from the rig file's placing sigma (or
-    each pose's typed one), the operator's earlier sessions their prior
-    (:mod:`recorder.operator_noise`); what they start from is said as it starts."""
-    estimate = settings.estimate_options()
-    estimate, prior_words = live_prior(info.operator, info.method, estimate)
-    results = LiveResults(info.method, info.units, cameras, ground, estimate, settings.rig)
-    results.notes.insert(0, settings.placing_words(info.units))
-    if prior_words:
-        results.notes.insert(1, prior_words)
-    return results
-
-
-def _remember(info: SessionInfo, out: Path, results: LiveResults, driver: Driver) -> None:
-    """What the recording says of its operator's placing, kept in their noise file."""
-    trouble = remember_session(
-        info.operator, info.method, info.units, out, results.options, results.statistics
-    )
-    if trouble:
-        driver.notice(trouble)
-
-
 def record(  # noqa: PLR0913 - keyword-only settings of a recording
     path: str | Path,
     info: SessionInfo,
@@ -397,7 +371,7 @@ def record(  # noqa: PLR0913 - keyword-only settings of a recording
     settings = capture or CaptureSettings()
     results = None
     if settings.target is not None:  # the live result needs the live detection
-        results = _live_results(info, cameras, ground, settings)
+        results = live_results(info, cameras, ground, settings)
     options = _CaptureOptions(settings=settings, results=results)
     interrupted = False
     proc: Procedure | None = None
@@ -442,7 +416,7 @@ def record(  # noqa: PLR0913 - keyword-only settings of a recording
         interrupted = True
     kept = proc is not None and proc.n_operator_entries > 0
     if kept and results is not None:  # what it says of the operator's placing, kept
-        _remember(info, out, results, driver)
+        results.remember(info, out, driver.notice)
     if not kept and proc is not None:  # an empty session would only block the name
         out.unlink(missing_ok=True)
     counts = proc if proc is not None else _NothingBegun(trial=after_trial)
