@@ -7,6 +7,7 @@ shares in percent), per session set (``thesis_*`` first, then ``stress_*``,
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import pandas as pd
@@ -102,27 +103,53 @@ def strand_names(trials: pd.DataFrame) -> pd.Series:
 
 def noise_phrases(row: pd.Series) -> list[str]:
     """A session's noise model in words (a ``summary.csv`` row): the placing sigma its
-    regions assumed and where it came from, and sigma0's test (:func:`twopose.noise.noise_words`);
-    none for a table from before these columns. The terminal and the report say these."""
+    regions assumed and where it came from, and sigma0's test with the multiplier taken
+    (:func:`twopose.noise.noise_words`, the one home of these words); none for a table
+    from before these columns. The terminal and the report say these."""
     from twopose.noise import noise_words
 
     if "sigma0_dof" not in row or pd.isna(row["sigma0_dof"]):
         return []
     sigma = row.get("placing_sigma", math.nan)
-    source = str(row.get("placing_source", "") or "typed")
-    widening = row.get("noise_widening", math.nan)
-    radius = math.sqrt(widening) if isinstance(widening, int | float) and widening > 0 else 1.0
-    sigma0 = row.get("sigma0", math.nan)
+    source = str(row.get("placing_source", "") or "typed").split(", times ")[0]
+    widening = _known(row.get("noise_widening"))
+    sigma0 = _known(row.get("sigma0"))
     words = noise_words(
-        float(sigma0) if pd.notna(sigma0) else math.nan, int(row["sigma0_dof"]), radius
+        sigma0,
+        int(row["sigma0_dof"]),
+        math.sqrt(widening) if widening > 0 else math.nan,
+        placing_scale=_known(row.get("placing_scale")),
+        placing_dof=_known(row.get("placing_dof")),
+        flagged=int(_known(row.get("n_flagged"), 0.0)),
     )
-    # phrases a terminal may break between: never inside a number and its name
-    parts = words.split(": ")
-    return [
-        f"placing sigma {_sig(sigma)} {row['units']} {source};",
-        *(p + ":" for p in parts[:-1]),
-        parts[-1],
-    ]
+    scale = _known(row.get("placing_scale"))
+    start = sigma / scale if isinstance(sigma, int | float) and scale > 0 else sigma  # assumed
+    return [f"placing sigma {_sig(start)} {row['units']} {source};", *_phrases(words)]
+
+
+def _phrases(words: str) -> list[str]:
+    """``words`` in phrases a terminal may break between: a number kept with the words
+    either side of it (``sigma0 1.55 on``, ``50 dof``, ``p < 0.001``), never cut from them."""
+    phrases: list[str] = []
+    glued = False  # the last token was a number or a relation: the next one stays with it
+    for token in words.split(" "):
+        number = bool(_NUMBER.fullmatch(token))
+        if phrases and (number or glued):
+            phrases[-1] += " " + token
+        else:
+            phrases.append(token)
+        glued = number or token in ("=", "<", "p", "(p")
+    return phrases
+
+
+_NUMBER = re.compile(r"[(]?x?[-+]?[0-9][0-9.]*(x|%)?[),;:]*")
+
+
+def _known(value: object, default: float = math.nan) -> float:
+    """A number from a table's cell (``default`` when it holds none)."""
+    if isinstance(value, bool) or not isinstance(value, int | float) or math.isnan(value):
+        return default
+    return float(value)
 
 
 def _sig(value: object) -> str:

@@ -1,6 +1,7 @@
 """Many sessions: discovery, execution (in this process, worker processes:
 :mod:`analysis.workers`, or on a Dask cluster), gathering in input order (so results never
-depend on ``jobs``), and the outputs.
+depend on ``jobs``), and the outputs; the run's first pass over the sessions that share an
+operator (:mod:`analysis.noise_pass`) runs on the same executors.
 
 Everything the CLI's ``run`` does is :func:`run`, one call.
 """
@@ -14,7 +15,7 @@ import signal
 import threading
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import pandas as pd
 
@@ -31,14 +32,20 @@ from analysis.drawer import FigureDrawer, note
 from analysis.figure_cache import FigureCache, FigureJob
 from analysis.input_set import InputSet, SessionIdentity, resolve_inputs
 from analysis.metrics import summarize
+from analysis.noise_pass import NoisePass, first_pass, noise_pass, prior_salt, with_prior
 from analysis.outputs import OutputFolder, printable_stem
-from analysis.pipeline import _with_figures, analyse_session
+from analysis.pipeline import Detections, _with_figures, analyse_session
 from analysis.results import AnalysisOptions, RunResult, SessionFailure, SessionResult
 from analysis.session_cache import SessionCache
 from analysis.workers import Outcome, run_processes
 from twopose.errors import InputValueError, TwoposeError
+from twopose.noise import PlacingPrior
 
 __all__ = ["Outcome", "analyse_or_fail", "results_mcap_name", "run"]
+
+#: What a session's analysis (its second pass, or its only one) gives.
+Analysed = SessionResult | SessionFailure
+_Done = TypeVar("_Done", SessionResult, NoisePass)
 
 #: Called as each session finishes: its path and whether it succeeded (progress bars).
 OnDone = Callable[[str, bool], None]
@@ -138,7 +145,13 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
             continuations=inputs.continuations,
             identities=inputs.identities,
         )
-        outcomes = _execute(batch, jobs=jobs, dask_address=dask_address)
+        batch = first_pass(
+            batch, inputs, lambda b: _execute(b, jobs=jobs, dask_address=dask_address)
+        )
+        outcomes = [
+            o for o in _execute(batch, jobs=jobs, dask_address=dask_address)
+            if not isinstance(o, NoisePass)  # never: the second pass analyses each session
+        ]  # fmt: skip
         result = dataclasses.replace(
             gather(outcomes, include_warned=options.include_warned),
             skipped=tuple(skipped),
@@ -197,19 +210,34 @@ class _Batch:
     identities: dict[str, SessionIdentity] = dataclasses.field(default_factory=dict)
     #: each session's analysis as the previous run into --out kept it (None: no --out)
     session_cache: SessionCache | None = None
+    #: "noise": the run's first pass (analysis.noise_pass); "analysis": the sessions' own
+    stage: str = "analysis"
+    #: per session's first part, its prior from its operator's other sessions of the run
+    priors: dict[str, PlacingPrior] = dataclasses.field(default_factory=dict)
+    #: per session's first part, what its first pass detected (not detected again)
+    detections: dict[str, list[list[Detections]]] = dataclasses.field(default_factory=dict)
+    #: per session's first part, the failure of its first pass (the session's outcome)
+    failed: dict[str, SessionFailure] = dataclasses.field(default_factory=dict)
 
     def analyse(self, index: int, results: str | None = None, *, images: bool) -> Outcome:
         """Session ``index``'s outcome (:func:`analyse_or_fail`), wherever it runs."""
         path, cache = self.files[index], self.session_cache
         continuations, identity = self.continuations.get(path, ()), self.identities.get(path)
+        if self.stage == "noise":
+            first = functools.partial(_noise_or_fail, path, self.options, continuations)
+            return first() if cache is None else cache.noise(path, continuations, identity, first)
+        if path in self.failed:
+            return self.failed[path]
+        prior = self.priors.get(path)
         analysed = functools.partial(
-            analyse_or_fail, path, self.options, images=images, results=results,
-            figure_cache=self.figure_cache, continuations=continuations, identity=identity,
+            analyse_or_fail, path, with_prior(self.options, prior), images=images,
+            results=results, figure_cache=self.figure_cache, continuations=continuations,
+            identity=identity, detections=self.detections.get(path),
         )  # fmt: skip
         outcome = (
             analysed()
             if cache is None
-            else cache.outcome(path, continuations, identity, results, analysed)
+            else cache.outcome(path, continuations, identity, results, analysed, prior_salt(prior))
         )
         if images and isinstance(outcome, SessionResult) and outcome.analysis_reused:
             outcome = _with_figures(outcome, self.options, self.figure_cache)
@@ -222,6 +250,16 @@ class _Batch:
     def for_workers(self) -> _Batch:
         """The same batch without its progress callback (it stays in this process)."""
         return dataclasses.replace(self, on_done=None)
+
+    def for_session(self, index: int) -> _Batch:
+        """What a worker needs for session ``index``: the batch with its detections alone
+        (not every session's, sent with each task)."""
+        if not self.detections:
+            return self
+        mine = self.detections.get(self.files[index])
+        return dataclasses.replace(
+            self, detections={} if mine is None else {self.files[index]: mine}
+        )
 
     def without_images(self) -> _Batch:
         """The same batch, its figures drawn elsewhere (by a :class:`FigureDrawer`)."""
@@ -274,7 +312,7 @@ def _report(on_done: OnDone | None, path: str, outcome: Outcome) -> None:
         on_done(path, isinstance(outcome, SessionResult))
 
 
-def gather(outcomes: list[Outcome], *, include_warned: bool = False) -> RunResult:
+def gather(outcomes: Sequence[Analysed], *, include_warned: bool = False) -> RunResult:
     """The run's tables: every session's rows concatenated in input order; the summary
     leaves warned trials out unless ``include_warned`` (:func:`analysis.metrics.summarize`)."""
     results = tuple(o for o in outcomes if isinstance(o, SessionResult))
@@ -325,20 +363,33 @@ def analyse_or_fail(
     figure_cache: FigureCache | None = None,
     continuations: Sequence[str] = (),
     identity: SessionIdentity | None = None,
-) -> Outcome:
+    detections: list[list[Detections]] | None = None,
+) -> Analysed:
     """One session's result, or a :class:`SessionFailure` saying why (never raises but for
     Ctrl-C); a session over ``options.session_timeout_s`` is stopped and fails."""
+    analyse = functools.partial(
+        analyse_session, path, options, render_images=images, results_path=results,
+        figure_cache=figure_cache, continuations=continuations, identity=identity,
+        detections=detections,
+    )  # fmt: skip
+    return _or_fail(path, options, analyse)
+
+
+def _noise_or_fail(
+    path: str, options: AnalysisOptions, continuations: Sequence[str]
+) -> NoisePass | SessionFailure:
+    """A session's first pass, or why it failed (:func:`analyse_or_fail`'s rules)."""
+    return _or_fail(path, options, lambda: noise_pass(path, options, continuations))
+
+
+def _or_fail(
+    path: str, options: AnalysisOptions, work: Callable[[], _Done]
+) -> _Done | SessionFailure:
+    """``work()``'s result, or a :class:`SessionFailure` saying why it failed or ran out
+    of ``options.session_timeout_s``."""
     try:
         with _time_limit(options.session_timeout_s):
-            return analyse_session(
-                path,
-                options,
-                render_images=images,
-                results_path=results,
-                figure_cache=figure_cache,
-                continuations=continuations,
-                identity=identity,
-            )
+            return work()
     except _SessionTimeoutError:
         return SessionFailure(
             session=path,
@@ -384,8 +435,8 @@ def _time_limit(seconds: float | None) -> Iterator[None]:
 # --------------------------------------------------------------------------- Dask
 
 
-def _analyse_at(index: int, results: str | None, *, batch: _Batch) -> Outcome:
-    """:meth:`_Batch.analyse` with the per-session arguments first, for ``client.map``."""
+def _analyse_at(index: int, results: str | None, batch: _Batch) -> Outcome:
+    """:meth:`_Batch.analyse` with the per-session arguments, for ``client.map``."""
     return batch.analyse(index, results, images=batch.images)
 
 
@@ -410,7 +461,8 @@ def _run_dask(batch: _Batch, address: str) -> list[Outcome]:
         # A worker that dies mid-session (killed, out of memory) loses its task to the
         # scheduler, which runs it again on another worker (``allowed-failures``, 3).
         task = batch.for_workers()  # what a worker needs
-        futures = client.map(_analyse_at, range(len(files)), results, batch=task, pure=False)
+        tasks = [task.for_session(i) for i in range(len(files))]
+        futures = client.map(_analyse_at, range(len(files)), results, tasks, pure=False)
         index = {fut.key: i for i, fut in enumerate(futures)}
         outcomes: list[Outcome | None] = [None] * len(files)
         for fut in as_completed(futures):  # progress as sessions finish, in any order

@@ -119,32 +119,55 @@ def summarize(trials: pd.DataFrame, *, include_warned: bool = False) -> pd.DataF
 
 def noise_summary(trials: pd.DataFrame) -> dict[str, object]:
     """A session's noise model (``summary.csv``'s last columns): the placing sigma its
-    regions assumed and where it came from, and sigma0 pooled over its ok trials'
-    misclosures (:func:`twopose.misclosure.pooled`'s rule) with its test. A table from
-    before the columns: not known."""
+    regions assumed, where it came from and the multiplier taken with its degrees of
+    freedom; sigma0 over its unflagged ok trials' misclosures under the typed model, with
+    its chi-square test (:class:`twopose.noise.VarianceFactor`'s rule); the flagged trials.
+    A table from before the columns: not known."""
     from twopose.noise import VarianceFactor
 
     if "misclosure_dof" not in trials:
         return {}
     ok = trials[trials["status"] == "ok"]
-    chi2 = pd.to_numeric(ok["misclosure_chi2"], errors="coerce").to_numpy(dtype=np.float64)
-    dof = pd.to_numeric(ok["misclosure_dof"], errors="coerce").fillna(0).to_numpy()
+    flagged = _flags(ok)
+    kept = ok[~flagged]
+    chi2 = pd.to_numeric(kept["misclosure_chi2"], errors="coerce").to_numpy(dtype=np.float64)
+    dof = pd.to_numeric(kept["misclosure_dof"], errors="coerce").fillna(0).to_numpy()
     use = np.isfinite(chi2) & (dof > 0)
     total = int(dof[use].sum())
     factor = VarianceFactor(
         sigma0_sq=float(chi2[use].sum() / total) if total else np.nan, dof=total
     )
-    widening = pd.to_numeric(ok["noise_widening"], errors="coerce")
+    widening = pd.to_numeric(kept["noise_widening"], errors="coerce")
     sigma = pd.to_numeric(trials["placing_sigma"], errors="coerce")
     sources = [s for s in trials["placing_source"].astype(str) if s]
+    scale = _first_number(trials, "placing_scale")
     return {
         "placing_sigma": float(sigma.median()) if sigma.notna().any() else np.nan,
         "placing_source": sources[0] if sources else "",
+        "placing_scale": scale,
+        "placing_dof": _first_number(trials, "placing_dof"),
         "sigma0": float(np.sqrt(factor.sigma0_sq)) if total else np.nan,
         "sigma0_dof": total,
-        "noise_contradicted": bool((widening > 1).any()),
+        "sigma0_p": factor.p_upper if total else np.nan,
+        "noise_contradicted": factor.contradicted,
         "noise_widening": float(widening.max()) if widening.notna().any() else np.nan,
+        "n_flagged": int(flagged.sum()),
     }
+
+
+def _flags(trials: pd.DataFrame) -> pd.Series:
+    """Which of ``trials`` are flagged (none in a table from before the column)."""
+    if "flagged" not in trials:
+        return pd.Series(data=False, index=trials.index)
+    return trials["flagged"].fillna(value=False).astype(bool)
+
+
+def _first_number(trials: pd.DataFrame, column: str) -> float:
+    """The first known value of a column the session's trials share (NaN: none)."""
+    if column not in trials:
+        return np.nan
+    values = pd.to_numeric(trials[column], errors="coerce").dropna()
+    return float(values.iloc[0]) if len(values) else np.nan
 
 
 def _identity(trials: pd.DataFrame) -> dict[str, str]:

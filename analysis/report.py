@@ -16,7 +16,6 @@ import pandas as pd
 from analysis.answer import (
     ANSWER_COLUMNS,
     answer_table,
-    noise_phrases,
     number,
     readable,
     session_order,
@@ -335,27 +334,11 @@ def _inputs_line(result: RunResult) -> list[str]:
 
 
 def _noise_section(result: RunResult) -> list[str]:
-    """Per session, the noise its 95% regions assumed: which placing sigma and where it
-    came from (typed, or measured by a board session: ``run --rig``), and sigma0's test
-    of it by the session's redundant trials (:mod:`twopose.noise`)."""
-    items = [
-        f"<li><b>{html.escape(shown_name(r))}</b>: {html.escape(' '.join(noise_phrases(r)))}</li>"
-        for _, r in session_order(result.summary).iterrows()
-        if noise_phrases(r)
-    ]
-    if not items:
-        return []
-    return [
-        "<h3 id='noise'>The noise model the regions assumed</h3>",
-        "<p>Each trial's 95% region propagates the frames' scatter, the calibration's "
-        "1-sigma and the operator's placing sigma (each pose's typed resolution, or the one a "
-        "board session measured). Trials with redundant measurements (a point from 2 or more "
-        "poses, a line from 3 or more) test that model: sigma0, the a-posteriori variance "
-        "factor pooled over a session, is 1 when it holds. When the data contradict it "
-        "(the chi-square's upper 5%), every region of the session is widened by sigma0 with "
-        "Fisher's F quantile; when they agree, nothing changes (docs/uncertainty.md).</p>",
-        f"<ul class='noise'>{''.join(items)}</ul>",
-    ]
+    """Per session, the noise its 95% regions assumed and the trials whose poses disagree,
+    after the rule applied (:func:`analysis.noise_report.noise_section`)."""
+    from analysis.noise_report import noise_section
+
+    return noise_section(result.summary, result.trials)
 
 
 def _thesis_section(result: RunResult) -> list[str]:

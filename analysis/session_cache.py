@@ -20,6 +20,9 @@ things, and its entry in the cache is named by a digest of all five (:meth:`Sess
   (:func:`twopose.environment.results_environment`, the one declared list the code that
   applies them reads too: ``TWOPOSE_MAX_IMAGE_MPIX``, ``TWOPOSE_MAX_CHUNK_MB``), as read
   where the session is analysed;
+* for a session pooled with its operator's other sessions of the run, its **prior** from
+  them (:func:`analysis.noise_pass.prior_salt`, the ``salt`` of :meth:`SessionCache.key`);
+  its first pass (:meth:`SessionCache.noise`) is kept under the session's own key;
 * the **code**: twopose's version, a digest of every file of the ``analysis`` and
   ``twopose`` packages, and the versions of Python, NumPy, pandas and OpenCV.
 
@@ -60,6 +63,7 @@ if TYPE_CHECKING:
     import pandas as pd
 
     from analysis.input_set import SessionIdentity
+    from analysis.noise_pass import NoisePass
     from analysis.results import AnalysisOptions, SessionFailure, SessionResult
 
 __all__ = ["CACHE_FOLDER", "SessionCache", "code_version", "options_digest"]
@@ -73,6 +77,8 @@ _STARTED = ".run-started"  # its modification time: entries older were not used 
 _OUTPUTS = "outputs.json"  # the last run's outputs: its key and each one's SHA-256
 #: The SessionResult fields an entry keeps (the figures are the figure cache's).
 _FIELDS = ("session", "metadata", "frames", "trials", "averaging", "views", "rig", "label")
+#: The first pass's entries (analysis.noise_pass): their key's salt and their suffix.
+_FIRST_PASS, _FIRST_PASS_SUFFIX = "first pass", ".noise.pickle"
 
 
 @functools.cache
@@ -165,12 +171,16 @@ class SessionCache:
             )
         return cache
 
-    def key(self, path: str, continuations: Sequence[str], identity: SessionIdentity) -> str:
+    def key(
+        self, path: str, continuations: Sequence[str], identity: SessionIdentity, salt: str = ""
+    ) -> str:
         """The entry's name: a digest of the session's identity, its parts' bytes, the
-        options, the environment and the code (see the module docstring)."""
+        options, the environment and the code (see the module docstring); ``salt``: what else
+        the session's analysis depends on (its prior from its operator's other sessions,
+        :func:`analysis.noise_pass.prior_salt`; the first pass's entry)."""
         from twopose.environment import results_environment
 
-        h = hashlib.sha256(_text(f"{_FORMAT}\0{self.setting}\0"))
+        h = hashlib.sha256(_text(f"{_FORMAT}\0{self.setting}\0{salt}\0"))
         h.update(_text(json.dumps(_canonical(results_environment()))))
         h.update(_text(json.dumps(_canonical([str(path), [str(c) for c in continuations]]))))
         h.update(_text(json.dumps(_canonical(identity))))
@@ -186,10 +196,11 @@ class SessionCache:
         identity: SessionIdentity | None,
         results: str | None,
         analyse: Callable[[], SessionResult | SessionFailure],
+        salt: str = "",
     ) -> SessionResult | SessionFailure:
         """Session ``path``'s outcome: the kept analysis when its entry is there (see
-        :meth:`key`), else ``analyse()``'s, kept for the next run when it succeeded and its
-        files did not change while it ran."""
+        :meth:`key`, ``salt`` in it), else ``analyse()``'s, kept for the next run when it
+        succeeded and its files did not change while it ran."""
         parts = (path, *continuations)
         try:
             before = [_stamp(p) for p in parts]
@@ -197,7 +208,7 @@ class SessionCache:
                 from analysis.input_set import SessionIdentity
 
                 identity = SessionIdentity.of_files(path, continuations)
-            key = self.key(path, continuations, identity)
+            key = self.key(path, continuations, identity, salt)
         except OSError:  # unreadable: the analysis says why
             return analyse()
         kept = self.load(key, results)
@@ -211,6 +222,39 @@ class SessionCache:
                 self.store(key, outcome, results)
                 return dataclasses.replace(outcome, analysis_key=key)
         return outcome
+
+    def noise(
+        self,
+        path: str,
+        continuations: Sequence[str],
+        identity: SessionIdentity | None,
+        compute: Callable[[], NoisePass | SessionFailure],
+    ) -> NoisePass | SessionFailure:
+        """Session ``path``'s first pass (:mod:`analysis.noise_pass`): its statistics as
+        the previous run kept them under the session's key, else ``compute()``'s, kept."""
+        from analysis.noise_pass import NoisePass, statistics_from_json, statistics_json
+
+        try:
+            if identity is None:
+                from analysis.input_set import SessionIdentity
+
+                identity = SessionIdentity.of_files(path, continuations)
+            key = self.key(path, continuations, identity, _FIRST_PASS)
+        except OSError:
+            return compute()
+        entry_path = Path(self.folder) / f"{key}{_FIRST_PASS_SUFFIX}"
+        if self.reuse:
+            with contextlib.suppress(Exception):  # unreadable or another's: computed again
+                entry = _SafeUnpickler(io.BytesIO(entry_path.read_bytes())).load()
+                if (entry["format"], entry["key"]) == (_FORMAT, key):
+                    os.utime(entry_path)  # used by this run: kept by prune
+                    return NoisePass(session=path, statistics=statistics_from_json(entry["stats"]))
+        done = compute()
+        if isinstance(done, NoisePass):
+            kept = {"format": _FORMAT, "key": key, "stats": statistics_json(done.statistics)}
+            with contextlib.suppress(Exception):  # a saving, never a reason to fail
+                _write(entry_path, pickle.dumps(kept, protocol=5))
+        return done
 
     def load(self, key: str, results: str | None) -> SessionResult | None:
         """The session as the entry ``key`` keeps it, with its results.mcap linked to

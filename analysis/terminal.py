@@ -20,6 +20,7 @@ from analysis.answer import noise_phrases, session_order, shown_name
 from analysis.answer import number as _num
 from analysis.answer import share as _share
 from analysis.metrics import SESSION_SETS, by_session_set, summarize
+from analysis.noise_report import flagged_lines
 from twopose.units import UNIT_SPECS, Units, unit_spec
 
 __all__ = ["UNIT_NAMES", "closing_lines", "summary_lines", "wrap_phrases"]
@@ -78,6 +79,8 @@ def summary_lines(
         if noise:  # the noise model its regions assumed (twopose.noise)
             phrases = [*phrases[:-1], phrases[-1] + ";", *noise]
         lines += wrap_phrases(phrases, width, indent="  ")
+        for flagged in flagged_lines(trials, str(r["session"])):  # poses that disagree
+            lines += wrap_phrases(["flagged:", *flagged.split(" ")], width, indent="    ")
     return lines
 
 

@@ -22,13 +22,15 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from analysis.drawer import sigint_blocked
+from analysis.noise_pass import NoisePass
 from analysis.pipeline import keep_frame_buffers
 from analysis.results import SessionFailure, SessionResult
 
 __all__ = ["STOP_GRACE_S", "Outcome", "Sessions", "run_processes"]
 
-#: What one session's analysis gives: its tables, or why it failed.
-Outcome = SessionResult | SessionFailure
+#: What one session's analysis gives: its tables, or why it failed (its first pass: its
+#: statistics, :mod:`analysis.noise_pass`).
+Outcome = SessionResult | SessionFailure | NoisePass
 
 
 class Sessions(Protocol):
@@ -53,6 +55,10 @@ class Sessions(Protocol):
 
     def for_workers(self) -> Sessions:
         """The same sessions without what stays in this process (the progress callback)."""
+        ...
+
+    def for_session(self, index: int) -> Sessions:
+        """What a worker needs for session ``index`` alone (not every session's detections)."""
         ...
 
 
@@ -149,7 +155,8 @@ def run_processes(batch: Sessions, jobs: int) -> list[Outcome]:
                 with sigint_blocked():  # the workers start as the sessions are submitted
                     task = batch.for_workers()  # what a worker needs
                     futures = [
-                        pool.submit(_worker_task, i, task, results[i]) for i in range(len(files))
+                        pool.submit(_worker_task, i, task.for_session(i), results[i])
+                        for i in range(len(files))
                     ]
                 for i in reversed(range(len(files))):
                     if not _claim(claims, i):

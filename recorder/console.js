@@ -277,7 +277,7 @@ function renderDecision(s) {
   const p = deciding ? s.preview : null;
   show(preview, !!p);
   setText($("preview-result"), p ? p.text : "");
-  preview.classList.toggle("warned", !!p && (!!p.warning || p.outside95 || p.status !== "ok"));
+  preview.classList.toggle("warned", !!p && (!!p.warning || p.outside95 || p.flagged || p.status !== "ok"));
   if (!deciding) {
     show($("note-refusal"), false);
   }
@@ -333,7 +333,7 @@ function renderResults(s) {
       const li = el("li", r.text);
       li.dataset.testid = "trial-result";
       li.dataset.trial = r.trial;
-      if (r.status !== "ok" || r.warning || r.outside95) li.classList.add("warned");
+      if (r.status !== "ok" || r.warning || r.outside95 || r.flagged) li.classList.add("warned");
       return li;
     }));
     if (!s.results.length) list.append(el("li", "none yet: a trial's result shows once its poses are accepted", "small"));

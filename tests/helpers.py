@@ -294,8 +294,36 @@ def distinct_copies(session: Path, folder: Path, n: int, stem: str = "s") -> lis
     entry (and the metadata's copy of it) given a session and part id of its own, and an
     extra MCAP metadata record numbering it, so that a batch counts them as ``n`` sessions
     and not as one session copied ``n`` times (twopose.format.identity)."""
-    import dataclasses
     import hashlib
+
+    folder.mkdir(parents=True, exist_ok=True)
+    out = []
+    for k in range(n):
+        path = folder / f"{stem}{k:03d}.mcap"
+        ids = hashlib.sha256(f"{session}:{stem}:{k}".encode()).hexdigest()
+        rewrite_session(
+            session,
+            path,
+            metadata={"test_copy": {"number": str(k)}},
+            ids=(ids[:32], ids[32:]),
+        )
+        out.append(path)
+    return out
+
+
+def rewrite_session(
+    session: Path,
+    out: Path,
+    *,
+    metadata: dict[str, dict[str, str]] | None = None,
+    edit: Callable[[str, bytes], bytes] | None = None,
+    ids: tuple[str, str] | None = None,
+) -> Path:
+    """``session`` copied to ``out`` message by message: with ``metadata`` records added,
+    each message's data through ``edit(topic, data)`` (a typed entry edited by hand), and
+    with ``ids``, its session entry (and the metadata's copy of it) given that session and
+    part id."""
+    import dataclasses
 
     from mcap.reader import make_reader
     from mcap.writer import Writer
@@ -303,52 +331,49 @@ def distinct_copies(session: Path, folder: Path, n: int, stem: str = "s") -> lis
     from twopose.format.entries import SessionInfo, decode_entry, encode_entry
     from twopose.format.writer import METADATA_NAME
 
-    def renamed(entry: bytes, k: int) -> bytes:
+    def renamed(entry: bytes) -> bytes:
+        if ids is None:
+            return entry
         info = decode_entry(SessionInfo.SCHEMA_NAME, entry)
         assert isinstance(info, SessionInfo)
-        ids = hashlib.sha256(f"{session}:{stem}:{k}".encode()).hexdigest()
-        return encode_entry(dataclasses.replace(info, session_id=ids[:32], part_id=ids[32:]))
+        return encode_entry(dataclasses.replace(info, session_id=ids[0], part_id=ids[1]))
 
-    folder.mkdir(parents=True, exist_ok=True)
     with open(session, "rb") as stream:
         reader = make_reader(stream)
         summary = reader.get_summary()
         assert summary is not None
-        metadata = [(m.name, dict(m.metadata)) for m in reader.iter_metadata()]
+        kept = [(m.name, dict(m.metadata)) for m in reader.iter_metadata()]
         messages = list(reader.iter_messages(log_time_order=False))
-    out = []
-    for k in range(n):
-        path = folder / f"{stem}{k:03d}.mcap"
-        with open(path, "wb") as sink:
-            writer = Writer(sink)
-            writer.start(profile="", library="twopose tests")
-            schemas: dict[int, int] = {}
-            channels: dict[int, int] = {}
-            for sid, schema in summary.schemas.items():
-                schemas[sid] = writer.register_schema(schema.name, schema.encoding, schema.data)
-            for cid, channel in summary.channels.items():
-                channels[cid] = writer.register_channel(
-                    channel.topic,
-                    channel.message_encoding,
-                    schemas.get(channel.schema_id, 0),
-                    dict(channel.metadata),
-                )
-            for name, data in metadata:
-                if name == METADATA_NAME:
-                    data = {**data, "session": renamed(data["session"].encode(), k).decode()}
-                writer.add_metadata(name, data)
-            writer.add_metadata("test_copy", {"number": str(k)})
-            for _schema, channel, message in messages:
-                entry = channel.topic == SessionInfo.TOPIC
-                writer.add_message(
-                    channels[channel.id],
-                    message.log_time,
-                    renamed(message.data, k) if entry else message.data,
-                    message.publish_time,
-                    message.sequence,
-                )
-            writer.finish()
-        out.append(path)
+    with open(out, "wb") as sink:
+        writer = Writer(sink)
+        writer.start(profile="", library="twopose tests")
+        schemas: dict[int, int] = {}
+        channels: dict[int, int] = {}
+        for sid, schema in summary.schemas.items():
+            schemas[sid] = writer.register_schema(schema.name, schema.encoding, schema.data)
+        for cid, channel in summary.channels.items():
+            channels[cid] = writer.register_channel(
+                channel.topic,
+                channel.message_encoding,
+                schemas.get(channel.schema_id, 0),
+                dict(channel.metadata),
+            )
+        for name, values in [*kept, *(metadata or {}).items()]:
+            if name == METADATA_NAME and "session" in values:
+                values = {**values, "session": renamed(values["session"].encode()).decode()}
+            writer.add_metadata(name, values)
+        for _schema, channel, message in messages:
+            data = message.data if edit is None else edit(channel.topic, message.data)
+            if channel.topic == SessionInfo.TOPIC:
+                data = renamed(data)
+            writer.add_message(
+                channels[channel.id],
+                message.log_time,
+                data,
+                message.publish_time,
+                message.sequence,
+            )
+        writer.finish()
     return out
 
 

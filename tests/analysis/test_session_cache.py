@@ -36,7 +36,9 @@ REUSED = "analysis: {n} of {m} session(s)' reused from the last run into"
 
 
 def _entries(out: Path) -> list[Path]:
-    return sorted((out / CACHE_FOLDER / "sessions").glob("*.pickle"))
+    """The sessions' analyses kept (not their first passes': analysis.noise_pass)."""
+    kept = (out / CACHE_FOLDER / "sessions").glob("*.pickle")
+    return sorted(p for p in kept if not p.name.endswith(".noise.pickle"))
 
 
 def _run(folder: Path, out: Path, *extra: str) -> str:

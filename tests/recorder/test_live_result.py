@@ -129,7 +129,7 @@ def test_a_live_result_that_fails_is_said_and_the_recording_goes_on(
     def broken(*args: object, **kwargs: object) -> object:
         raise np.linalg.LinAlgError("injected")
 
-    monkeypatch.setattr(recorder.live_result, "trial_results", broken)
+    monkeypatch.setattr(recorder.live_result, "estimate_session", broken)
     plan_file = tmp_path / "plan.toml"
     plan_file.write_text(PLAN.format(method="point", truth=TRUTH["point"]))
     out = tmp_path / "s.mcap"
