@@ -47,10 +47,12 @@ MAX_SESSIONS = 200
 
 def noise_dir() -> Path:
     """Where the operators' noise files are (see the module)."""
-    given = os.environ.get("TWOPOSE_NOISE_DIR")
+    from twopose.environment import NOISE_DIR, XDG_DATA_HOME
+
+    given = NOISE_DIR.text()
     if given:
         return Path(given)
-    data = os.environ.get("XDG_DATA_HOME") or str(Path.home() / ".local" / "share")
+    data = XDG_DATA_HOME.text() or str(Path.home() / ".local" / "share")
     return Path(data) / "twopose" / "operators"
 
 

@@ -20,6 +20,8 @@ __all__ = [
     "ENVIRONMENT",
     "MAX_CHUNK_MB",
     "MAX_IMAGE_MPIX",
+    "NOISE_DIR",
+    "XDG_DATA_HOME",
     "EnvironmentSetting",
     "markdown_table",
     "results_environment",
@@ -44,6 +46,8 @@ class EnvironmentSetting:
     example: str
     numeric: bool = True
     unit: str = ""  # of a number: how the docs say its default
+    #: Of a text setting (a folder): what stands in when it is unset, as the docs say it.
+    otherwise: str = ""
 
     def read(self) -> float | None:
         """Its value now.
@@ -60,6 +64,13 @@ class EnvironmentSetting:
             return float(text)
         except ValueError:
             return self.default
+
+    def text(self) -> str | None:
+        """Its text now, for a setting that names something (a folder).
+
+        None when unset or empty.
+        """
+        return os.environ.get(self.name) or None
 
 
 #: The largest image decoded (megapixels): a frame over it is a rejected frame.
@@ -89,9 +100,36 @@ DEBUG = EnvironmentSetting(
     example="1",
     numeric=False,
 )
+#: The folder of the operators' noise files (the recorder's live result: recorder.operator_noise).
+NOISE_DIR = EnvironmentSetting(
+    name="TWOPOSE_NOISE_DIR",
+    default=None,
+    help="the folder of the operators' noise files, the recorder's live result's prior",
+    shapes_results=False,  # the recorder's live result; the analysis never reads it
+    example="/tmp/twopose-operators",
+    numeric=False,
+    otherwise="`$XDG_DATA_HOME/twopose/operators`",
+)
+#: Where a user's data lives (the XDG convention), when ``TWOPOSE_NOISE_DIR`` is unset.
+XDG_DATA_HOME = EnvironmentSetting(
+    name="XDG_DATA_HOME",
+    default=None,
+    help="the user's data folder (the XDG convention), under which the noise files go "
+    "when `TWOPOSE_NOISE_DIR` is unset",
+    shapes_results=False,
+    example="/tmp/xdg-data",
+    numeric=False,
+    otherwise="`~/.local/share`",
+)
 
 #: Every environment setting, in the order the docs list them.
-ENVIRONMENT: tuple[EnvironmentSetting, ...] = (MAX_IMAGE_MPIX, MAX_CHUNK_MB, DEBUG)
+ENVIRONMENT: tuple[EnvironmentSetting, ...] = (
+    MAX_IMAGE_MPIX,
+    MAX_CHUNK_MB,
+    DEBUG,
+    NOISE_DIR,
+    XDG_DATA_HOME,
+)
 
 
 def results_environment() -> dict[str, float | None]:
@@ -110,7 +148,7 @@ def markdown_table() -> str:
     )
     rows = []
     for s in ENVIRONMENT:
-        default = f"{s.default:g} {s.unit}" if s.default is not None else "unset"
+        default = f"{s.default:g} {s.unit}" if s.default is not None else s.otherwise or "unset"
         rerun = "analyses again" if s.shapes_results else "reuses the analysis"
         rows.append(f"| `{s.name}` | {default} | {s.help} | {rerun} |")
     return head + "\n".join(rows) + "\n"
