@@ -7,7 +7,7 @@ import shlex
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 from types import TracebackType
-from typing import IO, Any, Self
+from typing import IO, TYPE_CHECKING, Any, Self
 
 from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
 from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
@@ -19,6 +19,7 @@ from twopose.format.entries import (
     FORMAT_MAJOR,
     TYPED_ENTRIES,
     GroundPlane,
+    PairEntry,
     SessionInfo,
     TypedEntry,
     decode_entry,
@@ -32,6 +33,9 @@ from twopose.format.messages import (
 )
 from twopose.format.writer import METADATA_NAME
 
+if TYPE_CHECKING:
+    from twopose.pair.calibration import PairCalibration
+
 __all__ = [
     "STAGING_FOLDER",
     "Entry",
@@ -40,6 +44,7 @@ __all__ = [
     "find_sessions",
     "is_results_file",
     "max_chunk_bytes",
+    "records_capture_times",
     "recover_command",
 ]
 
@@ -67,6 +72,12 @@ _JSON_SCHEMAS = {cls.SCHEMA_NAME for cls in TYPED_ENTRIES}
 def recover_command(path: str | Path) -> str:
     """The command that salvages an interrupted session, ready to paste into a shell."""
     return f"twopose-record recover {shlex.quote(str(path))} -o FIXED.mcap"
+
+
+def records_capture_times(version: str) -> bool:
+    """Whether a file of format ``version`` records its frames' capture times (1.6 on)."""
+    match = re.fullmatch(r"(\d{1,9})\.(\d{1,9})", version)
+    return match is not None and (int(match.group(1)), int(match.group(2))) >= (1, 6)
 
 
 def check_version(path: Path, version: str) -> None:
@@ -106,6 +117,8 @@ class SessionReader:
         self._info: SessionInfo | None = None
         self._cameras: dict[str, Camera] = {}
         self._ground: GroundPlane | None = None
+        self._pair: PairEntry | None = None
+        self._capture_times = False
 
     def __enter__(self) -> Self:
         """Open the file and read its summary, metadata and typed entries."""
@@ -162,6 +175,7 @@ class SessionReader:
         self.format_version = metadata[METADATA_NAME].get("format_version", "")
         self.software_version = metadata[METADATA_NAME].get("software_version", "")
         check_version(self.path, self.format_version)
+        self._capture_times = records_capture_times(self.format_version)
         self._reader = reader
         self._read_opening([c.topic for c in summary.channels.values()])
 
@@ -182,13 +196,15 @@ class SessionReader:
 
     def _read_opening(self, topics: list[str]) -> None:
         """The session entry, the ground plane and every camera's calibration."""
-        wanted = [SessionInfo.TOPIC, GroundPlane.TOPIC]
+        wanted = [SessionInfo.TOPIC, GroundPlane.TOPIC, PairEntry.TOPIC]
         wanted += [t for t in topics if t.endswith("/calibration")]
-        for item in self.iter_entries(topics=wanted):
+        for item in self.iter_entries(topics=[t for t in wanted if t in topics]):
             if isinstance(item, SessionInfo) and self._info is None:
                 self._info = item
             elif isinstance(item, GroundPlane):
                 self._ground = item
+            elif isinstance(item, PairEntry) and self._pair is None:
+                self._pair = item
             elif isinstance(item, Camera):
                 self._cameras[item.camera_id] = item
         if self._info is None:
@@ -213,6 +229,30 @@ class SessionReader:
                 f"{self.path}: no calibration for camera(s) {', '.join(missing)} "
                 f"on {calibration_topic(missing[0])}"
             )
+        if self._pair is not None:
+            self._check_pair(self._pair)
+
+    def _check_pair(self, pair: PairEntry) -> None:
+        """A two-camera session's pair: of its two cameras, their intrinsics its own."""
+        ids = (pair.camera1, pair.camera2)
+        if self.info.camera_ids != ids:
+            raise SessionFormatError(
+                f"{self.path}: the pair's cameras {list(ids)} are not the session's "
+                f"{list(self.info.camera_ids)}; the file was not written consistently"
+            )
+        calibration = pair.calibration
+        for cid, intrinsics in zip(ids, (calibration.intrinsics1, calibration.intrinsics2),
+                                   strict=True):  # fmt: skip
+            if self._cameras[cid].intrinsics != intrinsics:
+                raise SessionFormatError(
+                    f"{self.path}: camera {cid}'s calibration differs from the pair's "
+                    "intrinsics; the file was not written consistently"
+                )
+        if calibration.units != self.info.units:
+            raise SessionFormatError(
+                f"{self.path}: the pair is in {calibration.units}, the session in "
+                f"{self.info.units}; the file was not written consistently"
+            )
 
     @property
     def info(self) -> SessionInfo:
@@ -230,6 +270,16 @@ class SessionReader:
         """The ground plane, if the session has one."""
         return self._ground
 
+    @property
+    def pair(self) -> PairCalibration | None:
+        """A two-camera session's pair (format 1.6), in the session's units; else None."""
+        return None if self._pair is None else self._pair.calibration
+
+    @property
+    def records_capture_times(self) -> bool:
+        """Whether its frames carry their capture times (format 1.6 on)."""
+        return self._capture_times
+
     def message_counts(self) -> dict[str, int]:
         """Messages per topic, from the summary statistics."""
         assert self._reader is not None
@@ -242,20 +292,32 @@ class SessionReader:
             if cid in summary.channels
         }
 
-    def iter_entries(self, topics: Iterable[str] | None = None) -> Iterator[Entry]:
+    def iter_entries(
+        self,
+        topics: Iterable[str] | None = None,
+        *,
+        start_ns: int | None = None,
+        end_ns: int | None = None,
+    ) -> Iterator[Entry]:
         """Decoded messages in log-time order: typed entries, frames, transforms, cameras.
 
         Parameters
         ----------
         topics : iterable of str, optional
             Only these topics (all when None).
+        start_ns, end_ns : int, optional
+            Only messages with ``start_ns <= log_time <= end_ns`` (the index skips the
+            chunks outside).
         """
-        if self._reader is None:
-            raise TwoposeError("use SessionReader as a context manager")
+        if self._reader is None or self._stream is None:
+            raise TwoposeError("use SessionReader as a context manager (the file is closed)")
         topic_list = None if topics is None else list(topics)
         try:
             for schema, channel, message in self._reader.iter_messages(
-                topics=topic_list, log_time_order=True
+                topics=topic_list,
+                starting_at=start_ns,
+                ending_at=end_ns,
+                log_time_order=True,
             ):
                 entry = self._entry(schema, channel, message)
                 if entry is not None:
@@ -290,6 +352,7 @@ class SessionReader:
                 sequence=message.sequence,
                 format=decoded.format,
                 data=bytes(decoded.data),
+                capture_ns=decoded.timestamp.ToNanoseconds() if self._capture_times else None,
             )
         if isinstance(decoded, CameraCalibration):
             return camera_from_message(decoded)

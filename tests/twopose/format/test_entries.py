@@ -30,6 +30,8 @@ from twopose.methods import Method
 from twopose.targets import BoardPlacement
 from twopose.units import Units
 
+from tests.twopose.format.pair_examples import PAIR_SESSION_EXAMPLES
+
 EXAMPLES = [
     SessionInfo(  # the first of its kind has every field (the schema's order is checked on it)
         method=Method.BOARD,
@@ -54,6 +56,7 @@ EXAMPLES = [
             target_distance=11.0,
             given={"reach": "2.50", "min_gain": "2.5e-1"},
         ),
+        clocks={"cam0": "driver"},  # format 1.6
     ),
     SessionInfo(
         method=Method.GROUND,
@@ -98,6 +101,7 @@ EXAMPLES = [
         points_grid=((1, 2, 3),),
         rig=(0.8, -0.5, 0.3, 0.3, 0.2, 0.4, 1.03, 0.0, 0.0, 1.0, 0.0),  # the rig's constants
     ),
+    *PAIR_SESSION_EXAMPLES,
 ]
 
 
@@ -109,7 +113,7 @@ def test_every_entry_round_trips_through_its_json(entry: object) -> None:
 
 @pytest.mark.parametrize("cls", TYPED_ENTRIES, ids=lambda c: c.__name__)
 def test_schema_properties_are_the_declared_fields_in_order(cls: type[Any]) -> None:
-    keys = [f.metadata["json"].split(".")[0] for f in dataclasses.fields(cls)]
+    keys = [f.metadata["json"].split(".")[0] for f in dataclasses.fields(cls) if "json" in f.metadata]
     assert list(cls.JSON_SCHEMA["properties"]) == list(dict.fromkeys(keys))
     assert set(cls.JSON_SCHEMA["required"]) <= set(cls.JSON_SCHEMA["properties"])
     example = next(e for e in EXAMPLES if type(e) is cls)
