@@ -218,7 +218,11 @@ def _camera_stream(
         if w.status == "open":
             later = [v.start_ns for v in windows[k + 1 :]]
             inside = (log >= w.start_ns) & (log < min(later)) if later else log >= w.start_ns
-            reasons.append(f"window {w.window} was never closed (the recording stopped)")
+            reasons.append(
+                f"window {w.window}'s closing entry is missing (a part of the file was lost)"
+                if later
+                else f"window {w.window} was never closed (the recording stopped)"
+            )
         else:
             inside = (log >= w.start_ns) & (log <= w.end_ns) if w.n_frames else log < 0
             if w.status != "complete":

@@ -177,16 +177,16 @@ class Stream:
     def __enter__(self) -> Self:
         """Begin the stream: announce its first window (one stream or capture at a time)."""
         self._writer._begin_capture(self)
-        self._open_window(self._writer.time(self._start_ns))
+        t = self._writer.time(self._start_ns)
+        self._writer.write_entries(self._open_window(t), t)
         return self
 
-    def _open_window(self, t_ns: int) -> None:
+    def _open_window(self, t_ns: int) -> list[StreamWindow]:
+        """The next window's announcements (its span and dropped counts begin)."""
         self.window += 1
         self.opened_ns = t_ns
         self._span, self._dropped = {}, dict.fromkeys(self.cameras, 0)
-        self._writer.write_entries(
-            [self._entry(c, t_ns, t_ns, 0, "open") for c in self.cameras], t_ns
-        )
+        return [self._entry(c, t_ns, t_ns, 0, "open") for c in self.cameras]
 
     def _entry(
         self, camera: str, start: int, end: int, n: int, status: WindowStatus, reason: str = ""
@@ -196,12 +196,13 @@ class Stream:
             n_frames=n, status=status, reason=reason, dropped_frames=self._dropped[camera],
         )  # fmt: skip
 
-    def _close_window(self, status: WindowStatus, reason: str) -> None:
+    def _closing(self, status: WindowStatus, reason: str) -> list[StreamWindow]:
+        """The open window's closing entries: each camera's span of its frames in it."""
         entries = []
         for c in self.cameras:
             first, last, n = self._span.get(c, (self.opened_ns, self.opened_ns, 0))
             entries.append(self._entry(c, first, last, n, status, reason))
-        self._writer.write_entries(entries, self._writer.last_ns, sync=True)
+        return entries
 
     def add_frame(
         self,
@@ -238,9 +239,9 @@ class Stream:
                     f"camera {camera_id}'s capture time {capture} ns is not after its previous "
                     f"frame's ({last_capture} ns): a frame given twice, or a clock gone back"
                 )
-        if self._span and t >= self.opened_ns + self.window_ns:
-            self._close_window("complete", "")
-            self._open_window(t)
+        if self._span and t >= self.opened_ns + self.window_ns:  # closed, synced, the next
+            closing = self._closing("complete", "")
+            self._writer.write_entries([*closing, *self._open_window(t)], t, sync=True)
         seq = self._writer.write_image(camera_id, data, t, capture)
         first, _, n = self._span.get(camera_id, (t, t, 0))
         self._span[camera_id] = (first, t, n + 1)
@@ -285,4 +286,7 @@ class Stream:
         self._writer._begin_capture(None)
         self._reason = self._reason or _stop_reason(exc_type, exc)
         if self._writer.is_open:
-            self._close_window("incomplete" if self._reason else "complete", self._reason)
+            status: WindowStatus = "incomplete" if self._reason else "complete"
+            self._writer.write_entries(
+                self._closing(status, self._reason), self._writer.last_ns, sync=True
+            )

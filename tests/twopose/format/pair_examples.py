@@ -50,20 +50,39 @@ PAIR_SESSION_EXAMPLES = [
     PairEntry.of(calibrated_pair(), ("left", "right")),
     ClockOffsetEntry(offset_ns=-1.25e7, sigma_ns=3.1e5, method="ray gap", n=412),
     StreamWindow(
-        trial=3, camera_id="left", window=2, start_ns=100, end_ns=900, n_frames=24,
-        status="incomplete", reason="the camera stopped", dropped_frames=1,
-    ),  # fmt: skip
+        trial=3,
+        camera_id="left",
+        window=2,
+        start_ns=100,
+        end_ns=900,
+        n_frames=24,
+        status="incomplete",
+        reason="the camera stopped",
+        dropped_frames=1,
+    ),
     Touch(trial=3, touch=2, time_ns=450, point=(3.0, 9.625, 24.0), how="button"),
     SimTrajectory(
-        trial=3, t_ns=(100, 200), points=((0.0, 2.0, 14.0), (0.1, 2.0, 14.0)),
-        directions=((0.0, 0.6, 0.8), (0.0, 0.6, 0.8)), length=3.0,
+        trial=3,
+        t_ns=(100, 200),
+        points=((0.0, 2.0, 14.0), (0.1, 2.0, 14.0)),
+        directions=((0.0, 0.6, 0.8), (0.0, 0.6, 0.8)),
+        length=3.0,
         frames=(SimFrames(camera_id="left", true_ns=(100, 200)),),
         clocks=(
-            SimClock(camera_id="left", fps=30.0, phase_ns=1e6, drift_ppm=0.0, jitter_ns=0.0,
-                     drop=0.0, offset_ns=0.0, latency_ns=4e7),
+            SimClock(
+                camera_id="left",
+                fps=30.0,
+                phase_ns=1e6,
+                drift_ppm=0.0,
+                jitter_ns=0.0,
+                drop=0.0,
+                offset_ns=0.0,
+                latency_ns=4e7,
+            ),
         ),
-        R_2_to_1=((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)), t_2_in_1=(6.0, 0.0, 0.0),
-    ),  # fmt: skip
+        R_2_to_1=((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)),
+        t_2_in_1=(6.0, 0.0, 0.0),
+    ),
 ]
 
 

@@ -10,6 +10,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from tests.twopose.format.pair_examples import PAIR_SESSION_EXAMPLES
 from twopose.errors import SessionFormatError
 from twopose.format.entries import (
     TYPED_ENTRIES,
@@ -29,8 +30,6 @@ from twopose.format.entries import (
 from twopose.methods import Method
 from twopose.targets import BoardPlacement
 from twopose.units import Units
-
-from tests.twopose.format.pair_examples import PAIR_SESSION_EXAMPLES
 
 EXAMPLES = [
     SessionInfo(  # the first of its kind has every field (the schema's order is checked on it)
@@ -113,7 +112,9 @@ def test_every_entry_round_trips_through_its_json(entry: object) -> None:
 
 @pytest.mark.parametrize("cls", TYPED_ENTRIES, ids=lambda c: c.__name__)
 def test_schema_properties_are_the_declared_fields_in_order(cls: type[Any]) -> None:
-    keys = [f.metadata["json"].split(".")[0] for f in dataclasses.fields(cls) if "json" in f.metadata]
+    keys = [
+        f.metadata["json"].split(".")[0] for f in dataclasses.fields(cls) if "json" in f.metadata
+    ]
     assert list(cls.JSON_SCHEMA["properties"]) == list(dict.fromkeys(keys))
     assert set(cls.JSON_SCHEMA["required"]) <= set(cls.JSON_SCHEMA["properties"])
     example = next(e for e in EXAMPLES if type(e) is cls)
