@@ -25,10 +25,10 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from twopose import __version__
 from twopose.lazy import lazy_exports
 
 if TYPE_CHECKING:
+    from twopose._version import __version__
     from recorder.camera_calibration import (
         Calibration,
         calibrate,
@@ -108,6 +108,7 @@ _HOMES = {
     "open_source": "recorder.sources",
     "Continued": "recorder.continuation",
     "read_continued": "recorder.continuation",
+    "__version__": "twopose._version",
 }
 
 

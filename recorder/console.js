@@ -19,17 +19,39 @@ let dismissedRefusal = 0; // the recorder's refusals up to this seq are answered
 let localRefusal = null; // {control, message}: a decision the server refused at once
 let quitAsked = false;
 let busy = false;
+// An answer on its way to the recorder ({what, words}): its controls are off and the
+// status says it was sent, until the state after it is polled (so a second click meets
+// a button that is off, under a status that does not offer it).
+let sent = null;
 
-async function act(action) {
-  // One operator action at a time: a double click does not send twice.
-  if (busy) return;
+async function act(action, control) {
+  // One operator action at a time: the controls are off while one is sent, and a key
+  // pressed meanwhile is refused in words, never dropped.
+  if (busy) {
+    sayBusy(control);
+    return;
+  }
   busy = true;
+  if (state) render();
   try {
     await action();
   } finally {
     busy = false;
   }
   await poll();
+  sent = null;
+  if (state) render();
+}
+
+function sayBusy(control) {
+  const message = "not now: your last answer is still on its way to the recorder";
+  if (control === "note") {
+    setText($("note-refusal"), message);
+    show($("note-refusal"), true);
+    return;
+  }
+  localRefusal = {control, message};
+  if (state) render();
 }
 
 // --------------------------------------------------------------------------- pose, decision
@@ -41,6 +63,8 @@ async function submitPose() {
   clearErrors(Object.keys(POSE_INPUTS));
   show($("pose-refusal"), false);
   dismissRefusals();
+  sent = {what: "pose", words: "trial " + state.trial + " pose " + state.pose + ": sent, to be captured"};
+  render();
   const answer = await post("/api/pose", body);
   if (answer.ok) return;
   const left = showErrors(answer.errors, (name) => $(POSE_INPUTS[name]));
@@ -55,9 +79,21 @@ function dismissRefusals() {
   if (state && state.refusal && state.refusal.seq) dismissedRefusal = state.refusal.seq;
 }
 
+// Whether the state offers this decision now (its button is on exactly then).
+function offered(s, choice) {
+  return !!s && connected && !sent && s.phase === "recording" && s.waiting === "decision" &&
+    (s.offers || []).includes(choice);
+}
+
 async function decide(choice) {
-  if (!state || state.waiting !== "decision") return;
+  // An offered decision is sent and its buttons go off at once; one not offered (a key
+  // pressed while the recorder captures or computes) is sent too, and the recorder says
+  // in words why it cannot take it.
+  if (!state) return;
   dismissRefusals();
+  if (offered(state, choice)) {
+    sent = {what: choice, words: "trial " + state.trial + " pose " + state.pose + ": " + choice.replace("_", " ") + " sent"};
+  }
   render();
   const answer = await post("/api/decide", {decision: choice});
   if (!answer.ok) localRefusal = {control: choice, message: answer.errors[choice] || answer.error};
@@ -107,7 +143,7 @@ function render() {
     setText($("setup-aside"), "the setup of " + s.continuing.file + ", kept; the operator and the stop rule are this file's");
   }
   show($("setup"), s.phase === "setup");
-  $("setup-submit").disabled = !connected;
+  $("setup-submit").disabled = !connected || busy;
 
   renderCapture(s);
   renderPose(s);
@@ -135,6 +171,9 @@ function renderStatus(s) {
     message = "the recorder stopped: run " + s.recover + " to salvage what was accepted " +
       "(not needed if it was stopped with Ctrl-C: that closes the file). The controls are " +
       "off; still trying to reach it...";
+  } else if (s.phase === "recording" && sent) {
+    level = "info";
+    message = sent.words + "...";
   } else if (s.phase === "recording" && s.computing) {
     level = "info"; // working, not a warning: the last result's colour is its own, below
     message = s.computing + "...";
@@ -156,7 +195,7 @@ function renderStatus(s) {
 }
 
 function renderPose(s) {
-  const typing = s.phase === "recording" && s.waiting === "pose";
+  const typing = s.phase === "recording" && s.waiting === "pose" && !sent;
   if (typing && wasWaiting !== "pose") {
     // A new placement: a new pose starts empty; a retyped one (after redo or undo)
     // shows what was typed for it. Never another pose's values.
@@ -216,7 +255,7 @@ function takeSuggestion() {
 
 function renderDecision(s) {
   const recording = s.phase === "recording" && connected;
-  const deciding = recording && s.waiting === "decision";
+  const deciding = recording && s.waiting === "decision" && !sent;
   show($("decision"), s.phase === "recording"); // shown, but off, while unreachable
   show($("finished"), s.phase === "done" || s.phase === "failed");
   if (changed("summary", [s.phase, s.summary, s.message])) {
@@ -233,14 +272,13 @@ function renderDecision(s) {
 
   const few = deciding && s.shortfall === "few";
   const none = deciding && s.shortfall === "none";
-  $("accept").disabled = !deciding || none;
-  show($("accept-anyway"), few);
-  $("accept-anyway").disabled = !few;
-  $("redo").disabled = !deciding;
-  $("undo").disabled = !deciding;
-  $("note-add").disabled = !deciding;
+  // Each decision's button is on exactly while the state offers it (the status says so).
+  for (const [choice, id] of Object.entries(BUTTON_OF)) $(id).disabled = !offered(s, choice);
+  show($("accept-anyway"), deciding && (s.offers || []).includes("accept_anyway"));
+  $("note-add").disabled = !deciding || busy;
   $("note-text").disabled = !deciding;
-  $("quit").disabled = !recording;
+  $("quit").disabled = !recording || !!sent;
+  $("quit-confirm").disabled = busy;
   if (!recording && quitAsked) askQuit(false);
 
   // The refusal of a decision, under the decision buttons, the button that caused it marked.
@@ -409,25 +447,26 @@ document.addEventListener("keydown", (event) => {
     takeSuggestion();
     return;
   }
-  if (typingIn(event.target) || !state || state.waiting !== "decision" || quitAsked) return;
+  if (typingIn(event.target) || !state || state.phase !== "recording" || !connected || quitAsked) return;
   const choice = DECISIONS[event.key];
   if (!choice) return;
   event.preventDefault();
-  act(() => decide(choice));
+  // A decision by its key, offered or not: the recorder takes it or says why not.
+  act(() => decide(choice), choice);
 });
 
 $("setup-form").addEventListener("submit", (event) => {
   event.preventDefault();
-  act(submitSetup);
+  act(submitSetup, "setup");
 });
 $("pose-form").addEventListener("submit", (event) => {
   event.preventDefault();
-  act(submitPose);
+  act(submitPose, "capture");
 });
 for (const [choice, id] of Object.entries(BUTTON_OF)) {
-  $(id).addEventListener("click", () => act(() => decide(choice)));
+  $(id).addEventListener("click", () => act(() => decide(choice), choice));
 }
-$("note-add").addEventListener("click", () => act(addNote));
+$("note-add").addEventListener("click", () => act(addNote, "note"));
 $("take-suggestion").addEventListener("click", takeSuggestion);
 for (const id of ["pose-x", "pose-y", "pose-z", "pose-rotation"]) {
   // A pose is numbers: "g" in its fields takes the suggestion instead of typing a letter.
@@ -441,12 +480,12 @@ for (const id of ["pose-x", "pose-y", "pose-z", "pose-rotation"]) {
 $("note-text").addEventListener("keydown", (event) => {
   if (event.key === "Enter") {
     event.preventDefault();
-    act(addNote);
+    act(addNote, "note");
   }
 });
 $("quit").addEventListener("click", () => askQuit(true));
 $("quit-cancel").addEventListener("click", () => askQuit(false));
-$("quit-confirm").addEventListener("click", () => act(quit));
+$("quit-confirm").addEventListener("click", () => act(quit, "quit"));
 window.addEventListener("resize", () => state && renderResults(state));
 
 window.addEventListener("load", () => {

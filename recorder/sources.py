@@ -330,9 +330,12 @@ class ImagesSource(FrameSource):
 class SyntheticSource(FrameSource):
     """The simulator's camera: renders the scene from the pose last given to ``set_pose``.
 
-    Setting a pose renders it and exposes a bank of ``bank`` frames (each with its own
-    lighting and noise); ``read`` cycles through them, paced like a camera at the scene's
-    fps when ``realtime``, so even 1280x720 streams at 30 fps.
+    Setting a pose renders it (ray casting: a stop cuts in between two bands of rays,
+    :mod:`twopose.sim.render`); ``read`` gives a bank of ``bank`` frames made from it, each
+    with its own lighting and noise, each exposed when it is first read and then cycled
+    through, paced like a camera at the scene's fps when ``realtime``, so even 1280x720
+    streams at 30 fps. Opening renders nothing: the first frame read before any pose is
+    typed shows the camera at the grid's origin.
     """
 
     def __init__(
@@ -378,7 +381,7 @@ class SyntheticSource(FrameSource):
             description="synthetic", width=cam.width, height=cam.height, fps=self.scene.sensor.fps
         )
         self._pacer = _Pacer(self.info.fps) if self.realtime else None
-        self.set_pose((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        stops.check()  # a stop asked while it opened: nothing is recorded
         return self.info
 
     def set_pose(
@@ -386,25 +389,34 @@ class SyntheticSource(FrameSource):
     ) -> None:
         """The operator typed this pose and placed the laptop there: the camera renders
         from where the scene's rig (``[systematic]``) really puts it, as ``simulate``
-        does (one synthetic camera: :class:`twopose.sim.camera.SyntheticCamera`)."""
+        does (one synthetic camera: :class:`twopose.sim.camera.SyntheticCamera`). A stop
+        asked meanwhile raises KeyboardInterrupt between two bands of rays
+        (:mod:`recorder.stops`); the pose before stays the one shown."""
         import numpy as np
 
         if (t_grid, r_deg) == self._pose:
             return
-        self._camera.place(np.asarray(t_grid, dtype=np.float64), np.asarray(r_deg))
-        bank = []
-        for _ in range(self.bank_size):
-            stops.check()  # between frames when the recording is to stop (recorder/stops.py)
-            bank.append(self._camera.expose())
-        self._pose, self._bank, self._next = (t_grid, r_deg), bank, 0
+        self._camera.place(
+            np.asarray(t_grid, dtype=np.float64), np.asarray(r_deg), between=stops.check
+        )
+        self._pose, self._bank, self._next = (t_grid, r_deg), [], 0
 
     @override
     def read(self, timeout_s: float = 2.0) -> Image:
+        if self._pose is None:  # nothing typed yet: the camera at the origin
+            self.set_pose((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
         if self._pacer is not None:
             self.dropped += self._pacer.wait()
-        frame = self._bank[self._next % len(self._bank)]
+        k = self._next % self.bank_size
+        if k == len(self._bank):  # this frame's first reading: exposed now
+            started = time.monotonic()
+            self._bank.append(self._camera.expose())
+            if self._pacer is not None and self._pacer.due is not None:
+                # A camera's sensor works beside its reader: the time this one takes to
+                # make a frame is not the reader's delay, nor a frame it missed.
+                self._pacer.due += time.monotonic() - started
         self._next += 1
-        return frame
+        return self._bank[k]
 
 
 def _seen_through(scene: Scene, cameras: Sequence[Camera], scene_path: object) -> Scene:

@@ -27,17 +27,12 @@ reading and writing sessions, detection, the solvers' one-call functions
 
 from __future__ import annotations
 
-from importlib.metadata import PackageNotFoundError, version
 from typing import TYPE_CHECKING
 
 from twopose.lazy import lazy_exports
 
-try:
-    __version__ = version("twopose")
-except PackageNotFoundError:  # running from a source tree without installing
-    __version__ = "0.0.0+unknown"
-
 if TYPE_CHECKING:
+    from twopose._version import __version__
     from twopose.camera import Camera, Intrinsics, camera_rays, project_points
     from twopose.detect import Detection, DotParams, GloveParams
     from twopose.errors import (
@@ -192,6 +187,8 @@ _HOMES = {
     "Guidance": "twopose.guidance",
     "advise": "twopose.guidance",
     "suggest": "twopose.guidance",
+    # Read from the package's metadata when first asked for (twopose/_version.py).
+    "__version__": "twopose._version",
 }
 
 
