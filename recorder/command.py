@@ -27,11 +27,10 @@ from twopose.errors import EXIT_INTERRUPTED, say_interrupted, watch_interrupts
 
 __all__ = ["main"]
 
-watch_interrupts(hangup=True)  # as soon as this module is imported: the script's first step
-
 
 def main() -> None:
     """Run ``twopose-record`` (:func:`recorder.cli.main`) with the stops handled first."""
+    watch_interrupts(hangup=True)  # the script's first step: it imported only this module
     try:
         from recorder.cli import main as command_line
     except KeyboardInterrupt:  # a stop while the command line's modules were imported
