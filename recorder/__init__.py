@@ -28,7 +28,6 @@ from typing import TYPE_CHECKING
 from twopose.lazy import lazy_exports
 
 if TYPE_CHECKING:
-    from twopose._version import __version__
     from recorder.camera_calibration import (
         Calibration,
         calibrate,
@@ -49,6 +48,7 @@ if TYPE_CHECKING:
     from recorder.simulate import SimulationSummary, simulate_session
     from recorder.sources import SOURCE_KINDS, FrameSource, SourceKind, SourceOptions, open_source
     from recorder.summary import RecordingSummary
+    from twopose._version import __version__
 
 __all__ = [
     "SOURCE_KINDS",

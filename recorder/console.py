@@ -439,10 +439,14 @@ class ConsoleSession(LiveSink):
             self.lock.notify_all()
 
     def next_frame(self, after: int, timeout_s: float) -> _Frame | None:
-        """The newest frame after sequence number ``after`` (None: none came in time)."""
+        """The newest frame after sequence number ``after`` (None: none came in time, or
+        the server is closing)."""
         with self.lock:
             self.lock.wait_for(
-                lambda: self.latest is not None and self.latest.seq > after, timeout=timeout_s
+                lambda: (
+                    self.closing.is_set() or (self.latest is not None and self.latest.seq > after)
+                ),
+                timeout=timeout_s,
             )
             latest = self.latest
             return latest if latest is not None and latest.seq > after else None

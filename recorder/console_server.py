@@ -397,6 +397,8 @@ class _Server(uvicorn.Server):
         if not self.phase_at_signal:
             self.phase_at_signal = self.session.phase
         self.session.closing.set()  # the live image's streams end: nothing left to cancel
+        with self.session.lock:  # reentrant: safe where the signal lands in this thread
+            self.session.lock.notify_all()  # a stream waiting for a frame ends now
         self.should_exit = True
 
 

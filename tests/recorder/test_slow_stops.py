@@ -32,6 +32,7 @@ import pytest
 
 from recorder import stops
 from recorder.sources import SyntheticSource
+from tests import helpers
 from tests.recorder import test_stops as t
 from twopose.methods import Method
 from twopose.sim import render
@@ -124,7 +125,7 @@ def test_a_stop_while_the_command_line_is_imported_exits_130_in_one_line(
         def __getattr__(self, name: str) -> Any:
             raise KeyboardInterrupt  # the signal, as it lands in the middle of an import
 
-    monkeypatch.setattr(command.os, "_exit", exit_now)
+    monkeypatch.setattr("recorder.command.os._exit", exit_now)
     monkeypatch.setitem(sys.modules, "recorder.cli", Importing("recorder.cli"))
     try:
         with pytest.raises(SystemExit):
@@ -147,17 +148,20 @@ def test_a_stop_while_the_command_line_is_imported_exits_130_in_one_line(
 # --------------------------------------------------------------------------- real processes
 
 
-def _moment(name: str) -> tuple[tuple[signal.Signals, ...], float]:
+#: A run's signals (``tests/recorder/test_stops.py``'s: one, or a quick double Ctrl-C).
+Sent = tuple[signal.Signals, ...]
+
+
+def _moment(name: str) -> tuple[Sent, float]:
     """The signals of a run and a seeded moment in the first 0.3 s of the slow step."""
     rng = random.Random(name)
     return t.SIGNALS[rng.choice(sorted(t.SIGNALS))], rng.uniform(0.0, 0.3)
 
 
-def test_a_stop_just_after_a_typed_pose_closes_the_file_at_once(tmp_path: Path) -> None:
-    """Issue 55: SIGTERM just after a typed pose took 1.67-2.38 s (5 of 6 over 2 s) while
-    the default scene's view was cast."""
-    sent, delay = _moment("a new view")
-    out = tmp_path / "s.mcap"
+def after_a_typed_pose(tmp: Path, sent: Sent, delay: float) -> float:
+    """At the terminal, ``sent`` ``delay`` s after a pose is typed (its view being cast):
+    checked as issue 44's stops are; the seconds from the signal to the exit."""
+    out = tmp / "s.mcap"
     rec = t.Recorder([str(out), "--source", "synthetic", *SETUP, "--frames", "2"], stdin=True)
     rec.wait_for(r"centre x, y, z \(in\): ")
     rec.type("1, 0, -1")
@@ -166,13 +170,13 @@ def test_a_stop_just_after_a_typed_pose_closes_the_file_at_once(tmp_path: Path) 
     time.sleep(delay)
     rec.send(sent)
     t.check_stopped(rec, out, acknowledged=0)
+    return rec.exited_at - rec.signalled_at
 
 
-def test_a_stop_just_after_the_pages_setup_closes_at_once(tmp_path: Path) -> None:
-    """Issue 55: a stop just after the page's setup took 1.97-2.69 s: the recording thread
-    opened the synthetic camera, casting the view the page's live image shows."""
-    sent, delay = _moment("the page's setup")
-    out = tmp_path / "s.mcap"
+def after_the_pages_setup(tmp: Path, sent: Sent, delay: float) -> float:
+    """In the console, with the page's live image watched, ``sent`` ``delay`` s after its
+    setup is sent (the camera opened and its first view cast for the page)."""
+    out = tmp / "s.mcap"
     rec = t.Recorder([str(out), "--ui", "--source", "synthetic", "--frames", "2"])
     rec.wait_for(r"http://\S+/")
     url = re.search(r"(http://\S+/)", rec.text)
@@ -194,23 +198,19 @@ def test_a_stop_just_after_the_pages_setup_closes_at_once(tmp_path: Path) -> Non
     time.sleep(delay)
     rec.send(sent)
     t.check_stopped(rec, out, acknowledged=0)
+    return rec.exited_at - rec.signalled_at
 
 
-def _sha(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
-
-
-def test_a_stop_while_a_large_session_is_continued_closes_at_once(tmp_path: Path) -> None:
-    """Issue 55: ``--continue`` of an 11 MB session with 6 copies beside it took 2.6-3.6 s
-    to stop: the session read and identified, its copies too, then the camera opened. The
-    stop comes as the file is read; nothing is written, the session is left as it was."""
-    sent, delay = _moment("continuing")
-    session = tmp_path / "S.mcap"
+def while_continuing(tmp: Path, sent: Sent, delay: float) -> float:
+    """``new --continue`` of a large session with six copies beside it, ``sent`` ``delay``
+    s after the recorder opens it (reading it, identifying the copies, opening the camera):
+    nothing written, the session as it was."""
+    session = tmp / "S.mcap"
     shutil.copyfile(LARGE, session)
     for k in range(6):
-        shutil.copyfile(LARGE, tmp_path / f"S_copy{k}.mcap")
+        shutil.copyfile(LARGE, tmp / f"S_copy{k}.mcap")
     digest = _sha(session)
-    out = tmp_path / "S2.mcap"
+    out = tmp / "S2.mcap"
     args = [str(out), "--continue", str(session), "--source", "synthetic", "--frames", "2"]
     rec = t.Recorder(args, stdin=True)
     deadline = time.monotonic() + 30
@@ -226,6 +226,80 @@ def test_a_stop_while_a_large_session_is_continued_closes_at_once(tmp_path: Path
     assert "nothing was recorded" in rec.text or rec.text.strip().endswith("interrupted")
     assert not out.exists()
     assert _sha(session) == digest
+    return took
+
+
+def in_the_first_tenths(tmp: Path, sent: Sent, delay: float) -> float:
+    """``sent`` ``delay`` s after SIGTERM has a handler: exit 130, one line, no traceback."""
+    out = tmp / "s.mcap"
+    process = subprocess.Popen(
+        [str(helpers.RECORD), "new", str(out), "--source", "synthetic", *SETUP],
+        stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+        preexec_fn=t._default_signals,
+    )  # fmt: skip
+    deadline = time.monotonic() + 10
+    while not _handles(process.pid, signal.SIGTERM) and time.monotonic() < deadline:
+        time.sleep(0.001)
+    time.sleep(delay)
+    signalled = time.monotonic()
+    for k, sig in enumerate(sent):
+        if k:
+            time.sleep(0.1)
+        process.send_signal(sig)
+    output, _ = process.communicate(timeout=30)
+    took = time.monotonic() - signalled
+    text = output.decode(errors="replace")
+    assert process.returncode == 130, text
+    assert "Traceback" not in text, text
+    assert text.strip().splitlines()[-1] == "interrupted", text
+    assert took < t.STOP_WITHIN_S, f"{took:.2f} s from the signal to the exit\n{text}"
+    assert not out.exists()
+    return took
+
+
+#: The slow paths, by name (``benchmarks/stops_slow.py`` sweeps them).
+PATHS = {
+    "a typed pose": after_a_typed_pose,
+    "the page's setup": after_the_pages_setup,
+    "continuing": while_continuing,
+    "the first tenths": in_the_first_tenths,
+}
+
+
+def test_a_stop_just_after_a_typed_pose_closes_the_file_at_once(tmp_path: Path) -> None:
+    """Issue 55: SIGTERM just after a typed pose took 1.67-2.38 s (5 of 6 over 2 s) while
+    the default scene's view was cast."""
+    after_a_typed_pose(tmp_path, *_moment("a new view"))
+
+
+def test_a_stop_just_after_the_pages_setup_closes_at_once(tmp_path: Path) -> None:
+    """Issue 55: a stop just after the page's setup took 1.97-2.69 s: the recording thread
+    opened the synthetic camera, casting the view the page's live image shows."""
+    after_the_pages_setup(tmp_path, *_moment("the page's setup"))
+
+
+def test_a_stop_while_a_large_session_is_continued_closes_at_once(tmp_path: Path) -> None:
+    """Issue 55: ``--continue`` of an 11 MB session with 6 copies beside it took 2.6-3.6 s
+    to stop: the session read and identified, its copies too, then the camera opened (and
+    SIGHUP killed it while it read)."""
+    while_continuing(tmp_path, *_moment("continuing"))
+
+
+@pytest.mark.parametrize("name", ["SIGINT", "SIGTERM", "SIGHUP"])
+def test_a_signal_in_the_first_tenths_of_a_second_exits_130_without_a_traceback(
+    tmp_path: Path, name: str
+) -> None:
+    """Issue 55: in the first ~0.3 s, Ctrl-C printed a KeyboardInterrupt traceback from an
+    import and SIGTERM or SIGHUP killed the process (143, 129). The signal comes at a seeded
+    moment in the first 50 ms after SIGTERM has a handler: the command's first instruction
+    now (what runs before it is Python's own start); before, the end of the command line's
+    imports, and SIGHUP then still killed it."""
+    delay = random.Random(name).uniform(0.0, 0.05)
+    in_the_first_tenths(tmp_path, (signal.Signals[name],), delay)
+
+
+def _sha(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
 def _opened(pid: int, path: Path) -> bool:
@@ -245,31 +319,3 @@ def _handles(pid: int, sig: signal.Signals) -> bool:
         return False
     caught = re.search(r"^SigCgt:\s*([0-9a-f]+)$", status, re.M)
     return caught is not None and bool(int(caught.group(1), 16) >> (sig - 1) & 1)
-
-
-@pytest.mark.parametrize("name", ["SIGINT", "SIGTERM", "SIGHUP"])
-def test_a_signal_in_the_first_tenths_of_a_second_exits_130_without_a_traceback(
-    tmp_path: Path, name: str
-) -> None:
-    """Issue 55: in the first ~0.3 s, Ctrl-C printed a KeyboardInterrupt traceback from an
-    import and SIGTERM or SIGHUP killed the process (143, 129). The signal comes at a seeded
-    moment in the first 50 ms after SIGTERM has a handler: the command's first instruction
-    now (what runs before it is Python's own start); before, the end of the command line's
-    imports, and SIGHUP then still killed it."""
-    out = tmp_path / "s.mcap"
-    process = subprocess.Popen(
-        [str(t.RECORD), "new", str(out), "--source", "synthetic", *SETUP],
-        stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-        preexec_fn=t._default_signals,
-    )  # fmt: skip
-    deadline = time.monotonic() + 10
-    while not _handles(process.pid, signal.SIGTERM) and time.monotonic() < deadline:
-        time.sleep(0.001)
-    time.sleep(random.Random(name).uniform(0.0, 0.05))
-    process.send_signal(signal.Signals[name])
-    output, _ = process.communicate(timeout=30)
-    text = output.decode(errors="replace")
-    assert process.returncode == 130, text
-    assert "Traceback" not in text, text
-    assert text.strip().splitlines()[-1] == "interrupted", text
-    assert not out.exists()
