@@ -67,6 +67,7 @@ async function submitPose() {
   render();
   const answer = await post("/api/pose", body);
   if (answer.ok) return;
+  sent = null; // refused: nothing changed, the form is the operator's again
   const left = showErrors(answer.errors, (name) => $(POSE_INPUTS[name]));
   if (left.length || !Object.keys(answer.errors).length) {
     setText($("pose-refusal"), left.length ? left.join("; ") : answer.error);
@@ -95,8 +96,12 @@ async function decide(choice) {
     sent = {what: choice, words: "trial " + state.trial + " pose " + state.pose + ": " + choice.replace("_", " ") + " sent"};
   }
   render();
-  const answer = await post("/api/decide", {decision: choice});
-  if (!answer.ok) localRefusal = {control: choice, message: answer.errors[choice] || answer.error};
+  // The offer it answers (0: none was shown): never taken for a capture that ended after.
+  const offer = state.waiting === "decision" ? state.offer : 0;
+  const answer = await post("/api/decide", {decision: choice, offer: String(offer)});
+  if (answer.ok) return;
+  sent = null; // refused: the decision is still the operator's
+  localRefusal = {control: choice, message: answer.errors[choice] || answer.error};
 }
 
 async function addNote() {

@@ -133,6 +133,7 @@ class ConsoleSession(LiveSink):
         self.waiting = ""  # what is offered: pose, decision, or "" (capturing, between steps)
         #: The decisions the status offers for the capture awaiting one (the buttons on).
         self.offers: list[str] = []
+        self.offer_id = 0  # which capture's decision is (or was last) offered: 1, 2, ...
         self.trial = self.pose = self.n_poses = 0
         self.poses: list[dict[str, Any]] = []  # this trial's typed poses so far
         self.pose_form: dict[str, Any] = {}  # what the pose form shows (after undo: retyped)
@@ -183,6 +184,7 @@ class ConsoleSession(LiveSink):
                 "setup_fields": self.setup_fields if self.phase == "setup" else [],
                 "waiting": self.waiting,
                 "offers": list(self.offers),
+                "offer": self.offer_id,
                 "computing": self.computing,
                 "continuing": self.continuing,
                 # What salvages the file if the recorder dies (the page says it then).
@@ -230,16 +232,25 @@ class ConsoleSession(LiveSink):
         with self.lock:
             if self._answers or self.quitting:
                 self.update(**shown)
-            else:
-                self.update(waiting=what, computing="", **shown)
+                return
+            if what == "decision" and self.waiting != "decision":
+                self.offer_id += 1  # a new capture to decide (a note keeps its offer)
+            self.update(waiting=what, computing="", **shown)
 
-    def take(self, kind: str, value: Any = None) -> str:
+    def take(self, kind: str, value: Any = None, *, seen: int | None = None) -> str:
         """The page's answer (``pose``, ``decision``, ``note`` or ``quit``), taken for the
         recorder if it is offered now (returns ""), else why not in the operator's words.
         A pose or decision taken closes the offer, and the page says at once what the
-        recorder does with it."""
+        recorder does with it. ``seen``: the decision offer the page answers (its state's
+        ``offer``; 0: it showed none, a key pressed meanwhile): a decision is taken only for
+        the capture the operator saw, never for one that ended after the click."""
         with self.lock:
             why = self._not_now(kind, value)
+            if not why and kind == "decision" and seen not in (None, self.offer_id):
+                why = (
+                    f"not now: given before trial {self.trial} pose {self.pose}'s decision "
+                    "was asked for; decide it again"
+                )
             if why:
                 return why
             self._answers.append((kind, value))
@@ -299,6 +310,12 @@ class ConsoleSession(LiveSink):
             return f"not now: the recorder waits for pose {self.pose} to be typed and captured"
         if self.waiting == "decision":
             return f"not now: trial {self.trial} pose {self.pose} awaits its decision"
+        frame, n_frames = self.capture.get("frame", 0), self.capture.get("n_frames", 0)
+        if self.frames_of == {"trial": self.trial, "pose": self.pose} and frame < n_frames:
+            return (
+                f"not now: trial {self.trial} pose {self.pose} is being captured (frame "
+                f"{frame} of {n_frames}); decide once it is done"
+            )
         return f"not now: {self.message}"
 
     def _refusal(self, choice: str) -> str:

@@ -201,10 +201,13 @@ class _Console:
         return _refused(why) if why else ConsoleJSONResponse({"ok": True})
 
     async def decide(self, request: Request) -> Response:
-        form, refused = await _form(request, {"decision": 20})
+        form, refused = await _form(request, {"decision": 20, "offer": 20})
         if refused is not None:
             return refused
         choice = form.get("decision", "")
+        seen = form.get("offer")  # the decision offer the page answers (optional)
+        if seen is not None and not seen.isdigit():
+            return _refused(f"offer must be the state's offer number, not {seen!r}")
         if choice != "quit" and choice not in DECISIONS:
             return _refused(
                 "decision must be accept, accept_anyway, redo, undo or quit, not " + repr(choice)
@@ -212,7 +215,8 @@ class _Console:
         if choice == "quit":
             why = self.session.take("quit")
         else:
-            why = self.session.take("decision", (choice, DECISIONS[choice]))
+            answer = (choice, DECISIONS[choice])
+            why = self.session.take("decision", answer, seen=None if seen is None else int(seen))
         if why:
             if self.session.phase == "recording":  # next to the button pressed
                 self.session.refuse(choice, why)
