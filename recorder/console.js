@@ -15,6 +15,7 @@ let state = null;
 let connected = false;
 let setupBuilt = false;
 let wasWaiting = null; // what the recorder waited for at the last poll
+let newPlacement = false; // the recorder asks for a pose anew: the form is filled once shown
 let dismissedRefusal = 0; // the recorder's refusals up to this seq are answered
 let localRefusal = null; // {control, message}: a decision the server refused at once
 let quitAsked = false;
@@ -68,6 +69,7 @@ async function submitPose() {
   const answer = await post("/api/pose", body);
   if (answer.ok) return;
   sent = null; // refused: nothing changed, the form is the operator's again
+  render();
   const left = showErrors(answer.errors, (name) => $(POSE_INPUTS[name]));
   if (left.length || !Object.keys(answer.errors).length) {
     setText($("pose-refusal"), left.length ? left.join("; ") : answer.error);
@@ -102,6 +104,7 @@ async function decide(choice) {
   if (answer.ok) return;
   sent = null; // refused: the decision is still the operator's
   localRefusal = {control: choice, message: answer.errors[choice] || answer.error};
+  render();
 }
 
 async function addNote() {
@@ -200,8 +203,12 @@ function renderStatus(s) {
 }
 
 function renderPose(s) {
+  // A new placement is the recorder's asking anew (not a refused pose given back, nor the
+  // form coming back after a sent answer): its form is filled the first time it is on.
+  if (s.phase === "recording" && s.waiting === "pose" && wasWaiting !== "pose") newPlacement = true;
   const typing = s.phase === "recording" && s.waiting === "pose" && !sent;
-  if (typing && wasWaiting !== "pose") {
+  const placing = typing && newPlacement;
+  if (placing) {
     // A new placement: a new pose starts empty; a retyped one (after redo or undo)
     // shows what was typed for it. Never another pose's values.
     const t = (s.pose_form && s.pose_form.t) || null;
@@ -215,10 +222,11 @@ function renderPose(s) {
   }
   for (const id of Object.values(POSE_INPUTS)) $(id).disabled = !typing || !connected;
   $("capture").disabled = !typing || !connected;
-  if (typing && wasWaiting !== "pose" && !quitAsked) {
+  if (placing && !quitAsked) {
     const active = document.activeElement;
     if (!active || active === document.body || active.tagName === "BUTTON") $("pose-x").focus();
   }
+  if (placing) newPlacement = false;
   renderGuidance(s, typing);
   setText($("where"), s.trial ? "trial " + s.trial + ", pose " + s.pose + " of " + s.n_poses : "");
   setText($("units-note"), s.units ? "the camera centre on the grid, in " + s.units + "; rotation empty: 0, 0, 0" : "");
