@@ -39,7 +39,7 @@ async function act(action, control) {
   } finally {
     busy = false;
   }
-  await poll();
+  await freshPoll();
   sent = null;
   if (state) render();
 }
@@ -408,11 +408,21 @@ function renderResults(s) {
 
 // --------------------------------------------------------------------------- polling, input
 
-let polling = false;
+let polling = null; // the poll under way (a promise), shared by whoever asks meanwhile
 
-async function poll() {
-  if (polling) return;
-  polling = true;
+function poll() {
+  if (!polling) polling = pollOnce().finally(() => { polling = null; });
+  return polling;
+}
+
+async function freshPoll() {
+  // The state after an answer: a poll already under way may have left before the answer
+  // was taken, so it is waited for and another is made.
+  if (polling) await polling;
+  await poll();
+}
+
+async function pollOnce() {
   try {
     const response = await fetch("/api/state", {cache: "no-store", credentials: "same-origin"});
     if (!response.ok) throw new Error("HTTP " + response.status);
@@ -423,8 +433,6 @@ async function poll() {
     // a small screen the operator may be scrolled down to the buttons: back to the top.
     if (connected) window.scrollTo({top: 0});
     connected = false;
-  } finally {
-    polling = false;
   }
   if (!state) {
     setText($("status"), "cannot reach the recorder; retrying...");

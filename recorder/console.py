@@ -227,11 +227,14 @@ class ConsoleSession(LiveSink):
     def offer(self, what: str, **shown: Any) -> None:
         """The recorder takes ``what`` (:data:`ANSWERS`) from now on, and the page shows
         ``shown`` (the status asking for it, the decisions offered) in the same update.
-        Nothing is offered while an answer taken waits to be read (it is the answer) or
-        once quit is taken."""
+        Nothing is offered, nor asked for by the status, while an answer taken waits to be
+        read (it is the answer) or once quit is taken."""
         with self.lock:
             if self._answers or self.quitting:
-                self.update(**shown)
+                # The status keeps saying what the recorder does with the answer it took
+                # (quit: the session is being closed): it asks for nothing now.
+                asking = ("message", "level", "offers")
+                self.update(**{k: v for k, v in shown.items() if k not in asking})
                 return
             if what == "decision" and self.waiting != "decision":
                 self.offer_id += 1  # a new capture to decide (a note keeps its offer)

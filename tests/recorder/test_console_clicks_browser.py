@@ -79,7 +79,8 @@ if (!window.__seen) {
 CLICK = r"""
 const [id, pose] = arguments;
 const button = document.getElementById(id);
-const on = !button.disabled && button.getClientRects().length > 0;
+const shown = button.getClientRects().length > 0;
+const on = !button.disabled && shown;
 const status = document.getElementById("status").textContent;
 if (on && id === "capture") {
   const [x, y, z] = pose.split(", ");
@@ -88,7 +89,7 @@ if (on && id === "capture") {
   document.getElementById("pose-z").value = z;
   document.getElementById("pose-rotation").value = "0, 0, 0";
 }
-button.click();
+if (shown) button.click();  // a hand clicks only what is shown
 return [on, status];
 """
 
@@ -121,9 +122,9 @@ def test_every_click_at_every_moment_is_taken_or_refused_in_words_and_the_file_h
         _start(browser)
         browser.execute_script(WATCH)
         clicks = _click_through(browser, random.Random(55))
-        seen = browser.execute_script("return window.__seen")
         deadline = time.monotonic() + 60
-        while "finished" not in browser.execute_script("return document.body.textContent"):
+        status = "return document.getElementById('status').textContent"
+        while "the session is finished" not in browser.execute_script(status):
             assert time.monotonic() < deadline, "the session never finished"
             time.sleep(0.1)
         seen = browser.execute_script("return window.__seen")
@@ -163,23 +164,36 @@ def _click_through(browser: Any, rng: random.Random) -> list[dict[str, Any]]:
             extra -= 1
         time.sleep(rng.uniform(0.0, 0.15))
         on = browser.execute_script(_ON)
-        if on and rng.random() < 0.8:  # mostly a button that is on: the session moves
-            button = rng.choice(on)
-        else:
-            button = rng.choice(["capture", "accept", "redo", "undo"])
+        off = [b for b in ("capture", "accept", "redo", "undo") if b not in on]
+        # Mostly one that is on (the session moves), else one that is off (whatever the
+        # moment, the page must still be right).
+        pick_on = bool(on) and (rng.random() < 0.6 or not off)
+        button = rng.choice(on if pick_on else off)
         if button in ("accept", "redo", "undo") and rng.random() < 0.5:
             button = "accept"  # trials get done
         was_on, status = browser.execute_script(CLICK, button, rng.choice(POSES))
         clicks.append({"button": button, "on": was_on, "status": status})
-        posts = browser.execute_script("return window.__seen.posts")
-        taken = sum(1 for p in posts if p["url"].endswith("/api/pose") and p["status"] == 200)
-    time.sleep(rng.uniform(0.0, 0.25))
-    was_on, status = browser.execute_script(CLICK, "quit", "")
-    clicks.append({"button": "quit", "on": was_on, "status": status})
-    time.sleep(0.05)
-    was_on, status = browser.execute_script(CLICK, "quit-confirm", "")
-    clicks.append({"button": "quit-confirm", "on": was_on, "status": status})
+        taken = sum(
+            1 for p in _posts(browser) if p["url"].endswith("/api/pose") and p["status"] == 200
+        )
+    time.sleep(rng.uniform(0.0, 0.15))
+    confirmed = False
+    while not confirmed:  # quit is off while an answer is on its way: clicked again
+        assert time.monotonic() < deadline, "quit never confirmed"
+        was_on, status = browser.execute_script(CLICK, "quit", "")
+        clicks.append({"button": "quit", "on": was_on, "status": status})
+        time.sleep(0.05)
+        confirmed, status = browser.execute_script(CLICK, "quit-confirm", "")
+        clicks.append({"button": "quit-confirm", "on": confirmed, "status": status})
+    while not any(p["sent"].get("decision") == "quit" for p in _posts(browser)):
+        assert time.monotonic() < deadline, "the quit never answered"
+        time.sleep(0.05)
     return clicks
+
+
+def _posts(browser: Any) -> list[dict[str, Any]]:
+    posts: list[dict[str, Any]] = browser.execute_script("return window.__seen.posts")
+    return posts
 
 
 def _check_posts(clicks: list[dict[str, Any]], posts: list[dict[str, Any]]) -> None:
