@@ -22,12 +22,11 @@ import sys
 import tempfile
 from pathlib import Path
 
-import numpy as np
-
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # noqa: E402
+from stops import report  # type: ignore[import-not-found]  # noqa: E402
 
 from tests.recorder import test_slow_stops as slow  # noqa: E402
 from tests.recorder import test_stops as t  # noqa: E402
@@ -56,12 +55,7 @@ def main() -> int:
             except AssertionError as err:
                 failed += 1
                 print(f"run {k} ({path}, {name} at {delay:.2f} s) FAILED: {str(err)[-300:]}")
-    print(f"{args.runs} runs, {failed} failed; seconds from the signal to the exit (exit 130):")
-    for path, times in took.items():
-        if times:
-            q = np.percentile(times, [50, 95, 100])
-            print(f"  {path}: {len(times)} runs, median {q[0]:.2f}, p95 {q[1]:.2f}, max {q[2]:.2f}")
-    return 1 if failed else 0
+    return report(took, failed, "exit 130")
 
 
 if __name__ == "__main__":

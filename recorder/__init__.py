@@ -48,7 +48,7 @@ if TYPE_CHECKING:
     from recorder.simulate import SimulationSummary, simulate_session
     from recorder.sources import SOURCE_KINDS, FrameSource, SourceKind, SourceOptions, open_source
     from recorder.summary import RecordingSummary
-    from twopose._version import __version__
+    from twopose.installed_version import __version__
 
 __all__ = [
     "SOURCE_KINDS",
@@ -108,7 +108,7 @@ _HOMES = {
     "open_source": "recorder.sources",
     "Continued": "recorder.continuation",
     "read_continued": "recorder.continuation",
-    "__version__": "twopose._version",
+    "__version__": "twopose.installed_version",
 }
 
 

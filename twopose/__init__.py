@@ -32,7 +32,6 @@ from typing import TYPE_CHECKING
 from twopose.lazy import lazy_exports
 
 if TYPE_CHECKING:
-    from twopose._version import __version__
     from twopose.camera import Camera, Intrinsics, camera_rays, project_points
     from twopose.detect import Detection, DotParams, GloveParams
     from twopose.errors import (
@@ -56,6 +55,7 @@ if TYPE_CHECKING:
         find_sessions,
     )
     from twopose.guidance import Advice, Guidance, advise, suggest
+    from twopose.installed_version import __version__
     from twopose.methods import (
         MEASURING_METHODS,
         METHOD_SPECS,
@@ -187,8 +187,8 @@ _HOMES = {
     "Guidance": "twopose.guidance",
     "advise": "twopose.guidance",
     "suggest": "twopose.guidance",
-    # Read from the package's metadata when first asked for (twopose/_version.py).
-    "__version__": "twopose._version",
+    # Read from the package's metadata when first asked for (twopose/installed_version.py).
+    "__version__": "twopose.installed_version",
 }
 
 
