@@ -17,7 +17,13 @@ let setupBuilt = false;
 let wasWaiting = null; // what the recorder waited for at the last poll
 let newPlacement = false; // the recorder asks for a pose anew: the form is filled once shown
 let dismissedRefusal = 0; // the recorder's refusals up to this seq are answered
-let localRefusal = null; // {control, message}: a decision the server refused at once
+let localRefusal = null; // {control, message, at}: a decision the server refused at once
+
+// Which step of the recording a refusal answers (the decision offered, or none): a refusal
+// is shown while that step lasts, never under the next one (it would no longer be true).
+function stepOf(s) {
+  return s ? s.offer + "/" + s.waiting : "";
+}
 let quitAsked = false;
 let busy = false;
 // An answer on its way to the recorder ({what, words}): its controls are off and the
@@ -51,7 +57,7 @@ function sayBusy(control) {
     show($("note-refusal"), true);
     return;
   }
-  localRefusal = {control, message};
+  localRefusal = {control, message, at: stepOf(state)};
   if (state) render();
 }
 
@@ -103,7 +109,7 @@ async function decide(choice) {
   const answer = await post("/api/decide", {decision: choice, offer: String(offer)});
   if (answer.ok) return;
   sent = null; // refused: the decision is still the operator's
-  localRefusal = {control: choice, message: answer.errors[choice] || answer.error};
+  localRefusal = {control: choice, message: answer.errors[choice] || answer.error, at: stepOf(state)};
   render();
 }
 
@@ -130,7 +136,7 @@ async function quit() {
   askQuit(false);
   dismissRefusals();
   const answer = await post("/api/decide", {decision: "quit"});
-  if (!answer.ok) localRefusal = {control: "quit", message: answer.error};
+  if (!answer.ok) localRefusal = {control: "quit", message: answer.error, at: stepOf(state)};
 }
 
 // --------------------------------------------------------------------------- drawing
@@ -295,6 +301,7 @@ function renderDecision(s) {
   if (!recording && quitAsked) askQuit(false);
 
   // The refusal of a decision, under the decision buttons, the button that caused it marked.
+  if (localRefusal && localRefusal.at !== stepOf(s)) localRefusal = null; // the step moved on
   let refusal = localRefusal;
   const r = s.refusal || {};
   if (!refusal && r.seq && r.seq > dismissedRefusal && recording && s.waiting !== "pose") {

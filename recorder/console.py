@@ -224,11 +224,12 @@ class ConsoleSession(LiveSink):
             self.lock.notify_all()
 
     # -- the one state: what the recorder offers, what the page answers
-    def offer(self, what: str, **shown: Any) -> None:
+    def offer(self, what: str, *, anew: bool = False, **shown: Any) -> None:
         """The recorder takes ``what`` (:data:`ANSWERS`) from now on, and the page shows
         ``shown`` (the status asking for it, the decisions offered) in the same update.
         Nothing is offered, nor asked for by the status, while an answer taken waits to be
-        read (it is the answer) or once quit is taken."""
+        read (it is the answer) or once quit is taken. ``anew``: a new capture's decision
+        (its own ``offer`` number; what was refused before is no longer said)."""
         with self.lock:
             if self._answers or self.quitting:
                 # The status keeps saying what the recorder does with the answer it took
@@ -236,8 +237,9 @@ class ConsoleSession(LiveSink):
                 asking = ("message", "level", "offers")
                 self.update(**{k: v for k, v in shown.items() if k not in asking})
                 return
-            if what == "decision" and self.waiting != "decision":
-                self.offer_id += 1  # a new capture to decide (a note keeps its offer)
+            if anew:  # a note, or the procedure's refusal, keeps the capture's offer
+                self.offer_id += 1
+                self.refusal = {}  # said of a step before this one: no longer true
             self.update(waiting=what, computing="", **shown)
 
     def take(self, kind: str, value: Any = None, *, seen: int | None = None) -> str:
@@ -406,7 +408,10 @@ class ConsoleSession(LiveSink):
         """A refusal the page shows next to ``control`` (a decision button, a form)."""
         with self.lock:
             self._refusals += 1
-            self.refusal = {"control": control, "message": message, "seq": self._refusals}
+            self.refusal = {
+                "control": control, "message": message, "seq": self._refusals,
+                "offer": self.offer_id,
+            }  # fmt: skip
             self.lock.notify_all()
 
     # -- the recorder's live sink

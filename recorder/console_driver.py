@@ -190,6 +190,7 @@ class WebDriver(Driver):
         found = f"{result.n_found} with {result.sought} found, " if result.feedback else ""
         self.session.offer(
             "decision",
+            anew=True,
             last_capture=f"{result.n_frames} frames, {found}{state}, {result.dropped} dropped; "
             f"recorder overhead {100 * overhead:.0f}% of the frame interval",
             frames=[f.to_json() for f in result.feedback],

@@ -28,7 +28,7 @@ def _deciding(tmp_path: Path) -> ConsoleSession:
         {"pose": 1, "t": [0.0, 0.0, 0.0], "r_deg": [0.0, 0.0, 0.0], "state": "accepted"},
         {"pose": 2, "t": [1.0, 0.0, 0.0], "r_deg": [0.0, 0.0, 0.0], "state": "awaiting decision"},
     ]
-    session.offer("decision", offers=["accept", "redo", "undo"], message=ASKED)
+    session.offer("decision", anew=True, offers=["accept", "redo", "undo"], message=ASKED)
     return session
 
 
@@ -90,7 +90,9 @@ def test_once_quit_is_taken_nothing_is_asked_for(tmp_path: Path) -> None:
     session = ConsoleSession(tmp_path / "s.mcap")
     session.update(phase="recording", trial=1, pose=1)
     assert session.take("quit") == ""
-    session.offer("decision", offers=["accept", "redo", "undo"], message=ASKED, shortfall="ok")
+    session.offer(
+        "decision", anew=True, offers=["accept", "redo", "undo"], message=ASKED, shortfall="ok"
+    )
     state = session.snapshot()
     assert state["waiting"] == ""
     assert state["message"] == "quit: the session is being closed"
@@ -127,3 +129,24 @@ def test_an_answer_is_never_read_for_another_step(tmp_path: Path, kind: str) -> 
     value: Any = {"pose": ((0.0,) * 3, (0.0,) * 3), "decision": _decision("redo"), "note": "x"}
     why = session.take(kind, value[kind])
     assert (why == "") is (kind != "pose")
+
+
+def test_a_refusal_is_said_only_while_its_step_lasts(tmp_path: Path) -> None:
+    """A decision pressed while a pose was captured is refused in words; once the capture
+    ends and its decision is asked for, those words (no longer true) are gone. The
+    procedure's own refusal of a decision keeps the capture's offer and its words."""
+    session = ConsoleSession(tmp_path / "s.mcap")
+    session.update(phase="recording", trial=1, pose=1, message="trial 1 pose 1: capturing")
+    why = session.take("decision", _decision("accept"), seen=0)
+    session.refuse("accept", why)
+    assert session.snapshot()["refusal"]["message"] == why
+    session.offer("decision", anew=True, offers=["accept", "redo", "undo"], message=ASKED)
+    assert session.snapshot()["refusal"] == {}
+    offer = session.snapshot()["offer"]
+    assert session.take("decision", _decision("accept"), seen=offer) == ""
+    assert session.answer(0.0) is not None
+    session.refuse("accept", "capture 1 is incomplete; redo it, or quit")
+    session.offer("decision")  # asked again, by the driver, after the refusal
+    state = session.snapshot()
+    assert (state["offer"], state["waiting"]) == (offer, "decision")
+    assert state["refusal"]["message"] == "capture 1 is incomplete; redo it, or quit"
