@@ -70,8 +70,7 @@ async function submitPose() {
   clearErrors(Object.keys(POSE_INPUTS));
   show($("pose-refusal"), false);
   dismissRefusals();
-  sent = {what: "pose", words: "trial " + state.trial + " pose " + state.pose + ": sent, to be captured"};
-  render();
+  sending("pose", "sent, to be captured");
   const answer = await post("/api/pose", body);
   if (answer.ok) return;
   sent = null; // refused: nothing changed, the form is the operator's again
@@ -100,10 +99,8 @@ async function decide(choice) {
   // in words why it cannot take it.
   if (!state) return;
   dismissRefusals();
-  if (offered(state, choice)) {
-    sent = {what: choice, words: "trial " + state.trial + " pose " + state.pose + ": " + choice.replace("_", " ") + " sent"};
-  }
-  render();
+  if (offered(state, choice)) sending(choice, choice.replace("_", " ") + " sent");
+  else render();
   // The offer it answers (0: none was shown): never taken for a capture that ended after.
   const offer = state.waiting === "decision" ? state.offer : 0;
   const answer = await post("/api/decide", {decision: choice, offer: String(offer)});
@@ -113,16 +110,25 @@ async function decide(choice) {
   render();
 }
 
+// Every answer sent turns the controls off, the status saying so, until it is answered.
+function sending(what, words) {
+  sent = {what, words: (state && state.trial ? "trial " + state.trial + " pose " + state.pose + ": " : "") + words};
+  render();
+}
+
 async function addNote() {
   const text = $("note-text").value.trim();
   show($("note-refusal"), false);
+  sending("note", "note sent");
   const answer = await post("/api/note", {text});
   if (answer.ok) {
     $("note-text").value = "";
     $("note-text").blur(); // the keys decide again: the next "a" accepts, it types nothing
   } else {
+    sent = null;
     setText($("note-refusal"), answer.error);
     show($("note-refusal"), true);
+    render();
   }
 }
 
@@ -135,8 +141,12 @@ function askQuit(ask) {
 async function quit() {
   askQuit(false);
   dismissRefusals();
+  sending("quit", "quit sent");
   const answer = await post("/api/decide", {decision: "quit"});
-  if (!answer.ok) localRefusal = {control: "quit", message: answer.error, at: stepOf(state)};
+  if (answer.ok) return;
+  sent = null;
+  localRefusal = {control: "quit", message: answer.error, at: stepOf(state)};
+  render();
 }
 
 // --------------------------------------------------------------------------- drawing

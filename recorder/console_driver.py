@@ -66,6 +66,7 @@ class WebDriver(Driver):
         self._typed: dict[int, tuple[Vec3, Vec3]] = {}  # this trial: pose -> last typed
         self._accepted: set[int] = set()  # this trial's accepted poses
         self._control = ""  # the decision button last pressed (where a refusal shows)
+        self._asking = ""  # the status asking for the capture's decision
         self.fps = 30.0
 
     def start(self, source: SourceInfo, path: Path) -> None:
@@ -182,6 +183,7 @@ class WebDriver(Driver):
         state = result.state
         shortfall = detection_shortfall(result)
         why, offers, level = _offers(result, shortfall)
+        self._asking = f"trial {trial} pose {pose}: {why}{_listed([*offers, 'quit'])}"
         average = result.pose_average()
         overhead = (
             sum(result.overhead_s) / len(result.overhead_s) * self.fps if result.overhead_s else 0.0
@@ -197,7 +199,7 @@ class WebDriver(Driver):
             average=None if average is None else _average(average),
             shortfall=shortfall.value,
             offers=offers,
-            message=f"trial {trial} pose {pose}: {why}{_listed([*offers, 'quit'])}",
+            message=self._asking,
             level=level,
         )
 
@@ -246,9 +248,12 @@ class WebDriver(Driver):
             self.session.update(computing=f"trial {self.session.trial}: {what.rstrip('….')}")
 
     def note(self, trial: int) -> Note:
+        """The note, listed; the status still asks for the capture's decision (its buttons
+        stay on)."""
         with self.session.lock:
             self.session.notes.append({"trial": trial, "text": self._note})
-        self.session.update(message=f"note added to trial {trial}", level="info")
+            asking = self._asking
+        self.session.update(message=f"note added to trial {trial}. {asking}", level="info")
         return Note(text=self._note, trial=trial)
 
     def refused(self, error: ProcedureRefusedError) -> None:

@@ -1,6 +1,6 @@
 """No click lost (issue 55, 1), in a real headless Chromium: the console's buttons clicked
-at random (seeded) moments through 20 captures (capture, accept, redo, undo; quit at the
-end), at every moment of a capture's cycle (typing, capturing, the preview result being
+at random (seeded) moments through 20 captures (capture, accept, redo, undo, add note; quit
+at the end), at every moment of a capture's cycle (typing, capturing, the preview result being
 computed, deciding, the next suggestion being computed).
 
 Watched in the page every few milliseconds: a decision button is on exactly while the
@@ -29,12 +29,14 @@ from tests.browser import headless_chromium, require_chromium
 from tests.helpers import SMALL_SCENE, start_console
 from twopose.format import SessionReader
 from twopose.format.entries import CaptureDecision, CaptureWindow
+from twopose.format.trials import read_notes
 
 require_chromium()
 
 pytestmark = pytest.mark.slow
 
 CAPTURES = 20
+BUTTONS = ("capture", "accept", "redo", "undo", "note-add")
 #: On-target poses (the camera centre, inches) the clicks type before capturing.
 POSES = ("0, 0, 0", "1.5, 0, -1", "-1, 0, 0.5", "1, 0, 1", "-1.5, 0, -1")
 
@@ -45,7 +47,7 @@ if (!window.__seen) {
   window.__seen = {samples: 0, mismatches: [], posts: []};
   const ids = {accept: "accept", accept_anyway: "accept-anyway", redo: "redo", undo: "undo"};
   const offered = (status) => {
-    const m = /^trial \d+ pose \d+: (?:.*: )?(.+) or quit$/.exec(status);
+    const m = /trial \d+ pose \d+: (?:.*: )?(.+) or quit$/.exec(status);
     return m ? m[1].split(", ").map((w) => w.replace(" ", "_")) : [];
   };
   setInterval(() => {
@@ -82,6 +84,7 @@ const button = document.getElementById(id);
 const shown = button.getClientRects().length > 0;
 const on = !button.disabled && shown;
 const status = document.getElementById("status").textContent;
+if (on && id === "note-add") document.getElementById("note-text").value = "note " + pose;
 if (on && id === "capture") {
   const [x, y, z] = pose.split(", ");
   document.getElementById("pose-x").value = x;
@@ -94,7 +97,7 @@ return [on, status];
 """
 
 _ON = (
-    "return ['capture', 'accept', 'redo', 'undo']"
+    "return ['capture', 'accept', 'redo', 'undo', 'note-add']"
     ".filter((id) => !document.getElementById(id).disabled)"
 )
 
@@ -164,7 +167,7 @@ def _click_through(browser: Any, rng: random.Random) -> list[dict[str, Any]]:
             extra -= 1
         time.sleep(rng.uniform(0.0, 0.15))
         on = browser.execute_script(_ON)
-        off = [b for b in ("capture", "accept", "redo", "undo") if b not in on]
+        off = [b for b in BUTTONS if b not in on]
         # Mostly one that is on (the session moves), else one that is off (whatever the
         # moment, the page must still be right).
         pick_on = bool(on) and (rng.random() < 0.6 or not off)
@@ -199,11 +202,12 @@ def _posts(browser: Any) -> list[dict[str, Any]]:
 def _check_posts(clicks: list[dict[str, Any]], posts: list[dict[str, Any]]) -> None:
     """Every click on a button that was on was sent, in order; each answer is taken or a
     refusal in words."""
-    sent = [p for p in posts if p["url"].endswith(("/api/decide", "/api/pose"))]
+    sent = [p for p in posts if p["url"].endswith(("/api/decide", "/api/pose", "/api/note"))]
     clicked = [c for c in clicks if c["on"] and c["button"] not in ("quit",)]
     assert len(sent) == len(clicked), (len(sent), len(clicked))
+    by_url = {"/api/pose": "capture", "/api/note": "note-add"}
     for click, post in zip(clicked, sent, strict=True):
-        what = "capture" if post["url"].endswith("/api/pose") else post["sent"]["decision"]
+        what = by_url.get(post["url"]) or post["sent"]["decision"]
         assert what == {"quit-confirm": "quit"}.get(click["button"], click["button"])
         assert post["status"] in (200, 400), post
         if post["status"] == 400:
@@ -231,7 +235,7 @@ def _check_file(out: Path, clicks: list[dict[str, Any]], posts: list[dict[str, A
     taken = [c for c, p in zip(clicked, answers, strict=True) if p["status"] == 200]
     expected: list[tuple[str, str, int, int]] = []
     for click in taken:
-        where = re.match(r"trial (\d+) pose (\d+):", click["status"])
+        where = re.search(r"trial (\d+) pose (\d+):", click["status"])
         assert where, click
         trial, pose = int(where.group(1)), int(where.group(2))
         verdict = "accept" if click["button"] == "accept" else "discard"
@@ -239,6 +243,10 @@ def _check_file(out: Path, clicks: list[dict[str, Any]], posts: list[dict[str, A
         expected.append((verdict, reason, trial, pose))
         if click["button"] == "undo":
             expected.append(("discard", "undone", trial, pose - 1))
+    notes = [p["sent"]["text"] for p in posts if p["url"] == "/api/note" and p["status"] == 200]
+    with SessionReader(out) as reader:
+        typed = [n for trial in read_notes(reader).by_trial.values() for n in trial]
+    assert [n for n in typed if not n.startswith("guidance:")] == notes
     got = [(d.decision, d.reason.split(" by ")[0], d.trial, d.pose) for d in decisions]
     if len(got) == len(expected) + 1:  # the last capture, undecided at quit
         assert got[-1][:2] == ("discard", "quit"), got[-1]
