@@ -64,7 +64,9 @@ if TYPE_CHECKING:
     from recorder.continuation import Continued
     from recorder.option_rules import Combination
     from recorder.setup_rules import GuidanceAsked
+    from recorder.simulate import SimulationSummary
     from twopose.camera import Intrinsics
+    from twopose.sim.scene import Scene
     from twopose.targets import BoardPlacement
 
 __all__ = ["app", "main"]
@@ -88,6 +90,7 @@ def _group(version: VersionOption = False) -> None:
 
 @app.command()
 def simulate(
+    ctx: typer.Context,
     out: Annotated[Path, typer.Argument(help="New session file to write (never overwritten).")],
     method: Annotated[Method, typer.Option(help="What the session measures.")],
     trials: Annotated[int, typer.Option(**_read("TRIALS"), help="Trials in the session.")] = 15,
@@ -123,16 +126,77 @@ def simulate(
         Path | None,
         typer.Option(exists=True, dir_okay=False, help="Scene TOML overriding the defaults."),
     ] = None,
+    cameras: Annotated[
+        int,
+        typer.Option(
+            **_read("CAMERAS"),
+            help="1: the laptop-on-grid procedure; 2: a pair of cameras fixed to each other "
+            "watching a moving target (stream trials; needs --speed and --clock-offset-ms).",
+        ),
+    ] = 1,
+    speed: Annotated[
+        float | None,
+        typer.Option(
+            **_read("SPEED"),
+            help="With --cameras 2: the moving target's speed, session units per second.",
+        ),
+    ] = None,
+    clock_offset_ms: Annotated[
+        float | None,
+        typer.Option(
+            "--clock-offset-ms",
+            **_read("CLOCK_OFFSET"),
+            help="With --cameras 2: camera 2's capture clock minus camera 1's, ms.",
+        ),
+    ] = None,
+    drift_ppm: Annotated[
+        float | None,
+        typer.Option(
+            "--drift-ppm",
+            **_read("DRIFT"),
+            help="With --cameras 2: camera 2's frame interval longer than camera 1's by "
+            "this many parts per million [default: 0].",
+        ),
+    ] = None,
+    jitter_ms: Annotated[
+        float | None,
+        typer.Option(
+            "--jitter-ms",
+            **_read("JITTER"),
+            help="With --cameras 2: each capture stamp's 1-sigma jitter, ms [default: 0].",
+        ),
+    ] = None,
+    drop: Annotated[
+        float | None,
+        typer.Option(
+            **_read("DROP"),
+            help="With --cameras 2: the share of each camera's frames lost [default: 0].",
+        ),
+    ] = None,
 ) -> None:
-    """Render a simulated session of the laptop-on-grid procedure with known truth."""
+    """Render a simulated session with known truth: the laptop-on-grid procedure, or
+    (--cameras 2) a pair of cameras watching a moving target."""
     from rich.console import Console
     from rich.progress import Progress
 
     from recorder.simulate import poses_per_trial, simulate_session
+    from recorder.simulate_pair import refuse_idle_options
     from twopose.sim.scene import load_scene
 
     with handle_errors():
+        refuse_idle_options(cameras, _given_options(ctx))
         loaded = load_scene(scene)
+        if cameras == 2:
+            summary = _simulate_pair(
+                out, method, trials, seed, loaded,
+                (speed, clock_offset_ms, drift_ppm, jitter_ms, drop),
+            )  # fmt: skip
+            typer.echo(
+                f"wrote {summary.path}: {summary.method}, two cameras, {summary.n_trials} "
+                f"stream trial{'' if summary.n_trials == 1 else 's'}, {summary.n_frames} "
+                f"frames, {summary.size_bytes / 1e6:.2f} MB"
+            )
+            return
         total = trials * poses_per_trial(loaded, method, poses) * frames
         # A bar on stderr at a terminal (rendering takes about 0.1 s a frame), nothing in a pipe.
         with Progress(console=Console(stderr=True), transient=True) as progress:
@@ -154,6 +218,45 @@ def simulate(
         f"trial{'' if summary.n_trials == 1 else 's'}, {summary.n_poses} poses, "
         f"{summary.n_frames} frames, {summary.size_bytes / 1e6:.2f} MB"
     )
+
+
+def _given_options(ctx: typer.Context) -> list[str]:
+    """The options given on the command line (or by their environment variables)."""
+    given = []
+    for p in ctx.command.params:
+        source = ctx.get_parameter_source(p.name) if p.name else None
+        if p.opts and source is not None and source.name != "DEFAULT":
+            given.append(p.opts[0])
+    return given
+
+
+def _simulate_pair(
+    out: Path,
+    method: Method,
+    trials: int,
+    seed: int,
+    scene: Scene,
+    timing: tuple[float | None, ...],
+) -> SimulationSummary:
+    """``simulate --cameras 2`` (:func:`recorder.simulate_pair.simulate_pair_session`)."""
+    from rich.console import Console
+    from rich.progress import Progress
+
+    from recorder.simulate_pair import PairTiming, simulate_pair_session
+
+    speed, offset, drift, jitter, drop = timing
+    assert speed is not None  # refuse_idle_options saw it given
+    assert offset is not None
+    pair_timing = PairTiming(
+        speed=speed, clock_offset_ms=offset, drift_ppm=drift or 0.0, jitter_ms=jitter or 0.0,
+        drop=drop or 0.0,
+    )  # fmt: skip
+    with Progress(console=Console(stderr=True), transient=True) as progress:
+        task = progress.add_task("frames rendered", total=None)
+        return simulate_pair_session(
+            out, method=method, timing=pair_timing, trials=trials, seed=seed, scene=scene,
+            on_progress=lambda: progress.advance(task),
+        )  # fmt: skip
 
 
 @app.command()

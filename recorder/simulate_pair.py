@@ -59,6 +59,11 @@ __all__ = ["PAIR_ONLY_OPTIONS", "PairTiming", "refuse_idle_options", "simulate_p
 #: The options that make sense only with ``--cameras 2``, and those without effect there.
 PAIR_ONLY_OPTIONS = ("--speed", "--clock-offset-ms", "--drift-ppm", "--jitter-ms", "--drop")
 _POSE_OPTIONS = ("--frames", "--poses", "--pose-noise", "--typed-resolution")
+_PAIR_NEEDS = {
+    "--speed": "--speed V (the moving target's speed, session units per second)",
+    "--clock-offset-ms": "--clock-offset-ms D (camera 2's capture clock minus camera 1's, "
+    "ms; 0: clocks in step)",
+}
 _IDS = ("cam1", "cam2")
 #: Capture to write (log time), per camera, ns.
 _LATENCY_NS = (40_000_000, 45_000_000)
@@ -112,23 +117,21 @@ def refuse_idle_options(cameras: int, given: Iterable[str]) -> None:
         idle = [o for o in _POSE_OPTIONS if o in given]
         if idle:
             raise InputValueError(
-                f"{', '.join(idle)} cannot apply with --cameras 2: a pair's trials are "
-                "streams (frames at the cameras' rate, a moving target, no typed pose); "
-                "leave them out"
+                f"{', '.join(idle)} {'has' if len(idle) == 1 else 'have'} no effect with "
+                "--cameras 2: a pair's trials are streams (frames at the cameras' rate, a "
+                "moving target, no typed pose); leave "
+                f"{'it' if len(idle) == 1 else 'them'} out"
             )
-        missing = [o for o in ("--speed", "--clock-offset-ms") if o not in given]
+        missing = [words for o, words in _PAIR_NEEDS.items() if o not in given]
         if missing:
-            raise InputValueError(
-                f"--cameras 2 needs {' and '.join(missing)}: the moving target's speed "
-                "(session units per second) and camera 2's clock minus camera 1's (ms, "
-                "0 for clocks in step)"
-            )
+            raise InputValueError(f"--cameras 2 needs {' and '.join(missing)}")
         return
     lonely = [o for o in PAIR_ONLY_OPTIONS if o in given]
     if lonely:
+        one = len(lonely) == 1
         raise InputValueError(
-            f"{', '.join(lonely)} only apply with --cameras 2 (two cameras, a moving "
-            "target); give --cameras 2 or leave them out"
+            f"{', '.join(lonely)} {'applies' if one else 'apply'} only with --cameras 2 (two "
+            f"cameras, a moving target): give --cameras 2 or leave {'it' if one else 'them'} out"
         )
 
 
