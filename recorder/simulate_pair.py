@@ -139,9 +139,9 @@ def simulated_pair_ids(
     method: Method, trials: int, seed: int, scene: Scene, timing: PairTiming
 ) -> tuple[str, str]:
     """The session's ``session_id`` and ``part_id``: halves of one SHA-256 of its settings."""
-    made = json.dumps(
-        ["twopose simulate --cameras 2", method.value, trials, seed, repr(scene), repr(timing)]
-    )
+    values = [float(v) for v in dataclasses.astuple(timing)]  # by value, not as typed
+    made = json.dumps(["twopose simulate --cameras 2", method.value, trials, seed, repr(scene)])
+    made += json.dumps(values)
     digest = hashlib.sha256(made.encode()).hexdigest()
     return digest[:32], digest[32:]
 

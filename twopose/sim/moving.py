@@ -45,7 +45,7 @@ _LEAD_IN = 1.0
 #: A frame's jitter never moves its stamp by this share of a frame interval or more, so a
 #: camera's stamps keep their frames' order (a driver's stamps never swap two frames).
 _JITTER_CUT = 0.45
-_MARGIN_PX = 20.0
+_MARGIN_PX = 4.0
 
 
 @dataclass(frozen=True, kw_only=True)
