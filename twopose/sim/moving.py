@@ -102,23 +102,36 @@ def touch_points(scene: Scene, method: Method, pair: PairCalibration) -> F64:
     """(4, 3) the grid points the target touches.
 
     A square of side 2 in about the scene's target moved halfway toward the middle of the
-    pair's baseline (both cameras see it).
-    Point: the dot's centres, in the plane z of the scene's dot (facing the cameras);
-    line: the fingertip's, in the level plane of the scene's fingertip; ground: the
-    finger's floor points, on the floor.
+    pair's baseline (both cameras see it). A method whose estimate lies on a plane (ground):
+    where the finger's axis meets the plane, the square in the plane; else the finger's
+    tip (line), the square level; else the dot's centre (point), the square facing the
+    cameras.
     """
     k = unit_factor(Units.IN, Units(scene.units))
-    square = np.asarray(_TOUCH_SQUARE_IN) * k
-    if spec_of(method).uses_image_lines:
-        tip, _ = finger_axis(scene, spec_of(method).plane)
-        if method is Method.GROUND:
-            g = scene.finger.ground_point
-            centre = _toward_baseline(np.array([g[0], scene.ground_height, g[1]]), pair)
-            return np.array([centre + np.array([dx, 0.0, dz]) for dx, dz in square])
-        centre = _toward_baseline(np.asarray(tip, dtype=np.float64), pair)
-        return np.array([centre + np.array([dx, 0.0, dz]) for dx, dz in square])
-    centre = _toward_baseline(np.asarray(scene.point.position, dtype=np.float64), pair)
-    return np.array([centre + np.array([dx, dy, 0.0]) for dx, dy in square])
+    spec = spec_of(method)
+    if spec.plane is not None:
+        axes = np.asarray(spec.plane.in_plane_grid, dtype=np.float64)
+        centre = _on_plane(scene, method)
+    elif spec.uses_image_lines:
+        axes = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+        centre = np.asarray(finger_axis(scene)[0], dtype=np.float64)
+    else:
+        axes = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+        centre = np.asarray(scene.point.position, dtype=np.float64)
+    centre = _toward_baseline(centre, pair)
+    return np.array([centre + k * (a * axes[0] + b * axes[1]) for a, b in _TOUCH_SQUARE_IN])
+
+
+def _on_plane(scene: Scene, method: Method) -> F64:
+    """Where the scene's finger's axis meets the method's plane.
+
+    The plane's offset is the scene's ground height.
+    """
+    plane = spec_of(method).plane
+    assert plane is not None
+    tip, base = (np.asarray(p, dtype=np.float64) for p in finger_axis(scene, plane))
+    n, d = np.asarray(plane.normal_grid, dtype=np.float64), tip - base
+    return np.asarray(tip + (scene.ground_height - n @ tip) / (n @ d) * d)
 
 
 def _toward_baseline(centre: F64, pair: PairCalibration) -> F64:
@@ -212,9 +225,8 @@ class PairScene:
         prim = self._target
         if prim.kind != "capsule":
             return np.asarray(prim.dot_center, dtype=np.float64)
-        if self.method is Method.GROUND:
-            g = self.scene.finger.ground_point
-            return np.array([g[0], self.scene.ground_height, g[1]])
+        if spec_of(self.method).plane is not None:
+            return _on_plane(self.scene, self.method)
         return np.asarray(prim.b, dtype=np.float64)
 
     def tip(self, reference: F64) -> F64:
