@@ -7,7 +7,8 @@ thesis' (camera 2 six inches to the right of camera 1, toed in 10 degrees:
 :func:`twopose.pair.motion.thesis_pair`, in the scene's units, both cameras the scene's
 intrinsics, its floor the scene's ground), exact. Per stream trial the method's target,
 held by a hand, moves at ``speed`` through four known grid points (the touches, in an
-order drawn per trial: :mod:`twopose.sim.moving`); each camera takes its frames on its own
+order drawn per trial: :mod:`twopose.sim.moving`), staying :data:`DWELL_S` on each (a
+touch is the middle of that stay); each camera takes its frames on its own
 free-running clock (a random phase; camera 2's clock ``clock_offset_ms`` ahead of camera
 1's and its interval ``drift_ppm`` longer; both cameras' stamps jittered by ``jitter_ms``
 and a ``drop`` share of their frames lost). A frame's capture time is its camera's stamp;
@@ -70,6 +71,8 @@ _LATENCY_NS = (40_000_000, 45_000_000)
 #: Camera 1's capture clock at the session's start (a monotonic clock's "since boot").
 _CLOCK_BASE_NS = 10**12
 _BETWEEN_TRIALS_NS = 10**9
+#: How long the target stays at each touch (a finger touching a point pauses on it).
+DWELL_S = 0.2
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -190,7 +193,7 @@ def _plan_trial(
     lead: float, rng: np.random.Generator,
 ) -> _Trial:  # fmt: skip
     order = rng.permutation(len(touches))
-    path = Trajectory(touches=touches[order], speed=speed, lead=lead)
+    path = Trajectory(touches=touches[order], speed=speed, lead=lead, dwell_s=DWELL_S)
     clocks = timing.clocks(fps)
     frames = (
         camera_frames(clocks[0], path.duration_s, rng),
@@ -294,7 +297,7 @@ def simulate_pair_session(
     pair_scene = PairScene(scene, method, pair, rng)
     touches = touch_points(scene, method, pair)
     lead = unit_factor(Units.IN, Units(scene.units))  # one inch
-    probe = Trajectory(touches=touches, speed=timing.speed, lead=lead)
+    probe = Trajectory(touches=touches, speed=timing.speed, lead=lead, dwell_s=DWELL_S)
     pair_scene.check_in_view(probe.at(np.linspace(0.0, probe.duration_s, 64)))
     ids = simulated_pair_ids(method, trials, seed, scene, timing)
     info = _session_info(scene, method, trials, seed, timing, ids)

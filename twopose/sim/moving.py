@@ -145,14 +145,16 @@ class Trajectory:
     """The target's reference point moving at ``speed`` through ``touches`` in order.
 
     It starts :data:`_LEAD_IN` (session units: one inch) before the first touch, along the
-    first segment, and ends as far past the last. ``touch_s`` (K,) when it is at each
-    touch; :meth:`at` where it is (the reference point: the dot's centre, the fingertip,
-    the finger's floor point), ``duration_s`` the whole path's time.
+    first segment, stays ``dwell_s`` at each touch (a finger touching a point pauses on
+    it) and ends as far past the last. ``touch_s`` (K,) the middle of each touch's stay;
+    :meth:`at` where it is (the reference point: the dot's centre, the fingertip, the
+    finger's floor point), ``duration_s`` the whole path's time.
     """
 
     touches: F64
     speed: float
     lead: float
+    dwell_s: float = 0.0
 
     @property
     def waypoints(self) -> F64:
@@ -163,25 +165,40 @@ class Trajectory:
         return np.vstack([p[0] - self.lead * first, p, p[-1] + self.lead * last])
 
     @property
-    def _arc(self) -> F64:
-        steps = np.linalg.norm(np.diff(self.waypoints, axis=0), axis=1)
-        return np.concatenate([[0.0], np.cumsum(steps)])
+    def _knots(self) -> tuple[F64, F64]:
+        """(M,) times and (M, 3) points between which the target moves straight.
+
+        Every corner; a touch's twice (its arrival, its departure).
+        """
+        w = self.waypoints
+        steps = np.linalg.norm(np.diff(w, axis=0), axis=1) / self.speed
+        times, points, t = [0.0], [w[0]], 0.0
+        for k in range(1, len(w)):
+            t += steps[k - 1]
+            times.append(t)
+            points.append(w[k])
+            if k < len(w) - 1:  # a touch: it stays
+                t += self.dwell_s
+                times.append(t)
+                points.append(w[k])
+        return np.asarray(times), np.asarray(points)
 
     @property
     def touch_s(self) -> F64:
-        """(K,) when the reference point is at each touch (s from the start)."""
-        return np.asarray(self._arc[1:-1] / self.speed)
+        """(K,) the middle of the target's stay at each touch (s from the start)."""
+        times, _ = self._knots
+        return np.asarray(0.5 * (times[1:-1:2] + times[2:-1:2]))
 
     @property
     def duration_s(self) -> float:
         """The whole path's time (s)."""
-        return float(self._arc[-1] / self.speed)
+        return float(self._knots[0][-1])
 
     def at(self, t_s: F64) -> F64:
         """(N, 3) the reference point at ``t_s`` (s from the start)."""
-        s = np.clip(np.asarray(t_s, dtype=np.float64) * self.speed, 0.0, self._arc[-1])
-        w = self.waypoints
-        return np.column_stack([np.interp(s, self._arc, w[:, i]) for i in range(3)])
+        times, points = self._knots
+        t = np.clip(np.asarray(t_s, dtype=np.float64), 0.0, times[-1])
+        return np.column_stack([np.interp(t, times, points[:, i]) for i in range(3)])
 
 
 class PairScene:
