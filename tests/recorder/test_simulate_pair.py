@@ -12,7 +12,6 @@ import hashlib
 import re
 from pathlib import Path
 
-import cv2
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -21,6 +20,8 @@ from typer.testing import CliRunner
 
 from recorder.cli import app
 from recorder.simulate_pair import PairTiming, simulate_pair_session, simulated_pair
+from tests.helpers import SMALL_SCENE
+from tests.recorder.test_simulate import _dark_centroid
 from twopose.camera import project_points
 from twopose.errors import InputValueError
 from twopose.format.reader import SessionReader
@@ -29,20 +30,12 @@ from twopose.methods import Method
 from twopose.sim.layout import Layout
 from twopose.sim.moving import ClockSettings, PairScene, Trajectory, camera_frames, touch_points
 from twopose.sim.render import render_radiance, render_sprite
-from twopose.sim.scene import CameraParams, Scene
+from twopose.sim.scene import CameraParams, Scene, load_scene
 
+#: Supersampled, with clutter: the composite against a whole ray-cast frame.
 SMALL = Scene(
     cameras=(CameraParams(width=320, height=240, fx=262.5, fy=262.5, cx=160.0, cy=120.0),)
 )
-SCENE_TOML = """
-[[cameras]]
-width = 320
-height = 240
-fx = 262.5
-fy = 262.5
-cx = 160.0
-cy = 120.0
-"""
 TIMING = PairTiming(speed=40.0, clock_offset_ms=12.5, drift_ppm=300.0)
 
 
@@ -52,19 +45,18 @@ def _session(path: Path) -> PairSession:
 
 
 @pytest.fixture(scope="module")
-def point_pair(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    path = tmp_path_factory.mktemp("pair") / "point.mcap"
-    simulate_pair_session(path, method=Method.POINT, timing=TIMING, trials=1, seed=2, scene=SMALL)
+def small_scene(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("scene") / "small.toml"
+    path.write_text(SMALL_SCENE)
     return path
 
 
-def _dark_centroid(img: np.ndarray, near: np.ndarray, half: int = 7) -> np.ndarray:
-    gray = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY).astype(float)
-    c, r = np.round(near).astype(int)
-    win = gray[r - half : r + half + 1, c - half : c + half + 1]
-    weight = np.clip(180.0 - win, 0, None)  # darkness below the card's white level
-    rows, cols = np.mgrid[r - half : r + half + 1, c - half : c + half + 1]
-    return np.array([(weight * cols).sum(), (weight * rows).sum()]) / weight.sum()
+@pytest.fixture(scope="module")
+def point_pair(tmp_path_factory: pytest.TempPathFactory, small_scene: Path) -> Path:
+    path = tmp_path_factory.mktemp("pair") / "point.mcap"
+    scene = load_scene(small_scene)
+    simulate_pair_session(path, method=Method.POINT, timing=TIMING, trials=1, seed=2, scene=scene)
+    return path
 
 
 def test_the_dot_moves_where_the_true_trajectory_projects_it_in_both_cameras(
@@ -84,13 +76,15 @@ def test_the_dot_moves_where_the_true_trajectory_projects_it_in_both_cameras(
             moved = np.linalg.norm(expected[-1] - expected[0])
             assert moved > 20  # the dot moved across the image
             for image, want in zip(stream.images(), expected, strict=True):
-                got = _dark_centroid(image, want)
+                got = _dark_centroid(image, want, half=7)
                 assert np.linalg.norm(got - want) < 0.3, (got, want)
 
 
-def test_the_session_holds_the_pair_the_touches_and_each_cameras_clock(point_pair: Path) -> None:
+def test_the_session_holds_the_pair_the_touches_and_each_cameras_clock(
+    point_pair: Path, small_scene: Path
+) -> None:
     session = _session(point_pair)
-    pair = simulated_pair(SMALL)
+    pair = simulated_pair(Scene())
     np.testing.assert_array_equal(session.pair.R_2_to_1, pair.R_2_to_1)
     np.testing.assert_array_equal(session.pair.t_2_in_1, pair.t_2_in_1)
     assert session.clocks == {"cam1": "simulated", "cam2": "simulated"}
@@ -101,7 +95,7 @@ def test_the_session_holds_the_pair_the_touches_and_each_cameras_clock(point_pai
     truth = trial.trajectory
     assert truth is not None
     # four touches at the grid points, in time order, each on the true path at its time
-    expected = {tuple(p) for p in touch_points(SMALL, Method.POINT, pair)}
+    expected = {tuple(p) for p in touch_points(load_scene(small_scene), Method.POINT, pair)}
     assert {t.point for t in trial.touches} == expected
     assert [t.how for t in trial.touches] == ["schedule"] * 4
     times = [t.time_ns for t in trial.touches]
@@ -124,10 +118,9 @@ def test_the_session_holds_the_pair_the_touches_and_each_cameras_clock(point_pai
 
 
 def test_the_same_settings_write_the_same_bytes_from_the_command_line(
-    point_pair: Path, tmp_path: Path
+    point_pair: Path, small_scene: Path, tmp_path: Path
 ) -> None:
-    scene = tmp_path / "scene.toml"
-    scene.write_text(SCENE_TOML)
+    scene = small_scene
     out = tmp_path / "cli.mcap"
     args = ["simulate", str(out), "--method", "point", "--cameras", "2", "--trials", "1"]
     args += ["--seed", "2", "--speed", "40.0", "--clock-offset-ms", "12.5", "--drift-ppm", "300.0"]
