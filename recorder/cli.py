@@ -15,7 +15,11 @@ from recorder.cli_options import (
     BoardCornerOption,
     BoardOption,
     CalibrationOption,
+    CamerasOption,
+    ClockOffsetOption,
     ContinueFromOption,
+    DriftOption,
+    DropOption,
     FocalOption,
     FpsOption,
     FramesOption,
@@ -24,6 +28,7 @@ from recorder.cli_options import (
     GroundTruthOption,
     HeightOption,
     HostOption,
+    JitterOption,
     LiveOption,
     LivePortOption,
     MaxPosesOption,
@@ -39,12 +44,14 @@ from recorder.cli_options import (
     ReachOption,
     RigOption,
     SourceOption,
+    SpeedOption,
     SquareOption,
     TargetDistanceOption,
     TargetPrecisionOption,
     UiOption,
     UnitsOption,
     WidthOption,
+    given_options,
 )
 from recorder.cli_options import read_option as _read
 from recorder.sources import source_help
@@ -62,11 +69,11 @@ from twopose.version import VersionOption
 if TYPE_CHECKING:
     from recorder.camera_calibration import Calibration
     from recorder.continuation import Continued
+    from recorder.new_session import NewRequest
     from recorder.option_rules import Combination
     from recorder.setup_rules import GuidanceAsked
-    from recorder.simulate import SimulationSummary
+    from recorder.summary import RecordingSummary
     from twopose.camera import Intrinsics
-    from twopose.sim.scene import Scene
     from twopose.targets import BoardPlacement
 
 __all__ = ["app", "main"]
@@ -126,53 +133,12 @@ def simulate(
         Path | None,
         typer.Option(exists=True, dir_okay=False, help="Scene TOML overriding the defaults."),
     ] = None,
-    cameras: Annotated[
-        int,
-        typer.Option(
-            **_read("CAMERAS"),
-            help="1: the laptop-on-grid procedure; 2: a pair of cameras fixed to each other "
-            "watching a moving target (stream trials; needs --speed and --clock-offset-ms).",
-        ),
-    ] = 1,
-    speed: Annotated[
-        float | None,
-        typer.Option(
-            **_read("SPEED"),
-            help="With --cameras 2: the moving target's speed, session units per second.",
-        ),
-    ] = None,
-    clock_offset_ms: Annotated[
-        float | None,
-        typer.Option(
-            "--clock-offset-ms",
-            **_read("CLOCK_OFFSET"),
-            help="With --cameras 2: camera 2's capture clock minus camera 1's, ms.",
-        ),
-    ] = None,
-    drift_ppm: Annotated[
-        float | None,
-        typer.Option(
-            "--drift-ppm",
-            **_read("DRIFT"),
-            help="With --cameras 2: camera 2's frame interval longer than camera 1's by "
-            "this many parts per million [default: 0].",
-        ),
-    ] = None,
-    jitter_ms: Annotated[
-        float | None,
-        typer.Option(
-            "--jitter-ms",
-            **_read("JITTER"),
-            help="With --cameras 2: each capture stamp's 1-sigma jitter, ms [default: 0].",
-        ),
-    ] = None,
-    drop: Annotated[
-        float | None,
-        typer.Option(
-            **_read("DROP"),
-            help="With --cameras 2: the share of each camera's frames lost [default: 0].",
-        ),
-    ] = None,
+    cameras: CamerasOption = 1,
+    speed: SpeedOption = None,
+    clock_offset_ms: ClockOffsetOption = None,
+    drift_ppm: DriftOption = None,
+    jitter_ms: JitterOption = None,
+    drop: DropOption = None,
 ) -> None:
     """Render a simulated session with known truth: the laptop-on-grid procedure, or
     (--cameras 2) a pair of cameras watching a moving target."""
@@ -180,14 +146,14 @@ def simulate(
     from rich.progress import Progress
 
     from recorder.simulate import poses_per_trial, simulate_session
-    from recorder.simulate_pair import refuse_idle_options
+    from recorder.simulate_pair import refuse_idle_options, simulate_pair_with_progress
     from twopose.sim.scene import load_scene
 
     with handle_errors():
-        refuse_idle_options(cameras, _given_options(ctx))
+        refuse_idle_options(cameras, given_options(ctx))
         loaded = load_scene(scene)
         if cameras == 2:
-            summary = _simulate_pair(
+            summary = simulate_pair_with_progress(
                 out, method, trials, seed, loaded,
                 (speed, clock_offset_ms, drift_ppm, jitter_ms, drop),
             )  # fmt: skip
@@ -218,45 +184,6 @@ def simulate(
         f"trial{'' if summary.n_trials == 1 else 's'}, {summary.n_poses} poses, "
         f"{summary.n_frames} frames, {summary.size_bytes / 1e6:.2f} MB"
     )
-
-
-def _given_options(ctx: typer.Context) -> list[str]:
-    """The options given on the command line (or by their environment variables)."""
-    given = []
-    for p in ctx.command.params:
-        source = ctx.get_parameter_source(p.name) if p.name else None
-        if p.opts and source is not None and source.name != "DEFAULT":
-            given.append(p.opts[0])
-    return given
-
-
-def _simulate_pair(
-    out: Path,
-    method: Method,
-    trials: int,
-    seed: int,
-    scene: Scene,
-    timing: tuple[float | None, ...],
-) -> SimulationSummary:
-    """``simulate --cameras 2`` (:func:`recorder.simulate_pair.simulate_pair_session`)."""
-    from rich.console import Console
-    from rich.progress import Progress
-
-    from recorder.simulate_pair import PairTiming, simulate_pair_session
-
-    speed, offset, drift, jitter, drop = timing
-    assert speed is not None  # refuse_idle_options saw it given
-    assert offset is not None
-    pair_timing = PairTiming(
-        speed=speed, clock_offset_ms=offset, drift_ppm=drift or 0.0, jitter_ms=jitter or 0.0,
-        drop=drop or 0.0,
-    )  # fmt: skip
-    with Progress(console=Console(stderr=True), transient=True) as progress:
-        task = progress.add_task("frames rendered", total=None)
-        return simulate_pair_session(
-            out, method=method, timing=pair_timing, trials=trials, seed=seed, scene=scene,
-            on_progress=lambda: progress.advance(task),
-        )  # fmt: skip
 
 
 @app.command()
@@ -308,13 +235,9 @@ def new(
     from recorder.new_session import (
         CameraMode,
         NewRequest,
-        continued_given,
         continued_session,
         guidance_asked,
-        record_planned,
-        record_terminal,
         rig_file,
-        serve_console_until_stopped,
     )
     from recorder.option_rules import refuse_idle
     from recorder.procedure import refuse_existing
@@ -363,28 +286,57 @@ def new(
             live_port=(8765 if live_port is None else live_port) if live else None,
             guidance=asked, continued=continued,
         )  # fmt: skip
-        host, port = host or "127.0.0.1", port or 0
-        if plan is not None:
-            summary = record_planned(request, plan, stack)
-        elif continued is not None:
-            if ui:
-                given_ui = continued_given(continued, target_precision, guidance=taken)
-                serve_console_until_stopped(request, given_ui, host=host, port=port)
-                return
-            summary = record_terminal(request, {"target_precision": target_precision}, stack)
-        else:
-            setup = _console_given(
+        summary = _record_new(
+            request, stack, plan=plan, ui=ui, host=host or "127.0.0.1", port=port or 0,
+            target_precision=target_precision,
+            taken=taken,
+            setup=lambda: _console_given(
                 method, units, calibration, focal, principal, ground_height, ground_truth, operator,
                 _board_given(method, units, board, square, board_corner), target_precision,
-            )  # fmt: skip
-            if ui:
-                serve_console_until_stopped(request, setup, host=host, port=port)
-                return
-            summary = record_terminal(request, setup, stack)
+            ),
+        )  # fmt: skip
+        if summary is None:  # the console served until it was stopped
+            return
     typer.echo(summary.line())
     if summary.interrupted:
         typer.secho("interrupted", err=True)
         raise typer.Exit(EXIT_INTERRUPTED)
+
+
+def _record_new(
+    request: NewRequest,
+    stack: contextlib.ExitStack,
+    *,
+    plan: Path | None,
+    ui: bool,
+    host: str,
+    port: int,
+    target_precision: float | None,
+    taken: str,
+    setup: Callable[[], dict[str, Any]],
+) -> RecordingSummary | None:
+    """``new`` records: from a plan, continuing a session (terminal or console), or a new
+    session (terminal or console); None when the console served until it was stopped.
+    ``taken``: the guidance a continuation inherits, said in the console's setup."""
+    from recorder.new_session import (
+        continued_given,
+        record_planned,
+        record_terminal,
+        serve_console_until_stopped,
+    )
+
+    if plan is not None:
+        return record_planned(request, plan, stack)
+    if request.continued is not None:
+        if ui:
+            given_ui = continued_given(request.continued, target_precision, guidance=taken)
+            serve_console_until_stopped(request, given_ui, host=host, port=port)
+            return None
+        return record_terminal(request, {"target_precision": target_precision}, stack)
+    if ui:
+        serve_console_until_stopped(request, setup(), host=host, port=port)
+        return None
+    return record_terminal(request, setup(), stack)
 
 
 def _combination(

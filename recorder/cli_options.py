@@ -22,7 +22,11 @@ __all__ = [
     "BoardCornerOption",
     "BoardOption",
     "CalibrationOption",
+    "CamerasOption",
+    "ClockOffsetOption",
     "ContinueFromOption",
+    "DriftOption",
+    "DropOption",
     "FocalOption",
     "FpsOption",
     "FramesOption",
@@ -31,6 +35,7 @@ __all__ = [
     "GroundTruthOption",
     "HeightOption",
     "HostOption",
+    "JitterOption",
     "LiveOption",
     "LivePortOption",
     "MaxPosesOption",
@@ -46,12 +51,14 @@ __all__ = [
     "ReachOption",
     "RigOption",
     "SourceOption",
+    "SpeedOption",
     "SquareOption",
     "TargetDistanceOption",
     "TargetPrecisionOption",
     "UiOption",
     "UnitsOption",
     "WidthOption",
+    "given_options",
     "read_option",
 ]
 
@@ -233,3 +240,64 @@ MinGainOption = Annotated[
         f"none) [default: {DEFAULT_MIN_GAIN:g}].",
     ),
 ]
+
+
+# -- simulate --cameras 2 (recorder/simulate_pair.py)
+CamerasOption = Annotated[
+    int,
+    typer.Option(
+        **read_option("CAMERAS"),
+        help="1: the laptop-on-grid procedure; 2: a pair of cameras fixed to each other "
+        "watching a moving target (stream trials; needs --speed and --clock-offset-ms).",
+    ),
+]
+SpeedOption = Annotated[
+    float | None,
+    typer.Option(
+        **read_option("SPEED"),
+        help="With --cameras 2: the moving target's speed, session units per second.",
+    ),
+]
+ClockOffsetOption = Annotated[
+    float | None,
+    typer.Option(
+        "--clock-offset-ms",
+        **read_option("CLOCK_OFFSET"),
+        help="With --cameras 2: camera 2's capture clock minus camera 1's, ms.",
+    ),
+]
+DriftOption = Annotated[
+    float | None,
+    typer.Option(
+        "--drift-ppm",
+        **read_option("DRIFT"),
+        help="With --cameras 2: camera 2's frame interval longer than camera 1's by "
+        "this many parts per million [default: 0].",
+    ),
+]
+JitterOption = Annotated[
+    float | None,
+    typer.Option(
+        "--jitter-ms",
+        **read_option("JITTER"),
+        help="With --cameras 2: each capture stamp's 1-sigma jitter, ms [default: 0].",
+    ),
+]
+DropOption = Annotated[
+    float | None,
+    typer.Option(
+        **read_option("DROP"),
+        help="With --cameras 2: the share of each camera's frames lost [default: 0].",
+    ),
+]
+
+
+def given_options(ctx: typer.Context) -> list[str]:
+    """The options a command was given (on its command line, or by their environment
+    variables): their first ``--names``."""
+    given = []
+    for p in ctx.command.params:
+        source = ctx.get_parameter_source(p.name) if p.name else None
+        if p.opts and source is not None and source.name != "DEFAULT":
+            given.append(p.opts[0])
+    return given

@@ -55,7 +55,13 @@ from twopose.sim.moving import (
 from twopose.sim.scene import Scene
 from twopose.units import Units, unit_factor
 
-__all__ = ["PAIR_ONLY_OPTIONS", "PairTiming", "refuse_idle_options", "simulate_pair_session"]
+__all__ = [
+    "PAIR_ONLY_OPTIONS",
+    "PairTiming",
+    "refuse_idle_options",
+    "simulate_pair_session",
+    "simulate_pair_with_progress",
+]
 
 #: The options that make sense only with ``--cameras 2``, and those without effect there.
 PAIR_ONLY_OPTIONS = ("--speed", "--clock-offset-ms", "--drift-ppm", "--jitter-ms", "--drop")
@@ -345,3 +351,34 @@ def _session_info(
         part_id=ids[1],
         clocks=dict.fromkeys(_IDS, "simulated"),
     )
+
+
+def simulate_pair_with_progress(
+    out: Path,
+    method: Method,
+    trials: int,
+    seed: int,
+    scene: Scene,
+    timing: tuple[float | None, ...],
+) -> SimulationSummary:
+    """``simulate --cameras 2``: :func:`simulate_pair_session` with a bar on stderr.
+
+    ``timing``: speed, clock offset (both given: :func:`refuse_idle_options`), drift,
+    jitter and drop (None: 0), as the command line read them.
+    """
+    from rich.console import Console
+    from rich.progress import Progress
+
+    speed, offset, drift, jitter, drop = timing
+    if speed is None or offset is None:
+        raise InputValueError(f"--cameras 2 needs {' and '.join(_PAIR_NEEDS.values())}")
+    pair_timing = PairTiming(
+        speed=speed, clock_offset_ms=offset, drift_ppm=drift or 0.0, jitter_ms=jitter or 0.0,
+        drop=drop or 0.0,
+    )  # fmt: skip
+    with Progress(console=Console(stderr=True), transient=True) as progress:
+        task = progress.add_task("frames rendered", total=None)
+        return simulate_pair_session(
+            out, method=method, timing=pair_timing, trials=trials, seed=seed, scene=scene,
+            on_progress=lambda: progress.advance(task),
+        )  # fmt: skip
