@@ -32,7 +32,7 @@ from mcap.writer import CompressionType
 from mcap.writer import Writer as McapWriter
 
 from twopose.camera import Camera
-from twopose.errors import SessionExistsError, SessionFormatError, TwoposeError
+from twopose.errors import InputValueError, SessionExistsError, SessionFormatError, TwoposeError
 from twopose.format.channels import Channels, register_session_channels
 from twopose.format.entries import (
     CaptureWindow,
@@ -45,6 +45,7 @@ from twopose.format.entries import (
     encode_entry,
 )
 from twopose.format.messages import calibration_message, calibration_topic
+from twopose.format.pair_convert import pair_calibration
 from twopose.format.reader import check_version, max_chunk_bytes
 from twopose.format.writer import METADATA_NAME, cameras_from_metadata
 
@@ -363,7 +364,14 @@ def _open_output(dst: Path, metadata: dict[str, str]) -> _Output:
     writer.start(profile="", library=f"twopose recover ({metadata.get('software_version', '?')})")
     pair = metadata.get("pair", "")
     if pair:  # checked before it is copied: a pair that does not decode is no session's
-        decode_entry(PairEntry.SCHEMA_NAME, pair.encode())
+        decoded = decode_entry(PairEntry.SCHEMA_NAME, pair.encode())
+        assert isinstance(decoded, PairEntry)
+        try:
+            pair_calibration(decoded)
+        except InputValueError as err:
+            raise SessionFormatError(
+                f"the metadata's pair: {err}; cannot rebuild the session"
+            ) from err
     channels = register_session_channels(
         writer, info.camera_ids, metadata.get("format_version", "1.0"), pair=bool(pair)
     )

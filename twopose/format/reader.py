@@ -31,6 +31,7 @@ from twopose.format.messages import (
     calibration_topic,
     camera_from_message,
 )
+from twopose.format.pair_convert import pair_calibration
 from twopose.format.writer import METADATA_NAME
 
 if TYPE_CHECKING:
@@ -118,6 +119,7 @@ class SessionReader:
         self._cameras: dict[str, Camera] = {}
         self._ground: GroundPlane | None = None
         self._pair: PairEntry | None = None
+        self._pair_calibration: PairCalibration | None = None
         self._capture_times = False
 
     def __enter__(self) -> Self:
@@ -240,7 +242,10 @@ class SessionReader:
                 f"{self.path}: the pair's cameras {list(ids)} are not the session's "
                 f"{list(self.info.camera_ids)}; the file was not written consistently"
             )
-        calibration = pair.calibration
+        try:
+            calibration = pair_calibration(pair)
+        except InputValueError as err:
+            raise SessionFormatError(f"{self.path}: its pair on /twopose/pair: {err}") from err
         for cid, intrinsics in zip(ids, (calibration.intrinsics1, calibration.intrinsics2),
                                    strict=True):  # fmt: skip
             if self._cameras[cid].intrinsics != intrinsics:
@@ -253,6 +258,7 @@ class SessionReader:
                 f"{self.path}: the pair is in {calibration.units}, the session in "
                 f"{self.info.units}; the file was not written consistently"
             )
+        self._pair_calibration = calibration
 
     @property
     def info(self) -> SessionInfo:
@@ -273,7 +279,7 @@ class SessionReader:
     @property
     def pair(self) -> PairCalibration | None:
         """A two-camera session's pair (format 1.6), in the session's units; else None."""
-        return None if self._pair is None else self._pair.calibration
+        return self._pair_calibration
 
     @property
     def records_capture_times(self) -> bool:

@@ -12,17 +12,17 @@
 
 In a two-camera session the grid frame is camera 1's frame (x right, y down, z forward),
 so the pair's floor, the ground plane and the touches' points share one frame. The
-pair's core (NumPy, OpenCV) is imported only when a pair entry is built, so reading a
-one-camera session costs nothing more.
+entries are data alone: :mod:`twopose.format.pair_convert` turns them into the pair's core
+types and back (so that the format, which the core's solvers import, imports nothing of
+the pair).
 """
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Literal
+from dataclasses import dataclass
+from typing import Any, Literal
 
-from twopose.camera import SIGMA_KEYS, Intrinsics
+from twopose.camera import SIGMA_KEYS
 from twopose.errors import InputValueError
 from twopose.format.declared import (
     CAMERA_SCHEMA,
@@ -32,12 +32,8 @@ from twopose.format.declared import (
     json_field,
     vec3_schema,
 )
-from twopose.units import UNITS, Units, unit_spec
+from twopose.units import UNITS, Units
 from twopose.values import Vec3, camera_id, finite, index, vec3
-
-if TYPE_CHECKING:
-    from twopose.pair.calibration import PairCalibration
-    from twopose.pair.clock import ClockOffset
 
 __all__ = [
     "CLOCK_SOURCES",
@@ -115,14 +111,6 @@ _CHECK_SCHEMA: dict[str, Any] = {
 }  # fmt: skip
 
 
-def _nullable(x: float) -> float | None:
-    return x if math.isfinite(x) else None
-
-
-def _number(x: float | None) -> float:
-    return math.nan if x is None else float(x)
-
-
 @entry(
     "/twopose/pair",
     "PairCalibration",
@@ -131,12 +119,13 @@ def _number(x: float | None) -> float:
 )
 @dataclass(frozen=True, kw_only=True)
 class PairEntry(TypedEntry):
-    """The pair's calibration as a session stores it (:meth:`of`, :attr:`calibration`).
+    """The pair's calibration as a session stores it.
 
     As the pair file holds it (docs/pair-file.md), in the session's units, with the ids of
-    the session's camera 1 and camera 2. Built, it is checked as a
-    :class:`~twopose.pair.calibration.PairCalibration` is (a rotation, covariances, a unit
-    floor normal); :attr:`calibration` is that calibration.
+    the session's camera 1 and camera 2. :func:`twopose.format.pair_convert.pair_entry`
+    makes it of a :class:`~twopose.pair.calibration.PairCalibration`, and
+    :func:`~twopose.format.pair_convert.pair_calibration` that calibration of it (checked:
+    a rotation, covariances, a unit floor normal).
     """
 
     camera1: str = json_field("camera1", CAMERA_SCHEMA)
@@ -183,11 +172,13 @@ class PairEntry(TypedEntry):
     check: dict[str, Any] | None = json_field(
         "check", _CHECK_SCHEMA, required=False, default=None, compare=False
     )
-    #: The calibration these fields hold (built and checked with the entry).
-    calibration: PairCalibration = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        """Check the cameras, then build (and so check) the calibration."""
+        """Check the cameras and the pose's shapes.
+
+        The calibration they hold is built, and so checked, by
+        :func:`twopose.format.pair_convert.pair_calibration`.
+        """
         camera_id(self.camera1)
         camera_id(self.camera2)
         if self.camera1 == self.camera2:
@@ -195,77 +186,6 @@ class PairEntry(TypedEntry):
         object.__setattr__(self, "t_2_in_1", vec3(self.t_2_in_1, "t_2_in_1"))
         object.__setattr__(self, "R_2_to_1", _rows(self.R_2_to_1))
         object.__setattr__(self, "cov_extrinsic", _rows(self.cov_extrinsic))
-        object.__setattr__(self, "calibration", self._build())
-
-    def _build(self) -> PairCalibration:
-        import numpy as np
-
-        from twopose.pair.calibration import FloorPlane, PairCalibration
-        from twopose.pair.holdout import HoldoutCheck
-
-        floor = check = None
-        if self.floor is not None:
-            floor = FloorPlane(normal=np.array(self.floor["normal"], dtype=np.float64),
-                               height=finite(self.floor["height"], "the floor's height"),
-                               cov=np.array(self.floor["cov"], dtype=np.float64))  # fmt: skip
-        if self.check is not None:
-            c = self.check
-            check = HoldoutCheck(
-                folds=index(c["folds"], "folds"), spacings=index(c["spacings"], "spacings"),
-                worst_sigmas=_number(c["worst_sigmas"]), beyond=index(c["beyond_3_sigma"], "n"),
-                median_error=_number(c["median_error"]), median_sigma=_number(c["median_sigma"]),
-                jackknife_ratio=tuple(_number(x) for x in c["jackknife_ratio"]),
-            )  # fmt: skip
-            if check.passed != bool(c["passed"]):
-                raise InputValueError("the pair's check: passed disagrees with its worst_sigmas")
-        return PairCalibration(
-            intrinsics1=Intrinsics.from_dict(self.intrinsics1, "the pair's camera 1"),
-            intrinsics2=Intrinsics.from_dict(self.intrinsics2, "the pair's camera 2"),
-            R_2_to_1=np.array(self.R_2_to_1, dtype=np.float64),
-            t_2_in_1=np.array(vec3(self.t_2_in_1, "t_2_in_1")),
-            cov_extrinsic=np.array(self.cov_extrinsic, dtype=np.float64),
-            rms_px=finite(self.rms_px, "rms_px"),
-            n_views=index(self.views, "views"),
-            units=unit_spec(self.units).units,
-            floor=floor,
-            sigma1=self.sigma1 or {},
-            sigma2=self.sigma2 or {},
-            intrinsics_from=self.intrinsics_from,
-            view_names=self.view_names,
-            view_rms_px=tuple(finite(v, "a view's RMS") for v in self.view_rms_px),
-            dropped=self.dropped,
-            check=check,
-            cov_factor=finite(self.cov_factor, "cov_factor"),
-        )
-
-    @classmethod
-    def of(cls, pair: PairCalibration, cameras: tuple[str, str]) -> PairEntry:
-        """The entry of ``pair`` for the session's camera 1 and camera 2 (its units kept)."""
-        check = None
-        if pair.check is not None:
-            c = pair.check
-            check = {
-                "folds": c.folds, "spacings": c.spacings, "beyond_3_sigma": c.beyond,
-                "worst_sigmas": _nullable(c.worst_sigmas),
-                "median_error": _nullable(c.median_error),
-                "median_sigma": _nullable(c.median_sigma),
-                "jackknife_ratio": [_nullable(x) for x in c.jackknife_ratio],
-                "passed": c.passed,
-            }  # fmt: skip
-        floor = None
-        if pair.floor is not None:
-            f = pair.floor
-            floor = {"normal": f.normal.tolist(), "height": f.height, "cov": f.cov.tolist()}
-        return cls(
-            camera1=cameras[0], camera2=cameras[1], units=pair.units,
-            R_2_to_1=_rows(pair.R_2_to_1.tolist()), t_2_in_1=vec3(pair.t_2_in_1, "t_2_in_1"),
-            cov_extrinsic=_rows(pair.cov_extrinsic.tolist()), cov_factor=pair.cov_factor,
-            rms_px=pair.rms_px, views=pair.n_views,
-            intrinsics1=pair.intrinsics1.to_dict(), intrinsics2=pair.intrinsics2.to_dict(),
-            sigma1=dict(pair.sigma1) or None, sigma2=dict(pair.sigma2) or None, floor=floor,
-            intrinsics_from=pair.intrinsics_from, view_names=tuple(pair.view_names),
-            view_rms_px=tuple(pair.view_rms_px), dropped=tuple(pair.dropped), check=check,
-        )  # fmt: skip
 
 
 @entry(
@@ -295,21 +215,6 @@ class ClockOffsetEntry(TypedEntry):
         index(self.n, "n")
         if not self.method.strip():
             raise InputValueError("the clock offset's method must be said")
-
-    @classmethod
-    def of(cls, offset: ClockOffset) -> ClockOffsetEntry:
-        """The entry of a measured offset."""
-        return cls(offset_ns=float(offset.offset_ns), sigma_ns=float(offset.sigma_ns),
-                   method=offset.method, n=int(offset.n))  # fmt: skip
-
-    @property
-    def offset(self) -> ClockOffset:
-        """The offset as the pair's core takes it."""
-        from twopose.pair.clock import ClockOffset
-
-        return ClockOffset(
-            offset_ns=self.offset_ns, sigma_ns=self.sigma_ns, method=self.method, n=self.n
-        )
 
 
 @entry(

@@ -49,6 +49,7 @@ from twopose.format.entries import (
     Touch,
 )
 from twopose.format.messages import Frame, image_topic
+from twopose.format.pair_convert import clock_offset
 from twopose.format.reader import SessionReader
 
 if TYPE_CHECKING:
@@ -286,7 +287,7 @@ def read_pair_session(reader: SessionReader) -> PairSession:
                 trajectory=found.trajectories.get(trial),
             )
         )
-    offsets = tuple(o.offset for o in found.offsets)
+    offsets = tuple(clock_offset(o) for o in found.offsets)
     return PairSession(
         path=reader.path,
         info=reader.info,

@@ -13,20 +13,51 @@ begins, so that a crash (kill -9, a power cut) loses at most the open window, an
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from types import TracebackType
-from typing import TYPE_CHECKING, Self
+from typing import Protocol, Self
 
 import numpy as np
 from numpy.typing import NDArray
 
 from twopose.errors import InputValueError
-from twopose.format.entries import CaptureWindow, StreamWindow, Touch
+from twopose.format.entries import CaptureWindow, SessionInfo, StreamWindow, Touch, TypedEntry
 from twopose.format.stream_entries import TouchMark, WindowStatus
 from twopose.values import index
 
-if TYPE_CHECKING:
-    from twopose.format.writer import SessionWriter
+
+class _Writer(Protocol):
+    """What a window uses of its :class:`~twopose.format.writer.SessionWriter`.
+
+    The writer imports this module: a protocol, not an import, keeps the two apart.
+    """
+
+    info: SessionInfo
+
+    @property
+    def is_open(self) -> bool: ...
+
+    @property
+    def last_ns(self) -> int: ...
+
+    def time(self, log_time_ns: int | None) -> int: ...
+
+    def encode_image(self, image_bgr: NDArray[np.uint8]) -> bytes: ...
+
+    def write_image(
+        self, camera_id: str, data: bytes, log_time_ns: int, capture_ns: int | None = None
+    ) -> int: ...
+
+    def write_entry(self, entry: TypedEntry, log_time_ns: int | None = None) -> None: ...
+
+    def write_entries(
+        self, entries: Iterable[TypedEntry], log_time_ns: int | None = None, *, sync: bool = False
+    ) -> None: ...
+
+    def _check_camera(self, camera_id: str) -> None: ...
+
+    def _begin_capture(self, capture: Capture | Stream | None) -> None: ...
+
 
 __all__ = ["Capture", "Stream"]
 
@@ -49,7 +80,7 @@ class Capture:
 
     def __init__(
         self,
-        writer: SessionWriter,
+        writer: _Writer,
         trial: int,
         pose: int,
         camera_id: str,
@@ -154,7 +185,7 @@ class Stream:
     """
 
     def __init__(
-        self, writer: SessionWriter, trial: int, *, window_s: float, start_ns: int | None
+        self, writer: _Writer, trial: int, *, window_s: float, start_ns: int | None
     ) -> None:
         if not (math.isfinite(window_s) and window_s > 0):
             raise InputValueError(f"a stream's window must be a duration > 0 s, got {window_s}")

@@ -24,7 +24,6 @@ from twopose.format.channels import Channels, register_session_channels
 from twopose.format.entries import (
     FORMAT_VERSION,
     CaptureDecision,
-    ClockOffsetEntry,
     GroundPlane,
     GroundTruth,
     Note,
@@ -42,6 +41,7 @@ from twopose.format.messages import (
     image_topic,
     transform_message,
 )
+from twopose.format.pair_convert import clock_offset_entry, pair_entry
 from twopose.format.windows import Capture, Stream
 from twopose.values import index
 
@@ -121,7 +121,7 @@ def _pair_entry(pair: PairCalibration, info: SessionInfo, cameras: Sequence[Came
                 f"camera {camera.camera_id}'s intrinsics are not the pair's camera {k}'s: "
                 "give the session the pair's cameras (their intrinsics from the pair file)"
             )
-    return PairEntry.of(pair.in_units(info.units), (cameras[0].camera_id, cameras[1].camera_id))
+    return pair_entry(pair.in_units(info.units), (cameras[0].camera_id, cameras[1].camera_id))
 
 
 def _with_sigma(info: SessionInfo, cameras: Sequence[Camera]) -> SessionInfo:
@@ -189,8 +189,8 @@ class SessionWriter:
         self.info = _with_sigma(info, cameras)
         self.cameras = {c.camera_id: c for c in cameras}
         self.pair = None if pair is None else _pair_entry(pair, self.info, cameras)
-        if ground is None and self.pair is not None and self.pair.calibration.floor is not None:
-            floor = self.pair.calibration.floor
+        floor = None if pair is None else pair.in_units(self.info.units).floor
+        if ground is None and floor is not None:
             ground = GroundPlane(normal_grid=tuple(floor.normal), offset=floor.height)
         self.ground = ground
         self.image_format = image_format
@@ -365,7 +365,7 @@ class SessionWriter:
     def write_clock_offset(self, offset: ClockOffset, log_time_ns: int | None = None) -> None:
         """Write the cameras' measured clock offset (a two-camera session; the last applies)."""
         self._check_pair("a clock offset")
-        self.write_entry(ClockOffsetEntry.of(offset), log_time_ns)
+        self.write_entry(clock_offset_entry(offset), log_time_ns)
 
     def write_ground_truth(self, entry: GroundTruth, log_time_ns: int | None = None) -> None:
         """Write a trial's ground truth."""

@@ -9,12 +9,12 @@ import numpy as np
 from twopose.camera import Camera
 from twopose.format.entries import (
     ClockOffsetEntry,
-    PairEntry,
     SessionInfo,
     SimTrajectory,
     StreamWindow,
     Touch,
 )
+from twopose.format.pair_convert import pair_entry
 from twopose.format.simulation import SimClock, SimFrames
 from twopose.format.writer import SessionWriter
 from twopose.methods import Method
@@ -47,7 +47,7 @@ def calibrated_pair() -> PairCalibration:
 
 
 PAIR_SESSION_EXAMPLES = [
-    PairEntry.of(calibrated_pair(), ("left", "right")),
+    pair_entry(calibrated_pair(), ("left", "right")),
     ClockOffsetEntry(offset_ns=-1.25e7, sigma_ns=3.1e5, method="ray gap", n=412),
     StreamWindow(
         trial=3,

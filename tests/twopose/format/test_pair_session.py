@@ -239,3 +239,26 @@ def test_a_one_camera_frame_carries_the_capture_time_it_is_given(tmp_path: Path)
         with pytest.raises(InputValueError, match="one-camera session"):
             read_pair_session(reader)
     assert (frame.log_time_ns, frame.capture_ns) == (10, 7)
+
+
+def test_a_pair_that_is_no_calibration_is_refused_by_the_reader(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The entry holds numbers; the calibration they make is checked when it is read."""
+    from twopose.errors import SessionFormatError
+    from twopose.format.pair_convert import pair_calibration, pair_entry
+
+    pair = thesis_pair()
+    bad = dataclasses.replace(
+        pair_entry(pair, ("cam1", "cam2")),
+        R_2_to_1=((2.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)),
+    )
+    with pytest.raises(InputValueError, match="rotation"):
+        pair_calibration(bad)
+    monkeypatch.setattr("twopose.format.writer.pair_entry", lambda *_: bad)
+    info = SessionInfo(method=Method.POINT, units=Units.IN, camera_ids=("cam1", "cam2"))
+    path = tmp_path / "bad.mcap"
+    with SessionWriter(path, info, pair_cameras(pair), pair=pair):
+        pass
+    with pytest.raises(SessionFormatError, match=r"its pair on /twopose/pair: .*rotation"):
+        SessionReader(path).__enter__()
