@@ -262,3 +262,93 @@ def test_a_pair_that_is_no_calibration_is_refused_by_the_reader(
         pass
     with pytest.raises(SessionFormatError, match=r"its pair on /twopose/pair: .*rotation"):
         SessionReader(path).__enter__()
+
+
+def test_a_pair_session_written_from_the_spec_with_plain_mcap_is_replayed(tmp_path: Path) -> None:
+    """docs/session-format.md is enough to write a two-camera session without our writer:
+    the pair, the clocks, capture times in the images' timestamps, stream windows announced
+    open and closed, a touch."""
+    import json
+
+    import cv2
+    from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
+    from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
+    from mcap.writer import Writer as McapWriter
+    from mcap_protobuf.schema import build_file_descriptor_set
+
+    path = tmp_path / "foreign.mcap"
+    size, k = (64, 48), [50.0, 0, 32.0, 0, 50.0, 24.0, 0, 0, 1]
+    intrinsics = {"width": 64, "height": 48, "fx": 50.0, "fy": 50.0, "cx": 32.0, "cy": 24.0,
+                  "distortion": [0, 0, 0, 0, 0]}  # fmt: skip
+    with path.open("wb") as f:
+        w = McapWriter(f)
+        w.start(profile="", library="someone-else")
+        w.add_metadata("twopose", {"format_version": "1.6", "software_version": "other"})
+        loose = json.dumps({"type": "object"}).encode()
+        names = ("Session", "PairCalibration", "StreamWindow", "Touch", "ClockOffset")
+        ids = {n: w.register_schema(f"twopose.{n}", "jsonschema", loose) for n in names}
+        pb = {
+            c.DESCRIPTOR.full_name: w.register_schema(
+                c.DESCRIPTOR.full_name, "protobuf", build_file_descriptor_set(c).SerializeToString()
+            )
+            for c in (CameraCalibration, CompressedImage)
+        }
+        topics = {"Session": "session", "PairCalibration": "pair", "StreamWindow": "stream",
+                  "Touch": "touch", "ClockOffset": "clock_offset"}  # fmt: skip
+        ch = {n: w.register_channel(f"/twopose/{t}", "json", ids[n]) for n, t in topics.items()}
+        for cam in ("L", "R"):
+            ch[f"cal{cam}"] = w.register_channel(
+                f"/twopose/camera/{cam}/calibration", "protobuf", pb["foxglove.CameraCalibration"]
+            )
+            ch[f"img{cam}"] = w.register_channel(
+                f"/twopose/camera/{cam}/image", "protobuf", pb["foxglove.CompressedImage"]
+            )
+
+        def put(key: str, t: int, payload: dict[str, object] | bytes) -> None:
+            data = payload if isinstance(payload, bytes) else json.dumps(payload).encode()
+            w.add_message(ch[key], t, data, t)
+
+        put("Session", 0, {"format_version": "1.6", "method": "point", "units": "in",
+                           "camera_ids": ["L", "R"],
+                           "clocks": {"L": "driver", "R": "monotonic at grab"}})  # fmt: skip
+        for cam in ("L", "R"):
+            cal = CameraCalibration(frame_id=f"camera_{cam}", width=64, height=48,
+                                    distortion_model="plumb_bob", D=[0] * 5, K=k)  # fmt: skip
+            put(f"cal{cam}", 0, cal.SerializeToString())
+        eye = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]
+        zeros = [[0.0] * 6 for _ in range(6)]
+        put("PairCalibration", 0, {"camera1": "L", "camera2": "R", "units": "in",
+                                   "R_2_to_1": eye, "t_2_in_1": [6, 0, 0],
+                                   "cov_extrinsic": zeros, "cov_factor": 1.0, "rms_px": 0.3,
+                                   "views": 10, "intrinsics1": intrinsics,
+                                   "intrinsics2": intrinsics})  # fmt: skip
+        put("ClockOffset", 1, {"offset_ns": 5e6, "sigma_ns": 1e5, "method": "flash", "n": 30})
+        for cam in ("L", "R"):
+            put("StreamWindow", 10, {"trial": 1, "camera": cam, "window": 1, "start_ns": 10,
+                                     "end_ns": 10, "n_frames": 0, "status": "open"})  # fmt: skip
+        _ok, buf = cv2.imencode(".png", np.zeros((size[1], size[0], 3), np.uint8))
+        for n in range(3):
+            for cam, capture in (("L", 1000 + 33 * n), ("R", 1005 + 33 * n)):
+                image = CompressedImage(frame_id=f"camera_{cam}", format="png", data=bytes(buf))
+                image.timestamp.FromNanoseconds(capture)
+                put(f"img{cam}", 20 + 10 * n, image.SerializeToString())
+        put("Touch", 35, {"trial": 1, "touch": 1, "time_ns": 1040, "point": [1, 2, 14],
+                          "how": "key"})  # fmt: skip
+        for cam in ("L", "R"):
+            closed = {"trial": 1, "camera": cam, "window": 1, "start_ns": 20, "end_ns": 40,
+                      "n_frames": 3, "status": "complete"}  # fmt: skip
+            put("StreamWindow", 60, closed)
+        w.finish()
+    with SessionReader(path) as reader:
+        session = read_pair_session(reader)
+        (trial,) = session.trials
+        assert trial.complete, trial.camera1.reason + trial.camera2.reason
+        np.testing.assert_array_equal(trial.camera1.capture_ns, [1000, 1033, 1066])
+        np.testing.assert_array_equal(trial.camera2.capture_ns, [1005, 1038, 1071])
+        np.testing.assert_array_equal(trial.camera2.log_ns, [20, 30, 40])
+        assert trial.camera1.image(2).shape == (48, 64, 3)
+    np.testing.assert_array_equal(session.pair.t_2_in_1, [6, 0, 0])
+    assert session.offset is not None
+    assert session.offset.offset_ns == 5e6
+    assert session.clocks == {"L": "driver", "R": "monotonic at grab"}
+    assert [(t.touch, t.time_ns, t.how) for t in trial.touches] == [(1, 1040, "key")]
