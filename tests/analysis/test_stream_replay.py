@@ -70,3 +70,13 @@ def test_a_one_camera_session_is_refused_in_words(tmp_path: Path) -> None:
     simulate_session(path, method=Method.POINT, trials=1, frames=1, scene=scene)
     with pytest.raises(InputValueError, match="one-camera session"):
         replay_pair_session(path)
+
+
+def test_run_and_info_say_a_two_camera_session_is_not_analysed_there(moving_dot: Path) -> None:
+    from analysis.input_set import resolve_inputs
+
+    inputs = resolve_inputs([moving_dot])
+    assert [s.path for s in inputs.empty] == [str(moving_dot)]  # not measured by run
+    (note,) = inputs.notes()
+    assert "a two-camera session (stream trials): not analysed here yet" in note
+    assert "replay_pair_session" in note
