@@ -35,8 +35,8 @@ from analysis.tables import (
 from twopose.arrays import F64
 from twopose.bounds import GROUND_TRUTH
 from twopose.camera import Intrinsics
-from twopose.choices import TARGET_SPECS, Target
-from twopose.detect import Detection, DotParams, GloveParams, detect
+from twopose.choices import P, TargetSpec
+from twopose.detect import Detection
 from twopose.errors import InputValueError, SessionFormatError
 from twopose.estimate import GroundSpec, PoseView, pose_view
 from twopose.format.entries import PoseEntry
@@ -368,7 +368,7 @@ def _replay(
     trial_ids, truths, views, last_ns = [], [], [], []
     notes, unmeasured = [], []
     rig_truth: RigConstants | None = None
-    params = getattr(options, TARGET_SPECS[target].options_field)
+    params = options.thresholds_for(target)
     found = (
         _detected(iter_trials(reader), target, params)
         if known is None
@@ -455,12 +455,13 @@ def _truth(record: TrialRecord, unit: UnitSpec) -> tuple[F64, tuple[str, ...]]:
 DETECTION_THREADS = 2
 
 Detections = list[list[Detection]]  # per pose of a trial, per frame
-Params = GloveParams | DotParams
 
 
-def _detect_frame(frame: Frame, size: tuple[int, int], target: Target, params: Params) -> Detection:
+def _detect_frame(
+    frame: Frame, size: tuple[int, int], target: TargetSpec[P], params: P
+) -> Detection:
     try:
-        return detect(frame.decode(size), target, params)
+        return target.detect(frame.decode(size), params)
     except SessionFormatError as err:  # one undecodable frame is a rejected frame
         return Detection(found=False, reason=str(err))
 
@@ -484,7 +485,7 @@ def _detection_threads() -> int:
 
 
 def _detected(
-    records: Iterator[TrialRecord], target: Target, params: Params
+    records: Iterator[TrialRecord], target: TargetSpec[P], params: P
 ) -> Generator[tuple[TrialRecord, Detections], None, None]:
     """Each trial with every frame's detection, in order. With threads, the next trial's
     frames are decoded and detected while this one's are written (one trial ahead, so
