@@ -28,13 +28,14 @@ from analysis.columns import (
     VIEW_COLUMNS,
     typed,
 )
+from analysis.detection_pass import Detections
 from analysis.drawer import FigureDrawer, note
 from analysis.figure_cache import FigureCache, FigureJob
 from analysis.input_set import InputSet, SessionIdentity, resolve_inputs
 from analysis.metrics import summarize
 from analysis.noise_pass import NoisePass, first_pass, noise_pass, prior_salt, with_prior
 from analysis.outputs import OutputFolder, printable_stem
-from analysis.pipeline import Detections, _with_figures, analyse_session
+from analysis.pipeline import _with_figures, analyse_session
 from analysis.results import AnalysisOptions, RunResult, SessionFailure, SessionResult
 from analysis.session_cache import SessionCache
 from analysis.workers import Outcome, run_processes
