@@ -27,7 +27,7 @@ from twopose.geometry import (
     RaysToPoint,
 )
 from twopose.planes import CONSTRAINT_PLANES, GROUND_PLANE, ConstraintPlane, register_plane
-from twopose.registry import Listing, Name, Registry
+from twopose.registry import Listing, Name, Registry, load_extensions
 from twopose.values import Vec3
 
 if TYPE_CHECKING:
@@ -434,3 +434,9 @@ def spec_of(method: str) -> MethodSpec:
         raise InputValueError(
             f"method must be one of {', '.join(METHODS)}, got {method!r}"
         ) from None
+
+
+# Last, with every registry made: an installed extension's module registers its methods,
+# targets, sources and planes (the entry-point group twopose.extensions), so that every
+# process that knows the methods (a command line, a spawned worker) knows them too.
+load_extensions()

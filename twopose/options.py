@@ -17,7 +17,7 @@ import typer
 
 from twopose import bounds
 from twopose.errors import InputValueError
-from twopose.registry import Name, Registry
+from twopose.registry import Name, Registry, load_extensions
 from twopose.units import Units
 
 __all__ = ["read_option", "registered"]
@@ -76,6 +76,7 @@ def registered(
     entry is a choice too), else refused listing the names whose entry ``keep`` keeps (the
     metavar's; a name it leaves out is passed on, for the command to say why not).
     """
+    load_extensions()  # an installed extension's entries are choices too
 
     def names() -> list[str]:
         return [n for n in registry.names if keep(registry[n])]

@@ -16,6 +16,11 @@ the entry from the registry, in the process that registered it.
   name, or a :class:`ValueError` naming the registered ones.
 - :class:`Listing`: a read-only sequence derived from a registry (the methods' names, the
   planes), always as the registry is now.
+- :func:`load_extensions`: the modules installed packages name under the entry-point
+  group ``twopose.extensions`` (:data:`ENTRY_POINT_GROUP`), imported once, so that their
+  ``register_*`` calls run: the command lines load them before reading their choices, and
+  a registry loads them when asked for a name it does not hold (a spawned worker
+  unpickling an extension's method).
 
 This module imports nothing heavy: the command lines read the registries at start-up.
 """
@@ -25,7 +30,44 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any, ClassVar, Self, TypeVar, overload
 
-__all__ = ["Listing", "Name", "Registry"]
+__all__ = ["ENTRY_POINT_GROUP", "Listing", "Name", "Registry", "load_extensions"]
+
+#: The entry-point group an extension's package names its module under (``[project.
+#: entry-points."twopose.extensions"]`` in its ``pyproject.toml``: ``wall = "wall_ext"``).
+ENTRY_POINT_GROUP = "twopose.extensions"
+_loaded: list[str] = []  # the extensions' modules imported, once each (empty: not yet)
+_loading = [False]
+
+
+def load_extensions() -> tuple[str, ...]:
+    """Import every module named under :data:`ENTRY_POINT_GROUP`, once; their names.
+
+    An extension that fails to import is said in a warning naming it and the error, and
+    left out: the registries stay as they were.
+    """
+    if _loaded or _loading[0]:
+        return tuple(_loaded[1:])
+    _loading[0] = True
+    try:
+        import warnings
+        from importlib import import_module
+        from importlib.metadata import entry_points
+
+        _loaded.append("")  # loaded (the marker), whatever follows
+        for point in entry_points(group=ENTRY_POINT_GROUP):
+            try:
+                import_module(point.value.split(":")[0])
+            except Exception as err:  # any failure of another's code is said, not raised
+                warnings.warn(
+                    f"twopose extension {point.name!r} ({point.value}) failed to load and "
+                    f"is left out: {type(err).__name__}: {err}",
+                    stacklevel=2,
+                )
+            else:
+                _loaded.append(point.value)
+    finally:
+        _loading[0] = False
+    return tuple(_loaded[1:])
 
 K = TypeVar("K", bound=str)
 V = TypeVar("V")
@@ -75,6 +117,10 @@ class Registry(Mapping[K, V]):
         """The registered name equal to ``name`` (:class:`ValueError` listing them if none)."""
         if isinstance(name, str) and str(name) in self._keys:
             return self._keys[str(name)]
+        if isinstance(name, str) and not _loaded:  # an installed extension's, perhaps
+            load_extensions()
+            if str(name) in self._keys:
+                return self._keys[str(name)]
         known = ", ".join(self.names)
         raise ValueError(f"{self.what} must be one of {known}, got {name!r}")
 

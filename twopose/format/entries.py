@@ -20,7 +20,15 @@ from twopose.camera import SIGMA_KEYS, intrinsics_sigma, rotation_from_angles_de
 from twopose.errors import InputValueError, SessionFormatError
 from twopose.format.declared import TypedEntry, entry, from_json, json_field, object_schema
 from twopose.format.guidance_record import GuidanceRecord, guidance_schema
-from twopose.methods import LINE_TRUTH, METHODS, TRUTH_POINTS, Method, TruthKind, spec_of
+from twopose.methods import (
+    LINE_TRUTH,
+    METHOD_SPECS,
+    METHODS,
+    TRUTH_POINTS,
+    Method,
+    TruthKind,
+    spec_of,
+)
 from twopose.targets import BoardPlacement
 from twopose.units import UNIT_SPECS, UNITS, Units, unit_factor, unit_spec
 from twopose.values import CAMERA_ID_PATTERN, Vec3, camera_id, finite, index, numbers, vec3
@@ -100,7 +108,7 @@ class SessionInfo(TypedEntry):
     software_version: str = json_field(
         "software_version", {"type": "string"}, required=False, default=""
     )
-    method: Method = json_field("method", {"enum": list(METHODS)})
+    method: Method = json_field("method", {"enum": METHOD_SPECS.names})  # kept current
     units: Units = json_field("units", {"enum": list(UNITS)})
     camera_ids: tuple[str, ...] = json_field(
         "camera_ids",
