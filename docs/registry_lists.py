@@ -42,9 +42,8 @@ def methods_table() -> str:
         truth = {None: "the board's placement", "point": "one point", "line": "two points"}
         plane = f"{spec.plane.name} ({spec.plane.equation})" if spec.plane else "none"
         solver = spec.solver.words if spec.solver is not None else "nothing (the rig's calibration)"
-        rows.append(
-            f"| `{name}` | {spec.label} | {target} | {truth[spec.truth_kind]} | {plane} | {solver} |"
-        )
+        cells = (f"`{name}`", spec.label, target, truth[spec.truth_kind], plane, solver)
+        rows.append(f"| {' | '.join(cells)} |")
     return "\n".join(rows) + "\n"
 
 

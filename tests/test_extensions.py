@@ -132,7 +132,7 @@ def test_the_target_snippet_registers_a_detector_and_its_thresholds() -> None:
     a run's options by their type, a choice of ``detect --target``."""
     ns = run_snippet("target")
     red, params = ns["RED"], ns["RedParams"]
-    assert Target("red").spec is red is TARGET_SPECS["red"]
+    assert Target("red").spec is red is TARGET_SPECS[Target("red")]
     image = _dot_image((0, 0, 255), (100, 40))  # BGR: red
     found = detect(image, "red")
     assert found.found

@@ -69,6 +69,7 @@ def load_extensions() -> tuple[str, ...]:
         _loading[0] = False
     return tuple(_loaded[1:])
 
+
 K = TypeVar("K", bound=str)
 V = TypeVar("V")
 T = TypeVar("T")
