@@ -57,6 +57,7 @@ from twopose.session_estimate import SessionTrials, estimate_session  # noqa: E4
 from twopose.sim.scene import load_scene  # noqa: E402
 from twopose.truth import reported  # noqa: E402
 from twopose.uncertainty import uncertainty_columns  # noqa: E402
+from twopose.units import Units  # noqa: E402
 
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "placing.txt"
@@ -101,7 +102,7 @@ def session(method: Method, seed: int, trials: int, real_in: float) -> SessionTr
             views.append(trial)
             truths.append(truth)
     return SessionTrials(
-        method=method, units="in", trial_ids=tuple(range(1, trials + 1)), views=views,
+        method=method, units=Units.IN, trial_ids=tuple(range(1, trials + 1)), views=views,
         truth=np.stack([t.truth for t in truths]), ground=truths[0].ground,
     )  # fmt: skip
 

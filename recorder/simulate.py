@@ -81,7 +81,7 @@ class SimulationSummary:
     """What :func:`simulate_session` wrote."""
 
     path: Path
-    method: str
+    method: Method
     n_trials: int
     n_poses: int
     n_frames: int
