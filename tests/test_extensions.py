@@ -289,3 +289,58 @@ def test_an_installed_extension_is_loaded_and_a_broken_one_said(
     assert registry.load_extensions() == ("grey_ext",)  # once
     SOURCES.unregister("grey")
     sys.modules.pop("grey_ext", None)
+
+
+#: An extension with two missing pieces: a detector given another target's thresholds,
+#: and a caller's cases for each geometry that forgets one (a point on a plane).
+_MISTAKES = """
+import numpy as np
+from numpy.typing import NDArray
+
+from twopose.choices import Target, TargetSpec
+from twopose.detect import Detection
+from twopose.methods import METHOD_SPECS, Method
+from twopose.thresholds import DotParams, GloveParams
+
+
+def detect_glove_like(image_bgr: NDArray[np.uint8], params: GloveParams) -> Detection:
+    return Detection(found=params.use_otsu)
+
+
+WRONG = TargetSpec(
+    target=Target.declare("odd"), detector=detect_glove_like, params=DotParams, image_line=True
+)
+
+
+class Truths:
+    def rays_to_point(self) -> int:
+        return 1
+
+    def planes_to_line(self) -> int:
+        return 2
+
+
+MISSING: int = METHOD_SPECS[Method.POINT].geometry_cases(Truths())
+"""
+
+
+def test_the_type_checker_catches_a_missing_piece(tmp_path: Path) -> None:
+    """mypy (strict, as ``make check``) refuses a target whose detector takes another
+    type's thresholds and a geometry's cases that miss one; the docs' target and source
+    snippets pass, so the refusals are the mistakes'."""
+    from mypy import api
+
+    mistakes, target, source = (tmp_path / f"{n}.py" for n in ("mistakes", "target", "source"))
+    mistakes.write_text(_MISTAKES, encoding="utf-8")
+    target.write_text(snippet("target"), encoding="utf-8")
+    source.write_text(snippet("source"), encoding="utf-8")
+    cache = str(REPO / ".mypy_cache")
+    out, _, status = api.run(
+        ["--strict", "--no-error-summary", "--cache-dir", cache, str(mistakes), str(target),
+         str(source)]
+    )  # fmt: skip
+    assert status == 1, out
+    errors = [line for line in out.splitlines() if ": error:" in line]
+    assert all(line.startswith(str(mistakes)) for line in errors), out
+    assert any(":16: error:" in e and '"detector"' in e and "GloveParams" in e for e in errors)
+    assert any(":28: error:" in e and "geometry_cases" in e for e in errors), out
