@@ -33,7 +33,15 @@ from tests.helpers import install_extension
 from twopose import registry
 from twopose.choices import TARGET_SPECS, Target
 from twopose.detect import detect
-from twopose.methods import MEASURING_METHODS, METHOD_SPECS, METHODS, PLANES, Method, Solver
+from twopose.methods import (
+    MEASURING_METHODS,
+    METHOD_SPECS,
+    METHODS,
+    PLANES,
+    Method,
+    Solver,
+    register_method,
+)
 from twopose.options import registered
 from twopose.planes import CONSTRAINT_PLANES, GROUND_PLANE, register_plane
 from twopose.solvers import RAYS, SolverEntry
@@ -143,6 +151,23 @@ def test_the_target_snippet_registers_a_detector_and_its_thresholds() -> None:
     assert AnalysisOptions().thresholds_for(red) == params()  # its defaults
     assert not detect(image, red, strict).found
     assert registered(TARGET_SPECS)["parser"]("red") == "red"
+
+
+@pytest.mark.usefixtures("registered_here")
+def test_a_methods_target_is_registered_with_it() -> None:
+    """A method on a target of its own registers the target too (``detect --target`` then
+    lists it); a second target under a taken name is refused, and nothing is registered."""
+    ns = run_snippet("target")
+    TARGET_SPECS.unregister("red")  # as if the method brought its target itself
+    point = METHOD_SPECS[Method.POINT]
+    red_point = dataclasses.replace(point, method=Method.declare("red_point"), target=ns["RED"])
+    register_method(red_point)
+    assert TARGET_SPECS[Target("red")] is ns["RED"]
+    other = dataclasses.replace(ns["RED"], image_line=True)
+    clash = dataclasses.replace(point, method=Method.declare("red_line"), target=other)
+    with pytest.raises(ValueError, match="another target is registered as 'red'"):
+        register_method(clash)
+    assert "red_line" not in METHOD_SPECS
 
 
 @pytest.mark.usefixtures("registered_here")

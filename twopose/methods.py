@@ -17,7 +17,7 @@ from dataclasses import asdict, dataclass
 from types import MappingProxyType
 from typing import TYPE_CHECKING, Any, ClassVar, Literal, TypeVar
 
-from twopose.choices import Target, TargetSpec
+from twopose.choices import TARGET_SPECS, Target, TargetSpec, register_target
 from twopose.errors import InputValueError
 from twopose.geometry import (
     GeometryCases,
@@ -400,13 +400,22 @@ MEASURING_METHODS: Listing[Method] = Listing(
 def register_method(spec: MethodSpec) -> Method:
     """Add a method to the registry (its name from :meth:`Method.declare`) and return it.
 
-    Its plane, if it has one, is registered too (:func:`twopose.planes.register_plane`).
+    Its plane and its target, if not yet registered, are registered too
+    (:func:`twopose.planes.register_plane`, :func:`twopose.choices.register_target`).
     Every command and stage then knows it: ``simulate --method``, ``new``, ``run``,
     ``solve`` and the page read the registry, as the estimation reads its solver and the
-    figures its geometry. A name already registered is refused (:class:`ValueError`).
+    figures its geometry. A name already registered is refused (:class:`ValueError`), as
+    is a target whose name another target holds.
     """
+    if spec.method in METHOD_SPECS:
+        raise ValueError(f"a method named {str(spec.method)!r} is already registered")
+    target = spec.target
+    if target is not None and TARGET_SPECS.get(target.target, target) is not target:
+        raise ValueError(f"another target is registered as {str(target.target)!r}")
     if spec.plane is not None:
         register_plane(spec.plane)
+    if target is not None and target.target not in TARGET_SPECS:
+        register_target(target)
     return METHOD_SPECS.register(spec).method
 
 
