@@ -34,7 +34,6 @@ from analysis.tables import (
 )
 from twopose.arrays import F64
 from twopose.bounds import GROUND_TRUTH
-from twopose.choices import TARGET_SPECS
 from twopose.errors import InputValueError, SessionFormatError
 from twopose.estimate import GroundSpec
 from twopose.format.reader import SessionReader
@@ -364,7 +363,7 @@ def _replay(
     trial_ids, truths, views, last_ns = [], [], [], []
     notes, unmeasured = [], []
     rig_truth: RigConstants | None = None
-    params = getattr(options, TARGET_SPECS[target].options_field)
+    params = options.thresholds_for(target)
     found = (
         detected(iter_trials(reader), target, params)
         if known is None

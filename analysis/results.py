@@ -11,9 +11,10 @@ import pandas as pd
 from analysis.choices import DEFAULT_SESSION_TIMEOUT_S, FigureFormat, RigCalibrationMode
 from analysis.columns import RIG_TABLE_COLUMNS, VIEW_COLUMNS, typed
 from analysis.thesis import Verdicts, thesis_table, verdict_lines, verdicts_by_set
-from twopose.detect import DotParams, GloveParams
+from twopose.choices import P, TargetSpec
 from twopose.estimate import EstimateOptions
 from twopose.rig.constants import RigConstants
+from twopose.thresholds import DotParams, GloveParams
 
 __all__ = ["AnalysisOptions", "RunResult", "SessionFailure", "SessionResult"]
 
@@ -36,6 +37,9 @@ class AnalysisOptions:
 
     glove: GloveParams = field(default_factory=GloveParams)
     dot: DotParams = field(default_factory=DotParams)
+    # Another target's detector's thresholds (a registered target's record, of its
+    # TargetSpec.params type); the glove's and the dot's are the fields above.
+    thresholds: tuple[object, ...] = ()
     # How frames are combined and when a near-degenerate trial warns: the one record the
     # recorder's live result and the command line's defaults read too.
     estimate: EstimateOptions = field(default_factory=EstimateOptions)
@@ -53,6 +57,11 @@ class AnalysisOptions:
     # ``run --figures``: the static matplotlib figures written, in these formats (png, svg,
     # pdf); none by default: the report's charts are drawn by the reader's browser.
     figures: tuple[FigureFormat, ...] = field(default=(), metadata=RUN_ONLY)
+
+    def thresholds_for(self, target: TargetSpec[P]) -> P:
+        """The thresholds ``target``'s detector takes in this run: of its parameter type,
+        the glove's, the dot's or one of :attr:`thresholds`; else its defaults."""
+        return target.thresholds((self.glove, self.dot, *self.thresholds))
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -51,12 +51,13 @@ from analysis.rig.board import calibrate_board  # noqa: E402
 from recorder.simulate import simulate_session  # noqa: E402
 from twopose.estimate import EstimateOptions, PoseView  # noqa: E402
 from twopose.guidance import THESIS_MOVE_IN  # noqa: E402
-from twopose.methods import Method  # noqa: E402
+from twopose.methods import METHOD_SPECS, Method  # noqa: E402
 from twopose.noise import NoiseModel, PlacingSigma  # noqa: E402
 from twopose.session_estimate import SessionTrials, estimate_session  # noqa: E402
 from twopose.sim.scene import load_scene  # noqa: E402
 from twopose.truth import reported  # noqa: E402
 from twopose.uncertainty import uncertainty_columns  # noqa: E402
+from twopose.units import Units  # noqa: E402
 
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "placing.txt"
@@ -82,7 +83,7 @@ def board_placing(seed: int, folder: Path) -> PlacingSigma:
 
 def session(method: Method, seed: int, trials: int, real_in: float) -> SessionTrials:
     """``trials`` trials of :data:`POSES` poses each, the thesis' moves, one operator."""
-    rng = np.random.default_rng([seed, int(real_in * 1e4), list(Method).index(method)])
+    rng = np.random.default_rng([seed, int(real_in * 1e4), list(METHOD_SPECS).index(method)])
     views: list[list[PoseView]] = []
     truths = []
     while len(views) < trials:
@@ -101,7 +102,7 @@ def session(method: Method, seed: int, trials: int, real_in: float) -> SessionTr
             views.append(trial)
             truths.append(truth)
     return SessionTrials(
-        method=method, units="in", trial_ids=tuple(range(1, trials + 1)), views=views,
+        method=method, units=Units.IN, trial_ids=tuple(range(1, trials + 1)), views=views,
         truth=np.stack([t.truth for t in truths]), ground=truths[0].ground,
     )  # fmt: skip
 

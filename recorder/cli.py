@@ -62,7 +62,8 @@ from twopose.errors import (
     handle_errors,
     run_command_line,
 )
-from twopose.methods import Method
+from twopose.methods import METHOD_SPECS, Method
+from twopose.options import registered
 from twopose.units import Units
 from twopose.version import VersionOption
 
@@ -99,7 +100,9 @@ def _group(version: VersionOption = False) -> None:
 def simulate(
     ctx: typer.Context,
     out: Annotated[Path, typer.Argument(help="New session file to write (never overwritten).")],
-    method: Annotated[Method, typer.Option(help="What the session measures.")],
+    method: Annotated[
+        Method, typer.Option(**registered(METHOD_SPECS), help="What the session measures.")
+    ],
     trials: Annotated[int, typer.Option(**_read("TRIALS"), help="Trials in the session.")] = 15,
     frames: Annotated[int, typer.Option(**_read("FRAMES"), help="Frames captured per pose.")] = 5,
     seed: Annotated[

@@ -13,8 +13,8 @@ import typer
 
 from recorder.sources import source_help
 from twopose.bounds import DEFAULT_MIN_GAIN
-from twopose.methods import Method
-from twopose.options import read_option
+from twopose.methods import METHOD_SPECS, Method
+from twopose.options import read_option, registered
 from twopose.units import Units
 
 __all__ = [
@@ -100,7 +100,9 @@ PlanOption = Annotated[
     typer.Option(exists=True, dir_okay=False, help="Run this plan (TOML) without prompts."),
 ]
 SourceOption = Annotated[str, typer.Option(help=source_help())]
-MethodOption = Annotated[Method | None, typer.Option(help="Asked if not given.")]
+MethodOption = Annotated[
+    Method | None, typer.Option(**registered(METHOD_SPECS), help="Asked if not given.")
+]
 UnitsOption = Annotated[
     Units | None,
     typer.Option(is_eager=True, help="Every length's unit. Asked if not given."),

@@ -9,7 +9,7 @@ terminal refuse the same answers with the same words.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import partial
 from typing import Any
@@ -158,7 +158,7 @@ class SetupField:
     kind: str  # choice, text or check
     #: Whether a method asks it, from the method's spec (default: every method).
     asked_by: Callable[[MethodSpec], bool] = field(default=_every_method, repr=False)
-    options: tuple[str, ...] = ()
+    options: Sequence[str] = ()
     #: The one reader of its typed text in the session's units, empty text its default's:
     #: the page's form and the terminal's question both call it (None: read with others,
     #: as a truth's points and a board's parts are).

@@ -1,17 +1,19 @@
-"""A method on another plane, through the registry alone (issue 45): a copy of the packages
-whose ``twopose/methods.py`` gains a ``wall`` method, method 2 on the wall ``x = c``
-instead of the ground ``y = h`` (its plane a :class:`twopose.planes.ConstraintPlane`, its
-offset a setup value like the ground height), and nothing else changed.
+"""A method on another plane, through the registry alone (issue 45): an installed
+extension (docs/development.md's snippet, registered by ``register_method``) adds a
+``wall`` method, method 2 on the wall ``x = c`` instead of the ground ``y = h`` (its plane
+a :class:`twopose.planes.ConstraintPlane`, its offset a setup value like the ground
+height), and nothing else changed.
 
-The copy simulates it, records it at the terminal and from a plan (the synthetic camera
-rendering the finger pointing at the wall), and analyses each: the estimates land on the
-wall's point. The browser's part is ``tests/recorder/test_wall_page.py``.
+With it installed, the commands simulate it, record it at the terminal and from a plan
+(the synthetic camera rendering the finger pointing at the wall), and analyse each: the
+estimates land on the wall's point. The browser's part is ``tests/recorder/test_wall_page.py``.
 docs/development.md ("Adding a method") shows the same entry.
 """
 
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -19,46 +21,17 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from tests.helpers import copy_with_method
+from tests.helpers import install_extension
 
-# Slow: copies the packages and records and analyses in subprocesses (make test-all, CI).
+# Slow: records and analyses in subprocesses (make test-all, CI).
 pytestmark = pytest.mark.slow
 
-#: The wall's entry, as docs/method.md gives it: the wall x = c, c typed as ``wall_x``.
-WALL_ENTRY = """
-from twopose.bounds import Kind, Quantity
-from twopose.planes import ConstraintPlane
-
-WALL_PLANE = ConstraintPlane(
-    name="the wall",
-    normal_grid=(1.0, 0.0, 0.0),
-    in_plane_grid=((0.0, 1.0, 0.0), (0.0, 0.0, 1.0)),
-    setup_key="wall_x",
-    label="wall: its x on the grid",
-    measured="the wall's x on the grid",
-    equation="x = c",
-    axis="x",
-    bound=Quantity(key="wall_x", words="wall's x", kind=Kind.LENGTH, low=-200.0, high=200.0),
-)
-METHOD_SPECS = MappingProxyType(
-    {
-        **METHOD_SPECS,
-        Method.WALL: dataclasses.replace(
-            METHOD_SPECS[Method.GROUND], method=Method.WALL, plane=WALL_PLANE,
-            thesis_name="the wall", label="wall", colour="C5", thesis_tested=False,
-            # The ground's words, said of the wall: the page's (MethodPage) and the top
-            # view's; a copy keeps the ground's ("finger's plane on the ground") otherwise.
-            page=dataclasses.replace(
-                METHOD_SPECS[Method.GROUND].page,
-                legend_segments=(("trace", "\\u2014", "finger's plane at the point's height"),),
-                estimate_label="wall point (estimate)", truth_label="true wall point",
-            ),
-            view_segment="view plane's trace at the estimate's height",
-            truth_name="true wall point",
-        ),
-    }
-)
-"""
+#: The wall's extension, docs/development.md's snippet as written ("Adding a method").
+WALL_ENTRY = re.search(
+    r"<!-- snippet: wall -->\n```python\n(.*?)```\n",
+    (Path(__file__).resolve().parents[1] / "docs" / "development.md").read_text(encoding="utf-8"),
+    re.S,
+)[1]  # type: ignore[index]
 #: The synthetic scene's finger points at its ``ground_point`` of its method's plane, whose
 #: offset is the scene's ``ground_height`` (9.625 in): here (y, z) = (6, 14) on the wall
 #: x = 9.625, the finger coming down to it at 45 degrees from the wall's normal (a finger
@@ -76,8 +49,8 @@ POSES = ((0.0, 0.0, 0.0), (3.0, 0.0, 0.0), (-2.0, 0.0, 1.0))
 
 
 def add_the_wall(root: Path) -> Path:
-    """Copy the packages under ``root`` and add the wall method to the copy's registry."""
-    copy_with_method(root, 'WALL = "wall"', WALL_ENTRY)
+    """Install the wall's extension under ``root`` (its entry point and module)."""
+    install_extension(root, "wall_ext", WALL_ENTRY)
     (root / "wall_scene.toml").write_text(SCENE, encoding="utf-8")
     return root
 

@@ -15,6 +15,11 @@ says which plane, and every layer reads it from the method's spec
 - a typed ground-truth point is checked to lie on it (:meth:`ConstraintPlane.gap`);
 - the simulator places the finger's target on it (:meth:`ConstraintPlane.point`,
   :meth:`ConstraintPlane.toward`).
+
+The planes are registered (:data:`CONSTRAINT_PLANES`, by their setup key): the ground, and
+each plane an extension registers (:func:`register_plane`, or with a method that names it,
+:func:`twopose.methods.register_method`); a plan's keys, the setup's fields and the
+terminal's questions are the registered planes'.
 """
 
 from __future__ import annotations
@@ -24,12 +29,13 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from twopose.bounds import GROUND_HEIGHT, Quantity
+from twopose.registry import Registry
 from twopose.values import Vec3
 
 if TYPE_CHECKING:
     from twopose.arrays import F64
 
-__all__ = ["GROUND_PLANE", "ConstraintPlane"]
+__all__ = ["CONSTRAINT_PLANES", "GROUND_PLANE", "ConstraintPlane", "register_plane"]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -126,3 +132,21 @@ GROUND_PLANE = ConstraintPlane(
     thesis_offset_in=9.625,
     request_key="ground_y",
 )
+
+#: The plane registry, by each plane's :attr:`~ConstraintPlane.setup_key`: the ground first,
+#: then those registered (:func:`register_plane`).
+CONSTRAINT_PLANES: Registry[str, ConstraintPlane] = Registry(
+    "plane", lambda plane: plane.setup_key, (GROUND_PLANE,)
+)
+
+
+def register_plane(plane: ConstraintPlane) -> ConstraintPlane:
+    """Add a plane to the registry and return it.
+
+    The plane already registered under its setup key, if it is that plane; another plane
+    under a key taken is refused (:class:`ValueError`).
+    """
+    known = CONSTRAINT_PLANES.get(plane.setup_key)
+    if known == plane:
+        return known
+    return CONSTRAINT_PLANES.register(plane)

@@ -59,6 +59,7 @@ from twopose.uncertainty import (
     pooled_scatter,
     propagate,
 )
+from twopose.units import Units
 
 __all__ = [
     "Estimates",
@@ -86,7 +87,7 @@ class SessionTrials:
     """
 
     method: Method
-    units: str
+    units: Units
     trial_ids: tuple[int, ...]
     views: list[list[PoseView]]
     truth: F64

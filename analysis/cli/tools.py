@@ -12,14 +12,14 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from twopose import jsonsafe
-from twopose.choices import Target
+from twopose.choices import TARGET_SPECS, Target
 from twopose.errors import (
     EXIT_SOME_INPUTS_FAILED,
     InputValueError,
     handle_errors,
 )
-from twopose.methods import MEASURING_METHODS, Method
-from twopose.options import read_option
+from twopose.methods import METHOD_SPECS, Method
+from twopose.options import read_option, registered
 from twopose.units import Units
 
 if TYPE_CHECKING:
@@ -130,7 +130,7 @@ def _rounded(numbers: dict[str, object]) -> dict[str, object]:
 @app.command()
 def detect(
     images: Annotated[list[Path], typer.Argument(help="Image files (anything OpenCV reads).")],
-    target: Annotated[Target, typer.Option(help="What to look for.")],
+    target: Annotated[Target, typer.Option(**registered(TARGET_SPECS), help="What to look for.")],
 ) -> None:
     """Detect the glove or the dot in images; one JSON object per image."""
     from twopose.detect import Detection
@@ -155,13 +155,15 @@ def detect(
         raise typer.Exit(EXIT_SOME_INPUTS_FAILED)
 
 
-_MEASURING = "|".join(MEASURING_METHODS)  # what can be solved (the registry's)
-
-
 @app.command()
 def solve(
     method: Annotated[
-        Method, typer.Argument(help="Which reconstruction.", metavar=_MEASURING, show_choices=False)
+        Method,
+        typer.Argument(
+            **registered(METHOD_SPECS, lambda spec: spec.measures, argument=True),
+            help="Which reconstruction.",
+            show_choices=False,
+        ),
     ],
 ) -> None:
     """Solve one measurement by hand: a JSON request on stdin, a JSON answer on stdout.

@@ -47,7 +47,7 @@ class BoardCaptures:
     """
 
     session: str
-    units: str
+    units: Units
     corners_grid: F64
     observed_px: F64
     t_typed: F64
@@ -107,7 +107,7 @@ def read_board_session(path: str | Path) -> BoardCaptures:
     grid = board.corners_grid()
     return BoardCaptures(
         session=session,
-        units=str(info.units),
+        units=info.units,
         corners_grid=np.stack([grid] * len(rows)),
         observed_px=np.stack([c for c, _ in rows]),
         t_typed=np.array([p.entry.t_grid for _, p in rows], dtype=np.float64),

@@ -30,6 +30,7 @@ from twopose.estimate import EstimateOptions
 from twopose.noise import PlacingSigma
 from twopose.rig.constants import RigConstants, RigFile, check_applicable
 from twopose.session_estimate import SessionTrials, estimate_session
+from twopose.units import Units
 
 __all__ = [
     "RIG_BESIDE",
@@ -162,7 +163,7 @@ class _Distinct:
         return self.trials.method
 
     @property
-    def units(self) -> str:
+    def units(self) -> Units:
         """The session's units."""
         return self.trials.units
 

@@ -8,6 +8,7 @@ import json
 import pytest
 
 from twopose.bounds import POSE_TRANSLATION
+from twopose.choices import Target
 from twopose.errors import InputValueError
 from twopose.format.entries import SessionInfo, decode_entry, encode_entry
 from twopose.methods import MEASURING_METHODS, METHOD_SPECS, METHODS, Method, spec_of
@@ -15,7 +16,7 @@ from twopose.units import UNIT_SPECS, UNITS, Units, unit_spec
 
 
 def test_every_method_and_unit_has_its_spec() -> None:
-    assert set(METHOD_SPECS) == set(Method)
+    assert set(METHOD_SPECS) == set(METHODS)
     assert METHODS == (Method.POINT, Method.LINE, Method.GROUND, Method.BOARD)  # the thesis'
     assert MEASURING_METHODS == (Method.POINT, Method.LINE, Method.GROUND)
     assert set(UNIT_SPECS) == set(Units)
@@ -28,7 +29,11 @@ def test_every_method_and_unit_has_its_spec() -> None:
 
 def test_what_each_method_is() -> None:
     point, line, ground = (spec_of(m) for m in ("point", "line", "ground"))
-    assert (point.target, line.target, ground.target) == ("dot", "glove", "glove")
+    assert (point.target, line.target, ground.target) == (
+        Target.DOT.spec,
+        Target.GLOVE.spec,
+        Target.GLOVE.spec,
+    )
     assert (point.truth_points, line.truth_points, ground.truth_points) == (1, 2, 1)
     assert [s.needs_ground for s in (point, line, ground)] == [False, False, True]
     assert [s.estimates_line for s in (point, line, ground)] == [False, True, False]

@@ -15,7 +15,7 @@ from twopose.errors import InputValueError
 from twopose.format.declared import CAMERA_SCHEMA, TypedEntry, entry, json_field, vec3_schema
 from twopose.format.guidance_record import GuidanceRecord, guidance_schema
 from twopose.format.stream_entries import CLOCK_SOURCES
-from twopose.methods import METHODS, Method, spec_of
+from twopose.methods import METHOD_SPECS, Method, spec_of
 from twopose.targets import BoardPlacement
 from twopose.units import UNITS, Units, unit_spec
 from twopose.values import camera_id
@@ -41,7 +41,7 @@ class SessionInfo(TypedEntry):
     software_version: str = json_field(
         "software_version", {"type": "string"}, required=False, default=""
     )
-    method: Method = json_field("method", {"enum": list(METHODS)})
+    method: Method = json_field("method", {"enum": METHOD_SPECS.names})  # kept current
     units: Units = json_field("units", {"enum": list(UNITS)})
     camera_ids: tuple[str, ...] = json_field(
         "camera_ids",

@@ -51,7 +51,7 @@ from twopose.rig.constants import (
     against_priors,
     prior_sigma,
 )
-from twopose.units import Units, unit_spec
+from twopose.units import DEFAULT_UNITS, Units, unit_spec
 
 __all__ = ["RIG_PRIORS", "BoardRigFit", "board_order", "check_identifiable", "fit_board_rig"]
 
@@ -179,7 +179,7 @@ def fit_board_rig(  # noqa: PLR0913 - the captures' arrays, then how to fit them
     r_typed_deg: ArrayLike,
     intrinsics: ArrayLike,
     *,
-    units: Units = Units.IN,
+    units: Units = DEFAULT_UNITS,
     t_sigma: float = 0.0,
     groups: Sequence[str] = FITTED,
     measure_placing: bool = True,
