@@ -132,7 +132,7 @@ def continued_given(continued: Continued, target_precision: float | None) -> dic
 def rig_file(path: Path | None) -> dict[str, Any]:
     """``--rig``: the :class:`NewRequest` fields the rig file gives (its constants, ``rig``,
     and its measured placing sigma, ``placing``; None without a file)."""
-    from twopose.rig.constants import load_rig_file
+    from twopose.rig.file import load_rig_file
 
     if path is None:
         return {"rig": None, "placing": None}

@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    from twopose.rig.constants import RigCovariance
     from twopose.units import Units
 
 __all__ = [
@@ -70,13 +71,16 @@ class PlacingSigma:
 
     In inches (converted per session); ``sigma_sigma_in`` is the estimate's own 1-sigma
     (NaN: not measured); ``measured_by`` names the board session(s) that measured it, over
-    ``captures`` captures.
+    ``captures`` captures. ``upper_bound``: the captures showed no placing error their
+    corners resolve (the fit's floor), and ``sigma_in`` is only the most it can be (no
+    1-sigma; never said "measured").
     """
 
     sigma_in: float
     sigma_sigma_in: float = math.nan
     measured_by: str = ""
     captures: int = 0
+    upper_bound: bool = False
 
     def __post_init__(self) -> None:
         """Refuse a placing sigma that is not a positive finite length."""
@@ -86,6 +90,11 @@ class PlacingSigma:
             raise InputValueError(
                 f"the placing sigma must be a positive length, got {self.sigma_in!r}; "
                 "measure it again with `twopose-analyze rig` on a board session"
+            )
+        if self.upper_bound and math.isfinite(self.sigma_sigma_in):
+            raise InputValueError(
+                "an upper bound of the placing sigma has no 1-sigma (sigma_sigma): it bounds "
+                "an error the captures did not resolve"
             )
         if math.isfinite(self.sigma_sigma_in) and self.dof < MIN_PLACING_DOF:
             raise InputValueError(
@@ -132,13 +141,21 @@ class PlacingSigma:
         """Which placing sigma a run used and where it came from, in words."""
         inches = _inches_per(units)
         value = f"{self.sigma_in / inches:.3g}"
+        if self.upper_bound:
+            captures = f"{self.captures} " if self.captures else ""
+            who = self.measured_by or "the board session"
+            return (
+                f"placing sigma at most {value} {units}, an upper bound, not a measurement "
+                f"({who}: its {captures}captures show no placing error their corners "
+                f"resolve); regions assume {value} {units}"
+            )
         if math.isfinite(self.sigma_sigma_in):
             value += f" ± {self.sigma_sigma_in / inches:.2g}"
         where = f"measured by {self.measured_by}" if self.measured_by else "given"
         if self.captures:
             where += f" ({self.captures} captures)"
         said = f"placing sigma {value} {units}, {where}"
-        if self.widening > 1.0:
+        if self.widening >= 1.005:  # shown as x1.01 or more; a nearly exact one is not said
             said += (
                 f"; regions assume {self.sigma(units):.3g} {units} (x{self.widening:.2f} for "
                 f"the estimate's own uncertainty, {self.dof:.0f} degrees of freedom)"
@@ -324,3 +341,7 @@ class NoiseModel:
     placing: PlacingSigma | None = None
     test_redundancy: bool = True
     factor: VarianceFactor | None = field(default=None)
+    #: The rig's constants' covariance (``--rig``): carried into every region, ``J C J^T``
+    #: (:mod:`twopose.rig.carried`), beside the views' own noise and never widened by its
+    #: test; None: no rig, or its constants taken as exact.
+    rig: RigCovariance | None = None

@@ -25,10 +25,12 @@ from analysis.input_set import InputSet
 from analysis.pipeline import replay_views
 from analysis.rig.data import RigData, combine, prepare_session, require_trusted
 from analysis.rig.fit import RigFit, fit_constants, select_constants
+from twopose.camera import Intrinsics
 from twopose.errors import InputValueError
 from twopose.estimate import EstimateOptions
 from twopose.noise import PlacingSigma
-from twopose.rig.constants import RigConstants, RigFile, check_applicable
+from twopose.rig.constants import RigConstants, check_applicable
+from twopose.rig.file import RigFile
 from twopose.session_estimate import SessionTrials, estimate_session
 
 __all__ = [
@@ -145,7 +147,22 @@ def calibrate(
         data, sessions=tuple(r.session for r in replays if r.session in used)
     )
     fit = select_constants(data) if groups is None else fit_constants(data, groups)
-    return fit, data
+    cameras = _cameras([r.trials for r in replays if r.session in used])
+    constants = dataclasses.replace(fit.constants, cameras=cameras)
+    return dataclasses.replace(fit, constants=constants), data
+
+
+def _cameras(sessions: Sequence[SessionTrials]) -> tuple[Intrinsics, ...]:
+    """The cameras the sessions' views were taken with, each once (the rig file's
+    ``[[camera]]``: a rig is fitted for them and refused for another)."""
+    found = []
+    for trials in sessions:
+        for row in trials.views:
+            for v in row:
+                fx, fy, cx, cy = (float(k) for k in v.intrinsics)
+                w, h = v.width_height
+                found.append(Intrinsics(width=w, height=h, fx=fx, fy=fy, cx=cx, cy=cy))
+    return tuple(dict.fromkeys(found))
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -254,7 +271,7 @@ def rig_for_run(path: str | Path, inputs: InputSet, on_note: Note) -> RigFile:
     (exit 3, before any analysis) if implausible, or for a session under ``inputs`` in
     other units, or whose ground height or image it does not fit; ``on_note`` hears the
     notes (a rig file without units)."""
-    from twopose.rig.constants import load_rig_file
+    from twopose.rig.file import load_rig_file
 
     found = load_rig_file(path)
     for text in check_rig_for_sessions(found.constants, inputs.files, f"rig file {path}"):

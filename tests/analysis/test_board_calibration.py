@@ -21,7 +21,8 @@ from analysis.rig.calibrate import calibrate_rig
 from recorder.simulate import simulate_session
 from twopose.errors import InputValueError
 from twopose.methods import Method
-from twopose.rig.constants import RigConstants, load_rig, load_rig_file
+from twopose.rig.constants import RigConstants
+from twopose.rig.file import load_rig, load_rig_file
 from twopose.sim.layout import BOARD_POSES
 from twopose.sim.scene import load_scene
 

@@ -21,7 +21,8 @@ from tests.analysis.rig_helpers import runner
 from twopose.errors import InputValueError
 from twopose.methods import Method
 from twopose.noise import PlacingSigma
-from twopose.rig.constants import RigConstants, load_rig_file
+from twopose.rig.constants import RigConstants
+from twopose.rig.file import load_rig_file
 
 #: A placing sigma four times the simulated session's typed 0.05 in.
 PLACING = '[rig]\nunits = "in"\n\n[placing]\nsigma = 0.2\nmeasured_by = "board.mcap"\n'

@@ -13,7 +13,7 @@ import pytest
 from twopose.errors import InputValueError
 from twopose.noise import PlacingSigma
 from twopose.rig.board import fit_board_rig
-from twopose.rig.constants import load_rig, load_rig_file, placing_table
+from twopose.rig.file import load_rig, load_rig_file, placing_table
 from twopose.sim.layout import BOARD_POSES, board_corners
 from twopose.sim.scene import load_scene
 from twopose.units import Units

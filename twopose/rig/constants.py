@@ -20,8 +20,11 @@ The lengths (``camera_offset``, ``ground_height_error``) are in the calibration 
 units, which a rig file records (``units``) and ``--rig`` checks against the session's.
 Every rig read from a file is checked for physical plausibility (:func:`check_plausible`,
 the limits in :data:`LIMITS`); where it meets a session, also against that session's
-ground height and image (:func:`check_applicable`). The fit looks only where these
-limits allow (:func:`plausible_bounds`), so it never writes a file that is refused.
+ground height, image and camera (:func:`check_applicable`: a rig is fitted for one
+camera and refused for another). The fit looks only where these limits allow
+(:func:`plausible_bounds`), so it never writes a file that is refused. The rig file's one
+reader is :mod:`twopose.rig.file`; how the constants' covariance reaches every region,
+:mod:`twopose.rig.carried`.
 """
 
 from __future__ import annotations
@@ -29,39 +32,38 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Iterable
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from twopose.arrays import F64
-from twopose.camera import rotation_from_angles_deg
+from twopose.camera import Intrinsics, rotation_from_angles_deg
 from twopose.errors import InputValueError
 from twopose.estimate import GroundSpec, PoseView
 from twopose.format.entries import INCHES_PER_UNIT, UNITS
-from twopose.noise import PlacingSigma
 from twopose.units import IS_LENGTH, Units, unit_spec
 
 __all__ = [
+    "CAMERA_TOLERANCE",
     "LIMITS",
-    "PLACING_KEYS",
-    "PLACING_LIMIT_IN",
     "RIG_PARAMETERS",
     "RIG_PRIORS",
+    "SCALARS",
     "RigConstants",
-    "RigFile",
+    "RigCovariance",
     "against_priors",
     "angles_deg_from_rotation",
+    "camera_words",
     "check_applicable",
+    "check_cameras",
     "check_plausible",
+    "check_units",
     "corrected_ground",
     "corrected_view",
     "ground_height",
-    "load_rig",
-    "load_rig_file",
-    "placing_table",
     "plausible_bounds",
     "prior_sigma",
+    "same_camera",
     "true_ground",
 ]
 
@@ -75,6 +77,75 @@ RIG_PARAMETERS = {
     "tape_scale": ("tape_scale",),
     "ground_height_error": ("ground_height_error",),
 }
+#: Every scalar's name, in :meth:`RigConstants.vector` order.
+SCALARS = tuple(n for names in RIG_PARAMETERS.values() for n in names)
+
+
+@dataclass(frozen=True, kw_only=True)
+class RigCovariance:
+    """The fitted constants' covariance (issue 54): what a rig file's ``[covariance]`` holds.
+
+    ``names``: the fitted scalars (of :data:`SCALARS`, in its order); ``matrix``: their
+    covariance, each in its own unit (degrees, the rig's length unit, a ratio, pixels).
+    Board fits find ``offset_x`` and ``principal_dx_px`` (a sideways shift of the camera and
+    of its principal point look alike) strongly correlated: every ``--rig`` region carries
+    the whole matrix (``J C J^T``, :mod:`twopose.rig.carried`), never the diagonal alone.
+    ``independent``: only 1-sigmas were known (a rig file from before ``[covariance]``),
+    carried as if uncorrelated, which overstates what the correlations cancel.
+    """
+
+    names: tuple[str, ...]
+    matrix: tuple[tuple[float, ...], ...]
+    independent: bool = False
+
+    def __post_init__(self) -> None:
+        """Refuse names that are no scalar (or twice), and a matrix that is no covariance."""
+        unknown = [n for n in self.names if n not in SCALARS]
+        if unknown or len(set(self.names)) != len(self.names):
+            raise InputValueError(
+                f"rig covariance: names must be distinct scalars of {', '.join(SCALARS)}, "
+                f"got {list(self.names)}"
+            )
+        order = [SCALARS.index(n) for n in self.names]
+        if order != sorted(order):
+            raise InputValueError(
+                f"rig covariance: names must be in the constants' order ({', '.join(SCALARS)})"
+            )
+        k = len(self.names)
+        rows = [tuple(float(v) for v in row) for row in self.matrix]
+        if len(rows) != k or any(len(row) != k for row in rows):
+            raise InputValueError(
+                f"rig covariance: matrix must be {k} x {k} (one row and column per name)"
+            )
+        object.__setattr__(self, "matrix", tuple(rows))
+        m = self.array()
+        if not np.isfinite(m).all():
+            raise InputValueError("rig covariance: every entry must be a finite number")
+        scale = float(np.abs(m).max()) if k else 0.0
+        # The file's 6 significant digits: symmetric and positive semi-definite to rounding.
+        if not np.allclose(m, m.T, rtol=1e-5, atol=1e-9 * scale):
+            raise InputValueError("rig covariance: matrix must be symmetric")
+        if k and float(np.linalg.eigvalsh(0.5 * (m + m.T))[0]) < -1e-5 * scale:
+            raise InputValueError(
+                "rig covariance: matrix is not a covariance (a negative variance along some "
+                "direction); write the file again with `twopose-analyze rig`"
+            )
+
+    @classmethod
+    def of(cls, names: Iterable[str], matrix: ArrayLike) -> RigCovariance:
+        """From a (k, k) array (symmetrised)."""
+        m = np.asarray(matrix, dtype=np.float64)
+        m = 0.5 * (m + m.T)
+        return cls(names=tuple(names), matrix=tuple(tuple(float(v) for v in row) for row in m))
+
+    def array(self) -> F64:
+        """The matrix (k, k)."""
+        return np.array(self.matrix, dtype=np.float64).reshape(len(self.names), len(self.names))
+
+    def sigma(self) -> dict[str, float]:
+        """Each scalar's 1-sigma."""
+        diag = np.sqrt(np.clip(np.diag(self.array()), 0.0, None))
+        return dict(zip(self.names, (float(v) for v in diag), strict=True))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -89,6 +160,13 @@ class RigConstants:
     ground_height_error: float = field(default=0.0, metadata=IS_LENGTH)
     #: The lengths' units (a rig file's ``units``); None: not recorded (a file from before).
     units: Units | None = None
+    #: The cameras the constants were fitted for (a rig file's ``[[camera]]``): a focal
+    #: scale and a principal offset are relative to them, so any other camera is refused
+    #: (:func:`check_applicable`); empty: not recorded (a file from before).
+    cameras: tuple[Intrinsics, ...] = ()
+    #: The fitted constants' covariance (a rig file's ``[covariance]``), carried into every
+    #: region; None: not known (constants taken as exact).
+    covariance: RigCovariance | None = None
 
     def __post_init__(self) -> None:
         """Check that the constants are finite and the scales plausible.
@@ -393,26 +471,26 @@ def check_applicable(
     ground: GroundSpec | None = None,
     image_sizes: Iterable[tuple[int, int]] = (),
     what: str = "rig",
+    *,
+    cameras: Iterable[Intrinsics] = (),
 ) -> list[str]:
     """Refuse a rig for a session it cannot apply to; return the notes to show.
 
-    Refused: a session in other units than the rig's, or one the rig is implausible for (its ground
-    height and each camera's ``(width, height)``). A rig without units, from before they were
-    recorded, is taken in the session's, with a note.
+    Refused: a session in other units than the rig's (:func:`check_units`), a camera the
+    rig was not fitted for (:func:`check_cameras`), or one the rig is implausible for (its
+    ground height and each camera's ``(width, height)``, ``image_sizes`` and ``cameras``).
+    A rig without units or cameras, from before they were recorded, is taken as it is,
+    with a note; so are constants whose covariance is known only by their 1-sigmas.
     """
-    notes = []
-    if rig.units is None:
+    cameras = list(cameras)
+    notes = check_units(rig, units, what) + check_cameras(rig, cameras, what)
+    if rig.covariance is not None and rig.covariance.independent:
         notes.append(
-            f"{what} records no units (written before rig files did): its lengths are taken "
-            f"in the session's units ({units}); write it again with `twopose-analyze rig` "
-            "to have them checked"
+            f"{what} records each constant's 1-sigma but not their covariance (written before "
+            "rig files did): carried as independent, which can overstate each region; write "
+            "it again with `twopose-analyze rig`"
         )
-    elif rig.units != units:
-        raise InputValueError(
-            f"{what} is in {rig.units}, the session in {units}: its camera offset and ground "
-            f"height error are lengths; calibrate a rig from sessions in {unit_spec(units).name}"
-        )
-    sizes = list(image_sizes)
+    sizes = [*image_sizes, *((k.width, k.height) for k in cameras)]
     smallest = (min(w for w, _ in sizes), min(h for _, h in sizes)) if sizes else None
     check_plausible(
         rig, units=units, ground_height=ground_height(ground), image_size=smallest, what=what
@@ -420,127 +498,66 @@ def check_applicable(
     return notes
 
 
-#: The most placing sigma a rig file may record (inches): a laptop placed on grid paper by
-#: hand is off by a fraction of an inch; beyond 2 in the file is wrong (a typo, a unit).
-PLACING_LIMIT_IN = 2.0
-#: The ``[placing]`` table's keys and what each holds (docs/rig-file.md).
-PLACING_KEYS = {
-    "sigma": "the placing error's 1-sigma per translation component (x, y, z)",
-    "sigma_sigma": "the estimate's own 1-sigma",
-    "units": "of sigma and sigma_sigma",
-    "measured_by": "the board session(s) that measured it",
-    "captures": "how many captures it was measured over",
-}
-
-
-@dataclass(frozen=True, kw_only=True)
-class RigFile:
-    """A rig file's content: its constants and the operator's placing sigma.
-
-    ``constants``: the ``[rig]`` table; ``placing``: the ``[placing]`` table a board session
-    measured (None: the file records none).
-    """
-
-    constants: RigConstants
-    placing: PlacingSigma | None = None
-
-
-def placing_table(placing: PlacingSigma, units: Units) -> list[str]:
-    """The ``[placing]`` table's lines (what :func:`load_rig_file` reads), in ``units``."""
-    inches = unit_spec(units).inches
-    spread = placing.sigma_sigma_in / inches
-    measured_by = placing.measured_by.replace("\\", "/").replace('"', "'")
-    return [
-        "[placing]  # the operator's placing error, measured: every region uses it",
-        f"sigma = {placing.sigma_in / inches:.6g}",
-        *([f"sigma_sigma = {spread:.6g}"] if np.isfinite(spread) else []),
-        f'units = "{units}"',
-        f'measured_by = "{measured_by}"',
-        f"captures = {placing.captures}",
-    ]
-
-
-def _placing(table: object, rig_units: str | None, path: str | Path) -> PlacingSigma | None:
-    """A rig file's ``[placing]`` table, refused in words unless a plausible length."""
-    if table is None:
-        return None
-    what = f"rig file {path}: [placing]"
-    if not isinstance(table, dict):
-        raise InputValueError(f"{what} must be a table (sigma, units, ...)")
-    unknown = sorted(set(table) - set(PLACING_KEYS))
-    if unknown:
+def check_units(rig: RigConstants, units: Units, what: str = "rig") -> list[str]:
+    """Refuse a rig in other units than the session's; the note for one without any."""
+    if rig.units is None:
+        return [
+            f"{what} records no units (written before rig files did): its lengths are taken "
+            f"in the session's units ({units}); write it again with `twopose-analyze rig` "
+            "to have them checked"
+        ]
+    if rig.units != units:
         raise InputValueError(
-            f"{what}: unknown key(s) {', '.join(unknown)}; it holds {', '.join(PLACING_KEYS)}"
+            f"{what} is in {rig.units}, the session in {units}: its camera offset and ground "
+            f"height error are lengths; calibrate a rig from sessions in {unit_spec(units).name}"
         )
-    units = table.get("units", rig_units)
-    if units not in UNITS:
-        raise InputValueError(f"{what}: units must be one of {', '.join(UNITS)}, got {units!r}")
-    inches = unit_spec(units).inches
-    sigma, spread = _placing_numbers(table, units, what)
-    measured_by, captures = table.get("measured_by", ""), table.get("captures", 0)
-    if not isinstance(measured_by, str):
-        raise InputValueError(f"{what}: measured_by must be text, got {measured_by!r}")
-    if isinstance(captures, bool) or not isinstance(captures, int) or captures < 0:
-        raise InputValueError(f"{what}: captures must be a count >= 0, got {captures!r}")
-    try:
-        return PlacingSigma(
-            sigma_in=float(sigma) * inches,
-            sigma_sigma_in=float(spread) * inches,
-            measured_by=measured_by or f"rig file {path}",
-            captures=captures,
-        )
-    except InputValueError as err:
-        raise InputValueError(f"{what}: {err}") from None
+    return []
 
 
-def _placing_numbers(table: dict[str, object], units: Units, what: str) -> tuple[float, float]:
-    """A ``[placing]`` table's sigma and sigma_sigma (NaN: not stated), refused in words."""
-    inches = unit_spec(units).inches
-    sigma, spread = table.get("sigma"), table.get("sigma_sigma", float("nan"))
-    limit = PLACING_LIMIT_IN / inches
-    if sigma is None:
-        raise InputValueError(f"{what}: sigma is missing (the placing error's 1-sigma, a length)")
-    for key, value in (("sigma", sigma), ("sigma_sigma", spread)):
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise InputValueError(f"{what}: {key} must be a number, got {value!r}")
-    assert isinstance(sigma, int | float)
-    assert isinstance(spread, int | float)
-    if not (np.isfinite(sigma) and 0 < sigma <= limit):
-        raise InputValueError(
-            f"{what}: sigma = {sigma!r} {units} is not a placing error (a positive length up "
-            f"to {limit:g} {units}); measure it again with `twopose-analyze rig` on a board "
-            "session, or delete the [placing] table to use the typed resolution"
-        )
-    if spread < 0 or np.isinf(spread):
-        raise InputValueError(f"{what}: sigma_sigma must be a finite length >= 0, got {spread!r}")
-    return float(sigma), float(spread)
+#: Two cameras are the same when their image sizes are and their intrinsics agree to this
+#: relative tolerance (a rig file writes them to the last digit; a calibration file gives
+#: the same numbers each time it is read).
+CAMERA_TOLERANCE = 1e-6
 
 
-def load_rig_file(path: str | Path) -> RigFile:
-    """A rig file written by ``twopose-analyze rig``, checked: the one reader.
+def same_camera(a: Intrinsics, b: Intrinsics) -> bool:
+    """Whether two cameras are the same: size, focal lengths and principal point."""
+    import math
 
-    Its ``[rig]`` table, checked by :func:`check_plausible` (the session's ground height
-    and image are judged when it is applied, :func:`check_applicable`), and its
-    ``[placing]`` table when there is one: a positive finite length up to
-    :data:`PLACING_LIMIT_IN`, refused in words otherwise.
+    return (a.width, a.height) == (b.width, b.height) and all(
+        math.isclose(x, y, rel_tol=CAMERA_TOLERANCE, abs_tol=CAMERA_TOLERANCE)
+        for x, y in ((a.fx, b.fx), (a.fy, b.fy), (a.cx, b.cx), (a.cy, b.cy))
+    )
+
+
+def camera_words(k: Intrinsics) -> str:
+    """A camera in words: ``640x480, f 525 px, principal point (320, 240)``."""
+    f = f"{k.fx:g}" if k.fx == k.fy else f"{k.fx:g}/{k.fy:g}"
+    return f"{k.width}x{k.height}, f {f} px, principal point ({k.cx:g}, {k.cy:g})"
+
+
+def check_cameras(rig: RigConstants, cameras: Iterable[Intrinsics], what: str = "rig") -> list[str]:
+    """Refuse a rig for a camera it was not fitted for; the note for a rig that records none.
+
+    A rig's focal scale and principal offset are relative to the camera it was fitted for
+    (:attr:`RigConstants.cameras`): another camera (another size, focal length or
+    principal point) would be "corrected" by another camera's constants.
     """
-    from twopose.config import build_dataclass, read_toml
-
-    what = f"rig file {path}"
-    data = read_toml(path, "rig file", InputValueError)
-    table = data.get("rig")
-    if not isinstance(table, dict):
-        raise InputValueError(f"{what}: no [rig] table; write one with twopose-analyze rig")
-    units = table.get("units")
-    if units is not None and units not in UNITS:
-        raise InputValueError(f"{what}: units must be one of {', '.join(UNITS)}, got {units!r}")
-    numbers = {k: v for k, v in table.items() if k != "units"}
-    rig = build_dataclass(RigConstants, numbers, what, InputValueError)
-    rig = dataclasses.replace(rig, units=units)
-    check_plausible(rig, what=what)
-    return RigFile(constants=rig, placing=_placing(data.get("placing"), units, path))
-
-
-def load_rig(path: str | Path) -> RigConstants:
-    """A rig file's constants (:func:`load_rig_file`, which checks the whole file)."""
-    return load_rig_file(path).constants
+    cameras = list(cameras)
+    if not cameras:
+        return []
+    if not rig.cameras:
+        return [
+            f"{what} records no camera (written before rig files did): it is not checked "
+            "against this session's camera; write it again with `twopose-analyze rig`"
+        ]
+    for k in cameras:
+        if not any(same_camera(k, fitted) for fitted in rig.cameras):
+            fitted_words = "; ".join(camera_words(c) for c in rig.cameras)
+            raise InputValueError(
+                f"{what} was fitted for the camera {fitted_words}, not for this session's "
+                f"{camera_words(k)}: its focal scale and principal offset are relative to "
+                "the camera it was fitted for; calibrate a rig with a board session of this "
+                "camera (twopose-analyze rig)"
+            )
+    return []
