@@ -17,7 +17,7 @@ from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, as_completed, wait
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import pandas as pd
 
@@ -36,7 +36,14 @@ from analysis.input_set import InputSet, SessionIdentity, resolve_inputs
 from analysis.metrics import summarize
 from analysis.outputs import OutputFolder, printable_stem
 from analysis.pipeline import _with_figures, analyse_session, keep_frame_buffers
-from analysis.results import AnalysisOptions, RunResult, SessionFailure, SessionResult
+from analysis.results import (
+    AnalysisOptions,
+    RigSource,
+    RunResult,
+    SessionFailure,
+    SessionResult,
+)
+from analysis.rig.scope import RigScope
 from analysis.session_cache import SessionCache
 from twopose.errors import InputValueError, TwoposeError
 
@@ -59,6 +66,7 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
     on_sessions_found: Callable[[int], None] | None = None,
     scene: bool = True,
     reuse: bool = True,
+    rigs: RigScope | Literal["scope"] | None = None,
 ) -> RunResult:
     """Analyse every session under ``paths`` and (with ``out_dir``) write the results.
 
@@ -89,6 +97,10 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
         With ``out_dir``: reuse what the previous run into it kept where nothing it depends
         on changed (each session's analysis, :mod:`analysis.session_cache`; its figures,
         :mod:`analysis.figure_cache`); False: everything computed afresh.
+    rigs : RigScope or "scope", optional
+        Which rig file each session uses (:func:`analysis.rig.scope.rig_scope`; "scope":
+        each session's nearest ``rig.toml`` up the tree, as ``twopose-analyze run`` does);
+        default none but ``options.rig``, for every session.
 
     Returns
     -------
@@ -100,6 +112,12 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
     if jobs < 1:
         raise InputValueError(f"jobs must be >= 1, got {jobs}")
     inputs = resolve_inputs(paths)  # once: copies, kinds, empty sessions, units
+    if rigs == "scope":
+        from analysis.rig.scope import rig_scope
+
+        if options.rig is not None:
+            raise InputValueError("a rig in the options and rig files found up the tree: give one")
+        rigs = rig_scope(inputs, on_note=note)
     files, skipped = inputs.files, list(inputs.skipped)
     if on_sessions_found is not None:
         on_sessions_found(len(files))
@@ -128,12 +146,15 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
             ),
             continuations=inputs.continuations,
             identities=inputs.identities,
+            rigs=rigs,
         )
         outcomes = _execute(batch, jobs=jobs, dask_address=dask_address)
+        sources = _rig_sources(rigs, options, files)
         result = dataclasses.replace(
             gather(outcomes, include_warned=options.include_warned),
             skipped=tuple(skipped),
-            rig_source=options.rig_source,
+            rig_source=sources[0][0] if len(sources) == 1 and sources[0][1] else None,
+            rig_files=tuple(s for s, _ in sources),
             input_notes=tuple(inputs.run_notes()),
         )
         if folder is not None:
@@ -161,6 +182,27 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
     return result
 
 
+def _rig_sources(
+    rigs: RigScope | None, options: AnalysisOptions, files: Sequence[str]
+) -> list[tuple[RigSource, bool]]:
+    """Every rig file the run used, each once, and whether every session used it."""
+    if rigs is None:
+        return [(options.rig_source, True)] if options.rig_source is not None else []
+    every = len(rigs.uses) == 1 and all(rigs.of(f) is not None for f in files)
+    sources = [rigs.options_for(f, options).rig_source for f in _first_of(rigs, files)]
+    return [(s, every) for s in sources if s is not None]
+
+
+def _first_of(rigs: RigScope, files: Sequence[str]) -> list[str]:
+    """Of ``files``, the first session of each rig file (in order)."""
+    seen: dict[str, str] = {}
+    for f in files:
+        use = rigs.of(f)
+        if use is not None:
+            seen.setdefault(use.path, f)
+    return list(seen.values())
+
+
 @functools.lru_cache(maxsize=1)
 def _thesis_sweeps() -> pd.DataFrame:
     """The report's sensitivity sweeps (seeded, so the same every time: computed once)."""
@@ -186,13 +228,22 @@ class _Batch:
     identities: dict[str, SessionIdentity] = dataclasses.field(default_factory=dict)
     #: each session's analysis as the previous run into --out kept it (None: no --out)
     session_cache: SessionCache | None = None
+    #: which rig file each session uses (analysis.rig.scope; None: ``options.rig``, all)
+    rigs: RigScope | None = None
+
+    def options_for(self, path: str) -> AnalysisOptions:
+        """The options session ``path`` is analysed with: the run's, with its rig."""
+        return self.options if self.rigs is None else self.rigs.options_for(path, self.options)
 
     def analyse(self, index: int, results: str | None = None, *, images: bool) -> Outcome:
         """Session ``index``'s outcome (:func:`analyse_or_fail`), wherever it runs."""
         path, cache = self.files[index], self.session_cache
         continuations, identity = self.continuations.get(path, ()), self.identities.get(path)
+        options = self.options_for(path)
+        if cache is not None and options is not self.options:  # keyed on its own rig too
+            cache = cache.with_options(options)
         analysed = functools.partial(
-            analyse_or_fail, path, self.options, images=images, results=results,
+            analyse_or_fail, path, options, images=images, results=results,
             figure_cache=self.figure_cache, continuations=continuations, identity=identity,
         )  # fmt: skip
         outcome = (

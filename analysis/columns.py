@@ -114,6 +114,8 @@ SUMMARY_COLUMNS = [
     # the noise model its regions assumed (twopose.noise; docs/analysis.md)
     "placing_sigma",  # the placing sigma (session units): measured, or the typed mean
     "placing_source",  # typed, or measured by which board session
+    "rig_file",  # the rig file the session used (empty: none), as found or given
+    "rig_sha256",  # its content's SHA-256 (empty: none): what check compares
     "sigma0",  # the a-posteriori sigma0 of its trials' misclosures (1: the model holds)
     "sigma0_dof",  # its degrees of freedom (0: no trial with redundancy)
     "noise_contradicted",  # the data contradict the noise model: the regions were widened

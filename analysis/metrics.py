@@ -135,9 +135,11 @@ def noise_summary(trials: pd.DataFrame) -> dict[str, object]:
     widening = pd.to_numeric(ok["noise_widening"], errors="coerce")
     sigma = pd.to_numeric(trials["placing_sigma"], errors="coerce")
     sources = [s for s in trials["placing_source"].astype(str) if s]
+    rig = {c: str(trials[c].fillna("").iloc[0]) for c in ("rig_file", "rig_sha256") if c in trials}
     return {
         "placing_sigma": float(sigma.median()) if sigma.notna().any() else np.nan,
         "placing_source": sources[0] if sources else "",
+        **rig,
         "sigma0": float(np.sqrt(factor.sigma0_sq)) if total else np.nan,
         "sigma0_dof": total,
         "noise_contradicted": bool((widening > 1).any()),

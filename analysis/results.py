@@ -64,6 +64,8 @@ class RigSource:
     path: str
     sha256: str
     constants: RigConstants
+    #: Chosen by ``--rig`` (for every session) rather than found up the tree.
+    given: bool = False
 
     @classmethod
     def read(cls, path: str | Path, constants: RigConstants) -> RigSource:
@@ -140,7 +142,9 @@ class RunResult:
     skipped: tuple[str, ...] = ()  # results files of an earlier run found among the inputs
     include_warned: bool = False  # whether the summary counts trials with a warning
     rig: pd.DataFrame = field(default_factory=lambda: _empty(RIG_TABLE_COLUMNS))  # rig.csv
-    rig_source: RigSource | None = None  # --rig: the file every view was corrected by
+    rig_source: RigSource | None = None  # the rig file every session's views were corrected by
+    #: Every rig file the run used, each once (each session's: trials.csv ``rig_file``)
+    rig_files: tuple[RigSource, ...] = ()
     #: What the run says about its inputs: copies counted once, board sessions (for
     #: `rig`), empty sessions (analysis.input_set.InputSet.notes)
     input_notes: tuple[str, ...] = ()

@@ -155,6 +155,12 @@ class SessionCache:
             )
         return cache
 
+    def with_options(self, options: AnalysisOptions) -> SessionCache:
+        """The same cache, its entries keyed on ``options`` too: a session's own (its rig
+        file, :mod:`analysis.rig.scope`), beside everything the run's key holds."""
+        own = options_digest(options, tables_only=True)
+        return dataclasses.replace(self, setting=f"{self.setting}:{own}")
+
     def key(self, path: str, continuations: Sequence[str], identity: SessionIdentity) -> str:
         """The entry's name: a digest of the session's identity, its parts' bytes, the
         options and the code (see the module docstring)."""

@@ -435,6 +435,9 @@ TRIAL_TABLE: tuple[Column, ...] = (
     # the noise model (twopose.noise): the placing sigma assumed, the misclosure's test
     _length("placing_sigma", "placing sigma assumed", "noise", _placing_sigma, NON_NEGATIVE),
     _text("placing_source", "placing sigma's source", "noise", _placing_source),
+    # the rig file the session used (filled by the pipeline, from its options)
+    _text("rig_file", "rig file", "noise"),
+    _text("rig_sha256", "rig file's SHA-256", "noise"),
     Column(name="misclosure_chi2", label="misclosure chi-square", unit="none",
            domain=NON_NEGATIVE, group="noise", fill=_misclosure_chi2),
     Column(name="misclosure_dof", label="misclosure degrees of freedom", unit="count",

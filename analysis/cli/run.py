@@ -49,14 +49,16 @@ RigFileOption = Annotated[
     typer.Option(
         exists=True,
         dir_okay=False,
-        help="Correct every view by the rig's constants from `twopose-analyze rig`, and "
-        "give every region its measured placing sigma when the file has one [default: a "
-        "rig.toml in a folder given, or beside a session file given].",
+        help="Correct every session's views by this rig file's constants (from "
+        "`twopose-analyze rig`), carry their covariance into every region, and give every "
+        "region its placing sigma when the file has one [default: each session takes the "
+        "nearest rig.toml up the tree from its folder: a rig.toml applies to the sessions "
+        "in its folder and below].",
     ),
 ]
 NoRigOption = Annotated[
     bool,
-    typer.Option("--no-rig", help="Use no rig file, not even a rig.toml beside the sessions."),
+    typer.Option("--no-rig", help="Use no rig file, not even a rig.toml above the sessions."),
 ]
 RigCalibrationOption = Annotated[
     RigCalibrationMode,
@@ -156,6 +158,7 @@ def run_command(
     from analysis.input_set import resolve_inputs
     from analysis.outputs import check_run_outputs, write_file
     from analysis.results import AnalysisOptions
+    from analysis.rig.scope import rig_scope
 
     options = AnalysisOptions(
         estimate=EstimateOptions(
@@ -172,12 +175,9 @@ def run_command(
     )
     with handle_errors(), _session_progress() as (found, done):
         inputs = resolve_inputs(paths)  # once: every step below takes this set
-        rig = _rig_file(rig, no_rig, paths)
-        check_run_outputs(inputs, out, junit, rig)  # before anything is written
-        if rig is not None:
-            from analysis.rig.calibrate import with_rig
-
-            options = with_rig(options, rig, inputs, note)
+        # Each session's rig file, read and checked before anything is written.
+        rigs = rig_scope(inputs, rig, no_rig=no_rig, on_note=note)
+        check_run_outputs(inputs, out, junit, *rigs.paths)
         result = run(
             inputs,
             out,
@@ -188,6 +188,7 @@ def run_command(
             on_sessions_found=found,
             scene=scene,
             reuse=reuse,
+            rigs=rigs,
         )
         if junit is not None:
             from analysis.gate import junit_xml, run_cases
@@ -202,25 +203,6 @@ def run_command(
             f"interrupted while printing the summary; the results in {out} are complete"
         )
         raise typer.Exit(EXIT_INTERRUPTED) from None
-
-
-def _rig_file(rig: Path | None, no_rig: bool, paths: list[Path]) -> Path | None:
-    """The rig file ``run`` uses: ``--rig``'s, else a rig.toml beside the sessions (said),
-    none with ``--no-rig`` (both at once refused)."""
-    from twopose.errors import InputValueError
-
-    if no_rig:
-        if rig is not None:
-            raise InputValueError("--rig and --no-rig contradict each other: give one")
-        return None
-    if rig is not None:
-        return rig
-    from analysis.rig.calibrate import rig_beside
-
-    beside = rig_beside(paths)
-    if beside is not None:
-        note(f"using the rig file {beside} found beside the sessions (--no-rig: none)")
-    return beside
 
 
 @contextlib.contextmanager
@@ -258,8 +240,10 @@ def _print_run(result: RunResult, out: Path, *, include_warned: bool) -> None:
 
     width = min(shutil.get_terminal_size().columns, 100) if sys.stdout.isatty() else None
     typer.echo(f"twopose: {len(result.sessions)} session(s), results in {out}")
-    if result.rig_source is not None:
-        typer.echo(result.rig_source.line())
+    from analysis.rig.scope import rig_lines
+
+    for line in rig_lines(result):
+        typer.echo(line)
     for line in summary_lines(
         result.trials, result.summary, include_warned=include_warned, width=width
     ):

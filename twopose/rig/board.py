@@ -276,7 +276,8 @@ def fit_board_rig(  # noqa: PLR0913 - the captures' arrays, then how to fit them
         RigConstants.from_vector(np.append(constants, 0.0), units),
         covariance=RigCovariance.of(names, cov[np.ix_(free, free)]) if names else None,
     )
-    placing, warned = None, ()
+    placing: PlacingSigma | None = None
+    warned: tuple[str, ...] = ()
     if measuring and lin is not None:
         placing, warned = _measured(lin, s, dof, floor, units, len(t))
     delta = np.append(constants, 0.0) - RigConstants().vector()

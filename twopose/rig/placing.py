@@ -70,7 +70,7 @@ class Linearized:
         """The parameters' posterior precision ``A`` (P, P), its inverse and mean, at ``s``."""
         precision = self.prior(s) ** -2.0
         a = self.jac.T @ self.jac + np.diag(precision)
-        a_inv = np.linalg.inv(a)
+        a_inv: F64 = np.asarray(np.linalg.inv(a), dtype=np.float64)
         grad = self.jac.T @ self.res
         mean = self.p - a_inv @ (grad + precision * (self.p - self.nominal))
         return a, a_inv, mean
