@@ -194,7 +194,10 @@ def record_terminal(
         said = f" ({c.path.name}'s)" if kept else ""
         typer.echo(f"  operator {setup.operator or '(none)'}; stop rule: {rule}{said}")
     else:
-        setup = ask_setup(op, size=(mode.width, mode.height), guidance=request.guidance, **given)
+        setup = ask_setup(
+            op, size=(mode.width, mode.height), guidance=request.guidance, rig=request.rig,
+            **given,
+        )  # fmt: skip
     check_rig(request.rig, setup.method, setup.units, [setup.camera()], setup.ground())
     asked = request.guidance or guidance_asked()
     refused = asked.refusals(setup.method, setup.units)  # a continued board session's

@@ -64,6 +64,7 @@ __all__ = [
     "plausible_bounds",
     "prior_sigma",
     "same_camera",
+    "same_size",
     "true_ground",
 ]
 
@@ -534,6 +535,20 @@ def camera_words(k: Intrinsics) -> str:
     """A camera in words: ``640x480, f 525 px, principal point (320, 240)``."""
     f = f"{k.fx:g}" if k.fx == k.fy else f"{k.fx:g}/{k.fy:g}"
     return f"{k.width}x{k.height}, f {f} px, principal point ({k.cx:g}, {k.cy:g})"
+
+
+def same_size(rig: RigConstants, size: tuple[int, int], what: str = "rig") -> None:
+    """Refuse a rig none of whose cameras takes images of ``size`` (width, height).
+
+    Known before the rest of a camera is (:func:`check_cameras` judges the whole camera).
+    """
+    if rig.cameras and all((k.width, k.height) != tuple(size) for k in rig.cameras):
+        fitted = "; ".join(camera_words(c) for c in rig.cameras)
+        raise InputValueError(
+            f"{what} was fitted for the camera {fitted}, not for {size[0]}x{size[1]} images: "
+            "its focal scale and principal offset are relative to the camera it was fitted "
+            "for; calibrate a rig with a board session of this camera (twopose-analyze rig)"
+        )
 
 
 def check_cameras(rig: RigConstants, cameras: Iterable[Intrinsics], what: str = "rig") -> list[str]:
