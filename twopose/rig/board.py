@@ -239,30 +239,35 @@ def fit_board_rig(  # noqa: PLR0913 - the captures' arrays, then how to fit them
         constants, placed, turned = model.split(x)
         return _project(constants, X, t + placed, r + turned, k)
 
-    def residuals(p: F64, sigma_px: float, s: float) -> F64:
-        corners = (predicted(model.full(p)) - u).ravel() / sigma_px
+    def residuals(p: F64, sigma_px: F64, s: float) -> F64:
+        corners = ((predicted(model.full(p)) - u) / sigma_px[:, None, None]).ravel()
         return np.concatenate([corners, (p - model.nominal) / model.prior(s)])
 
-    def solve(p: F64, sigma_px: float, s: float) -> OptimizeResult:
+    def solve(p: F64, sigma_px: F64, s: float) -> OptimizeResult:
         return least_squares(residuals, p, args=(sigma_px, s), x_scale=model.prior(s), method="trf")
 
     measuring = measure_placing and model.n_placed > 0
     floor = PLACING_FLOOR_IN / unit_spec(units).inches
-    sigma_px, s, p, dof = 1.0, float(t_sigma), model.nominal, 0.0
+    sigma_px, s, p, dof = np.ones(len(t)), float(t_sigma), model.nominal, 0.0
     lin: Linearized | None = None
     for round_ in range(MAX_ROUNDS):
-        # The corners' noise from the previous fit's residuals, the placing sigma by EM on
-        # the fit's linearization; refitted until both settle.
+        # Each capture's corner noise from the previous fit's residuals (a far board's
+        # corners are less precise than a near one's: one noise for all would let the far
+        # captures' errors read as placing), the placing sigma by EM on the fit's
+        # linearization; refitted until both settle.
         fit = solve(p, sigma_px, s)
         p = fit.x
-        corner_res = (predicted(model.full(p)) - u).ravel()
-        new_px = max(float(np.sqrt(np.mean(corner_res**2))), 1e-6)
+        corner_res = predicted(model.full(p)) - u
+        new_px = np.maximum(np.sqrt(np.mean(corner_res**2, axis=(1, 2))), 1e-6)
         new_s = s
         if measuring:
-            jac = np.asarray(fit.jac)[: corner_res.size] * (sigma_px / new_px)
-            lin = model.linearized(jac, corner_res / new_px, p)
+            rows = np.repeat(sigma_px / new_px, corner_res[0].size)[:, None]
+            jac = np.asarray(fit.jac)[: corner_res.size] * rows
+            lin = model.linearized(jac, (corner_res / new_px[:, None, None]).ravel(), p)
             new_s, dof = placing_em(lin, s, floor)
-        settled = abs(new_px / sigma_px - 1) < 0.01 and abs(new_s / s - 1 if s else 0) < 0.01
+        settled = (
+            np.all(np.abs(new_px / sigma_px - 1) < 0.01) and abs(new_s / s - 1 if s else 0) < 0.01
+        )
         sigma_px, s = new_px, new_s
         if round_ >= 2 and settled:
             break

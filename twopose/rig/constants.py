@@ -133,11 +133,14 @@ class RigCovariance:
             )
 
     @classmethod
-    def of(cls, names: Iterable[str], matrix: ArrayLike) -> RigCovariance:
+    def of(
+        cls, names: Iterable[str], matrix: ArrayLike, *, independent: bool = False
+    ) -> RigCovariance:
         """From a (k, k) array (symmetrised)."""
         m = np.asarray(matrix, dtype=np.float64)
         m = 0.5 * (m + m.T)
-        return cls(names=tuple(names), matrix=tuple(tuple(float(v) for v in row) for row in m))
+        rows = tuple(tuple(float(v) for v in row) for row in m)
+        return cls(names=tuple(names), matrix=rows, independent=independent)
 
     def array(self) -> F64:
         """The matrix (k, k)."""

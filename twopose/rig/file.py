@@ -282,7 +282,7 @@ def _covariance(data: Mapping[str, Any], what: str) -> RigCovariance | None:
         names = tuple(n for n in SCALARS if sigma.get(n, 0.0) > 0)
         if not names:
             return None
-        return RigCovariance.of(names, np.diag([sigma[n] ** 2 for n in names]))
+        return RigCovariance.of(names, np.diag([sigma[n] ** 2 for n in names]), independent=True)
     found = build_dataclass(
         _Covariance, data["covariance"], f"{what}: [covariance]", InputValueError
     )
