@@ -244,7 +244,9 @@ def fit_board_rig(  # noqa: PLR0913 - the captures' arrays, then how to fit them
         return np.concatenate([corners, (p - model.nominal) / model.prior(s)])
 
     def solve(p: F64, sigma_px: F64, s: float) -> OptimizeResult:
-        return least_squares(residuals, p, args=(sigma_px, s), x_scale=model.prior(s), method="trf")
+        # MINPACK's Levenberg-Marquardt: its QR is its own, so a dense problem of a hundred
+        # parameters costs the same whatever the machine's BLAS threads are doing.
+        return least_squares(residuals, p, args=(sigma_px, s), x_scale=model.prior(s), method="lm")
 
     measuring = measure_placing and model.n_placed > 0
     floor = PLACING_FLOOR_IN / unit_spec(units).inches
