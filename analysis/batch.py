@@ -36,14 +36,8 @@ from analysis.input_set import InputSet, SessionIdentity, resolve_inputs
 from analysis.metrics import summarize
 from analysis.outputs import OutputFolder, printable_stem
 from analysis.pipeline import _with_figures, analyse_session, keep_frame_buffers
-from analysis.results import (
-    AnalysisOptions,
-    RigSource,
-    RunResult,
-    SessionFailure,
-    SessionResult,
-)
-from analysis.rig.scope import RigScope
+from analysis.results import AnalysisOptions, RunResult, SessionFailure, SessionResult
+from analysis.rig.scope import RigScope, run_rig_sources
 from analysis.session_cache import SessionCache
 from twopose.errors import InputValueError, TwoposeError
 
@@ -149,12 +143,12 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
             rigs=rigs,
         )
         outcomes = _execute(batch, jobs=jobs, dask_address=dask_address)
-        sources = _rig_sources(rigs, options, files)
+        every, used = run_rig_sources(rigs, options, files)
         result = dataclasses.replace(
             gather(outcomes, include_warned=options.include_warned),
             skipped=tuple(skipped),
-            rig_source=sources[0][0] if len(sources) == 1 and sources[0][1] else None,
-            rig_files=tuple(s for s, _ in sources),
+            rig_source=every,
+            rig_files=used,
             input_notes=tuple(inputs.run_notes()),
         )
         if folder is not None:
@@ -180,27 +174,6 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
     if batch.session_cache is not None:  # committed: what this run did not use goes
         batch.session_cache.prune()
     return result
-
-
-def _rig_sources(
-    rigs: RigScope | None, options: AnalysisOptions, files: Sequence[str]
-) -> list[tuple[RigSource, bool]]:
-    """Every rig file the run used, each once, and whether every session used it."""
-    if rigs is None:
-        return [(options.rig_source, True)] if options.rig_source is not None else []
-    every = len(rigs.uses) == 1 and all(rigs.of(f) is not None for f in files)
-    sources = [rigs.options_for(f, options).rig_source for f in _first_of(rigs, files)]
-    return [(s, every) for s in sources if s is not None]
-
-
-def _first_of(rigs: RigScope, files: Sequence[str]) -> list[str]:
-    """Of ``files``, the first session of each rig file (in order)."""
-    seen: dict[str, str] = {}
-    for f in files:
-        use = rigs.of(f)
-        if use is not None:
-            seen.setdefault(use.path, f)
-    return list(seen.values())
 
 
 @functools.lru_cache(maxsize=1)

@@ -21,6 +21,7 @@ from analysis.columns import FRAME_COLUMNS, RIG_TABLE_COLUMNS, typed
 from analysis.input_set import SessionIdentity
 from analysis.results import AnalysisOptions, SessionResult
 from analysis.results_mcap import ResultsWriter
+from analysis.rig.scope import rig_file_columns
 from analysis.tables import (
     averaging_table,
     frame_row,
@@ -163,7 +164,7 @@ def analyse_session(
         label=identity.label,
         metadata=replay.metadata,
         frames=with_branch(frames, identity, part_of),
-        trials=with_identity(trials.assign(**_rig_file(options)), identity, part_of),
+        trials=with_identity(trials.assign(**rig_file_columns(options)), identity, part_of),
         averaging=with_branch(averaging, identity, part_of),
         views=with_branch(views, identity, part_of),
         rig=rig,
@@ -200,18 +201,6 @@ def _rig_columns(
     rig = pd.DataFrame([{"fitted": False} | r for r in rows], columns=RIG_TABLE_COLUMNS)
     rig["units"] = str(replay.trials.units)
     return typed(_systematic_dominance(trials.assign(**corrected))), typed(rig)
-
-
-def _rig_file(options: AnalysisOptions) -> dict[str, str]:
-    """``trials.csv``'s ``rig_file`` and ``rig_sha256``: the rig file the session used
-    (``run``'s scope rule, :mod:`analysis.rig.scope`), empty without; constants given in
-    the options alone (a notebook's) are said so."""
-    source = options.rig_source
-    if source is not None:
-        return {"rig_file": source.path, "rig_sha256": source.sha256}
-    if options.rig is not None:
-        return {"rig_file": "(constants given, no file)", "rig_sha256": ""}
-    return {"rig_file": "", "rig_sha256": ""}
 
 
 def _systematic_dominance(trials: pd.DataFrame) -> pd.DataFrame:

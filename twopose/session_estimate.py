@@ -49,6 +49,7 @@ from twopose.misclosure import (
 )
 from twopose.noise import VarianceFactor
 from twopose.optimal_lines import centroid_segments, optimal_lines
+from twopose.rig.carried import rig_carried, with_carried, with_rig_dominance
 from twopose.solve import image_lines, triangulate_lines
 from twopose.uncertainty import (
     PLACING,
@@ -188,8 +189,10 @@ class SessionEstimate:
             self.trials.method, p.batch, self.trials.ground, self.options, reference[p.rows]
         )
         propagated = propagate(estimate, p.batch.inputs, p.cov_in, shared=p.shared)
-        carried = _rig_carried(self.trials, p, self.options, reference[p.rows])
-        return _uncertainty(T, p, propagated, carried)
+        rig = rig_carried(
+            self.options, self.trials.method, p.batch, self.trials.ground, reference[p.rows]
+        )
+        return _uncertainty(T, p, propagated, rig)
 
     def direction_cov(self) -> F64:
         """(T, 3, 3) lines: the covariance of each ok trial's unit direction (NaN else).
@@ -433,7 +436,7 @@ def _solved_estimates(
             p.cov_in,
             shared=p.shared,
         ),
-        _rig_carried(trials, p, options, solved.point),
+        rig_carried(options, trials.method, p.batch, trials.ground, solved.point),
     )
     lines = spec_of(trials.method).estimates_line and line_fits
     return Estimates(
@@ -464,26 +467,12 @@ def _solved_estimates(
     )
 
 
-def _rig_carried(
-    trials: SessionTrials, p: _Propagation, options: EstimateOptions, reference: F64
-) -> F64 | None:
-    """(R, 3, 3) the rig's constants' covariance carried to each solved row (None: no rig)."""
-    if options.noise.rig is None:
-        return None
-    from twopose.rig.carried import carried_covariance
-
-    return carried_covariance(
-        trials.method, p.batch, trials.ground, options, options.noise.rig, reference
-    )
-
-
 def _uncertainty(
     T: int, p: _Propagation, propagated: Propagated, carried: F64 | None = None
 ) -> Uncertainty:
     """The covariance and dominant input of every ok trial (T rows).
 
-    ``carried``: the rig's constants' covariance at each solved row (:func:`_rig_carried`),
-    added to the region beside the views' noise, never widened by its test.
+    ``carried``: the rig's constants' covariance (:func:`twopose.rig.carried.rig_carried`).
     """
     ok, cov = p.solved.status == "ok", propagated.cov_grid
     lam = 1.0 if p.factor is None else p.factor.placing_variance
@@ -501,16 +490,10 @@ def _uncertainty(
         d = p.solved.direction
         across = np.eye(3) - np.einsum("ti,tj->tij", d, d)
         cov, model = across @ cov @ across, across @ model @ across
-        carried = None if carried is None else across @ carried @ across
-    cov = widened(cov, p.factor)
-    if carried is not None:
-        cov, model = cov + carried, model + carried
+    cov, model, carried = with_carried(widened(cov, p.factor), model, carried, p.solved.direction)
     widening = region_widening(cov, model)
     names, share = dominant_input(propagated.variance_by_group, propagated.shared_variance)
-    if carried is not None:
-        from twopose.rig.carried import with_rig_dominance
-
-        names, share = with_rig_dominance(names, share, propagated, carried)
+    names, share = with_rig_dominance(names, share, propagated, carried)
     none, rows = _no_uncertainty(T), p.rows[ok]
     return Uncertainty(
         cov=_with_rows(none.cov, rows, cov[ok]),

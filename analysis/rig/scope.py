@@ -34,7 +34,7 @@ from twopose.rig.file import RigFile, load_rig_file
 
 if TYPE_CHECKING:
     from analysis.input_set import InputSet
-    from analysis.results import AnalysisOptions, RunResult
+    from analysis.results import AnalysisOptions, RigSource, RunResult
 
 __all__ = [
     "RIG_BESIDE",
@@ -42,9 +42,11 @@ __all__ = [
     "RigUse",
     "check_rig_for_sessions",
     "nearest_rig",
+    "rig_file_columns",
     "rig_files_json",
     "rig_lines",
     "rig_scope",
+    "run_rig_sources",
 ]
 
 Note = Callable[[str], None]
@@ -115,6 +117,39 @@ class RigScope:
         """The options ``session`` is analysed with: ``options`` with its rig, if any."""
         use = self.of(session)
         return options if use is None else use.options(options)
+
+
+def run_rig_sources(
+    rigs: RigScope | None, options: AnalysisOptions, files: Sequence[str]
+) -> tuple[RigSource | None, tuple[RigSource, ...]]:
+    """A run's rig files (:class:`analysis.results.RunResult`'s ``rig_source`` and
+    ``rig_files``): the one every session used (None: none did, or several), and every
+    one used, each once, in the sessions' order. Without a scope, the options' rig."""
+    if rigs is None:
+        given = options.rig_source
+        return given, (given,) if given is not None else ()
+    first: dict[str, str] = {}
+    for f in files:
+        use = rigs.of(f)
+        if use is not None:
+            first.setdefault(use.path, f)
+    used = tuple(
+        s for f in first.values() if (s := rigs.options_for(f, options).rig_source) is not None
+    )
+    every = len(used) == 1 and all(rigs.of(f) is not None for f in files)
+    return (used[0] if every else None), used
+
+
+def rig_file_columns(options: AnalysisOptions) -> dict[str, str]:
+    """``trials.csv``'s ``rig_file`` and ``rig_sha256`` of a session analysed with
+    ``options``: its rig file (empty without); constants given in the options alone (a
+    notebook's) are said so."""
+    source = options.rig_source
+    if source is not None:
+        return {"rig_file": source.path, "rig_sha256": source.sha256}
+    if options.rig is not None:
+        return {"rig_file": "(constants given, no file)", "rig_sha256": ""}
+    return {"rig_file": "", "rig_sha256": ""}
 
 
 def nearest_rig(session: str | Path, cache: dict[str, Path | None] | None = None) -> Path | None:

@@ -14,7 +14,7 @@ from analysis.gate import check, check_lines
 RIG_SHA = "ab" * 32
 
 
-def _copy_with(bundled_run: Path, tmp_path: Path, **values: object) -> tuple[Path, str]:
+def _copy_with(bundled_run: Path, tmp_path: Path, **values: str) -> tuple[Path, str]:
     """A copy of the bundled run, its first session's summary row changed: its coverage
     0.3 lower (a regression if the models were the same) and ``values``."""
     run = tmp_path / "run"

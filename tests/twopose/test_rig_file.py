@@ -42,7 +42,7 @@ def _written(path: Path, constants: RigConstants, placing: PlacingSigma | None =
 
 def _rig(**kw: object) -> RigConstants:
     return RigConstants(
-        units=Units.IN,  # type: ignore[arg-type]
+        units=Units.IN,
         camera_offset=(0.3, 0.2, 0.4),
         cameras=(THESIS,),
         covariance=RigCovariance.of(NAMES, COV),
@@ -165,7 +165,7 @@ def test_any_covariance_round_trips_through_the_file(
     k = len(ordered)
     a = np.array(entries).reshape(k, k) * 10.0**log_scale
     cov = a @ a.T + np.eye(k) * 10.0 ** (2 * log_scale - 6)  # positive definite, any scale
-    rig = RigConstants(units=Units.MM, covariance=RigCovariance.of(ordered, cov))  # type: ignore[arg-type]
+    rig = RigConstants(units=Units.MM, covariance=RigCovariance.of(ordered, cov))
     path = _written(tmp_path_factory.mktemp("rig") / "rig.toml", rig)
     back = load_rig_file(path).constants.covariance
     assert back is not None

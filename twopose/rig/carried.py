@@ -41,6 +41,8 @@ __all__ = [
     "carried_covariance",
     "corrected_batch",
     "corrected_inputs",
+    "rig_carried",
+    "with_carried",
     "with_rig_dominance",
 ]
 
@@ -135,19 +137,54 @@ def _ground_column(
     return column
 
 
+def rig_carried(
+    options: EstimateOptions,
+    method: Method,
+    batch: ViewBatch,
+    ground: GroundSpec | None,
+    reference: F64,
+) -> F64 | None:
+    """(T, 3, 3) :func:`carried_covariance` of the options' rig (``noise.rig``).
+
+    None without one: what :mod:`twopose.session_estimate` asks of every region.
+    """
+    if options.noise.rig is None:
+        return None
+    return carried_covariance(method, batch, ground, options, options.noise.rig, reference)
+
+
+def with_carried(
+    cov: F64, model: F64, carried: F64 | None, direction: F64 | None
+) -> tuple[F64, F64, F64 | None]:
+    """A region's covariance (and its model's) with the carried covariance added.
+
+    A line's across the line, as its point's; returns the part added too (unchanged
+    without a rig).
+    """
+    if carried is None:
+        return cov, model, None
+    if direction is not None:
+        across = np.eye(3) - np.einsum("ti,tj->tij", direction, direction)
+        carried = across @ carried @ across
+    return cov + carried, model + carried, carried
+
+
 #: What ``dominant_input`` says when the rig's constants dominate a region.
 RIG_INPUT = "rig constants"
 
 
 def with_rig_dominance(
-    names: list[str], share: F64, propagated: Propagated, carried: F64
+    names: list[str], share: F64, propagated: Propagated, carried: F64 | None
 ) -> tuple[list[str], F64]:
     """The dominant input and its share, the rig's constants competing with the views'.
 
     ``names`` and ``share`` as :func:`twopose.uncertainty.dominant_input` gives them over
     the views' inputs (``propagated``); ``carried`` (T, 3, 3) the constants' part: its
-    trace against the largest input group's variance, every share of the whole.
+    trace against the largest input group's variance, every share of the whole (None: no
+    rig, unchanged).
     """
+    if carried is None:
+        return names, share
     random = propagated.variance_by_group.sum(axis=(1, 2))
     if propagated.shared_variance is not None:
         random = random + propagated.shared_variance
