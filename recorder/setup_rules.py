@@ -208,16 +208,17 @@ def check_rig_early(
     """
     if rig is None:
         return
-    from twopose.rig.constants import check_cameras, check_units, same_size
+    from twopose.rig.cameras import check_cameras, same_size
+    from twopose.rig.constants import check_units
 
     if method is not None and not spec_of(method).measures:
         check_rig(rig, method, Units.IN, [], None)  # a board session takes no rig: refused
     if units is not None:
         check_units(rig, units, "the rig file")
     if intrinsics is not None:
-        check_cameras(rig, [intrinsics], "the rig file")
+        check_cameras(rig.cameras, [intrinsics], "the rig file")
     elif size is not None:
-        same_size(rig, size, "the rig file")
+        same_size(rig.cameras, size, "the rig file")
 
 
 # --------------------------------------------------------------------------- the checks

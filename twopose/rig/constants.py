@@ -41,10 +41,10 @@ from twopose.camera import Intrinsics, rotation_from_angles_deg
 from twopose.errors import InputValueError
 from twopose.estimate import GroundSpec, PoseView
 from twopose.format.entries import INCHES_PER_UNIT, UNITS
+from twopose.rig.cameras import check_cameras
 from twopose.units import IS_LENGTH, Units, unit_spec
 
 __all__ = [
-    "CAMERA_TOLERANCE",
     "LIMITS",
     "RIG_PARAMETERS",
     "RIG_PRIORS",
@@ -53,9 +53,7 @@ __all__ = [
     "RigCovariance",
     "against_priors",
     "angles_deg_from_rotation",
-    "camera_words",
     "check_applicable",
-    "check_cameras",
     "check_plausible",
     "check_units",
     "corrected_ground",
@@ -63,8 +61,6 @@ __all__ = [
     "ground_height",
     "plausible_bounds",
     "prior_sigma",
-    "same_camera",
-    "same_size",
     "true_ground",
 ]
 
@@ -487,7 +483,7 @@ def check_applicable(
     with a note; so are constants whose covariance is known only by their 1-sigmas.
     """
     cameras = list(cameras)
-    notes = check_units(rig, units, what) + check_cameras(rig, cameras, what)
+    notes = check_units(rig, units, what) + check_cameras(rig.cameras, cameras, what)
     if rig.covariance is not None and rig.covariance.independent:
         notes.append(
             f"{what} records each constant's 1-sigma but not their covariance (written before "
@@ -515,67 +511,4 @@ def check_units(rig: RigConstants, units: Units, what: str = "rig") -> list[str]
             f"{what} is in {rig.units}, the session in {units}: its camera offset and ground "
             f"height error are lengths; calibrate a rig from sessions in {unit_spec(units).name}"
         )
-    return []
-
-
-#: Two cameras are the same when their image sizes are and their intrinsics agree to this
-#: relative tolerance (a rig file writes them to the last digit; a calibration file gives
-#: the same numbers each time it is read).
-CAMERA_TOLERANCE = 1e-6
-
-
-def same_camera(a: Intrinsics, b: Intrinsics) -> bool:
-    """Whether two cameras are the same: size, focal lengths and principal point."""
-    import math
-
-    return (a.width, a.height) == (b.width, b.height) and all(
-        math.isclose(x, y, rel_tol=CAMERA_TOLERANCE, abs_tol=CAMERA_TOLERANCE)
-        for x, y in ((a.fx, b.fx), (a.fy, b.fy), (a.cx, b.cx), (a.cy, b.cy))
-    )
-
-
-def camera_words(k: Intrinsics) -> str:
-    """A camera in words: ``640x480, f 525 px, principal point (320, 240)``."""
-    f = f"{k.fx:g}" if k.fx == k.fy else f"{k.fx:g}/{k.fy:g}"
-    return f"{k.width}x{k.height}, f {f} px, principal point ({k.cx:g}, {k.cy:g})"
-
-
-def same_size(rig: RigConstants, size: tuple[int, int], what: str = "rig") -> None:
-    """Refuse a rig none of whose cameras takes images of ``size`` (width, height).
-
-    Known before the rest of a camera is (:func:`check_cameras` judges the whole camera).
-    """
-    if rig.cameras and all((k.width, k.height) != tuple(size) for k in rig.cameras):
-        fitted = "; ".join(camera_words(c) for c in rig.cameras)
-        raise InputValueError(
-            f"{what} was fitted for the camera {fitted}, not for {size[0]}x{size[1]} images: "
-            "its focal scale and principal offset are relative to the camera it was fitted "
-            "for; calibrate a rig with a board session of this camera (twopose-analyze rig)"
-        )
-
-
-def check_cameras(rig: RigConstants, cameras: Iterable[Intrinsics], what: str = "rig") -> list[str]:
-    """Refuse a rig for a camera it was not fitted for; the note for a rig that records none.
-
-    A rig's focal scale and principal offset are relative to the camera it was fitted for
-    (:attr:`RigConstants.cameras`): another camera (another size, focal length or
-    principal point) would be "corrected" by another camera's constants.
-    """
-    cameras = list(cameras)
-    if not cameras:
-        return []
-    if not rig.cameras:
-        return [
-            f"{what} records no camera (written before rig files did): it is not checked "
-            "against this session's camera; write it again with `twopose-analyze rig`"
-        ]
-    for k in cameras:
-        if not any(same_camera(k, fitted) for fitted in rig.cameras):
-            fitted_words = "; ".join(camera_words(c) for c in rig.cameras)
-            raise InputValueError(
-                f"{what} was fitted for the camera {fitted_words}, not for this session's "
-                f"{camera_words(k)}: its focal scale and principal offset are relative to "
-                "the camera it was fitted for; calibrate a rig with a board session of this "
-                "camera (twopose-analyze rig)"
-            )
     return []
