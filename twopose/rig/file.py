@@ -208,9 +208,24 @@ def load_rig(path: str | Path) -> RigConstants:
     return load_rig_file(path).constants
 
 
+def _number(value: object, where: str, *, whole: bool = False) -> float:
+    """A number the TOML reader gave (``whole``: an integer), refused in words otherwise.
+
+    Every number of a rig file passes here, so the project's one number grammar
+    (:mod:`twopose.config`) judges each in one place.
+    """
+    kinds = int if whole else int | float
+    if isinstance(value, bool) or not isinstance(value, kinds):
+        want = "a whole number" if whole else "a number"
+        raise InputValueError(f"{where} must be {want}, got {value!r}")
+    return float(value)
+
+
 def _format(value: object, what: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+    number = _number(value, f"{what}: format", whole=True)
+    if number < 1:
         raise InputValueError(f"{what}: format must be a whole number (1 or 2), got {value!r}")
+    value = int(number)
     if value > RIG_FILE_FORMAT:
         raise InputValueError(
             f"{what} is of format {value}, written by a newer twopose (this one reads "
@@ -245,10 +260,10 @@ def _names(table: object, what: str, where: str, kind: type) -> dict[str, Any]:
             f"{', '.join(SCALARS)}"
         )
     for key, value in table.items():
-        number = kind is float and isinstance(value, int | float) and not isinstance(value, bool)
-        if not (number or (kind is str and isinstance(value, str))):
-            want = "a number" if kind is float else "text"
-            raise InputValueError(f"{what}: {where} {key} must be {want}, got {value!r}")
+        if kind is float:
+            _number(value, f"{what}: {where} {key}")
+        elif not isinstance(value, str):
+            raise InputValueError(f"{what}: {where} {key} must be text, got {value!r}")
     return table
 
 
@@ -321,8 +336,9 @@ def _placing(table: object, rig_units: str | None, path: str | Path) -> PlacingS
     bound = table.get("upper_bound", False)
     if not isinstance(measured_by, str):
         raise InputValueError(f"{what}: measured_by must be text, got {measured_by!r}")
-    if isinstance(captures, bool) or not isinstance(captures, int) or captures < 0:
+    if _number(captures, f"{what}: captures", whole=True) < 0:
         raise InputValueError(f"{what}: captures must be a count >= 0, got {captures!r}")
+    captures = int(captures)
     if not isinstance(bound, bool):
         raise InputValueError(f"{what}: upper_bound must be true or false, got {bound!r}")
     dof = 0.5 * (sigma / spread) ** 2 if spread > 0 else math.inf
@@ -351,11 +367,7 @@ def _placing_numbers(table: dict[str, object], units: Units, what: str) -> tuple
     limit = PLACING_LIMIT_IN / inches
     if sigma is None:
         raise InputValueError(f"{what}: sigma is missing (the placing error's 1-sigma, a length)")
-    for key, value in (("sigma", sigma), ("sigma_sigma", spread)):
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise InputValueError(f"{what}: {key} must be a number, got {value!r}")
-    assert isinstance(sigma, int | float)
-    assert isinstance(spread, int | float)
+    sigma, spread = _number(sigma, f"{what}: sigma"), _number(spread, f"{what}: sigma_sigma")
     if not (np.isfinite(sigma) and 0 < sigma <= limit):
         raise InputValueError(
             f"{what}: sigma = {sigma!r} {units} is not a placing error (a positive length up "
