@@ -269,8 +269,16 @@ def serve_console_until_stopped(
     once, when the session ends; an interrupted session exits 130 (KeyboardInterrupt, as
     the terminal's), a failed one 3."""
     from recorder.console_server import ConsoleOptions, serve_console
+    from recorder.setup_rules import check_rig_early
+    from twopose.units import Units
 
     mode = request.camera
+    # What the command line gave refuses a rig before the page is served (the rest: the form).
+    units = given.get("units")
+    check_rig_early(
+        request.rig, units=Units(units) if units else None, size=(mode.width, mode.height),
+        intrinsics=given.get("intrinsics"),
+    )  # fmt: skip
     options = ConsoleOptions(
         source=request.source, given=given, frames=request.frames, poses=request.poses,
         adaptive_frames=request.adaptive_frames,

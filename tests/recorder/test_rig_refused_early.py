@@ -97,3 +97,16 @@ def test_the_live_result_carries_the_rigs_covariance(rig: Path) -> None:
     assert noise.rig is not None
     assert noise.rig == constants.covariance
     assert CaptureSettings().estimate_options().noise.rig is None
+
+
+def test_the_console_is_not_served_for_a_rig_the_command_line_already_refuses(
+    tmp_path: Path, rig: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import recorder.console_server
+
+    served: list[object] = []  # were the page served, the test ends there instead of waiting
+    monkeypatch.setattr(recorder.console_server, "serve_console", lambda *a, **k: served.append(a))
+    code, said = _new(tmp_path, "--ui", "--rig", str(rig), "--width", "1280", "--height", "720")
+    assert served == []
+    assert code == EXIT_ERROR, said
+    assert "not for 1280x720 images" in said
