@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from twopose.rig.constants import RigCovariance
+    from twopose.rig.covariance import RigCovariance
     from twopose.units import Units
 
 __all__ = [

@@ -2,6 +2,7 @@
 
 - :mod:`twopose.rig.constants`: the constants, their covariance, their plausibility and how
   they correct a typed pose, the intrinsics and the ground plane;
+- :mod:`twopose.rig.covariance`: the constants' names and their covariance;
 - :mod:`twopose.rig.file`: the rig file's one reader, and the tables ``rig`` writes;
 - :mod:`twopose.rig.cameras`: the cameras a rig was fitted for (refused for another);
 - :mod:`twopose.rig.carried`: the constants' covariance carried into every region;
