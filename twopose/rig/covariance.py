@@ -20,7 +20,8 @@ from twopose.errors import InputValueError
 __all__ = ["RIG_PARAMETERS", "SCALARS", "RigCovariance"]
 
 
-#: Each constant's scalar parameters, in the order of :meth:`twopose.rig.constants.RigConstants.vector`.
+#: Each constant's scalar parameters, in the order of
+#: :meth:`twopose.rig.constants.RigConstants.vector`.
 RIG_PARAMETERS = {
     "mount_rotation_deg": ("mount_rx_deg", "mount_ry_deg", "mount_rz_deg"),
     "camera_offset": ("offset_x", "offset_y", "offset_z"),
