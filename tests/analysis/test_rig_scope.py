@@ -72,35 +72,36 @@ def test_a_rig_file_applies_to_its_folder_and_below_wherever_the_command_starts(
     code, said = _run(lab, "withrig", "norig", "--out", "o1")
     assert code == 0, said
     assert _rigs(lab / "o1") == {"withrig/a.mcap": "withrig/rig.toml", "norig/b.mcap": ""}
+    assert "withrig/rig.toml (found up the tree: its folder and below" in said
     assert "1 session(s) under no rig file" in said
-    # Their parent: the rig files below it, each to its own sessions, the nearest winning.
-    code, said = _run(lab, "riglab", "--out", "o2")
-    assert code == 0, said
-    assert _rigs(lab / "o2") == {
-        "riglab/withrig/a.mcap": "riglab/withrig/rig.toml",
-        "riglab/deep/day1/c.mcap": "riglab/deep/day1/rig.toml",
-        "riglab/deep/d.mcap": "",
-    }
-    assert "riglab/deep/day1/rig.toml (found up the tree: its folder and below" in said
-    # --rig: one file for every session, said as the analyst's choice.
-    code, said = _run(lab, "riglab", "--rig", "withrig/rig.toml", "--out", "o4")
-    assert code == 0, said
-    assert set(_rigs(lab / "o4").values()) == {"withrig/rig.toml"}
-    assert "given by --rig" in said
-    # A session given alone, deep in the tree, from elsewhere: still its folder's rig;
-    # --no-rig: none (the same rule the command line applies, from Python).
+    # --rig: one file for every session, the analyst's choice; --no-rig: none.
+    riglab = resolve_inputs([lab / "riglab"])
+    given = rig_scope(riglab, lab / "withrig" / RIG_BESIDE)
+    assert {u.path for u in given.by_session.values() if u} == {str(lab / "withrig" / RIG_BESIDE)}
+    assert len(given.by_session) == 3
+    assert all(u is not None and u.given for u in given.by_session.values())
+    assert set(rig_scope(riglab, no_rig=True).by_session.values()) == {None}
+    # A session given alone, deep in the tree: still its folder's rig.
     deep = lab / "riglab" / "deep"
     scope = rig_scope(resolve_inputs([deep / "day1" / "c.mcap"]))
     assert [u.path for u in scope.uses] == [str(deep / "day1" / RIG_BESIDE)]
-    assert rig_scope(resolve_inputs([lab / "riglab"]), no_rig=True).uses == ()
 
 
 def test_each_session_is_keyed_on_its_own_rig_file(lab: Path) -> None:
-    """Editing one folder's rig.toml analyses that folder's sessions again, no other."""
+    """Their parent given: the rig files below it, each to its own sessions, the nearest
+    winning; editing one folder's rig.toml analyses that folder's sessions again, no other."""
     out = lab / "out"
 
     def run() -> dict[str, bool]:
         result = analysis.run([lab / "riglab"], out, rigs="scope", scene=False)
+        used = dict(zip(result.summary["label"], result.summary["rig_file"], strict=True))
+        assert used == {
+            "a.mcap": str(lab / "riglab" / "withrig" / RIG_BESIDE),
+            "c.mcap": str(lab / "riglab" / "deep" / "day1" / RIG_BESIDE),
+            "d.mcap": str(lab / "riglab" / "deep" / RIG_BESIDE)
+            if (lab / "riglab" / "deep" / RIG_BESIDE).exists()
+            else "",
+        }
         return {Path(s.session).name: s.analysis_reused for s in result.sessions}
 
     assert not any(run().values())
