@@ -180,6 +180,7 @@ def test_a_board_placed_exactly_gives_an_upper_bound_never_a_measured_sigma(
     result = runner.invoke(app, ["rig", str(board), "--out", str(out)])
     assert result.exit_code == 0, result.output
     assert "written as an upper bound" in result.output
+    assert f"applies it to every session in {tmp_path} and below" in result.output
     assert "placing sigma at most" in result.output
     text = out.read_text()
     assert "upper_bound = true" in text
