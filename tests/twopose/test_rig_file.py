@@ -89,7 +89,7 @@ def test_a_rig_is_refused_for_another_camera_and_said_for_one_it_does_not_know(
         ("oops = 1\n", r"\[oops\]"),
         ("format = 3\n", "format 3, written by a newer twopose"),
         ('format = "2"\n', "format must be a whole number"),
-        ("[sigma]\noffset_q = 0.1\n", "unknown key.*offset_q in \\[sigma\\]"),
+        ("[sigma]\noffset_q = 0.1\n", "\\[sigma\\]: unknown key\\(s\\) offset_q"),
         ("[sigma]\noffset_x = -1\n", "must be finite and >= 0"),
         ('[fixed]\noffset_x = 3\n', "must be text"),
         ('[[camera]]\nwidth = 640\nheight = 480\nfx = 525.0\nfy = 525.0\ncx = 320.0\n', "cy"),
@@ -116,7 +116,7 @@ def test_every_table_is_checked_and_an_unknown_one_refused(
 def test_a_rig_tables_keys_are_the_constants_alone(tmp_path: Path) -> None:
     path = tmp_path / "rig.toml"
     path.write_text('[rig]\nunits = "in"\ncameras = []\n')
-    with pytest.raises(InputValueError, match=r"unknown key.*cameras in \[rig\]"):
+    with pytest.raises(InputValueError, match=r"\[rig\]: unknown key\(s\) cameras"):
         load_rig_file(path)
 
 

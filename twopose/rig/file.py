@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -176,13 +176,7 @@ def load_rig_file(path: str | Path) -> RigFile:
     from twopose.config import read_toml
 
     what = f"rig file {path}"
-    data = read_toml(path, "rig file", InputValueError)
-    unknown = sorted(set(data) - set(RIG_FILE_TABLES))
-    if unknown:
-        raise InputValueError(
-            f"{what}: unknown table(s) or key(s) {', '.join(f'[{u}]' for u in unknown)}; a rig "
-            f"file holds {', '.join(RIG_FILE_TABLES)} (docs/rig-file.md)"
-        )
+    data = _table(read_toml(path, "rig file", InputValueError), RIG_FILE_TABLES, what, top=True)
     version = _format(data.get("format", 1), what)
     table = data.get("rig")
     if not isinstance(table, dict):
@@ -206,6 +200,26 @@ def load_rig_file(path: str | Path) -> RigFile:
 def load_rig(path: str | Path) -> RigConstants:
     """A rig file's constants (:func:`load_rig_file`, which checks the whole file)."""
     return load_rig_file(path).constants
+
+
+def _table(value: object, known: Iterable[str], where: str, *, top: bool = False) -> dict[str, Any]:
+    """A TOML table whose keys are all ``known``, refused in words otherwise.
+
+    What is not read is never silently ignored, as a misspelt key or table would be;
+    ``top``: the file's own level, whose keys are mostly tables (named ``[so]``).
+    """
+    if not isinstance(value, dict):
+        raise InputValueError(f"{where} must be a table")
+    names = list(known)
+    unknown = sorted(set(value) - set(names))
+    if unknown:
+        shown = [f"[{u}]" for u in unknown] if top else unknown
+        noun = "table(s) or key(s)" if top else "key(s)"
+        raise InputValueError(
+            f"{where}: unknown {noun} {', '.join(shown)}; it holds {', '.join(names)} "
+            "(docs/rig-file.md)"
+        )
+    return value
 
 
 def _number(value: object, where: str, *, whole: bool = False) -> float:
@@ -238,12 +252,7 @@ def _constants(table: dict[str, Any], what: str) -> RigConstants:
     """``[rig]``'s constants: only the constants' keys (and ``units``)."""
     from twopose.config import build_dataclass
 
-    known = (*RIG_PARAMETERS, "units")
-    unknown = sorted(set(table) - set(known))
-    if unknown:
-        raise InputValueError(
-            f"{what}: unknown key(s) {', '.join(unknown)} in [rig]; known here: {', '.join(known)}"
-        )
+    _table(table, (*RIG_PARAMETERS, "units"), f"{what}: [rig]")
     numbers = {k: v for k, v in table.items() if k != "units"}
     rig: RigConstants = build_dataclass(RigConstants, numbers, what, InputValueError)
     return rig
@@ -251,14 +260,7 @@ def _constants(table: dict[str, Any], what: str) -> RigConstants:
 
 def _names(table: object, what: str, where: str, kind: type) -> dict[str, Any]:
     """A table keyed by the constants' scalars (``[sigma]``, ``[fixed]``), checked."""
-    if not isinstance(table, dict):
-        raise InputValueError(f"{what}: {where} must be a table")
-    unknown = sorted(set(table) - set(SCALARS))
-    if unknown:
-        raise InputValueError(
-            f"{what}: unknown key(s) {', '.join(unknown)} in {where}; known here: "
-            f"{', '.join(SCALARS)}"
-        )
+    table = _table(table, SCALARS, f"{what}: {where}")
     for key, value in table.items():
         if kind is float:
             _number(value, f"{what}: {where} {key}")
@@ -320,13 +322,7 @@ def _placing(table: object, rig_units: str | None, path: str | Path) -> PlacingS
     if table is None:
         return None
     what = f"rig file {path}: [placing]"
-    if not isinstance(table, dict):
-        raise InputValueError(f"{what} must be a table (sigma, units, ...)")
-    unknown = sorted(set(table) - set(PLACING_KEYS))
-    if unknown:
-        raise InputValueError(
-            f"{what}: unknown key(s) {', '.join(unknown)}; it holds {', '.join(PLACING_KEYS)}"
-        )
+    table = _table(table, PLACING_KEYS, what)
     units = table.get("units", rig_units)
     if units not in UNITS:
         raise InputValueError(f"{what}: units must be one of {', '.join(UNITS)}, got {units!r}")
