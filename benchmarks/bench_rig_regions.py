@@ -45,8 +45,8 @@ import pandas as pd
 from bench_board_rig import board_scene  # type: ignore[import-not-found]
 from bench_guidance import FRAMES, PIXEL_SIGMA, THETA_SIGMA, K, Truth  # type: ignore[import-not-found]
 from bench_placing import honesty as placing_honesty  # type: ignore[import-not-found]
-from bench_placing import region_table  # type: ignore[import-not-found]
-from bench_placing import session as placing_session  # type: ignore[import-not-found]
+from bench_placing import region_table
+from bench_placing import session as placing_session
 from bench_rig import RIG  # type: ignore[import-not-found]
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
