@@ -340,8 +340,9 @@ def placing_sigmas(
 def placing_source(options: EstimateOptions, factor: VarianceFactor | None = None) -> str:
     """Where the placing sigma came from, briefly.
 
-    ``typed``, ``measured by <board session> (<n> captures)``, ``given``, or ``measured by
-    the session's redundancy`` when its trials' misclosures contradicted the others.
+    ``typed``, ``measured by <board session> (<n> captures)``, ``an upper bound from
+    <board session> (<n> captures)``, ``given``, or ``measured by the session's
+    redundancy`` when its trials' misclosures contradicted the others.
     """
     placing = options.noise.placing
     if factor is not None and factor.contradicted:
@@ -351,6 +352,8 @@ def placing_source(options: EstimateOptions, factor: VarianceFactor | None = Non
     if not placing.measured_by:
         return "given"
     captures = f" ({placing.captures} captures)" if placing.captures else ""
+    if placing.upper_bound:  # not measured: the most it can be (twopose.rig.placing)
+        return f"an upper bound from {placing.measured_by}{captures}"
     return f"measured by {placing.measured_by}{captures}"
 
 

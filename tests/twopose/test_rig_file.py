@@ -15,9 +15,11 @@ from hypothesis import strategies as st
 from analysis.rig.fit import RigFit, rig_toml
 from twopose.camera import Intrinsics
 from twopose.errors import InputValueError
-from twopose.noise import PlacingSigma
+from twopose.margins import EstimateOptions
+from twopose.noise import NoiseModel, PlacingSigma
 from twopose.rig.constants import SCALARS, RigConstants, RigCovariance, check_applicable
 from twopose.rig.file import RIG_FILE_FORMAT, load_rig_file
+from twopose.session_estimate import placing_source
 from twopose.units import Units
 
 THESIS = Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0)
@@ -136,6 +138,8 @@ def test_a_placing_sigma_at_the_fits_floor_is_an_upper_bound_never_measured(
     assert said.startswith("placing sigma at most 0.0012 in, an upper bound")
     assert "measured by" not in said
     assert found.widening == 1.0
+    source = placing_source(EstimateOptions(noise=NoiseModel(placing=found)))
+    assert source == "an upper bound from b0.mcap (8 captures)"  # trials.csv's words
 
 
 def test_a_nearly_exact_placing_sigma_says_no_absurd_degrees_of_freedom() -> None:
