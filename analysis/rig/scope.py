@@ -239,7 +239,13 @@ def _found(
                     "folder, or choose with --rig FILE or --no-rig"
                 )
         if found is not None and found not in read:
-            read[found] = RigUse.read(found)
+            try:
+                read[found] = RigUse.read(found)
+            except InputValueError as err:  # a rig.toml the analyst may not know is there
+                raise InputValueError(
+                    f"{err} (found up the tree from {session}: a rig.toml applies to its "
+                    "folder and below; fix it, or choose with --rig FILE or --no-rig)"
+                ) from None
         out[session] = read[found] if found is not None else None
     return out
 

@@ -173,3 +173,10 @@ def test_the_nearest_rig_up_the_tree_wins(
     finally:
         os.chdir(cwd)
     assert relative == (None if want is None else Path(os.path.relpath(want, root)))
+
+
+def test_a_broken_rig_file_up_the_tree_is_named_with_the_way_around_it(lab: Path) -> None:
+    (lab / "norig" / RIG_BESIDE).write_text("[rig\n")
+    with pytest.raises(InputValueError, match=r"not valid TOML.*found up the tree from .*--no-rig"):
+        rig_scope(resolve_inputs([lab / "norig"]))
+    assert rig_scope(resolve_inputs([lab / "norig"]), no_rig=True).uses == ()
