@@ -81,10 +81,18 @@ def test_a_rig_file_applies_to_its_folder_and_below_wherever_the_command_starts(
     assert len(given.by_session) == 3
     assert all(u is not None and u.given for u in given.by_session.values())
     assert set(rig_scope(riglab, no_rig=True).by_session.values()) == {None}
-    # A session given alone, deep in the tree: still its folder's rig.
+    # A session given alone, deep in the tree: still its folder's rig; one a day below a
+    # rig file takes it (the nearest up the tree), given alone or by the lab's folder.
     deep = lab / "riglab" / "deep"
     scope = rig_scope(resolve_inputs([deep / "day1" / "c.mcap"]))
     assert [u.path for u in scope.uses] == [str(deep / "day1" / RIG_BESIDE)]
+    below = lab / "riglab" / "withrig" / "day2" / "e.mcap"
+    below.parent.mkdir()
+    record(below, 1)
+    for given in (below, lab / "riglab"):
+        use = rig_scope(resolve_inputs([given])).of(str(below))
+        assert use is not None
+        assert use.path == str(lab / "riglab" / "withrig" / RIG_BESIDE)
 
 
 def test_each_session_is_keyed_on_its_own_rig_file(lab: Path) -> None:
