@@ -89,8 +89,8 @@ def test_a_rig_file_applies_to_its_folder_and_below_wherever_the_command_starts(
     below = lab / "riglab" / "withrig" / "day2" / "e.mcap"
     below.parent.mkdir()
     record(below, 1)
-    for given in (below, lab / "riglab"):
-        use = rig_scope(resolve_inputs([given])).of(str(below))
+    for where in (below, lab / "riglab"):
+        use = rig_scope(resolve_inputs([where])).of(str(below))
         assert use is not None
         assert use.path == str(lab / "riglab" / "withrig" / RIG_BESIDE)
 
