@@ -29,10 +29,14 @@ check: $(STAMP)
 	$(BIN)/mypy
 	$(BIN)/mkdocs build --strict
 
-# Tests run on both cores (pytest-xdist, each test to whichever process is free: 16.6 min
-# for the whole suite here, against 24 on one core; a file's tests kept in one process
-# took 20.8 on a busier machine) and print the 15 slowest.
-PYTEST := $(BIN)/pytest -q -n 2 --dist load --durations=15
+# Tests run on both cores in three pytest-xdist processes: a third keeps both cores busy
+# while a test waits (a browser drawing, a server's timeout, a subprocess starting), which
+# two left idle (about a third of a test's time in tests/analysis, measured as wall time
+# beyond its CPU time). Each process takes a third of the tests in order (each module's
+# tests together: its module-scoped fixtures made once) and a process that runs out takes
+# half of another's remaining tests (--dist worksteal), so that no core is left idle at
+# the end while one process finishes a long module alone. Prints the 15 slowest.
+PYTEST := $(BIN)/pytest -q -n 3 --dist worksteal --durations=15
 
 # The quick loop: everything but the tests marked slow (browsers, clusters, many-session fits).
 test: check $(if $(shell command -v npm),$(NODE_STAMP))

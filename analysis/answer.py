@@ -7,11 +7,12 @@ shares in percent), per session set (``thesis_*`` first, then ``stress_*``,
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import pandas as pd
 
-from analysis.metrics import by_session_set, summarize
+from analysis.metrics import MIN_INTERVAL_TRIALS, by_session_set, summarize, too_few_for_interval
 from twopose.methods import label_of
 
 __all__ = [
@@ -23,6 +24,8 @@ __all__ = [
     "session_order",
     "share",
     "shown_name",
+    "strand_names",
+    "with_branch",
 ]
 
 ANSWER_COLUMNS = [
@@ -71,34 +74,82 @@ def session_order(summary: pd.DataFrame) -> pd.DataFrame:
 
 def shown_name(row: pd.Series) -> str:
     """How a reader is shown a row's session: its label (the shortest tail of its path
-    that no other input of the run shares), or, in a table without one, its file name."""
-    label = str(row.get("label", "") or "")
-    return label or Path(str(row["session"])).name
+    that no other input of the run shares), or, in a table without one, its file name;
+    with its branch when it is on one (a fork's: ``a3.mcap [branch B]``, as ``info``
+    shows it)."""
+    label = str(row.get("label", "") or "") or Path(str(row["session"])).name
+    return with_branch(label, str(row.get("branch", "") or ""))
+
+
+def with_branch(name: str, branch: str) -> str:
+    """A session's name with the branch it is on, when it is on one."""
+    return f"{name} [branch {branch}]" if branch else name
+
+
+def strand_names(trials: pd.DataFrame) -> pd.Series:
+    """Each trial's session as a reader is shown it (a chart's row, a figure's legend):
+    its label with the branch its session's trials end on (:func:`with_branch`), as the
+    report's tables name it. Over every trial of the run: a subset (the used trials) may
+    not hold its strand's last."""
+    label = (
+        trials["label"] if "label" in trials else trials["session"].map(lambda s: Path(str(s)).name)
+    )
+    if "branch" not in trials or trials.empty:
+        return label.astype(str)
+    last = trials.groupby("session", sort=False)["branch"].transform("last")
+    names = [with_branch(str(n), str(b)) for n, b in zip(label, last, strict=True)]
+    return pd.Series(names, index=trials.index, dtype="str")
 
 
 def noise_phrases(row: pd.Series) -> list[str]:
     """A session's noise model in words (a ``summary.csv`` row): the placing sigma its
-    regions assumed and where it came from, and sigma0's test (:func:`twopose.noise.noise_words`);
-    none for a table from before these columns. The terminal and the report say these."""
+    regions assumed and where it came from, and sigma0's test with the multiplier taken
+    (:func:`twopose.noise.noise_words`, the one home of these words); none for a table
+    from before these columns. The terminal and the report say these."""
     from twopose.noise import noise_words
 
     if "sigma0_dof" not in row or pd.isna(row["sigma0_dof"]):
         return []
     sigma = row.get("placing_sigma", math.nan)
-    source = str(row.get("placing_source", "") or "typed")
-    widening = row.get("noise_widening", math.nan)
-    radius = math.sqrt(widening) if isinstance(widening, int | float) and widening > 0 else 1.0
-    sigma0 = row.get("sigma0", math.nan)
+    source = str(row.get("placing_source", "") or "typed").split(", times ")[0]
+    widening = _known(row.get("noise_widening"))
+    sigma0 = _known(row.get("sigma0"))
     words = noise_words(
-        float(sigma0) if pd.notna(sigma0) else math.nan, int(row["sigma0_dof"]), radius
+        sigma0,
+        int(row["sigma0_dof"]),
+        math.sqrt(widening) if widening > 0 else math.nan,
+        placing_scale=_known(row.get("placing_scale")),
+        placing_dof=_known(row.get("placing_dof")),
+        flagged=int(_known(row.get("n_flagged"), 0.0)),
     )
-    # phrases a terminal may break between: never inside a number and its name
-    parts = words.split(": ")
-    return [
-        f"placing sigma {_sig(sigma)} {row['units']} {source};",
-        *(p + ":" for p in parts[:-1]),
-        parts[-1],
-    ]
+    scale = _known(row.get("placing_scale"))
+    start = sigma / scale if isinstance(sigma, int | float) and scale > 0 else sigma  # assumed
+    return [f"placing sigma {_sig(start)} {row['units']} {source};", *_phrases(words)]
+
+
+def _phrases(words: str) -> list[str]:
+    """``words`` in phrases a terminal may break between: a number kept with the words
+    either side of it (``sigma0 1.55 on``, ``50 dof``, ``p < 0.001``), never cut from them."""
+    phrases: list[str] = []
+    glued = False  # the last token was a number or a relation: the next one stays with it
+    for token in words.split(" "):
+        number = bool(_NUMBER.fullmatch(token))
+        if phrases and (number or glued):
+            phrases[-1] += " " + token
+        else:
+            phrases.append(token)
+        glued = number or token in ("=", "<", "p", "(p")
+    return phrases
+
+
+_NUMBER = re.compile(r"[(]?x?[-+]?[0-9][0-9.]*(x|%)?[),;:]*")
+
+
+def _known(value: object, default: float = math.nan) -> float:
+    """A number from a table's cell (``default`` when it holds none)."""
+    if isinstance(value, bool) or not isinstance(value, int | float) or math.isnan(value):
+        return default
+    return float(value)
 
 
 def _sig(value: object) -> str:
@@ -123,16 +174,19 @@ def share(value: object) -> str:
     return f"{100 * value:.0f}%"
 
 
-def _interval(low: object, high: object) -> str:
-    return "-" if number(low) == "-" else f"{number(low)} to {number(high)}"
+def _interval(low: object, high: object, n_used: int) -> str:
+    """An interval, or why there is none (too few trials: :data:`MIN_INTERVAL_TRIALS`)."""
+    if number(low) != "-":
+        return f"{number(low)} to {number(high)}"
+    return f"none ({too_few_for_interval(n_used)})" if 0 < n_used < MIN_INTERVAL_TRIALS else "-"
 
 
-def _plus_minus(value: object, half: object) -> str:
-    return (
-        number(value, signed=True)
-        if number(half) == "-"
-        else f"{number(value, signed=True)} ± {number(half)}"
-    )
+def _plus_minus(value: object, half: object, n_used: int) -> str:
+    if number(half) != "-":
+        return f"{number(value, signed=True)} ± {number(half)}"
+    if number(value) != "-" and n_used < MIN_INTERVAL_TRIALS:  # why: the RMSE's cell
+        return f"{number(value, signed=True)} (no interval)"
+    return number(value, signed=True)
 
 
 #: The share within 1 unit, its header naming the unit (``within 1 cm``: 1 cm, not the
@@ -156,14 +210,15 @@ def readable(table: pd.DataFrame, *, include_warned: bool = False) -> pd.DataFra
         row["method"] = label_of(r["method"])
         if not one:
             row["units"] = r["units"]
+        n_used = int(r["n_used"])
         row |= {
             f"RMSE{u}": number(r["rmse"]),
-            f"RMSE 95% interval{u}": _interval(r["rmse_ci95_low"], r["rmse_ci95_high"]),
+            f"RMSE 95% interval{u}": _interval(r["rmse_ci95_low"], r["rmse_ci95_high"], n_used),
             f"median{u}": number(r["median_err"]),
             f"largest{u}": number(r["max_err"]),
             _WITHIN.format(one) if one else _WITHIN_MIXED: share(r["within_1"]),
-            f"bias x ± 95%{u}": _plus_minus(r["bias_x"], r["bias_x_ci95"]),
-            f"bias z ± 95%{u}": _plus_minus(r["bias_z"], r["bias_z_ci95"]),
+            f"bias x ± 95%{u}": _plus_minus(r["bias_x"], r["bias_x_ci95"], n_used),
+            f"bias z ± 95%{u}": _plus_minus(r["bias_z"], r["bias_z_ci95"], n_used),
             "truth inside its 95% ellipsoid": share(r["coverage95"]),
             "trials": r["n_trials"],
             "ok": r["n_ok"],

@@ -1,5 +1,7 @@
-"""Many sessions: discovery, execution (in this process, worker processes, or on a Dask
-cluster), gathering in input order (so results never depend on ``jobs``), and the outputs.
+"""Many sessions: discovery, execution (in this process, worker processes:
+:mod:`analysis.workers`, or on a Dask cluster), gathering in input order (so results never
+depend on ``jobs``), and the outputs; the run's first pass over the sessions that share an
+operator (:mod:`analysis.noise_pass`) runs on the same executors.
 
 Everything the CLI's ``run`` does is :func:`run`, one call.
 """
@@ -9,15 +11,11 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import functools
-import glob
-import multiprocessing
 import signal
 import threading
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import Future, ProcessPoolExecutor, as_completed, wait
-from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, TypeVar
 
 import pandas as pd
 
@@ -30,21 +28,26 @@ from analysis.columns import (
     VIEW_COLUMNS,
     typed,
 )
-from analysis.drawer import FigureDrawer, note, sigint_blocked
+from analysis.drawer import FigureDrawer, note
 from analysis.figure_cache import FigureCache, FigureJob
 from analysis.input_set import InputSet, SessionIdentity, resolve_inputs
 from analysis.metrics import summarize
+from analysis.noise_pass import NoisePass, first_pass, noise_pass, prior_salt, with_prior
 from analysis.outputs import OutputFolder, printable_stem
-from analysis.pipeline import _with_figures, analyse_session, keep_frame_buffers
+from analysis.pipeline import Detections, _with_figures, analyse_session
 from analysis.results import AnalysisOptions, RunResult, SessionFailure, SessionResult
 from analysis.rig.scope import RigScope, run_rig_sources
 from analysis.session_cache import SessionCache
+from analysis.workers import Outcome, run_processes
 from twopose.errors import InputValueError, TwoposeError
+from twopose.noise import PlacingPrior
 
 __all__ = ["Outcome", "analyse_or_fail", "results_mcap_name", "run"]
 
-#: What one session's analysis gives: its tables, or why it failed.
-Outcome = SessionResult | SessionFailure
+#: What a session's analysis (its second pass, or its only one) gives.
+Analysed = SessionResult | SessionFailure
+_Done = TypeVar("_Done", SessionResult, NoisePass)
+
 #: Called as each session finishes: its path and whether it succeeded (progress bars).
 OnDone = Callable[[str, bool], None]
 
@@ -74,7 +77,9 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
         Where to write ``trials.csv``, ``summary.csv``, ``averaging.csv``, ``frames.csv``,
         ``errors.csv``, ``views.csv``, ``sensitivity.csv``, the figures and
         ``report.html``, and (with ``scene``) one ``results_<index>_<session>.mcap`` per
-        session for Foxglove (:mod:`analysis.results_mcap`).
+        session for Foxglove (:mod:`analysis.results_mcap`). A run that finds no session
+        to analyse, or stops before it has analysed one (an error, Ctrl-C), leaves it
+        exactly as it was: the previous run's results and cache.
     jobs : int
         Worker processes; results are identical whatever the number.
     options : AnalysisOptions, optional
@@ -100,7 +105,8 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
     -------
     RunResult
         Every session's tables, concatenated, with the failures (``errors``), the notes
-        on the inputs, the verdict and the thesis table.
+        on the inputs, the verdict and the thesis table; ``written_to``: ``out_dir`` when
+        the outputs were written there.
     """
     options = options or AnalysisOptions()
     if jobs < 1:
@@ -115,8 +121,18 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
     files, skipped = inputs.files, list(inputs.skipped)
     if on_sessions_found is not None:
         on_sessions_found(len(files))
+    if not files:  # nothing to analyse: not a run that replaces --out's results
+        return dataclasses.replace(
+            gather([], include_warned=options.include_warned),
+            skipped=tuple(skipped),
+            rig_source=options.rig_source,
+            input_notes=tuple(inputs.run_notes()),
+        )
     folder = OutputFolder.prepare(out_dir) if out_dir is not None else None
     with folder or contextlib.nullcontext():
+        session_cache = (
+            SessionCache.of(folder.destination, options, reuse=reuse) if folder else None
+        )
         results_mcap: list[str | None] = [None] * len(files)
         if folder is not None and scene:
             labels = inputs.labels
@@ -131,18 +147,24 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
             images=folder is not None and "png" in options.figures,  # run --figures
             on_done=on_session_done,
             figure_cache=(
-                FigureCache.of(folder.destination, folder.previous_outputs())
-                if folder is not None and reuse
+                FigureCache.of(
+                    folder.destination, folder.previous_outputs(), session_cache.written_digests()
+                )
+                if folder is not None and session_cache is not None and reuse
                 else None
             ),
-            session_cache=(
-                SessionCache.of(folder.destination, options, reuse=reuse) if folder else None
-            ),
+            session_cache=session_cache,
             continuations=inputs.continuations,
             identities=inputs.identities,
             rigs=rigs,
         )
-        outcomes = _execute(batch, jobs=jobs, dask_address=dask_address)
+        batch = first_pass(
+            batch, inputs, lambda b: _execute(b, jobs=jobs, dask_address=dask_address)
+        )
+        outcomes = [
+            o for o in _execute(batch, jobs=jobs, dask_address=dask_address)
+            if not isinstance(o, NoisePass)  # never: the second pass analyses each session
+        ]  # fmt: skip
         every, used = run_rig_sources(rigs, options, files)
         result = dataclasses.replace(
             gather(outcomes, include_warned=options.include_warned),
@@ -150,6 +172,8 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
             rig_source=every,
             rig_files=used,
             input_notes=tuple(inputs.run_notes()),
+            inputs_set_aside=inputs.set_aside,
+            written_to=None if folder is None else str(folder.destination),
         )
         if folder is not None:
             from analysis.report import write_outputs
@@ -203,6 +227,14 @@ class _Batch:
     session_cache: SessionCache | None = None
     #: which rig file each session uses (analysis.rig.scope; None: ``options.rig``, all)
     rigs: RigScope | None = None
+    #: "noise": the run's first pass (analysis.noise_pass); "analysis": the sessions' own
+    stage: str = "analysis"
+    #: per session's first part, its prior from its operator's other sessions of the run
+    priors: dict[str, PlacingPrior] = dataclasses.field(default_factory=dict)
+    #: per session's first part, what its first pass detected (not detected again)
+    detections: dict[str, list[list[Detections]]] = dataclasses.field(default_factory=dict)
+    #: per session's first part, the failure of its first pass (the session's outcome)
+    failed: dict[str, SessionFailure] = dataclasses.field(default_factory=dict)
 
     def options_for(self, path: str) -> AnalysisOptions:
         """The options session ``path`` is analysed with: the run's, with its rig."""
@@ -215,14 +247,21 @@ class _Batch:
         options = self.options_for(path)
         if cache is not None and options is not self.options:  # keyed on its own rig too
             cache = cache.with_options(options)
+        if self.stage == "noise":
+            first = functools.partial(_noise_or_fail, path, options, continuations)
+            return first() if cache is None else cache.noise(path, continuations, identity, first)
+        if path in self.failed:
+            return self.failed[path]
+        prior = self.priors.get(path)
         analysed = functools.partial(
-            analyse_or_fail, path, options, images=images, results=results,
-            figure_cache=self.figure_cache, continuations=continuations, identity=identity,
+            analyse_or_fail, path, with_prior(options, prior), images=images,
+            results=results, figure_cache=self.figure_cache, continuations=continuations,
+            identity=identity, detections=self.detections.get(path),
         )  # fmt: skip
         outcome = (
             analysed()
             if cache is None
-            else cache.outcome(path, continuations, identity, results, analysed)
+            else cache.outcome(path, continuations, identity, results, analysed, prior_salt(prior))
         )
         if images and isinstance(outcome, SessionResult) and outcome.analysis_reused:
             outcome = _with_figures(outcome, self.options, self.figure_cache)
@@ -230,6 +269,20 @@ class _Batch:
             dataclasses.replace(outcome, index=index)
             if isinstance(outcome, SessionResult)
             else outcome
+        )
+
+    def for_workers(self) -> _Batch:
+        """The same batch without its progress callback (it stays in this process)."""
+        return dataclasses.replace(self, on_done=None)
+
+    def for_session(self, index: int) -> _Batch:
+        """What a worker needs for session ``index``: the batch with its detections alone
+        (not every session's, sent with each task)."""
+        if not self.detections:
+            return self
+        mine = self.detections.get(self.files[index])
+        return dataclasses.replace(
+            self, detections={} if mine is None else {self.files[index]: mine}
         )
 
     def without_images(self) -> _Batch:
@@ -243,7 +296,7 @@ def _execute(batch: _Batch, *, jobs: int, dask_address: str | None) -> list[Outc
     if dask_address is not None:
         return _run_dask(batch, dask_address)
     if jobs > 1 and n > 1:  # each process draws its own sessions' figures
-        return _run_processes(batch, min(jobs, n))
+        return run_processes(batch, min(jobs, n))
     if not batch.images or n <= 1:
         return _run_here(batch, None)
     with FigureDrawer.started() as drawer:
@@ -278,11 +331,12 @@ def _run_here(batch: _Batch, drawer: FigureDrawer | None) -> list[Outcome]:
 
 
 def _report(on_done: OnDone | None, path: str, outcome: Outcome) -> None:
+    """Tell ``on_done`` (if any) that session ``path`` finished, and whether it succeeded."""
     if on_done is not None:
         on_done(path, isinstance(outcome, SessionResult))
 
 
-def gather(outcomes: list[Outcome], *, include_warned: bool = False) -> RunResult:
+def gather(outcomes: Sequence[Analysed], *, include_warned: bool = False) -> RunResult:
     """The run's tables: every session's rows concatenated in input order; the summary
     leaves warned trials out unless ``include_warned`` (:func:`analysis.metrics.summarize`)."""
     results = tuple(o for o in outcomes if isinstance(o, SessionResult))
@@ -333,20 +387,33 @@ def analyse_or_fail(
     figure_cache: FigureCache | None = None,
     continuations: Sequence[str] = (),
     identity: SessionIdentity | None = None,
-) -> Outcome:
+    detections: list[list[Detections]] | None = None,
+) -> Analysed:
     """One session's result, or a :class:`SessionFailure` saying why (never raises but for
     Ctrl-C); a session over ``options.session_timeout_s`` is stopped and fails."""
+    analyse = functools.partial(
+        analyse_session, path, options, render_images=images, results_path=results,
+        figure_cache=figure_cache, continuations=continuations, identity=identity,
+        detections=detections,
+    )  # fmt: skip
+    return _or_fail(path, options, analyse)
+
+
+def _noise_or_fail(
+    path: str, options: AnalysisOptions, continuations: Sequence[str]
+) -> NoisePass | SessionFailure:
+    """A session's first pass, or why it failed (:func:`analyse_or_fail`'s rules)."""
+    return _or_fail(path, options, lambda: noise_pass(path, options, continuations))
+
+
+def _or_fail(
+    path: str, options: AnalysisOptions, work: Callable[[], _Done]
+) -> _Done | SessionFailure:
+    """``work()``'s result, or a :class:`SessionFailure` saying why it failed or ran out
+    of ``options.session_timeout_s``."""
     try:
         with _time_limit(options.session_timeout_s):
-            return analyse_session(
-                path,
-                options,
-                render_images=images,
-                results_path=results,
-                figure_cache=figure_cache,
-                continuations=continuations,
-                identity=identity,
-            )
+            return work()
     except _SessionTimeoutError:
         return SessionFailure(
             session=path,
@@ -389,148 +456,11 @@ def _time_limit(seconds: float | None) -> Iterator[None]:
         signal.signal(signal.SIGALRM, previous)
 
 
-# --------------------------------------------------------------------------- processes
-
-_CLAIMS: Any = None  # in worker processes: the shared claim flags of the batch
-
-
-def _worker_init(claims: Any) -> None:
-    """One OpenCV thread per worker: the processes already fill the cores. Ctrl-C is the
-    parent's to handle (a worker would print a traceback of its own); a parent killed
-    outright ends its workers (:func:`analysis.parent_watch.watch_parent`)."""
-    import cv2
-
-    from analysis.parent_watch import watch_parent
-
-    watch_parent()
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})  # held back at its start
-    global _CLAIMS
-    _CLAIMS = claims
-    cv2.setNumThreads(1)
-    keep_frame_buffers()
-
-
-def _claim(claims: Any, index: int) -> bool:
-    """Take session ``index`` for this process unless another already did."""
-    with claims.get_lock():
-        if claims[index]:
-            return False
-        claims[index] = 1
-        return True
-
-
-def _worker_task(index: int, batch: _Batch, results: str | None) -> Outcome | None:
-    """A worker's session, or None when the main process took it first."""
-    if not _claim(_CLAIMS, index):
-        return None
-    return batch.analyse(index, results, images=batch.images)
-
-
-def _run_processes(batch: _Batch, jobs: int) -> list[Outcome]:
-    """``jobs`` processes: ``jobs - 1`` spawned workers take sessions from the front of the
-    list, this (already warm) process from the back, each claiming a session through a
-    shared flag; so no session runs twice and no core waits for a worker to start."""
-    # Spawned, not forked: a fork after OpenCV has started its thread pool can deadlock.
-    files, results, images = batch.files, batch.results_mcap, batch.images
-    on_done = batch.on_done
-    context = multiprocessing.get_context("spawn")
-    claims = context.Array("b", len(files))
-    outcomes: list[Outcome | None] = [None] * len(files)
-
-    def done(i: int, outcome: Outcome) -> None:
-        outcomes[i] = outcome
-        _report(on_done, files[i], outcome)
-
-    import cv2
-
-    threads = cv2.getNumThreads()
-    cv2.setNumThreads(1)  # this process is one of the ``jobs``, like each worker
-    try:
-        with ProcessPoolExecutor(
-            max_workers=jobs - 1, mp_context=context, initializer=_worker_init, initargs=(claims,)
-        ) as pool:
-            futures: list[Future[Outcome | None]] = []
-            try:
-                with sigint_blocked():  # the workers start as the sessions are submitted
-                    task = dataclasses.replace(batch, on_done=None)  # what a worker needs
-                    futures = [
-                        pool.submit(_worker_task, i, task, results[i]) for i in range(len(files))
-                    ]
-                for i in reversed(range(len(files))):
-                    if not _claim(claims, i):
-                        break  # the workers, going forward, have reached this one
-                    here = batch.analyse(i, results[i], images=images)
-                    done(i, here)
-                index = {fut: i for i, fut in enumerate(futures)}
-                for fut in as_completed(futures):  # progress as sessions finish, in any order
-                    i = index[fut]
-                    if outcomes[i] is not None:
-                        continue
-                    try:
-                        outcome = fut.result()
-                    except BrokenProcessPool as err:  # a worker died (killed, out of memory)
-                        outcome = SessionFailure(
-                            session=files[i],
-                            reason=f"{files[i]}: the worker process analysing it died ({err})",
-                        )
-                    if outcome is not None:
-                        done(i, outcome)
-            except BaseException:  # Ctrl-C, or this process's own failure: stop at once
-                _stop_workers(pool, claims, futures, results)
-                raise
-    finally:
-        cv2.setNumThreads(threads)
-    missing = [f for f, o in zip(files, outcomes, strict=True) if o is None]
-    assert not missing, f"sessions neither the workers nor this process analysed: {missing}"
-    return [o for o in outcomes if o is not None]
-
-
-#: How long the workers may take to finish the session in hand once stopped, before they are
-#: terminated (a session takes well under a second on the sample sessions).
-STOP_GRACE_S = 5.0
-
-
-def _stop_workers(
-    pool: ProcessPoolExecutor,
-    claims: Any,
-    futures: list[Future[Outcome | None]],
-    results: list[str | None],
-) -> None:
-    """End the pool now: queued sessions are dropped and the workers stopped, rather than left
-    to finish the batch; the results.mcap a worker was writing leaves no temporary file
-    (``.<name>.<pid>.partial``) behind.
-
-    Every session is claimed first, so a worker returns from whatever it is handed next,
-    and the workers get :data:`STOP_GRACE_S` to finish the session in hand before they are
-    terminated: a worker terminated while it sends its result can leave half a message in
-    the pool's result pipe, which the pool's own thread then waits on for ever (a Ctrl-C in
-    CI once never returned).
-    """
-    with claims.get_lock():
-        claims[:] = [1] * len(claims)
-    processes = list((getattr(pool, "_processes", None) or {}).values())
-    pool.shutdown(wait=False, cancel_futures=True)
-    in_hand = [f for f in futures if not f.cancelled()]  # wait() never counts a cancelled one
-    with contextlib.suppress(KeyboardInterrupt):  # a second Ctrl-C: stop waiting
-        wait(in_hand, timeout=STOP_GRACE_S)
-    for process in processes:  # idle now (their results all read), or over the grace
-        process.terminate()
-    for process in processes:
-        process.join(STOP_GRACE_S)
-        if process.is_alive():
-            process.kill()
-            process.join()
-    for path in (Path(r) for r in results if r is not None):
-        for leftover in path.parent.glob(f".{glob.escape(path.name)}.*.partial"):
-            leftover.unlink(missing_ok=True)
-
-
 # --------------------------------------------------------------------------- Dask
 
 
-def _analyse_at(index: int, results: str | None, *, batch: _Batch) -> Outcome:
-    """:meth:`_Batch.analyse` with the per-session arguments first, for ``client.map``."""
+def _analyse_at(index: int, results: str | None, batch: _Batch) -> Outcome:
+    """:meth:`_Batch.analyse` with the per-session arguments, for ``client.map``."""
     return batch.analyse(index, results, images=batch.images)
 
 
@@ -554,8 +484,9 @@ def _run_dask(batch: _Batch, address: str) -> list[Outcome]:
     try:
         # A worker that dies mid-session (killed, out of memory) loses its task to the
         # scheduler, which runs it again on another worker (``allowed-failures``, 3).
-        task = dataclasses.replace(batch, on_done=None)  # what a worker needs
-        futures = client.map(_analyse_at, range(len(files)), results, batch=task, pure=False)
+        task = batch.for_workers()  # what a worker needs
+        tasks = [task.for_session(i) for i in range(len(files))]
+        futures = client.map(_analyse_at, range(len(files)), results, tasks, pure=False)
         index = {fut.key: i for i, fut in enumerate(futures)}
         outcomes: list[Outcome | None] = [None] * len(files)
         for fut in as_completed(futures):  # progress as sessions finish, in any order

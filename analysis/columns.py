@@ -113,13 +113,17 @@ SUMMARY_COLUMNS = [
     "max_err_all_ok",
     # the noise model its regions assumed (twopose.noise; docs/analysis.md)
     "placing_sigma",  # the placing sigma (session units): measured, or the typed mean
-    "placing_source",  # typed, or measured by which board session
+    "placing_source",  # typed, or measured by which board session; the multiplier taken
+    "placing_scale",  # the placing sigma taken over the one assumed (sqrt(lambda))
+    "placing_dof",  # the degrees of freedom it rests on (empty: taken as exact)
     "rig_file",  # the rig file the session used (empty: none), as found or given
     "rig_sha256",  # its content's SHA-256 (empty: none): what check compares
-    "sigma0",  # the a-posteriori sigma0 of its trials' misclosures (1: the model holds)
+    "sigma0",  # the unflagged trials' sigma0 under the typed model (1: the model holds)
     "sigma0_dof",  # its degrees of freedom (0: no trial with redundancy)
-    "noise_contradicted",  # the data contradict the noise model: the regions were widened
+    "sigma0_p",  # its chi-square test's upper tail probability
+    "noise_contradicted",  # sigma0's test rejects the typed model (sigma0_p < 5%)
     "noise_widening",  # the largest covariance multiplier applied (1: unchanged)
+    "n_flagged",  # trials whose poses disagree: kept out of the pool, widened
 ]
 #: What each number of ``summary.csv`` can be: ``count`` a whole number >= 0, ``length``
 #: a finite length >= 0 (session units), ``signed`` any finite number, ``share`` 0 to 1.
@@ -129,12 +133,14 @@ _LENGTHS = (
     "bias_x_ci95", "bias_y_ci95", "bias_z_ci95", "std_x", "std_y", "std_z", "rmse",
     "rmse_ci95_low", "rmse_ci95_high", "median_err", "max_err", "rmse_all_ok",
     "median_err_all_ok", "max_err_all_ok", "placing_sigma", "sigma0", "noise_widening",
+    "placing_scale", "placing_dof",
 )  # fmt: skip
 SUMMARY_DOMAINS: dict[str, str] = {
     **dict.fromkeys(("n_trials", "n_ok", "n_warned", "n_used"), "count"),
     **dict.fromkeys(("bias_x", "bias_y", "bias_z"), "signed"),
     **dict.fromkeys(_LENGTHS, "length"),
-    **dict.fromkeys(("within_1", "coverage95"), "share"),
+    **dict.fromkeys(("within_1", "coverage95", "sigma0_p"), "share"),
+    "n_flagged": "count",
 }
 #: The domains of the tables ``check`` and ``compare`` read, by file name.
 TABLE_DOMAINS = {"summary.csv": SUMMARY_DOMAINS}
@@ -229,7 +235,7 @@ _TEXT = (
 #: Whole numbers, always known.
 _WHOLE = (
     "trial", "pose", "frame", "log_time_ns", "n_blobs", "n_candidates", "n_frames",
-    "n_trials", "n_ok", "n_warned", "n_used", "sigma0_dof",
+    "n_trials", "n_ok", "n_warned", "n_used", "sigma0_dof", "n_flagged",
 )  # fmt: skip
 #: Every declared column's dtype: ``str`` (text), ``bool`` (always known: a frame's
 #: ``found``, a rig constant's ``fitted``), ``boolean`` (pandas' nullable: True, False,

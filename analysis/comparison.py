@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import base64
 import contextlib
+import dataclasses
 import html
 import json
 import math
@@ -27,7 +28,7 @@ from matplotlib.figure import Figure
 from analysis.choices import Estimator
 from analysis.figures import png_bytes
 from analysis.gate_match import trial_keys
-from analysis.metrics import paired_difference, summarize, used_trials
+from analysis.metrics import paired_difference, summarize, too_few_for_interval, used_trials
 from analysis.outputs import write_atomically
 from analysis.report import page_html, table_html
 from analysis.run_tables import read_results_table
@@ -41,6 +42,7 @@ __all__ = [
     "RunSide",
     "compare",
     "compare_runs",
+    "describe_one_sided",
     "describe_test",
     "plot_comparison",
     "write_comparison",
@@ -81,18 +83,27 @@ class RunSide:
         return f"{self.folder} ({self.estimator})"
 
 
+#: ``one_sided.csv``: each trial one run holds and the other does not (``held_by``: A or B).
+ONE_SIDED_COLUMNS = ["session", "branch", "part", "method", "trial", "held_by"]
+
+
 @dataclass(frozen=True, kw_only=True)
 class Comparison:
-    """``side_by_side``: per session and method, ``SIDE_COLUMNS`` of A and B (suffixes
-    ``_a``, ``_b``) and B - A of the RMSE and median; ``paired``: per shared trial, its
-    error in A and B and ``diff`` = B - A; ``tests``: per method, ``TEST_COLUMNS``
-    (``mean_diff`` < 0: B's errors are smaller)."""
+    """``side_by_side``: per session, branch and method (one row per row of each run's
+    ``summary.csv``: a fork's branches apart), ``SIDE_COLUMNS`` of A and B (suffixes
+    ``_a``, ``_b``) and B - A of the RMSE and median; ``paired``: per shared trial (its
+    session, branch, part and number), its error in A and B and ``diff`` = B - A;
+    ``tests``: per method, ``TEST_COLUMNS`` (``mean_diff`` < 0: B's errors are smaller);
+    ``one_sided``: the trials only one run holds (``ONE_SIDED_COLUMNS``)."""
 
     a: RunSide
     b: RunSide
     side_by_side: pd.DataFrame
     paired: pd.DataFrame
     tests: pd.DataFrame
+    one_sided: pd.DataFrame = dataclasses.field(
+        default_factory=lambda: pd.DataFrame(columns=ONE_SIDED_COLUMNS)
+    )
 
 
 def compare_runs(
@@ -105,9 +116,8 @@ def compare_runs(
 ) -> Comparison:
     """Compare two run folders (see the module's docstring)."""
     sides = [_side(Path(run_a), estimator_a), _side(Path(run_b), estimator_b)]
-    used = [
-        _used_trials(_with_errors(_read_trials(s), s), include_warned=include_warned) for s in sides
-    ]
+    held = [_with_errors(_read_trials(s), s) for s in sides]
+    used = [_used_trials(h, include_warned=include_warned) for h in held]
     summaries = [summarize(u, include_warned=True) for u in used]  # already filtered
     labels = {str(k): str(v) for u in used for k, v in zip(u["session"], u["label"], strict=True)}
     side = _side_by_side(summaries[0], summaries[1], labels)
@@ -119,7 +129,12 @@ def compare_runs(
             + ("" if include_warned else " and without a warning (--include-warned counts those)")
         )
     return Comparison(
-        a=sides[0], b=sides[1], side_by_side=side, paired=paired, tests=_tests(paired)
+        a=sides[0],
+        b=sides[1],
+        side_by_side=side,
+        paired=paired,
+        tests=_tests(paired),
+        one_sided=_one_sided(*held),
     )
 
 
@@ -223,8 +238,12 @@ def _with_errors(trials: pd.DataFrame, side: RunSide) -> pd.DataFrame:
     truth = trials[["gt_x", "gt_y", "gt_z"]].apply(pd.to_numeric, errors="coerce").to_numpy()
     err = estimate - truth
     label = trials["label"] if "label" in trials.columns else trials["session"]
+    # A row of the run's summary is a session's strand (a fork's branches apart): named by
+    # its session and the branch its trials end on, as summary.csv's rows are.
+    strand = trials.groupby(trials["session"].astype(str), sort=False)["branch"].transform("last")
     out = trials.assign(
-        session=trials["session_id"].astype(str),
+        session=trials["session_id"].astype(str) + "|" + strand.astype(str),
+        strand=strand.astype(str),
         label=label.astype(str),
         _pair=trials["session_id"].astype(str) + "|" + trial_keys(trials),
         err_x=err[:, 0],
@@ -259,7 +278,10 @@ def _side_by_side(
     )
     for column in ("rmse", "median_err"):
         table[f"{column}_diff"] = table[f"{column}_b"] - table[f"{column}_a"]
-    return table.assign(session=table["session"].map(lambda s: labels.get(str(s), str(s))))
+    branch = table["session"].astype(str).str.rsplit("|", n=1).str[-1]
+    table = table.assign(session=table["session"].map(lambda s: labels.get(str(s), str(s))))
+    table.insert(1, "branch", branch)
+    return table
 
 
 #: Differences of errors smaller than this, relative to the larger error (or absolute
@@ -274,7 +296,7 @@ def _paired(used_a: pd.DataFrame, used_b: pd.DataFrame) -> pd.DataFrame:
     keep = ["_pair", "method", "units", "err"]
     pairs = pd.merge(
         used_a[keep].drop_duplicates("_pair", keep="last"),
-        used_b[[*keep, "label", "trial"]].drop_duplicates("_pair", keep="last"),
+        used_b[[*keep, "label", "trial", "branch", "part"]].drop_duplicates("_pair", keep="last"),
         on=["_pair", "method"],
         suffixes=("_a", "_b"),
         sort=True,
@@ -286,9 +308,48 @@ def _paired(used_a: pd.DataFrame, used_b: pd.DataFrame) -> pd.DataFrame:
         session=pairs["label"], units=pairs["units_b"], err_a=pairs["err_a"] * scale
     )
     pairs = pairs.sort_values(["session", "method", "trial"], kind="stable")
-    columns = ["session", "method", "units", "trial", "err_a", "err_b"]
+    columns = ["session", "branch", "part", "method", "units", "trial", "err_a", "err_b"]
     out = pairs[columns].reset_index(drop=True)
     return out.assign(diff=out["err_b"] - out["err_a"])
+
+
+def _one_sided(held_a: pd.DataFrame, held_b: pd.DataFrame) -> pd.DataFrame:
+    """Every trial one run holds (in its ``trials.csv``, whatever its status) and the
+    other does not: a part one run read and the other did not, a session one run lacks."""
+    rows = []
+    for side, mine, other in (("A", held_a, held_b), ("B", held_b, held_a)):
+        alone = mine[~mine["_pair"].isin(set(other["_pair"]))]
+        rows.append(
+            pd.DataFrame(
+                {
+                    "session": alone["label"],
+                    "branch": alone["branch"].astype(str),
+                    "part": alone["part"].astype(str),
+                    "method": alone["method"],
+                    "trial": alone["trial"],
+                    "held_by": side,
+                }
+            )
+        )
+    table = pd.concat(rows, ignore_index=True)[ONE_SIDED_COLUMNS]
+    return table.sort_values(["held_by", "session", "method", "trial"], kind="stable")
+
+
+def describe_one_sided(one_sided: pd.DataFrame) -> list[str]:
+    """One line per run and session holding trials the other run does not:
+    ``only in A: a.mcap [branch B] (point): trials 3, 4``."""
+    from analysis.answer import with_branch
+
+    lines = []
+    for (side, session, branch, method), g in one_sided.groupby(
+        ["held_by", "session", "branch", "method"], sort=True
+    ):
+        numbers = ", ".join(str(int(t)) for t in sorted(g["trial"]))
+        lines.append(
+            f"only in {side}: {with_branch(str(session), str(branch))} ({method}): "
+            f"trial{'s' if len(g) > 1 else ''} {numbers}"
+        )
+    return lines
 
 
 def _tests(paired: pd.DataFrame) -> pd.DataFrame:
@@ -319,7 +380,7 @@ def describe_test(row: pd.Series) -> str:
     interval = (
         f" (95% CI {row['ci95_low']:+.3g} to {row['ci95_high']:+.3g})"
         if math.isfinite(row["ci95_low"])
-        else ""
+        else f" (no interval: {too_few_for_interval(n)})"
     )
     return (
         f"{row['method']}: {n} shared trial(s); B - A mean error {row['mean_diff']:+.3g} "
@@ -373,14 +434,16 @@ def plot_comparison(comparison: Comparison) -> Figure:
 
 
 def write_comparison(comparison: Comparison, out_dir: str | Path) -> list[str]:
-    """``tests.csv``, ``side_by_side.csv``, ``paired.csv``, ``compare.png`` and
-    ``compare.html`` in ``out_dir`` (each written atomically); the names written."""
+    """``tests.csv``, ``side_by_side.csv``, ``paired.csv``, ``one_sided.csv``,
+    ``compare.png`` and ``compare.html`` in ``out_dir`` (each written atomically); the
+    names written."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     tables = {
         "tests.csv": comparison.tests,
         "side_by_side.csv": comparison.side_by_side,
         "paired.csv": comparison.paired,
+        "one_sided.csv": comparison.one_sided,
     }
     for name, table in tables.items():
         write_atomically(out / name, table.to_csv(index=False).encode("utf-8", "backslashreplace"))
@@ -389,6 +452,13 @@ def write_comparison(comparison: Comparison, out_dir: str | Path) -> list[str]:
     page = _compare_html(comparison, base64.b64encode(png).decode())
     write_atomically(out / "compare.html", page.encode("utf-8", "backslashreplace"))
     return [*tables, "compare.png", "compare.html"]
+
+
+def _one_sided_html(one_sided: pd.DataFrame) -> str:
+    lines = describe_one_sided(one_sided)
+    if not lines:
+        return "<p>None: both runs hold the same trials.</p>"
+    return "<ul>" + "".join(f"<li>{html.escape(line)}</li>" for line in lines) + "</ul>"
 
 
 def _compare_html(comparison: Comparison, png_base64: str) -> str:
@@ -411,5 +481,7 @@ def _compare_html(comparison: Comparison, png_base64: str) -> str:
         table_html(comparison.side_by_side),
         "<h2 id='paired'>Per shared trial</h2>",
         table_html(comparison.paired),
+        "<h2 id='one-sided'>Trials only one run holds</h2>",
+        _one_sided_html(comparison.one_sided),
     ]
     return page_html("twopose comparison", body)

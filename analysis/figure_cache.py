@@ -5,7 +5,10 @@ show is a function of the job (:class:`FigureJob`: the session's name, units and
 the rule for warned trials) and of the code that draws them; so a digest of both names the
 PNGs exactly. A run writes ``figures.json`` (each session figure's digest) beside its
 figures; a re-run into the same folder reuses every PNG whose digest it finds there instead
-of drawing it again (:class:`FigureCache`), and says how many it reused.
+of drawing it again (:class:`FigureCache`), and says how many it reused: each one's bytes
+as that run wrote them (their SHA-256, kept by the session cache:
+:meth:`analysis.session_cache.SessionCache.written_digests`), so a figure edited or
+replaced since is drawn again.
 """
 
 from __future__ import annotations
@@ -69,8 +72,10 @@ class FigureJob:
     @classmethod
     def of(cls, result: SessionResult, *, include_warned: bool = False) -> FigureJob:
         """The figures of an analysed session, warned trials included or not."""
+        from analysis.answer import with_branch
+
         return cls(
-            session=result.name,
+            session=with_branch(result.name, result.branch),
             trials=result.trials,
             averaging=result.averaging,
             views=result.views,
@@ -114,15 +119,23 @@ class FigureCache:
 
     folder: str | None = None
     index: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
+    #: Each PNG's SHA-256 as the run that wrote it recorded (None: its bytes not checked).
+    written: Mapping[str, str] | None = None
 
     @classmethod
-    def of(cls, folder: str | Path, listed: Collection[str] | None = None) -> FigureCache:
+    def of(
+        cls,
+        folder: str | Path,
+        listed: Collection[str] | None = None,
+        written: Mapping[str, str] | None = None,
+    ) -> FigureCache:
         """What ``folder`` (a previous run's results) holds, of the files ``listed`` (the
-        previous run's list of its outputs, when it has one); empty when nothing."""
+        previous run's list of its outputs, when it has one) and whose bytes are those
+        ``written`` records (when given); empty when nothing."""
         try:
             listed = json.loads((Path(folder) / FIGURE_INDEX).read_text(encoding="utf-8"))
         except (OSError, ValueError):
-            return cls(str(folder))
+            return cls(str(folder), written=written)
         index: dict[str, dict[str, str]] = {}
         if isinstance(listed, dict):
             for name, digest in listed.items():
@@ -130,7 +143,7 @@ class FigureCache:
                 mine = listed is None or str(name) in listed
                 if isinstance(digest, str) and _plain_png(str(name)) and mine:
                     index.setdefault(digest, {})[kind] = str(name)
-        return cls(str(folder), index)
+        return cls(str(folder), index, written)
 
     def reuse(self, job: FigureJob, digest: str | None = None) -> dict[str, bytes] | None:
         """The PNGs of ``job`` by kind, as the previous run drew them; None when any is
@@ -146,8 +159,14 @@ class FigureCache:
                 return None
             if not data.startswith(_PNG):
                 return None
+            if self.written is not None and _sha256(data) != self.written.get(name):
+                return None  # edited or replaced since it was written: drawn again
             pngs[kind] = data
         return pngs
+
+
+def _sha256(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
 
 
 def _plain_png(name: str) -> bool:

@@ -21,6 +21,7 @@ from matplotlib.lines import Line2D
 
 from analysis.table_labels import MAX_LEGEND, common_units
 from twopose.methods import Method, spec_of
+from twopose.text import for_terminal
 
 __all__ = [
     "DPI",
@@ -33,6 +34,7 @@ __all__ = [
     "beyond_note",
     "common_units",
     "equal_scales",
+    "figure_name",
     "frame",
     "key",
     "layout",
@@ -99,6 +101,15 @@ def key(label: str, **style: object) -> Line2D:
     """A legend entry drawn by ``style`` (a marker or a line; none by default)."""
     defaults: dict[str, object] = {"color": "0.3", "linestyle": "none"}
     return Line2D([], [], label=label, **(defaults | style))  # type: ignore[arg-type]
+
+
+def figure_name(name: str) -> str:
+    """A session's name as a figure shows it: its label as it is (``a/x/session.mcap``,
+    ``session.MCAP``: what tells it from every other input, never a stem made for a file
+    name), with its control characters escaped, bytes that are no text replaced, and
+    ``$`` escaped (matplotlib would read ``$...$`` as mathematics)."""
+    text = name.encode("utf-8", "surrogateescape").decode("utf-8", "replace")
+    return for_terminal(text).replace("$", r"\$")
 
 
 def set_title(ax: Axes, title: str) -> None:

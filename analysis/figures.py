@@ -27,7 +27,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.ticker import MaxNLocator
 
-from analysis.answer import session_order
+from analysis.answer import session_order, strand_names, with_branch
 from analysis.figure_style import (
     DPI,
     KEY_MARGIN,
@@ -38,6 +38,7 @@ from analysis.figure_style import (
     TrialColours,
     beyond_note,
     common_units,
+    figure_name,
     frame,
     key,
     layout,
@@ -327,7 +328,7 @@ def session_figures(
     more than one frame per pose, ``averaging``; each trial in one colour in all of them
     (:class:`~analysis.figure_style.TrialColours`). ``units``: the session's, named on
     the axes when it has no trial to name them."""
-    name = printable_stem(session)
+    name = figure_name(session)
     units = table_units(trials) or units
     palette = TrialColours.of(used_trials(trials, include_warned=True)["trial"])
 
@@ -447,7 +448,7 @@ def plot_error_by_trial(fig: Figure, trials: pd.DataFrame, *, include_warned: bo
     ax = fig.add_subplot()
     handles = []
     rest = []
-    for k, (session, g) in enumerate(session_order(measured).groupby("session", sort=False)):
+    for k, (_session, g) in enumerate(session_order(measured).groupby("session", sort=False)):
         g = g.sort_values("trial")
         keep = g.index.isin(used.index)
         err = np.where(keep, g["err"].to_numpy(dtype=np.float64), np.nan)
@@ -459,7 +460,7 @@ def plot_error_by_trial(fig: Figure, trials: pd.DataFrame, *, include_warned: bo
         if "semiaxis95" in g:
             semi = np.where(keep, g["semiaxis95"].to_numpy(dtype=np.float64), np.nan)
             ax.plot(xy[:, 0], semi, ":", color=f"C{k}", lw=0.8)
-        name = printable_stem(str(g["label"].iloc[0] if "label" in g else session))
+        name = figure_name(str(strand_names(trials).loc[g.index[0]]))  # all: its branch
         handles.append(key(name, color=f"C{k}", marker="o", ms=3, linestyle="-"))
     if rest:
         ax.add_collection(LineCollection(rest, colors="0.6", linewidths=0.6))
@@ -537,9 +538,8 @@ def make_figures(result: RunResult) -> dict[str, Figure]:
     """
     figures: dict[str, Figure] = {}
     for i, s in enumerate(result.sessions):
-        drawn = session_figures(
-            s.name, s.trials, s.averaging, s.views, include_warned=result.include_warned
-        )
+        name, tables = with_branch(s.name, s.branch), (s.trials, s.averaging, s.views)
+        drawn = session_figures(name, *tables, include_warned=result.include_warned)
         number = s.index if s.index >= 0 else i
         figures |= {figure_key(kind, number, s.name): fig for kind, fig in drawn.items()}
     return figures | run_figures(result)

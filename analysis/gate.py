@@ -3,15 +3,18 @@ from a TOML file, and JUnit XML that CI systems display (one test case per sessi
 method).
 
 A metric *got worse* when it moved the wrong way (RMSE, median error and |bias| up; ok
-trials and the 95% coverage down); it *regressed* when it got worse by more than its
-allowance, ``max(absolute, relative * |baseline|)``. A session and method in the baseline
-but not in the run (a session that failed, a method no longer measured) has regressed too;
-one only in the run is new, reported but never a failure.
+trials, used trials and the 95% coverage down; warned trials up); it *regressed* when it
+got worse by more than its allowance, ``max(absolute, relative * |baseline|)``, a length's
+absolute allowance converted from the tolerance's unit to the session's
+(:mod:`analysis.gate_tolerance`). What the statistics left out is checked too: a trial the
+baseline's statistics used and the run's do not (warned or failed since) is a regression
+unless the tolerance allows it, named with why (:mod:`analysis.gate_match`). A session and
+method in the baseline but not in the run (a session that failed, a method no longer
+measured) has regressed too; one only in the run is new, reported but never a failure.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
@@ -24,10 +27,17 @@ import pandas as pd
 from analysis.columns import SUMMARY_DOMAINS
 from analysis.gate_match import Pair, match_rows, require_identity, run_trials
 from analysis.gate_noise import noise_model_difference
+from analysis.gate_tolerance import (
+    CHECKED_METRICS,
+    Allowance,
+    Metric,
+    Tolerance,
+    load_tolerance,
+)
 from analysis.run_tables import check_results_table, read_results_table
-from twopose.config import build_dataclass, read_toml
 from twopose.errors import InputValueError
-from twopose.methods import MEASURING_METHODS, Method
+from twopose.methods import Method
+from twopose.units import unit_spec
 
 __all__ = [
     "CHECKED_METRICS",
@@ -46,60 +56,6 @@ __all__ = [
 ]
 
 
-#: The largest relative allowance: a metric may double, no more (a gate that lets RMSE
-#: grow fivefold checks nothing; 5 is most likely "5%" meant as 0.05).
-MAX_RELATIVE = 1.0
-
-
-@dataclass(frozen=True, kw_only=True)
-class Allowance:
-    """How much worse a metric may get: ``max(absolute, relative * |baseline|)``."""
-
-    relative: float = 0.0
-    absolute: float = 0.0
-
-    def __post_init__(self) -> None:
-        if self.relative < 0 or self.absolute < 0:
-            raise InputValueError("a tolerance cannot be negative")
-        if not (math.isfinite(self.relative) and math.isfinite(self.absolute)):
-            raise InputValueError("a tolerance must be a finite number")
-        if self.relative > MAX_RELATIVE:
-            raise InputValueError(
-                f"a relative tolerance of {self.relative:g} lets a metric grow by "
-                f"{self.relative:.0%}: at most {MAX_RELATIVE:g} (100%); is it a percentage? "
-                "write 0.10 for 10%"
-            )
-
-    def of(self, baseline: float) -> float:
-        return max(self.absolute, self.relative * abs(baseline))
-
-
-@dataclass(frozen=True, kw_only=True)
-class Tolerance:
-    """The allowances of each checked metric; ``bias`` covers |bias_x|, |bias_y|, |bias_z|
-    (session units), ``n_ok`` counts trials, ``coverage95`` is a share (0-1)."""
-
-    rmse: Allowance = Allowance(relative=0.10)
-    median_err: Allowance = Allowance(relative=0.10)
-    bias: Allowance = Allowance(relative=0.10, absolute=0.05)
-    n_ok: Allowance = Allowance()
-    coverage95: Allowance = Allowance(absolute=0.05)
-
-
-#: (metric, summary.csv column, tolerance field, +1 when larger is worse / -1 when smaller is).
-CHECKED_METRICS = (
-    ("rmse", "rmse", "rmse", +1),
-    ("median_err", "median_err", "median_err", +1),
-    ("|bias_x|", "bias_x", "bias", +1),
-    ("|bias_y|", "bias_y", "bias", +1),
-    ("|bias_z|", "bias_z", "bias", +1),
-    ("n_ok", "n_ok", "n_ok", -1),
-    ("coverage95", "coverage95", "coverage95", -1),
-)
-
-#: The methods a tolerance file may name (``[methods.<method>.<metric>]``).
-METHODS = tuple(sorted(str(m) for m in MEASURING_METHODS))
-
 COMPARISON_COLUMNS = [
     "session",
     "method",
@@ -108,65 +64,16 @@ COMPARISON_COLUMNS = [
     "result",
     "change",
     "allowed",
+    # the unit of baseline, result, change and allowed: the session's for a length (the
+    # run's units), "trials" for a count, "" for a share
+    "unit",
     # better, same, worse (within tolerance), regressed, missing, new, unheld (the baseline
     # has no value for the metric: not compared, said in a note)
     "status",
+    # the trials behind a count's change, in words (n_used: those the run's statistics
+    # left out and the baseline's used; n_warned: those warned now and not before)
+    "trials",
 ]
-
-
-def load_tolerance(path: str | Path | None) -> dict[str, Tolerance]:
-    """Tolerances by method (``""``: the default) from a TOML file such as::
-
-        [rmse]
-        relative = 0.10          # 10 % of the baseline's RMSE
-        [bias]
-        absolute = 0.05          # session units
-        [methods.ground.rmse]    # a method's own allowance, over the default
-        relative = 0.25
-
-    ``None``: the defaults of :class:`Tolerance`. An unknown key anywhere (a metric, an
-    allowance's field, a method: ``[methods.piont.rmse]``), a wrong type or a negative or
-    non-finite number is refused, naming the key and the known ones."""
-    if path is None:
-        return {"": Tolerance()}
-    what = f"tolerance file {path}"
-    if not Path(path).is_file():  # a FIFO would block the read forever
-        raise InputValueError(f"{what}: not a file; give a TOML file (see docs/ci.md)")
-    data = read_toml(path, "tolerance file", InputValueError)
-    methods = data.pop("methods", {})
-    if not isinstance(methods, dict):
-        raise InputValueError(f"{what}: methods must be a table of methods ([methods.ground])")
-    unknown = sorted(set(methods) - set(METHODS))
-    if unknown:
-        raise InputValueError(
-            f"{what}: unknown method(s) {', '.join('methods.' + m for m in unknown)}; "
-            f"known: {', '.join(METHODS)}"
-        )
-    default = _tolerance(Tolerance(), data, what, "")
-    tolerances = {"": default}
-    for method, table in methods.items():
-        tolerances[method] = _tolerance(default, table, what, f"methods.{method}.")
-    return tolerances
-
-
-def _tolerance(base: Tolerance, table: Any, what: str, prefix: str) -> Tolerance:
-    """``table``'s keys over ``base``'s (an allowance given in part keeps the rest)."""
-    if not isinstance(table, dict):
-        raise InputValueError(f"{what}: {prefix.rstrip('.')} must be a table")
-    values = dataclasses.asdict(base)
-    for metric, allowance in table.items():
-        if not isinstance(allowance, dict):
-            continue  # build_dataclass names the key that should be a table
-        for field, number in allowance.items():
-            if isinstance(number, int | float) and not isinstance(number, bool) and number < 0:
-                raise InputValueError(
-                    f"{what}: {prefix}{metric}.{field} is {number}: an allowance cannot be negative"
-                )
-    merged = values | {
-        k: values[k] | v if isinstance(v, dict) and k in values else v for k, v in table.items()
-    }
-    where = f"{what}: {prefix.rstrip('.')}" if prefix else what
-    return build_dataclass(Tolerance, merged, where, InputValueError)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -191,7 +98,7 @@ class CheckResult:
 #: Checked columns a baseline may predate (summary.csv gained them later): not compared, with
 #: a note. Every other checked column missing from either table is an error.
 BASELINE_MAY_LACK = ("coverage95",)
-_CHECKED_COLUMNS = tuple(dict.fromkeys(column for _, column, _, _ in CHECKED_METRICS))
+_CHECKED_COLUMNS = tuple(dict.fromkeys(m.column for m in CHECKED_METRICS))
 
 
 def check(
@@ -294,14 +201,33 @@ def _pair_rows(
     if pair.lost:
         rows.append(_row(session, method, "(trials)", float(pair.lost), math.nan, "missing"))
     tolerance = tolerances.get(method, tolerances[""])
-    for metric, column, field, sign in CHECKED_METRICS:
-        if column in skipped:
+    units = unit_spec(str(pair.result["units"])).units
+    for metric in CHECKED_METRICS:
+        if metric.column in skipped:
             continue
-        before, after = _value(pair.baseline, column), _value(pair.result, column)
-        allowed = getattr(tolerance, field).of(before)
-        status = _status(before, after, sign, allowed)
-        rows.append(_row(session, method, metric, before, after, status, allowed))
+        before, after = _value(pair.baseline, metric.column), _value(pair.result, metric.column)
+        allowed = tolerance.allowed(metric, before, units)
+        # A count of trials is held to the trials behind it, when both runs' are known: a
+        # trial the baseline used and the run left out is worse even if another came in.
+        trials = _trials_changed(pair, metric)
+        worsening = None if trials is None else float(len(trials))
+        status = _status(before, after, metric.sign, allowed, worsening)
+        said = f"{metric.trials_said}: {'; '.join(trials)}" if trials else ""
+        rows.append(
+            _row(session, method, metric.name, before, after, status, allowed)
+            | {"unit": metric.unit(units), "trials": said}
+        )
     return rows
+
+
+def _trials_changed(pair: Pair, metric: Metric) -> tuple[str, ...] | None:
+    """The trials behind a count's change (its :class:`analysis.gate_match.TrialChanges`
+    field), or None for a metric that is no such count or a pair whose trials are not
+    known."""
+    if pair.changes is None or not metric.trials:
+        return None
+    changed: tuple[str, ...] = getattr(pair.changes, metric.trials)
+    return changed
 
 
 def _value(row: pd.Series, column: str) -> float:
@@ -309,12 +235,20 @@ def _value(row: pd.Series, column: str) -> float:
     return abs(number) if column.startswith("bias_") else number
 
 
-def _status(before: float, after: float, sign: int, allowed: float) -> str:
+def _status(
+    before: float, after: float, sign: int, allowed: float, worsening: float | None = None
+) -> str:
+    """``worsening``: how much worse, when known apart from the two values (a count's
+    trials); else ``sign * (after - before)``."""
     if math.isnan(before):  # the baseline measured nothing: nothing to hold the run to
         return "same" if math.isnan(after) else "unheld"
     if math.isnan(after):
         return "regressed"  # measured before, not now
-    worsening = sign * (after - before)
+    change = sign * (after - before)
+    if worsening is None:
+        worsening = change
+    elif worsening == 0:  # no trial lost its use: better when the count says so, else same
+        worsening = min(change, 0.0)
     if worsening > allowed + 1e-12:
         return "regressed"
     if worsening > 1e-12:
@@ -339,12 +273,15 @@ def _row(
         "result": after,
         "change": after - before,
         "allowed": allowed,
+        "unit": "",
         "status": status,
+        "trials": "",
     }
 
 
 def describe(row: pd.Series) -> str:
-    """One line of what got worse: ``session (method) metric: a -> b (+d, +p%; allowed e)``."""
+    """One line of what got worse: ``session (method) metric: a -> b unit (+d unit, +p%;
+    allowed e unit)``, and the trials behind a count's change."""
     where = f"{row['session']} ({row['method']})"
     if row["status"] == "missing" and row["metric"] == "(trials)":
         return (
@@ -359,10 +296,13 @@ def describe(row: pd.Series) -> str:
     change = after - before
     share = f", {change / abs(before):+.0%}" if before else ""
     tag = "REGRESSED" if row["status"] == "regressed" else "worse"
-    return (
-        f"{tag} {where} {row['metric']}: {before:.4g} -> {after:.4g} "
-        f"({change:+.4g}{share}; allowed {float(row['allowed']):.4g})"
+    unit = f" {row['unit']}" if str(row.get("unit", "") or "") else ""
+    line = (
+        f"{tag} {where} {row['metric']}: {before:.4g} -> {after:.4g}{unit} "
+        f"({change:+.4g}{unit}{share}; allowed {float(row['allowed']):.4g}{unit})"
     )
+    trials = str(row.get("trials", "") or "")
+    return f"{line}; {trials}" if trials else line
 
 
 def check_lines(outcome: CheckResult, baseline: str | Path) -> list[str]:

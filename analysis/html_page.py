@@ -16,6 +16,8 @@ from dataclasses import dataclass
 
 import pandas as pd
 
+from twopose import webfonts
+
 __all__ = [
     "MIN_FIGURE_SCALE",
     "Image",
@@ -144,7 +146,8 @@ def chart_html(name: str, spec: dict[str, object] | None, caption: str = "") -> 
 #: The scripts that draw the charts, carried in the package (analysis/report_js/VERSIONS).
 CHART_SCRIPTS = ("vega.min.js", "vega-lite.min.js", "vega-embed.min.js")
 
-# Draws every chart from the spec beside it: on a narrow page (a phone) one column, as wide
+# Draws every chart from the spec beside it, in the page's font once it is loaded (Vega
+# measures its labels with it): on a narrow page (a phone) one column, as wide
 # as the page, the legends below and long titles wrapped onto lines (about 8 px a character
 # of the 13 px bold title; cut only beyond a line's width); each view kept
 # by name (window.twoposeViews) for the tests and the console of a curious reader.
@@ -156,6 +159,7 @@ _CHART_SCRIPT = (
     "u.title={text:lines}}function drawCharts(){"
     "document.querySelectorAll('div.chart').forEach(function(el){"
     "var spec=JSON.parse(el.parentElement.parentElement.nextElementSibling.textContent);"
+    f"spec.config=Object.assign({{font:'{webfonts.SANS_FAMILY}'}},spec.config);"
     "if(innerWidth<700){if(spec.columns)spec.columns=1;var c=spec.config||{},w=innerWidth-135;"
     "(spec.concat||[]).forEach(function(u){if(u.width>w)u.width=w;"
     "wrapTitle(u,Math.floor((Math.min(u.width||w,w)+60)/8))});"
@@ -164,7 +168,11 @@ _CHART_SCRIPT = (
     "vegaEmbed(el,spec,{actions:false,renderer:'svg',mode:'vega-lite'}).then(function(r){"
     "window.twoposeViews[el.dataset.chart]=r.view;cues()}).catch(function(e){"
     "el.textContent='This chart could not be drawn: '+e.message})})}"
-    "addEventListener('DOMContentLoaded',drawCharts);"
+    "addEventListener('DOMContentLoaded',function(){var f=document.fonts;"
+    "if(!f||!f.load)return drawCharts();"
+    "Promise.all(['12px','bold 12px'].map(function(s){"
+    f"return f.load(s+\" '{webfonts.SANS_FAMILY}'\")}}))"
+    ".then(drawCharts,drawCharts)});"
 )
 
 
@@ -182,8 +190,9 @@ def figure_row(figures: list[str]) -> str:
 
 
 _STYLE = (
-    "body{font-family:sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222;"
+    f"body{{font-family:{webfonts.SANS};max-width:1200px;margin:2em auto;padding:0 1em;color:#222;"
     "line-height:1.4}"
+    f"code,pre,kbd,samp{{font-family:{webfonts.MONO};font-size:0.85em}}"
     "h1{font-size:1.8em}h2{border-bottom:1px solid #aaa;margin-top:1.6em}"
     "h1,h2,h3,p,li,figcaption{overflow-wrap:anywhere}p{max-width:62em}"
     ".wide{position:relative;margin:0.8em 0}"
@@ -204,7 +213,7 @@ _STYLE = (
     "table.text td,table.text th{text-align:left;white-space:normal;min-width:9em;"
     "max-width:30em}"
     ".chart-figure{width:auto}.chart{min-height:60px}"
-    "#vg-tooltip-element{font-size:12px}"
+    "#vg-tooltip-element{font-size:12px;font-family:inherit}"
     "figure{margin:1.2em 0;max-width:100%}figcaption{font-size:13px;color:#444}"
     ".figs{display:flex;flex-wrap:wrap;column-gap:2.5em;align-items:flex-start}"
     "nav a{white-space:nowrap}.err{color:#a00}.verdict{font-weight:bold;margin:0.4em 0}"
@@ -230,7 +239,7 @@ def page_html(title: str, body: list[str], scripts: tuple[str, ...] | list[str] 
     parts = [
         "<!doctype html><html><head><meta charset='utf-8'>",
         "<meta name='viewport' content='width=device-width, initial-scale=1'>",
-        f"<title>{html.escape(title)}</title><style>{_STYLE}</style>",
+        f"<title>{html.escape(title)}</title><style>{webfonts.font_face_css()}{_STYLE}</style>",
         f"<script>{_SCRIPT}</script>",
         *(f"<script>{s}</script>" for s in scripts),
         "</head><body>",

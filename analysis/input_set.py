@@ -27,7 +27,7 @@ same words wherever they are printed (terminal, report, JUnit).
 from __future__ import annotations
 
 import functools
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Self
@@ -37,12 +37,13 @@ from twopose.format.identity import (
     Strand,
     file_digest,
     identify_file,
+    kept_of_copies,
     path_labels,
     resolve_session_files,
 )
 from twopose.format.reader import find_sessions, is_results_file
 
-__all__ = ["FoundSession", "InputSet", "SessionIdentity", "resolve_inputs"]
+__all__ = ["FoundSession", "InputSet", "SessionIdentity", "resolve_inputs", "sessions_said"]
 
 #: One session file found (:class:`twopose.format.identity.SessionFile`).
 FoundSession = SessionFile
@@ -89,6 +90,9 @@ class InputSet:
     repeats: tuple[tuple[str, str], ...] = ()
     strands: tuple[Strand, ...] = ()  # what ``run`` analyses, one strand each
     strand_notes: tuple[str, ...] = ()  # continuations and forks, in words
+    #: the path kept of copies that tie on all else -> why it
+    #: (:func:`twopose.format.identity.kept_of_copies`: outside a backup folder, the oldest)
+    kept_why: tuple[tuple[str, str], ...] = ()
 
     @property
     def copies(self) -> tuple[tuple[str, str], ...]:
@@ -170,6 +174,22 @@ class InputSet:
         )
 
     @property
+    def set_aside(self) -> tuple[str, ...]:
+        """Every input not analysed as given: a file named twice, a copy or twin counted
+        once, an empty session, a board session (for ``rig``). Continuations and forks'
+        branches are not among them: they are analysed, joined or apart."""
+        return tuple(
+            dict.fromkeys(
+                [
+                    *(path for path, _ in self.repeats),
+                    *(path for path, _, _ in self.others),
+                    *(s.path for s in self.empty),
+                    *(s.path for s in self.boards),
+                ]
+            )
+        )
+
+    @property
     def units(self) -> tuple[str, ...]:
         """The units of the measurement sessions, in order of first appearance."""
         return tuple(dict.fromkeys(s.units for s in self.measured if s.units))
@@ -183,8 +203,10 @@ class InputSet:
             + "; counted once"
             for path, first in dict.fromkeys(self.repeats)
         ]
+        chosen = dict(self.kept_why)
         copies = [
             f"{path}: the same session as {kept} ({why}); counted once"
+            + (f", {kept} kept: {chosen[kept]}" if kept in chosen else "")
             for path, kept, why in self.others
         ]
         empty = [
@@ -202,6 +224,32 @@ class InputSet:
         ]
 
 
+def sessions_said(strands: Iterable[tuple[str, str]], verb: str = "") -> str:
+    """How many sessions ``strands`` are, ``(session id, branch)`` each: ``3 session(s)``,
+    and when some session is in more than one strand (analysed apart), how: a fork's
+    branches, or the parts before and after a part not among the inputs (``verb`` after
+    the count: ``3 session(s) analysed, taken as 5 (...)``). Counts of
+    sessions count sessions (``info``, ``run``, the report), never files or strands."""
+    groups: dict[str, list[str]] = {}
+    for session_id, branch in strands:
+        groups.setdefault(session_id, []).append(branch)
+    n_strands = sum(len(g) for g in groups.values())
+    said = f"{len(groups)} session(s)" + (f" {verb}" if verb else "")
+    if n_strands == len(groups):
+        return said
+    forked = [g for g in groups.values() if len(set(g)) > 1]
+    # Two strands on one branch: a part between them is missing (its later part can only
+    # start a strand of its own).
+    broken = [g for g in groups.values() if len(g) > len(set(g))]
+    how = []
+    if forked:
+        n = sum(len(set(g)) for g in forked)
+        how.append(f"{len(forked)} forked into {n} branches")
+    if broken:
+        how.append(f"{len(broken)} split by a missing part")
+    return f"{said}, taken as {n_strands} ({'; '.join(how)})"
+
+
 def resolve_inputs(paths: str | Path | Sequence[str | Path] | InputSet) -> InputSet:
     """The one resolution of a batch's paths (see the module docstring).
 
@@ -214,10 +262,8 @@ def resolve_inputs(paths: str | Path | Sequence[str | Path] | InputSet) -> Input
         return paths
     if isinstance(paths, str | Path):
         paths = [paths]
-    found: list[FoundSession] = []
-    others: list[tuple[str, str, str]] = []
     skipped: list[str] = []
-    first_of: dict[str, str] = {}
+    by_digest: dict[str, list[str]] = {}  # each content -> its paths, in the order given
     repeats: list[tuple[str, str]] = []
     named: dict[Path, str] = {}  # each file (resolved) -> the path first naming it
     for path in find_sessions(paths, unique=False):
@@ -229,12 +275,17 @@ def resolve_inputs(paths: str | Path | Sequence[str | Path] | InputSet) -> Input
         if is_results_file(path):
             skipped.append(str(path))
             continue
-        digest = file_digest(path)
-        if digest in first_of:  # a byte copy: never read again
-            others.append((str(path), first_of[digest], "a byte copy"))
-            continue
-        first_of[digest] = str(path)
-        found.append(identify_file(path, digest))
+        by_digest.setdefault(file_digest(path), []).append(str(path))
+    found: list[FoundSession] = []
+    others: list[tuple[str, str, str]] = []
+    kept_why: list[tuple[str, str]] = []
+    for digest, copies in by_digest.items():  # byte copies: one read, the others said
+        kept = copies[0]
+        if len(copies) > 1:
+            kept, why = kept_of_copies(copies)
+            kept_why.append((kept, why))
+            others += [(p, kept, "a byte copy") for p in copies if p != kept]
+        found.append(identify_file(kept, digest))
     measuring = [s for s in found if not s.is_board]
     resolution = resolve_session_files(measuring)
     return InputSet(
@@ -244,4 +295,5 @@ def resolve_inputs(paths: str | Path | Sequence[str | Path] | InputSet) -> Input
         repeats=tuple(repeats),
         strands=resolution.strands,
         strand_notes=resolution.notes,
+        kept_why=(*kept_why, *resolution.kept_why),
     )

@@ -13,6 +13,7 @@ import pandas as pd
 from analysis.columns import SUMMARY_COLUMNS, typed
 
 __all__ = [
+    "MIN_INTERVAL_TRIALS",
     "SESSION_SETS",
     "by_session_set",
     "noise_summary",
@@ -20,6 +21,7 @@ __all__ = [
     "session_set",
     "summarize",
     "t95",
+    "too_few_for_interval",
     "used_trials",
     "warned",
 ]
@@ -117,34 +119,57 @@ def summarize(trials: pd.DataFrame, *, include_warned: bool = False) -> pd.DataF
 
 def noise_summary(trials: pd.DataFrame) -> dict[str, object]:
     """A session's noise model (``summary.csv``'s last columns): the placing sigma its
-    regions assumed and where it came from, and sigma0 pooled over its ok trials'
-    misclosures (:func:`twopose.misclosure.pooled`'s rule) with its test. A table from
-    before the columns: not known."""
+    regions assumed, where it came from and the multiplier taken with its degrees of
+    freedom; sigma0 over its unflagged ok trials' misclosures under the typed model, with
+    its chi-square test (:class:`twopose.noise.VarianceFactor`'s rule); the flagged trials.
+    A table from before the columns: not known."""
     from twopose.noise import VarianceFactor
 
     if "misclosure_dof" not in trials:
         return {}
     ok = trials[trials["status"] == "ok"]
-    chi2 = pd.to_numeric(ok["misclosure_chi2"], errors="coerce").to_numpy(dtype=np.float64)
-    dof = pd.to_numeric(ok["misclosure_dof"], errors="coerce").fillna(0).to_numpy()
+    flagged = _flags(ok)
+    kept = ok[~flagged]
+    chi2 = pd.to_numeric(kept["misclosure_chi2"], errors="coerce").to_numpy(dtype=np.float64)
+    dof = pd.to_numeric(kept["misclosure_dof"], errors="coerce").fillna(0).to_numpy()
     use = np.isfinite(chi2) & (dof > 0)
     total = int(dof[use].sum())
     factor = VarianceFactor(
         sigma0_sq=float(chi2[use].sum() / total) if total else np.nan, dof=total
     )
-    widening = pd.to_numeric(ok["noise_widening"], errors="coerce")
+    widening = pd.to_numeric(kept["noise_widening"], errors="coerce")
     sigma = pd.to_numeric(trials["placing_sigma"], errors="coerce")
     sources = [s for s in trials["placing_source"].astype(str) if s]
+    scale = _first_number(trials, "placing_scale")
     rig = {c: str(trials[c].fillna("").iloc[0]) for c in ("rig_file", "rig_sha256") if c in trials}
     return {
         "placing_sigma": float(sigma.median()) if sigma.notna().any() else np.nan,
         "placing_source": sources[0] if sources else "",
+        "placing_scale": scale,
+        "placing_dof": _first_number(trials, "placing_dof"),
         **rig,
         "sigma0": float(np.sqrt(factor.sigma0_sq)) if total else np.nan,
         "sigma0_dof": total,
-        "noise_contradicted": bool((widening > 1).any()),
+        "sigma0_p": factor.p_upper if total else np.nan,
+        "noise_contradicted": factor.contradicted,
         "noise_widening": float(widening.max()) if widening.notna().any() else np.nan,
+        "n_flagged": int(flagged.sum()),
     }
+
+
+def _flags(trials: pd.DataFrame) -> pd.Series:
+    """Which of ``trials`` are flagged (none in a table from before the column)."""
+    if "flagged" not in trials:
+        return pd.Series(data=False, index=trials.index)
+    return trials["flagged"].fillna(value=False).astype(bool)
+
+
+def _first_number(trials: pd.DataFrame, column: str) -> float:
+    """The first known value of a column the session's trials share (NaN: none)."""
+    if column not in trials:
+        return np.nan
+    values = pd.to_numeric(trials[column], errors="coerce").dropna()
+    return float(values.iloc[0]) if len(values) else np.nan
 
 
 def _identity(trials: pd.DataFrame) -> dict[str, str]:
@@ -197,6 +222,19 @@ _T95 = [
 ]
 
 
+#: The fewest trials an interval is given from (``summary.csv``'s ``*_ci95`` columns, the
+#: report, the thesis table, ``compare``'s paired test): from fewer, a bootstrap can only
+#: resample the few values there are (from 2 trials, its 95% interval of the RMSE is their
+#: smaller and larger error), and a t-interval rests on a normality its 4 points cannot
+#: show; so none is given, and the tables say why (:func:`too_few_for_interval`).
+MIN_INTERVAL_TRIALS = 5
+
+
+def too_few_for_interval(n: int) -> str:
+    """Why no interval is shown over ``n`` trials (fewer than :data:`MIN_INTERVAL_TRIALS`)."""
+    return f"{n} trial{'' if n == 1 else 's'}: an interval needs {MIN_INTERVAL_TRIALS}"
+
+
 def t95(dof: int) -> float:
     """The two-sided 95% Student t quantile with ``dof`` degrees of freedom."""
     return _T95[dof - 1] if dof <= len(_T95) else 1.96
@@ -207,7 +245,8 @@ _SIGN_FLIPS = 20000
 
 
 def paired_difference(diff: np.ndarray, seed: int = 0) -> dict[str, float]:
-    """Paired per-trial differences ``diff`` (n,): mean with its 95% t-interval, median,
+    """Paired per-trial differences ``diff`` (n,): mean with its 95% t-interval (from
+    :data:`MIN_INTERVAL_TRIALS` pairs on), median,
     and the two-sided p-value of the sign-flip permutation test of a zero mean (exact for
     up to 16 pairs, else ``_SIGN_FLIPS`` seeded draws; no normality assumed)."""
     d = np.asarray(diff, dtype=np.float64)
@@ -219,7 +258,7 @@ def paired_difference(diff: np.ndarray, seed: int = 0) -> dict[str, float]:
         return out
     mean = float(d.mean())
     out |= {"mean_diff": mean, "median_diff": float(np.median(d))}
-    if n > 1:
+    if n >= MIN_INTERVAL_TRIALS:
         half = t95(n - 1) * float(d.std(ddof=1)) / np.sqrt(n)
         out |= {"ci95_low": mean - half, "ci95_high": mean + half}
     if n <= 16:
@@ -233,20 +272,22 @@ def paired_difference(diff: np.ndarray, seed: int = 0) -> dict[str, float]:
 
 def _error_statistics(trials: pd.DataFrame) -> dict[str, float]:
     """Bias (with 95% t-intervals), spread, RMSE (with a seeded bootstrap interval), median,
-    max, share within 1 unit and 95% coverage, over the trials whose error is known."""
+    max, share within 1 unit and 95% coverage, over the trials whose error is known; the
+    intervals only from :data:`MIN_INTERVAL_TRIALS` trials on (NaN below)."""
     known = trials[trials["err"].notna()]
     err = known[["err_x", "err_y", "err_z"]].to_numpy(dtype=np.float64)
     total = known["err"].to_numpy(dtype=np.float64)
     n = len(known)
     out: dict[str, float] = {}
+    enough = n >= MIN_INTERVAL_TRIALS  # an interval from fewer is none (the constant's note)
     for i, a in enumerate("xyz"):
         out[f"bias_{a}"] = float(err[:, i].mean()) if n else np.nan
         std = float(err[:, i].std(ddof=1)) if n > 1 else np.nan
         out[f"std_{a}"] = std
-        out[f"bias_{a}_ci95"] = t95(n - 1) * std / np.sqrt(n) if n > 1 else np.nan
+        out[f"bias_{a}_ci95"] = t95(n - 1) * std / np.sqrt(n) if enough else np.nan
     with np.errstate(over="ignore"):
         out["rmse"] = float(np.sqrt(np.mean(total**2))) if n else np.nan
-        if n > 1:
+        if enough:
             rng = np.random.default_rng(0)
             draws = total[rng.integers(0, n, size=(2000, n))]
             boot = np.sqrt(np.mean(draws**2, axis=1))

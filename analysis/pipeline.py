@@ -2,7 +2,9 @@
 
 :func:`analyse_session` opens the session file once and runs the named steps below;
 :mod:`analysis.batch` runs it for many sessions. With ``results_path`` it also streams the
-session's results.mcap (:mod:`analysis.results_mcap`) as the frames are detected.
+session's results.mcap (:mod:`analysis.results_mcap`) as the frames are detected. (Near
+600 lines: the steps of one session's analysis, each short, read in order; the tables'
+columns, the results file and the figures are their own modules.)
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from analysis.allocator import keep_frame_buffers
 from analysis.columns import FRAME_COLUMNS, RIG_TABLE_COLUMNS, typed
 from analysis.input_set import SessionIdentity
 from analysis.results import AnalysisOptions, SessionResult
@@ -56,7 +59,13 @@ from twopose.units import UnitSpec, unit_spec
 if TYPE_CHECKING:
     from analysis.figure_cache import FigureCache
 
-__all__ = ["analyse_session", "keep_frame_buffers"]
+__all__ = [
+    "Detections",
+    "analyse_session",
+    "corrected_trials",
+    "keep_frame_buffers",
+    "replay_views",
+]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -84,6 +93,7 @@ def analyse_session(
     figure_cache: FigureCache | None = None,
     continuations: Sequence[str | Path] = (),
     identity: SessionIdentity | None = None,
+    detections: Sequence[Sequence[Detections]] | None = None,
 ) -> SessionResult:
     """Replay one session through detection and the solvers.
 
@@ -116,6 +126,10 @@ def analyse_session(
         What the session is in its run (:meth:`analysis.input_set.InputSet.identity`: its
         id, label, parts and branches); default: from the files alone, labelled by the
         file's name.
+    detections : sequence, optional
+        Per part (the file, then each continuation), per trial, per pose, every frame's
+        detection, as a run's first pass found them (:mod:`analysis.noise_pass`): not
+        detected again.
 
     Returns
     -------
@@ -134,10 +148,14 @@ def analyse_session(
         results = None
         if results_path is not None:
             results = stack.enter_context(_results_writer(Path(results_path), reader))
-        parts = [_replay(reader, str(path), options, results)]
-        for later in continuations:
+        known: list[Sequence[Detections] | None] = (
+            [None] * (1 + len(continuations)) if detections is None else list(detections)
+        )
+        parts = [_replay(reader, str(path), options, results, known=known[0])]
+        for k, later in enumerate(continuations, start=1):
             with SessionReader(later) as part:
-                parts.append(_replay(part, str(path), options, results, part=str(later)))
+                parts.append(_replay(part, str(path), options, results, part=str(later),
+                                     known=known[k]))  # fmt: skip
         replay = _corrected(_joined(parts, [str(p) for p in continuations]), options.rig)
         estimate = estimate_session(replay.trials, options.estimate)
         reported_ = reported(estimate)
@@ -246,7 +264,7 @@ def _joined(parts: list[_Replay], later: list[str]) -> _Replay:
     return dataclasses.replace(
         first,
         trials=trials,
-        metadata={**first.metadata, "continuations": said},
+        metadata={**first.metadata, "continuations": said, **_operators(parts, kept, later)},
         last_ns=[p.last_ns[i] for p, i in pick],
         frame_rows=[r for k, p in enumerate(parts) for r in p.frame_rows if r["trial"] in kept[k]],
         notes=[p.notes[i] for p, i in pick],
@@ -255,32 +273,67 @@ def _joined(parts: list[_Replay], later: list[str]) -> _Replay:
     )
 
 
+def _operators(parts: list[_Replay], kept: list[set[int]], later: list[str]) -> dict[str, str]:
+    """The session's operator, each with the part and trials they recorded when the parts
+    were recorded by more than one (a continuation by another operator is never shown
+    under the first); nothing to change when one recorded them all."""
+    who = [p.metadata.get("operator", "") for p in parts]
+    if len(set(who)) <= 1:
+        return {}
+    names = [Path(parts[0].session).name, *(Path(p).name for p in later)]
+    said = [
+        f"{name or '(none)'} ({file}: {_trial_numbers(sorted(trials))})"
+        for name, file, trials in zip(who, names, kept, strict=True)
+        if trials
+    ]
+    return {"operator": "; ".join(said)}
+
+
+def _trial_numbers(ids: list[int]) -> str:
+    """``trial 3``, ``trials 1-2``, ``trials 1, 3, 5``."""
+    if len(ids) == 1:
+        return f"trial {ids[0]}"
+    if ids == list(range(ids[0], ids[-1] + 1)):
+        return f"trials {ids[0]}-{ids[-1]}"
+    return "trials " + ", ".join(str(i) for i in ids)
+
+
 def _corrected(replay: _Replay, rig: RigConstants | None) -> _Replay:
     """The replay with every view (and the ground) as the rig really had them."""
     if rig is None or rig.is_identity:
         return replay
-    trials = replay.trials
-    corrected = dataclasses.replace(
+    return dataclasses.replace(replay, trials=corrected_trials(replay.trials, rig))
+
+
+def corrected_trials(trials: SessionTrials, rig: RigConstants | None) -> SessionTrials:
+    """The trials with every view (and the ground) as the rig really had them."""
+    if rig is None or rig.is_identity:
+        return trials
+    return dataclasses.replace(
         trials,
         views=[[corrected_view(v, rig) for v in row] for row in trials.views],
         ground=corrected_ground(trials.ground, rig),
     )
-    return dataclasses.replace(replay, trials=corrected)
 
 
 def replay_views(
     path: str | Path,
     options: AnalysisOptions | None = None,
     continuations: Sequence[str | Path] = (),
+    *,
+    keep: list[list[Detections]] | None = None,
 ) -> SessionTrials:
     """A session's trials as the estimation takes them (ids, truth, usable poses), its
     continuations' after its own: what the rig's constants are fitted on
-    (:mod:`analysis.rig.fit`)."""
+    (:mod:`analysis.rig.fit`). ``keep``: each part's detections are appended to it."""
     options = options or AnalysisOptions()
     parts = []
     for part in (path, *continuations):
         with SessionReader(part) as reader:
-            parts.append(_replay(reader, str(path), options, None, part=str(part)))
+            found: list[Detections] | None = None if keep is None else []
+            parts.append(_replay(reader, str(path), options, None, part=str(part), keep=found))
+            if keep is not None and found is not None:
+                keep.append(found)
     return _joined(parts, [str(p) for p in continuations]).trials
 
 
@@ -291,10 +344,14 @@ def _replay(
     results: ResultsWriter | None,
     *,
     part: str | None = None,
+    known: Sequence[Detections] | None = None,
+    keep: list[Detections] | None = None,
 ) -> _Replay:
     """Stream the session trial by trial, detecting the target in every frame; a trial's
     frames are dropped once detected, so memory does not grow with session length.
-    ``part``: the path of the file read (a continuation's; default ``session``)."""
+    ``part``: the path of the file read (a continuation's; default ``session``);
+    ``known``: each trial's detections found before (not detected again); ``keep``: each
+    trial's detections are appended to it."""
     info = reader.info
     if not spec_of(info.method).measures:
         raise InputValueError(
@@ -313,8 +370,15 @@ def _replay(
     notes, unmeasured = [], []
     rig_truth: RigConstants | None = None
     params = getattr(options, TARGET_SPECS[target].options_field)
-    with contextlib.closing(_detected(iter_trials(reader), target, params)) as trials:
+    found = (
+        _detected(iter_trials(reader), target, params)
+        if known is None
+        else _given(iter_trials(reader), known, session)
+    )
+    with contextlib.closing(found) as trials:
         for record, detections in trials:
+            if keep is not None:
+                keep.append(detections)
             if record.simulation_truth is not None and record.simulation_truth.rig is not None:
                 rig_truth = RigConstants.from_vector(record.simulation_truth.rig)
             views.append(_trial_views(record, detections, session, rows, results))
@@ -459,6 +523,16 @@ def _detected(
         pool.shutdown(wait=True, cancel_futures=True)
 
 
+def _given(
+    records: Iterator[TrialRecord], known: Sequence[Detections], session: str
+) -> Generator[tuple[TrialRecord, Detections], None, None]:
+    """Each trial with the detections found before (a run's first pass), in order."""
+    for k, record in enumerate(records):
+        if k >= len(known) or [len(p) for p in known[k]] != [len(pc.frames) for pc in record.poses]:
+            raise SessionFormatError(f"{session} changed since its first pass: analyse it again")
+        yield record, list(known[k])
+
+
 def _size(pc: PoseCapture) -> tuple[int, int]:
     return (pc.camera.intrinsics.width, pc.camera.intrinsics.height)
 
@@ -538,32 +612,3 @@ def _with_figures(
     if why_not:
         note(f"the figures of {result.session} were not drawn ({why_not}); the report says so")
     return dataclasses.replace(result, images=images, figures_reused=reused)
-
-
-_ALLOCATOR_TUNED = False
-
-
-def keep_frame_buffers() -> None:
-    """Let glibc reuse freed frame-sized buffers instead of returning them to the kernel.
-
-    Every frame allocates a few 0.3-1 MB temporaries; above glibc's default 128 KiB mmap
-    threshold each is a fresh mmap, page-faulted and zeroed, then unmapped. That costs
-    memory bandwidth that two workers on two cores share: with the threshold at 32 MiB,
-    a batch with ``jobs=2`` ran ~1.5x faster here. glibc only; a no-op elsewhere.
-    """
-    global _ALLOCATOR_TUNED
-    if _ALLOCATOR_TUNED:
-        return
-    _ALLOCATOR_TUNED = True
-    import ctypes
-    import ctypes.util
-
-    name = ctypes.util.find_library("c")
-    try:
-        libc = ctypes.CDLL(name or "libc.so.6")
-        mallopt = libc.mallopt
-    except (OSError, AttributeError):
-        return
-    m_trim_threshold, m_mmap_threshold = -1, -3  # from glibc's malloc.h
-    mallopt(m_mmap_threshold, 32 * 1024 * 1024)
-    mallopt(m_trim_threshold, 128 * 1024 * 1024)

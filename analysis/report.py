@@ -1,7 +1,8 @@
 """Report: the CSV tables, one PNG per figure (:mod:`analysis.figures`) and a
 self-contained ``report.html`` that answers first: per session set and method (the
 ``thesis_*`` sessions first: the thesis reproduced, then ``stress_*``), then per session.
-The page reads at 1280 px and at 390 px (:mod:`analysis.html_page`)."""
+The page reads at 1280 px and at 390 px (:mod:`analysis.html_page`). (Near the 600-line
+bound: one page, a short function per section; its words and charts live elsewhere.)"""
 
 from __future__ import annotations
 
@@ -15,17 +16,23 @@ import pandas as pd
 from analysis.answer import (
     ANSWER_COLUMNS,
     answer_table,
-    noise_phrases,
     number,
     readable,
     session_order,
     share,
     shown_name,
+    with_branch,
 )
 from analysis.captions import overview_caption, session_caption
 from analysis.charts import session_chart
 from analysis.html_page import chart_html, chart_scripts, page_html, table_html
-from analysis.metrics import SESSION_SETS, by_session_set, session_set, used_trials
+from analysis.metrics import (
+    MIN_INTERVAL_TRIALS,
+    SESSION_SETS,
+    by_session_set,
+    session_set,
+    used_trials,
+)
 from analysis.rig.scope import rig_files_json, rig_lines
 from analysis.run_charts import overview_charts, sensitivity_chart
 from analysis.table_labels import metadata_table, readable_columns, table_units, unit_label
@@ -53,6 +60,7 @@ __all__ = [
 #: The per-trial columns the report shows (every column is in trials.csv).
 REPORT_TRIAL_COLUMNS = [
     "trial",
+    "branch",  # only in a session with a branch (:func:`_trial_table`)
     "status",
     "n_views",
     "x",
@@ -84,6 +92,8 @@ def _trial_table(trials: pd.DataFrame) -> pd.DataFrame:
     """The report's view of a session's trials: what was measured, its error and why not;
     the line's columns only for a line session."""
     columns = [c for c in REPORT_TRIAL_COLUMNS if c in trials]
+    if "branch" in trials and not trials["branch"].astype(str).ne("").any():
+        columns.remove("branch")  # a session that never forked: no column of blanks
     if not any(spec_of(str(m)).estimates_line for m in trials["method"].unique()):
         columns = [c for c in columns if c not in ("angle_err_deg", "dist_err")]
     return trials[columns]
@@ -185,7 +195,8 @@ def summary_document(result: RunResult) -> dict[str, object]:
         "twopose_version": __version__,
         "format_version": FORMAT_VERSION,
         "include_warned": result.include_warned,
-        "n_sessions": len(result.sessions),
+        "n_sessions": result.n_sessions,
+        "n_analysed_apart": len(result.sessions),
         "n_failed": len(result.errors),
         "n_trials": len(result.trials),
         "n_ok": int((result.trials["status"] == "ok").sum()),
@@ -256,11 +267,11 @@ def _answer_section(result: RunResult) -> list[str]:
     inputs = _inputs_section(result)
     parts = [
         "<h1>twopose report</h1>",
-        f"<p>{len(result.sessions)} session(s) analysed, {len(result.errors)} failed, "
+        f"<p>{html.escape(result.sessions_said('analysed'))}, {len(result.errors)} failed, "
         f"{len(result.trials)} trial(s), {n_ok} ok"
         + (
-            f"; {len(result.input_notes)} input(s) not analysed as given"
-            if result.input_notes
+            f"; {len(result.inputs_set_aside)} input(s) not analysed as given"
+            if result.inputs_set_aside
             else ""
         )
         + ".</p>",
@@ -292,7 +303,9 @@ def _answer_section(result: RunResult) -> list[str]:
     parts.append(
         f"<p class='how-to-read'>Pooled over the sessions, over {which}. Errors are distances "
         "from the truth; RMSE with its 95% bootstrap interval, biases (mean error) with the "
-        "half-widths of their 95% intervals; the “truth inside its 95% ellipsoid” column is "
+        f"half-widths of their 95% intervals, each from {MIN_INTERVAL_TRIALS} trials on (from "
+        "fewer, a bootstrap only reshuffles the few errors there are: none is shown, and the "
+        "cell says why); the “truth inside its 95% ellipsoid” column is "
         "the share of trials whose truth lies inside their own 95% uncertainty ellipsoid "
         "(95% when the uncertainty is honest). A table per unit: its “within 1” is 1 of that "
         "unit; the verdict lines count the thesis' 1 in, saying which errors they converted "
@@ -312,38 +325,22 @@ def _answer_section(result: RunResult) -> list[str]:
 def _inputs_line(result: RunResult) -> list[str]:
     """One line above the answer counting the inputs that failed or were left out, with a
     link to their list (after the answer)."""
-    failed, notes = len(result.errors), len(result.input_notes)
-    if not (failed or notes):
+    failed, aside = len(result.errors), len(result.inputs_set_aside)
+    if not (failed or aside):
         return []
     return [
-        f"<p class='inputs-line err'>{failed} input(s) failed and {notes} not analysed as "
-        "given (copies, board sessions, empty sessions): "
+        f"<p class='inputs-line err'>{failed} input(s) failed and {aside} not analysed as "
+        "given (copies, board sessions, empty sessions, files named twice): "
         "<a href='#inputs'>the list, after the answer</a>.</p>"
     ]
 
 
 def _noise_section(result: RunResult) -> list[str]:
-    """Per session, the noise its 95% regions assumed: which placing sigma and where it
-    came from (typed, or measured by a board session: ``run --rig``), and sigma0's test
-    of it by the session's redundant trials (:mod:`twopose.noise`)."""
-    items = [
-        f"<li><b>{html.escape(shown_name(r))}</b>: {html.escape(' '.join(noise_phrases(r)))}</li>"
-        for _, r in session_order(result.summary).iterrows()
-        if noise_phrases(r)
-    ]
-    if not items:
-        return []
-    return [
-        "<h3 id='noise'>The noise model the regions assumed</h3>",
-        "<p>Each trial's 95% region propagates the frames' scatter, the calibration's "
-        "1-sigma and the operator's placing sigma (each pose's typed resolution, or the one a "
-        "board session measured). Trials with redundant measurements (a point from 2 or more "
-        "poses, a line from 3 or more) test that model: sigma0, the a-posteriori variance "
-        "factor pooled over a session, is 1 when it holds. When the data contradict it "
-        "(the chi-square's upper 5%), every region of the session is widened by sigma0 with "
-        "Fisher's F quantile; when they agree, nothing changes (docs/uncertainty.md).</p>",
-        f"<ul class='noise'>{''.join(items)}</ul>",
-    ]
+    """Per session, the noise its 95% regions assumed and the trials whose poses disagree,
+    after the rule applied (:func:`analysis.noise_report.noise_section`)."""
+    from analysis.noise_report import noise_section
+
+    return noise_section(result.summary, result.trials)
 
 
 def _thesis_section(result: RunResult) -> list[str]:
@@ -505,7 +502,8 @@ def _session_sections(result: RunResult) -> list[str]:
     )
     for i in order:  # thesis_* first, as the answer; figures keep the run's numbering
         s = result.sessions[i]
-        parts.append(f"<h3 title='{html.escape(s.session)}'>{html.escape(s.name)}</h3>")
+        heading = with_branch(s.name, s.branch)  # a fork's branch named wherever its trials are
+        parts.append(f"<h3 title='{html.escape(s.session)}'>{html.escape(heading)}</h3>")
         metadata = metadata_table(s.metadata)
         parts.append(table_html(metadata, text=True).replace("<thead>", "<thead hidden>", 1))
         parts.append(_notes(s.metadata))
@@ -513,7 +511,7 @@ def _session_sections(result: RunResult) -> list[str]:
         caption = session_caption(s.trials, include_warned=result.include_warned, units=units)
         try:
             spec = session_chart(
-                s.name,
+                heading,
                 s.trials,
                 s.averaging,
                 s.views,

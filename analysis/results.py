@@ -110,6 +110,21 @@ class SessionResult:
         """Its label, or its file name."""
         return self.label or Path(self.session).name
 
+    @property
+    def session_id(self) -> str:
+        """The session it is (a fork's branches and a session's parts around a missing one
+        are analysed apart, one id): from its trials, else its path."""
+        if "session_id" not in self.trials or self.trials.empty:
+            return self.session
+        return str(self.trials["session_id"].iloc[0]) or self.session
+
+    @property
+    def branch(self) -> str:
+        """The branch its trials end on ("" on a session that never forked)."""
+        if "branch" not in self.trials or self.trials.empty:
+            return ""
+        return str(self.trials["branch"].iloc[-1])
+
 
 @dataclass(frozen=True, kw_only=True)
 class SessionFailure:
@@ -139,10 +154,30 @@ class RunResult:
     #: What the run says about its inputs: copies counted once, board sessions (for
     #: `rig`), empty sessions (analysis.input_set.InputSet.notes)
     input_notes: tuple[str, ...] = ()
+    #: The inputs not analysed as given (:attr:`analysis.input_set.InputSet.set_aside`):
+    #: what the report's counts count, where ``input_notes`` also says how continuations
+    #: and forks were joined (analysed, all of them)
+    inputs_set_aside: tuple[str, ...] = ()
+    #: The folder the run wrote its outputs into; None when it wrote none (no ``out_dir``
+    #: given, or nothing to analyse: then ``--out`` is left as it was).
+    written_to: str | None = None
 
     @property
     def failed(self) -> bool:
         return not self.errors.empty
+
+    @property
+    def n_sessions(self) -> int:
+        """The sessions analysed (a fork's branches are one session: :attr:`sessions`
+        holds each branch on its own)."""
+        return len({s.session_id for s in self.sessions})
+
+    def sessions_said(self, verb: str = "") -> str:
+        """The sessions analysed in words: ``3 session(s)``, and how some were taken apart
+        (:func:`analysis.input_set.sessions_said`)."""
+        from analysis.input_set import sessions_said
+
+        return sessions_said(((s.session_id, s.branch) for s in self.sessions), verb)
 
     @functools.cached_property
     def verdicts(self) -> Verdicts:

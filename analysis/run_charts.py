@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import pandas as pd
 
+from analysis.answer import strand_names
 from analysis.charts import WIDTH, Spec, error_tip, hex_colour, records, who, zoom
 from analysis.metrics import by_session_set, session_set, used_trials
 from twopose.methods import Method, spec_of
@@ -24,7 +25,7 @@ def overview_charts(trials: pd.DataFrame, *, include_warned: bool = False) -> Sp
         return None
     methods = sorted(Method(m) for m in used["method"].unique())
     table = used.assign(
-        session_name=used["label"] if "label" in used else used["session"],
+        session_name=strand_names(trials).loc[used.index],
         set=used["session"].map(lambda s: session_set(s) or "no set"),
         method=used["method"].astype(str),
         trial=used["trial"].astype(int),

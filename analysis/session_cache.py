@@ -1,7 +1,7 @@
 """A session's analysis reused by a re-run into the same output folder.
 
-A session's tables (:class:`~analysis.results.SessionResult`) are a function of four
-things, and its entry in the cache is named by a digest of all four (:meth:`SessionCache.key`):
+A session's tables (:class:`~analysis.results.SessionResult`) are a function of five
+things, and its entry in the cache is named by a digest of all five (:meth:`SessionCache.key`):
 
 * its **identity**: the path it was given by and its continuations' paths, in order, and
   what the run says it is (:class:`~analysis.input_set.SessionIdentity`: its id, label,
@@ -16,6 +16,13 @@ things, and its entry in the cache is named by a digest of all four (:meth:`Sess
   ``--session-timeout``) shape the run's summary, figures or time limit and never a
   session's tables: a re-run that changes only them reuses every session's analysis, and
   writes its own outputs anew (their key holds every option);
+* the **environment**: every setting read from the environment that a result depends on
+  (:func:`twopose.environment.results_environment`, the one declared list the code that
+  applies them reads too: ``TWOPOSE_MAX_IMAGE_MPIX``, ``TWOPOSE_MAX_CHUNK_MB``), as read
+  where the session is analysed;
+* for a session pooled with its operator's other sessions of the run, its **prior** from
+  them (:func:`analysis.noise_pass.prior_salt`, the ``salt`` of :meth:`SessionCache.key`);
+  its first pass (:meth:`SessionCache.noise`) is kept under the session's own key;
 * the **code**: twopose's version, a digest of every file of the ``analysis`` and
   ``twopose`` packages, and the versions of Python, NumPy, pandas and OpenCV.
 
@@ -26,6 +33,11 @@ finishes removes the entries it did not use: the cache holds the last run's sess
 failed session is never cached (a failure may be a time limit or a worker that died). An
 entry that cannot be read is ignored with a note and the session analysed again; only the
 tables, names and plain values an entry is known to hold are unpickled, never other code.
+
+What a run reuses of the previous run's files (each session's ``results_*.mcap``, the
+tables, ``summary.json`` and the report) is checked by the SHA-256 of its bytes, recorded
+when it was written: a file edited since, whatever its size and modification time, is
+written anew.
 """
 
 from __future__ import annotations
@@ -51,6 +63,7 @@ if TYPE_CHECKING:
     import pandas as pd
 
     from analysis.input_set import SessionIdentity
+    from analysis.noise_pass import NoisePass
     from analysis.results import AnalysisOptions, SessionFailure, SessionResult
 
 __all__ = ["CACHE_FOLDER", "SessionCache", "code_version", "options_digest"]
@@ -59,10 +72,13 @@ __all__ = ["CACHE_FOLDER", "SessionCache", "code_version", "options_digest"]
 CACHE_FOLDER = ".twopose-cache"
 _SESSIONS = "sessions"
 _SUFFIX = ".pickle"
-_FORMAT = 1  # an entry's layout; another one is a miss
+_FORMAT = 2  # an entry's layout; another one is a miss
 _STARTED = ".run-started"  # its modification time: entries older were not used by the run
+_OUTPUTS = "outputs.json"  # the last run's outputs: its key and each one's SHA-256
 #: The SessionResult fields an entry keeps (the figures are the figure cache's).
 _FIELDS = ("session", "metadata", "frames", "trials", "averaging", "views", "rig", "label")
+#: The first pass's entries (analysis.noise_pass): their key's salt and their suffix.
+_FIRST_PASS, _FIRST_PASS_SUFFIX = "first pass", ".noise.pickle"
 
 
 @functools.cache
@@ -161,10 +177,17 @@ class SessionCache:
         own = options_digest(options, tables_only=True)
         return dataclasses.replace(self, setting=f"{self.setting}:{own}")
 
-    def key(self, path: str, continuations: Sequence[str], identity: SessionIdentity) -> str:
+    def key(
+        self, path: str, continuations: Sequence[str], identity: SessionIdentity, salt: str = ""
+    ) -> str:
         """The entry's name: a digest of the session's identity, its parts' bytes, the
-        options and the code (see the module docstring)."""
-        h = hashlib.sha256(_text(f"{_FORMAT}\0{self.setting}\0"))
+        options, the environment and the code (see the module docstring); ``salt``: what else
+        the session's analysis depends on (its prior from its operator's other sessions,
+        :func:`analysis.noise_pass.prior_salt`; the first pass's entry)."""
+        from twopose.environment import results_environment
+
+        h = hashlib.sha256(_text(f"{_FORMAT}\0{self.setting}\0{salt}\0"))
+        h.update(_text(json.dumps(_canonical(results_environment()))))
         h.update(_text(json.dumps(_canonical([str(path), [str(c) for c in continuations]]))))
         h.update(_text(json.dumps(_canonical(identity))))
         for part in (path, *continuations):
@@ -179,10 +202,11 @@ class SessionCache:
         identity: SessionIdentity | None,
         results: str | None,
         analyse: Callable[[], SessionResult | SessionFailure],
+        salt: str = "",
     ) -> SessionResult | SessionFailure:
         """Session ``path``'s outcome: the kept analysis when its entry is there (see
-        :meth:`key`), else ``analyse()``'s, kept for the next run when it succeeded and its
-        files did not change while it ran."""
+        :meth:`key`, ``salt`` in it), else ``analyse()``'s, kept for the next run when it
+        succeeded and its files did not change while it ran."""
         parts = (path, *continuations)
         try:
             before = [_stamp(p) for p in parts]
@@ -190,7 +214,7 @@ class SessionCache:
                 from analysis.input_set import SessionIdentity
 
                 identity = SessionIdentity.of_files(path, continuations)
-            key = self.key(path, continuations, identity)
+            key = self.key(path, continuations, identity, salt)
         except OSError:  # unreadable: the analysis says why
             return analyse()
         kept = self.load(key, results)
@@ -204,6 +228,39 @@ class SessionCache:
                 self.store(key, outcome, results)
                 return dataclasses.replace(outcome, analysis_key=key)
         return outcome
+
+    def noise(
+        self,
+        path: str,
+        continuations: Sequence[str],
+        identity: SessionIdentity | None,
+        compute: Callable[[], NoisePass | SessionFailure],
+    ) -> NoisePass | SessionFailure:
+        """Session ``path``'s first pass (:mod:`analysis.noise_pass`): its statistics as
+        the previous run kept them under the session's key, else ``compute()``'s, kept."""
+        from analysis.noise_pass import NoisePass, statistics_from_json, statistics_json
+
+        try:
+            if identity is None:
+                from analysis.input_set import SessionIdentity
+
+                identity = SessionIdentity.of_files(path, continuations)
+            key = self.key(path, continuations, identity, _FIRST_PASS)
+        except OSError:
+            return compute()
+        entry_path = Path(self.folder) / f"{key}{_FIRST_PASS_SUFFIX}"
+        if self.reuse:
+            with contextlib.suppress(Exception):  # unreadable or another's: computed again
+                entry = _SafeUnpickler(io.BytesIO(entry_path.read_bytes())).load()
+                if (entry["format"], entry["key"]) == (_FORMAT, key):
+                    os.utime(entry_path)  # used by this run: kept by prune
+                    return NoisePass(session=path, statistics=statistics_from_json(entry["stats"]))
+        done = compute()
+        if isinstance(done, NoisePass):
+            kept = {"format": _FORMAT, "key": key, "stats": statistics_json(done.statistics)}
+            with contextlib.suppress(Exception):  # a saving, never a reason to fail
+                _write(entry_path, pickle.dumps(kept, protocol=5))
+        return done
 
     def load(self, key: str, results: str | None) -> SessionResult | None:
         """The session as the entry ``key`` keeps it, with its results.mcap linked to
@@ -240,14 +297,16 @@ class SessionCache:
         return result
 
     def _link_scene(self, scene: Any, results: Path) -> bool:
-        """The previous run's results.mcap of the session, unchanged since it was written,
-        linked (or else copied) to ``results``; False when there is none."""
+        """The previous run's results.mcap of the session, its bytes unchanged since it was
+        written (their SHA-256), linked (or else copied) to ``results``; False when there is
+        none."""
         if not isinstance(scene, dict):
             return False
         previous = Path(self.destination) / str(scene.get("name", ""))
         try:
-            st = previous.stat()
-            if (st.st_size, st.st_mtime_ns) != (scene.get("size"), scene.get("mtime_ns")):
+            if Path(str(scene.get("name", ""))).name != scene.get("name"):
+                return False  # a name that reaches out of the folder: not ours
+            if _sha256(previous) != scene.get("sha256"):
                 return False
             results.unlink(missing_ok=True)
             try:
@@ -266,10 +325,9 @@ class SessionCache:
         scene = None
         if results is not None:
             try:
-                st = Path(results).stat()
+                scene = {"name": Path(results).name, "sha256": _sha256(Path(results))}
             except OSError:
                 return  # no results.mcap where one was asked: nothing safe to keep
-            scene = {"name": Path(results).name, "size": st.st_size, "mtime_ns": st.st_mtime_ns}
         entry = {
             "format": _FORMAT,
             "key": key,
@@ -310,44 +368,54 @@ class SessionCache:
     ) -> list[str]:
         """The run's own outputs (tables, summary.json, report) in ``staging``: the
         previous run's, linked, when every session and the ``notes`` on the inputs are the
-        same as then and its files are unchanged; else ``write()``'s, kept for the next run.
-        Their names."""
+        same as then and its files' bytes are unchanged (their SHA-256); else ``write()``'s,
+        kept for the next run. Their names."""
         from analysis.results import SessionResult
 
         keys = [o.analysis_key if isinstance(o, SessionResult) else "" for o in outcomes]
-        if not keys or not all(keys):  # a failure, or a session not kept: written anew
-            return write()
-        h = hashlib.sha256(_text(f"{_FORMAT}\0{self.setting}\0{self.run_setting}\0"))
-        h.update(_text(json.dumps([keys, list(notes)])))
-        run_key = h.hexdigest()
-        index = Path(self.folder).parent / "outputs.json"
-        linked = self._link_outputs(index, run_key, staging) if self.reuse else None
-        if linked is not None:
-            return linked
+        run_key = ""  # a failure, or a session not kept: written anew, never linked
+        if keys and all(keys):
+            h = hashlib.sha256(_text(f"{_FORMAT}\0{self.setting}\0{self.run_setting}\0"))
+            h.update(_text(json.dumps([keys, list(notes)])))
+            run_key = h.hexdigest()
+        index = Path(self.folder).parent / _OUTPUTS
+        if run_key and self.reuse:
+            linked = self._link_outputs(index, run_key, staging)
+            if linked is not None:
+                return linked
         names = write()
-        with contextlib.suppress(OSError):
-            stamps = {n: list(_stamp(str(staging / n))[1:]) for n in names}
-            document = json.dumps({"key": run_key, "files": stamps}, indent=1)
+        with contextlib.suppress(OSError):  # each file's bytes: what the next run checks
+            digests = {n: _sha256(staging / n) for n in names}
+            document = json.dumps({"key": run_key, "files": digests}, indent=1)
             with contextlib.suppress(TwoposeError):
                 _write(index, document.encode())
         return names
 
+    def written_digests(self) -> dict[str, str]:
+        """The SHA-256 of each output the previous run into ``--out`` wrote, by name (its
+        figures' among them: :class:`analysis.figure_cache.FigureCache` reuses only those
+        whose bytes these are); empty when it recorded none."""
+        try:
+            entry = json.loads((Path(self.folder).parent / _OUTPUTS).read_text(encoding="utf-8"))
+            return {str(n): str(v) for n, v in entry["files"].items()}
+        except (OSError, ValueError, KeyError, TypeError, AttributeError):
+            return {}
+
     def _link_outputs(self, index: Path, run_key: str, staging: Path) -> list[str] | None:
-        """The previous run's outputs listed in ``index`` for ``run_key``, each unchanged
-        since it was written (size, modification time), linked into ``staging``."""
+        """The previous run's outputs listed in ``index`` for ``run_key``, each one's bytes
+        unchanged since it was written (its SHA-256), linked into ``staging``."""
         try:
             entry = json.loads(index.read_text(encoding="utf-8"))
-            if entry["key"] != run_key:
+            if not run_key or entry["key"] != run_key:
                 return None
-            files = {str(n): tuple(v) for n, v in entry["files"].items()}
+            files = {str(n): str(v) for n, v in entry["files"].items()}
         except (OSError, ValueError, KeyError, TypeError, AttributeError):
             return None
         linked: list[str] = []
-        for name, stamp in files.items():
+        for name, digest in files.items():
             previous, here = Path(self.destination) / name, staging / name
             try:
-                st = previous.stat()
-                if Path(name).name != name or (st.st_size, st.st_mtime_ns) != stamp:
+                if Path(name).name != name or _sha256(previous) != digest:
                     raise FileNotFoundError(name)
                 here.unlink(missing_ok=True)
                 os.link(previous, here)
@@ -378,6 +446,12 @@ def _stamp(path: str) -> tuple[int, int, int]:
     """What tells a file changed while it was analysed (its bytes are hashed before)."""
     st = os.stat(path)
     return st.st_ino, st.st_size, st.st_mtime_ns
+
+
+def _sha256(path: Path) -> str:
+    """The SHA-256 of a file's bytes (what tells an output was not changed since)."""
+    with open(path, "rb") as fh:
+        return hashlib.file_digest(fh, "sha256").hexdigest()
 
 
 def _write(path: Path, data: bytes) -> None:

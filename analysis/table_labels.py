@@ -16,6 +16,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from types import MappingProxyType
 
+import numpy as np
 import pandas as pd
 
 from analysis.answer import number, share
@@ -58,14 +59,20 @@ def common_units(trials: pd.DataFrame) -> tuple[pd.DataFrame, str]:
 
 
 def _count(value: object) -> str:
+    if isinstance(value, np.number):  # NumPy's integers are no Python int
+        value = value.item()
     if not isinstance(value, int | float) or math.isnan(value):
         return "-"
     return f"{int(value)}"
 
 
 def _flag(value: object) -> str:
+    """yes, no, or ``-`` when not known. A nullable boolean column (``within95``) yields
+    NumPy's booleans, which are no Python ``int``: read as the truth values they are."""
     if isinstance(value, str):
         value = {"true": 1.0, "false": 0.0, "1": 1.0, "0": 0.0}.get(value.strip().lower(), value)
+    if isinstance(value, np.bool_ | np.number):
+        value = value.item()
     if not isinstance(value, int | float) or math.isnan(value):
         return "-"
     return "yes" if value else "no"

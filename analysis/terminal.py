@@ -20,6 +20,7 @@ from analysis.answer import noise_phrases, session_order, shown_name
 from analysis.answer import number as _num
 from analysis.answer import share as _share
 from analysis.metrics import SESSION_SETS, by_session_set, summarize
+from analysis.noise_report import flagged_lines
 from twopose.units import UNIT_SPECS, Units, unit_spec
 
 __all__ = ["UNIT_NAMES", "closing_lines", "summary_lines", "wrap_phrases"]
@@ -78,6 +79,8 @@ def summary_lines(
         if noise:  # the noise model its regions assumed (twopose.noise)
             phrases = [*phrases[:-1], phrases[-1] + ";", *noise]
         lines += wrap_phrases(phrases, width, indent="  ")
+        for flagged in flagged_lines(trials, str(r["session"])):  # poses that disagree
+            lines += wrap_phrases(["flagged:", *flagged.split(" ")], width, indent="    ")
     return lines
 
 
@@ -85,7 +88,10 @@ def _method_rows(part: pd.DataFrame, summary: pd.DataFrame, *, include_warned: b
     """One row per method over ``part``'s trials (one set, one units)."""
     pooled = summarize(part.assign(session="all"), include_warned=include_warned)
     mine = summary[summary["session"].isin(set(part["session"]))]
-    sessions = mine.groupby("method")["session"].nunique()
+    # Sessions, not rows: a fork's branches are one session (so is a session whose middle
+    # part is missing, analysed in two rows).
+    key = "session_id" if "session_id" in mine else "session"
+    sessions = mine.groupby("method")[key].nunique()
     return [
         f"{r['method']!s:<7}{sessions.get(r['method'], 0):>8}{r['n_trials']:>7}"
         f"{r['n_ok']:>5}{r['n_warned']:>7}{_num(r['rmse']):>7}"

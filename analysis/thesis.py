@@ -26,7 +26,14 @@ import math
 import numpy as np
 import pandas as pd
 
-from analysis.metrics import by_session_set, session_set, used_trials, warned
+from analysis.metrics import (
+    MIN_INTERVAL_TRIALS,
+    by_session_set,
+    session_set,
+    too_few_for_interval,
+    used_trials,
+    warned,
+)
 from twopose.methods import METHOD_SPECS, Method, spec_of
 from twopose.units import UNITS, Units, unit_factor
 
@@ -241,10 +248,11 @@ def _interval_verdict(low: float, high: float, band: tuple[float, float]) -> str
 
 
 def _mean_interval(values: np.ndarray) -> tuple[float, float]:
-    """The mean of ``values`` and the half-width of its 95% t-interval (nan below two)."""
+    """The mean of ``values`` and the half-width of its 95% t-interval (nan from fewer than
+    :data:`analysis.metrics.MIN_INTERVAL_TRIALS`)."""
     from analysis.metrics import t95
 
-    if len(values) < 2:
+    if len(values) < MIN_INTERVAL_TRIALS:
         return float(np.mean(values)) if len(values) else math.nan, math.nan
     return float(values.mean()), t95(len(values) - 1) * values.std(ddof=1) / np.sqrt(len(values))
 
@@ -285,6 +293,13 @@ def _x_bias_row(
     bias, half = _mean_interval(g["err_x_in"].to_numpy(dtype=np.float64))
     low, high = bias - half, bias + half
     over = int((g["err_x_in"] > 0).sum())
+    if math.isnan(half):  # its test is an interval: none from so few, so it cannot decide
+        text = (
+            f"x bias {bias:+.2f} in (no interval: {too_few_for_interval(len(g))})"
+            f"{converted_from(g['units'])}, {over} of {len(g)} trials over; test: the "
+            f"interval above 0 (yes) or under {_X_BIAS_MATERIAL_IN:g} in (no)"
+        )
+        return row | {"twopose": text, "reproduced": CANT_TELL}
     text = (
         f"x bias {bias:+.2f} ± {half:.2f} in (95%){converted_from(g['units'])}, "
         f"{over} of {len(g)} trials over; test: "
@@ -346,7 +361,11 @@ def _averaging_row(trials: pd.DataFrame, averaging: pd.DataFrame) -> dict[str, s
     gain, half = _mean_interval(gains)
     lo, hi = _ABOUT_ONE_PERCENT
     if math.isnan(half):
-        text = f"gain {gain:+.2f}% of the target's distance ({len(gains)} trial: no interval)"
+        text = (
+            f"gain {gain:+.2f}% of the target's distance (no interval: "
+            f"{too_few_for_interval(len(gains))}); test: the interval inside {lo:g}-{hi:g}% "
+            "(yes), outside it (no)"
+        )
         return row | {"twopose": text, "reproduced": CANT_TELL}
     text = (
         f"gain {gain:+.2f}% of the target's distance, 95% interval {gain - half:+.2f} to "

@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from analysis import noise_columns as nc
 from twopose.methods import MEASURING_METHODS, METHODS, MethodSpec, spec_of
 from twopose.truth import line_errors
 from twopose.units import UNITS
@@ -285,37 +286,6 @@ def _rejected(measurements: list[PoseMeasurement], views: list[PoseView]) -> str
     )
 
 
-def _placing_sigma(t: TrialResult) -> F64:
-    """The placing sigma each trial's region assumed (:func:`placing_sigmas`)."""
-    from twopose.session_estimate import placing_sigmas
-
-    return placing_sigmas(t.estimate.trials, t.estimate.options, t.estimate.factor)
-
-
-def _placing_source(t: TrialResult) -> list[str]:
-    """Where the placing sigma came from (typed, or measured by which board session)."""
-    from twopose.session_estimate import placing_source
-
-    return [placing_source(t.estimate.options, t.estimate.factor)] * len(t.estimate.trials)
-
-
-def _misclosure_chi2(t: TrialResult) -> F64:
-    """Each trial's misclosure chi-square (NaN: no redundancy, or not tested)."""
-    m = t.estimate.misclosure
-    return np.full(len(t.estimate.trials), np.nan) if m is None else m.chi2
-
-
-def _misclosure_dof(t: TrialResult) -> Any:
-    """Each trial's redundant measurements tested (0: none, or not tested)."""
-    m = t.estimate.misclosure
-    return np.zeros(len(t.estimate.trials), dtype=np.int64) if m is None else m.dof
-
-
-def _noise_widening(t: TrialResult) -> F64:
-    """Each ok trial's region's largest variance against the typed placing's (1: unchanged)."""
-    return t.estimate.estimates.widening
-
-
 def _per_trial(value: Callable[[TrialResult], object]) -> Fill:
     """The same ``value`` for every trial."""
     return lambda t: [value(t)] * len(t.estimate.trials)
@@ -432,18 +402,33 @@ TRIAL_TABLE: tuple[Column, ...] = (
     _text("rejected_frames", "frames rejected", "uncertainty",
           lambda t: [_rejected(ms, vs) if ms else "" for ms, vs in
                      zip(t.estimate.measurements, t.estimate.trials.views, strict=True)]),
-    # the noise model (twopose.noise): the placing sigma assumed, the misclosure's test
-    _length("placing_sigma", "placing sigma assumed", "noise", _placing_sigma, NON_NEGATIVE),
-    _text("placing_source", "placing sigma's source", "noise", _placing_source),
+    # the noise model (twopose.noise): the placing sigma assumed, the misclosure's test,
+    # whether the trial's poses disagree (analysis.noise_columns fills them)
+    _length("placing_sigma", "placing sigma assumed", "noise", nc.placing_sigma, NON_NEGATIVE),
+    _text("placing_source", "placing sigma's source", "noise", nc.placing_source),
+    Column(name="placing_scale", label="placing sigma taken over the one assumed",
+           unit="none", domain=NON_NEGATIVE, group="noise", fill=nc.placing_scale),
+    Column(name="placing_dof", label="placing sigma's degrees of freedom", unit="none",
+           domain=NON_NEGATIVE, group="noise", fill=nc.placing_dof),
     # the rig file the session used (filled by the pipeline, from its options)
     _text("rig_file", "rig file", "noise"),
     _text("rig_sha256", "rig file's SHA-256", "noise"),
     Column(name="misclosure_chi2", label="misclosure chi-square", unit="none",
-           domain=NON_NEGATIVE, group="noise", fill=_misclosure_chi2),
+           domain=NON_NEGATIVE, group="noise", fill=nc.misclosure_chi2),
     Column(name="misclosure_dof", label="misclosure degrees of freedom", unit="count",
-           domain=COUNT, dtype="int64", group="noise", fill=_misclosure_dof),
+           domain=COUNT, dtype="int64", group="noise", fill=nc.misclosure_dof),
+    Column(name="misclosure_p", label="misclosure p-value against the rest", unit="share",
+           domain=SHARE, group="noise", fill=nc.misclosure_p),
+    Column(name="flagged", label="poses disagree (flagged)", unit="none", domain=FLAG,
+           dtype="boolean", group="noise", fill=nc.flagged),
+    Column(name="suspect_pose", label="pose named", unit="count", domain=COUNT,
+           dtype="int64", group="noise", fill=nc.suspect_pose),
+    _text("suspect_axis", "typed component that looks off", "noise", nc.suspect_axis,
+          domain=Domain("one of", ("", "x", "y", "z"))),
+    _length("suspect_offset", "how far it looks off", "noise", nc.suspect_offset, FINITE),
+    _text("disagreement", "the poses' disagreement", "noise", nc.disagreement),
     Column(name="noise_widening", label="covariance widened by", unit="none",
-           domain=NON_NEGATIVE, group="noise", fill=_noise_widening),
+           domain=NON_NEGATIVE, group="noise", fill=nc.noise_widening),
     _text("notes", "operator's notes", "notes",
           lambda t: list(t.notes) if t.notes is not None else [""] * len(t.estimate.trials)),
     # --rig-calibration loo: each trial corrected by its session's other trials' constants

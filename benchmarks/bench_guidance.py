@@ -64,7 +64,7 @@ from twopose.estimate import EstimateOptions, PoseView  # noqa: E402
 from twopose.guidance import MIN_GAIN, THESIS_MOVE_IN, Reach, suggest  # noqa: E402
 from twopose.methods import Method, spec_of  # noqa: E402
 from twopose.noise import NoiseModel  # noqa: E402
-from twopose.paper_search import clear_of_edges, lattice  # noqa: E402
+from twopose.paper import clear_of_edges, lattice  # noqa: E402
 from twopose.session_estimate import SessionTrials, estimate_session  # noqa: E402
 from twopose.sim.scene import load_scene  # noqa: E402
 from twopose.solve import projection_matrices  # noqa: E402

@@ -32,6 +32,9 @@ from numpy.typing import NDArray
 
 from recorder.camera_calibration import fit_views
 from twopose.camera import Intrinsics
+from twopose.checkerboard import board_pattern
+from twopose.pair.board_fit import LensModel
+from twopose.pair.holdout import corner_sigma_px, spacing_sigma, spacings
 from twopose.solve import projection_matrices
 from twopose.two_view import triangulate_two_views
 
@@ -49,10 +52,7 @@ F32 = NDArray[np.float32]
 
 def pattern() -> F32:
     """The board's corners (54, 3) in mm, row by row (OpenCV's corner order)."""
-    cols, rows = BOARD
-    grid = np.zeros((cols * rows, 3), np.float32)
-    grid[:, :2] = np.mgrid[0:cols, 0:rows].T.reshape(-1, 2) * SQUARE_MM
-    return grid
+    return board_pattern(BOARD, SQUARE_MM)
 
 
 def _corners(path: Path) -> F32:
@@ -94,36 +94,7 @@ def _camera(i: Intrinsics) -> tuple[F64, F64]:
 
 def _spacings(points: F64) -> F64:
     """(93,) distances between row and column neighbours of the (54, 3) grid."""
-    cols, rows = BOARD
-    g = points.reshape(rows, cols, 3)
-    along = np.linalg.norm(np.diff(g, axis=1), axis=2).ravel()
-    across = np.linalg.norm(np.diff(g, axis=0), axis=2).ravel()
-    return np.concatenate([along, across])
-
-
-def _spacing_sigma(points: F64, jac: F64, sigma_px: F64) -> F64:
-    """(93,) first-order 1-sigma of each spacing: corners' covariances ``s^2 J J^T``."""
-    cols, rows = BOARD
-    cov = (sigma_px**2)[:, None, None] * np.einsum("pik,pjk->pij", jac, jac)
-    g, c = points.reshape(rows, cols, 3), cov.reshape(rows, cols, 3, 3)
-    out = []
-    for a, b, ca, cb in (
-        (g[:, :-1], g[:, 1:], c[:, :-1], c[:, 1:]),
-        (g[:-1], g[1:], c[:-1], c[1:]),
-    ):
-        d = b - a
-        u = d / np.linalg.norm(d, axis=-1, keepdims=True)
-        var = np.einsum("...i,...ij,...j", u, ca, u) + np.einsum("...i,...ij,...j", u, cb, u)
-        out.append(np.sqrt(var).ravel())
-    return np.concatenate(out)
-
-
-def _pnp_residual(corners: F32, K: F64, dist: F64) -> F64:
-    """(54,) each corner's distance (px) from the board's best single-view pose."""
-    obj = pattern()
-    _, rvec, tvec = cv2.solvePnP(obj, corners, K, dist)
-    projected, _ = cv2.projectPoints(obj, rvec, tvec, K, dist)
-    return np.asarray(np.linalg.norm(projected.reshape(-1, 2) - corners.reshape(-1, 2), axis=1))
+    return spacings(points, BOARD)
 
 
 def held_out(pairs: dict[str, tuple[F32, F32]], held: str) -> Fold:
@@ -167,16 +138,15 @@ def held_out(pairs: dict[str, tuple[F32, F32]], held: str) -> Fold:
             for s in (step, -step)
         ]
         jac[:, :, k] = (ends[0] - ends[1]) / (2 * h)
-    corner_sigma = np.maximum(
-        float(rms), np.maximum(_pnp_residual(left, K1, d1), _pnp_residual(right, K2, d2))
-    )
+    lenses = (LensModel(K=K1, distortion=d1), LensModel(K=K2, distortion=d2))
+    corner_sigma = corner_sigma_px(float(rms), left, right, obj, lenses)
     return Fold(
         held=held,
         stereo_rms_px=float(rms),
         baseline_mm=float(np.linalg.norm(T)),
         depth_mm=float(np.median(points["thesis"][:, 2])),
         errors=errors,
-        sigma_mm=_spacing_sigma(points["thesis"], jac, corner_sigma),
+        sigma_mm=spacing_sigma(points["thesis"], jac, corner_sigma, BOARD),
         corner_sigma_px=corner_sigma,
     )
 

@@ -15,6 +15,7 @@ first use (``import recorder.cli`` stays light)::
     recorder.serve_console_until_stopped(request, given, host=..., port=...)  # new --ui
     recorder.recover_session("cut.mcap", "fixed.mcap")  # recover
     recorder.calibrate(source, (9, 6), 25.0)  # calibrate
+    recorder.calibrate_pair(recorder.PairRequest(...))  # calibrate-pair
 
 The frame sources' registry (:data:`SOURCE_KINDS`, :func:`open_source`), the procedure
 (:class:`Procedure`, :func:`record`) and reading a session to continue
@@ -25,7 +26,6 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from twopose import __version__
 from twopose.lazy import lazy_exports
 
 if TYPE_CHECKING:
@@ -43,12 +43,19 @@ if TYPE_CHECKING:
         record_terminal,
         serve_console_until_stopped,
     )
+    from recorder.pair_calibration import (
+        PairCalibrationRun,
+        PairRequest,
+        calibrate_pair,
+        calibrate_pair_views,
+    )
     from recorder.plan import Plan, load_plan, record_plan
     from recorder.procedure import Procedure, record
     from recorder.recover import RecoveryReport, recover_session
     from recorder.simulate import SimulationSummary, simulate_session
     from recorder.sources import SOURCE_KINDS, FrameSource, SourceKind, SourceOptions, open_source
     from recorder.summary import RecordingSummary
+    from twopose.installed_version import __version__
 
 __all__ = [
     "SOURCE_KINDS",
@@ -56,6 +63,8 @@ __all__ = [
     "Continued",
     "FrameSource",
     "NewRequest",
+    "PairCalibrationRun",
+    "PairRequest",
     "Plan",
     "Procedure",
     "RecordingSummary",
@@ -65,6 +74,8 @@ __all__ = [
     "SourceOptions",
     "__version__",
     "calibrate",
+    "calibrate_pair",
+    "calibrate_pair_views",
     "load_calibration",
     "load_plan",
     "open_source",
@@ -101,6 +112,10 @@ _HOMES = {
     "calibrate": "recorder.camera_calibration",
     "load_calibration": "recorder.camera_calibration",
     "save_calibration": "recorder.camera_calibration",
+    "PairCalibrationRun": "recorder.pair_calibration",
+    "PairRequest": "recorder.pair_calibration",
+    "calibrate_pair": "recorder.pair_calibration",
+    "calibrate_pair_views": "recorder.pair_calibration",
     "SOURCE_KINDS": "recorder.sources",
     "FrameSource": "recorder.sources",
     "SourceKind": "recorder.sources",
@@ -108,6 +123,7 @@ _HOMES = {
     "open_source": "recorder.sources",
     "Continued": "recorder.continuation",
     "read_continued": "recorder.continuation",
+    "__version__": "twopose.installed_version",
 }
 
 

@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 from recorder.sources import FrameSource
 from twopose.arrays import F32
 from twopose.camera import SIGMA_KEYS, Intrinsics, intrinsics_sigma
-from twopose.checkerboard import find_board
+from twopose.checkerboard import board_pattern, find_board, outlier_view
 from twopose.config import read_toml
 from twopose.errors import InputValueError, SessionExistsError, SourceError
 
@@ -43,13 +43,6 @@ __all__ = [
     "save_calibration",
 ]
 
-#: A view is an outlier when its RMS exceeds both this many times the median view's and
-#: :data:`OUTLIER_FLOOR_PX`: a gross failure (a misdetected or misordered corner grid, a
-#: blurred frame: several px), not a view the lens model fits less well at the image's
-#: edge. OpenCV's own left02.jpg (1.2 px, 6x the median 0.19 px) is such a view: it is
-#: the one that teaches the distortion near a corner, and it is kept.
-OUTLIER_FACTOR = 5.0
-OUTLIER_FLOOR_PX = 2.0
 #: The corners should reach beyond this share of the half-diagonal from the image centre
 #: (the outer third of the frame) at least once.
 OUTER_THIRD = 2.0 / 3.0
@@ -78,13 +71,6 @@ class _Views:
     points: list[F32] = field(default_factory=list)
     names: list[str] = field(default_factory=list)
     size: tuple[int, int] | None = None
-
-
-def _board_pattern(board: tuple[int, int], square: float) -> NDArray[np.float32]:
-    cols, rows = board
-    pattern = np.zeros((cols * rows, 3), np.float32)
-    pattern[:, :2] = np.mgrid[0:cols, 0:rows].T.reshape(-1, 2) * square
-    return pattern
 
 
 def _moved(corners: F32, views: _Views, min_motion_px: float) -> bool:
@@ -182,7 +168,7 @@ def calibrate(
             f"found the {cols}x{rows} board in only {len(kept.points)} view(s); need 3 or more "
             "(check --board: inner corners, not squares; show the board at different angles)"
         )
-    return fit_views(kept.points, kept.names, kept.size, _board_pattern(board, square))
+    return fit_views(kept.points, kept.names, kept.size, board_pattern(board, square))
 
 
 def _fit(
@@ -214,9 +200,8 @@ def fit_views(
     rms, K, dist, std, per_view = _fit(image_points, pattern, size)
     dropped: list[str] = []
     while len(image_points) > 3:
-        worst = int(np.argmax(per_view))
-        limit = max(OUTLIER_FACTOR * float(np.median(per_view)), OUTLIER_FLOOR_PX)
-        if per_view[worst] <= limit:
+        worst = outlier_view(per_view)
+        if worst is None:
             break
         dropped.append(f"{names[worst]} (RMS {per_view[worst]:.2f} px)")
         image_points = image_points[:worst] + image_points[worst + 1 :]

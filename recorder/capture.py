@@ -26,7 +26,7 @@ from twopose.methods import Method, spec_of
 
 if TYPE_CHECKING:
     from recorder.trial_result import TrialResult
-    from twopose.detect import Detection
+    from twopose.detect import Detection, RejectedBlob
     from twopose.format.entries import SessionInfo
     from twopose.frames import PoseMeasurement
     from twopose.guidance import Guidance
@@ -142,6 +142,9 @@ class FrameFeedback:
     is_board: bool = False  # a board session's frame: the board's corners were sought
     board_corners: int = 0  # a board session: the inner corners found (all, or none)
     board_coverage: float = math.nan  # the share of the image the corners span
+    #: The blobs a filter turned down, each ``(u, v, radius)`` in pixels: what guidance
+    #: keeps the target from being seen over (:func:`twopose.clutter.seen_clutter`).
+    turned_down_px: tuple[tuple[float, float, float], ...] = ()
 
     def line(self) -> str:
         """What the thesis' GUI showed per frame (section 5.2.4): centroid, orientation
@@ -449,7 +452,17 @@ def _feedback(k: int, d: Detection) -> FrameFeedback:
         reason=d.reason,
         area_px=d.area_px,
         eccentricity=d.eccentricity,
+        turned_down_px=tuple(_extent(b) for b in d.rejected_blobs),
     )
+
+
+def _extent(blob: RejectedBlob) -> tuple[float, float, float]:
+    """A turned-down blob's centroid and radius (its outline's farthest point, pixels)."""
+    u, v = blob.centroid_px
+    if blob.outline_px is None or not len(blob.outline_px):
+        return float(u), float(v), 0.0
+    radius = float(np.linalg.norm(np.asarray(blob.outline_px) - (u, v), axis=1).max())
+    return float(u), float(v), radius
 
 
 def board_feedback(k: int, image: Any, board: BoardPlacement) -> FrameFeedback:

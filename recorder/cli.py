@@ -11,12 +11,40 @@ from typing import TYPE_CHECKING, Annotated, Any, TypeVar
 import typer
 
 from recorder.cli_options import (
+    AdaptiveFramesOption,
+    BoardCornerOption,
+    BoardOption,
+    CalibrationOption,
+    ContinueFromOption,
+    FocalOption,
+    FpsOption,
+    FramesOption,
     GridOption,
+    GroundHeightOption,
+    GroundTruthOption,
+    HeightOption,
+    HostOption,
+    LiveOption,
+    LivePortOption,
     MaxPosesOption,
+    MethodOption,
     MinGainOption,
+    NotesOption,
+    OperatorOption,
+    OutArgument,
+    PlanOption,
+    PortOption,
+    PosesOption,
+    PrincipalOption,
     ReachOption,
+    RigOption,
+    SourceOption,
+    SquareOption,
     TargetDistanceOption,
     TargetPrecisionOption,
+    UiOption,
+    UnitsOption,
+    WidthOption,
 )
 from recorder.cli_options import read_option as _read
 from recorder.sources import source_help
@@ -33,6 +61,9 @@ from twopose.version import VersionOption
 
 if TYPE_CHECKING:
     from recorder.camera_calibration import Calibration
+    from recorder.continuation import Continued
+    from recorder.option_rules import Combination
+    from recorder.setup_rules import GuidanceAsked
     from twopose.camera import Intrinsics
     from twopose.targets import BoardPlacement
 
@@ -59,16 +90,17 @@ def _group(version: VersionOption = False) -> None:
 def simulate(
     out: Annotated[Path, typer.Argument(help="New session file to write (never overwritten).")],
     method: Annotated[Method, typer.Option(help="What the session measures.")],
-    trials: Annotated[int, typer.Option(min=1, help="Trials in the session.")] = 15,
+    trials: Annotated[int, typer.Option(**_read("TRIALS"), help="Trials in the session.")] = 15,
     frames: Annotated[int, typer.Option(**_read("FRAMES"), help="Frames captured per pose.")] = 5,
     seed: Annotated[
-        int, typer.Option(min=0, help="Random seed; the same seed writes the same bytes.")
+        int,
+        typer.Option(**_read("SEED"), help="Random seed; the same seed writes the same bytes."),
     ] = 0,
     pose_noise: Annotated[
         float | None,
         typer.Option(
             "--pose-noise",
-            metavar="SIGMA",
+            **_read("POSE_NOISE"),
             help="Std. dev. of the operator's error on each moving translation axis, "
             "session units [default: the scene's poses.noise_sigma, 0.1 in].",
         ),
@@ -77,7 +109,7 @@ def simulate(
         float | None,
         typer.Option(
             "--typed-resolution",
-            metavar="SIGMA",
+            **_read("TYPED_RESOLUTION"),
             help="The 1-sigma each pose entry records as its resolution, session units: an "
             "operator whose real placing error (--pose-noise) differs from what they type "
             "[default: the scene's poses.typed_resolution, else the real error].",
@@ -124,110 +156,6 @@ def simulate(
     )
 
 
-UiOption = Annotated[
-    bool,
-    typer.Option(
-        "--ui", help="Run the procedure in the browser: serve the console, print its URL."
-    ),
-]
-PortOption = Annotated[int, typer.Option(min=0, max=65535, help="Port of --ui (0: a free one).")]
-HostOption = Annotated[
-    str, typer.Option(help="Address --ui listens on; anything but loopback is warned about.")
-]
-
-
-RigOption = Annotated[
-    Path | None,
-    typer.Option(
-        exists=True,
-        dir_okay=False,
-        help="A calibrated rig (twopose-analyze rig) for the live result and guidance: its "
-        "constants correct every view, and its [placing] (measured by a board session) is "
-        "the placing sigma of every region [default: none: the typed resolution].",
-    ),
-]
-
-
-#: ``new``'s options, one alias each (as :data:`UiOption`), so ``new`` stays readable.
-OutArgument = Annotated[Path, typer.Argument(help="New session file (never overwritten).")]
-PlanOption = Annotated[
-    Path | None,
-    typer.Option(exists=True, dir_okay=False, help="Run this plan (TOML) without prompts."),
-]
-SourceOption = Annotated[str, typer.Option(help=source_help())]
-MethodOption = Annotated[Method | None, typer.Option(help="Asked if not given.")]
-UnitsOption = Annotated[
-    Units | None,
-    typer.Option(is_eager=True, help="Every length's unit. Asked if not given."),
-]
-CalibrationOption = Annotated[
-    Path | None,
-    typer.Option(exists=True, dir_okay=False, help="Intrinsics from `twopose-record calibrate`."),
-]
-FocalOption = Annotated[
-    float | None, typer.Option(**_read("FOCAL"), help="Focal parameter, px (thesis: 525).")
-]
-PrincipalOption = Annotated[str | None, typer.Option(help="Principal point 'cx,cy', px.")]
-GroundHeightOption = Annotated[
-    float | None,
-    typer.Option(**_read("GROUND_HEIGHT"), help="Camera centre to table top (method 2)."),
-]
-GroundTruthOption = Annotated[
-    list[str] | None,
-    typer.Option(help="Measured 'x,y,z' (twice for a line). Asked if not given."),
-]
-BoardOption = Annotated[
-    str | None,
-    typer.Option(help="Board session: the checkerboard's inner corners 'COLSxROWS'."),
-]
-SquareOption = Annotated[
-    float | None,
-    typer.Option(
-        **_read("BOARD_SQUARE"),
-        help="Board session: the board's square side, session units.",
-    ),
-]
-BoardCornerOption = Annotated[
-    str | None,
-    typer.Option(
-        help="Board session: the measured grid point 'x,y,z' of the board's first inner "
-        "corner (lower left, seen from the camera)."
-    ),
-]
-OperatorOption = Annotated[str | None, typer.Option(help="Who records.")]
-NotesOption = Annotated[str, typer.Option(help="Free text about the session.")]
-FramesOption = Annotated[int, typer.Option(**_read("FRAMES"), help="Frames captured per pose.")]
-AdaptiveFramesOption = Annotated[
-    bool,
-    typer.Option(
-        help="--frames is the most: a pose stops at 3 or more frames once another would "
-        "shrink its measurement's variance by less than 5% (the detector's floor "
-        "dominates). A plan sets adaptive_frames."
-    ),
-]
-PosesOption = Annotated[int, typer.Option(**_read("POSES"), help="Poses per trial.")]
-WidthOption = Annotated[int, typer.Option(**_read("IMAGE_SIDE"), help="Camera width to request.")]
-HeightOption = Annotated[int, typer.Option(**_read("IMAGE_SIDE"), help="Camera height to request.")]
-FpsOption = Annotated[float, typer.Option(min=1, help="Camera frame rate to request.")]
-LiveOption = Annotated[
-    bool,
-    typer.Option(
-        help="Serve frames, detections and status to Foxglove (WebSocket, loopback only)."
-    ),
-]
-LivePortOption = Annotated[int, typer.Option(min=0, max=65535, help="Port of --live.")]
-ContinueFromOption = Annotated[
-    Path | None,
-    typer.Option(
-        "--continue",
-        exists=True,
-        dir_okay=False,
-        help="Continue this session (closed, or recovered by `recover`): its setup and "
-        "id, the trials numbered after its last.",
-    ),
-]
-
-
 @app.command()
 def new(
     out: OutArgument,
@@ -244,21 +172,21 @@ def new(
     square: SquareOption = None,
     board_corner: BoardCornerOption = None,
     operator: OperatorOption = None,
-    notes: NotesOption = "",
-    frames: FramesOption = 5,
+    notes: NotesOption = None,
+    frames: FramesOption = None,
     adaptive_frames: AdaptiveFramesOption = False,
-    poses: PosesOption = 2,
-    width: WidthOption = 640,
-    height: HeightOption = 480,
-    fps: FpsOption = 30.0,
+    poses: PosesOption = None,
+    width: WidthOption = None,
+    height: HeightOption = None,
+    fps: FpsOption = None,
     live: LiveOption = False,
-    live_port: LivePortOption = 8765,
+    live_port: LivePortOption = None,
     ui: UiOption = False,
-    port: PortOption = 0,
-    host: HostOption = "127.0.0.1",
+    port: PortOption = None,
+    host: HostOption = None,
     rig: RigOption = None,
     target_precision: TargetPrecisionOption = None,
-    max_poses: MaxPosesOption = 6,
+    max_poses: MaxPosesOption = None,
     reach: ReachOption = None,
     continue_from: ContinueFromOption = None,
     grid: GridOption = None,
@@ -285,8 +213,18 @@ def new(
         rig_file,
         serve_console_until_stopped,
     )
+    from recorder.option_rules import refuse_idle
     from recorder.procedure import refuse_existing
 
+    given = {  # every option by its name, None (False, []) when not given
+        "--plan": plan, "--method": method, "--units": units, "--calibration": calibration,
+        "--focal": focal, "--principal": principal, "--ground-height": ground_height,
+        "--ground-truth": ground_truth, "--board": board, "--square": square,
+        "--board-corner": board_corner, "--operator": operator, "--notes": notes,
+        "--frames": frames, "--poses": poses, "--width": width, "--height": height,
+        "--fps": fps, "--live": live, "--live-port": live_port, "--ui": ui, "--port": port,
+        "--host": host, "--max-poses": max_poses, "--min-gain": min_gain,
+    }  # fmt: skip
     with handle_errors(), contextlib.ExitStack() as stack:
         refuse_existing(out)  # before the first question
         if plan is not None and ui:
@@ -295,79 +233,113 @@ def new(
                 "(the plan's setup and poses are not asked again in the page)"
             )
         guiding = {"--target-precision": target_precision, "--reach": reach, "--grid": grid,
-                   "--target-distance": target_distance, "--min-gain": min_gain}  # fmt: skip
+                   "--target-distance": target_distance, "--min-gain": min_gain,
+                   "--max-poses": max_poses}  # fmt: skip
         guiding["--adaptive-frames"] = True if adaptive_frames else None
-        board_options = _guidance_given(guiding, max_poses, method, planned=plan is not None)
+        board_options = _guidance_given(guiding, method, planned=plan is not None)
+        continued = continued_session(
+            continue_from,
+            operator=operator,  # who records this part: recorded, not ignored
+            method=method, units=units, calibration=calibration, focal=focal,
+            principal=principal, ground_height=ground_height, ground_truth=ground_truth,
+            board=board,
+        )  # fmt: skip
+        asked = replace(
+            guidance_asked(max_poses, reach, grid, target_distance, min_gain),
+            given=tuple(board_options), poses=poses,
+        )  # fmt: skip
+        refuse_idle(_combination(given, source, target_precision, continued))
+        taken = ""  # a plan's continuation: record_planned takes its session's guidance
+        if plan is None:
+            asked, taken = _inherited(asked, continued, target_precision)
         request = NewRequest(
-            out=out,
-            source=source,
-            frames=frames,
-            adaptive_frames=adaptive_frames,
-            poses=poses,
-            camera=CameraMode(width=width, height=height, fps=fps),
-            notes=notes,
-            **rig_file(rig),
-            live_port=live_port if live else None,
-            guidance=replace(
-                guidance_asked(max_poses, reach, grid, target_distance, min_gain),
-                given=tuple(board_options),
-            ),
-            continued=continued_session(
-                continue_from,
-                operator=operator,  # who records this part: recorded, not ignored
-                method=method,
-                units=units,
-                calibration=calibration,
-                focal=focal,
-                principal=principal,
-                ground_height=ground_height,
-                ground_truth=ground_truth,
-                board=board,
-            ),
-        )
+            out=out, source=source, frames=frames or 5, adaptive_frames=adaptive_frames,
+            poses=asked.poses or 2,
+            camera=CameraMode(width=width or 640, height=height or 480, fps=fps or 30.0),
+            notes=notes or "", **rig_file(rig),
+            live_port=(8765 if live_port is None else live_port) if live else None,
+            guidance=asked, continued=continued,
+        )  # fmt: skip
+        host, port = host or "127.0.0.1", port or 0
         if plan is not None:
             summary = record_planned(request, plan, stack)
-        elif request.continued is not None:
+        elif continued is not None:
             if ui:
-                given = continued_given(request.continued, target_precision)
-                serve_console_until_stopped(request, given, host=host, port=port)
+                given_ui = continued_given(continued, target_precision, guidance=taken)
+                serve_console_until_stopped(request, given_ui, host=host, port=port)
                 return
             summary = record_terminal(request, {"target_precision": target_precision}, stack)
         else:
-            given = _console_given(
+            setup = _console_given(
                 method, units, calibration, focal, principal, ground_height, ground_truth, operator,
                 _board_given(method, units, board, square, board_corner), target_precision,
             )  # fmt: skip
             if ui:
-                serve_console_until_stopped(request, given, host=host, port=port)
+                serve_console_until_stopped(request, setup, host=host, port=port)
                 return
-            summary = record_terminal(request, given, stack)
+            summary = record_terminal(request, setup, stack)
     typer.echo(summary.line())
     if summary.interrupted:
         typer.secho("interrupted", err=True)
         raise typer.Exit(EXIT_INTERRUPTED)
 
 
-def _guidance_given(
-    guiding: dict[str, Any], max_poses: int, method: Method | None, *, planned: bool
-) -> list[str]:
-    """The guidance options ``new`` was given (those of ``guiding`` not None, and
-    ``--max-poses`` if not its default); refused for a board session and with a plan."""
+def _combination(
+    given: dict[str, Any], source: str, target: float | None, continued: Continued | None
+) -> Combination:
+    """What ``new`` was given, as :func:`recorder.option_rules.refuse_idle` judges it."""
+    from recorder.option_rules import Combination
+    from recorder.sources import kind_of
+
+    inherited = continued is not None and continued.target95 is not None
+    return Combination(
+        given=frozenset(k for k, v in given.items() if v not in (None, False, [])),
+        source_takes_fps=kind_of(source).takes_fps,
+        target=target is not None or inherited,
+        target_from="--target-precision" if target is not None or continued is None
+        else continued.path.name,
+        continued="" if continued is None else continued.path.name,
+    )  # fmt: skip
+
+
+def _inherited(
+    asked: GuidanceAsked, continued: Continued | None, target: float | None
+) -> tuple[GuidanceAsked, str]:
+    """A continuation's guidance: what the command line gave, else its session's; and the
+    settings taken from the session in words, said once, at the start (the page too)."""
+    if continued is None:
+        return asked, ""
+    from recorder.setup_rules import inherited_words
+
+    units = continued.info.units
+    inherited, said = asked.inherited(continued.guidance, units)
+    if target is None and continued.target95 is not None:
+        said[:0] = inherited_words({"target_95": continued.target95}, units)
+    words = f"guidance from {continued.path.name}: {', '.join(said)}" if said else ""
+    if not said and continued.guidance is None and continued.target95 is None:
+        words = f"guidance: {continued.path.name} recorded none: the defaults"
+    if words:
+        typer.echo(words)
+    return inherited, words
+
+
+def _guidance_given(guiding: dict[str, Any], method: Method | None, *, planned: bool) -> list[str]:
+    """The guidance options ``new`` was given (those of ``guiding`` not None); refused for
+    a board session and with a plan."""
     from recorder.setup_rules import board_refusal
     from twopose.methods import spec_of
 
     given_guidance = [k for k, v in guiding.items() if v is not None]
-    board_options = given_guidance + (["--max-poses"] if max_poses != 6 else [])
-    if method is not None and not spec_of(method).measures and board_options:
-        raise InputValueError(board_refusal(board_options))
-    if planned and (given_guidance or max_poses != 6):
+    if method is not None and not spec_of(method).measures and given_guidance:
+        raise InputValueError(board_refusal(given_guidance))
+    if planned and given_guidance:
         raise InputValueError(
-            f"{', '.join(given_guidance or ['--max-poses'])}: a plan sets its guidance in "
+            f"{', '.join(given_guidance)}: a plan sets its guidance in "
             "its [guidance] table (target_95, reach, spacing, max_poses, target_distance, "
             "min_gain), and "
             "adaptive_frames at its top"
         )
-    return board_options
+    return given_guidance
 
 
 def _console_given(
@@ -488,7 +460,8 @@ def calibrate(
     views: Annotated[
         int | None,
         typer.Option(
-            min=3, help="Stop after this many views (default: every still; 15 from a camera)."
+            **_read("VIEWS"),
+            help="Stop after this many views (default: every still; 15 from a camera).",
         ),
     ] = None,
 ) -> None:
@@ -557,3 +530,9 @@ def recover(
 def main() -> None:
     """The command line's entry point (``[project.scripts]``, ``python -m``)."""
     run_command_line(app)
+
+
+# The pair's calibration lives in its own module (issue 58), registered here.
+from recorder.cli_pair import COMMAND_SETTINGS, calibrate_pair_command  # noqa: E402
+
+app.command("calibrate-pair", context_settings=COMMAND_SETTINGS)(calibrate_pair_command)

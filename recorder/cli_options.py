@@ -1,72 +1,189 @@
-"""The command line's options read by :mod:`twopose.bounds` (one reader, one bound), and
-the guidance options of ``new``: the stop rule, the suggestions' reach, the taped target
-distance and the information-gain stop (issue 46)."""
+"""``new``'s options, one alias each, so that ``new`` stays readable: each number read by
+:mod:`twopose.bounds` (one grammar, one bound: :func:`twopose.options.read_option`), and
+the guidance options: the stop rule, the suggestions' reach, the taped target distance and
+the information-gain stop (issue 46). An option with a default shown in its help defaults
+to None here, so that ``new`` knows which were given (:mod:`recorder.option_rules`)."""
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from pathlib import Path
+from typing import Annotated
 
 import typer
 
+from recorder.sources import source_help
 from twopose.bounds import DEFAULT_MIN_GAIN
-from twopose.errors import InputValueError
+from twopose.methods import Method
+from twopose.options import read_option
 from twopose.units import Units
 
 __all__ = [
+    "AdaptiveFramesOption",
+    "BoardCornerOption",
+    "BoardOption",
+    "CalibrationOption",
+    "ContinueFromOption",
+    "FocalOption",
+    "FpsOption",
+    "FramesOption",
     "GridOption",
+    "GroundHeightOption",
+    "GroundTruthOption",
+    "HeightOption",
+    "HostOption",
+    "LiveOption",
+    "LivePortOption",
     "MaxPosesOption",
+    "MethodOption",
     "MinGainOption",
+    "NotesOption",
+    "OperatorOption",
+    "OutArgument",
+    "PlanOption",
+    "PortOption",
+    "PosesOption",
+    "PrincipalOption",
     "ReachOption",
+    "RigOption",
+    "SourceOption",
+    "SquareOption",
     "TargetDistanceOption",
     "TargetPrecisionOption",
+    "UiOption",
+    "UnitsOption",
+    "WidthOption",
     "read_option",
 ]
 
 
-class _Typed(float):
-    """A number as read from the command line, with the text it was typed as."""
-
-    text: str = ""
-
-
-def read_option(quantity: str) -> dict[str, Any]:
-    """An option's parser and callback: the text as typed, read by the quantity's one
-    reader (:mod:`twopose.bounds`: the grammar and the bound every other path applies), in
-    ``--units`` when they were given (an eager option, read first), else in whichever unit
-    takes it (the setup reads it again once the units are chosen)."""
-    from twopose import bounds
-
-    q: bounds.Quantity = getattr(bounds, quantity)
-    count = q.kind is bounds.Kind.COUNT
-
-    def parse(value: Any) -> Any:
-        if not isinstance(value, str):  # a default
-            return value
-        try:
-            typed = _Typed(q.parse_text(value.strip()))
-        except InputValueError as err:
-            raise typer.BadParameter(str(err)) from None
-        typed.text = value
-        return typed
-
-    def in_units(ctx: typer.Context, value: Any) -> Any:
-        if value is None:
-            return None
-        units = ctx.params.get("units")
-        try:
-            v = q.read(getattr(value, "text", value), Units(units) if units else None)
-        except InputValueError as err:
-            raise typer.BadParameter(str(err)) from None
-        return int(v) if count else v
-
-    lo, hi = q.limits(Units.IN)
-    no_unit = (bounds.Kind.COUNT, bounds.Kind.LENGTH, bounds.Kind.SHARE)
-    unit = "" if q.kind in no_unit else f" {q.unit_label(Units.IN)}"
-    span = "length" if q.kind is bounds.Kind.LENGTH else f"{lo:g}-{hi:g}{unit}"
-    return {"parser": parse, "callback": in_units, "metavar": f"<{span}>"}
-
-
 _read = read_option
+
+UiOption = Annotated[
+    bool,
+    typer.Option(
+        "--ui", help="Run the procedure in the browser: serve the console, print its URL."
+    ),
+]
+PortOption = Annotated[
+    int | None, typer.Option(**_read("PORT"), help="Port of --ui (0: a free one) [default: 0].")
+]
+HostOption = Annotated[
+    str | None,
+    typer.Option(
+        help="Address --ui listens on; anything but loopback is warned about [default: 127.0.0.1]."
+    ),
+]
+
+
+RigOption = Annotated[
+    Path | None,
+    typer.Option(
+        exists=True,
+        dir_okay=False,
+        help="A calibrated rig (twopose-analyze rig) for the live result and guidance: its "
+        "constants correct every view, and its [placing] (measured by a board session) is "
+        "the placing sigma of every region [default: none: the typed resolution].",
+    ),
+]
+
+
+OutArgument = Annotated[Path, typer.Argument(help="New session file (never overwritten).")]
+PlanOption = Annotated[
+    Path | None,
+    typer.Option(exists=True, dir_okay=False, help="Run this plan (TOML) without prompts."),
+]
+SourceOption = Annotated[str, typer.Option(help=source_help())]
+MethodOption = Annotated[Method | None, typer.Option(help="Asked if not given.")]
+UnitsOption = Annotated[
+    Units | None,
+    typer.Option(is_eager=True, help="Every length's unit. Asked if not given."),
+]
+CalibrationOption = Annotated[
+    Path | None,
+    typer.Option(exists=True, dir_okay=False, help="Intrinsics from `twopose-record calibrate`."),
+]
+FocalOption = Annotated[
+    float | None, typer.Option(**_read("FOCAL"), help="Focal parameter, px (thesis: 525).")
+]
+PrincipalOption = Annotated[str | None, typer.Option(help="Principal point 'cx,cy', px.")]
+GroundHeightOption = Annotated[
+    float | None,
+    typer.Option(**_read("GROUND_HEIGHT"), help="Camera centre to table top (method 2)."),
+]
+GroundTruthOption = Annotated[
+    list[str] | None,
+    typer.Option(help="Measured 'x,y,z' (twice for a line). Asked if not given."),
+]
+BoardOption = Annotated[
+    str | None,
+    typer.Option(help="Board session: the checkerboard's inner corners 'COLSxROWS'."),
+]
+SquareOption = Annotated[
+    float | None,
+    typer.Option(
+        **_read("BOARD_SQUARE"),
+        help="Board session: the board's square side, session units.",
+    ),
+]
+BoardCornerOption = Annotated[
+    str | None,
+    typer.Option(
+        help="Board session: the measured grid point 'x,y,z' of the board's first inner "
+        "corner (lower left, seen from the camera)."
+    ),
+]
+OperatorOption = Annotated[str | None, typer.Option(help="Who records.")]
+NotesOption = Annotated[str | None, typer.Option(help="Free text about the session.")]
+FramesOption = Annotated[
+    int | None, typer.Option(**_read("FRAMES"), help="Frames captured per pose [default: 5].")
+]
+AdaptiveFramesOption = Annotated[
+    bool,
+    typer.Option(
+        help="--frames is the most: a pose stops at 3 or more frames once another would "
+        "shrink its measurement's variance by less than 5% (the detector's floor "
+        "dominates). A plan sets adaptive_frames."
+    ),
+]
+PosesOption = Annotated[
+    int | None,
+    typer.Option(
+        **_read("POSES"),
+        help="Poses per trial, without a stop rule (--target-precision) [default: 2].",
+    ),
+]
+WidthOption = Annotated[
+    int | None,
+    typer.Option(**_read("IMAGE_SIDE"), help="Camera width to request [default: 640]."),
+]
+HeightOption = Annotated[
+    int | None,
+    typer.Option(**_read("IMAGE_SIDE"), help="Camera height to request [default: 480]."),
+]
+FpsOption = Annotated[
+    float | None,
+    typer.Option(**_read("FPS"), help="Frame rate to request of a camera [default: 30]."),
+]
+LiveOption = Annotated[
+    bool,
+    typer.Option(
+        help="Serve frames, detections and status to Foxglove (WebSocket, loopback only)."
+    ),
+]
+LivePortOption = Annotated[
+    int | None, typer.Option(**_read("PORT"), help="Port of --live [default: 8765].")
+]
+ContinueFromOption = Annotated[
+    Path | None,
+    typer.Option(
+        "--continue",
+        exists=True,
+        dir_okay=False,
+        help="Continue this session (closed, or recovered by `recover`): its setup and "
+        "id, the trials numbered after its last.",
+    ),
+]
+
 
 TargetPrecisionOption = Annotated[
     float | None,
@@ -77,8 +194,10 @@ TargetPrecisionOption = Annotated[
     ),
 ]
 MaxPosesOption = Annotated[
-    int,
-    typer.Option(**_read("MAX_POSES"), help="With --target-precision: a trial's most poses."),
+    int | None,
+    typer.Option(
+        **_read("MAX_POSES"), help="With --target-precision: a trial's most poses [default: 6]."
+    ),
 ]
 ReachOption = Annotated[
     float | None,

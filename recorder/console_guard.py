@@ -20,11 +20,12 @@ wrapped around the whole app, refuses before any route runs:
 - **413** for a body over :data:`MAX_BODY_BYTES`: refused on its ``Content-Length``
   before a byte is read, and counted while it streams otherwise;
 - **408** for a body that does not arrive within :data:`BODY_TIMEOUT_S`;
-- **400** for a body that is not a JSON object of distinct fields holding text or finite
+- **400** for a body that is not a JSON object of distinct fields holding text or
   numbers of sane size (deeper than :data:`MAX_DEPTH`, a list, an object, NaN or a
-  400-digit number anywhere; numbers are judged as the text they were sent as, by
-  :func:`twopose.values.parse_number`), or with text that is too long or holds control
-  characters;
+  400-digit number anywhere; numbers are judged as the text they were sent as, by the one
+  grammar, :func:`twopose.values.read_number`, and passed on as that text: the field's
+  quantity judges its bound in the words the page's form gets, ``1e309`` included), or
+  with text that is too long or holds control characters;
 - no WebSocket handshake at all (the console has none).
 
 Every response carries ``X-Frame-Options: DENY`` and a ``Content-Security-Policy`` with
@@ -53,7 +54,7 @@ from recorder.loopback import is_loopback_host, split_host
 from twopose import jsonsafe
 from twopose.errors import InputValueError
 from twopose.text import first_control
-from twopose.values import parse_number
+from twopose.values import read_number
 
 __all__ = [
     "MAX_BODY_BYTES",
@@ -138,9 +139,10 @@ def _no_constant(name: str) -> float:
 
 
 class NumberText(str):
-    """A JSON number as the text it was sent as: judged by the one number parser
-    (:func:`twopose.values.parse_number`), never converted by :mod:`json` first (a
-    400-digit integer overflows the float ``math.isfinite`` would make of it)."""
+    """A JSON number as the text it was sent as: judged by the one number grammar
+    (:func:`twopose.values.read_number`), never converted by :mod:`json` first (a
+    400-digit integer overflows the float ``math.isfinite`` would make of it); its field's
+    quantity reads that text as the form's text is read."""
 
     __slots__ = ()
 
@@ -170,7 +172,7 @@ def _value_refusal(key: str, value: Any) -> str:
     """Why one field's value is refused (empty: it is not)."""
     if isinstance(value, NumberText):
         try:
-            parse_number(value, key[:40])
+            read_number(value, key[:40])
         except InputValueError as err:
             return str(err).removeprefix(f"{key[:40]}: ").removeprefix(key[:40] + " ")
         return ""
@@ -183,7 +185,7 @@ def body_refusal(body: bytes) -> tuple[str, dict[str, str]]:
     """Why a request body is refused (an empty message: it is not), and which fields:
     it must be a JSON object of distinct fields, at most :data:`MAX_DEPTH` deep, whose
     values are text of at most :data:`MAX_TEXT_CHARS` characters without control
-    characters, or finite numbers of sane size (:func:`twopose.values.parse_number`)."""
+    characters, or numbers of sane size (:func:`twopose.values.read_number`)."""
     try:
         text = body.decode("utf-8")
     except UnicodeDecodeError:

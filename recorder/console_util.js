@@ -31,6 +31,8 @@ function changed(part, value) {
 }
 
 function num(v, digits = 3) {
+  // A number as the server sent it, as text (a value as the operator gave it), is shown as is.
+  if (typeof v === "string") return v;
   if (v === null || v === undefined || !Number.isFinite(v)) return "–";
   return String(Number(v.toFixed(digits)));
 }

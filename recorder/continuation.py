@@ -2,7 +2,10 @@
 
 ``S`` is a session closed normally or salvaged by ``recover``. The continuation takes its
 setup (method, units, cameras and their calibration, ground plane, the last ground truth
-typed, operator), its session id (a file from before format 1.3 has none: the first 32
+typed, operator), its guidance (the stop rule, a trial's most poses, the least gain, the
+suggestions' reach and grid, the taped target distance: the session entry's ``guidance``,
+format 1.5; from an older file, the note its guidance wrote, when it had a stop rule), its
+session id (a file from before format 1.3 has none: the first 32
 hex digits of its SHA-256 stand for it, so every continuation of it agrees), numbers its
 trials after the last trial ``S`` mentions, and records where it continued
 (``continues``: the trial, the file's name and SHA-256, the part it continues). Each
@@ -29,6 +32,7 @@ from twopose.format.entries import (
     FORMAT_VERSION,
     GroundPlane,
     GroundTruth,
+    GuidanceRecord,
     Note,
     PoseEntry,
     SessionInfo,
@@ -43,9 +47,18 @@ __all__ = ["Continued", "read_continued"]
 
 #: The longest branch name the format allows (``continues.branch``: ``^[A-Z]{0,8}$``).
 _MAX_BRANCH = 8
-#: The stop rule a session recorded, in the note :meth:`twopose.guidance.Guidance.describe`
-#: writes at its start ("guidance: a trial is complete once its 95% region is within 0.8 in,").
-_STOP_RULE = re.compile(r"^guidance: a trial is complete once its 95% region is within (\S+) ")
+#: The guidance a session before format 1.5 recorded, in the note
+#: :meth:`twopose.guidance.Guidance.describe` wrote at its start when it had a stop rule
+#: ("guidance: a trial is complete once its 95% region is within 0.8 in, once the next pose
+#: would shrink it by less than 10%, or at 6 poses; next poses suggested on the 0.5 in grid
+#: within 3 in of the first pose; the target taped 11 in from the first pose").
+_OLD_NOTE = re.compile(
+    r"^guidance: a trial is complete once its 95% region is within (?P<target_95>\S+) \w+, "
+    r"(?:once the next pose would shrink it by less than (?P<share>[0-9.e+-]+)(?P<percent>%)?, )?"
+    r"or at (?P<max_poses>\d+) poses; next poses suggested on the (?P<spacing>\S+) \w+ grid "
+    r"within (?P<reach>\S+) \w+ of the first pose"
+    r"(?:; the target taped (?P<target_distance>\S+) \w+ from the first pose)?$"
+)
 #: How every MCAP file begins (a session's first bytes, even when it was cut short).
 _MCAP_MAGIC = b"\x89MCAP"
 
@@ -66,10 +79,16 @@ class Continued:
     part_id: str
     #: Files beside it already continuing the same part, one per part, by name.
     continued_by: tuple[SessionFile, ...] = ()
-    #: The stop rule the file recorded (its 95% target, session units; None: none).
-    target95: float | None = None
+    #: The guidance the file recorded (format 1.5's session entry, or an older file's
+    #: note; None: none recorded).
+    guidance: GuidanceRecord | None = None
     #: Who records the continuation (``--operator``; None: the session's operator).
     operator: str | None = None
+
+    @property
+    def target95(self) -> float | None:
+        """The stop rule the file recorded (its 95% target, session units; None: none)."""
+        return None if self.guidance is None else self.guidance.target95
 
     @property
     def session_id(self) -> str:
@@ -97,6 +116,7 @@ class Continued:
             part_id=uuid.uuid4().hex,
             continues_part=self.part_id,
             continues_branch=self.branch,
+            guidance=None,  # the continuation's own, recorded as it starts
             created_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
             notes="; ".join(n for n in (notes or self.info.notes, said) if n),
         )
@@ -153,15 +173,15 @@ def read_continued(path: str | Path, *, operator: str | None = None) -> Continue
             info, cameras, ground = reader.info, reader.cameras, reader.ground
             last = 0
             truth: tuple[Vec3, ...] = ()
-            target95 = None
+            guidance = info.guidance
             for entry in reader.iter_entries():
                 trial = getattr(entry, "trial", None)
                 if isinstance(entry, PoseEntry | GroundTruth | Note) and trial:
                     last = max(last, int(trial))
                 if isinstance(entry, GroundTruth):
                     truth = entry.points_grid
-                if isinstance(entry, Note) and entry.trial is None:
-                    target95 = _stop_rule(entry.text, target95)
+                if isinstance(entry, Note) and entry.trial is None and info.guidance is None:
+                    guidance = _old_note(entry.text, guidance)
     except SessionFormatError as err:
         said = str(err).rstrip(".")
         if "not a twopose session" in said:  # a closed MCAP file of something else
@@ -185,19 +205,25 @@ def read_continued(path: str | Path, *, operator: str | None = None) -> Continue
         sha256=identity.digest,
         part_id=identity.part_id,
         continued_by=_continued_beside(identity),
-        target95=target95,
+        guidance=guidance,
         operator=operator,
     )
 
 
-def _stop_rule(note: str, before: float | None) -> float | None:
-    """The stop rule's target a session note records (``before`` if it records none)."""
-    found = _STOP_RULE.match(note)
+def _old_note(note: str, before: GuidanceRecord | None) -> GuidanceRecord | None:
+    """The guidance a note from before format 1.5 records (``before`` if it records none)."""
+    found = _OLD_NOTE.match(note)
     if found is None:
         return before
     try:
-        return float(found.group(1))
-    except ValueError:
+        percent = found.group("percent") is not None  # before 1.5: "less than 10%"
+        numbers = {k: float(v) for k, v in found.groupdict().items() if v and k != "percent"}
+        return GuidanceRecord(
+            target95=numbers["target_95"], max_poses=int(numbers["max_poses"]),
+            min_gain=numbers.get("share", 0.0) / (100 if percent else 1), reach=numbers["reach"],
+            spacing=numbers["spacing"], target_distance=numbers.get("target_distance"),
+        )  # fmt: skip
+    except (ValueError, InputValueError):  # a note that only looks like one
         return before
 
 

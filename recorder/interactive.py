@@ -124,8 +124,9 @@ def ask_setup(  # noqa: PLR0913 - one keyword per setup value the operator may h
     """Ask for whatever is None (or missing) above; answers are checked as they are typed.
     ``intrinsics_sigma`` (a calibration file's) travels with the intrinsics; ``board`` is a
     board session's board, asked part by part where the command line did not give it. The
-    stop rule's precision is asked last (Enter: none) when anything else was: a command
-    line that gives the whole setup is asked nothing (``--target-precision`` sets it).
+    stop rule's precision is asked last (Enter: none) when anything else was and
+    ``--poses`` was not given (a trial's fixed poses: no stop rule): a command line that
+    gives the whole setup is asked nothing (``--target-precision`` sets it).
 
     A value given is checked against its bound in the units chosen
     (:mod:`twopose.bounds`) and refused, never asked again; so are ``guidance``'s options
@@ -170,7 +171,8 @@ def ask_setup(  # noqa: PLR0913 - one keyword per setup value the operator may h
         board = _ask_board(op, u)
     who = operator if operator is not None else _ask(op, "operator", u)
     target = target_precision
-    if target is None and spec_of(m).measures and op.questions > asked_before:
+    fixed = guidance is not None and guidance.poses is not None  # --poses: no stop rule
+    if target is None and spec_of(m).measures and op.questions > asked_before and not fixed:
         target = ask_target(op, u)
     return Setup(
         method=m,
@@ -212,9 +214,9 @@ def _plane_offset(
     """The offset of the method's plane (method 2's ground height): the one given under
     the plane's setup key (``--ground-height``), checked, or asked; None on no plane."""
     plane = spec_of(method).plane
+    refuse_other_planes(method, given)  # another plane's, or any to a method on none
     if plane is None:
         return None
-    refuse_other_planes(method, given)
     if plane.setup_key in given:
         return _given(plane.bound, given[plane.setup_key], units, plane_option(plane.setup_key))
     return float(_ask(op, plane.setup_key, units))

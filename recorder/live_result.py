@@ -11,8 +11,6 @@ operator did, the analysis stays the reference.
 
 from __future__ import annotations
 
-import dataclasses
-import functools
 import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING
@@ -20,38 +18,33 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from recorder.capture import CaptureResult
-from recorder.trial_result import TrialResult, guidance_options, trial_results
+from recorder.trial_result import TrialResult, guidance_options, results_of
 from twopose.camera import Camera
 from twopose.estimate import EstimateOptions, GroundSpec, PoseView, measure, pose_view
 from twopose.format.entries import GroundPlane, GroundTruth, PoseEntry, TypedEntry
 from twopose.guidance import Advice
 from twopose.methods import Method
+from twopose.placing_variance import SessionNoise
 from twopose.rig.constants import RigConstants, check_applicable, corrected_ground, corrected_view
 from twopose.scene3d import TrialScene, scene_of_views
-from twopose.session_estimate import SessionTrials
+from twopose.session_estimate import SessionTrials, estimate_session
+from twopose.session_noise import session_statistics
 from twopose.units import Units
 
-__all__ = ["LiveResults", "MappedAdvice"]
+__all__ = ["LiveResults", "MappedAdvice", "live_results"]
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
+    from recorder.capture import CaptureSettings
+    from twopose.clutter import Clutter
+    from twopose.format.entries import SessionInfo
     from twopose.guidance import Guidance
-    from twopose.region_map import RegionMap
 
 
-@dataclasses.dataclass(frozen=True, kw_only=True)
-class MappedAdvice(Advice):
-    """The advice with the map of every reachable pose's predicted region
-    (:mod:`twopose.region_map`), computed when a driver first asks for it: the console and
-    the terminal show it, a plan (which takes the suggestion) never pays for it."""
-
-    map_of: Callable[[], RegionMap | None] = dataclasses.field(
-        default=lambda: None, repr=False, compare=False
-    )
-
-    @functools.cached_property
-    def region_map(self) -> RegionMap | None:
-        """The map (None: the trial is complete, or no map was asked for)."""
-        return self.map_of()
+#: The advice with the map it is the best of (:attr:`twopose.guidance.Advice.region_map`):
+#: the console and the terminal show the map, a plan takes the suggestion.
+MappedAdvice = Advice
 
 
 class LiveResults:
@@ -80,6 +73,10 @@ class LiveResults:
             )  # fmt: skip
             self._ground = corrected_ground(self._ground, rig)
         self._captures: dict[int, PoseView] = {}  # capture number -> its detections
+        #: the scene's clutter where the source knows it (the synthetic camera), else None
+        self.known_clutter: Clutter | None = None
+        #: capture number -> the blobs its last frame's detector turned down (u, v, r px)
+        self._turned_down: dict[int, tuple[tuple[float, float, float], ...]] = {}
         #: the same as typed: guidance suggests where the operator puts the laptop, on the
         #: grid as typed, not where the rig says its camera then stands
         self._typed: dict[int, PoseView] = {}
@@ -87,6 +84,8 @@ class LiveResults:
         self._views: dict[int, list[PoseView]] = {}  # trial -> its accepted poses, in order
         self._solved: dict[int, tuple[int, ...]] = {}  # trial -> captures last solved
         self.results: dict[int, TrialResult] = {}  # trial -> its latest result
+        #: what the trials so far say of the operator's placing (the noise file keeps it)
+        self.statistics: SessionNoise | None = None
 
     def begin(self, trial: int, entries: Iterable[TypedEntry]) -> None:
         """A trial begins; its ground truth (if typed) is among ``entries``."""
@@ -112,6 +111,7 @@ class LiveResults:
             camera.intrinsics_sigma,
         )
         self._typed[entry.capture] = view
+        self._turned_down[entry.capture] = fb[-1].turned_down_px
         self._captures[entry.capture] = view if self.rig is None else corrected_view(view, self.rig)
 
     def update(self, trial: int, accepted: Mapping[int, PoseEntry]) -> TrialResult | None:
@@ -125,7 +125,7 @@ class LiveResults:
         if len(self._views[trial]) < 2:
             self.results.pop(trial, None)
             return None
-        self.results = self._solve(self._views)
+        self.results = self._solve(self._views, keep=True)
         return self.results[trial]
 
     def preview(self, trial: int, accepted: Mapping[int, PoseEntry]) -> TrialResult | None:
@@ -137,9 +137,12 @@ class LiveResults:
             return None
         return self._solve({**self._views, trial: views})[trial]
 
-    def _solve(self, views: Mapping[int, list[PoseView]]) -> dict[int, TrialResult]:
+    def _solve(
+        self, views: Mapping[int, list[PoseView]], *, keep: bool = False
+    ) -> dict[int, TrialResult]:
         """Every trial with two or more poses, in one batch (the 95% regions pool their
-        frame scatter, as the analysis pools a session's)."""
+        frame scatter, as the analysis pools a session's); ``keep``: their misclosures
+        are the session's statistics now (:attr:`statistics`)."""
         trials = sorted(t for t, v in views.items() if len(v) >= 2)
         session = SessionTrials(
             method=self.method,
@@ -149,15 +152,16 @@ class LiveResults:
             truth=np.array([self._truth.get(t, np.full((2, 3), np.nan)) for t in trials]),
             ground=self._ground,
         )
-        solved = trial_results(session, self.options)
-        return dict(zip(trials, solved, strict=True))
+        estimate = estimate_session(session, self.options)
+        if keep:
+            self.statistics = session_statistics("", estimate.misclosure)
+        return dict(zip(trials, results_of(estimate), strict=True))
 
     def advise(self, trial: int, guidance: Guidance) -> MappedAdvice | None:
         """After a decision: the trial complete, or its next pose (:mod:`twopose.guidance`),
         from its accepted poses and its result now, with the map of every reachable pose
         beside it (:attr:`MappedAdvice.region_map`); None before its first pose."""
         from twopose.guidance import advise
-        from twopose.region_map import region_map
 
         views = [self._typed[c] for c in self._solved.get(trial, ()) if c in self._typed]
         if not views:
@@ -175,28 +179,39 @@ class LiveResults:
         point = np.asarray(result.point) if ok and result is not None else None
         # The session's variance factor, never one estimated from predicted views.
         options = guidance_options(self.options, self.results.values())
-        advice = advise(
+        return advise(
             session,
             guidance,
             options,
             point=None if point is None else point.tolist(),
             region95=result.semiaxis95 if ok and result is not None else math.nan,
+            clutter=self.clutter_for(self._solved.get(trial, ())),
         )
-        said = {f.name: getattr(advice, f.name) for f in dataclasses.fields(advice)}
-        if advice.complete:
-            return MappedAdvice(**said)
-        s = advice.suggestion
-        return MappedAdvice(
-            **said,
-            map_of=lambda: region_map(
-                session,
-                guidance.reach,
-                options,
-                point=point,
-                suggestion=s,
-                target_distance=guidance.target_distance,
-            ),
+
+    def clutter_for(self, captures: Sequence[int]) -> Clutter | None:
+        """What guidance keeps the target from being seen over: the scene's clutter where
+        the source knows it, else the blobs turned down in the last frames of the last of
+        ``captures`` that saw the target (:func:`twopose.clutter.seen_clutter`)."""
+        from twopose.clutter import seen_clutter
+
+        if self.known_clutter is not None:
+            return self.known_clutter
+        seen = [c for c in captures if c in self._typed and self._typed[c].found.any()]
+        if not seen:
+            return None
+        return seen_clutter(self._typed[seen[-1]], self._turned_down.get(seen[-1], ()),
+                            self._ground, Units(self.units))  # fmt: skip
+
+    def remember(self, info: SessionInfo, out: Path, notice: Callable[[str], None]) -> None:
+        """What the recording said of its operator's placing, kept in their noise file
+        (:mod:`recorder.operator_noise`); what went wrong is told to ``notice``."""
+        from recorder.operator_noise import remember_session
+
+        trouble = remember_session(
+            info.operator, info.method, info.units, out, self.options, self.statistics
         )
+        if trouble:
+            notice(trouble)
 
     def scene(self, trial: int) -> TrialScene | None:
         """The trial's geometry for the live view's 3-D panel (None: no result yet)."""
@@ -221,3 +236,23 @@ class LiveResults:
 def _captures_of(accepted: Mapping[int, PoseEntry]) -> tuple[int, ...]:
     """The capture numbers of the accepted poses, in pose order."""
     return tuple(e.capture for _, e in sorted(accepted.items()) if e.capture is not None)
+
+
+def live_results(
+    info: SessionInfo,
+    cameras: Sequence[Camera],
+    ground: GroundPlane | None,
+    settings: CaptureSettings,
+) -> LiveResults:
+    """The live results of a recording: its regions from the rig file's placing sigma (or
+    each pose's typed one), the operator's earlier sessions their prior
+    (:mod:`recorder.operator_noise`); what they start from is said as it starts."""
+    from recorder.operator_noise import live_prior
+
+    estimate = settings.estimate_options()
+    estimate, prior_words = live_prior(info.operator, info.method, estimate)
+    results = LiveResults(info.method, info.units, cameras, ground, estimate, settings.rig)
+    results.notes.insert(0, settings.placing_words(info.units))
+    if prior_words:
+        results.notes.insert(1, prior_words)
+    return results

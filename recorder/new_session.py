@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 import typer
 
 from recorder import stops
+from twopose.bounds import shown
 from twopose.errors import InputValueError
 
 if TYPE_CHECKING:
@@ -65,7 +66,7 @@ class NewRequest:
 
 
 def guidance_asked(
-    max_poses: int = 6, reach: float | None = None, spacing: float | None = None,
+    max_poses: int | None = None, reach: float | None = None, spacing: float | None = None,
     target_distance: float | None = None, min_gain: float | None = None,
 ) -> GuidanceAsked:  # fmt: skip
     from recorder.setup_rules import GuidanceAsked
@@ -101,11 +102,15 @@ def continued_session(
     return continued
 
 
-def continued_given(continued: Continued, target_precision: float | None) -> dict[str, Any]:
+def continued_given(
+    continued: Continued, target_precision: float | None, *, guidance: str = ""
+) -> dict[str, Any]:
     """The browser's setup form, filled with the continued session's setup (read-only,
     each field said to come from its file); the stop rule (the file's unless
     ``--target-precision`` is given) and the operator (``--operator``, else the file's)
-    are the continuation's own, the page's to change unless the command line gave them."""
+    are the continuation's own, the page's to change unless the command line gave them.
+    ``guidance``: the guidance settings taken from the session, in words (the page says
+    them with what it continues)."""
     from recorder.setup_form import SETUP_FIELDS
     from recorder.setup_rules import Setup
 
@@ -125,6 +130,7 @@ def continued_given(continued: Continued, target_precision: float | None) -> dic
         "continuing": {
             "file": name, "path": str(continued.path), "after_trial": continued.last_trial,
             "next_trial": continued.next_trial, "target95": continued.target95,
+            "guidance": guidance,  # the guidance settings taken from it, in words
         },
     }  # fmt: skip
 
@@ -189,7 +195,7 @@ def record_terminal(
         if target is None:
             target = request.continued.target95
         setup = replace(Setup.of(request.continued), target95=target)
-        rule = "none" if target is None else f"95% within {target:g} {setup.units}"
+        rule = "none" if target is None else f"95% within {shown(target)} {setup.units}"
         kept = target is not None and given["target_precision"] is None
         said = f" ({c.path.name}'s)" if kept else ""
         typer.echo(f"  operator {setup.operator or '(none)'}; stop rule: {rule}{said}")
@@ -204,9 +210,10 @@ def record_terminal(
     if refused:
         raise InputValueError("; ".join(refused.values()))
     guidance = asked.guidance(setup.units, request.poses, setup.target95)
+    size = setup.intrinsics  # --width/--height, a calibration's or a continued session's
     src = open_source(
-        request.source, method=setup.method, width=mode.width, height=mode.height, fps=mode.fps,
-        units=setup.units,  # the synthetic scene in the session's units, through its camera
+        request.source, method=setup.method, width=size.width, height=size.height,
+        fps=mode.fps, units=setup.units,  # the scene in the session's units, through its camera
         cameras=[setup.camera()],
     )  # fmt: skip
     port = request.live_port
@@ -238,12 +245,19 @@ def record_planned(
     from recorder.sources import open_source
 
     the_plan = load_plan(plan)
+    if request.continued is not None:  # the session's guidance, where the plan gives none
+        from recorder.plan_file import continued_plan
+
+        the_plan, said = continued_plan(the_plan, request.continued.guidance)
+        if said:
+            typer.echo(f"guidance from {request.continued.path.name}: {', '.join(said)}")
     check_rig(request.rig, the_plan.method, the_plan.units, the_plan.cameras, the_plan.ground())
     mode = request.camera
     recorded = request.continued.cameras if request.continued else the_plan.cameras
+    size = recorded[0].intrinsics  # the size recorded is the size asked of a camera
     src = open_source(
-        request.source, method=the_plan.method, width=mode.width, height=mode.height, fps=mode.fps,
-        units=the_plan.units,  # the synthetic scene in the plan's units, through its cameras
+        request.source, method=the_plan.method, width=size.width, height=size.height,
+        fps=mode.fps, units=the_plan.units,  # the scene in the plan's units, through its cameras
         cameras=recorded,
     )  # fmt: skip
     cameras = list(the_plan.cameras)

@@ -7,18 +7,21 @@ returns.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from recorder.setup_rules import (
+    DEFAULT_MAX_POSES,
     THESIS_FOCAL_PX,
     THESIS_IMAGE_SIZE,
     board_refusal,
     default_principal,
+    inherited_words,
     off_plane,
     other_plane_refusal,
     plane_entry,
+    thesis_reach,
 )
 from twopose.bounds import (
     BOARD_CORNER,
@@ -35,9 +38,11 @@ from twopose.bounds import (
     PRINCIPAL,
     REACH,
     ROTATION,
+    SEED,
     TARGET_DISTANCE,
     TARGET_PRECISION,
     Quantity,
+    shown,
 )
 from twopose.camera import Camera, Intrinsics
 from twopose.config import read_toml
@@ -56,9 +61,10 @@ from twopose.values import Vec3, finite
 
 if TYPE_CHECKING:
     from twopose.format.entries import GroundPlane
+    from twopose.format.guidance_record import GuidanceRecord
 
 
-__all__ = ["Plan", "PlannedPose", "PlannedTrial", "load_plan"]
+__all__ = ["Plan", "PlannedPose", "PlannedTrial", "continued_plan", "load_plan"]
 
 #: The key a pose names the camera it was taken by ([[trials]] poses' ``camera``).
 POSE_CAMERA_KEY = "camera"
@@ -139,6 +145,8 @@ class Plan:
     #: ``[guidance]``: suggestions and the stop rule (with guided trials, or to see them)
     guidance: Guidance | None = None
     placing_seed: int = 0  # the simulated operator's placing error on guided poses
+    #: The keys its ``[guidance]`` gave (a continuation takes the others from its session).
+    guidance_keys: frozenset[str] = frozenset()
 
     def ground(self) -> GroundPlane | None:
         """The method's plane at the plan's offset (method 2's ground ``y = h``), or None."""
@@ -268,7 +276,7 @@ def load_plan(path: str | Path) -> Plan:
     if not isinstance(raw_trials, list) or not raw_trials:
         raise InputValueError("plan: no [[trials]]")
     guidance, seed = _guidance(data.get("guidance"), units)
-    max_poses = guidance.max_poses if guidance is not None else _DEFAULT_MAX_POSES
+    max_poses = guidance.max_poses if guidance is not None else DEFAULT_MAX_POSES
     trials = tuple(
         _trial(t, i, method, units, cameras[0].camera_id, height, max_poses)
         for i, t in enumerate(raw_trials, start=1)
@@ -278,7 +286,8 @@ def load_plan(path: str | Path) -> Plan:
             'plan: poses = "guided" needs a target to locate; a board session plans its poses'
         )
     if guidance is None and any(t.guided for t in trials):
-        guidance = Guidance(reach=Reach.thesis(units), max_poses=max_poses, min_gain=None)
+        guidance = Guidance(reach=thesis_reach(units), max_poses=max_poses, min_gain=None)
+    _refuse_partnerless(data.get("guidance"), guided=any(t.guided for t in trials))
     return Plan(
         method=method,
         units=units,
@@ -294,11 +303,25 @@ def load_plan(path: str | Path) -> Plan:
         board=board,
         guidance=guidance,
         placing_seed=seed,
+        guidance_keys=frozenset(data.get("guidance") or ()),
     )
 
 
-#: A guided trial's most poses when the plan does not say.
-_DEFAULT_MAX_POSES = 6
+def _refuse_partnerless(table: dict[str, Any] | None, *, guided: bool) -> None:
+    """Refuse ``[guidance]`` keys that would have no effect: ``min_gain`` ends a trial
+    early as ``target_95`` does, with it only; ``max_poses`` caps a stop rule's or a
+    guided trial's poses (a planned trial has the poses it lists)."""
+    if not table or "target_95" in table:
+        return
+    idle = [k for k in ("min_gain", "max_poses") if k in table and (k == "min_gain" or not guided)]
+    if idle:
+        keys = " and ".join(f"guidance.{k}" for k in idle)
+        raise InputValueError(
+            f"plan: {keys} would have no effect: {'they shape' if len(idle) > 1 else 'it shapes'} "
+            "the stop rule, which guidance.target_95 sets"
+            + ("" if "min_gain" in idle else ', or a trial of poses = "guided"')
+            + ": give it too, or leave them out"
+        )
 
 
 def _guidance(table: Any, units: Units) -> tuple[Guidance | None, int]:
@@ -311,16 +334,16 @@ def _guidance(table: Any, units: Units) -> tuple[Guidance | None, int]:
     if table is None:
         return None, 0
     g = _known_keys(table, "guidance", "guidance")
-    thesis = Reach.thesis(units)
+    thesis = thesis_reach(units)
     target = g.get("target_95")
     radius = _read(REACH, g.get("reach", thesis.radius), "guidance.reach", units)
     spacing = _read(GRID, g.get("spacing", thesis.spacing), "guidance.spacing", units)
     if spacing > radius:
-        raise InputValueError(f"plan: guidance.spacing {spacing:g} is beyond reach {radius:g}")
-    max_poses = _count(MAX_POSES, g.get("max_poses", _DEFAULT_MAX_POSES), "guidance.max_poses")
-    seed = g.get("seed", 0)
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise InputValueError(f"plan: guidance.seed must be a whole number >= 0, got {seed!r}")
+        raise InputValueError(
+            f"plan: guidance.spacing {shown(spacing)} is beyond reach {shown(radius)}"
+        )
+    max_poses = _count(MAX_POSES, g.get("max_poses", DEFAULT_MAX_POSES), "guidance.max_poses")
+    seed = _count(SEED, g.get("seed", 0), "guidance.seed")
     target95 = (
         None if target is None else _read(TARGET_PRECISION, target, "guidance.target_95", units)
     )
@@ -334,6 +357,36 @@ def _guidance(table: Any, units: Units) -> tuple[Guidance | None, int]:
         # As on the command line: the information-gain stop with a target precision only.
         min_gain=(gain or None) if target95 is not None else None,
     ), seed  # fmt: skip
+
+
+def continued_plan(plan: Plan, record: GuidanceRecord | None) -> tuple[Plan, list[str]]:
+    """A plan continuing a session: each guidance setting its ``[guidance]`` does not give
+    taken from the session's ``record`` (None: it recorded none); and those taken, in words.
+    A plan with no guidance of its own takes the session's whole."""
+    if record is None or not spec_of(plan.method).measures:
+        return plan, []
+    g = plan.guidance or Guidance(reach=thesis_reach(plan.units), min_gain=None)
+    keys = plan.guidance_keys
+    own_target = "target_95" in keys
+    target = g.target95 if own_target else record.target95
+    stop = target is not None  # a trial's most poses and the least gain are a stop rule's
+    offered: dict[str, float | None] = {
+        "target_95": None if own_target else record.target95,
+        "reach": None if "reach" in keys else record.reach,
+        "spacing": None if "spacing" in keys else record.spacing,
+        "target_distance": None if "target_distance" in keys else record.target_distance,
+        "max_poses": None if "max_poses" in keys or not stop else record.max_poses,
+        "min_gain": None if "min_gain" in keys or not stop else record.min_gain,
+    }
+    taken = {k: v for k, v in offered.items() if v is not None}
+    merged = Guidance(
+        reach=Reach(radius=taken.get("reach", g.reach.radius),
+                    spacing=taken.get("spacing", g.reach.spacing)),
+        target95=target, max_poses=int(taken.get("max_poses", g.max_poses)),
+        min_gain=(taken.get("min_gain", g.min_gain) or None) if target is not None else None,
+        target_distance=taken.get("target_distance", g.target_distance),
+    )  # fmt: skip
+    return replace(plan, guidance=merged), inherited_words(taken, plan.units)
 
 
 def _board(table: Any, method: Method, units: Units) -> BoardPlacement | None:

@@ -64,7 +64,8 @@ from recorder.driver import (
     ProcedureRefusedError,
     QuitRecording,
 )
-from recorder.live_result import LiveResults
+from recorder.live_result import LiveResults, live_results
+from recorder.setup_rules import with_guidance
 from recorder.sources import FrameSource, SourceInfo
 from recorder.summary import RecordingSummary, Tally
 from twopose.camera import Camera
@@ -343,6 +344,23 @@ class _CaptureOptions:
     results: LiveResults | None = None  # with live detection: each trial's live result
 
 
+def _announce(
+    w: SessionWriter,
+    info: SessionInfo,
+    settings: CaptureSettings,
+    results: LiveResults | None,
+    driver: Driver,
+) -> None:
+    """What a recording says as it begins: its stop rule, as a note in the file (recorded,
+    not typed: a session ended before its first pose still leaves no file), and the live
+    result's notes to the operator."""
+    guidance = settings.guidance
+    if guidance is not None and guidance.target95 is not None and results is not None:
+        w.write_note(Note(text=guidance.describe(info.units)))
+    for note in getattr(results, "notes", ()):
+        driver.notice(note)
+
+
 def record(  # noqa: PLR0913 - keyword-only settings of a recording
     path: str | Path,
     info: SessionInfo,
@@ -371,15 +389,16 @@ def record(  # noqa: PLR0913 - keyword-only settings of a recording
     settings = capture or CaptureSettings()
     results = None
     if settings.target is not None:  # the live result needs the live detection
-        estimate = settings.estimate_options()  # the rig file's placing sigma, or typed
-        results = LiveResults(info.method, info.units, cameras, ground, estimate, settings.rig)
-        results.notes.insert(0, settings.placing_words(info.units))  # said as it starts
+        results = live_results(info, cameras, ground, settings)
     options = _CaptureOptions(settings=settings, results=results)
+    info = with_guidance(info, settings.guidance)  # format 1.5: recorded, for continuations
     interrupted = False
     proc: Procedure | None = None
     try:
         with contextlib.ExitStack() as stack:
             stack.enter_context(source)  # a stop while it opens: nothing recorded, below
+            if results is not None:  # the scene's clutter, where the source knows it
+                results.known_clutter = source.clutter()
             _check_frame_size(source.info, cameras)  # before the file exists
             w = stack.enter_context(
                 SessionWriter(out, info, cameras, ground=ground, **(writer_options or {}))
@@ -387,13 +406,7 @@ def record(  # noqa: PLR0913 - keyword-only settings of a recording
             proc = Procedure(w, tally)
             proc.trial, driver.first_trial = after_trial, after_trial + 1
             driver.start(source.info, out)
-            guidance = settings.guidance
-            if guidance is not None and guidance.target95 is not None and results is not None:
-                # Recorded, not typed: a session ended before its first pose still leaves
-                # no file.
-                w.write_note(Note(text=guidance.describe(info.units)))
-            for note in getattr(results, "notes", ()):
-                driver.notice(note)
+            _announce(w, info, settings, results, driver)
             try:
                 _run(proc, source, driver, options)
                 stops.check()  # a stop asked as the last step ended: still an interrupt
@@ -417,6 +430,8 @@ def record(  # noqa: PLR0913 - keyword-only settings of a recording
             raise
         interrupted = True
     kept = proc is not None and proc.n_operator_entries > 0
+    if kept and results is not None:  # what it says of the operator's placing, kept
+        results.remember(info, out, driver.notice)
     if not kept and proc is not None:  # an empty session would only block the name
         out.unlink(missing_ok=True)
     counts = proc if proc is not None else _NothingBegun(trial=after_trial)
@@ -520,7 +535,9 @@ def _preview_step(
     assert proc.entry is not None
     results.captured(proc.entry, result)
     if result.complete and proc.accepted:
-        preview = results.preview(proc.trial, {**proc.accepted, proc.pose: proc.entry})
+        # Only informs (the trial re-solved): abandoned at once if a stop comes meanwhile.
+        accepted = {**proc.accepted, proc.pose: proc.entry}
+        preview = stops.abandonable(results.preview, proc.trial, accepted)
         if preview is not None:
             driver.preview_result(preview)
 
@@ -529,14 +546,16 @@ def _result_step(trial: int, proc: Procedure, driver: Driver, opts: _CaptureOpti
     """After a decision: the trial's live result if its accepted poses changed (a second
     pose gives one, a third updates it), to the driver and the live view."""
     assert opts.results is not None
-    result = opts.results.update(trial, proc.accepted)
+    # What is kept for the live result, never for the file: abandoned at once if a stop
+    # comes while the session's trials are re-solved (recorder/stops.py).
+    result = stops.abandonable(opts.results.update, trial, dict(proc.accepted))
     if result is None:
         if trial not in opts.results.results:
             driver.result_withdrawn(trial)
         return
     driver.trial_result(result)
     if opts.settings.live is not None:
-        scene = opts.results.scene(trial)
+        scene = stops.abandonable(opts.results.scene, trial)
         opts.settings.live.trial_result(result, scene, time.time_ns())
 
 

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO
 
-from mcap.exceptions import McapError
+from mcap.exceptions import EndOfFile, InvalidMagic, McapError, RecordLengthLimitExceeded
 from mcap.records import Channel, Chunk, DataEnd, Footer, Message, Metadata
 from mcap.stream_reader import StreamReader, breakup_chunk
 from mcap.writer import CompressionType
@@ -190,12 +190,13 @@ def _salvage(stream: IO[bytes], src: Path, dst: Path, state: _Salvage) -> None:
     limit = max(src.stat().st_size, 1)
     records = StreamReader(stream, emit_chunks=True, record_size_limit=limit).records
     while True:
+        start = stream.tell()  # where the next record begins: where a cut one is said to be
         try:
             record = next(records)
         except StopIteration:
             return
         except (McapError, ValueError, EOFError, OSError, struct.error, MemoryError) as err:
-            state.truncated, state.stop_reason = True, f"{type(err).__name__}: {err}"
+            state.truncated, state.stop_reason = True, _stop_reason(err, start, limit)
             return  # cut or garbled here: keep everything before
         if isinstance(record, Metadata) and record.name == METADATA_NAME and state.out is None:
             state.out = _open_output(dst, record.metadata)
@@ -211,6 +212,24 @@ def _salvage(stream: IO[bytes], src: Path, dst: Path, state: _Salvage) -> None:
                     "this is not a session written by twopose, or its start is damaged"
                 )
             _copy_chunk(record, state.out, state)
+
+
+def _stop_reason(err: Exception, start: int, size: int) -> str:
+    """Where and why the read stopped, in words (an exception's own message may be empty:
+    the reader's ``EndOfFile`` has none)."""
+    if isinstance(err, EndOfFile | EOFError | struct.error | RecordLengthLimitExceeded):
+        # A record longer than what is left of the file: where a cut file ends.
+        what = (
+            f"its last record, from byte {start:,}, runs past the end of the file "
+            f"({size:,} bytes): the recording was not closed (killed, a power cut, a full "
+            "disk) or the file was cut short in a copy"
+        )
+    elif isinstance(err, InvalidMagic):
+        what = f"the bytes at {start:,} of {size:,} are not an MCAP record (garbled there)"
+    else:
+        said = str(err).strip() or type(err).__name__
+        what = f"the record at byte {start:,} of {size:,} cannot be read ({said})"
+    return f"{what}; everything before it is kept"
 
 
 def _copy_chunk(chunk: Chunk, out: _Output, state: _Salvage) -> None:

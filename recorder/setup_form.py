@@ -24,6 +24,7 @@ from recorder.setup_rules import (
     default_principal,
     distinct_point,
     inner_corners,
+    no_plane_refusal,
     number_pair,
     off_plane,
     one_of,
@@ -372,6 +373,9 @@ def setup_from_answers(form: Mapping[str, str], given: Mapping[str, Any]) -> Set
     intrinsics = given.get("intrinsics") or _intrinsics(a, given.get("size", (640, 480)))
     plane = spec_of(method).plane if method is not None else None
     offset = None
+    refused = no_plane_refusal(method, [k for k in given if given[k] is not None]) if method else ""
+    if refused:  # the command line gave a plane's offset to a method on none
+        a.errors["method"] = refused
     if plane is not None:
         # Read as typed: an emptied field is refused, never the thesis' height assumed.
         read_offset = _FIELDS[plane.setup_key].read
@@ -417,7 +421,7 @@ def _intrinsics(a: _Answers, size: tuple[int, int]) -> Intrinsics:
     cx, cy = principal or default_principal(size)
     if not (0 <= cx <= size[0] and 0 <= cy <= size[1]):  # a typo: it lies in the image
         a.errors["principal"] = (
-            f"the principal point ({cx:g}, {cy:g}) px is outside the {size[0]}x{size[1]} "
+            f"the principal point ({shown(cx)}, {shown(cy)}) px is outside the {size[0]}x{size[1]} "
             "image; type a point inside it (its centre if you do not know)"
         )
         return Intrinsics(width=size[0], height=size[1], fx=f, fy=f, cx=size[0] / 2, cy=size[1] / 2)

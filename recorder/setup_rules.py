@@ -13,8 +13,8 @@ from __future__ import annotations
 import time
 import uuid
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING, Any
 
 from twopose.bounds import (
     BOARD_CORNER,
@@ -28,6 +28,7 @@ from twopose.bounds import (
     TARGET_DISTANCE,
     TARGET_PRECISION,
     Quantity,
+    shown,
 )
 from twopose.bounds import MIN_GAIN as MIN_GAIN_BOUND
 from twopose.camera import Camera, Intrinsics
@@ -35,6 +36,7 @@ from twopose.errors import InputValueError
 from twopose.format.entries import (
     DEFAULT_ROTATION_RESOLUTION_DEG,
     GroundPlane,
+    GuidanceRecord,
     SessionInfo,
     default_translation_resolution,
 )
@@ -47,6 +49,7 @@ from twopose.values import Vec3
 if TYPE_CHECKING:
     from recorder.continuation import Continued
     from twopose.guidance import Guidance
+    from twopose.paper import Reach
     from twopose.rig.constants import RigConstants
 
 __all__ = [
@@ -60,7 +63,9 @@ __all__ = [
     "default_plane_offset",
     "default_principal",
     "distinct_point",
+    "inherited_words",
     "inner_corners",
+    "no_plane_refusal",
     "number_pair",
     "off_plane",
     "one_of",
@@ -68,9 +73,12 @@ __all__ = [
     "parse_vector",
     "plane_entry",
     "plane_option",
+    "poses_refusal",
     "reader",
     "refuse_other_planes",
     "target_precision",
+    "thesis_reach",
+    "with_guidance",
 ]
 
 #: The thesis' rig (section 5.2): f = 525 px, principal point at the centre of 640x480 (its
@@ -320,10 +328,23 @@ def other_plane_refusal(method: Method, given: Iterable[str], how: Callable[[str
 
 def refuse_other_planes(method: Method, given: Iterable[str]) -> None:
     """Raise :class:`InputValueError` if the command line (or a caller) gave another
-    plane's offset than the method's (:func:`other_plane_refusal`)."""
-    refused = other_plane_refusal(method, given, plane_option)
+    plane's offset than the method's (:func:`other_plane_refusal`), or any plane's to a
+    method on no plane (``--ground-height`` of a point session was ignored)."""
+    refused = other_plane_refusal(method, given, plane_option) or no_plane_refusal(method, given)
     if refused:
         raise InputValueError(refused)
+
+
+def no_plane_refusal(method: Method, given: Iterable[str]) -> str:
+    """Why a plane's offset given to a method on no plane is refused ("": none given, or
+    the method has a plane): nothing would use it."""
+    keys = sorted(set(given) & {p.setup_key for p in PLANES})
+    if spec_of(method).plane is not None or not keys:
+        return ""
+    return (
+        f"{plane_option(keys[0])}: a {method} session measures on no plane, so nothing "
+        "would use it; leave it out, or choose a method on a plane (ground)"
+    )
 
 
 def off_plane(plane: ConstraintPlane, point: Vec3, offset: float, units: Units) -> str:
@@ -337,7 +358,7 @@ def off_plane(plane: ConstraintPlane, point: Vec3, offset: float, units: Units) 
     a = plane.axis
     return (
         f"the ground truth {point} has {a} = {gap + offset:g} {units}, but {plane.name} is at "
-        f"{a} = {offset:g} {units} ({gap:+g} {units}): the finger points at {plane.name}, "
+        f"{a} = {shown(offset)} {units} ({gap:+g} {units}): the finger points at {plane.name}, "
         f"so its {a} should be the {plane.bound.words}"
     )
 
@@ -355,15 +376,29 @@ def board_corner(text: str, units: Units | None) -> Vec3:
     return parse_vector(text, units, quantity=BOARD_CORNER)
 
 
+def thesis_reach(units: Units) -> Reach:
+    """The thesis' reach (3 in about the first pose, its 1/2 in grid) in ``units``, to six
+    significant digits as every converted bound is (76.2 mm, never 76.19999999999999)."""
+    from twopose.paper import Reach
+
+    exact = Reach.thesis(units)
+    return Reach(radius=float(f"{exact.radius:.6g}"), spacing=float(f"{exact.spacing:.6g}"))
+
+
+#: A trial's most poses under a stop rule when ``--max-poses`` does not say.
+DEFAULT_MAX_POSES = 6
+
+
 @dataclass(frozen=True, kw_only=True)
 class GuidanceAsked:
     """The guidance a recording was asked for (``new``'s options): the most poses of a
-    trial with a stop rule, and the reach of the suggestions (None: the thesis'). The stop
-    rule's precision is the setup's (:attr:`Setup.target95`), given or answered.
-    ``given`` names the guidance options the command line gave (a board session refuses
-    them: :meth:`refusals`)."""
+    trial with a stop rule (None: :data:`DEFAULT_MAX_POSES`), and the reach of the
+    suggestions (None: the thesis'). The stop rule's precision is the setup's
+    (:attr:`Setup.target95`), given or answered. ``given`` names the guidance options the
+    command line gave (a board session refuses them: :meth:`refusals`); ``poses`` is
+    ``--poses`` when it was given (every trial has that many poses: no stop rule)."""
 
-    max_poses: int = 6
+    max_poses: int | None = None
     reach: float | None = None
     spacing: float | None = None
     given: tuple[str, ...] = ()
@@ -373,11 +408,16 @@ class GuidanceAsked:
     #: ``--min-gain``: the information-gain stop's least share (None: the default,
     #: :data:`twopose.guidance.MIN_GAIN`; 0: none). With a target precision only.
     min_gain: float | None = None
+    #: ``--poses`` as given (None: not given): a trial's fixed number of poses.
+    poses: int | None = None
 
-    def refusals(self, method: Method, units: Units) -> dict[str, str]:
-        """Why these options cannot guide a session of ``method`` in ``units``, by the
-        setup field the page shows it at ({}: they can). The terminal, the page and the
-        command line refuse with these words (a plan: :func:`recorder.plan.load_plan`)."""
+    def refusals(
+        self, method: Method, units: Units, target95: float | None = None
+    ) -> dict[str, str]:
+        """Why these options cannot guide a session of ``method`` in ``units`` with the
+        stop rule ``target95``, by the setup field the page shows it at ({}: they can).
+        The terminal, the page and the command line refuse with these words (a plan:
+        :func:`recorder.plan.load_plan`)."""
         if not spec_of(method).measures and self.given:
             return {"method": board_refusal(self.given)}
         errors = {}
@@ -387,6 +427,8 @@ class GuidanceAsked:
             why = quantity.refusal(value, units) if value is not None else ""
             if why:
                 errors["units"] = f"{flag}: {why}"
+        if target95 is not None and self.poses is not None:
+            errors["target_precision"] = poses_refusal(self.poses)
         return errors
 
     def guidance(self, units: Units, poses: int, target95: float | None) -> Guidance:
@@ -394,17 +436,18 @@ class GuidanceAsked:
         has ``poses`` poses (``--poses``), as without guidance."""
         from twopose.guidance import MIN_GAIN, Guidance, Reach
 
-        thesis = Reach.thesis(units)
+        thesis = thesis_reach(units)
         radius = self.reach if self.reach is not None else thesis.radius
         spacing = self.spacing if self.spacing is not None else thesis.spacing
         for value, quantity in ((radius, REACH), (spacing, GRID)):
             quantity.read(value, units)
         if spacing > radius:
             raise InputValueError(
-                f"the grid spacing ({spacing:g} {units}) must be within the reach "
-                f"({radius:g} {units})"
+                f"the grid spacing ({shown(spacing)} {units}) must be within the reach "
+                f"({shown(radius)} {units})"
             )
-        most = MAX_POSES.count(self.max_poses) if target95 is not None else POSES.count(poses)
+        most_asked = DEFAULT_MAX_POSES if self.max_poses is None else self.max_poses
+        most = MAX_POSES.count(most_asked) if target95 is not None else POSES.count(poses)
         distance = self.target_distance
         if distance is not None:
             distance = TARGET_DISTANCE.read(distance, units)
@@ -419,6 +462,67 @@ class GuidanceAsked:
             )  # fmt: skip
         except ValueError as err:
             raise InputValueError(str(err)) from None
+
+    def inherited(
+        self, record: GuidanceRecord | None, units: Units
+    ) -> tuple[GuidanceAsked, list[str]]:
+        """A continuation's guidance: each setting the command line gave, else the one its
+        session recorded (``record``; None: a file that recorded none); and the settings
+        taken from the session, in words (lengths in ``units``). A trial's most poses and
+        the least gain are a stop rule's, taken when the session had one; without one its
+        trials' poses are (``--poses``)."""
+        if record is None:
+            return self, []
+        taken: dict[str, Any] = {}
+        for name, value in (("reach", record.reach), ("spacing", record.spacing),
+                            ("target_distance", record.target_distance)):  # fmt: skip
+            if getattr(self, name) is None and value is not None:
+                taken[name] = value
+        if record.target95 is not None:
+            for name in ("max_poses", "min_gain"):
+                if getattr(self, name) is None:
+                    taken[name] = getattr(record, name)
+        elif self.poses is None:
+            taken["poses"] = record.max_poses
+        return replace(self, **taken), inherited_words(taken, units)
+
+
+def inherited_words(taken: dict[str, Any], units: Units) -> list[str]:
+    """The settings a continuation took from its session (by the record's keys: ``max_poses``,
+    ``reach``, ...; ``poses``: a trial's without a stop rule), each as given, in words."""
+    return [said(taken[k], units) for k, said in _INHERITED_WORDS.items() if k in taken]
+
+
+#: How a setting taken from the continued session is said, in the session's units.
+_INHERITED_WORDS: dict[str, Callable[[Any, Units], str]] = {
+    "target_95": lambda v, u: f"95% within {shown(v)} {u}",
+    "max_poses": lambda v, _: f"at most {shown(v)} poses",
+    "min_gain": lambda v, _: f"least gain {shown(v)}" + (" (none)" if v == 0 else ""),
+    "poses": lambda v, _: f"{shown(v)} poses a trial",
+    "spacing": lambda v, u: f"suggested on the {shown(v)} {u} grid",
+    "reach": lambda v, u: f"within {shown(v)} {u} of the first pose",
+    "target_distance": lambda v, u: f"the target taped {shown(v)} {u} from the first pose",
+}
+
+
+def with_guidance(info: SessionInfo, guidance: Guidance | None) -> SessionInfo:
+    """The session entry recording the guidance a recording runs with (format 1.5; a
+    board session has none)."""
+    if guidance is None or not spec_of(info.method).measures:
+        return info
+    return replace(info, guidance=GuidanceRecord.of(
+        target95=guidance.target95, max_poses=guidance.max_poses, min_gain=guidance.min_gain,
+        reach=guidance.reach.radius, spacing=guidance.reach.spacing,
+        target_distance=guidance.target_distance,
+    ))  # fmt: skip
+
+
+def poses_refusal(poses: int) -> str:
+    """Why ``--poses`` and a stop rule cannot go together (the page, the command line)."""
+    return (
+        f"--poses {poses} gives every trial {poses} poses, and a stop rule ends a trial when "
+        "it is precise enough (at most --max-poses poses): give one of them"
+    )
 
 
 def board_refusal(options: Sequence[str]) -> str:

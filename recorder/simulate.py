@@ -9,11 +9,18 @@ captures ``frames`` frames per pose rendered from the *true* pose. Typed poses g
 ``calibration_sigma`` is recorded with its intrinsics and that sigma, and rendered with true
 intrinsics drawn once per session (:func:`calibrated_cameras`). The same seed gives the same
 bytes.
+
+A simulated session carries a ``session_id`` and a ``part_id`` like a recorded one, each a
+digest of what made it (:func:`simulated_ids`: the method, trials, frames, seed and the
+whole scene): so the same settings write the same session, and a copy of it (byte, cut,
+recovered) is known as that session by every command; other settings are another session.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import hashlib
+import json
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
@@ -45,7 +52,7 @@ from twopose.planes import GROUND_PLANE
 from twopose.sim.camera import SyntheticCamera, camera_pose, true_intrinsics
 from twopose.sim.layout import BOARD_POSES, Layout, board_poses, build_layout, finger_axis
 from twopose.sim.scene import CameraParams, PoseParams, Scene
-from twopose.units import unit_spec
+from twopose.units import Units, unit_spec
 from twopose.values import Vec3
 
 __all__ = [
@@ -54,6 +61,7 @@ __all__ = [
     "draw_trial_poses",
     "poses_per_trial",
     "simulate_session",
+    "simulated_ids",
     "target_points",
 ]
 
@@ -384,18 +392,18 @@ def _scene_with(
 ) -> Scene:
     """The scene with the command line's overrides of its pose noise, the resolution the
     operator types and the pose count."""
+    from twopose.bounds import POSE_NOISE, TYPED_RESOLUTION
+
     scene = scene or Scene()
+    units = Units(scene.units)  # each length's bound in the scene's units (twopose.bounds)
     if pose_noise is not None:
-        if not (pose_noise >= 0 and np.isfinite(pose_noise)):
-            raise InputValueError(f"pose noise must be a finite number >= 0, got {pose_noise}")
-        noise = dataclasses.replace(scene.poses, noise_sigma=float(pose_noise))
+        noise = dataclasses.replace(
+            scene.poses, noise_sigma=float(POSE_NOISE.read(pose_noise, units))
+        )
         scene = dataclasses.replace(scene, poses=noise)
     if typed_resolution is not None:
-        if not (typed_resolution > 0 and np.isfinite(typed_resolution)):
-            raise InputValueError(
-                f"the typed resolution must be a positive length, got {typed_resolution}"
-            )
-        typed = dataclasses.replace(scene.poses, typed_resolution=float(typed_resolution))
+        resolution = float(TYPED_RESOLUTION.read(typed_resolution, units))
+        typed = dataclasses.replace(scene.poses, typed_resolution=resolution)
         scene = dataclasses.replace(scene, poses=typed)
     if poses is not None:
         scene = dataclasses.replace(scene, poses=dataclasses.replace(scene.poses, count=poses))
@@ -417,10 +425,22 @@ def _checked_settings(method: Method, trials: int, frames: int, poses: int | Non
     return checked
 
 
+def simulated_ids(
+    method: Method, trials: int, frames: int, seed: int, scene: Scene
+) -> tuple[str, str]:
+    """A simulated session's ``session_id`` and ``part_id`` (32 hex digits each): halves
+    of one SHA-256 of everything that makes it (``scene`` as simulated: its overrides and
+    drawn calibration applied), so the same settings give the same ids (and bytes)."""
+    made = json.dumps(["twopose simulate", method.value, trials, frames, seed, repr(scene)])
+    digest = hashlib.sha256(made.encode()).hexdigest()
+    return digest[:32], digest[32:]
+
+
 def _session_info(
-    scene: Scene, cameras: list[Camera], method: Method, settings: str
+    scene: Scene, cameras: list[Camera], method: Method, settings: str, ids: tuple[str, str]
 ) -> SessionInfo:
-    """The simulated session's opening entry; its notes say how it was made."""
+    """The simulated session's opening entry (its ``ids``: :func:`simulated_ids`); its
+    notes say how it was made."""
     return SessionInfo(
         method=method,
         units=unit_spec(scene.units).units,
@@ -439,6 +459,8 @@ def _session_info(
         created_utc=datetime.fromtimestamp(SIMULATION_EPOCH_NS / 1e9, UTC).isoformat(),
         simulated=True,
         board=None if spec_of(method).measures else scene.board.placement(),
+        session_id=ids[0],
+        part_id=ids[1],
     )
 
 
@@ -494,7 +516,9 @@ def simulate_session(  # noqa: PLR0913 - keyword-only settings, one per command-
     layout = build_layout(scene, method, rng)  # a board session's: the scene's board alone
     clock = _SimClock(SIMULATION_EPOCH_NS)
     camera = _SimulatedCamera(scene, layout, rng, clock)
-    info = _session_info(scene, cameras, method, f"seed={seed}, trials={trials}, frames={frames}")
+    settings = f"seed={seed}, trials={trials}, frames={frames}"
+    ids = simulated_ids(method, trials, frames, seed, scene)
+    info = _session_info(scene, cameras, method, settings, ids)
     try:
         summary = record(
             out,

@@ -21,15 +21,19 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from twopose.arrays import F64
+from twopose.blunders import TrialTests
 from twopose.estimate import EstimateOptions
 from twopose.methods import spec_of
 from twopose.noise import VarianceFactor, noise_words
 from twopose.session_estimate import SessionEstimate, SessionTrials, estimate_session
 from twopose.truth import line_errors, reported
 from twopose.uncertainty import semiaxis95, uncertainty_columns
+from twopose.units import Units
 
-__all__ = ["STATUS_WORDS", "TrialResult", "guidance_options", "trial_results"]
+__all__ = ["STATUS_WORDS", "TrialResult", "guidance_options", "results_of", "trial_results"]
 
+#: A region widened by at least this (its size) has the noise said on the result's line.
+_SAID_WIDENING = 1.1
 #: A trial's status (trials.csv's codes) in the operator's words.
 STATUS_WORDS = {
     "ok": "solved",
@@ -64,6 +68,9 @@ class TrialResult:
     #: the multiplier of this trial's 95% region's size it applied (1: unchanged).
     factor: VarianceFactor | None = None
     widened: float = 1.0
+    #: Its poses disagree (:mod:`twopose.blunders`): said in words (the analysis' words).
+    flagged: bool = False
+    disagreement: str = ""
 
     @property
     def noise(self) -> str:
@@ -71,8 +78,14 @@ class TrialResult:
         if self.factor is None:
             return ""
         sigma0 = math.sqrt(self.factor.sigma0_sq) if self.factor.tested else math.nan
-        scale = math.sqrt(self.factor.placing_variance)
-        return noise_words(sigma0, self.factor.dof, self.widened, scale)
+        return noise_words(sigma0, self.factor.dof, self.widened, self.factor)
+
+    @property
+    def noise_said(self) -> bool:
+        """Whether the result line says the noise: its region widened by a tenth or more,
+        or sigma0's test rejecting the typed model."""
+        f = self.factor
+        return self.widened >= _SAID_WIDENING or (f is not None and f.contradicted)
 
     def text(self) -> str:
         """The result in one line, then its warning; or why there is none.
@@ -95,7 +108,9 @@ class TrialResult:
                 parts.append(f"95% within {self.semiaxis95:.3f} {self.units}")
             if math.isfinite(self.error):
                 parts.append(f"error {self.error:.3f} {self.units}")
-        if self.widened > 1:  # said only when it changed the region
+        if self.flagged:
+            parts.append(f"WARNING {self.disagreement}")
+        if self.noise_said:  # said when it changed the region, or the test rejects
             parts.append(self.noise)
         if self.warning:
             parts.append(f"WARNING {self.warning}")
@@ -167,6 +182,8 @@ class TrialResult:
             "sigma0_dof": self.factor.dof if self.factor else 0,
             "widened": self.widened,
             "noise": self.noise,
+            "flagged": self.flagged,
+            "disagreement": self.disagreement,
             "text": self.text(),
         }
 
@@ -179,8 +196,14 @@ def trial_results(
     In one batch, as :func:`twopose.session_estimate.estimate_session` estimates a session, and
     compared with the truth by the analysis' rule (:func:`twopose.truth.reported`).
     """
-    estimate = estimate_session(trials, options or EstimateOptions())
+    return results_of(estimate_session(trials, options or EstimateOptions()))
+
+
+def results_of(estimate: SessionEstimate) -> list[TrialResult]:
+    """Every trial's result from the session's estimate (:func:`trial_results`)."""
+    trials = estimate.trials
     est, rep = estimate.estimates, reported(estimate)
+    tests = estimate.tests or TrialTests.none(len(trials))
     spread = uncertainty_columns(rep.error, rep.cov)
     line = spec_of(trials.method).estimates_line
     angle95, angle_err = _line_angles(estimate) if line else (None, None)
@@ -207,6 +230,8 @@ def trial_results(
             angle_err_deg=math.nan if angle_err is None else float(angle_err[i]),
             factor=estimate.factor,
             widened=float(widened[i]) if np.isfinite(widened[i]) else 1.0,
+            flagged=bool(tests.flagged[i]),
+            disagreement=tests.words(i, Units(trials.units), len(trials.views[i])),
         )
         for i, trial in enumerate(trials.trial_ids)
     ]

@@ -21,6 +21,19 @@ REPO = Path(__file__).resolve().parents[1]
 SESSIONS = REPO / "sessions"
 
 
+@pytest.fixture(autouse=True)
+def _operator_noise_apart(
+    monkeypatch: pytest.MonkeyPatch, tmp_path_factory: pytest.TempPathFactory
+) -> None:
+    """Every test's recordings keep their operators' noise files in a folder of its own
+    (recorder.operator_noise), never the user's, never another test's: created when first
+    written, so a test that records nothing pays nothing."""
+    import uuid
+
+    folder = tmp_path_factory.getbasetemp() / "operator-noise" / uuid.uuid4().hex
+    monkeypatch.setenv("TWOPOSE_NOISE_DIR", str(folder))
+
+
 def built_once(
     tmp_path_factory: pytest.TempPathFactory, name: str, build: Callable[[Path], None]
 ) -> Path:

@@ -8,10 +8,12 @@ import json
 import os
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from types import ModuleType
+from typing import Any, TypeVar
 
 import cv2
 import numpy as np
@@ -95,15 +97,89 @@ def jpeg_declaring(width: int, height: int) -> bytes:
 
 
 DASK = Path(sys.executable).with_name("dask")
+T = TypeVar("T")
 
 
-def _wait_for(predicate: Callable[[], bool], timeout_s: float, what: str) -> None:
+def read_when_complete(
+    path: Path,
+    parse: Callable[[str], T],
+    what: str,
+    *,
+    timeout_s: float = 60.0,
+    writer: subprocess.Popen[Any] | None = None,
+) -> T:
+    """``parse(text)`` of ``path``, a file another process writes, once it is complete:
+    read again until it exists and parses (a writer that does not rename its file into
+    place is seen half-written: an empty file, a JSON object without its end), for at
+    most ``timeout_s``, or until ``writer`` exits. Gives up saying what it waited for,
+    where, and what it last found."""
     deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        if predicate():
-            return
-        time.sleep(0.1)
-    raise AssertionError(f"timed out waiting for {what}")
+    found = "it does not exist"
+    while True:
+        try:
+            text = path.read_text(encoding="utf-8")
+        except FileNotFoundError:
+            found = "it does not exist"
+        else:
+            try:
+                return parse(text)
+            except (ValueError, KeyError, TypeError) as error:  # JSONDecodeError: a ValueError
+                found = f"it holds {len(text)} characters that do not parse ({error!r})"
+        ended = writer is not None and writer.poll() is not None
+        if ended or time.monotonic() >= deadline:
+            how = f"its writer exited ({writer.returncode})" if ended and writer else ""
+            waited = how or f"waited {timeout_s:g} s"
+            raise AssertionError(f"{waited} for {what} ({path}) to be complete: {found}")
+        time.sleep(0.05)
+
+
+def read_line_when_printed(
+    process: subprocess.Popen[str], pattern: str, what: str, *, timeout_s: float = 60.0
+) -> tuple[str, str]:
+    """The first line ``process`` prints (to its text stdout, a pipe) that contains
+    ``pattern``, and what it printed before: read in a thread, so that a process that
+    prints nothing or hangs is given up after ``timeout_s`` (and killed), the message
+    saying what was waited for and what came."""
+    assert process.stdout is not None
+    stream = process.stdout
+    before: list[str] = []
+    found: list[str] = []
+
+    def read() -> None:
+        for line in iter(stream.readline, ""):
+            if pattern in line:
+                found.append(line)
+                return
+            before.append(line)
+
+    reader = threading.Thread(target=read, daemon=True)
+    reader.start()
+    reader.join(timeout_s)
+    if found:
+        return found[0], "".join(before)
+    if reader.is_alive():
+        process.kill()
+        reader.join(10)
+        why = f"waited {timeout_s:g} s"
+    else:
+        why = f"the process ended ({process.wait(timeout=10)})"
+    raise AssertionError(
+        f"{why} for {what} (a line with {pattern!r}); it printed: {''.join(before)!r}"
+    )
+
+
+def scheduler_address(
+    file: Path, scheduler: subprocess.Popen[Any] | None = None, timeout_s: float = 60.0
+) -> str:
+    """The address in a ``dask scheduler --scheduler-file`` file, once the scheduler has
+    written it whole (it writes it in place: an empty file first)."""
+    return read_when_complete(
+        file,
+        lambda text: str(json.loads(text)["address"]),
+        "the Dask scheduler's file",
+        timeout_s=timeout_s,
+        writer=scheduler,
+    )
 
 
 class DaskCluster:
@@ -115,22 +191,26 @@ class DaskCluster:
         from distributed import Client
 
         self.file = folder / "scheduler.json"
+        self.workers: list[subprocess.Popen[bytes]] = []
         self.scheduler = self._spawn(
             "scheduler", "--port", "0", "--no-dashboard", "--scheduler-file", str(self.file)
         )
-        _wait_for(self.file.exists, 60, "the scheduler file")
-        self.address: str = json.loads(self.file.read_text())["address"]
-        self.workers = [
-            self._spawn(
-                "worker", "--scheduler-file", str(self.file), "--nthreads", "1", "--no-nanny",
-                "--no-dashboard", "--name", f"w{k}", "--memory-limit", "0",
-            )
-            for k in range(workers)
-        ]  # fmt: skip
-        with Client(self.address, timeout=30) as client:
-            client.wait_for_workers(workers, timeout=60)
-            # Imported once up front, so that the first task's time is its own work.
-            client.run(importlib.import_module, "analysis.pipeline")
+        try:  # a cluster that does not come up is stopped, not left running
+            self.address = scheduler_address(self.file, self.scheduler)
+            self.workers = [
+                self._spawn(
+                    "worker", "--scheduler-file", str(self.file), "--nthreads", "1",
+                    "--no-nanny", "--no-dashboard", "--name", f"w{k}", "--memory-limit", "0",
+                )
+                for k in range(workers)
+            ]  # fmt: skip
+            with Client(self.address, timeout=30) as client:
+                client.wait_for_workers(workers, timeout=60)
+                # Imported once up front, so that the first task's time is its own work.
+                client.run(importlib.import_module, "analysis.pipeline")
+        except BaseException:
+            self.close()
+            raise
 
     @staticmethod
     def _spawn(*args: str) -> subprocess.Popen[bytes]:
@@ -168,13 +248,7 @@ def start_console(out: Path, *args: str) -> tuple[subprocess.Popen[str], str, st
         stderr=subprocess.STDOUT,
         text=True,
     )
-    assert process.stdout is not None
-    preamble = ""
-    line = process.stdout.readline()
-    while line and "http://" not in line:
-        preamble += line
-        line = process.stdout.readline()
-    assert "http://" in line, preamble + line
+    line, preamble = read_line_when_printed(process, "http://", "the console's address")
     return process, line.split()[2], preamble
 
 
@@ -216,49 +290,90 @@ def load_benchmark(name: str) -> ModuleType:
 
 
 def distinct_copies(session: Path, folder: Path, n: int, stem: str = "s") -> list[Path]:
-    """``n`` sessions with ``session``'s content, each a different file (an extra MCAP
-    metadata record numbers it), so that a batch counts them as ``n`` sessions and not as
-    one session named ``n`` times (analysis.input_set identifies sessions by content)."""
+    """``n`` sessions with ``session``'s trials, each a session of its own: its session
+    entry (and the metadata's copy of it) given a session and part id of its own, and an
+    extra MCAP metadata record numbering it, so that a batch counts them as ``n`` sessions
+    and not as one session copied ``n`` times (twopose.format.identity)."""
+    import hashlib
+
+    folder.mkdir(parents=True, exist_ok=True)
+    out = []
+    for k in range(n):
+        path = folder / f"{stem}{k:03d}.mcap"
+        ids = hashlib.sha256(f"{session}:{stem}:{k}".encode()).hexdigest()
+        rewrite_session(
+            session,
+            path,
+            metadata={"test_copy": {"number": str(k)}},
+            ids=(ids[:32], ids[32:]),
+        )
+        out.append(path)
+    return out
+
+
+def rewrite_session(
+    session: Path,
+    out: Path,
+    *,
+    metadata: dict[str, dict[str, str]] | None = None,
+    edit: Callable[[str, bytes], bytes] | None = None,
+    ids: tuple[str, str] | None = None,
+) -> Path:
+    """``session`` copied to ``out`` message by message: with ``metadata`` records added,
+    each message's data through ``edit(topic, data)`` (a typed entry edited by hand), and
+    with ``ids``, its session entry (and the metadata's copy of it) given that session and
+    part id."""
+    import dataclasses
+
     from mcap.reader import make_reader
     from mcap.writer import Writer
 
-    folder.mkdir(parents=True, exist_ok=True)
+    from twopose.format.entries import SessionInfo, decode_entry, encode_entry
+    from twopose.format.writer import METADATA_NAME
+
+    def renamed(entry: bytes) -> bytes:
+        if ids is None:
+            return entry
+        info = decode_entry(SessionInfo.SCHEMA_NAME, entry)
+        assert isinstance(info, SessionInfo)
+        return encode_entry(dataclasses.replace(info, session_id=ids[0], part_id=ids[1]))
+
     with open(session, "rb") as stream:
         reader = make_reader(stream)
         summary = reader.get_summary()
         assert summary is not None
-        metadata = [(m.name, dict(m.metadata)) for m in reader.iter_metadata()]
+        kept = [(m.name, dict(m.metadata)) for m in reader.iter_metadata()]
         messages = list(reader.iter_messages(log_time_order=False))
-    out = []
-    for k in range(n):
-        path = folder / f"{stem}{k:03d}.mcap"
-        with open(path, "wb") as sink:
-            writer = Writer(sink)
-            writer.start(profile="", library="twopose tests")
-            schemas: dict[int, int] = {}
-            channels: dict[int, int] = {}
-            for sid, schema in summary.schemas.items():
-                schemas[sid] = writer.register_schema(schema.name, schema.encoding, schema.data)
-            for cid, channel in summary.channels.items():
-                channels[cid] = writer.register_channel(
-                    channel.topic,
-                    channel.message_encoding,
-                    schemas.get(channel.schema_id, 0),
-                    dict(channel.metadata),
-                )
-            for name, data in metadata:
-                writer.add_metadata(name, data)
-            writer.add_metadata("test_copy", {"number": str(k)})
-            for _schema, channel, message in messages:
-                writer.add_message(
-                    channels[channel.id],
-                    message.log_time,
-                    message.data,
-                    message.publish_time,
-                    message.sequence,
-                )
-            writer.finish()
-        out.append(path)
+    with open(out, "wb") as sink:
+        writer = Writer(sink)
+        writer.start(profile="", library="twopose tests")
+        schemas: dict[int, int] = {}
+        channels: dict[int, int] = {}
+        for sid, schema in summary.schemas.items():
+            schemas[sid] = writer.register_schema(schema.name, schema.encoding, schema.data)
+        for cid, channel in summary.channels.items():
+            channels[cid] = writer.register_channel(
+                channel.topic,
+                channel.message_encoding,
+                schemas.get(channel.schema_id, 0),
+                dict(channel.metadata),
+            )
+        for name, values in [*kept, *(metadata or {}).items()]:
+            if name == METADATA_NAME and "session" in values:
+                values = {**values, "session": renamed(values["session"].encode()).decode()}
+            writer.add_metadata(name, values)
+        for _schema, channel, message in messages:
+            data = message.data if edit is None else edit(channel.topic, message.data)
+            if channel.topic == SessionInfo.TOPIC:
+                data = renamed(data)
+            writer.add_message(
+                channels[channel.id],
+                message.log_time,
+                data,
+                message.publish_time,
+                message.sequence,
+            )
+        writer.finish()
     return out
 
 

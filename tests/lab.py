@@ -4,7 +4,9 @@ rename, recover, a recording killed), through the real writer, the real continua
 
 Frames are tiny blank images: nothing is detected, so every trial is a row of its own
 (``no_detection``) whatever happens to it, and a test counts captures and trials by what
-they are, not by what they measured.
+they are, not by what they measured. With ``measured=True`` each frame shows the dot target
+where the trial's truth projects (a 64x48 drawing, no renderer): every trial is measured,
+for the tests that need numbers (errors, intervals, the report's columns, ``compare``).
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ import uuid
 from collections.abc import Sequence
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from recorder.continuation import read_continued
@@ -42,13 +45,33 @@ def new_info(*, units: Units = Units.IN, created: str = "2026-11-27T00:00:00Z") 
     )
 
 
-def write_part(path: Path, info: SessionInfo, trials: Sequence[int]) -> None:
-    """A session file holding ``trials``, each two accepted captures of one frame."""
+#: Where each trial's truth is (grid frame, inches): trials differ, so errors differ.
+def truth_of(trial: int) -> tuple[float, float, float]:
+    return (1.0 + 0.1 * (trial % 7), 2.0, 11.0)
+
+
+def dot_frame(truth: tuple[float, float, float], t_grid: tuple[float, float, float]) -> np.ndarray:
+    """A 64x48 frame with the dot target drawn where ``truth`` projects from a camera at
+    ``t_grid`` (no rotation), to 1/16 px, radius 3 px."""
+    from twopose.camera import project_points
+
+    col, row = project_points([truth], CAMERA.intrinsics, np.eye(3), t_grid)[0]
+    frame = _BLANK.copy()
+    centre = (round(col * 16), round(row * 16))
+    cv2.circle(frame, centre, 3 * 16, (0, 0, 0), -1, cv2.LINE_AA, shift=4)
+    return frame
+
+
+def write_part(
+    path: Path, info: SessionInfo, trials: Sequence[int], *, measured: bool = False
+) -> None:
+    """A session file holding ``trials``, each two accepted captures of one frame (blank,
+    or with ``measured`` the dot where the trial's truth is)."""
     t = 1_000_000_000
     with SessionWriter(path, info, [CAMERA], start_ns=t) as w:
         for trial in trials:
             w.write_ground_truth(
-                GroundTruth(trial=trial, kind="point", points_grid=((1.0, 2.0, 11.0),)), t
+                GroundTruth(trial=trial, kind="point", points_grid=(truth_of(trial),)), t
             )
             for pose in (1, 2):
                 number = w.new_capture_number()
@@ -64,7 +87,8 @@ def write_part(path: Path, info: SessionInfo, trials: Sequence[int]) -> None:
                     t + 1,
                 )
                 with w.capture(trial, pose, "cam0", number) as cap:
-                    cap.add_frame(_BLANK, t + 2)
+                    where = (float(pose), 0.0, 0.0)
+                    cap.add_frame(dot_frame(truth_of(trial), where) if measured else _BLANK, t + 2)
                 w.write_decision(
                     CaptureDecision(
                         capture=number, trial=trial, pose=pose, camera_id="cam0", decision="accept"
@@ -74,19 +98,22 @@ def write_part(path: Path, info: SessionInfo, trials: Sequence[int]) -> None:
                 t += 10
 
 
-def record(path: Path, n_trials: int, **info: object) -> SessionInfo:
+def record(path: Path, n_trials: int, *, measured: bool = False, **info: object) -> SessionInfo:
     """A new session of ``n_trials`` trials (1..n)."""
     opening = new_info(**info)  # type: ignore[arg-type]
-    write_part(path, opening, range(1, n_trials + 1))
+    write_part(path, opening, range(1, n_trials + 1), measured=measured)
     return opening
 
 
-def continue_session(of: Path, path: Path, n_trials: int) -> SessionInfo:
-    """``new path --continue of``: ``n_trials`` more, numbered after ``of``'s last."""
+def continue_session(
+    of: Path, path: Path, n_trials: int, *, measured: bool = False, operator: str | None = None
+) -> SessionInfo:
+    """``new path --continue of [--operator NAME]``: ``n_trials`` more, numbered after
+    ``of``'s last."""
     continued = read_continued(of)
-    opening = continued.info_for()
+    opening = continued.info_for(operator=operator)
     first = continued.last_trial + 1
-    write_part(path, opening, range(first, first + n_trials))
+    write_part(path, opening, range(first, first + n_trials), measured=measured)
     return opening
 
 

@@ -107,6 +107,10 @@ ENTRY_POINTS = [
     "recorder.plan:record_plan",
     "recorder.recover:recover_session",
     "recorder.camera_calibration:calibrate",
+    "recorder.pair_calibration:calibrate_pair",
+    "recorder.pair_calibration:calibrate_pair_views",
+    "twopose.pair.calibration:fit_pair",
+    "twopose.pair.stream:estimate_stream",
     "twopose.detect:detect",
     "twopose.session_estimate:estimate_session",
 ]

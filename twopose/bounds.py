@@ -20,7 +20,6 @@ table into the docs.
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import StrEnum
@@ -29,36 +28,45 @@ from typing import Any
 
 from twopose.errors import InputValueError
 from twopose.units import UNITS, Units, unit_factor
-from twopose.values import MAX_NUMBER_CHARS, NUMBER_GRAMMAR
+from twopose.values import WHOLE_GRAMMAR, WHOLE_WORDS, Given, Unread, given_text, read_number
 
 __all__ = [
     "BOARD_CORNER",
     "BOARD_SQUARE",
     "DEFAULT_MIN_GAIN",
     "FOCAL",
+    "FPS",
     "FRAMES",
     "GRID",
     "GROUND_HEIGHT",
     "GROUND_TRUTH",
     "IMAGE_SIDE",
     "INNER_CORNERS",
+    "JOBS",
+    "MARGIN_ANGLE",
     "MAX_POSES",
     "MIN_GAIN",
+    "PORT",
     "POSES",
+    "POSE_NOISE",
     "POSE_TRANSLATION",
     "PRINCIPAL",
     "QUANTITIES",
     "REACH",
     "ROTATION",
+    "SAMPLES",
+    "SEED",
+    "SESSION_TIMEOUT",
     "TARGET_DISTANCE",
     "TARGET_PRECISION",
+    "TRIALS",
+    "TYPED_RESOLUTION",
+    "VIEWS",
     "Kind",
     "Quantity",
     "markdown_table",
     "shown",
 ]
-
-_WHOLE = re.compile(r"[+-]?[0-9]+")
 
 
 class Kind(StrEnum):
@@ -69,13 +77,20 @@ class Kind(StrEnum):
     PIXELS = "px"
     COUNT = "count"
     SHARE = "share"
+    SECONDS = "s"
+    RATE = "fps"
 
 
 def shown(value: float) -> str:
-    """``value`` as the text that reads back as the same float: how a value is shown back.
+    """How a value is shown back: as given, else as the text that reads back as it.
 
-    ``1234.56789``, ``525``, ``1e-05``; never ``:g``, which rounds to six digits.
+    The text it was given as (:class:`twopose.values.Given`: ``525.000``, ``1e3``,
+    ``2.50e-1`` as typed), else the text that reads back as the same float
+    (``1234.56789``, ``525``, ``1e-05``); never ``:g``, which rounds to six digits.
     """
+    text = given_text(value)
+    if text is not None:
+        return text
     if isinstance(value, int) and not isinstance(value, bool):
         return str(value)
     text = repr(float(value))
@@ -131,7 +146,9 @@ class Quantity:
         """The unit its values are in: the session's for a length, deg, px, or none."""
         if self.kind is Kind.LENGTH:
             return str(units)
-        return {Kind.ANGLE: "deg", Kind.PIXELS: "px"}.get(self.kind, "")
+        return {Kind.ANGLE: "deg", Kind.PIXELS: "px", Kind.SECONDS: "s", Kind.RATE: "fps"}.get(
+            self.kind, ""
+        )
 
     def range_text(self, units: Units | None) -> str:
         """The range in words ("from -180 to 180 deg").
@@ -149,7 +166,7 @@ class Quantity:
         unit = self.unit_label(units or Units.IN)
         tail = f" {unit}" if unit else ""
         if self.kind is Kind.COUNT:
-            return f"a whole number from {lo:g} to {hi:g}"
+            return f"a whole number from {int(lo)} to {int(hi)}"
         if self.low_open:
             return f"more than {lo:g} and at most {hi:g}{tail}"
         return f"from {lo:g} to {hi:g}{tail}"
@@ -182,34 +199,45 @@ class Quantity:
     def read(self, value: Any, units: Units | None, *, axis: str = "", text: bool = True) -> float:
         """``value`` (text as typed, or a number from a file) checked: the one reader.
 
-        Text must follow the one number grammar (a count: digits and a sign only); a number
-        must be an int or a float (never a bool; a string only with ``text``: a plan's
-        numbers are the file's numbers, never quoted). Raises
+        Text must follow the one number grammar (:func:`twopose.values.read_number`; a
+        count's: digits and a sign only); a number must be an int or a float (never a
+        bool; a string only with ``text``: a plan's numbers are the file's numbers, never
+        quoted), and a file's number comes with its source text
+        (:func:`twopose.config.read_toml`), judged so. Raises
         :class:`~twopose.errors.InputValueError` with the one message form.
 
         Returns
         -------
         float
-            The value; a count's is a whole float (``int(...)`` it).
+            The value, with the text it was given as when it was given as text
+            (:class:`twopose.values.Given`, shown back so by :func:`shown`); a count's is
+            a whole float (``int(...)`` it).
         """
         name = f"{self.words} {axis}" if axis else self.words
-        given = ""
+        whole = self.kind is Kind.COUNT
+        given = given_text(value)
+        if isinstance(value, Unread):  # a file's 0x5 or 1_0: refused as typed text is
+            value.refuse(name, whole=whole)
         if isinstance(value, str) and text:
+            number: float = read_number(value, name, whole=whole)
             given = value.strip()
-            number = self.parse_text(given, name)
         elif isinstance(value, bool) or not isinstance(value, Real):
             raise InputValueError(f"{name} must be a number, got {value!r}")
-        elif self.kind is Kind.COUNT and not isinstance(value, Integral):
-            number, given = math.nan, repr(float(value))  # a count is written whole: 5
+        elif whole and (
+            not isinstance(value, Integral)
+            or (given is not None and WHOLE_GRAMMAR.fullmatch(given) is None)
+        ):  # a count is written whole: 5, never 5.0 or 5e0
+            raise InputValueError(f"{name}: {given or repr(float(value))!r} is not a whole number "
+                                  f"({WHOLE_WORDS})")  # fmt: skip
         else:
             try:
                 number = float(value)
             except OverflowError:  # an integer beyond a float's range
                 number, given = math.inf, f"{str(value)[:12]}..."
-        why = self.refusal(number, units, axis=axis, given=given)
+        why = self.refusal(number, units, axis=axis, given=given or "")
         if why:
             raise InputValueError(why)
-        return number
+        return number if given is None or isinstance(number, Given) else Given(number, given)
 
     def count(self, value: Any) -> int:
         """A count (frames, poses, corners) read as :meth:`read` reads it, as an int."""
@@ -251,26 +279,10 @@ class Quantity:
     def parse_text(self, text: str, name: str = "") -> float:
         """Text as a number by the one grammar alone, its bound not checked.
 
-        NaN: a count written 2.5 (:meth:`read` refuses it with the range). A command line
-        parses an option so and checks the bound once ``--units`` are known.
+        A count's grammar is digits and a sign. A command line parses an option so and
+        checks the bound once ``--units`` are known.
         """
-        name = name or self.words
-        if not text:
-            raise InputValueError(f"{name}: type a number")
-        if len(text) > MAX_NUMBER_CHARS:
-            raise InputValueError(
-                f"{name}: {text[:12]}... ({len(text)} characters) is not a number of sane size"
-            )
-        if self.kind is Kind.COUNT and _WHOLE.fullmatch(text) is not None:
-            return float(text)
-        if NUMBER_GRAMMAR.fullmatch(text) is not None:
-            # A count written 2.5 or 1e3 is refused with the range; 1e309 is inf, refused
-            # as out of range too.
-            return math.nan if self.kind is Kind.COUNT else float(text)
-        raise InputValueError(
-            f"{name}: {text!r} is not a number (digits 0-9, a sign, a decimal point, an "
-            "exponent: -1.5, 2e-3)"
-        )
+        return read_number(text, name or self.words, whole=self.kind is Kind.COUNT)
 
 
 _MM = 1 / 25.4  # one millimetre in inches
@@ -358,11 +370,58 @@ INNER_CORNERS = Quantity(
     axes=("cols", "rows"), given_as="`--board COLSxROWS`, the setup, plan `board.inner_corners`",
 )  # fmt: skip
 
+FPS = Quantity(
+    key="fps", words="frame rate", kind=Kind.RATE, low=1, high=1000,
+    given_as="`--fps` (a camera's: `--source camera:N`)",
+)  # fmt: skip
+PORT = Quantity(
+    key="port", words="port", kind=Kind.COUNT, low=0, high=65535,
+    given_as="`--port` (with `--ui`), `--live-port` (with `--live`); 0: a free one",
+)  # fmt: skip
+TRIALS = Quantity(
+    key="trials", words="trials", kind=Kind.COUNT, low=1, high=10000,
+    given_as="`simulate --trials`",
+)  # fmt: skip
+#: NumPy's generators take any seed >= 0; a 32-bit one is what a person types.
+SEED = Quantity(
+    key="seed", words="seed", kind=Kind.COUNT, low=0, high=2**32 - 1,
+    given_as="`simulate --seed`, `sensitivity --seed`, plan `guidance.seed`",
+)  # fmt: skip
+POSE_NOISE = Quantity(
+    key="pose_noise", words="pose noise", kind=Kind.LENGTH, low=0.0, high=10.0,
+    given_as="`simulate --pose-noise` (0: a perfect operator)",
+)  # fmt: skip
+TYPED_RESOLUTION = Quantity(
+    key="typed_resolution", words="typed resolution", kind=Kind.LENGTH, low=0.0, high=10.0,
+    low_open=True, given_as="`simulate --typed-resolution`",
+)  # fmt: skip
+VIEWS = Quantity(
+    key="views", words="views", kind=Kind.COUNT, low=3, high=10000,
+    given_as="`calibrate --views`",
+)  # fmt: skip
+JOBS = Quantity(
+    key="jobs", words="jobs", kind=Kind.COUNT, low=1, high=1024,
+    given_as="`run --jobs`",
+)  # fmt: skip
+MARGIN_ANGLE = Quantity(
+    key="margin_angle", words="warning angle", kind=Kind.ANGLE, low=0.0, high=90.0,
+    given_as="`run --min-parallax`, `--min-plane-angle`, `--min-ground-angle`",
+)  # fmt: skip
+SESSION_TIMEOUT = Quantity(
+    key="session_timeout", words="session timeout", kind=Kind.SECONDS, low=0.0, high=86400.0,
+    given_as="`run --session-timeout` (0: no limit)",
+)  # fmt: skip
+SAMPLES = Quantity(
+    key="samples", words="samples", kind=Kind.COUNT, low=100, high=10_000_000,
+    given_as="`sensitivity --samples`",
+)  # fmt: skip
+
 #: Every quantity, in the order of the docs' table.
 QUANTITIES: tuple[Quantity, ...] = (
     POSE_TRANSLATION, ROTATION, GROUND_TRUTH, BOARD_CORNER, GROUND_HEIGHT, BOARD_SQUARE,
     FOCAL, PRINCIPAL, IMAGE_SIDE, GRID, REACH, TARGET_PRECISION, TARGET_DISTANCE, MIN_GAIN,
-    MAX_POSES, POSES, FRAMES, INNER_CORNERS,
+    MAX_POSES, POSES, FRAMES, INNER_CORNERS, FPS, PORT, TRIALS, SEED, POSE_NOISE,
+    TYPED_RESOLUTION, VIEWS, JOBS, MARGIN_ANGLE, SESSION_TIMEOUT, SAMPLES,
 )  # fmt: skip
 
 

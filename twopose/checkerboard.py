@@ -1,9 +1,11 @@
 """The checkerboard found in an image: the rig's search and the recorder's live check.
 
 :func:`find_board` (OpenCV's ``findChessboardCorners`` refined to sub-pixel corners) serves
-camera calibration and ``twopose-analyze rig``; :func:`find_board_live` is the recorder's
-check: the fast check, then the same search in a worker, bounded by
-:data:`LIVE_BOARD_BUDGET_S`.
+camera calibration, the pair's calibration and ``twopose-analyze rig``;
+:func:`find_board_live` is the recorder's check: the fast check, then the same search in a
+worker, bounded by :data:`LIVE_BOARD_BUDGET_S`. Every board fit shares the board's corners
+on its plane (:func:`board_pattern`) and the rule that drops an outlier view
+(:func:`outlier_view`).
 """
 
 from __future__ import annotations
@@ -11,6 +13,7 @@ from __future__ import annotations
 import math
 import threading
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -18,7 +21,17 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["BOARD_FLAGS", "LIVE_BOARD_BUDGET_S", "BoardSearch", "find_board", "find_board_live"]
+__all__ = [
+    "BOARD_FLAGS",
+    "LIVE_BOARD_BUDGET_S",
+    "OUTLIER_FACTOR",
+    "OUTLIER_FLOOR_PX",
+    "BoardSearch",
+    "board_pattern",
+    "find_board",
+    "find_board_live",
+    "outlier_view",
+]
 
 Image = NDArray[np.uint8]
 
@@ -31,6 +44,41 @@ BOARD_FLAGS = cv2.CALIB_CB_ADAPTIVE_THRESH + cv2.CALIB_CB_NORMALIZE_IMAGE
 #: OpenCV's fast check turns a frame down: far boards (squares of about 9 px) fail the fast
 #: check though the full search finds them, in about 1-2 ms at 640x480 (docs/rig.md).
 LIVE_BOARD_BUDGET_S = 1.5
+
+
+def board_pattern(inner_corners: tuple[int, int], square: float) -> NDArray[np.float32]:
+    """The board's inner corners (cols * rows, 3) on its plane z = 0, in ``square``'s unit.
+
+    Row by row, in OpenCV's corner order (what :func:`find_board` returns), the first
+    corner at the origin: the object points of every board fit (a camera's intrinsics, a
+    pair's relative pose, the floor).
+    """
+    cols, rows = inner_corners
+    pattern = np.zeros((cols * rows, 3), np.float32)
+    pattern[:, :2] = np.mgrid[0:cols, 0:rows].T.reshape(-1, 2) * square
+    return pattern
+
+
+#: A view is an outlier when its RMS exceeds both this many times the median view's and
+#: :data:`OUTLIER_FLOOR_PX`: a gross failure (a misdetected or misordered corner grid, a
+#: blurred frame: several px), not a view the lens model fits less well at the image's
+#: edge. OpenCV's own left02.jpg (1.2 px, 6x the median 0.19 px) is such a view: it is
+#: the one that teaches the distortion near a corner, and it is kept. The one rule of every
+#: board fit (a camera's intrinsics, a pair's relative pose).
+OUTLIER_FACTOR = 5.0
+OUTLIER_FLOOR_PX = 2.0
+
+
+def outlier_view(view_rms_px: Sequence[float] | NDArray[np.float64]) -> int | None:
+    """The view a board fit drops and fits again without (the worst, if an outlier).
+
+    The index of the view with the largest RMS when it exceeds both :data:`OUTLIER_FACTOR`
+    times the median view's and :data:`OUTLIER_FLOOR_PX`; None when no view does.
+    """
+    rms = np.asarray(view_rms_px, dtype=np.float64)
+    worst = int(np.argmax(rms))
+    limit = max(OUTLIER_FACTOR * float(np.median(rms)), OUTLIER_FLOOR_PX)
+    return worst if rms[worst] > limit else None
 
 
 def find_board(

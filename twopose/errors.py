@@ -12,6 +12,7 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
 __all__ = [
+    "EXIT_CLOSED_PIPE",
     "EXIT_ERROR",
     "EXIT_INTERRUPTED",
     "EXIT_SOME_INPUTS_FAILED",
@@ -23,6 +24,7 @@ __all__ = [
     "SessionVersionError",
     "SourceError",
     "TwoposeError",
+    "end_on_closed_pipe",
     "handle_errors",
     "safe_console",
     "say_interrupted",
@@ -62,6 +64,9 @@ EXIT_SOME_INPUTS_FAILED = 1
 EXIT_USAGE = 2  # click/typer's own code for a malformed command line
 EXIT_ERROR = 3
 EXIT_INTERRUPTED = 130
+#: The shell's code for a process whose output pipe closed (128 + SIGPIPE): ``run ... |
+#: head -1`` stopped once ``head`` had its line.
+EXIT_CLOSED_PIPE = 141
 
 
 @contextmanager
@@ -79,12 +84,14 @@ def handle_errors() -> Iterator[None]:
     except KeyboardInterrupt:
         say_interrupted()
         raise typer.Exit(EXIT_INTERRUPTED) from None
+    except BrokenPipeError:  # stdout's reader is gone (`... | head -1`): nothing to say
+        end_on_closed_pipe()
     except (MemoryError, RecursionError, OverflowError, ArithmeticError, ValueError) as err:
         # Last resort: an input no check foresaw. Say what happened, never a traceback;
         # TWOPOSE_DEBUG=1 shows it for a bug report.
-        import os
+        from twopose.environment import DEBUG
 
-        if os.environ.get("TWOPOSE_DEBUG"):
+        if DEBUG.read():
             raise
         typer.secho(
             f"error: unexpected {type(err).__name__}: {err} (an input twopose does not check "
@@ -93,6 +100,25 @@ def handle_errors() -> Iterator[None]:
             fg=typer.colors.RED,
         )
         raise typer.Exit(EXIT_ERROR) from None
+
+
+def end_on_closed_pipe() -> None:
+    """End a command whose stdout nobody reads any more with :data:`EXIT_CLOSED_PIPE`.
+
+    Quietly: stdout is pointed at /dev/null, so that Python's last flush of what is left
+    unprinted cannot fail again with a traceback.
+    """
+    import os
+    import sys
+
+    import typer
+
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):  # stdout is no file (a test runner): nothing to flush
+        pass
+    raise typer.Exit(EXIT_CLOSED_PIPE)
 
 
 _interrupted = False
@@ -116,14 +142,15 @@ def _on_interrupt(_signum: int, _frame: object) -> None:
     raise KeyboardInterrupt
 
 
-def watch_interrupts() -> None:
+def watch_interrupts(*, hangup: bool = False) -> None:
     """Remember a Ctrl-C (or SIGTERM) even where Python swallows its KeyboardInterrupt.
 
     Remember a Ctrl-C even where Python swallows the KeyboardInterrupt it raises (in a
     finalizer or weakref callback it is printed and ignored, and the command would then
     finish with 0): :func:`interrupted` tells the command line to exit with 130. Such a
     KeyboardInterrupt is raised again in the main thread (without its traceback), so the
-    command stops there and then, not at its end.
+    command stops there and then, not at its end. ``hangup``: SIGHUP (the terminal closed)
+    too, unless the process was started ignoring it (``nohup``); ``twopose-record``'s.
     """
     import signal
     import sys
@@ -133,6 +160,8 @@ def watch_interrupts() -> None:
     # does: files closed, a run's staged outputs discarded, exit 130; never a process
     # ended mid-write.
     signal.signal(signal.SIGTERM, _on_interrupt)
+    if hangup and hasattr(signal, "SIGHUP") and signal.getsignal(signal.SIGHUP) != signal.SIG_IGN:
+        signal.signal(signal.SIGHUP, _on_interrupt)
     sys.unraisablehook = _unraisable
 
 

@@ -56,6 +56,7 @@ __all__ = [
     "measure",
     "pose_view",
     "scatter_of",
+    "scatters_of",
     "solve_batch",
 ]
 
@@ -124,9 +125,17 @@ def measure(
     than two poses), and per trial whether it is complete and whether every pose was detected.
     """
     complete = np.array([len(v) >= 2 for v in views], dtype=bool)
+    # A view met again (guidance's candidates share the trial's views) is combined once:
+    # the same object, the same frames, during this call.
+    combined: dict[int, PoseMeasurement] = {}
+
+    def combine(v: PoseView) -> PoseMeasurement:
+        if id(v) not in combined:
+            combined[id(v)] = combine_frames(v.centroids, v.thetas, v.found, options.combine)
+        return combined[id(v)]
+
     measurements = [
-        [combine_frames(v.centroids, v.thetas, v.found, options.combine) for v in row] if ok else []
-        for row, ok in zip(views, complete, strict=True)
+        [combine(v) for v in row] if ok else [] for row, ok in zip(views, complete, strict=True)
     ]
     detected = np.array(
         [ok and all(m.found for m in ms) for ms, ok in zip(measurements, complete, strict=True)],
@@ -429,6 +438,24 @@ def scatter_of(view: PoseView, m: PoseMeasurement) -> tuple[F64, int]:
     return frame_scatter(view.centroids, view.thetas, used)
 
 
+def scatters_of(
+    views: list[list[PoseView]], measurements: list[list[PoseMeasurement]]
+) -> list[list[tuple[F64, int]]]:
+    """Each pose's :func:`scatter_of`, a view met again (the same objects) computed once."""
+    known: dict[tuple[int, int], tuple[F64, int]] = {}
+
+    def one(v: PoseView, m: PoseMeasurement) -> tuple[F64, int]:
+        key = (id(v), id(m))
+        if key not in known:
+            known[key] = scatter_of(v, m)
+        return known[key]
+
+    return [
+        [one(v, m) for v, m in zip(vs, ms, strict=False)]
+        for vs, ms in zip(views, measurements, strict=True)
+    ]
+
+
 def input_covariance(
     measurements: list[list[PoseMeasurement]],
     views: list[list[PoseView]],
@@ -449,15 +476,21 @@ def input_covariance(
     """
     T, N, D = batch.inputs.shape
     C = np.zeros((T, N, D, D))
+    blocks: dict[tuple[int, int], F64] = {}  # a view met again (the same objects): once
     for i, (row, row_views, row_scatter) in enumerate(
         zip(measurements, views, scatters, strict=True)
     ):
         for j, (m, v, (S, dof)) in enumerate(zip(row, row_views, row_scatter, strict=True)):
-            C[i, j, :3, :3] = measurement_covariance(
-                S, dof, pooled, m.n_used, median=median, floor=floor
-            )
-            C[i, j, 3:6, 3:6] = np.eye(3) * (v.t_sigma if t_sigma is None else t_sigma) ** 2
-            C[i, j, 6:9, 6:9] = np.eye(3) * v.r_sigma_deg**2
+            key = (id(v), id(m))
+            if key not in blocks:
+                block = np.zeros((D, D))
+                block[:3, :3] = measurement_covariance(
+                    S, dof, pooled, m.n_used, median=median, floor=floor
+                )
+                block[3:6, 3:6] = np.eye(3) * (v.t_sigma if t_sigma is None else t_sigma) ** 2
+                block[6:9, 6:9] = np.eye(3) * v.r_sigma_deg**2
+                blocks[key] = block
+            C[i, j] = blocks[key]
     return C
 
 

@@ -8,9 +8,12 @@ ray meets the ground if that is nearer (the finger stands above the ground it po
 Unless the operator has taped the distance (``Guidance.target_distance``), the first
 suggestion is the pose whose worst regret over :data:`DEPTHS` depths across that range is
 least: at each depth, its predicted region over the best pose's for a target there
-(:func:`minimax_pick`). Its predicted region is then a range, the least and the most over
-those depths. ``benchmarks/bench_first_pose.py`` measures its regret against the true
-target's best pose and whether the range covers the region the second pose then gives.
+(:func:`minimax_pick`), both kept clear of the image's edges by one margin
+(:data:`OTHER_DEPTHS_MARGIN`). Its predicted region is then a range, the least and the most
+over those depths, and the map (:mod:`twopose.region_map`) shows each cell's worst regret.
+``benchmarks/bench_first_pose.py`` measures its regret against the true target's best pose
+held to the same margin, per case and in poses to reach a target precision, and whether
+the range covers the region the second pose then gives.
 """
 
 from __future__ import annotations
@@ -21,10 +24,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from twopose.arrays import F64
+from twopose.arrays import F64, Bools, Ints
 from twopose.camera import grid_rays, rotation_from_angles_deg
 from twopose.estimate import EstimateOptions, GroundSpec, PoseView, measure
-from twopose.paper_search import COARSE_CANDIDATES, SEEDS, Field, Found, search
+from twopose.paper import Field, Reach
+from twopose.paper_search import SEEDS, Found, search, search_together
+from twopose.region_map import MAP_POSES, Survey, survey
 from twopose.units import Units, unit_factor
 
 __all__ = [
@@ -33,8 +38,9 @@ __all__ = [
     "NEAR_DEPTH_IN",
     "OTHER_DEPTHS_MARGIN",
     "RANGE_SLACK",
-    "REGRET_COARSE",
+    "BlockedAt",
     "FirstPick",
+    "PredictPairs",
     "assumed_depth",
     "depth_range",
     "first_depths",
@@ -53,17 +59,13 @@ FAR_DEPTH_IN = 30.0
 #: square of the depth, so equal ratios weigh the near and far ends alike).
 DEPTHS = 5
 #: The pick keeps the target in view at every depth weighed by this share of the margins
-#: a located target is kept clear by (:data:`twopose.paper_search.IN_VIEW_MARGIN`,
-#: :data:`~twopose.paper_search.END_MARGIN`): the pose a far target needs often puts a
-#: near one close to the image's edge, and half the margins ruled it out (a worst regret of
-#: 38% at 25 in for the dot); with none, a placing error took a target at 8 in out of the
-#: second view (``bench_first_pose.py`` chose it).
+#: a located target is kept clear by (:data:`twopose.paper.IN_VIEW_MARGIN`,
+#: :data:`~twopose.paper.END_MARGIN`), and each depth's best pose, which its regret is
+#: measured against, is held to the same (issue 54: a best held to the whole margin made
+#: regrets below zero): the pose a far target needs often puts a near one close to the
+#: image's edge, and half the margins ruled it out (a worst regret of 38% at 25 in for the
+#: dot); with none, a placing error took a target at 8 in out of the second view.
 OTHER_DEPTHS_MARGIN = 0.1
-#: The search over the worst regret starts from a coarse pass of about this many poses: a
-#: worst over depths has kinks the pattern search stalls on (with 40 and no margin, a dot at
-#: 25 in got a pick 38% worse than its best, with 80 11%, as predicting the whole thesis'
-#: lattice); a wide reach costs about the same, its depths' own searches dominate.
-REGRET_COARSE = 2 * COARSE_CANDIDATES
 #: The range shown is widened by this share each way: the second pose's own frames and
 #: placing error move its region by a few percent about the prediction, and for the finger
 #: the provisional line's direction (steepest down in the view's plane) is a guess (the
@@ -152,9 +154,12 @@ def depth_range(
     return np.geomspace(near, far, DEPTHS)
 
 
-#: A prediction at some depths: (M, 3) camera centres and the depths' indices (R,) to
-#: their (R, M) regions (NaN: out of view, unsolved).
-PredictDepths = Callable[[F64, list[int]], F64]
+#: A prediction at pairs of a pose and a depth: (P, 3) camera centres and (P,) the depths'
+#: indices to their (P,) regions (NaN: out of view, unsolved), in one batch.
+PredictPairs = Callable[[F64, Ints], F64]
+#: Which poses are over known clutter for a target at a depth: (M, 3) centres, the depth's
+#: index to (M,) booleans (:mod:`twopose.clutter`).
+BlockedAt = Callable[[F64, int], Bools]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -166,50 +171,64 @@ class FirstPick:
     best: F64  # (D,) the best pose's region at each depth (NaN: no pose solves there)
     extra_regions: F64  # (D, E) the ``extra`` poses' regions at each depth
     n_predicted: int  # poses whose region was predicted at some depth (the search's cost)
+    cells: Survey  # the map's cells: each one's worst regret over the depths
 
 
 class _Cache:
     """Each pose's region at each depth, predicted once (the searches share poses)."""
 
-    def __init__(self, predict: PredictDepths, n_depths: int) -> None:
-        self.predict, self.n = predict, n_depths
+    def __init__(self, predict: PredictPairs) -> None:
+        self.predict = predict
         self.known: dict[tuple[bytes, int], float] = {}
 
-    def at(self, depth: int) -> Callable[[F64], F64]:
-        """The prediction at one depth, as :func:`twopose.paper_search.search` takes it."""
-        return lambda centres: self.regions(centres, [depth])[0]
+    def warm(self, centres: F64, depths: Ints) -> None:
+        """Predict the pairs (``centres`` (P, 3), ``depths`` (P,)) not known yet, in one batch."""
+        new: dict[tuple[bytes, int], int] = {}
+        for p, (c, d) in enumerate(zip(centres, depths, strict=True)):
+            key = (c.tobytes(), int(d))
+            if key not in self.known:
+                new.setdefault(key, p)
+        if new:
+            rows = np.array(list(new.values()), dtype=np.int64)
+            got = self.predict(centres[rows], np.asarray(depths)[rows])
+            self.known.update(zip(new, (float(r) for r in got), strict=True))
+
+    def pairs(self, centres: F64, depths: Ints) -> F64:
+        """(P,) the regions of pairs of ``centres`` (P, 3) and ``depths`` (P,), in one batch."""
+        self.warm(centres, depths)
+        return np.array(
+            [self.known[(c.tobytes(), int(d))] for c, d in zip(centres, depths, strict=True)]
+        )
 
     def regions(self, centres: F64, depths: list[int]) -> F64:
-        """(len(depths), M) the regions of ``centres`` at ``depths``, predicting the new."""
-        keys = [np.asarray(c, dtype=np.float64).tobytes() for c in centres]
-        for d in depths:
-            new = [m for m, k in enumerate(keys) if (k, d) not in self.known]
-            if new:
-                got = self.predict(centres[new], [d])[0]
-                self.known.update(((keys[m], d), float(r)) for m, r in zip(new, got, strict=True))
+        """(len(depths), M) the regions of ``centres`` at ``depths``, the new in one batch."""
+        centres = np.asarray(centres, dtype=np.float64).reshape(-1, 3)
+        self.warm(np.tile(centres, (len(depths), 1)), np.repeat(depths, len(centres)))
+        keys = [c.tobytes() for c in centres]
         return np.array([[self.known[(k, d)] for k in keys] for d in depths]).reshape(
             len(depths), len(keys)
         )
 
 
 def minimax_pick(
-    predict: PredictDepths, fields: list[Field], field: Field, taken: F64, *, extra: F64,
-    coarse: int = COARSE_CANDIDATES, seeds: int = SEEDS,
+    predict: PredictPairs, fields: list[Field], field: Field, reach: Reach, taken: F64, *,
+    extra: F64, blocked_at: BlockedAt | None = None, max_poses: int = MAP_POSES,
 ) -> FirstPick | None:  # fmt: skip
     """The pose of ``field`` whose worst regret over the depths is least (None: none solves).
 
     ``fields``: each depth's poses that keep a target there clear of the image's edges;
-    ``field``: those that keep it clear at every depth (where the pick may go). The best
-    region at each depth over its own field first (one search each), then the search over
-    the regret ``max_d region_d / best_d`` over the depths some pose solves; a pose one of
-    them cannot solve is left out.
+    ``field``: those that keep it clear at every depth (where the pick may go), both by the
+    same margin. The best region at each depth over its own field first (one search each,
+    one batch a round for all of them), then the map's cells (:func:`twopose.region_map.survey`)
+    and the search from them over the regret ``max_d region_d / best_d`` over the depths
+    some pose solves; a pose one of them cannot solve, or that sees the target over clutter
+    at one of them (``blocked_at``), is left out.
     """
     n_depths = len(fields)
-    cache = _Cache(predict, n_depths)
-    best = np.full(n_depths, np.nan)
-    for d, own in enumerate(fields):
-        found = search(cache.at(d), own, taken, coarse=coarse, seeds=seeds)
-        best[d] = math.nan if found is None else found.region
+    cache = _Cache(predict)
+    checks = [_at_depth(blocked_at, d) for d in range(n_depths)]
+    founds = search_together(cache.pairs, fields, taken, blocked=checks, seeds=SEEDS)
+    best = np.array([math.nan if f is None else f.region for f in founds])
     weighed = [d for d in range(n_depths) if math.isfinite(best[d])]
     if not weighed:
         return None
@@ -218,7 +237,13 @@ def minimax_pick(
         ratio = cache.regions(centres, weighed) / best[weighed][:, None]
         return np.asarray(np.where(np.isnan(ratio).any(axis=0), np.nan, ratio.max(axis=0)))
 
-    found = search(regret, field, taken, coarse=max(coarse, REGRET_COARSE), seeds=seeds)
+    def blocked_all(centres: F64) -> Bools:
+        assert blocked_at is not None
+        return np.asarray(np.any([blocked_at(centres, d) for d in weighed], axis=0))
+
+    blocked = None if blocked_at is None else blocked_all
+    cells = survey(regret, field, reach, taken, blocked=blocked, max_poses=max_poses)
+    found = search(regret, field, taken, known=(cells.known, cells.step), blocked=blocked)
     if found is None:
         return None
     every = list(range(n_depths))
@@ -226,5 +251,12 @@ def minimax_pick(
     return FirstPick(
         found=found, regions=cache.regions(found.centre[None], every)[:, 0], best=best,
         extra_regions=cache.regions(extra, every),
-        n_predicted=len({key for key, _ in cache.known}),
+        n_predicted=len({key for key, _ in cache.known}), cells=cells,
     )  # fmt: skip
+
+
+def _at_depth(blocked_at: BlockedAt | None, depth: int) -> Callable[[F64], Bools] | None:
+    """``blocked_at`` for one depth, as :func:`twopose.paper_search.search` takes it."""
+    if blocked_at is None:
+        return None
+    return lambda centres: blocked_at(centres, depth)

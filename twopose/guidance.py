@@ -1,66 +1,48 @@
 """Where to put the laptop next, and when a trial is precise enough (issue 36).
 
-The trial's predicted 95% region is the one the analysis will report: its poses' views
-solved and propagated by :func:`twopose.session_estimate.estimate_session` (pixel scatter,
-typed-translation resolution, the calibration's sigma) and reported by the analysis' rule
-(:func:`twopose.truth.reported`), the 95% ellipsoid's largest semi-axis (``semiaxis95``).
-
-A candidate next pose is a pose on the grid paper within reach
-(:mod:`twopose.paper_search`: which poses keep the target clear of the image's edges, and
-the coarse-to-fine search over them), the angles the last pose's. Its view is predicted by
-projecting the target as the trial's poses locate it: the point (method 1) or the finger's
-3-D line (the fixed line, method 2: the planes' line). Its frames scatter as the last
-pose's did. Each batch of candidates is one vectorized estimate (:func:`predicted_regions`).
+A candidate next pose is a pose on the grid paper within reach (:mod:`twopose.paper`:
+which poses keep the target clear of the image's edges and of known clutter), the angles
+the last pose's, its region the trial's predicted 95% region with it
+(:mod:`twopose.prediction`). The map's cells over the part of the paper worth seeing are
+predicted first (:mod:`twopose.region_map`), then a pattern search refines from them
+(:mod:`twopose.paper_search`): the suggestion is the map's best, and the map says why the
+cells without a region have none (:func:`plan_next`).
 
 With one pose the target cannot be located yet (one ray, or one plane). The suggestion is
 then the move that best conditions the next intersection for a *provisional* target on the
 first view's ray (its centroid's), wherever along it the scene allows
 (:mod:`twopose.first_pose`: the pose of least worst regret over the depths, its predicted
-region a range), or at the operator's taped distance; for the finger, the provisional line
-is the one in the view's plane that points most steeply down. It says so.
+region a range, the map each cell's worst regret), or at the operator's taped distance; for
+the finger, the provisional line is the one in the view's plane that points most steeply
+down. It says so, and gives the thesis' move's region over the same depths.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from twopose.arrays import F64
+from twopose.arrays import F64, Bools
 from twopose.bounds import DEFAULT_MIN_GAIN, shown
-from twopose.detect import wrap_theta_deg
+from twopose.clutter import Clutter, over_clutter
 from twopose.estimate import EstimateOptions, PoseView
 from twopose.first_pose import (
     OTHER_DEPTHS_MARGIN,
     RANGE_SLACK,
-    FirstPick,
-    assumed_depth,
     first_depths,
-    first_ray,
     minimax_pick,
     provisional_target,
 )
-from twopose.methods import Method, spec_of
-from twopose.paper_search import (
-    COARSE_CANDIDATES,
-    EDGE,
-    SEEDS,
-    TAKEN,
-    UNSOLVED,
-    Found,
-    Reach,
-    clear_of_edges,
-    field_in_view,
-    half_planes,
-    project,
-    search,
-)
-from twopose.session_estimate import SessionTrials, estimate_session
-from twopose.truth import reported
-from twopose.uncertainty import uncertainty_columns
+from twopose.methods import spec_of
+from twopose.paper import CLUTTER, Field, Reach, field_in_view, half_planes
+from twopose.paper_search import search
+from twopose.prediction import predicted_regions, predicted_view, target_of, template_view
+from twopose.region_map import RegionMap, survey
+from twopose.session_estimate import SessionTrials
+from twopose.suggestion import Suggestion
 from twopose.units import Units, unit_factor
 
 __all__ = [
@@ -75,10 +57,8 @@ __all__ = [
     "Reach",
     "Suggestion",
     "advise",
-    "predicted_regions",
-    "regions95",
+    "plan_next",
     "suggest",
-    "target_of",
 ]
 
 #: The thesis' move from one pose to the next: about an inch along x (Appendix D's 1.1 in).
@@ -94,343 +74,181 @@ MIN_GAIN = DEFAULT_MIN_GAIN
 
 
 @dataclass(frozen=True, kw_only=True)
-class Suggestion:
-    """The next pose that shrinks the trial's predicted 95% region most."""
+class _Trial:
+    """A trial as guidance weighs it: what does not change between its candidates."""
 
-    t_grid: tuple[float, float, float]
-    r_deg: tuple[float, float, float]
-    predicted95: float  # session units: the region with that pose added
-    thesis_t_grid: tuple[float, float, float]
-    thesis95: float  # the region with the thesis' default move instead (NaN: out of view)
-    provisional: bool  # one pose: the target's place along its ray was assumed
-    n_candidates: int  # lattice poses in reach that keep the target in view, not taken
-    #: How many lattice poses in reach were left out, and why (:data:`EDGE`, :data:`TAKEN`,
-    #: :data:`UNSOLVED`: of those predicted), the reasons with none omitted.
-    left_out: tuple[tuple[str, int], ...] = ()
-    n_predicted: int = 0  # candidates whose region was predicted (the search's cost)
-    #: One pose: the least and the most predicted region over the depths weighed (None:
-    #: the target was located).
-    predicted95_range: tuple[float, float] | None = None
-    #: One pose: the nearest and farthest depth weighed along the first view's ray
-    #: (session units; one depth twice when taped).
-    depth_range: tuple[float, float] | None = None
-    taped: bool = False  # one pose: the depth is the operator's taped distance
+    trial: SessionTrials
+    views: list[PoseView]
+    options: EstimateOptions
+    clutter: Clutter | None
+    reach: Reach
 
-    def region_text(self, units: Units) -> str:
-        """The predicted region in words: a range over the depths with one pose."""
-        if self.predicted95_range is None or self.depth_range is None:
-            return f"predicted 95% within {self.predicted95:.3g} {units}"
-        lo, hi = self.predicted95_range
-        near, far = self.depth_range
-        if self.taped:
-            taped = f"for the target taped at {shown(near)} {units}"
-            return f"predicted 95% within {self.predicted95:.3g} {units} {taped}"
-        return (
-            f"predicted 95% within {lo:.3g}-{hi:.3g} {units} for a target "
-            f"{shown(round(near, 2))}-{shown(round(far, 2))} {units} away"
-        )
+    @property
+    def units(self) -> Units:
+        return Units(self.trial.units)
 
-    def text(self, units: Units) -> str:
-        """One line for the operator."""
-        x, y, z = self.t_grid
-        line = f"next pose: x {shown(x)}, y {shown(y)}, z {shown(z)} {units} "
-        line += f"({self.region_text(units)}"
-        if math.isfinite(self.thesis95):
-            moved = ", ".join(shown(v) for v in self.thesis_t_grid)
-            line += f"; the thesis' move to {moved} would give {self.thesis95:.3g}"
-        line += ")"
-        if self.provisional:
-            line += (
-                "; one pose cannot locate the target yet: this move best conditions the "
-                "next intersection wherever along the first view's ray the target is"
-                if not self.taped
-                else "; one pose cannot locate the target yet: this move best conditions "
-                "the next intersection for the taped distance"
-            )
-        said = self.left_out_text()
-        if said:
-            line += f"; {said}"
-        return line
+    @property
+    def lines(self) -> bool:
+        return spec_of(self.trial.method).uses_image_lines
 
-    def left_out_text(self) -> str:
-        """Why reachable grid poses were not suggested, in words ("" when none was)."""
-        words = {
-            EDGE: "would put the target near the image's edge",
-            TAKEN: "already taken",
-            UNSOLVED: "would leave the trial unsolved",
-        }
-        parts = [f"{n} {words.get(reason, reason)}" for reason, n in self.left_out if n]
-        return "left out of the grid poses in reach: " + ", ".join(parts) if parts else ""
+    @property
+    def taken(self) -> F64:
+        return np.array([v.t_grid for v in self.views], dtype=np.float64)
 
-    def to_json(self) -> dict[str, object]:
-        """What the browser console shows (its marker and the values the pose form takes)."""
-        return {
-            "t_grid": list(self.t_grid),
-            "r_deg": list(self.r_deg),
-            "predicted95": self.predicted95,
-            "thesis_t_grid": list(self.thesis_t_grid),
-            "thesis95": self.thesis95,
-            "provisional": self.provisional,
-            "left_out": self.left_out_text(),
-            "predicted95_range": self.predicted95_range and list(self.predicted95_range),
-            "depth_range": self.depth_range and list(self.depth_range),
-            "taped": self.taped,
-        }
+    @property
+    def template(self) -> PoseView:
+        return template_view(self.views)
+
+    def thesis_move(self) -> F64:
+        """(3,) the last pose moved by the thesis' move, rounded as the lattice's poses are.
+
+        Shown to the operator: 1.2, not 1.2000000000000002.
+        """
+        moved = self.taken[-1] + np.asarray(THESIS_MOVE_IN) * unit_factor(Units.IN, self.units)
+        return np.asarray(np.round(moved, 10), dtype=np.float64)
+
+    def field(self, target: F64, margin: float = 1.0) -> Field:
+        """The lattice poses in reach that keep ``target`` clear of the image's edges."""
+        planes = half_planes(self.template, target, self.units, float(self.taken[0][1]),
+                             lines=self.lines, margin=margin)  # fmt: skip
+        return field_in_view(self.taken[0], self.reach, planes)
+
+    def predict(self, target: F64, margin: float = 1.0) -> Callable[[F64], F64]:
+        """The trial's region with one more pose from each of (M, 3) centres."""
+        trial, views, options = self.trial, list(self.views), self.options
+        return lambda c: predicted_regions(trial, views, target, c, options, margin=margin)
+
+    def blocked(self, target: F64) -> Callable[[F64], Bools] | None:
+        """Which poses would show ``target`` over the known clutter (None: none known)."""
+        if self.clutter is None or not len(self.clutter):
+            return None
+        template, units, lines, clutter = self.template, self.units, self.lines, self.clutter
+        return lambda c: over_clutter(template, c, target, units, clutter, lines=lines)
 
 
-def regions95(trials: SessionTrials, options: EstimateOptions) -> F64:
-    """(T,) each trial's 95% region as the analysis reports it (NaN: not solved)."""
-    estimate = estimate_session(trials, options, line_fits=False)  # the thesis' line's region
-    rep = reported(estimate)
-    regions = uncertainty_columns(rep.error, rep.cov)["semiaxis95"]
-    return np.where(estimate.estimates.status == "ok", regions, np.nan)
-
-
-def _shifted_view(template: PoseView, t_grid: F64, px: F64, *, lines: bool) -> PoseView:
-    """``template``'s frames moved to the target's pixels ``px`` (2, 2) from ``t_grid``.
-
-    The target is a dot, or two points of the finger's line (the first its centroid); the
-    view's frames scatter as ``template``'s.
-    """
-    used = template.found
-    centroids = px[0] + (template.centroids - template.centroids[used].mean(axis=0))
-    if lines:
-        d = px[1] - px[0]
-        theta = math.degrees(math.atan2(d[1], d[0]))
-        dev = wrap_theta_deg(template.thetas - template.thetas[used][0])  # lines: no arrow
-        thetas = theta + (dev - dev[used].mean())
-    else:
-        thetas = template.thetas.copy()
-    return dataclasses.replace(
-        template, t_grid=np.asarray(t_grid, dtype=np.float64), centroids=centroids,
-        thetas=thetas, pose=template.pose + 1,
-    )  # fmt: skip
-
-
-def _predicted_view(
-    template: PoseView, t_grid: F64, target: F64, *, lines: bool
-) -> PoseView | None:
-    """The view from ``t_grid`` of the target's points, or None if none of its frames saw it.
-
-    Where it keeps the target in view is :func:`clear_of_edges`'s question.
-    """
-    if not template.found.any():
-        return None
-    px = project(target, template, np.asarray(t_grid, dtype=np.float64)[None])[0]
-    return _shifted_view(template, t_grid, px, lines=lines)
-
-
-def located_target(
-    method: Method, views: list[PoseView], point: F64, options: EstimateOptions
-) -> F64:
-    """(2, 3) the target as two poses or more locate it.
-
-    The estimated point twice, or the finger's 3-D line (the planes' line, for method 2
-    too) by two of its points, the first nearest the first view's centroid ray.
-    """
-    if not spec_of(method).uses_image_lines:
-        return np.stack([point, point])
-    line = SessionTrials(
-        method=Method.LINE, units="", trial_ids=(1,), views=[views],
-        truth=np.full((1, 2, 3), np.nan),
-    )  # fmt: skip
-    est = estimate_session(line, options).estimates
-    p0, d = est.point[0], est.direction[0]
-    centre, ray, _ = first_ray(views[0], options)
-    # The line's point nearest the centroid ray: the closest points of two lines.
-    w = p0 - centre
-    b, dd, e = float(ray @ d), float(d @ d), float(d @ w)
-    denom = dd - b * b
-    s = (b * float(ray @ w) - e) / denom if denom > 1e-12 else 0.0
-    first = p0 + s * d
-    scale = float(np.linalg.norm(first - centre)) * 0.02
-    return np.stack([first, first + scale * d / np.linalg.norm(d)])
-
-
-def _template(views: list[PoseView]) -> PoseView:
-    """The view whose frames a predicted view repeats: the last that saw the target."""
-    detected = [v for v in views if v.found.any()]
-    return detected[-1] if detected else views[-1]
-
-
-def predicted_regions(
-    trials: SessionTrials, views: list[PoseView], target: F64, centres: F64,
-    options: EstimateOptions, *, margin: float = 1.0,
-) -> F64:  # fmt: skip
-    """(K,) the trial's 95% region with one more view from each of ``centres`` (K, 3).
-
-    NaN where the target would not be clear of the image's edges (:func:`clear_of_edges`,
-    its margins times ``margin``) or the geometry is degenerate.
-    """
-    centres = np.asarray(centres, dtype=np.float64).reshape(-1, 3)
-    lines = spec_of(trials.method).uses_image_lines
-    template = _template(views)
-    out = np.full(len(centres), np.nan)
-    if not template.found.any() or not len(centres):
-        return out
-    clear = clear_of_edges(
-        template, centres, target, Units(trials.units), lines=lines, margin=margin
-    )
-    where = np.flatnonzero(clear)
-    if not where.size:
-        return out
-    px = project(target, template, centres[where])
-    rows = [
-        [*views, _shifted_view(template, centres[k], px[n], lines=lines)]
-        for n, k in enumerate(where)
-    ]
-    if options.noise.factor is None and options.noise.test_redundancy:
-        # A predicted view has no noise of its own: the batch's candidates never estimate a
-        # variance factor (the recorder fixes the session's: trial_result.guidance_options).
-        options = dataclasses.replace(
-            options, noise=dataclasses.replace(options.noise, test_redundancy=False)
-        )
-    batch = dataclasses.replace(
-        trials, trial_ids=tuple(range(1, len(rows) + 1)), views=rows,
-        truth=np.repeat(trials.truth[:1], len(rows), axis=0),
-    )  # fmt: skip
-    out[where] = regions95(batch, options)
-    return out
-
-
-def target_of(
-    trial: SessionTrials, options: EstimateOptions, point: F64 | None, *,
-    target_distance: float | None = None,
-) -> F64:  # fmt: skip
-    """(2, 3) the trial's target as guidance uses it.
-
-    With two poses or more and the trial's estimate ``point``: the target they locate
-    (:func:`located_target`). With one pose (or no estimate): the provisional target on the
-    first view's ray at the depth the suggestion's single figures assume (``predicted95``:
-    the taped ``target_distance``, session units, or the middle of the scene's range).
-    """
-    views = trial.views[0]
-    if len(views) < 2 or point is None:
-        units = Units(trial.units)
-        depths = first_depths(views[0], units, trial.ground, options, target_distance)
-        return provisional_target(views[0], units, trial.ground, options, assumed_depth(depths))
-    return located_target(trial.method, views, point, options)
-
-
-def _best(
-    trial: SessionTrials, views: list[PoseView], target: F64, reach: Reach,
-    options: EstimateOptions, *, coarse: int = COARSE_CANDIDATES, seeds: int = SEEDS,
-) -> tuple[Found, F64] | None:  # fmt: skip
-    """The best reachable pose found (:func:`twopose.paper_search.search`), the thesis' move.
-
-    The move's region is the search's first extra region (None: no lattice pose in reach
-    keeps the target in view and solves).
-    """
-    taken = np.array([v.t_grid for v in views], dtype=np.float64)
-    units = Units(trial.units)
-    thesis_t = _thesis_move(taken, units)
-    lines = spec_of(trial.method).uses_image_lines
-    planes = half_planes(_template(views), target, units, float(taken[0][1]), lines=lines)
-    field = field_in_view(taken[0], reach, planes)
-
-    def predict(centres: F64) -> F64:
-        return predicted_regions(trial, views, target, centres, options)
-
-    found = search(predict, field, taken, extra=thesis_t[None], coarse=coarse, seeds=seeds)
-    return None if found is None else (found, thesis_t)
-
-
-def _thesis_move(taken: F64, units: Units) -> F64:
-    """(3,) the last pose moved by the thesis' move, rounded as the lattice's poses are.
-
-    Shown to the operator: 1.2, not 1.2000000000000002.
-    """
-    moved = taken[-1] + np.asarray(THESIS_MOVE_IN) * unit_factor(Units.IN, units)
-    return np.asarray(np.round(moved, 10), dtype=np.float64)
-
-
-def suggest(
-    trial: SessionTrials,
-    reach: Reach,
-    options: EstimateOptions | None = None,
-    *,
-    point: Sequence[float] | None = None,
-    target_distance: float | None = None,
-) -> Suggestion | None:
-    """The next pose for a trial of one or more accepted poses.
+def plan_next(
+    trial: SessionTrials, reach: Reach, options: EstimateOptions | None = None, *,
+    point: Sequence[float] | None = None, target_distance: float | None = None,
+    clutter: Clutter | None = None,
+) -> tuple[Suggestion | None, RegionMap | None]:  # fmt: skip
+    """The next pose for a trial of one or more accepted poses, and the map it is the best of.
 
     ``trial``: one trial, its views in pose order, its truth as known (NaN when none is
     typed, which a line's reported point then does without). ``point``: the trial's
     estimate with two poses or more (else its target is provisional: the pose for every
     depth the scene allows, :mod:`twopose.first_pose`, or for ``target_distance``, the
-    taped distance from the first pose's camera, session units). None when no reachable
-    pose keeps the target in view.
+    taped distance from the first pose's camera, session units). ``clutter``: what the
+    target must not be seen over (:mod:`twopose.clutter`). The suggestion is None when no
+    reachable pose keeps the target in view and solves; the map then says why.
     """
-    options = options or EstimateOptions()
-    views = trial.views[0]
+    t = _Trial(trial=trial, views=trial.views[0], options=options or EstimateOptions(),
+               clutter=clutter, reach=reach)  # fmt: skip
     located = None if point is None else np.asarray(point, dtype=np.float64)
-    if len(views) < 2 or located is None:
-        return _first_suggestion(trial, reach, options, target_distance)
-    best = _best(trial, views, target_of(trial, options, located), reach, options)
-    if best is None:
-        return None
-    found, thesis_t = best
-    return Suggestion(
-        t_grid=_triple(found.centre),
-        r_deg=_triple(views[-1].r_deg),
-        predicted95=found.region,
-        thesis_t_grid=_triple(thesis_t),
-        thesis95=float(found.extra_regions[0]),
-        provisional=False,
-        n_candidates=found.n_candidates,
-        left_out=found.left_out,
-        n_predicted=found.n_predicted,
+    if len(t.views) < 2 or located is None:
+        depths = first_depths(t.views[0], t.units, trial.ground, t.options, target_distance)
+        if len(depths) > 1:
+            return _first_suggestion(t, depths)
+        return _suggestion(t, target_of(trial, t.options, None, target_distance=target_distance),
+                           depth=(float(depths[0]), target_distance is not None))  # fmt: skip
+    return _suggestion(t, target_of(trial, t.options, located))
+
+
+def suggest(
+    trial: SessionTrials, reach: Reach, options: EstimateOptions | None = None, *,
+    point: Sequence[float] | None = None, target_distance: float | None = None,
+    clutter: Clutter | None = None,
+) -> Suggestion | None:  # fmt: skip
+    """The next pose for a trial (:func:`plan_next` without its map); None: no pose solves."""
+    return plan_next(trial, reach, options, point=point, target_distance=target_distance,
+                     clutter=clutter)[0]  # fmt: skip
+
+
+def _suggestion(
+    t: _Trial, target: F64, depth: tuple[float, bool] | None = None
+) -> tuple[Suggestion | None, RegionMap]:
+    """The best pose for a located target (or one at a single depth along the first ray).
+
+    ``depth``: the one depth weighed and whether the operator taped it (None: located).
+    """
+    taken, thesis_t = t.taken, t.thesis_move()
+    field, predict, blocked = t.field(target), t.predict(target), t.blocked(target)
+    cells = survey(predict, field, t.reach, taken, extra=thesis_t[None], blocked=blocked)
+    found = search(predict, field, taken, known=(cells.known, cells.step), blocked=blocked)
+    region_map = RegionMap.of(
+        cells,
+        t.units,
+        t.reach,
+        taken,
+        None if found is None else found.centre,
+        math.nan if found is None else found.region,
     )
-
-
-def _first_pick(
-    trial: SessionTrials, reach: Reach, options: EstimateOptions, depths: F64, *,
-    coarse: int = COARSE_CANDIDATES,
-) -> FirstPick | None:  # fmt: skip
-    """The pose for a target at any of ``depths`` on the first ray (``coarse``: a search's)."""
-    views, units = trial.views[0], Units(trial.units)
-    targets = [provisional_target(views[0], units, trial.ground, options, d) for d in depths]
-    taken = np.array([v.t_grid for v in views], dtype=np.float64)
-    lines = spec_of(trial.method).uses_image_lines
-    # Each depth's best over the poses that keep a target there clear of the image's
-    # edges; the pick keeps it in view wherever along the ray it is (by a narrower margin).
-    y, seen = float(taken[0][1]), _template(views)
-    margin = OTHER_DEPTHS_MARGIN if len(depths) > 1 else 1.0  # a taped depth: the full margin
-    fields = [field_in_view(taken[0], reach, half_planes(seen, t, units, y, lines=lines))
-              for t in targets]  # fmt: skip
-    field = field_in_view(taken[0], reach, np.vstack([
-        half_planes(seen, t, units, y, lines=lines, margin=margin) for t in targets
-    ]))  # fmt: skip
-
-    def predict(centres: F64, rows: list[int]) -> F64:
-        return np.stack([predicted_regions(trial, views, targets[d], centres, options,
-                                           margin=margin) for d in rows])  # fmt: skip
-
-    extra = _thesis_move(taken, units)[None]
-    return minimax_pick(predict, fields, field, taken, extra=extra, coarse=coarse)
-
-
-def _first_suggestion(
-    trial: SessionTrials, reach: Reach, options: EstimateOptions, taped: float | None
-) -> Suggestion | None:
-    """The suggestion of a trial whose target is not located yet (see :func:`suggest`)."""
-    views, units = trial.views[0], Units(trial.units)
-    depths = first_depths(views[0], units, trial.ground, options, taped)
-    pick = _first_pick(trial, reach, options, depths)
-    if pick is None:
-        return None
-    k = len(depths) // 2  # the assumed depth's (:func:`assumed_depth`)
-    found, taken = pick.found, np.array([v.t_grid for v in views], dtype=np.float64)
-    solved = pick.regions[np.isfinite(pick.regions)]
+    if found is None:
+        return None, region_map
+    d = None if depth is None else depth[0]
     return Suggestion(
-        t_grid=_triple(found.centre), r_deg=_triple(views[-1].r_deg),
-        predicted95=float(pick.regions[k]), thesis_t_grid=_triple(_thesis_move(taken, units)),
+        t_grid=_triple(found.centre), r_deg=_triple(t.views[-1].r_deg), predicted95=found.region,
+        thesis_t_grid=_triple(thesis_t), thesis95=float(cells.extra[0]),
+        provisional=depth is not None, n_candidates=found.n_candidates, left_out=found.left_out,
+        n_predicted=found.n_predicted,
+        predicted95_range=None if d is None else (found.region, found.region),
+        depth_range=None if d is None else (d, d), taped=depth is not None and depth[1],
+        assumed_depth=d, clutter=_source(t, found.left_out),
+    ), region_map  # fmt: skip
+
+
+def _first_suggestion(t: _Trial, depths: F64) -> tuple[Suggestion | None, RegionMap | None]:
+    """The suggestion of a trial whose target is not located yet (see :func:`plan_next`)."""
+    view, units, ground = t.views[0], t.units, t.trial.ground
+    targets = np.stack([provisional_target(view, units, ground, t.options, d) for d in depths])
+    taken, margin = t.taken, OTHER_DEPTHS_MARGIN
+    # Each depth's best over the poses that keep a target there clear of the image's
+    # edges; the pick keeps it clear wherever along the ray it is, by the same margin.
+    fields = [t.field(target, margin) for target in targets]
+    y, seen = float(taken[0][1]), t.template
+    every = np.vstack([half_planes(seen, target, units, y, lines=t.lines, margin=margin)
+                       for target in targets])  # fmt: skip
+    field = field_in_view(taken[0], t.reach, every)
+
+    def predict(centres: F64, depth: np.ndarray) -> F64:
+        return predicted_regions(t.trial, t.views, targets[depth], centres, t.options,
+                                 margin=margin)  # fmt: skip
+
+    blocked = [t.blocked(target) for target in targets]
+
+    def blocked_at(centres: F64, d: int) -> Bools:
+        check = blocked[d]
+        return np.zeros(len(centres), dtype=bool) if check is None else check(centres)
+
+    thesis_t = t.thesis_move()
+    pick = minimax_pick(predict, fields, field, t.reach, taken, extra=thesis_t[None],
+                        blocked_at=blocked_at if t.clutter is not None else None)  # fmt: skip
+    if pick is None:
+        return None, None
+    k = len(depths) // 2  # the assumed depth's (:func:`twopose.first_pose.assumed_depth`)
+    found = pick.found
+    region_map = RegionMap.of(pick.cells, units, t.reach, taken, found.centre, found.region,
+                              depth_range=(float(depths[0]), float(depths[-1])))  # fmt: skip
+    solved = pick.regions[np.isfinite(pick.regions)]
+    thesis = pick.extra_regions[:, 0]
+    thesis = thesis[np.isfinite(thesis)]
+    return Suggestion(
+        t_grid=_triple(found.centre), r_deg=_triple(t.views[-1].r_deg),
+        predicted95=float(pick.regions[k]), thesis_t_grid=_triple(thesis_t),
         thesis95=float(pick.extra_regions[k, 0]), provisional=True,
         n_candidates=found.n_candidates, left_out=found.left_out, n_predicted=pick.n_predicted,
         predicted95_range=(float(solved.min()) * (1 - RANGE_SLACK),
                            float(solved.max()) * (1 + RANGE_SLACK)) if solved.size else None,
-        depth_range=(float(depths[0]), float(depths[-1])), taped=taped is not None,
-    )  # fmt: skip
+        depth_range=(float(depths[0]), float(depths[-1])),
+        thesis95_range=(float(thesis.min()), float(thesis.max())) if thesis.size else None,
+        assumed_depth=float(depths[k]), clutter=_source(t, found.left_out),
+    ), region_map  # fmt: skip
+
+
+def _source(t: _Trial, left_out: tuple[tuple[str, int], ...]) -> str:
+    """Where the clutter left out is known from ("" when none was left out for it)."""
+    if t.clutter is None or not any(reason == CLUTTER for reason, _ in left_out):
+        return ""
+    return t.clutter.source
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -476,7 +294,8 @@ class Guidance:
             else "no target precision, "
         )
         if self.min_gain is not None:
-            stop += f"once the next pose would shrink it by less than {self.min_gain:.0%}, "
+            # the least gain as given (0.125, never a rounded 12%)
+            stop += f"once the next pose would shrink it by less than {shown(self.min_gain)}, "
         taped = (
             f"; the target taped {shown(self.target_distance)} {units} from the first pose"
             if self.target_distance is not None
@@ -507,20 +326,19 @@ class Advice:
     suggestion: Suggestion | None = None
     more_poses: int | None = None  # predicted poses still needed (None: none predicted)
     reason: str = ""  # complete: why (:data:`STOP_TARGET`, ...); "" while it is not
+    #: The map the suggestion is the best of (:mod:`twopose.region_map`; None: complete).
+    region_map: RegionMap | None = None
 
 
 def advise(
-    trial: SessionTrials,
-    guidance: Guidance,
-    options: EstimateOptions | None = None,
-    *,
-    point: Sequence[float] | None = None,
-    region95: float = math.nan,
-) -> Advice:
+    trial: SessionTrials, guidance: Guidance, options: EstimateOptions | None = None, *,
+    point: Sequence[float] | None = None, region95: float = math.nan,
+    clutter: Clutter | None = None,
+) -> Advice:  # fmt: skip
     """After an accepted pose: complete, or the next pose and how many more are predicted.
 
     ``region95`` and ``point``: the trial's result now (its live result), NaN and None
-    with one pose.
+    with one pose; ``clutter``: what the target must not be seen over.
     """
     options = options or EstimateOptions()
     views, units, target95 = trial.views[0], Units(trial.units), guidance.target95
@@ -529,25 +347,25 @@ def advise(
         return Advice(complete=True, region95=region95, reason=STOP_TARGET, text=(
             f"95% within {region95:.3g} {units} <= {shown(target95)}: trial complete"))  # fmt: skip
     if n >= guidance.max_poses:
-        within = f"; 95% within {region95:.3g} {units}" if math.isfinite(region95) else ""
-        beyond = f" > {shown(target95)}" if target95 is not None and math.isfinite(region95) else ""
         return Advice(complete=True, region95=region95, reason=STOP_MAX_POSES, text=(
-            f"{n} poses, the most for a trial: trial complete{within}{beyond}"))  # fmt: skip
-    suggestion = suggest(
-        trial, guidance.reach, options, point=point, target_distance=guidance.target_distance
-    )
+            f"{n} poses, the most for a trial: trial complete{_missed(guidance, region95, units)}"
+        ))  # fmt: skip
+    suggestion, region_map = plan_next(trial, guidance.reach, options, point=point,
+                                       target_distance=guidance.target_distance,
+                                       clutter=clutter)  # fmt: skip
     if suggestion is None:
         text = (
             "no pose on the grid within reach keeps the target clear of the image's edge "
             "and solves the trial: choose the next pose yourself"
         )
-        return Advice(complete=False, region95=region95, text=text)
+        return Advice(complete=False, region95=region95, text=text, region_map=region_map)
     gain = 1.0 - suggestion.predicted95 / region95 if math.isfinite(region95) else math.nan
     if guidance.min_gain is not None and not suggestion.provisional and gain < guidance.min_gain:
         return Advice(complete=True, region95=region95, reason=STOP_MIN_GAIN, text=(
             f"the next pose would shrink the 95% region by only {max(gain, 0.0):.1%} (to "
             f"{suggestion.predicted95:.3g} {units} from {region95:.3g}; less than "
-            f"{guidance.min_gain:.0%}, the least gain): trial complete"))  # fmt: skip
+            f"{guidance.min_gain:.0%}, the least gain): trial complete"
+            f"{_missed(guidance, region95, units)}"))  # fmt: skip
     more = None
     horizon = min(guidance.max_poses, n + LOOKAHEAD_POSES)  # the prediction's cost is bounded
     if target95 is not None:
@@ -561,8 +379,19 @@ def advise(
             if more is not None
             else f"; {shown(target95)} {units} is not predicted within {horizon} poses"
         )
-    return Advice(
-        complete=False, text=said, region95=region95, suggestion=suggestion, more_poses=more
+    return Advice(complete=False, text=said, region95=region95, suggestion=suggestion,
+                  more_poses=more, region_map=region_map)  # fmt: skip
+
+
+def _missed(guidance: Guidance, region95: float, units: Units) -> str:
+    """A trial complete short of its target precision says so ("" when none was set)."""
+    if not math.isfinite(region95):
+        return ""
+    if guidance.target95 is None:
+        return f"; 95% within {region95:.3g} {units}"
+    return (
+        f"; 95% within {region95:.3g} {units} > {shown(guidance.target95)}: the target "
+        "precision was not reached"
     )
 
 
@@ -573,8 +402,8 @@ def _more_poses(
     """How many more poses the suggestions, one after the other, are predicted to need.
 
     To reach the target precision; None: not within ``horizon`` poses. Each pose ahead is
-    searched more coarsely than the suggestion (:data:`_LOOKAHEAD_COARSE`, one seed): a
-    count, not a pose to take.
+    searched more coarsely than the suggestion (:data:`_LOOKAHEAD_COARSE` poses, no pattern
+    search): a count, not a pose to take.
     """
     assert guidance.target95 is not None
     views = list(trial.views[0][:1] if first.provisional else trial.views[0])
@@ -583,15 +412,17 @@ def _more_poses(
     while len(trial.views[0]) + step <= horizon:
         if region <= guidance.target95:
             return step
-        view = _predicted_view(views[-1], centre, target, lines=lines)
-        best = None if view is None else _best(
-            trial, [*views, view], target, guidance.reach, options,
-            coarse=_LOOKAHEAD_COARSE, seeds=0,
-        )  # fmt: skip
-        if view is None or best is None:
+        view = predicted_view(views[-1], centre, target, lines=lines)
+        if view is None:
             return None
         views.append(view)
-        centre, region = best[0].centre, best[0].region
+        t = _Trial(trial=trial, views=views, options=options, clutter=None, reach=guidance.reach)
+        field = t.field(target)
+
+        best = search(t.predict(target), field, t.taken, coarse=_LOOKAHEAD_COARSE, seeds=0)
+        if best is None:
+            return None
+        centre, region = best.centre, best.region
         step += 1
     return None
 

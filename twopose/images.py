@@ -9,7 +9,6 @@ through :func:`decode_image`.
 from __future__ import annotations
 
 import io
-import os
 
 import numpy as np
 from numpy.typing import NDArray
@@ -23,12 +22,13 @@ def max_image_pixels() -> int:
     """The largest image decoded, in pixels.
 
     The largest image decoded (pixels): 50 MP (above every camera the method uses, about 150
-    MB decoded), or ``TWOPOSE_MAX_IMAGE_MPIX`` megapixels.
+    MB decoded), or ``TWOPOSE_MAX_IMAGE_MPIX`` megapixels (:data:`twopose.environment.
+    MAX_IMAGE_MPIX`, in the analysis cache's key).
     """
-    try:
-        megapixels = float(os.environ.get("TWOPOSE_MAX_IMAGE_MPIX", "50"))
-    except ValueError:
-        megapixels = 50.0
+    from twopose.environment import MAX_IMAGE_MPIX
+
+    megapixels = MAX_IMAGE_MPIX.read()
+    assert megapixels is not None  # a number with a default
     return int(megapixels * 1_000_000)
 
 

@@ -1,4 +1,4 @@
-"""The noise a trial's 95% region assumes, defined once (issue 46).
+"""The noise a trial's 95% region assumes, defined once (issues 46, 54).
 
 Every region (the analysis' ``trials.csv``, the recorder's live result, guidance's
 predictions) propagates three inputs (:mod:`twopose.uncertainty`): each pose's frame
@@ -7,22 +7,22 @@ typed translation component. That last one dominates a trial's region, and it is
 nobody measured: it was the resolution the operator typed. Here it is
 
 * :class:`PlacingSigma`: the placing error, typed (each pose's recorded resolution) or
-  **measured** by a board session (:func:`twopose.rig.board.fit_board_rig`: each capture's
-  camera position, known from the board's corners to a fraction of a millimetre, against
-  its typed pose after the rig's constants), with its own 1-sigma and where it came from;
-* :class:`VarianceFactor`: the **a-posteriori variance factor** ``sigma0^2`` of
-  photogrammetry, pooled over the trials that share an operator and a setup (a session):
-  trials with redundant measurements (three poses or more, or two rays of a point) test the
-  noise model by their misclosures. The component the model is unsure of, the placing
-  variance, is **measured** from them by variance component estimation (Helmert, Förstner):
-  each trial's misclosure has the covariance ``A + lambda B`` (``A`` from the pixels, the
-  rotation resolution and the calibration, ``B`` from the placing sigma), and ``lambda`` is
-  the maximum of their joint likelihood. When a likelihood-ratio test contradicts
-  ``lambda = 1`` (one-sided, 5%), every region is propagated again with the placing sigma
-  times ``sqrt(lambda)`` and widened by the quantile of Fisher's F instead of the
-  chi-square (``lambda`` is itself estimated, from few degrees of freedom); when the data
-  agree, nothing changes;
-* :class:`NoiseModel`: the two as the estimation's options carry them
+  **measured** by a board session (:func:`twopose.rig.board.fit_board_rig`), with its own
+  1-sigma and where it came from;
+* :class:`PlacingPrior`: what is known of the placing variance's multiplier ``lambda``
+  before a session's own trials (the typed resolution's weak word, a board's measurement,
+  the same operator's other sessions), a scaled inverse chi-square;
+* :class:`VarianceFactor`: the session's noise as its trials' misclosures
+  (:mod:`twopose.misclosure`) and the prior settle it (:mod:`twopose.placing_variance`):
+  sigma0, the a-posteriori variance factor of photogrammetry under the typed model, with
+  its chi-square test; the multiplier ``lambda`` every region is propagated with (always
+  estimated, never a pretest) and the degrees of freedom it rests on (the regions' Fisher
+  F); the trials flagged (their poses disagree);
+* :func:`noise_words`: the one place a test is said in words, so that the words never say
+  more than the numbers: "agree" only when sigma0's own chi-square test does not reject on
+  enough degrees of freedom, "contradict" only when it rejects, "scatter less" only in its
+  lower tail;
+* :class:`NoiseModel`: all of it as the estimation's options carry it
   (:attr:`twopose.margins.EstimateOptions.noise`).
 
 Light: the command lines read it; NumPy and SciPy are imported where a number is computed.
@@ -41,22 +41,32 @@ if TYPE_CHECKING:
 __all__ = [
     "FACTOR_TEST_LEVEL",
     "MIN_PLACING_DOF",
+    "TYPED_PRIOR_DOF",
     "NoiseModel",
+    "PlacingPrior",
     "PlacingSigma",
     "VarianceFactor",
     "noise_words",
+    "p_words",
     "region_quantile",
 ]
 
 #: The variance factor's test: the model is contradicted when ``dof * sigma0^2`` lies in
-#: the chi-square's upper 5% tail.
+#: the chi-square's upper 5% tail (and the data scatter less in its lower 5% tail).
 FACTOR_TEST_LEVEL = 0.05
-#: A measured placing sigma must rest on at least this many degrees of freedom (its
-#: 1-sigma at most sigma / sqrt(6)): below, its F quantile (:attr:`PlacingSigma.widening`)
-#: explodes, and a board session of the recommended size gives about 17.
+#: The least degrees of freedom an estimate of the placing variance may rest on (a board's
+#: measured sigma, a session's multiplier beyond its anchor), and the least on which
+#: sigma0's test may say the data agree: below, its F quantile explodes and its test
+#: cannot tell.
 MIN_PLACING_DOF = 3
+#: The typed resolution's weight as a prior: a scaled inverse chi-square at 1 on this many
+#: degrees of freedom (what an operator's word is worth against their data: weak).
+TYPED_PRIOR_DOF = 2.0
 #: The regions' level.
 _REGION_LEVEL = 0.95
+#: Beyond this many degrees of freedom a placing sigma's own uncertainty is not said as a
+#: count (a hand-edited sigma_sigma can state millions): it is negligible.
+_SAID_DOF = 1000
 
 
 def _inches_per(units: Units) -> float:
@@ -70,10 +80,10 @@ class PlacingSigma:
     """The operator's placing error: the 1-sigma of each typed translation component.
 
     In inches (converted per session); ``sigma_sigma_in`` is the estimate's own 1-sigma
-    (NaN: not measured); ``measured_by`` names the board session(s) that measured it, over
-    ``captures`` captures. ``upper_bound``: the captures showed no placing error their
-    corners resolve (the fit's floor), and ``sigma_in`` is only the most it can be (no
-    1-sigma; never said "measured").
+    (NaN: not measured, taken as exact); ``measured_by`` names the board session(s) that
+    measured it, over ``captures`` captures. ``upper_bound``: the captures showed no placing
+    error their corners resolve (the fit's floor), and ``sigma_in`` is only the most it can
+    be (no 1-sigma; taken as exact; never said "measured").
     """
 
     sigma_in: float
@@ -115,27 +125,12 @@ class PlacingSigma:
             return math.inf
         return 0.5 * (self.sigma_in / self.sigma_sigma_in) ** 2
 
-    @property
-    def widening(self) -> float:
-        """The factor on the measured sigma that the regions assume (1: stated exactly).
-
-        A sigma estimated from few degrees of freedom (a board session's 8 captures give
-        about 17) is itself uncertain: a region built on it covers less than 95% on
-        average. As for the variance factor, the region's quantile becomes Fisher's F
-        instead of the chi-square (:func:`region_quantile`), carried on the sigma as
-        ``sqrt(3 F(3, dof) / chi2_3)``: the 3-D region's (the widest of a region's
-        1-3 dimensions), exact where the placing dominates the region.
-        """
-        if not math.isfinite(self.dof):
-            return 1.0
-        return math.sqrt(region_quantile(3, self.dof) / region_quantile(3))
-
     def sigma(self, units: Units) -> float:
-        """The placing sigma the regions assume, in ``units``.
+        """The placing sigma, in ``units``: the regions start from it.
 
-        The measured one, widened for its own uncertainty (:attr:`widening`).
+        Its own uncertainty is the anchor's degrees of freedom (:meth:`NoiseModel.anchor`).
         """
-        return self.sigma_in * self.widening / _inches_per(units)
+        return self.sigma_in / _inches_per(units)
 
     def describe(self, units: Units) -> str:
         """Which placing sigma a run used and where it came from, in words."""
@@ -155,11 +150,10 @@ class PlacingSigma:
         if self.captures:
             where += f" ({self.captures} captures)"
         said = f"placing sigma {value} {units}, {where}"
-        if self.widening >= 1.005:  # shown as x1.01 or more; a nearly exact one is not said
-            said += (
-                f"; regions assume {self.sigma(units):.3g} {units} (x{self.widening:.2f} for "
-                f"the estimate's own uncertainty, {self.dof:.0f} degrees of freedom)"
-            )
+        if math.isfinite(self.dof) and self.dof > _SAID_DOF:  # never "11057153" of them
+            said += f"; over {_SAID_DOF} degrees of freedom: its own uncertainty negligible"
+        elif math.isfinite(self.dof):
+            said += f"; {self.dof:.0f} degrees of freedom, which the sessions' own add to"
         return said
 
 
@@ -201,27 +195,69 @@ def f_quantile(level: float, dof_num: float, dof_den: float) -> float:
     return float(special.fdtri(dof_num, dof_den, level))
 
 
+def chi2_tails(chi2: float, dof: float) -> tuple[float, float]:
+    """``chi2``'s upper and lower tail probabilities on ``dof`` degrees of freedom."""
+    from scipy import special
+
+    return float(special.chdtrc(dof, chi2)), float(special.chdtr(dof, chi2))
+
+
+def p_words(p: float) -> str:
+    """A p-value as the words print it: ``p = 0.17``, ``p = 0.003``, ``p < 0.001``."""
+    if not math.isfinite(p):
+        return "p -"
+    if p < 0.001:
+        return "p < 0.001"
+    return f"p = {p:.2g}" if p < 0.1 else f"p = {p:.2f}"
+
+
+@dataclass(frozen=True, kw_only=True)
+class PlacingPrior:
+    """What is known of the placing variance's multiplier before a session's own trials.
+
+    A scaled inverse chi-square: ``scale`` (``lambda0``, relative to the placing sigma the
+    regions start from) on ``dof`` degrees of freedom; ``source`` says where it came from
+    (words), from how many ``sessions``.
+    """
+
+    scale: float
+    dof: float
+    source: str
+    sessions: int = 0
+
+    def __post_init__(self) -> None:
+        """Refuse a prior that is not a positive scale on positive degrees of freedom."""
+        from twopose.errors import InputValueError
+
+        if not (math.isfinite(self.scale) and self.scale > 0 and self.dof > 0):
+            raise InputValueError(
+                f"a placing prior needs a positive multiplier on positive degrees of freedom, "
+                f"got {self.scale!r} on {self.dof!r}"
+            )
+
+
 @dataclass(frozen=True, kw_only=True)
 class VarianceFactor:
-    """The noise model tested by a session's redundant trials (see the module).
+    """A session's noise as its trials' misclosures and its prior settle it (see the module).
 
-    ``sigma0_sq``: the misclosures' chi-square over their ``dof`` degrees of freedom (1
-    when the noise model is right); ``trials``: the trials that carried redundancy.
-
-    The placing variance's multiplier ``lambda`` is estimated from the same misclosures by
-    variance component estimation (:func:`twopose.misclosure.placing_component`):
-    ``placing_scale`` is ``sqrt(lambda)`` (NaN: not estimated), ``placing_dof`` the
-    degrees of freedom it is estimated from and ``placing_lr`` the likelihood-ratio
-    statistic of ``lambda`` against 1. A factor without them (built from sigma0 alone)
-    puts all of the misfit on the placing: ``lambda = sigma0^2`` on ``dof``.
+    ``sigma0_sq``: the unflagged trials' misclosure chi-square under the typed model over
+    their ``dof`` (1 when the typed model is right), ``trials`` of them; ``placing_variance``:
+    the multiplier ``lambda`` of the placing variance every region is propagated with, on
+    ``variance_dof`` degrees of freedom (infinite: taken as exact, nothing estimated), of
+    which ``information`` beyond the anchor (the data's and the operator's); ``flagged``:
+    trials whose poses disagree, kept out; ``at_limit``: ``lambda`` is beyond the grid;
+    ``sources``: where ``lambda``'s information came from, in words.
     """
 
     sigma0_sq: float
     dof: int
     trials: int = 0
-    placing_scale: float = math.nan
-    placing_dof: float = math.nan
-    placing_lr: float = math.nan
+    placing_variance: float = 1.0
+    variance_dof: float = math.inf
+    information: float = 0.0
+    flagged: int = 0
+    at_limit: bool = False
+    sources: str = ""
 
     @property
     def tested(self) -> bool:
@@ -230,102 +266,115 @@ class VarianceFactor:
 
     @property
     def estimated(self) -> bool:
-        """Whether the placing variance's multiplier was estimated (variance components)."""
-        return math.isfinite(self.placing_scale) and math.isfinite(self.placing_lr)
+        """Whether ``lambda`` was estimated (its regions widen for its uncertainty)."""
+        return math.isfinite(self.variance_dof)
+
+    @property
+    def p_upper(self) -> float:
+        """sigma0's chi-square test: the upper tail (NaN: not tested)."""
+        return chi2_tails(self.dof * self.sigma0_sq, self.dof)[0] if self.tested else math.nan
+
+    @property
+    def p_lower(self) -> float:
+        """sigma0's chi-square test: the lower tail (NaN: not tested)."""
+        return chi2_tails(self.dof * self.sigma0_sq, self.dof)[1] if self.tested else math.nan
 
     @property
     def contradicted(self) -> bool:
-        """The data contradict the typed placing sigma: the regions are re-propagated.
-
-        With ``lambda`` estimated: ``lambda > 1`` and its likelihood-ratio statistic beyond
-        the chi-square's (1 dof) upper ``2 x 5%`` quantile (one-sided 5%: only a larger
-        placing error widens). Without: ``dof sigma0^2`` beyond its 95% quantile.
-        """
-        if not self.tested:
-            return False
-        if self.estimated:
-            limit = chi2_quantile(1.0 - 2 * FACTOR_TEST_LEVEL, 1)
-            return self.placing_scale > 1.0 and self.placing_lr > limit
-        limit = chi2_quantile(1.0 - FACTOR_TEST_LEVEL, self.dof)
-        return self.dof * self.sigma0_sq > limit
+        """sigma0's own chi-square test rejects the typed model (its upper 5% tail)."""
+        return self.tested and self.p_upper < FACTOR_TEST_LEVEL
 
     @property
-    def placing_variance(self) -> float:
-        """The multiplier of the placing variance the regions assume (1: unchanged)."""
-        if not self.contradicted:
-            return 1.0
-        return self.placing_scale**2 if self.estimated else self.sigma0_sq
+    def placing_scale(self) -> float:
+        """The placing sigma the regions assume over the one they start from."""
+        return math.sqrt(self.placing_variance)
 
-    @property
-    def variance_dof(self) -> float:
-        """The degrees of freedom :attr:`placing_variance` is estimated from."""
-        return self.placing_dof if self.estimated else float(self.dof)
+    def widening(self, k: int, share: float = 1.0) -> float:
+        """The propagated covariance's multiplier for a ``k``-dimensional region.
 
-    def widening(self, k: int) -> float:
-        """The re-propagated covariance's multiplier for a ``k``-dimensional region.
-
-        ``k F(k, f) / chi2_k``, ``f`` = :attr:`variance_dof`: the region's radius is then
-        the F quantile's of the covariance re-propagated with the placing sigma times
-        ``sqrt(lambda)`` (1: unchanged), every column read from one covariance.
+        ``k F(k, f) / chi2_k``: the region's quantile for a variance estimated from ``f``
+        degrees of freedom; ``f`` is :attr:`variance_dof` over ``share^2``, ``share`` the
+        placing's part of the region (Welch-Satterthwaite: a region the pixels dominate
+        hardly depends on ``lambda``). 1 when nothing was estimated.
         """
-        if not self.contradicted or k < 1:
+        if not self.estimated or k < 1 or not share > 0:
             return 1.0
-        return region_quantile(k, self.variance_dof) / region_quantile(k)
+        dof = self.variance_dof / min(share, 1.0) ** 2
+        return region_quantile(k, dof) / region_quantile(k)
 
     def describe(self, placing: float = math.nan, units: Units | None = None) -> str:
-        """The test in words; ``placing``: the placing sigma typed (or given), in ``units``."""
-        if not self.tested:
-            return "noise model not tested (no trial with redundant poses)"
-        s0 = math.sqrt(self.sigma0_sq)
-        head = f"sigma0 {s0:.2f} over {self.dof} degrees of freedom ({self.trials} trials)"
-        if not self.contradicted:
-            return f"{head}: the data agree with the noise model; regions unchanged"
-        scale = math.sqrt(self.placing_variance)
-        if math.isfinite(placing) and units is not None:
-            measured = (
-                f"the sessions' redundancy measures the placing sigma at {placing * scale:.2g} "
-                f"{units} ({scale:.1f}x the assumed {placing:.3g} {units})"
-            )
-        else:
-            measured = (
-                f"the sessions' redundancy measures the placing sigma {scale:.1f}x the one assumed"
-            )
-        return (
-            f"{measured}, from {self.variance_dof:.0f} degrees of freedom ({head}); every "
-            f"95% region is propagated with it and widened by Fisher's F for its uncertainty"
-        )
+        """The test and the multiplier applied in words (:func:`noise_words`).
+
+        ``placing``: the placing sigma the regions start from, in ``units``.
+        """
+        s0 = math.sqrt(self.sigma0_sq) if self.tested else math.nan
+        said = noise_words(s0, self.dof, math.nan, self)
+        if math.isfinite(placing) and units is not None and self.estimated:
+            assumed = placing * self.placing_scale
+            said += f"; the regions assume a placing sigma of {assumed:.2g} {units}"
+        return said
 
 
-def noise_words(sigma0: float, dof: int, region_widening: float, placing_scale: float = 1.0) -> str:
-    """The variance factor's test in a few words, one home for every place that says it.
+def noise_words(
+    sigma0: float,
+    dof: int,
+    region_widening: float = math.nan,
+    factor: VarianceFactor | None = None,
+    *,
+    placing_scale: float = math.nan,
+    placing_dof: float = math.inf,
+    flagged: int = 0,
+) -> str:
+    """The noise model's test and what the regions took, in words: the one home of them.
 
-    ``region_widening``: the 95% region's radius multiplier against the typed placing
-    sigma's (its largest semi-axis; 1: unchanged); ``placing_scale``: the placing sigma the
-    session's redundancy measured, over the typed (1: not said).
+    ``sigma0`` on ``dof``: the unflagged trials' a-posteriori factor under the typed model,
+    said by its own chi-square test (5%): "contradict" in its upper tail, "scatter less" in
+    its lower tail, "agree" otherwise on at least :data:`MIN_PLACING_DOF` degrees of
+    freedom, "too few degrees of freedom" below. Then the multiplier the regions took, with
+    the degrees of freedom it rests on (``factor``'s, or ``placing_scale`` on
+    ``placing_dof``), ``region_widening`` (the largest semi-axis against the typed
+    placing's; NaN: not said) and the ``flagged`` trials.
     """
+    if factor is not None:
+        placing_scale = factor.placing_scale if factor.estimated else math.nan
+        placing_dof, flagged = factor.variance_dof, factor.flagged
+    words = [_test_words(sigma0, dof, flagged)]
+    if math.isfinite(placing_scale) and math.isfinite(placing_dof):
+        took = (
+            f"placing sigma taken {placing_scale:.2g}x the one assumed, from {placing_dof:.0f} dof"
+        )
+        if factor is not None and factor.sources:
+            took += f" ({factor.sources})"
+        if factor is not None and factor.at_limit:
+            took += ", at the limit of what is searched: check the typed resolution and units"
+        words.append(took)
+    elif dof > 0 and math.isfinite(sigma0):
+        words.append(
+            "not enough data to estimate the placing sigma: the regions assume the one typed"
+        )
+    if math.isfinite(region_widening) and not math.isclose(region_widening, 1.0, abs_tol=5e-3):
+        words.append(f"regions' largest semi-axis x{region_widening:.2f}")
+    if flagged:
+        trials = "trial" if flagged == 1 else "trials"
+        words.append(f"{flagged} {trials} flagged (poses disagree): kept out and widened")
+    return "; ".join(words)
+
+
+def _test_words(sigma0: float, dof: int, flagged: int = 0) -> str:
+    """sigma0's chi-square test said: never "agree" when it rejects or cannot tell."""
+    if (dof <= 0 or not math.isfinite(sigma0)) and flagged:
+        return "sigma0 not tested (every trial with redundant poses is flagged)"
     if dof <= 0 or not math.isfinite(sigma0):
-        return "sigma0 not tested (no redundant trial, or --no-sigma0)"
-    head = f"sigma0 {sigma0:.2f} on {dof} dof"
-    if region_widening > 1:
-        said = "the data contradict the noise model (the placing error is larger than assumed)"
-        if placing_scale > 1:
-            said += f": placing sigma measured {placing_scale:.1f}x the one assumed"
-        return f"{head}: regions' largest semi-axis widened x{region_widening:.1f}: {said}"
-    if _below_model(sigma0, dof):
-        return (
-            f"{head}: the data scatter less than the noise model says (its regions may be "
-            "too wide; they are never narrowed)"
-        )
+        return "sigma0 not tested (no trial with redundant poses, or --no-sigma0)"
+    upper, lower = chi2_tails(dof * sigma0**2, dof)
+    head = f"sigma0 {sigma0:.2f} on {dof} dof ({p_words(upper)})"
+    if upper < FACTOR_TEST_LEVEL:
+        return f"{head}: the data contradict the noise model (they scatter more than typed)"
+    if lower < FACTOR_TEST_LEVEL:
+        return f"{head}: the data scatter less than the noise model says"
+    if dof < MIN_PLACING_DOF:
+        return f"{head}: too few degrees of freedom to judge the noise model"
     return f"{head}: the data agree with the noise model"
-
-
-def _below_model(sigma0: float, dof: int) -> bool:
-    """``dof sigma0^2`` in the chi-square's lower 5% tail: the model overstates the noise.
-
-    A sigma0 of 1 or more never is (the tail lies below the mean, ``dof``): no quantile
-    is computed, nor scipy imported, for it.
-    """
-    return sigma0 < 1.0 and dof * sigma0**2 < chi2_quantile(FACTOR_TEST_LEVEL, dof)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -333,15 +382,32 @@ class NoiseModel:
     """The noise every region assumes: the placing sigma and the variance factor's rule.
 
     ``placing``: None takes each pose's typed resolution. ``test_redundancy``: estimate the
-    variance factor from the trials' misclosures and widen when they contradict the model.
-    ``factor``: a factor already estimated (guidance's predicted regions use the session's,
-    never one from predicted views); when given, it is applied as is.
+    placing variance's multiplier from the trials' misclosures (and flag the trials whose
+    poses disagree). ``prior``: the operator's (their other sessions', or the recorder's
+    noise file), beside the anchor (:meth:`anchor`). ``factor``: a factor already
+    estimated (guidance's predicted regions use the session's, never one from predicted
+    views); when given, it is applied as is.
     """
 
     placing: PlacingSigma | None = None
     test_redundancy: bool = True
     factor: VarianceFactor | None = field(default=None)
+    prior: PlacingPrior | None = None
     #: The rig's constants' covariance (``--rig``): carried into every region, ``J C J^T``
     #: (:mod:`twopose.rig.carried`), beside the views' own noise and never widened by its
     #: test; None: no rig, or its constants taken as exact.
     rig: RigCovariance | None = None
+
+    def anchor(self) -> PlacingPrior:
+        """The prior the regions' placing sigma itself is.
+
+        A board's measurement on its degrees of freedom, else the typed resolution's weak
+        word (:data:`TYPED_PRIOR_DOF`).
+        """
+        placing = self.placing
+        if placing is None:
+            return PlacingPrior(scale=1.0, dof=TYPED_PRIOR_DOF, source="the typed resolution")
+        where = placing.measured_by or "the given placing sigma"
+        if placing.upper_bound:  # the most it can be, taken as exact (twopose.rig.placing)
+            where = f"an upper bound from {where}"
+        return PlacingPrior(scale=1.0, dof=placing.dof, source=where)

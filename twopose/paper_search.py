@@ -1,67 +1,42 @@
-"""Where on the grid paper the next pose may go, and the search for the best of them.
+"""The search for the best pose on the grid paper: a coarse pass, then a pattern search.
 
-A candidate next pose is a camera centre on the grid paper's lines (the multiples of the
-spacing, whatever the first pose) within :class:`Reach` of the trial's first pose (the
-laptop stays on the table: y is the first pose's). A candidate is left out when it would
-put the target near the image's edge (the centroid within :data:`IN_VIEW_MARGIN` of the
-image's size, or either end of the finger within :data:`END_MARGIN`: a blob at the edge is
-lost or merges with clutter), when it is a pose already taken, or when the trial would not
-solve from it.
-
-The poses that keep the target in view form a convex region of the table (the reach's
-square cut by one half-plane per image edge and point, :func:`half_planes`), so they are
-counted exactly, row by row of the paper (:class:`Field`), however fine the paper and wide
-the reach. Their regions are not all predicted (:func:`search`): a coarse pass over the
-field (about :data:`COARSE_CANDIDATES` poses, every row's two ends among them, where the
-best pose usually lies), then a pattern search on the paper's own lines from the best few,
-halving its step down to one line. Each pass is one batch, one call of the caller's
-prediction (:func:`twopose.guidance.predicted_regions`, one vectorized estimate).
-``benchmarks/bench_suggest.py`` measures its cost and how far its pick's region is from
-the whole lattice's best.
+The poses that keep the target in view (:class:`twopose.paper.Field`, counted exactly
+however fine the paper and wide the reach) are not all predicted. A first pass predicts a
+sample of them: either the map's cells (:mod:`twopose.region_map`, given as ``known``, so
+that the suggestion is never worse than a cell the operator sees), or about
+:data:`COARSE_CANDIDATES` poses spread over the field (every row's two ends among them,
+where the best pose usually lies). A pattern search on the paper's own lines then refines
+from the best few, halving its step down to one line. Each pass is one batch, one call of
+the caller's prediction (:func:`twopose.prediction.predicted_regions`, one vectorized
+estimate). A pose over known clutter (:mod:`twopose.clutter`, the caller's ``blocked``) is
+never predicted. ``benchmarks/bench_suggest.py`` measures the cost and how far the pick's
+region is from the whole lattice's best.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
 
 from twopose.arrays import F64, Bools, Ints
-from twopose.camera import rotation_from_angles_deg
-from twopose.estimate import PoseView
-from twopose.solve import projection_matrices
-from twopose.targets import FINGER_LENGTH
-from twopose.units import Units, unit_factor
+from twopose.paper import CLUTTER, EDGE, TAKEN, UNSOLVED, Field, taken_in
 
 __all__ = [
     "COARSE_CANDIDATES",
-    "EDGE",
-    "END_MARGIN",
-    "IN_VIEW_MARGIN",
     "SEEDS",
-    "TAKEN",
-    "UNSOLVED",
-    "Field",
+    "Blocked",
     "Found",
+    "Known",
     "Predict",
-    "Reach",
-    "clear_of_edges",
-    "field_in_view",
-    "half_planes",
-    "lattice",
-    "project",
+    "PredictPairs",
+    "coarse_sample",
     "search",
+    "search_together",
 ]
 
-#: A predicted view keeps its centroid this far inside the image (a share of its size):
-#: the finger reaches beyond its centroid, and a blob at the edge is lost.
-IN_VIEW_MARGIN = 0.2
-#: A predicted view keeps either end of the finger (its nominal length, ``FINGER_LENGTH``
-#: inches, about its centroid) this far inside the image: a finger that reaches the
-#: image's edge merges with what lies there (issue 44: (4.5, 0, 2.5) after (4.5, 0, 0)).
-END_MARGIN = 0.1
 #: The coarse pass predicts about this many poses (the whole lattice when it holds fewer
 #: than :data:`_EXHAUSTIVE`); the pattern search refines from its best.
 COARSE_CANDIDATES = 40
@@ -80,218 +55,76 @@ _EDGE_WALK = 4
 _MAX_ROUNDS = 40
 #: A prediction: (M, 3) camera centres to their (M,) regions (NaN: out of view, unsolved).
 Predict = Callable[[F64], F64]
-#: Why a lattice pose in reach was not suggested (:attr:`Suggestion.left_out`): too near
-#: the image's edge.
-EDGE = "near the image's edge"
-#: ... already taken.
-TAKEN = "taken"
-#: ... its prediction did not solve.
-UNSOLVED = "not solved"
+#: A prediction for several searches at once: (P, 3) camera centres and (P,) the index of
+#: the search each is for, to their (P,) regions.
+PredictPairs = Callable[[F64, Ints], F64]
+#: A lattice pose by its indices: the paper's column and row.
+Pose = tuple[int, int]
+#: Which poses are over known clutter: (M, 3) camera centres to (M,) booleans.
+Blocked = Callable[[F64], Bools]
 
 
-@dataclass(frozen=True, kw_only=True)
-class Reach:
-    """The poses the operator can reach: the grid's lattice about the first pose."""
-
-    radius: float  # session units: |dx|, |dz| from the first pose
-    spacing: float  # session units: the grid paper's lines
-
-    @classmethod
-    def thesis(cls, units: Units) -> Reach:
-        """The thesis' range (moves of 1-3 in about the first pose) on its 1/2 in grid."""
-        factor = unit_factor(Units.IN, units)
-        return cls(radius=3.0 * factor, spacing=0.5 * factor)
-
-    def __post_init__(self) -> None:
-        """Refuse a reach with no lattice."""
-        if not (self.spacing > 0 and self.radius >= self.spacing):
-            raise ValueError(f"reach: need 0 < spacing <= radius, got {self}")
-
-
-def _index_range(centre: float, radius: float, spacing: float) -> tuple[int, int]:
-    """The paper's lines ``k * spacing`` within ``radius`` of ``centre``: first and last k."""
-    lo = math.ceil((centre - radius) / spacing - 1e-9)
-    hi = math.floor((centre + radius) / spacing + 1e-9)
-    return lo, hi
-
-
-def lattice(first_t: F64, reach: Reach, taken: F64) -> F64:
-    """(K, 3) every reachable camera centre on the paper's lines, less those taken.
-
-    The grid paper's lines (x and z multiples of the spacing) within the reach of
-    ``first_t`` (``|dx|, |dz| <= radius``), at its height, less those within half a
-    spacing of a pose ``taken``. The whole lattice, for small reaches (the brute-force
-    reference of the search in :func:`suggest`).
-    """
-    first = np.asarray(first_t, dtype=np.float64)
-    s = reach.spacing
-    i0, i1 = _index_range(float(first[0]), reach.radius, s)
-    j0, j1 = _index_range(float(first[2]), reach.radius, s)
-    ii, jj = np.meshgrid(np.arange(i0, i1 + 1), np.arange(j0, j1 + 1), indexing="ij")
-    points = np.column_stack([ii.ravel() * s, np.full(ii.size, first[1]), jj.ravel() * s])
-    gaps = np.linalg.norm(points[:, None, :] - np.asarray(taken)[None, :, :], axis=-1)
-    return np.asarray(points[(gaps > s / 2).all(axis=1)])
-
-
-def _view_checks(target: F64, units: Units, *, lines: bool) -> tuple[F64, F64]:
-    """The points a predicted view must keep inside the image, and their margins.
-
-    The target's centroid (:data:`IN_VIEW_MARGIN`), and for the finger both ends of its
-    nominal length about it (:data:`END_MARGIN`).
-    """
-    if not lines:
-        return target[:1], np.array([IN_VIEW_MARGIN])
-    d = target[1] - target[0]
-    d = d / np.linalg.norm(d)
-    half = 0.5 * FINGER_LENGTH * unit_factor(Units.IN, units)
-    points = np.stack([target[0], target[0] + half * d, target[0] - half * d])
-    return points, np.array([IN_VIEW_MARGIN, END_MARGIN, END_MARGIN])
-
-
-def project(points: F64, view: PoseView, centres: F64) -> F64:
-    """(K, M, 2) pixels of grid ``points`` (M, 3) from each of ``centres`` (K, 3).
-
-    Seen by ``view``'s camera moved there; NaN for a point behind the camera.
-    """
-    R = rotation_from_angles_deg(view.r_deg)
-    P = projection_matrices(view.intrinsics, R, centres)  # (K, 3, 4)
-    h = np.einsum("kij,mj->kmi", P, np.column_stack([points, np.ones(len(points))]))
-    ahead = h[..., 2:3] > 0
-    return np.asarray(np.where(ahead, h[..., :2] / np.where(ahead, h[..., 2:3], 1.0), np.nan))
-
-
-def clear_of_edges(
-    view: PoseView, centres: F64, target: F64, units: Units, *, lines: bool,
-    margin: float = 1.0,
-) -> Bools:  # fmt: skip
-    """(K,) whether ``view``'s camera moved to each of ``centres`` keeps the target clear.
-
-    Clear of the image's edges: its centroid :data:`IN_VIEW_MARGIN` inside, the finger's
-    ends :data:`END_MARGIN` inside (a share of the image's width and height), each margin
-    times ``margin`` (a first pose's pick for a target whose depth is not known keeps it
-    clear by less at the other depths: :data:`twopose.first_pose.OTHER_DEPTHS_MARGIN`).
-    """
-    points, margins = _view_checks(target, units, lines=lines)
-    margins = margins * margin
-    px = project(points, view, np.atleast_2d(centres))
-    w, h = view.width_height
-    mx, my = margins * w, margins * h
-    with np.errstate(invalid="ignore"):
-        inside = (
-            (px[..., 0] > mx) & (px[..., 0] < w - mx) & (px[..., 1] > my) & (px[..., 1] < h - my)
-        )
-    return np.asarray(inside.all(axis=1))
-
-
-def half_planes(
-    view: PoseView, target: F64, units: Units, y: float, *, lines: bool, margin: float = 1.0
-) -> F64:
-    """(H, 3) rows ``(a, b, c)``: a centre keeps the target clear if every ``a x + b z < c``.
-
-    Clear of the image's edges as :func:`clear_of_edges` says, for the centre ``(x, y, z)``.
-    A pixel bound ``u > u0`` is ``(A_0 - u0 A_2) . (X - c) > 0`` for ``A = K R^T`` and a
-    point in front of the camera: linear in the camera centre ``c``.
-    """
-    points, margins = _view_checks(target, units, lines=lines)
-    margins = margins * margin
-    fx, fy, cx, cy = view.intrinsics
-    K = np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
-    A = K @ rotation_from_angles_deg(view.r_deg).T
-    w, h = view.width_height
-    rows = []
-    for X, m in zip(points, margins, strict=True):
-        u0, u1, v0, v1 = m * w, w - m * w, m * h, h - m * h
-        for a in (A[2], A[0] - u0 * A[2], u1 * A[2] - A[0], A[1] - v0 * A[2], v1 * A[2] - A[1]):
-            rows.append([a[0], a[2], float(a @ X) - a[1] * y])
-    return np.array(rows)
-
-
-@dataclass(frozen=True, kw_only=True)
-class Field:
-    """The lattice poses in reach that keep the target clear of the image's edges.
-
-    Row by row of the paper (``z = j * spacing``), each row's columns ``lo..hi`` (``x = i *
-    spacing``; none when ``lo > hi``): the region is convex, so each row's part is one run.
-    """
-
-    spacing: float
-    y: float
-    rows: Ints  # (J,) every row in reach, consecutive
-    lo: Ints  # (J,)
-    hi: Ints  # (J,)
-    n_reach: int  # lattice poses in reach
-
-    def count(self) -> int:
-        """How many lattice poses the field holds."""
-        return int(np.clip(self.hi - self.lo + 1, 0, None).sum())
-
-    def interval(self, j: int) -> tuple[int, int]:
-        """Row ``j``'s first and last column (first > last: none)."""
-        k = j - int(self.rows[0]) if len(self.rows) else -1
-        if not 0 <= k < len(self.rows):
-            return 1, 0
-        return int(self.lo[k]), int(self.hi[k])
-
-    def centres(self, ij: Ints) -> F64:
-        """(M, 3) the camera centres of lattice indices ``ij`` (M, 2)."""
-        s = self.spacing
-        # 0.3, not 0.30000000000000004
-        x, z = np.round(ij[:, 0] * s, 10), np.round(ij[:, 1] * s, 10)
-        return np.column_stack([x, np.full(len(ij), self.y), z])
-
-
-def field_in_view(first: F64, reach: Reach, planes: F64) -> Field:
-    """The lattice poses within ``reach`` of ``first`` that satisfy every half-plane."""
-    s = reach.spacing
-    i0, i1 = _index_range(float(first[0]), reach.radius, s)
-    j0, j1 = _index_range(float(first[2]), reach.radius, s)
-    rows = np.arange(j0, j1 + 1)
-    z = rows * s
-    x_lo, x_hi = np.full(len(rows), i0 * s), np.full(len(rows), i1 * s)
-    for a, b, c in planes:  # a x + b z < c
-        rhs = c - b * z
-        if abs(a) <= 1e-12 * (abs(a) + abs(b)):
-            x_lo = np.where(rhs > 0, x_lo, np.inf)
-        elif a > 0:
-            x_hi = np.minimum(x_hi, rhs / a)
-        else:
-            x_lo = np.maximum(x_lo, rhs / a)
-    with np.errstate(invalid="ignore"):
-        lo = np.clip(np.ceil(x_lo / s - 1e-9), i0, i1 + 1)
-        hi = np.clip(np.floor(x_hi / s + 1e-9), i0 - 1, i1)
-    lo, hi = np.nan_to_num(lo, nan=i1 + 1), np.nan_to_num(hi, nan=i0 - 1)
-    return Field(
-        spacing=s, y=float(first[1]), rows=rows, lo=lo.astype(np.int64), hi=hi.astype(np.int64),
-        n_reach=(i1 - i0 + 1) * (j1 - j0 + 1),
-    )  # fmt: skip
+#: What a search knows of a pose before it starts (the map's cells): its region and why it
+#: has none ("" when it has one; :data:`twopose.paper.UNSOLVED`, :data:`~twopose.paper.CLUTTER`).
+Known = dict[tuple[int, int], tuple[float, str]]
 
 
 class _Ranker:
-    """Predicts lattice poses' regions in batches, each pose once (taken ones left out)."""
+    """Predicts lattice poses' regions in batches, each pose once.
 
-    def __init__(self, predict: Predict, field: Field, taken: F64) -> None:
-        self.predict, self.field, self.taken = predict, field, taken
+    Poses taken are never predicted, nor those over known clutter (``blocked``); a pose
+    with no region ranks last (infinite), its reason kept.
+    """
+
+    def __init__(
+        self, predict: Predict, field: Field, taken: F64, blocked: Blocked | None = None,
+        known: Known | None = None,
+    ) -> None:  # fmt: skip
+        self.predict, self.field, self.taken, self.blocked = predict, field, taken, blocked
         self.regions: dict[tuple[int, int], float] = {}
-        self.unsolved = 0
+        self.reasons: dict[tuple[int, int], str] = {}
+        for pose, (region, reason) in (known or {}).items():
+            self.regions[pose] = region if not reason and math.isfinite(region) else math.inf
+            self.reasons[pose] = reason if reason or math.isfinite(region) else UNSOLVED
+
+    def ask(self, ij: list[tuple[int, int]]) -> tuple[list[tuple[int, int]], F64]:
+        """The poses of ``ij`` met for the first time that need a prediction, and their centres.
+
+        (M, 3); the others met for the first time are booked (taken, over clutter).
+        """
+        new = [p for p in dict.fromkeys(ij) if p not in self.regions]
+        if not new:
+            return [], np.zeros((0, 3))
+        centres = self.field.centres(np.array(new, dtype=np.int64).reshape(-1, 2))
+        gaps = np.linalg.norm(centres[:, None, :] - self.taken[None, :, :], axis=-1)
+        why = np.where((gaps > self.field.spacing / 2).all(axis=1), "", TAKEN).astype(object)
+        if self.blocked is not None and (why == "").any():
+            free = np.flatnonzero(why == "")
+            why[free[self.blocked(centres[free])]] = CLUTTER
+        for pose, reason in zip(new, why.tolist(), strict=True):
+            if reason:
+                self.regions[pose], self.reasons[pose] = math.inf, reason
+        free = why == ""
+        return [p for p, f in zip(new, free, strict=True) if f], centres[free]
+
+    def answer(self, poses: list[tuple[int, int]], regions: F64) -> None:
+        """Book the predicted ``regions`` of ``poses`` (NaN: not solved)."""
+        for pose, region in zip(poses, np.asarray(regions).tolist(), strict=True):
+            solved = math.isfinite(region)
+            self.regions[pose] = region if solved else math.inf
+            self.reasons[pose] = "" if solved else UNSOLVED
 
     def rank(self, ij: list[tuple[int, int]], extra: F64 | None = None) -> F64:
         """Predict the poses ``ij`` not yet predicted; return the regions of ``extra``."""
-        new = [p for p in dict.fromkeys(ij) if p not in self.regions]
-        n_extra = 0 if extra is None else len(extra)
-        if not new and not n_extra:
-            return np.zeros(0)
-        arr = np.array(new, dtype=np.int64).reshape(-1, 2)
-        centres = self.field.centres(arr)
-        gaps = np.linalg.norm(centres[:, None, :] - self.taken[None, :, :], axis=-1)
-        free = (gaps > self.field.spacing / 2).all(axis=1)
-        ask = centres[free] if extra is None else np.vstack([centres[free], extra])
-        got = self.predict(ask)
-        regions = np.full(len(new), np.inf)
-        found = got[: int(free.sum())]
-        self.unsolved += int(np.isnan(found).sum())
-        regions[free] = np.where(np.isnan(found), np.inf, found)
-        self.regions.update(zip(new, regions.tolist(), strict=True))
-        return np.asarray(got[int(free.sum()) :])
+        poses, centres = self.ask(ij)
+        asked = centres if extra is None else np.vstack([centres, extra])
+        got = self.predict(asked) if len(asked) else np.zeros(0)
+        self.answer(poses, got[: len(poses)])
+        return np.asarray(got[len(poses) :])
+
+    def count(self, reason: str) -> int:
+        """How many poses met so far have no region for ``reason``."""
+        return sum(1 for r in self.reasons.values() if r == reason)
 
     def best(self, n: int, apart: int, within: float = math.inf) -> list[tuple[int, int]]:
         """Up to ``n`` best poses predicted, each ``apart`` steps from the others.
@@ -310,7 +143,7 @@ class _Ranker:
         return out
 
 
-def _coarse(field: Field, n: int) -> tuple[list[tuple[int, int]], int]:
+def coarse_sample(field: Field, n: int) -> tuple[list[tuple[int, int]], int]:
     """At most about ``n`` poses spread over the field, and their step (in lines).
 
     Every chosen row's two ends among them (the best pose often lies on the field's edge);
@@ -366,11 +199,12 @@ def _neighbours(field: Field, at: tuple[int, int], h: int) -> list[tuple[int, in
     return out
 
 
-def _refine(ranker: _Ranker, seeds: list[tuple[int, int]], step: int) -> None:
-    """A pattern search from each seed, on the paper's lines.
+def _refine(ranker: _Ranker, seeds: list[tuple[int, int]], step: int) -> Iterator[list[Pose]]:
+    """A pattern search from each seed, on the paper's lines: yields each round's poses.
 
-    To the best of its eight neighbours while one is better, else half the step, until a
-    step of one line finds none better or the neighbours' regions are flat (:data:`_FLAT`).
+    The caller ranks them before the next round. To the best of its eight neighbours while
+    one is better, else half the step, until a step of one line finds none better or the
+    neighbours' regions are flat (:data:`_FLAT`).
     """
     at = list(dict.fromkeys(seeds))
     steps = [max(1, step // 2) if step > 1 else 0 for _ in at]
@@ -379,7 +213,7 @@ def _refine(ranker: _Ranker, seeds: list[tuple[int, int]], step: int) -> None:
         if not active:
             return
         asked = {k: _neighbours(ranker.field, at[k], steps[k]) for k in active}
-        ranker.rank([p for ps in asked.values() for p in ps])
+        yield [p for ps in asked.values() for p in ps]
         for k in active:
             here = ranker.regions[at[k]]
             better = min(asked[k], key=ranker.regions.__getitem__, default=None)
@@ -403,45 +237,90 @@ class Found:
     n_predicted: int  # poses whose region was predicted (the search's cost)
 
 
-def _taken_in(field: Field, taken: F64) -> int:
-    """How many of the field's poses lie within half a spacing of a pose ``taken``."""
-    s, near = field.spacing, set()
-    for t in taken:
-        for i in (math.floor(t[0] / s), math.ceil(t[0] / s)):
-            for j in (math.floor(t[2] / s), math.ceil(t[2] / s)):
-                lo, hi = field.interval(j)
-                gap = math.dist((i * s, field.y, j * s), tuple(t))
-                if lo <= i <= hi and gap <= s / 2:
-                    near.add((i, j))
-    return len(near)
-
-
 def search(
     predict: Predict, field: Field, taken: F64, *, extra: F64 | None = None,
-    coarse: int = COARSE_CANDIDATES, seeds: int = SEEDS,
+    coarse: int = COARSE_CANDIDATES, seeds: int = SEEDS, blocked: Blocked | None = None,
+    known: tuple[Known, int] | None = None,
 ) -> Found | None:  # fmt: skip
     """The best pose of ``field`` found by ``predict``, or None if none solves.
 
     ``predict`` maps (M, 3) camera centres to their (M,) regions (NaN: out of view or
-    unsolved); ``taken`` (N, 3) are the trial's poses, never picked again; ``extra``
-    (E, 3) poses off the lattice whose regions are wanted too (the thesis' move), predicted
-    with the coarse pass. A coarse pass of about ``coarse`` poses, then a pattern search
-    from its ``seeds`` best.
+    unsolved); ``taken`` (N, 3) are the trial's poses, never picked again, nor the poses
+    ``blocked`` says are over clutter; ``extra`` (E, 3) poses off the lattice whose regions
+    are wanted too (the thesis' move), predicted with the first pass. The first pass is
+    ``known`` (poses already predicted, and how many lines apart: the map's cells) or a
+    coarse pass of about ``coarse`` poses; then a pattern search from its ``seeds`` best.
     """
-    ranker = _Ranker(predict, field, np.asarray(taken, dtype=np.float64).reshape(-1, 3))
-    first, step = _coarse(field, coarse)
+    book, step = known if known is not None and known[0] else ({}, 1)
+    ranker = _Ranker(
+        predict, field, np.asarray(taken, dtype=np.float64).reshape(-1, 3), blocked, book
+    )
+    first, step = ([], step) if book else coarse_sample(field, coarse)
     extra_regions = ranker.rank(first, extra)
-    _refine(ranker, ranker.best(seeds, apart=2 * step, within=_SEED_WITHIN), step)
+    for poses in _refine(ranker, ranker.best(seeds, apart=2 * step, within=_SEED_WITHIN), step):
+        ranker.rank(poses)
+    return _found(ranker, extra_regions, 0 if extra is None else len(extra))
+
+
+def search_together(
+    predict: PredictPairs, fields: list[Field], taken: F64, *,
+    blocked: list[Blocked | None] | None = None, coarse: int = COARSE_CANDIDATES,
+    seeds: int = SEEDS,
+) -> list[Found | None]:  # fmt: skip
+    """:func:`search` over each of ``fields`` at once, one batch a round for all of them.
+
+    ``predict`` maps (P, 3) camera centres and (P,) the fields' indices (what each is
+    predicted for: the first pose's depths) to their (P,) regions; ``blocked``: each
+    field's poses over clutter (None: none known).
+    """
+    taken = np.asarray(taken, dtype=np.float64).reshape(-1, 3)
+    checks = blocked or [None] * len(fields)
+    rankers = [_Ranker(_unused, f, taken, b) for f, b in zip(fields, checks, strict=True)]
+    samples = [coarse_sample(f, coarse) for f in fields]
+    _rank_together(predict, rankers, [poses for poses, _ in samples])
+    rounds = [
+        _refine(r, r.best(seeds, apart=2 * step, within=_SEED_WITHIN), step)
+        for r, (_, step) in zip(rankers, samples, strict=True)
+    ]
+    asked = [next(g, None) for g in rounds]
+    while any(a is not None for a in asked):
+        _rank_together(predict, rankers, [a or [] for a in asked])
+        asked = [None if a is None else next(g, None) for g, a in zip(rounds, asked, strict=True)]
+    return [_found(r, np.zeros(0), 0) for r in rankers]
+
+
+def _unused(_: F64) -> F64:
+    raise AssertionError("search_together predicts for its rankers")
+
+
+def _rank_together(predict: PredictPairs, rankers: list[_Ranker], ij: list[list[Pose]]) -> None:
+    """Rank each ranker's poses ``ij[k]`` in one call of ``predict``."""
+    asked = [r.ask(poses) for r, poses in zip(rankers, ij, strict=True)]
+    sizes = [len(poses) for poses, _ in asked]
+    if not sum(sizes):
+        return
+    centres = np.vstack([c for _, c in asked])
+    got = predict(centres, np.repeat(np.arange(len(rankers)), sizes))
+    for r, (poses, _), part in zip(
+        rankers, asked, np.split(got, np.cumsum(sizes)[:-1]), strict=True
+    ):
+        r.answer(poses, part)
+
+
+def _found(ranker: _Ranker, extra_regions: F64, n_extra: int) -> Found | None:
+    """The ranker's best pose, and what it weighed (None: none solves)."""
+    field = ranker.field
     picked = ranker.best(1, apart=1)
     if not picked:
         return None
-    n_taken = _taken_in(field, ranker.taken)
+    n_taken = taken_in(field, ranker.taken)
     left_out = (
-        (EDGE, field.n_reach - field.count()), (TAKEN, n_taken), (UNSOLVED, ranker.unsolved),
+        (EDGE, field.n_reach - field.count()), (TAKEN, n_taken),
+        (CLUTTER, ranker.count(CLUTTER)), (UNSOLVED, ranker.count(UNSOLVED)),
     )  # fmt: skip
     return Found(
         centre=field.centres(np.array(picked))[0], region=ranker.regions[picked[0]],
         extra_regions=extra_regions, n_candidates=field.count() - n_taken,
         left_out=tuple((r, n) for r, n in left_out if n),
-        n_predicted=len(ranker.regions) - n_taken + (0 if extra is None else len(extra)),
+        n_predicted=sum(1 for r in ranker.reasons.values() if r in ("", UNSOLVED)) + n_extra,
     )  # fmt: skip

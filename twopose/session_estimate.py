@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twopose.arrays import F64, Bools, Ints
+from twopose.blunders import TrialTests
 from twopose.camera import camera_centres
 from twopose.estimate import (
     EstimateOptions,
@@ -30,8 +31,7 @@ from twopose.estimate import (
     input_covariance,
     margin_warnings,
     measure,
-    misclosure_residuals,
-    scatter_of,
+    scatters_of,
     shared_intrinsics,
     solve_batch,
     thesis_direction,
@@ -39,17 +39,18 @@ from twopose.estimate import (
 )
 from twopose.frames import PoseMeasurement, combine_frames
 from twopose.methods import Method, spec_of
-from twopose.misclosure import (
-    Misclosure,
-    misclosures,
-    placed,
-    pooled,
-    region_widening,
-    widened,
-)
+from twopose.misclosure import Misclosure
 from twopose.noise import VarianceFactor
 from twopose.optimal_lines import centroid_segments, optimal_lines
 from twopose.rig.carried import rig_carried, with_carried, with_rig_dominance
+from twopose.session_noise import (
+    noise_of,
+    placed,
+    placing_sigma,
+    placing_sigmas,
+    placing_source,
+    region_multipliers,
+)
 from twopose.solve import image_lines, triangulate_lines
 from twopose.uncertainty import (
     PLACING,
@@ -59,7 +60,6 @@ from twopose.uncertainty import (
     pooled_scatter,
     propagate,
 )
-from twopose.units import Units
 
 __all__ = [
     "Estimates",
@@ -153,8 +153,10 @@ class _Propagation:
     cov_in: F64
     shared: Shared | None
     solved: Solved
-    #: The variance factor every region is widened by when it is contradicted (None: none).
+    #: The session's noise every region is propagated and widened with (None: none).
     factor: VarianceFactor | None = None
+    #: Which trials are flagged and their own misfit (None: none tested).
+    tests: TrialTests | None = None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -173,6 +175,8 @@ class SessionEstimate:
     factor: VarianceFactor | None = None
     #: Per trial, the misclosure's chi-square and dof (None: not estimated here).
     misclosure: Misclosure | None = None
+    #: Per trial, whether its poses disagree and which one (:mod:`twopose.blunders`).
+    tests: TrialTests | None = None
     _propagation: _Propagation | None = None
 
     def uncertainty_at(self, reference: F64) -> Uncertainty:
@@ -208,12 +212,18 @@ class SessionEstimate:
         f = thesis_direction(p.batch, self.options, np.nan_to_num(d))
         propagated = propagate(f, p.batch.inputs, p.cov_in, shared=p.shared)
         ok = p.solved.status == "ok"
-        cov[p.rows[ok]] = widened(propagated.cov_grid[ok], p.factor)
+        placing = _placing_part(propagated.jacobian, p.cov_in)
+        scale = region_multipliers(propagated.cov_grid, placing, p.factor, p.tests, p.rows)
+        cov[p.rows[ok]] = (propagated.cov_grid * scale[:, None, None])[ok]
         return cov
 
 
 def estimate_session(
-    trials: SessionTrials, options: EstimateOptions, *, line_fits: bool = True
+    trials: SessionTrials,
+    options: EstimateOptions,
+    *,
+    line_fits: bool = True,
+    report_near: F64 | None = None,
 ) -> SessionEstimate:
     """Solve every detected trial with every estimator, and propagate.
 
@@ -235,6 +245,9 @@ def estimate_session(
     line_fits : bool
         Lines: also the weighted and the reprojection-optimal line (iterative); without
         them (NaN), what the thesis' line and its region need, as guidance ranks poses.
+    report_near : (T, 3) ndarray, optional
+        Lines: propagate each one's point nearest this point (NaN rows: the solved point),
+        where :func:`twopose.truth.reported` reports it, at once (guidance ranks many).
 
     Returns
     -------
@@ -252,10 +265,7 @@ def estimate_session(
     batch = ViewBatch.of(rows_m, rows_v)
     solved = solve_batch(trials.method, batch, trials.ground, options)
     # Each pose's frame scatter, once, for the pooled and the per-pose covariances.
-    scatters = [
-        [scatter_of(v, m) for v, m in zip(vs, ms, strict=False)]
-        for vs, ms in zip(trials.views, measurements, strict=True)
-    ]
+    scatters = scatters_of(trials.views, measurements)
     cov_in = input_covariance(
         rows_m,
         rows_v,
@@ -273,88 +283,42 @@ def estimate_session(
         shared=shared_intrinsics(rows_v, batch),
         solved=solved,
     )
-    factor, misclosure = _variance_factor(trials, context, options)
-    context = dataclasses.replace(context, factor=factor, cov_in=placed(cov_in, factor))
-    est = _solved_estimates(trials, complete, context, options, line_fits=line_fits)
+    ok = solved.status == "ok"
+    noise = noise_of(
+        trials.method,
+        batch.rows(ok),
+        cov_in[ok],
+        _shared_rows(context.shared, ok),
+        solvable[ok],
+        len(trials),
+        options,
+    )
+    factor = noise.factor
+    context = dataclasses.replace(
+        context, factor=factor, tests=noise.tests, cov_in=placed(cov_in, factor)
+    )
+    est = _solved_estimates(
+        trials, complete, context, options, line_fits=line_fits, report_near=report_near
+    )
     return dataclasses.replace(
         _session_estimate(trials, measurements, complete, detected, est, options, context),
         factor=factor,
-        misclosure=misclosure,
+        misclosure=noise.misclosure,
+        tests=noise.tests,
     )
 
 
-def _variance_factor(
-    trials: SessionTrials, p: _Propagation, options: EstimateOptions
-) -> tuple[VarianceFactor | None, Misclosure | None]:
-    """The session's variance factor and its trials' misclosures (:mod:`twopose.misclosure`).
-
-    A factor the options give is applied as is (guidance's predicted views never estimate
-    one); without the test (``test_redundancy`` off), none.
-    """
-    noise = options.noise
-    if noise.factor is not None or not noise.test_redundancy:
-        return noise.factor, None
-    residuals, parameters = misclosure_residuals(trials.method, p.batch)
-    m = misclosures(residuals, p.batch.inputs, p.cov_in, p.batch.valid, parameters, shared=p.shared)
-    ok, rows, T = p.solved.status == "ok", p.rows[p.solved.status == "ok"], len(trials)
-    per_trial = Misclosure(
-        chi2=_with_rows(np.full(T, np.nan), rows, m.chi2[ok]),
-        dof=_with_rows(np.zeros(T, dtype=np.int_), rows, m.dof[ok]),
-        placing_share=_with_rows(np.zeros((T, m.z2.shape[1])), rows, m.placing_share[ok]),
-        z2=_with_rows(np.zeros((T, m.z2.shape[1])), rows, m.z2[ok]),
-    )
-    return pooled(per_trial), per_trial
+def _shared_rows(shared: Shared | None, rows: Bools) -> Shared | None:
+    """The shared inputs of some of the batch's rows."""
+    if shared is None:
+        return None
+    return Shared(values=shared.values[rows], group=shared.group[rows], cov=shared.cov[rows])
 
 
-def placing_sigma(trials: SessionTrials, options: EstimateOptions) -> float | None:
-    """The placing sigma in the session's units, measured (:mod:`twopose.noise`).
-
-    None: each pose's typed resolution stands.
-    """
-    placing = options.noise.placing
-    return None if placing is None or not trials.units else placing.sigma(Units(trials.units))
-
-
-def placing_sigmas(
-    trials: SessionTrials, options: EstimateOptions, factor: VarianceFactor | None = None
-) -> F64:
-    """(T,) the placing sigma each trial's region assumed, in the session's units.
-
-    The measured one (:func:`placing_sigma`), else the mean of its poses' typed resolution
-    (NaN: no pose); times ``sqrt(lambda)`` when the session's redundancy measured it
-    (``factor`` contradicted: :attr:`twopose.noise.VarianceFactor.placing_variance`).
-    """
-    measured = placing_sigma(trials, options)
-    scale = 1.0 if factor is None else float(np.sqrt(factor.placing_variance))
-    return scale * np.array(
-        [
-            measured
-            if measured is not None and row
-            else (float(np.mean([v.t_sigma for v in row])) if row else np.nan)
-            for row in trials.views
-        ],
-        dtype=np.float64,
-    )
-
-
-def placing_source(options: EstimateOptions, factor: VarianceFactor | None = None) -> str:
-    """Where the placing sigma came from, briefly.
-
-    ``typed``, ``measured by <board session> (<n> captures)``, ``an upper bound from
-    <board session> (<n> captures)``, ``given``, or ``measured by the session's
-    redundancy`` when its trials' misclosures contradicted the others.
-    """
-    placing = options.noise.placing
-    if factor is not None and factor.contradicted:
-        return "measured by the session's redundancy"
-    if placing is None:
-        return "typed"
-    if not placing.measured_by:
-        return "given"
-    captures = f" ({placing.captures} captures)" if placing.captures else ""
-    if placing.upper_bound:  # not measured: the most it can be (twopose.rig.placing)
-        return f"an upper bound from {placing.measured_by}{captures}"
-    return f"measured by {placing.measured_by}{captures}"
+def _placing_part(jacobian: F64, cov_in: F64) -> F64:
+    """(R, W, W) what the typed translations' covariance gives of a propagated estimate."""
+    J = jacobian[..., PLACING]
+    return np.asarray(np.einsum("tinj,tnjk,tlnk->til", J, cov_in[..., PLACING, PLACING], J))
 
 
 def _session_estimate(
@@ -425,16 +389,20 @@ def _solved_estimates(
     options: EstimateOptions,
     *,
     line_fits: bool = True,
+    report_near: F64 | None = None,
 ) -> Estimates:
     """The solved rows' estimates at their trials, with every other trial unsolved."""
     T, rows, solved = len(trials), p.rows, p.solved
     base = _unsolved(T, trials.method, complete)
     # Propagated at the solved point: a line's reported point is chosen by twopose.truth.
+    near = solved.point
+    if report_near is not None:
+        near = np.where(np.isfinite(report_near[rows]), report_near[rows], solved.point)
     uncertainty = _uncertainty(
         T,
         p,
         propagate(
-            thesis_estimate(trials.method, p.batch, trials.ground, options, solved.point),
+            thesis_estimate(trials.method, p.batch, trials.ground, options, near),
             p.batch.inputs,
             p.cov_in,
             shared=p.shared,
@@ -479,21 +447,19 @@ def _uncertainty(
     """
     ok, cov = p.solved.status == "ok", propagated.cov_grid
     lam = 1.0 if p.factor is None else p.factor.placing_variance
-    J = propagated.jacobian[..., PLACING]
+    placing = _placing_part(propagated.jacobian, p.cov_in)
     # the region the typed placing sigma gives: the placing's part back at 1 / lambda
-    model = (
-        cov
-        if lam == 1.0
-        else cov
-        - (1 - 1 / lam) * np.einsum("tinj,tnjk,tlnk->til", J, p.cov_in[..., PLACING, PLACING], J)
-    )
+    model = cov if lam == 1.0 else cov - (1 - 1 / lam) * placing
     if p.solved.direction is not None:
         # A line's reported point moves only across the line to first order (its error
         # is perpendicular by construction): keep the covariance of that offset.
         d = p.solved.direction
         across = np.eye(3) - np.einsum("ti,tj->tij", d, d)
         cov, model = across @ cov @ across, across @ model @ across
-    cov, model, carried = with_carried(widened(cov, p.factor), model, carried, p.solved.direction)
+        placing = across @ placing @ across
+    cov = cov * region_multipliers(cov, placing, p.factor, p.tests, p.rows)[:, None, None]
+    # the rig's constants: carried beside the views' noise, never widened by its test
+    cov, model, carried = with_carried(cov, model, carried, p.solved.direction)
     widening = region_widening(cov, model)
     names, share = dominant_input(propagated.variance_by_group, propagated.shared_variance)
     names, share = with_rig_dominance(names, share, propagated, carried)
@@ -504,6 +470,20 @@ def _uncertainty(
         dominant_share=_with_rows(none.dominant_share, rows, share[ok]),
         widening=_with_rows(none.widening, rows, widening[ok]),
     )
+
+
+def region_widening(cov: F64, model: F64) -> F64:
+    """(T,) each region's largest variance in ``cov`` against ``model``'s (NaN: not finite).
+
+    1 exactly where the two are the same.
+    """
+    out = np.full(len(cov), np.nan)
+    finite = np.isfinite(cov).all(axis=(1, 2)) & np.isfinite(model).all(axis=(1, 2))
+    if finite.any():
+        new, old = np.linalg.eigvalsh(cov[finite])[:, -1], np.linalg.eigvalsh(model[finite])[:, -1]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out[finite] = np.where(new == old, 1.0, new / old)
+    return out
 
 
 def _weighted_lines(p: _Propagation, options: EstimateOptions) -> F64:

@@ -23,7 +23,7 @@ from twopose.methods import spec_of
 if TYPE_CHECKING:  # the tables' readers (analysis.columns) need no estimation at import
     from twopose.session_estimate import SessionEstimate
 
-__all__ = ["Reported", "line_errors", "reported", "reported_line_point"]
+__all__ = ["Reported", "line_errors", "reported", "reported_line_point", "reporting_anchor"]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -61,7 +61,7 @@ def reported(estimate: SessionEstimate) -> Reported:
             dominant_share=est.dominant_share,
         )
     point, mid = reported_line_point(est.point, est.direction, truth)
-    anchor = truth.mean(axis=1)
+    anchor = reporting_anchor(truth)
     if np.isfinite(anchor).any():
         uncertainty = estimate.uncertainty_at(np.where(np.isfinite(anchor), anchor, est.point))
         cov, dominant, share = uncertainty.cov, uncertainty.dominant, uncertainty.dominant_share
@@ -75,6 +75,15 @@ def reported(estimate: SessionEstimate) -> Reported:
         dominant=dominant,
         dominant_share=share,
     )
+
+
+def reporting_anchor(truth: F64) -> F64:
+    """(T, 3) where a line's region is reported: its true segment's midpoint (NaN: none).
+
+    ``truth`` (T, 2, 3); the point of the line nearest it is held fixed as the region is
+    propagated (:meth:`twopose.session_estimate.SessionEstimate.uncertainty_at`).
+    """
+    return np.asarray(truth.mean(axis=1))
 
 
 def reported_line_point(point: F64, direction: F64, truth: F64) -> tuple[F64, F64]:

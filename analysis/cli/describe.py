@@ -36,7 +36,7 @@ def info(
     from rich.console import Console
     from rich.table import Table
 
-    from analysis.input_set import resolve_inputs
+    from analysis.input_set import resolve_inputs, sessions_said
     from twopose.format.trials import describe_session
 
     console = Console()
@@ -56,7 +56,11 @@ def info(
         except TwoposeError as err:
             failed.append((path, str(err)))
     joined = sum(1 for o in overviews if names.get(str(o.path), "").startswith("+ "))
-    title = f"{len(overviews) - joined} session(s)"
+    described = {str(o.path) for o in overviews}
+    title = sessions_said(
+        [(st.session_id, st.branch) for st in inputs.strands if st.head in described]
+        + [(b.session_id, "") for b in inputs.boards if b.path in described]
+    )
     # At a narrow terminal (80 columns, a pipe) the cameras and the format go under the
     # session's label, so that the label (the shortest tail of its path no other input
     # shares: what tells two rows apart) keeps its width and folds, never cut.

@@ -30,14 +30,14 @@ def check_command(
         typer.Option(
             "--tolerance",
             help="TOML file of allowances (default: RMSE and median 10%, |bias| 10% or "
-            "0.05 units, n_ok 0, coverage 0.05); see docs/ci.md.",
+            "0.05 in, n_ok, n_used and n_warned 0 trials, coverage 0.05); see docs/ci.md.",
         ),
     ] = None,
     junit: JunitOption = None,
 ) -> None:
     """The CI gate: compare summary.csv with a baseline's, per session and method (RMSE,
-    median, |bias|, n_ok, coverage); print what got worse; exit 1 on a regression beyond
-    the tolerance."""
+    median, |bias|, n_ok, n_used, n_warned, coverage); print what got worse; exit 1 on a
+    regression beyond the tolerance."""
     from analysis.gate import check, check_cases, check_lines, junit_xml
     from analysis.outputs import Inputs, write_file
 
@@ -68,8 +68,9 @@ def compare_command(
     ] = False,
 ) -> None:
     """Compare two runs: statistics side by side, and paired differences (B - A) on the
-    trials both measured, with a 95% interval and a sign-flip test, per method."""
-    from analysis.comparison import compare, describe_test
+    trials both measured, with a 95% interval and a sign-flip test, per method; and the
+    trials only one run holds."""
+    from analysis.comparison import compare, describe_one_sided, describe_test
 
     with handle_errors():
         comparison = compare(
@@ -85,4 +86,6 @@ def compare_command(
         typer.echo(describe_test(row))
     if comparison.tests.empty:
         typer.echo("no trial measured in both runs")
+    for line in describe_one_sided(comparison.one_sided):
+        typer.echo(line)
     typer.echo(f"wrote {out / 'compare.html'} and its tables")

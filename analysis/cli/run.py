@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import errno
 import sys
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -14,11 +15,14 @@ from twopose.choices import CombineRule
 from twopose.errors import (
     EXIT_INTERRUPTED,
     EXIT_SOME_INPUTS_FAILED,
+    InputValueError,
+    end_on_closed_pipe,
     handle_errors,
     say_interrupted,
 )
 from twopose.margins import EstimateOptions
 from twopose.noise import NoiseModel
+from twopose.options import read_option
 
 if TYPE_CHECKING:
     from analysis.results import RunResult
@@ -37,7 +41,7 @@ _ESTIMATE = EstimateOptions()
 SessionTimeoutOption = Annotated[
     float,
     typer.Option(
-        min=0.0,
+        **read_option("SESSION_TIMEOUT"),
         help="Stop a session still running after this many seconds and list it as failed "
         "(0: no limit).",
     ),
@@ -111,8 +115,12 @@ def run_command(
         Path, typer.Option("--out", help="Output folder for tables, figures, report.")
     ] = Path("results"),
     jobs: Annotated[
-        int, typer.Option(min=1, help="Worker processes (results do not depend on it).")
-    ] = 1,
+        int | None,
+        typer.Option(
+            **read_option("JOBS"),
+            help="Worker processes (results do not depend on it) [default: 1].",
+        ),
+    ] = None,
     dask: Annotated[
         str | None,
         typer.Option(help="Address of an existing Dask scheduler to run the sessions on."),
@@ -121,13 +129,25 @@ def run_command(
         CombineRule, typer.Option(help="How a pose's frames are combined (thesis: mean).")
     ] = _ESTIMATE.combine,
     min_parallax: Annotated[
-        float, typer.Option(help="Warn when a point's ray parallax is below this (deg).")
+        float,
+        typer.Option(
+            **read_option("MARGIN_ANGLE"),
+            help="Warn when a point's ray parallax is below this (deg).",
+        ),
     ] = _ESTIMATE.min_parallax_deg,
     min_plane_angle: Annotated[
-        float, typer.Option(help="Warn when back-projected planes meet below this (deg).")
+        float,
+        typer.Option(
+            **read_option("MARGIN_ANGLE"),
+            help="Warn when back-projected planes meet below this (deg).",
+        ),
     ] = _ESTIMATE.min_plane_angle_deg,
     min_ground_angle: Annotated[
-        float, typer.Option(help="Warn when the line meets the ground below this (deg).")
+        float,
+        typer.Option(
+            **read_option("MARGIN_ANGLE"),
+            help="Warn when the line meets the ground below this (deg).",
+        ),
     ] = _ESTIMATE.min_ground_angle_deg,
     scene: Annotated[
         bool,
@@ -173,7 +193,12 @@ def run_command(
         rig_calibration=rig_calibration,
         figures=tuple(dict.fromkeys(cast("list[FigureFormat]", figures or ()))),  # each once
     )
-    with handle_errors(), _session_progress() as (found, done):
+    with handle_errors(), _session_progress(out) as (found, done):
+        if jobs is not None and dask is not None:  # given, it would be ignored
+            raise InputValueError(
+                "--jobs: the Dask scheduler (--dask) runs the sessions on its own workers; "
+                "leave --jobs out, or --dask"
+            )
         inputs = resolve_inputs(paths)  # once: every step below takes this set
         # Each session's rig file, read and checked before anything is written.
         rigs = rig_scope(inputs, rig, no_rig=no_rig, on_note=note)
@@ -181,7 +206,7 @@ def run_command(
         result = run(
             inputs,
             out,
-            jobs=jobs,
+            jobs=jobs or 1,
             dask_address=dask,
             options=options,
             on_session_done=done,
@@ -203,13 +228,34 @@ def run_command(
             f"interrupted while printing the summary; the results in {out} are complete"
         )
         raise typer.Exit(EXIT_INTERRUPTED) from None
+    except BrokenPipeError:  # `run ... | head -3`: the results are written; nobody reads on
+        end_on_closed_pipe()
+
+
+def _stdout_closed() -> bool:
+    """Whether stdout is a pipe whose reader has gone (``run ... | head -1`` once ``head``
+    has its line): a poll says so (POLLERR) without a write; never at a terminal or into a
+    file."""
+    import select
+
+    try:
+        fd = sys.stdout.fileno()
+    except (AttributeError, OSError, ValueError):  # not a file (a notebook, a test runner)
+        return False
+    poller = select.poll()
+    poller.register(fd, select.POLLOUT)
+    return any(events & select.POLLERR for _, events in poller.poll(0))
 
 
 @contextlib.contextmanager
-def _session_progress() -> Iterator[tuple[Callable[[int], None], Callable[[str, bool], None]]]:
+def _session_progress(
+    out: Path,
+) -> Iterator[tuple[Callable[[int], None], Callable[[str, bool], None]]]:
     """A progress bar on stderr at a terminal (nothing in a pipe): a spinner and the time
     since the start, so that one long session shows it is working, and the sessions
-    counted as they complete. Yields the callbacks ``run`` takes: sessions found, done."""
+    counted as they complete. Yields the callbacks ``run`` takes: sessions found (the run's
+    first line, said at once: how many and where), and done, where a stdout nobody reads
+    any more (``run ... | head -1``) stops the run as Ctrl-C would: ``--out`` as it was."""
     from rich.console import Console
     from rich.progress import (
         BarColumn,
@@ -225,10 +271,28 @@ def _session_progress() -> Iterator[tuple[Callable[[int], None], Callable[[str, 
         *columns, TimeElapsedColumn(), console=Console(stderr=True), transient=True
     ) as progress:
         task = progress.add_task("sessions", total=None)
-        yield (
-            lambda n: progress.update(task, total=n),
-            lambda _path, _ok: progress.advance(task),
-        )
+
+        def found(n: int) -> None:
+            progress.update(task, total=n)
+            if n:
+                typer.echo(f"twopose: analysing {n} session(s) into {out}")
+                sys.stdout.flush()
+
+        def done(_path: str, _ok: bool) -> None:
+            progress.advance(task)
+            if _stdout_closed():
+                raise BrokenPipeError(errno.EPIPE, "nobody reads the run's output any more")
+
+        yield found, done
+
+
+def _sessions_whose(result: RunResult, flag: str) -> tuple[int, int]:
+    """How many sessions had ``flag`` (``analysis_reused``, ``figures_reused``) on every row
+    they were analysed as, of how many: sessions, not a fork's branches."""
+    rows: dict[str, list[bool]] = {}
+    for s in result.sessions:
+        rows.setdefault(s.session_id, []).append(bool(getattr(s, flag)))
+    return sum(all(flags) for flags in rows.values()), len(rows)
 
 
 def _print_run(result: RunResult, out: Path, *, include_warned: bool) -> None:
@@ -239,7 +303,9 @@ def _print_run(result: RunResult, out: Path, *, include_warned: bool) -> None:
     from analysis.terminal import closing_lines, summary_lines, wrap_phrases
 
     width = min(shutil.get_terminal_size().columns, 100) if sys.stdout.isatty() else None
-    typer.echo(f"twopose: {len(result.sessions)} session(s), results in {out}")
+    written = result.written_to is not None
+    where = f"results in {out}" if written else f"nothing written, {out} left as it was"
+    typer.echo(f"twopose: {result.sessions_said()}, {where}")
     from analysis.rig.scope import rig_lines
 
     for line in rig_lines(result):
@@ -263,16 +329,18 @@ def _print_run(result: RunResult, out: Path, *, include_warned: bool) -> None:
     for _, e in result.errors.iterrows():
         typer.secho(f"failed: {e['error']}", err=True, fg=typer.colors.RED)
     if result.figures_reused:
+        reused, of = _sessions_whose(result, "figures_reused")
         typer.echo(
-            f"figures: {result.figures_reused} of {len(result.sessions)} session(s)' reused "
+            f"figures: {reused} of {of} session(s)' reused "
             f"from the last run into {out} (nothing they show changed)"
         )
     if result.sessions_reused:
+        reused, of = _sessions_whose(result, "analysis_reused")
         typer.echo(
-            f"analysis: {result.sessions_reused} of {len(result.sessions)} session(s)' reused "
+            f"analysis: {reused} of {of} session(s)' reused "
             f"from the last run into {out} (nothing it depends on changed)"
         )
-    for line in closing_lines(result.verdict, out, width=width):
+    for line in closing_lines(result.verdict, out, width=width) if written else ():
         typer.echo(line)
     if result.failed or not result.sessions:
         if not result.sessions and result.errors.empty:

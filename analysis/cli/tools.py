@@ -19,6 +19,7 @@ from twopose.errors import (
     handle_errors,
 )
 from twopose.methods import MEASURING_METHODS, Method
+from twopose.options import read_option
 from twopose.units import Units
 
 if TYPE_CHECKING:
@@ -89,8 +90,10 @@ def sensitivity_command(
     out: Annotated[Path, typer.Option("--out", help="Folder for sensitivity.csv and .png.")] = Path(
         "results"
     ),
-    samples: Annotated[int, typer.Option(min=100, help="Monte Carlo samples per point.")] = 2000,
-    seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
+    samples: Annotated[
+        int, typer.Option(**read_option("SAMPLES"), help="Monte Carlo samples per point.")
+    ] = 2000,
+    seed: Annotated[int, typer.Option(**read_option("SEED"), help="Random seed.")] = 0,
 ) -> None:
     """Sweeps of error against pixel noise, pose error per axis, baseline, distance, finger
     angle, in the thesis' geometry; and a check of its 0.1 in -> 0.2 in claim (section 5.3)."""

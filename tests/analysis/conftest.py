@@ -17,17 +17,22 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "sessions"))
 from make_sessions import THESIS_POSES  # type: ignore[import-not-found]  # on sys.path at run time
 
 from tests.analysis.rig_helpers import RIG
+from tests.conftest import built_once
 
 
 @pytest.fixture(scope="session")
 def rig_sessions(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
-    """Two 10-trial point sessions of one seed, simulated with the constants RIG and without."""
-    folder = tmp_path_factory.mktemp("rig")
-    out = {}
-    for name, rig in (("with", RIG), ("without", RigConstants())):
-        out[name] = folder / f"{name}.mcap"
-        # No typing error: what remains is the constants' bias and the pixels' noise.
-        poses = dataclasses.replace(THESIS_POSES, noise_sigma=0.0)
-        scene = Scene(poses=poses, systematic=rig)
-        simulate_session(out[name], method=Method.POINT, trials=10, frames=2, seed=41, scene=scene)
-    return out
+    """Two 10-trial point sessions of one seed, simulated with the constants RIG and without
+    (about 35 s of rendering: built once per test run, not once per pytest-xdist worker)."""
+    names = {"with": RIG, "without": RigConstants()}
+
+    def build(folder: Path) -> None:
+        for name, rig in names.items():
+            # No typing error: what remains is the constants' bias and the pixels' noise.
+            poses = dataclasses.replace(THESIS_POSES, noise_sigma=0.0)
+            scene = Scene(poses=poses, systematic=rig)
+            path = folder / f"{name}.mcap"
+            simulate_session(path, method=Method.POINT, trials=10, frames=2, seed=41, scene=scene)
+
+    folder = built_once(tmp_path_factory, "rig", build)
+    return {name: folder / f"{name}.mcap" for name in names}

@@ -20,7 +20,7 @@ from analysis.drawer import FigureDrawer, draw_session_figures
 from analysis.figure_cache import FigureJob
 from analysis.pipeline import analyse_session
 from analysis.results import AnalysisOptions, SessionResult
-from tests.helpers import distinct_copies
+from tests.helpers import distinct_copies, read_line_when_printed
 
 REPO = Path(__file__).resolve().parents[2]
 #: The static figures are drawn only when asked (``run --figures png``).
@@ -203,8 +203,7 @@ def test_the_drawer_ends_with_its_parent_killed() -> None:
     parent = subprocess.Popen(
         [sys.executable, "-c", code], stdout=subprocess.PIPE, text=True, env=env
     )
-    assert parent.stdout is not None
-    child = int(parent.stdout.readline())
+    child = int(read_line_when_printed(parent, "", "the drawer's pid")[0])
     parent.kill()
     parent.wait()
     assert _wait_for(lambda: not Path(f"/proc/{child}").exists() or _zombie(child), 15)

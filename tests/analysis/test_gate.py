@@ -259,7 +259,7 @@ def test_an_empty_baseline_metric_is_said_not_passed_silently(
 def test_a_tolerance_beyond_doubling_is_refused(tmp_path: Path, relative: float) -> None:
     path = tmp_path / "tolerance.toml"
     path.write_text(f"[rmse]\nrelative = {'inf' if relative == float('inf') else relative}\n")
-    with pytest.raises(InputValueError, match=r"relative tolerance|finite"):
+    with pytest.raises(InputValueError, match=r"relative tolerance|'inf' is not a number"):
         load_tolerance(path)
     path.write_text("[rmse]\nrelative = 1.0\n")
     assert load_tolerance(path)[""].rmse.relative == 1.0
@@ -293,3 +293,153 @@ def test_an_output_that_is_a_hard_link_to_an_input_is_refused(
     result = runner.invoke(app, ["rig", str(session), "--out", str(other)])
     assert result.exit_code == 3, result.output
     assert "is the input" in result.output
+
+
+# -- Issue 56: a gate that sees what was left out; allowances that carry units ---------
+
+
+@pytest.fixture(scope="module")
+def parallax_runs(tmp_path_factory: pytest.TempPathFactory, point_session: Path) -> Path:
+    """``point_session`` run as it is and with ``--min-parallax 5``, which warns its trial 2
+    (ray parallax 1.96 deg, error 1.75 in) out of the statistics."""
+    folder = tmp_path_factory.mktemp("parallax")
+    for name, extra in (("base", []), ("warned", ["--min-parallax", "5"])):
+        args = ["run", str(point_session), "--out", str(folder / name), "--no-scene", *extra]
+        result = runner.invoke(app, args)
+        assert result.exit_code == 0, result.output
+    return folder
+
+
+def test_a_trial_left_out_of_the_statistics_is_a_regression(parallax_runs: Path) -> None:
+    """Before: the warned trial left the statistics (RMSE 1.24 -> 0.06 in, n_used 2 -> 1)
+    and ``check`` said ``no regression``, exit 0."""
+    warned, base = parallax_runs / "warned", parallax_runs / "base"
+    result = runner.invoke(app, ["check", str(warned), "--baseline", str(base)])
+    assert result.exit_code == 1, result.output
+    line = next(x for x in result.output.splitlines() if "n_used" in x)
+    assert line.startswith("REGRESSED point.mcap (point) n_used: 2 -> 1 trials")
+    assert "left out of this run's statistics, used by the baseline's: trial 2 (" in line
+    assert "parallax 1.96 deg < 5" in line
+    assert "REGRESSED point.mcap (point) n_warned: 0 -> 1 trials" in result.output
+    # The other way round, the run uses a trial the baseline left out: better, not a failure.
+    back = runner.invoke(app, ["check", str(base), "--baseline", str(warned)])
+    assert back.exit_code == 1  # (its RMSE rose with the trial back in: that regressed)
+    assert "n_used" not in back.output
+    assert "n_warned" not in back.output
+    # A run without its trials.csv (or one that does not hold the summary's trials): the
+    # counts are compared, never nothing.
+    bare = base.parent / "bare"
+    shutil.copytree(warned, bare)
+    trials = pd.read_csv(bare / "trials.csv")
+    trials[trials["trial"] != 1].to_csv(bare / "trials.csv", index=False)
+    counted = runner.invoke(app, ["check", str(bare), "--baseline", str(base)])
+    assert "REGRESSED point.mcap (point) n_used: 2 -> 1 trials" in counted.output
+    assert "used by the baseline's" not in counted.output  # no trial named: only counts
+    # A tolerance that allows one trial left out lets it pass, said as worse.
+    tolerance = base.parent / "one_trial.toml"
+    tolerance.write_text("[n_used]\nabsolute = 1\n[n_warned]\nabsolute = 1\n")
+    allowed = runner.invoke(
+        app, ["check", str(warned), "--baseline", str(base), "--tolerance", str(tolerance)]
+    )
+    assert allowed.exit_code == 0, allowed.output
+    assert "worse point.mcap (point) n_used: 2 -> 1 trials" in allowed.output
+
+
+def test_a_trial_swapped_for_another_is_seen_by_the_trials(
+    parallax_runs: Path, tmp_path: Path
+) -> None:
+    """Counts alone miss a swap: the baseline left trial 1 out and used trial 2, the run the
+    other way round (n_used 1 -> 1): trial 2 left out is a regression all the same."""
+    base, run = (
+        _copy(parallax_runs / "warned", tmp_path / "b"),
+        _copy(parallax_runs / "warned", tmp_path / "r"),
+    )
+    trials = pd.read_csv(base / "trials.csv", keep_default_na=False)
+    warning = trials.loc[trials["trial"] == 2, "warning"].iloc[0]
+    trials["warning"] = ["ray parallax 4.00 deg < 5" if t == 1 else "" for t in trials["trial"]]
+    trials.to_csv(base / "trials.csv", index=False)
+    result = runner.invoke(app, ["check", str(run), "--baseline", str(base)])
+    assert "n_used: 1 -> 1 trials" in result.output, result.output
+    assert f"trial 2 ({warning})" in result.output
+    assert result.exit_code == 1
+
+
+def _in_metres(folder: Path) -> None:
+    """A run's summary.csv as the same run in metres would write it."""
+    from analysis.columns import SUMMARY_DOMAINS
+    from twopose.units import unit_factor
+
+    summary = pd.read_csv(folder / "summary.csv")
+    for column, domain in SUMMARY_DOMAINS.items():
+        if domain in ("length", "signed") and column in summary:
+            summary[column] = summary[column] * unit_factor("in", "m")
+    summary["units"] = "m"
+    summary.to_csv(folder / "summary.csv", index=False)
+
+
+def test_an_absolute_allowance_carries_its_unit_into_a_metre_session(
+    baseline: Path, tmp_path: Path
+) -> None:
+    """Before: the default |bias| allowance, 0.05, was read in the session's units, 5 cm in
+    a metre session: a 4.3 cm bias change was only "worse", exit 0."""
+    base, run = _copy(baseline, tmp_path / "b"), _copy(baseline, tmp_path / "r")
+    for folder in (base, run):
+        _in_metres(folder)
+    summary = pd.read_csv(run / "summary.csv")
+    summary.loc[summary["method"] == "point", "bias_z"] += 0.043
+    summary.to_csv(run / "summary.csv", index=False)
+    result = runner.invoke(app, ["check", str(run), "--baseline", str(base)])
+    assert result.exit_code == 1, result.output
+    line = next(x for x in result.output.splitlines() if "|bias_z|" in x)
+    assert line.startswith("REGRESSED point.mcap (point) |bias_z|")
+    rows = check(run, base).comparisons
+    point = rows[(rows["method"] == "point") & rows["metric"].str.startswith("|bias_")]
+    assert len(point) == 3
+    for _, row in point.iterrows():  # 0.05 in, converted, or 10% of the baseline's
+        expected = max(0.05 * 0.0254, 0.1 * float(row["baseline"]))
+        assert float(row["allowed"]) == pytest.approx(expected)
+        assert row["unit"] == "m"
+    # A file states its unit; the same 4 cm in centimetres passes.
+    tolerance = tmp_path / "cm.toml"
+    tolerance.write_text('units = "cm"\n[bias]\nabsolute = 5\n')
+    loose = runner.invoke(
+        app, ["check", str(run), "--baseline", str(base), "--tolerance", str(tolerance)]
+    )
+    assert loose.exit_code == 0, loose.output
+    assert "allowed 0.05 m)" in loose.output
+
+
+@pytest.mark.parametrize(
+    ("text", "said"),
+    [
+        (
+            "[rmse]\nabsolute = 0.01\n",
+            'rmse.absolute = 0.01 is a length with no unit: add units = "in"',
+        ),
+        (
+            "[methods.ground.bias]\nabsolute = 1\n",
+            "methods.ground.bias.absolute = 1 is a length with no unit",
+        ),
+        ('units = "ft"\n', "units must be one of in, mm, cm, m, got 'ft'"),
+        (
+            'units = "in"\n[methods.ground]\nunits = "mm"\n',
+            "methods.ground.units: the unit is the whole file's",
+        ),
+    ],
+)
+def test_a_length_allowance_without_its_unit_is_refused(
+    tmp_path: Path, text: str, said: str
+) -> None:
+    path = tmp_path / "tolerance.toml"
+    path.write_text(text)
+    with pytest.raises(InputValueError) as caught:
+        load_tolerance(path)
+    assert said in str(caught.value)
+
+
+def test_counts_and_shares_need_no_unit(tmp_path: Path) -> None:
+    path = tmp_path / "tolerance.toml"
+    path.write_text("[n_ok]\nabsolute = 1\n[coverage95]\nabsolute = 0.1\n[rmse]\nrelative = 0.2\n")
+    tolerance = load_tolerance(path)[""]
+    assert (tolerance.n_ok.absolute, tolerance.coverage95.absolute) == (1, 0.1)
+    assert tolerance.units == "in"

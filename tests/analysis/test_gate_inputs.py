@@ -119,7 +119,7 @@ def test_a_misspelt_method_in_a_tolerance_file_is_refused(run_dir: Path, tmp_pat
         ("methods = 3\n", "methods must be a table"),
         ("[methods.line]\nrmse = 0.5\n", "methods.line: rmse must be a table"),
         ("[methods.line.bias]\nabsolute = -1\n", "methods.line.bias.absolute is -1"),
-        ("[bias]\nabsolute = nan\n", "bias.absolute must be a finite number"),
+        ("[bias]\nabsolute = nan\n", "bias.absolute: 'nan' is not a number"),
         ("[bias]\nabsolute = true\n", "bias.absolute must be a finite number"),
     ],
 )
@@ -275,6 +275,9 @@ def tolerance_files(draw: st.DrawFn) -> dict[str, Any]:
     keep_empty: bool = draw(st.booleans())
     if methods or keep_empty:
         tolerance["methods"] = methods
+    units = draw(st.sampled_from([None, "in", "mm", "m"]))
+    if units is not None:
+        tolerance["units"] = units
     return tolerance
 
 
@@ -299,13 +302,20 @@ def _valid_number(value: Any) -> bool:
     )
 
 
-def _valid_table(table: Any) -> bool:
-    """The rule docs/ci.md states, written out independently of the code."""
+LENGTHS = ("rmse", "median_err", "bias")
+
+
+def _valid_table(table: Any, *, units: bool) -> bool:
+    """The rule docs/ci.md states, written out independently of the code: a length's
+    absolute allowance other than 0 only in a file that states its ``units``."""
     return isinstance(table, dict) and all(
         k in METRICS
         and isinstance(v, dict)
         and all(
-            f in ("relative", "absolute") and _valid_number(x) and (f != "relative" or x <= 1)
+            f in ("relative", "absolute")
+            and _valid_number(x)
+            and (f != "relative" or x <= 1)
+            and (f != "absolute" or k not in LENGTHS or units or x == 0)
             for f, x in v.items()
         )
         for k, v in table.items()
@@ -317,11 +327,16 @@ def _ground_rmse(folder: Path) -> float:
     return float(summary.loc[summary["method"] == "ground", "rmse"].iloc[0])
 
 
+#: Inches in one of each unit a generated file states (the run's sessions are in inches).
+INCHES = {"in": 1.0, "mm": 1 / 25.4, "m": 1000 / 25.4}
+
+
 def _ground_rmse_allowance(tolerance: dict[str, Any], baseline_rmse: float) -> float:
     rmse = {"relative": 0.10, "absolute": 0.0}
     rmse |= tolerance.get("rmse", {})
     rmse |= tolerance.get("methods", {}).get("ground", {}).get("rmse", {})
-    return max(float(rmse["absolute"]), float(rmse["relative"]) * abs(baseline_rmse))
+    absolute = float(rmse["absolute"]) * INCHES[tolerance.get("units", "in")]
+    return max(absolute, float(rmse["relative"]) * abs(baseline_rmse))
 
 
 @pytest.mark.slow
@@ -334,11 +349,15 @@ def test_generated_tolerance_files_are_refused_or_applied_exactly(
     unchanged run passes, and a worse ground RMSE fails exactly when it got worse by more
     than the allowance the file gives."""
     methods = tolerance.get("methods", {})
-    top = {k: v for k, v in tolerance.items() if k != "methods"}
+    units = "units" in tolerance
+    top = {k: v for k, v in tolerance.items() if k not in ("methods", "units")}
     valid = (
-        _valid_table(top)
+        _valid_table(top, units=units)
         and isinstance(methods, dict)
-        and all(m in ("point", "line", "ground") and _valid_table(t) for m, t in methods.items())
+        and all(
+            m in ("point", "line", "ground") and _valid_table(t, units=units)
+            for m, t in methods.items()
+        )
     )
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)

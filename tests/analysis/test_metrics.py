@@ -94,12 +94,29 @@ def test_warned_trials_are_counted_and_left_out_unless_asked() -> None:
     assert row["max_err_all_ok"] == pytest.approx(10.0)
     assert row["rmse_all_ok"] > 5
     assert row["coverage95"] == 0.5
-    # The 95% t-interval of the x bias over 2 trials: 12.706 * s / sqrt(2).
-    assert row["bias_x_ci95"] == pytest.approx(12.706 * np.std([0.1, 0.3], ddof=1) / np.sqrt(2))
-    assert row["rmse_ci95_low"] <= row["rmse"] <= row["rmse_ci95_high"]
+    # No interval over 2 trials (issue 56: the bootstrap's was their smaller and larger error).
+    for column in ("bias_x_ci95", "rmse_ci95_low", "rmse_ci95_high"):
+        assert np.isnan(row[column]), column
     (everything,) = summarize(trials, include_warned=True).to_dict("records")
     assert everything["n_used"] == 3
     assert everything["max_err"] == pytest.approx(10.0)
+
+
+def test_intervals_start_at_five_trials() -> None:
+    """From :data:`MIN_INTERVAL_TRIALS` trials on, the 95% t-interval of each bias and the
+    RMSE's bootstrap interval; from one fewer, none."""
+    from analysis.metrics import MIN_INTERVAL_TRIALS
+
+    errors = [0.1, 0.3, 0.2, 0.6, 0.4]
+    assert len(errors) == MIN_INTERVAL_TRIALS
+    (row,) = summarize(_trials([(e, 0.0, 0.0) for e in errors], ["ok"] * 5)).to_dict("records")
+    assert row["bias_x_ci95"] == pytest.approx(2.776 * np.std(errors, ddof=1) / np.sqrt(5))
+    assert row["rmse_ci95_low"] < row["rmse"] < row["rmse_ci95_high"]
+    (fewer,) = summarize(_trials([(e, 0.0, 0.0) for e in errors[:4]], ["ok"] * 4)).to_dict(
+        "records"
+    )
+    assert np.isnan(fewer["bias_x_ci95"])
+    assert np.isnan(fewer["rmse_ci95_low"])
 
 
 @pytest.mark.filterwarnings("error")

@@ -24,16 +24,20 @@ def _row(**values: object) -> pd.Series:
     return pd.Series({"units": "in", "placing_sigma": 0.0625, "placing_source": "typed", **values})
 
 
-def test_the_words_say_widened_only_when_the_data_contradict_the_model() -> None:
-    widened = noise_phrases(_row(sigma0=1.55, sigma0_dof=50, noise_widening=2.56))
+def test_the_words_say_the_test_and_the_multiplier_taken_apart() -> None:
+    widened = noise_phrases(_row(sigma0=1.55, sigma0_dof=50, noise_widening=2.56,
+                                 placing_scale=1.6, placing_dof=52.0, n_flagged=0))  # fmt: skip
     said = " ".join(widened)
     assert "placing sigma 0.0625 in typed;" in said
-    assert "sigma0 1.55 on 50 dof:" in said
-    assert "regions' largest semi-axis widened x1.6:" in said
-    assert "contradict the noise model" in said
-    agreed = " ".join(noise_phrases(_row(sigma0=1.02, sigma0_dof=40, noise_widening=1.0)))
-    assert "agree with the noise model" in agreed
-    assert "widened" not in agreed
+    assert "sigma0 1.55 on 50 dof (p < 0.001): the data contradict the noise model" in said
+    assert "placing sigma taken 1.6x the one assumed, from 52 dof;" in said
+    assert "regions' largest semi-axis x1.60" in said
+    # a widening where sigma0's test does not reject: a widening, not a contradiction
+    agreed = " ".join(noise_phrases(_row(sigma0=1.18, sigma0_dof=10, noise_widening=5.08,
+                                         placing_scale=2.25, placing_dof=12.0)))  # fmt: skip
+    assert "sigma0 1.18 on 10 dof (p = 0.18): the data agree with the noise model" in agreed
+    assert "contradict" not in agreed
+    assert "regions' largest semi-axis x2.25" in agreed
     untested = " ".join(noise_phrases(_row(sigma0=math.nan, sigma0_dof=0, noise_widening=1.0)))
     assert "not tested" in untested
     assert noise_phrases(pd.Series({"units": "in"})) == []  # a table from before the columns
@@ -52,16 +56,18 @@ def test_summary_terminal_and_report_say_the_sessions_noise_model(point_run: obj
     assert (trials["misclosure_dof"] == 1).all()
     assert row["sigma0_dof"] == 15
     assert 0.5 < row["sigma0"] < 2.0
-    assert row["placing_source"] == "typed"
+    assert row["placing_source"].startswith("typed, times ")
+    assert "estimated from this session's 15 trials" in row["placing_source"]
     assert row["placing_sigma"] > 0
-    assert not row["noise_contradicted"]
-    assert row["noise_widening"] == 1.0
+    assert row["noise_contradicted"] == (row["sigma0_p"] < 0.05)
+    assert 5 < row["placing_dof"] < 17  # the anchor's 2 and the trials' placing shares
     assert math.isclose(row["sigma0"] ** 2, trials["misclosure_chi2"].sum() / 15, rel_tol=1e-9)
     session = summary_document(point_run)["summary"][0]  # type: ignore[arg-type,index]
     for key in ("sigma0", "sigma0_dof", "noise_contradicted", "placing_sigma", "placing_source"):
         assert key in session
     text = " ".join(summary_lines(trials, point_run.summary, width=None))  # type: ignore[attr-defined]
-    assert f"sigma0 {row['sigma0']:.2f} on 15 dof: the data agree with the noise model" in text
+    assert f"sigma0 {row['sigma0']:.2f} on 15 dof (p = {row['sigma0_p']:.2f}):" in text
+    assert "the data agree with the noise model" in text
     assert "placing sigma" in text
     assert "typed" in text
     html = " ".join(_noise_section(point_run))  # type: ignore[arg-type]

@@ -25,6 +25,7 @@ from analysis.figures import plot_error_histogram, session_figures
 from analysis.metrics import used_trials, warned
 from analysis.pipeline import analyse_session
 from analysis.results import AnalysisOptions
+from analysis.session_cache import SessionCache
 from twopose.units import Units
 
 SESSIONS = Path(__file__).resolve().parents[2] / "sessions"
@@ -176,10 +177,17 @@ def test_a_rerun_reuses_the_figures_nothing_changed(
     # one session more: the others' figures are reused (by content, not by position)
     shutil.copy(ground_session, sessions / "another.mcap")
     assert run([sessions], out, scene=False, options=_warned_in()).figures_reused == 2
+    # a figure replaced since by another PNG (another session's) is drawn again (issue 56:
+    # outputs are checked by their bytes' digest, as the run that wrote them recorded it)
+    job = FigureJob.of(analyse_session(sessions / "line.mcap"), include_warned=True)
+    written = SessionCache.of(out, _warned_in()).written_digests()
+    assert FigureCache.of(out, written=written).reuse(job) is not None
+    line, point = (next(out.glob(f"scatter_*_{name}.png")) for name in ("line", "point"))
+    line.write_bytes(point.read_bytes())
+    assert FigureCache.of(out, written=written).reuse(job) is None
     # a figure file that is not a PNG any more is drawn again, not copied
     (next(out.glob("scatter_*_line.png"))).write_bytes(b"not a png")
     cache = FigureCache.of(out)
-    job = FigureJob.of(analyse_session(sessions / "line.mcap"), include_warned=True)
     assert cache.reuse(job) is None
 
 

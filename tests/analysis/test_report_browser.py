@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from tests.browser import headless_chromium, require_chromium
+from tests.browser import fonts_drawn, headless_chromium, other_fonts, require_chromium
 from tests.doc_images import doc_image
 
 require_chromium()
@@ -115,7 +115,8 @@ def test_a_phone_sees_the_answers_numbers_on_its_first_screen_whatever_failed(
     folder.mkdir()
     line = Path(__file__).resolve().parents[2] / "sessions" / "thesis_line.mcap"
     (folder / "thesis_line.mcap").write_bytes(line.read_bytes())
-    (folder / "zz_corrupt.mcap").write_bytes(line.read_bytes()[:5000])
+    point = line.with_name("thesis_method1_point.mcap")  # another session, cut short
+    (folder / "zz_corrupt.mcap").write_bytes(point.read_bytes()[:5000])
     result = run([folder], tmp_path / "out", scene=False)
     assert result.failed
     _emulate(browser, PHONE)
@@ -233,7 +234,87 @@ def test_the_docs_show_the_reports_answer_and_a_figure_as_a_laptop_sees_them(
     answer) and the first session's charts, as this browser draws them."""
     with headless_chromium(1366, 768) as laptop:
         laptop.get(report.as_uri())
-        doc_image("report-answer.png", laptop.get_screenshot_as_png())
+        _wait_for_charts(laptop)
+        doc_image("report-answer.png", laptop.get_screenshot_as_png(), driver=laptop)
         figure = laptop.find_element(By.CSS_SELECTOR, "div.chart[data-chart^='session_'] svg")
         laptop.execute_script("arguments[0].scrollIntoView({block: 'center'})", figure)
-        doc_image("report-figure.png", figure.screenshot_as_png)
+        doc_image("report-figure.png", figure.screenshot_as_png, driver=laptop, element=figure)
+
+
+@pytest.fixture(scope="module")
+def forked_report(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The report of a lab's forked session (:mod:`tests.lab`'s drawn sessions): ``a``
+    (5 trials) continued after trial 5 by ``a2`` (branch A, 1 trial) and ``a3`` (B, 2)."""
+    from analysis.batch import run
+    from tests.lab import continue_session, record
+
+    folder = tmp_path_factory.mktemp("forked")
+    record(folder / "a.mcap", 5, measured=True)
+    continue_session(folder / "a.mcap", folder / "a2.mcap", 1, measured=True)
+    continue_session(folder / "a.mcap", folder / "a3.mcap", 2, measured=True)
+    run([folder], folder / "out", scene=False)
+    return folder / "out" / "report.html"
+
+
+@pytest.mark.parametrize("width", [1366, PHONE])
+def test_a_forked_sessions_tables_show_branch_and_ellipsoid_within_the_page(
+    forked_report: Path, browser: Any, width: int
+) -> None:
+    """Issue 56: as a reader sees them at 1366 px and on a phone, a forked session's
+    heading and trial table name the branch, its "truth inside its 95% ellipsoid" cells
+    read yes/no (they read "-"), a 2-trial session's interval cell says why there is none,
+    and the wider tables scroll in their boxes, the page never wider than the screen."""
+    _emulate(browser, width)
+    try:
+        browser.get(forked_report.as_uri())
+        inner = browser.execute_script("return window.innerWidth")
+        assert browser.execute_script("return document.documentElement.scrollWidth") <= inner
+        headings = [h.text for h in browser.find_elements(By.CSS_SELECTOR, "h3")]
+        assert {"a.mcap [branch A]", "a3.mcap [branch B]"} <= set(headings)
+        cells = browser.execute_script(
+            "return [...document.querySelectorAll('table')].filter(t => {"
+            " const h = [...t.querySelectorAll('th')].map(x => x.textContent);"
+            " return h.includes('branch') && h.includes('status'); }).map(t => {"
+            " const h = [...t.querySelectorAll('th')].map(x => x.textContent);"
+            " const b = h.indexOf('branch'), w = h.indexOf('truth inside its 95% ellipsoid');"
+            " return [...t.querySelectorAll('tbody tr')].map(r =>"
+            " [r.children[b].textContent, r.children[w].textContent]); })"
+        )
+        assert [len(t) for t in cells] == [6, 2]  # a's 5 and a2's 1; a3's 2
+        assert sorted({b for t in cells for b, _ in t}) == ["", "A", "B"]
+        assert {w for t in cells for _, w in t} <= {"yes", "no"}
+        assert "none (2 trials: an interval needs 5)" in browser.page_source
+    finally:
+        _emulate(browser, None)
+
+
+def test_the_report_is_drawn_in_its_own_fonts_on_a_machine_with_other_fonts(
+    report: Path, tmp_path: Path
+) -> None:
+    """Issue 53: on a machine whose fonts are others (matplotlib's STIX and Computer
+    Modern alone: its sans-serif a serif), every kind of text and every character beyond
+    ASCII, charts' included, is drawn in the fonts the report carries, and its top is the
+    docs' picture, drawn with this machine's fonts."""
+    with headless_chromium(1366, 768, fonts=other_fonts(tmp_path)) as other:
+        other.get(report.as_uri())
+        _wait_for_charts(other)
+        doc_image("report-answer.png", other.get_screenshot_as_png(), driver=other)
+        drawn = fonts_drawn(other)
+    assert {family for family, _ in drawn} == {"DejaVu Sans", "DejaVu Sans Mono"}, drawn.keys()
+    not_ours = {font: where[:3] for font, where in drawn.items() if not font[1]}
+    assert not not_ours, not_ours
+    assert any("<text" in e for e in drawn[("DejaVu Sans", True)])  # the charts' labels
+
+
+def _wait_for_charts(browser: Any) -> None:
+    """Until the page's fonts are loaded and its script drew every chart with them."""
+    drawn = False
+    for _ in range(100):
+        drawn = browser.execute_script(
+            "return document.fonts.status === 'loaded' && Object.keys(window.twoposeViews"
+            " || {}).length === document.querySelectorAll('div.chart').length"
+        )
+        if drawn:
+            break
+        time.sleep(0.1)
+    assert drawn, "the charts were not drawn in 10 s"

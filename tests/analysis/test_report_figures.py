@@ -114,7 +114,12 @@ def test_the_answer_comes_before_the_list_of_failed_inputs_which_one_line_counts
 
     result = run([point_session])
     failed = pd.DataFrame([{"session": "bad.mcap", "error": "bad.mcap: not a session"}])
-    result = dataclasses.replace(result, errors=failed, input_notes=("copy.mcap: a copy",))
+    result = dataclasses.replace(
+        result,
+        errors=failed,
+        input_notes=("copy.mcap: a copy", "b.mcap: continues a.mcap; one session with a.mcap"),
+        inputs_set_aside=("copy.mcap",),  # what the line counts: not the continuation
+    )
     sweep = {"method": "point", "sweep": "pixel noise", "value": 0.1, "unit": "px", "rmse": 0.03}
     page = _report_html(result, pd.DataFrame([sweep | {"n_ok": 10}]))
     line = page.index("class='inputs-line")

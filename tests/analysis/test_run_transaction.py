@@ -151,3 +151,33 @@ def test_an_interrupted_rerun_leaves_the_previous_results_byte_for_byte(
     again = runner.invoke(app, ["run", str(folder), "--out", str(out), "--no-scene"])
     assert again.exit_code == 0, again.output
     assert not (out / STAGING_NAME).exists()
+
+
+def test_a_run_with_nothing_to_analyse_leaves_the_results_as_they_were(
+    tmp_path: Path, point_session: Path
+) -> None:
+    """Issue 56: `run EMPTY_FOLDER --out X` over a complete results folder exited 1 and left
+    trials.csv header-only, the results_*.mcap deleted and the cache emptied. A run that
+    finds nothing to analyse (no session file; only an earlier run's results file) is not
+    a run that replaces them: X is left as it was, cache included, and it says so."""
+    import analysis
+
+    out = tmp_path / "out"
+    analysis.run([point_session], out)
+    every = {str(p.relative_to(out)): p.read_bytes() for p in sorted(out.rglob("*")) if p.is_file()}
+    assert "results_00_point.mcap" in every
+    assert any(name.startswith(CACHE_FOLDER) and name.endswith(".pickle") for name in every)
+    empty, results_only = tmp_path / "empty", tmp_path / "earlier"
+    empty.mkdir()
+    results_only.mkdir()
+    shutil.copy(out / "results_00_point.mcap", results_only)
+    for given in (empty, results_only):
+        result = runner.invoke(app, ["run", str(given), "--out", str(out)])
+        assert result.exit_code == 1, result.output
+        assert f"nothing written, {out} left as it was" in result.output
+        assert "report:" not in result.output
+        after = {
+            str(p.relative_to(out)): p.read_bytes() for p in sorted(out.rglob("*")) if p.is_file()
+        }
+        assert after == every
+    assert analysis.run([empty], out).written_to is None

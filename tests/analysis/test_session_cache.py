@@ -36,7 +36,9 @@ REUSED = "analysis: {n} of {m} session(s)' reused from the last run into"
 
 
 def _entries(out: Path) -> list[Path]:
-    return sorted((out / CACHE_FOLDER / "sessions").glob("*.pickle"))
+    """The sessions' analyses kept (not their first passes': analysis.noise_pass)."""
+    kept = (out / CACHE_FOLDER / "sessions").glob("*.pickle")
+    return sorted(p for p in kept if not p.name.endswith(".noise.pickle"))
 
 
 def _run(folder: Path, out: Path, *extra: str) -> str:
@@ -299,3 +301,89 @@ def test_a_rerun_imports_no_estimation_library(tmp_path: Path) -> None:
     again, heavy = imported()
     assert REUSED.format(n=2, m=2) in again, again
     assert heavy == [], heavy
+
+
+def test_every_environment_setting_a_result_depends_on_is_in_the_key(
+    tmp_path: Path, point_session: Path, analysed: SessionResult, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 56: each setting of the one declared list (twopose.environment) that shapes a
+    result, set, makes the session be analysed again; one that shapes none (the traceback
+    switch) does not."""
+    from twopose.environment import ENVIRONMENT
+
+    for setting in ENVIRONMENT:
+        monkeypatch.delenv(setting.name, raising=False)
+    out = tmp_path / "out"
+    calls: list[int] = []
+
+    def analyse() -> SessionResult:
+        calls.append(1)
+        return analysed
+
+    def again() -> bool:
+        before = len(calls)
+        SessionCache.of(out, AnalysisOptions()).outcome(str(point_session), [], None, None, analyse)
+        return len(calls) > before
+
+    assert again()
+    assert not again()
+    for setting in ENVIRONMENT:
+        monkeypatch.setenv(setting.name, setting.example)
+        assert again() == setting.shapes_results, setting.name
+        assert not again()
+        monkeypatch.delenv(setting.name)
+        assert not again()  # the entry kept for the environment as it was, reused
+
+
+def test_a_limit_in_the_environment_is_applied_to_a_rerun(
+    tmp_path: Path, point_session: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 56: `TWOPOSE_MAX_IMAGE_MPIX=0.1 run` rejects every frame; the re-run without it,
+    as the message advises, analysed the frames again (it reused "0/2 ok" from the cache),
+    and a lower limit set again is applied, not the cached analysis without it."""
+    out = tmp_path / "out"
+    monkeypatch.setenv("TWOPOSE_MAX_IMAGE_MPIX", "0.1")
+    limited = run([point_session], out, scene=False)
+    assert int(limited.summary["n_ok"].sum()) == 0
+    monkeypatch.delenv("TWOPOSE_MAX_IMAGE_MPIX")
+    free = run([point_session], out, scene=False)
+    assert free.sessions_reused == 0
+    assert int(free.summary["n_ok"].sum()) == 2
+    monkeypatch.setenv("TWOPOSE_MAX_IMAGE_MPIX", "0.1")
+    again = run([point_session], out, scene=False)
+    assert again.sessions_reused == 0
+    assert int(again.summary["n_ok"].sum()) == 0
+    pd.testing.assert_frame_equal(again.trials, limited.trials)
+
+
+def _edit_in_place(path: Path, old: bytes, new: bytes) -> None:
+    """``old`` replaced by ``new`` (as long) in ``path``, its size and times kept."""
+    import os
+
+    assert len(old) == len(new)
+    st = path.stat()
+    data = path.read_bytes()
+    assert old in data
+    path.write_bytes(data.replace(old, new, 1))
+    os.utime(path, ns=(st.st_atime_ns, st.st_mtime_ns))
+    assert (path.stat().st_size, path.stat().st_mtime_ns) == (st.st_size, st.st_mtime_ns)
+
+
+def test_an_output_edited_in_place_with_its_size_and_time_kept_is_written_anew(
+    tmp_path: Path, point_session: Path
+) -> None:
+    """Issue 56: `summary.csv` edited in place (rmse 1.34 -> 9.34) with its size and mtime
+    kept survived a re-run, which said 1.34 everywhere else; so did a results.mcap. The
+    outputs a re-run reuses are checked by their bytes' digest."""
+    out = tmp_path / "out"
+    run([point_session], out)
+    first = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
+    summary, scene = out / "summary.csv", next(out.glob("results_*.mcap"))
+    _edit_in_place(summary, b",point,in,", b",pOint,in,")
+    middle = len(first[scene.name]) // 2
+    _edit_in_place(scene, first[scene.name][middle : middle + 8], b"\0" * 8)
+    again = run([point_session], out)
+    assert again.sessions_reused == 0  # its results.mcap changed: analysed again
+    assert summary.read_bytes() == first["summary.csv"]
+    assert scene.read_bytes() == first[scene.name]
+    assert {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()} == first

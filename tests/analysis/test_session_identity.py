@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import shutil
 import xml.etree.ElementTree as ET
+from collections.abc import Iterator
 from pathlib import Path
 
 import pandas as pd
@@ -146,7 +147,7 @@ def test_two_sessions_of_one_name_are_told_apart_everywhere(
     figure = analysis.make_figures(analysis.run(lab))["error_by_trial"]
     legends = [*figure.legends, *(ax.get_legend() for ax in figure.axes)]
     legend = [t.get_text() for leg in legends if leg is not None for t in leg.get_texts()]
-    assert {"a_session", "b_session"} <= set(legend), legend
+    assert {"a/session.mcap", "b/session.mcap"} <= set(legend), legend  # labels (issue 56)
     info = _run("info", lab / "a", lab / "b", columns=80)
     assert "a/session.mcap" in info
     assert "b/session.mcap" in info
@@ -215,3 +216,96 @@ def test_junit_carries_the_notes_on_the_inputs(tmp_path: Path, point_session: Pa
     assert out is not None
     assert out.text is not None
     assert "copy.mcap: the same session as" in out.text
+
+
+def _cut(path: Path, to: Path, keep: float) -> Path:
+    """A copy of ``path`` cut short (a USB copy pulled out): its first ``keep`` of bytes."""
+    data = path.read_bytes()
+    to.write_bytes(data[: int(len(data) * keep)])
+    return to
+
+
+def test_a_recovered_copy_of_a_simulated_session_counts_once(
+    tmp_path: Path, point_session: Path
+) -> None:
+    """Issue 56: `simulate` wrote no session or part id, so `recover d/sim.mcap -o
+    d/sim_recovered.mcap` made another session: `info` said "2 session(s)" and `run` 4
+    trials for 2. A simulated session carries its ids: its recovered copy is the same part."""
+    shutil.copy(point_session, tmp_path / "sim.mcap")
+    recover_session(tmp_path / "sim.mcap", tmp_path / "sim_recovered.mcap")
+    result = analysis.run(tmp_path)
+    assert len(result.trials) == 2, result.trials[["session", "trial"]]
+    assert "sim_recovered.mcap: the same session as" in " ".join(result.input_notes)
+    assert "1 session(s)" in _run("info", tmp_path)
+
+
+@pytest.fixture(scope="module")
+def legacy_lab(
+    tmp_path_factory: pytest.TempPathFactory, monkeypatch_module: pytest.MonkeyPatch
+) -> Path:
+    """A session file with no session or part id (a recorder before format 1.3, or
+    `simulate` before issue 56), through the real simulator; its recovered copy; a copy of
+    it cut short, and the cut copy recovered."""
+    import recorder.simulate
+
+    lab = tmp_path_factory.mktemp("legacy")
+    monkeypatch_module.setattr(
+        recorder.simulate, "simulated_ids", lambda *_a: (None, None), raising=False
+    )
+    simulate_session(lab / "sim.mcap", method=Method.POINT, trials=2, frames=1, seed=14)
+    monkeypatch_module.undo()
+    recover_session(lab / "sim.mcap", lab / "sim_recovered.mcap")
+    _cut(lab / "sim.mcap", lab / "usb_cut.mcap", 0.55)
+    recover_session(lab / "usb_cut.mcap", lab / "usb_cut_recovered.mcap")
+    return lab
+
+
+@pytest.fixture(scope="module")
+def monkeypatch_module() -> Iterator[pytest.MonkeyPatch]:
+    with pytest.MonkeyPatch.context() as patch:
+        yield patch
+
+
+def test_a_file_without_ids_is_known_by_what_opens_it_everywhere(
+    legacy_lab: Path, tmp_path: Path
+) -> None:
+    """Issue 56: a cut USB copy, recovered, beside its id-less original pooled trials 1-2
+    twice and listed the cut copy as failed (exit 1); `info` counted 2 sessions; `rig`
+    aborted with exit 3. The file, its cut copy and their recovered copies are one part:
+    the original's trials once, the copies said, no failure, every command alike."""
+    from twopose.format.identity import identify_file
+
+    names = ("sim.mcap", "sim_recovered.mcap", "usb_cut.mcap", "usb_cut_recovered.mcap")
+    files = [identify_file(legacy_lab / n) for n in names]
+    assert all(f.info is not None and not f.info.session_id for f in files)
+    assert not files[2].readable  # the cut copy: unreadable, known by its opening
+    assert len({f.part_key for f in files}) == 1
+    assert len({f.session_id for f in files}) == 1
+    result = analysis.run(legacy_lab)
+    assert sorted(result.trials["trial"]) == [1, 2]
+    assert result.errors.empty, result.errors
+    said = " ".join(result.input_notes)
+    for copy in names[1:]:
+        assert f"{legacy_lab / copy}: the same session as {legacy_lab / 'sim.mcap'}" in said
+    info = runner.invoke(app, ["info", str(legacy_lab)], env={"COLUMNS": "200"})
+    assert info.exit_code == 0, info.output
+    assert "1 session(s)" in info.output
+    rig = runner.invoke(app, ["rig", str(legacy_lab), "--out", str(tmp_path / "rig.toml")])
+    assert rig.exit_code == 0, rig.output
+    assert "usb_cut.mcap: not a readable" not in rig.output
+
+
+def test_a_recovered_copy_of_a_file_without_ids_is_the_same_session_to_check(
+    legacy_lab: Path, tmp_path: Path
+) -> None:
+    """`check` matches sessions by id: a run on the id-less original and one on its
+    recovered copy alone hold the same session, parts and trials (its id was the digest of
+    each file's bytes: the copy was a new session and the original's trials were lost)."""
+    alone = tmp_path / "alone"
+    alone.mkdir()
+    shutil.copy(legacy_lab / "sim_recovered.mcap", alone)
+    original = analysis.run([legacy_lab / "sim.mcap"], tmp_path / "original", scene=False)
+    copy = analysis.run([alone], tmp_path / "copy", scene=False)
+    assert _trial_ids(copy.trials) == _trial_ids(original.trials)
+    outcome = check(tmp_path / "copy", tmp_path / "original")
+    assert not outcome.regressed, outcome.worse()

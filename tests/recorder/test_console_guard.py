@@ -263,13 +263,12 @@ def test_body_refusal_rules() -> None:
     assert body_refusal(b"") == ("", {})
     assert body_refusal(b'{"a": "[[[[[[[[[["}') == ("", {})  # brackets in text are text
     assert body_refusal(b'{"a": [[[]]]}')[0].startswith("the request is nested deeper")
-    _, errors = body_refusal(b'{"a": 1e999}')
-    assert errors == {"a": "must be a finite number, got '1e999'"}
+    # the field's quantity judges 1e999 in the form's words (the guard: the grammar)
+    assert body_refusal(b'{"a": 1e999}') == ("", {})
     # judged as sent: 400 digits would overflow the float math.isfinite makes of them
     _, errors = body_refusal(b'{"decision": ' + b"9" * 400 + b"}")
     assert "not a number of sane size" in errors["decision"]
-    _, errors = body_refusal(b'{"x": 1e300}')
-    assert "too large" in errors["x"]
+    assert body_refusal(b'{"x": 1e300}') == ("", {})
     assert body_refusal(b'{"x": -0, "y": 1e-300}') == ("", {})
     why, _ = body_refusal(b'{"decision": "redo", "decision": "accept"}')
     assert "given twice" in why
@@ -297,6 +296,17 @@ def capture(client: TestClient, pose: dict[str, str]) -> dict[str, Any]:
     return wait_for(client, "decision")
 
 
+def _with_preview(client: TestClient) -> dict[str, Any]:
+    """The state once the capture's preview result has come."""
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline:
+        state: dict[str, Any] = strict_json(client.get("/api/state").text)
+        if state["preview"] is not None:
+            return state
+        time.sleep(0.02)
+    raise AssertionError("no preview result came")
+
+
 def test_a_line_with_no_glove_and_a_pose_typed_twice_never_blinds_the_page(
     console: tuple[TestClient, Path],
 ) -> None:
@@ -309,7 +319,8 @@ def test_a_line_with_no_glove_and_a_pose_typed_twice_never_blinds_the_page(
     same = {"x": "0", "y": "0", "z": "0", "rotation": "0, 0, 0"}
     capture(client, same)
     assert client.post("/api/decide", json={"decision": "accept"}).status_code == 200
-    second = capture(client, same)  # the same pose again: no baseline, NaN everywhere
+    capture(client, same)  # the same pose again: no baseline, NaN everywhere
+    second = _with_preview(client)  # it follows the decision asked for (issue 55)
     assert second["preview"]["direction"] == [None, None, None]  # NaN, sent as null
     assert client.post("/api/decide", json={"decision": "accept"}).status_code == 200
     state = wait_for(client, "pose")

@@ -17,7 +17,7 @@ import httpx
 import pytest
 
 from recorder.console_transport import HEADER_TIMEOUT_S, MAX_HEADER_BYTES
-from tests.helpers import RECORD
+from tests.helpers import RECORD, read_line_when_printed
 
 
 def _limit_descriptors() -> None:
@@ -35,9 +35,7 @@ def console(tmp_path: Path) -> Iterator[tuple[str, subprocess.Popen[str]]]:
         text=True,
         preexec_fn=_limit_descriptors,
     )
-    assert process.stdout is not None
-    line = process.stdout.readline()
-    assert "http://" in line, line
+    line, _ = read_line_when_printed(process, "http://", "the console's address")
     try:
         yield line.split()[2], process
     finally:

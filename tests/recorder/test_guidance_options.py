@@ -79,7 +79,7 @@ def test_the_options_reach_the_recordings_guidance() -> None:
     guidance = asked.guidance(Units.CM, poses=2, target95=1.0)
     assert guidance.target_distance == 25.0
     assert guidance.min_gain == 0.1
-    assert "less than 10%" in guidance.describe(Units.CM)
+    assert "shrink it by less than 0.1," in guidance.describe(Units.CM)
     assert "taped 25 cm" in guidance.describe(Units.CM)
     # The default least gain, with a target precision only; 0 turns it off.
     assert GuidanceAsked().guidance(Units.IN, 2, 1.0).min_gain == DEFAULT_MIN_GAIN

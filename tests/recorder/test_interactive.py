@@ -239,7 +239,7 @@ def test_a_method_2_truth_off_the_ground_is_questioned(tmp_path: Path, keep: str
         input="\n".join(answers) + "\n",
     )
     assert result.exit_code == 0, result.output
-    assert "warning: the ground truth (1.9, 5.0, 8.4) has y = 5 in" in result.output
+    assert "warning: the ground truth (1.9, 5, 8.4) has y = 5 in" in result.output  # as typed
     with SessionReader(out) as r:
         (truth,) = [e for e in r.iter_entries() if isinstance(e, GroundTruth)]
     assert truth.points_grid[0][1] == (5.0 if keep == "y" else 9.625)
@@ -250,13 +250,13 @@ TRUTH = ["--ground-truth", "0.5,1.5,11"]
 
 def test_the_stop_rule_is_asked_with_the_setup_and_ends_the_trial(tmp_path: Path) -> None:
     """Asked last when the setup is asked (the option skips it): a trial whose region is
-    within the answer is complete at its second pose, with no --poses asked of it."""
+    within the answer is complete at its second pose."""
     out = tmp_path / "s.mcap"
     answers = ["0.5, 1.5, 11", "0", "5"]  # the truth; the precision: 0 refused, then 5 in
     answers += ["0, 0, 0", "", "a", "1.5, 0, 0", "", "a", "n"]
     result = runner.invoke(
         app,
-        ["new", str(out), *POINT_OPTIONS, "--poses", "4"],
+        ["new", str(out), *POINT_OPTIONS],
         input="\n".join(answers) + "\n",
     )
     assert result.exit_code == 0, result.output
@@ -267,12 +267,19 @@ def test_the_stop_rule_is_asked_with_the_setup_and_ends_the_trial(tmp_path: Path
     )
     assert "<= 5: trial complete" in result.output
     assert "1 trial (1 complete), 2 captures (2 accepted" in result.output
-    # Issue 46: after the suggestion, the three best poses of the map, each with its region.
+    # Issue 46: after the suggestion, the three best poses of the map, each with its value;
+    # issue 55: with one pose each one's worst regret over the depths the suggestion
+    # weighs, so that the suggestion is the first listed.
     said = result.output.split("guidance: next pose:")[1].splitlines()
-    assert said[1].strip().startswith("the 3 best poses of the map (predicted 95% region, the ")
-    assert said[1].endswith(" along the first ray):")  # one pose: the target's depth assumed
-    assert all(" in: within " in line and line.strip().startswith("x ") for line in said[2:5])
+    assert said[1].strip() == (
+        "the 3 best poses of the map (worst regret for a target 8-30 in along the first ray):"
+    )
+    assert all(" at its worst depth" in line and line.strip().startswith("x ")
+               for line in said[2:5])  # fmt: skip
     assert len(set(said[2:5])) == 3
+    where = said[0].split(" in (")[0].strip()  # "x 3, y 0, z 3"
+    assert said[2].strip().startswith(where + " in: ")
+    assert said[2].endswith("(the suggestion)")
     given = runner.invoke(
         app,
         ["new", str(tmp_path / "t.mcap"), *POINT_OPTIONS, "--target-precision", "5", *TRUTH],

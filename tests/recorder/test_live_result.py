@@ -130,7 +130,7 @@ def test_a_live_result_that_fails_is_said_and_the_recording_goes_on(
     def broken(*args: object, **kwargs: object) -> object:
         raise np.linalg.LinAlgError("injected")
 
-    monkeypatch.setattr(recorder.live_result, "trial_results", broken)
+    monkeypatch.setattr(recorder.live_result, "estimate_session", broken)
     plan_file = tmp_path / "plan.toml"
     plan_file.write_text(PLAN.format(method="point", truth=TRUTH["point"]))
     out = tmp_path / "s.mcap"
@@ -181,14 +181,14 @@ def test_a_rig_that_does_not_apply_is_refused_before_the_file_exists(
 
 # Slow: it records a guided plan, a suggestion searched after each of its three poses (~3 s).
 @pytest.mark.slow
-def test_the_advice_carries_its_map_computed_only_when_asked_and_the_page_gets_it(
+def test_the_advice_carries_the_map_its_suggestion_is_the_best_of_and_the_page_gets_it(
     tmp_path: Path,
 ) -> None:
-    """Issue 46: a plan (which takes the suggestion) never computes the map of every
-    reachable pose; the console's driver asks for it and sends it to the page."""
+    """Issue 46, 55: the advice carries the map of every reachable pose's predicted region,
+    whose cells the suggestion's search starts from (its best is the suggestion); the
+    console's driver sends it to the page."""
     from recorder.console import ConsoleSession
     from recorder.console_driver import WebDriver
-    from recorder.live_result import MappedAdvice
     from recorder.setup_rules import PoseTyping
     from twopose.guidance import Advice
     from twopose.jsonsafe import dumps
@@ -201,21 +201,25 @@ def test_the_advice_carries_its_map_computed_only_when_asked_and_the_page_gets_i
                 SyntheticSource(None, Method.POINT, realtime=False),
                 on_advice=lambda _, advice: said.append(advice))  # fmt: skip
     assert len(said) == 3  # after each of the three poses
-    assert all(isinstance(a, MappedAdvice) and not a.complete for a in said)
-    assert all("region_map" not in vars(a) for a in said)  # never computed by the plan
+    assert all(a.region_map is not None and not a.complete for a in said)
+    for a in said:
+        assert a.region_map is not None
+        assert a.suggestion is not None
+        best = a.region_map.best()
+        assert best is not None
+        assert best[0].tolist() == list(a.suggestion.t_grid)
     advice = said[1]
     session = ConsoleSession(tmp_path / "c.mcap")
     WebDriver(session, None, "cam0", (), PoseTyping()).advice(1, advice)
-    with session.lock:  # the map follows the suggestion (computed beside the recording)
+    with session.lock:  # the map follows the suggestion
         session.lock.wait_for(lambda: (session.advice or {}).get("map") is not None, timeout=30)
     page = session.snapshot()["advice"]
     drawn = page["map"]
     assert drawn is not None
     assert drawn["units"] == "in"
     assert drawn["taken"] == [[0.0, 0.0], [1.5, -1.0]]
-    assert drawn["best"]["region95"] <= min(
-        v for row in drawn["region95"] for v in row if v is not None
-    )
+    assert drawn["best"]["value"] <= min(v for row in drawn["values"] for v in row if v is not None)
+    assert drawn["best"]["t_grid"] == page["suggestion"]["t_grid"]
     assert "NaN" not in dumps(page)
 
 
@@ -242,3 +246,37 @@ def test_with_a_rig_the_suggestions_stay_on_the_typed_grid(tmp_path: Path) -> No
         assert y == 0.0, s.t_grid  # the typed height, not the camera's
         assert round(x * 2) == x * 2, s.t_grid  # on the 1/2 in grid
         assert round(z * 2) == z * 2, s.t_grid
+
+
+def test_guidance_keeps_the_target_off_the_blobs_the_last_frames_turned_down() -> None:
+    """Issue 55, for a real camera: the candidate blobs the live detector turned down in the
+    last frames of the pose that saw the target are the clutter guidance avoids; the
+    synthetic camera's scene, where the source knows it, wins."""
+    from recorder.capture import CaptureResult, _feedback
+    from recorder.live_result import LiveResults
+    from twopose.camera import Camera, Intrinsics
+    from twopose.clutter import Clutter
+    from twopose.detect import Detection, RejectedBlob
+    from twopose.format.entries import PoseEntry
+    from twopose.units import Units
+
+    outline = np.array([[100.0, 190.0], [110.0, 200.0], [100.0, 212.0], [90.0, 200.0]])
+    disk = RejectedBlob(outline_px=outline, centroid_px=(100.0, 200.0), reason="eccentricity")
+    seen = Detection(found=True, centroid_px=(320.0, 240.0), theta_deg=80.0, n_blobs=2,
+                     n_candidates=1, rejected_blobs=(disk,))  # fmt: skip
+    frames = tuple(_feedback(k, seen) for k in range(3))
+    assert frames[-1].turned_down_px == ((100.0, 200.0, 12.0),)
+    intrinsics = Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0)
+    camera = Camera(camera_id="cam0", intrinsics=intrinsics)
+    live = LiveResults(Method.LINE, Units.IN, [camera], None)
+    entry = PoseEntry(trial=1, pose=1, camera_id="cam0", t_grid=(0.0, 0.0, 0.0), capture=1)
+    live.captured(entry, CaptureResult(n_frames=3, complete=True, reason="", feedback=frames,
+                                       capture=1))  # fmt: skip
+    live.update(1, {1: entry})
+    clutter = live.clutter_for([1])
+    assert clutter is not None
+    assert clutter.source == "the last frames"
+    assert len(clutter) == 1
+    known = Clutter(points=np.zeros((1, 3)), radii=np.ones(1), source="the synthetic scene")
+    live.known_clutter = known
+    assert live.clutter_for([1]) is known

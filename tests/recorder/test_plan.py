@@ -162,7 +162,7 @@ def test_plan_mode_with_a_source_that_runs_out(tmp_path: Path) -> None:
         (
             'method = "point"\n[[trials]]\nground_truth = [[1e300, 0, 1]]\n'
             "poses = [{t=[0,0,0]},{t=[1,0,0]}]\n",
-            "ground_truth: ground truth x must be from -200 to 200 in, got 1e+300",
+            "ground_truth: ground truth x must be from -200 to 200 in, got 1e300",  # as written
         ),
         ('method = "point"\n[board]\nsquare = 1\n', "[board] is for a board session"),
         ('method = "board"\n[[trials]]\nposes = [{t=[0,0,0]},{t=[1,0,0]}]\n', "needs [board]"),

@@ -94,7 +94,7 @@ def test_an_operator_can_type_another_resolution_than_their_placing_error(
                 offsets.append(np.subtract(pc.entry.t_grid, true.t_grid))
     assert np.std(offsets) > 0.1  # placed with the real 0.2 in, not the typed 1/16 in
     assert Scene().poses.typed_sigma == Scene().poses.noise_sigma  # honest by default
-    with pytest.raises(InputValueError, match="typed resolution must be a positive length"):
+    with pytest.raises(InputValueError, match="typed resolution must be more than 0 and at most"):
         simulate_session(tmp_path / "x.mcap", method=Method.LINE, typed_resolution=0.0)
 
 

@@ -16,6 +16,7 @@ from typing import Any
 import pytest
 
 from tests.browser import headless_chromium, require_chromium
+from tests.helpers import read_line_when_printed
 from tests.recorder.test_console_browser import Page
 from tests.test_wall_method import TRUTH, WALL_X, add_the_wall, analysed, assert_on_the_wall
 
@@ -43,11 +44,7 @@ def _start(root: Path, out: Path) -> tuple[subprocess.Popen[str], str]:
          "--principal", "320,240", "--operator", "Bo"],
         cwd=root, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
     )  # fmt: skip
-    assert process.stdout is not None
-    said, line = "", process.stdout.readline()
-    while line and "http://" not in line:
-        said, line = said + line, process.stdout.readline()
-    assert "http://" in line, said + line
+    line, _ = read_line_when_printed(process, "http://", "the console's address")
     return process, line.split()[2]
 
 

@@ -5,6 +5,7 @@ view."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -12,18 +13,16 @@ import pytest
 
 from twopose.bounds import shown
 from twopose.estimate import EstimateOptions, PoseView
-from twopose.guidance import (
-    Guidance,
-    Reach,
-    advise,
-    regions95,
-    suggest,
-)
+from twopose.guidance import Guidance, Reach, advise, suggest
 from twopose.methods import Method
-from twopose.paper_search import lattice
+from twopose.noise import NoiseModel
+from twopose.paper import lattice
+from twopose.prediction import regions95
 from twopose.session_estimate import SessionTrials
 from twopose.solve import projection_matrices
 from twopose.units import Units
+
+NO_TEST = NoiseModel(test_redundancy=False)
 
 K = np.array([525.0, 525.0, 320.0, 240.0])
 #: Frame-to-frame scatter (px, deg) every view repeats: five frames of a steady target.
@@ -77,8 +76,8 @@ def test_the_suggestion_is_the_brute_force_best_of_the_lattice(method: Method) -
     # Brute force: each reachable centre's trial solved on its own, its view predicted
     # from the same target (the one the two poses locate), those that keep the target
     # clear of the image's edges (the lattice is small: the search predicts it whole).
-    from twopose.guidance import _predicted_view, located_target
-    from twopose.paper_search import clear_of_edges
+    from twopose.paper import clear_of_edges
+    from twopose.prediction import located_target, predicted_view
 
     target = located_target(method, trial.views[0], point, options)
     best, best_region = None, math.inf
@@ -87,14 +86,16 @@ def test_the_suggestion_is_the_brute_force_best_of_the_lattice(method: Method) -
     for centre in lattice(taken[0], reach, taken):
         if not clear_of_edges(trial.views[0][-1], centre, target, Units.IN, lines=lines)[0]:
             continue
-        view = _predicted_view(trial.views[0][-1], centre, target, lines=lines)
+        view = predicted_view(trial.views[0][-1], centre, target, lines=lines)
         if view is None:
             continue
         one = SessionTrials(
             method=method, units="in", trial_ids=(1,), views=[[*trial.views[0], view]],
             truth=trial.truth, ground=trial.ground,
         )  # fmt: skip
-        region = float(regions95(one, options)[0])
+        # a predicted view has no noise of its own: no variance factor from it (guidance's
+        # rule for its candidates)
+        region = float(regions95(one, dataclasses.replace(options, noise=NO_TEST))[0])
         if region < best_region:
             best, best_region = centre, region
     assert best is not None
@@ -150,7 +151,7 @@ def test_a_reach_without_a_lattice_and_a_bad_target_are_refused() -> None:
 def test_target_of_is_the_located_target_with_two_poses_and_on_the_ray_with_one(
     method: Method,
 ) -> None:
-    from twopose.guidance import target_of
+    from twopose.prediction import target_of
     from twopose.session_estimate import estimate_session
 
     options = EstimateOptions()
@@ -195,26 +196,48 @@ def test_one_pose_shows_its_region_as_a_range_over_the_depths_the_scene_allows()
 
 def test_the_first_pick_reaches_the_least_worst_regret_of_the_whole_lattice() -> None:
     """The search over the worst regret finds what predicting every pose finds (issue 46:
-    its bench saw a coarse pass of 40 stall on the worst's kinks for a dot at 25 in)."""
-    from twopose.first_pose import first_depths
-    from twopose.guidance import _first_pick
+    its bench saw a coarse pass of 40 stall on the worst's kinks for a dot at 25 in), each
+    depth's best held to the pick's own margin (issue 54: a best held to the whole margin
+    made regrets below zero), and the map's value at the pick is that regret."""
+    from twopose.guidance import plan_next
 
     options, reach = EstimateOptions(), Reach.thesis(Units.IN)
-    for method, first in ((Method.POINT, (-1.0, 0.0, 0.5)),):
-        trial = _trial(method, [first])
-        depths = first_depths(trial.views[0][0], Units.IN, trial.ground, options)
-        pick = _first_pick(trial, reach, options, depths)
-        every = lattice(np.asarray(first), reach, np.asarray([first]))
-        exact = _first_pick(trial, reach, options, depths, coarse=len(every))
-        assert pick is not None
-        assert exact is not None
-        assert pick.found.region == pytest.approx(exact.found.region, rel=0.01)
-        # Each depth's best is the lattice's; the pick's regret is its worst over them.
-        assert np.nanmax(pick.regions / exact.best) == pytest.approx(pick.found.region, rel=0.01)
+    first = (-1.0, 0.0, 0.5)
+    trial = _trial(Method.POINT, [first])
+    found, region_map = plan_next(trial, reach, options)
+    assert found is not None
+    assert region_map is not None
+    least, _ = _exhaustive_regret(trial, reach, options)
+    assert region_map.suggested_value == pytest.approx(least, rel=0.01)
+    assert region_map.suggested_value >= least * (1 - 1e-9)  # never below: one margin
+    assert region_map.regret
+    assert region_map.best() is not None
+    assert region_map.best()[1] == region_map.suggested_value  # type: ignore[index]
+
+
+def _exhaustive_regret(
+    trial: SessionTrials, reach: Reach, options: EstimateOptions
+) -> tuple[float, np.ndarray]:
+    """The least worst regret over every lattice pose, and each depth's best region."""
+    from twopose.first_pose import OTHER_DEPTHS_MARGIN, first_depths, provisional_target
+    from twopose.prediction import predicted_regions
+
+    view, first = trial.views[0][0], trial.views[0][0].t_grid
+    depths = first_depths(view, Units.IN, trial.ground, options)
+    every = lattice(first, reach, first[None])
+    regions = np.stack([
+        predicted_regions(trial, trial.views[0],
+                          provisional_target(view, Units.IN, trial.ground, options, d), every,
+                          options, margin=OTHER_DEPTHS_MARGIN)
+        for d in depths
+    ])  # fmt: skip
+    best = np.nanmin(regions, axis=1)
+    regret = np.max(regions / best[:, None], axis=0)  # NaN where a depth loses the target
+    return float(np.nanmin(regret)), best
 
 
 def test_a_taped_distance_is_the_one_depth_the_first_suggestion_assumes() -> None:
-    from twopose.guidance import target_of
+    from twopose.prediction import target_of
 
     trial = _trial(Method.POINT, [(0.0, 0.0, 0.0)])
     distance = float(np.linalg.norm(POINT))
@@ -233,7 +256,7 @@ def test_a_taped_distance_is_the_one_depth_the_first_suggestion_assumes() -> Non
 
 
 def _regions_of_lattice(trial: SessionTrials, target: np.ndarray) -> np.ndarray:
-    from twopose.guidance import predicted_regions
+    from twopose.prediction import predicted_regions
 
     reach = Reach.thesis(Units.IN)
     every = lattice(np.zeros(3), reach, np.zeros((1, 3)))
@@ -277,3 +300,50 @@ def test_the_information_gain_stop_ends_a_trial_whose_next_pose_buys_too_little(
     below = advise(trial, Guidance(reach=reach, min_gain=gain - 0.01), options, point=point,
                    region95=region)  # fmt: skip
     assert not below.complete
+
+
+def test_one_pose_the_thesis_move_is_said_at_the_depths_the_suggestion_weighs() -> None:
+    """Issue 55: "the thesis' move would give 9.12" was at an unstated 15.5 in (the middle
+    of the depths weighed; 5.07 in at the true 11 in), beside a range for the suggestion.
+    The thesis' move is said over the same depths, as a range; with a taped distance, at
+    that distance."""
+    trial = _trial(Method.LINE, [(0.0, 0.0, 0.0)])
+    found = suggest(trial, Reach.thesis(Units.IN))
+    assert found is not None
+    assert found.thesis95_range is not None
+    lo, hi = found.thesis95_range
+    assert lo < found.thesis95 < hi  # the single figure is the middle depth's
+    text = found.text(Units.IN)
+    assert f"the thesis' move to 1, 0, 0 would give {lo:.3g}-{hi:.3g} in there" in text
+    assert f"would give {found.thesis95:.3g})" not in text
+    assert found.to_json()["thesis95_range"] == [lo, hi]
+    assert found.assumed_depth == pytest.approx(15.49, abs=0.01)
+    taped = suggest(trial, Reach.thesis(Units.IN), target_distance=11.0)
+    assert taped is not None
+    said = taped.text(Units.IN)
+    assert "for the target taped at 11 in" in said
+    assert f"the thesis' move to 1, 0, 0 would give {taped.thesis95:.3g} in" in said
+
+
+def test_the_gain_stop_says_when_the_target_precision_was_missed() -> None:
+    """Issue 55: the gain stop said "trial complete" without saying the target precision
+    was missed, as the max-poses stop does."""
+    from twopose.guidance import STOP_MIN_GAIN
+    from twopose.session_estimate import estimate_session
+
+    trial = _trial(Method.POINT, [(0.0, 0.0, 0.0), (1.5, 0.0, 0.0), (-1.5, 0.0, 1.0)])
+    options = EstimateOptions()
+    point = estimate_session(trial, options).estimates.point[0]
+    region = float(regions95(trial, options)[0])
+    reach = Reach(radius=1.5, spacing=0.5)
+    guidance = Guidance(reach=reach, min_gain=0.49, target95=region / 2)
+    stopped = advise(trial, guidance, options, point=point, region95=region)
+    assert stopped.complete
+    assert stopped.reason == STOP_MIN_GAIN
+    assert stopped.text.endswith(
+        f"trial complete; 95% within {region:.3g} in > {shown(region / 2)}: the target "
+        "precision was not reached"
+    )
+    at_most = advise(trial, Guidance(reach=reach, target95=region / 2, max_poses=3), options,
+                     point=point, region95=region)  # fmt: skip
+    assert at_most.text.endswith("the target precision was not reached")

@@ -16,16 +16,12 @@ import pytest
 from recorder.sources import SyntheticSource
 from twopose.detect import detect_glove
 from twopose.estimate import EstimateOptions, PoseView
-from twopose.guidance import (
-    LOOKAHEAD_POSES,
-    Guidance,
-    advise,
-    predicted_regions,
-    suggest,
-    target_of,
-)
+from twopose.guidance import LOOKAHEAD_POSES, Guidance, advise, suggest
 from twopose.methods import Method
-from twopose.paper_search import EDGE, TAKEN, Reach, clear_of_edges, lattice
+from twopose.paper import EDGE, TAKEN, Reach, clear_of_edges, lattice
+from twopose.paper_search import COARSE_CANDIDATES
+from twopose.prediction import predicted_regions, target_of
+from twopose.region_map import MAP_POSES
 from twopose.session_estimate import SessionTrials, estimate_session
 from twopose.sim.scene import load_scene
 from twopose.units import Units, unit_factor
@@ -172,7 +168,8 @@ def test_a_fine_paper_and_a_wide_reach_cost_a_bounded_search(
     found = suggest(trial, guidance.reach, point=_point(trial))
     assert found is not None
     assert found.n_candidates > 10_000  # the lattice in view, counted
-    assert found.n_predicted <= 200
+    # The map's cells (at most MAP_POSES), the sample that frames them, the refinement.
+    assert found.n_predicted <= MAP_POSES + 2 * COARSE_CANDIDATES + 100
     advice = advise(trial, guidance, point=_point(trial))
     assert f"is not predicted within {2 + LOOKAHEAD_POSES} poses" in advice.text
 

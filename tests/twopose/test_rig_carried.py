@@ -11,9 +11,9 @@ import pytest
 
 from tests.twopose.synthetic_trials import GROUND, trials
 from twopose.estimate import EstimateOptions, ViewBatch, measure, nearest_on_line, thesis_estimate
-from twopose.guidance import regions95
 from twopose.methods import Method, spec_of
 from twopose.noise import NoiseModel
+from twopose.prediction import regions95
 from twopose.rig.carried import RIG_INPUT, carried_covariance, corrected_inputs
 from twopose.rig.constants import SCALARS, RigConstants, RigCovariance
 from twopose.session_estimate import SessionTrials, estimate_session

@@ -5,6 +5,7 @@ rig refused for another camera; a placing sigma at the fit's floor an upper boun
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -19,7 +20,7 @@ from twopose.margins import EstimateOptions
 from twopose.noise import NoiseModel, PlacingSigma
 from twopose.rig.constants import SCALARS, RigConstants, RigCovariance, check_applicable
 from twopose.rig.file import RIG_FILE_FORMAT, load_rig_file
-from twopose.session_estimate import placing_source
+from twopose.session_noise import placing_source
 from twopose.units import Units
 
 THESIS = Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0)
@@ -137,14 +138,16 @@ def test_a_placing_sigma_at_the_fits_floor_is_an_upper_bound_never_measured(
     said = found.describe(Units.IN)
     assert said.startswith("placing sigma at most 0.0012 in, an upper bound")
     assert "measured by" not in said
-    assert found.widening == 1.0
+    assert NoiseModel(placing=found).anchor().dof == math.inf  # the bound, taken as exact
     source = placing_source(EstimateOptions(noise=NoiseModel(placing=found)))
     assert source == "an upper bound from b0.mcap (8 captures)"  # trials.csv's words
 
 
 def test_a_nearly_exact_placing_sigma_says_no_absurd_degrees_of_freedom() -> None:
     exact = PlacingSigma(sigma_in=0.1, sigma_sigma_in=3e-5, measured_by="b.mcap")
-    assert "degrees of freedom" not in exact.describe(Units.IN)  # once "11057153" of them
+    said = exact.describe(Units.IN)
+    assert "5555556" not in said  # once "11057153 degrees of freedom"
+    assert "its own uncertainty negligible" in said
     assert "degrees of freedom" in PlacingSigma(sigma_in=0.1, sigma_sigma_in=0.02).describe(
         Units.IN
     )

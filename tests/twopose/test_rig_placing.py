@@ -87,8 +87,11 @@ def test_a_rig_file_without_placing_has_none(tmp_path: Path) -> None:
 BAD = {
     "sigma = 0.0": "not a placing error",
     "sigma = -0.1": "not a placing error",
-    "sigma = nan": "not a placing error",
-    "sigma = inf": "not a placing error",
+    "sigma = nan": "sigma: 'nan' is not a number (digits 0-9",  # the one grammar's words
+    "sigma = inf": "sigma: 'inf' is not a number (digits 0-9",
+    "sigma = 1e309": "sigma = 1e309 in is not a placing error",  # as written, never inf
+    "sigma = 0x1": "sigma: '0x1' is not a number (digits 0-9",  # was 1 in (issue 55)
+    "sigma = 0.0_5": "sigma: '0.0_5' is not a number (digits 0-9",  # was 0.05 in
     "sigma = 2.5": "up to 2 in",
     'sigma = "0.1"': "sigma must be a number",
     "sigma_sigma = 0.01": "sigma is missing",  # no sigma at all

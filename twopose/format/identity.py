@@ -7,14 +7,19 @@ on two laptops at once. Every command (``run``, ``rig``, ``info``, ``check``, ``
 the report, JUnit, the results files) takes what :func:`resolve_session_files` makes of
 them, so they agree on what is counted and what is said.
 
-- A **session** is its ``session_id`` (format 1.3; before it, the first 32 hex digits of
-  its first file's SHA-256, which its continuations record as theirs).
+- A **session** is its ``session_id`` (format 1.3). A file with none (before 1.3) is
+  known by what opens it (:func:`opening_digest`: the ``twopose`` metadata record its
+  writer puts before the first chunk, with the session entry, the cameras, the ground and
+  the start time, and its first frame; a cut copy keeps both and ``recover`` copies them),
+  so that the file, a byte, renamed, cut or recovered copy of it are one session and one
+  part wherever they are given; its continuations record the first 32 hex digits of its
+  SHA-256 as their id.
 - A **part** is the stretch of a session one file records: its ``part_id`` (format 1.4),
-  or before it the session id with where the file continues and when it was created; a
-  file with no session id is a part by its bytes. A byte copy, a renamed copy and a
+  or before it the session id with where the file continues and when it was created, or
+  (no session id) what opens the file. A byte copy, a renamed copy, a copy cut short and a
   recovered copy of one file hold the same part: one is kept (a readable file before an
   interrupted one, then the one holding more poses, then the first given), the others are
-  listed with why.
+  listed with why; a copy cut short beside a complete one is a copy, not a failure.
 - A continuation's part links to the part it continues (its ``continues.part``, else the
   SHA-256 of the file it continued, matched against every file given). The parts of a
   session form a tree; a part continued twice (two laptops continuing one file) is a
@@ -32,17 +37,18 @@ import dataclasses
 import hashlib
 import json
 import os
+import re
 import string
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from mcap.records import Chunk, Metadata
-from mcap.stream_reader import StreamReader
+from mcap.records import Channel, Chunk, Message, Metadata
+from mcap.stream_reader import StreamReader, breakup_chunk
 
 from twopose.errors import TwoposeError
 from twopose.format.entries import PoseEntry, SessionInfo, decode_entry
-from twopose.format.reader import SessionReader, recover_command
+from twopose.format.reader import SessionReader, max_chunk_bytes, recover_command
 from twopose.format.writer import METADATA_NAME
 from twopose.methods import spec_of
 
@@ -53,14 +59,18 @@ __all__ = [
     "Strand",
     "file_digest",
     "identify_file",
+    "kept_of_copies",
+    "looks_like_backup",
+    "opening_digest",
     "path_labels",
     "resolve_session_files",
 ]
 
 _CHUNK = 1 << 20
 #: How many records at a file's start are read for its opening metadata (the writer puts
-#: it before the first chunk).
-_OPENING_RECORDS = 64
+#: it before the first chunk) and its first frame (in its first captures' chunks, each
+#: followed by its message indexes).
+_OPENING_RECORDS = 256
 
 
 def file_digest(path: str | Path) -> str:
@@ -92,6 +102,9 @@ class SessionFile:
     readable: bool
     info: SessionInfo | None = None
     n_poses: int = -1  # poses typed (-1: unknown, the file is not readable)
+    #: A file with no session id: the digest of what opens it (:func:`opening_digest`),
+    #: the same for its cut and recovered copies ("" when it has an id, or none is read).
+    opening: str = ""
 
     @property
     def method(self) -> str:
@@ -105,9 +118,9 @@ class SessionFile:
 
     @property
     def session_id(self) -> str:
-        """The session: its recorded id, or (before format 1.3) its content's."""
+        """The session: its recorded id, or (before format 1.3) what opens it."""
         recorded = self.info.session_id if self.info is not None else None
-        return recorded or self.digest[:32]
+        return recorded or (self.opening or self.digest)[:32]
 
     @property
     def part_key(self) -> str:
@@ -118,7 +131,7 @@ class SessionFile:
         """
         info = self.info
         if info is None or not info.session_id:
-            return f"file:{self.digest}"
+            return f"opening:{self.opening}" if self.opening else f"file:{self.digest}"
         if info.part_id:
             return f"part:{info.part_id}"
         where = (info.session_id, info.continues_after_trial, info.continues_sha256)
@@ -160,33 +173,123 @@ def identify_file(path: str | Path, digest: str | None = None) -> SessionFile:
     digest = digest or file_digest(path)
     try:
         with SessionReader(path) as reader:
-            info = reader.info
+            info: SessionInfo | None = reader.info
             n_poses = reader.message_counts().get(PoseEntry.TOPIC, 0)
+        readable = True
     except (TwoposeError, OSError, AssertionError, ValueError):
-        return SessionFile(path=str(path), digest=digest, readable=False, info=_opening(path))
-    return SessionFile(path=str(path), digest=digest, readable=True, info=info, n_poses=n_poses)
+        info, n_poses, readable = None, -1, False
+    opening: str = ""
+    if info is None or not info.session_id:  # interrupted, or no id: what opens it
+        metadata, first_frame = _opening(path)
+        if metadata is not None:
+            info = info or _session_entry(metadata)
+            opening = _digest_of(metadata, first_frame) if info is not None else ""
+    return SessionFile(
+        path=str(path), digest=digest, readable=readable, info=info, n_poses=n_poses,
+        opening=opening if info is not None and not info.session_id else "",
+    )  # fmt: skip
 
 
-def _opening(path: str | Path) -> SessionInfo | None:
-    """Read the session entry of a file that cannot be read whole (no summary).
+def opening_digest(path: str | Path) -> str:
+    """Return the SHA-256 of what opens a session file.
 
-    It is in the metadata record the writer puts before the first chunk.
+    Its ``twopose`` metadata record (the writer's copy of the session entry, the cameras,
+    the ground and the start time, written before the first chunk), as names and values,
+    and its first frame (so that two files of identical openings, as another writer may
+    make them, are told apart by what they saw): the same for the file, a copy cut short
+    anywhere after its first frame and a recovered copy (``recover`` copies both); "" when
+    it has no metadata record to read.
     """
+    metadata, first_frame = _opening(path)
+    return _digest_of(metadata, first_frame) if metadata is not None else ""
+
+
+def _digest_of(metadata: dict[str, str], first_frame: str) -> str:
+    return hashlib.sha256(json.dumps([sorted(metadata.items()), first_frame]).encode()).hexdigest()
+
+
+def _session_entry(metadata: dict[str, str]) -> SessionInfo | None:
+    """The session entry the metadata record holds a copy of (None: unreadable)."""
+    try:
+        entry = decode_entry(SessionInfo.SCHEMA_NAME, metadata["session"].encode())
+    except Exception:  # any damage: no identity beyond its bytes
+        return None
+    return entry if isinstance(entry, SessionInfo) else None
+
+
+def _opening(path: str | Path) -> tuple[dict[str, str] | None, str]:
+    """Read a file's start front to back: its metadata record and its first frame's digest.
+
+    The ``twopose`` metadata record, and the SHA-256 of its first message on a camera's
+    image topic; so also from a file that cannot be read whole (no summary). The metadata
+    is None when there is none before the first chunk; the frame's digest "" when none is
+    read (a chunk over the size limit, damaged, or none in the first records).
+    """
+    metadata: dict[str, str] | None = None
+    topics: dict[int, str] = {}
     try:
         size = max(os.path.getsize(path), 1)
         with open(path, "rb") as stream:
-            records = StreamReader(stream, record_size_limit=size).records
+            records = StreamReader(stream, emit_chunks=True, record_size_limit=size).records
             for _, record in zip(range(_OPENING_RECORDS), records, strict=False):
                 if isinstance(record, Metadata) and record.name == METADATA_NAME:
-                    entry = decode_entry(
-                        SessionInfo.SCHEMA_NAME, record.metadata["session"].encode()
-                    )
-                    return entry if isinstance(entry, SessionInfo) else None
-                if isinstance(record, Chunk):
-                    return None
-    except Exception:  # any damage: no identity beyond its bytes
-        return None
-    return None
+                    metadata = metadata or {str(k): str(v) for k, v in record.metadata.items()}
+                elif isinstance(record, Chunk):
+                    if metadata is None or record.uncompressed_size > max_chunk_bytes():
+                        break
+                    for inner in breakup_chunk(record, validate_crc=True):
+                        if isinstance(inner, Channel):
+                            topics[inner.id] = inner.topic
+                        elif isinstance(inner, Message) and topics.get(
+                            inner.channel_id, ""
+                        ).endswith("/image"):
+                            return metadata, hashlib.sha256(inner.data).hexdigest()
+    except Exception:  # any damage: no identity beyond what was read
+        return metadata, ""
+    return metadata, ""
+
+
+#: A folder or file name a copy is kept under: ``backup``, ``bak``, ``old``, ``copy``,
+#: ``archive``, ``usb``, ``trash`` as a word of it, ``Copy of ...``, ``... (1)``, ``...~``.
+_BACKUP_NAME = re.compile(
+    r"(?:^|[^a-z])(?:backups?|bak|bkp|old|copy|copies|archived?|archives|usb|trash)"
+    r"(?:$|[^a-z])|\(\d+\)$|~$",
+    re.IGNORECASE,
+)
+
+
+def looks_like_backup(path: str) -> bool:
+    """Whether ``path`` lies in a backup-looking folder or has a copy's name."""
+    parts = Path(os.path.normpath(path)).parts
+    names = [*parts[:-1], Path(parts[-1]).stem, Path(parts[-1]).suffix.lstrip(".")] if parts else []
+    return any(_BACKUP_NAME.search(name) for name in names)
+
+
+def kept_of_copies(paths: Sequence[str]) -> tuple[str, str]:
+    """Which of ``paths``, copies of one part that tie on all else, is kept, and why.
+
+    The one outside a backup-looking path (:func:`looks_like_backup`), else the oldest
+    (modified first), else the first given: so that a session is named by its original's
+    path, never by the backup's.
+    """
+    given = list(dict.fromkeys(paths))
+    outside = [p for p in given if not looks_like_backup(p)]
+    if outside and len(outside) < len(given):
+        if len(outside) == 1:
+            return outside[0], "the copy outside a backup-looking folder"
+        given = outside
+    ages = {p: _modified(p) for p in given}
+    oldest = min(given, key=lambda p: ages[p])  # the first given among equals
+    if sum(ages[p] == ages[oldest] for p in given) == 1:
+        return oldest, "the oldest copy"
+    return oldest, "the first given (the copies are as old)"
+
+
+def _modified(path: str) -> float:
+    try:
+        return os.stat(path).st_mtime
+    except OSError:
+        return float("inf")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -239,6 +342,8 @@ class Resolution:
     others: tuple[tuple[str, str, str], ...] = ()
     notes: tuple[str, ...] = ()
     forks: tuple[str, ...] = ()  # one sentence per fork found
+    #: (the path kept, why it of copies that tie on all else: :func:`kept_of_copies`)
+    kept_why: tuple[tuple[str, str], ...] = ()
 
 
 def resolve_session_files(files: Sequence[SessionFile]) -> Resolution:
@@ -248,9 +353,11 @@ def resolve_session_files(files: Sequence[SessionFile]) -> Resolution:
     into branches. ``files`` may be readable or not; board sessions are not for this (each
     calibrates on its own).
     """
-    parts, others = _parts(files)
-    by_digest = {f.digest: f.part_key for f in files}  # every copy names its part
-    linked = {key: _linked(part, parts, by_digest) for key, part in parts.items()}
+    parts, others, kept_why = _parts(files)
+    # Every copy names its part, by its bytes (continues.sha256) and its id (continues.part).
+    by_digest = {f.digest: f.part_key for f in files}
+    by_id = {f.part_id: f.part_key for f in files}
+    linked = {key: _linked(part, parts, by_digest, by_id) for key, part in parts.items()}
     children: dict[str, list[str]] = {}
     for key, part in linked.items():
         if part.parent is not None:
@@ -266,24 +373,39 @@ def resolve_session_files(files: Sequence[SessionFile]) -> Resolution:
         pending = more + pending
     notes = [*_joined_notes(strands, linked), *forks]
     return Resolution(
-        strands=tuple(strands), others=tuple(others), notes=tuple(notes), forks=tuple(forks)
+        strands=tuple(strands),
+        others=tuple(others),
+        notes=tuple(notes),
+        forks=tuple(forks),
+        kept_why=tuple(kept_why),
     )
 
 
-def _parts(files: Sequence[SessionFile]) -> tuple[dict[str, Part], list[tuple[str, str, str]]]:
-    """One part per part key, the best file kept (readable, more poses, first given)."""
+def _parts(
+    files: Sequence[SessionFile],
+) -> tuple[dict[str, Part], list[tuple[str, str, str]], list[tuple[str, str]]]:
+    """Keep one file per part key: the best (readable, more poses).
+
+    Of copies that tie, :func:`kept_of_copies`' choice, with why.
+    """
     groups: dict[str, list[SessionFile]] = {}
     for f in files:
         groups.setdefault(f.part_key, []).append(f)
     parts: dict[str, Part] = {}
     others: list[tuple[str, str, str]] = []
+    kept_why: list[tuple[str, str]] = []
     for key, group in groups.items():
-        rank = {id(f): k for k, f in enumerate(group)}
-        kept = max(group, key=lambda f: (f.readable, f.n_poses, -rank[id(f)]))
+        best = max((f.readable, f.n_poses) for f in group)
+        tied = [f for f in group if (f.readable, f.n_poses) == best]
+        kept = tied[0]
+        if len(tied) > 1:
+            path, reason = kept_of_copies([f.path for f in tied])
+            kept = next(f for f in tied if f.path == path)
+            kept_why.append((path, reason))
         why = [(f.path, kept.path, _why_not_kept(f, kept)) for f in group if f is not kept]
         others += why
         parts[key] = Part(file=kept, others=tuple((p, w) for p, _, w in why))
-    return parts, others
+    return parts, others, kept_why
 
 
 def _why_not_kept(f: SessionFile, kept: SessionFile) -> str:
@@ -296,22 +418,37 @@ def _why_not_kept(f: SessionFile, kept: SessionFile) -> str:
     return "another copy of the same part"
 
 
-def _linked(part: Part, parts: dict[str, Part], by_digest: dict[str, str]) -> Part:
+def _linked(
+    part: Part, parts: dict[str, Part], by_digest: dict[str, str], by_id: dict[str, str]
+) -> Part:
     """``part`` with the key of the part it continues, when that is among the inputs."""
     info = part.file.info
     if info is None or info.continues_after_trial is None or not part.file.readable:
         return part  # an interrupted continuation fails alone, never with what it continues
     parent: str | None = None
-    if info.continues_part and f"part:{info.continues_part}" in parts:
-        parent = f"part:{info.continues_part}"
+    if info.continues_part and info.continues_part in by_id:
+        parent = by_id[info.continues_part]
     elif info.continues_sha256 in by_digest:
         parent = by_digest[info.continues_sha256]
-    if parent is not None and parts[parent].file.session_id != part.file.session_id:
+    if parent is not None and not _of_session(parts[parent].file, part.file):
         parent = None  # another session's file: not what it continued
     if parent is not None and not parts[parent].file.readable:
         # Its only copy was interrupted: joined to it, this part would fail with it.
         return dataclasses.replace(part, interrupted_parent=parts[parent].file.path)
     return dataclasses.replace(part, parent=parent)
+
+
+def _of_session(parent: SessionFile, part: SessionFile) -> bool:
+    """Whether the continuation ``part`` is of ``parent``'s session.
+
+    The same id, or, for a parent with no id of its own, the id its continuations record
+    (the first 32 hex digits of the SHA-256 of the file they continued).
+    """
+    if parent.session_id == part.session_id:
+        return True
+    info, recorded = part.info, parent.info.session_id if parent.info is not None else None
+    continued = info.continues_sha256 if info is not None else None
+    return not recorded and continued is not None and part.session_id == continued[:32]
 
 
 def _walk(
@@ -386,12 +523,7 @@ def _joined_notes(strands: Sequence[Strand], parts: dict[str, Part]) -> list[str
                     "a run with FIXED.mcap joins them"
                 )
             elif part.parent is None:
-                name = info.continues_file or "the file it continues"
-                notes.append(
-                    f"{part.file.path}: continues {name} after trial {after}; {name} is not "
-                    f"among the inputs: analysed alone (its trials up to {after} are not in "
-                    "this run)"
-                )
+                notes.append(_missing_parent_note(part, strands))
             elif k == 0:
                 notes.append(
                     f"{part.file.path}: branch {part.branch} of the session, continuing "
@@ -404,6 +536,37 @@ def _joined_notes(strands: Sequence[Strand], parts: dict[str, Part]) -> list[str
                     f"one session with {strand.head}"
                 )
     return notes
+
+
+def _missing_parent_note(part: Part, strands: Sequence[Strand]) -> str:
+    """Say what a continuation whose continued file is not given is taken as.
+
+    Alone, or, when the session's earlier parts are given, apart from them (one session
+    in two rows: the trials of the missing part between them are what the run lacks).
+    """
+    info = part.file.info
+    assert info is not None
+    assert info.continues_after_trial is not None
+    name, after = info.continues_file or "the file it continues", info.continues_after_trial
+    earlier = [  # the session's pieces whose trials come before this part's
+        s.head
+        for s in strands
+        if s.session_id == part.file.session_id
+        and part not in s.parts
+        and (s.parts[0].file.continues_after or 0) < after
+    ]
+    if not earlier:
+        return (
+            f"{part.file.path}: continues {name} after trial {after}; {name} is not among the "
+            f"inputs: analysed alone (its trials up to {after} are not in this run)"
+        )
+    before = ", ".join(earlier)
+    return (
+        f"{part.file.path}: continues {name} after trial {after}; {name} is not among the "
+        f"inputs: the session is analysed in two pieces with one session id ({before}, "
+        f"and this file on), and the trials {name} recorded after {before}'s, up to trial "
+        f"{after}, are not in this run"
+    )
 
 
 def path_labels(paths: Iterable[str]) -> dict[str, str]:

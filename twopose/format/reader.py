@@ -47,15 +47,14 @@ __all__ = [
 def max_chunk_bytes() -> int:
     """The largest chunk (uncompressed) a reader decompresses.
 
-    256 MB, or ``TWOPOSE_MAX_CHUNK_MB``. twopose writes chunks of one capture (a few MB); a
-    larger declared size is a damaged file or a decompression bomb.
+    256 MB, or ``TWOPOSE_MAX_CHUNK_MB`` (:data:`twopose.environment.MAX_CHUNK_MB`, in the
+    analysis cache's key). twopose writes chunks of one capture (a few MB); a larger
+    declared size is a damaged file or a decompression bomb.
     """
-    import os
+    from twopose.environment import MAX_CHUNK_MB
 
-    try:
-        megabytes = float(os.environ.get("TWOPOSE_MAX_CHUNK_MB", "256"))
-    except ValueError:
-        megabytes = 256.0
+    megabytes = MAX_CHUNK_MB.read()
+    assert megabytes is not None  # a number with a default
     return int(megabytes * 1_000_000)
 
 

@@ -36,6 +36,7 @@ from twopose.rig.constants import (
     check_plausible,
 )
 from twopose.units import Units, unit_spec
+from twopose.values import Unread
 
 __all__ = [
     "PLACING_KEYS",
@@ -228,11 +229,14 @@ def _number(value: object, where: str, *, whole: bool = False) -> float:
     Every number of a rig file passes here, so the project's one number grammar
     (:mod:`twopose.config`) judges each in one place.
     """
+    if isinstance(value, Unread):  # 0x1, 0.0_5, 1_0, nan: the one grammar's words
+        value.refuse(where, whole=whole)
     kinds = int if whole else int | float
     if isinstance(value, bool) or not isinstance(value, kinds):
         want = "a whole number" if whole else "a number"
         raise InputValueError(f"{where} must be {want}, got {value!r}")
-    return float(value)
+    # a float keeps the text it was written as (Given): refusals show 1e309, never inf
+    return value if isinstance(value, float) else float(value)
 
 
 def _format(value: object, what: str) -> int:

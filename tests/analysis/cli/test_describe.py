@@ -35,9 +35,12 @@ def test_info_describes_a_folder_recursively(
     assert "point (sim)" in result.output
 
 
-def test_info_lists_a_bad_file_and_exits_nonzero(tmp_path: Path, ground_session: Path) -> None:
+def test_info_lists_a_bad_file_and_exits_nonzero(
+    tmp_path: Path, ground_session: Path, point_session: Path
+) -> None:
     shutil.copy(ground_session, tmp_path / "good.mcap")
-    (tmp_path / "bad.mcap").write_bytes(ground_session.read_bytes()[:5000])
+    # Another session cut short (one of good.mcap would be its copy, not a failure).
+    (tmp_path / "bad.mcap").write_bytes(point_session.read_bytes()[:5000])
     result = runner.invoke(app, ["info", str(tmp_path)], env={"COLUMNS": "200"})
     assert result.exit_code == EXIT_SOME_INPUTS_FAILED
     assert "1 session(s)" in result.output

@@ -17,6 +17,7 @@ from twopose.format.entries import (
     CaptureWindow,
     GroundPlane,
     GroundTruth,
+    GuidanceRecord,
     Note,
     PoseEntry,
     SessionInfo,
@@ -44,6 +45,15 @@ EXAMPLES = [
         part_id="fedcba9876543210fedcba9876543210",
         continues_part="00112233445566778899aabbccddeeff",
         continues_branch="B",
+        guidance=GuidanceRecord(  # format 1.5, each given value with its text
+            target95=0.8,
+            max_poses=5,
+            min_gain=0.25,
+            reach=2.5,
+            spacing=0.25,
+            target_distance=11.0,
+            given={"reach": "2.50", "min_gain": "2.5e-1"},
+        ),
     ),
     SessionInfo(
         method=Method.GROUND,

@@ -128,3 +128,38 @@ def test_a_session_id_is_the_recorded_one_or_the_content_hash(tmp_path: Path, un
     info = record(path, 1, units=units)
     assert identify_file(path).session_id == info.session_id
     assert identify_file(path).part_id == info.part_id
+
+
+def test_files_without_ids_are_told_apart_by_their_first_frame(tmp_path: Path) -> None:
+    """Issue 56: a file with no ids is known by what opens it, its cut copy too; two files
+    another writer made with the same opening (no ids, no creation time, the clock at 0)
+    but other frames are two sessions, never one kept for the other."""
+    import numpy as np
+
+    from tests.helpers import write_accepted_capture
+    from tests.lab import CAMERA
+    from twopose.format.entries import PoseEntry, SessionInfo
+    from twopose.format.writer import SessionWriter
+    from twopose.methods import Method
+    from twopose.units import Units
+
+    def written(path: Path, grey: int) -> Path:
+        info = SessionInfo(method=Method.POINT, units=Units.IN, camera_ids=("cam0",))
+        with SessionWriter(path, info, [CAMERA], start_ns=0) as w:
+            frame = w.encode_image(np.full((48, 64, 3), grey, np.uint8))
+            for pose in (1, 2):
+                entry = PoseEntry(trial=1, pose=pose, camera_id="cam0", t_grid=(pose, 0, 0))
+                write_accepted_capture(w, entry, [frame, frame], 10 * pose)
+        return path
+
+    a, b = written(tmp_path / "a.mcap", 100), written(tmp_path / "b.mcap", 200)
+    cut = tmp_path / "a_cut.mcap"
+    cut.write_bytes(a.read_bytes()[: int(a.stat().st_size * 0.8)])
+    files = [identify_file(p) for p in (a, b, cut)]
+    assert [f.info is not None and f.info.session_id for f in files] == [None, None, None]
+    assert not files[2].readable
+    assert files[0].part_key == files[2].part_key != files[1].part_key
+    assert files[0].session_id != files[1].session_id
+    resolved = _resolve(a, b, cut)
+    assert [s.head for s in resolved.strands] == [str(a), str(b)]
+    assert [(p, kept) for p, kept, _ in resolved.others] == [(str(cut), str(a))]

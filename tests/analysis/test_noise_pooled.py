@@ -1,0 +1,118 @@
+"""The analysis' noise across a run (issue 54): a trial whose poses disagree flagged and
+named in trials.csv, the terminal and the report (a real session, simulated, one typed x
+then edited 1 in off); the sessions of one operator pooled in a first pass, each one's
+prior in its cache key, so that a re-run equals a --no-reuse run byte for byte and a new
+session of the operator makes the others be analysed again."""
+
+from __future__ import annotations
+
+import json
+import math
+import tomllib
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from analysis.batch import run
+from analysis.cli import app
+from analysis.session_cache import CACHE_FOLDER
+from analysis.terminal import summary_lines
+from recorder.simulate import simulate_session
+from tests.conftest import built_once
+from tests.helpers import SMALL_SCENE, distinct_copies, rewrite_session
+from twopose.format.entries import PoseEntry
+from twopose.methods import Method
+from twopose.sim.scene import load_scene
+
+runner = CliRunner()
+REUSED = "analysis: {n} of {m} session(s)' reused from the last run into"
+
+
+def _mistyped(session: Path, out: Path, trial: int, pose: int, dx: float) -> Path:
+    """``session`` with trial ``trial``'s pose ``pose`` typed ``dx`` off in x: every other
+    byte of its messages the same (the camera stood where the file first said)."""
+
+    def edit(topic: str, data: bytes) -> bytes:
+        if topic != PoseEntry.TOPIC:
+            return data
+        typed = json.loads(data)
+        if (typed["trial"], typed["pose"]) != (trial, pose):
+            return data
+        typed["translation"][0] += dx
+        return json.dumps(typed).encode()
+
+    return rewrite_session(session, out, edit=edit)
+
+
+@pytest.fixture(scope="module")
+def blundered(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A small rendered point session, 3 trials of 3 poses, typed right; then trial 2's
+    second pose typed 1 in off in x."""
+
+    def build(folder: Path) -> None:
+        scene = load_scene(None, **tomllib.loads(SMALL_SCENE))
+        clean = folder / "clean.mcap"
+        simulate_session(clean, method=Method.POINT, trials=3, frames=2, seed=5, poses=3,
+                         pose_noise=0.0625, scene=scene)  # fmt: skip
+        _mistyped(clean, folder / "blunder.mcap", 2, 2, 1.0)
+
+    return built_once(tmp_path_factory, "noise-blunder", build) / "blunder.mcap"
+
+
+def test_a_mistyped_pose_is_flagged_and_said_in_trials_csv_the_terminal_and_the_report(
+    blundered: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "out"
+    done = run([blundered], out)
+    trials = done.trials.set_index("trial")
+    flagged_row = trials.loc[2].to_dict()
+    assert trials["flagged"].tolist() == [False, True, False]
+    # three poses: the trial, not the pose; each of them would explain it with its own size
+    words = (
+        "this trial's poses disagree (typed x of one of them looks about 1 to 5 in off): "
+        "check what you typed, or add a fourth pose"
+    )
+    assert flagged_row["disagreement"] == words
+    assert flagged_row["suspect_axis"] == "x"
+    assert flagged_row["suspect_pose"] == 0
+    assert math.isnan(float(flagged_row["suspect_offset"]))  # no pose named
+    assert float(flagged_row["misclosure_p"]) < 0.01
+    assert float(flagged_row["noise_widening"]) > float(trials["noise_widening"].iloc[0])
+    row = done.summary.iloc[0]
+    assert row["n_flagged"] == 1
+    assert row["sigma0_dof"] == 6  # the two others
+    text = "\n".join(summary_lines(done.trials, done.summary, width=None))
+    assert f"flagged: trial 2: {words}" in text
+    assert "placing sigma 0.0625 in typed;" in text  # the one typed, before the multiplier
+    assert "1 trial flagged (poses disagree): kept out and widened" in text
+    report = (out / "report.html").read_text()
+    assert words.replace("'", "&#x27;") in report
+    assert "a trial both reject is flagged" in report  # the rule applied, explained
+    written = (out / "trials.csv").read_text()
+    assert "suspect_axis" in written.splitlines()[0]
+
+
+def test_one_operators_sessions_pool_and_a_rerun_equals_a_no_reuse_run(
+    tmp_path: Path, point_session: Path
+) -> None:
+    folder, out, fresh = tmp_path / "sessions", tmp_path / "out", tmp_path / "fresh"
+    distinct_copies(point_session, folder, 3)
+    args = ["run", str(folder), "--no-scene"]
+    first = runner.invoke(app, [*args, "--out", str(out)])
+    assert first.exit_code == 0, first.output
+    trials = (out / "trials.csv").read_text()
+    assert "2 other sessions of operator twopose simulator (point)" in trials
+    assert len(list((out / CACHE_FOLDER / "sessions").glob("*.noise.pickle"))) == 3
+    again = runner.invoke(app, [*args, "--out", str(out)])
+    assert REUSED.format(n=3, m=3) in again.output
+    no_reuse = runner.invoke(app, [*args, "--out", str(fresh), "--no-reuse"])
+    assert no_reuse.exit_code == 0, no_reuse.output
+    for name in ("trials.csv", "summary.csv"):
+        assert (out / name).read_bytes() == (fresh / name).read_bytes(), name
+    # a fourth session of the operator: every other one's prior changed, analysed again
+    distinct_copies(point_session, folder, 4)
+    fourth = runner.invoke(app, [*args, "--out", str(out)])
+    assert fourth.exit_code == 0, fourth.output
+    assert "reused" not in fourth.output
+    assert "3 other sessions of operator" in (out / "trials.csv").read_text()

@@ -1,0 +1,157 @@
+"""The placing variance's multiplier (issue 54): always estimated (no pretest), its
+posterior the conjugate one where the data are all placing, a minimum-dof guard, no grid
+cap hit silently; trials whose poses disagree flagged before pooling (Baarda), robustly;
+the operator's other sessions as each session's prior."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from tests.helpers import load_benchmark
+from twopose.estimate import EstimateOptions
+from twopose.methods import Method
+from twopose.noise import NoiseModel, PlacingPrior
+from twopose.placing_variance import (
+    GRID,
+    SessionNoise,
+    flag_trials,
+    operator_priors,
+    posterior,
+    trial_information,
+    trial_loglik,
+)
+from twopose.session_estimate import estimate_session
+
+bench = load_benchmark("bench_noise")
+TYPED = PlacingPrior(scale=1.0, dof=2.0, source="the typed resolution")
+
+
+def _trials(
+    lam: float, n: int, m: int, rng: np.random.Generator, beta: float = 1.0
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``n`` trials of ``m`` directions, each ``beta`` placing, drawn at multiplier ``lam``."""
+    share = np.full((n, m), beta)
+    z2 = (1 + (lam - 1) * share) * rng.standard_normal((n, m)) ** 2
+    return z2.sum(axis=1), np.full(n, m), share, z2
+
+
+def test_the_posterior_is_the_conjugate_one_where_the_data_are_all_placing() -> None:
+    rng = np.random.default_rng(1)
+    _, _, share, z2 = _trials(2.5, 6, 3, rng)
+    post = posterior(trial_loglik(share, z2).sum(axis=0), TYPED, None,
+                     trial_information(share).sum(axis=0))  # fmt: skip
+    # scaled inverse chi-square: (nu0 s0 + sum z^2) / (nu0 + n) on nu0 + n
+    n = z2.size
+    assert post.dof == pytest.approx(2.0 + n, rel=0.02)
+    assert post.scale == pytest.approx((2.0 + z2.sum()) / (2.0 + n), rel=0.02)
+    assert post.information == pytest.approx(n, rel=0.01)
+    with_prior = posterior(trial_loglik(share, z2).sum(axis=0), TYPED,
+                           PlacingPrior(scale=4.0, dof=30.0, source="x"))  # fmt: skip
+    assert with_prior.dof == pytest.approx(32.0 + n, rel=0.02)  # the prior is data
+    assert with_prior.scale == pytest.approx((2.0 + 120.0 + z2.sum()) / (32.0 + n), rel=0.02)
+
+
+def test_no_pretest_the_multiplier_is_used_where_sigma0s_test_does_not_reject() -> None:
+    """Issue 54: lambda was taken as exactly 1 unless a 5% test rejected (a pretest
+    estimator: sessions that did not reject covered 60-77%). Now the session's estimate is
+    used whatever the test says, with the F quantile for its degrees of freedom."""
+    trials = bench.session(Method.POINT, 13, 2, 1.6)
+    est = estimate_session(trials, EstimateOptions())
+    factor = est.factor
+    assert factor is not None
+    assert not factor.contradicted  # sigma0's test alone would have kept the typed sigma
+    assert factor.estimated
+    assert factor.p_upper == pytest.approx(0.10, abs=0.01)
+    assert factor.placing_variance > 1.5
+    ok = est.estimates.status == "ok"
+    assert (est.estimates.widening[ok] > 1.5).all()  # lambda and its F quantile (8 dof)
+
+
+def test_the_minimum_dof_guard_and_the_grid_limit_are_said() -> None:
+    rng = np.random.default_rng(2)
+    _, _, share, z2 = _trials(1.0, 1, 2, rng)  # 2 dof beside the anchor: below the guard
+    post = posterior(trial_loglik(share, z2).sum(axis=0), TYPED, None,
+                     trial_information(share).sum(axis=0))  # fmt: skip
+    assert round(post.information) < 3
+    # a multiplier beyond the grid (a placing sigma 3000x the typed): at its limit, said
+    huge = posterior(trial_loglik(np.ones((1, 40)), np.full((1, 40), 5e6)).sum(axis=0), TYPED)
+    assert huge.at_limit
+    assert huge.scale > GRID[-40]
+    fine = posterior(trial_loglik(*_trials(9.0, 10, 3, rng)[2:]).sum(axis=0), TYPED)
+    assert not fine.at_limit
+
+
+def test_a_blunder_is_flagged_and_a_careless_operators_trials_are_not() -> None:
+    rng = np.random.default_rng(3)
+    chi2, dof, share, z2 = _trials(1.0, 12, 3, rng)
+    z2[4] += np.array([40.0, 0.0, 0.0])  # one trial's poses disagree
+    chi2 = z2.sum(axis=1)
+    flags = flag_trials(chi2, dof, share, z2, TYPED)
+    assert flags.flagged.tolist() == [i == 4 for i in range(12)]
+    assert flags.p[4] < 0.01
+    assert (flags.kept[4] == 0).all()  # kept out of the pool
+    # every trial 3x worse than typed: they disagree with the typed model, not each other
+    chi2, dof, share, z2 = _trials(9.0, 12, 3, rng)
+    assert not flag_trials(chi2, dof, share, z2, TYPED).flagged.any()
+    # one trial alone, nothing beside it: the typed test decides
+    lone = flag_trials(chi2[:1] * 0 + 60.0, dof[:1], share[:1], z2[:1] * 0 + 20.0, TYPED)
+    assert lone.flagged.all()
+
+
+def test_many_blunders_cannot_hide_each_other() -> None:
+    """Masking: with a third of the trials blundered, a rest that held them all would
+    widen until none was flagged; the search starts from the half that fit best."""
+    rng = np.random.default_rng(4)
+    chi2, dof, share, z2 = _trials(1.0, 30, 3, rng)
+    bad = np.arange(30) % 3 == 0
+    z2[bad, 0] += 60.0
+    chi2 = z2.sum(axis=1)
+    flagged = flag_trials(chi2, dof, share, z2, TYPED).flagged
+    assert flagged[bad].all()
+    assert not flagged[~bad].any()
+
+
+def _session(group: str, lam: float, seed: int, n: int = 4) -> SessionNoise:
+    chi2, dof, share, z2 = _trials(lam, n, 3, np.random.default_rng(seed), beta=0.9)
+    return SessionNoise(group=group, chi2=chi2, dof=dof, share=share, z2=z2)
+
+
+def test_each_session_gets_its_operators_other_sessions_as_its_prior() -> None:
+    sessions = [_session("alice (point)", 2.56, s) for s in range(20)]
+    sessions += [_session("bob (point)", 1.0, 100 + s, n=10) for s in range(3)]
+    sessions += [_session("", 9.0, 200), _session("carol (point)", 1.0, 300)]
+    priors = operator_priors(sessions, TYPED)
+    for p in priors[:20]:
+        assert p is not None
+        assert p.source == "19 other sessions of operator alice (point)"
+        assert 1.9 < p.scale < 3.4
+        assert p.dof > 10  # the spread between sessions, by type II maximum likelihood
+    assert all(p is not None and p.scale < 1.6 for p in priors[20:23])
+    assert priors[23] is None  # no operator named: alone
+    assert priors[24] is None  # the only one of its operator
+
+
+def test_an_operator_whose_sessions_differ_is_pooled_less() -> None:
+    same = [_session("a", 2.0, s, n=6) for s in range(12)]
+    mixed = [_session("a", lam, s, n=6) for s, lam in enumerate([0.3, 6.0] * 6)]
+    p_same, p_mixed = operator_priors(same, TYPED)[0], operator_priors(mixed, TYPED)[0]
+    assert p_same is not None
+    assert p_mixed is not None
+    assert p_mixed.dof < p_same.dof / 4
+    assert math.isfinite(p_mixed.dof)
+
+
+def test_a_blundered_trial_is_kept_out_of_the_operators_pool() -> None:
+    sessions = [_session("a", 1.0, s) for s in range(10)]
+    blunder = sessions[3]
+    z2 = blunder.z2.copy()
+    z2[0, 0] += 400.0
+    sessions[3] = SessionNoise(group="a", chi2=z2.sum(axis=1), dof=blunder.dof,
+                               share=blunder.share, z2=z2)  # fmt: skip
+    prior = operator_priors(sessions, TYPED)[0]
+    assert prior is not None
+    assert prior.scale < 1.4  # with it the pool would say ~4
+    assert NoiseModel(prior=prior).prior is prior

@@ -1,0 +1,429 @@
+"""The two cameras' clock offset measured, with its 1-sigma.
+
+``offset_ns`` is camera 2's capture clock minus camera 1's for the same instant
+(``t1 = t2 - offset_ns``). It is measured, never assumed, two ways:
+
+- :func:`offset_from_flash`: a flash both cameras see. Each camera's frame brightness
+  steps up; a frame whose exposure the onset falls in is lit for the share of its
+  exposure after it, so the onset is found to a fraction of a frame (a capture time is
+  taken as the middle of its exposure; the exposure is the frame interval unless given,
+  as an auto-exposed webcam's is indoors). Its 1-sigma: the brightness noise over the
+  step, times the exposure; an onset in the gap between two exposures (or a dropped
+  frame's) is known only to that gap, and says so.
+- :func:`offset_from_ray_gap`: a dot both cameras see while it moves. For each candidate
+  offset, camera 1's pixel track is interpolated (linearly) to camera 2's capture times
+  and the rays' gap is measured in pixels (Sampson's first-order distance to the pair's
+  epipolar constraint); the offset is the candidates' minimum of the mean squared gap,
+  refined by a parabola through the three candidates about it. Its 1-sigma is that of a
+  least-squares parameter: ``var = 2 s^2 / S''``, ``S''`` the curvature of the summed
+  squared gap and ``s^2`` the gaps' variance at the minimum, times the factor by which
+  neighbouring gaps' shared camera-1 frames correlate them, plus the fitted clocks' own
+  error; a motion along the epipolar lines (sideways, for cameras side by side) does not
+  fix the offset and is refused.
+
+Both first fit each camera's frame times by a regular clock (:func:`regular_times`: a
+camera's frames are taken at a fixed rate; the stamps' jitter is the host's), so the
+stamps' jitter averages out instead of entering every frame. No I/O.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from twopose.arrays import F64, Bools, Ints
+from twopose.errors import InputValueError
+from twopose.pair.board_fit import LensModel
+from twopose.pair.calibration import PairCalibration
+
+__all__ = [
+    "ClockOffset",
+    "RegularTimes",
+    "epipolar_gap_px",
+    "offset_from_flash",
+    "offset_from_ray_gap",
+    "regular_times",
+]
+
+#: The stamps are too irregular to be fitted by one rate beyond this share of an interval
+#: (their frame numbers would be ambiguous): they are then used as they are.
+MAX_JITTER_SHARE = 1 / 6
+#: The span of onsets a flash's frames agree with, in their lit shares' 1-sigmas.
+FLASH_SIGMAS = 3.0
+#: The fewest camera-2 frames an offset candidate's gap is averaged over.
+MIN_GAP_FRAMES = 10
+#: A rays' gap whose minimum is this wide (1-sigma, a share of a frame interval) fixes no
+#: offset: the dot moved along the epipolar lines, or barely.
+MAX_SIGMA_SHARE = 0.25
+#: The least likelihood ratio (``n (S / S_min - 1)``, chi-square-like) by which every
+#: offset a frame or more from the best must fit worse: below it, another offset fits
+#: nearly as well and the offset is not known.
+MIN_LIKELIHOOD_RATIO = 25.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class ClockOffset:
+    """A measured clock offset: camera 2's clock minus camera 1's (nanoseconds).
+
+    ``sigma_ns`` its 1-sigma, ``method`` how it was measured (``"flash"``, ``"ray gap"``),
+    ``n`` the frames (flash: both cameras') or pairs (ray gap) it rests on.
+    """
+
+    offset_ns: float
+    sigma_ns: float
+    method: str
+    n: int
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class RegularTimes:
+    """A camera's stamps fitted by a regular clock (:func:`regular_times`).
+
+    ``times_ns`` (N,) the fitted capture times, ``frame`` (N,) each stamp's frame number
+    from the first (gaps: dropped frames), ``interval_ns`` the fitted interval,
+    ``jitter_ns`` the stamps' scatter about the fit, ``sigma_ns`` (N,) each fitted time's
+    1-sigma; ``regular`` False when the stamps were too irregular to fit (then
+    ``times_ns`` are the stamps and ``sigma_ns`` their scatter).
+    """
+
+    times_ns: F64
+    frame: F64
+    interval_ns: float
+    jitter_ns: float
+    sigma_ns: F64
+    regular: bool
+
+
+def regular_times(t_ns: ArrayLike, *, interval_ns: float | None = None) -> RegularTimes:
+    """A camera's frame times fitted by a fixed rate: ``t = a + b k`` over frame numbers k.
+
+    The frame numbers come from the stamps (rounded by the interval, so dropped frames
+    keep their place); with ``interval_ns`` unknown, the stamps' median difference starts
+    the fit. Stamps too irregular for that (scatter beyond :data:`MAX_JITTER_SHARE` of an
+    interval) are returned as they are (``regular`` False).
+    """
+    t = np.asarray(t_ns, dtype=np.float64).reshape(-1)
+    if t.size < 3 or not np.isfinite(t).all():
+        raise InputValueError("a camera's clock needs three finite frame times at least")
+    origin = t[0]
+    x = t - origin
+    b = float(np.median(np.diff(x))) if interval_ns is None else float(interval_ns)
+    if not b > 0:
+        raise InputValueError("the frame times must increase")
+    # Frame numbers from each step (one interval, or more across dropped frames), so that
+    # a slightly wrong first interval does not slip them over a long stream; then the
+    # line, and the numbers again from it.
+    k = np.r_[0.0, np.cumsum(np.maximum(np.round(np.diff(x) / b), 1.0))]
+    for _ in range(2):
+        A = np.column_stack([np.ones_like(k), k])
+        (a, b), *_ = np.linalg.lstsq(A, x, rcond=None)
+        k = np.round((x - a) / b)
+    residual = x - (a + b * k)
+    jitter = float(np.sqrt((residual**2).sum() / max(t.size - 2, 1)))
+    if jitter > MAX_JITTER_SHARE * b or len(np.unique(k)) != k.size:
+        return RegularTimes(
+            times_ns=t, frame=k, interval_ns=b, jitter_ns=jitter,
+            sigma_ns=np.full(t.size, jitter), regular=False,
+        )  # fmt: skip
+    # Each fitted time's 1-sigma: the line's prediction error at its frame number.
+    km = k.mean()
+    spread = max(float(((k - km) ** 2).sum()), 1e-300)
+    sigma = jitter * np.sqrt(1.0 / k.size + (k - km) ** 2 / spread)
+    return RegularTimes(
+        times_ns=origin + a + b * k, frame=k, interval_ns=float(b), jitter_ns=jitter,
+        sigma_ns=sigma, regular=True,
+    )  # fmt: skip
+
+
+def _onset(brightness: F64, times: RegularTimes, exposure_ns: float | None) -> tuple[float, float]:
+    """One camera's flash onset (its clock, ns) and its 1-sigma.
+
+    Over the two frames about the step, the lit share of each exposure after an onset ``tau``
+    is ``clip((t_k + E/2 - tau) / E, 0, 1)``; their sum ``L(tau)`` falls steadily through
+    exposures and stays flat across the gaps between them (and a dropped frame's). The
+    onset is where ``L`` meets the frames' measured lit shares' sum: the middle of the
+    ``tau`` where they agree within :data:`FLASH_SIGMAS` of its 1-sigma, which is that
+    span over twice as many; where ``L`` is flat there, the flat span's middle, uniform
+    over it (``span / sqrt 12``).
+    """
+    b = brightness
+    span = float(b.max() - b.min())
+    if span <= 0:
+        raise InputValueError("no flash: the brightness never changes")
+    first_lit = int(np.argmax(b > b.min() + 0.5 * span))
+    if first_lit < 3:
+        raise InputValueError("the flash is in the first frames: start recording before it")
+    lit_end = first_lit + int(np.argmax(np.r_[b[first_lit:] < b.min() + 0.5 * span, True]))
+    if lit_end < first_lit + 3:
+        raise InputValueError("the flash is lit in fewer than three frames: light it longer")
+    before, after = b[: first_lit - 2], b[first_lit + 2 : lit_end]
+    base, peak = float(np.median(before)), float(np.median(after))
+    noise = float(np.std(np.r_[before - base, after - peak], ddof=1))
+    window = np.arange(first_lit - 1, first_lit + 1)  # the onset is in one of these two
+    shares = (b[window] - base) / (peak - base)
+    s_sum = noise / (peak - base) * np.sqrt(window.size)
+    E = times.interval_ns if exposure_ns is None else float(exposure_ns)
+    t = times.times_ns[window]
+    grid = np.linspace(t[0] - E, t[-1] + E, 4001)
+    step = grid[1] - grid[0]
+    L = np.clip((t[None, :] + E / 2 - grid[:, None]) / E, 0.0, 1.0).sum(axis=1)
+    miss = np.abs(L - shares.sum())
+    agree = miss <= FLASH_SIGMAS * max(s_sum, 1e-9)
+    if not agree.any():  # the shares disagree with one onset: take the nearest
+        agree = miss == miss.min()
+    # Where L is flat (between two exposures: a gap, or a dropped frame's) every onset in it
+    # gives the same shares: known to that span only (uniform), else to its slope.
+    flat = agree & (np.abs(np.gradient(L)) < 1e-12)
+    s_time = float(times.sigma_ns[window].max())
+    if flat.any():
+        lo, hi = grid[flat].min(), grid[flat].max()
+        sigma = float(np.sqrt((hi - lo + step) ** 2 / 12 + (s_sum * E) ** 2))
+    else:
+        lo, hi = grid[agree].min(), grid[agree].max()
+        sigma = max(0.5 * (hi - lo) / FLASH_SIGMAS, step)
+    return 0.5 * (lo + hi), float(np.hypot(sigma, s_time))
+
+
+def offset_from_flash(
+    brightness1: ArrayLike,
+    t1_ns: ArrayLike,
+    brightness2: ArrayLike,
+    t2_ns: ArrayLike,
+    *,
+    exposure_ns: tuple[float | None, float | None] = (None, None),
+) -> ClockOffset:
+    """The clock offset from a flash both cameras see (the module docstring).
+
+    Parameters
+    ----------
+    brightness1, brightness2 : (N1,), (N2,) array_like
+        Each frame's mean brightness (any linear unit), camera 1's and camera 2's.
+    t1_ns, t2_ns : (N1,), (N2,) array_like
+        Their capture times (nanoseconds, each camera's clock).
+    exposure_ns : (float or None, float or None)
+        Each camera's exposure (None: its frame interval).
+
+    Returns
+    -------
+    ClockOffset
+    """
+    onsets = []
+    for b, t, e in ((brightness1, t1_ns, exposure_ns[0]), (brightness2, t2_ns, exposure_ns[1])):
+        values = np.asarray(b, dtype=np.float64).reshape(-1)
+        times = np.asarray(t, dtype=np.float64).reshape(-1)
+        if values.shape != times.shape or not np.isfinite(values).all():
+            raise InputValueError("each frame needs one finite brightness and one time")
+        onsets.append(_onset(values, regular_times(times), e))
+    (a, sa), (b2, sb) = onsets
+    n = int(np.asarray(t1_ns).size + np.asarray(t2_ns).size)
+    return ClockOffset(offset_ns=b2 - a, sigma_ns=float(np.hypot(sa, sb)), method="flash", n=n)
+
+
+def epipolar_gap_px(pair: PairCalibration, u1: F64, u2: F64) -> F64:
+    """(N,) the rays' gap in pixels: Sampson's distance of undistorted pixels ``u1``, ``u2``.
+
+    (N, 2) each, camera 1's and camera 2's, to the pair's epipolar constraint
+    ``u1^T F u2 = 0`` (``F = K1^-T [t]x R K2^-1``, from ``p1 = R p2 + t``).
+    """
+    t = pair.t_2_in_1
+    tx = np.array([[0.0, -t[2], t[1]], [t[2], 0.0, -t[0]], [-t[1], t[0], 0.0]])
+    F = np.linalg.inv(pair.intrinsics1.K).T @ tx @ pair.R_2_to_1 @ np.linalg.inv(pair.intrinsics2.K)
+    F = F / np.linalg.norm(F)
+    h1 = np.concatenate([u1, np.ones((*u1.shape[:-1], 1))], axis=-1)
+    h2 = np.concatenate([u2, np.ones((*u2.shape[:-1], 1))], axis=-1)
+    Fx2 = h2 @ F.T
+    Ftx1 = h1 @ F
+    e = (h1 * Fx2).sum(axis=-1)
+    denom = Fx2[..., 0] ** 2 + Fx2[..., 1] ** 2 + Ftx1[..., 0] ** 2 + Ftx1[..., 1] ** 2
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.asarray(e / np.sqrt(denom))
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class _DotTracks:
+    """Both cameras' undistorted dot tracks (N, 2), fitted times (N,) and found flags."""
+
+    pair: PairCalibration
+    tracks: tuple[F64, F64]
+    times: tuple[F64, F64]
+    found: tuple[Bools, Bools]
+    gap_ns: float  # the widest span between two camera-1 frames interpolated between
+    clock_sigma: tuple[F64, F64]  # each fitted time's 1-sigma (regular_times)
+
+    def camera1_at(self, at: F64) -> tuple[F64, F64]:
+        """Camera 1's track at times ``at`` (C, N2), linearly, and each one's weight ``w``.
+
+        NaN where its two neighbours are not both found, are further apart than
+        ``gap_ns``, or do not bracket the time.
+        """
+        track, times, found = self.tracks[0], self.times[0], self.found[0]
+        j = np.clip(np.searchsorted(times, at, side="right"), 1, times.size - 1)
+        i = j - 1
+        w = (at - times[i]) / (times[j] - times[i])
+        ok = found[i] & found[j] & (times[j] - times[i] <= self.gap_ns) & (w >= 0) & (w <= 1)
+        out = track[i] * (1 - w)[..., None] + track[j] * w[..., None]
+        return np.where(ok[..., None], out, np.nan), w
+
+    def weights(self, offset_ns: float) -> tuple[Ints, F64, Bools]:
+        """Camera 2's frames' camera-1 neighbours at ``offset_ns``.
+
+        The left neighbour's index (N2,), the right one's weight (N2,), and which frames'
+        gap is measured (both neighbours found and close, camera 2's dot found).
+        """
+        at = self.times[1] - offset_ns
+        t, found = self.times[0], self.found[0]
+        j = np.clip(np.searchsorted(t, at, side="right"), 1, t.size - 1)
+        i = j - 1
+        w = (at - t[i]) / (t[j] - t[i])
+        ok = found[i] & found[j] & (t[j] - t[i] <= self.gap_ns) & (w >= 0) & (w <= 1)
+        return i.astype(np.intp), w, np.asarray(ok & self.found[1])
+
+    def correlation_factor(self, offset_ns: float) -> float:
+        """The variance factor of the gaps' sum: neighbouring gaps share a camera-1 frame.
+
+        Each gap holds camera 2's frame's error and camera 1's two frames' weighted by
+        ``1 - w`` and ``w`` (equal noise in both cameras taken); two successive gaps that
+        interpolate across a common camera-1 frame are correlated, which a sum over gaps
+        that change slowly (a smooth motion) feels as ``1 + 2 sum cov / sum var``.
+        """
+        i, w, ok = self.weights(offset_ns)
+        i, w = i[ok], w[ok]
+        if i.size < 2:
+            return 1.0
+        var = 1.0 + (1 - w) ** 2 + w**2
+        left = np.stack([i, i + 1], axis=1)  # each gap's two camera-1 frames
+        weight = np.stack([1 - w, w], axis=1)
+        a, b = left[:-1], left[1:]
+        wa, wb = weight[:-1], weight[1:]
+        same = a[:, :, None] == b[:, None, :]
+        cov = (same * wa[:, :, None] * wb[:, None, :]).sum(axis=(1, 2))
+        return float(1.0 + 2.0 * cov.sum() / var.sum())
+
+    def clock_sigma_ns(self) -> float:
+        """The two fitted clocks' error as the offset feels it, combined.
+
+        A gap averaged over a stream's frames feels each clock's error at its frames'
+        centre (the fit's least 1-sigma); its slope's error averages out.
+        """
+        return float(np.hypot(np.min(self.clock_sigma[0]), np.min(self.clock_sigma[1])))
+
+    def mean_gap(self, candidates: F64) -> tuple[F64, F64]:
+        """(C,) the mean squared gap at each candidate offset, and (C,) the frames used.
+
+        Each gap is weighed by its noise: camera 2's frame and camera 1's two, by ``1 - w``
+        and ``w`` (equal noise taken), ``1 + w^2 + (1 - w)^2`` times one frame's variance; a
+        cost not weighed so would favour offsets that put camera 2's frames on camera 1's
+        (where interpolation averages no noise away), the more so the slower the dot.
+        """
+        u1, w = self.camera1_at(self.times[1][None, :] - candidates[:, None])
+        u2 = np.where(self.found[1][:, None], self.tracks[1], np.nan)
+        gap = epipolar_gap_px(self.pair, u1, np.broadcast_to(u2, u1.shape))
+        g2 = gap**2 / (1 + w**2 + (1 - w) ** 2)
+        used = np.isfinite(g2).sum(axis=1)
+        enough = used >= MIN_GAP_FRAMES
+        mean = np.where(enough, np.nansum(g2, axis=1) / np.maximum(used, 1), np.nan)
+        return mean, used.astype(np.float64)
+
+
+def offset_from_ray_gap(
+    pair: PairCalibration,
+    track1_px: ArrayLike,
+    t1_ns: ArrayLike,
+    track2_px: ArrayLike,
+    t2_ns: ArrayLike,
+    *,
+    search_ns: tuple[float, float] = (-0.5e9, 0.5e9),
+) -> ClockOffset:
+    """The clock offset from a moving dot both cameras see (the module docstring).
+
+    Parameters
+    ----------
+    pair : PairCalibration
+        The calibrated pair.
+    track1_px, track2_px : (N1, 2), (N2, 2) array_like
+        The dot's pixel (col, row) in each frame of camera 1 and camera 2, as detected
+        (distorted); NaN where not found.
+    t1_ns, t2_ns : (N1,), (N2,) array_like
+        Their capture times (nanoseconds, each camera's clock).
+    search_ns : (float, float)
+        The range of offsets searched.
+
+    Returns
+    -------
+    ClockOffset
+    """
+    dots = _dot_tracks(pair, (track1_px, track2_px), (t1_ns, t2_ns))
+    interval = float(np.median(np.diff(dots.times[0])))
+    lo, hi = sorted(float(x) for x in search_ns)
+    coarse = np.arange(lo, hi + interval / 8, interval / 4)
+    cost, _ = dots.mean_gap(coarse)
+    if not np.isfinite(cost).any():
+        raise InputValueError(
+            f"the dot was seen by both cameras at the same time in fewer than {MIN_GAP_FRAMES} "
+            "frames at any offset searched: record longer, or widen the search"
+        )
+    coarse_cost, coarse_used = cost, _
+    best = coarse[int(np.nanargmin(cost))]
+    fine = np.arange(best - interval / 2, best + interval / 2 + interval / 100, interval / 50)
+    cost, used = dots.mean_gap(fine)
+    k = int(np.nanargmin(cost))
+    if k == 0 or k == fine.size - 1 or not np.isfinite(cost[k - 1 : k + 2]).all():
+        raise InputValueError("the rays' gap has no minimum inside the offsets searched")
+    h = fine[1] - fine[0]
+    c0, c1, c2 = cost[k - 1], cost[k], cost[k + 1]
+    curvature = (c0 - 2 * c1 + c2) / h**2  # of the mean squared gap
+    refused = InputValueError(
+        "the dot's motion does not fix the clock offset (it moved along the epipolar lines, "
+        "or too little): move it across them, up and down for cameras side by side"
+    )
+    if not curvature > 0:
+        raise refused
+    vertex = fine[k] + 0.5 * h * (c0 - c2) / (c0 - 2 * c1 + c2)
+    n = int(used[k])
+    # Least squares on S = n * mean: var = 2 s^2 / S'', s^2 = S_min / (n - 1).
+    min_mean = c1 - 0.25 * (c0 - c2) ** 2 / (c0 - 2 * c1 + c2) / 2
+    variance = 2 * max(min_mean, 0.0) / ((n - 1) * curvature) * dots.correlation_factor(vertex)
+    if np.sqrt(variance) > MAX_SIGMA_SHARE * interval:
+        raise refused
+    # A likelihood ratio against every offset a frame or more away: one that fits nearly
+    # as well (the motion along the epipolar lines fits every offset; a periodic one
+    # several) leaves the offset unknown.
+    far = np.abs(coarse - vertex) > interval
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = coarse_used[far] * (coarse_cost[far] / max(min_mean, 1e-300) - 1.0)
+    if far.any() and np.nanmin(np.where(np.isfinite(ratio), ratio, np.inf)) < MIN_LIKELIHOOD_RATIO:
+        raise refused
+    variance += dots.clock_sigma_ns() ** 2
+    return ClockOffset(
+        offset_ns=float(vertex), sigma_ns=float(np.sqrt(variance)), method="ray gap", n=n
+    )
+
+
+def _dot_tracks(
+    pair: PairCalibration, tracks: tuple[ArrayLike, ArrayLike], times: tuple[ArrayLike, ArrayLike]
+) -> _DotTracks:
+    """Both cameras' dot tracks checked, undistorted, their times fitted by a regular clock."""
+    lenses = (LensModel.of(pair.intrinsics1), LensModel.of(pair.intrinsics2))
+    undistorted, fitted, found, sigma = [], [], [], []
+    for n in (0, 1):
+        p = np.asarray(tracks[n], dtype=np.float64).reshape(-1, 2)
+        stamps = np.asarray(times[n], dtype=np.float64).reshape(-1)
+        if p.shape[0] != stamps.size:
+            raise InputValueError(f"camera {n + 1}: {p.shape[0]} pixels for {stamps.size} times")
+        ok = np.asarray(np.isfinite(p).all(axis=1))
+        undistorted.append(np.where(ok[:, None], lenses[n].undistort(np.nan_to_num(p)), np.nan))
+        clock = regular_times(stamps)
+        fitted.append(clock.times_ns)
+        sigma.append(clock.sigma_ns)
+        found.append(ok)
+    interval = float(np.median(np.diff(fitted[0])))
+    return _DotTracks(
+        pair=pair,
+        tracks=(undistorted[0], undistorted[1]),
+        times=(fitted[0], fitted[1]),
+        found=(found[0], found[1]),
+        gap_ns=2.5 * interval,  # one dropped frame between two neighbours is bridged
+        clock_sigma=(sigma[0], sigma[1]),
+    )
