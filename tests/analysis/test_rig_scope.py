@@ -8,9 +8,11 @@ a row whatever happens), rig files at several depths."""
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 from hypothesis import given, settings
@@ -19,10 +21,13 @@ from hypothesis import strategies as st
 import analysis
 from analysis.cli import app
 from analysis.input_set import resolve_inputs
-from analysis.rig.scope import RIG_BESIDE, nearest_rig, rig_scope
+from analysis.noise_pass import by_rig_file, operator_priors_of
+from analysis.results import AnalysisOptions
+from analysis.rig.scope import RIG_BESIDE, RigScope, RigUse, nearest_rig, rig_scope
 from tests.analysis.rig_helpers import runner
 from tests.lab import CAMERA, continue_session, record
 from twopose.errors import InputValueError
+from twopose.placing_variance import SessionNoise, operator_priors
 
 #: A rig for the lab's camera (64x48, f 52.5), in inches, with a placing sigma.
 RIG = (
@@ -188,3 +193,49 @@ def test_a_broken_rig_file_up_the_tree_is_named_with_the_way_around_it(lab: Path
     with pytest.raises(InputValueError, match=r"not valid TOML.*found up the tree from .*--no-rig"):
         rig_scope(resolve_inputs([lab / "norig"]))
     assert rig_scope(resolve_inputs([lab / "norig"]), no_rig=True).uses == ()
+
+
+def _noise(scale: float, seed: int) -> SessionNoise:
+    """A session's first pass: 4 trials of 3 placing components each, their misclosures
+    scattering ``scale`` times the variance assumed."""
+    z2 = scale * np.random.default_rng(seed).chisquare(1, size=(4, 3))
+    return SessionNoise(group="", chi2=z2.sum(axis=1), dof=np.full(4, 3), share=np.ones((4, 3)),
+                        z2=z2)  # fmt: skip
+
+
+def test_an_operators_sessions_under_two_rig_files_pool_apart(tmp_path: Path) -> None:
+    # A rig is part of the setup and its [placing] the sigma the regions start from: one
+    # operator's sessions under two rigs never lend each other their placing (issue 54's
+    # prior, issue 56's scope).
+    for name, placing in (("a", "sigma = 0.1\nsigma_sigma = 0.02\n"), ("b", "sigma = 0.3\n")):
+        (tmp_path / name).mkdir()
+        text = RIG.format(x=0.1).replace("sigma = 0.1\n", placing)
+        (tmp_path / name / RIG_BESIDE).write_text(text)
+    use = {n: RigUse.read(tmp_path / n / RIG_BESIDE) for n in "ab"}
+    sessions = {"a/1.mcap": "a", "a/2.mcap": "a", "b/3.mcap": "b", "b/4.mcap": "b", "c.mcap": ""}
+    scope = RigScope(by_session={s: use.get(r) for s, r in sessions.items()})
+    base = AnalysisOptions()
+
+    def options_for(session: str) -> AnalysisOptions:
+        return scope.options_for(session, base)
+
+    one = dict.fromkeys(sessions, "operator Ada (point)")
+    split = by_rig_file(one, options_for)
+    assert split == {
+        s: f"operator Ada (point) under rig file {tmp_path / r / RIG_BESIDE}"
+        for s, r in sessions.items()
+        if r  # c.mcap, alone under no rig file, has nobody to pool with
+    }
+    same = {s: g for s, g in one.items() if s.startswith("a/")}
+    assert by_rig_file(same, options_for) == same  # one rig: the groups as they were
+    passes = {s: _noise(4.0 if s.startswith("b/") else 1.0, i) for i, s in enumerate(sessions)}
+    priors = operator_priors_of(passes, split, base, options_for)
+    assert set(priors) == set(split)
+    for session, prior in priors.items():
+        assert prior.sessions == 1
+        assert prior.source == f"1 other session of operator {split[session]}"
+        mine = [s for s in split if split[s] == split[session]]
+        stats = [dataclasses.replace(passes[s], group=split[s]) for s in mine]
+        anchor = options_for(session).estimate.noise.anchor()
+        assert prior == operator_priors(stats, anchor)[mine.index(session)]  # its rig's anchor
+    assert priors["b/3.mcap"].scale > 2 * priors["a/1.mcap"].scale  # never the other rig's
