@@ -5,6 +5,7 @@ result's options and guidance's predictions take too."""
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 import pytest
@@ -12,11 +13,12 @@ import pytest
 from tests.twopose.synthetic_trials import GROUND, trials
 from twopose.estimate import EstimateOptions, ViewBatch, measure, nearest_on_line, thesis_estimate
 from twopose.methods import Method, spec_of
-from twopose.noise import NoiseModel
+from twopose.noise import NoiseModel, PlacingSigma
 from twopose.prediction import regions95
 from twopose.rig.carried import RIG_INPUT, carried_covariance, corrected_inputs
 from twopose.rig.constants import SCALARS, RigConstants, RigCovariance
-from twopose.session_estimate import SessionTrials, estimate_session
+from twopose.session_estimate import SessionEstimate, SessionTrials, estimate_session
+from twopose.session_noise import placing_source
 
 NAMES = ("mount_ry_deg", "offset_x", "offset_z", "focal_scale", "principal_dx_px", "tape_scale")
 SIGMA = np.array([0.05, 0.05, 0.08, 0.004, 1.5, 0.002])
@@ -116,3 +118,34 @@ def test_a_line_reports_the_carried_covariance_across_itself() -> None:
     along = np.einsum("ti,tij,tj->t", d, est.estimates.cov, d)
     assert np.allclose(along, 0.0, atol=1e-9 * np.abs(est.estimates.cov).max())
     assert nearest_on_line is not None  # the thesis' line reports its nearest point
+
+
+@pytest.mark.parametrize("method", ["point", "line", "ground"])
+def test_a_boards_sigma_is_an_estimate_even_without_the_sessions_test(method: str) -> None:
+    # A board's placing sigma rests on its degrees of freedom: with --no-sigma0 (nothing
+    # estimated from the session) its regions still take Fisher's F on them, never the
+    # sigma as exact (bench_placing: 91% coverage for points that way); an upper bound, or a
+    # sigma stated without its 1-sigma, is exact.
+    session = _session(method)
+    measured = PlacingSigma(sigma_in=0.1, sigma_sigma_in=0.1 / math.sqrt(2 * 17),
+                            measured_by="board.mcap", captures=16)  # fmt: skip
+    exact = PlacingSigma(sigma_in=0.1, measured_by="board.mcap", captures=16)
+
+    def estimate(placing: PlacingSigma) -> SessionEstimate:
+        return estimate_session(session, EstimateOptions(noise=NoiseModel(
+            placing=placing, test_redundancy=False)))  # fmt: skip
+
+    on_17, as_exact = estimate(measured), estimate(exact)
+    assert on_17.factor is not None
+    assert as_exact.factor is None
+    assert on_17.factor.variance_dof == pytest.approx(17)
+    assert on_17.factor.placing_variance == 1.0  # the board's sigma itself, only less sure
+    wider = (
+        np.linalg.eigvalsh(on_17.estimates.cov)[:, -1]
+        / np.linalg.eigvalsh(as_exact.estimates.cov)[:, -1]
+    )
+    assert np.all(wider > 1.01)
+    assert np.all(wider < 1.6)
+    assert placing_source(EstimateOptions(noise=NoiseModel(placing=measured)), on_17.factor) == (
+        "measured by board.mcap (16 captures), times 1 (estimated from board.mcap alone)"
+    )

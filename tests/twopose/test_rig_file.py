@@ -103,6 +103,14 @@ def test_a_rig_is_refused_for_another_camera_and_said_for_one_it_does_not_know(
          "edited by hand"),
         ("[placing]\nsigma = 0.1\nsigma_sigma = 1e-5\ncaptures = 8\n", "more than the 24"),
         ("[placing]\nsigma = 0.1\nsigma_sigma = 0.02\nupper_bound = true\n", "upper bound"),
+        # every number by the one grammar (issue 55): TOML's wider forms refused in its words
+        ("format = 0x2\n", r"format: '0x2' is not a whole number \(digits 0-9"),
+        ("[sigma]\noffset_x = 0.0_5\n", r"\[sigma\] offset_x: '0.0_5' is not a number"),
+        ("[sigma]\noffset_x = inf\n", r"\[sigma\] offset_x: 'inf' is not a number"),
+        ("[placing]\nsigma = 0.1\ncaptures = 1_6\n", r"captures: '1_6' is not a whole number"),
+        ("[placing]\nsigma = 1e309\n", r"sigma = 1e309 in is not a placing error"),
+        ("[[camera]]\nwidth = 0x280\nheight = 480\nfx = 525.0\nfy = 525.0\ncx = 320.0\n"
+         "cy = 240.0\n", r"width: '0x280' is not a whole number"),
     ],
 )  # fmt: skip
 def test_every_table_is_checked_and_an_unknown_one_refused(
