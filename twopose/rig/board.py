@@ -220,17 +220,9 @@ def fit_board_rig(  # noqa: PLR0913 - the captures' arrays, then how to fit them
         Estimate the placing sigma itself (:mod:`twopose.rig.placing`) and fit with it
         (``BoardRigFit.placing``); False keeps ``t_sigma`` as a fixed prior.
     """
-    t, r = np.asarray(t_typed, dtype=np.float64), np.asarray(r_typed_deg, dtype=np.float64)
-    u = np.asarray(observed_px, dtype=np.float64)
-    n_corners = np.shape(corners_grid)[-2] if np.ndim(corners_grid) >= 2 else 0
-    X = _per_capture(corners_grid, len(t), (n_corners, 3), "corners_grid")
-    k = _per_capture(intrinsics, len(t), (4,), "intrinsics")
-    r_sigma = _per_capture(r_sigma_deg, len(t), (), "r_sigma_deg")
-    if u.shape != (len(t), n_corners, 2) or r.shape != t.shape or not np.isfinite(u).all():
-        raise InputValueError(
-            f"board captures: want (captures, corners, 2) = ({len(t)}, {n_corners}, 2) finite "
-            f"pixels, got {u.shape}"
-        )
+    t, r, u, X, k, r_sigma = _captures(
+        corners_grid, observed_px, t_typed, r_typed_deg, intrinsics, r_sigma_deg
+    )
     free = _free_mask(groups)
     check_identifiable(t, X[:, :, 2].mean(axis=1))
     model = _Model.of(free, units, t_sigma, r_sigma)
@@ -300,6 +292,33 @@ def fit_board_rig(  # noqa: PLR0913 - the captures' arrays, then how to fit them
         placing=placing,
         placing_dof=dof,
     )
+
+
+def _captures(
+    corners_grid: ArrayLike,
+    observed_px: ArrayLike,
+    t_typed: ArrayLike,
+    r_typed_deg: ArrayLike,
+    intrinsics: ArrayLike,
+    r_sigma_deg: ArrayLike,
+) -> tuple[F64, F64, F64, F64, F64, F64]:
+    """:func:`fit_board_rig`'s arrays, checked, one row per capture.
+
+    The typed centres and angles, the observed corners, the corners' grid, the intrinsics
+    and the rotation resolutions.
+    """
+    t, r = np.asarray(t_typed, dtype=np.float64), np.asarray(r_typed_deg, dtype=np.float64)
+    u = np.asarray(observed_px, dtype=np.float64)
+    n_corners = np.shape(corners_grid)[-2] if np.ndim(corners_grid) >= 2 else 0
+    X = _per_capture(corners_grid, len(t), (n_corners, 3), "corners_grid")
+    k = _per_capture(intrinsics, len(t), (4,), "intrinsics")
+    r_sigma = _per_capture(r_sigma_deg, len(t), (), "r_sigma_deg")
+    if u.shape != (len(t), n_corners, 2) or r.shape != t.shape or not np.isfinite(u).all():
+        raise InputValueError(
+            f"board captures: want (captures, corners, 2) = ({len(t)}, {n_corners}, 2) finite "
+            f"pixels, got {u.shape}"
+        )
+    return t, r, u, X, k, r_sigma
 
 
 def _measured(
