@@ -116,6 +116,8 @@ SUMMARY_COLUMNS = [
     "placing_source",  # typed, or measured by which board session; the multiplier taken
     "placing_scale",  # the placing sigma taken over the one assumed (sqrt(lambda))
     "placing_dof",  # the degrees of freedom it rests on (empty: taken as exact)
+    "rig_file",  # the rig file the session used (empty: none), as found or given
+    "rig_sha256",  # its content's SHA-256 (empty: none): what check compares
     "sigma0",  # the unflagged trials' sigma0 under the typed model (1: the model holds)
     "sigma0_dof",  # its degrees of freedom (0: no trial with redundancy)
     "sigma0_p",  # its chi-square test's upper tail probability

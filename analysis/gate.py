@@ -26,6 +26,7 @@ import pandas as pd
 
 from analysis.columns import SUMMARY_DOMAINS
 from analysis.gate_match import Pair, match_rows, require_identity, run_trials
+from analysis.gate_noise import noise_model_difference
 from analysis.gate_tolerance import (
     CHECKED_METRICS,
     Allowance,
@@ -173,8 +174,9 @@ def compare_summaries(
     )
     rows: list[dict[str, Any]] = []
     for pair in match_rows(result, baseline, trials, names=names):
-        notes += pair.notes
-        rows += _pair_rows(pair, tolerances, skipped)
+        said, apart = noise_model_difference(pair)  # regions of other noise: not compared
+        notes += pair.notes + said
+        rows += _pair_rows(pair, tolerances, [*skipped, *apart])
     table = pd.DataFrame(rows, columns=COMPARISON_COLUMNS)
     unheld = table[table["status"] == "unheld"]
     notes += tuple(

@@ -25,6 +25,7 @@ from analysis.detection_pass import Detections, detected, given_detections, tria
 from analysis.input_set import SessionIdentity
 from analysis.results import AnalysisOptions, SessionResult
 from analysis.results_mcap import ResultsWriter
+from analysis.rig.scope import rig_file_columns
 from analysis.tables import (
     averaging_table,
     trial_table,
@@ -176,7 +177,7 @@ def analyse_session(
         label=identity.label,
         metadata=replay.metadata,
         frames=with_branch(frames, identity, part_of),
-        trials=with_identity(trials, identity, part_of),
+        trials=with_identity(trials.assign(**rig_file_columns(options)), identity, part_of),
         averaging=with_branch(averaging, identity, part_of),
         views=with_branch(views, identity, part_of),
         rig=rig,

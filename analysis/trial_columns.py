@@ -410,6 +410,9 @@ TRIAL_TABLE: tuple[Column, ...] = (
            unit="none", domain=NON_NEGATIVE, group="noise", fill=nc.placing_scale),
     Column(name="placing_dof", label="placing sigma's degrees of freedom", unit="none",
            domain=NON_NEGATIVE, group="noise", fill=nc.placing_dof),
+    # the rig file the session used (filled by the pipeline, from its options)
+    _text("rig_file", "rig file", "noise"),
+    _text("rig_sha256", "rig file's SHA-256", "noise"),
     Column(name="misclosure_chi2", label="misclosure chi-square", unit="none",
            domain=NON_NEGATIVE, group="noise", fill=nc.misclosure_chi2),
     Column(name="misclosure_dof", label="misclosure degrees of freedom", unit="count",

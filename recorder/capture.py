@@ -301,11 +301,13 @@ class CaptureSettings:
 
     def estimate_options(self) -> EstimateOptions:
         """The live result's estimation: its regions (and guidance's predictions) take the
-        measured placing sigma (:attr:`placing`), else each pose's typed resolution."""
+        measured placing sigma (:attr:`placing`), else each pose's typed resolution, and
+        carry the rig's constants' covariance (``J C J^T``, :mod:`twopose.rig.carried`)."""
         from twopose.margins import EstimateOptions
         from twopose.noise import NoiseModel
 
-        return EstimateOptions(noise=NoiseModel(placing=self.placing))
+        covariance = self.rig.covariance if self.rig is not None else None
+        return EstimateOptions(noise=NoiseModel(placing=self.placing, rig=covariance))
 
     def placing_words(self, units: Units) -> str:
         """Which placing sigma the live result uses, in words (the recording says it)."""

@@ -26,6 +26,7 @@ from recorder.setup_rules import (
     PoseTyping,
     Setup,
     board_corner,
+    check_rig_early,
     default_principal,
     distinct_point,
     inner_corners,
@@ -70,6 +71,7 @@ if TYPE_CHECKING:
     from recorder.continuation import Continued
     from recorder.trial_result import TrialResult
     from twopose.guidance import Advice
+    from twopose.rig.constants import RigConstants
 
 __all__ = [
     "Operator",
@@ -117,6 +119,7 @@ def ask_setup(  # noqa: PLR0913 - one keyword per setup value the operator may h
     board: BoardPlacement | None = None,
     target_precision: float | None = None,
     guidance: GuidanceAsked | None = None,
+    rig: RigConstants | None = None,
     **plane_offsets: float | None,
 ) -> Setup:
     """Ask for whatever is None (or missing) above; answers are checked as they are typed.
@@ -128,12 +131,19 @@ def ask_setup(  # noqa: PLR0913 - one keyword per setup value the operator may h
 
     A value given is checked against its bound in the units chosen
     (:mod:`twopose.bounds`) and refused, never asked again; so are ``guidance``'s options
-    (a board session takes none), as soon as the method and units are known.
+    (a board session takes none), as soon as the method and units are known; so is the
+    ``rig`` file (``--rig``): before any question for what the command line gave (its
+    units, the image size, the camera), then as each answer comes
+    (:func:`recorder.setup_rules.check_rig_early`).
     ``plane_offsets`` are the planes' offsets given, each under its plane's setup key
     (``ground_height=`` for method 2's ground, :data:`twopose.methods.PLANES`)."""
     asked_before = op.questions
+    given_units = Units(units) if units in UNITS else None
+    check_rig_early(rig, units=given_units, size=size, intrinsics=intrinsics)
     m = Method(method or _ask(op, "method", DEFAULT_UNITS))
+    check_rig_early(rig, method=m)
     u = Units(units if units in UNITS else _ask(op, "units", DEFAULT_UNITS))
+    check_rig_early(rig, units=u)
     refused = (guidance or GuidanceAsked()).refusals(m, u)
     if refused:
         raise InputValueError("; ".join(refused.values()))
@@ -146,6 +156,7 @@ def ask_setup(  # noqa: PLR0913 - one keyword per setup value the operator may h
         else:
             cx, cy = op.ask("principal point cx, cy (px)", number_pair, centre)
         intrinsics = Intrinsics(width=size[0], height=size[1], fx=f, fy=f, cx=cx, cy=cy)
+        check_rig_early(rig, intrinsics=intrinsics)
     h = _plane_offset(op, m, u, _known_planes(plane_offsets))
     for point in ground_truth:
         for v, a in zip(point, GROUND_TRUTH.axes, strict=True):

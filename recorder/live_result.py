@@ -67,8 +67,10 @@ class LiveResults:
         #: what the operator should know about the rig (e.g. a file without units)
         self.notes: list[str] = []
         if rig is not None:  # the analysis' own check (`run --rig`): units and plausibility
-            sizes = [(c.intrinsics.width, c.intrinsics.height) for c in cameras]
-            self.notes = check_applicable(rig, Units(units), self._ground, sizes, "the rig file")
+            self.notes = check_applicable(
+                rig, Units(units), self._ground, (), "the rig file",
+                cameras=[c.intrinsics for c in cameras],
+            )  # fmt: skip
             self._ground = corrected_ground(self._ground, rig)
         self._captures: dict[int, PoseView] = {}  # capture number -> its detections
         #: the scene's clutter where the source knows it (the synthetic camera), else None

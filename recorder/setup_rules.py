@@ -59,6 +59,7 @@ __all__ = [
     "board_corner",
     "board_refusal",
     "check_rig",
+    "check_rig_early",
     "default_plane_offset",
     "default_principal",
     "distinct_point",
@@ -193,9 +194,39 @@ def check_rig(
         )
     from twopose.rig.constants import check_applicable
 
-    sizes = [(c.intrinsics.width, c.intrinsics.height) for c in cameras]
     spec = ground.spec() if ground is not None else None
-    return check_applicable(rig, units, spec, sizes, "the rig file")
+    intrinsics = [c.intrinsics for c in cameras]
+    return check_applicable(rig, units, spec, (), "the rig file", cameras=intrinsics)
+
+
+def check_rig_early(
+    rig: RigConstants | None,
+    *,
+    method: Method | None = None,
+    units: Units | None = None,
+    size: tuple[int, int] | None = None,
+    intrinsics: Intrinsics | None = None,
+) -> None:
+    """Refuse a rig file (``--rig``) as soon as what it must match is known.
+
+    The terminal calls this before its first question, with what the command line gave,
+    and again as each answer comes (the method, the units, the camera), so that a rig in
+    other units or of another camera is refused at once, never after the whole setup was
+    typed (:func:`check_rig` then checks the rest: plausibility for the ground height).
+    """
+    if rig is None:
+        return
+    from twopose.rig.cameras import check_cameras, same_size
+    from twopose.rig.constants import check_units
+
+    if method is not None and not spec_of(method).measures:
+        check_rig(rig, method, Units.IN, [], None)  # a board session takes no rig: refused
+    if units is not None:
+        check_units(rig, units, "the rig file")
+    if intrinsics is not None:
+        check_cameras(rig.cameras, [intrinsics], "the rig file")
+    elif size is not None:
+        same_size(rig.cameras, size, "the rig file")
 
 
 # --------------------------------------------------------------------------- the checks

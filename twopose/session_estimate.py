@@ -42,6 +42,7 @@ from twopose.methods import Method, spec_of
 from twopose.misclosure import Misclosure
 from twopose.noise import VarianceFactor
 from twopose.optimal_lines import centroid_segments, optimal_lines
+from twopose.rig.carried import rig_carried, with_carried, with_rig_dominance
 from twopose.session_noise import (
     noise_of,
     placed,
@@ -192,7 +193,11 @@ class SessionEstimate:
         estimate = thesis_estimate(
             self.trials.method, p.batch, self.trials.ground, self.options, reference[p.rows]
         )
-        return _uncertainty(T, p, propagate(estimate, p.batch.inputs, p.cov_in, shared=p.shared))
+        propagated = propagate(estimate, p.batch.inputs, p.cov_in, shared=p.shared)
+        rig = rig_carried(
+            self.options, self.trials.method, p.batch, self.trials.ground, reference[p.rows]
+        )
+        return _uncertainty(T, p, propagated, rig)
 
     def direction_cov(self) -> F64:
         """(T, 3, 3) lines: the covariance of each ok trial's unit direction (NaN else).
@@ -403,6 +408,7 @@ def _solved_estimates(
             p.cov_in,
             shared=p.shared,
         ),
+        rig_carried(options, trials.method, p.batch, trials.ground, solved.point),
     )
     lines = spec_of(trials.method).estimates_line and line_fits
     return Estimates(
@@ -433,8 +439,13 @@ def _solved_estimates(
     )
 
 
-def _uncertainty(T: int, p: _Propagation, propagated: Propagated) -> Uncertainty:
-    """The covariance and dominant input of every ok trial (T rows)."""
+def _uncertainty(
+    T: int, p: _Propagation, propagated: Propagated, carried: F64 | None = None
+) -> Uncertainty:
+    """The covariance and dominant input of every ok trial (T rows).
+
+    ``carried``: the rig's constants' covariance (:func:`twopose.rig.carried.rig_carried`).
+    """
     ok, cov = p.solved.status == "ok", propagated.cov_grid
     lam = 1.0 if p.factor is None else p.factor.placing_variance
     placing = _placing_part(propagated.jacobian, p.cov_in)
@@ -448,8 +459,11 @@ def _uncertainty(T: int, p: _Propagation, propagated: Propagated) -> Uncertainty
         cov, model = across @ cov @ across, across @ model @ across
         placing = across @ placing @ across
     cov = cov * region_multipliers(cov, placing, p.factor, p.tests, p.rows)[:, None, None]
+    # the rig's constants: carried beside the views' noise, never widened by its test
+    cov, model, carried = with_carried(cov, model, carried, p.solved.direction)
     widening = region_widening(cov, model)
     names, share = dominant_input(propagated.variance_by_group, propagated.shared_variance)
+    names, share = with_rig_dominance(names, share, propagated, carried)
     none, rows = _no_uncertainty(T), p.rows[ok]
     return Uncertainty(
         cov=_with_rows(none.cov, rows, cov[ok]),

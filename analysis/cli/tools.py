@@ -54,6 +54,7 @@ def rig_command(
     from analysis.outputs import run_inputs, write_file
     from analysis.rig.calibrate import calibrate_rig
     from analysis.rig.fit import rig_toml
+    from analysis.rig.scope import RIG_BESIDE
 
     with handle_errors():
         inputs = resolve_inputs(sessions)  # once: the check and the fit take this set
@@ -76,6 +77,12 @@ def rig_command(
     for warning in found.warnings:
         typer.secho(f"warning: {warning}", err=True, fg=typer.colors.YELLOW)
     typer.echo(f"wrote {out}")
+    if out.name == RIG_BESIDE:  # a rig.toml has a scope: say it (docs/rig.md)
+        where = "this folder" if out.parent == Path() else str(out.parent)
+        typer.echo(
+            f"  `twopose-analyze run` applies it to every session in {where} and below (the "
+            "nearest rig.toml up the tree wins; --rig FILE and --no-rig choose otherwise)"
+        )
 
 
 @app.command("sensitivity")
