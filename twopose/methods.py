@@ -1,7 +1,7 @@
 """The reconstruction methods as a type, with one registry of what each one is.
 
 Every rule that depends on the method reads it here: which target the detector looks for,
-what ground truth a trial carries, whether the ground plane is needed, whether the estimate
+what ground truth a trial carries, whether a constraint plane is needed, whether the estimate
 is a line, which degeneracy margins and extra table columns apply, and how the thesis names
 it. Adding a method is adding a :class:`MethodSpec`; nothing else compares method names.
 
@@ -158,9 +158,21 @@ class MethodSpec:
         return self.target is not None
 
     @property
-    def needs_ground(self) -> bool:
+    def needs_plane(self) -> bool:
         """Whether the estimate needs its plane (:attr:`plane`) and the setup its offset."""
         return self.plane is not None
+
+    @property
+    def needs_ground(self) -> bool:
+        """:attr:`needs_plane`'s old name (any plane, not only the ground), kept for one
+        release (docs/changelog.md)."""
+        return self.needs_plane
+
+    @property
+    def seen_on(self) -> ConstraintPlane:
+        """The plane its trials are drawn and their errors read on, face on: its own
+        (:attr:`plane`), else the ground's (the grid paper seen from above, x and z)."""
+        return self.plane if self.plane is not None else GROUND_PLANE
 
     @property
     def truth_points(self) -> int:
