@@ -383,7 +383,7 @@ TRIAL_TABLE: tuple[Column, ...] = (
     # degeneracy margins (each method's: its spec's margins)
     _margin("parallax_deg", "parallax"),
     _margin("plane_angle_deg", "angle between the planes"),
-    _margin("line_ground_angle_deg", "line's angle to the ground"),
+    _margin("line_plane_angle_deg", "line's angle to the method's plane"),
     _text("warning", "warning", "margins", lambda t: t.estimate.warnings),
     _length("baseline", "baseline", "margins",
             lambda t: [_baseline(v) for v in t.estimate.trials.views], NON_NEGATIVE),

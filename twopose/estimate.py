@@ -29,6 +29,7 @@ from twopose.margins import (  # the options' one home, light for the CLI
 )
 from twopose.methods import Method, Solver, spec_of
 from twopose.misclosure import PLANES, RAYS, MisclosureModel
+from twopose.planes import GROUND_PLANE, ConstraintPlane
 from twopose.solve import (
     NViewLines,
     image_lines,
@@ -261,7 +262,7 @@ def _solve_ground(batch: ViewBatch, ground: GroundSpec | None, mc: float) -> Sol
     g = triangulate_ground(lines, P, ground[0], ground[1], valid=batch.valid, min_conditioning=mc)
     margins["parallax_deg"] = degrees_from_sine(parallax_sine(P, batch.valid, g.point_grid))
     n3 = ground[0] / np.linalg.norm(ground[0])
-    margins["line_ground_angle_deg"] = degrees_from_sine(np.abs(ls.direction_grid @ n3))
+    margins["line_plane_angle_deg"] = degrees_from_sine(np.abs(ls.direction_grid @ n3))
     return Solved(
         point=g.point_grid,
         direction=None,
@@ -409,13 +410,20 @@ def degrees_from_sine(sine: F64) -> F64:
 
 
 def margin_warnings(
-    status: NDArray[np.str_], margins: dict[str, F64], options: EstimateOptions
+    status: NDArray[np.str_],
+    margins: dict[str, F64],
+    options: EstimateOptions,
+    plane: ConstraintPlane = GROUND_PLANE,
 ) -> list[str]:
-    """Per trial, the margins under their thresholds (empty when none, or not ok)."""
+    """Per trial, the margins under their thresholds (empty when none, or not ok).
+
+    The planes' line's angle to ``plane``, the method's, is named by it ("line-ground
+    angle").
+    """
     limits = {
         "parallax_deg": ("ray parallax", options.min_parallax_deg),
         "plane_angle_deg": ("plane angle", options.min_plane_angle_deg),
-        "line_ground_angle_deg": ("line-ground angle", options.min_ground_angle_deg),
+        "line_plane_angle_deg": (f"line-{plane.noun} angle", options.min_ground_angle_deg),
     }
     out = []
     for i in range(len(status)):

@@ -164,14 +164,18 @@ class MethodSpec:
 
     @property
     def needs_ground(self) -> bool:
-        """:attr:`needs_plane`'s old name (any plane, not only the ground), kept for one
-        release (docs/changelog.md)."""
+        """:attr:`needs_plane`'s old name, kept for one release (docs/changelog.md).
+
+        Any plane, not only the ground.
+        """
         return self.needs_plane
 
     @property
     def seen_on(self) -> ConstraintPlane:
-        """The plane its trials are drawn and their errors read on, face on: its own
-        (:attr:`plane`), else the ground's (the grid paper seen from above, x and z)."""
+        """The plane its trials are drawn and their errors read on, face on.
+
+        Its own (:attr:`plane`), else the ground (the grid paper seen from above, x and z).
+        """
         return self.plane if self.plane is not None else GROUND_PLANE
 
     @property
@@ -247,7 +251,7 @@ METHOD_SPECS: Mapping[Method, MethodSpec] = MappingProxyType(
             truth_kind="point",
             plane=GROUND_PLANE,
             solver="planes and ground",
-            margins=("parallax_deg", "plane_angle_deg", "line_ground_angle_deg"),
+            margins=("parallax_deg", "plane_angle_deg", "line_plane_angle_deg"),
             extra_columns=(),
             thesis_name="method 2",
             label="ground (method 2)",

@@ -119,6 +119,14 @@ class ConstraintPlane:
         return named.get(u, "u"), named.get(v, "v")
 
     @property
+    def noun(self) -> str:
+        """The plane's :attr:`name` without its article ("ground", "wall").
+
+        The margin's warning says "line-ground angle".
+        """
+        return self.name.removeprefix("the ")
+
+    @property
     def titles(self) -> tuple[str, str]:
         """How a drawing's axes name the in-plane axes.
 
