@@ -41,8 +41,8 @@ class _Rule:
 #: What a plan sets itself: given with ``--plan`` they would be ignored.
 _PLAN_SETS = (
     "--method", "--units", "--calibration", "--focal", "--principal", "--ground-height",
-    "--ground-truth", "--board", "--square", "--board-corner", "--notes", "--frames",
-    "--poses", "--width", "--height",
+    "--plane-offset", "--ground-truth", "--board", "--square", "--board-corner", "--notes",
+    "--frames", "--poses", "--width", "--height",
 )  # fmt: skip
 
 _RULES: tuple[_Rule, ...] = (
