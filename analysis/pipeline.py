@@ -193,8 +193,8 @@ def analyse_session(
 def _results_writer(out: Path, reader: SessionReader) -> Iterator[ResultsWriter]:
     """The session's results.mcap, written under a temporary name and renamed into place
     only when the analysis succeeds (a failure or a full disk leaves no half file), by the
-    one atomic writer (:func:`analysis.outputs.replacing`: synced, renamed, folder synced)."""
-    from analysis.outputs import replacing
+    one atomic writer (:func:`twopose.atomic_write.replacing`: synced, renamed, folder synced)."""
+    from twopose.atomic_write import replacing
 
     with replacing(out) as tmp:
         writer = ResultsWriter(tmp, list(reader.cameras.values()), reader.ground)
