@@ -217,17 +217,15 @@ def new(
     )
     from recorder.option_rules import refuse_idle
     from recorder.procedure import refuse_existing
-    from recorder.setup_rules import plane_offsets_given
 
     given = {  # every option by its name, None (False, []) when not given
         "--plan": plan, "--method": method, "--units": units, "--calibration": calibration,
         "--focal": focal, "--principal": principal, "--ground-height": ground_height,
         "--plane-offset": plane_offset, "--ground-truth": ground_truth, "--board": board,
         "--square": square, "--board-corner": board_corner, "--operator": operator,
-        "--notes": notes,
-        "--frames": frames, "--poses": poses, "--width": width, "--height": height,
-        "--fps": fps, "--live": live, "--live-port": live_port, "--ui": ui, "--port": port,
-        "--host": host, "--max-poses": max_poses, "--min-gain": min_gain,
+        "--notes": notes, "--frames": frames, "--poses": poses, "--width": width,
+        "--height": height, "--fps": fps, "--live": live, "--live-port": live_port, "--ui": ui,
+        "--port": port, "--host": host, "--max-poses": max_poses, "--min-gain": min_gain,
     }  # fmt: skip
     with handle_errors(), contextlib.ExitStack() as stack:
         refuse_existing(out)  # before the first question
@@ -275,9 +273,9 @@ def new(
             summary = record_terminal(request, {"target_precision": target_precision}, stack)
         else:
             setup = _console_given(
-                method, units, calibration, focal, principal,
-                plane_offsets_given(method, ground_height, plane_offset), ground_truth, operator,
-                _board_given(method, units, board, square, board_corner), target_precision,
+                method, units, calibration, focal, principal, (ground_height, plane_offset),
+                ground_truth, operator, _board_given(method, units, board, square, board_corner),
+                target_precision,
             )  # fmt: skip
             if ui:
                 serve_console_until_stopped(request, setup, host=host, port=port)
@@ -353,18 +351,20 @@ def _console_given(
     calibration: Path | None,
     focal: float | None,
     principal: str | None,
-    plane_offsets: dict[str, float],
+    offsets: tuple[float | None, float | None],
     ground_truth: list[str] | None,
     operator: str | None,
     board: BoardPlacement | None = None,
     target_precision: float | None = None,
 ) -> dict[str, Any]:
     """What the command line gave, as :func:`recorder.interactive.ask_setup` takes it
-    (``plane_offsets``: :func:`recorder.setup_rules.plane_offsets_given`'s, checked)."""
-    from recorder.setup_rules import PLANE_OFFSET_KEY, parse_vector
+    (``offsets``: ``--ground-height`` and ``--plane-offset``, checked by
+    :func:`recorder.setup_rules.plane_offsets_given`)."""
+    from recorder.setup_rules import PLANE_OFFSET_KEY, parse_vector, plane_offsets_given
     from twopose.bounds import GROUND_TRUTH
     from twopose.methods import PLANES, spec_of
 
+    plane_offsets = plane_offsets_given(method, *offsets)
     offset = plane_offsets.get(PLANE_OFFSET_KEY)
     if offset is not None:  # within its plane's bound (any plane's, the method not chosen)
         planes = [spec_of(method).plane] if method is not None else PLANES

@@ -61,7 +61,7 @@ from twopose.units import DEFAULT_UNITS, UNITS, Units
 from twopose.values import Vec3, finite
 
 if TYPE_CHECKING:
-    from twopose.format.entries import GroundPlane
+    from twopose.format.entries import PlaneEntry
     from twopose.format.guidance_record import GuidanceRecord
 
 
@@ -150,7 +150,7 @@ class Plan:
     #: The keys its ``[guidance]`` gave (a continuation takes the others from its session).
     guidance_keys: frozenset[str] = frozenset()
 
-    def ground(self) -> GroundPlane | None:
+    def ground(self) -> PlaneEntry | None:
         """The method's plane at the plan's offset (method 2's ground ``y = h``), or None."""
         return plane_entry(self.method, self.plane_offset)
 

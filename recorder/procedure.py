@@ -72,8 +72,8 @@ from twopose.camera import Camera
 from twopose.errors import InputValueError, SessionExistsError, TwoposeError
 from twopose.format.entries import (
     CaptureDecision,
-    GroundPlane,
     Note,
+    PlaneEntry,
     PoseEntry,
     SessionInfo,
     TypedEntry,
@@ -368,7 +368,7 @@ def record(  # noqa: PLR0913 - keyword-only settings of a recording
     source: FrameSource,
     driver: Driver,
     *,
-    ground: GroundPlane | None = None,
+    ground: PlaneEntry | None = None,
     capture: CaptureSettings | None = None,
     writer_options: dict[str, Any] | None = None,
     after_trial: int = 0,

@@ -35,8 +35,8 @@ from twopose.camera import Camera, Intrinsics
 from twopose.errors import InputValueError
 from twopose.format.entries import (
     DEFAULT_ROTATION_RESOLUTION_DEG,
-    GroundPlane,
     GuidanceRecord,
+    PlaneEntry,
     SessionInfo,
     default_translation_resolution,
 )
@@ -134,7 +134,7 @@ class Setup:
             camera_id=CAMERA_ID, intrinsics=self.intrinsics, intrinsics_sigma=self.intrinsics_sigma
         )
 
-    def ground(self) -> GroundPlane | None:
+    def ground(self) -> PlaneEntry | None:
         """The method's plane at the typed offset (method 2's ground ``y = h``), or None."""
         return plane_entry(self.method, self.plane_offset)
 
@@ -179,7 +179,7 @@ def check_rig(
     method: Method,
     units: Units,
     cameras: Sequence[Camera],
-    ground: GroundPlane | None,
+    ground: PlaneEntry | None,
 ) -> list[str]:
     """Refuse a rig file (``--rig``) this session cannot use; the notes to show about it.
 
@@ -268,14 +268,14 @@ def default_principal(size: tuple[int, int]) -> tuple[float, float]:
     return size[0] / 2, size[1] / 2
 
 
-def plane_entry(method: Method, offset: float | None) -> GroundPlane | None:
+def plane_entry(method: Method, offset: float | None) -> PlaneEntry | None:
     """The session's plane entry for ``method`` at the typed ``offset`` (its spec's plane,
     :class:`twopose.planes.ConstraintPlane`), or None (no plane, or no offset)."""
     plane = spec_of(method).plane
     if plane is None or offset is None:
         return None
     normal, c = plane.plane(offset)
-    return GroundPlane(normal_grid=normal, offset=c)
+    return PlaneEntry(normal_grid=normal, offset=c)
 
 
 def plane_option(setup_key: str) -> str:

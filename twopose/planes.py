@@ -10,7 +10,7 @@ says which plane, and every layer reads it from the method's spec
 
 - the setup asks its offset under :attr:`ConstraintPlane.setup_key` (the terminal's
   question, the page's field, a plan's key), with its words and its bound;
-- the session stores it as a :class:`twopose.format.entries.GroundPlane` (normal, offset);
+- the session stores it as a :class:`twopose.format.entries.PlaneEntry` (normal, offset);
 - the solver cuts the planes' line with it (:func:`twopose.solve.triangulate_ground`);
 - a typed ground-truth point is checked to lie on it (:meth:`ConstraintPlane.gap`);
 - the simulator places the finger's target on it (:meth:`ConstraintPlane.point`,

@@ -18,7 +18,7 @@ from twopose.errors import InputValueError, SessionFormatError, SessionVersionEr
 from twopose.format.entries import (
     FORMAT_MAJOR,
     TYPED_ENTRIES,
-    GroundPlane,
+    PlaneEntry,
     SessionInfo,
     TypedEntry,
     decode_entry,
@@ -105,7 +105,7 @@ class SessionReader:
         self.software_version = ""
         self._info: SessionInfo | None = None
         self._cameras: dict[str, Camera] = {}
-        self._ground: GroundPlane | None = None
+        self._ground: PlaneEntry | None = None
 
     def __enter__(self) -> Self:
         """Open the file and read its summary, metadata and typed entries."""
@@ -182,12 +182,12 @@ class SessionReader:
 
     def _read_opening(self, topics: list[str]) -> None:
         """The session entry, the ground plane and every camera's calibration."""
-        wanted = [SessionInfo.TOPIC, GroundPlane.TOPIC]
+        wanted = [SessionInfo.TOPIC, PlaneEntry.TOPIC]
         wanted += [t for t in topics if t.endswith("/calibration")]
         for item in self.iter_entries(topics=wanted):
             if isinstance(item, SessionInfo) and self._info is None:
                 self._info = item
-            elif isinstance(item, GroundPlane):
+            elif isinstance(item, PlaneEntry):
                 self._ground = item
             elif isinstance(item, Camera):
                 self._cameras[item.camera_id] = item
@@ -226,7 +226,7 @@ class SessionReader:
         return dict(self._cameras)
 
     @property
-    def ground(self) -> GroundPlane | None:
+    def ground(self) -> PlaneEntry | None:
         """The ground plane, if the session has one."""
         return self._ground
 

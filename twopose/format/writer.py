@@ -25,9 +25,9 @@ from twopose.format.entries import (
     FORMAT_VERSION,
     CaptureDecision,
     CaptureWindow,
-    GroundPlane,
     GroundTruth,
     Note,
+    PlaneEntry,
     PoseEntry,
     SessionInfo,
     TypedEntry,
@@ -57,7 +57,7 @@ IMAGE_FORMATS = ("jpeg", "png")
 
 
 def session_metadata(
-    info: SessionInfo, cameras: Sequence[Camera], ground: GroundPlane | None, start_ns: int
+    info: SessionInfo, cameras: Sequence[Camera], ground: PlaneEntry | None, start_ns: int
 ) -> dict[str, str]:
     """The ``twopose`` metadata record: versions, plus a copy of what opens the session.
 
@@ -113,7 +113,7 @@ class SessionWriter:
     info : SessionInfo
     cameras : sequence of Camera
         One per id in ``info.camera_ids``, in that order.
-    ground : GroundPlane, optional
+    ground : PlaneEntry, optional
     image_format : {"jpeg", "png"}
     jpeg_quality : int
     clock : callable returning int nanoseconds
@@ -128,7 +128,7 @@ class SessionWriter:
         info: SessionInfo,
         cameras: Sequence[Camera],
         *,
-        ground: GroundPlane | None = None,
+        ground: PlaneEntry | None = None,
         image_format: str = "jpeg",
         jpeg_quality: int = 90,
         clock: Callable[[], int] = time.time_ns,
