@@ -135,3 +135,20 @@ def test_the_page_fills_the_planes_field_with_it_and_refuses_it_off_any_plane() 
     with pytest.raises(FormRefusedError) as caught:  # the method chosen in the page
         setup_from_answers({"method": "line", "units": "in"}, given)
     assert caught.value.errors["method"].startswith("--plane-offset: a line session measures")
+
+
+def test_the_terminal_refuses_it_once_a_method_on_no_plane_is_chosen() -> None:
+    """``--plane-offset 9`` without ``--method``: the method asked, then the offset refused
+    for a point session (nothing would use it), never dropped."""
+    asked: list[str] = []
+
+    def answer(question: str, default: str) -> str:
+        asked.append(question)
+        return "point" if len(asked) == 1 else default
+
+    with pytest.raises(InputValueError, match="--plane-offset: a point session measures on no"):
+        ask_setup(
+            Operator(answer, lambda _s: None), method=None, units=None,
+            intrinsics=None, focal=None, principal=None, size=(640, 480), ground_truth=[],
+            operator=None, plane_offset=9.0,
+        )  # fmt: skip
