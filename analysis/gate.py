@@ -24,7 +24,6 @@ from typing import Any
 
 import pandas as pd
 
-from analysis.columns import SUMMARY_DOMAINS
 from analysis.gate_match import Pair, match_rows, require_identity, run_trials
 from analysis.gate_noise import noise_model_difference
 from analysis.gate_tolerance import (
@@ -35,6 +34,7 @@ from analysis.gate_tolerance import (
     load_tolerance,
 )
 from analysis.run_tables import check_results_table, read_results_table
+from analysis.table_columns import SUMMARY_TABLE
 from twopose.errors import InputValueError
 from twopose.methods import Method
 from twopose.units import unit_spec
@@ -155,7 +155,7 @@ def compare_summaries(
     """
     for table, name in zip((result, baseline), names, strict=True):
         check_results_table(
-            table, f"{name}/summary.csv", numeric=_CHECKED_COLUMNS, domains=SUMMARY_DOMAINS
+            table, f"{name}/summary.csv", numeric=_CHECKED_COLUMNS, columns=SUMMARY_TABLE
         )
     skipped = [c for c in BASELINE_MAY_LACK if c not in baseline.columns]
     for table, name, fix in (

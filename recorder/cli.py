@@ -37,6 +37,7 @@ from recorder.cli_options import (
     NotesOption,
     OperatorOption,
     OutArgument,
+    PlaneOffsetOption,
     PlanOption,
     PortOption,
     PosesOption,
@@ -200,6 +201,7 @@ def new(
     focal: FocalOption = None,
     principal: PrincipalOption = None,
     ground_height: GroundHeightOption = None,
+    plane_offset: PlaneOffsetOption = None,
     ground_truth: GroundTruthOption = None,
     board: BoardOption = None,
     square: SquareOption = None,
@@ -248,11 +250,11 @@ def new(
     given = {  # every option by its name, None (False, []) when not given
         "--plan": plan, "--method": method, "--units": units, "--calibration": calibration,
         "--focal": focal, "--principal": principal, "--ground-height": ground_height,
-        "--ground-truth": ground_truth, "--board": board, "--square": square,
-        "--board-corner": board_corner, "--operator": operator, "--notes": notes,
-        "--frames": frames, "--poses": poses, "--width": width, "--height": height,
-        "--fps": fps, "--live": live, "--live-port": live_port, "--ui": ui, "--port": port,
-        "--host": host, "--max-poses": max_poses, "--min-gain": min_gain,
+        "--plane-offset": plane_offset, "--ground-truth": ground_truth, "--board": board,
+        "--square": square, "--board-corner": board_corner, "--operator": operator,
+        "--notes": notes, "--frames": frames, "--poses": poses, "--width": width,
+        "--height": height, "--fps": fps, "--live": live, "--live-port": live_port, "--ui": ui,
+        "--port": port, "--host": host, "--max-poses": max_poses, "--min-gain": min_gain,
     }  # fmt: skip
     with handle_errors(), contextlib.ExitStack() as stack:
         refuse_existing(out)  # before the first question
@@ -270,8 +272,8 @@ def new(
             continue_from,
             operator=operator,  # who records this part: recorded, not ignored
             method=method, units=units, calibration=calibration, focal=focal,
-            principal=principal, ground_height=ground_height, ground_truth=ground_truth,
-            board=board,
+            principal=principal, ground_height=ground_height, plane_offset=plane_offset,
+            ground_truth=ground_truth, board=board,
         )  # fmt: skip
         asked = replace(
             guidance_asked(max_poses, reach, grid, target_distance, min_gain),
@@ -294,8 +296,9 @@ def new(
             target_precision=target_precision,
             taken=taken,
             setup=lambda: _console_given(
-                method, units, calibration, focal, principal, ground_height, ground_truth, operator,
-                _board_given(method, units, board, square, board_corner), target_precision,
+                method, units, calibration, focal, principal, (ground_height, plane_offset),
+                ground_truth, operator, _board_given(method, units, board, square, board_corner),
+                target_precision,
             ),
         )  # fmt: skip
         if summary is None:  # the console served until it was stopped
@@ -406,19 +409,26 @@ def _console_given(
     calibration: Path | None,
     focal: float | None,
     principal: str | None,
-    ground_height: float | None,
+    offsets: tuple[float | None, float | None],
     ground_truth: list[str] | None,
     operator: str | None,
     board: BoardPlacement | None = None,
     target_precision: float | None = None,
 ) -> dict[str, Any]:
-    """What the command line gave, as :func:`recorder.interactive.ask_setup` takes it."""
-    from recorder.setup_rules import parse_vector, refuse_other_planes
+    """What the command line gave, as :func:`recorder.interactive.ask_setup` takes it
+    (``offsets``: ``--ground-height`` and ``--plane-offset``, checked by
+    :func:`recorder.setup_rules.plane_offsets_given`)."""
+    from recorder.setup_rules import PLANE_OFFSET_KEY, parse_vector, plane_offsets_given
     from twopose.bounds import GROUND_TRUTH
-    from twopose.planes import GROUND_PLANE
+    from twopose.methods import PLANES, spec_of
 
-    if method is not None and ground_height is not None:  # the page would not ask it
-        refuse_other_planes(method, [GROUND_PLANE.setup_key])
+    plane_offsets = plane_offsets_given(method, *offsets)
+    offset = plane_offsets.get(PLANE_OFFSET_KEY)
+    if offset is not None:  # within its plane's bound (any plane's, the method not chosen)
+        planes = [spec_of(method).plane] if method is not None else PLANES
+        refusals = [p.bound.refusal(offset, units) for p in planes if p is not None]
+        if refusals and all(refusals):
+            raise typer.BadParameter(refusals[0], param_hint="'--plane-offset'")
     return {
         "method": method.value if method else None,
         "units": units,
@@ -426,7 +436,7 @@ def _console_given(
         "intrinsics_sigma": _calibration_sigma(calibration),
         "focal": focal,
         "principal": _principal(principal),
-        GROUND_PLANE.setup_key: ground_height,  # the one plane option (others are asked)
+        **plane_offsets,  # --ground-height under the ground's key, --plane-offset's own
         "ground_truth": [
             _option("--ground-truth", parse_vector, g, units, quantity=GROUND_TRUTH)
             for g in ground_truth or []

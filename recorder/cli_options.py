@@ -13,7 +13,7 @@ import typer
 
 from recorder.sources import source_help
 from twopose.bounds import DEFAULT_MIN_GAIN
-from twopose.methods import METHOD_SPECS, Method
+from twopose.methods import METHOD_SPECS, PLANES, Method
 from twopose.options import read_option, registered
 from twopose.units import Units
 
@@ -45,6 +45,7 @@ __all__ = [
     "OperatorOption",
     "OutArgument",
     "PlanOption",
+    "PlaneOffsetOption",
     "PortOption",
     "PosesOption",
     "PrincipalOption",
@@ -117,7 +118,33 @@ FocalOption = Annotated[
 PrincipalOption = Annotated[str | None, typer.Option(help="Principal point 'cx,cy', px.")]
 GroundHeightOption = Annotated[
     float | None,
-    typer.Option(**_read("GROUND_HEIGHT"), help="Camera centre to table top (method 2)."),
+    typer.Option(
+        **_read("GROUND_HEIGHT"),
+        help="Camera centre to table top: the ground plane's offset (method 2); the same "
+        "as --plane-offset for the ground.",
+    ),
+]
+
+
+def plane_offset_help() -> str:
+    """``--plane-offset``'s help, from the plane table (:data:`twopose.methods.PLANES`):
+    what the offset is for each plane a method may be on."""
+    from twopose.methods import METHOD_SPECS
+
+    planes = [
+        f"{'/'.join(m for m, s in METHOD_SPECS.items() if s.plane == p)}: {p.name}'s "
+        f"{p.equation} ({p.measured})"
+        for p in PLANES
+    ]
+    return (
+        "The offset of the method's plane, session units: "
+        + "; ".join(planes)
+        + ". Refused for a method on no plane. Asked if not given."
+    )
+
+
+PlaneOffsetOption = Annotated[
+    float | None, typer.Option(**_read("PLANE_OFFSET"), help=plane_offset_help())
 ]
 GroundTruthOption = Annotated[
     list[str] | None,

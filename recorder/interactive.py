@@ -22,6 +22,7 @@ from recorder.procedure import Shortfall, detection_shortfall
 from recorder.recording import record
 from recorder.setup_form import SETUP_FIELDS
 from recorder.setup_rules import (
+    PLANE_OFFSET_KEY,
     GuidanceAsked,
     PoseTyping,
     Setup,
@@ -202,7 +203,7 @@ SETUP_FIELD = {f.name: f for f in SETUP_FIELDS}
 
 def _known_planes(given: Mapping[str, float | None]) -> dict[str, float]:
     """The planes' offsets given (None: not given), each key a plane's setup key."""
-    keys = {p.setup_key for p in PLANES}
+    keys = {PLANE_OFFSET_KEY, *(p.setup_key for p in PLANES)}
     unknown = sorted(set(given) - keys)
     if unknown:
         raise TypeError(f"ask_setup() got unexpected keyword arguments {unknown}")
@@ -213,13 +214,15 @@ def _plane_offset(
     op: Operator, method: Method, units: Units, given: Mapping[str, float]
 ) -> float | None:
     """The offset of the method's plane (method 2's ground height): the one given under
-    the plane's setup key (``--ground-height``), checked, or asked; None on no plane."""
+    the plane's setup key (``--ground-height``) or as the method's plane's
+    (``--plane-offset``), checked against the plane's bound, or asked; None on no plane."""
     plane = spec_of(method).plane
     refuse_other_planes(method, given)  # another plane's, or any to a method on none
     if plane is None:
         return None
-    if plane.setup_key in given:
-        return _given(plane.bound, given[plane.setup_key], units, plane_option(plane.setup_key))
+    for key in (plane.setup_key, PLANE_OFFSET_KEY):
+        if key in given:
+            return _given(plane.bound, given[key], units, plane_option(key))
     return float(_ask(op, plane.setup_key, units))
 
 

@@ -21,7 +21,7 @@ from recorder.capture import CaptureResult
 from recorder.trial_result import TrialResult, guidance_options, results_of
 from twopose.camera import Camera
 from twopose.estimate import EstimateOptions, GroundSpec, PoseView, measure, pose_view
-from twopose.format.entries import GroundPlane, GroundTruth, PoseEntry, TypedEntry
+from twopose.format.entries import GroundTruth, PlaneEntry, PoseEntry, TypedEntry
 from twopose.guidance import Advice
 from twopose.methods import Method
 from twopose.placing_variance import SessionNoise
@@ -55,7 +55,7 @@ class LiveResults:
         method: Method,
         units: Units,
         cameras: Sequence[Camera],
-        ground: GroundPlane | None,
+        ground: PlaneEntry | None,
         options: EstimateOptions | None = None,
         rig: RigConstants | None = None,
     ) -> None:
@@ -241,7 +241,7 @@ def _captures_of(accepted: Mapping[int, PoseEntry]) -> tuple[int, ...]:
 def live_results(
     info: SessionInfo,
     cameras: Sequence[Camera],
-    ground: GroundPlane | None,
+    ground: PlaneEntry | None,
     settings: CaptureSettings,
 ) -> LiveResults:
     """The live results of a recording: its regions from the rig file's placing sigma (or

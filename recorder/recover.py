@@ -36,8 +36,8 @@ from twopose.errors import InputValueError, SessionExistsError, SessionFormatErr
 from twopose.format.channels import Channels, register_session_channels
 from twopose.format.entries import (
     CaptureWindow,
-    GroundPlane,
     PairEntry,
+    PlaneEntry,
     PoseEntry,
     SessionInfo,
     StreamWindow,
@@ -309,7 +309,7 @@ class _Output:
     stream: IO[bytes]
     info: SessionInfo
     cameras: list[Camera]
-    ground: GroundPlane | None
+    ground: PlaneEntry | None
     start_ns: int
     pair: str = ""  # a two-camera session's /twopose/pair JSON (format 1.6), from metadata
 
@@ -329,7 +329,7 @@ class _Output:
             msg = calibration_message(cam, t0)
             self.put(calibration_topic(cam.camera_id), t0, msg.SerializeToString(), counts)
         if self.ground is not None:
-            self.put(GroundPlane.TOPIC, t0, encode_entry(self.ground), counts)
+            self.put(PlaneEntry.TOPIC, t0, encode_entry(self.ground), counts)
         if self.pair:
             self.put(PairEntry.TOPIC, t0, self.pair.encode(), counts)
 
@@ -343,16 +343,14 @@ def _open_output(dst: Path, metadata: dict[str, str]) -> _Output:
     try:
         info = decode_entry(SessionInfo.SCHEMA_NAME, metadata["session"].encode())
         ground_text = metadata.get("ground", "")
-        ground = (
-            decode_entry(GroundPlane.SCHEMA_NAME, ground_text.encode()) if ground_text else None
-        )
+        ground = decode_entry(PlaneEntry.SCHEMA_NAME, ground_text.encode()) if ground_text else None
         start_ns = int(metadata.get("start_ns", "0"))
     except KeyError as err:
         raise SessionFormatError(
             f"the '{METADATA_NAME}' metadata lacks {err}; cannot rebuild the session"
         ) from err
     assert isinstance(info, SessionInfo)
-    assert ground is None or isinstance(ground, GroundPlane)
+    assert ground is None or isinstance(ground, PlaneEntry)
     cameras = cameras_from_metadata(metadata.get("cameras", "[]"))
     try:
         stream = open(dst, "xb")  # noqa: SIM115 - closed by _Output.close

@@ -35,8 +35,8 @@ from twopose.camera import Camera, Intrinsics
 from twopose.errors import InputValueError
 from twopose.format.entries import (
     DEFAULT_ROTATION_RESOLUTION_DEG,
-    GroundPlane,
     GuidanceRecord,
+    PlaneEntry,
     SessionInfo,
     default_translation_resolution,
 )
@@ -53,6 +53,7 @@ if TYPE_CHECKING:
     from twopose.rig.constants import RigConstants
 
 __all__ = [
+    "PLANE_OFFSET_KEY",
     "THESIS_FOCAL_PX",
     "THESIS_IMAGE_SIZE",
     "Setup",
@@ -72,6 +73,7 @@ __all__ = [
     "other_plane_refusal",
     "parse_vector",
     "plane_entry",
+    "plane_offsets_given",
     "plane_option",
     "poses_refusal",
     "reader",
@@ -88,6 +90,9 @@ THESIS_FOCAL_PX = 525.0
 THESIS_IMAGE_SIZE = (640, 480)
 #: The camera of a session set up by hand (terminal or browser): one laptop webcam.
 CAMERA_ID = "cam0"
+#: The setup's key of the offset of whichever plane the method has (``--plane-offset``, a
+#: plan's ``plane_offset``), beside each plane's own key (the ground's ``ground_height``).
+PLANE_OFFSET_KEY = "plane_offset"
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -130,7 +135,7 @@ class Setup:
             camera_id=CAMERA_ID, intrinsics=self.intrinsics, intrinsics_sigma=self.intrinsics_sigma
         )
 
-    def ground(self) -> GroundPlane | None:
+    def ground(self) -> PlaneEntry | None:
         """The method's plane at the typed offset (method 2's ground ``y = h``), or None."""
         return plane_entry(self.method, self.plane_offset)
 
@@ -175,7 +180,7 @@ def check_rig(
     method: Method,
     units: Units,
     cameras: Sequence[Camera],
-    ground: GroundPlane | None,
+    ground: PlaneEntry | None,
 ) -> list[str]:
     """Refuse a rig file (``--rig``) this session cannot use; the notes to show about it.
 
@@ -294,20 +299,39 @@ def default_principal(size: tuple[int, int]) -> tuple[float, float]:
     return size[0] / 2, size[1] / 2
 
 
-def plane_entry(method: Method, offset: float | None) -> GroundPlane | None:
+def plane_entry(method: Method, offset: float | None) -> PlaneEntry | None:
     """The session's plane entry for ``method`` at the typed ``offset`` (its spec's plane,
     :class:`twopose.planes.ConstraintPlane`), or None (no plane, or no offset)."""
     plane = spec_of(method).plane
     if plane is None or offset is None:
         return None
     normal, c = plane.plane(offset)
-    return GroundPlane(normal_grid=normal, offset=c)
+    return PlaneEntry(normal_grid=normal, offset=c)
 
 
 def plane_option(setup_key: str) -> str:
-    """How the command line gives a plane's offset: ``--ground-height`` for the ground's
-    (its one plane option); another plane's offset is asked."""
-    return "--ground-height" if setup_key == GROUND_PLANE.setup_key else f"{setup_key} (asked)"
+    """How the command line gives a plane's offset: ``--plane-offset`` for any method's
+    plane; ``--ground-height`` for the ground's, its own option (kept)."""
+    return "--ground-height" if setup_key == GROUND_PLANE.setup_key else "--plane-offset"
+
+
+def plane_offsets_given(
+    method: Method | None, ground_height: float | None, plane_offset: float | None
+) -> dict[str, float]:
+    """The planes' offsets a command line gave, by setup key: ``--ground-height`` under
+    the ground's, ``--plane-offset`` under :data:`PLANE_OFFSET_KEY` (the offset of the
+    method's plane, whichever it is). Refused: another plane's offset than the method's,
+    either to a method on no plane, or both (two answers to one question)."""
+    given = {GROUND_PLANE.setup_key: ground_height, PLANE_OFFSET_KEY: plane_offset}
+    offsets = {k: v for k, v in given.items() if v is not None}
+    if method is not None:
+        refuse_other_planes(method, offsets)
+    if len(offsets) > 1:
+        raise InputValueError(
+            "--ground-height and --plane-offset both give the ground's offset: give one "
+            "(--plane-offset is any method's plane's, --ground-height the ground's own option)"
+        )
+    return offsets
 
 
 def other_plane_refusal(method: Method, given: Iterable[str], how: Callable[[str], str]) -> str:
@@ -338,7 +362,7 @@ def refuse_other_planes(method: Method, given: Iterable[str]) -> None:
 def no_plane_refusal(method: Method, given: Iterable[str]) -> str:
     """Why a plane's offset given to a method on no plane is refused ("": none given, or
     the method has a plane): nothing would use it."""
-    keys = sorted(set(given) & {p.setup_key for p in PLANES})
+    keys = sorted(set(given) & {PLANE_OFFSET_KEY, *(p.setup_key for p in PLANES)})
     if spec_of(method).plane is not None or not keys:
         return ""
     return (

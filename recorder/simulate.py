@@ -38,8 +38,8 @@ from twopose.arrays import F64
 from twopose.camera import Camera, Intrinsics, project_points, rotation_from_angles_deg
 from twopose.errors import InputValueError, SceneError
 from twopose.format.entries import (
-    GroundPlane,
     GroundTruth,
+    PlaneEntry,
     PoseEntry,
     SessionInfo,
     SimulationTruth,
@@ -124,13 +124,13 @@ class _Truth:
         return POINT_TRUTH, at[None]
 
 
-def _typed_plane(scene: Scene, method: Method) -> GroundPlane:
+def _typed_plane(scene: Scene, method: Method) -> PlaneEntry:
     """The method's plane as the operator types it (a method on none: the ground, as the
     thesis' setup has one): its offset, the scene's ``ground_height``, off by the rig's
     error."""
     plane = spec_of(method).plane or GROUND_PLANE
     normal, offset = plane.plane(scene.ground_height + scene.systematic.ground_height_error)
-    return GroundPlane(normal_grid=normal, offset=offset)
+    return PlaneEntry(normal_grid=normal, offset=offset)
 
 
 def _visible_points(scene: Scene, method: Method) -> NDArray[np.float64]:

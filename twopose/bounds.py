@@ -51,6 +51,7 @@ __all__ = [
     "MARGIN_ANGLE",
     "MAX_POSES",
     "MIN_GAIN",
+    "PLANE_OFFSET",
     "PORT",
     "POSES",
     "POSE_NOISE",
@@ -320,7 +321,16 @@ BOARD_CORNER = Quantity(
 )  # fmt: skip
 GROUND_HEIGHT = Quantity(
     key="ground_height", words="ground height", kind=Kind.LENGTH, low=0.0, high=200.0,
-    low_open=True, given_as="`--ground-height`, the setup, plan `ground_height`",
+    low_open=True,
+    given_as="`--ground-height` (or `--plane-offset`), the setup, plan `ground_height`",
+)  # fmt: skip
+#: The offset of a method's plane, whatever the plane (`--plane-offset`, plan `plane_offset`):
+#: read as a length within this span, then within the method's plane's own bound (the
+#: ground's :data:`GROUND_HEIGHT`; :attr:`twopose.planes.ConstraintPlane.bound`).
+PLANE_OFFSET = Quantity(
+    key="plane_offset", words="plane offset", kind=Kind.LENGTH, low=-200.0, high=200.0,
+    given_as="`--plane-offset` (`new`), plan `plane_offset`; then the plane's own "
+    "bound (the ground's: ground height)",
 )  # fmt: skip
 BOARD_SQUARE = Quantity(
     key="board_square", words="board square", kind=Kind.LENGTH, low=0.0, high=20.0,
@@ -456,11 +466,11 @@ SAMPLES = Quantity(
 
 #: Every quantity, in the order of the docs' table.
 QUANTITIES: tuple[Quantity, ...] = (
-    POSE_TRANSLATION, ROTATION, GROUND_TRUTH, BOARD_CORNER, GROUND_HEIGHT, BOARD_SQUARE,
-    FOCAL, PRINCIPAL, IMAGE_SIDE, GRID, REACH, TARGET_PRECISION, TARGET_DISTANCE, MIN_GAIN,
-    MAX_POSES, POSES, FRAMES, INNER_CORNERS, FPS, PORT, TRIALS, SEED, POSE_NOISE,
-    TYPED_RESOLUTION, VIEWS, JOBS, MARGIN_ANGLE, SESSION_TIMEOUT, SAMPLES, CAMERAS, SPEED,
-    CLOCK_OFFSET, DRIFT, JITTER, DROP,
+    POSE_TRANSLATION, ROTATION, GROUND_TRUTH, BOARD_CORNER, GROUND_HEIGHT, PLANE_OFFSET,
+    BOARD_SQUARE, FOCAL, PRINCIPAL, IMAGE_SIDE, GRID, REACH, TARGET_PRECISION, TARGET_DISTANCE,
+    MIN_GAIN, MAX_POSES, POSES, FRAMES, INNER_CORNERS, FPS, PORT, TRIALS, SEED, POSE_NOISE,
+    TYPED_RESOLUTION, VIEWS, JOBS, MARGIN_ANGLE, SESSION_TIMEOUT, SAMPLES, CAMERAS,
+    SPEED, CLOCK_OFFSET, DRIFT, JITTER, DROP,
 )  # fmt: skip
 
 

@@ -26,6 +26,7 @@ from twopose.margins import (  # the options' one home, light for the CLI
     EstimateOptions,
 )
 from twopose.methods import Method
+from twopose.planes import GROUND_PLANE, ConstraintPlane
 from twopose.solve import image_lines, projection_matrices, triangulate_lines
 from twopose.solvers import (  # the batch and the solvers' entries (their one home)
     GroundSpec,
@@ -221,13 +222,20 @@ def thesis_direction(
 
 
 def margin_warnings(
-    status: NDArray[np.str_], margins: dict[str, F64], options: EstimateOptions
+    status: NDArray[np.str_],
+    margins: dict[str, F64],
+    options: EstimateOptions,
+    plane: ConstraintPlane = GROUND_PLANE,
 ) -> list[str]:
-    """Per trial, the margins under their thresholds (empty when none, or not ok)."""
+    """Per trial, the margins under their thresholds (empty when none, or not ok).
+
+    The planes' line's angle to ``plane``, the method's, is named by it ("line-ground
+    angle").
+    """
     limits = {
         "parallax_deg": ("ray parallax", options.min_parallax_deg),
         "plane_angle_deg": ("plane angle", options.min_plane_angle_deg),
-        "line_ground_angle_deg": ("line-ground angle", options.min_ground_angle_deg),
+        "line_plane_angle_deg": (f"line-{plane.noun} angle", options.min_ground_angle_deg),
     }
     out = []
     for i in range(len(status)):

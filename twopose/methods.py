@@ -1,7 +1,7 @@
 """The reconstruction methods as a type, with one registry of what each one is.
 
 Every rule that depends on the method reads it here: which target the detector looks for,
-what ground truth a trial carries, whether the ground plane is needed, whether the estimate
+what ground truth a trial carries, whether a constraint plane is needed, whether the estimate
 is a line, which degeneracy margins and extra table columns apply, and how the thesis names
 it. Adding a method is adding a :class:`MethodSpec`; nothing else compares method names.
 
@@ -225,9 +225,25 @@ class MethodSpec:
         return self.target is not None
 
     @property
-    def needs_ground(self) -> bool:
+    def needs_plane(self) -> bool:
         """Whether the estimate needs its plane (:attr:`plane`) and the setup its offset."""
         return self.plane is not None
+
+    @property
+    def needs_ground(self) -> bool:
+        """:attr:`needs_plane`'s old name, kept for one release (docs/changelog.md).
+
+        Any plane, not only the ground.
+        """
+        return self.needs_plane
+
+    @property
+    def seen_on(self) -> ConstraintPlane:
+        """The plane its trials are drawn and their errors read on, face on.
+
+        Its own (:attr:`plane`), else the ground (the grid paper seen from above, x and z).
+        """
+        return self.plane if self.plane is not None else GROUND_PLANE
 
     @property
     def truth_points(self) -> int:
@@ -333,7 +349,7 @@ _BUILT_IN = (
         plane=GROUND_PLANE,
         solver=PLANES_AND_PLANE_SOLVER,
         geometry=PlanesToPlanePoint(),
-        margins=("parallax_deg", "plane_angle_deg", "line_ground_angle_deg"),
+        margins=("parallax_deg", "plane_angle_deg", "line_plane_angle_deg"),
         extra_columns=(),
         thesis_name="method 2",
         label="ground (method 2)",

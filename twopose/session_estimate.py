@@ -337,7 +337,7 @@ def _session_estimate(
         complete=complete,
         detected=detected,
         estimates=est,
-        warnings=margin_warnings(est.status, est.margins, options),
+        warnings=margin_warnings(est.status, est.margins, options, spec_of(trials.method).seen_on),
         options=options,
         _propagation=context,
     )

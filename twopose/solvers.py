@@ -177,7 +177,7 @@ def _solve_ground(batch: ViewBatch, ground: GroundSpec | None, mc: float) -> Sol
     g = triangulate_ground(lines, P, ground[0], ground[1], valid=batch.valid, min_conditioning=mc)
     margins["parallax_deg"] = degrees_from_sine(parallax_sine(P, batch.valid, g.point_grid))
     n3 = ground[0] / np.linalg.norm(ground[0])
-    margins["line_ground_angle_deg"] = degrees_from_sine(np.abs(ls.direction_grid @ n3))
+    margins["line_plane_angle_deg"] = degrees_from_sine(np.abs(ls.direction_grid @ n3))
     return Solved(
         point=g.point_grid,
         direction=None,

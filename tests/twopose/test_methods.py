@@ -40,8 +40,8 @@ def test_what_each_method_is() -> None:
     assert [s.uses_image_lines for s in (point, line, ground)] == [False, True, True]
     # Every method's margins include the parallax; method 2 adds the line-ground angle.
     assert all(s.margins[0] == "parallax_deg" for s in (point, line, ground))
-    assert "line_ground_angle_deg" in ground.margins
-    assert "line_ground_angle_deg" not in line.margins
+    assert "line_plane_angle_deg" in ground.margins
+    assert "line_plane_angle_deg" not in line.margins
 
 
 def test_a_board_session_reconstructs_nothing_and_carries_its_board() -> None:

@@ -19,6 +19,7 @@ from twopose.rig.carried import RIG_INPUT, carried_covariance, corrected_inputs
 from twopose.rig.constants import SCALARS, RigConstants, RigCovariance
 from twopose.session_estimate import SessionEstimate, SessionTrials, estimate_session
 from twopose.session_noise import placing_source
+from twopose.units import Units
 
 NAMES = ("mount_ry_deg", "offset_x", "offset_z", "focal_scale", "principal_dx_px", "tape_scale")
 SIGMA = np.array([0.05, 0.05, 0.08, 0.004, 1.5, 0.002])
@@ -33,7 +34,7 @@ OFF = EstimateOptions(noise=NoiseModel(test_redundancy=False))
 def _session(method: str, seed: int = 0) -> SessionTrials:
     views, truth = trials(method, np.random.default_rng(seed), [3.0, 5.0])
     ground = GROUND if spec_of(method).needs_ground else None
-    return SessionTrials(method=Method(method), units="in", trial_ids=(1, 2), views=views,
+    return SessionTrials(method=Method(method), units=Units.IN, trial_ids=(1, 2), views=views,
                          truth=truth, ground=ground)  # fmt: skip
 
 

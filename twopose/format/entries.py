@@ -63,6 +63,7 @@ __all__ = [
     "Method",
     "Note",
     "PairEntry",
+    "PlaneEntry",
     "PoseEntry",
     "SessionInfo",
     "SimTrajectory",
@@ -253,14 +254,18 @@ class CaptureDecision(TypedEntry):
 
 @entry(
     "/twopose/ground",
-    "GroundPlane",
+    "GroundPlane",  # the schema's name in the files, kept
     "The ground plane normal . p = offset in the grid frame (session units).",
 )
 @dataclass(frozen=True, kw_only=True)
-class GroundPlane(TypedEntry):
-    """The ground (table top) plane ``normal_grid . p = offset`` in the grid frame.
+class PlaneEntry(TypedEntry):
+    """The method's constraint plane ``normal_grid . p = offset`` in the grid frame.
 
-    The thesis: normal (0, 1, 0), offset h = 9.625 in (camera centre down to the table).
+    As a session stores it (:class:`twopose.planes.ConstraintPlane`, its offset typed).
+    The thesis' ground: normal (0, 1, 0), offset h = 9.625 in (camera centre down to the
+    table); a wall ``x = c``: normal (1, 0, 0), offset c. The file's topic and JSON keys
+    keep the ground's names (``ground``, ``normal``, ``offset``). Its old name,
+    ``GroundPlane``, is kept for one release (an alias).
     """
 
     normal_grid: Vec3 = json_field(
@@ -280,6 +285,10 @@ class GroundPlane(TypedEntry):
     def spec(self) -> tuple[np.ndarray, float]:
         """The plane as the solvers take it (:data:`twopose.estimate.GroundSpec`)."""
         return np.array(self.normal_grid, dtype=np.float64), self.offset
+
+
+#: :class:`PlaneEntry`'s old name, kept for one release (it is any method's plane).
+GroundPlane = PlaneEntry
 
 
 @entry(
@@ -339,7 +348,7 @@ ENTRIES_1_0: tuple[type[TypedEntry], ...] = (
     SessionInfo,
     PoseEntry,
     CaptureWindow,
-    GroundPlane,
+    PlaneEntry,
     GroundTruth,
     Note,
     SimulationTruth,

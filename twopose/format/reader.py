@@ -18,8 +18,8 @@ from twopose.errors import InputValueError, SessionFormatError, SessionVersionEr
 from twopose.format.entries import (
     FORMAT_MAJOR,
     TYPED_ENTRIES,
-    GroundPlane,
     PairEntry,
+    PlaneEntry,
     SessionInfo,
     TypedEntry,
     decode_entry,
@@ -117,7 +117,7 @@ class SessionReader:
         self.software_version = ""
         self._info: SessionInfo | None = None
         self._cameras: dict[str, Camera] = {}
-        self._ground: GroundPlane | None = None
+        self._ground: PlaneEntry | None = None
         self._pair: PairEntry | None = None
         self._pair_calibration: PairCalibration | None = None
         self._capture_times = False
@@ -198,12 +198,12 @@ class SessionReader:
 
     def _read_opening(self, topics: list[str]) -> None:
         """The session entry, the ground plane and every camera's calibration."""
-        wanted = [SessionInfo.TOPIC, GroundPlane.TOPIC, PairEntry.TOPIC]
+        wanted = [SessionInfo.TOPIC, PlaneEntry.TOPIC, PairEntry.TOPIC]
         wanted += [t for t in topics if t.endswith("/calibration")]
         for item in self.iter_entries(topics=[t for t in wanted if t in topics]):
             if isinstance(item, SessionInfo) and self._info is None:
                 self._info = item
-            elif isinstance(item, GroundPlane):
+            elif isinstance(item, PlaneEntry):
                 self._ground = item
             elif isinstance(item, PairEntry) and self._pair is None:
                 self._pair = item
@@ -272,7 +272,7 @@ class SessionReader:
         return dict(self._cameras)
 
     @property
-    def ground(self) -> GroundPlane | None:
+    def ground(self) -> PlaneEntry | None:
         """The ground plane, if the session has one."""
         return self._ground
 

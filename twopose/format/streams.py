@@ -42,7 +42,7 @@ from twopose.camera import Camera
 from twopose.errors import InputValueError, TwoposeError
 from twopose.format.entries import (
     ClockOffsetEntry,
-    GroundPlane,
+    PlaneEntry,
     SessionInfo,
     SimTrajectory,
     StreamWindow,
@@ -158,7 +158,7 @@ class PairSession:
     info: SessionInfo
     pair: PairCalibration
     cameras: tuple[Camera, Camera]
-    ground: GroundPlane | None
+    ground: PlaneEntry | None
     clocks: dict[str, str]
     offset: ClockOffset | None
     offsets: tuple[ClockOffset, ...]

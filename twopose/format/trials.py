@@ -27,9 +27,9 @@ from twopose.camera import Camera
 from twopose.format.entries import (
     CaptureDecision,
     CaptureWindow,
-    GroundPlane,
     GroundTruth,
     Note,
+    PlaneEntry,
     PoseEntry,
     SessionInfo,
     SimulationTruth,
@@ -327,7 +327,7 @@ class SessionOverview:
     path: Path
     info: SessionInfo
     cameras: tuple[Camera, ...]
-    ground: GroundPlane | None
+    ground: PlaneEntry | None
     format_version: str
     software_version: str
     n_trials: int

@@ -24,10 +24,10 @@ from twopose.format.channels import Channels, register_session_channels
 from twopose.format.entries import (
     FORMAT_VERSION,
     CaptureDecision,
-    GroundPlane,
     GroundTruth,
     Note,
     PairEntry,
+    PlaneEntry,
     PoseEntry,
     SessionInfo,
     TypedEntry,
@@ -66,7 +66,7 @@ IMAGE_FORMATS = ("jpeg", "png")
 def session_metadata(
     info: SessionInfo,
     cameras: Sequence[Camera],
-    ground: GroundPlane | None,
+    ground: PlaneEntry | None,
     start_ns: int,
     pair: PairEntry | None = None,
 ) -> dict[str, str]:
@@ -149,7 +149,7 @@ class SessionWriter:
     info : SessionInfo
     cameras : sequence of Camera
         One per id in ``info.camera_ids``, in that order.
-    ground : GroundPlane, optional
+    ground : PlaneEntry, optional
     image_format : {"jpeg", "png"}
     jpeg_quality : int
     clock : callable returning int nanoseconds
@@ -169,7 +169,7 @@ class SessionWriter:
         info: SessionInfo,
         cameras: Sequence[Camera],
         *,
-        ground: GroundPlane | None = None,
+        ground: PlaneEntry | None = None,
         image_format: str = "jpeg",
         jpeg_quality: int = 90,
         clock: Callable[[], int] = time.time_ns,
@@ -191,7 +191,7 @@ class SessionWriter:
         self.pair = None if pair is None else _pair_entry(pair, self.info, cameras)
         floor = None if pair is None else pair.in_units(self.info.units).floor
         if ground is None and floor is not None:
-            ground = GroundPlane(normal_grid=tuple(floor.normal), offset=floor.height)
+            ground = PlaneEntry(normal_grid=tuple(floor.normal), offset=floor.height)
         self.ground = ground
         self.image_format = image_format
         self._encode_params = (

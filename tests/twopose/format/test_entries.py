@@ -16,10 +16,10 @@ from twopose.format.entries import (
     TYPED_ENTRIES,
     CaptureDecision,
     CaptureWindow,
-    GroundPlane,
     GroundTruth,
     GuidanceRecord,
     Note,
+    PlaneEntry,
     PoseEntry,
     SessionInfo,
     SimulationTruth,
@@ -89,7 +89,7 @@ EXAMPLES = [
     CaptureDecision(
         capture=4, trial=2, pose=1, camera_id="cam0", decision="discard", reason="redo"
     ),
-    GroundPlane(offset=9.625),
+    PlaneEntry(offset=9.625),
     GroundTruth(trial=1, kind="line", points_grid=((0.0, 1.0, 2.0), (3.0, 4.0, 5.0))),
     Note(text="glare", trial=3),
     Note(text="session-wide"),
