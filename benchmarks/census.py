@@ -184,7 +184,25 @@ EXPLAINED: dict[tuple[str, str, str], str] = {
         "camera",
         "argument",
     ): "the session file's field \"camera\" (a camera's id)",
-    ("twopose/format/entries.py", "board", "argument"): 'the session file\'s field "board"',
+    ("twopose/format/session_entry.py", "board", "argument"): 'the session file\'s field "board"',
+    ("twopose/format/simulation.py", "camera", "argument"): (
+        "the session file's field \"camera\" (a camera's id)"
+    ),
+    ("twopose/format/stream_entries.py", "camera", "argument"): (
+        "the session file's field \"camera\" (a camera's id)"
+    ),
+    ("twopose/format/stream_entries.py", "point", "argument"): (
+        'the touch\'s field "point" (the grid point touched) and its message'
+    ),
+    ("analysis/table_columns.py", "camera", "argument"): 'frames.csv\'s column "camera"',
+    ("twopose/sim/moving.py", "in", "argument"): "the scene's inch-valued sizes converted",
+    ("recorder/simulate_pair.py", "in", "argument"): "one inch in the scene's unit (the lead)",
+    ("recorder/setup_rules.py", "in", "argument"): (
+        "a board session's rig check needs no unit (it refuses any rig): the bounds' own"
+    ),
+    ("analysis/plane_axes.py", "point", "default"): (
+        "a table with no method column is drawn on a point's plane (the ground's axes)"
+    ),
     ("recorder/plan_file.py", "camera", "argument"): "the plan file's table [camera]",
     ("recorder/plan_file.py", "board", "argument"): "the plan file's table [board]",
     (
@@ -233,6 +251,8 @@ EXPLAINED: dict[tuple[str, str, str], str] = {
 #: ``Units``), each with why (by file and the function's or record's name).
 EXPLAINED_TYPED: dict[tuple[str, str], str] = {
     ("twopose/methods.py", "label_of"): "any text a table holds, shown as given if unknown",
+    ("twopose/format/stream_entries.py", "ClockOffsetEntry"): "how the clocks' offset was "
+    "measured (a flash, a moving dot's rays), not a reconstruction method",
     ("twopose/methods.py", "spec_of"): "a name as a file or a table gives it; an unknown one "
     "refused in words",
     ("twopose/units.py", "unit_spec"): "a unit as a file or a table gives it; an unknown one "
