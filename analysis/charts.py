@@ -11,6 +11,9 @@ every tooltip, the truth drawn. A session's charts are one spec (``concat``) sha
 selection: clicking a trial picks it out in all of them; every chart zooms (wheel, drag).
 They read a session in its method's plane's two in-plane axes (:mod:`analysis.plane_axes`:
 the ground's x and z, a wall's y and z), each chart's fields named by the axes' letters.
+
+(Near 600 lines: a session's charts, one spec sharing one selection; the run's charts are
+:mod:`analysis.run_charts`, the axes :mod:`analysis.plane_axes`.)
 """
 
 from __future__ import annotations

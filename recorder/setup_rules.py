@@ -6,6 +6,9 @@ parsers; the web console's form (:mod:`recorder.setup_form`: which fields apply 
 method, :func:`~recorder.setup_form.setup_from_answers`) checks a whole form with the same
 parsers, called directly, and reports every refusal at once, by field. Neither matches
 the other's wording.
+
+(Near 600 lines: every setup answer's rule and parser, kept together so that the terminal
+and the page cannot disagree; the form's layout is :mod:`recorder.setup_form`.)
 """
 
 from __future__ import annotations

@@ -14,6 +14,10 @@ A simulated session carries a ``session_id`` and a ``part_id`` like a recorded o
 digest of what made it (:func:`simulated_ids`: the method, trials, frames, seed and the
 whole scene): so the same settings write the same session, and a copy of it (byte, cut,
 recovered) is known as that session by every command; other settings are another session.
+
+(Near 600 lines: the one-camera simulation, from the simulated operator's typed poses to the
+file; the two-camera one is :mod:`recorder.simulate_pair`, the scene and its rendering
+:mod:`twopose.sim`.)
 """
 
 from __future__ import annotations

@@ -7,6 +7,10 @@ trial solved by every estimator in one batch, the input covariance propagated, t
 degeneracy margins and their warnings. Its :class:`SessionEstimate` is what the tables,
 the live result, the rig fit and the 3-D scenes take. Nothing here reads the truth: which
 point a trial reports and how it compares with the truth is :mod:`twopose.truth`'s rule.
+
+(Near 600 lines: the one estimation entry point and the values it takes and gives; the noise
+model (:mod:`twopose.session_noise`), the truth (:mod:`twopose.truth`) and the solvers are
+their own modules.)
 """
 
 from __future__ import annotations

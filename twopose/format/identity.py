@@ -29,6 +29,9 @@ them, so they agree on what is counted and what is said.
   part after it, in trial order; every other branch is a strand of its own, holding only
   its own parts, so that every capture is counted once.
 - A **trial** is its session, its branch and its number.
+
+(Near 600 lines: one rule (what a session, a part and a copy are) with the words that say
+it; cut in two, its cases would be read in two places.)
 """
 
 from __future__ import annotations
