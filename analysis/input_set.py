@@ -13,7 +13,8 @@ them, once, into an :class:`InputSet` by the one definition of what a session is
   or a recovered copy of one part counted once, the others said with why;
 - sorted by kind: measurement sessions (what ``run`` analyses), board sessions (for
   ``rig``), empty sessions (no pose recorded: nothing to analyse, noted), results files of
-  an earlier run (skipped), and files that cannot be read as sessions (analysed all the
+  an earlier run (skipped), two-camera sessions (their stream trials: analysed, one row
+  a touch), and files that cannot be read as sessions (analysed all the
   same, so that the analysis says why they fail, by session);
 - the measurement sessions as strands (a session's parts in trial order, a fork's other
   branches on their own), each with its session id, its parts' branches and a label that
@@ -129,9 +130,12 @@ class InputSet:
 
     @property
     def _analysed(self) -> tuple[Strand, ...]:
-        """The strands with at least one pose, or unreadable (the analysis says why)."""
+        """The strands with at least one pose, two-camera ones (their stream trials), or
+        unreadable ones (the analysis says why)."""
         return tuple(
-            s for s in self.strands if any(not p.file.readable or p.file.n_poses for p in s.parts)
+            s
+            for s in self.strands
+            if any(not p.file.readable or p.file.n_poses or p.file.pair for p in s.parts)
         )
 
     @property
@@ -210,10 +214,7 @@ class InputSet:
             for path, kept, why in self.others
         ]
         empty = [
-            f"{s.path}: a two-camera session (stream trials): not analysed here yet; replay "
-            "it with analysis.stream_replay.replay_pair_session"
-            if s.pair
-            else f"{s.path}: an empty session (no pose was recorded): nothing to analyse"
+            f"{s.path}: an empty session (no pose was recorded): nothing to analyse"
             for s in self.empty
         ]
         return repeats + copies + empty + list(self.strand_notes)

@@ -19,6 +19,7 @@ __all__ = [
     "noise_summary",
     "paired_difference",
     "session_set",
+    "skew_summary",
     "summarize",
     "t95",
     "too_few_for_interval",
@@ -103,6 +104,7 @@ def summarize(trials: pd.DataFrame, *, include_warned: bool = False) -> pd.DataF
                 **_identity(g),
                 "method": method,
                 "units": g["units"].iloc[0],
+                "cameras": int(g["cameras"].iloc[0]) if "cameras" in g else 1,
                 "n_trials": len(g),
                 "n_ok": len(ok),
                 "n_warned": int(warned(ok).sum()),
@@ -112,9 +114,27 @@ def summarize(trials: pd.DataFrame, *, include_warned: bool = False) -> pd.DataF
                 "median_err_all_ok": all_ok["median_err"],
                 "max_err_all_ok": all_ok["max_err"],
                 **noise_summary(g),
+                **skew_summary(used),
             }
         )
     return typed(pd.DataFrame(rows, columns=SUMMARY_COLUMNS))
+
+
+def skew_summary(used: pd.DataFrame) -> dict[str, float]:
+    """A two-camera session's skew (``summary.csv``): the RMSE of its used touches' errors
+    with camera 1's paired frame taken as it is (``err_uninterpolated``), and the share of
+    it that interpolating camera 1 to camera 2's capture time removed,
+    ``max(0, 1 - rmse / rmse_uninterpolated)``; NaN for typed-pose trials (no skew)."""
+    if "err_uninterpolated" not in used:
+        return {}
+    both = used[["err", "err_uninterpolated"]].apply(pd.to_numeric, errors="coerce").dropna()
+    if both.empty:
+        return {}
+    rmse, raw = (float(np.sqrt(np.mean(both[c] ** 2))) for c in ("err", "err_uninterpolated"))
+    return {
+        "rmse_uninterpolated": raw,
+        "skew_share": max(0.0, 1.0 - rmse / raw) if raw > 0 else np.nan,
+    }
 
 
 def noise_summary(trials: pd.DataFrame) -> dict[str, object]:

@@ -98,7 +98,7 @@ def first_pass(
     heads = {
         f.path: (f.info.operator, str(f.info.method))
         for f in inputs.found
-        if f.path in b.files and f.info is not None
+        if f.path in b.files and f.info is not None and not f.pair  # no typed pose
     }
     options_for: Callable[[str], AnalysisOptions] = b.options_for
     groups = by_rig_file(pooled_groups(heads, b.options), options_for)

@@ -138,6 +138,12 @@ def analyse_session(
     """
     options = options or AnalysisOptions()
     keep_frame_buffers()
+    if _is_pair_session(path):  # stream trials, no typed pose: one row per touch
+        from analysis.stream_tables import analyse_pair_session
+
+        return analyse_pair_session(
+            path, options, identity=identity, continuations=[str(p) for p in continuations]
+        )
     with contextlib.ExitStack() as stack:
         reader = stack.enter_context(SessionReader(path))
         results = None
@@ -396,7 +402,7 @@ def _replay(
     return _Replay(
         session=session,
         trials=trials_value,
-        metadata=_metadata(reader),
+        metadata=session_metadata(reader),
         last_ns=last_ns,
         frame_rows=rows,
         notes=notes,
@@ -406,7 +412,13 @@ def _replay(
     )
 
 
-def _metadata(reader: SessionReader) -> dict[str, str]:
+def _is_pair_session(path: str | Path) -> bool:
+    """Whether ``path`` is a two-camera session (format 1.6: a pair, stream trials)."""
+    with SessionReader(path) as reader:
+        return reader.pair is not None
+
+
+def session_metadata(reader: SessionReader) -> dict[str, str]:
     """What the report says about the session."""
     info = reader.info
     session_notes = read_notes(reader)

@@ -40,7 +40,14 @@ from twopose.pair.stream import (
     estimate_stream,
 )
 
-__all__ = ["MAX_TOUCH_GAP_INTERVALS", "PairReplay", "TrialReplay", "replay_pair_session"]
+__all__ = [
+    "MAX_TOUCH_GAP_INTERVALS",
+    "PairReplay",
+    "TrialReplay",
+    "at_touches",
+    "replay_pair_session",
+    "replay_trial",
+]
 
 #: A touch's estimate is interpolated between two ok estimates no more than this many
 #: frame intervals apart (one lost or near-singular pair between them is bridged).
@@ -117,7 +124,7 @@ def _offset(
     return measured, "measured"
 
 
-def _at_touches(estimate: StreamEstimate, touches: tuple[Touch, ...], interval: float) -> F64:
+def at_touches(estimate: StreamEstimate, touches: tuple[Touch, ...], interval: float) -> F64:
     """(K, 3) the estimate at each touch's time (a line's: the nearest estimate's point on
     its line nearest the touched point); NaN where there is none about it."""
     ok = estimate.ok
@@ -172,25 +179,40 @@ def replay_pair_session(
             raise InputValueError(f"{path}: a {method} session measures nothing to replay")
         known = (offset, "given") if offset is not None else (session.offset, "recorded")
         settings = StreamSettings(noise=noise or DEFAULT_NOISE, interpolate=interpolate)
-        trials = []
-        for trial in session.trials:
-            tracks = (_track(trial.camera1, method), _track(trial.camera2, method))
-            used, source = _offset(trial, session.pair, tracks, known)
-            estimate = estimate_stream(method, session.pair, *tracks, used, settings)
-            interval = float(np.median(np.diff(tracks[0].t_ns))) if len(tracks[0].t_ns) > 1 else 0
-            at = _at_touches(estimate, trial.touches, interval)
-            truth = np.array([t.point for t in trial.touches], dtype=np.float64).reshape(-1, 3)
-            trials.append(
-                TrialReplay(
-                    trial=trial.trial,
-                    tracks=tracks,
-                    offset=used,
-                    offset_from=source,
-                    estimate=estimate,
-                    touches=trial.touches,
-                    at_touch=at,
-                    touch_error=np.linalg.norm(at - truth, axis=1),
-                    reason="; ".join(s.reason for s in trial.cameras if s.reason),
-                )
-            )
+        trials = [
+            replay_trial(trial, session.pair, method, known, settings) for trial in session.trials
+        ]
     return PairReplay(path=Path(path), method=method, pair=session.pair, trials=tuple(trials))
+
+
+def replay_trial(
+    trial: StreamTrial,
+    pair: PairCalibration,
+    method: Method,
+    known: tuple[ClockOffset | None, str],
+    settings: StreamSettings,
+) -> TrialReplay:
+    """One stream trial replayed (the reader open): both cameras' targets detected, the
+    clock offset ``known`` (``(offset, where from)``; ``(None, _)``: measured by the ray
+    gap), the stream estimated and read at each touch.
+
+    Raises :class:`~twopose.errors.InputValueError` when the trial cannot be estimated (a
+    camera with too few frames, an offset that cannot be measured), saying why.
+    """
+    tracks = (_track(trial.camera1, method), _track(trial.camera2, method))
+    used, source = _offset(trial, pair, tracks, known)
+    estimate = estimate_stream(method, pair, *tracks, used, settings)
+    interval = float(np.median(np.diff(tracks[0].t_ns))) if len(tracks[0].t_ns) > 1 else 0
+    at = at_touches(estimate, trial.touches, interval)
+    truth = np.array([t.point for t in trial.touches], dtype=np.float64).reshape(-1, 3)
+    return TrialReplay(
+        trial=trial.trial,
+        tracks=tracks,
+        offset=used,
+        offset_from=source,
+        estimate=estimate,
+        touches=trial.touches,
+        at_touch=at,
+        touch_error=np.linalg.norm(at - truth, axis=1),
+        reason="; ".join(s.reason for s in trial.cameras if s.reason),
+    )

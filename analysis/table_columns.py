@@ -136,6 +136,8 @@ SUMMARY_TABLE: tuple[Column, ...] = (
     _text("trials_key", "which trials (hashed)", _S),
     _text("method", "method", _S, Domain("one of", tuple(METHODS))),
     _text("units", "units", _S, _UNITS),
+    Column(name="cameras", label="cameras", unit="count", domain=Domain("one of", ("1", "2")),
+           dtype="int64", group=_S),
     _count("n_trials", "trials", _S),
     _count("n_ok", "ok trials", _S),
     _count("n_warned", "ok trials with a warning", _S),
@@ -167,6 +169,8 @@ SUMMARY_TABLE: tuple[Column, ...] = (
            unit="none", domain=FLAG, dtype="bool", group=_S),
     _number("noise_widening", "largest covariance widening", _S, "none", NON_NEGATIVE),
     _count("n_flagged", "trials flagged", _S),
+    _length("rmse_uninterpolated", "RMSE, camera 1's paired frame as it is"),
+    _number("skew_share", "share of that RMSE interpolation removed", _S, "share", SHARE),
 )  # fmt: skip
 
 #: Every declared table, by file name, in the order ``docs/analysis.md`` lists them.

@@ -14,7 +14,11 @@ the common ones for every method, the ones its
 :attr:`~twopose.methods.MethodSpec.margins` name, and a line estimate's fits; no column
 names a method. A column whose ``fill`` is None is filled
 by a later stage (what the trial is: :func:`analysis.tables.with_identity`; the rig's
-leave-one-out correction: :mod:`analysis.pipeline`).
+leave-one-out correction: :mod:`analysis.pipeline`; a two-camera session's touches:
+:mod:`analysis.stream_tables`).
+
+(Near 600 lines: ``trials.csv``'s one table of declarations, every column in the one place
+it is declared; the other tables' are :mod:`analysis.table_columns`.)
 """
 
 from __future__ import annotations
@@ -63,6 +67,7 @@ UNIT_KINDS: Mapping[str, str] = {
     "degrees": "degrees",
     "pixels": "pixels",
     "count": "count",
+    "milliseconds": "ms",
     "share": "share, 0 to 1",
     "none": "",
 }
@@ -372,6 +377,9 @@ TRIAL_TABLE: tuple[Column, ...] = (
           domain=Domain("one of", tuple(METHODS))),
     _text("units", "units", "trial", _per_trial(lambda t: str(t.estimate.trials.units)),
           domain=Domain("one of", tuple(UNITS))),
+    # 1: a trial of typed poses; 2: a touch of a two-camera session (analysis.stream_tables)
+    Column(name="cameras", label="cameras", unit="count", domain=Domain("one of", ("1", "2")),
+           dtype="int64", group="trial", fill=_per_trial(lambda _: 1)),
     _text("status", "status", "trial", lambda t: t.est.status,
           domain=Domain("one of", STATUSES)),
     _text("reason", "why not measured", "trial", _reasons),
@@ -449,6 +457,18 @@ TRIAL_TABLE: tuple[Column, ...] = (
            domain=NON_NEGATIVE, group="noise", fill=nc.noise_widening),
     _text("notes", "operator's notes", "notes",
           lambda t: list(t.notes) if t.notes is not None else [""] * len(t.estimate.trials)),
+    # two-camera sessions: the touch a row is, the clock offset, the skew's share of the error
+    _text("touch", "which touch (stream trial, touch)", "stream"),
+    Column(name="clock_offset_ms", label="clock offset used", unit="milliseconds",
+           domain=FINITE, group="stream"),
+    Column(name="clock_offset_sigma_ms", label="clock offset's 1-sigma", unit="milliseconds",
+           domain=NON_NEGATIVE, group="stream"),
+    _text("clock_offset_source", "clock offset's source", "stream",
+          domain=Domain("one of", ("", "recorded", "measured", "given"))),
+    _length("err_uninterpolated", "error, camera 1's paired frame as it is", "stream", None,
+            NON_NEGATIVE),
+    Column(name="skew_share", label="share of that error interpolation removed", unit="share",
+           domain=SHARE, group="stream"),
     # --rig-calibration loo: each trial corrected by its session's other trials' constants
     *_axes("{}_rig", None, label="rig corrected {}", **_AXIS, **_RIG),
     _length("err_rig", "rig corrected error", "rig", None, NON_NEGATIVE),
@@ -501,7 +521,11 @@ def methods_having(column: Column) -> list[str]:
 
 
 #: What fills a group of columns a trial's result does not: said in the docs' table.
-_LATER = {"identity": " (the pipeline adds it)", "rig": " (with `--rig-calibration loo`)"}
+_LATER = {
+    "identity": " (the pipeline adds it)",
+    "rig": " (with `--rig-calibration loo`)",
+    "stream": " (two-camera sessions' rows only)",
+}
 
 
 def markdown_table() -> str:
