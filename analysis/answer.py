@@ -18,13 +18,16 @@ from twopose.methods import label_of
 __all__ = [
     "ANSWER_COLUMNS",
     "answer_table",
+    "cameras_said",
     "noise_phrases",
     "number",
     "readable",
     "session_order",
     "share",
     "shown_name",
+    "skew_phrases",
     "strand_names",
+    "two_cameras",
     "with_branch",
 ]
 
@@ -32,6 +35,7 @@ ANSWER_COLUMNS = [
     "set",
     "method",
     "units",
+    "cameras",
     "n_trials",
     "n_ok",
     "n_warned",
@@ -57,7 +61,10 @@ def answer_table(trials: pd.DataFrame, *, include_warned: bool = False) -> pd.Da
         return pd.DataFrame(columns=ANSWER_COLUMNS)
     parts = []
     for name, group in by_session_set(trials):
+        # one-camera trials and two-camera touches are never pooled (``cameras``)
         pooled = group.assign(session="all (" + group["units"].astype(str) + ")")
+        if "cameras" in group:
+            pooled["session"] += group["cameras"].astype(str)
         parts.append(summarize(pooled, include_warned=include_warned).assign(set=name))
     table: pd.DataFrame = pd.concat(parts, ignore_index=True)[ANSWER_COLUMNS]
     return table
@@ -99,6 +106,28 @@ def strand_names(trials: pd.DataFrame) -> pd.Series:
     last = trials.groupby("session", sort=False)["branch"].transform("last")
     names = [with_branch(str(n), str(b)) for n, b in zip(label, last, strict=True)]
     return pd.Series(names, index=trials.index, dtype="str")
+
+
+def two_cameras(row: pd.Series) -> bool:
+    """Whether a ``summary.csv`` row (or a trial's) is a two-camera session's touches."""
+    return bool(row.get("cameras", 1) == 2)
+
+
+def cameras_said(row: pd.Series) -> str:
+    """`` (two cameras)`` after a two-camera session's method; nothing after a one-camera's."""
+    return " (two cameras, per touch)" if two_cameras(row) else ""
+
+
+def skew_phrases(row: pd.Series) -> list[str]:
+    """A two-camera session's skew in words (a ``summary.csv`` row): the RMSE with camera
+    1's paired frame taken as it is, and the share of it interpolation removed."""
+    raw = _known(row.get("rmse_uninterpolated"))
+    if not math.isfinite(raw):
+        return ["skew not measured (no touch with an estimate both ways)"]
+    return [
+        f"rmse {number(raw)} {row['units']} without interpolating camera 1,",
+        f"skew's share {share(row.get('skew_share'))}",
+    ]
 
 
 def noise_phrases(row: pd.Series) -> list[str]:
@@ -207,7 +236,7 @@ def readable(table: pd.DataFrame, *, include_warned: bool = False) -> pd.DataFra
         row: dict[str, object] = {}
         if "session" in table:
             row["session"] = shown_name(r)
-        row["method"] = label_of(r["method"])
+        row["method"] = label_of(r["method"]) + cameras_said(r)
         if not one:
             row["units"] = r["units"]
         n_used = int(r["n_used"])

@@ -50,7 +50,7 @@ from twopose.methods import spec_of
 from twopose.pair.stream import NEAR_SINGULAR, StreamEstimate, StreamSettings, estimate_stream
 from twopose.uncertainty import uncertainty_columns
 
-__all__ = ["analyse_pair_session", "touch_rows"]
+__all__ = ["analyse_pair_session", "pair_lines", "touch_rows"]
 
 #: The status of a touch whose nearest pair was near-singular or degenerate.
 _DEGENERATE = {NEAR_SINGULAR: "degenerate", "degenerate": "degenerate"}
@@ -113,11 +113,40 @@ def _pair_metadata(session: PairSession) -> dict[str, str]:
         "two_cameras": (
             f"{session.cameras[0].camera_id} and {session.cameras[1].camera_id}: baseline "
             f"{float(np.linalg.norm(pair.t_2_in_1)):.3f} {session.info.units}, "
-            f"rms {pair.rms_px:.3f} px over {pair.n_views} views"
+            + (
+                f"rms {pair.rms_px:.3f} px over {pair.n_views} views"
+                if pair.n_views
+                else "its pose given, not fitted to views"
+            )
         ),
         "clock_offset": said,
         "touches": f"{len(session.touches)} over {len(session.trials)} stream trial(s)",
     }
+
+
+def pair_lines(session: PairSession) -> list[str]:
+    """A two-camera session described (``info``): its cameras and their clocks, the pair,
+    the clock offset, its stream trials and touches; what ``run`` would say of none."""
+    words = _pair_metadata(session)
+    clocks = ", ".join(
+        f"{c.camera_id} {session.clocks.get(c.camera_id, 'clock not said')}"
+        for c in session.cameras
+    )
+    per_trial = ", ".join(f"trial {t.trial}: {len(t.touches)}" for t in session.trials)
+    lines = [
+        f"two cameras in {session.path}: {words['two_cameras']}; capture clocks: {clocks}",
+        f"  clock offset: {words['clock_offset']}",
+        f"  touches: {words['touches']}" + (f" ({per_trial})" if per_trial else ""),
+    ]
+    lines += [
+        f"  trial {t.trial}, camera {s.camera_id}: {s.reason}"
+        for t in session.trials
+        for s in t.cameras
+        if s.reason
+    ]
+    if not session.touches:
+        lines.append("  no touch marked: `run` has nothing to compare with the truth")
+    return lines
 
 
 def touch_rows(session_path: str, session: PairSession, options: AnalysisOptions) -> pd.DataFrame:

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from analysis.answer import noise_phrases, session_order, shown_name
+from analysis.answer import noise_phrases, session_order, shown_name, skew_phrases, two_cameras
 from analysis.answer import number as _num
 from analysis.answer import share as _share
 from analysis.metrics import SESSION_SETS, by_session_set, summarize
@@ -75,8 +75,11 @@ def summary_lines(
     lines = [f"per method, over {which}:"]
     groups = by_session_set(trials)
     for name, group in groups:
-        for units, part in group.groupby("units", sort=False):
+        keys = ["units", "cameras"] if "cameras" in group else ["units"]
+        for (units, *cameras), part in group.groupby(keys, sort=False):
             where = f"{SESSION_SETS.get(name, 'sessions in no set')}, " if len(groups) > 1 else ""
+            if cameras == [2]:  # never pooled with one-camera trials
+                where += "two-camera sessions, one row per touch, "
             title = f"{where}errors in {_units_name(Units(str(units)))}:"
             lines += wrap_phrases(title.split(" "), width)
             lines += _method_rows(part, summary, Units(str(units)), include_warned=include_warned)
@@ -84,8 +87,10 @@ def summary_lines(
     for _, r in session_order(summary).iterrows():
         on = spec_of(str(r["method"])).seen_on
         (a, bias_a), (b, bias_b) = zip(on.axis_names, _biases(r, on), strict=True)
+        pair = two_cameras(r)  # a two-camera session: its rows are touches
         phrases = [
-            f"{shown_name(r)} ({r['method']}, {r['units']}):",
+            f"{shown_name(r)} ({r['method']}, {r['units']}"
+            + (", two cameras, per touch):" if pair else "):"),
             f"{r['n_ok']}/{r['n_trials']} ok,",
             f"{r['n_warned']} warned;",
             f"rmse {_num(r['rmse'])},",
@@ -94,7 +99,7 @@ def summary_lines(
             f"bias {a} {_num(bias_a, signed=True)} {b} {_num(bias_b, signed=True)},",
             f"within 1 {r['units']}: {_share(r['within_1'])}",
         ]
-        noise = noise_phrases(r)
+        noise = skew_phrases(r) if pair else noise_phrases(r)
         if noise:  # the noise model its regions assumed (twopose.noise)
             phrases = [*phrases[:-1], phrases[-1] + ";", *noise]
         lines += wrap_phrases(phrases, width, indent="  ")

@@ -104,6 +104,8 @@ def thesis_sessions(table: pd.DataFrame) -> pd.DataFrame:
     otherwise every row (a run of other sessions is set against the thesis as a whole)."""
     if "session" not in table or table.empty:
         return table
+    if "cameras" in table:  # the thesis' figures are of one moving camera's trials
+        table = table[table["cameras"].fillna(1) != 2]
     mine = table["session"].map(session_set) == "thesis"
     picked: pd.DataFrame = table[mine] if mine.any() else table
     return picked
@@ -125,7 +127,11 @@ def verdicts_by_set(trials: pd.DataFrame, *, include_warned: bool = False) -> Ve
             name,
             tuple(
                 _verdict(Method(str(method)), g, include_warned=include_warned)
-                for method, g in group.groupby("method", sort=True)
+                if cameras != 2
+                else _pair_verdict(Method(str(method)), g, include_warned=include_warned)
+                for (method, cameras), g in group.assign(cameras=group.get("cameras", 1)).groupby(
+                    ["method", "cameras"], sort=True
+                )
             ),
         )
         for name, group in by_session_set(trials)
@@ -166,6 +172,17 @@ def _verdict(method: Method, trials: pd.DataFrame, *, include_warned: bool) -> s
     p_value = fisher_p(n_in, len(g))
     agrees = "consistent with" if p_value > 0.05 else "unlike"
     return f"{method} ({name}): {counts}; {agrees} the thesis' 15 of 15 (Fisher p = {p_value:.2f})."
+
+
+def _pair_verdict(method: Method, trials: pd.DataFrame, *, include_warned: bool) -> str:
+    """A two-camera session's touches in a line: how many within 1 in; the thesis measured
+    one moving camera's trials, so they are set against nothing."""
+    g = _used(trials, include_warned=include_warned)
+    said = unusable(trials, include_warned=include_warned) if g.empty else _within(g)[1]
+    return (
+        f"{method}, two cameras, per touch: {said}; the thesis tested one moving camera, "
+        "nothing to set these against."
+    )
 
 
 def unusable(trials: pd.DataFrame, *, include_warned: bool) -> str:

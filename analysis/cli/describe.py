@@ -90,6 +90,7 @@ def info(
     console.print(table)
     for o in overviews:
         _print_notes(o)
+        _print_pair(o)
     for path, reason in failed:
         said = reason if reason.startswith(path) else f"{path}: {reason}"
         typer.secho(f"failed: {said}", err=True, fg=typer.colors.RED)
@@ -144,6 +145,17 @@ def _row(o: SessionOverview, name: str, columns: list[str], *, narrow: bool) -> 
         "format": o.format_version,
     }
     return [where, *(cells[c] for c in columns)]
+
+
+def _print_pair(o: SessionOverview) -> None:
+    """A two-camera session's pair, clock offset and touches (``info``); nothing for a
+    one-camera session."""
+    if o.streams is None:
+        return
+    from analysis.stream_tables import pair_lines
+
+    for line in pair_lines(o.streams):
+        typer.echo(for_terminal(line))
 
 
 def _print_notes(o: SessionOverview) -> None:
