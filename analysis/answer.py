@@ -114,8 +114,8 @@ def two_cameras(row: pd.Series) -> bool:
 
 
 def cameras_said(row: pd.Series) -> str:
-    """`` (two cameras)`` after a two-camera session's method; nothing after a one-camera's."""
-    return " (two cameras, per touch)" if two_cameras(row) else ""
+    """``, two cameras, per touch`` after a two-camera session's method; nothing after a one-camera's."""
+    return ", two cameras, per touch" if two_cameras(row) else ""
 
 
 def skew_phrases(row: pd.Series) -> list[str]:

@@ -88,7 +88,7 @@ def analyse_pair_session(
                 "schedule while recording)"
             )
         rows = touch_rows(str(path), session, options)
-    metadata |= _pair_metadata(session)
+    metadata |= _pair_metadata(session) | {"skew": _skew_said(rows, str(session.info.units))}
     identity = identity or SessionIdentity.of_files(path)
     part_of = dict.fromkeys(rows["trial"].astype(int), str(path))
     return SessionResult(
@@ -98,6 +98,24 @@ def analyse_pair_session(
         frames=typed(pd.DataFrame(columns=FRAME_COLUMNS)),
         trials=with_identity(rows, identity, part_of),
         averaging=typed(pd.DataFrame(columns=AVERAGING_COLUMNS)),  # no frames per pose
+    )
+
+
+def _skew_said(rows: pd.DataFrame, units: str) -> str:
+    """The skew's share of the error over the ok touches, in words (the report): the
+    summary's ``rmse_uninterpolated`` and ``skew_share`` (:func:`analysis.metrics.
+    skew_summary`), with the RMSE they are set against."""
+    from analysis.metrics import skew_summary
+
+    ok = rows[(rows["status"] == "ok") & rows["err"].notna() & rows["err_uninterpolated"].notna()]
+    skew = skew_summary(ok)
+    if not skew:
+        return "not measured (no touch with an estimate both ways)"
+    rmse = float(np.sqrt(np.mean(ok["err"].to_numpy(dtype=np.float64) ** 2)))
+    return (
+        f"rmse {rmse:.3g} {units} at the ok touches with camera 1 interpolated to camera 2's "
+        f"capture time, {skew['rmse_uninterpolated']:.3g} {units} with its paired frame as it "
+        f"is: the skew's share {skew['skew_share']:.0%}"
     )
 
 
