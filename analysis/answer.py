@@ -114,7 +114,7 @@ def two_cameras(row: pd.Series) -> bool:
 
 
 def cameras_said(row: pd.Series) -> str:
-    """``, two cameras, per touch`` after a two-camera session's method; nothing after a one-camera's."""
+    """``, two cameras, per touch`` after a two-camera session's method (else nothing)."""
     return ", two cameras, per touch" if two_cameras(row) else ""
 
 
