@@ -176,6 +176,13 @@ def touch_rows(session_path: str, session: PairSession, options: AnalysisOptions
     for trial in session.trials:
         if not trial.touches:
             continue
+        blind = [s.camera_id for s in trial.cameras if len(s) < 2]
+        if blind:  # nothing to pair or interpolate: said per touch
+            why = (
+                f"camera {' and '.join(blind)} recorded fewer than 2 frames in trial {trial.trial}"
+            )
+            rows += [_failed_row(trial, k, why) for k in range(len(trial.touches))]
+            continue
         try:
             replay = replay_trial(trial, session.pair, spec.method, known, settings)
         except InputValueError as err:

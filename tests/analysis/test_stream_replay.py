@@ -72,11 +72,10 @@ def test_a_one_camera_session_is_refused_in_words(tmp_path: Path) -> None:
         replay_pair_session(path)
 
 
-def test_run_and_info_say_a_two_camera_session_is_not_analysed_there(moving_dot: Path) -> None:
+def test_run_takes_a_two_camera_session_as_a_measurement_session(moving_dot: Path) -> None:
     from analysis.input_set import resolve_inputs
 
     inputs = resolve_inputs([moving_dot])
-    assert [s.path for s in inputs.empty] == [str(moving_dot)]  # not measured by run
-    (note,) = inputs.notes()
-    assert "a two-camera session (stream trials): not analysed here yet" in note
-    assert "replay_pair_session" in note
+    assert inputs.empty == ()  # not an empty session: its stream trials are analysed
+    assert inputs.files == [str(moving_dot)]
+    assert inputs.notes() == []

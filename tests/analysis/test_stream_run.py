@@ -1,0 +1,179 @@
+"""``run`` on a folder mixing one-camera and two-camera sessions (issue 58 item 6): one row
+per touch, told apart by ``cameras``, errors at the simulator's truth, the skew's share,
+the one-camera rows unchanged; ``info`` describes the pair; bad pair sessions said in words."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+import analysis
+from analysis.cli import app
+from analysis.columns import SUMMARY_COLUMNS, TRIAL_TABLE_COLUMNS
+from analysis.trial_columns import violations
+from recorder.simulate import simulate_session
+from recorder.simulate_pair import PairTiming, simulate_pair_session
+from tests.helpers import SMALL_SCENE
+from twopose.format.entries import SessionInfo
+from twopose.format.writer import SessionWriter
+from twopose.methods import Method
+from twopose.pair.motion import thesis_pair
+from twopose.sim.scene import load_scene
+from twopose.units import Units
+
+#: The stream columns a one-camera row leaves empty.
+STREAM = ["touch", "clock_offset_ms", "err_uninterpolated", "skew_share"]
+
+
+@pytest.fixture(scope="module")
+def mixed(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A folder: a simulated two-camera point session (a dot moving at 10 in/s, camera 2's
+    clock 12.5 ms ahead, 4 touches) beside a two-trial one-camera point session."""
+    folder = tmp_path_factory.mktemp("mixed")
+    (folder / "small.toml").write_text(SMALL_SCENE)
+    scene = load_scene(folder / "small.toml")
+    timing = PairTiming(speed=10.0, clock_offset_ms=12.5)
+    simulate_pair_session(
+        folder / "pair.mcap", method=Method.POINT, timing=timing, trials=1, seed=3, scene=scene
+    )
+    simulate_session(folder / "one.mcap", method=Method.POINT, trials=2, frames=1, scene=scene)
+    return folder
+
+
+@pytest.fixture(scope="module")
+def ran(mixed: Path) -> analysis.RunResult:
+    return analysis.run([mixed])
+
+
+def test_a_pair_session_is_one_row_per_touch_at_the_simulators_truth(
+    ran: analysis.RunResult,
+) -> None:
+    assert ran.errors.empty, ran.errors
+    pair = ran.trials[ran.trials["cameras"] == 2]
+    assert len(pair) == 4  # the simulator's four touches
+    assert list(pair["trial"]) == [1, 2, 3, 4]  # unique: check and compare key on it
+    assert list(pair["touch"]) == [f"trial 1, touch {k}" for k in range(1, 5)]
+    assert (pair["status"] == "ok").all()
+    assert (pair["err"] < 0.05).all()  # inches (0.017-0.023 measured)
+    assert (pair["clock_offset_source"] == "measured").all()
+    assert (pair["clock_offset_ms"] - 12.5).abs().max() < 1.0
+    # the skew's share is exactly max(0, 1 - err / err_uninterpolated)
+    expected = np.maximum(0.0, 1.0 - pair["err"] / pair["err_uninterpolated"])
+    np.testing.assert_allclose(pair["skew_share"], expected, rtol=1e-12)
+    assert pair["within95"].all()
+    assert violations(ran.trials) == []  # every value in its declared domain
+    assert list(ran.trials.columns) == [c for c in TRIAL_TABLE_COLUMNS if c in ran.trials]
+
+
+def test_the_summary_tells_the_cameras_apart(ran: analysis.RunResult) -> None:
+    s = ran.summary.set_index("cameras")
+    assert sorted(s.index) == [1, 2]
+    assert s.loc[2, "n_trials"] == 4
+    assert s.loc[1, "n_trials"] == 2
+    assert np.isfinite(s.loc[2, "rmse_uninterpolated"])
+    assert np.isnan(s.loc[1, "skew_share"])
+    assert 0 <= s.loc[2, "skew_share"] <= 1
+    assert list(ran.summary.columns) == SUMMARY_COLUMNS
+    # the verdicts never set the pair's touches against the thesis' one-camera figures
+    assert any("two cameras, per touch" in v and "thesis tested one" in v for v in ran.verdict)
+
+
+def test_one_camera_rows_are_as_without_the_pair_session(
+    ran: analysis.RunResult, mixed: Path
+) -> None:
+    alone = analysis.run([mixed / "one.mcap"]).trials
+    mine = ran.trials[ran.trials["cameras"] == 1].reset_index(drop=True)
+    assert (alone["cameras"] == 1).all()
+    assert mine[STREAM].isna().all().all() or (mine["touch"] == "").all()
+    pd.testing.assert_frame_equal(mine[alone.columns], alone, check_dtype=False)
+
+
+def test_the_command_line_runs_reports_checks_and_describes_it(mixed: Path, tmp_path: Path) -> None:
+    runner = CliRunner()
+    out = tmp_path / "out"
+    done = runner.invoke(app, ["run", str(mixed), "--out", str(out), "--no-scene"])
+    assert done.exit_code == 0, done.output
+    assert "two-camera sessions, one row per touch" in done.output
+    assert "pair.mcap (point, in, two cameras, per touch): 4/4 ok" in done.output
+    assert "skew's share" in done.output
+    trials = pd.read_csv(out / "trials.csv")
+    assert sorted(trials["cameras"].unique()) == [1, 2]
+    assert "the skew&#x27;s share" in (out / "report.html").read_text()
+    checked = runner.invoke(app, ["check", str(out), "--baseline", str(out)])
+    assert checked.exit_code == 0, checked.output
+    assert "no regression" in checked.output
+    compared = runner.invoke(app, ["compare", str(out), str(out), "--out", str(tmp_path / "c")])
+    assert compared.exit_code == 0, compared.output
+    info = runner.invoke(app, ["info", str(mixed)])
+    assert info.exit_code == 0, info.output
+    assert "two cameras in" in info.output
+    assert "touches: 4 over 1 stream trial(s)" in info.output
+    assert "not analysed here yet" not in info.output
+
+
+def _pair_session(path: Path, *, frames2: int, touch: bool, t0: int) -> Path:
+    """A small two-camera session of noise images started at ``t0`` (its identity):
+    camera 2 with ``frames2`` frames, one touch or none."""
+    from tests.twopose.format.pair_examples import pair_cameras
+
+    pair = thesis_pair()
+    info = SessionInfo(method=Method.POINT, units=Units.IN, camera_ids=("cam1", "cam2"))
+    rng = np.random.default_rng(1)
+    start = t0 + 10**9
+    with (
+        SessionWriter(path, info, pair_cameras(pair), pair=pair, start_ns=t0) as writer,
+        writer.stream(1, window_s=0.1, start_ns=start) as stream,
+    ):
+        for k in range(6):
+            t1 = 5 * 10**9 + k * 33_333_333
+            image = rng.integers(0, 255, (480, 640, 3), dtype=np.uint8)
+            stream.add_frame("cam1", image, t1, start + k * 33_333_333)
+            if k < frames2:
+                stream.add_frame("cam2", image, t1 + 5_000_000, start + k * 33_333_333)
+            if touch and k == 3:
+                stream.touch((1.0, 2.0, 14.0), t1, "key")
+    return path
+
+
+def test_bad_pair_sessions_are_said_never_a_traceback(tmp_path: Path) -> None:
+    t0 = 10**18
+    silent = _pair_session(tmp_path / "no_touch.mcap", frames2=6, touch=False, t0=t0)
+    blind = _pair_session(tmp_path / "camera2_empty.mcap", frames2=0, touch=True, t0=t0 + 1)
+    noise = _pair_session(tmp_path / "nothing_seen.mcap", frames2=6, touch=True, t0=t0 + 2)
+    result = analysis.run([silent, blind, noise])
+    (error,) = result.errors["error"]
+    assert str(silent) in error
+    assert "no touch marked" in error
+    rows = result.trials.set_index("label")
+    assert rows.loc["camera2_empty.mcap", "status"] == "incomplete"
+    assert "cam2" in rows.loc["camera2_empty.mcap", "reason"]
+    assert rows.loc["nothing_seen.mcap", "status"] != "ok"
+    assert rows.loc["nothing_seen.mcap", "reason"]
+    assert violations(result.trials) == []
+
+
+def test_a_broken_pair_entry_fails_its_session_in_words(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A pair entry whose rotation is no rotation (another writer's): the session fails,
+    saying where, and the run goes on with the others."""
+    import dataclasses
+
+    from twopose.format.pair_convert import pair_entry
+
+    bad = dataclasses.replace(
+        pair_entry(thesis_pair(), ("cam1", "cam2")),
+        R_2_to_1=((2.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)),
+    )
+    good = _pair_session(tmp_path / "good.mcap", frames2=0, touch=True, t0=10**18)
+    monkeypatch.setattr("twopose.format.writer.pair_entry", lambda *_: bad)
+    broken = _pair_session(tmp_path / "broken.mcap", frames2=6, touch=True, t0=10**18 + 1)
+    result = analysis.run([broken, good])
+    (error,) = result.errors["error"]
+    assert error.startswith(f"{broken}: its pair on /twopose/pair:")
+    assert "rotation" in error
+    assert list(result.trials["label"]) == ["good.mcap"]
