@@ -40,6 +40,7 @@ __all__ = [
     "RIG_COLUMNS",
     "RIG_TABLE_COLUMNS",
     "RUN_TABLES",
+    "STREAM_COLUMNS",
     "SUMMARY_COLUMNS",
     "SUMMARY_COUNT_ORDER",
     "SUMMARY_DOMAINS",
@@ -79,6 +80,9 @@ UNCERTAINTY_COLUMNS = group("uncertainty")
 #: The noise model each trial's region assumed (:mod:`twopose.noise`): its placing sigma and
 #: where it came from, its misclosure's chi-square and dof, and the widening applied.
 NOISE_COLUMNS = group("noise")
+#: trials.csv's columns of a two-camera session's touches only (analysis.stream_tables):
+#: which touch, the clock offset used, the error without interpolation, the skew's share.
+STREAM_COLUMNS = group("stream")
 #: trials.csv's columns from ``--rig-calibration loo`` (the last five: line trials only).
 RIG_COLUMNS = group("rig")
 #: ``trials.csv``, every session and method concatenated (a column a method lacks is empty):

@@ -138,12 +138,14 @@ def analyse_session(
     """
     options = options or AnalysisOptions()
     keep_frame_buffers()
-    if _is_pair_session(path):  # stream trials, no typed pose: one row per touch
+    pair_metadata = _pair_session_metadata(path)
+    if pair_metadata is not None:  # stream trials, no typed pose: one row per touch
         from analysis.stream_tables import analyse_pair_session
 
         return analyse_pair_session(
-            path, options, identity=identity, continuations=[str(p) for p in continuations]
-        )
+            path, options, metadata=pair_metadata, identity=identity,
+            continuations=[str(p) for p in continuations],
+        )  # fmt: skip
     with contextlib.ExitStack() as stack:
         reader = stack.enter_context(SessionReader(path))
         results = None
@@ -412,10 +414,11 @@ def _replay(
     )
 
 
-def _is_pair_session(path: str | Path) -> bool:
-    """Whether ``path`` is a two-camera session (format 1.6: a pair, stream trials)."""
+def _pair_session_metadata(path: str | Path) -> dict[str, str] | None:
+    """A two-camera session's metadata (format 1.6: a pair, stream trials); None for a
+    one-camera session."""
     with SessionReader(path) as reader:
-        return reader.pair is not None
+        return None if reader.pair is None else session_metadata(reader)
 
 
 def session_metadata(reader: SessionReader) -> dict[str, str]:

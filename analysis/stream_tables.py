@@ -49,6 +49,7 @@ from twopose.format.streams import PairSession, StreamTrial, read_pair_session
 from twopose.methods import spec_of
 from twopose.pair.stream import NEAR_SINGULAR, StreamEstimate, StreamSettings, estimate_stream
 from twopose.uncertainty import uncertainty_columns
+from twopose.units import Units
 
 __all__ = ["analyse_pair_session", "pair_lines", "touch_rows"]
 
@@ -60,16 +61,18 @@ def analyse_pair_session(
     path: str | Path,
     options: AnalysisOptions | None = None,
     *,
+    metadata: dict[str, str],
     identity: SessionIdentity | None = None,
     continuations: tuple[str, ...] | list[str] = (),
 ) -> SessionResult:
-    """A two-camera session's tables: one ``trials.csv`` row per touch (module docstring).
+    """A two-camera session's tables: one ``trials.csv`` row per touch (module docstring);
+    ``metadata`` what the report says of any session (:func:`analysis.pipeline.
+    session_metadata`, which calls this: :func:`analysis.analyse_session`), the pair's
+    added.
 
     Raises :class:`~twopose.errors.InputValueError` for a session with no touch, one that
     measures nothing, or one continued in later files (not analysed as one yet).
     """
-    from analysis.pipeline import session_metadata
-
     options = options or AnalysisOptions()
     if continuations:
         raise InputValueError(
@@ -78,7 +81,6 @@ def analyse_pair_session(
         )
     with SessionReader(path) as reader:
         session = read_pair_session(reader)
-        metadata = session_metadata(reader)
         if not spec_of(session.info.method).measures:
             raise InputValueError(f"{path}: a {session.info.method} session measures nothing")
         if not session.touches:
@@ -88,7 +90,7 @@ def analyse_pair_session(
                 "schedule while recording)"
             )
         rows = touch_rows(str(path), session, options)
-    metadata |= _pair_metadata(session) | {"skew": _skew_said(rows, str(session.info.units))}
+    metadata = metadata | _pair_metadata(session) | {"skew": _skew_said(rows, session.info.units)}
     identity = identity or SessionIdentity.of_files(path)
     part_of = dict.fromkeys(rows["trial"].astype(int), str(path))
     return SessionResult(
@@ -101,7 +103,7 @@ def analyse_pair_session(
     )
 
 
-def _skew_said(rows: pd.DataFrame, units: str) -> str:
+def _skew_said(rows: pd.DataFrame, units: Units) -> str:
     """The skew's share of the error over the ok touches, in words (the report): the
     summary's ``rmse_uninterpolated`` and ``skew_share`` (:func:`analysis.metrics.
     skew_summary`), with the RMSE they are set against."""
