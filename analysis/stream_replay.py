@@ -18,6 +18,7 @@ the point's distance from the line).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -77,6 +78,13 @@ class TrialReplay:
     at_touch: F64
     touch_error: F64
     reason: str = ""
+    #: camera 1's median frame interval (ns; 0 with fewer than two frames)
+    interval_ns: float = 0.0
+
+    @property
+    def truth(self) -> F64:
+        """(K, 3) the touched points, in touch order."""
+        return np.array([t.point for t in self.touches], dtype=np.float64).reshape(-1, 3)
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -202,10 +210,9 @@ def replay_trial(
     tracks = (_track(trial.camera1, method), _track(trial.camera2, method))
     used, source = _offset(trial, pair, tracks, known)
     estimate = estimate_stream(method, pair, *tracks, used, settings)
-    interval = float(np.median(np.diff(tracks[0].t_ns))) if len(tracks[0].t_ns) > 1 else 0
+    interval = float(np.median(np.diff(tracks[0].t_ns))) if len(tracks[0].t_ns) > 1 else 0.0
     at = at_touches(estimate, trial.touches, interval)
-    truth = np.array([t.point for t in trial.touches], dtype=np.float64).reshape(-1, 3)
-    return TrialReplay(
+    replay = TrialReplay(
         trial=trial.trial,
         tracks=tracks,
         offset=used,
@@ -213,6 +220,9 @@ def replay_trial(
         estimate=estimate,
         touches=trial.touches,
         at_touch=at,
-        touch_error=np.linalg.norm(at - truth, axis=1),
+        touch_error=np.full(len(trial.touches), np.nan),
         reason="; ".join(s.reason for s in trial.cameras if s.reason),
+        interval_ns=interval,
     )
+    error = np.linalg.norm(at - replay.truth, axis=1)
+    return dataclasses.replace(replay, touch_error=error)

@@ -238,16 +238,13 @@ def _replayed_rows(
 ) -> list[dict[str, Any]]:
     """The touches of a replayed trial: the estimate at each, its error, its region, the
     error without interpolation and the skew's share."""
-    est, touches = replay.estimate, replay.touches
-    tracks = replay.tracks
-    interval = float(np.median(np.diff(tracks[0].t_ns))) if len(tracks[0].t_ns) > 1 else 0.0
+    est, touches, truth = replay.estimate, replay.touches, replay.truth
     raw = estimate_stream(
-        session.info.method, session.pair, *tracks, replay.offset,
+        session.info.method, session.pair, *replay.tracks, replay.offset,
         dataclasses.replace(settings, interpolate=False),
     )  # fmt: skip
-    truth = np.array([t.point for t in touches], dtype=np.float64).reshape(-1, 3)
     error = replay.at_touch - truth
-    err_raw = np.linalg.norm(at_touches(raw, touches, interval) - truth, axis=1)
+    err_raw = np.linalg.norm(at_touches(raw, touches, replay.interval_ns) - truth, axis=1)
     ok = est.ok
     nearest = _nearest(est.t_ns, np.array([t.time_ns for t in touches], dtype=np.float64), ok)
     have = np.isfinite(replay.at_touch).all(axis=1) & (nearest >= 0)
