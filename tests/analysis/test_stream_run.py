@@ -179,3 +179,23 @@ def test_a_broken_pair_entry_fails_its_session_in_words(
     assert error.startswith(f"{broken}: its pair on /twopose/pair:")
     assert "rotation" in error
     assert list(result.trials["label"]) == ["good.mcap"]
+
+
+def test_the_line_and_ground_methods_take_the_same_path(tmp_path: Path) -> None:
+    """A line and a finger pointing at the floor, simulated: a row per touch, each at the
+    simulator's truth (a line's error its distance from the line, as ``dist_err``)."""
+    (tmp_path / "small.toml").write_text(SMALL_SCENE)
+    scene = load_scene(tmp_path / "small.toml")
+    timing = PairTiming(speed=10.0, clock_offset_ms=8.0)
+    paths = [tmp_path / f"{m}.mcap" for m in (Method.LINE, Method.GROUND)]
+    for path, method in zip(paths, (Method.LINE, Method.GROUND), strict=True):
+        simulate_pair_session(path, method=method, timing=timing, trials=1, seed=0, scene=scene)
+    result = analysis.run(paths)
+    assert result.errors.empty, result.errors
+    t = result.trials
+    assert list(t.groupby("method").size()) == [4, 4]  # ground, line: four touches each
+    assert (t["status"] == "ok").all()
+    assert (t["err"] < 0.25).all()  # inches (0.18 the largest measured)
+    line = t[t["method"] == "line"]
+    np.testing.assert_allclose(line["dist_err"], line["err"])
+    assert violations(t) == []
