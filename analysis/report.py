@@ -61,6 +61,7 @@ __all__ = [
 REPORT_TRIAL_COLUMNS = [
     "trial",
     "branch",  # only in a session with a branch (:func:`_trial_table`)
+    "touch",  # the stream's columns: a two-camera session's only
     "status",
     "n_views",
     "x",
@@ -73,6 +74,8 @@ REPORT_TRIAL_COLUMNS = [
     "err_y",
     "err_z",
     "err",
+    "err_uninterpolated",
+    "skew_share",
     "angle_err_deg",
     "dist_err",
     "semiaxis95",
