@@ -104,7 +104,9 @@ def test_the_command_line_runs_reports_checks_and_describes_it(mixed: Path, tmp_
     assert "skew's share" in done.output
     trials = pd.read_csv(out / "trials.csv")
     assert sorted(trials["cameras"].unique()) == [1, 2]
-    assert "the skew&#x27;s share" in (out / "report.html").read_text()
+    report = (out / "report.html").read_text()
+    assert "the skew&#x27;s share" in report  # the session's metadata, in words
+    assert "trial 1, touch 4" in report  # its trial table: which touch each row is
     checked = runner.invoke(app, ["check", str(out), "--baseline", str(out)])
     assert checked.exit_code == 0, checked.output
     assert "no regression" in checked.output
