@@ -39,7 +39,13 @@ import pandas as pd
 from analysis.columns import AVERAGING_COLUMNS, FRAME_COLUMNS, typed
 from analysis.input_set import SessionIdentity
 from analysis.results import AnalysisOptions, SessionResult
-from analysis.stream_replay import DEFAULT_NOISE, TrialReplay, at_touches, replay_trial
+from analysis.stream_replay import (
+    DEFAULT_NOISE,
+    MAX_TOUCH_GAP_INTERVALS,
+    TrialReplay,
+    at_touches,
+    replay_trial,
+)
 from analysis.tables import with_identity
 from analysis.trial_columns import columns_of
 from twopose.arrays import F64, Bools, Ints
@@ -307,6 +313,12 @@ def _status(est: StreamEstimate, time_ns: int, *, have: bool) -> dict[str, str]:
         return {"status": "no_detection", "reason": "no frame pair in the trial"}
     j = int(np.argmin(np.abs(est.t_ns - time_ns)))
     status = str(est.status[j])
+    if status == "ok":  # the pairs about it are ok, but none brackets its time
+        return {
+            "status": "no_detection",
+            "reason": "no estimate about the touch: no two ok estimates about its time within "
+            f"{MAX_TOUCH_GAP_INTERVALS:g} frame intervals (outside the stream, or pairs lost)",
+        }
     why = str(est.reason[j]) or status
     return {
         "status": _DEGENERATE.get(status, "no_detection"),

@@ -201,3 +201,25 @@ def test_the_line_and_ground_methods_take_the_same_path(tmp_path: Path) -> None:
     line = t[t["method"] == "line"]
     np.testing.assert_allclose(line["dist_err"], line["err"])
     assert violations(t) == []
+
+
+def test_a_touch_outside_the_stream_is_a_row_saying_so(mixed: Path) -> None:
+    import dataclasses
+
+    from analysis.results import AnalysisOptions
+    from analysis.stream_tables import touch_rows
+    from twopose.format.reader import SessionReader
+    from twopose.format.streams import read_pair_session
+
+    with SessionReader(mixed / "pair.mcap") as reader:
+        session = read_pair_session(reader)
+        (trial,) = session.trials
+        after = int(trial.camera1.capture_ns[-1]) + 10**9  # a second after its last frame
+        late = dataclasses.replace(trial.touches[-1], touch=5, time_ns=after)
+        trial = dataclasses.replace(trial, touches=(*trial.touches, late))
+        rows = touch_rows("pair.mcap", dataclasses.replace(session, trials=(trial,)),
+                          AnalysisOptions())  # fmt: skip
+    assert list(rows["status"]) == ["ok"] * 4 + ["no_detection"]
+    assert "outside the stream" in rows["reason"].iloc[-1]
+    assert np.isnan(rows["err"].iloc[-1])
+    assert violations(rows) == []
