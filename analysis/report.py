@@ -61,7 +61,6 @@ __all__ = [
 REPORT_TRIAL_COLUMNS = [
     "trial",
     "branch",  # only in a session with a branch (:func:`_trial_table`)
-    "touch",  # the stream's columns: a two-camera session's only
     "status",
     "n_views",
     "x",
@@ -74,8 +73,7 @@ REPORT_TRIAL_COLUMNS = [
     "err_y",
     "err_z",
     "err",
-    "err_uninterpolated",
-    "skew_share",
+    *("touch", "err_uninterpolated", "skew_share"),  # a two-camera session's only
     "angle_err_deg",
     "dist_err",
     "semiaxis95",
