@@ -83,7 +83,13 @@ def calibrate_rig(
     inputs = resolve_inputs(paths)  # once (or as given), as run and info: copies said
     for text in inputs.notes():
         (on_note or (lambda _text: None))(text)
-    boards, targets = [s.path for s in inputs.boards], inputs.files
+    pairs = {s.path for s in inputs.measured if s.pair}  # stream trials: no typed pose
+    for path in sorted(pairs):
+        (on_note or (lambda _text: None))(
+            f"{path}: a two-camera session (no typed pose): the rig's constants are not "
+            "fitted from it"
+        )
+    boards, targets = [s.path for s in inputs.boards], [f for f in inputs.files if f not in pairs]
     if boards and targets:
         raise InputValueError(
             f"board sessions ({', '.join(boards)}) and target sessions fit the rig in "

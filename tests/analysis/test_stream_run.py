@@ -223,3 +223,12 @@ def test_a_touch_outside_the_stream_is_a_row_saying_so(mixed: Path) -> None:
     assert "outside the stream" in rows["reason"].iloc[-1]
     assert np.isnan(rows["err"].iloc[-1])
     assert violations(rows) == []
+
+
+def test_the_rig_is_not_fitted_from_a_two_camera_session(mixed: Path) -> None:
+    from analysis.rig.calibrate import calibrate_rig
+
+    said: list[str] = []
+    fitted = calibrate_rig([mixed], on_note=said.append)
+    assert fitted.sessions == (str(mixed / "one.mcap"),)
+    assert any("pair.mcap: a two-camera session (no typed pose)" in s for s in said)
