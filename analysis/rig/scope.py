@@ -203,9 +203,11 @@ def rig_scope(
     note = on_note or (lambda _text: None)
     if no_rig and rig is not None:
         raise InputValueError("--rig and --no-rig contradict each other: give one")
-    sessions = list(inputs.files)
-    if no_rig:
-        return RigScope(by_session=dict.fromkeys(sessions))
+    # A two-camera session has no typed pose for a rig to correct: none applies to it.
+    pairs = {s.path for s in inputs.measured if s.pair}
+    sessions = [f for f in inputs.files if f not in pairs]
+    if no_rig or not sessions:
+        return RigScope(by_session=dict.fromkeys(inputs.files))
     if rig is not None:
         use = RigUse.read(rig, given=True)
         scope = RigScope(by_session=dict.fromkeys(sessions, use))

@@ -232,3 +232,28 @@ def test_the_rig_is_not_fitted_from_a_two_camera_session(mixed: Path) -> None:
     fitted = calibrate_rig([mixed], on_note=said.append)
     assert fitted.sessions == (str(mixed / "one.mcap"),)
     assert any("pair.mcap: a two-camera session (no typed pose)" in s for s in said)
+
+
+def test_a_rig_file_above_a_two_camera_session_applies_to_the_others_only(
+    mixed: Path, tmp_path: Path
+) -> None:
+    """A rig.toml fitted for the thesis' webcam, above its session and a two-camera one
+    (other cameras): the run corrects the first, leaves the pair as it is, refuses nothing."""
+    import shutil
+
+    from analysis.rig.scope import rig_scope
+    from tests.analysis.rig_helpers import rig_file
+
+    thesis = Path(__file__).parents[2] / "sessions" / "thesis_method1_point.mcap"
+    folder = tmp_path / "lab"
+    folder.mkdir()
+    shutil.copy(thesis, folder / thesis.name)
+    shutil.copy(mixed / "pair.mcap", folder / "pair.mcap")
+    rig_file(tmp_path, folder / thesis.name)
+    shutil.copy(next(tmp_path.glob("rig_*.toml")), folder / "rig.toml")
+    result = analysis.run([folder], rigs="scope")
+    assert result.errors.empty, result.errors
+    rows = result.trials.groupby("cameras")["rig_file"].unique()
+    assert list(rows[1]) == [str(folder / "rig.toml")]
+    assert list(rows[2]) == [""]  # no typed pose to correct
+    assert rig_scope(analysis.input_set.resolve_inputs([folder / "pair.mcap"])).uses == ()
