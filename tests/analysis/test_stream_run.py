@@ -4,6 +4,7 @@ the one-camera rows unchanged; ``info`` describes the pair; bad pair sessions sa
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -82,6 +83,8 @@ def test_the_summary_tells_the_cameras_apart(ran: analysis.RunResult) -> None:
     assert list(ran.summary.columns) == SUMMARY_COLUMNS
     # the verdicts never set the pair's touches against the thesis' one-camera figures
     assert any("two cameras, per touch" in v and "thesis tested one" in v for v in ran.verdict)
+    # nor does the thesis table: its method 1 row is over the one-camera session's 2 trials
+    assert re.match(r"\d of 2 trials within 1 in", str(ran.thesis["twopose"].iloc[0]))
 
 
 def test_one_camera_rows_are_as_without_the_pair_session(
