@@ -49,6 +49,7 @@ __all__ = [
     "SyntheticSource",
     "VideoSource",
     "kind_of",
+    "one_camera",
     "open_from",
     "open_source",
     "source_help",
@@ -485,6 +486,8 @@ class SourceKind:
     example: str = ""
     #: Whether ``--fps`` is asked of it (a camera's; others keep their own rate).
     takes_fps: bool = False
+    #: How many cameras' frames it gives (a pair's two: only the pair's commands take it).
+    cameras: int = 1
 
     def matches(self, spec: str) -> bool:
         """Whether ``spec`` (as typed) names this kind."""
@@ -503,6 +506,12 @@ def _open_synthetic(arg: str, o: SourceOptions) -> FrameSource:
     return SyntheticSource(
         arg or None, o.method, realtime=o.realtime, units=o.units, cameras=o.cameras
     )
+
+
+def _open_pair(arg: str, o: SourceOptions) -> FrameSource:
+    from recorder.pair_source import PairSource, parse_pair
+
+    return PairSource(*parse_pair(arg), o)
 
 
 #: Every kind of frame source, in the order help and docs list them.
@@ -536,6 +545,16 @@ SOURCE_KINDS: tuple[SourceKind, ...] = (
         opener=_open_synthetic,
         calibrates=False,
     ),
+    SourceKind(
+        name="pair",
+        syntax="pair:A,B",
+        help="two cameras at once, any two of the above (pair:camera:0,camera:1), each "
+        "frame with its capture time; for calibrate-pair",
+        opener=_open_pair,
+        needs_arg=True,
+        calibrates=False,
+        cameras=2,
+    ),
 )
 
 
@@ -544,9 +563,9 @@ def _listed(items: Sequence[str]) -> str:
 
 
 def source_help(kinds: Sequence[SourceKind] = SOURCE_KINDS, *, calibration: bool = False) -> str:
-    """The ``--source`` help: the kinds' syntaxes (only those a calibration takes, with
-    their examples, when ``calibration``)."""
-    chosen = [k for k in kinds if k.calibrates or not calibration]
+    """The ``--source`` help of a one-camera command: the one-camera kinds' syntaxes (only
+    those a calibration takes, with their examples, when ``calibration``)."""
+    chosen = [k for k in kinds if k.cameras == 1 and (k.calibrates or not calibration)]
     text = _listed([k.syntax for k in chosen])
     examples = [k.example for k in chosen if k.example] if calibration else []
     return f"{text} (e.g. {', '.join(examples)})." if examples else f"{text}."
@@ -588,7 +607,22 @@ def open_source(
         units=units,
         cameras=cameras,
     )
+    one_camera(spec)
     return open_from(SOURCE_KINDS, spec, options)
+
+
+def one_camera(spec: str, kinds: Sequence[SourceKind] = SOURCE_KINDS) -> SourceKind:
+    """The kind ``spec`` names, refused in words unless it is one camera's (a command that
+    records or calibrates one camera cannot take a pair)."""
+    kind = kind_of(spec, kinds)
+    if kind.cameras != 1:
+        raise SourceError(
+            f"{spec} gives {kind.cameras} cameras' frames and this takes one camera's: give "
+            "one of them (--source camera:0); the pair's calibration takes both "
+            f"(twopose-record calibrate-pair PAIR.toml --source {spec}); recording two "
+            "cameras' stream trials is not built yet"
+        )
+    return kind
 
 
 def open_from(kinds: Sequence[SourceKind], spec: str, options: SourceOptions) -> FrameSource:
