@@ -85,13 +85,18 @@ def main() -> int:
             except AssertionError as err:
                 failed += 1
                 print(f"run {k} ({front}, {name} at {delay:.1f} s) FAILED: {str(err)[-300:]}")
-    print(f"{args.runs} runs, {failed} failed; seconds from the signal to the exit (file closed):")
-    for front, times in took.items():
+    return report(took, failed, "file closed")
+
+
+def report(took: dict[str, list[float]], failed: int, after: str) -> int:
+    """Print the sweep's times from the signal to the exit, per kind of run; 1 if a run
+    failed (``benchmarks/stops_slow.py`` reports its paths so too)."""
+    runs = sum(map(len, took.values())) + failed
+    print(f"{runs} runs, {failed} failed; seconds from the signal to the exit ({after}):")
+    for kind, times in took.items():
         if times:
             q = np.percentile(times, [50, 95, 100])
-            print(
-                f"  {front}: {len(times)} runs, median {q[0]:.2f}, p95 {q[1]:.2f}, max {q[2]:.2f}"
-            )
+            print(f"  {kind}: {len(times)} runs, median {q[0]:.2f}, p95 {q[1]:.2f}, max {q[2]:.2f}")
     return 1 if failed else 0
 
 

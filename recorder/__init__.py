@@ -26,7 +26,6 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from twopose import __version__
 from twopose.lazy import lazy_exports
 
 if TYPE_CHECKING:
@@ -56,6 +55,7 @@ if TYPE_CHECKING:
     from recorder.simulate import SimulationSummary, simulate_session
     from recorder.sources import SOURCE_KINDS, FrameSource, SourceKind, SourceOptions, open_source
     from recorder.summary import RecordingSummary
+    from twopose.installed_version import __version__
 
 __all__ = [
     "SOURCE_KINDS",
@@ -123,6 +123,7 @@ _HOMES = {
     "open_source": "recorder.sources",
     "Continued": "recorder.continuation",
     "read_continued": "recorder.continuation",
+    "__version__": "twopose.installed_version",
 }
 
 

@@ -1,3 +1,3 @@
-from recorder.cli import main
+from recorder.command import main
 
 main()

@@ -15,21 +15,50 @@ let state = null;
 let connected = false;
 let setupBuilt = false;
 let wasWaiting = null; // what the recorder waited for at the last poll
+let newPlacement = false; // the recorder asks for a pose anew: the form is filled once shown
 let dismissedRefusal = 0; // the recorder's refusals up to this seq are answered
-let localRefusal = null; // {control, message}: a decision the server refused at once
+let localRefusal = null; // {control, message, at}: a decision the server refused at once
+
+// Which step of the recording a refusal answers (the decision offered, or none): a refusal
+// is shown while that step lasts, never under the next one (it would no longer be true).
+function stepOf(s) {
+  return s ? s.offer + "/" + s.waiting : "";
+}
 let quitAsked = false;
 let busy = false;
+// An answer on its way to the recorder ({what, words}): its controls are off and the
+// status says it was sent, until the state after it is polled (so a second click meets
+// a button that is off, under a status that does not offer it).
+let sent = null;
 
-async function act(action) {
-  // One operator action at a time: a double click does not send twice.
-  if (busy) return;
+async function act(action, control) {
+  // One operator action at a time: the controls are off while one is sent, and a key
+  // pressed meanwhile is refused in words, never dropped.
+  if (busy) {
+    sayBusy(control);
+    return;
+  }
   busy = true;
+  if (state) render();
   try {
     await action();
   } finally {
     busy = false;
   }
-  await poll();
+  await freshPoll();
+  sent = null;
+  if (state) render();
+}
+
+function sayBusy(control) {
+  const message = "not now: your last answer is still on its way to the recorder";
+  if (control === "note") {
+    setText($("note-refusal"), message);
+    show($("note-refusal"), true);
+    return;
+  }
+  localRefusal = {control, message, at: stepOf(state)};
+  if (state) render();
 }
 
 // --------------------------------------------------------------------------- pose, decision
@@ -41,8 +70,11 @@ async function submitPose() {
   clearErrors(Object.keys(POSE_INPUTS));
   show($("pose-refusal"), false);
   dismissRefusals();
+  sending("pose", "sent, to be captured");
   const answer = await post("/api/pose", body);
   if (answer.ok) return;
+  sent = null; // refused: nothing changed, the form is the operator's again
+  render();
   const left = showErrors(answer.errors, (name) => $(POSE_INPUTS[name]));
   if (left.length || !Object.keys(answer.errors).length) {
     setText($("pose-refusal"), left.length ? left.join("; ") : answer.error);
@@ -55,24 +87,48 @@ function dismissRefusals() {
   if (state && state.refusal && state.refusal.seq) dismissedRefusal = state.refusal.seq;
 }
 
+// Whether the state offers this decision now (its button is on exactly then).
+function offered(s, choice) {
+  return !!s && connected && !sent && s.phase === "recording" && s.waiting === "decision" &&
+    (s.offers || []).includes(choice);
+}
+
 async function decide(choice) {
-  if (!state || state.waiting !== "decision") return;
+  // An offered decision is sent and its buttons go off at once; one not offered (a key
+  // pressed while the recorder captures or computes) is sent too, and the recorder says
+  // in words why it cannot take it.
+  if (!state) return;
   dismissRefusals();
+  if (offered(state, choice)) sending(choice, choice.replace("_", " ") + " sent");
+  else render();
+  // The offer it answers (0: none was shown): never taken for a capture that ended after.
+  const offer = state.waiting === "decision" ? state.offer : 0;
+  const answer = await post("/api/decide", {decision: choice, offer: String(offer)});
+  if (answer.ok) return;
+  sent = null; // refused: the decision is still the operator's
+  localRefusal = {control: choice, message: answer.errors[choice] || answer.error, at: stepOf(state)};
   render();
-  const answer = await post("/api/decide", {decision: choice});
-  if (!answer.ok) localRefusal = {control: choice, message: answer.errors[choice] || answer.error};
+}
+
+// Every answer sent turns the controls off, the status saying so, until it is answered.
+function sending(what, words) {
+  sent = {what, words: (state && state.trial ? "trial " + state.trial + " pose " + state.pose + ": " : "") + words};
+  render();
 }
 
 async function addNote() {
   const text = $("note-text").value.trim();
   show($("note-refusal"), false);
+  sending("note", "note sent");
   const answer = await post("/api/note", {text});
   if (answer.ok) {
     $("note-text").value = "";
     $("note-text").blur(); // the keys decide again: the next "a" accepts, it types nothing
   } else {
+    sent = null;
     setText($("note-refusal"), answer.error);
     show($("note-refusal"), true);
+    render();
   }
 }
 
@@ -85,8 +141,12 @@ function askQuit(ask) {
 async function quit() {
   askQuit(false);
   dismissRefusals();
+  sending("quit", "quit sent");
   const answer = await post("/api/decide", {decision: "quit"});
-  if (!answer.ok) localRefusal = {control: "quit", message: answer.error};
+  if (answer.ok) return;
+  sent = null;
+  localRefusal = {control: "quit", message: answer.error, at: stepOf(state)};
+  render();
 }
 
 // --------------------------------------------------------------------------- drawing
@@ -107,7 +167,7 @@ function render() {
     setText($("setup-aside"), "the setup of " + s.continuing.file + ", kept; the operator and the stop rule are this file's");
   }
   show($("setup"), s.phase === "setup");
-  $("setup-submit").disabled = !connected;
+  $("setup-submit").disabled = !connected || busy;
 
   renderCapture(s);
   renderPose(s);
@@ -135,6 +195,9 @@ function renderStatus(s) {
     message = "the recorder stopped: run " + s.recover + " to salvage what was accepted " +
       "(not needed if it was stopped with Ctrl-C: that closes the file). The controls are " +
       "off; still trying to reach it...";
+  } else if (s.phase === "recording" && sent) {
+    level = "info";
+    message = sent.words + "...";
   } else if (s.phase === "recording" && s.computing) {
     level = "info"; // working, not a warning: the last result's colour is its own, below
     message = s.computing + "...";
@@ -156,8 +219,12 @@ function renderStatus(s) {
 }
 
 function renderPose(s) {
-  const typing = s.phase === "recording" && s.waiting === "pose";
-  if (typing && wasWaiting !== "pose") {
+  // A new placement is the recorder's asking anew (not a refused pose given back, nor the
+  // form coming back after a sent answer): its form is filled the first time it is on.
+  if (s.phase === "recording" && s.waiting === "pose" && wasWaiting !== "pose") newPlacement = true;
+  const typing = s.phase === "recording" && s.waiting === "pose" && !sent;
+  const placing = typing && newPlacement;
+  if (placing) {
     // A new placement: a new pose starts empty; a retyped one (after redo or undo)
     // shows what was typed for it. Never another pose's values.
     const t = (s.pose_form && s.pose_form.t) || null;
@@ -171,10 +238,11 @@ function renderPose(s) {
   }
   for (const id of Object.values(POSE_INPUTS)) $(id).disabled = !typing || !connected;
   $("capture").disabled = !typing || !connected;
-  if (typing && wasWaiting !== "pose" && !quitAsked) {
+  if (placing && !quitAsked) {
     const active = document.activeElement;
     if (!active || active === document.body || active.tagName === "BUTTON") $("pose-x").focus();
   }
+  if (placing) newPlacement = false;
   renderGuidance(s, typing);
   setText($("where"), s.trial ? "trial " + s.trial + ", pose " + s.pose + " of " + s.n_poses : "");
   setText($("units-note"), s.units ? "the camera centre on the grid, in " + s.units + "; rotation empty: 0, 0, 0" : "");
@@ -216,7 +284,7 @@ function takeSuggestion() {
 
 function renderDecision(s) {
   const recording = s.phase === "recording" && connected;
-  const deciding = recording && s.waiting === "decision";
+  const deciding = recording && s.waiting === "decision" && !sent;
   show($("decision"), s.phase === "recording"); // shown, but off, while unreachable
   show($("finished"), s.phase === "done" || s.phase === "failed");
   if (changed("summary", [s.phase, s.summary, s.message])) {
@@ -233,17 +301,17 @@ function renderDecision(s) {
 
   const few = deciding && s.shortfall === "few";
   const none = deciding && s.shortfall === "none";
-  $("accept").disabled = !deciding || none;
-  show($("accept-anyway"), few);
-  $("accept-anyway").disabled = !few;
-  $("redo").disabled = !deciding;
-  $("undo").disabled = !deciding;
-  $("note-add").disabled = !deciding;
+  // Each decision's button is on exactly while the state offers it (the status says so).
+  for (const [choice, id] of Object.entries(BUTTON_OF)) $(id).disabled = !offered(s, choice);
+  show($("accept-anyway"), deciding && (s.offers || []).includes("accept_anyway"));
+  $("note-add").disabled = !deciding || busy;
   $("note-text").disabled = !deciding;
-  $("quit").disabled = !recording;
+  $("quit").disabled = !recording || !!sent;
+  $("quit-confirm").disabled = busy;
   if (!recording && quitAsked) askQuit(false);
 
   // The refusal of a decision, under the decision buttons, the button that caused it marked.
+  if (localRefusal && localRefusal.at !== stepOf(s)) localRefusal = null; // the step moved on
   let refusal = localRefusal;
   const r = s.refusal || {};
   if (!refusal && r.seq && r.seq > dismissedRefusal && recording && s.waiting !== "pose") {
@@ -357,11 +425,21 @@ function renderResults(s) {
 
 // --------------------------------------------------------------------------- polling, input
 
-let polling = false;
+let polling = null; // the poll under way (a promise), shared by whoever asks meanwhile
 
-async function poll() {
-  if (polling) return;
-  polling = true;
+function poll() {
+  if (!polling) polling = pollOnce().finally(() => { polling = null; });
+  return polling;
+}
+
+async function freshPoll() {
+  // The state after an answer: a poll already under way may have left before the answer
+  // was taken, so it is waited for and another is made.
+  if (polling) await polling;
+  await poll();
+}
+
+async function pollOnce() {
   try {
     const response = await fetch("/api/state", {cache: "no-store", credentials: "same-origin"});
     if (!response.ok) throw new Error("HTTP " + response.status);
@@ -372,8 +450,6 @@ async function poll() {
     // a small screen the operator may be scrolled down to the buttons: back to the top.
     if (connected) window.scrollTo({top: 0});
     connected = false;
-  } finally {
-    polling = false;
   }
   if (!state) {
     setText($("status"), "cannot reach the recorder; retrying...");
@@ -409,25 +485,26 @@ document.addEventListener("keydown", (event) => {
     takeSuggestion();
     return;
   }
-  if (typingIn(event.target) || !state || state.waiting !== "decision" || quitAsked) return;
+  if (typingIn(event.target) || !state || state.phase !== "recording" || !connected || quitAsked) return;
   const choice = DECISIONS[event.key];
   if (!choice) return;
   event.preventDefault();
-  act(() => decide(choice));
+  // A decision by its key, offered or not: the recorder takes it or says why not.
+  act(() => decide(choice), choice);
 });
 
 $("setup-form").addEventListener("submit", (event) => {
   event.preventDefault();
-  act(submitSetup);
+  act(submitSetup, "setup");
 });
 $("pose-form").addEventListener("submit", (event) => {
   event.preventDefault();
-  act(submitPose);
+  act(submitPose, "capture");
 });
 for (const [choice, id] of Object.entries(BUTTON_OF)) {
-  $(id).addEventListener("click", () => act(() => decide(choice)));
+  $(id).addEventListener("click", () => act(() => decide(choice), choice));
 }
-$("note-add").addEventListener("click", () => act(addNote));
+$("note-add").addEventListener("click", () => act(addNote, "note"));
 $("take-suggestion").addEventListener("click", takeSuggestion);
 for (const id of ["pose-x", "pose-y", "pose-z", "pose-rotation"]) {
   // A pose is numbers: "g" in its fields takes the suggestion instead of typing a letter.
@@ -441,12 +518,12 @@ for (const id of ["pose-x", "pose-y", "pose-z", "pose-rotation"]) {
 $("note-text").addEventListener("keydown", (event) => {
   if (event.key === "Enter") {
     event.preventDefault();
-    act(addNote);
+    act(addNote, "note");
   }
 });
 $("quit").addEventListener("click", () => askQuit(true));
 $("quit-cancel").addEventListener("click", () => askQuit(false));
-$("quit-confirm").addEventListener("click", () => act(quit));
+$("quit-confirm").addEventListener("click", () => act(quit, "quit"));
 window.addEventListener("resize", () => state && renderResults(state));
 
 window.addEventListener("load", () => {

@@ -25,12 +25,20 @@ Routes (Starlette, served by uvicorn on 127.0.0.1 unless ``--host`` says otherwi
 =====================  ====================================================================
 
 A refused request answers 400 with ``{"error": message}`` and records nothing.
+
+What the page shows and what the server takes are one state (:class:`ConsoleSession`):
+the recorder *offers* a step (``waiting``: a pose, or a decision among ``offers``) in the
+same update as the status that asks for it, and an answer is *taken* for the recorder
+under the same lock that checks it is offered (:meth:`ConsoleSession.take`), closing the
+offer at once. So a button is on exactly while the status asks for it, an answer given
+while the recorder still works (the capture's preview result) waits for it, in order, and
+anything else is refused in words: never ignored, never applied to a later step.
 """
 
 from __future__ import annotations
 
-import queue
 import threading
+from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -57,7 +65,7 @@ if TYPE_CHECKING:
     from twopose.scene3d import TrialScene
     from twopose.targets import BoardPlacement
 
-__all__ = ["DECISIONS", "ConsoleSession", "vec_json"]
+__all__ = ["ANSWERS", "DECISIONS", "ConsoleSession", "vec_json"]
 
 #: The decision buttons (``POST /api/decide``) and what each tells the procedure.
 DECISIONS = {
@@ -66,6 +74,13 @@ DECISIONS = {
     "redo": Decision.REDO,
     "undo": Decision.UNDO,
 }
+
+#: What the recorder may offer the page (``waiting``) and the answers each takes
+#: (``quit`` is taken at any step of a recording).
+ANSWERS = {"pose": ("pose",), "decision": ("decision", "note")}
+
+#: How the page and the computing words say a decision taken.
+_DONE = {"redo": "to be captured again", "undo": "undone"}
 
 
 @dataclass(kw_only=True)
@@ -100,8 +115,11 @@ class ConsoleSession(LiveSink):
 
     def __init__(self, out: Path, given: dict[str, Any] | None = None) -> None:
         self.out = out
-        self.lock = threading.Condition()
-        self.commands: queue.Queue[tuple[str, Any]] = queue.Queue()
+        self.lock = threading.Condition()  # its lock is reentrant: update() under it
+        #: The answers taken for the recorder, in the order given (:meth:`take`).
+        self._answers: deque[tuple[str, Any]] = deque()
+        self.quitting = False  # quit was taken: nothing more is offered
+        self._interrupted = False  # the server stops: the recording ends as at Ctrl-C
         self.closing = threading.Event()  # the server is stopping (Ctrl-C, SIGTERM)
         self.phase = "setup"  # setup, recording, done, failed
         self.setup_fields = form_fields(given or {})
@@ -112,7 +130,10 @@ class ConsoleSession(LiveSink):
         self.computing = ""
         self.method: Method | None = None  # set when the setup is accepted
         self.units: Units | None = None
-        self.waiting = ""  # pose, decision, or "" (capturing, between steps)
+        self.waiting = ""  # what is offered: pose, decision, or "" (capturing, between steps)
+        #: The decisions the status offers for the capture awaiting one (the buttons on).
+        self.offers: list[str] = []
+        self.offer_id = 0  # which capture's decision is (or was last) offered: 1, 2, ...
         self.trial = self.pose = self.n_poses = 0
         self.poses: list[dict[str, Any]] = []  # this trial's typed poses so far
         self.pose_form: dict[str, Any] = {}  # what the pose form shows (after undo: retyped)
@@ -164,6 +185,8 @@ class ConsoleSession(LiveSink):
                 "units": self.units or "",
                 "setup_fields": self.setup_fields if self.phase == "setup" else [],
                 "waiting": self.waiting,
+                "offers": list(self.offers),
+                "offer": self.offer_id,
                 "computing": self.computing,
                 "continuing": self.continuing,
                 # What salvages the file if the recorder dies (the page says it then).
@@ -201,6 +224,144 @@ class ConsoleSession(LiveSink):
             for name, value in fields.items():
                 setattr(self, name, value)
             self.lock.notify_all()
+
+    # -- the one state: what the recorder offers, what the page answers
+    def offer(self, what: str, *, anew: bool = False, **shown: Any) -> None:
+        """The recorder takes ``what`` (:data:`ANSWERS`) from now on, and the page shows
+        ``shown`` (the status asking for it, the decisions offered) in the same update.
+        Nothing is offered, nor asked for by the status, while an answer taken waits to be
+        read (it is the answer) or once quit is taken. ``anew``: a new capture's decision
+        (its own ``offer`` number; what was refused before is no longer said)."""
+        with self.lock:
+            if self._answers or self.quitting:
+                # The status keeps saying what the recorder does with the answer it took
+                # (quit: the session is being closed): it asks for nothing now.
+                asking = ("message", "level", "offers")
+                self.update(**{k: v for k, v in shown.items() if k not in asking})
+                return
+            if anew:  # a note, or the procedure's refusal, keeps the capture's offer
+                self.offer_id += 1
+                self.refusal = {}  # said of a step before this one: no longer true
+            self.update(waiting=what, computing="", **shown)
+
+    def take(self, kind: str, value: Any = None, *, seen: int | None = None) -> str:
+        """The page's answer (``pose``, ``decision``, ``note`` or ``quit``), taken for the
+        recorder if it is offered now (returns ""), else why not in the operator's words.
+        A pose or decision taken closes the offer, and the page says at once what the
+        recorder does with it. ``seen``: the decision offer the page answers (its state's
+        ``offer``; 0: it showed none, a key pressed meanwhile): a decision is taken only for
+        the capture the operator saw, never for one that ended after the click."""
+        with self.lock:
+            why = self._not_now(kind, value)
+            if not why and kind == "decision" and seen not in (None, self.offer_id):
+                why = (
+                    f"not now: given before trial {self.trial} pose {self.pose}'s decision "
+                    "was asked for; decide it again"
+                )
+            if why:
+                return why
+            self._answers.append((kind, value))
+            if kind == "quit":
+                self.quitting, self.waiting = True, ""
+                self.message, self.level = "quit: the session is being closed", "info"
+            elif kind == "pose":
+                self.waiting = ""
+                self.message = f"trial {self.trial} pose {self.pose}: capturing"
+            elif kind == "decision":
+                self.waiting = ""
+                self._decided(value[0])
+            self.lock.notify_all()
+            return ""
+
+    def answer(self, timeout_s: float) -> tuple[str, Any] | None:
+        """The next answer taken, in the order given (None: none within ``timeout_s``);
+        raises KeyboardInterrupt once the server stops."""
+        with self.lock:
+            self.lock.wait_for(lambda: bool(self._answers) or self._interrupted, timeout_s)
+            if self._interrupted:
+                raise KeyboardInterrupt
+            return self._answers.popleft() if self._answers else None
+
+    def interrupt(self) -> None:
+        """The server stops (Ctrl-C, SIGTERM): the recording ends as at the terminal."""
+        with self.lock:
+            self._interrupted = True
+            self.lock.notify_all()
+
+    def _not_now(self, kind: str, value: Any) -> str:
+        """Why the answer cannot be taken now ("": it can), in the operator's words."""
+        if self.phase != "recording":
+            return {"setup": "not now: start the session first (the setup)"}.get(
+                self.phase, "not now: the session is over"
+            )
+        if self.quitting:
+            return "not now: quit was taken; the session is being closed"
+        if kind == "quit":
+            return ""
+        offered = next((w for w, kinds in ANSWERS.items() if kind in kinds), "")
+        if self.waiting != offered:
+            if kind == "note":
+                return "add a note after a capture (it goes with that trial)"
+            return self._busy()
+        return self._refusal(value[0]) if kind == "decision" else ""
+
+    def _busy(self) -> str:
+        """What the recorder is doing instead of what was asked, in words."""
+        decided = [value[0] for kind, value in self._answers if kind == "decision"]
+        if decided:
+            said = decided[-1].replace("_", " ")
+            return f"not now: {said} was taken for trial {self.trial} pose {self.pose}"
+        if self.computing:
+            return f"not now: {self.computing}"
+        if self.waiting == "pose":
+            return f"not now: the recorder waits for pose {self.pose} to be typed and captured"
+        if self.waiting == "decision":
+            return f"not now: trial {self.trial} pose {self.pose} awaits its decision"
+        frame, n_frames = self.capture.get("frame", 0), self.capture.get("n_frames", 0)
+        if self.frames_of == {"trial": self.trial, "pose": self.pose} and frame < n_frames:
+            return (
+                f"not now: trial {self.trial} pose {self.pose} is being captured (frame "
+                f"{frame} of {n_frames}); decide once it is done"
+            )
+        return f"not now: {self.message}"
+
+    def _refusal(self, choice: str) -> str:
+        """Why the decision offered now cannot be ``choice`` ("": it can)."""
+        what = "the board" if self.board is not None else "the target"
+        if choice == "undo" and self.pose <= 1:
+            return (
+                f"nothing to undo: this is the first pose of trial {self.trial}; "
+                "redo captures it again"
+            )
+        if choice in self.offers or (choice == "accept_anyway" and "accept" in self.offers):
+            return ""
+        if self.shortfall == Shortfall.NONE_FOUND.value:
+            return f"{what} was not found in any frame, so this pose has nothing to measure: redo"
+        if self.shortfall == Shortfall.FEW_FOUND.value:
+            return f"{what} was found in fewer than half the frames: redo, or accept anyway"
+        return f"{choice.replace('_', ' ')} is not offered for this capture: {self.message}"
+
+    def _decided(self, choice: str) -> None:
+        """The page says what the recorder does with the decision taken (every control off):
+        the trial's result and the next pose (or the rig's check), the pose listed as
+        decided; the procedure's own refusal offers the decision again."""
+        what = (
+            "checking what the poses so far say of the rig"
+            if self.board is not None
+            else "computing the trial's result and the next pose to suggest"
+        )
+        self.computing = (
+            f"trial {self.trial} pose {self.pose} {_DONE.get(choice, 'accepted')}: {what}; "
+            "the form comes back when it is done"
+        )
+        rows = list(self.poses)
+        if rows and rows[-1]["state"] == "awaiting decision":
+            current = rows.pop()
+            if choice in ("accept", "accept_anyway"):
+                rows.append({**current, "state": "accepted"})
+            elif choice == "undo":
+                rows = [r for r in rows if r["pose"] != current["pose"] - 1]
+        self.poses = rows
 
     def method_spec(self) -> MethodSpec | None:
         """The session's method's spec (None before the setup is accepted)."""
@@ -250,7 +411,10 @@ class ConsoleSession(LiveSink):
         """A refusal the page shows next to ``control`` (a decision button, a form)."""
         with self.lock:
             self._refusals += 1
-            self.refusal = {"control": control, "message": message, "seq": self._refusals}
+            self.refusal = {
+                "control": control, "message": message, "seq": self._refusals,
+                "offer": self.offer_id,
+            }  # fmt: skip
             self.lock.notify_all()
 
     # -- the recorder's live sink
@@ -303,10 +467,14 @@ class ConsoleSession(LiveSink):
             self.lock.notify_all()
 
     def next_frame(self, after: int, timeout_s: float) -> _Frame | None:
-        """The newest frame after sequence number ``after`` (None: none came in time)."""
+        """The newest frame after sequence number ``after`` (None: none came in time, or
+        the server is closing)."""
         with self.lock:
             self.lock.wait_for(
-                lambda: self.latest is not None and self.latest.seq > after, timeout=timeout_s
+                lambda: (
+                    self.closing.is_set() or (self.latest is not None and self.latest.seq > after)
+                ),
+                timeout=timeout_s,
             )
             latest = self.latest
             return latest if latest is not None and latest.seq > after else None

@@ -8,7 +8,6 @@ each capture's and trial's result to the page.
 
 from __future__ import annotations
 
-import queue
 import threading
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -17,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 from typing_extensions import override
 
 from recorder import stops
-from recorder.console import ConsoleSession, vec_json
+from recorder.console import ANSWERS, ConsoleSession, vec_json
 from recorder.driver import (
     Decision,
     Driver,
@@ -67,6 +66,7 @@ class WebDriver(Driver):
         self._typed: dict[int, tuple[Vec3, Vec3]] = {}  # this trial: pose -> last typed
         self._accepted: set[int] = set()  # this trial's accepted poses
         self._control = ""  # the decision button last pressed (where a refusal shows)
+        self._asking = ""  # the status asking for the capture's decision
         self.fps = 30.0
 
     def start(self, source: SourceInfo, path: Path) -> None:
@@ -83,18 +83,17 @@ class WebDriver(Driver):
         # next trial's first pose: its advice goes with it.
         ended = self.session.advice
         said = f"trial {ended['trial']}: {ended['text']}. " if ended and ended["complete"] else ""
-        self.session.update(
-            trial=trial,
-            pose=1,
-            poses=[],
-            pose_form={},
-            advice=None,
-            computing="",
-            message=f"{said}trial {trial}: type pose 1, then capture (or quit to finish)",
-            level="info",
-        )
         try:
-            self._pending = self._wait("pose")
+            self._pending = self._wait(
+                "pose",
+                trial=trial,
+                pose=1,
+                poses=[],
+                pose_form={},
+                advice=None,
+                message=f"{said}trial {trial}: type pose 1, then capture (or quit to finish)",
+                level="info",
+            )
         except QuitRecording:
             return False
         return True
@@ -107,26 +106,23 @@ class WebDriver(Driver):
             return ()
         return (GroundTruth(trial=trial, kind=kind, points_grid=self.ground_truth),)
 
-    def _wait(self, what: str) -> tuple[str, Any]:
-        """The page's next command for ``what`` (pose or decision); quit ends it all."""
-        self.session.update(waiting=what, computing="")
+    def _wait(self, what: str, **shown: Any) -> tuple[str, Any]:
+        """The page's answer to ``what`` (pose or decision), offered to the page with
+        ``shown`` (the status asking for it) in one update; an answer given before (while
+        the recorder still worked) is taken first; quit ends it all."""
+        self.session.offer(what, **shown)
         while True:
             stops.check()  # the server is stopping (Ctrl-C, SIGTERM, SIGHUP)
-            try:
-                command = self.session.commands.get(timeout=0.05)
-            except queue.Empty:
+            answer = self.session.answer(timeout_s=0.05)
+            if answer is None:
                 if self.preview is not None and self.source is not None:
                     self.preview(self.source, self.session)
                 continue
-            if command[0] == "quit":
-                self.session.update(waiting="")
+            if answer[0] == "quit":
                 raise QuitRecording
-            if command[0] == "interrupt":  # the server stops: as Ctrl-C at a terminal
-                self.session.update(waiting="")
-                raise KeyboardInterrupt
-            if command[0] in _EXPECTED[what]:
-                self.session.update(waiting="")
-                return command
+            # The session takes only what it offered (ConsoleSession.take).
+            assert answer[0] in ANSWERS[what], (what, answer)
+            return answer
 
     def _show_poses(self, current: int, state: str) -> None:
         """This trial's poses: the accepted ones, then the one being typed or decided."""
@@ -148,14 +144,15 @@ class WebDriver(Driver):
         self._accepted.discard(pose)
         self._show_poses(pose, "")
         n_poses = self.typing.poses_per_trial
-        self.session.update(
-            pose=pose,
-            pose_form=form,
-            computing="",
-            message=f"trial {trial}: type pose {pose} of {n_poses}, then capture",
-            level="info",
-        )
-        command, self._pending = self._pending or self._wait("pose"), None
+        command, self._pending = self._pending, None
+        if command is None:  # else typed already, as the trial began
+            command = self._wait(
+                "pose",
+                pose=pose,
+                pose_form=form,
+                message=f"trial {trial}: type pose {pose} of {n_poses}, then capture",
+                level="info",
+            )
         _, (t, r) = command
         self._typed[pose] = (t, r)
         self._show_poses(pose, "capturing")
@@ -180,33 +177,29 @@ class WebDriver(Driver):
         return Placement(entry=entry)
 
     def captured(self, trial: int, pose: int, result: CaptureResult) -> None:
+        """The capture's numbers, and its decision offered at once, with the status that
+        asks for it: a decision given while the preview result is computed is taken, and
+        read once it is (:meth:`decide`)."""
         state = result.state
         shortfall = detection_shortfall(result)
-        message, level = f"trial {trial} pose {pose}: accept, redo, undo or quit", "info"
-        if not result.complete:
-            message, level = f"trial {trial} pose {pose}: the capture is incomplete: redo", "error"
-        elif shortfall is Shortfall.NONE_FOUND:
-            message = f"trial {trial} pose {pose}: {result.sought} was not found in any frame: redo"
-            level = "error"
-        elif shortfall is Shortfall.FEW_FOUND:
-            message = (
-                f"trial {trial} pose {pose}: {result.sought} was found in only "
-                f"{result.n_found} of {len(result.feedback)} frames: redo, or accept anyway"
-            )
-            level = "warning"
+        why, offers, level = _offers(result, shortfall)
+        self._asking = f"trial {trial} pose {pose}: {why}{_listed([*offers, 'quit'])}"
         average = result.pose_average()
         overhead = (
             sum(result.overhead_s) / len(result.overhead_s) * self.fps if result.overhead_s else 0.0
         )
         self._show_poses(pose, "awaiting decision")
         found = f"{result.n_found} with {result.sought} found, " if result.feedback else ""
-        self.session.update(
+        self.session.offer(
+            "decision",
+            anew=True,
             last_capture=f"{result.n_frames} frames, {found}{state}, {result.dropped} dropped; "
             f"recorder overhead {100 * overhead:.0f}% of the frame interval",
             frames=[f.to_json() for f in result.feedback],
             average=None if average is None else _average(average),
             shortfall=shortfall.value,
-            message=message,
+            offers=offers,
+            message=self._asking,
             level=level,
         )
 
@@ -245,7 +238,6 @@ class WebDriver(Driver):
             self._accepted.add(pose)
         elif decision is Decision.UNDO and pose > 1:
             self._accepted.discard(pose - 1)
-        self._computing(trial, pose, Decision(decision))
         return Decision(decision)
 
     @override
@@ -255,26 +247,13 @@ class WebDriver(Driver):
         if not self.session.computing:
             self.session.update(computing=f"trial {self.session.trial}: {what.rstrip('….')}")
 
-    def _computing(self, trial: int, pose: int, decision: Decision) -> None:
-        """Between a decision and the next step the recorder works (the trial's result,
-        the next pose to suggest: seconds on fine grid paper) with every control off: the
-        page says so, and lists the pose as decided, not as awaiting a decision."""
-        done = {Decision.REDO: "to be captured again", Decision.UNDO: "undone"}
-        what = (
-            "checking what the poses so far say of the rig"
-            if self.session.board is not None
-            else "computing the trial's result and the next pose to suggest"
-        )
-        self._show_poses(pose + 1 if pose in self._accepted else pose, "")
-        self.session.update(
-            computing=f"trial {trial} pose {pose} {done.get(decision, 'accepted')}: {what}; "
-            "the form comes back when it is done"
-        )
-
     def note(self, trial: int) -> Note:
+        """The note, listed; the status still asks for the capture's decision (its buttons
+        stay on)."""
         with self.session.lock:
             self.session.notes.append({"trial": trial, "text": self._note})
-        self.session.update(message=f"note added to trial {trial}", level="info")
+            asking = self._asking
+        self.session.update(message=f"note added to trial {trial}. {asking}", level="info")
         return Note(text=self._note, trial=trial)
 
     def refused(self, error: ProcedureRefusedError) -> None:
@@ -351,4 +330,21 @@ def _average(m: Any) -> dict[str, Any]:
     }
 
 
-_EXPECTED = {"pose": {"pose"}, "decision": {"decision", "note"}}
+def _offers(result: CaptureResult, shortfall: Shortfall) -> tuple[str, list[str], str]:
+    """What the status says of a capture, the decisions it offers (the buttons on, the
+    server takes no other), and the status' level."""
+    if not result.complete:
+        return "the capture is incomplete: ", ["redo", "undo"], "error"
+    if shortfall is Shortfall.NONE_FOUND:
+        return f"{result.sought} was not found in any frame: ", ["redo", "undo"], "error"
+    if shortfall is Shortfall.FEW_FOUND:
+        found = f"{result.n_found} of {len(result.feedback)} frames"
+        why = f"{result.sought} was found in only {found}: "
+        return why, ["redo", "accept_anyway", "undo"], "warning"
+    return "", ["accept", "redo", "undo"], "info"
+
+
+def _listed(choices: list[str]) -> str:
+    """``accept, redo, undo or quit``: the choices in words."""
+    words = [c.replace("_", " ") for c in choices]
+    return f"{', '.join(words[:-1])} or {words[-1]}"

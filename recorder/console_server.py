@@ -34,7 +34,6 @@ from recorder.console_guard import (
 )
 from recorder.console_transport import ACCEPT_BURST, MAX_HEADER_BYTES, GuardedH11Protocol
 from recorder.loopback import is_loopback_host
-from recorder.procedure import Shortfall
 from recorder.setup_form import SETUP_FIELDS, FormRefusedError, parse_pose_form, setup_from_answers
 from recorder.setup_rules import Setup, check_rig
 from twopose import webfonts
@@ -193,32 +192,36 @@ class _Console:
         if refused is not None:
             return refused
         units = self.session.units
-        if self.session.waiting != "pose" or units is None:
-            return _refused("not now: the recorder is not waiting for a pose")
+        if self.session.waiting != "pose" or units is None:  # said before the form's errors
+            return _refused(self.session.take("pose") or "not now: no pose is asked for")
         try:
             t, r = parse_pose_form(form, units)
         except FormRefusedError as err:
             return _refused(str(err), err.errors)
-        self.session.commands.put(("pose", (t, r)))
-        return ConsoleJSONResponse({"ok": True})
+        why = self.session.take("pose", (t, r))
+        return _refused(why) if why else ConsoleJSONResponse({"ok": True})
 
     async def decide(self, request: Request) -> Response:
-        form, refused = await _form(request, {"decision": 20})
+        form, refused = await _form(request, {"decision": 20, "offer": 20})
         if refused is not None:
             return refused
         choice = form.get("decision", "")
-        if choice == "quit" and self.session.phase == "recording":
-            self.session.commands.put(("quit", None))
-            return ConsoleJSONResponse({"ok": True})
-        if choice not in DECISIONS:
+        seen = form.get("offer")  # the decision offer the page answers (optional)
+        if seen is not None and not seen.isdigit():
+            return _refused(f"offer must be the state's offer number, not {seen!r}")
+        if choice != "quit" and choice not in DECISIONS:
             return _refused(
                 "decision must be accept, accept_anyway, redo, undo or quit, not " + repr(choice)
             )
-        refusal = _decision_refusal(self.session, choice)
-        if refusal:
-            self.session.refuse(choice, refusal)
-            return _refused(refusal, {choice: refusal})
-        self.session.commands.put(("decision", (choice, DECISIONS[choice])))
+        if choice == "quit":
+            why = self.session.take("quit")
+        else:
+            answer = (choice, DECISIONS[choice])
+            why = self.session.take("decision", answer, seen=None if seen is None else int(seen))
+        if why:
+            if self.session.phase == "recording":  # next to the button pressed
+                self.session.refuse(choice, why)
+            return _refused(why, {choice: why})
         return ConsoleJSONResponse({"ok": True})
 
     async def note(self, request: Request) -> Response:
@@ -228,10 +231,8 @@ class _Console:
         text = form.get("text", "").strip()
         if not text:
             return _refused("the note is empty", {"text": "type the note first"})
-        if self.session.waiting != "decision":
-            return _refused("add a note after a capture (it goes with that trial)")
-        self.session.commands.put(("note", text))
-        return ConsoleJSONResponse({"ok": True})
+        why = self.session.take("note", text)
+        return _refused(why) if why else ConsoleJSONResponse({"ok": True})
 
     async def stream(self, request: Request) -> Response:
         return StreamingResponse(
@@ -251,7 +252,7 @@ class _Console:
         stop = stops.active()
         if stop is not None:
             stop.request()
-        self.session.commands.put(("interrupt", None))
+        self.session.interrupt()
         await asyncio.to_thread(_join_recording, self.threads, self.session.out)
 
 
@@ -393,24 +394,6 @@ def _refused(message: str, errors: dict[str, str] | None = None) -> Response:
     return ConsoleJSONResponse({"error": message, "errors": errors or {}}, status_code=400)
 
 
-def _decision_refusal(session: ConsoleSession, choice: str) -> str:
-    """Why the page's decision cannot be taken now (empty: it goes to the procedure, which
-    checks it again). Said at once, next to the button, in the operator's words."""
-    if session.waiting != "decision":
-        return "not now: decide after a capture"
-    if choice == "undo" and session.pose <= 1:
-        return (
-            f"nothing to undo: this is the first pose of trial {session.trial}; "
-            "redo captures it again"
-        )
-    what = "the board" if session.board is not None else "the target"
-    if choice in ("accept", "accept_anyway") and session.shortfall == Shortfall.NONE_FOUND:
-        return f"{what} was not found in any frame, so this pose has nothing to measure: redo"
-    if choice == "accept" and session.shortfall == Shortfall.FEW_FOUND:
-        return f"{what} was found in fewer than half the frames: redo, or accept anyway"
-    return ""
-
-
 class _Server(uvicorn.Server):
     """uvicorn's server, stopped by the recording's stop (:mod:`recorder.stops`: Ctrl-C,
     SIGTERM or SIGHUP; told what the session was doing when it came). It stops gracefully,
@@ -433,6 +416,8 @@ class _Server(uvicorn.Server):
         if not self.phase_at_signal:
             self.phase_at_signal = self.session.phase
         self.session.closing.set()  # the live image's streams end: nothing left to cancel
+        with self.session.lock:  # reentrant: safe where the signal lands in this thread
+            self.session.lock.notify_all()  # a stream waiting for a frame ends now
         self.should_exit = True
 
 

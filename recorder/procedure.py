@@ -535,7 +535,9 @@ def _preview_step(
     assert proc.entry is not None
     results.captured(proc.entry, result)
     if result.complete and proc.accepted:
-        preview = results.preview(proc.trial, {**proc.accepted, proc.pose: proc.entry})
+        # Only informs (the trial re-solved): abandoned at once if a stop comes meanwhile.
+        accepted = {**proc.accepted, proc.pose: proc.entry}
+        preview = stops.abandonable(results.preview, proc.trial, accepted)
         if preview is not None:
             driver.preview_result(preview)
 
@@ -544,14 +546,16 @@ def _result_step(trial: int, proc: Procedure, driver: Driver, opts: _CaptureOpti
     """After a decision: the trial's live result if its accepted poses changed (a second
     pose gives one, a third updates it), to the driver and the live view."""
     assert opts.results is not None
-    result = opts.results.update(trial, proc.accepted)
+    # What is kept for the live result, never for the file: abandoned at once if a stop
+    # comes while the session's trials are re-solved (recorder/stops.py).
+    result = stops.abandonable(opts.results.update, trial, dict(proc.accepted))
     if result is None:
         if trial not in opts.results.results:
             driver.result_withdrawn(trial)
         return
     driver.trial_result(result)
     if opts.settings.live is not None:
-        scene = opts.results.scene(trial)
+        scene = stops.abandonable(opts.results.scene, trial)
         opts.settings.live.trial_result(result, scene, time.time_ns())
 
 

@@ -1,5 +1,6 @@
-"""Frame sources behind one interface: a camera, a video file, a folder of images, or the
-synthetic camera that renders the simulator's scene from the pose the operator types.
+"""Frame sources behind one interface (:mod:`recorder.frame_source`): a camera, a video file,
+a folder of images, or the synthetic camera that renders the simulator's scene from the pose
+the operator types (:mod:`recorder.synthetic_source`); the kinds as the operator names them.
 
 ``open_source("camera:0" | "video:PATH" | "images:DIR[/PATTERN]" | "synthetic[:SCENE.toml]")``
 gives a :class:`FrameSource`; use it as a context manager and call
@@ -12,16 +13,14 @@ from __future__ import annotations
 import contextlib
 import queue
 import threading
-import time
-from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from pathlib import Path
-from types import TracebackType
-from typing import TYPE_CHECKING, Any, Self
+from typing import TYPE_CHECKING, Any
 
 from typing_extensions import override
 
-from recorder import stops
+from recorder.frame_source import FrameSource, Pacer, SourceInfo
+from recorder.synthetic_source import SyntheticSource
 from twopose.errors import InputValueError, SourceError
 from twopose.methods import Method
 from twopose.units import Units
@@ -33,8 +32,6 @@ if TYPE_CHECKING:
     from numpy.typing import NDArray
 
     from twopose.camera import Camera
-    from twopose.clutter import Clutter
-    from twopose.sim.scene import Scene
 
     Image = NDArray[np.uint8]
 
@@ -60,100 +57,6 @@ __all__ = [
 # the type checker alone), so that the command line's --help, which lists the SOURCE_KINDS,
 # loads neither (tests/test_layering.py).
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
-
-
-@dataclass(frozen=True, kw_only=True)
-class SourceInfo:
-    """What the source actually delivers (a camera may not honour the request)."""
-
-    description: str
-    width: int
-    height: int
-    fps: float
-
-
-class FrameSource(ABC):
-    """A source of BGR uint8 frames. Use as a context manager.
-
-    ``dropped`` counts frames the source delivered (or, paced like a camera, would have)
-    that the reader was too late to take. The recorder counts them only while a capture
-    runs: :meth:`start_capture` marks its start.
-    """
-
-    info: SourceInfo
-    dropped: int = 0
-    _pacer: _Pacer | None = None
-    #: Distinct still images (a folder), not a moving stream: each frame is its own view.
-    stills = False
-
-    def __enter__(self) -> Self:
-        self.open()
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
-
-    @abstractmethod
-    def open(self) -> SourceInfo: ...
-
-    @abstractmethod
-    def read(self, timeout_s: float = 2.0) -> Image:
-        """The next frame, (H, W, 3) BGR uint8; raises SourceError when none comes."""
-
-    def close(self) -> None:
-        return None
-
-    def frame_name(self, index: int) -> str:
-        """How to name frame ``index`` (from 0) to the operator."""
-        return f"frame {index + 1}"
-
-    def start_capture(self) -> None:
-        """A capture begins: a paced source restarts its clock, so that the operator's
-        pause since the last frame is not counted as dropped frames."""
-        if self._pacer is not None:
-            self._pacer.due = None
-
-    def set_pose(
-        self,
-        t_grid: tuple[float, float, float],  # noqa: ARG002 - a camera ignores where it is
-        r_deg: tuple[float, float, float],  # noqa: ARG002
-    ) -> None:
-        """Tell the source where the camera is (only the synthetic camera uses it)."""
-        return
-
-    def clutter(self) -> Clutter | None:
-        """The clutter in its scene, where the source knows it (only the synthetic camera
-        does: guidance keeps the target from being seen over it, :mod:`twopose.clutter`)."""
-        return None
-
-
-class _Pacer:
-    """Emulates a camera's clock for file and synthetic sources.
-
-    ``wait`` sleeps until the next frame is due and returns how many frame intervals the
-    reader was late by (those frames a camera would have dropped).
-    """
-
-    def __init__(self, fps: float) -> None:
-        self.interval = 1.0 / fps
-        self.due: float | None = None
-
-    def wait(self) -> int:
-        now = time.monotonic()
-        if self.due is None:
-            self.due = now
-        if now < self.due:
-            time.sleep(self.due - now)
-            missed = 0
-        else:
-            missed = int((now - self.due) / self.interval)
-        self.due += (missed + 1) * self.interval
-        return missed
 
 
 class CameraSource(FrameSource):
@@ -260,7 +163,7 @@ class VideoSource(FrameSource):
             height=int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT)),
             fps=float(cap.get(cv2.CAP_PROP_FPS)) or 30.0,
         )
-        self._pacer = _Pacer(self.info.fps) if self.realtime else None
+        self._pacer = Pacer(self.info.fps) if self.realtime else None
         return self.info
 
     @override
@@ -333,120 +236,6 @@ class ImagesSource(FrameSource):
 
     def frame_name(self, index: int) -> str:
         return self._files[index].name if index < len(self._files) else super().frame_name(index)
-
-
-class SyntheticSource(FrameSource):
-    """The simulator's camera: renders the scene from the pose last given to ``set_pose``.
-
-    Setting a pose renders it and exposes a bank of ``bank`` frames (each with its own
-    lighting and noise); ``read`` cycles through them, paced like a camera at the scene's
-    fps when ``realtime``, so even 1280x720 streams at 30 fps.
-    """
-
-    def __init__(
-        self,
-        scene_path: str | Path | None = None,
-        method: Method = Method.GROUND,
-        *,
-        seed: int = 0,
-        realtime: bool = True,
-        bank: int = 8,
-        units: Units | None = None,
-        cameras: Sequence[Camera] | None = None,
-    ) -> None:
-        import numpy as np
-
-        from twopose.sim.scene import load_scene
-
-        self.scene = load_scene(scene_path)
-        if units is not None and self.scene.units != units:
-            # The session's units (issue 44, 4): the typed poses are read in them, so the
-            # same scene is rendered with its lengths converted (twopose.units' factors).
-            self.scene = self.scene.in_units(units)
-        if cameras:
-            # The session's camera (issue 44, 4): its intrinsics are what the analysis
-            # reads the frames with, so the scene is seen through them.
-            self.scene = _seen_through(self.scene, cameras, scene_path)
-        self.method = method
-        self.realtime = realtime
-        self.bank_size = bank
-        self._rng = np.random.default_rng(seed)
-        self._bank: list[Image] = []
-        self._next = 0
-        self._pose: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None
-
-    def open(self) -> SourceInfo:
-        from twopose.sim.camera import SyntheticCamera
-        from twopose.sim.layout import build_layout
-
-        layout = build_layout(self.scene, Method(self.method), self._rng)
-        self._camera = SyntheticCamera(self.scene, layout, self._rng)
-        cam = self.scene.cameras[0]
-        self.info = SourceInfo(
-            description="synthetic", width=cam.width, height=cam.height, fps=self.scene.sensor.fps
-        )
-        self._pacer = _Pacer(self.info.fps) if self.realtime else None
-        self.set_pose((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
-        return self.info
-
-    def set_pose(
-        self, t_grid: tuple[float, float, float], r_deg: tuple[float, float, float]
-    ) -> None:
-        """The operator typed this pose and placed the laptop there: the camera renders
-        from where the scene's rig (``[systematic]``) really puts it, as ``simulate``
-        does (one synthetic camera: :class:`twopose.sim.camera.SyntheticCamera`)."""
-        import numpy as np
-
-        if (t_grid, r_deg) == self._pose:
-            return
-        self._camera.place(np.asarray(t_grid, dtype=np.float64), np.asarray(r_deg))
-        bank = []
-        for _ in range(self.bank_size):
-            stops.check()  # between frames when the recording is to stop (recorder/stops.py)
-            bank.append(self._camera.expose())
-        self._pose, self._bank, self._next = (t_grid, r_deg), bank, 0
-
-    @override
-    def clutter(self) -> Clutter | None:
-        from twopose.clutter import scene_clutter
-
-        return scene_clutter(
-            self._camera.layout.decals, self.scene.ground_height, self.scene.wall_z
-        )
-
-    @override
-    def read(self, timeout_s: float = 2.0) -> Image:
-        if self._pacer is not None:
-            self.dropped += self._pacer.wait()
-        frame = self._bank[self._next % len(self._bank)]
-        self._next += 1
-        return frame
-
-
-def _seen_through(scene: Scene, cameras: Sequence[Camera], scene_path: object) -> Scene:
-    """``scene`` seen through the session's camera, or an :class:`InputValueError` saying
-    why it cannot be (before anything is recorded)."""
-    from twopose.errors import SceneError
-
-    first = cameras[0]
-    differ = [c.camera_id for c in cameras[1:] if c.intrinsics != first.intrinsics]
-    if differ:
-        raise InputValueError(
-            f"the synthetic camera renders one camera, and the session's cameras "
-            f"{first.camera_id} and {', '.join(differ)} have different intrinsics: record "
-            "each camera's poses as a session of its own, or give them the same intrinsics"
-        )
-    k = first.intrinsics
-    try:
-        return scene.with_intrinsics(k)
-    except SceneError as err:
-        where = f"the scene {scene_path}" if scene_path else "the default scene"
-        raise InputValueError(
-            f"the synthetic camera cannot render the session's camera {first.camera_id} "
-            f"({k.width}x{k.height}, fx {k.fx:g}, fy {k.fy:g}, principal {k.cx:g}, {k.cy:g} px) "
-            f"with {where}: {err}; change the session's camera (the plan's [camera], "
-            "--focal/--principal/--width/--height) or the scene's [[cameras]]"
-        ) from err
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -27,15 +27,9 @@ reading and writing sessions, detection, the solvers' one-call functions
 
 from __future__ import annotations
 
-from importlib.metadata import PackageNotFoundError, version
 from typing import TYPE_CHECKING
 
 from twopose.lazy import lazy_exports
-
-try:
-    __version__ = version("twopose")
-except PackageNotFoundError:  # running from a source tree without installing
-    __version__ = "0.0.0+unknown"
 
 if TYPE_CHECKING:
     from twopose.camera import Camera, Intrinsics, camera_rays, project_points
@@ -61,6 +55,7 @@ if TYPE_CHECKING:
         find_sessions,
     )
     from twopose.guidance import Advice, Guidance, advise, suggest
+    from twopose.installed_version import __version__
     from twopose.methods import (
         MEASURING_METHODS,
         METHOD_SPECS,
@@ -192,6 +187,8 @@ _HOMES = {
     "Guidance": "twopose.guidance",
     "advise": "twopose.guidance",
     "suggest": "twopose.guidance",
+    # Read from the package's metadata when first asked for (twopose/installed_version.py).
+    "__version__": "twopose.installed_version",
 }
 
 

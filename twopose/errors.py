@@ -142,14 +142,15 @@ def _on_interrupt(_signum: int, _frame: object) -> None:
     raise KeyboardInterrupt
 
 
-def watch_interrupts() -> None:
+def watch_interrupts(*, hangup: bool = False) -> None:
     """Remember a Ctrl-C (or SIGTERM) even where Python swallows its KeyboardInterrupt.
 
     Remember a Ctrl-C even where Python swallows the KeyboardInterrupt it raises (in a
     finalizer or weakref callback it is printed and ignored, and the command would then
     finish with 0): :func:`interrupted` tells the command line to exit with 130. Such a
     KeyboardInterrupt is raised again in the main thread (without its traceback), so the
-    command stops there and then, not at its end.
+    command stops there and then, not at its end. ``hangup``: SIGHUP (the terminal closed)
+    too, unless the process was started ignoring it (``nohup``); ``twopose-record``'s.
     """
     import signal
     import sys
@@ -159,6 +160,8 @@ def watch_interrupts() -> None:
     # does: files closed, a run's staged outputs discarded, exit 130; never a process
     # ended mid-write.
     signal.signal(signal.SIGTERM, _on_interrupt)
+    if hangup and hasattr(signal, "SIGHUP") and signal.getsignal(signal.SIGHUP) != signal.SIG_IGN:
+        signal.signal(signal.SIGHUP, _on_interrupt)
     sys.unraisablehook = _unraisable
 
 

@@ -317,6 +317,7 @@ _FEW = {
     "method": "point",
     "units": "in",
     "waiting": "decision",
+    "offers": ["redo", "accept_anyway", "undo"],
     "trial": 4,
     "pose": 2,
     "n_poses": 2,
@@ -341,7 +342,10 @@ _FEW = {
         "warning": _WARNING,
         "text": f"trial 4 (2 views): x 0.512 y 1.480 z 30.911 in; WARNING {_WARNING}",
     },
-    "message": "trial 4 pose 2: the target was found in only 1 of 3 frames: redo, or accept anyway",
+    "message": (
+        "trial 4 pose 2: the target was found in only 1 of 3 frames: redo, accept anyway, "
+        "undo or quit"
+    ),
     "level": "warning",
     "live_error": "the live result failed (ValueError: a test's fault); the recording goes on",
     "poses": [
@@ -389,15 +393,17 @@ def _serving(session: Any) -> Iterator[tuple[str, Any]]:
 
 @pytest.mark.slow
 def test_states_a_synthetic_session_does_not_reach(by_hand: tuple[str, Any]) -> None:
-    """Few frames found: accept anyway offered and accept refused by its button; the result
-    before the decision with its warning; a failing live result in amber; a failed session."""
+    """Few frames found: accept anyway offered, accept off (the status does not offer it)
+    and refused in words by its key; the result before the decision with its warning; a
+    failing live result in amber; a failed session."""
     url, session = by_hand
     session.update(**_FEW, setup_fields=[])
     with headless_chromium(1366, 768) as browser:
         page = Steps(browser, _folder("states-1366x768"))
         browser.get(url)
         page.wait(lambda: page.shown("accept-anyway"), "accept anyway offered")
-        assert page.el("accept").is_enabled()  # pressed, it is refused with the reason
+        assert page.el("accept-anyway").is_enabled()
+        assert not page.el("accept").is_enabled()  # on exactly while the status offers it
         assert "fewer than half" in page.text("shortfall")
         assert "warned" in str(page.el("preview").get_attribute("class"))
         assert "WARNING parallax" in page.text("preview-result")
@@ -412,7 +418,7 @@ def test_states_a_synthetic_session_does_not_reach(by_hand: tuple[str, Any]) -> 
         assert "awaiting decision" in page.text("pose-list")
         page.step("few-found")
 
-        page.el("accept").click()
+        ActionChains(browser).send_keys("a").perform()  # its key: refused in words
         page.wait(lambda: page.shown("refusal"), "accept refused")
         assert "accept anyway" in page.text("refusal")
         assert page.el("refusal").get_attribute("data-control") == "accept"

@@ -173,7 +173,7 @@ def served(tmp_path: Path, continued: tuple[Path, Path]) -> Iterator[tuple[httpx
     try:
         yield client, session
     finally:
-        session.commands.put(("quit", None))
+        session.take("quit")
         session.closing.set()
         server.should_exit = True
         thread.join(timeout=20)

@@ -151,8 +151,9 @@ def test_a_suggestion_in_progress_is_abandoned_and_the_file_closed_at_once(
 
 
 def test_a_stop_while_the_source_opens_records_nothing_at_once(tmp_path: Path) -> None:
-    """The synthetic camera renders its first pose as it opens (seconds with the default
-    scene on a busy machine): a stop then is not waited for, and leaves no file."""
+    """A stop asked while the source opens is seen there, before the file exists: it is
+    not waited for, and leaves no file (the synthetic camera renders nothing as it opens
+    now; its first view is cut like any other, below)."""
     from recorder.plan import load_plan, record_plan
     from recorder.sources import open_source
     from twopose.methods import Method

@@ -11,6 +11,7 @@ this class, so what the recorder rehearses is what the simulator writes.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -59,15 +60,21 @@ class SyntheticCamera:
         self.camera: CameraParams = scene.cameras[0]
         self._radiance: NDArray[np.float32] | None = None
 
-    def place(self, t_placed: F64, r_placed_deg: F64) -> None:
+    def place(
+        self, t_placed: F64, r_placed_deg: F64, *, between: Callable[[], None] | None = None
+    ) -> None:
         """Render from where the camera really is when the laptop is placed here.
 
-        Grid frame, session units, degrees; the rig's constants applied.
+        Grid frame, session units, degrees; the rig's constants applied. ``between``: called
+        between two bands of rays; what it raises abandons the rendering, the placement
+        before kept (:func:`twopose.sim.render.render_radiance`).
         """
         t, r = camera_pose(self.scene.systematic, np.asarray(t_placed), np.asarray(r_placed_deg))
-        self.place_camera(t, r)
+        self.place_camera(t, r, between=between)
 
-    def place_camera(self, t_camera: F64, r_camera_deg: F64) -> None:
+    def place_camera(
+        self, t_camera: F64, r_camera_deg: F64, *, between: Callable[[], None] | None = None
+    ) -> None:
         """Render from the camera's own (true) pose.
 
         The rig's pose constants already applied (the simulator draws it to check the target
@@ -79,6 +86,7 @@ class SyntheticCamera:
             true_intrinsics(self.scene.systematic, self.camera.intrinsics),
             rotation_from_angles_deg(r_camera_deg),
             np.asarray(t_camera, dtype=np.float64),
+            between=between,
         )
 
     def expose(self) -> NDArray[np.uint8]:

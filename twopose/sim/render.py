@@ -8,10 +8,19 @@ Geometry is ray-cast once per pose
 (supersampled, then area-averaged); each frame then gets its own lighting gain,
 white balance and gradient, vignetting, sensor noise, and JPEG compression.
 
+A pose's rays are cast in bands of :data:`BAND_RAYS` (each ray's colour is its own, so the
+image is the same whatever the band): a band's arrays stay in the processor's cache, which
+halves the time of the whole grid at once, and between two bands a stop can cut the
+rendering (``between``). Each stage works only on the rays it concerns (the background on
+the rays no object took, a decal on the rays near it, the highlight on shiny surfaces).
+
 Everything here is deterministic for a given scene, pose and random generator.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
+from functools import lru_cache
 
 import cv2
 import numpy as np
@@ -22,7 +31,11 @@ from twopose.camera import Intrinsics, camera_rays
 from twopose.sim.layout import GAMMA, Decal, Layout, Primitive, srgb_to_linear
 from twopose.sim.scene import Scene
 
-__all__ = ["expose", "render_radiance"]
+__all__ = ["BAND_RAYS", "expose", "render_radiance"]
+
+#: Rays cast together: about 1.5 MB per array of a band, in the cache; ~10 ms of work, the
+#: longest a stop waits for (``render_radiance``'s ``between``).
+BAND_RAYS = 1 << 16
 
 
 def _decal_mask(decal: Decal, ab: F64) -> NDArray[np.bool_]:
@@ -50,8 +63,12 @@ def _decal_mask(decal: Decal, ab: F64) -> NDArray[np.bool_]:
 # --------------------------------------------------------------------------- ray casting
 
 
+@lru_cache(maxsize=4)
 def _pixel_rays(intr: Intrinsics, s: int) -> F64:
-    """Camera-frame ray directions (z = 1) of the supersampled pixel grid, (H*s*W*s, 3)."""
+    """Camera-frame ray directions (z = 1) of the supersampled pixel grid, (H*s*W*s, 3).
+
+    The same for every pose of a camera: made once, read-only, and kept for the next pose.
+    """
     cols = (np.arange(intr.width * s) + 0.5) / s - 0.5
     rows = (np.arange(intr.height * s) + 0.5) / s - 0.5
     cc, rr = np.meshgrid(cols, rows)
@@ -60,8 +77,11 @@ def _pixel_rays(intr: Intrinsics, s: int) -> F64:
         norm = cv2.undistortPoints(
             px.reshape(-1, 1, 2), intr.K, np.asarray(intr.distortion, dtype=np.float64)
         ).reshape(-1, 2)
-        return np.concatenate([norm, np.ones((norm.shape[0], 1))], axis=1)
-    return camera_rays(px, [intr.fx, intr.fy, intr.cx, intr.cy])
+        rays = np.concatenate([norm, np.ones((norm.shape[0], 1))], axis=1)
+    else:
+        rays = camera_rays(px, [intr.fx, intr.fy, intr.cx, intr.cy])
+    rays.setflags(write=False)
+    return rays
 
 
 def _capsule(o: F64, d: F64, a: F64, b: F64, r: float) -> tuple[F64, F64]:
@@ -128,27 +148,43 @@ def render_radiance(
     intr: Intrinsics,
     R_cam_to_grid: F64,
     t_grid: F64,
+    *,
+    between: Callable[[], None] | None = None,
 ) -> F32:
     """Linear radiance image (H, W, 3) RGB, float32, seen from one (true) pose.
 
     The ray grid is ``sensor.supersample`` times denser than the pixels and averaged
     back with ``cv2.INTER_AREA``, which anti-aliases edges (sub-pixel centroids depend on it).
+    ``between`` is called before each band of :data:`BAND_RAYS` rays: it may raise to
+    abandon the rendering (the recorder's stop; nothing is half written).
     """
     s = scene.sensor.supersample
-    d = _pixel_rays(intr, s) @ np.asarray(R_cam_to_grid, dtype=np.float64).T
+    rays = _pixel_rays(intr, s)
+    # Contiguous: NumPy multiplies by a transposed view ~50x slower (no BLAS), same bits.
+    R_T = np.ascontiguousarray(np.asarray(R_cam_to_grid, dtype=np.float64).T)
     o = np.asarray(t_grid, dtype=np.float64)
-    t_best, owner, normals = _intersect(layout, o, d)
     footprint = np.array([1.0 / (intr.fx * s), 1.0 / (intr.fy * s)])  # per unit depth
-    albedo, specular = _surface(layout, o, d, owner, t_best, footprint)
-    _shade_background(scene, layout, o, d, owner, t_best, albedo, normals)
-    radiance = _lit(scene, d, albedo, specular, normals)
-    img = radiance.reshape(intr.height * s, intr.width * s, 3).astype(np.float32)
+    flat = np.empty((rays.shape[0], 3), dtype=np.float32)
+    for start in range(0, rays.shape[0], BAND_RAYS):
+        if between is not None:
+            between()
+        band = slice(start, start + BAND_RAYS)
+        flat[band] = _band_radiance(scene, layout, o, rays[band] @ R_T, footprint)
+    img = flat.reshape(intr.height * s, intr.width * s, 3)
     if s > 1:
         return np.asarray(
             cv2.resize(img, (intr.width, intr.height), interpolation=cv2.INTER_AREA),
             dtype=np.float32,
         )
     return img
+
+
+def _band_radiance(scene: Scene, layout: Layout, o: F64, d: F64, footprint: F64) -> F64:
+    """The radiance (R, 3) of the rays ``d`` (R, 3, grid frame) from ``o``."""
+    t_best, owner, normals = _intersect(layout, o, d)
+    albedo, specular = _surface(layout, o, d, owner, t_best, footprint)
+    _shade_background(scene, layout, o, d, owner, t_best, albedo, normals)
+    return _lit(scene, d, albedo, specular, normals)
 
 
 def _intersect(layout: Layout, o: F64, d: F64) -> tuple[F64, NDArray[np.int32], F64]:
@@ -233,17 +269,22 @@ def _surface(
 
 
 def _lit(scene: Scene, d: F64, albedo: F64, specular: F64, normals: F64) -> F64:
-    """Ambient + Lambert + a Blinn highlight under the scene's one directional light."""
+    """Ambient + Lambert + a Blinn highlight under the scene's one directional light.
+
+    The highlight is worked out only where a surface is shiny.
+    """
     light = np.asarray(scene.lighting.direction, dtype=np.float64)
     light /= np.linalg.norm(light)
     lam = np.clip(normals @ light, 0.0, None)
     radiance = albedo * (scene.lighting.ambient + scene.lighting.diffuse * lam)[:, None]
-    if specular.any():
-        view = -d / np.linalg.norm(d, axis=1, keepdims=True)
+    shiny = np.flatnonzero(specular)
+    if shiny.size:
+        ds, ns = d[shiny], normals[shiny]
+        view = -ds / np.linalg.norm(ds, axis=1, keepdims=True)
         half = light + view
         half /= np.linalg.norm(half, axis=1, keepdims=True)
-        highlight = specular * np.clip(np.einsum("ij,ij->i", normals, half), 0, None) ** 40
-        radiance += highlight[:, None]
+        highlight = specular[shiny] * np.clip(np.einsum("ij,ij->i", ns, half), 0, None) ** 40
+        radiance[shiny] += highlight[:, None]
     return np.asarray(radiance)
 
 
@@ -285,23 +326,55 @@ def _shade_background(
     normals: F64,
 ) -> None:
     """Table (grid paper on wood), wall and floor for the rays no primitive took."""
-    free = owner < 0
+    free = np.flatnonzero(owner < 0)
+    df = d.take(free, axis=0)  # take and compress: 4x faster than indexing, same rows
     h = scene.ground_height
     with np.errstate(divide="ignore", invalid="ignore"):
-        t_table = (h - o[1]) / d[:, 1]
-    p = o + d * np.where(np.isfinite(t_table), t_table, 0.0)[:, None]
+        t_table = (h - o[1]) / df[:, 1]
+    p = o + df * np.where(np.isfinite(t_table), t_table, 0.0)[:, None]
     x0, x1, z0, z1 = scene.table_extent
-    on_table = (
-        free & (t_table > 0) & (p[:, 0] >= x0) & (p[:, 0] <= x1) & (p[:, 2] >= z0) & (p[:, 2] <= z1)
+    on_table = (t_table > 0) & (p[:, 0] >= x0) & (p[:, 0] <= x1) & (p[:, 2] >= z0) & (p[:, 2] <= z1)
+    table = free[on_table]
+    albedo[table] = _table_texture(
+        scene,
+        layout,
+        p.compress(on_table, axis=0),
+        df.compress(on_table, axis=0),
+        t_table[on_table],
     )
+    normals[table] = (0.0, -1.0, 0.0)
 
-    # Grid paper: lines every grid_spacing, anti-aliased by their footprint in the plane.
+    rest, dr = free[~on_table], df.compress(~on_table, axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_wall = (scene.wall_z - o[2]) / dr[:, 2]
+    pw = o + dr * np.where(np.isfinite(t_wall), t_wall, 0.0)[:, None]
+    on_wall = (t_wall > 0) & (pw[:, 1] < h)
+    wall_tex = np.tile(srgb_to_linear(scene.wall_color), (int(on_wall.sum()), 1))
+    _paint_decals(layout.decals, "back_wall", pw.compress(on_wall, axis=0)[:, :2], wall_tex)
+    albedo[rest[on_wall]] = wall_tex
+    normals[rest[on_wall]] = (0.0, 0.0, -1.0)
+    floor = rest[~on_wall]
+    albedo[floor] = srgb_to_linear(scene.floor_color)
+    normals[floor] = (0.0, -1.0, 0.0)
+    t_best[table] = t_table[on_table]
+
+
+def _table_texture(scene: Scene, layout: Layout, tab: F64, d: F64, t_table: F64) -> F64:
+    """The table's colour (R, 3) at the points ``tab`` its rays ``d`` meet at ``t_table``.
+
+    The grid paper's lines, anti-aliased by their footprint in the plane, on the paper; the
+    wood around it; the table's decals.
+    """
     px0, px1, pz0, pz1 = scene.paper_extent
-    tab = p[on_table]
-    on_paper = (tab[:, 0] >= px0) & (tab[:, 0] <= px1) & (tab[:, 2] >= pz0) & (tab[:, 2] <= pz1)
+    on_paper = np.flatnonzero(
+        (tab[:, 0] >= px0) & (tab[:, 0] <= px1) & (tab[:, 2] >= pz0) & (tab[:, 2] <= pz1)
+    )
+    tex = np.tile(srgb_to_linear(scene.table_color), (tab.shape[0], 1))
     f = 0.5 * (scene.cameras[0].fx + scene.cameras[0].fy) * scene.sensor.supersample
-    ray_len = t_table[on_table] * np.linalg.norm(d[on_table], axis=1)
-    grazing = np.clip(np.abs(d[on_table, 1]) / np.linalg.norm(d[on_table], axis=1), 0.03, 1.0)
+    d_paper = d.take(on_paper, axis=0)
+    length = np.linalg.norm(d_paper, axis=1)
+    ray_len = t_table[on_paper] * length
+    grazing = np.clip(np.abs(d_paper[:, 1]) / length, 0.03, 1.0)
     foot_x = ray_len / f
     foot_z = foot_x / grazing
     g = scene.grid_spacing
@@ -312,33 +385,43 @@ def _shade_background(
         cov = np.clip((w / 2 - dist) / foot + 0.5, 0.0, 1.0) * np.clip(w / foot, 0.0, 1.0)
         return np.asarray(np.maximum(cov, 0.0))
 
-    line = np.maximum(coverage(tab[:, 0], foot_x), coverage(tab[:, 2], foot_z)) * on_paper
+    paper_points = tab.take(on_paper, axis=0)
+    line = np.maximum(coverage(paper_points[:, 0], foot_x), coverage(paper_points[:, 2], foot_z))
     paper, grid = srgb_to_linear(scene.paper_color), srgb_to_linear(scene.grid_color)
-    tex = np.where(on_paper[:, None], paper, srgb_to_linear(scene.table_color))
-    tex = tex * (1 - line[:, None]) + grid * line[:, None]
-    for decal in layout.decals:
-        if decal.surface == "table":
-            m = _decal_mask(decal, tab[:, [0, 2]])
-            tex[m] = decal.color
-    albedo[on_table] = tex
-    normals[on_table] = (0.0, -1.0, 0.0)
+    tex[on_paper] = paper * (1 - line[:, None]) + grid * line[:, None]
+    _paint_decals(layout.decals, "table", tab[:, [0, 2]], tex)
+    return tex
 
-    rest = free & ~on_table
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t_wall = (scene.wall_z - o[2]) / d[:, 2]
-    pw = o + d * np.where(np.isfinite(t_wall), t_wall, 0.0)[:, None]
-    on_wall = rest & (t_wall > 0) & (pw[:, 1] < h)
-    wall_tex = np.tile(srgb_to_linear(scene.wall_color), (int(on_wall.sum()), 1))
-    wall_pts = pw[on_wall][:, [0, 1]]
-    for decal in layout.decals:
-        if decal.surface == "back_wall":
-            wall_tex[_decal_mask(decal, wall_pts)] = decal.color
-    albedo[on_wall] = wall_tex
-    normals[on_wall] = (0.0, 0.0, -1.0)
-    floor = rest & ~on_wall
-    albedo[floor] = srgb_to_linear(scene.floor_color)
-    normals[floor] = (0.0, -1.0, 0.0)
-    t_best[on_table] = t_table[on_table]
+
+def _paint_decals(decals: tuple[Decal, ...], surface: str, ab: F64, tex: F64) -> None:
+    """Paint the ``surface``'s decals into ``tex`` (R, 3) at its points ``ab`` (R, 2).
+
+    Each decal is tested only on the points within its bounding box.
+    """
+    for decal in decals:
+        if decal.surface != surface:
+            continue
+        lo, hi = _decal_box(decal)
+        near = np.flatnonzero(
+            (ab[:, 0] >= lo[0]) & (ab[:, 0] <= hi[0]) & (ab[:, 1] >= lo[1]) & (ab[:, 1] <= hi[1])
+        )
+        if near.size:
+            tex[near[_decal_mask(decal, ab[near])]] = decal.color
+
+
+def _decal_box(decal: Decal) -> tuple[F64, F64]:
+    """A box (lo, hi) in the surface's (a, b) that holds the decal, with a margin.
+
+    No point outside it is painted: a disk's, a ring's or an ellipse's points lie within
+    its largest semi-axis of its centre, a triangle's within its vertices' box.
+    """
+    if decal.shape == "triangle":
+        lo, hi = decal.vertices.min(axis=0), decal.vertices.max(axis=0)
+    else:
+        r = float(np.max(decal.size))
+        lo, hi = decal.center - r, decal.center + r
+    margin = 0.01 * float(np.max(hi - lo)) + 1e-9
+    return lo - margin, hi + margin
 
 
 # --------------------------------------------------------------------------- the sensor
