@@ -121,9 +121,12 @@ def parse_pair(arg: str, kinds: Sequence[SourceKind] | None = None) -> tuple[str
             'quotes: pair:"video:take 1,2.mp4",video:b.mp4'
         )
     for n, part in enumerate(parts, start=1):
-        kind = sources.kind_of(part, kinds) if part else None
-        if kind is None:
+        if not part:
             raise SourceError(f"pair:{arg}: camera {n}'s source is empty")
+        try:
+            kind = sources.kind_of(part, kinds)
+        except SourceError as err:
+            raise SourceError(f"pair:{arg}: camera {n}'s source: {err}") from None
         if kind.cameras != 1:
             raise SourceError(f"pair:{arg}: camera {n}'s source {part} is not one camera")
     return parts[0], parts[1]
@@ -162,11 +165,11 @@ class _Reader:
                         )
                     return
                 self._put(cond, stop, grabbed)
+        except KeyboardInterrupt:  # the recording is to stop (a source's own stops.check)
+            return
         except SourceError as err:
             self.error = SourceError(f"camera {self.camera} ({self.spec}): {err}")
-        except (
-            Exception
-        ) as err:  # a backend's failure: said by the reader, not a thread's traceback
+        except Exception as err:  # a backend's failure: said by the reader, not a traceback
             self.error = SourceError(f"camera {self.camera} ({self.spec}) failed: {err!r}")
         finally:
             with cond:
