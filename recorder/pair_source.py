@@ -53,8 +53,9 @@ __all__ = [
     "parse_pair",
 ]
 
-#: How many frames each camera's queue holds (at 30 fps, a quarter of a second).
-QUEUE_FRAMES = 8
+#: How many frames each camera's queue holds (at 30 fps, a second: a consumer held up by a
+#: disk's flush or a busy machine loses nothing; MJPG frames are ~90 kB each).
+QUEUE_FRAMES = 30
 _POLL_S = 0.05  # how often a wait looks whether the recording is to stop
 _JOIN_S = 2.0  # how long closing waits for both reader threads, together
 
@@ -278,6 +279,13 @@ class PairSource(FrameSource):
         """Each camera's frames dropped: the reader was too slow (the oldest queued went),
         or too late for the camera itself (a paced file's or the synthetic camera's)."""
         one, two = (r.dropped + r.feed.missed for r in self._readers)
+        return one, two
+
+    @property
+    def late_by_camera(self) -> tuple[int, int]:
+        """Of :attr:`dropped_by_camera`, the frames a reader thread was too late for (a
+        paced file's or the synthetic camera's; a camera's driver drops those unseen)."""
+        one, two = (r.feed.missed for r in self._readers)
         return one, two
 
     @property
