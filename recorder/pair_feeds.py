@@ -39,6 +39,7 @@ from recorder.sources import (
     SourceInfo,
     SyntheticSource,
     VideoSource,
+    open_video,
 )
 from twopose.errors import SourceError
 
@@ -283,23 +284,11 @@ class VideoFeed(_Paced):
     def open(self) -> SourceInfo:
         import cv2
 
-        if not self.path.is_file():
-            raise SourceError(f"video {self.path} does not exist")
-        cap = cv2.VideoCapture(str(self.path))
-        if not cap.isOpened():
-            raise SourceError(
-                f"OpenCV cannot read the video {self.path} (unknown format or codec?)"
-            )
+        cap, self.info = open_video(self.path)
         self.fourcc = _fourcc_text(cap.get(cv2.CAP_PROP_FOURCC))
         if self.fourcc == "MJPG":  # each packet a JPEG: grabbed undecoded
             cap.set(cv2.CAP_PROP_FORMAT, -1)
         self._cap = cap
-        self.info = SourceInfo(
-            description=f"video:{self.path}",
-            width=int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)),
-            height=int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT)),
-            fps=float(cap.get(cv2.CAP_PROP_FPS)) or 30.0,
-        )
         self.clock_note = (
             f"the file's own timestamps, played at its rate ({self.info.fps:g} fps) from the "
             "pair's start"

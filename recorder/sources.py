@@ -49,6 +49,7 @@ __all__ = [
     "one_camera",
     "open_from",
     "open_source",
+    "open_video",
     "source_help",
     "source_kinds_table",
 ]
@@ -147,22 +148,7 @@ class VideoSource(FrameSource):
         self._cap: Any = None
 
     def open(self) -> SourceInfo:
-        import cv2
-
-        if not self.path.is_file():
-            raise SourceError(f"video {self.path} does not exist")
-        cap = cv2.VideoCapture(str(self.path))
-        if not cap.isOpened():
-            raise SourceError(
-                f"OpenCV cannot read the video {self.path} (unknown format or codec?)"
-            )
-        self._cap = cap
-        self.info = SourceInfo(
-            description=f"video:{self.path}",
-            width=int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)),
-            height=int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT)),
-            fps=float(cap.get(cv2.CAP_PROP_FPS)) or 30.0,
-        )
+        self._cap, self.info = open_video(self.path)
         self._pacer = Pacer(self.info.fps) if self.realtime else None
         return self.info
 
@@ -183,6 +169,25 @@ class VideoSource(FrameSource):
     def close(self) -> None:
         if self._cap is not None:
             self._cap.release()
+
+
+def open_video(path: Path) -> tuple[Any, SourceInfo]:
+    """``path`` opened by OpenCV (its ``VideoCapture``) and what it delivers; a file that is
+    missing or that OpenCV cannot read refused in words."""
+    import cv2
+
+    if not path.is_file():
+        raise SourceError(f"video {path} does not exist")
+    cap = cv2.VideoCapture(str(path))
+    if not cap.isOpened():
+        raise SourceError(f"OpenCV cannot read the video {path} (unknown format or codec?)")
+    info = SourceInfo(
+        description=f"video:{path}",
+        width=int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)),
+        height=int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT)),
+        fps=float(cap.get(cv2.CAP_PROP_FPS)) or 30.0,
+    )
+    return cap, info
 
 
 class ImagesSource(FrameSource):
