@@ -407,8 +407,13 @@ def open_source(
 
 def one_camera(spec: str, kinds: Sequence[SourceKind] = SOURCE_KINDS) -> SourceKind:
     """The kind ``spec`` names, refused in words unless it is one camera's (a command that
-    records or calibrates one camera cannot take a pair)."""
-    kind = kind_of(spec, kinds)
+    records or calibrates one camera cannot take a pair; an unknown one is told the
+    one-camera kinds)."""
+    try:
+        kind = kind_of(spec, kinds)
+    except SourceError:
+        kind_of(spec, [k for k in kinds if k.cameras == 1])  # raises, naming those kinds
+        raise
     if kind.cameras != 1:
         raise SourceError(
             f"{spec} gives {kind.cameras} cameras' frames and this takes one camera's: give "
