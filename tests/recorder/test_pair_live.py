@@ -43,7 +43,7 @@ def folders(tmp_path_factory: pytest.TempPathFactory) -> Path:
             str(root / f"{side}.avi"), cv2.VideoWriter.fourcc(*"FFV1"), 10.0, (640, 480)
         )
         for n in NUMBERS:
-            image = cv2.imread(str(DATA / f"{side}{n}.jpg"))
+            image = np.asarray(cv2.imread(str(DATA / f"{side}{n}.jpg")), np.uint8)
             cv2.imwrite(str(root / side / f"{side}{n}.png"), image)
             for _ in range(4):
                 writer.write(image)

@@ -51,9 +51,7 @@ def _level(image: np.ndarray) -> int:
 # ------------------------------------------------------------------------------ the text
 
 
-_TEXT = st.text(
-    st.characters(blacklist_categories=("Cs",), blacklist_characters="\r\n\0"), min_size=1
-)
+_TEXT = st.text(st.characters(exclude_categories=["Cs"], exclude_characters="\r\n\0"), min_size=1)
 
 
 @settings(max_examples=60, deadline=None)
@@ -134,7 +132,7 @@ def test_a_slow_reader_loses_frames_counted_never_silently(tmp_path: Path) -> No
     each file is either given or counted dropped."""
     files = [_video(tmp_path / f"{c}.avi", 30, 60.0, shade=c) for c in (1, 2)]
     given = [0, 0]
-    with PairSource(*(f"video:{f}" for f in files), queue_frames=1) as source:
+    with PairSource(f"video:{files[0]}", f"video:{files[1]}", queue_frames=1) as source:
         for frame in source.frames():
             given[frame.camera - 1] += 1
             time.sleep(0.05)
