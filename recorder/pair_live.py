@@ -108,8 +108,8 @@ def live_pairs(
         finally:
             outcome.dropped = source.dropped_by_camera
     if not outcome.ended:
-        ended = "; ".join(source.ended_by())
-        outcome.ended = f"{ended or 'both cameras ended'}: {_count(outcome)}"
+        ended = "; ".join(source.ended_by()) or source.ended_early or "both cameras ended"
+        outcome.ended = f"{ended}: {_count(outcome)}"
 
 
 def _count(outcome: LiveOutcome) -> str:

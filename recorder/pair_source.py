@@ -225,6 +225,8 @@ class PairSource(FrameSource):
         )
         self.stills = all(f.lossless for f in feeds)
         self.warnings: tuple[str, ...] = ()
+        #: Why :meth:`pairs` ended before both streams did ("": it did not).
+        self.ended_early = ""
         self._cond = threading.Condition()
         self._stop = threading.Event()
         self._opened = False
@@ -330,7 +332,9 @@ class PairSource(FrameSource):
         self, *, offset_ns: int = 0, slop_ns: int | None = None, timeout_s: float = 2.0
     ) -> Iterator[FramePair]:
         """Pairs by capture time as they become final (:mod:`twopose.pair.live_pairing`:
-        :func:`twopose.pair.pairing.pair_frames`' pairs), until both streams end.
+        :func:`twopose.pair.pairing.pair_frames`' pairs), until no pair can come: both
+        streams ended, or one did and the other's frames passed its last by the slop
+        (:attr:`ended_early` then says which; the other file is not played to its end).
 
         ``offset_ns`` camera 2's clock minus camera 1's; ``slop_ns`` the largest |skew| of
         a pair (default: half the faster camera's frame interval).
@@ -344,9 +348,17 @@ class PairSource(FrameSource):
             slop_ns=slop_ns, offset_ns=offset_ns, window=max(64, 4 * self._readers[0].limit)
         )
         told = [False, False]
+        last_ns = [-(2**62), -(2**62)]  # each camera's last capture, on camera 1's clock
         while True:
             frame = self._next(timeout_s)
             made = [] if frame is None else live.add(frame.camera, frame.t_capture_ns, frame)
+            if frame is not None:
+                c = frame.camera - 1
+                last_ns[c] = frame.t_capture_ns - (offset_ns if c else 0)
+                if told[1 - c] and last_ns[c] > last_ns[1 - c] + slop_ns:
+                    r = self._readers[1 - c]
+                    self.ended_early = f"camera {r.camera} ({r.spec}) ended: no more pairs"
+                    frame = None  # this camera's later frames have no partner left
             for n, reader in enumerate(self._readers):
                 if not told[n] and (reader.drained or frame is None):
                     told[n] = True
