@@ -4,9 +4,10 @@
 
 Two MJPG video files (made here, cached under the system's temporary folder: a textured
 scene with a moving square, each frame a 640x480 JPEG of ~90 kB, as a webcam's MJPG) are
-played at their rate by :class:`recorder.pair_source.PairSource`, each on its reader thread
-with its bounded queue, exactly as two cameras would be read (grabbed undecoded, decoded on
-the consumer's side). The consumer takes the pairs as they become final
+played at their rate by :class:`recorder.pair_source.PairSource`
+(:func:`recorder.sources.open_pair`), each on its reader thread with its bounded queue,
+exactly as two cameras would be read (grabbed undecoded, decoded on the consumer's side).
+The consumer takes the pairs as they become final
 (:meth:`~recorder.pair_source.PairSource.pairs`) and decodes both frames, as a recording
 would before writing them. Printed: each window's pairs and rate, each camera's frames
 dropped (a reader too slow for its queue, or a reader thread late for its camera by more than
@@ -31,7 +32,8 @@ import cv2
 import numpy as np
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
-from recorder.pair_source import CameraStream, PairSource
+from recorder.pair_source import CameraStream
+from recorder.sources import open_pair
 
 FIGURE = "pair_source.txt"
 WIDTH, HEIGHT = 640, 480
@@ -77,7 +79,7 @@ def main() -> int:
     load0 = os.getloadavg()[0]
     t_cap1, t_cap2, t_held = [], [], []
     cpu0, wall0 = time.process_time(), time.monotonic()
-    with PairSource(f"video:{videos[0]}", f"video:{videos[1]}") as source:
+    with open_pair(f"video:{videos[0]}", f"video:{videos[1]}") as source:
         cams = source.cameras
         for pair in source.pairs():
             # The images are decoded by now (the consumer's side); touching them is the use.

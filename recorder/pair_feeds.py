@@ -28,22 +28,15 @@ import math
 import threading
 import time
 from abc import ABC, abstractmethod
-from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
-from recorder.sources import (
-    CameraSource,
-    FrameSource,
-    ImagesSource,
-    SourceInfo,
-    SyntheticSource,
-    VideoSource,
-    open_video,
-)
+from recorder.frame_source import FrameSource, SourceInfo, open_video
 from twopose.errors import SourceError
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
     import numpy as np
     from numpy.typing import NDArray
 
@@ -56,6 +49,7 @@ __all__ = [
     "CLOCK_SIMULATED",
     "MAX_DRIVER_LAG_NS",
     "RING_FRAMES",
+    "AskedCamera",
     "CameraFeed",
     "DriverStamps",
     "Feed",
@@ -63,8 +57,7 @@ __all__ = [
     "PacedFeed",
     "StillsFeed",
     "VideoFeed",
-    "feed_for",
-    "register_feed",
+    "VideoFile",
 ]
 
 CLOCK_DRIVER = "driver"
@@ -78,6 +71,21 @@ MAX_DRIVER_LAG_NS = 1_000_000_000
 #: A camera driver's ring of buffers (Video4Linux2's default in OpenCV): a paced file or the
 #: synthetic camera skips a frame the reader is later than this many intervals for.
 RING_FRAMES = 4
+
+
+class AskedCamera(Protocol):
+    """What a camera source asks of its device (:class:`recorder.sources.CameraSource`)."""
+
+    device: int | str
+    width: int
+    height: int
+    fps: float
+
+
+class VideoFile(Protocol):
+    """A video file source (:class:`recorder.sources.VideoSource`)."""
+
+    path: Path
 
 
 @dataclass(frozen=True, slots=True)
@@ -203,11 +211,11 @@ def _fourcc_text(value: float) -> str:
 
 
 class CameraFeed(Feed):
-    """A camera (:class:`recorder.sources.CameraSource`'s device, size and rate asked)."""
+    """A camera (its source's device, size and rate asked: :class:`AskedCamera`)."""
 
     finite = False
 
-    def __init__(self, source: CameraSource) -> None:
+    def __init__(self, source: AskedCamera) -> None:
         super().__init__()
         self.source = source
         self.stamps = DriverStamps()
@@ -275,7 +283,7 @@ class VideoFeed(_Paced):
     """A video file played at its rate, each frame at its own timestamp (its frame rate's
     where a timestamp does not increase)."""
 
-    def __init__(self, source: VideoSource) -> None:
+    def __init__(self, source: VideoFile) -> None:
         super().__init__()
         self.path = source.path
         self._cap: Any = None
@@ -390,30 +398,3 @@ class StillsFeed(Feed):
 
     def close(self) -> None:
         self.source.close()
-
-
-#: How each type of frame source is read as one camera of a pair (the nearest type wins).
-FEEDS: dict[type[FrameSource], Callable[[Any], Feed]] = {
-    CameraSource: CameraFeed,
-    VideoSource: VideoFeed,
-    ImagesSource: StillsFeed,
-    SyntheticSource: PacedFeed,
-}
-
-
-def register_feed(kind: type[FrameSource], factory: Callable[[Any], Feed]) -> None:
-    """Read sources of type ``kind`` (a kind registered in :data:`recorder.sources.SOURCE_KINDS`
-    later) as one camera of a pair by ``factory(source)``."""
-    FEEDS[kind] = factory
-
-
-def feed_for(source: FrameSource, spec: str) -> Feed:
-    """The feed of ``source`` (opened from ``spec``, not yet opened itself)."""
-    for kind in type(source).__mro__:
-        factory = FEEDS.get(kind)
-        if factory is not None:
-            return factory(source)
-    raise SourceError(
-        f"{spec}: a pair cannot stamp this source's frames with their capture time (its "
-        "kind has no feed: recorder.pair_feeds.register_feed)"
-    )

@@ -29,9 +29,14 @@ from recorder.pair_feeds import CLOCK_GRAB
 from twopose.errors import SourceError
 
 if TYPE_CHECKING:
-    from recorder.pair_calibration import StillPair
+    import numpy as np
+    from numpy.typing import NDArray
+
     from recorder.pair_source import CameraStream, FramePair, PairSource
     from twopose.arrays import F32
+
+    #: A pair to fit: its name, camera 1's image, camera 2's (as pair_calibration's).
+    StillPair = tuple[str, NDArray[np.uint8], NDArray[np.uint8]]
 
 __all__ = ["LIVE_VIEWS", "LiveOutcome", "LiveRules", "live_pairs"]
 

@@ -29,11 +29,11 @@ import time
 from collections import deque
 from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 from recorder import stops
-from recorder.pair_feeds import Feed, Grabbed, feed_for
-from recorder.sources import FrameSource, SourceInfo, SourceKind, SourceOptions
+from recorder.frame_source import FrameSource, SourceInfo
+from recorder.pair_feeds import Feed, Grabbed
 from twopose.errors import SourceError
 
 if TYPE_CHECKING:
@@ -104,12 +104,21 @@ class CameraStream:
         return f"{self.spec}: {i.width}x{i.height} at {i.fps:g} fps{fmt}; clock: {self.clock_note}"
 
 
-def parse_pair(arg: str, kinds: Sequence[SourceKind] | None = None) -> tuple[str, str]:
-    """The two sources of ``pair:ARG`` (the text after ``pair:``), each a one-camera kind of
-    ``kinds`` (the registry's by default); refused in words."""
-    from recorder import sources
+class Kind(Protocol):
+    """What :func:`parse_pair` reads of a kind of source (:class:`recorder.sources.SourceKind`)."""
 
-    kinds = sources.SOURCE_KINDS if kinds is None else kinds
+    @property
+    def cameras(self) -> int: ...
+
+    @property
+    def syntax(self) -> str: ...
+
+    def matches(self, spec: str) -> bool: ...
+
+
+def parse_pair(arg: str, kinds: Sequence[Kind]) -> tuple[str, str]:
+    """The two sources of ``pair:ARG`` (the text after ``pair:``), each a one-camera kind of
+    ``kinds`` (the registry's: :func:`recorder.sources.open_pair`); refused in words."""
     try:
         rows = list(csv.reader(io.StringIO(arg, newline=""), strict=True, skipinitialspace=True))
     except csv.Error as err:
@@ -124,10 +133,10 @@ def parse_pair(arg: str, kinds: Sequence[SourceKind] | None = None) -> tuple[str
     for n, part in enumerate(parts, start=1):
         if not part:
             raise SourceError(f"pair:{arg}: camera {n}'s source is empty")
-        try:
-            kind = sources.kind_of(part, kinds)
-        except SourceError as err:
-            raise SourceError(f"pair:{arg}: camera {n}'s source: {err}") from None
+        kind = next((k for k in kinds if k.matches(part)), None)
+        if kind is None:
+            ones = ", ".join(k.syntax for k in kinds if k.cameras == 1)
+            raise SourceError(f"pair:{arg}: camera {n}'s source {part!r} is unknown; use {ones}")
         if kind.cameras != 1:
             raise SourceError(f"pair:{arg}: camera {n}'s source {part} is not one camera")
     return parts[0], parts[1]
@@ -198,27 +207,22 @@ class PairSource(FrameSource):
     """Two cameras' frames with their capture times (the module docstring).
 
     Opened from ``pair:A,B`` (:func:`recorder.sources.open_source` refuses it: a
-    one-camera command takes one camera) by :func:`recorder.sources.open_from`, or
-    directly: ``PairSource("camera:0", "camera:1")``. :meth:`read` gives the next frame of
-    either camera (:meth:`read_frame` with its camera and capture time).
+    one-camera command takes one camera) by :func:`recorder.sources.open_from`, or by
+    :func:`recorder.sources.open_pair` ("camera:0", "camera:1"), which give it each
+    camera's :class:`~recorder.pair_feeds.Feed` and source text. :meth:`read` gives the
+    next frame of either camera (:meth:`read_frame` with its camera and capture time).
     """
 
     def __init__(
         self,
-        first: str,
-        second: str,
-        options: SourceOptions | None = None,
+        feeds: tuple[Feed, Feed],
+        specs: tuple[str, str],
         *,
         queue_frames: int = QUEUE_FRAMES,
     ) -> None:
-        from recorder import sources
-
         if queue_frames < 1:
             raise SourceError(f"a camera's queue holds 1 frame or more, got {queue_frames}")
-        options = dataclasses.replace(options or SourceOptions(), realtime=False)
-        self.specs = (first, second)
-        opened = [sources.open_from(sources.SOURCE_KINDS, s, options) for s in self.specs]
-        feeds = [feed_for(src, spec) for src, spec in zip(opened, self.specs, strict=True)]
+        self.specs = specs
         self._readers = tuple(
             _Reader(n, spec, feed, queue_frames)
             for n, (spec, feed) in enumerate(zip(self.specs, feeds, strict=True), start=1)

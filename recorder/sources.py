@@ -13,13 +13,14 @@ from __future__ import annotations
 import contextlib
 import queue
 import threading
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from typing_extensions import override
 
-from recorder.frame_source import FrameSource, Pacer, SourceInfo
+from recorder.frame_source import FrameSource, Pacer, SourceInfo, open_video
+from recorder.pair_feeds import CameraFeed, Feed, PacedFeed, StillsFeed, VideoFeed
 from recorder.synthetic_source import SyntheticSource
 from twopose.errors import InputValueError, SourceError
 from twopose.methods import Method
@@ -31,11 +32,13 @@ if TYPE_CHECKING:
     import numpy as np
     from numpy.typing import NDArray
 
+    from recorder.pair_source import PairSource
     from twopose.camera import Camera
 
     Image = NDArray[np.uint8]
 
 __all__ = [
+    "FEEDS",
     "SOURCE_KINDS",
     "CameraSource",
     "FrameSource",
@@ -48,8 +51,10 @@ __all__ = [
     "kind_of",
     "one_camera",
     "open_from",
+    "open_pair",
     "open_source",
     "open_video",
+    "register_feed",
     "source_help",
     "source_kinds_table",
 ]
@@ -171,25 +176,6 @@ class VideoSource(FrameSource):
             self._cap.release()
 
 
-def open_video(path: Path) -> tuple[Any, SourceInfo]:
-    """``path`` opened by OpenCV (its ``VideoCapture``) and what it delivers; a file that is
-    missing or that OpenCV cannot read refused in words."""
-    import cv2
-
-    if not path.is_file():
-        raise SourceError(f"video {path} does not exist")
-    cap = cv2.VideoCapture(str(path))
-    if not cap.isOpened():
-        raise SourceError(f"OpenCV cannot read the video {path} (unknown format or codec?)")
-    info = SourceInfo(
-        description=f"video:{path}",
-        width=int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)),
-        height=int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT)),
-        fps=float(cap.get(cv2.CAP_PROP_FPS)) or 30.0,
-    )
-    return cap, info
-
-
 class ImagesSource(FrameSource):
     """The images of a folder, in file-name order: ``DIR`` (every image in it) or
     ``DIR/PATTERN`` (a shell pattern such as ``photos/left*.jpg``: a folder often holds
@@ -303,9 +289,9 @@ def _open_synthetic(arg: str, o: SourceOptions) -> FrameSource:
 
 
 def _open_pair(arg: str, o: SourceOptions) -> FrameSource:
-    from recorder.pair_source import PairSource, parse_pair
+    from recorder.pair_source import parse_pair
 
-    return PairSource(*parse_pair(arg), o)
+    return open_pair(*parse_pair(arg, SOURCE_KINDS), o)
 
 
 #: Every kind of frame source, in the order help and docs list them.
@@ -435,3 +421,47 @@ def kind_of(spec: str, kinds: Sequence[SourceKind] = SOURCE_KINDS) -> SourceKind
         if kind.matches(spec):
             return kind
     raise SourceError(f"unknown source {spec!r}; use {_listed([k.syntax for k in kinds])}")
+
+
+#: How each type of one-camera source is read as one camera of a pair (the nearest type
+#: wins): its :class:`recorder.pair_feeds.Feed`, which stamps each frame's capture time.
+FEEDS: dict[type[FrameSource], Callable[[Any], Feed]] = {
+    CameraSource: CameraFeed,
+    VideoSource: VideoFeed,
+    ImagesSource: StillsFeed,
+    SyntheticSource: PacedFeed,
+}
+
+
+def register_feed(kind: type[FrameSource], factory: Callable[[Any], Feed]) -> None:
+    """Read sources of type ``kind`` (a kind registered in :data:`SOURCE_KINDS` later) as
+    one camera of a pair by ``factory(source)``."""
+    FEEDS[kind] = factory
+
+
+def open_pair(
+    first: str,
+    second: str,
+    options: SourceOptions | None = None,
+    *,
+    queue_frames: int | None = None,
+) -> PairSource:
+    """Two one-camera sources as a pair (``pair:FIRST,SECOND``; not yet opened): each opened
+    by the registry, read by its type's feed (:data:`FEEDS`), ``queue_frames`` a camera's
+    queue (:data:`recorder.pair_source.QUEUE_FRAMES` unless given)."""
+    from recorder.pair_source import QUEUE_FRAMES, PairSource
+
+    options = replace(options or SourceOptions(), realtime=False)  # paced by their feeds
+    feeds = []
+    for spec in (first, second):
+        source = open_from(SOURCE_KINDS, spec, options)
+        factory = next((FEEDS[t] for t in type(source).__mro__ if t in FEEDS), None)
+        if factory is None:
+            raise SourceError(
+                f"{spec}: a pair cannot stamp this source's frames with their capture time "
+                "(its kind has no feed: recorder.sources.register_feed)"
+            )
+        feeds.append(factory(source))
+    return PairSource(
+        (feeds[0], feeds[1]), (first, second), queue_frames=queue_frames or QUEUE_FRAMES
+    )

@@ -25,10 +25,9 @@ from recorder.pair_feeds import (
     DriverStamps,
     Feed,
     Grabbed,
-    register_feed,
 )
-from recorder.pair_source import PairSource, pair_spec, parse_pair
-from recorder.sources import open_source
+from recorder.pair_source import pair_spec, parse_pair
+from recorder.sources import SOURCE_KINDS, open_pair, open_source, register_feed
 from twopose.errors import SourceError
 
 runner = CliRunner()
@@ -58,7 +57,7 @@ _TEXT = st.text(st.characters(exclude_categories=["Cs"], exclude_characters="\r\
 @given(first=_TEXT, second=_TEXT)
 def test_any_two_sources_written_as_a_pair_are_read_back(first: str, second: str) -> None:
     a, b = f"video:{first}", f"images:{second}"
-    assert parse_pair(pair_spec(a, b).removeprefix("pair:")) == (a, b)
+    assert parse_pair(pair_spec(a, b).removeprefix("pair:"), SOURCE_KINDS) == (a, b)
 
 
 @pytest.mark.parametrize(
@@ -69,7 +68,7 @@ def test_any_two_sources_written_as_a_pair_are_read_back(first: str, second: str
         (",synthetic", "camera 1's source is empty"),
         ("synthetic,", "camera 2's source is empty"),
         ('"synthetic,synthetic', "a quoted source ends with its quote"),
-        ("foo,synthetic", "camera 1's source: unknown source 'foo'"),
+        ("foo,synthetic", "camera 1's source 'foo' is unknown; use camera:N, video:PATH"),
         (
             'synthetic,"pair:synthetic,synthetic"',
             "camera 2's source pair:synthetic,synthetic is not",
@@ -78,7 +77,7 @@ def test_any_two_sources_written_as_a_pair_are_read_back(first: str, second: str
 )
 def test_a_wrong_pair_is_refused_in_words(arg: str, words: str) -> None:
     with pytest.raises(SourceError, match=words):
-        parse_pair(arg)
+        parse_pair(arg, SOURCE_KINDS)
 
 
 def test_one_camera_commands_refuse_a_pair_in_words(tmp_path: Path) -> None:
@@ -102,7 +101,7 @@ def test_one_camera_commands_refuse_a_pair_in_words(tmp_path: Path) -> None:
 def test_two_files_give_every_frame_paired_at_their_own_times(tmp_path: Path) -> None:
     one = _video(tmp_path / "a.avi", 240, 60.0)  # 4 s
     two = _video(tmp_path / "b.avi", 9, 60.0, shade=4)  # camera 2's file ends first
-    with PairSource(f"video:{one}", f"video:{two}") as source:
+    with open_pair(f"video:{one}", f"video:{two}") as source:
         cams = source.cameras
         started = time.monotonic()
         pairs = list(source.pairs())
@@ -134,7 +133,7 @@ def test_a_slow_reader_loses_frames_counted_never_silently(tmp_path: Path) -> No
     each file is either given or counted dropped."""
     files = [_video(tmp_path / f"{c}.avi", 30, 60.0, shade=c) for c in (1, 2)]
     given = [0, 0]
-    with PairSource(f"video:{files[0]}", f"video:{files[1]}", queue_frames=1) as source:
+    with open_pair(f"video:{files[0]}", f"video:{files[1]}", queue_frames=1) as source:
         for frame in source.frames():
             given[frame.camera - 1] += 1
             time.sleep(0.05)
@@ -151,7 +150,7 @@ def test_stills_are_never_dropped_and_keep_their_names(tmp_path: Path) -> None:
             cv2.imwrite(
                 str(tmp_path / side / f"{side}{k}.png"), np.full((H, W, 3), level, np.uint8)
             )
-    with PairSource(
+    with open_pair(
         f"images:{tmp_path / 'left'}", f"images:{tmp_path / 'right'}", queue_frames=1
     ) as source:
         assert source.stills
@@ -216,12 +215,12 @@ def test_no_stamp_or_an_insane_first_one_makes_the_grab_the_clock(
 
 def test_a_camera_of_the_pair_that_does_not_open_is_said(tmp_path: Path) -> None:
     one = _video(tmp_path / "a.avi", 3, 30.0)
-    source = PairSource(f"video:{one}", "camera:97")
+    source = open_pair(f"video:{one}", "camera:97")
     with pytest.raises(SourceError, match="camera 97 did not open"), source:
         pass
     with (
         pytest.raises(SourceError, match=r"video .*missing.avi does not exist"),
-        PairSource(f"video:{tmp_path / 'missing.avi'}", f"video:{one}"),
+        open_pair(f"video:{tmp_path / 'missing.avi'}", f"video:{one}"),
     ):
         pass
 
@@ -271,9 +270,9 @@ class _UnpluggedFeed(Feed):
 def test_a_camera_that_stops_or_falls_silent_is_said(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, hang: bool, words: str
 ) -> None:
-    from recorder import pair_feeds, sources
+    from recorder import sources
 
-    monkeypatch.setattr(pair_feeds, "FEEDS", dict(pair_feeds.FEEDS))
+    monkeypatch.setattr(sources, "FEEDS", dict(sources.FEEDS))
     register_feed(_Unplugged, _UnpluggedFeed)
     real = sources.open_from
     monkeypatch.setattr(
@@ -283,7 +282,7 @@ def test_a_camera_that_stops_or_falls_silent_is_said(
     one = _video(tmp_path / "a.avi", 200, 100.0)
     seen: list[int] = []
     started = time.monotonic()
-    with PairSource(f"video:{one}", "x") as source:
+    with open_pair(f"video:{one}", "x") as source:
         frames = source.frames(timeout_s=0.3)
         with pytest.raises(SourceError, match=words):
             seen.extend(frame.camera for frame in frames)
