@@ -28,13 +28,14 @@ from analysis.columns import (
     VIEW_COLUMNS,
     typed,
 )
+from analysis.detection_pass import Detections
 from analysis.drawer import FigureDrawer, note
 from analysis.figure_cache import FigureCache, FigureJob
 from analysis.input_set import InputSet, SessionIdentity, resolve_inputs
 from analysis.metrics import summarize
 from analysis.noise_pass import NoisePass, first_pass, noise_pass, prior_salt, with_prior
 from analysis.outputs import OutputFolder, printable_stem
-from analysis.pipeline import Detections, _with_figures, analyse_session
+from analysis.pipeline import _with_figures, analyse_session
 from analysis.results import AnalysisOptions, RunResult, SessionFailure, SessionResult
 from analysis.session_cache import SessionCache
 from analysis.workers import Outcome, run_processes
@@ -118,33 +119,7 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
         )
     folder = OutputFolder.prepare(out_dir) if out_dir is not None else None
     with folder or contextlib.nullcontext():
-        session_cache = (
-            SessionCache.of(folder.destination, options, reuse=reuse) if folder else None
-        )
-        results_mcap: list[str | None] = [None] * len(files)
-        if folder is not None and scene:
-            labels = inputs.labels
-            results_mcap = [
-                str(folder.path / results_mcap_name(i, labels.get(f, f)))
-                for i, f in enumerate(files)
-            ]
-        batch = _Batch(
-            files=files,
-            results_mcap=results_mcap,
-            options=options,
-            images=folder is not None and "png" in options.figures,  # run --figures
-            on_done=on_session_done,
-            figure_cache=(
-                FigureCache.of(
-                    folder.destination, folder.previous_outputs(), session_cache.written_digests()
-                )
-                if folder is not None and session_cache is not None and reuse
-                else None
-            ),
-            session_cache=session_cache,
-            continuations=inputs.continuations,
-            identities=inputs.identities,
-        )
+        batch = _batch_of(inputs, folder, options, on_session_done, scene=scene, reuse=reuse)
         batch = first_pass(
             batch, inputs, lambda b: _execute(b, jobs=jobs, dask_address=dask_address)
         )
@@ -161,28 +136,76 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
             written_to=None if folder is None else str(folder.destination),
         )
         if folder is not None:
-            from analysis.report import write_outputs
-
-            # The sweeps are in the thesis' geometry, not the sessions': what the method
-            # can do, beside what each trial's own covariance says dominated it.
-            cache = batch.session_cache
-
-            def write() -> list[str]:
-                sweeps = cache.computed("sweeps", _thesis_sweeps) if cache else _thesis_sweeps()
-                return write_outputs(
-                    result,
-                    folder.path,
-                    sweeps.copy(),
-                    figure_cache=batch.figure_cache,
-                    figures=options.figures,
-                )
-
-            notes = [*result.input_notes, *result.skipped]  # with the sessions: the outputs
-            written = cache.outputs(outcomes, notes, folder.path, write) if cache else write()
-            folder.record(written + [Path(r).name for r in results_mcap if r is not None])
+            _write_run(result, folder, batch, outcomes)
     if batch.session_cache is not None:  # committed: what this run did not use goes
         batch.session_cache.prune()
     return result
+
+
+def _batch_of(
+    inputs: InputSet,
+    folder: OutputFolder | None,
+    options: AnalysisOptions,
+    on_done: OnDone | None,
+    *,
+    scene: bool,
+    reuse: bool,
+) -> _Batch:
+    """The run's sessions with their settings, caches and results.mcap names."""
+    files = inputs.files
+    session_cache = SessionCache.of(folder.destination, options, reuse=reuse) if folder else None
+    results_mcap: list[str | None] = [None] * len(files)
+    if folder is not None and scene:
+        labels = inputs.labels
+        results_mcap = [
+            str(folder.path / results_mcap_name(i, labels.get(f, f))) for i, f in enumerate(files)
+        ]
+    return _Batch(
+        files=files,
+        results_mcap=results_mcap,
+        options=options,
+        images=folder is not None and "png" in options.figures,  # run --figures
+        on_done=on_done,
+        figure_cache=(
+            FigureCache.of(
+                folder.destination, folder.previous_outputs(), session_cache.written_digests()
+            )
+            if folder is not None and session_cache is not None and reuse
+            else None
+        ),
+        session_cache=session_cache,
+        continuations=inputs.continuations,
+        identities=inputs.identities,
+    )
+
+
+def _write_run(
+    result: RunResult,
+    folder: OutputFolder,
+    batch: _Batch,
+    outcomes: Sequence[SessionResult | SessionFailure],
+) -> None:
+    """The run's tables, figures and report into the staging folder, listed for the commit
+    (reused from the cache where nothing they show changed)."""
+    from analysis.report import write_outputs
+
+    # The sweeps are in the thesis' geometry, not the sessions': what the method can do,
+    # beside what each trial's own covariance says dominated it.
+    cache = batch.session_cache
+
+    def write() -> list[str]:
+        sweeps = cache.computed("sweeps", _thesis_sweeps) if cache else _thesis_sweeps()
+        return write_outputs(
+            result,
+            folder.path,
+            sweeps.copy(),
+            figure_cache=batch.figure_cache,
+            figures=batch.options.figures,
+        )
+
+    notes = [*result.input_notes, *result.skipped]  # with the sessions: the outputs
+    written = cache.outputs(outcomes, notes, folder.path, write) if cache else write()
+    folder.record(written + [Path(r).name for r in batch.results_mcap if r is not None])
 
 
 @functools.lru_cache(maxsize=1)

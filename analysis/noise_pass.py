@@ -31,7 +31,8 @@ from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
-from analysis.pipeline import Detections, corrected_trials, replay_views
+from analysis.detection_pass import Detections
+from analysis.pipeline import corrected_trials, replay_views
 from analysis.results import AnalysisOptions
 from twopose.noise import PlacingPrior
 from twopose.placing_variance import SessionNoise, operator_priors

@@ -24,7 +24,6 @@ A finished run's tables are read back by :mod:`analysis.run_tables`.
 from __future__ import annotations
 
 import contextlib
-import errno
 import fcntl
 import json
 import os
@@ -36,6 +35,13 @@ from pathlib import Path
 from types import TracebackType
 from typing import TYPE_CHECKING, Self
 
+from twopose.atomic_write import (
+    fsync_path,
+    partial_name,
+    refuse_special,
+    replacing,
+    write_atomically,
+)
 from twopose.errors import InputValueError, TwoposeError
 from twopose.format.reader import STAGING_FOLDER
 
@@ -73,43 +79,6 @@ def printable_stem(session: str | Path) -> str:
     return stem.encode("utf-8", "surrogateescape").decode("utf-8", "replace")[:100]
 
 
-def partial_name(path: Path) -> Path:
-    """Where ``path`` is written before it is renamed into place."""
-    return path.with_name(f".{path.name}.{os.getpid()}.partial")
-
-
-def write_failed(path: Path, err: OSError) -> TwoposeError:
-    """The error for a write that failed (a full disk says so)."""
-    if err.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG):
-        return TwoposeError(f"cannot write {path}: the disk is full; free some space and run again")
-    return TwoposeError(f"cannot write {path}: {err.strerror or err}")
-
-
-@contextlib.contextmanager
-def replacing(path: Path) -> Iterator[Path]:
-    """The one way a file is written in place of another: yields a temporary name beside
-    ``path`` to write (by any means); when the block ends, the file is synced, renamed over
-    ``path`` and the folder synced, so a crash or a full disk leaves the previous file or
-    the new one, never half of one. On any failure the temporary file is removed and
-    ``path`` is untouched. ``path`` must be a regular file, a symlink (replaced itself,
-    never written through) or a new name: a folder, FIFO or device is refused."""
-    _refuse_special(path)
-    tmp = partial_name(path)
-    try:
-        tmp.unlink(missing_ok=True)  # this process's own name: a leftover of a failed write
-        yield tmp
-        _fsync(tmp, os.O_RDONLY)
-        _refuse_special(path)  # again: it may have changed while we wrote
-        os.replace(tmp, path)
-        _fsync(path.parent, os.O_RDONLY | os.O_DIRECTORY)
-    except OSError as err:
-        tmp.unlink(missing_ok=True)
-        raise write_failed(path, err) from err
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-
-
 def write_file(path: Path, data: bytes) -> None:
     """``data`` written to ``path`` (:func:`write_atomically`), its folder created if need
     be: a file the user named (``--junit``, ``rig --out``), checked first with
@@ -119,43 +88,6 @@ def write_file(path: Path, data: bytes) -> None:
     except OSError as err:
         raise InputValueError(f"cannot create the folder {path.parent}: {err.strerror}") from err
     write_atomically(path, data)
-
-
-def write_atomically(path: Path, data: bytes) -> None:
-    """``data`` written to ``path`` through :func:`replacing`."""
-    with replacing(path) as tmp:
-        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644)
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-
-
-def _fsync(path: Path, flags: int) -> None:
-    fd = os.open(path, flags)
-    try:
-        os.fsync(fd)
-    except OSError as err:  # a file system that cannot sync a folder: nothing more to do
-        if err.errno not in (errno.EINVAL, errno.ENOTSUP):
-            raise
-    finally:
-        os.close(fd)
-
-
-def _refuse_special(path: Path) -> None:
-    """A folder, FIFO, device or socket where a file is to be written: refused (a rename
-    would replace ``/dev/null`` itself, or a FIFO a reader is waiting on)."""
-    try:
-        mode = os.lstat(path).st_mode
-    except FileNotFoundError:
-        return
-    except OSError as err:
-        raise write_failed(path, err) from err
-    if stat.S_ISDIR(mode):
-        raise InputValueError(f"{path} is a folder; give a file name to write")
-    if not (stat.S_ISREG(mode) or stat.S_ISLNK(mode)):
-        raise InputValueError(
-            f"{path} is not a regular file (a FIFO, device or socket); give a new file name "
-            "or a regular file to replace"
-        )
 
 
 class OutputFolder:
@@ -306,13 +238,13 @@ def _move_staged(staging: Path, destination: Path) -> None:
     try:
         for name in new:
             if (staging / name).is_file():
-                _refuse_special(destination / name)
+                refuse_special(destination / name)
                 os.replace(staging / name, destination / name)
         for name in sorted(set(previous) - set(new)):
             (destination / name).unlink(missing_ok=True)  # a symlink itself, not its target
         if (staging / MANIFEST_NAME).is_file():
             os.replace(staging / MANIFEST_NAME, destination / MANIFEST_NAME)
-        _fsync(destination, os.O_RDONLY | os.O_DIRECTORY)
+        fsync_path(destination, os.O_RDONLY | os.O_DIRECTORY)
     except OSError as err:
         raise TwoposeError(
             f"cannot move the results into {destination}: {err.strerror or err}; the next "

@@ -2,16 +2,16 @@
 
 :func:`analyse_session` opens the session file once and runs the named steps below;
 :mod:`analysis.batch` runs it for many sessions. With ``results_path`` it also streams the
-session's results.mcap (:mod:`analysis.results_mcap`) as the frames are detected. (Near
-600 lines: the steps of one session's analysis, each short, read in order; the tables'
-columns, the results file and the figures are their own modules.)
+session's results.mcap (:mod:`analysis.results_mcap`) as the frames are detected. The
+frames' detection is :mod:`analysis.detection_pass`; the tables' columns, the results
+file and the figures are their own modules.
 """
 
 from __future__ import annotations
 
 import contextlib
 import dataclasses
-from collections.abc import Generator, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -21,12 +21,12 @@ import pandas as pd
 
 from analysis.allocator import keep_frame_buffers
 from analysis.columns import FRAME_COLUMNS, RIG_TABLE_COLUMNS, typed
+from analysis.detection_pass import Detections, detected, given_detections, trial_views
 from analysis.input_set import SessionIdentity
 from analysis.results import AnalysisOptions, SessionResult
 from analysis.results_mcap import ResultsWriter
 from analysis.tables import (
     averaging_table,
-    frame_row,
     trial_table,
     view_table,
     with_branch,
@@ -34,15 +34,11 @@ from analysis.tables import (
 )
 from twopose.arrays import F64
 from twopose.bounds import GROUND_TRUTH
-from twopose.camera import Intrinsics
-from twopose.choices import TARGET_SPECS, Target
-from twopose.detect import Detection, DotParams, GloveParams, detect
+from twopose.choices import TARGET_SPECS
 from twopose.errors import InputValueError, SessionFormatError
-from twopose.estimate import GroundSpec, PoseView, pose_view
-from twopose.format.entries import PoseEntry
-from twopose.format.messages import Frame
+from twopose.estimate import GroundSpec
 from twopose.format.reader import SessionReader
-from twopose.format.trials import PoseCapture, TrialRecord, iter_trials, read_notes
+from twopose.format.trials import TrialRecord, iter_trials, read_notes
 from twopose.methods import spec_of
 from twopose.rig.constants import RigConstants, corrected_ground, corrected_view
 from twopose.scene3d import scene_of_views
@@ -193,8 +189,8 @@ def analyse_session(
 def _results_writer(out: Path, reader: SessionReader) -> Iterator[ResultsWriter]:
     """The session's results.mcap, written under a temporary name and renamed into place
     only when the analysis succeeds (a failure or a full disk leaves no half file), by the
-    one atomic writer (:func:`analysis.outputs.replacing`: synced, renamed, folder synced)."""
-    from analysis.outputs import replacing
+    one atomic writer (:func:`twopose.atomic_write.replacing`: synced, renamed, folder synced)."""
+    from twopose.atomic_write import replacing
 
     with replacing(out) as tmp:
         writer = ResultsWriter(tmp, list(reader.cameras.values()), reader.ground)
@@ -370,9 +366,9 @@ def _replay(
     rig_truth: RigConstants | None = None
     params = getattr(options, TARGET_SPECS[target].options_field)
     found = (
-        _detected(iter_trials(reader), target, params)
+        detected(iter_trials(reader), target, params)
         if known is None
-        else _given(iter_trials(reader), known, session)
+        else given_detections(iter_trials(reader), known, session)
     )
     with contextlib.closing(found) as trials:
         for record, detections in trials:
@@ -380,7 +376,7 @@ def _replay(
                 keep.append(detections)
             if record.simulation_truth is not None and record.simulation_truth.rig is not None:
                 rig_truth = RigConstants.from_vector(record.simulation_truth.rig)
-            views.append(_trial_views(record, detections, session, rows, results))
+            views.append(trial_views(record, detections, session, rows, results))
             trial_ids.append(record.trial)
             truth, why_not_compared = _truth(record, unit_spec(info.units))
             truths.append(truth)
@@ -448,130 +444,6 @@ def _truth(record: TrialRecord, unit: UnitSpec) -> tuple[F64, tuple[str, ...]]:
         return none, tuple(f"{why}: not compared" for why in beyond)
     pts = np.array(points)
     return (pts if len(pts) == 2 else np.stack([pts[0], pts[0]])), ()
-
-
-#: Threads decoding and detecting frames beside the one reading the session and writing
-#: what was found (OpenCV and NumPy release the GIL for most of a frame's work).
-DETECTION_THREADS = 2
-
-Detections = list[list[Detection]]  # per pose of a trial, per frame
-Params = GloveParams | DotParams
-
-
-def _detect_frame(frame: Frame, size: tuple[int, int], target: Target, params: Params) -> Detection:
-    try:
-        return detect(frame.decode(size), target, params)
-    except SessionFormatError as err:  # one undecodable frame is a rejected frame
-        return Detection(found=False, reason=str(err))
-
-
-def _detection_threads() -> int:
-    """Threads for :func:`_detected`: none in a process that is one of several workers
-    (they set OpenCV to one thread: the cores are taken) or off the main thread (a Dask
-    worker's task), else :data:`DETECTION_THREADS` on more than one core."""
-    import os
-    import threading
-
-    import cv2
-
-    # The cores this process may run on (``taskset``, a container's CPU set), not the
-    # machine's: threads on a core the process cannot use only take turns with this one.
-    affinity = getattr(os, "sched_getaffinity", None)
-    cores = len(affinity(0)) if affinity is not None else (os.cpu_count() or 1)
-    if threading.current_thread() is not threading.main_thread() or cv2.getNumThreads() < 2:
-        return 0
-    return min(DETECTION_THREADS, cores) if cores > 1 else 0
-
-
-def _detected(
-    records: Iterator[TrialRecord], target: Target, params: Params
-) -> Generator[tuple[TrialRecord, Detections], None, None]:
-    """Each trial with every frame's detection, in order. With threads, the next trial's
-    frames are decoded and detected while this one's are written (one trial ahead, so
-    memory stays that of two trials); the detections are the same either way."""
-    threads = _detection_threads()
-    if not threads:
-        for record in records:
-            yield (
-                record,
-                [
-                    [_detect_frame(f, _size(pc), target, params) for f in pc.frames]
-                    for pc in record.poses
-                ],
-            )
-        return
-    from collections import deque
-    from concurrent.futures import Future, ThreadPoolExecutor
-
-    pool = ThreadPoolExecutor(threads, thread_name_prefix="twopose-detect")
-    ahead: deque[tuple[TrialRecord, list[list[Future[Detection]]]]] = deque()
-    try:
-        for record in records:
-            futures = [
-                [pool.submit(_detect_frame, f, _size(pc), target, params) for f in pc.frames]
-                for pc in record.poses
-            ]
-            ahead.append((record, futures))
-            if len(ahead) > 1:
-                done, pending = ahead.popleft()
-                yield done, [[f.result() for f in pose] for pose in pending]
-        while ahead:
-            done, pending = ahead.popleft()
-            yield done, [[f.result() for f in pose] for pose in pending]
-    finally:  # Ctrl-C, a timeout or a failure: what has not started never will
-        pool.shutdown(wait=True, cancel_futures=True)
-
-
-def _given(
-    records: Iterator[TrialRecord], known: Sequence[Detections], session: str
-) -> Generator[tuple[TrialRecord, Detections], None, None]:
-    """Each trial with the detections found before (a run's first pass), in order."""
-    for k, record in enumerate(records):
-        if k >= len(known) or [len(p) for p in known[k]] != [len(pc.frames) for pc in record.poses]:
-            raise SessionFormatError(f"{session} changed since its first pass: analyse it again")
-        yield record, list(known[k])
-
-
-def _size(pc: PoseCapture) -> tuple[int, int]:
-    return (pc.camera.intrinsics.width, pc.camera.intrinsics.height)
-
-
-def _trial_views(
-    record: TrialRecord,
-    detections: Detections,
-    session: str,
-    rows: list[dict[str, Any]],
-    results: ResultsWriter | None,
-) -> list[PoseView]:
-    """A trial's detected frames (one row each in ``rows``; drawn into ``results``); its
-    complete poses."""
-    views: list[PoseView] = []
-    for pc, dets in zip(record.poses, detections, strict=True):
-        if results is not None and pc.frames:
-            results.add_pose(pc.entry, pc.frames[0].log_time_ns)
-        for j, (frame, det) in enumerate(zip(pc.frames, dets, strict=True)):
-            if results is not None:
-                results.add_frame(
-                    frame, det, f"trial {record.trial} pose {pc.entry.pose} frame {j}"
-                )
-            rows.append(frame_row(session, record.trial, pc.entry, j, frame, det))
-        if pc.complete:
-            sigma = dict(pc.camera.intrinsics_sigma)  # the calibration's, if recorded
-            views.append(_pose_view(pc.entry, pc.camera.intrinsics, dets, sigma))
-    return views
-
-
-def _pose_view(
-    entry: PoseEntry, intrinsics: Intrinsics, dets: list[Detection], sigma: dict[str, float]
-) -> PoseView:
-    return pose_view(
-        entry,
-        intrinsics,
-        [d.found for d in dets],
-        [d.centroid_px for d in dets],
-        [d.theta_deg for d in dets],
-        sigma,
-    )
 
 
 def _write_trial_scenes(

@@ -50,7 +50,8 @@ if TYPE_CHECKING:
         calibrate_pair_views,
     )
     from recorder.plan import Plan, load_plan, record_plan
-    from recorder.procedure import Procedure, record
+    from recorder.procedure import Procedure
+    from recorder.recording import record
     from recorder.recover import RecoveryReport, recover_session
     from recorder.simulate import SimulationSummary, simulate_session
     from recorder.sources import SOURCE_KINDS, FrameSource, SourceKind, SourceOptions, open_source
@@ -104,7 +105,7 @@ _HOMES = {
     "serve_console_until_stopped": "recorder.new_session",
     "record_interactive": "recorder.interactive",
     "Procedure": "recorder.procedure",
-    "record": "recorder.procedure",
+    "record": "recorder.recording",
     "RecordingSummary": "recorder.summary",
     "RecoveryReport": "recorder.recover",
     "recover_session": "recorder.recover",

@@ -62,8 +62,10 @@ from twopose.version import VersionOption
 if TYPE_CHECKING:
     from recorder.camera_calibration import Calibration
     from recorder.continuation import Continued
+    from recorder.new_session import NewRequest
     from recorder.option_rules import Combination
     from recorder.setup_rules import GuidanceAsked
+    from recorder.summary import RecordingSummary
     from twopose.camera import Intrinsics
     from twopose.targets import BoardPlacement
 
@@ -205,13 +207,9 @@ def new(
     from recorder.new_session import (
         CameraMode,
         NewRequest,
-        continued_given,
         continued_session,
         guidance_asked,
-        record_planned,
-        record_terminal,
         rig_file,
-        serve_console_until_stopped,
     )
     from recorder.option_rules import refuse_idle
     from recorder.procedure import refuse_existing
@@ -260,28 +258,57 @@ def new(
             live_port=(8765 if live_port is None else live_port) if live else None,
             guidance=asked, continued=continued,
         )  # fmt: skip
-        host, port = host or "127.0.0.1", port or 0
-        if plan is not None:
-            summary = record_planned(request, plan, stack)
-        elif continued is not None:
-            if ui:
-                given_ui = continued_given(continued, target_precision, guidance=taken)
-                serve_console_until_stopped(request, given_ui, host=host, port=port)
-                return
-            summary = record_terminal(request, {"target_precision": target_precision}, stack)
-        else:
-            setup = _console_given(
+        summary = _record_new(
+            request, stack, plan=plan, ui=ui, host=host or "127.0.0.1", port=port or 0,
+            target_precision=target_precision,
+            taken=taken,
+            setup=lambda: _console_given(
                 method, units, calibration, focal, principal, ground_height, ground_truth, operator,
                 _board_given(method, units, board, square, board_corner), target_precision,
-            )  # fmt: skip
-            if ui:
-                serve_console_until_stopped(request, setup, host=host, port=port)
-                return
-            summary = record_terminal(request, setup, stack)
+            ),
+        )  # fmt: skip
+        if summary is None:  # the console served until it was stopped
+            return
     typer.echo(summary.line())
     if summary.interrupted:
         typer.secho("interrupted", err=True)
         raise typer.Exit(EXIT_INTERRUPTED)
+
+
+def _record_new(
+    request: NewRequest,
+    stack: contextlib.ExitStack,
+    *,
+    plan: Path | None,
+    ui: bool,
+    host: str,
+    port: int,
+    target_precision: float | None,
+    taken: str,
+    setup: Callable[[], dict[str, Any]],
+) -> RecordingSummary | None:
+    """``new`` records: from a plan, continuing a session (terminal or console), or a new
+    session (terminal or console); None when the console served until it was stopped.
+    ``taken``: the guidance a continuation inherits, said in the console's setup."""
+    from recorder.new_session import (
+        continued_given,
+        record_planned,
+        record_terminal,
+        serve_console_until_stopped,
+    )
+
+    if plan is not None:
+        return record_planned(request, plan, stack)
+    if request.continued is not None:
+        if ui:
+            given_ui = continued_given(request.continued, target_precision, guidance=taken)
+            serve_console_until_stopped(request, given_ui, host=host, port=port)
+            return None
+        return record_terminal(request, {"target_precision": target_precision}, stack)
+    if ui:
+        serve_console_until_stopped(request, setup(), host=host, port=port)
+        return None
+    return record_terminal(request, setup(), stack)
 
 
 def _combination(

@@ -212,8 +212,10 @@ function renderStatus(s) {
   setText($("live-error"), s.live_error);
   show($("live-error"), !!s.live_error);
   if (changed("notices", s.notices)) {
-    $("notices").replaceChildren(...(s.notices || []).map((n) => el("li", "note: " + n)));
-    show($("notices"), !!(s.notices || []).length);
+    const notices = (s.notices || []).map((n) => "note: " + n);
+    $("notices").replaceChildren(...notices.map((n) => el("li", n)));
+    $("notices").title = notices.join("\n");
+    show($("notices"), !!notices.length);
   }
   renderSetupSummary(s);
 }
@@ -504,6 +506,18 @@ $("pose-form").addEventListener("submit", (event) => {
 for (const [choice, id] of Object.entries(BUTTON_OF)) {
   $(id).addEventListener("click", () => act(() => decide(choice), choice));
 }
+// The session's notes on one line until opened (a click, or Enter on the focused line).
+function toggleNotices() {
+  const open = $("notices").classList.toggle("open");
+  $("notices").setAttribute("aria-expanded", String(open));
+}
+$("notices").addEventListener("click", toggleNotices);
+$("notices").addEventListener("keydown", (e) => {
+  if (e.key === "Enter" || e.key === " ") {
+    e.preventDefault();
+    toggleNotices();
+  }
+});
 $("note-add").addEventListener("click", () => act(addNote, "note"));
 $("take-suggestion").addEventListener("click", takeSuggestion);
 for (const id of ["pose-x", "pose-y", "pose-z", "pose-rotation"]) {

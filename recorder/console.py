@@ -2,7 +2,7 @@
 (section 5.2.4, Figure 17) in the browser, as one more front end of the one procedure.
 
 The page (``console.html``, no build step) polls ``GET /api/state`` and sends the operator's
-answers; the recording runs :func:`recorder.procedure.record` in a thread with a
+answers; the recording runs :func:`recorder.recording.record` in a thread with a
 :class:`recorder.console_driver.WebDriver`, exactly as the terminal and plan modes do, so
 the file, the checks and the crash safety are theirs: closing the tab loses nothing
 (reopening it shows the running session), killing the server loses at most the capture in

@@ -87,7 +87,7 @@ def _recording(
     with ``--live``). It prints the summary, once, when the procedure ends (the page's
     quit, or the server stopping)."""
     from recorder.capture import CaptureSettings, LiveSinks
-    from recorder.procedure import record
+    from recorder.recording import record
     from recorder.setup_rules import GuidanceAsked, PoseTyping
     from recorder.sources import open_source
 

@@ -1,4 +1,4 @@
-"""Who decides during :func:`recorder.procedure.record`: the :class:`Driver` interface.
+"""Who decides during :func:`recorder.recording.record`: the :class:`Driver` interface.
 
 The operator at the terminal (:mod:`recorder.interactive`), in the browser
 (:mod:`recorder.console`), a plan file (:mod:`recorder.plan`) and the simulator

@@ -18,7 +18,8 @@ from typing_extensions import override
 
 from recorder.capture import CaptureResult, CaptureSettings
 from recorder.driver import Decision, Driver, Placement, ProcedureRefusedError
-from recorder.procedure import Shortfall, detection_shortfall, record
+from recorder.procedure import Shortfall, detection_shortfall
+from recorder.recording import record
 from recorder.setup_form import SETUP_FIELDS
 from recorder.setup_rules import (
     GuidanceAsked,

@@ -21,15 +21,14 @@ from __future__ import annotations
 
 import hashlib
 import math
-import os
 import re
-import tempfile
 from collections.abc import Sequence
 from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
 
+from twopose.atomic_write import write_atomically, write_failed
 from twopose.errors import InputValueError
 from twopose.margins import EstimateOptions
 from twopose.methods import Method
@@ -118,7 +117,7 @@ class NoiseFile:
         self, session: str | Path, method: Method, units: Units, reference: str, stats: SessionNoise
     ) -> None:
         """Add a recorded session's statistics (none: nothing written); the oldest go
-        beyond :data:`MAX_SESSIONS`. Written whole to a temporary file, then renamed."""
+        beyond :data:`MAX_SESSIONS`. Written whole, then renamed (:mod:`twopose.atomic_write`)."""
         if not len(stats.chi2):
             return
         kept = self.sessions()[-(MAX_SESSIONS - 1) :]
@@ -134,15 +133,11 @@ class NoiseFile:
             "z2": [[float(v) for v in row] for row in stats.z2],
         }
         text = _document(self.operator, [*kept, entry])
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=self.path.parent, prefix=f".{self.path.name}.")
         try:
-            with os.fdopen(fd, "w", encoding="utf-8") as fh:
-                fh.write(text)
-            os.replace(tmp, self.path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as err:
+            raise write_failed(self.path.parent, err) from err
+        write_atomically(self.path, text.encode("utf-8"))
 
 
 def _regrouped(s: SessionNoise, group: str) -> SessionNoise:

@@ -2,7 +2,7 @@
 
 :func:`load_plan` (:mod:`recorder.plan_file`) reads and checks a plan (TOML, see
 docs/recording.md); :func:`record_plan` runs it through the one procedure loop
-(:func:`recorder.procedure.record`).
+(:func:`recorder.recording.record`).
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from typing_extensions import override
 from recorder.capture import CaptureResult, CaptureSettings, FrameFeedback
 from recorder.driver import Decision, Driver, Placement
 from recorder.plan_file import Plan, PlannedPose, PlannedTrial, load_plan
-from recorder.procedure import record
+from recorder.recording import record
 from recorder.sources import FrameSource
 from recorder.summary import RecordingSummary
 from twopose.errors import SourceError

@@ -32,7 +32,7 @@ from typing_extensions import override
 
 from recorder.capture import CaptureSettings
 from recorder.driver import Driver, Placement
-from recorder.procedure import record
+from recorder.recording import record
 from recorder.sources import FrameSource, SourceInfo
 from twopose.arrays import F64
 from twopose.camera import Camera, Intrinsics, project_points, rotation_from_angles_deg
@@ -478,7 +478,7 @@ def simulate_session(  # noqa: PLR0913 - keyword-only settings, one per command-
     typed_resolution: float | None = None,
 ) -> SimulationSummary:
     """Simulate a whole session into ``out`` (which must not exist), through the same
-    procedure loop as a recording (:func:`recorder.procedure.record`).
+    procedure loop as a recording (:func:`recorder.recording.record`).
 
     Parameters
     ----------

@@ -106,68 +106,85 @@ ReuseOption = Annotated[
 ]
 
 
+JobsOption = Annotated[
+    int | None,
+    typer.Option(
+        **read_option("JOBS"),
+        help="Worker processes (results do not depend on it) [default: 1].",
+    ),
+]
+
+DaskOption = Annotated[
+    str | None,
+    typer.Option(help="Address of an existing Dask scheduler to run the sessions on."),
+]
+
+MinParallaxOption = Annotated[
+    float,
+    typer.Option(
+        **read_option("MARGIN_ANGLE"),
+        help="Warn when a point's ray parallax is below this (deg).",
+    ),
+]
+
+MinPlaneAngleOption = Annotated[
+    float,
+    typer.Option(
+        **read_option("MARGIN_ANGLE"),
+        help="Warn when back-projected planes meet below this (deg).",
+    ),
+]
+
+MinGroundAngleOption = Annotated[
+    float,
+    typer.Option(
+        **read_option("MARGIN_ANGLE"),
+        help="Warn when the line meets the ground below this (deg).",
+    ),
+]
+
+SceneOption = Annotated[
+    bool,
+    typer.Option(
+        help="Also write results_<n>_<session>.mcap per session: images with the "
+        "detections drawn, and each trial's 3-D geometry, for Foxglove."
+    ),
+]
+
+Sigma0Option = Annotated[
+    bool,
+    typer.Option(
+        "--sigma0/--no-sigma0",
+        help="Test the noise model by each session's redundant trials (sigma0) and widen "
+        "every 95% region of a session whose data contradict it (docs/uncertainty.md).",
+    ),
+]
+
+CombineOption = Annotated[
+    CombineRule, typer.Option(help="How a pose's frames are combined (thesis: mean).")
+]
+
+
 @app.command("run")
 def run_command(
     paths: Annotated[list[Path], typer.Argument(help="Session files and/or folders (recursive).")],
     out: Annotated[
         Path, typer.Option("--out", help="Output folder for tables, figures, report.")
     ] = Path("results"),
-    jobs: Annotated[
-        int | None,
-        typer.Option(
-            **read_option("JOBS"),
-            help="Worker processes (results do not depend on it) [default: 1].",
-        ),
-    ] = None,
-    dask: Annotated[
-        str | None,
-        typer.Option(help="Address of an existing Dask scheduler to run the sessions on."),
-    ] = None,
-    combine: Annotated[
-        CombineRule, typer.Option(help="How a pose's frames are combined (thesis: mean).")
-    ] = _ESTIMATE.combine,
-    min_parallax: Annotated[
-        float,
-        typer.Option(
-            **read_option("MARGIN_ANGLE"),
-            help="Warn when a point's ray parallax is below this (deg).",
-        ),
-    ] = _ESTIMATE.min_parallax_deg,
-    min_plane_angle: Annotated[
-        float,
-        typer.Option(
-            **read_option("MARGIN_ANGLE"),
-            help="Warn when back-projected planes meet below this (deg).",
-        ),
-    ] = _ESTIMATE.min_plane_angle_deg,
-    min_ground_angle: Annotated[
-        float,
-        typer.Option(
-            **read_option("MARGIN_ANGLE"),
-            help="Warn when the line meets the ground below this (deg).",
-        ),
-    ] = _ESTIMATE.min_ground_angle_deg,
-    scene: Annotated[
-        bool,
-        typer.Option(
-            help="Also write results_<n>_<session>.mcap per session: images with the "
-            "detections drawn, and each trial's 3-D geometry, for Foxglove."
-        ),
-    ] = True,
+    jobs: JobsOption = None,
+    dask: DaskOption = None,
+    combine: CombineOption = _ESTIMATE.combine,
+    min_parallax: MinParallaxOption = _ESTIMATE.min_parallax_deg,
+    min_plane_angle: MinPlaneAngleOption = _ESTIMATE.min_plane_angle_deg,
+    min_ground_angle: MinGroundAngleOption = _ESTIMATE.min_ground_angle_deg,
+    scene: SceneOption = True,
     session_timeout: SessionTimeoutOption = DEFAULT_SESSION_TIMEOUT_S,
     include_warned: IncludeWarnedOption = False,
     junit: JunitOption = None,
     rig: RigFileOption = None,
     no_rig: NoRigOption = False,
     rig_calibration: RigCalibrationOption = "none",
-    sigma0: Annotated[
-        bool,
-        typer.Option(
-            "--sigma0/--no-sigma0",
-            help="Test the noise model by each session's redundant trials (sigma0) and widen "
-            "every 95% region of a session whose data contradict it (docs/uncertainty.md).",
-        ),
-    ] = _ESTIMATE.noise.test_redundancy,
+    sigma0: Sigma0Option = _ESTIMATE.noise.test_redundancy,
     figures: FiguresOption = None,
     reuse: ReuseOption = True,
 ) -> None:

@@ -25,7 +25,9 @@ def _row(**values: object) -> pd.Series:
 
 
 def test_the_words_say_the_test_and_the_multiplier_taken_apart() -> None:
-    widened = noise_phrases(_row(sigma0=1.55, sigma0_dof=50, noise_widening=2.56,
+    # placing_sigma is the one the regions took (the typed 0.0625 in times the multiplier):
+    # the words say the one assumed beside the multiplier
+    widened = noise_phrases(_row(sigma0=1.55, sigma0_dof=50, noise_widening=2.56, placing_sigma=0.1,
                                  placing_scale=1.6, placing_dof=52.0, n_flagged=0))  # fmt: skip
     said = " ".join(widened)
     assert "placing sigma 0.0625 in typed;" in said

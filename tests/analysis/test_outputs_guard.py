@@ -228,8 +228,10 @@ def test_a_folder_where_a_file_is_wanted_is_refused(
 
 
 def test_one_atomic_writer_renames_files_into_place() -> None:
-    """No module but analysis/outputs.py renames a temporary file into place: every other
-    writer goes through :func:`analysis.outputs.replacing`."""
+    """No module but twopose/atomic_write.py renames a temporary file into place: every
+    other writer, the analyst's and the operator's, goes through
+    :func:`twopose.atomic_write.replacing`. The run's transaction (analysis/outputs.py)
+    alone moves its staged, already synced files into --out."""
     pattern = re.compile(r"\bos\.(replace|rename)\(|\.rename\(|\.replace\(\s*(tmp|partial)")
     offenders = [
         str(path.relative_to(REPO))
@@ -237,8 +239,8 @@ def test_one_atomic_writer_renames_files_into_place() -> None:
         for path in (REPO / folder).rglob("*.py")
         if pattern.search(path.read_text(encoding="utf-8"))
     ]
-    assert offenders == ["analysis/outputs.py"], (
-        "write through analysis.outputs.replacing (synced, renamed, folder synced), not a "
+    assert sorted(offenders) == ["analysis/outputs.py", "twopose/atomic_write.py"], (
+        "write through twopose.atomic_write.replacing (synced, renamed, folder synced), not a "
         "rename of your own"
     )
 
@@ -302,16 +304,16 @@ def test_the_writer_itself_refuses_a_fifo_or_a_folder(tmp_path: Path) -> None:
 def test_results_mcap_is_written_by_the_one_writer(
     tmp_path: Path, session: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import analysis.outputs
+    import twopose.atomic_write
 
     written: list[str] = []
-    real = analysis.outputs.replacing
+    real = twopose.atomic_write.replacing
 
     def spy(path: Path) -> object:
         written.append(path.name)
         return real(path)
 
-    monkeypatch.setattr(analysis.outputs, "replacing", spy)
+    monkeypatch.setattr(twopose.atomic_write, "replacing", spy)
     result = runner.invoke(app, ["run", str(session), "--out", str(tmp_path / "o")])
     assert result.exit_code == 0, result.output
     assert "results_00_s.mcap" in written

@@ -9,6 +9,7 @@ from typing import Any
 import pandas as pd
 import pytest
 
+import analysis.detection_pass
 import analysis.pipeline
 import twopose.session_estimate
 from analysis.pipeline import analyse_session
@@ -23,7 +24,7 @@ def test_detection_threads_change_nothing(
     session: Path = request.getfixturevalue(fixture)
     runs = {}
     for threads in (0, 3):
-        monkeypatch.setattr(analysis.pipeline, "_detection_threads", lambda n=threads: n)
+        monkeypatch.setattr(analysis.detection_pass, "detection_threads", lambda n=threads: n)
         out = tmp_path / f"results_{threads}.mcap"
         runs[threads] = (analyse_session(session, results_path=out), out.read_bytes())
     (serial, serial_mcap), (threaded, threaded_mcap) = runs[0], runs[3]
@@ -41,7 +42,7 @@ def test_threads_only_where_the_cores_are_this_process_own(
     threads = cv2.getNumThreads()
     try:
         cv2.setNumThreads(1)
-        assert analysis.pipeline._detection_threads() == 0
+        assert analysis.detection_pass.detection_threads() == 0
     finally:
         cv2.setNumThreads(threads)
 
@@ -59,9 +60,10 @@ def test_no_threads_on_a_process_given_one_core(monkeypatch: pytest.MonkeyPatch)
     try:
         cv2.setNumThreads(2)
         monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1})
-        assert analysis.pipeline._detection_threads() == analysis.pipeline.DETECTION_THREADS
+        threads = analysis.detection_pass.detection_threads()
+        assert threads == analysis.detection_pass.DETECTION_THREADS
         monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0})
-        assert analysis.pipeline._detection_threads() == 0
+        assert analysis.detection_pass.detection_threads() == 0
     finally:
         cv2.setNumThreads(threads)
 
@@ -80,7 +82,7 @@ def test_an_undecodable_frame_is_a_rejected_frame_with_threads(
         return real(self, size)
 
     monkeypatch.setattr(Frame, "decode", flaky)
-    monkeypatch.setattr(analysis.pipeline, "_detection_threads", lambda: 2)
+    monkeypatch.setattr(analysis.detection_pass, "detection_threads", lambda: 2)
     frames = analyse_session(ground_session).frames
     broken = frames[frames["reason"].str.endswith("broken")]
     assert len(broken) > 0

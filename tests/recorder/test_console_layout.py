@@ -251,6 +251,15 @@ def test_every_step_fits_the_screen(
         # The map of the next poses follows the suggestion (issue 46): in the picture too.
         page.wait(lambda: page.shown("region-map-section"), "the map")
         page.step("pose-2")
+        # The session's notes stay on one line until opened, and open whole on a click.
+        notices = page.el("notices")
+        one_line = notices.size["height"]
+        assert "operator-noise" in page.text("notices")  # where the noise file is kept
+        notices.click()
+        page.wait(lambda: notices.size["height"] > 1.5 * one_line, "the notes opened")
+        assert notices.get_attribute("aria-expanded") == "true"
+        notices.click()
+        page.wait(lambda: notices.size["height"] == one_line, "the notes on one line again")
 
         for testid, value in (("pose-x", "1.5"), ("pose-y", "0"), ("pose-z", "-1")):
             page.type(testid, value)

@@ -9,7 +9,7 @@ from pathlib import Path
 
 from recorder.capture import CaptureResult, CaptureSettings
 from recorder.driver import Decision, Driver, Placement
-from recorder.procedure import record
+from recorder.recording import record
 from recorder.sources import SyntheticSource
 from twopose.camera import Camera, Intrinsics
 from twopose.format.entries import Note, PoseEntry, SessionInfo

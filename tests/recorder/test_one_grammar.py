@@ -88,8 +88,8 @@ def _in_scene(text: str, tmp: Path) -> str | None:
 
 
 @pytest.fixture(scope="module")
-def page(tmp_path_factory: pytest.TempPathFactory) -> Iterator[TestClient]:
-    """The console in-process, waiting for a pose in inches."""
+def page(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[TestClient, ConsoleSession]]:
+    """The console in-process, recording and offering a pose in inches."""
     folder = tmp_path_factory.mktemp("page")
     scene = folder / "scene.toml"
     scene.write_text(SMALL_SCENE)
@@ -98,12 +98,17 @@ def page(tmp_path_factory: pytest.TempPathFactory) -> Iterator[TestClient]:
     options = ConsoleOptions(source=f"synthetic:{scene}", given={}, size=(320, 240))
     with TestClient(console_app(session, options), base_url=ORIGIN) as client:
         assert client.get("/").status_code == 200
-        session.update(waiting="pose", units=Units.IN)
-        yield client
+        session.update(phase="recording", units=Units.IN)
+        yield client, session
 
 
-def _api(client: TestClient, body: bytes) -> str | None:
-    """``/api/pose``'s refusal of x (None: taken)."""
+def _api(page: tuple[TestClient, ConsoleSession], body: bytes) -> str | None:
+    """``/api/pose``'s refusal of x (None: taken), the pose offered afresh each time (a pose
+    taken closes the offer until the recorder offers the next)."""
+    client, session = page
+    while session.answer(0) is not None:  # what the last call's pose left for the recorder
+        pass
+    session.offer("pose")
     answer = client.post("/api/pose", content=body, headers={"Content-Type": "application/json"})
     if answer.status_code == 200:
         return None
@@ -143,7 +148,7 @@ TEXTS = st.one_of(
 @example(text="1e309")  # ... said "got inf"
 @example(text="\uff13\uff10")  # Python's float reads full-width digits
 def test_every_path_accepts_and_refuses_the_same_texts_in_the_same_words(
-    tmp_path: Path, page: TestClient, text: str
+    tmp_path: Path, page: tuple[TestClient, ConsoleSession], text: str
 ) -> None:
     try:
         value: float | None = read_number(text, "q")
@@ -288,7 +293,9 @@ def test_the_analysis_options_follow_the_one_grammar(args: list[str], said: str)
     assert said in " ".join(result.output.split())
 
 
-def test_the_page_api_says_a_number_in_the_forms_words(page: TestClient) -> None:
+def test_the_page_api_says_a_number_in_the_forms_words(
+    page: tuple[TestClient, ConsoleSession],
+) -> None:
     """``{"x": 1e309}`` was answered "must be a finite number" by the guard; the form said
     the camera centre's bound."""
     raw = _api(page, b'{"x": 1e309, "y": 0, "z": 0}')

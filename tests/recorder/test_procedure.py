@@ -23,7 +23,8 @@ from recorder.driver import (
     ProcedureError,
     ProcedureRefusedError,
 )
-from recorder.procedure import TRANSITIONS, Procedure, State, record
+from recorder.procedure import TRANSITIONS, Procedure, State
+from recorder.recording import record
 from recorder.sources import ImagesSource, VideoSource
 from tests.helpers import write_video
 from twopose.camera import Camera, Intrinsics

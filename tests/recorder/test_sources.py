@@ -152,7 +152,7 @@ def test_a_pause_before_a_redone_capture_is_not_counted_as_dropped(
 
     from recorder.capture import CaptureResult
     from recorder.driver import Decision, Driver, Placement
-    from recorder.procedure import record
+    from recorder.recording import record
 
     pause_s = 0.6  # 18 frame intervals at 30 fps
 

@@ -28,7 +28,7 @@ import pytest
 from recorder import stops
 from recorder.capture import CaptureResult, CaptureSettings
 from recorder.driver import Decision, Driver, Placement
-from recorder.procedure import record
+from recorder.recording import record
 from recorder.sources import ImagesSource
 from tests.helpers import RECORD, SMALL_SCENE
 from twopose.camera import Camera, Intrinsics
