@@ -31,7 +31,7 @@ from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol
 
-from recorder.frame_source import FrameSource, SourceInfo, open_video
+from recorder.frame_source import FrameSource, SourceInfo, open_camera, open_video
 from twopose.errors import SourceError
 
 if TYPE_CHECKING:
@@ -225,26 +225,11 @@ class CameraFeed(Feed):
         import cv2
 
         s = self.source
-        cap = cv2.VideoCapture(s.device)
-        if not cap.isOpened():
-            raise SourceError(
-                f"camera {s.device} did not open: is it connected, and not in use by another "
-                "program? Try another index (camera:1) or check the device permissions."
-            )
-        cap.set(cv2.CAP_PROP_FOURCC, cv2.VideoWriter.fourcc(*"MJPG"))  # before the size
-        cap.set(cv2.CAP_PROP_FRAME_WIDTH, s.width)
-        cap.set(cv2.CAP_PROP_FRAME_HEIGHT, s.height)
-        cap.set(cv2.CAP_PROP_FPS, s.fps)
+        cap, self.info = open_camera(s.device, s.width, s.height, s.fps, fourcc="MJPG")
         self.fourcc = _fourcc_text(cap.get(cv2.CAP_PROP_FOURCC))
         if self.fourcc == "MJPG":  # the JPEG buffers as they come: decoded off this thread
             cap.set(cv2.CAP_PROP_CONVERT_RGB, 0)
         self._cap = cap
-        self.info = SourceInfo(
-            description=f"camera:{s.device}",
-            width=int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)),
-            height=int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT)),
-            fps=float(cap.get(cv2.CAP_PROP_FPS)) or s.fps,
-        )
         return self.info
 
     def grab(self, stop: threading.Event) -> Grabbed | None:

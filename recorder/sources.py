@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 from typing_extensions import override
 
-from recorder.frame_source import FrameSource, Pacer, SourceInfo, open_video
+from recorder.frame_source import FrameSource, Pacer, SourceInfo, open_camera, open_video
 from recorder.pair_feeds import CameraFeed, Feed, PacedFeed, StillsFeed, VideoFeed
 from recorder.synthetic_source import SyntheticSource
 from twopose.errors import InputValueError, SourceError
@@ -81,24 +81,8 @@ class CameraSource(FrameSource):
         self._thread: threading.Thread | None = None
 
     def open(self) -> SourceInfo:
-        import cv2
 
-        cap = cv2.VideoCapture(self.device)
-        if not cap.isOpened():
-            raise SourceError(
-                f"camera {self.device} did not open: is it connected, and not in use by another "
-                "program? Try another index (camera:1) or check the device permissions."
-            )
-        cap.set(cv2.CAP_PROP_FRAME_WIDTH, self.width)
-        cap.set(cv2.CAP_PROP_FRAME_HEIGHT, self.height)
-        cap.set(cv2.CAP_PROP_FPS, self.fps)
-        self._cap = cap
-        self.info = SourceInfo(
-            description=f"camera:{self.device}",
-            width=int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)),
-            height=int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT)),
-            fps=float(cap.get(cv2.CAP_PROP_FPS)) or self.fps,
-        )
+        self._cap, self.info = open_camera(self.device, self.width, self.height, self.fps)
         self._thread = threading.Thread(target=self._grab, daemon=True)
         self._thread.start()
         return self.info
