@@ -32,6 +32,7 @@ import cv2
 import numpy as np
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
+from recorder.pair_feeds import RING_FRAMES
 from recorder.pair_source import CameraStream
 from recorder.sources import open_pair
 
@@ -131,7 +132,8 @@ def report(
     print(f"\npairs {n} of {frames} frames a camera; unpaired: camera 1 {unpaired[0]}, "
           f"camera 2 {unpaired[1]}; dropped: camera 1 {dropped[0]}, "
           f"camera 2 {dropped[1]}")  # fmt: skip
-    print(f"  of those dropped, the reader thread late for its file by over 4 intervals: "
+    print(f"  of those dropped, the reader thread late for its file by over {RING_FRAMES} "
+          "intervals: "
           f"camera 1 {late[0]}, camera 2 {late[1]}; the rest: its queue full")  # fmt: skip
     print(f"skew |t2 - t1|: max {skew_ms.max():.3f} ms")
     p50, p99 = np.percentile(lag_ms, [50, 99])

@@ -68,9 +68,12 @@ CLOCKS = (CLOCK_DRIVER, CLOCK_GRAB, CLOCK_SIMULATED)
 #: A driver's stamp is taken as the capture time when it is this much or less before the
 #: grab (and not after it): buffers wait a few frame intervals at most in a driver's ring.
 MAX_DRIVER_LAG_NS = 1_000_000_000
-#: A camera driver's ring of buffers (Video4Linux2's default in OpenCV): a paced file or the
-#: synthetic camera skips a frame the reader is later than this many intervals for.
-RING_FRAMES = 4
+#: The ring of buffers a camera's driver is asked for (``CAP_PROP_BUFFERSIZE``: a second at
+#: 30 fps, so that a reader thread the machine starves for a moment loses nothing; 4, OpenCV's
+#: Video4Linux2 default, lost frames in the 10-minute benchmark at a load of 7 on 2 cores): a
+#: paced file or the synthetic camera skips a frame the reader is later than this many
+#: intervals for, as a driver overwrites a buffer nobody took.
+RING_FRAMES = 30
 
 
 class AskedCamera(Protocol):
@@ -226,6 +229,7 @@ class CameraFeed(Feed):
 
         s = self.source
         cap, self.info = open_camera(s.device, s.width, s.height, s.fps, fourcc="MJPG")
+        cap.set(cv2.CAP_PROP_BUFFERSIZE, RING_FRAMES)  # a driver without it keeps its own
         self.fourcc = _fourcc_text(cap.get(cv2.CAP_PROP_FOURCC))
         if self.fourcc == "MJPG":  # the JPEG buffers as they come: decoded off this thread
             cap.set(cv2.CAP_PROP_CONVERT_RGB, 0)
