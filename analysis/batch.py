@@ -15,7 +15,7 @@ import signal
 import threading
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any, Literal, TypeVar
 
 import pandas as pd
 
@@ -37,6 +37,7 @@ from analysis.noise_pass import NoisePass, first_pass, noise_pass, prior_salt, w
 from analysis.outputs import OutputFolder, printable_stem
 from analysis.pipeline import _with_figures, analyse_session
 from analysis.results import AnalysisOptions, RunResult, SessionFailure, SessionResult
+from analysis.rig.scope import RigScope, run_rig_sources
 from analysis.session_cache import SessionCache
 from analysis.workers import Outcome, run_processes
 from twopose.errors import InputValueError, TwoposeError
@@ -63,6 +64,7 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
     on_sessions_found: Callable[[int], None] | None = None,
     scene: bool = True,
     reuse: bool = True,
+    rigs: RigScope | Literal["scope"] | None = None,
 ) -> RunResult:
     """Analyse every session under ``paths`` and (with ``out_dir``) write the results.
 
@@ -95,6 +97,10 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
         With ``out_dir``: reuse what the previous run into it kept where nothing it depends
         on changed (each session's analysis, :mod:`analysis.session_cache`; its figures,
         :mod:`analysis.figure_cache`); False: everything computed afresh.
+    rigs : RigScope or "scope", optional
+        Which rig file each session uses (:func:`analysis.rig.scope.rig_scope`; "scope":
+        each session's nearest ``rig.toml`` up the tree, as ``twopose-analyze run`` does);
+        default none but ``options.rig``, for every session.
 
     Returns
     -------
@@ -107,6 +113,12 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
     if jobs < 1:
         raise InputValueError(f"jobs must be >= 1, got {jobs}")
     inputs = resolve_inputs(paths)  # once: copies, kinds, empty sessions, units
+    if rigs == "scope":
+        from analysis.rig.scope import rig_scope
+
+        if options.rig is not None:
+            raise InputValueError("a rig in the options and rig files found up the tree: give one")
+        rigs = rig_scope(inputs, on_note=note)
     files, skipped = inputs.files, list(inputs.skipped)
     if on_sessions_found is not None:
         on_sessions_found(len(files))
@@ -119,7 +131,9 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
         )
     folder = OutputFolder.prepare(out_dir) if out_dir is not None else None
     with folder or contextlib.nullcontext():
-        batch = _batch_of(inputs, folder, options, on_session_done, scene=scene, reuse=reuse)
+        batch = _batch_of(
+            inputs, folder, options, on_session_done, scene=scene, reuse=reuse, rigs=rigs
+        )
         batch = first_pass(
             batch, inputs, lambda b: _execute(b, jobs=jobs, dask_address=dask_address)
         )
@@ -127,10 +141,12 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
             o for o in _execute(batch, jobs=jobs, dask_address=dask_address)
             if not isinstance(o, NoisePass)  # never: the second pass analyses each session
         ]  # fmt: skip
+        every, used = run_rig_sources(rigs, options, files)
         result = dataclasses.replace(
             gather(outcomes, include_warned=options.include_warned),
             skipped=tuple(skipped),
-            rig_source=options.rig_source,
+            rig_source=every,
+            rig_files=used,
             input_notes=tuple(inputs.run_notes()),
             inputs_set_aside=inputs.set_aside,
             written_to=None if folder is None else str(folder.destination),
@@ -150,8 +166,10 @@ def _batch_of(
     *,
     scene: bool,
     reuse: bool,
+    rigs: RigScope | None = None,
 ) -> _Batch:
-    """The run's sessions with their settings, caches and results.mcap names."""
+    """The run's sessions with their settings (each one's rig file: ``rigs``), caches and
+    results.mcap names."""
     files = inputs.files
     session_cache = SessionCache.of(folder.destination, options, reuse=reuse) if folder else None
     results_mcap: list[str | None] = [None] * len(files)
@@ -176,6 +194,7 @@ def _batch_of(
         session_cache=session_cache,
         continuations=inputs.continuations,
         identities=inputs.identities,
+        rigs=rigs,
     )
 
 
@@ -233,6 +252,8 @@ class _Batch:
     identities: dict[str, SessionIdentity] = dataclasses.field(default_factory=dict)
     #: each session's analysis as the previous run into --out kept it (None: no --out)
     session_cache: SessionCache | None = None
+    #: which rig file each session uses (analysis.rig.scope; None: ``options.rig``, all)
+    rigs: RigScope | None = None
     #: "noise": the run's first pass (analysis.noise_pass); "analysis": the sessions' own
     stage: str = "analysis"
     #: per session's first part, its prior from its operator's other sessions of the run
@@ -242,18 +263,25 @@ class _Batch:
     #: per session's first part, the failure of its first pass (the session's outcome)
     failed: dict[str, SessionFailure] = dataclasses.field(default_factory=dict)
 
+    def options_for(self, path: str) -> AnalysisOptions:
+        """The options session ``path`` is analysed with: the run's, with its rig."""
+        return self.options if self.rigs is None else self.rigs.options_for(path, self.options)
+
     def analyse(self, index: int, results: str | None = None, *, images: bool) -> Outcome:
         """Session ``index``'s outcome (:func:`analyse_or_fail`), wherever it runs."""
         path, cache = self.files[index], self.session_cache
         continuations, identity = self.continuations.get(path, ()), self.identities.get(path)
+        options = self.options_for(path)
+        if cache is not None and options is not self.options:  # keyed on its own rig too
+            cache = cache.with_options(options)
         if self.stage == "noise":
-            first = functools.partial(_noise_or_fail, path, self.options, continuations)
+            first = functools.partial(_noise_or_fail, path, options, continuations)
             return first() if cache is None else cache.noise(path, continuations, identity, first)
         if path in self.failed:
             return self.failed[path]
         prior = self.priors.get(path)
         analysed = functools.partial(
-            analyse_or_fail, path, with_prior(self.options, prior), images=images,
+            analyse_or_fail, path, with_prior(options, prior), images=images,
             results=results, figure_cache=self.figure_cache, continuations=continuations,
             identity=identity, detections=self.detections.get(path),
         )  # fmt: skip

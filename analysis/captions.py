@@ -13,6 +13,7 @@ import html
 import pandas as pd
 
 from analysis.metrics import by_session_set, used_trials, warned
+from analysis.plane_axes import plane_of
 from analysis.table_labels import MAX_LEGEND, common_units, table_units, unit_label
 from analysis.terminal import UNIT_NAMES
 from twopose.methods import spec_of
@@ -89,6 +90,9 @@ def session_captions(
     when it has no trial to name them)."""
     label = html.escape(unit_label(table_units(trials) or units))
     top_view = spec_of(str(trials["method"].iloc[0])).top_view if len(trials) else "each view"
+    on = plane_of(trials)  # the ground's: x and z, seen from above
+    a, b = on.axis_names
+    seen, axes = html.escape(on.seen_words), html.escape(on.axes_said)
     ok = used_trials(trials, include_warned=True)
     n_warned = int(warned(ok).sum())
     fate = "included in the statistics" if include_warned else "left out of the statistics"
@@ -104,21 +108,21 @@ def session_captions(
         "them is drawn at the edge (▲), its value under the legend."
     )
     return {
-        "scatter": f"Estimate minus truth in x and z ({label}) of each ok trial, with its 95% "
+        "scatter": f"Estimate minus truth in {a} and {b} ({label}) of each ok trial, with its 95% "
         "error ellipse (about 95% of them hold the truth, the + at the origin, when the "
         "uncertainty is honest); the x is the bias over the trials the statistics use."
         + colour
         + doubt.format(how="hollow, without an ellipse")
         + framed
         + skipped,
-        "topview": f"Seen from above (x across, z in depth, {label}): "
+        "topview": f"Seen {seen} ({axes}, {label}): "
         f"{top_view}; the truth is drawn over them."
         + colour
         + doubt.format(how="dashed")
         + framed
         + skipped,
         "averaging": "The error of the estimate from the first n frames of each pose "
-        f"({label}), against n; zero is the truth; x and z on one scale."
+        f"({label}), against n; zero is the truth; {a} and {b} on one scale."
         + colour
         + doubt.format(how="dashed")
         + framed

@@ -9,6 +9,11 @@ tooltip gives its real value), one colour per trial across a session's charts (p
 colours only on the overview, which shows no trial colour), a unit on every axis and in
 every tooltip, the truth drawn. A session's charts are one spec (``concat``) sharing one
 selection: clicking a trial picks it out in all of them; every chart zooms (wheel, drag).
+They read a session in its method's plane's two in-plane axes (:mod:`analysis.plane_axes`:
+the ground's x and z, a wall's y and z), each chart's fields named by the axes' letters.
+
+(Near 600 lines: a session's charts, one spec sharing one selection; the run's charts are
+:mod:`analysis.run_charts`, the axes :mod:`analysis.plane_axes`.)
 """
 
 from __future__ import annotations
@@ -19,6 +24,8 @@ import numpy as np
 import pandas as pd
 
 from analysis.metrics import used_trials, warned
+from analysis.plane_axes import covariance_column, plane_of, with_in_plane
+from twopose.planes import ConstraintPlane
 from twopose.uncertainty import CHI2_95
 
 __all__ = ["Spec", "error_tip", "hex_colour", "records", "session_chart", "who", "zoom"]
@@ -40,8 +47,9 @@ TAB10 = [
 ]
 #: The selection a session's charts share: the trial clicked (shift-click adds one).
 PICK = "pick"
-#: The charts a click picks a trial in (each names its unit view so).
-_PICK_VIEWS = ["scatter_points", "topview_points", "running_x", "running_z"]
+#: The charts a click picks a trial in (each names its unit view so; the running
+#: averages' by their axes: ``running_x``, ``running_z``).
+_PICK_VIEWS = ["scatter_points", "topview_points"]
 _ELLIPSE_POINTS = 48
 #: A chart's plotting area (px): two side by side in the report's 1200 px.
 WIDTH, _HEIGHT = 300, 240
@@ -114,44 +122,58 @@ def zoom(name: str, encodings: tuple[str, ...] = ("x", "y")) -> list[Spec]:
     return [{"name": f"zoom_{name}", "select": select, "bind": "scales"}]
 
 
-def _ellipses(used: pd.DataFrame) -> pd.DataFrame:
-    """Each used trial's 95% ellipse in (x, z) around its error, as polygon rows."""
+def _ellipses(used: pd.DataFrame, on: ConstraintPlane) -> pd.DataFrame:
+    """Each used trial's 95% ellipse in the plane's axes (the ground's x and z) around its
+    error, as polygon rows (``e<a>``, ``e<b>``: ``ex``, ``ez``)."""
+    a, b = on.axis_names
+    cov_ab = covariance_column(on)
     angles = np.linspace(0.0, 2.0 * np.pi, _ELLIPSE_POINTS + 1)
     rows = []
     for _, r in used.iterrows():
-        cov = np.array([[r["sigma_x"] ** 2, r["cov_xz"]], [r["cov_xz"], r["sigma_z"] ** 2]])
+        cov = np.array([[r[f"sigma_{a}"] ** 2, r[cov_ab]], [r[cov_ab], r[f"sigma_{b}"] ** 2]])
         if not np.isfinite(cov).all():
             continue
         vals, vecs = np.linalg.eigh(cov)
         radii = np.sqrt(np.maximum(vals, 0.0) * CHI2_95[2])
         circle = np.stack([np.cos(angles) * radii[0], np.sin(angles) * radii[1]])
-        xy = (vecs @ circle).T + np.array([r["err_x"], r["err_z"]])
+        xy = (vecs @ circle).T + np.array([r[f"err_{a}"], r[f"err_{b}"]])
         rows += [
-            {"trial": int(r["trial"]), "order": k, "ex": float(x), "ez": float(z)}
+            {"trial": int(r["trial"]), "order": k, f"e{a}": float(x), f"e{b}": float(z)}
             for k, (x, z) in enumerate(xy)
         ]
-    return pd.DataFrame(rows, columns=["trial", "order", "ex", "ez"])
+    return pd.DataFrame(rows, columns=["trial", "order", f"e{a}", f"e{b}"])
 
 
-def _scatter(unit_text: str, used: pd.DataFrame) -> tuple[Spec, Spec]:
-    """The errors in the ground plane (x, z) with their 95% ellipses and the truth at 0."""
-    ellipses = _ellipses(used) if {"sigma_x", "sigma_z", "cov_xz"} <= set(used) else None
-    xs = [used["err_x"], *([ellipses["ex"]] if ellipses is not None else []), pd.Series([0.0])]
-    zs = [used["err_z"], *([ellipses["ez"]] if ellipses is not None else []), pd.Series([0.0])]
+def _scatter(unit_text: str, used: pd.DataFrame, on: ConstraintPlane) -> tuple[Spec, Spec]:
+    """The errors in the plane's axes (the ground's x and z) with their 95% ellipses and
+    the truth at 0."""
+    a, b = on.axis_names
+    spread = {f"sigma_{a}", f"sigma_{b}", covariance_column(on)}
+    ellipses = _ellipses(used, on) if spread <= set(used) else None
+    xs = [
+        used[f"err_{a}"],
+        *([ellipses[f"e{a}"]] if ellipses is not None else []),
+        pd.Series([0.0]),
+    ]
+    zs = [
+        used[f"err_{b}"],
+        *([ellipses[f"e{b}"]] if ellipses is not None else []),
+        pd.Series([0.0]),
+    ]
     x_domain = _span(np.concatenate([np.asarray(v, dtype=np.float64) for v in xs]))
     z_domain = _span(np.concatenate([np.asarray(v, dtype=np.float64) for v in zs]))
-    x_tip = {"field": "err_x", "title": f"x error ({unit_text})", "format": ".3f"}
-    z_tip = {"field": "err_z", "title": f"z error ({unit_text})", "format": ".3f"}
+    x_tip = {"field": f"err_{a}", "title": f"{a} error ({unit_text})", "format": ".3f"}
+    z_tip = {"field": f"err_{b}", "title": f"{b} error ({unit_text})", "format": ".3f"}
     x = {
-        "field": "sx",
+        "field": f"s{a}",
         "type": "quantitative",
-        "title": f"x error ({unit_text})",
+        "title": f"{a} error ({unit_text})",
         "scale": {"domain": x_domain},
     }
     z = {
-        "field": "sz",
+        "field": f"s{b}",
         "type": "quantitative",
-        "title": f"z error ({unit_text})",
+        "title": f"{b} error ({unit_text})",
         "scale": {"domain": z_domain},
     }
     layers: list[Spec] = [
@@ -172,8 +194,8 @@ def _scatter(unit_text: str, used: pd.DataFrame) -> tuple[Spec, Spec]:
                 "data": {"name": "ellipses"},
                 "mark": {"type": "line", "strokeWidth": 1, "clip": True},
                 "encoding": {
-                    "x": {"field": "ex", "type": "quantitative"},
-                    "y": {"field": "ez", "type": "quantitative"},
+                    "x": {"field": f"e{a}", "type": "quantitative"},
+                    "y": {"field": f"e{b}", "type": "quantitative"},
                     "order": {"field": "order"},
                     "detail": {"field": "trial"},
                     "opacity": _picked(0.9, 0.12),
@@ -187,8 +209,8 @@ def _scatter(unit_text: str, used: pd.DataFrame) -> tuple[Spec, Spec]:
                 {"filter": "datum.shown == 'used'"},
                 {
                     "aggregate": [
-                        {"op": "mean", "field": "err_x", "as": "mean_x"},
-                        {"op": "mean", "field": "err_z", "as": "mean_z"},
+                        {"op": "mean", "field": f"err_{a}", "as": f"mean_{a}"},
+                        {"op": "mean", "field": f"err_{b}", "as": f"mean_{b}"},
                     ]
                 },
             ],
@@ -201,11 +223,11 @@ def _scatter(unit_text: str, used: pd.DataFrame) -> tuple[Spec, Spec]:
                 "clip": True,
             },
             "encoding": {
-                "x": {"field": "mean_x", "type": "quantitative"},
-                "y": {"field": "mean_z", "type": "quantitative"},
+                "x": {"field": f"mean_{a}", "type": "quantitative"},
+                "y": {"field": f"mean_{b}", "type": "quantitative"},
                 "tooltip": [
-                    {"field": "mean_x", "title": f"bias x ({unit_text})", "format": ".3f"},
-                    {"field": "mean_z", "title": f"bias z ({unit_text})", "format": ".3f"},
+                    {"field": f"mean_{a}", "title": f"bias {a} ({unit_text})", "format": ".3f"},
+                    {"field": f"mean_{b}", "title": f"bias {b} ({unit_text})", "format": ".3f"},
                 ],
             },
         }
@@ -213,7 +235,7 @@ def _scatter(unit_text: str, used: pd.DataFrame) -> tuple[Spec, Spec]:
     layers.append(
         {
             "data": {"name": "trials"},
-            "transform": [{"filter": "datum.err_x != null && datum.err_z != null"}],
+            "transform": [{"filter": f"datum.err_{a} != null && datum.err_{b} != null"}],
             "name": "scatter_points",
             "params": zoom("scatter"),
             "mark": {"type": "point", "filled": True, "size": 50, "clip": True},
@@ -227,13 +249,13 @@ def _scatter(unit_text: str, used: pd.DataFrame) -> tuple[Spec, Spec]:
         }
     )
     chart = {
-        "title": "Error in the ground plane, 95% ellipses; the truth at 0",
+        "title": f"Error in {on.name} plane, 95% ellipses; the truth at 0",
         "width": WIDTH,
         "height": _HEIGHT,
         "layer": layers,
     }
     return chart, {"ellipses": records(ellipses) if ellipses is not None else []} | {
-        "domain": {"x": x_domain, "z": z_domain}
+        "domain": {a: x_domain, b: z_domain}
     }
 
 
@@ -274,33 +296,37 @@ def session_chart(
 ) -> Spec | None:
     """A session's charts in one spec: its errors' scatter, its top view and its running
     averages, one colour per trial, one selection across them (``None``: nothing to draw)."""
-    measured = used_trials(trials, include_warned=True, measured=True)
+    on = plane_of(trials)  # the ground's: x and z
+    measured = with_in_plane(used_trials(trials, include_warned=True, measured=True), on)
     if measured.empty:
         return None
     used = used_trials(measured, include_warned=include_warned, measured=True)
     table = measured.assign(session_name=name, trial=measured["trial"].astype(int))
     table["shown"] = np.where(table.index.isin(used.index), "used", "left out (warned)")
-    scatter, extra = _scatter(unit_text, used if len(used) else measured)
-    for axis, column in (("x", "err_x"), ("z", "err_z")):
-        shown, beyond = _clamped(table[column], extra["domain"][axis])
+    scatter, extra = _scatter(unit_text, used if len(used) else measured, on)
+    for axis in on.axis_names:
+        shown, beyond = _clamped(table[f"err_{axis}"], extra["domain"][axis])
         table[f"s{axis}"] = shown
         table.loc[beyond, "shown"] = "beyond the frame, at its edge"
     charts = [scatter]
     datasets: dict[str, Any] = {"trials": records(table), "ellipses": extra["ellipses"]}
-    top = _topview(table, views, unit_text, used if len(used) else measured)
+    top = _topview(
+        table, with_in_plane(views, on, ("t_",)), unit_text, used if len(used) else measured, on
+    )
     if top is not None:
         charts.append(top[0])
         datasets |= top[1]
-    running = _running(averaging, table, unit_text)
+    running = _running(with_in_plane(averaging, on, ("",)), table, unit_text, on)
     if running is not None:
         charts += running[0]
         datasets |= running[1]
     ids = sorted(int(t) for t in table["trial"].unique())
     _colour_by_trial(charts, _trial_colour(ids))
+    views_picked = [*_PICK_VIEWS, *(f"running_{axis}" for axis in on.axis_names)]
     return {
         "datasets": datasets,
         "params": [
-            {"name": PICK, "select": {"type": "point", "fields": ["trial"]}, "views": _PICK_VIEWS}
+            {"name": PICK, "select": {"type": "point", "fields": ["trial"]}, "views": views_picked}
         ],
         "concat": charts,
         "columns": 2,
@@ -329,38 +355,48 @@ def _colour_by_trial(charts: list[Spec], colour: Spec) -> None:
 
 
 def _topview(
-    table: pd.DataFrame, views: pd.DataFrame, unit_text: str, used: pd.DataFrame
+    table: pd.DataFrame,
+    views: pd.DataFrame,
+    unit_text: str,
+    used: pd.DataFrame,
+    on: ConstraintPlane,
 ) -> tuple[Spec, dict[str, Any]] | None:
-    """The session from above: each view's camera, its sight line to the trial's estimate,
-    the estimate and the truth (x, z)."""
-    if views.empty or not {"t_x", "t_z"} <= set(views):
+    """The session face on its plane (the ground's from above: x, z): each view's camera,
+    its sight line to the trial's estimate, the estimate and the truth."""
+    a, b = on.axis_names
+    if views.empty or not {f"t_{a}", f"t_{b}"} <= set(views):
         return None
-    seen = _joined(views[["trial", "pose", "t_x", "t_z"]], views, table, ["x", "z"])
+    seen = _joined(views[["trial", "pose", f"t_{a}", f"t_{b}"]], views, table, [a, b])
     rays = pd.DataFrame(
         {
             "trial": seen["trial"].astype(int).to_numpy(),
             "pose": seen["pose"].to_numpy(),
-            "t_x": seen["t_x"].to_numpy(dtype=np.float64),
-            "t_z": seen["t_z"].to_numpy(dtype=np.float64),
-            "x": seen["x"].to_numpy(dtype=np.float64),
-            "z": seen["z"].to_numpy(dtype=np.float64),
+            f"t_{a}": seen[f"t_{a}"].to_numpy(dtype=np.float64),
+            f"t_{b}": seen[f"t_{b}"].to_numpy(dtype=np.float64),
+            a: seen[a].to_numpy(dtype=np.float64),
+            b: seen[b].to_numpy(dtype=np.float64),
         }
     )
     framed = rays[rays["trial"].isin(used["trial"])]
-    x_domain = _span(np.concatenate([framed["t_x"], framed["x"], used["gt_x"]]))
-    z_domain = _span(np.concatenate([framed["t_z"], framed["z"], used["gt_z"]]))
-    x_ax = {"type": "quantitative", "title": f"x ({unit_text})", "scale": {"domain": x_domain}}
+    x_domain = _span(np.concatenate([framed[f"t_{a}"], framed[a], used[f"gt_{a}"]]))
+    z_domain = _span(np.concatenate([framed[f"t_{b}"], framed[b], used[f"gt_{b}"]]))
+    across, up = on.titles  # the ground's "x" and "z, depth"
+    x_ax = {
+        "type": "quantitative",
+        "title": f"{across} ({unit_text})",
+        "scale": {"domain": x_domain},
+    }
     z_ax = {
         "type": "quantitative",
-        "title": f"z, depth ({unit_text})",
+        "title": f"{up} ({unit_text})",
         "scale": {"domain": z_domain},
     }
     tips = [
         *who(),
-        {"field": "x", "title": f"estimate x ({unit_text})", "format": ".3f"},
-        {"field": "z", "title": f"estimate z ({unit_text})", "format": ".3f"},
-        {"field": "gt_x", "title": f"truth x ({unit_text})", "format": ".3f"},
-        {"field": "gt_z", "title": f"truth z ({unit_text})", "format": ".3f"},
+        {"field": a, "title": f"estimate {a} ({unit_text})", "format": ".3f"},
+        {"field": b, "title": f"estimate {b} ({unit_text})", "format": ".3f"},
+        {"field": f"gt_{a}", "title": f"truth {a} ({unit_text})", "format": ".3f"},
+        {"field": f"gt_{b}", "title": f"truth {b} ({unit_text})", "format": ".3f"},
         *error_tip(unit_text),
     ]
     layers = [
@@ -368,10 +404,10 @@ def _topview(
             "data": {"name": "rays"},
             "mark": {"type": "rule", "strokeWidth": 1, "clip": True},
             "encoding": {
-                "x": {"field": "t_x", **x_ax},
-                "y": {"field": "t_z", **z_ax},
-                "x2": {"field": "x"},
-                "y2": {"field": "z"},
+                "x": {"field": f"t_{a}", **x_ax},
+                "y": {"field": f"t_{b}", **z_ax},
+                "x2": {"field": a},
+                "y2": {"field": b},
                 "opacity": _picked(0.7, 0.08),
             },
         },
@@ -379,14 +415,14 @@ def _topview(
             "data": {"name": "rays"},
             "mark": {"type": "square", "size": 30, "clip": True},
             "encoding": {
-                "x": {"field": "t_x", **x_ax},
-                "y": {"field": "t_z", **z_ax},
+                "x": {"field": f"t_{a}", **x_ax},
+                "y": {"field": f"t_{b}", **z_ax},
                 "opacity": _picked(1.0, 0.15),
                 "tooltip": [
                     {"field": "trial"},
                     {"field": "pose"},
-                    {"field": "t_x", "title": f"camera x ({unit_text})", "format": ".3f"},
-                    {"field": "t_z", "title": f"camera z ({unit_text})", "format": ".3f"},
+                    {"field": f"t_{a}", "title": f"camera {a} ({unit_text})", "format": ".3f"},
+                    {"field": f"t_{b}", "title": f"camera {b} ({unit_text})", "format": ".3f"},
                 ],
             },
         },
@@ -394,8 +430,8 @@ def _topview(
             "data": {"name": "trials"},
             "mark": {"type": "point", "shape": "cross", "size": 90, "color": "black", "clip": True},
             "encoding": {
-                "x": {"field": "gt_x", **x_ax},
-                "y": {"field": "gt_z", **z_ax},
+                "x": {"field": f"gt_{a}", **x_ax},
+                "y": {"field": f"gt_{b}", **z_ax},
                 "opacity": _picked(1.0, 0.15),
                 "tooltip": tips,
             },
@@ -406,15 +442,16 @@ def _topview(
             "name": "topview_points",
             "mark": {"type": "point", "filled": True, "size": 50, "clip": True},
             "encoding": {
-                "x": {"field": "x", **x_ax},
-                "y": {"field": "z", **z_ax},
+                "x": {"field": a, **x_ax},
+                "y": {"field": b, **z_ax},
                 "opacity": _picked(1.0, 0.15),
                 "tooltip": tips,
             },
         },
     ]
+    seen_from = on.seen_words[:1].upper() + on.seen_words[1:]  # the ground's: From above
     chart = {
-        "title": "From above: cameras (squares), sight lines, estimates; truth: black cross",
+        "title": f"{seen_from}: cameras (squares), sight lines, estimates; truth: black cross",
         "width": WIDTH,
         "height": _HEIGHT,
         "layer": layers,
@@ -442,24 +479,29 @@ def _joined(
 
 
 def _running(
-    averaging: pd.DataFrame, table: pd.DataFrame, unit_text: str
+    averaging: pd.DataFrame, table: pd.DataFrame, unit_text: str, on: ConstraintPlane
 ) -> tuple[list[Spec], dict[str, Any]] | None:
-    """Each trial's running average's error in x and in z against its frames used."""
+    """Each trial's running average's error along each in-plane axis (the ground's x and
+    z) against its frames used."""
     if averaging.empty or averaging["n_frames"].max() <= 1:
         return None
-    gt = _joined(averaging[["trial", "n_frames", "x", "z"]], averaging, table,
-                 ["gt_x", "gt_z", "shown"])  # fmt: skip
+    a, b = on.axis_names
+    gt = _joined(averaging[["trial", "n_frames", a, b]], averaging, table,
+                 [f"gt_{a}", f"gt_{b}", "shown"])  # fmt: skip
     rows = pd.DataFrame(
         {
             "trial": gt["trial"].astype(int).to_numpy(),
             "n_frames": gt["n_frames"].to_numpy(),
-            "ex": gt["x"].to_numpy(dtype=np.float64) - gt["gt_x"].to_numpy(np.float64),
-            "ez": gt["z"].to_numpy(dtype=np.float64) - gt["gt_z"].to_numpy(np.float64),
+            **{
+                f"e{axis}": gt[axis].to_numpy(dtype=np.float64)
+                - gt[f"gt_{axis}"].to_numpy(np.float64)
+                for axis in (a, b)
+            },
             "used": gt["shown"].to_numpy() == "used",
         }
     )
     charts = []
-    for axis in ("x", "z"):
+    for axis in (a, b):
         framed = rows.loc[rows["used"], f"e{axis}"] if rows["used"].any() else rows[f"e{axis}"]
         domain = _span(np.concatenate([framed.to_numpy(), [0.0]]))
         charts.append(

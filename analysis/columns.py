@@ -14,6 +14,13 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
+from analysis.table_columns import (
+    AVERAGING_TABLE,
+    FRAME_TABLE,
+    SUMMARY_TABLE,
+    TABLES,
+    VIEW_TABLE,
+)
 from analysis.trial_columns import TRIAL_TABLE, group
 
 if TYPE_CHECKING:
@@ -77,124 +84,36 @@ RIG_COLUMNS = group("rig")
 #: ``trials.csv``, every session and method concatenated (a column a method lacks is empty):
 #: :data:`analysis.trial_columns.TRIAL_TABLE`, one declaration per column.
 TRIAL_TABLE_COLUMNS = [c.name for c in TRIAL_TABLE]
+#: The gate's word for each numeric domain of a declaration (:data:`SUMMARY_DOMAINS`).
+_GATE_WORDS = {"count": "count", "non-negative": "length", "finite": "signed", "share": "share"}
 
-# The other tables.
+# The other tables: their declarations (analysis.table_columns), as lists of names.
 #: ``summary.csv``: one row per session and method.
-SUMMARY_COLUMNS = [
-    "session",
-    "label",
-    "session_id",
-    "branch",  # the branch the session's strand ends on
-    "trials_key",  # which trials the row is over (their parts and numbers, hashed)
-    "method",
-    "units",
-    "n_trials",
-    "n_ok",
-    "n_warned",  # ok trials with a near-degeneracy warning (left out unless --include-warned)
-    "n_used",  # the trials the statistics below are over
-    "bias_x",
-    "bias_y",
-    "bias_z",
-    "bias_x_ci95",  # half-width of the 95% t-interval of each bias component
-    "bias_y_ci95",
-    "bias_z_ci95",
-    "std_x",
-    "std_y",
-    "std_z",
-    "rmse",
-    "rmse_ci95_low",  # seeded bootstrap (2000 resamples) 95% interval of the RMSE
-    "rmse_ci95_high",
-    "median_err",
-    "max_err",
-    "within_1",
-    "coverage95",  # share of used trials whose truth is inside their 95% ellipsoid
-    "rmse_all_ok",  # the same over every ok trial, warned ones included
-    "median_err_all_ok",
-    "max_err_all_ok",
-    # the noise model its regions assumed (twopose.noise; docs/analysis.md)
-    "placing_sigma",  # the placing sigma (session units): measured, or the typed mean
-    "placing_source",  # typed, or measured by which board session; the multiplier taken
-    "placing_scale",  # the placing sigma taken over the one assumed (sqrt(lambda))
-    "placing_dof",  # the degrees of freedom it rests on (empty: taken as exact)
-    "sigma0",  # the unflagged trials' sigma0 under the typed model (1: the model holds)
-    "sigma0_dof",  # its degrees of freedom (0: no trial with redundancy)
-    "sigma0_p",  # its chi-square test's upper tail probability
-    "noise_contradicted",  # sigma0's test rejects the typed model (sigma0_p < 5%)
-    "noise_widening",  # the largest covariance multiplier applied (1: unchanged)
-    "n_flagged",  # trials whose poses disagree: kept out of the pool, widened
-]
-#: What each number of ``summary.csv`` can be: ``count`` a whole number >= 0, ``length``
-#: a finite length >= 0 (session units), ``signed`` any finite number, ``share`` 0 to 1.
+SUMMARY_COLUMNS = [c.name for c in SUMMARY_TABLE]
+#: What each number of ``summary.csv`` can be, in the gate's words: ``count`` a whole
+#: number >= 0, ``length`` a finite number >= 0, ``signed`` any finite number, ``share``
+#: 0 to 1 (each column's declared domain, :data:`analysis.table_columns.SUMMARY_TABLE`).
 #: Empty is "not measured"; anything else outside its domain no run writes, so ``check``
-#: and ``compare`` refuse it (:func:`analysis.outputs.check_results_table`).
-_LENGTHS = (
-    "bias_x_ci95", "bias_y_ci95", "bias_z_ci95", "std_x", "std_y", "std_z", "rmse",
-    "rmse_ci95_low", "rmse_ci95_high", "median_err", "max_err", "rmse_all_ok",
-    "median_err_all_ok", "max_err_all_ok", "placing_sigma", "sigma0", "noise_widening",
-    "placing_scale", "placing_dof",
-)  # fmt: skip
+#: and ``compare`` refuse it (:func:`analysis.run_tables.check_results_table`).
 SUMMARY_DOMAINS: dict[str, str] = {
-    **dict.fromkeys(("n_trials", "n_ok", "n_warned", "n_used"), "count"),
-    **dict.fromkeys(("bias_x", "bias_y", "bias_z"), "signed"),
-    **dict.fromkeys(_LENGTHS, "length"),
-    **dict.fromkeys(("within_1", "coverage95", "sigma0_p"), "share"),
-    "n_flagged": "count",
+    c.name: _GATE_WORDS[c.domain.kind] for c in SUMMARY_TABLE if c.domain.kind in _GATE_WORDS
 }
-#: The domains of the tables ``check`` and ``compare`` read, by file name.
-TABLE_DOMAINS = {"summary.csv": SUMMARY_DOMAINS}
+#: Every declared table (its columns' declarations) ``check`` and ``compare`` may read,
+#: by file name: each value read back is checked against its column's domain.
+TABLE_DOMAINS = TABLES
 #: Counts that bound each other in one row of ``summary.csv`` (each at most the next).
 SUMMARY_COUNT_ORDER = (("n_used", "n_ok"), ("n_warned", "n_ok"), ("n_ok", "n_trials"))
 #: The column naming the camera a frame or view was taken by (its id, ``cam0``).
 CAMERA_COLUMN = "camera"
 #: ``frames.csv``: every frame's detection.
-FRAME_COLUMNS = [
-    "session",
-    "trial",
-    "branch",
-    "pose",
-    CAMERA_COLUMN,
-    "frame",
-    "log_time_ns",
-    "found",
-    "col",
-    "row",
-    "theta_deg",
-    "area_px",
-    "eccentricity",
-    "pi_estimate",
-    "n_blobs",
-    "n_candidates",
-    "reason",
-]
+FRAME_COLUMNS = [c.name for c in FRAME_TABLE]
 #: ``averaging.csv``: the estimate from each trial's first 1..K frames per pose.
-AVERAGING_COLUMNS = ["session", "trial", "branch", "n_frames", "units", "x", "y", "z", "err"]
+AVERAGING_COLUMNS = [c.name for c in AVERAGING_TABLE]
 #: One row per used pose: its typed camera centre, combined measurement, the unit ray
 #: through the measured pixel (grid frame), and the intrinsics and typed angles (degrees,
 #: ``R_cam_to_grid = Rx Ry Rz``) the solver used: with them, the report's top view draws
 #: each trial by :func:`twopose.topview.top_view` (``views.csv``).
-VIEW_COLUMNS = [
-    "session",
-    "trial",
-    "branch",
-    "pose",
-    "units",
-    "t_x",
-    "t_y",
-    "t_z",
-    "col",
-    "row",
-    "theta_deg",
-    "ray_x",
-    "ray_y",
-    "ray_z",
-    "fx",
-    "fy",
-    "cx",
-    "cy",
-    "r_x_deg",
-    "r_y_deg",
-    "r_z_deg",
-]
+VIEW_COLUMNS = [c.name for c in VIEW_TABLE]
 #: ``rig.csv``: one row per session and rig constant (``units``: the session's, in which
 #: the length constants are; the others' unit ends their name, ``_deg``, ``_px``, or none).
 RIG_TABLE_COLUMNS = [
@@ -221,30 +140,21 @@ RUN_TABLES = {
     "rig.csv": RIG_TABLE_COLUMNS,
 }
 
-# Each column's dtype, one for a name in every table (:func:`typed`
-# applies them; :func:`analysis.run_tables.read_table` reads a CSV back to the same).
+# Each column's dtype, one for a name in every table (:func:`typed` applies them;
+# :func:`analysis.run_tables.read_table` reads a CSV back to the same): the declared
+# tables' from their declarations (a name in two tables has one dtype,
+# tests/analysis/test_columns.py), rig.csv's and errors.csv's listed here.
 #: Text: ``str``, "" when there is none, never NaN (in memory as read back).
-#: (trials.csv's columns: their declarations' dtypes, which the other tables' columns of the
-#: same name share.)
-_TEXT = (
-    "session", "label", "session_id", "branch", "trials_key", "method", "units", "reason",
-    CAMERA_COLUMN, "constant", "why_fixed", "error",
-)  # fmt: skip
-#: Whole numbers, always known.
-_WHOLE = (
-    "trial", "pose", "frame", "log_time_ns", "n_blobs", "n_candidates", "n_frames",
-    "n_trials", "n_ok", "n_warned", "n_used", "sigma0_dof", "n_flagged",
-)  # fmt: skip
+_TEXT = ("constant", "why_fixed", "error", "session", "units")
 #: Every declared column's dtype: ``str`` (text), ``bool`` (always known: a frame's
 #: ``found``, a rig constant's ``fitted``), ``boolean`` (pandas' nullable: True, False,
 #: or <NA> when not known, as for a trial without a usable covariance), ``int64``, and
 #: ``float64`` for every other number (NaN: not measured).
 DTYPES: dict[str, str] = {
-    **dict.fromkeys((c for columns in RUN_TABLES.values() for c in columns), "float64"),
+    **dict.fromkeys((*RIG_TABLE_COLUMNS, *ERROR_COLUMNS), "float64"),
     **dict.fromkeys(_TEXT, "str"),
-    **dict.fromkeys(_WHOLE, "int64"),
-    **dict.fromkeys(("found", "fitted", "noise_contradicted"), "bool"),
-    **{c.name: c.dtype for c in TRIAL_TABLE},
+    "fitted": "bool",
+    **{c.name: c.dtype for table in reversed(list(TABLES.values())) for c in table},
 }
 
 

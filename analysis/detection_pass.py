@@ -10,8 +10,8 @@ from typing import Any
 from analysis.results_mcap import ResultsWriter
 from analysis.tables import frame_row
 from twopose.camera import Intrinsics
-from twopose.choices import Target
-from twopose.detect import Detection, DotParams, GloveParams, detect
+from twopose.choices import P, TargetSpec
+from twopose.detect import Detection
 from twopose.errors import SessionFormatError
 from twopose.estimate import PoseView, pose_view
 from twopose.format.entries import PoseEntry
@@ -32,12 +32,13 @@ __all__ = [
 DETECTION_THREADS = 2
 
 Detections = list[list[Detection]]  # per pose of a trial, per frame
-Params = GloveParams | DotParams
 
 
-def _detect_frame(frame: Frame, size: tuple[int, int], target: Target, params: Params) -> Detection:
+def _detect_frame(
+    frame: Frame, size: tuple[int, int], target: TargetSpec[P], params: P
+) -> Detection:
     try:
-        return detect(frame.decode(size), target, params)
+        return target.detect(frame.decode(size), params)
     except SessionFormatError as err:  # one undecodable frame is a rejected frame
         return Detection(found=False, reason=str(err))
 
@@ -61,7 +62,7 @@ def detection_threads() -> int:
 
 
 def detected(
-    records: Iterator[TrialRecord], target: Target, params: Params
+    records: Iterator[TrialRecord], target: TargetSpec[P], params: P
 ) -> Generator[tuple[TrialRecord, Detections], None, None]:
     """Each trial with every frame's detection, in order. With threads, the next trial's
     frames are decoded and detected while this one's are written (one trial ahead, so

@@ -37,9 +37,12 @@ FIGURE_INDEX = "figures.json"
 _DRAWING_MODULES = (
     "analysis/figures.py",
     "analysis/figure_style.py",
+    "analysis/plane_axes.py",
+    "analysis/plane_figures.py",
     "analysis/topview_figure.py",
     "analysis/drawer.py",
     "analysis/metrics.py",
+    "twopose/planes.py",
     "twopose/topview.py",
 )
 _PNG = b"\x89PNG\r\n\x1a\n"

@@ -42,6 +42,7 @@ __all__ = [
     "mark_beyond",
     "method_colour",
     "set_title",
+    "style",
 ]
 
 #: Pixels per inch of the PNGs (a 5 in figure is 550 px wide).
@@ -116,6 +117,14 @@ def set_title(ax: Axes, title: str) -> None:
     """An axes' title at a fixed height: matplotlib's automatic placement measures every
     tick label of the axes again at each draw (a tenth of a figure's drawing time)."""
     ax.set_title(title, fontsize=TITLE, y=1.0, pad=5.0)
+
+
+def style(ax: Axes, title: str, xlabel: str, ylabel: str) -> None:
+    """An axes' title, its axes' labels and its ticks, in the figures' sizes."""
+    set_title(ax, title)
+    ax.set_xlabel(xlabel, fontsize=LABEL)
+    ax.set_ylabel(ylabel, fontsize=LABEL)
+    ax.tick_params(labelsize=TICK)
 
 
 @dataclass(frozen=True)

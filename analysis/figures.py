@@ -22,9 +22,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 from matplotlib.axes import Axes
-from matplotlib.collections import EllipseCollection, LineCollection
+from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
-from matplotlib.lines import Line2D
 from matplotlib.ticker import MaxNLocator
 
 from analysis.answer import session_order, strand_names, with_branch
@@ -33,26 +32,28 @@ from analysis.figure_style import (
     KEY_MARGIN,
     LABEL,
     MAX_LEGEND,
-    TICK,
     TITLE,
     TrialColours,
-    beyond_note,
     common_units,
     figure_name,
-    frame,
     key,
     layout,
     legend_below,
-    mark_beyond,
     method_colour,
-    set_title,
+    style,
 )
-from analysis.metrics import by_session_set, session_set, used_trials, warned
+from analysis.metrics import by_session_set, session_set, used_trials
 from analysis.outputs import printable_stem
-from analysis.table_labels import table_units, unit_label
+from analysis.plane_axes import plane_of
+from analysis.plane_figures import (
+    error_ellipses,
+    plot_error_scatter,
+    plot_running_averages,
+    running_errors,
+)
+from analysis.table_labels import table_units
 from analysis.topview_figure import plot_top_view
-from twopose.methods import Method
-from twopose.uncertainty import CHI2_95
+from twopose.methods import Method, label_of
 from twopose.units import Units
 
 if TYPE_CHECKING:
@@ -78,209 +79,6 @@ __all__ = [
 #: at two thirds, their 9 pt labels about 9 px high.
 WIDTH = 4.8
 HISTOGRAM_BINS = 20
-
-
-def _style(ax: Axes, title: str, xlabel: str, ylabel: str) -> None:
-    set_title(ax, title)
-    ax.set_xlabel(xlabel, fontsize=LABEL)
-    ax.set_ylabel(ylabel, fontsize=LABEL)
-    ax.tick_params(labelsize=TICK)
-
-
-def _covariances_xz(trials: pd.DataFrame) -> np.ndarray:
-    """(n, 2, 2) x-z marginal covariances of ``trials`` (NaN read as 0)."""
-    C = np.zeros((len(trials), 2, 2))
-    C[:, 0, 0] = trials["sigma_x"].to_numpy(dtype=np.float64) ** 2
-    C[:, 1, 1] = trials["sigma_z"].to_numpy(dtype=np.float64) ** 2
-    C[:, 0, 1] = C[:, 1, 0] = trials["cov_xz"].to_numpy(dtype=np.float64)
-    return np.nan_to_num(C, posinf=0.0, neginf=0.0)
-
-
-def error_ellipses(
-    trials: pd.DataFrame, chi2: float = CHI2_95[2], colours: object = "C0"
-) -> EllipseCollection:
-    """The x-z marginal 95% ellipse of each trial's covariance, centred on its error: the
-    truth (the origin) lies inside about 95% of them when the uncertainty is honest."""
-    w, V = np.linalg.eigh(_covariances_xz(trials))
-    angle = np.degrees(np.arctan2(V[:, 1, 1], V[:, 0, 1]))  # of the major axis
-    size = 2.0 * np.sqrt(chi2 * np.clip(w, 0.0, None))
-    return EllipseCollection(
-        size[:, 1],
-        size[:, 0],
-        angle,
-        units="xy",
-        offsets=trials[["err_x", "err_z"]].to_numpy(dtype=np.float64),
-        offset_transform=None,
-        facecolors="none",
-        edgecolors=colours,
-        linewidths=0.7,
-        alpha=0.55,
-    )
-
-
-def _ellipse_bounds(trials: pd.DataFrame, chi2: float = CHI2_95[2]) -> np.ndarray:
-    """[[x_min, z_min], [x_max, z_max]] covering every 95% ellipse and every point: an
-    ellipse's half-extent along an axis is sqrt(chi2 * variance along it)."""
-    C = _covariances_xz(trials)
-    half = np.sqrt(chi2 * np.stack([C[:, 0, 0], C[:, 1, 1]], axis=1))
-    centre = trials[["err_x", "err_z"]].to_numpy(dtype=np.float64)
-    finite = np.isfinite(centre).all(axis=1) & np.isfinite(half).all(axis=1)
-    if not finite.any():
-        return np.array([[-1.0, -1.0], [1.0, 1.0]])
-    lo = (centre - half)[finite].min(axis=0)
-    hi = (centre + half)[finite].max(axis=0)
-    return np.array([np.minimum(lo, 0.0), np.maximum(hi, 0.0)])  # the truth is in view
-
-
-def _unit_label(trials: pd.DataFrame, units: Units | None) -> str:
-    """How the axes name the trials' length unit, else ``units`` (the session's, when it
-    has no trial)."""
-    return unit_label(table_units(trials) or units)
-
-
-def plot_error_scatter(
-    ax: Axes,
-    trials: pd.DataFrame,
-    title: str,
-    *,
-    include_warned: bool = False,
-    palette: TrialColours | None = None,
-    units: Units | None = None,
-) -> tuple[list[Line2D], str]:
-    """Estimate minus truth in x-z, ok trials (the thesis' Figures 11 and 21), each in its
-    trial's colour with its 95% error ellipse. The axes are framed by the trials the
-    statistics use (their points and ellipses, and the truth at the origin); a warned trial
-    left out is hollow, without its (degenerate) ellipse, and when it lies beyond the frame
-    it is drawn at the edge with an arrowhead. Returns the legend's entries (the trials'
-    own when ``palette`` names them) and the note that lists what lies beyond the frame."""
-    ok = used_trials(trials, include_warned=True, measured=True)
-    palette = palette or TrialColours.of(ok["trial"])
-    doubted = warned(ok)
-    used, left_out = (ok, ok.head(0)) if include_warned else (ok[~doubted], ok[doubted])
-    label = _unit_label(trials, units)
-    ax.axhline(0, color="0.75", lw=0.8, zorder=0)
-    ax.axvline(0, color="0.75", lw=0.8, zorder=0)
-    handles = []
-    if len(used) and "sigma_x" in used:
-        ellipses = error_ellipses(used, colours=palette.colours(used["trial"]))
-        ellipses.set_offset_transform(ax.transData)
-        ax.add_collection(ellipses, autolim=False)
-        handles.append(key("95% ellipses", color="0.3", lw=0.7, linestyle="-"))
-    ax.scatter(used["err_x"], used["err_z"], s=20, c=palette.colours(used["trial"]), zorder=3)
-    handles.append(key(f"{len(used)} trials used", marker="o", color="0.3", ms=5))
-    if len(left_out):
-        colours = palette.colours(left_out["trial"])
-        ax.scatter(left_out["err_x"], left_out["err_z"], s=24, facecolors="none",
-                   edgecolors=colours, zorder=3)  # fmt: skip
-        handles.append(key(f"{len(left_out)} warned (left out)", marker="o", mfc="none", mec="0.3"))
-    if len(used):
-        ax.scatter([used["err_x"].mean()], [used["err_z"].mean()], marker="x", s=60,
-                   color="k", zorder=4)  # fmt: skip
-        handles.append(key("bias (mean error)", marker="x", color="k", ms=7))
-    ax.scatter([0.0], [0.0], marker="+", s=90, color="k", linewidths=1.4, zorder=5)
-    handles.append(key("truth (zero error)", marker="+", color="k", ms=9, mew=1.4))
-    bounds = _ellipse_bounds(used) if len(used) and "sigma_x" in used else np.zeros((2, 2))
-    frame(ax, np.vstack([bounds, used[["err_x", "err_z"]].to_numpy(dtype=np.float64)]),
-          least=1e-3 if len(used) else 2.0)  # fmt: skip
-    note = _mark_left_out(ax, left_out, ["err_x", "err_z"], palette, label)
-    _style(ax, title, f"x error ({label})", f"z error ({label})")
-    ax.xaxis.set_major_locator(MaxNLocator(nbins=5))  # tick labels that never touch
-    return [*handles, *(palette.legend(marker="o", ms=5) if palette.named else [])], note
-
-
-def _mark_left_out(
-    ax: Axes, left_out: pd.DataFrame, columns: list[str], palette: TrialColours, label: str
-) -> str:
-    """Left-out trials beyond the frame: drawn at its edge, and listed with their value
-    (the note returned)."""
-    xy = left_out[columns].to_numpy(dtype=np.float64)
-    beyond = mark_beyond(ax, xy, palette.colours(left_out["trial"]))
-    return beyond_note(
-        [
-            f"trial {t} ({x:+.3g}, {y:+.3g} {label})"
-            for t, (x, y), b in zip(left_out["trial"], xy, beyond, strict=True)
-            if b
-        ]
-    )
-
-
-def running_errors(averaging: pd.DataFrame, trials: pd.DataFrame) -> pd.DataFrame:
-    """The running averages of the ok trials as errors: ``trial, n_frames, err_x, err_z``
-    (estimate minus truth, session units) and ``warned``."""
-    ok = used_trials(trials, include_warned=True).drop_duplicates("trial", keep="last")
-    truth = ok.set_index("trial")
-    picked = averaging[averaging["trial"].isin(truth.index)]
-    gt = truth.reindex(picked["trial"])
-    return pd.DataFrame(
-        {
-            "trial": picked["trial"].to_numpy(),
-            "n_frames": picked["n_frames"].to_numpy(),
-            "err_x": picked["x"].to_numpy(dtype=np.float64) - gt["gt_x"].to_numpy(np.float64),
-            "err_z": picked["z"].to_numpy(dtype=np.float64) - gt["gt_z"].to_numpy(np.float64),
-            "warned": warned(gt).to_numpy(),
-        }
-    )
-
-
-def _running_axes(fig: Figure, label: str) -> tuple[Axes, Axes]:
-    """The running averages' two panels, x and z error, on one y scale."""
-    ax_x, ax_z = fig.subplots(1, 2, sharey=True, squeeze=False)[0]
-    for ax, axis in ((ax_x, "x"), (ax_z, "z")):
-        ax.axhline(0.0, color="0.6", lw=0.8)
-        _style(ax, f"{axis} error", "", "")
-    ax_x.set_ylabel(f"error of the running average ({label})", fontsize=LABEL)
-    return ax_x, ax_z
-
-
-def plot_running_averages(
-    fig: Figure,
-    errors: pd.DataFrame,
-    units: Units | None,
-    palette: TrialColours | None = None,
-    *,
-    include_warned: bool = False,
-) -> tuple[list[Line2D], str]:
-    """The x and the z error of each trial's running average against the frames averaged
-    (Figures 22-23, as errors), one line per trial in its colour (a warned one dashed),
-    one collection per panel, the two panels on one y scale framed by the trials the
-    statistics use; a left-out trial's line beyond the frame ends at its edge with an
-    arrowhead. Returns the legend's entries and the note listing what lies beyond."""
-    palette = palette or TrialColours.of(errors["trial"])
-    label = unit_label(units)
-    axes = _running_axes(fig, label)
-    by_trial = list(errors.groupby("trial", sort=True))
-    colours = palette.colours(t for t, _ in by_trial)
-    doubt = [bool(g["warned"].any()) for _, g in by_trial]
-    styles = [(0, (4, 2)) if d else "solid" for d in doubt]
-    used = errors if include_warned else errors[~errors["warned"].astype(bool)]
-    spread = used[["err_x", "err_z"]].to_numpy(dtype=np.float64).ravel()
-    top = float(errors["n_frames"].max()) if len(errors) else 1.0
-    for ax, axis in zip(axes, ("x", "z"), strict=True):
-        lines = [g[["n_frames", f"err_{axis}"]].to_numpy(dtype=np.float64) for _, g in by_trial]
-        ax.add_collection(
-            LineCollection(lines, colors=colours, linestyles=styles, linewidths=1.0),
-            autolim=False,
-        )
-        points = np.column_stack([np.full(len(spread) + 1, 1.0), [*spread, 0.0]])
-        frame(ax, np.vstack([points, [[top, 0.0]]]), pad=0.06, least=1e-6)
-        ax.set_xlim(0.0, top * 1.04)
-    listed: list[str] = []
-    if not include_warned:  # a left-out trial's last running average, beyond the frame
-        last = [(t, g.iloc[-1]) for (t, g), d in zip(by_trial, doubt, strict=True) if d]
-        for ax, axis in zip(axes, ("x", "z"), strict=True):
-            xy = np.array([[r["n_frames"], r[f"err_{axis}"]] for _, r in last]).reshape(-1, 2)
-            beyond = mark_beyond(ax, xy, palette.colours(t for t, _ in last))
-            listed += [
-                f"trial {t} {axis} {r[f'err_{axis}']:+.3g} {label}"
-                for (t, r), b in zip(last, beyond, strict=True)
-                if b
-            ]
-    handles = palette.legend(linestyle="-") if palette.named else []
-    if any(doubt):
-        fate = "included" if include_warned else "left out"
-        handles.append(key(f"warned trial ({fate})", color="0.3", linestyle="--"))
-    handles.append(key("truth (zero error)", color="0.6", linestyle="-"))
-    return handles, beyond_note(listed)
 
 
 def _running_figure(
@@ -346,10 +144,11 @@ def session_figures(
 
     figures = {"scatter": _figure((WIDTH, 4.9), scatter)}
     if not views.empty and palette.trials:
+        title = f"{name}: {plane_of(trials).drawing_name}"  # the ground's: top view
         figures["topview"] = _figure(
             (WIDTH, 5.2),
             lambda fig: plot_top_view(
-                fig, trials, views, f"{name}: top view", palette, include_warned=include_warned
+                fig, trials, views, title, palette, include_warned=include_warned
             ),
         )
     errors = running_errors(averaging, trials) if not averaging.empty else averaging
@@ -424,12 +223,12 @@ def plot_error_histogram(
             ax.hist(data, bins=list(edges), color=[method_colour(m) for m in methods])
         else:
             ax.text(0.5, 0.5, "no trial usable", ha="center", transform=ax.transAxes)
-        _style(ax, _set_title(name, "Error per trial"), "", "number of trials")
+        style(ax, _set_title(name, "Error per trial"), "", "number of trials")
         ax.yaxis.set_major_locator(MaxNLocator(integer=True))  # counts: whole trials
     width = f"{edges[1] - edges[0]:.3g}"
     label = f"error ({units}); bins {width} {units} wide{converted}"
     panels[-1][1].set_xlabel(label, fontsize=LABEL)
-    handles = [key(str(m), marker="s", color=method_colour(m), ms=7) for m in methods]
+    handles = [key(label_of(m), marker="s", color=method_colour(m), ms=7) for m in methods]
     _run_layout(fig, len(panels), legend_below(fig, handles, 3))
 
 
@@ -468,7 +267,7 @@ def plot_error_by_trial(fig: Figure, trials: pd.DataFrame, *, include_warned: bo
     handles.append(key("95% ellipsoid, longest semi-axis", linestyle=":", lw=0.8))
     ax.set_yscale("log")
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
-    _style(ax, "Error by trial, per session", "trial number", f"error ({units}, log scale)")
+    style(ax, "Error by trial, per session", "trial number", f"error ({units}, log scale)")
     legend = legend_below(fig, handles, 2)
     fig.set_size_inches(WIDTH, 3.4 + legend)
     layout(fig, left=0.75, right=0.2, top=0.35, bottom=0.55 + legend)
@@ -496,9 +295,9 @@ def plot_error_vs_baseline(
             m = g[g["method"] == method]
             ax.scatter(m["baseline"], m["err"], s=14, color=method_colour(method), alpha=0.8)
         ax.set_yscale("log")
-        _style(ax, _set_title(name, "Error against baseline"), "", f"error ({units}, log)")
+        style(ax, _set_title(name, "Error against baseline"), "", f"error ({units}, log)")
     panels[-1][1].set_xlabel(f"baseline ({units})", fontsize=LABEL)
-    handles = [key(str(m), marker="o", color=method_colour(m), ms=5) for m in methods]
+    handles = [key(label_of(m), marker="o", color=method_colour(m), ms=5) for m in methods]
     _run_layout(fig, len(panels), legend_below(fig, handles, 3))
 
 

@@ -24,8 +24,8 @@ from typing import Any
 
 import pandas as pd
 
-from analysis.columns import SUMMARY_DOMAINS
 from analysis.gate_match import Pair, match_rows, require_identity, run_trials
+from analysis.gate_noise import noise_model_difference
 from analysis.gate_tolerance import (
     CHECKED_METRICS,
     Allowance,
@@ -34,6 +34,7 @@ from analysis.gate_tolerance import (
     load_tolerance,
 )
 from analysis.run_tables import check_results_table, read_results_table
+from analysis.table_columns import SUMMARY_TABLE
 from twopose.errors import InputValueError
 from twopose.methods import Method
 from twopose.units import unit_spec
@@ -154,7 +155,7 @@ def compare_summaries(
     """
     for table, name in zip((result, baseline), names, strict=True):
         check_results_table(
-            table, f"{name}/summary.csv", numeric=_CHECKED_COLUMNS, domains=SUMMARY_DOMAINS
+            table, f"{name}/summary.csv", numeric=_CHECKED_COLUMNS, columns=SUMMARY_TABLE
         )
     skipped = [c for c in BASELINE_MAY_LACK if c not in baseline.columns]
     for table, name, fix in (
@@ -173,8 +174,9 @@ def compare_summaries(
     )
     rows: list[dict[str, Any]] = []
     for pair in match_rows(result, baseline, trials, names=names):
-        notes += pair.notes
-        rows += _pair_rows(pair, tolerances, skipped)
+        said, apart = noise_model_difference(pair)  # regions of other noise: not compared
+        notes += pair.notes + said
+        rows += _pair_rows(pair, tolerances, [*skipped, *apart])
     table = pd.DataFrame(rows, columns=COMPARISON_COLUMNS)
     unheld = table[table["status"] == "unheld"]
     notes += tuple(

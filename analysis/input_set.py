@@ -210,7 +210,10 @@ class InputSet:
             for path, kept, why in self.others
         ]
         empty = [
-            f"{s.path}: an empty session (no pose was recorded): nothing to analyse"
+            f"{s.path}: a two-camera session (stream trials): not analysed here yet; replay "
+            "it with analysis.stream_replay.replay_pair_session"
+            if s.pair
+            else f"{s.path}: an empty session (no pose was recorded): nothing to analyse"
             for s in self.empty
         ]
         return repeats + copies + empty + list(self.strand_notes)

@@ -141,11 +141,13 @@ def noise_summary(trials: pd.DataFrame) -> dict[str, object]:
     sigma = pd.to_numeric(trials["placing_sigma"], errors="coerce")
     sources = [s for s in trials["placing_source"].astype(str) if s]
     scale = _first_number(trials, "placing_scale")
+    rig = {c: str(trials[c].fillna("").iloc[0]) for c in ("rig_file", "rig_sha256") if c in trials}
     return {
         "placing_sigma": float(sigma.median()) if sigma.notna().any() else np.nan,
         "placing_source": sources[0] if sources else "",
         "placing_scale": scale,
         "placing_dof": _first_number(trials, "placing_dof"),
+        **rig,
         "sigma0": float(np.sqrt(factor.sigma0_sq)) if total else np.nan,
         "sigma0_dof": total,
         "sigma0_p": factor.p_upper if total else np.nan,

@@ -44,6 +44,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "NoisePass",
+    "by_rig_file",
     "first_pass",
     "noise_pass",
     "operator_priors_of",
@@ -99,7 +100,8 @@ def first_pass(
         for f in inputs.found
         if f.path in b.files and f.info is not None
     }
-    groups = pooled_groups(heads, b.options)
+    options_for: Callable[[str], AnalysisOptions] = b.options_for
+    groups = by_rig_file(pooled_groups(heads, b.options), options_for)
     if not groups:
         return batch
     files = [f for f in b.files if f in groups]
@@ -109,7 +111,8 @@ def first_pass(
     )  # fmt: skip
     passes = execute(first)
     done = {o.session: o for o in passes if isinstance(o, NoisePass)}
-    priors = operator_priors_of({f: p.statistics for f, p in done.items()}, groups, b.options)
+    statistics = {f: p.statistics for f, p in done.items()}
+    priors = operator_priors_of(statistics, groups, b.options, options_for)
     return dataclasses.replace(  # type: ignore[no-any-return]
         b,
         priors=priors,
@@ -130,14 +133,51 @@ def noise_pass(path: str, options: AnalysisOptions, continuations: Sequence[str]
 
 
 def operator_priors_of(
-    passes: Mapping[str, SessionNoise], groups: Mapping[str, str], options: AnalysisOptions
+    passes: Mapping[str, SessionNoise],
+    groups: Mapping[str, str],
+    options: AnalysisOptions,
+    options_for: Callable[[str], AnalysisOptions] | None = None,
 ) -> dict[str, PlacingPrior]:
     """Every pooled session's prior from the other sessions of its group (in the run's
-    order; a session with none to pool left out)."""
+    order; a session with none to pool left out). ``options_for``: each session's own
+    options (its rig file's ``[placing]`` is its anchor); default ``options`` for all."""
     paths = [p for p in groups if p in passes]
-    stats = [dataclasses.replace(passes[p], group=groups[p]) for p in paths]
-    priors = operator_priors(stats, options.estimate.noise.anchor())
-    return {p: prior for p, prior in zip(paths, priors, strict=True) if prior is not None}
+    anchors = {
+        p: (options_for(p) if options_for else options).estimate.noise.anchor() for p in paths
+    }
+    out: dict[str, PlacingPrior] = {}
+    for anchor in dict.fromkeys(anchors.values()):  # one rig's sessions share their anchor
+        mine = [p for p in paths if anchors[p] == anchor]
+        stats = [dataclasses.replace(passes[p], group=groups[p]) for p in mine]
+        priors = operator_priors(stats, anchor)
+        out |= {p: prior for p, prior in zip(mine, priors, strict=True) if prior is not None}
+    return {p: out[p] for p in paths if p in out}
+
+
+def by_rig_file(
+    groups: Mapping[str, str], options_for: Callable[[str], AnalysisOptions]
+) -> dict[str, str]:
+    """``groups`` (:func:`pooled_groups`) split where their sessions use different rig files
+    (:mod:`analysis.rig.scope`): a rig is part of the setup, and its ``[placing]`` the
+    sigma the regions start from, so an operator's sessions under two rigs pool apart (the
+    group then names its rig file); a group left with one session is not pooled."""
+    rig = {p: _rig_said(options_for(p)) for p in groups}
+    rigs: dict[str, set[str]] = {}
+    for p, g in groups.items():
+        rigs.setdefault(g, set()).add(rig[p])
+    split = {p: g if len(rigs[g]) == 1 else f"{g} under {rig[p]}" for p, g in groups.items()}
+    count: dict[str, int] = {}
+    for g in split.values():
+        count[g] = count.get(g, 0) + 1
+    return {p: g for p, g in split.items() if count[g] > 1}
+
+
+def _rig_said(options: AnalysisOptions) -> str:
+    """A session's rig file in a group's words (its path; none: "no rig file")."""
+    source = options.rig_source
+    if source is not None:
+        return f"rig file {source.path}"
+    return "no rig file" if options.rig is None else "the constants given"
 
 
 def with_prior(options: AnalysisOptions, prior: PlacingPrior | None) -> AnalysisOptions:

@@ -407,9 +407,12 @@ def _nearest_existing(path: Path) -> Path | None:
     return None
 
 
-def check_run_outputs(sessions: InputSet, out: Path, junit: Path | None, rig: Path | None) -> None:
-    """``run``'s ``--out`` and ``--junit`` checked against its inputs (:class:`Inputs`)."""
-    inputs = run_inputs(sessions, rig)
+def check_run_outputs(
+    sessions: InputSet, out: Path, junit: Path | None, *rigs: Path | None
+) -> None:
+    """``run``'s ``--out`` and ``--junit`` checked against its inputs (:class:`Inputs`):
+    its sessions and the rig files they use."""
+    inputs = run_inputs(sessions, *rigs)
     inputs.check_folder("--out", out)
     inputs.check_file("--junit", junit, beside=out)
 

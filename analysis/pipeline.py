@@ -25,6 +25,7 @@ from analysis.detection_pass import Detections, detected, given_detections, tria
 from analysis.input_set import SessionIdentity
 from analysis.results import AnalysisOptions, SessionResult
 from analysis.results_mcap import ResultsWriter
+from analysis.rig.scope import rig_file_columns
 from analysis.tables import (
     averaging_table,
     trial_table,
@@ -34,7 +35,6 @@ from analysis.tables import (
 )
 from twopose.arrays import F64
 from twopose.bounds import GROUND_TRUTH
-from twopose.choices import TARGET_SPECS
 from twopose.errors import InputValueError, SessionFormatError
 from twopose.estimate import GroundSpec
 from twopose.format.reader import SessionReader
@@ -177,7 +177,7 @@ def analyse_session(
         label=identity.label,
         metadata=replay.metadata,
         frames=with_branch(frames, identity, part_of),
-        trials=with_identity(trials, identity, part_of),
+        trials=with_identity(trials.assign(**rig_file_columns(options)), identity, part_of),
         averaging=with_branch(averaging, identity, part_of),
         views=with_branch(views, identity, part_of),
         rig=rig,
@@ -364,7 +364,7 @@ def _replay(
     trial_ids, truths, views, last_ns = [], [], [], []
     notes, unmeasured = [], []
     rig_truth: RigConstants | None = None
-    params = getattr(options, TARGET_SPECS[target].options_field)
+    params = options.thresholds_for(target)
     found = (
         detected(iter_trials(reader), target, params)
         if known is None

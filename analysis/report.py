@@ -33,6 +33,7 @@ from analysis.metrics import (
     session_set,
     used_trials,
 )
+from analysis.rig.scope import rig_files_json, rig_lines
 from analysis.run_charts import overview_charts, sensitivity_chart
 from analysis.table_labels import metadata_table, readable_columns, table_units, unit_label
 from analysis.thesis import thesis_sessions
@@ -204,6 +205,7 @@ def summary_document(result: RunResult) -> dict[str, object]:
         "verdict": result.verdict,
         "failed": _records(result.errors),
         "rig": None if result.rig_source is None else result.rig_source.to_json(),
+        "rig_files": rig_files_json(result),
     }
 
 
@@ -443,11 +445,14 @@ def _run_units(result: RunResult) -> Units | None:
 
 
 def _rig_used(result: RunResult) -> list[str]:
-    """``run --rig``: which file corrected every view (and none said when none did)."""
-    source = result.rig_source
-    if source is None:
+    """Which rig files corrected which sessions' views (and none said when none did)."""
+    lines = rig_lines(result)
+    if not lines:
         return ["<p class='rig-used'>No rig file: the views are as typed.</p>"]
-    return [f"<p class='rig-used'><strong>{html.escape(source.line().capitalize())}.</strong></p>"]
+    return [
+        f"<p class='rig-used'><strong>{html.escape(line[0].upper() + line[1:])}.</strong></p>"
+        for line in lines
+    ]
 
 
 def _rig_section(result: RunResult) -> list[str]:

@@ -11,9 +11,10 @@ import pandas as pd
 from analysis.choices import DEFAULT_SESSION_TIMEOUT_S, FigureFormat, RigCalibrationMode
 from analysis.columns import RIG_TABLE_COLUMNS, VIEW_COLUMNS, typed
 from analysis.thesis import Verdicts, thesis_table, verdict_lines, verdicts_by_set
-from twopose.detect import DotParams, GloveParams
+from twopose.choices import P, TargetSpec
 from twopose.estimate import EstimateOptions
 from twopose.rig.constants import RigConstants
+from twopose.thresholds import DotParams, GloveParams
 
 __all__ = ["AnalysisOptions", "RunResult", "SessionFailure", "SessionResult"]
 
@@ -36,6 +37,9 @@ class AnalysisOptions:
 
     glove: GloveParams = field(default_factory=GloveParams)
     dot: DotParams = field(default_factory=DotParams)
+    # Another target's detector's thresholds (a registered target's record, of its
+    # TargetSpec.params type); the glove's and the dot's are the fields above.
+    thresholds: tuple[object, ...] = ()
     # How frames are combined and when a near-degenerate trial warns: the one record the
     # recorder's live result and the command line's defaults read too.
     estimate: EstimateOptions = field(default_factory=EstimateOptions)
@@ -54,23 +58,25 @@ class AnalysisOptions:
     # pdf); none by default: the report's charts are drawn by the reader's browser.
     figures: tuple[FigureFormat, ...] = field(default=(), metadata=RUN_ONLY)
 
+    def thresholds_for(self, target: TargetSpec[P]) -> P:
+        """The thresholds ``target``'s detector takes in this run: of its parameter type,
+        the glove's, the dot's or one of :attr:`thresholds`; else its defaults."""
+        return target.thresholds((self.glove, self.dot, *self.thresholds))
+
 
 @dataclass(frozen=True, kw_only=True)
 class RigSource:
-    """The rig file a run corrected every view by (``run --rig``): where it was, its
-    content's SHA-256 and its constants, so a corrected run is never mistaken for an
-    uncorrected one (``summary.json``'s ``rig``, the terminal, the report)."""
+    """The rig file a session's views were corrected by (its nearest ``rig.toml`` up the
+    tree, or ``run --rig``'s, :mod:`analysis.rig.scope`): where it was, its content's
+    SHA-256, its constants and whether ``--rig`` gave it, so a corrected run is never
+    mistaken for an uncorrected one (``trials.csv``'s ``rig_file``, ``summary.json``'s
+    ``rig`` and ``rig_files``, the terminal, the report)."""
 
     path: str
     sha256: str
     constants: RigConstants
-
-    @classmethod
-    def read(cls, path: str | Path, constants: RigConstants) -> RigSource:
-        import hashlib
-
-        digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
-        return cls(path=str(path), sha256=digest, constants=constants)
+    #: Chosen by ``--rig`` (for every session) rather than found up the tree.
+    given: bool = False
 
     def to_json(self) -> dict[str, object]:
         from dataclasses import asdict
@@ -78,11 +84,7 @@ class RigSource:
         values = {
             k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self.constants).items()
         }
-        return {"path": self.path, "sha256": self.sha256, "constants": values}
-
-    def line(self) -> str:
-        """One line for the terminal and the report."""
-        return f"every view corrected by the rig file {self.path} (sha256 {self.sha256[:16]}...)"
+        return {"path": self.path, "sha256": self.sha256, "constants": values, "given": self.given}
 
 
 def _empty(columns: list[str]) -> pd.DataFrame:
@@ -155,7 +157,9 @@ class RunResult:
     skipped: tuple[str, ...] = ()  # results files of an earlier run found among the inputs
     include_warned: bool = False  # whether the summary counts trials with a warning
     rig: pd.DataFrame = field(default_factory=lambda: _empty(RIG_TABLE_COLUMNS))  # rig.csv
-    rig_source: RigSource | None = None  # --rig: the file every view was corrected by
+    rig_source: RigSource | None = None  # the rig file every session's views were corrected by
+    #: Every rig file the run used, each once (each session's: trials.csv ``rig_file``)
+    rig_files: tuple[RigSource, ...] = ()
     #: What the run says about its inputs: copies counted once, board sessions (for
     #: `rig`), empty sessions (analysis.input_set.InputSet.notes)
     input_notes: tuple[str, ...] = ()

@@ -31,7 +31,7 @@ from mcap.writer import Writer as McapWriter
 from twopose.camera import Camera
 from twopose.detect import Detection
 from twopose.format.channels import Channels
-from twopose.format.entries import GroundPlane, PoseEntry
+from twopose.format.entries import PlaneEntry, PoseEntry
 from twopose.format.messages import (
     RESULTS_TOPIC_PREFIX,
     SESSION_PROTOBUF,
@@ -68,7 +68,7 @@ class ResultsWriter:
     Use as a context manager; :meth:`add_pose` before that pose's frames.
     """
 
-    def __init__(self, path: str | Path, cameras: list[Camera], ground: GroundPlane | None):
+    def __init__(self, path: str | Path, cameras: list[Camera], ground: PlaneEntry | None):
         self.path = Path(path)
         self._file = self.path.open("wb")
         writer = McapWriter(self._file, compression=CompressionType.LZ4)

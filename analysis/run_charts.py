@@ -4,12 +4,14 @@ the sensitivity sweeps."""
 
 from __future__ import annotations
 
+import json
+
 import pandas as pd
 
 from analysis.answer import strand_names
 from analysis.charts import WIDTH, Spec, error_tip, hex_colour, records, who, zoom
 from analysis.metrics import by_session_set, session_set, used_trials
-from twopose.methods import Method, spec_of
+from twopose.methods import Method, label_of, spec_of
 
 __all__ = ["overview_charts", "sensitivity_chart"]
 
@@ -123,7 +125,8 @@ _OVERVIEW_COLUMNS = ["session_name", "set", "method", "trial", "err", "baseline"
 
 
 def method_colours(methods: list[Method]) -> Spec:
-    """The colour encoding of a chart over methods: each method's registry colour."""
+    """The colour encoding of a chart over methods: each method's registry colour, its
+    legend naming each by its label (:attr:`~twopose.methods.MethodSpec.label`)."""
     return {
         "field": "method",
         "type": "nominal",
@@ -132,7 +135,19 @@ def method_colours(methods: list[Method]) -> Spec:
             "domain": [str(m) for m in methods],
             "range": [hex_colour(spec_of(m).colour) for m in methods],
         },
+        "legend": {"labelExpr": _labels_expression(methods)},
     }
+
+
+def _labels_expression(methods: list[Method]) -> str:
+    """A Vega expression naming a legend's entry (``datum.label``, a method's name) by its
+    method's label."""
+    expression = "datum.label"
+    for m in reversed(methods):
+        expression = (
+            f"datum.label === {json.dumps(str(m))} ? {json.dumps(label_of(m))} : {expression}"
+        )
+    return expression
 
 
 def sensitivity_chart(sweeps: pd.DataFrame) -> Spec | None:

@@ -11,8 +11,9 @@ different places match.
 from __future__ import annotations
 
 import csv
+import math
 import os
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -21,7 +22,16 @@ from twopose.errors import InputValueError
 if TYPE_CHECKING:
     import pandas as pd
 
-__all__ = ["NA_TEXTS", "check_results_table", "read_results_table", "read_table", "session_keys"]
+    from analysis.trial_columns import Column
+
+__all__ = [
+    "NA_TEXTS",
+    "check_results_table",
+    "read_results_table",
+    "read_table",
+    "refusals",
+    "session_keys",
+]
 
 #: What a number's cell reads as "not measured" (pandas' defaults; a run writes "").
 NA_TEXTS = (
@@ -102,15 +112,10 @@ def read_results_table(
         table = read_table(path)
     except (OSError, ValueError, UnicodeDecodeError, csv.Error) as err:
         raise InputValueError(f"cannot read {path}: {err}") from err
-    from analysis.columns import TABLE_DOMAINS
+    from analysis.table_columns import TABLES
 
     return check_results_table(
-        table,
-        str(path),
-        key=key,
-        required=required,
-        numeric=numeric,
-        domains=TABLE_DOMAINS.get(name),
+        table, str(path), key=key, required=required, numeric=numeric, columns=TABLES.get(name)
     )
 
 
@@ -121,14 +126,14 @@ def check_results_table(
     key: Sequence[str] = ("session", "method"),
     required: Iterable[str] = (),
     numeric: Iterable[str] = (),
-    domains: dict[str, str] | None = None,
+    columns: Iterable[Column] | None = None,
 ) -> pd.DataFrame:
     """The one check of a run's table before ``check`` or ``compare`` reads it: the
     ``key`` and ``required`` columns present, every row with its key, no key twice (a
     session and method, or a trial, in two rows: which is the run's?), the ``numeric``
-    columns present numbers or empty (not measured), and with ``domains`` (column ->
-    domain, :data:`analysis.columns.SUMMARY_DOMAINS`) every number inside its column's
-    domain and the counts adding up. Returns ``table``."""
+    columns present numbers or empty (not measured), and with ``columns`` (the table's
+    declarations, :data:`analysis.table_columns.TABLES`) every value inside its column's
+    declared domain and the counts adding up. Returns ``table``."""
     import pandas as pd
 
     missing = [c for c in (*key, *required) if c not in table.columns]
@@ -165,61 +170,14 @@ def check_results_table(
             raise InputValueError(
                 f"{what}: {column} in row {i + 1} (below the header) is {value!r}, not a number"
             )
-    if domains:
-        _check_domains(table, what, domains)
+    if columns is not None:
+        _check_domains(table, what, columns)
     return table
 
 
-def _count(v: float) -> bool:
-    return v >= 0 and float(v).is_integer()
-
-
-def _length(v: float) -> bool:
-    return v >= 0
-
-
-def _signed(_v: float) -> bool:
-    return True
-
-
-def _share(v: float) -> bool:
-    return 0 <= v <= 1
-
-
-#: Each domain of :data:`analysis.columns.SUMMARY_DOMAINS`: whether a (finite) number is
-#: in it, and what it should be, in words.
-_DOMAINS: dict[str, tuple[Callable[[float], bool], str]] = {
-    "count": (_count, "a whole number of trials, >= 0"),
-    "length": (_length, "a length, >= 0"),
-    "signed": (_signed, "a finite number"),
-    "share": (_share, "a share between 0 and 1"),
-}
-
-
-def _check_domains(table: pd.DataFrame, what: str, domains: dict[str, str]) -> None:
-    """Refuse a number no run can write: outside its column's domain, infinite, or counts
-    that do not add up (more trials used than ok). Empty cells are "not measured"."""
-    import math
-
-    import pandas as pd
-
-    from analysis.columns import SUMMARY_COUNT_ORDER
-
-    problems: list[str] = []
-    for column, domain in domains.items():
-        if column not in table.columns:
-            continue
-        inside, words = _DOMAINS[domain]
-        for i, value in pd.to_numeric(table[column], errors="coerce").items():
-            if math.isnan(value):
-                continue
-            if not (math.isfinite(value) and inside(value)):
-                problems.append(f"{column} = {value:g} in row {int(str(i)) + 1} ({words})")
-    for low, high in SUMMARY_COUNT_ORDER:
-        if low in table.columns and high in table.columns:
-            a, b = pd.to_numeric(table[low]), pd.to_numeric(table[high])
-            for i in table.index[(a > b).fillna(value=False)]:
-                problems.append(f"{low} = {a[i]:g} > {high} = {b[i]:g} in row {int(str(i)) + 1}")
+def _check_domains(table: pd.DataFrame, what: str, columns: Iterable[Column]) -> None:
+    """Refuse a value no run can write (:func:`refusals`), naming the first five."""
+    problems = refusals(table, columns)
     if problems:
         more = f"; and {len(problems) - 5} more" if len(problems) > 5 else ""
         shown = "; ".join(problems[:5]) + more
@@ -227,6 +185,41 @@ def _check_domains(table: pd.DataFrame, what: str, domains: dict[str, str]) -> N
             f"{what}: values no run writes: {shown}. Was it edited by hand? Run "
             "`twopose-analyze run` again to write it"
         )
+
+
+def refusals(table: pd.DataFrame, columns: Iterable[Column]) -> list[str]:
+    """Every value of ``table`` no run can write, in words (none: it is as declared):
+    outside its column's declared domain (a number's cell that is no number, infinite or
+    out of range, a text that is not one of its values), or counts that do not add up
+    (more trials used than ok). Empty cells are "not measured", but for a count."""
+    import pandas as pd
+
+    from analysis.columns import SUMMARY_COUNT_ORDER
+
+    problems: list[str] = []
+    for column in columns:
+        if column.name not in table.columns:
+            continue
+        values = table[column.name]
+        for i in values.index[column.domain.outside(values)]:
+            problems.append(
+                f"{column.name} = {_shown(values[i])} in row {int(str(i)) + 1} "
+                f"({column.domain.words})"
+            )
+    for low, high in SUMMARY_COUNT_ORDER:
+        if low in table.columns and high in table.columns:
+            a, b = (pd.to_numeric(table[c], errors="coerce") for c in (low, high))
+            for i in table.index[(a > b).fillna(value=False)]:
+                problems.append(f"{low} = {a[i]:g} > {high} = {b[i]:g} in row {int(str(i)) + 1}")
+    return problems
+
+
+def _shown(value: object) -> str:
+    """A cell as a refusal names it: a number as ``%g``, an empty one ``empty``, any
+    other value quoted."""
+    if isinstance(value, float | int) and not isinstance(value, bool):
+        return "empty" if math.isnan(value) else f"{value:g}"
+    return repr(value)
 
 
 def _key_name(key: Sequence[str], values: Iterable[object]) -> str:

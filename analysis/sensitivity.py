@@ -19,7 +19,7 @@ import pandas as pd
 from twopose.arrays import F64
 from twopose.camera import Intrinsics, project_points
 from twopose.estimate import EstimateOptions, ViewBatch, solve_batch
-from twopose.methods import METHOD_SPECS, Method, spec_of
+from twopose.methods import METHOD_SPECS, Method, label_of, spec_of
 from twopose.targets import finger_axis
 from twopose.uncertainty import INPUTS_PER_VIEW
 
@@ -269,7 +269,7 @@ def plot_sensitivity(table: pd.DataFrame) -> Figure:
     for i, sweep in enumerate(sweeps):
         ax = fig.add_subplot(rows, cols, i + 1)
         for method, g in table[table["sweep"] == sweep].groupby("method"):
-            ax.plot(g["value"], g["rmse"], marker="o", label=str(method))
+            ax.plot(g["value"], g["rmse"], marker="o", label=label_of(str(method)))
         unit = table.loc[table["sweep"] == sweep, "unit"].iloc[0]
         ax.set_xlabel(f"{sweep} ({unit})")
         ax.set_ylabel("RMS error (in)")

@@ -171,6 +171,12 @@ class SessionCache:
             )
         return cache
 
+    def with_options(self, options: AnalysisOptions) -> SessionCache:
+        """The same cache, its entries keyed on ``options`` too: a session's own (its rig
+        file, :mod:`analysis.rig.scope`), beside everything the run's key holds."""
+        own = options_digest(options, tables_only=True)
+        return dataclasses.replace(self, setting=f"{self.setting}:{own}")
+
     def key(
         self, path: str, continuations: Sequence[str], identity: SessionIdentity, salt: str = ""
     ) -> str:

@@ -7,6 +7,10 @@ printing to a terminal and left whole when piped (a log or a file keeps every nu
 its line); the run ends with one verdict line per method against the thesis (in inches,
 the thesis' unit: a line that converted errors says from what; a method with no usable
 trial says so) and the path of ``report.html``.
+
+The biases are each method's along its plane's two in-plane axes
+(:attr:`twopose.methods.MethodSpec.seen_on`: the ground's x and z, a wall's y and z), and
+named so: a per-method table repeats its header above the methods whose axes differ.
 """
 
 from __future__ import annotations
@@ -21,6 +25,9 @@ from analysis.answer import number as _num
 from analysis.answer import share as _share
 from analysis.metrics import SESSION_SETS, by_session_set, summarize
 from analysis.noise_report import flagged_lines
+from analysis.plane_axes import with_in_plane
+from twopose.methods import spec_of
+from twopose.planes import ConstraintPlane
 from twopose.units import UNIT_SPECS, Units, unit_spec
 
 __all__ = ["UNIT_NAMES", "closing_lines", "summary_lines", "wrap_phrases"]
@@ -28,14 +35,24 @@ __all__ = ["UNIT_NAMES", "closing_lines", "summary_lines", "wrap_phrases"]
 UNIT_NAMES = {str(u): spec.name for u, spec in UNIT_SPECS.items()}
 
 
-def _header(unit: Units) -> str:
-    """A per-method table's header; its last column, the share within 1 ``unit``, names
+def _header(unit: Units, axes: tuple[str, str]) -> str:
+    """A per-method table's header; its biases name the in-plane ``axes`` of the methods
+    below it (``bias x``, ``bias z``); its last column, the share within 1 ``unit``, names
     it (``≤1 cm``: 1 cm, not the thesis' 1 in, which the verdict lines count)."""
     within = f"≤1 {unit}"
+    bias_a, bias_b = (f"bias {a}" for a in axes)
     return (
         f"{'method':<7}{'sessions':>8}{'trials':>7}{'ok':>5}{'warned':>7}"
-        f"{'rmse':>7}{'median':>7}{'max':>7}{'bias x':>7}{'bias z':>7}{within:>6}"
+        f"{'rmse':>7}{'median':>7}{'max':>7}{bias_a:>7}{bias_b:>7}{within:>6}"
     )
+
+
+def _biases(row: pd.Series, on: ConstraintPlane) -> tuple[float, float]:
+    """A summary row's bias along each in-plane axis of ``on`` (its ``bias_x`` and
+    ``bias_z`` for the ground)."""
+    r = with_in_plane(row.to_frame().T, on, ("bias_",)).iloc[0]
+    a, b = on.axis_names
+    return r[f"bias_{a}"], r[f"bias_{b}"]
 
 
 def _units_name(units: Units) -> str:
@@ -61,10 +78,12 @@ def summary_lines(
         for units, part in group.groupby("units", sort=False):
             where = f"{SESSION_SETS.get(name, 'sessions in no set')}, " if len(groups) > 1 else ""
             title = f"{where}errors in {_units_name(Units(str(units)))}:"
-            lines += [*wrap_phrases(title.split(" "), width), _header(Units(str(units)))]
-            lines += _method_rows(part, summary, include_warned=include_warned)
+            lines += wrap_phrases(title.split(" "), width)
+            lines += _method_rows(part, summary, Units(str(units)), include_warned=include_warned)
     lines.append("per session:")
     for _, r in session_order(summary).iterrows():
+        on = spec_of(str(r["method"])).seen_on
+        (a, bias_a), (b, bias_b) = zip(on.axis_names, _biases(r, on), strict=True)
         phrases = [
             f"{shown_name(r)} ({r['method']}, {r['units']}):",
             f"{r['n_ok']}/{r['n_trials']} ok,",
@@ -72,7 +91,7 @@ def summary_lines(
             f"rmse {_num(r['rmse'])},",
             f"median {_num(r['median_err'])},",
             f"max {_num(r['max_err'])},",
-            f"bias x {_num(r['bias_x'], signed=True)} z {_num(r['bias_z'], signed=True)},",
+            f"bias {a} {_num(bias_a, signed=True)} {b} {_num(bias_b, signed=True)},",
             f"within 1 {r['units']}: {_share(r['within_1'])}",
         ]
         noise = noise_phrases(r)
@@ -84,22 +103,30 @@ def summary_lines(
     return lines
 
 
-def _method_rows(part: pd.DataFrame, summary: pd.DataFrame, *, include_warned: bool) -> list[str]:
-    """One row per method over ``part``'s trials (one set, one units)."""
+def _method_rows(
+    part: pd.DataFrame, summary: pd.DataFrame, units: Units, *, include_warned: bool
+) -> list[str]:
+    """The per-method table over ``part``'s trials (one set, one units): one row per
+    method, under a header naming its plane's axes (the methods on the same axes together,
+    under one header)."""
     pooled = summarize(part.assign(session="all"), include_warned=include_warned)
     mine = summary[summary["session"].isin(set(part["session"]))]
     # Sessions, not rows: a fork's branches are one session (so is a session whose middle
     # part is missing, analysed in two rows).
     key = "session_id" if "session_id" in mine else "session"
     sessions = mine.groupby("method")[key].nunique()
-    return [
-        f"{r['method']!s:<7}{sessions.get(r['method'], 0):>8}{r['n_trials']:>7}"
-        f"{r['n_ok']:>5}{r['n_warned']:>7}{_num(r['rmse']):>7}"
-        f"{_num(r['median_err']):>7}{_num(r['max_err']):>7}"
-        f"{_num(r['bias_x'], signed=True):>7}{_num(r['bias_z'], signed=True):>7}"
-        f"{_share(r['within_1']):>6}"
-        for _, r in pooled.iterrows()
-    ]
+    by_axes: dict[tuple[str, str], list[str]] = {}
+    for _, r in pooled.iterrows():
+        on = spec_of(str(r["method"])).seen_on
+        bias_a, bias_b = _biases(r, on)
+        by_axes.setdefault(on.axis_names, []).append(
+            f"{r['method']!s:<7}{sessions.get(r['method'], 0):>8}{r['n_trials']:>7}"
+            f"{r['n_ok']:>5}{r['n_warned']:>7}{_num(r['rmse']):>7}"
+            f"{_num(r['median_err']):>7}{_num(r['max_err']):>7}"
+            f"{_num(bias_a, signed=True):>7}{_num(bias_b, signed=True):>7}"
+            f"{_share(r['within_1']):>6}"
+        )
+    return [line for axes, rows in by_axes.items() for line in [_header(units, axes), *rows]]
 
 
 _KEEP = "\x00"  # joins the words of a phrase: textwrap only breaks at real whitespace

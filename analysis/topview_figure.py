@@ -1,7 +1,10 @@
-"""A session's top view: every ok trial seen from above, drawn by the core's geometry
-(:func:`twopose.topview.top_view`), so that what the report shows is what the solver did:
-rays through the dot meeting at the estimate (method 1), each view plane's trace on the
-ground meeting at the estimate, not at the finger (method 2), the estimated line (lines).
+"""A session's top view: every ok trial seen face on its method's plane (from above for
+the ground and the methods on no plane; from in front for a wall), drawn by the core's
+geometry (:func:`twopose.topview.top_view`), so that what the report shows is what the
+solver did: rays through the dot meeting at the estimate (method 1), each view plane's
+trace on the plane meeting at the estimate, not at the finger (method 2), the estimated
+line (lines). The axes are the plane's two in-plane axes
+(:class:`twopose.planes.ConstraintPlane`: the ground's x across and z in depth).
 
 One artist per kind, whatever the number of trials; a colour per trial (the session's, as
 in its other figures) with its key; warned trials dashed; the truth drawn over the rays;
@@ -21,8 +24,6 @@ from matplotlib.figure import Figure
 
 from analysis.figure_style import (
     KEY_MARGIN,
-    LABEL,
-    TICK,
     TrialColours,
     beyond_note,
     equal_scales,
@@ -31,7 +32,7 @@ from analysis.figure_style import (
     layout,
     legend_below,
     mark_beyond,
-    set_title,
+    style,
 )
 from analysis.metrics import used_trials, warned
 from twopose.camera import rotation_from_angles_deg
@@ -77,7 +78,7 @@ def _scene(row: dict[str, object], views: np.ndarray) -> TrialScene:
 class Drawn(NamedTuple):
     view: TopView
     warned: bool
-    truth: tuple[float, float]  # (x, z); a line's: its true segment's midpoint
+    truth: tuple[float, float]  # in the plane's axes; a line's: its true segment's midpoint
 
 
 def top_views(trials: pd.DataFrame, views: pd.DataFrame) -> list[Drawn]:
@@ -105,7 +106,8 @@ def top_views(trials: pd.DataFrame, views: pd.DataFrame) -> list[Drawn]:
         row = {"trial": trial, "method": method, "status": status, "estimate": estimate[k],
                "direction": dirs[k], "truth": truth[k]}  # fmt: skip
         scene = _scene(row, arrays[positions])
-        out.append(Drawn(top_view(scene), bool(doubted[k]), (truth[k, 0], truth[k, 2])))
+        a, b = spec_of(method).seen_on.in_plane(truth[k])
+        out.append(Drawn(top_view(scene), bool(doubted[k]), (a, b)))
     return out
 
 
@@ -118,22 +120,21 @@ def plot_top_view(
     *,
     include_warned: bool = False,
 ) -> None:
-    """Looking down the y axis (x-z): each ok trial's typed camera centres, what each view
-    measured (the method's :attr:`~twopose.methods.MethodSpec.view_segment`), the estimate
-    and the truth (on top of the rays), each trial in its colour (``palette``: the
-    session's, the same in its other figures). The axes are framed by the trials the
-    statistics use; a left-out (warned) trial is dashed, and its estimate beyond the frame
-    is drawn at the edge with its value."""
+    """Looking along the normal of the method's plane (the ground's: down the y axis, x-z):
+    each ok trial's typed camera centres, what each view measured (the method's
+    :attr:`~twopose.methods.MethodSpec.view_segment`), the estimate and the truth (on top of
+    the rays), each trial in its colour (``palette``: the session's, the same in its other
+    figures). The axes are the plane's in-plane axes, framed by the trials the statistics
+    use; a left-out (warned) trial is dashed, and its estimate beyond the frame is drawn at
+    the edge with its value."""
     drawn = top_views(trials, views)
     units = str(trials["units"].iloc[0]) if len(trials) else "session units"
     spec = spec_of(str(trials["method"].iloc[0]) if len(trials) else Method.POINT)
     palette = palette or TrialColours.of([d.view.trial for d in drawn])
     ax = fig.add_subplot()
     _draw(ax, drawn, palette)
-    set_title(ax, title)
-    ax.set_xlabel(f"x ({units})", fontsize=LABEL)
-    ax.set_ylabel(f"z, depth ({units})", fontsize=LABEL)
-    ax.tick_params(labelsize=TICK)
+    across, up = spec.seen_on.titles  # the ground's "x" and "z, depth"
+    style(ax, title, f"{across} ({units})", f"{up} ({units})")
     used = [d for d in drawn if include_warned or not d.warned]
     right = 0.2 if palette.named else KEY_MARGIN
     box = (float(fig.get_size_inches()[0]) - _LEFT - right, _BOX_HEIGHT)

@@ -86,20 +86,38 @@ class Domain:
     def holds(self, values: pd.Series) -> bool:
         """Whether every one of ``values`` (a column as :func:`~analysis.columns.typed`
         gives it) is in the domain."""
+        return not bool(self.outside(values).any())
+
+    def outside(self, values: pd.Series) -> pd.Series:
+        """Which of ``values`` are not in the domain (a boolean Series on their index): a
+        number's cell that is no number, or one outside its range; a count's empty cell."""
+        import pandas as pd
+
         if self.kind == "text":
-            return True
+            return pd.Series(data=False, index=values.index)
         if self.kind == "one of":
-            return bool(values.astype(str).isin(self.values).all())
+            return ~values.astype(str).isin(self.values)
         if self.kind == "flag":
-            return bool(values.dropna().isin((True, False)).all())
-        numbers = np.asarray(values, dtype=float)
+            return values.notna() & ~values.isin((True, False))
+        numbers = pd.to_numeric(values, errors="coerce").astype(float)
         if self.kind == "count":
-            return bool(np.all((numbers >= 0) & (numbers == np.round(numbers))))
-        known = numbers[~np.isnan(numbers)]
+            return ~((numbers >= 0) & (numbers == numbers.round()))
         low, high = {"non-negative": (0.0, np.inf), "share": (0.0, 1.0)}.get(
             self.kind, (-np.inf, np.inf)
         )
-        return bool(np.all(np.isfinite(known) & (known >= low) & (known <= high)))
+        inside = numbers.between(low, high) & numbers.abs().lt(np.inf)
+        return ~inside & (numbers.notna() | values.notna())
+
+    @property
+    def words(self) -> str:
+        """What a value of the domain is, for a refusal's message."""
+        return {
+            "finite": "a finite number or empty",
+            "non-negative": "a finite number >= 0, or empty",
+            "share": "a share between 0 and 1, or empty",
+            "count": "a whole number >= 0",
+            "flag": "true, false or empty",
+        }.get(self.kind, str(self))
 
 
 FINITE = Domain("finite")
@@ -383,7 +401,7 @@ TRIAL_TABLE: tuple[Column, ...] = (
     # degeneracy margins (each method's: its spec's margins)
     _margin("parallax_deg", "parallax"),
     _margin("plane_angle_deg", "angle between the planes"),
-    _margin("line_ground_angle_deg", "line's angle to the ground"),
+    _margin("line_plane_angle_deg", "line's angle to the method's plane"),
     _text("warning", "warning", "margins", lambda t: t.estimate.warnings),
     _length("baseline", "baseline", "margins",
             lambda t: [_baseline(v) for v in t.estimate.trials.views], NON_NEGATIVE),
@@ -410,6 +428,9 @@ TRIAL_TABLE: tuple[Column, ...] = (
            unit="none", domain=NON_NEGATIVE, group="noise", fill=nc.placing_scale),
     Column(name="placing_dof", label="placing sigma's degrees of freedom", unit="none",
            domain=NON_NEGATIVE, group="noise", fill=nc.placing_dof),
+    # the rig file the session used (filled by the pipeline, from its options)
+    _text("rig_file", "rig file", "noise"),
+    _text("rig_sha256", "rig file's SHA-256", "noise"),
     Column(name="misclosure_chi2", label="misclosure chi-square", unit="none",
            domain=NON_NEGATIVE, group="noise", fill=nc.misclosure_chi2),
     Column(name="misclosure_dof", label="misclosure degrees of freedom", unit="count",

@@ -170,7 +170,7 @@ def geometric_view(method: Method, truth: Truth, typed: np.ndarray, pose: int,
 
 
 def _trial(method: Method, truth: Truth, views: list[PoseView]) -> SessionTrials:
-    return SessionTrials(method=method, units="in", trial_ids=(1,), views=[views],
+    return SessionTrials(method=method, units=Units.IN, trial_ids=(1,), views=[views],
                          truth=truth.truth[None], ground=truth.ground)  # fmt: skip
 
 

@@ -64,6 +64,7 @@ from twopose.sim.layout import finger_axis  # noqa: E402
 from twopose.sim.scene import Scene  # noqa: E402
 from twopose.truth import reported  # noqa: E402
 from twopose.uncertainty import uncertainty_columns  # noqa: E402
+from twopose.units import Units  # noqa: E402
 
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "noise.txt"
@@ -122,7 +123,7 @@ def session(method: Method, seed: int, trials: int, placing: float, poses: int =
     if spec.needs_ground:
         normal, offset = plane.plane(scene.ground_height)
         ground = (np.asarray(normal, dtype=float), float(offset))
-    return SessionTrials(method=method, units="in", trial_ids=tuple(range(1, trials + 1)),
+    return SessionTrials(method=method, units=Units.IN, trial_ids=tuple(range(1, trials + 1)),
                          views=views, truth=np.stack([point] * trials), ground=ground)  # fmt: skip
 
 

@@ -53,6 +53,7 @@ from twopose.noise import NoiseModel  # noqa: E402
 from twopose.session_estimate import SessionEstimate, SessionTrials, estimate_session  # noqa: E402
 from twopose.truth import reported  # noqa: E402
 from twopose.uncertainty import uncertainty_columns  # noqa: E402
+from twopose.units import Units  # noqa: E402
 
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "sigma0.txt"
@@ -85,7 +86,7 @@ def session(method: Method, seed: int, placing_in: float, trials: int = 10,
             typed = typed + np.asarray(THESIS_MOVE_IN)
         views.append(row)
         truths.append(truth.truth)
-    return SessionTrials(method=method, units="in", trial_ids=tuple(range(1, trials + 1)),
+    return SessionTrials(method=method, units=Units.IN, trial_ids=tuple(range(1, trials + 1)),
                          views=views, truth=np.stack(truths), ground=ground)  # fmt: skip
 
 

@@ -159,7 +159,7 @@ def _trial(case: Case) -> tuple[SessionTrials, np.ndarray | None, Reach]:
         if clear_of_edges(views[0], t[None], target, case.units, lines=lines)[0]:
             views.append(_view(points, t, len(views) + 1, lines, f, rng))
     ground = (np.array([0.0, 1.0, 0.0]), ground_h * f) if case.method is Method.GROUND else None
-    trial = SessionTrials(method=case.method, units=str(case.units), trial_ids=(1,),
+    trial = SessionTrials(method=case.method, units=case.units, trial_ids=(1,),
                           views=[views], truth=truth[None], ground=ground)  # fmt: skip
     point = None
     if len(views) >= 2:
@@ -220,7 +220,7 @@ def _follow(setup: tuple[Method, Units, float, float], seed: int) -> list[float]
     views = [_view(points, np.zeros(3), 1, lines, f, rng)]
     spent = []
     for _ in range(SUGGESTIONS):
-        trial = SessionTrials(method=method, units=str(units), trial_ids=(1,), views=[views],
+        trial = SessionTrials(method=method, units=units, trial_ids=(1,), views=[views],
                               truth=truth[None], ground=ground)  # fmt: skip
         point = None
         if len(views) >= 2:

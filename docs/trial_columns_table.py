@@ -1,5 +1,6 @@
-"""The reference of ``trials.csv``'s columns in docs/analysis.md, from their declarations
-(:data:`analysis.trial_columns.TRIAL_TABLE`: each column's label, unit, values and methods).
+"""The references of the run's tables' columns in docs/analysis.md, from their declarations
+(:data:`analysis.trial_columns.TRIAL_TABLE`: each column's label, unit, values and methods;
+:data:`analysis.table_columns.TABLES`: the other tables').
 
     .venv/bin/python docs/trial_columns_table.py [--write-docs]
 
@@ -10,16 +11,23 @@ difference (``tests/analysis/test_trial_columns.py`` runs the comparison in the 
 from __future__ import annotations
 
 import sys
+from functools import partial
 
 from marked_table import REPO, write_or_check  # type: ignore[import-not-found]  # docs/ is sys.path[0]
 
 
 def main() -> int:
     sys.path.insert(0, str(REPO))
+    from analysis.table_columns import TABLES, column_reference
     from analysis.trial_columns import markdown_table
 
-    return write_or_check(REPO / "docs" / "analysis.md", "trials.csv columns", markdown_table,
-                          "trial_columns_table.py")  # fmt: skip
+    page, script = REPO / "docs" / "analysis.md", "trial_columns_table.py"
+    stale = write_or_check(page, "trials.csv columns", markdown_table, script)
+    for name, columns in TABLES.items():
+        if name != "trials.csv":
+            table = partial(column_reference, columns)
+            stale |= write_or_check(page, f"{name} columns", table, script)
+    return stale
 
 
 if __name__ == "__main__":

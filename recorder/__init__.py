@@ -11,15 +11,18 @@ first use (``import recorder.cli`` stays light)::
     recorder.simulate_session("sim.mcap", method=twopose.Method.GROUND)  # simulate
     source = recorder.open_source("camera:0")
     recorder.record_plan(recorder.load_plan("plan.toml"), "out.mcap", source)  # new --plan
-    recorder.record_terminal(request, given, stack)  # new, at the terminal
-    recorder.serve_console_until_stopped(request, given, host=..., port=...)  # new --ui
+    recorder.record_interactive(...)  # new, at the terminal, with the questions answered
     recorder.recover_session("cut.mcap", "fixed.mcap")  # recover
     recorder.calibrate(source, (9, 6), 25.0)  # calibrate
     recorder.calibrate_pair(recorder.PairRequest(...))  # calibrate-pair
 
-The frame sources' registry (:data:`SOURCE_KINDS`, :func:`open_source`), the procedure
-(:class:`Procedure`, :func:`record`) and reading a session to continue
-(:func:`read_continued`) are here too.
+The frame sources' registry (:data:`SOURCES`, :data:`SOURCE_KINDS`, :func:`open_source`)
+and its extension point (:func:`register_source`), the procedure (:class:`Procedure`,
+:func:`record`) and reading a session to continue (:func:`read_continued`) are here too.
+What the command line runs around them (``record_terminal``, ``record_planned`` and
+``serve_console_until_stopped``, which take the command line's ``NewRequest`` and an
+``ExitStack``) is in :mod:`recorder.new_session`; the names still resolve here for one
+release (docs/changelog.md), not exported.
 """
 
 from __future__ import annotations
@@ -37,12 +40,12 @@ if TYPE_CHECKING:
     )
     from recorder.continuation import Continued, read_continued
     from recorder.interactive import record_interactive
-    from recorder.new_session import (
-        NewRequest,
-        record_planned,
-        record_terminal,
-        serve_console_until_stopped,
-    )
+
+    # Resolved, not exported (the module docstring): the command line's own.
+    from recorder.new_session import NewRequest as NewRequest
+    from recorder.new_session import record_planned as record_planned
+    from recorder.new_session import record_terminal as record_terminal
+    from recorder.new_session import serve_console_until_stopped as serve_console_until_stopped
     from recorder.pair_calibration import (
         PairCalibrationRun,
         PairRequest,
@@ -54,16 +57,24 @@ if TYPE_CHECKING:
     from recorder.recording import record
     from recorder.recover import RecoveryReport, recover_session
     from recorder.simulate import SimulationSummary, simulate_session
-    from recorder.sources import SOURCE_KINDS, FrameSource, SourceKind, SourceOptions, open_source
+    from recorder.sources import (
+        SOURCE_KINDS,
+        SOURCES,
+        FrameSource,
+        SourceKind,
+        SourceOptions,
+        open_source,
+        register_source,
+    )
     from recorder.summary import RecordingSummary
     from twopose.installed_version import __version__
 
 __all__ = [
+    "SOURCES",
     "SOURCE_KINDS",
     "Calibration",
     "Continued",
     "FrameSource",
-    "NewRequest",
     "PairCalibrationRun",
     "PairRequest",
     "Plan",
@@ -84,11 +95,9 @@ __all__ = [
     "record",
     "record_interactive",
     "record_plan",
-    "record_planned",
-    "record_terminal",
     "recover_session",
+    "register_source",
     "save_calibration",
-    "serve_console_until_stopped",
     "simulate_session",
 ]
 
@@ -99,6 +108,7 @@ _HOMES = {
     "Plan": "recorder.plan",
     "load_plan": "recorder.plan",
     "record_plan": "recorder.plan",
+    # The command line's, not exported: resolved here for one release (docs/changelog.md).
     "NewRequest": "recorder.new_session",
     "record_planned": "recorder.new_session",
     "record_terminal": "recorder.new_session",
@@ -118,6 +128,8 @@ _HOMES = {
     "calibrate_pair": "recorder.pair_calibration",
     "calibrate_pair_views": "recorder.pair_calibration",
     "SOURCE_KINDS": "recorder.sources",
+    "SOURCES": "recorder.sources",
+    "register_source": "recorder.sources",
     "FrameSource": "recorder.sources",
     "SourceKind": "recorder.sources",
     "SourceOptions": "recorder.sources",

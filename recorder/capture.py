@@ -17,7 +17,7 @@ import numpy as np
 
 from recorder import stops
 from recorder.sources import FrameSource
-from twopose.choices import Target
+from twopose.choices import TargetSpec
 from twopose.detect import detection_json
 from twopose.errors import SourceError
 from twopose.format.entries import PoseEntry
@@ -271,14 +271,14 @@ def detection_shortfall(result: CaptureResult) -> Shortfall:
 class CaptureSettings:
     """How every capture of a recording is taken: the same for each pose.
 
-    ``target`` (``"glove"`` or ``"dot"``) turns on live detection: each frame's feedback to
-    ``on_frame``, the detection drawn on ``live``, and the trial's live result (corrected by
-    ``rig``, a calibrated rig, if given); ``on_progress`` is called after every frame
-    written, detected or not.
+    ``target`` (a :class:`~twopose.choices.TargetSpec`: the glove's, the dot's) turns on
+    live detection: each frame's feedback to ``on_frame``, the detection drawn on ``live``,
+    and the trial's live result (corrected by ``rig``, a calibrated rig, if given);
+    ``on_progress`` is called after every frame written, detected or not.
     """
 
     frames: int = 5
-    target: Target | None = None
+    target: TargetSpec[Any] | None = None
     live: LiveSink | None = None
     on_frame: Callable[[FrameFeedback], None] | None = None
     on_progress: Callable[[], None] | None = None
@@ -301,11 +301,13 @@ class CaptureSettings:
 
     def estimate_options(self) -> EstimateOptions:
         """The live result's estimation: its regions (and guidance's predictions) take the
-        measured placing sigma (:attr:`placing`), else each pose's typed resolution."""
+        measured placing sigma (:attr:`placing`), else each pose's typed resolution, and
+        carry the rig's constants' covariance (``J C J^T``, :mod:`twopose.rig.carried`)."""
         from twopose.margins import EstimateOptions
         from twopose.noise import NoiseModel
 
-        return EstimateOptions(noise=NoiseModel(placing=self.placing))
+        covariance = self.rig.covariance if self.rig is not None else None
+        return EstimateOptions(noise=NoiseModel(placing=self.placing, rig=covariance))
 
     def placing_words(self, units: Units) -> str:
         """Which placing sigma the live result uses, in words (the recording says it)."""
@@ -367,7 +369,6 @@ def capture_frames(
     then propagates as :class:`CaptureInterrupted`, which carries how the capture went (its
     window is in the file: the summary counts it).
     """
-    from twopose.detect import detect
     from twopose.images import decode_image
 
     n_frames, target, live = settings.frames, settings.target, settings.live
@@ -397,7 +398,7 @@ def capture_frames(
                     if target is None and settings.board is None
                     else decode_image(data, "the frame")
                 )
-                d = None if target is None or decoded is None else detect(decoded, target)
+                d = None if target is None or decoded is None else target.detect(decoded)
                 fb = None if d is None else _feedback(k, d)
                 if settings.board is not None and decoded is not None:
                     fb = board_feedback(k, decoded, settings.board)

@@ -32,6 +32,7 @@ from recorder.cli_options import (
     NotesOption,
     OperatorOption,
     OutArgument,
+    PlaneOffsetOption,
     PlanOption,
     PortOption,
     PosesOption,
@@ -47,6 +48,7 @@ from recorder.cli_options import (
     WidthOption,
 )
 from recorder.cli_options import read_option as _read
+from recorder.cli_simulate import simulate
 from recorder.sources import source_help
 from twopose.errors import (
     EXIT_INTERRUPTED,
@@ -88,74 +90,7 @@ def _group(version: VersionOption = False) -> None:
     """Record twopose measurement sessions."""
 
 
-@app.command()
-def simulate(
-    out: Annotated[Path, typer.Argument(help="New session file to write (never overwritten).")],
-    method: Annotated[Method, typer.Option(help="What the session measures.")],
-    trials: Annotated[int, typer.Option(**_read("TRIALS"), help="Trials in the session.")] = 15,
-    frames: Annotated[int, typer.Option(**_read("FRAMES"), help="Frames captured per pose.")] = 5,
-    seed: Annotated[
-        int,
-        typer.Option(**_read("SEED"), help="Random seed; the same seed writes the same bytes."),
-    ] = 0,
-    pose_noise: Annotated[
-        float | None,
-        typer.Option(
-            "--pose-noise",
-            **_read("POSE_NOISE"),
-            help="Std. dev. of the operator's error on each moving translation axis, "
-            "session units [default: the scene's poses.noise_sigma, 0.1 in].",
-        ),
-    ] = None,
-    typed_resolution: Annotated[
-        float | None,
-        typer.Option(
-            "--typed-resolution",
-            **_read("TYPED_RESOLUTION"),
-            help="The 1-sigma each pose entry records as its resolution, session units: an "
-            "operator whose real placing error (--pose-noise) differs from what they type "
-            "[default: the scene's poses.typed_resolution, else the real error].",
-        ),
-    ] = None,
-    poses: Annotated[
-        int | None,
-        typer.Option(**_read("POSES"), help="Poses per trial [default: the scene's, 2]."),
-    ] = None,
-    scene: Annotated[
-        Path | None,
-        typer.Option(exists=True, dir_okay=False, help="Scene TOML overriding the defaults."),
-    ] = None,
-) -> None:
-    """Render a simulated session of the laptop-on-grid procedure with known truth."""
-    from rich.console import Console
-    from rich.progress import Progress
-
-    from recorder.simulate import poses_per_trial, simulate_session
-    from twopose.sim.scene import load_scene
-
-    with handle_errors():
-        loaded = load_scene(scene)
-        total = trials * poses_per_trial(loaded, method, poses) * frames
-        # A bar on stderr at a terminal (rendering takes about 0.1 s a frame), nothing in a pipe.
-        with Progress(console=Console(stderr=True), transient=True) as progress:
-            task = progress.add_task("frames rendered", total=total)
-            summary = simulate_session(
-                out,
-                method=method,
-                trials=trials,
-                frames=frames,
-                seed=seed,
-                scene=loaded,
-                pose_noise=pose_noise,
-                typed_resolution=typed_resolution,
-                poses=poses,
-                on_progress=lambda: progress.advance(task),
-            )
-    typer.echo(
-        f"wrote {summary.path}: {summary.method}, {summary.n_trials} "
-        f"trial{'' if summary.n_trials == 1 else 's'}, {summary.n_poses} poses, "
-        f"{summary.n_frames} frames, {summary.size_bytes / 1e6:.2f} MB"
-    )
+app.command()(simulate)
 
 
 @app.command()
@@ -169,6 +104,7 @@ def new(
     focal: FocalOption = None,
     principal: PrincipalOption = None,
     ground_height: GroundHeightOption = None,
+    plane_offset: PlaneOffsetOption = None,
     ground_truth: GroundTruthOption = None,
     board: BoardOption = None,
     square: SquareOption = None,
@@ -217,11 +153,11 @@ def new(
     given = {  # every option by its name, None (False, []) when not given
         "--plan": plan, "--method": method, "--units": units, "--calibration": calibration,
         "--focal": focal, "--principal": principal, "--ground-height": ground_height,
-        "--ground-truth": ground_truth, "--board": board, "--square": square,
-        "--board-corner": board_corner, "--operator": operator, "--notes": notes,
-        "--frames": frames, "--poses": poses, "--width": width, "--height": height,
-        "--fps": fps, "--live": live, "--live-port": live_port, "--ui": ui, "--port": port,
-        "--host": host, "--max-poses": max_poses, "--min-gain": min_gain,
+        "--plane-offset": plane_offset, "--ground-truth": ground_truth, "--board": board,
+        "--square": square, "--board-corner": board_corner, "--operator": operator,
+        "--notes": notes, "--frames": frames, "--poses": poses, "--width": width,
+        "--height": height, "--fps": fps, "--live": live, "--live-port": live_port, "--ui": ui,
+        "--port": port, "--host": host, "--max-poses": max_poses, "--min-gain": min_gain,
     }  # fmt: skip
     with handle_errors(), contextlib.ExitStack() as stack:
         refuse_existing(out)  # before the first question
@@ -239,8 +175,8 @@ def new(
             continue_from,
             operator=operator,  # who records this part: recorded, not ignored
             method=method, units=units, calibration=calibration, focal=focal,
-            principal=principal, ground_height=ground_height, ground_truth=ground_truth,
-            board=board,
+            principal=principal, ground_height=ground_height, plane_offset=plane_offset,
+            ground_truth=ground_truth, board=board,
         )  # fmt: skip
         asked = replace(
             guidance_asked(max_poses, reach, grid, target_distance, min_gain),
@@ -263,8 +199,9 @@ def new(
             target_precision=target_precision,
             taken=taken,
             setup=lambda: _console_given(
-                method, units, calibration, focal, principal, ground_height, ground_truth, operator,
-                _board_given(method, units, board, square, board_corner), target_precision,
+                method, units, calibration, focal, principal, (ground_height, plane_offset),
+                ground_truth, operator, _board_given(method, units, board, square, board_corner),
+                target_precision,
             ),
         )  # fmt: skip
         if summary is None:  # the console served until it was stopped
@@ -375,19 +312,26 @@ def _console_given(
     calibration: Path | None,
     focal: float | None,
     principal: str | None,
-    ground_height: float | None,
+    offsets: tuple[float | None, float | None],
     ground_truth: list[str] | None,
     operator: str | None,
     board: BoardPlacement | None = None,
     target_precision: float | None = None,
 ) -> dict[str, Any]:
-    """What the command line gave, as :func:`recorder.interactive.ask_setup` takes it."""
-    from recorder.setup_rules import parse_vector, refuse_other_planes
+    """What the command line gave, as :func:`recorder.interactive.ask_setup` takes it
+    (``offsets``: ``--ground-height`` and ``--plane-offset``, checked by
+    :func:`recorder.setup_rules.plane_offsets_given`)."""
+    from recorder.setup_rules import PLANE_OFFSET_KEY, parse_vector, plane_offsets_given
     from twopose.bounds import GROUND_TRUTH
-    from twopose.planes import GROUND_PLANE
+    from twopose.methods import PLANES, spec_of
 
-    if method is not None and ground_height is not None:  # the page would not ask it
-        refuse_other_planes(method, [GROUND_PLANE.setup_key])
+    plane_offsets = plane_offsets_given(method, *offsets)
+    offset = plane_offsets.get(PLANE_OFFSET_KEY)
+    if offset is not None:  # within its plane's bound (any plane's, the method not chosen)
+        planes = [spec_of(method).plane] if method is not None else PLANES
+        refusals = [p.bound.refusal(offset, units) for p in planes if p is not None]
+        if refusals and all(refusals):
+            raise typer.BadParameter(refusals[0], param_hint="'--plane-offset'")
     return {
         "method": method.value if method else None,
         "units": units,
@@ -395,7 +339,7 @@ def _console_given(
         "intrinsics_sigma": _calibration_sigma(calibration),
         "focal": focal,
         "principal": _principal(principal),
-        GROUND_PLANE.setup_key: ground_height,  # the one plane option (others are asked)
+        **plane_offsets,  # --ground-height under the ground's key, --plane-offset's own
         "ground_truth": [
             _option("--ground-truth", parse_vector, g, units, quantity=GROUND_TRUTH)
             for g in ground_truth or []

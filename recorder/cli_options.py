@@ -13,8 +13,8 @@ import typer
 
 from recorder.sources import source_help
 from twopose.bounds import DEFAULT_MIN_GAIN
-from twopose.methods import Method
-from twopose.options import read_option
+from twopose.methods import METHOD_SPECS, PLANES, Method
+from twopose.options import read_option, registered
 from twopose.units import Units
 
 __all__ = [
@@ -22,7 +22,11 @@ __all__ = [
     "BoardCornerOption",
     "BoardOption",
     "CalibrationOption",
+    "CamerasOption",
+    "ClockOffsetOption",
     "ContinueFromOption",
+    "DriftOption",
+    "DropOption",
     "FocalOption",
     "FpsOption",
     "FramesOption",
@@ -31,6 +35,7 @@ __all__ = [
     "GroundTruthOption",
     "HeightOption",
     "HostOption",
+    "JitterOption",
     "LiveOption",
     "LivePortOption",
     "MaxPosesOption",
@@ -40,18 +45,21 @@ __all__ = [
     "OperatorOption",
     "OutArgument",
     "PlanOption",
+    "PlaneOffsetOption",
     "PortOption",
     "PosesOption",
     "PrincipalOption",
     "ReachOption",
     "RigOption",
     "SourceOption",
+    "SpeedOption",
     "SquareOption",
     "TargetDistanceOption",
     "TargetPrecisionOption",
     "UiOption",
     "UnitsOption",
     "WidthOption",
+    "given_options",
     "read_option",
 ]
 
@@ -93,7 +101,9 @@ PlanOption = Annotated[
     typer.Option(exists=True, dir_okay=False, help="Run this plan (TOML) without prompts."),
 ]
 SourceOption = Annotated[str, typer.Option(help=source_help())]
-MethodOption = Annotated[Method | None, typer.Option(help="Asked if not given.")]
+MethodOption = Annotated[
+    Method | None, typer.Option(**registered(METHOD_SPECS), help="Asked if not given.")
+]
 UnitsOption = Annotated[
     Units | None,
     typer.Option(is_eager=True, help="Every length's unit. Asked if not given."),
@@ -108,7 +118,33 @@ FocalOption = Annotated[
 PrincipalOption = Annotated[str | None, typer.Option(help="Principal point 'cx,cy', px.")]
 GroundHeightOption = Annotated[
     float | None,
-    typer.Option(**_read("GROUND_HEIGHT"), help="Camera centre to table top (method 2)."),
+    typer.Option(
+        **_read("GROUND_HEIGHT"),
+        help="Camera centre to table top: the ground plane's offset (method 2); the same "
+        "as --plane-offset for the ground.",
+    ),
+]
+
+
+def plane_offset_help() -> str:
+    """``--plane-offset``'s help, from the plane table (:data:`twopose.methods.PLANES`):
+    what the offset is for each plane a method may be on."""
+    from twopose.methods import METHOD_SPECS
+
+    planes = [
+        f"{'/'.join(m for m, s in METHOD_SPECS.items() if s.plane == p)}: {p.name}'s "
+        f"{p.equation} ({p.measured})"
+        for p in PLANES
+    ]
+    return (
+        "The offset of the method's plane, session units: "
+        + "; ".join(planes)
+        + ". Refused for a method on no plane. Asked if not given."
+    )
+
+
+PlaneOffsetOption = Annotated[
+    float | None, typer.Option(**_read("PLANE_OFFSET"), help=plane_offset_help())
 ]
 GroundTruthOption = Annotated[
     list[str] | None,
@@ -233,3 +269,64 @@ MinGainOption = Annotated[
         f"none) [default: {DEFAULT_MIN_GAIN:g}].",
     ),
 ]
+
+
+# -- simulate --cameras 2 (recorder/simulate_pair.py)
+CamerasOption = Annotated[
+    int,
+    typer.Option(
+        **read_option("CAMERAS"),
+        help="1: the laptop-on-grid procedure; 2: a pair of cameras fixed to each other "
+        "watching a moving target (stream trials; needs --speed and --clock-offset-ms).",
+    ),
+]
+SpeedOption = Annotated[
+    float | None,
+    typer.Option(
+        **read_option("SPEED"),
+        help="With --cameras 2: the moving target's speed, session units per second.",
+    ),
+]
+ClockOffsetOption = Annotated[
+    float | None,
+    typer.Option(
+        "--clock-offset-ms",
+        **read_option("CLOCK_OFFSET"),
+        help="With --cameras 2: camera 2's capture clock minus camera 1's, ms.",
+    ),
+]
+DriftOption = Annotated[
+    float | None,
+    typer.Option(
+        "--drift-ppm",
+        **read_option("DRIFT"),
+        help="With --cameras 2: camera 2's frame interval longer than camera 1's by "
+        "this many parts per million [default: 0].",
+    ),
+]
+JitterOption = Annotated[
+    float | None,
+    typer.Option(
+        "--jitter-ms",
+        **read_option("JITTER"),
+        help="With --cameras 2: each capture stamp's 1-sigma jitter, ms [default: 0].",
+    ),
+]
+DropOption = Annotated[
+    float | None,
+    typer.Option(
+        **read_option("DROP"),
+        help="With --cameras 2: the share of each camera's frames lost [default: 0].",
+    ),
+]
+
+
+def given_options(ctx: typer.Context) -> list[str]:
+    """The options a command was given (on its command line, or by their environment
+    variables): their first ``--names``."""
+    given = []
+    for p in ctx.command.params:
+        source = ctx.get_parameter_source(p.name) if p.name else None
+        if p.opts and source is not None and source.name != "DEFAULT":
+            given.append(p.opts[0])
+    return given

@@ -451,11 +451,15 @@ class ConsoleSession(LiveSink):
 
     @override
     def trial_result(self, result: TrialResult, scene: TrialScene | None, log_time_ns: int) -> None:
+        from twopose.planes import GROUND_PLANE
         from twopose.topview import top_view
 
         with self.lock:
             self.results[result.trial] = result.to_json()
-            self.topview = None if scene is None else top_view(scene).to_json()
+            # From above whatever the method's plane: the page draws the paper's map and
+            # the suggested pose (x, z) on the same canvas.
+            view = None if scene is None else top_view(scene, GROUND_PLANE)
+            self.topview = None if view is None else view.to_json()
             self.lock.notify_all()
 
     def withdraw(self, trial: int) -> None:

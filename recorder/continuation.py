@@ -30,10 +30,10 @@ from twopose.camera import Camera
 from twopose.errors import InputValueError, SessionFormatError
 from twopose.format.entries import (
     FORMAT_VERSION,
-    GroundPlane,
     GroundTruth,
     GuidanceRecord,
     Note,
+    PlaneEntry,
     PoseEntry,
     SessionInfo,
 )
@@ -70,7 +70,7 @@ class Continued:
     path: Path
     info: SessionInfo
     cameras: tuple[Camera, ...]
-    ground: GroundPlane | None
+    ground: PlaneEntry | None
     last_trial: int  # the last trial the file mentions (0: none)
     truth: tuple[Vec3, ...]  # the last ground truth typed (the setup's)
     sha256: str

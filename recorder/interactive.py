@@ -22,10 +22,12 @@ from recorder.procedure import Shortfall, detection_shortfall
 from recorder.recording import record
 from recorder.setup_form import SETUP_FIELDS
 from recorder.setup_rules import (
+    PLANE_OFFSET_KEY,
     GuidanceAsked,
     PoseTyping,
     Setup,
     board_corner,
+    check_rig_early,
     default_principal,
     distinct_point,
     inner_corners,
@@ -70,6 +72,7 @@ if TYPE_CHECKING:
     from recorder.continuation import Continued
     from recorder.trial_result import TrialResult
     from twopose.guidance import Advice
+    from twopose.rig.constants import RigConstants
 
 __all__ = [
     "Operator",
@@ -117,6 +120,7 @@ def ask_setup(  # noqa: PLR0913 - one keyword per setup value the operator may h
     board: BoardPlacement | None = None,
     target_precision: float | None = None,
     guidance: GuidanceAsked | None = None,
+    rig: RigConstants | None = None,
     **plane_offsets: float | None,
 ) -> Setup:
     """Ask for whatever is None (or missing) above; answers are checked as they are typed.
@@ -128,12 +132,19 @@ def ask_setup(  # noqa: PLR0913 - one keyword per setup value the operator may h
 
     A value given is checked against its bound in the units chosen
     (:mod:`twopose.bounds`) and refused, never asked again; so are ``guidance``'s options
-    (a board session takes none), as soon as the method and units are known.
+    (a board session takes none), as soon as the method and units are known; so is the
+    ``rig`` file (``--rig``): before any question for what the command line gave (its
+    units, the image size, the camera), then as each answer comes
+    (:func:`recorder.setup_rules.check_rig_early`).
     ``plane_offsets`` are the planes' offsets given, each under its plane's setup key
     (``ground_height=`` for method 2's ground, :data:`twopose.methods.PLANES`)."""
     asked_before = op.questions
+    given_units = Units(units) if units in UNITS else None
+    check_rig_early(rig, units=given_units, size=size, intrinsics=intrinsics)
     m = Method(method or _ask(op, "method", DEFAULT_UNITS))
+    check_rig_early(rig, method=m)
     u = Units(units if units in UNITS else _ask(op, "units", DEFAULT_UNITS))
+    check_rig_early(rig, units=u)
     refused = (guidance or GuidanceAsked()).refusals(m, u)
     if refused:
         raise InputValueError("; ".join(refused.values()))
@@ -146,6 +157,7 @@ def ask_setup(  # noqa: PLR0913 - one keyword per setup value the operator may h
         else:
             cx, cy = op.ask("principal point cx, cy (px)", number_pair, centre)
         intrinsics = Intrinsics(width=size[0], height=size[1], fx=f, fy=f, cx=cx, cy=cy)
+        check_rig_early(rig, intrinsics=intrinsics)
     h = _plane_offset(op, m, u, _known_planes(plane_offsets))
     for point in ground_truth:
         for v, a in zip(point, GROUND_TRUTH.axes, strict=True):
@@ -191,7 +203,7 @@ SETUP_FIELD = {f.name: f for f in SETUP_FIELDS}
 
 def _known_planes(given: Mapping[str, float | None]) -> dict[str, float]:
     """The planes' offsets given (None: not given), each key a plane's setup key."""
-    keys = {p.setup_key for p in PLANES}
+    keys = {PLANE_OFFSET_KEY, *(p.setup_key for p in PLANES)}
     unknown = sorted(set(given) - keys)
     if unknown:
         raise TypeError(f"ask_setup() got unexpected keyword arguments {unknown}")
@@ -202,13 +214,15 @@ def _plane_offset(
     op: Operator, method: Method, units: Units, given: Mapping[str, float]
 ) -> float | None:
     """The offset of the method's plane (method 2's ground height): the one given under
-    the plane's setup key (``--ground-height``), checked, or asked; None on no plane."""
+    the plane's setup key (``--ground-height``) or as the method's plane's
+    (``--plane-offset``), checked against the plane's bound, or asked; None on no plane."""
     plane = spec_of(method).plane
     refuse_other_planes(method, given)  # another plane's, or any to a method on none
     if plane is None:
         return None
-    if plane.setup_key in given:
-        return _given(plane.bound, given[plane.setup_key], units, plane_option(plane.setup_key))
+    for key in (plane.setup_key, PLANE_OFFSET_KEY):
+        if key in given:
+            return _given(plane.bound, given[key], units, plane_option(key))
     return float(_ask(op, plane.setup_key, units))
 
 

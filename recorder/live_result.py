@@ -21,7 +21,7 @@ from recorder.capture import CaptureResult
 from recorder.trial_result import TrialResult, guidance_options, results_of
 from twopose.camera import Camera
 from twopose.estimate import EstimateOptions, GroundSpec, PoseView, measure, pose_view
-from twopose.format.entries import GroundPlane, GroundTruth, PoseEntry, TypedEntry
+from twopose.format.entries import GroundTruth, PlaneEntry, PoseEntry, TypedEntry
 from twopose.guidance import Advice
 from twopose.methods import Method
 from twopose.placing_variance import SessionNoise
@@ -55,7 +55,7 @@ class LiveResults:
         method: Method,
         units: Units,
         cameras: Sequence[Camera],
-        ground: GroundPlane | None,
+        ground: PlaneEntry | None,
         options: EstimateOptions | None = None,
         rig: RigConstants | None = None,
     ) -> None:
@@ -67,8 +67,10 @@ class LiveResults:
         #: what the operator should know about the rig (e.g. a file without units)
         self.notes: list[str] = []
         if rig is not None:  # the analysis' own check (`run --rig`): units and plausibility
-            sizes = [(c.intrinsics.width, c.intrinsics.height) for c in cameras]
-            self.notes = check_applicable(rig, Units(units), self._ground, sizes, "the rig file")
+            self.notes = check_applicable(
+                rig, Units(units), self._ground, (), "the rig file",
+                cameras=[c.intrinsics for c in cameras],
+            )  # fmt: skip
             self._ground = corrected_ground(self._ground, rig)
         self._captures: dict[int, PoseView] = {}  # capture number -> its detections
         #: the scene's clutter where the source knows it (the synthetic camera), else None
@@ -239,7 +241,7 @@ def _captures_of(accepted: Mapping[int, PoseEntry]) -> tuple[int, ...]:
 def live_results(
     info: SessionInfo,
     cameras: Sequence[Camera],
-    ground: GroundPlane | None,
+    ground: PlaneEntry | None,
     settings: CaptureSettings,
 ) -> LiveResults:
     """The live results of a recording: its regions from the rig file's placing sigma (or

@@ -138,7 +138,7 @@ def continued_given(
 def rig_file(path: Path | None) -> dict[str, Any]:
     """``--rig``: the :class:`NewRequest` fields the rig file gives (its constants, ``rig``,
     and its measured placing sigma, ``placing``; None without a file)."""
-    from twopose.rig.constants import load_rig_file
+    from twopose.rig.file import load_rig_file
 
     if path is None:
         return {"rig": None, "placing": None}
@@ -200,7 +200,10 @@ def record_terminal(
         said = f" ({c.path.name}'s)" if kept else ""
         typer.echo(f"  operator {setup.operator or '(none)'}; stop rule: {rule}{said}")
     else:
-        setup = ask_setup(op, size=(mode.width, mode.height), guidance=request.guidance, **given)
+        setup = ask_setup(
+            op, size=(mode.width, mode.height), guidance=request.guidance, rig=request.rig,
+            **given,
+        )  # fmt: skip
     check_rig(request.rig, setup.method, setup.units, [setup.camera()], setup.ground())
     asked = request.guidance or guidance_asked()
     refused = asked.refusals(setup.method, setup.units)  # a continued board session's
@@ -280,8 +283,16 @@ def serve_console_until_stopped(
     once, when the session ends; an interrupted session exits 130 (KeyboardInterrupt, as
     the terminal's), a failed one 3."""
     from recorder.console_server import ConsoleOptions, serve_console
+    from recorder.setup_rules import check_rig_early
+    from twopose.units import Units
 
     mode = request.camera
+    # What the command line gave refuses a rig before the page is served (the rest: the form).
+    units = given.get("units")
+    check_rig_early(
+        request.rig, units=Units(units) if units else None, size=(mode.width, mode.height),
+        intrinsics=given.get("intrinsics"),
+    )  # fmt: skip
     options = ConsoleOptions(
         source=request.source, given=given, frames=request.frames, poses=request.poses,
         adaptive_frames=request.adaptive_frames,

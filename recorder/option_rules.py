@@ -41,8 +41,8 @@ class _Rule:
 #: What a plan sets itself: given with ``--plan`` they would be ignored.
 _PLAN_SETS = (
     "--method", "--units", "--calibration", "--focal", "--principal", "--ground-height",
-    "--ground-truth", "--board", "--square", "--board-corner", "--notes", "--frames",
-    "--poses", "--width", "--height",
+    "--plane-offset", "--ground-truth", "--board", "--square", "--board-corner", "--notes",
+    "--frames", "--poses", "--width", "--height",
 )  # fmt: skip
 
 _RULES: tuple[_Rule, ...] = (
@@ -50,7 +50,8 @@ _RULES: tuple[_Rule, ...] = (
         options=_PLAN_SETS,
         idle=lambda c: "--plan" in c.given,
         why=lambda _: (
-            "a plan sets these itself (method, units, [camera], ground_height, ground_truth, "
+            "a plan sets these itself (method, units, [camera], ground_height or plane_offset, "
+            "ground_truth, "
             "[board], notes, frames, each trial's poses): leave them out or write them in "
             "the plan"
         ),

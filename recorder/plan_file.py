@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 
 from recorder.setup_rules import (
     DEFAULT_MAX_POSES,
+    PLANE_OFFSET_KEY,
     THESIS_FOCAL_PX,
     THESIS_IMAGE_SIZE,
     board_refusal,
@@ -60,7 +61,7 @@ from twopose.units import DEFAULT_UNITS, UNITS, Units
 from twopose.values import Vec3, finite
 
 if TYPE_CHECKING:
-    from twopose.format.entries import GroundPlane
+    from twopose.format.entries import PlaneEntry
     from twopose.format.guidance_record import GuidanceRecord
 
 
@@ -84,7 +85,8 @@ _TABLE_KEYS = {
 _PLAN_KEYS = {
     "": {"method", "units", "cameras", "frames", "operator", "notes", "adaptive_frames"}
     | (set(_TABLE_KEYS) - {"poses"})
-    | {p.setup_key for p in PLANES},  # each plane's offset (method 2's ground_height)
+    | {p.setup_key for p in PLANES}  # each plane's offset (method 2's ground_height)
+    | {PLANE_OFFSET_KEY},  # or the method's plane's, whichever it is
     **_TABLE_KEYS,
 }
 
@@ -148,26 +150,40 @@ class Plan:
     #: The keys its ``[guidance]`` gave (a continuation takes the others from its session).
     guidance_keys: frozenset[str] = frozenset()
 
-    def ground(self) -> GroundPlane | None:
+    def ground(self) -> PlaneEntry | None:
         """The method's plane at the plan's offset (method 2's ground ``y = h``), or None."""
         return plane_entry(self.method, self.plane_offset)
 
 
 def _plane_offset(data: dict[str, Any], method: Method, units: Units) -> float | None:
     """The offset of the method's plane, under the plane's key (method 2's
-    ``ground_height``): required on a plane, another plane's refused (a method on no plane
-    has nothing to cut its estimate with, and ignores them as it always did)."""
+    ``ground_height``) or ``plane_offset`` (the method's plane's, whichever it is): one of
+    them required on a plane, another plane's refused (a method on no plane has nothing to
+    cut its estimate with, and ignores the planes' own keys as it always did; it refuses
+    ``plane_offset``, which can only mean its plane)."""
     plane = spec_of(method).plane
     if plane is None:
+        if PLANE_OFFSET_KEY in data:
+            raise InputValueError(
+                f"plan: {PLANE_OFFSET_KEY}: a {method} session measures on no plane, so nothing "
+                "would use it; leave it out"
+            )
         return None
     refused = other_plane_refusal(method, data, str)
     if refused:
         raise InputValueError(f"plan: {refused}")
-    if plane.setup_key not in data:
+    given = [k for k in (plane.setup_key, PLANE_OFFSET_KEY) if k in data]
+    if len(given) > 1:
+        raise InputValueError(
+            f"plan: {plane.setup_key} and {PLANE_OFFSET_KEY} both give {plane.name}'s offset: "
+            "give one"
+        )
+    if not given:
         raise InputValueError(
             f"plan: a {method} session needs {plane.setup_key} ({plane.label}, {plane.equation})"
+            f" or {PLANE_OFFSET_KEY}"
         )
-    return _read(plane.bound, data[plane.setup_key], plane.setup_key, units)
+    return _read(plane.bound, data[given[0]], given[0], units)
 
 
 def _read(quantity: Quantity, value: Any, where: str, units: Units | None) -> float:

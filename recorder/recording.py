@@ -35,8 +35,8 @@ from recorder.summary import RecordingSummary, Tally
 from twopose.camera import Camera
 from twopose.errors import InputValueError, TwoposeError
 from twopose.format.entries import (
-    GroundPlane,
     Note,
+    PlaneEntry,
     SessionInfo,
 )
 from twopose.format.reader import recover_command
@@ -79,7 +79,7 @@ def record(  # noqa: PLR0913 - keyword-only settings of a recording
     source: FrameSource,
     driver: Driver,
     *,
-    ground: GroundPlane | None = None,
+    ground: PlaneEntry | None = None,
     capture: CaptureSettings | None = None,
     writer_options: dict[str, Any] | None = None,
     after_trial: int = 0,

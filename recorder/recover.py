@@ -9,11 +9,16 @@ and writes what it found into a new file with the session's channels rebuilt fro
 the chunk that held the schema and channel records).
 
 Frames that follow the last capture window (the capture in progress at the crash) are
-kept and closed with an ``incomplete`` capture window, so nothing recorded is dropped.
+kept and closed with an ``incomplete`` capture window, so nothing recorded is dropped. In
+a two-camera session (format 1.6) each camera's frames after its last closed stream
+window are closed as an ``incomplete`` window of the window announced open when they were
+written (its trial and number), so a crash loses at most what never reached the disk of
+the open window.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import struct
 from collections import Counter
 from dataclasses import dataclass, field
@@ -27,17 +32,20 @@ from mcap.writer import CompressionType
 from mcap.writer import Writer as McapWriter
 
 from twopose.camera import Camera
-from twopose.errors import SessionExistsError, SessionFormatError, TwoposeError
+from twopose.errors import InputValueError, SessionExistsError, SessionFormatError, TwoposeError
 from twopose.format.channels import Channels, register_session_channels
 from twopose.format.entries import (
     CaptureWindow,
-    GroundPlane,
+    PairEntry,
+    PlaneEntry,
     PoseEntry,
     SessionInfo,
+    StreamWindow,
     decode_entry,
     encode_entry,
 )
 from twopose.format.messages import calibration_message, calibration_topic
+from twopose.format.pair_convert import pair_calibration
 from twopose.format.reader import check_version, max_chunk_bytes
 from twopose.format.writer import METADATA_NAME, cameras_from_metadata
 
@@ -60,6 +68,8 @@ class RecoveryReport:
     complete_captures: int = 0
     closed_captures: int = 0  # captures in progress, kept and marked incomplete
     unassigned_frames: int = 0  # frames with no pose to attach them to (kept on their topic)
+    closed_windows: int = 0  # a two-camera session's stream windows in progress, closed
+    complete_windows: int = 0  # a two-camera session's stream windows closed complete
 
     def summary(self) -> str:
         frames = sum(n for t, n in self.messages.items() if t.endswith("/image"))
@@ -67,11 +77,19 @@ class RecoveryReport:
             f"recovered {self.source} -> {self.output}",
             f"  chunks kept {self.chunks_kept}, lost to corruption {self.chunks_lost}",
             f"  messages {sum(self.messages.values())}, frames {frames}, "
-            f"complete captures {self.complete_captures}",
+            + (
+                f"complete stream windows {self.complete_windows}"
+                if self.complete_windows
+                else f"complete captures {self.complete_captures}"
+            ),
         ]
         if self.closed_captures:
             lines.append(
                 f"  {self.closed_captures} capture(s) in progress kept and marked incomplete"
+            )
+        if self.closed_windows:
+            lines.append(
+                f"  {self.closed_windows} stream window(s) in progress kept and marked incomplete"
             )
         if self.unassigned_frames:
             lines.append(
@@ -92,6 +110,8 @@ class _Pending:
         self.frames: dict[str, list[int]] = {}  # camera -> log times
         self.last_pose: PoseEntry | None = None
         self.closed_windows: set[tuple[int, int, str] | int] = set()
+        self.open_stream: dict[str, StreamWindow] = {}  # camera -> its window announced open
+        self.complete_windows = 0
 
     @staticmethod
     def key(entry: PoseEntry | CaptureWindow) -> tuple[int, int, str] | int:
@@ -161,6 +181,7 @@ def recover_session(broken: str | Path, output: str | Path) -> RecoveryReport:
             )
         if not state.session_seen:  # no chunk survived: the opening entries from metadata
             state.out.write_opening(state.counts)
+        windows = _close_streams(state.out, state.pending, state.counts)
         closed, unassigned = _close_pending(state.out, state.pending, state.counts)
         done = True
         return RecoveryReport(
@@ -174,6 +195,8 @@ def recover_session(broken: str | Path, output: str | Path) -> RecoveryReport:
             complete_captures=state.complete,
             closed_captures=closed,
             unassigned_frames=unassigned,
+            closed_windows=windows,
+            complete_windows=state.pending.complete_windows,
         )
     finally:
         stream.close()
@@ -286,8 +309,9 @@ class _Output:
     stream: IO[bytes]
     info: SessionInfo
     cameras: list[Camera]
-    ground: GroundPlane | None
+    ground: PlaneEntry | None
     start_ns: int
+    pair: str = ""  # a two-camera session's /twopose/pair JSON (format 1.6), from metadata
 
     @property
     def channel_ids(self) -> dict[str, int]:
@@ -305,7 +329,9 @@ class _Output:
             msg = calibration_message(cam, t0)
             self.put(calibration_topic(cam.camera_id), t0, msg.SerializeToString(), counts)
         if self.ground is not None:
-            self.put(GroundPlane.TOPIC, t0, encode_entry(self.ground), counts)
+            self.put(PlaneEntry.TOPIC, t0, encode_entry(self.ground), counts)
+        if self.pair:
+            self.put(PairEntry.TOPIC, t0, self.pair.encode(), counts)
 
     def close(self) -> None:
         self.channels.writer.finish()
@@ -317,16 +343,14 @@ def _open_output(dst: Path, metadata: dict[str, str]) -> _Output:
     try:
         info = decode_entry(SessionInfo.SCHEMA_NAME, metadata["session"].encode())
         ground_text = metadata.get("ground", "")
-        ground = (
-            decode_entry(GroundPlane.SCHEMA_NAME, ground_text.encode()) if ground_text else None
-        )
+        ground = decode_entry(PlaneEntry.SCHEMA_NAME, ground_text.encode()) if ground_text else None
         start_ns = int(metadata.get("start_ns", "0"))
     except KeyError as err:
         raise SessionFormatError(
             f"the '{METADATA_NAME}' metadata lacks {err}; cannot rebuild the session"
         ) from err
     assert isinstance(info, SessionInfo)
-    assert ground is None or isinstance(ground, GroundPlane)
+    assert ground is None or isinstance(ground, PlaneEntry)
     cameras = cameras_from_metadata(metadata.get("cameras", "[]"))
     try:
         stream = open(dst, "xb")  # noqa: SIM115 - closed by _Output.close
@@ -336,8 +360,18 @@ def _open_output(dst: Path, metadata: dict[str, str]) -> _Output:
         raise TwoposeError(f"cannot create {dst}: {err.strerror}") from err
     writer = McapWriter(stream, compression=CompressionType.ZSTD)
     writer.start(profile="", library=f"twopose recover ({metadata.get('software_version', '?')})")
+    pair = metadata.get("pair", "")
+    if pair:  # checked before it is copied: a pair that does not decode is no session's
+        decoded = decode_entry(PairEntry.SCHEMA_NAME, pair.encode())
+        assert isinstance(decoded, PairEntry)
+        try:
+            pair_calibration(decoded)
+        except InputValueError as err:
+            raise SessionFormatError(
+                f"the metadata's pair: {err}; cannot rebuild the session"
+            ) from err
     channels = register_session_channels(
-        writer, info.camera_ids, metadata.get("format_version", "1.0")
+        writer, info.camera_ids, metadata.get("format_version", "1.0"), pair=bool(pair)
     )
     writer.add_metadata(METADATA_NAME, dict(metadata))
     return _Output(
@@ -347,6 +381,7 @@ def _open_output(dst: Path, metadata: dict[str, str]) -> _Output:
         cameras=cameras,
         ground=ground,
         start_ns=start_ns,
+        pair=pair,
     )
 
 
@@ -367,7 +402,36 @@ def _track(topic: str, message: Message, pending: _Pending) -> int:
         ]
         pending.closed_windows.add(pending.key(window))
         return int(window.status == "complete")
+    elif topic == StreamWindow.TOPIC:
+        stream = decode_entry(StreamWindow.SCHEMA_NAME, message.data)
+        assert isinstance(stream, StreamWindow)
+        if stream.status == "open":
+            pending.open_stream[stream.camera_id] = stream
+            return 0
+        pending.open_stream.pop(stream.camera_id, None)
+        pending.complete_windows += stream.status == "complete"
+        pending.frames[stream.camera_id] = [
+            t for t in pending.frames.get(stream.camera_id, []) if t > stream.end_ns
+        ]
     return 0
+
+
+def _close_streams(out: _Output, pending: _Pending, counts: Counter[str]) -> int:
+    """Close each camera's stream window in progress as incomplete, with its frames."""
+    closed = 0
+    for camera, opened in pending.open_stream.items():
+        times = pending.frames.pop(camera, [])
+        window = dataclasses.replace(
+            opened,
+            start_ns=min(times, default=opened.start_ns),
+            end_ns=max(times, default=opened.start_ns),
+            n_frames=len(times),
+            status="incomplete",
+            reason=RECOVERED_REASON,
+        )
+        out.put(StreamWindow.TOPIC, window.end_ns, encode_entry(window), counts)
+        closed += 1
+    return closed
 
 
 def _close_pending(out: _Output, pending: _Pending, counts: Counter[str]) -> tuple[int, int]:

@@ -9,13 +9,14 @@ terminal refuse the same answers with the same words.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import partial
 from typing import Any
 
 import twopose.methods as registry
 from recorder.setup_rules import (
+    PLANE_OFFSET_KEY,
     THESIS_FOCAL_PX,
     THESIS_IMAGE_SIZE,
     Setup,
@@ -28,7 +29,9 @@ from recorder.setup_rules import (
     number_pair,
     off_plane,
     one_of,
+    other_plane_refusal,
     parse_vector,
+    plane_option,
     reader,
     target_precision,
 )
@@ -158,7 +161,7 @@ class SetupField:
     kind: str  # choice, text or check
     #: Whether a method asks it, from the method's spec (default: every method).
     asked_by: Callable[[MethodSpec], bool] = field(default=_every_method, repr=False)
-    options: tuple[str, ...] = ()
+    options: Sequence[str] = ()
     #: The one reader of its typed text in the session's units, empty text its default's:
     #: the page's form and the terminal's question both call it (None: read with others,
     #: as a truth's points and a board's parts are).
@@ -264,6 +267,7 @@ SETUP_FIELDS: tuple[SetupField, ...] = (
     ),
 )
 _FIELDS = {f.name: f for f in SETUP_FIELDS}
+_PLANE_KEYS = frozenset(p.setup_key for p in registry.PLANES)
 _LABELS = {f.name: f.label for f in SETUP_FIELDS} | {"rotation": "rotation", "rig": "rig file"}
 
 
@@ -287,6 +291,8 @@ def _given_text(name: str, given: Mapping[str, Any]) -> str | None:
         "target_precision": given.get("target_precision"),
     }
     value = texts[name] if name in texts else given.get(name)  # a plane's offset: its key
+    if value is None and name in _PLANE_KEYS:  # --plane-offset: the method's plane's
+        value = given.get(PLANE_OFFSET_KEY)
     if value is None or (value == "" and name != "operator"):
         return None
     if isinstance(value, tuple):
@@ -373,8 +379,13 @@ def setup_from_answers(form: Mapping[str, str], given: Mapping[str, Any]) -> Set
     intrinsics = given.get("intrinsics") or _intrinsics(a, given.get("size", (640, 480)))
     plane = spec_of(method).plane if method is not None else None
     offset = None
-    refused = no_plane_refusal(method, [k for k in given if given[k] is not None]) if method else ""
-    if refused:  # the command line gave a plane's offset to a method on none
+    keys = [k for k in given if given[k] is not None]
+    refused = (
+        other_plane_refusal(method, keys, plane_option) or no_plane_refusal(method, keys)
+        if method
+        else ""
+    )
+    if refused:  # the command line gave another plane's offset, or one to a method on none
         a.errors["method"] = refused
     if plane is not None:
         # Read as typed: an emptied field is refused, never the thesis' height assumed.

@@ -6,6 +6,9 @@ parsers; the web console's form (:mod:`recorder.setup_form`: which fields apply 
 method, :func:`~recorder.setup_form.setup_from_answers`) checks a whole form with the same
 parsers, called directly, and reports every refusal at once, by field. Neither matches
 the other's wording.
+
+(Near 600 lines: every setup answer's rule and parser, kept together so that the terminal
+and the page cannot disagree; the form's layout is :mod:`recorder.setup_form`.)
 """
 
 from __future__ import annotations
@@ -35,8 +38,8 @@ from twopose.camera import Camera, Intrinsics
 from twopose.errors import InputValueError
 from twopose.format.entries import (
     DEFAULT_ROTATION_RESOLUTION_DEG,
-    GroundPlane,
     GuidanceRecord,
+    PlaneEntry,
     SessionInfo,
     default_translation_resolution,
 )
@@ -53,12 +56,14 @@ if TYPE_CHECKING:
     from twopose.rig.constants import RigConstants
 
 __all__ = [
+    "PLANE_OFFSET_KEY",
     "THESIS_FOCAL_PX",
     "THESIS_IMAGE_SIZE",
     "Setup",
     "board_corner",
     "board_refusal",
     "check_rig",
+    "check_rig_early",
     "default_plane_offset",
     "default_principal",
     "distinct_point",
@@ -71,6 +76,7 @@ __all__ = [
     "other_plane_refusal",
     "parse_vector",
     "plane_entry",
+    "plane_offsets_given",
     "plane_option",
     "poses_refusal",
     "reader",
@@ -87,6 +93,9 @@ THESIS_FOCAL_PX = 525.0
 THESIS_IMAGE_SIZE = (640, 480)
 #: The camera of a session set up by hand (terminal or browser): one laptop webcam.
 CAMERA_ID = "cam0"
+#: The setup's key of the offset of whichever plane the method has (``--plane-offset``, a
+#: plan's ``plane_offset``), beside each plane's own key (the ground's ``ground_height``).
+PLANE_OFFSET_KEY = "plane_offset"
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -129,7 +138,7 @@ class Setup:
             camera_id=CAMERA_ID, intrinsics=self.intrinsics, intrinsics_sigma=self.intrinsics_sigma
         )
 
-    def ground(self) -> GroundPlane | None:
+    def ground(self) -> PlaneEntry | None:
         """The method's plane at the typed offset (method 2's ground ``y = h``), or None."""
         return plane_entry(self.method, self.plane_offset)
 
@@ -174,7 +183,7 @@ def check_rig(
     method: Method,
     units: Units,
     cameras: Sequence[Camera],
-    ground: GroundPlane | None,
+    ground: PlaneEntry | None,
 ) -> list[str]:
     """Refuse a rig file (``--rig``) this session cannot use; the notes to show about it.
 
@@ -193,9 +202,39 @@ def check_rig(
         )
     from twopose.rig.constants import check_applicable
 
-    sizes = [(c.intrinsics.width, c.intrinsics.height) for c in cameras]
     spec = ground.spec() if ground is not None else None
-    return check_applicable(rig, units, spec, sizes, "the rig file")
+    intrinsics = [c.intrinsics for c in cameras]
+    return check_applicable(rig, units, spec, (), "the rig file", cameras=intrinsics)
+
+
+def check_rig_early(
+    rig: RigConstants | None,
+    *,
+    method: Method | None = None,
+    units: Units | None = None,
+    size: tuple[int, int] | None = None,
+    intrinsics: Intrinsics | None = None,
+) -> None:
+    """Refuse a rig file (``--rig``) as soon as what it must match is known.
+
+    The terminal calls this before its first question, with what the command line gave,
+    and again as each answer comes (the method, the units, the camera), so that a rig in
+    other units or of another camera is refused at once, never after the whole setup was
+    typed (:func:`check_rig` then checks the rest: plausibility for the ground height).
+    """
+    if rig is None:
+        return
+    from twopose.rig.cameras import check_cameras, same_size
+    from twopose.rig.constants import check_units
+
+    if method is not None and not spec_of(method).measures:
+        check_rig(rig, method, Units.IN, [], None)  # a board session takes no rig: refused
+    if units is not None:
+        check_units(rig, units, "the rig file")
+    if intrinsics is not None:
+        check_cameras(rig.cameras, [intrinsics], "the rig file")
+    elif size is not None:
+        same_size(rig.cameras, size, "the rig file")
 
 
 # --------------------------------------------------------------------------- the checks
@@ -263,20 +302,39 @@ def default_principal(size: tuple[int, int]) -> tuple[float, float]:
     return size[0] / 2, size[1] / 2
 
 
-def plane_entry(method: Method, offset: float | None) -> GroundPlane | None:
+def plane_entry(method: Method, offset: float | None) -> PlaneEntry | None:
     """The session's plane entry for ``method`` at the typed ``offset`` (its spec's plane,
     :class:`twopose.planes.ConstraintPlane`), or None (no plane, or no offset)."""
     plane = spec_of(method).plane
     if plane is None or offset is None:
         return None
     normal, c = plane.plane(offset)
-    return GroundPlane(normal_grid=normal, offset=c)
+    return PlaneEntry(normal_grid=normal, offset=c)
 
 
 def plane_option(setup_key: str) -> str:
-    """How the command line gives a plane's offset: ``--ground-height`` for the ground's
-    (its one plane option); another plane's offset is asked."""
-    return "--ground-height" if setup_key == GROUND_PLANE.setup_key else f"{setup_key} (asked)"
+    """How the command line gives a plane's offset: ``--plane-offset`` for any method's
+    plane; ``--ground-height`` for the ground's, its own option (kept)."""
+    return "--ground-height" if setup_key == GROUND_PLANE.setup_key else "--plane-offset"
+
+
+def plane_offsets_given(
+    method: Method | None, ground_height: float | None, plane_offset: float | None
+) -> dict[str, float]:
+    """The planes' offsets a command line gave, by setup key: ``--ground-height`` under
+    the ground's, ``--plane-offset`` under :data:`PLANE_OFFSET_KEY` (the offset of the
+    method's plane, whichever it is). Refused: another plane's offset than the method's,
+    either to a method on no plane, or both (two answers to one question)."""
+    given = {GROUND_PLANE.setup_key: ground_height, PLANE_OFFSET_KEY: plane_offset}
+    offsets = {k: v for k, v in given.items() if v is not None}
+    if method is not None:
+        refuse_other_planes(method, offsets)
+    if len(offsets) > 1:
+        raise InputValueError(
+            "--ground-height and --plane-offset both give the ground's offset: give one "
+            "(--plane-offset is any method's plane's, --ground-height the ground's own option)"
+        )
+    return offsets
 
 
 def other_plane_refusal(method: Method, given: Iterable[str], how: Callable[[str], str]) -> str:
@@ -307,7 +365,7 @@ def refuse_other_planes(method: Method, given: Iterable[str]) -> None:
 def no_plane_refusal(method: Method, given: Iterable[str]) -> str:
     """Why a plane's offset given to a method on no plane is refused ("": none given, or
     the method has a plane): nothing would use it."""
-    keys = sorted(set(given) & {p.setup_key for p in PLANES})
+    keys = sorted(set(given) & {PLANE_OFFSET_KEY, *(p.setup_key for p in PLANES)})
     if spec_of(method).plane is not None or not keys:
         return ""
     return (

@@ -14,6 +14,10 @@ A simulated session carries a ``session_id`` and a ``part_id`` like a recorded o
 digest of what made it (:func:`simulated_ids`: the method, trials, frames, seed and the
 whole scene): so the same settings write the same session, and a copy of it (byte, cut,
 recovered) is known as that session by every command; other settings are another session.
+
+(Near 600 lines: the one-camera simulation, from the simulated operator's typed poses to the
+file; the two-camera one is :mod:`recorder.simulate_pair`, the scene and its rendering
+:mod:`twopose.sim`.)
 """
 
 from __future__ import annotations
@@ -38,8 +42,8 @@ from twopose.arrays import F64
 from twopose.camera import Camera, Intrinsics, project_points, rotation_from_angles_deg
 from twopose.errors import InputValueError, SceneError
 from twopose.format.entries import (
-    GroundPlane,
     GroundTruth,
+    PlaneEntry,
     PoseEntry,
     SessionInfo,
     SimulationTruth,
@@ -48,7 +52,7 @@ from twopose.format.entries import (
     TypedEntry,
 )
 from twopose.methods import LINE_TRUTH, POINT_TRUTH, Method, spec_of
-from twopose.planes import GROUND_PLANE
+from twopose.planes import GROUND_PLANE, ConstraintPlane
 from twopose.sim.camera import SyntheticCamera, camera_pose, true_intrinsics
 from twopose.sim.layout import BOARD_POSES, Layout, board_poses, build_layout, finger_axis
 from twopose.sim.scene import CameraParams, PoseParams, Scene
@@ -81,7 +85,7 @@ class SimulationSummary:
     """What :func:`simulate_session` wrote."""
 
     path: Path
-    method: str
+    method: Method
     n_trials: int
     n_poses: int
     n_frames: int
@@ -95,26 +99,42 @@ def _vec(a: NDArray[np.float64]) -> Vec3:
 def target_points(scene: Scene, method: Method) -> tuple[TruthKind, NDArray[np.float64]]:
     """Ground-truth kind and points (grid frame) of ``method`` in ``scene``.
 
-    point: the dot centre; ground: where the finger axis meets the ground;
-    line: the finger axis' tip and base.
+    By what its views meet in (:attr:`twopose.methods.MethodSpec.geometry`): the rays, the
+    dot centre; the planes, the finger axis' tip and base (its line); the planes and a
+    plane, where the finger axis meets that plane.
     """
-    spec = spec_of(method)
-    if not spec.uses_image_lines:  # the dot
-        return POINT_TRUTH, np.asarray([scene.point.position], dtype=np.float64)
-    tip, base = finger_axis(scene, spec.plane)
-    if spec.estimates_line:
+    return spec_of(method).geometry_cases(_Truth(scene))
+
+
+@dataclass(frozen=True)
+class _Truth:
+    """What the scene's target is, for each geometry (:class:`twopose.geometry.GeometryCases`)."""
+
+    scene: Scene
+
+    def rays_to_point(self) -> tuple[TruthKind, NDArray[np.float64]]:
+        return POINT_TRUTH, np.asarray([self.scene.point.position], dtype=np.float64)
+
+    def planes_to_line(self) -> tuple[TruthKind, NDArray[np.float64]]:
+        tip, base = finger_axis(self.scene, None)
         return LINE_TRUTH, np.stack([tip, base])
-    plane = spec.plane or GROUND_PLANE  # the finger's, as the layout places it
-    return POINT_TRUTH, plane.point(scene.finger.ground_point, scene.ground_height)[None]
+
+    def planes_to_plane_point(
+        self, plane: ConstraintPlane
+    ) -> tuple[TruthKind, NDArray[np.float64]]:
+        # The finger points at the plane's point the scene gives, the plane as the layout
+        # places it (its offset the scene's ground_height).
+        at = plane.point(self.scene.finger.ground_point, self.scene.ground_height)
+        return POINT_TRUTH, at[None]
 
 
-def _typed_plane(scene: Scene, method: Method) -> GroundPlane:
+def _typed_plane(scene: Scene, method: Method) -> PlaneEntry:
     """The method's plane as the operator types it (a method on none: the ground, as the
     thesis' setup has one): its offset, the scene's ``ground_height``, off by the rig's
     error."""
     plane = spec_of(method).plane or GROUND_PLANE
     normal, offset = plane.plane(scene.ground_height + scene.systematic.ground_height_error)
-    return GroundPlane(normal_grid=normal, offset=offset)
+    return PlaneEntry(normal_grid=normal, offset=offset)
 
 
 def _visible_points(scene: Scene, method: Method) -> NDArray[np.float64]:

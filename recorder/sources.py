@@ -5,7 +5,8 @@ the operator types (:mod:`recorder.synthetic_source`); the kinds as the operator
 ``open_source("camera:0" | "video:PATH" | "images:DIR[/PATTERN]" | "synthetic[:SCENE.toml]")``
 gives a :class:`FrameSource`; use it as a context manager and call
 :meth:`FrameSource.read`. A source that cannot open, stops delivering, or times out raises
-:class:`SourceError` with a message saying which and what to try.
+:class:`SourceError` with a message saying which and what to try. The kinds are registered
+(:data:`SOURCES`); an extension adds its own with :func:`register_source`.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from recorder.pair_feeds import CameraFeed, Feed, PacedFeed, StillsFeed, VideoFe
 from recorder.synthetic_source import SyntheticSource
 from twopose.errors import InputValueError, SourceError
 from twopose.methods import Method
+from twopose.registry import Listing, Registry, load_extensions
 from twopose.units import Units
 
 if TYPE_CHECKING:
@@ -39,6 +41,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "FEEDS",
+    "SOURCES",
     "SOURCE_KINDS",
     "CameraSource",
     "FrameSource",
@@ -55,6 +58,7 @@ __all__ = [
     "open_source",
     "open_video",
     "register_feed",
+    "register_source",
     "source_help",
     "source_kinds_table",
 ]
@@ -278,8 +282,7 @@ def _open_pair(arg: str, o: SourceOptions) -> FrameSource:
     return open_pair(*parse_pair(arg, SOURCE_KINDS), o)
 
 
-#: Every kind of frame source, in the order help and docs list them.
-SOURCE_KINDS: tuple[SourceKind, ...] = (
+_BUILT_IN: tuple[SourceKind, ...] = (
     SourceKind(
         name="camera",
         syntax="camera:N",
@@ -320,6 +323,24 @@ SOURCE_KINDS: tuple[SourceKind, ...] = (
         cameras=2,
     ),
 )
+#: The frame sources' registry, by the name the operator types before the colon: twopose's
+#: own (camera, video, images, synthetic, pair), then those registered (:func:`register_source`).
+SOURCES: Registry[str, SourceKind] = Registry("source", lambda kind: kind.name, _BUILT_IN)
+#: Every kind of frame source, in the order help and docs list them (the registry's, as
+#: it is now).
+SOURCE_KINDS: Listing[SourceKind] = Listing(lambda: tuple(SOURCES.values()), SOURCES)
+
+
+def register_source(kind: SourceKind) -> SourceKind:
+    """Add a kind of frame source to the registry, and return it.
+
+    ``--source NAME:ARG`` then opens it by its opener (``new``, ``calibrate`` if it
+    calibrates), and ``--help`` and the docs' list name it. A name already registered is
+    refused (:class:`ValueError`).
+    """
+    if not kind.name or ":" in kind.name or kind.name != kind.name.strip():
+        raise ValueError(f"a source's name is one word before the colon, got {kind.name!r}")
+    return SOURCES.register(kind)
 
 
 def _listed(items: Sequence[str]) -> str:
@@ -328,7 +349,9 @@ def _listed(items: Sequence[str]) -> str:
 
 def source_help(kinds: Sequence[SourceKind] = SOURCE_KINDS, *, calibration: bool = False) -> str:
     """The ``--source`` help of a one-camera command: the one-camera kinds' syntaxes (only
-    those a calibration takes, with their examples, when ``calibration``)."""
+    those a calibration takes, with their examples, when ``calibration``); an installed
+    extension's kinds too."""
+    load_extensions()
     chosen = [k for k in kinds if k.cameras == 1 and (k.calibrates or not calibration)]
     text = _listed([k.syntax for k in chosen])
     examples = [k.example for k in chosen if k.example] if calibration else []

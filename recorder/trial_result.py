@@ -23,7 +23,7 @@ import numpy as np
 from twopose.arrays import F64
 from twopose.blunders import TrialTests
 from twopose.estimate import EstimateOptions
-from twopose.methods import spec_of
+from twopose.methods import Method, spec_of
 from twopose.noise import VarianceFactor, noise_words
 from twopose.session_estimate import SessionEstimate, SessionTrials, estimate_session
 from twopose.truth import line_errors, reported
@@ -48,8 +48,8 @@ class TrialResult:
     """One trial's live result, in session units."""
 
     trial: int
-    method: str
-    units: str
+    method: Method
+    units: Units
     n_views: int
     status: str  # ok, degenerate, no_detection, incomplete (as trials.csv)
     reason: str

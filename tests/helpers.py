@@ -377,37 +377,23 @@ def rewrite_session(
     return out
 
 
-#: The registry's line its new entries follow (``METHODS`` is made from the entries above).
-REGISTRY_ANCHOR = "#: The methods' names, in the order the thesis presents them, then the board."
+def install_extension(root: Path, name: str, code: str) -> Path:
+    """Install, under ``root``, an extension as a package would: the module ``name``
+    holding ``code`` (its ``register_*`` calls) and a distribution's metadata naming it
+    under the entry-point group ``twopose.extensions``.
 
-
-def copy_with_method(
-    root: Path,
-    member: str,
-    entry: str,
-    packages: Sequence[str] = ("twopose", "recorder", "analysis"),
-) -> Path:
-    """Copy ``packages`` under ``root`` and add a method to the copy's registry alone:
-    ``member`` (``WALL = "wall"``) to the ``Method`` enum, and ``entry``, code that rebinds
-    ``METHOD_SPECS`` (``dataclasses`` imported), before the line ``METHODS`` is made on."""
-    import shutil
-
-    repo = Path(__file__).resolve().parents[1]
-    for package in packages:
-        shutil.copytree(
-            repo / package, root / package, ignore=shutil.ignore_patterns("__pycache__")
-        )
-    methods = root / "twopose" / "methods.py"
-    text = methods.read_text(encoding="utf-8")
-    board = '    BOARD = "board"'
-    assert board in text, "the registry's layout changed: update tests/helpers.py"
-    assert REGISTRY_ANCHOR in text, "the registry's layout changed: update tests/helpers.py"
-    text = text.replace(board, f"{board}\n    {member}", 1)
-    text = text.replace(REGISTRY_ANCHOR, f"{entry}\n{REGISTRY_ANCHOR}", 1)
-    text = text.replace(
-        "from __future__ import annotations\n",
-        "from __future__ import annotations\n\nimport dataclasses\n",
-        1,
+    A process with ``root`` on its ``PYTHONPATH`` (``sys.path``) then knows what it
+    registers, as an installed extension's user would: the command lines, the workers
+    they spawn.
+    """
+    root.mkdir(parents=True, exist_ok=True)
+    (root / f"{name}.py").write_text(code, encoding="utf-8")
+    info = root / f"{name}-0.1.dist-info"
+    info.mkdir(exist_ok=True)
+    (info / "METADATA").write_text(
+        f"Metadata-Version: 2.1\nName: {name}\nVersion: 0.1\n", encoding="utf-8"
     )
-    methods.write_text(text, encoding="utf-8")
+    (info / "entry_points.txt").write_text(
+        f"[twopose.extensions]\n{name} = {name}\n", encoding="utf-8"
+    )
     return root

@@ -276,8 +276,8 @@ def test_impossible_values_are_refused_not_accepted_silently(tmp_path: Path) -> 
     ) as w:
         frame = w.encode_image(np.zeros((48, 64, 3), np.uint8))
         original = w.write_image
-        w.write_image = lambda cid, data, t: w._write_proto(  # type: ignore[method-assign, assignment]
-            "/twopose/camera/cam0/image", image_message("elsewhere", data, "jpeg", t), t
+        w.write_image = lambda cid, data, t, capture=None: w._write_proto(  # type: ignore[method-assign, assignment]
+            "/twopose/camera/cam0/image", image_message("elsewhere", data, "jpeg", t, capture), t
         )
         write_accepted_capture(
             w, PoseEntry(trial=1, pose=1, camera_id="cam0", t_grid=(0, 0, 0)), [frame], 10

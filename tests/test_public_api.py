@@ -100,10 +100,12 @@ def test_the_packages_one_call_functions_are_exported() -> None:
                   "spec_of", "Units", "UNIT_SPECS", "TwoposeError", "InputValueError",
                   "SessionReader", "SessionWriter", "find_sessions", "Detection",
                   "triangulate_points", "triangulate_lines", "triangulate_ground",
-                  "estimate_session", "Guidance"},
-        recorder: {"simulate_session", "load_plan", "record_plan", "record_terminal",
-                   "record_planned", "serve_console_until_stopped", "recover_session",
-                   "calibrate", "open_source", "SOURCE_KINDS"},
+                  "estimate_session", "Guidance", "ConstraintPlane", "GROUND_PLANE",
+                  "CONSTRAINT_PLANES", "TARGET_SPECS", "TargetSpec", "register_method",
+                  "register_target", "register_plane", "load_extensions"},
+        recorder: {"simulate_session", "load_plan", "record_plan", "record_interactive",
+                   "recover_session", "calibrate", "open_source", "SOURCE_KINDS", "SOURCES",
+                   "register_source"},
         analysis: {"run", "analyse_session", "make_figures", "check", "compare"},
     }  # fmt: skip
     for package, names in wanted.items():

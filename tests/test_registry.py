@@ -1,10 +1,11 @@
-"""The registry is the dispatch (issue 35): a method added to :mod:`twopose.methods` alone
-is listed and accepted by every command, with nothing else changed.
+"""The registry is the dispatch (issue 35): a method registered from outside the package
+is listed and accepted by every command, with nothing else changed (issue 57: through the
+extension point, not an edited copy).
 
-The test copies the three packages, adds a fake method to the copy's registry (its spec
-a copy of the point's: a dot, rays, one truth point) and drives the copy's commands in a
-subprocess. A command that still dispatches on a method's name fails on ``fake``, and its
-message names what it was.
+The test installs an extension (a module naming its ``register_method`` call under the
+entry-point group ``twopose.extensions``) whose method is a copy of the point's (a dot,
+rays, one truth point), and drives the commands in a subprocess. A command that still
+dispatches on a method's name fails on ``fake``, and its message names what it was.
 """
 
 from __future__ import annotations
@@ -18,29 +19,30 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from tests.helpers import copy_with_method
+from tests.helpers import install_extension
 
-FAKE_SPEC = """
-METHOD_SPECS = MappingProxyType(
-    {
-        **METHOD_SPECS,
-        Method.FAKE: dataclasses.replace(
-            METHOD_SPECS[Method.POINT],
-            method=Method.FAKE,
-            thesis_name="a test's method",
-            label="fake (a test's)",
-            colour="C5",
-            thesis_tested=False,
-        ),
-    }
+FAKE_EXTENSION = """
+import dataclasses
+
+from twopose.methods import METHOD_SPECS, Method, register_method
+
+register_method(
+    dataclasses.replace(
+        METHOD_SPECS[Method.POINT],
+        method=Method.declare("fake"),
+        thesis_name="a test's method",
+        label="fake (a test's)",
+        colour="C5",
+        thesis_tested=False,
+    )
 )
 """
 
 
 @pytest.fixture(scope="module")
 def with_fake(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A copy of the packages whose registry holds one more method, ``fake``."""
-    return copy_with_method(tmp_path_factory.mktemp("registry"), 'FAKE = "fake"', FAKE_SPEC)
+    """A folder holding an installed extension whose method is ``fake``."""
+    return install_extension(tmp_path_factory.mktemp("registry"), "fake_ext", FAKE_EXTENSION)
 
 
 def _run(root: Path, *args: str, stdin: str | None = None) -> subprocess.CompletedProcess[str]:
@@ -56,10 +58,9 @@ def _run(root: Path, *args: str, stdin: str | None = None) -> subprocess.Complet
     return done
 
 
-def test_the_copy_is_the_one_imported(with_fake: Path) -> None:
-    done = _run(with_fake, "-c", "import twopose.methods as m; print(m.__file__, *m.METHODS)")
-    assert done.stdout.split()[0].startswith(str(with_fake))
-    assert "fake" in done.stdout.split()[1:]
+def test_the_extension_is_loaded_with_the_registry(with_fake: Path) -> None:
+    done = _run(with_fake, "-c", "import twopose.methods as m; print(*m.METHODS)")
+    assert done.stdout.split() == ["point", "line", "ground", "board", "fake"]
 
 
 @pytest.mark.parametrize(

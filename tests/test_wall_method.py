@@ -1,17 +1,19 @@
-"""A method on another plane, through the registry alone (issue 45): a copy of the packages
-whose ``twopose/methods.py`` gains a ``wall`` method, method 2 on the wall ``x = c``
-instead of the ground ``y = h`` (its plane a :class:`twopose.planes.ConstraintPlane`, its
-offset a setup value like the ground height), and nothing else changed.
+"""A method on another plane, through the registry alone (issue 45): an installed
+extension (docs/development.md's snippet, registered by ``register_method``) adds a
+``wall`` method, method 2 on the wall ``x = c`` instead of the ground ``y = h`` (its plane
+a :class:`twopose.planes.ConstraintPlane`, its offset a setup value like the ground
+height), and nothing else changed.
 
-The copy simulates it, records it at the terminal and from a plan (the synthetic camera
-rendering the finger pointing at the wall), and analyses each: the estimates land on the
-wall's point. The browser's part is ``tests/recorder/test_wall_page.py``.
+With it installed, the commands simulate it, record it at the terminal and from a plan
+(the synthetic camera rendering the finger pointing at the wall), and analyse each: the
+estimates land on the wall's point. The browser's part is ``tests/recorder/test_wall_page.py``.
 docs/development.md ("Adding a method") shows the same entry.
 """
 
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -19,46 +21,17 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from tests.helpers import copy_with_method
+from tests.helpers import install_extension
 
-# Slow: copies the packages and records and analyses in subprocesses (make test-all, CI).
+# Slow: records and analyses in subprocesses (make test-all, CI).
 pytestmark = pytest.mark.slow
 
-#: The wall's entry, as docs/method.md gives it: the wall x = c, c typed as ``wall_x``.
-WALL_ENTRY = """
-from twopose.bounds import Kind, Quantity
-from twopose.planes import ConstraintPlane
-
-WALL_PLANE = ConstraintPlane(
-    name="the wall",
-    normal_grid=(1.0, 0.0, 0.0),
-    in_plane_grid=((0.0, 1.0, 0.0), (0.0, 0.0, 1.0)),
-    setup_key="wall_x",
-    label="wall: its x on the grid",
-    measured="the wall's x on the grid",
-    equation="x = c",
-    axis="x",
-    bound=Quantity(key="wall_x", words="wall's x", kind=Kind.LENGTH, low=-200.0, high=200.0),
-)
-METHOD_SPECS = MappingProxyType(
-    {
-        **METHOD_SPECS,
-        Method.WALL: dataclasses.replace(
-            METHOD_SPECS[Method.GROUND], method=Method.WALL, plane=WALL_PLANE,
-            thesis_name="the wall", label="wall", colour="C5", thesis_tested=False,
-            # The ground's words, said of the wall: the page's (MethodPage) and the top
-            # view's; a copy keeps the ground's ("finger's plane on the ground") otherwise.
-            page=dataclasses.replace(
-                METHOD_SPECS[Method.GROUND].page,
-                legend_segments=(("trace", "\\u2014", "finger's plane at the point's height"),),
-                estimate_label="wall point (estimate)", truth_label="true wall point",
-            ),
-            view_segment="view plane's trace at the estimate's height",
-            truth_name="true wall point",
-        ),
-    }
-)
-"""
+#: The wall's extension, docs/development.md's snippet as written ("Adding a method").
+WALL_ENTRY = re.search(
+    r"<!-- snippet: wall -->\n```python\n(.*?)```\n",
+    (Path(__file__).resolve().parents[1] / "docs" / "development.md").read_text(encoding="utf-8"),
+    re.S,
+)[1]  # type: ignore[index]
 #: The synthetic scene's finger points at its ``ground_point`` of its method's plane, whose
 #: offset is the scene's ``ground_height`` (9.625 in): here (y, z) = (6, 14) on the wall
 #: x = 9.625, the finger coming down to it at 45 degrees from the wall's normal (a finger
@@ -76,8 +49,8 @@ POSES = ((0.0, 0.0, 0.0), (3.0, 0.0, 0.0), (-2.0, 0.0, 1.0))
 
 
 def add_the_wall(root: Path) -> Path:
-    """Copy the packages under ``root`` and add the wall method to the copy's registry."""
-    copy_with_method(root, 'WALL = "wall"', WALL_ENTRY)
+    """Install the wall's extension under ``root`` (its entry point and module)."""
+    install_extension(root, "wall_ext", WALL_ENTRY)
     (root / "wall_scene.toml").write_text(SCENE, encoding="utf-8")
     return root
 
@@ -132,8 +105,13 @@ try:
                        given)
 except FormRefusedError as err:
     refused = err.errors["truth1"]
+try:  # --ground-height given, the wall chosen in the page (was ignored)
+    setup_from_answers({"method": "wall", "wall_x": "9.625", "truth1": "9.625, 6, 14"},
+                       {**given, "ground_height": 9.0})
+except FormRefusedError as err:
+    other = err.errors["method"]
 print(json.dumps({"asked": asked, "entry": [setup.ground().normal_grid, setup.ground().offset],
-                  "refused": refused}))
+                  "refused": refused, "other": other}))
 """
     import json
 
@@ -144,15 +122,53 @@ print(json.dumps({"asked": asked, "entry": [setup.ground().normal_grid, setup.gr
     assert "wall_x" not in said["asked"]["ground"]
     assert said["entry"] == [[1.0, 0.0, 0.0], WALL_X]
     assert "the wall is at x = 9.625 in" in said["refused"], said["refused"]
+    assert said["other"].startswith("--ground-height is not a wall session's"), said["other"]
 
 
-def test_simulated_and_analysed(walled: Path) -> None:
+#: Each figure of a session drawn in the copy, as its axes name what they show; the error
+#: scatter's points against the trials' errors on the wall (y, z).
+FIGURES_PROBE = """
+import json, sys
+import numpy as np
+from analysis.figures import session_figures
+from analysis.run_tables import read_table
+out = sys.argv[1]
+trials, averaging, views = (read_table(f"{out}/{n}.csv") for n in ("trials", "averaging", "views"))
+figures = session_figures("s.mcap", trials, averaging, views, include_warned=True)
+said = {kind: [[ax.get_xlabel(), ax.get_ylabel(), ax.get_title()] for ax in fig.axes]
+        for kind, fig in figures.items()}
+drawn = figures["scatter"].axes[0].collections[1].get_offsets()
+said["scatter_points"] = np.allclose(drawn, trials[["err_y", "err_z"]].to_numpy())
+print(json.dumps(said))
+"""
+
+
+def test_simulated_and_analysed_in_the_walls_own_axes(walled: Path) -> None:
+    """The wall's trials are drawn and said facing the wall, in its y and z: the top view,
+    the error scatter, the running averages, the report's charts and the terminal's bias
+    lines (before: the ground's x and z, looking down on the grid)."""
+    import json
+
     session = walled / "simulated.mcap"
     run_in(walled, "-m", "recorder", "simulate", str(session), "--method", "wall", "--trials",
            "3", "--frames", "2", "--seed", "3", "--scene", "wall_scene.toml")  # fmt: skip
     assert "wall" in run_in(walled, "-m", "analysis", "info", str(session))
+    out = session.with_suffix("")
+    said = run_in(walled, "-m", "analysis", "run", str(session), "--out", str(out))
     # The scene's own poses, 1-2 in apart on the paper: planes 4-7 degrees apart.
-    assert_on_the_wall(analysed(walled, session), 3, within=1.5)
+    assert_on_the_wall(pd.read_csv(out / "trials.csv"), 3, within=1.5)
+    assert "bias y" in said, said
+    assert "bias x" not in said, said
+    report = (out / "report.html").read_text(encoding="utf-8")
+    assert "Error in the wall plane" in report
+    assert "Running average's y error" in report
+    assert "Running average's x error" not in report
+    figures = json.loads(run_in(walled, "-c", FIGURES_PROBE, str(out)))
+    assert figures["topview"][0][:2] == ["y (in)", "z (in)"], figures
+    assert "view facing the wall" in figures["topview"][0][2]
+    assert figures["scatter"][0][:2] == ["y error (in)", "z error (in)"], figures
+    assert figures["scatter_points"] is True
+    assert [ax[2] for ax in figures["averaging"]] == ["y error", "z error"], figures
 
 
 def test_recorded_from_a_plan_and_analysed(walled: Path) -> None:
@@ -191,21 +207,23 @@ def test_a_plan_giving_the_ground_height_for_the_wall_is_refused(walled: Path) -
     assert not (walled / "no.mcap").exists()
 
 
-def test_recorded_at_the_terminal_and_analysed(walled: Path) -> None:
-    """The terminal asks the wall's x (the command line has no option for it), checks the
-    ground truth against the wall, and records what it is told."""
-    answers = [str(WALL_X), ""]  # the wall's x; no stop rule
+@pytest.mark.parametrize("option", [[], ["--plane-offset", str(WALL_X)]])
+def test_recorded_at_the_terminal_and_analysed(walled: Path, option: list[str]) -> None:
+    """The terminal asks the wall's x (unless ``--plane-offset`` gives it: the one option
+    of any method's plane), checks the ground truth against the wall, and records what it
+    is told."""
+    answers = ([] if option else [str(WALL_X)]) + [""]  # the wall's x; no stop rule
     for x, y, z in POSES[:2]:
         answers += [f"{x}, {y}, {z}", "", "a"]  # the pose, no rotation, accept
     answers.append("n")  # no other trial
-    session = walled / "terminal.mcap"
+    session = walled / f"terminal{len(option)}.mcap"
     said = run_in(
         walled, "-m", "recorder", "new", str(session), "--source", "synthetic:wall_scene.toml",
         "--method", "wall", "--units", "in", "--focal", "525", "--principal", "320,240",
         "--ground-truth", ",".join(str(v) for v in TRUTH), "--operator", "Bo", "--frames", "2",
-        stdin="\n".join(answers) + "\n",
+        *option, stdin="\n".join(answers) + "\n",
     )  # fmt: skip
-    assert "wall: its x on the grid (in)" in said
+    assert ("wall: its x on the grid (in)" in said) != bool(option), said
     assert_on_the_wall(analysed(walled, session), 1, within=0.5)
 
 

@@ -17,8 +17,11 @@ What a notebook or another program uses is exported here, each name loaded on fi
     from twopose.detect import detect  # the module twopose.detect holds it
     detection = detect(frame_bgr, spec.target)
 
-The camera model (:class:`Camera`, :class:`Intrinsics`), the method and unit registries
-(:data:`METHOD_SPECS`, :data:`UNIT_SPECS`), the errors (every one a :class:`TwoposeError`),
+The camera model (:class:`Camera`, :class:`Intrinsics`), the method, target, plane and
+unit registries (:data:`METHOD_SPECS`, :data:`TARGET_SPECS`, :data:`CONSTRAINT_PLANES`,
+:data:`UNIT_SPECS`) and their extension points (:func:`register_method`,
+:func:`register_target`, :func:`register_plane`; the frame sources' is
+``recorder.register_source``), the errors (every one a :class:`TwoposeError`),
 reading and writing sessions, detection, the solvers' one-call functions
 (:func:`triangulate_points`, :func:`triangulate_lines`, :func:`triangulate_ground`,
 :func:`estimate_session`), their uncertainty (:func:`propagate`) and the guidance
@@ -33,6 +36,7 @@ from twopose.lazy import lazy_exports
 
 if TYPE_CHECKING:
     from twopose.camera import Camera, Intrinsics, camera_rays, project_points
+    from twopose.choices import TARGET_SPECS, TARGETS, Target, TargetSpec, register_target
     from twopose.detect import Detection, DotParams, GloveParams
     from twopose.errors import (
         InputValueError,
@@ -48,6 +52,7 @@ if TYPE_CHECKING:
         FORMAT_VERSION,
         GroundPlane,
         GroundTruth,
+        PlaneEntry,
         SessionInfo,
         SessionReader,
         SessionWriter,
@@ -62,9 +67,13 @@ if TYPE_CHECKING:
         METHODS,
         Method,
         MethodSpec,
+        Solver,
         label_of,
+        register_method,
         spec_of,
     )
+    from twopose.planes import CONSTRAINT_PLANES, GROUND_PLANE, ConstraintPlane, register_plane
+    from twopose.registry import load_extensions
     from twopose.session_estimate import SessionEstimate, SessionTrials, estimate_session
     from twopose.solve import (
         NViewLines,
@@ -78,15 +87,20 @@ if TYPE_CHECKING:
     from twopose.units import DEFAULT_UNITS, UNIT_SPECS, UNITS, Units, UnitSpec, unit_spec
 
 __all__ = [
+    "CONSTRAINT_PLANES",
     "DEFAULT_UNITS",
     "FORMAT_VERSION",
+    "GROUND_PLANE",
     "MEASURING_METHODS",
     "METHODS",
     "METHOD_SPECS",
+    "TARGETS",
+    "TARGET_SPECS",
     "UNITS",
     "UNIT_SPECS",
     "Advice",
     "Camera",
+    "ConstraintPlane",
     "Detection",
     "DotParams",
     "EstimateOptions",
@@ -100,6 +114,7 @@ __all__ = [
     "MethodSpec",
     "NViewLines",
     "NViewPoints",
+    "PlaneEntry",
     "Propagated",
     "SceneError",
     "SessionEstimate",
@@ -110,7 +125,10 @@ __all__ = [
     "SessionTrials",
     "SessionVersionError",
     "SessionWriter",
+    "Solver",
     "SourceError",
+    "Target",
+    "TargetSpec",
     "TruePose",
     "TwoposeError",
     "UnitSpec",
@@ -121,8 +139,12 @@ __all__ = [
     "estimate_session",
     "find_sessions",
     "label_of",
+    "load_extensions",
     "project_points",
     "propagate",
+    "register_method",
+    "register_plane",
+    "register_target",
     "solve_batch",
     "spec_of",
     "suggest",
@@ -145,6 +167,18 @@ _HOMES = {
     "Method": "twopose.methods",
     "MethodSpec": "twopose.methods",
     "label_of": "twopose.methods",
+    "Solver": "twopose.methods",
+    "register_method": "twopose.methods",
+    "TARGET_SPECS": "twopose.choices",
+    "TARGETS": "twopose.choices",
+    "Target": "twopose.choices",
+    "TargetSpec": "twopose.choices",
+    "register_target": "twopose.choices",
+    "CONSTRAINT_PLANES": "twopose.planes",
+    "GROUND_PLANE": "twopose.planes",
+    "ConstraintPlane": "twopose.planes",
+    "register_plane": "twopose.planes",
+    "load_extensions": "twopose.registry",
     "spec_of": "twopose.methods",
     "DEFAULT_UNITS": "twopose.units",
     "UNIT_SPECS": "twopose.units",
@@ -160,6 +194,7 @@ _HOMES = {
     "SourceError": "twopose.errors",
     "TwoposeError": "twopose.errors",
     "FORMAT_VERSION": "twopose.format",
+    "PlaneEntry": "twopose.format",
     "GroundPlane": "twopose.format",
     "GroundTruth": "twopose.format",
     "SessionInfo": "twopose.format",

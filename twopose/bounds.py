@@ -33,7 +33,11 @@ from twopose.values import WHOLE_GRAMMAR, WHOLE_WORDS, Given, Unread, given_text
 __all__ = [
     "BOARD_CORNER",
     "BOARD_SQUARE",
+    "CAMERAS",
+    "CLOCK_OFFSET",
     "DEFAULT_MIN_GAIN",
+    "DRIFT",
+    "DROP",
     "FOCAL",
     "FPS",
     "FRAMES",
@@ -42,10 +46,12 @@ __all__ = [
     "GROUND_TRUTH",
     "IMAGE_SIDE",
     "INNER_CORNERS",
+    "JITTER",
     "JOBS",
     "MARGIN_ANGLE",
     "MAX_POSES",
     "MIN_GAIN",
+    "PLANE_OFFSET",
     "PORT",
     "POSES",
     "POSE_NOISE",
@@ -57,6 +63,7 @@ __all__ = [
     "SAMPLES",
     "SEED",
     "SESSION_TIMEOUT",
+    "SPEED",
     "TARGET_DISTANCE",
     "TARGET_PRECISION",
     "TRIALS",
@@ -79,6 +86,9 @@ class Kind(StrEnum):
     SHARE = "share"
     SECONDS = "s"
     RATE = "fps"
+    SPEED = "speed"  # a length per second, in the session's units
+    MILLISECONDS = "ms"
+    PPM = "ppm"
 
 
 def shown(value: float) -> str:
@@ -137,7 +147,7 @@ class Quantity:
 
     def limits(self, units: Units) -> tuple[float, float]:
         """``(low, high)`` in ``units`` (the same for every unit but a length's)."""
-        if self.kind is not Kind.LENGTH:
+        if self.kind not in (Kind.LENGTH, Kind.SPEED):
             return self.low, self.high
         factor = unit_factor(Units.IN, units)
         return _nice(self.low * factor), _nice(self.high * factor)
@@ -146,21 +156,25 @@ class Quantity:
         """The unit its values are in: the session's for a length, deg, px, or none."""
         if self.kind is Kind.LENGTH:
             return str(units)
-        return {Kind.ANGLE: "deg", Kind.PIXELS: "px", Kind.SECONDS: "s", Kind.RATE: "fps"}.get(
-            self.kind, ""
-        )
+        if self.kind is Kind.SPEED:
+            return f"{units}/s"
+        return {
+            Kind.ANGLE: "deg", Kind.PIXELS: "px", Kind.SECONDS: "s", Kind.RATE: "fps",
+            Kind.MILLISECONDS: "ms", Kind.PPM: "ppm",
+        }.get(self.kind, "")  # fmt: skip
 
     def range_text(self, units: Units | None) -> str:
         """The range in words ("from -180 to 180 deg").
 
         A length's is given in every unit when the session's units are not known yet.
         """
-        if units is None and self.kind is Kind.LENGTH:
+        if units is None and self.kind in (Kind.LENGTH, Kind.SPEED):
             others = []
             for u in UNITS[1:]:
                 lo, hi = self.limits(u)
                 bare = self.low_open and lo == 0
-                others.append(f"{hi:g} {u}" if bare else f"{lo:g} to {hi:g} {u}")
+                label = self.unit_label(u)
+                others.append(f"{hi:g} {label}" if bare else f"{lo:g} to {hi:g} {label}")
             return f"{self.range_text(Units.IN)} ({', '.join(others)})"
         lo, hi = self.limits(units or Units.IN)
         unit = self.unit_label(units or Units.IN)
@@ -307,7 +321,16 @@ BOARD_CORNER = Quantity(
 )  # fmt: skip
 GROUND_HEIGHT = Quantity(
     key="ground_height", words="ground height", kind=Kind.LENGTH, low=0.0, high=200.0,
-    low_open=True, given_as="`--ground-height`, the setup, plan `ground_height`",
+    low_open=True,
+    given_as="`--ground-height` (or `--plane-offset`), the setup, plan `ground_height`",
+)  # fmt: skip
+#: The offset of a method's plane, whatever the plane (`--plane-offset`, plan `plane_offset`):
+#: read as a length within this span, then within the method's plane's own bound (the
+#: ground's :data:`GROUND_HEIGHT`; :attr:`twopose.planes.ConstraintPlane.bound`).
+PLANE_OFFSET = Quantity(
+    key="plane_offset", words="plane offset", kind=Kind.LENGTH, low=-200.0, high=200.0,
+    given_as="`--plane-offset` (`new`), plan `plane_offset`; then the plane's own "
+    "bound (the ground's: ground height)",
 )  # fmt: skip
 BOARD_SQUARE = Quantity(
     key="board_square", words="board square", kind=Kind.LENGTH, low=0.0, high=20.0,
@@ -411,6 +434,31 @@ SESSION_TIMEOUT = Quantity(
     key="session_timeout", words="session timeout", kind=Kind.SECONDS, low=0.0, high=86400.0,
     given_as="`run --session-timeout` (0: no limit)",
 )  # fmt: skip
+CAMERAS = Quantity(
+    key="cameras", words="cameras", kind=Kind.COUNT, low=1, high=2,
+    given_as="`simulate --cameras` (2: a pair, a moving target)",
+)  # fmt: skip
+SPEED = Quantity(
+    key="speed", words="speed", kind=Kind.SPEED, low=0.0, high=100.0, low_open=True,
+    given_as="`simulate --speed` (with `--cameras 2`): the moving target's",
+)  # fmt: skip
+CLOCK_OFFSET = Quantity(
+    key="clock_offset", words="clock offset", kind=Kind.MILLISECONDS, low=-1000.0,
+    high=1000.0, given_as="`simulate --clock-offset-ms` (with `--cameras 2`): camera 2's "
+    "clock minus camera 1's",
+)  # fmt: skip
+DRIFT = Quantity(
+    key="drift", words="drift", kind=Kind.PPM, low=-1000.0, high=1000.0,
+    given_as="`simulate --drift-ppm` (with `--cameras 2`): camera 2's frame interval's",
+)  # fmt: skip
+JITTER = Quantity(
+    key="jitter", words="jitter", kind=Kind.MILLISECONDS, low=0.0, high=10.0,
+    given_as="`simulate --jitter-ms` (with `--cameras 2`): each capture stamp's 1-sigma",
+)  # fmt: skip
+DROP = Quantity(
+    key="drop", words="dropped share", kind=Kind.SHARE, low=0.0, high=0.5,
+    given_as="`simulate --drop` (with `--cameras 2`): the share of each camera's frames lost",
+)  # fmt: skip
 SAMPLES = Quantity(
     key="samples", words="samples", kind=Kind.COUNT, low=100, high=10_000_000,
     given_as="`sensitivity --samples`",
@@ -418,10 +466,11 @@ SAMPLES = Quantity(
 
 #: Every quantity, in the order of the docs' table.
 QUANTITIES: tuple[Quantity, ...] = (
-    POSE_TRANSLATION, ROTATION, GROUND_TRUTH, BOARD_CORNER, GROUND_HEIGHT, BOARD_SQUARE,
-    FOCAL, PRINCIPAL, IMAGE_SIDE, GRID, REACH, TARGET_PRECISION, TARGET_DISTANCE, MIN_GAIN,
-    MAX_POSES, POSES, FRAMES, INNER_CORNERS, FPS, PORT, TRIALS, SEED, POSE_NOISE,
-    TYPED_RESOLUTION, VIEWS, JOBS, MARGIN_ANGLE, SESSION_TIMEOUT, SAMPLES,
+    POSE_TRANSLATION, ROTATION, GROUND_TRUTH, BOARD_CORNER, GROUND_HEIGHT, PLANE_OFFSET,
+    BOARD_SQUARE, FOCAL, PRINCIPAL, IMAGE_SIDE, GRID, REACH, TARGET_PRECISION, TARGET_DISTANCE,
+    MIN_GAIN, MAX_POSES, POSES, FRAMES, INNER_CORNERS, FPS, PORT, TRIALS, SEED, POSE_NOISE,
+    TYPED_RESOLUTION, VIEWS, JOBS, MARGIN_ANGLE, SESSION_TIMEOUT, SAMPLES, CAMERAS,
+    SPEED, CLOCK_OFFSET, DRIFT, JITTER, DROP,
 )  # fmt: skip
 
 

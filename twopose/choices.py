@@ -1,70 +1,134 @@
-"""The closed sets of names a user picks from, declared once.
+"""The sets of names a user picks from, declared once, and the targets' registry.
 
 For the library and both command lines.
 
-Each is a :data:`~typing.Literal`: the library's option records are typed with it, and
-typer turns it into the command lines' choices (``--combine <mean|median|robust>``), so a
-new choice is added here and nowhere else. This module imports nothing heavy, so that the
-command lines can read it at start-up.
+A closed set is a :data:`~typing.Literal`: the library's option records are typed with it,
+and typer turns it into the command lines' choices (``--combine <mean|median|robust>``),
+so a new choice is added here and nowhere else. The targets a detector finds are open: a
+:class:`TargetSpec` holds its detector (a callable) and its thresholds' type, and an
+extension adds one with :func:`register_target`. This module imports nothing heavy, so that
+the command lines can read it at start-up: twopose's own detectors are loaded on first use
+(:mod:`twopose.detectors`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from types import MappingProxyType
-from typing import Literal
+from typing import TYPE_CHECKING, Any, ClassVar, Generic, Literal, TypeVar
 
-__all__ = ["TARGETS", "TARGET_SPECS", "CombineRule", "Target", "TargetSpec"]
+from twopose.registry import Listing, Name, Registry
+from twopose.thresholds import DotParams, GloveParams
+
+if TYPE_CHECKING:
+    from twopose.detectors import Detection, Image
+
+__all__ = [
+    "TARGETS",
+    "TARGET_SPECS",
+    "CombineRule",
+    "Target",
+    "TargetSpec",
+    "register_target",
+]
 
 #: How a pose's frames are combined into one measurement (:func:`twopose.frames.combine_frames`;
 #: the thesis averages, section 5.3).
 CombineRule = Literal["mean", "median", "robust"]
-#: What the detector looks for in a frame: the gloved finger (method 2, the line) or the dot.
-Target = Literal["glove", "dot"]
+
+#: A detector's thresholds' type (:class:`twopose.thresholds.GloveParams`, ...).
+P = TypeVar("P")
+
+
+class Target(Name):
+    """What the detector looks for in a frame: the glove, the dot, or a registered target.
+
+    A name of :data:`TARGET_SPECS` (the glove is method 2's and the line's, the dot method
+    1's); ``target.spec`` is its entry.
+    """
+
+    __slots__ = ()
+    GLOVE: ClassVar[Target]
+    DOT: ClassVar[Target]
+
+    @property
+    def spec(self) -> TargetSpec[Any]:
+        """Its entry in the registry."""
+        return TARGET_SPECS[self]
 
 
 @dataclass(frozen=True, kw_only=True)
-class TargetSpec:
+class TargetSpec(Generic[P]):
     """What one target is, for every stage that depends on it.
 
-    Its detector is named, not held, so that this module imports no OpenCV.
+    Its detector and its thresholds' type: the type checker checks that the detector takes
+    them.
     """
 
     #: The target this entry describes (its key in :data:`TARGET_SPECS`).
     target: Target
-    #: The function of :mod:`twopose.detect` that finds it (:func:`twopose.detect.detect`
-    #: calls it) and the class of that function's thresholds there.
-    detector: str
-    #: The class of its detector's thresholds in :mod:`twopose.detect`.
-    params: str
-    #: The field of the analysis' options (``analysis.results.AnalysisOptions``) holding
-    #: its detector's thresholds.
-    options_field: str
+    #: Finds it in one frame: ``(image (H, W, 3) BGR uint8, thresholds) -> Detection``
+    #: (:func:`twopose.detect.detect` calls it; no I/O).
+    detector: Callable[[Image, P], Detection]
+    #: Its detector's thresholds' type; built with no arguments, the defaults (the thesis').
+    params: type[P]
     #: Whether a view's measurement is an image line (the finger's axis through its tip),
     #: not a point (the dot's centroid).
     image_line: bool
 
+    def thresholds(self, given: Iterable[object] = ()) -> P:
+        """Its detector's thresholds: the first of ``given`` of its type, else the defaults.
 
-#: The target registry: each target's :class:`TargetSpec`. Every rule that depends on the
-#: target reads it here.
-TARGET_SPECS: Mapping[Target, TargetSpec] = MappingProxyType(
-    {
-        "glove": TargetSpec(
-            target="glove",
-            detector="detect_glove",
-            params="GloveParams",
-            options_field="glove",
-            image_line=True,
-        ),
-        "dot": TargetSpec(
-            target="dot",
-            detector="detect_dot",
-            params="DotParams",
-            options_field="dot",
-            image_line=False,
-        ),
-    }
+        A run's options give one record per target (``AnalysisOptions.thresholds``).
+        """
+        for one in given:
+            if isinstance(one, self.params):
+                return one
+        return self.params()
+
+    def detect(self, image_bgr: Image, params: P | None = None) -> Detection:
+        """Its detection in one frame, with ``params`` (default: the defaults)."""
+        return self.detector(image_bgr, self.params() if params is None else params)
+
+
+def _glove(image_bgr: Image, params: GloveParams) -> Detection:
+    """The thesis' glove filter (:func:`twopose.detectors.detect_glove`)."""
+    from twopose.detectors import detect_glove  # on use: the registry loads no OpenCV
+
+    return detect_glove(image_bgr, params)
+
+
+def _dot(image_bgr: Image, params: DotParams) -> Detection:
+    """The dark dot's black-hat (:func:`twopose.detectors.detect_dot`)."""
+    from twopose.detectors import detect_dot  # on use: the registry loads no OpenCV
+
+    return detect_dot(image_bgr, params)
+
+
+Target.GLOVE, Target.DOT = Target.declare("glove"), Target.declare("dot")
+_GLOVE: TargetSpec[GloveParams] = TargetSpec(
+    target=Target.GLOVE, detector=_glove, params=GloveParams, image_line=True
 )
-#: The targets' names, in :data:`Target`'s order.
-TARGETS: tuple[Target, ...] = tuple(TARGET_SPECS)
+_DOT: TargetSpec[DotParams] = TargetSpec(
+    target=Target.DOT, detector=_dot, params=DotParams, image_line=False
+)
+
+#: The target registry: each target's :class:`TargetSpec`, the glove first. Every rule that
+#: depends on the target reads it here; :func:`register_target` adds one.
+TARGET_SPECS: Registry[Target, TargetSpec[Any]] = Registry(
+    "target", lambda spec: spec.target, (_GLOVE, _DOT)
+)
+Target.registry = TARGET_SPECS
+#: The targets' names, in registration order.
+TARGETS: Listing[Target] = Listing(lambda: tuple(TARGET_SPECS), TARGET_SPECS)
+
+
+def register_target(spec: TargetSpec[P]) -> TargetSpec[P]:
+    """Add a target to the registry (its name from :meth:`Target.declare`), and return it.
+
+    A method whose :attr:`~twopose.methods.MethodSpec.target` it is then detects it in every
+    frame, live and in the analysis; a run's options may give its thresholds
+    (``AnalysisOptions(thresholds=(...,))``). A name already registered is refused
+    (:class:`ValueError`).
+    """
+    return TARGET_SPECS.register(spec)

@@ -10,14 +10,12 @@ typed poses and, where the camera's calibration recorded its 1-sigma, the intrin
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
 from twopose.arrays import F64
 from twopose.camera import Intrinsics, rotation_from_angles_deg
-from twopose.conditioning import parallax_sine
 from twopose.errors import InputValueError
 from twopose.format.entries import PoseEntry
 from twopose.frames import PoseMeasurement, combine_frames
@@ -27,15 +25,17 @@ from twopose.margins import (  # the options' one home, light for the CLI
     DEFAULT_MIN_PLANE_ANGLE_DEG,
     EstimateOptions,
 )
-from twopose.methods import Method, Solver, spec_of
-from twopose.misclosure import PLANES, RAYS, MisclosureModel
-from twopose.solve import (
-    NViewLines,
-    image_lines,
-    projection_matrices,
-    triangulate_ground,
-    triangulate_lines,
-    triangulate_points,
+from twopose.methods import Method
+from twopose.planes import GROUND_PLANE, ConstraintPlane
+from twopose.solve import image_lines, projection_matrices, triangulate_lines
+from twopose.solvers import (  # the batch and the solvers' entries (their one home)
+    GroundSpec,
+    PoseView,
+    Solved,
+    SolverEntry,
+    ViewBatch,
+    degrees_from_sine,
+    nearest_on_line,
 )
 from twopose.uncertainty import (
     INPUTS_PER_VIEW,
@@ -52,36 +52,18 @@ __all__ = [
     "EstimateOptions",
     "GroundSpec",
     "PoseView",
+    "Solved",
     "ViewBatch",
+    "degrees_from_sine",
     "measure",
+    "misclosure_residuals",
+    "nearest_on_line",
     "pose_view",
     "scatter_of",
     "scatters_of",
     "solve_batch",
+    "thesis_estimate",
 ]
-
-
-#: The ground plane as ``(normal_grid (3,), offset)``.
-GroundSpec = tuple[F64, float]
-
-
-@dataclass(frozen=True, kw_only=True)
-class PoseView:
-    """One complete pose of a trial: its camera, typed pose and per-frame detections."""
-
-    pose: int
-    intrinsics: F64  # (4,) fx, fy, cx, cy
-    width_height: tuple[int, int]
-    t_grid: F64  # (3,) typed camera centre
-    r_deg: F64  # (3,) typed angles, R_cam_to_grid = Rx Ry Rz
-    t_sigma: float  # 1-sigma of each typed translation component (session units)
-    r_sigma_deg: float  # 1-sigma of each typed angle
-    centroids: F64  # (K, 2)
-    thetas: F64  # (K,)
-    found: NDArray[np.bool_]  # (K,)
-    camera_id: str = ""  # views of one camera share its intrinsics' error
-    # (4,) the calibration's 1-sigma of fx, fy, cx, cy (0: taken as exact)
-    intrinsics_sigma: F64 = field(default_factory=lambda: np.zeros(len(SHARED_INPUTS)))
 
 
 def pose_view(
@@ -144,184 +126,26 @@ def measure(
     return measurements, complete, detected
 
 
-@dataclass(frozen=True, kw_only=True)
-class ViewBatch:
-    """Rows of N >= 2 pose measurements as arrays, padded to the longest row."""
-
-    inputs: F64  # (T, N, 9) in the uncertainty.INPUTS_PER_VIEW layout
-    intrinsics: F64  # (T, N, 4); padding views get (1, 1, 0, 0): P = [I | 0]
-    valid: NDArray[np.bool_]  # (T, N)
-
-    @classmethod
-    def of(
-        cls, measurements: list[list[PoseMeasurement]], views: list[list[PoseView]]
-    ) -> ViewBatch:
-        """The padded batch of a session's trials, from their measurements and views."""
-        T = len(measurements)
-        N = max(len(row) for row in measurements)
-        x = np.zeros((T, N, len(INPUTS_PER_VIEW)))
-        x[..., :3] = np.nan
-        intr = np.tile([1.0, 1.0, 0.0, 0.0], (T, N, 1))
-        valid = np.zeros((T, N), dtype=bool)
-        for i, (row, row_views) in enumerate(zip(measurements, views, strict=True)):
-            for j, (m, v) in enumerate(zip(row, row_views, strict=True)):
-                x[i, j] = [*m.centroid_px, m.theta_deg, *v.t_grid, *v.r_deg]
-                intr[i, j], valid[i, j] = v.intrinsics, True
-        return cls(inputs=x, intrinsics=intr, valid=valid)
-
-    def rows(self, which: NDArray[np.bool_] | NDArray[np.int_]) -> ViewBatch:
-        """The batch of some of its trials (a boolean mask or indices over T)."""
-        return ViewBatch(
-            inputs=self.inputs[which], intrinsics=self.intrinsics[which], valid=self.valid[which]
-        )
-
-    def P(self, inputs: F64 | None = None) -> F64:
-        """Projection matrices (T, N, 3, 4) of these (or perturbed) inputs."""
-        x = self.inputs if inputs is None else inputs
-        R = rotation_from_angles_deg(x[..., 6:9])
-        return projection_matrices(self.intrinsics, R, x[..., 3:6])
-
-
-@dataclass(frozen=True, kw_only=True)
-class Solved:
-    """Every estimator's answer for a batch of trials."""
-
-    point: F64  # (T, 3)
-    direction: F64 | None  # (T, 3), lines only
-    optimal: F64 | None  # (T, 3), points only: the reprojection-optimal estimate
-    conditioning: F64
-    status: NDArray[np.str_]
-    reason: NDArray[np.str_]
-    margins: dict[str, F64] = field(default_factory=dict)  # degrees, by column name
-
-
 def solve_batch(
     method: Method, batch: ViewBatch, ground: GroundSpec | None, options: EstimateOptions
 ) -> Solved:
-    """Batch-solve rows of N >= 2 pose measurements with every estimator."""
+    """Batch-solve rows of N >= 2 pose measurements with every estimator.
+
+    ``ground``: the method's plane as ``(normal, offset)``, for a method on one.
+    """
     return _solver_of(method).solve(batch, ground, options.min_conditioning)
 
 
-def _solver_of(method: Method) -> _SolverEntry:
-    """What solves ``method``'s measurements: its spec's :attr:`~MethodSpec.solver`."""
-    solver = spec_of(method).solver
-    entry = _SOLVERS.get(solver) if solver is not None else None
-    if entry is None:
+def _solver_of(method: Method) -> SolverEntry:
+    """What solves ``method``'s measurements: its spec's solver's entry.
+
+    The one entry the estimation, the propagation, the misclosure and ``solve`` read
+    (:attr:`twopose.methods.MethodSpec.solver`).
+    """
+    solver = method.spec.solver
+    if solver is None:
         raise InputValueError(f"{method} sessions reconstruct nothing (the rig's calibration)")
-    return entry
-
-
-def _solve_points(batch: ViewBatch, _ground: GroundSpec | None, mc: float) -> Solved:
-    """Method 1: the thesis' two-ray least squares and the reprojection-optimal point."""
-    px, valid, P = batch.inputs[..., :2], batch.valid, batch.P()
-    s = triangulate_points(px, P, valid=valid, min_conditioning=mc)
-    o = triangulate_points(px, P, valid=valid, estimator="optimal", min_conditioning=mc)
-    margins = {"parallax_deg": degrees_from_sine(s.conditioning)}
-    return Solved(
-        point=s.point_grid,
-        direction=None,
-        optimal=o.point_grid,
-        conditioning=s.conditioning,
-        status=s.status,
-        reason=s.reason,
-        margins=margins,
-    )
-
-
-def _view_planes(batch: ViewBatch, mc: float) -> tuple[F64, F64, NViewLines, dict[str, F64]]:
-    """The image lines, cameras and the planes' line (and its margins) of line and ground."""
-    px, th, valid, P = batch.inputs[..., :2], batch.inputs[..., 2], batch.valid, batch.P()
-    lines = image_lines(px, th)
-    ls = triangulate_lines(lines, P, valid=valid, min_conditioning=mc)
-    margins = {
-        "parallax_deg": degrees_from_sine(parallax_sine(P, valid, ls.point_grid)),
-        "plane_angle_deg": degrees_from_sine(ls.conditioning),
-    }
-    return lines, P, ls, margins
-
-
-def _solve_lines(batch: ViewBatch, _ground: GroundSpec | None, mc: float) -> Solved:
-    """The fixed line: the views' planes' intersection."""
-    _, _, ls, margins = _view_planes(batch, mc)
-    return Solved(
-        point=ls.point_grid,
-        direction=ls.direction_grid,
-        optimal=None,
-        conditioning=ls.conditioning,
-        status=ls.status,
-        reason=ls.reason,
-        margins=margins,
-    )
-
-
-def _solve_ground(batch: ViewBatch, ground: GroundSpec | None, mc: float) -> Solved:
-    """Method 2: the views' planes and the ground plane y = h."""
-    assert ground is not None
-    lines, P, ls, margins = _view_planes(batch, mc)
-    g = triangulate_ground(lines, P, ground[0], ground[1], valid=batch.valid, min_conditioning=mc)
-    margins["parallax_deg"] = degrees_from_sine(parallax_sine(P, batch.valid, g.point_grid))
-    n3 = ground[0] / np.linalg.norm(ground[0])
-    margins["line_ground_angle_deg"] = degrees_from_sine(np.abs(ls.direction_grid @ n3))
-    return Solved(
-        point=g.point_grid,
-        direction=None,
-        optimal=None,
-        conditioning=g.conditioning,
-        status=g.status,
-        reason=g.reason,
-        margins=margins,
-    )
-
-
-def _thesis_point(
-    x: F64, P: F64, valid: NDArray[np.bool_], _ground: GroundSpec | None, mc: float, _ref: F64
-) -> F64:
-    """Method 1's thesis estimate of perturbed inputs: the dot's rays."""
-    return triangulate_points(x[..., :2], P, valid=valid, min_conditioning=mc).point_grid
-
-
-def _thesis_line(
-    x: F64, P: F64, valid: NDArray[np.bool_], _ground: GroundSpec | None, mc: float, ref: F64
-) -> F64:
-    """The fixed line's thesis estimate of perturbed inputs: its point nearest ``ref``."""
-    lines = image_lines(x[..., :2], x[..., 2])
-    ls = triangulate_lines(lines, P, valid=valid, min_conditioning=mc)
-    return nearest_on_line(ls.point_grid, ls.direction_grid, ref)
-
-
-def _thesis_ground(
-    x: F64, P: F64, valid: NDArray[np.bool_], ground: GroundSpec | None, mc: float, _ref: F64
-) -> F64:
-    """Method 2's thesis estimate of perturbed inputs: the planes and the ground."""
-    assert ground is not None
-    lines = image_lines(x[..., :2], x[..., 2])
-    return triangulate_ground(
-        lines, P, ground[0], ground[1], valid=valid, min_conditioning=mc
-    ).point_grid
-
-
-@dataclass(frozen=True, kw_only=True)
-class _SolverEntry:
-    """What one solver does (a method's spec names it: :data:`twopose.methods.Solver`)."""
-
-    #: Every estimator's answer for a batch: (batch, ground, min_conditioning).
-    solve: Callable[[ViewBatch, GroundSpec | None, float], Solved]
-    #: The thesis' estimate of perturbed inputs, for propagation: (inputs, cameras, valid
-    #: views, ground, min_conditioning, reference point (a line reports its point nearest it)).
-    thesis: Callable[[F64, F64, NDArray[np.bool_], GroundSpec | None, float, F64], F64]
-    #: What its estimate predicts of each view, for the misclosure (:mod:`twopose.misclosure`):
-    #: method 2's misclosure is its planes' line's (the ground adds no redundancy).
-    misclosure: MisclosureModel
-
-
-#: The solvers, by the name a method's spec gives (:attr:`MethodSpec.solver`).
-_SOLVERS: Mapping[Solver, _SolverEntry] = {
-    "rays": _SolverEntry(solve=_solve_points, thesis=_thesis_point, misclosure=RAYS),
-    "planes": _SolverEntry(solve=_solve_lines, thesis=_thesis_line, misclosure=PLANES),
-    "planes and ground": _SolverEntry(
-        solve=_solve_ground, thesis=_thesis_ground, misclosure=PLANES
-    ),
-}
+    return solver.load()
 
 
 def _perturbed_views(batch: ViewBatch, x: F64) -> tuple[int, NDArray[np.bool_], F64]:
@@ -364,7 +188,8 @@ def thesis_estimate(
 def misclosure_residuals(method: Method, batch: ViewBatch) -> tuple[Callable[[F64], F64], int]:
     """Each view's residuals as a function of the (perturbed) inputs, and the parameters.
 
-    The residuals (R T, N, 2) of the method's solver's :class:`MisclosureModel`, for
+    The residuals (R T, N, 2) of the method's solver's
+    :class:`~twopose.misclosure.MisclosureModel`, for
     :func:`twopose.misclosure.misclosures`; the estimate's parameter count beside them.
     """
     model = _solver_of(method).misclosure
@@ -396,26 +221,21 @@ def thesis_direction(
     return direction
 
 
-def nearest_on_line(point: F64, direction: F64, reference: F64) -> F64:
-    """(T, 3) the point of each line nearest its reference point."""
-    s = np.einsum("ti,ti->t", reference - point, direction)
-    return np.asarray(point + s[:, None] * direction)
-
-
-def degrees_from_sine(sine: F64) -> F64:
-    """An angle in degrees from its sine (NaN stays NaN)."""
-    with np.errstate(invalid="ignore"):
-        return np.asarray(np.degrees(np.arcsin(np.clip(sine, 0.0, 1.0))))
-
-
 def margin_warnings(
-    status: NDArray[np.str_], margins: dict[str, F64], options: EstimateOptions
+    status: NDArray[np.str_],
+    margins: dict[str, F64],
+    options: EstimateOptions,
+    plane: ConstraintPlane = GROUND_PLANE,
 ) -> list[str]:
-    """Per trial, the margins under their thresholds (empty when none, or not ok)."""
+    """Per trial, the margins under their thresholds (empty when none, or not ok).
+
+    The planes' line's angle to ``plane``, the method's, is named by it ("line-ground
+    angle").
+    """
     limits = {
         "parallax_deg": ("ray parallax", options.min_parallax_deg),
         "plane_angle_deg": ("plane angle", options.min_plane_angle_deg),
-        "line_ground_angle_deg": ("line-ground angle", options.min_ground_angle_deg),
+        "line_plane_angle_deg": (f"line-{plane.noun} angle", options.min_ground_angle_deg),
     }
     out = []
     for i in range(len(status)):

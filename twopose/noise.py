@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    from twopose.rig.covariance import RigCovariance
     from twopose.units import Units
 
 __all__ = [
@@ -63,6 +64,9 @@ MIN_PLACING_DOF = 3
 TYPED_PRIOR_DOF = 2.0
 #: The regions' level.
 _REGION_LEVEL = 0.95
+#: Beyond this many degrees of freedom a placing sigma's own uncertainty is not said as a
+#: count (a hand-edited sigma_sigma can state millions): it is negligible.
+_SAID_DOF = 1000
 
 
 def _inches_per(units: Units) -> float:
@@ -77,13 +81,16 @@ class PlacingSigma:
 
     In inches (converted per session); ``sigma_sigma_in`` is the estimate's own 1-sigma
     (NaN: not measured, taken as exact); ``measured_by`` names the board session(s) that
-    measured it, over ``captures`` captures.
+    measured it, over ``captures`` captures. ``upper_bound``: the captures showed no placing
+    error their corners resolve (the fit's floor), and ``sigma_in`` is only the most it can
+    be (no 1-sigma; taken as exact; never said "measured").
     """
 
     sigma_in: float
     sigma_sigma_in: float = math.nan
     measured_by: str = ""
     captures: int = 0
+    upper_bound: bool = False
 
     def __post_init__(self) -> None:
         """Refuse a placing sigma that is not a positive finite length."""
@@ -93,6 +100,11 @@ class PlacingSigma:
             raise InputValueError(
                 f"the placing sigma must be a positive length, got {self.sigma_in!r}; "
                 "measure it again with `twopose-analyze rig` on a board session"
+            )
+        if self.upper_bound and math.isfinite(self.sigma_sigma_in):
+            raise InputValueError(
+                "an upper bound of the placing sigma has no 1-sigma (sigma_sigma): it bounds "
+                "an error the captures did not resolve"
             )
         if math.isfinite(self.sigma_sigma_in) and self.dof < MIN_PLACING_DOF:
             raise InputValueError(
@@ -124,13 +136,23 @@ class PlacingSigma:
         """Which placing sigma a run used and where it came from, in words."""
         inches = _inches_per(units)
         value = f"{self.sigma_in / inches:.3g}"
+        if self.upper_bound:
+            captures = f"{self.captures} " if self.captures else ""
+            who = self.measured_by or "the board session"
+            return (
+                f"placing sigma at most {value} {units}, an upper bound, not a measurement "
+                f"({who}: its {captures}captures show no placing error their corners "
+                f"resolve); regions assume {value} {units}"
+            )
         if math.isfinite(self.sigma_sigma_in):
             value += f" ± {self.sigma_sigma_in / inches:.2g}"
         where = f"measured by {self.measured_by}" if self.measured_by else "given"
         if self.captures:
             where += f" ({self.captures} captures)"
         said = f"placing sigma {value} {units}, {where}"
-        if math.isfinite(self.dof):
+        if math.isfinite(self.dof) and self.dof > _SAID_DOF:  # never "11057153" of them
+            said += f"; over {_SAID_DOF} degrees of freedom: its own uncertainty negligible"
+        elif math.isfinite(self.dof):
             said += f"; {self.dof:.0f} degrees of freedom, which the sessions' own add to"
         return said
 
@@ -371,6 +393,10 @@ class NoiseModel:
     test_redundancy: bool = True
     factor: VarianceFactor | None = field(default=None)
     prior: PlacingPrior | None = None
+    #: The rig's constants' covariance (``--rig``): carried into every region, ``J C J^T``
+    #: (:mod:`twopose.rig.carried`), beside the views' own noise and never widened by its
+    #: test; None: no rig, or its constants taken as exact.
+    rig: RigCovariance | None = None
 
     def anchor(self) -> PlacingPrior:
         """The prior the regions' placing sigma itself is.
@@ -382,4 +408,6 @@ class NoiseModel:
         if placing is None:
             return PlacingPrior(scale=1.0, dof=TYPED_PRIOR_DOF, source="the typed resolution")
         where = placing.measured_by or "the given placing sigma"
+        if placing.upper_bound:  # the most it can be, taken as exact (twopose.rig.placing)
+            where = f"an upper bound from {where}"
         return PlacingPrior(scale=1.0, dof=placing.dof, source=where)

@@ -10,15 +10,17 @@ typed as (:class:`twopose.values.Given`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import typer
 
 from twopose import bounds
 from twopose.errors import InputValueError
+from twopose.registry import Name, Registry, load_extensions
 from twopose.units import Units
 
-__all__ = ["read_option"]
+__all__ = ["read_option", "registered"]
 
 
 def read_option(quantity: str) -> dict[str, Any]:
@@ -59,3 +61,32 @@ def read_option(quantity: str) -> dict[str, Any]:
     else:
         span = f"{lo:g}-{hi:g}{f' {unit}' if unit else ''}"
     return {"parser": parse, "callback": in_units, "metavar": f"<{span}>"}
+
+
+def registered(
+    registry: Registry[Any, Any],
+    keep: Callable[[Any], bool] = lambda _entry: True,
+    *,
+    argument: bool = False,
+) -> dict[str, Any]:
+    """An option's (or, ``argument``, an argument's) parser and metavar: a registry's names.
+
+    For ``typer.Option(**registered(METHOD_SPECS))``: the text given is the registered
+    name it equals, read from the registry when the line is parsed (so an extension's
+    entry is a choice too), else refused listing the names whose entry ``keep`` keeps (the
+    metavar's; a name it leaves out is passed on, for the command to say why not).
+    """
+    load_extensions()  # an installed extension's entries are choices too
+
+    def names() -> list[str]:
+        return [n for n in registry.names if keep(registry[n])]
+
+    def parse(value: Any) -> Any:
+        if not isinstance(value, str) or isinstance(value, Name):  # a default, or read
+            return value
+        if value not in registry.names:  # one ``keep`` leaves out: the command says why
+            raise typer.BadParameter(f"{value!r} is not one of {', '.join(names())}")
+        return registry.key_of(value)
+
+    listed = "|".join(names())
+    return {"parser": parse, "metavar": listed if argument else f"<{listed}>"}

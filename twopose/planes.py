@@ -10,11 +10,22 @@ says which plane, and every layer reads it from the method's spec
 
 - the setup asks its offset under :attr:`ConstraintPlane.setup_key` (the terminal's
   question, the page's field, a plan's key), with its words and its bound;
-- the session stores it as a :class:`twopose.format.entries.GroundPlane` (normal, offset);
+- the session stores it as a :class:`twopose.format.entries.PlaneEntry` (normal, offset);
 - the solver cuts the planes' line with it (:func:`twopose.solve.triangulate_ground`);
 - a typed ground-truth point is checked to lie on it (:meth:`ConstraintPlane.gap`);
 - the simulator places the finger's target on it (:meth:`ConstraintPlane.point`,
-  :meth:`ConstraintPlane.toward`).
+  :meth:`ConstraintPlane.toward`);
+- every drawing and table of the analysis reads a trial in its two in-plane axes
+  (:meth:`ConstraintPlane.in_plane`, :attr:`ConstraintPlane.axis_names`,
+  :attr:`ConstraintPlane.axis_titles`): the top view, the error's scatter, the running
+  averages and the terminal's bias lines look at the plane face on (the ground from above,
+  its x across and z in depth; a wall ``x = c`` from in front, its y across and z up). A
+  method on no plane is drawn on the ground's axes (:attr:`twopose.methods.MethodSpec.seen_on`).
+
+The planes are registered (:data:`CONSTRAINT_PLANES`, by their setup key): the ground, and
+each plane an extension registers (:func:`register_plane`, or with a method that names it,
+:func:`twopose.methods.register_method`); a plan's keys, the setup's fields and the
+terminal's questions are the registered planes'.
 """
 
 from __future__ import annotations
@@ -24,12 +35,21 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from twopose.bounds import GROUND_HEIGHT, Quantity
+from twopose.registry import Registry
 from twopose.values import Vec3
 
 if TYPE_CHECKING:
     from twopose.arrays import F64
 
-__all__ = ["GROUND_PLANE", "ConstraintPlane"]
+__all__ = ["CONSTRAINT_PLANES", "GRID_AXES", "GROUND_PLANE", "ConstraintPlane", "register_plane"]
+
+#: The grid frame's axes by name: an in-plane axis along one of them (positively) is read
+#: as that column of a table (``err_x``, ``t_z``, ``sigma_y``) and named by its letter.
+GRID_AXES: tuple[tuple[str, Vec3], ...] = (
+    ("x", (1.0, 0.0, 0.0)),
+    ("y", (0.0, 1.0, 0.0)),
+    ("z", (0.0, 0.0, 1.0)),
+)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -66,6 +86,18 @@ class ConstraintPlane:
     thesis_offset_in: float | None = None
     #: The offset's key in ``twopose-analyze solve``'s request (None: :attr:`setup_key`).
     request_key: str | None = None
+    #: How a drawing's axes name the two in-plane axes, in :attr:`in_plane_grid`'s order
+    #: (the ground's "x" across and "z, depth"); empty: their :attr:`axis_names`.
+    axis_titles: tuple[str, str] | tuple[()] = ()
+    #: What a drawing looking at the plane face on is called ("top view"); empty: "view
+    #: facing" and the plane's :attr:`name` ("view facing the wall").
+    view_name: str = ""
+    #: How a caption says where it is seen from ("from above"); empty: "facing" and the
+    #: plane's :attr:`name`.
+    seen_from: str = ""
+    #: How a caption says which way its axes run ("x across, z in depth"); empty: the
+    #: first of :attr:`axis_names` across, the second up.
+    axes_words: str = ""
 
     def __post_init__(self) -> None:
         """Check the axes: unit length and orthogonal (a typo in a new plane's entry)."""
@@ -79,6 +111,78 @@ class ConstraintPlane:
             raise ValueError(f"{self.name}: every axis must be a unit vector")
         if not all(math.isclose(dot(a, b), 0.0, abs_tol=1e-9) for a, b in ((n, u), (n, v), (u, v))):
             raise ValueError(f"{self.name}: the normal and in-plane axes must be orthogonal")
+
+    @property
+    def axis_names(self) -> tuple[str, str]:
+        """The in-plane axes' short names: a grid axis' letter, else ``u`` and ``v``.
+
+        The ground's are ``("x", "z")``, a wall ``x = c``'s ``("y", "z")``. A lettered
+        axis is read straight from a table's column of that letter (``err_x``); ``u`` and
+        ``v`` are computed (:func:`analysis.plane_axes.with_in_plane`).
+        """
+        named = {axis: name for name, axis in GRID_AXES}
+        u, v = self.in_plane_grid
+        return named.get(u, "u"), named.get(v, "v")
+
+    @property
+    def noun(self) -> str:
+        """The plane's :attr:`name` without its article ("ground", "wall").
+
+        The margin's warning says "line-ground angle".
+        """
+        return self.name.removeprefix("the ")
+
+    @property
+    def titles(self) -> tuple[str, str]:
+        """How a drawing's axes name the in-plane axes.
+
+        Its :attr:`axis_titles`, else its :attr:`axis_names`.
+        """
+        return self.axis_titles or self.axis_names
+
+    @property
+    def drawing_name(self) -> str:
+        """What a drawing looking at the plane face on is called (:attr:`view_name`)."""
+        return self.view_name or f"view facing {self.name}"
+
+    @property
+    def seen_words(self) -> str:
+        """Where such a drawing is seen from, in a caption's words (:attr:`seen_from`)."""
+        return self.seen_from or f"facing {self.name}"
+
+    @property
+    def axes_said(self) -> str:
+        """Which way a drawing's axes run, in a caption's words (:attr:`axes_words`)."""
+        a, b = self.axis_names
+        return self.axes_words or f"{a} across, {b} up"
+
+    def in_plane(self, points: F64) -> F64:
+        """``points`` (..., 3) of the grid frame as their in-plane coordinates (..., 2).
+
+        An axis that is a grid axis takes that coordinate as it is (its sign, a NaN of
+        another coordinate, unchanged): the ground's ``(x, z)`` are the points' x and z.
+        """
+        import numpy as np  # on use: importing the registry stays light
+
+        u, v = self.in_plane_grid
+        return np.stack([_along(points, u), _along(points, v)], axis=-1)
+
+    def along_normal(self, points: F64) -> F64:
+        """``points`` (..., 3) along the plane's normal: each point's ``normal . p``.
+
+        The ground's is the points' y, as it is (a grid axis' coordinate).
+        """
+        return _along(points, self.normal_grid)
+
+    def in_plane_cov(self, cov: F64) -> F64:
+        """Covariances (..., 3, 3) of the grid frame as their in-plane marginals (..., 2, 2).
+
+        ``A C A^T``, ``A`` the in-plane axes as rows.
+        """
+        import numpy as np  # on use: importing the registry stays light
+
+        A = np.asarray(self.in_plane_grid, dtype=np.float64)
+        return np.asarray(A @ np.asarray(cov, dtype=np.float64) @ A.T)
 
     def plane(self, offset: float) -> tuple[Vec3, float]:
         """``(normal_grid, offset)``: the plane as sessions store it and solvers take it."""
@@ -111,6 +215,21 @@ class ConstraintPlane:
         )
 
 
+def _along(points: F64, axis: Vec3) -> F64:
+    """``axis . p`` of each of ``points`` (..., 3).
+
+    The coordinate itself when ``axis`` is a grid axis: exact, whatever the other
+    coordinates hold (a NaN, an infinity).
+    """
+    import numpy as np  # on use: importing the registry stays light
+
+    p = np.asarray(points, dtype=np.float64)
+    for i, (_, grid_axis) in enumerate(GRID_AXES):
+        if axis == grid_axis:
+            return np.asarray(p[..., i])
+    return np.asarray(p @ np.asarray(axis, dtype=np.float64))
+
+
 #: The thesis' ground: the table top ``y = h``, ``h`` the camera centre's height above it
 #: (9.625 in in the thesis' setup), method 2's plane.
 GROUND_PLANE = ConstraintPlane(
@@ -125,4 +244,26 @@ GROUND_PLANE = ConstraintPlane(
     bound=GROUND_HEIGHT,
     thesis_offset_in=9.625,
     request_key="ground_y",
+    axis_titles=("x", "z, depth"),
+    view_name="top view",
+    seen_from="from above",
+    axes_words="x across, z in depth",
 )
+
+#: The plane registry, by each plane's :attr:`~ConstraintPlane.setup_key`: the ground first,
+#: then those registered (:func:`register_plane`).
+CONSTRAINT_PLANES: Registry[str, ConstraintPlane] = Registry(
+    "plane", lambda plane: plane.setup_key, (GROUND_PLANE,)
+)
+
+
+def register_plane(plane: ConstraintPlane) -> ConstraintPlane:
+    """Add a plane to the registry and return it.
+
+    The plane already registered under its setup key, if it is that plane; another plane
+    under a key taken is refused (:class:`ValueError`).
+    """
+    known = CONSTRAINT_PLANES.get(plane.setup_key)
+    if known == plane:
+        return known
+    return CONSTRAINT_PLANES.register(plane)

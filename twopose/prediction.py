@@ -31,7 +31,7 @@ from twopose.session_estimate import SessionTrials, estimate_session
 from twopose.solve import projection_matrices
 from twopose.truth import reporting_anchor
 from twopose.uncertainty import semiaxis95
-from twopose.units import Units
+from twopose.units import DEFAULT_UNITS, Units
 
 __all__ = [
     "located_target",
@@ -105,7 +105,7 @@ def located_target(
     if not spec_of(method).uses_image_lines:
         return np.stack([point, point])
     line = SessionTrials(
-        method=Method.LINE, units="", trial_ids=(1,), views=[views],
+        method=Method.LINE, units=DEFAULT_UNITS, trial_ids=(1,), views=[views],
         truth=np.full((1, 2, 3), np.nan),
     )  # fmt: skip
     est = estimate_session(line, options).estimates

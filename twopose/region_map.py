@@ -208,7 +208,7 @@ class RegionMap:
     pose's region over each depth's best, the largest.
     """
 
-    units: str
+    units: Units
     x: F64  # (I,) the cells' x (session units)
     z: F64  # (J,) the cells' z
     poses: F64  # (J, I, 3) each cell's pose
@@ -232,7 +232,7 @@ class RegionMap:
     ) -> RegionMap:  # fmt: skip
         """The map of a survey, with the suggestion the search refined from it."""
         return cls(
-            units=str(units), x=cells.x, z=cells.z, poses=cells.poses,
+            units=units, x=cells.x, z=cells.z, poses=cells.poses,
             cell=cells.step * reach.spacing,
             step=cells.step, values=cells.values, reason=cells.reason, taken=taken,
             suggested=suggested, suggested_value=suggested_value, n_reach=cells.n_reach,

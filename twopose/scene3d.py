@@ -21,7 +21,7 @@ from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 
 from twopose.arrays import F64
 from twopose.camera import quaternion_xyzw_from_matrix, rotation_from_angles_deg
-from twopose.format.entries import GroundPlane
+from twopose.format.entries import PlaneEntry
 from twopose.format.messages import GRID_FRAME
 from twopose.methods import Method, spec_of
 from twopose.overlay import GREEN, RED, set_color
@@ -160,7 +160,7 @@ def _arrow(entity: SceneEntity, start: F64, end: F64, rgba: Any) -> None:
     set_color(a.color, rgba)
 
 
-def static_scene(ground: GroundPlane | None, extent: float = 12.0) -> SceneUpdate:
+def static_scene(ground: PlaneEntry | None, extent: float = 12.0) -> SceneUpdate:
     """The grid the poses are typed on (y = 0, lines every unit) and the ground plane."""
     update = SceneUpdate()
     e = _entity(update, 0, "grid", 0)

@@ -7,6 +7,10 @@ trial solved by every estimator in one batch, the input covariance propagated, t
 degeneracy margins and their warnings. Its :class:`SessionEstimate` is what the tables,
 the live result, the rig fit and the 3-D scenes take. Nothing here reads the truth: which
 point a trial reports and how it compares with the truth is :mod:`twopose.truth`'s rule.
+
+(Near 600 lines: the one estimation entry point and the values it takes and gives; the noise
+model (:mod:`twopose.session_noise`), the truth (:mod:`twopose.truth`) and the solvers are
+their own modules.)
 """
 
 from __future__ import annotations
@@ -42,6 +46,7 @@ from twopose.methods import Method, spec_of
 from twopose.misclosure import Misclosure
 from twopose.noise import VarianceFactor
 from twopose.optimal_lines import centroid_segments, optimal_lines
+from twopose.rig.carried import rig_carried, with_carried, with_rig_dominance
 from twopose.session_noise import (
     noise_of,
     placed,
@@ -59,6 +64,7 @@ from twopose.uncertainty import (
     pooled_scatter,
     propagate,
 )
+from twopose.units import Units
 
 __all__ = [
     "Estimates",
@@ -86,7 +92,7 @@ class SessionTrials:
     """
 
     method: Method
-    units: str
+    units: Units
     trial_ids: tuple[int, ...]
     views: list[list[PoseView]]
     truth: F64
@@ -191,7 +197,11 @@ class SessionEstimate:
         estimate = thesis_estimate(
             self.trials.method, p.batch, self.trials.ground, self.options, reference[p.rows]
         )
-        return _uncertainty(T, p, propagate(estimate, p.batch.inputs, p.cov_in, shared=p.shared))
+        propagated = propagate(estimate, p.batch.inputs, p.cov_in, shared=p.shared)
+        rig = rig_carried(
+            self.options, self.trials.method, p.batch, self.trials.ground, reference[p.rows]
+        )
+        return _uncertainty(T, p, propagated, rig)
 
     def direction_cov(self) -> F64:
         """(T, 3, 3) lines: the covariance of each ok trial's unit direction (NaN else).
@@ -331,7 +341,7 @@ def _session_estimate(
         complete=complete,
         detected=detected,
         estimates=est,
-        warnings=margin_warnings(est.status, est.margins, options),
+        warnings=margin_warnings(est.status, est.margins, options, spec_of(trials.method).seen_on),
         options=options,
         _propagation=context,
     )
@@ -402,6 +412,7 @@ def _solved_estimates(
             p.cov_in,
             shared=p.shared,
         ),
+        rig_carried(options, trials.method, p.batch, trials.ground, solved.point),
     )
     lines = spec_of(trials.method).estimates_line and line_fits
     return Estimates(
@@ -432,8 +443,13 @@ def _solved_estimates(
     )
 
 
-def _uncertainty(T: int, p: _Propagation, propagated: Propagated) -> Uncertainty:
-    """The covariance and dominant input of every ok trial (T rows)."""
+def _uncertainty(
+    T: int, p: _Propagation, propagated: Propagated, carried: F64 | None = None
+) -> Uncertainty:
+    """The covariance and dominant input of every ok trial (T rows).
+
+    ``carried``: the rig's constants' covariance (:func:`twopose.rig.carried.rig_carried`).
+    """
     ok, cov = p.solved.status == "ok", propagated.cov_grid
     lam = 1.0 if p.factor is None else p.factor.placing_variance
     placing = _placing_part(propagated.jacobian, p.cov_in)
@@ -447,8 +463,11 @@ def _uncertainty(T: int, p: _Propagation, propagated: Propagated) -> Uncertainty
         cov, model = across @ cov @ across, across @ model @ across
         placing = across @ placing @ across
     cov = cov * region_multipliers(cov, placing, p.factor, p.tests, p.rows)[:, None, None]
+    # the rig's constants: carried beside the views' noise, never widened by its test
+    cov, model, carried = with_carried(cov, model, carried, p.solved.direction)
     widening = region_widening(cov, model)
     names, share = dominant_input(propagated.variance_by_group, propagated.shared_variance)
+    names, share = with_rig_dominance(names, share, propagated, carried)
     none, rows = _no_uncertainty(T), p.rows[ok]
     return Uncertainty(
         cov=_with_rows(none.cov, rows, cov[ok]),

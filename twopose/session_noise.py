@@ -27,6 +27,7 @@ from twopose.units import Units
 if TYPE_CHECKING:
     from twopose.estimate import EstimateOptions, PoseView, ViewBatch
     from twopose.methods import Method
+    from twopose.noise import NoiseModel
 
 
 class SessionTrials(Protocol):
@@ -84,7 +85,8 @@ def noise_of(
 
     noise = options.noise
     if noise.factor is not None or not noise.test_redundancy:
-        return NoiseResult(factor=noise.factor, misclosure=None, tests=TrialTests.none(T))
+        factor = noise.factor if noise.factor is not None else _measured_alone(noise)
+        return NoiseResult(factor=factor, misclosure=None, tests=TrialTests.none(T))
     N = batch.valid.shape[1]
     residuals, parameters = misclosure_residuals(method, batch)
     m_rows = misclosures(residuals, batch.inputs, cov_in, batch.valid, parameters, shared=shared)
@@ -101,7 +103,7 @@ def noise_of(
         dof=dof,
         trials=int(use.sum()),
         placing_variance=post.scale if estimated else 1.0,
-        variance_dof=post.dof if estimated else math.inf,
+        variance_dof=post.dof if estimated else _measured_dof(noise),
         information=post.information,
         flagged=int(flagged.sum()),
         at_limit=post.at_limit and estimated,
@@ -110,6 +112,29 @@ def noise_of(
     return NoiseResult(
         factor=factor, misclosure=m, tests=trial_tests(m, flagged, p, factor.placing_variance)
     )
+
+
+def _measured_dof(noise: NoiseModel) -> float:
+    """The degrees of freedom a board's measured placing sigma rests on.
+
+    Infinite: typed, given exactly, or an upper bound. Without the session's own estimate
+    the regions still take Fisher's F on them, as on any sigma estimated from data
+    (docs/rig.md).
+    """
+    return math.inf if noise.placing is None else noise.placing.dof
+
+
+def _measured_alone(noise: NoiseModel) -> VarianceFactor | None:
+    """The factor of a session not tested (``--no-sigma0``).
+
+    A board's measured placing sigma on its own degrees of freedom, the multiplier 1
+    (None: nothing measured).
+    """
+    dof = _measured_dof(noise)
+    if not math.isfinite(dof):
+        return None
+    return VarianceFactor(sigma0_sq=math.nan, dof=0, variance_dof=dof,
+                          sources=f"{noise.anchor().source} alone")  # fmt: skip
 
 
 def _sources(trials: int, prior: str, anchor: str) -> str:
@@ -232,7 +257,8 @@ def placing_sigmas(
 def placing_source(options: EstimateOptions, factor: VarianceFactor | None = None) -> str:
     """Where the placing sigma came from, briefly.
 
-    ``typed``, ``measured by <board session> (<n> captures)`` or ``given``, then, when the
+    ``typed``, ``measured by <board session> (<n> captures)``, ``an upper bound from <board
+    session> (<n> captures)`` or ``given``, then, when the
     multiplier was estimated, ``times 1.6 (estimated from ...)``.
     """
     placing = options.noise.placing
@@ -242,7 +268,9 @@ def placing_source(options: EstimateOptions, factor: VarianceFactor | None = Non
         base = "given"
     else:
         captures = f" ({placing.captures} captures)" if placing.captures else ""
-        base = f"measured by {placing.measured_by}{captures}"
+        # not measured: the most it can be (twopose.rig.placing)
+        said = "an upper bound from" if placing.upper_bound else "measured by"
+        base = f"{said} {placing.measured_by}{captures}"
     if factor is None or not factor.estimated:
         return base
     return f"{base}, times {factor.placing_scale:.3g} (estimated from {factor.sources})"

@@ -53,14 +53,16 @@ RigFileOption = Annotated[
     typer.Option(
         exists=True,
         dir_okay=False,
-        help="Correct every view by the rig's constants from `twopose-analyze rig`, and "
-        "give every region its measured placing sigma when the file has one [default: a "
-        "rig.toml in a folder given, or beside a session file given].",
+        help="Correct every session's views by this rig file's constants (from "
+        "`twopose-analyze rig`), carry their covariance into every region, and give every "
+        "region its placing sigma when the file has one [default: each session takes the "
+        "nearest rig.toml up the tree from its folder: a rig.toml applies to the sessions "
+        "in its folder and below].",
     ),
 ]
 NoRigOption = Annotated[
     bool,
-    typer.Option("--no-rig", help="Use no rig file, not even a rig.toml beside the sessions."),
+    typer.Option("--no-rig", help="Use no rig file, not even a rig.toml above the sessions."),
 ]
 RigCalibrationOption = Annotated[
     RigCalibrationMode,
@@ -193,6 +195,7 @@ def run_command(
     from analysis.input_set import resolve_inputs
     from analysis.outputs import check_run_outputs, write_file
     from analysis.results import AnalysisOptions
+    from analysis.rig.scope import rig_scope
 
     options = AnalysisOptions(
         estimate=EstimateOptions(
@@ -214,12 +217,9 @@ def run_command(
                 "leave --jobs out, or --dask"
             )
         inputs = resolve_inputs(paths)  # once: every step below takes this set
-        rig = _rig_file(rig, no_rig, paths)
-        check_run_outputs(inputs, out, junit, rig)  # before anything is written
-        if rig is not None:
-            from analysis.rig.calibrate import with_rig
-
-            options = with_rig(options, rig, inputs, note)
+        # Each session's rig file, read and checked before anything is written.
+        rigs = rig_scope(inputs, rig, no_rig=no_rig, on_note=note)
+        check_run_outputs(inputs, out, junit, *rigs.paths)
         result = run(
             inputs,
             out,
@@ -230,6 +230,7 @@ def run_command(
             on_sessions_found=found,
             scene=scene,
             reuse=reuse,
+            rigs=rigs,
         )
         if junit is not None:
             from analysis.gate import junit_xml, run_cases
@@ -246,23 +247,6 @@ def run_command(
         raise typer.Exit(EXIT_INTERRUPTED) from None
     except BrokenPipeError:  # `run ... | head -3`: the results are written; nobody reads on
         end_on_closed_pipe()
-
-
-def _rig_file(rig: Path | None, no_rig: bool, paths: list[Path]) -> Path | None:
-    """The rig file ``run`` uses: ``--rig``'s, else a rig.toml beside the sessions (said),
-    none with ``--no-rig`` (both at once refused)."""
-    if no_rig:
-        if rig is not None:
-            raise InputValueError("--rig and --no-rig contradict each other: give one")
-        return None
-    if rig is not None:
-        return rig
-    from analysis.rig.calibrate import rig_beside
-
-    beside = rig_beside(paths)
-    if beside is not None:
-        note(f"using the rig file {beside} found beside the sessions (--no-rig: none)")
-    return beside
 
 
 def _stdout_closed() -> bool:
@@ -339,8 +323,10 @@ def _print_run(result: RunResult, out: Path, *, include_warned: bool) -> None:
     written = result.written_to is not None
     where = f"results in {out}" if written else f"nothing written, {out} left as it was"
     typer.echo(f"twopose: {result.sessions_said()}, {where}")
-    if result.rig_source is not None:
-        typer.echo(result.rig_source.line())
+    from analysis.rig.scope import rig_lines
+
+    for line in rig_lines(result):
+        typer.echo(line)
     for line in summary_lines(
         result.trials, result.summary, include_warned=include_warned, width=width
     ):

@@ -12,14 +12,14 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from twopose import jsonsafe
-from twopose.choices import Target
+from twopose.choices import TARGET_SPECS, Target
 from twopose.errors import (
     EXIT_SOME_INPUTS_FAILED,
     InputValueError,
     handle_errors,
 )
-from twopose.methods import MEASURING_METHODS, Method
-from twopose.options import read_option
+from twopose.methods import METHOD_SPECS, Method
+from twopose.options import read_option, registered
 from twopose.units import Units
 
 if TYPE_CHECKING:
@@ -54,6 +54,7 @@ def rig_command(
     from analysis.outputs import run_inputs, write_file
     from analysis.rig.calibrate import calibrate_rig
     from analysis.rig.fit import rig_toml
+    from analysis.rig.scope import RIG_BESIDE
 
     with handle_errors():
         inputs = resolve_inputs(sessions)  # once: the check and the fit take this set
@@ -76,6 +77,12 @@ def rig_command(
     for warning in found.warnings:
         typer.secho(f"warning: {warning}", err=True, fg=typer.colors.YELLOW)
     typer.echo(f"wrote {out}")
+    if out.name == RIG_BESIDE:  # a rig.toml has a scope: say it (docs/rig.md)
+        where = "this folder" if out.parent == Path() else str(out.parent)
+        typer.echo(
+            f"  `twopose-analyze run` applies it to every session in {where} and below (the "
+            "nearest rig.toml up the tree wins; --rig FILE and --no-rig choose otherwise)"
+        )
 
 
 @app.command("sensitivity")
@@ -130,7 +137,7 @@ def _rounded(numbers: dict[str, object]) -> dict[str, object]:
 @app.command()
 def detect(
     images: Annotated[list[Path], typer.Argument(help="Image files (anything OpenCV reads).")],
-    target: Annotated[Target, typer.Option(help="What to look for.")],
+    target: Annotated[Target, typer.Option(**registered(TARGET_SPECS), help="What to look for.")],
 ) -> None:
     """Detect the glove or the dot in images; one JSON object per image."""
     from twopose.detect import Detection
@@ -155,13 +162,15 @@ def detect(
         raise typer.Exit(EXIT_SOME_INPUTS_FAILED)
 
 
-_MEASURING = "|".join(MEASURING_METHODS)  # what can be solved (the registry's)
-
-
 @app.command()
 def solve(
     method: Annotated[
-        Method, typer.Argument(help="Which reconstruction.", metavar=_MEASURING, show_choices=False)
+        Method,
+        typer.Argument(
+            **registered(METHOD_SPECS, lambda spec: spec.measures, argument=True),
+            help="Which reconstruction.",
+            show_choices=False,
+        ),
     ],
 ) -> None:
     """Solve one measurement by hand: a JSON request on stdin, a JSON answer on stdout.

@@ -6,5 +6,6 @@
 - :mod:`analysis.rig.board`: the fit from board sessions (the core's
   :mod:`twopose.rig.board` over each session's corners);
 - :mod:`analysis.rig.calibrate`: ``twopose-analyze rig`` and ``run --rig`` /
-  ``--rig-calibration loo`` over a batch.
+  ``--rig-calibration loo`` over a batch;
+- :mod:`analysis.rig.scope`: which rig file each session of a run uses.
 """

@@ -21,6 +21,7 @@ import numpy as np
 
 from analysis.rig.fit import RigFit
 from twopose.arrays import F64
+from twopose.camera import Intrinsics
 from twopose.checkerboard import find_board
 from twopose.errors import InputValueError
 from twopose.format.reader import SessionReader
@@ -43,17 +44,21 @@ class BoardCaptures:
     (C, K, 3), the corners found (C, K, 2, pixels, averaged over the frames that found the
     board), the typed pose ``t_typed`` and ``r_typed_deg`` (C, 3) and the camera's
     ``intrinsics`` (C, 4: fx, fy, cx, cy). ``t_sigma`` is the largest typed translation
-    resolution; ``left_out`` says which captures found no board, and why.
+    resolution, ``r_sigma_deg`` (C,) each capture's typed rotation resolution; ``cameras``
+    the session's cameras the captures were taken with; ``left_out`` says which captures
+    found no board, and why.
     """
 
     session: str
-    units: str
+    units: Units
     corners_grid: F64
     observed_px: F64
     t_typed: F64
     r_typed_deg: F64
     intrinsics: F64
     t_sigma: float
+    r_sigma_deg: F64
+    cameras: tuple[Intrinsics, ...]
     left_out: tuple[str, ...] = ()
 
     def fingerprint(self) -> str:
@@ -107,13 +112,15 @@ def read_board_session(path: str | Path) -> BoardCaptures:
     grid = board.corners_grid()
     return BoardCaptures(
         session=session,
-        units=str(info.units),
+        units=info.units,
         corners_grid=np.stack([grid] * len(rows)),
         observed_px=np.stack([c for c, _ in rows]),
         t_typed=np.array([p.entry.t_grid for _, p in rows], dtype=np.float64),
         r_typed_deg=np.array([p.entry.r_deg for _, p in rows], dtype=np.float64),
         intrinsics=np.array([_k(p) for _, p in rows], dtype=np.float64),
         t_sigma=max(p.entry.translation_resolution for _, p in rows),
+        r_sigma_deg=np.array([p.entry.rotation_resolution_deg for _, p in rows]),
+        cameras=tuple(dict.fromkeys(p.camera.intrinsics for _, p in rows)),
         left_out=tuple(left_out),
     )
 
@@ -169,8 +176,11 @@ def calibrate_board(
         stacked("intrinsics"),
         units=Units(units.pop()),
         t_sigma=max(p.t_sigma for p in ordered),
+        r_sigma_deg=stacked("r_sigma_deg"),
         groups=FITTED if groups is None else tuple(groups),
     )
+    cameras = tuple(dict.fromkeys(c for p in ordered for c in p.cameras))
+    board = dataclasses.replace(board, rig=dataclasses.replace(board.rig, cameras=cameras))
     used = {p.session for p in ordered}
     sessions = tuple(dict.fromkeys(str(p) for p in paths if str(p) in used))
     if board.placing is not None:  # measured by these sessions, named as the rig file's

@@ -25,22 +25,14 @@ from analysis.input_set import InputSet
 from analysis.pipeline import replay_views
 from analysis.rig.data import RigData, combine, prepare_session, require_trusted
 from analysis.rig.fit import RigFit, fit_constants, select_constants
+from twopose.camera import Intrinsics
 from twopose.errors import InputValueError
 from twopose.estimate import EstimateOptions
 from twopose.noise import PlacingSigma
-from twopose.rig.constants import RigConstants, RigFile, check_applicable
 from twopose.session_estimate import SessionTrials, estimate_session
+from twopose.units import Units
 
-__all__ = [
-    "RIG_BESIDE",
-    "RigCalibration",
-    "calibrate",
-    "calibrate_rig",
-    "check_rig_for_sessions",
-    "rig_beside",
-    "rig_for_run",
-    "with_rig",
-]
+__all__ = ["RigCalibration", "calibrate", "calibrate_rig", "with_rig"]
 
 if TYPE_CHECKING:
     from analysis.results import AnalysisOptions
@@ -145,7 +137,22 @@ def calibrate(
         data, sessions=tuple(r.session for r in replays if r.session in used)
     )
     fit = select_constants(data) if groups is None else fit_constants(data, groups)
-    return fit, data
+    cameras = _cameras([r.trials for r in replays if r.session in used])
+    constants = dataclasses.replace(fit.constants, cameras=cameras)
+    return dataclasses.replace(fit, constants=constants), data
+
+
+def _cameras(sessions: Sequence[SessionTrials]) -> tuple[Intrinsics, ...]:
+    """The cameras the sessions' views were taken with, each once (the rig file's
+    ``[[camera]]``: a rig is fitted for them and refused for another)."""
+    found = []
+    for trials in sessions:
+        for row in trials.views:
+            for v in row:
+                fx, fy, cx, cy = (float(k) for k in v.intrinsics)
+                w, h = v.width_height
+                found.append(Intrinsics(width=w, height=h, fx=fx, fy=fy, cx=cx, cy=cy))
+    return tuple(dict.fromkeys(found))
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -162,7 +169,7 @@ class _Distinct:
         return self.trials.method
 
     @property
-    def units(self) -> str:
+    def units(self) -> Units:
         """The session's units."""
         return self.trials.units
 
@@ -221,86 +228,14 @@ def _one_of(replays: Sequence[_Distinct], attribute: str, why: str) -> None:
         raise InputValueError(f"sessions of different {attribute}: {named}; {why}")
 
 
-def check_rig_for_sessions(rig: RigConstants, paths: Sequence[str], what: str) -> list[str]:
-    """``run --rig``: refuse the rig (before anything is analysed) for a session in other
-    units than the rig's, or implausible for the session's ground height or images
-    (:func:`twopose.rig.check_applicable`); returns the notes to show, once each. A file
-    that is not a readable session is left for the analysis to report."""
-    from twopose.errors import TwoposeError
-    from twopose.format.reader import SessionReader
-
-    notes: list[str] = []
-    for path in paths:
-        try:
-            with SessionReader(path) as reader:
-                units = reader.info.units
-                ground = reader.ground
-                sizes = [(c.intrinsics.width, c.intrinsics.height) for c in reader.cameras.values()]
-        except (TwoposeError, OSError):  # not a readable session: the analysis says why
-            continue
-        spec = (np.array(ground.normal_grid), ground.offset) if ground is not None else None
-        try:
-            found = check_applicable(rig, units, spec, sizes, what)
-        except InputValueError as err:
-            raise InputValueError(f"{err} (session {path})") from None
-        for text in found:
-            if text not in notes:
-                notes.append(text)
-    return notes
-
-
-def rig_for_run(path: str | Path, inputs: InputSet, on_note: Note) -> RigFile:
-    """``run --rig``: the rig file (its constants and any measured placing sigma), refused
-    (exit 3, before any analysis) if implausible, or for a session under ``inputs`` in
-    other units, or whose ground height or image it does not fit; ``on_note`` hears the
-    notes (a rig file without units)."""
-    from twopose.rig.constants import load_rig_file
-
-    found = load_rig_file(path)
-    for text in check_rig_for_sessions(found.constants, inputs.files, f"rig file {path}"):
-        on_note(text)
-    return found
-
-
-#: A rig file of this name in a folder ``run`` is given, or beside a session file it is
-#: given, is used as ``--rig`` would use it, and said; ``--rig FILE`` names another,
-#: ``--no-rig`` none.
-RIG_BESIDE = "rig.toml"
-
-
-def rig_beside(paths: Sequence[str | Path]) -> Path | None:
-    """The :data:`RIG_BESIDE` file beside the sessions ``run`` is given, if any.
-
-    Looked for in each folder given (not below it) and beside each file given; the same
-    content found twice is one file; different files are refused, naming them (which one
-    applies is the analyst's choice, never an order's).
-    """
-    found: dict[str, Path] = {}
-    for given in map(Path, paths):
-        candidate = (given if given.is_dir() else given.parent) / RIG_BESIDE
-        if candidate.is_file():
-            found.setdefault(hashlib.sha256(candidate.read_bytes()).hexdigest(), candidate)
-    if len(found) > 1:
-        named = ", ".join(str(p) for p in found.values())
-        raise InputValueError(
-            f"different rig files beside the sessions ({named}): name the one to use with "
-            "--rig FILE, or --no-rig to use none"
-        )
-    return next(iter(found.values()), None)
-
-
 def with_rig(
     options: AnalysisOptions, path: str | Path, inputs: InputSet, on_note: Note
 ) -> AnalysisOptions:
-    """``options`` with the rig file at ``path`` (:func:`rig_for_run`): every view corrected
-    by its constants, and every region given its measured placing sigma
-    (``estimate.noise.placing``) when the file records one."""
-    from analysis.results import RigSource
+    """``options`` with the rig file at ``path`` for every session under ``inputs``
+    (``run --rig``, :func:`analysis.rig.scope.rig_scope`): read, checked against each
+    session (refused before any analysis), its constants, placing sigma and covariance in
+    the options (:meth:`analysis.rig.scope.RigUse.options`)."""
+    from analysis.rig.scope import rig_scope
 
-    found = rig_for_run(path, inputs, on_note)
-    estimate = options.estimate
-    if found.placing is not None:
-        noise = dataclasses.replace(estimate.noise, placing=found.placing)
-        estimate = dataclasses.replace(estimate, noise=noise)
-    source = RigSource.read(path, found.constants)
-    return dataclasses.replace(options, rig=found.constants, rig_source=source, estimate=estimate)
+    scope = rig_scope(inputs, path, on_note=on_note)
+    return scope.uses[0].options(options) if scope.uses else options

@@ -21,6 +21,7 @@ in chi-square passes an F-test at 1%, so a session without systematic error keep
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -32,18 +33,19 @@ from analysis.columns import RIG_COLUMNS
 from analysis.rig.data import RigData, combine, prepare, prepare_session, require_trusted
 from twopose.arrays import F64
 from twopose.errors import InputValueError
-from twopose.estimate import ViewBatch, solve_batch
+from twopose.estimate import solve_batch
 from twopose.methods import spec_of
 from twopose.noise import PlacingSigma
+from twopose.rig.carried import corrected_batch
 from twopose.rig.constants import (
     RIG_PARAMETERS,
     RigConstants,
+    RigCovariance,
     against_priors,
-    angles_deg_from_rotation,
-    placing_table,
     prior_sigma,
     true_ground,
 )
+from twopose.rig.file import RIG_FILE_FORMAT, camera_tables, covariance_table, placing_table
 from twopose.session_estimate import SessionEstimate
 from twopose.truth import Reported, line_errors, reported_line_point
 from twopose.uncertainty import CHI2_95, nees
@@ -74,18 +76,6 @@ _NAMES = [name for group in GROUPS for name in RIG_PARAMETERS[group]]
 _SCALE = np.array([1.0, 1.0, 1.0, 0.5, 0.5, 0.5, 0.02, 5.0, 5.0, 0.01, 0.1])
 _NOMINAL = RigConstants().vector()
 _MIN_SINGULAR = 1e-3  # relative: below it, a direction of the constants is not identifiable
-
-
-def corrected_batch(batch: ViewBatch, rig: RigConstants) -> ViewBatch:
-    """The batch with every view's typed pose and intrinsics corrected by ``rig``."""
-    inputs = batch.inputs.copy()
-    t, R = rig.true_poses(inputs[..., 3:6], inputs[..., 6:9])
-    inputs[..., 3:6] = t
-    inputs[..., 6:9] = angles_deg_from_rotation(R)
-    intrinsics = np.where(
-        batch.valid[..., None], rig.true_intrinsics(batch.intrinsics), batch.intrinsics
-    )
-    return ViewBatch(inputs=inputs, intrinsics=intrinsics, valid=batch.valid)
 
 
 def solve_corrected(data: RigData, rig: RigConstants) -> F64:
@@ -258,6 +248,10 @@ def fit_constants(data: RigData, groups: Sequence[str] = GROUPS) -> RigFit:
         cov = np.asarray(np.linalg.pinv(information) * max(1.0, chi2 / dof), dtype=np.float64)
         sigma[free] = np.sqrt(np.diag(cov)) * _SCALE[free]
     names = tuple(n for n, f in zip(_NAMES, free, strict=True) if f)
+    if free.any():  # the whole covariance, in the constants' own units (the rig file's)
+        scale = _SCALE[free]
+        covariance = RigCovariance.of(names, cov * np.outer(scale, scale))
+        constants = dataclasses.replace(constants, covariance=covariance)
     at_bound = tuple(
         f"{name} = {value:.4g} is at the bound of the plausible: the value is the bound's, "
         "not the data's; check the rig, the typed poses and the targets"
@@ -334,11 +328,12 @@ def rig_toml(
     basis: str = "",
     placing: PlacingSigma | None = None,
 ) -> str:
-    """The rig file: ``[rig]`` (what ``--rig`` reads), ``[sigma]`` (1-sigma, 0 if fixed),
-    ``[fixed]`` (why a constant was not estimated), ``[placing]`` (the operator's placing
-    sigma a board measured, :func:`twopose.rig.placing_table`; target sessions measure
-    none, and the file says so); what it was fitted on and the fit's warnings as
-    comments."""
+    """The rig file (docs/rig-file.md, :mod:`twopose.rig.file`): its ``format``, ``[rig]``
+    (what ``--rig`` reads), ``[sigma]`` (1-sigma, 0 if fixed), ``[covariance]`` (the fitted
+    scalars', which every ``--rig`` region carries), ``[fixed]`` (why a constant was not
+    estimated), ``[[camera]]`` (each camera it was fitted for), ``[placing]`` (the
+    operator's placing sigma a board measured, or bounded; target sessions measure none,
+    and the file says so); what it was fitted on and the fit's warnings as comments."""
     c = fit.constants
     sigma = dict(zip(_NAMES, np.nan_to_num(fit.sigma), strict=True))
 
@@ -352,6 +347,8 @@ def rig_toml(
         + (", ".join(fit.free) or "nothing (none supported)"),
         *([f"# fitted on {basis}"] if basis else []),
         *(f"# warning: {w}" for w in warnings),
+        f"format = {RIG_FILE_FORMAT}  # of this file (docs/rig-file.md)",
+        "",
         "[rig]",
         *([f'units = "{c.units}"  # of camera_offset and ground_height_error'] if c.units else []),
         f"mount_rotation_deg = {vec(c.mount_rotation_deg)}",
@@ -364,8 +361,12 @@ def rig_toml(
         "[sigma]",
         *(f"{name} = {value:.6g}" for name, value in sigma.items()),
     ]
+    if c.covariance is not None:
+        lines += ["", *covariance_table(c.covariance)]
     if fit.fixed:
         lines += ["", "[fixed]", *(f'{k} = "{v}"' for k, v in fit.fixed.items())]
+    if c.cameras:
+        lines += ["", *camera_tables(c.cameras)]
     if placing is not None:
         lines += ["", *placing_table(placing, c.units or Units.IN)]
     else:

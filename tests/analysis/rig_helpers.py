@@ -30,14 +30,14 @@ def empty_session(
 ) -> Path:
     """A session without trials (what a recording that stopped at once leaves)."""
     from twopose.camera import Camera, Intrinsics
-    from twopose.format.entries import GroundPlane, SessionInfo
+    from twopose.format.entries import PlaneEntry, SessionInfo
     from twopose.format.writer import SessionWriter
 
     camera = Camera(
         camera_id="cam0",
         intrinsics=Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0),
     )
-    plane = GroundPlane(offset=ground) if ground is not None else None
+    plane = PlaneEntry(offset=ground) if ground is not None else None
     info = SessionInfo(method=Method(method), units=Units(units))
     with SessionWriter(path, info, [camera], ground=plane):
         pass

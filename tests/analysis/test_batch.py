@@ -305,7 +305,7 @@ def test_degeneracy_margins_and_configurable_warnings(
     )
     g = analyse_session(ground_session, strict).trials
     assert (g["plane_angle_deg"] > 0).all()
-    assert (g["line_ground_angle_deg"] > 0).all()
+    assert (g["line_plane_angle_deg"] > 0).all()
     assert g["warning"].str.contains("plane angle").all()
     assert g["warning"].str.contains("line-ground angle").all()
     lax = AnalysisOptions(

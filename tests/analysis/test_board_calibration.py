@@ -21,9 +21,11 @@ from analysis.rig.calibrate import calibrate_rig
 from recorder.simulate import simulate_session
 from twopose.errors import InputValueError
 from twopose.methods import Method
-from twopose.rig.constants import RigConstants, load_rig, load_rig_file
+from twopose.rig.constants import RigConstants
+from twopose.rig.file import load_rig, load_rig_file
 from twopose.sim.layout import BOARD_POSES
 from twopose.sim.scene import load_scene
+from twopose.units import Units
 
 runner = CliRunner()
 
@@ -163,3 +165,30 @@ def test_a_capture_that_never_saw_the_board_is_left_out_and_said(tmp_path: Path)
     notes: list[str] = []
     calibrate_board([out], on_note=notes.append)
     assert notes == [f"left out {why}"]
+
+
+def test_a_board_placed_exactly_gives_an_upper_bound_never_a_measured_sigma(
+    tmp_path: Path,
+) -> None:
+    """Issue 55: the synthetic source with no placing error. `rig` wrote its fit's floor,
+    `sigma = 0.001`, as measured; now the most the placing error can be, said as a bound on
+    stderr, in the file and by every reader; and the file records the camera it was fitted
+    for (640x480, f 525), which a session of another camera is refused."""
+    board = tmp_path / "exact.mcap"
+    simulate_session(board, method=Method.BOARD, trials=1, frames=1, seed=4, pose_noise=0.0)
+    out = tmp_path / "rig.toml"
+    result = runner.invoke(app, ["rig", str(board), "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    assert "written as an upper bound" in result.output
+    assert f"applies it to every session in {tmp_path} and below" in result.output
+    assert "placing sigma at most" in result.output
+    text = out.read_text()
+    assert "upper_bound = true" in text
+    assert "sigma_sigma" not in text
+    found = load_rig_file(out)
+    assert found.placing is not None
+    assert found.placing.upper_bound
+    assert 1e-3 <= found.placing.sigma_in < 0.02
+    assert "measured by" not in found.placing.describe(Units.IN)
+    (camera,) = found.constants.cameras
+    assert (camera.width, camera.height, camera.fx) == (640, 480, 525.0)

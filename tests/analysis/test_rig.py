@@ -83,7 +83,8 @@ def test_rig_writes_a_file_that_run_applies(rig_sessions: dict[str, Path], tmp_p
     import json
 
     digest = hashlib.sha256(rig_file.read_bytes()).hexdigest()
-    assert f"every view corrected by the rig file {rig_file}" in run.output
+    said = f"rig file {rig_file} (given by --rig; sha256 {digest[:16]}...): every view"
+    assert said in run.output
     recorded = json.loads((tmp_path / "o" / "summary.json").read_text())["rig"]
     assert recorded["path"] == str(rig_file)
     assert recorded["sha256"] == digest

@@ -12,16 +12,14 @@ import pandas as pd
 import pytest
 
 from analysis.cli import app
-from analysis.cli.run import _rig_file
 from analysis.pipeline import analyse_session
-from analysis.rig.calibrate import rig_beside
 from analysis.rig.fit import RigFit, rig_toml
 from recorder.simulate import simulate_session
 from tests.analysis.rig_helpers import runner
-from twopose.errors import InputValueError
 from twopose.methods import Method
 from twopose.noise import PlacingSigma
-from twopose.rig.constants import RigConstants, load_rig_file
+from twopose.rig.constants import RigConstants
+from twopose.rig.file import load_rig_file
 
 #: A placing sigma four times the simulated session's typed 0.05 in.
 PLACING = '[rig]\nunits = "in"\n\n[placing]\nsigma = 0.2\nmeasured_by = "board.mcap"\n'
@@ -76,21 +74,11 @@ def test_run_gives_every_region_the_rig_files_placing(tmp_path: Path) -> None:
     assert (measured > 2.0 * typed).all(), (typed, measured)  # 4x the sigma it dominates
     (folder / "rig.toml").write_text(PLACING)
     beside, said = run("beside")
-    assert "found beside the sessions" in said
+    assert "found up the tree: its folder and below" in said
     pd.testing.assert_series_equal(beside, measured)
-    assert _rig_file(None, True, [folder]) is None  # --no-rig: not even the one beside
+    unused, _ = run("no-rig", "--no-rig")  # not even the one beside
+    pd.testing.assert_series_equal(unused, typed, check_names=False)
     both = runner.invoke(app, ["run", str(folder), "--out", str(tmp_path / "x"), "--no-rig",
                                "--rig", str(rig_file)])  # fmt: skip
     assert both.exit_code != 0
     assert "contradict" in both.output
-
-
-def test_different_rig_files_beside_the_inputs_are_refused(tmp_path: Path) -> None:
-    for name, body in (("a", PLACING), ("b", PLACING.replace("0.2", "0.3"))):
-        (tmp_path / name).mkdir()
-        (tmp_path / name / "rig.toml").write_text(body)
-    with pytest.raises(InputValueError, match="different rig files beside the sessions"):
-        rig_beside([tmp_path / "a", tmp_path / "b"])
-    (tmp_path / "b" / "rig.toml").write_text(PLACING)  # the same content: one file
-    assert rig_beside([tmp_path / "a", tmp_path / "b" / "s.mcap"]) == tmp_path / "a" / "rig.toml"
-    assert rig_beside([tmp_path]) is None  # subfolders are not searched

@@ -75,7 +75,12 @@ def test_a_trial_table_has_the_documented_columns_and_exact_errors(method: str) 
     views, truth = _session(method)
     ground = (np.array([0.0, 1.0, 0.0]), H) if spec_of(method).needs_ground else None
     trials = SessionTrials(
-        method=Method(method), units="in", trial_ids=(1, 2), views=views, truth=truth, ground=ground
+        method=Method(method),
+        units=Units.IN,
+        trial_ids=(1, 2),
+        views=views,
+        truth=truth,
+        ground=ground,
     )
     estimate = estimate_session(trials, EstimateOptions())
     table = trial_table("s.mcap", estimate, reported(estimate))

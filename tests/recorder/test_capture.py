@@ -21,6 +21,7 @@ from recorder.capture import (
 from recorder.sources import VideoSource
 from tests.helpers import write_video
 from twopose.camera import Camera, Intrinsics
+from twopose.choices import Target
 from twopose.format.entries import CaptureWindow, PoseEntry, SessionInfo
 from twopose.format.reader import SessionReader
 from twopose.format.writer import SessionWriter
@@ -56,7 +57,7 @@ def test_a_source_that_stops_mid_capture_leaves_an_incomplete_capture(tmp_path: 
             t_grid=(0.0, 0.0, 0.0),
             capture=w.new_capture_number(),
         )
-        result = capture_frames(w, src, entry, CaptureSettings(frames=5, target="dot"))
+        result = capture_frames(w, src, entry, CaptureSettings(frames=5, target=Target.DOT.spec))
     assert not result.complete
     assert result.n_frames == 3
     assert "no more frames" in result.reason

@@ -91,7 +91,9 @@ def test_the_map_at_2540_mm_is_in_view_and_its_labels_apart(tmp_path: Path) -> N
     try:
         with headless_chromium(1366, 768) as browser:
             browser.get(url)
-            _wait(browser, lambda: browser.find_elements(By.ID, "setup-submit"), "the setup")
+            # The plane's field is made by the page's script once the state arrives.
+            field = "[data-testid=field-ground_height]"
+            _wait(browser, lambda: browser.find_elements(By.CSS_SELECTOR, field), "the setup")
             for testid, value in (("field-ground_height", "244.475"), ("field-operator", "Ada")):
                 _el(browser, testid).clear()
                 _el(browser, testid).send_keys(value)

@@ -94,7 +94,8 @@ def test_a_calibrated_rig_corrects_the_live_result_as_run_rig_does(tmp_path: Pat
     """``new --rig``: the live result is corrected by the rig's constants exactly as
     ``twopose-analyze run --rig`` corrects the analysis."""
     from analysis.results import AnalysisOptions
-    from twopose.rig.constants import RigConstants, load_rig
+    from twopose.rig.constants import RigConstants
+    from twopose.rig.file import load_rig
 
     rig_file = tmp_path / "rig.toml"
     rig_file.write_text(

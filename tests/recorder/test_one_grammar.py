@@ -26,7 +26,7 @@ from recorder.plan import load_plan
 from tests.helpers import SMALL_SCENE
 from twopose.bounds import GROUND_HEIGHT, POSE_TRANSLATION
 from twopose.errors import EXIT_ERROR, EXIT_USAGE, InputValueError, SceneError
-from twopose.rig.constants import load_rig_file
+from twopose.rig.file import load_rig_file
 from twopose.sim.scene import load_scene
 from twopose.units import Units
 from twopose.values import NUMBER_WORDS, WHOLE_WORDS, read_number

@@ -28,6 +28,7 @@ from recorder.recording import record
 from recorder.sources import ImagesSource, VideoSource
 from tests.helpers import write_video
 from twopose.camera import Camera, Intrinsics
+from twopose.choices import Target
 from twopose.errors import SessionExistsError
 from twopose.format.entries import CaptureDecision, CaptureWindow, Note, PoseEntry, SessionInfo
 from twopose.format.reader import SessionReader
@@ -320,7 +321,7 @@ def test_accepting_a_capture_that_rarely_found_its_target_needs_the_operator(
         proc = Procedure(w)
         proc.begin_trial(1, 2)
         proc.type_pose(PoseEntry(trial=1, pose=1, camera_id="cam0", t_grid=(0.0, 0.0, 0.0)))
-        result = proc.capture(src, CaptureSettings(frames=len(with_dot), target="dot"))
+        result = proc.capture(src, CaptureSettings(frames=len(with_dot), target=Target.DOT.spec))
         assert detection_shortfall(result) is shortfall
         if shortfall is Shortfall.OK:
             proc.accept()

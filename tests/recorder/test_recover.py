@@ -30,7 +30,7 @@ import sys, time
 import numpy as np
 from twopose.camera import Intrinsics
 from twopose.camera import Camera
-from twopose.format.entries import GroundPlane, GroundTruth, PoseEntry, SessionInfo
+from twopose.format.entries import PlaneEntry, GroundTruth, PoseEntry, SessionInfo
 from twopose.format.writer import SessionWriter
 
 out = sys.argv[1]
@@ -38,7 +38,7 @@ intrinsics = Intrinsics(width=64, height=48, fx=50.0, fy=50.0, cx=32.0, cy=24.0)
 cam = Camera(camera_id="cam0", intrinsics=intrinsics)
 rng = np.random.default_rng(0)
 info = SessionInfo(method="ground", units="in")
-with SessionWriter(out, info, [cam], ground=GroundPlane(offset=9.625), image_format="png") as w:
+with SessionWriter(out, info, [cam], ground=PlaneEntry(offset=9.625), image_format="png") as w:
     print("open", flush=True)
     for trial in range(1, 1000):
         truth = GroundTruth(trial=trial, kind="point", points_grid=((1.0, 9.625, 8.0),))
@@ -136,7 +136,7 @@ def test_ctrl_c_finishes_the_file_cleanly(tmp_path: Path) -> None:
 
 def _small_session(path: Path, trials: int = 4) -> None:
     from twopose.camera import Camera, Intrinsics
-    from twopose.format.entries import GroundPlane, GroundTruth, PoseEntry, SessionInfo
+    from twopose.format.entries import GroundTruth, PlaneEntry, PoseEntry, SessionInfo
 
     cam = Camera(
         camera_id="cam0",
@@ -148,7 +148,7 @@ def _small_session(path: Path, trials: int = 4) -> None:
         path,
         SessionInfo(method=Method.GROUND, units=Units.IN),
         [cam],
-        ground=GroundPlane(offset=9.625),
+        ground=PlaneEntry(offset=9.625),
         image_format="png",
         start_ns=t,
     ) as w:

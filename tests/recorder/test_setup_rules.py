@@ -23,7 +23,7 @@ from recorder.setup_form import (
     parse_pose_form,
     setup_from_answers,
 )
-from tests.helpers import copy_with_method
+from tests.helpers import install_extension
 from twopose.camera import Intrinsics
 from twopose.units import Units
 
@@ -187,18 +187,19 @@ def test_a_principal_point_outside_the_image_is_refused(principal: str, why: str
 # --------------------------------------------------------------------------- the registry decides
 
 REPO = Path(__file__).resolve().parents[2]
-WALL_SPEC = """
-METHOD_SPECS = MappingProxyType(
-    {
-        **METHOD_SPECS,
-        Method.WALL: dataclasses.replace(
-            METHOD_SPECS[Method.GROUND], method=Method.WALL, label="wall (a test's)"
-        ),
-    }
+WALL_EXTENSION = """
+import dataclasses
+
+from twopose.methods import METHOD_SPECS, Method, register_method
+
+register_method(
+    dataclasses.replace(
+        METHOD_SPECS[Method.GROUND], method=Method.declare("wall"), label="wall (a test's)"
+    )
 )
 """
-#: Run in the copy: the page's fields for the new method and for ground, and the setup
-#: a form for the new method gives.
+#: Run with the extension installed: the page's fields for the new method and for ground,
+#: and the setup a form for the new method gives.
 PROBE = """
 import json
 from recorder.setup_form import form_fields, setup_from_answers
@@ -216,11 +217,11 @@ print(json.dumps({"asked": asked, "method": setup.method, "height": setup.plane_
 def test_a_method_added_to_the_registry_alone_is_asked_what_its_spec_says(
     tmp_path: Path,
 ) -> None:
-    """A fourth method, a copy of ground added through ``twopose/methods.py`` alone: the page
+    """A fourth method, a copy of ground registered by an extension alone: the page
     shows it the ground height (the fields are the ground's) and a form with it is a setup.
     Before, the fields named their methods, the page hid the height and the form demanded
     it."""
-    copy_with_method(tmp_path, 'WALL = "wall"', WALL_SPEC, packages=("twopose", "recorder"))
+    install_extension(tmp_path, "wall_ext", WALL_EXTENSION)
     env = {**os.environ, "PYTHONPATH": str(tmp_path)}
     done = subprocess.run(
         [sys.executable, "-c", PROBE], cwd=tmp_path, env=env, capture_output=True, text=True,

@@ -20,6 +20,7 @@ from recorder.sources import (
 )
 from tests.helpers import write_video
 from twopose.camera import Camera, Intrinsics
+from twopose.choices import Target
 from twopose.errors import SourceError
 from twopose.format.entries import CaptureWindow, PoseEntry, SessionInfo
 from twopose.format.reader import SessionReader
@@ -101,7 +102,7 @@ def test_a_late_reader_of_a_paced_source_drops_frames_and_they_are_counted(tmp_p
             PoseEntry(trial=1, pose=1, camera_id="cam0", t_grid=(0.0, 0.0, 0.0)),
             CaptureSettings(
                 frames=3,
-                target="dot",
+                target=Target.DOT.spec,
                 on_frame=lambda fb: time.sleep(0.1),  # a slow consumer: ~3 intervals a frame
             ),
         )

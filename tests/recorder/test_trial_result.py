@@ -15,6 +15,7 @@ from twopose.jsonsafe import dumps
 from twopose.methods import Method
 from twopose.session_estimate import SessionTrials
 from twopose.truth import line_errors, reported
+from twopose.units import Units
 
 
 @pytest.mark.parametrize("method", ["point", "line", "ground"])
@@ -55,7 +56,7 @@ def test_an_incomplete_trial_says_so() -> None:
     views, truth = _trials("point", np.random.default_rng(23), [2.0])
     trials = SessionTrials(
         method=Method.POINT,
-        units="cm",
+        units=Units.CM,
         trial_ids=(7,),
         views=[views[0][:1]],
         truth=truth,

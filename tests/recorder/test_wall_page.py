@@ -1,5 +1,5 @@
-"""A method on another plane, in the browser (issue 45): the copy of the packages whose
-registry alone gains the wall method (:mod:`tests.test_wall_method`) records a session in
+"""A method on another plane, in the browser (issue 45): with the wall's extension
+installed (:mod:`tests.test_wall_method`), the console records a session in
 the web console, in a real headless Chromium at a laptop's size. The page asks the wall's
 x by the plane's own label (it never names a method or a plane), refuses a ground truth
 off the wall by its field, and the session it records is analysed on the wall."""
@@ -25,7 +25,7 @@ require_chromium()
 from selenium.webdriver.common.by import By  # noqa: E402
 from selenium.webdriver.support.ui import Select  # noqa: E402
 
-# Slow: a real browser, and the packages copied (make test-all and CI run it).
+# Slow: a real browser (make test-all and CI run it).
 pytestmark = pytest.mark.slow
 
 
@@ -36,7 +36,7 @@ def browser() -> Iterator[Any]:
 
 
 def _start(root: Path, out: Path) -> tuple[subprocess.Popen[str], str]:
-    """The copy's ``new --ui`` with the wall's scene; the process and its URL."""
+    """``new --ui`` with the wall installed and its scene; the process and its URL."""
     env = {**os.environ, "PYTHONPATH": str(root), "NO_COLOR": "1"}
     process = subprocess.Popen(
         [sys.executable, "-m", "recorder", "new", str(out), "--ui", "--source",

@@ -14,6 +14,7 @@ from twopose.session_estimate import (
     SessionTrials,
     estimate_session,
 )
+from twopose.units import Units
 
 INTRINSICS = Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0)
 H = 9.625  # the thesis' ground height: the ground plane y = h (y down)
@@ -84,7 +85,7 @@ def trials(
 def estimate(method: str, views: list[list[PoseView]], truth: np.ndarray) -> SessionEstimate:
     trials = SessionTrials(
         method=Method(method),
-        units="in",
+        units=Units.IN,
         trial_ids=tuple(range(1, len(views) + 1)),
         views=views,
         truth=truth,

@@ -65,7 +65,7 @@ def test_the_fourth_suggestion_at_large_reach_keeps_the_finger_off_the_blue_disk
     views = [_view(points, (0.0, 0.0, 0.0), 1, rng)]
     said = []
     for _ in range(4):
-        trial = SessionTrials(method=Method.LINE, units="cm", trial_ids=(1,), views=[views],
+        trial = SessionTrials(method=Method.LINE, units=Units.CM, trial_ids=(1,), views=[views],
                               truth=points[None], ground=None)  # fmt: skip
         point = None
         if len(views) >= 2:

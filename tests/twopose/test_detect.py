@@ -194,7 +194,7 @@ def test_an_empty_scene_is_a_not_found_detection_with_a_reason(target: Target) -
 @pytest.mark.parametrize("seed", range(6))
 def test_fast_components_agree_with_opencv_stats(seed: int) -> None:
     """Random masks with holes and blobs inside holes: same components, areas and centroids."""
-    from twopose.detect import _components
+    from twopose.detectors import _components
 
     rng = np.random.default_rng(seed)
     noise = cv2.GaussianBlur(rng.random((240, 320)).astype(np.float32), (0, 0), 3.0)

@@ -10,8 +10,7 @@ import cv2
 import numpy as np
 import pytest
 
-from twopose.detect import (
-    GloveParams,
+from twopose.detectors import (
     _components,
     _glove_mask,
     _grey_formula,
@@ -21,6 +20,7 @@ from twopose.detect import (
 )
 from twopose.format.messages import Frame
 from twopose.format.reader import SessionReader
+from twopose.thresholds import GloveParams
 
 SESSIONS = Path(__file__).resolve().parents[2] / "sessions"
 

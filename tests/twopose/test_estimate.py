@@ -142,7 +142,7 @@ def test_the_ground_solver_meets_the_ground_where_the_pointing_line_does() -> No
     solved = solve_batch(Method.GROUND, _batch(views), GROUND, OPTIONS)
     assert (solved.status == "ok").all()
     np.testing.assert_allclose(solved.point, on_ground, atol=1e-7)
-    assert (solved.margins["line_ground_angle_deg"] > 10.0).all()
+    assert (solved.margins["line_plane_angle_deg"] > 10.0).all()
 
 
 def test_a_trial_seen_twice_from_one_place_is_flagged_not_solved() -> None:

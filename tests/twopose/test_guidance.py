@@ -58,7 +58,7 @@ def _trial(method: Method, centres: list[tuple[float, float, float]]) -> Session
         truth = np.array([[target, target]])
     ground = (np.array([0.0, 1.0, 0.0]), GROUND_H) if method is Method.GROUND else None
     return SessionTrials(
-        method=method, units="in", trial_ids=(1,), views=[views], truth=truth, ground=ground
+        method=method, units=Units.IN, trial_ids=(1,), views=[views], truth=truth, ground=ground
     )
 
 
@@ -90,7 +90,7 @@ def test_the_suggestion_is_the_brute_force_best_of_the_lattice(method: Method) -
         if view is None:
             continue
         one = SessionTrials(
-            method=method, units="in", trial_ids=(1,), views=[[*trial.views[0], view]],
+            method=method, units=Units.IN, trial_ids=(1,), views=[[*trial.views[0], view]],
             truth=trial.truth, ground=trial.ground,
         )  # fmt: skip
         # a predicted view has no noise of its own: no variance factor from it (guidance's

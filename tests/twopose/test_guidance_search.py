@@ -51,7 +51,7 @@ def _scaled(trial: SessionTrials, units: Units) -> SessionTrials:
         for v in trial.views[0]
     ]
     ground = None if trial.ground is None else (trial.ground[0], trial.ground[1] * f)
-    return SessionTrials(method=trial.method, units=str(units), trial_ids=(1,), views=[views],
+    return SessionTrials(method=trial.method, units=units, trial_ids=(1,), views=[views],
                          truth=trial.truth * f, ground=ground)  # fmt: skip
 
 
@@ -119,7 +119,7 @@ def test_the_suggestions_keep_the_finger_clear_of_the_image_edge_where_it_is_det
     ground = (np.array([0.0, 1.0, 0.0]), scene.ground_height)
     views = [_synthetic_view(source, (4.5, 0.0, 0.0), 1)]
     for pose in (2, 3):
-        trial = SessionTrials(method=Method.GROUND, units="in", trial_ids=(1,), views=[views],
+        trial = SessionTrials(method=Method.GROUND, units=Units.IN, trial_ids=(1,), views=[views],
                               truth=truth, ground=ground)  # fmt: skip
         found = suggest(trial, Reach.thesis(Units.IN), point=_point(trial))
         assert found is not None

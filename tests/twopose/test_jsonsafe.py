@@ -10,6 +10,8 @@ import numpy as np
 
 from recorder.trial_result import TrialResult
 from twopose import jsonsafe
+from twopose.methods import Method
+from twopose.units import Units
 
 
 def strict(text: str) -> object:
@@ -44,7 +46,7 @@ def test_a_degenerate_trial_result_is_strict_json() -> None:
     """A line with no baseline: NaN point, direction, covariance (issue 21's 500)."""
     nan3 = (math.nan, math.nan, math.nan)
     result = TrialResult(
-        trial=1, method="line", units="in", n_views=2, status="degenerate",
+        trial=1, method=Method.LINE, units=Units.IN, n_views=2, status="degenerate",
         reason="no baseline", point=nan3, direction=nan3, semiaxis95=math.inf, ci95=nan3,
         margins={"parallax_deg": math.nan}, cov=(nan3, nan3, nan3),
     )  # fmt: skip

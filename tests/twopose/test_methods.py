@@ -8,6 +8,7 @@ import json
 import pytest
 
 from twopose.bounds import POSE_TRANSLATION
+from twopose.choices import Target
 from twopose.errors import InputValueError
 from twopose.format.entries import SessionInfo, decode_entry, encode_entry
 from twopose.methods import MEASURING_METHODS, METHOD_SPECS, METHODS, Method, spec_of
@@ -15,7 +16,7 @@ from twopose.units import UNIT_SPECS, UNITS, Units, unit_spec
 
 
 def test_every_method_and_unit_has_its_spec() -> None:
-    assert set(METHOD_SPECS) == set(Method)
+    assert set(METHOD_SPECS) == set(METHODS)
     assert METHODS == (Method.POINT, Method.LINE, Method.GROUND, Method.BOARD)  # the thesis'
     assert MEASURING_METHODS == (Method.POINT, Method.LINE, Method.GROUND)
     assert set(UNIT_SPECS) == set(Units)
@@ -28,15 +29,19 @@ def test_every_method_and_unit_has_its_spec() -> None:
 
 def test_what_each_method_is() -> None:
     point, line, ground = (spec_of(m) for m in ("point", "line", "ground"))
-    assert (point.target, line.target, ground.target) == ("dot", "glove", "glove")
+    assert (point.target, line.target, ground.target) == (
+        Target.DOT.spec,
+        Target.GLOVE.spec,
+        Target.GLOVE.spec,
+    )
     assert (point.truth_points, line.truth_points, ground.truth_points) == (1, 2, 1)
     assert [s.needs_ground for s in (point, line, ground)] == [False, False, True]
     assert [s.estimates_line for s in (point, line, ground)] == [False, True, False]
     assert [s.uses_image_lines for s in (point, line, ground)] == [False, True, True]
     # Every method's margins include the parallax; method 2 adds the line-ground angle.
     assert all(s.margins[0] == "parallax_deg" for s in (point, line, ground))
-    assert "line_ground_angle_deg" in ground.margins
-    assert "line_ground_angle_deg" not in line.margins
+    assert "line_plane_angle_deg" in ground.margins
+    assert "line_plane_angle_deg" not in line.margins
 
 
 def test_a_board_session_reconstructs_nothing_and_carries_its_board() -> None:

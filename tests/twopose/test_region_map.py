@@ -61,7 +61,7 @@ def _trial(method: Method, centres: list[tuple[float, float, float]],
     truth = np.full((1, 2, 3), np.nan)
     ground = (np.array([0.0, 1.0, 0.0]), GROUND_H * f) if method is Method.GROUND else None
     return SessionTrials(
-        method=method, units=str(units), trial_ids=(1,), views=[views], truth=truth, ground=ground
+        method=method, units=units, trial_ids=(1,), views=[views], truth=truth, ground=ground
     )
 
 

@@ -15,9 +15,9 @@ from twopose.rig.constants import (
     check_applicable,
     check_plausible,
     corrected_ground,
-    load_rig,
     plausible_bounds,
 )
+from twopose.rig.file import load_rig
 from twopose.units import Units
 
 GROUND = (np.array([0.0, 1.0, 0.0]), 9.625)

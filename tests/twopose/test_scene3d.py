@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from twopose.format.entries import GroundPlane
+from twopose.format.entries import PlaneEntry
 from twopose.scene3d import TrialScene, static_scene, trial_scene
 
 TARGET = np.array([0.5, 1.5, 11.0])
@@ -77,6 +77,6 @@ def test_a_failed_trial_draws_no_estimate() -> None:
 
 
 def test_the_static_scene_draws_the_ground_plane_when_there_is_one() -> None:
-    with_ground = static_scene(GroundPlane(offset=9.625))
+    with_ground = static_scene(PlaneEntry(offset=9.625))
     without = static_scene(None)
     assert len(with_ground.entities) > len(without.entities)

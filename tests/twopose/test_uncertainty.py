@@ -25,6 +25,7 @@ from twopose.uncertainty import (
     semiaxis95,
     uncertainty_columns,
 )
+from twopose.units import Units
 
 F64 = NDArray[np.float64]
 FOCAL = np.array([525.0, 525.0, 320.0, 240.0])
@@ -141,7 +142,7 @@ def test_a_trial_of_still_frames_and_exact_poses_keeps_the_detectors_floor() -> 
         views.append(view)
     trials = SessionTrials(
         method=Method.POINT,
-        units="in",
+        units=Units.IN,
         trial_ids=(1,),
         views=[views],
         truth=np.array([[point, point]]),

@@ -23,6 +23,7 @@ from twopose.session_estimate import SessionTrials, estimate_session
 from twopose.sim.scene import CameraParams, ClutterParams, Scene, SensorParams
 from twopose.truth import reported
 from twopose.uncertainty import INPUT_GROUPS, Shared, dominant_input, propagate, uncertainty_columns
+from twopose.units import Units
 
 F64 = NDArray[np.float64]
 NOMINAL = np.array([525.0, 525.0, 320.0, 240.0])
@@ -146,7 +147,7 @@ def _session(
     ground = (np.array([0.0, 1.0, 0.0]), GROUND_HEIGHT) if method == "ground" else None
     session = SessionTrials(
         method=Method(method),
-        units="in",
+        units=Units.IN,
         trial_ids=tuple(range(len(views))),
         views=views,
         truth=np.array(truth),

@@ -16,7 +16,13 @@ from typing import Any
 from mcap.writer import Writer as McapWriter
 from mcap_protobuf.schema import build_file_descriptor_set
 
-from twopose.format.entries import FORMAT_VERSION, TYPED_ENTRIES, CaptureDecision, TypedEntry
+from twopose.format.entries import (
+    ENTRIES_1_0,
+    FORMAT_VERSION,
+    PAIR_SESSION_ENTRIES,
+    CaptureDecision,
+    TypedEntry,
+)
 from twopose.format.messages import (
     SESSION_PROTOBUF,
     TF_TOPIC,
@@ -80,19 +86,24 @@ class Channels:
 
 
 def register_session_channels(
-    writer: McapWriter, camera_ids: Sequence[str], format_version: str = FORMAT_VERSION
+    writer: McapWriter,
+    camera_ids: Sequence[str],
+    format_version: str = FORMAT_VERSION,
+    *,
+    pair: bool = False,
 ) -> Channels:
     """Every schema and channel of a session, in the documented order.
 
     The order ``docs/session-format.md`` fixes: the format 1.0 typed entries, the Foxglove schemas,
     ``/tf``, per camera its calibration and image channels, then (format 1.1)
-    ``/twopose/decision``. Appending the 1.1 channel keeps the 1.0 ids, so ``recover`` rebuilds
-    files of either version.
+    ``/twopose/decision``, then in a two-camera session (``pair``, format 1.6) its entries'
+    (:data:`~twopose.format.entries.PAIR_SESSION_ENTRIES`). Appending each version's channels
+    keeps the earlier ids, so ``recover`` rebuilds files of every version, and a one-camera
+    session registers the channels it did before.
     """
     channels = Channels(writer)
-    for cls in TYPED_ENTRIES:
-        if cls is not CaptureDecision:
-            channels.json_entry(cls)
+    for cls in ENTRIES_1_0:
+        channels.json_entry(cls)
     channels.protobuf_schemas(*SESSION_PROTOBUF)
     calibration, image, transform = SESSION_PROTOBUF
     channels.protobuf(TF_TOPIC, transform)
@@ -101,4 +112,7 @@ def register_session_channels(
         channels.protobuf(image_topic(cid), image)
     if format_version != "1.0":
         channels.json_entry(CaptureDecision)
+    if pair:
+        for cls in PAIR_SESSION_ENTRIES:
+            channels.json_entry(cls)
     return channels

@@ -15,8 +15,37 @@ from dataclasses import MISSING
 from typing import Any, ClassVar, Self, TypeVar
 
 from twopose.targets import BoardPlacement
+from twopose.values import CAMERA_ID_PATTERN
 
-__all__ = ["TypedEntry", "entry", "from_json", "json_field", "object_schema", "to_json"]
+__all__ = [
+    "CAMERA_SCHEMA",
+    "INDEX_SCHEMA",
+    "TypedEntry",
+    "entry",
+    "from_json",
+    "json_field",
+    "object_schema",
+    "to_json",
+    "vec3_schema",
+]
+
+#: A whole number >= 0 (a trial, a pose, a count, a log time).
+INDEX_SCHEMA: dict[str, Any] = {"type": "integer", "minimum": 0}
+
+
+def vec3_schema(description: str) -> dict[str, Any]:
+    """Three numbers: a point or a direction, with what it is."""
+    return {
+        "type": "array",
+        "items": {"type": "number"},
+        "minItems": 3,
+        "maxItems": 3,
+        "description": description,
+    }
+
+
+#: A camera id (1-32 characters of ``[A-Za-z0-9_-]``).
+CAMERA_SCHEMA: dict[str, Any] = {"type": "string", "pattern": CAMERA_ID_PATTERN}
 
 
 def json_field(

@@ -2,9 +2,10 @@
 
 Each entry is a frozen dataclass, each field declared once (:mod:`twopose.format.declared`:
 the JSON Schema written into every file, the encoding and the decoding all come from that
-one declaration). Near the 600-line limit because every entry of the format is here, so
-that one page of code is the whole format; nested objects of an entry live beside it
-(:mod:`twopose.format.guidance_record`).
+one declaration). The one-camera procedure's entries are here; a two-camera session's
+(format 1.6) are in :mod:`twopose.format.stream_entries`, the simulator's truth in
+:mod:`twopose.format.simulation`, nested objects beside them
+(:mod:`twopose.format.guidance_record`); :data:`TYPED_ENTRIES` registers them all.
 """
 
 from __future__ import annotations
@@ -16,34 +17,59 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from twopose.camera import SIGMA_KEYS, intrinsics_sigma, rotation_from_angles_deg
+from twopose.camera import rotation_from_angles_deg
 from twopose.errors import InputValueError, SessionFormatError
-from twopose.format.declared import TypedEntry, entry, from_json, json_field, object_schema
-from twopose.format.guidance_record import GuidanceRecord, guidance_schema
-from twopose.methods import LINE_TRUTH, METHODS, TRUTH_POINTS, Method, TruthKind, spec_of
-from twopose.targets import BoardPlacement
-from twopose.units import UNIT_SPECS, UNITS, Units, unit_factor, unit_spec
-from twopose.values import CAMERA_ID_PATTERN, Vec3, camera_id, finite, index, numbers, vec3
+from twopose.format.declared import (
+    CAMERA_SCHEMA,
+    INDEX_SCHEMA,
+    TypedEntry,
+    entry,
+    json_field,
+    vec3_schema,
+)
+from twopose.format.guidance_record import GuidanceRecord
+from twopose.format.session_entry import FORMAT_MAJOR, FORMAT_VERSION, SessionInfo
+from twopose.format.simulation import SimTrajectory, SimulationTruth, TruePose
+from twopose.format.stream_entries import (
+    CLOCK_SOURCES,
+    STREAM_ENTRIES,
+    ClockOffsetEntry,
+    PairEntry,
+    StreamWindow,
+    Touch,
+)
+from twopose.methods import LINE_TRUTH, METHODS, TRUTH_POINTS, Method, TruthKind
+from twopose.units import UNIT_SPECS, UNITS, Units, unit_factor
+from twopose.values import Vec3, camera_id, finite, index, vec3
 
 __all__ = [
+    "CLOCK_SOURCES",
     "DEFAULT_ROTATION_RESOLUTION_DEG",
     "DEFAULT_TRANSLATION_RESOLUTION",
+    "ENTRIES_1_0",
     "FORMAT_MAJOR",
     "FORMAT_VERSION",
     "INCHES_PER_UNIT",
     "METHODS",
+    "PAIR_SESSION_ENTRIES",
     "TYPED_ENTRIES",
     "UNITS",
     "CaptureDecision",
     "CaptureWindow",
+    "ClockOffsetEntry",
     "GroundPlane",
     "GroundTruth",
     "GuidanceRecord",
     "Method",
     "Note",
+    "PairEntry",
+    "PlaneEntry",
     "PoseEntry",
     "SessionInfo",
+    "SimTrajectory",
     "SimulationTruth",
+    "StreamWindow",
+    "Touch",
     "TruePose",
     "TruthKind",
     "TypedEntry",
@@ -53,8 +79,6 @@ __all__ = [
     "encode_entry",
 ]
 
-FORMAT_VERSION = "1.5"
-FORMAT_MAJOR = 1
 
 #: Inches in one session unit (the thesis reports in inches): twopose.units' registry.
 INCHES_PER_UNIT = {str(u): spec.inches for u, spec in UNIT_SPECS.items()}
@@ -62,23 +86,14 @@ CaptureStatus = Literal["complete", "incomplete"]
 Verdict = Literal["accept", "discard"]
 
 
-def _vec3_schema(description: str) -> dict[str, Any]:
-    return {
-        "type": "array",
-        "items": {"type": "number"},
-        "minItems": 3,
-        "maxItems": 3,
-        "description": description,
-    }
-
-
-_INDEX_SCHEMA = {"type": "integer", "minimum": 0}
+_vec3_schema = vec3_schema
+_INDEX_SCHEMA = INDEX_SCHEMA
 _CAPTURE_SCHEMA = {
     "type": "integer",
     "minimum": 1,
     "description": "the capture's number, unique in the session (format 1.1)",
 }
-_CAMERA_SCHEMA = {"type": "string", "pattern": CAMERA_ID_PATTERN}
+_CAMERA_SCHEMA = CAMERA_SCHEMA
 _POINTS_SCHEMA = {"enum": list(TRUTH_POINTS)}
 
 # --------------------------------------------------------------------------- the entries
@@ -87,156 +102,6 @@ _POINTS_SCHEMA = {"enum": list(TRUTH_POINTS)}
 def _capture_number(value: int | None) -> None:
     if value is not None and (index(value, "capture") < 1):
         raise InputValueError(f"capture numbers start at 1, got {value}")
-
-
-@entry("/twopose/session", "Session", "One per file, first typed entry: what this session is.")
-@dataclass(frozen=True, kw_only=True)
-class SessionInfo(TypedEntry):
-    """What the session is: method, units, who recorded it, which cameras."""
-
-    format_version: str = json_field(
-        "format_version", {"type": "string", "pattern": r"^\d+\.\d+$"}, default=FORMAT_VERSION
-    )
-    software_version: str = json_field(
-        "software_version", {"type": "string"}, required=False, default=""
-    )
-    method: Method = json_field("method", {"enum": list(METHODS)})
-    units: Units = json_field("units", {"enum": list(UNITS)})
-    camera_ids: tuple[str, ...] = json_field(
-        "camera_ids",
-        {"type": "array", "items": _CAMERA_SCHEMA, "minItems": 1, "uniqueItems": True},
-        default=("cam0",),
-        decode=tuple,
-    )
-    operator: str = json_field("operator", {"type": "string"}, required=False, default="")
-    notes: str = json_field("notes", {"type": "string"}, required=False, default="")
-    created_utc: str = json_field(
-        "created_utc",
-        {"type": "string", "description": "ISO 8601, UTC; may be empty"},
-        required=False,
-        default="",
-    )
-    simulated: bool = json_field("simulated", {"type": "boolean"}, required=False, default=False)
-    intrinsics_sigma: dict[str, dict[str, float]] | None = json_field(
-        "intrinsics_sigma",
-        {
-            "type": "object",
-            "description": "format 1.2: per camera id, the calibration's 1-sigma per intrinsic",
-            "additionalProperties": {
-                "type": "object",
-                "propertyNames": {"enum": list(SIGMA_KEYS)},
-                "additionalProperties": {"type": "number", "minimum": 0},
-            },
-        },
-        required=False,
-        default=None,
-        compare=False,
-    )
-    board: BoardPlacement | None = json_field(
-        "board",
-        {
-            "type": "object",
-            "description": "format 1.2, board sessions: the checkerboard and where it stands",
-            "properties": {
-                "inner_corners": {
-                    "type": "array",
-                    "items": {"type": "integer", "minimum": 2},
-                    "minItems": 2,
-                    "maxItems": 2,
-                },
-                "square": {"type": "number", "exclusiveMinimum": 0},
-                "first_corner": _vec3_schema("the first inner corner, grid frame"),
-            },
-            "required": ["inner_corners", "square", "first_corner"],
-            "additionalProperties": False,
-        },
-        required=False,
-        default=None,
-        decode=BoardPlacement.from_json,
-    )
-
-    session_id: str | None = json_field(
-        "session_id",
-        {"type": "string", "pattern": "^[0-9a-f]{16,64}$",
-         "description": "1.3: the session's identity; its continuations share it"},
-        required=False,
-        default=None,
-    )  # fmt: skip
-    continues_after_trial: int | None = json_field(
-        "continues.after_trial",
-        {"type": "integer", "minimum": 0,
-         "description": "1.3, a continuation: the last trial of the part it continues"},
-        required=False,
-        default=None,
-    )  # fmt: skip
-    continues_file: str | None = json_field(
-        "continues.file",
-        {"type": "string", "description": "1.3, a continuation: the file it continues"},
-        required=False,
-        default=None,
-    )
-    continues_sha256: str | None = json_field(
-        "continues.sha256",
-        {"type": "string", "pattern": "^[0-9a-f]{64}$",
-         "description": "1.3, a continuation: the SHA-256 of the file it continues"},
-        required=False,
-        default=None,
-    )  # fmt: skip
-
-    part_id: str | None = json_field(
-        "part_id",
-        {"type": "string", "pattern": "^[0-9a-f]{16,64}$",
-         "description": "1.4: this file's part of the session; a recovered copy keeps it"},
-        required=False,
-        default=None,
-    )  # fmt: skip
-    continues_part: str | None = json_field(
-        "continues.part",
-        {"type": "string", "pattern": "^[0-9a-f]{16,64}$",
-         "description": "1.4, a continuation: the part_id of the part it continues"},
-        required=False,
-        default=None,
-    )  # fmt: skip
-    continues_branch: str | None = json_field(
-        "continues.branch",
-        {"type": "string", "pattern": "^[A-Z]{0,8}$",
-         "description": "1.4, a continuation: its branch (empty: the part's only "
-         "continuation when recorded; B, C, ...: another file already continued that part)"},
-        required=False,
-        default=None,
-    )  # fmt: skip
-    guidance: GuidanceRecord | None = json_field(
-        "guidance", {**guidance_schema(), "description": "1.5: the guidance recorded with"},
-        required=False, default=None, decode=GuidanceRecord.from_json,
-    )  # fmt: skip
-
-    @property
-    def is_continuation(self) -> bool:
-        """Whether the session continues an earlier file (``new --continue``)."""
-        return self.continues_after_trial is not None
-
-    def __post_init__(self) -> None:
-        """Hold the method and units as their types; check the cameras and the version."""
-        # The registries' types (equal to, and serialised as, the names in the file).
-        object.__setattr__(self, "method", spec_of(self.method).method)
-        object.__setattr__(self, "units", unit_spec(self.units).units)
-        if not self.camera_ids:
-            raise InputValueError("a session needs at least one camera")
-        for cid in self.camera_ids:
-            camera_id(cid)
-        if len(set(self.camera_ids)) != len(self.camera_ids):
-            raise InputValueError(f"camera ids must be unique, got {self.camera_ids}")
-        if (self.board is not None) == spec_of(self.method).measures:
-            raise InputValueError(
-                "a board session needs its board (inner corners, square, first corner), and "
-                "only a board session has one"
-            )
-        if self.intrinsics_sigma is not None:
-            unknown = sorted(set(self.intrinsics_sigma) - set(self.camera_ids))
-            if unknown:
-                raise InputValueError(f"intrinsics_sigma names unknown camera(s) {unknown}")
-            sigma = {c: intrinsics_sigma(s) for c, s in self.intrinsics_sigma.items()}
-            object.__setattr__(self, "intrinsics_sigma", sigma)
 
 
 #: What a typed pose's components are good to when nothing else is said (1-sigma): the
@@ -389,14 +254,18 @@ class CaptureDecision(TypedEntry):
 
 @entry(
     "/twopose/ground",
-    "GroundPlane",
+    "GroundPlane",  # the schema's name in the files, kept
     "The ground plane normal . p = offset in the grid frame (session units).",
 )
 @dataclass(frozen=True, kw_only=True)
-class GroundPlane(TypedEntry):
-    """The ground (table top) plane ``normal_grid . p = offset`` in the grid frame.
+class PlaneEntry(TypedEntry):
+    """The method's constraint plane ``normal_grid . p = offset`` in the grid frame.
 
-    The thesis: normal (0, 1, 0), offset h = 9.625 in (camera centre down to the table).
+    As a session stores it (:class:`twopose.planes.ConstraintPlane`, its offset typed).
+    The thesis' ground: normal (0, 1, 0), offset h = 9.625 in (camera centre down to the
+    table); a wall ``x = c``: normal (1, 0, 0), offset c. The file's topic and JSON keys
+    keep the ground's names (``ground``, ``normal``, ``offset``). Its old name,
+    ``GroundPlane``, is kept for one release (an alias).
     """
 
     normal_grid: Vec3 = json_field(
@@ -416,6 +285,10 @@ class GroundPlane(TypedEntry):
     def spec(self) -> tuple[np.ndarray, float]:
         """The plane as the solvers take it (:data:`twopose.estimate.GroundSpec`)."""
         return np.array(self.normal_grid, dtype=np.float64), self.offset
+
+
+#: :class:`PlaneEntry`'s old name, kept for one release (it is any method's plane).
+GroundPlane = PlaneEntry
 
 
 @entry(
@@ -470,74 +343,22 @@ class Note(TypedEntry):
             index(self.trial, "trial")
 
 
-@dataclass(frozen=True, kw_only=True)
-class TruePose:
-    """The pose the simulated camera really had (the typed one carries the typing error)."""
-
-    pose: int = json_field("pose", _INDEX_SCHEMA)
-    camera_id: str = json_field("camera", {"type": "string"})
-    t_grid: Vec3 = json_field("translation", _vec3_schema("true camera centre, grid frame"))
-    r_deg: Vec3 = json_field("rotation_deg", _vec3_schema("true (rx, ry, rz), degrees"))
-
-    def __post_init__(self) -> None:
-        """Check the true pose's six numbers."""
-        object.__setattr__(self, "t_grid", vec3(self.t_grid, "true translation"))
-        object.__setattr__(self, "r_deg", vec3(self.r_deg, "true rotation"))
-
-
-@entry(
-    "/simulation/truth",
-    "SimulationTruth",
-    "Simulated sessions only: the true poses (frames were rendered from these) and target.",
-)
-@dataclass(frozen=True, kw_only=True)
-class SimulationTruth(TypedEntry):
-    """What a simulated trial really was: true poses and the true point or line."""
-
-    trial: int = json_field("trial", _INDEX_SCHEMA)
-    poses: tuple[TruePose, ...] = json_field(
-        "poses",
-        {"type": "array", "items": object_schema(TruePose)},
-        decode=lambda items: tuple(from_json(TruePose, p) for p in items),
-    )
-    kind: TruthKind = json_field("kind", _POINTS_SCHEMA)
-    points_grid: tuple[Vec3, ...] = json_field(
-        "points", {"type": "array", "items": _vec3_schema("grid frame"), "minItems": 1}
-    )
-    rig: tuple[float, ...] | None = json_field(
-        "rig",
-        {
-            "type": "array",
-            "items": {"type": "number"},
-            "minItems": 11,
-            "maxItems": 11,
-            "description": "the rig's systematic constants the frames were rendered with "
-            "(twopose.rig.RIG_PARAMETERS order); absent: none",
-        },
-        required=False,
-        default=None,
-        decode=lambda values: tuple(float(v) for v in values),
-    )
-
-    def __post_init__(self) -> None:
-        """Check the trial and the truth's points."""
-        index(self.trial, "trial")
-        object.__setattr__(
-            self, "points_grid", tuple(vec3(p, "truth point") for p in self.points_grid)
-        )
-        if self.rig is not None:
-            object.__setattr__(self, "rig", tuple(float(v) for v in numbers(self.rig, 11, "rig")))
-
-
-TYPED_ENTRIES: tuple[type[TypedEntry], ...] = (
+#: The format 1.0 entries, in the order a session registers their channels.
+ENTRIES_1_0: tuple[type[TypedEntry], ...] = (
     SessionInfo,
     PoseEntry,
     CaptureWindow,
-    GroundPlane,
+    PlaneEntry,
     GroundTruth,
     Note,
     SimulationTruth,
+)
+#: Format 1.6's, a two-camera session's only, registered after the 1.1 decision's.
+PAIR_SESSION_ENTRIES: tuple[type[TypedEntry], ...] = (*STREAM_ENTRIES, SimTrajectory)
+TYPED_ENTRIES: tuple[type[TypedEntry], ...] = (
+    *ENTRIES_1_0,
     CaptureDecision,  # format 1.1; registered after the 1.0 channels (see channels.py)
+    *PAIR_SESSION_ENTRIES,
 )
 
 # --------------------------------------------------------------------------- JSON bytes

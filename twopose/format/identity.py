@@ -29,6 +29,9 @@ them, so they agree on what is counted and what is said.
   part after it, in trial order; every other branch is a strand of its own, holding only
   its own parts, so that every capture is counted once.
 - A **trial** is its session, its branch and its number.
+
+(Near 600 lines: one rule (what a session, a part and a copy are) with the words that say
+it; cut in two, its cases would be read in two places.)
 """
 
 from __future__ import annotations
@@ -102,6 +105,7 @@ class SessionFile:
     readable: bool
     info: SessionInfo | None = None
     n_poses: int = -1  # poses typed (-1: unknown, the file is not readable)
+    pair: bool = False  # a two-camera session (format 1.6: stream trials, no typed pose)
     #: A file with no session id: the digest of what opens it (:func:`opening_digest`),
     #: the same for its cut and recovered copies ("" when it has an id, or none is read).
     opening: str = ""
@@ -175,9 +179,10 @@ def identify_file(path: str | Path, digest: str | None = None) -> SessionFile:
         with SessionReader(path) as reader:
             info: SessionInfo | None = reader.info
             n_poses = reader.message_counts().get(PoseEntry.TOPIC, 0)
+            pair = reader.pair is not None
         readable = True
     except (TwoposeError, OSError, AssertionError, ValueError):
-        info, n_poses, readable = None, -1, False
+        info, n_poses, readable, pair = None, -1, False, False
     opening: str = ""
     if info is None or not info.session_id:  # interrupted, or no id: what opens it
         metadata, first_frame = _opening(path)
@@ -185,7 +190,7 @@ def identify_file(path: str | Path, digest: str | None = None) -> SessionFile:
             info = info or _session_entry(metadata)
             opening = _digest_of(metadata, first_frame) if info is not None else ""
     return SessionFile(
-        path=str(path), digest=digest, readable=readable, info=info, n_poses=n_poses,
+        path=str(path), digest=digest, readable=readable, info=info, n_poses=n_poses, pair=pair,
         opening=opening if info is not None and not info.session_id else "",
     )  # fmt: skip
 

@@ -58,13 +58,19 @@ def calibration_topic(camera_id: str) -> str:
 
 @dataclass(frozen=True, kw_only=True)
 class Frame:
-    """One encoded image as stored (decode with :meth:`decode`)."""
+    """One encoded image as stored (decode with :meth:`decode`).
+
+    ``log_time_ns`` when it was written; ``capture_ns`` when it was taken, on its camera's
+    capture clock (format 1.6: the image's ``timestamp``; None in an older file, whose
+    timestamp is the write time).
+    """
 
     camera_id: str
     log_time_ns: int
     sequence: int
     format: str
     data: bytes = field(repr=False)
+    capture_ns: int | None = None
 
     def decode(self, expected_size: tuple[int, int] | None = None) -> NDArray[np.uint8]:
         """The image as an (H, W, 3) BGR uint8 array, its header checked first.
@@ -82,10 +88,20 @@ class Frame:
             raise SessionFormatError(str(err)) from err
 
 
-def image_message(camera_id: str, data: bytes, image_format: str, log_time_ns: int) -> Any:
-    """A ``foxglove.CompressedImage`` of an encoded frame."""
+def image_message(
+    camera_id: str,
+    data: bytes,
+    image_format: str,
+    log_time_ns: int,
+    capture_ns: int | None = None,
+) -> Any:
+    """A ``foxglove.CompressedImage`` of an encoded frame.
+
+    Its ``timestamp`` is the frame's capture time (format 1.6), the log time when none is
+    given (a frame grabbed and written at once).
+    """
     msg = CompressedImage(frame_id=camera_frame_id(camera_id), data=data, format=image_format)
-    msg.timestamp.FromNanoseconds(log_time_ns)
+    msg.timestamp.FromNanoseconds(log_time_ns if capture_ns is None else capture_ns)
     return msg
 
 

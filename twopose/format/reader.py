@@ -7,7 +7,7 @@ import shlex
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 from types import TracebackType
-from typing import IO, Any, Self
+from typing import IO, TYPE_CHECKING, Any, Self
 
 from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
 from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
@@ -18,7 +18,8 @@ from twopose.errors import InputValueError, SessionFormatError, SessionVersionEr
 from twopose.format.entries import (
     FORMAT_MAJOR,
     TYPED_ENTRIES,
-    GroundPlane,
+    PairEntry,
+    PlaneEntry,
     SessionInfo,
     TypedEntry,
     decode_entry,
@@ -30,7 +31,11 @@ from twopose.format.messages import (
     calibration_topic,
     camera_from_message,
 )
+from twopose.format.pair_convert import pair_calibration
 from twopose.format.writer import METADATA_NAME
+
+if TYPE_CHECKING:
+    from twopose.pair.calibration import PairCalibration
 
 __all__ = [
     "STAGING_FOLDER",
@@ -40,6 +45,7 @@ __all__ = [
     "find_sessions",
     "is_results_file",
     "max_chunk_bytes",
+    "records_capture_times",
     "recover_command",
 ]
 
@@ -67,6 +73,12 @@ _JSON_SCHEMAS = {cls.SCHEMA_NAME for cls in TYPED_ENTRIES}
 def recover_command(path: str | Path) -> str:
     """The command that salvages an interrupted session, ready to paste into a shell."""
     return f"twopose-record recover {shlex.quote(str(path))} -o FIXED.mcap"
+
+
+def records_capture_times(version: str) -> bool:
+    """Whether a file of format ``version`` records its frames' capture times (1.6 on)."""
+    match = re.fullmatch(r"(\d{1,9})\.(\d{1,9})", version)
+    return match is not None and (int(match.group(1)), int(match.group(2))) >= (1, 6)
 
 
 def check_version(path: Path, version: str) -> None:
@@ -105,7 +117,10 @@ class SessionReader:
         self.software_version = ""
         self._info: SessionInfo | None = None
         self._cameras: dict[str, Camera] = {}
-        self._ground: GroundPlane | None = None
+        self._ground: PlaneEntry | None = None
+        self._pair: PairEntry | None = None
+        self._pair_calibration: PairCalibration | None = None
+        self._capture_times = False
 
     def __enter__(self) -> Self:
         """Open the file and read its summary, metadata and typed entries."""
@@ -162,6 +177,7 @@ class SessionReader:
         self.format_version = metadata[METADATA_NAME].get("format_version", "")
         self.software_version = metadata[METADATA_NAME].get("software_version", "")
         check_version(self.path, self.format_version)
+        self._capture_times = records_capture_times(self.format_version)
         self._reader = reader
         self._read_opening([c.topic for c in summary.channels.values()])
 
@@ -182,13 +198,15 @@ class SessionReader:
 
     def _read_opening(self, topics: list[str]) -> None:
         """The session entry, the ground plane and every camera's calibration."""
-        wanted = [SessionInfo.TOPIC, GroundPlane.TOPIC]
+        wanted = [SessionInfo.TOPIC, PlaneEntry.TOPIC, PairEntry.TOPIC]
         wanted += [t for t in topics if t.endswith("/calibration")]
-        for item in self.iter_entries(topics=wanted):
+        for item in self.iter_entries(topics=[t for t in wanted if t in topics]):
             if isinstance(item, SessionInfo) and self._info is None:
                 self._info = item
-            elif isinstance(item, GroundPlane):
+            elif isinstance(item, PlaneEntry):
                 self._ground = item
+            elif isinstance(item, PairEntry) and self._pair is None:
+                self._pair = item
             elif isinstance(item, Camera):
                 self._cameras[item.camera_id] = item
         if self._info is None:
@@ -213,6 +231,34 @@ class SessionReader:
                 f"{self.path}: no calibration for camera(s) {', '.join(missing)} "
                 f"on {calibration_topic(missing[0])}"
             )
+        if self._pair is not None:
+            self._check_pair(self._pair)
+
+    def _check_pair(self, pair: PairEntry) -> None:
+        """A two-camera session's pair: of its two cameras, their intrinsics its own."""
+        ids = (pair.camera1, pair.camera2)
+        if self.info.camera_ids != ids:
+            raise SessionFormatError(
+                f"{self.path}: the pair's cameras {list(ids)} are not the session's "
+                f"{list(self.info.camera_ids)}; the file was not written consistently"
+            )
+        try:
+            calibration = pair_calibration(pair)
+        except InputValueError as err:
+            raise SessionFormatError(f"{self.path}: its pair on /twopose/pair: {err}") from err
+        for cid, intrinsics in zip(ids, (calibration.intrinsics1, calibration.intrinsics2),
+                                   strict=True):  # fmt: skip
+            if self._cameras[cid].intrinsics != intrinsics:
+                raise SessionFormatError(
+                    f"{self.path}: camera {cid}'s calibration differs from the pair's "
+                    "intrinsics; the file was not written consistently"
+                )
+        if calibration.units != self.info.units:
+            raise SessionFormatError(
+                f"{self.path}: the pair is in {calibration.units}, the session in "
+                f"{self.info.units}; the file was not written consistently"
+            )
+        self._pair_calibration = calibration
 
     @property
     def info(self) -> SessionInfo:
@@ -226,9 +272,19 @@ class SessionReader:
         return dict(self._cameras)
 
     @property
-    def ground(self) -> GroundPlane | None:
+    def ground(self) -> PlaneEntry | None:
         """The ground plane, if the session has one."""
         return self._ground
+
+    @property
+    def pair(self) -> PairCalibration | None:
+        """A two-camera session's pair (format 1.6), in the session's units; else None."""
+        return self._pair_calibration
+
+    @property
+    def records_capture_times(self) -> bool:
+        """Whether its frames carry their capture times (format 1.6 on)."""
+        return self._capture_times
 
     def message_counts(self) -> dict[str, int]:
         """Messages per topic, from the summary statistics."""
@@ -242,20 +298,32 @@ class SessionReader:
             if cid in summary.channels
         }
 
-    def iter_entries(self, topics: Iterable[str] | None = None) -> Iterator[Entry]:
+    def iter_entries(
+        self,
+        topics: Iterable[str] | None = None,
+        *,
+        start_ns: int | None = None,
+        end_ns: int | None = None,
+    ) -> Iterator[Entry]:
         """Decoded messages in log-time order: typed entries, frames, transforms, cameras.
 
         Parameters
         ----------
         topics : iterable of str, optional
             Only these topics (all when None).
+        start_ns, end_ns : int, optional
+            Only messages with ``start_ns <= log_time <= end_ns`` (the index skips the
+            chunks outside).
         """
-        if self._reader is None:
-            raise TwoposeError("use SessionReader as a context manager")
+        if self._reader is None or self._stream is None:
+            raise TwoposeError("use SessionReader as a context manager (the file is closed)")
         topic_list = None if topics is None else list(topics)
         try:
             for schema, channel, message in self._reader.iter_messages(
-                topics=topic_list, log_time_order=True
+                topics=topic_list,
+                starting_at=start_ns,
+                ending_at=end_ns,
+                log_time_order=True,
             ):
                 entry = self._entry(schema, channel, message)
                 if entry is not None:
@@ -290,6 +358,7 @@ class SessionReader:
                 sequence=message.sequence,
                 format=decoded.format,
                 data=bytes(decoded.data),
+                capture_ns=decoded.timestamp.ToNanoseconds() if self._capture_times else None,
             )
         if isinstance(decoded, CameraCalibration):
             return camera_from_message(decoded)

@@ -20,15 +20,16 @@ from __future__ import annotations
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from twopose.bounds import POSE_TRANSLATION, ROTATION
 from twopose.camera import Camera
 from twopose.format.entries import (
     CaptureDecision,
     CaptureWindow,
-    GroundPlane,
     GroundTruth,
     Note,
+    PlaneEntry,
     PoseEntry,
     SessionInfo,
     SimulationTruth,
@@ -36,6 +37,9 @@ from twopose.format.entries import (
 from twopose.format.messages import Frame, image_topic
 from twopose.format.reader import SessionReader
 from twopose.units import UnitSpec, unit_spec
+
+if TYPE_CHECKING:
+    from twopose.format.streams import PairSession
 
 __all__ = [
     "PoseCapture",
@@ -323,7 +327,7 @@ class SessionOverview:
     path: Path
     info: SessionInfo
     cameras: tuple[Camera, ...]
-    ground: GroundPlane | None
+    ground: PlaneEntry | None
     format_version: str
     software_version: str
     n_trials: int
@@ -334,11 +338,19 @@ class SessionOverview:
     message_counts: dict[str, int]
     n_set_aside: int = 0
     notes: SessionNotes = field(default_factory=lambda: SessionNotes(by_trial={}, session=()))
+    #: A two-camera session's pair, offset and stream trials (format 1.6; their images
+    #: not read); None for a one-camera session.
+    streams: PairSession | None = None
 
 
 def describe_session(path: str | Path) -> SessionOverview:
-    """Open a session (CRC-checked), walk its typed entries and count what it holds."""
+    """Open a session (CRC-checked), walk its typed entries and count what it holds.
+
+    A two-camera session's trials are its stream trials, its captures their windows.
+    """
     with SessionReader(path) as reader:
+        if reader.pair is not None:
+            return _describe_pair_session(Path(path), reader)
         trials = list(iter_trials(reader, with_frames=False))
         counts = reader.message_counts()
         windows = [
@@ -362,3 +374,28 @@ def describe_session(path: str | Path) -> SessionOverview:
             n_set_aside=sum(len(t.set_aside) for t in trials),
             notes=read_notes(reader),
         )
+
+
+def _describe_pair_session(path: Path, reader: SessionReader) -> SessionOverview:
+    """A two-camera session's overview: its stream trials, windows and frames."""
+    from twopose.format.streams import read_pair_session
+
+    session = read_pair_session(reader)
+    counts = reader.message_counts()
+    windows = [w for t in session.trials for s in t.cameras for w in s.windows]
+    return SessionOverview(
+        path=path,
+        info=reader.info,
+        cameras=session.cameras,
+        ground=reader.ground,
+        format_version=reader.format_version,
+        software_version=reader.software_version,
+        n_trials=len(session.trials),
+        n_poses=0,
+        n_captures=len(windows),
+        n_incomplete_captures=sum(w.status != "complete" for w in windows),
+        n_frames=sum(n for topic, n in counts.items() if topic.endswith("/image")),
+        message_counts=counts,
+        notes=read_notes(reader),
+        streams=session,
+    )

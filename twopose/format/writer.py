@@ -6,10 +6,10 @@ import dataclasses
 import json
 import os
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from types import TracebackType
-from typing import IO, Self
+from typing import IO, TYPE_CHECKING, Self
 
 import cv2
 import numpy as np
@@ -24,10 +24,10 @@ from twopose.format.channels import Channels, register_session_channels
 from twopose.format.entries import (
     FORMAT_VERSION,
     CaptureDecision,
-    CaptureWindow,
-    GroundPlane,
     GroundTruth,
     Note,
+    PairEntry,
+    PlaneEntry,
     PoseEntry,
     SessionInfo,
     TypedEntry,
@@ -41,13 +41,20 @@ from twopose.format.messages import (
     image_topic,
     transform_message,
 )
+from twopose.format.pair_convert import clock_offset_entry, pair_entry
+from twopose.format.windows import Capture, Stream
 from twopose.values import index
+
+if TYPE_CHECKING:
+    from twopose.pair.calibration import PairCalibration
+    from twopose.pair.clock import ClockOffset
 
 __all__ = [
     "IMAGE_FORMATS",
     "METADATA_NAME",
     "Capture",
     "SessionWriter",
+    "Stream",
     "cameras_from_metadata",
     "session_metadata",
 ]
@@ -57,14 +64,19 @@ IMAGE_FORMATS = ("jpeg", "png")
 
 
 def session_metadata(
-    info: SessionInfo, cameras: Sequence[Camera], ground: GroundPlane | None, start_ns: int
+    info: SessionInfo,
+    cameras: Sequence[Camera],
+    ground: PlaneEntry | None,
+    start_ns: int,
+    pair: PairEntry | None = None,
 ) -> dict[str, str]:
     """The ``twopose`` metadata record: versions, plus a copy of what opens the session.
 
     The metadata record is written before the first chunk, so the copy survives the loss
-    of that chunk (which holds the schemas, channels and the session entry).
+    of that chunk (which holds the schemas, channels and the session entry); a two-camera
+    session's copy holds its pair too (format 1.6).
     """
-    return {
+    record = {
         "format_version": FORMAT_VERSION,
         "software_version": __version__,
         "session": encode_entry(info).decode(),
@@ -72,6 +84,9 @@ def session_metadata(
         "ground": encode_entry(ground).decode() if ground is not None else "",
         "start_ns": str(start_ns),
     }
+    if pair is not None:
+        record["pair"] = encode_entry(pair).decode()
+    return record
 
 
 def cameras_from_metadata(text: str) -> list[Camera]:
@@ -86,6 +101,27 @@ def cameras_from_metadata(text: str) -> list[Camera]:
         ]
     except (KeyError, TypeError, ValueError, InputValueError) as err:
         raise SessionFormatError(f"the metadata's camera copy is unreadable: {err}") from err
+
+
+def _pair_entry(pair: PairCalibration, info: SessionInfo, cameras: Sequence[Camera]) -> PairEntry:
+    """The pair as the session stores it: its two cameras the session's, in its units.
+
+    Refused in words: a session without exactly two cameras, or whose cameras' intrinsics
+    are not the pair's.
+    """
+    if len(cameras) != 2:
+        raise InputValueError(
+            f"a pair is two cameras; the session has {len(cameras)} ({', '.join(info.camera_ids)})"
+        )
+    for k, (camera, intrinsics) in enumerate(
+        zip(cameras, (pair.intrinsics1, pair.intrinsics2), strict=True), start=1
+    ):
+        if camera.intrinsics != intrinsics:
+            raise InputValueError(
+                f"camera {camera.camera_id}'s intrinsics are not the pair's camera {k}'s: "
+                "give the session the pair's cameras (their intrinsics from the pair file)"
+            )
+    return pair_entry(pair.in_units(info.units), (cameras[0].camera_id, cameras[1].camera_id))
 
 
 def _with_sigma(info: SessionInfo, cameras: Sequence[Camera]) -> SessionInfo:
@@ -113,26 +149,32 @@ class SessionWriter:
     info : SessionInfo
     cameras : sequence of Camera
         One per id in ``info.camera_ids``, in that order.
-    ground : GroundPlane, optional
+    ground : PlaneEntry, optional
     image_format : {"jpeg", "png"}
     jpeg_quality : int
     clock : callable returning int nanoseconds
         Used wherever a ``log_time_ns`` is not given (simulations pass their own).
     start_ns : int, optional
         Time of the opening entries (default: the clock's).
+    pair : PairCalibration, optional
+        Two cameras fixed to each other (format 1.6): the session's two cameras are its
+        camera 1 and camera 2 (their intrinsics the pair's), its trials streams
+        (:meth:`stream`), the grid frame camera 1's; stored in the session's units, and its
+        floor is the ground plane unless ``ground`` is given.
     """
 
-    def __init__(
+    def __init__(  # noqa: PLR0913 - keyword-only settings of the file, each documented
         self,
         path: str | Path,
         info: SessionInfo,
         cameras: Sequence[Camera],
         *,
-        ground: GroundPlane | None = None,
+        ground: PlaneEntry | None = None,
         image_format: str = "jpeg",
         jpeg_quality: int = 90,
         clock: Callable[[], int] = time.time_ns,
         start_ns: int | None = None,
+        pair: PairCalibration | None = None,
     ) -> None:
         if image_format not in IMAGE_FORMATS:
             raise InputValueError(f"image format must be jpeg or png, got {image_format!r}")
@@ -146,6 +188,10 @@ class SessionWriter:
         self.path = Path(path)
         self.info = _with_sigma(info, cameras)
         self.cameras = {c.camera_id: c for c in cameras}
+        self.pair = None if pair is None else _pair_entry(pair, self.info, cameras)
+        floor = None if pair is None else pair.in_units(self.info.units).floor
+        if ground is None and floor is not None:
+            ground = PlaneEntry(normal_grid=tuple(floor.normal), offset=floor.height)
         self.ground = ground
         self.image_format = image_format
         self._encode_params = (
@@ -158,7 +204,7 @@ class SessionWriter:
         self._channels: Channels | None = None
         self._sequence: dict[str, int] = {}
         self._last_ns = 0
-        self._open_capture: Capture | None = None
+        self._open_capture: Capture | Stream | None = None
         self._captures = 0
 
     @property
@@ -180,10 +226,13 @@ class SessionWriter:
             raise TwoposeError(f"cannot create {self.path}: {err.strerror}") from err
         self._mcap = McapWriter(self._stream, compression=CompressionType.ZSTD)
         self._mcap.start(profile="", library=f"twopose/{__version__}")
-        self._channels = register_session_channels(self._mcap, self.info.camera_ids)
+        self._channels = register_session_channels(
+            self._mcap, self.info.camera_ids, pair=self.pair is not None
+        )
         t0 = self._start_ns if self._start_ns is not None else self._clock()
+        cameras = list(self.cameras.values())
         self._mcap.add_metadata(
-            METADATA_NAME, session_metadata(self.info, list(self.cameras.values()), self.ground, t0)
+            METADATA_NAME, session_metadata(self.info, cameras, self.ground, t0, self.pair)
         )
         self._write_json(self.info, t0)
         for camera in self.cameras.values():
@@ -192,6 +241,8 @@ class SessionWriter:
             )
         if self.ground is not None:
             self._write_json(self.ground, t0)
+        if self.pair is not None:
+            self._write_json(self.pair, t0)
         self._mcap.flush()
         return self
 
@@ -279,8 +330,19 @@ class SessionWriter:
             )
 
     # -- typed entries
+    def _check_pair(self, what: str, *, pair: bool = True) -> None:
+        """Refuse ``what`` in a session of the other kind (one camera, or a pair's)."""
+        if (self.pair is not None) != pair:
+            raise TwoposeError(
+                f"{what} belongs in a two-camera session (SessionWriter(..., pair=...))"
+                if pair
+                else f"a two-camera session's trials are streams (SessionWriter.stream): "
+                f"{what} has no place in it"
+            )
+
     def write_pose(self, entry: PoseEntry, log_time_ns: int | None = None) -> None:
         """Write a typed pose and its ``foxglove.FrameTransform``; flushed at once."""
+        self._check_pair("a typed pose", pair=False)
         self._check_camera(entry.camera_id)
         t = self.time(log_time_ns)
         self._write_json(entry, t)
@@ -289,8 +351,21 @@ class SessionWriter:
 
     def write_entry(self, entry: TypedEntry, log_time_ns: int | None = None) -> None:
         """Write a typed entry; flushed at once."""
-        self._write_json(entry, self.time(log_time_ns))
-        self.flush()
+        self.write_entries([entry], log_time_ns)
+
+    def write_entries(
+        self, entries: Iterable[TypedEntry], log_time_ns: int | None = None, *, sync: bool = False
+    ) -> None:
+        """Write typed entries at one log time, then flush (and ``fsync`` with ``sync``)."""
+        t = self.time(log_time_ns)
+        for entry in entries:
+            self._write_json(entry, t)
+        self.sync() if sync else self.flush()
+
+    def write_clock_offset(self, offset: ClockOffset, log_time_ns: int | None = None) -> None:
+        """Write the cameras' measured clock offset (a two-camera session; the last applies)."""
+        self._check_pair("a clock offset")
+        self.write_entry(clock_offset_entry(offset), log_time_ns)
 
     def write_ground_truth(self, entry: GroundTruth, log_time_ns: int | None = None) -> None:
         """Write a trial's ground truth."""
@@ -317,6 +392,7 @@ class SessionWriter:
 
         ``capture`` is the number its pose entry was written with (format 1.1).
         """
+        self._check_pair("a capture at a typed pose", pair=False)
         self._check_camera(camera_id)
         index(trial, "trial")
         index(pose, "pose")
@@ -333,97 +409,32 @@ class SessionWriter:
             raise InputValueError(f"OpenCV could not encode a {image_bgr.shape} image")
         return bytes(buf)
 
-    def write_image(self, camera_id: str, data: bytes, log_time_ns: int) -> int:
-        """One encoded frame on the camera's image topic; its sequence number."""
-        msg = image_message(camera_id, data, self.image_format, log_time_ns)
+    def write_image(
+        self, camera_id: str, data: bytes, log_time_ns: int, capture_ns: int | None = None
+    ) -> int:
+        """One encoded frame on the camera's image topic; its sequence number.
+
+        ``capture_ns`` when it was taken, on the camera's capture clock (the image's
+        ``timestamp``, format 1.6); None: when it was written (``log_time_ns``).
+        """
+        if capture_ns is not None:
+            index(capture_ns, "capture time (ns)")
+        msg = image_message(camera_id, data, self.image_format, log_time_ns, capture_ns)
         return self._write_proto(image_topic(camera_id), msg, log_time_ns)
 
-    def _begin_capture(self, capture: Capture | None) -> None:
+    def stream(self, trial: int, *, window_s: float = 1.0, start_ns: int | None = None) -> Stream:
+        """Open a stream trial of a two-camera session (:class:`Stream`).
+
+        Both cameras' frames with their capture times, and the touches. Its frames are
+        written in windows of ``window_s`` seconds of log time, each closed (and synced to
+        disk) when the next begins: a crash loses at most the open window. ``start_ns``
+        when it starts (default: the clock's).
+        """
+        self._check_pair("a stream trial")
+        index(trial, "trial")
+        if self._open_capture is not None:
+            raise TwoposeError("a stream is already open; finish it before starting another")
+        return Stream(self, trial, window_s=window_s, start_ns=start_ns)
+
+    def _begin_capture(self, capture: Capture | Stream | None) -> None:
         self._open_capture = capture
-
-
-class Capture:
-    """One capture window: its frames, then its :class:`CaptureWindow` entry.
-
-    One capture window (see :meth:`SessionWriter.capture`): its frames, then on exit its
-    :class:`CaptureWindow` entry (``incomplete`` with the reason after an error).
-    """
-
-    def __init__(
-        self,
-        writer: SessionWriter,
-        trial: int,
-        pose: int,
-        camera_id: str,
-        capture: int | None = None,
-    ) -> None:
-        self._writer = writer
-        self.trial = trial
-        self.pose = pose
-        self.camera_id = camera_id
-        self.number = capture
-        self.start_ns: int | None = None
-        self.end_ns: int | None = None
-        self.n_frames = 0
-        self.dropped_frames = 0
-        self._incomplete_reason = ""
-
-    def __enter__(self) -> Self:
-        """Begin the capture (one at a time per writer)."""
-        self._writer._begin_capture(self)
-        return self
-
-    def add_frame(self, image_bgr: NDArray[np.uint8], log_time_ns: int | None = None) -> int:
-        """Encode and write one frame; returns its sequence number on the image topic."""
-        return self.add_encoded(self._writer.encode_image(image_bgr), log_time_ns)
-
-    def add_encoded(self, data: bytes, log_time_ns: int | None = None) -> int:
-        """Write one already-encoded frame in the session's image format."""
-        t = self._writer.time(log_time_ns)
-        if self.end_ns is not None and t < self.end_ns:
-            raise InputValueError(
-                f"frame time {t} ns goes back before the previous frame ({self.end_ns} ns)"
-            )
-        seq = self._writer.write_image(self.camera_id, data, t)
-        self.start_ns = t if self.start_ns is None else self.start_ns
-        self.end_ns = t
-        self.n_frames += 1
-        return seq
-
-    def mark_incomplete(self, reason: str) -> None:
-        """Mark the capture incomplete, with the reason."""
-        self._incomplete_reason = reason or "incomplete"
-
-    @property
-    def incomplete_reason(self) -> str:
-        """Why the capture is incomplete ("": complete so far); after the exit, its window's."""
-        return self._incomplete_reason
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        """End the capture: write its window, incomplete if an error ended it."""
-        self._writer._begin_capture(None)
-        if isinstance(exc, KeyboardInterrupt) and not self._incomplete_reason:
-            self._incomplete_reason = "interrupted (Ctrl-C) during the capture"
-        elif exc is not None and not self._incomplete_reason:
-            self._incomplete_reason = f"{exc_type.__name__ if exc_type else 'error'}: {exc}"
-        if not self._writer.is_open:
-            return
-        now = self._writer.last_ns
-        window = CaptureWindow(
-            trial=self.trial,
-            pose=self.pose,
-            camera_id=self.camera_id,
-            start_ns=self.start_ns if self.start_ns is not None else now,
-            end_ns=self.end_ns if self.end_ns is not None else now,
-            n_frames=self.n_frames,
-            status="incomplete" if self._incomplete_reason else "complete",
-            reason=self._incomplete_reason,
-            dropped_frames=self.dropped_frames,
-            capture=self.number,
-        )
-        self._writer.write_entry(window, now)

@@ -361,7 +361,8 @@ def estimate_stream(
     status, reason = solved.status.astype("<U24"), solved.reason.astype("<U96")
     late = ~one.ok & camera2.found[pairs.i2]  # camera 2 saw it; camera 1 not about then
     status[late], reason[late] = NOT_INTERPOLATED, "camera 1 has no frames about camera 2's time"
-    warned = np.array(margin_warnings(status, solved.margins, settings.estimate), dtype="<U96")
+    warnings = margin_warnings(status, solved.margins, settings.estimate, spec.seen_on)
+    warned = np.array(warnings, dtype="<U96")
     near = (status == "ok") & (warned != "")
     status[near], reason[near] = NEAR_SINGULAR, warned[near]
     ok = status == "ok"

@@ -22,17 +22,23 @@ The operator's **placing error** (issue 46): each capture's camera position, kno
 the corners to a fraction of a millimetre, differs from its typed pose by where the laptop
 really was. The fit carries it as three parameters per capture with a Gaussian prior of
 sigma ``s``, and ``s`` is itself estimated, a variance component: each round refits with
-the current ``s`` and sets it by EM on the fit's linearization (:func:`_placing_em`, the
-marginal likelihood's maximum; the constants integrated out under their priors, so a
+the current ``s`` and sets it by EM on the fit's linearization (:mod:`twopose.rig.placing`,
+the marginal likelihood's maximum; the constants integrated out under their priors, so a
 shift common to all captures goes to the camera offset and the tape's scale, not to the
 placing). Its 1-sigma is from that likelihood's Fisher information. The model is the
 recorder's and the analysis': one sigma on each of x, y and z (a laptop on a table has
 its y fixed by the table, yet the placing y of the simulator and of a tilted or shimmed
-laptop is not zero, and the corners see it). No I/O.
+laptop is not zero, and the corners see it). Each capture's **rotation error** is carried
+too (issue 54), three angles with the typed rotation resolution as their prior: a laptop
+turned by a tenth of a degree moves a board's image as a sideways placing error does, and
+unmodelled it was read as one. A placing sigma the captures cannot measure (the fit's
+floor) is only bounded, and said (``BoardRigFit.placing.upper_bound``). The constants'
+covariance is kept whole (``RigConstants.covariance``): the rig file carries it. No I/O.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -43,15 +49,18 @@ from scipy.optimize import OptimizeResult, least_squares
 
 from twopose.arrays import F64
 from twopose.errors import InputValueError
-from twopose.noise import PlacingSigma
+from twopose.noise import MIN_PLACING_DOF, PlacingSigma
 from twopose.rig.constants import (
     RIG_PARAMETERS,
     RIG_PRIORS,
     RigConstants,
+    RigCovariance,
     against_priors,
     prior_sigma,
 )
-from twopose.units import Units, unit_spec
+from twopose.rig.file import PLACING_LIMIT_IN
+from twopose.rig.placing import PLACING_FLOOR_IN, Linearized, placing_em, placing_upper_bound
+from twopose.units import DEFAULT_UNITS, Units, unit_spec
 
 __all__ = ["RIG_PRIORS", "BoardRigFit", "board_order", "check_identifiable", "fit_board_rig"]
 
@@ -65,11 +74,9 @@ MIN_DIRECTION_RATIO = 0.2
 MIN_DEPTH_SPREAD = 0.1
 #: The placing sigma's estimate is refitted at most this many times (it settles in 3-5).
 MAX_ROUNDS = 10
-#: EM's rounds on one linearization (each a (P, P) inverse; it converges in tens).
-EM_ROUNDS = 500
-#: The smallest placing sigma reported (inches): below what any tape and hand can place,
-#: and kept off zero, which EM approaches without reaching.
-PLACING_FLOOR_IN = 1e-3
+#: A capture typed with a rotation resolution at or under this (degrees) has no rotation
+#: error fitted: typed exactly (a simulated session records 1e-9).
+ROTATION_FLOOR_DEG = 1e-6
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -144,19 +151,17 @@ def check_identifiable(t_typed: ArrayLike, board_depth: ArrayLike) -> None:
         )
 
 
-def _project(params: F64, corners: F64, t_typed: F64, r_typed: F64, intrinsics: F64) -> F64:
-    """The corners' pixels (C, K, 2) predicted for the constants ``params``.
+def _project(constants: F64, corners: F64, t: F64, r_deg: F64, intrinsics: F64) -> F64:
+    """The corners' pixels (C, K, 2) predicted for the 10 ``constants`` (FITTED order).
 
-    ``params``: the 10 constants (FITTED order), then optionally each capture's placing
-    error (C, 3): where the laptop really was. ``corners`` (C, K, 3) and ``intrinsics``
-    (C, 4) per capture.
+    ``t`` and ``r_deg`` (C, 3): where each capture's camera was really placed and turned
+    (the typed pose plus its placing and rotation errors); ``corners`` (C, K, 3) and
+    ``intrinsics`` (C, 4) per capture.
     """
-    n = len(FITTED_NAMES)
-    rig = RigConstants.from_vector(np.append(params[:n], 0.0))
-    placed = t_typed + params[n:].reshape(-1, 3) if len(params) > n else t_typed
-    t, R = rig.true_poses(placed, r_typed)
+    rig = RigConstants.from_vector(np.append(constants, 0.0))
+    t_true, R = rig.true_poses(t, r_deg)
     k = rig.true_intrinsics(intrinsics)[:, None, :]  # (C, 1, 4)
-    p_cam = np.einsum("cji,ckj->cki", R, corners - t[:, None])  # R^T (X - t)
+    p_cam = np.einsum("cji,ckj->cki", R, corners - t_true[:, None])  # R^T (X - t)
     z = p_cam[..., 2]
     u = k[..., 0] * p_cam[..., 0] / z + k[..., 2]
     return np.stack([u, k[..., 1] * p_cam[..., 1] / z + k[..., 3]], axis=-1)
@@ -179,8 +184,9 @@ def fit_board_rig(  # noqa: PLR0913 - the captures' arrays, then how to fit them
     r_typed_deg: ArrayLike,
     intrinsics: ArrayLike,
     *,
-    units: Units = Units.IN,
+    units: Units = DEFAULT_UNITS,
     t_sigma: float = 0.0,
+    r_sigma_deg: ArrayLike = 0.0,
     groups: Sequence[str] = FITTED,
     measure_placing: bool = True,
 ) -> BoardRigFit:
@@ -202,126 +208,225 @@ def fit_board_rig(  # noqa: PLR0913 - the captures' arrays, then how to fit them
         placing): each capture's placing error is fitted with it as its starting prior, so
         the constants' sigma includes what the poses' placing leaves unknown (0: typed
         exactly, no placing error fitted nor measured).
+    r_sigma_deg : float or (C,) array_like
+        The typed angles' 1-sigma (the entries' rotation resolution), for all or per
+        capture: each capture's rotation error is fitted with it as its prior (known, not
+        estimated), so that a turned laptop is not read as a misplaced one (0: typed
+        exactly).
     groups : sequence of str
         The constants' groups to fit (:data:`FITTED`, the default, or some of them); the
         rest stay nominal, with sigma NaN.
     measure_placing : bool
-        Estimate the placing sigma itself (:func:`_placing_em`) and fit with it
+        Estimate the placing sigma itself (:mod:`twopose.rig.placing`) and fit with it
         (``BoardRigFit.placing``); False keeps ``t_sigma`` as a fixed prior.
     """
-    t, r = np.asarray(t_typed, dtype=np.float64), np.asarray(r_typed_deg, dtype=np.float64)
-    u = np.asarray(observed_px, dtype=np.float64)
-    n_corners = np.shape(corners_grid)[-2] if np.ndim(corners_grid) >= 2 else 0
-    X = _per_capture(corners_grid, len(t), (n_corners, 3), "corners_grid")
-    k = _per_capture(intrinsics, len(t), (4,), "intrinsics")
-    if u.shape != (len(t), n_corners, 2) or r.shape != t.shape or not np.isfinite(u).all():
-        raise InputValueError(
-            f"board captures: want (captures, corners, 2) = ({len(t)}, {n_corners}, 2) finite "
-            f"pixels, got {u.shape}"
-        )
+    t, r, u, X, k, r_sigma = _captures(
+        corners_grid, observed_px, t_typed, r_typed_deg, intrinsics, r_sigma_deg
+    )
     free = _free_mask(groups)
     check_identifiable(t, X[:, :, 2].mean(axis=1))
-    n_placed = t.size if t_sigma > 0 else 0
-    nominal = np.concatenate([RigConstants().vector()[:-1], np.zeros(n_placed)])
-    fitted = np.concatenate([free, np.ones(n_placed, dtype=bool)])
-    rig_prior = _prior_sigma(units)[free]
+    model = _Model.of(free, units, t_sigma, r_sigma)
 
-    def prior(s: float) -> F64:
-        return np.concatenate([rig_prior, np.full(n_placed, s)])
+    def predicted(x: F64) -> F64:
+        constants, placed, turned = model.split(x)
+        return _project(constants, X, t + placed, r + turned, k)
 
-    def full(p: F64) -> F64:
-        out = nominal.copy()
-        out[fitted] = p
-        return out
+    def residuals(p: F64, sigma_px: F64, s: float) -> F64:
+        corners = ((predicted(model.full(p)) - u) / sigma_px[:, None, None]).ravel()
+        return np.concatenate([corners, (p - model.nominal) / model.prior(s)])
 
-    def residuals(p: F64, sigma_px: float, s: float) -> F64:
-        corners = (_project(full(p), X, t, r, k) - u).ravel() / sigma_px
-        return np.concatenate([corners, (p - nominal[fitted]) / prior(s)])
+    def solve(p: F64, sigma_px: F64, s: float) -> OptimizeResult:
+        # MINPACK's Levenberg-Marquardt: its QR is its own, so a dense problem of a hundred
+        # parameters costs the same whatever the machine's BLAS threads are doing.
+        return least_squares(residuals, p, args=(sigma_px, s), x_scale=model.prior(s), method="lm")
 
-    def solve(p: F64, sigma_px: float, s: float) -> OptimizeResult:
-        return least_squares(residuals, p, args=(sigma_px, s), x_scale=prior(s), method="trf")
-
-    measuring = measure_placing and n_placed > 0
+    measuring = measure_placing and model.n_placed > 0
     floor = PLACING_FLOOR_IN / unit_spec(units).inches
-    sigma_px, s, p, dof = 1.0, float(t_sigma), nominal[fitted], 0.0
+    sigma_px, s, p, dof = np.ones(len(t)), float(t_sigma), model.nominal, 0.0
+    lin: Linearized | None = None
     for round_ in range(MAX_ROUNDS):
-        # The corners' noise from the previous fit's residuals, the placing sigma by EM on
-        # the fit's linearization; refitted until both settle.
+        # Each capture's corner noise from the previous fit's residuals (a far board's
+        # corners are less precise than a near one's: one noise for all would let the far
+        # captures' errors read as placing), the placing sigma by EM on the fit's
+        # linearization; refitted until both settle.
         fit = solve(p, sigma_px, s)
         p = fit.x
-        corner_res = (_project(full(p), X, t, r, k) - u).ravel()
-        new_px = max(float(np.sqrt(np.mean(corner_res**2))), 1e-6)
+        corner_res = predicted(model.full(p)) - u
+        new_px = np.maximum(np.sqrt(np.mean(corner_res**2, axis=(1, 2))), 1e-6)
         new_s = s
         if measuring:
-            n_res = corner_res.size
-            jac = np.asarray(fit.jac)[:n_res] * (sigma_px / new_px)
-            new_s, dof = _placing_em(
-                jac, corner_res / new_px, p, nominal[fitted], rig_prior, s, floor
-            )
-        settled = abs(new_px / sigma_px - 1) < 0.01 and abs(new_s / s - 1 if s else 0) < 0.01
+            rows = np.repeat(sigma_px / new_px, corner_res[0].size)[:, None]
+            jac = np.asarray(fit.jac)[: corner_res.size] * rows
+            lin = model.linearized(jac, (corner_res / new_px[:, None, None]).ravel(), p)
+            new_s, dof = placing_em(lin, s, floor)
+        settled = (
+            np.all(np.abs(new_px / sigma_px - 1) < 0.01) and abs(new_s / s - 1 if s else 0) < 0.01
+        )
         sigma_px, s = new_px, new_s
         if round_ >= 2 and settled:
             break
     fit = solve(p, sigma_px, s)
     cov = _covariance(fit.jac, free)
     sigma = np.append(np.sqrt(np.clip(np.diag(cov), 0.0, None)), np.nan)
-    x = full(fit.x)
-    n_rig = len(FITTED_NAMES)
-    inches = unit_spec(units).inches
+    x = model.full(fit.x)
+    constants = x[: len(FITTED_NAMES)]
+    names = _names(free)
+    rig = dataclasses.replace(
+        RigConstants.from_vector(np.append(constants, 0.0), units),
+        covariance=RigCovariance.of(names, cov[np.ix_(free, free)]) if names else None,
+    )
+    placing: PlacingSigma | None = None
+    warned: tuple[str, ...] = ()
+    if measuring and lin is not None:
+        placing, warned = _measured(lin, s, dof, floor, units, len(t))
+    delta = np.append(constants, 0.0) - RigConstants().vector()
     return BoardRigFit(
-        rig=RigConstants.from_vector(np.append(x[:n_rig], 0.0), units),
+        rig=rig,
         sigma=sigma,
         cov=cov,
-        rms_px=float(np.sqrt(np.mean((_project(x, X, t, r, k) - u) ** 2))),
+        rms_px=float(np.sqrt(np.mean((predicted(x) - u) ** 2))),
         n_captures=len(t),
         n_corners=u.shape[0] * u.shape[1],
-        free=_names(free),
-        warnings=against_priors(np.append(x[:n_rig] - nominal[:n_rig], 0.0), units, _names(free)),
-        placing=(
-            PlacingSigma(
-                sigma_in=s * inches,
-                sigma_sigma_in=s * inches / math.sqrt(2.0 * max(dof, 0.5)),
-                measured_by="the board's captures",
-                captures=len(t),
-            )
-            if measuring
-            else None
-        ),
+        free=names,
+        warnings=against_priors(delta, units, names) + warned,
+        placing=placing,
         placing_dof=dof,
     )
 
 
-def _placing_em(
-    jac: F64, res: F64, p: F64, nominal: F64, rig_prior: F64, s: float, floor: float
-) -> tuple[float, float]:
-    """The placing sigma that maximises the linearized fit's marginal likelihood (EM).
+def _captures(
+    corners_grid: ArrayLike,
+    observed_px: ArrayLike,
+    t_typed: ArrayLike,
+    r_typed_deg: ArrayLike,
+    intrinsics: ArrayLike,
+    r_sigma_deg: ArrayLike,
+) -> tuple[F64, F64, F64, F64, F64, F64]:
+    """:func:`fit_board_rig`'s arrays, checked, one row per capture.
 
-    ``jac`` (N, P) and ``res`` (N,): the whitened corners' Jacobian and residuals at the
-    fitted parameters ``p`` (the constants, then the C x 3 placing errors). Each round takes
-    the placing errors' posterior (mean ``e``, variance ``v``, the constants integrated
-    out under their priors: a common shift goes to the camera offset and the tape's scale,
-    not to the placing) and sets ``s^2 = mean(e^2 + v)``. Returns the sigma and its degrees
-    of freedom ``tr(H^2)``, ``H = I - V / s^2`` with ``V`` the errors' posterior covariance:
-    the components the corners determine, less what the constants absorb, so that the
-    estimate's 1-sigma, from the marginal likelihood's Fisher information, is
-    ``s / sqrt(2 dof)``.
+    The typed centres and angles, the observed corners, the corners' grid, the intrinsics
+    and the rotation resolutions.
     """
-    n_rig = len(rig_prior)
-    gram, grad0 = jac.T @ jac, jac.T @ res
-    dof = 0.0
-    for _ in range(EM_ROUNDS):
-        precision = np.concatenate([rig_prior, np.full(len(p) - n_rig, s)]) ** -2.0
-        a = gram + np.diag(precision)
-        a_inv = np.linalg.inv(a)
-        mean = p - a_inv @ (grad0 + precision * (p - nominal))  # Gauss-Newton's posterior
-        e, v = mean[n_rig:], a_inv[n_rig:, n_rig:]
-        new_s = max(float(np.sqrt(np.mean(e**2 + np.diag(v)))), floor)
-        h = np.eye(len(e)) - v / new_s**2  # what the corners determine of each error
-        dof = float(np.sum(h * h.T))  # tr(H^2): the Fisher information's 2 s^4 I(s^2)
-        if abs(new_s / s - 1) < 1e-4:
-            return new_s, dof
-        s = new_s
-    return s, dof
+    t, r = np.asarray(t_typed, dtype=np.float64), np.asarray(r_typed_deg, dtype=np.float64)
+    u = np.asarray(observed_px, dtype=np.float64)
+    n_corners = np.shape(corners_grid)[-2] if np.ndim(corners_grid) >= 2 else 0
+    X = _per_capture(corners_grid, len(t), (n_corners, 3), "corners_grid")
+    k = _per_capture(intrinsics, len(t), (4,), "intrinsics")
+    r_sigma = _per_capture(r_sigma_deg, len(t), (), "r_sigma_deg")
+    if u.shape != (len(t), n_corners, 2) or r.shape != t.shape or not np.isfinite(u).all():
+        raise InputValueError(
+            f"board captures: want (captures, corners, 2) = ({len(t)}, {n_corners}, 2) finite "
+            f"pixels, got {u.shape}"
+        )
+    return t, r, u, X, k, r_sigma
+
+
+def _measured(
+    lin: Linearized, s: float, dof: float, floor: float, units: Units, captures: int
+) -> tuple[PlacingSigma, tuple[str, ...]]:
+    """The placing sigma the fit measured, or its upper bound with a warning.
+
+    At the fit's floor, or on fewer than :data:`twopose.noise.MIN_PLACING_DOF` degrees of
+    freedom, the captures do not measure it: the most it can be is written instead
+    (:func:`twopose.rig.placing.placing_upper_bound`), never as "measured".
+    """
+    inches = unit_spec(units).inches
+    at_floor = s <= floor * (1 + 1e-6)
+    if not at_floor and dof >= MIN_PLACING_DOF:
+        sigma = PlacingSigma(
+            sigma_in=s * inches,
+            sigma_sigma_in=s * inches / math.sqrt(2.0 * dof),
+            measured_by="the board's captures",
+            captures=captures,
+        )
+        return sigma, ()
+    limit = PLACING_LIMIT_IN / inches  # the most a rig file may record
+    bound = min(placing_upper_bound(lin, s, limit), limit)
+    why = (
+        "the fit's floor: the captures show no placing error their corners resolve"
+        if at_floor
+        else f"only {dof:.1f} degrees of freedom (fewer than {MIN_PLACING_DOF})"
+    )
+    warning = (
+        f"the placing sigma is at {why}; written as an upper bound, at most {bound:.3g} "
+        f"{units} (one-sided 95%), not as measured; every region assumes that bound (a "
+        "real operator's board shows a placing error: check the board session)"
+    )
+    bounded = PlacingSigma(
+        sigma_in=bound * inches,
+        measured_by="the board's captures",
+        captures=captures,
+        upper_bound=True,
+    )
+    return bounded, (warning,)
+
+
+@dataclass(frozen=True, kw_only=True)
+class _Model:
+    """The board fit's parameters: which are fitted, their prior means and sigmas.
+
+    The full vector is the 10 constants (FITTED order), each capture's placing error
+    (C x 3) and each capture's rotation error (C x 3, degrees); the fitted ones are the
+    free constants, every placing error (when the translations have a resolution) and the
+    rotation errors of captures typed with one (over :data:`ROTATION_FLOOR_DEG`).
+    """
+
+    fitted: NDArray[np.bool_]
+    full_nominal: F64
+    rig_prior: F64  # the free constants' prior sigma
+    rotation_prior: F64  # the fitted rotation errors' prior sigma (degrees)
+    n_free: int
+    n_placed: int
+    n_captures: int
+
+    @classmethod
+    def of(cls, free: NDArray[np.bool_], units: Units, t_sigma: float, r_sigma: F64) -> _Model:
+        """The model of ``free`` constants, ``t_sigma``'s placing, per capture ``r_sigma``."""
+        C = len(r_sigma)
+        n_placed = 3 * C if t_sigma > 0 else 0
+        turning = np.repeat(r_sigma > ROTATION_FLOOR_DEG, 3)
+        nominal = np.concatenate([RigConstants().vector()[:-1], np.zeros(6 * C)])
+        return cls(
+            fitted=np.concatenate([free, np.full(3 * C, n_placed > 0), turning]),
+            full_nominal=nominal,
+            rig_prior=_prior_sigma(units)[free],
+            rotation_prior=np.repeat(r_sigma, 3)[turning],
+            n_free=int(free.sum()),
+            n_placed=n_placed,
+            n_captures=C,
+        )
+
+    @property
+    def nominal(self) -> F64:
+        """The fitted parameters' prior means."""
+        fitted: F64 = self.full_nominal[self.fitted]
+        return fitted
+
+    def prior(self, s: float) -> F64:
+        """The fitted parameters' prior sigmas, the placing errors' ``s``."""
+        return np.concatenate([self.rig_prior, np.full(self.n_placed, s), self.rotation_prior])
+
+    def full(self, p: F64) -> F64:
+        """The full vector of the fitted parameters ``p`` (the rest nominal)."""
+        out = self.full_nominal.copy()
+        out[self.fitted] = p
+        return out
+
+    def split(self, x: F64) -> tuple[F64, F64, F64]:
+        """A full vector's constants (10), placing errors (C, 3) and rotation errors (C, 3)."""
+        n, C = len(FITTED_NAMES), self.n_captures
+        return x[:n], x[n : n + 3 * C].reshape(C, 3), x[n + 3 * C :].reshape(C, 3)
+
+    def linearized(self, jac: F64, res: F64, p: F64) -> Linearized:
+        """The fit's linearization for the placing sigma (:mod:`twopose.rig.placing`)."""
+        return Linearized(
+            jac=jac,
+            res=res,
+            p=p,
+            nominal=self.nominal,
+            prior=self.prior,
+            placing=slice(self.n_free, self.n_free + self.n_placed),
+        )
 
 
 def _covariance(jac: F64, free: NDArray[np.bool_]) -> F64:

@@ -20,8 +20,11 @@ The lengths (``camera_offset``, ``ground_height_error``) are in the calibration 
 units, which a rig file records (``units``) and ``--rig`` checks against the session's.
 Every rig read from a file is checked for physical plausibility (:func:`check_plausible`,
 the limits in :data:`LIMITS`); where it meets a session, also against that session's
-ground height and image (:func:`check_applicable`). The fit looks only where these
-limits allow (:func:`plausible_bounds`), so it never writes a file that is refused.
+ground height, image and camera (:func:`check_applicable`: a rig is fitted for one
+camera and refused for another). The fit looks only where these limits allow
+(:func:`plausible_bounds`), so it never writes a file that is refused. The rig file's one
+reader is :mod:`twopose.rig.file`; how the constants' covariance reaches every region,
+:mod:`twopose.rig.carried`.
 """
 
 from __future__ import annotations
@@ -29,53 +32,38 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Iterable
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from twopose.arrays import F64
-from twopose.camera import rotation_from_angles_deg
+from twopose.camera import Intrinsics, rotation_from_angles_deg
 from twopose.errors import InputValueError
 from twopose.estimate import GroundSpec, PoseView
 from twopose.format.entries import INCHES_PER_UNIT, UNITS
-from twopose.noise import PlacingSigma
+from twopose.rig.cameras import check_cameras
+from twopose.rig.covariance import RIG_PARAMETERS, SCALARS, RigCovariance
 from twopose.units import IS_LENGTH, Units, unit_spec
-from twopose.values import Unread
 
 __all__ = [
     "LIMITS",
-    "PLACING_KEYS",
-    "PLACING_LIMIT_IN",
     "RIG_PARAMETERS",
     "RIG_PRIORS",
+    "SCALARS",
     "RigConstants",
-    "RigFile",
+    "RigCovariance",
     "against_priors",
     "angles_deg_from_rotation",
     "check_applicable",
     "check_plausible",
+    "check_units",
     "corrected_ground",
     "corrected_view",
     "ground_height",
-    "load_rig",
-    "load_rig_file",
-    "placing_table",
     "plausible_bounds",
     "prior_sigma",
     "true_ground",
 ]
-
-
-#: Each constant's scalar parameters, in the order of :meth:`RigConstants.vector`.
-RIG_PARAMETERS = {
-    "mount_rotation_deg": ("mount_rx_deg", "mount_ry_deg", "mount_rz_deg"),
-    "camera_offset": ("offset_x", "offset_y", "offset_z"),
-    "focal_scale": ("focal_scale",),
-    "principal_offset_px": ("principal_dx_px", "principal_dy_px"),
-    "tape_scale": ("tape_scale",),
-    "ground_height_error": ("ground_height_error",),
-}
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -90,6 +78,13 @@ class RigConstants:
     ground_height_error: float = field(default=0.0, metadata=IS_LENGTH)
     #: The lengths' units (a rig file's ``units``); None: not recorded (a file from before).
     units: Units | None = None
+    #: The cameras the constants were fitted for (a rig file's ``[[camera]]``): a focal
+    #: scale and a principal offset are relative to them, so any other camera is refused
+    #: (:func:`check_applicable`); empty: not recorded (a file from before).
+    cameras: tuple[Intrinsics, ...] = ()
+    #: The fitted constants' covariance (a rig file's ``[covariance]``), carried into every
+    #: region; None: not known (constants taken as exact).
+    covariance: RigCovariance | None = None
 
     def __post_init__(self) -> None:
         """Check that the constants are finite and the scales plausible.
@@ -394,26 +389,26 @@ def check_applicable(
     ground: GroundSpec | None = None,
     image_sizes: Iterable[tuple[int, int]] = (),
     what: str = "rig",
+    *,
+    cameras: Iterable[Intrinsics] = (),
 ) -> list[str]:
     """Refuse a rig for a session it cannot apply to; return the notes to show.
 
-    Refused: a session in other units than the rig's, or one the rig is implausible for (its ground
-    height and each camera's ``(width, height)``). A rig without units, from before they were
-    recorded, is taken in the session's, with a note.
+    Refused: a session in other units than the rig's (:func:`check_units`), a camera the
+    rig was not fitted for (:func:`check_cameras`), or one the rig is implausible for (its
+    ground height and each camera's ``(width, height)``, ``image_sizes`` and ``cameras``).
+    A rig without units or cameras, from before they were recorded, is taken as it is,
+    with a note; so are constants whose covariance is known only by their 1-sigmas.
     """
-    notes = []
-    if rig.units is None:
+    cameras = list(cameras)
+    notes = check_units(rig, units, what) + check_cameras(rig.cameras, cameras, what)
+    if rig.covariance is not None and rig.covariance.independent:
         notes.append(
-            f"{what} records no units (written before rig files did): its lengths are taken "
-            f"in the session's units ({units}); write it again with `twopose-analyze rig` "
-            "to have them checked"
+            f"{what} records each constant's 1-sigma but not their covariance (written before "
+            "rig files did): carried as independent, which can overstate each region; write "
+            "it again with `twopose-analyze rig`"
         )
-    elif rig.units != units:
-        raise InputValueError(
-            f"{what} is in {rig.units}, the session in {units}: its camera offset and ground "
-            f"height error are lengths; calibrate a rig from sessions in {unit_spec(units).name}"
-        )
-    sizes = list(image_sizes)
+    sizes = [*image_sizes, *((k.width, k.height) for k in cameras)]
     smallest = (min(w for w, _ in sizes), min(h for _, h in sizes)) if sizes else None
     check_plausible(
         rig, units=units, ground_height=ground_height(ground), image_size=smallest, what=what
@@ -421,129 +416,17 @@ def check_applicable(
     return notes
 
 
-#: The most placing sigma a rig file may record (inches): a laptop placed on grid paper by
-#: hand is off by a fraction of an inch; beyond 2 in the file is wrong (a typo, a unit).
-PLACING_LIMIT_IN = 2.0
-#: The ``[placing]`` table's keys and what each holds (docs/rig-file.md).
-PLACING_KEYS = {
-    "sigma": "the placing error's 1-sigma per translation component (x, y, z)",
-    "sigma_sigma": "the estimate's own 1-sigma",
-    "units": "of sigma and sigma_sigma",
-    "measured_by": "the board session(s) that measured it",
-    "captures": "how many captures it was measured over",
-}
-
-
-@dataclass(frozen=True, kw_only=True)
-class RigFile:
-    """A rig file's content: its constants and the operator's placing sigma.
-
-    ``constants``: the ``[rig]`` table; ``placing``: the ``[placing]`` table a board session
-    measured (None: the file records none).
-    """
-
-    constants: RigConstants
-    placing: PlacingSigma | None = None
-
-
-def placing_table(placing: PlacingSigma, units: Units) -> list[str]:
-    """The ``[placing]`` table's lines (what :func:`load_rig_file` reads), in ``units``."""
-    inches = unit_spec(units).inches
-    spread = placing.sigma_sigma_in / inches
-    measured_by = placing.measured_by.replace("\\", "/").replace('"', "'")
-    return [
-        "[placing]  # the operator's placing error, measured: every region uses it",
-        f"sigma = {placing.sigma_in / inches:.6g}",
-        *([f"sigma_sigma = {spread:.6g}"] if np.isfinite(spread) else []),
-        f'units = "{units}"',
-        f'measured_by = "{measured_by}"',
-        f"captures = {placing.captures}",
-    ]
-
-
-def _placing(table: object, rig_units: str | None, path: str | Path) -> PlacingSigma | None:
-    """A rig file's ``[placing]`` table, refused in words unless a plausible length."""
-    if table is None:
-        return None
-    what = f"rig file {path}: [placing]"
-    if not isinstance(table, dict):
-        raise InputValueError(f"{what} must be a table (sigma, units, ...)")
-    unknown = sorted(set(table) - set(PLACING_KEYS))
-    if unknown:
+def check_units(rig: RigConstants, units: Units, what: str = "rig") -> list[str]:
+    """Refuse a rig in other units than the session's; the note for one without any."""
+    if rig.units is None:
+        return [
+            f"{what} records no units (written before rig files did): its lengths are taken "
+            f"in the session's units ({units}); write it again with `twopose-analyze rig` "
+            "to have them checked"
+        ]
+    if rig.units != units:
         raise InputValueError(
-            f"{what}: unknown key(s) {', '.join(unknown)}; it holds {', '.join(PLACING_KEYS)}"
+            f"{what} is in {rig.units}, the session in {units}: its camera offset and ground "
+            f"height error are lengths; calibrate a rig from sessions in {unit_spec(units).name}"
         )
-    units = table.get("units", rig_units)
-    if units not in UNITS:
-        raise InputValueError(f"{what}: units must be one of {', '.join(UNITS)}, got {units!r}")
-    inches = unit_spec(units).inches
-    sigma, spread = _placing_numbers(table, units, what)
-    measured_by, captures = table.get("measured_by", ""), table.get("captures", 0)
-    if not isinstance(measured_by, str):
-        raise InputValueError(f"{what}: measured_by must be text, got {measured_by!r}")
-    if isinstance(captures, bool) or not isinstance(captures, int) or captures < 0:
-        raise InputValueError(f"{what}: captures must be a count >= 0, got {captures!r}")
-    try:
-        return PlacingSigma(
-            sigma_in=float(sigma) * inches,
-            sigma_sigma_in=float(spread) * inches,
-            measured_by=measured_by or f"rig file {path}",
-            captures=captures,
-        )
-    except InputValueError as err:
-        raise InputValueError(f"{what}: {err}") from None
-
-
-def _placing_numbers(table: dict[str, object], units: Units, what: str) -> tuple[float, float]:
-    """A ``[placing]`` table's sigma and sigma_sigma (NaN: not stated), refused in words."""
-    inches = unit_spec(units).inches
-    sigma, spread = table.get("sigma"), table.get("sigma_sigma", float("nan"))
-    limit = PLACING_LIMIT_IN / inches
-    if sigma is None:
-        raise InputValueError(f"{what}: sigma is missing (the placing error's 1-sigma, a length)")
-    for key, value in (("sigma", sigma), ("sigma_sigma", spread)):
-        if isinstance(value, Unread):  # 0x1, 0.0_5, nan: the one grammar's words
-            value.refuse(f"{what}: {key}")
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise InputValueError(f"{what}: {key} must be a number, got {value!r}")
-    assert isinstance(sigma, int | float)
-    assert isinstance(spread, int | float)
-    if not (np.isfinite(sigma) and 0 < sigma <= limit):
-        raise InputValueError(
-            f"{what}: sigma = {sigma!r} {units} is not a placing error (a positive length up "
-            f"to {limit:g} {units}); measure it again with `twopose-analyze rig` on a board "
-            "session, or delete the [placing] table to use the typed resolution"
-        )
-    if spread < 0 or np.isinf(spread):
-        raise InputValueError(f"{what}: sigma_sigma must be a finite length >= 0, got {spread!r}")
-    return float(sigma), float(spread)
-
-
-def load_rig_file(path: str | Path) -> RigFile:
-    """A rig file written by ``twopose-analyze rig``, checked: the one reader.
-
-    Its ``[rig]`` table, checked by :func:`check_plausible` (the session's ground height
-    and image are judged when it is applied, :func:`check_applicable`), and its
-    ``[placing]`` table when there is one: a positive finite length up to
-    :data:`PLACING_LIMIT_IN`, refused in words otherwise.
-    """
-    from twopose.config import build_dataclass, read_toml
-
-    what = f"rig file {path}"
-    data = read_toml(path, "rig file", InputValueError)
-    table = data.get("rig")
-    if not isinstance(table, dict):
-        raise InputValueError(f"{what}: no [rig] table; write one with twopose-analyze rig")
-    units = table.get("units")
-    if units is not None and units not in UNITS:
-        raise InputValueError(f"{what}: units must be one of {', '.join(UNITS)}, got {units!r}")
-    numbers = {k: v for k, v in table.items() if k != "units"}
-    rig = build_dataclass(RigConstants, numbers, what, InputValueError)
-    rig = dataclasses.replace(rig, units=units)
-    check_plausible(rig, what=what)
-    return RigFile(constants=rig, placing=_placing(data.get("placing"), units, path))
-
-
-def load_rig(path: str | Path) -> RigConstants:
-    """A rig file's constants (:func:`load_rig_file`, which checks the whole file)."""
-    return load_rig_file(path).constants
+    return []

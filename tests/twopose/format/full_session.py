@@ -8,9 +8,9 @@ import numpy as np
 
 from twopose.camera import Camera, Intrinsics
 from twopose.format.entries import (
-    GroundPlane,
     GroundTruth,
     Note,
+    PlaneEntry,
     PoseEntry,
     SessionInfo,
     SimulationTruth,
@@ -59,7 +59,7 @@ def write_full_session(path: Path, image_format: str) -> dict[str, object]:
         notes="round trip",
         created_utc="2026-11-22T00:00:00+00:00",
     )
-    ground = GroundPlane(offset=9.625)
+    ground = PlaneEntry(offset=9.625)
     poses = [
         PoseEntry(
             trial=1,

@@ -10,15 +10,16 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from tests.twopose.format.pair_examples import PAIR_SESSION_EXAMPLES
 from twopose.errors import SessionFormatError
 from twopose.format.entries import (
     TYPED_ENTRIES,
     CaptureDecision,
     CaptureWindow,
-    GroundPlane,
     GroundTruth,
     GuidanceRecord,
     Note,
+    PlaneEntry,
     PoseEntry,
     SessionInfo,
     SimulationTruth,
@@ -54,6 +55,7 @@ EXAMPLES = [
             target_distance=11.0,
             given={"reach": "2.50", "min_gain": "2.5e-1"},
         ),
+        clocks={"cam0": "driver"},  # format 1.6
     ),
     SessionInfo(
         method=Method.GROUND,
@@ -87,7 +89,7 @@ EXAMPLES = [
     CaptureDecision(
         capture=4, trial=2, pose=1, camera_id="cam0", decision="discard", reason="redo"
     ),
-    GroundPlane(offset=9.625),
+    PlaneEntry(offset=9.625),
     GroundTruth(trial=1, kind="line", points_grid=((0.0, 1.0, 2.0), (3.0, 4.0, 5.0))),
     Note(text="glare", trial=3),
     Note(text="session-wide"),
@@ -98,6 +100,7 @@ EXAMPLES = [
         points_grid=((1, 2, 3),),
         rig=(0.8, -0.5, 0.3, 0.3, 0.2, 0.4, 1.03, 0.0, 0.0, 1.0, 0.0),  # the rig's constants
     ),
+    *PAIR_SESSION_EXAMPLES,
 ]
 
 
@@ -109,7 +112,9 @@ def test_every_entry_round_trips_through_its_json(entry: object) -> None:
 
 @pytest.mark.parametrize("cls", TYPED_ENTRIES, ids=lambda c: c.__name__)
 def test_schema_properties_are_the_declared_fields_in_order(cls: type[Any]) -> None:
-    keys = [f.metadata["json"].split(".")[0] for f in dataclasses.fields(cls)]
+    keys = [
+        f.metadata["json"].split(".")[0] for f in dataclasses.fields(cls) if "json" in f.metadata
+    ]
     assert list(cls.JSON_SCHEMA["properties"]) == list(dict.fromkeys(keys))
     assert set(cls.JSON_SCHEMA["required"]) <= set(cls.JSON_SCHEMA["properties"])
     example = next(e for e in EXAMPLES if type(e) is cls)

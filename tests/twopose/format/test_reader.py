@@ -21,8 +21,8 @@ from twopose.errors import (
     SessionVersionError,
 )
 from twopose.format.entries import (
-    GroundPlane,
     Note,
+    PlaneEntry,
     SessionInfo,
 )
 from twopose.format.reader import SessionReader
@@ -247,7 +247,7 @@ def test_session_written_from_the_spec_with_plain_mcap_is_readable(tmp_path: Pat
         w.finish()
     with SessionReader(path) as r:
         assert r.info.units == "mm"
-        assert r.ground == GroundPlane(offset=250.0)
+        assert r.ground == PlaneEntry(offset=250.0)
         assert r.cameras["A"].intrinsics.fx == 50
         (trial,) = list(iter_trials(r))
     assert trial.trial == 3

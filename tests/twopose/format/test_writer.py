@@ -15,8 +15,8 @@ from twopose.errors import (
 )
 from twopose.format.entries import (
     CaptureWindow,
-    GroundPlane,
     GroundTruth,
+    PlaneEntry,
     PoseEntry,
     SessionInfo,
 )
@@ -85,8 +85,8 @@ def test_capture_interrupted_by_an_error_is_kept_and_marked_incomplete(tmp_path:
             lambda: GroundTruth(trial=1, kind="line", points_grid=((1, 2, 3), (1, 2, 3))),
             "must differ",
         ),
-        (lambda: GroundPlane(offset=math.inf), "finite"),
-        (lambda: GroundPlane(offset=1.0, normal_grid=(0, 0, 0)), "zero"),
+        (lambda: PlaneEntry(offset=math.inf), "finite"),
+        (lambda: PlaneEntry(offset=1.0, normal_grid=(0, 0, 0)), "zero"),
         (
             lambda: CaptureWindow(
                 trial=1, pose=1, camera_id="cam0", start_ns=10, end_ns=5, n_frames=0
@@ -111,6 +111,6 @@ def test_writer_rejects_unknown_camera(tmp_path: Path) -> None:
 
 
 def test_ground_plane_is_normalised() -> None:
-    g = GroundPlane(offset=19.25, normal_grid=(0.0, 2.0, 0.0))
+    g = PlaneEntry(offset=19.25, normal_grid=(0.0, 2.0, 0.0))
     assert g.normal_grid == (0.0, 1.0, 0.0)
     assert g.offset == pytest.approx(9.625)
