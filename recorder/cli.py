@@ -253,12 +253,12 @@ def _combination(
 ) -> Combination:
     """What ``new`` was given, as :func:`recorder.option_rules.refuse_idle` judges it."""
     from recorder.option_rules import Combination
-    from recorder.sources import kind_of
+    from recorder.sources import one_camera
 
     inherited = continued is not None and continued.target95 is not None
     return Combination(
         given=frozenset(k for k, v in given.items() if v not in (None, False, [])),
-        source_takes_fps=kind_of(source).takes_fps,
+        source_takes_fps=one_camera(source).takes_fps,  # a pair: refused before any question
         target=target is not None or inherited,
         target_from="--target-precision" if target is not None or continued is None
         else continued.path.name,

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from recorder.cli_options import read_option as _read
+from recorder.pair_live import LIVE_VIEWS
 from twopose.errors import InputValueError, handle_errors
 from twopose.units import Units
 
@@ -43,22 +44,38 @@ def _thickness(text: str) -> float:
 def calibrate_pair_command(  # noqa: PLR0913 - typer: one parameter per option
     ctx: typer.Context,
     out: Annotated[Path, typer.Argument(help="Pair file to write (TOML; never overwritten).")],
-    left: Annotated[
-        str,
-        typer.Option(
-            help="Camera 1's stills of the board, a quoted file pattern: 'DIR/left*.jpg'."
-        ),
-    ],
-    right: Annotated[
-        str,
-        typer.Option(help="Camera 2's stills of the same moments: 'DIR/right*.jpg'."),
-    ],
     units: Annotated[
         Units, typer.Option(is_eager=True, help="The unit of --square, the baseline and the floor.")
     ],
     square: Annotated[
         float, typer.Option(**_read("BOARD_SQUARE"), help="Square side, in --units.")
     ],
+    left: Annotated[
+        str | None,
+        typer.Option(
+            help="Camera 1's stills of the board, a quoted file pattern: 'DIR/left*.jpg'."
+        ),
+    ] = None,
+    right: Annotated[
+        str | None,
+        typer.Option(help="Camera 2's stills of the same moments: 'DIR/right*.jpg'."),
+    ] = None,
+    source: Annotated[
+        str | None,
+        typer.Option(
+            help="Instead of stills, two cameras live: 'pair:camera:0,camera:1' (or two "
+            "videos, two image folders); a pair is kept when the board moved and both saw "
+            "it at once, until --views pairs or Ctrl-C."
+        ),
+    ] = None,
+    views: Annotated[
+        int | None,
+        typer.Option(
+            **_read("VIEWS"),
+            help=f"With --source: stop after this many pairs kept (default {LIVE_VIEWS}; "
+            "a folder's: every pair).",
+        ),
+    ] = None,
     board: Annotated[str, typer.Option(help="Inner corners 'COLSxROWS' of the board.")] = "9x6",
     calibration_left: Annotated[
         Path | None,
@@ -94,8 +111,9 @@ def calibrate_pair_command(  # noqa: PLR0913 - typer: one parameter per option
         ),
     ] = 0.0,
 ) -> None:
-    """Calibrate a pair of cameras from stills of a board both see: camera 2's pose in
-    camera 1's frame with its covariance, checked by leave-one-out, and the floor."""
+    """Calibrate a pair of cameras from stills of a board both see, or from both cameras
+    live: camera 2's pose in camera 1's frame with its covariance, checked by
+    leave-one-out, and the floor."""
     from recorder.pair_calibration import PairRequest, calibrate_pair
     from recorder.setup_rules import inner_corners
 
@@ -114,6 +132,8 @@ def calibrate_pair_command(  # noqa: PLR0913 - typer: one parameter per option
             out=out,
             left=left,
             right=right,
+            source=source,
+            views=views,
             board=(cols, rows),
             square=float(square),
             units=units,
@@ -123,7 +143,7 @@ def calibrate_pair_command(  # noqa: PLR0913 - typer: one parameter per option
             floor_right=floor_right,
             board_thickness=float(board_thickness),
         )
-        run = calibrate_pair(request, on_pair=_said)
+        run = calibrate_pair(request, on_pair=_said, say=lambda line: typer.echo(f"  {line}"))
     for line in report_lines(run):
         typer.echo(line)
 
@@ -144,13 +164,20 @@ def report_lines(run: PairCalibrationRun) -> list[str]:
         f"rz {a[2]:+.3f} ± {sa[2]:.3f} deg (R = Rx Ry Rz)",
         f"  t ({t[0]:+.4g} ± {st[0]:.2g}, {t[1]:+.4g} ± {st[1]:.2g}, {t[2]:+.4g} ± {st[2]:.2g}) "
         f"{u}; baseline {pc.baseline:.4g} {u}",
-        f"  RMS reprojection error {pc.rms_px:.3f} px over {pc.n_views} pairs of stills; "
+        f"  RMS reprojection error {pc.rms_px:.3f} px over {pc.n_views} pairs of "
+        f"{'stills' if run.live is None or run.live.stills else 'frames'}; "
         f"intrinsics: {pc.intrinsics_from}",
     ]
     for dropped in pc.dropped:
         lines.append(f"  dropped as an outlier and fitted again: {dropped}")
     for skipped in run.skipped:
         lines.append(f"  not used: {skipped}")
+    if run.live is not None:
+        d = run.live.dropped
+        lines.append(
+            f"  from the cameras: {run.live.ended}; frames dropped (the board search is "
+            f"slower than the cameras): camera 1 {d[0]}, camera 2 {d[1]}"
+        )
     c = pc.check
     if c is not None:
         verdict = "passed" if c.passed else "FAILED: the covariance is not confirmed"

@@ -10,9 +10,13 @@ import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from types import TracebackType
-from typing import TYPE_CHECKING, Self
+from typing import TYPE_CHECKING, Any, Self
+
+from twopose.errors import SourceError
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
     import numpy as np
     from numpy.typing import NDArray
 
@@ -20,7 +24,7 @@ if TYPE_CHECKING:
 
     Image = NDArray[np.uint8]
 
-__all__ = ["FrameSource", "Pacer", "SourceInfo"]
+__all__ = ["FrameSource", "Pacer", "SourceInfo", "open_camera", "open_video"]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -115,3 +119,50 @@ class Pacer:
             missed = int((now - self.due) / self.interval)
         self.due += (missed + 1) * self.interval
         return missed
+
+
+def open_video(path: Path) -> tuple[Any, SourceInfo]:
+    """``path`` opened by OpenCV (its ``VideoCapture``) and what it delivers; a file that is
+    missing or that OpenCV cannot read refused in words."""
+    import cv2
+
+    if not path.is_file():
+        raise SourceError(f"video {path} does not exist")
+    cap = cv2.VideoCapture(str(path))
+    if not cap.isOpened():
+        raise SourceError(f"OpenCV cannot read the video {path} (unknown format or codec?)")
+    info = SourceInfo(
+        description=f"video:{path}",
+        width=int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)),
+        height=int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT)),
+        fps=float(cap.get(cv2.CAP_PROP_FPS)) or 30.0,
+    )
+    return cap, info
+
+
+def open_camera(
+    device: int | str, width: int, height: int, fps: float, *, fourcc: str = ""
+) -> tuple[Any, SourceInfo]:
+    """Camera ``device`` opened by OpenCV with the size and rate asked (and the pixel format
+    ``fourcc``, asked first: a camera gives 640x480 at 30 fps often only in MJPG), and what
+    it delivers; a camera that does not open refused in words."""
+    import cv2
+
+    cap = cv2.VideoCapture(device)
+    if not cap.isOpened():
+        raise SourceError(
+            f"camera {device} did not open: is it connected, and not in use by another "
+            "program? Try another index (camera:1) or check the device permissions."
+        )
+    if fourcc:
+        cap.set(cv2.CAP_PROP_FOURCC, cv2.VideoWriter.fourcc(*fourcc))
+    cap.set(cv2.CAP_PROP_FRAME_WIDTH, width)
+    cap.set(cv2.CAP_PROP_FRAME_HEIGHT, height)
+    cap.set(cv2.CAP_PROP_FPS, fps)
+    info = SourceInfo(
+        description=f"camera:{device}",
+        width=int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)),
+        height=int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT)),
+        fps=float(cap.get(cv2.CAP_PROP_FPS)) or fps,
+    )
+    return cap, info

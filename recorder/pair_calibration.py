@@ -3,10 +3,11 @@
 The board (a checkerboard) is shown to both cameras at once at several places and tilts;
 each moment is a pair of stills, camera 1's (``--left``) and camera 2's (``--right``),
 paired by their sorted file names (whose numbers must agree: ``left03.jpg`` with
-``right03.jpg``). :func:`calibrate_pair_views` takes the pairs from any iterator of
-``(name, left image, right image)`` (stills today; a ``pair:`` source's frames later) and
-fits the pair (:func:`twopose.pair.calibration.fit_pair`): each camera's intrinsics from
-its calibration file, or fitted on its own stills by the one-camera fit
+``right03.jpg``), or a pair of frames from two live cameras (``--source pair:A,B``: the
+pairs :mod:`recorder.pair_live` keeps). :func:`calibrate_pair_views` takes the pairs from
+any iterator of ``(name, left image, right image)`` and fits the pair
+(:func:`twopose.pair.calibration.fit_pair`): each camera's intrinsics from its calibration
+file, or fitted on its own views by the one-camera fit
 (:func:`recorder.camera_calibration.fit_views`), said which. A board lying on the floor,
 seen by both (``--floor-left``, ``--floor-right``), gives the floor plane.
 :func:`calibrate_pair` is the whole command as one call: it refuses an existing output
@@ -22,6 +23,7 @@ import re
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -42,6 +44,9 @@ from twopose.pair.calibration import MIN_VIEWS, FloorPlane, PairCalibration, fit
 from twopose.pair.floor import floor_from_board, with_floor
 from twopose.pair.pair_file import write_pair_file
 from twopose.units import Units, unit_spec
+
+if TYPE_CHECKING:
+    from recorder.pair_live import LiveOutcome
 
 __all__ = [
     "FloorStills",
@@ -71,7 +76,8 @@ class PairCalibrationRun:
     ``skipped`` the pairs whose board was not found in both cameras, each saying where it
     was missing; ``intrinsics_from`` the intrinsics' origin in words; ``own`` each camera's
     own fit when the intrinsics were fitted here (None: from a calibration file);
-    ``path`` the pair file written (None: not written).
+    ``path`` the pair file written (None: not written); ``live`` how a live ``pair:``
+    source's collection went (None: stills).
     """
 
     pair: PairCalibration
@@ -80,6 +86,7 @@ class PairCalibrationRun:
     intrinsics_from: str
     own: tuple[Calibration | None, Calibration | None] = (None, None)
     path: Path | None = None
+    live: LiveOutcome | None = None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -97,19 +104,23 @@ class PairRequest:
     """What ``calibrate-pair`` is asked (its command line, as one record).
 
     ``out`` the pair file to write; ``left``/``right`` file patterns of camera 1's and
-    camera 2's stills; ``board`` inner corners (cols, rows); ``square`` a square's side in
-    ``units``; ``calibration_left``/``calibration_right`` each camera's calibration file
-    (both or neither: neither fits each camera on its own stills); ``floor_left``/
-    ``floor_right`` stills of a board lying on the floor (camera 1's needed for a floor);
-    ``board_thickness`` that board's printed face above the floor, in ``units``.
+    camera 2's stills, or ``source`` a ``pair:A,B`` source read live (``views`` the pairs
+    it keeps: :class:`recorder.pair_live.LiveRules`); ``board`` inner corners (cols,
+    rows); ``square`` a square's side in ``units``; ``calibration_left``/
+    ``calibration_right`` each camera's calibration file (both or neither: neither fits
+    each camera on its own views); ``floor_left``/``floor_right`` stills of a board lying
+    on the floor (camera 1's needed for a floor); ``board_thickness`` that board's printed
+    face above the floor, in ``units``.
     """
 
     out: Path
-    left: str
-    right: str
+    left: str | None = None
+    right: str | None = None
     board: tuple[int, int]
     square: float
     units: Units
+    source: str | None = None
+    views: int | None = None
     calibration_left: Path | None = None
     calibration_right: Path | None = None
     floor_left: Path | None = None
@@ -330,26 +341,74 @@ def read_still_pairs(files: list[tuple[str, Path, Path]]) -> Iterator[StillPair]
 
 
 def calibrate_pair(
-    request: PairRequest, *, on_pair: Callable[[str, tuple[bool, bool]], None] | None = None
+    request: PairRequest,
+    *,
+    on_pair: Callable[[str, tuple[bool, bool]], None] | None = None,
+    say: Callable[[str], None] | None = None,
 ) -> PairCalibrationRun:
-    """``twopose-record calibrate-pair`` as one call: fit, check and write the pair file.
+    """``twopose-record calibrate-pair`` as one call: fit, check and write the pair file,
+    from stills (``--left``/``--right``) or a live ``pair:`` source (``--source``).
 
     Parameters
     ----------
     request : PairRequest
-        The output, both cameras' stills, the board, the units, the calibration files and
-        the floor board's stills.
+        The output, both cameras' stills or the pair source, the board, the units, the
+        calibration files and the floor board's stills.
     on_pair : callable, optional
-        Called with each moment's name and whether each camera (1, 2) found the board.
+        Called with each pair of stills' name and whether each camera (1, 2) found the board.
+    say : callable, optional
+        Called with each line a live source has to say (its cameras, the pairs kept, why
+        others were not, how the collection ended).
 
     Returns
     -------
     PairCalibrationRun
-        With ``path`` the file written.
+        With ``path`` the file written (and ``live``, how a live source's collection went).
     """
     r = request
     if r.out.exists():
         raise SessionExistsError(f"{r.out} already exists; choose another pair file")
+    _refuse_combinations(r)
+    calibrations = None
+    if r.calibration_left is not None and r.calibration_right is not None:
+        calibrations = (
+            (load_calibration(r.calibration_left), load_calibration_sigma(r.calibration_left)),
+            (load_calibration(r.calibration_right), load_calibration_sigma(r.calibration_right)),
+        )
+    floor = _floor_stills(r)  # an unreadable floor still is refused before the cameras open
+    live = None
+    if r.source is not None:
+        pairs, live = _live_pairs(r.source, r.board, r.views, say or (lambda _: None))
+    elif r.left is not None and r.right is not None:
+        files = still_pairs(r.left, r.right)
+        inputs = {p.resolve() for _, a, b in files for p in (a, b)}
+        if r.out.resolve() in inputs:
+            raise InputValueError(f"{r.out} is one of the stills: choose another pair file")
+        pairs = read_still_pairs(files)
+    run = calibrate_pair_views(
+        pairs, r.board, r.square, r.units,
+        calibrations=calibrations,
+        calibrations_from=f"calibration files {r.calibration_left} and {r.calibration_right}",
+        floor=floor, on_pair=on_pair if live is None or live.stills else None,  # said live
+    )  # fmt: skip
+    write_pair_file(r.out, run.pair)
+    return dataclasses.replace(run, path=r.out, live=live)
+
+
+def _refuse_combinations(r: PairRequest) -> None:
+    """The request's options that go only together, or never, refused in words."""
+    if (r.source is None) == (r.left is None and r.right is None):
+        raise InputValueError(
+            "give the stills (--left and --right) or a pair of cameras (--source pair:A,B), "
+            "one of them"
+        )
+    if r.source is None and (r.left is None or r.right is None):
+        raise InputValueError("give both cameras' stills: --left and --right")
+    if r.source is None and r.views is not None:
+        raise InputValueError(
+            "--views counts the pairs kept from a live --source; every pair of stills given "
+            "by --left and --right is used"
+        )
     if (r.calibration_left is None) != (r.calibration_right is None):
         raise InputValueError(
             "give both cameras' calibration files (--calibration-left and --calibration-right) "
@@ -357,24 +416,41 @@ def calibrate_pair(
         )
     if r.floor_left is None and r.floor_right is not None:
         raise InputValueError("--floor-right needs --floor-left: the floor is in camera 1's frame")
-    calibrations = None
-    if r.calibration_left is not None and r.calibration_right is not None:
-        calibrations = (
-            (load_calibration(r.calibration_left), load_calibration_sigma(r.calibration_left)),
-            (load_calibration(r.calibration_right), load_calibration_sigma(r.calibration_right)),
+
+
+def _live_pairs(
+    spec: str, board: tuple[int, int], views: int | None, say: Callable[[str], None]
+) -> tuple[Iterable[StillPair], LiveOutcome]:
+    """The pairs a ``pair:`` source gives (:mod:`recorder.pair_live`): a folder's as they
+    come, as stills are; a camera's collected first, then fitted (or, stopped with too few,
+    refused: nothing is written)."""
+    from recorder.pair_live import LiveOutcome, LiveRules, live_pairs
+    from recorder.pair_source import PairSource
+    from recorder.sources import SOURCE_KINDS, SourceOptions, kind_of, open_from
+
+    if kind_of(spec).cameras != 2:
+        raise InputValueError(
+            f"--source {spec}: calibrate-pair takes two cameras: --source pair:A,B "
+            "(pair:camera:0,camera:1)"
         )
-    files = still_pairs(r.left, r.right)
-    inputs = {p.resolve() for _, a, b in files for p in (a, b)}
-    if r.out.resolve() in inputs:
-        raise InputValueError(f"{r.out} is one of the stills: choose another pair file")
-    run = calibrate_pair_views(
-        read_still_pairs(files), r.board, r.square, r.units,
-        calibrations=calibrations,
-        calibrations_from=f"calibration files {r.calibration_left} and {r.calibration_right}",
-        floor=_floor_stills(r), on_pair=on_pair,
-    )  # fmt: skip
-    write_pair_file(r.out, run.pair)
-    return dataclasses.replace(run, path=r.out)
+    source = open_from(SOURCE_KINDS, spec, SourceOptions())
+    assert isinstance(source, PairSource)  # the kind of two cameras opens a pair
+    outcome = LiveOutcome(stills=source.stills)
+    pairs = live_pairs(source, board, LiveRules(views=views), outcome, say)
+    if source.stills:
+        return pairs, outcome
+    kept = list(pairs)
+    say(outcome.ended)
+    if len(kept) < MIN_VIEWS:
+        words = f"the pair's calibration needs {MIN_VIEWS} pairs or more; nothing written"
+        if outcome.stopped:
+            say(words)
+            raise KeyboardInterrupt
+        raise InputValueError(
+            f"{outcome.ended}; {words}: show the board to both cameras at more places, "
+            "holding it still at each"
+        )
+    return kept, outcome
 
 
 def _floor_stills(request: PairRequest) -> FloorStills | None:

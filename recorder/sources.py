@@ -14,13 +14,14 @@ from __future__ import annotations
 import contextlib
 import queue
 import threading
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from typing_extensions import override
 
-from recorder.frame_source import FrameSource, Pacer, SourceInfo
+from recorder.frame_source import FrameSource, Pacer, SourceInfo, open_camera, open_video
+from recorder.pair_feeds import CameraFeed, Feed, PacedFeed, StillsFeed, VideoFeed
 from recorder.synthetic_source import SyntheticSource
 from twopose.errors import InputValueError, SourceError
 from twopose.methods import Method
@@ -33,11 +34,13 @@ if TYPE_CHECKING:
     import numpy as np
     from numpy.typing import NDArray
 
+    from recorder.pair_source import PairSource
     from twopose.camera import Camera
 
     Image = NDArray[np.uint8]
 
 __all__ = [
+    "FEEDS",
     "SOURCES",
     "SOURCE_KINDS",
     "CameraSource",
@@ -49,8 +52,12 @@ __all__ = [
     "SyntheticSource",
     "VideoSource",
     "kind_of",
+    "one_camera",
     "open_from",
+    "open_pair",
     "open_source",
+    "open_video",
+    "register_feed",
     "register_source",
     "source_help",
     "source_kinds_table",
@@ -78,24 +85,8 @@ class CameraSource(FrameSource):
         self._thread: threading.Thread | None = None
 
     def open(self) -> SourceInfo:
-        import cv2
 
-        cap = cv2.VideoCapture(self.device)
-        if not cap.isOpened():
-            raise SourceError(
-                f"camera {self.device} did not open: is it connected, and not in use by another "
-                "program? Try another index (camera:1) or check the device permissions."
-            )
-        cap.set(cv2.CAP_PROP_FRAME_WIDTH, self.width)
-        cap.set(cv2.CAP_PROP_FRAME_HEIGHT, self.height)
-        cap.set(cv2.CAP_PROP_FPS, self.fps)
-        self._cap = cap
-        self.info = SourceInfo(
-            description=f"camera:{self.device}",
-            width=int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)),
-            height=int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT)),
-            fps=float(cap.get(cv2.CAP_PROP_FPS)) or self.fps,
-        )
+        self._cap, self.info = open_camera(self.device, self.width, self.height, self.fps)
         self._thread = threading.Thread(target=self._grab, daemon=True)
         self._thread.start()
         return self.info
@@ -150,22 +141,7 @@ class VideoSource(FrameSource):
         self._cap: Any = None
 
     def open(self) -> SourceInfo:
-        import cv2
-
-        if not self.path.is_file():
-            raise SourceError(f"video {self.path} does not exist")
-        cap = cv2.VideoCapture(str(self.path))
-        if not cap.isOpened():
-            raise SourceError(
-                f"OpenCV cannot read the video {self.path} (unknown format or codec?)"
-            )
-        self._cap = cap
-        self.info = SourceInfo(
-            description=f"video:{self.path}",
-            width=int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)),
-            height=int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT)),
-            fps=float(cap.get(cv2.CAP_PROP_FPS)) or 30.0,
-        )
+        self._cap, self.info = open_video(self.path)
         self._pacer = Pacer(self.info.fps) if self.realtime else None
         return self.info
 
@@ -278,6 +254,8 @@ class SourceKind:
     example: str = ""
     #: Whether ``--fps`` is asked of it (a camera's; others keep their own rate).
     takes_fps: bool = False
+    #: How many cameras' frames it gives (a pair's two: only the pair's commands take it).
+    cameras: int = 1
 
     def matches(self, spec: str) -> bool:
         """Whether ``spec`` (as typed) names this kind."""
@@ -296,6 +274,12 @@ def _open_synthetic(arg: str, o: SourceOptions) -> FrameSource:
     return SyntheticSource(
         arg or None, o.method, realtime=o.realtime, units=o.units, cameras=o.cameras
     )
+
+
+def _open_pair(arg: str, o: SourceOptions) -> FrameSource:
+    from recorder.pair_source import parse_pair
+
+    return open_pair(*parse_pair(arg, SOURCE_KINDS), o)
 
 
 _BUILT_IN: tuple[SourceKind, ...] = (
@@ -328,9 +312,19 @@ _BUILT_IN: tuple[SourceKind, ...] = (
         opener=_open_synthetic,
         calibrates=False,
     ),
+    SourceKind(
+        name="pair",
+        syntax="pair:A,B",
+        help="two cameras at once, any two of the above (pair:camera:0,camera:1), each "
+        "frame with its capture time; for calibrate-pair",
+        opener=_open_pair,
+        needs_arg=True,
+        calibrates=False,
+        cameras=2,
+    ),
 )
 #: The frame sources' registry, by the name the operator types before the colon: twopose's
-#: own (camera, video, images, synthetic), then those registered (:func:`register_source`).
+#: own (camera, video, images, synthetic, pair), then those registered (:func:`register_source`).
 SOURCES: Registry[str, SourceKind] = Registry("source", lambda kind: kind.name, _BUILT_IN)
 #: Every kind of frame source, in the order help and docs list them (the registry's, as
 #: it is now).
@@ -354,10 +348,11 @@ def _listed(items: Sequence[str]) -> str:
 
 
 def source_help(kinds: Sequence[SourceKind] = SOURCE_KINDS, *, calibration: bool = False) -> str:
-    """The ``--source`` help: the kinds' syntaxes (only those a calibration takes, with
-    their examples, when ``calibration``); an installed extension's kinds too."""
+    """The ``--source`` help of a one-camera command: the one-camera kinds' syntaxes (only
+    those a calibration takes, with their examples, when ``calibration``); an installed
+    extension's kinds too."""
     load_extensions()
-    chosen = [k for k in kinds if k.calibrates or not calibration]
+    chosen = [k for k in kinds if k.cameras == 1 and (k.calibrates or not calibration)]
     text = _listed([k.syntax for k in chosen])
     examples = [k.example for k in chosen if k.example] if calibration else []
     return f"{text} (e.g. {', '.join(examples)})." if examples else f"{text}."
@@ -399,7 +394,27 @@ def open_source(
         units=units,
         cameras=cameras,
     )
+    one_camera(spec)
     return open_from(SOURCE_KINDS, spec, options)
+
+
+def one_camera(spec: str, kinds: Sequence[SourceKind] = SOURCE_KINDS) -> SourceKind:
+    """The kind ``spec`` names, refused in words unless it is one camera's (a command that
+    records or calibrates one camera cannot take a pair; an unknown one is told the
+    one-camera kinds)."""
+    try:
+        kind = kind_of(spec, kinds)
+    except SourceError:
+        kind_of(spec, [k for k in kinds if k.cameras == 1])  # raises, naming those kinds
+        raise
+    if kind.cameras != 1:
+        raise SourceError(
+            f"{spec} gives {kind.cameras} cameras' frames and this takes one camera's: give "
+            "one of them (--source camera:0); the pair's calibration takes both "
+            f"(twopose-record calibrate-pair PAIR.toml --source {spec}); recording two "
+            "cameras' stream trials is not built yet"
+        )
+    return kind
 
 
 def open_from(kinds: Sequence[SourceKind], spec: str, options: SourceOptions) -> FrameSource:
@@ -413,3 +428,47 @@ def kind_of(spec: str, kinds: Sequence[SourceKind] = SOURCE_KINDS) -> SourceKind
         if kind.matches(spec):
             return kind
     raise SourceError(f"unknown source {spec!r}; use {_listed([k.syntax for k in kinds])}")
+
+
+#: How each type of one-camera source is read as one camera of a pair (the nearest type
+#: wins): its :class:`recorder.pair_feeds.Feed`, which stamps each frame's capture time.
+FEEDS: dict[type[FrameSource], Callable[[Any], Feed]] = {
+    CameraSource: CameraFeed,
+    VideoSource: VideoFeed,
+    ImagesSource: StillsFeed,
+    SyntheticSource: PacedFeed,
+}
+
+
+def register_feed(kind: type[FrameSource], factory: Callable[[Any], Feed]) -> None:
+    """Read sources of type ``kind`` (a kind registered in :data:`SOURCE_KINDS` later) as
+    one camera of a pair by ``factory(source)``."""
+    FEEDS[kind] = factory
+
+
+def open_pair(
+    first: str,
+    second: str,
+    options: SourceOptions | None = None,
+    *,
+    queue_frames: int | None = None,
+) -> PairSource:
+    """Two one-camera sources as a pair (``pair:FIRST,SECOND``; not yet opened): each opened
+    by the registry, read by its type's feed (:data:`FEEDS`), ``queue_frames`` a camera's
+    queue (:data:`recorder.pair_source.QUEUE_FRAMES` unless given)."""
+    from recorder.pair_source import QUEUE_FRAMES, PairSource
+
+    options = replace(options or SourceOptions(), realtime=False)  # paced by their feeds
+    feeds = []
+    for spec in (first, second):
+        source = open_from(SOURCE_KINDS, spec, options)
+        factory = next((FEEDS[t] for t in type(source).__mro__ if t in FEEDS), None)
+        if factory is None:
+            raise SourceError(
+                f"{spec}: a pair cannot stamp this source's frames with their capture time "
+                "(its kind has no feed: recorder.sources.register_feed)"
+            )
+        feeds.append(factory(source))
+    return PairSource(
+        (feeds[0], feeds[1]), (first, second), queue_frames=queue_frames or QUEUE_FRAMES
+    )

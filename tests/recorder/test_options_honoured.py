@@ -25,7 +25,7 @@ from recorder.setup_rules import GuidanceAsked, Setup
 from tests.helpers import SMALL_SCENE
 from twopose.camera import Camera, Intrinsics
 from twopose.errors import EXIT_ERROR, EXIT_INTERRUPTED, InputValueError
-from twopose.format.entries import GuidanceRecord, Note, SessionInfo
+from twopose.format.entries import FORMAT_VERSION, GuidanceRecord, Note, SessionInfo
 from twopose.format.reader import SessionReader
 from twopose.format.writer import SessionWriter
 from twopose.methods import Method
@@ -73,7 +73,7 @@ def recorded(tmp_path_factory: pytest.TempPathFactory) -> Recorded:
 
 def test_the_session_records_every_guidance_setting_as_given(recorded: Recorded) -> None:
     with SessionReader(recorded.session) as reader:
-        assert reader.info.format_version == "1.5"
+        assert reader.info.format_version == FORMAT_VERSION  # 1.5 on: the guidance recorded
         record = reader.info.guidance
     assert record == GuidanceRecord(
         target95=5.0, max_poses=5, min_gain=0.0, reach=2540.0, spacing=1.0,

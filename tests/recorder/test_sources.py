@@ -289,6 +289,7 @@ def test_the_command_line_help_and_errors_list_the_registry() -> None:
         "video:PATH",
         "images:DIR[/PATTERN]",
         "synthetic[:SCENE.toml]",
+        "pair:A,B",  # two cameras: only the pair's commands take it (not in their help)
     ]
     assert source_help() == "camera:N, video:PATH, images:DIR[/PATTERN] or synthetic[:SCENE.toml]."
     assert source_help(calibration=True) == (

@@ -37,6 +37,8 @@ PAIR_TABLES = {
     "floor": "the floor plane in camera 1's frame, with its covariance (optional)",
     "check": "the leave-one-out check of the covariance (optional)",
 }
+#: The tables every pair file holds (the others are optional, as PAIR_TABLES says).
+_REQUIRED_TABLES = tuple(t for t, what in PAIR_TABLES.items() if "(optional)" not in what)
 #: The longest baseline a pair file may state, in inches (5 m): beyond it the numbers are
 #: not a pair of cameras on one mount (a wrong ``units``, a typo).
 MAX_BASELINE_IN = 5000 / 25.4
@@ -122,7 +124,7 @@ def read_pair_file(path: str | Path) -> PairCalibration:
             f"{what}: unknown table(s) {', '.join(f'[{t}]' for t in unknown)}; a pair file "
             f"holds {', '.join(f'[{t}]' for t in PAIR_TABLES)}"
         )
-    for table in ("pair", "camera1", "camera2"):
+    for table in _REQUIRED_TABLES:
         if not isinstance(data.get(table), dict):
             raise InputValueError(
                 f"{what}: no [{table}] table ({PAIR_TABLES[table]}); write the file with "

@@ -429,6 +429,11 @@ def _colours(s: Scene) -> list[tuple[str, RGB]]:
     return found
 
 
+#: :class:`RigConstants` fields a scene does not set: the true rig is exact, and these are
+#: what a fit of it records.
+_FITTED_ONLY = ("cameras", "covariance")
+
+
 def load_scene(path: str | Path | None = None, **overrides: Any) -> Scene:
     """Read a scene TOML file over the defaults; keyword overrides win over the file.
 
@@ -439,6 +444,12 @@ def load_scene(path: str | Path | None = None, **overrides: Any) -> Scene:
     """
     data = read_toml(path, "scene file", SceneError) if path is not None else {}
     data.update(overrides)
+    fitted = sorted(set(data.get("systematic") or ()) & set(_FITTED_ONLY))
+    if fitted:  # what a rig file's fit says of the constants, not the constants themselves
+        raise SceneError(
+            f"scene: systematic.{fitted[0]} is what a rig file's fit records (its "
+            f"[[camera]], its [covariance]), not a constant of the simulated rig; leave it out"
+        )
     return build_dataclass(Scene, _over_defaults_in_units(data), "scene", SceneError)
 
 

@@ -59,3 +59,13 @@ def test_a_missing_or_binary_file_is_a_scene_error(tmp_path: Path) -> None:
     binary.write_bytes(b"\xff\xfe\x00")
     with pytest.raises(SceneError, match="scene file"):
         load_scene(binary)
+
+
+@pytest.mark.parametrize("key", ["cameras", "covariance"])
+def test_a_scene_refuses_what_only_a_fit_records(tmp_path: Path, key: str) -> None:
+    """The simulated rig's constants are exact: a scene gives none of what a rig file's
+    fit records about them (its cameras, its covariance), in the scene's words."""
+    path = tmp_path / "scene.toml"
+    path.write_text(f"[systematic]\n{key} = []\n")
+    with pytest.raises(SceneError, match=f"systematic.{key} is what a rig file's fit records"):
+        load_scene(path)
