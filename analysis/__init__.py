@@ -18,12 +18,12 @@ from typing import TYPE_CHECKING
 from twopose.lazy import lazy_exports
 
 if TYPE_CHECKING:
-    from analysis.batch import run
-    from analysis.comparison import compare
-    from analysis.figures import make_figures
-    from analysis.gate import check
-    from analysis.pipeline import analyse_session
+    from analysis.batch.runner import run
+    from analysis.gate.baseline import check
+    from analysis.gate.comparison import compare
+    from analysis.report.figures.draw import make_figures
     from analysis.results import AnalysisOptions, RunResult, SessionFailure, SessionResult
+    from analysis.session.pipeline import analyse_session
 
 __all__ = [
     "AnalysisOptions",
@@ -38,11 +38,11 @@ __all__ = [
 ]
 
 _HOMES = {
-    "run": "analysis.batch",
-    "check": "analysis.gate",
-    "compare": "analysis.comparison",
-    "make_figures": "analysis.figures",
-    "analyse_session": "analysis.pipeline",
+    "run": "analysis.batch.runner",
+    "check": "analysis.gate.baseline",
+    "compare": "analysis.gate.comparison",
+    "make_figures": "analysis.report.figures.draw",
+    "analyse_session": "analysis.session.pipeline",
     "AnalysisOptions": "analysis.results",
     "RunResult": "analysis.results",
     "SessionFailure": "analysis.results",

@@ -1,6 +1,6 @@
 """The analyst's closed sets of names, declared once for the library and the command line.
 
-Like :mod:`twopose.choices`: a :data:`~typing.Literal` types the option record, and typer
+Like :mod:`twopose.values.choices`: a :data:`~typing.Literal` types the option record, and typer
 makes it the command line's choices. Nothing heavy is imported, so that the command line
 reads it at start-up.
 """

@@ -9,25 +9,25 @@ from pathlib import Path
 import pandas as pd
 
 from analysis.choices import DEFAULT_SESSION_TIMEOUT_S, FigureFormat, RigCalibrationMode
-from analysis.columns import RIG_TABLE_COLUMNS, VIEW_COLUMNS, typed
-from analysis.thesis import Verdicts, thesis_table, verdict_lines, verdicts_by_set
-from twopose.choices import P, TargetSpec
-from twopose.estimate import EstimateOptions
+from analysis.report.thesis import Verdicts, thesis_table, verdict_lines, verdicts_by_set
+from analysis.tables.columns import RIG_TABLE_COLUMNS, VIEW_COLUMNS, typed
+from twopose.detect.thresholds import DotParams, GloveParams
 from twopose.rig.constants import RigConstants
-from twopose.thresholds import DotParams, GloveParams
+from twopose.solve.estimate import EstimateOptions
+from twopose.values.choices import P, TargetSpec
 
 __all__ = ["AnalysisOptions", "RunResult", "SessionFailure", "SessionResult"]
 
 
 #: The metadata of an :class:`AnalysisOptions` field that shapes the run's own outputs (its
 #: summary, its figures, its time limit) and never a session's tables: a re-run that
-#: changes only such fields reuses every session's analysis (analysis.session_cache).
+#: changes only such fields reuses every session's analysis (analysis.batch.cache).
 RUN_ONLY = {"session_tables": False}
 
 
 def shapes_session_tables(name: str) -> bool:
     """Whether the :class:`AnalysisOptions` field ``name`` shapes a session's tables (is
-    not :data:`RUN_ONLY`): the one reading of the mark (analysis.session_cache keys on it)."""
+    not :data:`RUN_ONLY`): the one reading of the mark (analysis.batch.cache keys on it)."""
     return bool(AnalysisOptions.__dataclass_fields__[name].metadata.get("session_tables", True))
 
 
@@ -102,13 +102,13 @@ class SessionResult:
     trials: pd.DataFrame
     averaging: pd.DataFrame
     images: dict[str, bytes] = field(default_factory=dict)  # PNGs by figure kind, if asked
-    figures_reused: bool = False  # the images are a previous run's (analysis.figure_cache)
-    analysis_reused: bool = False  # the tables are a previous run's (analysis.session_cache)
-    analysis_key: str = ""  # its entry in the run's session cache (analysis.session_cache)
+    figures_reused: bool = False  # the images are a previous run's (analysis.report.figures.cache)
+    analysis_reused: bool = False  # the tables are a previous run's (analysis.batch.cache)
+    analysis_key: str = ""  # its entry in the run's session cache (analysis.batch.cache)
     views: pd.DataFrame = field(default_factory=lambda: _empty(VIEW_COLUMNS))
     rig: pd.DataFrame = field(default_factory=lambda: _empty(RIG_TABLE_COLUMNS))  # rig.csv rows
     #: What names it to a reader: the shortest tail of its path no other input shares
-    #: (:attr:`analysis.input_set.InputSet.labels`); its file name when analysed alone.
+    #: (:attr:`analysis.batch.inputs.InputSet.labels`); its file name when analysed alone.
     label: str = ""
     #: Its place among the run's inputs (failed ones included): the number of every output
     #: file of it (``results_<index>_...``, ``scatter_<index>_...``); -1 outside a run.
@@ -161,9 +161,9 @@ class RunResult:
     #: Every rig file the run used, each once (each session's: trials.csv ``rig_file``)
     rig_files: tuple[RigSource, ...] = ()
     #: What the run says about its inputs: copies counted once, board sessions (for
-    #: `rig`), empty sessions (analysis.input_set.InputSet.notes)
+    #: `rig`), empty sessions (analysis.batch.inputs.InputSet.notes)
     input_notes: tuple[str, ...] = ()
-    #: The inputs not analysed as given (:attr:`analysis.input_set.InputSet.set_aside`):
+    #: The inputs not analysed as given (:attr:`analysis.batch.inputs.InputSet.set_aside`):
     #: what the report's counts count, where ``input_notes`` also says how continuations
     #: and forks were joined (analysed, all of them)
     inputs_set_aside: tuple[str, ...] = ()
@@ -183,8 +183,8 @@ class RunResult:
 
     def sessions_said(self, verb: str = "") -> str:
         """The sessions analysed in words: ``3 session(s)``, and how some were taken apart
-        (:func:`analysis.input_set.sessions_said`)."""
-        from analysis.input_set import sessions_said
+        (:func:`analysis.batch.inputs.sessions_said`)."""
+        from analysis.batch.inputs import sessions_said
 
         return sessions_said(((s.session_id, s.branch) for s in self.sessions), verb)
 

@@ -28,7 +28,7 @@ import numpy as np
 import pandas as pd
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
-from twopose.solve import projection_matrices, triangulate_points
+from twopose.solve.nview import projection_matrices, triangulate_points
 
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "accuracy.txt"

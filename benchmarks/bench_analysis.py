@@ -32,11 +32,11 @@ from pathlib import Path
 
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
-from recorder.simulate import simulate_session
+from recorder.simulate.one_camera import simulate_session
 from twopose.format.reader import SessionReader
 from twopose.format.trials import iter_trials
 from twopose.format.writer import SessionWriter
-from twopose.methods import Method
+from twopose.methods.specs import Method
 
 PY = sys.executable
 
@@ -58,7 +58,7 @@ print(time.perf_counter() - t, n)
 # start at the parent's peak, inherited through fork.
 RUN_AND_RSS = """
 import sys, time
-from analysis.batch import run
+from analysis.batch.runner import run
 t = time.perf_counter()
 result = run(sys.argv[1:-1], sys.argv[-1], jobs=int(__import__("os").environ.get("JOBS", "1")))
 elapsed = time.perf_counter() - t

@@ -46,10 +46,10 @@ sys.path.insert(0, str(REPO / "sessions"))
 
 from bench_rig import RIG, rmse, session_path, simulate_pair  # type: ignore[import-not-found]  # noqa: E402 - on sys.path at run time
 
-from analysis.batch import run  # noqa: E402
-from analysis.metrics import used_trials  # noqa: E402
+from analysis.batch.runner import run  # noqa: E402
 from analysis.results import AnalysisOptions  # noqa: E402
-from twopose.checkerboard import find_board  # noqa: E402
+from analysis.session.metrics import used_trials  # noqa: E402
+from twopose.detect.checkerboard import find_board  # noqa: E402
 from twopose.rig.board import BoardRigFit, board_order, fit_board_rig  # noqa: E402
 from twopose.rig.constants import RIG_PARAMETERS, RigConstants  # noqa: E402
 from twopose.sim.camera import SyntheticCamera  # noqa: E402

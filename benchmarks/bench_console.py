@@ -25,12 +25,12 @@ import cv2
 import httpx
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
-from twopose.methods import Method
+from twopose.methods.specs import Method
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from recorder.simulate import simulate_session  # noqa: E402
+from recorder.simulate.one_camera import simulate_session  # noqa: E402
 from twopose.format.messages import Frame  # noqa: E402
 from twopose.format.reader import SessionReader  # noqa: E402
 

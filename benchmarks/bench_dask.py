@@ -16,13 +16,13 @@ from pathlib import Path
 
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
-from twopose.methods import Method
+from twopose.methods.specs import Method
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from analysis.batch import run  # noqa: E402
-from recorder.simulate import simulate_session  # noqa: E402
+from analysis.batch.runner import run  # noqa: E402
+from recorder.simulate.one_camera import simulate_session  # noqa: E402
 from tests.helpers import DaskCluster  # noqa: E402
 
 #: The docs include this file (``--write-docs`` writes it).

@@ -12,8 +12,8 @@ Printed per detector: the RMS error of the averaged views, the part of it the fr
 explains (the per-frame scatter over the frames averaged), and the systematic rest (RMS
 error squared minus that part): what stays however many frames are averaged, and the same
 in every frame, so the frame scatter cannot see it. Target: the systematic rest within the
-registry's ``detector_floor`` (``twopose.methods``), which every view's covariance adds
-(:func:`twopose.uncertainty.measurement_covariance`). Exits 1 if it is not.
+registry's ``detector_floor`` (``twopose.methods.specs``), which every view's covariance adds
+(:func:`twopose.uncertainty.propagate.measurement_covariance`). Exits 1 if it is not.
 """
 
 from __future__ import annotations
@@ -33,10 +33,10 @@ sys.path.insert(0, str(REPO / "sessions"))
 
 from make_sessions import THESIS_POSES  # type: ignore[import-not-found]  # noqa: E402 - on sys.path at run time
 
-from recorder.simulate import draw_trial_poses  # noqa: E402
-from twopose.camera import project_points, rotation_from_angles_deg  # noqa: E402
-from twopose.detect import detect, wrap_theta_deg  # noqa: E402
-from twopose.methods import Method, spec_of  # noqa: E402
+from recorder.simulate.one_camera import draw_trial_poses  # noqa: E402
+from twopose.camera.model import project_points, rotation_from_angles_deg  # noqa: E402
+from twopose.detect.detection import detect, wrap_theta_deg  # noqa: E402
+from twopose.methods.specs import Method, spec_of  # noqa: E402
 from twopose.sim.camera import SyntheticCamera  # noqa: E402
 from twopose.sim.layout import build_layout, finger_axis  # noqa: E402
 from twopose.sim.scene import Scene  # noqa: E402

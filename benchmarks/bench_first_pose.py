@@ -12,13 +12,13 @@ detector's floor, 1/16 in placing error, a 2 px calibration sigma). For each cas
 
 - ``regret``: the suggested pose's region for the *true* target over the best region of
   any reachable lattice pose for it, both predicted alike
-  (:func:`twopose.prediction.predicted_regions`) and both held to one margin: the one the
+  (:func:`twopose.guidance.prediction.predicted_regions`) and both held to one margin: the one the
   pick keeps the target clear of the image's edges by (the depths weighed:
-  :data:`twopose.first_pose.OTHER_DEPTHS_MARGIN`; a taped distance: the whole margin), less
+  :data:`twopose.guidance.first_pose.OTHER_DEPTHS_MARGIN`; a taped distance: the whole margin), less
   1: what guessing the depth cost. A pick that would put the true target within that
   margin (still in the image, but nearer its edge than the pick's margin allows; the true
   target stands up to 1 in off the first view's ray) has no region there: ``edge``. For
-  the suggestion over the depths the scene allows (``range``, :mod:`twopose.first_pose`),
+  the suggestion over the depths the scene allows (``range``, :mod:`twopose.guidance.first_pose`),
   for the one at a fixed 10 in (``10 in``, the assumption it replaces) and for the one at
   the taped true distance (``taped``);
 - ``bound``: the least worst regret over the depths weighed that any lattice pose has for
@@ -56,16 +56,16 @@ sys.path.insert(0, str(REPO))
 
 from bench_guidance import REACH, Truth, _trial, geometric_view  # type: ignore[import-not-found]  # noqa: E402
 
-from twopose.estimate import EstimateOptions, PoseView  # noqa: E402
-from twopose.first_pose import OTHER_DEPTHS_MARGIN, first_depths, provisional_target  # noqa: E402
-from twopose.guidance import Suggestion, suggest  # noqa: E402
-from twopose.methods import Method, spec_of  # noqa: E402
-from twopose.paper import lattice  # noqa: E402
-from twopose.prediction import predicted_regions, regions95  # noqa: E402
-from twopose.session_estimate import SessionTrials, estimate_session  # noqa: E402
+from twopose.guidance.advice import Suggestion, suggest  # noqa: E402
+from twopose.guidance.first_pose import OTHER_DEPTHS_MARGIN, first_depths, provisional_target  # noqa: E402
+from twopose.guidance.paper import lattice  # noqa: E402
+from twopose.guidance.prediction import predicted_regions, regions95  # noqa: E402
+from twopose.methods.specs import Method, spec_of  # noqa: E402
+from twopose.methods.targets import finger_axis  # noqa: E402
 from twopose.sim.scene import load_scene  # noqa: E402
-from twopose.targets import finger_axis  # noqa: E402
-from twopose.units import Units  # noqa: E402
+from twopose.solve.estimate import EstimateOptions, PoseView  # noqa: E402
+from twopose.solve.session import SessionTrials, estimate_session  # noqa: E402
+from twopose.values.units import Units  # noqa: E402
 
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "first_pose.txt"

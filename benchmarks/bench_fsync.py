@@ -15,13 +15,13 @@ from pathlib import Path
 import numpy as np
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
-from twopose.methods import Method
-from twopose.units import Units
+from twopose.methods.specs import Method
+from twopose.values.units import Units
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from twopose.camera import Camera, Intrinsics  # noqa: E402
+from twopose.camera.model import Camera, Intrinsics  # noqa: E402
 from twopose.format.entries import PoseEntry, SessionInfo  # noqa: E402
 from twopose.format.writer import SessionWriter  # noqa: E402
 

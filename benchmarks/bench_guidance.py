@@ -13,7 +13,7 @@ calibration 1-sigma 2 px on fx, fy, cx, cy and one true calibration drawn per tr
 The first pose is a lattice point within 1 in of the origin; then each strategy places the
 next one until the trial has ``--max-poses``:
 
-- ``guided``: the recorder's suggestion (:func:`twopose.guidance.suggest`, from the trial's
+- ``guided``: the recorder's suggestion (:func:`twopose.guidance.advice.suggest`, from the trial's
   estimate as it stands);
 - ``thesis``: the previous pose plus the thesis' move, about an inch along x;
 - ``random``: a random reachable lattice pose that keeps the target in view;
@@ -60,18 +60,18 @@ from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchm
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from twopose.estimate import EstimateOptions, PoseView  # noqa: E402
-from twopose.guidance import MIN_GAIN, THESIS_MOVE_IN, Reach, suggest  # noqa: E402
-from twopose.methods import Method, spec_of  # noqa: E402
-from twopose.noise import NoiseModel  # noqa: E402
-from twopose.paper import clear_of_edges, lattice  # noqa: E402
-from twopose.session_estimate import SessionTrials, estimate_session  # noqa: E402
+from twopose.guidance.advice import MIN_GAIN, THESIS_MOVE_IN, Reach, suggest  # noqa: E402
+from twopose.guidance.paper import clear_of_edges, lattice  # noqa: E402
+from twopose.methods.specs import Method, spec_of  # noqa: E402
+from twopose.methods.targets import finger_axis  # noqa: E402
+from twopose.methods.truth import reported  # noqa: E402
 from twopose.sim.scene import load_scene  # noqa: E402
-from twopose.solve import projection_matrices  # noqa: E402
-from twopose.targets import finger_axis  # noqa: E402
-from twopose.truth import reported  # noqa: E402
-from twopose.uncertainty import uncertainty_columns  # noqa: E402
-from twopose.units import Units  # noqa: E402
+from twopose.solve.estimate import EstimateOptions, PoseView  # noqa: E402
+from twopose.solve.nview import projection_matrices  # noqa: E402
+from twopose.solve.session import SessionTrials, estimate_session  # noqa: E402
+from twopose.uncertainty.noise import NoiseModel  # noqa: E402
+from twopose.uncertainty.propagate import uncertainty_columns  # noqa: E402
+from twopose.values.units import Units  # noqa: E402
 
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "guidance.txt"
@@ -155,7 +155,7 @@ def geometric_view(method: Method, truth: Truth, typed: np.ndarray, pose: int,
     d = px[1] - px[0]
     theta = math.degrees(math.atan2(d[1], d[0])) if lines else math.nan
     # The detector's systematic error, one draw a view (the same in its every frame): the
-    # model's floor (twopose.methods), which the rendered views' error stays within.
+    # model's floor (twopose.methods.specs), which the rendered views' error stays within.
     floor_px, floor_deg = spec_of(method).detector_floor
     centroid = centroid + floor_px * rng.standard_normal(2)
     theta += floor_deg * rng.standard_normal()

@@ -7,7 +7,7 @@ or x-and-depth moves, 1/8 in typing, 0.04 in placing error), 2 trials of 3 frame
 whose camera has a calibration 1-sigma of 2 px on fx, fy, cx and cy (about twice OpenCV's fit
 of its 13 sample photographs, 0.9-1.1 px: a quick calibration's). Each session is rendered
 with true intrinsics drawn once from that sigma (the scene's ``calibration_sigma``,
-:func:`recorder.simulate.calibrated_cameras`) and records the nominal intrinsics with the
+:func:`recorder.simulate.one_camera.calibrated_cameras`) and records the nominal intrinsics with the
 sigma, so every trial of a session shares one calibration error, as a real camera's do.
 
 Each session is analysed twice: by ``run`` (the sigma propagated into every trial's
@@ -39,7 +39,7 @@ import numpy as np
 import pandas as pd
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
-from twopose.methods import Method
+from twopose.methods.specs import Method
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
@@ -48,14 +48,14 @@ sys.path.insert(0, str(REPO / "sessions"))
 from make_sessions import THESIS_POSES  # type: ignore[import-not-found]  # noqa: E402 - on sys.path at run time
 
 from analysis import run  # noqa: E402
-from analysis.outputs import replacing  # noqa: E402
-from analysis.pipeline import replay_views  # noqa: E402
+from analysis.batch.outputs import replacing  # noqa: E402
 from analysis.results import AnalysisOptions  # noqa: E402
-from recorder.simulate import simulate_session  # noqa: E402
-from twopose.session_estimate import estimate_session  # noqa: E402
+from analysis.session.pipeline import replay_views  # noqa: E402
+from recorder.simulate.one_camera import simulate_session  # noqa: E402
+from twopose.methods.truth import reported  # noqa: E402
 from twopose.sim.scene import CameraParams, Scene  # noqa: E402
-from twopose.truth import reported  # noqa: E402
-from twopose.uncertainty import uncertainty_columns  # noqa: E402
+from twopose.solve.session import estimate_session  # noqa: E402
+from twopose.uncertainty.propagate import uncertainty_columns  # noqa: E402
 
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "intrinsics_coverage.txt"

@@ -6,9 +6,9 @@ The synthetic camera renders the default board (9x6 inner corners, 1 in squares,
 in) from each typed pose of ``twopose.sim.layout.BOARD_POSES``, ``--frames`` frames each
 (each with its own lighting and noise), stored as the recorder stores them (JPEG) and
 decoded again. Per pose: how many frames OpenCV's fast check finds, how many the live check
-(:func:`twopose.checkerboard.find_board_live`: the fast check, then the rig's full search
+(:func:`twopose.detect.checkerboard.find_board_live`: the fast check, then the rig's full search
 in a worker, bounded by ``LIVE_BOARD_BUDGET_S``) and the rig's search
-(:func:`twopose.checkerboard.find_board`) find, and the full search's time on the frames the
+(:func:`twopose.detect.checkerboard.find_board`) find, and the full search's time on the frames the
 fast check turned down (median and largest), against the bound; and the same at a pose too
 near for the whole board, where the full search finds nothing (what the bound is for). Exits 1 if
 the live check misses a frame the rig finds, or the full search reaches the bound.
@@ -27,15 +27,15 @@ from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchm
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from recorder.sources import SyntheticSource  # noqa: E402
-from twopose.checkerboard import (  # noqa: E402
+from recorder.sources.registry import SyntheticSource  # noqa: E402
+from twopose.camera.images import decode_image  # noqa: E402
+from twopose.detect.checkerboard import (  # noqa: E402
     BOARD_FLAGS,
     LIVE_BOARD_BUDGET_S,
     find_board,
     find_board_live,
 )
-from twopose.images import decode_image  # noqa: E402
-from twopose.methods import Method  # noqa: E402
+from twopose.methods.specs import Method  # noqa: E402
 from twopose.sim.layout import BOARD_POSES  # noqa: E402
 
 #: Beside them, a pose too near for the whole board (its lower rows out of view): what a

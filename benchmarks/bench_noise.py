@@ -4,8 +4,8 @@ before pooling, and a blunder caught at its trial.
 
     .venv/bin/python benchmarks/bench_noise.py [--sessions 40] [--seed 0] [--write-docs]
 
-Sessions as a lab records them, in the simulator's geometry (``recorder.simulate``'s
-default scene and its pose draws, :func:`recorder.simulate.draw_trial_poses`: free poses,
+Sessions as a lab records them, in the simulator's geometry (``recorder.simulate.one_camera``'s
+default scene and its pose draws, :func:`recorder.simulate.one_camera.draw_trial_poses`: free poses,
 3 a trial, the target well inside every view; the point's dot, the finger for the line and
 method 2), projected instead of rendered (a rendered session takes half a minute; the
 rendered ones agree: ``tests/analysis/test_blunder_session.py``): 5 frames a pose with
@@ -13,9 +13,9 @@ rendered ones agree: ``tests/analysis/test_blunder_session.py``): 5 frames a pos
 floor. The operator types 1/16 in (``poses.typed_resolution``) and places the laptop with
 that error (typed right), 1.6x or 3x it. Per method, session size (2 to 5 trials) and
 placing error, ``--sessions`` sessions of one operator: a run's two passes as
-``twopose-analyze run`` does them (:mod:`analysis.noise_pass`: each session's
+``twopose-analyze run`` does them (:mod:`analysis.batch.noise_pass`: each session's
 misclosures, every session's prior from the operator's other sessions,
-:func:`twopose.placing_variance.operator_priors`, then each session estimated with it).
+:func:`twopose.uncertainty.placing_variance.operator_priors`, then each session estimated with it).
 
 Coverage: the share of ok trials whose truth lies in their 95% region ("pooled": the
 run's rule; "alone": each session with the typed resolution's weak prior only; "typed":
@@ -51,20 +51,20 @@ from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchm
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from recorder.simulate import draw_trial_poses, target_points  # noqa: E402
-from twopose.camera import project_points, rotation_from_angles_deg  # noqa: E402
-from twopose.estimate import EstimateOptions, PoseView  # noqa: E402
-from twopose.methods import Method, spec_of  # noqa: E402
-from twopose.noise import NoiseModel  # noqa: E402
-from twopose.placing_variance import operator_priors  # noqa: E402
-from twopose.planes import GROUND_PLANE  # noqa: E402
-from twopose.session_estimate import SessionEstimate, SessionTrials, estimate_session  # noqa: E402
-from twopose.session_noise import operator_group, session_statistics  # noqa: E402
+from recorder.simulate.one_camera import draw_trial_poses, target_points  # noqa: E402
+from twopose.camera.model import project_points, rotation_from_angles_deg  # noqa: E402
+from twopose.methods.planes import GROUND_PLANE  # noqa: E402
+from twopose.methods.specs import Method, spec_of  # noqa: E402
+from twopose.methods.truth import reported  # noqa: E402
 from twopose.sim.layout import finger_axis  # noqa: E402
 from twopose.sim.scene import Scene  # noqa: E402
-from twopose.truth import reported  # noqa: E402
-from twopose.uncertainty import uncertainty_columns  # noqa: E402
-from twopose.units import Units  # noqa: E402
+from twopose.solve.estimate import EstimateOptions, PoseView  # noqa: E402
+from twopose.solve.session import SessionEstimate, SessionTrials, estimate_session  # noqa: E402
+from twopose.uncertainty.noise import NoiseModel  # noqa: E402
+from twopose.uncertainty.placing_variance import operator_priors  # noqa: E402
+from twopose.uncertainty.propagate import uncertainty_columns  # noqa: E402
+from twopose.uncertainty.session_noise import operator_group, session_statistics  # noqa: E402
+from twopose.values.units import Units  # noqa: E402
 
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "noise.txt"

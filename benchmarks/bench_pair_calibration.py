@@ -33,13 +33,13 @@ import cv2
 import numpy as np
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
-from recorder.camera_calibration import fit_views
-from twopose.camera import Intrinsics, rotation_from_angles_deg
-from twopose.checkerboard import board_pattern, find_board
+from recorder.calibration.camera import fit_views
+from twopose.camera.model import Intrinsics, rotation_from_angles_deg
+from twopose.detect.checkerboard import board_pattern, find_board
 from twopose.pair.board_fit import BoardCorners, rotation_matrix, rotation_vector
 from twopose.pair.calibration import FloorPlane, PairCalibration, fit_pair
 from twopose.pair.floor import floor_from_board
-from twopose.units import Units
+from twopose.values.units import Units
 
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "pair_calibration.txt"

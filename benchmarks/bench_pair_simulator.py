@@ -25,8 +25,8 @@ from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchm
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from recorder.simulate_pair import DWELL_S, simulated_pair  # noqa: E402
-from twopose.methods import Method  # noqa: E402
+from recorder.simulate.pair import DWELL_S, simulated_pair  # noqa: E402
+from twopose.methods.specs import Method  # noqa: E402
 from twopose.sim.layout import Layout  # noqa: E402
 from twopose.sim.moving import PairScene, Trajectory, touch_points  # noqa: E402
 from twopose.sim.render import expose, render_radiance  # noqa: E402

@@ -4,11 +4,11 @@
 
 Two MJPG video files (made here, cached under the system's temporary folder: a textured
 scene with a moving square, each frame a 640x480 JPEG of ~90 kB, as a webcam's MJPG) are
-played at their rate by :class:`recorder.pair_source.PairSource`
-(:func:`recorder.sources.open_pair`), each on its reader thread with its bounded queue,
+played at their rate by :class:`recorder.sources.pair.PairSource`
+(:func:`recorder.sources.registry.open_pair`), each on its reader thread with its bounded queue,
 exactly as two cameras would be read (grabbed undecoded, decoded on the consumer's side).
 The consumer takes the pairs as they become final
-(:meth:`~recorder.pair_source.PairSource.pairs`) and decodes both frames, as a recording
+(:meth:`~recorder.sources.pair.PairSource.pairs`) and decodes both frames, as a recording
 would before writing them. Printed: each window's pairs and rate, each camera's frames
 dropped (a reader too slow for its queue, or a reader thread late for its camera by more than
 the driver's ring), frames left unpaired, the pairs' skew, each pair's lag from its later
@@ -32,9 +32,9 @@ import cv2
 import numpy as np
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
-from recorder.pair_feeds import RING_FRAMES
-from recorder.pair_source import CameraStream
-from recorder.sources import open_pair
+from recorder.sources.pair import CameraStream
+from recorder.sources.pair_feeds import RING_FRAMES
+from recorder.sources.registry import open_pair
 
 FIGURE = "pair_source.txt"
 WIDTH, HEIGHT = 640, 480

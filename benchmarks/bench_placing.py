@@ -49,16 +49,16 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from analysis.rig.board import calibrate_board  # noqa: E402
-from recorder.simulate import simulate_session  # noqa: E402
-from twopose.estimate import EstimateOptions, PoseView  # noqa: E402
-from twopose.guidance import THESIS_MOVE_IN  # noqa: E402
-from twopose.methods import METHOD_SPECS, Method  # noqa: E402
-from twopose.noise import NoiseModel, PlacingSigma  # noqa: E402
-from twopose.session_estimate import SessionTrials, estimate_session  # noqa: E402
+from recorder.simulate.one_camera import simulate_session  # noqa: E402
+from twopose.guidance.advice import THESIS_MOVE_IN  # noqa: E402
+from twopose.methods.specs import METHOD_SPECS, Method  # noqa: E402
+from twopose.methods.truth import reported  # noqa: E402
 from twopose.sim.scene import load_scene  # noqa: E402
-from twopose.truth import reported  # noqa: E402
-from twopose.uncertainty import uncertainty_columns  # noqa: E402
-from twopose.units import Units  # noqa: E402
+from twopose.solve.estimate import EstimateOptions, PoseView  # noqa: E402
+from twopose.solve.session import SessionTrials, estimate_session  # noqa: E402
+from twopose.uncertainty.noise import NoiseModel, PlacingSigma  # noqa: E402
+from twopose.uncertainty.propagate import uncertainty_columns  # noqa: E402
+from twopose.values.units import Units  # noqa: E402
 
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "placing.txt"

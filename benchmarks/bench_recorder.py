@@ -20,12 +20,12 @@ import cv2
 import numpy as np
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
-from recorder.capture import CaptureResult
-from recorder.plan import Plan, PlannedPose, PlannedTrial, record_plan
-from recorder.sources import FrameSource, SyntheticSource, VideoSource
-from twopose.camera import Camera, Intrinsics
-from twopose.methods import Method
-from twopose.units import Units
+from recorder.procedure.capture import CaptureResult
+from recorder.setup.plan import Plan, PlannedPose, PlannedTrial, record_plan
+from recorder.sources.registry import FrameSource, SyntheticSource, VideoSource
+from twopose.camera.model import Camera, Intrinsics
+from twopose.methods.specs import Method
+from twopose.values.units import Units
 
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "recorder.txt"

@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
-from twopose.methods import Method
+from twopose.methods.specs import Method
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
@@ -47,11 +47,11 @@ sys.path.insert(0, str(REPO / "sessions"))
 
 from make_sessions import THESIS_POSES  # type: ignore[import-not-found]  # noqa: E402 - on sys.path at run time
 
-from analysis.batch import run  # noqa: E402
-from analysis.metrics import used_trials  # noqa: E402
+from analysis.batch.runner import run  # noqa: E402
 from analysis.results import AnalysisOptions  # noqa: E402
 from analysis.rig.calibrate import calibrate  # noqa: E402
-from recorder.simulate import simulate_session  # noqa: E402
+from analysis.session.metrics import used_trials  # noqa: E402
+from recorder.simulate.one_camera import simulate_session  # noqa: E402
 from twopose.rig.constants import RigConstants  # noqa: E402
 from twopose.sim.scene import Scene  # noqa: E402
 

@@ -35,9 +35,9 @@ sys.path.insert(0, str(REPO / "sessions"))
 
 from bench_rig import RIG, simulate_pair  # type: ignore[import-not-found]  # noqa: E402 - on sys.path at run time
 
-from analysis.batch import run  # noqa: E402
-from analysis.metrics import used_trials  # noqa: E402
+from analysis.batch.runner import run  # noqa: E402
 from analysis.results import AnalysisOptions  # noqa: E402
+from analysis.session.metrics import used_trials  # noqa: E402
 
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "rig_floor.txt"

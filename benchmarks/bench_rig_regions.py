@@ -55,15 +55,15 @@ sys.path.insert(0, str(REPO))
 
 from analysis.rig.board import calibrate_board, read_board_session  # noqa: E402
 from analysis.rig.fit import rig_toml  # noqa: E402
-from recorder.simulate import simulate_session  # noqa: E402
-from twopose.estimate import PoseView  # noqa: E402
-from twopose.methods import Method, spec_of  # noqa: E402
-from twopose.noise import NoiseModel, PlacingSigma  # noqa: E402
+from recorder.simulate.one_camera import simulate_session  # noqa: E402
+from twopose.methods.specs import Method, spec_of  # noqa: E402
 from twopose.rig.board import fit_board_rig  # noqa: E402
 from twopose.rig.constants import RigConstants, corrected_ground, corrected_view  # noqa: E402
 from twopose.rig.file import RigFile, load_rig_file  # noqa: E402
-from twopose.session_estimate import SessionTrials  # noqa: E402
-from twopose.solve import projection_matrices  # noqa: E402
+from twopose.solve.estimate import PoseView  # noqa: E402
+from twopose.solve.nview import projection_matrices  # noqa: E402
+from twopose.solve.session import SessionTrials  # noqa: E402
+from twopose.uncertainty.noise import NoiseModel, PlacingSigma  # noqa: E402
 
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "rig_regions.txt"

@@ -55,14 +55,14 @@ from pathlib import Path
 
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
-from twopose.methods import MEASURING_METHODS, Method
+from twopose.methods.specs import MEASURING_METHODS, Method
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(1, str(Path(__file__).resolve().parents[1]))  # tests.helpers
 
 from bench_analysis import count_frames, replicate  # type: ignore[import-not-found]  # on sys.path at run time
 
-from recorder.simulate import simulate_session
+from recorder.simulate.one_camera import simulate_session
 from tests.helpers import distinct_copies
 
 REPO = Path(__file__).resolve().parents[1]
@@ -93,7 +93,7 @@ print("BENCH", time.perf_counter() - t, time.process_time() - c)
 RUN = """
 import contextlib, importlib, io, sys, time
 mode, *argv = sys.argv[1:]
-import analysis.batch as batch
+import analysis.batch.runner as batch
 kept = []
 real_run = batch.run
 def run(*args, **kwargs):
@@ -144,18 +144,18 @@ print("BENCH", wall, cpu, len(result.sessions), reused, result.figures_reused)
 #: the report's browser charts and the matplotlib figures, in every version of the code
 #: this benchmark has measured.
 FREE: tuple[tuple[str, str, str], ...] = (
-    ("analysis.batch", "FigureDrawer.started", "nocontext"),  # the drawing process
-    ("analysis.drawer", "FigureDrawer.started", "nocontext"),
-    ("analysis.drawer", "session_pngs", "pngs"),
-    ("analysis.report", "run_figures", "dict"),
-    ("analysis.figures", "run_figures", "dict"),
-    ("analysis.figures", "png_bytes", "png"),
-    ("analysis.sensitivity", "plot_sensitivity", "none"),
-    ("analysis.charts", "session_chart", "none"),  # the report's charts (issue 47)
-    ("analysis.run_charts", "overview_charts", "none"),
-    ("analysis.run_charts", "sensitivity_chart", "none"),
-    ("analysis.html_page", "chart_html", "str"),
-    ("analysis.html_page", "chart_scripts", "list"),
+    ("analysis.batch.runner", "FigureDrawer.started", "nocontext"),  # the drawing process
+    ("analysis.report.figures.drawer", "FigureDrawer.started", "nocontext"),
+    ("analysis.report.figures.drawer", "session_pngs", "pngs"),
+    ("analysis.report.writer", "run_figures", "dict"),
+    ("analysis.report.figures.draw", "run_figures", "dict"),
+    ("analysis.report.figures.draw", "png_bytes", "png"),
+    ("analysis.tools.sensitivity", "plot_sensitivity", "none"),
+    ("analysis.report.charts", "session_chart", "none"),  # the report's charts (issue 47)
+    ("analysis.report.run_charts", "overview_charts", "none"),
+    ("analysis.report.run_charts", "sensitivity_chart", "none"),
+    ("analysis.report.html", "chart_html", "str"),
+    ("analysis.report.html", "chart_scripts", "list"),
 )
 
 #: The docs include this file (``--write-docs`` writes it).

@@ -18,14 +18,14 @@ from pathlib import Path
 import numpy as np
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
-from twopose.methods import Method
+from twopose.methods.specs import Method
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from analysis.pipeline import analyse_session  # noqa: E402
-from analysis.request import solve_request  # noqa: E402
-from recorder.simulate import simulate_session  # noqa: E402
+from analysis.session.pipeline import analyse_session  # noqa: E402
+from analysis.tools.solve_request import solve_request  # noqa: E402
+from recorder.simulate.one_camera import simulate_session  # noqa: E402
 from twopose.sim.scene import Scene  # noqa: E402
 
 #: The docs include this file (``--write-docs`` writes it).

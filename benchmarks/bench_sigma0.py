@@ -46,14 +46,14 @@ from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchm
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from twopose.estimate import EstimateOptions, PoseView  # noqa: E402
-from twopose.guidance import THESIS_MOVE_IN  # noqa: E402
-from twopose.methods import Method  # noqa: E402
-from twopose.noise import NoiseModel  # noqa: E402
-from twopose.session_estimate import SessionEstimate, SessionTrials, estimate_session  # noqa: E402
-from twopose.truth import reported  # noqa: E402
-from twopose.uncertainty import uncertainty_columns  # noqa: E402
-from twopose.units import Units  # noqa: E402
+from twopose.guidance.advice import THESIS_MOVE_IN  # noqa: E402
+from twopose.methods.specs import Method  # noqa: E402
+from twopose.methods.truth import reported  # noqa: E402
+from twopose.solve.estimate import EstimateOptions, PoseView  # noqa: E402
+from twopose.solve.session import SessionEstimate, SessionTrials, estimate_session  # noqa: E402
+from twopose.uncertainty.noise import NoiseModel  # noqa: E402
+from twopose.uncertainty.propagate import uncertainty_columns  # noqa: E402
+from twopose.values.units import Units  # noqa: E402
 
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "sigma0.txt"

@@ -3,7 +3,7 @@
     .venv/bin/python benchmarks/bench_startup.py
 
 Times fresh processes (best of N): `twopose-analyze --help`, `twopose-record --help`, and
-`import twopose.solve, twopose.camera`; and lists which heavy modules each one loads.
+`import twopose.solve.nview, twopose.camera.model`; and lists which heavy modules each one loads.
 Target: each `--help` under 0.5 s here, the solver import loading neither mcap, pandas nor
 matplotlib.
 """
@@ -26,8 +26,9 @@ CASES = {
     "twopose-analyze --help": "import sys; sys.argv = ['twopose-analyze', '--help']\n"
     "from analysis.cli import main\ntry:\n    main()\nexcept SystemExit:\n    pass",
     "twopose-record --help": "import sys; sys.argv = ['twopose-record', '--help']\n"
-    "from recorder.cli import main\ntry:\n    main()\nexcept SystemExit:\n    pass",
-    "import twopose.solve, twopose.camera": "import twopose.solve, twopose.camera",
+    "from recorder.cli.app import main\ntry:\n    main()\nexcept SystemExit:\n    pass",
+    "import twopose.solve.nview, twopose.camera.model": "import twopose.solve.nview, "
+    "twopose.camera.model",
 }
 
 

@@ -10,7 +10,7 @@ degrees of detector noise. Camera 2 runs at a phase (skew) of 0 to 16.7 ms after
 its clock 0.4321 s ahead. Four parts:
 
 1. A still finger: the stream's estimate per pair (``estimate_stream``) against the
-   one-camera path with typed poses equal to the pair's pose (``twopose.estimate``'s
+   one-camera path with typed poses equal to the pair's pose (``twopose.solve.estimate``'s
    ``measure`` and ``solve_batch``), and against itself at other clock offsets.
 2. The moving finger's floor point (method 2) over 10 s per phase: its RMS error with the
    offset measured (``offset_from_ray_gap`` on a 5 s dot segment) and camera 1 interpolated,
@@ -41,15 +41,15 @@ import time
 import numpy as np
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
-from twopose.estimate import EstimateOptions, PoseView, ViewBatch, measure, solve_batch
-from twopose.methods import METHOD_SPECS, Method
+from twopose.methods.specs import METHOD_SPECS, Method
 from twopose.pair.board_fit import rotation_matrix
 from twopose.pair.calibration import PairCalibration
 from twopose.pair.clock import ClockOffset, offset_from_ray_gap
 from twopose.pair.motion import CameraClock, FingerMotion, Frames, observe, thesis_pair
 from twopose.pair.pairing import pair_frames
 from twopose.pair.stream import CameraTrack, StreamNoise, StreamSettings, estimate_stream
-from twopose.uncertainty import CHI2_95, nees
+from twopose.solve.estimate import EstimateOptions, PoseView, ViewBatch, measure, solve_batch
+from twopose.uncertainty.propagate import CHI2_95, nees
 
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "stream.txt"
@@ -118,7 +118,7 @@ def _one_camera(
     method: Method, pair: PairCalibration, one: CameraTrack, two: CameraTrack
 ) -> np.ndarray:
     """The one-camera path: two typed poses (the origin, the pair's pose), five frames each."""
-    from twopose.camera import Intrinsics
+    from twopose.camera.model import Intrinsics
 
     poses = ((np.zeros(3), np.zeros(3)), (pair.t_2_in_1, pair.angles_deg))
     views = []

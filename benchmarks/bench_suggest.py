@@ -11,7 +11,7 @@ Two sets of cases, each a trial in the thesis' geometry (the sample scene's dot 
   line in cm on 0.2 cm paper within 254 cm, the ground in mm within 2540 mm, a line in
   inches within 100 in) and two more; each recorded as an operator with the synthetic
   camera would, its first pose at the origin, then each suggestion taken, the synthetic
-  scene's clutter known (:mod:`twopose.clutter`): four suggestions each, the first pose's
+  scene's clutter known (:mod:`twopose.detect.clutter`): four suggestions each, the first pose's
   among them.
 - **random cases** (the docs' since issue 44): inches, centimetres or millimetres, 1 to 6
   accepted poses (the first anywhere within 1 in of the origin, typed to 1/16 in and not
@@ -19,7 +19,7 @@ Two sets of cases, each a trial in the thesis' geometry (the sample scene's dot 
   within 3 in of the first), paper from 1 mm to 1 in and reach from 1 in to 100 in
   (:data:`GRIDS_IN`, :data:`REACHES_IN`), point, line and ground.
 
-- **cost**: the CPU time of :func:`twopose.guidance.advise` as the recorder calls it after
+- **cost**: the CPU time of :func:`twopose.guidance.advice.advise` as the recorder calls it after
   an accepted pose (the suggestion, the map it is the best of, and the poses still
   needed, with a target precision no pose reaches, so that the lookahead goes as far as
   it may), and of what a driver then does with the map (the terminal's three best, the
@@ -53,18 +53,18 @@ from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchm
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from twopose.clutter import Clutter, scene_clutter  # noqa: E402
-from twopose.estimate import EstimateOptions, PoseView  # noqa: E402
-from twopose.guidance import Guidance, Reach, advise, suggest  # noqa: E402
-from twopose.methods import Method, spec_of  # noqa: E402
-from twopose.paper import clear_of_edges, field_in_view, half_planes  # noqa: E402
-from twopose.prediction import predicted_regions, target_of, template_view  # noqa: E402
-from twopose.session_estimate import SessionTrials, estimate_session  # noqa: E402
+from twopose.detect.clutter import Clutter, scene_clutter  # noqa: E402
+from twopose.guidance.advice import Guidance, Reach, advise, suggest  # noqa: E402
+from twopose.guidance.paper import clear_of_edges, field_in_view, half_planes  # noqa: E402
+from twopose.guidance.prediction import predicted_regions, target_of, template_view  # noqa: E402
+from twopose.methods.specs import Method, spec_of  # noqa: E402
+from twopose.methods.targets import finger_axis  # noqa: E402
 from twopose.sim.layout import build_layout  # noqa: E402
 from twopose.sim.scene import load_scene  # noqa: E402
-from twopose.solve import projection_matrices  # noqa: E402
-from twopose.targets import finger_axis  # noqa: E402
-from twopose.units import Units, unit_factor  # noqa: E402
+from twopose.solve.estimate import EstimateOptions, PoseView  # noqa: E402
+from twopose.solve.nview import projection_matrices  # noqa: E402
+from twopose.solve.session import SessionTrials, estimate_session  # noqa: E402
+from twopose.values.units import Units, unit_factor  # noqa: E402
 
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "suggest.txt"
@@ -380,7 +380,7 @@ def _regrets(cases: list[Case], n: int) -> list[str]:
     print(f"{'method':<7}{'units':>4}{'grid':>8}{'reach':>8}{'poses':>6}{'predicted':>10}"
           f"{'pick':>9}{'best':>9}{'regret':>8}")  # fmt: skip
     regrets = []
-    # A pick from one pose weighs every depth along the ray (twopose/first_pose.py): it is
+    # A pick from one pose weighs every depth along the ray (twopose/guidance/first_pose.py): it is
     # no search for one target's best, so its regret is bench_first_pose.py's measure.
     for case in [c for c in cases if c.poses >= 2][:n]:
         pick, best, m, sampled = _reference(case)

@@ -27,8 +27,8 @@ from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchm
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from recorder.sources import SyntheticSource  # noqa: E402
-from twopose.methods import Method  # noqa: E402
+from recorder.sources.registry import SyntheticSource  # noqa: E402
+from twopose.methods.specs import Method  # noqa: E402
 from twopose.sim import render  # noqa: E402
 
 #: The docs include this file (``--write-docs`` writes it).

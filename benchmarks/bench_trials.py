@@ -24,19 +24,19 @@ from pathlib import Path
 
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
-from twopose.methods import Method
+from twopose.methods.specs import Method
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from bench_analysis import DECODE_LOOP, _python, count_frames, replicate  # type: ignore[import-not-found]  # on sys.path at run time
 
-from recorder.simulate import simulate_session
+from recorder.simulate.one_camera import simulate_session
 
 RUN_AND_REPORT = """
 import sys, time
 from pathlib import Path
-from analysis.batch import run, _thesis_sweeps
-from analysis.report import write_outputs
+from analysis.batch.runner import run, _thesis_sweeps
+from analysis.report.writer import write_outputs
 _thesis_sweeps()  # the seeded sweeps are cached per process: not part of either figure
 t = time.perf_counter()
 result = run([sys.argv[1]], sys.argv[2])

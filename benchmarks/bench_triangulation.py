@@ -16,9 +16,9 @@ import cv2
 import numpy as np
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
-from twopose.camera import rotation_from_angles_deg
-from twopose.solve import projection_matrices
-from twopose.two_view import triangulate_two_views
+from twopose.camera.model import rotation_from_angles_deg
+from twopose.solve.nview import projection_matrices
+from twopose.solve.two_view import triangulate_two_views
 
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "triangulation.txt"

@@ -4,12 +4,14 @@ has a registry, instead of reading the registry.
     .venv/bin/python benchmarks/census.py [--list] [--write-docs]
 
 Four kinds of name, each read from its registry (so a name added there is counted too):
-methods (:data:`twopose.methods.METHODS`), units (:data:`twopose.units.UNITS`), targets
-(:data:`twopose.choices.Target`) and frame sources (:data:`recorder.sources.SOURCE_KINDS`).
+methods (:data:`twopose.methods.specs.METHODS`), units (:data:`twopose.values.units.UNITS`), targets
+(:data:`twopose.values.choices.Target`) and frame sources
+(:data:`recorder.sources.registry.SOURCE_KINDS`).
 Counted over ``twopose/``, ``recorder/`` and ``analysis/``: the ``*.py`` modules by their
 syntax trees, ``recorder/*.js`` by a tokenizer (comments dropped, string literals and the
-tokens around them); the registries themselves (``twopose/methods.py``,
-``twopose/units.py``, ``twopose/choices.py``, ``recorder/sources.py``) are exempt. A site is
+tokens around them); the registries themselves (``twopose/methods/specs.py``,
+``twopose/values/units.py``, ``twopose/values/choices.py``, ``recorder/sources/registry.py``) are
+exempt. A site is
 one literal name, counted where a stranger counting by hand would count it, anywhere:
 
 - a **comparison**: ``x == "in"`` (or ``x == Units.IN``: an enum member is its name),
@@ -52,11 +54,11 @@ PACKAGES = ("twopose", "recorder", "analysis")
 #: :data:`DECLARING`; every other use in them is counted, as anywhere).
 REGISTRIES = frozenset(
     {
-        "twopose/methods.py",
-        "twopose/units.py",
-        "twopose/choices.py",
-        "twopose/planes.py",
-        "recorder/sources.py",
+        "twopose/methods/specs.py",
+        "twopose/values/units.py",
+        "twopose/values/choices.py",
+        "twopose/methods/planes.py",
+        "recorder/sources/registry.py",
     }
 )
 #: What a site is.
@@ -81,11 +83,11 @@ def registered_names() -> dict[str, frozenset[str]]:
     """Each kind's names, read from its registry, then the secondary names its entries hold
     (a segment's kind, a method's thesis name, a plane's setup and request keys)."""
     sys.path.insert(0, str(REPO))
-    from recorder.sources import SOURCE_KINDS
-    from twopose.choices import TARGETS
-    from twopose.methods import METHOD_SPECS, METHODS
-    from twopose.planes import CONSTRAINT_PLANES
-    from twopose.units import UNITS
+    from recorder.sources.registry import SOURCE_KINDS
+    from twopose.methods.planes import CONSTRAINT_PLANES
+    from twopose.methods.specs import METHOD_SPECS, METHODS
+    from twopose.values.choices import TARGETS
+    from twopose.values.units import UNITS
 
     specs = METHOD_SPECS.values()
     return {
@@ -126,28 +128,28 @@ _THESIS = "the thesis' claims, keyed by its own names for the methods it tested"
 _LINE_GROUP = 'a column group named "line" (the line\'s columns)'
 _SOURCE_METHOD = "a source opened without a method renders method 2's scene (the thesis' main one)"
 EXPLAINED: dict[tuple[str, str, str], str] = {
-    ("twopose/methods.py", "point", "collection"): _TRUTH_KINDS,
-    ("twopose/methods.py", "line", "collection"): _TRUTH_KINDS,
+    ("twopose/methods/specs.py", "point", "collection"): _TRUTH_KINDS,
+    ("twopose/methods/specs.py", "line", "collection"): _TRUTH_KINDS,
     (
-        "twopose/bounds.py",
+        "twopose/values/bounds.py",
         "in",
         "argument",
     ): "the bounds are declared in inches (Units.IN: the unit their numbers are in) and converted",
     (
-        "twopose/bounds.py",
+        "twopose/values/bounds.py",
         "ground_height",
         "argument",
     ): (
         "the ground height's bound, the key of its Quantity (the plane's setup_key names this "
         "bound)"
     ),
-    ("twopose/clutter.py", "in", "argument"): _INCHES,
-    ("twopose/first_pose.py", "in", "argument"): _INCHES,
-    ("twopose/guidance.py", "in", "argument"): "the thesis' move, in inches, converted",
-    ("twopose/paper.py", "in", "argument"): "the grid paper's inch-valued sizes converted",
+    ("twopose/detect/clutter.py", "in", "argument"): _INCHES,
+    ("twopose/guidance/first_pose.py", "in", "argument"): _INCHES,
+    ("twopose/guidance/advice.py", "in", "argument"): "the thesis' move, in inches, converted",
+    ("twopose/guidance/paper.py", "in", "argument"): "the grid paper's inch-valued sizes converted",
     ("twopose/format/entries.py", "in", "argument"): "the default resolution, in inches, converted",
     (
-        "twopose/options.py",
+        "twopose/values/options.py",
         "in",
         "argument",
     ): "the help's range shown in inches, the bounds' own unit",
@@ -167,18 +169,22 @@ EXPLAINED: dict[tuple[str, str, str], str] = {
         "ground_height",
         "argument",
     ): "the scene file's own key, named in its message",
-    ("recorder/plan.py", "in", "argument"): _INCHES,
-    ("analysis/sensitivity.py", "in", "argument"): "the thesis' sweeps, in its inches",
+    ("recorder/setup/plan.py", "in", "argument"): _INCHES,
+    ("analysis/tools/sensitivity.py", "in", "argument"): "the thesis' sweeps, in its inches",
     (
-        "analysis/sensitivity.py",
+        "analysis/tools/sensitivity.py",
         "ground",
         "argument",
     ): (
         "the sweep of method 2's geometry, the thesis' (the plane lane draws it by the method's "
         "plane)"
     ),
-    ("twopose/config.py", "line", "argument"): "a TOML error's line number (getattr's default)",
-    ("twopose/hand_check.py", "line", "argument"): 'the solve request\'s field "line"',
+    (
+        "twopose/values/toml.py",
+        "line",
+        "argument",
+    ): "a TOML error's line number (getattr's default)",
+    ("twopose/solve/hand_check.py", "line", "argument"): 'the solve request\'s field "line"',
     (
         "twopose/format/entries.py",
         "camera",
@@ -194,77 +200,89 @@ EXPLAINED: dict[tuple[str, str, str], str] = {
     ("twopose/format/stream_entries.py", "point", "argument"): (
         'the touch\'s field "point" (the grid point touched) and its message'
     ),
-    ("analysis/table_columns.py", "camera", "argument"): 'frames.csv\'s column "camera"',
+    ("analysis/tables/declared.py", "camera", "argument"): 'frames.csv\'s column "camera"',
     ("twopose/sim/moving.py", "in", "argument"): "the scene's inch-valued sizes converted",
-    ("recorder/simulate_pair.py", "in", "argument"): "one inch in the scene's unit (the lead)",
-    ("recorder/setup_rules.py", "in", "argument"): (
+    ("recorder/simulate/pair.py", "in", "argument"): "one inch in the scene's unit (the lead)",
+    ("recorder/setup/rules.py", "in", "argument"): (
         "a board session's rig check needs no unit (it refuses any rig): the bounds' own"
     ),
-    ("analysis/plane_axes.py", "point", "default"): (
+    ("analysis/report/plane_axes.py", "point", "default"): (
         "a table with no method column is drawn on a point's plane (the ground's axes)"
     ),
-    ("recorder/plan_file.py", "camera", "argument"): "the plan file's table [camera]",
-    ("recorder/plan_file.py", "board", "argument"): "the plan file's table [board]",
+    ("recorder/setup/plan_file.py", "camera", "argument"): "the plan file's table [camera]",
+    ("recorder/setup/plan_file.py", "board", "argument"): "the plan file's table [board]",
     (
-        "recorder/setup_form.py",
+        "recorder/setup/form.py",
         "board",
         "argument",
     ): "the setup's field \"board\" (the board's inner corners)",
     (
-        "recorder/synthetic_source.py",
+        "recorder/sources/synthetic.py",
         "synthetic",
         "argument",
     ): "the source's description, as the file records it",
-    ("recorder/sources.py", "ground", "default"): _SOURCE_METHOD,
-    ("recorder/synthetic_source.py", "ground", "default"): _SOURCE_METHOD,
+    ("recorder/sources/registry.py", "ground", "default"): _SOURCE_METHOD,
+    ("recorder/sources/synthetic.py", "ground", "default"): _SOURCE_METHOD,
     (
         "twopose/rig/constants.py",
         "ground_height",
         "collection",
     ): "a function's name in __all__ (the rig's ground height)",
-    ("twopose/scene3d.py", "ground", "argument"): "the 3-D scene's entity id for the plane",
+    ("twopose/display/scene.py", "ground", "argument"): "the 3-D scene's entity id for the plane",
     (
-        "twopose/prediction.py",
+        "twopose/guidance/prediction.py",
         "line",
         "argument",
     ): (
         "the finger's line, estimated as the line method does (what one more pose predicts of a "
         "finger, for method 2 too)"
     ),
-    ("twopose/topview.py", "board", "argument"): "a board session's top view says its method",
-    ("twopose/topview.py", "ray", "argument"): _SEGMENTS,
-    ("twopose/topview.py", "trace", "collection"): _SEGMENTS,
-    ("twopose/topview.py", "estimated_line", "argument"): _SEGMENTS,
-    ("twopose/topview.py", "truth_line", "argument"): _SEGMENTS,
-    ("twopose/topview.py", "corners", "argument"): _SEGMENTS,
-    ("analysis/columns.py", "line", "argument"): _LINE_GROUP,
-    ("analysis/trial_columns.py", "line", "argument"): _LINE_GROUP,
-    ("analysis/thesis.py", "method 1", "dict key"): _THESIS,
-    ("analysis/thesis.py", "method 2", "dict key"): _THESIS,
-    ("recorder/console_topview.js", "corners", "dict key"): _JS_WIDTHS,
-    ("recorder/console_topview.js", "estimated_line", "dict key"): _JS_WIDTHS,
-    ("recorder/console_topview.js", "truth_line", "dict key"): _JS_DASHES,
+    (
+        "twopose/methods/topview.py",
+        "board",
+        "argument",
+    ): "a board session's top view says its method",
+    ("twopose/methods/topview.py", "ray", "argument"): _SEGMENTS,
+    ("twopose/methods/topview.py", "trace", "collection"): _SEGMENTS,
+    ("twopose/methods/topview.py", "estimated_line", "argument"): _SEGMENTS,
+    ("twopose/methods/topview.py", "truth_line", "argument"): _SEGMENTS,
+    ("twopose/methods/topview.py", "corners", "argument"): _SEGMENTS,
+    ("analysis/tables/columns.py", "line", "argument"): _LINE_GROUP,
+    ("analysis/tables/trials.py", "line", "argument"): _LINE_GROUP,
+    ("analysis/report/thesis.py", "method 1", "dict key"): _THESIS,
+    ("analysis/report/thesis.py", "method 2", "dict key"): _THESIS,
+    ("recorder/console/page/topview.js", "corners", "dict key"): _JS_WIDTHS,
+    ("recorder/console/page/topview.js", "estimated_line", "dict key"): _JS_WIDTHS,
+    ("recorder/console/page/topview.js", "truth_line", "dict key"): _JS_DASHES,
 }
 
 
 #: The ``method`` and ``units`` parameters and record fields typed ``str`` (not ``Method``,
 #: ``Units``), each with why (by file and the function's or record's name).
 EXPLAINED_TYPED: dict[tuple[str, str], str] = {
-    ("twopose/methods.py", "label_of"): "any text a table holds, shown as given if unknown",
+    ("twopose/methods/specs.py", "label_of"): "any text a table holds, shown as given if unknown",
     ("twopose/format/stream_entries.py", "ClockOffsetEntry"): "how the clocks' offset was "
     "measured (a flash, a moving dot's rays), not a reconstruction method",
-    ("twopose/methods.py", "spec_of"): "a name as a file or a table gives it; an unknown one "
+    ("twopose/methods/specs.py", "spec_of"): "a name as a file or a table gives it; an unknown one "
     "refused in words",
-    ("twopose/units.py", "unit_spec"): "a unit as a file or a table gives it; an unknown one "
-    "refused in words",
+    (
+        "twopose/values/units.py",
+        "unit_spec",
+    ): "a unit as a file or a table gives it; an unknown one refused in words",
     ("twopose/pair/clock.py", "ClockOffset"): "how the clocks' offset was measured (a flash, "
     "a moving dot's rays), not a reconstruction method",
     ("twopose/pair/pair_file.py", "_PairTable"): "the pair file's text, read by unit_spec",
     ("twopose/sim/scene.py", "Scene"): "a scene file's unit as typed, checked against UNITS "
     "when the scene is read",
-    ("twopose/scene3d.py", "TrialScene"): "built from a table's text by the report's top view "
-    "(analysis/topview_figure.py, which the plane lane rewrites): typed Method after it",
-    ("twopose/topview.py", "TopView"): "a TrialScene's method (the console's JSON carries the "
+    (
+        "twopose/display/scene.py",
+        "TrialScene",
+    ): "built from a table's text by the report's top view "
+    "(analysis/report/figures/topview.py, which the plane lane rewrites): typed Method after it",
+    (
+        "twopose/methods/topview.py",
+        "TopView",
+    ): "a TrialScene's method (the console's JSON carries the "
     "name); typed Method with TrialScene's",
 }
 
@@ -487,7 +505,7 @@ def sources() -> Iterator[tuple[Path, str]]:
     for package in PACKAGES:
         for path in sorted((REPO / package).rglob("*.py")):
             yield path, path.relative_to(REPO).as_posix()
-    for path in sorted((REPO / "recorder").glob("*.js")):
+    for path in sorted((REPO / "recorder").rglob("*.js")):
         yield path, path.relative_to(REPO).as_posix()
 
 

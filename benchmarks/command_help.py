@@ -12,8 +12,8 @@ from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchm
 from typer.testing import CliRunner
 
 from analysis.cli import app as analyze_app
-from recorder.cli import app as record_app
-from recorder.sources import source_kinds_table
+from recorder.cli.app import app as record_app
+from recorder.sources.registry import source_kinds_table
 
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "command_help.txt"
@@ -33,7 +33,7 @@ def main() -> int:
             print(f"$ {program} {name} --help")
             print(result.output.rstrip())
             print()
-    print("Sources (--source), one entry each in recorder/sources.py's SOURCE_KINDS:")
+    print("Sources (--source), one entry each in recorder/sources/registry.py's SOURCE_KINDS:")
     print(source_kinds_table())
     return 0
 

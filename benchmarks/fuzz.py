@@ -19,15 +19,15 @@ from pathlib import Path
 
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
-from twopose.methods import Method
+from twopose.methods.specs import Method
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from analysis.cli import app as analyze  # noqa: E402
-from recorder.cli import app as record  # noqa: E402
-from recorder.plan import load_plan, record_plan  # noqa: E402
-from recorder.sources import SyntheticSource  # noqa: E402
+from recorder.cli.app import app as record  # noqa: E402
+from recorder.setup.plan import load_plan, record_plan  # noqa: E402
+from recorder.sources.registry import SyntheticSource  # noqa: E402
 from tests.fuzzing import Outcomes, check_command, mutants  # noqa: E402
 
 #: The docs include this file (``--write-docs`` writes it).

@@ -21,8 +21,8 @@ from pathlib import Path
 import numpy as np
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
-from twopose.optimal_lines import OptimalLines, optimal_lines
-from twopose.solve import NViewLines, segment_lines, triangulate_lines, triangulate_points
+from twopose.solve.nview import NViewLines, segment_lines, triangulate_lines, triangulate_points
+from twopose.solve.optimal_lines import OptimalLines, optimal_lines
 
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "merton_check.md"

@@ -13,8 +13,8 @@ from pathlib import Path
 
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
-from analysis.batch import run
-from analysis.thesis import THESIS_COLUMNS, thesis_table
+from analysis.batch.runner import run
+from analysis.report.thesis import THESIS_COLUMNS, thesis_table
 
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "thesis_reproduced.txt"

@@ -4,10 +4,10 @@
 
 The 13 left/right photographs of a 9x6 checkerboard with 25 mm squares (two real cameras
 side by side). Leave-one-out over the pairs: each camera calibrated on the other 12 views
-(``recorder.camera_calibration.fit_views``, the fit of ``twopose-record calibrate``), their relative
+(``recorder.calibration.camera.fit_views``, the fit of ``twopose-record calibrate``), their relative
 pose by ``cv2.stereoCalibrate`` (intrinsics fixed) on the other 12 pairs; the held-out
 pair's 54 corners undistorted, reconstructed from the two views by
-``twopose.two_view.triangulate_two_views`` (the thesis' midpoint and the reprojection-optimal
+``twopose.solve.two_view.triangulate_two_views`` (the thesis' midpoint and the reprojection-optimal
 pair), and every adjacent corner spacing (93 a pair) compared with the true 25 mm. OpenCV's
 own ``triangulatePoints`` on the same pixels is the reference column.
 
@@ -30,13 +30,13 @@ import numpy as np
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 from numpy.typing import NDArray
 
-from recorder.camera_calibration import fit_views
-from twopose.camera import Intrinsics
-from twopose.checkerboard import board_pattern
+from recorder.calibration.camera import fit_views
+from twopose.camera.model import Intrinsics
+from twopose.detect.checkerboard import board_pattern
 from twopose.pair.board_fit import LensModel
 from twopose.pair.holdout import corner_sigma_px, spacing_sigma, spacings
-from twopose.solve import projection_matrices
-from twopose.two_view import triangulate_two_views
+from twopose.solve.nview import projection_matrices
+from twopose.solve.two_view import triangulate_two_views
 
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "two_camera.txt"

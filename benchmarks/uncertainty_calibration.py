@@ -23,9 +23,9 @@ import pandas as pd
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
 from analysis import run
-from analysis.outputs import replacing
-from recorder.simulate import simulate_session
-from twopose.methods import Method
+from analysis.batch.outputs import replacing
+from recorder.simulate.one_camera import simulate_session
+from twopose.methods.specs import Method
 
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "uncertainty_calibration.txt"

@@ -1,5 +1,5 @@
 """The table of every typed quantity's bound in docs/recording.md, from the code's one table
-(:data:`twopose.bounds.QUANTITIES`).
+(:data:`twopose.values.bounds.QUANTITIES`).
 
     .venv/bin/python docs/bounds_table.py [--write-docs]
 
@@ -16,7 +16,7 @@ from marked_table import REPO, write_or_check  # type: ignore[import-not-found] 
 
 def main() -> int:
     sys.path.insert(0, str(REPO))
-    from twopose.bounds import markdown_table
+    from twopose.values.bounds import markdown_table
 
     return write_or_check(REPO / "docs" / "recording.md", "bounds table", markdown_table,
                           "bounds_table.py")  # fmt: skip

@@ -1,5 +1,5 @@
 """The table of every environment setting in docs/bad-input.md, from the code's one list
-(:data:`twopose.environment.ENVIRONMENT`).
+(:data:`twopose.values.environment.ENVIRONMENT`).
 
     .venv/bin/python docs/environment_table.py [--write-docs]
 
@@ -16,7 +16,7 @@ from marked_table import REPO, write_or_check  # type: ignore[import-not-found] 
 
 def main() -> int:
     sys.path.insert(0, str(REPO))
-    from twopose.environment import markdown_table
+    from twopose.values.environment import markdown_table
 
     return write_or_check(REPO / "docs" / "bad-input.md", "environment table", markdown_table,
                           "environment_table.py")  # fmt: skip

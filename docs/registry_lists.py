@@ -1,6 +1,6 @@
 """The docs' lists of what the registries hold, written from them: the frame sources in
-docs/recording.md (:data:`recorder.sources.SOURCES`) and the methods in docs/method.md
-(:data:`twopose.methods.METHOD_SPECS`: each one's target, truth, plane and solver).
+docs/recording.md (:data:`recorder.sources.registry.SOURCES`) and the methods in docs/method.md
+(:data:`twopose.methods.specs.METHOD_SPECS`: each one's target, truth, plane and solver).
 
     .venv/bin/python docs/registry_lists.py [--write-docs]
 
@@ -18,7 +18,7 @@ from marked_table import REPO, write_or_check  # type: ignore[import-not-found] 
 
 def sources_table() -> str:
     """Every kind of frame source: what the operator types, what it is, whether it calibrates."""
-    from recorder.sources import SOURCE_KINDS
+    from recorder.sources.registry import SOURCE_KINDS
 
     rows = ["| `--source` | what it is | `calibrate` takes it |", "| --- | --- | --- |"]
     rows += [
@@ -31,7 +31,7 @@ def sources_table() -> str:
 
 def methods_table() -> str:
     """Every method: its name, label, what is detected, its truth, plane and solver."""
-    from twopose.methods import METHOD_SPECS
+    from twopose.methods.specs import METHOD_SPECS
 
     rows = [
         "| `--method` | label | detected | ground truth | plane | solved by |",

@@ -1,6 +1,6 @@
 """The references of the run's tables' columns in docs/analysis.md, from their declarations
-(:data:`analysis.trial_columns.TRIAL_TABLE`: each column's label, unit, values and methods;
-:data:`analysis.table_columns.TABLES`: the other tables').
+(:data:`analysis.tables.trials.TRIAL_TABLE`: each column's label, unit, values and methods;
+:data:`analysis.tables.declared.TABLES`: the other tables').
 
     .venv/bin/python docs/trial_columns_table.py [--write-docs]
 
@@ -18,8 +18,8 @@ from marked_table import REPO, write_or_check  # type: ignore[import-not-found] 
 
 def main() -> int:
     sys.path.insert(0, str(REPO))
-    from analysis.table_columns import TABLES, column_reference
-    from analysis.trial_columns import markdown_table
+    from analysis.tables.declared import TABLES, column_reference
+    from analysis.tables.trials import markdown_table
 
     page, script = REPO / "docs" / "analysis.md", "trial_columns_table.py"
     stale = write_or_check(page, "trials.csv columns", markdown_table, script)

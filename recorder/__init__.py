@@ -5,7 +5,7 @@ simulator that renders what the thesis' webcam would see.
 It writes the session format of :mod:`twopose.format` and never imports ``analysis``.
 
 Every command of ``twopose-record`` is one call from Python, exported here and loaded on
-first use (``import recorder.cli`` stays light)::
+first use (``import recorder.cli.app`` stays light)::
 
     import recorder
     recorder.simulate_session("sim.mcap", method=twopose.Method.GROUND)  # simulate
@@ -21,7 +21,7 @@ and its extension point (:func:`register_source`), the procedure (:class:`Proced
 :func:`record`) and reading a session to continue (:func:`read_continued`) are here too.
 What the command line runs around them (``record_terminal``, ``record_planned`` and
 ``serve_console_until_stopped``, which take the command line's ``NewRequest`` and an
-``ExitStack``) is in :mod:`recorder.new_session`; the names still resolve here for one
+``ExitStack``) is in :mod:`recorder.procedure.new_session`; the names still resolve here for one
 release (docs/changelog.md), not exported.
 """
 
@@ -32,32 +32,35 @@ from typing import TYPE_CHECKING
 from twopose.lazy import lazy_exports
 
 if TYPE_CHECKING:
-    from recorder.camera_calibration import (
+    from recorder.calibration.camera import (
         Calibration,
         calibrate,
         load_calibration,
         save_calibration,
     )
-    from recorder.continuation import Continued, read_continued
-    from recorder.interactive import record_interactive
-
-    # Resolved, not exported (the module docstring): the command line's own.
-    from recorder.new_session import NewRequest as NewRequest
-    from recorder.new_session import record_planned as record_planned
-    from recorder.new_session import record_terminal as record_terminal
-    from recorder.new_session import serve_console_until_stopped as serve_console_until_stopped
-    from recorder.pair_calibration import (
+    from recorder.calibration.pair import (
         PairCalibrationRun,
         PairRequest,
         calibrate_pair,
         calibrate_pair_views,
     )
-    from recorder.plan import Plan, load_plan, record_plan
-    from recorder.procedure import Procedure
-    from recorder.recording import record
+    from recorder.procedure.loop import Procedure
+
+    # Resolved, not exported (the module docstring): the command line's own.
+    from recorder.procedure.new_session import NewRequest as NewRequest
+    from recorder.procedure.new_session import record_planned as record_planned
+    from recorder.procedure.new_session import record_terminal as record_terminal
+    from recorder.procedure.new_session import (
+        serve_console_until_stopped as serve_console_until_stopped,
+    )
+    from recorder.procedure.recording import record
+    from recorder.procedure.summary import RecordingSummary
+    from recorder.procedure.terminal import record_interactive
     from recorder.recover import RecoveryReport, recover_session
-    from recorder.simulate import SimulationSummary, simulate_session
-    from recorder.sources import (
+    from recorder.setup.continuation import Continued, read_continued
+    from recorder.setup.plan import Plan, load_plan, record_plan
+    from recorder.simulate.one_camera import SimulationSummary, simulate_session
+    from recorder.sources.registry import (
         SOURCE_KINDS,
         SOURCES,
         FrameSource,
@@ -66,7 +69,6 @@ if TYPE_CHECKING:
         open_source,
         register_source,
     )
-    from recorder.summary import RecordingSummary
     from twopose.installed_version import __version__
 
 __all__ = [
@@ -103,39 +105,39 @@ __all__ = [
 
 #: Where each exported name lives; it is imported from there on first use.
 _HOMES = {
-    "SimulationSummary": "recorder.simulate",
-    "simulate_session": "recorder.simulate",
-    "Plan": "recorder.plan",
-    "load_plan": "recorder.plan",
-    "record_plan": "recorder.plan",
+    "SimulationSummary": "recorder.simulate.one_camera",
+    "simulate_session": "recorder.simulate.one_camera",
+    "Plan": "recorder.setup.plan",
+    "load_plan": "recorder.setup.plan",
+    "record_plan": "recorder.setup.plan",
     # The command line's, not exported: resolved here for one release (docs/changelog.md).
-    "NewRequest": "recorder.new_session",
-    "record_planned": "recorder.new_session",
-    "record_terminal": "recorder.new_session",
-    "serve_console_until_stopped": "recorder.new_session",
-    "record_interactive": "recorder.interactive",
-    "Procedure": "recorder.procedure",
-    "record": "recorder.recording",
-    "RecordingSummary": "recorder.summary",
+    "NewRequest": "recorder.procedure.new_session",
+    "record_planned": "recorder.procedure.new_session",
+    "record_terminal": "recorder.procedure.new_session",
+    "serve_console_until_stopped": "recorder.procedure.new_session",
+    "record_interactive": "recorder.procedure.terminal",
+    "Procedure": "recorder.procedure.loop",
+    "record": "recorder.procedure.recording",
+    "RecordingSummary": "recorder.procedure.summary",
     "RecoveryReport": "recorder.recover",
     "recover_session": "recorder.recover",
-    "Calibration": "recorder.camera_calibration",
-    "calibrate": "recorder.camera_calibration",
-    "load_calibration": "recorder.camera_calibration",
-    "save_calibration": "recorder.camera_calibration",
-    "PairCalibrationRun": "recorder.pair_calibration",
-    "PairRequest": "recorder.pair_calibration",
-    "calibrate_pair": "recorder.pair_calibration",
-    "calibrate_pair_views": "recorder.pair_calibration",
-    "SOURCE_KINDS": "recorder.sources",
-    "SOURCES": "recorder.sources",
-    "register_source": "recorder.sources",
-    "FrameSource": "recorder.sources",
-    "SourceKind": "recorder.sources",
-    "SourceOptions": "recorder.sources",
-    "open_source": "recorder.sources",
-    "Continued": "recorder.continuation",
-    "read_continued": "recorder.continuation",
+    "Calibration": "recorder.calibration.camera",
+    "calibrate": "recorder.calibration.camera",
+    "load_calibration": "recorder.calibration.camera",
+    "save_calibration": "recorder.calibration.camera",
+    "PairCalibrationRun": "recorder.calibration.pair",
+    "PairRequest": "recorder.calibration.pair",
+    "calibrate_pair": "recorder.calibration.pair",
+    "calibrate_pair_views": "recorder.calibration.pair",
+    "SOURCE_KINDS": "recorder.sources.registry",
+    "SOURCES": "recorder.sources.registry",
+    "register_source": "recorder.sources.registry",
+    "FrameSource": "recorder.sources.registry",
+    "SourceKind": "recorder.sources.registry",
+    "SourceOptions": "recorder.sources.registry",
+    "open_source": "recorder.sources.registry",
+    "Continued": "recorder.setup.continuation",
+    "read_continued": "recorder.setup.continuation",
     "__version__": "twopose.installed_version",
 }
 

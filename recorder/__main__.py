@@ -1,3 +1,3 @@
-from recorder.command import main
+from recorder.cli.command import main
 
 main()

@@ -31,7 +31,7 @@ from mcap.stream_reader import StreamReader, breakup_chunk
 from mcap.writer import CompressionType
 from mcap.writer import Writer as McapWriter
 
-from twopose.camera import Camera
+from twopose.camera.model import Camera
 from twopose.errors import InputValueError, SessionExistsError, SessionFormatError, TwoposeError
 from twopose.format.channels import Channels, register_session_channels
 from twopose.format.entries import (

@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pytest
 
-from recorder.simulate import simulate_session
-from twopose.methods import Method
+from recorder.simulate.one_camera import simulate_session
+from twopose.methods.specs import Method
 
 REPO = Path(__file__).resolve().parents[1]
 SESSIONS = REPO / "sessions"
@@ -26,7 +26,7 @@ def _operator_noise_apart(
     monkeypatch: pytest.MonkeyPatch, tmp_path_factory: pytest.TempPathFactory
 ) -> None:
     """Every test's recordings keep their operators' noise files in a folder of its own
-    (recorder.operator_noise), never the user's, never another test's: created when first
+    (recorder.live.operator_noise), never the user's, never another test's: created when first
     written, so a test that records nothing pays nothing."""
     import uuid
 

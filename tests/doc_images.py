@@ -15,7 +15,7 @@ timing) is named by the test as ``volatile`` and left out of the comparison.
 The tolerances were measured: the report drawn with three font sets (the machine's DejaVu
 fonts; matplotlib's STIX fonts alone; DejaVu with Liberation, which Chromium's
 recommended packages bring) differs in no pixel, its pages naming the fonts they carry
-(twopose/webfonts.py); two runs of the console differ by at most 50 changed pixels in a
+(twopose/display/fonts.py); two runs of the console differ by at most 50 changed pixels in a
 window once its path and timings are left out (a caret's blink, one digit) and 7.7 levels
 in a block (the live camera's frames). Against them: one changed digit is 32 pixels (not
 seen), a changed word 295, a renamed link 410 (its line moved), the machine's fonts

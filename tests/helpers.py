@@ -207,7 +207,7 @@ class DaskCluster:
             with Client(self.address, timeout=30) as client:
                 client.wait_for_workers(workers, timeout=60)
                 # Imported once up front, so that the first task's time is its own work.
-                client.run(importlib.import_module, "analysis.pipeline")
+                client.run(importlib.import_module, "analysis.session.pipeline")
         except BaseException:
             self.close()
             raise

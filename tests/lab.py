@@ -1,6 +1,6 @@
 """A lab's session files, made fast: what happens to them (record, continue, fork, copy,
 rename, recover, a recording killed), through the real writer, the real continuation
-(:func:`recorder.continuation.read_continued`) and the real ``recover``.
+(:func:`recorder.setup.continuation.read_continued`) and the real ``recover``.
 
 Frames are tiny blank images: nothing is detected, so every trial is a row of its own
 (``no_detection``) whatever happens to it, and a test counts captures and trials by what
@@ -18,12 +18,12 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from recorder.continuation import read_continued
-from twopose.camera import Camera, Intrinsics
+from recorder.setup.continuation import read_continued
+from twopose.camera.model import Camera, Intrinsics
 from twopose.format.entries import CaptureDecision, GroundTruth, PoseEntry, SessionInfo
 from twopose.format.writer import SessionWriter
-from twopose.methods import Method
-from twopose.units import Units
+from twopose.methods.specs import Method
+from twopose.values.units import Units
 
 CAMERA = Camera(
     camera_id="cam0",
@@ -53,7 +53,7 @@ def truth_of(trial: int) -> tuple[float, float, float]:
 def dot_frame(truth: tuple[float, float, float], t_grid: tuple[float, float, float]) -> np.ndarray:
     """A 64x48 frame with the dot target drawn where ``truth`` projects from a camera at
     ``t_grid`` (no rotation), to 1/16 px, radius 3 px."""
-    from twopose.camera import project_points
+    from twopose.camera.model import project_points
 
     col, row = project_points([truth], CAMERA.intrinsics, np.eye(3), t_grid)[0]
     frame = _BLANK.copy()

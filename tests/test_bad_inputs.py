@@ -14,10 +14,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from analysis.cli import app as analyze
-from recorder.cli import app as record
+from recorder.cli.app import app as record
 from tests.fuzzing import Outcomes, check_command
-from twopose.methods import Method
-from twopose.units import Units
+from twopose.methods.specs import Method
+from twopose.values.units import Units
 
 TWO_POSES = "poses = [{t=[0,0,0]},{t=[1,0,0]}]\n"
 PLANS = {
@@ -216,7 +216,7 @@ def test_info_on_a_pose_for_an_unknown_camera_and_a_huge_version(tmp_path: Path)
     and a format version of 5000 digits."""
     from mcap.writer import Writer as McapWriter
 
-    from twopose.camera import Camera, Intrinsics
+    from twopose.camera.model import Camera, Intrinsics
     from twopose.format.entries import PoseEntry, SessionInfo
     from twopose.format.writer import SessionWriter
 
@@ -247,10 +247,10 @@ def test_impossible_values_are_refused_not_accepted_silently(tmp_path: Path) -> 
     (refused before a file exists)."""
     import numpy as np
 
-    from recorder.plan import load_plan, record_plan
-    from recorder.sources import ImagesSource
+    from recorder.setup.plan import load_plan, record_plan
+    from recorder.sources.registry import ImagesSource
     from tests.helpers import write_accepted_capture
-    from twopose.camera import Camera, Intrinsics
+    from twopose.camera.model import Camera, Intrinsics
     from twopose.errors import InputValueError, SessionFormatError
     from twopose.format.entries import PoseEntry, SessionInfo
     from twopose.format.messages import image_message

@@ -10,12 +10,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from recorder.sources import SOURCE_KINDS
+from recorder.sources.registry import SOURCE_KINDS
 from tests.helpers import load_benchmark
-from twopose.choices import TARGETS
-from twopose.methods import METHOD_SPECS, METHODS
-from twopose.planes import GROUND_PLANE
-from twopose.units import UNITS
+from twopose.methods.planes import GROUND_PLANE
+from twopose.methods.specs import METHOD_SPECS, METHODS
+from twopose.values.choices import TARGETS
+from twopose.values.units import UNITS
 
 census = load_benchmark("census")
 
@@ -25,7 +25,8 @@ def test_every_site_left_says_why() -> None:
     unexplained = [str(s) for s in sites if not census._why(s)]
     assert not unexplained, (
         f"{len(unexplained)} site(s) name a registered name outside its registry (read the "
-        "registry: twopose/methods.py, units.py, choices.py, planes.py, recorder/sources.py), "
+        "registry: twopose/methods/specs.py, units.py, choices.py, planes.py, "
+        "recorder/sources/registry.py), "
         "or say why in benchmarks/census.py's EXPLAINED:\n" + "\n".join(unexplained)
     )
     used = {(s.path, s.name, s.category) for s in sites}
@@ -53,7 +54,7 @@ def test_the_names_are_the_registries() -> None:
     assert names["thesis"] == {s.thesis_name for s in METHOD_SPECS.values()}
     assert {"ray", "trace", "corners"} <= names["segment"]
     assert names["plane"] == {GROUND_PLANE.setup_key, GROUND_PLANE.request_key}
-    assert "twopose/planes.py" in census.REGISTRIES
+    assert "twopose/methods/planes.py" in census.REGISTRIES
     counted = {rel for _, rel in census.sources()}
     assert counted >= census.REGISTRIES  # no module exempt as a whole
 

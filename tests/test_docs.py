@@ -87,32 +87,32 @@ def test_the_layout_names_every_file_of_the_packages() -> None:
     layout = (REPO / "docs" / "layout.md").read_text(encoding="utf-8")
     files = _package_files()
     assert len(files) > 150
-    assert "recorder/console.js" in files
+    assert "recorder/console/page/main.js" in files
     unnamed = [f for f in files if f"`{f}`" not in layout]
     assert not unnamed, "not named in docs/layout.md: " + ", ".join(unnamed)
 
 
 #: The Python call of every command (``Everything the CLI does is one call from Python``).
 ENTRY_POINTS = [
-    "analysis.batch:run",
-    "analysis.pipeline:analyse_session",
-    "analysis.figures:make_figures",
-    "analysis.gate:check",
-    "analysis.comparison:compare",
+    "analysis.batch.runner:run",
+    "analysis.session.pipeline:analyse_session",
+    "analysis.report.figures.draw:make_figures",
+    "analysis.gate.baseline:check",
+    "analysis.gate.comparison:compare",
     "analysis.rig.calibrate:calibrate_rig",
-    "analysis.sensitivity:sensitivity",
-    "analysis.request:solve_request",
-    "recorder.simulate:simulate_session",
-    "recorder.plan:load_plan",
-    "recorder.plan:record_plan",
+    "analysis.tools.sensitivity:sensitivity",
+    "analysis.tools.solve_request:solve_request",
+    "recorder.simulate.one_camera:simulate_session",
+    "recorder.setup.plan:load_plan",
+    "recorder.setup.plan:record_plan",
     "recorder.recover:recover_session",
-    "recorder.camera_calibration:calibrate",
-    "recorder.pair_calibration:calibrate_pair",
-    "recorder.pair_calibration:calibrate_pair_views",
+    "recorder.calibration.camera:calibrate",
+    "recorder.calibration.pair:calibrate_pair",
+    "recorder.calibration.pair:calibrate_pair_views",
     "twopose.pair.calibration:fit_pair",
     "twopose.pair.stream:estimate_stream",
-    "twopose.detect:detect",
-    "twopose.session_estimate:estimate_session",
+    "twopose.detect.detection:detect",
+    "twopose.solve.session:estimate_session",
 ]
 
 

@@ -26,14 +26,14 @@ import numpy as np
 import pytest
 import typer
 
-from analysis.request import solve_request
 from analysis.results import AnalysisOptions
-from recorder.sources import SOURCES, kind_of, open_source, source_help
+from analysis.tools.solve_request import solve_request
+from recorder.sources.registry import SOURCES, kind_of, open_source, source_help
 from tests.helpers import install_extension
 from twopose import registry
-from twopose.choices import TARGET_SPECS, Target
-from twopose.detect import detect
-from twopose.methods import (
+from twopose.detect.detection import detect
+from twopose.methods.planes import CONSTRAINT_PLANES, GROUND_PLANE, register_plane
+from twopose.methods.specs import (
     MEASURING_METHODS,
     METHOD_SPECS,
     METHODS,
@@ -42,9 +42,9 @@ from twopose.methods import (
     Solver,
     register_method,
 )
-from twopose.options import registered
-from twopose.planes import CONSTRAINT_PLANES, GROUND_PLANE, register_plane
-from twopose.solvers import RAYS, SolverEntry
+from twopose.solve.entries import RAYS, SolverEntry
+from twopose.values.choices import TARGET_SPECS, Target
+from twopose.values.options import registered
 
 REPO = Path(__file__).resolve().parents[1]
 DEVELOPMENT = REPO / "docs" / "development.md"
@@ -226,7 +226,7 @@ def test_a_method_with_a_solver_of_its_own_is_solved_by_it_everywhere(tmp_path: 
     ``run`` estimate with it, and ``solve`` answers with it (``solve`` died with a
     KeyError on such a method: its answers were a second table keyed by hand)."""
     from analysis import run
-    from recorder.simulate import simulate_session
+    from recorder.simulate.one_camera import simulate_session
 
     calls: list[str] = []
 
@@ -248,7 +248,7 @@ def test_a_method_with_a_solver_of_its_own_is_solved_by_it_everywhere(tmp_path: 
     registry_method = dataclasses.replace(
         METHOD_SPECS[Method.POINT], method=method, solver=own, label="counted", colour="C6"
     )
-    from twopose.methods import register_method
+    from twopose.methods.specs import register_method
 
     assert register_method(registry_method) is method
     session = tmp_path / "counted.mcap"
@@ -322,10 +322,10 @@ _MISTAKES = """
 import numpy as np
 from numpy.typing import NDArray
 
-from twopose.choices import Target, TargetSpec
-from twopose.detect import Detection
-from twopose.methods import METHOD_SPECS, Method
-from twopose.thresholds import DotParams, GloveParams
+from twopose.values.choices import Target, TargetSpec
+from twopose.detect.detection import Detection
+from twopose.methods.specs import METHOD_SPECS, Method
+from twopose.detect.thresholds import DotParams, GloveParams
 
 
 def detect_glove_like(image_bgr: NDArray[np.uint8], params: GloveParams) -> Detection:

@@ -10,12 +10,12 @@ from pathlib import Path
 import pytest
 
 from analysis.cli import app as analyze
-from recorder.cli import app as record
-from recorder.plan import load_plan, record_plan
-from recorder.sources import SyntheticSource
+from recorder.cli.app import app as record
+from recorder.setup.plan import load_plan, record_plan
+from recorder.sources.registry import SyntheticSource
 from tests.fuzzing import Outcomes, check_command, mutants
 from twopose.format.reader import SessionReader
-from twopose.methods import Method
+from twopose.methods.specs import Method
 
 # Slow (a real browser, a cluster, or fits over many sessions): make test-all and CI run it.
 pytestmark = pytest.mark.slow

@@ -11,7 +11,7 @@ import typer
 from typer.testing import CliRunner
 
 from analysis.cli import app as analyze_app
-from recorder.cli import app as record_app
+from recorder.cli.app import app as record_app
 
 runner = CliRunner()
 

@@ -17,13 +17,13 @@ from typing import Any
 import pytest
 from mcap.reader import make_reader
 
-from analysis.batch import results_mcap_name, run
-from recorder.plan import load_plan, record_plan
+from analysis.batch.runner import results_mcap_name, run
 from recorder.recover import recover_session
-from recorder.simulate import simulate_session
-from recorder.sources import SyntheticSource
-from twopose.methods import Method
-from twopose.units import Units
+from recorder.setup.plan import load_plan, record_plan
+from recorder.simulate.one_camera import simulate_session
+from recorder.sources.registry import SyntheticSource
+from twopose.methods.specs import Method
+from twopose.values.units import Units
 
 NODE_DIR = Path(__file__).parent / "node"
 SESSIONS = Path(__file__).parents[1] / "sessions"
@@ -92,9 +92,9 @@ def written(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
 
 def _decided(path: Path) -> Path:
     """Redo, undo and an undecided last capture, through the real procedure."""
-    from recorder.capture import CaptureSettings
-    from recorder.procedure import Procedure
-    from twopose.camera import Camera, Intrinsics
+    from recorder.procedure.capture import CaptureSettings
+    from recorder.procedure.loop import Procedure
+    from twopose.camera.model import Camera, Intrinsics
     from twopose.format.entries import PoseEntry, SessionInfo
     from twopose.format.writer import SessionWriter
 

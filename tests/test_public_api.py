@@ -186,8 +186,8 @@ def test_the_registries_and_their_fields_are_documented() -> None:
         extensions=griffe.Extensions(CommentDocstrings()),
     )
     undocumented = []
-    for module, registry, spec in (("methods", "METHOD_SPECS", "MethodSpec"),
-                                   ("units", "UNIT_SPECS", "UnitSpec")):  # fmt: skip
+    for module, registry, spec in (("methods.specs", "METHOD_SPECS", "MethodSpec"),
+                                   ("values.units", "UNIT_SPECS", "UnitSpec")):  # fmt: skip
         for name in (registry, spec):
             if not core[f"{module}.{name}"].docstring:
                 undocumented.append(f"{module}.{name}")

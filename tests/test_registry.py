@@ -24,7 +24,7 @@ from tests.helpers import install_extension
 FAKE_EXTENSION = """
 import dataclasses
 
-from twopose.methods import METHOD_SPECS, Method, register_method
+from twopose.methods.specs import METHOD_SPECS, Method, register_method
 
 register_method(
     dataclasses.replace(
@@ -59,7 +59,7 @@ def _run(root: Path, *args: str, stdin: str | None = None) -> subprocess.Complet
 
 
 def test_the_extension_is_loaded_with_the_registry(with_fake: Path) -> None:
-    done = _run(with_fake, "-c", "import twopose.methods as m; print(*m.METHODS)")
+    done = _run(with_fake, "-c", "import twopose.methods.specs as m; print(*m.METHODS)")
     assert done.stdout.split() == ["point", "line", "ground", "board", "fake"]
 
 

@@ -1,7 +1,7 @@
 """A method on another plane, through the registry alone (issue 45): an installed
 extension (docs/development.md's snippet, registered by ``register_method``) adds a
 ``wall`` method, method 2 on the wall ``x = c`` instead of the ground ``y = h`` (its plane
-a :class:`twopose.planes.ConstraintPlane`, its offset a setup value like the ground
+a :class:`twopose.methods.planes.ConstraintPlane`, its offset a setup value like the ground
 height), and nothing else changed.
 
 With it installed, the commands simulate it, record it at the terminal and from a plan
@@ -93,7 +93,7 @@ def assert_on_the_wall(trials: pd.DataFrame, n: int, within: float) -> None:
 def test_the_setup_asks_the_walls_offset_and_checks_truth_on_the_wall(walled: Path) -> None:
     probe = """
 import json
-from recorder.setup_form import form_fields, setup_from_answers, FormRefusedError
+from recorder.setup.form import form_fields, setup_from_answers, FormRefusedError
 given = {"method": None, "units": None, "intrinsics": None, "size": (640, 480),
          "ground_truth": []}
 asked = {m: sorted(f["name"] for f in form_fields(given) if m in f["methods"])
@@ -130,8 +130,8 @@ print(json.dumps({"asked": asked, "entry": [setup.ground().normal_grid, setup.gr
 FIGURES_PROBE = """
 import json, sys
 import numpy as np
-from analysis.figures import session_figures
-from analysis.run_tables import read_table
+from analysis.report.figures.draw import session_figures
+from analysis.tables.read_back import read_table
 out = sys.argv[1]
 trials, averaging, views = (read_table(f"{out}/{n}.csv") for n in ("trials", "averaging", "views"))
 figures = session_figures("s.mcap", trials, averaging, views, include_warned=True)

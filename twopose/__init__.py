@@ -1,9 +1,9 @@
 """twopose core: what the recorder and the analysis share.
 
-The exception hierarchy (:mod:`twopose.errors`), the camera model (:mod:`twopose.camera`),
-the detectors (:mod:`twopose.detect`), the solvers and their uncertainty
-(:mod:`twopose.solve`, :mod:`twopose.uncertainty`), the detection overlay
-(:mod:`twopose.overlay`), the TOML reader (:mod:`twopose.config`) and the session file
+The exception hierarchy (:mod:`twopose.errors`), the camera model (:mod:`twopose.camera.model`),
+the detectors (:mod:`twopose.detect.detection`), the solvers and their uncertainty
+(:mod:`twopose.solve.nview`, :mod:`twopose.uncertainty.propagate`), the detection overlay
+(:mod:`twopose.display.overlay`), the TOML reader (:mod:`twopose.values.toml`) and the session file
 format (:mod:`twopose.format`). It imports neither ``recorder`` nor ``analysis``; importing
 this package loads nothing heavy.
 
@@ -14,7 +14,7 @@ What a notebook or another program uses is exported here, each name loaded on fi
     for path in twopose.find_sessions(["sessions/"]):
         with twopose.SessionReader(path) as session:
             ...
-    from twopose.detect import detect  # the module twopose.detect holds it
+    from twopose.detect.detection import detect  # the module twopose.detect.detection holds it
     detection = detect(frame_bgr, spec.target)
 
 The camera model (:class:`Camera`, :class:`Intrinsics`), the method, target, plane and
@@ -35,9 +35,8 @@ from typing import TYPE_CHECKING
 from twopose.lazy import lazy_exports
 
 if TYPE_CHECKING:
-    from twopose.camera import Camera, Intrinsics, camera_rays, project_points
-    from twopose.choices import TARGET_SPECS, TARGETS, Target, TargetSpec, register_target
-    from twopose.detect import Detection, DotParams, GloveParams
+    from twopose.camera.model import Camera, Intrinsics, camera_rays, project_points
+    from twopose.detect.detection import Detection, DotParams, GloveParams
     from twopose.errors import (
         InputValueError,
         SceneError,
@@ -47,7 +46,6 @@ if TYPE_CHECKING:
         SourceError,
         TwoposeError,
     )
-    from twopose.estimate import EstimateOptions, solve_batch
     from twopose.format import (
         FORMAT_VERSION,
         GroundPlane,
@@ -59,9 +57,15 @@ if TYPE_CHECKING:
         TruePose,
         find_sessions,
     )
-    from twopose.guidance import Advice, Guidance, advise, suggest
+    from twopose.guidance.advice import Advice, Guidance, advise, suggest
     from twopose.installed_version import __version__
-    from twopose.methods import (
+    from twopose.methods.planes import (
+        CONSTRAINT_PLANES,
+        GROUND_PLANE,
+        ConstraintPlane,
+        register_plane,
+    )
+    from twopose.methods.specs import (
         MEASURING_METHODS,
         METHOD_SPECS,
         METHODS,
@@ -72,19 +76,20 @@ if TYPE_CHECKING:
         register_method,
         spec_of,
     )
-    from twopose.planes import CONSTRAINT_PLANES, GROUND_PLANE, ConstraintPlane, register_plane
     from twopose.registry import load_extensions
-    from twopose.session_estimate import SessionEstimate, SessionTrials, estimate_session
-    from twopose.solve import (
+    from twopose.solve.estimate import EstimateOptions, solve_batch
+    from twopose.solve.nview import (
         NViewLines,
         NViewPoints,
         triangulate_ground,
         triangulate_lines,
         triangulate_points,
     )
-    from twopose.two_view import triangulate_two_views
-    from twopose.uncertainty import Propagated, propagate
-    from twopose.units import DEFAULT_UNITS, UNIT_SPECS, UNITS, Units, UnitSpec, unit_spec
+    from twopose.solve.session import SessionEstimate, SessionTrials, estimate_session
+    from twopose.solve.two_view import triangulate_two_views
+    from twopose.uncertainty.propagate import Propagated, propagate
+    from twopose.values.choices import TARGET_SPECS, TARGETS, Target, TargetSpec, register_target
+    from twopose.values.units import DEFAULT_UNITS, UNIT_SPECS, UNITS, Units, UnitSpec, unit_spec
 
 __all__ = [
     "CONSTRAINT_PLANES",
@@ -157,35 +162,35 @@ __all__ = [
 
 #: Where each exported name lives; it is imported from there on first use.
 _HOMES = {
-    "Camera": "twopose.camera",
-    "Intrinsics": "twopose.camera",
-    "camera_rays": "twopose.camera",
-    "project_points": "twopose.camera",
-    "MEASURING_METHODS": "twopose.methods",
-    "METHOD_SPECS": "twopose.methods",
-    "METHODS": "twopose.methods",
-    "Method": "twopose.methods",
-    "MethodSpec": "twopose.methods",
-    "label_of": "twopose.methods",
-    "Solver": "twopose.methods",
-    "register_method": "twopose.methods",
-    "TARGET_SPECS": "twopose.choices",
-    "TARGETS": "twopose.choices",
-    "Target": "twopose.choices",
-    "TargetSpec": "twopose.choices",
-    "register_target": "twopose.choices",
-    "CONSTRAINT_PLANES": "twopose.planes",
-    "GROUND_PLANE": "twopose.planes",
-    "ConstraintPlane": "twopose.planes",
-    "register_plane": "twopose.planes",
+    "Camera": "twopose.camera.model",
+    "Intrinsics": "twopose.camera.model",
+    "camera_rays": "twopose.camera.model",
+    "project_points": "twopose.camera.model",
+    "MEASURING_METHODS": "twopose.methods.specs",
+    "METHOD_SPECS": "twopose.methods.specs",
+    "METHODS": "twopose.methods.specs",
+    "Method": "twopose.methods.specs",
+    "MethodSpec": "twopose.methods.specs",
+    "label_of": "twopose.methods.specs",
+    "Solver": "twopose.methods.specs",
+    "register_method": "twopose.methods.specs",
+    "TARGET_SPECS": "twopose.values.choices",
+    "TARGETS": "twopose.values.choices",
+    "Target": "twopose.values.choices",
+    "TargetSpec": "twopose.values.choices",
+    "register_target": "twopose.values.choices",
+    "CONSTRAINT_PLANES": "twopose.methods.planes",
+    "GROUND_PLANE": "twopose.methods.planes",
+    "ConstraintPlane": "twopose.methods.planes",
+    "register_plane": "twopose.methods.planes",
     "load_extensions": "twopose.registry",
-    "spec_of": "twopose.methods",
-    "DEFAULT_UNITS": "twopose.units",
-    "UNIT_SPECS": "twopose.units",
-    "UNITS": "twopose.units",
-    "UnitSpec": "twopose.units",
-    "Units": "twopose.units",
-    "unit_spec": "twopose.units",
+    "spec_of": "twopose.methods.specs",
+    "DEFAULT_UNITS": "twopose.values.units",
+    "UNIT_SPECS": "twopose.values.units",
+    "UNITS": "twopose.values.units",
+    "UnitSpec": "twopose.values.units",
+    "Units": "twopose.values.units",
+    "unit_spec": "twopose.values.units",
     "InputValueError": "twopose.errors",
     "SceneError": "twopose.errors",
     "SessionExistsError": "twopose.errors",
@@ -202,26 +207,26 @@ _HOMES = {
     "SessionWriter": "twopose.format",
     "TruePose": "twopose.format",
     "find_sessions": "twopose.format",
-    "Detection": "twopose.detect",
-    "DotParams": "twopose.detect",
-    "GloveParams": "twopose.detect",
-    "NViewLines": "twopose.solve",
-    "NViewPoints": "twopose.solve",
-    "triangulate_ground": "twopose.solve",
-    "triangulate_lines": "twopose.solve",
-    "triangulate_points": "twopose.solve",
-    "triangulate_two_views": "twopose.two_view",
-    "EstimateOptions": "twopose.estimate",
-    "solve_batch": "twopose.estimate",
-    "SessionEstimate": "twopose.session_estimate",
-    "SessionTrials": "twopose.session_estimate",
-    "estimate_session": "twopose.session_estimate",
-    "Propagated": "twopose.uncertainty",
-    "propagate": "twopose.uncertainty",
-    "Advice": "twopose.guidance",
-    "Guidance": "twopose.guidance",
-    "advise": "twopose.guidance",
-    "suggest": "twopose.guidance",
+    "Detection": "twopose.detect.detection",
+    "DotParams": "twopose.detect.detection",
+    "GloveParams": "twopose.detect.detection",
+    "NViewLines": "twopose.solve.nview",
+    "NViewPoints": "twopose.solve.nview",
+    "triangulate_ground": "twopose.solve.nview",
+    "triangulate_lines": "twopose.solve.nview",
+    "triangulate_points": "twopose.solve.nview",
+    "triangulate_two_views": "twopose.solve.two_view",
+    "EstimateOptions": "twopose.solve.estimate",
+    "solve_batch": "twopose.solve.estimate",
+    "SessionEstimate": "twopose.solve.session",
+    "SessionTrials": "twopose.solve.session",
+    "estimate_session": "twopose.solve.session",
+    "Propagated": "twopose.uncertainty.propagate",
+    "propagate": "twopose.uncertainty.propagate",
+    "Advice": "twopose.guidance.advice",
+    "Guidance": "twopose.guidance.advice",
+    "advise": "twopose.guidance.advice",
+    "suggest": "twopose.guidance.advice",
     # Read from the package's metadata when first asked for (twopose/installed_version.py).
     "__version__": "twopose.installed_version",
 }

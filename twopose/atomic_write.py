@@ -3,7 +3,7 @@
 Under a temporary name beside it, synced, renamed into place and its folder synced, so a
 crash or a full disk leaves the previous file or the new one, never half of one; a symlink
 at the destination is replaced, never followed; a folder, FIFO or device there is refused.
-Both sides write through it: the analyst's outputs (:mod:`analysis.outputs`) and the
+Both sides write through it: the analyst's outputs (:mod:`analysis.batch.outputs`) and the
 operator's files (the noise history).
 """
 

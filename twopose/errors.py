@@ -89,7 +89,7 @@ def handle_errors() -> Iterator[None]:
     except (MemoryError, RecursionError, OverflowError, ArithmeticError, ValueError) as err:
         # Last resort: an input no check foresaw. Say what happened, never a traceback;
         # TWOPOSE_DEBUG=1 shows it for a bug report.
-        from twopose.environment import DEBUG
+        from twopose.values.environment import DEBUG
 
         if DEBUG.read():
             raise

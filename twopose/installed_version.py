@@ -2,7 +2,7 @@
 
 ``twopose.__version__`` (and ``recorder.__version__``) load it from here on first use:
 ``importlib.metadata`` costs a tenth of a second to import, and ``twopose-record`` must
-handle a stop signal from its first instruction on (:mod:`recorder.command`).
+handle a stop signal from its first instruction on (:mod:`recorder.cli.command`).
 """
 
 from __future__ import annotations

@@ -2,11 +2,12 @@
 
 A registry maps a name to the entry that does the work (as rosbags' ``Typestore`` maps a
 message name to its type, and ``Typestore.register`` adds one at run time): the method's
-:class:`~twopose.methods.MethodSpec`, the target's :class:`~twopose.choices.TargetSpec`,
-a frame source's kind (``recorder.sources``), a constraint plane
-(:class:`~twopose.planes.ConstraintPlane`). twopose's own entries are registered on
+:class:`~twopose.methods.specs.MethodSpec`, the target's
+:class:`~twopose.values.choices.TargetSpec`,
+a frame source's kind (``recorder.sources.registry``), a constraint plane
+(:class:`~twopose.methods.planes.ConstraintPlane`). twopose's own entries are registered on
 import; an extension calls the registry's ``register_*`` function (for example
-:func:`twopose.methods.register_method`) before it uses the entry, and every stage reads
+:func:`twopose.methods.specs.register_method`) before it uses the entry, and every stage reads
 the entry from the registry, in the process that registered it.
 
 - :class:`Registry`: the mapping itself, keyed by name, in registration order; what is

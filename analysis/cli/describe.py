@@ -7,16 +7,16 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from twopose.bounds import shown
 from twopose.errors import (
     EXIT_SOME_INPUTS_FAILED,
     TwoposeError,
     handle_errors,
 )
-from twopose.text import for_terminal
+from twopose.values.bounds import shown
+from twopose.values.text import for_terminal
 
 if TYPE_CHECKING:
-    from analysis.input_set import InputSet
+    from analysis.batch.inputs import InputSet
     from twopose.format.trials import SessionOverview
 
 from analysis.cli.app import app, note, say_skipped
@@ -36,7 +36,7 @@ def info(
     from rich.console import Console
     from rich.table import Table
 
-    from analysis.input_set import resolve_inputs, sessions_said
+    from analysis.batch.inputs import resolve_inputs, sessions_said
     from twopose.format.trials import describe_session
 
     console = Console()
@@ -152,7 +152,7 @@ def _print_pair(o: SessionOverview) -> None:
     one-camera session."""
     if o.streams is None:
         return
-    from analysis.stream_tables import pair_lines
+    from analysis.session.stream_tables import pair_lines
 
     for line in pair_lines(o.streams):
         typer.echo(for_terminal(line))

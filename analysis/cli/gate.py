@@ -38,8 +38,8 @@ def check_command(
     """The CI gate: compare summary.csv with a baseline's, per session and method (RMSE,
     median, |bias|, n_ok, n_used, n_warned, coverage); print what got worse; exit 1 on a
     regression beyond the tolerance."""
-    from analysis.gate import check, check_cases, check_lines, junit_xml
-    from analysis.outputs import Inputs, write_file
+    from analysis.batch.outputs import Inputs, write_file
+    from analysis.gate.baseline import check, check_cases, check_lines, junit_xml
 
     with handle_errors():
         read = Inputs(files=(tolerance,) if tolerance else (), folders=(results, baseline))
@@ -70,7 +70,7 @@ def compare_command(
     """Compare two runs: statistics side by side, and paired differences (B - A) on the
     trials both measured, with a 95% interval and a sign-flip test, per method; and the
     trials only one run holds."""
-    from analysis.comparison import compare, describe_one_sided, describe_test
+    from analysis.gate.comparison import compare, describe_one_sided, describe_test
 
     with handle_errors():
         comparison = compare(

@@ -11,7 +11,6 @@ from typing import TYPE_CHECKING, Annotated, cast
 
 import typer
 
-from twopose.choices import CombineRule
 from twopose.errors import (
     EXIT_INTERRUPTED,
     EXIT_SOME_INPUTS_FAILED,
@@ -20,9 +19,10 @@ from twopose.errors import (
     handle_errors,
     say_interrupted,
 )
-from twopose.margins import EstimateOptions
-from twopose.noise import NoiseModel
-from twopose.options import read_option
+from twopose.solve.margins import EstimateOptions
+from twopose.uncertainty.noise import NoiseModel
+from twopose.values.choices import CombineRule
+from twopose.values.options import read_option
 
 if TYPE_CHECKING:
     from analysis.results import RunResult
@@ -191,9 +191,9 @@ def run_command(
     reuse: ReuseOption = True,
 ) -> None:
     """Replay sessions through detection and solvers into error tables, figures and a report."""
-    from analysis.batch import run
-    from analysis.input_set import resolve_inputs
-    from analysis.outputs import check_run_outputs, write_file
+    from analysis.batch.inputs import resolve_inputs
+    from analysis.batch.outputs import check_run_outputs, write_file
+    from analysis.batch.runner import run
     from analysis.results import AnalysisOptions
     from analysis.rig.scope import rig_scope
 
@@ -233,7 +233,7 @@ def run_command(
             rigs=rigs,
         )
         if junit is not None:
-            from analysis.gate import junit_xml, run_cases
+            from analysis.gate.baseline import junit_xml, run_cases
 
             cases = run_cases(result.summary, result.errors)
             notes = [*result.input_notes, *(f"skipped: {p}" for p in result.skipped)]
@@ -317,7 +317,7 @@ def _print_run(result: RunResult, out: Path, *, include_warned: bool) -> None:
     piped), the skipped and failed inputs; exit 1 if any input failed."""
     import shutil
 
-    from analysis.terminal import closing_lines, summary_lines, wrap_phrases
+    from analysis.report.terminal import closing_lines, summary_lines, wrap_phrases
 
     width = min(shutil.get_terminal_size().columns, 100) if sys.stdout.isatty() else None
     written = result.written_to is not None

@@ -11,16 +11,16 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from twopose import jsonsafe
-from twopose.choices import TARGET_SPECS, Target
 from twopose.errors import (
     EXIT_SOME_INPUTS_FAILED,
     InputValueError,
     handle_errors,
 )
-from twopose.methods import METHOD_SPECS, Method
-from twopose.options import read_option, registered
-from twopose.units import Units
+from twopose.methods.specs import METHOD_SPECS, Method
+from twopose.values import jsonsafe
+from twopose.values.choices import TARGET_SPECS, Target
+from twopose.values.options import read_option, registered
+from twopose.values.units import Units
 
 if TYPE_CHECKING:
     pass
@@ -50,8 +50,8 @@ def rig_command(
 ) -> None:
     """Estimate the rig's hidden constants from board sessions or from sessions with known
     targets; write them for `run --rig` and `twopose-record new --rig`."""
-    from analysis.input_set import resolve_inputs
-    from analysis.outputs import run_inputs, write_file
+    from analysis.batch.inputs import resolve_inputs
+    from analysis.batch.outputs import run_inputs, write_file
     from analysis.rig.calibrate import calibrate_rig
     from analysis.rig.fit import rig_toml
     from analysis.rig.scope import RIG_BESIDE
@@ -97,9 +97,9 @@ def sensitivity_command(
 ) -> None:
     """Sweeps of error against pixel noise, pose error per axis, baseline, distance, finger
     angle, in the thesis' geometry; and a check of its 0.1 in -> 0.2 in claim (section 5.3)."""
-    from analysis.figures import png_bytes
-    from analysis.outputs import OutputFolder, write_atomically
-    from analysis.sensitivity import (
+    from analysis.batch.outputs import OutputFolder, write_atomically
+    from analysis.report.figures.draw import png_bytes
+    from analysis.tools.sensitivity import (
         plot_sensitivity,
         sensitivity,
         worst_x_translation_effect,
@@ -124,7 +124,7 @@ def sensitivity_command(
 
 def _rounded(numbers: dict[str, object]) -> dict[str, object]:
     """A detection's numbers to four decimals (a non-finite one becomes null when written:
-    :func:`twopose.jsonsafe.dumps`)."""
+    :func:`twopose.values.jsonsafe.dumps`)."""
 
     def r(v: object) -> object:
         if isinstance(v, float):
@@ -140,9 +140,9 @@ def detect(
     target: Annotated[Target, typer.Option(**registered(TARGET_SPECS), help="What to look for.")],
 ) -> None:
     """Detect the glove or the dot in images; one JSON object per image."""
-    from twopose.detect import Detection
-    from twopose.detect import detect as detect_image
-    from twopose.images import decode_image
+    from twopose.camera.images import decode_image
+    from twopose.detect.detection import Detection
+    from twopose.detect.detection import detect as detect_image
 
     failed = False
     for path in images:
@@ -202,7 +202,7 @@ def solve(
     "px": [343.9, 311.6]}, {"K": [525, 525, 320, 240], "pose": {"t": [1.1, 0, 0]},
     "px": [291.4, 311.6]}]}' | twopose-analyze solve point
     """
-    from analysis.request import solve_request
+    from analysis.tools.solve_request import solve_request
 
     with handle_errors():
         try:

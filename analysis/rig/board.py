@@ -21,15 +21,15 @@ import numpy as np
 
 from analysis.rig.fit import RigFit
 from twopose.arrays import F64
-from twopose.camera import Intrinsics
-from twopose.checkerboard import find_board
+from twopose.camera.model import Intrinsics
+from twopose.detect.checkerboard import find_board
 from twopose.errors import InputValueError
 from twopose.format.reader import SessionReader
 from twopose.format.trials import PoseCapture, iter_trials
-from twopose.methods import spec_of
+from twopose.methods.specs import spec_of
 from twopose.rig.board import FITTED, BoardRigFit, board_order, fit_board_rig
 from twopose.rig.constants import RIG_PARAMETERS
-from twopose.units import Units
+from twopose.values.units import Units
 
 __all__ = ["BoardCalibration", "BoardCaptures", "calibrate_board", "is_board_session"]
 

@@ -1,5 +1,5 @@
 """``twopose-analyze rig``: the rig's constants from calibration sessions (sessions with
-known targets), in one call: replay them (:mod:`analysis.pipeline`), then estimate
+known targets), in one call: replay them (:mod:`analysis.session.pipeline`), then estimate
 (:mod:`analysis.rig.fit`).
 
 Each session is solved with its own ground plane, intrinsics and units; sessions in
@@ -21,16 +21,16 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from analysis.input_set import InputSet
-from analysis.pipeline import replay_views
+from analysis.batch.inputs import InputSet
 from analysis.rig.data import RigData, combine, prepare_session, require_trusted
 from analysis.rig.fit import RigFit, fit_constants, select_constants
-from twopose.camera import Intrinsics
+from analysis.session.pipeline import replay_views
+from twopose.camera.model import Intrinsics
 from twopose.errors import InputValueError
-from twopose.estimate import EstimateOptions
-from twopose.noise import PlacingSigma
-from twopose.session_estimate import SessionTrials, estimate_session
-from twopose.units import Units
+from twopose.solve.estimate import EstimateOptions
+from twopose.solve.session import SessionTrials, estimate_session
+from twopose.uncertainty.noise import PlacingSigma
+from twopose.values.units import Units
 
 __all__ = ["RigCalibration", "calibrate", "calibrate_rig", "with_rig"]
 
@@ -77,7 +77,7 @@ def calibrate_rig(
     RigCalibration
         The fit, the sessions it used, its warnings and its basis (board or targets).
     """
-    from analysis.input_set import resolve_inputs
+    from analysis.batch.inputs import resolve_inputs
     from analysis.rig.board import calibrate_board
 
     inputs = resolve_inputs(paths)  # once (or as given), as run and info: copies said
@@ -184,7 +184,7 @@ def _distinct(
     paths: Sequence[str], note: Note, continuations: Mapping[str, Sequence[str]]
 ) -> list[_Distinct]:
     """Each session once, in the order given (the same file or a byte copy was taken once
-    already: :func:`analysis.input_set.resolve_inputs`): a session whose trials are those
+    already: :func:`analysis.batch.inputs.resolve_inputs`): a session whose trials are those
     of an earlier one (a rewritten file) is left out, with a note."""
     seen_content: dict[str, str] = {}
     out: list[_Distinct] = []

@@ -14,12 +14,12 @@ from numpy.typing import NDArray
 
 from twopose.arrays import F64
 from twopose.errors import InputValueError
-from twopose.estimate import EstimateOptions, GroundSpec, ViewBatch
-from twopose.methods import Method
+from twopose.methods.specs import Method
+from twopose.methods.truth import Reported, reported
 from twopose.rig.constants import ground_height, plausible_bounds
-from twopose.session_estimate import SessionEstimate, SessionTrials, estimate_session
-from twopose.truth import Reported, reported
-from twopose.units import Units
+from twopose.solve.estimate import EstimateOptions, GroundSpec, ViewBatch
+from twopose.solve.session import SessionEstimate, SessionTrials, estimate_session
+from twopose.values.units import Units
 
 __all__ = [
     "RigData",
@@ -103,8 +103,9 @@ def require_trusted(data: RigData | None) -> RigData:
 
 def prepare_session(estimate: SessionEstimate, reported_: Reported | None = None) -> RigData | None:
     """A session's ok trials with ground truth (None: it has none), from its one estimate
-    (:func:`twopose.session_estimate.estimate_session`), each with its reported point's
-    covariance (``reported_``, computed here when not given: :func:`twopose.truth.reported`)."""
+    (:func:`twopose.solve.session.estimate_session`), each with its reported point's
+    covariance (``reported_``, computed here when not given:
+    :func:`twopose.methods.truth.reported`)."""
     trials, est = estimate.trials, estimate.estimates
     if not trials.views:
         return None

@@ -5,7 +5,7 @@ The likelihood is the analysis' own, linearized: every trial with ground truth i
 again with the typed poses, intrinsics and ground height corrected by the constants, and
 its estimate is compared with its truth, weighted by the inverse of the trial's
 propagated covariance (the measured frame scatter and the typed resolution,
-:func:`twopose.session_estimate.estimate_session`). Minimizing the sum of the whitened residuals
+:func:`twopose.solve.session.estimate_session`). Minimizing the sum of the whitened residuals
 (``scipy.optimize.least_squares``) is maximum likelihood under the first-order Gaussian
 model the uncertainty columns already use. The constants' covariance is the inverse of
 the whitened normal matrix (inflated by the reduced chi-square when that exceeds 1).
@@ -29,13 +29,12 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from analysis.columns import RIG_COLUMNS
 from analysis.rig.data import RigData, combine, prepare, prepare_session, require_trusted
+from analysis.tables.columns import RIG_COLUMNS
 from twopose.arrays import F64
 from twopose.errors import InputValueError
-from twopose.estimate import solve_batch
-from twopose.methods import spec_of
-from twopose.noise import PlacingSigma
+from twopose.methods.specs import spec_of
+from twopose.methods.truth import Reported, line_errors, reported_line_point
 from twopose.rig.carried import corrected_batch
 from twopose.rig.constants import (
     RIG_PARAMETERS,
@@ -46,10 +45,11 @@ from twopose.rig.constants import (
     true_ground,
 )
 from twopose.rig.file import RIG_FILE_FORMAT, camera_tables, covariance_table, placing_table
-from twopose.session_estimate import SessionEstimate
-from twopose.truth import Reported, line_errors, reported_line_point
-from twopose.uncertainty import CHI2_95, nees
-from twopose.units import Units
+from twopose.solve.estimate import solve_batch
+from twopose.solve.session import SessionEstimate
+from twopose.uncertainty.noise import PlacingSigma
+from twopose.uncertainty.propagate import CHI2_95, nees
+from twopose.values.units import Units
 
 __all__ = [
     "GROUPS",
@@ -86,7 +86,7 @@ def solve_corrected(data: RigData, rig: RigConstants) -> F64:
 def corrected_estimates(data: RigData, rig: RigConstants) -> tuple[F64, F64]:
     """Every trial's reported point and, for lines, the line's unit direction (T, 3)
     each (NaN for the other methods), with the constants applied: the estimation's own
-    solver (:func:`twopose.estimate.solve_batch`), each session on its own ground plane."""
+    solver (:func:`twopose.solve.estimate.solve_batch`), each session on its own ground plane."""
     batch = corrected_batch(data.batch, rig)
     point = np.full((len(data.trial_ids), 3), np.nan)
     direction = np.full_like(point, np.nan)

@@ -33,7 +33,7 @@ from twopose.errors import InputValueError
 from twopose.rig.file import RigFile, load_rig_file
 
 if TYPE_CHECKING:
-    from analysis.input_set import InputSet
+    from analysis.batch.inputs import InputSet
     from analysis.results import AnalysisOptions, RigSource, RunResult
 
 __all__ = [

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from recorder.simulate import simulate_session
-from twopose.methods import Method
+from recorder.simulate.one_camera import simulate_session
+from twopose.methods.specs import Method
 from twopose.rig.constants import RigConstants
 from twopose.sim.scene import Scene
 

@@ -9,11 +9,11 @@ from typing import Literal
 from typer.testing import CliRunner
 
 from analysis.cli import app
-from analysis.pipeline import replay_views
 from analysis.rig.data import RigData, prepare_trials
-from twopose.methods import Method
+from analysis.session.pipeline import replay_views
+from twopose.methods.specs import Method
 from twopose.rig.constants import RigConstants
-from twopose.units import Units
+from twopose.values.units import Units
 
 runner = CliRunner()
 
@@ -29,7 +29,7 @@ def empty_session(
     path: Path, method: Literal["point", "line", "ground"], units: str, ground: float | None = None
 ) -> Path:
     """A session without trials (what a recording that stopped at once leaves)."""
-    from twopose.camera import Camera, Intrinsics
+    from twopose.camera.model import Camera, Intrinsics
     from twopose.format.entries import PlaneEntry, SessionInfo
     from twopose.format.writer import SessionWriter
 

@@ -1,4 +1,4 @@
-"""analysis.answer directly: the run's answer per session set and method, pooled over the
+"""analysis.report.answer directly: the run's answer per session set and method, pooled over the
 sessions and equal to summarize() of the pooled trials, and the numbers as a reader sees
 them (two decimals, signed biases with their 95% half-widths, whole percent, "-" unknown)."""
 
@@ -10,8 +10,15 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from analysis.answer import ANSWER_COLUMNS, answer_table, number, readable, session_order, share
-from analysis.metrics import summarize
+from analysis.report.answer import (
+    ANSWER_COLUMNS,
+    answer_table,
+    number,
+    readable,
+    session_order,
+    share,
+)
+from analysis.session.metrics import summarize
 
 
 @pytest.mark.parametrize(

@@ -9,18 +9,18 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.batch import results_mcap_name, run
-from analysis.figures import make_figures
-from analysis.pipeline import analyse_session
+from analysis.batch.runner import results_mcap_name, run
+from analysis.report.figures.draw import make_figures
 from analysis.results import AnalysisOptions
+from analysis.session.pipeline import analyse_session
 from tests.helpers import write_accepted_capture
-from twopose.camera import Camera, Intrinsics
+from twopose.camera.model import Camera, Intrinsics
 from twopose.errors import InputValueError
-from twopose.estimate import EstimateOptions
 from twopose.format.entries import GroundTruth, PoseEntry, SessionInfo
 from twopose.format.writer import SessionWriter
-from twopose.methods import Method
-from twopose.units import Units
+from twopose.methods.specs import Method
+from twopose.solve.estimate import EstimateOptions
+from twopose.values.units import Units
 
 REQUIRED = [
     "session",
@@ -273,7 +273,7 @@ def test_the_package_is_the_api(ground_session: Path) -> None:
 @pytest.mark.slow
 @pytest.mark.parametrize("method", ["point", "line", "ground"])
 def test_trials_with_more_than_two_poses_use_every_view(tmp_path: Path, method: str) -> None:
-    from recorder.simulate import simulate_session
+    from recorder.simulate.one_camera import simulate_session
 
     out = tmp_path / f"{method}.mcap"
     simulate_session(

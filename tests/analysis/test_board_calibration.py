@@ -18,14 +18,14 @@ from analysis import run
 from analysis.cli import app
 from analysis.rig.board import calibrate_board, read_board_session
 from analysis.rig.calibrate import calibrate_rig
-from recorder.simulate import simulate_session
+from recorder.simulate.one_camera import simulate_session
 from twopose.errors import InputValueError
-from twopose.methods import Method
+from twopose.methods.specs import Method
 from twopose.rig.constants import RigConstants
 from twopose.rig.file import load_rig, load_rig_file
 from twopose.sim.layout import BOARD_POSES
 from twopose.sim.scene import load_scene
-from twopose.units import Units
+from twopose.values.units import Units
 
 runner = CliRunner()
 
@@ -126,7 +126,7 @@ def test_board_and_target_sessions_are_not_mixed(board_session: Path, tmp_path: 
 
 
 def test_run_says_a_board_session_is_for_rig(board_session: Path) -> None:
-    """A board session in a run is listed for `rig`, not failed (analysis.input_set)."""
+    """A board session in a run is listed for `rig`, not failed (analysis.batch.inputs)."""
     result = run([board_session], None)
     assert result.trials.empty
     assert result.errors.empty
@@ -145,8 +145,8 @@ def test_a_constant_a_board_cannot_see_is_refused(board_session: Path) -> None:
 
 
 def test_a_capture_that_never_saw_the_board_is_left_out_and_said(tmp_path: Path) -> None:
-    from recorder.plan import load_plan, record_plan
-    from recorder.sources import SyntheticSource
+    from recorder.setup.plan import load_plan, record_plan
+    from recorder.sources.registry import SyntheticSource
 
     poses = [*BOARD_POSES, (40.0, 0.0, 0.0)]  # the last one looks past the board
     plan = tmp_path / "plan.toml"

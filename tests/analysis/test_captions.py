@@ -1,4 +1,4 @@
-"""analysis.captions directly: a run figure's caption names the trials it draws and the
+"""analysis.report.captions directly: a run figure's caption names the trials it draws and the
 largest error per session set and method, the answer table's "largest"; a session's caption
 says what became of its warned and failed trials."""
 
@@ -10,8 +10,8 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from analysis.answer import answer_table
-from analysis.captions import largest_errors, run_captions, session_captions
+from analysis.report.answer import answer_table
+from analysis.report.captions import largest_errors, run_captions, session_captions
 
 
 @pytest.fixture(scope="module")

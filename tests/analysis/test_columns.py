@@ -1,4 +1,4 @@
-"""analysis.columns: each table's columns are declared once, documented, and written.
+"""analysis.tables.columns: each table's columns are declared once, documented, and written.
 
 The run's files carry exactly the declared columns, in the declared order; the core's
 uncertainty columns are the ones declared; and docs/analysis.md names every column
@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.columns import (
+from analysis.tables.columns import (
     AVERAGING_COLUMNS,
     FRAME_COLUMNS,
     MARGIN_COLUMNS,
@@ -25,8 +25,8 @@ from analysis.columns import (
     UNCERTAINTY_COLUMNS,
     VIEW_COLUMNS,
 )
-from twopose.methods import METHOD_SPECS
-from twopose.uncertainty import SPREAD_COLUMNS, uncertainty_columns
+from twopose.methods.specs import METHOD_SPECS
+from twopose.uncertainty.propagate import SPREAD_COLUMNS, uncertainty_columns
 
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "analysis.md"
 

@@ -12,8 +12,8 @@ import pytest
 from typer.testing import CliRunner
 
 from analysis.cli import app
-from analysis.comparison import TEST_COLUMNS, compare_runs
-from analysis.metrics import paired_difference
+from analysis.gate.comparison import TEST_COLUMNS, compare_runs
+from analysis.session.metrics import paired_difference
 
 runner = CliRunner()
 
@@ -187,7 +187,7 @@ def test_differences_at_floating_point_level_are_ties(
 
 def test_the_comparison_figure_names_its_units(two_runs: tuple[Path, Path]) -> None:
     """Before: every axis said "session units" where the runs' units are known."""
-    from analysis.comparison import plot_comparison
+    from analysis.gate.comparison import plot_comparison
 
     mean_run, median_run = two_runs
     fig = plot_comparison(compare_runs(mean_run, median_run))

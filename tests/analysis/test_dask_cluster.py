@@ -13,11 +13,11 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from analysis.batch import run
+from analysis.batch.runner import run
 from analysis.results import AnalysisOptions
-from recorder.simulate import simulate_session
+from recorder.simulate.one_camera import simulate_session
 from tests.helpers import DaskCluster
-from twopose.methods import Method
+from twopose.methods.specs import Method
 
 # Slow (a real browser, a cluster, or fits over many sessions): make test-all and CI run it.
 pytestmark = pytest.mark.slow
@@ -112,9 +112,9 @@ def test_a_session_and_its_continuation_are_one_session_on_the_cluster(
     cluster: DaskCluster, tmp_path: Path
 ) -> None:
     """Issue 36: the Dask path joins a continuation to its first part, as one job does."""
-    from recorder.continuation import read_continued
-    from recorder.plan import load_plan, record_plan
-    from recorder.sources import SyntheticSource
+    from recorder.setup.continuation import read_continued
+    from recorder.setup.plan import load_plan, record_plan
+    from recorder.sources.registry import SyntheticSource
     from tests.recorder.test_continuation import _plan
 
     first, later = tmp_path / "S.mcap", tmp_path / "S2.mcap"

@@ -15,11 +15,11 @@ from pathlib import Path
 
 import pytest
 
-import analysis.batch
-from analysis.drawer import FigureDrawer, draw_session_figures
-from analysis.figure_cache import FigureJob
-from analysis.pipeline import analyse_session
+import analysis.batch.runner
+from analysis.report.figures.cache import FigureJob
+from analysis.report.figures.drawer import FigureDrawer, draw_session_figures
 from analysis.results import AnalysisOptions, SessionResult
+from analysis.session.pipeline import analyse_session
 from tests.helpers import distinct_copies, read_line_when_printed
 
 REPO = Path(__file__).resolve().parents[2]
@@ -45,9 +45,9 @@ def test_a_batch_writes_the_same_files_with_figures_drawn_beside_or_in_line(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     sessions = [ground_session, point_session, line_session]
-    beside = analysis.batch.run(sessions, tmp_path / "beside", options=FIGURES)
+    beside = analysis.batch.runner.run(sessions, tmp_path / "beside", options=FIGURES)
     monkeypatch.setattr(FigureDrawer, "started", staticmethod(_in_line))
-    in_line = analysis.batch.run(sessions, tmp_path / "in_line", options=FIGURES)
+    in_line = analysis.batch.runner.run(sessions, tmp_path / "in_line", options=FIGURES)
     assert not beside.failed
     assert not in_line.failed
     assert [s.images for s in beside.sessions] == [s.images for s in in_line.sessions]
@@ -109,9 +109,11 @@ def test_a_figure_that_fails_is_said_and_shown_and_the_numbers_stay(
     def broken(*args: object, **kwargs: object) -> dict[str, object]:
         raise TypeError("a bug in a figure")
 
-    monkeypatch.setattr("analysis.figures.session_figures", broken)
+    monkeypatch.setattr("analysis.report.figures.draw.session_figures", broken)
     monkeypatch.setattr(FigureDrawer, "started", staticmethod(_in_line))
-    result = analysis.batch.run([ground_session, point_session], tmp_path / "out", options=FIGURES)
+    result = analysis.batch.runner.run(
+        [ground_session, point_session], tmp_path / "out", options=FIGURES
+    )
     assert not result.failed
     assert len(result.trials) > 0
     assert len(result.summary) > 0
@@ -151,7 +153,9 @@ def _wait_for(condition: object, seconds: float) -> bool:
 
 @pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc").is_dir(), reason="reads /proc")
-@pytest.mark.parametrize(("jobs", "helper"), [(1, "analysis.drawer"), (2, "spawn_main")])
+@pytest.mark.parametrize(
+    ("jobs", "helper"), [(1, "analysis.report.figures.drawer"), (2, "spawn_main")]
+)
 def test_ctrl_c_in_a_batch_exits_130_promptly_and_leaves_no_process(
     jobs: int, helper: str, tmp_path: Path, ground_session: Path
 ) -> None:
@@ -196,7 +200,7 @@ def test_ctrl_c_in_a_batch_exits_130_promptly_and_leaves_no_process(
 @pytest.mark.skipif(not Path("/proc").is_dir(), reason="reads /proc")
 def test_the_drawer_ends_with_its_parent_killed() -> None:
     code = (
-        "import time\nfrom analysis.drawer import FigureDrawer\n"
+        "import time\nfrom analysis.report.figures.drawer import FigureDrawer\n"
         "d = FigureDrawer()\nprint(d._child.pid, flush=True)\ntime.sleep(60)\n"
     )
     env = {**os.environ, "PYTHONPATH": str(REPO)}

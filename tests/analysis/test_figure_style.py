@@ -1,4 +1,4 @@
-"""analysis.figure_style directly: one unit per figure (the sessions' own, or every length
+"""analysis.report.figures.style directly: one unit per figure (the sessions' own, or every length
 in inches when they differ), a colour per trial (distinct steps up to 20), one per method."""
 
 from __future__ import annotations
@@ -6,8 +6,8 @@ from __future__ import annotations
 import pandas as pd
 import pytest
 
-from analysis.figure_style import TrialColours, common_units, method_colour
-from twopose.methods import MEASURING_METHODS, spec_of
+from analysis.report.figures.style import TrialColours, common_units, method_colour
+from twopose.methods.specs import MEASURING_METHODS, spec_of
 
 
 def test_one_unit_per_figure() -> None:

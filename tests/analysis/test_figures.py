@@ -12,12 +12,16 @@ import pytest
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
-from analysis.answer import answer_table
-from analysis.captions import largest_errors, run_captions
-from analysis.figures import plot_error_by_trial, plot_error_histogram, plot_error_vs_baseline
-from analysis.metrics import by_session_set, session_set, used_trials, warned
-from analysis.pipeline import analyse_session
-from analysis.topview_figure import top_views
+from analysis.report.answer import answer_table
+from analysis.report.captions import largest_errors, run_captions
+from analysis.report.figures.draw import (
+    plot_error_by_trial,
+    plot_error_histogram,
+    plot_error_vs_baseline,
+)
+from analysis.report.figures.topview import top_views
+from analysis.session.metrics import by_session_set, session_set, used_trials, warned
+from analysis.session.pipeline import analyse_session
 
 
 def _run_trials() -> pd.DataFrame:

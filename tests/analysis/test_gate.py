@@ -12,8 +12,8 @@ import pytest
 from typer.testing import CliRunner
 
 from analysis.cli import app
-from analysis.gate import Tolerance, check, load_tolerance
-from analysis.run_tables import session_keys
+from analysis.gate.baseline import Tolerance, check, load_tolerance
+from analysis.tables.read_back import session_keys
 from twopose.errors import InputValueError
 
 runner = CliRunner()
@@ -366,8 +366,8 @@ def test_a_trial_swapped_for_another_is_seen_by_the_trials(
 
 def _in_metres(folder: Path) -> None:
     """A run's summary.csv as the same run in metres would write it."""
-    from analysis.columns import SUMMARY_DOMAINS
-    from twopose.units import unit_factor
+    from analysis.tables.columns import SUMMARY_DOMAINS
+    from twopose.values.units import unit_factor
 
     summary = pd.read_csv(folder / "summary.csv")
     for column, domain in SUMMARY_DOMAINS.items():

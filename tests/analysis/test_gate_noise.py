@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from analysis.gate import check, check_lines
+from analysis.gate.baseline import check, check_lines
 
 RIG_SHA = "ab" * 32
 

@@ -1,4 +1,4 @@
-"""analysis.html_page directly: tables escape what they show, align numbers right and words
+"""analysis.report.html directly: tables escape what they show, align numbers right and words
 left, and never widen the page; figures keep their drawn width, alt text and caption."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import pandas as pd
 from PIL import Image as Pil
 from PIL.PngImagePlugin import PngInfo
 
-from analysis.html_page import MIN_FIGURE_SCALE, figure_html, image, page_html, table_html
+from analysis.report.html import MIN_FIGURE_SCALE, figure_html, image, page_html, table_html
 
 
 def test_a_table_escapes_aligns_and_scrolls_in_its_own_box() -> None:

@@ -1,4 +1,4 @@
-"""analysis.input_set: a batch's inputs resolved once. Copies are counted once, board
+"""analysis.batch.inputs: a batch's inputs resolved once. Copies are counted once, board
 sessions are left to `rig` (not failed), empty sessions are said, results files skipped;
 `run`'s tables do not depend on copies or order, and its terminal never pools two units."""
 
@@ -16,15 +16,15 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from typer.testing import CliRunner
 
-from analysis.batch import run
+from analysis.batch.inputs import resolve_inputs
+from analysis.batch.runner import run
 from analysis.cli import app
-from analysis.input_set import resolve_inputs
-from recorder.simulate import simulate_session
-from twopose.camera import Camera, Intrinsics
+from recorder.simulate.one_camera import simulate_session
+from twopose.camera.model import Camera, Intrinsics
 from twopose.format.entries import SessionInfo
 from twopose.format.writer import SessionWriter
-from twopose.methods import Method
-from twopose.units import Units
+from twopose.methods.specs import Method
+from twopose.values.units import Units
 
 runner = CliRunner()
 
@@ -186,7 +186,7 @@ def test_each_command_finds_and_reads_its_inputs_once(
     """run (with and without --rig) and rig resolve their inputs once: the output checks,
     the rig file's check and the analysis take the one set (each resolution hashes every
     file: a second would read a batch twice)."""
-    import analysis.input_set as input_set
+    import analysis.batch.inputs as input_set
     from twopose.format.reader import find_sessions
 
     searches: list[tuple[str, ...]] = []

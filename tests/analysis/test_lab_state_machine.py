@@ -37,10 +37,10 @@ from hypothesis.stateful import (
 from typer.testing import CliRunner
 
 from analysis import run
+from analysis.batch.inputs import resolve_inputs
 from analysis.cli import app
-from analysis.gate import compare_summaries, load_tolerance
-from analysis.input_set import resolve_inputs
-from analysis.pipeline import replay_views
+from analysis.gate.baseline import compare_summaries, load_tolerance
+from analysis.session.pipeline import replay_views
 from recorder.recover import recover_session
 from tests.lab import continue_session, kill_midway, record
 from twopose.errors import TwoposeError

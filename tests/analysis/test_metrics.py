@@ -6,10 +6,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.columns import SUMMARY_COLUMNS
-from analysis.metrics import summarize
-from twopose.truth import line_errors
-from twopose.uncertainty import uncertainty_columns
+from analysis.session.metrics import summarize
+from analysis.tables.columns import SUMMARY_COLUMNS
+from twopose.methods.truth import line_errors
+from twopose.uncertainty.propagate import uncertainty_columns
 
 
 def test_line_errors_of_a_shifted_tilted_line() -> None:
@@ -105,7 +105,7 @@ def test_warned_trials_are_counted_and_left_out_unless_asked() -> None:
 def test_intervals_start_at_five_trials() -> None:
     """From :data:`MIN_INTERVAL_TRIALS` trials on, the 95% t-interval of each bias and the
     RMSE's bootstrap interval; from one fewer, none."""
-    from analysis.metrics import MIN_INTERVAL_TRIALS
+    from analysis.session.metrics import MIN_INTERVAL_TRIALS
 
     errors = [0.1, 0.3, 0.2, 0.6, 0.4]
     assert len(errors) == MIN_INTERVAL_TRIALS
@@ -123,7 +123,7 @@ def test_intervals_start_at_five_trials() -> None:
 def test_a_warning_column_read_back_empty_warns_of_nothing() -> None:
     """trials.csv read back with no warning at all has a float NaN column: no trial is
     warned, and pandas is not asked to fill floats with text (a warning, an error in 4)."""
-    from analysis.metrics import warned
+    from analysis.session.metrics import warned
 
     assert not warned(pd.DataFrame({"warning": [np.nan, np.nan]})).any()
     assert warned(pd.DataFrame({"warning": ["", "near-degenerate", None]})).tolist() == [

@@ -14,15 +14,15 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from analysis.batch import run
+from analysis.batch.cache import CACHE_FOLDER
+from analysis.batch.runner import run
 from analysis.cli import app
-from analysis.session_cache import CACHE_FOLDER
-from analysis.terminal import summary_lines
-from recorder.simulate import simulate_session
+from analysis.report.terminal import summary_lines
+from recorder.simulate.one_camera import simulate_session
 from tests.conftest import built_once
 from tests.helpers import SMALL_SCENE, distinct_copies, rewrite_session
 from twopose.format.entries import PoseEntry
-from twopose.methods import Method
+from twopose.methods.specs import Method
 from twopose.sim.scene import load_scene
 
 runner = CliRunner()

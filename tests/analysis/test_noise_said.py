@@ -9,13 +9,13 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from analysis.answer import noise_phrases
-from analysis.batch import run
-from analysis.report import _noise_section, summary_document
+from analysis.batch.runner import run
+from analysis.report.answer import noise_phrases
+from analysis.report.terminal import summary_lines
+from analysis.report.writer import _noise_section, summary_document
 from analysis.results import AnalysisOptions
-from analysis.terminal import summary_lines
-from twopose.estimate import EstimateOptions
-from twopose.noise import NoiseModel, PlacingSigma
+from twopose.solve.estimate import EstimateOptions
+from twopose.uncertainty.noise import NoiseModel, PlacingSigma
 
 POINT = Path(__file__).resolve().parents[2] / "sessions" / "thesis_method1_point.mcap"
 

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from analysis import analyse_session
-from analysis.batch import run
-from analysis.comparison import compare_runs
-from twopose.methods import Method
+from analysis.batch.runner import run
+from analysis.gate.comparison import compare_runs
+from twopose.methods.specs import Method
 
 
 def test_two_views_report_the_thesis_line(line_session: Path) -> None:
@@ -27,7 +27,7 @@ def test_two_views_report_the_thesis_line(line_session: Path) -> None:
 
 @pytest.mark.slow
 def test_three_views_in_the_run_and_in_compare(tmp_path: Path) -> None:
-    from recorder.simulate import simulate_session
+    from recorder.simulate.one_camera import simulate_session
 
     session = tmp_path / "sessions" / "line3.mcap"
     session.parent.mkdir()

@@ -11,19 +11,19 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
-from analysis.batch import run
+from analysis.batch.cache import CACHE_FOLDER
+from analysis.batch.outputs import LOCK_NAME, MANIFEST_NAME
+from analysis.batch.runner import run
 from analysis.cli import app
-from analysis.outputs import LOCK_NAME, MANIFEST_NAME
-from analysis.session_cache import CACHE_FOLDER
-from recorder.capture import CaptureSettings
-from recorder.procedure import Procedure
-from recorder.sources import SyntheticSource
-from twopose.camera import Camera, Intrinsics
+from recorder.procedure.capture import CaptureSettings
+from recorder.procedure.loop import Procedure
+from recorder.sources.registry import SyntheticSource
+from twopose.camera.model import Camera, Intrinsics
 from twopose.errors import EXIT_ERROR
 from twopose.format.entries import GroundTruth, PoseEntry, SessionInfo
 from twopose.format.writer import SessionWriter
-from twopose.methods import Method
-from twopose.units import Units
+from twopose.methods.specs import Method
+from twopose.values.units import Units
 
 runner = CliRunner()
 
@@ -159,7 +159,7 @@ def test_a_symlink_in_out_is_replaced_never_written_through(
 def test_a_second_run_into_the_same_out_is_refused_while_one_writes(
     tmp_path: Path, point_session: Path
 ) -> None:
-    from analysis.outputs import OutputFolder
+    from analysis.batch.outputs import OutputFolder
 
     out = tmp_path / "out"
     with OutputFolder.prepare(out):  # a run in progress holds the folder

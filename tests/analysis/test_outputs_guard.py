@@ -17,8 +17,8 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
+from analysis.batch.outputs import write_atomically
 from analysis.cli import app
-from analysis.outputs import write_atomically
 from twopose.errors import EXIT_ERROR, InputValueError
 
 runner = CliRunner()
@@ -230,7 +230,7 @@ def test_a_folder_where_a_file_is_wanted_is_refused(
 def test_one_atomic_writer_renames_files_into_place() -> None:
     """No module but twopose/atomic_write.py renames a temporary file into place: every
     other writer, the analyst's and the operator's, goes through
-    :func:`twopose.atomic_write.replacing`. The run's transaction (analysis/outputs.py)
+    :func:`twopose.atomic_write.replacing`. The run's transaction (analysis/batch/outputs.py)
     alone moves its staged, already synced files into --out."""
     pattern = re.compile(r"\bos\.(replace|rename)\(|\.rename\(|\.replace\(\s*(tmp|partial)")
     offenders = [
@@ -239,7 +239,7 @@ def test_one_atomic_writer_renames_files_into_place() -> None:
         for path in (REPO / folder).rglob("*.py")
         if pattern.search(path.read_text(encoding="utf-8"))
     ]
-    assert sorted(offenders) == ["analysis/outputs.py", "twopose/atomic_write.py"], (
+    assert sorted(offenders) == ["analysis/batch/outputs.py", "twopose/atomic_write.py"], (
         "write through twopose.atomic_write.replacing (synced, renamed, folder synced), not a "
         "rename of your own"
     )
@@ -270,7 +270,7 @@ def test_the_writer_syncs_the_file_before_and_the_folder_after_the_rename(
 
 
 def test_the_writer_leaves_no_partial_file_and_the_old_file_on_failure(tmp_path: Path) -> None:
-    from analysis.outputs import replacing
+    from analysis.batch.outputs import replacing
 
     target = tmp_path / "out.csv"
     target.write_text("old")

@@ -9,12 +9,12 @@ from typing import Any
 import pandas as pd
 import pytest
 
-import analysis.detection_pass
-import analysis.pipeline
-import twopose.session_estimate
-from analysis.pipeline import analyse_session
+import analysis.session.detection
+import analysis.session.pipeline
+import twopose.solve.session
 from analysis.results import AnalysisOptions
-from twopose.session_estimate import SessionEstimate
+from analysis.session.pipeline import analyse_session
+from twopose.solve.session import SessionEstimate
 
 
 @pytest.mark.parametrize("fixture", ["ground_session", "point_session", "line_session"])
@@ -24,7 +24,7 @@ def test_detection_threads_change_nothing(
     session: Path = request.getfixturevalue(fixture)
     runs = {}
     for threads in (0, 3):
-        monkeypatch.setattr(analysis.detection_pass, "detection_threads", lambda n=threads: n)
+        monkeypatch.setattr(analysis.session.detection, "detection_threads", lambda n=threads: n)
         out = tmp_path / f"results_{threads}.mcap"
         runs[threads] = (analyse_session(session, results_path=out), out.read_bytes())
     (serial, serial_mcap), (threaded, threaded_mcap) = runs[0], runs[3]
@@ -42,7 +42,7 @@ def test_threads_only_where_the_cores_are_this_process_own(
     threads = cv2.getNumThreads()
     try:
         cv2.setNumThreads(1)
-        assert analysis.detection_pass.detection_threads() == 0
+        assert analysis.session.detection.detection_threads() == 0
     finally:
         cv2.setNumThreads(threads)
 
@@ -60,10 +60,10 @@ def test_no_threads_on_a_process_given_one_core(monkeypatch: pytest.MonkeyPatch)
     try:
         cv2.setNumThreads(2)
         monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1})
-        threads = analysis.detection_pass.detection_threads()
-        assert threads == analysis.detection_pass.DETECTION_THREADS
+        threads = analysis.session.detection.detection_threads()
+        assert threads == analysis.session.detection.DETECTION_THREADS
         monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0})
-        assert analysis.detection_pass.detection_threads() == 0
+        assert analysis.session.detection.detection_threads() == 0
     finally:
         cv2.setNumThreads(threads)
 
@@ -82,7 +82,7 @@ def test_an_undecodable_frame_is_a_rejected_frame_with_threads(
         return real(self, size)
 
     monkeypatch.setattr(Frame, "decode", flaky)
-    monkeypatch.setattr(analysis.detection_pass, "detection_threads", lambda: 2)
+    monkeypatch.setattr(analysis.session.detection, "detection_threads", lambda: 2)
     frames = analyse_session(ground_session).frames
     broken = frames[frames["reason"].str.endswith("broken")]
     assert len(broken) > 0
@@ -94,15 +94,15 @@ def test_leave_one_out_reuses_the_sessions_one_estimate(
 ) -> None:
     """``--rig-calibration loo`` takes the session's estimate (its units included): the
     session is estimated once, not again for the rig."""
-    import analysis.pipeline
     import analysis.rig.data
     import analysis.rig.fit
+    import analysis.session.pipeline
 
     units: list[str] = []
     estimated: list[int] = []
     real_loo, real_estimate = (
         analysis.rig.fit.loo_calibration,
-        twopose.session_estimate.estimate_session,
+        twopose.solve.session.estimate_session,
     )
 
     def loo_spy(session: str, estimate: SessionEstimate, *args: Any) -> Any:
@@ -114,7 +114,7 @@ def test_leave_one_out_reuses_the_sessions_one_estimate(
         return real_estimate(*args)
 
     monkeypatch.setattr(analysis.rig.fit, "loo_calibration", loo_spy)
-    monkeypatch.setattr(analysis.pipeline, "estimate_session", estimate_spy)
+    monkeypatch.setattr(analysis.session.pipeline, "estimate_session", estimate_spy)
     monkeypatch.setattr(analysis.rig.data, "estimate_session", estimate_spy)
     result = analyse_session(ground_session, AnalysisOptions(rig_calibration="loo"))
     assert units == ["in"]  # the simulated session's units

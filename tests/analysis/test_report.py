@@ -10,7 +10,7 @@ import pandas as pd
 from matplotlib.collections import LineCollection, PolyCollection
 from matplotlib.figure import Figure
 
-from analysis.figures import (
+from analysis.report.figures.draw import (
     MAX_LEGEND,
     error_ellipses,
     figure_key,
@@ -19,9 +19,9 @@ from analysis.figures import (
     png_bytes,
     session_figures,
 )
-from analysis.report import ANSWER_COLUMNS, answer_table, dominant_inputs
-from analysis.thesis import thesis_verdict
-from twopose.uncertainty import CHI2_95
+from analysis.report.thesis import thesis_verdict
+from analysis.report.writer import ANSWER_COLUMNS, answer_table, dominant_inputs
+from twopose.uncertainty.propagate import CHI2_95
 
 
 def _trials() -> pd.DataFrame:
@@ -81,7 +81,7 @@ def test_dominant_inputs_count_ok_trials_per_session() -> None:
 def test_the_report_answers_first_and_keeps_wide_tables_in_their_box(
     tmp_path: Path, point_session: Path
 ) -> None:
-    from analysis.batch import run
+    from analysis.batch.runner import run
 
     out = tmp_path / "out"
     run([point_session], out, scene=False)
@@ -215,7 +215,7 @@ def test_figures_cost_the_same_whatever_the_trial_count() -> None:
 
 
 def test_every_run_figure_has_a_title(tmp_path: Path, point_session: Path) -> None:
-    from analysis.batch import run
+    from analysis.batch.runner import run
 
     result = run([point_session], None, scene=False)
     assert len(make_figures(result)) >= 5
@@ -266,7 +266,7 @@ def test_answer_table_pools_per_method_and_units() -> None:
 def test_rig_before_after_uses_the_trials_the_summary_uses() -> None:
     """A warned trial (the tool doubts it) is left out of the rig's before/after, as of
     the summary, unless include_warned; a failed trial never counts."""
-    from analysis.report import rig_before_after
+    from analysis.report.writer import rig_before_after
 
     trials = pd.DataFrame(
         {
@@ -296,8 +296,8 @@ def test_the_console_answers_per_session_set_and_ends_with_verdicts_and_the_repo
 ) -> None:
     """Sessions of two sets: the thesis' first, each set's rows under its name, then one
     verdict line per set and method, then where report.html is."""
-    from analysis.metrics import summarize
-    from analysis.terminal import closing_lines, summary_lines
+    from analysis.report.terminal import closing_lines, summary_lines
+    from analysis.session.metrics import summarize
 
     trials = pd.concat(
         [

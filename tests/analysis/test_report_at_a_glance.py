@@ -18,15 +18,15 @@ from matplotlib.colors import to_rgba
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
-from analysis.batch import run
-from analysis.columns import TRIAL_TABLE_COLUMNS
-from analysis.figure_cache import FigureCache, FigureJob
-from analysis.figures import plot_error_histogram, session_figures
-from analysis.metrics import used_trials, warned
-from analysis.pipeline import analyse_session
+from analysis.batch.cache import SessionCache
+from analysis.batch.runner import run
+from analysis.report.figures.cache import FigureCache, FigureJob
+from analysis.report.figures.draw import plot_error_histogram, session_figures
 from analysis.results import AnalysisOptions
-from analysis.session_cache import SessionCache
-from twopose.units import Units
+from analysis.session.metrics import used_trials, warned
+from analysis.session.pipeline import analyse_session
+from analysis.tables.columns import TRIAL_TABLE_COLUMNS
+from twopose.values.units import Units
 
 SESSIONS = Path(__file__).resolve().parents[2] / "sessions"
 

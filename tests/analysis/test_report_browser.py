@@ -109,7 +109,7 @@ def test_a_phone_sees_the_answers_numbers_on_its_first_screen_whatever_failed(
 ) -> None:
     """Issue 47: with a failed input, at 390 px, the first answer table's rows and its
     verdict are within the first screen (how to read them comes after)."""
-    from analysis.batch import run
+    from analysis.batch.runner import run
 
     folder = tmp_path / "sessions"
     folder.mkdir()
@@ -245,7 +245,7 @@ def test_the_docs_show_the_reports_answer_and_a_figure_as_a_laptop_sees_them(
 def forked_report(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The report of a lab's forked session (:mod:`tests.lab`'s drawn sessions): ``a``
     (5 trials) continued after trial 5 by ``a2`` (branch A, 1 trial) and ``a3`` (B, 2)."""
-    from analysis.batch import run
+    from analysis.batch.runner import run
     from tests.lab import continue_session, record
 
     folder = tmp_path_factory.mktemp("forked")

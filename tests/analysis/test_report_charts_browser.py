@@ -1,4 +1,4 @@
-"""report.html's charts in a real headless Chromium (:mod:`analysis.charts`, drawn by the
+"""report.html's charts in a real headless Chromium (:mod:`analysis.report.charts`, drawn by the
 Vega-Lite scripts the package carries): every chart has data and names its units; hovering
 a point names its session, trial and error; clicking a trial picks it out in every chart of
 its session; the page asks nothing of the network and draws its charts with the network

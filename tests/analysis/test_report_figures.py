@@ -12,10 +12,10 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
-from analysis.batch import run
-from analysis.charts import session_chart
+from analysis.batch.runner import run
 from analysis.cli import app
-from analysis.html_page import CHART_SCRIPTS
+from analysis.report.charts import session_chart
+from analysis.report.html import CHART_SCRIPTS
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -85,7 +85,7 @@ def test_a_sessions_chart_frames_by_the_used_trials_and_draws_an_outlier_at_the_
 ) -> None:
     """Honesty: a warned trial far away never sets the axes; it is drawn at the frame's
     edge and its tooltip keeps its real error."""
-    from analysis.pipeline import analyse_session
+    from analysis.session.pipeline import analyse_session
 
     s = analyse_session(point_session)
     trials = s.trials.copy()
@@ -110,7 +110,7 @@ def test_the_answer_comes_before_the_list_of_failed_inputs_which_one_line_counts
 ) -> None:
     import dataclasses
 
-    from analysis.report import _report_html
+    from analysis.report.writer import _report_html
 
     result = run([point_session])
     failed = pd.DataFrame([{"session": "bad.mcap", "error": "bad.mcap: not a session"}])
@@ -149,7 +149,7 @@ def test_a_run_that_draws_no_figure_never_imports_matplotlib(tmp_path: Path) -> 
 def test_the_method_colours_are_matplotlibs_without_matplotlib() -> None:
     from matplotlib.colors import to_hex
 
-    from analysis.charts import hex_colour
+    from analysis.report.charts import hex_colour
 
     assert [hex_colour(f"C{i}") for i in range(10)] == [to_hex(f"C{i}") for i in range(10)]
 
@@ -158,7 +158,7 @@ def test_the_method_colours_are_matplotlibs_without_matplotlib() -> None:
 def test_the_histogram_has_a_panel_per_session_set_as_the_static_figure() -> None:
     """With thesis_ and stress_ sessions the browser's histogram is one panel per set (its
     rows), as the static figure's; with one set, one panel."""
-    from analysis.run_charts import overview_charts
+    from analysis.report.run_charts import overview_charts
 
     names = ("thesis_line.mcap", "stress_line.mcap")
     result = run([str(REPO / "sessions" / n) for n in names], None)

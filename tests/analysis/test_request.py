@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from analysis.request import solve_request
-from twopose.camera import Intrinsics, project_points, rotation_from_angles_deg
+from analysis.tools.solve_request import solve_request
+from twopose.camera.model import Intrinsics, project_points, rotation_from_angles_deg
 from twopose.errors import InputValueError
-from twopose.methods import Method
+from twopose.methods.specs import Method
 
 INTR = Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0)
 POSES = [((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)), ((1.1, 0.0, 0.0), (0.0, 5.0, 0.0))]

@@ -6,7 +6,7 @@ a run with any other settings writes exactly the bytes a run with ``--no-reuse``
 Hypothesis draws both runs' settings over the whole space (a few examples: each is three
 runs of two tiny sessions); a setting the cache did not key on shows as a stale table. The
 static figures (``--figures``) are left out: they cost a second a run, and are reused by
-the digest of what they show (analysis.figure_cache, tests/analysis/test_drawer.py).
+the digest of what they show (analysis.report.figures.cache, tests/analysis/test_drawer.py).
 """
 
 from __future__ import annotations
@@ -20,11 +20,11 @@ from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from typer.testing import CliRunner
 
+from analysis.batch.cache import CACHE_FOLDER
 from analysis.cli import app
-from analysis.session_cache import CACHE_FOLDER
 from tests.analysis.test_session_cache import PLACING
-from twopose.choices import CombineRule
-from twopose.environment import ENVIRONMENT
+from twopose.values.choices import CombineRule
+from twopose.values.environment import ENVIRONMENT
 
 runner = CliRunner()
 #: Where a rig file may lie: the tree's root, a session's folder, a folder between.

@@ -12,8 +12,8 @@ import pytest
 from mcap.reader import make_reader
 from mcap_protobuf.decoder import DecoderFactory
 
-from analysis.batch import results_mcap_name, run
-from analysis.results_mcap import SCENE_TOPIC, annotations_topic
+from analysis.batch.runner import results_mcap_name, run
+from analysis.session.results_mcap import SCENE_TOPIC, annotations_topic
 from twopose.format.messages import image_topic
 
 

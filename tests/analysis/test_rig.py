@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 from analysis.cli import app
-from analysis.pipeline import analyse_session
 from analysis.rig.fit import fit_constants, residuals, select_constants
-from recorder.simulate import simulate_session
-from twopose.methods import Method
+from analysis.session.pipeline import analyse_session
+from recorder.simulate.one_camera import simulate_session
+from twopose.methods.specs import Method
 from twopose.rig.constants import RigConstants
 from twopose.sim.scene import Scene
 

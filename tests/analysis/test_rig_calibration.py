@@ -12,11 +12,11 @@ import numpy as np
 import pytest
 
 from analysis.cli import app
-from recorder.simulate import simulate_session
+from recorder.simulate.one_camera import simulate_session
 from tests.analysis.rig_helpers import empty_session, rig_file, runner
-from twopose.methods import Method
+from twopose.methods.specs import Method
 from twopose.sim.scene import Scene
-from twopose.units import Units
+from twopose.values.units import Units
 
 pytestmark = pytest.mark.slow
 

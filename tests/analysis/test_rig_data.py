@@ -8,10 +8,10 @@ from pathlib import Path
 
 import pytest
 
-from analysis.pipeline import analyse_session
 from analysis.rig.fit import fit_constants
-from recorder.simulate import simulate_session
-from twopose.methods import Method
+from analysis.session.pipeline import analyse_session
+from recorder.simulate.one_camera import simulate_session
+from twopose.methods.specs import Method
 from twopose.sim.scene import Scene
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "sessions"))

@@ -12,14 +12,14 @@ import pandas as pd
 import pytest
 
 from analysis.cli import app
-from analysis.pipeline import analyse_session
 from analysis.rig.fit import RigFit, rig_toml
-from recorder.simulate import simulate_session
+from analysis.session.pipeline import analyse_session
+from recorder.simulate.one_camera import simulate_session
 from tests.analysis.rig_helpers import runner
-from twopose.methods import Method
-from twopose.noise import PlacingSigma
+from twopose.methods.specs import Method
 from twopose.rig.constants import RigConstants
 from twopose.rig.file import load_rig_file
+from twopose.uncertainty.noise import PlacingSigma
 
 #: A placing sigma four times the simulated session's typed 0.05 in.
 PLACING = '[rig]\nunits = "in"\n\n[placing]\nsigma = 0.2\nmeasured_by = "board.mcap"\n'

@@ -19,15 +19,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import analysis
+from analysis.batch.inputs import resolve_inputs
+from analysis.batch.noise_pass import by_rig_file, operator_priors_of
 from analysis.cli import app
-from analysis.input_set import resolve_inputs
-from analysis.noise_pass import by_rig_file, operator_priors_of
 from analysis.results import AnalysisOptions
 from analysis.rig.scope import RIG_BESIDE, RigScope, RigUse, nearest_rig, rig_scope
 from tests.analysis.rig_helpers import runner
 from tests.lab import CAMERA, continue_session, record
 from twopose.errors import InputValueError
-from twopose.placing_variance import SessionNoise, operator_priors
+from twopose.uncertainty.placing_variance import SessionNoise, operator_priors
 
 #: A rig for the lab's camera (64x48, f 52.5), in inches, with a placing sigma.
 RIG = (

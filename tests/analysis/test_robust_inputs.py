@@ -9,16 +9,16 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.batch import run
+from analysis.batch.runner import run
 from analysis.results import AnalysisOptions
-from recorder.plan import load_plan, record_plan
-from recorder.sources import SyntheticSource
+from recorder.setup.plan import load_plan, record_plan
+from recorder.sources.registry import SyntheticSource
 from tests.helpers import write_accepted_capture
-from twopose.camera import Camera, Intrinsics
+from twopose.camera.model import Camera, Intrinsics
 from twopose.format.entries import GroundTruth, PoseEntry, SessionInfo
 from twopose.format.writer import SessionWriter
-from twopose.methods import Method
-from twopose.units import Units
+from twopose.methods.specs import Method
+from twopose.values.units import Units
 
 TWO_TRIALS = "poses = [{ t = [0.0, 0.0, 0.0] }, { t = [1.1, 0.0, 0.0] }]\n"
 
@@ -105,7 +105,7 @@ def test_one_bad_frame_is_one_rejected_frame(tmp_path: Path, bad: str) -> None:
     analysed, and no memory is spent on it."""
     import cv2
 
-    from analysis.pipeline import analyse_session
+    from analysis.session.pipeline import analyse_session
     from tests.helpers import jpeg_declaring
 
     frame = {
@@ -146,7 +146,7 @@ def test_one_bad_frame_is_one_rejected_frame(tmp_path: Path, bad: str) -> None:
 def test_poses_typed_identical_are_degenerate_not_ok(tmp_path: Path, method: str) -> None:
     """Every pose of a trial typed at one place: no method may report ok (ground and line
     trials were ok with 15-20 in of error)."""
-    from analysis.pipeline import analyse_session
+    from analysis.session.pipeline import analyse_session
 
     truth = {"point": "[[0.5, 1.5, 11.0]]", "line": "[[0, 9.625, 8], [2, 9.625, 9]]"}
     truth["ground"] = "[[1.91, 9.625, 8.375]]"

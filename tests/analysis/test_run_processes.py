@@ -22,7 +22,7 @@ from pathlib import Path
 import psutil
 import pytest
 
-from analysis.parent_watch import EXIT_PARENT_GONE
+from analysis.batch.parent_watch import EXIT_PARENT_GONE
 from tests.helpers import distinct_copies
 from twopose.errors import EXIT_CLOSED_PIPE
 
@@ -99,7 +99,7 @@ def _descendants(proc: subprocess.Popen[bytes]) -> list[psutil.Process]:
 
 def _started(proc: subprocess.Popen[bytes], helper: str = "spawn_main") -> bool:
     """Wait for the run's helper process: a spawned worker (its command line names
-    ``spawn_main``), the figure drawer (``analysis.drawer``)."""
+    ``spawn_main``), the figure drawer (``analysis.report.figures.drawer``)."""
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline and proc.poll() is None:
         for child in _descendants(proc):
@@ -138,7 +138,7 @@ KILL_MOMENTS = [
     (2, "", round(_RNG.uniform(0.2, 0.5), 2)),
     (2, "spawn_main", round(_RNG.uniform(0.0, 0.6), 2)),
     (2, "spawn_main", round(_RNG.uniform(1.5, 3.0), 2)),
-    (1, "analysis.drawer", round(_RNG.uniform(1.5, 3.0), 2)),
+    (1, "analysis.report.figures.drawer", round(_RNG.uniform(1.5, 3.0), 2)),
 ]
 
 
@@ -149,7 +149,7 @@ def test_kill_9_of_a_run_leaves_no_process(
     """And its stdout, a pipe, reaches its end: ``run ... | tee log`` returns."""
     err = tmp_path / "stderr"
     # The figure drawer runs only when static figures are asked for (issue 47).
-    extra = ("--figures", "png") if helper == "analysis.drawer" else ()
+    extra = ("--figures", "png") if helper == "analysis.report.figures.drawer" else ()
     proc = _start(sessions, tmp_path / "out", err, jobs=jobs, stdout=subprocess.PIPE, extra=extra)
     try:
         if helper:
@@ -234,9 +234,9 @@ def test_a_ctrl_c_ends_the_session_a_worker_has_in_hand(tmp_path: Path) -> None:
     ends both at once (the worker's by the Ctrl-C passed on to it), not after 5 s."""
     import threading
 
-    from analysis.batch import _Batch
+    from analysis.batch.runner import _Batch
+    from analysis.batch.workers import run_processes
     from analysis.results import AnalysisOptions
-    from analysis.workers import run_processes
 
     fifos = [tmp_path / f"never{k}.mcap" for k in range(2)]
     for fifo in fifos:
@@ -274,13 +274,13 @@ def test_a_ctrl_c_ends_the_session_a_worker_has_in_hand(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("pidfd", [True, False], ids=["pidfd", "polled"])
 def test_a_watched_child_ends_with_its_parent_killed(tmp_path: Path, pidfd: bool) -> None:
-    """:func:`analysis.parent_watch.watch_parent` alone, by a pidfd and where there is none
+    """:func:`analysis.batch.parent_watch.watch_parent` alone, by a pidfd and where there is none
     (``os.getppid()`` polled): the child of a killed parent is gone within a second."""
     child = (
         "import os, sys, time\n"
         + ("" if pidfd else "del os.pidfd_open\n")
         + (
-            "from analysis.parent_watch import watch_parent\n"
+            "from analysis.batch.parent_watch import watch_parent\n"
             "watch_parent(int(sys.argv[1]))\n"
             "print('watching', flush=True)\n"
             "time.sleep(60)\n"
@@ -314,7 +314,7 @@ def test_a_watched_child_ends_with_its_parent_killed(tmp_path: Path, pidfd: bool
 
 def test_a_child_whose_parent_is_already_gone_ends_at_once() -> None:
     code = (
-        "import time\nfrom analysis.parent_watch import watch_parent\n"
+        "import time\nfrom analysis.batch.parent_watch import watch_parent\n"
         "watch_parent(1)\ntime.sleep(60)\n"  # pid 1 is not its parent: gone, as far as it knows
     )
     done = subprocess.run(

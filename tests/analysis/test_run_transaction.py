@@ -1,4 +1,4 @@
-"""A run is one transaction (analysis.outputs.OutputFolder): a re-run into an existing
+"""A run is one transaction (analysis.batch.outputs.OutputFolder): a re-run into an existing
 results folder that is interrupted (Ctrl-C, SIGTERM, kill -9, an error) leaves the
 previous results byte for byte, no lock file and no stray file; a commit a kill cut short
 is finished by the next run; an output folder inside the sessions folder stays ours."""
@@ -17,9 +17,9 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
+from analysis.batch.cache import CACHE_FOLDER
+from analysis.batch.outputs import LOCK_NAME, MANIFEST_NAME, STAGING_NAME, OutputFolder
 from analysis.cli import app
-from analysis.outputs import LOCK_NAME, MANIFEST_NAME, STAGING_NAME, OutputFolder
-from analysis.session_cache import CACHE_FOLDER
 from tests.helpers import distinct_copies
 
 runner = CliRunner()

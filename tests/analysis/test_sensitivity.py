@@ -10,7 +10,12 @@ import pytest
 from typer.testing import CliRunner
 
 from analysis.cli import app
-from analysis.sensitivity import SENSITIVITY_COLUMNS, Geometry, sensitivity, x_translation_effect
+from analysis.tools.sensitivity import (
+    SENSITIVITY_COLUMNS,
+    Geometry,
+    sensitivity,
+    x_translation_effect,
+)
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,4 @@
-"""A re-run into the same --out reuses each session's analysis (analysis.session_cache),
+"""A re-run into the same --out reuses each session's analysis (analysis.batch.cache),
 and never a stale one: a change to a session's bytes, its identity, an option, the rig file
 or the code's version makes it be analysed again."""
 
@@ -14,20 +14,20 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
-import analysis.session_cache as session_cache
-from analysis.batch import run
+import analysis.batch.cache as session_cache
+from analysis.batch.cache import CACHE_FOLDER, SessionCache, options_digest
+from analysis.batch.inputs import SessionIdentity, resolve_inputs
+from analysis.batch.runner import run
 from analysis.cli import app
-from analysis.input_set import SessionIdentity, resolve_inputs
-from analysis.pipeline import analyse_session
 from analysis.results import AnalysisOptions, SessionResult, shapes_session_tables
 from analysis.rig.calibrate import with_rig
-from analysis.session_cache import CACHE_FOLDER, SessionCache, options_digest
+from analysis.session.pipeline import analyse_session
 from tests.helpers import distinct_copies
 from tests.lab import continue_session
-from twopose.detect import GloveParams
-from twopose.estimate import EstimateOptions
-from twopose.noise import NoiseModel
+from twopose.detect.detection import GloveParams
 from twopose.rig.constants import RigConstants
+from twopose.solve.estimate import EstimateOptions
+from twopose.uncertainty.noise import NoiseModel
 
 runner = CliRunner()
 #: A rig file with a placing sigma (as tests/analysis/test_rig_placing.py's).
@@ -36,7 +36,7 @@ REUSED = "analysis: {n} of {m} session(s)' reused from the last run into"
 
 
 def _entries(out: Path) -> list[Path]:
-    """The sessions' analyses kept (not their first passes': analysis.noise_pass)."""
+    """The sessions' analyses kept (not their first passes': analysis.batch.noise_pass)."""
     kept = (out / CACHE_FOLDER / "sessions").glob("*.pickle")
     return sorted(p for p in kept if not p.name.endswith(".noise.pickle"))
 
@@ -306,10 +306,10 @@ def test_a_rerun_imports_no_estimation_library(tmp_path: Path) -> None:
 def test_every_environment_setting_a_result_depends_on_is_in_the_key(
     tmp_path: Path, point_session: Path, analysed: SessionResult, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """Issue 56: each setting of the one declared list (twopose.environment) that shapes a
+    """Issue 56: each setting of the one declared list (twopose.values.environment) that shapes a
     result, set, makes the session be analysed again; one that shapes none (the traceback
     switch) does not."""
-    from twopose.environment import ENVIRONMENT
+    from twopose.values.environment import ENVIRONMENT
 
     for setting in ENVIRONMENT:
         monkeypatch.delenv(setting.name, raising=False)

@@ -15,13 +15,13 @@ from typer.testing import CliRunner
 
 import analysis
 from analysis.cli import app
-from analysis.gate import check
+from analysis.gate.baseline import check
 from recorder.recover import recover_session
-from recorder.simulate import simulate_session
+from recorder.simulate.one_camera import simulate_session
 from tests.lab import continue_session, kill_midway, record
-from twopose.methods import Method
+from twopose.methods.specs import Method
 from twopose.sim.scene import Scene
-from twopose.units import Units
+from twopose.values.units import Units
 
 runner = CliRunner()
 
@@ -246,11 +246,11 @@ def legacy_lab(
     """A session file with no session or part id (a recorder before format 1.3, or
     `simulate` before issue 56), through the real simulator; its recovered copy; a copy of
     it cut short, and the cut copy recovered."""
-    import recorder.simulate
+    import recorder.simulate.one_camera
 
     lab = tmp_path_factory.mktemp("legacy")
     monkeypatch_module.setattr(
-        recorder.simulate, "simulated_ids", lambda *_a: (None, None), raising=False
+        recorder.simulate.one_camera, "simulated_ids", lambda *_a: (None, None), raising=False
     )
     simulate_session(lab / "sim.mcap", method=Method.POINT, trials=2, frames=1, seed=14)
     monkeypatch_module.undo()

@@ -8,13 +8,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from analysis.stream_replay import replay_pair_session
-from recorder.simulate_pair import PairTiming, simulate_pair_session
+from analysis.session.stream import replay_pair_session
+from recorder.simulate.pair import PairTiming, simulate_pair_session
 from tests.helpers import SMALL_SCENE
 from twopose.errors import InputValueError
 from twopose.format.reader import SessionReader
 from twopose.format.streams import read_pair_session
-from twopose.methods import Method
+from twopose.methods.specs import Method
 from twopose.pair.clock import ClockOffset
 from twopose.sim.scene import load_scene
 
@@ -62,7 +62,7 @@ def test_the_offset_is_measured_and_the_moving_dot_estimated_where_it_was(
 
 
 def test_a_one_camera_session_is_refused_in_words(tmp_path: Path) -> None:
-    from recorder.simulate import simulate_session
+    from recorder.simulate.one_camera import simulate_session
 
     path = tmp_path / "one.mcap"
     (tmp_path / "small.toml").write_text(SMALL_SCENE)
@@ -73,7 +73,7 @@ def test_a_one_camera_session_is_refused_in_words(tmp_path: Path) -> None:
 
 
 def test_run_takes_a_two_camera_session_as_a_measurement_session(moving_dot: Path) -> None:
-    from analysis.input_set import resolve_inputs
+    from analysis.batch.inputs import resolve_inputs
 
     inputs = resolve_inputs([moving_dot])
     assert inputs.empty == ()  # not an empty session: its stream trials are analysed

@@ -14,17 +14,17 @@ from typer.testing import CliRunner
 
 import analysis
 from analysis.cli import app
-from analysis.columns import SUMMARY_COLUMNS, TRIAL_TABLE_COLUMNS
-from analysis.trial_columns import violations
-from recorder.simulate import simulate_session
-from recorder.simulate_pair import PairTiming, simulate_pair_session
+from analysis.tables.columns import SUMMARY_COLUMNS, TRIAL_TABLE_COLUMNS
+from analysis.tables.trials import violations
+from recorder.simulate.one_camera import simulate_session
+from recorder.simulate.pair import PairTiming, simulate_pair_session
 from tests.helpers import SMALL_SCENE
 from twopose.format.entries import SessionInfo
 from twopose.format.writer import SessionWriter
-from twopose.methods import Method
+from twopose.methods.specs import Method
 from twopose.pair.motion import thesis_pair
 from twopose.sim.scene import load_scene
-from twopose.units import Units
+from twopose.values.units import Units
 
 #: The stream columns a one-camera row leaves empty.
 STREAM = ["touch", "clock_offset_ms", "err_uninterpolated", "skew_share"]
@@ -210,7 +210,7 @@ def test_a_touch_outside_the_stream_is_a_row_saying_so(mixed: Path) -> None:
     import dataclasses
 
     from analysis.results import AnalysisOptions
-    from analysis.stream_tables import touch_rows
+    from analysis.session.stream_tables import touch_rows
     from twopose.format.reader import SessionReader
     from twopose.format.streams import read_pair_session
 
@@ -259,4 +259,4 @@ def test_a_rig_file_above_a_two_camera_session_applies_to_the_others_only(
     rows = result.trials.groupby("cameras")["rig_file"].unique()
     assert list(rows[1]) == [str(folder / "rig.toml")]
     assert list(rows[2]) == [""]  # no typed pose to correct
-    assert rig_scope(analysis.input_set.resolve_inputs([folder / "pair.mcap"])).uses == ()
+    assert rig_scope(analysis.batch.inputs.resolve_inputs([folder / "pair.mcap"])).uses == ()

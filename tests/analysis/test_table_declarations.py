@@ -1,4 +1,4 @@
-"""analysis.table_columns: every table the run writes is declared as trials.csv is, and
+"""analysis.tables.declared: every table the run writes is declared as trials.csv is, and
 ``check`` and ``compare`` refuse, in words, any value of any table they read that its
 column's declaration does not allow (issue 57 item 5).
 
@@ -18,10 +18,10 @@ import pytest
 from typer.testing import CliRunner
 
 from analysis.cli import app
-from analysis.columns import DTYPES, RUN_TABLES
-from analysis.run_tables import read_results_table, read_table, refusals
-from analysis.table_columns import TABLES
-from analysis.trial_columns import violations
+from analysis.tables.columns import DTYPES, RUN_TABLES
+from analysis.tables.declared import TABLES
+from analysis.tables.read_back import read_results_table, read_table, refusals
+from analysis.tables.trials import violations
 from twopose.errors import InputValueError
 
 runner = CliRunner()

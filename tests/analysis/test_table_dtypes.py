@@ -1,7 +1,7 @@
 """The Python face's tables carry the dtypes their columns declare, and read back the same.
 
 ``analysis.run``'s DataFrames and its CSVs read back as the project reads them
-(:func:`analysis.run_tables.read_table`) are equal, dtypes included: text is ``str`` with ""
+(:func:`analysis.tables.read_back.read_table`) are equal, dtypes included: text is ``str`` with ""
 where there is none (never NaN), flags are boolean (``within95`` <NA> when not known),
 every table with a length in it names its ``units``.
 """
@@ -17,9 +17,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import analysis
-from analysis.columns import DTYPES, RUN_TABLES, TRIAL_TABLE_COLUMNS, typed
 from analysis.results import RunResult
-from analysis.run_tables import read_results_table, read_table
+from analysis.tables.columns import DTYPES, RUN_TABLES, TRIAL_TABLE_COLUMNS, typed
+from analysis.tables.read_back import read_results_table, read_table
 
 #: The tables a run without ``--rig-calibration`` writes, by file and RunResult attribute.
 WRITTEN = {"trials.csv": "trials", "summary.csv": "summary", "averaging.csv": "averaging"}

@@ -1,4 +1,4 @@
-"""analysis.tables directly: a trial table from seeded synthetic views, for each method
+"""analysis.tables.rows directly: a trial table from seeded synthetic views, for each method
 (the documented columns, the errors against the truth, the baseline and the margins), and
 the views table's rays pointing from each camera at the target."""
 
@@ -7,20 +7,20 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from analysis.columns import (
+from analysis.tables.columns import (
     IDENTITY_COLUMNS,
     LINE_COLUMNS,
     OPTIMAL_COLUMNS,
     TRIAL_COLUMNS,
     VIEW_COLUMNS,
 )
-from analysis.tables import trial_table, view_table
-from twopose.camera import Intrinsics, project_points
-from twopose.estimate import EstimateOptions, PoseView, measure
-from twopose.methods import Method, spec_of
-from twopose.session_estimate import SessionTrials, estimate_session
-from twopose.truth import reported
-from twopose.units import Units
+from analysis.tables.rows import trial_table, view_table
+from twopose.camera.model import Intrinsics, project_points
+from twopose.methods.specs import Method, spec_of
+from twopose.methods.truth import reported
+from twopose.solve.estimate import EstimateOptions, PoseView, measure
+from twopose.solve.session import SessionTrials, estimate_session
+from twopose.values.units import Units
 
 K = Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0)
 H = 9.625

@@ -271,7 +271,7 @@ def test_recover_says_where_and_why_the_file_ended(tmp_path: Path) -> None:
 def test_figures_name_sessions_by_their_labels(tmp_path: Path) -> None:
     """Before: ``x/session.mcap`` was titled ``x_session`` (a file-name stem), and
     ``session.mcap`` and ``session.MCAP`` were both "session"."""
-    from analysis.figures import make_figures
+    from analysis.report.figures.draw import make_figures
 
     for where in ("x/session.mcap", "y/session.mcap", "z/session.MCAP"):
         (tmp_path / where).parent.mkdir(parents=True, exist_ok=True)

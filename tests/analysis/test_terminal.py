@@ -7,9 +7,9 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from analysis.batch import run
+from analysis.batch.runner import run
 from analysis.cli import app
-from analysis.terminal import summary_lines, wrap_phrases
+from analysis.report.terminal import summary_lines, wrap_phrases
 
 SESSIONS = Path(__file__).resolve().parents[2] / "sessions"
 

@@ -8,8 +8,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.batch import run
-from analysis.thesis import THESIS_COLUMNS, fisher_p, thesis_table
+from analysis.batch.runner import run
+from analysis.report.thesis import THESIS_COLUMNS, fisher_p, thesis_table
 
 SESSIONS = Path(__file__).resolve().parents[2] / "sessions"
 

@@ -1,4 +1,4 @@
-"""analysis.topview_figure directly: the report's top view is the core's geometry rebuilt
+"""analysis.report.figures.topview directly: the report's top view is the core's geometry rebuilt
 from trials.csv and views.csv, so the rays of method 1 and the ground traces of method 2
 pass through the estimate the table reports; warned trials are marked; one artist per kind."""
 
@@ -16,8 +16,8 @@ import pytest
 from matplotlib.collections import PolyCollection
 from matplotlib.figure import Figure
 
-from analysis.metrics import used_trials, warned
-from analysis.topview_figure import plot_top_view, top_views
+from analysis.report.figures.topview import plot_top_view, top_views
+from analysis.session.metrics import used_trials, warned
 
 
 def _tables(run: Path, name: str) -> tuple[pd.DataFrame, pd.DataFrame]:

@@ -1,4 +1,4 @@
-"""analysis.trial_columns: each column of trials.csv is one declaration, every layer reads it.
+"""analysis.tables.trials: each column of trials.csv is one declaration, every layer reads it.
 
 Every column the run writes has exactly one declaration and its values keep to the
 declared domain; the docs' table is the declarations'; which columns a method's trials
@@ -20,10 +20,10 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from analysis.columns import DTYPES, TRIAL_TABLE_COLUMNS
-from analysis.run_tables import read_table
-from analysis.table_labels import LABELS, readable_columns
-from analysis.trial_columns import (
+from analysis.tables.columns import DTYPES, TRIAL_TABLE_COLUMNS
+from analysis.tables.labels import LABELS, readable_columns
+from analysis.tables.read_back import read_table
+from analysis.tables.trials import (
     TRIAL_TABLE,
     UNIT_KINDS,
     Column,
@@ -31,13 +31,13 @@ from analysis.trial_columns import (
     columns_of,
     violations,
 )
-from twopose.methods import METHOD_SPECS, METHODS, spec_of
-from twopose.units import Units
+from twopose.methods.specs import METHOD_SPECS, METHODS, spec_of
+from twopose.values.units import Units
 
 REPO = Path(__file__).resolve().parents[2]
 SESSIONS = REPO / "sessions"
 #: The columns' layer: none of it may dispatch on a method's name.
-LAYER = ("columns.py", "tables.py", "table_labels.py", "trial_columns.py")
+LAYER = ("tables/columns.py", "tables/rows.py", "tables/labels.py", "tables/trials.py")
 
 
 def test_every_column_of_trials_csv_has_exactly_one_declaration(bundled_run: Path) -> None:
@@ -121,14 +121,14 @@ def test_a_column_declared_once_reaches_the_table_and_the_report(tmp_path: Path)
         shutil.copytree(
             REPO / package, tmp_path / package, ignore=shutil.ignore_patterns("__pycache__")
         )
-    module = tmp_path / "analysis" / "trial_columns.py"
+    module = tmp_path / "analysis" / "tables" / "trials.py"
     text = module.read_text(encoding="utf-8")
     assert text.count(ANCHOR) == 1, "the module's layout changed: update this test"
     module.write_text(text.replace(ANCHOR, NEW_COLUMN + ANCHOR), encoding="utf-8")
     script = f"""
 import pandas as pd
 import analysis
-from analysis.table_labels import readable_columns
+from analysis.tables.labels import readable_columns
 run = analysis.run([{str(SESSIONS / "thesis_method1_point.mcap")!r}], {str(tmp_path / "out")!r},
                    scene=False)
 trials = pd.read_csv({str(tmp_path / "out" / "trials.csv")!r})

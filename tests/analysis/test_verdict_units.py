@@ -17,19 +17,19 @@ import pytest
 from matplotlib.figure import Figure
 from typer.testing import CliRunner
 
-from analysis import thesis as thesis_module
-from analysis.batch import run
+from analysis.batch.runner import run
 from analysis.cli import app
-from analysis.figures import plot_error_histogram
-from analysis.metrics import warned
+from analysis.report import thesis as thesis_module
+from analysis.report.figures.draw import plot_error_histogram
+from analysis.report.terminal import closing_lines
+from analysis.report.thesis import thesis_table, thesis_verdict
 from analysis.results import AnalysisOptions
-from analysis.terminal import closing_lines
-from analysis.thesis import thesis_table, thesis_verdict
-from recorder.simulate import simulate_session
-from twopose.margins import EstimateOptions
-from twopose.methods import Method
+from analysis.session.metrics import warned
+from recorder.simulate.one_camera import simulate_session
+from twopose.methods.specs import Method
 from twopose.sim.scene import Scene
-from twopose.units import Units
+from twopose.solve.margins import EstimateOptions
+from twopose.values.units import Units
 
 
 @pytest.fixture(scope="module")

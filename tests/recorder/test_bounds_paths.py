@@ -1,6 +1,6 @@
 """One grammar and one bound per quantity, on every path (issue 44, part 3): the terminal,
 the page's forms, a plan and the command line accept and refuse the same texts with the
-same words (twopose.bounds), and a board session refuses guidance options with a reason."""
+same words (twopose.values.bounds), and a board session refuses guidance options with a reason."""
 
 from __future__ import annotations
 
@@ -12,16 +12,16 @@ from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from typer.testing import CliRunner
 
-from recorder.cli import app
-from recorder.console_server import ConsoleOptions, checked_setup
-from recorder.interactive import Operator, ask_setup, ask_target
-from recorder.plan import load_plan
-from recorder.setup_form import FormRefusedError, form_fields, parse_pose_form, setup_from_answers
-from recorder.setup_rules import GuidanceAsked, parse_vector
-from twopose.bounds import FOCAL, GROUND_HEIGHT, ROTATION, TARGET_PRECISION, Quantity, shown
+from recorder.cli.app import app
+from recorder.console.server import ConsoleOptions, checked_setup
+from recorder.procedure.terminal import Operator, ask_setup, ask_target
+from recorder.setup.form import FormRefusedError, form_fields, parse_pose_form, setup_from_answers
+from recorder.setup.plan import load_plan
+from recorder.setup.rules import GuidanceAsked, parse_vector
 from twopose.errors import EXIT_ERROR, EXIT_USAGE, InputValueError
-from twopose.methods import Method
-from twopose.units import UNITS, Units
+from twopose.methods.specs import Method
+from twopose.values.bounds import FOCAL, GROUND_HEIGHT, ROTATION, TARGET_PRECISION, Quantity, shown
+from twopose.values.units import UNITS, Units
 
 runner = CliRunner()
 JUNK = [

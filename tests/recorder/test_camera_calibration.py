@@ -9,18 +9,18 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from recorder.camera_calibration import (
+from recorder.calibration.camera import (
     OUTER_THIRD,
     calibrate,
     fit_views,
     load_calibration,
     load_calibration_sigma,
 )
-from recorder.cli import app
-from recorder.plan import load_plan
-from recorder.sources import ImagesSource, VideoSource
-from twopose.camera import rotation_from_angles_deg
-from twopose.checkerboard import find_board
+from recorder.cli.app import app
+from recorder.setup.plan import load_plan
+from recorder.sources.registry import ImagesSource, VideoSource
+from twopose.camera.model import rotation_from_angles_deg
+from twopose.detect.checkerboard import find_board
 from twopose.errors import EXIT_ERROR, InputValueError
 
 runner = CliRunner()

@@ -1,4 +1,4 @@
-"""recorder.capture directly: a capture that the source stops short is kept and marked
+"""recorder.procedure.capture directly: a capture that the source stops short is kept and marked
 incomplete, the one rule for a capture's detections (half the frames), the pose's live
 average, and each frame's line as the thesis' GUI showed it."""
 
@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from recorder.capture import (
+from recorder.procedure.capture import (
     CaptureResult,
     CaptureSettings,
     FrameFeedback,
@@ -18,15 +18,15 @@ from recorder.capture import (
     capture_frames,
     detection_shortfall,
 )
-from recorder.sources import VideoSource
+from recorder.sources.registry import VideoSource
 from tests.helpers import write_video
-from twopose.camera import Camera, Intrinsics
-from twopose.choices import Target
+from twopose.camera.model import Camera, Intrinsics
 from twopose.format.entries import CaptureWindow, PoseEntry, SessionInfo
 from twopose.format.reader import SessionReader
 from twopose.format.writer import SessionWriter
-from twopose.methods import Method
-from twopose.units import Units
+from twopose.methods.specs import Method
+from twopose.values.choices import Target
+from twopose.values.units import Units
 
 INFO = SessionInfo(method=Method.POINT, units=Units.IN)
 
@@ -117,11 +117,11 @@ def test_the_live_board_check_finds_the_far_board_rig_finds(tmp_path: Path) -> N
     the rig's search (``find_board``) does on the stored frame, so the page's accept stays
     on. OpenCV's fast check alone (the live check before) turned down every frame of the
     far poses; the full search behind it finds each, in time."""
-    from recorder.sources import SyntheticSource
-    from twopose.checkerboard import LIVE_BOARD_BUDGET_S, find_board, find_board_live
-    from twopose.images import decode_image
+    from recorder.sources.registry import SyntheticSource
+    from twopose.camera.images import decode_image
+    from twopose.detect.checkerboard import LIVE_BOARD_BUDGET_S, find_board, find_board_live
+    from twopose.methods.targets import BoardPlacement
     from twopose.sim.layout import BOARD_POSES
-    from twopose.targets import BoardPlacement
 
     board = BoardPlacement(inner_corners=(9, 6), square=1.0, first_corner=(-4.0, 7.625, 24.0))
     info = SessionInfo(method=Method.BOARD, units=Units.IN, board=board)

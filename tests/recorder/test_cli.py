@@ -8,7 +8,7 @@ from pathlib import Path
 
 from typer.testing import CliRunner
 
-from recorder.cli import app
+from recorder.cli.app import app
 from twopose.errors import EXIT_ERROR, EXIT_USAGE
 from twopose.format.reader import SessionReader
 

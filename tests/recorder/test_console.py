@@ -1,4 +1,4 @@
-"""recorder.console directly: the page's state before and after the setup (the method and
+"""recorder.console.state directly: the page's state before and after the setup (the method and
 units from the registry's types, the setup form's defaults from the setup rules), refusals,
 captured frames against previews, and the web driver typing as many poses a trial as the
 command line asked (``--poses``), like the terminal's."""
@@ -9,11 +9,11 @@ from pathlib import Path
 
 import pytest
 
-from recorder.console import ConsoleSession
-from recorder.console_driver import WebDriver
-from recorder.interactive import _OperatorDriver
-from recorder.setup_form import FormRefusedError, setup_from_answers
-from recorder.setup_rules import (
+from recorder.console.driver import WebDriver
+from recorder.console.state import ConsoleSession
+from recorder.procedure.terminal import _OperatorDriver
+from recorder.setup.form import FormRefusedError, setup_from_answers
+from recorder.setup.rules import (
     THESIS_FOCAL_PX,
     THESIS_IMAGE_SIZE,
     GuidanceAsked,
@@ -21,11 +21,11 @@ from recorder.setup_rules import (
     Setup,
     default_principal,
 )
-from recorder.sources import SyntheticSource
-from twopose.camera import Camera, Intrinsics
+from recorder.sources.registry import SyntheticSource
+from twopose.camera.model import Camera, Intrinsics
 from twopose.format.entries import SessionInfo
-from twopose.methods import Method, spec_of
-from twopose.units import Units
+from twopose.methods.specs import Method, spec_of
+from twopose.values.units import Units
 
 
 @pytest.mark.parametrize("poses", [2, 3, 8])
@@ -136,7 +136,7 @@ def test_values_given_are_shown_back_as_given_while_recording(tmp_path: Path) ->
     (``--focal 1234.56789`` was shown as 1234.57 once recording started)."""
     import dataclasses
 
-    from twopose.guidance import Suggestion
+    from twopose.guidance.advice import Suggestion
 
     k = Intrinsics(width=640, height=480, fx=1234.56789, fy=1234.56789, cx=320.25, cy=240.125)
     setup = dataclasses.replace(_setup(Method.POINT, Units.MM), intrinsics=k, target95=0.123456789)

@@ -338,11 +338,11 @@ def test_the_console_suggests_the_next_pose_and_stops_by_the_rule(tmp_path: Path
 def test_a_session_continued_in_the_browser(browser: Any, tmp_path: Path) -> None:
     """Issue 36: ``--ui --continue S.mcap``: the setup is the session's, read-only; the
     page's trial is numbered after S's last; run sees one session."""
-    from recorder.plan import load_plan, record_plan
-    from recorder.sources import SyntheticSource
+    from recorder.setup.plan import load_plan, record_plan
+    from recorder.sources.registry import SyntheticSource
     from tests.recorder.test_continuation import _plan
     from twopose.format.reader import SessionReader
-    from twopose.methods import Method
+    from twopose.methods.specs import Method
 
     first, later = tmp_path / "S.mcap", tmp_path / "S2.mcap"
     record_plan(load_plan(_plan(tmp_path, "a.toml", 2)), first,

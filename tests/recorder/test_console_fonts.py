@@ -14,12 +14,12 @@ from selenium.webdriver.common.by import By
 from selenium.webdriver.support.ui import WebDriverWait
 from starlette.testclient import TestClient
 
-from recorder.console import ConsoleSession
-from recorder.console_guard import SECURITY_HEADERS
-from recorder.console_server import ConsoleOptions, console_app
+from recorder.console.guard import SECURITY_HEADERS
+from recorder.console.server import ConsoleOptions, console_app
+from recorder.console.state import ConsoleSession
 from tests.browser import fonts_drawn, headless_chromium, other_fonts
 from tests.helpers import start_console
-from twopose import webfonts
+from twopose.display import fonts as webfonts
 
 ORIGIN = "http://127.0.0.1:8765"
 
@@ -35,7 +35,7 @@ def client(tmp_path: Path) -> Iterator[TestClient]:
 
 
 def test_the_style_names_the_fonts_the_server_serves(client: TestClient) -> None:
-    css = client.get("/console.css").text
+    css = client.get("/style.css").text
     faces = re.findall(r"@font-face\s*\{([^}]*)\}", css)
     named = {
         (re.search(r'font-family:\s*"([^"]+)"', f).group(1),  # type: ignore[union-attr]
@@ -63,7 +63,7 @@ def test_the_style_names_the_fonts_the_server_serves(client: TestClient) -> None
             answer.headers["Content-Security-Policy"] == SECURITY_HEADERS["Content-Security-Policy"]
         )
     assert client.get("/fonts/LICENSE-DejaVu.txt").status_code == 404
-    assert client.get("/fonts/../console.css").status_code in (200, 404)  # no folder served
+    assert client.get("/fonts/../style.css").status_code in (200, 404)  # no folder served
 
 
 @pytest.mark.slow

@@ -1,4 +1,4 @@
-"""The web console's front door (recorder/console_guard.py) over HTTP, in-process: only
+"""The web console's front door (recorder/console/guard.py) over HTTP, in-process: only
 the operator's page drives it and sees it (Host, Origin, the session token, the content
 type, the body's size, depth and types, the frame headers), and no state of the recorder
 gives the page a 500 (a line whose glove is not found, the same pose typed twice)."""
@@ -17,19 +17,19 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from starlette.testclient import TestClient
 
-from recorder.console import ConsoleSession
-from recorder.console_guard import (
+from recorder.console.guard import (
     MAX_BODY_BYTES,
     SECURITY_HEADERS,
     ConsoleGuard,
     body_refusal,
     text_refusal,
 )
-from recorder.console_server import ConsoleOptions, console_app
+from recorder.console.server import ConsoleOptions, console_app
+from recorder.console.state import ConsoleSession
 from tests.helpers import SMALL_SCENE
 from twopose.rig.constants import RigConstants
-from twopose.text import is_control
-from twopose.units import Units
+from twopose.values.text import is_control
+from twopose.values.units import Units
 
 ORIGIN = "http://127.0.0.1:8765"
 GIVEN: dict[str, Any] = {
@@ -72,7 +72,7 @@ def stranger(client: TestClient) -> TestClient:
 
 def test_a_foreign_host_is_refused_everywhere(console: tuple[TestClient, Path]) -> None:
     client, _ = console
-    for path in ("/", "/console.js", "/api/state", "/stream.mjpg"):
+    for path in ("/", "/main.js", "/api/state", "/stream.mjpg"):
         for host in ("rebind.evil.example:8765", "evil.example", "127.0.0.1.nip.io", ""):
             answer = client.get(path, headers={"Host": host})
             assert answer.status_code == 403, (path, host)
@@ -222,8 +222,8 @@ def test_every_response_forbids_framing(console: tuple[TestClient, Path]) -> Non
     client, _ = console
     answers = [
         client.get("/"),
-        client.get("/console.js"),
-        client.get("/console.css"),
+        client.get("/main.js"),
+        client.get("/style.css"),
         client.get("/api/state"),
         client.post("/api/note", json={"text": "too early"}),  # 400
         stranger(client).get("/api/state"),  # 403
@@ -334,7 +334,7 @@ def test_a_line_with_no_glove_and_a_pose_typed_twice_never_blinds_the_page(
 
 
 def test_the_console_refuses_exactly_what_a_terminal_would_obey() -> None:
-    """One rule (twopose.text): the console refuses the characters info escapes."""
+    """One rule (twopose.values.text): the console refuses the characters info escapes."""
     for code in range(0x3000):
         char = chr(code)
         assert bool(text_refusal(f"a{char}b")) == is_control(char), hex(code)

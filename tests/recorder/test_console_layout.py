@@ -368,7 +368,7 @@ _FEW = {
 def by_hand(tmp_path: Path) -> Iterator[tuple[str, Any]]:
     """The console's app in this process, its session's state set by the test (nothing
     records: no recording thread is started)."""
-    from recorder.console import ConsoleSession
+    from recorder.console.state import ConsoleSession
 
     with _serving(ConsoleSession(tmp_path / "by-hand.mcap")) as served:
         yield served
@@ -382,7 +382,7 @@ def _serving(session: Any) -> Iterator[tuple[str, Any]]:
 
     import uvicorn
 
-    from recorder.console_server import ConsoleOptions, console_app
+    from recorder.console.server import ConsoleOptions, console_app
 
     app = console_app(session, ConsoleOptions(source="synthetic", given={}))
     sock = socket.socket()
@@ -504,7 +504,7 @@ def test_computing_continuing_and_a_dead_recorder_are_said(
     decision"); a continuation's page says what it continues, the next trial, where each
     field comes from and the stop rule; after kill -9 the last frame stays under one
     caption and the status gives the command that salvages the file."""
-    from recorder.console import ConsoleSession
+    from recorder.console.state import ConsoleSession
 
     session_file, scene = continued
     with headless_chromium(*size) as browser:

@@ -1,4 +1,4 @@
-"""The page shows what the method's spec says (:class:`twopose.methods.MethodPage`), in a
+"""The page shows what the method's spec says (:class:`twopose.methods.specs.MethodPage`), in a
 real headless Chromium: the board's words changed in its spec are the words the page shows,
 so nothing on the page is chosen by the method's name."""
 
@@ -12,7 +12,7 @@ from typing import Any
 import pytest
 
 from tests.browser import headless_chromium, require_chromium
-from twopose.methods import METHOD_SPECS, Method
+from twopose.methods.specs import METHOD_SPECS, Method
 
 require_chromium()
 
@@ -33,11 +33,11 @@ def _text(browser: Any, testid: str) -> str:
 def test_the_page_shows_the_board_spec_s_words(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import twopose.methods
-    from recorder.console import ConsoleSession
-    from twopose.targets import BoardPlacement
-    from twopose.topview import board_top_view
-    from twopose.units import Units
+    import twopose.methods.specs
+    from recorder.console.state import ConsoleSession
+    from twopose.methods.targets import BoardPlacement
+    from twopose.methods.topview import board_top_view
+    from twopose.values.units import Units
 
     board = METHOD_SPECS[Method.BOARD]
     page = dataclasses.replace(
@@ -50,7 +50,7 @@ def test_the_page_shows_the_board_spec_s_words(
         legend_segments=(("corners", "#", "CORNERS from the spec"),),
     )
     specs = dict(METHOD_SPECS) | {Method.BOARD: dataclasses.replace(board, page=page)}
-    monkeypatch.setattr(twopose.methods, "METHOD_SPECS", MappingProxyType(specs))
+    monkeypatch.setattr(twopose.methods.specs, "METHOD_SPECS", MappingProxyType(specs))
 
     placement = BoardPlacement(inner_corners=(9, 6), square=0.75, first_corner=(-3.0, 8.125, 24.0))
     view = board_top_view(placement, [(0.0, 0.0, 0.0), (2.0, 0.0, 0.0)]).to_json()

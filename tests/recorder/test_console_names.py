@@ -1,5 +1,5 @@
 """The console's scripts name no method, unit, target or source (issue 45): what differs by
-method reaches the page from the method registry (:class:`twopose.methods.MethodPage`, the
+method reaches the page from the method registry (:class:`twopose.methods.specs.MethodPage`, the
 state's ``page``), so a string literal in ``recorder/*.js`` equal to a registered name is a
 rule that belongs on a registry."""
 
@@ -9,13 +9,13 @@ from pathlib import Path
 
 import pytest
 
-from recorder.console import ConsoleSession
-from recorder.sources import SOURCE_KINDS
-from twopose.choices import TARGETS
-from twopose.methods import METHOD_SPECS, METHODS, Method, MethodPage
-from twopose.units import UNITS
+from recorder.console.state import ConsoleSession
+from recorder.sources.registry import SOURCE_KINDS
+from twopose.methods.specs import METHOD_SPECS, METHODS, Method, MethodPage
+from twopose.values.choices import TARGETS
+from twopose.values.units import UNITS
 
-SCRIPTS = sorted((Path(__file__).resolve().parents[2] / "recorder").glob("*.js"))
+SCRIPTS = sorted((Path(__file__).resolve().parents[2] / "recorder").rglob("*.js"))
 
 #: Every name a registry holds: methods, units, targets, sources.
 NAMES = frozenset(
@@ -108,7 +108,7 @@ def test_no_script_names_a_method_unit_target_or_source(script: Path) -> None:
 
 
 def test_the_scripts_are_found() -> None:
-    assert {p.name for p in SCRIPTS} >= {"console.js", "console_topview.js"}
+    assert {p.name for p in SCRIPTS} >= {"main.js", "topview.js"}
 
 
 @pytest.mark.parametrize("method", METHODS)
@@ -133,12 +133,13 @@ def test_a_board_sessions_page_says_the_board() -> None:
 
 
 def test_every_legend_kind_is_one_the_top_view_draws() -> None:
-    """The legend's segment kinds are those twopose.topview draws (and none a method's name)."""
+    """The legend's segment kinds are those twopose.methods.topview draws (and none a method's
+    name)."""
     import inspect
 
-    import twopose.topview
+    import twopose.methods.topview
 
-    source = inspect.getsource(twopose.topview)
+    source = inspect.getsource(twopose.methods.topview)
     for spec in METHOD_SPECS.values():
         for kind, _, _ in spec.page.legend_segments:
             assert f'"{kind}"' in source, kind

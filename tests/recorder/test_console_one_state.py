@@ -12,10 +12,10 @@ from typing import Any
 
 import pytest
 
-from recorder.console import DECISIONS, ConsoleSession
-from recorder.console_driver import WebDriver
-from recorder.driver import Decision
-from recorder.setup_rules import PoseTyping
+from recorder.console.driver import WebDriver
+from recorder.console.state import DECISIONS, ConsoleSession
+from recorder.procedure.driver import Decision
+from recorder.setup.rules import PoseTyping
 
 ASKED = "trial 1 pose 2: accept, redo, undo or quit"
 

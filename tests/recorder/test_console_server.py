@@ -17,7 +17,7 @@ import pytest
 from typer.testing import CliRunner
 
 import analysis
-from recorder.cli import app
+from recorder.cli.app import app
 from tests.helpers import RECORD, start_console
 from twopose.format import SessionReader
 from twopose.format.entries import CaptureDecision

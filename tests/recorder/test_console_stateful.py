@@ -41,9 +41,9 @@ from starlette.testclient import TestClient
 from typer.testing import CliRunner
 
 import analysis
-from recorder.cli import app
-from recorder.console import ConsoleSession
-from recorder.console_server import ConsoleOptions, console_app
+from recorder.cli.app import app
+from recorder.console.server import ConsoleOptions, console_app
+from recorder.console.state import ConsoleSession
 from tests.helpers import SMALL_SCENE
 from twopose.format.reader import SessionReader
 from twopose.format.trials import iter_trials, read_notes

@@ -16,7 +16,7 @@ from pathlib import Path
 import httpx
 import pytest
 
-from recorder.console_transport import HEADER_TIMEOUT_S, MAX_HEADER_BYTES
+from recorder.console.transport import HEADER_TIMEOUT_S, MAX_HEADER_BYTES
 from tests.helpers import RECORD, read_line_when_printed
 
 

@@ -16,11 +16,11 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
-from analysis.batch import run
+from analysis.batch.inputs import resolve_inputs
+from analysis.batch.runner import run
 from analysis.cli import app as analyze
-from analysis.input_set import resolve_inputs
-from recorder.cli import app as record
-from recorder.continuation import read_continued
+from recorder.cli.app import app as record
+from recorder.setup.continuation import read_continued
 from tests.helpers import SMALL_SCENE
 from twopose.format.identity import identify_file, resolve_session_files
 from twopose.format.reader import SessionReader

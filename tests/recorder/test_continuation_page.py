@@ -18,8 +18,8 @@ import httpx
 import pytest
 from typer.testing import CliRunner
 
-from recorder.cli import app as record
-from recorder.continuation import read_continued
+from recorder.cli.app import app as record
+from recorder.setup.continuation import read_continued
 from tests.helpers import small_session, start_console
 from twopose.format.entries import Note
 from twopose.format.reader import SessionReader
@@ -152,8 +152,8 @@ def served(tmp_path: Path, continued: tuple[Path, Path]) -> Iterator[tuple[httpx
     scene's camera, the page loaded: a client and the session."""
     import uvicorn
 
-    from recorder.console import ConsoleSession
-    from recorder.console_server import ConsoleOptions, console_app
+    from recorder.console.server import ConsoleOptions, console_app
+    from recorder.console.state import ConsoleSession
 
     _, scene = continued
     options = ConsoleOptions(source=f"synthetic:{scene}", given={}, frames=2, size=(320, 240))
@@ -185,7 +185,7 @@ def test_while_the_next_suggestion_is_computed_the_page_is_told(
 ) -> None:
     """The guidance held after an accept: the state says it computes (the page showed
     "accept, redo, undo or quit" with every button off, the pose "awaiting decision")."""
-    from recorder.live_result import LiveResults
+    from recorder.live.result import LiveResults
 
     client, _ = served
     release = threading.Event()

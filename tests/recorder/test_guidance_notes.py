@@ -7,16 +7,16 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from recorder.capture import CaptureResult, CaptureSettings
-from recorder.driver import Decision, Driver, Placement
-from recorder.recording import record
-from recorder.sources import SyntheticSource
-from twopose.camera import Camera, Intrinsics
+from recorder.procedure.capture import CaptureResult, CaptureSettings
+from recorder.procedure.driver import Decision, Driver, Placement
+from recorder.procedure.recording import record
+from recorder.sources.registry import SyntheticSource
+from twopose.camera.model import Camera, Intrinsics
 from twopose.format.entries import Note, PoseEntry, SessionInfo
 from twopose.format.reader import SessionReader
-from twopose.guidance import Advice, Guidance, Reach
-from twopose.methods import Method
-from twopose.units import Units
+from twopose.guidance.advice import Advice, Guidance, Reach
+from twopose.methods.specs import Method
+from twopose.values.units import Units
 
 INFO = SessionInfo(method=Method.POINT, units=Units.IN)
 THESIS = Camera(

@@ -9,13 +9,13 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from recorder.cli import app
-from recorder.plan import load_plan
-from recorder.setup_rules import GuidanceAsked
-from twopose.bounds import MIN_GAIN, TARGET_DISTANCE, Quantity
+from recorder.cli.app import app
+from recorder.setup.plan import load_plan
+from recorder.setup.rules import GuidanceAsked
 from twopose.errors import EXIT_ERROR, EXIT_USAGE, InputValueError
-from twopose.guidance import MIN_GAIN as DEFAULT_MIN_GAIN
-from twopose.units import Units
+from twopose.guidance.advice import MIN_GAIN as DEFAULT_MIN_GAIN
+from twopose.values.bounds import MIN_GAIN, TARGET_DISTANCE, Quantity
+from twopose.values.units import Units
 
 runner = CliRunner()
 _OPTION = {MIN_GAIN: "--min-gain", TARGET_DISTANCE: "--target-distance"}

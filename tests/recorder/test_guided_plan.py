@@ -11,12 +11,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from analysis.pipeline import analyse_session
-from recorder.plan import load_plan, record_plan
-from recorder.sources import SyntheticSource
+from analysis.session.pipeline import analyse_session
+from recorder.setup.plan import load_plan, record_plan
+from recorder.sources.registry import SyntheticSource
 from twopose.format.reader import SessionReader
-from twopose.guidance import Advice
-from twopose.methods import Method
+from twopose.guidance.advice import Advice
+from twopose.methods.specs import Method
 from twopose.sim.layout import finger_axis
 from twopose.sim.scene import load_scene
 

@@ -9,13 +9,13 @@ import pytest
 from numpy.typing import NDArray
 from typer.testing import CliRunner
 
-from analysis.pipeline import analyse_session
-from recorder.capture import CaptureSettings
-from recorder.cli import app
-from recorder.interactive import Operator, record_interactive
-from recorder.setup_rules import Setup
-from recorder.sources import SyntheticSource
-from twopose.camera import Intrinsics
+from analysis.session.pipeline import analyse_session
+from recorder.cli.app import app
+from recorder.procedure.capture import CaptureSettings
+from recorder.procedure.terminal import Operator, record_interactive
+from recorder.setup.rules import Setup
+from recorder.sources.registry import SyntheticSource
+from twopose.camera.model import Intrinsics
 from twopose.errors import EXIT_ERROR, EXIT_INTERRUPTED
 from twopose.format.entries import (
     CaptureDecision,
@@ -24,8 +24,8 @@ from twopose.format.entries import (
     PoseEntry,
 )
 from twopose.format.reader import SessionReader
-from twopose.methods import Method
-from twopose.units import Units
+from twopose.methods.specs import Method
+from twopose.values.units import Units
 
 runner = CliRunner()
 

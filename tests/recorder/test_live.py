@@ -16,13 +16,13 @@ from foxglove_schemas_protobuf.ImageAnnotations_pb2 import ImageAnnotations
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from websockets.sync.client import ClientConnection, connect
 
-from analysis.pipeline import analyse_session
-from recorder.live import RESULT_TOPIC, SCENE_TOPIC, STATUS_TOPIC, LiveView, annotations_topic
-from recorder.plan import load_plan, record_plan
-from recorder.sources import SyntheticSource
+from analysis.session.pipeline import analyse_session
+from recorder.live.view import RESULT_TOPIC, SCENE_TOPIC, STATUS_TOPIC, LiveView, annotations_topic
+from recorder.setup.plan import load_plan, record_plan
+from recorder.sources.registry import SyntheticSource
 from twopose.errors import InputValueError
 from twopose.format.messages import image_topic
-from twopose.methods import Method
+from twopose.methods.specs import Method
 
 PLAN = """
 method = "ground"
@@ -145,7 +145,7 @@ def test_a_busy_port_is_a_clear_error() -> None:
 def test_record_new_live_serves_while_recording(tmp_path: Path) -> None:
     from typer.testing import CliRunner
 
-    from recorder.cli import app
+    from recorder.cli.app import app
 
     out = tmp_path / "s.mcap"
     args = ["new", str(out), "--plan", str(_plan_file(tmp_path)), "--source", "synthetic"]
@@ -197,7 +197,7 @@ def _handshake(port: int, host: str, origin: str | None) -> str:
 def test_the_live_view_refuses_handshakes_from_web_pages(
     host: str, origin: str | None, allowed: bool
 ) -> None:
-    from twopose.camera import Camera, Intrinsics
+    from twopose.camera.model import Camera, Intrinsics
 
     with LiveView(
         [
@@ -235,7 +235,7 @@ def _listening_ports() -> set[int]:
 def test_no_socket_of_the_live_view_lets_a_foreign_page_in() -> None:
     """Every port the live view opens (the guard's and the SDK server's behind it) gets a
     foreign page's handshake: none answers 101, and the guard answers 403."""
-    from twopose.camera import Camera, Intrinsics
+    from twopose.camera.model import Camera, Intrinsics
 
     before = _listening_ports()
     cam = Camera(

@@ -12,14 +12,14 @@ import cv2
 import numpy as np
 from typing_extensions import override
 
-from recorder.capture import CaptureSettings
-from recorder.interactive import Operator, record_interactive
-from recorder.operator_noise import NoiseFile
-from recorder.setup_rules import PoseTyping, Setup
-from recorder.sources import FrameSource, SourceInfo
-from twopose.camera import Intrinsics, project_points
-from twopose.methods import Method
-from twopose.units import Units
+from recorder.live.operator_noise import NoiseFile
+from recorder.procedure.capture import CaptureSettings
+from recorder.procedure.terminal import Operator, record_interactive
+from recorder.setup.rules import PoseTyping, Setup
+from recorder.sources.registry import FrameSource, SourceInfo
+from twopose.camera.model import Intrinsics, project_points
+from twopose.methods.specs import Method
+from twopose.values.units import Units
 
 K = Intrinsics(width=320, height=240, fx=262.5, fy=262.5, cx=160.0, cy=120.0)
 POINT = np.array([1.5, 1.0, 9.0])
@@ -97,11 +97,11 @@ def test_the_terminal_says_a_mistyped_pose_after_the_third_and_names_it_after_th
 
 
 def test_the_page_shows_the_terminals_words(tmp_path: Path) -> None:
-    """The console lists each result's ``text`` (recorder/console.js); it is the line the
+    """The console lists each result's ``text`` (recorder/console/page/main.js); it is the line the
     terminal prints, with the same warning."""
-    from recorder.trial_result import trial_results
+    from recorder.live.trial_result import trial_results
     from tests.helpers import load_benchmark
-    from twopose.session_estimate import SessionTrials
+    from twopose.solve.session import SessionTrials
 
     bench = load_benchmark("bench_noise")
     trials: SessionTrials = bench.session(Method.POINT, 3, 1, 1.0, 4)

@@ -1,4 +1,4 @@
-"""recorder.live_guard directly, over real WebSockets: a loopback client is relayed both ways
+"""recorder.live.guard directly, over real WebSockets: a loopback client is relayed both ways
 to the server behind the guard; a web page's Origin or a foreign Host name gets 403 before
 anything reaches it; a busy port is an error at start."""
 
@@ -15,7 +15,7 @@ from websockets.sync.client import connect
 from websockets.sync.server import ServerConnection, serve
 from websockets.typing import Origin
 
-from recorder.live_guard import SUBPROTOCOLS, LoopbackGuard
+from recorder.live.guard import SUBPROTOCOLS, LoopbackGuard
 
 
 @pytest.fixture
@@ -133,7 +133,7 @@ def test_the_pinned_upstream_is_reached_over_tls_only() -> None:
     import foxglove
     from websockets.exceptions import InvalidMessage
 
-    from recorder.live_tls import UpstreamSecret
+    from recorder.live.tls import UpstreamSecret
 
     secret = UpstreamSecret.generate()
     server = foxglove.start_server(

@@ -8,11 +8,11 @@ from pathlib import Path
 
 import pytest
 
-from recorder.plan import load_plan, record_plan
-from recorder.sources import SyntheticSource
-from recorder.trial_result import TrialResult
-from twopose.methods import Method
-from twopose.noise import PlacingSigma
+from recorder.live.trial_result import TrialResult
+from recorder.setup.plan import load_plan, record_plan
+from recorder.sources.registry import SyntheticSource
+from twopose.methods.specs import Method
+from twopose.uncertainty.noise import PlacingSigma
 
 PLAN = """
 method = "point"
@@ -66,9 +66,9 @@ def test_the_console_says_its_notes_at_its_terminal_too(
 ) -> None:
     """Adversary, issue 46: with ``--ui`` the placing sigma the regions assume reached the
     page only; the terminal's log (docs/rig.md: said as the recording starts) missed it."""
-    from recorder.console import ConsoleSession
-    from recorder.console_driver import WebDriver
-    from recorder.setup_rules import PoseTyping
+    from recorder.console.driver import WebDriver
+    from recorder.console.state import ConsoleSession
+    from recorder.setup.rules import PoseTyping
 
     session = ConsoleSession(tmp_path / "c.mcap")
     WebDriver(session, None, "cam0", (), PoseTyping()).notice("placing sigma: typed")

@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from analysis.pipeline import analyse_session
-from recorder.cli import app
-from recorder.plan import load_plan, record_plan
-from recorder.sources import SyntheticSource
-from recorder.trial_result import TrialResult
-from twopose.methods import Method
+from analysis.session.pipeline import analyse_session
+from recorder.cli.app import app
+from recorder.live.trial_result import TrialResult
+from recorder.setup.plan import load_plan, record_plan
+from recorder.sources.registry import SyntheticSource
+from twopose.methods.specs import Method
 
 runner = CliRunner()
 
@@ -125,12 +125,12 @@ def test_a_live_result_that_fails_is_said_and_the_recording_goes_on(
     """A live solve that raises (a fault injected into the estimation, since every input
     that could make it fail is now refused up front): each trial is still recorded whole,
     and the operator is told why no result is shown."""
-    import recorder.live_result
+    import recorder.live.result
 
     def broken(*args: object, **kwargs: object) -> object:
         raise np.linalg.LinAlgError("injected")
 
-    monkeypatch.setattr(recorder.live_result, "estimate_session", broken)
+    monkeypatch.setattr(recorder.live.result, "estimate_session", broken)
     plan_file = tmp_path / "plan.toml"
     plan_file.write_text(PLAN.format(method="point", truth=TRUTH["point"]))
     out = tmp_path / "s.mcap"
@@ -163,7 +163,7 @@ def test_a_rig_that_does_not_apply_is_refused_before_the_file_exists(
     recording: exit 3 naming the key, and no session file."""
     from typer.testing import CliRunner
 
-    from recorder.cli import app
+    from recorder.cli.app import app
     from twopose.errors import EXIT_ERROR
 
     rig = tmp_path / "rig.toml"
@@ -187,11 +187,11 @@ def test_the_advice_carries_the_map_its_suggestion_is_the_best_of_and_the_page_g
     """Issue 46, 55: the advice carries the map of every reachable pose's predicted region,
     whose cells the suggestion's search starts from (its best is the suggestion); the
     console's driver sends it to the page."""
-    from recorder.console import ConsoleSession
-    from recorder.console_driver import WebDriver
-    from recorder.setup_rules import PoseTyping
-    from twopose.guidance import Advice
-    from twopose.jsonsafe import dumps
+    from recorder.console.driver import WebDriver
+    from recorder.console.state import ConsoleSession
+    from recorder.setup.rules import PoseTyping
+    from twopose.guidance.advice import Advice
+    from twopose.values.jsonsafe import dumps
 
     plan_file = tmp_path / "plan.toml"
     text = PLAN.format(method="point", truth=TRUTH["point"]).split("[[trials]]")
@@ -228,7 +228,7 @@ def test_with_a_rig_the_suggestions_stay_on_the_typed_grid(tmp_path: Path) -> No
     """Adversary, issue 46: ``new --rig`` suggested poses shifted by the rig's camera
     offset (y -0.0395 for a laptop on the table at y 0). Guidance suggests where the
     operator puts the laptop, as typed, whatever the rig says its camera then is."""
-    from twopose.guidance import Advice
+    from twopose.guidance.advice import Advice
     from twopose.rig.constants import RigConstants
 
     plan_file = tmp_path / "plan.toml"
@@ -252,13 +252,13 @@ def test_guidance_keeps_the_target_off_the_blobs_the_last_frames_turned_down() -
     """Issue 55, for a real camera: the candidate blobs the live detector turned down in the
     last frames of the pose that saw the target are the clutter guidance avoids; the
     synthetic camera's scene, where the source knows it, wins."""
-    from recorder.capture import CaptureResult, _feedback
-    from recorder.live_result import LiveResults
-    from twopose.camera import Camera, Intrinsics
-    from twopose.clutter import Clutter
-    from twopose.detect import Detection, RejectedBlob
+    from recorder.live.result import LiveResults
+    from recorder.procedure.capture import CaptureResult, _feedback
+    from twopose.camera.model import Camera, Intrinsics
+    from twopose.detect.clutter import Clutter
+    from twopose.detect.detection import Detection, RejectedBlob
     from twopose.format.entries import PoseEntry
-    from twopose.units import Units
+    from twopose.values.units import Units
 
     outline = np.array([[100.0, 190.0], [110.0, 200.0], [100.0, 212.0], [90.0, 200.0]])
     disk = RejectedBlob(outline_px=outline, centroid_px=(100.0, 200.0), reason="eccentricity")

@@ -1,11 +1,11 @@
-"""The one loopback rule (recorder/loopback.py), and that the console, the live view and
+"""The one loopback rule (recorder/console/loopback.py), and that the console, the live view and
 its guard all use it."""
 
 from __future__ import annotations
 
 import pytest
 
-from recorder.loopback import host_name, is_loopback_host, split_host
+from recorder.console.loopback import host_name, is_loopback_host, split_host
 
 LOOPBACK = (
     "localhost",
@@ -72,13 +72,18 @@ def test_host_names_and_ports() -> None:
 
 def test_one_rule_everywhere() -> None:
     """The live view, its guard and the console's guard hold no copy of their own."""
-    import recorder.console_guard
-    import recorder.console_server
-    import recorder.live
-    import recorder.live_guard
+    import recorder.console.guard
+    import recorder.console.server
+    import recorder.live.guard
+    import recorder.live.view
 
-    users = (recorder.live, recorder.live_guard, recorder.console_server, recorder.console_guard)
+    users = (
+        recorder.live.view,
+        recorder.live.guard,
+        recorder.console.server,
+        recorder.console.guard,
+    )
     for module in users:
         assert vars(module)["is_loopback_host"] is is_loopback_host, module.__name__
-    for module in (recorder.live, recorder.live_guard, recorder.console_server):
+    for module in (recorder.live.view, recorder.live.guard, recorder.console.server):
         assert "ipaddress" not in vars(module), module.__name__

@@ -1,6 +1,6 @@
 """One grammar for every number a person or a file gives (issue 55, item 5): the command
 lines' options, a plan, a rig file, a scene file and the page's API accept and refuse the
-same texts, in the same words (twopose.values.read_number, then each quantity's bound),
+same texts, in the same words (twopose.values.checks.read_number, then each quantity's bound),
 and say a value as it was written (``1e309``, never ``inf``)."""
 
 from __future__ import annotations
@@ -19,17 +19,17 @@ from starlette.testclient import TestClient
 from typer.testing import CliRunner
 
 from analysis.cli import app as analyze
-from recorder.cli import app as record
-from recorder.console import ConsoleSession
-from recorder.console_server import ConsoleOptions, console_app
-from recorder.plan import load_plan
+from recorder.cli.app import app as record
+from recorder.console.server import ConsoleOptions, console_app
+from recorder.console.state import ConsoleSession
+from recorder.setup.plan import load_plan
 from tests.helpers import SMALL_SCENE
-from twopose.bounds import GROUND_HEIGHT, POSE_TRANSLATION
 from twopose.errors import EXIT_ERROR, EXIT_USAGE, InputValueError, SceneError
 from twopose.rig.file import load_rig_file
 from twopose.sim.scene import load_scene
-from twopose.units import Units
-from twopose.values import NUMBER_WORDS, WHOLE_WORDS, read_number
+from twopose.values.bounds import GROUND_HEIGHT, POSE_TRANSLATION
+from twopose.values.checks import NUMBER_WORDS, WHOLE_WORDS, read_number
+from twopose.values.units import Units
 
 runner = CliRunner()
 ORIGIN = "http://127.0.0.1:8765"

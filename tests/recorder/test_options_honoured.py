@@ -12,25 +12,25 @@ import pytest
 from typer.testing import CliRunner
 
 from analysis.cli import app as analyze
-from recorder.cli import app as record
-from recorder.console import ConsoleSession
-from recorder.console_server import ConsoleOptions, checked_setup
-from recorder.continuation import read_continued
-from recorder.interactive import Operator, ask_setup
-from recorder.new_session import continued_given
-from recorder.option_rules import Combination, refuse_idle
-from recorder.plan import load_plan
-from recorder.setup_form import FormRefusedError, form_fields, setup_from_answers
-from recorder.setup_rules import GuidanceAsked, Setup
+from recorder.cli.app import app as record
+from recorder.cli.option_rules import Combination, refuse_idle
+from recorder.console.server import ConsoleOptions, checked_setup
+from recorder.console.state import ConsoleSession
+from recorder.procedure.new_session import continued_given
+from recorder.procedure.terminal import Operator, ask_setup
+from recorder.setup.continuation import read_continued
+from recorder.setup.form import FormRefusedError, form_fields, setup_from_answers
+from recorder.setup.plan import load_plan
+from recorder.setup.rules import GuidanceAsked, Setup
 from tests.helpers import SMALL_SCENE
-from twopose.camera import Camera, Intrinsics
+from twopose.camera.model import Camera, Intrinsics
 from twopose.errors import EXIT_ERROR, EXIT_INTERRUPTED, InputValueError
 from twopose.format.entries import FORMAT_VERSION, GuidanceRecord, Note, SessionInfo
 from twopose.format.reader import SessionReader
 from twopose.format.writer import SessionWriter
-from twopose.methods import Method
-from twopose.options import read_option
-from twopose.units import Units
+from twopose.methods.specs import Method
+from twopose.values.options import read_option
+from twopose.values.units import Units
 
 runner = CliRunner()
 
@@ -368,7 +368,7 @@ def test_a_value_given_is_shown_back_as_given(text: str) -> None:
 
 def test_the_pages_setup_line_shows_the_typed_truth_unrounded() -> None:
     """``4.8514,24.4475,21.2725`` read (4.851, 24.448, 21.273) on the setup line."""
-    from recorder.setup_rules import parse_vector
+    from recorder.setup.rules import parse_vector
 
     truth = parse_vector("4.8514,24.4475,21.2725", Units.IN)
     setup = Setup(

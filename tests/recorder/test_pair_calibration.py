@@ -14,19 +14,19 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from recorder.camera_calibration import fit_views, save_calibration
-from recorder.cli import app
-from recorder.pair_calibration import (
+from recorder.calibration.camera import fit_views, save_calibration
+from recorder.calibration.pair import (
     PairRequest,
     calibrate_pair,
     calibrate_pair_views,
     read_still_pairs,
     still_pairs,
 )
-from twopose.checkerboard import board_pattern, find_board
+from recorder.cli.app import app
+from twopose.detect.checkerboard import board_pattern, find_board
 from twopose.errors import EXIT_ERROR, EXIT_USAGE
 from twopose.pair.pair_file import read_pair_file
-from twopose.units import Units
+from twopose.values.units import Units
 
 DATA = Path(__file__).resolve().parents[2] / "data" / "opencv-chessboard"
 NUMBERS = ("01", "03", "05", "07", "09")
@@ -100,7 +100,7 @@ def test_the_same_from_any_iterator_of_pairs_and_given_intrinsics(
                 _image(stills / f"right{n}.jpg"),
             )
 
-    from recorder.camera_calibration import load_calibration, load_calibration_sigma
+    from recorder.calibration.camera import load_calibration, load_calibration_sigma
 
     given = tuple(
         (load_calibration(tmp_path / f"{s}.toml"), load_calibration_sigma(tmp_path / f"{s}.toml"))

@@ -18,13 +18,13 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from recorder import stops
-from recorder.cli import app
-from recorder.pair_calibration import PairRequest, calibrate_pair
+from recorder.calibration.pair import PairRequest, calibrate_pair
+from recorder.cli.app import app
+from recorder.procedure import stops
 from tests.helpers import RECORD, SMALL_SCENE
 from twopose.errors import EXIT_ERROR, InputValueError
 from twopose.pair.pair_file import read_pair_file
-from twopose.units import Units
+from twopose.values.units import Units
 
 DATA = Path(__file__).resolve().parents[2] / "data" / "opencv-chessboard"
 NUMBERS = ("01", "03", "05", "07", "09")

@@ -16,9 +16,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from typer.testing import CliRunner
 
-from recorder.cli import app
-from recorder.frame_source import FrameSource, SourceInfo
-from recorder.pair_feeds import (
+from recorder.cli.app import app
+from recorder.sources.base import FrameSource, SourceInfo
+from recorder.sources.pair import pair_spec, parse_pair
+from recorder.sources.pair_feeds import (
     CLOCK_DRIVER,
     CLOCK_GRAB,
     MAX_DRIVER_LAG_NS,
@@ -26,8 +27,7 @@ from recorder.pair_feeds import (
     Feed,
     Grabbed,
 )
-from recorder.pair_source import pair_spec, parse_pair
-from recorder.sources import SOURCE_KINDS, open_pair, open_source, register_feed
+from recorder.sources.registry import SOURCE_KINDS, open_pair, open_source, register_feed
 from twopose.errors import SourceError
 
 runner = CliRunner()
@@ -270,7 +270,7 @@ class _UnpluggedFeed(Feed):
 def test_a_camera_that_stops_or_falls_silent_is_said(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, hang: bool, words: str
 ) -> None:
-    from recorder import sources
+    from recorder.sources import registry as sources
 
     monkeypatch.setattr(sources, "FEEDS", dict(sources.FEEDS))
     register_feed(_Unplugged, _UnpluggedFeed)

@@ -8,15 +8,15 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from analysis.pipeline import analyse_session
-from recorder.cli import app
-from recorder.plan import load_plan, record_plan
-from recorder.sources import SyntheticSource
+from analysis.session.pipeline import analyse_session
+from recorder.cli.app import app
+from recorder.setup.plan import load_plan, record_plan
+from recorder.sources.registry import SyntheticSource
 from tests.helpers import write_video
 from twopose.errors import EXIT_ERROR, InputValueError
 from twopose.format.entries import FORMAT_VERSION, CaptureWindow
 from twopose.format.reader import SessionReader
-from twopose.methods import Method
+from twopose.methods.specs import Method
 
 runner = CliRunner()
 
@@ -344,8 +344,8 @@ def test_the_default_placing_resolution_is_a_sixteenth_of_an_inch_in_any_units(
     """A plan, the terminal and the page that say nothing of the resolution type poses to
     1/16 in in the session's units (was 1/16 of whatever unit: 1/16 mm in a mm session made
     every region about 12% too small and the stop rule end trials early)."""
-    from recorder.setup_rules import PoseTyping
-    from twopose.units import Units
+    from recorder.setup.rules import PoseTyping
+    from twopose.values.units import Units
 
     plan = tmp_path / "p.toml"
     plan.write_text(

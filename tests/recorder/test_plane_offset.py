@@ -14,13 +14,13 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from recorder.cli import app as record
-from recorder.interactive import Operator, ask_setup
-from recorder.plan import load_plan
-from recorder.setup_form import FormRefusedError, form_fields, setup_from_answers
+from recorder.cli.app import app as record
+from recorder.procedure.terminal import Operator, ask_setup
+from recorder.setup.form import FormRefusedError, form_fields, setup_from_answers
+from recorder.setup.plan import load_plan
 from twopose.errors import EXIT_ERROR, EXIT_INTERRUPTED, EXIT_USAGE, InputValueError
-from twopose.methods import METHOD_SPECS, PLANES, Method
-from twopose.units import Units
+from twopose.methods.specs import METHOD_SPECS, PLANES, Method
+from twopose.values.units import Units
 
 runner = CliRunner()
 

@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 from numpy.typing import NDArray
 
-from recorder.capture import (
+from recorder.procedure.capture import (
     CaptureResult,
     CaptureSettings,
     Shortfall,
     detection_shortfall,
 )
-from recorder.driver import (
+from recorder.procedure.driver import (
     Decision,
     Driver,
     LowDetectionError,
@@ -23,20 +23,20 @@ from recorder.driver import (
     ProcedureError,
     ProcedureRefusedError,
 )
-from recorder.procedure import TRANSITIONS, Procedure, State
-from recorder.recording import record
-from recorder.sources import ImagesSource, VideoSource
+from recorder.procedure.loop import TRANSITIONS, Procedure, State
+from recorder.procedure.recording import record
+from recorder.sources.registry import ImagesSource, VideoSource
 from tests.helpers import write_video
-from twopose.camera import Camera, Intrinsics
-from twopose.choices import Target
+from twopose.camera.model import Camera, Intrinsics
 from twopose.errors import SessionExistsError
 from twopose.format.entries import CaptureDecision, CaptureWindow, Note, PoseEntry, SessionInfo
 from twopose.format.reader import SessionReader
 from twopose.format.trials import iter_trials
 from twopose.format.writer import SessionWriter
-from twopose.guidance import Advice
-from twopose.methods import Method
-from twopose.units import Units
+from twopose.guidance.advice import Advice
+from twopose.methods.specs import Method
+from twopose.values.choices import Target
+from twopose.values.units import Units
 
 CAM = Camera(
     camera_id="cam0", intrinsics=Intrinsics(width=32, height=24, fx=30.0, fy=30.0, cx=16.0, cy=12.0)
@@ -366,8 +366,8 @@ class _Guided(_Scripted):
 def test_an_undo_back_to_no_accepted_pose_withdraws_the_guidance(tmp_path: Path) -> None:
     """Pose 1 accepted (advice), then pose 2's capture undone: pose 1 is retyped and no
     pose is accepted, so the advice it was given is withdrawn, not left standing."""
-    from recorder.sources import SyntheticSource
-    from twopose.guidance import Guidance, Reach
+    from recorder.sources.registry import SyntheticSource
+    from twopose.guidance.advice import Guidance, Reach
 
     driver = _Guided([A, U, A, A])
     source = SyntheticSource(None, Method.POINT, realtime=False)

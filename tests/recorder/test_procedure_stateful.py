@@ -29,19 +29,19 @@ from hypothesis.stateful import (
 )
 from numpy.typing import NDArray
 
-from recorder.capture import CaptureSettings
-from recorder.driver import ProcedureRefusedError
-from recorder.procedure import Procedure, State
+from recorder.procedure.capture import CaptureSettings
+from recorder.procedure.driver import ProcedureRefusedError
+from recorder.procedure.loop import Procedure, State
 from recorder.recover import recover_session
-from recorder.sources import FrameSource, SourceInfo
-from twopose.camera import Camera, Intrinsics
+from recorder.sources.registry import FrameSource, SourceInfo
+from twopose.camera.model import Camera, Intrinsics
 from twopose.errors import SourceError
 from twopose.format.entries import GroundTruth, PoseEntry, SessionInfo
 from twopose.format.reader import SessionReader
 from twopose.format.trials import iter_trials
 from twopose.format.writer import SessionWriter
-from twopose.methods import Method
-from twopose.units import Units
+from twopose.methods.specs import Method
+from twopose.values.units import Units
 
 CAM = Camera(
     camera_id="cam0", intrinsics=Intrinsics(width=8, height=6, fx=10.0, fy=10.0, cx=4.0, cy=3.0)

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from recorder.console_transport import GuardedH11Protocol
+from recorder.console.transport import GuardedH11Protocol
 
 _HANDSHAKE = (
     "GET / HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
@@ -41,8 +41,8 @@ def console(tmp_path: Path) -> Iterator[int]:
     WebSocket library): its port."""
     import uvicorn
 
-    from recorder.console import ConsoleSession
-    from recorder.console_server import ConsoleOptions, console_app
+    from recorder.console.server import ConsoleOptions, console_app
+    from recorder.console.state import ConsoleSession
 
     session = ConsoleSession(tmp_path / "s.mcap")
     app = console_app(session, ConsoleOptions(source="synthetic", given={}))
@@ -85,8 +85,8 @@ def test_the_console_refuses_handshakes_in_one_line_without_install_advice(
 def test_the_live_views_private_port_drops_foreign_handshakes_in_one_line(
     caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from recorder import live_tls
-    from recorder.live import LiveView
+    from recorder.live import tls as live_tls
+    from recorder.live.view import LiveView
 
     one_line = getattr(live_tls, "_OneLine", None)
     if one_line is not None:  # said once a process: this test's handshakes come first

@@ -14,22 +14,22 @@ import pytest
 from mcap.reader import make_reader
 from typer.testing import CliRunner
 
-from analysis.pipeline import analyse_session
-from recorder.cli import app
+from analysis.session.pipeline import analyse_session
+from recorder.cli.app import app
 from recorder.recover import RECOVERED_REASON, recover_session
 from twopose.errors import EXIT_ERROR, SessionExistsError, SessionFormatError, TwoposeError
 from twopose.format.entries import CaptureWindow
 from twopose.format.reader import SessionReader
 from twopose.format.trials import iter_trials
 from twopose.format.writer import SessionWriter
-from twopose.methods import Method
-from twopose.units import Units
+from twopose.methods.specs import Method
+from twopose.values.units import Units
 
 RECORDING_SCRIPT = """
 import sys, time
 import numpy as np
-from twopose.camera import Intrinsics
-from twopose.camera import Camera
+from twopose.camera.model import Intrinsics
+from twopose.camera.model import Camera
 from twopose.format.entries import PlaneEntry, GroundTruth, PoseEntry, SessionInfo
 from twopose.format.writer import SessionWriter
 
@@ -135,7 +135,7 @@ def test_ctrl_c_finishes_the_file_cleanly(tmp_path: Path) -> None:
 
 
 def _small_session(path: Path, trials: int = 4) -> None:
-    from twopose.camera import Camera, Intrinsics
+    from twopose.camera.model import Camera, Intrinsics
     from twopose.format.entries import GroundTruth, PlaneEntry, PoseEntry, SessionInfo
 
     cam = Camera(

@@ -29,9 +29,9 @@ _RECORDING = textwrap.dedent(
     from tests.twopose.format.pair_examples import pair_cameras
     from twopose.format.entries import SessionInfo
     from twopose.format.writer import SessionWriter
-    from twopose.methods import Method
+    from twopose.methods.specs import Method
     from twopose.pair.motion import thesis_pair
-    from twopose.units import Units
+    from twopose.values.units import Units
 
     pair = thesis_pair()
     info = SessionInfo(method=Method.GROUND, units=Units.IN, camera_ids=("cam1", "cam2"),

@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from recorder.capture import CaptureSettings
-from recorder.cli import app
+from recorder.cli.app import app
+from recorder.procedure.capture import CaptureSettings
 from twopose.errors import EXIT_ERROR
 from twopose.rig.file import load_rig
 
@@ -102,10 +102,10 @@ def test_the_live_result_carries_the_rigs_covariance(rig: Path) -> None:
 def test_the_console_is_not_served_for_a_rig_the_command_line_already_refuses(
     tmp_path: Path, rig: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import recorder.console_server
+    import recorder.console.server
 
     served: list[object] = []  # were the page served, the test ends there instead of waiting
-    monkeypatch.setattr(recorder.console_server, "serve_console", lambda *a, **k: served.append(a))
+    monkeypatch.setattr(recorder.console.server, "serve_console", lambda *a, **k: served.append(a))
     code, said = _new(tmp_path, "--ui", "--rig", str(rig), "--width", "1280", "--height", "720")
     assert served == []
     assert code == EXIT_ERROR, said

@@ -16,7 +16,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from recorder.setup_form import (
+from recorder.setup.form import (
     SETUP_FIELDS,
     FormRefusedError,
     form_fields,
@@ -24,8 +24,8 @@ from recorder.setup_form import (
     setup_from_answers,
 )
 from tests.helpers import install_extension
-from twopose.camera import Intrinsics
-from twopose.units import Units
+from twopose.camera.model import Intrinsics
+from twopose.values.units import Units
 
 NOTHING_GIVEN: dict[str, Any] = {
     "method": None,
@@ -190,7 +190,7 @@ REPO = Path(__file__).resolve().parents[2]
 WALL_EXTENSION = """
 import dataclasses
 
-from twopose.methods import METHOD_SPECS, Method, register_method
+from twopose.methods.specs import METHOD_SPECS, Method, register_method
 
 register_method(
     dataclasses.replace(
@@ -202,7 +202,7 @@ register_method(
 #: and the setup a form for the new method gives.
 PROBE = """
 import json
-from recorder.setup_form import form_fields, setup_from_answers
+from recorder.setup.form import form_fields, setup_from_answers
 given = {"method": None, "units": None, "intrinsics": None, "size": (640, 480),
          "ground_height": None, "ground_truth": []}
 fields = form_fields(given)
@@ -237,11 +237,11 @@ def test_a_method_added_to_the_registry_alone_is_asked_what_its_spec_says(
 METHOD_NAMES = {"point", "line", "ground", "board"}
 #: The modules that describe a session's setup: none names a method to decide by it.
 SETUP_MODULES = (
-    "recorder/setup_rules.py",
-    "recorder/setup_form.py",
-    "recorder/interactive.py",
-    "recorder/plan.py",
-    "recorder/plan_file.py",
+    "recorder/setup/rules.py",
+    "recorder/setup/form.py",
+    "recorder/procedure/terminal.py",
+    "recorder/setup/plan.py",
+    "recorder/setup/plan_file.py",
 )
 
 

@@ -9,12 +9,12 @@ import cv2
 import numpy as np
 import pytest
 
-from recorder.simulate import simulate_session
-from twopose.camera import project_points, rotation_from_angles_deg
+from recorder.simulate.one_camera import simulate_session
+from twopose.camera.model import project_points, rotation_from_angles_deg
 from twopose.errors import InputValueError, SceneError
 from twopose.format.reader import SessionReader
 from twopose.format.trials import iter_trials
-from twopose.methods import Method
+from twopose.methods.specs import Method
 from twopose.sim.layout import build_layout, finger_axis
 from twopose.sim.render import expose, render_radiance
 from twopose.sim.scene import Scene, load_scene
@@ -333,7 +333,7 @@ def test_the_rig_constants_render_and_are_recorded(tmp_path: Path) -> None:
     (pure translation, no typing error): the bias the thesis saw, and the truth records it."""
     import dataclasses
 
-    from analysis.pipeline import analyse_session
+    from analysis.session.pipeline import analyse_session
     from twopose.rig.constants import RigConstants
 
     rig = RigConstants(camera_offset=(0.3, 0.2, 0.4))

@@ -18,15 +18,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from typer.testing import CliRunner
 
-from recorder.cli import app
-from recorder.simulate_pair import PairTiming, simulate_pair_session, simulated_pair
+from recorder.cli.app import app
+from recorder.simulate.pair import PairTiming, simulate_pair_session, simulated_pair
 from tests.helpers import SMALL_SCENE
 from tests.recorder.test_simulate import _dark_centroid
-from twopose.camera import project_points
+from twopose.camera.model import project_points
 from twopose.errors import InputValueError
 from twopose.format.reader import SessionReader
 from twopose.format.streams import PairSession, read_pair_session
-from twopose.methods import Method
+from twopose.methods.specs import Method
 from twopose.sim.layout import Layout
 from twopose.sim.moving import ClockSettings, PairScene, Trajectory, camera_frames, touch_points
 from twopose.sim.render import render_radiance, render_sprite

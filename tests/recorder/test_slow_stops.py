@@ -30,11 +30,11 @@ from typing import Any
 import httpx
 import pytest
 
-from recorder import stops
-from recorder.sources import SyntheticSource
+from recorder.procedure import stops
+from recorder.sources.registry import SyntheticSource
 from tests import helpers
 from tests.recorder import test_stops as t
-from twopose.methods import Method
+from twopose.methods.specs import Method
 from twopose.sim import render
 
 REPO = Path(__file__).resolve().parents[2]
@@ -112,7 +112,7 @@ def test_a_stop_while_the_command_line_is_imported_exits_130_in_one_line(
     modules (0.5-1.2 s on a loaded machine)."""
     import signal as signals
 
-    from recorder import command
+    from recorder.cli import command
 
     handlers = {s: signals.getsignal(s) for s in stops.STOP_SIGNALS}
     exits: list[int] = []
@@ -125,8 +125,8 @@ def test_a_stop_while_the_command_line_is_imported_exits_130_in_one_line(
         def __getattr__(self, name: str) -> Any:
             raise KeyboardInterrupt  # the signal, as it lands in the middle of an import
 
-    monkeypatch.setattr("recorder.command.os._exit", exit_now)
-    monkeypatch.setitem(sys.modules, "recorder.cli", Importing("recorder.cli"))
+    monkeypatch.setattr("recorder.cli.command.os._exit", exit_now)
+    monkeypatch.setitem(sys.modules, "recorder.cli.app", Importing("recorder.cli.app"))
     try:
         with pytest.raises(SystemExit):
             command.main()
@@ -134,9 +134,9 @@ def test_a_stop_while_the_command_line_is_imported_exits_130_in_one_line(
         assert capsys.readouterr().err == "interrupted\n"
         # SIGHUP too is an interrupt from the first instruction on.
         assert signals.getsignal(signals.SIGHUP) == signals.getsignal(signals.SIGINT)
-        stopped = types.ModuleType("recorder.cli")
+        stopped = types.ModuleType("recorder.cli.app")
         stopped.main = lambda: (_ for _ in ()).throw(SystemExit(130))  # type: ignore[attr-defined]
-        monkeypatch.setitem(sys.modules, "recorder.cli", stopped)
+        monkeypatch.setitem(sys.modules, "recorder.cli.app", stopped)
         with pytest.raises(SystemExit):
             command.main()
         assert exits == [130, 130]

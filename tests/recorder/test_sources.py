@@ -9,8 +9,8 @@ import cv2
 import numpy as np
 import pytest
 
-from recorder.capture import CaptureSettings, capture_frames
-from recorder.sources import (
+from recorder.procedure.capture import CaptureSettings, capture_frames
+from recorder.sources.registry import (
     CameraSource,
     FrameSource,
     ImagesSource,
@@ -19,14 +19,14 @@ from recorder.sources import (
     open_source,
 )
 from tests.helpers import write_video
-from twopose.camera import Camera, Intrinsics
-from twopose.choices import Target
+from twopose.camera.model import Camera, Intrinsics
 from twopose.errors import SourceError
 from twopose.format.entries import CaptureWindow, PoseEntry, SessionInfo
 from twopose.format.reader import SessionReader
 from twopose.format.writer import SessionWriter
-from twopose.methods import Method
-from twopose.units import Units
+from twopose.methods.specs import Method
+from twopose.values.choices import Target
+from twopose.values.units import Units
 
 
 def test_video_source_reads_in_order_then_says_it_ended(tmp_path: Path) -> None:
@@ -55,7 +55,7 @@ def test_synthetic_source_renders_the_typed_pose() -> None:
         a = src.read()
         src.set_pose((1.5, 0.0, 0.0), (0.0, 0.0, 0.0))
         b = src.read()
-    from twopose.detect import detect_dot
+    from twopose.detect.detection import detect_dot
 
     da, db = detect_dot(a), detect_dot(b)
     assert da.found
@@ -127,7 +127,7 @@ def test_a_paced_video_skips_the_frames_a_late_reader_missed(tmp_path: Path) -> 
 
 def test_camera_source_reports_a_device_that_stops_delivering(tmp_path: Path) -> None:
     """The capture thread's end-of-stream path, driven by a real capture that runs dry."""
-    from recorder.sources import CameraSource
+    from recorder.sources.registry import CameraSource
 
     with CameraSource(str(write_video(tmp_path / "v.avi", 3))) as cam:
         # A file delivers faster than a camera: the grabber keeps the newest frames, as it
@@ -151,9 +151,9 @@ def test_a_pause_before_a_redone_capture_is_not_counted_as_dropped(
 ) -> None:
     import time
 
-    from recorder.capture import CaptureResult
-    from recorder.driver import Decision, Driver, Placement
-    from recorder.recording import record
+    from recorder.procedure.capture import CaptureResult
+    from recorder.procedure.driver import Decision, Driver, Placement
+    from recorder.procedure.recording import record
 
     pause_s = 0.6  # 18 frame intervals at 30 fps
 
@@ -209,7 +209,7 @@ def test_a_pause_before_a_redone_capture_is_not_counted_as_dropped(
 
 
 def test_a_camera_drops_frames_queued_before_the_capture_without_counting_them() -> None:
-    from recorder.sources import CameraSource
+    from recorder.sources.registry import CameraSource
 
     cam = CameraSource(0)  # not opened: its queue is all this test uses
     cam._frames.put(np.zeros((2, 2, 3), np.uint8))
@@ -237,7 +237,7 @@ def test_a_kind_added_to_the_registry_is_opened_and_listed() -> None:
     """A new kind is one entry: ``open_from`` opens it and the help lists it, no other code."""
     from dataclasses import replace
 
-    from recorder.sources import (
+    from recorder.sources.registry import (
         SOURCE_KINDS,
         SourceInfo,
         SourceKind,
@@ -282,7 +282,7 @@ def test_a_kind_added_to_the_registry_is_opened_and_listed() -> None:
 def test_the_command_line_help_and_errors_list_the_registry() -> None:
     """The CLI's ``--source`` help and the unknown-source message read the registry (the
     spellings the tests and docs have always shown)."""
-    from recorder.sources import SOURCE_KINDS, source_help
+    from recorder.sources.registry import SOURCE_KINDS, source_help
 
     assert [k.syntax for k in SOURCE_KINDS] == [
         "camera:N",
@@ -345,12 +345,12 @@ def _source_name_comparisons(tree: ast.AST, names: set[str], skip: set[int]) -> 
 def test_no_source_name_is_compared_outside_the_registry() -> None:
     """Which kind a source text is, is decided by its registry entry alone: no module of the
     recorder compares a text with a source name (the registry's entries are skipped)."""
-    from recorder.sources import SOURCE_KINDS
+    from recorder.sources.registry import SOURCE_KINDS
 
     names = {k.name for k in SOURCE_KINDS}
     recorder = Path(__file__).resolve().parents[2] / "recorder"
     found = []
-    for path in sorted(recorder.glob("*.py")):
+    for path in sorted(recorder.rglob("*.py")):
         tree = ast.parse(path.read_text(), str(path))
         skip: set[int] = set()
         for node in ast.walk(tree):

@@ -25,18 +25,18 @@ import httpx
 import numpy as np
 import pytest
 
-from recorder import stops
-from recorder.capture import CaptureResult, CaptureSettings
-from recorder.driver import Decision, Driver, Placement
-from recorder.recording import record
-from recorder.sources import ImagesSource
+from recorder.procedure import stops
+from recorder.procedure.capture import CaptureResult, CaptureSettings
+from recorder.procedure.driver import Decision, Driver, Placement
+from recorder.procedure.recording import record
+from recorder.sources.registry import ImagesSource
 from tests.helpers import RECORD, SMALL_SCENE
-from twopose.camera import Camera, Intrinsics
+from twopose.camera.model import Camera, Intrinsics
 from twopose.format import SessionReader
 from twopose.format.entries import CaptureDecision, CaptureWindow, PoseEntry, SessionInfo
 from twopose.format.trials import describe_session
-from twopose.methods import Method
-from twopose.units import Units
+from twopose.methods.specs import Method
+from twopose.values.units import Units
 
 #: What the issue asks: the file closed and the process gone within 2 s of the signal.
 STOP_WITHIN_S = 2.0
@@ -119,10 +119,10 @@ def test_a_suggestion_in_progress_is_abandoned_and_the_file_closed_at_once(
     """Issue 44: a stop while the next pose's suggestion was computed waited for it (20 s
     with ``--grid 0.1``; the console's shutdown gave up after 30 s, the file unclosed).
     Here the suggestion would take 30 s; the stop comes while it is computed."""
-    from recorder.live_result import LiveResults
-    from recorder.plan import load_plan, record_plan
-    from recorder.sources import open_source
-    from twopose.methods import Method
+    from recorder.live.result import LiveResults
+    from recorder.setup.plan import load_plan, record_plan
+    from recorder.sources.registry import open_source
+    from twopose.methods.specs import Method
 
     computing = threading.Event()
 
@@ -154,9 +154,9 @@ def test_a_stop_while_the_source_opens_records_nothing_at_once(tmp_path: Path) -
     """A stop asked while the source opens is seen there, before the file exists: it is
     not waited for, and leaves no file (the synthetic camera renders nothing as it opens
     now; its first view is cut like any other, below)."""
-    from recorder.plan import load_plan, record_plan
-    from recorder.sources import open_source
-    from twopose.methods import Method
+    from recorder.setup.plan import load_plan, record_plan
+    from recorder.sources.registry import open_source
+    from twopose.methods.specs import Method
 
     plan = load_plan(_plan(tmp_path, trials=1))
     out = tmp_path / "s.mcap"

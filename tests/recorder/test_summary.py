@@ -1,4 +1,4 @@
-"""recorder.summary directly: the tally counts each capture window once, by its last
+"""recorder.procedure.summary directly: the tally counts each capture window once, by its last
 decision (as the file holds them), and the one summary line says what the file holds, how
 it ended, and that nothing was written when nothing was."""
 
@@ -8,8 +8,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from recorder.capture import CaptureResult, FrameFeedback
-from recorder.summary import RecordingSummary, Tally
+from recorder.procedure.capture import CaptureResult, FrameFeedback
+from recorder.procedure.summary import RecordingSummary, Tally
 
 
 @dataclass

@@ -15,11 +15,11 @@ import pytest
 from typer.testing import CliRunner
 
 import analysis
-from recorder.cli import app
-from recorder.sources import SyntheticSource, open_source
-from twopose.camera import Camera, Intrinsics
+from recorder.cli.app import app
+from recorder.sources.registry import SyntheticSource, open_source
+from twopose.camera.model import Camera, Intrinsics
 from twopose.errors import InputValueError
-from twopose.methods import Method
+from twopose.methods.specs import Method
 from twopose.sim.scene import load_scene
 
 runner = CliRunner()

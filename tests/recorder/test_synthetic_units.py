@@ -18,11 +18,11 @@ import pytest
 from typer.testing import CliRunner
 
 import analysis
-from recorder.cli import app
-from recorder.sources import SyntheticSource, open_source
+from recorder.cli.app import app
+from recorder.sources.registry import SyntheticSource, open_source
 from tests.helpers import start_console
-from twopose.methods import Method
-from twopose.units import Units, unit_factor
+from twopose.methods.specs import Method
+from twopose.values.units import Units, unit_factor
 
 runner = CliRunner()
 

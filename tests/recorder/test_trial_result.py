@@ -1,4 +1,4 @@
-"""recorder.trial_result directly: the live result is the analysis' estimate and error for each
+"""recorder.live.trial_result directly: the live result is the analysis' estimate and error for each
 trial, its one-line text says why when there is none, and its JSON has no NaN."""
 
 from __future__ import annotations
@@ -8,14 +8,14 @@ import json
 import numpy as np
 import pytest
 
-from recorder.trial_result import trial_results
+from recorder.live.trial_result import trial_results
 from tests.twopose.synthetic_trials import estimate as _estimate
 from tests.twopose.synthetic_trials import trials as _trials
-from twopose.jsonsafe import dumps
-from twopose.methods import Method
-from twopose.session_estimate import SessionTrials
-from twopose.truth import line_errors, reported
-from twopose.units import Units
+from twopose.methods.specs import Method
+from twopose.methods.truth import line_errors, reported
+from twopose.solve.session import SessionTrials
+from twopose.values.jsonsafe import dumps
+from twopose.values.units import Units
 
 
 @pytest.mark.parametrize("method", ["point", "line", "ground"])

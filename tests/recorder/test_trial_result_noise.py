@@ -6,11 +6,11 @@ from __future__ import annotations
 
 import math
 
-from recorder.trial_result import guidance_options, trial_results
+from recorder.live.trial_result import guidance_options, trial_results
 from tests.helpers import load_benchmark
-from twopose.estimate import EstimateOptions
-from twopose.methods import Method
-from twopose.noise import NoiseModel, VarianceFactor
+from twopose.methods.specs import Method
+from twopose.solve.estimate import EstimateOptions
+from twopose.uncertainty.noise import NoiseModel, VarianceFactor
 
 bench = load_benchmark("bench_sigma0")
 

@@ -6,15 +6,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from twopose.camera import Intrinsics, project_points, rotation_from_angles_deg
-from twopose.estimate import EstimateOptions, PoseView
-from twopose.methods import Method, spec_of
-from twopose.session_estimate import (
+from twopose.camera.model import Intrinsics, project_points, rotation_from_angles_deg
+from twopose.methods.specs import Method, spec_of
+from twopose.solve.estimate import EstimateOptions, PoseView
+from twopose.solve.session import (
     SessionEstimate,
     SessionTrials,
     estimate_session,
 )
-from twopose.units import Units
+from twopose.values.units import Units
 
 INTRINSICS = Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0)
 H = 9.625  # the thesis' ground height: the ground plane y = h (y down)

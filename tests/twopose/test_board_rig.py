@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twopose.checkerboard import find_board
+from twopose.detect.checkerboard import find_board
 from twopose.errors import InputValueError
 from twopose.rig.board import FITTED_NAMES, board_order, fit_board_rig
 from twopose.rig.constants import RigConstants

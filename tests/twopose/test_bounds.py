@@ -1,4 +1,4 @@
-"""The one table of bounds (twopose.bounds): its grammar, its message, its docs."""
+"""The one table of bounds (twopose.values.bounds): its grammar, its message, its docs."""
 
 from __future__ import annotations
 
@@ -11,7 +11,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from twopose.bounds import (
+from twopose.errors import InputValueError
+from twopose.values.bounds import (
     FRAMES,
     GRID,
     GROUND_HEIGHT,
@@ -25,8 +26,7 @@ from twopose.bounds import (
     Quantity,
     shown,
 )
-from twopose.errors import InputValueError
-from twopose.units import UNITS, Units
+from twopose.values.units import UNITS, Units
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -129,7 +129,7 @@ def test_every_length_bound_is_one_length_in_inches() -> None:
 
 
 def test_the_docs_table_is_the_code_table() -> None:
-    """docs/recording.md's table of bounds is what twopose.bounds states (regenerate it with
+    """docs/recording.md's table of bounds is what twopose.values.bounds states (regenerate it with
     ``.venv/bin/python docs/bounds_table.py --write-docs``)."""
     done = subprocess.run(
         [sys.executable, str(REPO / "docs" / "bounds_table.py")],

@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from twopose.camera import (
+from twopose.camera.model import (
     Intrinsics,
     project_points,
     quaternion_xyzw_from_matrix,
@@ -117,10 +117,10 @@ def test_intrinsics_from_and_to_a_dict() -> None:
 
 
 def test_a_pixels_ray_passes_through_the_point_it_sees() -> None:
-    """twopose.camera.grid_rays, the one back-projection (the views table, the top view and
+    """twopose.camera.model.grid_rays, the one back-projection (the views table, the top view and
     the simulator's pixels read it): project points, back-project their pixels, and each
     ray from the camera centre meets its point."""
-    from twopose.camera import grid_rays
+    from twopose.camera.model import grid_rays
 
     rng = np.random.default_rng(3)
     intr = Intrinsics(width=640, height=480, fx=525.0, fy=520.0, cx=318.0, cy=243.0)

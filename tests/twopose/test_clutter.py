@@ -1,4 +1,4 @@
-"""twopose.clutter: guidance keeps the target from being seen over clutter.
+"""twopose.detect.clutter: guidance keeps the target from being seen over clutter.
 
 Issue 55: at large reach (a line in cm on 0.2 cm paper within 254 cm) the fourth
 suggestion, (12, 0, 5) cm, put the finger over the synthetic scene's blue disk, and none
@@ -15,19 +15,19 @@ import math
 import numpy as np
 import pytest
 
-from recorder.sources import SyntheticSource
-from twopose.clutter import FAR_IN, Clutter, over_clutter, scene_clutter, seen_clutter
-from twopose.detect import detect_glove
-from twopose.estimate import EstimateOptions, PoseView
-from twopose.guidance import Reach, plan_next
-from twopose.methods import Method, spec_of
-from twopose.paper import CLUTTER
-from twopose.prediction import target_of, template_view
-from twopose.session_estimate import SessionTrials, estimate_session
+from recorder.sources.registry import SyntheticSource
+from twopose.detect.clutter import FAR_IN, Clutter, over_clutter, scene_clutter, seen_clutter
+from twopose.detect.detection import detect_glove
+from twopose.guidance.advice import Reach, plan_next
+from twopose.guidance.paper import CLUTTER
+from twopose.guidance.prediction import target_of, template_view
+from twopose.methods.specs import Method, spec_of
 from twopose.sim.layout import build_layout, finger_axis
 from twopose.sim.scene import load_scene
-from twopose.solve import projection_matrices
-from twopose.units import Units
+from twopose.solve.estimate import EstimateOptions, PoseView
+from twopose.solve.nview import projection_matrices
+from twopose.solve.session import SessionTrials, estimate_session
+from twopose.values.units import Units
 
 K = np.array([525.0, 525.0, 320.0, 240.0])
 
@@ -49,7 +49,7 @@ def _view(points: np.ndarray, t: tuple[float, float, float], pose: int,
 
 def test_the_fourth_suggestion_at_large_reach_keeps_the_finger_off_the_blue_disk() -> None:
     scene = load_scene().in_units(Units.CM)
-    # The recorder's synthetic source lays its scene out from seed 0 (recorder/sources.py).
+    # The recorder's synthetic source lays its scene out from seed 0 (recorder/sources/registry.py).
     source = SyntheticSource(None, Method.LINE, realtime=False, bank=1, units=Units.CM)
     source.open()
     clutter = source.clutter()

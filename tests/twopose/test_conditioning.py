@@ -1,4 +1,4 @@
-"""twopose.conditioning directly: the pairwise measures against a brute-force loop over pairs
+"""twopose.solve.conditioning directly: the pairwise measures against a brute-force loop over pairs
 (also across the blocks the rows are cut into), the parallax a known baseline subtends, and
 the one no-baseline rule."""
 
@@ -10,14 +10,14 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
-from twopose.camera import rotation_from_angles_deg
-from twopose.conditioning import (
+from twopose.camera.model import rotation_from_angles_deg
+from twopose.solve.conditioning import (
     flag_no_baseline,
     pairwise_max_abs_dot,
     pairwise_max_sine,
     parallax_sine,
 )
-from twopose.solve import projection_matrices
+from twopose.solve.nview import projection_matrices
 
 
 def _brute(

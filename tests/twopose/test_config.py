@@ -1,4 +1,4 @@
-"""twopose.config directly: TOML becomes a typed, validated dataclass, and each bad key or
+"""twopose.values.toml directly: TOML becomes a typed, validated dataclass, and each bad key or
 value is an error of the caller's class that names the key; an unreadable file says why."""
 
 from __future__ import annotations
@@ -9,8 +9,8 @@ from typing import Literal
 
 import pytest
 
-from twopose.config import build_dataclass, read_toml
 from twopose.errors import InputValueError, SceneError
+from twopose.values.toml import build_dataclass, read_toml
 
 
 @dataclass(frozen=True, kw_only=True)

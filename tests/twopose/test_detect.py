@@ -9,13 +9,20 @@ import cv2
 import numpy as np
 import pytest
 
-from twopose.camera import project_points
-from twopose.choices import Target
-from twopose.detect import DotParams, GloveParams, detect, detect_dot, detect_glove, wrap_theta_deg
-from twopose.methods import Method
+from twopose.camera.model import project_points
+from twopose.detect.detection import (
+    DotParams,
+    GloveParams,
+    detect,
+    detect_dot,
+    detect_glove,
+    wrap_theta_deg,
+)
+from twopose.methods.specs import Method
 from twopose.sim.layout import build_layout, finger_axis
 from twopose.sim.render import expose, render_radiance
 from twopose.sim.scene import load_scene
+from twopose.values.choices import Target
 
 GLOVE_BGR = (192, 108, 38)
 
@@ -194,7 +201,7 @@ def test_an_empty_scene_is_a_not_found_detection_with_a_reason(target: Target) -
 @pytest.mark.parametrize("seed", range(6))
 def test_fast_components_agree_with_opencv_stats(seed: int) -> None:
     """Random masks with holes and blobs inside holes: same components, areas and centroids."""
-    from twopose.detectors import _components
+    from twopose.detect.detectors import _components
 
     rng = np.random.default_rng(seed)
     noise = cv2.GaussianBlur(rng.random((240, 320)).astype(np.float32), (0, 0), 3.0)
@@ -214,7 +221,7 @@ def test_the_live_board_search_finds_what_the_full_one_finds_and_turns_down_blan
     """The recorder's live check (fast pre-check, then the full search) finds a board
     exactly as the full search does, and a frame without one is not found (the full
     search ran, and said so)."""
-    from twopose.checkerboard import find_board, find_board_live
+    from twopose.detect.checkerboard import find_board, find_board_live
 
     squares = (np.indices((7, 10)).sum(axis=0) % 2).astype(np.uint8) * 255
     board = np.kron(squares, np.ones((30, 30), np.uint8))
@@ -236,7 +243,7 @@ def test_the_live_board_search_finds_what_the_full_one_finds_and_turns_down_blan
 def test_the_live_board_search_is_bounded_in_time() -> None:
     """A full search that outlasts its budget is given up (the board counts as not found,
     said as out of time); the one still running delays the next only within its budget."""
-    from twopose.checkerboard import find_board_live
+    from twopose.detect.checkerboard import find_board_live
 
     blank = np.random.default_rng(1).integers(80, 100, (240, 320, 3), dtype=np.uint8)
     started = time.perf_counter()

@@ -10,7 +10,7 @@ import cv2
 import numpy as np
 import pytest
 
-from twopose.detectors import (
+from twopose.detect.detectors import (
     _components,
     _glove_mask,
     _grey_formula,
@@ -18,9 +18,9 @@ from twopose.detectors import (
     _otsu_foreground,
     detect_glove,
 )
+from twopose.detect.thresholds import GloveParams
 from twopose.format.messages import Frame
 from twopose.format.reader import SessionReader
-from twopose.thresholds import GloveParams
 
 SESSIONS = Path(__file__).resolve().parents[2] / "sessions"
 

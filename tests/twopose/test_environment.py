@@ -1,4 +1,4 @@
-"""Every setting read from the environment is declared once (twopose.environment), and no
+"""Every setting read from the environment is declared once (twopose.values.environment), and no
 module reads the environment another way: so the analysis cache's key, which reads the
 same list, knows every setting a result depends on."""
 
@@ -9,16 +9,16 @@ from pathlib import Path
 
 import pytest
 
-from twopose.environment import ENVIRONMENT, EnvironmentSetting, results_environment
+from twopose.values.environment import ENVIRONMENT, EnvironmentSetting, results_environment
 
 ROOT = Path(__file__).resolve().parents[2]
 #: The one module that reads the environment for a setting.
-DECLARED = Path("twopose/environment.py")
+DECLARED = Path("twopose/values/environment.py")
 #: Reads that are not settings: (file, what), with why.
 PASSED_ON = {
     # The figure drawer's child gets this process's environment whole (so it applies the
     # same settings), with this package first on its PYTHONPATH.
-    (Path("analysis/drawer.py"), "environ"): 2,
+    (Path("analysis/report/figures/drawer.py"), "environ"): 2,
 }
 
 
@@ -46,7 +46,7 @@ def test_no_module_reads_the_environment_but_through_its_declaration() -> None:
             for what in _reads(ast.parse(path.read_text(encoding="utf-8"))):
                 counted[(rel, what)] = counted.get((rel, what), 0) + 1
     assert counted == PASSED_ON, (
-        "read the environment only through twopose.environment (declare the setting there: "
+        "read the environment only through twopose.values.environment (declare the setting there: "
         f"then the analysis cache keys on it): {counted}"
     )
 

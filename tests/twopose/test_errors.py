@@ -13,7 +13,7 @@ import pytest
 import typer
 
 import analysis.cli
-import recorder.cli
+import recorder.cli.app
 from twopose import errors
 from twopose.errors import (
     EXIT_ERROR,
@@ -79,10 +79,10 @@ def test_a_ctrl_c_python_swallowed_still_exits_130(capsys: pytest.CaptureFixture
 def test_both_command_lines_share_the_one_main(monkeypatch: pytest.MonkeyPatch) -> None:
     seen: list[object] = []
     monkeypatch.setattr(analysis.cli, "run_command_line", seen.append)
-    monkeypatch.setattr(recorder.cli, "run_command_line", seen.append)
+    monkeypatch.setattr(recorder.cli.app, "run_command_line", seen.append)
     analysis.cli.main()
-    recorder.cli.main()
-    assert seen == [analysis.cli.app, recorder.cli.app]
+    recorder.cli.app.main()
+    assert seen == [analysis.cli.app, recorder.cli.app.app]
 
 
 def test_a_ctrl_c_typer_turns_into_a_silent_130_is_said_once(

@@ -1,4 +1,4 @@
-"""twopose.estimate directly: the padded batch, each method's solver on exact projections of
+"""twopose.solve.estimate directly: the padded batch, each method's solver on exact projections of
 a seeded truth, the thesis estimate used for propagation, the margins and the input
 covariance's layout. (A whole session through it: test_session_estimate.py.)"""
 
@@ -7,8 +7,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twopose.camera import Intrinsics, project_points, rotation_from_angles_deg
-from twopose.estimate import (
+from twopose.camera.model import Intrinsics, project_points, rotation_from_angles_deg
+from twopose.methods.specs import Method
+from twopose.solve.estimate import (
     EstimateOptions,
     PoseView,
     ViewBatch,
@@ -22,8 +23,7 @@ from twopose.estimate import (
     solve_batch,
     thesis_estimate,
 )
-from twopose.methods import Method
-from twopose.uncertainty import INPUTS_PER_VIEW, SHARED_INPUTS
+from twopose.uncertainty.propagate import INPUTS_PER_VIEW, SHARED_INPUTS
 
 INTRINSICS = Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0)
 K = np.array([INTRINSICS.fx, INTRINSICS.fy, INTRINSICS.cx, INTRINSICS.cy])

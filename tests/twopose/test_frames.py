@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twopose.frames import combine_frames
+from twopose.detect.frames import combine_frames
 
 
 def test_doubled_angles_average_89_and_minus_89_to_90() -> None:

@@ -1,4 +1,4 @@
-"""twopose.guidance at a known geometry: the suggestion is the brute-force best of the
+"""twopose.guidance.advice at a known geometry: the suggestion is the brute-force best of the
 lattice (each candidate solved alone, as the analysis solves a session), the stop rule says
 complete exactly when the region is within the target, and a suggestion keeps the target in
 view."""
@@ -11,16 +11,16 @@ import math
 import numpy as np
 import pytest
 
-from twopose.bounds import shown
-from twopose.estimate import EstimateOptions, PoseView
-from twopose.guidance import Guidance, Reach, advise, suggest
-from twopose.methods import Method
-from twopose.noise import NoiseModel
-from twopose.paper import lattice
-from twopose.prediction import regions95
-from twopose.session_estimate import SessionTrials
-from twopose.solve import projection_matrices
-from twopose.units import Units
+from twopose.guidance.advice import Guidance, Reach, advise, suggest
+from twopose.guidance.paper import lattice
+from twopose.guidance.prediction import regions95
+from twopose.methods.specs import Method
+from twopose.solve.estimate import EstimateOptions, PoseView
+from twopose.solve.nview import projection_matrices
+from twopose.solve.session import SessionTrials
+from twopose.uncertainty.noise import NoiseModel
+from twopose.values.bounds import shown
+from twopose.values.units import Units
 
 NO_TEST = NoiseModel(test_redundancy=False)
 
@@ -67,7 +67,7 @@ def test_the_suggestion_is_the_brute_force_best_of_the_lattice(method: Method) -
     trial = _trial(method, [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0)])
     options = EstimateOptions()
     reach = Reach(radius=2.0, spacing=0.5)
-    from twopose.session_estimate import estimate_session
+    from twopose.solve.session import estimate_session
 
     point = estimate_session(trial, options).estimates.point[0]
     found = suggest(trial, reach, options, point=point)
@@ -76,8 +76,8 @@ def test_the_suggestion_is_the_brute_force_best_of_the_lattice(method: Method) -
     # Brute force: each reachable centre's trial solved on its own, its view predicted
     # from the same target (the one the two poses locate), those that keep the target
     # clear of the image's edges (the lattice is small: the search predicts it whole).
-    from twopose.paper import clear_of_edges
-    from twopose.prediction import located_target, predicted_view
+    from twopose.guidance.paper import clear_of_edges
+    from twopose.guidance.prediction import located_target, predicted_view
 
     target = located_target(method, trial.views[0], point, options)
     best, best_region = None, math.inf
@@ -151,8 +151,8 @@ def test_a_reach_without_a_lattice_and_a_bad_target_are_refused() -> None:
 def test_target_of_is_the_located_target_with_two_poses_and_on_the_ray_with_one(
     method: Method,
 ) -> None:
-    from twopose.prediction import target_of
-    from twopose.session_estimate import estimate_session
+    from twopose.guidance.prediction import target_of
+    from twopose.solve.session import estimate_session
 
     options = EstimateOptions()
     two = _trial(method, [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0)])
@@ -175,7 +175,7 @@ def test_target_of_is_the_located_target_with_two_poses_and_on_the_ray_with_one(
 
 
 def test_one_pose_shows_its_region_as_a_range_over_the_depths_the_scene_allows() -> None:
-    from twopose.first_pose import FAR_DEPTH_IN, NEAR_DEPTH_IN, RANGE_SLACK
+    from twopose.guidance.first_pose import FAR_DEPTH_IN, NEAR_DEPTH_IN, RANGE_SLACK
 
     trial = _trial(Method.POINT, [(0.0, 0.0, 0.0)])
     found = suggest(trial, Reach.thesis(Units.IN))
@@ -199,7 +199,7 @@ def test_the_first_pick_reaches_the_least_worst_regret_of_the_whole_lattice() ->
     its bench saw a coarse pass of 40 stall on the worst's kinks for a dot at 25 in), each
     depth's best held to the pick's own margin (issue 54: a best held to the whole margin
     made regrets below zero), and the map's value at the pick is that regret."""
-    from twopose.guidance import plan_next
+    from twopose.guidance.advice import plan_next
 
     options, reach = EstimateOptions(), Reach.thesis(Units.IN)
     first = (-1.0, 0.0, 0.5)
@@ -219,8 +219,8 @@ def _exhaustive_regret(
     trial: SessionTrials, reach: Reach, options: EstimateOptions
 ) -> tuple[float, np.ndarray]:
     """The least worst regret over every lattice pose, and each depth's best region."""
-    from twopose.first_pose import OTHER_DEPTHS_MARGIN, first_depths, provisional_target
-    from twopose.prediction import predicted_regions
+    from twopose.guidance.first_pose import OTHER_DEPTHS_MARGIN, first_depths, provisional_target
+    from twopose.guidance.prediction import predicted_regions
 
     view, first = trial.views[0][0], trial.views[0][0].t_grid
     depths = first_depths(view, Units.IN, trial.ground, options)
@@ -237,7 +237,7 @@ def _exhaustive_regret(
 
 
 def test_a_taped_distance_is_the_one_depth_the_first_suggestion_assumes() -> None:
-    from twopose.prediction import target_of
+    from twopose.guidance.prediction import target_of
 
     trial = _trial(Method.POINT, [(0.0, 0.0, 0.0)])
     distance = float(np.linalg.norm(POINT))
@@ -256,7 +256,7 @@ def test_a_taped_distance_is_the_one_depth_the_first_suggestion_assumes() -> Non
 
 
 def _regions_of_lattice(trial: SessionTrials, target: np.ndarray) -> np.ndarray:
-    from twopose.prediction import predicted_regions
+    from twopose.guidance.prediction import predicted_regions
 
     reach = Reach.thesis(Units.IN)
     every = lattice(np.zeros(3), reach, np.zeros((1, 3)))
@@ -264,7 +264,7 @@ def _regions_of_lattice(trial: SessionTrials, target: np.ndarray) -> np.ndarray:
 
 
 def test_the_depth_range_ends_where_the_ray_meets_the_ground() -> None:
-    from twopose.first_pose import DEPTHS, depth_range
+    from twopose.guidance.first_pose import DEPTHS, depth_range
 
     ray = np.array([0.0, 0.6, 0.8])  # down and ahead: meets y = 9.625 at 9.625 / 0.6
     depths = depth_range(np.zeros(3), ray, Units.IN, (np.array([0.0, 1.0, 0.0]), 9.625))
@@ -276,8 +276,8 @@ def test_the_depth_range_ends_where_the_ray_meets_the_ground() -> None:
 
 
 def test_the_information_gain_stop_ends_a_trial_whose_next_pose_buys_too_little() -> None:
-    from twopose.guidance import STOP_MIN_GAIN
-    from twopose.session_estimate import estimate_session
+    from twopose.guidance.advice import STOP_MIN_GAIN
+    from twopose.solve.session import estimate_session
 
     trial = _trial(Method.POINT, [(0.0, 0.0, 0.0), (1.5, 0.0, 0.0), (-1.5, 0.0, 1.0)])
     options = EstimateOptions()
@@ -328,8 +328,8 @@ def test_one_pose_the_thesis_move_is_said_at_the_depths_the_suggestion_weighs() 
 def test_the_gain_stop_says_when_the_target_precision_was_missed() -> None:
     """Issue 55: the gain stop said "trial complete" without saying the target precision
     was missed, as the max-poses stop does."""
-    from twopose.guidance import STOP_MIN_GAIN
-    from twopose.session_estimate import estimate_session
+    from twopose.guidance.advice import STOP_MIN_GAIN
+    from twopose.solve.session import estimate_session
 
     trial = _trial(Method.POINT, [(0.0, 0.0, 0.0), (1.5, 0.0, 0.0), (-1.5, 0.0, 1.0)])
     options = EstimateOptions()

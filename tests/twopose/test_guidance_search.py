@@ -13,18 +13,18 @@ import math
 import numpy as np
 import pytest
 
-from recorder.sources import SyntheticSource
-from twopose.detect import detect_glove
-from twopose.estimate import EstimateOptions, PoseView
-from twopose.guidance import LOOKAHEAD_POSES, Guidance, advise, suggest
-from twopose.methods import Method
-from twopose.paper import EDGE, TAKEN, Reach, clear_of_edges, lattice
-from twopose.paper_search import COARSE_CANDIDATES
-from twopose.prediction import predicted_regions, target_of
-from twopose.region_map import MAP_POSES
-from twopose.session_estimate import SessionTrials, estimate_session
+from recorder.sources.registry import SyntheticSource
+from twopose.detect.detection import detect_glove
+from twopose.guidance.advice import LOOKAHEAD_POSES, Guidance, advise, suggest
+from twopose.guidance.paper import EDGE, TAKEN, Reach, clear_of_edges, lattice
+from twopose.guidance.prediction import predicted_regions, target_of
+from twopose.guidance.region_map import MAP_POSES
+from twopose.guidance.search import COARSE_CANDIDATES
+from twopose.methods.specs import Method
 from twopose.sim.scene import load_scene
-from twopose.units import Units, unit_factor
+from twopose.solve.estimate import EstimateOptions, PoseView
+from twopose.solve.session import SessionTrials, estimate_session
+from twopose.values.units import Units, unit_factor
 
 from .test_guidance import _trial
 

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from tests.helpers import jpeg_declaring
+from twopose.camera.images import decode_image, image_size
 from twopose.errors import InputValueError
-from twopose.images import decode_image, image_size
 
 
 def test_a_small_file_declaring_a_huge_image_is_refused_before_decoding() -> None:

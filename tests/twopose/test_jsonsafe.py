@@ -1,5 +1,5 @@
 """The one JSON encoder of what the recorder shows live: NaN and infinity become null,
-wherever they sit (twopose/jsonsafe.py)."""
+wherever they sit (twopose/values/jsonsafe.py)."""
 
 from __future__ import annotations
 
@@ -8,10 +8,10 @@ import math
 
 import numpy as np
 
-from recorder.trial_result import TrialResult
-from twopose import jsonsafe
-from twopose.methods import Method
-from twopose.units import Units
+from recorder.live.trial_result import TrialResult
+from twopose.methods.specs import Method
+from twopose.values import jsonsafe
+from twopose.values.units import Units
 
 
 def strict(text: str) -> object:

@@ -7,12 +7,12 @@ import json
 
 import pytest
 
-from twopose.bounds import POSE_TRANSLATION
-from twopose.choices import Target
 from twopose.errors import InputValueError
 from twopose.format.entries import SessionInfo, decode_entry, encode_entry
-from twopose.methods import MEASURING_METHODS, METHOD_SPECS, METHODS, Method, spec_of
-from twopose.units import UNIT_SPECS, UNITS, Units, unit_spec
+from twopose.methods.specs import MEASURING_METHODS, METHOD_SPECS, METHODS, Method, spec_of
+from twopose.values.bounds import POSE_TRANSLATION
+from twopose.values.choices import Target
+from twopose.values.units import UNIT_SPECS, UNITS, Units, unit_spec
 
 
 def test_every_method_and_unit_has_its_spec() -> None:
@@ -58,7 +58,7 @@ def test_a_board_session_reconstructs_nothing_and_carries_its_board() -> None:
 def test_units_agree_with_each_other() -> None:
     assert unit_spec("mm").inches == pytest.approx(1 / 25.4)
     for spec in UNIT_SPECS.values():
-        # The limits are the same lengths in every unit (twopose.bounds); the ground
+        # The limits are the same lengths in every unit (twopose.values.bounds); the ground
         # tolerance is checked exactly in tests/twopose/test_units.py.
         high = POSE_TRANSLATION.limits(spec.units)[1]
         assert high * spec.inches == pytest.approx(200, rel=1e-6)

@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 from tests.helpers import load_benchmark
-from twopose.estimate import EstimateOptions
-from twopose.methods import Method
-from twopose.misclosure import misclosures, pose_tests
-from twopose.session_estimate import estimate_session
+from twopose.methods.specs import Method
+from twopose.solve.estimate import EstimateOptions
+from twopose.solve.session import estimate_session
+from twopose.uncertainty.misclosure import misclosures, pose_tests
 
 bench = load_benchmark("bench_noise")
 SIGMA = 0.05

@@ -1,4 +1,5 @@
-"""twopose.noise's quantiles (scipy.special's functions, not scipy.stats' objects, so that
+"""twopose.uncertainty.noise's quantiles (scipy.special's functions, not scipy.stats' objects, so
+that
 a re-run imports no scipy.stats) are the distributions' own, and the words say exactly
 what sigma0's own chi-square test says (issue 54): "contradict" only in its upper 5% tail,
 "scatter less" only in its lower 5% tail, "agree" only otherwise on enough degrees of
@@ -13,7 +14,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from scipy import stats
 
-from twopose.noise import (
+from twopose.uncertainty.noise import (
     FACTOR_TEST_LEVEL,
     MIN_PLACING_DOF,
     NoiseModel,
@@ -25,7 +26,7 @@ from twopose.noise import (
     noise_words,
     p_words,
 )
-from twopose.units import Units
+from twopose.values.units import Units
 
 levels = st.floats(0.01, 0.99)
 dofs = st.integers(1, 400)

@@ -13,8 +13,8 @@ from typer.testing import CliRunner
 
 from analysis.cli import app
 from tests.helpers import load_benchmark
-from twopose.camera import Intrinsics, project_points, rotation_from_angles_deg
-from twopose.solve import (
+from twopose.camera.model import Intrinsics, project_points, rotation_from_angles_deg
+from twopose.solve.nview import (
     NViewLines,
     NViewPoints,
     image_lines,
@@ -175,7 +175,7 @@ def test_merton_through_the_solve_command() -> None:
 
 @pytest.mark.parametrize("estimator", ["thesis", "optimal"])
 def test_fast_two_view_path_agrees_with_the_general_solver(estimator: str) -> None:
-    from twopose.two_view import triangulate_two_views
+    from twopose.solve.two_view import triangulate_two_views
 
     rng = np.random.default_rng(9)
     T = 500
@@ -212,7 +212,7 @@ def test_fast_two_view_path_agrees_with_the_general_solver(estimator: str) -> No
 
 
 def test_fast_two_view_degenerate_cases() -> None:
-    from twopose.two_view import triangulate_two_views
+    from twopose.solve.two_view import triangulate_two_views
 
     P1 = projection_matrices(K4, np.eye(3), np.zeros(3))
     same_centre = projection_matrices(K4, rotation_from_angles_deg([0.0, 10.0, 0.0]), np.zeros(3))
@@ -289,8 +289,8 @@ def test_views_from_one_camera_centre_are_degenerate_for_every_method(
 ) -> None:
     """Rotating the camera about one centre gives distinct rays and planes but no
     baseline: every method says so (lines and ground points used to report ok)."""
-    from twopose.conditioning import parallax_sine
-    from twopose.solve import triangulate_ground
+    from twopose.solve.conditioning import parallax_sine
+    from twopose.solve.nview import triangulate_ground
 
     rng = np.random.default_rng(3)
     K, R, t = _views(rng, 5, n_views)
@@ -324,7 +324,7 @@ def test_a_ground_point_from_many_noisy_views_lies_on_the_ground(normal: list[fl
     constraint) and is the plane's point nearest them in least squares. An unconstrained fit
     with the ground as a fourth equation left it off the ground, its region a 3-dof ellipsoid
     where 2 dof exist: guided method-2 trials covered 98% where 95% was asked."""
-    from twopose.solve import triangulate_ground
+    from twopose.solve.nview import triangulate_ground
 
     rng = np.random.default_rng(11)
     T, N, offset = 6, 4, 2.0

@@ -1,4 +1,4 @@
-"""The reprojection-optimal line (twopose.optimal_lines) on seeded synthetic lines: truth
+"""The reprojection-optimal line (twopose.solve.optimal_lines) on seeded synthetic lines: truth
 recovered, never further from the segments than its algebraic start, a covariance that
 covers the truth as often as it says."""
 
@@ -7,10 +7,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twopose.camera import camera_centres, rotation_from_angles_deg
+from twopose.camera.model import camera_centres, rotation_from_angles_deg
 from twopose.errors import InputValueError
-from twopose.optimal_lines import centroid_segments, endpoint_distances, optimal_lines
-from twopose.solve import projection_matrices, segment_lines, triangulate_lines
+from twopose.solve.nview import projection_matrices, segment_lines, triangulate_lines
+from twopose.solve.optimal_lines import centroid_segments, endpoint_distances, optimal_lines
 
 K4 = np.array([525.0, 520.0, 318.0, 242.0])
 CHI2_4_95 = 9.4877  # chi-square, 4 degrees of freedom, 95%

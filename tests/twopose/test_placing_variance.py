@@ -11,10 +11,11 @@ import numpy as np
 import pytest
 
 from tests.helpers import load_benchmark
-from twopose.estimate import EstimateOptions
-from twopose.methods import Method
-from twopose.noise import NoiseModel, PlacingPrior
-from twopose.placing_variance import (
+from twopose.methods.specs import Method
+from twopose.solve.estimate import EstimateOptions
+from twopose.solve.session import estimate_session
+from twopose.uncertainty.noise import NoiseModel, PlacingPrior
+from twopose.uncertainty.placing_variance import (
     GRID,
     SessionNoise,
     flag_trials,
@@ -23,7 +24,6 @@ from twopose.placing_variance import (
     trial_information,
     trial_loglik,
 )
-from twopose.session_estimate import estimate_session
 
 bench = load_benchmark("bench_noise")
 TYPED = PlacingPrior(scale=1.0, dof=2.0, source="the typed resolution")

@@ -1,10 +1,10 @@
-"""twopose.planes: a plane's in-plane axes, what every drawing and bias line reads.
+"""twopose.methods.planes: a plane's in-plane axes, what every drawing and bias line reads.
 
 Over planes of every orientation: a point of the plane reads back as the in-plane
 coordinates it was made from and its offset along the normal; the in-plane covariance is
 the marginal of the points' scatter; a grid axis is named by its letter and read as that
 coordinate exactly (the ground's x and z, a wall's y and z), another is ``u``/``v``; and
-the tables' in-plane columns (:func:`analysis.plane_axes.with_in_plane`) are those axes.
+the tables' in-plane columns (:func:`analysis.report.plane_axes.with_in_plane`) are those axes.
 """
 
 from __future__ import annotations
@@ -15,10 +15,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from analysis.plane_axes import covariance_column, covariances, with_in_plane
-from twopose.bounds import GROUND_HEIGHT
-from twopose.methods import METHOD_SPECS
-from twopose.planes import GROUND_PLANE, ConstraintPlane
+from analysis.report.plane_axes import covariance_column, covariances, with_in_plane
+from twopose.methods.planes import GROUND_PLANE, ConstraintPlane
+from twopose.methods.specs import METHOD_SPECS
+from twopose.values.bounds import GROUND_HEIGHT
 
 _finite = st.floats(-50.0, 50.0, allow_nan=False)
 

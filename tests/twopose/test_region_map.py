@@ -1,4 +1,4 @@
-"""twopose.region_map at a known geometry (seeded frame scatter): the map's best is the
+"""twopose.guidance.region_map at a known geometry (seeded frame scatter): the map's best is the
 suggestion and at least as good as every cell (issue 55: after the first pose the
 suggestion was (3, 0, 3) while the map ringed (-3, 0, 3)), a cell without a value says why
 and is never given one, the map counts what the advice counts, it frames the cells worth
@@ -17,16 +17,16 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from twopose.estimate import EstimateOptions, PoseView
-from twopose.guidance import Reach, Suggestion, plan_next
-from twopose.jsonsafe import dumps
-from twopose.methods import Method
-from twopose.paper import EDGE, TAKEN, clear_of_edges
-from twopose.prediction import predicted_regions, target_of
-from twopose.region_map import FOCUS, MAP_POSES, REASONS, RegionMap
-from twopose.session_estimate import SessionTrials, estimate_session
-from twopose.solve import projection_matrices
-from twopose.units import Units, unit_factor
+from twopose.guidance.advice import Reach, Suggestion, plan_next
+from twopose.guidance.paper import EDGE, TAKEN, clear_of_edges
+from twopose.guidance.prediction import predicted_regions, target_of
+from twopose.guidance.region_map import FOCUS, MAP_POSES, REASONS, RegionMap
+from twopose.methods.specs import Method
+from twopose.solve.estimate import EstimateOptions, PoseView
+from twopose.solve.nview import projection_matrices
+from twopose.solve.session import SessionTrials, estimate_session
+from twopose.values.jsonsafe import dumps
+from twopose.values.units import Units, unit_factor
 
 K = np.array([525.0, 525.0, 320.0, 240.0])
 POINT = np.array([0.5, 2.0, 11.0])  # a dot ahead of the first pose (inches)

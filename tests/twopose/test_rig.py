@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from twopose.camera import rotation_from_angles_deg
+from twopose.camera.model import rotation_from_angles_deg
 from twopose.errors import InputValueError
 from twopose.rig.constants import (
     RIG_PARAMETERS,
@@ -15,7 +15,7 @@ from twopose.rig.constants import (
     angles_deg_from_rotation,
     true_ground,
 )
-from twopose.units import Units
+from twopose.values.units import Units
 
 angle = st.floats(-89.0, 89.0)
 

@@ -11,15 +11,21 @@ import numpy as np
 import pytest
 
 from tests.twopose.synthetic_trials import GROUND, trials
-from twopose.estimate import EstimateOptions, ViewBatch, measure, nearest_on_line, thesis_estimate
-from twopose.methods import Method, spec_of
-from twopose.noise import NoiseModel, PlacingSigma
-from twopose.prediction import regions95
+from twopose.guidance.prediction import regions95
+from twopose.methods.specs import Method, spec_of
 from twopose.rig.carried import RIG_INPUT, carried_covariance, corrected_inputs
 from twopose.rig.constants import SCALARS, RigConstants, RigCovariance
-from twopose.session_estimate import SessionEstimate, SessionTrials, estimate_session
-from twopose.session_noise import placing_source
-from twopose.units import Units
+from twopose.solve.estimate import (
+    EstimateOptions,
+    ViewBatch,
+    measure,
+    nearest_on_line,
+    thesis_estimate,
+)
+from twopose.solve.session import SessionEstimate, SessionTrials, estimate_session
+from twopose.uncertainty.noise import NoiseModel, PlacingSigma
+from twopose.uncertainty.session_noise import placing_source
+from twopose.values.units import Units
 
 NAMES = ("mount_ry_deg", "offset_x", "offset_z", "focal_scale", "principal_dx_px", "tape_scale")
 SIGMA = np.array([0.05, 0.05, 0.08, 0.004, 1.5, 0.002])
@@ -94,7 +100,7 @@ def test_every_region_of_a_session_estimate_carries_it(method: str) -> None:
     assert (np.linalg.eigvalsh(added)[:, -1] > 0).all()  # wider, never narrower
     np.testing.assert_allclose(with_rig.estimates.point, without.estimates.point)
     # The reported point (a line's nearest its truth) carries it as well: trials.csv's.
-    from twopose.truth import reported
+    from twopose.methods.truth import reported
 
     assert (np.trace(reported(with_rig).cov, axis1=1, axis2=2)
             > np.trace(reported(without).cov, axis1=1, axis2=2)).all()  # fmt: skip

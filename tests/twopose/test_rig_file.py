@@ -14,14 +14,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from analysis.rig.fit import RigFit, rig_toml
-from twopose.camera import Intrinsics
+from twopose.camera.model import Intrinsics
 from twopose.errors import InputValueError
-from twopose.margins import EstimateOptions
-from twopose.noise import NoiseModel, PlacingSigma
 from twopose.rig.constants import SCALARS, RigConstants, RigCovariance, check_applicable
 from twopose.rig.file import RIG_FILE_FORMAT, load_rig_file
-from twopose.session_noise import placing_source
-from twopose.units import Units
+from twopose.solve.margins import EstimateOptions
+from twopose.uncertainty.noise import NoiseModel, PlacingSigma
+from twopose.uncertainty.session_noise import placing_source
+from twopose.values.units import Units
 
 THESIS = Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0)
 OTHER = Intrinsics(width=1280, height=720, fx=900.0, fy=900.0, cx=640.0, cy=360.0)

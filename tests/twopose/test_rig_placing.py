@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 
 from twopose.errors import InputValueError
-from twopose.noise import PlacingSigma
 from twopose.rig.board import fit_board_rig
 from twopose.rig.file import load_rig, load_rig_file, placing_table
 from twopose.sim.layout import BOARD_POSES, board_corners
 from twopose.sim.scene import load_scene
-from twopose.units import Units
+from twopose.uncertainty.noise import PlacingSigma
+from twopose.values.units import Units
 
 K = np.array([525.0, 525.0, 320.0, 240.0])
 POSES = np.array(BOARD_POSES, dtype=np.float64)

@@ -18,7 +18,7 @@ from twopose.rig.constants import (
     plausible_bounds,
 )
 from twopose.rig.file import load_rig
-from twopose.units import Units
+from twopose.values.units import Units
 
 GROUND = (np.array([0.0, 1.0, 0.0]), 9.625)
 
@@ -110,7 +110,7 @@ def test_the_fit_looks_only_where_the_validator_accepts() -> None:
 def test_new_rig_refuses_an_implausible_file(tmp_path: Path) -> None:
     """``twopose-record new --rig`` reads the file with the same validator (the live
     result's exception had stopped the recording after trial 1)."""
-    from recorder.cli import app
+    from recorder.cli.app import app
 
     rig_file = _file(tmp_path, "principal_offset_px = [1e300, 0]")
     out = tmp_path / "s.mcap"

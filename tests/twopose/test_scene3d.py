@@ -1,4 +1,4 @@
-"""twopose.scene3d directly: a trial's Foxglove scene holds the cameras, the measured rays
+"""twopose.display.scene directly: a trial's Foxglove scene holds the cameras, the measured rays
 (points) or planes (lines, method 2), the estimate with its 95% ellipsoid, the truth and
 the error; the rays pass through the target; a failed trial has no estimate entities."""
 
@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from twopose.display.scene import TrialScene, static_scene, trial_scene
 from twopose.format.entries import PlaneEntry
-from twopose.scene3d import TrialScene, static_scene, trial_scene
 
 TARGET = np.array([0.5, 1.5, 11.0])
 K = np.array([525.0, 525.0, 320.0, 240.0])

@@ -1,6 +1,6 @@
-"""twopose.session_estimate directly: seeded synthetic truth projected into typed poses,
+"""twopose.solve.session directly: seeded synthetic truth projected into typed poses,
 through estimate_session() for every method; degenerate trials flagged, not solved; the
-estimate never reads the truth (twopose.truth compares with it: test_truth.py)."""
+estimate never reads the truth (twopose.methods.truth compares with it: test_truth.py)."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ import pytest
 from tests.twopose.synthetic_trials import FRAMES, H
 from tests.twopose.synthetic_trials import estimate as _estimate
 from tests.twopose.synthetic_trials import trials as _trials
-from twopose.methods import spec_of
-from twopose.session_estimate import running_estimates
+from twopose.methods.specs import spec_of
+from twopose.solve.session import running_estimates
 
 
 @pytest.mark.parametrize("method", ["point", "line", "ground"])
@@ -66,7 +66,7 @@ def test_a_trial_with_one_pose_is_incomplete() -> None:
 @pytest.mark.parametrize("method", ["point", "line", "ground"])
 def test_the_estimate_does_not_read_the_truth(method: str) -> None:
     """The same trials with their truth, with none, and with another: every estimate,
-    covariance and warning the same (what is compared with the truth is twopose.truth's)."""
+    covariance and warning the same (what is compared with the truth is twopose.methods.truth's)."""
     views, truth = _trials(method, np.random.default_rng(10), [1.0, 2.0, 3.0])
     runs = [_estimate(method, views, t) for t in (truth, np.full_like(truth, np.nan), truth + 5)]
     first = runs[0].estimates

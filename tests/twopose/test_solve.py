@@ -7,9 +7,9 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from twopose.camera import Intrinsics, project_points, rotation_from_angles_deg
+from twopose.camera.model import Intrinsics, project_points, rotation_from_angles_deg
 from twopose.errors import InputValueError
-from twopose.solve import (
+from twopose.solve.nview import (
     NViewLines,
     NViewPoints,
     image_lines,

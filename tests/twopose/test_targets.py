@@ -1,4 +1,4 @@
-"""twopose.targets directly: the finger's axis meets the ground where it is told to, its tip
+"""twopose.methods.targets directly: the finger's axis meets the ground where it is told to, its tip
 at the given height above the ground, its base a finger's length behind, heading as the
 azimuth says (180 degrees: back at the camera); a board's corners lie where its placement
 says, in OpenCV's order, and a board that is no board is refused."""
@@ -11,7 +11,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from twopose.errors import InputValueError
-from twopose.targets import BoardPlacement, finger_axis
+from twopose.methods.targets import BoardPlacement, finger_axis
 
 
 @given(

@@ -1,4 +1,4 @@
-"""twopose.text: which characters a terminal obeys, and how they are shown instead."""
+"""twopose.values.text: which characters a terminal obeys, and how they are shown instead."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import re
 from hypothesis import given
 from hypothesis import strategies as st
 
-from twopose.text import BIDI_CONTROLS, first_control, for_terminal, is_control
+from twopose.values.text import BIDI_CONTROLS, first_control, for_terminal, is_control
 
 CONTROLS = [chr(c) for c in [*range(0x20), *range(0x7F, 0xA0)]] + sorted(BIDI_CONTROLS)
 

@@ -1,13 +1,14 @@
-"""twopose.topview directly: from above, each view's ray (method 1) or ground trace (method 2)
+"""twopose.methods.topview directly: from above, each view's ray (method 1) or ground trace (method
+2)
 passes through the estimate the solver found, and the line is drawn about its estimate."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from twopose.camera import Intrinsics, project_points, rotation_from_angles_deg
-from twopose.scene3d import TrialScene
-from twopose.topview import top_view
+from twopose.camera.model import Intrinsics, project_points, rotation_from_angles_deg
+from twopose.display.scene import TrialScene
+from twopose.methods.topview import top_view
 
 INTRINSICS = Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0)
 CENTRES = np.array([[0.0, 0.0, 0.0], [4.0, 0.0, 0.0], [2.0, -1.0, -3.0]])

@@ -1,4 +1,4 @@
-"""twopose.truth directly: a line's errors against known geometry, the point a line reports
+"""twopose.methods.truth directly: a line's errors against known geometry, the point a line reports
 (nearest the true midpoint, or the solved point with no truth), and points compared with
 their first true point."""
 
@@ -8,7 +8,7 @@ import numpy as np
 
 from tests.twopose.synthetic_trials import estimate as _estimate
 from tests.twopose.synthetic_trials import trials as _trials
-from twopose.truth import line_errors, reported, reported_line_point
+from twopose.methods.truth import line_errors, reported, reported_line_point
 
 
 def test_line_errors_of_a_known_offset_and_tilt() -> None:
@@ -49,7 +49,7 @@ def test_a_point_is_compared_with_its_first_true_point() -> None:
 
 
 def test_a_line_is_reported_at_its_point_nearest_the_true_midpoint() -> None:
-    """twopose.truth: the reported point lies on the estimated line, nearest the true
+    """twopose.methods.truth: the reported point lies on the estimated line, nearest the true
     midpoint, and its covariance is propagated there (not at the solved point): no
     variance along the line, and different from the solved point's where they differ."""
     views, truth = _trials("line", np.random.default_rng(11), [1.0, 2.0, 3.0])

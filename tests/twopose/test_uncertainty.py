@@ -8,10 +8,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.typing import NDArray
 
-from twopose.camera import rotation_from_angles_deg
-from twopose.methods import Method, spec_of
-from twopose.solve import image_lines, projection_matrices, triangulate_ground, triangulate_points
-from twopose.uncertainty import (
+from twopose.camera.model import rotation_from_angles_deg
+from twopose.methods.specs import Method, spec_of
+from twopose.solve.nview import (
+    image_lines,
+    projection_matrices,
+    triangulate_ground,
+    triangulate_points,
+)
+from twopose.uncertainty.propagate import (
     CHI2_95,
     INPUT_GROUPS,
     dominant_input,
@@ -25,7 +30,7 @@ from twopose.uncertainty import (
     semiaxis95,
     uncertainty_columns,
 )
-from twopose.units import Units
+from twopose.values.units import Units
 
 F64 = NDArray[np.float64]
 FOCAL = np.array([525.0, 525.0, 320.0, 240.0])
@@ -123,9 +128,9 @@ def test_the_detectors_floor_stays_however_many_frames_are_averaged(method: str)
 def test_a_trial_of_still_frames_and_exact_poses_keeps_the_detectors_floor() -> None:
     """Through the whole estimation: frames that never move and poses typed exactly still
     leave the region the detector's floor gives (not a zero region that nothing covers)."""
-    from twopose.estimate import EstimateOptions, PoseView
-    from twopose.session_estimate import SessionTrials, estimate_session
-    from twopose.truth import reported
+    from twopose.methods.truth import reported
+    from twopose.solve.estimate import EstimateOptions, PoseView
+    from twopose.solve.session import SessionTrials, estimate_session
 
     K = np.array([525.0, 525.0, 320.0, 240.0])
     point = np.array([0.5, 2.0, 11.0])

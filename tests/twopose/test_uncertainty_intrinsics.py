@@ -2,7 +2,7 @@
 trial's views of one camera, propagated for every method, checked by simulation.
 
 The coverage test is the fast version of ``benchmarks/bench_intrinsics_coverage.py``: the
-same estimation code (``twopose.estimate``) on projected rather than rendered views, a
+same estimation code (``twopose.solve.estimate``) on projected rather than rendered views, a
 calibration's error drawn once per simulated session and shared by its trials.
 """
 
@@ -15,15 +15,21 @@ import numpy as np
 import pytest
 from numpy.typing import NDArray
 
-from recorder.simulate import calibrated_cameras, simulate_session
-from twopose.camera import Intrinsics, project_points
-from twopose.estimate import EstimateOptions, PoseView
-from twopose.methods import Method
-from twopose.session_estimate import SessionTrials, estimate_session
+from recorder.simulate.one_camera import calibrated_cameras, simulate_session
+from twopose.camera.model import Intrinsics, project_points
+from twopose.methods.specs import Method
+from twopose.methods.truth import reported
 from twopose.sim.scene import CameraParams, ClutterParams, Scene, SensorParams
-from twopose.truth import reported
-from twopose.uncertainty import INPUT_GROUPS, Shared, dominant_input, propagate, uncertainty_columns
-from twopose.units import Units
+from twopose.solve.estimate import EstimateOptions, PoseView
+from twopose.solve.session import SessionTrials, estimate_session
+from twopose.uncertainty.propagate import (
+    INPUT_GROUPS,
+    Shared,
+    dominant_input,
+    propagate,
+    uncertainty_columns,
+)
+from twopose.values.units import Units
 
 F64 = NDArray[np.float64]
 NOMINAL = np.array([525.0, 525.0, 320.0, 240.0])
@@ -210,7 +216,7 @@ def test_the_simulator_draws_the_intrinsics_from_the_calibrations_sigma() -> Non
 def test_a_sessions_sigma_reaches_every_trials_covariance(tmp_path: Path) -> None:
     """Rendered, recorded, analysed: the same poses and frames with a calibration's sigma
     give a larger covariance than without (the pipeline carries the camera's sigma)."""
-    from analysis.pipeline import analyse_session
+    from analysis.session.pipeline import analyse_session
     from twopose.format.reader import SessionReader
 
     fast = Scene(

@@ -1,13 +1,13 @@
-"""twopose.units directly: one registry of units whose members are their symbols, and whose
+"""twopose.values.units directly: one registry of units whose members are their symbols, and whose
 sizes and limits agree with each other."""
 
 from __future__ import annotations
 
 import pytest
 
-from twopose.bounds import POSE_TRANSLATION
 from twopose.errors import InputValueError
-from twopose.units import UNIT_SPECS, UNITS, Units, unit_spec
+from twopose.values.bounds import POSE_TRANSLATION
+from twopose.values.units import UNIT_SPECS, UNITS, Units, unit_spec
 
 
 def test_members_are_their_symbols_inches_first() -> None:

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from twopose.errors import InputValueError
-from twopose.values import camera_id, finite, index, numbers, parse_number, vec3
+from twopose.values.checks import camera_id, finite, index, numbers, parse_number, vec3
 
 
 def test_numbers_accept_lists_tuples_arrays_and_numpy_scalars() -> None:

@@ -7,7 +7,7 @@ import pytest
 from typer.testing import CliRunner
 
 from analysis.cli import app as analyze
-from recorder.cli import app as record
+from recorder.cli.app import app as record
 from twopose import __version__
 from twopose.format.entries import FORMAT_VERSION
 

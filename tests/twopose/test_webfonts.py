@@ -1,4 +1,4 @@
-"""The fonts the pages carry (twopose/webfonts.py, issue 53): each shipped file is the
+"""The fonts the pages carry (twopose/display/fonts.py, issue 53): each shipped file is the
 subset it says (every character of its set that DejaVu has, no hinting instructions), its
 licence is beside it, the package installs them, and the CSS names each one."""
 
@@ -15,7 +15,7 @@ import matplotlib
 import pytest
 from fontTools.ttLib import TTFont
 
-from twopose import webfonts
+from twopose.display import fonts as webfonts
 
 REPO = Path(__file__).resolve().parents[2]
 FOLDER = REPO / "twopose" / "fonts"
@@ -79,7 +79,7 @@ def test_the_css_carries_every_font_or_names_where_it_is_served() -> None:
 
 
 def test_the_shipped_fonts_are_what_make_fonts_writes(tmp_path: Path) -> None:
-    """``python -m twopose.webfonts twopose/fonts/`` writes the committed files, byte for
+    """``python -m twopose.display.fonts twopose/fonts/`` writes the committed files, byte for
     byte (a character set changed without the fonts written again fails here)."""
     webfonts.make_fonts(tmp_path)
     for name in [f.file for f in webfonts.FONTS] + ["LICENSE-DejaVu.txt"]:

@@ -14,8 +14,8 @@ from collections.abc import Callable
 from dataclasses import MISSING
 from typing import Any, ClassVar, Self, TypeVar
 
-from twopose.targets import BoardPlacement
-from twopose.values import CAMERA_ID_PATTERN
+from twopose.methods.targets import BoardPlacement
+from twopose.values.checks import CAMERA_ID_PATTERN
 
 __all__ = [
     "CAMERA_SCHEMA",

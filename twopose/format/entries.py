@@ -17,7 +17,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from twopose.camera import rotation_from_angles_deg
+from twopose.camera.model import rotation_from_angles_deg
 from twopose.errors import InputValueError, SessionFormatError
 from twopose.format.declared import (
     CAMERA_SCHEMA,
@@ -38,9 +38,9 @@ from twopose.format.stream_entries import (
     StreamWindow,
     Touch,
 )
-from twopose.methods import LINE_TRUTH, METHODS, TRUTH_POINTS, Method, TruthKind
-from twopose.units import UNIT_SPECS, UNITS, Units, unit_factor
-from twopose.values import Vec3, camera_id, finite, index, vec3
+from twopose.methods.specs import LINE_TRUTH, METHODS, TRUTH_POINTS, Method, TruthKind
+from twopose.values.checks import Vec3, camera_id, finite, index, vec3
+from twopose.values.units import UNIT_SPECS, UNITS, Units, unit_factor
 
 __all__ = [
     "CLOCK_SOURCES",
@@ -80,7 +80,7 @@ __all__ = [
 ]
 
 
-#: Inches in one session unit (the thesis reports in inches): twopose.units' registry.
+#: Inches in one session unit (the thesis reports in inches): twopose.values.units' registry.
 INCHES_PER_UNIT = {str(u): spec.inches for u, spec in UNIT_SPECS.items()}
 CaptureStatus = Literal["complete", "incomplete"]
 Verdict = Literal["accept", "discard"]
@@ -261,7 +261,7 @@ class CaptureDecision(TypedEntry):
 class PlaneEntry(TypedEntry):
     """The method's constraint plane ``normal_grid . p = offset`` in the grid frame.
 
-    As a session stores it (:class:`twopose.planes.ConstraintPlane`, its offset typed).
+    As a session stores it (:class:`twopose.methods.planes.ConstraintPlane`, its offset typed).
     The thesis' ground: normal (0, 1, 0), offset h = 9.625 in (camera centre down to the
     table); a wall ``x = c``: normal (1, 0, 0), offset c. The file's topic and JSON keys
     keep the ground's names (``ground``, ``normal``, ``offset``). Its old name,
@@ -283,7 +283,7 @@ class PlaneEntry(TypedEntry):
         object.__setattr__(self, "offset", finite(self.offset, "ground height") / norm)
 
     def spec(self) -> tuple[np.ndarray, float]:
-        """The plane as the solvers take it (:data:`twopose.estimate.GroundSpec`)."""
+        """The plane as the solvers take it (:data:`twopose.solve.estimate.GroundSpec`)."""
         return np.array(self.normal_grid, dtype=np.float64), self.offset
 
 

@@ -5,7 +5,7 @@ trial's most poses, the least gain, the suggestions' reach and grid, the taped t
 distance. Recorded in ``/twopose/session``'s ``guidance`` object, so that a continuation
 (``twopose-record new --continue``) takes every one of them, and says which; each as a
 number, and where the operator gave it, beside it the text it was given as (``given``),
-so that it is shown back as given (:class:`twopose.values.Given`).
+so that it is shown back as given (:class:`twopose.values.checks.Given`).
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from typing import Any
 
 from twopose.errors import InputValueError
 from twopose.format.declared import from_json, json_field, object_schema
-from twopose.values import Given, GivenWhole, finite, given_text
+from twopose.values.checks import Given, GivenWhole, finite, given_text
 
 __all__ = ["GUIDANCE_KEYS", "GuidanceRecord", "guidance_schema"]
 

@@ -53,7 +53,7 @@ from twopose.errors import TwoposeError
 from twopose.format.entries import PoseEntry, SessionInfo, decode_entry
 from twopose.format.reader import SessionReader, max_chunk_bytes, recover_command
 from twopose.format.writer import METADATA_NAME
-from twopose.methods import spec_of
+from twopose.methods.specs import spec_of
 
 __all__ = [
     "Part",

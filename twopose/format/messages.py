@@ -15,7 +15,7 @@ from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
 from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
 from numpy.typing import NDArray
 
-from twopose.camera import Camera, Intrinsics, quaternion_xyzw_from_matrix
+from twopose.camera.model import Camera, Intrinsics, quaternion_xyzw_from_matrix
 from twopose.errors import InputValueError, SessionFormatError
 from twopose.format.entries import PoseEntry
 
@@ -76,10 +76,11 @@ class Frame:
         """The image as an (H, W, 3) BGR uint8 array, its header checked first.
 
         OpenCV's channel order. The header is checked against ``expected_size`` (the camera's
-        calibrated width, height) and the pixel limit (:mod:`twopose.images`) before decoding, so a
+        calibrated width, height) and the pixel limit (:mod:`twopose.camera.images`) before
+        decoding, so a
         bad frame costs no memory.
         """
-        from twopose.images import decode_image
+        from twopose.camera.images import decode_image
 
         what = f"frame {self.sequence} of camera {self.camera_id} at {self.log_time_ns} ns"
         try:

@@ -17,14 +17,14 @@ from typing import Any
 
 import numpy as np
 
-from twopose.camera import Intrinsics
+from twopose.camera.model import Intrinsics
 from twopose.errors import InputValueError
 from twopose.format.stream_entries import ClockOffsetEntry, PairEntry
 from twopose.pair.calibration import FloorPlane, PairCalibration
 from twopose.pair.clock import ClockOffset
 from twopose.pair.holdout import HoldoutCheck
-from twopose.units import unit_spec
-from twopose.values import finite, index, vec3
+from twopose.values.checks import finite, index, vec3
+from twopose.values.units import unit_spec
 
 __all__ = ["clock_offset", "clock_offset_entry", "pair_calibration", "pair_entry"]
 

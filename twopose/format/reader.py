@@ -13,7 +13,7 @@ from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
 from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
 from mcap.reader import make_reader
 
-from twopose.camera import Camera
+from twopose.camera.model import Camera
 from twopose.errors import InputValueError, SessionFormatError, SessionVersionError, TwoposeError
 from twopose.format.entries import (
     FORMAT_MAJOR,
@@ -53,11 +53,11 @@ __all__ = [
 def max_chunk_bytes() -> int:
     """The largest chunk (uncompressed) a reader decompresses.
 
-    256 MB, or ``TWOPOSE_MAX_CHUNK_MB`` (:data:`twopose.environment.MAX_CHUNK_MB`, in the
+    256 MB, or ``TWOPOSE_MAX_CHUNK_MB`` (:data:`twopose.values.environment.MAX_CHUNK_MB`, in the
     analysis cache's key). twopose writes chunks of one capture (a few MB); a larger
     declared size is a damaged file or a decompression bomb.
     """
-    from twopose.environment import MAX_CHUNK_MB
+    from twopose.values.environment import MAX_CHUNK_MB
 
     megabytes = MAX_CHUNK_MB.read()
     assert megabytes is not None  # a number with a default
@@ -378,7 +378,7 @@ def find_sessions(paths: Iterable[Path | str], *, unique: bool = True) -> list[P
     staging folder (:data:`STAGING_FOLDER`) is not searched. Sorted within each folder
     so that results do not depend on directory order. A file named twice (by two paths, a
     folder and a file in it, a symbolic link) is listed once, unless ``unique`` is False
-    (the caller says so: :func:`analysis.input_set.resolve_inputs`).
+    (the caller says so: :func:`analysis.batch.inputs.resolve_inputs`).
     Raises :class:`~twopose.errors.InputValueError` for a path that does not exist.
     """
     found: list[Path] = []

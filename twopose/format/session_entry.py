@@ -10,15 +10,15 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from twopose.camera import SIGMA_KEYS, intrinsics_sigma
+from twopose.camera.model import SIGMA_KEYS, intrinsics_sigma
 from twopose.errors import InputValueError
 from twopose.format.declared import CAMERA_SCHEMA, TypedEntry, entry, json_field, vec3_schema
 from twopose.format.guidance_record import GuidanceRecord, guidance_schema
 from twopose.format.stream_entries import CLOCK_SOURCES
-from twopose.methods import METHOD_SPECS, Method, spec_of
-from twopose.targets import BoardPlacement
-from twopose.units import UNITS, Units, unit_spec
-from twopose.values import camera_id
+from twopose.methods.specs import METHOD_SPECS, Method, spec_of
+from twopose.methods.targets import BoardPlacement
+from twopose.values.checks import camera_id
+from twopose.values.units import UNITS, Units, unit_spec
 
 __all__ = ["FORMAT_MAJOR", "FORMAT_VERSION", "SessionInfo"]
 

@@ -25,8 +25,8 @@ from twopose.format.declared import (
     object_schema,
     vec3_schema,
 )
-from twopose.methods import TRUTH_POINTS, TruthKind
-from twopose.values import Vec3, camera_id, finite, index, numbers, vec3
+from twopose.methods.specs import TRUTH_POINTS, TruthKind
+from twopose.values.checks import Vec3, camera_id, finite, index, numbers, vec3
 
 __all__ = ["SimClock", "SimFrames", "SimTrajectory", "SimulationTruth", "TruePose"]
 

@@ -22,7 +22,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Literal
 
-from twopose.camera import SIGMA_KEYS
+from twopose.camera.model import SIGMA_KEYS
 from twopose.errors import InputValueError
 from twopose.format.declared import (
     CAMERA_SCHEMA,
@@ -32,8 +32,8 @@ from twopose.format.declared import (
     json_field,
     vec3_schema,
 )
-from twopose.units import UNITS, Units
-from twopose.values import Vec3, camera_id, finite, index, vec3
+from twopose.values.checks import Vec3, camera_id, finite, index, vec3
+from twopose.values.units import UNITS, Units
 
 __all__ = [
     "CLOCK_SOURCES",

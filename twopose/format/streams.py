@@ -38,7 +38,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twopose.arrays import Ints
-from twopose.camera import Camera
+from twopose.camera.model import Camera
 from twopose.errors import InputValueError, TwoposeError
 from twopose.format.entries import (
     ClockOffsetEntry,

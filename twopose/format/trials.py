@@ -22,8 +22,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from twopose.bounds import POSE_TRANSLATION, ROTATION
-from twopose.camera import Camera
+from twopose.camera.model import Camera
 from twopose.format.entries import (
     CaptureDecision,
     CaptureWindow,
@@ -36,7 +35,8 @@ from twopose.format.entries import (
 )
 from twopose.format.messages import Frame, image_topic
 from twopose.format.reader import SessionReader
-from twopose.units import UnitSpec, unit_spec
+from twopose.values.bounds import POSE_TRANSLATION, ROTATION
+from twopose.values.units import UnitSpec, unit_spec
 
 if TYPE_CHECKING:
     from twopose.format.streams import PairSession
@@ -165,7 +165,7 @@ def beyond_any_grid(entry: PoseEntry, unit: UnitSpec) -> str:
     """Why a typed pose cannot be measured from ("": it can).
 
     Its translation or rotation is past the bound the recorder takes
-    (:mod:`twopose.bounds`). The recorder refuses such a pose; another writer's file may
+    (:mod:`twopose.values.bounds`). The recorder refuses such a pose; another writer's file may
     hold one, and solved with it an "ok" trial would be nonsense.
     """
     why = POSE_TRANSLATION.vector_refusal(entry.t_grid, unit.units)

@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 from twopose.errors import InputValueError
 from twopose.format.entries import CaptureWindow, SessionInfo, StreamWindow, Touch, TypedEntry
 from twopose.format.stream_entries import TouchMark, WindowStatus
-from twopose.values import index
+from twopose.values.checks import index
 
 
 class _Writer(Protocol):

@@ -18,7 +18,7 @@ from mcap.writer import Writer as McapWriter
 from numpy.typing import NDArray
 
 from twopose import __version__
-from twopose.camera import Camera, Intrinsics
+from twopose.camera.model import Camera, Intrinsics
 from twopose.errors import InputValueError, SessionExistsError, SessionFormatError, TwoposeError
 from twopose.format.channels import Channels, register_session_channels
 from twopose.format.entries import (
@@ -43,7 +43,7 @@ from twopose.format.messages import (
 )
 from twopose.format.pair_convert import clock_offset_entry, pair_entry
 from twopose.format.windows import Capture, Stream
-from twopose.values import index
+from twopose.values.checks import index
 
 if TYPE_CHECKING:
     from twopose.pair.calibration import PairCalibration

@@ -20,8 +20,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from twopose.arrays import F32, F64
-from twopose.camera import Intrinsics
-from twopose.checkerboard import board_pattern
+from twopose.camera.model import Intrinsics
+from twopose.detect.checkerboard import board_pattern
 from twopose.errors import InputValueError
 
 __all__ = [
@@ -77,7 +77,7 @@ class BoardCorners:
     """The board's corners found in both cameras over V views (stills).
 
     ``board`` its inner corners (cols, rows), ``pattern`` (M, 3) their places on its plane
-    in the pair's units (:func:`twopose.checkerboard.board_pattern`), ``left`` and
+    in the pair's units (:func:`twopose.detect.checkerboard.board_pattern`), ``left`` and
     ``right`` (V, M, 2) their pixels in camera 1 and camera 2, in the pattern's order.
     """
 

@@ -19,7 +19,7 @@ factor is about 4 (sigmas twice the fit's). A view that fits far worse than the 
 (a misdetected or reversed corner grid) is dropped and named: first a view whose own
 relative pose (from its two photographs alone) disagrees with the others'
 (:func:`twopose.pair.board_fit.disagreeing_views`), then by the rule every board fit
-shares (:func:`twopose.checkerboard.outlier_view`). No I/O.
+shares (:func:`twopose.detect.checkerboard.outlier_view`). No I/O.
 """
 
 from __future__ import annotations
@@ -31,8 +31,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from twopose.arrays import F64, Bools
-from twopose.camera import Intrinsics, intrinsics_sigma
-from twopose.checkerboard import outlier_view
+from twopose.camera.model import Intrinsics, intrinsics_sigma
+from twopose.detect.checkerboard import outlier_view
 from twopose.errors import InputValueError
 from twopose.pair.board_fit import (
     BoardCorners,
@@ -46,7 +46,7 @@ from twopose.pair.board_fit import (
     rotation_matrix,
 )
 from twopose.pair.holdout import HoldoutCheck, leave_one_out
-from twopose.units import Units, unit_factor, unit_spec
+from twopose.values.units import Units, unit_factor, unit_spec
 
 __all__ = [
     "MIN_VIEWS",
@@ -230,7 +230,7 @@ def _check_cov(cov: F64, n: int, what: str) -> None:
 def typed_pose_cov(pair: PairCalibration, step: float = 1e-7) -> F64:
     """(6, 6) the covariance of camera 2's pose as a typed pose: (t, angles in degrees).
 
-    In the layout of :data:`twopose.uncertainty.INPUTS_PER_VIEW`'s pose (tx, ty, tz, rx,
+    In the layout of :data:`twopose.uncertainty.propagate.INPUTS_PER_VIEW`'s pose (tx, ty, tz, rx,
     ry, rz), so that the solvers' propagation carries the pair's extrinsic error as it
     carries a typed pose's: the angles' derivatives by the rotation vector by central
     differences.
@@ -261,7 +261,7 @@ def fit_pair(
     Parameters
     ----------
     corners : BoardCorners
-        Each view's corners in camera 1 and camera 2 (:func:`twopose.checkerboard.
+        Each view's corners in camera 1 and camera 2 (:func:`twopose.detect.checkerboard.
         find_board`) and the board's geometry: ``BoardCorners.of(board, square, left,
         right)``, the square in ``units``.
     intrinsics : (Intrinsics, Intrinsics)

@@ -2,7 +2,7 @@
 
 Each view in turn is held out: the pair is fitted on the others (:func:`twopose.pair.
 board_fit.fit_joint`), the held-out board's corners are reconstructed from its two
-photographs (:func:`twopose.two_view.triangulate_two_views`, the thesis' midpoint), and
+photographs (:func:`twopose.solve.two_view.triangulate_two_views`, the thesis' midpoint), and
 every spacing between neighbouring corners is compared with the board's true square. Each
 spacing's 1-sigma is predicted to first order from two sources: the pixels (each corner's
 1-sigma the larger of the fold's RMS per coordinate and that corner's misfit in its own
@@ -38,8 +38,8 @@ from twopose.pair.board_fit import (
     rotation_matrix,
     rotation_vector,
 )
-from twopose.solve import projection_matrices
-from twopose.two_view import triangulate_two_views
+from twopose.solve.nview import projection_matrices
+from twopose.solve.two_view import triangulate_two_views
 
 __all__ = [
     "CHECK_SIGMAS",

@@ -20,10 +20,10 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from twopose.arrays import F64
-from twopose.camera import Intrinsics, rotation_from_angles_deg
+from twopose.camera.model import Intrinsics, rotation_from_angles_deg
 from twopose.pair.calibration import FloorPlane, PairCalibration
 from twopose.pair.stream import CameraTrack
-from twopose.units import Units
+from twopose.values.units import Units
 
 __all__ = [
     "THESIS_FLOOR_IN",

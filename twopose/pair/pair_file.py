@@ -4,8 +4,8 @@ What ``twopose-record calibrate-pair`` writes and ``new --pair`` reads: the pair
 pose with its covariance, both cameras' intrinsics (and their 1-sigma), the fit's RMS and
 views, the floor plane when a board on the floor was given, and the leave-one-out check.
 Versioned (:data:`PAIR_FILE_VERSION`: a newer file is refused, naming the version). Read
-through the one TOML reader (:func:`twopose.config.read_toml`) and its tables' one checker
-(:func:`twopose.config.build_dataclass`): every number by the one grammar, unknown tables
+through the one TOML reader (:func:`twopose.values.toml.read_toml`) and its tables' one checker
+(:func:`twopose.values.toml.build_dataclass`): every number by the one grammar, unknown tables
 and keys refused, lengths in the file's ``units``, each refusal naming the file, the table
 and the key. The writer never overwrites a file.
 """
@@ -19,11 +19,11 @@ from typing import Any
 
 import numpy as np
 
-from twopose.camera import SIGMA_KEYS, Intrinsics
+from twopose.camera.model import SIGMA_KEYS, Intrinsics
 from twopose.errors import InputValueError, SessionExistsError
 from twopose.pair.calibration import FloorPlane, PairCalibration
 from twopose.pair.holdout import HoldoutCheck
-from twopose.units import UNITS, unit_spec
+from twopose.values.units import UNITS, unit_spec
 
 __all__ = ["PAIR_FILE_VERSION", "PAIR_TABLES", "read_pair_file", "write_pair_file"]
 
@@ -114,7 +114,7 @@ def read_pair_file(path: str | Path) -> PairCalibration:
     key, a missing one, a number outside the grammar, wrong units, a matrix that is not a
     rotation or a covariance, an implausible baseline or floor.
     """
-    from twopose.config import build_dataclass, read_toml
+    from twopose.values.toml import build_dataclass, read_toml
 
     what = f"pair file {path}"
     data = read_toml(path, "pair file", InputValueError)
@@ -155,7 +155,7 @@ def read_pair_file(path: str | Path) -> PairCalibration:
 
 def _intrinsics(table: dict[str, Any], where: str) -> Intrinsics:
     """A camera's table as its intrinsics: its keys and types, then their values, checked."""
-    from twopose.config import build_dataclass
+    from twopose.values.toml import build_dataclass
 
     try:
         return build_dataclass(Intrinsics, table, where, InputValueError)

@@ -7,15 +7,15 @@ frames about it (its centroid; an image line's direction as the doubled-angle un
 ``(cos 2 theta, sin 2 theta)``, never the raw angle: docs/method.md; the line's offset
 follows from the two). Both measurements are first undistorted by their camera's lens, so
 the solvers' pinhole model holds. Then the method's one solver path solves the pair, as a
-one-camera trial's two typed poses would be solved (:func:`twopose.estimate.solve_batch`):
+one-camera trial's two typed poses would be solved (:func:`twopose.solve.estimate.solve_batch`):
 camera 1 is the pose at the origin, camera 2 the pose ``(t_2_in_1, angles of R_2_to_1)``;
 a still target therefore gives exactly the one-camera estimate with those typed poses,
 whatever the offset.
 
 Each pair's conditioning is judged (the solvers' statuses, and the margins of
-:func:`twopose.estimate.margin_warnings`): a near-singular pair (a line coplanar with the
+:func:`twopose.solve.estimate.margin_warnings`): a near-singular pair (a line coplanar with the
 baseline: a fixed pair cannot step off it) is flagged with its reason and has no point.
-Each estimate's covariance is propagated to first order (:func:`twopose.uncertainty.
+Each estimate's covariance is propagated to first order (:func:`twopose.uncertainty.propagate.
 propagate`) from: each frame's pixel noise (camera 1's interpolated from two frames);
 the pair's extrinsic covariance, as camera 2's typed pose's (one error shared by every
 estimate of the session); the intrinsics' 1-sigma where the pair file has them; the
@@ -36,9 +36,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from twopose.arrays import F64, Bools, Ints
-from twopose.detect import wrap_theta_deg
+from twopose.detect.detection import wrap_theta_deg
 from twopose.errors import InputValueError
-from twopose.estimate import (
+from twopose.methods.specs import Method, spec_of
+from twopose.pair.board_fit import LensModel
+from twopose.pair.calibration import PairCalibration, typed_pose_cov
+from twopose.pair.clock import ClockOffset
+from twopose.pair.pairing import Pairing, pair_frames
+from twopose.solve.estimate import (
     EstimateOptions,
     GroundSpec,
     ViewBatch,
@@ -47,12 +52,7 @@ from twopose.estimate import (
     solve_batch,
     thesis_estimate,
 )
-from twopose.methods import Method, spec_of
-from twopose.pair.board_fit import LensModel
-from twopose.pair.calibration import PairCalibration, typed_pose_cov
-from twopose.pair.clock import ClockOffset
-from twopose.pair.pairing import Pairing, pair_frames
-from twopose.uncertainty import SHARED_INPUTS, Shared, propagate, semiaxis95
+from twopose.uncertainty.propagate import SHARED_INPUTS, Shared, propagate, semiaxis95
 
 __all__ = [
     "NEAR_SINGULAR",

@@ -49,7 +49,6 @@ from scipy.optimize import OptimizeResult, least_squares
 
 from twopose.arrays import F64
 from twopose.errors import InputValueError
-from twopose.noise import MIN_PLACING_DOF, PlacingSigma
 from twopose.rig.constants import (
     RIG_PARAMETERS,
     RIG_PRIORS,
@@ -60,7 +59,8 @@ from twopose.rig.constants import (
 )
 from twopose.rig.file import PLACING_LIMIT_IN
 from twopose.rig.placing import PLACING_FLOOR_IN, Linearized, placing_em, placing_upper_bound
-from twopose.units import DEFAULT_UNITS, Units, unit_spec
+from twopose.uncertainty.noise import MIN_PLACING_DOF, PlacingSigma
+from twopose.values.units import DEFAULT_UNITS, Units, unit_spec
 
 __all__ = ["RIG_PRIORS", "BoardRigFit", "board_order", "check_identifiable", "fit_board_rig"]
 
@@ -326,7 +326,8 @@ def _measured(
 ) -> tuple[PlacingSigma, tuple[str, ...]]:
     """The placing sigma the fit measured, or its upper bound with a warning.
 
-    At the fit's floor, or on fewer than :data:`twopose.noise.MIN_PLACING_DOF` degrees of
+    At the fit's floor, or on fewer than :data:`twopose.uncertainty.noise.MIN_PLACING_DOF` degrees
+    of
     freedom, the captures do not measure it: the most it can be is written instead
     (:func:`twopose.rig.placing.placing_upper_bound`), never as "measured".
     """

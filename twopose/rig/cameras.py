@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 
-from twopose.camera import Intrinsics
+from twopose.camera.model import Intrinsics
 from twopose.errors import InputValueError
 
 __all__ = ["CAMERA_TOLERANCE", "camera_words", "check_cameras", "same_camera", "same_size"]

@@ -9,7 +9,7 @@ constants' covariance (:class:`twopose.rig.RigCovariance`, the rig file's
 so the whole matrix is carried, never its diagonal alone).
 
 ``J`` is the derivative of the very estimate a region is drawn for (the thesis' solver,
-:func:`twopose.estimate.thesis_estimate`, a line's point nearest its reference), by
+:func:`twopose.solve.estimate.thesis_estimate`, a line's point nearest its reference), by
 central differences: each fitted scalar moved by a small multiple of its sigma, the
 batch's views corrected by that change (:meth:`twopose.rig.RigConstants.true_poses`,
 ``true_intrinsics``; the ground moved by a ground height error), all copies solved in
@@ -24,8 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from twopose.arrays import F64
-from twopose.estimate import EstimateOptions, GroundSpec, ViewBatch, thesis_estimate
-from twopose.methods import Method
+from twopose.methods.specs import Method
 from twopose.rig.constants import (
     SCALARS,
     RigConstants,
@@ -33,7 +32,8 @@ from twopose.rig.constants import (
     angles_deg_from_rotation,
     true_ground,
 )
-from twopose.uncertainty import Propagated
+from twopose.solve.estimate import EstimateOptions, GroundSpec, ViewBatch, thesis_estimate
+from twopose.uncertainty.propagate import Propagated
 
 __all__ = [
     "REL_STEP",
@@ -60,7 +60,7 @@ def corrected_batch(batch: ViewBatch, rig: RigConstants) -> ViewBatch:
 def corrected_inputs(batch: ViewBatch, rig: RigConstants) -> F64:
     """(T, N, 13) each view's inputs and then its intrinsics, corrected by ``rig``.
 
-    The layout :func:`twopose.estimate.thesis_estimate` takes with the intrinsics as shared
+    The layout :func:`twopose.solve.estimate.thesis_estimate` takes with the intrinsics as shared
     inputs (padding views keep theirs).
     """
     inputs = batch.inputs.copy()
@@ -146,7 +146,7 @@ def rig_carried(
 ) -> F64 | None:
     """(T, 3, 3) :func:`carried_covariance` of the options' rig (``noise.rig``).
 
-    None without one: what :mod:`twopose.session_estimate` asks of every region.
+    None without one: what :mod:`twopose.solve.session` asks of every region.
     """
     if options.noise.rig is None:
         return None
@@ -178,7 +178,7 @@ def with_rig_dominance(
 ) -> tuple[list[str], F64]:
     """The dominant input and its share, the rig's constants competing with the views'.
 
-    ``names`` and ``share`` as :func:`twopose.uncertainty.dominant_input` gives them over
+    ``names`` and ``share`` as :func:`twopose.uncertainty.propagate.dominant_input` gives them over
     the views' inputs (``propagated``); ``carried`` (T, 3, 3) the constants' part: its
     trace against the largest input group's variance, every share of the whole (None: no
     rig, unchanged).

@@ -37,13 +37,13 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from twopose.arrays import F64
-from twopose.camera import Intrinsics, rotation_from_angles_deg
+from twopose.camera.model import Intrinsics, rotation_from_angles_deg
 from twopose.errors import InputValueError
-from twopose.estimate import GroundSpec, PoseView
 from twopose.format.entries import INCHES_PER_UNIT, UNITS
 from twopose.rig.cameras import check_cameras
 from twopose.rig.covariance import RIG_PARAMETERS, SCALARS, RigCovariance
-from twopose.units import IS_LENGTH, Units, unit_spec
+from twopose.solve.estimate import GroundSpec, PoseView
+from twopose.values.units import IS_LENGTH, Units, unit_spec
 
 __all__ = [
     "LIMITS",
@@ -89,7 +89,7 @@ class RigConstants:
     def __post_init__(self) -> None:
         """Check that the constants are finite and the scales plausible.
 
-        A units' symbol given as text becomes its :class:`~twopose.units.Units`.
+        A units' symbol given as text becomes its :class:`~twopose.values.units.Units`.
         """
         values = self.vector()
         if not np.isfinite(values).all():

@@ -2,7 +2,8 @@
 
 The scalars of the rig's constants (:data:`RIG_PARAMETERS`, :data:`SCALARS`) and
 :class:`RigCovariance`, the fitted ones' covariance, declared apart from the constants
-themselves so that the noise model (:mod:`twopose.noise`) can name the covariance without
+themselves so that the noise model (:mod:`twopose.uncertainty.noise`) can name the covariance
+without
 importing the estimation. No I/O.
 """
 

@@ -9,7 +9,7 @@ refused) and ``[placing]`` (the operator's placing sigma a board measured, or bo
 Anything else is refused, a misspelt table (``[placng]``) as much as an unknown key: a
 table that would be silently ignored would leave the analyst believing it is used.
 
-Numbers are read by the project's one TOML reader (:func:`twopose.config.read_toml`). No
+Numbers are read by the project's one TOML reader (:func:`twopose.values.toml.read_toml`). No
 computation beyond checks; nothing here writes a file.
 """
 
@@ -24,10 +24,9 @@ from typing import Any
 
 import numpy as np
 
-from twopose.camera import Intrinsics
+from twopose.camera.model import Intrinsics
 from twopose.errors import InputValueError
 from twopose.format.entries import UNITS
-from twopose.noise import PlacingSigma
 from twopose.rig.constants import (
     RIG_PARAMETERS,
     SCALARS,
@@ -35,8 +34,9 @@ from twopose.rig.constants import (
     RigCovariance,
     check_plausible,
 )
-from twopose.units import Units, unit_spec
-from twopose.values import Unread
+from twopose.uncertainty.noise import PlacingSigma
+from twopose.values.checks import Unread
+from twopose.values.units import Units, unit_spec
 
 __all__ = [
     "PLACING_KEYS",
@@ -174,7 +174,7 @@ def load_rig_file(path: str | Path) -> RigFile:
     :data:`PLACING_LIMIT_IN`, refused in words otherwise. An unknown table or key, or a
     format this twopose does not know, is refused.
     """
-    from twopose.config import read_toml
+    from twopose.values.toml import read_toml
 
     what = f"rig file {path}"
     data = _table(read_toml(path, "rig file", InputValueError), RIG_FILE_TABLES, what, top=True)
@@ -227,7 +227,7 @@ def _number(value: object, where: str, *, whole: bool = False) -> float:
     """A number the TOML reader gave (``whole``: an integer), refused in words otherwise.
 
     Every number of a rig file passes here, so the project's one number grammar
-    (:mod:`twopose.config`) judges each in one place.
+    (:mod:`twopose.values.toml`) judges each in one place.
     """
     if isinstance(value, Unread):  # 0x1, 0.0_5, 1_0, nan: the one grammar's words
         value.refuse(where, whole=whole)
@@ -254,7 +254,7 @@ def _format(value: object, what: str) -> int:
 
 def _constants(table: dict[str, Any], what: str) -> RigConstants:
     """``[rig]``'s constants: only the constants' keys (and ``units``)."""
-    from twopose.config import build_dataclass
+    from twopose.values.toml import build_dataclass
 
     _table(table, (*RIG_PARAMETERS, "units"), f"{what}: [rig]")
     numbers = {k: v for k, v in table.items() if k != "units"}
@@ -275,7 +275,7 @@ def _names(table: object, what: str, where: str, kind: type) -> dict[str, Any]:
 
 def _cameras(tables: object, what: str) -> tuple[Intrinsics, ...]:
     """``[[camera]]``: each camera the rig was fitted for."""
-    from twopose.config import build_dataclass
+    from twopose.values.toml import build_dataclass
 
     if not isinstance(tables, list):
         raise InputValueError(f"{what}: camera must be [[camera]] tables (width, height, ...)")
@@ -293,7 +293,7 @@ def _covariance(data: Mapping[str, Any], what: str) -> RigCovariance | None:
     A format-1 file records only ``[sigma]``: the fitted scalars' (a sigma of 0 is a
     constant not fitted) are carried as independent, with a note where the rig is applied.
     """
-    from twopose.config import build_dataclass
+    from twopose.values.toml import build_dataclass
 
     sigma = {k: float(v) for k, v in _names(data.get("sigma", {}), what, "[sigma]", float).items()}
     bad = sorted(k for k, v in sigma.items() if not (math.isfinite(v) and v >= 0))

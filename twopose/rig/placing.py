@@ -21,7 +21,8 @@ much as a sideways placing error does; modelled, it no longer reads as placing (
 
 Where the maximum is at the floor (the captures show no placing error their corners
 resolve: a synthetic board placed exactly, say), or rests on fewer than
-:data:`twopose.noise.MIN_PLACING_DOF` degrees of freedom, the placing sigma is not measured:
+:data:`twopose.uncertainty.noise.MIN_PLACING_DOF` degrees of freedom, the placing sigma is not
+measured:
 :func:`placing_upper_bound` gives the most it can be, the one-sided 95% profile-likelihood
 bound (``2 [log L(s_hat) - log L(s)] = chi2_1(90%)``, the boundary's half-and-half
 mixture), which a rig file writes as an upper bound, never as a measurement. No I/O.

@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twopose.arrays import F64
-from twopose.camera import Intrinsics, rotation_from_angles_deg
+from twopose.camera.model import Intrinsics, rotation_from_angles_deg
 from twopose.rig.constants import RigConstants, angles_deg_from_rotation
 from twopose.sim.layout import Layout
 from twopose.sim.render import expose, render_radiance

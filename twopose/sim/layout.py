@@ -13,12 +13,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from twopose.arrays import F64
-from twopose.camera import Intrinsics, project_points, rotation_from_angles_deg
-from twopose.methods import Method, spec_of
-from twopose.planes import GROUND_PLANE, ConstraintPlane
+from twopose.camera.model import Intrinsics, project_points, rotation_from_angles_deg
+from twopose.methods.planes import GROUND_PLANE, ConstraintPlane
+from twopose.methods.specs import Method, spec_of
+from twopose.methods.targets import finger_axis as target_finger_axis
 from twopose.sim.scene import BoardParams, ClutterParams, Scene
-from twopose.targets import finger_axis as target_finger_axis
-from twopose.units import unit_factor
+from twopose.values.units import unit_factor
 
 __all__ = [
     "BOARD_POSES",
@@ -224,7 +224,7 @@ def board_layout(scene: Scene) -> Layout:
 def board_corners(board: BoardParams) -> F64:
     """The board's inner corners (cols * rows, 3) in the grid frame.
 
-    (:meth:`twopose.targets.BoardPlacement.corners_grid` of the scene's board.)
+    (:meth:`twopose.methods.targets.BoardPlacement.corners_grid` of the scene's board.)
     """
     return board.placement().corners_grid()
 

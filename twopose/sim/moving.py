@@ -26,14 +26,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twopose.arrays import F32, F64
-from twopose.camera import Intrinsics
+from twopose.camera.model import Intrinsics
 from twopose.errors import SceneError
-from twopose.methods import Method, spec_of
+from twopose.methods.specs import Method, spec_of
 from twopose.pair.calibration import PairCalibration
 from twopose.sim.layout import Layout, Primitive, build_layout, finger_axis
 from twopose.sim.render import expose, render_radiance, render_sprite
 from twopose.sim.scene import Scene
-from twopose.units import Units, unit_factor
+from twopose.values.units import Units, unit_factor
 
 __all__ = ["ClockSettings", "PairScene", "Trajectory", "camera_frames", "touch_points"]
 

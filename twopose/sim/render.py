@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twopose.arrays import F32, F64
-from twopose.camera import Intrinsics, camera_rays
+from twopose.camera.model import Intrinsics, camera_rays
 from twopose.sim.layout import GAMMA, Decal, Layout, Primitive, srgb_to_linear
 from twopose.sim.scene import Scene
 

@@ -12,7 +12,7 @@ Unknown tables or keys, wrong types and impossible values raise :class:`SceneErr
 naming the key. Lengths are in the scene's ``units``; angles in degrees; colours are
 8-bit sRGB as the camera would report them under full light.
 
-Every length is a field marked by :data:`twopose.units.IS_LENGTH`: the defaults are the
+Every length is a field marked by :data:`twopose.values.units.IS_LENGTH`: the defaults are the
 thesis' inches, a file in other units gets them converted (``units = "cm"`` alone is the
 default scene in centimetres), and :meth:`Scene.in_units` converts a whole scene, so the
 same scene in any units renders the same images.
@@ -26,12 +26,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
-from twopose.camera import Intrinsics
-from twopose.config import build_dataclass, read_toml
+from twopose.camera.model import Intrinsics
 from twopose.errors import SceneError
+from twopose.methods.targets import FINGER_LENGTH, FINGER_TIP_HEIGHT, BoardPlacement
 from twopose.rig.constants import RigConstants
-from twopose.targets import FINGER_LENGTH, FINGER_TIP_HEIGHT, BoardPlacement
-from twopose.units import (
+from twopose.values.toml import build_dataclass, read_toml
+from twopose.values.units import (
     IS_LENGTH,
     UNITS,
     Units,
@@ -67,7 +67,7 @@ class CameraParams:
     ``calibration_sigma`` (fx, fy, cx, cy; pixels) is the 1-sigma of a calibration that
     gave these intrinsics: the session records the intrinsics with it, and the frames are
     rendered with true intrinsics drawn once per session from N(intrinsics, sigma^2)
-    (:func:`recorder.simulate.simulate_session`). Zero: the intrinsics are exact.
+    (:func:`recorder.simulate.one_camera.simulate_session`). Zero: the intrinsics are exact.
     """
 
     id: str = "cam0"
@@ -299,7 +299,7 @@ class Scene:
     def in_units(self, units: Units) -> Scene:
         """The same scene with every length in ``units`` (the images are the same).
 
-        The lengths are the fields marked by :data:`twopose.units.IS_LENGTH`, the rig's
+        The lengths are the fields marked by :data:`twopose.values.units.IS_LENGTH`, the rig's
         constants' among them (their ``units`` follow when they name one).
         """
         factor = unit_factor(self.units, units)

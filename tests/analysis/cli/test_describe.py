@@ -10,14 +10,14 @@ from pathlib import Path
 from typer.testing import CliRunner
 
 from analysis.cli import app
-from twopose.camera import Camera, Intrinsics
+from twopose.camera.model import Camera, Intrinsics
 from twopose.errors import EXIT_ERROR, EXIT_SOME_INPUTS_FAILED
 from twopose.format.entries import Note, SessionInfo
 from twopose.format.trials import describe_session
 from twopose.format.writer import SessionWriter
-from twopose.methods import Method
-from twopose.text import first_control
-from twopose.units import Units
+from twopose.methods.specs import Method
+from twopose.values.text import first_control
+from twopose.values.units import Units
 
 runner = CliRunner()
 

@@ -57,13 +57,13 @@ def test_a_ctrl_c_while_the_summary_prints_says_the_results_are_complete(
 ) -> None:
     """The outputs are committed before the summary is printed: a Ctrl-C then says so
     (exit 130), instead of a bare "interrupted" an analyst would read as nothing written."""
-    import analysis.terminal
+    import analysis.report.terminal
 
     def interrupted(*_args: object, **_kwargs: object) -> list[str]:
         # What Python's SIGINT handler raises there (a test worker may ignore the signal)
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(analysis.terminal, "closing_lines", interrupted)
+    monkeypatch.setattr(analysis.report.terminal, "closing_lines", interrupted)
     out = tmp_path / "out"
     result = runner.invoke(app, ["run", str(point_session), "--out", str(out), "--no-scene"])
     assert result.exit_code == EXIT_INTERRUPTED, result.output

@@ -12,7 +12,7 @@ import pytest
 from typer.testing import CliRunner
 
 from analysis.cli import app
-from twopose.camera import Intrinsics, project_points
+from twopose.camera.model import Intrinsics, project_points
 from twopose.errors import EXIT_ERROR, EXIT_SOME_INPUTS_FAILED
 from twopose.format.reader import SessionReader
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from twopose.camera import Camera, Intrinsics
+from twopose.camera.model import Camera, Intrinsics
 from twopose.format.entries import (
     GroundTruth,
     Note,
@@ -17,8 +17,8 @@ from twopose.format.entries import (
     TruePose,
 )
 from twopose.format.writer import SessionWriter
-from twopose.methods import Method
-from twopose.units import Units
+from twopose.methods.specs import Method
+from twopose.values.units import Units
 
 CAM0 = Camera(
     camera_id="cam0",

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from twopose.camera import Camera
+from twopose.camera.model import Camera
 from twopose.format.entries import (
     ClockOffsetEntry,
     SessionInfo,
@@ -17,12 +17,12 @@ from twopose.format.entries import (
 from twopose.format.pair_convert import pair_entry
 from twopose.format.simulation import SimClock, SimFrames
 from twopose.format.writer import SessionWriter
-from twopose.methods import Method
+from twopose.methods.specs import Method
 from twopose.pair.calibration import FloorPlane, PairCalibration
 from twopose.pair.clock import ClockOffset
 from twopose.pair.holdout import HoldoutCheck
 from twopose.pair.motion import thesis_pair
-from twopose.units import Units
+from twopose.values.units import Units
 
 
 def calibrated_pair() -> PairCalibration:

@@ -27,9 +27,9 @@ from twopose.format.entries import (
     decode_entry,
     encode_entry,
 )
-from twopose.methods import Method
-from twopose.targets import BoardPlacement
-from twopose.units import Units
+from twopose.methods.specs import Method
+from twopose.methods.targets import BoardPlacement
+from twopose.values.units import Units
 
 EXAMPLES = [
     SessionInfo(  # the first of its kind has every field (the schema's order is checked on it)

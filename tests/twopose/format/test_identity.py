@@ -140,8 +140,8 @@ def test_files_without_ids_are_told_apart_by_their_first_frame(tmp_path: Path) -
     from tests.lab import CAMERA
     from twopose.format.entries import PoseEntry, SessionInfo
     from twopose.format.writer import SessionWriter
-    from twopose.methods import Method
-    from twopose.units import Units
+    from twopose.methods.specs import Method
+    from twopose.values.units import Units
 
     def written(path: Path, grey: int) -> Path:
         info = SessionInfo(method=Method.POINT, units=Units.IN, camera_ids=("cam0",))

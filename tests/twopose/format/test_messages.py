@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
 
-from twopose.camera import Camera, Intrinsics
+from twopose.camera.model import Camera, Intrinsics
 from twopose.errors import SessionFormatError
 from twopose.format.entries import PoseEntry
 from twopose.format.messages import (

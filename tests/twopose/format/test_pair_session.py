@@ -15,16 +15,16 @@ from mcap.reader import make_reader
 from recorder.recover import recover_session
 from tests.twopose.format.full_session import CAM0, image
 from tests.twopose.format.pair_examples import calibrated_pair, pair_cameras, write_pair_session
-from twopose.camera import Camera
+from twopose.camera.model import Camera
 from twopose.errors import InputValueError, TwoposeError
 from twopose.format.entries import PoseEntry, SessionInfo
 from twopose.format.reader import SessionReader
 from twopose.format.streams import read_pair_session
 from twopose.format.trials import describe_session, iter_trials
 from twopose.format.writer import SessionWriter
-from twopose.methods import Method
+from twopose.methods.specs import Method
 from twopose.pair.motion import thesis_pair
-from twopose.units import Units
+from twopose.values.units import Units
 
 
 def test_a_pair_session_reads_back_its_capture_times_pair_offset_and_touches(

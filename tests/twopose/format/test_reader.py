@@ -28,8 +28,8 @@ from twopose.format.entries import (
 from twopose.format.reader import SessionReader
 from twopose.format.trials import iter_trials
 from twopose.format.writer import SessionWriter
-from twopose.methods import Method
-from twopose.units import Units
+from twopose.methods.specs import Method
+from twopose.values.units import Units
 
 
 def test_a_corrupt_chunk_is_reported_not_raised_raw(tmp_path: Path) -> None:

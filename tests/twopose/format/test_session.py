@@ -15,7 +15,7 @@ from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
 from mcap.reader import make_reader
 
 from tests.twopose.format.full_session import CAM0, CAM1, write_full_session
-from twopose.camera import Camera, rotation_from_angles_deg
+from twopose.camera.model import Camera, rotation_from_angles_deg
 from twopose.errors import (
     InputValueError,
 )
@@ -32,8 +32,8 @@ from twopose.format.messages import Frame
 from twopose.format.reader import SessionReader
 from twopose.format.trials import iter_trials
 from twopose.format.writer import SessionWriter
-from twopose.methods import Method
-from twopose.units import Units
+from twopose.methods.specs import Method
+from twopose.values.units import Units
 
 
 @pytest.mark.parametrize("image_format", ["jpeg", "png"])

@@ -7,7 +7,7 @@ from typing import Literal
 
 import numpy as np
 
-from twopose.camera import Camera, Intrinsics
+from twopose.camera.model import Camera, Intrinsics
 from twopose.format.entries import (
     CaptureDecision,
     GroundTruth,
@@ -18,8 +18,8 @@ from twopose.format.entries import (
 from twopose.format.reader import SessionReader
 from twopose.format.trials import describe_session, iter_trials
 from twopose.format.writer import SessionWriter
-from twopose.methods import Method
-from twopose.units import Units
+from twopose.methods.specs import Method
+from twopose.values.units import Units
 
 CAM = Camera(
     camera_id="cam0", intrinsics=Intrinsics(width=32, height=24, fx=30.0, fy=30.0, cx=16.0, cy=12.0)

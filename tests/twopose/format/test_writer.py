@@ -22,8 +22,8 @@ from twopose.format.entries import (
 )
 from twopose.format.reader import SessionReader
 from twopose.format.writer import SessionWriter
-from twopose.methods import Method
-from twopose.units import Units
+from twopose.methods.specs import Method
+from twopose.values.units import Units
 
 
 def _capture_then_fail(w: SessionWriter) -> None:

@@ -12,17 +12,17 @@ import cv2
 import numpy as np
 import pytest
 
-from recorder.camera_calibration import fit_views
+from recorder.calibration.camera import fit_views
 from tests.helpers import load_benchmark
-from twopose.camera import Intrinsics
-from twopose.checkerboard import board_pattern, find_board
+from twopose.camera.model import Intrinsics
+from twopose.detect.checkerboard import board_pattern, find_board
 from twopose.errors import InputValueError
 from twopose.pair.board_fit import BoardCorners, rotation_matrix, rotation_vector
 from twopose.pair.calibration import PairCalibration, fit_pair, typed_pose_cov, widening
 from twopose.pair.floor import floor_from_board
 from twopose.pair.motion import thesis_pair
 from twopose.rig.constants import angles_deg_from_rotation
-from twopose.units import Units
+from twopose.values.units import Units
 
 DATA = Path(__file__).resolve().parents[3] / "data" / "opencv-chessboard"
 CHI2_6DOF_999 = 22.457744484825323

@@ -17,7 +17,7 @@ from twopose.pair.calibration import PairCalibration
 from twopose.pair.holdout import HoldoutCheck
 from twopose.pair.motion import thesis_pair
 from twopose.pair.pair_file import read_pair_file, write_pair_file
-from twopose.units import UNITS, Units
+from twopose.values.units import UNITS, Units
 
 
 def _full() -> PairCalibration:

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from tests.helpers import load_benchmark
-from twopose.camera import Intrinsics
+from twopose.camera.model import Intrinsics
 from twopose.errors import InputValueError
-from twopose.methods import MEASURING_METHODS, METHOD_SPECS, Method
+from twopose.methods.specs import MEASURING_METHODS, METHOD_SPECS, Method
 from twopose.pair.clock import ClockOffset
 from twopose.pair.motion import CameraClock, FingerMotion, Frames, observe, thesis_pair
 from twopose.pair.pairing import pair_frames

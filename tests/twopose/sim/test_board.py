@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twopose.camera import project_points, rotation_from_angles_deg
-from twopose.checkerboard import find_board
+from twopose.camera.model import project_points, rotation_from_angles_deg
+from twopose.detect.checkerboard import find_board
 from twopose.errors import SceneError
-from twopose.methods import Method
+from twopose.methods.specs import Method
 from twopose.rig.board import board_order
 from twopose.sim.camera import SyntheticCamera
 from twopose.sim.layout import BOARD_POSES, board_corners, board_layout, build_layout

@@ -9,11 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from recorder.simulate import target_points
-from recorder.sources import open_source
-from twopose.camera import project_points, rotation_from_angles_deg
-from twopose.detect import detect_dot
-from twopose.methods import Method
+from recorder.simulate.one_camera import target_points
+from recorder.sources.registry import open_source
+from twopose.camera.model import project_points, rotation_from_angles_deg
+from twopose.detect.detection import detect_dot
+from twopose.methods.specs import Method
 from twopose.rig.constants import RigConstants
 from twopose.sim.camera import camera_pose, true_intrinsics
 from twopose.sim.scene import load_scene

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twopose.methods import Method
+from twopose.methods.specs import Method
 from twopose.sim.layout import board_layout, build_layout, finger_axis, srgb_to_linear
 from twopose.sim.scene import load_scene
 

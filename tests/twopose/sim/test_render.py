@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from twopose.camera import project_points
-from twopose.methods import Method
+from twopose.camera.model import project_points
+from twopose.methods.specs import Method
 from twopose.sim.layout import GAMMA, build_layout
 from twopose.sim.render import _box_filtered_checker, expose, render_radiance
 from twopose.sim.scene import load_scene

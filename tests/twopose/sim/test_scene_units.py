@@ -1,4 +1,4 @@
-"""The simulator is unit-safe: every length of a scene is in its units (twopose.units'
+"""The simulator is unit-safe: every length of a scene is in its units (twopose.values.units'
 length fields), so the same scene in inches, centimetres and millimetres renders the same
 images and gives the same results up to scale. Before, clutter sizes, speck radii and the
 stand's offsets were inch numbers whatever the units: a scene written in centimetres
@@ -13,13 +13,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from analysis.pipeline import analyse_session
-from recorder.simulate import simulate_session
-from twopose.methods import Method
+from analysis.session.pipeline import analyse_session
+from recorder.simulate.one_camera import simulate_session
+from twopose.methods.specs import Method
 from twopose.sim.camera import SyntheticCamera
 from twopose.sim.layout import BOARD_POSES, board_poses, build_layout
 from twopose.sim.scene import Scene, load_scene
-from twopose.units import LENGTH, Units, unit_factor
+from twopose.values.units import LENGTH, Units, unit_factor
 
 UNITS = ("in", "cm", "mm")
 

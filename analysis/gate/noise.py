@@ -1,0 +1,61 @@
+"""``check`` compares the noise model too (issue 56, item 4).
+
+A run's 95% regions assume a noise model: the rig file each session used (its constants'
+covariance carried into every region, its ``[placing]`` the placing sigma), or none (each
+pose's typed resolution). A run and a baseline that used different rig files (their
+contents: ``summary.csv``'s ``rig_sha256``) hold regions that claim different things, so
+the metrics of the regions (``coverage95``) are not compared for that session, and the
+check says so, naming both models; the errors (RMSE, median, biases, ok trials) are
+compared as ever, the rig's correction being part of what is checked. A baseline from
+before the column is said too: its noise model cannot be compared.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pandas as pd
+
+from analysis.gate.match import Pair
+
+__all__ = ["NOISE_MODEL_METRICS", "noise_model_difference"]
+
+#: The summary columns a noise model shapes (its regions'): not compared across models.
+NOISE_MODEL_METRICS = ("coverage95",)
+
+
+def noise_model_difference(pair: Pair) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """The notes on ``pair``'s noise models, and the columns not to compare (none when the
+    run and the baseline used the same)."""
+    if pair.baseline is None or pair.result is None:
+        return (), ()
+    where = f"{pair.session} ({pair.method})"
+    if "rig_sha256" not in pair.baseline.index or "rig_sha256" not in pair.result.index:
+        return (
+            "not compared: the noise models (the baseline predates rig_sha256; replace the "
+            "baseline to check that both runs assumed the same)",
+        ), ()
+    if _text(pair.baseline, "rig_sha256") == _text(pair.result, "rig_sha256"):
+        return (), ()
+    note = (
+        f"{where}: the run and the baseline used different noise models (the run: "
+        f"{_model(pair.result)}; the baseline: {_model(pair.baseline)}): "
+        f"{', '.join(NOISE_MODEL_METRICS)} not compared (their regions assume different "
+        "noise); the errors are, the rig's correction included"
+    )
+    return (note,), NOISE_MODEL_METRICS
+
+
+def _model(row: pd.Series) -> str:
+    """A run's noise model for one session, in words."""
+    rig = _text(row, "rig_file")
+    sigma = pd.to_numeric(pd.Series([row.get("placing_sigma")]), errors="coerce").iloc[0]
+    placing = f"placing sigma {sigma:.3g} {_text(row, 'units')}" if math.isfinite(sigma) else ""
+    source = _text(row, "placing_source")
+    said = f"rig file {rig}" if rig else "no rig file"
+    return ", ".join(p for p in (said, placing, source) if p)
+
+
+def _text(row: pd.Series, column: str) -> str:
+    value = row.get(column, "")
+    return "" if value is None or (isinstance(value, float) and math.isnan(value)) else str(value)

@@ -1,0 +1,263 @@
+"""The run's answer per method: the numbers (``summary.json``'s ``methods``) and the table a
+reader sees (human labels, units in the headers, two decimals as the console prints them,
+shares in percent), per session set (``thesis_*`` first, then ``stress_*``,
+:data:`analysis.session.metrics.SESSION_SETS`) when the run has more than one.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+import pandas as pd
+
+from analysis.session.metrics import (
+    MIN_INTERVAL_TRIALS,
+    by_session_set,
+    summarize,
+    too_few_for_interval,
+)
+from twopose.methods.specs import label_of
+
+__all__ = [
+    "ANSWER_COLUMNS",
+    "answer_table",
+    "cameras_said",
+    "noise_phrases",
+    "number",
+    "readable",
+    "session_order",
+    "share",
+    "shown_name",
+    "skew_phrases",
+    "strand_names",
+    "two_cameras",
+    "with_branch",
+]
+
+ANSWER_COLUMNS = [
+    "set",
+    "method",
+    "units",
+    "cameras",
+    "n_trials",
+    "n_ok",
+    "n_warned",
+    "n_used",
+    "rmse",
+    "rmse_ci95_low",
+    "rmse_ci95_high",
+    "median_err",
+    "max_err",
+    "bias_x",
+    "bias_x_ci95",
+    "bias_z",
+    "bias_z_ci95",
+    "coverage95",
+    "within_1",
+]
+
+
+def answer_table(trials: pd.DataFrame, *, include_warned: bool = False) -> pd.DataFrame:
+    """Per session set, method and units, pooled over the sessions: the report's first
+    table (``set``: ``thesis``, ``stress``, or ``""`` for one group or no set)."""
+    if trials.empty:
+        return pd.DataFrame(columns=ANSWER_COLUMNS)
+    parts = []
+    for name, group in by_session_set(trials):
+        # one-camera trials and two-camera touches are never pooled (``cameras``)
+        pooled = group.assign(session="all (" + group["units"].astype(str) + ")")
+        if "cameras" in group:
+            pooled["session"] += group["cameras"].astype(str)
+        parts.append(summarize(pooled, include_warned=include_warned).assign(set=name))
+    table: pd.DataFrame = pd.concat(parts, ignore_index=True)[ANSWER_COLUMNS]
+    return table
+
+
+def session_order(summary: pd.DataFrame) -> pd.DataFrame:
+    """``summary``'s rows with the sessions of each set together, in the sets' order."""
+    if summary.empty:
+        return summary
+    groups = by_session_set(summary)
+    ordered: pd.DataFrame = pd.concat([g for _, g in groups]) if len(groups) > 1 else summary
+    return ordered
+
+
+def shown_name(row: pd.Series) -> str:
+    """How a reader is shown a row's session: its label (the shortest tail of its path
+    that no other input of the run shares), or, in a table without one, its file name;
+    with its branch when it is on one (a fork's: ``a3.mcap [branch B]``, as ``info``
+    shows it)."""
+    label = str(row.get("label", "") or "") or Path(str(row["session"])).name
+    return with_branch(label, str(row.get("branch", "") or ""))
+
+
+def with_branch(name: str, branch: str) -> str:
+    """A session's name with the branch it is on, when it is on one."""
+    return f"{name} [branch {branch}]" if branch else name
+
+
+def strand_names(trials: pd.DataFrame) -> pd.Series:
+    """Each trial's session as a reader is shown it (a chart's row, a figure's legend):
+    its label with the branch its session's trials end on (:func:`with_branch`), as the
+    report's tables name it. Over every trial of the run: a subset (the used trials) may
+    not hold its strand's last."""
+    label = (
+        trials["label"] if "label" in trials else trials["session"].map(lambda s: Path(str(s)).name)
+    )
+    if "branch" not in trials or trials.empty:
+        return label.astype(str)
+    last = trials.groupby("session", sort=False)["branch"].transform("last")
+    names = [with_branch(str(n), str(b)) for n, b in zip(label, last, strict=True)]
+    return pd.Series(names, index=trials.index, dtype="str")
+
+
+def two_cameras(row: pd.Series) -> bool:
+    """Whether a ``summary.csv`` row (or a trial's) is a two-camera session's touches."""
+    return bool(row.get("cameras", 1) == 2)
+
+
+def cameras_said(row: pd.Series) -> str:
+    """``, two cameras, per touch`` after a two-camera session's method (else nothing)."""
+    return ", two cameras, per touch" if two_cameras(row) else ""
+
+
+def skew_phrases(row: pd.Series) -> list[str]:
+    """A two-camera session's skew in words (a ``summary.csv`` row): the RMSE with camera
+    1's paired frame taken as it is, and the share of it interpolation removed."""
+    raw = _known(row.get("rmse_uninterpolated"))
+    if not math.isfinite(raw):
+        return ["skew not measured (no touch with an estimate both ways)"]
+    return [
+        f"rmse {number(raw)} {row['units']} without interpolating camera 1,",
+        f"skew's share {share(row.get('skew_share'))}",
+    ]
+
+
+def noise_phrases(row: pd.Series) -> list[str]:
+    """A session's noise model in words (a ``summary.csv`` row): the placing sigma its
+    regions assumed and where it came from, and sigma0's test with the multiplier taken
+    (:func:`twopose.uncertainty.noise.noise_words`, the one home of these words); none for a table
+    from before these columns. The terminal and the report say these."""
+    from twopose.uncertainty.noise import noise_words
+
+    if "sigma0_dof" not in row or pd.isna(row["sigma0_dof"]):
+        return []
+    sigma = row.get("placing_sigma", math.nan)
+    source = str(row.get("placing_source", "") or "typed").split(", times ")[0]
+    widening = _known(row.get("noise_widening"))
+    sigma0 = _known(row.get("sigma0"))
+    words = noise_words(
+        sigma0,
+        int(row["sigma0_dof"]),
+        math.sqrt(widening) if widening > 0 else math.nan,
+        placing_scale=_known(row.get("placing_scale")),
+        placing_dof=_known(row.get("placing_dof")),
+        flagged=int(_known(row.get("n_flagged"), 0.0)),
+    )
+    scale = _known(row.get("placing_scale"))
+    start = sigma / scale if isinstance(sigma, int | float) and scale > 0 else sigma  # assumed
+    return [f"placing sigma {_sig(start)} {row['units']} {source};", *_phrases(words)]
+
+
+def _phrases(words: str) -> list[str]:
+    """``words`` in phrases a terminal may break between: a number kept with the words
+    either side of it (``sigma0 1.55 on``, ``50 dof``, ``p < 0.001``), never cut from them."""
+    phrases: list[str] = []
+    glued = False  # the last token was a number or a relation: the next one stays with it
+    for token in words.split(" "):
+        number = bool(_NUMBER.fullmatch(token))
+        if phrases and (number or glued):
+            phrases[-1] += " " + token
+        else:
+            phrases.append(token)
+        glued = number or token in ("=", "<", "p", "(p")
+    return phrases
+
+
+_NUMBER = re.compile(r"[(]?x?[-+]?[0-9][0-9.]*(x|%)?[),;:]*")
+
+
+def _known(value: object, default: float = math.nan) -> float:
+    """A number from a table's cell (``default`` when it holds none)."""
+    if isinstance(value, bool) or not isinstance(value, int | float) or math.isnan(value):
+        return default
+    return float(value)
+
+
+def _sig(value: object) -> str:
+    """Three significant digits (1/16 in reads 0.0625), ``-`` when unknown."""
+    if not isinstance(value, int | float) or math.isnan(value):
+        return "-"
+    return f"{value:.3g}"
+
+
+def number(value: object, *, signed: bool = False) -> str:
+    """Two decimals (``-`` when unknown): the report's answer and the console alike."""
+    if not isinstance(value, int | float) or math.isnan(value):
+        return "-"
+    value = round(value, 2) + 0.0  # -0.001 reads +0.00, not -0.00
+    return f"{value:+.2f}" if signed else f"{value:.2f}"
+
+
+def share(value: object) -> str:
+    """A share in whole percent (``-`` when unknown)."""
+    if not isinstance(value, int | float) or math.isnan(value):
+        return "-"
+    return f"{100 * value:.0f}%"
+
+
+def _interval(low: object, high: object, n_used: int) -> str:
+    """An interval, or why there is none (too few trials: :data:`MIN_INTERVAL_TRIALS`)."""
+    if number(low) != "-":
+        return f"{number(low)} to {number(high)}"
+    return f"none ({too_few_for_interval(n_used)})" if 0 < n_used < MIN_INTERVAL_TRIALS else "-"
+
+
+def _plus_minus(value: object, half: object, n_used: int) -> str:
+    if number(half) != "-":
+        return f"{number(value, signed=True)} ± {number(half)}"
+    if number(value) != "-" and n_used < MIN_INTERVAL_TRIALS:  # why: the RMSE's cell
+        return f"{number(value, signed=True)} (no interval)"
+    return number(value, signed=True)
+
+
+#: The share within 1 unit, its header naming the unit (``within 1 cm``: 1 cm, not the
+#: thesis' 1 in, which the verdict lines count), or the rows' own in a mixed table.
+_WITHIN, _WITHIN_MIXED = "within 1 {}", "within 1 (the row's units)"
+
+
+def readable(table: pd.DataFrame, *, include_warned: bool = False) -> pd.DataFrame:
+    """An answer table or a summary (``summary.csv``'s columns) as a reader sees it: labels
+    in words, the units in the headers (a ``units`` column when they differ), lengths with
+    two decimals, biases with their 95% half-widths, shares in percent; the errors first
+    (what a phone shows without scrolling), the counts last."""
+    units = sorted({str(u) for u in table["units"]})
+    one = units[0] if len(units) == 1 else ""
+    u = f" ({one})" if one else ""
+    rows = []
+    for _, r in table.iterrows():
+        row: dict[str, object] = {}
+        if "session" in table:
+            row["session"] = shown_name(r)
+        row["method"] = label_of(r["method"]) + cameras_said(r)
+        if not one:
+            row["units"] = r["units"]
+        n_used = int(r["n_used"])
+        row |= {
+            f"RMSE{u}": number(r["rmse"]),
+            f"RMSE 95% interval{u}": _interval(r["rmse_ci95_low"], r["rmse_ci95_high"], n_used),
+            f"median{u}": number(r["median_err"]),
+            f"largest{u}": number(r["max_err"]),
+            _WITHIN.format(one) if one else _WITHIN_MIXED: share(r["within_1"]),
+            f"bias x ± 95%{u}": _plus_minus(r["bias_x"], r["bias_x_ci95"], n_used),
+            f"bias z ± 95%{u}": _plus_minus(r["bias_z"], r["bias_z_ci95"], n_used),
+            "truth inside its 95% ellipsoid": share(r["coverage95"]),
+            "trials": r["n_trials"],
+            "ok": r["n_ok"],
+            "warned (included)" if include_warned else "warned (left out)": r["n_warned"],
+            "used": r["n_used"],
+        }
+        rows.append(row)
+    return pd.DataFrame(rows)

@@ -1,0 +1,169 @@
+"""The report's figure captions: what each figure draws, which trials (the rule of
+:func:`analysis.session.metrics.used_trials`, and what became of the warned ones), in which units,
+and, for the figures over the run, the largest error drawn per session set and method: the
+answer table's "largest" column, so that a reader can check one against the other.
+
+Captions are HTML fragments (escaped here).
+"""
+
+from __future__ import annotations
+
+import html
+
+import pandas as pd
+
+from analysis.report.plane_axes import plane_of
+from analysis.report.terminal import UNIT_NAMES
+from analysis.session.metrics import by_session_set, used_trials, warned
+from analysis.tables.labels import MAX_LEGEND, common_units, table_units, unit_label
+from twopose.methods.specs import spec_of
+from twopose.values.units import Units
+
+__all__ = ["run_captions", "session_captions"]
+
+
+def _which(trials: pd.DataFrame, *, include_warned: bool) -> str:
+    """Which trials a run figure draws, in words."""
+    n_warned = int(warned(used_trials(trials, include_warned=True)).sum())
+    if include_warned:
+        return f"every ok trial, the {n_warned} warned included (--include-warned)"
+    if not n_warned:
+        return "the ok trials (none is warned)"
+    return f"the trials the answer uses ({n_warned} warned trial(s) left out, as there)"
+
+
+def largest_errors(trials: pd.DataFrame, *, include_warned: bool) -> list[tuple[str, str, float]]:
+    """(set, method, largest error) over the trials a run figure draws, in its units."""
+    used, _ = common_units(used_trials(trials, include_warned=include_warned, measured=True))
+    out = []
+    for name, group in by_session_set(used):
+        for method, g in group.groupby("method", sort=True):
+            out.append((name, str(method), float(g["err"].max())))
+    return out
+
+
+def _largest(trials: pd.DataFrame, label: str, *, include_warned: bool) -> str:
+    """The largest error drawn, per set and method, marked up for a reader and a test."""
+    parts: dict[str, list[str]] = {}
+    for name, method, value in largest_errors(trials, include_warned=include_warned):
+        cell = (
+            f"{html.escape(method)} <span class='largest' data-set='{html.escape(name)}' "
+            f"data-method='{html.escape(method)}'>{value:.2f}</span>"
+        )
+        parts.setdefault(name, []).append(cell)
+    groups = [
+        (f"{name}_*: " if name else "") + ", ".join(cells) + f" {html.escape(label)}"
+        for name, cells in parts.items()
+    ]
+    if not groups:
+        return "No trial drawn: none is usable, as the verdict lines say."
+    return "Largest error drawn: " + "; ".join(groups) + ", as in the answer."
+
+
+def run_captions(trials: pd.DataFrame, *, include_warned: bool) -> dict[str, str]:
+    """The captions of the figures over the run, by figure name."""
+    if trials.empty:
+        return {}
+    _, units = common_units(trials)
+    mixed = trials["units"].nunique() > 1 if "units" in trials else False
+    unit_note = f"Errors in {UNIT_NAMES.get(units, units)}" + (
+        " (sessions in other units converted)" if mixed else ""
+    )
+    which = _which(trials, include_warned=include_warned)
+    common = f"Drawn: {which}; {unit_note[0].lower()}{unit_note[1:]}."
+    largest = _largest(trials, units, include_warned=include_warned)
+    return {
+        "error_histogram": "Trials per error bin, by method, a panel per session set, one "
+        f"bin width throughout. {common} {largest}",
+        "error_by_trial": "Each trial's error (log scale), a line per session; dotted: the "
+        f"longest semi-axis of its 95% ellipsoid, for scale. {common} {largest}",
+        "error_vs_baseline": "Each trial's error (log scale) against its baseline (the "
+        "longest distance between two of its typed camera centres), a panel per session "
+        f"set. {common} {largest}",
+    }
+
+
+def session_captions(
+    trials: pd.DataFrame, *, include_warned: bool, units: Units | None = None
+) -> dict[str, str]:
+    """The captions of one session's figures, by figure kind (``units``: the session's,
+    when it has no trial to name them)."""
+    label = html.escape(unit_label(table_units(trials) or units))
+    top_view = spec_of(str(trials["method"].iloc[0])).top_view if len(trials) else "each view"
+    on = plane_of(trials)  # the ground's: x and z, seen from above
+    a, b = on.axis_names
+    seen, axes = html.escape(on.seen_words), html.escape(on.axes_said)
+    ok = used_trials(trials, include_warned=True)
+    n_warned = int(warned(ok).sum())
+    fate = "included in the statistics" if include_warned else "left out of the statistics"
+    not_ok = len(trials) - len(ok)
+    skipped = f" {not_ok} trial(s) not ok are not drawn." if not_ok else ""
+    doubt = f" {n_warned} warned trial(s) {{how}}, {fate}." if n_warned else ""
+    key = "the legend" if ok["trial"].nunique() <= MAX_LEGEND else "the key at the right"
+    colour = f" Each trial has one colour in all of this session's figures ({key})."
+    framed = (
+        ""
+        if include_warned or not n_warned
+        else " The axes are framed by the trials the statistics use; a left-out trial beyond "
+        "them is drawn at the edge (▲), its value under the legend."
+    )
+    return {
+        "scatter": f"Estimate minus truth in {a} and {b} ({label}) of each ok trial, with its 95% "
+        "error ellipse (about 95% of them hold the truth, the + at the origin, when the "
+        "uncertainty is honest); the x is the bias over the trials the statistics use."
+        + colour
+        + doubt.format(how="hollow, without an ellipse")
+        + framed
+        + skipped,
+        "topview": f"Seen {seen} ({axes}, {label}): "
+        f"{top_view}; the truth is drawn over them."
+        + colour
+        + doubt.format(how="dashed")
+        + framed
+        + skipped,
+        "averaging": "The error of the estimate from the first n frames of each pose "
+        f"({label}), against n; zero is the truth; {a} and {b} on one scale."
+        + colour
+        + doubt.format(how="dashed")
+        + framed
+        + skipped,
+    }
+
+
+#: What every chart of the report lets a reader do (analysis.report.charts).
+EXPLORE = (
+    "Hover a point for its session, trial and values; drag or turn the wheel over a chart to "
+    "zoom it, double-click to restore it."
+)
+
+
+def overview_caption(trials: pd.DataFrame, *, include_warned: bool) -> str:
+    """The caption of the run's overview charts (one colour per method)."""
+    if trials.empty:
+        return ""
+    _, units = common_units(trials)
+    mixed = trials["units"].nunique() > 1 if "units" in trials else False
+    which = _which(trials, include_warned=include_warned)
+    said = f"errors in {UNIT_NAMES.get(units, units)}" + (
+        " (sessions in other units converted)" if mixed else ""
+    )
+    largest = _largest(trials, units, include_warned=include_warned)
+    return (
+        "One colour per method on these charts. The histogram counts trials per error bin; "
+        "“error by trial” draws each session's trials as ticks on one row (log scale), the "
+        "sessions sorted by their median error; the last chart puts each trial's error "
+        f"against its baseline (the longest distance between two of its typed camera "
+        f"centres). Drawn: {which}; {said}. {largest} {EXPLORE}"
+    )
+
+
+def session_caption(
+    trials: pd.DataFrame, *, include_warned: bool, units: Units | None = None
+) -> str:
+    """The caption of a session's charts (one colour per trial, one click picks one)."""
+    captions = session_captions(trials, include_warned=include_warned, units=units)
+    scatter = captions["scatter"].replace("the + at the origin", "the dashed cross at 0")
+    return (
+        f"{scatter} Click a trial (a point in any chart) to pick it out in every chart of "
+        f"this session; shift-click adds another, a click on empty space shows all. {EXPLORE}"
+    )

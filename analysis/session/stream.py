@@ -1,0 +1,228 @@
+"""A two-camera session replayed into one estimate per frame pair and errors at its touches.
+
+Issue 58 item 6, its start: the Python face of a stream's analysis (``run`` does not take
+two-camera sessions yet). :func:`replay_pair_session` reads a format 1.6 session
+(:func:`twopose.format.streams.read_pair_session`), detects the method's target in every
+frame of both cameras (:func:`twopose.detect.detection.detect`: the dot's centroid, or the glove's
+centroid and image line), takes the clock offset the session recorded (else measures it
+per trial from the targets' centroids by the smallest ray gap:
+:func:`twopose.pair.clock.offset_from_ray_gap`; or the one given), and estimates the stream
+(:func:`twopose.pair.stream.estimate_stream`: camera 1's measurement interpolated to camera
+2's capture time, the method's one solver, each pair's conditioning and 95% region). At each
+touch (a moment the target was at a known grid point, on camera 1's clock) the estimate is
+read at the touch's time, interpolated linearly between the two ok estimates about it (no
+more than :data:`MAX_TOUCH_GAP_INTERVALS` frame intervals apart; else none), a line's from
+the estimate nearest in time; its error is its distance to the touched point (a line's:
+the point's distance from the line).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from twopose.arrays import F64
+from twopose.detect.detection import detect
+from twopose.errors import InputValueError
+from twopose.format.entries import Touch
+from twopose.format.reader import SessionReader
+from twopose.format.streams import CameraStream, StreamTrial, read_pair_session
+from twopose.methods.specs import Method, spec_of
+from twopose.pair.calibration import PairCalibration
+from twopose.pair.clock import ClockOffset, offset_from_ray_gap
+from twopose.pair.stream import (
+    CameraTrack,
+    StreamEstimate,
+    StreamNoise,
+    StreamSettings,
+    estimate_stream,
+)
+
+__all__ = [
+    "MAX_TOUCH_GAP_INTERVALS",
+    "PairReplay",
+    "TrialReplay",
+    "at_touches",
+    "replay_pair_session",
+    "replay_trial",
+]
+
+#: A touch's estimate is interpolated between two ok estimates no more than this many
+#: frame intervals apart (one lost or near-singular pair between them is bridged).
+MAX_TOUCH_GAP_INTERVALS = 2.5
+#: Each frame's detection noise when none is given (1-sigma: centroid px, line deg).
+DEFAULT_NOISE = StreamNoise(centroid_px=0.25, theta_deg=0.25)
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class TrialReplay:
+    """One stream trial replayed.
+
+    ``tracks`` each camera's detections; ``offset`` the clock offset used and
+    ``offset_from`` where it came from (``recorded``, ``measured``, ``given``);
+    ``estimate`` one estimate per frame pair; per touch (``touches``, in order)
+    ``at_touch`` (K, 3) the estimate at its time (NaN: none) and ``touch_error`` (K,) its
+    distance to the touched point (NaN: none); ``reason`` why the trial's streams are
+    incomplete ("" when complete).
+    """
+
+    trial: int
+    tracks: tuple[CameraTrack, CameraTrack]
+    offset: ClockOffset
+    offset_from: str
+    estimate: StreamEstimate
+    touches: tuple[Touch, ...]
+    at_touch: F64
+    touch_error: F64
+    reason: str = ""
+    #: camera 1's median frame interval (ns; 0 with fewer than two frames)
+    interval_ns: float = 0.0
+
+    @property
+    def truth(self) -> F64:
+        """(K, 3) the touched points, in touch order."""
+        return np.array([t.point for t in self.touches], dtype=np.float64).reshape(-1, 3)
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class PairReplay:
+    """A two-camera session replayed: its method, pair and trials (:class:`TrialReplay`)."""
+
+    path: Path
+    method: Method
+    pair: PairCalibration
+    trials: tuple[TrialReplay, ...]
+
+
+def _track(stream: CameraStream, method: Method) -> CameraTrack:
+    """One camera's detections of the method's target, frame by frame."""
+    spec = spec_of(method)
+    assert spec.target is not None  # a measuring method's
+    found, centroid, theta = [], [], []
+    for image in stream.images():
+        d = detect(image, spec.target)
+        found.append(d.found)
+        centroid.append(d.centroid_px if d.found else (np.nan, np.nan))
+        theta.append(d.theta_deg if d.found and spec.uses_image_lines else np.nan)
+    return CameraTrack.of(
+        stream.capture_ns,
+        np.array(centroid, dtype=np.float64).reshape(-1, 2),
+        np.array(theta, dtype=np.float64) if spec.uses_image_lines else None,
+        np.array(found, dtype=bool),
+    )
+
+
+def _offset(
+    trial: StreamTrial,
+    pair: PairCalibration,
+    tracks: tuple[CameraTrack, CameraTrack],
+    known: tuple[ClockOffset | None, str],
+) -> tuple[ClockOffset, str]:
+    """The clock offset: the one known (given, recorded), else measured by the ray gap."""
+    if known[0] is not None:
+        return known[0], known[1]
+    one, two = tracks
+    try:
+        measured = offset_from_ray_gap(pair, one.centroid_px, one.t_ns, two.centroid_px, two.t_ns)
+    except InputValueError as err:
+        raise InputValueError(f"trial {trial.trial}: the clock offset: {err}") from err
+    return measured, "measured"
+
+
+def at_touches(estimate: StreamEstimate, touches: tuple[Touch, ...], interval: float) -> F64:
+    """(K, 3) the estimate at each touch's time (a line's: the nearest estimate's point on
+    its line nearest the touched point); NaN where there is none about it."""
+    ok = estimate.ok
+    t, points = estimate.t_ns[ok], estimate.point[ok]
+    out = np.full((len(touches), 3), np.nan)
+    if not t.size:
+        return out
+    for k, touch in enumerate(touches):
+        j = int(np.searchsorted(t, touch.time_ns))
+        if estimate.direction is not None:  # a line: the estimate nearest in time
+            near = int(np.argmin(np.abs(t - touch.time_ns)))
+            if abs(t[near] - touch.time_ns) <= MAX_TOUCH_GAP_INTERVALS * interval / 2:
+                d = estimate.direction[ok][near]
+                p, q = points[near], np.asarray(touch.point)
+                out[k] = p + ((q - p) @ d) * d
+            continue
+        if 0 < j < t.size and t[j] - t[j - 1] <= MAX_TOUCH_GAP_INTERVALS * interval:
+            w = (touch.time_ns - t[j - 1]) / (t[j] - t[j - 1])
+            out[k] = (1 - w) * points[j - 1] + w * points[j]
+    return out
+
+
+def replay_pair_session(
+    path: str | Path,
+    *,
+    noise: StreamNoise | None = None,
+    offset: ClockOffset | None = None,
+    interpolate: bool = True,
+) -> PairReplay:
+    """Replay a two-camera session (the module docstring).
+
+    Parameters
+    ----------
+    path : path-like
+        A format 1.6 two-camera session.
+    noise : StreamNoise, optional
+        Each frame's detection noise (default :data:`DEFAULT_NOISE`).
+    offset : ClockOffset, optional
+        The clock offset to use (default: the session's last recorded one, else measured
+        per trial).
+    interpolate : bool
+        Whether camera 1's measurement is interpolated to camera 2's capture time.
+
+    Returns
+    -------
+    PairReplay
+    """
+    with SessionReader(path) as reader:
+        session = read_pair_session(reader)
+        method = session.info.method
+        if not spec_of(method).measures:
+            raise InputValueError(f"{path}: a {method} session measures nothing to replay")
+        known = (offset, "given") if offset is not None else (session.offset, "recorded")
+        settings = StreamSettings(noise=noise or DEFAULT_NOISE, interpolate=interpolate)
+        trials = [
+            replay_trial(trial, session.pair, method, known, settings) for trial in session.trials
+        ]
+    return PairReplay(path=Path(path), method=method, pair=session.pair, trials=tuple(trials))
+
+
+def replay_trial(
+    trial: StreamTrial,
+    pair: PairCalibration,
+    method: Method,
+    known: tuple[ClockOffset | None, str],
+    settings: StreamSettings,
+) -> TrialReplay:
+    """One stream trial replayed (the reader open): both cameras' targets detected, the
+    clock offset ``known`` (``(offset, where from)``; ``(None, _)``: measured by the ray
+    gap), the stream estimated and read at each touch.
+
+    Raises :class:`~twopose.errors.InputValueError` when the trial cannot be estimated (a
+    camera with too few frames, an offset that cannot be measured), saying why.
+    """
+    tracks = (_track(trial.camera1, method), _track(trial.camera2, method))
+    used, source = _offset(trial, pair, tracks, known)
+    estimate = estimate_stream(method, pair, *tracks, used, settings)
+    interval = float(np.median(np.diff(tracks[0].t_ns))) if len(tracks[0].t_ns) > 1 else 0.0
+    at = at_touches(estimate, trial.touches, interval)
+    replay = TrialReplay(
+        trial=trial.trial,
+        tracks=tracks,
+        offset=used,
+        offset_from=source,
+        estimate=estimate,
+        touches=trial.touches,
+        at_touch=at,
+        touch_error=np.full(len(trial.touches), np.nan),
+        reason="; ".join(s.reason for s in trial.cameras if s.reason),
+        interval_ns=interval,
+    )
+    error = np.linalg.norm(at - replay.truth, axis=1)
+    return dataclasses.replace(replay, touch_error=error)

@@ -1,0 +1,137 @@
+"""How ``trials.csv``'s noise columns are filled from a session's estimate (issues 46, 54):
+the placing sigma each trial's region assumed and where it came from, the degrees of
+freedom it rests on, the trial's misclosure and its test, whether its poses disagree and
+which pose's typed component looks off (:mod:`twopose.uncertainty.blunders`). Declared in
+:data:`analysis.tables.trials.TRIAL_TABLE`; filled here, each from a
+:class:`~analysis.tables.trials.TrialResult`.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any, Protocol
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from twopose.arrays import F64
+    from twopose.solve.session import SessionEstimate
+    from twopose.uncertainty.blunders import TrialTests
+
+
+class TrialResult(Protocol):
+    """What a fill reads (:class:`analysis.tables.trials.TrialResult`'s session estimate)."""
+
+    @property
+    def estimate(self) -> SessionEstimate: ...
+
+
+__all__ = [
+    "disagreement",
+    "flagged",
+    "misclosure_chi2",
+    "misclosure_dof",
+    "misclosure_p",
+    "noise_widening",
+    "placing_dof",
+    "placing_scale",
+    "placing_sigma",
+    "placing_source",
+    "suspect_axis",
+    "suspect_offset",
+    "suspect_pose",
+]
+
+
+def placing_sigma(t: TrialResult) -> F64:
+    """The placing sigma each trial's region assumed (:func:`placing_sigmas`)."""
+    from twopose.uncertainty.session_noise import placing_sigmas
+
+    return placing_sigmas(t.estimate.trials, t.estimate.options, t.estimate.factor)
+
+
+def placing_source(t: TrialResult) -> list[str]:
+    """Where the placing sigma came from (typed, or measured by which board session, and
+    the multiplier the session estimated and from what)."""
+    from twopose.uncertainty.session_noise import placing_source as source
+
+    return [source(t.estimate.options, t.estimate.factor)] * len(t.estimate.trials)
+
+
+def placing_scale(t: TrialResult) -> F64:
+    """The placing sigma taken over the one assumed, ``sqrt(lambda)`` (1: none estimated)."""
+    factor = t.estimate.factor
+    return np.full(len(t.estimate.trials), 1.0 if factor is None else factor.placing_scale)
+
+
+def placing_dof(t: TrialResult) -> F64:
+    """The degrees of freedom the placing sigma rests on (NaN: taken as exact)."""
+    factor, T = t.estimate.factor, len(t.estimate.trials)
+    dof = factor.variance_dof if factor is not None and factor.estimated else np.nan
+    return np.full(T, dof)
+
+
+def misclosure_chi2(t: TrialResult) -> F64:
+    """Each trial's misclosure chi-square (NaN: no redundancy, or not tested)."""
+    m = t.estimate.misclosure
+    return np.full(len(t.estimate.trials), np.nan) if m is None else m.chi2
+
+
+def misclosure_dof(t: TrialResult) -> Any:
+    """Each trial's redundant measurements tested (0: none, or not tested)."""
+    m = t.estimate.misclosure
+    return np.zeros(len(t.estimate.trials), dtype=np.int64) if m is None else m.dof
+
+
+def noise_widening(t: TrialResult) -> F64:
+    """Each ok trial's region's largest variance against the typed placing's (1: unchanged)."""
+    return t.estimate.estimates.widening
+
+
+def _tests(t: TrialResult) -> TrialTests:
+    from twopose.uncertainty.blunders import TrialTests
+
+    return t.estimate.tests or TrialTests.none(len(t.estimate.trials))
+
+
+def misclosure_p(t: TrialResult) -> F64:
+    """Each trial's misclosure p-value against the rest of its session (NaN: none)."""
+    return _tests(t).p
+
+
+def flagged(t: TrialResult) -> Any:
+    """Whether the trial's poses disagree (empty: not tested)."""
+    tests, m = _tests(t), t.estimate.misclosure
+    tested = m is not None and t.estimate.options.noise.test_redundancy
+    return [
+        bool(f) if tested and d > 0 else None for f, d in zip(tests.flagged, _dof(t), strict=True)
+    ]
+
+
+def _dof(t: TrialResult) -> Any:
+    m = t.estimate.misclosure
+    return np.zeros(len(t.estimate.trials), dtype=np.int64) if m is None else m.dof
+
+
+def suspect_pose(t: TrialResult) -> Any:
+    """The pose a flagged trial names (0: none named)."""
+    return _tests(t).pose.astype(np.int64)
+
+
+def suspect_axis(t: TrialResult) -> list[str]:
+    """Which typed component of it looks off (``""``: not said)."""
+    return [str(a) for a in _tests(t).axis]
+
+
+def suspect_offset(t: TrialResult) -> F64:
+    """By how much the named pose's component looks off: typed minus where the laptop
+    stood (NaN: no pose named; the words give the range)."""
+    return _tests(t).offset
+
+
+def disagreement(t: TrialResult) -> list[str]:
+    """A flagged trial's poses' disagreement in words (the recorder's live words)."""
+    from twopose.values.units import Units
+
+    tests, trials = _tests(t), t.estimate.trials
+    units = Units(trials.units)
+    return [tests.words(i, units, len(v)) for i, v in enumerate(trials.views)]

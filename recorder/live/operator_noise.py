@@ -1,0 +1,268 @@
+"""The operator's noise file: what the recorder learned of each operator's placing error,
+session by session, so that the next session's live result starts from it (issue 54).
+
+A session's live result estimates the placing variance's multiplier from its own trials
+and a prior (:mod:`twopose.uncertainty.placing_variance`); a lab's operator records session after
+session, and their earlier sessions are that prior, exactly as the analysis pools the
+same operator's other sessions of a run
+(:func:`twopose.uncertainty.placing_variance.operator_priors`,
+one rule). At the end of every recording whose setup names an operator, the recorder adds
+the session's trials' misclosures (a few numbers per trial with redundant poses) to the
+operator's file; when a recording starts, the file's sessions of the same method, relative
+to the same placing sigma (typed, or the same rig file's ``[placing]``), are its prior.
+
+The files live in ``$TWOPOSE_NOISE_DIR``, else ``$XDG_DATA_HOME/twopose/operators``
+(``~/.local/share/twopose/operators``), one per operator: ``<name>-<hash>.toml``, the name
+made safe for a file name and the hash of the exact name keeping two names apart. Plain
+TOML (docs/uncertainty.md lists the keys); delete it to start an operator afresh. A file
+that cannot be read is said and set aside, never the recording's end.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import re
+from collections.abc import Sequence
+from datetime import UTC, datetime
+from pathlib import Path
+
+import numpy as np
+
+from twopose.atomic_write import write_atomically, write_failed
+from twopose.errors import InputValueError
+from twopose.methods.specs import Method
+from twopose.solve.margins import EstimateOptions
+from twopose.uncertainty.noise import PlacingPrior
+from twopose.uncertainty.placing_variance import SessionNoise, operator_priors
+from twopose.values.units import Units
+
+__all__ = ["FORMAT", "NoiseFile", "live_prior", "noise_dir", "remember_session"]
+
+#: The file's layout; another is set aside (said), never misread.
+FORMAT = 1
+#: At most this many sessions are kept per operator (the oldest go first).
+MAX_SESSIONS = 200
+
+
+def noise_dir() -> Path:
+    """Where the operators' noise files are (see the module)."""
+    from twopose.values.environment import NOISE_DIR, XDG_DATA_HOME
+
+    given = NOISE_DIR.text()
+    if given:
+        return Path(given)
+    data = XDG_DATA_HOME.text() or str(Path.home() / ".local" / "share")
+    return Path(data) / "twopose" / "operators"
+
+
+def _file_name(operator: str) -> str:
+    safe = re.sub(r"[^a-z0-9_-]+", "_", operator.strip().lower()).strip("_")[:40] or "operator"
+    return f"{safe}-{hashlib.sha256(operator.strip().encode()).hexdigest()[:8]}.toml"
+
+
+class NoiseFile:
+    """One operator's noise file (see the module)."""
+
+    def __init__(self, operator: str, folder: Path | None = None) -> None:
+        self.operator = operator.strip()
+        self.path = (folder or noise_dir()) / _file_name(self.operator)
+
+    def sessions(self) -> list[dict[str, object]]:
+        """Its sessions as recorded; none when there is no file. A file that cannot be
+        read raises :class:`InputValueError` saying so."""
+        from twopose.values.toml import read_toml
+
+        if not self.path.is_file():
+            return []
+        data = read_toml(self.path, "operator noise file", InputValueError)
+        if data.get("format") != FORMAT or data.get("operator") != self.operator:
+            raise InputValueError(
+                f"{self.path} is not this recorder's noise file of operator {self.operator!r} "
+                f"(format {FORMAT}); move it away to start afresh"
+            )
+        sessions = data.get("session", [])
+        if not isinstance(sessions, list):
+            raise InputValueError(f"{self.path}: [[session]] must be an array of tables")
+        return [s for s in sessions if isinstance(s, dict)]
+
+    def history(self, method: Method, reference: str) -> list[SessionNoise]:
+        """The recorded sessions of ``method`` relative to ``reference``, as statistics."""
+        out = []
+        for s in self.sessions():
+            if s.get("method") != str(method) or s.get("reference") != reference:
+                continue
+            out.append(_statistics(s, f"{self.path}: a session"))
+        return out
+
+    def prior(self, method: Method, reference: str, anchor: PlacingPrior) -> PlacingPrior | None:
+        """The prior its sessions give a new session (the analysis' rule, with the new
+        session as the one left out): None without enough of them."""
+        history = self.history(method, reference)
+        if not history:
+            return None
+        group = f"{self.operator} ({method})"
+        empty = SessionNoise(group=group, chi2=np.zeros(0), dof=np.zeros(0, dtype=np.int_),
+                             share=np.zeros((0, 1)), z2=np.zeros((0, 1)))  # fmt: skip
+        stats = [_regrouped(s, group) for s in history] + [empty]
+        prior = operator_priors(stats, anchor, who="operator")[-1]
+        if prior is None:
+            return None
+        n = prior.sessions
+        source = (
+            f"{n} earlier session{'s' if n != 1 else ''} of operator {self.operator} ({method})"
+        )
+        return PlacingPrior(scale=prior.scale, dof=prior.dof, source=source, sessions=n)
+
+    def remember(
+        self, session: str | Path, method: Method, units: Units, reference: str, stats: SessionNoise
+    ) -> None:
+        """Add a recorded session's statistics (none: nothing written); the oldest go
+        beyond :data:`MAX_SESSIONS`. Written whole, then renamed (:mod:`twopose.atomic_write`)."""
+        if not len(stats.chi2):
+            return
+        kept = self.sessions()[-(MAX_SESSIONS - 1) :]
+        entry: dict[str, object] = {
+            "file": str(session),
+            "method": str(method),
+            "units": str(units),
+            "recorded_utc": datetime.now(UTC).isoformat(timespec="seconds"),
+            "reference": reference,
+            "chi2": [float(v) for v in stats.chi2],
+            "dof": [int(v) for v in stats.dof],
+            "share": [[float(v) for v in row] for row in stats.share],
+            "z2": [[float(v) for v in row] for row in stats.z2],
+        }
+        text = _document(self.operator, [*kept, entry])
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as err:
+            raise write_failed(self.path.parent, err) from err
+        write_atomically(self.path, text.encode("utf-8"))
+
+
+def _regrouped(s: SessionNoise, group: str) -> SessionNoise:
+    return SessionNoise(group=group, chi2=s.chi2, dof=s.dof, share=s.share, z2=s.z2)
+
+
+def _statistics(s: dict[str, object], what: str) -> SessionNoise:
+    """A recorded session's statistics, refused in words unless well formed."""
+    try:
+        chi2 = np.asarray(s["chi2"], dtype=np.float64)
+        dof = np.asarray(s["dof"], dtype=np.int_)
+        share = np.asarray(s["share"], dtype=np.float64)
+        z2 = np.asarray(s["z2"], dtype=np.float64)
+    except (KeyError, TypeError, ValueError) as err:
+        raise InputValueError(f"{what} lacks its numbers ({err}); move the file away") from err
+    T = len(chi2)
+    shaped = dof.shape == (T,) and share.ndim == 2 and share.shape == z2.shape
+    good = (
+        shaped and len(share) == T
+        and bool(np.all(np.isfinite(chi2)) and np.all(chi2 >= 0) and np.all(dof > 0))
+        and bool(np.all((share >= 0) & (share <= 1)))
+        and bool(np.all(np.isfinite(z2)) and np.all(z2 >= 0))
+    )  # fmt: skip
+    if not good:
+        raise InputValueError(f"{what} holds numbers no recorder writes; move the file away")
+    return SessionNoise(group="", chi2=chi2, dof=dof, share=share, z2=z2)
+
+
+def _document(operator: str, sessions: Sequence[dict[str, object]]) -> str:
+    """The file's text: a comment saying what it is, then its keys."""
+    lines = [
+        "# twopose: what the recorder learned of this operator's placing error, session by",
+        "# session (docs/uncertainty.md). The next session's live result starts from it;",
+        "# delete the file to start afresh.",
+        f"format = {FORMAT}",
+        f"operator = {_string(operator)}",
+    ]
+    for s in sessions:
+        lines += ["", "[[session]]"]
+        lines += [f"{k} = {_value(v)}" for k, v in s.items()]
+    return "\n".join(lines) + "\n"
+
+
+def _string(text: str) -> str:
+    """A TOML basic string: quotes, backslashes and control characters escaped."""
+    out = []
+    for ch in text:
+        if ch in ('"', "\\"):
+            out.append("\\" + ch)
+        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
+            out.append(f"\\u{ord(ch):04x}")
+        else:
+            out.append(ch)
+    return '"' + "".join(out) + '"'
+
+
+def _value(value: object) -> str:
+    """A TOML value of the kinds the file holds: strings, numbers, arrays of them."""
+    if isinstance(value, str):
+        return _string(value)
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        return repr(value) if math.isfinite(value) else "nan"
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(_value(v) for v in value) + "]"
+    raise InputValueError(f"the noise file cannot hold {value!r}")
+
+
+def _reference(options: EstimateOptions) -> str:
+    """What a session's multiplier is relative to: the typed resolution, or a rig file's
+    measured ``[placing]`` (its sigma and where it came from)."""
+    placing = options.noise.placing
+    if placing is None:
+        return "typed"
+    return f"placing {placing.sigma_in:.6g} in ({placing.measured_by or 'given'})"
+
+
+def live_prior(
+    operator: str, method: Method, options: EstimateOptions
+) -> tuple[EstimateOptions, str]:
+    """The live result's options with the operator's prior from their noise file, and
+    what to tell the operator about it ("" when the setup names no operator)."""
+    import dataclasses
+
+    if not operator.strip() or not options.noise.test_redundancy:
+        return options, ""
+    noise_file = NoiseFile(operator)
+    reference = _reference(options)
+    try:
+        earlier = len(noise_file.history(method, reference))
+        prior = noise_file.prior(method, reference, options.noise.anchor())
+    except InputValueError as err:
+        return options, f"the operator's noise file was set aside: {err}"
+    if prior is None:
+        what = (
+            f"no earlier session of operator {noise_file.operator} ({method})"
+            if not earlier
+            else f"the {earlier} earlier session{'s' if earlier != 1 else ''} of operator "
+            f"{noise_file.operator} ({method}) {'say' if earlier != 1 else 'says'} too little"
+        )
+        return options, (
+            f"placing error: {what} to start from; this one is kept in {noise_file.path}"
+        )
+    noise = dataclasses.replace(options.noise, prior=prior)
+    said = (
+        f"placing error: starting from {prior.source} (placing sigma {prior.scale**0.5:.2g}x "
+        f"the one assumed, {prior.dof:.0f} dof; {noise_file.path})"
+    )
+    return dataclasses.replace(options, noise=noise), said
+
+
+def remember_session(
+    operator: str, method: Method, units: Units, session: str | Path, options: EstimateOptions,
+    stats: SessionNoise | None,
+) -> str:  # fmt: skip
+    """Add a finished recording's statistics to its operator's noise file; what went
+    wrong, in words ("" when it was added, or there was nothing to add)."""
+    if not operator.strip() or stats is None or not len(stats.chi2):
+        return ""
+    try:
+        NoiseFile(operator).remember(session, method, units, _reference(options), stats)
+    except (InputValueError, OSError) as err:
+        return f"the operator's noise file was not updated: {err}"
+    return ""

@@ -1,0 +1,443 @@
+"""Two cameras at once: ``--source pair:A,B``, any two one-camera sources the registry knows
+(:data:`recorder.sources.registry.SOURCE_KINDS`), camera 1 first.
+
+``A`` and ``B`` are written as the operator writes one source (``camera:0``,
+``video:a.mp4``, ``images:photos/left*.jpg``, ``synthetic``), colons and all, separated by
+a comma: ``pair:camera:0,camera:1``. A source whose text holds a comma (a path) is put in
+double quotes, a quote inside it doubled, as in a CSV file (the text is read by Python's
+``csv`` module): ``pair:"video:take 1,2.mp4",video:b.mp4`` (inside the shell's single
+quotes). :func:`pair_spec` writes it so.
+
+:class:`PairSource` reads each camera on its own thread (:mod:`recorder.sources.pair_feeds`: grab
+as fast as the camera gives, stamp each frame with its capture time, decode on the reader's
+side) into a bounded queue: when the reader is slow, a camera's oldest frame is dropped and
+counted (:attr:`PairSource.dropped_by_camera`), the camera is never held up (a folder of
+stills is never dropped: its thread waits instead). It gives each camera's frames with their
+capture times as they come (:meth:`PairSource.frames`, not paired: pairing is
+:mod:`twopose.pair.pairing`'s), or pairs made live by that same policy
+(:meth:`PairSource.pairs`). A stop of the recording (Ctrl-C, SIGTERM:
+:mod:`recorder.procedure.stops`)
+ends both threads at once and raises ``KeyboardInterrupt`` in the reader.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import io
+import threading
+import time
+from collections import deque
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Protocol
+
+from recorder.procedure import stops
+from recorder.sources.base import FrameSource, SourceInfo
+from recorder.sources.pair_feeds import Feed, Grabbed
+from twopose.errors import SourceError
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    import numpy as np
+    from numpy.typing import NDArray
+
+    Image = NDArray[np.uint8]
+
+__all__ = [
+    "CameraStream",
+    "FramePair",
+    "PairSource",
+    "TimedFrame",
+    "pair_spec",
+    "parse_pair",
+]
+
+#: How many frames each camera's queue holds (at 30 fps, a second: a consumer held up by a
+#: disk's flush or a busy machine loses nothing; MJPG frames are ~90 kB each).
+QUEUE_FRAMES = 30
+_POLL_S = 0.05  # how often a wait looks whether the recording is to stop
+_JOIN_S = 2.0  # how long closing waits for both reader threads, together
+
+
+@dataclass(frozen=True, slots=True)
+class TimedFrame:
+    """One camera's frame: ``camera`` 1 or 2, its number ``index`` among the frames that
+    camera gave (from 0; a frame dropped leaves a gap), its capture time ``t_capture_ns``
+    on its camera's clock, the monotonic time ``t_grab_ns`` right after it was grabbed (its
+    arrival), the BGR ``image`` and its ``name`` (a still's file name)."""
+
+    camera: int
+    index: int
+    t_capture_ns: int
+    t_grab_ns: int
+    image: Image
+    name: str
+
+
+@dataclass(frozen=True, slots=True)
+class FramePair:
+    """Camera 1's frame and camera 2's, paired by capture time: ``skew_ns`` is camera 2's
+    capture time on camera 1's clock minus camera 1's."""
+
+    first: TimedFrame
+    second: TimedFrame
+    skew_ns: int
+
+
+@dataclass(frozen=True, kw_only=True)
+class CameraStream:
+    """What one camera of the pair delivers: its source text, size and rate, the pixel
+    format it gives (``MJPG`` where it took it), its clock (``driver``, ``monotonic at
+    grab``, ``simulated``: :data:`recorder.sources.pair_feeds.CLOCKS`) and the same in words."""
+
+    spec: str
+    info: SourceInfo
+    fourcc: str
+    clock: str
+    clock_note: str
+
+    def text(self) -> str:
+        """The camera as the operator is told it."""
+        i = self.info
+        fmt = f", {self.fourcc}" if self.fourcc else ""
+        return f"{self.spec}: {i.width}x{i.height} at {i.fps:g} fps{fmt}; clock: {self.clock_note}"
+
+
+class Kind(Protocol):
+    """What :func:`parse_pair` reads of a kind of source
+    (:class:`recorder.sources.registry.SourceKind`)."""
+
+    @property
+    def cameras(self) -> int: ...
+
+    @property
+    def syntax(self) -> str: ...
+
+    def matches(self, spec: str) -> bool: ...
+
+
+def parse_pair(arg: str, kinds: Sequence[Kind]) -> tuple[str, str]:
+    """The two sources of ``pair:ARG`` (the text after ``pair:``), each a one-camera kind of
+    ``kinds`` (the registry's: :func:`recorder.sources.registry.open_pair`); refused in words."""
+    try:
+        rows = list(csv.reader(io.StringIO(arg, newline=""), strict=True, skipinitialspace=True))
+    except csv.Error as err:
+        raise SourceError(f"pair:{arg}: {err} (a quoted source ends with its quote)") from err
+    parts = rows[0] if len(rows) == 1 else []
+    if len(parts) != 2:
+        raise SourceError(
+            f"pair:{arg}: give two sources, camera 1's and camera 2's, separated by a comma "
+            "(pair:camera:0,camera:1); a source whose text holds a comma goes in double "
+            'quotes: pair:"video:take 1,2.mp4",video:b.mp4'
+        )
+    for n, part in enumerate(parts, start=1):
+        if not part:
+            raise SourceError(f"pair:{arg}: camera {n}'s source is empty")
+        kind = next((k for k in kinds if k.matches(part)), None)
+        if kind is None:
+            ones = ", ".join(k.syntax for k in kinds if k.cameras == 1)
+            raise SourceError(f"pair:{arg}: camera {n}'s source {part!r} is unknown; use {ones}")
+        if kind.cameras != 1:
+            raise SourceError(f"pair:{arg}: camera {n}'s source {part} is not one camera")
+    return parts[0], parts[1]
+
+
+def pair_spec(first: str, second: str) -> str:
+    """``pair:A,B`` for two sources, each quoted where it must be (:func:`parse_pair`)."""
+    out = io.StringIO()
+    csv.writer(out, lineterminator="").writerow([first, second])
+    return f"pair:{out.getvalue()}"
+
+
+class _Reader:
+    """One camera: its feed, its reader thread and its bounded queue."""
+
+    def __init__(self, camera: int, spec: str, feed: Feed, queue_frames: int) -> None:
+        self.camera, self.spec, self.feed = camera, spec, feed
+        self.queue: deque[tuple[int, Grabbed]] = deque()
+        self.limit = queue_frames
+        self.dropped = 0  # taken from the camera, dropped because the reader was slow
+        self.grabbed = 0
+        self.ended = False  # the thread is done (the stream ended, failed or was stopped)
+        self.error: SourceError | None = None
+        self.last_ns = time.monotonic_ns()
+        self.thread: threading.Thread | None = None
+
+    def run(self, cond: threading.Condition, stop: threading.Event) -> None:
+        try:
+            while not stop.is_set():
+                grabbed = self.feed.grab(stop)
+                if grabbed is None:
+                    if not self.feed.finite and not stop.is_set():
+                        self.error = SourceError(
+                            f"camera {self.camera} ({self.spec}) stopped delivering frames "
+                            "(unplugged?)"
+                        )
+                    return
+                self._put(cond, stop, grabbed)
+        except KeyboardInterrupt:  # the recording is to stop (a source's own stops.check)
+            return
+        except SourceError as err:
+            self.error = SourceError(f"camera {self.camera} ({self.spec}): {err}")
+        except Exception as err:  # a backend's failure: said by the reader, not a traceback
+            self.error = SourceError(f"camera {self.camera} ({self.spec}) failed: {err!r}")
+        finally:
+            with cond:
+                self.ended = True
+                cond.notify_all()
+
+    def _put(self, cond: threading.Condition, stop: threading.Event, grabbed: Grabbed) -> None:
+        with cond:
+            while self.feed.lossless and len(self.queue) >= self.limit and not stop.is_set():
+                cond.wait(_POLL_S)  # stills wait for the reader; a camera never does
+            if len(self.queue) >= self.limit:
+                self.queue.popleft()
+                self.dropped += 1
+            self.queue.append((self.grabbed, grabbed))
+            self.grabbed += 1
+            self.last_ns = time.monotonic_ns()
+            cond.notify_all()
+
+    @property
+    def drained(self) -> bool:
+        return self.ended and not self.queue
+
+
+class PairSource(FrameSource):
+    """Two cameras' frames with their capture times (the module docstring).
+
+    Opened from ``pair:A,B`` (:func:`recorder.sources.registry.open_source` refuses it: a
+    one-camera command takes one camera) by :func:`recorder.sources.registry.open_from`, or by
+    :func:`recorder.sources.registry.open_pair` ("camera:0", "camera:1"), which give it each
+    camera's :class:`~recorder.sources.pair_feeds.Feed` and source text. :meth:`read` gives the
+    next frame of either camera (:meth:`read_frame` with its camera and capture time).
+    """
+
+    def __init__(
+        self,
+        feeds: tuple[Feed, Feed],
+        specs: tuple[str, str],
+        *,
+        queue_frames: int = QUEUE_FRAMES,
+    ) -> None:
+        if queue_frames < 1:
+            raise SourceError(f"a camera's queue holds 1 frame or more, got {queue_frames}")
+        self.specs = specs
+        self._readers = tuple(
+            _Reader(n, spec, feed, queue_frames)
+            for n, (spec, feed) in enumerate(zip(self.specs, feeds, strict=True), start=1)
+        )
+        self.stills = all(f.lossless for f in feeds)
+        self.warnings: tuple[str, ...] = ()
+        #: Why :meth:`pairs` ended before both streams did ("": it did not).
+        self.ended_early = ""
+        self._cond = threading.Condition()
+        self._stop = threading.Event()
+        self._opened = False
+
+    def open(self) -> SourceInfo:
+        opened: list[_Reader] = []
+        try:
+            for reader in self._readers:
+                reader.feed.open()
+                opened.append(reader)
+        except BaseException:
+            for reader in opened:
+                reader.feed.close()
+            raise
+        self.warnings = _mismatch(self.cameras)
+        first = self._readers[0].feed.info
+        self.info = dataclasses.replace(first, description=pair_spec(*self.specs))
+        stop = stops.active()
+        if stop is not None:
+            stop.on_request(self._stop.set)
+        t0 = time.monotonic_ns() + 20_000_000  # both threads running before the first is due
+        for reader in self._readers:
+            reader.feed.start(t0)
+            reader.last_ns = time.monotonic_ns()
+            reader.thread = threading.Thread(
+                target=reader.run,
+                args=(self._cond, self._stop),
+                name=f"pair camera {reader.camera}",
+                daemon=True,
+            )
+            reader.thread.start()
+        self._opened = True
+        return self.info
+
+    @property
+    def cameras(self) -> tuple[CameraStream, CameraStream]:
+        """What each camera delivers (its clock as its first frame decided it)."""
+        one, two = (
+            CameraStream(
+                spec=r.spec,
+                info=r.feed.info,
+                fourcc=r.feed.fourcc,
+                clock=r.feed.clock,
+                clock_note=r.feed.clock_note,
+            )
+            for r in self._readers
+        )
+        return one, two
+
+    @property
+    def dropped_by_camera(self) -> tuple[int, int]:
+        """Each camera's frames dropped: the reader was too slow (the oldest queued went),
+        or too late for the camera itself (a paced file's or the synthetic camera's)."""
+        one, two = (r.dropped + r.feed.missed for r in self._readers)
+        return one, two
+
+    @property
+    def late_by_camera(self) -> tuple[int, int]:
+        """Of :attr:`dropped_by_camera`, the frames a reader thread was too late for (a
+        paced file's or the synthetic camera's; a camera's driver drops those unseen)."""
+        one, two = (r.feed.missed for r in self._readers)
+        return one, two
+
+    @property
+    def dropped(self) -> int:
+        """Both cameras' frames dropped."""
+        return sum(self.dropped_by_camera)
+
+    @dropped.setter
+    def dropped(self, _value: int) -> None:
+        return  # counted per camera (dropped_by_camera)
+
+    def ended_by(self) -> list[str]:
+        """Why a camera's stream ended, where it said (a folder that ran out)."""
+        return [
+            f"camera {r.camera} ({r.spec}): {why}"
+            for r in self._readers
+            if r.drained and (why := getattr(r.feed, "ended_by", ""))
+        ]
+
+    def read(self, timeout_s: float = 2.0) -> Image:
+        """The next frame of either camera (:meth:`read_frame`'s image)."""
+        return self.read_frame(timeout_s).image
+
+    def read_frame(self, timeout_s: float = 2.0) -> TimedFrame:
+        """The next frame of either camera, the earlier captured first among those
+        queued; SourceError when both streams ended, a camera failed or was silent for
+        ``timeout_s``; KeyboardInterrupt when the recording is to stop."""
+        frame = self._next(timeout_s)
+        if frame is None:
+            said = "; ".join(self.ended_by())
+            raise SourceError(
+                f"{self.info.description} has no more frames" + (f" ({said})" if said else "")
+            )
+        return frame
+
+    def frames(self, timeout_s: float = 2.0) -> Iterator[TimedFrame]:
+        """Each camera's frames as they come, until both streams end."""
+        while (frame := self._next(timeout_s)) is not None:
+            yield frame
+
+    def pairs(
+        self, *, offset_ns: int = 0, slop_ns: int | None = None, timeout_s: float = 2.0
+    ) -> Iterator[FramePair]:
+        """Pairs by capture time as they become final (:mod:`twopose.pair.live_pairing`:
+        :func:`twopose.pair.pairing.pair_frames`' pairs), until no pair can come: both
+        streams ended, or one did and the other's frames passed its last by the slop
+        (:attr:`ended_early` then says which; the other file is not played to its end).
+
+        ``offset_ns`` camera 2's clock minus camera 1's; ``slop_ns`` the largest |skew| of
+        a pair (default: half the faster camera's frame interval).
+        """
+        from twopose.pair.live_pairing import LivePairing
+
+        if slop_ns is None:
+            fastest = max(r.feed.info.fps for r in self._readers)
+            slop_ns = round(0.5e9 / fastest)
+        live: LivePairing[TimedFrame] = LivePairing(
+            slop_ns=slop_ns, offset_ns=offset_ns, window=max(64, 4 * self._readers[0].limit)
+        )
+        told = [False, False]
+        last_ns = [-(2**62), -(2**62)]  # each camera's last capture, on camera 1's clock
+        while True:
+            frame = self._next(timeout_s)
+            made = [] if frame is None else live.add(frame.camera, frame.t_capture_ns, frame)
+            if frame is not None:
+                c = frame.camera - 1
+                last_ns[c] = frame.t_capture_ns - (offset_ns if c else 0)
+                if told[1 - c] and last_ns[c] > last_ns[1 - c] + slop_ns:
+                    r = self._readers[1 - c]
+                    self.ended_early = f"camera {r.camera} ({r.spec}) ended: no more pairs"
+                    frame = None  # this camera's later frames have no partner left
+            for n, reader in enumerate(self._readers):
+                if not told[n] and (reader.drained or frame is None):
+                    told[n] = True
+                    made += live.end(n + 1)
+            yield from (FramePair(p.first, p.second, p.skew_ns) for p in made)
+            if frame is None:
+                return
+
+    def _next(self, timeout_s: float) -> TimedFrame | None:
+        """The next queued frame (None: both streams ended), decoded here."""
+        if not self._opened:
+            raise SourceError("the pair source is not open (use it as a context manager)")
+        with self._cond:
+            while True:
+                stops.check()  # the recording is to stop: KeyboardInterrupt here
+                if self._stop.is_set():
+                    raise SourceError(f"{self.info.description} was closed")
+                ready = [r for r in self._readers if r.queue]
+                if ready:
+                    reader = min(ready, key=lambda r: r.queue[0][1].t_capture_ns)
+                    index, grabbed = reader.queue.popleft()
+                    self._cond.notify_all()  # a folder's thread may wait for room
+                    break
+                self._raise_failed(timeout_s)
+                if all(r.drained for r in self._readers):
+                    return None
+                self._cond.wait(_POLL_S)
+        image = reader.feed.decode(grabbed.payload)
+        name = grabbed.name or f"camera {reader.camera} frame {index + 1}"
+        return TimedFrame(
+            reader.camera, index, grabbed.t_capture_ns, grabbed.t_grab_ns, image, name
+        )
+
+    def _raise_failed(self, timeout_s: float) -> None:
+        """A camera that failed, or that is silent (nothing queued for ``timeout_s``)."""
+        now = time.monotonic_ns()
+        for r in self._readers:
+            if r.drained and r.error is not None:
+                raise r.error
+            if not r.ended and not r.queue and now - r.last_ns > timeout_s * 1e9:
+                raise SourceError(f"camera {r.camera} ({r.spec}) sent no frame for {timeout_s:g} s")
+
+    def start_capture(self) -> None:
+        """Frames queued before now are stale: dropped without counting them."""
+        with self._cond:
+            for r in self._readers:
+                r.queue.clear()
+            self._cond.notify_all()
+
+    def close(self) -> None:
+        """Stop both reader threads (at most :data:`_JOIN_S` together) and release the
+        cameras; a thread stuck in its driver keeps its camera until the process ends."""
+        self._stop.set()
+        deadline = time.monotonic() + _JOIN_S
+        for r in self._readers:
+            if r.thread is not None:
+                r.thread.join(max(0.0, deadline - time.monotonic()))
+            if r.thread is None or not r.thread.is_alive():
+                r.feed.close()
+
+
+def _mismatch(cameras: tuple[CameraStream, CameraStream]) -> tuple[str, ...]:
+    """The cameras' sizes and rates compared: what differs, said."""
+    a, b = cameras[0].info, cameras[1].info
+    said = []
+    if (a.width, a.height) != (b.width, b.height):
+        said.append(
+            f"camera 1 gives {a.width}x{a.height} frames, camera 2 {b.width}x{b.height}: "
+            "each camera is calibrated at its own size"
+        )
+    if abs(a.fps - b.fps) > 0.01 * max(a.fps, b.fps):
+        said.append(
+            f"camera 1 runs at {a.fps:g} fps, camera 2 at {b.fps:g} fps: pairs come at the "
+            "slower rate, within half the faster one's frame interval"
+        )
+    return tuple(said)

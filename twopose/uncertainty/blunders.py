@@ -1,0 +1,172 @@
+"""A trial whose poses disagree, and which of them, where its redundancy can tell (issue 54).
+
+A trial is **flagged** when its misclosure rejects both the typed model and the model the
+rest of its session (and the operator's prior) measures (Baarda's global test at 0.1%,
+:func:`twopose.uncertainty.placing_variance.flag_trials`). Then each typed translation component of
+each pose is tested alone (Baarda's w-test, :func:`twopose.uncertainty.misclosure.pose_tests`): the
+share of the misclosure an error in that one component explains, and how large it would
+be. A pose **explains** the trial when, its best component corrected, what is left of
+the chi-square no longer rejects (5%, on one degree of freedom fewer). The pose is
+**named** only when it alone explains the trial: with three poses a point's misclosure
+has three degrees of freedom, and a mistyped component of any pose can usually be made to
+fit it (the trial can be flagged, its pose not named: "typed x of one of them looks about
+1 in off"); a fourth pose leaves one pose alone able to explain it. The component is said
+when every explaining pose's best is the same one.
+
+A flagged trial is kept out of the pool; its own region is widened by its own misfit, its
+chi-square over its degrees of freedom (at least 1), with Fisher's F on them
+(:attr:`TrialTests.own`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import special
+
+from twopose.arrays import F64, Bools, Ints
+from twopose.uncertainty.misclosure import Misclosure, pose_tests
+from twopose.values.units import Units
+
+__all__ = ["AXES", "EXPLAINS_LEVEL", "TrialTests", "trial_tests"]
+
+#: The typed translation's components, as the words say them.
+AXES = ("x", "y", "z")
+#: What is left of a flagged trial's chi-square once one pose's component is corrected
+#: no longer rejects at this level: that pose explains the trial.
+EXPLAINS_LEVEL = 0.05
+
+
+@dataclass(frozen=True, kw_only=True)
+class TrialTests:
+    """Per trial (T rows): whether its poses disagree, and which pose, if it can tell.
+
+    ``flagged``; ``p``: its misclosure's p-value against the rest of the session (the
+    typed model's where the rest says too little; NaN: no redundancy); ``pose``: the pose
+    named (1-based; 0: none); ``axis``: the typed component that looks off (``""``: not
+    said); ``offset``: by how much the named pose's component is off, typed minus where
+    the laptop stood (session units; NaN: no pose named); ``spread`` (T, 2): the least and the most
+    that the poses explaining it would be off (their sizes differ with their leverage);
+    ``explaining``: how many poses alone explain it; ``own``: the flagged
+    trial's own variance multiplier (1 else), ``own_dof`` the dof its F quantile takes.
+    """
+
+    flagged: Bools
+    p: F64
+    pose: Ints
+    axis: NDArray[np.str_]
+    offset: F64
+    spread: F64
+    explaining: Ints
+    own: F64
+    own_dof: Ints
+
+    @classmethod
+    def none(cls, T: int) -> TrialTests:
+        """No trial tested."""
+        return cls(
+            flagged=np.zeros(T, dtype=bool),
+            p=np.full(T, np.nan),
+            pose=np.zeros(T, dtype=np.int_),
+            axis=np.full(T, "", dtype="<U1"),
+            offset=np.full(T, np.nan),
+            spread=np.full((T, 2), np.nan),
+            explaining=np.zeros(T, dtype=np.int_),
+            own=np.ones(T),
+            own_dof=np.zeros(T, dtype=np.int_),
+        )
+
+    def words(self, i: int, units: Units, poses: int) -> str:
+        """Trial ``i``'s disagreement in the operator's words ("" when not flagged).
+
+        ``poses``: how many it has (what to add to name the pose).
+        """
+        if not self.flagged[i]:
+            return ""
+        low, high = self.spread[i]
+        size = " looks off"
+        if np.isfinite(low) and _about(low) == _about(high):
+            size = f" looks about {_about(low)} {units} off"
+        elif np.isfinite(low):
+            size = f" looks about {_about(low)} to {_about(high)} {units} off"
+        axis = str(self.axis[i])
+        if self.pose[i]:
+            pose = int(self.pose[i])
+            what = f"typed {axis} of pose {pose}" if axis else f"pose {pose}'s typed position"
+            return (
+                f"this trial's poses disagree ({what}{size}): check what you typed for pose {pose}"
+            )
+        if not self.explaining[i]:
+            return (
+                "this trial's poses disagree (no single typed value explains it): check what "
+                "you typed, and that the target did not move"
+            )
+        what = f"typed {axis} of one of them" if axis else "one of them"
+        more = "a fourth pose" if poses <= 3 else "another pose"
+        return f"this trial's poses disagree ({what}{size}): check what you typed, or add {more}"
+
+
+def _about(value: float) -> str:
+    """A length as the words round it: one significant digit (about 1 in, about 0.3 in)."""
+    return f"{abs(value):.1g}"
+
+
+def trial_tests(m: Misclosure, flagged: Bools, p: F64, lam: float) -> TrialTests:
+    """The flagged trials' poses tested one by one (see the module).
+
+    ``lam``: the session's placing variance multiplier.
+    """
+    T = len(m.chi2)
+    out = TrialTests.none(T)
+    out_p = np.where(np.isfinite(p), p, np.nan)
+    rows = np.flatnonzero(flagged & (m.dof > 0))
+    if not rows.size:
+        return TrialTests(**{**out.__dict__, "p": out_p})
+    mine = m.rows(rows)
+    tests = pose_tests(mine, lam)
+    d = 1.0 + (lam - 1.0) * mine.placing_share
+    chi2 = (mine.z2 / np.where(d > 0, d, np.inf)).sum(axis=1)  # under the session's lambda
+    dof = mine.dof
+    best_c = np.argmax(tests.w2, axis=2)  # (R, N) each pose's best component
+    best_w2 = np.take_along_axis(tests.w2, best_c[..., None], axis=2)[..., 0]
+    left = np.clip(chi2[:, None] - best_w2, 0.0, None)
+    fewer = np.maximum(dof - 1, 0)[:, None]
+    closed = np.where(left < 1e-6 * (1 + chi2[:, None]), 1.0, 0.0)  # one dof: all or none
+    with np.errstate(invalid="ignore"):
+        p_left = np.where(fewer > 0, special.chdtrc(np.maximum(fewer, 1), left), closed)
+    explains = (p_left >= EXPLAINS_LEVEL) & (best_w2 > 0)
+    count = explains.sum(axis=1)
+    # the best of the poses that explain it (of all, when none does)
+    score = np.where((count > 0)[:, None], np.where(explains, best_w2, -1.0), best_w2)
+    top = np.argmax(score, axis=1)
+    R = len(rows)
+    top_c = best_c[np.arange(R), top]
+    same = np.array([(best_c[r][explains[r]] == top_c[r]).all() for r in range(R)])
+    pose = np.where(count == 1, top + 1, 0)
+    axis = np.where(same | (count == 1), np.array(AXES)[top_c], "")
+    offset = tests.offset[np.arange(R), top, top_c]
+    sizes = np.abs(np.take_along_axis(tests.offset, best_c[..., None], axis=2)[..., 0])
+    among = np.where((count > 0)[:, None], explains, np.arange(sizes.shape[1]) == top[:, None])
+    low = np.where(among, sizes, np.inf).min(axis=1)
+    high = np.where(among, sizes, -np.inf).max(axis=1)
+    own = np.maximum(chi2 / np.maximum(dof, 1), 1.0)
+    return TrialTests(
+        flagged=out.flagged | flagged,
+        p=out_p,
+        pose=_put(out.pose, rows, pose),
+        axis=_put(out.axis, rows, axis.astype("<U1")),
+        offset=_put(out.offset, rows, np.where(pose > 0, offset, np.nan)),
+        spread=_put(out.spread, rows, np.stack([low, high], axis=1)),
+        explaining=_put(out.explaining, rows, count),
+        own=_put(out.own, rows, own),
+        own_dof=_put(out.own_dof, rows, dof),
+    )
+
+
+def _put(base: NDArray[Any], rows: Ints, values: NDArray[Any]) -> NDArray[Any]:
+    out = base.copy()
+    out[rows] = values
+    return out

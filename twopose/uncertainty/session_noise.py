@@ -1,0 +1,277 @@
+"""A session's noise, as :func:`twopose.solve.session.estimate_session` settles it.
+
+Issue 54: its trials' misclosures (:mod:`twopose.uncertainty.misclosure`, at their adjusted inputs),
+the trials whose poses disagree flagged before any pooling (:mod:`twopose.uncertainty.blunders`),
+the
+placing variance's multiplier ``lambda`` from the others, the anchor and the operator's
+prior (:mod:`twopose.uncertainty.placing_variance`), and each region's multiplier for ``lambda``'s
+uncertainty and, for a flagged trial, its own misfit. The placing sigma each trial's
+region assumed, and where it came from, in words.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Protocol
+
+import numpy as np
+
+from twopose.arrays import F64, Ints
+from twopose.uncertainty.blunders import TrialTests, trial_tests
+from twopose.uncertainty.misclosure import Misclosure, misclosures
+from twopose.uncertainty.noise import MIN_PLACING_DOF, VarianceFactor, region_quantile
+from twopose.uncertainty.placing_variance import SessionNoise, flag_trials, posterior
+from twopose.uncertainty.propagate import PLACING, Shared, region_dof
+from twopose.values.units import Units
+
+if TYPE_CHECKING:
+    from twopose.methods.specs import Method
+    from twopose.solve.estimate import EstimateOptions, PoseView, ViewBatch
+    from twopose.uncertainty.noise import NoiseModel
+
+
+class SessionTrials(Protocol):
+    """What the placing sigma's words read of a session's trials.
+
+    Those of :class:`twopose.solve.session.SessionTrials`.
+    """
+
+    @property
+    def units(self) -> str: ...
+
+    @property
+    def views(self) -> list[list[PoseView]]: ...
+
+
+__all__ = [
+    "NoiseResult",
+    "noise_of",
+    "operator_group",
+    "placed",
+    "placing_sigma",
+    "placing_sigmas",
+    "placing_source",
+    "region_multipliers",
+    "session_statistics",
+]
+
+
+@dataclass(frozen=True, kw_only=True)
+class NoiseResult:
+    """A session's noise: its factor (None: not tested), misclosures and tests (T rows)."""
+
+    factor: VarianceFactor | None
+    misclosure: Misclosure | None
+    tests: TrialTests
+
+
+def noise_of(
+    method: Method,
+    batch: ViewBatch,
+    cov_in: F64,
+    shared: Shared | None,
+    rows: Ints,
+    T: int,
+    options: EstimateOptions,
+) -> NoiseResult:
+    """The noise of a session's ``T`` trials, ``rows`` of them solved ok.
+
+    ``batch``, ``cov_in`` and ``shared`` hold those rows alone.
+
+    A factor the options give is applied as is (guidance's predicted views never estimate
+    one); without the test (``test_redundancy`` off), none.
+    """
+    from twopose.solve.estimate import misclosure_residuals
+
+    noise = options.noise
+    if noise.factor is not None or not noise.test_redundancy:
+        factor = noise.factor if noise.factor is not None else _measured_alone(noise)
+        return NoiseResult(factor=factor, misclosure=None, tests=TrialTests.none(T))
+    N = batch.valid.shape[1]
+    residuals, parameters = misclosure_residuals(method, batch)
+    m_rows = misclosures(residuals, batch.inputs, cov_in, batch.valid, parameters, shared=shared)
+    m = _at_rows(Misclosure.none(T, N), rows, m_rows)
+    anchor, prior = noise.anchor(), noise.prior
+    flags = flag_trials(m.chi2, m.dof, m.placing_share, m.z2, anchor, prior)
+    flagged, p = flags.flagged, flags.p
+    use = (m.dof > 0) & np.isfinite(m.chi2) & ~flagged
+    post = posterior(flags.kept.sum(axis=0), anchor, prior, flags.info.sum(axis=0))
+    dof = int(m.dof[use].sum())
+    estimated = round(post.information) >= MIN_PLACING_DOF
+    factor = VarianceFactor(
+        sigma0_sq=float(m.chi2[use].sum() / dof) if dof else math.nan,
+        dof=dof,
+        trials=int(use.sum()),
+        placing_variance=post.scale if estimated else 1.0,
+        variance_dof=post.dof if estimated else _measured_dof(noise),
+        information=post.information,
+        flagged=int(flagged.sum()),
+        at_limit=post.at_limit and estimated,
+        sources=_sources(int(use.sum()), prior.source if prior else "", anchor.source),
+    )
+    return NoiseResult(
+        factor=factor, misclosure=m, tests=trial_tests(m, flagged, p, factor.placing_variance)
+    )
+
+
+def _measured_dof(noise: NoiseModel) -> float:
+    """The degrees of freedom a board's measured placing sigma rests on.
+
+    Infinite: typed, given exactly, or an upper bound. Without the session's own estimate
+    the regions still take Fisher's F on them, as on any sigma estimated from data
+    (docs/rig.md).
+    """
+    return math.inf if noise.placing is None else noise.placing.dof
+
+
+def _measured_alone(noise: NoiseModel) -> VarianceFactor | None:
+    """The factor of a session not tested (``--no-sigma0``).
+
+    A board's measured placing sigma on its own degrees of freedom, the multiplier 1
+    (None: nothing measured).
+    """
+    dof = _measured_dof(noise)
+    if not math.isfinite(dof):
+        return None
+    return VarianceFactor(sigma0_sq=math.nan, dof=0, variance_dof=dof,
+                          sources=f"{noise.anchor().source} alone")  # fmt: skip
+
+
+def _sources(trials: int, prior: str, anchor: str) -> str:
+    """Where the multiplier's information came from, in words."""
+    said = [f"this session's {trials} trial{'s' if trials != 1 else ''}"] if trials else []
+    return ", ".join([*said, *([prior] if prior else []), anchor])
+
+
+def _at_rows(base: Misclosure, rows: Ints, m: Misclosure) -> Misclosure:
+    """``base`` (T trials) with the solved rows' misclosures at their trials."""
+    values = {}
+    for name in ("chi2", "dof", "placing_share", "z", "bias", "iterations"):
+        out = getattr(base, name).copy()
+        out[rows] = getattr(m, name)
+        values[name] = out
+    return Misclosure(**values)
+
+
+def operator_group(operator: str, method: Method) -> str:
+    """Whose sessions pool their placing error: one operator's, one method's (a setup).
+
+    ``""`` (no operator named): a session alone.
+    """
+    name = operator.strip()
+    return f"{name} ({method})" if name else ""
+
+
+def session_statistics(group: str, m: Misclosure | None) -> SessionNoise:
+    """What a session's misclosures say of its operator (:class:`SessionNoise`).
+
+    Its tested trials' chi-square, dof and components (none when not tested).
+    """
+    if m is None:
+        return SessionNoise(group=group, chi2=np.zeros(0), dof=np.zeros(0, dtype=np.int_),
+                            share=np.zeros((0, 0)), z2=np.zeros((0, 0)))  # fmt: skip
+    use = (m.dof > 0) & np.isfinite(m.chi2)
+    return SessionNoise(group=group, chi2=m.chi2[use], dof=m.dof[use],
+                        share=m.placing_share[use], z2=m.z2[use])  # fmt: skip
+
+
+def placed(cov_in: F64, factor: VarianceFactor | None) -> F64:
+    """The input covariance (T, N, 9, 9) with the placing variance times ``lambda``.
+
+    Every region, fit and direction is propagated from it.
+    """
+    if factor is None or factor.placing_variance == 1.0:
+        return cov_in
+    out = cov_in.copy()
+    out[..., PLACING, PLACING] *= factor.placing_variance
+    return out
+
+
+def region_multipliers(
+    cov: F64, placing: F64, factor: VarianceFactor | None, tests: TrialTests | None = None,
+    rows: Ints | None = None,
+) -> F64:  # fmt: skip
+    """(R,) each region's covariance multiplier (1: unchanged; NaN: no finite covariance).
+
+    :meth:`VarianceFactor.widening` for the region's own dimensions (3 for a point, 2 for
+    a ground point or a line's point) and the placing's share of it (``placing``: the
+    placing's part of ``cov``); a flagged trial's (``tests`` at ``rows``) times its own
+    misfit and its own F quantile (:mod:`twopose.uncertainty.blunders`).
+    """
+    k = region_dof(cov)
+    out = np.where(k > 0, 1.0, np.nan)
+    good = k > 0
+    if factor is not None and factor.estimated and good.any():
+        share = _placing_share(cov[good], placing[good], k[good])
+        out[good] = [factor.widening(int(d), float(h)) for d, h in zip(k[good], share, strict=True)]
+    if tests is not None and rows is not None:
+        own, dof = tests.own[rows], tests.own_dof[rows]
+        flagged = tests.flagged[rows] & good & (dof > 0)
+        for i in np.flatnonzero(flagged):
+            d = int(k[i])
+            out[i] *= own[i] * region_quantile(d, float(dof[i])) / region_quantile(d)
+    return out
+
+
+def _placing_share(cov: F64, placing: F64, k: Ints) -> F64:
+    """(R,) the placing's share of each region: ``trace(cov^+ placing) / k``."""
+    w, V = np.linalg.eigh(cov)
+    keep = w > 1e-9 * w[:, -1:]
+    inv = np.where(keep, 1.0 / np.where(keep, w, 1.0), 0.0)
+    pinv = np.einsum("rij,rj,rkj->rik", V, inv, V)
+    share = np.einsum("rij,rji->r", pinv, placing) / np.maximum(k, 1)
+    return np.asarray(np.clip(np.nan_to_num(share), 0.0, 1.0))
+
+
+def placing_sigma(trials: SessionTrials, options: EstimateOptions) -> float | None:
+    """The placing sigma in the session's units, measured (:mod:`twopose.uncertainty.noise`).
+
+    None: each pose's typed resolution stands.
+    """
+    placing = options.noise.placing
+    return None if placing is None or not trials.units else placing.sigma(Units(trials.units))
+
+
+def placing_sigmas(
+    trials: SessionTrials, options: EstimateOptions, factor: VarianceFactor | None = None
+) -> F64:
+    """(T,) the placing sigma each trial's region assumed, in the session's units.
+
+    The measured one (:func:`placing_sigma`), else the mean of its poses' typed resolution
+    (NaN: no pose); times ``sqrt(lambda)``, the multiplier the session settled
+    (:attr:`twopose.uncertainty.noise.VarianceFactor.placing_variance`).
+    """
+    measured = placing_sigma(trials, options)
+    scale = 1.0 if factor is None else factor.placing_scale
+    return scale * np.array(
+        [
+            measured
+            if measured is not None and row
+            else (float(np.mean([v.t_sigma for v in row])) if row else np.nan)
+            for row in trials.views
+        ],
+        dtype=np.float64,
+    )
+
+
+def placing_source(options: EstimateOptions, factor: VarianceFactor | None = None) -> str:
+    """Where the placing sigma came from, briefly.
+
+    ``typed``, ``measured by <board session> (<n> captures)``, ``an upper bound from <board
+    session> (<n> captures)`` or ``given``, then, when the
+    multiplier was estimated, ``times 1.6 (estimated from ...)``.
+    """
+    placing = options.noise.placing
+    if placing is None:
+        base = "typed"
+    elif not placing.measured_by:
+        base = "given"
+    else:
+        captures = f" ({placing.captures} captures)" if placing.captures else ""
+        # not measured: the most it can be (twopose.rig.placing)
+        said = "an upper bound from" if placing.upper_bound else "measured by"
+        base = f"{said} {placing.measured_by}{captures}"
+    if factor is None or not factor.estimated:
+        return base
+    return f"{base}, times {factor.placing_scale:.3g} (estimated from {factor.sources})"
