@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import itertools
 import os
+import shutil
 import tempfile
 import time
 from pathlib import Path
@@ -35,6 +36,7 @@ from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchm
 from recorder.sources.pair import CameraStream
 from recorder.sources.pair_feeds import RING_FRAMES
 from recorder.sources.registry import open_pair
+from twopose.atomic_write import replacing
 
 FIGURE = "pair_source.txt"
 WIDTH, HEIGHT = 640, 480
@@ -57,7 +59,11 @@ def make_video(path: Path, *, frames: int, fps: float, seed: int) -> Path:
         cv2.putText(image, str(k), (20, 460), cv2.FONT_HERSHEY_SIMPLEX, 1.5, (0, 0, 0), 3)
         writer.write(image)
     writer.release()
-    partial.rename(path)
+    # OpenCV picks the container by the name's suffix: the file is written under its own
+    # name, then copied in through the one atomic writer (a cut run leaves no half video).
+    with replacing(path) as tmp:
+        shutil.copyfile(partial, tmp)
+    partial.unlink()
     return path
 
 

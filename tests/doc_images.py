@@ -57,12 +57,14 @@ SHADE_LEVELS = 16.0
 REGION_GAP_PX = 12
 
 #: The console's text that differs from run to run: the session's path (a temporary
-#: folder), the last capture's line (the recorder's overhead, a timing) and the notes
-#: (they name the operator's noise file, in the test's temporary folder).
+#: folder), the last capture's line (the recorder's overhead, a timing), the notes (they
+#: name the operator's noise file, in the test's temporary folder) and the preview's
+#: numbers (from whichever frames the synthetic camera delivered to the capture).
 CONSOLE_VOLATILE = (
     "[data-testid=session-file]",
     "[data-testid=last-capture]",
     "[data-testid=notices]",
+    "[data-testid=preview-result]",
 )
 
 Rect = tuple[int, int, int, int]  # x0, y0, x1, y1 (px, x1 and y1 excluded)
