@@ -58,13 +58,16 @@ REGION_GAP_PX = 12
 
 #: The console's text that differs from run to run: the session's path (a temporary
 #: folder), the last capture's line (the recorder's overhead, a timing), the notes (they
-#: name the operator's noise file, in the test's temporary folder) and the preview's
-#: numbers (from whichever frames the synthetic camera delivered to the capture).
+#: name the operator's noise file, in the test's temporary folder) and the capture's
+#: numbers (its frames' table, their average and the preview's estimate: from whichever
+#: frames the synthetic camera delivered to the capture, as a camera's would vary).
 CONSOLE_VOLATILE = (
     "[data-testid=session-file]",
     "[data-testid=last-capture]",
     "[data-testid=notices]",
     "[data-testid=preview-result]",
+    "[data-testid=frames-table]",
+    "[data-testid=pose-average]",
 )
 
 Rect = tuple[int, int, int, int]  # x0, y0, x1, y1 (px, x1 and y1 excluded)
