@@ -44,7 +44,7 @@ if TYPE_CHECKING:
         calibrate_pair,
         calibrate_pair_views,
     )
-    from recorder.procedure.loop import Procedure
+    from recorder.procedure.machine import Procedure
 
     # Resolved, not exported (the module docstring): the command line's own.
     from recorder.procedure.new_session import NewRequest as NewRequest
@@ -116,7 +116,7 @@ _HOMES = {
     "record_terminal": "recorder.procedure.new_session",
     "serve_console_until_stopped": "recorder.procedure.new_session",
     "record_interactive": "recorder.procedure.terminal",
-    "Procedure": "recorder.procedure.loop",
+    "Procedure": "recorder.procedure.machine",
     "record": "recorder.procedure.recording",
     "RecordingSummary": "recorder.procedure.summary",
     "RecoveryReport": "recorder.recover",

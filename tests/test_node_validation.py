@@ -93,7 +93,7 @@ def written(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
 def _decided(path: Path) -> Path:
     """Redo, undo and an undecided last capture, through the real procedure."""
     from recorder.procedure.capture import CaptureSettings
-    from recorder.procedure.loop import Procedure
+    from recorder.procedure.machine import Procedure
     from twopose.camera.model import Camera, Intrinsics
     from twopose.format.entries import PoseEntry, SessionInfo
     from twopose.format.writer import SessionWriter

@@ -141,7 +141,7 @@ def new(
     the summary and exits with 130.
     """
     from recorder.cli.option_rules import refuse_idle
-    from recorder.procedure.loop import refuse_existing
+    from recorder.procedure.machine import refuse_existing
     from recorder.procedure.new_session import (
         CameraMode,
         NewRequest,

@@ -25,7 +25,7 @@ from recorder.procedure.driver import (
     ProcedureRefusedError,
     QuitRecording,
 )
-from recorder.procedure.loop import Shortfall, detection_shortfall
+from recorder.procedure.machine import Shortfall, detection_shortfall
 from recorder.procedure.summary import RecordingSummary
 from recorder.setup.rules import PoseTyping
 from twopose.format.entries import GroundTruth, Note, PoseEntry, TruthKind, TypedEntry

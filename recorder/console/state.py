@@ -49,7 +49,7 @@ from recorder.procedure.capture import LiveSink
 from recorder.procedure.driver import (
     Decision,
 )
-from recorder.procedure.loop import Shortfall
+from recorder.procedure.machine import Shortfall
 from recorder.setup.form import form_fields
 from twopose.format.reader import recover_command
 from twopose.methods.specs import Method, MethodPage, MethodSpec, spec_of

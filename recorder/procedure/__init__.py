@@ -31,7 +31,7 @@ if TYPE_CHECKING:
         ProcedureRefusedError,
         QuitRecording,
     )
-    from recorder.procedure.loop import Procedure, refuse_existing
+    from recorder.procedure.machine import Procedure, refuse_existing
     from recorder.procedure.new_session import (
         CameraMode,
         NewRequest,
@@ -90,7 +90,7 @@ _HOMES = {
     "LowDetectionError": "recorder.procedure.driver",
     "NewRequest": "recorder.procedure.new_session",
     "Placement": "recorder.procedure.driver",
-    "Procedure": "recorder.procedure.loop",
+    "Procedure": "recorder.procedure.machine",
     "ProcedureRefusedError": "recorder.procedure.driver",
     "QuitRecording": "recorder.procedure.driver",
     "RecordingSummary": "recorder.procedure.summary",
@@ -103,7 +103,7 @@ _HOMES = {
     "record_interactive": "recorder.procedure.terminal",
     "record_planned": "recorder.procedure.new_session",
     "record_terminal": "recorder.procedure.new_session",
-    "refuse_existing": "recorder.procedure.loop",
+    "refuse_existing": "recorder.procedure.machine",
     "rig_file": "recorder.procedure.new_session",
     "serve_console_until_stopped": "recorder.procedure.new_session",
 }

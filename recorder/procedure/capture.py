@@ -1,6 +1,6 @@
 """The capture step: K frames from a source into the session, with live detection feedback.
 
-:func:`capture_frames` is called by the procedure (:mod:`recorder.procedure.loop`) once the
+:func:`capture_frames` is called by the procedure (:mod:`recorder.procedure.machine`) once the
 typed pose is written and bound to a capture number; it never writes the pose itself.
 """
 

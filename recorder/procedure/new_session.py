@@ -161,7 +161,7 @@ def _report_capture(trial: int, pose: int, result: CaptureResult) -> None:
 
     for fb in result.feedback:
         typer.echo(fb.line())
-    from recorder.procedure.loop import Shortfall, detection_shortfall
+    from recorder.procedure.machine import Shortfall, detection_shortfall
 
     head, *rest = capture_lines(pose, result)
     typer.echo(f"trial {trial} {head}")

@@ -1,4 +1,4 @@
-"""A recording, start to end: the procedure's machine (:mod:`recorder.procedure.loop`) driven
+"""A recording, start to end: the procedure's machine (:mod:`recorder.procedure.machine`) driven
 trial by trial, pose by pose, from a frame source, with the live result, guidance and
 preview steps between; who decides is a :class:`recorder.procedure.driver.Driver`: the operator at
 the terminal (:mod:`recorder.procedure.terminal`), the console, a plan file
@@ -29,7 +29,7 @@ from recorder.procedure.driver import (
     ProcedureRefusedError,
     QuitRecording,
 )
-from recorder.procedure.loop import Procedure, State, refuse_existing
+from recorder.procedure.machine import Procedure, State, refuse_existing
 from recorder.procedure.summary import RecordingSummary, Tally
 from recorder.setup.rules import with_guidance
 from recorder.sources.registry import FrameSource, SourceInfo

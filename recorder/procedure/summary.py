@@ -14,7 +14,7 @@ __all__ = ["RecordingSummary", "Tally"]
 
 
 class TrialCounts(Protocol):
-    """The trials the procedure counted (:class:`recorder.procedure.loop.Procedure`)."""
+    """The trials the procedure counted (:class:`recorder.procedure.machine.Procedure`)."""
 
     trial: int
     n_complete_trials: int

@@ -18,7 +18,7 @@ from typing_extensions import override
 
 from recorder.procedure.capture import CaptureResult, CaptureSettings
 from recorder.procedure.driver import Decision, Driver, Placement, ProcedureRefusedError
-from recorder.procedure.loop import Shortfall, detection_shortfall
+from recorder.procedure.machine import Shortfall, detection_shortfall
 from recorder.procedure.recording import record
 from recorder.procedure.summary import RecordingSummary
 from recorder.setup.form import SETUP_FIELDS

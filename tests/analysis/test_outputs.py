@@ -16,7 +16,7 @@ from analysis.batch.outputs import LOCK_NAME, MANIFEST_NAME
 from analysis.batch.runner import run
 from analysis.cli import app
 from recorder.procedure.capture import CaptureSettings
-from recorder.procedure.loop import Procedure
+from recorder.procedure.machine import Procedure
 from recorder.sources.registry import SyntheticSource
 from twopose.camera.model import Camera, Intrinsics
 from twopose.errors import EXIT_ERROR

@@ -23,7 +23,7 @@ from recorder.procedure.driver import (
     ProcedureError,
     ProcedureRefusedError,
 )
-from recorder.procedure.loop import TRANSITIONS, Procedure, State
+from recorder.procedure.machine import TRANSITIONS, Procedure, State
 from recorder.procedure.recording import record
 from recorder.sources.registry import ImagesSource, VideoSource
 from tests.helpers import write_video

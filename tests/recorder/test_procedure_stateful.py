@@ -31,7 +31,7 @@ from numpy.typing import NDArray
 
 from recorder.procedure.capture import CaptureSettings
 from recorder.procedure.driver import ProcedureRefusedError
-from recorder.procedure.loop import Procedure, State
+from recorder.procedure.machine import Procedure, State
 from recorder.recover import recover_session
 from recorder.sources.registry import FrameSource, SourceInfo
 from twopose.camera.model import Camera, Intrinsics
