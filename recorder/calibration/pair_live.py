@@ -112,6 +112,8 @@ def live_pairs(
             outcome.ended = f"{err}: {_count(outcome)}"  # the pairs kept are fitted
         finally:
             outcome.dropped = source.dropped_by_camera
+            for line in source.drops_said():
+                say(f"warning: {line}")
     if not outcome.ended:
         ended = "; ".join(source.ended_by()) or source.ended_early or "both cameras ended"
         outcome.ended = f"{ended}: {_count(outcome)}"
