@@ -515,7 +515,7 @@ def _session_sections(result: RunResult) -> list[str]:
                 heading,
                 s.trials,
                 s.averaging,
-                _typed_views(s.views),
+                s.views[s.views["cameras"] == 1],  # typed poses (a pair's: per stream trial)
                 unit_text=unit_label(units),
                 include_warned=result.include_warned,
             )
@@ -526,12 +526,6 @@ def _session_sections(result: RunResult) -> list[str]:
         parts.append("<p>Trials (every column: <code>trials.csv</code>):</p>")
         parts.append(table_html(readable_columns(_trial_table(s.trials), _units_of(s))))
     return parts
-
-
-def _typed_views(views: pd.DataFrame) -> pd.DataFrame:
-    """The views of typed poses, which the charts draw per trial: a two-camera session's
-    rows are its frame pairs, per stream trial (``views.csv``), not its touches' trials."""
-    return views[views["cameras"] == 1] if "cameras" in views else views
 
 
 def _report_html(result: RunResult, sweeps: pd.DataFrame) -> str:
