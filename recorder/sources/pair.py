@@ -317,6 +317,15 @@ class PairSource(FrameSource):
         self._stop = threading.Event()
         self._opened = False
 
+    def bound_to(self, bound: QueueBound) -> None:
+        """Each camera's queue bounded by ``bound`` instead (before :meth:`open`): a
+        consumer that wants fresh frames over whole ones (a live board search) keeps less."""
+        if self._opened:
+            raise SourceError("a pair source's queues are bounded before it is opened")
+        self.bound = bound
+        for reader in self._readers:
+            reader.bound, reader.limit = bound, bound.frames or 1
+
     def open(self) -> SourceInfo:
         opened: list[_Reader] = []
         try:
