@@ -141,7 +141,8 @@ def test_a_slow_reader_loses_frames_counted_never_silently(tmp_path: Path) -> No
     assert min(dropped) > 0
     assert [g + d for g, d in zip(given, dropped, strict=True)] == [30, 30]
     said = source.drops_said()  # each overflow said, never silent
-    assert said and {line.split(" ")[1] for line in said} == {"1", "2"}
+    assert said
+    assert {line.split(" ")[1] for line in said} == {"1", "2"}
     assert "the consumer fell" in said[0]
     assert "past the queue's bound (1 frames" in said[0]
 
