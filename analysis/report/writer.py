@@ -515,7 +515,7 @@ def _session_sections(result: RunResult) -> list[str]:
                 heading,
                 s.trials,
                 s.averaging,
-                s.views[s.views["cameras"] == 1],  # typed poses (a pair's: per stream trial)
+                s.pose_views,
                 unit_text=unit_label(units),
                 include_warned=result.include_warned,
             )

@@ -30,11 +30,17 @@ def folder(mixed_pair_folder: Path) -> Path:
 
 
 @pytest.fixture(scope="module")
-def out(folder: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+def ran(folder: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[analysis.RunResult, Path]:
+    """The folder's run, and the folder it wrote."""
     out = tmp_path_factory.mktemp("pair_out")
     result = analysis.run([folder], out)
     assert result.errors.empty, result.errors
-    return out
+    return result, out
+
+
+@pytest.fixture(scope="module")
+def out(ran: tuple[analysis.RunResult, Path]) -> Path:
+    return ran[1]
 
 
 #: Each table's key: what one row is.
@@ -247,3 +253,16 @@ def test_continuing_a_two_camera_session_is_refused_in_words(folder: Path) -> No
 
     with pytest.raises(InputValueError, match=r"a two-camera session .* not supported yet"):
         read_continued(folder / "pair.mcap")
+
+
+def test_the_figures_draw_no_pairs_as_typed_poses(ran: tuple[analysis.RunResult, Path]) -> None:
+    """The charts and figures draw views per trial; a pair session's views are per stream
+    trial: none are given to them (no top view of touches from stream trials' pairs)."""
+    from analysis.report.figures.cache import FigureJob
+
+    result = ran[0]
+    by_cameras = {int(s.trials["cameras"].iloc[0]): s for s in result.sessions}
+    assert not by_cameras[2].views.empty
+    assert by_cameras[2].pose_views.empty
+    assert FigureJob.of(by_cameras[2]).views.empty
+    pd.testing.assert_frame_equal(by_cameras[1].pose_views, by_cameras[1].views)
