@@ -266,3 +266,11 @@ def test_the_figures_draw_no_pairs_as_typed_poses(ran: tuple[analysis.RunResult,
     assert by_cameras[2].pose_views.empty
     assert FigureJob.of(by_cameras[2]).views.empty
     pd.testing.assert_frame_equal(by_cameras[1].pose_views, by_cameras[1].views)
+    # the report's running averages of a pair session: per touch, its pairs about it
+    import json
+
+    from analysis.report.charts import session_chart
+
+    pair = by_cameras[2]
+    spec = session_chart("pair", pair.trials, pair.averaging, pair.pose_views, unit_text="in")
+    assert "pair estimates about the touch averaged (number of)" in json.dumps(spec)
