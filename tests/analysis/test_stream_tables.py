@@ -274,3 +274,21 @@ def test_the_figures_draw_no_pairs_as_typed_poses(ran: tuple[analysis.RunResult,
     pair = by_cameras[2]
     spec = session_chart("pair", pair.trials, pair.averaging, pair.pose_views, unit_text="in")
     assert "pair estimates about the touch averaged (number of)" in json.dumps(spec)
+
+
+@pytest.mark.slow  # a real cluster: make test-all and CI run it
+def test_a_dask_cluster_gives_the_same_tables(
+    folder: Path, ran: tuple[analysis.RunResult, Path], tmp_path: Path
+) -> None:
+    pytest.importorskip("distributed")
+    from tests.helpers import DaskCluster
+
+    cluster = DaskCluster(tmp_path, workers=1)
+    try:
+        result = analysis.run([folder], dask_address=cluster.address)
+    finally:
+        cluster.close()
+    assert result.errors.empty, result.errors
+    local = ran[0]
+    for name in ("trials", "frames", "views", "averaging"):
+        pd.testing.assert_frame_equal(getattr(result, name), getattr(local, name), obj=name)
