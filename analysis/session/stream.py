@@ -49,6 +49,7 @@ __all__ = [
     "PairReplay",
     "TrialReplay",
     "at_touches",
+    "camera_track",
     "replay_pair_session",
     "replay_trial",
 ]
@@ -104,7 +105,7 @@ class PairReplay:
 FrameSeen = Callable[[Frame, Detection], None]
 
 
-def _track(
+def camera_track(
     stream: CameraStream, method: Method, params: object = None, seen: FrameSeen | None = None
 ) -> CameraTrack:
     """One camera's detections of the method's target, frame by frame (by the detector's
@@ -226,8 +227,8 @@ def replay_trial(
     """
     one, two = seen or (None, None)
     tracks = (
-        _track(trial.camera1, method, params, one),
-        _track(trial.camera2, method, params, two),
+        camera_track(trial.camera1, method, params, one),
+        camera_track(trial.camera2, method, params, two),
     )
     used, source = _offset(trial, pair, tracks, known)
     estimate = estimate_stream(method, pair, *tracks, used, settings)

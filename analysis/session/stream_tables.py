@@ -45,6 +45,7 @@ from analysis.session.stream import (
     MAX_TOUCH_GAP_INTERVALS,
     TrialReplay,
     at_touches,
+    camera_track,
     replay_trial,
 )
 from analysis.session.stream_rows import PairOutputs, nearest_ok
@@ -246,17 +247,19 @@ def touch_rows(
     params = options.thresholds_for(spec.target)
     rows: list[dict[str, Any]] = []
     for part, trial in _kept_trials(parts):
-        if not trial.touches:
-            continue
+        if not trial.touches and outputs is None:
+            continue  # no row; its frames and pairs are the other tables'
         baseline = {"baseline": float(np.linalg.norm(part.pair.t_2_in_1))}
+        seen = None if outputs is None else outputs.seen(trial.trial)
         blind = [s.camera_id for s in trial.cameras if len(s) < 2]
         if blind:  # nothing to pair or interpolate: said per touch
+            for stream, told in zip(trial.cameras, seen or (), strict=False):
+                camera_track(stream, spec.method, params, told)  # its frames' rows
             why = (
                 f"camera {' and '.join(blind)} recorded fewer than 2 frames in trial {trial.trial}"
             )
             rows += [_failed_row(trial, k, why) | baseline for k in range(len(trial.touches))]
             continue
-        seen = None if outputs is None else outputs.seen(trial.trial)
         try:
             replay = replay_trial(trial, part.pair, spec.method, (part.offset, "recorded"),
                                   settings, params=params, seen=seen)  # fmt: skip

@@ -21,6 +21,7 @@ from analysis.tables.read_back import read_results_table
 from twopose.errors import InputValueError
 from twopose.format.reader import SessionReader
 from twopose.format.streams import read_pair_session
+from twopose.methods.specs import Method
 
 
 @pytest.fixture(scope="module")
@@ -292,3 +293,38 @@ def test_a_dask_cluster_gives_the_same_tables(
     local = ran[0]
     for name in ("trials", "frames", "views", "averaging"):
         pd.testing.assert_frame_equal(getattr(result, name), getattr(local, name), obj=name)
+
+
+def test_every_frame_is_a_row_in_a_trial_without_touches_or_a_camera(tmp_path: Path) -> None:
+    """A stream trial with no touch, and one whose camera 2 gave no frame: no row of
+    ``trials.csv`` (the first) or an ``incomplete`` one, but each frame a row of
+    ``frames.csv``, said as not found."""
+    from tests.twopose.format.pair_examples import pair_cameras
+    from twopose.format.entries import SessionInfo
+    from twopose.format.writer import SessionWriter
+    from twopose.pair.motion import thesis_pair
+    from twopose.values.units import Units
+
+    pair = thesis_pair()
+    info = SessionInfo(method=Method.POINT, units=Units.IN, camera_ids=("cam1", "cam2"))
+    rng = np.random.default_rng(1)
+    path, start = tmp_path / "gaps.mcap", 10**18
+    with SessionWriter(path, info, pair_cameras(pair), pair=pair, start_ns=start) as writer:
+        for trial, (frames2, touched) in enumerate(((4, False), (0, True)), start=1):
+            t0 = start + trial * 10**9
+            with writer.stream(trial, window_s=0.1, start_ns=t0) as stream:
+                for k in range(4):
+                    t1 = trial * 10**9 + k * 33_333_333
+                    image = rng.integers(0, 255, (480, 640, 3), dtype=np.uint8)
+                    stream.add_frame("cam1", image, t1, t0 + k * 33_333_333)
+                    if k < frames2:
+                        stream.add_frame("cam2", image, t1 + 5_000_000, t0 + k * 33_333_333)
+                if touched:
+                    stream.touch((1.0, 2.0, 14.0), trial * 10**9, "key")
+    result = analysis.run([path])
+    assert list(result.trials["status"]) == ["incomplete"]
+    frames = result.frames
+    assert len(frames) == 4 + 4 + 4  # trial 1: both cameras; trial 2: camera 1 alone
+    assert list(frames.groupby(["trial", "camera"]).size()) == [4, 4, 4]
+    assert (~frames["found"]).all()
+    assert (frames["reason"] != "").all()
