@@ -97,11 +97,15 @@ def main() -> int:
             t_cap2.append(pair.second.t_capture_ns)
         dropped, late = source.dropped_by_camera, source.late_by_camera
         said, bound = source.drops_said(), source.bound
+        deepest, limit = source.deepest_by_camera, round(bound.seconds * args.fps)
     cpu, wall = time.process_time() - cpu0, time.monotonic() - wall0
     load1 = os.getloadavg()[0]
     times = (t_cap1, t_cap2, t_held)
     print(f"each camera's queue: {bound.seconds:g} s of its frames, at most "
           f"{bound.bytes / 2**20:.0f} MiB; past it, the oldest dropped, counted, said")  # fmt: skip
+    for k, (n, size) in enumerate(deepest, start=1):
+        print(f"camera {k}'s queue at its deepest: {n} frames ({n / args.fps:.2f} s behind, "
+              f"{size / 1e6:.1f} MB) of its {limit}")  # fmt: skip
     for line in said:
         print(f"said: {line}")
     return report(args, frames, cams, (dropped, late), times, cpu, wall, (load0, load1))

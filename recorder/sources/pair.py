@@ -178,6 +178,7 @@ class _Reader:
         self.bytes = 0  # of the frames queued
         self.dropped = 0  # taken from the camera, dropped because the reader was slow
         self.overflows = 0  # times the queue filled and began dropping
+        self.deepest = (0, 0)  # the most frames (and their bytes) it held
         self.said: list[str] = []  # the first overflows, in words
         self._dropping = False  # the last frame put dropped one: the same overflow
         self.grabbed = 0
@@ -234,6 +235,7 @@ class _Reader:
             self._dropping = dropped_now
             self.queue.append((self.grabbed, grabbed))
             self.bytes += size
+            self.deepest = max(self.deepest, (len(self.queue), self.bytes))
             self.grabbed += 1
             self.last_ns = time.monotonic_ns()
             cond.notify_all()
@@ -393,6 +395,13 @@ class PairSource(FrameSource):
     @dropped.setter
     def dropped(self, _value: int) -> None:
         return  # counted per camera (dropped_by_camera)
+
+    @property
+    def deepest_by_camera(self) -> tuple[tuple[int, int], tuple[int, int]]:
+        """Each camera's queue at its deepest: (frames, bytes) it held, against the bound
+        (:attr:`bound`): how far the consumer fell behind, and the margin left."""
+        one, two = (r.deepest for r in self._readers)
+        return one, two
 
     def drops_said(self) -> list[str]:
         """Each time a camera's queue overflowed (the consumer fell behind past its bound,

@@ -163,6 +163,8 @@ def test_a_consumer_stalled_for_seconds_loses_nothing(tmp_path: Path) -> None:
         rest = list(pairs)
         assert source.dropped_by_camera == (0, 0)
         assert source.drops_said() == []
+        deepest = [n for n, _ in source.deepest_by_camera]
+        assert min(deepest) >= 120  # the stall held 2 s or more of 60 fps frames
     assert [p.first.index for p in (first, *rest)] == list(range(180))
     small = QueueBound(bytes=3000)  # these frames' JPEGs are ~220 bytes: ~0.2 s of them
     with open_pair(f"video:{files[0]}", f"video:{files[1]}", bound=small) as source:
