@@ -146,6 +146,13 @@ def analyse_session(
             path, options, metadata=pair_metadata, identity=identity,
             continuations=[str(p) for p in continuations], results_path=results_path,
         )  # fmt: skip
+    for later in continuations:  # a one-camera session's parts are one-camera recordings
+        if _pair_session_metadata(later) is not None:
+            raise InputValueError(
+                f"{later} continues the one-camera session {path} but records two cameras: "
+                f"the two cannot be analysed as one session; move {later} out of the run's "
+                f"inputs to analyse {path}, or analyse {later} alone"
+            )
     with contextlib.ExitStack() as stack:
         reader = stack.enter_context(SessionReader(path))
         results = None

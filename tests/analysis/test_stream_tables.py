@@ -249,6 +249,21 @@ def test_a_one_camera_part_of_a_two_camera_session_is_refused_in_words(
     assert result.trials.empty
 
 
+def test_a_two_camera_part_of_a_one_camera_session_is_refused_in_words(
+    folder: Path, tmp_path: Path
+) -> None:
+    from tests.lab import record
+
+    first = tmp_path / "one.mcap"
+    record(first, 2)
+    _continuation(first, tmp_path / "pair_part.mcap", folder / "pair.mcap", after=2)
+    result = analysis.run([tmp_path])
+    (error,) = result.errors["error"]
+    assert "continues the one-camera session" in error
+    assert "records two cameras" in error
+    assert result.trials.empty
+
+
 def test_continuing_a_two_camera_session_is_refused_in_words(folder: Path) -> None:
     from recorder.setup.continuation import read_continued
 
