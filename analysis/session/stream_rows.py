@@ -38,7 +38,7 @@ from analysis.session.results_mcap import ResultsWriter
 from analysis.session.stream import FrameSeen, TrialReplay
 from analysis.tables.columns import AVERAGING_COLUMNS, FRAME_COLUMNS, VIEW_COLUMNS, typed
 from twopose.arrays import F64, Bools, Ints
-from twopose.camera.model import Camera, grid_rays, rotation_from_angles_deg
+from twopose.camera.model import grid_rays, rotation_from_angles_deg
 from twopose.detect.detection import Detection
 from twopose.display.scene import TrialScene
 from twopose.format.messages import Frame
@@ -65,7 +65,6 @@ class PairOutputs:
     method: Method
     units: Units
     pair: PairCalibration
-    cameras: tuple[Camera, Camera]
     results: ResultsWriter | None = None
     frames: list[dict[str, Any]] = field(default_factory=list)
     views: list[pd.DataFrame] = field(default_factory=list)
@@ -109,10 +108,11 @@ class PairOutputs:
             self._scenes(trial, replay, nearest, first_touch, pair)
 
     def _poses(self, pair: PairCalibration) -> tuple[F64, F64, F64, F64]:
-        """Both cameras' (2, 4) intrinsics, (2, 2) sizes, (2, 3) centres, (2, 3) angles."""
-        intr = np.array([[c.intrinsics.fx, c.intrinsics.fy, c.intrinsics.cx, c.intrinsics.cy]
-                         for c in self.cameras])  # fmt: skip
-        size = np.array([[c.intrinsics.width, c.intrinsics.height] for c in self.cameras], float)
+        """Both cameras' (2, 4) intrinsics, (2, 2) sizes, (2, 3) centres, (2, 3) angles, as
+        the solver took them (``pair``'s)."""
+        both = (pair.intrinsics1, pair.intrinsics2)
+        intr = np.array([[k.fx, k.fy, k.cx, k.cy] for k in both])
+        size = np.array([[k.width, k.height] for k in both], dtype=np.float64)
         t = np.array([np.zeros(3), pair.t_2_in_1])
         angles = np.array([np.zeros(3), pair.angles_deg])
         return intr, size, t, angles
@@ -122,7 +122,6 @@ class PairOutputs:
         est = replay.estimate
         intr, _, t, angles = self._poses(pair)
         P = est.t_ns.size
-        lines = self.pair_lines(replay)
         tables = []
         for c in range(2):
             px, theta = est.measured[:, c, :2], est.measured[:, c, 2]
@@ -130,7 +129,7 @@ class PairOutputs:
             columns: dict[str, Any] = {
                 "session": self.session, "trial": trial, "pose": c + 1, "units": str(self.units),
                 **{f"t_{a}": t[c, i] for i, a in enumerate("xyz")},
-                "col": px[:, 0], "row": px[:, 1], "theta_deg": theta if lines else np.nan,
+                "col": px[:, 0], "row": px[:, 1], "theta_deg": theta,  # NaN for a dot
                 **{f"ray_{a}": ray[:, i] for i, a in enumerate("xyz")},
                 **dict(zip(("fx", "fy", "cx", "cy"), intr[c], strict=True)),
                 **{f"r_{a}_deg": angles[c, i] for i, a in enumerate("xyz")},
@@ -141,11 +140,6 @@ class PairOutputs:
             }  # fmt: skip
             tables.append(pd.DataFrame(columns, index=np.arange(P) * 2 + c))
         return pd.concat(tables).sort_index() if P else pd.DataFrame(columns=VIEW_COLUMNS)
-
-    @staticmethod
-    def pair_lines(replay: TrialReplay) -> bool:
-        """Whether the method measures image lines (a direction per frame)."""
-        return bool(np.isfinite(replay.tracks[0].theta_deg).any())
 
     def _scenes(
         self, trial: StreamTrial, replay: TrialReplay, nearest: Ints, first_touch: int,

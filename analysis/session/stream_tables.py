@@ -105,7 +105,7 @@ def analyse_pair_session(
             )
         outputs = PairOutputs(
             session=str(path), method=session.info.method, units=session.info.units,
-            pair=session.pair, cameras=session.cameras,
+            pair=session.pair,
             results=None if results_path is None
             else stack.enter_context(results_writer(Path(results_path), readers[0])),
         )  # fmt: skip
