@@ -1,7 +1,7 @@
 """Pointing, live (issue 58 item 5): where the finger points, one estimate per frame pair.
 
-:class:`LivePointing` takes a pair source's frames as they come (:meth:`LivePointing.frame`;
-or the pairs a consumer made itself, :meth:`LivePointing.pair`), detects the method's target
+:class:`LivePointing` takes a pair source's frames as they come (:meth:`LivePointing.add_frame`;
+or the pairs a consumer made itself, :meth:`LivePointing.add_pair`), detects the method's target
 in each frame once (:func:`twopose.detect.detection.detect`: the glove's centroid and image
 line for the line and ground methods, the dot for the point method), pairs the frames by
 capture time (:class:`twopose.pair.live_pairing.LivePairing`, the offline policy) and
@@ -251,17 +251,17 @@ class LivePointing:
             self._one.append(seen)
         return seen
 
-    def frame(self, frame: TimedFrame) -> list[PointingEstimate]:
+    def add_frame(self, frame: TimedFrame) -> list[PointingEstimate]:
         """Give the next frame of either camera; the estimates of the pairs now ready."""
         seen = self.see(frame)
         for p in self._pairing.add(frame.camera, frame.t_capture_ns, seen):
             self._waiting.append((p.first, p.second, p.skew_ns))
         return self._ready()
 
-    def pair(self, pair: FramePair) -> list[PointingEstimate]:
+    def add_pair(self, pair: FramePair) -> list[PointingEstimate]:
         """Give a pair made elsewhere (its frames detected here, camera 1's in order);
         the estimates of the pairs now ready (camera 1's next frame may come with the
-        next pair: :meth:`frame` is a frame interval sooner)."""
+        next pair: :meth:`add_frame` is a frame interval sooner)."""
         first = next((s for s in self._one if s.index == pair.first.index), None)
         if first is None:
             first = self.see(pair.first)
@@ -287,9 +287,8 @@ class LivePointing:
             return True
         i = j - 1
         interval = float(np.median(np.diff([s.t_ns for s in one]))) if len(one) > 2 else 0.0
-        before_usable = (
-            i >= 1 and one[i - 1].found and one[i].t_ns - one[i - 1].t_ns <= MAX_BRACKET_INTERVALS * interval
-        )  # fmt: skip
+        reach = MAX_BRACKET_INTERVALS * interval
+        before_usable = i >= 1 and one[i - 1].found and one[i].t_ns - one[i - 1].t_ns <= reach
         return before_usable or j + 1 < len(one)
 
     def _ready(self) -> list[PointingEstimate]:
@@ -325,7 +324,8 @@ class LivePointing:
         if min(firsts) < 0:  # a pair's frame left the history (a stall): its own track
             one, firsts = _own_frames(batch)
         seconds = [s for _f, s, _k in batch]
-        track1, track2 = _track(one, self.spec.uses_image_lines), _track(seconds, self.spec.uses_image_lines)
+        lines = self.spec.uses_image_lines
+        track1, track2 = _track(one, lines=lines), _track(seconds, lines=lines)
         pairing = Pairing(
             i1=np.asarray(firsts, dtype=np.int64), i2=np.arange(len(batch), dtype=np.int64),
             skew_ns=np.array([k for _f, _s, k in batch], dtype=np.float64),
@@ -357,13 +357,19 @@ class LivePointing:
             p3 = e.point[k]
             out.append(
                 PointingEstimate(
-                    seq=self.seq, t_capture_ns=second.t_ns, t_ns=t, skew_ns=skew,
-                    status=str(e.status[k]), words=_words(e, k, first, second),
+                    seq=self.seq,
+                    t_capture_ns=second.t_ns,
+                    t_ns=t,
+                    skew_ns=skew,
+                    status=str(e.status[k]),
+                    words=_words(e, k, first, second),
                     point=(float(points[k, 0]), float(points[k, 1])) if ok else None,
                     point_3d=(float(p3[0]), float(p3[1]), float(p3[2])) if ok else None,
-                    region=regions[k] if ok else None, track=track, done_ns=now,
+                    region=regions[k] if ok else None,
+                    track=track,
+                    done_ns=now,
                     cpu_ns=first.cpu_ns + second.cpu_ns + share_ns,
-                )  # fmt: skip
+                )
             )
             self.seq += 1
         return out
@@ -376,8 +382,8 @@ def _own_frames(batch: list[tuple[_Seen, _Seen, int]]) -> tuple[list[_Seen], lis
     return frames, [position[f.index] for f, _s, _k in batch]
 
 
-def _track(seen: list[_Seen], lines: bool) -> CameraTrack:
-    """Detected frames as a camera's track (times made increasing where a pair repeats)."""
+def _track(seen: list[_Seen], *, lines: bool) -> CameraTrack:
+    """Detected frames as a camera's track (``lines``: with their image lines' angles)."""
     return CameraTrack.of(
         [s.t_ns for s in seen],
         np.array([(s.u, s.v) for s in seen], dtype=np.float64).reshape(-1, 2),
