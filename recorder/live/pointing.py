@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from twopose.detect.detection import detect
+from twopose.errors import InputValueError
 from twopose.methods.specs import Method, spec_of
 from twopose.pair.clock import ClockOffset
 from twopose.pair.live_pairing import LivePairing
@@ -224,7 +225,9 @@ class LivePointing:
     ) -> None:
         self.spec = spec_of(method)
         if self.spec.target is None:
-            raise ValueError(f"{self.spec.label} measures no target: nothing to point with")
+            raise InputValueError(
+                f"{self.spec.label} measures no target: point with --method ground, line or point"
+            )
         self.target = self.spec.target
         self.method, self.pair = self.spec.method, pair
         self.settings = settings or PointingSettings()
