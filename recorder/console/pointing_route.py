@@ -53,19 +53,23 @@ async def _events(
     """The status, then every message as it comes, until the page goes away or the
     server stops (``closing``)."""
     seen = feed.last
-    yield b"retry: 1000\n" + _event(feed.status)
-    quiet = time.monotonic()
-    while not (feed.closed or closing.is_set()) and not await request.is_disconnected():
-        seen, messages, missed = await asyncio.to_thread(feed.after, seen, _WAIT_S)
-        if missed:
-            yield _event({"kind": "missed", "count": missed})
-        for message in messages:
-            yield _event(message)
-        if messages or missed:
-            quiet = time.monotonic()
-        elif time.monotonic() - quiet > KEEPALIVE_S:
-            quiet = time.monotonic()
-            yield b": still here\n\n"
+    feed.joined()
+    try:
+        yield b"retry: 1000\n" + _event(feed.status)
+        quiet = time.monotonic()
+        while not (feed.closed or closing.is_set()) and not await request.is_disconnected():
+            seen, messages, missed = await asyncio.to_thread(feed.after, seen, _WAIT_S)
+            if missed:
+                yield _event({"kind": "missed", "count": missed})
+            for message in messages:
+                yield _event(message)
+            if messages or missed:
+                quiet = time.monotonic()
+            elif time.monotonic() - quiet > KEEPALIVE_S:
+                quiet = time.monotonic()
+                yield b": still here\n\n"
+    finally:
+        feed.left()
 
 
 def pointing_stream(feed: PointingFeed, closing: threading.Event) -> Any:

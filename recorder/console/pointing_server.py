@@ -93,6 +93,7 @@ def run_pointing(
     the feed is told why the pair stopped (never a traceback)."""
     why = "the pair stopped"
     try:
+        live.warm_up()
         with source:
             feed.start(about(live.method, live.pair, source))
             for frame in source.frames():

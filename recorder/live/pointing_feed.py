@@ -59,6 +59,18 @@ class PointingFeed:
         self._count = 0
         self._status: dict[str, Any] = {"kind": "status", "running": False, "words": IDLE_WORDS}
         self.closed = False
+        #: How many pages read the feed now (their push streams open).
+        self.readers = 0
+
+    def joined(self) -> None:
+        """A page opened the push stream."""
+        with self._cond:
+            self.readers += 1
+
+    def left(self) -> None:
+        """A page's push stream closed."""
+        with self._cond:
+            self.readers -= 1
 
     def _put(self, message: dict[str, Any]) -> None:
         with self._cond:

@@ -21,12 +21,13 @@ const POINTING = {
 // and per pair [seq, capture ms, sent ms (server), arrived ms (page), drawn ms (page)].
 window.twoposePointing = {clock: {offset_ms: null, rtt_ms: null}, log: [], missed: 0};
 const LOG_LIMIT = 200000;
-const CLOCK_EVERY_MS = 5000;
+const CLOCK_EVERY_MS = 2000;
 
-async function syncClock() {
-  // Five round trips; the shortest one's midpoint is the best estimate of the offset.
+async function syncClock(trips) {
+  // Round trips to the recorder's clock; the shortest one's midpoint (of all so far: both
+  // clocks are the machine's monotonic clock, so the offset holds) is the best estimate.
   const clock = window.twoposePointing.clock;
-  for (let k = 0; k < 5; k++) {
+  for (let k = 0; k < trips; k++) {
     const before = performance.now();
     let answer;
     try {
@@ -251,8 +252,8 @@ function drawGrid(g, w, h, X, Y, scale, cx, cy) {
 function startPointing() {
   if (!$("pointing")) return;
   renderPointing();
-  syncClock();
-  setInterval(syncClock, CLOCK_EVERY_MS);
+  syncClock(10);
+  setInterval(() => syncClock(3), CLOCK_EVERY_MS);
   const source = new EventSource("/api/pointing");
   source.onmessage = pointingMessage;
   source.onerror = () => {
