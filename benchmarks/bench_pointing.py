@@ -127,7 +127,7 @@ def _percentiles(values: np.ndarray) -> str:
     return f"p50 {p50:6.1f}  p99 {p99:6.1f}  max {values.max():6.1f}"
 
 
-def measure(files: tuple[Path, Path, Path], fps: float, shot: Path | None) -> dict[str, Any]:
+def measure(files: tuple[Path, Path, Path], shot: Path | None) -> dict[str, Any]:
     """One playback, its figures."""
     first, second, pair_path = files
     from twopose.pair.pair_file import read_pair_file
@@ -181,8 +181,9 @@ def report(found: dict[str, Any], fps: float, frames: int) -> bool:
     budget = 0.4 * interval_ms
     print(f"two {frames}-frame 640x480 MJPG files at {fps:g} fps through pair:, the page in "
           f"headless Chromium at {WIDTH}x{HEIGHT}")  # fmt: skip
+    skipped = page["missed"]
     print(f"pairs made {made} of {frames} frames a camera; on the page {len(log)}, missing "
-          f"{missing}, missed by the stream {page['missed']}; frames dropped {dropped}")  # fmt: skip
+          f"{missing}, skipped by the stream {skipped}; frames dropped {dropped}")  # fmt: skip
     print(f"rate {rate:.2f} pairs/s over {found['wall_s']:.1f} s; with a point {ok} "
           f"({100 * ok / max(made, 1):.0f}%), the rest said with their reason")  # fmt: skip
     print(f"the page's clock on the recorder's: round trip {rtt:.2f} ms (+-{rtt / 2:.2f} ms)")
@@ -221,7 +222,7 @@ def main() -> int:
     print(f"making the two files ({frames} frames each, cached in {folder}) ...", flush=True)
     files = make_clip(folder, seconds=args.seconds, fps=args.fps)
     load0 = os.getloadavg()[0]
-    found = measure(files, args.fps, args.screenshot)
+    found = measure(files, args.screenshot)
     held = report(found, args.fps, frames)
     print(f"load average (1 min) at the start {load0:.2f}, at the end {os.getloadavg()[0]:.2f}")
     return 0 if held else 1

@@ -66,12 +66,14 @@ def test_the_page_reads_the_status_then_every_pair_in_order() -> None:
     pairs = [e for e in got if e["kind"] == "pair"]
     assert [e["seq"] for e in pairs] == list(range(6))
     assert pairs[0]["region"] == {"major": 0.2, "minor": 0.1, "angle_deg": 30.0}
-    assert pairs[5]["point"] is None and pairs[5]["region"] is None
+    assert pairs[5]["point"] is None
+    assert pairs[5]["region"] is None
     assert pairs[5]["words"].startswith("near-singular")
     assert got[-1] == {**got[1], "running": False, "words": "the cameras' streams ended",
                        "sent_ns": got[-1]["sent_ns"]}  # fmt: skip
     sent = [e["sent_ns"] for e in got]
-    assert sent == sorted(sent) and sent[-1] <= clock  # one monotonic clock
+    assert sent == sorted(sent)
+    assert sent[-1] <= clock  # one monotonic clock
 
 
 def test_a_reader_that_falls_behind_is_told_how_many_it_missed() -> None:
