@@ -10,6 +10,7 @@ A screenshot of each state is saved for a person to look at: into
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import socket
@@ -23,9 +24,12 @@ import pytest
 import uvicorn
 
 from recorder.console.pointing_server import pointing_app
+from recorder.console.server import ConsoleOptions, console_app
+from recorder.console.state import ConsoleSession
 from recorder.live.pointing import Ellipse95, PointingEstimate
 from recorder.live.pointing_feed import PointingFeed
 from tests.browser import headless_chromium, require_chromium
+from tests.helpers import SMALL_SCENE
 from tests.recorder.test_console_cross_origin import chromium_resolving_evil, evil_server
 
 require_chromium()
@@ -33,6 +37,14 @@ require_chromium()
 # Slow (a real browser): make test-all and CI run it.
 pytestmark = pytest.mark.slow
 
+GIVEN: dict[str, Any] = {
+    "method": None, "units": None, "intrinsics": None, "intrinsics_sigma": {}, "focal": None,
+    "principal": None, "ground_height": None, "ground_truth": [], "operator": None,
+}  # fmt: skip
+LINE_SETUP = {
+    "method": "line", "units": "in", "focal": "262.5", "principal": "160, 120",
+    "truth1": "1.91, 9.625, 8.375", "truth2": "0.5, 2, 7", "operator": "Ada",
+}  # fmt: skip
 ABOUT = {
     "about": "Method 2 (ground), seen on the floor from above (in)", "units": "in",
     "axes": ["across", "ahead"], "span": 3.0, "method": "ground", "fps": 30.0,
@@ -194,3 +206,51 @@ def test_a_page_of_another_site_cannot_read_the_push_stream(served) -> None:
         assert not any(s.startswith("message") for s in seen), seen
         assert "fetch 403" in seen, seen
         assert feed.readers == 1
+
+
+def test_the_recording_console_carries_the_panel(tmp_path: Path) -> None:
+    """The console of a recording (``new --ui``): one line while no pair runs; with a pair
+    (a two-camera recording gives its feed), the panel in the top view's place, the rest of
+    the page as it was, at 1366x768 without scrolling."""
+    scene = tmp_path / "scene.toml"
+    scene.write_text(SMALL_SCENE)
+    options = ConsoleOptions(source=f"synthetic:{scene}", given=GIVEN, frames=2, size=(320, 240))
+    session = ConsoleSession(tmp_path / "s.mcap", dict(GIVEN, size=(320, 240)))
+    feed = PointingFeed()
+    sock = socket.socket()
+    sock.bind(("127.0.0.1", 0))
+    sock.listen(16)
+    app = console_app(session, options, pointing=feed)
+    server = uvicorn.Server(uvicorn.Config(app, log_level="warning", lifespan="on", ws="none"))
+    thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
+    thread.start()
+    folder = screenshots()
+    setup = json.dumps(LINE_SETUP)
+    try:
+        with headless_chromium(1366, 768) as browser:
+            browser.get(f"http://127.0.0.1:{sock.getsockname()[1]}/")
+            browser.execute_async_script(
+                "const done = arguments[arguments.length - 1];"
+                "fetch('/api/setup', {method: 'POST', headers: {'Content-Type': "
+                f"'application/json'}}, body: {json.dumps(setup)}}}).then((r) => done(r.status));"
+            )
+            wait_text(browser, "status", "pose")
+            said = wait_text(browser, "pointing-conditioning", "no pair running")
+            assert said.startswith("no pair running")
+            assert browser.find_element("css selector", "[data-testid=topview]").is_displayed()
+            browser.save_screenshot(str(folder / "4-console-one-camera.png"))
+            feed.start(ABOUT)
+            feed.publish(circling(30))
+            wait_text(browser, "pointing-conditioning", "conditioning: ok")
+            assert not browser.find_element("css selector", "[data-testid=topview]").is_displayed()
+            canvas = browser.find_element("css selector", "[data-testid=pointing-canvas]")
+            assert canvas.size["height"] >= 140
+            assert browser.execute_script("return window.scrollY + window.scrollX;") == 0
+            for testid in ("status", "accept", "quit", "pointing-numbers"):
+                box = browser.find_element("css selector", f"[data-testid={testid}]").rect
+                assert box["y"] + box["height"] <= 768, testid
+            browser.save_screenshot(str(folder / "5-console-pointing.png"))
+    finally:
+        feed.close()
+        server.should_exit = True
+        thread.join(timeout=15)

@@ -104,7 +104,8 @@ function renderPointing() {
   if (!running) {
     setText(words, s.words || "no pair running");
     words.classList.add("idle");
-    setText($("pointing-numbers"), "");
+    setText($("pointing-where"), "");
+    setText($("pointing-timing"), "");
     return;
   }
   if (!pair) {
@@ -118,36 +119,38 @@ function renderPointing() {
     words.classList.add(pair.status === "near_singular" ? "singular" : "lost");
   }
   drawFloor($("pointing-canvas"), pair, s);
-  setText($("pointing-numbers"), pointingNumbers(pair, s));
+  const [where, timing] = pointingNumbers(pair, s);
+  setText($("pointing-where"), where);
+  setText($("pointing-timing"), timing);
 }
 
 function pointingNumbers(pair, s) {
-  if (!pair) return "";
+  // Two lines: where the point is (and its region), then how fast the pairs come.
+  if (!pair) return ["", ""];
   const now = performance.now();
   while (POINTING.rate.length && POINTING.rate[0] < now - 1000) POINTING.rate.shift();
-  const parts = [];
+  let where = "no point";
   if (pair.point) {
-    parts.push(`${s.axes[0]} ${fixed(pair.point[0], 2)}, ${s.axes[1]} ${fixed(pair.point[1], 2)} ${s.units}`);
-    if (pair.region) parts.push(`95%: ±${fixed(pair.region.major, 2)} × ${fixed(pair.region.minor, 2)} ${s.units}`);
+    where = `${s.axes[0]} ${fixed(pair.point[0], 2)}, ${s.axes[1]} ${fixed(pair.point[1], 2)} ${s.units}`;
+    if (pair.region) where += ` · 95%: ±${fixed(pair.region.major, 2)} × ${fixed(pair.region.minor, 2)} ${s.units}`;
   }
+  const timing = [];
   const late = latencyMs(pair, now);
   const rtt = window.twoposePointing.clock.rtt_ms;
-  if (late !== null) parts.push(`capture to page ${fixed(late, 0)} ms (±${fixed(rtt / 2, 1)})`);
-  parts.push(`${POINTING.rate.length} pairs/s`);
-  parts.push(`pair ${pair.seq + 1}`);
-  return parts.join(" · ");
+  if (late !== null) timing.push(`capture to page ${fixed(late, 0)} ms (±${fixed(rtt / 2, 0)})`);
+  timing.push(`${POINTING.rate.length} pairs/s`);
+  timing.push(`pair ${pair.seq + 1}`);
+  return [where, timing.join(" · ")];
 }
 
 function drawFloor(canvas, pair, s) {
-  const box = canvas.parentElement.getBoundingClientRect();
+  // The canvas takes its box's size (style.css); its pixels follow it.
   const ratio = window.devicePixelRatio || 1;
-  const w = Math.max(120, Math.floor(box.width));
-  const h = Math.max(120, Math.floor(box.height));
-  if (canvas.width !== w * ratio || canvas.height !== h * ratio) {
-    canvas.width = w * ratio;
-    canvas.height = h * ratio;
-    canvas.style.width = w + "px";
-    canvas.style.height = h + "px";
+  const w = Math.max(1, canvas.clientWidth);
+  const h = Math.max(1, canvas.clientHeight);
+  if (canvas.width !== Math.round(w * ratio) || canvas.height !== Math.round(h * ratio)) {
+    canvas.width = Math.round(w * ratio);
+    canvas.height = Math.round(h * ratio);
   }
   const g = canvas.getContext("2d");
   g.setTransform(ratio, 0, 0, ratio, 0, 0);
