@@ -285,6 +285,8 @@ def record_stream(
                 summary.interrupted = True
             except SourceError as err:  # a camera stopped: its trial is closed incomplete
                 summary.stopped = str(err)
+                if summary.trials:  # what its frames say of the clocks is kept
+                    _record_offset(writer, summary.trials[-1].trial, meter, driver, summary)
     except OSError as err:
         raise TwoposeError(f"writing {out} failed: {err.strerror or err}") from err
     except KeyboardInterrupt:  # a stop while the source opened: nothing recorded
@@ -335,6 +337,9 @@ class _TrialState:
     start_ns: int | None = None  # camera 1's first frame's capture time
     last1_ns: int | None = None  # camera 1's latest frame's capture time
     dropped: list[int] = field(default_factory=lambda: [0, 0])
+    #: Each camera's last frame's arrival (monotonic ns): one silent while the other gives
+    #: frames has stopped (a file ended, a camera unplugged).
+    seen_ns: list[int] = field(default_factory=lambda: [time.monotonic_ns()] * 2)
     seen_dropped: tuple[int, int] = (0, 0)
     ended: str = ""
 
@@ -430,6 +435,14 @@ def _write_frame(
             state.dropped[c] += extra
     state.seen_dropped = now
     stream.add_frame(ids[frame.camera - 1], frame.image, frame.t_capture_ns)
+    c = frame.camera - 1
+    state.seen_ns[c] = time.monotonic_ns()
+    if state.seen_ns[c] - state.seen_ns[1 - c] > SILENT_S * 1e9:
+        other = source.cameras[1 - c]
+        raise SourceError(
+            f"camera {2 - c} ({other.spec}) stopped: no frame for {SILENT_S:g} s while "
+            f"camera {c + 1} gives them (no more pairs)"
+        )
     if frame.camera == 1:
         state.last1_ns = frame.t_capture_ns
         if state.start_ns is None:
