@@ -520,3 +520,8 @@ def main() -> None:
 from recorder.cli.pair import COMMAND_SETTINGS, calibrate_pair_command  # noqa: E402
 
 app.command("calibrate-pair", context_settings=COMMAND_SETTINGS)(calibrate_pair_command)
+
+# Pointing, live (issue 58 item 5): its own module, registered here.
+from recorder.cli.point import point_command  # noqa: E402
+
+app.command("point")(point_command)

@@ -31,8 +31,10 @@ from recorder.console.guard import (
     text_refusal,
 )
 from recorder.console.loopback import is_loopback_host
+from recorder.console.pointing_route import clock, pointing_stream
 from recorder.console.state import DECISIONS, ConsoleSession
 from recorder.console.transport import ACCEPT_BURST, MAX_HEADER_BYTES, GuardedH11Protocol
+from recorder.live.pointing_feed import PointingFeed
 from recorder.procedure import stops
 from recorder.setup.form import SETUP_FIELDS, FormRefusedError, parse_pose_form, setup_from_answers
 from recorder.setup.rules import Setup, check_rig
@@ -76,8 +78,7 @@ class ConsoleOptions:
     origin: str = ""  # the console's own page (the live view lets it in), once served
     guidance: GuidanceAsked | None = None  # --max-poses and the suggestions' reach
     continued: Continued | None = None  # --continue: the session this one continues
-    #: ``--pair``: the pair and its session's setup (asked at the terminal): stream trials
-    #: (:mod:`recorder.console.stream_driver`), no setup form.
+    #: ``--pair``: the pair, its setup (asked at the terminal): stream trials, no form.
     pair: PairCalibration | None = None
     pair_setup: PairSetup | None = None
 
@@ -283,12 +284,16 @@ def console_app(
     host: str = "127.0.0.1",
     token: str | None = None,
     ready: Setup | None = None,
+    pointing: PointingFeed | None = None,
 ) -> Starlette:
     """The ASGI app of one recording session, behind its guard (``host``: the address it
     listens on, ``--host``; ``token``: the session's, random by default; see
     :mod:`recorder.console.guard`). ``ready``: a setup the command line gave whole
-    (:func:`checked_setup`), recorded at once."""
+    (:func:`checked_setup`), recorded at once. ``pointing``: the live pointing panel's
+    feed (:mod:`recorder.live.pointing_feed`; a two-camera recording publishes to it;
+    None: a feed that says no pair is running)."""
     c = _Console(session, options, ready)
+    feed = pointing if pointing is not None else PointingFeed()
     routes = [
         Route("/", c.page),
         Route("/api/state", c.state),
@@ -298,6 +303,8 @@ def console_app(
         Route("/api/note", c.note, methods=["POST"]),
         Route("/api/stream", c.stream_action, methods=["POST"]),
         Route("/stream.mjpg", c.stream),
+        Route("/api/pointing", pointing_stream(feed, session.closing)),
+        Route("/api/clock", clock),
         *(Route(f"/{name}", _asset(name, media)) for name, media in PAGE_FILES.items()),
         *(Route(f"/fonts/{font.file}", _font(font.file)) for font in webfonts.FONTS),
     ]
@@ -312,7 +319,7 @@ PAGE_FILES: dict[str, str] = {
     "style.css": "text/css; charset=utf-8",
     **{
         f"{script}.js": "text/javascript; charset=utf-8"
-        for script in ("util", "setup", "capture", "topview", "stream")
+        for script in ("util", "setup", "capture", "topview", "stream", "pointing")
     },
     "main.js": "text/javascript; charset=utf-8",
 }

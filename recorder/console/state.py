@@ -22,6 +22,9 @@ Routes (Starlette, served by uvicorn on 127.0.0.1 unless ``--host`` says otherwi
 ``POST /api/decide``   ``decision``: ``accept``, ``redo``, ``undo`` or ``quit``
 ``POST /api/note``     ``text``: a note about the current trial (after a capture)
 ``GET /stream.mjpg``   the live camera with the detection drawn (MJPEG)
+``GET /api/pointing``  the live pointing panel's pairs, pushed (Server-Sent Events:
+                       :mod:`recorder.console.pointing_route`)
+``GET /api/clock``     the server's monotonic clock (the page's latency, measured)
 =====================  ====================================================================
 
 A refused request answers 400 with ``{"error": message}`` and records nothing.
