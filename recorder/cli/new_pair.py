@@ -65,6 +65,11 @@ def new_pair(
             raise InputValueError(f"{', '.join(planned)}: the plan sets these itself")
         if ui:
             raise InputValueError("--plan records at the terminal; --ui in the browser: one")
+    if "--fps" in named and not any(part.startswith("camera:") for part in _parts(source)):
+        raise InputValueError(
+            "--fps: a frame rate is asked of a camera (pair:camera:0,camera:1); these "
+            "sources keep their own: leave it out"
+        )
     for option in ("--port", "--host"):
         if option in named and not ui:
             raise InputValueError(f"{option}: where the console listens, which --ui serves")
@@ -86,6 +91,20 @@ def new_pair(
         raise typer.Exit(EXIT_INTERRUPTED)
     if summary.stopped:
         raise typer.Exit(1)
+
+
+def _parts(source: str) -> tuple[str, ...]:
+    """The pair's two sources (none: not a pair, refused where it is opened)."""
+    from recorder.sources.pair import parse_pair
+    from recorder.sources.registry import SOURCE_KINDS
+    from twopose.errors import SourceError
+
+    if not source.startswith("pair:"):
+        return ()
+    try:
+        return parse_pair(source.partition(":")[2], SOURCE_KINDS)
+    except SourceError:
+        return ()
 
 
 def _serve(

@@ -32,6 +32,7 @@ from typing_extensions import override
 
 from recorder.procedure import stops
 from recorder.procedure.stream import StreamDriver, StreamEvent, StreamSink, StreamSummary, TrialEnd
+from twopose.methods.specs import spec_of
 from twopose.values.bounds import shown
 
 if TYPE_CHECKING:
@@ -65,16 +66,19 @@ def _point(p: Any) -> str:
 
 def begin_pair(session: ConsoleSession, setup: PairSetup, pair: PairCalibration) -> None:
     """The pair's session starts recording: what it records stays in view."""
-    floor = "the pair file's floor" if pair.floor is not None else ""
-    if setup.plane_offset is not None:
-        floor = f"typed: {shown(setup.plane_offset)} {setup.units}"
+    plane = None  # the method's plane (ground): the pair file's floor, or typed
+    if spec_of(setup.method).plane is not None:
+        offset = (
+            "the pair file's floor" if setup.plane_offset is None else shown(setup.plane_offset)
+        )
+        plane = {"words": "floor", "offset": offset}
     session.update(
         method=setup.method, units=setup.units, phase="recording",
         session_setup={
             "method": setup.method.value, "units": setup.units.value,
             "camera": f"a pair: camera 1 {pair.intrinsics1.width}x{pair.intrinsics1.height}, "
             f"baseline {shown(float(sum(v * v for v in pair.t_2_in_1) ** 0.5))} {pair.units}",
-            "plane": None if not floor else {"words": "floor", "offset": floor},
+            "plane": plane,
             "operator": setup.operator, "stop_rule": "",
         },
         stream={"trial": 0, "touches": [], "frames": [0, 0], "offset": "", "ended": []},

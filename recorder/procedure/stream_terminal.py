@@ -245,7 +245,7 @@ class TerminalStreamDriver(StreamDriver):
     @override
     def touched(self, touch: Touch) -> None:
         self.say(f"  touch {touch.touch} at {_point(touch.point)} ({touch.how})")
-        if touch.how == "key":
+        if touch.how == "key" and self._keyed:
             self._prompt_next()
 
     @override

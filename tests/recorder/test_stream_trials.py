@@ -204,3 +204,71 @@ def test_recover_after_kill_9_of_new_pair_loses_at_most_the_open_window(
         # lost at most the open window (a second, and a frame either side of it)
         assert len(stream) >= fps * (killed_after - 1.0) - 3, (len(stream), killed_after)
     assert len(trial.touches) >= 2  # the schedule's first touches, at 1.05 s and 2.55 s
+
+
+def test_the_console_streams_a_trial_start_touch_end_stop(
+    moving: MovingPair, tmp_path: Path
+) -> None:
+    """``new --pair --ui``: the page's start trial, touch (x, y, z, now), end trial and stop,
+    each taken only when offered (refused in words otherwise), recorded as the terminal's."""
+    import httpx
+
+    out = tmp_path / "console.mcap"
+    process = _record(
+        moving, out, "--ui", "--method", "point", "--units", "in", "--operator", "Ada"
+    )
+    line, _ = read_line_when_printed(process, "http://", "the console's address")
+    client = httpx.Client(base_url=line.split()[2], timeout=10)
+    client.get("/")  # the page: the session's token
+
+    def state_when(waiting: str) -> dict[str, object]:
+        for _ in range(400):
+            state: dict[str, object] = client.get("/api/state").json()
+            if state["waiting"] == waiting:
+                return state
+            time.sleep(0.025)
+        raise AssertionError(f"never offered {waiting}: {state}")
+
+    def act(**body: str) -> httpx.Response:
+        return client.post("/api/stream", json=body)
+
+    try:
+        state_when("trial")
+        refused = act(action="touch", x="0.75", y="0.5", z="11")
+        assert refused.status_code == 400
+        assert "start the trial" in refused.json()["error"]
+        assert act(action="end").status_code == 400  # no trial streams
+        assert act(action="start").json() == {"ok": True}
+        state_when("streaming")
+        assert act(action="start").status_code == 400  # it streams already
+        bad = act(action="touch", x="0.75", y="nope", z="11")
+        assert bad.status_code == 400
+        assert "y" in bad.json()["errors"]
+        time.sleep(moving.touch_s[0] - _START_S)
+        assert act(action="touch", x="0.75", y="0.5", z="11").json() == {"ok": True}
+        for _ in range(100):  # the recorder writes it with the next frame
+            stream = client.get("/api/state").json()["stream"]
+            if stream["touches"]:
+                break
+            time.sleep(0.02)
+        assert stream["touches"] == [{"touch": 1, "point": [0.75, 0.5, 11.0], "how": "button"}]
+        assert act(action="end").json() == {"ok": True}
+        state_when("trial")
+        assert act(action="stop").json() == {"ok": True}
+        for _ in range(200):  # the file closed; the console stays until Ctrl-C (SIGTERM)
+            done = client.get("/api/state").json()
+            if done["phase"] == "done":
+                break
+            time.sleep(0.025)
+        assert done["summary"].startswith(f"wrote {out}: 1 stream trial"), done
+        process.terminate()
+        process.wait(timeout=30)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    with SessionReader(out) as reader:
+        (trial,) = read_pair_session(reader).trials
+    (touch,) = trial.touches
+    assert touch.how == "button"
+    # the button's moment is on camera 1's clock, within the trial's frames
+    assert trial.camera1.capture_ns[0] < touch.time_ns < trial.camera1.capture_ns[-1]

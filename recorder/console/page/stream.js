@@ -17,8 +17,8 @@ function renderStream(s) {
   $("stream-touch").disabled = !recording || s.waiting !== "streaming";
   $("stream-end").disabled = !recording || s.waiting !== "streaming";
   for (const id of Object.values(STREAM_INPUTS)) $(id).disabled = s.phase !== "recording";
-  const where = s.waiting === "streaming" ? "trial " + stream.trial + ": streaming"
-    : s.waiting === "trial" ? "trial " + (stream.trial + 1) + ": ready to start" : "";
+  const where = s.waiting === "streaming" ? stream.trial + ": streaming"
+    : s.waiting === "trial" ? (stream.trial + 1) + ": ready to start" : "";
   setText($("stream-where"), where);
   const frames = stream.frames || [0, 0];
   setText($("stream-frames"), "frames: camera 1 " + frames[0] + ", camera 2 " + frames[1] +
