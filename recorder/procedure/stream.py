@@ -113,8 +113,8 @@ class ScheduledTouch:
 
 @dataclass(frozen=True, kw_only=True)
 class TrialEnd:
-    """How a stream trial ended: ``why`` (``end``, ``duration``, ``quit``, ``interrupted``,
-    or a camera's failure in words), its frames per camera, its touches, the scheduled
+    """How a stream trial ended: ``why`` (``end``, ``duration``, ``quit``, ``ended``: both
+    files or folders ran out, ``interrupted``, or a camera's failure in words), its frames per camera, its touches, the scheduled
     touches never reached, the trial's seconds on camera 1's clock."""
 
     trial: int
@@ -127,7 +127,7 @@ class TrialEnd:
 
     @property
     def complete(self) -> bool:
-        return self.why in ("end", "duration", "quit")
+        return self.why in ("end", "duration", "quit", "ended")
 
     def line(self) -> str:
         """The trial as the terminal says it when it ends."""
@@ -141,6 +141,8 @@ class TrialEnd:
         said += f" ({d1} + {d2} dropped), {len(self.touches)} touch"
         said += "es" if len(self.touches) != 1 else ""
         said += f" ({how})" if how else ""
+        if self.why == "ended":
+            said += "; the sources ended (no more frames)"
         if self.missed:
             said += f"; {len(self.missed)} scheduled touch(es) not reached: the trial ended first"
         return said + ("" if self.complete else f"; incomplete: {self.why}")
@@ -278,7 +280,7 @@ def record_stream(
                     end = _stream_trial(writer, trial, source, driver, meter, sink, summary)
                     driver.trial_ended(end)
                     _record_offset(writer, trial, meter, driver, summary)
-                    if end.why == "quit":
+                    if end.why in ("quit", "ended"):
                         break
                 stops.check()
             except KeyboardInterrupt:
@@ -380,6 +382,7 @@ def _stream_trial(
         duration_s=driver.duration_s(trial), seen_dropped=source.dropped_by_camera,
     )  # fmt: skip
     meter.begin(trial)
+    frames = source.frames(timeout_s=SILENT_S)  # a camera silent this long has failed
     with writer.stream(trial, window_s=WINDOW_S) as stream:
         driver.streaming(trial)
         try:
@@ -388,7 +391,10 @@ def _stream_trial(
                 _take_events(state, stream, driver)
                 if state.ended:
                     break
-                frame = source.read_frame(timeout_s=SILENT_S)
+                frame = next(frames, None)
+                if frame is None:  # both files (folders) ended: no more pairs, a normal end
+                    state.ended = "ended"
+                    break
                 _write_frame(state, stream, ids, frame, source)
                 meter.add(frame)
                 if sink is not None:

@@ -204,7 +204,7 @@ class TerminalStreamDriver(StreamDriver):
             )
         elif self.plan is None:
             self.say(
-                "  a touch: type x, y, z of the grid point, Enter the moment the target is on it"
+                "  a touch: type the grid point x, y, z; Enter the moment the target is on it"
             )
 
     @override
