@@ -32,6 +32,7 @@ from recorder.cli.options import (
     NotesOption,
     OperatorOption,
     OutArgument,
+    PairOption,
     PlaneOffsetOption,
     PlanOption,
     PortOption,
@@ -130,8 +131,10 @@ def new(
     grid: GridOption = None,
     target_distance: TargetDistanceOption = None,
     min_gain: MinGainOption = None,
+    pair: PairOption = None,
 ) -> None:
-    """Record a session: the guided laptop-on-grid procedure, or a plan file (--plan).
+    """Record a session: the guided laptop-on-grid procedure, or a plan file (--plan);
+    with --pair, two cameras' stream trials (README, "Two cameras at once").
 
     After each accepted pose the recorder suggests the next one (the reachable pose that
     shrinks the trial's predicted 95% region most); with --target-precision a trial ends
@@ -161,6 +164,16 @@ def new(
     }  # fmt: skip
     with handle_errors(), contextlib.ExitStack() as stack:
         refuse_existing(out)  # before the first question
+        if pair is not None:  # two cameras' stream trials (recorder/cli/new_pair.py)
+            from recorder.cli.new_pair import new_pair
+
+            given |= {
+                "--rig": rig, "--continue": continue_from, "--target-precision": target_precision,
+                "--reach": reach, "--grid": grid, "--target-distance": target_distance,
+                "--adaptive-frames": adaptive_frames,
+            }  # fmt: skip
+            new_pair(out, pair, source, given, plan=plan, ui=ui)
+            return
         if plan is not None and ui:
             raise InputValueError(
                 "--plan records unattended and --ui asks in the browser: give one of them "

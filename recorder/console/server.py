@@ -44,8 +44,10 @@ from twopose.methods.specs import Method
 
 if TYPE_CHECKING:
     from recorder.live.view import LiveView
+    from recorder.procedure.stream_terminal import PairSetup
     from recorder.setup.continuation import Continued
     from recorder.setup.rules import GuidanceAsked
+    from twopose.pair.calibration import PairCalibration
     from twopose.rig.constants import RigConstants
     from twopose.uncertainty.noise import PlacingSigma
 
@@ -76,6 +78,9 @@ class ConsoleOptions:
     origin: str = ""  # the console's own page (the live view lets it in), once served
     guidance: GuidanceAsked | None = None  # --max-poses and the suggestions' reach
     continued: Continued | None = None  # --continue: the session this one continues
+    #: ``--pair``: the pair, its setup (asked at the terminal): stream trials, no form.
+    pair: PairCalibration | None = None
+    pair_setup: PairSetup | None = None
 
 
 def _recording(
@@ -158,6 +163,18 @@ class _Console:
         thread.daemon = True
         self.threads.append(thread)
         thread.start()
+
+    def start_pair(self) -> None:
+        """A pair's session (``--pair``): its stream trials, as the page says."""
+        from recorder.console.stream_driver import start_pair_recording
+
+        self.threads.append(start_pair_recording(self.session, self.options, self.stopping))
+
+    async def stream_action(self, request: Request) -> Response:
+        """``POST /api/stream`` (:mod:`recorder.console.stream_driver`)."""
+        from recorder.console.stream_driver import stream_action
+
+        return await stream_action(self.session, request)
 
     async def page(self, _request: Request) -> Response:
         html = resources.files("recorder.console").joinpath("page", "index.html").read_text("utf-8")
@@ -247,6 +264,8 @@ class _Console:
     async def lifespan(self, _app: Starlette) -> AsyncIterator[None]:
         if self.ready is not None:  # all given on the command line: no form to fill
             self.start(self.ready)
+        elif self.options.pair_setup is not None:  # a pair's: asked at the terminal
+            self.start_pair()
         yield
         self.stopping.set()
         # The server stops (Ctrl-C, SIGTERM, SIGHUP): the session is interrupted, its file
@@ -282,6 +301,7 @@ def console_app(
         Route("/api/pose", c.pose, methods=["POST"]),
         Route("/api/decide", c.decide, methods=["POST"]),
         Route("/api/note", c.note, methods=["POST"]),
+        Route("/api/stream", c.stream_action, methods=["POST"]),
         Route("/stream.mjpg", c.stream),
         Route("/api/pointing", pointing_stream(feed, session.closing)),
         Route("/api/clock", clock),
@@ -299,7 +319,7 @@ PAGE_FILES: dict[str, str] = {
     "style.css": "text/css; charset=utf-8",
     **{
         f"{script}.js": "text/javascript; charset=utf-8"
-        for script in ("util", "setup", "capture", "topview", "pointing")
+        for script in ("util", "setup", "capture", "topview", "stream", "pointing")
     },
     "main.js": "text/javascript; charset=utf-8",
 }
@@ -460,8 +480,9 @@ def serve_console(
 
     import typer
 
-    _check_source(options)
-    ready = _complete_setup(options)
+    if options.pair is None:
+        _check_source(options)
+    ready = _complete_setup(options) if options.pair is None else None
     if not is_loopback_host(host):
         typer.secho(
             f"warning: --host {host} exposes the console beyond this machine; anyone who "

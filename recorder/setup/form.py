@@ -57,6 +57,7 @@ __all__ = [
     "SetupField",
     "form_fields",
     "parse_pose_form",
+    "parse_touch_form",
     "setup_from_answers",
 ]
 
@@ -90,6 +91,22 @@ def parse_pose_form(form: Mapping[str, str], units: Units) -> tuple[Vec3, Vec3]:
     if errors:
         raise FormRefusedError(errors)
     return (xyz[0], xyz[1], xyz[2]), r
+
+
+def parse_touch_form(form: Mapping[str, str], units: Units) -> Vec3:
+    """A touch's grid point typed in the console (``x``, ``y``, ``z``: a pair's stream
+    trial), each field read as the terminal reads a ground-truth point; raises
+    :class:`FormRefusedError` with every refusal."""
+    errors: dict[str, str] = {}
+    xyz: list[float] = []
+    for axis in "xyz":
+        try:
+            xyz.append(GROUND_TRUTH.read(str(form.get(axis, "") or ""), units, axis=axis))
+        except InputValueError as err:
+            errors[axis] = str(err)
+    if errors:
+        raise FormRefusedError(errors)
+    return (xyz[0], xyz[1], xyz[2])
 
 
 # --------------------------------------------------------------------------- the fields

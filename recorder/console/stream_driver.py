@@ -1,0 +1,276 @@
+"""The web console's stream trials: a pair's session in the browser (``new --pair --ui``).
+
+:class:`WebStreamDriver` is the :class:`recorder.procedure.stream.StreamDriver` the
+console's recording thread runs (:func:`record_pair_thread`): the page decides through the
+one state (:class:`recorder.console.state.ConsoleSession`), as for one camera. Its steps:
+
+=============  ==============================  ===========================================
+offered        the page's answer               what the recorder does
+=============  ==============================  ===========================================
+``trial``      ``start`` (start trial)         opens the next trial's stream
+``streaming``  ``touch`` (x, y, z; the button)  marks a touch at that grid point, now (the
+                                                server's monotonic clock when the request
+                                                came: the button's time)
+``streaming``  ``end`` (end trial)              closes the trial's stream
+any            ``quit`` (stop)                  ends the trial and the session
+=============  ==============================  ===========================================
+
+``POST /api/stream`` takes them (``action``: start, touch, end, stop; a touch's ``x, y, z``
+read by the ground truth's quantity in the session's units). The state's ``stream`` says
+the trial, its touches, its frames per camera, the clock offset and the trials ended. The
+setup comes from the command line (asked at the terminal before the page is served).
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from typing_extensions import override
+
+from recorder.procedure import stops
+from recorder.procedure.stream import StreamDriver, StreamEvent, StreamSink, StreamSummary, TrialEnd
+from twopose.methods.specs import spec_of
+from twopose.values.bounds import shown
+
+if TYPE_CHECKING:
+    from starlette.requests import Request
+    from starlette.responses import Response
+
+    from recorder.console.server import ConsoleOptions
+    from recorder.console.state import ConsoleSession
+    from recorder.procedure.stream_terminal import PairSetup
+    from recorder.sources.pair import CameraStream, PairSource, TimedFrame
+    from twopose.format.entries import Touch
+    from twopose.pair.calibration import PairCalibration
+    from twopose.pair.clock import ClockOffset
+
+__all__ = [
+    "PREVIEW_FPS",
+    "WebStreamDriver",
+    "begin_pair",
+    "record_pair_thread",
+    "start_pair_recording",
+    "stream_action",
+]
+
+#: How often camera 1's frame is shown live while a trial streams (the page's image).
+PREVIEW_FPS = 10.0
+
+
+def _point(p: Any) -> str:
+    return f"({', '.join(shown(v) for v in p)})"
+
+
+def begin_pair(session: ConsoleSession, setup: PairSetup, pair: PairCalibration) -> None:
+    """The pair's session starts recording: what it records stays in view."""
+    plane = None  # the method's plane (ground): the pair file's floor, or typed
+    if spec_of(setup.method).plane is not None:
+        offset = (
+            "the pair file's floor" if setup.plane_offset is None else shown(setup.plane_offset)
+        )
+        plane = {"words": "floor", "offset": offset}
+    session.update(
+        method=setup.method, units=setup.units, phase="recording",
+        session_setup={
+            "method": setup.method.value, "units": setup.units.value,
+            "camera": f"a pair: camera 1 {pair.intrinsics1.width}x{pair.intrinsics1.height}, "
+            f"baseline {shown(float(sum(v * v for v in pair.t_2_in_1) ** 0.5))} {pair.units}",
+            "plane": plane,
+            "operator": setup.operator, "stop_rule": "",
+        },
+        stream={"trial": 0, "touches": [], "frames": [0, 0], "offset": "", "ended": []},
+    )  # fmt: skip
+
+
+class WebStreamDriver(StreamDriver):
+    """The page decides (the module docstring)."""
+
+    def __init__(self, session: ConsoleSession) -> None:
+        self.session = session
+
+    def _stream(self, **fields: Any) -> None:
+        with self.session.lock:
+            current = dict(self.session.stream or {})
+            current.update(fields)
+            self.session.update(stream=current)
+
+    @override
+    def start(self, cameras: tuple[CameraStream, CameraStream], path: Path) -> None:
+        said = "; ".join(f"camera {n}: {c.text()}" for n, c in enumerate(cameras, start=1))
+        self.session.update(notices=[*self.session.notices, said])
+
+    @override
+    def next_trial(self, trial: int) -> bool:
+        self.session.offer(
+            "trial", trial=trial - 1, message=f"trial {trial}: start its stream when the target "
+            "is ready, or stop to finish the session", level="info",
+        )  # fmt: skip
+        while True:
+            stops.check()  # the server is stopping
+            answer = self.session.answer(timeout_s=0.05)
+            if answer is None:
+                continue
+            return answer[0] == "start"
+
+    @override
+    def events(self) -> list[StreamEvent]:
+        events = []
+        while (answer := self.session.answer(timeout_s=0.0)) is not None:
+            kind, value = answer
+            if kind == "touch":
+                point, at_ns = value
+                events.append(StreamEvent(kind="touch", at_ns=at_ns, point=point, how="button"))
+            elif kind == "end":
+                events.append(StreamEvent(kind="end"))
+            elif kind == "quit":
+                events.append(StreamEvent(kind="quit"))
+        return events
+
+    @override
+    def streaming(self, trial: int) -> None:
+        self._stream(trial=trial, touches=[], frames=[0, 0])
+        self.session.offer(
+            "streaming", trial=trial, message=f"trial {trial} streams: type the grid point, "
+            "press touch the moment the target is on it; end trial when done", level="info",
+        )  # fmt: skip
+
+    @override
+    def touched(self, touch: Touch) -> None:
+        with self.session.lock:
+            touches = [*(self.session.stream or {}).get("touches", [])]
+            touches.append({"touch": touch.touch, "point": list(touch.point), "how": touch.how})
+            self._stream(touches=touches)
+            self.session.update(
+                message=f"trial {touch.trial}: touch {touch.touch} at {_point(touch.point)} "
+                f"({touch.how}); streaming",
+                level="info",
+            )
+
+    @override
+    def refused(self, message: str) -> None:
+        self.session.refuse("touch", message)
+
+    @override
+    def trial_ended(self, end: TrialEnd) -> None:
+        with self.session.lock:
+            ended = [*(self.session.stream or {}).get("ended", []), end.line()]
+            self._stream(ended=ended, frames=list(end.n_frames))
+            self.session.update(message=end.line(), level="info" if end.complete else "warning")
+
+    @override
+    def offset(self, trial: int, offset: ClockOffset | None, said: str) -> None:
+        words = "" if offset is None else (
+            f"{offset.offset_ns / 1e6:+.2f} ± {offset.sigma_ns / 1e6:.2f} ms ({offset.method})"
+        )  # fmt: skip
+        self._stream(offset=words, offset_said=said)
+
+    @override
+    def finish(self, summary: StreamSummary) -> None:
+        self.session.update(phase="done", waiting="", summary=summary.line())
+
+
+class _Preview(StreamSink):
+    """Camera 1's frames to the page's live image, at :data:`PREVIEW_FPS` at most."""
+
+    def __init__(self, session: ConsoleSession) -> None:
+        self.session = session
+        self._last_ns = 0
+        self._counts = [0, 0]
+
+    @override
+    def pair_frame(self, frame: TimedFrame) -> None:
+        import cv2
+
+        self._counts[frame.camera - 1] += 1
+        if frame.camera != 1 or frame.t_grab_ns - self._last_ns < 1e9 / PREVIEW_FPS:
+            return
+        self._last_ns = frame.t_grab_ns
+        ok, data = cv2.imencode(".jpg", frame.image, [cv2.IMWRITE_JPEG_QUALITY, 80])
+        if ok:
+            self.session.frame("cam1", bytes(data), "jpeg", frame.t_capture_ns, None, "")
+            with self.session.lock:
+                stream = dict(self.session.stream or {})
+                stream["frames"] = list(self._counts)
+                self.session.update(stream=stream)
+
+
+def start_pair_recording(
+    session: ConsoleSession, options: ConsoleOptions, stopping: threading.Event
+) -> threading.Thread:
+    """The pair's source opened and its recording thread started (``options.pair`` and
+    ``options.pair_setup`` given)."""
+    from recorder.procedure.stream_terminal import open_pair_source
+
+    pair, setup = options.pair, options.pair_setup
+    assert pair is not None
+    assert setup is not None
+    source = open_pair_source(options.source, pair, setup, fps=options.fps)
+    begin_pair(session, setup, pair)
+    thread = threading.Thread(
+        target=record_pair_thread,
+        args=(session, setup, pair, source, stopping, options.notes),
+        name="recording",
+        daemon=True,
+    )
+    thread.start()
+    return thread
+
+
+async def stream_action(session: ConsoleSession, request: Request) -> Response:
+    """``POST /api/stream``: ``action`` start, touch (its ``x, y, z``, marked now: when the
+    request came), end or stop; refused in words (400) when not offered."""
+    from recorder.console.guard import ConsoleJSONResponse
+    from recorder.console.server import _POSE_LIMITS, _form, _refused
+    from recorder.setup.form import FormRefusedError, parse_touch_form
+
+    at_ns = time.monotonic_ns()  # the button's moment, before anything else
+    form, refused = await _form(request, {"action": 10, **_POSE_LIMITS})
+    if refused is not None:
+        return refused
+    action, units = form.get("action", ""), session.units
+    if action not in ("start", "touch", "end", "stop"):
+        return _refused(f"action must be start, touch, end or stop, not {action!r}")
+    value: Any = None
+    if action == "touch":
+        if units is None or session.waiting != "streaming":
+            return _refused(session.take("touch") or "not now: no trial streams")
+        try:
+            value = (parse_touch_form(form, units), at_ns)
+        except FormRefusedError as err:
+            return _refused(str(err), err.errors)
+    why = session.take("quit" if action == "stop" else action, value)
+    if why:
+        session.refuse(action, why)
+        return _refused(why, {action: why})
+    return ConsoleJSONResponse({"ok": True})
+
+
+def record_pair_thread(
+    session: ConsoleSession,
+    setup: PairSetup,
+    pair: PairCalibration,
+    source: PairSource,
+    stopping: threading.Event,
+    notes: str = "",
+) -> None:
+    """The console's recording thread for a pair: stream trials as the page says; the
+    summary printed once when it ends."""
+    from recorder.procedure.stream import record_stream
+    from recorder.procedure.stream_terminal import pair_cameras
+    from twopose.errors import TwoposeError
+
+    try:
+        summary = record_stream(
+            session.out, setup.info(notes), pair_cameras(pair), pair, source,
+            WebStreamDriver(session), ground=setup.ground(), sink=_Preview(session),
+        )  # fmt: skip
+        stopped = stopping.is_set() or stops.requested()
+        hint = "" if stopped else "\n(the console shows it; Ctrl-C stops the console)"
+        print(summary.line() + hint, flush=True)
+    except TwoposeError as err:
+        session.update(phase="failed", waiting="", message=str(err))
+    except Exception as err:  # the page must say it, not a thread's traceback
+        session.update(phase="failed", waiting="", message=f"{type(err).__name__}: {err}")

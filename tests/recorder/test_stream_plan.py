@@ -1,0 +1,182 @@
+"""A pair's plan, ``new --pair``'s refusals, the offsets pooled, and a stream's clock from
+stills (issue 58 item 4): the parts of stream trials that need no real time."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from recorder.cli.app import app
+from recorder.procedure.stream import ScheduledTouch, StreamDriver, StreamEvent, record_stream
+from recorder.procedure.stream_offset import pooled_offset
+from recorder.procedure.stream_terminal import PairSetup, open_pair_source, pair_cameras
+from recorder.setup.stream_plan import load_stream_plan
+from twopose.errors import InputValueError
+from twopose.format.reader import SessionReader
+from twopose.format.streams import read_pair_session
+from twopose.methods.specs import Method
+from twopose.pair.clock import ClockOffset
+from twopose.pair.motion import thesis_pair
+from twopose.pair.pair_file import write_pair_file
+from twopose.values.units import Units
+
+_TOP = 'method = "point"\nunits = "in"\n'
+
+
+def _plan(tmp_path: Path, text: str) -> Path:
+    path = tmp_path / "plan.toml"
+    path.write_text(text)
+    return path
+
+
+def test_a_pair_plan_reads_touches_their_times_and_the_duration(tmp_path: Path) -> None:
+    plan = load_stream_plan(_plan(tmp_path, _TOP + (
+        "[[trials]]\nduration = 6.5\n"
+        'touches = [{point = [1, 2, 3], at = 1.5}, {point = [4, 5, 6]}]\n'
+        "[[trials]]\n"
+    )))  # fmt: skip
+    first, second = plan.trials
+    assert first.duration_s == 6.5
+    assert [t.at_s for t in first.touches] == [1.5, None]
+    assert first.keyed == ((4.0, 5.0, 6.0),)
+    assert second.touches == ()
+    assert second.duration_s is None
+
+
+@pytest.mark.parametrize(
+    ("text", "said"),
+    [
+        ("[[trials]]\nposes = []\n", "trials[1].poses: not in a pair's plan"),
+        ("frames = 5\n[[trials]]\n", "frames: not in a pair's plan"),
+        ("[[trials]]\nspeed = 1\n", "unknown key trials[1].speed"),
+        (
+            "[[trials]]\nduration = 2\ntouches = [{point = [0, 0, 9], at = 3}]\n",
+            "after the trial's end",
+        ),
+        ("[[trials]]\ntouches = [{point = [0, 0, 9], at = -1}]\n", "touches[1].at"),
+        ("[[trials]]\ntouches = [{point = [0, 0, 9], at = '1.5'}]\n", "at: touch time must be a"),
+        ("[[trials]]\ntouches = [{at = 1}]\n", "touches[1].point is missing"),
+        ("[[trials]]\nduration = 0\n", "trials[1].duration"),
+        ("ground_height = 9\n[[trials]]\n", "ground_height"),
+        ("", "no [[trials]]"),
+    ],
+)
+def test_a_pair_plan_refuses_naming_the_key(tmp_path: Path, text: str, said: str) -> None:
+    with pytest.raises(InputValueError, match="plan: ") as err:
+        load_stream_plan(_plan(tmp_path, _TOP + text))
+    assert said in str(err.value)
+
+
+def test_a_pair_plan_measures_a_moving_target(tmp_path: Path) -> None:
+    with pytest.raises(InputValueError, match="point, line"):
+        load_stream_plan(_plan(tmp_path, 'method = "board"\n[[trials]]\n'))
+
+
+@pytest.fixture
+def pair_file(tmp_path: Path) -> Path:
+    write_pair_file(tmp_path / "PAIR.toml", thesis_pair())
+    return tmp_path / "PAIR.toml"
+
+
+@pytest.mark.parametrize(
+    ("args", "said"),
+    [
+        (["--frames", "3"], "--frames: not with --pair"),
+        (["--calibration", "PAIR.toml"], "gives both cameras"),
+        (["--ground-truth", "1,2,3"], "touches' grid points"),
+        (["--target-precision", "0.5"], "types no pose"),
+        (["--fps", "15"], "--fps: a frame rate is asked of a camera"),
+        (["--plan", "plan.toml", "--method", "point"], "the plan sets these itself"),
+        (["--plan", "plan.toml", "--ui"], "one"),
+        (["--port", "8000"], "--port: where the console listens"),
+    ],
+)
+def test_new_pair_refuses_what_has_no_effect(pair_file: Path, args: list[str], said: str) -> None:
+    folder = pair_file.parent
+    (folder / "plan.toml").write_text(_TOP + "[[trials]]\n")
+    args = [str(folder / a) if a.endswith(".toml") else a for a in args]
+    result = CliRunner().invoke(app, [
+        "new", str(folder / "s.mcap"), "--pair", str(pair_file),
+        "--source", "pair:video:a.avi,video:b.avi", *args,
+    ])  # fmt: skip
+    assert result.exit_code != 0
+    assert said in result.output, result.output
+    assert "Traceback" not in result.output
+    assert not (folder / "s.mcap").exists()
+
+
+def test_new_without_pair_tells_a_pair_source_where_it_goes(tmp_path: Path) -> None:
+    result = CliRunner().invoke(app, [
+        "new", str(tmp_path / "s.mcap"), "--source", "pair:camera:0,camera:1",
+    ])  # fmt: skip
+    assert result.exit_code != 0
+    assert "new OUT.mcap --pair PAIR.toml --source pair:camera:0,camera:1" in result.output
+
+
+def test_offsets_pooled_by_their_weights_and_widened_by_their_scatter() -> None:
+    one = ClockOffset(offset_ns=-10e6, sigma_ns=1e6, method="ray gap", n=50)
+    two = ClockOffset(offset_ns=-12e6, sigma_ns=2e6, method="ray gap", n=40)
+    pooled = pooled_offset([one, two])
+    assert pooled.offset_ns == pytest.approx(-10.4e6)  # weights 4 : 1
+    assert pooled.sigma_ns == pytest.approx((1 / (1 + 0.25)) ** 0.5 * 1e6)  # chi2/dof < 1
+    far = ClockOffset(offset_ns=-20e6, sigma_ns=1e6, method="flash", n=10)
+    wide = pooled_offset([one, far])
+    birge = np.sqrt(((-10e6 + 15e6) ** 2 + (-20e6 + 15e6) ** 2) / 1e12)  # 5 sigma apart
+    assert wide.sigma_ns == pytest.approx(np.sqrt(0.5) * 1e6 * birge)
+    assert wide.method == "pooled"
+    assert wide.n == 60
+
+
+class _Script(StreamDriver):
+    """A plan's driver in miniature: one trial, a touch at a typed point once camera 1's
+    fifth frame is in, a scheduled touch and a duration."""
+
+    def __init__(self) -> None:
+        self.frames = 0
+        self.touches: list[object] = []
+
+    def schedule(self, trial: int) -> list[ScheduledTouch]:
+        return [ScheduledTouch(point=(0.0, 0.0, 20.0), after_s=0.25)]
+
+    def duration_s(self, trial: int) -> float:
+        return 0.5
+
+    def events(self) -> list[StreamEvent]:
+        self.frames += 1
+        if self.frames == 12:  # about camera 1's 6th frame: a key, stamped now
+            return [StreamEvent(kind="touch", at_ns=1, point=(1.0, 2.0, 20.0), how="key")]
+        return []
+
+
+def test_stills_a_key_is_camera_1s_last_frame_and_the_schedule_exact(tmp_path: Path) -> None:
+    """Stills have no real time: a key's touch is at camera 1's frame last recorded; the
+    schedule's at the trial's start plus its time; the duration ends the trial."""
+    pair = thesis_pair()
+    k = pair.intrinsics1
+    for camera in ("a", "b"):
+        (tmp_path / camera).mkdir()
+        for i in range(30):
+            image = np.full((k.height, k.width, 3), 40 + i, np.uint8)
+            cv2.imwrite(str(tmp_path / camera / f"{i:03d}.png"), image)
+    setup = PairSetup(method=Method.POINT, units=Units.IN, operator="Ada")
+    spec = f"pair:images:{tmp_path / 'a'},images:{tmp_path / 'b'}"
+    source = open_pair_source(spec, pair, setup, fps=None)
+    out = tmp_path / "stills.mcap"
+    driver = _Script()
+    summary = record_stream(out, setup.info(), pair_cameras(pair), pair, source, driver)
+    assert summary.kept
+    assert not summary.interrupted
+    with SessionReader(out) as reader:
+        session = read_pair_session(reader)
+    (trial,) = session.trials
+    start, t1 = trial.camera1.capture_ns[0], trial.camera1.capture_ns
+    by_how = {t.how: t for t in trial.touches}
+    assert by_how["schedule"].time_ns == start + 250_000_000
+    assert by_how["key"].time_ns in set(t1.tolist())  # a frame's own time, not the clock's
+    assert by_how["key"].point == (1.0, 2.0, 20.0)
+    assert t1[-1] - start >= 500_000_000 > t1[-2] - start  # ended by its duration
+    assert session.info.clocks == {"cam1": "simulated", "cam2": "simulated"}
