@@ -43,7 +43,7 @@ from twopose.methods.specs import Method, spec_of
 from twopose.values.units import Units, unit_factor
 
 if TYPE_CHECKING:
-    from recorder.sources.pair import PairSource
+    from recorder.sources.pair import CameraStream, PairSource
     from twopose.pair.calibration import PairCalibration
 
 __all__ = ["PointRequest", "about", "pointing_app", "run_pointing", "serve_pointing"]
@@ -70,20 +70,24 @@ class PointRequest:
     port: int = 0
 
 
-def about(method: Method, pair: PairCalibration, source: PairSource) -> dict[str, Any]:
-    """The feed's status while the pair runs: what the panel says it shows, and how."""
+def about(
+    method: Method, pair: PairCalibration, cameras: tuple[CameraStream, CameraStream] | None = None
+) -> dict[str, Any]:
+    """The feed's status while the pair runs: what the panel says it shows, and how
+    (``cameras``: what each delivers, where known)."""
     spec = spec_of(method)
-    one, two = source.cameras
     units = pair.units
-    return {
+    said: dict[str, Any] = {
         "about": f"{spec.label}, seen on {FloorView.of(pair).name} from above ({units.value})",
         "units": units.value,
         "axes": ["across", "ahead"],
         "span": _SPAN_IN * unit_factor(Units.IN, units),
         "method": spec.method.value,
-        "cameras": [one.text(), two.text()],
-        "fps": min(one.info.fps, two.info.fps),
     }
+    if cameras is not None:
+        said["cameras"] = [c.text() for c in cameras]
+        said["fps"] = min(c.info.fps for c in cameras)
+    return said
 
 
 def run_pointing(
@@ -95,7 +99,7 @@ def run_pointing(
     try:
         live.warm_up()
         with source:
-            feed.start(about(live.method, live.pair, source))
+            feed.start(about(live.method, live.pair, source.cameras))
             for frame in source.frames():
                 if stop.is_set():
                     why = "stopped"

@@ -149,6 +149,7 @@ class _Console:
         self.session, self.options, self.ready = session, options, ready
         self.threads: list[threading.Thread] = []
         self.stopping = threading.Event()  # the server is stopping (Ctrl-C, SIGTERM)
+        self.pointing: PointingFeed | None = None  # the live pointing panel's feed
 
     def start(self, setup: Setup) -> None:
         """Record ``setup`` (checked: :func:`checked_setup`); the live view is opened here,
@@ -168,7 +169,9 @@ class _Console:
         """A pair's session (``--pair``): its stream trials, as the page says."""
         from recorder.console.stream_driver import start_pair_recording
 
-        self.threads.append(start_pair_recording(self.session, self.options, self.stopping))
+        self.threads.append(
+            start_pair_recording(self.session, self.options, self.stopping, self.pointing)
+        )
 
     async def stream_action(self, request: Request) -> Response:
         """``POST /api/stream`` (:mod:`recorder.console.stream_driver`)."""
@@ -294,6 +297,7 @@ def console_app(
     None: a feed that says no pair is running)."""
     c = _Console(session, options, ready)
     feed = pointing if pointing is not None else PointingFeed()
+    c.pointing = feed  # a pair's recording publishes to it
     routes = [
         Route("/", c.page),
         Route("/api/state", c.state),

@@ -4,6 +4,8 @@ a near-singular pair is said with its reason, never given a point."""
 from __future__ import annotations
 
 import dataclasses
+import time
+from typing import Any
 
 import numpy as np
 import pytest
@@ -168,3 +170,45 @@ def test_point_refuses_in_words_what_it_cannot_show(tmp_path):
         assert result.exit_code != 0, args
         assert said in result.output, (args, result.output)
         assert "Traceback" not in result.output
+
+
+def test_a_recording_feeds_the_panel_from_its_own_thread(ground_stream):
+    """Frames handed over as a recording writes them: the estimates published in order
+    (the same as the pointing's own), the panel told when frames stop and why it ended."""
+    from recorder.console.pointing_server import about
+    from recorder.live.pointing_feed import PointingFeed
+    from recorder.live.pointing_thread import IDLE_S, IDLE_WORDS, PointingThread
+
+    clip, frames = ground_stream
+    feed = PointingFeed()
+    worker = PointingThread(
+        LivePointing(Method.GROUND, clip.pair), feed, about(Method.GROUND, clip.pair)
+    )
+    for frame in frames:
+        worker.give(frame)
+    seen, messages = 0, list[dict[str, Any]]()
+    while not any(m.get("words") == IDLE_WORDS for m in messages):
+        seen, new, missed = feed.after(seen, 5 * IDLE_S)
+        assert new, "the panel was never told that the frames stopped"
+        assert missed == 0
+        messages += new
+    measured = ClockOffset(offset_ns=-2e6, sigma_ns=1e5, method="ray_gap", n=40)
+    worker.use_offset(measured)  # the recording measured it: the next frames use it
+    worker.give(frames[0])
+    for _ in range(100):
+        if worker.live.settings.offset is measured:
+            break
+        time.sleep(0.01)
+    assert worker.live.settings.offset is measured
+    worker.close("the recording ended")
+    assert messages[0]["kind"] == "status"
+    assert messages[0]["running"] is True
+    assert messages[0]["about"] == "ground (method 2), seen on the floor from above (in)"
+    pairs = [m for m in messages if m["kind"] == "pair"]
+    mine = _live(Method.GROUND, clip, frames)[: len(pairs)]
+    assert [(m["seq"], m["point"]) for m in pairs] == [
+        (e.seq, None if e.point is None else list(e.point)) for e in mine
+    ]
+    assert len(pairs) >= len(mine) - 1  # the last waits for camera 1's next frame
+    assert feed.status == {**messages[0], "running": False, "words": "the recording ended"}
+    assert worker.dropped == 0
