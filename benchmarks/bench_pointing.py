@@ -194,6 +194,9 @@ def report(found: dict[str, Any], fps: float, frames: int) -> bool:
     print(f"  estimate made   {_percentiles(made_ms)}")
     print(f"  on the page     {_percentiles(arrived)}")
     print(f"  drawn           {_percentiles(drawn)}")
+    within = 100 * float(np.mean(drawn <= 2 * interval_ms))
+    print(f"  drawn within 2 intervals: {within:.1f}% of pairs (the files are in step: each pair "
+          "waits a whole interval for camera 1's next frame, the worst phase)")  # fmt: skip
     print(f"CPU per pair, ms (budget 40% of the interval = {budget:.1f}):")
     print(f"  pointing (detection of both frames + estimate)  {_percentiles(cpu_ms)}  "
           f"mean {cpu_ms.mean():.2f}")  # fmt: skip

@@ -31,20 +31,13 @@ from recorder.live.pointing_feed import PointingFeed
 from tests.browser import headless_chromium, require_chromium
 from tests.helpers import SMALL_SCENE
 from tests.recorder.test_console_cross_origin import chromium_resolving_evil, evil_server
+from tests.recorder.test_console_guard import GIVEN, LINE_SETUP
 
 require_chromium()
 
 # Slow (a real browser): make test-all and CI run it.
 pytestmark = pytest.mark.slow
 
-GIVEN: dict[str, Any] = {
-    "method": None, "units": None, "intrinsics": None, "intrinsics_sigma": {}, "focal": None,
-    "principal": None, "ground_height": None, "ground_truth": [], "operator": None,
-}  # fmt: skip
-LINE_SETUP = {
-    "method": "line", "units": "in", "focal": "262.5", "principal": "160, 120",
-    "truth1": "1.91, 9.625, 8.375", "truth2": "0.5, 2, 7", "operator": "Ada",
-}  # fmt: skip
 ABOUT = {
     "about": "Method 2 (ground), seen on the floor from above (in)", "units": "in",
     "axes": ["across", "ahead"], "span": 3.0, "method": "ground", "fps": 30.0,

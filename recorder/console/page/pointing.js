@@ -252,8 +252,36 @@ function drawGrid(g, w, h, X, Y, scale, cx, cy) {
   }
 }
 
+function buildPanel(panel) {
+  // The panel's parts, the same on every page that has its place (#pointing).
+  const heading = el("h2", "Pointing, live ");
+  heading.append(el("span", "", "aside"));
+  heading.lastChild.id = "pointing-aside";
+  const words = el("div", "no pair running", "pointing-words idle");
+  Object.assign(words, {id: "pointing-conditioning", role: "status"});
+  words.dataset.testid = "pointing-conditioning";
+  words.setAttribute("aria-live", "polite");
+  const box = el("div", null, "hidden");
+  box.id = "pointing-box";
+  const canvas = el("canvas");
+  canvas.id = "pointing-canvas";
+  canvas.dataset.testid = "pointing-canvas";
+  box.append(canvas);
+  const numbers = el("div", null, "small");
+  numbers.id = "pointing-numbers";
+  numbers.dataset.testid = "pointing-numbers";
+  for (const part of ["pointing-where", "pointing-timing"]) {
+    const span = el("span");
+    span.id = part;
+    numbers.append(span);
+  }
+  panel.append(heading, words, box, numbers);
+}
+
 function startPointing() {
-  if (!$("pointing")) return;
+  const panel = $("pointing");
+  if (!panel) return;
+  buildPanel(panel);
   renderPointing();
   syncClock(10);
   setInterval(() => syncClock(3), CLOCK_EVERY_MS);
