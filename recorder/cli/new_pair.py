@@ -14,7 +14,7 @@ from typing import Any
 
 import typer
 
-from twopose.errors import EXIT_INTERRUPTED, InputValueError
+from twopose.errors import EXIT_ERROR, EXIT_INTERRUPTED, InputValueError
 
 __all__ = ["PAIR_IDLE", "new_pair"]
 
@@ -48,9 +48,10 @@ _PLAN_SETS = ("--method", "--units", "--ground-height", "--operator", "--notes")
 
 def new_pair(
     out: Path, pair: Path, source: str, given: dict[str, Any], *, plan: Path | None, ui: bool
-) -> None:
+) -> int:
     """``new --pair`` (the module docstring); ``given`` every option of ``new`` by its
-    name (None, False or []: not given)."""
+    name (None, False or []: not given). Its exit code: 0, 3 when a camera stopped (an error), 130
+    when interrupted."""
     from recorder.procedure.new_session import _prompt
     from recorder.procedure.stream_terminal import record_pair
     from recorder.procedure.terminal import Operator
@@ -80,7 +81,7 @@ def new_pair(
     }  # fmt: skip
     if ui:
         _serve(out, pair, source, op, asked, given)
-        return
+        return 0
     summary = record_pair(
         out, pair, source, op, plan_path=plan, given=asked, notes=given.get("--notes") or "",
         fps=given.get("--fps"),
@@ -88,9 +89,8 @@ def new_pair(
     typer.echo(summary.line())
     if summary.interrupted:
         typer.secho("interrupted", err=True)
-        raise typer.Exit(EXIT_INTERRUPTED)
-    if summary.stopped:
-        raise typer.Exit(1)
+        return EXIT_INTERRUPTED
+    return EXIT_ERROR if summary.stopped else 0
 
 
 def _parts(source: str) -> tuple[str, ...]:
