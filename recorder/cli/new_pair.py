@@ -14,7 +14,7 @@ from typing import Any
 
 import typer
 
-from twopose.errors import EXIT_INTERRUPTED, InputValueError
+from twopose.errors import EXIT_ERROR, EXIT_INTERRUPTED, InputValueError
 
 __all__ = ["PAIR_IDLE", "new_pair"]
 
@@ -48,14 +48,16 @@ _PLAN_SETS = ("--method", "--units", "--ground-height", "--operator", "--notes")
 
 def new_pair(
     out: Path, pair: Path, source: str, given: dict[str, Any], *, plan: Path | None, ui: bool
-) -> None:
+) -> int:
     """``new --pair`` (the module docstring); ``given`` every option of ``new`` by its
-    name (None, False or []: not given)."""
+    name (None, False or []: not given). Its exit code: 0, 3 when a camera stopped (an error), 130
+    when interrupted."""
     from recorder.procedure.new_session import _prompt
     from recorder.procedure.stream_terminal import record_pair
     from recorder.procedure.terminal import Operator
 
     named = {k for k, v in given.items() if v not in (None, False, [])}
+    parts = _parts(source)  # a pair source, its two parts found, before any question
     idle = [k for k in PAIR_IDLE if k in named]
     if idle:
         raise InputValueError(f"{', '.join(idle)}: not with --pair ({PAIR_IDLE[idle[0]]})")
@@ -65,7 +67,7 @@ def new_pair(
             raise InputValueError(f"{', '.join(planned)}: the plan sets these itself")
         if ui:
             raise InputValueError("--plan records at the terminal; --ui in the browser: one")
-    if "--fps" in named and not any(part.startswith("camera:") for part in _parts(source)):
+    if "--fps" in named and not any(part.startswith("camera:") for part in parts):
         raise InputValueError(
             "--fps: a frame rate is asked of a camera (pair:camera:0,camera:1); these "
             "sources keep their own: leave it out"
@@ -80,7 +82,7 @@ def new_pair(
     }  # fmt: skip
     if ui:
         _serve(out, pair, source, op, asked, given)
-        return
+        return 0
     summary = record_pair(
         out, pair, source, op, plan_path=plan, given=asked, notes=given.get("--notes") or "",
         fps=given.get("--fps"),
@@ -88,23 +90,24 @@ def new_pair(
     typer.echo(summary.line())
     if summary.interrupted:
         typer.secho("interrupted", err=True)
-        raise typer.Exit(EXIT_INTERRUPTED)
-    if summary.stopped:
-        raise typer.Exit(1)
+        return EXIT_INTERRUPTED
+    return EXIT_ERROR if summary.stopped else 0
 
 
-def _parts(source: str) -> tuple[str, ...]:
-    """The pair's two sources (none: not a pair, refused where it is opened)."""
+def _parts(source: str) -> tuple[str, str]:
+    """The pair's two sources, each one the registry knows (not opened: a file that is not
+    there is said now); a source that is not a pair is refused."""
     from recorder.sources.pair import parse_pair
-    from recorder.sources.registry import SOURCE_KINDS
-    from twopose.errors import SourceError
+    from recorder.sources.registry import SOURCE_KINDS, SourceOptions, kind_of, open_pair
 
-    if not source.startswith("pair:"):
-        return ()
-    try:
-        return parse_pair(source.partition(":")[2], SOURCE_KINDS)
-    except SourceError:
-        return ()
+    if kind_of(source).cameras != 2:
+        raise InputValueError(
+            f"--pair records two cameras: give --source pair:A,B (pair:camera:0,camera:1), "
+            f"not {source}"
+        )
+    parts = parse_pair(source.partition(":")[2], SOURCE_KINDS)
+    open_pair(*parts, SourceOptions())  # made, not opened: each part's own checks
+    return parts
 
 
 def _serve(

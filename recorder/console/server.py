@@ -8,6 +8,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import threading
+import time
 from collections.abc import AsyncIterator, Iterator
 from dataclasses import dataclass
 from importlib import resources
@@ -33,6 +34,7 @@ from recorder.console.guard import (
 from recorder.console.loopback import is_loopback_host
 from recorder.console.pointing_route import clock, pointing_stream
 from recorder.console.state import DECISIONS, ConsoleSession
+from recorder.console.stream_driver import STREAM_LIMITS, start_pair_recording, stream_answer
 from recorder.console.transport import ACCEPT_BURST, MAX_HEADER_BYTES, GuardedH11Protocol
 from recorder.live.pointing_feed import PointingFeed
 from recorder.procedure import stops
@@ -165,19 +167,14 @@ class _Console:
         self.threads.append(thread)
         thread.start()
 
-    def start_pair(self) -> None:
-        """A pair's session (``--pair``): its stream trials, as the page says."""
-        from recorder.console.stream_driver import start_pair_recording
-
-        self.threads.append(
-            start_pair_recording(self.session, self.options, self.stopping, self.pointing)
-        )
-
     async def stream_action(self, request: Request) -> Response:
         """``POST /api/stream`` (:mod:`recorder.console.stream_driver`)."""
-        from recorder.console.stream_driver import stream_action
-
-        return await stream_action(self.session, request)
+        at_ns = time.monotonic_ns()  # the button's moment, before anything else
+        form, refused = await _form(request, STREAM_LIMITS)
+        if refused is not None:
+            return refused
+        why, errors = stream_answer(self.session, form, at_ns)
+        return _refused(why, errors) if why else ConsoleJSONResponse({"ok": True})
 
     async def page(self, _request: Request) -> Response:
         html = resources.files("recorder.console").joinpath("page", "index.html").read_text("utf-8")
@@ -267,8 +264,11 @@ class _Console:
     async def lifespan(self, _app: Starlette) -> AsyncIterator[None]:
         if self.ready is not None:  # all given on the command line: no form to fill
             self.start(self.ready)
-        elif self.options.pair_setup is not None:  # a pair's: asked at the terminal
-            self.start_pair()
+        elif (pair := self.options.pair) and (setup := self.options.pair_setup):
+            # A pair's stream trials, the setup asked at the terminal.
+            self.threads.append(
+                start_pair_recording(self.session, self.options, pair, setup, self.pointing)
+            )
         yield
         self.stopping.set()
         # The server stops (Ctrl-C, SIGTERM, SIGHUP): the session is interrupted, its file

@@ -24,9 +24,8 @@ setup comes from the command line (asked at the terminal before the page is serv
 from __future__ import annotations
 
 import threading
-import time
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 from typing_extensions import override
 
@@ -36,10 +35,6 @@ from twopose.methods.specs import spec_of
 from twopose.values.bounds import shown
 
 if TYPE_CHECKING:
-    from starlette.requests import Request
-    from starlette.responses import Response
-
-    from recorder.console.server import ConsoleOptions
     from recorder.console.state import ConsoleSession
     from recorder.live.pointing_feed import PointingFeed
     from recorder.live.pointing_thread import PointingThread
@@ -51,11 +46,12 @@ if TYPE_CHECKING:
 
 __all__ = [
     "PREVIEW_FPS",
+    "STREAM_LIMITS",
     "WebStreamDriver",
     "begin_pair",
     "record_pair_thread",
     "start_pair_recording",
-    "stream_action",
+    "stream_answer",
 ]
 
 #: How often camera 1's frame is shown live while a trial streams (the page's image).
@@ -208,23 +204,21 @@ class _Preview(StreamSink):
 
 def start_pair_recording(
     session: ConsoleSession,
-    options: ConsoleOptions,
-    stopping: threading.Event,
+    options: _Recording,
+    pair: PairCalibration,
+    setup: PairSetup,
     pointing: PointingFeed | None = None,
 ) -> threading.Thread:
-    """The pair's source opened and its recording thread started (``options.pair`` and
-    ``options.pair_setup`` given); ``pointing``: the live pointing panel's feed, which the
-    recording's frames feed (:mod:`recorder.live.pointing_thread`)."""
+    """The pair's source opened and its recording thread started (``options``: the
+    console's source, fps and notes; ``pointing``: the live pointing panel's feed, which
+    the recording's frames feed: :mod:`recorder.live.pointing_thread`)."""
     from recorder.procedure.stream_terminal import open_pair_source
 
-    pair, setup = options.pair, options.pair_setup
-    assert pair is not None
-    assert setup is not None
     source = open_pair_source(options.source, pair, setup, fps=options.fps)
     begin_pair(session, setup, pair)
     thread = threading.Thread(
         target=record_pair_thread,
-        args=(session, setup, pair, source, stopping, options.notes, pointing),
+        args=(session, setup, pair, source, options.notes, pointing),
         name="recording",
         daemon=True,
     )
@@ -232,33 +226,41 @@ def start_pair_recording(
     return thread
 
 
-async def stream_action(session: ConsoleSession, request: Request) -> Response:
-    """``POST /api/stream``: ``action`` start, touch (its ``x, y, z``, marked now: when the
-    request came), end or stop; refused in words (400) when not offered."""
-    from recorder.console.guard import ConsoleJSONResponse
-    from recorder.console.server import _POSE_LIMITS, _form, _refused
+class _Recording(Protocol):
+    """What :func:`start_pair_recording` reads of the console's options."""
+
+    source: str
+    fps: float
+    notes: str
+
+
+#: ``POST /api/stream``'s fields and their longest text.
+STREAM_LIMITS = {"action": 10, "x": 50, "y": 50, "z": 50}
+
+
+def stream_answer(
+    session: ConsoleSession, form: dict[str, str], at_ns: int
+) -> tuple[str, dict[str, str]]:
+    """``POST /api/stream``'s ``action`` (start, touch with its ``x, y, z`` marked at
+    ``at_ns``: when the request came, end or stop) taken for the recorder; or why not and
+    the refusal by field ("": taken)."""
     from recorder.setup.form import FormRefusedError, parse_touch_form
 
-    at_ns = time.monotonic_ns()  # the button's moment, before anything else
-    form, refused = await _form(request, {"action": 10, **_POSE_LIMITS})
-    if refused is not None:
-        return refused
     action, units = form.get("action", ""), session.units
     if action not in ("start", "touch", "end", "stop"):
-        return _refused(f"action must be start, touch, end or stop, not {action!r}")
+        return f"action must be start, touch, end or stop, not {action!r}", {}
     value: Any = None
     if action == "touch":
         if units is None or session.waiting != "streaming":
-            return _refused(session.take("touch") or "not now: no trial streams")
+            return session.take("touch") or "not now: no trial streams", {}
         try:
             value = (parse_touch_form(form, units), at_ns)
         except FormRefusedError as err:
-            return _refused(str(err), err.errors)
+            return str(err), err.errors
     why = session.take("quit" if action == "stop" else action, value)
     if why:
         session.refuse(action, why)
-        return _refused(why, {action: why})
-    return ConsoleJSONResponse({"ok": True})
+    return why, {action: why} if why else {}
 
 
 def record_pair_thread(
@@ -266,7 +268,6 @@ def record_pair_thread(
     setup: PairSetup,
     pair: PairCalibration,
     source: PairSource,
-    stopping: threading.Event,
     notes: str = "",
     pointing: PointingFeed | None = None,
 ) -> None:
@@ -283,7 +284,7 @@ def record_pair_thread(
             session.out, setup.info(notes), pair_cameras(pair), pair, source,
             WebStreamDriver(session, live), ground=setup.ground(), sink=_Preview(session, live),
         )  # fmt: skip
-        stopped = stopping.is_set() or stops.requested()
+        stopped = session.closing.is_set() or stops.requested()
         hint = "" if stopped else "\n(the console shows it; Ctrl-C stops the console)"
         print(summary.line() + hint, flush=True)
     except TwoposeError as err:

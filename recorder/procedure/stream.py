@@ -114,8 +114,9 @@ class ScheduledTouch:
 @dataclass(frozen=True, kw_only=True)
 class TrialEnd:
     """How a stream trial ended: ``why`` (``end``, ``duration``, ``quit``, ``ended``: both
-    files or folders ran out, ``interrupted``, or a camera's failure in words), its frames per camera, its touches, the scheduled
-    touches never reached, the trial's seconds on camera 1's clock."""
+    files or folders ran out, ``interrupted``, or a camera's failure in words), its frames
+    per camera, its touches, the scheduled touches never reached, the trial's seconds on
+    camera 1's clock."""
 
     trial: int
     why: str

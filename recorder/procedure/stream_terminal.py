@@ -203,9 +203,7 @@ class TerminalStreamDriver(StreamDriver):
                 f"  next touch: {_point(self._keyed[0])}: Enter the moment the target is on it"
             )
         elif self.plan is None:
-            self.say(
-                "  a touch: type the grid point x, y, z; Enter the moment the target is on it"
-            )
+            self.say("  a touch: type the grid point x, y, z; Enter the moment the target is on it")
 
     @override
     def events(self) -> list[StreamEvent]:

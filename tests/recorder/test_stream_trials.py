@@ -147,7 +147,7 @@ def test_a_camera_that_stops_ends_the_recording_within_2_s(
     moving: MovingPair, tmp_path: Path
 ) -> None:
     """Camera 2's file ends after 2.5 s while camera 1's goes on: the trial ends (its last
-    window incomplete, saying why), the file is closed and readable, exit 1."""
+    window incomplete, saying why), the file is closed and readable, exit 3 (an error)."""
     short = _first_frames(moving.videos[1], tmp_path / "short.avi", 25)
     out = tmp_path / "cut.mcap"
     process = subprocess.Popen(
@@ -163,7 +163,7 @@ def test_a_camera_that_stops_ends_the_recording_within_2_s(
     assert process.stdout is not None
     process.wait(timeout=30)
     rest = process.stdout.read()
-    assert process.returncode == 1, rest
+    assert process.returncode == 3, rest  # an error (EXIT_ERROR)
     assert "Traceback" not in rest
     assert "camera 2" in rest, rest
     assert "stopped" in rest, rest

@@ -9,7 +9,7 @@ const STREAM_INPUTS = {x: "stream-x", y: "stream-y", z: "stream-z"};
 
 function renderStream(s) {
   const stream = s.stream;
-  document.body.classList.toggle("pair", !!stream);
+  document.body.classList.toggle("two-cameras", !!stream);
   show($("stream"), !!stream && s.phase === "recording");
   if (!stream) return;
   const recording = s.phase === "recording" && connected && !sent && !busy;
