@@ -27,7 +27,7 @@ __all__ = ["CAPACITY", "IDLE_WORDS", "PointingFeed", "estimate_json"]
 #: Messages kept for readers (at 30 pairs a second, four seconds).
 CAPACITY = 120
 #: What the panel says when no pair is running.
-IDLE_WORDS = "no pair running: pointing needs two cameras (--source pair:A,B with --pair PAIR.toml)"
+IDLE_WORDS = "no pair running (it needs two cameras)"
 
 
 def estimate_json(e: PointingEstimate) -> dict[str, Any]:

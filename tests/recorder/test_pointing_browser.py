@@ -127,9 +127,8 @@ def test_the_panel_draws_the_point_its_region_track_and_conditioning(served) -> 
     folder = screenshots()
     with headless_chromium(1366, 768) as browser:
         browser.get(url + "/")
-        assert wait_text(browser, "pointing-conditioning", "no pair running").startswith(
-            "no pair running: pointing needs two cameras"
-        )
+        said = wait_text(browser, "pointing-conditioning", "no pair running")
+        assert said == "no pair running (it needs two cameras)"
         browser.save_screenshot(str(folder / "1-no-pair.png"))
         feed.start(ABOUT)
         pairs = circling(30)
@@ -202,9 +201,10 @@ def test_a_page_of_another_site_cannot_read_the_push_stream(served) -> None:
 
 
 def test_the_recording_console_carries_the_panel(tmp_path: Path) -> None:
-    """The console of a recording (``new --ui``): one line while no pair runs; with a pair
-    (a two-camera recording gives its feed), the panel in the top view's place, the rest of
-    the page as it was, at 1366x768 without scrolling."""
+    """The console of a recording (``new --ui``): no pair running said in the header, the
+    panel's room left to the top view; with a pair (a two-camera recording gives its feed),
+    the panel in the top view's place, the rest of the page as it was, at 1366x768 without
+    scrolling."""
     scene = tmp_path / "scene.toml"
     scene.write_text(SMALL_SCENE)
     options = ConsoleOptions(source=f"synthetic:{scene}", given=GIVEN, frames=2, size=(320, 240))
@@ -228,14 +228,18 @@ def test_the_recording_console_carries_the_panel(tmp_path: Path) -> None:
                 f"'application/json'}}, body: {json.dumps(setup)}}}).then((r) => done(r.status));"
             )
             wait_text(browser, "status", "pose")
-            said = wait_text(browser, "pointing-conditioning", "no pair running")
-            assert said.startswith("no pair running")
+            said = wait_text(browser, "pointing-badge", "no pair running")
+            assert said == "pointing: no pair running (it needs two cameras)"
+            panel = browser.find_element("css selector", "[data-testid=pointing]")
+            assert not panel.is_displayed()  # its room is the top view's and the map's
             assert browser.find_element("css selector", "[data-testid=topview]").is_displayed()
             browser.save_screenshot(str(folder / "4-console-one-camera.png"))
             feed.start(ABOUT)
             feed.publish(circling(30))
             wait_text(browser, "pointing-conditioning", "conditioning: ok")
             assert not browser.find_element("css selector", "[data-testid=topview]").is_displayed()
+            badge = browser.find_element("css selector", "[data-testid=pointing-badge]")
+            assert not badge.is_displayed()
             canvas = browser.find_element("css selector", "[data-testid=pointing-canvas]")
             assert canvas.size["height"] >= 140
             assert browser.execute_script("return window.scrollY + window.scrollX;") == 0

@@ -96,6 +96,12 @@ function renderPointing() {
   const s = POINTING.status;
   const pair = POINTING.last;
   const running = Boolean(s.running);
+  const badge = $("pointing-badge");
+  if (badge) {
+    show($("pointing"), running);
+    show(badge, !running);
+    setText(badge, running ? "" : "pointing: " + (s.words || "no pair running"));
+  }
   $("pointing").classList.toggle("pointing-live", running);
   show($("pointing-box"), running);
   setText($("pointing-aside"), running ? s.about || "" : "");
@@ -258,6 +264,7 @@ function buildPanel(panel) {
   heading.append(el("span", "", "aside"));
   heading.lastChild.id = "pointing-aside";
   const words = el("div", "no pair running", "pointing-words idle");
+  words.title = "pointing needs two cameras: --source pair:A,B with --pair PAIR.toml";
   Object.assign(words, {id: "pointing-conditioning", role: "status"});
   words.dataset.testid = "pointing-conditioning";
   words.setAttribute("aria-live", "polite");
@@ -276,6 +283,14 @@ function buildPanel(panel) {
     numbers.append(span);
   }
   panel.append(heading, words, box, numbers);
+  // On the recording console, no pair running is said in the header, in one line (the
+  // panel's room is the top view's and the map's then).
+  if ($("topview") && $("phase")) {
+    const badge = el("span", null, "hidden");
+    badge.id = "pointing-badge";
+    badge.dataset.testid = "pointing-badge";
+    $("phase").before(badge);
+  }
 }
 
 function startPointing() {
