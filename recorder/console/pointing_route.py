@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Any
 
 from starlette.requests import Request
 from starlette.responses import Response, StreamingResponse
+from starlette.routing import Route
 
 from recorder.console.guard import ConsoleJSONResponse
 from twopose.values import jsonsafe
@@ -33,7 +34,7 @@ from twopose.values import jsonsafe
 if TYPE_CHECKING:
     from recorder.live.pointing_feed import PointingFeed
 
-__all__ = ["KEEPALIVE_S", "clock", "pointing_stream"]
+__all__ = ["KEEPALIVE_S", "clock", "pointing_routes", "pointing_stream"]
 
 #: A comment line this often keeps the stream open through idle stretches.
 KEEPALIVE_S = 5.0
@@ -83,6 +84,11 @@ def pointing_stream(feed: PointingFeed, closing: threading.Event) -> Any:
         )
 
     return serve
+
+
+def pointing_routes(feed: PointingFeed, closing: threading.Event) -> list[Route]:
+    """``GET /api/pointing`` for ``feed`` and ``GET /api/clock``, as a page's app serves them."""
+    return [Route("/api/pointing", pointing_stream(feed, closing)), Route("/api/clock", clock)]
 
 
 async def clock(_request: Request) -> Response:

@@ -32,7 +32,7 @@ from starlette.routing import Route
 from typing_extensions import override
 
 from recorder.console.guard import ConsoleGuard
-from recorder.console.pointing_route import clock, pointing_stream
+from recorder.console.pointing_route import pointing_routes
 from recorder.console.transport import ACCEPT_BURST, MAX_HEADER_BYTES, GuardedH11Protocol
 from recorder.live.pointing import FloorView, LivePointing, PointingSettings
 from recorder.live.pointing_feed import PointingFeed
@@ -146,8 +146,7 @@ def pointing_app(
 
     routes = [
         Route("/", page),
-        Route("/api/pointing", pointing_stream(feed, closing)),
-        Route("/api/clock", clock),
+        *pointing_routes(feed, closing),
         *(Route(f"/{name}", asset(name, media)) for name, media in _PAGE_FILES.items()),
         *(Route(f"/fonts/{f.file}", font(f.file)) for f in webfonts.FONTS),
     ]
