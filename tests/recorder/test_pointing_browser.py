@@ -174,7 +174,7 @@ def test_a_page_of_another_site_cannot_read_the_push_stream(served) -> None:
     source.onerror = () => { seen.push("error"); source.close(); };
     fetch(target + "/api/pointing", {credentials: "include"})
       .then((r) => seen.push("fetch " + r.status)).catch(() => seen.push("fetch blocked"));
-    setTimeout(() => done(seen), 1500);
+    setTimeout(() => done(seen), 800);
     """
     with evil_server() as evil_port, chromium_resolving_evil() as browser:
         browser.get(url + "/")  # the operator's page: its cookie is in this browser
