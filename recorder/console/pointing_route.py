@@ -19,6 +19,7 @@ a pair took from its capture to the page on one clock.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import threading
 import time
 from collections.abc import AsyncIterator
@@ -54,12 +55,21 @@ async def _events(
     """The status, then every message as it comes, until the page goes away or the
     server stops (``closing``)."""
     seen = feed.last
+    loop, ready = asyncio.get_running_loop(), asyncio.Event()
+
+    def wake() -> None:  # the producer's thread: hand the wake to this stream's loop
+        with contextlib.suppress(RuntimeError):  # the loop closed: nobody to wake
+            loop.call_soon_threadsafe(ready.set)
+
+    unwatch = feed.watch(wake)
     feed.joined()
     try:
         yield b"retry: 1000\n" + _event(feed.status)
         quiet = time.monotonic()
-        while not (feed.closed or closing.is_set()) and not await request.is_disconnected():
-            seen, messages, missed = await asyncio.to_thread(feed.after, seen, _WAIT_S)
+        while True:
+            ready.clear()  # before looking: a message after this wakes the wait below
+            ended = feed.closed or closing.is_set()  # before reading: nothing after it is lost
+            seen, messages, missed = feed.after(seen, 0.0)
             if missed:
                 yield _event({"kind": "missed", "count": missed})
             for message in messages:
@@ -69,7 +79,13 @@ async def _events(
             elif time.monotonic() - quiet > KEEPALIVE_S:
                 quiet = time.monotonic()
                 yield b": still here\n\n"
+            if ended or await request.is_disconnected():
+                return  # every message before the close was sent
+            if not (messages or missed):
+                with contextlib.suppress(TimeoutError):
+                    await asyncio.wait_for(ready.wait(), _WAIT_S)
     finally:
+        unwatch()
         feed.left()
 
 
