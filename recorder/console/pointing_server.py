@@ -91,14 +91,18 @@ def about(
 
 
 def run_pointing(
-    source: PairSource, live: LivePointing, feed: PointingFeed, stop: threading.Event
-) -> None:
+    source: PairSource, live: LivePointing, feed: PointingFeed, stop: threading.Event,
+    *, opened: bool = False,
+) -> None:  # fmt: skip
     """Frames in, estimates published, until the streams end, a camera fails or ``stop``;
-    the feed is told why the pair stopped (never a traceback)."""
+    the feed is told why the pair stopped (never a traceback). ``opened``: the source was
+    opened (and the estimate warmed up) by the caller; it is closed here either way."""
     why = "the pair stopped"
     try:
-        live.warm_up()
-        with source:
+        if not opened:
+            live.warm_up()
+            source.open()
+        with contextlib.closing(source):
             feed.start(about(live.method, live.pair, source.cameras))
             for frame in source.frames():
                 if stop.is_set():
@@ -189,6 +193,13 @@ def serve_pointing(request: PointRequest) -> None:
     import socket
 
     source, live = _opened(request)
+    live.warm_up()
+    try:  # a camera that is not there is said here, before the page is served
+        source.open()
+    except TwoposeError as err:
+        raise SourceError(f"--source {request.source}: {err}") from err
+    for n, camera in enumerate(source.cameras, start=1):
+        print(f"camera {n}: {camera.text()}", flush=True)
     host = request.host
     sock = socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET)
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
@@ -196,6 +207,7 @@ def serve_pointing(request: PointRequest) -> None:
         sock.bind((host, request.port))
         sock.listen(ACCEPT_BURST)
     except OSError as err:
+        source.close()
         raise TwoposeError(
             f"cannot listen on {host}:{request.port} ({err.strerror}); pick --port"
         ) from err
@@ -204,7 +216,10 @@ def serve_pointing(request: PointRequest) -> None:
         f"twopose pointing: http://{shown}:{sock.getsockname()[1]}/  (Ctrl-C to stop)", flush=True
     )
     feed, closing = PointingFeed(), threading.Event()
-    loop = threading.Thread(target=run_pointing, args=(source, live, feed, closing), daemon=True)
+    loop = threading.Thread(
+        target=run_pointing, args=(source, live, feed, closing), kwargs={"opened": True},
+        daemon=True,
+    )  # fmt: skip
     config = uvicorn.Config(
         pointing_app(feed, closing, host=host), log_level="warning", lifespan="off",
         timeout_graceful_shutdown=2, http=GuardedH11Protocol,

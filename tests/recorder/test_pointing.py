@@ -164,6 +164,7 @@ def test_point_refuses_in_words_what_it_cannot_show(tmp_path):
         ("--pair", str(no_floor), "--source", video): "needs the floor",
         ("--pair", str(no_floor), "--source", "synthetic", "--method", "point"): "two cameras",
         ("--pair", str(no_floor), "--source", video, "--method", "board"): "measures no target",
+        ("--pair", str(no_floor), "--source", video, "--method", "point"): "a.avi does not exist",
     }
     for args, said in cases.items():
         result = runner.invoke(app, ["point", *args])
