@@ -109,6 +109,15 @@ def test_new_pair_refuses_what_has_no_effect(pair_file: Path, args: list[str], s
     assert not (folder / "s.mcap").exists()
 
 
+def test_new_pair_refuses_a_source_that_is_not_a_pair_before_asking(pair_file: Path) -> None:
+    result = CliRunner().invoke(app, [
+        "new", str(pair_file.parent / "s.mcap"), "--pair", str(pair_file), "--source", "camera:0",
+    ])  # fmt: skip
+    assert result.exit_code != 0
+    assert "--pair records two cameras: give --source pair:A,B" in result.output
+    assert "method" not in result.output  # nothing asked
+
+
 def test_new_without_pair_tells_a_pair_source_where_it_goes(tmp_path: Path) -> None:
     result = CliRunner().invoke(app, [
         "new", str(tmp_path / "s.mcap"), "--source", "pair:camera:0,camera:1",

@@ -158,12 +158,15 @@ def test_a_camera_that_stops_ends_the_recording_within_2_s(
     )  # fmt: skip
     assert process.stdin is not None
     read_line_when_printed(process, "Enter starts", "the first trial's question")
+    opened = time.monotonic()  # the files play from the pair's opening, just before
     process.stdin.write("\n")
     process.stdin.flush()  # and kept open: a closed input would end the session
     assert process.stdout is not None
     process.wait(timeout=30)
+    took = time.monotonic() - opened
     rest = process.stdout.read()
     assert process.returncode == 3, rest  # an error (EXIT_ERROR)
+    assert took < 2.5 + 2.0, took  # camera 2's 2.5 s, then the stop within 2 s
     assert "Traceback" not in rest
     assert "camera 2" in rest, rest
     assert "stopped" in rest, rest
