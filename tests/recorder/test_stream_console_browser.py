@@ -20,9 +20,13 @@ from twopose.format.streams import read_pair_session
 require_chromium()
 
 
+def _write(folder: Path) -> None:
+    write_moving_pair(folder)
+
+
 @pytest.fixture(scope="module")
 def moving(tmp_path_factory: pytest.TempPathFactory) -> MovingPair:
-    return moving_pair(built_once(tmp_path_factory, "moving-pair", write_moving_pair))
+    return moving_pair(built_once(tmp_path_factory, "moving-pair", _write))
 
 
 def _on(driver: object, element_id: str) -> bool:

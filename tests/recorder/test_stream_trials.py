@@ -30,9 +30,13 @@ from twopose.format.streams import read_pair_session
 _START_S = 0.2
 
 
+def _write(folder: Path) -> None:
+    write_moving_pair(folder)
+
+
 @pytest.fixture(scope="module")
 def moving(tmp_path_factory: pytest.TempPathFactory) -> MovingPair:
-    return moving_pair(built_once(tmp_path_factory, "moving-pair", write_moving_pair))
+    return moving_pair(built_once(tmp_path_factory, "moving-pair", _write))
 
 
 def _record(moving: MovingPair, out: Path, *args: str) -> subprocess.Popen[str]:
@@ -132,7 +136,7 @@ def _first_frames(video: Path, out: Path, n: int) -> Path:
     import cv2
 
     read = cv2.VideoCapture(str(video))
-    writer = cv2.VideoWriter(str(out), cv2.VideoWriter_fourcc(*"MJPG"), read.get(cv2.CAP_PROP_FPS),
+    writer = cv2.VideoWriter(str(out), cv2.VideoWriter.fourcc(*"MJPG"), read.get(cv2.CAP_PROP_FPS),
                              (320, 240))  # fmt: skip
     for _ in range(n):
         ok, image = read.read()
