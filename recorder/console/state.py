@@ -21,6 +21,8 @@ Routes (Starlette, served by uvicorn on 127.0.0.1 unless ``--host`` says otherwi
 ``POST /api/pose``     ``x, y, z, rotation``: type the pose and capture it
 ``POST /api/decide``   ``decision``: ``accept``, ``redo``, ``undo`` or ``quit``
 ``POST /api/note``     ``text``: a note about the current trial (after a capture)
+``POST /api/stream``   a pair's stream trial: ``action`` start, touch (``x, y, z``), end,
+                       stop (:mod:`recorder.console.stream_driver`)
 ``GET /stream.mjpg``   the live camera with the detection drawn (MJPEG)
 ``GET /api/pointing``  the live pointing panel's pairs, pushed (Server-Sent Events:
                        :mod:`recorder.console.pointing_route`)

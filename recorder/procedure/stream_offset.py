@@ -4,10 +4,14 @@ side).
 Each frame recorded is handed to a detection thread (:class:`OffsetMeter`; the frames'
 writing never waits for it: when it falls :data:`QUEUE_FRAMES` behind, a frame is left
 undetected and counted). It finds the method's target (:func:`twopose.detect.detection.detect`)
-and keeps each camera's centroid track with the frames' capture times. When a trial ends,
-the offset is measured from the trial's tracks by the rays' smallest gap
-(:func:`twopose.pair.clock.offset_from_ray_gap`: the target must move, and not only along
-the epipolar lines); a trial that cannot fix it is said, in the measurement's words.
+and keeps each camera's centroid track and each frame's brightness with the frames' capture
+times. When a trial ends, the offset is measured from the trial's tracks two ways, each
+where it can: from a flash both cameras saw (:func:`twopose.pair.clock.offset_from_flash`,
+when each camera's brightness steps up within two frames by a quarter of its level and
+twenty times its frame-to-frame scatter: a deliberate flash, not a moving hand), and by
+the rays' smallest gap (:func:`twopose.pair.clock.offset_from_ray_gap`: the target must
+move, and not only along the epipolar lines); a trial that fixes it neither way is said,
+in the measurements' words.
 
 The offset of two cameras opened once stays the same through the session (a lag is
 decided when a camera starts), so the trials' offsets are **pooled**: their
@@ -27,18 +31,23 @@ from typing import TYPE_CHECKING, Self
 
 import numpy as np
 
+from twopose.arrays import F64
 from twopose.errors import InputValueError
 from twopose.methods.specs import Method, spec_of
-from twopose.pair.clock import ClockOffset, offset_from_ray_gap
+from twopose.pair.clock import ClockOffset, offset_from_flash, offset_from_ray_gap
 
 if TYPE_CHECKING:
     from recorder.sources.pair import TimedFrame
     from twopose.pair.calibration import PairCalibration
 
-__all__ = ["QUEUE_FRAMES", "OffsetMeter", "pooled_offset"]
+__all__ = ["FLASH_NOISE", "FLASH_RISE", "QUEUE_FRAMES", "OffsetMeter", "pooled_offset"]
 
 #: How many frames the detection thread may fall behind before frames go undetected.
 QUEUE_FRAMES = 60
+#: A flash: a camera's brightness rises by this share of its level before, at least ...
+FLASH_RISE = 0.25
+#: ... and by this many times its frame-to-frame scatter (robust: the median deviation).
+FLASH_NOISE = 20.0
 _END_WAIT_S = 5.0  # how long a trial's end waits for the frames still queued
 
 
@@ -65,7 +74,7 @@ class OffsetMeter:
         self.pair = pair
         self.target = spec_of(method).target
         self._queue: queue.Queue[tuple[int, int, TimedFrame] | None] = queue.Queue(QUEUE_FRAMES)
-        self._tracks: dict[int, list[tuple[int, float, float]]] = {1: [], 2: []}
+        self._tracks: dict[int, list[tuple[int, float, float, float]]] = {1: [], 2: []}
         self._trial = 0
         self._lock = threading.Lock()
         self._thread: threading.Thread | None = None
@@ -116,9 +125,10 @@ class OffsetMeter:
                 if trial == self._trial:
                     found = detect(frame.image, self.target)
                     u, v = found.centroid_px if found.found else (math.nan, math.nan)
+                    lit = float(frame.image[::4, ::4].mean())  # the frame's brightness
                     with self._lock:
                         if trial == self._trial:  # NaN where not found, as the analysis
-                            self._tracks[camera].append((frame.t_capture_ns, u, v))
+                            self._tracks[camera].append((frame.t_capture_ns, u, v, lit))
             except Exception:
                 continue
             finally:
@@ -136,31 +146,56 @@ class OffsetMeter:
         done.wait(_END_WAIT_S)
 
     def end(self, trial: int) -> tuple[ClockOffset | None, str]:
-        """The trial ended: its offset measured; the session's pooled offset (None: none
-        measured yet) and what the trial gave, in words."""
+        """The trial ended: its offset measured (a flash both cameras saw, and the rays'
+        gap of the moving target, each where it can); the session's pooled offset (None:
+        none measured yet) and what the trial gave, in words."""
         if self._thread is None:
             return None, "the clock offset is not measured: the method has no target to track"
         self._drained()
         with self._lock:
-            tracks = {
-                c: np.array(t, dtype=np.float64).reshape(-1, 3) for c, t in self._tracks.items()
-            }
+            one, two = (np.array(self._tracks[c], dtype=np.float64).reshape(-1, 4) for c in (1, 2))
             self._trial = 0
-        pooled = pooled_offset(self.measured) if self.measured else None
-        one, two = tracks[1], tracks[2]
+        found, why = [], []
+        if _flashed(one[:, 3]) and _flashed(two[:, 3]):
+            try:
+                found.append(offset_from_flash(one[:, 3], one[:, 0], two[:, 3], two[:, 0]))
+            except InputValueError as err:
+                why.append(f"the flash: {err}")
         try:
-            offset = offset_from_ray_gap(self.pair, one[:, 1:], one[:, 0], two[:, 1:], two[:, 0])
+            found.append(
+                offset_from_ray_gap(self.pair, one[:, 1:3], one[:, 0], two[:, 1:3], two[:, 0])
+            )
         except InputValueError as err:
-            return pooled, f"trial {trial} does not fix the clock offset: {err}"
-        self.measured.append(offset)
+            why.append(str(err))
+        pooled = pooled_offset(self.measured) if self.measured else None
+        if not found:
+            return pooled, f"trial {trial} does not fix the clock offset: {'; '.join(why)}"
+        self.measured += found
         pooled = pooled_offset(self.measured)
-        said = (
-            f"trial {trial}: clock offset {offset.offset_ns / 1e6:+.2f} ± "
-            f"{offset.sigma_ns / 1e6:.2f} ms ({offset.method}, {offset.n} pairs)"
+        said = f"trial {trial}: clock offset " + ", ".join(
+            f"{o.offset_ns / 1e6:+.2f} ± {o.sigma_ns / 1e6:.2f} ms ({o.method}, {o.n} "
+            f"{'frames' if o.method == 'flash' else 'pairs'})"
+            for o in found
         )
-        if len(self.measured) > 1:
+        if len(self.measured) > len(found):
             said += (
                 f"; the session's {pooled.offset_ns / 1e6:+.2f} ± {pooled.sigma_ns / 1e6:.2f} ms "
-                f"over {len(self.measured)} trials"
+                f"over {len(self.measured)} measurements"
             )
         return pooled, said
+
+
+def _flashed(brightness: F64) -> bool:
+    """Whether a camera's frames saw a flash: its brightness steps up within two frames (an
+    onset falls in one exposure or across two) by at least :data:`FLASH_RISE` of its level
+    before, and by :data:`FLASH_NOISE` times the frames' own scatter. A moving target, a
+    hand, a camera's exposure settling change it by far less, or slowly."""
+    b = brightness[np.isfinite(brightness)]
+    if b.size < 8:
+        return False
+    step = np.abs(np.diff(b))
+    noise = 1.4826 * float(np.median(np.abs(step - np.median(step)))) + 1e-6
+    rise = b[2:] - b[:-2]  # over two frames
+    k = int(np.argmax(rise))
+    level = float(np.median(b[: k + 1]))
+    return float(rise[k]) > max(FLASH_RISE * level, FLASH_NOISE * noise)

@@ -82,7 +82,7 @@ def write_moving_pair(folder: Path, *, seconds: float | None = None) -> MovingPa
     n = round((seconds if seconds is not None else LEAD_S + path.duration_s + 0.5) * FPS)
     made = moving_pair(folder)
     for camera, (video, phase) in enumerate(zip(made.videos, (0.0, PHASE_S), strict=True), 1):
-        writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"MJPG"), FPS, (320, 240))
+        writer = cv2.VideoWriter(str(video), cv2.VideoWriter.fourcc(*"MJPG"), FPS, (320, 240))
         for i in range(n):
             where = path.at(np.array([i / FPS + phase - LEAD_S]))[0]
             writer.write(pair_scene.frame(camera, where))

@@ -109,6 +109,15 @@ def test_new_pair_refuses_what_has_no_effect(pair_file: Path, args: list[str], s
     assert not (folder / "s.mcap").exists()
 
 
+def test_new_pair_refuses_a_source_that_is_not_a_pair_before_asking(pair_file: Path) -> None:
+    result = CliRunner().invoke(app, [
+        "new", str(pair_file.parent / "s.mcap"), "--pair", str(pair_file), "--source", "camera:0",
+    ])  # fmt: skip
+    assert result.exit_code != 0
+    assert "--pair records two cameras: give --source pair:A,B" in result.output
+    assert "method" not in result.output  # nothing asked
+
+
 def test_new_without_pair_tells_a_pair_source_where_it_goes(tmp_path: Path) -> None:
     result = CliRunner().invoke(app, [
         "new", str(tmp_path / "s.mcap"), "--source", "pair:camera:0,camera:1",
@@ -180,3 +189,46 @@ def test_stills_a_key_is_camera_1s_last_frame_and_the_schedule_exact(tmp_path: P
     assert by_how["key"].point == (1.0, 2.0, 20.0)
     assert t1[-1] - start >= 500_000_000 > t1[-2] - start  # ended by its duration
     assert session.info.clocks == {"cam1": "simulated", "cam2": "simulated"}
+
+
+def _stills(folder: Path, levels: list[float], seed: int) -> Path:
+    """Uniform grey stills of the pair's size, each at its level, with a little noise."""
+    k = thesis_pair().intrinsics1
+    rng = np.random.default_rng(seed)
+    folder.mkdir()
+    for i, level in enumerate(levels):
+        image = np.clip(level + rng.normal(0, 1.0, (k.height, k.width, 3)), 0, 255)
+        cv2.imwrite(str(folder / f"{i:03d}.png"), image.astype(np.uint8))
+    return folder
+
+
+class _Until(StreamDriver):
+    def duration_s(self, trial: int) -> float:
+        return 0.8
+
+
+@pytest.mark.parametrize(
+    ("flash", "method"), [(True, "flash"), (False, None)], ids=["a flash", "a slow ramp"]
+)
+def test_a_flash_both_cameras_see_fixes_the_offset_a_slow_ramp_does_not(
+    tmp_path: Path, flash: bool, method: str | None
+) -> None:
+    """Stills lit at frame 12 in both cameras (their nominal clocks start together): the
+    recorder measures the offset by the flash, within a frame interval of 0, and records
+    it; brightness creeping up over the same frames (exposure settling) is no flash: none."""
+    levels = [60.0 + (120.0 if flash and i >= 12 else 2.0 * i * (not flash)) for i in range(30)]
+    a, b = _stills(tmp_path / "a", levels, 1), _stills(tmp_path / "b", levels, 2)
+    pair = thesis_pair()
+    setup = PairSetup(method=Method.POINT, units=Units.IN, operator="Ada")
+    source = open_pair_source(f"pair:images:{a},images:{b}", pair, setup, fps=None)
+    out = tmp_path / "flash.mcap"
+    summary = record_stream(out, setup.info(), pair_cameras(pair), pair, source, _Until())
+    with SessionReader(out) as reader:
+        offset = read_pair_session(reader).offset
+    if method is None:
+        assert offset is None
+        assert summary.offset is None
+        return
+    assert offset is not None
+    assert offset.method == method
+    assert abs(offset.offset_ns) < 1e9 / 30

@@ -30,9 +30,13 @@ from twopose.format.streams import read_pair_session
 _START_S = 0.2
 
 
+def _write(folder: Path) -> None:
+    write_moving_pair(folder)
+
+
 @pytest.fixture(scope="module")
 def moving(tmp_path_factory: pytest.TempPathFactory) -> MovingPair:
-    return moving_pair(built_once(tmp_path_factory, "moving-pair", write_moving_pair))
+    return moving_pair(built_once(tmp_path_factory, "moving-pair", _write))
 
 
 def _record(moving: MovingPair, out: Path, *args: str) -> subprocess.Popen[str]:
@@ -132,7 +136,7 @@ def _first_frames(video: Path, out: Path, n: int) -> Path:
     import cv2
 
     read = cv2.VideoCapture(str(video))
-    writer = cv2.VideoWriter(str(out), cv2.VideoWriter_fourcc(*"MJPG"), read.get(cv2.CAP_PROP_FPS),
+    writer = cv2.VideoWriter(str(out), cv2.VideoWriter.fourcc(*"MJPG"), read.get(cv2.CAP_PROP_FPS),
                              (320, 240))  # fmt: skip
     for _ in range(n):
         ok, image = read.read()
@@ -158,12 +162,15 @@ def test_a_camera_that_stops_ends_the_recording_within_2_s(
     )  # fmt: skip
     assert process.stdin is not None
     read_line_when_printed(process, "Enter starts", "the first trial's question")
+    opened = time.monotonic()  # the files play from the pair's opening, just before
     process.stdin.write("\n")
     process.stdin.flush()  # and kept open: a closed input would end the session
     assert process.stdout is not None
     process.wait(timeout=30)
+    took = time.monotonic() - opened
     rest = process.stdout.read()
     assert process.returncode == 3, rest  # an error (EXIT_ERROR)
+    assert took < 2.5 + 2.0, took  # camera 2's 2.5 s, then the stop within 2 s
     assert "Traceback" not in rest
     assert "camera 2" in rest, rest
     assert "stopped" in rest, rest
