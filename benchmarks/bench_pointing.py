@@ -45,7 +45,7 @@ import numpy as np
 import uvicorn
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
-from recorder.console.pointing_server import pointing_app, run_pointing
+from recorder.console.pointing_server import freeze_garbage, pointing_app, run_pointing
 from recorder.live.pointing import LivePointing, PointingEstimate
 from recorder.live.pointing_feed import PointingFeed
 from recorder.simulate.pointing_clip import PointingClip
@@ -144,7 +144,12 @@ def measure(files: tuple[Path, Path, Path], shot: Path | None) -> dict[str, Any]
         deadline = time.monotonic() + 20
         while feed.readers == 0 and time.monotonic() < deadline:
             time.sleep(0.05)
-        loop = threading.Thread(target=run_pointing, args=(source, live, feed, closing))
+        live.warm_up()
+        freeze_garbage()  # as twopose-record point does before the cameras run
+        source.open()
+        loop = threading.Thread(
+            target=run_pointing, args=(source, live, feed, closing), kwargs={"opened": True}
+        )
         cpu0, t0 = time.process_time(), time.monotonic()
         loop.start()
         loop.join()
