@@ -47,21 +47,23 @@ def _record(moving: MovingPair, out: Path, *args: str) -> subprocess.Popen[str]:
     )  # fmt: skip
 
 
-def _plan(moving: MovingPair, keyed: int | None = 2, duration: float | None = 6.8) -> Path:
+def _plan(
+    moving: MovingPair, folder: Path, keyed: int | None = 2, duration: float | None = 6.8
+) -> Path:
     """A plan of one trial touching the four points: scheduled, but ``keyed`` by Enter."""
     touches = []
     for k, (p, t) in enumerate(zip(moving.touches, moving.touch_s, strict=True)):
         at = "" if k == keyed else f", at = {t - _START_S:.3f}"
         touches.append(f"{{point = [{p[0]}, {p[1]}, {p[2]}]{at}}}")
     end = "" if duration is None else f"duration = {duration}\n"
-    return moving.plan("plan.toml", f"[[trials]]\n{end}touches = [{', '.join(touches)}]\n")
+    return moving.plan(folder / "plan.toml", f"[[trials]]\n{end}touches = [{', '.join(touches)}]\n")
 
 
 def test_a_pair_recorded_by_schedule_and_key_gives_one_row_per_touch(
     moving: MovingPair, tmp_path: Path
 ) -> None:
     out = tmp_path / "pair.mcap"
-    process = _record(moving, out, "--plan", str(_plan(moving)))
+    process = _record(moving, out, "--plan", str(_plan(moving, tmp_path)))
     assert process.stdin is not None
     _, before = read_line_when_printed(process, "streaming", "the trial's stream")
     started = time.monotonic()
@@ -189,7 +191,9 @@ def test_recover_after_kill_9_of_new_pair_loses_at_most_the_open_window(
     from recorder.recover import RECOVERED_REASON, recover_session
 
     out = tmp_path / "killed.mcap"
-    process = _record(moving, out, "--plan", str(_plan(moving, keyed=None, duration=None)))
+    process = _record(
+        moving, out, "--plan", str(_plan(moving, tmp_path, keyed=None, duration=None))
+    )
     read_line_when_printed(process, "streaming", "the trial's stream")
     streamed = time.monotonic()
     time.sleep(3.0)
