@@ -19,6 +19,7 @@ a pair took from its capture to the page on one clock.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import threading
 import time
 from collections.abc import AsyncIterator
@@ -26,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 
 from starlette.requests import Request
 from starlette.responses import Response, StreamingResponse
+from starlette.routing import Route
 
 from recorder.console.guard import ConsoleJSONResponse
 from twopose.values import jsonsafe
@@ -33,7 +35,7 @@ from twopose.values import jsonsafe
 if TYPE_CHECKING:
     from recorder.live.pointing_feed import PointingFeed
 
-__all__ = ["KEEPALIVE_S", "clock", "pointing_stream"]
+__all__ = ["KEEPALIVE_S", "clock", "pointing_routes", "pointing_stream"]
 
 #: A comment line this often keeps the stream open through idle stretches.
 KEEPALIVE_S = 5.0
@@ -53,19 +55,38 @@ async def _events(
     """The status, then every message as it comes, until the page goes away or the
     server stops (``closing``)."""
     seen = feed.last
-    yield b"retry: 1000\n" + _event(feed.status)
-    quiet = time.monotonic()
-    while not (feed.closed or closing.is_set()) and not await request.is_disconnected():
-        seen, messages, missed = await asyncio.to_thread(feed.after, seen, _WAIT_S)
-        if missed:
-            yield _event({"kind": "missed", "count": missed})
-        for message in messages:
-            yield _event(message)
-        if messages or missed:
-            quiet = time.monotonic()
-        elif time.monotonic() - quiet > KEEPALIVE_S:
-            quiet = time.monotonic()
-            yield b": still here\n\n"
+    loop, ready = asyncio.get_running_loop(), asyncio.Event()
+
+    def wake() -> None:  # the producer's thread: hand the wake to this stream's loop
+        with contextlib.suppress(RuntimeError):  # the loop closed: nobody to wake
+            loop.call_soon_threadsafe(ready.set)
+
+    unwatch = feed.watch(wake)
+    feed.joined()
+    try:
+        yield b"retry: 1000\n" + _event(feed.status)
+        quiet = time.monotonic()
+        while True:
+            ready.clear()  # before looking: a message after this wakes the wait below
+            ended = feed.closed or closing.is_set()  # before reading: nothing after it is lost
+            seen, messages, missed = feed.after(seen, 0.0)
+            if missed:
+                yield _event({"kind": "missed", "count": missed})
+            for message in messages:
+                yield _event(message)
+            if messages or missed:
+                quiet = time.monotonic()
+            elif time.monotonic() - quiet > KEEPALIVE_S:
+                quiet = time.monotonic()
+                yield b": still here\n\n"
+            if ended or await request.is_disconnected():
+                return  # every message before the close was sent
+            if not (messages or missed):
+                with contextlib.suppress(TimeoutError):
+                    await asyncio.wait_for(ready.wait(), _WAIT_S)
+    finally:
+        unwatch()
+        feed.left()
 
 
 def pointing_stream(feed: PointingFeed, closing: threading.Event) -> Any:
@@ -79,6 +100,11 @@ def pointing_stream(feed: PointingFeed, closing: threading.Event) -> Any:
         )
 
     return serve
+
+
+def pointing_routes(feed: PointingFeed, closing: threading.Event) -> list[Route]:
+    """``GET /api/pointing`` for ``feed`` and ``GET /api/clock``, as a page's app serves them."""
+    return [Route("/api/pointing", pointing_stream(feed, closing)), Route("/api/clock", clock)]
 
 
 async def clock(_request: Request) -> Response:

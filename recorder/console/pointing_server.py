@@ -32,7 +32,7 @@ from starlette.routing import Route
 from typing_extensions import override
 
 from recorder.console.guard import ConsoleGuard
-from recorder.console.pointing_route import clock, pointing_stream
+from recorder.console.pointing_route import pointing_routes
 from recorder.console.transport import ACCEPT_BURST, MAX_HEADER_BYTES, GuardedH11Protocol
 from recorder.live.pointing import FloorView, LivePointing, PointingSettings
 from recorder.live.pointing_feed import PointingFeed
@@ -43,7 +43,7 @@ from twopose.methods.specs import Method, spec_of
 from twopose.values.units import Units, unit_factor
 
 if TYPE_CHECKING:
-    from recorder.sources.pair import PairSource
+    from recorder.sources.pair import CameraStream, PairSource
     from twopose.pair.calibration import PairCalibration
 
 __all__ = ["PointRequest", "about", "pointing_app", "run_pointing", "serve_pointing"]
@@ -70,31 +70,40 @@ class PointRequest:
     port: int = 0
 
 
-def about(method: Method, pair: PairCalibration, source: PairSource) -> dict[str, Any]:
-    """The feed's status while the pair runs: what the panel says it shows, and how."""
+def about(
+    method: Method, pair: PairCalibration, cameras: tuple[CameraStream, CameraStream] | None = None
+) -> dict[str, Any]:
+    """The feed's status while the pair runs: what the panel says it shows, and how
+    (``cameras``: what each delivers, where known)."""
     spec = spec_of(method)
-    one, two = source.cameras
     units = pair.units
-    return {
+    said: dict[str, Any] = {
         "about": f"{spec.label}, seen on {FloorView.of(pair).name} from above ({units.value})",
         "units": units.value,
         "axes": ["across", "ahead"],
         "span": _SPAN_IN * unit_factor(Units.IN, units),
         "method": spec.method.value,
-        "cameras": [one.text(), two.text()],
-        "fps": min(one.info.fps, two.info.fps),
     }
+    if cameras is not None:
+        said["cameras"] = [c.text() for c in cameras]
+        said["fps"] = min(c.info.fps for c in cameras)
+    return said
 
 
 def run_pointing(
-    source: PairSource, live: LivePointing, feed: PointingFeed, stop: threading.Event
-) -> None:
+    source: PairSource, live: LivePointing, feed: PointingFeed, stop: threading.Event,
+    *, opened: bool = False,
+) -> None:  # fmt: skip
     """Frames in, estimates published, until the streams end, a camera fails or ``stop``;
-    the feed is told why the pair stopped (never a traceback)."""
+    the feed is told why the pair stopped (never a traceback). ``opened``: the source was
+    opened (and the estimate warmed up) by the caller; it is closed here either way."""
     why = "the pair stopped"
     try:
-        with source:
-            feed.start(about(live.method, live.pair, source))
+        if not opened:
+            live.warm_up()
+            source.open()
+        with contextlib.closing(source):
+            feed.start(about(live.method, live.pair, source.cameras))
             for frame in source.frames():
                 if stop.is_set():
                     why = "stopped"
@@ -141,8 +150,7 @@ def pointing_app(
 
     routes = [
         Route("/", page),
-        Route("/api/pointing", pointing_stream(feed, closing)),
-        Route("/api/clock", clock),
+        *pointing_routes(feed, closing),
         *(Route(f"/{name}", asset(name, media)) for name, media in _PAGE_FILES.items()),
         *(Route(f"/fonts/{f.file}", font(f.file)) for f in webfonts.FONTS),
     ]
@@ -185,6 +193,13 @@ def serve_pointing(request: PointRequest) -> None:
     import socket
 
     source, live = _opened(request)
+    live.warm_up()
+    try:  # a camera that is not there is said here, before the page is served
+        source.open()
+    except TwoposeError as err:
+        raise SourceError(f"--source {request.source}: {err}") from err
+    for n, camera in enumerate(source.cameras, start=1):
+        print(f"camera {n}: {camera.text()}", flush=True)
     host = request.host
     sock = socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET)
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
@@ -192,6 +207,7 @@ def serve_pointing(request: PointRequest) -> None:
         sock.bind((host, request.port))
         sock.listen(ACCEPT_BURST)
     except OSError as err:
+        source.close()
         raise TwoposeError(
             f"cannot listen on {host}:{request.port} ({err.strerror}); pick --port"
         ) from err
@@ -200,7 +216,10 @@ def serve_pointing(request: PointRequest) -> None:
         f"twopose pointing: http://{shown}:{sock.getsockname()[1]}/  (Ctrl-C to stop)", flush=True
     )
     feed, closing = PointingFeed(), threading.Event()
-    loop = threading.Thread(target=run_pointing, args=(source, live, feed, closing), daemon=True)
+    loop = threading.Thread(
+        target=run_pointing, args=(source, live, feed, closing), kwargs={"opened": True},
+        daemon=True,
+    )  # fmt: skip
     config = uvicorn.Config(
         pointing_app(feed, closing, host=host), log_level="warning", lifespan="off",
         timeout_graceful_shutdown=2, http=GuardedH11Protocol,

@@ -32,7 +32,7 @@ from recorder.console.guard import (
     text_refusal,
 )
 from recorder.console.loopback import is_loopback_host
-from recorder.console.pointing_route import clock, pointing_stream
+from recorder.console.pointing_route import pointing_routes
 from recorder.console.state import DECISIONS, ConsoleSession
 from recorder.console.stream_driver import STREAM_LIMITS, start_pair_recording, stream_answer
 from recorder.console.transport import ACCEPT_BURST, MAX_HEADER_BYTES, GuardedH11Protocol
@@ -151,6 +151,7 @@ class _Console:
         self.session, self.options, self.ready = session, options, ready
         self.threads: list[threading.Thread] = []
         self.stopping = threading.Event()  # the server is stopping (Ctrl-C, SIGTERM)
+        self.pointing = PointingFeed()  # the live pointing panel's (a pair's recording's)
 
     def start(self, setup: Setup) -> None:
         """Record ``setup`` (checked: :func:`checked_setup`); the live view is opened here,
@@ -265,7 +266,8 @@ class _Console:
             self.start(self.ready)
         elif (pair := self.options.pair) and (setup := self.options.pair_setup):
             # A pair's stream trials, the setup asked at the terminal.
-            self.threads.append(start_pair_recording(self.session, self.options, pair, setup))
+            run = start_pair_recording(self.session, self.options, pair, setup, self.pointing)
+            self.threads.append(run)
         yield
         self.stopping.set()
         # The server stops (Ctrl-C, SIGTERM, SIGHUP): the session is interrupted, its file
@@ -289,11 +291,10 @@ def console_app(
     """The ASGI app of one recording session, behind its guard (``host``: the address it
     listens on, ``--host``; ``token``: the session's, random by default; see
     :mod:`recorder.console.guard`). ``ready``: a setup the command line gave whole
-    (:func:`checked_setup`), recorded at once. ``pointing``: the live pointing panel's
-    feed (:mod:`recorder.live.pointing_feed`; a two-camera recording publishes to it;
-    None: a feed that says no pair is running)."""
+    (:func:`checked_setup`), recorded at once. ``pointing``: the pointing panel's feed
+    (:mod:`recorder.live.pointing_feed`; None: the console's own, a pair's recording's)."""
     c = _Console(session, options, ready)
-    feed = pointing if pointing is not None else PointingFeed()
+    c.pointing = pointing or c.pointing
     routes = [
         Route("/", c.page),
         Route("/api/state", c.state),
@@ -303,8 +304,7 @@ def console_app(
         Route("/api/note", c.note, methods=["POST"]),
         Route("/api/stream", c.stream_action, methods=["POST"]),
         Route("/stream.mjpg", c.stream),
-        Route("/api/pointing", pointing_stream(feed, session.closing)),
-        Route("/api/clock", clock),
+        *pointing_routes(c.pointing, session.closing),
         *(Route(f"/{name}", _asset(name, media)) for name, media in PAGE_FILES.items()),
         *(Route(f"/fonts/{font.file}", _font(font.file)) for font in webfonts.FONTS),
     ]

@@ -36,6 +36,8 @@ from twopose.values.bounds import shown
 
 if TYPE_CHECKING:
     from recorder.console.state import ConsoleSession
+    from recorder.live.pointing_feed import PointingFeed
+    from recorder.live.pointing_thread import PointingThread
     from recorder.procedure.stream_terminal import PairSetup
     from recorder.sources.pair import CameraStream, PairSource, TimedFrame
     from twopose.format.entries import Touch
@@ -84,8 +86,9 @@ def begin_pair(session: ConsoleSession, setup: PairSetup, pair: PairCalibration)
 class WebStreamDriver(StreamDriver):
     """The page decides (the module docstring)."""
 
-    def __init__(self, session: ConsoleSession) -> None:
+    def __init__(self, session: ConsoleSession, pointing: PointingThread | None = None) -> None:
         self.session = session
+        self.pointing = pointing  # the live pointing: told the clock offset measured
 
     def _stream(self, **fields: Any) -> None:
         with self.session.lock:
@@ -162,6 +165,8 @@ class WebStreamDriver(StreamDriver):
             f"{offset.offset_ns / 1e6:+.2f} ± {offset.sigma_ns / 1e6:.2f} ms ({offset.method})"
         )  # fmt: skip
         self._stream(offset=words, offset_said=said)
+        if offset is not None and self.pointing is not None:
+            self.pointing.use_offset(offset)
 
     @override
     def finish(self, summary: StreamSummary) -> None:
@@ -169,10 +174,12 @@ class WebStreamDriver(StreamDriver):
 
 
 class _Preview(StreamSink):
-    """Camera 1's frames to the page's live image, at :data:`PREVIEW_FPS` at most."""
+    """Camera 1's frames to the page's live image, at :data:`PREVIEW_FPS` at most, and
+    every frame to the live pointing panel (``pointing``, on its own thread)."""
 
-    def __init__(self, session: ConsoleSession) -> None:
+    def __init__(self, session: ConsoleSession, pointing: PointingThread | None = None) -> None:
         self.session = session
+        self.pointing = pointing
         self._last_ns = 0
         self._counts = [0, 0]
 
@@ -180,6 +187,8 @@ class _Preview(StreamSink):
     def pair_frame(self, frame: TimedFrame) -> None:
         import cv2
 
+        if self.pointing is not None:
+            self.pointing.give(frame)
         self._counts[frame.camera - 1] += 1
         if frame.camera != 1 or frame.t_grab_ns - self._last_ns < 1e9 / PREVIEW_FPS:
             return
@@ -194,17 +203,22 @@ class _Preview(StreamSink):
 
 
 def start_pair_recording(
-    session: ConsoleSession, options: _Recording, pair: PairCalibration, setup: PairSetup
+    session: ConsoleSession,
+    options: _Recording,
+    pair: PairCalibration,
+    setup: PairSetup,
+    pointing: PointingFeed | None = None,
 ) -> threading.Thread:
     """The pair's source opened and its recording thread started (``options``: the
-    console's source, fps and notes)."""
+    console's source, fps and notes; ``pointing``: the live pointing panel's feed, which
+    the recording's frames feed: :mod:`recorder.live.pointing_thread`)."""
     from recorder.procedure.stream_terminal import open_pair_source
 
     source = open_pair_source(options.source, pair, setup, fps=options.fps)
     begin_pair(session, setup, pair)
     thread = threading.Thread(
         target=record_pair_thread,
-        args=(session, setup, pair, source, options.notes),
+        args=(session, setup, pair, source, options.notes, pointing),
         name="recording",
         daemon=True,
     )
@@ -255,17 +269,20 @@ def record_pair_thread(
     pair: PairCalibration,
     source: PairSource,
     notes: str = "",
+    pointing: PointingFeed | None = None,
 ) -> None:
-    """The console's recording thread for a pair: stream trials as the page says; the
-    summary printed once when it ends."""
+    """The console's recording thread for a pair: stream trials as the page says (and
+    each frame to the live pointing panel's ``pointing`` feed); the summary printed once
+    when it ends."""
     from recorder.procedure.stream import record_stream
     from recorder.procedure.stream_terminal import pair_cameras
     from twopose.errors import TwoposeError
 
+    live = _pointing(setup, pair, pointing)
     try:
         summary = record_stream(
             session.out, setup.info(notes), pair_cameras(pair), pair, source,
-            WebStreamDriver(session), ground=setup.ground(), sink=_Preview(session),
+            WebStreamDriver(session, live), ground=setup.ground(), sink=_Preview(session, live),
         )  # fmt: skip
         stopped = session.closing.is_set() or stops.requested()
         hint = "" if stopped else "\n(the console shows it; Ctrl-C stops the console)"
@@ -274,3 +291,37 @@ def record_pair_thread(
         session.update(phase="failed", waiting="", message=str(err))
     except Exception as err:  # the page must say it, not a thread's traceback
         session.update(phase="failed", waiting="", message=f"{type(err).__name__}: {err}")
+    finally:
+        if live is not None:
+            live.close("the recording ended")
+
+
+def _pointing(
+    setup: PairSetup, pair: PairCalibration, feed: PointingFeed | None
+) -> PointingThread | None:
+    """The live pointing beside the recording (None: no feed, or the method cannot point:
+    the panel then says why)."""
+    import dataclasses
+
+    import numpy as np
+
+    from recorder.console.pointing_server import about
+    from recorder.live.pointing import LivePointing
+    from recorder.live.pointing_thread import PointingThread
+    from twopose.errors import TwoposeError
+    from twopose.pair.calibration import FloorPlane
+
+    if feed is None:
+        return None
+    typed = setup.ground()
+    if pair.floor is None and typed is not None and typed.offset > 0:
+        # no floor in the pair file: the typed plane (camera 1's frame is the grid's), exact
+        floor = FloorPlane(normal=np.asarray(typed.normal_grid, dtype=np.float64),
+                           height=typed.offset, cov=np.zeros((4, 4)))  # fmt: skip
+        pair = dataclasses.replace(pair, floor=floor)
+    try:
+        live = LivePointing(setup.method, pair)
+    except TwoposeError as err:
+        feed.stop(f"no pointing: {err}")
+        return None
+    return PointingThread(live, feed, about(setup.method, pair))

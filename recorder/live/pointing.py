@@ -242,6 +242,18 @@ class LivePointing:
         self._ended = False
         self.seq = 0
 
+    def warm_up(self) -> None:
+        """Run detection and the estimate once on made-up frames (not kept), so that the
+        cameras' first pairs are not late by the first calls' costs (a few hundred ms)."""
+        i1 = self.pair.intrinsics1
+        detect(np.full((i1.height, i1.width, 3), 128, np.uint8), self.target)
+        c = [i1.cx, i1.cy]
+        one = CameraTrack.of(
+            [0, 1, 2], [c, c, c], [90.0] * 3 if self.spec.uses_image_lines else None
+        )
+        two = CameraTrack.of([1], [c], [90.0] if self.spec.uses_image_lines else None)
+        estimate_stream(self.method, self.pair, one, two, self.settings.offset, self.stream)
+
     def see(self, frame: TimedFrame) -> _Seen:
         """Detect the method's target in one frame (once); camera 1's is kept."""
         start = time.thread_time_ns()

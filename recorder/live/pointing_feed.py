@@ -6,7 +6,8 @@ stream (``GET /api/pointing``, :mod:`recorder.console.pointing_route`). The prod
 when a pair starts running (:meth:`PointingFeed.start`: the method, the units, the plane the
 point is seen on, the cameras), publishes each pair's estimate
 (:meth:`PointingFeed.publish`) and says why it stopped (:meth:`PointingFeed.stop`); every
-reader waits for the messages after the last it saw (:meth:`PointingFeed.after`). Each
+reader waits for the messages after the last it saw (:meth:`PointingFeed.after`), or is
+woken as each comes (:meth:`PointingFeed.watch`: a push stream's event loop). Each
 message has a number; the newest :data:`CAPACITY` are kept, so a reader that falls behind
 (a page in a background tab) skips to them and is told how many it missed, never slows the
 producer. A feed nobody started says that no pair is running.
@@ -17,6 +18,7 @@ from __future__ import annotations
 import threading
 import time
 from collections import deque
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
@@ -27,7 +29,7 @@ __all__ = ["CAPACITY", "IDLE_WORDS", "PointingFeed", "estimate_json"]
 #: Messages kept for readers (at 30 pairs a second, four seconds).
 CAPACITY = 120
 #: What the panel says when no pair is running.
-IDLE_WORDS = "no pair running: pointing needs two cameras (--source pair:A,B with --pair PAIR.toml)"
+IDLE_WORDS = "no pair running (it needs two cameras)"
 
 
 def estimate_json(e: PointingEstimate) -> dict[str, Any]:
@@ -59,12 +61,44 @@ class PointingFeed:
         self._count = 0
         self._status: dict[str, Any] = {"kind": "status", "running": False, "words": IDLE_WORDS}
         self.closed = False
+        #: How many pages read the feed now (their push streams open).
+        self.readers = 0
+        self._watchers: list[Callable[[], None]] = []
+
+    def joined(self) -> None:
+        """A page opened the push stream."""
+        with self._cond:
+            self.readers += 1
+
+    def left(self) -> None:
+        """A page's push stream closed."""
+        with self._cond:
+            self.readers -= 1
+
+    def watch(self, wake: Callable[[], None]) -> Callable[[], None]:
+        """Call ``wake`` (from the producer's thread: it must not wait) after each message
+        and at close; returns what stops it."""
+        with self._cond:
+            self._watchers.append(wake)
+
+        def unwatch() -> None:
+            with self._cond:
+                self._watchers.remove(wake)
+
+        return unwatch
+
+    def _wake(self) -> None:
+        with self._cond:
+            watchers = list(self._watchers)
+        for wake in watchers:
+            wake()
 
     def _put(self, message: dict[str, Any]) -> None:
         with self._cond:
             self._count += 1
             self._messages.append((self._count, message))
             self._cond.notify_all()
+        self._wake()
 
     def start(self, about: dict[str, Any]) -> None:
         """A pair is running: ``about`` says the method, units, plane, cameras (words)."""
@@ -88,6 +122,7 @@ class PointingFeed:
         with self._cond:
             self.closed = True
             self._cond.notify_all()
+        self._wake()
 
     @property
     def status(self) -> dict[str, Any]:

@@ -316,7 +316,7 @@ _BUILT_IN: tuple[SourceKind, ...] = (
         name="pair",
         syntax="pair:A,B",
         help="two cameras at once, any two of the above (pair:camera:0,camera:1), each "
-        "frame with its capture time; for calibrate-pair and new --pair",
+        "frame with its capture time; for calibrate-pair, new --pair and point",
         opener=_open_pair,
         needs_arg=True,
         calibrates=False,

@@ -4,16 +4,19 @@ a near-singular pair is said with its reason, never given a point."""
 from __future__ import annotations
 
 import dataclasses
+import time
+from typing import Any
 
 import numpy as np
 import pytest
 
 from recorder.live.pointing import FloorView, LivePointing, PointingEstimate
 from recorder.simulate.pointing_clip import PointingClip
-from recorder.sources.pair import TimedFrame
+from recorder.sources.pair import FramePair, TimedFrame
 from twopose.detect.detection import detect
 from twopose.methods.specs import Method, spec_of
 from twopose.pair.clock import ClockOffset
+from twopose.pair.live_pairing import LivePairing
 from twopose.pair.stream import CameraTrack, StreamSettings, estimate_stream
 
 FPS = 30.0
@@ -122,3 +125,91 @@ def test_a_near_singular_pair_is_said_with_its_reason_and_has_no_point():
         assert not e.track
         assert e.words.startswith("near-singular: ray parallax")
         assert "deg < 1" in e.words
+
+
+def test_pairs_made_elsewhere_give_the_same_estimates_a_frame_later(ground_stream):
+    """A consumer that pairs the frames itself (``PairSource.pairs``) gives the pairs;
+    camera 1's next frame then comes with the next pair: the same estimates, one pair late."""
+    clip, frames = ground_stream
+    by_frame = _live(Method.GROUND, clip, frames)
+    pairing: LivePairing[TimedFrame] = LivePairing(slop_ns=round(0.5e9 / FPS))
+    live = LivePointing(Method.GROUND, clip.pair)
+    made, late = [], []
+    for frame in frames:
+        for p in pairing.add(frame.camera, frame.t_capture_ns, frame):
+            got = live.add_pair(FramePair(p.first, p.second, p.skew_ns))
+            late.append(len(got) == 0)
+            made += got
+    for camera in (1, 2):
+        for p in pairing.end(camera):
+            made += live.add_pair(FramePair(p.first, p.second, p.skew_ns))
+    made += live.end()
+    assert [(e.status, e.point, e.region) for e in made] == [
+        (e.status, e.point, e.region) for e in by_frame
+    ]
+    assert any(late)
+
+
+def test_point_refuses_in_words_what_it_cannot_show(tmp_path):
+    from typer.testing import CliRunner
+
+    from recorder.cli.app import app
+    from twopose.pair.pair_file import write_pair_file
+
+    no_floor = tmp_path / "no-floor.toml"
+    write_pair_file(no_floor, dataclasses.replace(PointingClip(Method.POINT).pair, floor=None))
+    runner = CliRunner()
+    video = "pair:video:a.avi,video:b.avi"
+    cases = {
+        ("--pair", str(no_floor), "--source", video): "needs the floor",
+        ("--pair", str(no_floor), "--source", "synthetic", "--method", "point"): "two cameras",
+        ("--pair", str(no_floor), "--source", video, "--method", "board"): "measures no target",
+        ("--pair", str(no_floor), "--source", video, "--method", "point"): "a.avi does not exist",
+    }
+    for args, said in cases.items():
+        result = runner.invoke(app, ["point", *args])
+        assert result.exit_code != 0, args
+        assert said in result.output, (args, result.output)
+        assert "Traceback" not in result.output
+
+
+def test_a_recording_feeds_the_panel_from_its_own_thread(ground_stream):
+    """Frames handed over as a recording writes them: the estimates published in order
+    (the same as the pointing's own), the panel told when frames stop and why it ended."""
+    from recorder.console.pointing_server import about
+    from recorder.live.pointing_feed import PointingFeed
+    from recorder.live.pointing_thread import IDLE_S, IDLE_WORDS, PointingThread
+
+    clip, frames = ground_stream
+    feed = PointingFeed()
+    worker = PointingThread(
+        LivePointing(Method.GROUND, clip.pair), feed, about(Method.GROUND, clip.pair)
+    )
+    for frame in frames:
+        worker.give(frame)
+    seen, messages = 0, list[dict[str, Any]]()
+    while not any(m.get("words") == IDLE_WORDS for m in messages):
+        seen, new, missed = feed.after(seen, 5 * IDLE_S)
+        assert new, "the panel was never told that the frames stopped"
+        assert missed == 0
+        messages += new
+    measured = ClockOffset(offset_ns=-2e6, sigma_ns=1e5, method="ray_gap", n=40)
+    worker.use_offset(measured)  # the recording measured it: the next frames use it
+    worker.give(frames[0])
+    for _ in range(100):
+        if worker.live.settings.offset is measured:
+            break
+        time.sleep(0.01)
+    assert worker.live.settings.offset is measured
+    worker.close("the recording ended")
+    assert messages[0]["kind"] == "status"
+    assert messages[0]["running"] is True
+    assert messages[0]["about"] == "ground (method 2), seen on the floor from above (in)"
+    pairs = [m for m in messages if m["kind"] == "pair"]
+    mine = _live(Method.GROUND, clip, frames)[: len(pairs)]
+    assert [(m["seq"], m["point"]) for m in pairs] == [
+        (e.seq, None if e.point is None else list(e.point)) for e in mine
+    ]
+    assert len(pairs) >= len(mine) - 1  # the last waits for camera 1's next frame
+    assert feed.status == {**messages[0], "running": False, "words": "the recording ended"}
+    assert worker.dropped == 0

@@ -21,12 +21,13 @@ const POINTING = {
 // and per pair [seq, capture ms, sent ms (server), arrived ms (page), drawn ms (page)].
 window.twoposePointing = {clock: {offset_ms: null, rtt_ms: null}, log: [], missed: 0};
 const LOG_LIMIT = 200000;
-const CLOCK_EVERY_MS = 5000;
+const CLOCK_EVERY_MS = 2000;
 
-async function syncClock() {
-  // Five round trips; the shortest one's midpoint is the best estimate of the offset.
+async function syncClock(trips) {
+  // Round trips to the recorder's clock; the shortest one's midpoint (of all so far: both
+  // clocks are the machine's monotonic clock, so the offset holds) is the best estimate.
   const clock = window.twoposePointing.clock;
-  for (let k = 0; k < 5; k++) {
+  for (let k = 0; k < trips; k++) {
     const before = performance.now();
     let answer;
     try {
@@ -95,6 +96,12 @@ function renderPointing() {
   const s = POINTING.status;
   const pair = POINTING.last;
   const running = Boolean(s.running);
+  const badge = $("pointing-badge");
+  if (badge) {
+    show($("pointing"), running);
+    show(badge, !running);
+    setText(badge, running ? "" : "pointing: " + (s.words || "no pair running"));
+  }
   $("pointing").classList.toggle("pointing-live", running);
   show($("pointing-box"), running);
   setText($("pointing-aside"), running ? s.about || "" : "");
@@ -103,7 +110,8 @@ function renderPointing() {
   if (!running) {
     setText(words, s.words || "no pair running");
     words.classList.add("idle");
-    setText($("pointing-numbers"), "");
+    setText($("pointing-where"), "");
+    setText($("pointing-timing"), "");
     return;
   }
   if (!pair) {
@@ -117,36 +125,38 @@ function renderPointing() {
     words.classList.add(pair.status === "near_singular" ? "singular" : "lost");
   }
   drawFloor($("pointing-canvas"), pair, s);
-  setText($("pointing-numbers"), pointingNumbers(pair, s));
+  const [where, timing] = pointingNumbers(pair, s);
+  setText($("pointing-where"), where);
+  setText($("pointing-timing"), timing);
 }
 
 function pointingNumbers(pair, s) {
-  if (!pair) return "";
+  // Two lines: where the point is (and its region), then how fast the pairs come.
+  if (!pair) return ["", ""];
   const now = performance.now();
   while (POINTING.rate.length && POINTING.rate[0] < now - 1000) POINTING.rate.shift();
-  const parts = [];
+  let where = "no point";
   if (pair.point) {
-    parts.push(`${s.axes[0]} ${fixed(pair.point[0], 2)}, ${s.axes[1]} ${fixed(pair.point[1], 2)} ${s.units}`);
-    if (pair.region) parts.push(`95%: ±${fixed(pair.region.major, 2)} × ${fixed(pair.region.minor, 2)} ${s.units}`);
+    where = `${s.axes[0]} ${fixed(pair.point[0], 2)}, ${s.axes[1]} ${fixed(pair.point[1], 2)} ${s.units}`;
+    if (pair.region) where += ` · 95%: ±${fixed(pair.region.major, 2)} × ${fixed(pair.region.minor, 2)} ${s.units}`;
   }
+  const timing = [];
   const late = latencyMs(pair, now);
   const rtt = window.twoposePointing.clock.rtt_ms;
-  if (late !== null) parts.push(`capture to page ${fixed(late, 0)} ms (±${fixed(rtt / 2, 1)})`);
-  parts.push(`${POINTING.rate.length} pairs/s`);
-  parts.push(`pair ${pair.seq + 1}`);
-  return parts.join(" · ");
+  if (late !== null) timing.push(`capture to page ${fixed(late, 0)} ms (±${fixed(rtt / 2, 0)})`);
+  timing.push(`${POINTING.rate.length} pairs/s`);
+  timing.push(`pair ${pair.seq + 1}`);
+  return [where, timing.join(" · ")];
 }
 
 function drawFloor(canvas, pair, s) {
-  const box = canvas.parentElement.getBoundingClientRect();
+  // The canvas takes its box's size (style.css); its pixels follow it.
   const ratio = window.devicePixelRatio || 1;
-  const w = Math.max(120, Math.floor(box.width));
-  const h = Math.max(120, Math.floor(box.height));
-  if (canvas.width !== w * ratio || canvas.height !== h * ratio) {
-    canvas.width = w * ratio;
-    canvas.height = h * ratio;
-    canvas.style.width = w + "px";
-    canvas.style.height = h + "px";
+  const w = Math.max(1, canvas.clientWidth);
+  const h = Math.max(1, canvas.clientHeight);
+  if (canvas.width !== Math.round(w * ratio) || canvas.height !== Math.round(h * ratio)) {
+    canvas.width = Math.round(w * ratio);
+    canvas.height = Math.round(h * ratio);
   }
   const g = canvas.getContext("2d");
   g.setTransform(ratio, 0, 0, ratio, 0, 0);
@@ -248,11 +258,48 @@ function drawGrid(g, w, h, X, Y, scale, cx, cy) {
   }
 }
 
+function buildPanel(panel) {
+  // The panel's parts, the same on every page that has its place (#pointing).
+  const heading = el("h2", "Pointing, live ");
+  heading.append(el("span", "", "aside"));
+  heading.lastChild.id = "pointing-aside";
+  const words = el("div", "no pair running", "pointing-words idle");
+  words.title = "pointing needs two cameras: --source pair:A,B with --pair PAIR.toml";
+  Object.assign(words, {id: "pointing-conditioning", role: "status"});
+  words.dataset.testid = "pointing-conditioning";
+  words.setAttribute("aria-live", "polite");
+  const box = el("div", null, "hidden");
+  box.id = "pointing-box";
+  const canvas = el("canvas");
+  canvas.id = "pointing-canvas";
+  canvas.dataset.testid = "pointing-canvas";
+  box.append(canvas);
+  const numbers = el("div", null, "small");
+  numbers.id = "pointing-numbers";
+  numbers.dataset.testid = "pointing-numbers";
+  for (const part of ["pointing-where", "pointing-timing"]) {
+    const span = el("span");
+    span.id = part;
+    numbers.append(span);
+  }
+  panel.append(heading, words, box, numbers);
+  // On the recording console, no pair running is said in the header, in one line (the
+  // panel's room is the top view's and the map's then).
+  if ($("topview") && $("phase")) {
+    const badge = el("span", null, "hidden");
+    badge.id = "pointing-badge";
+    badge.dataset.testid = "pointing-badge";
+    $("phase").before(badge);
+  }
+}
+
 function startPointing() {
-  if (!$("pointing")) return;
+  const panel = $("pointing");
+  if (!panel) return;
+  buildPanel(panel);
   renderPointing();
-  syncClock();
-  setInterval(syncClock, CLOCK_EVERY_MS);
+  syncClock(10);
+  setInterval(() => syncClock(3), CLOCK_EVERY_MS);
   const source = new EventSource("/api/pointing");
   source.onmessage = pointingMessage;
   source.onerror = () => {
