@@ -34,10 +34,10 @@ from twopose.guidance.first_pose import (
     minimax_pick,
     provisional_target,
 )
-from twopose.guidance.paper import CLUTTER, Field, Reach, field_in_view, half_planes
+from twopose.guidance.paper import CLUTTER, Reach, half_planes
 from twopose.guidance.prediction import predicted_regions, predicted_view, target_of, template_view
 from twopose.guidance.region_map import RegionMap, survey
-from twopose.guidance.search import search
+from twopose.guidance.search import Field, field_in_view, search
 from twopose.guidance.suggestion import Suggestion
 from twopose.methods.specs import spec_of
 from twopose.solve.estimate import EstimateOptions, PoseView
