@@ -164,7 +164,7 @@ def predicted_regions(
     """
     centres = np.asarray(centres, dtype=np.float64).reshape(-1, 3)
     targets = np.broadcast_to(np.asarray(target, dtype=np.float64), (len(centres), 2, 3))
-    lines = spec_of(trial.method).uses_image_lines
+    lines = trial.spec.uses_image_lines
     template = template_view(views)
     out = np.full(len(centres), np.nan)
     if not template.found.any() or not len(centres):
