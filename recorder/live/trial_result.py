@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from twopose.arrays import F64
-from twopose.methods.specs import Method, spec_of
+from twopose.methods.specs import Method
 from twopose.methods.truth import line_errors, reported
 from twopose.solve.estimate import EstimateOptions
 from twopose.solve.session import SessionEstimate, SessionTrials, estimate_session
@@ -207,7 +207,7 @@ def results_of(estimate: SessionEstimate) -> list[TrialResult]:
     est, rep = estimate.estimates, reported(estimate)
     tests = estimate.tests or TrialTests.none(len(trials))
     spread = uncertainty_columns(rep.error, rep.cov)
-    line = spec_of(trials.method).estimates_line
+    line = trials.spec.estimates_line
     angle95, angle_err = _line_angles(estimate) if line else (None, None)
     with np.errstate(invalid="ignore"):  # a region's size: the covariance's square root
         widened = np.sqrt(est.widening)
