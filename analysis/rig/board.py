@@ -26,6 +26,7 @@ from twopose.detect.checkerboard import find_board
 from twopose.errors import InputValueError
 from twopose.format.reader import SessionReader
 from twopose.format.trials import PoseCapture, iter_trials
+from twopose.methods.specs import spec_of
 from twopose.rig.board import FITTED, BoardRigFit, board_order, fit_board_rig
 from twopose.rig.constants import RIG_PARAMETERS
 from twopose.values.units import Units
@@ -82,7 +83,7 @@ class BoardCalibration:
 def is_board_session(path: str | Path) -> bool:
     """Whether ``path`` is a board session (it calibrates the rig; it reconstructs nothing)."""
     with SessionReader(path) as reader:
-        return not reader.info.spec.measures
+        return not spec_of(reader.info.method).measures
 
 
 def read_board_session(path: str | Path) -> BoardCaptures:

@@ -183,7 +183,7 @@ class _Aims:
 
 def _aim(spec: MethodSpec) -> _Aim:
     """What ``spec``'s sweeps aim at, from its geometry; ValueError for one not swept."""
-    aim = None if spec.geometry is None else spec.geometry_cases(_Aims())
+    aim = None if spec.geometry is None else spec.geometry.cases(_Aims(), spec.plane)
     if aim is None:
         raise ValueError(f"{spec.label} has no sensitivity sweep (its error is not a point's)")
     return aim

@@ -541,7 +541,7 @@ _INHERITED_WORDS: dict[str, Callable[[Any, Units], str]] = {
 def with_guidance(info: SessionInfo, guidance: Guidance | None) -> SessionInfo:
     """The session entry recording the guidance a recording runs with (format 1.5; a
     board session has none)."""
-    if guidance is None or not info.spec.measures:
+    if guidance is None or not spec_of(info.method).measures:
         return info
     return replace(info, guidance=GuidanceRecord.of(
         target95=guidance.target95, max_poses=guidance.max_poses, min_gain=guidance.min_gain,

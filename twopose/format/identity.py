@@ -53,6 +53,7 @@ from twopose.errors import TwoposeError
 from twopose.format.entries import PoseEntry, SessionInfo, decode_entry
 from twopose.format.reader import SessionReader, max_chunk_bytes, recover_command
 from twopose.format.writer import METADATA_NAME
+from twopose.methods.specs import spec_of
 
 __all__ = [
     "Part",
@@ -154,7 +155,7 @@ class SessionFile:
     @property
     def is_board(self) -> bool:
         """Whether it is a readable board session (for ``rig``)."""
-        return self.readable and self.info is not None and not self.info.spec.measures
+        return self.readable and self.info is not None and not spec_of(self.info.method).measures
 
     @property
     def is_empty(self) -> bool:

@@ -15,7 +15,7 @@ from twopose.errors import InputValueError
 from twopose.format.declared import CAMERA_SCHEMA, TypedEntry, entry, json_field, vec3_schema
 from twopose.format.guidance_record import GuidanceRecord, guidance_schema
 from twopose.format.stream_entries import CLOCK_SOURCES
-from twopose.methods.specs import METHOD_SPECS, Method, MethodSpec, spec_of
+from twopose.methods.specs import METHOD_SPECS, Method, spec_of
 from twopose.methods.targets import BoardPlacement
 from twopose.values.checks import camera_id
 from twopose.values.units import UNITS, Units, unit_spec
@@ -156,11 +156,6 @@ class SessionInfo(TypedEntry):
          "description": "1.6: per camera id, where its frames' capture times come from"},
         required=False, default=None, compare=False,
     )  # fmt: skip
-
-    @property
-    def spec(self) -> MethodSpec:
-        """The session's method's spec: what a reader of the session asks of its method."""
-        return spec_of(self.method)
 
     @property
     def is_continuation(self) -> bool:

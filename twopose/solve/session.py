@@ -266,10 +266,11 @@ def estimate_session(
         Every estimator's estimate per trial, its status and margins, and its propagated
         covariance.
     """
+    spec = trials.spec  # the method's spec, read once for the whole estimate
     measurements, complete, detected = measure(trials.views, options)
     solvable = np.flatnonzero(detected)
     if not solvable.size:
-        est = _unsolved(len(trials), trials.spec, complete)
+        est = _unsolved(len(trials), spec, complete)
         return _session_estimate(trials, measurements, complete, detected, est, options)
     rows_m = [measurements[i] for i in solvable]
     rows_v = [trials.views[i] for i in solvable]
@@ -284,7 +285,7 @@ def estimate_session(
         pooled_scatter([s for row in scatters for s in row]),
         batch,
         median=options.combine == "median",
-        floor=trials.spec.detector_floor,
+        floor=spec.detector_floor,
         t_sigma=placing_sigma(trials, options),
     )
     context = _Propagation(
