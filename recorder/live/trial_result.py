@@ -13,9 +13,7 @@ the analysis pools the whole session.
 
 from __future__ import annotations
 
-import dataclasses
 import math
-from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -30,7 +28,7 @@ from twopose.uncertainty.noise import VarianceFactor, noise_words
 from twopose.uncertainty.propagate import semiaxis95, uncertainty_columns
 from twopose.values.units import Units
 
-__all__ = ["STATUS_WORDS", "TrialResult", "guidance_options", "results_of", "trial_results"]
+__all__ = ["STATUS_WORDS", "TrialResult", "results_of", "trial_results"]
 
 #: A region widened by at least this (its size) has the noise said on the result's line.
 _SAID_WIDENING = 1.1
@@ -237,20 +235,6 @@ def results_of(estimate: SessionEstimate) -> list[TrialResult]:
         )
         for i, trial in enumerate(trials.trial_ids)
     ]
-
-
-def guidance_options(options: EstimateOptions, results: Iterable[TrialResult]) -> EstimateOptions:
-    """``options`` with the session's variance factor fixed, for guidance's predictions.
-
-    The factor its solved trials estimated (or an untested one before any): a predicted
-    view has no noise of its own, so guidance never estimates a factor from it, and its
-    predicted regions widen as the session's did. A factor the options give stands.
-    """
-    if options.noise.factor is not None or not options.noise.test_redundancy:
-        return options
-    factor = next((r.factor for r in results if r.factor is not None), None)
-    fixed = factor or VarianceFactor(sigma0_sq=math.nan, dof=0)
-    return dataclasses.replace(options, noise=dataclasses.replace(options.noise, factor=fixed))
 
 
 def _line_angles(estimate: SessionEstimate) -> tuple[F64, F64]:

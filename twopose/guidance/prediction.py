@@ -187,7 +187,7 @@ def predicted_regions(
     ]
     if options.noise.factor is None and options.noise.test_redundancy:
         # A predicted view has no noise of its own: the batch's candidates never estimate a
-        # variance factor (the recorder fixes the session's: trial_result.guidance_options).
+        # variance factor (the recorder fixes the session's: recorder.live.result.guidance_options).
         options = dataclasses.replace(
             options, noise=dataclasses.replace(options.noise, test_redundancy=False)
         )
