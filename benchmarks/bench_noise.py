@@ -152,7 +152,7 @@ def blundered(trials: SessionTrials, seed: int) -> tuple[SessionTrials, np.ndarr
 def run_pooled(sessions: list[SessionTrials], group: str) -> list[SessionEstimate]:
     """The run's two passes over one operator's sessions (see the module)."""
     first = [estimate_session(s, EstimateOptions(), line_fits=False) for s in sessions]
-    stats = [session_statistics(group, e.misclosure) for e in first]
+    stats = [session_statistics(group, e.misclosure, e.tests) for e in first]
     priors = operator_priors(stats, NoiseModel().anchor())
     return [estimate_session(s, EstimateOptions(noise=NoiseModel(prior=p)), line_fits=False)
             for s, p in zip(sessions, priors, strict=True)]  # fmt: skip

@@ -20,6 +20,7 @@ chi-square over its degrees of freedom (at least 1), with Fisher's F on them
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
@@ -29,6 +30,7 @@ from scipy import special
 
 from twopose.arrays import F64, Bools, Ints
 from twopose.uncertainty.misclosure import Misclosure, pose_tests
+from twopose.uncertainty.one_target import TargetTests
 from twopose.values.units import Units
 
 __all__ = ["AXES", "EXPLAINS_LEVEL", "TrialTests", "trial_tests"]
@@ -51,7 +53,10 @@ class TrialTests:
     the laptop stood (session units; NaN: no pose named); ``spread`` (T, 2): the least and the most
     that the poses explaining it would be off (their sizes differ with their leverage);
     ``explaining``: how many poses alone explain it; ``own``: the flagged
-    trial's own variance multiplier (1 else), ``own_dof`` the dof its F quantile takes.
+    trial's own variance multiplier (1 else), ``own_dof`` the dof its F quantile takes;
+    ``apart``: a trial flagged because its estimate disagrees with the session's other
+    trials of the same target (:mod:`twopose.uncertainty.one_target`), how far from theirs
+    (session units; NaN else).
     """
 
     flagged: Bools
@@ -63,6 +68,7 @@ class TrialTests:
     explaining: Ints
     own: F64
     own_dof: Ints
+    apart: F64 | None = None
 
     @classmethod
     def none(cls, T: int) -> TrialTests:
@@ -77,6 +83,28 @@ class TrialTests:
             explaining=np.zeros(T, dtype=np.int_),
             own=np.ones(T),
             own_dof=np.zeros(T, dtype=np.int_),
+            apart=np.full(T, np.nan),
+        )
+
+    def with_target(self, target: TargetTests) -> TrialTests:
+        """These tests with the trials whose estimate disagrees with the others' flagged too.
+
+        ``target``: :func:`twopose.uncertainty.one_target.target_tests`; a trial it flags is
+        widened by its own misfit there (its chi-square over its dimensions, F on them).
+        """
+        new = target.flagged & ~self.flagged
+        if not new.any():
+            return self
+        apart = np.full(len(new), np.nan) if self.apart is None else self.apart.copy()
+        apart[new] = target.apart[new]
+        own = np.where(new, np.maximum(target.chi2 / np.maximum(target.dof, 1), 1.0), self.own)
+        return dataclasses.replace(
+            self,
+            flagged=self.flagged | new,
+            p=np.where(new, target.p, self.p),
+            own=own,
+            own_dof=np.where(new, target.dof, self.own_dof),
+            apart=apart,
         )
 
     def words(self, i: int, units: Units, poses: int) -> str:
@@ -86,6 +114,13 @@ class TrialTests:
         """
         if not self.flagged[i]:
             return ""
+        if self.apart is not None and np.isfinite(self.apart[i]):
+            return (
+                "this trial's estimate lies about "
+                f"{_about(float(self.apart[i]))} {units} from the session's other trials of "
+                "the same target, where its poses cannot check each other: check what you "
+                "typed for its poses"
+            )
         low, high = self.spread[i]
         size = " looks off"
         if np.isfinite(low) and _about(low) == _about(high):
@@ -163,6 +198,7 @@ def trial_tests(m: Misclosure, flagged: Bools, p: F64, lam: float) -> TrialTests
         explaining=_put(out.explaining, rows, count),
         own=_put(out.own, rows, own),
         own_dof=_put(out.own_dof, rows, dof),
+        apart=out.apart,
     )
 
 
