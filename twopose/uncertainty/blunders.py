@@ -1,7 +1,7 @@
 """A trial whose poses disagree, and which of them, where its redundancy can tell (issue 54).
 
 A trial is **flagged** when its misclosure rejects both the typed model and the model the
-rest of its session (and the operator's prior) measures (Baarda's global test at 0.1%,
+rest of its session (and the operator's prior) measures (Baarda's global test at 0.5%,
 :func:`twopose.uncertainty.placing_variance.flag_trials`). Then each typed translation component of
 each pose is tested alone (Baarda's w-test, :func:`twopose.uncertainty.misclosure.pose_tests`): the
 share of the misclosure an error in that one component explains, and how large it would
@@ -16,6 +16,10 @@ when every explaining pose's best is the same one.
 A flagged trial is kept out of the pool; its own region is widened by its own misfit, its
 chi-square over its degrees of freedom (at least 1), with Fisher's F on them
 (:attr:`TrialTests.own`).
+
+A trial of a session whose trials measured one target is flagged too when its estimate
+lies off the others' (:mod:`twopose.uncertainty.one_target`): a typed value its own poses
+cannot check (:attr:`TrialTests.apart`, its own words).
 """
 
 from __future__ import annotations
@@ -101,7 +105,6 @@ class TrialTests:
         return dataclasses.replace(
             self,
             flagged=self.flagged | new,
-            p=np.where(new, target.p, self.p),
             own=own,
             own_dof=np.where(new, target.dof, self.own_dof),
             apart=apart,
