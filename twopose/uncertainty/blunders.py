@@ -148,8 +148,11 @@ class TrialTests:
 
 
 def _about(value: float) -> str:
-    """A length as the words round it: one significant digit (about 1 in, about 0.3 in)."""
-    return f"{abs(value):.1g}"
+    """A length as the words round it: one significant digit (about 0.3 in), whole from 10 on.
+
+    (About 16 in, never "2e+01".)
+    """
+    return f"{abs(value):.1g}" if abs(value) < 9.5 else f"{abs(value):.0f}"
 
 
 def trial_tests(m: Misclosure, flagged: Bools, p: F64, lam: float) -> TrialTests:
