@@ -268,10 +268,13 @@ def _placing_share(cov: F64, placing: F64, k: Ints) -> F64:
 def placing_sigma(trials: SessionTrials, options: EstimateOptions) -> float | None:
     """The placing sigma in the session's units, measured (:mod:`twopose.uncertainty.noise`).
 
-    None: each pose's typed resolution stands.
+    None: each pose's typed resolution stands (no board, or one that only bounded it: an
+    upper bound is no value to start from).
     """
     placing = options.noise.placing
-    return None if placing is None or not trials.units else placing.sigma(Units(trials.units))
+    if placing is None or placing.upper_bound or not trials.units:
+        return None
+    return placing.sigma(Units(trials.units))
 
 
 def placing_sigmas(
@@ -299,8 +302,8 @@ def placing_sigmas(
 def placing_source(options: EstimateOptions, factor: VarianceFactor | None = None) -> str:
     """Where the placing sigma came from, briefly.
 
-    ``typed``, ``measured by <board session> (<n> captures)``, ``an upper bound from <board
-    session> (<n> captures)`` or ``given``, then, when the
+    ``typed``, ``measured by <board session> (<n> captures)``, ``typed (not the upper bound
+    from <board session> (<n> captures))`` or ``given``, then, when the
     multiplier was estimated, ``times 1.6 (estimated from ...)``.
     """
     placing = options.noise.placing
@@ -310,9 +313,9 @@ def placing_source(options: EstimateOptions, factor: VarianceFactor | None = Non
         base = "given"
     else:
         captures = f" ({placing.captures} captures)" if placing.captures else ""
-        # not measured: the most it can be (twopose.rig.placing)
-        said = "an upper bound from" if placing.upper_bound else "measured by"
-        base = f"{said} {placing.measured_by}{captures}"
+        base = f"measured by {placing.measured_by}{captures}"
+        if placing.upper_bound:  # not measured, only bounded: the regions start from typed
+            base = f"typed (not the upper bound from {placing.measured_by}{captures})"
     if factor is None or not factor.estimated:
         return base
     return f"{base}, times {factor.placing_scale:.3g} (estimated from {factor.sources})"
