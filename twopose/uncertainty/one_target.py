@@ -57,8 +57,8 @@ def one_target(truth: F64) -> Bools:
         return np.zeros(len(t), dtype=bool)
     first = t[np.argmax(known)]
     size = 1.0 + float(np.abs(first).max())
-    same = np.abs(t[known] - first).max() <= _SAME * size
-    return known if same else np.zeros(len(t), dtype=bool)
+    same = bool(np.abs(t[known] - first).max() <= _SAME * size)
+    return np.asarray(known if same else np.zeros(len(t), dtype=bool))
 
 
 @dataclass(frozen=True, kw_only=True)
