@@ -120,3 +120,23 @@ def test_a_baseline_without_recorded_settings_is_said(bundled_run: Path, tmp_pat
     assert any(n.startswith("not compared: the settings (the baseline's") for n in outcome.notes)
     same = check(bundled_run, bundled_run)
     assert not any("settings" in n for n in same.notes)
+
+
+def test_a_run_that_pooled_other_sessions_of_the_operator_says_so(
+    bundled_run: Path, tmp_path: Path
+) -> None:
+    """The operator's prior is part of the noise model: a baseline that pooled none (or
+    other sessions) claims different regions."""
+    source = (
+        "typed, times 1.2 (estimated from this session's 4 trials, 3 other sessions of operator "
+        "Ada (point), the typed resolution)"
+    )
+    run, label = _copy_with(bundled_run, tmp_path, placing_source=source)
+    outcome = check(run, bundled_run)
+    assert not outcome.regressed, check_lines(outcome, bundled_run)
+    said = [n for n in outcome.notes if "different priors" in n]
+    assert len(said) == 1, outcome.notes
+    assert said[0].startswith(f"{label} (")
+    assert "(the run: 3 other sessions of operator Ada (point); the baseline: none," in said[0]
+    pair = outcome.comparisons[outcome.comparisons["session"] == label]
+    assert "coverage95" not in set(pair["metric"])
