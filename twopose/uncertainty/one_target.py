@@ -98,11 +98,13 @@ def target_tests(
     P = _across(cov[kept])
     x = np.einsum("ij,tj->ti", P, point)
     C = np.einsum("ij,tjk,lk->til", P, cov, P)
+    W = np.stack([_pinv(c)[0] for c in C])  # each region's weight, once
     while kept.sum() >= _REST_LEAST + 1:
+        # every kept trial's rest: the kept sums less its own (one pass a round)
+        info = W[kept].sum(axis=0)
+        moment = np.einsum("tij,tj->i", W[kept], x[kept])
         for i in np.flatnonzero(kept):
-            rest = kept.copy()
-            rest[i] = False
-            chi2[i], dof[i], apart[i] = _against(x[i], C[i], x[rest], C[rest])
+            chi2[i], dof[i], apart[i] = _against(x[i], C[i], info - W[i], moment - W[i] @ x[i])
         with np.errstate(invalid="ignore"):
             p = np.where(dof > 0, special.chdtrc(np.maximum(dof, 1), chi2), np.nan)
         worst = int(np.nanargmin(np.where(kept, p, np.inf)))
@@ -144,12 +146,12 @@ def _pinv(cov: F64) -> tuple[F64, int]:
     return (V * inv) @ V.T, int(keep.sum())
 
 
-def _against(x: F64, C: F64, xs: F64, Cs: F64) -> tuple[float, int, float]:
-    """One estimate against the weighted mean of others: chi-square, its dof, the distance."""
-    weights = [_pinv(c)[0] for c in Cs]
-    info = np.sum(weights, axis=0)
+def _against(x: F64, C: F64, info: F64, moment: F64) -> tuple[float, int, float]:
+    """One estimate against the weighted mean of the others: chi-square, its dof, the distance.
+
+    ``info`` and ``moment``: the others' summed weights and weighted estimates.
+    """
     rest_cov, _ = _pinv(info)
-    mean = rest_cov @ np.sum([w @ v for w, v in zip(weights, xs, strict=True)], axis=0)
-    d = x - mean
+    d = x - rest_cov @ moment
     inv, rank = _pinv(C + rest_cov)
     return float(d @ inv @ d), rank, float(np.linalg.norm(d))
