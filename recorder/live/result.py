@@ -156,7 +156,7 @@ class LiveResults:
         )
         estimate = estimate_session(session, self.options)
         if keep:
-            self.statistics = session_statistics("", estimate.misclosure)
+            self.statistics = session_statistics("", estimate.misclosure, estimate.tests)
         return dict(zip(trials, results_of(estimate), strict=True))
 
     def advise(self, trial: int, guidance: Guidance) -> MappedAdvice | None:

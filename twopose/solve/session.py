@@ -64,6 +64,7 @@ from twopose.uncertainty.session_noise import (
     placing_sigmas,
     placing_source,
     region_multipliers,
+    with_one_target,
 )
 from twopose.values.units import Units
 
@@ -312,6 +313,15 @@ def estimate_session(
     est = _solved_estimates(
         trials, complete, context, options, line_fits=line_fits, report_near=report_near
     )
+    settled = with_one_target(noise, trials.truth, est.point, est.cov)
+    if settled is not noise:  # a trial off the others of its target: kept out, regions again
+        noise, factor = settled, settled.factor
+        context = dataclasses.replace(
+            context, factor=factor, tests=noise.tests, cov_in=placed(cov_in, factor)
+        )
+        est = _solved_estimates(
+            trials, complete, context, options, line_fits=line_fits, report_near=report_near
+        )
     return dataclasses.replace(
         _session_estimate(trials, measurements, complete, detected, est, options, context),
         factor=factor,
