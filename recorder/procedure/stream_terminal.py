@@ -143,7 +143,7 @@ class PairSetup:
         """The typed plane (None: the pair's floor, or a method on no plane)."""
         from recorder.setup.rules import plane_entry
 
-        return plane_entry(self.method, self.plane_offset)
+        return plane_entry(self.method.spec, self.plane_offset)
 
 
 class TerminalStreamDriver(StreamDriver):
