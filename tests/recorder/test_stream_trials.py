@@ -68,6 +68,7 @@ def test_a_pair_recorded_by_schedule_and_key_gives_one_row_per_touch(
     _, before = read_line_when_printed(process, "streaming", "the trial's stream")
     started = time.monotonic()
     time.sleep(max(0.0, started + moving.touch_s[2] - _START_S - time.monotonic()))
+    pressed_ns = time.monotonic_ns()
     process.stdin.write("\n")  # Enter: the finger is on the third point now
     process.stdin.flush()
     rest, _ = process.communicate(timeout=60)
@@ -81,6 +82,10 @@ def test_a_pair_recorded_by_schedule_and_key_gives_one_row_per_touch(
         assert abs(session.offset.offset_ns + PHASE_S * 1e9) < 3e6, session.offset
         (trial,) = session.trials
         assert [t.how for t in trial.touches] == ["schedule", "schedule", "key", "schedule"]
+        # The key's time is camera 1's clock when it came (a file's clock is the monotonic
+        # clock from the pair's start): the pipe and the key thread add milliseconds only.
+        lag_ms = (trial.touches[2].time_ns - pressed_ns) / 1e6
+        assert 0 <= lag_ms < 100, lag_ms
     result = CliRunner().invoke(analyze, ["run", str(out), "--out", str(tmp_path / "r")])
     assert result.exit_code == 0, result.output
     with open(tmp_path / "r" / "trials.csv", newline="") as f:
