@@ -272,3 +272,27 @@ def test_a_typed_ground_height_is_the_session_pairs_floor_where_the_file_has_non
             tmp_path / "g2.mcap", _with_floor(tmp_path), f"pair:images:{a},images:{b}", op,
             plan_path=plan, keys=KeyReader(lambda: ""),
         )  # fmt: skip
+
+
+def test_a_camera_that_never_gives_a_frame_is_said_and_nothing_is_recorded(
+    tmp_path: Path,
+) -> None:
+    """Camera 2 gives nothing (an empty file) while camera 1 streams: refused in words
+    after the first frame's wait, no session file left."""
+    from recorder.procedure.stream import FIRST_FRAME_S
+    from tests.helpers import write_video
+    from twopose.errors import SourceError
+
+    pair = thesis_pair()
+    k = pair.intrinsics1
+    one = write_video(tmp_path / "one.avi", int(30 * (FIRST_FRAME_S + 3)), (k.width, k.height), 0)
+    empty = tmp_path / "empty.avi"
+    cv2.VideoWriter(
+        str(empty), cv2.VideoWriter.fourcc(*"MJPG"), 30.0, (k.width, k.height)
+    ).release()
+    setup = PairSetup(method=Method.POINT, units=Units.IN, operator="Ada")
+    source = open_pair_source(f"pair:video:{one},video:{empty}", pair, setup, fps=None)
+    out = tmp_path / "none.mcap"
+    with pytest.raises(SourceError, match=r"camera 2 \(video:.*empty.avi\) gave no frame in 5 s"):
+        record_stream(out, setup.info(), pair_cameras(pair), pair, source, StreamDriver())
+    assert not out.exists()
