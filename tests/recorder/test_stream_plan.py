@@ -296,3 +296,11 @@ def test_a_camera_that_never_gives_a_frame_is_said_and_nothing_is_recorded(
     with pytest.raises(SourceError, match=r"camera 2 \(video:.*empty.avi\) gave no frame in 5 s"):
         record_stream(out, setup.info(), pair_cameras(pair), pair, source, StreamDriver())
     assert not out.exists()
+
+
+def test_the_docs_example_pair_plan_reads() -> None:
+    plan = load_stream_plan(Path(__file__).resolve().parents[2] / "docs/examples/pair_plan.toml")
+    assert plan.method is Method.GROUND
+    assert [len(t.touches) for t in plan.trials] == [4, 1]
+    assert plan.trials[0].keyed == ((3.455, 9.625, 9.375),)
+    assert plan.trials[1].duration_s is None
