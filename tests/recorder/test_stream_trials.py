@@ -288,3 +288,36 @@ def test_the_console_streams_a_trial_start_touch_end_stop(
     assert touch.how == "button"
     # the button's moment is on camera 1's clock, within the trial's frames
     assert trial.camera1.capture_ns[0] < touch.time_ns < trial.camera1.capture_ns[-1]
+
+
+def test_the_keys_start_touch_at_a_typed_point_again_end_and_quit(
+    moving: MovingPair, tmp_path: Path
+) -> None:
+    """At the terminal without a plan: Enter starts the trial; a point typed then Enter is
+    a touch there, a malformed one is said and nothing marked, Enter alone touches the
+    point typed last; e ends the trial, q the session (in-process, the keys timed)."""
+    from recorder.procedure.stream_terminal import KeyReader, record_pair
+    from recorder.procedure.terminal import Operator
+
+    keys = iter([(0.2, ""), (0.5, "0.75, 0.5, nope"), (0.3, "1, 2, 20"), (0.3, ""),
+                 (0.3, "e"), (0.3, "q")])  # fmt: skip
+
+    def readline() -> str:
+        pause, line = next(keys, (0.0, ""))
+        time.sleep(pause)
+        return line + "\n" if pause else ""
+
+    said: list[str] = []
+    out = tmp_path / "keys.mcap"
+    summary = record_pair(
+        out, moving.pair_file, moving.source, Operator(lambda _q, _d: "", said.append),
+        given={"method": "point", "units": "in", "operator": "Ada"},
+        keys=KeyReader(readline),
+    )  # fmt: skip
+    assert not summary.interrupted
+    assert any(line.startswith("  not a touch: ") for line in said), said
+    with SessionReader(out) as reader:
+        (trial,) = read_pair_session(reader).trials
+    assert [(t.how, t.point) for t in trial.touches] == [("key", (1.0, 2.0, 20.0))] * 2
+    assert trial.touches[0].time_ns < trial.touches[1].time_ns
+    assert summary.trials[0].why == "end"
