@@ -110,20 +110,13 @@ def registered_names() -> dict[str, frozenset[str]]:
 #: category): the figure lists every one, and ``tests/test_census.py`` fails on a site not
 #: here and on an entry no site uses any more.
 _SEGMENTS = (
-    "the top view's segments are made here, of the kinds the page's legend names "
-    "(MethodPage.legend_segments)"
+    "a segment kind declared with its style (SegmentKind: the one place a kind is named; "
+    "the page draws each segment by the style it carries)"
 )
 _TRUTH_KINDS = (
     "TruthKind's words (a trial's truth is one point or a line), spelled as two methods are"
 )
 _INCHES = "an inch-valued constant converted to the session's unit"
-_JS_WIDTHS = (
-    "the canvas' line widths by segment kind (the kinds the page's legend names); not yet on "
-    "MethodPage"
-)
-_JS_DASHES = (
-    "the canvas' dashes by segment kind (the kinds the page's legend names); not yet on MethodPage"
-)
 _THESIS = "the thesis' claims, keyed by its own names for the methods it tested"
 _LINE_GROUP = 'a column group named "line" (the line\'s columns)'
 _SOURCE_METHOD = "a source opened without a method renders method 2's scene (the thesis' main one)"
@@ -171,14 +164,6 @@ EXPLAINED: dict[tuple[str, str, str], str] = {
     ): "the scene file's own key, named in its message",
     ("recorder/setup/plan.py", "in", "argument"): _INCHES,
     ("analysis/tools/sensitivity.py", "in", "argument"): "the thesis' sweeps, in its inches",
-    (
-        "analysis/tools/sensitivity.py",
-        "ground",
-        "argument",
-    ): (
-        "the sweep of method 2's geometry, the thesis' (the plane lane draws it by the method's "
-        "plane)"
-    ),
     (
         "twopose/values/toml.py",
         "line",
@@ -243,7 +228,7 @@ EXPLAINED: dict[tuple[str, str, str], str] = {
         "argument",
     ): "a board session's top view says its method",
     ("twopose/methods/topview.py", "ray", "argument"): _SEGMENTS,
-    ("twopose/methods/topview.py", "trace", "collection"): _SEGMENTS,
+    ("twopose/methods/topview.py", "trace", "argument"): _SEGMENTS,
     ("twopose/methods/topview.py", "estimated_line", "argument"): _SEGMENTS,
     ("twopose/methods/topview.py", "truth_line", "argument"): _SEGMENTS,
     ("twopose/methods/topview.py", "corners", "argument"): _SEGMENTS,
@@ -251,9 +236,6 @@ EXPLAINED: dict[tuple[str, str, str], str] = {
     ("analysis/tables/trials.py", "line", "argument"): _LINE_GROUP,
     ("analysis/report/thesis.py", "method 1", "dict key"): _THESIS,
     ("analysis/report/thesis.py", "method 2", "dict key"): _THESIS,
-    ("recorder/console/page/topview.js", "corners", "dict key"): _JS_WIDTHS,
-    ("recorder/console/page/topview.js", "estimated_line", "dict key"): _JS_WIDTHS,
-    ("recorder/console/page/topview.js", "truth_line", "dict key"): _JS_DASHES,
 }
 
 

@@ -14,6 +14,7 @@ import pandas as pd
 from analysis.report.answer import noise_phrases, session_order, shown_name
 from twopose.uncertainty.blunders import EXPLAINS_LEVEL
 from twopose.uncertainty.noise import FACTOR_TEST_LEVEL, MIN_PLACING_DOF, TYPED_PRIOR_DOF
+from twopose.uncertainty.one_target import TARGET_LEVEL
 from twopose.uncertainty.placing_variance import BAARDA_LEVEL
 
 __all__ = ["RULE", "flagged_lines", "noise_section"]
@@ -33,8 +34,12 @@ RULE = (
     "degrees of freedom it rests on; with fewer than "
     f"{MIN_PLACING_DOF} beside the prior, nothing is estimated and the typed sigma stands. "
     "Before any pooling each trial is tested against the typed model and against the rest "
-    f"(Baarda's global test at {BAARDA_LEVEL:.0%}): a trial both reject is flagged (its "
-    "poses disagree), kept out of the pool and its own region widened by its own misfit; a "
+    f"(Baarda's global test at {BAARDA_LEVEL:.1%}): a trial both reject is flagged (its "
+    "poses disagree), kept out of the pool and its own region widened by its own misfit; in "
+    "a session whose trials measured one target (the same recorded truth), a trial whose "
+    "estimate lies off the others' weighted mean (a chi-square test on its region's "
+    f"dimensions at {TARGET_LEVEL:.1%}) is flagged too: a typed value its own poses cannot "
+    "check; a "
     "pose is named when it alone, one typed component corrected, would make the trial agree "
     f"({EXPLAINS_LEVEL:.0%}). sigma0, the unflagged trials' misclosure under the typed model, "
     f'is said by its own chi-square test at {FACTOR_TEST_LEVEL:.0%}: "contradict" in its '

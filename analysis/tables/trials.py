@@ -148,7 +148,7 @@ class TrialResult:
     @property
     def spec(self) -> MethodSpec:
         """The spec of the trials' method."""
-        return spec_of(self.estimate.trials.method)
+        return self.estimate.trials.spec
 
     @property
     def est(self) -> Estimates:

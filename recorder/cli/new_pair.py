@@ -122,6 +122,7 @@ def _serve(
     refuse_existing(out)
     pair = read_pair_file(pair_path)
     setup = ask_pair_setup(op, pair, **asked)
+    pair = setup.session_pair(pair)
     options = ConsoleOptions(
         source=source, given={}, fps=given.get("--fps") or 30.0,
         notes=given.get("--notes") or "", pair=pair, pair_setup=setup,

@@ -308,9 +308,17 @@ def _with_clocks(info: SessionInfo, source: PairSource) -> SessionInfo:
     (and dropped) first, except from stills, whose every frame counts."""
     if not source.stills:
         seen: set[int] = set()
+        deadline = time.monotonic() + FIRST_FRAME_S
         while len(seen) < 2:
             stops.check()
             seen.add(source.read_frame(timeout_s=FIRST_FRAME_S).camera)
+            if len(seen) < 2 and time.monotonic() > deadline:  # the other keeps giving
+                n = 2 if 1 in seen else 1
+                raise SourceError(
+                    f"camera {n} ({source.cameras[n - 1].spec}) gave no frame in "
+                    f"{FIRST_FRAME_S:g} s (an empty file, or a camera not connected or used by "
+                    "another program)"
+                )
     one, two = source.cameras
     return dataclasses.replace(
         info, clocks={info.camera_ids[0]: one.clock, info.camera_ids[1]: two.clock}

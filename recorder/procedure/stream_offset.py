@@ -177,6 +177,8 @@ class OffsetMeter:
             f"{'frames' if o.method == 'flash' else 'pairs'})"
             for o in found
         )
+        if self.skipped:
+            said += f"; {self.skipped} frames left undetected so far (the detection was behind)"
         if len(self.measured) > len(found):
             said += (
                 f"; the session's {pooled.offset_ns / 1e6:+.2f} ± {pooled.sigma_ns / 1e6:.2f} ms "

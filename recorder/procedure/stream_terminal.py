@@ -28,7 +28,7 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -122,11 +122,28 @@ class PairSetup:
             session_id=uuid.uuid4().hex, part_id=uuid.uuid4().hex,
         )  # fmt: skip
 
+    def session_pair(self, pair: PairCalibration) -> PairCalibration:
+        """The pair the session stores: a typed offset of the method's plane (the pair file
+        has no floor) becomes its floor, ``normal . p = offset`` in camera 1's frame, exact,
+        as a typed ground is for one camera (so that the stream's estimate has its plane)."""
+        plane = spec_of(self.method).plane
+        if self.plane_offset is None or plane is None or pair.floor is not None:
+            return pair
+        import numpy as np
+
+        from twopose.pair.calibration import FloorPlane
+
+        floor = FloorPlane(
+            normal=np.asarray(plane.normal_grid, dtype=np.float64), height=self.plane_offset,
+            cov=np.zeros((4, 4)),
+        )  # fmt: skip
+        return replace(pair.in_units(self.units), floor=floor)
+
     def ground(self) -> PlaneEntry | None:
         """The typed plane (None: the pair's floor, or a method on no plane)."""
         from recorder.setup.rules import plane_entry
 
-        return plane_entry(self.method, self.plane_offset)
+        return plane_entry(self.method.spec, self.plane_offset)
 
 
 class TerminalStreamDriver(StreamDriver):
@@ -314,6 +331,7 @@ def record_pair(  # noqa: PLR0913 - what new --pair takes
     pair = read_pair_file(pair_path)
     plan = load_stream_plan(plan_path) if plan_path is not None else None
     setup = ask_pair_setup(op, pair, plan=plan, **(given or {}))
+    pair = setup.session_pair(pair)
     src = open_pair_source(source, pair, setup, fps=fps)
     cameras = pair_cameras(pair)
     info = setup.info(notes or (plan.notes if plan is not None else ""))

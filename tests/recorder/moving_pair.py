@@ -46,9 +46,10 @@ class MovingPair:
     def source(self) -> str:
         return f"pair:video:{self.videos[0]},video:{self.videos[1]}"
 
-    def plan(self, name: str, trials: str) -> Path:
-        """A pair's plan of method point in inches with ``trials`` (its [[trials]] tables)."""
-        path = self.folder / name
+    @staticmethod
+    def plan(path: Path, trials: str) -> Path:
+        """A pair's plan of method point in inches with ``trials`` (its [[trials]] tables),
+        written at ``path`` (a test's own: the pair's folder is shared)."""
         path.write_text(f'method = "point"\nunits = "in"\noperator = "Ada"\n{trials}')
         return path
 

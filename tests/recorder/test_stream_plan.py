@@ -76,10 +76,14 @@ def test_a_pair_plan_measures_a_moving_target(tmp_path: Path) -> None:
         load_stream_plan(_plan(tmp_path, 'method = "board"\n[[trials]]\n'))
 
 
+def _with_floor(folder: Path) -> Path:
+    write_pair_file(folder / "PAIR.toml", thesis_pair())
+    return folder / "PAIR.toml"
+
+
 @pytest.fixture
 def pair_file(tmp_path: Path) -> Path:
-    write_pair_file(tmp_path / "PAIR.toml", thesis_pair())
-    return tmp_path / "PAIR.toml"
+    return _with_floor(tmp_path)
 
 
 @pytest.mark.parametrize(
@@ -232,3 +236,71 @@ def test_a_flash_both_cameras_see_fixes_the_offset_a_slow_ramp_does_not(
     assert offset is not None
     assert offset.method == method
     assert abs(offset.offset_ns) < 1e9 / 30
+
+
+def test_a_typed_ground_height_is_the_session_pairs_floor_where_the_file_has_none(
+    tmp_path: Path,
+) -> None:
+    """A pair file without a floor, a ground session: the typed height (here the plan's)
+    is the session's ground and its pair's floor (exact, as a typed ground is), so the
+    stream's estimate has its plane; a pair file with a floor refuses a typed height."""
+    import dataclasses
+
+    from recorder.procedure.stream_terminal import KeyReader, record_pair
+    from recorder.procedure.terminal import Operator
+
+    write_pair_file(tmp_path / "NOFLOOR.toml", dataclasses.replace(thesis_pair(), floor=None))
+    a, b = _stills(tmp_path / "a", [60.0] * 12, 1), _stills(tmp_path / "b", [60.0] * 12, 2)
+    plan = _plan(tmp_path, 'method = "ground"\nunits = "in"\noperator = "Ada"\n'
+                 "ground_height = 9.0\n[[trials]]\nduration = 0.2\n")  # fmt: skip
+    said: list[str] = []
+    op = Operator(lambda _q, _d: "", said.append)
+    out = tmp_path / "ground.mcap"
+    record_pair(
+        out, tmp_path / "NOFLOOR.toml", f"pair:images:{a},images:{b}", op, plan_path=plan,
+        keys=KeyReader(lambda: ""),
+    )  # fmt: skip
+    with SessionReader(out) as reader:
+        session = read_pair_session(reader)
+    assert session.pair.floor is not None
+    assert session.pair.floor.height == 9.0
+    np.testing.assert_array_equal(session.pair.floor.normal, [0.0, 1.0, 0.0])
+    assert session.ground is not None
+    assert session.ground.offset == 9.0
+    with pytest.raises(InputValueError, match="the pair file gives the floor"):
+        record_pair(
+            tmp_path / "g2.mcap", _with_floor(tmp_path), f"pair:images:{a},images:{b}", op,
+            plan_path=plan, keys=KeyReader(lambda: ""),
+        )  # fmt: skip
+
+
+def test_a_camera_that_never_gives_a_frame_is_said_and_nothing_is_recorded(
+    tmp_path: Path,
+) -> None:
+    """Camera 2 gives nothing (an empty file) while camera 1 streams: refused in words
+    after the first frame's wait, no session file left."""
+    from recorder.procedure.stream import FIRST_FRAME_S
+    from tests.helpers import write_video
+    from twopose.errors import SourceError
+
+    pair = thesis_pair()
+    k = pair.intrinsics1
+    one = write_video(tmp_path / "one.avi", int(30 * (FIRST_FRAME_S + 3)), (k.width, k.height), 0)
+    empty = tmp_path / "empty.avi"
+    cv2.VideoWriter(
+        str(empty), cv2.VideoWriter.fourcc(*"MJPG"), 30.0, (k.width, k.height)
+    ).release()
+    setup = PairSetup(method=Method.POINT, units=Units.IN, operator="Ada")
+    source = open_pair_source(f"pair:video:{one},video:{empty}", pair, setup, fps=None)
+    out = tmp_path / "none.mcap"
+    with pytest.raises(SourceError, match=r"camera 2 \(video:.*empty.avi\) gave no frame in 5 s"):
+        record_stream(out, setup.info(), pair_cameras(pair), pair, source, StreamDriver())
+    assert not out.exists()
+
+
+def test_the_docs_example_pair_plan_reads() -> None:
+    plan = load_stream_plan(Path(__file__).resolve().parents[2] / "docs/examples/pair_plan.toml")
+    assert plan.method is Method.GROUND
+    assert [len(t.touches) for t in plan.trials] == [4, 1]
+    assert plan.trials[0].keyed == ((3.455, 9.625, 9.375),)
+    assert plan.trials[1].duration_s is None

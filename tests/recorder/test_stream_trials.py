@@ -47,25 +47,28 @@ def _record(moving: MovingPair, out: Path, *args: str) -> subprocess.Popen[str]:
     )  # fmt: skip
 
 
-def _plan(moving: MovingPair, keyed: int | None = 2, duration: float | None = 6.8) -> Path:
+def _plan(
+    moving: MovingPair, folder: Path, keyed: int | None = 2, duration: float | None = 6.8
+) -> Path:
     """A plan of one trial touching the four points: scheduled, but ``keyed`` by Enter."""
     touches = []
     for k, (p, t) in enumerate(zip(moving.touches, moving.touch_s, strict=True)):
         at = "" if k == keyed else f", at = {t - _START_S:.3f}"
         touches.append(f"{{point = [{p[0]}, {p[1]}, {p[2]}]{at}}}")
     end = "" if duration is None else f"duration = {duration}\n"
-    return moving.plan("plan.toml", f"[[trials]]\n{end}touches = [{', '.join(touches)}]\n")
+    return moving.plan(folder / "plan.toml", f"[[trials]]\n{end}touches = [{', '.join(touches)}]\n")
 
 
 def test_a_pair_recorded_by_schedule_and_key_gives_one_row_per_touch(
     moving: MovingPair, tmp_path: Path
 ) -> None:
     out = tmp_path / "pair.mcap"
-    process = _record(moving, out, "--plan", str(_plan(moving)))
+    process = _record(moving, out, "--plan", str(_plan(moving, tmp_path)))
     assert process.stdin is not None
     _, before = read_line_when_printed(process, "streaming", "the trial's stream")
     started = time.monotonic()
     time.sleep(max(0.0, started + moving.touch_s[2] - _START_S - time.monotonic()))
+    pressed_ns = time.monotonic_ns()
     process.stdin.write("\n")  # Enter: the finger is on the third point now
     process.stdin.flush()
     rest, _ = process.communicate(timeout=60)
@@ -79,6 +82,10 @@ def test_a_pair_recorded_by_schedule_and_key_gives_one_row_per_touch(
         assert abs(session.offset.offset_ns + PHASE_S * 1e9) < 3e6, session.offset
         (trial,) = session.trials
         assert [t.how for t in trial.touches] == ["schedule", "schedule", "key", "schedule"]
+        # The key's time is camera 1's clock when it came (a file's clock is the monotonic
+        # clock from the pair's start): the pipe and the key thread add milliseconds only.
+        lag_ms = (trial.touches[2].time_ns - pressed_ns) / 1e6
+        assert 0 <= lag_ms < 100, lag_ms
     result = CliRunner().invoke(analyze, ["run", str(out), "--out", str(tmp_path / "r")])
     assert result.exit_code == 0, result.output
     with open(tmp_path / "r" / "trials.csv", newline="") as f:
@@ -189,7 +196,9 @@ def test_recover_after_kill_9_of_new_pair_loses_at_most_the_open_window(
     from recorder.recover import RECOVERED_REASON, recover_session
 
     out = tmp_path / "killed.mcap"
-    process = _record(moving, out, "--plan", str(_plan(moving, keyed=None, duration=None)))
+    process = _record(
+        moving, out, "--plan", str(_plan(moving, tmp_path, keyed=None, duration=None))
+    )
     read_line_when_printed(process, "streaming", "the trial's stream")
     streamed = time.monotonic()
     time.sleep(3.0)
@@ -279,3 +288,36 @@ def test_the_console_streams_a_trial_start_touch_end_stop(
     assert touch.how == "button"
     # the button's moment is on camera 1's clock, within the trial's frames
     assert trial.camera1.capture_ns[0] < touch.time_ns < trial.camera1.capture_ns[-1]
+
+
+def test_the_keys_start_touch_at_a_typed_point_again_end_and_quit(
+    moving: MovingPair, tmp_path: Path
+) -> None:
+    """At the terminal without a plan: Enter starts the trial; a point typed then Enter is
+    a touch there, a malformed one is said and nothing marked, Enter alone touches the
+    point typed last; e ends the trial, q the session (in-process, the keys timed)."""
+    from recorder.procedure.stream_terminal import KeyReader, record_pair
+    from recorder.procedure.terminal import Operator
+
+    keys = iter([(0.2, ""), (0.5, "0.75, 0.5, nope"), (0.3, "1, 2, 20"), (0.3, ""),
+                 (0.3, "e"), (0.3, "q")])  # fmt: skip
+
+    def readline() -> str:
+        pause, line = next(keys, (0.0, ""))
+        time.sleep(pause)
+        return line + "\n" if pause else ""
+
+    said: list[str] = []
+    out = tmp_path / "keys.mcap"
+    summary = record_pair(
+        out, moving.pair_file, moving.source, Operator(lambda _q, _d: "", said.append),
+        given={"method": "point", "units": "in", "operator": "Ada"},
+        keys=KeyReader(readline),
+    )  # fmt: skip
+    assert not summary.interrupted
+    assert any(line.startswith("  not a touch: ") for line in said), said
+    with SessionReader(out) as reader:
+        (trial,) = read_pair_session(reader).trials
+    assert [(t.how, t.point) for t in trial.touches] == [("key", (1.0, 2.0, 20.0))] * 2
+    assert trial.touches[0].time_ns < trial.touches[1].time_ns
+    assert summary.trials[0].why == "end"

@@ -18,7 +18,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twopose.arrays import F64
-from twopose.methods.specs import spec_of
 
 if TYPE_CHECKING:  # the tables' readers (analysis.tables.columns) need no estimation at import
     from twopose.solve.session import SessionEstimate
@@ -50,7 +49,7 @@ def reported(estimate: SessionEstimate) -> Reported:
     otherwise the estimate is compared with the first true point.
     """
     est, truth = estimate.estimates, estimate.trials.truth
-    if not spec_of(estimate.trials.method).estimates_line:
+    if not estimate.trials.spec.estimates_line:
         point, reference = est.point, truth[:, 0]
         return Reported(
             point=point,

@@ -1,7 +1,7 @@
 """A trial whose poses disagree, and which of them, where its redundancy can tell (issue 54).
 
 A trial is **flagged** when its misclosure rejects both the typed model and the model the
-rest of its session (and the operator's prior) measures (Baarda's global test at 0.1%,
+rest of its session (and the operator's prior) measures (Baarda's global test at 0.5%,
 :func:`twopose.uncertainty.placing_variance.flag_trials`). Then each typed translation component of
 each pose is tested alone (Baarda's w-test, :func:`twopose.uncertainty.misclosure.pose_tests`): the
 share of the misclosure an error in that one component explains, and how large it would
@@ -16,10 +16,15 @@ when every explaining pose's best is the same one.
 A flagged trial is kept out of the pool; its own region is widened by its own misfit, its
 chi-square over its degrees of freedom (at least 1), with Fisher's F on them
 (:attr:`TrialTests.own`).
+
+A trial of a session whose trials measured one target is flagged too when its estimate
+lies off the others' (:mod:`twopose.uncertainty.one_target`): a typed value its own poses
+cannot check (:attr:`TrialTests.apart`, its own words).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
@@ -29,6 +34,7 @@ from scipy import special
 
 from twopose.arrays import F64, Bools, Ints
 from twopose.uncertainty.misclosure import Misclosure, pose_tests
+from twopose.uncertainty.one_target import TargetTests
 from twopose.values.units import Units
 
 __all__ = ["AXES", "EXPLAINS_LEVEL", "TrialTests", "trial_tests"]
@@ -51,7 +57,10 @@ class TrialTests:
     the laptop stood (session units; NaN: no pose named); ``spread`` (T, 2): the least and the most
     that the poses explaining it would be off (their sizes differ with their leverage);
     ``explaining``: how many poses alone explain it; ``own``: the flagged
-    trial's own variance multiplier (1 else), ``own_dof`` the dof its F quantile takes.
+    trial's own variance multiplier (1 else), ``own_dof`` the dof its F quantile takes;
+    ``apart``: a trial flagged because its estimate disagrees with the session's other
+    trials of the same target (:mod:`twopose.uncertainty.one_target`), how far from theirs
+    (session units; NaN else).
     """
 
     flagged: Bools
@@ -63,6 +72,7 @@ class TrialTests:
     explaining: Ints
     own: F64
     own_dof: Ints
+    apart: F64 | None = None
 
     @classmethod
     def none(cls, T: int) -> TrialTests:
@@ -77,6 +87,27 @@ class TrialTests:
             explaining=np.zeros(T, dtype=np.int_),
             own=np.ones(T),
             own_dof=np.zeros(T, dtype=np.int_),
+            apart=np.full(T, np.nan),
+        )
+
+    def with_target(self, target: TargetTests) -> TrialTests:
+        """These tests with the trials whose estimate disagrees with the others' flagged too.
+
+        ``target``: :func:`twopose.uncertainty.one_target.target_tests`; a trial it flags is
+        widened by its own misfit there (its chi-square over its dimensions, F on them).
+        """
+        new = target.flagged & ~self.flagged
+        if not new.any():
+            return self
+        apart = np.full(len(new), np.nan) if self.apart is None else self.apart.copy()
+        apart[new] = target.apart[new]
+        own = np.where(new, np.maximum(target.chi2 / np.maximum(target.dof, 1), 1.0), self.own)
+        return dataclasses.replace(
+            self,
+            flagged=self.flagged | new,
+            own=own,
+            own_dof=np.where(new, target.dof, self.own_dof),
+            apart=apart,
         )
 
     def words(self, i: int, units: Units, poses: int) -> str:
@@ -86,6 +117,13 @@ class TrialTests:
         """
         if not self.flagged[i]:
             return ""
+        if self.apart is not None and np.isfinite(self.apart[i]):
+            return (
+                "this trial's estimate lies about "
+                f"{_about(float(self.apart[i]))} {units} from the session's other trials of "
+                "the same target, where its poses cannot check each other: check what you "
+                "typed for its poses"
+            )
         low, high = self.spread[i]
         size = " looks off"
         if np.isfinite(low) and _about(low) == _about(high):
@@ -110,8 +148,11 @@ class TrialTests:
 
 
 def _about(value: float) -> str:
-    """A length as the words round it: one significant digit (about 1 in, about 0.3 in)."""
-    return f"{abs(value):.1g}"
+    """A length as the words round it: one significant digit (about 0.3 in), whole from 10 on.
+
+    (About 16 in, never "2e+01".)
+    """
+    return f"{abs(value):.1g}" if abs(value) < 9.5 else f"{abs(value):.0f}"
 
 
 def trial_tests(m: Misclosure, flagged: Bools, p: F64, lam: float) -> TrialTests:
@@ -163,6 +204,7 @@ def trial_tests(m: Misclosure, flagged: Bools, p: F64, lam: float) -> TrialTests
         explaining=_put(out.explaining, rows, count),
         own=_put(out.own, rows, own),
         own_dof=_put(out.own_dof, rows, dof),
+        apart=out.apart,
     )
 
 
