@@ -207,6 +207,16 @@ EXPLAINED: dict[tuple[str, str, str], str] = {
         "a table with no method column is drawn on a point's plane (the ground's axes)"
     ),
     ("recorder/setup/plan_file.py", "camera", "argument"): "the plan file's table [camera]",
+    (
+        "recorder/setup/stream_plan.py",
+        "point",
+        "collection",
+    ): "a pair plan's touch key `point` (the grid point), not the method",
+    (
+        "recorder/setup/stream_plan.py",
+        "point",
+        "comparison",
+    ): "a pair plan's touch key `point` (the grid point), not the method",
     ("recorder/setup/plan_file.py", "board", "argument"): "the plan file's table [board]",
     (
         "recorder/setup/form.py",

@@ -23,7 +23,7 @@ from twopose.methods.specs import METHODS, PLANES, Method, spec_of
 from twopose.values.bounds import GROUND_TRUTH, STREAM_DURATION, TOUCH_TIME, Quantity
 from twopose.values.checks import Vec3
 from twopose.values.toml import read_toml
-from twopose.values.units import UNITS, Units
+from twopose.values.units import DEFAULT_UNITS, UNITS, Units
 
 __all__ = ["StreamPlan", "StreamPlanTouch", "StreamPlanTrial", "load_stream_plan"]
 
@@ -166,7 +166,7 @@ def load_stream_plan(path: str | Path) -> StreamPlan:
             f"plan: method must be one of {', '.join(measuring)} (a pair's stream measures a "
             f"moving target), got {method!r}"
         )
-    units = data.get("units", "in")
+    units = data.get("units", DEFAULT_UNITS)
     if units not in UNITS:
         raise InputValueError(f"plan: units must be one of {', '.join(UNITS)}, got {units!r}")
     m, u = Method(method), Units(units)
