@@ -449,6 +449,8 @@ TRIAL_TABLE: tuple[Column, ...] = (
            domain=SHARE, group="noise", fill=nc.misclosure_p),
     Column(name="flagged", label="poses disagree (flagged)", unit="none", domain=FLAG,
            dtype="boolean", group="noise", fill=nc.flagged),
+    _text("flagged_by", "which test flagged it", "noise", nc.flagged_by,
+          domain=Domain("one of", ("", *nc.FLAGGED_BY))),
     Column(name="suspect_pose", label="pose named", unit="count", domain=COUNT,
            dtype="int64", group="noise", fill=nc.suspect_pose),
     _text("suspect_axis", "typed component that looks off", "noise", nc.suspect_axis,
