@@ -44,7 +44,7 @@ RULE = (
     "recorded as its truth (its NEES beyond the chi-square's upper "
     f"{TRUTH_LEVEL:.1%} quantile on the region's dimensions, after the multiplier) is flagged "
     "too: one of its typed poses, the grid point or the detection is off; it is kept out of "
-    "the pool but its region is not widened, and every flagged trial stays in the error "
+    "the session's pool but its region is not widened, and every flagged trial stays in the error "
     "statistics (rmse, bias, within 1). A trial without a truth has only the other tests. A "
     "pose is named when it alone, one typed component corrected, would make the trial agree "
     f"({EXPLAINS_LEVEL:.0%}). sigma0, the unflagged trials' misclosure under the typed model, "

@@ -36,6 +36,7 @@ class SessionEstimate(Protocol):
 
     def uncertainty_at(self, reference: F64) -> Any: ...
 
+
 __all__ = ["Reported", "line_errors", "reported", "reported_line_point", "reporting_anchor"]
 
 

@@ -118,7 +118,7 @@ class TrialTests:
 
         ``truth``: :func:`twopose.uncertainty.own_truth.truth_tests`. Their regions are not
         widened (``own`` stays 1: a region sized by its truth would cover it by
-        construction); they are kept out of the pool as any flagged trial.
+        construction); they are kept out of the session's pool as any flagged trial.
         """
         new = truth.flagged & ~self.flagged
         if not new.any():

@@ -12,7 +12,9 @@ the session's placing multiplier, :func:`twopose.methods.truth.reported`): its N
 ``e^T C^+ e`` on the region's dimensions (3 for a point, 2 across a line or on the ground)
 against the chi-square's upper :data:`TRUTH_LEVEL` quantile (Baarda's 0.1%). Beyond it,
 one of its typed poses, the typed grid point, or the detection is off: the trial is
-flagged, kept out of the placing multiplier's pools as any flagged trial, and said so.
+flagged, kept out of the session's placing multiplier pool as any flagged trial (not out of
+the operator's: :func:`twopose.uncertainty.session_noise.session_statistics` says why), and
+said so.
 
 Its region is **not** widened for it: a region sized by the truth it is tested against
 would cover that truth by construction. Its error stays in every error statistic (a flag

@@ -225,8 +225,11 @@ def session_statistics(
 
     Its tested trials' chi-square, dof and components (none when not tested); a trial
     ``tests`` flagged for its estimate off the others of its target
-    (:attr:`TrialTests.apart`) or off its own truth (:attr:`TrialTests.truth_off`) is left
-    out, as the session's own pool leaves it.
+    (:attr:`TrialTests.apart`) is left out, as the session's own pool leaves it. A trial
+    flagged by its own truth (:attr:`TrialTests.truth_off`) is not: the run's first pass
+    tests it in regions the operator's prior has not settled yet (at 3x the typed placing
+    it would flag merely noisy trials and thin the operator's pool by the truth), and a
+    blunder only the truth sees is one its misclosure cannot: its misclosure is a clean one.
     """
     if m is None:
         return SessionNoise(group=group, chi2=np.zeros(0), dof=np.zeros(0, dtype=np.int_),
@@ -234,8 +237,6 @@ def session_statistics(
     use = (m.dof > 0) & np.isfinite(m.chi2)
     if tests is not None and tests.apart is not None:
         use &= ~np.isfinite(tests.apart)
-    if tests is not None and tests.truth_off is not None:
-        use &= ~np.isfinite(tests.truth_off)
     return SessionNoise(group=group, chi2=m.chi2[use], dof=m.dof[use],
                         share=m.placing_share[use], z2=m.z2[use])  # fmt: skip
 
