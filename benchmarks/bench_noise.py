@@ -319,7 +319,8 @@ def report_blunders(t: pd.DataFrame) -> list[str]:
 
 
 def report_alone(t: pd.DataFrame) -> None:
-    print("\nthe same with each trial its own target (only its misclosure can see a blunder; "
+    print("\nthe same with each trial its own target (only its misclosure and its truth can "
+          "see a blunder; by truth: flagged by its truth alone; "
           "seen: one its trial's poses can check, Baarda's test at "
           f"{BAARDA_LEVEL:.1%} catching it 80% of the time)")  # fmt: skip
     print(f"{'method':<8}{'blundered':>10}{'flagged':>9}{'by truth':>9}{'seen':>7}"
