@@ -106,11 +106,14 @@ def misclosure_p(t: TrialResult) -> F64:
 
 
 def flagged(t: TrialResult) -> Any:
-    """Whether the trial's poses disagree (empty: not tested)."""
+    """Whether a test flagged the trial (empty: none tested it: no redundant poses and no
+    truth, or ``--no-sigma0``)."""
     tests, m = _tests(t), t.estimate.misclosure
     tested = m is not None and t.estimate.options.noise.test_redundancy
+    truth = np.isfinite(t.estimate.trials.truth).all(axis=(1, 2))
     return [
-        bool(f) if tested and d > 0 else None for f, d in zip(tests.flagged, _dof(t), strict=True)
+        bool(f) if tested and (d > 0 or known) else None
+        for f, d, known in zip(tests.flagged, _dof(t), truth, strict=True)
     ]
 
 

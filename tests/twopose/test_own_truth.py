@@ -80,3 +80,19 @@ def test_a_typed_grid_point_off_is_flagged_kept_out_of_the_pool_and_not_widened(
     none = estimate_session(no_truth, EstimateOptions(), line_fits=False)
     assert none.tests is not None
     assert not none.tests.flagged.any()  # without a truth only the other tests apply
+
+
+def test_a_trial_of_two_poses_is_tested_by_its_truth_alone_and_said_so_in_trials_csv() -> None:
+    """Two poses: no misclosure to test, the truth still tests it (trials.csv's ``flagged``
+    not empty for it, ``flagged_by`` ``truth``)."""
+    from analysis.tables import noise as nc
+
+    trials = bench.apart(bench.session(Method.GROUND, 4, 3, 1.0, 2))
+    truth = trials.truth.copy()
+    truth[0, :, 0] += 1.0
+    truth[2] = np.nan  # no truth, no redundancy: nothing tests it
+    est = estimate_session(dataclasses.replace(trials, truth=truth), EstimateOptions(),
+                           line_fits=False)  # fmt: skip
+    row = type("Row", (), {"estimate": est})()
+    assert nc.flagged(row) == [True, False, None]
+    assert nc.flagged_by(row) == ["truth", "", ""]
