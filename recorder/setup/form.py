@@ -46,6 +46,7 @@ from twopose.values.bounds import (
     GROUND_TRUTH,
     POSE_TRANSLATION,
     ROTATION,
+    Quantity,
     shown,
 )
 from twopose.values.checks import Vec3
@@ -57,6 +58,7 @@ __all__ = [
     "SetupField",
     "form_fields",
     "parse_pose_form",
+    "parse_touch_form",
     "setup_from_answers",
 ]
 
@@ -75,12 +77,7 @@ def parse_pose_form(form: Mapping[str, str], units: Units) -> tuple[Vec3, Vec3]:
     terminal reads it (:mod:`twopose.values.bounds`); raises :class:`FormRefusedError` with every
     refusal."""
     errors: dict[str, str] = {}
-    xyz: list[float] = []
-    for axis in "xyz":
-        try:
-            xyz.append(POSE_TRANSLATION.read(str(form.get(axis, "") or ""), units, axis=axis))
-        except InputValueError as err:
-            errors[axis] = str(err)
+    xyz = _xyz(form, units, POSE_TRANSLATION, errors)
     rotation = str(form.get("rotation", "") or "").strip() or "0, 0, 0"
     r: Vec3 = (0.0, 0.0, 0.0)
     try:
@@ -90,6 +87,30 @@ def parse_pose_form(form: Mapping[str, str], units: Units) -> tuple[Vec3, Vec3]:
     if errors:
         raise FormRefusedError(errors)
     return (xyz[0], xyz[1], xyz[2]), r
+
+
+def parse_touch_form(form: Mapping[str, str], units: Units) -> Vec3:
+    """A touch's grid point typed in the console (``x``, ``y``, ``z``: a pair's stream
+    trial), each field read as the terminal reads a ground-truth point; raises
+    :class:`FormRefusedError` with every refusal."""
+    errors: dict[str, str] = {}
+    xyz = _xyz(form, units, GROUND_TRUTH, errors)
+    if errors:
+        raise FormRefusedError(errors)
+    return (xyz[0], xyz[1], xyz[2])
+
+
+def _xyz(
+    form: Mapping[str, str], units: Units, quantity: Quantity, errors: dict[str, str]
+) -> list[float]:
+    """The form's ``x``, ``y``, ``z`` read by ``quantity``; each refusal in ``errors``."""
+    xyz: list[float] = []
+    for axis in "xyz":
+        try:
+            xyz.append(quantity.read(str(form.get(axis, "") or ""), units, axis=axis))
+        except InputValueError as err:
+            errors[axis] = str(err)
+    return xyz
 
 
 # --------------------------------------------------------------------------- the fields
