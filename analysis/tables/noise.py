@@ -110,7 +110,7 @@ def flagged(t: TrialResult) -> Any:
     truth, or ``--no-sigma0``)."""
     tests, m = _tests(t), t.estimate.misclosure
     tested = m is not None and t.estimate.options.noise.test_redundancy
-    truth = np.isfinite(t.estimate.trials.truth).all(axis=(1, 2))
+    truth = [bool(k) for k in np.isfinite(t.estimate.trials.truth).all(axis=(1, 2)).ravel()]
     return [
         bool(f) if tested and (d > 0 or known) else None
         for f, d, known in zip(tests.flagged, _dof(t), truth, strict=True)
