@@ -325,13 +325,12 @@ def estimate_session(
             )
         out = dataclasses.replace(
             _session_estimate(trials, measurements, complete, detected, est, options, context),
-            factor=factor,
-            misclosure=noise.misclosure,
-            tests=noise.tests,
-        )
+            factor=factor, misclosure=noise.misclosure, tests=noise.tests,
+        )  # fmt: skip
+        if noise.misclosure is None or not np.isfinite(trials.truth).any():
+            break  # not tested (a given factor: guidance's views), or no truth to test against
         rep = reported(out)  # the region each trial reports, after lambda, and its truth
-        settled = with_own_truth(noise, rep.error, rep.cov)
-        if settled is noise:
+        if (settled := with_own_truth(noise, rep.error, rep.cov)) is noise:
             break
     return out
 
