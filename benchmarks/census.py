@@ -188,6 +188,18 @@ EXPLAINED: dict[tuple[str, str, str], str] = {
     ("analysis/tables/declared.py", "camera", "argument"): 'frames.csv\'s column "camera"',
     ("twopose/sim/moving.py", "in", "argument"): "the scene's inch-valued sizes converted",
     ("recorder/simulate/pair.py", "in", "argument"): "one inch in the scene's unit (the lead)",
+    ("recorder/simulate/pointing_clip.py", "in", "argument"): "one inch in the scene's unit",
+    ("recorder/cli/app.py", "point", "argument"): "the command's name (twopose-record point)",
+    ("recorder/cli/point.py", "ground", "default"): "point's --method: the floor's method",
+    ("recorder/console/pointing_server.py", "ground", "default"): (
+        "point's method when none is given: where the finger points on the floor"
+    ),
+    ("recorder/console/pointing_server.py", "in", "argument"): (
+        "the panel's smallest view, declared in inches and converted"
+    ),
+    ("recorder/console/page/pointing.js", "pair", "comparison"): (
+        "the push stream's message kind (a pair's estimate), not a source"
+    ),
     ("recorder/setup/rules.py", "in", "argument"): (
         "a board session's rig check needs no unit (it refuses any rig): the bounds' own"
     ),

@@ -161,6 +161,10 @@ def test_the_panel_draws_the_point_its_region_track_and_conditioning(served) -> 
         browser.save_screenshot(str(folder / "3-near-singular.png"))
         feed.stop("the cameras' streams ended")
         wait_text(browser, "pointing-conditioning", "the cameras' streams ended")
+        box = browser.find_element("css selector", "#pointing-box")
+        assert box.is_displayed()  # the last pair's drawing stays, greyed
+        assert "stopped" in box.get_attribute("class").split()
+        browser.save_screenshot(str(folder / "6-stopped.png"))
 
 
 def test_a_page_of_another_site_cannot_read_the_push_stream(served) -> None:

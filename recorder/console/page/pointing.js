@@ -12,6 +12,7 @@ const POINTING = {
   status: {running: false, words: "connecting to the recorder..."},
   last: null, // the newest pair
   lastOk: null, // the newest pair with a point
+  final: null, // the last pair before the pair stopped (drawn greyed)
   arrived: [], // pairs arrived since the last drawing: [seq, arrival ms]
   scheduled: false,
   rate: [], // arrival times of the last second's pairs (ms)
@@ -54,7 +55,9 @@ function pointingMessage(event) {
   }
   if (m.kind === "status") {
     POINTING.status = m;
+    if (!m.running && POINTING.last) POINTING.final = POINTING.last; // kept, greyed
     if (!m.running) POINTING.last = null;
+    if (m.running) POINTING.final = null;
   } else if (m.kind === "missed") {
     window.twoposePointing.missed += m.count;
   } else if (m.kind === "pair") {
@@ -96,14 +99,18 @@ function renderPointing() {
   const s = POINTING.status;
   const pair = POINTING.last;
   const running = Boolean(s.running);
+  // Stopped: the last pair's drawing stays, greyed, under why it stopped.
+  const final = running ? null : POINTING.final || null;
+  const shown = running || final !== null;
   const badge = $("pointing-badge");
   if (badge) {
-    show($("pointing"), running);
-    show(badge, !running);
-    setText(badge, running ? "" : "pointing: " + (s.words || "no pair running"));
+    show($("pointing"), shown);
+    show(badge, !shown);
+    setText(badge, shown ? "" : "pointing: " + (s.words || "no pair running"));
   }
-  $("pointing").classList.toggle("pointing-live", running);
-  show($("pointing-box"), running);
+  $("pointing").classList.toggle("pointing-live", shown);
+  show($("pointing-box"), shown);
+  $("pointing-box").classList.toggle("stopped", final !== null);
   setText($("pointing-aside"), running ? s.about || "" : "");
   const words = $("pointing-conditioning");
   words.className = "pointing-words";
@@ -112,6 +119,7 @@ function renderPointing() {
     words.classList.add("idle");
     setText($("pointing-where"), "");
     setText($("pointing-timing"), "");
+    if (final) drawFloor($("pointing-canvas"), final, s);
     return;
   }
   if (!pair) {
