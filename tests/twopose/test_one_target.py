@@ -55,7 +55,9 @@ def test_trials_of_different_targets_are_not_compared() -> None:
     est = estimate_session(dataclasses.replace(trials, truth=truth), EstimateOptions(),
                            line_fits=False)  # fmt: skip
     assert est.tests is not None
-    assert not est.tests.flagged.any()
+    assert not any(est.tests.by(i) == "other trials" for i in range(4))
+    # each trial against its own truth instead: the blind blunder, and the moved truth
+    assert [est.tests.by(i) for i in range(4)] == ["", "truth", "", "truth"]
 
 
 def test_one_target_reads_only_the_truths_equality() -> None:

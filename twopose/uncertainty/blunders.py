@@ -19,7 +19,10 @@ chi-square over its degrees of freedom (at least 1), with Fisher's F on them
 
 A trial of a session whose trials measured one target is flagged too when its estimate
 lies off the others' (:mod:`twopose.uncertainty.one_target`): a typed value its own poses
-cannot check (:attr:`TrialTests.apart`, its own words).
+cannot check (:attr:`TrialTests.apart`, its own words); and when its reported point lies
+far outside its own region from the grid point typed as its truth
+(:mod:`twopose.uncertainty.own_truth`, :attr:`TrialTests.truth_off`): kept out of the pool,
+its region not widened. :meth:`TrialTests.by` says which test flagged it.
 """
 
 from __future__ import annotations
@@ -35,15 +38,18 @@ from scipy import special
 from twopose.arrays import F64, Bools, Ints
 from twopose.uncertainty.misclosure import Misclosure, pose_tests
 from twopose.uncertainty.one_target import TargetTests
+from twopose.uncertainty.own_truth import TruthTests
 from twopose.values.units import Units
 
-__all__ = ["AXES", "EXPLAINS_LEVEL", "TrialTests", "trial_tests"]
+__all__ = ["AXES", "EXPLAINS_LEVEL", "FLAGGED_BY", "TrialTests", "trial_tests"]
 
 #: The typed translation's components, as the words say them.
 AXES = ("x", "y", "z")
 #: What is left of a flagged trial's chi-square once one pose's component is corrected
 #: no longer rejects at this level: that pose explains the trial.
 EXPLAINS_LEVEL = 0.05
+#: Which test flagged a trial, as the analysis says it (trials.csv's ``flagged_by``).
+FLAGGED_BY = ("misclosure", "other trials", "truth")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -60,7 +66,11 @@ class TrialTests:
     trial's own variance multiplier (1 else), ``own_dof`` the dof its F quantile takes;
     ``apart``: a trial flagged because its estimate disagrees with the session's other
     trials of the same target (:mod:`twopose.uncertainty.one_target`), how far from theirs
-    (session units; NaN else).
+    (session units; NaN else); ``truth_off``: a trial flagged because its reported point
+    lies far outside its region from its own recorded truth
+    (:mod:`twopose.uncertainty.own_truth`), how far (session units; NaN else), with
+    ``truth_sigmas`` (the NEES' square root) and ``truth_axis`` (the grid axis holding
+    most of that error, -1: none).
     """
 
     flagged: Bools
@@ -73,6 +83,9 @@ class TrialTests:
     own: F64
     own_dof: Ints
     apart: F64 | None = None
+    truth_off: F64 | None = None
+    truth_sigmas: F64 | None = None
+    truth_axis: Ints | None = None
 
     @classmethod
     def none(cls, T: int) -> TrialTests:
@@ -88,6 +101,35 @@ class TrialTests:
             own=np.ones(T),
             own_dof=np.zeros(T, dtype=np.int_),
             apart=np.full(T, np.nan),
+        )
+
+    def by(self, i: int) -> str:
+        """Which test flagged trial ``i`` (:data:`FLAGGED_BY`; "" when not flagged)."""
+        if not self.flagged[i]:
+            return ""
+        if self.apart is not None and np.isfinite(self.apart[i]):
+            return FLAGGED_BY[1]
+        if self.truth_off is not None and np.isfinite(self.truth_off[i]):
+            return FLAGGED_BY[2]
+        return FLAGGED_BY[0]
+
+    def with_truth(self, truth: TruthTests) -> TrialTests:
+        """These tests with the trials far off their own recorded truth flagged too.
+
+        ``truth``: :func:`twopose.uncertainty.own_truth.truth_tests`. Their regions are not
+        widened (``own`` stays 1: a region sized by its truth would cover it by
+        construction); they are kept out of the session's pool as any flagged trial.
+        """
+        new = truth.flagged & ~self.flagged
+        if not new.any():
+            return self
+        T = len(new)
+        off = np.full(T, np.nan) if self.truth_off is None else self.truth_off.copy()
+        sig = np.full(T, np.nan) if self.truth_sigmas is None else self.truth_sigmas.copy()
+        axis = np.full(T, -1, dtype=np.int_) if self.truth_axis is None else self.truth_axis.copy()
+        off[new], sig[new], axis[new] = truth.off[new], np.sqrt(truth.nees[new]), truth.axis[new]
+        return dataclasses.replace(
+            self, flagged=self.flagged | new, truth_off=off, truth_sigmas=sig, truth_axis=axis
         )
 
     def with_target(self, target: TargetTests) -> TrialTests:
@@ -117,6 +159,8 @@ class TrialTests:
         """
         if not self.flagged[i]:
             return ""
+        if self.by(i) == FLAGGED_BY[2]:
+            return self._truth_words(i, units)
         if self.apart is not None and np.isfinite(self.apart[i]):
             return (
                 "this trial's estimate lies about "
@@ -145,6 +189,19 @@ class TrialTests:
         what = f"typed {axis} of one of them" if axis else "one of them"
         more = "a fourth pose" if poses <= 3 else "another pose"
         return f"this trial's poses disagree ({what}{size}): check what you typed, or add {more}"
+
+    def _truth_words(self, i: int, units: Units) -> str:
+        """A trial far off its own recorded truth, in words (:meth:`words`)."""
+        off = np.full(len(self.flagged), np.nan) if self.truth_off is None else self.truth_off
+        sigmas = self.truth_sigmas if self.truth_sigmas is not None else off
+        axis = -1 if self.truth_axis is None else int(self.truth_axis[i])
+        along = f", mostly in {AXES[axis]}" if axis >= 0 else ""
+        return (
+            f"this trial's estimate lies {float(off[i]):.3g} {units} "
+            f"({float(sigmas[i]):.0f} sigma){along} from the grid point typed as "
+            "its truth: one of its typed poses, the grid point, or the detection is off: "
+            "check what you typed"
+        )
 
 
 def _about(value: float) -> str:

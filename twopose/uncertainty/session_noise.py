@@ -23,6 +23,7 @@ from twopose.uncertainty.blunders import TrialTests, trial_tests
 from twopose.uncertainty.misclosure import Misclosure, misclosures
 from twopose.uncertainty.noise import MIN_PLACING_DOF, NoiseModel, VarianceFactor, region_quantile
 from twopose.uncertainty.one_target import one_target, target_tests
+from twopose.uncertainty.own_truth import truth_tests
 from twopose.uncertainty.placing_variance import Flags, SessionNoise, flag_trials, posterior
 from twopose.uncertainty.propagate import PLACING, Shared, region_dof
 from twopose.values.units import Units
@@ -56,6 +57,7 @@ __all__ = [
     "region_multipliers",
     "session_statistics",
     "with_one_target",
+    "with_own_truth",
 ]
 
 
@@ -150,6 +152,24 @@ def with_one_target(noise: NoiseResult, truth: F64, point: F64, cov: F64) -> Noi
     return dataclasses.replace(noise, factor=factor, tests=tests)
 
 
+def with_own_truth(noise: NoiseResult, error: F64, cov: F64) -> NoiseResult:
+    """The session's noise with each trial tested against its own recorded truth.
+
+    :mod:`twopose.uncertainty.own_truth`: ``error`` (T, 3) each reported point less its
+    truth (NaN: none), ``cov`` its region. A trial it flags is kept out of the pool, the
+    factor settled again without it; its region is not widened. The same result (the same
+    object) when nothing more is flagged, or the session was not tested (``--no-sigma0``).
+    """
+    m, flags, model = noise.misclosure, noise.flags, noise.noise
+    if m is None or flags is None or model is None:
+        return noise
+    tests = noise.tests.with_truth(truth_tests(error, cov))
+    if tests is noise.tests:
+        return noise
+    factor = _factor(m, flags, tests.flagged, model)
+    return dataclasses.replace(noise, factor=factor, tests=tests)
+
+
 def _measured_dof(noise: NoiseModel) -> float:
     """The degrees of freedom a board's measured placing sigma rests on.
 
@@ -205,7 +225,11 @@ def session_statistics(
 
     Its tested trials' chi-square, dof and components (none when not tested); a trial
     ``tests`` flagged for its estimate off the others of its target
-    (:attr:`TrialTests.apart`) is left out, as the session's own pool leaves it.
+    (:attr:`TrialTests.apart`) is left out, as the session's own pool leaves it. A trial
+    flagged by its own truth (:attr:`TrialTests.truth_off`) is not: the run's first pass
+    tests it in regions the operator's prior has not settled yet (at 3x the typed placing
+    it would flag merely noisy trials and thin the operator's pool by the truth), and a
+    blunder only the truth sees is one its misclosure cannot: its misclosure is a clean one.
     """
     if m is None:
         return SessionNoise(group=group, chi2=np.zeros(0), dof=np.zeros(0, dtype=np.int_),
