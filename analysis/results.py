@@ -177,6 +177,9 @@ class RunResult:
     #: The folder the run wrote its outputs into; None when it wrote none (no ``out_dir``
     #: given, or nothing to analyse: then ``--out`` is left as it was).
     written_to: str | None = None
+    #: The settings its results depend on (:func:`analysis.gate.settings.settings_of`):
+    #: ``summary.json``'s ``settings``, which ``check`` compares with a baseline's.
+    settings: dict[str, object] = field(default_factory=dict)
 
     @property
     def failed(self) -> bool:

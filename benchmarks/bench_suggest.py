@@ -55,8 +55,9 @@ sys.path.insert(0, str(REPO))
 
 from twopose.detect.clutter import Clutter, scene_clutter  # noqa: E402
 from twopose.guidance.advice import Guidance, Reach, advise, suggest  # noqa: E402
-from twopose.guidance.paper import clear_of_edges, field_in_view, half_planes  # noqa: E402
+from twopose.guidance.paper import clear_of_edges, half_planes  # noqa: E402
 from twopose.guidance.prediction import predicted_regions, target_of, template_view  # noqa: E402
+from twopose.guidance.search import field_in_view  # noqa: E402
 from twopose.methods.specs import Method, spec_of  # noqa: E402
 from twopose.methods.targets import finger_axis  # noqa: E402
 from twopose.sim.layout import build_layout  # noqa: E402

@@ -110,20 +110,13 @@ def registered_names() -> dict[str, frozenset[str]]:
 #: category): the figure lists every one, and ``tests/test_census.py`` fails on a site not
 #: here and on an entry no site uses any more.
 _SEGMENTS = (
-    "the top view's segments are made here, of the kinds the page's legend names "
-    "(MethodPage.legend_segments)"
+    "a segment kind declared with its style (SegmentKind: the one place a kind is named; "
+    "the page draws each segment by the style it carries)"
 )
 _TRUTH_KINDS = (
     "TruthKind's words (a trial's truth is one point or a line), spelled as two methods are"
 )
 _INCHES = "an inch-valued constant converted to the session's unit"
-_JS_WIDTHS = (
-    "the canvas' line widths by segment kind (the kinds the page's legend names); not yet on "
-    "MethodPage"
-)
-_JS_DASHES = (
-    "the canvas' dashes by segment kind (the kinds the page's legend names); not yet on MethodPage"
-)
 _THESIS = "the thesis' claims, keyed by its own names for the methods it tested"
 _LINE_GROUP = 'a column group named "line" (the line\'s columns)'
 _SOURCE_METHOD = "a source opened without a method renders method 2's scene (the thesis' main one)"
@@ -172,14 +165,6 @@ EXPLAINED: dict[tuple[str, str, str], str] = {
     ("recorder/setup/plan.py", "in", "argument"): _INCHES,
     ("analysis/tools/sensitivity.py", "in", "argument"): "the thesis' sweeps, in its inches",
     (
-        "analysis/tools/sensitivity.py",
-        "ground",
-        "argument",
-    ): (
-        "the sweep of method 2's geometry, the thesis' (the plane lane draws it by the method's "
-        "plane)"
-    ),
-    (
         "twopose/values/toml.py",
         "line",
         "argument",
@@ -206,6 +191,18 @@ EXPLAINED: dict[tuple[str, str, str], str] = {
     ),
     ("twopose/sim/moving.py", "in", "argument"): "the scene's inch-valued sizes converted",
     ("recorder/simulate/pair.py", "in", "argument"): "one inch in the scene's unit (the lead)",
+    ("recorder/simulate/pointing_clip.py", "in", "argument"): "one inch in the scene's unit",
+    ("recorder/cli/app.py", "point", "argument"): "the command's name (twopose-record point)",
+    ("recorder/cli/point.py", "ground", "default"): "point's --method: the floor's method",
+    ("recorder/console/pointing_server.py", "ground", "default"): (
+        "point's method when none is given: where the finger points on the floor"
+    ),
+    ("recorder/console/pointing_server.py", "in", "argument"): (
+        "the panel's smallest view, declared in inches and converted"
+    ),
+    ("recorder/console/page/pointing.js", "pair", "comparison"): (
+        "the push stream's message kind (a pair's estimate), not a source"
+    ),
     ("recorder/setup/rules.py", "in", "argument"): (
         "a board session's rig check needs no unit (it refuses any rig): the bounds' own"
     ),
@@ -213,6 +210,16 @@ EXPLAINED: dict[tuple[str, str, str], str] = {
         "a table with no method column is drawn on a point's plane (the ground's axes)"
     ),
     ("recorder/setup/plan_file.py", "camera", "argument"): "the plan file's table [camera]",
+    (
+        "recorder/setup/stream_plan.py",
+        "point",
+        "collection",
+    ): "a pair plan's touch key `point` (the grid point), not the method",
+    (
+        "recorder/setup/stream_plan.py",
+        "point",
+        "comparison",
+    ): "a pair plan's touch key `point` (the grid point), not the method",
     ("recorder/setup/plan_file.py", "board", "argument"): "the plan file's table [board]",
     (
         "recorder/setup/form.py",
@@ -246,7 +253,7 @@ EXPLAINED: dict[tuple[str, str, str], str] = {
         "argument",
     ): "a board session's top view says its method",
     ("twopose/methods/topview.py", "ray", "argument"): _SEGMENTS,
-    ("twopose/methods/topview.py", "trace", "collection"): _SEGMENTS,
+    ("twopose/methods/topview.py", "trace", "argument"): _SEGMENTS,
     ("twopose/methods/topview.py", "estimated_line", "argument"): _SEGMENTS,
     ("twopose/methods/topview.py", "truth_line", "argument"): _SEGMENTS,
     ("twopose/methods/topview.py", "corners", "argument"): _SEGMENTS,
@@ -254,9 +261,6 @@ EXPLAINED: dict[tuple[str, str, str], str] = {
     ("analysis/tables/trials.py", "line", "argument"): _LINE_GROUP,
     ("analysis/report/thesis.py", "method 1", "dict key"): _THESIS,
     ("analysis/report/thesis.py", "method 2", "dict key"): _THESIS,
-    ("recorder/console/page/topview.js", "corners", "dict key"): _JS_WIDTHS,
-    ("recorder/console/page/topview.js", "estimated_line", "dict key"): _JS_WIDTHS,
-    ("recorder/console/page/topview.js", "truth_line", "dict key"): _JS_DASHES,
 }
 
 

@@ -35,19 +35,20 @@ from twopose.camera.model import Camera
 from twopose.errors import InputValueError, SessionExistsError, SessionFormatError, TwoposeError
 from twopose.format.channels import Channels, register_session_channels
 from twopose.format.entries import (
+    METADATA_NAME,
     CaptureWindow,
     PairEntry,
     PlaneEntry,
     PoseEntry,
     SessionInfo,
     StreamWindow,
+    cameras_from_metadata,
     decode_entry,
     encode_entry,
 )
 from twopose.format.messages import calibration_message, calibration_topic
 from twopose.format.pair_convert import pair_calibration
 from twopose.format.reader import check_version, max_chunk_bytes
-from twopose.format.writer import METADATA_NAME, cameras_from_metadata
 
 __all__ = ["RecoveryReport", "recover_session"]
 

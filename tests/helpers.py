@@ -328,8 +328,7 @@ def rewrite_session(
     from mcap.reader import make_reader
     from mcap.writer import Writer
 
-    from twopose.format.entries import SessionInfo, decode_entry, encode_entry
-    from twopose.format.writer import METADATA_NAME
+    from twopose.format.entries import METADATA_NAME, SessionInfo, decode_entry, encode_entry
 
     def renamed(entry: bytes) -> bytes:
         if ids is None:

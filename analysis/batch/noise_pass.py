@@ -130,7 +130,9 @@ def noise_pass(path: str, options: AnalysisOptions, continuations: Sequence[str]
     trials = corrected_trials(replay_views(path, options, continuations, keep=keep), options.rig)
     estimate = estimate_session(trials, options.estimate, line_fits=False)
     return NoisePass(
-        session=path, statistics=session_statistics("", estimate.misclosure), detections=keep
+        session=path,
+        statistics=session_statistics("", estimate.misclosure, estimate.tests),
+        detections=keep,
     )
 
 

@@ -24,6 +24,7 @@ from analysis.batch.inputs import InputSet, SessionIdentity, resolve_inputs
 from analysis.batch.noise_pass import NoisePass, first_pass, noise_pass, prior_salt, with_prior
 from analysis.batch.outputs import OutputFolder, printable_stem
 from analysis.batch.workers import Outcome, run_processes
+from analysis.gate.settings import settings_of
 from analysis.report.figures.cache import FigureCache, FigureJob
 from analysis.report.figures.drawer import FigureDrawer, note
 from analysis.results import AnalysisOptions, RunResult, SessionFailure, SessionResult
@@ -150,6 +151,7 @@ def run(  # noqa: PLR0913 - keyword-only settings, one per command-line option
             input_notes=tuple(inputs.run_notes()),
             inputs_set_aside=inputs.set_aside,
             written_to=None if folder is None else str(folder.destination),
+            settings=settings_of(options),
         )
         if folder is not None:
             _write_run(result, folder, batch, outcomes)

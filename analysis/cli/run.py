@@ -157,8 +157,10 @@ Sigma0Option = Annotated[
     bool,
     typer.Option(
         "--sigma0/--no-sigma0",
-        help="Test the noise model by each session's redundant trials (sigma0) and widen "
-        "every 95% region of a session whose data contradict it (docs/uncertainty.md).",
+        help="Estimate the placing error from each session's redundant trials (the "
+        "placing variance's multiplier, always used, with its uncertainty; sigma0's test; "
+        "the trials whose poses disagree flagged) and propagate every 95% region with it "
+        "(docs/uncertainty.md); --no-sigma0: the typed or measured placing sigma as it is.",
     ),
 ]
 

@@ -2,7 +2,8 @@
 
 ``check`` against a baseline with JUnit XML (``baseline``), what it checks and how much
 worse each may get (``tolerance``), which rows of two runs hold the same measurements
-(``match``) and two runs side by side (``comparison``).
+(``match``), the noise models and the settings two runs assumed (``noise``, ``settings``)
+and two runs side by side (``comparison``).
 """
 
 from __future__ import annotations

@@ -26,6 +26,7 @@ import pandas as pd
 
 from analysis.gate.match import Pair, match_rows, require_identity, run_trials
 from analysis.gate.noise import noise_model_difference
+from analysis.gate.settings import SettingsDifference, settings_difference
 from analysis.gate.tolerance import (
     CHECKED_METRICS,
     Allowance,
@@ -83,6 +84,8 @@ class CheckResult:
 
     comparisons: pd.DataFrame
     notes: tuple[str, ...] = ()
+    #: The run and the baseline were computed with different settings (the notes say which).
+    settings_differ: bool = False
 
     @property
     def regressed(self) -> bool:
@@ -134,6 +137,7 @@ def check(
         tolerances,
         names=(str(results_dir), str(baseline_dir)),
         trials=(run_trials(results_dir), run_trials(baseline_dir)),
+        settings=settings_difference(results_dir, baseline_dir),
     )
 
 
@@ -144,6 +148,7 @@ def compare_summaries(
     *,
     names: tuple[str, str] = ("the run", "the baseline"),
     trials: tuple[pd.DataFrame | None, pd.DataFrame | None] = (None, None),
+    settings: SettingsDifference | None = None,
 ) -> CheckResult:
     """Each session and method and checked metric of ``baseline`` against ``result``.
 
@@ -152,7 +157,10 @@ def compare_summaries(
     ``trials``, the two runs' ``trials.csv``; a baseline in other units is converted). A
     checked column missing from either is an error, but for one the baseline predates
     (:data:`BASELINE_MAY_LACK`): that metric is not compared, and a note says so.
+    ``settings``: how the two runs' settings differ (:mod:`analysis.gate.settings`), said
+    first; a metric they shape is not compared.
     """
+    settings = settings or SettingsDifference()
     for table, name in zip((result, baseline), names, strict=True):
         check_results_table(
             table, f"{name}/summary.csv", numeric=_CHECKED_COLUMNS, columns=SUMMARY_TABLE
@@ -168,10 +176,11 @@ def compare_summaries(
             raise InputValueError(
                 f"{name}/summary.csv has no column {', '.join(lacking)}: cannot check it; {fix}"
             )
-    notes: tuple[str, ...] = tuple(
+    notes: tuple[str, ...] = settings.notes + tuple(
         f"not compared: {c} (the baseline predates it; replace the baseline to check it)"
         for c in skipped
     )
+    skipped += [c for c in settings.apart if c not in skipped]
     rows: list[dict[str, Any]] = []
     for pair in match_rows(result, baseline, trials, names=names):
         said, apart = noise_model_difference(pair)  # regions of other noise: not compared
@@ -184,7 +193,9 @@ def compare_summaries(
         "value for it, so any value passes; replace the baseline to check it"
         for _, r in unheld.iterrows()
     )
-    return CheckResult(comparisons=table, notes=tuple(dict.fromkeys(notes)))
+    return CheckResult(
+        comparisons=table, notes=tuple(dict.fromkeys(notes)), settings_differ=settings.differ
+    )
 
 
 def _pair_rows(
@@ -320,6 +331,8 @@ def check_lines(outcome: CheckResult, baseline: str | Path) -> list[str]:
     n_pairs = len(compared[["session", "method"]].drop_duplicates())
     n_bad = int(worse["status"].isin(["regressed", "missing"]).sum())
     verdict = f"{n_bad} regression(s)" if n_bad else "no regression"
+    if outcome.settings_differ:
+        verdict += " (across different settings: see the notes)"
     return [*lines, f"checked {n_pairs} session/method pair(s) against {baseline}: {verdict}"]
 
 

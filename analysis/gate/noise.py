@@ -7,7 +7,10 @@ contents: ``summary.csv``'s ``rig_sha256``) hold regions that claim different th
 the metrics of the regions (``coverage95``) are not compared for that session, and the
 check says so, naming both models; the errors (RMSE, median, biases, ok trials) are
 compared as ever, the rig's correction being part of what is checked. A baseline from
-before the column is said too: its noise model cannot be compared.
+before the column is said too: its noise model cannot be compared. So is the operator's
+prior (issue 54): a session whose regions pooled other sessions of its operator in one run
+and not, or other ones, in the other (``placing_source``'s "3 other sessions of operator
+Ada (point)") claims different regions, said the same way.
 """
 
 from __future__ import annotations
@@ -36,7 +39,7 @@ def noise_model_difference(pair: Pair) -> tuple[tuple[str, ...], tuple[str, ...]
             "baseline to check that both runs assumed the same)",
         ), ()
     if _text(pair.baseline, "rig_sha256") == _text(pair.result, "rig_sha256"):
-        return (), ()
+        return _prior_difference(pair, where)
     note = (
         f"{where}: the run and the baseline used different noise models (the run: "
         f"{_model(pair.result)}; the baseline: {_model(pair.baseline)}): "
@@ -59,3 +62,36 @@ def _model(row: pd.Series) -> str:
 def _text(row: pd.Series, column: str) -> str:
     value = row.get(column, "")
     return "" if value is None or (isinstance(value, float) and math.isnan(value)) else str(value)
+
+
+def _prior_difference(pair: Pair, where: str) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """The operator's prior each run's regions took (the other sessions of the operator it
+    pooled: ``placing_source``), compared: a different one is said, its coverage left out."""
+    if pair.result is None or pair.baseline is None:
+        return (), ()
+    run, base = (_prior(_text(row, "placing_source")) for row in (pair.result, pair.baseline))
+    if run == base:
+        return (), ()
+    note = (
+        f"{where}: the run and the baseline took different priors for the placing error (the "
+        f"run: {run or 'none'}; the baseline: {base or 'none'}, the operator's other sessions "
+        f"pooled): {', '.join(NOISE_MODEL_METRICS)} not compared (their regions assume "
+        "different noise); the errors are"
+    )
+    return (note,), NOISE_MODEL_METRICS
+
+
+def _prior(source: str) -> str:
+    """The operator's prior in ``placing_source``'s words (``""``: none).
+
+    Its sources, ``(estimated from <this session's trials>, <the prior>, <the anchor>)``
+    (:func:`twopose.uncertainty.session_noise.placing_source`), less the session's own
+    trials and the anchor.
+    """
+    head = "(estimated from "
+    if head not in source or not source.endswith(")"):
+        return ""
+    parts = source[source.index(head) + len(head) : -1].split(", ")
+    if parts and parts[0].startswith("this session's "):
+        parts = parts[1:]
+    return ", ".join(parts[:-1])

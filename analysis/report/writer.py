@@ -196,6 +196,7 @@ def summary_document(result: RunResult) -> dict[str, object]:
         "twopose_version": __version__,
         "format_version": FORMAT_VERSION,
         "include_warned": result.include_warned,
+        "settings": result.settings,
         "n_sessions": result.n_sessions,
         "n_analysed_apart": len(result.sessions),
         "n_failed": len(result.errors),

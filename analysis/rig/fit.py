@@ -90,7 +90,8 @@ def corrected_estimates(data: RigData, rig: RigConstants) -> tuple[F64, F64]:
     batch = corrected_batch(data.batch, rig)
     point = np.full((len(data.trial_ids), 3), np.nan)
     direction = np.full_like(point, np.nan)
-    needs_ground = spec_of(data.method).needs_ground
+    spec = spec_of(data.method)
+    needs_ground = spec.needs_ground
     for s in np.unique(data.origin):
         rows = data.origin == s
         ground = data.grounds[int(s)]
@@ -99,7 +100,7 @@ def corrected_estimates(data: RigData, rig: RigConstants) -> tuple[F64, F64]:
         point[rows] = solved.point
         if solved.direction is not None:
             direction[rows] = solved.direction
-    if spec_of(data.method).estimates_line:
+    if spec.estimates_line:
         point, _ = reported_line_point(point, direction, data.truth)
     return point, direction
 

@@ -148,7 +148,7 @@ class TrialResult:
     @property
     def spec(self) -> MethodSpec:
         """The spec of the trials' method."""
-        return spec_of(self.estimate.trials.method)
+        return self.estimate.trials.spec
 
     @property
     def est(self) -> Estimates:
@@ -447,8 +447,10 @@ TRIAL_TABLE: tuple[Column, ...] = (
            domain=COUNT, dtype="int64", group="noise", fill=nc.misclosure_dof),
     Column(name="misclosure_p", label="misclosure p-value against the rest", unit="share",
            domain=SHARE, group="noise", fill=nc.misclosure_p),
-    Column(name="flagged", label="poses disagree (flagged)", unit="none", domain=FLAG,
+    Column(name="flagged", label="flagged (poses, other trials or truth)", unit="none", domain=FLAG,
            dtype="boolean", group="noise", fill=nc.flagged),
+    _text("flagged_by", "which test flagged it", "noise", nc.flagged_by,
+          domain=Domain("one of", ("", *nc.FLAGGED_BY))),
     Column(name="suspect_pose", label="pose named", unit="count", domain=COUNT,
            dtype="int64", group="noise", fill=nc.suspect_pose),
     _text("suspect_axis", "typed component that looks off", "noise", nc.suspect_axis,

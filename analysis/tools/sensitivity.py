@@ -5,26 +5,36 @@ along x, target near x = 1.91, z = 8.375 in; Appendix D).
 
 Each sweep is a seeded Monte Carlo through the real solvers: the image measurements come
 from the true poses; the solver gets the typed poses (true + error) and noisy pixels.
+
+What a method's sweep aims at, measures and moves farther is its geometry's
+(:attr:`twopose.methods.specs.MethodSpec.geometry`, asked once through
+:class:`twopose.methods.geometry.GeometryCases`): the dot for rays meeting at a point, the
+finger pointing at the method's own plane (the ground, a registered wall) for planes cut by
+a plane. A registered method on another plane is swept on that plane, with no switch here.
 """
 
 from __future__ import annotations
 
 import math
+from abc import ABC, abstractmethod
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
+from typing_extensions import override
 
 from twopose.arrays import F64
 from twopose.camera.model import Intrinsics, project_points
-from twopose.methods.specs import METHOD_SPECS, Method, label_of, spec_of
+from twopose.methods.planes import GROUND_PLANE, ConstraintPlane
+from twopose.methods.specs import METHOD_SPECS, Method, MethodSpec, label_of
 from twopose.methods.targets import finger_axis
-from twopose.solve.estimate import EstimateOptions, ViewBatch, solve_batch
+from twopose.solve.estimate import EstimateOptions, ViewBatch
 from twopose.uncertainty.propagate import INPUTS_PER_VIEW
 
-#: The methods the sweeps cover: those the thesis tested, in its geometry (the registry's
-#: ``thesis_tested``: methods 1 and 2; the line has its own tests).
+#: The methods the sweeps cover by default: those the thesis tested, in its geometry (the
+#: registry's ``thesis_tested``: methods 1 and 2; the line has its own tests).
 SWEPT: tuple[Method, ...] = tuple(m for m, s in METHOD_SPECS.items() if s.thesis_tested)
 
 if TYPE_CHECKING:
@@ -55,7 +65,12 @@ SENSITIVITY_COLUMNS = [
 
 @dataclass(frozen=True, kw_only=True)
 class Geometry:
-    """One configuration: camera 1 at the origin, camera 2 at ``baseline`` (no rotation)."""
+    """One configuration: camera 1 at the origin, camera 2 at ``baseline`` (no rotation).
+
+    ``ground_height`` and ``ground_point`` are the pointed-at plane's offset and the point's
+    in-plane coordinates (the thesis' ground: its height and (x, z)); a method on another
+    plane reads them on its own plane.
+    """
 
     focal_px: float = 525.0
     ground_height: float = 9.625
@@ -82,21 +97,105 @@ class Geometry:
         )
 
 
-def _measured(g: Geometry, method: Method) -> tuple[F64, F64]:
-    """The true image measurements in each view: (2, 2) pixels and (2,) orientations (deg),
-    the dot's centroid (its orientation unused) or the finger's tip and direction."""
-    centres = np.array([[0.0, 0.0, 0.0], g.baseline])
-    if not spec_of(method).uses_image_lines:
+class _Aim(ABC):
+    """What a method's sweep aims at: its truth, its image measurements, its plane."""
+
+    #: The method's plane the solver is given (a method on none is given the ground's,
+    #: which its solver does not read).
+    plane: ConstraintPlane = GROUND_PLANE
+    #: Whether the finger's tilt is swept (a finger pointing at a plane).
+    tilts = False
+
+    @abstractmethod
+    def truth(self, g: Geometry) -> F64:
+        """(3,) the true position the estimate is compared with."""
+
+    @abstractmethod
+    def measured(self, g: Geometry, centres: F64) -> tuple[F64, F64]:
+        """The true image measurements in each view: (2, 2) pixels and (2,) orientations."""
+
+    @abstractmethod
+    def farther(self, g: Geometry, scale: float) -> Geometry:
+        """``g`` with the target ``scale`` times as deep."""
+
+
+class _Dot(_Aim):
+    """Rays meeting at a point (method 1): the dot, its centroid in each view."""
+
+    @override
+    def truth(self, g: Geometry) -> F64:
+        return np.asarray(g.point_target, dtype=np.float64)
+
+    @override
+    def measured(self, g: Geometry, centres: F64) -> tuple[F64, F64]:
         target = np.asarray(g.point_target, dtype=np.float64)[None]
         px = np.stack([project_points(target, g.intrinsics, np.eye(3), c)[0] for c in centres])
-        return px, np.zeros(2)
-    tip, base = g.finger()
-    obs = [project_points(np.stack([tip, base]), g.intrinsics, np.eye(3), c) for c in centres]
-    theta = np.array([math.degrees(math.atan2(*(o[1] - o[0])[::-1])) for o in obs])
-    return np.stack([o[0] for o in obs]), theta
+        return px, np.zeros(2)  # the dot's orientation is unused
+
+    @override
+    def farther(self, g: Geometry, scale: float) -> Geometry:
+        x, y, z = g.point_target
+        return replace(g, point_target=(x, y, z * scale))
 
 
-def _solved(g: Geometry, method: Method, px: F64, theta: F64, typed: F64) -> F64:
+@dataclass(frozen=True)
+class _Pointed(_Aim):
+    """Planes cut by the method's plane (method 2, a wall): the finger pointing at it."""
+
+    plane: ConstraintPlane = GROUND_PLANE
+    tilts = True
+
+    def finger(self, g: Geometry) -> tuple[F64, F64]:
+        return finger_axis(
+            g.ground_point, g.ground_height, g.finger_tilt_deg, g.finger_azimuth_deg,
+            plane=self.plane,
+        )  # fmt: skip
+
+    @override
+    def truth(self, g: Geometry) -> F64:
+        return self.plane.point(g.ground_point, g.ground_height)
+
+    @override
+    def measured(self, g: Geometry, centres: F64) -> tuple[F64, F64]:
+        tip, base = self.finger(g)
+        obs = [project_points(np.stack([tip, base]), g.intrinsics, np.eye(3), c) for c in centres]
+        theta = np.array([math.degrees(math.atan2(*(o[1] - o[0])[::-1])) for o in obs])
+        return np.stack([o[0] for o in obs]), theta
+
+    @override
+    def farther(self, g: Geometry, scale: float) -> Geometry:
+        # The point's second in-plane coordinate: the ground's z, a wall's z (the depth).
+        return replace(g, ground_point=(g.ground_point[0], g.ground_point[1] * scale))
+
+
+class _Aims:
+    """Each geometry's aim (:class:`twopose.methods.geometry.GeometryCases`)."""
+
+    def rays_to_point(self) -> _Aim | None:
+        return _Dot()
+
+    def planes_to_line(self) -> _Aim | None:
+        return None  # a line's error is not a point's: the line has its own tests
+
+    def planes_to_plane_point(self, plane: ConstraintPlane) -> _Aim | None:
+        return _Pointed(plane)
+
+
+def _aim(spec: MethodSpec) -> _Aim:
+    """What ``spec``'s sweeps aim at, from its geometry; ValueError for one not swept."""
+    aim = None if spec.geometry is None else spec.geometry.cases(_Aims(), spec.plane)
+    if aim is None:
+        raise ValueError(f"{spec.label} has no sensitivity sweep (its error is not a point's)")
+    return aim
+
+
+def _measured(g: Geometry, spec: MethodSpec) -> tuple[F64, F64]:
+    """The true image measurements in each view: (2, 2) pixels and (2,) orientations (deg),
+    the dot's centroid (its orientation unused) or the finger's tip and direction."""
+    return _aim(spec).measured(g, np.array([[0.0, 0.0, 0.0], g.baseline]))
+
+
+def _solved(g: Geometry, spec: MethodSpec, px: F64, theta: F64, typed: F64) -> F64:
     """(S, 3) estimates of S samples' pixels (S, 2, 2), orientations (S, 2) and typed camera
     centres (S, 2, 3), through the estimation's own solver; NaN where it gave up."""
     inputs = np.zeros((len(px), 2, len(INPUTS_PER_VIEW)))  # unrotated cameras: angles 0
@@ -107,35 +206,33 @@ def _solved(g: Geometry, method: Method, px: F64, theta: F64, typed: F64) -> F64
         intrinsics=np.broadcast_to([k.fx, k.fy, k.cx, k.cy], (*inputs.shape[:2], 4)).copy(),
         valid=np.ones(inputs.shape[:2], dtype=bool),
     )
-    ground = (np.array([0.0, 1.0, 0.0]), g.ground_height)
-    return solve_batch(method, batch, ground, EstimateOptions()).point
+    normal, offset = _aim(spec).plane.plane(g.ground_height)
+    plane = (np.asarray(normal, dtype=np.float64), offset)
+    if spec.solver is None:
+        raise ValueError(f"{spec.label} solves nothing: it has no sensitivity sweep")
+    solved = spec.solver.load().solve(batch, plane, EstimateOptions().min_conditioning)
+    return solved.point
 
 
-def _estimate(g: Geometry, method: Method, samples: int, rng: np.random.Generator) -> F64:
+def _estimate(g: Geometry, spec: MethodSpec, samples: int, rng: np.random.Generator) -> F64:
     """(samples, 3) estimates under the geometry's noise; NaN where the solver gave up."""
     centres = np.array([[0.0, 0.0, 0.0], g.baseline])
     typed = centres[None] + rng.normal(size=(samples, 2, 3)) * np.asarray(g.pose_sigma)
-    px, theta = _measured(g, method)
+    px, theta = _measured(g, spec)
     noisy_px = px[None] + rng.normal(0.0, g.pixel_sigma, (samples, 2, 2))
     noisy_theta = theta[None] + rng.normal(0.0, g.theta_sigma_deg, (samples, 2))
-    return _solved(g, method, noisy_px, noisy_theta, typed)
-
-
-def _truth(g: Geometry, method: Method) -> F64:
-    if not spec_of(method).needs_ground:  # the dot
-        return np.asarray(g.point_target, dtype=np.float64)
-    return np.array([g.ground_point[0], g.ground_height, g.ground_point[1]])
+    return _solved(g, spec, noisy_px, noisy_theta, typed)
 
 
 def _row(
-    g: Geometry, method: Method, sweep: str, value: float, unit: str, samples: int, seed: int
+    g: Geometry, spec: MethodSpec, sweep: str, value: float, unit: str, samples: int, seed: int
 ) -> dict[str, object]:
-    est = _estimate(g, method, samples, np.random.default_rng(seed))
-    err = est - _truth(g, method)
+    est = _estimate(g, spec, samples, np.random.default_rng(seed))
+    err = est - _aim(spec).truth(g)
     ok = np.isfinite(err).all(axis=1)
     e = err[ok]
     return {
-        "method": method,
+        "method": spec.method,
         "sweep": sweep,
         "value": value,
         "unit": unit,
@@ -148,7 +245,12 @@ def _row(
     }
 
 
-def sensitivity(samples: int = 2000, seed: int = 0, base: Geometry | None = None) -> pd.DataFrame:
+def sensitivity(
+    samples: int = 2000,
+    seed: int = 0,
+    base: Geometry | None = None,
+    methods: Sequence[MethodSpec] | None = None,
+) -> pd.DataFrame:
     """All sweeps, for method 1 (point) and method 2 (ground), as one tidy table.
 
     Every sweep varies one thing from ``base`` (the thesis' geometry with 0.25 px centroid
@@ -163,6 +265,10 @@ def sensitivity(samples: int = 2000, seed: int = 0, base: Geometry | None = None
         The random seed: the same seed, the same table.
     base : Geometry, optional
         The geometry each sweep varies (default: the thesis').
+    methods : sequence of MethodSpec, optional
+        The methods swept (default: :data:`SWEPT`); a registered method on its own plane is
+        swept on it. A method whose geometry has no sweep (the line) is refused
+        (ValueError).
 
     Returns
     -------
@@ -171,7 +277,9 @@ def sensitivity(samples: int = 2000, seed: int = 0, base: Geometry | None = None
     """
     g0 = base or Geometry()
     rows = []
-    for method in SWEPT:
+    specs = [METHOD_SPECS[m] for m in SWEPT] if methods is None else list(methods)
+    for method in specs:
+        aim = _aim(method)
         for s in (0.1, 0.25, 0.5, 1.0, 2.0):
             rows.append(
                 _row(replace(g0, pixel_sigma=s), method, "pixel noise", s, "px", samples, seed)
@@ -192,13 +300,9 @@ def sensitivity(samples: int = 2000, seed: int = 0, base: Geometry | None = None
             )
             rows.append(_row(g, method, "baseline direction", angle, "deg from x", samples, seed))
         for scale in (0.75, 1.0, 1.5, 2.0):
-            if not spec_of(method).needs_ground:  # the dot, farther away
-                x, y, z = g0.point_target
-                g = replace(g0, point_target=(x, y, z * scale))
-            else:
-                g = replace(g0, ground_point=(g0.ground_point[0], g0.ground_point[1] * scale))
+            g = aim.farther(g0, scale)
             rows.append(_row(g, method, "target distance", scale, "x the thesis'", samples, seed))
-        if spec_of(method).needs_ground:  # the finger's tilt
+        if aim.tilts:  # the finger's tilt
             for tilt in (15.0, 25.0, 35.0, 45.0, 55.0):
                 rows.append(
                     _row(
@@ -214,6 +318,10 @@ def sensitivity(samples: int = 2000, seed: int = 0, base: Geometry | None = None
     return pd.DataFrame(rows, columns=SENSITIVITY_COLUMNS)
 
 
+#: The thesis' claim of section 5.3 is method 2's, on the ground.
+_METHOD_2 = METHOD_SPECS[Method.GROUND]
+
+
 def x_translation_effect(error: float = 0.1, base: Geometry | None = None) -> float:
     """Largest change of method 2's x estimate when one camera's typed x is off by ``error``.
 
@@ -221,7 +329,7 @@ def x_translation_effect(error: float = 0.1, base: Geometry | None = None) -> fl
     to about 0.2 in; this measures it, noise-free, in the thesis' geometry.
     """
     g = replace(base or Geometry(), pixel_sigma=0.0, theta_sigma_deg=0.0)
-    truth = _truth(g, Method.GROUND)
+    truth = _aim(_METHOD_2).truth(g)
     worst = 0.0
     for camera in (0, 1):
         for sign in (-1.0, 1.0):
@@ -234,9 +342,9 @@ def x_translation_effect(error: float = 0.1, base: Geometry | None = None) -> fl
 
 def _estimate_with_typed_offset(g: Geometry, offset: F64) -> F64:
     """Method 2's noise-free estimate with the typed camera centres off by ``offset`` (2, 3)."""
-    px, theta = _measured(g, Method.GROUND)
+    px, theta = _measured(g, _METHOD_2)
     typed = np.array([[0.0, 0.0, 0.0], g.baseline]) + offset
-    return np.asarray(_solved(g, Method.GROUND, px[None], theta[None], typed[None])[0])
+    return np.asarray(_solved(g, _METHOD_2, px[None], theta[None], typed[None])[0])
 
 
 def worst_x_translation_effect(

@@ -2,9 +2,9 @@
 
 The entry point that handles stop signals from its first instruction (``command``), the
 typer app (``app``), the options read and checked by their bounds (``options``), the options
-refused where they have no effect (``option_rules``) and ``calibrate-pair``'s and
-``simulate``'s commands (``pair``, ``simulate``). Each command is a short layer over one
-call of the library.
+refused where they have no effect (``option_rules``) and ``calibrate-pair``'s,
+``point``'s and ``simulate``'s commands (``pair``, ``point``, ``simulate``). Each command is
+a short layer over one call of the library.
 """
 
 from __future__ import annotations

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Annotated, Any, TypeVar
 
 import typer
 
+from recorder.cli.new_pair import new_pair
 from recorder.cli.options import (
     AdaptiveFramesOption,
     BoardCornerOption,
@@ -32,6 +33,7 @@ from recorder.cli.options import (
     NotesOption,
     OperatorOption,
     OutArgument,
+    PairOption,
     PlaneOffsetOption,
     PlanOption,
     PortOption,
@@ -130,8 +132,10 @@ def new(
     grid: GridOption = None,
     target_distance: TargetDistanceOption = None,
     min_gain: MinGainOption = None,
+    pair: PairOption = None,
 ) -> None:
-    """Record a session: the guided laptop-on-grid procedure, or a plan file (--plan).
+    """Record a session: the guided laptop-on-grid procedure, or a plan file (--plan);
+    with --pair, two cameras' stream trials (README, "Two cameras at once").
 
     After each accepted pose the recorder suggests the next one (the reachable pose that
     shrinks the trial's predicted 95% region most); with --target-precision a trial ends
@@ -141,14 +145,8 @@ def new(
     the summary and exits with 130.
     """
     from recorder.cli.option_rules import refuse_idle
+    from recorder.procedure import new_session as ns
     from recorder.procedure.machine import refuse_existing
-    from recorder.procedure.new_session import (
-        CameraMode,
-        NewRequest,
-        continued_session,
-        guidance_asked,
-        rig_file,
-    )
 
     given = {  # every option by its name, None (False, []) when not given
         "--plan": plan, "--method": method, "--units": units, "--calibration": calibration,
@@ -158,9 +156,14 @@ def new(
         "--notes": notes, "--frames": frames, "--poses": poses, "--width": width,
         "--height": height, "--fps": fps, "--live": live, "--live-port": live_port, "--ui": ui,
         "--port": port, "--host": host, "--max-poses": max_poses, "--min-gain": min_gain,
+        "--rig": rig, "--continue": continue_from, "--target-precision": target_precision,
+        "--reach": reach, "--grid": grid, "--target-distance": target_distance,
+        "--adaptive-frames": adaptive_frames,
     }  # fmt: skip
     with handle_errors(), contextlib.ExitStack() as stack:
         refuse_existing(out)  # before the first question
+        if pair is not None:  # two cameras' stream trials (recorder/cli/new_pair.py)
+            raise typer.Exit(new_pair(out, pair, source, given, plan=plan, ui=ui))
         if plan is not None and ui:
             raise InputValueError(
                 "--plan records unattended and --ui asks in the browser: give one of them "
@@ -171,7 +174,7 @@ def new(
                    "--max-poses": max_poses}  # fmt: skip
         guiding["--adaptive-frames"] = True if adaptive_frames else None
         board_options = _guidance_given(guiding, method, planned=plan is not None)
-        continued = continued_session(
+        continued = ns.continued_session(
             continue_from,
             operator=operator,  # who records this part: recorded, not ignored
             method=method, units=units, calibration=calibration, focal=focal,
@@ -179,18 +182,18 @@ def new(
             ground_truth=ground_truth, board=board,
         )  # fmt: skip
         asked = replace(
-            guidance_asked(max_poses, reach, grid, target_distance, min_gain),
+            ns.guidance_asked(max_poses, reach, grid, target_distance, min_gain),
             given=tuple(board_options), poses=poses,
         )  # fmt: skip
         refuse_idle(_combination(given, source, target_precision, continued))
         taken = ""  # a plan's continuation: record_planned takes its session's guidance
         if plan is None:
             asked, taken = _inherited(asked, continued, target_precision)
-        request = NewRequest(
+        request = ns.NewRequest(
             out=out, source=source, frames=frames or 5, adaptive_frames=adaptive_frames,
             poses=asked.poses or 2,
-            camera=CameraMode(width=width or 640, height=height or 480, fps=fps or 30.0),
-            notes=notes or "", **rig_file(rig),
+            camera=ns.CameraMode(width=width or 640, height=height or 480, fps=fps or 30.0),
+            notes=notes or "", **ns.rig_file(rig),
             live_port=(8765 if live_port is None else live_port) if live else None,
             guidance=asked, continued=continued,
         )  # fmt: skip
@@ -507,3 +510,8 @@ def main() -> None:
 from recorder.cli.pair import COMMAND_SETTINGS, calibrate_pair_command  # noqa: E402
 
 app.command("calibrate-pair", context_settings=COMMAND_SETTINGS)(calibrate_pair_command)
+
+# Pointing, live (issue 58 item 5): its own module, registered here.
+from recorder.cli.point import point_command  # noqa: E402
+
+app.command("point")(point_command)

@@ -45,6 +45,7 @@ __all__ = [
     "NotesOption",
     "OperatorOption",
     "OutArgument",
+    "PairOption",
     "PlanOption",
     "PlaneOffsetOption",
     "PortOption",
@@ -97,6 +98,17 @@ RigOption = Annotated[
 
 
 OutArgument = Annotated[Path, typer.Argument(help="New session file (never overwritten).")]
+PairOption = Annotated[
+    Path | None,
+    typer.Option(
+        exists=True,
+        dir_okay=False,
+        help="A pair file (twopose-record calibrate-pair): record two cameras at once "
+        "(--source pair:A,B); each trial is a stream: the target moves, both cameras' frames "
+        "flow, and the moments it touches a known grid point are marked (Enter at the "
+        "terminal, the console's touch button, or a plan's schedule). No pose is typed.",
+    ),
+]
 PlanOption = Annotated[
     Path | None,
     typer.Option(exists=True, dir_okay=False, help="Run this plan (TOML) without prompts."),

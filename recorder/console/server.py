@@ -8,6 +8,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import threading
+import time
 from collections.abc import AsyncIterator, Iterator
 from dataclasses import dataclass
 from importlib import resources
@@ -31,8 +32,11 @@ from recorder.console.guard import (
     text_refusal,
 )
 from recorder.console.loopback import is_loopback_host
+from recorder.console.pointing_route import pointing_routes
 from recorder.console.state import DECISIONS, ConsoleSession
+from recorder.console.stream_driver import STREAM_LIMITS, start_pair_recording, stream_answer
 from recorder.console.transport import ACCEPT_BURST, MAX_HEADER_BYTES, GuardedH11Protocol
+from recorder.live.pointing_feed import PointingFeed
 from recorder.procedure import stops
 from recorder.setup.form import SETUP_FIELDS, FormRefusedError, parse_pose_form, setup_from_answers
 from recorder.setup.rules import Setup, check_rig
@@ -42,8 +46,10 @@ from twopose.methods.specs import Method
 
 if TYPE_CHECKING:
     from recorder.live.view import LiveView
+    from recorder.procedure.stream_terminal import PairSetup
     from recorder.setup.continuation import Continued
     from recorder.setup.rules import GuidanceAsked
+    from twopose.pair.calibration import PairCalibration
     from twopose.rig.constants import RigConstants
     from twopose.uncertainty.noise import PlacingSigma
 
@@ -74,6 +80,9 @@ class ConsoleOptions:
     origin: str = ""  # the console's own page (the live view lets it in), once served
     guidance: GuidanceAsked | None = None  # --max-poses and the suggestions' reach
     continued: Continued | None = None  # --continue: the session this one continues
+    #: ``--pair``: the pair, its setup (asked at the terminal): stream trials, no form.
+    pair: PairCalibration | None = None
+    pair_setup: PairSetup | None = None
 
 
 def _recording(
@@ -142,6 +151,7 @@ class _Console:
         self.session, self.options, self.ready = session, options, ready
         self.threads: list[threading.Thread] = []
         self.stopping = threading.Event()  # the server is stopping (Ctrl-C, SIGTERM)
+        self.pointing = PointingFeed()  # the live pointing panel's (a pair's recording's)
 
     def start(self, setup: Setup) -> None:
         """Record ``setup`` (checked: :func:`checked_setup`); the live view is opened here,
@@ -156,6 +166,15 @@ class _Console:
         thread.daemon = True
         self.threads.append(thread)
         thread.start()
+
+    async def stream_action(self, request: Request) -> Response:
+        """``POST /api/stream`` (:mod:`recorder.console.stream_driver`)."""
+        at_ns = time.monotonic_ns()  # the button's moment, before anything else
+        form, refused = await _form(request, STREAM_LIMITS)
+        if refused is not None:
+            return refused
+        why, errors = stream_answer(self.session, form, at_ns)
+        return _refused(why, errors) if why else ConsoleJSONResponse({"ok": True})
 
     async def page(self, _request: Request) -> Response:
         html = resources.files("recorder.console").joinpath("page", "index.html").read_text("utf-8")
@@ -245,6 +264,10 @@ class _Console:
     async def lifespan(self, _app: Starlette) -> AsyncIterator[None]:
         if self.ready is not None:  # all given on the command line: no form to fill
             self.start(self.ready)
+        elif (pair := self.options.pair) and (setup := self.options.pair_setup):
+            # A pair's stream trials, the setup asked at the terminal.
+            run = start_pair_recording(self.session, self.options, pair, setup, self.pointing)
+            self.threads.append(run)
         yield
         self.stopping.set()
         # The server stops (Ctrl-C, SIGTERM, SIGHUP): the session is interrupted, its file
@@ -263,12 +286,15 @@ def console_app(
     host: str = "127.0.0.1",
     token: str | None = None,
     ready: Setup | None = None,
+    pointing: PointingFeed | None = None,
 ) -> Starlette:
     """The ASGI app of one recording session, behind its guard (``host``: the address it
     listens on, ``--host``; ``token``: the session's, random by default; see
     :mod:`recorder.console.guard`). ``ready``: a setup the command line gave whole
-    (:func:`checked_setup`), recorded at once."""
+    (:func:`checked_setup`), recorded at once. ``pointing``: the pointing panel's feed
+    (:mod:`recorder.live.pointing_feed`; None: the console's own, a pair's recording's)."""
     c = _Console(session, options, ready)
+    c.pointing = pointing or c.pointing
     routes = [
         Route("/", c.page),
         Route("/api/state", c.state),
@@ -276,7 +302,9 @@ def console_app(
         Route("/api/pose", c.pose, methods=["POST"]),
         Route("/api/decide", c.decide, methods=["POST"]),
         Route("/api/note", c.note, methods=["POST"]),
+        Route("/api/stream", c.stream_action, methods=["POST"]),
         Route("/stream.mjpg", c.stream),
+        *pointing_routes(c.pointing, session.closing),
         *(Route(f"/{name}", _asset(name, media)) for name, media in PAGE_FILES.items()),
         *(Route(f"/fonts/{font.file}", _font(font.file)) for font in webfonts.FONTS),
     ]
@@ -291,7 +319,7 @@ PAGE_FILES: dict[str, str] = {
     "style.css": "text/css; charset=utf-8",
     **{
         f"{script}.js": "text/javascript; charset=utf-8"
-        for script in ("util", "setup", "capture", "topview")
+        for script in ("util", "setup", "capture", "topview", "stream", "pointing")
     },
     "main.js": "text/javascript; charset=utf-8",
 }
@@ -452,8 +480,9 @@ def serve_console(
 
     import typer
 
-    _check_source(options)
-    ready = _complete_setup(options)
+    if options.pair is None:
+        _check_source(options)
+    ready = _complete_setup(options) if options.pair is None else None
     if not is_loopback_host(host):
         typer.secho(
             f"warning: --host {host} exposes the console beyond this machine; anyone who "

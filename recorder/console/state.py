@@ -21,7 +21,12 @@ Routes (Starlette, served by uvicorn on 127.0.0.1 unless ``--host`` says otherwi
 ``POST /api/pose``     ``x, y, z, rotation``: type the pose and capture it
 ``POST /api/decide``   ``decision``: ``accept``, ``redo``, ``undo`` or ``quit``
 ``POST /api/note``     ``text``: a note about the current trial (after a capture)
+``POST /api/stream``   a pair's stream trial: ``action`` start, touch (``x, y, z``), end,
+                       stop (:mod:`recorder.console.stream_driver`)
 ``GET /stream.mjpg``   the live camera with the detection drawn (MJPEG)
+``GET /api/pointing``  the live pointing panel's pairs, pushed (Server-Sent Events:
+                       :mod:`recorder.console.pointing_route`)
+``GET /api/clock``     the server's monotonic clock (the page's latency, measured)
 =====================  ====================================================================
 
 A refused request answers 400 with ``{"error": message}`` and records nothing.
@@ -76,8 +81,15 @@ DECISIONS = {
 }
 
 #: What the recorder may offer the page (``waiting``) and the answers each takes
-#: (``quit`` is taken at any step of a recording).
-ANSWERS = {"pose": ("pose",), "decision": ("decision", "note")}
+#: (``quit`` is taken at any step of a recording). A pair's session (``new --pair --ui``)
+#: offers stream trials instead of poses: ``trial`` (start the next trial's stream) and,
+#: while it streams, ``streaming`` (a touch at a grid point, now; end the trial).
+ANSWERS = {
+    "pose": ("pose",),
+    "decision": ("decision", "note"),
+    "trial": ("start",),
+    "streaming": ("touch", "end"),
+}
 
 #: How the page and the computing words say a decision taken.
 _DONE = {"redo": "to be captured again", "undo": "undone"}
@@ -169,6 +181,10 @@ class ConsoleSession(LiveSink):
         self.latest: _Frame | None = None
         self.viewers = 0  # pages watching the live image (the preview runs only for them)
         self.preview_at = 0.0  # monotonic time of the last preview frame
+        #: A pair's session: its stream trial as it goes (trial, touches, frames, the
+        #: clock offset, the trials ended), :mod:`recorder.console.stream_driver`'s; None:
+        #: one camera's session.
+        self.stream: dict[str, Any] | None = None
         self._refusals = 0
 
     # -- the page's view
@@ -217,6 +233,7 @@ class ConsoleSession(LiveSink):
                 "topview": self.topview,
                 "summary": self.summary,
                 "frame_seq": self.latest.seq if self.latest else 0,
+                "stream": None if self.stream is None else dict(self.stream),
             }
 
     def update(self, **fields: Any) -> None:
@@ -270,6 +287,11 @@ class ConsoleSession(LiveSink):
             elif kind == "decision":
                 self.waiting = ""
                 self._decided(value[0])
+            elif kind in ("start", "end"):  # a stream trial starts or ends: said at once
+                self.waiting = ""
+                self.message = f"trial {self.trial + (kind == 'start')}: " + (
+                    "starting its stream" if kind == "start" else "ending its stream"
+                )
             self.lock.notify_all()
             return ""
 
@@ -302,6 +324,8 @@ class ConsoleSession(LiveSink):
         if self.waiting != offered:
             if kind == "note":
                 return "add a note after a capture (it goes with that trial)"
+            if kind == "touch":
+                return "not now: a touch is marked while a trial streams (start the trial)"
             return self._busy()
         return self._refusal(value[0]) if kind == "decision" else ""
 
@@ -317,6 +341,10 @@ class ConsoleSession(LiveSink):
             return f"not now: the recorder waits for pose {self.pose} to be typed and captured"
         if self.waiting == "decision":
             return f"not now: trial {self.trial} pose {self.pose} awaits its decision"
+        if self.waiting == "streaming":
+            return f"not now: trial {self.trial} streams; end it first"
+        if self.waiting == "trial":
+            return "not now: no trial streams; start one"
         frame, n_frames = self.capture.get("frame", 0), self.capture.get("n_frames", 0)
         if self.frames_of == {"trial": self.trial, "pose": self.pose} and frame < n_frames:
             return (

@@ -214,7 +214,7 @@ def _reference(options: EstimateOptions) -> str:
     """What a session's multiplier is relative to: the typed resolution, or a rig file's
     measured ``[placing]`` (its sigma and where it came from)."""
     placing = options.noise.placing
-    if placing is None:
+    if placing is None or placing.upper_bound:  # a bound: the regions start from the typed
         return "typed"
     return f"placing {placing.sigma_in:.6g} in ({placing.measured_by or 'given'})"
 

@@ -11,13 +11,14 @@ operator did, the analysis stays the reference.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from recorder.live.trial_result import TrialResult, guidance_options, results_of
+from recorder.live.trial_result import TrialResult, results_of
 from recorder.procedure.capture import CaptureResult
 from twopose.camera.model import Camera
 from twopose.display.scene import TrialScene, scene_of_views
@@ -27,11 +28,12 @@ from twopose.methods.specs import Method
 from twopose.rig.constants import RigConstants, check_applicable, corrected_ground, corrected_view
 from twopose.solve.estimate import EstimateOptions, GroundSpec, PoseView, measure, pose_view
 from twopose.solve.session import SessionTrials, estimate_session
+from twopose.uncertainty.noise import VarianceFactor
 from twopose.uncertainty.placing_variance import SessionNoise
 from twopose.uncertainty.session_noise import session_statistics
 from twopose.values.units import Units
 
-__all__ = ["LiveResults", "MappedAdvice", "live_results"]
+__all__ = ["LiveResults", "MappedAdvice", "guidance_options", "live_results"]
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -154,7 +156,7 @@ class LiveResults:
         )
         estimate = estimate_session(session, self.options)
         if keep:
-            self.statistics = session_statistics("", estimate.misclosure)
+            self.statistics = session_statistics("", estimate.misclosure, estimate.tests)
         return dict(zip(trials, results_of(estimate), strict=True))
 
     def advise(self, trial: int, guidance: Guidance) -> MappedAdvice | None:
@@ -256,3 +258,17 @@ def live_results(
     if prior_words:
         results.notes.insert(1, prior_words)
     return results
+
+
+def guidance_options(options: EstimateOptions, results: Iterable[TrialResult]) -> EstimateOptions:
+    """``options`` with the session's variance factor fixed, for guidance's predictions.
+
+    The factor its solved trials estimated (or an untested one before any): a predicted
+    view has no noise of its own, so guidance never estimates a factor from it, and its
+    predicted regions widen as the session's did. A factor the options give stands.
+    """
+    if options.noise.factor is not None or not options.noise.test_redundancy:
+        return options
+    factor = next((r.factor for r in results if r.factor is not None), None)
+    fixed = factor or VarianceFactor(sigma0_sq=math.nan, dof=0)
+    return dataclasses.replace(options, noise=dataclasses.replace(options.noise, factor=fixed))

@@ -13,15 +13,13 @@ the analysis pools the whole session.
 
 from __future__ import annotations
 
-import dataclasses
 import math
-from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from twopose.arrays import F64
-from twopose.methods.specs import Method, spec_of
+from twopose.methods.specs import Method
 from twopose.methods.truth import line_errors, reported
 from twopose.solve.estimate import EstimateOptions
 from twopose.solve.session import SessionEstimate, SessionTrials, estimate_session
@@ -30,7 +28,7 @@ from twopose.uncertainty.noise import VarianceFactor, noise_words
 from twopose.uncertainty.propagate import semiaxis95, uncertainty_columns
 from twopose.values.units import Units
 
-__all__ = ["STATUS_WORDS", "TrialResult", "guidance_options", "results_of", "trial_results"]
+__all__ = ["STATUS_WORDS", "TrialResult", "results_of", "trial_results"]
 
 #: A region widened by at least this (its size) has the noise said on the result's line.
 _SAID_WIDENING = 1.1
@@ -73,6 +71,10 @@ class TrialResult:
     #: words).
     flagged: bool = False
     disagreement: str = ""
+    #: Which test flagged it: ``misclosure``, ``other trials`` or ``truth`` (its estimate far
+    #: off the grid point typed as its truth); ``""`` when not flagged (trials.csv's
+    #: ``flagged_by``).
+    flagged_by: str = ""
 
     @property
     def noise(self) -> str:
@@ -186,6 +188,7 @@ class TrialResult:
             "noise": self.noise,
             "flagged": self.flagged,
             "disagreement": self.disagreement,
+            "flagged_by": self.flagged_by,
             "text": self.text(),
         }
 
@@ -207,7 +210,7 @@ def results_of(estimate: SessionEstimate) -> list[TrialResult]:
     est, rep = estimate.estimates, reported(estimate)
     tests = estimate.tests or TrialTests.none(len(trials))
     spread = uncertainty_columns(rep.error, rep.cov)
-    line = spec_of(trials.method).estimates_line
+    line = trials.spec.estimates_line
     angle95, angle_err = _line_angles(estimate) if line else (None, None)
     with np.errstate(invalid="ignore"):  # a region's size: the covariance's square root
         widened = np.sqrt(est.widening)
@@ -234,23 +237,10 @@ def results_of(estimate: SessionEstimate) -> list[TrialResult]:
             widened=float(widened[i]) if np.isfinite(widened[i]) else 1.0,
             flagged=bool(tests.flagged[i]),
             disagreement=tests.words(i, Units(trials.units), len(trials.views[i])),
+            flagged_by=tests.by(i),
         )
         for i, trial in enumerate(trials.trial_ids)
     ]
-
-
-def guidance_options(options: EstimateOptions, results: Iterable[TrialResult]) -> EstimateOptions:
-    """``options`` with the session's variance factor fixed, for guidance's predictions.
-
-    The factor its solved trials estimated (or an untested one before any): a predicted
-    view has no noise of its own, so guidance never estimates a factor from it, and its
-    predicted regions widen as the session's did. A factor the options give stands.
-    """
-    if options.noise.factor is not None or not options.noise.test_redundancy:
-        return options
-    factor = next((r.factor for r in results if r.factor is not None), None)
-    fixed = factor or VarianceFactor(sigma0_sq=math.nan, dof=0)
-    return dataclasses.replace(options, noise=dataclasses.replace(options.noise, factor=fixed))
 
 
 def _line_angles(estimate: SessionEstimate) -> tuple[F64, F64]:

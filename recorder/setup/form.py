@@ -46,6 +46,7 @@ from twopose.values.bounds import (
     GROUND_TRUTH,
     POSE_TRANSLATION,
     ROTATION,
+    Quantity,
     shown,
 )
 from twopose.values.checks import Vec3
@@ -57,6 +58,7 @@ __all__ = [
     "SetupField",
     "form_fields",
     "parse_pose_form",
+    "parse_touch_form",
     "setup_from_answers",
 ]
 
@@ -75,12 +77,7 @@ def parse_pose_form(form: Mapping[str, str], units: Units) -> tuple[Vec3, Vec3]:
     terminal reads it (:mod:`twopose.values.bounds`); raises :class:`FormRefusedError` with every
     refusal."""
     errors: dict[str, str] = {}
-    xyz: list[float] = []
-    for axis in "xyz":
-        try:
-            xyz.append(POSE_TRANSLATION.read(str(form.get(axis, "") or ""), units, axis=axis))
-        except InputValueError as err:
-            errors[axis] = str(err)
+    xyz = _xyz(form, units, POSE_TRANSLATION, errors)
     rotation = str(form.get("rotation", "") or "").strip() or "0, 0, 0"
     r: Vec3 = (0.0, 0.0, 0.0)
     try:
@@ -90,6 +87,30 @@ def parse_pose_form(form: Mapping[str, str], units: Units) -> tuple[Vec3, Vec3]:
     if errors:
         raise FormRefusedError(errors)
     return (xyz[0], xyz[1], xyz[2]), r
+
+
+def parse_touch_form(form: Mapping[str, str], units: Units) -> Vec3:
+    """A touch's grid point typed in the console (``x``, ``y``, ``z``: a pair's stream
+    trial), each field read as the terminal reads a ground-truth point; raises
+    :class:`FormRefusedError` with every refusal."""
+    errors: dict[str, str] = {}
+    xyz = _xyz(form, units, GROUND_TRUTH, errors)
+    if errors:
+        raise FormRefusedError(errors)
+    return (xyz[0], xyz[1], xyz[2])
+
+
+def _xyz(
+    form: Mapping[str, str], units: Units, quantity: Quantity, errors: dict[str, str]
+) -> list[float]:
+    """The form's ``x``, ``y``, ``z`` read by ``quantity``; each refusal in ``errors``."""
+    xyz: list[float] = []
+    for axis in "xyz":
+        try:
+            xyz.append(quantity.read(str(form.get(axis, "") or ""), units, axis=axis))
+        except InputValueError as err:
+            errors[axis] = str(err)
+    return xyz
 
 
 # --------------------------------------------------------------------------- the fields
@@ -378,12 +399,13 @@ def setup_from_answers(form: Mapping[str, str], given: Mapping[str, Any]) -> Set
     method = a.check("method", lambda s: _FIELDS["method"].answer(s, DEFAULT_UNITS))
     units = a.check("units", lambda s: _FIELDS["units"].answer(s, DEFAULT_UNITS)) or DEFAULT_UNITS
     intrinsics = given.get("intrinsics") or _intrinsics(a, given.get("size", (640, 480)))
-    plane = spec_of(method).plane if method is not None else None
+    spec = spec_of(method) if method is not None else None  # its spec travels from here
+    plane = spec.plane if spec is not None else None
     offset = None
     keys = [k for k in given if given[k] is not None]
     refused = (
-        other_plane_refusal(method, keys, plane_option) or no_plane_refusal(method, keys)
-        if method
+        other_plane_refusal(spec, keys, plane_option) or no_plane_refusal(spec, keys)
+        if spec is not None
         else ""
     )
     if refused:  # the command line gave another plane's offset, or one to a method on none
@@ -393,11 +415,11 @@ def setup_from_answers(form: Mapping[str, str], given: Mapping[str, Any]) -> Set
         read_offset = _FIELDS[plane.setup_key].read
         assert read_offset is not None
         offset = a.check(plane.setup_key, lambda s: read_offset(s, units))
-    truth = _truth(a, method, units, offset) if method is not None else ()
-    board = _board(a, units) if method is not None and _FIELDS["board"].asks(method) else None
+    truth = _truth(a, spec, units, offset) if spec is not None else ()
+    board = _board(a, units) if spec is not None and _FIELDS["board"].asked_by(spec) else None
     operator = a.text("operator")
     target = None
-    if method is not None and _FIELDS["target_precision"].asks(method):
+    if spec is not None and _FIELDS["target_precision"].asked_by(spec):
         target = a.check("target_precision", lambda s: _FIELDS["target_precision"].answer(s, units))
     if a.errors:
         raise FormRefusedError(a.errors)
@@ -444,11 +466,11 @@ def _intrinsics(a: _Answers, size: tuple[int, int]) -> Intrinsics:
         return Intrinsics(width=size[0], height=size[1], fx=f, fy=f, cx=size[0] / 2, cy=size[1] / 2)
 
 
-def _truth(a: _Answers, method: Method, units: Units, offset: float | None) -> tuple[Vec3, ...]:
+def _truth(a: _Answers, spec: MethodSpec, units: Units, offset: float | None) -> tuple[Vec3, ...]:
     """The ground truth (optional): a line's two points must differ, and a point off the
     method's plane (method 2's ground) is kept only when the operator ticked that it
     should be."""
-    names = ("truth1", "truth2")[: spec_of(method).truth_points]
+    names = ("truth1", "truth2")[: spec.truth_points]
     points: list[Vec3] = []
     for name in names:
         if not a.text(name):
@@ -458,11 +480,11 @@ def _truth(a: _Answers, method: Method, units: Units, offset: float | None) -> t
         )
         if point is not None:
             points.append(point)
-    if spec_of(method).truth_points == 2 and len(points) == 1 and not a.errors:
+    if spec.truth_points == 2 and len(points) == 1 and not a.errors:
         missing = "truth2" if a.text("truth1") else "truth1"
         a.errors[missing] = "a line needs two points (or leave both empty: no ground truth)"
     keep = a.text("keep_off_ground").lower() in ("y", "yes", "true", "on", "1")
-    plane = spec_of(method).plane
+    plane = spec.plane
     if plane is not None and offset is not None and points and not keep:
         off = off_plane(plane, points[0], offset, units)
         if off:

@@ -31,7 +31,6 @@ from twopose.format.entries import (
     TypedEntry,
 )
 from twopose.guidance.advice import THESIS_MOVE_IN
-from twopose.methods.specs import spec_of
 from twopose.values.checks import Vec3
 from twopose.values.units import Units, unit_factor
 
@@ -93,7 +92,7 @@ class _PlanDriver(Driver):
 
     def trial_entries(self, trial: int) -> Sequence[TypedEntry]:
         truth = self.plan.trials[trial - self.first_trial].ground_truth
-        kind: TruthKind | None = spec_of(self.plan.method).truth_kind
+        kind: TruthKind | None = self.plan.spec.truth_kind
         if not truth or kind is None:
             return ()
         return (GroundTruth(trial=trial, kind=kind, points_grid=truth),)

@@ -33,7 +33,7 @@ from twopose.format.entries import (
 )
 from twopose.guidance.advice import MIN_GAIN as DEFAULT_MIN_GAIN
 from twopose.guidance.advice import Guidance, Reach
-from twopose.methods.specs import METHODS, PLANES, Method, spec_of
+from twopose.methods.specs import METHODS, PLANES, Method, MethodSpec, spec_of
 from twopose.methods.targets import BoardPlacement
 from twopose.values.bounds import (
     BOARD_CORNER,
@@ -150,18 +150,23 @@ class Plan:
     #: The keys its ``[guidance]`` gave (a continuation takes the others from its session).
     guidance_keys: frozenset[str] = frozenset()
 
+    @property
+    def spec(self) -> MethodSpec:
+        """The plan's method's spec: what its rules read of it."""
+        return spec_of(self.method)
+
     def ground(self) -> PlaneEntry | None:
         """The method's plane at the plan's offset (method 2's ground ``y = h``), or None."""
-        return plane_entry(self.method, self.plane_offset)
+        return plane_entry(self.spec, self.plane_offset)
 
 
-def _plane_offset(data: dict[str, Any], method: Method, units: Units) -> float | None:
+def _plane_offset(data: dict[str, Any], spec: MethodSpec, units: Units) -> float | None:
     """The offset of the method's plane, under the plane's key (method 2's
     ``ground_height``) or ``plane_offset`` (the method's plane's, whichever it is): one of
     them required on a plane, another plane's refused (a method on no plane has nothing to
     cut its estimate with, and ignores the planes' own keys as it always did; it refuses
     ``plane_offset``, which can only mean its plane)."""
-    plane = spec_of(method).plane
+    plane, method = spec.plane, spec.method
     if plane is None:
         if PLANE_OFFSET_KEY in data:
             raise InputValueError(
@@ -169,7 +174,7 @@ def _plane_offset(data: dict[str, Any], method: Method, units: Units) -> float |
                 "would use it; leave it out"
             )
         return None
-    refused = other_plane_refusal(method, data, str)
+    refused = other_plane_refusal(spec, data, str)
     if refused:
         raise InputValueError(f"plan: {refused}")
     given = [k for k in (plane.setup_key, PLANE_OFFSET_KEY) if k in data]
@@ -259,7 +264,8 @@ def load_plan(path: str | Path) -> Plan:
     method = data.get("method")
     if method not in METHODS:
         raise InputValueError(f"plan: method must be one of {', '.join(METHODS)}, got {method!r}")
-    method = Method(method)
+    spec = spec_of(Method(method))  # the name from the file, looked up once: its spec travels
+    method = spec.method
     units = data.get("units", DEFAULT_UNITS)
     if units not in UNITS:
         raise InputValueError(f"plan: units must be one of {', '.join(UNITS)}, got {units!r}")
@@ -271,9 +277,9 @@ def load_plan(path: str | Path) -> Plan:
     if not isinstance(adaptive, bool):
         raise InputValueError(f"plan: adaptive_frames must be true or false, got {adaptive!r}")
     board_guidance = [k for k in ("guidance", "adaptive_frames") if data.get(k)]
-    if not spec_of(method).measures and board_guidance:
+    if not spec.measures and board_guidance:
         raise InputValueError(f"plan: {board_refusal(board_guidance)}")
-    height = _plane_offset(data, method, units)
+    height = _plane_offset(data, spec, units)
     res = _known_keys(data.get("resolution", {}), "resolution", "resolution")
     resolution = (
         finite(
@@ -287,17 +293,17 @@ def load_plan(path: str | Path) -> Plan:
             positive=True,
         ),
     )
-    board = _board(data.get("board"), method, units)
+    board = _board(data.get("board"), spec, units)
     raw_trials = data.get("trials", [])
     if not isinstance(raw_trials, list) or not raw_trials:
         raise InputValueError("plan: no [[trials]]")
     guidance, seed = _guidance(data.get("guidance"), units)
     max_poses = guidance.max_poses if guidance is not None else DEFAULT_MAX_POSES
     trials = tuple(
-        _trial(t, i, method, units, cameras[0].camera_id, height, max_poses)
+        _trial(t, i, spec, units, cameras[0].camera_id, height, max_poses)
         for i, t in enumerate(raw_trials, start=1)
     )
-    if any(t.guided for t in trials) and not spec_of(method).measures:
+    if any(t.guided for t in trials) and not spec.measures:
         raise InputValueError(
             'plan: poses = "guided" needs a target to locate; a board session plans its poses'
         )
@@ -379,7 +385,7 @@ def continued_plan(plan: Plan, record: GuidanceRecord | None) -> tuple[Plan, lis
     """A plan continuing a session: each guidance setting its ``[guidance]`` does not give
     taken from the session's ``record`` (None: it recorded none); and those taken, in words.
     A plan with no guidance of its own takes the session's whole."""
-    if record is None or not spec_of(plan.method).measures:
+    if record is None or not plan.spec.measures:
         return plan, []
     g = plan.guidance or Guidance(reach=thesis_reach(plan.units), min_gain=None)
     keys = plan.guidance_keys
@@ -405,10 +411,10 @@ def continued_plan(plan: Plan, record: GuidanceRecord | None) -> tuple[Plan, lis
     return replace(plan, guidance=merged), inherited_words(taken, plan.units)
 
 
-def _board(table: Any, method: Method, units: Units) -> BoardPlacement | None:
+def _board(table: Any, spec: MethodSpec, units: Units) -> BoardPlacement | None:
     """``[board]`` of a board session: ``inner_corners = [cols, rows]``, ``square`` and
     ``first_corner = [x, y, z]`` (required there, refused elsewhere)."""
-    if spec_of(method).measures:
+    if spec.measures:
         if table is not None:
             raise InputValueError('plan: [board] is for a board session (method = "board")')
         return None
@@ -438,7 +444,7 @@ def _board(table: Any, method: Method, units: Units) -> BoardPlacement | None:
 def _trial(
     table: Any,
     i: int,
-    method: Method,
+    spec: MethodSpec,
     units: Units,
     default_camera: str,
     height: float | None,
@@ -446,7 +452,7 @@ def _trial(
 ) -> PlannedTrial:
     """``[[trials]]`` number ``i``: its poses and its ground truth, checked."""
     t = _known_keys(table, "trials", f"trials[{i}]")
-    gt = _truth(t, i, method, units, height)
+    gt = _truth(t, i, spec, units, height)
     if t.get("poses") == "guided":
         return _guided_trial(t, i, units, default_camera, max_poses, gt)
     for key in ("max_poses", "start"):
@@ -482,12 +488,12 @@ def _guided_trial(
 
 
 def _truth(
-    t: dict[str, Any], i: int, method: Method, units: Units, height: float | None
+    t: dict[str, Any], i: int, spec: MethodSpec, units: Units, height: float | None
 ) -> tuple[Vec3, ...]:
     """A trial's ground truth, checked by the setup rules."""
     where = f"trials[{i}].ground_truth"
     gt = tuple(_vec(GROUND_TRUTH, g, where, units) for g in t.get("ground_truth", []))
-    spec = spec_of(method)
+    method = spec.method
     if gt and not spec.truth_points:
         raise InputValueError(f"plan: {where}: a board session's truth is its [board], not points")
     if gt and len(gt) != spec.truth_points:

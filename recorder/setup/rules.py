@@ -29,7 +29,7 @@ from twopose.format.entries import (
     default_translation_resolution,
 )
 from twopose.methods.planes import GROUND_PLANE, ConstraintPlane
-from twopose.methods.specs import PLANES, Method, spec_of
+from twopose.methods.specs import PLANES, Method, MethodSpec, spec_of
 from twopose.methods.targets import BoardPlacement
 from twopose.values.bounds import (
     BOARD_CORNER,
@@ -138,13 +138,18 @@ class Setup:
             camera_id=CAMERA_ID, intrinsics=self.intrinsics, intrinsics_sigma=self.intrinsics_sigma
         )
 
+    @property
+    def spec(self) -> MethodSpec:
+        """The method's spec: what every rule of the setup reads of it."""
+        return spec_of(self.method)
+
     def ground(self) -> PlaneEntry | None:
         """The method's plane at the typed offset (method 2's ground ``y = h``), or None."""
-        return plane_entry(self.method, self.plane_offset)
+        return plane_entry(self.spec, self.plane_offset)
 
     def plane_offsets(self) -> dict[str, float]:
         """The plane's offset under its setup key (``{"ground_height": h}``), or nothing."""
-        plane = spec_of(self.method).plane
+        plane = self.spec.plane
         if plane is None or self.plane_offset is None:
             return {}
         return {plane.setup_key: self.plane_offset}
@@ -302,10 +307,10 @@ def default_principal(size: tuple[int, int]) -> tuple[float, float]:
     return size[0] / 2, size[1] / 2
 
 
-def plane_entry(method: Method, offset: float | None) -> PlaneEntry | None:
-    """The session's plane entry for ``method`` at the typed ``offset`` (its spec's plane,
+def plane_entry(spec: MethodSpec, offset: float | None) -> PlaneEntry | None:
+    """The session's plane entry for the method ``spec`` at the typed ``offset`` (its plane,
     :class:`twopose.methods.planes.ConstraintPlane`), or None (no plane, or no offset)."""
-    plane = spec_of(method).plane
+    plane = spec.plane
     if plane is None or offset is None:
         return None
     normal, c = plane.plane(offset)
@@ -337,11 +342,11 @@ def plane_offsets_given(
     return offsets
 
 
-def other_plane_refusal(method: Method, given: Iterable[str], how: Callable[[str], str]) -> str:
+def other_plane_refusal(spec: MethodSpec, given: Iterable[str], how: Callable[[str], str]) -> str:
     """Why offsets of another plane than the method's may not be given (a wall session
     given the ground height), ``how`` naming a key as its front end does (``--ground-height``,
     a plan's ``ground_height``); empty when none is. A method on no plane ignores them."""
-    plane = spec_of(method).plane
+    plane, method = spec.plane, spec.method
     if plane is None:
         return ""
     others = sorted(set(given) & ({p.setup_key for p in PLANES} - {plane.setup_key}))
@@ -357,19 +362,20 @@ def refuse_other_planes(method: Method, given: Iterable[str]) -> None:
     """Raise :class:`InputValueError` if the command line (or a caller) gave another
     plane's offset than the method's (:func:`other_plane_refusal`), or any plane's to a
     method on no plane (``--ground-height`` of a point session was ignored)."""
-    refused = other_plane_refusal(method, given, plane_option) or no_plane_refusal(method, given)
+    spec = spec_of(method)
+    refused = other_plane_refusal(spec, given, plane_option) or no_plane_refusal(spec, given)
     if refused:
         raise InputValueError(refused)
 
 
-def no_plane_refusal(method: Method, given: Iterable[str]) -> str:
+def no_plane_refusal(spec: MethodSpec, given: Iterable[str]) -> str:
     """Why a plane's offset given to a method on no plane is refused ("": none given, or
     the method has a plane): nothing would use it."""
     keys = sorted(set(given) & {PLANE_OFFSET_KEY, *(p.setup_key for p in PLANES)})
-    if spec_of(method).plane is not None or not keys:
+    if spec.plane is not None or not keys:
         return ""
     return (
-        f"{plane_option(keys[0])}: a {method} session measures on no plane, so nothing "
+        f"{plane_option(keys[0])}: a {spec.method} session measures on no plane, so nothing "
         "would use it; leave it out, or choose a method on a plane (ground)"
     )
 

@@ -1,8 +1,10 @@
 """Simulated sessions: the synthetic operator and cameras (``twopose-record simulate``).
 
 One camera moved by a simulated operator through a method's procedure (``one_camera``), and
-a pair of cameras seeing a moving target, each on its own clock (``pair``, when present);
-both render with the core's simulator (:mod:`twopose.sim`).
+a pair of cameras seeing a moving target, each on its own clock (``pair``, when present),
+and a pointing clip (``pointing_clip``: a finger moving over the floor, both cameras'
+frames, for the live pointing's tests and benchmark); all render with the core's simulator
+(:mod:`twopose.sim`).
 """
 
 from __future__ import annotations

@@ -52,7 +52,7 @@ from twopose.format.entries import (
     TypedEntry,
 )
 from twopose.methods.planes import GROUND_PLANE, ConstraintPlane
-from twopose.methods.specs import LINE_TRUTH, POINT_TRUTH, Method, spec_of
+from twopose.methods.specs import LINE_TRUTH, POINT_TRUTH, Method, MethodSpec, spec_of
 from twopose.sim.camera import SyntheticCamera, camera_pose, true_intrinsics
 from twopose.sim.layout import BOARD_POSES, Layout, board_poses, build_layout, finger_axis
 from twopose.sim.scene import CameraParams, PoseParams, Scene
@@ -96,14 +96,21 @@ def _vec(a: NDArray[np.float64]) -> Vec3:
     return (float(a[0]), float(a[1]), float(a[2]))
 
 
-def target_points(scene: Scene, method: Method) -> tuple[TruthKind, NDArray[np.float64]]:
+def target_points(
+    scene: Scene, method: Method | MethodSpec
+) -> tuple[TruthKind, NDArray[np.float64]]:
     """Ground-truth kind and points (grid frame) of ``method`` in ``scene``.
 
     By what its views meet in (:attr:`twopose.methods.specs.MethodSpec.geometry`): the rays, the
     dot centre; the planes, the finger axis' tip and base (its line); the planes and a
     plane, where the finger axis meets that plane.
     """
-    return spec_of(method).geometry_cases(_Truth(scene))
+    return _spec(method).geometry_cases(_Truth(scene))
+
+
+def _spec(method: Method | MethodSpec) -> MethodSpec:
+    """The spec a caller passes, or a name's (a benchmark's, a test's) looked up."""
+    return method if isinstance(method, MethodSpec) else spec_of(method)
 
 
 @dataclass(frozen=True)
@@ -129,19 +136,19 @@ class _Truth:
         return POINT_TRUTH, at[None]
 
 
-def _typed_plane(scene: Scene, method: Method) -> PlaneEntry:
+def _typed_plane(scene: Scene, spec: MethodSpec) -> PlaneEntry:
     """The method's plane as the operator types it (a method on none: the ground, as the
     thesis' setup has one): its offset, the scene's ``ground_height``, off by the rig's
     error."""
-    plane = spec_of(method).plane or GROUND_PLANE
+    plane = spec.plane or GROUND_PLANE
     normal, offset = plane.plane(scene.ground_height + scene.systematic.ground_height_error)
     return PlaneEntry(normal_grid=normal, offset=offset)
 
 
-def _visible_points(scene: Scene, method: Method) -> NDArray[np.float64]:
-    if not spec_of(method).uses_image_lines:  # the dot
+def _visible_points(scene: Scene, spec: MethodSpec) -> NDArray[np.float64]:
+    if not spec.uses_image_lines:  # the dot
         return np.asarray([scene.point.position], dtype=np.float64)
-    tip, base = finger_axis(scene, spec_of(method).plane)
+    tip, base = finger_axis(scene, spec.plane)
     return np.stack([tip, base])
 
 
@@ -151,7 +158,7 @@ def _lattice(rng: np.random.Generator, lo: float, hi: float, step: float) -> flo
 
 
 def draw_trial_poses(
-    scene: Scene, method: Method, n_poses: int, rng: np.random.Generator
+    scene: Scene, method: Method | MethodSpec, n_poses: int, rng: np.random.Generator
 ) -> list[
     tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
 ]:
@@ -159,7 +166,7 @@ def draw_trial_poses(
     p = scene.poses
     ranges = [p.x_range, p.y_range, p.z_range]
     rot_ranges = [p.rx_range, p.ry_range, p.rz_range]
-    visible = _visible_points(scene, method)
+    visible = _visible_points(scene, _spec(method))
     for _ in range(_MAX_POSE_DRAWS):
         poses: list[tuple[F64, F64, F64, F64]] = []
         for k in range(n_poses):
@@ -332,23 +339,23 @@ class _SimulatedOperator(Driver):
     def __init__(
         self,
         scene: Scene,
-        method: Method,
+        spec: MethodSpec,
         trials: int,
         rng: np.random.Generator,
         clock: _SimClock,
         source: _SimulatedCamera,
     ) -> None:
-        self.scene, self.method, self.trials = scene, method, trials
+        self.scene, self.spec, self.trials = scene, spec, trials
         self.rng, self.clock, self.source = rng, clock, source
-        self.board = not spec_of(method).measures  # a board session: its poses, no truth
+        self.board = not spec.measures  # a board session: its poses, no truth
         self.kind: TruthKind = POINT_TRUTH
         self.truth: tuple[Vec3, ...] = ()
         if not self.board:
-            self.kind, truth = target_points(scene, method)
+            self.kind, truth = target_points(scene, spec)
             self.truth = tuple(_vec(p) for p in truth)
         self.pose_dt = int(scene.sensor.seconds_between_poses * 1e9)
         self.drawn: list[tuple[F64, F64, F64, F64]] = []
-        self.poses_per_trial = poses_per_trial(scene, method)
+        self.poses_per_trial = poses_per_trial(scene, spec)
 
     def next_trial(self, trial: int) -> bool:
         return trial <= self.trials
@@ -358,7 +365,7 @@ class _SimulatedOperator(Driver):
             self.drawn = _board_poses(self.scene, self.rng)
             self.clock.advance(self.pose_dt)
             return ()  # the board's placement is in the session entry
-        self.drawn = draw_trial_poses(self.scene, self.method, self.poses_per_trial, self.rng)
+        self.drawn = draw_trial_poses(self.scene, self.spec, self.poses_per_trial, self.rng)
         self.clock.advance(self.pose_dt)
         return (GroundTruth(trial=trial, kind=self.kind, points_grid=self.truth),)
 
@@ -397,10 +404,10 @@ class _SimulatedOperator(Driver):
         )
 
 
-def poses_per_trial(scene: Scene, method: Method, poses: int | None = None) -> int:
+def poses_per_trial(scene: Scene, method: Method | MethodSpec, poses: int | None = None) -> int:
     """How many poses each simulated trial types: a board session's :data:`BOARD_POSES`,
     else ``poses`` or the scene's count."""
-    if not spec_of(method).measures:
+    if not _spec(method).measures:
         return len(BOARD_POSES)
     return poses or scene.poses.count
 
@@ -431,10 +438,10 @@ def _scene_with(
     return scene
 
 
-def _checked_settings(method: Method, trials: int, frames: int, poses: int | None) -> Method:
-    """The method, once the command line's settings are known to make a session."""
-    checked = spec_of(method).method  # refuses an unknown method, naming the known ones
-    if poses is not None and not spec_of(checked).measures:
+def _checked_settings(method: Method, trials: int, frames: int, poses: int | None) -> MethodSpec:
+    """The method's spec, once the command line's settings are known to make a session."""
+    checked = spec_of(method)  # refuses an unknown method, naming the known ones
+    if poses is not None and not checked.measures:
         raise InputValueError(
             f"a simulated board session types the {len(BOARD_POSES)} poses of "
             "twopose.sim.layout.BOARD_POSES in each trial; leave --poses out"
@@ -458,12 +465,12 @@ def simulated_ids(
 
 
 def _session_info(
-    scene: Scene, cameras: list[Camera], method: Method, settings: str, ids: tuple[str, str]
+    scene: Scene, cameras: list[Camera], spec: MethodSpec, settings: str, ids: tuple[str, str]
 ) -> SessionInfo:
     """The simulated session's opening entry (its ``ids``: :func:`simulated_ids`); its
     notes say how it was made."""
     return SessionInfo(
-        method=method,
+        method=spec.method,
         units=unit_spec(scene.units).units,
         camera_ids=tuple(c.id for c in scene.cameras),
         operator="twopose simulator",
@@ -479,7 +486,7 @@ def _session_info(
         ),
         created_utc=datetime.fromtimestamp(SIMULATION_EPOCH_NS / 1e9, UTC).isoformat(),
         simulated=True,
-        board=None if spec_of(method).measures else scene.board.placement(),
+        board=None if spec.measures else scene.board.placement(),
         session_id=ids[0],
         part_id=ids[1],
     )
@@ -529,7 +536,8 @@ def simulate_session(  # noqa: PLR0913 - keyword-only settings, one per command-
     SimulationSummary
         What was written: trials, poses, frames and the file.
     """
-    method = _checked_settings(method, trials, frames, poses)
+    spec = _checked_settings(method, trials, frames, poses)
+    method = spec.method
     scene, cameras = calibrated_cameras(
         _scene_with(scene, pose_noise, poses, typed_resolution), seed
     )
@@ -539,17 +547,17 @@ def simulate_session(  # noqa: PLR0913 - keyword-only settings, one per command-
     camera = _SimulatedCamera(scene, layout, rng, clock)
     settings = f"seed={seed}, trials={trials}, frames={frames}"
     ids = simulated_ids(method, trials, frames, seed, scene)
-    info = _session_info(scene, cameras, method, settings, ids)
+    info = _session_info(scene, cameras, spec, settings, ids)
     try:
         summary = record(
             out,
             info,
             cameras,
             camera,
-            _SimulatedOperator(scene, method, trials, rng, clock, camera),
+            _SimulatedOperator(scene, spec, trials, rng, clock, camera),
             # The operator types the plane's offset (the ground height) off by the rig's error
             # (the true one renders).
-            ground=_typed_plane(scene, method),
+            ground=_typed_plane(scene, spec),
             capture=CaptureSettings(frames=frames, on_progress=on_progress),
             writer_options={
                 "image_format": scene.sensor.image_format,
@@ -565,7 +573,7 @@ def simulate_session(  # noqa: PLR0913 - keyword-only settings, one per command-
         path=summary.path,
         method=method,
         n_trials=trials,
-        n_poses=trials * poses_per_trial(scene, method),
+        n_poses=trials * poses_per_trial(scene, spec),
         n_frames=summary.n_frames,
         size_bytes=summary.path.stat().st_size,
     )

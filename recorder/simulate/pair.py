@@ -173,8 +173,7 @@ def simulated_pair(scene: Scene) -> PairCalibration:
 
 
 def _checked(method: Method, trials: int, scene: Scene, timing: PairTiming) -> PairTiming:
-    method = spec_of(method).method
-    if not spec_of(method).measures:
+    if not spec_of(method).measures:  # the name checked once (an unknown one refused)
         raise InputValueError(
             "a board session calibrates one camera's rig from typed poses; --cameras 2 "
             "simulates a moving target for point, line or ground"

@@ -316,7 +316,7 @@ _BUILT_IN: tuple[SourceKind, ...] = (
         name="pair",
         syntax="pair:A,B",
         help="two cameras at once, any two of the above (pair:camera:0,camera:1), each "
-        "frame with its capture time; for calibrate-pair",
+        "frame with its capture time; for calibrate-pair, new --pair and point",
         opener=_open_pair,
         needs_arg=True,
         calibrates=False,
@@ -411,8 +411,9 @@ def one_camera(spec: str, kinds: Sequence[SourceKind] = SOURCE_KINDS) -> SourceK
         raise SourceError(
             f"{spec} gives {kind.cameras} cameras' frames and this takes one camera's: give "
             "one of them (--source camera:0); the pair's calibration takes both "
-            f"(twopose-record calibrate-pair PAIR.toml --source {spec}); recording two "
-            "cameras' stream trials is not built yet"
+            f"(twopose-record calibrate-pair PAIR.toml --source {spec}), and so does "
+            f"recording their stream trials (twopose-record new OUT.mcap --pair PAIR.toml "
+            f"--source {spec})"
         )
     return kind
 

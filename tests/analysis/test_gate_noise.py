@@ -4,6 +4,7 @@ compare on what is comparable (the errors), never the regions' coverage across m
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
 
@@ -66,3 +67,76 @@ def test_a_baseline_from_before_the_rig_digest_is_said(bundled_run: Path, tmp_pa
     outcome = check(bundled_run, baseline)
     assert not outcome.regressed
     assert any("the baseline predates rig_sha256" in n for n in outcome.notes), outcome.notes
+
+
+def _settings(run: Path, **values: object) -> None:
+    """``run``'s summary.json with these settings changed."""
+    path = run / "summary.json"
+    document = json.loads(path.read_text())
+    document["settings"] = {**document["settings"], **values}
+    path.write_text(json.dumps(document))
+
+
+def test_a_baseline_of_another_noise_setting_says_so_and_leaves_the_coverage_out(
+    bundled_run: Path, tmp_path: Path
+) -> None:
+    """Issue 54's adversary: a baseline computed with --no-sigma0 was checked against a
+    --sigma0 run as if their regions claimed the same thing."""
+    assert json.loads((bundled_run / "summary.json").read_text())["settings"]["sigma0"] is True
+    run, _ = _copy_with(bundled_run, tmp_path)  # its coverage 0.3 lower
+    _settings(run, sigma0=False)
+    outcome = check(run, bundled_run)
+    lines = check_lines(outcome, bundled_run)
+    assert not outcome.regressed, lines
+    assert (
+        "note: different settings: --sigma0 is off (--no-sigma0) in the run and on (--sigma0) "
+        "in the baseline"
+    ) in lines
+    assert any(line.startswith("note: coverage95 not compared") for line in lines)
+    assert "coverage95" not in set(outcome.comparisons["metric"])
+    assert lines[-1].endswith("no regression (across different settings: see the notes)")
+
+
+def test_a_baseline_of_another_combine_rule_is_said_and_still_gated(
+    bundled_run: Path, tmp_path: Path
+) -> None:
+    run, _ = _copy_with(bundled_run, tmp_path)
+    _settings(run, combine="median")
+    outcome = check(run, bundled_run)
+    assert outcome.regressed  # the coverage is still compared: not a noise setting
+    assert "different settings: --combine is median in the run and mean in the baseline" in (
+        outcome.notes
+    )
+    assert outcome.settings_differ
+
+
+def test_a_baseline_without_recorded_settings_is_said(bundled_run: Path, tmp_path: Path) -> None:
+    baseline = tmp_path / "baseline"
+    shutil.copytree(bundled_run, baseline)
+    document = json.loads((baseline / "summary.json").read_text())
+    del document["settings"]
+    (baseline / "summary.json").write_text(json.dumps(document))
+    outcome = check(bundled_run, baseline)
+    assert any(n.startswith("not compared: the settings (the baseline's") for n in outcome.notes)
+    same = check(bundled_run, bundled_run)
+    assert not any("settings" in n for n in same.notes)
+
+
+def test_a_run_that_pooled_other_sessions_of_the_operator_says_so(
+    bundled_run: Path, tmp_path: Path
+) -> None:
+    """The operator's prior is part of the noise model: a baseline that pooled none (or
+    other sessions) claims different regions."""
+    source = (
+        "typed, times 1.2 (estimated from this session's 4 trials, 3 other sessions of operator "
+        "Ada (point), the typed resolution)"
+    )
+    run, label = _copy_with(bundled_run, tmp_path, placing_source=source)
+    outcome = check(run, bundled_run)
+    assert not outcome.regressed, check_lines(outcome, bundled_run)
+    said = [n for n in outcome.notes if "different priors" in n]
+    assert len(said) == 1, outcome.notes
+    assert said[0].startswith(f"{label} (")
+    assert "(the run: 3 other sessions of operator Ada (point); the baseline: none," in said[0]
+    pair = outcome.comparisons[outcome.comparisons["session"] == label]
+    assert "coverage95" not in set(pair["metric"])

@@ -76,3 +76,46 @@ def test_the_page_shows_the_board_spec_s_words(
             assert "CORNERS from the spec" in legend
             assert browser.find_element(By.ID, "rig-section").is_displayed()
             assert not browser.find_element(By.ID, "trials-section").is_displayed()
+
+
+def test_a_new_segment_kind_draws_in_its_declared_style(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A segment kind declared outside the page (a registered method's, say) is drawn in the
+    style it carries, and its legend mark in its colour: the page's script names no kind."""
+    import twopose.methods.specs
+    from recorder.console.state import ConsoleSession
+    from twopose.methods.topview import SegmentKind, TopView
+    from twopose.values.units import Units
+
+    kind = SegmentKind("wall_trace", colour="#00ff00", width=9.0)
+    board = METHOD_SPECS[Method.BOARD]
+    page = dataclasses.replace(
+        board.page, legend_segments=((kind, "=", "WALL TRACE from the spec"),)
+    )
+    specs = dict(METHOD_SPECS) | {Method.BOARD: dataclasses.replace(board, page=page)}
+    monkeypatch.setattr(twopose.methods.specs, "METHOD_SPECS", MappingProxyType(specs))
+    view = TopView(
+        trial=1, method=Method.BOARD, cameras=((0.0, 0.0), (4.0, 0.0)),
+        segments=((kind, (0.0, 2.0), (4.0, 8.0)),), estimate=None, truth=None,
+    ).to_json()  # fmt: skip
+    with _serving(ConsoleSession(tmp_path / "board.mcap")) as (url, session):
+        session.update(
+            phase="recording", method=Method.BOARD, units=Units.IN, setup_fields=[],
+            waiting="decision", trial=1, pose=2, n_poses=2, shortfall="none",
+            frames=[], topview=view, message="trial 1 pose 2",
+        )  # fmt: skip
+        with headless_chromium(1366, 768) as browser:
+            browser.get(url)
+            WebDriverWait(browser, 30).until(
+                lambda _: "WALL TRACE" in _text(browser, "topview-legend"), message="drawn"
+            )
+            mark = browser.find_element(By.CSS_SELECTOR, "#topview-legend .mark.segment")
+            assert mark.value_of_css_property("color") == "rgba(0, 255, 0, 1)"
+            green = browser.execute_script(
+                "const c = document.getElementById('topview');"
+                "const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;"
+                "let n = 0; for (let i = 0; i < d.length; i += 4)"
+                " if (d[i] < 40 && d[i + 1] > 215 && d[i + 2] < 40) n++; return n;"
+            )
+            assert green > 200  # the 9 px wide green segment, not a default 2 px grey one

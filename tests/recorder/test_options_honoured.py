@@ -150,7 +150,7 @@ def test_a_file_from_before_1_5_gives_its_guidance_by_its_note(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """An older file recorded only the note (with a stop rule): it is read, every setting."""
-    monkeypatch.setattr("twopose.format.writer.FORMAT_VERSION", "1.4")  # a 1.4 writer
+    monkeypatch.setattr("twopose.format.entries.FORMAT_VERSION", "1.4")  # a 1.4 writer
     path = tmp_path / "old.mcap"
     k = Intrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=320.0, cy=240.0)
     camera = Camera(camera_id="cam0", intrinsics=k)

@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import math
 
-from recorder.live.trial_result import guidance_options, trial_results
+from recorder.live.result import guidance_options
+from recorder.live.trial_result import trial_results
 from tests.helpers import load_benchmark
 from twopose.methods.specs import Method
 from twopose.solve.estimate import EstimateOptions

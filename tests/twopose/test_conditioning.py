@@ -1,6 +1,6 @@
-"""twopose.solve.conditioning directly: the pairwise measures against a brute-force loop over pairs
-(also across the blocks the rows are cut into), the parallax a known baseline subtends, and
-the one no-baseline rule."""
+"""twopose.solve.nview's conditioning measures directly: the pairwise measures against a
+brute-force loop over pairs (also across the blocks the rows are cut into), the parallax a
+known baseline subtends, and the one no-baseline rule."""
 
 from __future__ import annotations
 
@@ -11,13 +11,13 @@ import numpy as np
 import pytest
 
 from twopose.camera.model import rotation_from_angles_deg
-from twopose.solve.conditioning import (
+from twopose.solve.nview import (
     flag_no_baseline,
     pairwise_max_abs_dot,
     pairwise_max_sine,
     parallax_sine,
+    projection_matrices,
 )
-from twopose.solve.nview import projection_matrices
 
 
 def _brute(

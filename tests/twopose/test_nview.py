@@ -289,8 +289,7 @@ def test_views_from_one_camera_centre_are_degenerate_for_every_method(
 ) -> None:
     """Rotating the camera about one centre gives distinct rays and planes but no
     baseline: every method says so (lines and ground points used to report ok)."""
-    from twopose.solve.conditioning import parallax_sine
-    from twopose.solve.nview import triangulate_ground
+    from twopose.solve.nview import parallax_sine, triangulate_ground
 
     rng = np.random.default_rng(3)
     K, R, t = _views(rng, 5, n_views)

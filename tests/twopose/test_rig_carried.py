@@ -131,8 +131,8 @@ def test_a_line_reports_the_carried_covariance_across_itself() -> None:
 def test_a_boards_sigma_is_an_estimate_even_without_the_sessions_test(method: str) -> None:
     # A board's placing sigma rests on its degrees of freedom: with --no-sigma0 (nothing
     # estimated from the session) its regions still take Fisher's F on them, never the
-    # sigma as exact (bench_placing: 91% coverage for points that way); an upper bound, or a
-    # sigma stated without its 1-sigma, is exact.
+    # sigma as exact (bench_placing: 91% coverage for points that way); a sigma stated
+    # without its 1-sigma is exact (an upper bound is not taken: test_rig_file).
     session = _session(method)
     measured = PlacingSigma(sigma_in=0.1, sigma_sigma_in=0.1 / math.sqrt(2 * 17),
                             measured_by="board.mcap", captures=16)  # fmt: skip

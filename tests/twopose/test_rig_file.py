@@ -5,7 +5,6 @@ rig refused for another camera; a placing sigma at the fit's floor an upper boun
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
@@ -14,11 +13,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from analysis.rig.fit import RigFit, rig_toml
+from tests.helpers import load_benchmark
 from twopose.camera.model import Intrinsics
 from twopose.errors import InputValueError
+from twopose.methods.specs import Method
 from twopose.rig.constants import SCALARS, RigConstants, RigCovariance, check_applicable
 from twopose.rig.file import RIG_FILE_FORMAT, load_rig_file
 from twopose.solve.margins import EstimateOptions
+from twopose.solve.session import estimate_session
 from twopose.uncertainty.noise import NoiseModel, PlacingSigma
 from twopose.uncertainty.session_noise import placing_source
 from twopose.values.units import Units
@@ -146,9 +148,25 @@ def test_a_placing_sigma_at_the_fits_floor_is_an_upper_bound_never_measured(
     said = found.describe(Units.IN)
     assert said.startswith("placing sigma at most 0.0012 in, an upper bound")
     assert "measured by" not in said
-    assert NoiseModel(placing=found).anchor().dof == math.inf  # the bound, taken as exact
+    assert "regions start from each pose's typed resolution" in said
+    # a bound is no measurement: the typed resolution's weak prior, never the bound as exact
+    assert NoiseModel(placing=found).anchor() == NoiseModel().anchor()
     source = placing_source(EstimateOptions(noise=NoiseModel(placing=found)))
-    assert source == "an upper bound from b0.mcap (8 captures)"  # trials.csv's words
+    assert source == "typed (not the upper bound from b0.mcap (8 captures))"  # trials.csv's
+
+
+@pytest.mark.parametrize("sigma0", [True, False])
+def test_an_upper_bound_never_shrinks_a_region_below_the_typed_resolutions(sigma0: bool) -> None:
+    """Issue 54's adversary: a board placed exactly bounds the placing sigma at 0.001 in, and
+    the regions took that bound as the sigma (20x narrower than the typed 1/16 in's)."""
+    trials = load_benchmark("bench_noise").session(Method.POINT, 3, 4, 1.0)
+    bound = PlacingSigma(sigma_in=0.001, measured_by="b0.mcap", captures=16, upper_bound=True)
+
+    def cov(placing: PlacingSigma | None) -> np.ndarray:
+        noise = NoiseModel(placing=placing, test_redundancy=sigma0)
+        return estimate_session(trials, EstimateOptions(noise=noise), line_fits=False).estimates.cov
+
+    np.testing.assert_allclose(cov(bound), cov(None), rtol=1e-9)
 
 
 def test_a_nearly_exact_placing_sigma_says_no_absurd_degrees_of_freedom() -> None:

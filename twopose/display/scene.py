@@ -222,10 +222,11 @@ def trial_scene(s: TrialScene, log_time_ns: int) -> SceneUpdate:
         _line(e, LinePrimitive.Type.LINE_LIST, np.array(segs), BLUE)
     # What each view measured: a ray (points) or the plane of its image line (lines).
     e = _entity(update, log_time_ns, "measurements", s.trial)
+    spec = spec_of(s.method)  # the scene's method, as its table names it: looked up once
     seen = np.isfinite(s.px).all(axis=1) & (
-        np.isfinite(s.theta_deg) if spec_of(s.method).uses_image_lines else True
+        np.isfinite(s.theta_deg) if spec.uses_image_lines else True
     )
-    if not spec_of(s.method).uses_image_lines:  # rays through the dot
+    if not spec.uses_image_lines:  # rays through the dot
         ray = _rays(s, s.px[:, None])[:, 0]
         rays = np.stack([centres, centres + ray * reach[:, None]], axis=1)[seen]
         _line(e, LinePrimitive.Type.LINE_LIST, rays.reshape(-1, 3), ORANGE, 1.5)
@@ -258,7 +259,7 @@ def trial_scene(s: TrialScene, log_time_ns: int) -> SceneUpdate:
     if np.isfinite(s.truth).all():
         e = _entity(update, log_time_ns, "truth", s.trial)
         size = 0.04 * float(np.mean(reach))
-        if spec_of(s.method).estimates_line:
+        if spec.estimates_line:
             _line(e, LinePrimitive.Type.LINE_STRIP, s.truth, GREEN, 4.0)
         else:
             _sphere(e, s.truth[0], np.full(3, size), np.eye(3), GREEN)

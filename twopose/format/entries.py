@@ -5,19 +5,23 @@ the JSON Schema written into every file, the encoding and the decoding all come 
 one declaration). The one-camera procedure's entries are here; a two-camera session's
 (format 1.6) are in :mod:`twopose.format.stream_entries`, the simulator's truth in
 :mod:`twopose.format.simulation`, nested objects beside them
-(:mod:`twopose.format.guidance_record`); :data:`TYPED_ENTRIES` registers them all.
+(:mod:`twopose.format.guidance_record`); :data:`TYPED_ENTRIES` registers them all. The
+file's metadata record (:func:`session_metadata`, a copy of what opens the session, and its
+cameras read back, :func:`cameras_from_metadata`) is encoded here by the same entries.
 """
 
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
-from twopose.camera.model import rotation_from_angles_deg
+from twopose import __version__
+from twopose.camera.model import Camera, Intrinsics, rotation_from_angles_deg
 from twopose.errors import InputValueError, SessionFormatError
 from twopose.format.declared import (
     CAMERA_SCHEMA,
@@ -50,6 +54,7 @@ __all__ = [
     "FORMAT_MAJOR",
     "FORMAT_VERSION",
     "INCHES_PER_UNIT",
+    "METADATA_NAME",
     "METHODS",
     "PAIR_SESSION_ENTRIES",
     "TYPED_ENTRIES",
@@ -74,9 +79,11 @@ __all__ = [
     "TruthKind",
     "TypedEntry",
     "Verdict",
+    "cameras_from_metadata",
     "decode_entry",
     "default_translation_resolution",
     "encode_entry",
+    "session_metadata",
 ]
 
 
@@ -407,3 +414,47 @@ def decode_entry(schema_name: str, payload: bytes) -> TypedEntry:
         return cls.from_json(data)
     except InputValueError as err:
         raise SessionFormatError(f"{schema_name} message has an invalid value: {err}") from err
+
+
+#: The MCAP metadata record's name: a copy of what opens the session, both ways.
+METADATA_NAME = "twopose"
+
+
+def session_metadata(
+    info: SessionInfo,
+    cameras: Sequence[Camera],
+    ground: PlaneEntry | None,
+    start_ns: int,
+    pair: PairEntry | None = None,
+) -> dict[str, str]:
+    """The ``twopose`` metadata record: versions, plus a copy of what opens the session.
+
+    The metadata record is written before the first chunk, so the copy survives the loss
+    of that chunk (which holds the schemas, channels and the session entry); a two-camera
+    session's copy holds its pair too (format 1.6).
+    """
+    record = {
+        "format_version": FORMAT_VERSION,
+        "software_version": __version__,
+        "session": encode_entry(info).decode(),
+        "cameras": json.dumps([{"camera": c.camera_id, **c.intrinsics.to_dict()} for c in cameras]),
+        "ground": encode_entry(ground).decode() if ground is not None else "",
+        "start_ns": str(start_ns),
+    }
+    if pair is not None:
+        record["pair"] = encode_entry(pair).decode()
+    return record
+
+
+def cameras_from_metadata(text: str) -> list[Camera]:
+    """Inverse of the ``cameras`` field of :func:`session_metadata`."""
+    try:
+        return [
+            Camera(
+                camera_id=c["camera"],
+                intrinsics=Intrinsics.from_dict(c, "the metadata's camera copy"),
+            )
+            for c in json.loads(text)
+        ]
+    except (KeyError, TypeError, ValueError, InputValueError) as err:
+        raise SessionFormatError(f"the metadata's camera copy is unreadable: {err}") from err

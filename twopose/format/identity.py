@@ -50,9 +50,8 @@ from mcap.records import Channel, Chunk, Message, Metadata
 from mcap.stream_reader import StreamReader, breakup_chunk
 
 from twopose.errors import TwoposeError
-from twopose.format.entries import PoseEntry, SessionInfo, decode_entry
+from twopose.format.entries import METADATA_NAME, PoseEntry, SessionInfo, decode_entry
 from twopose.format.reader import SessionReader, max_chunk_bytes, recover_command
-from twopose.format.writer import METADATA_NAME
 from twopose.methods.specs import spec_of
 
 __all__ = [

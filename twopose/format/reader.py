@@ -17,6 +17,7 @@ from twopose.camera.model import Camera
 from twopose.errors import InputValueError, SessionFormatError, SessionVersionError, TwoposeError
 from twopose.format.entries import (
     FORMAT_MAJOR,
+    METADATA_NAME,
     TYPED_ENTRIES,
     PairEntry,
     PlaneEntry,
@@ -32,7 +33,6 @@ from twopose.format.messages import (
     camera_from_message,
 )
 from twopose.format.pair_convert import pair_calibration
-from twopose.format.writer import METADATA_NAME
 
 if TYPE_CHECKING:
     from twopose.pair.calibration import PairCalibration

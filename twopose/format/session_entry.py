@@ -165,7 +165,8 @@ class SessionInfo(TypedEntry):
     def __post_init__(self) -> None:
         """Hold the method and units as their types; check the cameras and the version."""
         # The registries' types (equal to, and serialised as, the names in the file).
-        object.__setattr__(self, "method", spec_of(self.method).method)
+        spec = spec_of(self.method)  # the name as the file gives it: looked up once
+        object.__setattr__(self, "method", spec.method)
         object.__setattr__(self, "units", unit_spec(self.units).units)
         if not self.camera_ids:
             raise InputValueError("a session needs at least one camera")
@@ -173,7 +174,7 @@ class SessionInfo(TypedEntry):
             camera_id(cid)
         if len(set(self.camera_ids)) != len(self.camera_ids):
             raise InputValueError(f"camera ids must be unique, got {self.camera_ids}")
-        if (self.board is not None) == spec_of(self.method).measures:
+        if (self.board is not None) == spec.measures:
             raise InputValueError(
                 "a board session needs its board (inner corners, square, first corner), and "
                 "only a board session has one"

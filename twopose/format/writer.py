@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import json
 import os
 import time
 from collections.abc import Callable, Iterable, Sequence
@@ -18,11 +17,11 @@ from mcap.writer import Writer as McapWriter
 from numpy.typing import NDArray
 
 from twopose import __version__
-from twopose.camera.model import Camera, Intrinsics
-from twopose.errors import InputValueError, SessionExistsError, SessionFormatError, TwoposeError
+from twopose.camera.model import Camera
+from twopose.errors import InputValueError, SessionExistsError, TwoposeError
 from twopose.format.channels import Channels, register_session_channels
 from twopose.format.entries import (
-    FORMAT_VERSION,
+    METADATA_NAME,
     CaptureDecision,
     GroundTruth,
     Note,
@@ -32,6 +31,7 @@ from twopose.format.entries import (
     SessionInfo,
     TypedEntry,
     encode_entry,
+    session_metadata,
 )
 from twopose.format.messages import (
     TF_TOPIC,
@@ -51,56 +51,12 @@ if TYPE_CHECKING:
 
 __all__ = [
     "IMAGE_FORMATS",
-    "METADATA_NAME",
     "Capture",
     "SessionWriter",
     "Stream",
-    "cameras_from_metadata",
-    "session_metadata",
 ]
 
-METADATA_NAME = "twopose"
 IMAGE_FORMATS = ("jpeg", "png")
-
-
-def session_metadata(
-    info: SessionInfo,
-    cameras: Sequence[Camera],
-    ground: PlaneEntry | None,
-    start_ns: int,
-    pair: PairEntry | None = None,
-) -> dict[str, str]:
-    """The ``twopose`` metadata record: versions, plus a copy of what opens the session.
-
-    The metadata record is written before the first chunk, so the copy survives the loss
-    of that chunk (which holds the schemas, channels and the session entry); a two-camera
-    session's copy holds its pair too (format 1.6).
-    """
-    record = {
-        "format_version": FORMAT_VERSION,
-        "software_version": __version__,
-        "session": encode_entry(info).decode(),
-        "cameras": json.dumps([{"camera": c.camera_id, **c.intrinsics.to_dict()} for c in cameras]),
-        "ground": encode_entry(ground).decode() if ground is not None else "",
-        "start_ns": str(start_ns),
-    }
-    if pair is not None:
-        record["pair"] = encode_entry(pair).decode()
-    return record
-
-
-def cameras_from_metadata(text: str) -> list[Camera]:
-    """Inverse of the ``cameras`` field of :func:`session_metadata`."""
-    try:
-        return [
-            Camera(
-                camera_id=c["camera"],
-                intrinsics=Intrinsics.from_dict(c, "the metadata's camera copy"),
-            )
-            for c in json.loads(text)
-        ]
-    except (KeyError, TypeError, ValueError, InputValueError) as err:
-        raise SessionFormatError(f"the metadata's camera copy is unreadable: {err}") from err
 
 
 def _pair_entry(pair: PairCalibration, info: SessionInfo, cameras: Sequence[Camera]) -> PairEntry:

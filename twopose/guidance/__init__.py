@@ -1,9 +1,10 @@
 """Guidance: the next pose that shrinks the 95% region most, and when to stop.
 
 The advice and the stop rule (``advice``), the suggestion as the operator is told it
-(``suggestion``), the lattice of poses on the grid paper (``paper``) and the search on it
-(``search``), what one more pose would give (``prediction``), the first pose
-(``first_pose``) and the operator's map of every reachable pose (``region_map``).
+(``suggestion``), what keeps the target in view from the grid paper (``paper``), the
+lattice of poses on it and the search on it (``search``), what one more pose would give
+(``prediction``), the first pose (``first_pose``) and the operator's map of every
+reachable pose (``region_map``).
 """
 
 from __future__ import annotations

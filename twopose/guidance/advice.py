@@ -34,12 +34,11 @@ from twopose.guidance.first_pose import (
     minimax_pick,
     provisional_target,
 )
-from twopose.guidance.paper import CLUTTER, Field, Reach, field_in_view, half_planes
+from twopose.guidance.paper import CLUTTER, Reach, half_planes
 from twopose.guidance.prediction import predicted_regions, predicted_view, target_of, template_view
 from twopose.guidance.region_map import RegionMap, survey
-from twopose.guidance.search import search
+from twopose.guidance.search import Field, field_in_view, search
 from twopose.guidance.suggestion import Suggestion
-from twopose.methods.specs import spec_of
 from twopose.solve.estimate import EstimateOptions, PoseView
 from twopose.solve.session import SessionTrials
 from twopose.values.bounds import DEFAULT_MIN_GAIN, shown
@@ -89,7 +88,7 @@ class _Trial:
 
     @property
     def lines(self) -> bool:
-        return spec_of(self.trial.method).uses_image_lines
+        return self.trial.spec.uses_image_lines
 
     @property
     def taken(self) -> F64:
@@ -407,7 +406,7 @@ def _more_poses(
     """
     assert guidance.target95 is not None
     views = list(trial.views[0][:1] if first.provisional else trial.views[0])
-    lines = spec_of(trial.method).uses_image_lines
+    lines = trial.spec.uses_image_lines
     step, centre, region = 1, np.asarray(first.t_grid), first.predicted95
     while len(trial.views[0]) + step <= horizon:
         if region <= guidance.target95:

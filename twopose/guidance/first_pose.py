@@ -26,9 +26,9 @@ import numpy as np
 
 from twopose.arrays import F64, Bools, Ints
 from twopose.camera.model import grid_rays, rotation_from_angles_deg
-from twopose.guidance.paper import Field, Reach
+from twopose.guidance.paper import Reach
 from twopose.guidance.region_map import MAP_POSES, Survey, survey
-from twopose.guidance.search import SEEDS, Found, search, search_together
+from twopose.guidance.search import SEEDS, Field, Found, search, search_together
 from twopose.solve.estimate import EstimateOptions, GroundSpec, PoseView, measure
 from twopose.values.units import Units, unit_factor
 

@@ -11,11 +11,8 @@ pose already taken, or when the trial would not solve from it (the reasons
 
 The poses that keep the target in view form a convex region of the table (the reach's
 square cut by one half-plane per image edge and point, :func:`half_planes`), so they are
-counted exactly, row by row of the paper (:class:`Field`), however fine the paper and wide
-the reach. The search (:mod:`twopose.guidance.search`) and the map
-(:mod:`twopose.guidance.region_map`)
-both stand on this one lattice: the map's cells are its sub-lattice every ``step`` lines
-(:meth:`Field.cells`).
+counted exactly, row by row of the paper (:class:`twopose.guidance.search.Field`, the
+lattice the search and the map stand on), however fine the paper and wide the reach.
 """
 
 from __future__ import annotations
@@ -25,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from twopose.arrays import F64, Bools, Ints
+from twopose.arrays import F64, Bools
 from twopose.camera.model import rotation_from_angles_deg
 from twopose.methods.targets import FINGER_LENGTH
 from twopose.solve.estimate import PoseView
@@ -40,15 +37,12 @@ __all__ = [
     "REASONS",
     "TAKEN",
     "UNSOLVED",
-    "Field",
     "Reach",
     "clear_of_edges",
-    "field_in_view",
     "half_planes",
     "index_range",
     "lattice",
     "project",
-    "taken_in",
     "view_checks",
 ]
 
@@ -192,140 +186,3 @@ def half_planes(
         for a in (A[2], A[0] - u0 * A[2], u1 * A[2] - A[0], A[1] - v0 * A[2], v1 * A[2] - A[1]):
             rows.append([a[0], a[2], float(a @ X) - a[1] * y])
     return np.array(rows)
-
-
-@dataclass(frozen=True, kw_only=True)
-class Field:
-    """The lattice poses in reach that keep the target clear of the image's edges.
-
-    Row by row of the paper (``z = j * spacing``), each row's columns ``lo..hi`` (``x = i *
-    spacing``; none when ``lo > hi``): the region is convex, so each row's part is one run.
-    """
-
-    spacing: float
-    y: float
-    rows: Ints  # (J,) every row in reach, consecutive
-    lo: Ints  # (J,)
-    hi: Ints  # (J,)
-    n_reach: int  # lattice poses in reach
-
-    def count(self) -> int:
-        """How many lattice poses the field holds."""
-        return int(np.clip(self.hi - self.lo + 1, 0, None).sum())
-
-    def interval(self, j: int) -> tuple[int, int]:
-        """Row ``j``'s first and last column (first > last: none)."""
-        k = j - int(self.rows[0]) if len(self.rows) else -1
-        if not 0 <= k < len(self.rows):
-            return 1, 0
-        return int(self.lo[k]), int(self.hi[k])
-
-    def centres(self, ij: Ints) -> F64:
-        """(M, 3) the camera centres of lattice indices ``ij`` (M, 2)."""
-        s = self.spacing
-        # 0.3, not 0.30000000000000004
-        x, z = np.round(ij[:, 0] * s, 10), np.round(ij[:, 1] * s, 10)
-        return np.column_stack([x, np.full(len(ij), self.y), z])
-
-    def contains(self, ij: Ints) -> Bools:
-        """(M,) whether lattice indices ``ij`` (M, 2) lie in the field."""
-        ij = np.asarray(ij, dtype=np.int64).reshape(-1, 2)
-        if not len(self.rows):
-            return np.zeros(len(ij), dtype=bool)
-        k = ij[:, 1] - int(self.rows[0])
-        inside = (k >= 0) & (k < len(self.rows))
-        kk = np.clip(k, 0, len(self.rows) - 1)
-        return np.asarray(inside & (self.lo[kk] <= ij[:, 0]) & (ij[:, 0] <= self.hi[kk]))
-
-    def box(self) -> tuple[int, int, int, int] | None:
-        """The field's index box: first and last column, first and last row (None: empty)."""
-        filled = self.hi >= self.lo
-        if not filled.any():
-            return None
-        rows = self.rows[filled]
-        return (
-            int(self.lo[filled].min()), int(self.hi[filled].max()), int(rows[0]), int(rows[-1])
-        )  # fmt: skip
-
-    def clipped(self, box: tuple[int, int, int, int]) -> Field:
-        """The field's poses within the index ``box`` (first, last column, first, last row)."""
-        i0, i1, j0, j1 = box
-        keep = (self.rows >= j0) & (self.rows <= j1)
-        return Field(
-            spacing=self.spacing, y=self.y, rows=self.rows[keep],
-            lo=np.maximum(self.lo[keep], i0), hi=np.minimum(self.hi[keep], i1),
-            n_reach=self.n_reach,
-        )  # fmt: skip
-
-    def in_sublattice(self, origin: tuple[int, int], step: int) -> int:
-        """How many of the field's poses lie on the sub-lattice every ``step`` lines."""
-        a, b = origin
-        rows = (self.rows - b) % step == 0
-        lo, hi = self.lo[rows], self.hi[rows]
-        n = np.floor_divide(hi - a, step) - np.floor_divide(lo - a - 1, step)
-        return int(np.clip(np.where(hi >= lo, n, 0), 0, None).sum())
-
-    def cells(self, ii: Ints, jj: Ints, step: int) -> tuple[Ints, Ints, Bools]:
-        """(J, I) each cell's pose as lattice indices, and whether it has one in the field.
-
-        The cells are centred on columns ``ii`` and rows ``jj`` (every ``step`` lines). A
-        cell's pose is its centre if that lies in the field, else the field's pose within
-        the cell nearest its centre: the best pose often lies on the field's edge, which
-        the cells' centres would miss.
-        """
-        before = step // 2  # the cell spans centre - before .. centre - before + step - 1
-        dj = np.array(sorted(range(-before, step - before), key=abs))  # (S,) the centre's first
-        rows = jj[None, :] + dj[:, None]  # (S, J)
-        k = rows - int(self.rows[0])
-        inside = (k >= 0) & (k < len(self.rows))
-        kk = np.clip(k, 0, len(self.rows) - 1)
-        lo = np.where(inside, self.lo[kk], 1)[:, :, None]  # (S, J, 1)
-        hi = np.where(inside, self.hi[kk], 0)[:, :, None]
-        a = np.maximum(lo, ii[None, None, :] - before)  # (S, J, I): the row's part in the cell
-        b = np.minimum(hi, ii[None, None, :] - before + step - 1)
-        pose_i = np.clip(ii[None, None, :], a, b)
-        never = np.iinfo(np.int64).max
-        gap = np.where(a <= b, np.abs(pose_i - ii) + np.abs(dj)[:, None, None], never)
-        nearest = np.argmin(gap, axis=0)  # (J, I): of equals, the row nearest the centre's
-        has = np.take_along_axis(gap, nearest[None], axis=0)[0] < never
-        cell_i = np.take_along_axis(pose_i, nearest[None], axis=0)[0]
-        cell_j = jj[:, None] + dj[nearest]
-        return cell_i, cell_j, has
-
-
-def field_in_view(first: F64, reach: Reach, planes: F64) -> Field:
-    """The lattice poses within ``reach`` of ``first`` that satisfy every half-plane."""
-    s = reach.spacing
-    i0, i1, j0, j1 = reach.box(first)
-    rows = np.arange(j0, j1 + 1)
-    z = rows * s
-    x_lo, x_hi = np.full(len(rows), i0 * s), np.full(len(rows), i1 * s)
-    for a, b, c in planes:  # a x + b z < c
-        rhs = c - b * z
-        if abs(a) <= 1e-12 * (abs(a) + abs(b)):
-            x_lo = np.where(rhs > 0, x_lo, np.inf)
-        elif a > 0:
-            x_hi = np.minimum(x_hi, rhs / a)
-        else:
-            x_lo = np.maximum(x_lo, rhs / a)
-    with np.errstate(invalid="ignore"):
-        lo = np.clip(np.ceil(x_lo / s - 1e-9), i0, i1 + 1)
-        hi = np.clip(np.floor(x_hi / s + 1e-9), i0 - 1, i1)
-    lo, hi = np.nan_to_num(lo, nan=i1 + 1), np.nan_to_num(hi, nan=i0 - 1)
-    return Field(
-        spacing=s, y=float(first[1]), rows=rows, lo=lo.astype(np.int64), hi=hi.astype(np.int64),
-        n_reach=(i1 - i0 + 1) * (j1 - j0 + 1),
-    )  # fmt: skip
-
-
-def taken_in(field: Field, taken: F64) -> int:
-    """How many of the field's poses lie within half a spacing of a pose ``taken``."""
-    s, near = field.spacing, set()
-    for t in taken:
-        for i in (math.floor(t[0] / s), math.ceil(t[0] / s)):
-            for j in (math.floor(t[2] / s), math.ceil(t[2] / s)):
-                lo, hi = field.interval(j)
-                gap = math.dist((i * s, field.y, j * s), tuple(t))
-                if lo <= i <= hi and gap <= s / 2:
-                    near.add((i, j))
-    return len(near)

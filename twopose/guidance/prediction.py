@@ -164,7 +164,7 @@ def predicted_regions(
     """
     centres = np.asarray(centres, dtype=np.float64).reshape(-1, 3)
     targets = np.broadcast_to(np.asarray(target, dtype=np.float64), (len(centres), 2, 3))
-    lines = spec_of(trial.method).uses_image_lines
+    lines = trial.spec.uses_image_lines
     template = template_view(views)
     out = np.full(len(centres), np.nan)
     if not template.found.any() or not len(centres):
@@ -187,7 +187,7 @@ def predicted_regions(
     ]
     if options.noise.factor is None and options.noise.test_redundancy:
         # A predicted view has no noise of its own: the batch's candidates never estimate a
-        # variance factor (the recorder fixes the session's: trial_result.guidance_options).
+        # variance factor (the recorder fixes the session's: recorder.live.result.guidance_options).
         options = dataclasses.replace(
             options, noise=dataclasses.replace(options.noise, test_redundancy=False)
         )

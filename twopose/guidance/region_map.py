@@ -13,8 +13,9 @@ The map is the suggestion's first pass (:func:`survey`): its cells are predicted
 batch and the search refines from them (:func:`twopose.guidance.search.search`, ``known``), so
 the suggestion is never worse than a cell the operator sees: the map's best is the
 suggestion. Its cost is bounded whatever the paper and the reach: the cells are the paper's
-lines every ``step`` lines (the sub-lattice through the first pose, :meth:`Field.cells`),
-``step`` the least that leaves at most :data:`MAP_POSES` cells in view. It covers the part of
+lines every ``step`` lines (the sub-lattice through the first pose,
+:meth:`twopose.guidance.search.Field.cells`), ``step`` the least that leaves at most
+:data:`MAP_POSES` cells in view. It covers the part of
 the reach worth seeing: where the field in view is larger than the map, a coarse sample of
 it first finds the poses within :data:`FOCUS` times the best value, and the map covers
 those (and the poses taken); far behind the target the regions are many times the best,
@@ -29,8 +30,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from twopose.arrays import F64, Ints
-from twopose.guidance.paper import REASONS, Field, Reach
-from twopose.guidance.search import COARSE_CANDIDATES, Blocked, Known, Predict, coarse_sample
+from twopose.guidance.paper import REASONS, Reach
+from twopose.guidance.search import (
+    COARSE_CANDIDATES,
+    Blocked,
+    Field,
+    Known,
+    Predict,
+    coarse_sample,
+    sub_axis,
+)
 from twopose.values.bounds import shown
 from twopose.values.units import Units
 
@@ -92,10 +101,11 @@ def survey(
     )  # fmt: skip
     part = field.clipped(box)
     origin = (int(taken_ij[0, 0]), int(taken_ij[0, 1]))
-    step = _stride(part, origin, box, max_poses)
+    step = part.stride(origin, box, max_poses, extent=_EXTENT)
     while True:  # the cells on the field's edge count too
-        ii, jj = _axis(box[0], box[1], origin[0], step), _axis(box[2], box[3], origin[1], step)
-        cell_i, cell_j, has = _cells(part, ii, jj, step)
+        ii = sub_axis(box[0], box[1], origin[0], step)
+        jj = sub_axis(box[2], box[3], origin[1], step)
+        cell_i, cell_j, has = part.cells(ii, jj, step)
         if has.sum() <= max_poses:
             break
         step = max(step + 1, math.ceil(step * 1.1))
@@ -165,36 +175,6 @@ def _predict_cells(
     for k in np.flatnonzero(has & (reason != _TAKEN)):
         known[(int(ij[k, 0]), int(ij[k, 1]))] = (float(values[k]), REASONS[reason[k]])
     return values, reason
-
-
-def _stride(field: Field, origin: tuple[int, int], box: tuple[int, int, int, int], cap: int) -> int:
-    """The least step that leaves at most ``cap`` cells in view and ``_EXTENT * cap`` in all."""
-    i_lo, i_hi, j_lo, j_hi = box
-    area = (i_hi - i_lo + 1) * (j_hi - j_lo + 1)
-    step = max(1, math.ceil(math.sqrt(max(field.count(), area / _EXTENT) / cap)))
-    while field.in_sublattice(origin, step) > cap or (
-        math.ceil((i_hi - i_lo + 1) / step) * math.ceil((j_hi - j_lo + 1) / step) > _EXTENT * cap
-    ):
-        step = max(step + 1, math.ceil(step * 1.1))
-    return step
-
-
-def _axis(lo: int, hi: int, origin: int, step: int) -> Ints:
-    """The sub-lattice's indices (``origin`` plus multiples of ``step``) in lo..hi, one at least."""
-    first = origin + math.ceil((lo - origin) / step) * step
-    last = origin + math.floor((hi - origin) / step) * step
-    if first > last:  # a box narrower than a cell: the cell nearest its middle
-        first = last = origin + round(((lo + hi) / 2 - origin) / step) * step
-    return np.arange(first, last + 1, step, dtype=np.int64)
-
-
-def _cells(field: Field, ii: Ints, jj: Ints, step: int) -> tuple[Ints, Ints, np.ndarray]:
-    """:meth:`Field.cells`, or none in view when the field has no row in the box."""
-    if not len(field.rows) or not len(ii) or not len(jj):
-        shape = (len(jj), len(ii))
-        cols = np.broadcast_to(ii[None, :], shape).copy()
-        return cols, np.broadcast_to(jj[:, None], shape).copy(), np.zeros(shape, dtype=bool)
-    return field.cells(ii, jj, step)
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -1,7 +1,8 @@
-"""The search for the best pose on the grid paper: a coarse pass, then a pattern search.
+"""The lattice of poses on the grid paper, and the search on it for the best pose.
 
-The poses that keep the target in view (:class:`twopose.guidance.paper.Field`, counted exactly
-however fine the paper and wide the reach) are not all predicted. A first pass predicts a
+The poses that keep the target in view (:class:`Field`, counted exactly however fine the
+paper and wide the reach: the region is convex, so each row of the paper holds one run of
+them) are not all predicted. A first pass predicts a
 sample of them: either the map's cells (:mod:`twopose.guidance.region_map`, given as ``known``, so
 that the suggestion is never worse than a cell the operator sees), or about
 :data:`COARSE_CANDIDATES` poses spread over the field (every row's two ends among them,
@@ -11,6 +12,10 @@ the caller's prediction (:func:`twopose.guidance.prediction.predicted_regions`, 
 estimate). A pose over known clutter (:mod:`twopose.detect.clutter`, the caller's ``blocked``) is
 never predicted. ``benchmarks/bench_suggest.py`` measures the cost and how far the pick's
 region is from the whole lattice's best.
+
+The lattice lives here because the search and the map (its cells are the lattice's
+sub-lattice every ``step`` lines, :meth:`Field.cells`) both walk it: each question the
+search asks of a row or a cell is answered in this file.
 """
 
 from __future__ import annotations
@@ -22,19 +27,23 @@ from dataclasses import dataclass
 import numpy as np
 
 from twopose.arrays import F64, Bools, Ints
-from twopose.guidance.paper import CLUTTER, EDGE, TAKEN, UNSOLVED, Field, taken_in
+from twopose.guidance.paper import CLUTTER, EDGE, TAKEN, UNSOLVED, Reach
 
 __all__ = [
     "COARSE_CANDIDATES",
     "SEEDS",
     "Blocked",
+    "Field",
     "Found",
     "Known",
     "Predict",
     "PredictPairs",
     "coarse_sample",
+    "field_in_view",
     "search",
     "search_together",
+    "sub_axis",
+    "taken_in",
 ]
 
 #: The coarse pass predicts about this many poses (the whole lattice when it holds fewer
@@ -68,6 +77,173 @@ Blocked = Callable[[F64], Bools]
 #: has none ("" when it has one; :data:`twopose.guidance.paper.UNSOLVED`,
 #: :data:`~twopose.guidance.paper.CLUTTER`).
 Known = dict[tuple[int, int], tuple[float, str]]
+
+
+@dataclass(frozen=True, kw_only=True)
+class Field:
+    """The lattice poses in reach that keep the target clear of the image's edges.
+
+    Row by row of the paper (``z = j * spacing``), each row's columns ``lo..hi`` (``x = i *
+    spacing``; none when ``lo > hi``): the region is convex, so each row's part is one run.
+    """
+
+    spacing: float
+    y: float
+    rows: Ints  # (J,) every row in reach, consecutive
+    lo: Ints  # (J,)
+    hi: Ints  # (J,)
+    n_reach: int  # lattice poses in reach
+
+    def count(self) -> int:
+        """How many lattice poses the field holds."""
+        return int(np.clip(self.hi - self.lo + 1, 0, None).sum())
+
+    def interval(self, j: int) -> tuple[int, int]:
+        """Row ``j``'s first and last column (first > last: none)."""
+        k = j - int(self.rows[0]) if len(self.rows) else -1
+        if not 0 <= k < len(self.rows):
+            return 1, 0
+        return int(self.lo[k]), int(self.hi[k])
+
+    def centres(self, ij: Ints) -> F64:
+        """(M, 3) the camera centres of lattice indices ``ij`` (M, 2)."""
+        s = self.spacing
+        # 0.3, not 0.30000000000000004
+        x, z = np.round(ij[:, 0] * s, 10), np.round(ij[:, 1] * s, 10)
+        return np.column_stack([x, np.full(len(ij), self.y), z])
+
+    def contains(self, ij: Ints) -> Bools:
+        """(M,) whether lattice indices ``ij`` (M, 2) lie in the field."""
+        ij = np.asarray(ij, dtype=np.int64).reshape(-1, 2)
+        if not len(self.rows):
+            return np.zeros(len(ij), dtype=bool)
+        k = ij[:, 1] - int(self.rows[0])
+        inside = (k >= 0) & (k < len(self.rows))
+        kk = np.clip(k, 0, len(self.rows) - 1)
+        return np.asarray(inside & (self.lo[kk] <= ij[:, 0]) & (ij[:, 0] <= self.hi[kk]))
+
+    def box(self) -> tuple[int, int, int, int] | None:
+        """The field's index box: first and last column, first and last row (None: empty)."""
+        filled = self.hi >= self.lo
+        if not filled.any():
+            return None
+        rows = self.rows[filled]
+        return (
+            int(self.lo[filled].min()), int(self.hi[filled].max()), int(rows[0]), int(rows[-1])
+        )  # fmt: skip
+
+    def clipped(self, box: tuple[int, int, int, int]) -> Field:
+        """The field's poses within the index ``box`` (first, last column, first, last row)."""
+        i0, i1, j0, j1 = box
+        keep = (self.rows >= j0) & (self.rows <= j1)
+        return Field(
+            spacing=self.spacing, y=self.y, rows=self.rows[keep],
+            lo=np.maximum(self.lo[keep], i0), hi=np.minimum(self.hi[keep], i1),
+            n_reach=self.n_reach,
+        )  # fmt: skip
+
+    def in_sublattice(self, origin: tuple[int, int], step: int) -> int:
+        """How many of the field's poses lie on the sub-lattice every ``step`` lines."""
+        a, b = origin
+        rows = (self.rows - b) % step == 0
+        lo, hi = self.lo[rows], self.hi[rows]
+        n = np.floor_divide(hi - a, step) - np.floor_divide(lo - a - 1, step)
+        return int(np.clip(np.where(hi >= lo, n, 0), 0, None).sum())
+
+    def stride(
+        self, origin: tuple[int, int], box: tuple[int, int, int, int], cap: int, *, extent: int
+    ) -> int:
+        """The least sub-lattice step that leaves at most ``cap`` cells in the field.
+
+        And at most ``extent * cap`` in ``box`` (the map's cells,
+        :mod:`twopose.guidance.region_map`).
+        """
+        i_lo, i_hi, j_lo, j_hi = box
+        area = (i_hi - i_lo + 1) * (j_hi - j_lo + 1)
+        step = max(1, math.ceil(math.sqrt(max(self.count(), area / extent) / cap)))
+        while self.in_sublattice(origin, step) > cap or (
+            math.ceil((i_hi - i_lo + 1) / step) * math.ceil((j_hi - j_lo + 1) / step) > extent * cap
+        ):
+            step = max(step + 1, math.ceil(step * 1.1))
+        return step
+
+    def cells(self, ii: Ints, jj: Ints, step: int) -> tuple[Ints, Ints, Bools]:
+        """(J, I) each cell's pose as lattice indices, and whether it has one in the field.
+
+        The cells are centred on columns ``ii`` and rows ``jj`` (every ``step`` lines). A
+        cell's pose is its centre if that lies in the field, else the field's pose within
+        the cell nearest its centre: the best pose often lies on the field's edge, which
+        the cells' centres would miss. None in view when the field has no row in the box.
+        """
+        if not len(self.rows) or not len(ii) or not len(jj):
+            shape = (len(jj), len(ii))
+            cols = np.broadcast_to(ii[None, :], shape).copy()
+            return cols, np.broadcast_to(jj[:, None], shape).copy(), np.zeros(shape, dtype=bool)
+        before = step // 2  # the cell spans centre - before .. centre - before + step - 1
+        dj = np.array(sorted(range(-before, step - before), key=abs))  # (S,) the centre's first
+        rows = jj[None, :] + dj[:, None]  # (S, J)
+        k = rows - int(self.rows[0])
+        inside = (k >= 0) & (k < len(self.rows))
+        kk = np.clip(k, 0, len(self.rows) - 1)
+        lo = np.where(inside, self.lo[kk], 1)[:, :, None]  # (S, J, 1)
+        hi = np.where(inside, self.hi[kk], 0)[:, :, None]
+        a = np.maximum(lo, ii[None, None, :] - before)  # (S, J, I): the row's part in the cell
+        b = np.minimum(hi, ii[None, None, :] - before + step - 1)
+        pose_i = np.clip(ii[None, None, :], a, b)
+        never = np.iinfo(np.int64).max
+        gap = np.where(a <= b, np.abs(pose_i - ii) + np.abs(dj)[:, None, None], never)
+        nearest = np.argmin(gap, axis=0)  # (J, I): of equals, the row nearest the centre's
+        has = np.take_along_axis(gap, nearest[None], axis=0)[0] < never
+        cell_i = np.take_along_axis(pose_i, nearest[None], axis=0)[0]
+        cell_j = jj[:, None] + dj[nearest]
+        return cell_i, cell_j, has
+
+
+def field_in_view(first: F64, reach: Reach, planes: F64) -> Field:
+    """The lattice poses within ``reach`` of ``first`` that satisfy every half-plane."""
+    s = reach.spacing
+    i0, i1, j0, j1 = reach.box(first)
+    rows = np.arange(j0, j1 + 1)
+    z = rows * s
+    x_lo, x_hi = np.full(len(rows), i0 * s), np.full(len(rows), i1 * s)
+    for a, b, c in planes:  # a x + b z < c
+        rhs = c - b * z
+        if abs(a) <= 1e-12 * (abs(a) + abs(b)):
+            x_lo = np.where(rhs > 0, x_lo, np.inf)
+        elif a > 0:
+            x_hi = np.minimum(x_hi, rhs / a)
+        else:
+            x_lo = np.maximum(x_lo, rhs / a)
+    with np.errstate(invalid="ignore"):
+        lo = np.clip(np.ceil(x_lo / s - 1e-9), i0, i1 + 1)
+        hi = np.clip(np.floor(x_hi / s + 1e-9), i0 - 1, i1)
+    lo, hi = np.nan_to_num(lo, nan=i1 + 1), np.nan_to_num(hi, nan=i0 - 1)
+    return Field(
+        spacing=s, y=float(first[1]), rows=rows, lo=lo.astype(np.int64), hi=hi.astype(np.int64),
+        n_reach=(i1 - i0 + 1) * (j1 - j0 + 1),
+    )  # fmt: skip
+
+
+def taken_in(field: Field, taken: F64) -> int:
+    """How many of the field's poses lie within half a spacing of a pose ``taken``."""
+    s, near = field.spacing, set()
+    for t in taken:
+        for i in (math.floor(t[0] / s), math.ceil(t[0] / s)):
+            for j in (math.floor(t[2] / s), math.ceil(t[2] / s)):
+                lo, hi = field.interval(j)
+                gap = math.dist((i * s, field.y, j * s), tuple(t))
+                if lo <= i <= hi and gap <= s / 2:
+                    near.add((i, j))
+    return len(near)
+
+
+def sub_axis(lo: int, hi: int, origin: int, step: int) -> Ints:
+    """The sub-lattice's indices (``origin`` plus multiples of ``step``) in lo..hi, one at least."""
+    first = origin + math.ceil((lo - origin) / step) * step
+    last = origin + math.floor((hi - origin) / step) * step
+    if first > last:  # a box narrower than a cell: the cell nearest its middle
+        first = last = origin + round(((lo + hi) / 2 - origin) / step) * step
+    return np.arange(first, last + 1, step, dtype=np.int64)
 
 
 class _Ranker:

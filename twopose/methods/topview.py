@@ -14,6 +14,12 @@ view measured, drawn so that it meets where the solver says the target is.
 - the fixed line: the estimated 3-D line, and the true one when typed;
 - a board session (:func:`board_top_view`): the board and where it was seen from.
 
+Which of these a trial draws is its method's geometry's
+(:attr:`twopose.methods.specs.MethodSpec.geometry`, asked once through
+:class:`twopose.methods.geometry.GeometryCases`): a registered method on a wall draws its
+traces on the wall, with no switch here. Each segment's kind carries its style
+(:class:`SegmentKind`), so the console draws a new kind without a line of its script.
+
 Pure geometry from a :class:`twopose.display.scene.TrialScene`, for the web console's canvas
 (:mod:`recorder.console.state`) and the report's figure; no drawing here.
 """
@@ -24,6 +30,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from typing_extensions import override
 
 from twopose.arrays import F64
 from twopose.camera.model import grid_rays
@@ -34,10 +41,69 @@ from twopose.methods.targets import BoardPlacement
 from twopose.solve.nview import image_lines, projection_matrices
 from twopose.values.checks import Vec3
 
-__all__ = ["TopView", "board_top_view", "top_view"]
+__all__ = [
+    "CORNERS",
+    "ESTIMATED_LINE",
+    "RAY",
+    "SEGMENT_KINDS",
+    "TRACE",
+    "TRUTH_LINE",
+    "SegmentKind",
+    "TopView",
+    "board_top_view",
+    "top_view",
+]
 
 #: A point in the plane's two in-plane axes (the ground's x and z), session units.
 XZ = tuple[float, float]
+
+
+class SegmentKind(str):
+    """A kind of segment the top view draws: a ``str`` (its name) that carries its style.
+
+    The console draws a new kind as it is declared here, no line of its script edited:
+    ``colour`` (CSS), ``width`` (px) and ``dash`` (px on, off; empty: solid) travel with
+    each segment in :meth:`TopView.to_json`; the page's legend names the kind as a
+    method's :attr:`twopose.methods.specs.MethodPage.legend_segments` says.
+    """
+
+    colour: str
+    width: float
+    dash: tuple[float, ...]
+
+    def __new__(
+        cls, name: str, *, colour: str, width: float = 2.0, dash: tuple[float, ...] = ()
+    ) -> SegmentKind:
+        """The kind ``name`` drawn in ``colour``, ``width`` px wide, ``dash``-ed."""
+        kind = super().__new__(cls, name)
+        kind.colour, kind.width, kind.dash = colour, width, dash
+        return kind
+
+    def __reduce__(self) -> tuple[object, tuple[object, ...]]:
+        """Pickled with its style (a report's worker gets the kind whole)."""
+        return _segment_kind, (str(self), self.colour, self.width, self.dash)
+
+    def style(self) -> dict[str, object]:
+        """How the page draws it (the segment's ``style`` in :meth:`TopView.to_json`)."""
+        return {"colour": self.colour, "width": self.width, "dash": list(self.dash)}
+
+
+def _segment_kind(name: str, colour: str, width: float, dash: tuple[float, ...]) -> SegmentKind:
+    return SegmentKind(name, colour=colour, width=width, dash=dash)
+
+
+#: Method 1's: each view's ray through the dot.
+RAY = SegmentKind("ray", colour="#e07b00")
+#: Method 2's: each view's plane's trace on the method's plane.
+TRACE = SegmentKind("trace", colour="#8e44ad")
+#: The fixed line's estimate.
+ESTIMATED_LINE = SegmentKind("estimated_line", colour="#d62728", width=3.0)
+#: The fixed line's truth, when typed (dashed: the estimate may lie under it).
+TRUTH_LINE = SegmentKind("truth_line", colour="#2ca02c", dash=(7.0, 5.0))
+#: A board session's board (its inner corners' row, from above).
+CORNERS = SegmentKind("corners", colour="#333f4d", width=3.0)
+#: Every kind this module draws.
+SEGMENT_KINDS: tuple[SegmentKind, ...] = (RAY, TRACE, ESTIMATED_LINE, TRUTH_LINE, CORNERS)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -55,7 +121,7 @@ class TopView:
     #: ``estimated_line`` (the estimated 3-D line), ``truth_line``, ``corners`` (a board
     #: session's board, its inner corners' row from above). The console's legend names
     #: each kind as the method's :attr:`twopose.methods.specs.MethodPage.legend_segments` says.
-    segments: tuple[tuple[str, XZ, XZ], ...]
+    segments: tuple[tuple[SegmentKind, XZ, XZ], ...]
     estimate: XZ | None
     truth: XZ | None  # a point target's true position (lines: a truth_line segment)
 
@@ -66,7 +132,8 @@ class TopView:
             "method": self.method,
             "cameras": [list(c) for c in self.cameras],
             "segments": [
-                {"kind": kind, "from": list(a), "to": list(b)} for kind, a, b in self.segments
+                {"kind": str(kind), "style": kind.style(), "from": list(a), "to": list(b)}
+                for kind, a, b in self.segments
             ],
             "estimate": None if self.estimate is None else list(self.estimate),
             "truth": None if self.truth is None else list(self.truth),
@@ -84,7 +151,7 @@ def board_top_view(board: BoardPlacement, seen_from: Sequence[Vec3]) -> TopView:
     on = GROUND_PLANE  # a board session is drawn from above
     seen = (_xz(on, np.asarray(t, dtype=np.float64)) for t in seen_from)
     cameras = tuple(c for c in seen if c)
-    segments = _segments(on, "corners", left[None], right[None])
+    segments = _segments(on, CORNERS, left[None], right[None])
     return TopView(
         trial=0,
         method=Method.BOARD,
@@ -111,15 +178,10 @@ def top_view(scene: TrialScene, on: ConstraintPlane | None = None) -> TopView:
     """
     estimate = scene.estimate if np.isfinite(scene.estimate).all() else None
     reach = _reach(scene, estimate)
-    spec = spec_of(scene.method)
+    spec = spec_of(scene.method)  # the scene's method, as its table names it
     on = on or spec.seen_on
-    if not spec.uses_image_lines:  # method 1: the rays through the dot
-        segments = _rays(on, scene, reach)
-    elif spec.needs_plane:  # method 2: the planes' traces on its plane
-        segments = _plane_traces(on, scene, estimate, reach)
-    else:
-        segments = _lines(on, scene, estimate, reach)
-    truth = _end_on(on, scene.truth) if spec.estimates_line else _xz(on, scene.truth[0])
+    drawn = spec.geometry_cases(_Drawn(on, scene, estimate, reach))
+    segments, truth = drawn.segments(), drawn.truth()
     cameras = tuple(c for c in (_xz(on, t) for t in scene.t_grid) if c is not None)
     return TopView(
         trial=scene.trial,
@@ -129,6 +191,74 @@ def top_view(scene: TrialScene, on: ConstraintPlane | None = None) -> TopView:
         estimate=None if estimate is None else _xz(on, estimate),
         truth=truth,
     )
+
+
+Segments = list[tuple[SegmentKind, XZ, XZ]]
+
+
+@dataclass(frozen=True)
+class _Seen:
+    """What a trial draws on ``on``: what each view measured, and the truth."""
+
+    on: ConstraintPlane
+    scene: TrialScene
+    estimate: F64 | None
+    reach: F64
+
+    def segments(self) -> Segments:
+        """What each view measured, face on the plane."""
+        return []
+
+    def truth(self) -> XZ | None:
+        """The true point, face on the plane."""
+        return _xz(self.on, self.scene.truth[0])
+
+
+class _Rays(_Seen):
+    """Method 1's: the rays through the dot; they meet at the estimate."""
+
+    @override
+    def segments(self) -> Segments:
+        return _rays(self.on, self.scene, self.reach)
+
+
+class _Line(_Seen):
+    """The fixed line's: the estimated line and the true one (seen end-on: its midpoint)."""
+
+    @override
+    def segments(self) -> Segments:
+        return _lines(self.on, self.scene, self.estimate, self.reach)
+
+    @override
+    def truth(self) -> XZ | None:
+        return _end_on(self.on, self.scene.truth)
+
+
+class _Traces(_Seen):
+    """Method 2's (any plane's): each view's plane's trace on the plane drawn."""
+
+    @override
+    def segments(self) -> Segments:
+        return _plane_traces(self.on, self.scene, self.estimate, self.reach)
+
+
+@dataclass(frozen=True)
+class _Drawn:
+    """Each geometry's drawing (:class:`twopose.methods.geometry.GeometryCases`)."""
+
+    on: ConstraintPlane
+    scene: TrialScene
+    estimate: F64 | None
+    reach: F64
+
+    def rays_to_point(self) -> _Seen:
+        return _Rays(self.on, self.scene, self.estimate, self.reach)
+
+    def planes_to_line(self) -> _Seen:
+        return _Line(self.on, self.scene, self.estimate, self.reach)
+
+    def planes_to_plane_point(self, plane: ConstraintPlane) -> _Seen:  # noqa: ARG002 - drawn on ``on``
+        return _Traces(self.on, self.scene, self.estimate, self.reach)
 
 
 def _end_on(on: ConstraintPlane, truth: F64) -> XZ | None:
@@ -152,10 +282,10 @@ def _reach(scene: TrialScene, estimate: F64 | None) -> F64:
     return np.asarray(1.2 * np.linalg.norm(estimate - scene.t_grid, axis=1))
 
 
-def _rays(on: ConstraintPlane, scene: TrialScene, reach: F64) -> list[tuple[str, XZ, XZ]]:
+def _rays(on: ConstraintPlane, scene: TrialScene, reach: F64) -> Segments:
     d = grid_rays(scene.px, scene.intrinsics, scene.R_cam_to_grid)
     ends = scene.t_grid + d * reach[:, None]
-    return _segments(on, "ray", scene.t_grid, ends)
+    return _segments(on, RAY, scene.t_grid, ends)
 
 
 def _view_planes(scene: TrialScene) -> F64:
@@ -170,7 +300,7 @@ def _view_planes(scene: TrialScene) -> F64:
 
 def _plane_traces(
     on: ConstraintPlane, scene: TrialScene, estimate: F64 | None, reach: F64
-) -> list[tuple[str, XZ, XZ]]:
+) -> Segments:
     """Each view's plane cut by the method's plane through the estimate, in its axes.
 
     For the ground, by the horizontal plane at the estimate's height.
@@ -195,24 +325,22 @@ def _plane_traces(
         offset = (a * at[0] + c * at[1] + b * height + d) / norm
         foot = at - offset * normal / norm
         along = np.array([-normal[1], normal[0]]) / norm * 0.5 * length
-        out.append(("trace", _pair(foot - along), _pair(foot + along)))
+        out.append((TRACE, _pair(foot - along), _pair(foot + along)))
     return out
 
 
-def _lines(
-    on: ConstraintPlane, scene: TrialScene, estimate: F64 | None, reach: F64
-) -> list[tuple[str, XZ, XZ]]:
+def _lines(on: ConstraintPlane, scene: TrialScene, estimate: F64 | None, reach: F64) -> Segments:
     """The estimated line, and the true line drawn as long as it, after it (on top).
 
     Between its two typed points alone the true line can hide under the estimate.
     """
-    out: list[tuple[str, XZ, XZ]] = []
+    out: Segments = []
     direction = scene.direction
     span = 0.6 * float(np.mean(reach))
     if estimate is not None and direction is not None and np.isfinite(direction).all():
         out += _segments(
             on,
-            "estimated_line",
+            ESTIMATED_LINE,
             (estimate - span * direction)[None],
             (estimate + span * direction)[None],
         )
@@ -223,11 +351,11 @@ def _lines(
             mid, along = 0.5 * (a + b), (b - a) / length
             half = max(span, 0.5 * length)
             ends = (mid - half * along)[None], (mid + half * along)[None]
-            out += _segments(on, "truth_line", *ends)
+            out += _segments(on, TRUTH_LINE, *ends)
     return out
 
 
-def _segments(on: ConstraintPlane, kind: str, starts: F64, ends: F64) -> list[tuple[str, XZ, XZ]]:
+def _segments(on: ConstraintPlane, kind: SegmentKind, starts: F64, ends: F64) -> Segments:
     out = []
     for a, b in zip(starts, ends, strict=True):
         pa, pb = _xz(on, a), _xz(on, b)

@@ -350,8 +350,9 @@ def _measured(
     )
     warning = (
         f"the placing sigma is at {why}; written as an upper bound, at most {bound:.3g} "
-        f"{units} (one-sided 95%), not as measured; every region assumes that bound (a "
-        "real operator's board shows a placing error: check the board session)"
+        f"{units} (one-sided 95%), not as measured; the regions start from each pose's typed "
+        "resolution, never from the bound (a real operator's board shows a placing error: "
+        "check the board session)"
     )
     bounded = PlacingSigma(
         sigma_in=bound * inches,

@@ -15,7 +15,7 @@ import numpy as np
 from twopose.arrays import F64
 from twopose.camera.model import Intrinsics, project_points, rotation_from_angles_deg
 from twopose.methods.planes import GROUND_PLANE, ConstraintPlane
-from twopose.methods.specs import Method, spec_of
+from twopose.methods.specs import Method, MethodSpec, spec_of
 from twopose.methods.targets import finger_axis as target_finger_axis
 from twopose.sim.scene import BoardParams, ClutterParams, Scene
 from twopose.values.units import unit_factor
@@ -145,10 +145,11 @@ def build_layout(scene: Scene, method: Method, rng: np.random.Generator) -> Layo
     The target of point, line or ground; a board session's scene is the board alone
     (:func:`board_layout`).
     """
-    if not spec_of(method).measures:
+    spec = spec_of(method)  # looked up once; its parts travel from here
+    if not spec.measures:
         return board_layout(scene)
     prims: list[Primitive] = []
-    if not spec_of(method).uses_image_lines:  # the dot on its card
+    if not spec.uses_image_lines:  # the dot on its card
         pt = scene.point
         dot = np.asarray(pt.position, dtype=np.float64)
         card_center = dot + np.array([pt.card_offset[0], pt.card_offset[1], 0.0])
@@ -167,7 +168,7 @@ def build_layout(scene: Scene, method: Method, rng: np.random.Generator) -> Layo
         attach = card_center + np.array([0.0, 0.0, scene.stand.arm_gap])
         prims += _stand(scene, attach)
     else:
-        tip, base = finger_axis(scene, spec_of(method).plane)
+        tip, base = finger_axis(scene, spec.plane)
         f = scene.finger
         prims.append(
             Primitive(
@@ -182,7 +183,7 @@ def build_layout(scene: Scene, method: Method, rng: np.random.Generator) -> Layo
         prims += _stand(scene, base)
     if scene.board.present:
         prims.append(_board(scene.board))
-    return Layout(primitives=tuple(prims), decals=tuple(_clutter(scene, method, rng)))
+    return Layout(primitives=tuple(prims), decals=tuple(_clutter(scene, spec, rng)))
 
 
 #: A board session's typed camera centres in inches (no typed rotation; :func:`board_poses`
@@ -285,14 +286,14 @@ def _too_close_to_target(
     return False
 
 
-def _clutter(scene: Scene, method: Method, rng: np.random.Generator) -> list[Decal]:
+def _clutter(scene: Scene, spec: MethodSpec, rng: np.random.Generator) -> list[Decal]:
     c = scene.clutter
     decals: list[Decal] = []
     views = _sample_views(scene)
-    if not spec_of(method).uses_image_lines:  # the dot
+    if not spec.uses_image_lines:  # the dot
         target = np.asarray([scene.point.position], dtype=np.float64)
     else:
-        target = np.stack(finger_axis(scene, spec_of(method).plane))
+        target = np.stack(finger_axis(scene, spec.plane))
     for i in range(c.count):
         placed = _clutter_place(scene, decals, target, views, rng)
         if placed is not None:

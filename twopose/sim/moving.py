@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 from twopose.arrays import F32, F64
 from twopose.camera.model import Intrinsics
 from twopose.errors import SceneError
+from twopose.methods.planes import ConstraintPlane
 from twopose.methods.specs import Method, spec_of
 from twopose.pair.calibration import PairCalibration
 from twopose.sim.layout import Layout, Primitive, build_layout, finger_axis
@@ -111,7 +112,7 @@ def touch_points(scene: Scene, method: Method, pair: PairCalibration) -> F64:
     spec = spec_of(method)
     if spec.plane is not None:
         axes = np.asarray(spec.plane.in_plane_grid, dtype=np.float64)
-        centre = _on_plane(scene, method)
+        centre = _on_plane(scene, spec.plane)
     elif spec.uses_image_lines:
         axes = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
         centre = np.asarray(finger_axis(scene)[0], dtype=np.float64)
@@ -122,13 +123,11 @@ def touch_points(scene: Scene, method: Method, pair: PairCalibration) -> F64:
     return np.array([centre + k * (a * axes[0] + b * axes[1]) for a, b in _TOUCH_SQUARE_IN])
 
 
-def _on_plane(scene: Scene, method: Method) -> F64:
-    """Where the scene's finger's axis meets the method's plane.
+def _on_plane(scene: Scene, plane: ConstraintPlane) -> F64:
+    """Where the scene's finger's axis meets the method's ``plane``.
 
     The plane's offset is the scene's ground height.
     """
-    plane = spec_of(method).plane
-    assert plane is not None
     tip, base = (np.asarray(p, dtype=np.float64) for p in finger_axis(scene, plane))
     n, d = np.asarray(plane.normal_grid, dtype=np.float64), tip - base
     return np.asarray(tip + (scene.ground_height - n @ tip) / (n @ d) * d)
@@ -242,8 +241,9 @@ class PairScene:
         prim = self._target
         if prim.kind != "capsule":
             return np.asarray(prim.dot_center, dtype=np.float64)
-        if spec_of(self.method).plane is not None:
-            return _on_plane(self.scene, self.method)
+        plane = spec_of(self.method).plane
+        if plane is not None:
+            return _on_plane(self.scene, plane)
         return np.asarray(prim.b, dtype=np.float64)
 
     def tip(self, reference: F64) -> F64:

@@ -1,8 +1,8 @@
 """The solvers: from measurements and poses to estimates.
 
-Method 1, the fixed line and method 2 for N >= 2 views (``nview``), many points of one pair
-of views in closed form (``two_view``), the reprojection-optimal line (``optimal_lines``),
-degeneracy measures (``conditioning``), every estimator in one batch (``estimate``, its
+Method 1, the fixed line and method 2 for N >= 2 views with the degeneracy measures they
+report (``nview``), many points of one pair of views in closed form (``two_view``), the
+reprojection-optimal line (``optimal_lines``), every estimator in one batch (``estimate``, its
 options in ``margins``) and a session's trials estimated at once (``session``, the one entry
 point).
 """

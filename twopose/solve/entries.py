@@ -24,11 +24,12 @@ from twopose.arrays import F64
 from twopose.camera.model import rotation_from_angles_deg
 from twopose.detect.frames import PoseMeasurement
 from twopose.methods.planes import ConstraintPlane
-from twopose.solve.conditioning import parallax_sine
 from twopose.solve.hand_check import Answer, line_answer, plane_answer, point_answer
 from twopose.solve.nview import (
     NViewLines,
+    degrees_from_sine,
     image_lines,
+    parallax_sine,
     projection_matrices,
     triangulate_ground,
     triangulate_lines,
@@ -220,12 +221,6 @@ def nearest_on_line(point: F64, direction: F64, reference: F64) -> F64:
     """(T, 3) the point of each line nearest its reference point."""
     s = np.einsum("ti,ti->t", reference - point, direction)
     return np.asarray(point + s[:, None] * direction)
-
-
-def degrees_from_sine(sine: F64) -> F64:
-    """An angle in degrees from its sine (NaN stays NaN)."""
-    with np.errstate(invalid="ignore"):
-        return np.asarray(np.degrees(np.arcsin(np.clip(sine, 0.0, 1.0))))
 
 
 @dataclass(frozen=True, kw_only=True)

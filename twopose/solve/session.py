@@ -5,13 +5,11 @@ the recorder's live result both build); :func:`estimate_session` runs the whole 
 on it once: each pose's frames combined (:func:`twopose.solve.estimate.measure`), every detected
 trial solved by every estimator in one batch, the input covariance propagated, the
 degeneracy margins and their warnings. Its :class:`SessionEstimate` is what the tables,
-the live result, the rig fit and the 3-D scenes take. Nothing here reads the truth: which
-point a trial reports and how it compares with the truth is :mod:`twopose.methods.truth`'s rule.
+the live result, the rig fit and the 3-D scenes take. Only the blunder test of
+:mod:`twopose.uncertainty.own_truth` reads the truth, as :mod:`twopose.methods.truth` reports it.
 
 (Near 600 lines: the one estimation entry point and the values it takes and gives; the noise
-model (:mod:`twopose.uncertainty.session_noise`), the truth (:mod:`twopose.methods.truth`) and the
-solvers are
-their own modules.)
+model (:mod:`twopose.uncertainty.session_noise`), the truth and the solvers are their own modules.)
 """
 
 from __future__ import annotations
@@ -26,7 +24,8 @@ from numpy.typing import NDArray
 from twopose.arrays import F64, Bools, Ints
 from twopose.camera.model import camera_centres
 from twopose.detect.frames import PoseMeasurement, combine_frames
-from twopose.methods.specs import Method, spec_of
+from twopose.methods.specs import Method, MethodSpec, spec_of
+from twopose.methods.truth import reported
 from twopose.rig.carried import rig_carried, with_carried, with_rig_dominance
 from twopose.solve.estimate import (
     EstimateOptions,
@@ -64,6 +63,8 @@ from twopose.uncertainty.session_noise import (
     placing_sigmas,
     placing_source,
     region_multipliers,
+    with_one_target,
+    with_own_truth,
 )
 from twopose.values.units import Units
 
@@ -102,6 +103,11 @@ class SessionTrials:
     def __len__(self) -> int:
         """The number of trials."""
         return len(self.trial_ids)
+
+    @property
+    def spec(self) -> MethodSpec:
+        """The trials' method's spec: what estimating them reads of it."""
+        return spec_of(self.method)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -261,10 +267,11 @@ def estimate_session(
         Every estimator's estimate per trial, its status and margins, and its propagated
         covariance.
     """
+    spec = trials.spec  # the method's spec, read once for the whole estimate
     measurements, complete, detected = measure(trials.views, options)
     solvable = np.flatnonzero(detected)
     if not solvable.size:
-        est = _unsolved(len(trials), trials.method, complete)
+        est = _unsolved(len(trials), spec, complete)
         return _session_estimate(trials, measurements, complete, detected, est, options)
     rows_m = [measurements[i] for i in solvable]
     rows_v = [trials.views[i] for i in solvable]
@@ -279,7 +286,7 @@ def estimate_session(
         pooled_scatter([s for row in scatters for s in row]),
         batch,
         median=options.combine == "median",
-        floor=spec_of(trials.method).detector_floor,
+        floor=spec.detector_floor,
         t_sigma=placing_sigma(trials, options),
     )
     context = _Propagation(
@@ -306,12 +313,26 @@ def estimate_session(
     est = _solved_estimates(
         trials, complete, context, options, line_fits=line_fits, report_near=report_near
     )
-    return dataclasses.replace(
-        _session_estimate(trials, measurements, complete, detected, est, options, context),
-        factor=factor,
-        misclosure=noise.misclosure,
-        tests=noise.tests,
-    )
+    settled = with_one_target(noise, trials.truth, est.point, est.cov)
+    for _ in range(2):  # a trial off the others of its target, then off its own truth
+        if settled is not noise:  # kept out of the pool: the factor and regions again
+            noise, factor = settled, settled.factor
+            context = dataclasses.replace(
+                context, factor=factor, tests=noise.tests, cov_in=placed(cov_in, factor)
+            )
+            est = _solved_estimates(
+                trials, complete, context, options, line_fits=line_fits, report_near=report_near
+            )
+        out = dataclasses.replace(
+            _session_estimate(trials, measurements, complete, detected, est, options, context),
+            factor=factor, misclosure=noise.misclosure, tests=noise.tests,
+        )  # fmt: skip
+        if noise.misclosure is None or not np.isfinite(trials.truth).any():
+            break  # not tested (a given factor: guidance's views), or no truth to test against
+        rep = reported(out)  # the region each trial reports, after lambda, and its truth
+        if (settled := with_own_truth(noise, rep.error, rep.cov)) is noise:
+            break
+    return out
 
 
 def _shared_rows(shared: Shared | None, rows: Bools) -> Shared | None:
@@ -342,7 +363,7 @@ def _session_estimate(
         complete=complete,
         detected=detected,
         estimates=est,
-        warnings=margin_warnings(est.status, est.margins, options, spec_of(trials.method).seen_on),
+        warnings=margin_warnings(est.status, est.margins, options, trials.spec.seen_on),
         options=options,
         _propagation=context,
     )
@@ -355,7 +376,7 @@ def _with_rows(base: _A, rows: Ints, values: NDArray[Any]) -> _A:
     return out
 
 
-def _unsolved(T: int, method: Method, complete: Bools) -> Estimates:
+def _unsolved(T: int, spec: MethodSpec, complete: Bools) -> Estimates:
     """Every trial as not solved: incomplete, or missing a detection."""
     status = np.where(complete, "no_detection", "incomplete").astype("<U12")
     reason = np.where(
@@ -371,7 +392,7 @@ def _unsolved(T: int, method: Method, complete: Bools) -> Estimates:
         weighted_line=np.full((T, 2, 3), np.nan),
         optimal_line=np.full((T, 2, 3), np.nan),
         conditioning=np.full(T, np.nan),
-        margins={name: np.full(T, np.nan) for name in spec_of(method).margins},
+        margins={name: np.full(T, np.nan) for name in spec.margins},
         cov=none.cov,
         dominant=none.dominant,
         dominant_share=none.dominant_share,
@@ -399,7 +420,7 @@ def _solved_estimates(
 ) -> Estimates:
     """The solved rows' estimates at their trials, with every other trial unsolved."""
     T, rows, solved = len(trials), p.rows, p.solved
-    base = _unsolved(T, trials.method, complete)
+    base = _unsolved(T, trials.spec, complete)
     # Propagated at the solved point: a line's reported point is chosen by twopose.methods.truth.
     near = solved.point
     if report_near is not None:
@@ -415,7 +436,7 @@ def _solved_estimates(
         ),
         rig_carried(options, trials.method, p.batch, trials.ground, solved.point),
     )
-    lines = spec_of(trials.method).estimates_line and line_fits
+    lines = trials.spec.estimates_line and line_fits
     return Estimates(
         status=_with_rows(base.status, rows, solved.status),
         reason=_with_rows(base.reason, rows, solved.reason),

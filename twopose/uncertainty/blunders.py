@@ -1,7 +1,7 @@
 """A trial whose poses disagree, and which of them, where its redundancy can tell (issue 54).
 
 A trial is **flagged** when its misclosure rejects both the typed model and the model the
-rest of its session (and the operator's prior) measures (Baarda's global test at 0.1%,
+rest of its session (and the operator's prior) measures (Baarda's global test at 0.5%,
 :func:`twopose.uncertainty.placing_variance.flag_trials`). Then each typed translation component of
 each pose is tested alone (Baarda's w-test, :func:`twopose.uncertainty.misclosure.pose_tests`): the
 share of the misclosure an error in that one component explains, and how large it would
@@ -16,10 +16,18 @@ when every explaining pose's best is the same one.
 A flagged trial is kept out of the pool; its own region is widened by its own misfit, its
 chi-square over its degrees of freedom (at least 1), with Fisher's F on them
 (:attr:`TrialTests.own`).
+
+A trial of a session whose trials measured one target is flagged too when its estimate
+lies off the others' (:mod:`twopose.uncertainty.one_target`): a typed value its own poses
+cannot check (:attr:`TrialTests.apart`, its own words); and when its reported point lies
+far outside its own region from the grid point typed as its truth
+(:mod:`twopose.uncertainty.own_truth`, :attr:`TrialTests.truth_off`): kept out of the pool,
+its region not widened. :meth:`TrialTests.by` says which test flagged it.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
@@ -29,15 +37,19 @@ from scipy import special
 
 from twopose.arrays import F64, Bools, Ints
 from twopose.uncertainty.misclosure import Misclosure, pose_tests
+from twopose.uncertainty.one_target import TargetTests
+from twopose.uncertainty.own_truth import TruthTests
 from twopose.values.units import Units
 
-__all__ = ["AXES", "EXPLAINS_LEVEL", "TrialTests", "trial_tests"]
+__all__ = ["AXES", "EXPLAINS_LEVEL", "FLAGGED_BY", "TrialTests", "trial_tests"]
 
 #: The typed translation's components, as the words say them.
 AXES = ("x", "y", "z")
 #: What is left of a flagged trial's chi-square once one pose's component is corrected
 #: no longer rejects at this level: that pose explains the trial.
 EXPLAINS_LEVEL = 0.05
+#: Which test flagged a trial, as the analysis says it (trials.csv's ``flagged_by``).
+FLAGGED_BY = ("misclosure", "other trials", "truth")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -51,7 +63,14 @@ class TrialTests:
     the laptop stood (session units; NaN: no pose named); ``spread`` (T, 2): the least and the most
     that the poses explaining it would be off (their sizes differ with their leverage);
     ``explaining``: how many poses alone explain it; ``own``: the flagged
-    trial's own variance multiplier (1 else), ``own_dof`` the dof its F quantile takes.
+    trial's own variance multiplier (1 else), ``own_dof`` the dof its F quantile takes;
+    ``apart``: a trial flagged because its estimate disagrees with the session's other
+    trials of the same target (:mod:`twopose.uncertainty.one_target`), how far from theirs
+    (session units; NaN else); ``truth_off``: a trial flagged because its reported point
+    lies far outside its region from its own recorded truth
+    (:mod:`twopose.uncertainty.own_truth`), how far (session units; NaN else), with
+    ``truth_sigmas`` (the NEES' square root) and ``truth_axis`` (the grid axis holding
+    most of that error, -1: none).
     """
 
     flagged: Bools
@@ -63,6 +82,10 @@ class TrialTests:
     explaining: Ints
     own: F64
     own_dof: Ints
+    apart: F64 | None = None
+    truth_off: F64 | None = None
+    truth_sigmas: F64 | None = None
+    truth_axis: Ints | None = None
 
     @classmethod
     def none(cls, T: int) -> TrialTests:
@@ -77,6 +100,56 @@ class TrialTests:
             explaining=np.zeros(T, dtype=np.int_),
             own=np.ones(T),
             own_dof=np.zeros(T, dtype=np.int_),
+            apart=np.full(T, np.nan),
+        )
+
+    def by(self, i: int) -> str:
+        """Which test flagged trial ``i`` (:data:`FLAGGED_BY`; "" when not flagged)."""
+        if not self.flagged[i]:
+            return ""
+        if self.apart is not None and np.isfinite(self.apart[i]):
+            return FLAGGED_BY[1]
+        if self.truth_off is not None and np.isfinite(self.truth_off[i]):
+            return FLAGGED_BY[2]
+        return FLAGGED_BY[0]
+
+    def with_truth(self, truth: TruthTests) -> TrialTests:
+        """These tests with the trials far off their own recorded truth flagged too.
+
+        ``truth``: :func:`twopose.uncertainty.own_truth.truth_tests`. Their regions are not
+        widened (``own`` stays 1: a region sized by its truth would cover it by
+        construction); they are kept out of the session's pool as any flagged trial.
+        """
+        new = truth.flagged & ~self.flagged
+        if not new.any():
+            return self
+        T = len(new)
+        off = np.full(T, np.nan) if self.truth_off is None else self.truth_off.copy()
+        sig = np.full(T, np.nan) if self.truth_sigmas is None else self.truth_sigmas.copy()
+        axis = np.full(T, -1, dtype=np.int_) if self.truth_axis is None else self.truth_axis.copy()
+        off[new], sig[new], axis[new] = truth.off[new], np.sqrt(truth.nees[new]), truth.axis[new]
+        return dataclasses.replace(
+            self, flagged=self.flagged | new, truth_off=off, truth_sigmas=sig, truth_axis=axis
+        )
+
+    def with_target(self, target: TargetTests) -> TrialTests:
+        """These tests with the trials whose estimate disagrees with the others' flagged too.
+
+        ``target``: :func:`twopose.uncertainty.one_target.target_tests`; a trial it flags is
+        widened by its own misfit there (its chi-square over its dimensions, F on them).
+        """
+        new = target.flagged & ~self.flagged
+        if not new.any():
+            return self
+        apart = np.full(len(new), np.nan) if self.apart is None else self.apart.copy()
+        apart[new] = target.apart[new]
+        own = np.where(new, np.maximum(target.chi2 / np.maximum(target.dof, 1), 1.0), self.own)
+        return dataclasses.replace(
+            self,
+            flagged=self.flagged | new,
+            own=own,
+            own_dof=np.where(new, target.dof, self.own_dof),
+            apart=apart,
         )
 
     def words(self, i: int, units: Units, poses: int) -> str:
@@ -86,6 +159,15 @@ class TrialTests:
         """
         if not self.flagged[i]:
             return ""
+        if self.by(i) == FLAGGED_BY[2]:
+            return self._truth_words(i, units)
+        if self.apart is not None and np.isfinite(self.apart[i]):
+            return (
+                "this trial's estimate lies about "
+                f"{_about(float(self.apart[i]))} {units} from the session's other trials of "
+                "the same target, where its poses cannot check each other: check what you "
+                "typed for its poses"
+            )
         low, high = self.spread[i]
         size = " looks off"
         if np.isfinite(low) and _about(low) == _about(high):
@@ -108,10 +190,26 @@ class TrialTests:
         more = "a fourth pose" if poses <= 3 else "another pose"
         return f"this trial's poses disagree ({what}{size}): check what you typed, or add {more}"
 
+    def _truth_words(self, i: int, units: Units) -> str:
+        """A trial far off its own recorded truth, in words (:meth:`words`)."""
+        off = np.full(len(self.flagged), np.nan) if self.truth_off is None else self.truth_off
+        sigmas = self.truth_sigmas if self.truth_sigmas is not None else off
+        axis = -1 if self.truth_axis is None else int(self.truth_axis[i])
+        along = f", mostly in {AXES[axis]}" if axis >= 0 else ""
+        return (
+            f"this trial's estimate lies {float(off[i]):.3g} {units} "
+            f"({float(sigmas[i]):.0f} sigma){along} from the grid point typed as "
+            "its truth: one of its typed poses, the grid point, or the detection is off: "
+            "check what you typed"
+        )
+
 
 def _about(value: float) -> str:
-    """A length as the words round it: one significant digit (about 1 in, about 0.3 in)."""
-    return f"{abs(value):.1g}"
+    """A length as the words round it: one significant digit (about 0.3 in), whole from 10 on.
+
+    (About 16 in, never "2e+01".)
+    """
+    return f"{abs(value):.1g}" if abs(value) < 9.5 else f"{abs(value):.0f}"
 
 
 def trial_tests(m: Misclosure, flagged: Bools, p: F64, lam: float) -> TrialTests:
@@ -163,6 +261,7 @@ def trial_tests(m: Misclosure, flagged: Bools, p: F64, lam: float) -> TrialTests
         explaining=_put(out.explaining, rows, count),
         own=_put(out.own, rows, own),
         own_dof=_put(out.own_dof, rows, dof),
+        apart=out.apart,
     )
 
 

@@ -84,7 +84,9 @@ class PlacingSigma:
     (NaN: not measured, taken as exact); ``measured_by`` names the board session(s) that
     measured it, over ``captures`` captures. ``upper_bound``: the captures showed no placing
     error their corners resolve (the fit's floor), and ``sigma_in`` is only the most it can
-    be (no 1-sigma; taken as exact; never said "measured").
+    be (no 1-sigma; never said "measured"; never what a region assumes: a bound says nothing
+    of how small the error is, so the regions start from each pose's typed resolution, as
+    without a board, and the sessions' own trials estimate the multiplier).
     """
 
     sigma_in: float
@@ -143,7 +145,8 @@ class PlacingSigma:
             return (
                 f"placing sigma at most {value} {units}, an upper bound, not a measurement "
                 f"({who}: its {captures}captures show no placing error their corners "
-                f"resolve); regions assume {value} {units}"
+                "resolve); regions start from each pose's typed resolution, never from the "
+                "bound"
             )
         if math.isfinite(self.sigma_sigma_in):
             value += f" ± {self.sigma_sigma_in / inches:.2g}"
@@ -357,7 +360,7 @@ def noise_words(
         words.append(f"regions' largest semi-axis x{region_widening:.2f}")
     if flagged:
         trials = "trial" if flagged == 1 else "trials"
-        words.append(f"{flagged} {trials} flagged (poses disagree): kept out and widened")
+        words.append(f"{flagged} {trials} flagged: kept out of the pool")
     return "; ".join(words)
 
 
@@ -402,13 +405,11 @@ class NoiseModel:
     def anchor(self) -> PlacingPrior:
         """The prior the regions' placing sigma itself is.
 
-        A board's measurement on its degrees of freedom, else the typed resolution's weak
-        word (:data:`TYPED_PRIOR_DOF`).
+        A board's measurement on its degrees of freedom, else (no board, or a board that only
+        bounded it) the typed resolution's weak word (:data:`TYPED_PRIOR_DOF`).
         """
         placing = self.placing
-        if placing is None:
+        if placing is None or placing.upper_bound:  # a bound is no measurement: the typed
             return PlacingPrior(scale=1.0, dof=TYPED_PRIOR_DOF, source="the typed resolution")
         where = placing.measured_by or "the given placing sigma"
-        if placing.upper_bound:  # the most it can be, taken as exact (twopose.rig.placing)
-            where = f"an upper bound from {where}"
         return PlacingPrior(scale=1.0, dof=placing.dof, source=where)

@@ -59,9 +59,12 @@ __all__ = [
 #: The multipliers searched: a placing sigma 1/100 to 1000 times the one assumed.
 GRID = np.geomspace(1e-4, 1e6, 241)
 _LOG_GRID = np.log(GRID)
-#: Baarda's global test of a trial: 1% (see the module: at 0.1% a sixth of the 1 in
-#: blunders in the simulator's geometry hide in the misclosure's noise).
-BAARDA_LEVEL = 0.01
+#: Baarda's global test of a trial's misclosure: 0.5%. Not 0.1%: there a sixth of the 1 in
+#: blunders of the simulator's geometry hide in the misclosure's noise; not 1%: the test
+#: of a trial of one target against the others (twopose.uncertainty.one_target) catches
+#: most of what a looser level would, and a clean trial's false alarm stays far below 2%
+#: (benchmarks/bench_noise.py).
+BAARDA_LEVEL = 0.005
 #: The rounds of the robust search at most (it settles in two or three).
 _ROUNDS = 20
 #: Less information than this beside a trial (other trials', the prior's) is none: the

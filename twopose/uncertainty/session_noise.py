@@ -11,24 +11,26 @@ region assumed, and where it came from, in words.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
-from twopose.arrays import F64, Ints
+from twopose.arrays import F64, Bools, Ints
 from twopose.uncertainty.blunders import TrialTests, trial_tests
 from twopose.uncertainty.misclosure import Misclosure, misclosures
-from twopose.uncertainty.noise import MIN_PLACING_DOF, VarianceFactor, region_quantile
-from twopose.uncertainty.placing_variance import SessionNoise, flag_trials, posterior
+from twopose.uncertainty.noise import MIN_PLACING_DOF, NoiseModel, VarianceFactor, region_quantile
+from twopose.uncertainty.one_target import one_target, target_tests
+from twopose.uncertainty.own_truth import truth_tests
+from twopose.uncertainty.placing_variance import Flags, SessionNoise, flag_trials, posterior
 from twopose.uncertainty.propagate import PLACING, Shared, region_dof
 from twopose.values.units import Units
 
 if TYPE_CHECKING:
     from twopose.methods.specs import Method
     from twopose.solve.estimate import EstimateOptions, PoseView, ViewBatch
-    from twopose.uncertainty.noise import NoiseModel
 
 
 class SessionTrials(Protocol):
@@ -54,16 +56,24 @@ __all__ = [
     "placing_source",
     "region_multipliers",
     "session_statistics",
+    "with_one_target",
+    "with_own_truth",
 ]
 
 
 @dataclass(frozen=True, kw_only=True)
 class NoiseResult:
-    """A session's noise: its factor (None: not tested), misclosures and tests (T rows)."""
+    """A session's noise: its factor (None: not tested), misclosures and tests (T rows).
+
+    ``flags``: the misclosures' robust test (:func:`flag_trials`), kept to settle the
+    factor again when more trials are kept out (:func:`with_one_target`).
+    """
 
     factor: VarianceFactor | None
     misclosure: Misclosure | None
     tests: TrialTests
+    flags: Flags | None = None
+    noise: NoiseModel | None = None
 
 
 def noise_of(
@@ -92,27 +102,72 @@ def noise_of(
     residuals, parameters = misclosure_residuals(method, batch)
     m_rows = misclosures(residuals, batch.inputs, cov_in, batch.valid, parameters, shared=shared)
     m = _at_rows(Misclosure.none(T, N), rows, m_rows)
+    flags = flag_trials(m.chi2, m.dof, m.placing_share, m.z2, noise.anchor(), noise.prior)
+    factor = _factor(m, flags, flags.flagged, noise)
+    tests = trial_tests(m, flags.flagged, flags.p, factor.placing_variance)
+    return NoiseResult(factor=factor, misclosure=m, tests=tests, flags=flags, noise=noise)
+
+
+def _factor(m: Misclosure, flags: Flags, out: Bools, noise: NoiseModel) -> VarianceFactor:
+    """The session's factor from the trials not kept ``out`` (flagged)."""
     anchor, prior = noise.anchor(), noise.prior
-    flags = flag_trials(m.chi2, m.dof, m.placing_share, m.z2, anchor, prior)
-    flagged, p = flags.flagged, flags.p
-    use = (m.dof > 0) & np.isfinite(m.chi2) & ~flagged
-    post = posterior(flags.kept.sum(axis=0), anchor, prior, flags.info.sum(axis=0))
+    use = (m.dof > 0) & np.isfinite(m.chi2) & ~out
+    pool = np.where(out[:, None], 0.0, flags.kept).sum(axis=0)
+    info = np.where(out[:, None], 0.0, flags.info).sum(axis=0)
+    post = posterior(pool, anchor, prior, info)
     dof = int(m.dof[use].sum())
     estimated = round(post.information) >= MIN_PLACING_DOF
-    factor = VarianceFactor(
+    return VarianceFactor(
         sigma0_sq=float(m.chi2[use].sum() / dof) if dof else math.nan,
         dof=dof,
         trials=int(use.sum()),
         placing_variance=post.scale if estimated else 1.0,
         variance_dof=post.dof if estimated else _measured_dof(noise),
         information=post.information,
-        flagged=int(flagged.sum()),
+        flagged=int(out.sum()),
         at_limit=post.at_limit and estimated,
         sources=_sources(int(use.sum()), prior.source if prior else "", anchor.source),
     )
-    return NoiseResult(
-        factor=factor, misclosure=m, tests=trial_tests(m, flagged, p, factor.placing_variance)
-    )
+
+
+def with_one_target(noise: NoiseResult, truth: F64, point: F64, cov: F64) -> NoiseResult:
+    """The session's noise with its trials of one target tested against each other.
+
+    :mod:`twopose.uncertainty.one_target`: ``truth`` (T, 2, 3) the recorded truths (only
+    their equality is read), ``point`` and ``cov`` each trial's estimate and region. A
+    trial it flags is kept out of the pool too, and the factor settled again without it.
+    The same result (the same object) when nothing more is flagged, or the session was not
+    tested (``--no-sigma0``).
+    """
+    m, flags, model = noise.misclosure, noise.flags, noise.noise
+    if m is None or flags is None or model is None:
+        return noise
+    same = one_target(truth)
+    if not same.any():
+        return noise
+    tests = noise.tests.with_target(target_tests(point, cov, same, noise.tests.flagged))
+    if tests is noise.tests:
+        return noise
+    factor = _factor(m, flags, tests.flagged, model)
+    return dataclasses.replace(noise, factor=factor, tests=tests)
+
+
+def with_own_truth(noise: NoiseResult, error: F64, cov: F64) -> NoiseResult:
+    """The session's noise with each trial tested against its own recorded truth.
+
+    :mod:`twopose.uncertainty.own_truth`: ``error`` (T, 3) each reported point less its
+    truth (NaN: none), ``cov`` its region. A trial it flags is kept out of the pool, the
+    factor settled again without it; its region is not widened. The same result (the same
+    object) when nothing more is flagged, or the session was not tested (``--no-sigma0``).
+    """
+    m, flags, model = noise.misclosure, noise.flags, noise.noise
+    if m is None or flags is None or model is None:
+        return noise
+    tests = noise.tests.with_truth(truth_tests(error, cov))
+    if tests is noise.tests:
+        return noise
+    factor = _factor(m, flags, tests.flagged, model)
+    return dataclasses.replace(noise, factor=factor, tests=tests)
 
 
 def _measured_dof(noise: NoiseModel) -> float:
@@ -163,15 +218,25 @@ def operator_group(operator: str, method: Method) -> str:
     return f"{name} ({method})" if name else ""
 
 
-def session_statistics(group: str, m: Misclosure | None) -> SessionNoise:
+def session_statistics(
+    group: str, m: Misclosure | None, tests: TrialTests | None = None
+) -> SessionNoise:
     """What a session's misclosures say of its operator (:class:`SessionNoise`).
 
-    Its tested trials' chi-square, dof and components (none when not tested).
+    Its tested trials' chi-square, dof and components (none when not tested); a trial
+    ``tests`` flagged for its estimate off the others of its target
+    (:attr:`TrialTests.apart`) is left out, as the session's own pool leaves it. A trial
+    flagged by its own truth (:attr:`TrialTests.truth_off`) is not: the run's first pass
+    tests it in regions the operator's prior has not settled yet (at 3x the typed placing
+    it would flag merely noisy trials and thin the operator's pool by the truth), and a
+    blunder only the truth sees is one its misclosure cannot: its misclosure is a clean one.
     """
     if m is None:
         return SessionNoise(group=group, chi2=np.zeros(0), dof=np.zeros(0, dtype=np.int_),
                             share=np.zeros((0, 0)), z2=np.zeros((0, 0)))  # fmt: skip
     use = (m.dof > 0) & np.isfinite(m.chi2)
+    if tests is not None and tests.apart is not None:
+        use &= ~np.isfinite(tests.apart)
     return SessionNoise(group=group, chi2=m.chi2[use], dof=m.dof[use],
                         share=m.placing_share[use], z2=m.z2[use])  # fmt: skip
 
@@ -227,10 +292,13 @@ def _placing_share(cov: F64, placing: F64, k: Ints) -> F64:
 def placing_sigma(trials: SessionTrials, options: EstimateOptions) -> float | None:
     """The placing sigma in the session's units, measured (:mod:`twopose.uncertainty.noise`).
 
-    None: each pose's typed resolution stands.
+    None: each pose's typed resolution stands (no board, or one that only bounded it: an
+    upper bound is no value to start from).
     """
     placing = options.noise.placing
-    return None if placing is None or not trials.units else placing.sigma(Units(trials.units))
+    if placing is None or placing.upper_bound or not trials.units:
+        return None
+    return placing.sigma(Units(trials.units))
 
 
 def placing_sigmas(
@@ -258,8 +326,8 @@ def placing_sigmas(
 def placing_source(options: EstimateOptions, factor: VarianceFactor | None = None) -> str:
     """Where the placing sigma came from, briefly.
 
-    ``typed``, ``measured by <board session> (<n> captures)``, ``an upper bound from <board
-    session> (<n> captures)`` or ``given``, then, when the
+    ``typed``, ``measured by <board session> (<n> captures)``, ``typed (not the upper bound
+    from <board session> (<n> captures))`` or ``given``, then, when the
     multiplier was estimated, ``times 1.6 (estimated from ...)``.
     """
     placing = options.noise.placing
@@ -269,9 +337,9 @@ def placing_source(options: EstimateOptions, factor: VarianceFactor | None = Non
         base = "given"
     else:
         captures = f" ({placing.captures} captures)" if placing.captures else ""
-        # not measured: the most it can be (twopose.rig.placing)
-        said = "an upper bound from" if placing.upper_bound else "measured by"
-        base = f"{said} {placing.measured_by}{captures}"
+        base = f"measured by {placing.measured_by}{captures}"
+        if placing.upper_bound:  # not measured, only bounded: the regions start from typed
+            base = f"typed (not the upper bound from {placing.measured_by}{captures})"
     if factor is None or not factor.estimated:
         return base
     return f"{base}, times {factor.placing_scale:.3g} (estimated from {factor.sources})"

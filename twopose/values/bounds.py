@@ -64,8 +64,10 @@ __all__ = [
     "SEED",
     "SESSION_TIMEOUT",
     "SPEED",
+    "STREAM_DURATION",
     "TARGET_DISTANCE",
     "TARGET_PRECISION",
+    "TOUCH_TIME",
     "TRIALS",
     "TYPED_RESOLUTION",
     "VIEWS",
@@ -459,6 +461,15 @@ DROP = Quantity(
     key="drop", words="dropped share", kind=Kind.SHARE, low=0.0, high=0.5,
     given_as="`simulate --drop` (with `--cameras 2`): the share of each camera's frames lost",
 )  # fmt: skip
+TOUCH_TIME = Quantity(
+    key="touch_time", words="touch time", kind=Kind.SECONDS, low=0.0, high=3600.0,
+    given_as="a pair plan's scheduled touch (`at`): seconds after the stream trial's start",
+)  # fmt: skip
+STREAM_DURATION = Quantity(
+    key="stream_duration", words="stream trial duration", kind=Kind.SECONDS, low=0.0,
+    high=3600.0, low_open=True,
+    given_as="a pair plan's `duration`: a stream trial ends this long after its start",
+)  # fmt: skip
 SAMPLES = Quantity(
     key="samples", words="samples", kind=Kind.COUNT, low=100, high=10_000_000,
     given_as="`sensitivity --samples`",
@@ -470,7 +481,7 @@ QUANTITIES: tuple[Quantity, ...] = (
     BOARD_SQUARE, FOCAL, PRINCIPAL, IMAGE_SIDE, GRID, REACH, TARGET_PRECISION, TARGET_DISTANCE,
     MIN_GAIN, MAX_POSES, POSES, FRAMES, INNER_CORNERS, FPS, PORT, TRIALS, SEED, POSE_NOISE,
     TYPED_RESOLUTION, VIEWS, JOBS, MARGIN_ANGLE, SESSION_TIMEOUT, SAMPLES, CAMERAS,
-    SPEED, CLOCK_OFFSET, DRIFT, JITTER, DROP,
+    SPEED, CLOCK_OFFSET, DRIFT, JITTER, DROP, TOUCH_TIME, STREAM_DURATION,
 )  # fmt: skip
 
 

@@ -3,7 +3,7 @@
 // Content-Security-Policy allows scripts from this origin only). What differs by method
 // (panels, headings, words) comes with the state (its "page"): the page names no method.
 // The helpers, the setup form, the camera panel and the top view are in util.js,
-// setup.js, capture.js and topview.js, loaded before this one.
+// setup.js, capture.js, topview.js and stream.js, loaded before this one.
 "use strict";
 
 const POLL_MS = 250;
@@ -174,6 +174,7 @@ function render() {
   renderDecision(s);
   renderPoses(s);
   renderResults(s);
+  renderStream(s); // stream.js: a pair's stream trials (none for one camera)
   wasWaiting = s.waiting;
 }
 

@@ -2,25 +2,22 @@
 // solved it, and its legend in the words of the method's page (the server's).
 "use strict";
 
-// Each segment kind's colour (twopose.methods.topview.TopView), and the marks' and grid's.
+// The marks' and the grid's colours. Each segment brings its own style from the server
+// (twopose.methods.topview.SegmentKind: colour, width, dash), so a new kind draws as declared.
 const COLOURS = {
-  corners: "#333f4d",
-  centre: "#1f5fbf", ray: "#e07b00", trace: "#8e44ad", estimated_line: "#d62728",
-  truth_line: "#2ca02c", estimate: "#d62728", truth: "#2ca02c", grid: "#e3e7ec", axis: "#5b6673",
+  centre: "#1f5fbf", estimate: "#d62728", truth: "#2ca02c", grid: "#e3e7ec", axis: "#5b6673",
 };
-const WIDTHS = {corners: 3, estimated_line: 3}; // the others' 2
-const DASHES = {truth_line: [7, 5]}; // the others' solid
 
 function legendItems(view, page, next) {
-  // [kind, mark, words]: the kind is the mark's colour (style.css).
-  const kinds = new Set(view.segments.map((g) => g.kind));
-  const items = [["centre", "▲", page.legend_cameras]];
-  if (next && page.legend_next) items.push(["centre", "△", page.legend_next]);
+  // [class, mark, words, colour]: a mark's colour is its class' (style.css) or its segment's.
+  const styles = new Map(view.segments.map((g) => [g.kind, g.style]));
+  const items = [["centre", "▲", page.legend_cameras, null]];
+  if (next && page.legend_next) items.push(["centre", "△", page.legend_next, null]);
   for (const [kind, mark, words] of page.legend_segments) {
-    if (kinds.has(kind)) items.push([kind, mark, words]);
+    if (styles.has(kind)) items.push(["segment", mark, words, styles.get(kind).colour]);
   }
-  if (view.estimate) items.push(["estimate", "✕", page.estimate_label]);
-  if (view.truth) items.push(["truth", "○", page.truth_label]);
+  if (view.estimate) items.push(["estimate", "✕", page.estimate_label, null]);
+  if (view.truth) items.push(["truth", "○", page.truth_label, null]);
   return items;
 }
 
@@ -52,9 +49,11 @@ function drawTopView(view, units, page, next) {
     return;
   }
   setText($("topview-title"), page.topview_title.replace("{trial}", view.trial));
-  legend.replaceChildren(...legendItems(view, page, next).map(([kind, mark, text]) => {
+  legend.replaceChildren(...legendItems(view, page, next).map(([cls, mark, text, colour]) => {
     const li = el("li");
-    li.append(el("span", mark, "mark " + kind), el("span", text));
+    const span = el("span", mark, "mark " + cls);
+    if (colour) span.style.color = colour;
+    li.append(span, el("span", text));
     return li;
   }));
 
@@ -118,9 +117,10 @@ function drawTopView(view, units, page, next) {
   ctx.rect(left, top, pw, ph);
   ctx.clip();
   for (const g of view.segments) {
-    ctx.strokeStyle = COLOURS[g.kind] || COLOURS.axis;
-    ctx.lineWidth = WIDTHS[g.kind] || 2;
-    ctx.setLineDash(DASHES[g.kind] || []);
+    const style = g.style || {};
+    ctx.strokeStyle = style.colour || COLOURS.axis;
+    ctx.lineWidth = style.width || 2;
+    ctx.setLineDash(style.dash || []);
     ctx.beginPath();
     ctx.moveTo(X(g.from[0]), Y(g.from[1]));
     ctx.lineTo(X(g.to[0]), Y(g.to[1]));

@@ -1,5 +1,5 @@
 // The console's shared helpers (recorder/console/page/index.html loads the page's scripts in order:
-// this one, setup.js, capture.js, topview.js, then main.js,
+// this one, setup.js, capture.js, topview.js, stream.js, then main.js,
 // which polls and wires the controls). Every text goes in by textContent; the page never
 // builds HTML from data.
 "use strict";

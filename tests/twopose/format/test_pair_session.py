@@ -197,7 +197,7 @@ def test_a_one_camera_session_differs_from_1_5_only_by_its_version(
     grab time (here the write time: given none), and both replay the same trials."""
     new, old = tmp_path / "new.mcap", tmp_path / "old.mcap"
     _one_camera_session(new, "1.6")
-    monkeypatch.setattr("twopose.format.writer.FORMAT_VERSION", "1.5")  # a 1.5 writer
+    monkeypatch.setattr("twopose.format.entries.FORMAT_VERSION", "1.5")  # a 1.5 writer
     _one_camera_session(old, "1.5")
 
     def messages(path: Path) -> list[tuple[str, int, bytes]]:

@@ -1,0 +1,60 @@
+// A pair's stream trials in the console (recorder/console/stream_driver.py): start trial,
+// touch at a grid point (the moment the button is pressed is the touch's time), end trial;
+// stop is the page's quit. Shown only when the state has a "stream" (new --pair --ui); the
+// one camera's pose form and decision buttons are hidden then. Loaded before main.js,
+// whose render() calls renderStream(s).
+"use strict";
+
+const STREAM_INPUTS = {x: "stream-x", y: "stream-y", z: "stream-z"};
+
+function renderStream(s) {
+  const stream = s.stream;
+  document.body.classList.toggle("two-cameras", !!stream);
+  show($("stream"), !!stream && s.phase === "recording");
+  if (!stream) return;
+  const recording = s.phase === "recording" && connected && !sent && !busy;
+  $("stream-start").disabled = !recording || s.waiting !== "trial";
+  $("stream-touch").disabled = !recording || s.waiting !== "streaming";
+  $("stream-end").disabled = !recording || s.waiting !== "streaming";
+  for (const id of Object.values(STREAM_INPUTS)) $(id).disabled = s.phase !== "recording";
+  const where = s.waiting === "streaming" ? stream.trial + ": streaming"
+    : s.waiting === "trial" ? (stream.trial + 1) + ": ready to start" : "";
+  setText($("stream-where"), where);
+  const frames = stream.frames || [0, 0];
+  setText($("stream-frames"), "frames: camera 1 " + frames[0] + ", camera 2 " + frames[1] +
+    (stream.offset ? "; clock offset " + stream.offset : ""));
+  if (changed("stream-touches", stream.touches)) {
+    $("stream-touches").replaceChildren(...(stream.touches || []).map((t) =>
+      el("li", "touch " + t.touch + " at (" + t.point.map((v) => num(v)).join(", ") + ") by " + t.how)));
+  }
+  if (changed("stream-ended", stream.ended)) {
+    $("stream-ended").replaceChildren(...(stream.ended || []).map((line) => el("li", line)));
+  }
+  const r = s.refusal || {};
+  const refused = r.seq && ["start", "touch", "end"].includes(r.control) && r.seq > dismissedRefusal;
+  show($("stream-refusal"), !!refused);
+  setText($("stream-refusal"), refused ? r.message : "");
+}
+
+async function streamAction(action) {
+  const body = {action};
+  if (action === "touch") {
+    for (const [key, id] of Object.entries(STREAM_INPUTS)) body[key] = $(id).value;
+  }
+  sent = {what: action, words: action === "touch" ? "touch sent" : action + " sent"};
+  const answer = await post("/api/stream", body);
+  for (const [key, id] of Object.entries(STREAM_INPUTS)) {
+    $(id).classList.toggle("invalid", !answer.ok && !!(answer.errors || {})[key]);
+  }
+  if (!answer.ok) {
+    show($("stream-refusal"), true);
+    setText($("stream-refusal"), answer.error);
+  }
+}
+
+$("stream-start").addEventListener("click", () => act(() => streamAction("start"), "start"));
+$("stream-end").addEventListener("click", () => act(() => streamAction("end"), "end"));
+$("stream-form").addEventListener("submit", (event) => {
+  event.preventDefault();
+  act(() => streamAction("touch"), "touch");
+});

@@ -1,0 +1,203 @@
+"""The cameras' clock offset, measured while a pair records (issue 58 item 2, the recorder's
+side).
+
+Each frame recorded is handed to a detection thread (:class:`OffsetMeter`; the frames'
+writing never waits for it: when it falls :data:`QUEUE_FRAMES` behind, a frame is left
+undetected and counted). It finds the method's target (:func:`twopose.detect.detection.detect`)
+and keeps each camera's centroid track and each frame's brightness with the frames' capture
+times. When a trial ends, the offset is measured from the trial's tracks two ways, each
+where it can: from a flash both cameras saw (:func:`twopose.pair.clock.offset_from_flash`,
+when each camera's brightness steps up within two frames by a quarter of its level and
+twenty times its frame-to-frame scatter: a deliberate flash, not a moving hand), and by
+the rays' smallest gap (:func:`twopose.pair.clock.offset_from_ray_gap`: the target must
+move, and not only along the epipolar lines); a trial that fixes it neither way is said,
+in the measurements' words.
+
+The offset of two cameras opened once stays the same through the session (a lag is
+decided when a camera starts), so the trials' offsets are **pooled**: their
+inverse-variance mean, its 1-sigma widened by the trials' scatter where they disagree
+beyond their sigmas (the Birge ratio). The pooled offset is what the recorder writes
+after each trial that measured one (``/twopose/clock_offset``: the last one applies).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import queue
+import threading
+from types import TracebackType
+from typing import TYPE_CHECKING, Self
+
+import numpy as np
+
+from twopose.arrays import F64
+from twopose.errors import InputValueError
+from twopose.methods.specs import Method, spec_of
+from twopose.pair.clock import ClockOffset, offset_from_flash, offset_from_ray_gap
+
+if TYPE_CHECKING:
+    from recorder.sources.pair import TimedFrame
+    from twopose.pair.calibration import PairCalibration
+
+__all__ = ["FLASH_NOISE", "FLASH_RISE", "QUEUE_FRAMES", "OffsetMeter", "pooled_offset"]
+
+#: How many frames the detection thread may fall behind before frames go undetected.
+QUEUE_FRAMES = 60
+#: A flash: a camera's brightness rises by this share of its level before, at least ...
+FLASH_RISE = 0.25
+#: ... and by this many times its frame-to-frame scatter (robust: the median deviation).
+FLASH_NOISE = 20.0
+_END_WAIT_S = 5.0  # how long a trial's end waits for the frames still queued
+
+
+def pooled_offset(offsets: list[ClockOffset]) -> ClockOffset:
+    """The trials' offsets pooled: their inverse-variance mean, its 1-sigma widened by the
+    Birge ratio where they scatter beyond their sigmas."""
+    x = np.array([o.offset_ns for o in offsets], dtype=np.float64)
+    s = np.array([max(o.sigma_ns, 1.0) for o in offsets], dtype=np.float64)
+    w = 1.0 / s**2
+    mean = float((w * x).sum() / w.sum())
+    sigma = math.sqrt(1.0 / float(w.sum()))
+    if len(offsets) > 1:
+        chi2 = float((w * (x - mean) ** 2).sum()) / (len(offsets) - 1)
+        sigma *= max(1.0, math.sqrt(chi2))
+    method = offsets[0].method if len({o.method for o in offsets}) == 1 else "pooled"
+    return ClockOffset(offset_ns=mean, sigma_ns=sigma, method=method, n=sum(o.n for o in offsets))
+
+
+class OffsetMeter:
+    """The detection thread and each trial's tracks (the module docstring); a context
+    manager (the thread runs inside it)."""
+
+    def __init__(self, pair: PairCalibration, method: Method) -> None:
+        self.pair = pair
+        self.target = spec_of(method).target
+        self._queue: queue.Queue[tuple[int, int, TimedFrame] | None] = queue.Queue(QUEUE_FRAMES)
+        self._tracks: dict[int, list[tuple[int, float, float, float]]] = {1: [], 2: []}
+        self._trial = 0
+        self._lock = threading.Lock()
+        self._thread: threading.Thread | None = None
+        self.skipped = 0  # frames left undetected: the thread was behind
+        self.measured: list[ClockOffset] = []
+
+    def __enter__(self) -> Self:
+        if self.target is not None:
+            self._thread = threading.Thread(target=self._run, name="clock offset", daemon=True)
+            self._thread.start()
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        if self._thread is not None:
+            with self._lock:
+                self._trial = -1  # what is still queued is dropped
+            # Full: the thread sees the trial gone and drains; the daemon ends with the process.
+            with contextlib.suppress(queue.Full):
+                self._queue.put_nowait(None)
+
+    def begin(self, trial: int) -> None:
+        """Trial ``trial`` streams: its tracks start empty."""
+        with self._lock:
+            self._trial = trial
+            self._tracks = {1: [], 2: []}
+
+    def add(self, frame: TimedFrame) -> None:
+        """A frame recorded: detected in the thread (skipped and counted when it is behind)."""
+        if self._thread is None:
+            return
+        try:
+            self._queue.put_nowait((self._trial, frame.camera, frame))
+        except queue.Full:
+            self.skipped += 1
+
+    def _run(self) -> None:
+        from twopose.detect.detection import detect
+
+        assert self.target is not None
+        while (item := self._queue.get()) is not None:
+            trial, camera, frame = item
+            try:
+                if trial == self._trial:
+                    found = detect(frame.image, self.target)
+                    u, v = found.centroid_px if found.found else (math.nan, math.nan)
+                    lit = float(frame.image[::4, ::4].mean())  # the frame's brightness
+                    with self._lock:
+                        if trial == self._trial:  # NaN where not found, as the analysis
+                            self._tracks[camera].append((frame.t_capture_ns, u, v, lit))
+            except Exception:
+                continue
+            finally:
+                self._queue.task_done()
+
+    def _drained(self) -> None:
+        """Wait (at most :data:`_END_WAIT_S`) for the frames still queued."""
+        done = threading.Event()
+
+        def join() -> None:
+            self._queue.join()
+            done.set()
+
+        threading.Thread(target=join, daemon=True).start()
+        done.wait(_END_WAIT_S)
+
+    def end(self, trial: int) -> tuple[ClockOffset | None, str]:
+        """The trial ended: its offset measured (a flash both cameras saw, and the rays'
+        gap of the moving target, each where it can); the session's pooled offset (None:
+        none measured yet) and what the trial gave, in words."""
+        if self._thread is None:
+            return None, "the clock offset is not measured: the method has no target to track"
+        self._drained()
+        with self._lock:
+            one, two = (np.array(self._tracks[c], dtype=np.float64).reshape(-1, 4) for c in (1, 2))
+            self._trial = 0
+        found, why = [], []
+        if _flashed(one[:, 3]) and _flashed(two[:, 3]):
+            try:
+                found.append(offset_from_flash(one[:, 3], one[:, 0], two[:, 3], two[:, 0]))
+            except InputValueError as err:
+                why.append(f"the flash: {err}")
+        try:
+            found.append(
+                offset_from_ray_gap(self.pair, one[:, 1:3], one[:, 0], two[:, 1:3], two[:, 0])
+            )
+        except InputValueError as err:
+            why.append(str(err))
+        pooled = pooled_offset(self.measured) if self.measured else None
+        if not found:
+            return pooled, f"trial {trial} does not fix the clock offset: {'; '.join(why)}"
+        self.measured += found
+        pooled = pooled_offset(self.measured)
+        said = f"trial {trial}: clock offset " + ", ".join(
+            f"{o.offset_ns / 1e6:+.2f} ± {o.sigma_ns / 1e6:.2f} ms ({o.method}, {o.n} "
+            f"{'frames' if o.method == 'flash' else 'pairs'})"
+            for o in found
+        )
+        if self.skipped:
+            said += f"; {self.skipped} frames left undetected so far (the detection was behind)"
+        if len(self.measured) > len(found):
+            said += (
+                f"; the session's {pooled.offset_ns / 1e6:+.2f} ± {pooled.sigma_ns / 1e6:.2f} ms "
+                f"over {len(self.measured)} measurements"
+            )
+        return pooled, said
+
+
+def _flashed(brightness: F64) -> bool:
+    """Whether a camera's frames saw a flash: its brightness steps up within two frames (an
+    onset falls in one exposure or across two) by at least :data:`FLASH_RISE` of its level
+    before, and by :data:`FLASH_NOISE` times the frames' own scatter. A moving target, a
+    hand, a camera's exposure settling change it by far less, or slowly."""
+    b = brightness[np.isfinite(brightness)]
+    if b.size < 8:
+        return False
+    step = np.abs(np.diff(b))
+    noise = 1.4826 * float(np.median(np.abs(step - np.median(step)))) + 1e-6
+    rise = b[2:] - b[:-2]  # over two frames
+    k = int(np.argmax(rise))
+    level = float(np.median(b[: k + 1]))
+    return float(rise[k]) > max(FLASH_RISE * level, FLASH_NOISE * noise)

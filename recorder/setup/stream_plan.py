@@ -1,0 +1,180 @@
+"""A pair's plan: stream trials and their touches (``new --pair PAIR.toml --plan PLAN.toml``).
+
+A plan for a pair (docs/recording.md, "Stream trials") gives the session's setup and, per
+trial, the touches: each a grid point (``point = [x, y, z]``, session units, grid frame =
+camera 1's) and, for a **scheduled** touch, its time ``at`` (seconds after the trial's
+start: its first camera-1 frame); a touch without ``at`` is **keyed**: the operator
+presses Enter at the terminal when the target is on it (the points in order). A trial's
+``duration`` (seconds) ends it by itself; without one the operator ends it (``e``). Every
+number is read by its quantity's one reader (:mod:`twopose.values.bounds`: the plan's
+grammar); an unknown key, a one-camera key (poses, a camera: the pair file gives the
+cameras) or a scheduled touch after the trial's end is refused, naming it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from recorder.setup.rules import PLANE_OFFSET_KEY
+from twopose.errors import InputValueError
+from twopose.methods.specs import METHODS, PLANES, Method, spec_of
+from twopose.values.bounds import GROUND_TRUTH, STREAM_DURATION, TOUCH_TIME, Quantity
+from twopose.values.checks import Vec3
+from twopose.values.toml import read_toml
+from twopose.values.units import DEFAULT_UNITS, UNITS, Units
+
+__all__ = ["StreamPlan", "StreamPlanTouch", "StreamPlanTrial", "load_stream_plan"]
+
+_TOP = {"method", "units", "operator", "notes", "trials", PLANE_OFFSET_KEY} | {
+    p.setup_key for p in PLANES
+}
+_TRIAL = {"touches", "duration"}
+_TOUCH = {"point", "at"}
+#: What a one-camera plan has that a pair's has not, and why.
+_ONE_CAMERA = {
+    "camera": "the pair file gives both cameras",
+    "cameras": "the pair file gives both cameras",
+    "frames": "a stream trial records every frame",
+    "adaptive_frames": "a stream trial records every frame",
+    "guidance": "a stream trial has no poses to suggest",
+    "board": "a pair is calibrated by calibrate-pair",
+    "resolution": "no pose is typed",
+    "poses": "a pair's trials are streams: no pose is typed",
+    "ground_truth": "a stream trial's truth is its touches' points",
+    "keep_off_ground": "a stream trial's truth is its touches' points",
+    "max_poses": "no pose is typed",
+    "start": "no pose is typed",
+}
+
+
+@dataclass(frozen=True, kw_only=True)
+class StreamPlanTouch:
+    """A planned touch: its grid point, and its time after the trial's start (None: keyed)."""
+
+    point: Vec3
+    at_s: float | None = None
+
+
+@dataclass(frozen=True, kw_only=True)
+class StreamPlanTrial:
+    """A planned stream trial: its touches in order and its duration (None: ended by the
+    operator)."""
+
+    touches: tuple[StreamPlanTouch, ...]
+    duration_s: float | None = None
+
+    @property
+    def scheduled(self) -> tuple[StreamPlanTouch, ...]:
+        return tuple(t for t in self.touches if t.at_s is not None)
+
+    @property
+    def keyed(self) -> tuple[Vec3, ...]:
+        """The points the operator marks by key, in order."""
+        return tuple(t.point for t in self.touches if t.at_s is None)
+
+
+@dataclass(frozen=True, kw_only=True)
+class StreamPlan:
+    """A pair's plan: the setup and its stream trials."""
+
+    method: Method
+    units: Units
+    trials: tuple[StreamPlanTrial, ...]
+    operator: str = ""
+    notes: str = ""
+    #: The method's plane's offset (method 2's ground height), where the plan gives it.
+    plane_offset: float | None = None
+
+
+def _table(value: Any, keys: set[str], where: str) -> dict[str, Any]:
+    if not isinstance(value, dict):
+        raise InputValueError(f"plan: {where or 'the plan'} must be a table")
+    for key in sorted(value):
+        if key in _ONE_CAMERA:
+            raise InputValueError(
+                f"plan: {where + '.' if where else ''}{key}: not in a pair's plan "
+                f"({_ONE_CAMERA[key]}); leave it out"
+            )
+        if key not in keys:
+            raise InputValueError(
+                f"plan: unknown key {where + '.' if where else ''}{key}; known here: "
+                f"{', '.join(sorted(keys))}"
+            )
+    return value
+
+
+def _read(quantity: Quantity, value: Any, where: str, units: Units | None) -> float:
+    try:
+        return quantity.read(value, units, text=False)
+    except InputValueError as err:
+        raise InputValueError(f"plan: {where}: {err}") from None
+
+
+def _touch(value: Any, where: str, units: Units, duration: float | None) -> StreamPlanTouch:
+    t = _table(value, _TOUCH, where)
+    if "point" not in t:
+        raise InputValueError(f"plan: {where}.point is missing (the grid point x, y, z)")
+    try:
+        x, y, z = GROUND_TRUTH.read_vector(t["point"], units, text=False)
+    except InputValueError as err:
+        raise InputValueError(f"plan: {where}.point: {err}") from None
+    at = None if "at" not in t else _read(TOUCH_TIME, t["at"], f"{where}.at", None)
+    if at is not None and duration is not None and at > duration:
+        raise InputValueError(
+            f"plan: {where}.at {at:g} s is after the trial's end (duration {duration:g} s)"
+        )
+    return StreamPlanTouch(point=(x, y, z), at_s=at)
+
+
+def _trial(value: Any, i: int, units: Units) -> StreamPlanTrial:
+    where = f"trials[{i}]"
+    t = _table(value, _TRIAL, where)
+    duration = t.get("duration")
+    if duration is not None:
+        duration = _read(STREAM_DURATION, duration, f"{where}.duration", None)
+    raw = t.get("touches", [])
+    if not isinstance(raw, list):
+        raise InputValueError(f"plan: {where}.touches must be a list of touches")
+    touches = tuple(
+        _touch(v, f"{where}.touches[{k}]", units, duration) for k, v in enumerate(raw, start=1)
+    )
+    return StreamPlanTrial(touches=touches, duration_s=duration)
+
+
+def _plane_offset(data: dict[str, Any], method: Method, units: Units) -> float | None:
+    """The method's plane's offset under its key or ``plane_offset`` (never another's)."""
+    plane = spec_of(method).plane
+    keys = [k for k in (*(p.setup_key for p in PLANES), PLANE_OFFSET_KEY) if k in data]
+    if plane is None or any(k not in (plane.setup_key, PLANE_OFFSET_KEY) for k in keys):
+        if keys:
+            raise InputValueError(f"plan: {keys[0]}: a {method} session measures on no such plane")
+        return None
+    if len(keys) > 1:
+        raise InputValueError(f"plan: {' and '.join(keys)} both give {plane.name}'s offset")
+    return None if not keys else _read(plane.bound, data[keys[0]], keys[0], units)
+
+
+def load_stream_plan(path: str | Path) -> StreamPlan:
+    """A pair's plan, read and checked (the module docstring); refusals name the key."""
+    data = _table(read_toml(path, "plan", InputValueError), _TOP, "")
+    method = data.get("method")
+    if method not in METHODS or not spec_of(Method(method)).measures:
+        measuring = [m for m in METHODS if spec_of(Method(m)).measures]
+        raise InputValueError(
+            f"plan: method must be one of {', '.join(measuring)} (a pair's stream measures a "
+            f"moving target), got {method!r}"
+        )
+    units = data.get("units", DEFAULT_UNITS)
+    if units not in UNITS:
+        raise InputValueError(f"plan: units must be one of {', '.join(UNITS)}, got {units!r}")
+    m, u = Method(method), Units(units)
+    raw = data.get("trials", [])
+    if not isinstance(raw, list) or not raw:
+        raise InputValueError("plan: no [[trials]]")
+    return StreamPlan(
+        method=m, units=u, trials=tuple(_trial(t, i, u) for i, t in enumerate(raw, start=1)),
+        operator=str(data.get("operator", "")), notes=str(data.get("notes", "")),
+        plane_offset=_plane_offset(data, m, u),
+    )  # fmt: skip

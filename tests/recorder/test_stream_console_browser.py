@@ -1,0 +1,85 @@
+"""A pair's stream trial in the console, in a real headless Chromium at 1366x768: the
+buttons on exactly when offered (start trial between trials; touch and end trial while it
+streams), a touch typed and clicked, the point listed and recorded as the button's, the
+one camera's pose form and decisions out of sight. (The files play from the server's
+start, before the page is loaded: the touch is not timed to the dot's stay here; the
+terminal's test times its key, tests/recorder/test_stream_trials.py.)"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import pytest
+
+from tests.browser import headless_chromium, require_chromium
+from tests.conftest import built_once
+from tests.helpers import RECORD, read_line_when_printed
+from tests.recorder.moving_pair import MovingPair, moving_pair, write_moving_pair
+from twopose.format.reader import SessionReader
+from twopose.format.streams import read_pair_session
+
+require_chromium()
+
+
+def _write(folder: Path) -> None:
+    write_moving_pair(folder)
+
+
+@pytest.fixture(scope="module")
+def moving(tmp_path_factory: pytest.TempPathFactory) -> MovingPair:
+    return moving_pair(built_once(tmp_path_factory, "moving-pair", _write))
+
+
+def _on(driver: object, element_id: str) -> bool:
+    element = driver.find_element("id", element_id)  # type: ignore[attr-defined]
+    return bool(element.is_displayed() and element.is_enabled())
+
+
+def _wait(what: object, timeout_s: float = 10.0) -> None:
+    deadline = time.monotonic() + timeout_s
+    while not what():  # type: ignore[operator]
+        assert time.monotonic() < deadline, "never happened"
+        time.sleep(0.05)
+
+
+def test_the_page_starts_touches_and_ends_a_stream_trial(
+    moving: MovingPair, tmp_path: Path
+) -> None:
+    import subprocess
+
+    out = tmp_path / "browser.mcap"
+    process = subprocess.Popen(
+        [str(RECORD), "new", str(out), "--pair", str(moving.pair_file), "--source",
+         moving.source, "--ui", "--method", "point", "--units", "in", "--operator", "Ada"],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+    )  # fmt: skip
+    try:
+        line, _ = read_line_when_printed(process, "http://", "the console's address")
+        with headless_chromium(1366, 768) as driver:
+            driver.get(line.split()[2])
+            _wait(lambda: _on(driver, "stream-start"))
+            assert not _on(driver, "stream-touch")
+            assert not _on(driver, "stream-end")
+            assert not driver.find_element("id", "pose-form").is_displayed()
+            assert not driver.find_element("id", "accept").is_displayed()
+            driver.find_element("id", "stream-start").click()
+            _wait(lambda: _on(driver, "stream-touch"))
+            assert not _on(driver, "stream-start")
+            for axis, value in zip("xyz", ("0.75", "0.5", "11"), strict=True):
+                driver.find_element("id", f"stream-{axis}").send_keys(value)
+            driver.find_element("id", "stream-touch").click()
+            _wait(lambda: "touch 1 at (0.75, 0.5, 11) by button" in driver.find_element(
+                "id", "stream-touches").text)  # fmt: skip
+            driver.save_screenshot(str(tmp_path / "stream-console.png"))
+            driver.find_element("id", "stream-end").click()
+            _wait(lambda: _on(driver, "stream-start"))
+            assert "trial 1:" in driver.find_element("id", "stream-ended").text
+    finally:
+        process.terminate()
+        process.wait(timeout=30)
+    with SessionReader(out) as reader:
+        (trial,) = read_pair_session(reader).trials
+    (touch,) = trial.touches
+    assert touch.how == "button"
+    assert touch.point == (0.75, 0.5, 11.0)
