@@ -48,7 +48,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal
@@ -66,8 +66,10 @@ if TYPE_CHECKING:
     from twopose.camera.model import Camera
     from twopose.format.entries import PlaneEntry, SessionInfo, Touch
     from twopose.format.windows import Stream
+    from twopose.methods.specs import Method
     from twopose.pair.calibration import PairCalibration
     from twopose.pair.clock import ClockOffset
+    from twopose.values.units import Units
 
 __all__ = [
     "SILENT_S",
@@ -78,6 +80,7 @@ __all__ = [
     "StreamSummary",
     "TrialEnd",
     "record_stream",
+    "touch_refusal",
 ]
 
 #: A camera that sends no frame for this long has stopped: the trial ends, the file closes
@@ -111,6 +114,10 @@ class ScheduledTouch:
     after_s: float
 
 
+#: How a trial ends as asked (by the operator, its duration, or its sources' end).
+_ASKED_ENDS = ("end", "duration", "quit", "ended")
+
+
 @dataclass(frozen=True, kw_only=True)
 class TrialEnd:
     """How a stream trial ended: ``why`` (``end``, ``duration``, ``quit``, ``ended``: both
@@ -128,7 +135,16 @@ class TrialEnd:
 
     @property
     def complete(self) -> bool:
-        return self.why in ("end", "duration", "quit", "ended")
+        """Ended as asked, with frames from both cameras and a touch to measure."""
+        return not self.lacking and self.why in _ASKED_ENDS
+
+    @property
+    def lacking(self) -> str:
+        """What a trial that ended as asked lacks to measure anything ("": nothing)."""
+        silent = [f"camera {c}" for c, n in enumerate(self.n_frames, start=1) if n == 0]
+        if silent:
+            return f"no frames from {' or '.join(silent)}"
+        return "" if self.touches else "no touches (nothing to measure)"
 
     def line(self) -> str:
         """The trial as the terminal says it when it ends."""
@@ -146,7 +162,9 @@ class TrialEnd:
             said += "; the sources ended (no more frames)"
         if self.missed:
             said += f"; {len(self.missed)} scheduled touch(es) not reached: the trial ended first"
-        return said + ("" if self.complete else f"; incomplete: {self.why}")
+        if self.complete:
+            return said
+        return said + f"; incomplete: {self.lacking if self.why in _ASKED_ENDS else self.why}"
 
 
 class StreamSink:
@@ -278,7 +296,10 @@ def record_stream(
                 while not stops.requested() and driver.next_trial(trial + 1):
                     trial += 1
                     began = True
-                    end = _stream_trial(writer, trial, source, driver, meter, sink, summary)
+                    end = _stream_trial(
+                        writer, trial, source, driver, meter, sink, summary,
+                        lambda p: touch_refusal(info.method, pair, info.units, p),
+                    )  # fmt: skip
                     driver.trial_ended(end)
                     _record_offset(writer, trial, meter, driver, summary)
                     if end.why in ("quit", "ended"):
@@ -300,6 +321,44 @@ def record_stream(
     summary.seconds = time.monotonic() - summary.started
     driver.finish(summary)
     return summary
+
+
+def touch_refusal(method: Method, pair: PairCalibration | None, units: Units, point: Vec3) -> str:
+    """Why ``point`` (grid frame = camera 1's, ``units``) cannot be a touch of a ``method``
+    session on ``pair`` ("": it can). A method on a plane (ground) touches its plane: the
+    point must lie on the session's floor, ``normal . p = height`` (``y = h`` for a typed
+    ground height), within the units' ground tolerance (half a 1/16 in tape tick, half a
+    millimetre: a one-camera ground truth's) plus three of the floor's height sigmas (a
+    calibrated floor's). The point and line methods take any grid point (the dot's place, a
+    point the finger's line passes through): nothing is required of it."""
+    import numpy as np
+
+    from twopose.methods.specs import spec_of
+    from twopose.values.bounds import shown
+    from twopose.values.units import unit_spec
+
+    plane = spec_of(method).plane
+    if plane is None or pair is None or pair.floor is None:
+        return ""
+    floor = pair.in_units(units).floor
+    if floor is None:  # in_units keeps a floor: never
+        return ""
+    gap = float(np.dot(floor.normal, point)) - floor.height
+    tol = unit_spec(units).ground_tolerance + 3.0 * float(np.sqrt(max(floor.cov[3, 3], 0.0)))
+    if abs(gap) <= tol:
+        return ""
+    where = (
+        f"{plane.axis} = {shown(floor.height)} {units}"
+        if np.allclose(floor.normal, plane.normal_grid, atol=1e-12)
+        else f"normal . p = {floor.height:.4g} {units}, normal "
+        f"({', '.join(f'{v:.4f}' for v in floor.normal)})"
+    )
+    shown_point = ", ".join(shown(v) for v in point)
+    return (
+        f"({shown_point}) is {gap:+.4g} {units} off {plane.name} ({where}, within {tol:.2g} "
+        f"{units}): a {method} touch is where the finger meets {plane.name}, so its grid "
+        "point must lie on it"
+    )
 
 
 def _with_clocks(info: SessionInfo, source: PairSource) -> SessionInfo:
@@ -353,6 +412,8 @@ class _TrialState:
     seen_ns: list[int] = field(default_factory=lambda: [time.monotonic_ns()] * 2)
     seen_dropped: tuple[int, int] = (0, 0)
     ended: str = ""
+    #: Why a point cannot be touched ("": it can; :func:`touch_refusal`).
+    refuse_point: Callable[[Vec3], str] = lambda _point: ""
 
     def clock_ns(self, at_ns: int) -> int:
         """Camera 1's capture clock at monotonic ``at_ns`` (the module docstring)."""
@@ -379,6 +440,7 @@ def _stream_trial(
     meter: OffsetMeter,
     sink: StreamSink | None,
     summary: StreamSummary,
+    refuse_point: Callable[[Vec3], str],
 ) -> TrialEnd:
     """One stream trial, from its first frame to its end (the module docstring), counted
     in ``summary`` (also when a stop cuts it short)."""
@@ -389,6 +451,7 @@ def _stream_trial(
         trial=trial, stills=source.stills,
         schedule=sorted(driver.schedule(trial), key=lambda s: s.after_s),
         duration_s=driver.duration_s(trial), seen_dropped=source.dropped_by_camera,
+        refuse_point=refuse_point,
     )  # fmt: skip
     meter.begin(trial)
     frames = source.frames(timeout_s=SILENT_S)  # a camera silent this long has failed
@@ -431,6 +494,10 @@ def _take_events(state: _TrialState, stream: Stream, driver: StreamDriver) -> No
                 "a touch needs the grid point the target is on: type it (x, y, z) before "
                 "pressing Enter, or give the trial's points in a plan"
             )
+            continue
+        off = state.refuse_point(point)
+        if off:
+            driver.refused(off)
             continue
         if state.start_ns is None:
             driver.refused("not yet: the trial's first frame has not come; touch again")

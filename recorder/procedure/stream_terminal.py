@@ -206,6 +206,8 @@ class TerminalStreamDriver(StreamDriver):
     def streaming(self, trial: int) -> None:
         planned = self._planned(trial)
         self._keyed = list(planned.keyed) if planned is not None else []
+        if self.keys.closed:
+            self._input_ended()
         ends = "e ends the trial" if planned is None or planned.duration_s is None else (
             f"it ends after {planned.duration_s:g} s (e: now)"
         )  # fmt: skip
@@ -230,11 +232,22 @@ class TerminalStreamDriver(StreamDriver):
             if text is None:  # the input ended: nothing more is keyed
                 if self.plan is None:
                     events.append(StreamEvent(kind="quit", at_ns=at))
+                else:
+                    self._input_ended()
                 break
             event = self._event(text, at)
             if event is not None:
                 events.append(event)
         return events
+
+    def _input_ended(self) -> None:
+        """The input ended during a plan's trial: its keyed touches left are said lost."""
+        if self._keyed:
+            self.say(
+                f"  the input ended: {len(self._keyed)} keyed touch(es) of this trial cannot "
+                "be marked (nobody presses Enter); what was recorded is kept"
+            )
+            self._keyed = []
 
     def _event(self, text: str, at: int) -> StreamEvent | None:
         if text.lower() in ("e", "q"):
@@ -309,6 +322,12 @@ def ask_pair_setup(
                 f"{plane.setup_key} out, or calibrate the pair without the floor"
             )
     elif plane is not None:
+        if plan is not None and ground_height is None:  # a plan is unattended: nobody to ask
+            raise InputValueError(
+                f"plan: {plane.setup_key} is missing: the pair file has no floor and a plan "
+                f"records without prompts; add {plane.setup_key} = H ({plane.bound.words}, "
+                f"the plan's units) to the plan, or calibrate the pair with its floor"
+            )
         given = {} if ground_height is None else {plane.setup_key: ground_height}
         h = _plane_offset(op, m, u, given)
     elif ground_height is not None:
@@ -330,14 +349,46 @@ def record_pair(  # noqa: PLR0913 - what new --pair takes
     refuse_existing(out)
     pair = read_pair_file(pair_path)
     plan = load_stream_plan(plan_path) if plan_path is not None else None
+    if plan is not None and keys is None:
+        refuse_keyed_unattended(plan, sys.stdin)
     setup = ask_pair_setup(op, pair, plan=plan, **(given or {}))
     pair = setup.session_pair(pair)
+    if plan is not None:
+        refuse_off_floor(plan, pair)
     src = open_pair_source(source, pair, setup, fps=fps)
     cameras = pair_cameras(pair)
     info = setup.info(notes or (plan.notes if plan is not None else ""))
     driver = TerminalStreamDriver(op.say, keys or KeyReader(), setup.units, plan)
     with stops.handled():
         return record_stream(out, info, cameras, pair, src, driver, ground=setup.ground())
+
+
+def refuse_keyed_unattended(plan: StreamPlan, stdin: Any) -> None:
+    """A plan's keyed touch (no ``at``) is the operator's Enter: refused before anything is
+    recorded when the standard input is no terminal (nobody would press it)."""
+    isatty = getattr(stdin, "isatty", None)
+    if isatty is not None and isatty():
+        return
+    for i, trial in enumerate(plan.trials, start=1):
+        for k, touch in enumerate(trial.touches, start=1):
+            if touch.at_s is None:
+                raise InputValueError(
+                    f"plan: trials[{i}].touches[{k}] is keyed (no `at`): the operator presses "
+                    "Enter at the touch, but the standard input is no terminal; give it an "
+                    "`at` (seconds after the trial's start), or record at a terminal"
+                )
+
+
+def refuse_off_floor(plan: StreamPlan, pair: PairCalibration) -> None:
+    """Every planned touch's point, checked before anything is recorded (a ground touch
+    off the floor: :func:`recorder.procedure.stream.touch_refusal`)."""
+    from recorder.procedure.stream import touch_refusal
+
+    for i, trial in enumerate(plan.trials, start=1):
+        for k, touch in enumerate(trial.touches, start=1):
+            off = touch_refusal(plan.method, pair, plan.units, touch.point)
+            if off:
+                raise InputValueError(f"plan: trials[{i}].touches[{k}].point: {off}")
 
 
 def pair_cameras(pair: PairCalibration) -> list[Any]:

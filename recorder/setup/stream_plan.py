@@ -8,7 +8,10 @@ presses Enter at the terminal when the target is on it (the points in order). A 
 ``duration`` (seconds) ends it by itself; without one the operator ends it (``e``). Every
 number is read by its quantity's one reader (:mod:`twopose.values.bounds`: the plan's
 grammar); an unknown key, a one-camera key (poses, a camera: the pair file gives the
-cameras) or a scheduled touch after the trial's end is refused, naming it.
+cameras), a scheduled touch after the trial's end, or one whose ``at`` is not later than
+the scheduled touch before it (the plan's order is the touches' numbers; the target is at
+one point at a time) is refused, naming it. A ground touch off the floor is refused once
+the floor is known (:func:`recorder.procedure.stream.touch_refusal`).
 """
 
 from __future__ import annotations
@@ -128,6 +131,26 @@ def _touch(value: Any, where: str, units: Units, duration: float | None) -> Stre
     return StreamPlanTouch(point=(x, y, z), at_s=at)
 
 
+def _refuse_out_of_order(touches: tuple[StreamPlanTouch, ...], where: str) -> None:
+    """A trial's scheduled touches in the order of their ``at`` (the touches are numbered
+    in the plan's order, so one out of order would be renumbered), at most one at a time
+    (the target is at one point at a moment)."""
+    last: tuple[int, float] | None = None
+    for k, touch in enumerate(touches, start=1):
+        if touch.at_s is None:
+            continue
+        if last is not None and touch.at_s <= last[1]:
+            j, at = last
+            said = "the same moment as" if touch.at_s == at else "before"
+            raise InputValueError(
+                f"plan: {where}.touches[{k}].at {touch.at_s:g} s is {said} "
+                f"{where}.touches[{j}].at {at:g} s: the target is at one point at a time; "
+                "list a trial's scheduled touches in the order of their `at`, each later "
+                "than the one before"
+            )
+        last = (k, touch.at_s)
+
+
 def _trial(value: Any, i: int, units: Units) -> StreamPlanTrial:
     where = f"trials[{i}]"
     t = _table(value, _TRIAL, where)
@@ -140,6 +163,7 @@ def _trial(value: Any, i: int, units: Units) -> StreamPlanTrial:
     touches = tuple(
         _touch(v, f"{where}.touches[{k}]", units, duration) for k, v in enumerate(raw, start=1)
     )
+    _refuse_out_of_order(touches, where)
     return StreamPlanTrial(touches=touches, duration_s=duration)
 
 
