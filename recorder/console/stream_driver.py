@@ -37,8 +37,8 @@ from recorder.procedure.stream import (
     StreamSink,
     StreamSummary,
     TrialEnd,
-    touch_refusal,
 )
+from recorder.setup.stream_plan import touch_refusal
 from twopose.methods.specs import spec_of
 from twopose.values.bounds import shown
 

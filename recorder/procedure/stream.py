@@ -56,6 +56,7 @@ from typing import TYPE_CHECKING, Literal
 from recorder.procedure import stops
 from recorder.procedure.machine import refuse_existing
 from recorder.procedure.stream_offset import OffsetMeter
+from recorder.setup.stream_plan import touch_refusal
 from twopose.errors import InputValueError, SourceError, TwoposeError
 from twopose.format.stream_entries import TouchMark
 from twopose.format.writer import SessionWriter
@@ -66,10 +67,8 @@ if TYPE_CHECKING:
     from twopose.camera.model import Camera
     from twopose.format.entries import PlaneEntry, SessionInfo, Touch
     from twopose.format.windows import Stream
-    from twopose.methods.specs import Method
     from twopose.pair.calibration import PairCalibration
     from twopose.pair.clock import ClockOffset
-    from twopose.values.units import Units
 
 __all__ = [
     "SILENT_S",
@@ -80,7 +79,6 @@ __all__ = [
     "StreamSummary",
     "TrialEnd",
     "record_stream",
-    "touch_refusal",
 ]
 
 #: A camera that sends no frame for this long has stopped: the trial ends, the file closes
@@ -321,44 +319,6 @@ def record_stream(
     summary.seconds = time.monotonic() - summary.started
     driver.finish(summary)
     return summary
-
-
-def touch_refusal(method: Method, pair: PairCalibration | None, units: Units, point: Vec3) -> str:
-    """Why ``point`` (grid frame = camera 1's, ``units``) cannot be a touch of a ``method``
-    session on ``pair`` ("": it can). A method on a plane (ground) touches its plane: the
-    point must lie on the session's floor, ``normal . p = height`` (``y = h`` for a typed
-    ground height), within the units' ground tolerance (half a 1/16 in tape tick, half a
-    millimetre: a one-camera ground truth's) plus three of the floor's height sigmas (a
-    calibrated floor's). The point and line methods take any grid point (the dot's place, a
-    point the finger's line passes through): nothing is required of it."""
-    import numpy as np
-
-    from twopose.methods.specs import spec_of
-    from twopose.values.bounds import shown
-    from twopose.values.units import unit_spec
-
-    plane = spec_of(method).plane
-    if plane is None or pair is None or pair.floor is None:
-        return ""
-    floor = pair.in_units(units).floor
-    if floor is None:  # in_units keeps a floor: never
-        return ""
-    gap = float(np.dot(floor.normal, point)) - floor.height
-    tol = unit_spec(units).ground_tolerance + 3.0 * float(np.sqrt(max(floor.cov[3, 3], 0.0)))
-    if abs(gap) <= tol:
-        return ""
-    where = (
-        f"{plane.axis} = {shown(floor.height)} {units}"
-        if np.allclose(floor.normal, plane.normal_grid, atol=1e-12)
-        else f"normal . p = {floor.height:.4g} {units}, normal "
-        f"({', '.join(f'{v:.4f}' for v in floor.normal)})"
-    )
-    shown_point = ", ".join(shown(v) for v in point)
-    return (
-        f"({shown_point}) is {gap:+.4g} {units} off {plane.name} ({where}, within {tol:.2g} "
-        f"{units}): a {method} touch is where the finger meets {plane.name}, so its grid "
-        "point must lie on it"
-    )
 
 
 def _with_clocks(info: SessionInfo, source: PairSource) -> SessionInfo:

@@ -16,9 +16,13 @@ during a trial  Enter: a touch *now*, at the plan's next keyed point (or the poi
 ==============  ==========================================================================
 
 With a plan (``--plan``) the trials start by themselves, its scheduled touches are marked
-at their times and its trials end at their ``duration`` (else by ``e``). A closed input
-(end of file) ends the session where a key is waited for, and is nothing while a trial
-streams by a plan.
+at their times and its trials end at their ``duration`` (else by ``e``). A plan is
+unattended: one whose method needs a ground height the pair file lacks and the plan does
+not give, or (the standard input no terminal) one with a keyed touch, is refused before
+anything is recorded; every planned touch's point is checked (a ground touch on the floor).
+A closed input (end of file) ends the session where a key is waited for; while a trial
+streams by a plan it is said when keyed touches are left (they cannot be marked), and the
+trial goes on to its end.
 """
 
 from __future__ import annotations
@@ -381,8 +385,8 @@ def refuse_keyed_unattended(plan: StreamPlan, stdin: Any) -> None:
 
 def refuse_off_floor(plan: StreamPlan, pair: PairCalibration) -> None:
     """Every planned touch's point, checked before anything is recorded (a ground touch
-    off the floor: :func:`recorder.procedure.stream.touch_refusal`)."""
-    from recorder.procedure.stream import touch_refusal
+    off the floor: :func:`recorder.setup.stream_plan.touch_refusal`)."""
+    from recorder.setup.stream_plan import touch_refusal
 
     for i, trial in enumerate(plan.trials, start=1):
         for k, touch in enumerate(trial.touches, start=1):

@@ -11,14 +11,14 @@ grammar); an unknown key, a one-camera key (poses, a camera: the pair file gives
 cameras), a scheduled touch after the trial's end, or one whose ``at`` is not later than
 the scheduled touch before it (the plan's order is the touches' numbers; the target is at
 one point at a time) is refused, naming it. A ground touch off the floor is refused once
-the floor is known (:func:`recorder.procedure.stream.touch_refusal`).
+the floor is known (:func:`touch_refusal`, also every touch's point as it is marked).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from recorder.setup.rules import PLANE_OFFSET_KEY
 from twopose.errors import InputValueError
@@ -28,7 +28,16 @@ from twopose.values.checks import Vec3
 from twopose.values.toml import read_toml
 from twopose.values.units import DEFAULT_UNITS, UNITS, Units
 
-__all__ = ["StreamPlan", "StreamPlanTouch", "StreamPlanTrial", "load_stream_plan"]
+if TYPE_CHECKING:
+    from twopose.pair.calibration import PairCalibration
+
+__all__ = [
+    "StreamPlan",
+    "StreamPlanTouch",
+    "StreamPlanTrial",
+    "load_stream_plan",
+    "touch_refusal",
+]
 
 _TOP = {"method", "units", "operator", "notes", "trials", PLANE_OFFSET_KEY} | {
     p.setup_key for p in PLANES
@@ -202,3 +211,40 @@ def load_stream_plan(path: str | Path) -> StreamPlan:
         operator=str(data.get("operator", "")), notes=str(data.get("notes", "")),
         plane_offset=_plane_offset(data, m, u),
     )  # fmt: skip
+
+
+def touch_refusal(method: Method, pair: PairCalibration | None, units: Units, point: Vec3) -> str:
+    """Why ``point`` (grid frame = camera 1's, ``units``) cannot be a touch of a ``method``
+    session on ``pair`` ("": it can). A method on a plane (ground) touches its plane: the
+    point must lie on the session's floor, ``normal . p = height`` (``y = h`` for a typed
+    ground height), within the units' ground tolerance (half a 1/16 in tape tick, half a
+    millimetre: a one-camera ground truth's) plus three of the floor's height sigmas (a
+    calibrated floor's). The point and line methods take any grid point (the dot's place, a
+    point the finger's line passes through): nothing is required of it."""
+    import numpy as np
+
+    from twopose.values.bounds import shown
+    from twopose.values.units import unit_spec
+
+    plane = spec_of(method).plane
+    if plane is None or pair is None or pair.floor is None:
+        return ""
+    floor = pair.in_units(units).floor
+    if floor is None:  # in_units keeps a floor: never
+        return ""
+    gap = float(np.dot(floor.normal, point)) - floor.height
+    tol = unit_spec(units).ground_tolerance + 3.0 * float(np.sqrt(max(floor.cov[3, 3], 0.0)))
+    if abs(gap) <= tol:
+        return ""
+    where = (
+        f"{plane.axis} = {shown(floor.height)} {units}"
+        if np.allclose(floor.normal, plane.normal_grid, atol=1e-12)
+        else f"normal . p = {floor.height:.4g} {units}, normal "
+        f"({', '.join(f'{v:.4f}' for v in floor.normal)})"
+    )
+    shown_point = ", ".join(shown(v) for v in point)
+    return (
+        f"({shown_point}) is {gap:+.4g} {units} off {plane.name} ({where}, within {tol:.2g} "
+        f"{units}): a {method} touch is where the finger meets {plane.name}, so its grid "
+        "point must lie on it"
+    )

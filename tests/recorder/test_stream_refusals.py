@@ -23,7 +23,6 @@ from recorder.procedure.stream import (
     StreamSummary,
     TrialEnd,
     record_stream,
-    touch_refusal,
 )
 from recorder.procedure.stream_terminal import (
     KeyReader,
@@ -33,7 +32,7 @@ from recorder.procedure.stream_terminal import (
     record_pair,
 )
 from recorder.procedure.terminal import Operator
-from recorder.setup.stream_plan import load_stream_plan
+from recorder.setup.stream_plan import load_stream_plan, touch_refusal
 from twopose.errors import InputValueError
 from twopose.format.reader import SessionReader
 from twopose.format.streams import read_pair_session
@@ -130,7 +129,8 @@ def test_a_typed_ground_touch_off_the_floor_is_refused_in_words(
     pair = setup.session_pair(dataclasses.replace(thesis_pair(), floor=None))
     source = open_pair_source(stills, pair, setup, fps=None)
     driver, out = _Typed(), tmp_path / "typed.mcap"
-    record_stream(out, setup.info(), pair_cameras(pair), pair, source, driver, ground=setup.ground())
+    ground = setup.ground()
+    record_stream(out, setup.info(), pair_cameras(pair), pair, source, driver, ground=ground)
     assert len(driver.said) == 1
     assert "-9.625 in off the ground" in driver.said[0]
     with SessionReader(out) as reader:
@@ -201,7 +201,7 @@ def test_a_plan_without_the_ground_height_it_needs_is_refused_before_asking(
 ) -> None:
     plan = _plan(tmp_path, _GROUND + "[[trials]]\nduration = 0.2\n")
     out = tmp_path / "nofloor.mcap"
-    with pytest.raises(InputValueError, match="plan: ground_height is missing: .* add ground_h"):
+    with pytest.raises(InputValueError, match=r"plan: ground_height is missing: .* add ground_h"):
         record_pair(out, _no_floor(tmp_path), stills, Operator(_never_asked, print),
                     plan_path=plan, keys=KeyReader(lambda: ""))  # fmt: skip
     assert not out.exists()
