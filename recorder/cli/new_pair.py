@@ -65,7 +65,10 @@ def new_pair(
     if plan is not None:
         planned = [k for k in _PLAN_SETS if k in named]
         if planned:
-            raise InputValueError(f"{', '.join(planned)}: the plan sets these itself")
+            raise InputValueError(
+                f"{', '.join(planned)}: the plan sets these itself (method, units, "
+                "ground_height, operator, notes): leave them out or write them in the plan"
+            )
         if ui:
             raise InputValueError("--plan records at the terminal; --ui in the browser: one")
     if "--fps" in named and not any(kind_of(part).takes_fps for part in parts):

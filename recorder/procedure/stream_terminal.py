@@ -190,6 +190,8 @@ class TerminalStreamDriver(StreamDriver):
         """The next line (None: the input ended); a stop raises KeyboardInterrupt."""
         while True:
             stops.check()
+            if self.keys.closed:  # the input ended (read during a trial): nothing more comes
+                return None
             got = self.keys.get(_POLL_S)
             if got is not None:
                 return got[0]
@@ -242,6 +244,8 @@ class TerminalStreamDriver(StreamDriver):
             event = self._event(text, at)
             if event is not None:
                 events.append(event)
+                if event.kind != "touch":  # the lines after an end are the next trial's
+                    break
         return events
 
     def _input_ended(self) -> None:

@@ -247,3 +247,26 @@ def test_the_help_shows_the_bounds_and_choices_taken() -> None:
     assert "--speed <(0-100] in/s>" in helped("simulate")
     assert re.search(r"--method <point\|line\|ground>", helped("point"))
     assert "with --pair: pair:A,B" in helped("new")
+
+
+def test_the_keys_after_an_end_are_the_next_trials_and_the_input_end_ends_the_session() -> None:
+    """Lines typed ahead (a pipe: touch, e, then the end of the input) are taken in turn:
+    the trial ends at ``e`` and the end of the input, read after it, ends the session (it
+    was lost with the trial's events, and the session waited for a key for ever)."""
+    import threading
+    import time
+
+    from recorder.procedure.stream_terminal import TerminalStreamDriver
+
+    lines = iter(["1, 2, 3\n", "e\n"])
+    keys = KeyReader(lambda: next(lines, ""))
+    keys.start()
+    while keys.lines.qsize() < 3:  # both lines and the end of the input are queued
+        time.sleep(0.005)
+    driver = TerminalStreamDriver(lambda _line: None, keys, Units.IN)
+    assert [e.kind for e in driver.events()] == ["touch", "end"]
+    answer: list[bool] = []
+    waits = threading.Thread(target=lambda: answer.append(driver.next_trial(2)), daemon=True)
+    waits.start()
+    waits.join(timeout=5)
+    assert answer == [False]
