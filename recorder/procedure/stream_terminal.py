@@ -18,11 +18,12 @@ during a trial  Enter: a touch *now*, at the plan's next keyed point (or the poi
 With a plan (``--plan``) the trials start by themselves, its scheduled touches are marked
 at their times and its trials end at their ``duration`` (else by ``e``). A plan is
 unattended: one whose method needs a ground height the pair file lacks and the plan does
-not give, or (the standard input no terminal) one with a keyed touch, is refused before
-anything is recorded; every planned touch's point is checked (a ground touch on the floor).
-A closed input (end of file) ends the session where a key is waited for; while a trial
-streams by a plan it is said when keyed touches are left (they cannot be marked), and the
-trial goes on to its end.
+not give is refused before anything is recorded; every planned touch's point is checked (a
+ground touch on the floor). A keyed touch is the one thing a plan asks of the operator (its
+Enter, on the standard input: a terminal, or a script's pipe). A closed input (end of file)
+ends the session where a key is waited for; while a trial streams by a plan it is said when
+keyed touches are left (they cannot be marked: ``< /dev/null``), the trial goes on to its
+end and, with no touch, is said incomplete.
 """
 
 from __future__ import annotations
@@ -357,8 +358,6 @@ def record_pair(  # noqa: PLR0913 - what new --pair takes
     refuse_existing(out)
     pair = read_pair_file(pair_path)
     plan = load_stream_plan(plan_path) if plan_path is not None else None
-    if plan is not None and keys is None:
-        refuse_keyed_unattended(plan, sys.stdin)
     setup = ask_pair_setup(op, pair, plan=plan, **(given or {}))
     pair = setup.session_pair(pair)
     if plan is not None:
@@ -369,22 +368,6 @@ def record_pair(  # noqa: PLR0913 - what new --pair takes
     driver = TerminalStreamDriver(op.say, keys or KeyReader(), setup.units, plan)
     with stops.handled():
         return record_stream(out, info, cameras, pair, src, driver, ground=setup.ground())
-
-
-def refuse_keyed_unattended(plan: StreamPlan, stdin: Any) -> None:
-    """A plan's keyed touch (no ``at``) is the operator's Enter: refused before anything is
-    recorded when the standard input is no terminal (nobody would press it)."""
-    isatty = getattr(stdin, "isatty", None)
-    if isatty is not None and isatty():
-        return
-    for i, trial in enumerate(plan.trials, start=1):
-        for k, touch in enumerate(trial.touches, start=1):
-            if touch.at_s is None:
-                raise InputValueError(
-                    f"plan: trials[{i}].touches[{k}] is keyed (no `at`): the operator presses "
-                    "Enter at the touch, but the standard input is no terminal; give it an "
-                    "`at` (seconds after the trial's start), or record at a terminal"
-                )
 
 
 def refuse_off_floor(plan: StreamPlan, pair: PairCalibration) -> None:

@@ -7,7 +7,6 @@ nothing to measure, and the command help's bounds and choices."""
 from __future__ import annotations
 
 import dataclasses
-import io
 import re
 from pathlib import Path
 
@@ -167,17 +166,23 @@ def test_a_plans_ground_touch_off_the_floor_is_refused_before_recording(
     assert not out.exists()
 
 
-def test_a_plans_keyed_touch_needs_a_terminal(
-    tmp_path: Path, stills: str, monkeypatch: pytest.MonkeyPatch
+def test_a_plans_keyed_touch_with_nobody_at_the_input_is_said_from_the_command_line(
+    tmp_path: Path, stills: str
 ) -> None:
-    """Standard input no terminal (< /dev/null, a pipe): refused before anything."""
+    """``new --plan`` with a keyed touch and the input closed (``< /dev/null``): said, the
+    trial incomplete, what was recorded kept (it was "0 touches", said as complete)."""
     plan = _plan(tmp_path, _GROUND + "ground_height = 9.625\n[[trials]]\nduration = 0.2\n"
                  "touches = [{point = [1.455, 9.625, 7.375]}]\n")  # fmt: skip
-    monkeypatch.setattr("sys.stdin", io.StringIO(""))
     out = tmp_path / "keyed.mcap"
-    with pytest.raises(InputValueError, match=r"trials\[1\]\.touches\[1\] is keyed .* no terminal"):
-        record_pair(out, _no_floor(tmp_path), stills, Operator(_never_asked, print), plan_path=plan)
-    assert not out.exists()
+    result = CliRunner().invoke(app, [
+        "new", str(out), "--pair", str(_no_floor(tmp_path)), "--source", stills,
+        "--plan", str(plan),
+    ], input="")  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert "the input ended: 1 keyed touch(es) of this trial cannot be marked" in result.output
+    assert "incomplete: no touches (nothing to measure)" in result.output
+    assert "1 stream trial (0 complete)" in result.output
+    assert out.exists()
 
 
 def test_the_input_ending_under_a_keyed_plan_is_said_and_the_trial_incomplete(
