@@ -239,8 +239,8 @@ class TerminalStreamDriver(StreamDriver):
             if text is None:  # the input ended: nothing more is keyed
                 if self.plan is None:
                     events.append(StreamEvent(kind="quit", at_ns=at))
-                else:
-                    self._input_ended()
+                else:  # this batch's Enters take their points first
+                    self._input_ended(taken=sum(e.point is None for e in events))
                 break
             event = self._event(text, at)
             if event is not None:
@@ -249,14 +249,16 @@ class TerminalStreamDriver(StreamDriver):
                     break
         return events
 
-    def _input_ended(self) -> None:
-        """The input ended during a plan's trial: its keyed touches left are said lost."""
-        if self._keyed:
+    def _input_ended(self, taken: int = 0) -> None:
+        """The input ended during a plan's trial: its keyed touches left (but the ``taken``
+        first, whose Enter came before the end) are said lost."""
+        left = len(self._keyed) - taken
+        if left > 0:
             self.say(
-                f"  the input ended: {len(self._keyed)} keyed touch(es) of this trial cannot "
-                "be marked (nobody presses Enter); what was recorded is kept"
+                f"  the input ended: {left} keyed touch(es) of this trial cannot be marked "
+                "(nobody presses Enter); what was recorded is kept"
             )
-            self._keyed = []
+            self._keyed = self._keyed[:taken]
 
     def _event(self, text: str, at: int) -> StreamEvent | None:
         if text.lower() in ("e", "q"):

@@ -275,3 +275,25 @@ def test_the_keys_after_an_end_are_the_next_trials_and_the_input_end_ends_the_se
     waits.start()
     waits.join(timeout=5)
     assert answer == [False]
+
+
+def test_an_enter_read_with_the_input_end_still_takes_its_keyed_point(tmp_path: Path) -> None:
+    """A script's Enter and then the input's end, read in one go: the Enter touches the
+    plan's keyed point; only the keyed touches left after it are said lost."""
+    import time
+
+    from recorder.procedure.stream_terminal import TerminalStreamDriver
+
+    plan = load_stream_plan(_plan(tmp_path, 'method = "point"\n[[trials]]\n'
+                                  "touches = [{point = [1, 2, 9]}, {point = [3, 2, 9]}]\n"))  # fmt: skip
+    lines = iter(["\n"])
+    keys = KeyReader(lambda: next(lines, ""))
+    keys.start()
+    while keys.lines.qsize() < 2:
+        time.sleep(0.005)
+    said: list[str] = []
+    driver = TerminalStreamDriver(said.append, keys, Units.IN, plan)
+    driver.streaming(1)
+    assert [e.point for e in driver.events()] == [None]
+    assert driver.next_point(1) == (1.0, 2.0, 9.0)
+    assert any("the input ended: 1 keyed touch(es)" in line for line in said), said
