@@ -284,8 +284,8 @@ def test_an_enter_read_with_the_input_end_still_takes_its_keyed_point(tmp_path: 
 
     from recorder.procedure.stream_terminal import TerminalStreamDriver
 
-    plan = load_stream_plan(_plan(tmp_path, 'method = "point"\n[[trials]]\n'
-                                  "touches = [{point = [1, 2, 9]}, {point = [3, 2, 9]}]\n"))  # fmt: skip
+    text = 'method = "point"\n[[trials]]\ntouches = [{point = [1, 2, 9]}, {point = [3, 2, 9]}]\n'
+    plan = load_stream_plan(_plan(tmp_path, text))
     lines = iter(["\n"])
     keys = KeyReader(lambda: next(lines, ""))
     keys.start()
