@@ -25,8 +25,14 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from recorder.procedure import stops
+from recorder.sources.pair import QueueBound
 from recorder.sources.pair_feeds import CLOCK_GRAB
 from twopose.errors import SourceError
+
+#: The board search wants the cameras' latest frames: each camera's queue holds a second of
+#: them (a recording's holds 10 s, :data:`recorder.sources.pair.QUEUE_S`), so that a search
+#: slower than the cameras drops frames, counted and said, rather than lag behind the board.
+LIVE_BOUND = QueueBound(seconds=1.0)
 
 if TYPE_CHECKING:
     import numpy as np
@@ -91,7 +97,9 @@ def live_pairs(
     say: Callable[[str], None],
 ) -> Iterator[StillPair]:
     """The pairs to fit, from ``source`` (opened here): every pair of a folder of stills;
-    from cameras and videos, the pairs the rules keep (the module docstring)."""
+    from cameras and videos, the pairs the rules keep (the module docstring); each camera's
+    queue bounded by :data:`LIVE_BOUND`."""
+    source.bound_to(LIVE_BOUND)
     with stops.handled() as stop, source:
         outcome.cameras, outcome.stills = source.cameras, source.stills
         outcome.warnings = list(source.warnings)
@@ -112,6 +120,8 @@ def live_pairs(
             outcome.ended = f"{err}: {_count(outcome)}"  # the pairs kept are fitted
         finally:
             outcome.dropped = source.dropped_by_camera
+            for line in source.drops_said():
+                say(f"warning: {line}")
     if not outcome.ended:
         ended = "; ".join(source.ended_by()) or source.ended_early or "both cameras ended"
         outcome.ended = f"{ended}: {_count(outcome)}"

@@ -207,3 +207,27 @@ def test_a_signal_stops_a_live_calibration_within_2_s(
     assert "Traceback" not in text
     assert "nothing written" in text
     assert not out.exists()
+
+
+def test_a_live_board_search_keeps_a_second_of_each_cameras_frames(tmp_path: Path) -> None:
+    """A recording's queue holds 10 s; a live board search wants the latest frames: its
+    source's queues hold a second (at 60 fps, 60 frames), so a slow search drops, never lags."""
+    from recorder.calibration.pair_live import LIVE_BOUND, LiveOutcome, LiveRules, live_pairs
+    from recorder.sources.registry import open_pair
+
+    paths = []
+    for c in (1, 2):
+        path = tmp_path / f"{c}.avi"
+        writer = cv2.VideoWriter(str(path), cv2.VideoWriter.fourcc(*"MJPG"), 60.0, (64, 48))
+        for _ in range(6):
+            writer.write(np.full((48, 64, 3), 40 * c, np.uint8))
+        writer.release()
+        paths.append(path)
+    source = open_pair(f"video:{paths[0]}", f"video:{paths[1]}")
+    assert source.bound.seconds == 10.0
+    outcome = LiveOutcome()
+    assert list(live_pairs(source, (9, 6), LiveRules(), outcome, lambda _: None)) == []
+    assert source.bound == LIVE_BOUND
+    assert LIVE_BOUND.seconds == 1.0
+    assert [r.limit for r in source._readers] == [60, 60]
+    assert outcome.examined == 6  # every pair searched, none with a board

@@ -140,6 +140,44 @@ def test_a_slow_reader_loses_frames_counted_never_silently(tmp_path: Path) -> No
         dropped = source.dropped_by_camera
     assert min(dropped) > 0
     assert [g + d for g, d in zip(given, dropped, strict=True)] == [30, 30]
+    said = source.drops_said()  # each overflow said, never silent
+    assert said
+    assert {line.split(" ")[1] for line in said} == {"1", "2"}
+    assert "the consumer fell" in said[0]
+    assert "past the queue's bound (1 frames" in said[0]
+
+
+def test_a_consumer_stalled_for_seconds_loses_nothing(tmp_path: Path) -> None:
+    """The default bound (10 s, 256 MiB a camera): a consumer that takes one frame, then
+    stalls for 2.5 s while both files play on at 60 fps, still gets every frame paired,
+    none dropped, nothing said; a bound of ~0.2 s in bytes drops in the same stall, counted
+    and said."""
+    from recorder.sources.pair import QUEUE_S, QueueBound
+
+    assert QUEUE_S >= 5  # a few seconds of any camera's frames
+    files = [_video(tmp_path / f"{c}.avi", 180, 60.0, shade=c) for c in (1, 2)]  # 3 s
+    with open_pair(f"video:{files[0]}", f"video:{files[1]}") as source:
+        pairs = source.pairs()
+        first = next(pairs)
+        time.sleep(2.5)
+        rest = list(pairs)
+        assert source.dropped_by_camera == (0, 0)
+        assert source.drops_said() == []
+        deepest = [n for n, _ in source.deepest_by_camera]
+        assert min(deepest) >= 120  # the stall held 2 s or more of 60 fps frames
+    assert [p.first.index for p in (first, *rest)] == list(range(180))
+    small = QueueBound(bytes=3000)  # these frames' JPEGs are ~220 bytes: ~0.2 s of them
+    with open_pair(f"video:{files[0]}", f"video:{files[1]}", bound=small) as source:
+        given = [0, 0]
+        for frame in source.frames():
+            given[frame.camera - 1] += 1
+            if sum(given) == 1:
+                time.sleep(2.0)
+        dropped = source.dropped_by_camera
+        said = source.drops_said()
+    assert min(dropped) > 0
+    assert [g + d for g, d in zip(given, dropped, strict=True)] == [180, 180]
+    assert any("MB queued of" in line for line in said)
 
 
 def test_stills_are_never_dropped_and_keep_their_names(tmp_path: Path) -> None:

@@ -169,6 +169,10 @@ class StreamEstimate:
     margins: dict[str, F64] = field(default_factory=dict)
     skew_share: F64 = field(default_factory=lambda: np.zeros(0))
     interpolated: Bools = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    #: (P, 2, 3) what the solver was given per pair and camera: the centroid (col, row)
+    #: with the lens' distortion removed and the line's direction (deg; NaN for a dot);
+    #: camera 1's brought to the pair's time (NaN where it could not be).
+    measured: F64 = field(default_factory=lambda: np.zeros((0, 2, 3)))
 
     @property
     def ok(self) -> Bools:
@@ -378,6 +382,7 @@ def estimate_stream(
         cov=cov, semiaxis95=semiaxis95(cov), status=status, reason=reason,
         conditioning=solved.conditioning, margins=solved.margins, skew_share=skew_share,
         interpolated=np.full(at.size, settings.interpolate) & one.ok,
+        measured=batch.inputs[:, :, :3].copy(),
     )  # fmt: skip
 
 
