@@ -28,7 +28,7 @@ stamps' jitter averages out instead of entering every frame. No I/O.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -37,6 +37,7 @@ from twopose.arrays import F64, Bools, Ints
 from twopose.errors import InputValueError
 from twopose.pair.board_fit import LensModel
 from twopose.pair.calibration import PairCalibration
+from twopose.values.bounds import CLOCK_OFFSET
 
 __all__ = [
     "ClockOffset",
@@ -61,6 +62,13 @@ MAX_SIGMA_SHARE = 0.25
 #: offset a frame or more from the best must fit worse: below it, another offset fits
 #: nearly as well and the offset is not known.
 MIN_LIKELIHOOD_RATIO = 25.0
+#: The offsets searched by default, either way (ns): every one a session accepts
+#: (``bounds.CLOCK_OFFSET``) and a frame more, so that its largest has a minimum inside.
+SEARCH_NS = CLOCK_OFFSET.high * 1e6 + 0.05e9
+#: The fine search's candidates per frame interval (its step's uniform error enters sigma).
+FINE_STEPS = 200
+#: The mean squared gap this many times smaller with the cameras exchanged says they are.
+SWAP_RATIO = 10.0
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -309,22 +317,84 @@ class _DotTracks:
         """
         return float(np.hypot(np.min(self.clock_sigma[0]), np.min(self.clock_sigma[1])))
 
-    def mean_gap(self, candidates: F64) -> tuple[F64, F64]:
-        """(C,) the mean squared gap at each candidate offset, and (C,) the frames used.
+    def gaps(self, candidates: F64) -> tuple[F64, F64]:
+        """(C, N2) the rays' gap (px) at each candidate offset, and its noise weight.
 
-        Each gap is weighed by its noise: camera 2's frame and camera 1's two, by ``1 - w``
-        and ``w`` (equal noise taken), ``1 + w^2 + (1 - w)^2`` times one frame's variance; a
-        cost not weighed so would favour offsets that put camera 2's frames on camera 1's
-        (where interpolation averages no noise away), the more so the slower the dot.
+        The weight is camera 2's frame and camera 1's two, by ``1 - w`` and ``w`` (equal
+        noise taken), ``1 + w^2 + (1 - w)^2`` times one frame's variance; NaN gaps where
+        camera 1 has no frames about camera 2's.
         """
         u1, w = self.camera1_at(self.times[1][None, :] - candidates[:, None])
         u2 = np.where(self.found[1][:, None], self.tracks[1], np.nan)
         gap = epipolar_gap_px(self.pair, u1, np.broadcast_to(u2, u1.shape))
-        g2 = gap**2 / (1 + w**2 + (1 - w) ** 2)
+        return gap, 1 + w**2 + (1 - w) ** 2
+
+    def mean_gap(self, candidates: F64, *, common: bool = False) -> tuple[F64, F64]:
+        """(C,) the mean squared gap at each candidate offset, and (C,) the frames used.
+
+        Each gap is weighed by its noise (:meth:`gaps`); a cost not weighed so would favour
+        offsets that put camera 2's frames on camera 1's (where interpolation averages no
+        noise away), the more so the slower the target. ``common``: over the frames every
+        candidate measures only -- a mean over a set of frames that changes with the
+        offset is no function of it (a frame whose camera-1 neighbours leave the set at
+        one candidate made a step that looked like a sharp minimum, issue 58's 50% drop).
+        """
+        gap, weight = self.gaps(candidates)
+        g2 = gap**2 / weight
+        if common:
+            every: Bools = np.asarray(np.isfinite(g2).all(axis=0))
+            g2 = np.where(every[None, :], g2, np.nan)
         used = np.isfinite(g2).sum(axis=1)
         enough = used >= MIN_GAP_FRAMES
         mean = np.where(enough, np.nansum(g2, axis=1) / np.maximum(used, 1), np.nan)
         return mean, used.astype(np.float64)
+
+    def interpolation_ns(self, offset_ns: float, step_ns: float) -> float:
+        """The offset's error (ns) that interpolating camera 1 linearly can make, 1-sigma.
+
+        Between two camera-1 frames ``dt`` apart, a track bending with acceleration ``a``
+        (px/ns^2, from camera 1's three frames about each) is missed by the line through
+        them by ``w (1 - w) dt^2 a / 2``; each gap moves by that error's share across the
+        epipolar line (``dg``), and the offset by ``-sum(dg s / v) / sum(s^2 / v)``, ``s``
+        each gap's rate with the offset and ``v`` its weight. Its size is carried as a
+        term of the sigma: a fast or sharply turning target (100 in/s round a 2 in square)
+        or frames bridged across a dropped one bend between camera 1's frames.
+        """
+        track, t, found = self.tracks[0], self.times[0], self.found[0]
+        acc = np.full(track.shape, np.nan)
+        dt_left, dt_right = np.diff(t)[:-1], np.diff(t)[1:]
+        slope = (track[1:] - track[:-1]) / np.diff(t)[:, None]
+        acc[1:-1] = 2 * (slope[1:] - slope[:-1]) / (dt_left + dt_right)[:, None]
+        acc[1:-1][~(found[:-2] & found[1:-1] & found[2:])] = np.nan
+        candidates = np.array([offset_ns - step_ns, offset_ns, offset_ns + step_ns])
+        gap, weight = self.gaps(candidates)
+        i, w, ok = self.weights(offset_ns)
+        ok = ok & np.isfinite(gap).all(axis=0)
+        if ok.sum() < 2:
+            return 0.0
+        i, w = i[ok], w[ok]
+        # The larger bend of the bracket's two frames (either may lack its neighbours).
+        a = np.where(np.isfinite(acc[i]), acc[i], acc[i + 1])
+        a_other = np.where(np.isfinite(acc[i + 1]), acc[i + 1], acc[i])
+        larger = np.linalg.norm(np.nan_to_num(a_other), axis=1) > np.linalg.norm(
+            np.nan_to_num(a), axis=1
+        )
+        a = np.where(larger[:, None], a_other, a)
+        dt = t[i + 1] - t[i]
+        miss = (0.5 * w * (1 - w) * dt**2)[:, None] * np.nan_to_num(a)
+        at = self.times[1][ok] - offset_ns
+        u1, _ = self.camera1_at(at)
+        u2 = self.tracks[1][ok]
+        dg = epipolar_gap_px(self.pair, u1 + miss, u2) - epipolar_gap_px(self.pair, u1, u2)
+        s = (gap[2, ok] - gap[0, ok]) / (2 * step_ns)
+        v = weight[1, ok]
+        info = float((s**2 / v).sum())
+        if not info > 0:
+            return 0.0
+        # Signed (a bend shared by neighbouring frames moves them alike) and random parts.
+        shift = abs(float((np.nan_to_num(dg) * s / v).sum())) / info
+        spread = float(np.sqrt((np.nan_to_num(dg) ** 2 * s**2 / v**2).sum())) / info
+        return float(np.hypot(shift, spread))
 
 
 def offset_from_ray_gap(
@@ -334,70 +404,139 @@ def offset_from_ray_gap(
     track2_px: ArrayLike,
     t2_ns: ArrayLike,
     *,
-    search_ns: tuple[float, float] = (-0.5e9, 0.5e9),
+    search_ns: tuple[float, float] = (-SEARCH_NS, SEARCH_NS),
 ) -> ClockOffset:
-    """The clock offset from a moving dot both cameras see (the module docstring).
+    """The clock offset from a moving target both cameras see (the module docstring).
 
     Parameters
     ----------
     pair : PairCalibration
         The calibrated pair.
     track1_px, track2_px : (N1, 2), (N2, 2) array_like
-        The dot's pixel (col, row) in each frame of camera 1 and camera 2, as detected
+        The target's pixel (col, row) in each frame of camera 1 and camera 2, as detected
         (distorted); NaN where not found.
     t1_ns, t2_ns : (N1,), (N2,) array_like
         Their capture times (nanoseconds, each camera's clock).
     search_ns : (float, float)
-        The range of offsets searched.
+        The range of offsets searched (default: every offset a session accepts,
+        ``bounds.CLOCK_OFFSET``, and a frame more).
 
     Returns
     -------
     ClockOffset
     """
-    dots = _dot_tracks(pair, (track1_px, track2_px), (t1_ns, t2_ns))
+    tracks, times = (track1_px, track2_px), (t1_ns, t2_ns)
+    dots = _dot_tracks(pair, tracks, times)
+    try:
+        return _ray_gap(dots, search_ns)
+    except InputValueError as err:
+        raise InputValueError(f"{err}{_swapped_hint(pair, tracks, times, search_ns)}") from err
+
+
+def _ray_gap(dots: _DotTracks, search_ns: tuple[float, float]) -> ClockOffset:
+    """:func:`offset_from_ray_gap` on checked tracks (refusals raised, without the hint)."""
     interval = float(np.median(np.diff(dots.times[0])))
     lo, hi = sorted(float(x) for x in search_ns)
     coarse = np.arange(lo, hi + interval / 8, interval / 4)
-    cost, _ = dots.mean_gap(coarse)
+    coarse_cost, coarse_used = dots.mean_gap(coarse)
+    if not np.isfinite(coarse_cost).any():
+        raise InputValueError(
+            f"the target was seen by both cameras at the same time in fewer than "
+            f"{MIN_GAP_FRAMES} frames at every offset from {lo / 1e6:g} to {hi / 1e6:g} ms: "
+            "record a longer trial, with the target in both cameras' view"
+        )
+    # Offsets that leave most frames without partners rest on few: their mean is noisy.
+    supported = coarse_used >= 0.5 * coarse_used.max()
+    best = coarse[int(np.nanargmin(np.where(supported, coarse_cost, np.nan)))]
+    h = interval / FINE_STEPS
+    fine = np.arange(best - interval / 2, best + interval / 2 + h / 2, h)
+    cost, used = dots.mean_gap(fine, common=True)
     if not np.isfinite(cost).any():
         raise InputValueError(
-            f"the dot was seen by both cameras at the same time in fewer than {MIN_GAP_FRAMES} "
-            "frames at any offset searched: record longer, or widen the search"
+            f"fewer than {MIN_GAP_FRAMES} of camera 2's frames have camera 1's frames about "
+            "them at every offset near the best (frames dropped): record a longer trial"
         )
-    coarse_cost, coarse_used = cost, _
-    best = coarse[int(np.nanargmin(cost))]
-    fine = np.arange(best - interval / 2, best + interval / 2 + interval / 100, interval / 50)
-    cost, used = dots.mean_gap(fine)
     k = int(np.nanargmin(cost))
     if k == 0 or k == fine.size - 1 or not np.isfinite(cost[k - 1 : k + 2]).all():
-        raise InputValueError("the rays' gap has no minimum inside the offsets searched")
-    h = fine[1] - fine[0]
+        raise InputValueError(
+            f"the rays' gap has no minimum near {best / 1e6:.0f} ms over the frames every "
+            "offset about it measures (too few frames, or too many dropped): record a longer "
+            "trial, dropping fewer frames"
+        )
     c0, c1, c2 = cost[k - 1], cost[k], cost[k + 1]
     curvature = (c0 - 2 * c1 + c2) / h**2  # of the mean squared gap
-    refused = InputValueError(
-        "the dot's motion does not fix the clock offset (it moved along the epipolar lines, "
-        "or too little): move it across them, up and down for cameras side by side"
-    )
     if not curvature > 0:
-        raise refused
+        raise InputValueError(_NOT_FIXED)
     vertex = fine[k] + 0.5 * h * (c0 - c2) / (c0 - 2 * c1 + c2)
     n = int(used[k])
     # Least squares on S = n * mean: var = 2 s^2 / S'', s^2 = S_min / (n - 1).
     min_mean = c1 - 0.25 * (c0 - c2) ** 2 / (c0 - 2 * c1 + c2) / 2
     variance = 2 * max(min_mean, 0.0) / ((n - 1) * curvature) * dots.correlation_factor(vertex)
     if np.sqrt(variance) > MAX_SIGMA_SHARE * interval:
-        raise refused
+        raise InputValueError(_NOT_FIXED)
     # A likelihood ratio against every offset a frame or more away: one that fits nearly
     # as well (the motion along the epipolar lines fits every offset; a periodic one
     # several) leaves the offset unknown.
-    far = np.abs(coarse - vertex) > interval
+    far = (np.abs(coarse - vertex) > interval) & supported
     with np.errstate(invalid="ignore", divide="ignore"):
         ratio = coarse_used[far] * (coarse_cost[far] / max(min_mean, 1e-300) - 1.0)
-    if far.any() and np.nanmin(np.where(np.isfinite(ratio), ratio, np.inf)) < MIN_LIKELIHOOD_RATIO:
-        raise refused
-    variance += dots.clock_sigma_ns() ** 2
+    ratio = np.where(np.isfinite(ratio), ratio, np.inf)
+    if far.any() and ratio.min() < MIN_LIKELIHOOD_RATIO:
+        rival = coarse[far][int(np.argmin(ratio))]
+        raise InputValueError(
+            f"the rays' gap fits an offset of {rival / 1e6:.0f} ms nearly as well as "
+            f"{vertex / 1e6:.0f} ms: the target moved too little, in a repeating path, or "
+            "along the epipolar lines: move it across them, up and down for cameras side "
+            "by side"
+        )
+    # Camera 1's interpolation error (a bend between its frames) as a term, and the grid's
+    # resolution (a uniform step), then the fitted clocks' own error.
+    bend = dots.interpolation_ns(float(vertex), h)
+    variance += bend**2 + h**2 / 12 + dots.clock_sigma_ns() ** 2
+    if bend > MAX_SIGMA_SHARE * interval:
+        raise InputValueError(
+            f"the target's track bends too much between camera 1's frames to be interpolated "
+            f"(the offset could be off by {bend / 1e6:.1f} ms): move it slower or straighter, "
+            "or drop fewer frames"
+        )
     return ClockOffset(
         offset_ns=float(vertex), sigma_ns=float(np.sqrt(variance)), method="ray gap", n=n
+    )
+
+
+_NOT_FIXED = (
+    "the target's motion does not fix the clock offset (it moved along the epipolar lines, "
+    "or too little): move it across them, up and down for cameras side by side"
+)
+
+
+def _swapped_hint(
+    pair: PairCalibration,
+    tracks: tuple[ArrayLike, ArrayLike],
+    times: tuple[ArrayLike, ArrayLike],
+    search_ns: tuple[float, float],
+) -> str:
+    """Words for a refusal when the cameras look exchanged: the gap far smaller so."""
+    R = pair.R_2_to_1
+    swapped = replace(
+        pair, intrinsics1=pair.intrinsics2, intrinsics2=pair.intrinsics1, R_2_to_1=R.T,
+        t_2_in_1=-R.T @ pair.t_2_in_1, floor=None, sigma1=pair.sigma2, sigma2=pair.sigma1,
+    )  # fmt: skip
+    try:
+        ours = _dot_tracks(pair, tracks, times)
+        theirs = _dot_tracks(swapped, (tracks[1], tracks[0]), (times[1], times[0]))
+        interval = float(np.median(np.diff(ours.times[0])))
+        grid = np.arange(min(search_ns), max(search_ns) + interval / 8, interval / 4)
+        own = float(np.nanmin(ours.mean_gap(grid)[0]))
+        other = float(np.nanmin(theirs.mean_gap(grid)[0]))
+    except (InputValueError, ValueError):
+        return ""
+    if not other * SWAP_RATIO < own:
+        return ""
+    return (
+        f"; the cameras may be in the wrong order: with camera 1 and camera 2 exchanged the "
+        f"rays' gap is {np.sqrt(own / max(other, 1e-300)):.0f} times smaller: record with "
+        "the pair's camera 1 given first"
     )
 
 
