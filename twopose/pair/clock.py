@@ -28,7 +28,7 @@ stamps' jitter averages out instead of entering every frame. No I/O.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -37,7 +37,6 @@ from twopose.arrays import F64, Bools, Ints
 from twopose.errors import InputValueError
 from twopose.pair.board_fit import LensModel
 from twopose.pair.calibration import PairCalibration
-from twopose.values.bounds import CLOCK_OFFSET
 
 __all__ = [
     "ClockOffset",
@@ -62,9 +61,10 @@ MAX_SIGMA_SHARE = 0.25
 #: offset a frame or more from the best must fit worse: below it, another offset fits
 #: nearly as well and the offset is not known.
 MIN_LIKELIHOOD_RATIO = 25.0
-#: The offsets searched by default, either way (ns): every one a session accepts
-#: (``bounds.CLOCK_OFFSET``) and a frame more, so that its largest has a minimum inside.
-SEARCH_NS = CLOCK_OFFSET.high * 1e6 + 0.05e9
+#: The offsets searched by default, either way (ns). Wider finds a repeating motion's
+#: other periods (a 2 in square at 10 in/s repeats every 0.8 s) and, on a short trial,
+#: offsets few frames overlap at: a best at its edge is refused as beyond it.
+SEARCH_NS = 0.5e9
 #: The fine search's candidates per frame interval (its step's uniform error enters sigma).
 FINE_STEPS = 200
 #: The mean squared gap this many times smaller with the cameras exchanged says they are.
@@ -418,8 +418,7 @@ def offset_from_ray_gap(
     t1_ns, t2_ns : (N1,), (N2,) array_like
         Their capture times (nanoseconds, each camera's clock).
     search_ns : (float, float)
-        The range of offsets searched (default: every offset a session accepts,
-        ``bounds.CLOCK_OFFSET``, and a frame more).
+        The range of offsets searched (default :data:`SEARCH_NS` either way).
 
     Returns
     -------
@@ -428,9 +427,15 @@ def offset_from_ray_gap(
     tracks, times = (track1_px, track2_px), (t1_ns, t2_ns)
     dots = _dot_tracks(pair, tracks, times)
     try:
-        return _ray_gap(dots, search_ns)
+        offset = _ray_gap(dots, search_ns)
     except InputValueError as err:
         raise InputValueError(f"{err}{_swapped_hint(pair, tracks, times, search_ns)}") from err
+    # Exchanged cameras can still find a minimum (a wrong one, with a small sigma): the
+    # gap far smaller the other way round refuses it.
+    hint = _swapped_hint(pair, tracks, times, search_ns)
+    if hint:
+        raise InputValueError(hint.removeprefix("; "))
+    return offset
 
 
 def _ray_gap(dots: _DotTracks, search_ns: tuple[float, float]) -> ClockOffset:
@@ -448,6 +453,12 @@ def _ray_gap(dots: _DotTracks, search_ns: tuple[float, float]) -> ClockOffset:
     # Offsets that leave most frames without partners rest on few: their mean is noisy.
     supported = coarse_used >= 0.5 * coarse_used.max()
     best = coarse[int(np.nanargmin(np.where(supported, coarse_cost, np.nan)))]
+    if min(best - lo, hi - best) < interval:
+        raise InputValueError(
+            f"the rays' gap is smallest at the edge of the offsets searched ({lo / 1e6:+.0f} "
+            f"to {hi / 1e6:+.0f} ms): the cameras' clocks may differ by more, which the ray "
+            "gap does not measure: measure the offset by a flash both cameras see"
+        )
     h = interval / FINE_STEPS
     fine = np.arange(best - interval / 2, best + interval / 2 + h / 2, h)
     cost, used = dots.mean_gap(fine, common=True)
@@ -517,14 +528,10 @@ def _swapped_hint(
     search_ns: tuple[float, float],
 ) -> str:
     """Words for a refusal when the cameras look exchanged: the gap far smaller so."""
-    R = pair.R_2_to_1
-    swapped = replace(
-        pair, intrinsics1=pair.intrinsics2, intrinsics2=pair.intrinsics1, R_2_to_1=R.T,
-        t_2_in_1=-R.T @ pair.t_2_in_1, floor=None, sigma1=pair.sigma2, sigma2=pair.sigma1,
-    )  # fmt: skip
     try:
         ours = _dot_tracks(pair, tracks, times)
-        theirs = _dot_tracks(swapped, (tracks[1], tracks[0]), (times[1], times[0]))
+        # The pair as calibrated, fed each camera's track as the other's.
+        theirs = _dot_tracks(pair, (tracks[1], tracks[0]), (times[1], times[0]))
         interval = float(np.median(np.diff(ours.times[0])))
         grid = np.arange(min(search_ns), max(search_ns) + interval / 8, interval / 4)
         own = float(np.nanmin(ours.mean_gap(grid)[0]))
@@ -535,8 +542,8 @@ def _swapped_hint(
         return ""
     return (
         f"; the cameras may be in the wrong order: with camera 1 and camera 2 exchanged the "
-        f"rays' gap is {np.sqrt(own / max(other, 1e-300)):.0f} times smaller: record with "
-        "the pair's camera 1 given first"
+        f"rays' gap is {np.sqrt(own / max(other, 1e-300)):.0f} times smaller (RMS): record "
+        "with the pair's camera 1 given first (`new --source pair:A,B`: A is camera 1)"
     )
 
 
