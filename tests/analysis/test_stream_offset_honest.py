@@ -6,10 +6,12 @@ false sharp minimum (2.0 +- 7.7e-8 ms against 12.5): now refused in words, or co
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import pytest
 
+import analysis
 from analysis.session.stream import replay_pair_session
 from recorder.simulate.pair import PairTiming, simulate_pair_session
 from twopose.errors import InputValueError
@@ -41,3 +43,19 @@ def test_a_measured_offset_is_within_its_sigma_or_refused(
         offset = trial.offset
         error_ms = offset.offset_ns / 1e6 - timing.clock_offset_ms
         assert abs(error_ms) <= 3 * offset.sigma_ns / 1e6, (error_ms, offset)
+
+
+def test_a_touch_lost_to_a_camera_names_it_and_the_detectors_reason(tmp_path: Path) -> None:
+    """Issue 58 (adversarial 12): the README's demo's failed touches said "the nearest
+    pair's fewer than two views"; the row names the camera and why its detector refused."""
+    path = tmp_path / "demo.mcap"
+    timing = PairTiming(speed=10.0, clock_offset_ms=12.5)
+    simulate_pair_session(path, method=Method.GROUND, timing=timing, trials=1, seed=0)
+    rows = analysis.run([path]).trials
+    lost = rows[rows["status"] != "ok"]
+    # Two of its four touches are lost to camera 2 (the finger merged with its shadow in
+    # the simulator's frames); when the scene is fixed, this test needs another lost touch.
+    assert not lost.empty
+    for reason in lost["reason"]:
+        assert "fewer than two views" not in reason
+        assert re.search(r"not detected by camera [12]: \S", reason), reason

@@ -534,10 +534,12 @@ def _swapped_hint(
         theirs = _dot_tracks(pair, (tracks[1], tracks[0]), (times[1], times[0]))
         interval = float(np.median(np.diff(ours.times[0])))
         grid = np.arange(min(search_ns), max(search_ns) + interval / 8, interval / 4)
-        own = float(np.nanmin(ours.mean_gap(grid)[0]))
-        other = float(np.nanmin(theirs.mean_gap(grid)[0]))
+        own_cost, other_cost = ours.mean_gap(grid)[0], theirs.mean_gap(grid)[0]
     except (InputValueError, ValueError):
         return ""
+    if not (np.isfinite(own_cost).any() and np.isfinite(other_cost).any()):
+        return ""
+    own, other = float(np.nanmin(own_cost)), float(np.nanmin(other_cost))
     if not other * SWAP_RATIO < own:
         return ""
     return (
