@@ -32,6 +32,7 @@ from twopose.arrays import F32
 from twopose.camera.model import SIGMA_KEYS, Intrinsics, intrinsics_sigma
 from twopose.detect.checkerboard import board_pattern, find_board, outlier_view
 from twopose.errors import InputValueError, SessionExistsError, SourceError
+from twopose.values.bounds import INNER_CORNERS
 from twopose.values.toml import read_toml
 
 __all__ = [
@@ -153,8 +154,11 @@ def calibrate(
         views used.
     """
     cols, rows = board
-    if cols < 2 or rows < 2:
-        raise InputValueError(f"the board needs at least 2x2 inner corners, got {cols}x{rows}")
+    low = INNER_CORNERS.low  # OpenCV's board search needs more than 2 each way
+    if cols < low or rows < low:
+        raise InputValueError(
+            f"the board needs at least {low:g}x{low:g} inner corners, got {cols}x{rows}"
+        )
     kept = _collect(
         source,
         board,

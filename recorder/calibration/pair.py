@@ -39,7 +39,7 @@ from recorder.sources.registry import IMAGE_SUFFIXES
 from twopose.arrays import F32
 from twopose.camera.model import Intrinsics
 from twopose.detect.checkerboard import board_pattern, find_board
-from twopose.errors import InputValueError, SessionExistsError
+from twopose.errors import InputValueError, SessionExistsError, TwoposeError
 from twopose.pair.board_fit import BoardCorners
 from twopose.pair.calibration import MIN_VIEWS, FloorPlane, PairCalibration, fit_pair
 from twopose.pair.floor import floor_from_board, with_floor
@@ -369,6 +369,10 @@ def calibrate_pair(
     r = request
     if r.out.exists():
         raise SessionExistsError(f"{r.out} already exists; choose another pair file")
+    if not r.out.parent.is_dir():  # said before the fit, never after it
+        raise TwoposeError(
+            f"cannot create {r.out}: the folder {r.out.parent} does not exist (create it first)"
+        )
     _refuse_combinations(r)
     calibrations = None
     if r.calibration_left is not None and r.calibration_right is not None:

@@ -132,6 +132,27 @@ def test_an_existing_pair_file_is_refused_before_any_work(stills: Path, tmp_path
     assert out.read_text("utf-8") == "kept"
 
 
+def test_an_output_in_a_missing_folder_is_refused_before_any_work(
+    stills: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "nodir" / "P.toml"
+    result = runner.invoke(app, _args(stills, out))
+    assert result.exit_code == EXIT_ERROR, result.output
+    assert f"cannot create {out}: the folder {out.parent} does not exist" in result.output
+    assert "board found" not in result.output  # said before reading a still, not a traceback
+
+
+def test_calibrate_refuses_a_board_opencv_cannot_search(stills: Path, tmp_path: Path) -> None:
+    out = tmp_path / "cal.toml"
+    args = ["calibrate", str(out), "--source", f"images:{stills}", "--board", "2x5"]
+    result = runner.invoke(app, [*args, "--square", "25"])
+    assert result.exit_code == EXIT_ERROR, result.output
+    assert "--board: inner corners cols must be a whole number from 3 to 100, got 2" in (
+        result.output
+    )
+    assert not out.exists()
+
+
 @pytest.fixture
 def uneven(stills: Path, tmp_path: Path) -> Path:
     """The five pairs, but camera 2's third still is missing."""
@@ -184,6 +205,8 @@ def test_pairs_without_the_board_in_both_are_said_and_too_few_refused(
         (["--floor-right", "RIGHT01"], EXIT_ERROR, "--floor-right needs --floor-left"),
         (["--board", "9x"], EXIT_ERROR, "--board: inner corners rows: type a"),
         (["--board", "nine"], EXIT_ERROR, "--board: type the board's inner corners as COLSxROWS"),
+        # OpenCV's board search needs 3 or more each way (it raised cv2.error on 2x5)
+        (["--board", "2x5"], EXIT_ERROR, "--board: inner corners cols must be a whole number from 3"),
         (["--square", "0"], EXIT_USAGE, "--square"),
         (["--square", "1_0"], EXIT_USAGE, "--square"),
         (["--units", "ft"], EXIT_USAGE, "--units"),
