@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import dataclasses
 import glob
-import re
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,6 +34,7 @@ from recorder.calibration.camera import (
     load_calibration,
     load_calibration_sigma,
 )
+from recorder.calibration.pair_live import numbers_differ
 from recorder.sources.registry import IMAGE_SUFFIXES
 from twopose.arrays import F32
 from twopose.camera.model import Intrinsics
@@ -325,8 +325,7 @@ def still_pairs(left: str, right: str) -> list[tuple[str, Path, Path]]:
     for a, b in zip(files[0], files[1], strict=True):
         if a.resolve() == b.resolve():
             raise InputValueError(f"{a} is both cameras' still: --left and --right must differ")
-        na, nb = re.findall(r"\d+", a.stem), re.findall(r"\d+", b.stem)
-        if na and nb and [int(x) for x in na] != [int(x) for x in nb]:
+        if numbers_differ(a.name, b.name):
             raise InputValueError(
                 f"{a.name} is paired with {b.name} (sorted names) but their numbers differ: a "
                 "still is missing on one side, or the names do not match"

@@ -20,13 +20,15 @@ folders' images in file-name order and keeps every pair, as ``--left``/``--right
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from recorder.procedure import stops
 from recorder.sources.pair_feeds import CLOCK_GRAB
-from twopose.errors import SourceError
+from twopose.errors import InputValueError, SourceError
 
 if TYPE_CHECKING:
     import numpy as np
@@ -38,7 +40,7 @@ if TYPE_CHECKING:
     #: A pair to fit: its name, camera 1's image, camera 2's (as pair_calibration's).
     StillPair = tuple[str, NDArray[np.uint8], NDArray[np.uint8]]
 
-__all__ = ["LIVE_VIEWS", "LiveOutcome", "LiveRules", "live_pairs"]
+__all__ = ["LIVE_VIEWS", "LiveOutcome", "LiveRules", "live_pairs", "numbers_differ"]
 
 #: How many pairs a live source's calibration keeps unless told (``--views``).
 LIVE_VIEWS = 15
@@ -117,6 +119,21 @@ def live_pairs(
         outcome.ended = f"{ended}: {_count(outcome)}"
 
 
+def numbers_differ(first: str, second: str) -> bool:
+    """Whether two stills paired by file-name order carry different numbers
+    (``left01.jpg`` with ``right03.jpg``): a still missing on one side."""
+    a, b = re.findall(r"\d+", Path(first).stem), re.findall(r"\d+", Path(second).stem)
+    return bool(a and b) and [int(x) for x in a] != [int(x) for x in b]
+
+
+def _unpaired(name: str) -> InputValueError:
+    return InputValueError(
+        f"{name} is paired (file-name order) but their numbers differ: a still is missing "
+        "in one folder, or the names do not match; each still of camera 1 needs camera 2's "
+        "of the same moment, as --left/--right pair them"
+    )
+
+
 def _count(outcome: LiveOutcome) -> str:
     return f"{outcome.kept} pair(s) kept of {outcome.examined} examined"
 
@@ -140,6 +157,8 @@ def _kept(
     for pair in source.pairs():
         outcome.examined += 1
         name = f"{pair.first.name} & {pair.second.name}"
+        if source.stills and numbers_differ(pair.first.name, pair.second.name):
+            raise _unpaired(name)
         if not source.stills:  # a folder's stills: no motion to wait for, every pair fitted
             why = _why_not(pair, board, seen, min_motion, rules.max_skew_px, uncertain_ns)
             if why:
@@ -155,6 +174,11 @@ def _kept(
         if views is not None and outcome.kept >= views:
             outcome.ended = f"{_count(outcome)}, as asked"
             return
+    if source.stills and len(set(counts := source.grabbed_by_camera)) > 1:
+        raise InputValueError(  # a still of one folder has no partner in the other
+            f"camera 1's folder has {counts[0]} stills, camera 2's {counts[1]}: each still of "
+            "camera 1 needs camera 2's of the same moment, as --left/--right pair them"
+        )
 
 
 def _why_not(

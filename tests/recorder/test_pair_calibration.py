@@ -206,7 +206,11 @@ def test_pairs_without_the_board_in_both_are_said_and_too_few_refused(
         (["--board", "9x"], EXIT_ERROR, "--board: inner corners rows: type a"),
         (["--board", "nine"], EXIT_ERROR, "--board: type the board's inner corners as COLSxROWS"),
         # OpenCV's board search needs 3 or more each way (it raised cv2.error on 2x5)
-        (["--board", "2x5"], EXIT_ERROR, "--board: inner corners cols must be a whole number from 3"),
+        (
+            ["--board", "2x5"],
+            EXIT_ERROR,
+            "--board: inner corners cols must be a whole number from 3",
+        ),
         (["--square", "0"], EXIT_USAGE, "--square"),
         (["--square", "1_0"], EXIT_USAGE, "--square"),
         (["--units", "ft"], EXIT_USAGE, "--units"),
@@ -274,3 +278,19 @@ def test_stills_are_paired_by_their_sorted_names(stills: Path) -> None:
     ]
     first = next(read_still_pairs(files))
     assert first[1].shape == (480, 640, 3)
+
+
+def test_stills_of_different_moments_are_refused_by_their_rms(stills: Path) -> None:
+    # camera 2's stills shifted by one moment: the fit said "passed" at RMS 32 px
+    from twopose.errors import InputValueError
+
+    lefts = [_image(stills / f"left{n}.jpg") for n in NUMBERS]
+    rights = [_image(stills / f"right{n}.jpg") for n in NUMBERS]
+    shifted = [
+        (f"pair {k}", a, b)
+        for k, (a, b) in enumerate(zip(lefts, rights[1:] + rights[:1], strict=True))
+    ]
+    with pytest.raises(
+        InputValueError, match=r"RMS reprojection error is \d+\.\d px over 5 views, above the 2 px"
+    ):
+        calibrate_pair_views(shifted, (9, 6), 25.0, Units.MM)

@@ -7,6 +7,8 @@ stop within 2 s, exit 130, no traceback, nothing written."""
 from __future__ import annotations
 
 import random
+import re
+import shutil
 import signal
 import subprocess
 import threading
@@ -206,4 +208,27 @@ def test_a_signal_stops_a_live_calibration_within_2_s(
     assert took < 2.0, f"{took:.2f} s from the signal to the end"
     assert "Traceback" not in text
     assert "nothing written" in text
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("drop", "words"),
+    [
+        # left01-07 with right03-09: every pair's numbers differ (it was fitted, RMS 32 px)
+        (("left/left09.png", "right/right01.png"), "left01.png & right03.png is paired"),
+        # right09 missing: four pairs agree, camera 1's fifth still has no partner
+        (("right/right09.png",), "camera 1's folder has 5 stills, camera 2's 4"),
+    ],
+)
+def test_folders_are_paired_as_left_and_right_are(
+    folders: Path, tmp_path: Path, drop: tuple[str, ...], words: str
+) -> None:
+    for side in ("left", "right"):
+        shutil.copytree(folders / side, tmp_path / side)
+    for name in drop:
+        (tmp_path / name).unlink()
+    out = tmp_path / "PAIR.toml"
+    spec = f"pair:images:{tmp_path / 'left'},images:{tmp_path / 'right'}"
+    with pytest.raises(InputValueError, match=re.escape(words)):
+        calibrate_pair(_request(out, source=spec))
     assert not out.exists()
