@@ -27,6 +27,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from recorder.calibration.board_size import refuse_larger_board
 from recorder.sources.registry import FrameSource
 from twopose.arrays import F32
 from twopose.camera.model import SIGMA_KEYS, Intrinsics, intrinsics_sigma
@@ -110,6 +111,8 @@ def _collect(
             corners = find_board(frame, board)
             use = corners is not None and (stills or _moved(corners, kept, min_motion_px))
             if corners is not None and use:
+                if not kept.points:  # once: the search costs a third of a second
+                    refuse_larger_board(frame, board, corners, source.frame_name(i))
                 kept.points.append(corners)
                 kept.names.append(source.frame_name(i))
             if on_view is not None:

@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from recorder.calibration.board_size import refuse_larger_board
 from recorder.calibration.camera import (
     Calibration,
     fit_views,
@@ -165,6 +166,8 @@ def _find_all(
         if on_pair is not None:
             on_pair(name, (corners[0] is not None, corners[1] is not None))
         if corners[0] is not None and corners[1] is not None:
+            if not found.names:  # once: the first pair (the search costs a third of a second)
+                refuse_larger_board(left, board, corners[0], f"{name} (camera 1)")
             found.left.append(corners[0])
             found.right.append(corners[1])
             found.names.append(name)

@@ -294,3 +294,30 @@ def test_stills_of_different_moments_are_refused_by_their_rms(stills: Path) -> N
         InputValueError, match=r"RMS reprojection error is \d+\.\d px over 5 views, above the 2 px"
     ):
         calibrate_pair_views(shifted, (9, 6), 25.0, Units.MM)
+
+
+def test_a_board_smaller_than_the_stills_show_is_refused(stills: Path, tmp_path: Path) -> None:
+    # OpenCV finds an 8x6 grid inside the 9x6 board: the fit "passed" with tz +0.27 (not -1.03)
+    out = tmp_path / "P.toml"
+    result = runner.invoke(app, [*_args(stills, out), "--board", "8x6"])
+    assert result.exit_code == EXIT_ERROR, result.output
+    assert (
+        "the board has more corners than --board says: left03.jpg & right03.jpg (camera 1) "
+        "shows 9x6 inner corners, --board 8x6" in result.output
+    )
+    args = ["calibrate", str(out), "--source", f"images:{stills}", "--board", "8x6"]
+    result = runner.invoke(app, [*args, "--square", "25"])
+    assert result.exit_code == EXIT_ERROR, result.output
+    assert "the board has more corners than --board says: " in result.output
+    assert "shows 9x6 inner corners, --board 8x6" in result.output
+    assert not out.exists()
+
+
+def test_a_grid_ending_on_the_printed_border_is_not_a_larger_board() -> None:
+    from recorder.calibration.board_size import larger_board
+
+    image = _image(DATA / "left13.jpg")  # OpenCV finds a 10x6 grid here, half a square out
+    assert find_board(image, (10, 6)) is not None
+    corners = find_board(image, (9, 6))
+    assert corners is not None
+    assert larger_board(image, (9, 6), corners) is None
