@@ -321,3 +321,14 @@ def test_a_grid_ending_on_the_printed_border_is_not_a_larger_board() -> None:
     corners = find_board(image, (9, 6))
     assert corners is not None
     assert larger_board(image, (9, 6), corners) is None
+
+
+def test_floor_stills_of_two_moments_are_refused(stills: Path, tmp_path: Path) -> None:
+    # left03 with right05 gave "height 335 +- 12 mm" (the same moment's: 265 +- 0.1 mm)
+    out = tmp_path / "P.toml"
+    floor = ["--floor-left", str(DATA / "left03.jpg"), "--floor-right", str(DATA / "right05.jpg")]
+    result = runner.invoke(app, [*_args(stills, out), *floor])
+    assert result.exit_code == EXIT_ERROR, result.output
+    assert "the floor board's pose from camera 1 and from camera 2 disagree" in result.output
+    assert "are --floor-left and --floor-right of the same moment" in result.output
+    assert not out.exists()
