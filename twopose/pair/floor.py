@@ -132,7 +132,7 @@ def _refuse_disagreement(
     for camera in (1, 2):
         pose, J_b, J_e, res = _fit_board(relative, start, corners, lenses, camera=camera)
         inverse = np.linalg.inv(J_b.T @ J_b)
-        variance = max(res @ res / max(res.size - 6, 1), MIN_CORNER_SIGMA_PX**2)
+        variance = max(float(res @ res) / max(res.size - 6, 1), MIN_CORNER_SIGMA_PX**2)
         cov = variance * inverse * pair.cov_factor
         if camera == 2:
             G = np.linalg.inv(extrinsic_jacobian(relative))
