@@ -297,16 +297,17 @@ class LivePointing:
         """Whether camera 1's frames about ``t2_ns`` (its clock) are all detected.
 
         A frame of camera 1 taken at ``t2_ns`` (in step, :data:`IN_STEP_NS`) is enough with
-        the frame before it (its velocity): such a pair waits for no later frame.
+        the frame before it (its velocity): such a pair waits for no later frame; where that
+        one lost the target, for the frame after it (the velocity the offline estimate takes).
         """
         one = self._one
         interval = float(np.median(np.diff([s.t_ns for s in one]))) if len(one) > 2 else 0.0
         reach = MAX_BRACKET_INTERVALS * interval
         step = [k for k, s in enumerate(one) if abs(s.t_ns - t2_ns) <= IN_STEP_NS]
-        if step and step[0] >= 1:
+        if step:
             n = step[0]
-            if not one[n].found or (one[n - 1].found and one[n].t_ns - one[n - 1].t_ns <= reach):
-                return True
+            back = n >= 1 and one[n - 1].found and one[n].t_ns - one[n - 1].t_ns <= reach
+            return not one[n].found or back or n + 1 < len(one)
         after = [k for k, s in enumerate(one) if s.t_ns > t2_ns + IN_STEP_NS]
         if not after:
             return False
