@@ -13,7 +13,10 @@ as fast as the camera gives, stamp each frame with its capture time, decode on t
 side) into a bounded queue: when the reader is slow, a camera's oldest frame is dropped and
 counted (:attr:`PairSource.dropped_by_camera`), the camera is never held up (a folder of
 stills is never dropped: its thread waits instead). It gives each camera's frames with their
-capture times as they come (:meth:`PairSource.frames`, not paired: pairing is
+capture times as they come (two folders of stills, which have no time of their own:
+strictly in capture order, each camera's next frame waited for, so that how fast each
+thread reads never decides which frames a trial holds; :meth:`PairSource.frames`, not
+paired: pairing is
 :mod:`twopose.pair.pairing`'s), or pairs made live by that same policy
 (:meth:`PairSource.pairs`). A stop of the recording (Ctrl-C, SIGTERM:
 :mod:`recorder.procedure.stops`)
@@ -383,7 +386,10 @@ class PairSource(FrameSource):
                 if self._stop.is_set():
                     raise SourceError(f"{self.info.description} was closed")
                 ready = [r for r in self._readers if r.queue]
-                if ready:
+                # Stills: only once each camera has its next frame (or ended), so that a
+                # thread read faster (a loaded machine) never runs its camera ahead.
+                merged = not self.stills or all(r.queue or r.ended for r in self._readers)
+                if ready and merged:
                     reader = min(ready, key=lambda r: r.queue[0][1].t_capture_ns)
                     index, grabbed = reader.queue.popleft()
                     self._cond.notify_all()  # a folder's thread may wait for room
