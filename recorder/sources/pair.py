@@ -69,7 +69,9 @@ class TimedFrame:
     """One camera's frame: ``camera`` 1 or 2, its number ``index`` among the frames that
     camera gave (from 0; a frame dropped leaves a gap), its capture time ``t_capture_ns``
     on its camera's clock, the monotonic time ``t_grab_ns`` right after it was grabbed (its
-    arrival), the BGR ``image`` and its ``name`` (a still's file name)."""
+    arrival), the BGR ``image`` and its ``name`` (a still's file name); ``jpeg`` the
+    camera's own JPEG bytes it was decoded from (an MJPG camera's or file's; None: it came
+    decoded), which a recording stores as they are instead of encoding the image again."""
 
     camera: int
     index: int
@@ -77,6 +79,7 @@ class TimedFrame:
     t_grab_ns: int
     image: Image
     name: str
+    jpeg: bytes | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -401,8 +404,9 @@ class PairSource(FrameSource):
         image = reader.feed.decode(grabbed.payload)
         name = grabbed.name or f"camera {reader.camera} frame {index + 1}"
         return TimedFrame(
-            reader.camera, index, grabbed.t_capture_ns, grabbed.t_grab_ns, image, name
-        )
+            reader.camera, index, grabbed.t_capture_ns, grabbed.t_grab_ns, image, name,
+            reader.feed.jpeg(grabbed.payload),
+        )  # fmt: skip
 
     def _raise_failed(self, timeout_s: float) -> None:
         """A camera that failed, or that is silent (nothing queued for ``timeout_s``)."""
