@@ -12,9 +12,8 @@ import html
 import pandas as pd
 
 from analysis.report.answer import noise_phrases, session_order, shown_name
-from twopose.uncertainty.blunders import EXPLAINS_LEVEL
+from twopose.uncertainty.blunders import EXPLAINS_LEVEL, TARGET_LEVEL, TRUTH_LEVEL
 from twopose.uncertainty.noise import FACTOR_TEST_LEVEL, MIN_PLACING_DOF, TYPED_PRIOR_DOF
-from twopose.uncertainty.one_target import TARGET_LEVEL
 from twopose.uncertainty.placing_variance import BAARDA_LEVEL
 
 __all__ = ["RULE", "flagged_lines", "noise_section"]
@@ -39,7 +38,12 @@ RULE = (
     "a session whose trials measured one target (the same recorded truth), a trial whose "
     "estimate lies off the others' weighted mean (a chi-square test on its region's "
     f"dimensions at {TARGET_LEVEL:.1%}) is flagged too: a typed value its own poses cannot "
-    "check; a "
+    "check; a trial whose reported point lies outside its own region far from the grid point "
+    "recorded as its truth (its NEES beyond the chi-square's upper "
+    f"{TRUTH_LEVEL:.1%} quantile on the region's dimensions, after the multiplier) is flagged "
+    "too: one of its typed poses, the grid point or the detection is off; it is kept out of "
+    "the session's pool but its region is not widened, and every flagged trial stays in the error "
+    "statistics (rmse, bias, within 1). A trial without a truth has only the other tests. A "
     "pose is named when it alone, one typed component corrected, would make the trial agree "
     f"({EXPLAINS_LEVEL:.0%}). sigma0, the unflagged trials' misclosure under the typed model, "
     f'is said by its own chi-square test at {FACTOR_TEST_LEVEL:.0%}: "contradict" in its '
@@ -50,12 +54,23 @@ RULE = (
 
 
 def flagged_lines(trials: pd.DataFrame, session: str) -> list[str]:
-    """The session's flagged trials, each as ``trial 3: this trial's poses disagree (...)``."""
+    """The session's flagged trials, each as ``trial 3 (by its misclosure): this trial's
+    poses disagree (...)``, which test flagged it in brackets (``flagged_by``)."""
     if "flagged" not in trials or trials.empty:
         return []
     flags = trials["flagged"].fillna(value=False).astype(bool)
     mine = trials[(trials["session"] == session) & flags]
-    return [f"trial {int(r['trial'])}: {r['disagreement']}" for _, r in mine.iterrows()]
+    return [f"trial {int(r['trial'])}{_by(r)}: {r['disagreement']}" for _, r in mine.iterrows()]
+
+
+def _by(row: pd.Series) -> str:
+    """`` (by its truth)``: which test flagged the trial, as ``flagged_by`` says it."""
+    by = row.get("flagged_by")
+    return f" (by {_BY.get(str(by), str(by))})" if isinstance(by, str) and by else ""
+
+
+#: ``flagged_by``'s values as the lines say them.
+_BY = {"misclosure": "its misclosure", "other trials": "the other trials", "truth": "its truth"}
 
 
 def noise_section(summary: pd.DataFrame, trials: pd.DataFrame) -> list[str]:

@@ -26,8 +26,10 @@ class TrialResult(Protocol):
 
 
 __all__ = [
+    "FLAGGED_BY",
     "disagreement",
     "flagged",
+    "flagged_by",
     "misclosure_chi2",
     "misclosure_dof",
     "misclosure_p",
@@ -40,6 +42,11 @@ __all__ = [
     "suspect_offset",
     "suspect_pose",
 ]
+
+
+#: ``flagged_by``'s values: :data:`twopose.uncertainty.blunders.FLAGGED_BY`, spelled here so
+#: that reading a table needs no estimation at import (tests/analysis/test_own_truth_flags.py).
+FLAGGED_BY = ("misclosure", "other trials", "truth")
 
 
 def placing_sigma(t: TrialResult) -> F64:
@@ -99,12 +106,22 @@ def misclosure_p(t: TrialResult) -> F64:
 
 
 def flagged(t: TrialResult) -> Any:
-    """Whether the trial's poses disagree (empty: not tested)."""
+    """Whether a test flagged the trial (empty: none tested it: no redundant poses and no
+    truth, or ``--no-sigma0``)."""
     tests, m = _tests(t), t.estimate.misclosure
     tested = m is not None and t.estimate.options.noise.test_redundancy
+    truth = [bool(k) for k in np.isfinite(t.estimate.trials.truth).all(axis=(1, 2)).ravel()]
     return [
-        bool(f) if tested and d > 0 else None for f, d in zip(tests.flagged, _dof(t), strict=True)
+        bool(f) if tested and (d > 0 or known) else None
+        for f, d, known in zip(tests.flagged, _dof(t), truth, strict=True)
     ]
+
+
+def flagged_by(t: TrialResult) -> list[str]:
+    """Which test flagged the trial: ``misclosure``, ``other trials`` or ``truth``
+    (:data:`twopose.uncertainty.blunders.FLAGGED_BY`; ``""``: not flagged)."""
+    tests = _tests(t)
+    return [tests.by(i) for i in range(len(t.estimate.trials))]
 
 
 def _dof(t: TrialResult) -> Any:

@@ -71,6 +71,10 @@ class TrialResult:
     #: words).
     flagged: bool = False
     disagreement: str = ""
+    #: Which test flagged it: ``misclosure``, ``other trials`` or ``truth`` (its estimate far
+    #: off the grid point typed as its truth); ``""`` when not flagged (trials.csv's
+    #: ``flagged_by``).
+    flagged_by: str = ""
 
     @property
     def noise(self) -> str:
@@ -184,6 +188,7 @@ class TrialResult:
             "noise": self.noise,
             "flagged": self.flagged,
             "disagreement": self.disagreement,
+            "flagged_by": self.flagged_by,
             "text": self.text(),
         }
 
@@ -232,6 +237,7 @@ def results_of(estimate: SessionEstimate) -> list[TrialResult]:
             widened=float(widened[i]) if np.isfinite(widened[i]) else 1.0,
             flagged=bool(tests.flagged[i]),
             disagreement=tests.words(i, Units(trials.units), len(trials.views[i])),
+            flagged_by=tests.by(i),
         )
         for i, trial in enumerate(trials.trial_ids)
     ]

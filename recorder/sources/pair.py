@@ -296,6 +296,12 @@ class PairSource(FrameSource):
         return one, two
 
     @property
+    def grabbed_by_camera(self) -> tuple[int, int]:
+        """Each camera's frames taken so far (a folder's: its stills read)."""
+        one, two = (r.grabbed for r in self._readers)
+        return one, two
+
+    @property
     def late_by_camera(self) -> tuple[int, int]:
         """Of :attr:`dropped_by_camera`, the frames a reader thread was too late for (a
         paced file's or the synthetic camera's; a camera's driver drops those unseen)."""

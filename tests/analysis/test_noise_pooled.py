@@ -21,7 +21,7 @@ from analysis.report.terminal import summary_lines
 from recorder.simulate.one_camera import simulate_session
 from tests.conftest import built_once
 from tests.helpers import SMALL_SCENE, distinct_copies, rewrite_session
-from twopose.format.entries import PoseEntry
+from twopose.format.entries import GroundTruth, PoseEntry
 from twopose.methods.specs import Method
 from twopose.sim.scene import load_scene
 
@@ -83,14 +83,59 @@ def test_a_mistyped_pose_is_flagged_and_said_in_trials_csv_the_terminal_and_the_
     assert row["n_flagged"] == 1
     assert row["sigma0_dof"] == 6  # the two others
     text = "\n".join(summary_lines(done.trials, done.summary, width=None))
-    assert f"flagged: trial 2: {words}" in text
+    assert f"flagged: trial 2 (by its misclosure): {words}" in text
     assert "placing sigma 0.0625 in typed;" in text  # the one typed, before the multiplier
-    assert "1 trial flagged (poses disagree): kept out and widened" in text
+    assert "1 trial flagged: kept out of the pool" in text
     report = (out / "report.html").read_text()
     assert words.replace("'", "&#x27;") in report
     assert "a trial both reject is flagged" in report  # the rule applied, explained
     written = (out / "trials.csv").read_text()
     assert "suspect_axis" in written.splitlines()[0]
+    assert trials["flagged_by"].fillna("").tolist() == ["", "misclosure", ""]
+
+
+def _truth_moved(session: Path, out: Path, trial: int, dx: float) -> Path:
+    """``session`` with trial ``trial``'s ground truth typed ``dx`` off in x."""
+
+    def edit(topic: str, data: bytes) -> bytes:
+        if topic != GroundTruth.TOPIC:
+            return data
+        typed = json.loads(data)
+        if typed["trial"] == trial:
+            typed["points"][0][0] += dx
+        return json.dumps(typed).encode()
+
+    return rewrite_session(session, out, edit=edit)
+
+
+def test_a_trial_off_its_typed_truth_is_flagged_by_its_truth_and_kept_in_the_errors(
+    blundered: Path, tmp_path: Path
+) -> None:
+    """Trial 3's grid point typed 1 in off in x: its poses agree (no misclosure sees it),
+    the session is no longer one target (no other trial sees it); its truth does. It is
+    flagged, said so everywhere, kept out of the pool, and kept in every error statistic."""
+    moved = _truth_moved(blundered.parent / "clean.mcap", tmp_path / "moved.mcap", 3, 1.0)
+    out = tmp_path / "out"
+    done = run([moved], out)
+    trials = done.trials.set_index("trial")
+    assert trials["flagged"].tolist() == [False, False, True]
+    assert trials["flagged_by"].fillna("").tolist() == ["", "", "truth"]
+    words = str(trials.loc[3, "disagreement"])
+    assert words.startswith("this trial's estimate lies 1")
+    assert ", mostly in x from the grid point typed as its truth: one of its typed poses, " in words
+    assert words.endswith("the grid point, or the detection is off: check what you typed")
+    row = done.summary.iloc[0]
+    assert row["n_flagged"] == 1
+    assert row["sigma0_dof"] == 6  # the two others: kept out of the pool
+    errors = trials["err"].to_numpy(dtype=float)
+    assert row["rmse"] == pytest.approx(math.sqrt((errors**2).mean()))  # every trial's error
+    assert row["max_err"] == pytest.approx(errors.max())
+    text = "\n".join(summary_lines(done.trials, done.summary, width=None))
+    assert f"flagged: trial 3 (by its truth): {words}" in text
+    assert "widened" not in text  # its region is not widened for it
+    report = (out / "report.html").read_text()
+    assert "trial 3 (by its truth): " + words.replace("'", "&#x27;") in report
+    assert "is not widened" in report  # the rule, explained
 
 
 def test_one_operators_sessions_pool_and_a_rerun_equals_a_no_reuse_run(

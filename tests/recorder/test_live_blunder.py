@@ -116,3 +116,38 @@ def test_the_page_shows_the_terminals_words(tmp_path: Path) -> None:
     assert page["text"] == result.text()
     assert "WARNING this trial's poses disagree (" in str(page["text"])
     assert str(page["disagreement"]) in str(page["text"])
+
+
+class _TrueDotSource(_DotSource):
+    """The dot seen from every pose where it was typed (no pose off)."""
+
+    @override
+    def set_pose(
+        self, t_grid: tuple[float, float, float], r_deg: tuple[float, float, float]
+    ) -> None:
+        self._where = np.asarray(t_grid, dtype=float)
+
+
+def test_the_terminal_says_a_trial_far_off_the_grid_point_typed_as_its_truth(
+    tmp_path: Path,
+) -> None:
+    """Every pose typed right, the grid point typed 1 in off in x: the poses agree (no
+    misclosure sees it), the truth does, after the third pose."""
+    answers = [a for pose in TYPED[:3] for a in (pose, "", "a")] + ["n"]
+    said: list[str] = []
+    replies = iter(answers)
+    op = Operator(lambda q, d: next(replies) or d, said.append)
+    record_interactive(
+        tmp_path / "s.mcap", _TrueDotSource(), op,
+        setup=Setup(method=Method.POINT, units=Units.IN, intrinsics=K, plane_offset=None,
+                    ground_truth=((2.5, 1.0, 9.0),), operator=""),
+        capture=CaptureSettings(frames=2),
+        typing=PoseTyping(poses_per_trial=3),
+    )  # fmt: skip
+    three = [line for line in said if "result if accepted" in line][-1]
+    assert "poses disagree" not in three
+    assert "WARNING this trial's estimate lies 1 in (" in three
+    assert (
+        "sigma), mostly in x from the grid point typed as its truth: one of its typed poses, "
+        "the grid point, or the detection is off: check what you typed" in three
+    )

@@ -155,3 +155,30 @@ def test_a_blundered_trial_is_kept_out_of_the_operators_pool() -> None:
     assert prior is not None
     assert prior.scale < 1.4  # with it the pool would say ~4
     assert NoiseModel(prior=prior).prior is prior
+
+
+def test_the_pooled_multiplier_is_unbiased_over_many_seeded_draws() -> None:
+    """Issue 54: the pooled maximum-likelihood multiplier, after the robust test kept the
+    trials it keeps (its truncation of the chi-square's upper tail corrected by each kept
+    trial's chance of being kept), is unbiased: over many seeded draws of 40 trials of 3
+    redundant directions with mixed placing shares, its mean lies within three standard
+    errors of the truth (about 1.7% each; 1.025 at 1, 1.012 at 9). The misclosure's space
+    has the trial's redundancy as its dimension, so maximum likelihood there is already the
+    restricted (REML) estimate: no dof is lost to the parameters. A guard, not a fix: the
+    estimator was found unbiased (docs/uncertainty.md), and dropping the truncation's
+    correction moves it less than its standard error here (at 0.5% the robust test keeps
+    nearly every clean trial)."""
+    from twopose.uncertainty.noise import PlacingPrior
+    from twopose.uncertainty.placing_variance import _maximum
+
+    rng = np.random.default_rng(54)
+    anchor = PlacingPrior(scale=1.0, dof=2.0, source="typed")
+    for lam in (1.0, 9.0):
+        ratios = []
+        for _ in range(120):
+            share = rng.uniform(0.2, 1.0, (40, 3))
+            z2 = (1 + (lam - 1) * share) * rng.standard_normal((40, 3)) ** 2
+            flags = flag_trials(z2.sum(axis=1), np.full(40, 3), share, z2, anchor)
+            ratios.append(_maximum(flags.kept.sum(axis=0)) / lam)
+        mean, se = np.mean(ratios), np.std(ratios) / np.sqrt(len(ratios))
+        assert abs(mean - 1.0) < 3 * se, (lam, mean, se)

@@ -12,15 +12,30 @@ trials.csv, the live result, the rig fit and the scenes alike.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
 from twopose.arrays import F64
 
-if TYPE_CHECKING:  # the tables' readers (analysis.tables.columns) need no estimation at import
-    from twopose.solve.session import SessionEstimate
+
+class SessionEstimate(Protocol):
+    """What :func:`reported` reads of :class:`twopose.solve.session.SessionEstimate`.
+
+    A protocol, not an import: the session's estimate tests each trial against its truth
+    with :func:`reported` (:mod:`twopose.uncertainty.blunders`), and the tables' readers
+    need no estimation at import.
+    """
+
+    @property
+    def estimates(self) -> Any: ...
+
+    @property
+    def trials(self) -> Any: ...
+
+    def uncertainty_at(self, reference: F64) -> Any: ...
+
 
 __all__ = ["Reported", "line_errors", "reported", "reported_line_point", "reporting_anchor"]
 

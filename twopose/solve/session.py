@@ -5,13 +5,11 @@ the recorder's live result both build); :func:`estimate_session` runs the whole 
 on it once: each pose's frames combined (:func:`twopose.solve.estimate.measure`), every detected
 trial solved by every estimator in one batch, the input covariance propagated, the
 degeneracy margins and their warnings. Its :class:`SessionEstimate` is what the tables,
-the live result, the rig fit and the 3-D scenes take. Nothing here reads the truth: which
-point a trial reports and how it compares with the truth is :mod:`twopose.methods.truth`'s rule.
+the live result, the rig fit and the 3-D scenes take. Only the blunder test of
+:mod:`twopose.uncertainty.blunders` reads the truth, as :mod:`twopose.methods.truth` reports it.
 
 (Near 600 lines: the one estimation entry point and the values it takes and gives; the noise
-model (:mod:`twopose.uncertainty.session_noise`), the truth (:mod:`twopose.methods.truth`) and the
-solvers are
-their own modules.)
+model (:mod:`twopose.uncertainty.session_noise`), the truth and the solvers are their own modules.)
 """
 
 from __future__ import annotations
@@ -27,6 +25,7 @@ from twopose.arrays import F64, Bools, Ints
 from twopose.camera.model import camera_centres
 from twopose.detect.frames import PoseMeasurement, combine_frames
 from twopose.methods.specs import Method, MethodSpec, spec_of
+from twopose.methods.truth import reported
 from twopose.rig.carried import rig_carried, with_carried, with_rig_dominance
 from twopose.solve.estimate import (
     EstimateOptions,
@@ -65,6 +64,7 @@ from twopose.uncertainty.session_noise import (
     placing_source,
     region_multipliers,
     with_one_target,
+    with_own_truth,
 )
 from twopose.values.units import Units
 
@@ -314,20 +314,25 @@ def estimate_session(
         trials, complete, context, options, line_fits=line_fits, report_near=report_near
     )
     settled = with_one_target(noise, trials.truth, est.point, est.cov)
-    if settled is not noise:  # a trial off the others of its target: kept out, regions again
-        noise, factor = settled, settled.factor
-        context = dataclasses.replace(
-            context, factor=factor, tests=noise.tests, cov_in=placed(cov_in, factor)
-        )
-        est = _solved_estimates(
-            trials, complete, context, options, line_fits=line_fits, report_near=report_near
-        )
-    return dataclasses.replace(
-        _session_estimate(trials, measurements, complete, detected, est, options, context),
-        factor=factor,
-        misclosure=noise.misclosure,
-        tests=noise.tests,
-    )
+    for _ in range(2):  # a trial off the others of its target, then off its own truth
+        if settled is not noise:  # kept out of the pool: the factor and regions again
+            noise, factor = settled, settled.factor
+            context = dataclasses.replace(
+                context, factor=factor, tests=noise.tests, cov_in=placed(cov_in, factor)
+            )
+            est = _solved_estimates(
+                trials, complete, context, options, line_fits=line_fits, report_near=report_near
+            )
+        out = dataclasses.replace(
+            _session_estimate(trials, measurements, complete, detected, est, options, context),
+            factor=factor, misclosure=noise.misclosure, tests=noise.tests,
+        )  # fmt: skip
+        if noise.misclosure is None or not np.isfinite(trials.truth).any():
+            break  # not tested (a given factor: guidance's views), or no truth to test against
+        rep = reported(out)  # the region each trial reports, after lambda, and its truth
+        if (settled := with_own_truth(noise, rep.error, rep.cov)) is noise:
+            break
+    return out
 
 
 def _shared_rows(shared: Shared | None, rows: Bools) -> Shared | None:

@@ -360,7 +360,7 @@ def noise_words(
         words.append(f"regions' largest semi-axis x{region_widening:.2f}")
     if flagged:
         trials = "trial" if flagged == 1 else "trials"
-        words.append(f"{flagged} {trials} flagged (poses disagree): kept out and widened")
+        words.append(f"{flagged} {trials} flagged: kept out of the pool")
     return "; ".join(words)
 
 

@@ -19,10 +19,15 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 from twopose.arrays import F64, Bools, Ints
-from twopose.uncertainty.blunders import TrialTests, trial_tests
+from twopose.uncertainty.blunders import (
+    TrialTests,
+    one_target,
+    target_tests,
+    trial_tests,
+    truth_tests,
+)
 from twopose.uncertainty.misclosure import Misclosure, misclosures
 from twopose.uncertainty.noise import MIN_PLACING_DOF, NoiseModel, VarianceFactor, region_quantile
-from twopose.uncertainty.one_target import one_target, target_tests
 from twopose.uncertainty.placing_variance import Flags, SessionNoise, flag_trials, posterior
 from twopose.uncertainty.propagate import PLACING, Shared, region_dof
 from twopose.values.units import Units
@@ -56,6 +61,7 @@ __all__ = [
     "region_multipliers",
     "session_statistics",
     "with_one_target",
+    "with_own_truth",
 ]
 
 
@@ -131,7 +137,7 @@ def _factor(m: Misclosure, flags: Flags, out: Bools, noise: NoiseModel) -> Varia
 def with_one_target(noise: NoiseResult, truth: F64, point: F64, cov: F64) -> NoiseResult:
     """The session's noise with its trials of one target tested against each other.
 
-    :mod:`twopose.uncertainty.one_target`: ``truth`` (T, 2, 3) the recorded truths (only
+    :mod:`twopose.uncertainty.blunders`: ``truth`` (T, 2, 3) the recorded truths (only
     their equality is read), ``point`` and ``cov`` each trial's estimate and region. A
     trial it flags is kept out of the pool too, and the factor settled again without it.
     The same result (the same object) when nothing more is flagged, or the session was not
@@ -144,6 +150,24 @@ def with_one_target(noise: NoiseResult, truth: F64, point: F64, cov: F64) -> Noi
     if not same.any():
         return noise
     tests = noise.tests.with_target(target_tests(point, cov, same, noise.tests.flagged))
+    if tests is noise.tests:
+        return noise
+    factor = _factor(m, flags, tests.flagged, model)
+    return dataclasses.replace(noise, factor=factor, tests=tests)
+
+
+def with_own_truth(noise: NoiseResult, error: F64, cov: F64) -> NoiseResult:
+    """The session's noise with each trial tested against its own recorded truth.
+
+    :mod:`twopose.uncertainty.blunders`: ``error`` (T, 3) each reported point less its
+    truth (NaN: none), ``cov`` its region. A trial it flags is kept out of the pool, the
+    factor settled again without it; its region is not widened. The same result (the same
+    object) when nothing more is flagged, or the session was not tested (``--no-sigma0``).
+    """
+    m, flags, model = noise.misclosure, noise.flags, noise.noise
+    if m is None or flags is None or model is None:
+        return noise
+    tests = noise.tests.with_truth(truth_tests(error, cov))
     if tests is noise.tests:
         return noise
     factor = _factor(m, flags, tests.flagged, model)
@@ -205,7 +229,11 @@ def session_statistics(
 
     Its tested trials' chi-square, dof and components (none when not tested); a trial
     ``tests`` flagged for its estimate off the others of its target
-    (:attr:`TrialTests.apart`) is left out, as the session's own pool leaves it.
+    (:attr:`TrialTests.apart`) is left out, as the session's own pool leaves it. A trial
+    flagged by its own truth (:attr:`TrialTests.truth_off`) is not: the run's first pass
+    tests it in regions the operator's prior has not settled yet (at 3x the typed placing
+    it would flag merely noisy trials and thin the operator's pool by the truth), and a
+    blunder only the truth sees is one its misclosure cannot: its misclosure is a clean one.
     """
     if m is None:
         return SessionNoise(group=group, chi2=np.zeros(0), dof=np.zeros(0, dtype=np.int_),

@@ -14,7 +14,7 @@ from twopose.methods.specs import Method
 from twopose.methods.truth import reported
 from twopose.solve.estimate import EstimateOptions
 from twopose.solve.session import estimate_session
-from twopose.uncertainty.one_target import one_target, target_tests
+from twopose.uncertainty.blunders import one_target, target_tests
 from twopose.uncertainty.propagate import uncertainty_columns
 from twopose.uncertainty.session_noise import session_statistics
 
@@ -55,7 +55,9 @@ def test_trials_of_different_targets_are_not_compared() -> None:
     est = estimate_session(dataclasses.replace(trials, truth=truth), EstimateOptions(),
                            line_fits=False)  # fmt: skip
     assert est.tests is not None
-    assert not est.tests.flagged.any()
+    assert not any(est.tests.by(i) == "other trials" for i in range(4))
+    # each trial against its own truth instead: the blind blunder, and the moved truth
+    assert [est.tests.by(i) for i in range(4)] == ["", "truth", "", "truth"]
 
 
 def test_one_target_reads_only_the_truths_equality() -> None:
