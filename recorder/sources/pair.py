@@ -265,6 +265,12 @@ class _Reader:
         extra = [f"camera {self.camera} ({self.spec}): {more} overflow(s) more"] if more else []
         return [*self.said, *extra]
 
+    def take(self) -> tuple[int, Grabbed]:
+        """The oldest queued frame, taken by the consumer (the condition held)."""
+        index, grabbed = self.queue.popleft()
+        self.bytes -= _nbytes(grabbed.payload)
+        return index, grabbed
+
     @property
     def drained(self) -> bool:
         return self.ended and not self.queue
@@ -503,7 +509,7 @@ class PairSource(FrameSource):
                 merged = not self.stills or all(r.queue or r.ended for r in self._readers)
                 if ready and merged:
                     reader = min(ready, key=lambda r: r.queue[0][1].t_capture_ns)
-                    index, grabbed = reader.queue.popleft()
+                    index, grabbed = reader.take()
                     self._cond.notify_all()  # a folder's thread may wait for room
                     break
                 self._raise_failed(timeout_s)
@@ -531,6 +537,7 @@ class PairSource(FrameSource):
         with self._cond:
             for r in self._readers:
                 r.queue.clear()
+                r.bytes = 0
             self._cond.notify_all()
 
     def close(self) -> None:

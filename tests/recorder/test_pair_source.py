@@ -169,6 +169,11 @@ def test_a_consumer_stalled_for_seconds_loses_nothing(tmp_path: Path) -> None:
     assert [p.first.index for p in (first, *rest)] == list(range(180))
     small = QueueBound(bytes=3000)  # these frames' JPEGs are ~220 bytes: ~0.2 s of them
     with open_pair(f"video:{files[0]}", f"video:{files[1]}", bound=small) as source:
+        kept_up = list(source.frames())  # 360 frames, ~80 kB: a consumer that keeps up
+        assert source.dropped_by_camera == (0, 0)  # what it took frees the bound
+        assert max(size for _, size in source.deepest_by_camera) <= 3000
+    assert len(kept_up) == 360
+    with open_pair(f"video:{files[0]}", f"video:{files[1]}", bound=small) as source:
         given = [0, 0]
         for frame in source.frames():
             given[frame.camera - 1] += 1
