@@ -120,6 +120,13 @@ class SessionResult:
         return self.label or Path(self.session).name
 
     @property
+    def pose_views(self) -> pd.DataFrame:
+        """Its views of typed poses, which the charts and figures draw per trial (a
+        two-camera session's views are its frame pairs per stream trial, not its touches':
+        none of them)."""
+        return self.views[self.views["cameras"] == 1] if "cameras" in self.views else self.views
+
+    @property
     def session_id(self) -> str:
         """The session it is (a fork's branches and a session's parts around a missing one
         are analysed apart, one id): from its trials, else its path."""

@@ -11,7 +11,8 @@ The consumer takes the pairs as they become final
 (:meth:`~recorder.sources.pair.PairSource.pairs`) and decodes both frames, as a recording
 would before writing them. Printed: each window's pairs and rate, each camera's frames
 dropped (a reader too slow for its queue, or a reader thread late for its camera by more than
-the driver's ring), frames left unpaired, the pairs' skew, each pair's lag from its later
+the driver's ring), the queue's bound (seconds and bytes) and each time it overflowed, in
+words, frames left unpaired, the pairs' skew, each pair's lag from its later
 capture to the consumer holding both images (p50, p99, max), and the CPU time of the whole
 process per pair against the frame interval. Targets: every frame of both files paired (none
 dropped, none unpaired), every window's rate within 1% of the files' rate. Exits 1 if one is
@@ -95,9 +96,18 @@ def main() -> int:
             t_cap1.append(pair.first.t_capture_ns)
             t_cap2.append(pair.second.t_capture_ns)
         dropped, late = source.dropped_by_camera, source.late_by_camera
+        said, bound = source.drops_said(), source.bound
+        deepest, limit = source.deepest_by_camera, round(bound.seconds * args.fps)
     cpu, wall = time.process_time() - cpu0, time.monotonic() - wall0
     load1 = os.getloadavg()[0]
     times = (t_cap1, t_cap2, t_held)
+    print(f"each camera's queue: {bound.seconds:g} s of its frames, at most "
+          f"{bound.bytes / 2**20:.0f} MiB; past it, the oldest dropped, counted, said")  # fmt: skip
+    for k, (n, size) in enumerate(deepest, start=1):
+        print(f"camera {k}'s queue at its deepest: {n} frames ({n / args.fps:.2f} s behind, "
+              f"{size / 1e6:.1f} MB) of its {limit}")  # fmt: skip
+    for line in said:
+        print(f"said: {line}")
     return report(args, frames, cams, (dropped, late), times, cpu, wall, (load0, load1))
 
 
@@ -140,7 +150,7 @@ def report(
           f"camera 2 {dropped[1]}")  # fmt: skip
     print(f"  of those dropped, the reader thread late for its file by over {RING_FRAMES} "
           "intervals: "
-          f"camera 1 {late[0]}, camera 2 {late[1]}; the rest: its queue full")  # fmt: skip
+          f"camera 1 {late[0]}, camera 2 {late[1]}; the rest: past its queue's bound")  # fmt: skip
     print(f"skew |t2 - t1|: max {skew_ms.max():.3f} ms")
     p50, p99 = np.percentile(lag_ms, [50, 99])
     print(f"from the later capture to both images decoded in hand: p50 {p50:.1f} ms, "

@@ -186,6 +186,9 @@ EXPLAINED: dict[tuple[str, str, str], str] = {
         'the touch\'s field "point" (the grid point touched) and its message'
     ),
     ("analysis/tables/declared.py", "camera", "argument"): 'frames.csv\'s column "camera"',
+    ("analysis/tables/declared.py", "pair", "argument"): (
+        "views.csv's column \"pair\" (a frame pair's number)"
+    ),
     ("twopose/sim/moving.py", "in", "argument"): "the scene's inch-valued sizes converted",
     ("recorder/simulate/pair.py", "in", "argument"): "one inch in the scene's unit (the lead)",
     ("recorder/simulate/pointing_clip.py", "in", "argument"): "one inch in the scene's unit",

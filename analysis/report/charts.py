@@ -500,6 +500,9 @@ def _running(
             "used": gt["shown"].to_numpy() == "used",
         }
     )
+    # a two-camera session's: per touch, the pair estimates nearest it (averaging.csv)
+    pairs = "cameras" in averaging and bool((averaging["cameras"] == 2).all())
+    what = "pair estimates about the touch" if pairs else "frames"
     charts = []
     for axis in (a, b):
         framed = rows.loc[rows["used"], f"e{axis}"] if rows["used"].any() else rows[f"e{axis}"]
@@ -523,7 +526,7 @@ def _running(
                     "x": {
                         "field": "n_frames",
                         "type": "quantitative",
-                        "title": "frames averaged (number of)",
+                        "title": f"{what} averaged (number of)",
                     },
                     "y": {
                         "field": "shown_error",
@@ -535,7 +538,7 @@ def _running(
                     "opacity": _picked(1.0, 0.12),
                     "tooltip": [
                         {"field": "trial"},
-                        {"field": "n_frames", "title": "frames (number of)"},
+                        {"field": "n_frames", "title": f"{what} (number of)"},
                         {
                             "field": f"e{axis}",
                             "title": f"{axis} error ({unit_text})",

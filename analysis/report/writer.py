@@ -516,7 +516,7 @@ def _session_sections(result: RunResult) -> list[str]:
                 heading,
                 s.trials,
                 s.averaging,
-                s.views,
+                s.pose_views,
                 unit_text=unit_label(units),
                 include_warned=result.include_warned,
             )

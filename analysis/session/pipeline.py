@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -24,7 +24,7 @@ from analysis.batch.inputs import SessionIdentity
 from analysis.results import AnalysisOptions, SessionResult
 from analysis.rig.scope import rig_file_columns
 from analysis.session.detection import Detections, detected, given_detections, trial_views
-from analysis.session.results_mcap import ResultsWriter
+from analysis.session.results_mcap import ResultsWriter, results_writer
 from analysis.tables.columns import FRAME_COLUMNS, RIG_TABLE_COLUMNS, typed
 from analysis.tables.rows import (
     averaging_table,
@@ -144,13 +144,20 @@ def analyse_session(
 
         return analyse_pair_session(
             path, options, metadata=pair_metadata, identity=identity,
-            continuations=[str(p) for p in continuations],
+            continuations=[str(p) for p in continuations], results_path=results_path,
         )  # fmt: skip
+    for later in continuations:  # a one-camera session's parts are one-camera recordings
+        if _pair_session_metadata(later) is not None:
+            raise InputValueError(
+                f"{later} continues the one-camera session {path} but records two cameras: "
+                f"the two cannot be analysed as one session; move {later} out of the run's "
+                f"inputs to analyse {path}, or analyse {later} alone"
+            )
     with contextlib.ExitStack() as stack:
         reader = stack.enter_context(SessionReader(path))
         results = None
         if results_path is not None:
-            results = stack.enter_context(_results_writer(Path(results_path), reader))
+            results = stack.enter_context(results_writer(Path(results_path), reader))
         known: list[Sequence[Detections] | None] = (
             [None] * (1 + len(continuations)) if detections is None else list(detections)
         )
@@ -191,21 +198,6 @@ def analyse_session(
         rig=rig,
     )
     return _with_figures(result, options, figure_cache) if render_images else result
-
-
-@contextlib.contextmanager
-def _results_writer(out: Path, reader: SessionReader) -> Iterator[ResultsWriter]:
-    """The session's results.mcap, written under a temporary name and renamed into place
-    only when the analysis succeeds (a failure or a full disk leaves no half file), by the
-    one atomic writer (:func:`twopose.atomic_write.replacing`: synced, renamed, folder synced)."""
-    from twopose.atomic_write import replacing
-
-    with replacing(out) as tmp:
-        writer = ResultsWriter(tmp, list(reader.cameras.values()), reader.ground)
-        try:
-            yield writer
-        finally:
-            writer.close()
 
 
 def _rig_columns(

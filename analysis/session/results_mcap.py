@@ -19,9 +19,11 @@ so memory stays flat whatever the session length. The geometry is the solver's g
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator
 from pathlib import Path
 from types import TracebackType
-from typing import Any, Self
+from typing import TYPE_CHECKING, Any, Self
 
 from foxglove_schemas_protobuf.ImageAnnotations_pb2 import ImageAnnotations
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
@@ -46,10 +48,14 @@ from twopose.format.messages import (
     transform_message,
 )
 
+if TYPE_CHECKING:
+    from twopose.format.reader import SessionReader
+
 __all__ = [
     "SCENE_TOPIC",
     "ResultsWriter",
     "annotations_topic",
+    "results_writer",
 ]
 
 SCENE_TOPIC = RESULTS_TOPIC_PREFIX + "scene"
@@ -139,3 +145,19 @@ class ResultsWriter:
         tb: TracebackType | None,
     ) -> None:
         self.close()
+
+
+@contextlib.contextmanager
+def results_writer(out: Path, reader: SessionReader) -> Iterator[ResultsWriter]:
+    """The session's results.mcap (its cameras and ground as ``reader`` has them), written
+    under a temporary name and renamed into place only when the analysis succeeds (a failure
+    or a full disk leaves no half file), by the one atomic writer
+    (:func:`twopose.atomic_write.replacing`: synced, renamed, folder synced)."""
+    from twopose.atomic_write import replacing
+
+    with replacing(out) as tmp:
+        writer = ResultsWriter(tmp, list(reader.cameras.values()), reader.ground)
+        try:
+            yield writer
+        finally:
+            writer.close()

@@ -19,15 +19,17 @@ the point's distance from the line).
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from twopose.arrays import F64
-from twopose.detect.detection import detect
+from twopose.detect.detection import Detection, detect
 from twopose.errors import InputValueError
 from twopose.format.entries import Touch
+from twopose.format.messages import Frame
 from twopose.format.reader import SessionReader
 from twopose.format.streams import CameraStream, StreamTrial, read_pair_session
 from twopose.methods.specs import Method, spec_of
@@ -43,9 +45,11 @@ from twopose.pair.stream import (
 
 __all__ = [
     "MAX_TOUCH_GAP_INTERVALS",
+    "FrameSeen",
     "PairReplay",
     "TrialReplay",
     "at_touches",
+    "camera_track",
     "replay_pair_session",
     "replay_trial",
 ]
@@ -80,6 +84,8 @@ class TrialReplay:
     reason: str = ""
     #: camera 1's median frame interval (ns; 0 with fewer than two frames)
     interval_ns: float = 0.0
+    #: each camera's frames' detector reasons, in frame order ("" where found)
+    missed: tuple[tuple[str, ...], tuple[str, ...]] = ((), ())
 
     @property
     def truth(self) -> F64:
@@ -97,13 +103,23 @@ class PairReplay:
     trials: tuple[TrialReplay, ...]
 
 
-def _track(stream: CameraStream, method: Method) -> CameraTrack:
-    """One camera's detections of the method's target, frame by frame."""
+#: Told each frame as it is detected, with its detection (the tables, results.mcap).
+FrameSeen = Callable[[Frame, Detection], None]
+
+
+def camera_track(
+    stream: CameraStream, method: Method, params: object = None, seen: FrameSeen | None = None
+) -> CameraTrack:
+    """One camera's detections of the method's target, frame by frame (by the detector's
+    thresholds ``params``, else its defaults), each told to ``seen``."""
     spec = spec_of(method)
     assert spec.target is not None  # a measuring method's
     found, centroid, theta = [], [], []
-    for image in stream.images():
-        d = detect(image, spec.target)
+    size = (stream.camera.intrinsics.width, stream.camera.intrinsics.height)
+    for frame in stream.frames():
+        d = detect(frame.decode(size), spec.target, params)
+        if seen is not None:
+            seen(frame, d)
         found.append(d.found)
         centroid.append(d.centroid_px if d.found else (np.nan, np.nan))
         theta.append(d.theta_deg if d.found and spec.uses_image_lines else np.nan)
@@ -199,15 +215,35 @@ def replay_trial(
     method: Method,
     known: tuple[ClockOffset | None, str],
     settings: StreamSettings,
+    *,
+    params: object = None,
+    seen: tuple[FrameSeen, FrameSeen] | None = None,
 ) -> TrialReplay:
-    """One stream trial replayed (the reader open): both cameras' targets detected, the
+    """One stream trial replayed (the reader open): both cameras' targets detected (by the
+    detector's thresholds ``params``, each frame told to its camera's ``seen``), the
     clock offset ``known`` (``(offset, where from)``; ``(None, _)``: measured by the ray
     gap), the stream estimated and read at each touch.
 
     Raises :class:`~twopose.errors.InputValueError` when the trial cannot be estimated (a
     camera with too few frames, an offset that cannot be measured), saying why.
     """
-    tracks = (_track(trial.camera1, method), _track(trial.camera2, method))
+    outer = seen or (None, None)
+    missed: tuple[list[str], list[str]] = ([], [])
+
+    def told(n: int) -> FrameSeen:
+        """Keep camera ``n``'s detector's reasons (a touch's row names them), then tell."""
+
+        def keep(frame: Frame, d: Detection) -> None:
+            missed[n].append("" if d.found else d.reason)
+            if outer[n] is not None:
+                outer[n](frame, d)  # type: ignore[misc]
+
+        return keep
+
+    tracks = (
+        camera_track(trial.camera1, method, params, told(0)),
+        camera_track(trial.camera2, method, params, told(1)),
+    )
     used, source = _offset(trial, pair, tracks, known)
     estimate = estimate_stream(method, pair, *tracks, used, settings)
     interval = float(np.median(np.diff(tracks[0].t_ns))) if len(tracks[0].t_ns) > 1 else 0.0
@@ -223,6 +259,7 @@ def replay_trial(
         touch_error=np.full(len(trial.touches), np.nan),
         reason="; ".join(s.reason for s in trial.cameras if s.reason),
         interval_ns=interval,
+        missed=(tuple(missed[0]), tuple(missed[1])),
     )
     error = np.linalg.norm(at - replay.truth, axis=1)
     return dataclasses.replace(replay, touch_error=error)

@@ -29,6 +29,7 @@ truth: it fails, saying so. A stream cut short (a lost window) is said in ``note
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 from pathlib import Path
 from typing import Any
@@ -38,17 +39,20 @@ import pandas as pd
 
 from analysis.batch.inputs import SessionIdentity
 from analysis.results import AnalysisOptions, SessionResult
+from analysis.session.results_mcap import results_writer
 from analysis.session.stream import (
     DEFAULT_NOISE,
     MAX_TOUCH_GAP_INTERVALS,
     TrialReplay,
     at_touches,
+    camera_track,
     replay_trial,
 )
-from analysis.tables.columns import AVERAGING_COLUMNS, FRAME_COLUMNS, typed
-from analysis.tables.rows import with_identity
+from analysis.session.stream_rows import PairOutputs, nearest_ok
+from analysis.tables.columns import typed
+from analysis.tables.rows import with_branch, with_identity
 from analysis.tables.trials import columns_of
-from twopose.arrays import F64, Bools, Ints
+from twopose.arrays import F64
 from twopose.errors import InputValueError
 from twopose.format.reader import SessionReader
 from twopose.format.streams import PairSession, StreamTrial, read_pair_session
@@ -70,43 +74,89 @@ def analyse_pair_session(
     metadata: dict[str, str],
     identity: SessionIdentity | None = None,
     continuations: tuple[str, ...] | list[str] = (),
+    results_path: str | Path | None = None,
 ) -> SessionResult:
-    """A two-camera session's tables: one ``trials.csv`` row per touch (module docstring);
+    """A two-camera session's tables: one ``trials.csv`` row per touch (module docstring),
+    and its frames, views and averaging rows (:mod:`analysis.session.stream_rows`);
     ``metadata`` what the report says of any session (:func:`analysis.session.pipeline.
     session_metadata`, which calls this: :func:`analysis.analyse_session`), the pair's
-    added.
+    added. With ``results_path``, its results.mcap is written there (none on a failure).
+    ``continuations``: its later parts, in order, replayed after ``path`` as one session
+    (each part's stream trials with its own pair and clock offset; a stream trial number a
+    later part repeats, as two continuations of one part may, kept from the first).
 
     Raises :class:`~twopose.errors.InputValueError` for a session with no touch, one that
-    measures nothing, or one continued in later files (not analysed as one yet).
+    measures nothing, or a part that is not a two-camera recording of the same method and
+    units.
     """
     options = options or AnalysisOptions()
-    if continuations:
-        raise InputValueError(
-            f"{path}: a two-camera session continued in {', '.join(map(str, continuations))}: "
-            "its parts are not analysed as one session yet; analyse each part on its own"
-        )
-    with SessionReader(path) as reader:
-        session = read_pair_session(reader)
+    with contextlib.ExitStack() as stack:
+        readers = [stack.enter_context(SessionReader(p)) for p in (path, *continuations)]
+        parts = [_pair_part(reader, str(path)) for reader in readers]
+        session = parts[0]
         if not spec_of(session.info.method).measures:
             raise InputValueError(f"{path}: a {session.info.method} session measures nothing")
-        if not session.touches:
+        kept = _kept_trials(parts)
+        if not any(trial.touches for _, trial in kept):
             raise InputValueError(
                 f"{path}: a two-camera session with no touch marked: nothing to compare with "
                 "the truth (mark touches with the key, the console's button or a plan's "
                 "schedule while recording)"
             )
-        rows = touch_rows(str(path), session, options)
-    metadata = metadata | _pair_metadata(session) | {"skew": _skew_said(rows, session.info.units)}
-    identity = identity or SessionIdentity.of_files(path)
-    part_of = dict.fromkeys(rows["trial"].astype(int), str(path))
+        outputs = PairOutputs(
+            session=str(path), method=session.info.method, units=session.info.units,
+            pair=session.pair,
+            results=None if results_path is None
+            else stack.enter_context(results_writer(Path(results_path), readers[0])),
+        )  # fmt: skip
+        rows = touch_rows(str(path), parts, options, outputs)
+    metadata = (
+        metadata | _pair_metadata(session, parts) | {"skew": _skew_said(rows, session.info.units)}
+    )
+    identity = identity or SessionIdentity.of_files(path, continuations)
+    touched = [str(part.path) for part, trial in kept for _ in trial.touches]
+    part_of = dict(zip(rows["trial"].astype(int), touched, strict=True))
+    stream_part = {trial.trial: str(part.path) for part, trial in kept}
+    frames, views, averaging = outputs.tables()
     return SessionResult(
         session=str(path),
         label=identity.label,
         metadata=metadata,
-        frames=typed(pd.DataFrame(columns=FRAME_COLUMNS)),
+        frames=with_branch(frames, identity, stream_part),
         trials=with_identity(rows, identity, part_of),
-        averaging=typed(pd.DataFrame(columns=AVERAGING_COLUMNS)),  # no frames per pose
+        averaging=with_branch(averaging, identity, part_of),
+        views=with_branch(views, identity, stream_part),
     )
+
+
+def _pair_part(reader: SessionReader, first: str) -> PairSession:
+    """A part of the two-camera session ``first`` (its first part's path), as read; refused
+    in words when it records no pair (a one-camera continuation of a two-camera session)."""
+    if reader.pair is None and str(reader.path) != first:
+        raise InputValueError(
+            f"{reader.path} continues the two-camera session {first} but records one camera "
+            "(no pair, no stream trials): the two cannot be analysed as one session; move "
+            f"{reader.path} out of the run's inputs to analyse {first}, or analyse "
+            f"{reader.path} alone"
+        )
+    return read_pair_session(reader)
+
+
+def _kept_trials(parts: list[PairSession]) -> list[tuple[PairSession, StreamTrial]]:
+    """Every part's stream trials in order, each trial number once (the first part's)."""
+    first, seen, kept = parts[0], set[int](), []
+    for part in parts:
+        if (part.info.method, part.info.units) != (first.info.method, first.info.units):
+            raise InputValueError(
+                f"{part.path} continues {first.path} with another method or unit "
+                f"({part.info.method}, {part.info.units}; the session's: {first.info.method}, "
+                f"{first.info.units}): not one session to analyse"
+            )
+        for trial in part.trials:
+            if trial.trial not in seen:
+                seen.add(trial.trial)
+                kept.append((part, trial))
+    return kept
 
 
 def _skew_said(rows: pd.DataFrame, units: Units) -> str:
@@ -127,9 +177,14 @@ def _skew_said(rows: pd.DataFrame, units: Units) -> str:
     )
 
 
-def _pair_metadata(session: PairSession) -> dict[str, str]:
-    """What the report says of the pair: its cameras, baseline, offset and touches."""
+def _pair_metadata(session: PairSession, parts: list[PairSession] | None = None) -> dict[str, str]:
+    """What the report says of the pair: its cameras, baseline, offset and touches (over
+    ``parts``, the session's parts, where it has more than one)."""
     pair, offset = session.pair, session.offset
+    parts = parts or [session]
+    n_touches = sum(len(p.touches) for p in parts)
+    n_trials = sum(len(p.trials) for p in parts)
+    in_parts = f" in {len(parts)} parts" if len(parts) > 1 else ""
     said = (
         "none recorded (measured per trial by the ray gap)"
         if offset is None
@@ -146,7 +201,7 @@ def _pair_metadata(session: PairSession) -> dict[str, str]:
             )
         ),
         "clock_offset": said,
-        "touches": f"{len(session.touches)} over {len(session.trials)} stream trial(s)",
+        "touches": f"{n_touches} over {n_trials} stream trial(s){in_parts}",
     }
 
 
@@ -175,37 +230,53 @@ def pair_lines(session: PairSession) -> list[str]:
     return lines
 
 
-def touch_rows(session_path: str, session: PairSession, options: AnalysisOptions) -> pd.DataFrame:
-    """Every touch's row of ``trials.csv`` (the reader open), in trial and touch order."""
-    spec = spec_of(session.info.method)
+def touch_rows(
+    session_path: str,
+    session: PairSession | list[PairSession],
+    options: AnalysisOptions,
+    outputs: PairOutputs | None = None,
+) -> pd.DataFrame:
+    """Every touch's row of ``trials.csv`` (the readers open), in part, trial and touch
+    order, over the session's parts (``session`` one, or its parts in order:
+    :func:`_kept_trials`); each frame, pair and touch told to ``outputs`` (the other
+    tables, results.mcap)."""
+    parts = session if isinstance(session, list) else [session]
+    spec = spec_of(parts[0].info.method)
+    assert spec.target is not None  # a measuring method's
     settings = StreamSettings(noise=DEFAULT_NOISE, estimate=options.estimate)
-    known = (session.offset, "recorded")
+    params = options.thresholds_for(spec.target)
     rows: list[dict[str, Any]] = []
-    for trial in session.trials:
-        if not trial.touches:
-            continue
+    for part, trial in _kept_trials(parts):
+        if not trial.touches and outputs is None:
+            continue  # no row; its frames and pairs are the other tables'
+        baseline = {"baseline": float(np.linalg.norm(part.pair.t_2_in_1))}
+        seen = None if outputs is None else outputs.seen(trial.trial)
         blind = [s.camera_id for s in trial.cameras if len(s) < 2]
         if blind:  # nothing to pair or interpolate: said per touch
+            for stream, told in zip(trial.cameras, seen or (), strict=False):
+                camera_track(stream, spec.method, params, told)  # its frames' rows
             why = (
                 f"camera {' and '.join(blind)} recorded fewer than 2 frames in trial {trial.trial}"
             )
-            rows += [_failed_row(trial, k, why) for k in range(len(trial.touches))]
+            rows += [_failed_row(trial, k, why) | baseline for k in range(len(trial.touches))]
             continue
         try:
-            replay = replay_trial(trial, session.pair, spec.method, known, settings)
+            replay = replay_trial(trial, part.pair, spec.method, (part.offset, "recorded"),
+                                  settings, params=params, seen=seen)  # fmt: skip
         except InputValueError as err:
-            rows += [_failed_row(trial, k, str(err)) for k in range(len(trial.touches))]
+            rows += [_failed_row(trial, k, str(err)) | baseline for k in range(len(trial.touches))]
             continue
-        rows += _replayed_rows(trial, replay, session, settings)
+        if outputs is not None:
+            outputs.add_trial(trial, replay, first_touch=len(rows) + 1, pair=part.pair)
+        rows += [r | baseline for r in _replayed_rows(trial, replay, part, settings)]
     for number, row in enumerate(rows, start=1):
         row["trial"] = number
     names = [c.name for c in columns_of(spec)] + _STREAM_NAMES
     table = pd.DataFrame(rows).reindex(columns=[n for n in names if n != "label"])
     table["session"] = session_path
     table["method"] = str(spec.method)
-    table["units"] = str(session.info.units)
+    table["units"] = str(parts[0].info.units)
     table["cameras"] = 2
-    table["baseline"] = float(np.linalg.norm(session.pair.t_2_in_1))
     # One pair of views has no redundancy to test: no misclosure's dof, no pose named.
     table["misclosure_dof"] = 0
     table["suspect_pose"] = 0
@@ -252,7 +323,7 @@ def _replayed_rows(
     error = replay.at_touch - truth
     err_raw = np.linalg.norm(at_touches(raw, touches, replay.interval_ns) - truth, axis=1)
     ok = est.ok
-    nearest = _nearest(est.t_ns, np.array([t.time_ns for t in touches], dtype=np.float64), ok)
+    nearest = nearest_ok(est.t_ns, np.array([t.time_ns for t in touches], dtype=np.float64), ok)
     have = np.isfinite(replay.at_touch).all(axis=1) & (nearest >= 0)
     cov = np.full((len(touches), 3, 3), np.nan)
     cov[have] = est.cov[nearest[have]]
@@ -263,7 +334,7 @@ def _replayed_rows(
         err = float(np.linalg.norm(error[k])) if have[k] else np.nan
         row: dict[str, Any] = {
             "touch": f"trial {trial.trial}, touch {touch.touch}",
-            **_status(est, touch.time_ns, have=bool(have[k])),
+            **_status(est, touch.time_ns, have=bool(have[k]), missed=replay.missed),
             "n_views": 2 if have[k] else 0,
             **{a: float(replay.at_touch[k, i]) for i, a in enumerate("xyz")},
             **_truth(truth[k]),
@@ -296,17 +367,16 @@ def _skew_share(err: float, err_raw: float) -> float:
     return max(0.0, 1.0 - err / err_raw)
 
 
-def _nearest(t_ns: F64, at: F64, ok: Bools) -> Ints:
-    """(K,) per time of ``at``, the index of the ok estimate nearest it (-1: none)."""
-    index = np.flatnonzero(ok)
-    if not index.size:
-        return np.full(at.size, -1)
-    nearest: Ints = index[np.argmin(np.abs(t_ns[index][None, :] - at[:, None]), axis=1)]
-    return nearest
-
-
-def _status(est: StreamEstimate, time_ns: int, *, have: bool) -> dict[str, str]:
-    """A touch's status and reason: ``ok``; else why there is no estimate about it."""
+def _status(
+    est: StreamEstimate,
+    time_ns: int,
+    *,
+    have: bool,
+    missed: tuple[tuple[str, ...], tuple[str, ...]] = ((), ()),
+) -> dict[str, str]:
+    """A touch's status and reason: ``ok``; else why there is no estimate about it (a
+    camera that did not detect the target in the nearest pair named, with its detector's
+    reason from ``missed``, each camera's frames' reasons)."""
     if have:
         return {"status": "ok", "reason": ""}
     if not est.t_ns.size:
@@ -319,7 +389,15 @@ def _status(est: StreamEstimate, time_ns: int, *, have: bool) -> dict[str, str]:
             "reason": "no estimate about the touch: no two ok estimates about its time within "
             f"{MAX_TOUCH_GAP_INTERVALS:g} frame intervals (outside the stream, or pairs lost)",
         }
+    frames = (int(est.i1[j]), int(est.i2[j]))
+    lost = [
+        f"camera {n + 1}: {reasons[i]}"
+        for n, (reasons, i) in enumerate(zip(missed, frames, strict=True))
+        if i < len(reasons) and reasons[i]
+    ]
     why = str(est.reason[j]) or status
+    if lost:  # the detector's reason, not the solver's "fewer than two views"
+        why = "target not detected by " + "; by ".join(lost)
     return {
         "status": _DEGENERATE.get(status, "no_detection"),
         "reason": f"no estimate about the touch: the nearest pair's {why}",

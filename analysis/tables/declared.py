@@ -80,8 +80,17 @@ def _xyz(stem: str, label: str, group: str, unit: str = "length", **kw: Any) -> 
     ]
 
 
+def _cameras(group: str) -> Column:
+    """How many cameras the row's session has: 1, or 2 (a two-camera session's stream)."""
+    return Column(name="cameras", label="cameras", unit="count",
+                  domain=Domain("one of", ("1", "2")), dtype="int64", group=group)  # fmt: skip
+
+
 _F = "frames"
 #: ``frames.csv``: every frame's detection (no length in the session's unit, so no units).
+#: A two-camera session's (``cameras`` 2): each camera's frames of each stream trial
+#: (``trial`` the stream trial's number, as ``trials.csv``'s ``touch`` names it; ``pose``
+#: 0, no typed pose; ``frame`` the frame's number in its camera's stream, from 0).
 FRAME_TABLE: tuple[Column, ...] = (
     *_trial_key(_F),
     _count("pose", "pose", _F),
@@ -98,10 +107,16 @@ FRAME_TABLE: tuple[Column, ...] = (
     _count("n_blobs", "blobs", _F),
     _count("n_candidates", "candidates", _F),
     _text("reason", "why rejected", _F),
+    _cameras(_F),
+    _count("capture_ns", "capture time (ns, its camera's clock; 0: not recorded)", _F),
 )
 
 _V = "views"
-#: ``views.csv``: one row per used pose, what the solver used (the report's top views).
+#: ``views.csv``: one row per used pose, what the solver used (the report's top views). A
+#: two-camera session's (``cameras`` 2): per frame pair of each stream trial (``trial`` the
+#: stream trial's number, ``pair`` the pair's from 1), one row per camera (``pose`` 1 or 2,
+#: camera 1 at the origin), the pair flagged or used: its ``status``, ``reason`` and
+#: ``conditioning``, its time and skew.
 VIEW_TABLE: tuple[Column, ...] = (
     *_trial_key(_V),
     _count("pose", "pose", _V),
@@ -114,16 +129,27 @@ VIEW_TABLE: tuple[Column, ...] = (
     *_xyz("f{}", "focal length {}", _V, "pixels", axes="xy", domain=NON_NEGATIVE),
     *_xyz("c{}", "principal point {}", _V, "pixels", axes="xy"),
     *_xyz("r_{}_deg", "typed rotation about {}", _V, "degrees"),
-)
+    _cameras(_V),
+    _count("pair", "frame pair (from 1; 0: one camera)", _V),
+    _count("pair_time_ns", "pair's time (ns, camera 1's clock; 0: one camera)", _V),
+    _number("skew_ms", "pair's skew (camera 2 on camera 1's clock minus camera 1)", _V,
+            "milliseconds", FINITE),
+    _text("status", "pair's status", _V),
+    _text("reason", "why the pair has no estimate", _V),
+    _number("conditioning", "pair's conditioning", _V, "none", NON_NEGATIVE),
+)  # fmt: skip
 
 _A = "averaging"
-#: ``averaging.csv``: each trial's estimate from its first 1..K frames per pose.
+#: ``averaging.csv``: each trial's estimate from its first 1..K frames per pose. A
+#: two-camera session's (``cameras`` 2): per touch (``trial`` as in ``trials.csv``), the
+#: mean of the ``n_frames`` ok pair estimates nearest its time.
 AVERAGING_TABLE: tuple[Column, ...] = (
     *_trial_key(_A),
     _count("n_frames", "frames per pose", _A),
     _text("units", "units", _A, _UNITS),
     *_xyz("{}", "estimate {}", _A),
     _number("err", "error", _A, "length", NON_NEGATIVE),
+    _cameras(_A),
 )
 
 _S = "summary"

@@ -31,11 +31,18 @@ if TYPE_CHECKING:
     from twopose.solve.session import SessionEstimate
 
 __all__ = [
+    "ONE_CAMERA_VIEW",
     "averaging_table",
     "frame_row",
     "trial_table",
     "view_table",
 ]
+
+#: A one-camera view's columns that a two-camera session's frame pairs fill.
+ONE_CAMERA_VIEW: Mapping[str, Any] = {
+    "cameras": 1, "pair": 0, "pair_time_ns": 0, "skew_ms": np.nan, "status": "", "reason": "",
+    "conditioning": np.nan,
+}  # fmt: skip
 
 
 def frame_row(
@@ -59,6 +66,8 @@ def frame_row(
         "n_blobs": det.n_blobs,
         "n_candidates": det.n_candidates,
         "reason": det.reason,
+        "cameras": 1,
+        "capture_ns": frame.capture_ns or 0,  # an older file's stamp is its write time
     }
 
 
@@ -106,6 +115,7 @@ def view_table(
                     **{f"ray_{a}": ray[i] for i, a in enumerate("xyz")},
                     **dict(zip(("fx", "fy", "cx", "cy"), map(float, v.intrinsics), strict=True)),
                     **{f"r_{a}_deg": float(v.r_deg[i]) for i, a in enumerate("xyz")},
+                    **ONE_CAMERA_VIEW,
                 }
             )
     return typed(pd.DataFrame(rows, columns=VIEW_COLUMNS))
@@ -143,6 +153,7 @@ def averaging_table(
             "y": point[:, 1],
             "z": point[:, 2],
             "err": np.linalg.norm(point - reference, axis=1),
+            "cameras": 1,
         },
         columns=AVERAGING_COLUMNS,
     )

@@ -405,6 +405,7 @@ def _stream_trial(
     """One stream trial, from its first frame to its end (the module docstring), counted
     in ``summary`` (also when a stop cuts it short)."""
     ids = writer.info.camera_ids
+    jpeg = writer.image_format == "jpeg"
     if not source.stills:
         source.start_capture()  # frames queued between trials are not this trial's
     state = _TrialState(
@@ -427,7 +428,7 @@ def _stream_trial(
                 if frame is None:  # both files (folders) ended: no more pairs, a normal end
                     state.ended = "ended"
                     break
-                _write_frame(state, stream, ids, frame, source)
+                _write_frame(state, stream, ids, frame, source, jpeg=jpeg)
                 meter.add(frame)
                 if sink is not None:
                     sink.pair_frame(frame)
@@ -466,9 +467,11 @@ def _take_events(state: _TrialState, stream: Stream, driver: StreamDriver) -> No
 
 
 def _write_frame(
-    state: _TrialState, stream: Stream, ids: Sequence[str], frame: TimedFrame, source: PairSource
-) -> None:
-    """One frame into the stream, and what each camera dropped since the last."""
+    state: _TrialState, stream: Stream, ids: Sequence[str], frame: TimedFrame, source: PairSource,
+    *, jpeg: bool,
+) -> None:  # fmt: skip
+    """One frame into the stream, and what each camera dropped since the last (``jpeg``:
+    the session stores JPEG, so a camera's own JPEG bytes are stored as they are)."""
     now = source.dropped_by_camera
     for c in (0, 1):
         extra = now[c] - state.seen_dropped[c]
@@ -476,7 +479,10 @@ def _write_frame(
             stream.dropped(ids[c], extra)
             state.dropped[c] += extra
     state.seen_dropped = now
-    stream.add_frame(ids[frame.camera - 1], frame.image, frame.t_capture_ns)
+    if frame.jpeg is not None and jpeg:  # the camera's own JPEG, not decoded and encoded again
+        stream.add_encoded(ids[frame.camera - 1], frame.jpeg, frame.t_capture_ns)
+    else:
+        stream.add_frame(ids[frame.camera - 1], frame.image, frame.t_capture_ns)
     c = frame.camera - 1
     state.seen_ns[c] = time.monotonic_ns()
     if state.seen_ns[c] - state.seen_ns[1 - c] > SILENT_S * 1e9:

@@ -171,6 +171,13 @@ def read_continued(path: str | Path, *, operator: str | None = None) -> Continue
     try:
         with SessionReader(src) as reader:
             info, cameras, ground = reader.info, reader.cameras, reader.ground
+            if reader.pair is not None:
+                raise InputValueError(
+                    f"--continue {src}: a two-camera session (a pair of cameras, stream "
+                    "trials): continuing one is not supported yet (this would record a "
+                    "one-camera part of it); record the rest as a new two-camera session, "
+                    "and analyse both with `twopose-analyze run`"
+                )
             last = 0
             truth: tuple[Vec3, ...] = ()
             guidance = info.guidance

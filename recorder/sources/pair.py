@@ -10,10 +10,18 @@ quotes). :func:`pair_spec` writes it so.
 
 :class:`PairSource` reads each camera on its own thread (:mod:`recorder.sources.pair_feeds`: grab
 as fast as the camera gives, stamp each frame with its capture time, decode on the reader's
-side) into a bounded queue: when the reader is slow, a camera's oldest frame is dropped and
-counted (:attr:`PairSource.dropped_by_camera`), the camera is never held up (a folder of
-stills is never dropped: its thread waits instead). It gives each camera's frames with their
-capture times as they come (:meth:`PairSource.frames`, not paired: pairing is
+side) into a bounded queue that holds :data:`QUEUE_S` seconds of the camera's frames and at
+most :data:`QUEUE_BYTES` bytes of them (10 s of 640x480 MJPG at 30 fps is ~27 MB; of
+undecoded BGR frames, ~280 MB, so the bytes bind first at ~9 s), so that a consumer the
+machine stalls for a few seconds loses nothing. Past the bound a camera's oldest frame is
+dropped, counted (:attr:`PairSource.dropped_by_camera`) and said
+(:meth:`PairSource.drops_said`: each time a queue overflows, how far behind the consumer
+was); the camera is never held up (a folder of stills is never dropped: its thread waits
+instead). It gives each camera's frames with their
+capture times as they come (two folders of stills, which have no time of their own:
+strictly in capture order, each camera's next frame waited for, so that how fast each
+thread reads never decides which frames a trial holds; :meth:`PairSource.frames`, not
+paired: pairing is
 :mod:`twopose.pair.pairing`'s), or pairs made live by that same policy
 (:meth:`PairSource.pairs`). A stop of the recording (Ctrl-C, SIGTERM:
 :mod:`recorder.procedure.stops`)
@@ -25,6 +33,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import io
+import math
 import threading
 import time
 from collections import deque
@@ -46,17 +55,27 @@ if TYPE_CHECKING:
     Image = NDArray[np.uint8]
 
 __all__ = [
+    "QUEUE_BYTES",
+    "QUEUE_S",
     "CameraStream",
     "FramePair",
     "PairSource",
+    "QueueBound",
     "TimedFrame",
     "pair_spec",
     "parse_pair",
 ]
 
-#: How many frames each camera's queue holds (at 30 fps, a second: a consumer held up by a
-#: disk's flush or a busy machine loses nothing; MJPG frames are ~90 kB each).
-QUEUE_FRAMES = 30
+#: How long each camera's queue holds frames the consumer has not taken (its frame rate
+#: times this, in frames): a consumer held up by a disk's flush or a busy machine for a few
+#: seconds loses nothing (the 10-minute benchmark saw stalls of 1.25 s at a load of 11 on 2
+#: cores; a one-second queue then dropped 42 of 18000 pairs).
+QUEUE_S = 10.0
+#: And at most this many bytes of frames per camera (MJPG frames are ~90 kB each, undecoded
+#: BGR ones 921 kB at 640x480): whichever of the two bounds is reached first binds.
+QUEUE_BYTES = 256 * 2**20
+#: How many overflows of a queue are said one by one (then counted only).
+_SAID_MAX = 20
 _POLL_S = 0.05  # how often a wait looks whether the recording is to stop
 _JOIN_S = 2.0  # how long closing waits for both reader threads, together
 
@@ -66,7 +85,9 @@ class TimedFrame:
     """One camera's frame: ``camera`` 1 or 2, its number ``index`` among the frames that
     camera gave (from 0; a frame dropped leaves a gap), its capture time ``t_capture_ns``
     on its camera's clock, the monotonic time ``t_grab_ns`` right after it was grabbed (its
-    arrival), the BGR ``image`` and its ``name`` (a still's file name)."""
+    arrival), the BGR ``image`` and its ``name`` (a still's file name); ``jpeg`` the
+    camera's own JPEG bytes it was decoded from (an MJPG camera's or file's; None: it came
+    decoded), which a recording stores as they are instead of encoding the image again."""
 
     camera: int
     index: int
@@ -74,6 +95,7 @@ class TimedFrame:
     t_grab_ns: int
     image: Image
     name: str
+    jpeg: bytes | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -154,11 +176,17 @@ def pair_spec(first: str, second: str) -> str:
 class _Reader:
     """One camera: its feed, its reader thread and its bounded queue."""
 
-    def __init__(self, camera: int, spec: str, feed: Feed, queue_frames: int) -> None:
+    def __init__(self, camera: int, spec: str, feed: Feed, bound: QueueBound) -> None:
         self.camera, self.spec, self.feed = camera, spec, feed
         self.queue: deque[tuple[int, Grabbed]] = deque()
-        self.limit = queue_frames
+        self.bound = bound
+        self.limit = bound.frames or 1  # set at open from the camera's rate
+        self.bytes = 0  # of the frames queued
         self.dropped = 0  # taken from the camera, dropped because the reader was slow
+        self.overflows = 0  # times the queue filled and began dropping
+        self.deepest = (0, 0)  # the most frames (and their bytes) it held
+        self.said: list[str] = []  # the first overflows, in words
+        self._dropping = False  # the last frame put dropped one: the same overflow
         self.grabbed = 0
         self.ended = False  # the thread is done (the stream ended, failed or was stopped)
         self.error: SourceError | None = None
@@ -188,21 +216,88 @@ class _Reader:
                 self.ended = True
                 cond.notify_all()
 
+    def set_rate(self, fps: float) -> None:
+        """The queue's bound in frames, from the camera's rate (:data:`QUEUE_S` seconds)."""
+        if not self.bound.frames:
+            self.limit = max(1, math.ceil(self.bound.seconds * fps))
+
+    def _full(self, size: int) -> bool:
+        return bool(self.queue) and (
+            len(self.queue) >= self.limit or self.bytes + size > self.bound.bytes
+        )
+
     def _put(self, cond: threading.Condition, stop: threading.Event, grabbed: Grabbed) -> None:
+        size = _nbytes(grabbed.payload)
         with cond:
-            while self.feed.lossless and len(self.queue) >= self.limit and not stop.is_set():
+            while self.feed.lossless and self._full(size) and not stop.is_set():
                 cond.wait(_POLL_S)  # stills wait for the reader; a camera never does
-            if len(self.queue) >= self.limit:
-                self.queue.popleft()
+            dropped_now, oldest_ns = False, self.queue[0][1].t_capture_ns if self.queue else 0
+            while self._full(size):
+                self.bytes -= _nbytes(self.queue.popleft()[1].payload)
                 self.dropped += 1
+                dropped_now = True
+            if dropped_now and not self._dropping:
+                self._say_overflow((grabbed.t_capture_ns - oldest_ns) / 1e9)
+            self._dropping = dropped_now
             self.queue.append((self.grabbed, grabbed))
+            self.bytes += size
+            self.deepest = max(self.deepest, (len(self.queue), self.bytes))
             self.grabbed += 1
             self.last_ns = time.monotonic_ns()
             cond.notify_all()
 
+    def _say_overflow(self, behind_s: float) -> None:
+        """An overflow begins, the consumer ``behind_s`` behind the camera: said (the first
+        :data:`_SAID_MAX`), always counted."""
+        self.overflows += 1
+        if self.overflows > _SAID_MAX:
+            return
+        self.said.append(
+            f"camera {self.camera} ({self.spec}): the consumer fell {behind_s:.1f} s behind, "
+            f"past the queue's bound ({self.limit} frames, {self.bytes / 1e6:.1f} MB queued of "
+            f"{self.bound.bytes / 1e6:.0f} MB): its oldest frames dropped (frame "
+            f"{self.grabbed - len(self.queue)} the first of them), counted"
+        )
+
+    def drop_lines(self) -> list[str]:
+        """Its overflows in words (the first :data:`_SAID_MAX`, then how many more)."""
+        more = self.overflows - len(self.said)
+        extra = [f"camera {self.camera} ({self.spec}): {more} overflow(s) more"] if more else []
+        return [*self.said, *extra]
+
+    def take(self) -> tuple[int, Grabbed]:
+        """The oldest queued frame, taken by the consumer (the condition held)."""
+        index, grabbed = self.queue.popleft()
+        self.bytes -= _nbytes(grabbed.payload)
+        return index, grabbed
+
     @property
     def drained(self) -> bool:
         return self.ended and not self.queue
+
+
+@dataclass(frozen=True)
+class QueueBound:
+    """A camera's queue's bound: ``seconds`` of its frames (at its rate), at most
+    ``bytes`` of them; ``frames`` (> 0) a count instead of the seconds (tests)."""
+
+    seconds: float = QUEUE_S
+    bytes: int = QUEUE_BYTES
+    frames: int = 0
+
+    def __post_init__(self) -> None:
+        if not (self.seconds > 0 and self.bytes > 0 and self.frames >= 0):
+            raise SourceError(
+                f"a camera's queue holds more than 0 s and 0 bytes, got {self.seconds} s, "
+                f"{self.bytes} bytes, {self.frames} frames"
+            )
+
+
+def _nbytes(payload: object) -> int:
+    """A grabbed frame's size in bytes (a JPEG buffer's, or an image's)."""
+    if isinstance(payload, bytes | bytearray):
+        return len(payload)
+    return int(getattr(payload, "nbytes", 0))
 
 
 class PairSource(FrameSource):
@@ -220,13 +315,12 @@ class PairSource(FrameSource):
         feeds: tuple[Feed, Feed],
         specs: tuple[str, str],
         *,
-        queue_frames: int = QUEUE_FRAMES,
+        bound: QueueBound | None = None,
     ) -> None:
-        if queue_frames < 1:
-            raise SourceError(f"a camera's queue holds 1 frame or more, got {queue_frames}")
         self.specs = specs
+        self.bound = bound or QueueBound()
         self._readers = tuple(
-            _Reader(n, spec, feed, queue_frames)
+            _Reader(n, spec, feed, self.bound)
             for n, (spec, feed) in enumerate(zip(self.specs, feeds, strict=True), start=1)
         )
         self.stills = all(f.lossless for f in feeds)
@@ -237,11 +331,20 @@ class PairSource(FrameSource):
         self._stop = threading.Event()
         self._opened = False
 
+    def bound_to(self, bound: QueueBound) -> None:
+        """Each camera's queue bounded by ``bound`` instead (before :meth:`open`): a
+        consumer that wants fresh frames over whole ones (a live board search) keeps less."""
+        if self._opened:
+            raise SourceError("a pair source's queues are bounded before it is opened")
+        self.bound = bound
+        for reader in self._readers:
+            reader.bound, reader.limit = bound, bound.frames or 1
+
     def open(self) -> SourceInfo:
         opened: list[_Reader] = []
         try:
             for reader in self._readers:
-                reader.feed.open()
+                reader.set_rate(reader.feed.open().fps)
                 opened.append(reader)
         except BaseException:
             for reader in opened:
@@ -290,6 +393,12 @@ class PairSource(FrameSource):
         return one, two
 
     @property
+    def grabbed_by_camera(self) -> tuple[int, int]:
+        """Each camera's frames taken so far (a folder's: its stills read)."""
+        one, two = (r.grabbed for r in self._readers)
+        return one, two
+
+    @property
     def late_by_camera(self) -> tuple[int, int]:
         """Of :attr:`dropped_by_camera`, the frames a reader thread was too late for (a
         paced file's or the synthetic camera's; a camera's driver drops those unseen)."""
@@ -304,6 +413,18 @@ class PairSource(FrameSource):
     @dropped.setter
     def dropped(self, _value: int) -> None:
         return  # counted per camera (dropped_by_camera)
+
+    @property
+    def deepest_by_camera(self) -> tuple[tuple[int, int], tuple[int, int]]:
+        """Each camera's queue at its deepest: (frames, bytes) it held, against the bound
+        (:attr:`bound`): how far the consumer fell behind, and the margin left."""
+        one, two = (r.deepest for r in self._readers)
+        return one, two
+
+    def drops_said(self) -> list[str]:
+        """Each time a camera's queue overflowed (the consumer fell behind past its bound,
+        :class:`QueueBound`), in words: how far behind, what was dropped; empty when none."""
+        return [line for r in self._readers for line in r.drop_lines()]
 
     def ended_by(self) -> list[str]:
         """Why a camera's stream ended, where it said (a folder that ran out)."""
@@ -383,9 +504,12 @@ class PairSource(FrameSource):
                 if self._stop.is_set():
                     raise SourceError(f"{self.info.description} was closed")
                 ready = [r for r in self._readers if r.queue]
-                if ready:
+                # Stills: only once each camera has its next frame (or ended), so that a
+                # thread read faster (a loaded machine) never runs its camera ahead.
+                merged = not self.stills or all(r.queue or r.ended for r in self._readers)
+                if ready and merged:
                     reader = min(ready, key=lambda r: r.queue[0][1].t_capture_ns)
-                    index, grabbed = reader.queue.popleft()
+                    index, grabbed = reader.take()
                     self._cond.notify_all()  # a folder's thread may wait for room
                     break
                 self._raise_failed(timeout_s)
@@ -395,8 +519,9 @@ class PairSource(FrameSource):
         image = reader.feed.decode(grabbed.payload)
         name = grabbed.name or f"camera {reader.camera} frame {index + 1}"
         return TimedFrame(
-            reader.camera, index, grabbed.t_capture_ns, grabbed.t_grab_ns, image, name
-        )
+            reader.camera, index, grabbed.t_capture_ns, grabbed.t_grab_ns, image, name,
+            reader.feed.jpeg(grabbed.payload),
+        )  # fmt: skip
 
     def _raise_failed(self, timeout_s: float) -> None:
         """A camera that failed, or that is silent (nothing queued for ``timeout_s``)."""
@@ -412,6 +537,7 @@ class PairSource(FrameSource):
         with self._cond:
             for r in self._readers:
                 r.queue.clear()
+                r.bytes = 0
             self._cond.notify_all()
 
     def close(self) -> None:

@@ -34,7 +34,7 @@ if TYPE_CHECKING:
     import numpy as np
     from numpy.typing import NDArray
 
-    from recorder.sources.pair import PairSource
+    from recorder.sources.pair import PairSource, QueueBound
     from twopose.camera.model import Camera
 
     Image = NDArray[np.uint8]
@@ -453,11 +453,13 @@ def open_pair(
     options: SourceOptions | None = None,
     *,
     queue_frames: int | None = None,
+    bound: QueueBound | None = None,
 ) -> PairSource:
     """Two one-camera sources as a pair (``pair:FIRST,SECOND``; not yet opened): each opened
-    by the registry, read by its type's feed (:data:`FEEDS`), ``queue_frames`` a camera's
-    queue (:data:`recorder.sources.pair.QUEUE_FRAMES` unless given)."""
-    from recorder.sources.pair import QUEUE_FRAMES, PairSource
+    by the registry, read by its type's feed (:data:`FEEDS`); a camera's queue bounded by
+    ``bound`` (default :class:`recorder.sources.pair.QueueBound`: 10 s, 256 MiB), or
+    ``queue_frames`` frames."""
+    from recorder.sources.pair import PairSource, QueueBound
 
     options = replace(options or SourceOptions(), realtime=False)  # paced by their feeds
     feeds = []
@@ -470,6 +472,5 @@ def open_pair(
                 "(its kind has no feed: recorder.sources.registry.register_feed)"
             )
         feeds.append(factory(source))
-    return PairSource(
-        (feeds[0], feeds[1]), (first, second), queue_frames=queue_frames or QUEUE_FRAMES
-    )
+    bound = bound or QueueBound(frames=queue_frames or 0)
+    return PairSource((feeds[0], feeds[1]), (first, second), bound=bound)

@@ -36,3 +36,22 @@ def rig_sessions(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
 
     folder = built_once(tmp_path_factory, "rig", build)
     return {name: folder / f"{name}.mcap" for name in names}
+
+
+@pytest.fixture(scope="session")
+def mixed_pair_folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A folder (read only): a simulated two-camera point session (a dot moving at 10 in/s,
+    camera 2's clock 12.5 ms ahead, 4 touches) beside a two-trial one-camera point session."""
+    from recorder.simulate.pair import PairTiming, simulate_pair_session
+    from tests.helpers import SMALL_SCENE
+    from twopose.sim.scene import load_scene
+
+    folder = tmp_path_factory.mktemp("mixed")
+    (folder / "small.toml").write_text(SMALL_SCENE)
+    scene = load_scene(folder / "small.toml")
+    timing = PairTiming(speed=10.0, clock_offset_ms=12.5)
+    simulate_pair_session(
+        folder / "pair.mcap", method=Method.POINT, timing=timing, trials=1, seed=3, scene=scene
+    )
+    simulate_session(folder / "one.mcap", method=Method.POINT, trials=2, frames=1, scene=scene)
+    return folder

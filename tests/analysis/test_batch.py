@@ -101,6 +101,7 @@ def test_output_files_columns_and_report(
         "y",
         "z",
         "err",
+        "cameras",
     ]
     assert sorted(averaging["n_frames"].unique()) == [1, 2, 3]
     frames = pd.read_csv(out / "frames.csv")

@@ -16,7 +16,6 @@ import analysis
 from analysis.cli import app
 from analysis.tables.columns import SUMMARY_COLUMNS, TRIAL_TABLE_COLUMNS
 from analysis.tables.trials import violations
-from recorder.simulate.one_camera import simulate_session
 from recorder.simulate.pair import PairTiming, simulate_pair_session
 from tests.helpers import SMALL_SCENE
 from twopose.format.entries import SessionInfo
@@ -31,18 +30,9 @@ STREAM = ["touch", "clock_offset_ms", "err_uninterpolated", "skew_share"]
 
 
 @pytest.fixture(scope="module")
-def mixed(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A folder: a simulated two-camera point session (a dot moving at 10 in/s, camera 2's
-    clock 12.5 ms ahead, 4 touches) beside a two-trial one-camera point session."""
-    folder = tmp_path_factory.mktemp("mixed")
-    (folder / "small.toml").write_text(SMALL_SCENE)
-    scene = load_scene(folder / "small.toml")
-    timing = PairTiming(speed=10.0, clock_offset_ms=12.5)
-    simulate_pair_session(
-        folder / "pair.mcap", method=Method.POINT, timing=timing, trials=1, seed=3, scene=scene
-    )
-    simulate_session(folder / "one.mcap", method=Method.POINT, trials=2, frames=1, scene=scene)
-    return folder
+def mixed(mixed_pair_folder: Path) -> Path:
+    """A simulated two-camera point session beside a one-camera one (conftest.py)."""
+    return mixed_pair_folder
 
 
 @pytest.fixture(scope="module")

@@ -26,6 +26,7 @@ from recorder.sources.pair_feeds import (
     DriverStamps,
     Feed,
     Grabbed,
+    StillsFeed,
 )
 from recorder.sources.registry import SOURCE_KINDS, open_pair, open_source, register_feed
 from twopose.errors import SourceError
@@ -140,6 +141,49 @@ def test_a_slow_reader_loses_frames_counted_never_silently(tmp_path: Path) -> No
         dropped = source.dropped_by_camera
     assert min(dropped) > 0
     assert [g + d for g, d in zip(given, dropped, strict=True)] == [30, 30]
+    said = source.drops_said()  # each overflow said, never silent
+    assert said
+    assert {line.split(" ")[1] for line in said} == {"1", "2"}
+    assert "the consumer fell" in said[0]
+    assert "past the queue's bound (1 frames" in said[0]
+
+
+def test_a_consumer_stalled_for_seconds_loses_nothing(tmp_path: Path) -> None:
+    """The default bound (10 s, 256 MiB a camera): a consumer that takes one frame, then
+    stalls for 2.5 s while both files play on at 60 fps, still gets every frame paired,
+    none dropped, nothing said; a bound of ~0.2 s in bytes drops in the same stall, counted
+    and said."""
+    from recorder.sources.pair import QUEUE_S, QueueBound
+
+    assert QUEUE_S >= 5  # a few seconds of any camera's frames
+    files = [_video(tmp_path / f"{c}.avi", 180, 60.0, shade=c) for c in (1, 2)]  # 3 s
+    with open_pair(f"video:{files[0]}", f"video:{files[1]}") as source:
+        pairs = source.pairs()
+        first = next(pairs)
+        time.sleep(2.5)
+        rest = list(pairs)
+        assert source.dropped_by_camera == (0, 0)
+        assert source.drops_said() == []
+        deepest = [n for n, _ in source.deepest_by_camera]
+        assert min(deepest) >= 120  # the stall held 2 s or more of 60 fps frames
+    assert [p.first.index for p in (first, *rest)] == list(range(180))
+    small = QueueBound(bytes=3000)  # these frames' JPEGs are ~220 bytes: ~0.2 s of them
+    with open_pair(f"video:{files[0]}", f"video:{files[1]}", bound=small) as source:
+        kept_up = list(source.frames())  # 360 frames, ~80 kB: a consumer that keeps up
+        assert source.dropped_by_camera == (0, 0)  # what it took frees the bound
+        assert max(size for _, size in source.deepest_by_camera) <= 3000
+    assert len(kept_up) == 360
+    with open_pair(f"video:{files[0]}", f"video:{files[1]}", bound=small) as source:
+        given = [0, 0]
+        for frame in source.frames():
+            given[frame.camera - 1] += 1
+            if sum(given) == 1:
+                time.sleep(2.0)
+        dropped = source.dropped_by_camera
+        said = source.drops_said()
+    assert min(dropped) > 0
+    assert [g + d for g, d in zip(given, dropped, strict=True)] == [180, 180]
+    assert any("MB queued of" in line for line in said)
 
 
 def test_stills_are_never_dropped_and_keep_their_names(tmp_path: Path) -> None:
@@ -288,3 +332,33 @@ def test_a_camera_that_stops_or_falls_silent_is_said(
             seen.extend(frame.camera for frame in frames)
     assert seen.count(2) == 5  # what came before the stop was given
     assert time.monotonic() - started < 2.0
+
+
+class _SlowStills(StillsFeed):
+    """A folder of stills read slowly (a loaded machine's reader thread)."""
+
+    def grab(self, stop: threading.Event) -> Grabbed | None:
+        time.sleep(0.005)
+        return super().grab(stop)
+
+
+def test_two_folders_of_stills_come_in_capture_order_however_fast_each_is_read(
+    tmp_path: Path,
+) -> None:
+    """Camera 2's folder read slowly: its frames still come in turn with camera 1's (a
+    trial ended by camera 1's clock then holds both cameras' frames up to its end; a flash
+    at frame 12 was lost on a loaded machine when camera 1's thread ran ahead)."""
+    from recorder.sources.pair import PairSource
+    from recorder.sources.registry import SourceOptions, open_from
+
+    for side in ("a", "b"):
+        (tmp_path / side).mkdir()
+        for k in range(12):
+            cv2.imwrite(str(tmp_path / side / f"{k:02d}.png"), np.full((H, W, 3), k, np.uint8))
+    specs = (f"images:{tmp_path / 'a'}", f"images:{tmp_path / 'b'}")
+    a, b = (open_from(SOURCE_KINDS, s, SourceOptions()) for s in specs)
+    with PairSource((StillsFeed(a), _SlowStills(b)), specs) as source:
+        frames = list(source.frames())
+    assert [(f.camera, f.index) for f in frames] == [(c, k) for k in range(12) for c in (1, 2)]
+    times = [f.t_capture_ns for f in frames]
+    assert times == sorted(times)

@@ -81,7 +81,7 @@ class FigureJob:
             session=with_branch(result.name, result.branch),
             trials=result.trials,
             averaging=result.averaging,
-            views=result.views,
+            views=result.pose_views,
             units=table_units(result.trials, result.metadata.get("units", "")),
             include_warned=include_warned,
         )

@@ -337,7 +337,7 @@ def make_figures(result: RunResult) -> dict[str, Figure]:
     """
     figures: dict[str, Figure] = {}
     for i, s in enumerate(result.sessions):
-        name, tables = with_branch(s.name, s.branch), (s.trials, s.averaging, s.views)
+        name, tables = with_branch(s.name, s.branch), (s.trials, s.averaging, s.pose_views)
         drawn = session_figures(name, *tables, include_warned=result.include_warned)
         number = s.index if s.index >= 0 else i
         figures |= {figure_key(kind, number, s.name): fig for kind, fig in drawn.items()}
