@@ -13,7 +13,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
-from typer.testing import CliRunner
+from typer.testing import CliRunner, Result
 
 from recorder.cli.app import app
 from recorder.procedure.stream import (
@@ -70,6 +70,12 @@ def _never_asked(question: str, _default: str) -> str:
 def _plan(tmp_path: Path, text: str) -> Path:
     (tmp_path / "plan.toml").write_text(text)
     return tmp_path / "plan.toml"
+
+
+def _new_with_plan(out: Path, pair: Path, stills: str, plan: Path) -> Result:
+    """``new OUT --pair PAIR --source STILLS --plan PLAN < /dev/null``."""
+    args = ["new", str(out), "--pair", str(pair), "--source", stills, "--plan", str(plan)]
+    return CliRunner().invoke(app, args, input="")
 
 
 def test_a_ground_touch_must_lie_on_the_floor_the_others_anywhere() -> None:
@@ -174,31 +180,12 @@ def test_a_plans_keyed_touch_with_nobody_at_the_input_is_said_from_the_command_l
     plan = _plan(tmp_path, _GROUND + "ground_height = 9.625\n[[trials]]\nduration = 0.2\n"
                  "touches = [{point = [1.455, 9.625, 7.375]}]\n")  # fmt: skip
     out = tmp_path / "keyed.mcap"
-    result = CliRunner().invoke(app, [
-        "new", str(out), "--pair", str(_no_floor(tmp_path)), "--source", stills,
-        "--plan", str(plan),
-    ], input="")  # fmt: skip
+    result = _new_with_plan(out, _no_floor(tmp_path), stills, plan)
     assert result.exit_code == 0, result.output
     assert "the input ended: 1 keyed touch(es) of this trial cannot be marked" in result.output
     assert "incomplete: no touches (nothing to measure)" in result.output
     assert "1 stream trial (0 complete)" in result.output
     assert out.exists()
-
-
-def test_the_input_ending_under_a_keyed_plan_is_said_and_the_trial_incomplete(
-    tmp_path: Path, stills: str
-) -> None:
-    plan = _plan(tmp_path, _GROUND + "ground_height = 9.625\n[[trials]]\nduration = 0.2\n"
-                 "touches = [{point = [1.455, 9.625, 7.375]}]\n")  # fmt: skip
-    said: list[str] = []
-    out = tmp_path / "eof.mcap"
-    summary = record_pair(out, _no_floor(tmp_path), stills, Operator(_never_asked, said.append),
-                          plan_path=plan, keys=KeyReader(lambda: ""))  # fmt: skip
-    text = "\n".join(said)
-    assert "the input ended: 1 keyed touch(es) of this trial cannot be marked" in text
-    assert "0 touches; incomplete: no touches (nothing to measure)" in text
-    assert "1 stream trial (0 complete)" in summary.line()
-    assert out.exists()  # what was recorded is kept
 
 
 def test_a_plan_without_the_ground_height_it_needs_is_refused_before_asking(
@@ -210,10 +197,7 @@ def test_a_plan_without_the_ground_height_it_needs_is_refused_before_asking(
         record_pair(out, _no_floor(tmp_path), stills, Operator(_never_asked, print),
                     plan_path=plan, keys=KeyReader(lambda: ""))  # fmt: skip
     assert not out.exists()
-    result = CliRunner().invoke(app, [
-        "new", str(out), "--pair", str(_no_floor(tmp_path)), "--source", stills,
-        "--plan", str(plan),
-    ], input="")  # fmt: skip
+    result = _new_with_plan(out, _no_floor(tmp_path), stills, plan)
     assert result.exit_code == 3, result.output
     assert "ground_height is missing" in result.output
     assert "interrupted" not in result.output
