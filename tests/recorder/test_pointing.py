@@ -125,6 +125,9 @@ def test_a_near_singular_pair_is_said_with_its_reason_and_has_no_point():
         assert not e.track
         assert e.words.startswith("near-singular: ray parallax")
         assert "deg < 1" in e.words
+        # Its meaning is the parallax's, not another margin's (a line's words once said the
+        # baseline for any margin).
+        assert e.words.endswith("(the two cameras' rays to the target are nearly parallel)")
 
 
 def test_pairs_made_elsewhere_give_the_same_estimates_a_frame_later(ground_stream):
