@@ -208,7 +208,7 @@ def test_a_recording_feeds_the_panel_from_its_own_thread(ground_stream):
     assert messages[0]["kind"] == "status"
     assert messages[0]["running"] is True
     assert messages[0]["about"] == "ground (method 2), seen on the floor from above (in)"
-    pairs = [m for m in messages if m["kind"] == "pair"]
+    pairs = [m for m in messages if m["kind"] == "estimate"]
     mine = _live(Method.GROUND, clip, frames)[: len(pairs)]
     assert [(m["seq"], m["point"]) for m in pairs] == [
         (e.seq, None if e.point is None else list(e.point)) for e in mine

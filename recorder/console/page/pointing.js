@@ -60,7 +60,7 @@ function pointingMessage(event) {
     if (m.running) POINTING.final = null;
   } else if (m.kind === "missed") {
     window.twoposePointing.missed += m.count;
-  } else if (m.kind === "pair") {
+  } else if (m.kind === "estimate") {
     POINTING.last = m;
     if (m.point) POINTING.lastOk = m;
     POINTING.arrived.push([m.seq, arrived]);
