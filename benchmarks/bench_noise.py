@@ -24,14 +24,14 @@ NEES/dof, and the regions' largest semi-axis over the typed sigma's (median).
 
 Blunders: typed right, and in 20% of the trials one pose's typed x off by 1 in (either
 sign): the share of blundered trials flagged (``by truth``: of them, those only the test
-against their own recorded truth flagged, :mod:`twopose.uncertainty.own_truth`), of clean
+against their own recorded truth flagged, :mod:`twopose.uncertainty.blunders`), of clean
 trials flagged, the clean trials' regions over the same sessions' without the blunders
 (median, 90th percentile), the coverage of the trials not flagged and of all of them
 (``all cover``: the flagged ones in their own regions, widened by their misfit where a
 misclosure or the other trials flagged them, not where the truth did: removing the trials
 the truth flags is the one way the unflagged coverage can rise by it). The sessions'
 trials measured one target (the scene's), so a trial is also tested against the others
-(:mod:`twopose.uncertainty.one_target`); the same again with each trial its own target
+(:mod:`twopose.uncertainty.blunders`); the same again with each trial its own target
 (its truth 1e-6 in apart), where only its misclosure and its truth can see a blunder: the
 share of blunders its poses can check at all (``seen``: a noncentrality Baarda's test
 catches 80% of the time) and the flag rate among those.

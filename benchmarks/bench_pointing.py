@@ -202,8 +202,8 @@ def report(found: dict[str, Any], fps: float, frames: int) -> bool:
     print(f"  on the page     {_percentiles(arrived)}")
     print(f"  drawn           {_percentiles(drawn)}")
     within = 100 * float(np.mean(drawn <= 2 * interval_ms))
-    print(f"  drawn within 2 intervals: {within:.1f}% of pairs (the files are in step: each pair "
-          "waits a whole interval for camera 1's next frame, the worst phase)")  # fmt: skip
+    print(f"  drawn within 2 intervals: {within:.1f}% of pairs (the files are in step: camera "
+          "1's frame at camera 2's instant is used as it is, no wait for its next)")  # fmt: skip
     print(f"CPU per pair, ms (budget 40% of the interval = {budget:.1f}):")
     print(f"  pointing (detection of both frames + estimate)  {_percentiles(cpu_ms)}  "
           f"mean {cpu_ms.mean():.2f}")  # fmt: skip

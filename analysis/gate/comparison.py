@@ -58,6 +58,7 @@ ESTIMATORS: dict[str, tuple[str, str, str]] = {
 SIDE_COLUMNS = ["n_used", "rmse", "median_err", "max_err", "bias_x", "bias_y", "bias_z"]
 TEST_COLUMNS = [
     "method",
+    "cameras",
     "units",
     "n_pairs",
     "mean_diff",
@@ -93,7 +94,9 @@ class Comparison:
     ``summary.csv``: a fork's branches apart), ``SIDE_COLUMNS`` of A and B (suffixes
     ``_a``, ``_b``) and B - A of the RMSE and median; ``paired``: per shared trial (its
     session, branch, part and number), its error in A and B and ``diff`` = B - A;
-    ``tests``: per method, ``TEST_COLUMNS`` (``mean_diff`` < 0: B's errors are smaller);
+    ``tests``: per method and cameras (a two-camera session's touches never pooled with one
+    camera's trials, nor paired with them), ``TEST_COLUMNS`` (``mean_diff`` < 0: B's errors
+    are smaller);
     ``one_sided``: the trials only one run holds (``ONE_SIDED_COLUMNS``)."""
 
     a: RunSide
@@ -241,7 +244,15 @@ def _with_errors(trials: pd.DataFrame, side: RunSide) -> pd.DataFrame:
     # A row of the run's summary is a session's strand (a fork's branches apart): named by
     # its session and the branch its trials end on, as summary.csv's rows are.
     strand = trials.groupby(trials["session"].astype(str), sort=False)["branch"].transform("last")
+    # One camera's trials and two cameras' touches are never paired nor pooled (an older
+    # run's trials.csv without the column is one camera's).
+    cameras = (
+        pd.to_numeric(trials["cameras"], errors="coerce").fillna(1).astype(int)
+        if "cameras" in trials.columns
+        else pd.Series(1, index=trials.index)
+    )
     out = trials.assign(
+        cameras=cameras,
         session=trials["session_id"].astype(str) + "|" + strand.astype(str),
         strand=strand.astype(str),
         label=label.astype(str),
@@ -267,8 +278,9 @@ def _used_trials(trials: pd.DataFrame, *, include_warned: bool) -> pd.DataFrame:
 def _side_by_side(
     summary_a: pd.DataFrame, summary_b: pd.DataFrame, labels: dict[str, str]
 ) -> pd.DataFrame:
-    """Per session (by id) and method, each side's statistics; ``session`` its label."""
-    keys = ["session", "method", "units"]
+    """Per session (by id), method and cameras, each side's statistics; ``session`` its
+    label."""
+    keys = ["session", "method", "cameras", "units"]
     table = pd.merge(
         summary_a[keys + SIDE_COLUMNS],
         summary_b[keys + SIDE_COLUMNS],
@@ -294,11 +306,11 @@ TIE_TOLERANCE = 1e-9
 def _paired(used_a: pd.DataFrame, used_b: pd.DataFrame) -> pd.DataFrame:
     """Each trial both runs measured, matched by what it is; A's error in B's units where a
     session's units differ between the runs."""
-    keep = ["_pair", "method", "units", "err"]
+    keep = ["_pair", "method", "cameras", "units", "err"]
     pairs = pd.merge(
         used_a[keep].drop_duplicates("_pair", keep="last"),
         used_b[[*keep, "label", "trial", "branch", "part"]].drop_duplicates("_pair", keep="last"),
-        on=["_pair", "method"],
+        on=["_pair", "method", "cameras"],
         suffixes=("_a", "_b"),
         sort=True,
     )
@@ -309,7 +321,9 @@ def _paired(used_a: pd.DataFrame, used_b: pd.DataFrame) -> pd.DataFrame:
         session=pairs["label"], units=pairs["units_b"], err_a=pairs["err_a"] * scale
     )
     pairs = pairs.sort_values(["session", "method", "trial"], kind="stable")
-    columns = ["session", "branch", "part", "method", "units", "trial", "err_a", "err_b"]
+    columns = [
+        "session", "branch", "part", "method", "cameras", "units", "trial", "err_a", "err_b",
+    ]  # fmt: skip
     out = pairs[columns].reset_index(drop=True)
     return out.assign(diff=out["err_b"] - out["err_a"])
 
@@ -355,7 +369,7 @@ def describe_one_sided(one_sided: pd.DataFrame) -> list[str]:
 
 def _tests(paired: pd.DataFrame) -> pd.DataFrame:
     rows = []
-    for (method, units), g in paired.groupby(["method", "units"], sort=True):
+    for (method, cameras, units), g in paired.groupby(["method", "cameras", "units"], sort=True):
         diff = g["diff"].to_numpy(dtype=np.float64)
         errors = g[["err_a", "err_b"]].abs().to_numpy(dtype=np.float64)
         scale = np.maximum(1.0, errors.max(axis=1))
@@ -363,6 +377,7 @@ def _tests(paired: pd.DataFrame) -> pd.DataFrame:
         rows.append(
             {
                 "method": method,
+                "cameras": int(str(cameras)),
                 "units": units,
                 **paired_difference(diff),
                 "n_b_better": int(np.sum(diff < -tie)),
@@ -370,21 +385,24 @@ def _tests(paired: pd.DataFrame) -> pd.DataFrame:
             }
         )
     tests = pd.DataFrame(rows, columns=TEST_COLUMNS)
-    return tests.astype({"n_pairs": int})
+    return tests.astype({"n_pairs": int, "cameras": int})
 
 
 def describe_test(row: pd.Series) -> str:
     """One line per method: ``ground: 15 shared trials; B - A mean error ... p = ...``."""
     n = int(row["n_pairs"])
+    two = int(row.get("cameras", 1)) == 2
+    what = f"{row['method']}{', two cameras' if two else ''}"
+    shared = "touch(es)" if two else "trial(s)"
     if n == 0:
-        return f"{row['method']}: no trial measured in both runs"
+        return f"{what}: no {shared[:-4] if two else 'trial'} measured in both runs"
     interval = (
         f" (95% CI {row['ci95_low']:+.3g} to {row['ci95_high']:+.3g})"
         if math.isfinite(row["ci95_low"])
         else f" (no interval: {too_few_for_interval(n)})"
     )
     return (
-        f"{row['method']}: {n} shared trial(s); B - A mean error {row['mean_diff']:+.3g} "
+        f"{what}: {n} shared {shared}; B - A mean error {row['mean_diff']:+.3g} "
         f"{row['units']}{interval}, p = {row['p_value']:.3g}; B better in "
         f"{int(row['n_b_better'])}, A in {int(row['n_a_better'])}"
     )

@@ -12,10 +12,8 @@ import html
 import pandas as pd
 
 from analysis.report.answer import noise_phrases, session_order, shown_name
-from twopose.uncertainty.blunders import EXPLAINS_LEVEL
+from twopose.uncertainty.blunders import EXPLAINS_LEVEL, TARGET_LEVEL, TRUTH_LEVEL
 from twopose.uncertainty.noise import FACTOR_TEST_LEVEL, MIN_PLACING_DOF, TYPED_PRIOR_DOF
-from twopose.uncertainty.one_target import TARGET_LEVEL
-from twopose.uncertainty.own_truth import TRUTH_LEVEL
 from twopose.uncertainty.placing_variance import BAARDA_LEVEL
 
 __all__ = ["RULE", "flagged_lines", "noise_section"]

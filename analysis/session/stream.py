@@ -84,6 +84,8 @@ class TrialReplay:
     reason: str = ""
     #: camera 1's median frame interval (ns; 0 with fewer than two frames)
     interval_ns: float = 0.0
+    #: each camera's frames' detector reasons, in frame order ("" where found)
+    missed: tuple[tuple[str, ...], tuple[str, ...]] = ((), ())
 
     @property
     def truth(self) -> F64:
@@ -225,10 +227,22 @@ def replay_trial(
     Raises :class:`~twopose.errors.InputValueError` when the trial cannot be estimated (a
     camera with too few frames, an offset that cannot be measured), saying why.
     """
-    one, two = seen or (None, None)
+    outer = seen or (None, None)
+    missed: tuple[list[str], list[str]] = ([], [])
+
+    def told(n: int) -> FrameSeen:
+        """Keep camera ``n``'s detector's reasons (a touch's row names them), then tell."""
+
+        def keep(frame: Frame, d: Detection) -> None:
+            missed[n].append("" if d.found else d.reason)
+            if outer[n] is not None:
+                outer[n](frame, d)  # type: ignore[misc]
+
+        return keep
+
     tracks = (
-        camera_track(trial.camera1, method, params, one),
-        camera_track(trial.camera2, method, params, two),
+        camera_track(trial.camera1, method, params, told(0)),
+        camera_track(trial.camera2, method, params, told(1)),
     )
     used, source = _offset(trial, pair, tracks, known)
     estimate = estimate_stream(method, pair, *tracks, used, settings)
@@ -245,6 +259,7 @@ def replay_trial(
         touch_error=np.full(len(trial.touches), np.nan),
         reason="; ".join(s.reason for s in trial.cameras if s.reason),
         interval_ns=interval,
+        missed=(tuple(missed[0]), tuple(missed[1])),
     )
     error = np.linalg.norm(at - replay.truth, axis=1)
     return dataclasses.replace(replay, touch_error=error)

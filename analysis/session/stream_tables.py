@@ -334,7 +334,7 @@ def _replayed_rows(
         err = float(np.linalg.norm(error[k])) if have[k] else np.nan
         row: dict[str, Any] = {
             "touch": f"trial {trial.trial}, touch {touch.touch}",
-            **_status(est, touch.time_ns, have=bool(have[k])),
+            **_status(est, touch.time_ns, have=bool(have[k]), missed=replay.missed),
             "n_views": 2 if have[k] else 0,
             **{a: float(replay.at_touch[k, i]) for i, a in enumerate("xyz")},
             **_truth(truth[k]),
@@ -367,8 +367,16 @@ def _skew_share(err: float, err_raw: float) -> float:
     return max(0.0, 1.0 - err / err_raw)
 
 
-def _status(est: StreamEstimate, time_ns: int, *, have: bool) -> dict[str, str]:
-    """A touch's status and reason: ``ok``; else why there is no estimate about it."""
+def _status(
+    est: StreamEstimate,
+    time_ns: int,
+    *,
+    have: bool,
+    missed: tuple[tuple[str, ...], tuple[str, ...]] = ((), ()),
+) -> dict[str, str]:
+    """A touch's status and reason: ``ok``; else why there is no estimate about it (a
+    camera that did not detect the target in the nearest pair named, with its detector's
+    reason from ``missed``, each camera's frames' reasons)."""
     if have:
         return {"status": "ok", "reason": ""}
     if not est.t_ns.size:
@@ -381,7 +389,15 @@ def _status(est: StreamEstimate, time_ns: int, *, have: bool) -> dict[str, str]:
             "reason": "no estimate about the touch: no two ok estimates about its time within "
             f"{MAX_TOUCH_GAP_INTERVALS:g} frame intervals (outside the stream, or pairs lost)",
         }
+    frames = (int(est.i1[j]), int(est.i2[j]))
+    lost = [
+        f"camera {n + 1}: {reasons[i]}"
+        for n, (reasons, i) in enumerate(zip(missed, frames, strict=True))
+        if i < len(reasons) and reasons[i]
+    ]
     why = str(est.reason[j]) or status
+    if lost:  # the detector's reason, not the solver's "fewer than two views"
+        why = "target not detected by " + "; by ".join(lost)
     return {
         "status": _DEGENERATE.get(status, "no_detection"),
         "reason": f"no estimate about the touch: the nearest pair's {why}",

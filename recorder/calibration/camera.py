@@ -27,11 +27,13 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from recorder.calibration.board_size import refuse_larger_board
 from recorder.sources.registry import FrameSource
 from twopose.arrays import F32
 from twopose.camera.model import SIGMA_KEYS, Intrinsics, intrinsics_sigma
 from twopose.detect.checkerboard import board_pattern, find_board, outlier_view
 from twopose.errors import InputValueError, SessionExistsError, SourceError
+from twopose.values.bounds import INNER_CORNERS
 from twopose.values.toml import read_toml
 
 __all__ = [
@@ -109,6 +111,8 @@ def _collect(
             corners = find_board(frame, board)
             use = corners is not None and (stills or _moved(corners, kept, min_motion_px))
             if corners is not None and use:
+                if not kept.points:  # once: the search costs a third of a second
+                    refuse_larger_board(frame, board, corners, source.frame_name(i))
                 kept.points.append(corners)
                 kept.names.append(source.frame_name(i))
             if on_view is not None:
@@ -153,8 +157,11 @@ def calibrate(
         views used.
     """
     cols, rows = board
-    if cols < 2 or rows < 2:
-        raise InputValueError(f"the board needs at least 2x2 inner corners, got {cols}x{rows}")
+    low = INNER_CORNERS.low  # OpenCV's board search needs more than 2 each way
+    if cols < low or rows < low:
+        raise InputValueError(
+            f"the board needs at least {low:g}x{low:g} inner corners, got {cols}x{rows}"
+        )
     kept = _collect(
         source,
         board,

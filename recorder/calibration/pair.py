@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import dataclasses
 import glob
-import re
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,17 +28,19 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from recorder.calibration.board_size import refuse_larger_board
 from recorder.calibration.camera import (
     Calibration,
     fit_views,
     load_calibration,
     load_calibration_sigma,
 )
+from recorder.calibration.pair_live import numbers_differ
 from recorder.sources.registry import IMAGE_SUFFIXES
 from twopose.arrays import F32
 from twopose.camera.model import Intrinsics
 from twopose.detect.checkerboard import board_pattern, find_board
-from twopose.errors import InputValueError, SessionExistsError
+from twopose.errors import InputValueError, SessionExistsError, TwoposeError
 from twopose.pair.board_fit import BoardCorners
 from twopose.pair.calibration import MIN_VIEWS, FloorPlane, PairCalibration, fit_pair
 from twopose.pair.floor import floor_from_board, with_floor
@@ -165,6 +166,8 @@ def _find_all(
         if on_pair is not None:
             on_pair(name, (corners[0] is not None, corners[1] is not None))
         if corners[0] is not None and corners[1] is not None:
+            if not found.names:  # once: the first pair (the search costs a third of a second)
+                refuse_larger_board(left, board, corners[0], f"{name} (camera 1)")
             found.left.append(corners[0])
             found.right.append(corners[1])
             found.names.append(name)
@@ -325,8 +328,7 @@ def still_pairs(left: str, right: str) -> list[tuple[str, Path, Path]]:
     for a, b in zip(files[0], files[1], strict=True):
         if a.resolve() == b.resolve():
             raise InputValueError(f"{a} is both cameras' still: --left and --right must differ")
-        na, nb = re.findall(r"\d+", a.stem), re.findall(r"\d+", b.stem)
-        if na and nb and [int(x) for x in na] != [int(x) for x in nb]:
+        if numbers_differ(a.name, b.name):
             raise InputValueError(
                 f"{a.name} is paired with {b.name} (sorted names) but their numbers differ: a "
                 "still is missing on one side, or the names do not match"
@@ -369,6 +371,10 @@ def calibrate_pair(
     r = request
     if r.out.exists():
         raise SessionExistsError(f"{r.out} already exists; choose another pair file")
+    if not r.out.parent.is_dir():  # said before the fit, never after it
+        raise TwoposeError(
+            f"cannot create {r.out}: the folder {r.out.parent} does not exist (create it first)"
+        )
     _refuse_combinations(r)
     calibrations = None
     if r.calibration_left is not None and r.calibration_right is not None:

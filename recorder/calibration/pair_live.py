@@ -2,8 +2,10 @@
 
 As ``calibrate`` does for one camera (:mod:`recorder.calibration.camera`), a moment is kept
 when the board is found in both cameras and has moved since the last kept pair (the mean
-corner displacement in either camera at least ``min_motion_px``, 5% of the image diagonal
-by default), not after a fixed count of frames. Two cameras add one rule: both must see the
+corner displacement in either camera at least ``min_motion_px``, by default
+:data:`MIN_MOTION_SHARE` of the image diagonal: OpenCV's last two pairs of photographs are
+26 and 33 px apart at 640x480, and 5% dropped one), not after a fixed count of frames. Two
+cameras add one rule: both must see the
 board at (nearly) the same instant. Frames are paired by capture time
 (:meth:`recorder.sources.pair.PairSource.pairs`, within half a frame interval), and a pair is
 kept only when the board moved at most ``max_skew_px`` (0.5 px) in the time between its two
@@ -20,14 +22,16 @@ folders' images in file-name order and keeps every pair, as ``--left``/``--right
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from recorder.procedure import stops
 from recorder.sources.pair import QueueBound
 from recorder.sources.pair_feeds import CLOCK_GRAB
-from twopose.errors import SourceError
+from twopose.errors import InputValueError, SourceError
 
 #: The board search wants the cameras' latest frames: each camera's queue holds a second of
 #: them (a recording's holds 10 s, :data:`recorder.sources.pair.QUEUE_S`), so that a search
@@ -44,11 +48,20 @@ if TYPE_CHECKING:
     #: A pair to fit: its name, camera 1's image, camera 2's (as pair_calibration's).
     StillPair = tuple[str, NDArray[np.uint8], NDArray[np.uint8]]
 
-__all__ = ["LIVE_VIEWS", "LiveOutcome", "LiveRules", "live_pairs"]
+__all__ = [
+    "LIVE_VIEWS",
+    "MIN_MOTION_SHARE",
+    "LiveOutcome",
+    "LiveRules",
+    "live_pairs",
+    "numbers_differ",
+]
 
 #: How many pairs a live source's calibration keeps unless told (``--views``).
 LIVE_VIEWS = 15
 #: How long a pair's board speed is measured over at most (the pair before, if this recent).
+#: The board's least motion between kept pairs unless told, a share of the image diagonal.
+MIN_MOTION_SHARE = 0.025
 _SPEED_SPAN_NS = 250_000_000
 
 
@@ -56,8 +69,9 @@ _SPEED_SPAN_NS = 250_000_000
 class LiveRules:
     """When a live pair is kept: ``views`` to keep (None: :data:`LIVE_VIEWS` from cameras
     and videos, every pair from folders of stills); ``min_motion_px`` the board's mean
-    corner motion since the last kept pair (None: 5% of the image diagonal);
-    ``max_skew_px`` the board's motion allowed between the pair's two capture times."""
+    corner motion since the last kept pair (None: :data:`MIN_MOTION_SHARE` of the image diagonal);
+    ``max_skew_px`` the board's motion allowed between the pair's two capture times.
+    """
 
     views: int | None = None
     min_motion_px: float | None = None
@@ -87,6 +101,7 @@ class _Seen:
     corners: tuple[F32, F32] | None = None
     kept: tuple[F32, F32] | None = None
     said: str = ""
+    said_at: F32 | None = None  # camera 1's corners when a reason was last said
 
 
 def live_pairs(
@@ -127,6 +142,21 @@ def live_pairs(
         outcome.ended = f"{ended}: {_count(outcome)}"
 
 
+def numbers_differ(first: str, second: str) -> bool:
+    """Whether two stills paired by file-name order carry different numbers
+    (``left01.jpg`` with ``right03.jpg``): a still missing on one side."""
+    a, b = re.findall(r"\d+", Path(first).stem), re.findall(r"\d+", Path(second).stem)
+    return bool(a and b) and [int(x) for x in a] != [int(x) for x in b]
+
+
+def _unpaired(name: str) -> InputValueError:
+    return InputValueError(
+        f"{name} is paired (file-name order) but their numbers differ: a still is missing "
+        "in one folder, or the names do not match; each still of camera 1 needs camera 2's "
+        "of the same moment, as --left/--right pair them"
+    )
+
+
 def _count(outcome: LiveOutcome) -> str:
     return f"{outcome.kept} pair(s) kept of {outcome.examined} examined"
 
@@ -141,7 +171,7 @@ def _kept(
     info = source.cameras[0].info
     min_motion = rules.min_motion_px
     if min_motion is None:
-        min_motion = 0.05 * math.hypot(info.width, info.height)
+        min_motion = MIN_MOTION_SHARE * math.hypot(info.width, info.height)
     uncertain_ns = max(
         round(1e9 / c.info.fps) if c.clock == CLOCK_GRAB else 0 for c in source.cameras
     )
@@ -150,14 +180,15 @@ def _kept(
     for pair in source.pairs():
         outcome.examined += 1
         name = f"{pair.first.name} & {pair.second.name}"
+        if source.stills and numbers_differ(pair.first.name, pair.second.name):
+            raise _unpaired(name)
         if not source.stills:  # a folder's stills: no motion to wait for, every pair fitted
             why = _why_not(pair, board, seen, min_motion, rules.max_skew_px, uncertain_ns)
             if why:
-                if why != seen.said:  # said when it changes, not for every frame
+                if _news(why, seen, min_motion):  # said when it changes, not for every frame
                     say(f"{name}: {why}")
-                    seen.said = why
                 continue
-            seen.said = ""
+            seen.said, seen.said_at = "", None
             skew = f"skew {pair.skew_ns / 1e6:+.1f} ms"
             say(f"kept pair {outcome.kept + 1} of {views}: {name} ({skew})")
         outcome.kept += 1
@@ -165,6 +196,11 @@ def _kept(
         if views is not None and outcome.kept >= views:
             outcome.ended = f"{_count(outcome)}, as asked"
             return
+    if source.stills and len(set(counts := source.grabbed_by_camera)) > 1:
+        raise InputValueError(  # a still of one folder has no partner in the other
+            f"camera 1's folder has {counts[0]} stills, camera 2's {counts[1]}: each still of "
+            "camera 1 needs camera 2's of the same moment, as --left/--right pair them"
+        )
 
 
 def _why_not(
@@ -187,10 +223,12 @@ def _why_not(
     t = pair.first.t_capture_ns
     before, span = seen.corners, t - seen.t_ns
     seen.t_ns, seen.corners = t, (one, two)
-    if seen.kept is not None and max(_shift(one, seen.kept[0]), _shift(two, seen.kept[1])) < (
-        min_motion_px
-    ):
-        return "the board has not moved since the last pair kept: move it to a new place"
+    moved = 0.0 if seen.kept is None else max(_shift(one, seen.kept[0]), _shift(two, seen.kept[1]))
+    if seen.kept is not None and moved < min_motion_px:
+        return (
+            f"the board has not moved since the last pair kept ({moved:.0f} px, less than "
+            f"{min_motion_px:.0f}): move it to a new place"
+        )
     skew = abs(pair.skew_ns) + uncertain_ns
     if skew > 0:
         if before is None or not 0 < span <= _SPEED_SPAN_NS:
@@ -203,6 +241,23 @@ def _why_not(
             )
     seen.kept = (one, two)
     return ""
+
+
+def _news(why: str, seen: _Seen, min_motion_px: float) -> bool:
+    """Whether ``why`` is worth saying: another reason than the last said (its numbers
+    aside), or the same where the board stands at a new place (a quarter of the least
+    motion from where it was last said), so that no place goes unmentioned."""
+    kind = re.sub(r"[\d.]+", "#", why)
+    at = None if seen.corners is None else seen.corners[0]
+    new_place = (
+        at is not None
+        and seen.said_at is not None
+        and _shift(at, seen.said_at) >= min_motion_px / 4
+    )
+    if kind == seen.said and not new_place:
+        return False
+    seen.said, seen.said_at = kind, at
+    return True
 
 
 def _shift(a: F32, b: F32) -> float:

@@ -55,6 +55,7 @@ def new_pair(
     from recorder.procedure.new_session import _prompt
     from recorder.procedure.stream_terminal import record_pair
     from recorder.procedure.terminal import Operator
+    from recorder.sources.registry import kind_of
 
     named = {k for k, v in given.items() if v not in (None, False, [])}
     parts = _parts(source)  # a pair source, its two parts found, before any question
@@ -64,10 +65,13 @@ def new_pair(
     if plan is not None:
         planned = [k for k in _PLAN_SETS if k in named]
         if planned:
-            raise InputValueError(f"{', '.join(planned)}: the plan sets these itself")
+            raise InputValueError(
+                f"{', '.join(planned)}: the plan sets these itself (method, units, "
+                "ground_height, operator, notes): leave them out or write them in the plan"
+            )
         if ui:
             raise InputValueError("--plan records at the terminal; --ui in the browser: one")
-    if "--fps" in named and not any(part.startswith("camera:") for part in parts):
+    if "--fps" in named and not any(kind_of(part).takes_fps for part in parts):
         raise InputValueError(
             "--fps: a frame rate is asked of a camera (pair:camera:0,camera:1); these "
             "sources keep their own: leave it out"

@@ -113,7 +113,20 @@ PlanOption = Annotated[
     Path | None,
     typer.Option(exists=True, dir_okay=False, help="Run this plan (TOML) without prompts."),
 ]
-SourceOption = Annotated[str, typer.Option(help=source_help())]
+
+
+def _new_source_help() -> str:
+    """``new``'s ``--source``: the one-camera kinds, and with ``--pair`` the pair kinds."""
+    from recorder.sources.registry import SOURCE_KINDS
+
+    pairs = [k.syntax for k in SOURCE_KINDS if k.cameras == 2]
+    return (
+        f"{source_help()[:-1]}; with --pair: {' or '.join(pairs)} (two of these at once, "
+        "e.g. pair:camera:0,camera:1)."
+    )
+
+
+SourceOption = Annotated[str, typer.Option(help=_new_source_help())]
 MethodOption = Annotated[
     Method | None, typer.Option(**registered(METHOD_SPECS), help="Asked if not given.")
 ]

@@ -35,7 +35,7 @@ def point_command(
     method: Annotated[
         Method,
         typer.Option(
-            **registered(METHOD_SPECS),
+            **registered(METHOD_SPECS, lambda spec: spec.measures),
             help="What is pointed with: ground (the finger's line on the floor; the pair "
             "file needs its floor), line, or point (the dot).",
         ),

@@ -219,7 +219,11 @@ class _Server(uvicorn.Server):
 
 
 def serve_pointing(request: PointRequest) -> None:
-    """Serve the pointing page until Ctrl-C or SIGTERM; prints its URL first."""
+    """Serve the pointing page until Ctrl-C or SIGTERM; prints its URL first.
+
+    Stopped by a signal (the only way it stops), it raises KeyboardInterrupt once the page
+    and the cameras are closed, as every stopped command does: the command line says
+    ``interrupted`` and exits 130 (:func:`twopose.errors.handle_errors`)."""
     source, live = _opened(request)
     live.warm_up()
     feed, closing = PointingFeed(), threading.Event()
@@ -238,7 +242,7 @@ def serve_pointing(request: PointRequest) -> None:
         print(f"camera {n}: {camera.text()}", flush=True)
     try:
         sock = _listening(request.host, request.port)
-    except TwoposeError:
+    except BaseException:  # refused, or a stop before the page was served
         source.close()
         raise
     loop = threading.Thread(
@@ -259,3 +263,5 @@ def serve_pointing(request: PointRequest) -> None:
     loop.join(timeout=3.0)
     if loop.is_alive():
         sys.stderr.write("the cameras did not stop within 3 s\n")
+    if stop.requested:
+        raise KeyboardInterrupt

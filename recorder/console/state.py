@@ -63,6 +63,8 @@ from twopose.values.checks import Vec3
 from twopose.values.units import Units
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from recorder.live.trial_result import TrialResult
     from recorder.setup.rules import Setup
     from twopose.detect.detection import Detection
@@ -185,6 +187,8 @@ class ConsoleSession(LiveSink):
         #: clock offset, the trials ended), :mod:`recorder.console.stream_driver`'s; None:
         #: one camera's session.
         self.stream: dict[str, Any] | None = None
+        #: A pair's session: why a touch's grid point cannot be touched ("": it can).
+        self.touch_refusal: Callable[[Vec3], str] = lambda _point: ""
         self._refusals = 0
 
     # -- the page's view

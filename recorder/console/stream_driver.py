@@ -23,6 +23,7 @@ setup comes from the command line (asked at the terminal before the page is serv
 
 from __future__ import annotations
 
+import functools
 import threading
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
@@ -30,7 +31,14 @@ from typing import TYPE_CHECKING, Any, Protocol
 from typing_extensions import override
 
 from recorder.procedure import stops
-from recorder.procedure.stream import StreamDriver, StreamEvent, StreamSink, StreamSummary, TrialEnd
+from recorder.procedure.stream import (
+    StreamDriver,
+    StreamEvent,
+    StreamSink,
+    StreamSummary,
+    TrialEnd,
+)
+from recorder.setup.stream_plan import touch_refusal
 from twopose.methods.specs import spec_of
 from twopose.values.bounds import shown
 
@@ -81,6 +89,7 @@ def begin_pair(session: ConsoleSession, setup: PairSetup, pair: PairCalibration)
         },
         stream={"trial": 0, "touches": [], "frames": [0, 0], "offset": "", "ended": []},
     )  # fmt: skip
+    session.touch_refusal = functools.partial(touch_refusal, setup.method, pair, setup.units)
 
 
 class WebStreamDriver(StreamDriver):
@@ -254,9 +263,14 @@ def stream_answer(
         if units is None or session.waiting != "streaming":
             return session.take("touch") or "not now: no trial streams", {}
         try:
-            value = (parse_touch_form(form, units), at_ns)
+            point = parse_touch_form(form, units)
         except FormRefusedError as err:
             return str(err), err.errors
+        off = session.touch_refusal(point)
+        if off:  # a ground touch off the floor
+            session.refuse("touch", off)
+            return off, {"touch": off}
+        value = (point, at_ns)
     why = session.take("quit" if action == "stop" else action, value)
     if why:
         session.refuse(action, why)

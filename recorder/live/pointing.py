@@ -10,7 +10,8 @@ estimates each pair through the stream estimate's one path
 2's capture time, the method's one solver, the pair's conditioning, its 95% region): no
 second solver. A pair is estimated as soon as camera 1's frames about camera 2's capture
 time are detected (the frame after it, and the one before or, where that one lost the
-target, the one after that: what the offline estimate interpolates and bends by), so the
+target, the one after that: what the offline estimate interpolates and bends by; when camera
+1 has a frame taken at that time, in step, that frame and the one before it: no wait), so the
 live estimate of a pair equals the offline estimate of the whole stream for that pair;
 pairs that become ready together are estimated in one vectorized call.
 
@@ -38,6 +39,7 @@ from twopose.pair.clock import ClockOffset
 from twopose.pair.live_pairing import LivePairing
 from twopose.pair.pairing import Pairing
 from twopose.pair.stream import (
+    IN_STEP_NS,
     MAX_BRACKET_INTERVALS,
     CameraTrack,
     StreamEstimate,
@@ -292,17 +294,27 @@ class LivePointing:
         return self._ready()
 
     def _bracketed(self, t2_ns: int) -> bool:
-        """Whether camera 1's frames about ``t2_ns`` (its clock) are all detected."""
+        """Whether camera 1's frames about ``t2_ns`` (its clock) are all detected.
+
+        A frame of camera 1 taken at ``t2_ns`` (in step, :data:`IN_STEP_NS`) is enough with
+        the frame before it (its velocity): such a pair waits for no later frame; where that
+        one lost the target, for the frame after it (the velocity the offline estimate takes).
+        """
         one = self._one
-        after = [k for k, s in enumerate(one) if s.t_ns > t2_ns]
+        interval = float(np.median(np.diff([s.t_ns for s in one]))) if len(one) > 2 else 0.0
+        reach = MAX_BRACKET_INTERVALS * interval
+        step = [k for k, s in enumerate(one) if abs(s.t_ns - t2_ns) <= IN_STEP_NS]
+        if step:
+            n = step[0]
+            back = n >= 1 and one[n - 1].found and one[n].t_ns - one[n - 1].t_ns <= reach
+            return not one[n].found or back or n + 1 < len(one)
+        after = [k for k, s in enumerate(one) if s.t_ns > t2_ns + IN_STEP_NS]
         if not after:
             return False
         j = after[0]
         if j == 0:  # the frame before fell out of the history: as the offline edge
             return True
         i = j - 1
-        interval = float(np.median(np.diff([s.t_ns for s in one]))) if len(one) > 2 else 0.0
-        reach = MAX_BRACKET_INTERVALS * interval
         before_usable = i >= 1 and one[i - 1].found and one[i].t_ns - one[i - 1].t_ns <= reach
         return before_usable or j + 1 < len(one)
 
@@ -407,13 +419,28 @@ def _track(seen: list[_Seen], *, lines: bool) -> CameraTrack:
     )
 
 
+#: What each margin under its limit means for the pair, said after the margin (the solver's
+#: labels: twopose.solve.estimate.margin_warnings).
+_SINGULAR_MEANS = (
+    ("ray parallax", "the two cameras' rays to the target are nearly parallel"),
+    ("plane angle", "the finger's line is close to the plane through both cameras"),
+    ("line-", "the finger's line is nearly parallel to the plane it points at"),
+)
+
+
+def _why_singular(reason: str) -> str:
+    """What the margins under their limits in ``reason`` mean, in parentheses ("" if none)."""
+    means = [m for label, m in _SINGULAR_MEANS if label in reason]
+    return f" ({'; '.join(means)})" if means else ""
+
+
 def _words(e: StreamEstimate, k: int, first: _Seen, second: _Seen) -> str:
     """A pair's conditioning in words: "ok", or why it has no point."""
     status, reason = str(e.status[k]), str(e.reason[k])
     if status == "ok":
         return "ok"
     if status == "near_singular":
-        return f"near-singular: {reason} (the finger's line is close to the cameras' baseline)"
+        return f"near-singular: {reason}{_why_singular(reason)}"
     if status == "no_detection":
         lost = [
             f"camera {n} does not see the target ({s.why or 'not found'})"

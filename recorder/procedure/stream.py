@@ -48,7 +48,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal
@@ -56,6 +56,7 @@ from typing import TYPE_CHECKING, Literal
 from recorder.procedure import stops
 from recorder.procedure.machine import refuse_existing
 from recorder.procedure.stream_offset import OffsetMeter
+from recorder.setup.stream_plan import touch_refusal
 from twopose.errors import InputValueError, SourceError, TwoposeError
 from twopose.format.stream_entries import TouchMark
 from twopose.format.writer import SessionWriter
@@ -111,6 +112,10 @@ class ScheduledTouch:
     after_s: float
 
 
+#: How a trial ends as asked (by the operator, its duration, or its sources' end).
+_ASKED_ENDS = ("end", "duration", "quit", "ended")
+
+
 @dataclass(frozen=True, kw_only=True)
 class TrialEnd:
     """How a stream trial ended: ``why`` (``end``, ``duration``, ``quit``, ``ended``: both
@@ -128,7 +133,16 @@ class TrialEnd:
 
     @property
     def complete(self) -> bool:
-        return self.why in ("end", "duration", "quit", "ended")
+        """Ended as asked, with frames from both cameras and a touch to measure."""
+        return not self.lacking and self.why in _ASKED_ENDS
+
+    @property
+    def lacking(self) -> str:
+        """What a trial that ended as asked lacks to measure anything ("": nothing)."""
+        silent = [f"camera {c}" for c, n in enumerate(self.n_frames, start=1) if n == 0]
+        if silent:
+            return f"no frames from {' or '.join(silent)}"
+        return "" if self.touches else "no touches (nothing to measure)"
 
     def line(self) -> str:
         """The trial as the terminal says it when it ends."""
@@ -146,7 +160,9 @@ class TrialEnd:
             said += "; the sources ended (no more frames)"
         if self.missed:
             said += f"; {len(self.missed)} scheduled touch(es) not reached: the trial ended first"
-        return said + ("" if self.complete else f"; incomplete: {self.why}")
+        if self.complete:
+            return said
+        return said + f"; incomplete: {self.lacking if self.why in _ASKED_ENDS else self.why}"
 
 
 class StreamSink:
@@ -278,7 +294,10 @@ def record_stream(
                 while not stops.requested() and driver.next_trial(trial + 1):
                     trial += 1
                     began = True
-                    end = _stream_trial(writer, trial, source, driver, meter, sink, summary)
+                    end = _stream_trial(
+                        writer, trial, source, driver, meter, sink, summary,
+                        lambda p: touch_refusal(info.method, pair, info.units, p),
+                    )  # fmt: skip
                     driver.trial_ended(end)
                     _record_offset(writer, trial, meter, driver, summary)
                     if end.why in ("quit", "ended"):
@@ -353,6 +372,8 @@ class _TrialState:
     seen_ns: list[int] = field(default_factory=lambda: [time.monotonic_ns()] * 2)
     seen_dropped: tuple[int, int] = (0, 0)
     ended: str = ""
+    #: Why a point cannot be touched ("": it can; :func:`touch_refusal`).
+    refuse_point: Callable[[Vec3], str] = lambda _point: ""
 
     def clock_ns(self, at_ns: int) -> int:
         """Camera 1's capture clock at monotonic ``at_ns`` (the module docstring)."""
@@ -379,16 +400,19 @@ def _stream_trial(
     meter: OffsetMeter,
     sink: StreamSink | None,
     summary: StreamSummary,
+    refuse_point: Callable[[Vec3], str],
 ) -> TrialEnd:
     """One stream trial, from its first frame to its end (the module docstring), counted
     in ``summary`` (also when a stop cuts it short)."""
     ids = writer.info.camera_ids
+    jpeg = writer.image_format == "jpeg"
     if not source.stills:
         source.start_capture()  # frames queued between trials are not this trial's
     state = _TrialState(
         trial=trial, stills=source.stills,
         schedule=sorted(driver.schedule(trial), key=lambda s: s.after_s),
         duration_s=driver.duration_s(trial), seen_dropped=source.dropped_by_camera,
+        refuse_point=refuse_point,
     )  # fmt: skip
     meter.begin(trial)
     frames = source.frames(timeout_s=SILENT_S)  # a camera silent this long has failed
@@ -404,7 +428,7 @@ def _stream_trial(
                 if frame is None:  # both files (folders) ended: no more pairs, a normal end
                     state.ended = "ended"
                     break
-                _write_frame(state, stream, ids, frame, source)
+                _write_frame(state, stream, ids, frame, source, jpeg=jpeg)
                 meter.add(frame)
                 if sink is not None:
                     sink.pair_frame(frame)
@@ -432,6 +456,10 @@ def _take_events(state: _TrialState, stream: Stream, driver: StreamDriver) -> No
                 "pressing Enter, or give the trial's points in a plan"
             )
             continue
+        off = state.refuse_point(point)
+        if off:
+            driver.refused(off)
+            continue
         if state.start_ns is None:
             driver.refused("not yet: the trial's first frame has not come; touch again")
             continue
@@ -439,9 +467,11 @@ def _take_events(state: _TrialState, stream: Stream, driver: StreamDriver) -> No
 
 
 def _write_frame(
-    state: _TrialState, stream: Stream, ids: Sequence[str], frame: TimedFrame, source: PairSource
-) -> None:
-    """One frame into the stream, and what each camera dropped since the last."""
+    state: _TrialState, stream: Stream, ids: Sequence[str], frame: TimedFrame, source: PairSource,
+    *, jpeg: bool,
+) -> None:  # fmt: skip
+    """One frame into the stream, and what each camera dropped since the last (``jpeg``:
+    the session stores JPEG, so a camera's own JPEG bytes are stored as they are)."""
     now = source.dropped_by_camera
     for c in (0, 1):
         extra = now[c] - state.seen_dropped[c]
@@ -449,7 +479,10 @@ def _write_frame(
             stream.dropped(ids[c], extra)
             state.dropped[c] += extra
     state.seen_dropped = now
-    stream.add_frame(ids[frame.camera - 1], frame.image, frame.t_capture_ns)
+    if frame.jpeg is not None and jpeg:  # the camera's own JPEG, not decoded and encoded again
+        stream.add_encoded(ids[frame.camera - 1], frame.jpeg, frame.t_capture_ns)
+    else:
+        stream.add_frame(ids[frame.camera - 1], frame.image, frame.t_capture_ns)
     c = frame.camera - 1
     state.seen_ns[c] = time.monotonic_ns()
     if state.seen_ns[c] - state.seen_ns[1 - c] > SILENT_S * 1e9:

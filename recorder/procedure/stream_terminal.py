@@ -16,9 +16,14 @@ during a trial  Enter: a touch *now*, at the plan's next keyed point (or the poi
 ==============  ==========================================================================
 
 With a plan (``--plan``) the trials start by themselves, its scheduled touches are marked
-at their times and its trials end at their ``duration`` (else by ``e``). A closed input
-(end of file) ends the session where a key is waited for, and is nothing while a trial
-streams by a plan.
+at their times and its trials end at their ``duration`` (else by ``e``). A plan is
+unattended: one whose method needs a ground height the pair file lacks and the plan does
+not give is refused before anything is recorded; every planned touch's point is checked (a
+ground touch on the floor). A keyed touch is the one thing a plan asks of the operator (its
+Enter, on the standard input: a terminal, or a script's pipe). A closed input (end of file)
+ends the session where a key is waited for; while a trial streams by a plan it is said when
+keyed touches are left (they cannot be marked: ``< /dev/null``), the trial goes on to its
+end and, with no touch, is said incomplete.
 """
 
 from __future__ import annotations
@@ -186,6 +191,8 @@ class TerminalStreamDriver(StreamDriver):
         """The next line (None: the input ended); a stop raises KeyboardInterrupt."""
         while True:
             stops.check()
+            if self.keys.closed:  # the input ended (read during a trial): nothing more comes
+                return None
             got = self.keys.get(_POLL_S)
             if got is not None:
                 return got[0]
@@ -206,6 +213,8 @@ class TerminalStreamDriver(StreamDriver):
     def streaming(self, trial: int) -> None:
         planned = self._planned(trial)
         self._keyed = list(planned.keyed) if planned is not None else []
+        if self.keys.closed:
+            self._input_ended()
         ends = "e ends the trial" if planned is None or planned.duration_s is None else (
             f"it ends after {planned.duration_s:g} s (e: now)"
         )  # fmt: skip
@@ -230,11 +239,26 @@ class TerminalStreamDriver(StreamDriver):
             if text is None:  # the input ended: nothing more is keyed
                 if self.plan is None:
                     events.append(StreamEvent(kind="quit", at_ns=at))
+                else:  # this batch's Enters take their points first
+                    self._input_ended(taken=sum(e.point is None for e in events))
                 break
             event = self._event(text, at)
             if event is not None:
                 events.append(event)
+                if event.kind != "touch":  # the lines after an end are the next trial's
+                    break
         return events
+
+    def _input_ended(self, taken: int = 0) -> None:
+        """The input ended during a plan's trial: its keyed touches left (but the ``taken``
+        first, whose Enter came before the end) are said lost."""
+        left = len(self._keyed) - taken
+        if left > 0:
+            self.say(
+                f"  the input ended: {left} keyed touch(es) of this trial cannot be marked "
+                "(nobody presses Enter); what was recorded is kept"
+            )
+            self._keyed = self._keyed[:taken]
 
     def _event(self, text: str, at: int) -> StreamEvent | None:
         if text.lower() in ("e", "q"):
@@ -309,6 +333,12 @@ def ask_pair_setup(
                 f"{plane.setup_key} out, or calibrate the pair without the floor"
             )
     elif plane is not None:
+        if plan is not None and ground_height is None:  # a plan is unattended: nobody to ask
+            raise InputValueError(
+                f"plan: {plane.setup_key} is missing: the pair file has no floor and a plan "
+                f"records without prompts; add {plane.setup_key} = H ({plane.bound.words}, "
+                f"the plan's units) to the plan, or calibrate the pair with its floor"
+            )
         given = {} if ground_height is None else {plane.setup_key: ground_height}
         h = _plane_offset(op, m, u, given)
     elif ground_height is not None:
@@ -332,12 +362,26 @@ def record_pair(  # noqa: PLR0913 - what new --pair takes
     plan = load_stream_plan(plan_path) if plan_path is not None else None
     setup = ask_pair_setup(op, pair, plan=plan, **(given or {}))
     pair = setup.session_pair(pair)
+    if plan is not None:
+        refuse_off_floor(plan, pair)
     src = open_pair_source(source, pair, setup, fps=fps)
     cameras = pair_cameras(pair)
     info = setup.info(notes or (plan.notes if plan is not None else ""))
     driver = TerminalStreamDriver(op.say, keys or KeyReader(), setup.units, plan)
     with stops.handled():
         return record_stream(out, info, cameras, pair, src, driver, ground=setup.ground())
+
+
+def refuse_off_floor(plan: StreamPlan, pair: PairCalibration) -> None:
+    """Every planned touch's point, checked before anything is recorded (a ground touch
+    off the floor: :func:`recorder.setup.stream_plan.touch_refusal`)."""
+    from recorder.setup.stream_plan import touch_refusal
+
+    for i, trial in enumerate(plan.trials, start=1):
+        for k, touch in enumerate(trial.touches, start=1):
+            off = touch_refusal(plan.method, pair, plan.units, touch.point)
+            if off:
+                raise InputValueError(f"plan: trials[{i}].touches[{k}].point: {off}")
 
 
 def pair_cameras(pair: PairCalibration) -> list[Any]:

@@ -8,14 +8,17 @@ presses Enter at the terminal when the target is on it (the points in order). A 
 ``duration`` (seconds) ends it by itself; without one the operator ends it (``e``). Every
 number is read by its quantity's one reader (:mod:`twopose.values.bounds`: the plan's
 grammar); an unknown key, a one-camera key (poses, a camera: the pair file gives the
-cameras) or a scheduled touch after the trial's end is refused, naming it.
+cameras), a scheduled touch after the trial's end, or one whose ``at`` is not later than
+the scheduled touch before it (the plan's order is the touches' numbers; the target is at
+one point at a time) is refused, naming it. A ground touch off the floor is refused once
+the floor is known (:func:`touch_refusal`, also every touch's point as it is marked).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from recorder.setup.rules import PLANE_OFFSET_KEY
 from twopose.errors import InputValueError
@@ -25,7 +28,16 @@ from twopose.values.checks import Vec3
 from twopose.values.toml import read_toml
 from twopose.values.units import DEFAULT_UNITS, UNITS, Units
 
-__all__ = ["StreamPlan", "StreamPlanTouch", "StreamPlanTrial", "load_stream_plan"]
+if TYPE_CHECKING:
+    from twopose.pair.calibration import PairCalibration
+
+__all__ = [
+    "StreamPlan",
+    "StreamPlanTouch",
+    "StreamPlanTrial",
+    "load_stream_plan",
+    "touch_refusal",
+]
 
 _TOP = {"method", "units", "operator", "notes", "trials", PLANE_OFFSET_KEY} | {
     p.setup_key for p in PLANES
@@ -128,6 +140,26 @@ def _touch(value: Any, where: str, units: Units, duration: float | None) -> Stre
     return StreamPlanTouch(point=(x, y, z), at_s=at)
 
 
+def _refuse_out_of_order(touches: tuple[StreamPlanTouch, ...], where: str) -> None:
+    """A trial's scheduled touches in the order of their ``at`` (the touches are numbered
+    in the plan's order, so one out of order would be renumbered), at most one at a time
+    (the target is at one point at a moment)."""
+    last: tuple[int, float] | None = None
+    for k, touch in enumerate(touches, start=1):
+        if touch.at_s is None:
+            continue
+        if last is not None and touch.at_s <= last[1]:
+            j, at = last
+            said = "the same moment as" if touch.at_s == at else "before"
+            raise InputValueError(
+                f"plan: {where}.touches[{k}].at {touch.at_s:g} s is {said} "
+                f"{where}.touches[{j}].at {at:g} s: the target is at one point at a time; "
+                "list a trial's scheduled touches in the order of their `at`, each later "
+                "than the one before"
+            )
+        last = (k, touch.at_s)
+
+
 def _trial(value: Any, i: int, units: Units) -> StreamPlanTrial:
     where = f"trials[{i}]"
     t = _table(value, _TRIAL, where)
@@ -140,6 +172,7 @@ def _trial(value: Any, i: int, units: Units) -> StreamPlanTrial:
     touches = tuple(
         _touch(v, f"{where}.touches[{k}]", units, duration) for k, v in enumerate(raw, start=1)
     )
+    _refuse_out_of_order(touches, where)
     return StreamPlanTrial(touches=touches, duration_s=duration)
 
 
@@ -178,3 +211,40 @@ def load_stream_plan(path: str | Path) -> StreamPlan:
         operator=str(data.get("operator", "")), notes=str(data.get("notes", "")),
         plane_offset=_plane_offset(data, m, u),
     )  # fmt: skip
+
+
+def touch_refusal(method: Method, pair: PairCalibration | None, units: Units, point: Vec3) -> str:
+    """Why ``point`` (grid frame = camera 1's, ``units``) cannot be a touch of a ``method``
+    session on ``pair`` ("": it can). A method on a plane (ground) touches its plane: the
+    point must lie on the session's floor, ``normal . p = height`` (``y = h`` for a typed
+    ground height), within the units' ground tolerance (half a 1/16 in tape tick, half a
+    millimetre: a one-camera ground truth's) plus three of the floor's height sigmas (a
+    calibrated floor's). The point and line methods take any grid point (the dot's place, a
+    point the finger's line passes through): nothing is required of it."""
+    import numpy as np
+
+    from twopose.values.bounds import shown
+    from twopose.values.units import unit_spec
+
+    plane = spec_of(method).plane
+    if plane is None or pair is None or pair.floor is None:
+        return ""
+    floor = pair.in_units(units).floor
+    if floor is None:  # in_units keeps a floor: never
+        return ""
+    gap = float(np.dot(floor.normal, point)) - floor.height
+    tol = unit_spec(units).ground_tolerance + 3.0 * float(np.sqrt(max(floor.cov[3, 3], 0.0)))
+    if abs(gap) <= tol:
+        return ""
+    where = (
+        f"{plane.axis} = {shown(floor.height)} {units}"
+        if np.allclose(floor.normal, plane.normal_grid, atol=1e-12)
+        else f"normal . p = {floor.height:.4g} {units}, normal "
+        f"({', '.join(f'{v:.4f}' for v in floor.normal)})"
+    )
+    shown_point = ", ".join(shown(v) for v in point)
+    return (
+        f"({shown_point}) is {gap:+.4g} {units} off {plane.name} ({where}, within {tol:.2g} "
+        f"{units}): a {method} touch is where the finger meets {plane.name}, so its grid "
+        "point must lie on it"
+    )

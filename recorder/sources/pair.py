@@ -18,7 +18,10 @@ dropped, counted (:attr:`PairSource.dropped_by_camera`) and said
 (:meth:`PairSource.drops_said`: each time a queue overflows, how far behind the consumer
 was); the camera is never held up (a folder of stills is never dropped: its thread waits
 instead). It gives each camera's frames with their
-capture times as they come (:meth:`PairSource.frames`, not paired: pairing is
+capture times as they come (two folders of stills, which have no time of their own:
+strictly in capture order, each camera's next frame waited for, so that how fast each
+thread reads never decides which frames a trial holds; :meth:`PairSource.frames`, not
+paired: pairing is
 :mod:`twopose.pair.pairing`'s), or pairs made live by that same policy
 (:meth:`PairSource.pairs`). A stop of the recording (Ctrl-C, SIGTERM:
 :mod:`recorder.procedure.stops`)
@@ -82,7 +85,9 @@ class TimedFrame:
     """One camera's frame: ``camera`` 1 or 2, its number ``index`` among the frames that
     camera gave (from 0; a frame dropped leaves a gap), its capture time ``t_capture_ns``
     on its camera's clock, the monotonic time ``t_grab_ns`` right after it was grabbed (its
-    arrival), the BGR ``image`` and its ``name`` (a still's file name)."""
+    arrival), the BGR ``image`` and its ``name`` (a still's file name); ``jpeg`` the
+    camera's own JPEG bytes it was decoded from (an MJPG camera's or file's; None: it came
+    decoded), which a recording stores as they are instead of encoding the image again."""
 
     camera: int
     index: int
@@ -90,6 +95,7 @@ class TimedFrame:
     t_grab_ns: int
     image: Image
     name: str
+    jpeg: bytes | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -387,6 +393,12 @@ class PairSource(FrameSource):
         return one, two
 
     @property
+    def grabbed_by_camera(self) -> tuple[int, int]:
+        """Each camera's frames taken so far (a folder's: its stills read)."""
+        one, two = (r.grabbed for r in self._readers)
+        return one, two
+
+    @property
     def late_by_camera(self) -> tuple[int, int]:
         """Of :attr:`dropped_by_camera`, the frames a reader thread was too late for (a
         paced file's or the synthetic camera's; a camera's driver drops those unseen)."""
@@ -492,7 +504,10 @@ class PairSource(FrameSource):
                 if self._stop.is_set():
                     raise SourceError(f"{self.info.description} was closed")
                 ready = [r for r in self._readers if r.queue]
-                if ready:
+                # Stills: only once each camera has its next frame (or ended), so that a
+                # thread read faster (a loaded machine) never runs its camera ahead.
+                merged = not self.stills or all(r.queue or r.ended for r in self._readers)
+                if ready and merged:
                     reader = min(ready, key=lambda r: r.queue[0][1].t_capture_ns)
                     index, grabbed = reader.take()
                     self._cond.notify_all()  # a folder's thread may wait for room
@@ -504,8 +519,9 @@ class PairSource(FrameSource):
         image = reader.feed.decode(grabbed.payload)
         name = grabbed.name or f"camera {reader.camera} frame {index + 1}"
         return TimedFrame(
-            reader.camera, index, grabbed.t_capture_ns, grabbed.t_grab_ns, image, name
-        )
+            reader.camera, index, grabbed.t_capture_ns, grabbed.t_grab_ns, image, name,
+            reader.feed.jpeg(grabbed.payload),
+        )  # fmt: skip
 
     def _raise_failed(self, timeout_s: float) -> None:
         """A camera that failed, or that is silent (nothing queued for ``timeout_s``)."""

@@ -145,6 +145,16 @@ class Feed(ABC):
             raise SourceError(f"{self.info.description}: a frame did not decode as JPEG")
         return np.asarray(image, dtype=np.uint8)
 
+    def jpeg(self, payload: Any) -> bytes | None:
+        """A grabbed frame's own JPEG bytes (an MJPG buffer; None: it came as an image)."""
+        import numpy as np
+
+        array = np.asarray(payload)
+        if array.ndim == 3 or array.dtype != np.uint8 or array.size < 4:
+            return None
+        data = array.tobytes()
+        return data if data[:2] == b"\xff\xd8" else None  # JPEG's start-of-image marker
+
     def close(self) -> None:
         """Release the camera or file."""
         return

@@ -343,3 +343,22 @@ def test_every_frame_is_a_row_in_a_trial_without_touches_or_a_camera(tmp_path: P
     assert list(frames.groupby(["trial", "camera"]).size()) == [4, 4, 4]
     assert (~frames["found"]).all()
     assert (frames["reason"] != "").all()
+
+
+def test_compare_never_pools_one_cameras_trials_with_two_cameras_touches(
+    out: Path, tmp_path: Path
+) -> None:
+    """Issue 58 (adversarial 10): ``compare`` pooled 15 trials and 7 touches as "point: 22
+    shared trial(s)"; each is tested, paired and tabled apart by its ``cameras``."""
+    from analysis.gate.comparison import compare, describe_test
+
+    other = tmp_path / "b"
+    shutil.copytree(out, other)
+    result = compare(out, other, tmp_path / "cmp")
+    assert sorted(result.tests["cameras"]) == [1, 2]
+    for frame in (result.paired, result.side_by_side):
+        assert set(frame["cameras"]) == {1, 2}
+    words = [describe_test(row) for _, row in result.tests.iterrows()]
+    assert any("two cameras" in w and "touch(es)" in w for w in words), words
+    for name in ("paired.csv", "side_by_side.csv", "tests.csv"):
+        assert "cameras" in pd.read_csv(tmp_path / "cmp" / name).columns

@@ -132,6 +132,27 @@ def test_an_existing_pair_file_is_refused_before_any_work(stills: Path, tmp_path
     assert out.read_text("utf-8") == "kept"
 
 
+def test_an_output_in_a_missing_folder_is_refused_before_any_work(
+    stills: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "nodir" / "P.toml"
+    result = runner.invoke(app, _args(stills, out))
+    assert result.exit_code == EXIT_ERROR, result.output
+    assert f"cannot create {out}: the folder {out.parent} does not exist" in result.output
+    assert "board found" not in result.output  # said before reading a still, not a traceback
+
+
+def test_calibrate_refuses_a_board_opencv_cannot_search(stills: Path, tmp_path: Path) -> None:
+    out = tmp_path / "cal.toml"
+    args = ["calibrate", str(out), "--source", f"images:{stills}", "--board", "2x5"]
+    result = runner.invoke(app, [*args, "--square", "25"])
+    assert result.exit_code == EXIT_ERROR, result.output
+    assert "--board: inner corners cols must be a whole number from 3 to 100, got 2" in (
+        result.output
+    )
+    assert not out.exists()
+
+
 @pytest.fixture
 def uneven(stills: Path, tmp_path: Path) -> Path:
     """The five pairs, but camera 2's third still is missing."""
@@ -184,6 +205,12 @@ def test_pairs_without_the_board_in_both_are_said_and_too_few_refused(
         (["--floor-right", "RIGHT01"], EXIT_ERROR, "--floor-right needs --floor-left"),
         (["--board", "9x"], EXIT_ERROR, "--board: inner corners rows: type a"),
         (["--board", "nine"], EXIT_ERROR, "--board: type the board's inner corners as COLSxROWS"),
+        # OpenCV's board search needs 3 or more each way (it raised cv2.error on 2x5)
+        (
+            ["--board", "2x5"],
+            EXIT_ERROR,
+            "--board: inner corners cols must be a whole number from 3",
+        ),
         (["--square", "0"], EXIT_USAGE, "--square"),
         (["--square", "1_0"], EXIT_USAGE, "--square"),
         (["--units", "ft"], EXIT_USAGE, "--units"),
@@ -251,3 +278,57 @@ def test_stills_are_paired_by_their_sorted_names(stills: Path) -> None:
     ]
     first = next(read_still_pairs(files))
     assert first[1].shape == (480, 640, 3)
+
+
+def test_stills_of_different_moments_are_refused_by_their_rms(stills: Path) -> None:
+    # camera 2's stills shifted by one moment: the fit said "passed" at RMS 32 px
+    from twopose.errors import InputValueError
+
+    lefts = [_image(stills / f"left{n}.jpg") for n in NUMBERS]
+    rights = [_image(stills / f"right{n}.jpg") for n in NUMBERS]
+    shifted = [
+        (f"pair {k}", a, b)
+        for k, (a, b) in enumerate(zip(lefts, rights[1:] + rights[:1], strict=True))
+    ]
+    with pytest.raises(
+        InputValueError, match=r"RMS reprojection error is \d+\.\d px over 5 views, above the 2 px"
+    ):
+        calibrate_pair_views(shifted, (9, 6), 25.0, Units.MM)
+
+
+def test_a_board_smaller_than_the_stills_show_is_refused(stills: Path, tmp_path: Path) -> None:
+    # OpenCV finds an 8x6 grid inside the 9x6 board: the fit "passed" with tz +0.27 (not -1.03)
+    out = tmp_path / "P.toml"
+    result = runner.invoke(app, [*_args(stills, out), "--board", "8x6"])
+    assert result.exit_code == EXIT_ERROR, result.output
+    assert (
+        "the board has more corners than --board says: left03.jpg & right03.jpg (camera 1) "
+        "shows 9x6 inner corners, --board 8x6" in result.output
+    )
+    args = ["calibrate", str(out), "--source", f"images:{stills}", "--board", "8x6"]
+    result = runner.invoke(app, [*args, "--square", "25"])
+    assert result.exit_code == EXIT_ERROR, result.output
+    assert "the board has more corners than --board says: " in result.output
+    assert "shows 9x6 inner corners, --board 8x6" in result.output
+    assert not out.exists()
+
+
+def test_a_grid_ending_on_the_printed_border_is_not_a_larger_board() -> None:
+    from recorder.calibration.board_size import larger_board
+
+    image = _image(DATA / "left13.jpg")  # OpenCV finds a 10x6 grid here, half a square out
+    assert find_board(image, (10, 6)) is not None
+    corners = find_board(image, (9, 6))
+    assert corners is not None
+    assert larger_board(image, (9, 6), corners) is None
+
+
+def test_floor_stills_of_two_moments_are_refused(stills: Path, tmp_path: Path) -> None:
+    # left03 with right05 gave "height 335 +- 12 mm" (the same moment's: 265 +- 0.1 mm)
+    out = tmp_path / "P.toml"
+    floor = ["--floor-left", str(DATA / "left03.jpg"), "--floor-right", str(DATA / "right05.jpg")]
+    result = runner.invoke(app, [*_args(stills, out), *floor])
+    assert result.exit_code == EXIT_ERROR, result.output
+    assert "the floor board's pose from camera 1 and from camera 2 disagree" in result.output
+    assert "are --floor-left and --floor-right of the same moment" in result.output
+    assert not out.exists()

@@ -7,6 +7,8 @@ stop within 2 s, exit 130, no traceback, nothing written."""
 from __future__ import annotations
 
 import random
+import re
+import shutil
 import signal
 import subprocess
 import threading
@@ -27,7 +29,8 @@ from twopose.pair.pair_file import read_pair_file
 from twopose.values.units import Units
 
 DATA = Path(__file__).resolve().parents[2] / "data" / "opencv-chessboard"
-NUMBERS = ("01", "03", "05", "07", "09")
+# 13 and 14 are 26 and 33 px apart: the video kept 4 of the 5 at the old 5% of the diagonal
+NUMBERS = ("01", "03", "05", "13", "14")
 runner = CliRunner()
 
 
@@ -87,7 +90,7 @@ def test_two_videos_played_live_give_the_stills_pair(
     assert run.live.dropped == (0, 0)
     text = "\n".join(said)
     assert "kept pair 5 of 15: camera 1 frame 17 & camera 2 frame 17 (skew +0.0 ms)" in text
-    assert "the board has not moved since the last pair kept" in text
+    assert "the board has not moved since the last pair kept (0 px, less than 20)" in text
     assert said[-1] == "both cameras ended: 5 pair(s) kept of 20 examined"
     _same_pair(out, from_stills)
 
@@ -231,3 +234,46 @@ def test_a_live_board_search_keeps_a_second_of_each_cameras_frames(tmp_path: Pat
     assert LIVE_BOUND.seconds == 1.0
     assert [r.limit for r in source._readers] == [60, 60]
     assert outcome.examined == 6  # every pair searched, none with a board
+
+
+@pytest.mark.parametrize(
+    ("drop", "words"),
+    [
+        # left01-13 with right03-14: every pair's numbers differ (it was fitted, RMS 32 px)
+        (("left/left14.png", "right/right01.png"), "left01.png & right03.png is paired"),
+        # right14 missing: four pairs agree, camera 1's fifth still has no partner
+        (("right/right14.png",), "camera 1's folder has 5 stills, camera 2's 4"),
+    ],
+)
+def test_folders_are_paired_as_left_and_right_are(
+    folders: Path, tmp_path: Path, drop: tuple[str, ...], words: str
+) -> None:
+    for side in ("left", "right"):
+        shutil.copytree(folders / side, tmp_path / side)
+    for name in drop:
+        (tmp_path / name).unlink()
+    out = tmp_path / "PAIR.toml"
+    spec = f"pair:images:{tmp_path / 'left'},images:{tmp_path / 'right'}"
+    with pytest.raises(InputValueError, match=re.escape(words)):
+        calibrate_pair(_request(out, source=spec))
+    assert not out.exists()
+
+
+def test_a_place_not_kept_is_said_with_its_motion(folders: Path) -> None:
+    # the 5th still, 33 px from the 4th, was dropped without a word: "not moved" was said
+    # for the 4th still's second frame, and the same reason was not said again
+    from recorder.calibration.pair_live import LiveOutcome, LiveRules, live_pairs
+    from recorder.sources.pair import PairSource
+    from recorder.sources.registry import SOURCE_KINDS, SourceOptions, open_from
+
+    spec = f"pair:video:{folders / 'left.avi'},video:{folders / 'right.avi'}"
+    source = open_from(SOURCE_KINDS, spec, SourceOptions())
+    assert isinstance(source, PairSource)
+    said: list[str] = []
+    rules = LiveRules(min_motion_px=40.0)
+    kept = [name for name, _, _ in live_pairs(source, (9, 6), rules, LiveOutcome(), said.append)]
+    assert len(kept) == 4
+    assert (
+        "camera 1 frame 17 & camera 2 frame 17: the board has not moved since the last pair "
+        "kept (33 px, less than 40): move it to a new place" in said
+    )

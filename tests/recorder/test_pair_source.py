@@ -26,6 +26,7 @@ from recorder.sources.pair_feeds import (
     DriverStamps,
     Feed,
     Grabbed,
+    StillsFeed,
 )
 from recorder.sources.registry import SOURCE_KINDS, open_pair, open_source, register_feed
 from twopose.errors import SourceError
@@ -331,3 +332,33 @@ def test_a_camera_that_stops_or_falls_silent_is_said(
             seen.extend(frame.camera for frame in frames)
     assert seen.count(2) == 5  # what came before the stop was given
     assert time.monotonic() - started < 2.0
+
+
+class _SlowStills(StillsFeed):
+    """A folder of stills read slowly (a loaded machine's reader thread)."""
+
+    def grab(self, stop: threading.Event) -> Grabbed | None:
+        time.sleep(0.005)
+        return super().grab(stop)
+
+
+def test_two_folders_of_stills_come_in_capture_order_however_fast_each_is_read(
+    tmp_path: Path,
+) -> None:
+    """Camera 2's folder read slowly: its frames still come in turn with camera 1's (a
+    trial ended by camera 1's clock then holds both cameras' frames up to its end; a flash
+    at frame 12 was lost on a loaded machine when camera 1's thread ran ahead)."""
+    from recorder.sources.pair import PairSource
+    from recorder.sources.registry import SourceOptions, open_from
+
+    for side in ("a", "b"):
+        (tmp_path / side).mkdir()
+        for k in range(12):
+            cv2.imwrite(str(tmp_path / side / f"{k:02d}.png"), np.full((H, W, 3), k, np.uint8))
+    specs = (f"images:{tmp_path / 'a'}", f"images:{tmp_path / 'b'}")
+    a, b = (open_from(SOURCE_KINDS, s, SourceOptions()) for s in specs)
+    with PairSource((StillsFeed(a), _SlowStills(b)), specs) as source:
+        frames = list(source.frames())
+    assert [(f.camera, f.index) for f in frames] == [(c, k) for k in range(12) for c in (1, 2)]
+    times = [f.t_capture_ns for f in frames]
+    assert times == sorted(times)

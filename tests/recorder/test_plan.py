@@ -147,7 +147,7 @@ def test_plan_mode_with_a_source_that_runs_out(tmp_path: Path) -> None:
         (
             'method = "board"\n[board]\ninner_corners = [9, 101]\nsquare = 1\n'
             "first_corner = [0, 0, 20]\n",
-            "inner corners rows must be a whole number from 2 to 100, got 101",  # as everywhere
+            "inner corners rows must be a whole number from 3 to 100, got 101",  # as everywhere
         ),
         (
             'method = "point"\n[[trials]]\nposes = [{t=[0,0,0], r_deg=[0,200,0]},{t=[1,0,0]}]\n',
@@ -170,7 +170,7 @@ def test_plan_mode_with_a_source_that_runs_out(tmp_path: Path) -> None:
         (
             'method = "board"\n[board]\ninner_corners = [9, 1]\nsquare = 1\n'
             "first_corner = [0, 0, 20]\n",
-            "inner corners rows must be a whole number from 2 to 100, got 1",
+            "inner corners rows must be a whole number from 3 to 100, got 1",
         ),
         (
             'method = "board"\n[board]\ninner_corners = [9, 6]\nsquare = 1\n'

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from recorder.live.pointing import FloorView, LivePointing, PointingEstimate
+from recorder.live.pointing import FloorView, LivePointing, PointingEstimate, PointingSettings
 from recorder.simulate.pointing_clip import PointingClip
 from recorder.sources.pair import FramePair, TimedFrame
 from twopose.detect.detection import detect
@@ -125,6 +125,9 @@ def test_a_near_singular_pair_is_said_with_its_reason_and_has_no_point():
         assert not e.track
         assert e.words.startswith("near-singular: ray parallax")
         assert "deg < 1" in e.words
+        # Its meaning is the parallax's, not another margin's (a line's words once said the
+        # baseline for any margin).
+        assert e.words.endswith("(the two cameras' rays to the target are nearly parallel)")
 
 
 def test_pairs_made_elsewhere_give_the_same_estimates_a_frame_later(ground_stream):
@@ -205,7 +208,7 @@ def test_a_recording_feeds_the_panel_from_its_own_thread(ground_stream):
     assert messages[0]["kind"] == "status"
     assert messages[0]["running"] is True
     assert messages[0]["about"] == "ground (method 2), seen on the floor from above (in)"
-    pairs = [m for m in messages if m["kind"] == "pair"]
+    pairs = [m for m in messages if m["kind"] == "estimate"]
     mine = _live(Method.GROUND, clip, frames)[: len(pairs)]
     assert [(m["seq"], m["point"]) for m in pairs] == [
         (e.seq, None if e.point is None else list(e.point)) for e in mine
@@ -213,3 +216,80 @@ def test_a_recording_feeds_the_panel_from_its_own_thread(ground_stream):
     assert len(pairs) >= len(mine) - 1  # the last waits for camera 1's next frame
     assert feed.status == {**messages[0], "running": False, "words": "the recording ended"}
     assert worker.dropped == 0
+
+
+def test_in_step_cameras_give_each_pair_at_once_and_equal_the_offline_estimate():
+    """Camera 2's frame k taken when camera 1's frame k is (equal stamps, as in-step cameras
+    or two video files played at their rate give): the pair is estimated as camera 2's
+    frame arrives, not a frame later, camera 1's frame used as it is (no interpolation),
+    and still equals the offline stream estimate of the whole stream (with an offset whose
+    1-sigma brings in camera 1's velocity)."""
+    clip = PointingClip(Method.GROUND, seed=1, phase_s=0.0)
+    frames = _frames(clip, 8)
+    blank = np.full_like(frames[8].image, 128)  # camera 1 loses the target in frame 4
+    frames[8] = dataclasses.replace(frames[8], image=blank)
+    assert (frames[8].camera, frames[8].index) == (1, 4)
+    assert [f.t_capture_ns for f in frames[0::2]] == [f.t_capture_ns for f in frames[1::2]]
+    offset = ClockOffset(offset_ns=0.0, sigma_ns=2e6, method="given", n=0)
+    live = LivePointing(
+        Method.GROUND, clip.pair, dataclasses.replace(PointingSettings(), offset=offset)
+    )
+    lag: list[int] = []
+    made: list[PointingEstimate] = []
+    for frame in frames:
+        got = live.add_frame(frame)
+        if frame.camera == 2:
+            lag.append(frame.index - max((e.seq for e in made + got), default=-1))
+        made += got
+    made += live.end()
+    # from the third pair on (the first two: camera 1's frame interval is not yet known),
+    # but for pair 5, whose camera-1 velocity is taken forward (frame 4 lost the target)
+    assert lag[2:] == [0, 0, 0, 1, 0, 0]
+    one, two = (_offline_track(Method.GROUND, frames, c) for c in (1, 2))
+    offline = estimate_stream(
+        Method.GROUND, clip.pair, one, two, offset, StreamSettings(noise=live.settings.noise)
+    )
+    assert [e.status for e in made] == offline.status.tolist()
+    assert sum(e.ok for e in made) >= 6
+    assert made[4].status == "no_detection"
+    for k, e in enumerate(made):
+        if e.ok:
+            assert e.point_3d == tuple(offline.point[k])
+            assert e.region == FloorView.of(clip.pair).ellipses(offline.cov)[k]
+    # camera 1's own frame, not a mean of two: its point is the one of the frame alone
+    assert offline.interpolated[offline.ok].all()
+    alone = estimate_stream(
+        Method.GROUND, clip.pair, one, two, offset,
+        StreamSettings(noise=live.settings.noise, interpolate=False),
+    )  # fmt: skip
+    np.testing.assert_array_equal(alone.point[alone.ok], offline.point[offline.ok])
+
+
+@pytest.mark.parametrize("when", ["serving", "starting"])
+def test_ctrl_c_stops_point_with_exit_130_and_no_traceback(tmp_path, when):
+    """``twopose-record point`` is a command like any other: Ctrl-C (while the page is
+    served, or before: while the cameras open) exits 130 saying ``interrupted``."""
+    import signal
+    import subprocess
+
+    from tests.helpers import RECORD, SMALL_SCENE, read_line_when_printed
+    from twopose.pair.pair_file import write_pair_file
+
+    pair, scene = tmp_path / "pair.toml", tmp_path / "scene.toml"
+    write_pair_file(pair, PointingClip(Method.POINT).pair)
+    scene.write_text(SMALL_SCENE)
+    camera = f"synthetic:{scene}"
+    process = subprocess.Popen(
+        [str(RECORD), "point", "--pair", str(pair), "--method", "point",
+         "--source", f"pair:{camera},{camera}"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    if when == "serving":
+        read_line_when_printed(process, "twopose pointing: http", "the page's address")
+    else:
+        time.sleep(0.3)  # the command line's modules are being imported
+    process.send_signal(signal.SIGINT)
+    out, err = process.communicate(timeout=30)
+    assert process.returncode == 130, (out, err)
+    assert err.strip().endswith("interrupted"), err
+    assert "Traceback" not in out + err

@@ -304,3 +304,40 @@ def test_the_docs_example_pair_plan_reads() -> None:
     assert [len(t.touches) for t in plan.trials] == [4, 1]
     assert plan.trials[0].keyed == ((3.455, 9.625, 9.375),)
     assert plan.trials[1].duration_s is None
+
+
+def test_an_mjpg_cameras_own_jpeg_is_stored_as_it_is(tmp_path: Path) -> None:
+    """Two MJPG files (as MJPG webcams give): each frame recorded is the file's own JPEG,
+    byte for byte, not decoded and encoded again (a generation of loss, and its CPU)."""
+    pair = thesis_pair()
+    k = pair.intrinsics1
+    rng = np.random.default_rng(3)
+    packets: dict[str, list[bytes]] = {}
+    for name in ("a", "b"):
+        path = tmp_path / f"{name}.avi"
+        writer = cv2.VideoWriter(
+            str(path), cv2.VideoWriter.fourcc(*"MJPG"), 30.0, (k.width, k.height)
+        )
+        for _ in range(20):
+            writer.write(rng.integers(0, 256, (k.height, k.width, 3), dtype=np.uint8))
+        writer.release()
+        cap = cv2.VideoCapture(str(path))
+        cap.set(cv2.CAP_PROP_FORMAT, -1)  # each packet undecoded
+        packets[name] = [cap.read()[1].tobytes() for _ in range(20)]
+        cap.release()
+    setup = PairSetup(method=Method.POINT, units=Units.IN, operator="Ada")
+    spec = f"pair:video:{tmp_path / 'a.avi'},video:{tmp_path / 'b.avi'}"
+    source = open_pair_source(spec, pair, setup, fps=None)
+    out = tmp_path / "mjpg.mcap"
+    record_stream(out, setup.info(), pair_cameras(pair), pair, source, _Until())
+    with SessionReader(out) as reader:
+        (trial,) = read_pair_session(reader).trials
+        stored = {
+            n: [f.data for f in c.frames()]
+            for n, c in zip("ab", (trial.camera1, trial.camera2), strict=True)
+        }
+    for name, frames in stored.items():  # a run of the file's packets, from where it began
+        assert len(frames) >= 6
+        first = next((k for k, p in enumerate(packets[name]) if p == frames[0]), None)
+        assert first is not None, f"camera {name}: not the file's own JPEG (encoded again)"
+        assert frames == packets[name][first : first + len(frames)], "not the file's run"

@@ -24,7 +24,7 @@ class SessionEstimate(Protocol):
     """What :func:`reported` reads of :class:`twopose.solve.session.SessionEstimate`.
 
     A protocol, not an import: the session's estimate tests each trial against its truth
-    with :func:`reported` (:mod:`twopose.uncertainty.own_truth`), and the tables' readers
+    with :func:`reported` (:mod:`twopose.uncertainty.blunders`), and the tables' readers
     need no estimation at import.
     """
 

@@ -11,6 +11,8 @@
 - :mod:`twopose.pair.pair_file`: ``PAIR.toml``'s one reader and writer (docs/pair-file.md);
 - :mod:`twopose.pair.pairing`: two cameras' frames paired by capture time;
 - :mod:`twopose.pair.clock`: the cameras' clock offset measured, with its 1-sigma;
+- :mod:`twopose.pair.clock_fit`: a camera's frame times fitted by a regular clock, the offset's
+  type;
 - :mod:`twopose.pair.stream`: the estimate per frame pair of a moving target.
 
 No I/O but the pair file's reader and writer.

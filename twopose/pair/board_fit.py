@@ -23,6 +23,7 @@ from twopose.arrays import F32, F64
 from twopose.camera.model import Intrinsics
 from twopose.detect.checkerboard import board_pattern
 from twopose.errors import InputValueError
+from twopose.values.bounds import INNER_CORNERS
 
 __all__ = [
     "BoardCorners",
@@ -96,8 +97,11 @@ class BoardCorners:
     ) -> BoardCorners:
         """Checked corners: as many views in both cameras, every view the board's corners."""
         cols, rows = board
-        if cols < 2 or rows < 2:
-            raise InputValueError(f"the board needs at least 2x2 inner corners, got {cols}x{rows}")
+        low = INNER_CORNERS.low  # OpenCV's board search needs more than 2 each way
+        if cols < low or rows < low:
+            raise InputValueError(
+                f"the board needs at least {low:g}x{low:g} inner corners, got {cols}x{rows}"
+            )
         if not (np.isfinite(square) and square > 0):
             raise InputValueError(f"the board's square must be a positive length, got {square}")
         if len(left) != len(right):

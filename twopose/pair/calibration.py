@@ -49,6 +49,7 @@ from twopose.pair.holdout import HoldoutCheck, leave_one_out
 from twopose.values.units import Units, unit_factor, unit_spec
 
 __all__ = [
+    "MAX_RMS_PX",
     "MIN_VIEWS",
     "FloorPlane",
     "PairCalibration",
@@ -71,6 +72,11 @@ SAME_VIEW_PX = 0.5
 #: on OpenCV's photographs is a fraction of a degree and a few percent of the baseline.
 MAX_VIEW_DEG = 5.0
 MAX_VIEW_SHIFT = 0.25
+#: A fit whose RMS reprojection error (pixels) is above this is refused: a board's corners
+#: are found to a few tenths of a pixel (OpenCV's own pairs fit at 0.45 px), so a larger
+#: misfit means stills of different moments, a wrong board size or wrong intrinsics, whose
+#: pose no leave-one-out check can vouch for (its sigmas grow with the misfit).
+MAX_RMS_PX = 2.0
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -288,7 +294,7 @@ def fit_pair(
     InputValueError
         Fewer than :data:`MIN_VIEWS` views (after dropping outliers), one still given twice,
         cameras that share a centre, a fit that does not fix the poses, corners outside
-        the intrinsics' image.
+        the intrinsics' image, an RMS above :data:`MAX_RMS_PX`.
     """
     units = unit_spec(units).units
     square = float(np.linalg.norm(corners.pattern[1] - corners.pattern[0]))
@@ -298,6 +304,13 @@ def fit_pair(
     _check_views(corners, labels, intrinsics)
     lenses = (LensModel.of(intrinsics[0]), LensModel.of(intrinsics[1]))
     fit, corners, labels, dropped = _fit_without_outliers(corners, labels, lenses)
+    if fit.rms_px > MAX_RMS_PX:
+        raise InputValueError(
+            f"the fit's RMS reprojection error is {fit.rms_px:.1f} px over {corners.n_views} "
+            f"views, above the {MAX_RMS_PX:g} px a board's corners allow: are the two cameras' "
+            "stills of the same moments, the board's size --board's, the intrinsics these "
+            "cameras'?"
+        )
     R, t = extrinsic_of(fit.relative)
     if np.linalg.norm(t) < MIN_BASELINE_SQUARES * square:
         raise InputValueError(

@@ -17,9 +17,11 @@
   refined by a parabola through the three candidates about it. Its 1-sigma is that of a
   least-squares parameter: ``var = 2 s^2 / S''``, ``S''`` the curvature of the summed
   squared gap and ``s^2`` the gaps' variance at the minimum, times the factor by which
-  neighbouring gaps' shared camera-1 frames correlate them, plus the fitted clocks' own
-  error; a motion along the epipolar lines (sideways, for cameras side by side) does not
-  fix the offset and is refused.
+  neighbouring gaps' shared camera-1 frames correlate them, plus camera 1's
+  linear-interpolation error (its track's bend between frames), the grid step's and the
+  fitted clocks' own error. The minimum is taken over the frames every offset about it
+  measures. Refused in words: a motion along the epipolar lines (sideways, for cameras side
+  by side), one that repeats, a best at the search's edge, exchanged cameras.
 
 Both first fit each camera's frame times by a regular clock (:func:`regular_times`: a
 camera's frames are taken at a fixed rate; the stamps' jitter is the host's), so the
@@ -37,6 +39,7 @@ from twopose.arrays import F64, Bools, Ints
 from twopose.errors import InputValueError
 from twopose.pair.board_fit import LensModel
 from twopose.pair.calibration import PairCalibration
+from twopose.pair.clock_fit import ClockOffset, RegularTimes, regular_times
 
 __all__ = [
     "ClockOffset",
@@ -47,9 +50,6 @@ __all__ = [
     "regular_times",
 ]
 
-#: The stamps are too irregular to be fitted by one rate beyond this share of an interval
-#: (their frame numbers would be ambiguous): they are then used as they are.
-MAX_JITTER_SHARE = 1 / 6
 #: The span of onsets a flash's frames agree with, in their lit shares' 1-sigmas.
 FLASH_SIGMAS = 3.0
 #: The fewest camera-2 frames an offset candidate's gap is averaged over.
@@ -61,80 +61,14 @@ MAX_SIGMA_SHARE = 0.25
 #: offset a frame or more from the best must fit worse: below it, another offset fits
 #: nearly as well and the offset is not known.
 MIN_LIKELIHOOD_RATIO = 25.0
-
-
-@dataclass(frozen=True, kw_only=True)
-class ClockOffset:
-    """A measured clock offset: camera 2's clock minus camera 1's (nanoseconds).
-
-    ``sigma_ns`` its 1-sigma, ``method`` how it was measured (``"flash"``, ``"ray gap"``),
-    ``n`` the frames (flash: both cameras') or pairs (ray gap) it rests on.
-    """
-
-    offset_ns: float
-    sigma_ns: float
-    method: str
-    n: int
-
-
-@dataclass(frozen=True, kw_only=True, eq=False)
-class RegularTimes:
-    """A camera's stamps fitted by a regular clock (:func:`regular_times`).
-
-    ``times_ns`` (N,) the fitted capture times, ``frame`` (N,) each stamp's frame number
-    from the first (gaps: dropped frames), ``interval_ns`` the fitted interval,
-    ``jitter_ns`` the stamps' scatter about the fit, ``sigma_ns`` (N,) each fitted time's
-    1-sigma; ``regular`` False when the stamps were too irregular to fit (then
-    ``times_ns`` are the stamps and ``sigma_ns`` their scatter).
-    """
-
-    times_ns: F64
-    frame: F64
-    interval_ns: float
-    jitter_ns: float
-    sigma_ns: F64
-    regular: bool
-
-
-def regular_times(t_ns: ArrayLike, *, interval_ns: float | None = None) -> RegularTimes:
-    """A camera's frame times fitted by a fixed rate: ``t = a + b k`` over frame numbers k.
-
-    The frame numbers come from the stamps (rounded by the interval, so dropped frames
-    keep their place); with ``interval_ns`` unknown, the stamps' median difference starts
-    the fit. Stamps too irregular for that (scatter beyond :data:`MAX_JITTER_SHARE` of an
-    interval) are returned as they are (``regular`` False).
-    """
-    t = np.asarray(t_ns, dtype=np.float64).reshape(-1)
-    if t.size < 3 or not np.isfinite(t).all():
-        raise InputValueError("a camera's clock needs three finite frame times at least")
-    origin = t[0]
-    x = t - origin
-    b = float(np.median(np.diff(x))) if interval_ns is None else float(interval_ns)
-    if not b > 0:
-        raise InputValueError("the frame times must increase")
-    # Frame numbers from each step (one interval, or more across dropped frames), so that
-    # a slightly wrong first interval does not slip them over a long stream; then the
-    # line, and the numbers again from it.
-    k = np.r_[0.0, np.cumsum(np.maximum(np.round(np.diff(x) / b), 1.0))]
-    for _ in range(2):
-        A = np.column_stack([np.ones_like(k), k])
-        (a, b), *_ = np.linalg.lstsq(A, x, rcond=None)
-        k = np.round((x - a) / b)
-    residual = x - (a + b * k)
-    jitter = float(np.sqrt((residual**2).sum() / max(t.size - 2, 1)))
-    if jitter > MAX_JITTER_SHARE * b or len(np.unique(k)) != k.size:
-        return RegularTimes(
-            times_ns=t, frame=k, interval_ns=b, jitter_ns=jitter,
-            sigma_ns=np.full(t.size, jitter), regular=False,
-        )  # fmt: skip
-    # Each fitted time's 1-sigma: the line's prediction error at its frame number.
-    km = k.mean()
-    spread = max(float(((k - km) ** 2).sum()), 1e-300)
-    sigma = jitter * np.sqrt(1.0 / k.size + (k - km) ** 2 / spread)
-    return RegularTimes(
-        times_ns=origin + a + b * k, frame=k, interval_ns=float(b), jitter_ns=jitter,
-        sigma_ns=sigma, regular=True,
-    )  # fmt: skip
+#: The offsets searched by default, either way (ns). Wider finds a repeating motion's
+#: other periods (a 2 in square at 10 in/s repeats every 0.8 s) and, on a short trial,
+#: offsets few frames overlap at: a best at its edge is refused as beyond it.
+SEARCH_NS = 0.5e9
+#: The fine search's candidates per frame interval (its step's uniform error enters sigma).
+FINE_STEPS = 200
+#: The mean squared gap this many times smaller with the cameras exchanged says they are.
+SWAP_RATIO = 10.0
 
 
 def _onset(brightness: F64, times: RegularTimes, exposure_ns: float | None) -> tuple[float, float]:
@@ -309,22 +243,84 @@ class _DotTracks:
         """
         return float(np.hypot(np.min(self.clock_sigma[0]), np.min(self.clock_sigma[1])))
 
-    def mean_gap(self, candidates: F64) -> tuple[F64, F64]:
-        """(C,) the mean squared gap at each candidate offset, and (C,) the frames used.
+    def gaps(self, candidates: F64) -> tuple[F64, F64]:
+        """(C, N2) the rays' gap (px) at each candidate offset, and its noise weight.
 
-        Each gap is weighed by its noise: camera 2's frame and camera 1's two, by ``1 - w``
-        and ``w`` (equal noise taken), ``1 + w^2 + (1 - w)^2`` times one frame's variance; a
-        cost not weighed so would favour offsets that put camera 2's frames on camera 1's
-        (where interpolation averages no noise away), the more so the slower the dot.
+        The weight is camera 2's frame and camera 1's two, by ``1 - w`` and ``w`` (equal
+        noise taken), ``1 + w^2 + (1 - w)^2`` times one frame's variance; NaN gaps where
+        camera 1 has no frames about camera 2's.
         """
         u1, w = self.camera1_at(self.times[1][None, :] - candidates[:, None])
         u2 = np.where(self.found[1][:, None], self.tracks[1], np.nan)
         gap = epipolar_gap_px(self.pair, u1, np.broadcast_to(u2, u1.shape))
-        g2 = gap**2 / (1 + w**2 + (1 - w) ** 2)
+        return gap, 1 + w**2 + (1 - w) ** 2
+
+    def mean_gap(self, candidates: F64, *, common: bool = False) -> tuple[F64, F64]:
+        """(C,) the mean squared gap at each candidate offset, and (C,) the frames used.
+
+        Each gap is weighed by its noise (:meth:`gaps`); a cost not weighed so would favour
+        offsets that put camera 2's frames on camera 1's (where interpolation averages no
+        noise away), the more so the slower the target. ``common``: over the frames every
+        candidate measures only -- a mean over a set of frames that changes with the
+        offset is no function of it (a frame whose camera-1 neighbours leave the set at
+        one candidate made a step that looked like a sharp minimum, issue 58's 50% drop).
+        """
+        gap, weight = self.gaps(candidates)
+        g2 = gap**2 / weight
+        if common:
+            every: Bools = np.asarray(np.isfinite(g2).all(axis=0))
+            g2 = np.where(every[None, :], g2, np.nan)
         used = np.isfinite(g2).sum(axis=1)
         enough = used >= MIN_GAP_FRAMES
         mean = np.where(enough, np.nansum(g2, axis=1) / np.maximum(used, 1), np.nan)
         return mean, used.astype(np.float64)
+
+    def interpolation_ns(self, offset_ns: float, step_ns: float) -> float:
+        """The offset's error (ns) that interpolating camera 1 linearly can make, 1-sigma.
+
+        Between two camera-1 frames ``dt`` apart, a track bending with acceleration ``a``
+        (px/ns^2, from camera 1's three frames about each) is missed by the line through
+        them by ``w (1 - w) dt^2 a / 2``; each gap moves by that error's share across the
+        epipolar line (``dg``), and the offset by ``-sum(dg s / v) / sum(s^2 / v)``, ``s``
+        each gap's rate with the offset and ``v`` its weight. Its size is carried as a
+        term of the sigma: a fast or sharply turning target (100 in/s round a 2 in square)
+        or frames bridged across a dropped one bend between camera 1's frames.
+        """
+        track, t, found = self.tracks[0], self.times[0], self.found[0]
+        acc = np.full(track.shape, np.nan)
+        dt_left, dt_right = np.diff(t)[:-1], np.diff(t)[1:]
+        slope = (track[1:] - track[:-1]) / np.diff(t)[:, None]
+        acc[1:-1] = 2 * (slope[1:] - slope[:-1]) / (dt_left + dt_right)[:, None]
+        acc[1:-1][~(found[:-2] & found[1:-1] & found[2:])] = np.nan
+        candidates = np.array([offset_ns - step_ns, offset_ns, offset_ns + step_ns])
+        gap, weight = self.gaps(candidates)
+        i, w, ok = self.weights(offset_ns)
+        ok = ok & np.isfinite(gap).all(axis=0)
+        if ok.sum() < 2:
+            return 0.0
+        i, w = i[ok], w[ok]
+        # The larger bend of the bracket's two frames (either may lack its neighbours).
+        a = np.where(np.isfinite(acc[i]), acc[i], acc[i + 1])
+        a_other = np.where(np.isfinite(acc[i + 1]), acc[i + 1], acc[i])
+        larger = np.linalg.norm(np.nan_to_num(a_other), axis=1) > np.linalg.norm(
+            np.nan_to_num(a), axis=1
+        )
+        a = np.where(larger[:, None], a_other, a)
+        dt = t[i + 1] - t[i]
+        miss = (0.5 * w * (1 - w) * dt**2)[:, None] * np.nan_to_num(a)
+        at = self.times[1][ok] - offset_ns
+        u1, _ = self.camera1_at(at)
+        u2 = self.tracks[1][ok]
+        dg = epipolar_gap_px(self.pair, u1 + miss, u2) - epipolar_gap_px(self.pair, u1, u2)
+        s = (gap[2, ok] - gap[0, ok]) / (2 * step_ns)
+        v = weight[1, ok]
+        info = float((s**2 / v).sum())
+        if not info > 0:
+            return 0.0
+        # Signed (a bend shared by neighbouring frames moves them alike) and random parts.
+        shift = abs(float((np.nan_to_num(dg) * s / v).sum())) / info
+        spread = float(np.sqrt((np.nan_to_num(dg) ** 2 * s**2 / v**2).sum())) / info
+        return float(np.hypot(shift, spread))
 
 
 def offset_from_ray_gap(
@@ -334,70 +330,148 @@ def offset_from_ray_gap(
     track2_px: ArrayLike,
     t2_ns: ArrayLike,
     *,
-    search_ns: tuple[float, float] = (-0.5e9, 0.5e9),
+    search_ns: tuple[float, float] = (-SEARCH_NS, SEARCH_NS),
 ) -> ClockOffset:
-    """The clock offset from a moving dot both cameras see (the module docstring).
+    """The clock offset from a moving target both cameras see (the module docstring).
 
     Parameters
     ----------
     pair : PairCalibration
         The calibrated pair.
     track1_px, track2_px : (N1, 2), (N2, 2) array_like
-        The dot's pixel (col, row) in each frame of camera 1 and camera 2, as detected
+        The target's pixel (col, row) in each frame of camera 1 and camera 2, as detected
         (distorted); NaN where not found.
     t1_ns, t2_ns : (N1,), (N2,) array_like
         Their capture times (nanoseconds, each camera's clock).
     search_ns : (float, float)
-        The range of offsets searched.
+        The range of offsets searched (default :data:`SEARCH_NS` either way).
 
     Returns
     -------
     ClockOffset
     """
-    dots = _dot_tracks(pair, (track1_px, track2_px), (t1_ns, t2_ns))
+    tracks, times = (track1_px, track2_px), (t1_ns, t2_ns)
+    dots = _dot_tracks(pair, tracks, times)
+    try:
+        offset = _ray_gap(dots, search_ns)
+    except InputValueError as err:
+        raise InputValueError(f"{err}{_swapped_hint(pair, tracks, times, search_ns)}") from err
+    # Exchanged cameras can still find a minimum (a wrong one, with a small sigma): the
+    # gap far smaller the other way round refuses it.
+    hint = _swapped_hint(pair, tracks, times, search_ns)
+    if hint:
+        raise InputValueError(hint.removeprefix("; "))
+    return offset
+
+
+def _ray_gap(dots: _DotTracks, search_ns: tuple[float, float]) -> ClockOffset:
+    """:func:`offset_from_ray_gap` on checked tracks (refusals raised, without the hint)."""
     interval = float(np.median(np.diff(dots.times[0])))
     lo, hi = sorted(float(x) for x in search_ns)
     coarse = np.arange(lo, hi + interval / 8, interval / 4)
-    cost, _ = dots.mean_gap(coarse)
+    coarse_cost, coarse_used = dots.mean_gap(coarse)
+    if not np.isfinite(coarse_cost).any():
+        raise InputValueError(
+            f"the target was seen by both cameras at the same time in fewer than "
+            f"{MIN_GAP_FRAMES} frames at every offset from {lo / 1e6:g} to {hi / 1e6:g} ms: "
+            "record a longer trial, with the target in both cameras' view"
+        )
+    # Offsets that leave most frames without partners rest on few: their mean is noisy.
+    supported = coarse_used >= 0.5 * coarse_used.max()
+    best = coarse[int(np.nanargmin(np.where(supported, coarse_cost, np.nan)))]
+    if min(best - lo, hi - best) < interval:
+        raise InputValueError(
+            f"the rays' gap is smallest at the edge of the offsets searched ({lo / 1e6:+.0f} "
+            f"to {hi / 1e6:+.0f} ms): the cameras' clocks may differ by more, which the ray "
+            "gap does not measure: measure the offset by a flash both cameras see"
+        )
+    h = interval / FINE_STEPS
+    fine = np.arange(best - interval / 2, best + interval / 2 + h / 2, h)
+    cost, used = dots.mean_gap(fine, common=True)
     if not np.isfinite(cost).any():
         raise InputValueError(
-            f"the dot was seen by both cameras at the same time in fewer than {MIN_GAP_FRAMES} "
-            "frames at any offset searched: record longer, or widen the search"
+            f"fewer than {MIN_GAP_FRAMES} of camera 2's frames have camera 1's frames about "
+            "them at every offset near the best (frames dropped): record a longer trial"
         )
-    coarse_cost, coarse_used = cost, _
-    best = coarse[int(np.nanargmin(cost))]
-    fine = np.arange(best - interval / 2, best + interval / 2 + interval / 100, interval / 50)
-    cost, used = dots.mean_gap(fine)
     k = int(np.nanargmin(cost))
     if k == 0 or k == fine.size - 1 or not np.isfinite(cost[k - 1 : k + 2]).all():
-        raise InputValueError("the rays' gap has no minimum inside the offsets searched")
-    h = fine[1] - fine[0]
+        raise InputValueError(
+            f"the rays' gap has no minimum near {best / 1e6:.0f} ms over the frames every "
+            "offset about it measures (too few frames, or too many dropped): record a longer "
+            "trial, dropping fewer frames"
+        )
     c0, c1, c2 = cost[k - 1], cost[k], cost[k + 1]
     curvature = (c0 - 2 * c1 + c2) / h**2  # of the mean squared gap
-    refused = InputValueError(
-        "the dot's motion does not fix the clock offset (it moved along the epipolar lines, "
-        "or too little): move it across them, up and down for cameras side by side"
-    )
     if not curvature > 0:
-        raise refused
+        raise InputValueError(_NOT_FIXED)
     vertex = fine[k] + 0.5 * h * (c0 - c2) / (c0 - 2 * c1 + c2)
     n = int(used[k])
     # Least squares on S = n * mean: var = 2 s^2 / S'', s^2 = S_min / (n - 1).
     min_mean = c1 - 0.25 * (c0 - c2) ** 2 / (c0 - 2 * c1 + c2) / 2
     variance = 2 * max(min_mean, 0.0) / ((n - 1) * curvature) * dots.correlation_factor(vertex)
     if np.sqrt(variance) > MAX_SIGMA_SHARE * interval:
-        raise refused
+        raise InputValueError(_NOT_FIXED)
     # A likelihood ratio against every offset a frame or more away: one that fits nearly
     # as well (the motion along the epipolar lines fits every offset; a periodic one
     # several) leaves the offset unknown.
-    far = np.abs(coarse - vertex) > interval
+    far = (np.abs(coarse - vertex) > interval) & supported
     with np.errstate(invalid="ignore", divide="ignore"):
         ratio = coarse_used[far] * (coarse_cost[far] / max(min_mean, 1e-300) - 1.0)
-    if far.any() and np.nanmin(np.where(np.isfinite(ratio), ratio, np.inf)) < MIN_LIKELIHOOD_RATIO:
-        raise refused
-    variance += dots.clock_sigma_ns() ** 2
+    ratio = np.where(np.isfinite(ratio), ratio, np.inf)
+    if far.any() and ratio.min() < MIN_LIKELIHOOD_RATIO:
+        rival = coarse[far][int(np.argmin(ratio))]
+        raise InputValueError(
+            f"the rays' gap fits an offset of {rival / 1e6:.0f} ms nearly as well as "
+            f"{vertex / 1e6:.0f} ms: the target moved too little, in a repeating path, or "
+            "along the epipolar lines: move it across them, up and down for cameras side "
+            "by side"
+        )
+    # Camera 1's interpolation error (a bend between its frames) as a term, and the grid's
+    # resolution (a uniform step), then the fitted clocks' own error.
+    bend = dots.interpolation_ns(float(vertex), h)
+    variance += bend**2 + h**2 / 12 + dots.clock_sigma_ns() ** 2
+    if bend > MAX_SIGMA_SHARE * interval:
+        raise InputValueError(
+            f"the target's track bends too much between camera 1's frames to be interpolated "
+            f"(the offset could be off by {bend / 1e6:.1f} ms): move it slower or straighter, "
+            "or drop fewer frames"
+        )
     return ClockOffset(
         offset_ns=float(vertex), sigma_ns=float(np.sqrt(variance)), method="ray gap", n=n
+    )
+
+
+_NOT_FIXED = (
+    "the target's motion does not fix the clock offset (it moved along the epipolar lines, "
+    "or too little): move it across them, up and down for cameras side by side"
+)
+
+
+def _swapped_hint(
+    pair: PairCalibration,
+    tracks: tuple[ArrayLike, ArrayLike],
+    times: tuple[ArrayLike, ArrayLike],
+    search_ns: tuple[float, float],
+) -> str:
+    """Words for a refusal when the cameras look exchanged: the gap far smaller so."""
+    try:
+        ours = _dot_tracks(pair, tracks, times)
+        # The pair as calibrated, fed each camera's track as the other's.
+        theirs = _dot_tracks(pair, (tracks[1], tracks[0]), (times[1], times[0]))
+        interval = float(np.median(np.diff(ours.times[0])))
+        grid = np.arange(min(search_ns), max(search_ns) + interval / 8, interval / 4)
+        own_cost, other_cost = ours.mean_gap(grid)[0], theirs.mean_gap(grid)[0]
+    except (InputValueError, ValueError):
+        return ""
+    if not (np.isfinite(own_cost).any() and np.isfinite(other_cost).any()):
+        return ""
+    own, other = float(np.nanmin(own_cost)), float(np.nanmin(other_cost))
+    if not other * SWAP_RATIO < own:
+        return ""
+    return (
+        f"; the cameras may be in the wrong order: with camera 1 and camera 2 exchanged the "
+        f"rays' gap is {np.sqrt(own / max(other, 1e-300)):.0f} times smaller (RMS): record "
+        "with the pair's camera 1 given first (`new --source pair:A,B`: A is camera 1)"
     )
 
 

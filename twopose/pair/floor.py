@@ -7,7 +7,9 @@ the floor: ``normal . p = height`` in camera 1's frame, the normal pointing from
 toward the floor. Its covariance is the fit's (``s^2 (J^T J)^-1``, ``s^2`` the residuals'
 variance) plus, with camera 2, the pair's extrinsic covariance carried through the fit
 (``d pose / d extrinsic = -(J_b^T J_b)^-1 J_b^T J_e``); the floor's correlation with the
-extrinsics is not kept (each is carried into an estimate as its own error). No I/O.
+extrinsics is not kept (each is carried into an estimate as its own error). With camera
+2's still, the board's pose from each camera alone must agree through the pair's pose
+(stills of two moments are refused). No I/O.
 """
 
 from __future__ import annotations
@@ -31,7 +33,15 @@ from twopose.pair.board_fit import (
 )
 from twopose.pair.calibration import FloorPlane, PairCalibration
 
-__all__ = ["floor_from_board", "with_floor"]
+__all__ = ["FLOOR_AGREEMENT_ODDS", "MIN_CORNER_SIGMA_PX", "floor_from_board", "with_floor"]
+
+#: Floor stills whose board poses (camera 1's, camera 2's through R, t) are further apart
+#: than chi-square(6)'s 1-in-this quantile are refused (3.9 sigma: OpenCV's 13 pairs'
+#: boards agree within 1.9 sigma, any two of its moments differ by 300 or more).
+FLOOR_AGREEMENT_ODDS = 10_000
+#: The least 1-sigma of a corner (pixels) the floor boards' agreement assumes (a board
+#: drawn without noise fits to zero).
+MIN_CORNER_SIGMA_PX = 0.05
 
 
 def floor_from_board(
@@ -77,6 +87,8 @@ def floor_from_board(
     if not ok:
         raise InputValueError("the floor board's pose in camera 1 failed")
     start = np.r_[np.ravel(r0), np.ravel(t0)]
+    if both:
+        _refuse_disagreement(pair, relative, start, corners, lenses)
     pose, J_b, J_e, res = _fit_board(relative, start, corners, lenses, both=both)
     normal = J_b.T @ J_b
     if np.linalg.cond(normal) > 1e12:
@@ -99,22 +111,66 @@ def with_floor(pair: PairCalibration, floor: FloorPlane | None) -> PairCalibrati
     return dataclasses.replace(pair, floor=floor)
 
 
+def _refuse_disagreement(
+    pair: PairCalibration,
+    relative: F64,
+    start: F64,
+    corners: BoardCorners,
+    lenses: tuple[LensModel, LensModel],
+) -> None:
+    """Refuse floor stills whose board poses disagree (two moments, or the board moved).
+
+    Camera 1's pose of the board alone and camera 2's alone (through the pair's R, t) must
+    agree within their covariances (each its own fit's, its corners' variance at least
+    :data:`MIN_CORNER_SIGMA_PX` squared, camera 2's with the extrinsics' carried, both
+    times the pair's variance factor): their Mahalanobis distance within chi-square(6)'s
+    1-in-:data:`FLOOR_AGREEMENT_ODDS` quantile.
+    """
+    from scipy import special
+
+    poses, covs = [], []
+    for camera in (1, 2):
+        pose, J_b, J_e, res = _fit_board(relative, start, corners, lenses, camera=camera)
+        inverse = np.linalg.inv(J_b.T @ J_b)
+        variance = max(float(res @ res) / max(res.size - 6, 1), MIN_CORNER_SIGMA_PX**2)
+        cov = variance * inverse * pair.cov_factor
+        if camera == 2:
+            G = np.linalg.inv(extrinsic_jacobian(relative))
+            A = -inverse @ J_b.T @ J_e
+            cov = cov + A @ (G @ pair.cov_extrinsic @ G.T) @ A.T
+        poses.append(pose)
+        covs.append(cov)
+    d = poses[0] - poses[1]
+    distance = float(d @ np.linalg.solve(covs[0] + covs[1], d))
+    bound = float(special.chdtri(6, 1.0 / FLOOR_AGREEMENT_ODDS))
+    if not distance <= bound:
+        raise InputValueError(
+            f"the floor board's pose from camera 1 and from camera 2 disagree through the "
+            f"pair's pose (by {np.linalg.norm(d[3:]):.3g} {pair.units} and "
+            f"{np.degrees(np.linalg.norm(d[:3])):.2g} deg, {np.sqrt(distance):.0f} sigma "
+            f"where {np.sqrt(bound):.1f} is the most): are --floor-left and --floor-right of "
+            "the same moment, the board still between them?"
+        )
+
+
 def _fit_board(
     relative: F64,
     start: F64,
     corners: BoardCorners,
     lenses: tuple[LensModel, LensModel],
     *,
-    both: bool,
+    both: bool = False,
+    camera: int = 1,
 ) -> tuple[F64, F64, F64, F64]:
     """The board's pose by least squares.
 
-    The pose, the Jacobians by it and by the relative pose, and the residuals (camera 1's
-    corners, and camera 2's with ``both``).
+    The pose, the Jacobians by it and by the relative pose, and the residuals (``camera``'s
+    corners, or both cameras' with ``both``).
     """
     from scipy.optimize import least_squares
 
-    rows = slice(None) if both else slice(0, 2 * corners.pattern.shape[0])
+    m = 2 * corners.pattern.shape[0]
+    rows = slice(None) if both else slice(0, m) if camera == 1 else slice(m, None)
 
     def evaluate(x: F64) -> tuple[F64, F64]:
         r, J = reprojection(relative, x[None], corners, lenses)

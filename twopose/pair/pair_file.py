@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from twopose.camera.model import SIGMA_KEYS, Intrinsics
-from twopose.errors import InputValueError, SessionExistsError
+from twopose.errors import InputValueError, SessionExistsError, TwoposeError
 from twopose.pair.calibration import FloorPlane, PairCalibration
 from twopose.pair.holdout import HoldoutCheck
 from twopose.values.units import UNITS, unit_spec
@@ -263,6 +263,8 @@ def write_pair_file(path: str | Path, pair: PairCalibration) -> None:
             fh.write(text)
     except FileExistsError as err:
         raise SessionExistsError(f"{path} already exists; choose another pair file") from err
+    except OSError as err:
+        raise TwoposeError(f"cannot create {path}: {err.strerror}") from err
 
 
 def _lines(pc: PairCalibration) -> list[str]:

@@ -5,7 +5,9 @@ camera 2's capture time: with the clock offset, camera 2's time on camera 1's cl
 ``t2 - offset``, and camera 1's measurement there is interpolated linearly between the two
 frames about it (its centroid; an image line's direction as the doubled-angle unit vector
 ``(cos 2 theta, sin 2 theta)``, never the raw angle: docs/method.md; the line's offset
-follows from the two). Both measurements are first undistorted by their camera's lens, so
+follows from the two), unless camera 1 has a frame taken at that time (within
+:data:`IN_STEP_NS`: in-step or synced cameras), which is then used as it is.
+Both measurements are first undistorted by their camera's lens, so
 the solvers' pinhole model holds. Then the method's one solver path solves the pair, as a
 one-camera trial's two typed poses would be solved (:func:`twopose.solve.estimate.solve_batch`):
 camera 1 is the pose at the origin, camera 2 the pose ``(t_2_in_1, angles of R_2_to_1)``;
@@ -55,6 +57,7 @@ from twopose.solve.estimate import (
 from twopose.uncertainty.propagate import SHARED_INPUTS, Shared, propagate, semiaxis95
 
 __all__ = [
+    "IN_STEP_NS",
     "NEAR_SINGULAR",
     "NOT_INTERPOLATED",
     "CameraTrack",
@@ -71,6 +74,13 @@ NOT_INTERPOLATED = "not_interpolated"
 #: Camera 1's two frames about camera 2's time are interpolated between when no more than
 #: this many frame intervals apart (one dropped frame between them).
 MAX_BRACKET_INTERVALS = 2.5
+#: Camera 1's frame is taken as it is, not interpolated, when its capture time (on camera 1's
+#: clock) is within this of camera 2's (ns): exactly equal stamps (in-step or hardware-synced
+#: cameras, video files played at their rate) or the driver's microsecond. At 2,500 px/s (an
+#: image width in a quarter second, far beyond a pointing hand) 1 us moves the target 0.0025
+#: px, 1% of a 0.25 px detection noise; what skew there is still enters the skew term.
+#: Such a pair needs no later frame of camera 1, so live it is estimated at once.
+IN_STEP_NS = 1_000
 #: The pixel step that carries a line's direction (its tangent at the centroid: the image
 #: of a straight line is bent by the lens) through the undistortion.
 _LINE_STEP_PX = 0.01  # a bent line departs its tangent by ~ step^2 / (2 radius)
@@ -215,6 +225,7 @@ class _Camera1:
     weight: F64  # (P,) the variance factor of interpolating two frames: w^2 + (1 - w)^2
     interpolation_error: F64  # (P, 3) linear interpolation's error (measured acceleration)
     ok: Bools  # (P,)
+    in_step: Bools | None = None  # (P,) taken at the pair's time: lost only if not found
 
 
 def _camera1_at(
@@ -250,7 +261,7 @@ def _camera1_at(
     d2 = np.deg2rad(2 * th)  # doubled angles: a line has no arrow
     s = np.sin(d2[i]) * (1 - wc) + np.sin(d2[j]) * wc
     co = np.cos(d2[i]) * (1 - wc) + np.cos(d2[j]) * wc
-    return _Camera1(
+    interpolated = _Camera1(
         centroid=c[i] * (1 - wc)[:, None] + c[j] * wc[:, None],
         theta=wrap_theta_deg(np.degrees(0.5 * np.arctan2(s, co))),
         velocity=np.where(np.isfinite(velocity), velocity, 0.0),
@@ -258,6 +269,47 @@ def _camera1_at(
         weight=wc**2 + (1 - wc) ** 2,
         interpolation_error=np.where(np.isfinite(error), error, 0.0),
         ok=np.asarray(both & (w >= 0) & (w <= 1)),
+    )  # fmt: skip
+    return _in_step(track, measured, at, offset, interpolated, interval)
+
+
+def _in_step(
+    track: CameraTrack, measured: tuple[F64, F64], at: F64, offset: ClockOffset,
+    interpolated: _Camera1, interval: float,
+) -> _Camera1:  # fmt: skip
+    """Where camera 1 has a frame within :data:`IN_STEP_NS` of ``at``, that frame as it is.
+
+    Its velocity (the skew term's) is the backward difference from the frame before (found,
+    within :data:`MAX_BRACKET_INTERVALS`), else the forward one, else 0: a live estimate has
+    the frame before at once, so it need not wait for the frame after.
+    """
+    c, th = measured
+    t, found = track.t_ns, track.found
+    n = np.clip(np.searchsorted(t, at - IN_STEP_NS, side="left"), 0, t.size - 1)
+    step = np.abs(t[n] - at) <= IN_STEP_NS
+    if not step.any():
+        return interpolated
+    m = np.column_stack([c, th])
+    before, after = np.clip(n - 1, 0, t.size - 1), np.clip(n + 1, 0, t.size - 1)
+    reach = MAX_BRACKET_INTERVALS * interval
+    back = (n >= 1) & found[before] & found[n] & (t[n] - t[before] <= reach)
+    ahead = ~back & (n + 1 < t.size) & found[after] & found[n] & (t[after] - t[n] <= reach)
+    a, b = np.where(back, before, n), np.where(back, n, after)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        v = _difference(m[b], m[a]) / (t[b] - t[a])[:, None]
+    v = np.where((back | ahead)[:, None] & np.isfinite(v), v, 0.0)
+    pick = step[:, None]
+    return _Camera1(
+        centroid=np.where(pick, c[n], interpolated.centroid),
+        theta=np.where(step, wrap_theta_deg(th[n]), interpolated.theta),
+        velocity=np.where(pick, v, interpolated.velocity),
+        time_error_ns=np.where(
+            step, np.hypot(at - t[n], offset.sigma_ns), interpolated.time_error_ns
+        ),
+        weight=np.where(step, 1.0, interpolated.weight),
+        interpolation_error=np.where(pick, 0.0, interpolated.interpolation_error),
+        ok=np.where(step, found[n], interpolated.ok),
+        in_step=step,
     )  # fmt: skip
 
 
@@ -303,8 +355,8 @@ def _unbracketed(
     """Camera 1 with a single frame: nothing to interpolate between (or the frame as is)."""
     P = at.size
     ok = np.zeros(P, dtype=bool) if interpolate else track.found[paired]
-    if interpolate:  # a frame taken exactly at camera 2's time needs no neighbour
-        ok = track.found[paired] & (track.t_ns[paired] == at)
+    if interpolate:  # a frame taken at camera 2's time (in step) needs no neighbour
+        ok = track.found[paired] & (np.abs(track.t_ns[paired] - at) <= IN_STEP_NS)
     return _Camera1(
         centroid=c[paired], theta=th[paired], velocity=np.zeros((P, 3)),
         time_error_ns=np.hypot(at - track.t_ns[paired], offset.sigma_ns), weight=np.ones(P),
@@ -364,6 +416,8 @@ def estimate_stream(
     solved = solve_batch(spec.method, batch, settings.ground, settings.estimate)
     status, reason = solved.status.astype("<U24"), solved.reason.astype("<U96")
     late = ~one.ok & camera2.found[pairs.i2]  # camera 2 saw it; camera 1 not about then
+    if one.in_step is not None:  # camera 1's frame at that time lost it: no detection
+        late &= ~one.in_step
     status[late], reason[late] = NOT_INTERPOLATED, "camera 1 has no frames about camera 2's time"
     warnings = margin_warnings(status, solved.margins, settings.estimate, spec.seen_on)
     warned = np.array(warnings, dtype="<U96")

@@ -6,7 +6,7 @@ on it once: each pose's frames combined (:func:`twopose.solve.estimate.measure`)
 trial solved by every estimator in one batch, the input covariance propagated, the
 degeneracy margins and their warnings. Its :class:`SessionEstimate` is what the tables,
 the live result, the rig fit and the 3-D scenes take. Only the blunder test of
-:mod:`twopose.uncertainty.own_truth` reads the truth, as :mod:`twopose.methods.truth` reports it.
+:mod:`twopose.uncertainty.blunders` reads the truth, as :mod:`twopose.methods.truth` reports it.
 
 (Near 600 lines: the one estimation entry point and the values it takes and gives; the noise
 model (:mod:`twopose.uncertainty.session_noise`), the truth and the solvers are their own modules.)

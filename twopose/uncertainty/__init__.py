@@ -3,8 +3,8 @@
 First-order propagation, NEES and the dominant input (``propagate``), the noise every region
 assumes and its words (``noise``), each trial's misclosure (``misclosure``), the placing
 variance's multiplier (``placing_variance``), the trials flagged before pooling
-(``blunders``), the trials of one target tested against each other (``one_target``) and a
-session's noise as the estimation settles it (``session_noise``).
+(``blunders``: by their misclosure, against the other trials of one target, against their
+own truth) and a session's noise as the estimation settles it (``session_noise``).
 """
 
 from __future__ import annotations

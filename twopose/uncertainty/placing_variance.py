@@ -61,7 +61,7 @@ GRID = np.geomspace(1e-4, 1e6, 241)
 _LOG_GRID = np.log(GRID)
 #: Baarda's global test of a trial's misclosure: 0.5%. Not 0.1%: there a sixth of the 1 in
 #: blunders of the simulator's geometry hide in the misclosure's noise; not 1%: the test
-#: of a trial of one target against the others (twopose.uncertainty.one_target) catches
+#: of a trial of one target against the others (twopose.uncertainty.blunders) catches
 #: most of what a looser level would, and a clean trial's false alarm stays far below 2%
 #: (benchmarks/bench_noise.py).
 BAARDA_LEVEL = 0.005

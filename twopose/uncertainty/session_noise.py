@@ -19,11 +19,15 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 from twopose.arrays import F64, Bools, Ints
-from twopose.uncertainty.blunders import TrialTests, trial_tests
+from twopose.uncertainty.blunders import (
+    TrialTests,
+    one_target,
+    target_tests,
+    trial_tests,
+    truth_tests,
+)
 from twopose.uncertainty.misclosure import Misclosure, misclosures
 from twopose.uncertainty.noise import MIN_PLACING_DOF, NoiseModel, VarianceFactor, region_quantile
-from twopose.uncertainty.one_target import one_target, target_tests
-from twopose.uncertainty.own_truth import truth_tests
 from twopose.uncertainty.placing_variance import Flags, SessionNoise, flag_trials, posterior
 from twopose.uncertainty.propagate import PLACING, Shared, region_dof
 from twopose.values.units import Units
@@ -133,7 +137,7 @@ def _factor(m: Misclosure, flags: Flags, out: Bools, noise: NoiseModel) -> Varia
 def with_one_target(noise: NoiseResult, truth: F64, point: F64, cov: F64) -> NoiseResult:
     """The session's noise with its trials of one target tested against each other.
 
-    :mod:`twopose.uncertainty.one_target`: ``truth`` (T, 2, 3) the recorded truths (only
+    :mod:`twopose.uncertainty.blunders`: ``truth`` (T, 2, 3) the recorded truths (only
     their equality is read), ``point`` and ``cov`` each trial's estimate and region. A
     trial it flags is kept out of the pool too, and the factor settled again without it.
     The same result (the same object) when nothing more is flagged, or the session was not
@@ -155,7 +159,7 @@ def with_one_target(noise: NoiseResult, truth: F64, point: F64, cov: F64) -> Noi
 def with_own_truth(noise: NoiseResult, error: F64, cov: F64) -> NoiseResult:
     """The session's noise with each trial tested against its own recorded truth.
 
-    :mod:`twopose.uncertainty.own_truth`: ``error`` (T, 3) each reported point less its
+    :mod:`twopose.uncertainty.blunders`: ``error`` (T, 3) each reported point less its
     truth (NaN: none), ``cov`` its region. A trial it flags is kept out of the pool, the
     factor settled again without it; its region is not widened. The same result (the same
     object) when nothing more is flagged, or the session was not tested (``--no-sigma0``).

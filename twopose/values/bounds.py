@@ -390,8 +390,9 @@ FRAMES = Quantity(
     key="frames", words="frames per pose", kind=Kind.COUNT, low=1, high=500,
     given_as="`--frames` (the most with `--adaptive-frames`), plan `frames`",
 )  # fmt: skip
+# 3 at least each way: OpenCV's board search refuses fewer ("bigger than 2").
 INNER_CORNERS = Quantity(
-    key="inner_corners", words="inner corners", kind=Kind.COUNT, low=2, high=100,
+    key="inner_corners", words="inner corners", kind=Kind.COUNT, low=3, high=100,
     axes=("cols", "rows"), given_as="`--board COLSxROWS`, the setup, plan `board.inner_corners`",
 )  # fmt: skip
 

@@ -58,8 +58,9 @@ def read_option(quantity: str) -> dict[str, Any]:
         span = "length"
     elif count:
         span = f"{int(lo)}-{int(hi)}"
-    else:
-        span = f"{lo:g}-{hi:g}{f' {unit}' if unit else ''}"
+    else:  # a bound that refuses its low end itself shows it so: (0-100]
+        span = f"{'(' if q.low_open else ''}{lo:g}-{hi:g}{']' if q.low_open else ''}"
+        span += f" {unit}" if unit else ""
     return {"parser": parse, "callback": in_units, "metavar": f"<{span}>"}
 
 

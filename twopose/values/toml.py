@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 import types
 import typing
 from pathlib import Path
@@ -51,12 +52,30 @@ def read_toml(path: str | Path, what: str, error: type[TwoposeError]) -> dict[st
     try:
         document = tomlkit.parse(text)
     except (TOMLKitError, ValueError) as err:
-        line = getattr(err, "line", 0)
-        lines = text.splitlines()
-        said = f" ({lines[line - 1].strip()[:60]!r})" if 0 < line <= len(lines) else ""
-        raise error(f"{what} {path} is not valid TOML: {err}{said}") from err
+        raise error(f"{what} {path} is not valid TOML: {_invalid(text, err)}") from err
     plain: dict[str, Any] = _plain(document, "")
     return plain
+
+
+def _invalid(text: str, err: Exception) -> str:
+    r"""Where and why ``text`` is not TOML, in the standard library parser's words.
+
+    tomlkit (kept for its numbers' text) names the end of a file as the character
+    ``'\x00'`` at column 0; :mod:`tomllib` says "at end of document" or the true line and
+    column, which is quoted too.
+    """
+    import tomllib
+
+    try:
+        tomllib.loads(text)
+    except tomllib.TOMLDecodeError as std:
+        said = str(std)
+    else:  # pragma: no cover - the parsers agree on every file tried
+        said = str(err).replace("'\\x00'", "the end of the file")
+    found = re.search(r"line (\d+)", said)
+    line = int(found.group(1)) if found else 0
+    lines = text.splitlines()
+    return said + (f" ({lines[line - 1].strip()[:60]!r})" if 0 < line <= len(lines) else "")
 
 
 def _plain(item: Any, key: str) -> Any:

@@ -142,3 +142,25 @@ def test_what_cannot_be_measured_is_refused() -> None:
         _dot(frames, rng, sideways)
     with pytest.raises(InputValueError, match="too little"):  # a dot held still
         _dot(frames, rng, FingerMotion(speed=0.0))
+
+
+def test_an_offset_beyond_the_search_or_exchanged_cameras_are_refused_in_true_words() -> None:
+    # Issue 58 (adversarial 11, 13): an offset of 800 ms (accepted by simulate) was refused
+    # as "the dot's motion does not fix the clock offset"; exchanged cameras gave a wrong
+    # offset (41 ms against 12.5) with a 0.25 ms sigma.
+    rng = np.random.default_rng(0)
+    pair = thesis_pair()
+    for offset_s, words in ((0.8, "edge of the offsets searched"), (0.0125, "wrong order")):
+        frames = (
+            CameraClock().frames(3.0, rng),
+            CameraClock(phase_s=0.013, offset_s=offset_s).frames(3.0, rng),
+        )
+        one = observe(pair, FingerMotion(), frames[0], 1, line=False, noise=(0.3, 0), rng=rng)
+        two = observe(pair, FingerMotion(), frames[1], 2, line=False, noise=(0.3, 0), rng=rng)
+        first, second = (one, two) if offset_s > 0.5 else (two, one)
+        with pytest.raises(InputValueError, match=words) as refused:
+            offset_from_ray_gap(
+                pair, first.centroid_px, first.t_ns, second.centroid_px, second.t_ns
+            )
+        assert "dot" not in str(refused.value)
+        assert "widen" not in str(refused.value)

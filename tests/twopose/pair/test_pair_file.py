@@ -180,3 +180,20 @@ def test_any_calibration_round_trips(
     path = tmp_path_factory.mktemp("pair") / "PAIR.toml"
     write_pair_file(path, pc)
     _same(pc, read_pair_file(path))
+
+
+@pytest.mark.parametrize(
+    ("text", "words"),
+    [
+        ("garbage = [", "is not valid TOML: Invalid value (at end of document)"),
+        ("a = 1\nb c = 2\n", "(at line 2, column 3) ('b c = 2')"),
+    ],
+)
+def test_a_corrupt_toml_file_is_said_where_it_is(tmp_path: Path, text: str, words: str) -> None:
+    # tomlkit named the end of the file "Unexpected character: '\\x00' at line 1 col 0"
+    path = tmp_path / "corrupt.toml"
+    path.write_text(text, "utf-8")
+    with pytest.raises(InputValueError) as caught:
+        read_pair_file(path)
+    assert words in str(caught.value)
+    assert "x00" not in str(caught.value)

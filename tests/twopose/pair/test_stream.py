@@ -116,6 +116,34 @@ def test_camera_1s_missing_frames_are_not_interpolated_over() -> None:
     assert est.ok.sum() >= 20
 
 
+def test_an_in_step_frame_of_camera_1_is_used_as_it_is() -> None:
+    """Camera 1's frame taken at camera 2's instant (in step; the offset applied) needs no
+    neighbour: with every other frame of camera 1 lost, those pairs still have the point
+    of camera 1's frame alone, and the lost ones are not interpolated over."""
+    one, two = _tracks(Method.POINT, _frames(0.0))
+    assert np.abs(one.t_ns - (two.t_ns - OFFSET.offset_ns)).max() < 1.0  # ns
+    found = one.found.copy()
+    found[1::2] = False
+    one = dataclasses.replace(one, found=found)
+    est = estimate_stream(Method.POINT, thesis_pair(), one, two, OFFSET, SETTINGS)
+    alone = estimate_stream(
+        Method.POINT,
+        thesis_pair(),
+        one,
+        two,
+        OFFSET,
+        dataclasses.replace(SETTINGS, interpolate=False),
+    )
+    assert (est.ok == found[est.i1]).all()
+    assert (est.status[~found[est.i1]] == "no_detection").all()
+    np.testing.assert_array_equal(est.point, alone.point)
+    # a frame a microsecond off is still in step; a millisecond off is interpolated again
+    for shift_ns, in_step in ((900.0, True), (1e6, False)):
+        shifted = dataclasses.replace(OFFSET, offset_ns=OFFSET.offset_ns + shift_ns)
+        e = estimate_stream(Method.POINT, thesis_pair(), one, two, shifted, SETTINGS)
+        assert e.ok.any() == in_step
+
+
 def test_the_region_carries_the_skew_and_the_extrinsics() -> None:
     frames = _frames(0.01)
     one, two = _tracks(Method.POINT, frames)

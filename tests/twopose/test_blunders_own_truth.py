@@ -15,8 +15,7 @@ from twopose.methods.specs import Method
 from twopose.methods.truth import reported
 from twopose.solve.estimate import EstimateOptions
 from twopose.solve.session import estimate_session
-from twopose.uncertainty.blunders import TrialTests
-from twopose.uncertainty.own_truth import TRUTH_LEVEL, truth_tests
+from twopose.uncertainty.blunders import TRUTH_LEVEL, TrialTests, truth_tests
 from twopose.uncertainty.session_noise import session_statistics
 from twopose.values.units import Units
 

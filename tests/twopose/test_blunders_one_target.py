@@ -14,7 +14,7 @@ from twopose.methods.specs import Method
 from twopose.methods.truth import reported
 from twopose.solve.estimate import EstimateOptions
 from twopose.solve.session import estimate_session
-from twopose.uncertainty.one_target import one_target, target_tests
+from twopose.uncertainty.blunders import one_target, target_tests
 from twopose.uncertainty.propagate import uncertainty_columns
 from twopose.uncertainty.session_noise import session_statistics
 
