@@ -26,6 +26,10 @@ paired: pairing is
 (:meth:`PairSource.pairs`). A stop of the recording (Ctrl-C, SIGTERM:
 :mod:`recorder.procedure.stops`)
 ends both threads at once and raises ``KeyboardInterrupt`` in the reader.
+
+(Near 600 lines: one concern, two cameras read at once: the readers' threads and their
+bounded queues, and the consumer's side that takes, decodes and pairs their frames; each
+camera's feed is :mod:`recorder.sources.pair_feeds`'.)
 """
 
 from __future__ import annotations
