@@ -3,7 +3,8 @@
 The run itself (``runner``), its inputs resolved once (``inputs``), the worker processes
 (``workers``) and their parent watch (``parent_watch``), the first pass of the operators'
 noise (``noise_pass``), the cache of each session's analysis (``cache``), the output folder
-(``outputs``) and the allocator a decoding process wants (``allocator``).
+(``outputs``); the allocator a decoding process wants is the session pipeline's
+(:func:`analysis.session.pipeline.keep_frame_buffers`, re-exported here).
 """
 
 from __future__ import annotations
@@ -13,7 +14,6 @@ from typing import TYPE_CHECKING
 from twopose.lazy import lazy_exports
 
 if TYPE_CHECKING:
-    from analysis.batch.allocator import keep_frame_buffers
     from analysis.batch.inputs import InputSet, SessionIdentity, resolve_inputs, sessions_said
     from analysis.batch.outputs import (
         Inputs,
@@ -26,6 +26,7 @@ if TYPE_CHECKING:
     )
     from analysis.batch.parent_watch import end_quietly_on_closed_pipe, watch_parent
     from analysis.batch.runner import run
+    from analysis.session.pipeline import keep_frame_buffers
 
 __all__ = [
     "InputSet",
@@ -53,7 +54,7 @@ _HOMES = {
     "SessionIdentity": "analysis.batch.inputs",
     "check_run_outputs": "analysis.batch.outputs",
     "end_quietly_on_closed_pipe": "analysis.batch.parent_watch",
-    "keep_frame_buffers": "analysis.batch.allocator",
+    "keep_frame_buffers": "analysis.session.pipeline",
     "printable_stem": "analysis.batch.outputs",
     "resolve_inputs": "analysis.batch.inputs",
     "run": "analysis.batch.runner",

@@ -28,7 +28,7 @@ from analysis.session.metrics import used_trials, warned
 from twopose.methods.planes import ConstraintPlane
 from twopose.uncertainty.propagate import CHI2_95
 
-__all__ = ["Spec", "error_tip", "hex_colour", "records", "session_chart", "who", "zoom"]
+__all__ = ["TAB10", "Spec", "error_tip", "records", "session_chart", "who", "zoom"]
 
 Spec = dict[str, Any]
 
@@ -53,20 +53,6 @@ _PICK_VIEWS = ["scatter_points", "topview_points"]
 _ELLIPSE_POINTS = 48
 #: A chart's plotting area (px): two side by side in the report's 1200 px.
 WIDTH, _HEIGHT = 300, 240
-
-
-def hex_colour(colour: str) -> str:
-    """A method's colour (matplotlib's cycle name, ``C0``-``C9``; the registry's
-    :attr:`~twopose.methods.specs.MethodSpec.colour`) as the browser names it.
-
-    Read from :data:`TAB10` (the default cycle), not by matplotlib, which a run that draws
-    no figure never imports; any other name is matplotlib's to read.
-    """
-    if len(colour) == 2 and colour[0] == "C" and colour[1].isdigit():
-        return TAB10[int(colour[1])]
-    from matplotlib.colors import to_hex
-
-    return str(to_hex(colour))
 
 
 def records(table: pd.DataFrame) -> list[dict[str, Any]]:

@@ -1,6 +1,7 @@
 """The run's charts as Vega-Lite specs (:mod:`analysis.report.charts` says how and why): the
 overview over every session (one colour per method, no trial colour on that screen) and
-the sensitivity sweeps."""
+the sensitivity sweeps. The overview alone colours by method: a method's colour as the
+browser names it is here (:func:`hex_colour`)."""
 
 from __future__ import annotations
 
@@ -9,11 +10,25 @@ import json
 import pandas as pd
 
 from analysis.report.answer import strand_names
-from analysis.report.charts import WIDTH, Spec, error_tip, hex_colour, records, who, zoom
+from analysis.report.charts import TAB10, WIDTH, Spec, error_tip, records, who, zoom
 from analysis.session.metrics import by_session_set, session_set, used_trials
 from twopose.methods.specs import Method, label_of, spec_of
 
-__all__ = ["overview_charts", "sensitivity_chart"]
+__all__ = ["hex_colour", "overview_charts", "sensitivity_chart"]
+
+
+def hex_colour(colour: str) -> str:
+    """A method's colour (matplotlib's cycle name, ``C0``-``C9``; the registry's
+    :attr:`~twopose.methods.specs.MethodSpec.colour`) as the browser names it.
+
+    Read from :data:`~analysis.report.charts.TAB10` (the default cycle), not by matplotlib,
+    which a run that draws no figure never imports; any other name is matplotlib's to read.
+    """
+    if len(colour) == 2 and colour[0] == "C" and colour[1].isdigit():
+        return TAB10[int(colour[1])]
+    from matplotlib.colors import to_hex
+
+    return str(to_hex(colour))
 
 
 def overview_charts(trials: pd.DataFrame, *, include_warned: bool = False) -> Spec | None:

@@ -21,6 +21,7 @@ from pathlib import Path
 import pandas as pd
 
 from analysis.report.answer import (
+    flagged_lines,
     noise_phrases,
     session_order,
     shown_name,
@@ -29,7 +30,6 @@ from analysis.report.answer import (
 )
 from analysis.report.answer import number as _num
 from analysis.report.answer import share as _share
-from analysis.report.noise import flagged_lines
 from analysis.report.plane_axes import with_in_plane
 from analysis.session.metrics import SESSION_SETS, by_session_set, summarize
 from twopose.methods.planes import ConstraintPlane

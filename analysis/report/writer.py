@@ -339,8 +339,8 @@ def _inputs_line(result: RunResult) -> list[str]:
 
 def _noise_section(result: RunResult) -> list[str]:
     """Per session, the noise its 95% regions assumed and the trials whose poses disagree,
-    after the rule applied (:func:`analysis.report.noise.noise_section`)."""
-    from analysis.report.noise import noise_section
+    after the rule applied (:func:`analysis.report.answer.noise_section`)."""
+    from analysis.report.answer import noise_section
 
     return noise_section(result.summary, result.trials)
 

@@ -38,12 +38,11 @@ if TYPE_CHECKING:
     from analysis.tables.rows import (
         averaging_table,
         frame_row,
-        trial_table,
         view_table,
         with_branch,
         with_identity,
     )
-    from analysis.tables.trials import columns_of
+    from analysis.tables.trials import columns_of, trial_table
 
 __all__ = [
     "AVERAGING_COLUMNS",
@@ -96,7 +95,7 @@ _HOMES = {
     "read_results_table": "analysis.tables.read_back",
     "readable_columns": "analysis.tables.labels",
     "table_units": "analysis.tables.labels",
-    "trial_table": "analysis.tables.rows",
+    "trial_table": "analysis.tables.trials",
     "typed": "analysis.tables.columns",
     "unit_label": "analysis.tables.labels",
     "view_table": "analysis.tables.rows",

@@ -1,9 +1,10 @@
 """Tables: a session's detections, estimates and running averages as tidy DataFrames.
 
-Pure functions from arrays to one row per frame (``frames.csv``), per trial
-(``trials.csv``), per used pose (``views.csv``) and per running average
-(``averaging.csv``); the column lists are the documented ones, each column as its
-declared dtype (:func:`analysis.tables.columns.typed`).
+Pure functions from arrays to one row per frame (``frames.csv``), per used pose
+(``views.csv``) and per running average (``averaging.csv``) (the trials' table is filled
+from its declarations, where they are: :func:`analysis.tables.trials.trial_table`); the
+column lists are the documented ones, each column as its declared dtype
+(:func:`analysis.tables.columns.typed`).
 """
 
 from __future__ import annotations
@@ -15,12 +16,11 @@ import numpy as np
 import pandas as pd
 
 from analysis.tables.columns import AVERAGING_COLUMNS, IDENTITY_COLUMNS, VIEW_COLUMNS, typed
-from analysis.tables.trials import TrialResult, columns_of
 from twopose.arrays import F64
 from twopose.camera.model import grid_rays, rotation_from_angles_deg
 from twopose.detect.detection import Detection
 from twopose.detect.frames import PoseMeasurement
-from twopose.methods.truth import Reported, line_errors
+from twopose.methods.truth import line_errors
 from twopose.values.units import Units
 
 if TYPE_CHECKING:
@@ -28,13 +28,11 @@ if TYPE_CHECKING:
     from twopose.format.entries import PoseEntry
     from twopose.format.messages import Frame
     from twopose.solve.estimate import PoseView, Solved
-    from twopose.solve.session import SessionEstimate
 
 __all__ = [
     "ONE_CAMERA_VIEW",
     "averaging_table",
     "frame_row",
-    "trial_table",
     "view_table",
 ]
 
@@ -69,23 +67,6 @@ def frame_row(
         "cameras": 1,
         "capture_ns": frame.capture_ns or 0,  # an older file's stamp is its write time
     }
-
-
-def trial_table(
-    session: str,
-    estimate: SessionEstimate,
-    reported_: Reported,
-    notes: Sequence[str] | None = None,
-    unmeasured: Sequence[str] | None = None,
-) -> pd.DataFrame:
-    """One row per trial (``trials.csv``): estimate, truth, error, margins, uncertainty,
-    the operator's ``notes``; ``unmeasured`` (per trial, why its captures do not make two
-    usable poses) replaces the generic reason of an ``incomplete`` trial. Each column is
-    filled by its declaration (:mod:`analysis.tables.trials`): the common ones, and the
-    ones the method's spec names, in the table's order."""
-    result = TrialResult(session, estimate, reported_, notes, unmeasured)
-    columns = columns_of(result.spec)
-    return typed(pd.DataFrame({c.name: c.fill(result) for c in columns if c.fill is not None}))
 
 
 def view_table(

@@ -4,7 +4,7 @@ A declaration holds everything every layer asks of a column: its name, its label
 (the report's tables, :mod:`analysis.tables.labels`), its unit kind, its domain (what a
 value can be; :func:`violations` checks a table against it), its dtype
 (:func:`analysis.tables.columns.typed`), and the function that fills it from a trial's result
-(:class:`TrialResult`; :func:`analysis.tables.rows.trial_table` calls it). :data:`TRIAL_TABLE`
+(:class:`TrialResult`; :func:`trial_table` calls it). :data:`TRIAL_TABLE`
 holds them in the order ``trials.csv`` writes them; ``docs/analysis.md``'s column reference
 is written from it (``docs/trial_columns_table.py``).
 
@@ -18,7 +18,8 @@ leave-one-out correction: :mod:`analysis.session.pipeline`; a two-camera session
 :mod:`analysis.session.stream_tables`).
 
 (Near 600 lines: ``trials.csv``'s one table of declarations, every column in the one place
-it is declared; the other tables' are :mod:`analysis.tables.declared`.)
+it is declared, and the one function that fills the table from them (:func:`trial_table`);
+the other tables' are :mod:`analysis.tables.declared`.)
 """
 
 from __future__ import annotations
@@ -57,6 +58,7 @@ __all__ = [
     "group",
     "markdown_table",
     "methods_having",
+    "trial_table",
     "violations",
 ]
 
@@ -497,13 +499,34 @@ def group(name: str) -> list[str]:
 
 
 def columns_of(spec: MethodSpec) -> list[Column]:
-    """The columns :func:`analysis.tables.rows.trial_table` fills for a trial of the method
+    """The columns :func:`trial_table` fills for a trial of the method
     ``spec`` describes, in the table's order: those that apply to it (:attr:`Column.applies`)
     and have a ``fill``. A column its spec names that none declares is a KeyError."""
     unknown = {*spec.extra_columns, *spec.margins} - set(_BY_NAME)
     if unknown:
         raise KeyError(f"{spec.method}: no column declared for {sorted(unknown)}")
     return [c for c in TRIAL_TABLE if c.fill is not None and c.applies(spec, c.name)]
+
+
+def trial_table(
+    session: str,
+    estimate: SessionEstimate,
+    reported_: Reported,
+    notes: Sequence[str] | None = None,
+    unmeasured: Sequence[str] | None = None,
+) -> pd.DataFrame:
+    """One row per trial (``trials.csv``): estimate, truth, error, margins, uncertainty,
+    the operator's ``notes``; ``unmeasured`` (per trial, why its captures do not make two
+    usable poses) replaces the generic reason of an ``incomplete`` trial. Each column is
+    filled by its declaration (:data:`TRIAL_TABLE`): the common ones, and the
+    ones the method's spec names, in the table's order."""
+    import pandas as pd
+
+    from analysis.tables.columns import typed  # columns reads TRIAL_TABLE: imported late
+
+    result = TrialResult(session, estimate, reported_, notes, unmeasured)
+    columns = columns_of(result.spec)
+    return typed(pd.DataFrame({c.name: c.fill(result) for c in columns if c.fill is not None}))
 
 
 def violations(table: pd.DataFrame, columns: Iterable[Column] = TRIAL_TABLE) -> list[str]:

@@ -62,7 +62,7 @@ from twopose.values.units import DEFAULT_UNITS, UNITS, Units
 
 if TYPE_CHECKING:
     from twopose.format.entries import PlaneEntry
-    from twopose.format.guidance_record import GuidanceRecord
+    from twopose.format.session_entry import GuidanceRecord
 
 
 __all__ = ["Plan", "PlannedPose", "PlannedTrial", "continued_plan", "load_plan"]

@@ -149,7 +149,7 @@ def test_a_run_that_draws_no_figure_never_imports_matplotlib(tmp_path: Path) -> 
 def test_the_method_colours_are_matplotlibs_without_matplotlib() -> None:
     from matplotlib.colors import to_hex
 
-    from analysis.report.charts import hex_colour
+    from analysis.report.run_charts import hex_colour
 
     assert [hex_colour(f"C{i}") for i in range(10)] == [to_hex(f"C{i}") for i in range(10)]
 

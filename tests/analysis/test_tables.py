@@ -14,7 +14,8 @@ from analysis.tables.columns import (
     TRIAL_COLUMNS,
     VIEW_COLUMNS,
 )
-from analysis.tables.rows import trial_table, view_table
+from analysis.tables.rows import view_table
+from analysis.tables.trials import trial_table
 from twopose.camera.model import Intrinsics, project_points
 from twopose.methods.specs import Method, spec_of
 from twopose.methods.truth import reported

@@ -4,8 +4,8 @@ Each entry is a frozen dataclass, each field declared once (:mod:`twopose.format
 the JSON Schema written into every file, the encoding and the decoding all come from that
 one declaration). The one-camera procedure's entries are here; a two-camera session's
 (format 1.6) are in :mod:`twopose.format.stream_entries`, the simulator's truth in
-:mod:`twopose.format.simulation`, nested objects beside them
-(:mod:`twopose.format.guidance_record`); :data:`TYPED_ENTRIES` registers them all. The
+:mod:`twopose.format.simulation`, the session's own with its guidance in
+:mod:`twopose.format.session_entry`; :data:`TYPED_ENTRIES` registers them all. The
 file's metadata record (:func:`session_metadata`, a copy of what opens the session, and its
 cameras read back, :func:`cameras_from_metadata`) is encoded here by the same entries.
 """
@@ -31,8 +31,7 @@ from twopose.format.declared import (
     json_field,
     vec3_schema,
 )
-from twopose.format.guidance_record import GuidanceRecord
-from twopose.format.session_entry import FORMAT_MAJOR, FORMAT_VERSION, SessionInfo
+from twopose.format.session_entry import FORMAT_MAJOR, FORMAT_VERSION, GuidanceRecord, SessionInfo
 from twopose.format.simulation import SimTrajectory, SimulationTruth, TruePose
 from twopose.format.stream_entries import (
     CLOCK_SOURCES,
