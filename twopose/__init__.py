@@ -3,7 +3,7 @@
 The exception hierarchy (:mod:`twopose.errors`), the camera model (:mod:`twopose.camera.model`),
 the detectors (:mod:`twopose.detect.detection`), the solvers and their uncertainty
 (:mod:`twopose.solve.nview`, :mod:`twopose.uncertainty.propagate`), the detection overlay
-(:mod:`twopose.display.overlay`), the TOML reader (:mod:`twopose.values.toml`) and the session file
+(:mod:`twopose.display.scene`), the TOML reader (:mod:`twopose.values.toml`) and the session file
 format (:mod:`twopose.format`). It imports neither ``recorder`` nor ``analysis``; importing
 this package loads nothing heavy.
 

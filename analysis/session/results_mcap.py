@@ -32,8 +32,7 @@ from mcap.writer import Writer as McapWriter
 
 from twopose.camera.model import Camera
 from twopose.detect.detection import Detection
-from twopose.display.overlay import image_annotations
-from twopose.display.scene import TrialScene, static_scene, trial_scene
+from twopose.display.scene import TrialScene, image_annotations, static_scene, trial_scene
 from twopose.format.channels import Channels
 from twopose.format.entries import PlaneEntry, PoseEntry
 from twopose.format.messages import (

@@ -24,8 +24,7 @@ from mcap_protobuf.schema import build_file_descriptor_set
 
 from recorder.console.loopback import is_loopback_host
 from twopose.camera.model import Camera
-from twopose.display.overlay import image_annotations
-from twopose.display.scene import TrialScene, trial_scene
+from twopose.display.scene import TrialScene, image_annotations, trial_scene
 from twopose.errors import InputValueError, TwoposeError
 from twopose.format.messages import (
     calibration_message,

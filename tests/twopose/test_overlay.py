@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from twopose.detect.detection import GloveParams, detect_glove
-from twopose.display.overlay import GREEN, image_annotations
+from twopose.display.scene import GREEN, image_annotations
 
 
 def test_rejected_candidates_are_drawn_in_red_with_the_reason() -> None:

@@ -1,8 +1,9 @@
 """What Foxglove and the pages show, drawn from the core's results.
 
-A detection as image annotations (``overlay``), a trial's 3-D scene (``scene``) and the
-fonts the pages carry (``fonts``: the subsets shipped in ``twopose/fonts/``), so that the
-live view, the results file, the console and the report agree.
+A trial as Foxglove shows it, its detections on their images and its 3-D scene, in one
+palette (``scene``), and the fonts the pages carry (``fonts``: the subsets shipped in
+``twopose/fonts/``), so that the live view, the results file, the console and the report
+agree.
 """
 
 from __future__ import annotations
@@ -12,8 +13,13 @@ from typing import TYPE_CHECKING
 from twopose.lazy import lazy_exports
 
 if TYPE_CHECKING:
-    from twopose.display.overlay import image_annotations
-    from twopose.display.scene import TrialScene, scene_of_views, static_scene, trial_scene
+    from twopose.display.scene import (
+        TrialScene,
+        image_annotations,
+        scene_of_views,
+        static_scene,
+        trial_scene,
+    )
 
 __all__ = [
     "TrialScene",
@@ -26,7 +32,7 @@ __all__ = [
 #: Where each exported name lives; it is imported from there on first use.
 _HOMES = {
     "TrialScene": "twopose.display.scene",
-    "image_annotations": "twopose.display.overlay",
+    "image_annotations": "twopose.display.scene",
     "scene_of_views": "twopose.display.scene",
     "static_scene": "twopose.display.scene",
     "trial_scene": "twopose.display.scene",

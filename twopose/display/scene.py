@@ -1,10 +1,16 @@
-"""A trial's 3-D geometry as a ``foxglove.SceneUpdate``.
+"""A trial as Foxglove shows it, in one palette: detections and the 3-D scene.
 
-In the grid frame and session units: the camera frustums, the back-projected rays (points) or
-planes (lines, method 2), the estimate with its 95% ellipsoid, the ground truth and the error
-vector; and the static grid and ground plane. Pure builders, shared by the analysis' results.mcap
-and the recorder's live view. The geometry is the solver's grid frame: ``p_grid = R_cam_to_grid
-p_cam + t_grid``, y down.
+A detection drawn on its image as ``foxglove.ImageAnnotations`` (:func:`image_annotations`),
+live by the recorder and offline in results.mcap: the detected blob's outline, centroid and
+orientation in green, candidates the filters turned down in red with the reason, and the
+verdict.
+
+A trial's 3-D geometry as a ``foxglove.SceneUpdate``, in the grid frame and session units:
+the camera frustums, the back-projected rays (points) or planes (lines, method 2), the
+estimate with its 95% ellipsoid, the ground truth and the error vector; and the static grid
+and ground plane. Pure builders, shared by the analysis' results.mcap and the recorder's
+live view. The geometry is the solver's grid frame: ``p_grid = R_cam_to_grid p_cam +
+t_grid``, y down.
 """
 
 from __future__ import annotations
@@ -14,30 +20,108 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+import cv2
 import numpy as np
+from foxglove_schemas_protobuf.ImageAnnotations_pb2 import ImageAnnotations
 from foxglove_schemas_protobuf.LinePrimitive_pb2 import LinePrimitive
+from foxglove_schemas_protobuf.PointsAnnotation_pb2 import PointsAnnotation
 from foxglove_schemas_protobuf.SceneEntity_pb2 import SceneEntity
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 
 from twopose.arrays import F64
 from twopose.camera.model import quaternion_xyzw_from_matrix, rotation_from_angles_deg
-from twopose.display.overlay import GREEN, RED, set_color
+from twopose.detect.detection import Detection
 from twopose.format.entries import PlaneEntry
 from twopose.format.messages import GRID_FRAME
 from twopose.methods.specs import Method, spec_of
 from twopose.uncertainty.propagate import chi2_95, region_dof
 
-__all__ = ["TrialScene", "scene_of_views", "static_scene", "trial_scene"]
+__all__ = [
+    "BLACK",
+    "GREEN",
+    "RED",
+    "TrialScene",
+    "image_annotations",
+    "scene_of_views",
+    "set_color",
+    "set_xy",
+    "static_scene",
+    "trial_scene",
+]
 
 if TYPE_CHECKING:
     from twopose.detect.frames import PoseMeasurement
     from twopose.solve.estimate import PoseView
 
 
+RGBA = tuple[float, float, float, float]
+GREEN: RGBA = (0.1, 0.85, 0.2, 1.0)
+RED: RGBA = (0.95, 0.15, 0.1, 1.0)
+BLACK: RGBA = (0.0, 0.0, 0.0, 0.6)
 ORANGE = (1.0, 0.55, 0.0, 1.0)
 BLUE = (0.2, 0.5, 1.0, 1.0)
 GREY = (0.6, 0.6, 0.6, 0.6)
 WHITE = (1.0, 1.0, 1.0, 1.0)
+
+
+def set_color(msg: Any, rgba: RGBA) -> None:
+    """Fill a ``foxglove.Color``."""
+    msg.r, msg.g, msg.b, msg.a = rgba
+
+
+def set_xy(msg: Any, x: float, y: float) -> None:
+    """Fill a ``foxglove.Point2``."""
+    msg.x, msg.y = float(x), float(y)
+
+
+def image_annotations(det: Detection, log_time_ns: int, label: str) -> ImageAnnotations:
+    """One frame's overlay: the detection, the candidates turned down, a label.
+
+    One frame's overlay: outline, centroid and orientation of the detection (green), the
+    candidates turned down (red, with why), and ``label`` with the verdict.
+    """
+    msg = ImageAnnotations()
+
+    def outline(points: F64 | None, rgba: tuple[float, float, float, float]) -> None:
+        if points is None or len(points) < 2:
+            return
+        # Within a pixel of the boundary: a drawing needs no more, and fewer points
+        # keep the overlay cheap (it is built for every frame).
+        simple = cv2.approxPolyDP(points.astype(np.float32)[:, None, :], 1.0, closed=True)
+        a = msg.points.add(type=PointsAnnotation.Type.LINE_LOOP, thickness=2.0)
+        a.timestamp.FromNanoseconds(log_time_ns)
+        set_color(a.outline_color, rgba)
+        for x, y in simple[:, 0, :].tolist():
+            a.points.add(x=x, y=y)
+
+    def text(x: float, y: float, words: str, rgba: tuple[float, float, float, float]) -> None:
+        t = msg.texts.add(text=words, font_size=14.0)
+        t.timestamp.FromNanoseconds(log_time_ns)
+        set_xy(t.position, x, y)
+        set_color(t.text_color, rgba)
+        set_color(t.background_color, BLACK)
+
+    for blob in det.rejected_blobs:
+        outline(blob.outline_px, RED)
+        text(blob.centroid_px[0], blob.centroid_px[1], blob.reason, RED)
+    if det.found:
+        outline(det.outline_px, GREEN)
+        col, row = det.centroid_px
+        c = msg.circles.add(diameter=8.0, thickness=2.0)
+        c.timestamp.FromNanoseconds(log_time_ns)
+        set_xy(c.position, col, row)
+        set_color(c.outline_color, GREEN)
+        if math.isfinite(det.theta_deg):
+            t = math.radians(det.theta_deg)
+            d = np.array([math.cos(t), math.sin(t)]) * 80.0
+            a = msg.points.add(type=PointsAnnotation.Type.LINE_LIST, thickness=2.0)
+            a.timestamp.FromNanoseconds(log_time_ns)
+            set_color(a.outline_color, GREEN)
+            set_xy(a.points.add(), col - d[0], row - d[1])
+            set_xy(a.points.add(), col + d[0], row + d[1])
+    verdict = "found" if det.found else f"rejected: {det.reason}"
+    text(10.0, 20.0, f"{label}: {verdict}", GREEN if det.found else RED)
+    return msg
 
 
 def _xyz(msg: Any, p: F64) -> None:
