@@ -33,7 +33,6 @@ from mcap.writer import Writer as McapWriter
 
 from twopose.camera.model import Camera
 from twopose.errors import InputValueError, SessionExistsError, SessionFormatError, TwoposeError
-from twopose.format.channels import Channels, register_session_channels
 from twopose.format.entries import (
     METADATA_NAME,
     CaptureWindow,
@@ -46,7 +45,12 @@ from twopose.format.entries import (
     decode_entry,
     encode_entry,
 )
-from twopose.format.messages import calibration_message, calibration_topic
+from twopose.format.messages import (
+    Channels,
+    calibration_message,
+    calibration_topic,
+    register_session_channels,
+)
 from twopose.format.pair_convert import pair_calibration
 from twopose.format.reader import check_version, max_chunk_bytes
 

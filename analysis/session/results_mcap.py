@@ -33,12 +33,12 @@ from mcap.writer import Writer as McapWriter
 from twopose.camera.model import Camera
 from twopose.detect.detection import Detection
 from twopose.display.scene import TrialScene, image_annotations, static_scene, trial_scene
-from twopose.format.channels import Channels
 from twopose.format.entries import PlaneEntry, PoseEntry
 from twopose.format.messages import (
     RESULTS_TOPIC_PREFIX,
     SESSION_PROTOBUF,
     TF_TOPIC,
+    Channels,
     Frame,
     calibration_message,
     calibration_topic,

@@ -4,8 +4,8 @@ Specified for other implementers in ``docs/session-format.md``; this package is 
 reference implementation, in layers:
 
 * :mod:`~twopose.format.entries`: the typed JSON entries, each field declared once
-* :mod:`~twopose.format.messages`: topics and the Foxglove messages (images, calibrations, /tf)
-* :mod:`~twopose.format.channels`: schema and channel registration for every MCAP writer
+* :mod:`~twopose.format.messages`: topics, the Foxglove messages (images, calibrations,
+  /tf) and schema and channel registration for every MCAP writer
 * :mod:`~twopose.format.writer`: :class:`SessionWriter`
 * :mod:`~twopose.format.reader`: :class:`SessionReader`, :func:`find_sessions`
 * :mod:`~twopose.format.trials`: a session replayed trial by trial (:func:`iter_trials`)

@@ -293,5 +293,5 @@ class Touch(TypedEntry):
 
 
 #: Format 1.6's entries, registered after the 1.1 decision channel in a two-camera
-#: session (:func:`twopose.format.channels.register_session_channels`), in this order.
+#: session (:func:`twopose.format.messages.register_session_channels`), in this order.
 STREAM_ENTRIES: tuple[type[TypedEntry], ...] = (PairEntry, ClockOffsetEntry, StreamWindow, Touch)

@@ -19,7 +19,6 @@ from numpy.typing import NDArray
 from twopose import __version__
 from twopose.camera.model import Camera
 from twopose.errors import InputValueError, SessionExistsError, TwoposeError
-from twopose.format.channels import Channels, register_session_channels
 from twopose.format.entries import (
     METADATA_NAME,
     CaptureDecision,
@@ -35,10 +34,12 @@ from twopose.format.entries import (
 )
 from twopose.format.messages import (
     TF_TOPIC,
+    Channels,
     calibration_message,
     calibration_topic,
     image_message,
     image_topic,
+    register_session_channels,
     transform_message,
 )
 from twopose.format.pair_convert import clock_offset_entry, pair_entry

@@ -1,6 +1,6 @@
-"""twopose.format.channels directly: a session's channel ids depend on its camera ids alone
-(recover rebuilds lost channel records from them), 1.1 appends its channel after the 1.0
-ones, and each schema is registered once."""
+"""The channels of twopose.format.messages directly: a session's channel ids depend on its
+camera ids alone (recover rebuilds lost channel records from them), 1.1 appends its channel
+after the 1.0 ones, and each schema is registered once."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import io
 from mcap.reader import make_reader
 from mcap.writer import Writer as McapWriter
 
-from twopose.format.channels import register_session_channels
 from twopose.format.entries import CaptureDecision
+from twopose.format.messages import register_session_channels
 
 
 def _write(camera_ids: list[str], version: str) -> tuple[dict[str, int], bytes]:
