@@ -21,7 +21,7 @@ from analysis.tables.declared import (
     TABLES,
     VIEW_TABLE,
 )
-from analysis.tables.trials import TRIAL_TABLE, group
+from analysis.tables.trials import TRIAL_TABLE, as_dtype, group
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -172,16 +172,4 @@ def typed(table: pd.DataFrame, columns: Sequence[str] | None = None) -> pd.DataF
     in their order (the run's tables concatenated: :func:`analysis.batch.runner.gather`)."""
     if columns is not None:
         table = table[[c for c in columns if c in table.columns]]
-    return table.assign(**{c: _as(table[c], DTYPES[c]) for c in table.columns if c in DTYPES})
-
-
-def _as(values: pd.Series, dtype: str) -> pd.Series:
-    """``values`` as ``dtype``; a ``bool`` or ``int64`` column with a missing value (which
-    no table should have) as its nullable kin, never a made-up value."""
-    from pandas.api.types import pandas_dtype
-
-    if dtype == "str":
-        return values.astype(object).where(values.notna(), "").astype("str")
-    if dtype in ("bool", "int64") and values.isna().any():
-        dtype = "boolean" if dtype == "bool" else "Int64"
-    return values.astype(pandas_dtype(dtype))
+    return table.assign(**{c: as_dtype(table[c], DTYPES[c]) for c in table.columns if c in DTYPES})

@@ -18,7 +18,8 @@ leave-one-out correction: :mod:`analysis.session.pipeline`; a two-camera session
 :mod:`analysis.session.stream_tables`).
 
 (Near 600 lines: ``trials.csv``'s one table of declarations, every column in the one place
-it is declared, and the one function that fills the table from them (:func:`trial_table`);
+it is declared, the one function that fills the table from them (:func:`trial_table`)
+and a column's values as its declared dtype (:func:`as_dtype`);
 the other tables' are :mod:`analysis.tables.declared`.)
 """
 
@@ -53,6 +54,7 @@ __all__ = [
     "Column",
     "Domain",
     "TrialResult",
+    "as_dtype",
     "column_named",
     "columns_of",
     "group",
@@ -522,11 +524,23 @@ def trial_table(
     ones the method's spec names, in the table's order."""
     import pandas as pd
 
-    from analysis.tables.columns import typed  # columns reads TRIAL_TABLE: imported late
-
     result = TrialResult(session, estimate, reported_, notes, unmeasured)
-    columns = columns_of(result.spec)
-    return typed(pd.DataFrame({c.name: c.fill(result) for c in columns if c.fill is not None}))
+    columns = [c for c in columns_of(result.spec) if c.fill is not None]
+    table = pd.DataFrame({c.name: c.fill(result) for c in columns})
+    return table.assign(**{c.name: as_dtype(table[c.name], c.dtype) for c in columns})
+
+
+def as_dtype(values: pd.Series, dtype: str) -> pd.Series:
+    """``values`` as ``dtype`` (a :attr:`Column.dtype`); a ``bool`` or ``int64`` column with
+    a missing value (which no table should have) as its nullable kin, never a made-up value
+    (:func:`analysis.tables.columns.typed` applies it to every table)."""
+    from pandas.api.types import pandas_dtype
+
+    if dtype == "str":
+        return values.astype(object).where(values.notna(), "").astype("str")
+    if dtype in ("bool", "int64") and values.isna().any():
+        dtype = "boolean" if dtype == "bool" else "Int64"
+    return values.astype(pandas_dtype(dtype))
 
 
 def violations(table: pd.DataFrame, columns: Iterable[Column] = TRIAL_TABLE) -> list[str]:
