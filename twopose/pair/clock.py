@@ -65,6 +65,11 @@ MIN_LIKELIHOOD_RATIO = 25.0
 #: other periods (a 2 in square at 10 in/s repeats every 0.8 s) and, on a short trial,
 #: offsets few frames overlap at: a best at its edge is refused as beyond it.
 SEARCH_NS = 0.5e9
+#: The coarse cost's local minima refined and compared (:func:`_basins`).
+BASINS = 6
+#: Two minima closer than this (frame intervals) are one basin's (a minimum's 5-sigma
+#: width is at most 1.25 of them, :data:`MAX_SIGMA_SHARE`), not two periods' of a path.
+REPEAT_APART = 2.0
 #: The fine search's candidates per frame interval (its step's uniform error enters sigma).
 FINE_STEPS = 200
 #: The mean squared gap this many times smaller with the cameras exchanged says they are.
@@ -275,6 +280,24 @@ class _DotTracks:
         mean = np.where(enough, np.nansum(g2, axis=1) / np.maximum(used, 1), np.nan)
         return mean, used.astype(np.float64)
 
+    def bend_px2(self) -> float:
+        """The mean squared most camera 1's linear interpolation can miss its track (px^2).
+
+        Half-way between two frames ``dt`` apart the line misses a track bending with
+        acceleration ``a`` by ``dt^2 |a| / 8``; at another offset camera 2's frames fall
+        elsewhere between camera 1's (another phase ``w``), so two offsets' costs can
+        differ by up to this mean with no difference in fit.
+        """
+        track, t, found = self.tracks[0], self.times[0], self.found[0]
+        slope = (track[1:] - track[:-1]) / np.diff(t)[:, None]
+        acc = 2 * (slope[1:] - slope[:-1]) / (t[2:] - t[:-2])[:, None]
+        ok = found[:-2] & found[1:-1] & found[2:]
+        if not ok.any():
+            return 0.0
+        dt = 0.5 * (t[2:] - t[:-2])[ok]
+        miss = dt**2 * np.linalg.norm(acc[ok], axis=1) / 8
+        return float(np.mean(miss**2))
+
     def interpolation_ns(self, offset_ns: float, step_ns: float) -> float:
         """The offset's error (ns) that interpolating camera 1 linearly can make, 1-sigma.
 
@@ -378,7 +401,8 @@ def _ray_gap(dots: _DotTracks, search_ns: tuple[float, float]) -> ClockOffset:
         )
     # Offsets that leave most frames without partners rest on few: their mean is noisy.
     supported = coarse_used >= 0.5 * coarse_used.max()
-    best = coarse[int(np.nanargmin(np.where(supported, coarse_cost, np.nan)))]
+    minima = _basins(dots, coarse, np.where(supported, coarse_cost, np.nan), interval)
+    best = minima[0][0]
     if min(best - lo, hi - best) < interval:
         raise InputValueError(
             f"the rays' gap is smallest at the edge of the offsets searched ({lo / 1e6:+.0f} "
@@ -426,6 +450,13 @@ def _ray_gap(dots: _DotTracks, search_ns: tuple[float, float]) -> ClockOffset:
             "along the epipolar lines: move it across them, up and down for cameras side "
             "by side"
         )
+    _refuse_repeats(
+        minima,
+        vertex,
+        (min_mean, dots.bend_px2()),
+        n / dots.correlation_factor(vertex),
+        (lo, hi, interval),
+    )
     # Camera 1's interpolation error (a bend between its frames) as a term, and the grid's
     # resolution (a uniform step), then the fitted clocks' own error.
     bend = dots.interpolation_ns(float(vertex), h)
@@ -439,6 +470,71 @@ def _ray_gap(dots: _DotTracks, search_ns: tuple[float, float]) -> ClockOffset:
     return ClockOffset(
         offset_ns=float(vertex), sigma_ns=float(np.sqrt(variance)), method="ray gap", n=n
     )
+
+
+def _basins(
+    dots: _DotTracks, coarse: F64, cost: F64, interval: float
+) -> list[tuple[float, float, float]]:
+    """The coarse cost's :data:`BASINS` lowest local minima, each refined: its offset (ns),
+    mean squared gap and frames, lowest refined cost first.
+
+    The coarse grid's step (a quarter frame) can straddle a narrow basin's bottom: a fast
+    target's gap grows so steeply that the grid point beside the true offset's bottom may
+    cost more than one beside another period's. Each basin is searched again at
+    ``interval / 32`` over a coarse step either way (its bottom is within one of its grid
+    point) and the basins ranked by their bottoms. A path repeating within a coarse step
+    or two (a 30 Hz wiggle) is not resolved by this grid at all.
+    """
+    finite = np.where(np.isfinite(cost), cost, np.inf)
+    left = np.r_[np.inf, finite[:-1]]
+    right = np.r_[finite[1:], np.inf]
+    local = np.flatnonzero(np.isfinite(cost) & (finite <= left) & (finite <= right))
+    local = local[np.argsort(finite[local])][:BASINS]
+    step = coarse[1] - coarse[0] if coarse.size > 1 else interval / 4
+    out = []
+    for k in local:
+        grid = np.arange(coarse[k] - step, coarse[k] + step + interval / 64, interval / 32)
+        mean, used = dots.mean_gap(grid)
+        if not np.isfinite(mean).any():
+            out.append((float(coarse[k]), float(cost[k]), 0.0))
+            continue
+        j = int(np.nanargmin(mean))
+        out.append((float(grid[j]), float(mean[j]), float(used[j])))
+    return sorted(out, key=lambda m: m[1])
+
+
+def _refuse_repeats(
+    minima: list[tuple[float, float, float]],
+    vertex: float,
+    costs: tuple[float, float],
+    n_eff: float,
+    search: tuple[float, float, float],
+) -> None:
+    """Refuse when another basin's bottom, :data:`REPEAT_APART` frames away, fits about as well.
+
+    The likelihood ratio of two offsets (Gaussian gaps, their variance the best's
+    residual ``S_min / n``): ``2 ln L = (S_rival - S_min) / s^2 = n (m_rival / m_min - 1)``,
+    divided by the gaps' correlation factor (``n_eff``); below :data:`MIN_LIKELIHOOD_RATIO`
+    (25: the rival 5 sigma worse, a one-parameter chi-square's p of 6e-7 -- one in a
+    million recordings refused that should not be) the better one is not clearly better,
+    and a repeating path's true period is not told from another. A rival's extra cost
+    camera 1's interpolation could make alone (``bend``, :meth:`_DotTracks.bend_px2`; a
+    fast target's other period can fit better only because camera 2's frames fall on
+    camera 1's there) is no evidence against it, and is taken off first.
+    """
+    lo, hi, interval = search
+    min_mean, bend = costs
+    for offset, mean, _ in minima:
+        ratio = n_eff * (mean - min_mean - bend) / max(min_mean, 1e-300)
+        if abs(offset - vertex) > REPEAT_APART * interval and ratio < MIN_LIKELIHOOD_RATIO:
+            raise InputValueError(
+                f"the target's path repeats: offsets {vertex / 1e6:.1f} ms and "
+                f"{offset / 1e6:.1f} ms fit about equally (likelihood ratio {max(ratio, 0):.1f}, "
+                f"under {MIN_LIKELIHOOD_RATIO:g}): measure the offset by a flash both cameras "
+                f"see, or move the target along a path that does not repeat within "
+                f"{(hi - lo) / 1e6:.0f} ms (the offsets searched, {lo / 1e6:+.0f} to "
+                f"{hi / 1e6:+.0f} ms)"
+            )
 
 
 _NOT_FIXED = (
