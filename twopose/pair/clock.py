@@ -25,7 +25,8 @@
 
 Both first fit each camera's frame times by a regular clock (:func:`regular_times`: a
 camera's frames are taken at a fixed rate; the stamps' jitter is the host's), so the
-stamps' jitter averages out instead of entering every frame. No I/O.
+stamps' jitter averages out instead of entering every frame. No I/O. (Near 600 lines: the
+ray gap's search, its basins' refinement and its refusals are one estimator's steps.)
 """
 
 from __future__ import annotations
@@ -482,30 +483,24 @@ def _ray_gap(dots: _DotTracks, search_ns: tuple[float, float]) -> ClockOffset:
 def _basins(
     dots: _DotTracks, coarse: F64, cost: F64, interval: float
 ) -> list[tuple[float, float, float]]:
-    """The coarse cost's :data:`BASINS` lowest local minima, each refined: its offset (ns),
-    mean squared gap and frames, lowest refined cost first.
+    """The coarse cost's :data:`BASINS` lowest local minima refined: (offset ns, mean, n).
 
-    The coarse grid's step (a quarter frame) can straddle a narrow basin's bottom: a fast
-    target's gap grows so steeply that the grid point beside the true offset's bottom may
-    cost more than one beside another period's. Each basin is searched again at
-    ``interval / 32`` over a coarse step either way (its bottom is within one of its grid
-    point) and the basins ranked by their bottoms. A path repeating within a coarse step
-    or two (a 30 Hz wiggle) is not resolved by this grid at all.
+    A quarter-frame grid step can straddle a fast target's narrow basin (the point beside
+    the true bottom costing more than one beside another period's): each is searched again
+    at ``interval / 32`` a coarse step either way, and ranked by its bottom. A path
+    repeating within a coarse step or two is not resolved by this grid at all.
     """
     finite = np.where(np.isfinite(cost), cost, np.inf)
-    left = np.r_[np.inf, finite[:-1]]
-    right = np.r_[finite[1:], np.inf]
+    left, right = np.r_[np.inf, finite[:-1]], np.r_[finite[1:], np.inf]
     local = np.flatnonzero(np.isfinite(cost) & (finite <= left) & (finite <= right))
     local = local[np.argsort(finite[local])][:BASINS]
-    step = coarse[1] - coarse[0] if coarse.size > 1 else interval / 4
-    out = []
+    step, out = interval / 4, []  # the coarse grid's step
     for k in local:
         grid = np.arange(coarse[k] - step, coarse[k] + step + interval / 64, interval / 32)
         mean, used = dots.mean_gap(grid)
-        if not np.isfinite(mean).any():
-            out.append((float(coarse[k]), float(cost[k]), 0.0))
-            continue
-        j = int(np.nanargmin(mean))
+        j = int(np.nanargmin(np.where(np.isfinite(mean), mean, np.inf)))
+        if not np.isfinite(mean[j]):  # too few frames about it: the coarse point stands
+            j, grid, mean = 0, coarse[k : k + 1], cost[k : k + 1]
         out.append((float(grid[j]), float(mean[j]), float(used[j])))
     return sorted(out, key=lambda m: m[1])
 
@@ -519,15 +514,14 @@ def _refuse_repeats(
 ) -> None:
     """Refuse when another basin's bottom, :data:`REPEAT_APART` frames away, fits about as well.
 
-    The likelihood ratio of two offsets (Gaussian gaps, their variance the best's
-    residual ``S_min / n``): ``2 ln L = (S_rival - S_min) / s^2 = n (m_rival / m_min - 1)``,
-    divided by the gaps' correlation factor (``n_eff``); below :data:`MIN_LIKELIHOOD_RATIO`
-    (25: the rival 5 sigma worse, a one-parameter chi-square's p of 6e-7 -- one in a
-    million recordings refused that should not be) the better one is not clearly better,
-    and a repeating path's true period is not told from another. A rival's extra cost
-    camera 1's interpolation could make alone (``bend``, :meth:`_DotTracks.bend_px2`; a
-    fast target's other period can fit better only because camera 2's frames fall on
-    camera 1's there) is no evidence against it, and is taken off first.
+    The likelihood ratio of two offsets (Gaussian gaps, their variance the best's residual
+    ``m_min``): ``2 ln L = n (m_rival - m_min) / m_min``, ``n`` over the gaps' correlation
+    factor. Below :data:`MIN_LIKELIHOOD_RATIO` (25: 5 sigma, a one-parameter chi-square's
+    p of 6e-7 that the other period, were it the true one, fits this much worse by chance)
+    the path's periods are not told apart. The cost camera 1's interpolation alone could
+    add at another phase (``bend``, :meth:`_DotTracks.bend_px2`) is no evidence and is
+    taken off first: a fast target's wrong period can fit best where camera 2's frames
+    fall on camera 1's.
     """
     lo, hi, interval = search
     min_mean, bend = costs
