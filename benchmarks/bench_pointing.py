@@ -49,8 +49,8 @@ from recorder.console.pointing_server import freeze_garbage, pointing_app, run_p
 from recorder.live.pointing import LivePointing, PointingEstimate
 from recorder.live.pointing_feed import PointingFeed
 from recorder.simulate.pointing_clip import PointingClip
-from recorder.sources.pair import PairSource, pair_spec
-from recorder.sources.registry import SOURCE_KINDS, SourceOptions, open_from
+from recorder.sources.pair import PairSource
+from recorder.sources.registry import SOURCE_KINDS, SourceOptions, open_from, pair_spec
 from twopose.atomic_write import replacing
 from twopose.methods.specs import Method
 from twopose.pair.pair_file import write_pair_file

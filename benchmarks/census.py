@@ -164,11 +164,6 @@ EXPLAINED: dict[tuple[str, str, str], str] = {
     ): "the scene file's own key, named in its message",
     ("recorder/setup/plan.py", "in", "argument"): _INCHES,
     ("analysis/tools/sensitivity.py", "in", "argument"): "the thesis' sweeps, in its inches",
-    (
-        "twopose/values/toml.py",
-        "line",
-        "argument",
-    ): "a TOML error's line number (getattr's default)",
     ("twopose/solve/hand_check.py", "line", "argument"): 'the solve request\'s field "line"',
     (
         "twopose/format/entries.py",
@@ -199,9 +194,6 @@ EXPLAINED: dict[tuple[str, str, str], str] = {
     ),
     ("recorder/console/pointing_server.py", "in", "argument"): (
         "the panel's smallest view, declared in inches and converted"
-    ),
-    ("recorder/console/page/pointing.js", "pair", "comparison"): (
-        "the push stream's message kind (a pair's estimate), not a source"
     ),
     ("recorder/setup/rules.py", "in", "argument"): (
         "a board session's rig check needs no unit (it refuses any rig): the bounds' own"
@@ -276,7 +268,7 @@ EXPLAINED_TYPED: dict[tuple[str, str], str] = {
         "twopose/values/units.py",
         "unit_spec",
     ): "a unit as a file or a table gives it; an unknown one refused in words",
-    ("twopose/pair/clock.py", "ClockOffset"): "how the clocks' offset was measured (a flash, "
+    ("twopose/pair/clock_fit.py", "ClockOffset"): "how the clocks' offset was measured (a flash, "
     "a moving dot's rays), not a reconstruction method",
     ("twopose/pair/pair_file.py", "_PairTable"): "the pair file's text, read by unit_spec",
     ("twopose/sim/scene.py", "Scene"): "a scene file's unit as typed, checked against UNITS "

@@ -101,8 +101,13 @@ def new_pair(
 def _parts(source: str) -> tuple[str, str]:
     """The pair's two sources, each one the registry knows (not opened: a file that is not
     there is said now); a source that is not a pair is refused."""
-    from recorder.sources.pair import parse_pair
-    from recorder.sources.registry import SOURCE_KINDS, SourceOptions, kind_of, open_pair
+    from recorder.sources.registry import (
+        SOURCE_KINDS,
+        SourceOptions,
+        kind_of,
+        open_pair,
+        parse_pair,
+    )
 
     if kind_of(source).cameras != 2:
         raise InputValueError(

@@ -419,13 +419,28 @@ def _track(seen: list[_Seen], *, lines: bool) -> CameraTrack:
     )
 
 
+#: What each margin under its limit means for the pair, said after the margin (the solver's
+#: labels: twopose.solve.estimate.margin_warnings).
+_SINGULAR_MEANS = (
+    ("ray parallax", "the two cameras' rays to the target are nearly parallel"),
+    ("plane angle", "the finger's line is close to the plane through both cameras"),
+    ("line-", "the finger's line is nearly parallel to the plane it points at"),
+)
+
+
+def _why_singular(reason: str) -> str:
+    """What the margins under their limits in ``reason`` mean, in parentheses ("" if none)."""
+    means = [m for label, m in _SINGULAR_MEANS if label in reason]
+    return f" ({'; '.join(means)})" if means else ""
+
+
 def _words(e: StreamEstimate, k: int, first: _Seen, second: _Seen) -> str:
     """A pair's conditioning in words: "ok", or why it has no point."""
     status, reason = str(e.status[k]), str(e.reason[k])
     if status == "ok":
         return "ok"
     if status == "near_singular":
-        return f"near-singular: {reason} (the finger's line is close to the cameras' baseline)"
+        return f"near-singular: {reason}{_why_singular(reason)}"
     if status == "no_detection":
         lost = [
             f"camera {n} does not see the target ({s.why or 'not found'})"

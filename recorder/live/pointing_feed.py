@@ -36,7 +36,7 @@ def estimate_json(e: PointingEstimate) -> dict[str, Any]:
     """One pair's estimate as the page reads it (times in ns and ms, lengths in the units)."""
     region = e.region
     return {
-        "kind": "pair",
+        "kind": "estimate",
         "seq": e.seq,
         "t_capture_ns": e.t_capture_ns,
         "status": e.status,

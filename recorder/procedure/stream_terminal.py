@@ -398,8 +398,13 @@ def open_pair_source(
     spec: str, pair: PairCalibration, setup: PairSetup, *, fps: float | None
 ) -> Any:
     """``pair:A,B`` opened as a pair (each camera asked for its calibrated size)."""
-    from recorder.sources.pair import parse_pair
-    from recorder.sources.registry import SOURCE_KINDS, SourceOptions, kind_of, open_pair
+    from recorder.sources.registry import (
+        SOURCE_KINDS,
+        SourceOptions,
+        kind_of,
+        open_pair,
+        parse_pair,
+    )
 
     kind = kind_of(spec)
     if kind.cameras != 2:

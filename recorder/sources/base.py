@@ -1,20 +1,24 @@
 """What every frame source is (:class:`FrameSource`), what it delivers (:class:`SourceInfo`),
 and the camera's clock that file and synthetic sources keep (:class:`Pacer`): the one
-interface the recorder reads frames through. The kinds of source and how the operator names
-them are in :mod:`recorder.sources.registry`.
+interface the recorder reads frames through; and how a pair of sources is written
+(``pair:A,B``: :func:`parse_pair`, :func:`pair_spec`). The kinds of source and how the
+operator names them are in :mod:`recorder.sources.registry`.
 """
 
 from __future__ import annotations
 
+import csv
+import io
 import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from types import TracebackType
-from typing import TYPE_CHECKING, Any, Self
+from typing import TYPE_CHECKING, Any, Protocol, Self
 
 from twopose.errors import SourceError
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
     from pathlib import Path
 
     import numpy as np
@@ -24,7 +28,16 @@ if TYPE_CHECKING:
 
     Image = NDArray[np.uint8]
 
-__all__ = ["FrameSource", "Pacer", "SourceInfo", "open_camera", "open_video"]
+__all__ = [
+    "FrameSource",
+    "Kind",
+    "Pacer",
+    "SourceInfo",
+    "open_camera",
+    "open_video",
+    "pair_spec",
+    "parse_pair",
+]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -166,3 +179,49 @@ def open_camera(
         fps=float(cap.get(cv2.CAP_PROP_FPS)) or fps,
     )
     return cap, info
+
+
+class Kind(Protocol):
+    """What :func:`parse_pair` reads of a kind of source
+    (:class:`recorder.sources.registry.SourceKind`)."""
+
+    @property
+    def cameras(self) -> int: ...
+
+    @property
+    def syntax(self) -> str: ...
+
+    def matches(self, spec: str) -> bool: ...
+
+
+def parse_pair(arg: str, kinds: Sequence[Kind]) -> tuple[str, str]:
+    """The two sources of ``pair:ARG`` (the text after ``pair:``), each a one-camera kind of
+    ``kinds`` (the registry's: :func:`recorder.sources.registry.open_pair`); refused in words."""
+    try:
+        rows = list(csv.reader(io.StringIO(arg, newline=""), strict=True, skipinitialspace=True))
+    except csv.Error as err:
+        raise SourceError(f"pair:{arg}: {err} (a quoted source ends with its quote)") from err
+    parts = rows[0] if len(rows) == 1 else []
+    if len(parts) != 2:
+        raise SourceError(
+            f"pair:{arg}: give two sources, camera 1's and camera 2's, separated by a comma "
+            "(pair:camera:0,camera:1); a source whose text holds a comma goes in double "
+            'quotes: pair:"video:take 1,2.mp4",video:b.mp4'
+        )
+    for n, part in enumerate(parts, start=1):
+        if not part:
+            raise SourceError(f"pair:{arg}: camera {n}'s source is empty")
+        kind = next((k for k in kinds if k.matches(part)), None)
+        if kind is None:
+            ones = ", ".join(k.syntax for k in kinds if k.cameras == 1)
+            raise SourceError(f"pair:{arg}: camera {n}'s source {part!r} is unknown; use {ones}")
+        if kind.cameras != 1:
+            raise SourceError(f"pair:{arg}: camera {n}'s source {part} is not one camera")
+    return parts[0], parts[1]
+
+
+def pair_spec(first: str, second: str) -> str:
+    """``pair:A,B`` for two sources, each quoted where it must be (:func:`parse_pair`)."""
+    out = io.StringIO()
+    csv.writer(out, lineterminator="").writerow([first, second])
+    return f"pair:{out.getvalue()}"

@@ -6,7 +6,7 @@
 a comma: ``pair:camera:0,camera:1``. A source whose text holds a comma (a path) is put in
 double quotes, a quote inside it doubled, as in a CSV file (the text is read by Python's
 ``csv`` module): ``pair:"video:take 1,2.mp4",video:b.mp4`` (inside the shell's single
-quotes). :func:`pair_spec` writes it so.
+quotes). :func:`recorder.sources.registry.pair_spec` writes it so.
 
 :class:`PairSource` reads each camera on its own thread (:mod:`recorder.sources.pair_feeds`: grab
 as fast as the camera gives, stamp each frame with its capture time, decode on the reader's
@@ -26,29 +26,29 @@ paired: pairing is
 (:meth:`PairSource.pairs`). A stop of the recording (Ctrl-C, SIGTERM:
 :mod:`recorder.procedure.stops`)
 ends both threads at once and raises ``KeyboardInterrupt`` in the reader.
+
+(Near 600 lines: one concern, two cameras read at once: the readers' threads and their
+bounded queues, and the consumer's side that takes, decodes and pairs their frames; each
+camera's feed is :mod:`recorder.sources.pair_feeds`'.)
 """
 
 from __future__ import annotations
 
-import csv
 import dataclasses
-import io
 import math
 import threading
 import time
 from collections import deque
 from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING
 
 from recorder.procedure import stops
-from recorder.sources.base import FrameSource, SourceInfo
+from recorder.sources.base import FrameSource, SourceInfo, pair_spec
 from recorder.sources.pair_feeds import Feed, Grabbed
 from twopose.errors import SourceError
 
 if TYPE_CHECKING:
-    from collections.abc import Sequence
-
     import numpy as np
     from numpy.typing import NDArray
 
@@ -62,8 +62,6 @@ __all__ = [
     "PairSource",
     "QueueBound",
     "TimedFrame",
-    "pair_spec",
-    "parse_pair",
 ]
 
 #: How long each camera's queue holds frames the consumer has not taken (its frame rate
@@ -125,52 +123,6 @@ class CameraStream:
         i = self.info
         fmt = f", {self.fourcc}" if self.fourcc else ""
         return f"{self.spec}: {i.width}x{i.height} at {i.fps:g} fps{fmt}; clock: {self.clock_note}"
-
-
-class Kind(Protocol):
-    """What :func:`parse_pair` reads of a kind of source
-    (:class:`recorder.sources.registry.SourceKind`)."""
-
-    @property
-    def cameras(self) -> int: ...
-
-    @property
-    def syntax(self) -> str: ...
-
-    def matches(self, spec: str) -> bool: ...
-
-
-def parse_pair(arg: str, kinds: Sequence[Kind]) -> tuple[str, str]:
-    """The two sources of ``pair:ARG`` (the text after ``pair:``), each a one-camera kind of
-    ``kinds`` (the registry's: :func:`recorder.sources.registry.open_pair`); refused in words."""
-    try:
-        rows = list(csv.reader(io.StringIO(arg, newline=""), strict=True, skipinitialspace=True))
-    except csv.Error as err:
-        raise SourceError(f"pair:{arg}: {err} (a quoted source ends with its quote)") from err
-    parts = rows[0] if len(rows) == 1 else []
-    if len(parts) != 2:
-        raise SourceError(
-            f"pair:{arg}: give two sources, camera 1's and camera 2's, separated by a comma "
-            "(pair:camera:0,camera:1); a source whose text holds a comma goes in double "
-            'quotes: pair:"video:take 1,2.mp4",video:b.mp4'
-        )
-    for n, part in enumerate(parts, start=1):
-        if not part:
-            raise SourceError(f"pair:{arg}: camera {n}'s source is empty")
-        kind = next((k for k in kinds if k.matches(part)), None)
-        if kind is None:
-            ones = ", ".join(k.syntax for k in kinds if k.cameras == 1)
-            raise SourceError(f"pair:{arg}: camera {n}'s source {part!r} is unknown; use {ones}")
-        if kind.cameras != 1:
-            raise SourceError(f"pair:{arg}: camera {n}'s source {part} is not one camera")
-    return parts[0], parts[1]
-
-
-def pair_spec(first: str, second: str) -> str:
-    """``pair:A,B`` for two sources, each quoted where it must be (:func:`parse_pair`)."""
-    out = io.StringIO()
-    csv.writer(out, lineterminator="").writerow([first, second])
-    return f"pair:{out.getvalue()}"
 
 
 class _Reader:

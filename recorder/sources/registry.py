@@ -20,7 +20,15 @@ from typing import TYPE_CHECKING, Any
 
 from typing_extensions import override
 
-from recorder.sources.base import FrameSource, Pacer, SourceInfo, open_camera, open_video
+from recorder.sources.base import (
+    FrameSource,
+    Pacer,
+    SourceInfo,
+    open_camera,
+    open_video,
+    pair_spec,
+    parse_pair,
+)
 from recorder.sources.pair_feeds import CameraFeed, Feed, PacedFeed, StillsFeed, VideoFeed
 from recorder.sources.synthetic import SyntheticSource
 from twopose.errors import InputValueError, SourceError
@@ -57,6 +65,8 @@ __all__ = [
     "open_pair",
     "open_source",
     "open_video",
+    "pair_spec",
+    "parse_pair",
     "register_feed",
     "register_source",
     "source_help",
@@ -277,8 +287,6 @@ def _open_synthetic(arg: str, o: SourceOptions) -> FrameSource:
 
 
 def _open_pair(arg: str, o: SourceOptions) -> FrameSource:
-    from recorder.sources.pair import parse_pair
-
     return open_pair(*parse_pair(arg, SOURCE_KINDS), o)
 
 

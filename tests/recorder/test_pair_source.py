@@ -18,7 +18,6 @@ from typer.testing import CliRunner
 
 from recorder.cli.app import app
 from recorder.sources.base import FrameSource, SourceInfo
-from recorder.sources.pair import pair_spec, parse_pair
 from recorder.sources.pair_feeds import (
     CLOCK_DRIVER,
     CLOCK_GRAB,
@@ -28,7 +27,14 @@ from recorder.sources.pair_feeds import (
     Grabbed,
     StillsFeed,
 )
-from recorder.sources.registry import SOURCE_KINDS, open_pair, open_source, register_feed
+from recorder.sources.registry import (
+    SOURCE_KINDS,
+    open_pair,
+    open_source,
+    pair_spec,
+    parse_pair,
+    register_feed,
+)
 from twopose.errors import SourceError
 
 runner = CliRunner()

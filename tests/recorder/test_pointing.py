@@ -125,6 +125,9 @@ def test_a_near_singular_pair_is_said_with_its_reason_and_has_no_point():
         assert not e.track
         assert e.words.startswith("near-singular: ray parallax")
         assert "deg < 1" in e.words
+        # Its meaning is the parallax's, not another margin's (a line's words once said the
+        # baseline for any margin).
+        assert e.words.endswith("(the two cameras' rays to the target are nearly parallel)")
 
 
 def test_pairs_made_elsewhere_give_the_same_estimates_a_frame_later(ground_stream):
@@ -205,7 +208,7 @@ def test_a_recording_feeds_the_panel_from_its_own_thread(ground_stream):
     assert messages[0]["kind"] == "status"
     assert messages[0]["running"] is True
     assert messages[0]["about"] == "ground (method 2), seen on the floor from above (in)"
-    pairs = [m for m in messages if m["kind"] == "pair"]
+    pairs = [m for m in messages if m["kind"] == "estimate"]
     mine = _live(Method.GROUND, clip, frames)[: len(pairs)]
     assert [(m["seq"], m["point"]) for m in pairs] == [
         (e.seq, None if e.point is None else list(e.point)) for e in mine

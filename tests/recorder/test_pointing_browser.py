@@ -147,7 +147,7 @@ def test_the_panel_draws_the_point_its_region_track_and_conditioning(served) -> 
         singular = PointingEstimate(
             seq=30, t_capture_ns=time.monotonic_ns(), t_ns=0.0, skew_ns=0,
             status="near_singular", words="near-singular: line-floor angle 3.10 deg < 10 "
-            "(the finger's line is close to the cameras' baseline)", point=None,
+            "(the finger's line is nearly parallel to the plane it points at)", point=None,
             point_3d=None, region=None, track=circling(30)[-1].track, done_ns=0, cpu_ns=0,
         )  # fmt: skip
         feed.publish([singular])

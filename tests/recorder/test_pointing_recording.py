@@ -55,7 +55,7 @@ def test_a_pair_recording_in_the_console_pushes_its_pairs_to_the_panel(
             for text in lines:
                 if text.startswith("data: "):
                     messages.append(json.loads(text[6:]))
-                if sum(m["kind"] == "pair" and m["point"] is not None for m in messages) >= 8:
+                if sum(m["kind"] == "estimate" and m["point"] is not None for m in messages) >= 8:
                     break
                 assert time.monotonic() < deadline, messages
         assert client.post("/api/stream", json={"action": "stop"}).json() == {"ok": True}
@@ -67,7 +67,7 @@ def test_a_pair_recording_in_the_console_pushes_its_pairs_to_the_panel(
     status = next(m for m in messages if m["kind"] == "status")
     assert status["running"] is True
     assert status["about"].startswith("point (method 1)")
-    pairs = [m for m in messages if m["kind"] == "pair"]
+    pairs = [m for m in messages if m["kind"] == "estimate"]
     assert [m["seq"] for m in pairs] == list(range(len(pairs)))
     ok = [m for m in pairs if m["point"] is not None]
     assert all(m["words"] == "ok" and m["region"]["major"] > 0 for m in ok)

@@ -63,7 +63,7 @@ def test_the_page_reads_the_status_then_every_pair_in_order() -> None:
     assert got[0] == {"kind": "status", "running": False, "words": IDLE_WORDS,
                       "sent_ns": got[0]["sent_ns"]}  # fmt: skip
     assert got[1]["running"] is True
-    pairs = [e for e in got if e["kind"] == "pair"]
+    pairs = [e for e in got if e["kind"] == "estimate"]
     assert [e["seq"] for e in pairs] == list(range(6))
     assert pairs[0]["region"] == {"major": 0.2, "minor": 0.1, "angle_deg": 30.0}
     assert pairs[5]["point"] is None

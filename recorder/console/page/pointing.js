@@ -60,7 +60,7 @@ function pointingMessage(event) {
     if (m.running) POINTING.final = null;
   } else if (m.kind === "missed") {
     window.twoposePointing.missed += m.count;
-  } else if (m.kind === "pair") {
+  } else if (m.kind === "estimate") {
     POINTING.last = m;
     if (m.point) POINTING.lastOk = m;
     POINTING.arrived.push([m.seq, arrived]);
@@ -151,7 +151,12 @@ function pointingNumbers(pair, s) {
   const timing = [];
   const late = latencyMs(pair, now);
   const rtt = window.twoposePointing.clock.rtt_ms;
-  if (late !== null) timing.push(`capture to page ${fixed(late, 0)} ms (±${fixed(rtt / 2, 0)})`);
+  if (late !== null) {
+    // A negative latency is the clocks' mapping (±half a round trip), never a pair early.
+    const half = fixed(rtt / 2, 0);
+    timing.push(late >= 0 ? `capture to page ${fixed(late, 0)} ms (±${half})`
+      : `capture to page within the clocks' ±${half} ms`);
+  }
   timing.push(`${POINTING.rate.length} pairs/s`);
   timing.push(`pair ${pair.seq + 1}`);
   return [where, timing.join(" · ")];
