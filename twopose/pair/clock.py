@@ -3,13 +3,8 @@
 ``offset_ns`` is camera 2's capture clock minus camera 1's for the same instant
 (``t1 = t2 - offset_ns``). It is measured, never assumed, two ways:
 
-- :func:`offset_from_flash`: a flash both cameras see. Each camera's frame brightness
-  steps up; a frame whose exposure the onset falls in is lit for the share of its
-  exposure after it, so the onset is found to a fraction of a frame (a capture time is
-  taken as the middle of its exposure; the exposure is the frame interval unless given,
-  as an auto-exposed webcam's is indoors). Its 1-sigma: the brightness noise over the
-  step, times the exposure; an onset in the gap between two exposures (or a dropped
-  frame's) is known only to that gap, and says so.
+- :func:`offset_from_flash` (:mod:`twopose.pair.flash`): a flash both cameras see, its
+  onset found to a fraction of a frame from the lit share of the frame it falls in.
 - :func:`offset_from_ray_gap`: a dot both cameras see while it moves. For each candidate
   offset, camera 1's pixel track is interpolated (linearly) to camera 2's capture times
   and the rays' gap is measured in pixels (Sampson's first-order distance to the pair's
@@ -25,8 +20,7 @@
 
 Both first fit each camera's frame times by a regular clock (:func:`regular_times`: a
 camera's frames are taken at a fixed rate; the stamps' jitter is the host's), so the
-stamps' jitter averages out instead of entering every frame. No I/O. (Near 600 lines: the
-ray gap's search, its basins' refinement and its refusals are one estimator's steps.)
+stamps' jitter averages out instead of entering every frame. No I/O.
 """
 
 from __future__ import annotations
@@ -41,6 +35,7 @@ from twopose.errors import InputValueError
 from twopose.pair.board_fit import LensModel
 from twopose.pair.calibration import PairCalibration
 from twopose.pair.clock_fit import ClockOffset, RegularTimes, regular_times
+from twopose.pair.flash import offset_from_flash
 
 __all__ = [
     "ClockOffset",
@@ -51,8 +46,6 @@ __all__ = [
     "regular_times",
 ]
 
-#: The span of onsets a flash's frames agree with, in their lit shares' 1-sigmas.
-FLASH_SIGMAS = 3.0
 #: The fewest camera-2 frames an offset candidate's gap is averaged over.
 MIN_GAP_FRAMES = 10
 #: A rays' gap whose minimum is this wide (1-sigma, a share of a frame interval) fixes no
@@ -75,90 +68,6 @@ REPEAT_APART = 2.0
 FINE_STEPS = 200
 #: The mean squared gap this many times smaller with the cameras exchanged says they are.
 SWAP_RATIO = 10.0
-
-
-def _onset(brightness: F64, times: RegularTimes, exposure_ns: float | None) -> tuple[float, float]:
-    """One camera's flash onset (its clock, ns) and its 1-sigma.
-
-    Over the two frames about the step, the lit share of each exposure after an onset ``tau``
-    is ``clip((t_k + E/2 - tau) / E, 0, 1)``; their sum ``L(tau)`` falls steadily through
-    exposures and stays flat across the gaps between them (and a dropped frame's). The
-    onset is where ``L`` meets the frames' measured lit shares' sum: the middle of the
-    ``tau`` where they agree within :data:`FLASH_SIGMAS` of its 1-sigma, which is that
-    span over twice as many; where ``L`` is flat there, the flat span's middle, uniform
-    over it (``span / sqrt 12``).
-    """
-    b = brightness
-    span = float(b.max() - b.min())
-    if span <= 0:
-        raise InputValueError("no flash: the brightness never changes")
-    first_lit = int(np.argmax(b > b.min() + 0.5 * span))
-    if first_lit < 3:
-        raise InputValueError("the flash is in the first frames: start recording before it")
-    lit_end = first_lit + int(np.argmax(np.r_[b[first_lit:] < b.min() + 0.5 * span, True]))
-    if lit_end < first_lit + 3:
-        raise InputValueError("the flash is lit in fewer than three frames: light it longer")
-    before, after = b[: first_lit - 2], b[first_lit + 2 : lit_end]
-    base, peak = float(np.median(before)), float(np.median(after))
-    noise = float(np.std(np.r_[before - base, after - peak], ddof=1))
-    window = np.arange(first_lit - 1, first_lit + 1)  # the onset is in one of these two
-    shares = (b[window] - base) / (peak - base)
-    s_sum = noise / (peak - base) * np.sqrt(window.size)
-    E = times.interval_ns if exposure_ns is None else float(exposure_ns)
-    t = times.times_ns[window]
-    grid = np.linspace(t[0] - E, t[-1] + E, 4001)
-    step = grid[1] - grid[0]
-    L = np.clip((t[None, :] + E / 2 - grid[:, None]) / E, 0.0, 1.0).sum(axis=1)
-    miss = np.abs(L - shares.sum())
-    agree = miss <= FLASH_SIGMAS * max(s_sum, 1e-9)
-    if not agree.any():  # the shares disagree with one onset: take the nearest
-        agree = miss == miss.min()
-    # Where L is flat (between two exposures: a gap, or a dropped frame's) every onset in it
-    # gives the same shares: known to that span only (uniform), else to its slope.
-    flat = agree & (np.abs(np.gradient(L)) < 1e-12)
-    s_time = float(times.sigma_ns[window].max())
-    if flat.any():
-        lo, hi = grid[flat].min(), grid[flat].max()
-        sigma = float(np.sqrt((hi - lo + step) ** 2 / 12 + (s_sum * E) ** 2))
-    else:
-        lo, hi = grid[agree].min(), grid[agree].max()
-        sigma = max(0.5 * (hi - lo) / FLASH_SIGMAS, step)
-    return 0.5 * (lo + hi), float(np.hypot(sigma, s_time))
-
-
-def offset_from_flash(
-    brightness1: ArrayLike,
-    t1_ns: ArrayLike,
-    brightness2: ArrayLike,
-    t2_ns: ArrayLike,
-    *,
-    exposure_ns: tuple[float | None, float | None] = (None, None),
-) -> ClockOffset:
-    """The clock offset from a flash both cameras see (the module docstring).
-
-    Parameters
-    ----------
-    brightness1, brightness2 : (N1,), (N2,) array_like
-        Each frame's mean brightness (any linear unit), camera 1's and camera 2's.
-    t1_ns, t2_ns : (N1,), (N2,) array_like
-        Their capture times (nanoseconds, each camera's clock).
-    exposure_ns : (float or None, float or None)
-        Each camera's exposure (None: its frame interval).
-
-    Returns
-    -------
-    ClockOffset
-    """
-    onsets = []
-    for b, t, e in ((brightness1, t1_ns, exposure_ns[0]), (brightness2, t2_ns, exposure_ns[1])):
-        values = np.asarray(b, dtype=np.float64).reshape(-1)
-        times = np.asarray(t, dtype=np.float64).reshape(-1)
-        if values.shape != times.shape or not np.isfinite(values).all():
-            raise InputValueError("each frame needs one finite brightness and one time")
-        onsets.append(_onset(values, regular_times(times), e))
-    (a, sa), (b2, sb) = onsets
-    n = int(np.asarray(t1_ns).size + np.asarray(t2_ns).size)
-    return ClockOffset(offset_ns=b2 - a, sigma_ns=float(np.hypot(sa, sb)), method="flash", n=n)
 
 
 def epipolar_gap_px(pair: PairCalibration, u1: F64, u2: F64) -> F64:
