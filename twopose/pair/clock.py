@@ -3,13 +3,8 @@
 ``offset_ns`` is camera 2's capture clock minus camera 1's for the same instant
 (``t1 = t2 - offset_ns``). It is measured, never assumed, two ways:
 
-- :func:`offset_from_flash`: a flash both cameras see. Each camera's frame brightness
-  steps up; a frame whose exposure the onset falls in is lit for the share of its
-  exposure after it, so the onset is found to a fraction of a frame (a capture time is
-  taken as the middle of its exposure; the exposure is the frame interval unless given,
-  as an auto-exposed webcam's is indoors). Its 1-sigma: the brightness noise over the
-  step, times the exposure; an onset in the gap between two exposures (or a dropped
-  frame's) is known only to that gap, and says so.
+- :func:`offset_from_flash` (:mod:`twopose.pair.flash`): a flash both cameras see, its
+  onset found to a fraction of a frame from the lit share of the frame it falls in.
 - :func:`offset_from_ray_gap`: a dot both cameras see while it moves. For each candidate
   offset, camera 1's pixel track is interpolated (linearly) to camera 2's capture times
   and the rays' gap is measured in pixels (Sampson's first-order distance to the pair's
@@ -40,6 +35,7 @@ from twopose.errors import InputValueError
 from twopose.pair.board_fit import LensModel
 from twopose.pair.calibration import PairCalibration
 from twopose.pair.clock_fit import ClockOffset, RegularTimes, regular_times
+from twopose.pair.flash import offset_from_flash
 
 __all__ = [
     "ClockOffset",
@@ -50,8 +46,6 @@ __all__ = [
     "regular_times",
 ]
 
-#: The span of onsets a flash's frames agree with, in their lit shares' 1-sigmas.
-FLASH_SIGMAS = 3.0
 #: The fewest camera-2 frames an offset candidate's gap is averaged over.
 MIN_GAP_FRAMES = 10
 #: A rays' gap whose minimum is this wide (1-sigma, a share of a frame interval) fixes no
@@ -65,94 +59,15 @@ MIN_LIKELIHOOD_RATIO = 25.0
 #: other periods (a 2 in square at 10 in/s repeats every 0.8 s) and, on a short trial,
 #: offsets few frames overlap at: a best at its edge is refused as beyond it.
 SEARCH_NS = 0.5e9
+#: The coarse cost's local minima refined and compared (:func:`_basins`).
+BASINS = 6
+#: Two minima closer than this (frame intervals) are one basin's (a minimum's 5-sigma
+#: width is at most 1.25 of them, :data:`MAX_SIGMA_SHARE`), not two periods' of a path.
+REPEAT_APART = 2.0
 #: The fine search's candidates per frame interval (its step's uniform error enters sigma).
 FINE_STEPS = 200
 #: The mean squared gap this many times smaller with the cameras exchanged says they are.
 SWAP_RATIO = 10.0
-
-
-def _onset(brightness: F64, times: RegularTimes, exposure_ns: float | None) -> tuple[float, float]:
-    """One camera's flash onset (its clock, ns) and its 1-sigma.
-
-    Over the two frames about the step, the lit share of each exposure after an onset ``tau``
-    is ``clip((t_k + E/2 - tau) / E, 0, 1)``; their sum ``L(tau)`` falls steadily through
-    exposures and stays flat across the gaps between them (and a dropped frame's). The
-    onset is where ``L`` meets the frames' measured lit shares' sum: the middle of the
-    ``tau`` where they agree within :data:`FLASH_SIGMAS` of its 1-sigma, which is that
-    span over twice as many; where ``L`` is flat there, the flat span's middle, uniform
-    over it (``span / sqrt 12``).
-    """
-    b = brightness
-    span = float(b.max() - b.min())
-    if span <= 0:
-        raise InputValueError("no flash: the brightness never changes")
-    first_lit = int(np.argmax(b > b.min() + 0.5 * span))
-    if first_lit < 3:
-        raise InputValueError("the flash is in the first frames: start recording before it")
-    lit_end = first_lit + int(np.argmax(np.r_[b[first_lit:] < b.min() + 0.5 * span, True]))
-    if lit_end < first_lit + 3:
-        raise InputValueError("the flash is lit in fewer than three frames: light it longer")
-    before, after = b[: first_lit - 2], b[first_lit + 2 : lit_end]
-    base, peak = float(np.median(before)), float(np.median(after))
-    noise = float(np.std(np.r_[before - base, after - peak], ddof=1))
-    window = np.arange(first_lit - 1, first_lit + 1)  # the onset is in one of these two
-    shares = (b[window] - base) / (peak - base)
-    s_sum = noise / (peak - base) * np.sqrt(window.size)
-    E = times.interval_ns if exposure_ns is None else float(exposure_ns)
-    t = times.times_ns[window]
-    grid = np.linspace(t[0] - E, t[-1] + E, 4001)
-    step = grid[1] - grid[0]
-    L = np.clip((t[None, :] + E / 2 - grid[:, None]) / E, 0.0, 1.0).sum(axis=1)
-    miss = np.abs(L - shares.sum())
-    agree = miss <= FLASH_SIGMAS * max(s_sum, 1e-9)
-    if not agree.any():  # the shares disagree with one onset: take the nearest
-        agree = miss == miss.min()
-    # Where L is flat (between two exposures: a gap, or a dropped frame's) every onset in it
-    # gives the same shares: known to that span only (uniform), else to its slope.
-    flat = agree & (np.abs(np.gradient(L)) < 1e-12)
-    s_time = float(times.sigma_ns[window].max())
-    if flat.any():
-        lo, hi = grid[flat].min(), grid[flat].max()
-        sigma = float(np.sqrt((hi - lo + step) ** 2 / 12 + (s_sum * E) ** 2))
-    else:
-        lo, hi = grid[agree].min(), grid[agree].max()
-        sigma = max(0.5 * (hi - lo) / FLASH_SIGMAS, step)
-    return 0.5 * (lo + hi), float(np.hypot(sigma, s_time))
-
-
-def offset_from_flash(
-    brightness1: ArrayLike,
-    t1_ns: ArrayLike,
-    brightness2: ArrayLike,
-    t2_ns: ArrayLike,
-    *,
-    exposure_ns: tuple[float | None, float | None] = (None, None),
-) -> ClockOffset:
-    """The clock offset from a flash both cameras see (the module docstring).
-
-    Parameters
-    ----------
-    brightness1, brightness2 : (N1,), (N2,) array_like
-        Each frame's mean brightness (any linear unit), camera 1's and camera 2's.
-    t1_ns, t2_ns : (N1,), (N2,) array_like
-        Their capture times (nanoseconds, each camera's clock).
-    exposure_ns : (float or None, float or None)
-        Each camera's exposure (None: its frame interval).
-
-    Returns
-    -------
-    ClockOffset
-    """
-    onsets = []
-    for b, t, e in ((brightness1, t1_ns, exposure_ns[0]), (brightness2, t2_ns, exposure_ns[1])):
-        values = np.asarray(b, dtype=np.float64).reshape(-1)
-        times = np.asarray(t, dtype=np.float64).reshape(-1)
-        if values.shape != times.shape or not np.isfinite(values).all():
-            raise InputValueError("each frame needs one finite brightness and one time")
-        onsets.append(_onset(values, regular_times(times), e))
-    (a, sa), (b2, sb) = onsets
-    n = int(np.asarray(t1_ns).size + np.asarray(t2_ns).size)
-    return ClockOffset(offset_ns=b2 - a, sigma_ns=float(np.hypot(sa, sb)), method="flash", n=n)
 
 
 def epipolar_gap_px(pair: PairCalibration, u1: F64, u2: F64) -> F64:
@@ -275,7 +190,25 @@ class _DotTracks:
         mean = np.where(enough, np.nansum(g2, axis=1) / np.maximum(used, 1), np.nan)
         return mean, used.astype(np.float64)
 
-    def interpolation_ns(self, offset_ns: float, step_ns: float) -> float:
+    def bend_px2(self) -> float:
+        """The mean squared most camera 1's linear interpolation can miss its track (px^2).
+
+        Half-way between two frames ``dt`` apart the line misses a track bending with
+        acceleration ``a`` by ``dt^2 |a| / 8``; at another offset camera 2's frames fall
+        elsewhere between camera 1's (another phase ``w``), so two offsets' costs can
+        differ by up to this mean with no difference in fit.
+        """
+        track, t, found = self.tracks[0], self.times[0], self.found[0]
+        slope = (track[1:] - track[:-1]) / np.diff(t)[:, None]
+        acc = 2 * (slope[1:] - slope[:-1]) / (t[2:] - t[:-2])[:, None]
+        ok = found[:-2] & found[1:-1] & found[2:]
+        if not ok.any():
+            return 0.0
+        dt = 0.5 * (t[2:] - t[:-2])[ok]
+        miss = dt**2 * np.linalg.norm(acc[ok], axis=1) / 8
+        return float(np.mean(miss**2))
+
+    def interpolation_ns(self, offset_ns: float, step_ns: float, *, half: bool = False) -> float:
         """The offset's error (ns) that interpolating camera 1 linearly can make, 1-sigma.
 
         Between two camera-1 frames ``dt`` apart, a track bending with acceleration ``a``
@@ -307,7 +240,8 @@ class _DotTracks:
         )
         a = np.where(larger[:, None], a_other, a)
         dt = t[i + 1] - t[i]
-        miss = (0.5 * w * (1 - w) * dt**2)[:, None] * np.nan_to_num(a)
+        share = np.full_like(w, 0.25) if half else w * (1 - w)
+        miss = (0.5 * share * dt**2)[:, None] * np.nan_to_num(a)
         at = self.times[1][ok] - offset_ns
         u1, _ = self.camera1_at(at)
         u2 = self.tracks[1][ok]
@@ -378,7 +312,8 @@ def _ray_gap(dots: _DotTracks, search_ns: tuple[float, float]) -> ClockOffset:
         )
     # Offsets that leave most frames without partners rest on few: their mean is noisy.
     supported = coarse_used >= 0.5 * coarse_used.max()
-    best = coarse[int(np.nanargmin(np.where(supported, coarse_cost, np.nan)))]
+    minima = _basins(dots, coarse, np.where(supported, coarse_cost, np.nan), interval)
+    best = minima[0][0]
     if min(best - lo, hi - best) < interval:
         raise InputValueError(
             f"the rays' gap is smallest at the edge of the offsets searched ({lo / 1e6:+.0f} "
@@ -426,9 +361,22 @@ def _ray_gap(dots: _DotTracks, search_ns: tuple[float, float]) -> ClockOffset:
             "along the epipolar lines: move it across them, up and down for cameras side "
             "by side"
         )
+    _refuse_repeats(
+        minima,
+        vertex,
+        (min_mean, dots.bend_px2()),
+        n / dots.correlation_factor(vertex),
+        (lo, hi, interval),
+    )
     # Camera 1's interpolation error (a bend between its frames) as a term, and the grid's
     # resolution (a uniform step), then the fitted clocks' own error.
-    bend = dots.interpolation_ns(float(vertex), h)
+    # The bend's share at the phase found (camera 2's frames where they fell between camera
+    # 1's) or half-way, whichever is larger: the acceleration from three frames is crude
+    # about a corner or a stop, and a fast target's best offset is where the miss happens
+    # to be small (issue 58: 100 in/s, -21.2 +- 1.4 ms against -12.5).
+    bend = max(
+        dots.interpolation_ns(float(vertex), h), dots.interpolation_ns(float(vertex), h, half=True)
+    )
     variance += bend**2 + h**2 / 12 + dots.clock_sigma_ns() ** 2
     if bend > MAX_SIGMA_SHARE * interval:
         raise InputValueError(
@@ -439,6 +387,64 @@ def _ray_gap(dots: _DotTracks, search_ns: tuple[float, float]) -> ClockOffset:
     return ClockOffset(
         offset_ns=float(vertex), sigma_ns=float(np.sqrt(variance)), method="ray gap", n=n
     )
+
+
+def _basins(
+    dots: _DotTracks, coarse: F64, cost: F64, interval: float
+) -> list[tuple[float, float, float]]:
+    """The coarse cost's :data:`BASINS` lowest local minima refined: (offset ns, mean, n).
+
+    A quarter-frame grid step can straddle a fast target's narrow basin (the point beside
+    the true bottom costing more than one beside another period's): each is searched again
+    at ``interval / 32`` a coarse step either way, and ranked by its bottom. A path
+    repeating within a coarse step or two is not resolved by this grid at all.
+    """
+    finite = np.where(np.isfinite(cost), cost, np.inf)
+    left, right = np.r_[np.inf, finite[:-1]], np.r_[finite[1:], np.inf]
+    local = np.flatnonzero(np.isfinite(cost) & (finite <= left) & (finite <= right))
+    local = local[np.argsort(finite[local])][:BASINS]
+    step, out = interval / 4, []  # the coarse grid's step
+    for k in local:
+        grid = np.arange(coarse[k] - step, coarse[k] + step + interval / 64, interval / 32)
+        mean, used = dots.mean_gap(grid)
+        j = int(np.nanargmin(np.where(np.isfinite(mean), mean, np.inf)))
+        if not np.isfinite(mean[j]):  # too few frames about it: the coarse point stands
+            j, grid, mean = 0, coarse[k : k + 1], cost[k : k + 1]
+        out.append((float(grid[j]), float(mean[j]), float(used[j])))
+    return sorted(out, key=lambda m: m[1])
+
+
+def _refuse_repeats(
+    minima: list[tuple[float, float, float]],
+    vertex: float,
+    costs: tuple[float, float],
+    n_eff: float,
+    search: tuple[float, float, float],
+) -> None:
+    """Refuse when another basin's bottom, :data:`REPEAT_APART` frames away, fits about as well.
+
+    The likelihood ratio of two offsets (Gaussian gaps, their variance the best's residual
+    ``m_min``): ``2 ln L = n (m_rival - m_min) / m_min``, ``n`` over the gaps' correlation
+    factor. Below :data:`MIN_LIKELIHOOD_RATIO` (25: 5 sigma, a one-parameter chi-square's
+    p of 6e-7 that the other period, were it the true one, fits this much worse by chance)
+    the path's periods are not told apart. The cost camera 1's interpolation alone could
+    add at another phase (``bend``, :meth:`_DotTracks.bend_px2`) is no evidence and is
+    taken off first: a fast target's wrong period can fit best where camera 2's frames
+    fall on camera 1's.
+    """
+    lo, hi, interval = search
+    min_mean, bend = costs
+    for offset, mean, _ in minima:
+        ratio = n_eff * (mean - min_mean - bend) / max(min_mean, 1e-300)
+        if abs(offset - vertex) > REPEAT_APART * interval and ratio < MIN_LIKELIHOOD_RATIO:
+            raise InputValueError(
+                f"the target's path repeats: offsets {vertex / 1e6:.1f} ms and "
+                f"{offset / 1e6:.1f} ms fit about equally (likelihood ratio {max(ratio, 0):.1f}, "
+                f"under {MIN_LIKELIHOOD_RATIO:g}): measure the offset by a flash both cameras "
+                f"see, or move the target along a path that does not repeat within "
+                f"{(hi - lo) / 1e6:.0f} ms (the offsets searched, {lo / 1e6:+.0f} to "
+                f"{hi / 1e6:+.0f} ms)"
+            )
 
 
 _NOT_FIXED = (

@@ -139,11 +139,18 @@ def _stand(scene: Scene, attach: F64) -> list[Primitive]:
     ]
 
 
-def build_layout(scene: Scene, method: Method, rng: np.random.Generator) -> Layout:
+def build_layout(
+    scene: Scene,
+    method: Method,
+    rng: np.random.Generator,
+    keep_off: tuple[list[tuple[Intrinsics, F64, F64]], F64] | None = None,
+) -> Layout:
     """Place the target for ``method``, the stand and the clutter.
 
     The target of point, line or ground; a board session's scene is the board alone
-    (:func:`board_layout`).
+    (:func:`board_layout`). ``keep_off``: the views (intrinsics, R, t) the clutter is kept
+    off the target in and the (S, 3) shifts of the target along its path (a moving
+    target's, seen by two cameras); None: the static target in one camera's sample views.
     """
     spec = spec_of(method)  # looked up once; its parts travel from here
     if not spec.measures:
@@ -183,7 +190,7 @@ def build_layout(scene: Scene, method: Method, rng: np.random.Generator) -> Layo
         prims += _stand(scene, base)
     if scene.board.present:
         prims.append(_board(scene.board))
-    return Layout(primitives=tuple(prims), decals=tuple(_clutter(scene, spec, rng)))
+    return Layout(primitives=tuple(prims), decals=tuple(_clutter(scene, spec, rng, keep_off)))
 
 
 #: A board session's typed camera centres in inches (no typed rotation; :func:`board_poses`
@@ -268,34 +275,47 @@ def _sample_views(scene: Scene) -> list[tuple[Intrinsics, F64, F64]]:
 
 
 def _too_close_to_target(
-    point_grid: F64, extent: float, target_grid: F64, views: list[tuple[Intrinsics, F64, F64]]
+    point_grid: F64,
+    extent: float,
+    target_grid: F64,
+    views: list[tuple[Intrinsics, F64, F64]],
+    shifts: F64 | None = None,
 ) -> bool:
-    """Whether a decal at ``point_grid`` (size ``extent``) would touch the target in a view."""
-    for intr, R, t in views:
-        target_px = project_points(target_grid, intr, R, t)
-        center_px = project_points(point_grid[None, :], intr, R, t)[0]
-        if not np.all(np.isfinite(target_px)) or not np.all(np.isfinite(center_px)):
-            continue
-        depth = float(np.linalg.norm(point_grid - t))
-        radius_px = intr.fx * extent / depth + 40.0
-        a, b = target_px[0], target_px[-1]
-        ab = b - a
-        s = float(np.clip((center_px - a) @ ab / max(ab @ ab, 1e-9), 0.0, 1.0))
-        if np.linalg.norm(center_px - (a + s * ab)) < radius_px:
-            return True
+    """Whether a decal at ``point_grid`` (size ``extent``) would touch the target in a view.
+
+    ``shifts`` (S, 3): the target at each of these shifts (its path) too.
+    """
+    for target in [target_grid] if shifts is None else [target_grid + d for d in shifts]:
+        for intr, R, t in views:
+            target_px = project_points(target, intr, R, t)
+            center_px = project_points(point_grid[None, :], intr, R, t)[0]
+            if not np.all(np.isfinite(target_px)) or not np.all(np.isfinite(center_px)):
+                continue
+            depth = float(np.linalg.norm(point_grid - t))
+            radius_px = intr.fx * extent / depth + 40.0
+            a, b = target_px[0], target_px[-1]
+            ab = b - a
+            s = float(np.clip((center_px - a) @ ab / max(ab @ ab, 1e-9), 0.0, 1.0))
+            if np.linalg.norm(center_px - (a + s * ab)) < radius_px:
+                return True
     return False
 
 
-def _clutter(scene: Scene, spec: MethodSpec, rng: np.random.Generator) -> list[Decal]:
+def _clutter(
+    scene: Scene,
+    spec: MethodSpec,
+    rng: np.random.Generator,
+    keep_off: tuple[list[tuple[Intrinsics, F64, F64]], F64] | None = None,
+) -> list[Decal]:
     c = scene.clutter
     decals: list[Decal] = []
-    views = _sample_views(scene)
+    views, shifts = (_sample_views(scene), None) if keep_off is None else keep_off
     if not spec.uses_image_lines:  # the dot
         target = np.asarray([scene.point.position], dtype=np.float64)
     else:
         target = np.stack(finger_axis(scene, spec.plane))
     for i in range(c.count):
-        placed = _clutter_place(scene, decals, target, views, rng)
+        placed = _clutter_place(scene, decals, target, (views, shifts), rng)
         if placed is not None:
             surface, center, scale = placed
             decals.append(_clutter_decal(c, c.kinds[i % len(c.kinds)], surface, center, scale, rng))
@@ -306,7 +326,7 @@ def _clutter_place(
     scene: Scene,
     decals: list[Decal],
     target: F64,
-    views: list[tuple[Intrinsics, F64, F64]],
+    keep_off: tuple[list[tuple[Intrinsics, F64, F64]], F64 | None],
     rng: np.random.Generator,
 ) -> tuple[str, F64, float] | None:
     """A decal's surface, centre and size (scene units), off the other decals and the target.
@@ -329,7 +349,7 @@ def _clutter_place(
             d.surface != surface or np.linalg.norm(d.center - center) > 2.2 * scale + c.gap
             for d in decals
         )
-        if apart and not _too_close_to_target(point, 2.5 * scale, target, views):
+        if apart and not _too_close_to_target(point, 2.5 * scale, target, *keep_off):
             return surface, center, scale
     return None
 

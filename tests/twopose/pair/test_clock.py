@@ -164,3 +164,48 @@ def test_an_offset_beyond_the_search_or_exchanged_cameras_are_refused_in_true_wo
             )
         assert "dot" not in str(refused.value)
         assert "widen" not in str(refused.value)
+
+
+@pytest.mark.parametrize(
+    ("speed", "radius", "search_s"),
+    [(20.0, 2.0, 0.7), (30.0, 2.0, 0.5), (100.0, 3.0, 0.5), (15.0, 1.0, 0.5)],
+)
+def test_a_repeating_path_is_refused_naming_both_offsets(
+    speed: float, radius: float, search_s: float
+) -> None:
+    # Issue 58: a circle repeating within the offsets searched locked onto another period
+    # with a small sigma (20 in/s round 2 in: -615.7 +- 0.34 ms; 100 in/s round 3 in: -176
+    # +- 0.12 ms; true 12.5), a wrong "ok".
+    rng = np.random.default_rng(3)
+    frames = (
+        CameraClock().frames(3.0, rng),
+        CameraClock(phase_s=0.013, offset_s=0.0125).frames(3.0, rng),
+    )
+    pair, m = thesis_pair(), FingerMotion(speed=speed, radius=radius)
+    one = observe(pair, m, frames[0], 1, line=False, noise=(0.3, 0), rng=rng)
+    two = observe(pair, m, frames[1], 2, line=False, noise=(0.3, 0), rng=rng)
+    # Both offsets named: a basin's bottom refined, or the coarse grid's rival (a slow
+    # path's other period fits as well as the best even on the grid).
+    both = r"path repeats: offsets -?\d+\.\d ms and|offset of -?\d+ ms nearly as well as"
+    with pytest.raises(InputValueError, match=both) as no:
+        offset_from_ray_gap(
+            pair,
+            one.centroid_px,
+            one.t_ns,
+            two.centroid_px,
+            two.t_ns,
+            search_ns=(-search_s * 1e9, search_s * 1e9),
+        )
+    assert "repeat" in str(no.value)
+
+
+def test_a_path_that_does_not_repeat_in_the_search_is_measured_within_a_millisecond() -> None:
+    rng = np.random.default_rng(3)
+    frames = (
+        CameraClock().frames(3.0, rng),
+        CameraClock(phase_s=0.013, offset_s=0.0125).frames(3.0, rng),
+    )
+    for speed, radius in ((10.0, 3.0), (25.0, 3.0)):  # periods 1885 and 754 ms
+        offset, sigma = _dot(frames, rng, FingerMotion(speed=speed, radius=radius))
+        assert abs(offset - 12.5e6) < 1e6
+        assert sigma < 1e6

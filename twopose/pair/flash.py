@@ -1,0 +1,110 @@
+"""The two cameras' clock offset from a flash both cameras see, with its 1-sigma.
+
+Each camera's frame brightness steps up; a frame whose exposure the onset falls in is lit
+for the share of its exposure after it, so the onset is found to a fraction of a frame (a
+capture time is taken as the middle of its exposure; the exposure is the frame interval
+unless given, as an auto-exposed webcam's is indoors). Its 1-sigma: the brightness noise
+over the step, times the exposure; an onset in the gap between two exposures (or a dropped
+frame's) is known only to that gap, and says so. The offset's sign and the frames' regular
+clocks are :mod:`twopose.pair.clock`'s (:func:`twopose.pair.clock_fit.regular_times`);
+the other way to measure it, a moving target's rays, is
+:func:`twopose.pair.clock.offset_from_ray_gap`. No I/O.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from twopose.arrays import F64
+from twopose.errors import InputValueError
+from twopose.pair.clock_fit import ClockOffset, RegularTimes, regular_times
+
+__all__ = ["FLASH_SIGMAS", "offset_from_flash"]
+
+#: The span of onsets a flash's frames agree with, in their lit shares' 1-sigmas.
+FLASH_SIGMAS = 3.0
+
+
+def _onset(brightness: F64, times: RegularTimes, exposure_ns: float | None) -> tuple[float, float]:
+    """One camera's flash onset (its clock, ns) and its 1-sigma.
+
+    Over the two frames about the step, the lit share of each exposure after an onset ``tau``
+    is ``clip((t_k + E/2 - tau) / E, 0, 1)``; their sum ``L(tau)`` falls steadily through
+    exposures and stays flat across the gaps between them (and a dropped frame's). The
+    onset is where ``L`` meets the frames' measured lit shares' sum: the middle of the
+    ``tau`` where they agree within :data:`FLASH_SIGMAS` of its 1-sigma, which is that
+    span over twice as many; where ``L`` is flat there, the flat span's middle, uniform
+    over it (``span / sqrt 12``).
+    """
+    b = brightness
+    span = float(b.max() - b.min())
+    if span <= 0:
+        raise InputValueError("no flash: the brightness never changes")
+    first_lit = int(np.argmax(b > b.min() + 0.5 * span))
+    if first_lit < 3:
+        raise InputValueError("the flash is in the first frames: start recording before it")
+    lit_end = first_lit + int(np.argmax(np.r_[b[first_lit:] < b.min() + 0.5 * span, True]))
+    if lit_end < first_lit + 3:
+        raise InputValueError("the flash is lit in fewer than three frames: light it longer")
+    before, after = b[: first_lit - 2], b[first_lit + 2 : lit_end]
+    base, peak = float(np.median(before)), float(np.median(after))
+    noise = float(np.std(np.r_[before - base, after - peak], ddof=1))
+    window = np.arange(first_lit - 1, first_lit + 1)  # the onset is in one of these two
+    shares = (b[window] - base) / (peak - base)
+    s_sum = noise / (peak - base) * np.sqrt(window.size)
+    E = times.interval_ns if exposure_ns is None else float(exposure_ns)
+    t = times.times_ns[window]
+    grid = np.linspace(t[0] - E, t[-1] + E, 4001)
+    step = grid[1] - grid[0]
+    L = np.clip((t[None, :] + E / 2 - grid[:, None]) / E, 0.0, 1.0).sum(axis=1)
+    miss = np.abs(L - shares.sum())
+    agree = miss <= FLASH_SIGMAS * max(s_sum, 1e-9)
+    if not agree.any():  # the shares disagree with one onset: take the nearest
+        agree = miss == miss.min()
+    # Where L is flat (between two exposures: a gap, or a dropped frame's) every onset in it
+    # gives the same shares: known to that span only (uniform), else to its slope.
+    flat = agree & (np.abs(np.gradient(L)) < 1e-12)
+    s_time = float(times.sigma_ns[window].max())
+    if flat.any():
+        lo, hi = grid[flat].min(), grid[flat].max()
+        sigma = float(np.sqrt((hi - lo + step) ** 2 / 12 + (s_sum * E) ** 2))
+    else:
+        lo, hi = grid[agree].min(), grid[agree].max()
+        sigma = max(0.5 * (hi - lo) / FLASH_SIGMAS, step)
+    return 0.5 * (lo + hi), float(np.hypot(sigma, s_time))
+
+
+def offset_from_flash(
+    brightness1: ArrayLike,
+    t1_ns: ArrayLike,
+    brightness2: ArrayLike,
+    t2_ns: ArrayLike,
+    *,
+    exposure_ns: tuple[float | None, float | None] = (None, None),
+) -> ClockOffset:
+    """The clock offset from a flash both cameras see (the module docstring).
+
+    Parameters
+    ----------
+    brightness1, brightness2 : (N1,), (N2,) array_like
+        Each frame's mean brightness (any linear unit), camera 1's and camera 2's.
+    t1_ns, t2_ns : (N1,), (N2,) array_like
+        Their capture times (nanoseconds, each camera's clock).
+    exposure_ns : (float or None, float or None)
+        Each camera's exposure (None: its frame interval).
+
+    Returns
+    -------
+    ClockOffset
+    """
+    onsets = []
+    for b, t, e in ((brightness1, t1_ns, exposure_ns[0]), (brightness2, t2_ns, exposure_ns[1])):
+        values = np.asarray(b, dtype=np.float64).reshape(-1)
+        times = np.asarray(t, dtype=np.float64).reshape(-1)
+        if values.shape != times.shape or not np.isfinite(values).all():
+            raise InputValueError("each frame needs one finite brightness and one time")
+        onsets.append(_onset(values, regular_times(times), e))
+    (a, sa), (b2, sb) = onsets
+    n = int(np.asarray(t1_ns).size + np.asarray(t2_ns).size)
+    return ClockOffset(offset_ns=b2 - a, sigma_ns=float(np.hypot(sa, sb)), method="flash", n=n)
