@@ -525,9 +525,9 @@ def trial_table(
     import pandas as pd
 
     result = TrialResult(session, estimate, reported_, notes, unmeasured)
-    columns = [c for c in columns_of(result.spec) if c.fill is not None]
-    table = pd.DataFrame({c.name: c.fill(result) for c in columns})
-    return table.assign(**{c.name: as_dtype(table[c.name], c.dtype) for c in columns})
+    filled = [(c, c.fill) for c in columns_of(result.spec) if c.fill is not None]
+    table = pd.DataFrame({c.name: fill(result) for c, fill in filled})
+    return table.assign(**{c.name: as_dtype(table[c.name], c.dtype) for c, _ in filled})
 
 
 def as_dtype(values: pd.Series, dtype: str) -> pd.Series:
