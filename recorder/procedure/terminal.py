@@ -52,7 +52,7 @@ from twopose.format.entries import (
     TypedEntry,
 )
 from twopose.methods.planes import ConstraintPlane
-from twopose.methods.specs import PLANES, Method, spec_of
+from twopose.methods.specs import PLANES, Method, MethodSpec, spec_of
 from twopose.methods.targets import BoardPlacement
 from twopose.values.bounds import (
     BOARD_CORNER,
@@ -168,13 +168,14 @@ def ask_setup(  # noqa: PLR0913 - one keyword per setup value the operator may h
             _given(BOARD_CORNER, v, u, "--board-corner", axis=a)
     if target_precision is not None:
         _given(TARGET_PRECISION, target_precision, u, "--target-precision")
-    truth = _ask_truth(op, m, u, h, list(ground_truth))
-    if not spec_of(m).measures and board is None:
+    spec = spec_of(m)  # the method came in as text (the option or the answer): looked up once
+    truth = _ask_truth(op, spec, u, h, list(ground_truth))
+    if not spec.measures and board is None:
         board = _ask_board(op, u)
     who = operator if operator is not None else _ask(op, "operator", u)
     target = target_precision
     fixed = guidance is not None and guidance.poses is not None  # --poses: no stop rule
-    if target is None and spec_of(m).measures and op.questions > asked_before and not fixed:
+    if target is None and spec.measures and op.questions > asked_before and not fixed:
         target = ask_target(op, u)
     return Setup(
         method=m,
@@ -184,7 +185,7 @@ def ask_setup(  # noqa: PLR0913 - one keyword per setup value the operator may h
         ground_truth=truth,
         operator=who,
         intrinsics_sigma=dict(intrinsics_sigma or {}),
-        board=board if not spec_of(m).measures else None,
+        board=board if not spec.measures else None,
         target95=target,
     )
 
@@ -254,15 +255,15 @@ def _ask_board(op: Operator, units: Units) -> BoardPlacement:
 
 
 def _ask_truth(
-    op: Operator, method: Method, units: Units, height: float | None, given: list[Vec3]
+    op: Operator, spec: MethodSpec, units: Units, height: float | None, given: list[Vec3]
 ) -> tuple[Vec3, ...]:
     """The ground truth, checked as typed: a line's two points must differ, and a point off
     the method's plane (method 2's ground) is kept only if the operator confirms it."""
-    n_truth = spec_of(method).truth_points
+    n_truth = spec.truth_points
     if n_truth == 2 and len(given) >= 2 and given[0] == given[1]:
         raise InputValueError(f"the two ground-truth points of a line must differ, got {given}")
     given = given[:n_truth]
-    plane = spec_of(method).plane
+    plane = spec.plane
     if (
         plane is not None
         and height is not None
