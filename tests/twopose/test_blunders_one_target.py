@@ -91,3 +91,19 @@ def test_the_worst_trial_first_and_two_others_at_least() -> None:
     three = target_tests(point[:3], cov[:3], np.ones(3, dtype=bool), np.array([1, 0, 0], bool))
     assert not three.flagged.any()
     assert (three.dof[1:] == 0).all()
+
+
+def test_a_trial_not_solved_beside_trials_of_one_target_is_left_out_not_a_crash() -> None:
+    """A killed-and-recovered session's unfinished trial has no estimate (NaN point and
+    covariance): the others are tested without it; it is neither tested nor flagged (its
+    NaN region once went into an eigendecomposition: 'Eigenvalues did not converge')."""
+    rng = np.random.default_rng(3)
+    point = np.array([1.0, 9.6, 8.4]) + rng.normal(0.0, 0.01, (5, 3))
+    cov = np.tile(np.diag([1e-4, 1e-4, 4e-4]), (5, 1, 1))
+    point[2], cov[2] = np.nan, np.nan
+    same = np.ones(5, dtype=bool)
+    tests = target_tests(point, cov, same, np.zeros(5, dtype=bool))
+    assert not tests.flagged.any()
+    assert tests.dof[2] == 0
+    assert np.isnan(tests.p[2])
+    assert (tests.dof[[0, 1, 3, 4]] == 3).all()

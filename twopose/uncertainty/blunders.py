@@ -169,7 +169,9 @@ def target_tests(
     P = _across(cov[kept])
     x = np.einsum("ij,tj->ti", P, point)
     C = np.einsum("ij,tjk,lk->til", P, cov, P)
-    W = np.stack([_pinv(c)[0] for c in C])  # each region's weight, once
+    W = np.zeros_like(C)  # each region's weight, once; none for a trial not solved (NaN)
+    for i in np.flatnonzero(usable):
+        W[i] = _pinv(C[i])[0]
     while kept.sum() >= _REST_LEAST + 1:
         # every kept trial's rest: the kept sums less its own (one pass a round)
         info = W[kept].sum(axis=0)
