@@ -49,7 +49,12 @@ class Page:
         element.send_keys(text)
 
     def click(self, testid: str) -> None:
-        self.wait(lambda: self.el(testid).is_enabled(), f"{testid} enabled")
+        # Shown as well as enabled: the page shows a panel once its state has arrived (on a
+        # loaded machine the button exists, hidden, before that: "element not interactable").
+        self.wait(
+            lambda: self.el(testid).is_displayed() and self.el(testid).is_enabled(),
+            f"{testid} shown and enabled",
+        )
         self.el(testid).click()
 
     def status(self) -> str:
