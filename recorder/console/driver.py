@@ -28,6 +28,7 @@ from recorder.procedure.driver import (
 from recorder.procedure.machine import Shortfall, detection_shortfall
 from recorder.procedure.summary import RecordingSummary
 from recorder.setup.rules import PoseTyping
+from twopose.errors import TwoposeError
 from twopose.format.entries import GroundTruth, Note, PoseEntry, TruthKind, TypedEntry
 from twopose.values.checks import Vec3
 from twopose.values.units import Units
@@ -40,7 +41,7 @@ if TYPE_CHECKING:
     from twopose.guidance.advice import Advice
 
 
-__all__ = ["WebDriver"]
+__all__ = ["WebDriver", "said_ended", "said_failed"]
 
 
 class WebDriver(Driver):
@@ -348,3 +349,17 @@ def _listed(choices: list[str]) -> str:
     """``accept, redo, undo or quit``: the choices in words."""
     words = [c.replace("_", " ") for c in choices]
     return f"{', '.join(words[:-1])} or {words[-1]}"
+
+
+def said_ended(summary_line: str, *, stopped: bool) -> None:
+    """A console recording thread's end: its summary printed once (and, unless the console
+    is stopping, how to stop it). The one-camera and the pair recording both end so."""
+    hint = "" if stopped else "\n(the console shows it; Ctrl-C stops the console)"
+    print(summary_line + hint, flush=True)
+
+
+def said_failed(session: ConsoleSession, err: Exception) -> None:
+    """A console recording thread's failure said on the page, never as a thread's
+    traceback: a TwoposeError in its own words, anything else named by its type."""
+    message = str(err) if isinstance(err, TwoposeError) else f"{type(err).__name__}: {err}"
+    session.update(phase="failed", waiting="", message=message)

@@ -23,7 +23,7 @@ from starlette.responses import HTMLResponse, Response, StreamingResponse
 from starlette.routing import Route
 from typing_extensions import override
 
-from recorder.console.driver import WebDriver
+from recorder.console.driver import WebDriver, said_ended, said_failed
 from recorder.console.frames import BOUNDARY, mjpeg, preview
 from recorder.console.guard import (
     ConsoleGuard,
@@ -130,13 +130,9 @@ def _recording(
             session.out, info, [camera], src, driver, ground=setup.ground(), capture=capture,
             after_trial=continued.last_trial if continued is not None else 0,
         )  # fmt: skip
-        stopped = stopping.is_set() or stops.requested()
-        hint = "" if stopped else "\n(the console shows it; Ctrl-C stops the console)"
-        print(summary.line() + hint, flush=True)
-    except TwoposeError as err:
-        session.update(phase="failed", waiting="", message=str(err))
+        said_ended(summary.line(), stopped=stopping.is_set() or stops.requested())
     except Exception as err:  # the page must say it, not a thread's traceback
-        session.update(phase="failed", waiting="", message=f"{type(err).__name__}: {err}")
+        said_failed(session, err)
     finally:
         if view is not None:
             view.close()

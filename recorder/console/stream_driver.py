@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 from typing_extensions import override
 
+from recorder.console.driver import said_ended, said_failed
 from recorder.procedure import stops
 from recorder.procedure.stream import (
     StreamDriver,
@@ -290,7 +291,6 @@ def record_pair_thread(
     when it ends."""
     from recorder.procedure.stream import record_stream
     from recorder.procedure.stream_terminal import pair_cameras
-    from twopose.errors import TwoposeError
 
     live = _pointing(setup, pair, pointing)
     try:
@@ -298,13 +298,9 @@ def record_pair_thread(
             session.out, setup.info(notes), pair_cameras(pair), pair, source,
             WebStreamDriver(session, live), ground=setup.ground(), sink=_Preview(session, live),
         )  # fmt: skip
-        stopped = session.closing.is_set() or stops.requested()
-        hint = "" if stopped else "\n(the console shows it; Ctrl-C stops the console)"
-        print(summary.line() + hint, flush=True)
-    except TwoposeError as err:
-        session.update(phase="failed", waiting="", message=str(err))
+        said_ended(summary.line(), stopped=session.closing.is_set() or stops.requested())
     except Exception as err:  # the page must say it, not a thread's traceback
-        session.update(phase="failed", waiting="", message=f"{type(err).__name__}: {err}")
+        said_failed(session, err)
     finally:
         if live is not None:
             live.close("the recording ended")
