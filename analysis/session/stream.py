@@ -35,6 +35,7 @@ from twopose.format.streams import CameraStream, StreamTrial, read_pair_session
 from twopose.methods.specs import Method, spec_of
 from twopose.pair.calibration import PairCalibration
 from twopose.pair.clock import ClockOffset, offset_from_ray_gap
+from twopose.pair.frame_noise import CameraNoise, track_noise
 from twopose.pair.stream import (
     CameraTrack,
     StreamEstimate,
@@ -50,15 +51,21 @@ __all__ = [
     "TrialReplay",
     "at_touches",
     "camera_track",
+    "detect_trial",
     "replay_pair_session",
     "replay_trial",
+    "session_noise",
 ]
 
 #: A touch's estimate is interpolated between two ok estimates no more than this many
 #: frame intervals apart (one lost or near-singular pair between them is bridged).
 MAX_TOUCH_GAP_INTERVALS = 2.5
-#: Each frame's detection noise when none is given (1-sigma: centroid px, line deg).
+#: Each frame's detection noise assumed where the session's own frames are too few to
+#: estimate it (:func:`session_noise`; 1-sigma: centroid px, line deg).
 DEFAULT_NOISE = StreamNoise(centroid_px=0.25, theta_deg=0.25)
+
+#: A stream trial's detections: both cameras' tracks and their frames' detector reasons.
+Detected = tuple[tuple[CameraTrack, CameraTrack], tuple[tuple[str, ...], tuple[str, ...]]]
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -82,6 +89,8 @@ class TrialReplay:
     at_touch: F64
     touch_error: F64
     reason: str = ""
+    #: each camera's detection noise used, and where it came from
+    noise: tuple[CameraNoise, CameraNoise] | None = None
     #: camera 1's median frame interval (ns; 0 with fewer than two frames)
     interval_ns: float = 0.0
     #: each camera's frames' detector reasons, in frame order ("" where found)
@@ -101,6 +110,8 @@ class PairReplay:
     method: Method
     pair: PairCalibration
     trials: tuple[TrialReplay, ...]
+    #: each camera's detection noise the regions carry, and where it came from
+    noise: tuple[CameraNoise, CameraNoise] | None = None
 
 
 #: Told each frame as it is detected, with its detection (the tables, results.mcap).
@@ -185,7 +196,8 @@ def replay_pair_session(
     path : path-like
         A format 1.6 two-camera session.
     noise : StreamNoise, optional
-        Each frame's detection noise (default :data:`DEFAULT_NOISE`).
+        Each frame's detection noise (default: each camera's estimated from the session's
+        own frames, :func:`session_noise`; :data:`DEFAULT_NOISE` where they are too few).
     offset : ClockOffset, optional
         The clock offset to use (default: the session's last recorded one, else measured
         per trial).
@@ -202,31 +214,44 @@ def replay_pair_session(
         if not spec_of(method).measures:
             raise InputValueError(f"{path}: a {method} session measures nothing to replay")
         known = (offset, "given") if offset is not None else (session.offset, "recorded")
-        settings = StreamSettings(noise=noise or DEFAULT_NOISE, interpolate=interpolate)
+        detected = [detect_trial(trial, method) for trial in session.trials]
+        used = session_noise([d[0] for d in detected], method, noise)
+        settings = StreamSettings(
+            noise=(used[0].noise, used[1].noise), interpolate=interpolate
+        )
         trials = [
-            replay_trial(trial, session.pair, method, known, settings) for trial in session.trials
+            replay_trial(trial, session.pair, method, known, settings, detected=d, noise=used)
+            for trial, d in zip(session.trials, detected, strict=True)
         ]
-    return PairReplay(path=Path(path), method=method, pair=session.pair, trials=tuple(trials))
+    return PairReplay(
+        path=Path(path), method=method, pair=session.pair, trials=tuple(trials), noise=used
+    )
 
 
-def replay_trial(
+def session_noise(
+    tracks: list[tuple[CameraTrack, CameraTrack]], method: Method, given: StreamNoise | None
+) -> tuple[CameraNoise, CameraNoise]:
+    """Each camera's detection noise: ``given``, else estimated from the session's own
+    frames, every stream trial's pooled (:func:`twopose.pair.frame_noise.track_noise`),
+    else (too few) :data:`DEFAULT_NOISE`, said so."""
+    if given is not None:
+        return CameraNoise.given(given), CameraNoise.given(given)
+    lines = spec_of(method).uses_image_lines
+    one, two = (
+        track_noise([t[c] for t in tracks], lines=lines, assumed=DEFAULT_NOISE) for c in (0, 1)
+    )
+    return one, two
+
+
+def detect_trial(
     trial: StreamTrial,
-    pair: PairCalibration,
     method: Method,
-    known: tuple[ClockOffset | None, str],
-    settings: StreamSettings,
-    *,
     params: object = None,
     seen: tuple[FrameSeen, FrameSeen] | None = None,
-) -> TrialReplay:
-    """One stream trial replayed (the reader open): both cameras' targets detected (by the
-    detector's thresholds ``params``, each frame told to its camera's ``seen``), the
-    clock offset ``known`` (``(offset, where from)``; ``(None, _)``: measured by the ray
-    gap), the stream estimated and read at each touch.
-
-    Raises :class:`~twopose.errors.InputValueError` when the trial cannot be estimated (a
-    camera with too few frames, an offset that cannot be measured), saying why.
-    """
+) -> Detected:
+    """Both cameras' detections of the method's target in a stream trial (by the detector's
+    thresholds ``params``, each frame told to its camera's ``seen``), and each frame's
+    detector reason ("" where found)."""
     outer = seen or (None, None)
     missed: tuple[list[str], list[str]] = ([], [])
 
@@ -244,6 +269,31 @@ def replay_trial(
         camera_track(trial.camera1, method, params, told(0)),
         camera_track(trial.camera2, method, params, told(1)),
     )
+    return tracks, (tuple(missed[0]), tuple(missed[1]))
+
+
+def replay_trial(
+    trial: StreamTrial,
+    pair: PairCalibration,
+    method: Method,
+    known: tuple[ClockOffset | None, str],
+    settings: StreamSettings,
+    *,
+    params: object = None,
+    seen: tuple[FrameSeen, FrameSeen] | None = None,
+    detected: Detected | None = None,
+    noise: tuple[CameraNoise, CameraNoise] | None = None,
+) -> TrialReplay:
+    """One stream trial replayed (the reader open): both cameras' targets detected (by the
+    detector's thresholds ``params``, each frame told to its camera's ``seen``; or
+    ``detected`` already, :func:`detect_trial`), the clock offset ``known`` (``(offset,
+    where from)``; ``(None, _)``: measured by the ray gap), the stream estimated (each
+    camera's noise ``settings.noise``, said by ``noise``) and read at each touch.
+
+    Raises :class:`~twopose.errors.InputValueError` when the trial cannot be estimated (a
+    camera with too few frames, an offset that cannot be measured), saying why.
+    """
+    tracks, missed = detected or detect_trial(trial, method, params, seen)
     used, source = _offset(trial, pair, tracks, known)
     estimate = estimate_stream(method, pair, *tracks, used, settings)
     interval = float(np.median(np.diff(tracks[0].t_ns))) if len(tracks[0].t_ns) > 1 else 0.0
@@ -258,8 +308,9 @@ def replay_trial(
         at_touch=at,
         touch_error=np.full(len(trial.touches), np.nan),
         reason="; ".join(s.reason for s in trial.cameras if s.reason),
+        noise=noise,
         interval_ns=interval,
-        missed=(tuple(missed[0]), tuple(missed[1])),
+        missed=missed,
     )
     error = np.linalg.norm(at - replay.truth, axis=1)
     return dataclasses.replace(replay, touch_error=error)

@@ -43,8 +43,9 @@ from twopose.detect.detection import Detection
 from twopose.display.scene import TrialScene
 from twopose.format.messages import Frame
 from twopose.format.streams import StreamTrial
-from twopose.methods.specs import Method
+from twopose.methods.specs import Method, spec_of
 from twopose.pair.calibration import PairCalibration
+from twopose.pair.frame_noise import CameraNoise
 from twopose.pair.stream import StreamEstimate
 from twopose.values.units import Units
 
@@ -66,6 +67,8 @@ class PairOutputs:
     units: Units
     pair: PairCalibration
     results: ResultsWriter | None = None
+    #: each camera's detection noise, and where it came from (the session's)
+    noise: tuple[CameraNoise, CameraNoise] | None = None
     frames: list[dict[str, Any]] = field(default_factory=list)
     views: list[pd.DataFrame] = field(default_factory=list)
     averaging: list[dict[str, Any]] = field(default_factory=list)
@@ -123,7 +126,9 @@ class PairOutputs:
         intr, _, t, angles = self._poses(pair)
         P = est.t_ns.size
         tables = []
+        lines = spec_of(self.method).uses_image_lines
         for c in range(2):
+            said = replay.noise[c] if replay.noise is not None else None
             px, theta = est.measured[:, c, :2], est.measured[:, c, 2]
             ray = grid_rays(px, intr[c], rotation_from_angles_deg(angles[c]))
             columns: dict[str, Any] = {
@@ -137,6 +142,7 @@ class PairOutputs:
                 "pair_time_ns": est.t_ns.astype(np.int64), "skew_ms": est.skew_ns / 1e6,
                 "status": est.status.astype(str), "reason": est.reason.astype(str),
                 "conditioning": est.conditioning,
+                **_noise_columns(said, lines=lines),
             }  # fmt: skip
             tables.append(pd.DataFrame(columns, index=np.arange(P) * 2 + c))
         return pd.concat(tables).sort_index() if P else pd.DataFrame(columns=VIEW_COLUMNS)
@@ -173,6 +179,18 @@ class PairOutputs:
             typed(pd.DataFrame(views, columns=VIEW_COLUMNS)),
             typed(pd.DataFrame(self.averaging, columns=AVERAGING_COLUMNS)),
         )
+
+
+def _noise_columns(noise: CameraNoise | None, *, lines: bool) -> dict[str, Any]:
+    """A camera's detection noise in ``views.csv``: its 1-sigmas, dof and source in words."""
+    if noise is None:
+        return {}
+    return {
+        "noise_px": noise.noise.centroid_px,
+        "noise_deg": noise.noise.theta_deg if lines else np.nan,
+        "noise_dof": noise.dof_px if noise.source == "estimated" else 0.0,
+        "noise_source": noise.said(lines=lines),
+    }
 
 
 def _frame_row(

@@ -41,12 +41,12 @@ from analysis.batch.inputs import SessionIdentity
 from analysis.results import AnalysisOptions, SessionResult
 from analysis.session.results_mcap import results_writer
 from analysis.session.stream import (
-    DEFAULT_NOISE,
     MAX_TOUCH_GAP_INTERVALS,
     TrialReplay,
     at_touches,
-    camera_track,
+    detect_trial,
     replay_trial,
+    session_noise,
 )
 from analysis.session.stream_rows import PairOutputs, nearest_ok
 from analysis.tables.columns import typed
@@ -243,18 +243,21 @@ def touch_rows(
     parts = session if isinstance(session, list) else [session]
     spec = spec_of(parts[0].info.method)
     assert spec.target is not None  # a measuring method's
-    settings = StreamSettings(noise=DEFAULT_NOISE, estimate=options.estimate)
     params = options.thresholds_for(spec.target)
+    kept = [(p, t) for p, t in _kept_trials(parts) if t.touches or outputs is not None]
+    detected = [  # every trial's frames first: the cameras' noise is the session's
+        detect_trial(t, spec.method, params, None if outputs is None else outputs.seen(t.trial))
+        for _, t in kept
+    ]
+    noise = session_noise([d[0] for d in detected], spec.method, None)
+    if outputs is not None:
+        outputs.noise = noise
+    settings = StreamSettings(noise=(noise[0].noise, noise[1].noise), estimate=options.estimate)
     rows: list[dict[str, Any]] = []
-    for part, trial in _kept_trials(parts):
-        if not trial.touches and outputs is None:
-            continue  # no row; its frames and pairs are the other tables'
+    for (part, trial), found in zip(kept, detected, strict=True):
         baseline = {"baseline": float(np.linalg.norm(part.pair.t_2_in_1))}
-        seen = None if outputs is None else outputs.seen(trial.trial)
         blind = [s.camera_id for s in trial.cameras if len(s) < 2]
         if blind:  # nothing to pair or interpolate: said per touch
-            for stream, told in zip(trial.cameras, seen or (), strict=False):
-                camera_track(stream, spec.method, params, told)  # its frames' rows
             why = (
                 f"camera {' and '.join(blind)} recorded fewer than 2 frames in trial {trial.trial}"
             )
@@ -262,7 +265,7 @@ def touch_rows(
             continue
         try:
             replay = replay_trial(trial, part.pair, spec.method, (part.offset, "recorded"),
-                                  settings, params=params, seen=seen)  # fmt: skip
+                                  settings, detected=found, noise=noise)  # fmt: skip
         except InputValueError as err:
             rows += [_failed_row(trial, k, str(err)) | baseline for k in range(len(trial.touches))]
             continue

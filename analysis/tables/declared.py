@@ -116,7 +116,8 @@ _V = "views"
 #: two-camera session's (``cameras`` 2): per frame pair of each stream trial (``trial`` the
 #: stream trial's number, ``pair`` the pair's from 1), one row per camera (``pose`` 1 or 2,
 #: camera 1 at the origin), the pair flagged or used: its ``status``, ``reason`` and
-#: ``conditioning``, its time and skew.
+#: ``conditioning``, its time and skew, and the camera's detection noise its region carries
+#: and where it came from (estimated from the session's own frames, or assumed).
 VIEW_TABLE: tuple[Column, ...] = (
     *_trial_key(_V),
     _count("pose", "pose", _V),
@@ -137,6 +138,13 @@ VIEW_TABLE: tuple[Column, ...] = (
     _text("status", "pair's status", _V),
     _text("reason", "why the pair has no estimate", _V),
     _number("conditioning", "pair's conditioning", _V, "none", NON_NEGATIVE),
+    _number("noise_px", "camera's centroid noise (1-sigma; across the line for a finger)", _V,
+            "pixels", NON_NEGATIVE),
+    _number("noise_deg", "camera's line direction noise (1-sigma)", _V, "degrees",
+            NON_NEGATIVE),
+    _number("noise_dof", "centroid noise's degrees of freedom (0: not estimated)", _V, "none",
+            NON_NEGATIVE),
+    _text("noise_source", "where the camera's noise came from", _V),
 )  # fmt: skip
 
 _A = "averaging"

@@ -135,7 +135,8 @@ class StreamNoise:
 class StreamSettings:
     """How a stream is estimated.
 
-    ``noise`` each frame's detection noise (both cameras); ``interpolate`` whether camera
+    ``noise`` each frame's detection noise: both cameras', or camera 1's and camera 2's
+    (a session's own, :func:`twopose.pair.frame_noise.track_noise`); ``interpolate`` whether camera
     1's measurement is interpolated to camera 2's time (False: the paired frame's, its skew
     carried as a time error); ``ground`` the ground plane ``(normal (3,), offset)`` in
     camera 1's frame, exact (None: the pair's floor, with its covariance); ``estimate``
@@ -145,11 +146,17 @@ class StreamSettings:
     trial is reported nearest its true segment's midpoint.
     """
 
-    noise: StreamNoise
+    noise: StreamNoise | tuple[StreamNoise, StreamNoise]
     interpolate: bool = True
     ground: GroundSpec | None = None
     estimate: EstimateOptions = field(default_factory=EstimateOptions)
     line_reference: F64 | None = None
+
+    @property
+    def noises(self) -> tuple[StreamNoise, StreamNoise]:
+        """Camera 1's and camera 2's detection noise."""
+        n = self.noise
+        return n if isinstance(n, tuple) else (n, n)
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -467,22 +474,22 @@ def _covariance(
 ) -> tuple[F64, F64]:  # fmt: skip
     """(P, 3, 3) each estimate's covariance and (P,) the skew term's share of its trace."""
     P = point.shape[0]
-    noise, ground, options = settings.noise, settings.ground, settings.estimate
+    noises, ground, options = settings.noises, settings.ground, settings.estimate
     ok = np.asarray(np.isfinite(point).all(axis=1))
     cov = np.full((P, 3, 3), np.nan)
     share = np.full(P, np.nan)
     if not ok.any():
         return cov, share
     b = batch.rows(ok)
-    pixel = np.diag([noise.centroid_px**2, noise.centroid_px**2, noise.theta_deg**2])
+    pixel = [np.diag([n.centroid_px**2, n.centroid_px**2, n.theta_deg**2]) for n in noises]
     C = np.zeros((int(ok.sum()), 2, 9, 9))
-    C[:, 0, :3, :3] = pixel * one.weight[ok, None, None]
+    C[:, 0, :3, :3] = pixel[0] * one.weight[ok, None, None]
     v = one.velocity[ok]
     skew = np.einsum("pi,pj->pij", v, v) * (one.time_error_ns[ok] ** 2)[:, None, None]
     C[:, 0, :3, :3] += skew
     bias = one.interpolation_error[ok]
     C[:, 0, :3, :3] += np.einsum("pi,pj->pij", bias, bias)
-    C[:, 1, :3, :3] = pixel
+    C[:, 1, :3, :3] = pixel[1]
     C[:, 1, 3:9, 3:9] = _pair_constants(pair)[2]
     if not np.isfinite(b.inputs[..., 2]).all():  # a dot: its direction is no input
         C[:, :, 2, :] = C[:, :, :, 2] = 0.0

@@ -1,0 +1,259 @@
+"""A camera's detection noise estimated from its own frames (issue 58, the regions).
+
+A stream's 95% regions carry each frame's detection noise (``StreamNoise``: the centroid's
+1-sigma in pixels, an image line's direction's in degrees). It is estimated here from the
+detections' scatter about a smooth local fit in time, each camera on its own:
+
+- every run of :data:`WINDOW_FRAMES` consecutive found frames (no more than
+  :data:`MAX_SPAN_INTERVALS` frame intervals long: a dropped or lost frame or two bridged)
+  is fitted by a polynomial of degree :data:`DEGREE` in its capture times, and the middle
+  frame's residual divided by its own 1-sigma factor ``sqrt(1 - h)`` (``h`` the fit's
+  leverage there): for white noise of 1-sigma ``s`` each such residual has 1-sigma ``s``
+  whatever the frames' times. The window being symmetric about its middle frame, the
+  quadratic's residual there is blind to the motion's cubic term as well (Savitzky-Golay):
+  a fingertip moving at 10 in/s 14 in ahead leaves 0.004 px;
+- the image line's direction as its doubled angle unwrapped (a line has no arrow);
+- ``s`` is then found robustly: from the residuals' 20% quantile (a low start: a target
+  that stops and starts, as a finger touching a point does, or a detection that wobbles,
+  makes some residuals far larger than the noise), then iterated: the residuals within
+  :data:`CLIP_SIGMA` ``s`` kept, their mean square divided by the share of a normal's
+  variance that clip keeps, until it holds. Where the motion is not smooth at the scale of
+  five frames, its residuals are larger and the estimate only conservative;
+- its degrees of freedom are Satterthwaite's for the kept residuals, which share frames
+  (``m^2 / sum_kl (c_k . c_l)^2`` over their unit filters ``c``): about half their count;
+- with fewer than :data:`MIN_DOF` degrees of freedom (too few frames, a target mostly lost)
+  the assumed noise is used, and said so with why.
+
+Several tracks of one camera (a session's stream trials, a live pointing's last seconds)
+are pooled: their residuals are one sample. Arrays in, a frozen record out; no I/O.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from twopose.arrays import F64, Bools
+from twopose.pair.stream import CameraTrack, StreamNoise
+
+__all__ = [
+    "CLIP_SIGMA",
+    "DEGREE",
+    "MAX_SPAN_INTERVALS",
+    "MIN_DOF",
+    "MIN_MOTION_PX",
+    "WINDOW_FRAMES",
+    "CameraNoise",
+    "track_noise",
+]
+
+#: Frames per local fit: odd, so that the fitted frame is the window's middle.
+WINDOW_FRAMES = 5
+#: The local fit's degree in time (with the symmetric window, exact to the cubic term).
+DEGREE = 2
+#: A window spans at most this many frame intervals (four: none lost; six: two bridged).
+MAX_SPAN_INTERVALS = 6.5
+#: Residuals beyond this many sigma are the motion's or a wobble's, not the noise's.
+CLIP_SIGMA = 3.0
+#: A window is used only where the target moved at least this far (px) between each two of
+#: its frames: a detection's error that stays with the target where it stands (the pixel
+#: grid's sampling of its blob) is the same in every frame of a still target, never seen as
+#: scatter, yet it is each estimate's error; moving a pixel a frame, it changes frame to frame.
+MIN_MOTION_PX = 1.0
+#: Fewer degrees of freedom than this: the noise is assumed (its sigma known to ~13% here).
+MIN_DOF = 30.0
+#: The robust start: this quantile of the residuals' magnitudes, over a normal's.
+_START_QUANTILE = 0.2
+_NORMAL_ABS_Q20 = 0.2533471031357997  # the 20% quantile of |z|, z ~ N(0, 1)
+
+
+def _kept_variance(c: float) -> float:
+    """The share of a normal's variance within +-c sigma, over its share of mass."""
+    mass = math.erf(c / math.sqrt(2.0))
+    density = math.exp(-0.5 * c * c) / math.sqrt(2.0 * math.pi)
+    return 1.0 - 2.0 * c * density / mass
+
+
+_KEPT = _kept_variance(CLIP_SIGMA)
+
+
+@dataclass(frozen=True, kw_only=True)
+class CameraNoise:
+    """One camera's detection noise and where it came from.
+
+    ``noise`` the 1-sigma used; ``source`` ``estimated`` (from the frames), ``assumed``
+    (too few: ``why`` says why) or ``given``; ``dof_px``/``dof_deg`` the degrees of freedom
+    of the centroid's and the line direction's estimates (0 when not estimated; the
+    direction's NaN for a dot); ``frames`` the found frames looked at.
+    """
+
+    noise: StreamNoise
+    source: str
+    dof_px: float = 0.0
+    dof_deg: float = math.nan
+    frames: int = 0
+    why: str = ""
+
+    @classmethod
+    def given(cls, noise: StreamNoise) -> CameraNoise:
+        """A noise given by the user (not estimated)."""
+        return cls(noise=noise, source="given")
+
+    def said(self, *, lines: bool) -> str:
+        """In words: "pixel noise 0.081 px, 0.052 deg estimated from 412 frames (dof 190,
+        95)" or "assumed 0.25 px (too few frames: ...)"."""
+        n = self.noise
+        value = f"{n.centroid_px:.3g} px" + (f", {n.theta_deg:.3g} deg" if lines else "")
+        if self.source == "estimated":
+            dof = f"{self.dof_px:.0f}" + (f", {self.dof_deg:.0f}" if lines else "")
+            return f"pixel noise {value} estimated from {self.frames} frames (dof {dof})"
+        if self.source == "given":
+            return f"pixel noise {value} given"
+        return f"pixel noise assumed {value} ({self.why})"
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class _Residuals:
+    """Standardised residuals (M,) and their unit filters' overlaps with the next four."""
+
+    z: F64
+    overlap: F64  # (M, WINDOW_FRAMES - 1): c_k . c_{k+d}, d = 1..4 (0: not neighbours)
+
+
+def _residuals(t_ns: F64, y: F64, interval: float, moving: Bools | None = None) -> _Residuals:
+    """The middle frames' standardised residuals of ``y`` (N,) about their local fits;
+    ``moving`` (N - 1,) whether the target moved enough from each frame to the next."""
+    W, half = WINDOW_FRAMES, WINDOW_FRAMES // 2
+    n = y.size
+    if n < W or not interval > 0:
+        return _Residuals(z=np.zeros(0), overlap=np.zeros((0, W - 1)))
+    idx = np.arange(n - W + 1)[:, None] + np.arange(W)[None, :]
+    x = (t_ns[idx] - t_ns[idx[:, half]][:, None]) / interval  # (M, W), the middle at 0
+    span_ok = (x[:, -1] - x[:, 0]) <= MAX_SPAN_INTERVALS
+    if moving is not None:
+        span_ok &= moving[idx[:, :-1]].all(axis=1)
+    X = x[:, :, None] ** np.arange(DEGREE + 1)[None, None, :]  # (M, W, D+1)
+    # The middle row of the hat matrix: e0^T (X^T X)^-1 X^T, e0 the constant term.
+    gram = np.einsum("mwi,mwj->mij", X, X)
+    e0 = np.zeros(DEGREE + 1)
+    e0[0] = 1.0
+    a = np.linalg.solve(gram, np.broadcast_to(e0, (x.shape[0], DEGREE + 1))[..., None])[..., 0]
+    h = np.einsum("mi,mwi->mw", a, X)
+    c = -h
+    c[:, half] += 1.0
+    c /= np.linalg.norm(c, axis=1, keepdims=True)
+    z = np.einsum("mw,mw->m", c, y[idx])
+    overlap = np.zeros((x.shape[0], W - 1))
+    for d in range(1, W):  # rows k and k + d share W - d frames
+        overlap[: x.shape[0] - d, d - 1] = np.einsum("mw,mw->m", c[:-d, d:], c[d:, : W - d])
+    overlap[~span_ok, :] = 0.0
+    for d in range(1, W):
+        overlap[: x.shape[0] - d, d - 1] *= span_ok[d:]
+    z = np.where(span_ok, z, np.nan)
+    return _Residuals(z=z, overlap=overlap)
+
+
+def _robust_sigma(z: F64) -> tuple[float, F64]:
+    """The noise's 1-sigma from standardised residuals, and which were kept (module doc)."""
+    a = np.abs(z)
+    if not a.size:
+        return math.nan, np.zeros(0, dtype=bool)
+    sigma = float(np.quantile(a, _START_QUANTILE)) / _NORMAL_ABS_Q20
+    kept = np.ones(a.size, dtype=bool)
+    for _ in range(100):
+        kept = a <= CLIP_SIGMA * sigma
+        if not kept.any():
+            break
+        new = math.sqrt(float(np.mean(a[kept] ** 2)) / _KEPT)
+        if abs(new - sigma) <= 1e-9 * max(sigma, 1e-300):
+            sigma = new
+            break
+        sigma = new
+    return sigma, a <= CLIP_SIGMA * sigma
+
+
+def _estimate(series: list[_Residuals]) -> tuple[float, float]:
+    """The 1-sigma and its degrees of freedom from every series' residuals, pooled."""
+    if not series:
+        return math.nan, 0.0
+    z = np.concatenate([s.z for s in series])
+    good = np.isfinite(z)
+    sigma, kept_good = _robust_sigma(z[good])
+    kept = np.zeros(z.size, dtype=bool)
+    kept[good] = kept_good
+    # Satterthwaite: m^2 / sum_kl (c_k . c_l)^2 over the kept residuals.
+    square, start = 0.0, 0
+    for s in series:
+        k = kept[start : start + s.z.size]
+        start += s.z.size
+        square += float(k.sum())
+        for d in range(1, WINDOW_FRAMES):
+            both = k[:-d] & k[d:] if k.size > d else np.zeros(0, dtype=bool)
+            square += 2.0 * float(np.sum(s.overlap[: k.size - d, d - 1][both] ** 2))
+    m = float(kept.sum())
+    return sigma, (m * m / square if square > 0 else 0.0)
+
+
+def _doubled_unwrapped(theta_deg: F64) -> F64:
+    """A line's direction unwrapped through its doubled angle (degrees)."""
+    return np.asarray(0.5 * np.degrees(np.unwrap(np.radians(2.0 * theta_deg))))
+
+
+def track_noise(
+    tracks: Sequence[CameraTrack], *, lines: bool, assumed: StreamNoise
+) -> CameraNoise:
+    """One camera's detection noise from its tracks' frames (the module docstring).
+
+    Parameters
+    ----------
+    tracks : sequence of CameraTrack
+        The camera's tracks (a session's stream trials, or a live pointing's last frames),
+        pooled.
+    lines : bool
+        Whether the image line's direction is measured (its noise estimated too).
+    assumed : StreamNoise
+        The noise used when too few frames give an estimate (said so).
+
+    Returns
+    -------
+    CameraNoise
+    """
+    px, deg, frames, moved = [], [], 0, 0
+    for track in tracks:
+        frames += int(track.found.sum())
+        interval = float(np.median(np.diff(track.t_ns))) if track.t_ns.size > 1 else 0.0
+        keep = track.found & np.isfinite(track.centroid_px).all(axis=1)
+        if lines:
+            keep &= np.isfinite(track.theta_deg)
+        t, c = track.t_ns[keep], track.centroid_px[keep]
+        moving = np.linalg.norm(np.diff(c, axis=0), axis=1) >= MIN_MOTION_PX
+        moved += int(moving.sum())
+        u, v = _residuals(t, c[:, 0], interval, moving), _residuals(t, c[:, 1], interval, moving)
+        if not lines:
+            px += [u, v]
+            continue
+        # Across the line only: along it the centroid moves no plane through the line.
+        middle = np.radians(track.theta_deg[keep][WINDOW_FRAMES // 2 : t.size - WINDOW_FRAMES // 2])
+        across = -np.sin(middle) * u.z + np.cos(middle) * v.z
+        px.append(_Residuals(z=across, overlap=u.overlap))
+        deg.append(_residuals(t, _doubled_unwrapped(track.theta_deg[keep]), interval, moving))
+    s_px, dof_px = _estimate(px)
+    s_deg, dof_deg = _estimate(deg) if lines else (assumed.theta_deg, math.nan)
+    short = [
+        f"{what} {dof:.0f} degrees of freedom"
+        for what, dof in (("the centroid's", dof_px), ("the line's", dof_deg))
+        if not dof >= MIN_DOF and not (what == "the line's" and not lines)
+    ]
+    if short:
+        why = (
+            f"too few frames: {frames} found, {moved} moved {MIN_MOTION_PX:g} px or more from "
+            f"the one before, {' and '.join(short)} where {MIN_DOF:.0f} are needed"
+        )
+        return CameraNoise(noise=assumed, source="assumed", dof_px=dof_px,
+                           dof_deg=dof_deg if lines else math.nan, frames=frames, why=why)  # fmt: skip
+    noise = StreamNoise(centroid_px=s_px, theta_deg=s_deg if lines else assumed.theta_deg)
+    return CameraNoise(noise=noise, source="estimated", dof_px=dof_px,
+                       dof_deg=dof_deg if lines else math.nan, frames=frames)  # fmt: skip
