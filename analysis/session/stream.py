@@ -35,7 +35,7 @@ from twopose.format.streams import CameraStream, StreamTrial, read_pair_session
 from twopose.methods.specs import Method, spec_of
 from twopose.pair.calibration import PairCalibration
 from twopose.pair.clock import ClockOffset, offset_from_ray_gap
-from twopose.pair.frame_noise import CameraNoise, track_noise
+from twopose.pair.frame_noise import CameraNoise, camera_noise
 from twopose.pair.stream import (
     CameraTrack,
     StreamEstimate,
@@ -216,30 +216,31 @@ def replay_pair_session(
         known = (offset, "given") if offset is not None else (session.offset, "recorded")
         detected = [detect_trial(trial, method) for trial in session.trials]
         used = session_noise([d[0] for d in detected], method, noise)
-        settings = StreamSettings(
-            noise=(used[0].noise, used[1].noise), interpolate=interpolate
-        )
+        settings = StreamSettings(noise=(used[0].noise, used[1].noise), interpolate=interpolate)
         trials = [
-            replay_trial(trial, session.pair, method, known, settings, detected=d, noise=used)
+            replay_trial(trial, session.pair, method, known, settings, detected=d,
+                         noise=used)
             for trial, d in zip(session.trials, detected, strict=True)
-        ]
-    return PairReplay(
-        path=Path(path), method=method, pair=session.pair, trials=tuple(trials), noise=used
-    )
+        ]  # fmt: skip
+    return PairReplay(path=Path(path), method=method, pair=session.pair, trials=tuple(trials),
+                      noise=used)  # fmt: skip
 
 
 def session_noise(
     tracks: list[tuple[CameraTrack, CameraTrack]], method: Method, given: StreamNoise | None
 ) -> tuple[CameraNoise, CameraNoise]:
-    """Each camera's detection noise: ``given``, else estimated from the session's own
-    frames, every stream trial's pooled (:func:`twopose.pair.frame_noise.track_noise`),
-    else (too few) :data:`DEFAULT_NOISE`, said so."""
+    """Each camera's detection noise per frame: ``given``, else from the session's own
+    frames, every stream trial's pooled: their scatter with the detector's floor
+    (:func:`twopose.pair.frame_noise.camera_noise`), or :data:`DEFAULT_NOISE` where they
+    are too few, said so."""
     if given is not None:
         return CameraNoise.given(given), CameraNoise.given(given)
-    lines = spec_of(method).uses_image_lines
+    spec = spec_of(method)
     one, two = (
-        track_noise([t[c] for t in tracks], lines=lines, assumed=DEFAULT_NOISE) for c in (0, 1)
-    )
+        camera_noise([t[c] for t in tracks], lines=spec.uses_image_lines,
+                     floor=spec.detector_floor, assumed=DEFAULT_NOISE)
+        for c in (0, 1)
+    )  # fmt: skip
     return one, two
 
 
@@ -279,21 +280,19 @@ def replay_trial(
     known: tuple[ClockOffset | None, str],
     settings: StreamSettings,
     *,
-    params: object = None,
-    seen: tuple[FrameSeen, FrameSeen] | None = None,
     detected: Detected | None = None,
     noise: tuple[CameraNoise, CameraNoise] | None = None,
 ) -> TrialReplay:
     """One stream trial replayed (the reader open): both cameras' targets detected (by the
-    detector's thresholds ``params``, each frame told to its camera's ``seen``; or
-    ``detected`` already, :func:`detect_trial`), the clock offset ``known`` (``(offset,
-    where from)``; ``(None, _)``: measured by the ray gap), the stream estimated (each
-    camera's noise ``settings.noise``, said by ``noise``) and read at each touch.
+    detector's default thresholds; or ``detected`` already, :func:`detect_trial`), the
+    clock offset ``known`` (``(offset, where from)``; ``(None, _)``: measured by the ray
+    gap), the stream estimated (each camera's noise ``settings.noise``, where it came from
+    ``noise``: :func:`session_noise`) and read at each touch.
 
     Raises :class:`~twopose.errors.InputValueError` when the trial cannot be estimated (a
     camera with too few frames, an offset that cannot be measured), saying why.
     """
-    tracks, missed = detected or detect_trial(trial, method, params, seen)
+    tracks, missed = detected or detect_trial(trial, method)
     used, source = _offset(trial, pair, tracks, known)
     estimate = estimate_stream(method, pair, *tracks, used, settings)
     interval = float(np.median(np.diff(tracks[0].t_ns))) if len(tracks[0].t_ns) > 1 else 0.0

@@ -67,8 +67,6 @@ class PairOutputs:
     units: Units
     pair: PairCalibration
     results: ResultsWriter | None = None
-    #: each camera's detection noise, and where it came from (the session's)
-    noise: tuple[CameraNoise, CameraNoise] | None = None
     frames: list[dict[str, Any]] = field(default_factory=list)
     views: list[pd.DataFrame] = field(default_factory=list)
     averaging: list[dict[str, Any]] = field(default_factory=list)
@@ -128,7 +126,7 @@ class PairOutputs:
         tables = []
         lines = spec_of(self.method).uses_image_lines
         for c in range(2):
-            said = replay.noise[c] if replay.noise is not None else None
+            said = None if replay.noise is None else replay.noise[c]
             px, theta = est.measured[:, c, :2], est.measured[:, c, 2]
             ray = grid_rays(px, intr[c], rotation_from_angles_deg(angles[c]))
             columns: dict[str, Any] = {
@@ -182,13 +180,17 @@ class PairOutputs:
 
 
 def _noise_columns(noise: CameraNoise | None, *, lines: bool) -> dict[str, Any]:
-    """A camera's detection noise in ``views.csv``: its 1-sigmas, dof and source in words."""
+    """A camera's detection noise in ``views.csv``: the 1-sigmas its region carries, its
+    frames' own scatter about a smooth fit with its dof, and where they came from in words."""
     if noise is None:
         return {}
+    scatter = noise.scatter
     return {
         "noise_px": noise.noise.centroid_px,
         "noise_deg": noise.noise.theta_deg if lines else np.nan,
-        "noise_dof": noise.dof_px if noise.source == "estimated" else 0.0,
+        "scatter_px": np.nan if scatter is None else scatter.centroid_px,
+        "scatter_deg": np.nan if scatter is None or not lines else scatter.theta_deg,
+        "scatter_dof": 0.0 if scatter is None else noise.dof_px,
         "noise_source": noise.said(lines=lines),
     }
 

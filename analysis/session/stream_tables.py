@@ -250,8 +250,6 @@ def touch_rows(
         for _, t in kept
     ]
     noise = session_noise([d[0] for d in detected], spec.method, None)
-    if outputs is not None:
-        outputs.noise = noise
     settings = StreamSettings(noise=(noise[0].noise, noise[1].noise), estimate=options.estimate)
     rows: list[dict[str, Any]] = []
     for (part, trial), found in zip(kept, detected, strict=True):

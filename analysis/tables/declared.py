@@ -116,8 +116,8 @@ _V = "views"
 #: two-camera session's (``cameras`` 2): per frame pair of each stream trial (``trial`` the
 #: stream trial's number, ``pair`` the pair's from 1), one row per camera (``pose`` 1 or 2,
 #: camera 1 at the origin), the pair flagged or used: its ``status``, ``reason`` and
-#: ``conditioning``, its time and skew, and the camera's detection noise its region carries
-#: and where it came from (estimated from the session's own frames, or assumed).
+#: ``conditioning``, its time and skew, the camera's detection noise its region carries and
+#: where it came from, and its frames' own scatter about a smooth fit in time.
 VIEW_TABLE: tuple[Column, ...] = (
     *_trial_key(_V),
     _count("pose", "pose", _V),
@@ -142,9 +142,13 @@ VIEW_TABLE: tuple[Column, ...] = (
             "pixels", NON_NEGATIVE),
     _number("noise_deg", "camera's line direction noise (1-sigma)", _V, "degrees",
             NON_NEGATIVE),
-    _number("noise_dof", "centroid noise's degrees of freedom (0: not estimated)", _V, "none",
+    _number("scatter_px", "camera's frames' centroid scatter about a smooth fit (1-sigma)",
+            _V, "pixels", NON_NEGATIVE),
+    _number("scatter_deg", "camera's frames' line direction scatter (1-sigma)", _V,
+            "degrees", NON_NEGATIVE),
+    _number("scatter_dof", "that scatter's degrees of freedom (0: not estimated)", _V, "none",
             NON_NEGATIVE),
-    _text("noise_source", "where the camera's noise came from", _V),
+    _text("noise_source", "where the camera's noise came from, and its frames' scatter", _V),
 )  # fmt: skip
 
 _A = "averaging"

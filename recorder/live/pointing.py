@@ -24,6 +24,7 @@ track of points, and the CPU it took (detection of both frames included). No I/O
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections import deque
@@ -36,6 +37,7 @@ from twopose.detect.detection import detect
 from twopose.errors import InputValueError
 from twopose.methods.specs import Method, spec_of
 from twopose.pair.clock import ClockOffset
+from twopose.pair.frame_noise import CameraNoise, camera_noise
 from twopose.pair.live_pairing import LivePairing
 from twopose.pair.pairing import Pairing
 from twopose.pair.stream import (
@@ -57,6 +59,7 @@ if TYPE_CHECKING:
 __all__ = [
     "CHI2_2D_95",
     "DEFAULT_NOISE",
+    "NOISE_WINDOW_S",
     "TRACK_S",
     "Ellipse95",
     "FloorView",
@@ -69,8 +72,11 @@ __all__ = [
 CHI2_2D_95 = 5.991464547107979
 #: How far back the track reaches (s).
 TRACK_S = 1.0
-#: Each frame's detection noise (1-sigma) when none is given: the analysis' default.
+#: Each frame's detection noise (1-sigma) assumed until the last seconds' frames give an
+#: estimate (:func:`twopose.pair.frame_noise.camera_noise`): the analysis' default.
 DEFAULT_NOISE = StreamNoise(centroid_px=0.25, theta_deg=0.25)
+#: Each camera's noise is estimated from its frames of the last this many seconds.
+NOISE_WINDOW_S = 10.0
 #: Camera 1's frames kept (detected) before the newest: the interpolation's bracket and
 #: the frame interval's median.
 HISTORY_FRAMES = 16
@@ -156,7 +162,9 @@ class PointingEstimate:
     ``point_3d`` the estimate in camera 1's frame; ``region`` its 95% ellipse there;
     ``track`` the last second's ok points ``(seconds before this pair, across, ahead)``,
     oldest first, this pair's last; ``done_ns`` the monotonic clock when it was made;
-    ``cpu_ns`` the CPU this pair took (both frames' detection, its share of the estimate).
+    ``cpu_ns`` the CPU this pair took (both frames' detection, its share of the estimate);
+    ``noise`` each camera's detection noise its region carries, in words (where it came
+    from: :class:`twopose.pair.frame_noise.CameraNoise`).
     """
 
     seq: int
@@ -171,6 +179,7 @@ class PointingEstimate:
     track: tuple[tuple[float, float, float], ...]
     done_ns: int
     cpu_ns: int
+    noise: tuple[str, str] = ("", "")
 
     @property
     def ok(self) -> bool:
@@ -182,13 +191,16 @@ class PointingEstimate:
 class PointingSettings:
     """How the live estimate is made: the clock offset (camera 2's clock minus camera 1's,
     with its 1-sigma; 0 by default: every pair source stamps on the monotonic clock), each
-    frame's detection noise, the solvers' thresholds, the pairing's slop (None: half a
-    frame interval of ``fps``) and the cameras' frame rate."""
+    frame's detection noise (None: each camera's from its frames of the last
+    :data:`NOISE_WINDOW_S` seconds, by the analysis' rule,
+    :func:`twopose.pair.frame_noise.camera_noise`; :data:`DEFAULT_NOISE` until they are
+    enough), the solvers' thresholds, the pairing's slop (None: half a frame interval of
+    ``fps``) and the cameras' frame rate."""
 
     offset: ClockOffset = field(
         default_factory=lambda: ClockOffset(offset_ns=0.0, sigma_ns=0.0, method="given", n=0)
     )
-    noise: StreamNoise = DEFAULT_NOISE
+    noise: StreamNoise | None = None
     estimate: EstimateOptions = field(default_factory=EstimateOptions)
     slop_ns: int | None = None
     fps: float = 30.0
@@ -234,7 +246,15 @@ class LivePointing:
         self.method, self.pair = self.spec.method, pair
         self.settings = settings or PointingSettings()
         self.view = FloorView.of(pair)
-        self.stream = StreamSettings(noise=self.settings.noise, estimate=self.settings.estimate)
+        given = self.settings.noise
+        self.noise = (
+            (CameraNoise.given(given),) * 2 if given is not None
+            else (CameraNoise(noise=DEFAULT_NOISE, source="assumed", why="no frames yet"),) * 2
+        )  # fmt: skip
+        self.stream = StreamSettings(
+            noise=(self.noise[0].noise, self.noise[1].noise), estimate=self.settings.estimate
+        )
+        self._recent: tuple[deque[_Seen], deque[_Seen]] = (deque(), deque())
         slop = self.settings.slop_ns or round(0.5e9 / self.settings.fps)
         offset = round(self.settings.offset.offset_ns)
         self._pairing: LivePairing[_Seen] = LivePairing(slop_ns=slop, offset_ns=offset)
@@ -266,6 +286,11 @@ class LivePointing:
                      bool(d.found), time.thread_time_ns() - start, d.reason)  # fmt: skip
         if frame.camera == 1:
             self._one.append(seen)
+        recent = self._recent[frame.camera - 1]
+        if not recent or seen.t_ns > recent[-1].t_ns:
+            recent.append(seen)
+        while recent and recent[0].t_ns < seen.t_ns - NOISE_WINDOW_S * 1e9:
+            recent.popleft()
         return seen
 
     def add_frame(self, frame: TimedFrame) -> list[PointingEstimate]:
@@ -342,9 +367,26 @@ class LivePointing:
         while len(self._one) > HISTORY_FRAMES + newer:
             self._one.popleft()
 
+    def noise_now(self) -> tuple[CameraNoise, CameraNoise]:
+        """Each camera's detection noise now: the one given, else from its frames of the
+        last :data:`NOISE_WINDOW_S` seconds (the analysis' rule, as a session's frames)."""
+        if self.settings.noise is not None:
+            return self.noise
+        lines = self.spec.uses_image_lines
+        one, two = (
+            camera_noise([_track(list(r), lines=lines)], lines=lines,
+                         floor=self.spec.detector_floor, assumed=DEFAULT_NOISE)
+            for r in self._recent
+        )  # fmt: skip
+        return one, two
+
     def _estimate(self, batch: list[tuple[_Seen, _Seen, int]]) -> list[PointingEstimate]:
         """The batch's pairs through the stream estimate, as one call."""
         start = time.thread_time_ns()
+        self.noise = self.noise_now()
+        self.stream = dataclasses.replace(
+            self.stream, noise=(self.noise[0].noise, self.noise[1].noise)
+        )
         one = list(self._one)
         position = {s.index: k for k, s in enumerate(one)}
         firsts = [position.get(f.index, -1) for f, _s, _k in batch]
@@ -372,6 +414,8 @@ class LivePointing:
         points = self.view.coordinates(e.point)
         regions = self.view.ellipses(e.cov)
         now = time.monotonic_ns()
+        lines = self.spec.uses_image_lines
+        noise = (self.noise[0].said(lines=lines), self.noise[1].said(lines=lines))
         out = []
         for k, (first, second, skew) in enumerate(batch):
             ok = bool(e.ok[k])
@@ -396,6 +440,7 @@ class LivePointing:
                     track=track,
                     done_ns=now,
                     cpu_ns=first.cpu_ns + second.cpu_ns + share_ns,
+                    noise=noise,
                 )
             )
             self.seq += 1

@@ -1,8 +1,13 @@
-"""A camera's detection noise estimated from its own frames (issue 58, the regions).
+"""A camera's detection noise per frame, from its own frames (issue 58, the regions).
 
 A stream's 95% regions carry each frame's detection noise (``StreamNoise``: the centroid's
-1-sigma in pixels, an image line's direction's in degrees). It is estimated here from the
-detections' scatter about a smooth local fit in time, each camera on its own:
+1-sigma in pixels, an image line's direction's in degrees). :func:`camera_noise` makes it,
+each camera on its own, by the one-camera path's rule for a pose's measurement
+(:func:`twopose.uncertainty.propagate.measurement_covariance`): the frames' own scatter
+plus the detector's floor (its systematic error, the same in every frame of a target
+standing still, which no scatter can see: the method's ``detector_floor``, measured on
+rendered views by ``benchmarks/bench_detector_floor.py``). The scatter is a moving target's,
+so it is measured about a smooth local fit in time:
 
 - every run of :data:`WINDOW_FRAMES` consecutive found frames (no more than
   :data:`MAX_SPAN_INTERVALS` frame intervals long: a dropped or lost frame or two bridged)
@@ -12,7 +17,9 @@ detections' scatter about a smooth local fit in time, each camera on its own:
   whatever the frames' times. The window being symmetric about its middle frame, the
   quadratic's residual there is blind to the motion's cubic term as well (Savitzky-Golay):
   a fingertip moving at 10 in/s 14 in ahead leaves 0.004 px;
-- the image line's direction as its doubled angle unwrapped (a line has no arrow);
+- a finger's centroid across its image line only (along it, the centroid moves no plane
+  through the line), and the line's direction as its doubled angle unwrapped (a line has
+  no arrow);
 - ``s`` is then found robustly: from the residuals' 20% quantile (a low start: a target
   that stops and starts, as a finger touching a point does, or a detection that wobbles,
   makes some residuals far larger than the noise), then iterated: the residuals within
@@ -44,10 +51,9 @@ __all__ = [
     "DEGREE",
     "MAX_SPAN_INTERVALS",
     "MIN_DOF",
-    "MIN_MOTION_PX",
     "WINDOW_FRAMES",
     "CameraNoise",
-    "track_noise",
+    "camera_noise",
 ]
 
 #: Frames per local fit: odd, so that the fitted frame is the window's middle.
@@ -58,11 +64,6 @@ DEGREE = 2
 MAX_SPAN_INTERVALS = 6.5
 #: Residuals beyond this many sigma are the motion's or a wobble's, not the noise's.
 CLIP_SIGMA = 3.0
-#: A window is used only where the target moved at least this far (px) between each two of
-#: its frames: a detection's error that stays with the target where it stands (the pixel
-#: grid's sampling of its blob) is the same in every frame of a still target, never seen as
-#: scatter, yet it is each estimate's error; moving a pixel a frame, it changes frame to frame.
-MIN_MOTION_PX = 1.0
 #: Fewer degrees of freedom than this: the noise is assumed (its sigma known to ~13% here).
 MIN_DOF = 30.0
 #: The robust start: this quantile of the residuals' magnitudes, over a normal's.
@@ -82,16 +83,18 @@ _KEPT = _kept_variance(CLIP_SIGMA)
 
 @dataclass(frozen=True, kw_only=True)
 class CameraNoise:
-    """One camera's detection noise and where it came from.
+    """One camera's detection noise per frame and where it came from (:func:`camera_noise`).
 
-    ``noise`` the 1-sigma used; ``source`` ``estimated`` (from the frames), ``assumed``
-    (too few: ``why`` says why) or ``given``; ``dof_px``/``dof_deg`` the degrees of freedom
-    of the centroid's and the line direction's estimates (0 when not estimated; the
+    ``noise`` the 1-sigma the regions carry; ``source`` ``estimated`` (the frames' own
+    ``scatter`` with the detector's ``floor`` added), ``assumed`` (too few frames: ``why``
+    says why) or ``given``; ``dof_px``/``dof_deg`` the scatter's degrees of freedom (the
     direction's NaN for a dot); ``frames`` the found frames looked at.
     """
 
     noise: StreamNoise
     source: str
+    scatter: StreamNoise | None = None
+    floor: tuple[float, float] = (0.0, 0.0)
     dof_px: float = 0.0
     dof_deg: float = math.nan
     frames: int = 0
@@ -103,16 +106,27 @@ class CameraNoise:
         return cls(noise=noise, source="given")
 
     def said(self, *, lines: bool) -> str:
-        """In words: "pixel noise 0.081 px, 0.052 deg estimated from 412 frames (dof 190,
-        95)" or "assumed 0.25 px (too few frames: ...)"."""
-        n = self.noise
-        value = f"{n.centroid_px:.3g} px" + (f", {n.theta_deg:.3g} deg" if lines else "")
-        if self.source == "estimated":
+        """In words.
+
+        E.g. "pixel noise 0.104 px, 0.094 deg: the frames' scatter 0.03 px, 0.05 deg (from
+        412 frames, dof 190, 95) and the detector's floor 0.1 px, 0.08 deg", or "pixel noise
+        assumed 0.25 px (too few frames: ...)".
+        """
+
+        def value(n: StreamNoise | tuple[float, float]) -> str:
+            px, deg = (n.centroid_px, n.theta_deg) if isinstance(n, StreamNoise) else n
+            return f"{px:.2g} px" + (f", {deg:.2g} deg" if lines else "")
+
+        if self.source == "estimated" and self.scatter is not None:
             dof = f"{self.dof_px:.0f}" + (f", {self.dof_deg:.0f}" if lines else "")
-            return f"pixel noise {value} estimated from {self.frames} frames (dof {dof})"
+            return (
+                f"pixel noise {value(self.noise)}: the frames' scatter {value(self.scatter)} "
+                f"(estimated from {self.frames} frames, dof {dof}) and the detector's floor "
+                f"{value(self.floor)}"
+            )
         if self.source == "given":
-            return f"pixel noise {value} given"
-        return f"pixel noise assumed {value} ({self.why})"
+            return f"pixel noise {value(self.noise)} given"
+        return f"pixel noise assumed {value(self.noise)}" + (f" ({self.why})" if self.why else "")
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -123,9 +137,8 @@ class _Residuals:
     overlap: F64  # (M, WINDOW_FRAMES - 1): c_k . c_{k+d}, d = 1..4 (0: not neighbours)
 
 
-def _residuals(t_ns: F64, y: F64, interval: float, moving: Bools | None = None) -> _Residuals:
-    """The middle frames' standardised residuals of ``y`` (N,) about their local fits;
-    ``moving`` (N - 1,) whether the target moved enough from each frame to the next."""
+def _residuals(t_ns: F64, y: F64, interval: float) -> _Residuals:
+    """The middle frames' standardised residuals of ``y`` (N,) about their local fits."""
     W, half = WINDOW_FRAMES, WINDOW_FRAMES // 2
     n = y.size
     if n < W or not interval > 0:
@@ -133,8 +146,6 @@ def _residuals(t_ns: F64, y: F64, interval: float, moving: Bools | None = None) 
     idx = np.arange(n - W + 1)[:, None] + np.arange(W)[None, :]
     x = (t_ns[idx] - t_ns[idx[:, half]][:, None]) / interval  # (M, W), the middle at 0
     span_ok = (x[:, -1] - x[:, 0]) <= MAX_SPAN_INTERVALS
-    if moving is not None:
-        span_ok &= moving[idx[:, :-1]].all(axis=1)
     X = x[:, :, None] ** np.arange(DEGREE + 1)[None, None, :]  # (M, W, D+1)
     # The middle row of the hat matrix: e0^T (X^T X)^-1 X^T, e0 the constant term.
     gram = np.einsum("mwi,mwj->mij", X, X)
@@ -146,17 +157,17 @@ def _residuals(t_ns: F64, y: F64, interval: float, moving: Bools | None = None) 
     c[:, half] += 1.0
     c /= np.linalg.norm(c, axis=1, keepdims=True)
     z = np.einsum("mw,mw->m", c, y[idx])
-    overlap = np.zeros((x.shape[0], W - 1))
-    for d in range(1, W):  # rows k and k + d share W - d frames
-        overlap[: x.shape[0] - d, d - 1] = np.einsum("mw,mw->m", c[:-d, d:], c[d:, : W - d])
+    M = x.shape[0]
+    overlap = np.zeros((M, W - 1))
+    for d in range(1, min(W, M)):  # rows k and k + d share W - d frames
+        overlap[: M - d, d - 1] = np.einsum("mw,mw->m", c[:-d, d:], c[d:, : W - d])
+        overlap[: M - d, d - 1] *= span_ok[d:]
     overlap[~span_ok, :] = 0.0
-    for d in range(1, W):
-        overlap[: x.shape[0] - d, d - 1] *= span_ok[d:]
     z = np.where(span_ok, z, np.nan)
     return _Residuals(z=z, overlap=overlap)
 
 
-def _robust_sigma(z: F64) -> tuple[float, F64]:
+def _robust_sigma(z: F64) -> tuple[float, Bools]:
     """The noise's 1-sigma from standardised residuals, and which were kept (module doc)."""
     a = np.abs(z)
     if not a.size:
@@ -202,10 +213,14 @@ def _doubled_unwrapped(theta_deg: F64) -> F64:
     return np.asarray(0.5 * np.degrees(np.unwrap(np.radians(2.0 * theta_deg))))
 
 
-def track_noise(
-    tracks: Sequence[CameraTrack], *, lines: bool, assumed: StreamNoise
+def camera_noise(
+    tracks: Sequence[CameraTrack],
+    *,
+    lines: bool,
+    floor: tuple[float, float],
+    assumed: StreamNoise,
 ) -> CameraNoise:
-    """One camera's detection noise from its tracks' frames (the module docstring).
+    """One camera's detection noise per frame from its tracks' frames (the module docstring).
 
     Parameters
     ----------
@@ -213,7 +228,10 @@ def track_noise(
         The camera's tracks (a session's stream trials, or a live pointing's last frames),
         pooled.
     lines : bool
-        Whether the image line's direction is measured (its noise estimated too).
+        Whether the image line's direction is measured (its scatter estimated too).
+    floor : (float, float)
+        The detector's systematic error per frame (centroid px, direction deg; the method's
+        :attr:`twopose.methods.specs.MethodSpec.detector_floor`), added to the scatter.
     assumed : StreamNoise
         The noise used when too few frames give an estimate (said so).
 
@@ -221,7 +239,7 @@ def track_noise(
     -------
     CameraNoise
     """
-    px, deg, frames, moved = [], [], 0, 0
+    px, deg, frames = [], [], 0
     for track in tracks:
         frames += int(track.found.sum())
         interval = float(np.median(np.diff(track.t_ns))) if track.t_ns.size > 1 else 0.0
@@ -229,31 +247,37 @@ def track_noise(
         if lines:
             keep &= np.isfinite(track.theta_deg)
         t, c = track.t_ns[keep], track.centroid_px[keep]
-        moving = np.linalg.norm(np.diff(c, axis=0), axis=1) >= MIN_MOTION_PX
-        moved += int(moving.sum())
-        u, v = _residuals(t, c[:, 0], interval, moving), _residuals(t, c[:, 1], interval, moving)
+        u, v = _residuals(t, c[:, 0], interval), _residuals(t, c[:, 1], interval)
         if not lines:
             px += [u, v]
             continue
         # Across the line only: along it the centroid moves no plane through the line.
-        middle = np.radians(track.theta_deg[keep][WINDOW_FRAMES // 2 : t.size - WINDOW_FRAMES // 2])
+        half = WINDOW_FRAMES // 2
+        middle = np.radians(track.theta_deg[keep][half : t.size - half])
         across = -np.sin(middle) * u.z + np.cos(middle) * v.z
         px.append(_Residuals(z=across, overlap=u.overlap))
-        deg.append(_residuals(t, _doubled_unwrapped(track.theta_deg[keep]), interval, moving))
+        deg.append(_residuals(t, _doubled_unwrapped(track.theta_deg[keep]), interval))
     s_px, dof_px = _estimate(px)
-    s_deg, dof_deg = _estimate(deg) if lines else (assumed.theta_deg, math.nan)
+    s_deg, dof_deg = _estimate(deg) if lines else (0.0, math.nan)
     short = [
         f"{what} {dof:.0f} degrees of freedom"
-        for what, dof in (("the centroid's", dof_px), ("the line's", dof_deg))
-        if not dof >= MIN_DOF and not (what == "the line's" and not lines)
+        for what, dof, needed in (("the centroid's", dof_px, True), ("the line's", dof_deg, lines))
+        if needed and not dof >= MIN_DOF
     ]
     if short:
         why = (
-            f"too few frames: {frames} found, {moved} moved {MIN_MOTION_PX:g} px or more from "
-            f"the one before, {' and '.join(short)} where {MIN_DOF:.0f} are needed"
+            f"too few frames: {frames} found, {' and '.join(short)} where {MIN_DOF:.0f} are needed"
         )
-        return CameraNoise(noise=assumed, source="assumed", dof_px=dof_px,
-                           dof_deg=dof_deg if lines else math.nan, frames=frames, why=why)  # fmt: skip
-    noise = StreamNoise(centroid_px=s_px, theta_deg=s_deg if lines else assumed.theta_deg)
-    return CameraNoise(noise=noise, source="estimated", dof_px=dof_px,
-                       dof_deg=dof_deg if lines else math.nan, frames=frames)  # fmt: skip
+        return CameraNoise(
+            noise=assumed, source="assumed", dof_px=dof_px, dof_deg=dof_deg, frames=frames,
+            why=why,
+        )  # fmt: skip
+    scatter = StreamNoise(centroid_px=s_px, theta_deg=s_deg)
+    noise = StreamNoise(
+        centroid_px=math.hypot(s_px, floor[0]),
+        theta_deg=math.hypot(s_deg, floor[1]) if lines else assumed.theta_deg,
+    )
+    return CameraNoise(
+        noise=noise, source="estimated", scatter=scatter, floor=floor, dof_px=dof_px,
+        dof_deg=dof_deg, frames=frames,
+    )  # fmt: skip
