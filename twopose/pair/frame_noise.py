@@ -28,8 +28,10 @@ so it is measured about a smooth local fit in time:
   five frames, its residuals are larger and the estimate only conservative;
 - its degrees of freedom are Satterthwaite's for the kept residuals, which share frames
   (``m^2 / sum_kl (c_k . c_l)^2`` over their unit filters ``c``): about half their count;
-- with fewer than :data:`MIN_DOF` degrees of freedom (too few frames, a target mostly lost)
-  the assumed noise is used, and said so with why.
+- the noise used, ``sqrt(scatter^2 + floor^2)``, has the scatter's degrees of freedom
+  times ``((scatter^2 + floor^2) / scatter^2)^2`` (Welch-Satterthwaite, the floor known):
+  where the floor dominates, a few frames know it well. With fewer than :data:`MIN_DOF`
+  (too few frames, a target mostly lost) the assumed noise is used, and said so with why.
 
 Several tracks of one camera (a session's stream trials, a live pointing's last seconds)
 are pooled: their residuals are one sample. Arrays in, a frozen record out; no I/O.
@@ -64,7 +66,8 @@ DEGREE = 2
 MAX_SPAN_INTERVALS = 6.5
 #: Residuals beyond this many sigma are the motion's or a wobble's, not the noise's.
 CLIP_SIGMA = 3.0
-#: Fewer degrees of freedom than this: the noise is assumed (its sigma known to ~13% here).
+#: Fewer degrees of freedom than this in the noise used: it is assumed instead (its sigma
+#: known to ~13% here).
 MIN_DOF = 30.0
 #: The robust start: this quantile of the residuals' magnitudes, over a normal's.
 _START_QUANTILE = 0.2
@@ -99,11 +102,14 @@ class CameraNoise:
     dof_deg: float = math.nan
     frames: int = 0
     why: str = ""
+    #: the noise's degrees of freedom, centroid's and direction's: the scatter's with the
+    #: floor known (Welch-Satterthwaite; infinite for a given noise, 0 for an assumed one)
+    noise_dof: tuple[float, float] = (0.0, 0.0)
 
     @classmethod
     def given(cls, noise: StreamNoise) -> CameraNoise:
         """A noise given by the user (not estimated)."""
-        return cls(noise=noise, source="given")
+        return cls(noise=noise, source="given", noise_dof=(math.inf, math.inf))
 
     def said(self, *, lines: bool) -> str:
         """In words.
@@ -208,6 +214,18 @@ def _estimate(series: list[_Residuals]) -> tuple[float, float]:
     return sigma, (m * m / square if square > 0 else 0.0)
 
 
+def _with_floor(scatter: float, dof: float, floor: float) -> float:
+    """The degrees of freedom of ``scatter^2 + floor^2``, the floor known.
+
+    Welch-Satterthwaite: the scatter's, times the square of the sum over the scatter's part.
+    """
+    if not (dof > 0 and math.isfinite(scatter)):
+        return 0.0
+    if scatter == 0.0:
+        return math.inf
+    return dof * ((scatter**2 + floor**2) / scatter**2) ** 2
+
+
 def _doubled_unwrapped(theta_deg: F64) -> F64:
     """A line's direction unwrapped through its doubled angle (degrees)."""
     return np.asarray(0.5 * np.degrees(np.unwrap(np.radians(2.0 * theta_deg))))
@@ -259,9 +277,13 @@ def camera_noise(
         deg.append(_residuals(t, _doubled_unwrapped(track.theta_deg[keep]), interval))
     s_px, dof_px = _estimate(px)
     s_deg, dof_deg = _estimate(deg) if lines else (0.0, math.nan)
+    with_floor = (_with_floor(s_px, dof_px, floor[0]), _with_floor(s_deg, dof_deg, floor[1]))
     short = [
         f"{what} {dof:.0f} degrees of freedom"
-        for what, dof, needed in (("the centroid's", dof_px, True), ("the line's", dof_deg, lines))
+        for what, dof, needed in (
+            ("the centroid's", with_floor[0], True),
+            ("the line's", with_floor[1], lines),
+        )
         if needed and not dof >= MIN_DOF
     ]
     if short:
@@ -279,5 +301,5 @@ def camera_noise(
     )
     return CameraNoise(
         noise=noise, source="estimated", scatter=scatter, floor=floor, dof_px=dof_px,
-        dof_deg=dof_deg, frames=frames,
+        dof_deg=dof_deg, frames=frames, noise_dof=with_floor,
     )  # fmt: skip
