@@ -56,7 +56,8 @@ def _truths(replay: PairReplay, path: Path) -> list[np.ndarray]:
         k = np.searchsorted(t, instants)
         p = np.array(truth.points)[k]
         if spec_of(replay.method).needs_ground:  # the finger's axis on the floor
-            assert truth.directions is not None and floor is not None
+            assert truth.directions is not None
+            assert floor is not None
             d = np.array(truth.directions)[k]
             s = (floor.height - p @ floor.normal) / (d @ floor.normal)
             p = p + s[:, None] * d

@@ -49,6 +49,7 @@ def estimate_json(e: PointingEstimate) -> dict[str, Any]:
         "done_ns": e.done_ns,
         "cpu_ms": e.cpu_ns / 1e6,
         "skew_ms": e.skew_ns / 1e6,
+        "noise": list(e.noise),
     }
 
 

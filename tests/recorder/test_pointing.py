@@ -22,6 +22,7 @@ from recorder.sources.pair import FramePair, TimedFrame
 from twopose.detect.detection import detect
 from twopose.methods.specs import Method, spec_of
 from twopose.pair.clock import ClockOffset
+from twopose.pair.frame_noise import camera_noise
 from twopose.pair.live_pairing import LivePairing
 from twopose.pair.stream import CameraTrack, StreamSettings, estimate_stream
 
@@ -308,3 +309,38 @@ def test_ctrl_c_stops_point_with_exit_130_and_no_traceback(tmp_path, when):
     assert process.returncode == 130, (out, err)
     assert err.strip().endswith("interrupted"), err
     assert "Traceback" not in out + err
+
+
+def test_the_live_noise_is_the_analysis_rule_over_the_last_frames():
+    """Each camera's pixel noise is estimated live from its own frames as ``run`` estimates
+    a session's (twopose.pair.frame_noise.camera_noise): assumed, said so, until the frames
+    are enough; the pairs estimated once all frames are in carry the whole stream's."""
+    clip = PointingClip(Method.GROUND, seed=1, phase_s=0.013)
+    frames = _frames(clip, 45)
+    live = LivePointing(Method.GROUND, clip.pair)
+    made: list[PointingEstimate] = []
+    for frame in frames:
+        made += live.add_frame(frame)
+    made += live.end()
+    assert made[0].noise[0].startswith("pixel noise assumed 0.25 px, 0.25 deg (too few frames")
+    spec = spec_of(Method.GROUND)
+    tracks = [_offline_track(Method.GROUND, frames, c) for c in (1, 2)]
+    offline = [
+        camera_noise([t], lines=True, floor=spec.detector_floor, assumed=DEFAULT_NOISE)
+        for t in tracks
+    ]
+    assert list(live.noise) == offline  # the same frames (all within the last 10 s)
+    assert made[-1].noise == tuple(n.said(lines=True) for n in offline)
+    assert made[-1].noise[0].startswith("pixel noise 0.1 px, 0.081 deg: the frames' scatter")
+    whole = estimate_stream(
+        Method.GROUND, clip.pair, *tracks,
+        ClockOffset(offset_ns=0.0, sigma_ns=0.0, method="given", n=0),
+        StreamSettings(noise=(offline[0].noise, offline[1].noise)),
+    )  # fmt: skip
+    last = len(made) - 1
+    assert made[-1].region == FloorView.of(clip.pair).ellipses(whole.cov)[last]
+    # a noise given is used as it is, said so
+    given = LivePointing(Method.GROUND, clip.pair, PointingSettings(noise=DEFAULT_NOISE))
+    said = [e.noise for f in frames for e in given.add_frame(f)]
+    assert said
+    assert all(n == ("pixel noise 0.25 px, 0.25 deg given",) * 2 for n in said)

@@ -30,8 +30,9 @@ so it is measured about a smooth local fit in time:
   (``m^2 / sum_kl (c_k . c_l)^2`` over their unit filters ``c``): about half their count;
 - the noise used, ``sqrt(scatter^2 + floor^2)``, has the scatter's degrees of freedom
   times ``((scatter^2 + floor^2) / scatter^2)^2`` (Welch-Satterthwaite, the floor known):
-  where the floor dominates, a few frames know it well. With fewer than :data:`MIN_DOF`
-  (too few frames, a target mostly lost) the assumed noise is used, and said so with why.
+  where the floor dominates, a few frames know it well, if the scatter has at least
+  :data:`MIN_SCATTER_DOF` of its own. With fewer than :data:`MIN_DOF` (too few frames, a
+  target mostly lost) the assumed noise is used, and said so with why.
 
 Several tracks of one camera (a session's stream trials, a live pointing's last seconds)
 are pooled: their residuals are one sample. Arrays in, a frozen record out; no I/O.
@@ -53,6 +54,7 @@ __all__ = [
     "DEGREE",
     "MAX_SPAN_INTERVALS",
     "MIN_DOF",
+    "MIN_SCATTER_DOF",
     "WINDOW_FRAMES",
     "CameraNoise",
     "camera_noise",
@@ -69,6 +71,10 @@ CLIP_SIGMA = 3.0
 #: Fewer degrees of freedom than this in the noise used: it is assumed instead (its sigma
 #: known to ~13% here).
 MIN_DOF = 30.0
+#: ... and the scatter itself at least this many: fewer residuals are no estimate of it at
+#: all (its 95% upper bound 1.6 times it at 10; the sum's dof, from the estimate, would
+#: trust a scatter that came out small by chance).
+MIN_SCATTER_DOF = 10.0
 #: The robust start: this quantile of the residuals' magnitudes, over a normal's.
 _START_QUANTILE = 0.2
 _NORMAL_ABS_Q20 = 0.2533471031357997  # the 20% quantile of |z|, z ~ N(0, 1)
@@ -277,7 +283,10 @@ def camera_noise(
         deg.append(_residuals(t, _doubled_unwrapped(track.theta_deg[keep]), interval))
     s_px, dof_px = _estimate(px)
     s_deg, dof_deg = _estimate(deg) if lines else (0.0, math.nan)
-    with_floor = (_with_floor(s_px, dof_px, floor[0]), _with_floor(s_deg, dof_deg, floor[1]))
+    with_floor = (
+        _with_floor(s_px, dof_px, floor[0]) if dof_px >= MIN_SCATTER_DOF else dof_px,
+        _with_floor(s_deg, dof_deg, floor[1]) if dof_deg >= MIN_SCATTER_DOF else dof_deg,
+    )
     short = [
         f"{what} {dof:.0f} degrees of freedom"
         for what, dof, needed in (

@@ -135,6 +135,9 @@ function renderPointing() {
   drawFloor($("pointing-canvas"), pair, s);
   const [where, timing] = pointingNumbers(pair, s);
   setText($("pointing-where"), where);
+  // Where each camera's pixel noise (the region's) came from, on hovering the numbers.
+  $("pointing-where").title = ((pair && pair.noise) || []).filter(Boolean)
+    .map((w, i) => `camera ${i + 1}: ${w}`).join("\n");
   setText($("pointing-timing"), timing);
 }
 
