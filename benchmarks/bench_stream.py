@@ -29,7 +29,7 @@ its clock 0.4321 s ahead. Four parts:
    (``twopose.pair.frame_noise.camera_noise``: what ``run`` and the live pointing do).
 4. The cost per pair: live (one pair at a time, camera 1's four frames about it) and
    vectorized (a 10 s stream in one call), CPU time on one core.
-5. The regions on the simulator's rendered frames (``stream_rendered.py``): ``--sessions``
+5. The regions on the simulator's rendered frames (:func:`rendered_coverage`): ``--sessions``
    sessions of ``--trials`` stream trials per method, rendered and replayed as ``run``
    replays them, each pair against the true trajectory, with each camera's noise from the
    session's own frames and with the 0.25 px and 0.25 degrees once assumed.
@@ -45,14 +45,18 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
-from stream_rendered import rendered_coverage  # type: ignore[import-not-found]  # beside it
 
-from analysis.session.stream import DEFAULT_NOISE
-from twopose.methods.specs import METHOD_SPECS, Method
+from analysis.session.stream import DEFAULT_NOISE, PairReplay, replay_pair_session
+from recorder.simulate.pair import PairTiming, simulate_pair_session
+from twopose.format.reader import SessionReader
+from twopose.format.streams import read_pair_session
+from twopose.methods.specs import METHOD_SPECS, Method, spec_of
 from twopose.pair.board_fit import rotation_matrix
 from twopose.pair.calibration import PairCalibration
 from twopose.pair.clock import ClockOffset, offset_from_ray_gap
@@ -348,6 +352,103 @@ def cost(method: Method, rng: np.random.Generator) -> tuple[float, float, float]
     whole = (time.process_time() - t0) / max(est.point.shape[0], 1)
     ms = np.array(live[10:]) * 1e3
     return float(np.median(ms)), float(np.percentile(ms, 95)), whole * 1e3
+
+
+# Part 5: the regions on the simulator's rendered frames. Two-camera sessions rendered by
+# `simulate --cameras 2` (10 in/s, four touches a trial, the clocks 12.5 ms apart), replayed
+# as `run` replays them (`replay_pair_session`: detection, the offset by the ray gap, one
+# estimate per pair, each camera's noise from the session's own frames), each pair's
+# estimate against the true trajectory at camera 2's true capture instant: the dot's
+# centre, the fingertip (the line's point nearest it), the finger's axis on the floor.
+
+
+@dataclasses.dataclass(frozen=True)
+class RenderedCoverage:
+    """One method's pairs: covered share, count, mean NEES / dof, the noise used in words."""
+
+    covered: float
+    pairs: int
+    nees_per_dof: float
+    noise: str
+
+
+def _truths(replay: PairReplay, path: Path) -> list[np.ndarray]:
+    """Per trial, (P, 3) the truth at each pair's camera-2 frame's true instant."""
+    with SessionReader(path) as reader:
+        session = read_pair_session(reader)
+    out = []
+    floor = replay.pair.floor
+    for trial, replayed in zip(session.trials, replay.trials, strict=True):
+        truth = trial.trajectory
+        assert truth is not None
+        t = np.array(truth.t_ns)
+        instants = np.array(truth.frames[1].true_ns)[replayed.estimate.i2]
+        k = np.searchsorted(t, instants)
+        p = np.array(truth.points)[k]
+        if spec_of(replay.method).needs_ground:  # the finger's axis on the floor
+            assert truth.directions is not None
+            assert floor is not None
+            d = np.array(truth.directions)[k]
+            s = (floor.height - p @ floor.normal) / (d @ floor.normal)
+            p = p + s[:, None] * d
+        out.append(p)
+    return out
+
+
+def _covered(
+    replay: PairReplay, truths: list[np.ndarray], noise: tuple[StreamNoise, ...]
+) -> tuple[int, int, list[float]]:
+    """Covered pairs, all pairs and the NEES / dof of each, with ``noise`` per camera."""
+    inside, total, per_dof = 0, 0, []
+    for replayed, truth in zip(replay.trials, truths, strict=True):
+        settings = StreamSettings(noise=(noise[0], noise[1]))
+        if spec_of(replay.method).estimates_line:  # the line's point nearest the truth
+            settings = dataclasses.replace(settings, line_reference=truth)
+        est = estimate_stream(
+            replay.method, replay.pair, *replayed.tracks, replayed.offset, settings
+        )
+        score, dof = nees(est.point - truth, est.cov)
+        ok = np.isfinite(score)
+        limit = np.array([CHI2_95.get(int(k), np.nan) for k in dof[ok]])
+        inside += int((score[ok] <= limit).sum())
+        total += int(ok.sum())
+        per_dof += list(score[ok] / dof[ok])
+    return inside, total, per_dof
+
+
+def rendered_coverage(
+    method: Method, sessions: int, trials: int, seed: int
+) -> tuple[RenderedCoverage, RenderedCoverage]:
+    """The method's pairs' coverage over ``sessions`` rendered sessions of ``trials`` stream
+    trials each: with the noise each session estimated, and with the noise assumed."""
+    counts: dict[str, tuple[int, int, list[float]]] = {"own": (0, 0, []), "assumed": (0, 0, [])}
+    said: list[str] = []
+    timing = PairTiming(speed=10.0, clock_offset_ms=12.5)
+    with tempfile.TemporaryDirectory() as tmp:
+        for k in range(sessions):
+            path = Path(tmp) / f"{method}_{k}.mcap"
+            simulate_pair_session(path, method=method, timing=timing, trials=trials,
+                                  seed=seed + k)  # fmt: skip
+            replay = replay_pair_session(path)
+            assert replay.noise is not None
+            truths = _truths(replay, path)
+            said.append(replay.noise[0].said(lines=spec_of(method).uses_image_lines))
+            for name, noise in (
+                ("own", (replay.noise[0].noise, replay.noise[1].noise)),
+                ("assumed", (DEFAULT_NOISE, DEFAULT_NOISE)),
+            ):
+                inside, total, per_dof = _covered(replay, truths, noise)
+                before = counts[name]
+                counts[name] = (before[0] + inside, before[1] + total, before[2] + per_dof)
+    return tuple(  # type: ignore[return-value]
+        RenderedCoverage(
+            covered=inside / max(total, 1),
+            pairs=total,
+            nees_per_dof=float(np.mean(per_dof)),
+            noise=said[0] if name == "own" else "assumed 0.25 px, 0.25 deg",
+        )
+        for name, (inside, total, per_dof) in counts.items()
+    )
 
 
 def main() -> int:

@@ -13,7 +13,9 @@
 - :mod:`twopose.pair.clock`: the cameras' clock offset measured, with its 1-sigma;
 - :mod:`twopose.pair.clock_fit`: a camera's frame times fitted by a regular clock, the offset's
   type;
-- :mod:`twopose.pair.stream`: the estimate per frame pair of a moving target.
+- :mod:`twopose.pair.stream`: the estimate per frame pair of a moving target;
+- :mod:`twopose.pair.frame_noise`: each camera's detection noise per frame, from its own
+  frames (their scatter about a smooth fit in time, with the detector's floor).
 
 No I/O but the pair file's reader and writer.
 """
