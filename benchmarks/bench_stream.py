@@ -54,6 +54,7 @@ from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchm
 
 from analysis.session.stream import DEFAULT_NOISE, PairReplay, replay_pair_session
 from recorder.simulate.pair import PairTiming, simulate_pair_session
+from twopose.errors import SceneError
 from twopose.format.reader import SessionReader
 from twopose.format.streams import read_pair_session
 from twopose.methods.specs import METHOD_SPECS, Method, spec_of
@@ -64,6 +65,7 @@ from twopose.pair.frame_noise import camera_noise
 from twopose.pair.motion import CameraClock, FingerMotion, Frames, observe, thesis_pair
 from twopose.pair.pairing import pair_frames
 from twopose.pair.stream import CameraTrack, StreamNoise, StreamSettings, estimate_stream
+from twopose.sim.scene import Scene
 from twopose.solve.estimate import EstimateOptions, PoseView, ViewBatch, measure, solve_batch
 from twopose.uncertainty.propagate import CHI2_95, nees
 
@@ -416,6 +418,35 @@ def _covered(
     return inside, total, per_dof
 
 
+def _simulated(
+    path: Path, method: Method, timing: PairTiming, trials: int, seed: int,
+    rng: np.random.Generator,
+) -> None:  # fmt: skip
+    """A session rendered in a scene drawn anew: the target's place and the finger's
+    direction, so that the detector's systematic error (the same in every frame of one
+    geometry) is drawn anew too, as ``bench_detector_floor.py`` draws it."""
+    base = Scene()
+    while True:
+        x, z = base.finger.ground_point
+        finger = dataclasses.replace(
+            base.finger, azimuth_deg=float(rng.uniform(140.0, 190.0)),
+            tilt_deg=float(rng.uniform(25.0, 45.0)),
+            ground_point=(x + float(rng.uniform(-1.0, 1.0)), z + float(rng.uniform(-1.0, 1.0))),
+        )  # fmt: skip
+        px, py, pz = base.point.position
+        point = dataclasses.replace(base.point, position=(
+            px + float(rng.uniform(-1.0, 1.0)), py + float(rng.uniform(-0.5, 0.5)),
+            pz + float(rng.uniform(-1.5, 1.5)),
+        ))  # fmt: skip
+        scene = dataclasses.replace(base, finger=finger, point=point)
+        try:
+            simulate_pair_session(path, method=method, timing=timing, trials=trials,
+                                  seed=seed, scene=scene)  # fmt: skip
+            return
+        except SceneError:  # the target out of a camera's view: another draw
+            path.unlink(missing_ok=True)
+
+
 def rendered_coverage(
     method: Method, sessions: int, trials: int, seed: int
 ) -> tuple[RenderedCoverage, RenderedCoverage]:
@@ -424,11 +455,11 @@ def rendered_coverage(
     counts: dict[str, tuple[int, int, list[float]]] = {"own": (0, 0, []), "assumed": (0, 0, [])}
     said: list[str] = []
     timing = PairTiming(speed=10.0, clock_offset_ms=12.5)
+    rng = np.random.default_rng(seed)
     with tempfile.TemporaryDirectory() as tmp:
         for k in range(sessions):
             path = Path(tmp) / f"{method}_{k}.mcap"
-            simulate_pair_session(path, method=method, timing=timing, trials=trials,
-                                  seed=seed + k)  # fmt: skip
+            _simulated(path, method, timing, trials, seed + k, rng)
             replay = replay_pair_session(path)
             assert replay.noise is not None
             truths = _truths(replay, path)

@@ -55,7 +55,11 @@ def test_a_pair_session_is_one_row_per_touch_at_the_simulators_truth(
     # the skew's share is exactly max(0, 1 - err / err_uninterpolated)
     expected = np.maximum(0.0, 1.0 - pair["err"] / pair["err_uninterpolated"])
     np.testing.assert_allclose(pair["skew_share"], expected, rtol=1e-12)
-    assert pair["within95"].all()
+    # each touch's region is the nearest pair's, sized by the session's own pixel noise
+    # (tests/analysis/test_stream_noise.py checks it against the truth); once every touch
+    # was inside it, the 0.25 px assumed making the regions three times too wide
+    assert pair["nees"].gt(0).all()
+    assert pair["within95"].notna().all()
     assert violations(ran.trials) == []  # every value in its declared domain
     assert list(ran.trials.columns) == [c for c in TRIAL_TABLE_COLUMNS if c in ran.trials]
 

@@ -135,15 +135,14 @@ class StreamNoise:
 class StreamSettings:
     """How a stream is estimated.
 
-    ``noise`` each frame's detection noise: both cameras', or camera 1's and camera 2's
-    (a session's own, :func:`twopose.pair.frame_noise.track_noise`); ``interpolate`` whether camera
-    1's measurement is interpolated to camera 2's time (False: the paired frame's, its skew
-    carried as a time error); ``ground`` the ground plane ``(normal (3,), offset)`` in
-    camera 1's frame, exact (None: the pair's floor, with its covariance); ``estimate``
-    the solvers' thresholds (the margins that flag a near-singular pair);
-    ``line_reference`` (3,) or (P, 3), camera 1's frame: a line is reported at its point
-    nearest it (None: nearest camera 2's centre, the solver's point), as a one-camera line
-    trial is reported nearest its true segment's midpoint.
+    ``noise`` each frame's detection noise, both cameras' or each's (``noises``: camera 1's,
+    camera 2's); ``interpolate`` whether camera 1's measurement is interpolated to camera 2's
+    time (False: the paired frame's, its skew carried as a time error); ``ground`` the
+    ground plane ``(normal (3,), offset)`` in camera 1's frame, exact (None: the pair's
+    floor, with its covariance); ``estimate`` the solvers' thresholds (the margins that flag
+    a near-singular pair); ``line_reference`` (3,) or (P, 3), camera 1's frame: a line is
+    reported at its point nearest it (None: nearest camera 2's centre, the solver's point),
+    as a one-camera line trial is reported nearest its true segment's midpoint.
     """
 
     noise: StreamNoise | tuple[StreamNoise, StreamNoise]
@@ -153,10 +152,8 @@ class StreamSettings:
     line_reference: F64 | None = None
 
     @property
-    def noises(self) -> tuple[StreamNoise, StreamNoise]:
-        """Camera 1's and camera 2's detection noise."""
-        n = self.noise
-        return n if isinstance(n, tuple) else (n, n)
+    def noises(self) -> tuple[StreamNoise, StreamNoise]:  # noqa: D102 - the docstring's
+        return self.noise if isinstance(self.noise, tuple) else (self.noise, self.noise)
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
