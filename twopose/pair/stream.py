@@ -6,13 +6,12 @@ camera 2's capture time: with the clock offset, camera 2's time on camera 1's cl
 frames about it (its centroid; an image line's direction as the doubled-angle unit vector
 ``(cos 2 theta, sin 2 theta)``, never the raw angle: docs/method.md; the line's offset
 follows from the two), unless camera 1 has a frame taken at that time (within
-:data:`IN_STEP_NS`: in-step or synced cameras), which is then used as it is.
-Both measurements are first undistorted by their camera's lens, so
-the solvers' pinhole model holds. Then the method's one solver path solves the pair, as a
-one-camera trial's two typed poses would be solved (:func:`twopose.solve.estimate.solve_batch`):
-camera 1 is the pose at the origin, camera 2 the pose ``(t_2_in_1, angles of R_2_to_1)``;
-a still target therefore gives exactly the one-camera estimate with those typed poses,
-whatever the offset.
+:data:`IN_STEP_NS`: in-step or synced cameras), which is then used as it is. Both
+measurements are first undistorted by their camera's lens, so the solvers' pinhole model
+holds. Then the method's one solver path solves the pair, as a one-camera trial's two
+typed poses would be solved (:func:`twopose.solve.estimate.solve_batch`):
+camera 1 is the pose at the origin, camera 2 the pose ``(t_2_in_1, angles of R_2_to_1)``:
+a still target gives exactly the one-camera estimate with those poses, whatever the offset.
 
 Each pair's conditioning is judged (the solvers' statuses, and the margins of
 :func:`twopose.solve.estimate.margin_warnings`): a near-singular pair (a line coplanar with the
