@@ -67,6 +67,8 @@ class PairOutputs:
     units: Units
     pair: PairCalibration
     results: ResultsWriter | None = None
+    #: each camera's pixel noise the session's regions carry (told by the replay)
+    noise: tuple[CameraNoise, CameraNoise] | None = None
     frames: list[dict[str, Any]] = field(default_factory=list)
     views: list[pd.DataFrame] = field(default_factory=list)
     averaging: list[dict[str, Any]] = field(default_factory=list)

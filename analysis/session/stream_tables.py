@@ -113,6 +113,11 @@ def analyse_pair_session(
     metadata = (
         metadata | _pair_metadata(session, parts) | {"skew": _skew_said(rows, session.info.units)}
     )
+    if outputs.noise is not None:  # where each camera's pixel noise came from
+        lines = spec_of(session.info.method).uses_image_lines
+        metadata["pixel_noise"] = "; ".join(
+            f"camera {c}: {n.said(lines=lines)}" for c, n in enumerate(outputs.noise, start=1)
+        )
     identity = identity or SessionIdentity.of_files(path, continuations)
     touched = [str(part.path) for part, trial in kept for _ in trial.touches]
     part_of = dict(zip(rows["trial"].astype(int), touched, strict=True))
@@ -250,6 +255,8 @@ def touch_rows(
         for _, t in kept
     ]
     noise = session_noise([d[0] for d in detected], spec.method, None)
+    if outputs is not None:
+        outputs.noise = noise
     settings = StreamSettings(noise=(noise[0].noise, noise[1].noise), estimate=options.estimate)
     rows: list[dict[str, Any]] = []
     for (part, trial), found in zip(kept, detected, strict=True):
