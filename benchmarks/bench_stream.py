@@ -1,13 +1,13 @@
 """Stream estimates of a moving finger from two free-running cameras.
 
-    .venv/bin/python benchmarks/bench_stream.py [--seed 0] [--draws 300]
+    .venv/bin/python benchmarks/bench_stream.py [--seed 0] [--draws 300] [--sessions 8] [--trials 2]
 
 The thesis' two-camera geometry (``twopose.pair.motion.thesis_pair``: camera 2 six inches
 aside and toed in 10 degrees, f = 525 px, the floor 9.625 in below camera 1) and a pointing
 finger whose tip circles 14 in ahead at 10 in/s (``FingerMotion``), measured analytically
 (no rendering): the tip as a dot, the finger's axis as an image line, with 0.3 px and 0.15
 degrees of detector noise. Camera 2 runs at a phase (skew) of 0 to 16.7 ms after camera 1,
-its clock 0.4321 s ahead. Four parts:
+its clock 0.4321 s ahead. Five parts (the last on rendered frames):
 
 1. A still finger: the stream's estimate per pair (``estimate_stream``) against the
    one-camera path with typed poses equal to the pair's pose (``twopose.solve.estimate``'s
@@ -486,8 +486,8 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--draws", type=int, default=300)
-    parser.add_argument("--sessions", type=int, default=4, help="rendered sessions a method")
-    parser.add_argument("--trials", type=int, default=3, help="stream trials a session")
+    parser.add_argument("--sessions", type=int, default=8, help="rendered sessions a method")
+    parser.add_argument("--trials", type=int, default=2, help="stream trials a session")
     args = parser.parse_args()
     rng = np.random.default_rng(args.seed)
     ok = True

@@ -6,7 +6,8 @@ two-camera sessions yet). :func:`replay_pair_session` reads a format 1.6 session
 frame of both cameras (:func:`twopose.detect.detection.detect`: the dot's centroid, or the glove's
 centroid and image line), takes the clock offset the session recorded (else measures it
 per trial from the targets' centroids by the smallest ray gap:
-:func:`twopose.pair.clock.offset_from_ray_gap`; or the one given), and estimates the stream
+:func:`twopose.pair.clock.offset_from_ray_gap`; or the one given), takes each camera's pixel
+noise from the session's own frames (:func:`session_noise`), and estimates the stream
 (:func:`twopose.pair.stream.estimate_stream`: camera 1's measurement interpolated to camera
 2's capture time, the method's one solver, each pair's conditioning and 95% region). At each
 touch (a moment the target was at a known grid point, on camera 1's clock) the estimate is
