@@ -59,6 +59,7 @@ if TYPE_CHECKING:
 __all__ = [
     "CHI2_2D_95",
     "DEFAULT_NOISE",
+    "NOISE_EVERY_S",
     "NOISE_WINDOW_S",
     "TRACK_S",
     "Ellipse95",
@@ -75,8 +76,11 @@ TRACK_S = 1.0
 #: Each frame's detection noise (1-sigma) assumed until the last seconds' frames give an
 #: estimate (:func:`twopose.pair.frame_noise.camera_noise`): the analysis' default.
 DEFAULT_NOISE = StreamNoise(centroid_px=0.25, theta_deg=0.25)
-#: Each camera's noise is estimated from its frames of the last this many seconds.
+#: Each camera's noise is estimated from its frames of the last this many seconds ...
 NOISE_WINDOW_S = 10.0
+#: ... again once a camera has this many seconds of new frames (an estimate costs a few ms;
+#: a second's frames change it little), and when the streams end.
+NOISE_EVERY_S = 1.0
 #: Camera 1's frames kept (detected) before the newest: the interpolation's bracket and
 #: the frame interval's median.
 HISTORY_FRAMES = 16
@@ -192,7 +196,7 @@ class PointingSettings:
     """How the live estimate is made: the clock offset (camera 2's clock minus camera 1's,
     with its 1-sigma; 0 by default: every pair source stamps on the monotonic clock), each
     frame's detection noise (None: each camera's from its frames of the last
-    :data:`NOISE_WINDOW_S` seconds, by the analysis' rule,
+    :data:`NOISE_WINDOW_S` seconds, every :data:`NOISE_EVERY_S`, by the analysis' rule,
     :func:`twopose.pair.frame_noise.camera_noise`; :data:`DEFAULT_NOISE` until they are
     enough), the solvers' thresholds, the pairing's slop (None: half a frame interval of
     ``fps``) and the cameras' frame rate."""
@@ -255,6 +259,7 @@ class LivePointing:
             noise=(self.noise[0].noise, self.noise[1].noise), estimate=self.settings.estimate
         )
         self._recent: tuple[deque[_Seen], deque[_Seen]] = (deque(), deque())
+        self._noise_at_ns = -math.inf  # the newest frame the noise was estimated with
         slop = self.settings.slop_ns or round(0.5e9 / self.settings.fps)
         offset = round(self.settings.offset.offset_ns)
         self._pairing: LivePairing[_Seen] = LivePairing(slop_ns=slop, offset_ns=offset)
@@ -383,10 +388,13 @@ class LivePointing:
     def _estimate(self, batch: list[tuple[_Seen, _Seen, int]]) -> list[PointingEstimate]:
         """The batch's pairs through the stream estimate, as one call."""
         start = time.thread_time_ns()
-        self.noise = self.noise_now()
-        self.stream = dataclasses.replace(
-            self.stream, noise=(self.noise[0].noise, self.noise[1].noise)
-        )
+        newest = max((r[-1].t_ns for r in self._recent if r), default=-math.inf)
+        if self._ended or newest - self._noise_at_ns >= NOISE_EVERY_S * 1e9:
+            self._noise_at_ns = newest
+            self.noise = self.noise_now()
+            self.stream = dataclasses.replace(
+                self.stream, noise=(self.noise[0].noise, self.noise[1].noise)
+            )
         one = list(self._one)
         position = {s.index: k for k, s in enumerate(one)}
         firsts = [position.get(f.index, -1) for f, _s, _k in batch]
