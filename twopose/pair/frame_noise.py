@@ -185,6 +185,8 @@ def _robust_sigma(z: F64) -> tuple[float, Bools]:
     if not a.size:
         return math.nan, np.zeros(0, dtype=bool)
     sigma = float(np.quantile(a, _START_QUANTILE)) / _NORMAL_ABS_Q20
+    if sigma == 0.0:  # a fifth or more exactly 0 (detections repeated): start from above
+        sigma = math.sqrt(float(np.mean(a**2)))
     kept = np.ones(a.size, dtype=bool)
     for _ in range(100):
         kept = a <= CLIP_SIGMA * sigma

@@ -165,3 +165,19 @@ def test_the_scatter_of_any_smooth_motion_is_its_noise(sigma, speed, drop, seed)
     got = _scatter([track], lines=False)
     assert got.scatter is not None
     assert got.scatter.centroid_px == pytest.approx(sigma, rel=0.3)
+
+
+def test_detections_that_repeat_exactly_are_no_zero_scatter():
+    """A detector that gives the same centroid in a third of the frames (a still target
+    between sensor-noise flips): the scatter is the flips', not 0."""
+    rng = np.random.default_rng(7)
+    jitter = rng.normal(0, 0.2, (300, 2))
+    jitter[rng.random(300) < 0.35] = 0.0
+    track = CameraTrack.of(np.arange(300) * STEP_NS, 320.0 + jitter)
+    got = _scatter([track], lines=False)
+    assert got.scatter is not None
+    assert got.scatter.centroid_px > 0.1
+    exact = CameraTrack.of(np.arange(300) * STEP_NS, np.full((300, 2), 320.0))
+    same = _scatter([exact], lines=False)
+    assert same.scatter is not None
+    assert same.scatter.centroid_px < 1e-9  # a detection that never moves: no scatter
