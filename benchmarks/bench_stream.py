@@ -533,8 +533,10 @@ def main() -> int:
                 f"{n:9d} | {share:17.1%}"
             )
     print(
-        "3b. the same with each camera's noise estimated from the draw's own 2 s of frames "
-        "(the frames' scatter and the detector's floor; run's and the live pointing's rule):"
+        f"3b. the same ({OWN_NOISE_S:g} s a draw, offset sigma 0.45 ms), each camera's detector "
+        "also off by a draw of its floor in every frame, and each camera's noise estimated "
+        "from the draw's own frames (their scatter and the detector's floor: run's and the "
+        "live pointing's rule):"
     )
     print("method | offset sigma ms | coverage | estimates")
     for method in METHODS:
