@@ -82,7 +82,7 @@ def test_views_csv_says_where_each_cameras_noise_came_from(ground: Path, tmp_pat
         assert (camera["scatter_dof"] > 10).all()
     assert set(result.trials["within95"].dropna()) <= {True, False}
     (session,) = result.sessions
-    said = session.metadata["pixel_noise"]  # the report's session table says it too
-    assert said.startswith("camera 1: pixel noise 0.1")
-    assert "; camera 2: pixel noise 0.1" in said
+    metadata = session.metadata["pixel_noise"]  # the report's session table says it too
+    assert metadata.startswith("camera 1: pixel noise 0.1")
+    assert "; camera 2: pixel noise 0.1" in metadata
     assert "pixel noise" in (tmp_path / "report.html").read_text()

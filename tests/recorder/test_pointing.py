@@ -324,7 +324,7 @@ def test_the_live_noise_is_the_analysis_rule_over_the_last_frames():
     made += live.end()
     assert made[0].noise[0].startswith("pixel noise assumed 0.25 px, 0.25 deg (too few frames")
     spec = spec_of(Method.GROUND)
-    tracks = [_offline_track(Method.GROUND, frames, c) for c in (1, 2)]
+    tracks = (_offline_track(Method.GROUND, frames, 1), _offline_track(Method.GROUND, frames, 2))
     offline = [
         camera_noise([t], lines=True, floor=spec.detector_floor, assumed=DEFAULT_NOISE)
         for t in tracks
