@@ -70,6 +70,14 @@ def _prior_difference(pair: Pair, where: str) -> tuple[tuple[str, ...], tuple[st
     if pair.result is None or pair.baseline is None:
         return (), ()
     run, base = (_prior(_text(row, "placing_source")) for row in (pair.result, pair.baseline))
+    pooled = [_text(row, "prior_sessions") for row in (pair.result, pair.baseline)]
+    if (
+        run == base
+        and pooled[0] != pooled[1]
+        and all("prior_sessions" in row.index for row in (pair.result, pair.baseline))
+    ):
+        # the same words ("2 other sessions of operator Eve"), other sessions pooled
+        run, base = (f"{said} ({_ids(ids)})" for said, ids in zip((run, base), pooled, strict=True))
     if run == base:
         return (), ()
     note = (
@@ -79,6 +87,12 @@ def _prior_difference(pair: Pair, where: str) -> tuple[tuple[str, ...], tuple[st
         "different noise); the errors are"
     )
     return (note,), NOISE_MODEL_METRICS
+
+
+def _ids(pooled: str) -> str:
+    """``prior_sessions`` in words: the session ids pooled, each cut to 8 characters."""
+    ids = [i[:8] for i in pooled.split(";") if i]
+    return "sessions " + ", ".join(ids) if ids else "no session named"
 
 
 def _prior(source: str) -> str:
