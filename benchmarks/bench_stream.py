@@ -52,6 +52,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from bench_detector_floor import draw_pair_scene  # type: ignore[import-not-found]  # sys.path[0]
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
 from analysis.session.stream import DEFAULT_NOISE, PairReplay, replay_pair_session
@@ -67,7 +68,6 @@ from twopose.pair.frame_noise import camera_noise
 from twopose.pair.motion import CameraClock, FingerMotion, Frames, observe, thesis_pair
 from twopose.pair.pairing import pair_frames
 from twopose.pair.stream import CameraTrack, StreamNoise, StreamSettings, estimate_stream
-from twopose.sim.scene import Scene
 from twopose.solve.estimate import EstimateOptions, PoseView, ViewBatch, measure, solve_batch
 from twopose.uncertainty.propagate import CHI2_95, nees
 
@@ -428,23 +428,11 @@ def _simulated(
     target's place and the finger's direction, so that the detector's systematic error (the
     same in every frame of one geometry) is drawn anew too, as ``bench_detector_floor.py``
     draws it."""
-    base = Scene()
     if rng is None:
         simulate_pair_session(path, method=method, timing=timing, trials=trials, seed=seed)
         return
     while True:
-        x, z = base.finger.ground_point
-        finger = dataclasses.replace(
-            base.finger, azimuth_deg=float(rng.uniform(140.0, 190.0)),
-            tilt_deg=float(rng.uniform(25.0, 45.0)),
-            ground_point=(x + float(rng.uniform(-1.0, 1.0)), z + float(rng.uniform(-1.0, 1.0))),
-        )  # fmt: skip
-        px, py, pz = base.point.position
-        point = dataclasses.replace(base.point, position=(
-            px + float(rng.uniform(-1.0, 1.0)), py + float(rng.uniform(-0.5, 0.5)),
-            pz + float(rng.uniform(-1.5, 1.5)),
-        ))  # fmt: skip
-        scene = dataclasses.replace(base, finger=finger, point=point)
+        scene = draw_pair_scene(rng)
         try:
             simulate_pair_session(path, method=method, timing=timing, trials=trials,
                                   seed=seed, scene=scene)  # fmt: skip
