@@ -58,12 +58,16 @@ def test_a_rendered_sessions_regions_are_sized_by_its_own_frames(ground: Path) -
         assert camera.noise_dof[0] >= 30
         assert camera.scatter is not None
         assert camera.scatter.centroid_px < 0.1  # the rendered frames' own scatter
-        assert camera.noise.centroid_px < 0.15  # with the glove detector's floor, 0.1 px
+        assert camera.noise.centroid_px < 0.2  # with the glove detector's floor, 0.15 px
     own = _nees_per_dof(replay, ground)
     assumed = _nees_per_dof(replay_pair_session(ground, noise=DEFAULT_NOISE), ground)
     assert own.size > 30
-    assert 0.5 < np.mean(own) < 2.0  # about 1: the regions fit the errors
+    # below 1: the glove's floor (0.15 px, 0.15 deg) is its worst geometry's (camera 1 of
+    # a pair drawn anew: bench_detector_floor), and this scene's detector errs less; still
+    # well above the 0.25 px assumed
+    assert 0.3 < np.mean(own) < 2.0
     assert np.mean(assumed) < 0.25  # the 0.25 px assumed: regions about 3x too wide
+    assert np.mean(assumed) < 0.7 * np.mean(own)
     assert 0.85 < np.mean(own <= 7.815 / 3) <= 1.0  # most within their 95% regions
 
 
@@ -75,9 +79,9 @@ def test_views_csv_says_where_each_cameras_noise_came_from(ground: Path, tmp_pat
         camera = views[views["pose"] == pose]
         said = camera["noise_source"].unique()
         assert len(said) == 1
-        assert said[0].startswith("pixel noise 0.1")
+        assert said[0].startswith("pixel noise 0.15 px")
         assert "the frames' scatter" in said[0]
-        assert "and the detector's floor 0.1 px, 0.08 deg" in said[0]
+        assert "and the detector's floor 0.15 px, 0.15 deg" in said[0]
         assert (camera["noise_px"] >= camera["scatter_px"]).all()
         assert (camera["scatter_dof"] > 10).all()
     assert set(result.trials["within95"].dropna()) <= {True, False}

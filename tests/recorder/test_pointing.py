@@ -331,7 +331,7 @@ def test_the_live_noise_is_the_analysis_rule_over_the_last_frames():
     ]
     assert list(live.noise) == offline  # the same frames (all within the last 10 s)
     assert made[-1].noise == tuple(n.said(lines=True) for n in offline)
-    assert made[-1].noise[0].startswith("pixel noise 0.1 px, 0.081 deg: the frames' scatter")
+    assert made[-1].noise[0].startswith("pixel noise 0.15 px, 0.15 deg: the frames' scatter")
     whole = estimate_stream(
         Method.GROUND, clip.pair, *tracks,
         ClockOffset(offset_ns=0.0, sigma_ns=0.0, method="given", n=0),

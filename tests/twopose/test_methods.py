@@ -4,6 +4,8 @@ an unknown name is refused naming the known ones."""
 from __future__ import annotations
 
 import json
+import re
+from pathlib import Path
 
 import pytest
 
@@ -13,6 +15,8 @@ from twopose.methods.specs import MEASURING_METHODS, METHOD_SPECS, METHODS, Meth
 from twopose.values.bounds import POSE_TRANSLATION
 from twopose.values.choices import Target
 from twopose.values.units import UNIT_SPECS, UNITS, Units, unit_spec
+
+REPO = Path(__file__).resolve().parents[2]
 
 
 def test_every_method_and_unit_has_its_spec() -> None:
@@ -96,3 +100,32 @@ def test_session_info_holds_the_types_and_writes_the_names() -> None:
     assert decode_entry(SessionInfo.SCHEMA_NAME, encoded) == info
     with pytest.raises(InputValueError, match="got 'plane'"):
         SessionInfo(method="plane", units=Units.IN)  # type: ignore[arg-type]
+
+
+def test_each_detectors_floor_covers_every_geometry_its_figure_measured() -> None:
+    """The registry's ``detector_floor`` is at least the systematic error the benchmark
+    measured in every geometry (the thesis' one camera, each camera of the simulator's
+    pair: docs/figures/detector_floor.txt), and the figure measured every one of them."""
+    figure = REPO / "docs" / "figures" / "detector_floor.txt"
+    lines = figure.read_text().splitlines()
+    header = lines[1].split()  # detector, geometry, error (words with spaces), then one a column
+    systematic = header.index("systematic") - header.index("error") - 1
+    row_re = re.compile(r"\s*(\w+)\s+(.+?)\s+(across|orientation|centroid [xy]) (px|deg)\s+(.*)")
+    measured: dict[tuple[str, str], float] = {}
+    geometries = set()
+    for line in lines[2:-1]:
+        match = row_re.fullmatch(line)
+        assert match is not None, line
+        detector, geometry, _, unit, values = match.groups()
+        geometries.add(geometry)
+        key = (detector, "orientation" if unit == "deg" else "centroid")
+        measured[key] = max(measured.get(key, 0.0), float(values.split()[systematic]))
+    assert geometries == {"thesis (one camera)", "pair camera 1", "pair camera 2"}
+    for method in MEASURING_METHODS:
+        spec = spec_of(method)
+        assert spec.target is not None
+        name = str(spec.target.target)
+        px, deg = spec.detector_floor
+        assert measured[(name, "centroid")] <= px, (name, measured)
+        if spec.uses_image_lines:
+            assert measured[(name, "orientation")] <= deg, (name, measured)

@@ -121,7 +121,7 @@ class CameraNoise:
         """In words.
 
         E.g. "pixel noise 0.104 px, 0.094 deg: the frames' scatter 0.03 px, 0.05 deg (from
-        412 frames, dof 190, 95) and the detector's floor 0.1 px, 0.08 deg", or "pixel noise
+        412 frames, dof 190, 95) and the detector's floor 0.15 px, 0.15 deg", or "pixel noise
         assumed 0.25 px (too few frames: ...)".
         """
 
