@@ -26,8 +26,10 @@ __all__ = ["FLASH_SIGMAS", "offset_from_flash"]
 FLASH_SIGMAS = 3.0
 
 
-def _onset(brightness: F64, times: RegularTimes, exposure_ns: float | None) -> tuple[float, float]:
-    """One camera's flash onset (its clock, ns) and its 1-sigma.
+def _onset(
+    brightness: F64, times: RegularTimes, exposure_ns: float | None
+) -> tuple[float, float, float]:
+    """One camera's flash onset (its clock, ns), its 1-sigma and its fitted clock's part.
 
     Over the two frames about the step, the lit share of each exposure after an onset ``tau``
     is ``clip((t_k + E/2 - tau) / E, 0, 1)``; their sum ``L(tau)`` falls steadily through
@@ -72,7 +74,7 @@ def _onset(brightness: F64, times: RegularTimes, exposure_ns: float | None) -> t
     else:
         lo, hi = grid[agree].min(), grid[agree].max()
         sigma = max(0.5 * (hi - lo) / FLASH_SIGMAS, step)
-    return 0.5 * (lo + hi), float(np.hypot(sigma, s_time))
+    return 0.5 * (lo + hi), float(np.hypot(sigma, s_time)), s_time
 
 
 def offset_from_flash(
@@ -105,6 +107,9 @@ def offset_from_flash(
         if values.shape != times.shape or not np.isfinite(values).all():
             raise InputValueError("each frame needs one finite brightness and one time")
         onsets.append(_onset(values, regular_times(times), e))
-    (a, sa), (b2, sb) = onsets
+    (a, sa, ca), (b2, sb, cb) = onsets
     n = int(np.asarray(t1_ns).size + np.asarray(t2_ns).size)
-    return ClockOffset(offset_ns=b2 - a, sigma_ns=float(np.hypot(sa, sb)), method="flash", n=n)
+    return ClockOffset(
+        offset_ns=b2 - a, sigma_ns=float(np.hypot(sa, sb)), method="flash", n=n,
+        clock_sigma_ns=float(np.hypot(ca, cb)),
+    )  # fmt: skip
