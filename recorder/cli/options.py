@@ -42,6 +42,7 @@ __all__ = [
     "MaxPosesOption",
     "MethodOption",
     "MinGainOption",
+    "NoFlashOption",
     "NotesOption",
     "OperatorOption",
     "OutArgument",
@@ -343,6 +344,16 @@ DropOption = Annotated[
     typer.Option(
         **read_option("DROP"),
         help="With --cameras 2: the share of each camera's frames lost [default: 0].",
+    ),
+]
+
+NoFlashOption = Annotated[
+    bool,
+    typer.Option(
+        "--no-flash",
+        help="With --cameras 2: no flash at each stream trial's start (by default one both "
+        "cameras see, which measures any clock offset; without it the moving target's rays "
+        "must fix the offset).",
     ),
 ]
 

@@ -16,6 +16,7 @@ from recorder.cli.options import (
     DriftOption,
     DropOption,
     JitterOption,
+    NoFlashOption,
     SpeedOption,
     given_options,
 )
@@ -72,6 +73,7 @@ def simulate(
     drift_ppm: DriftOption = None,
     jitter_ms: JitterOption = None,
     drop: DropOption = None,
+    no_flash: NoFlashOption = False,
 ) -> None:
     """Render a simulated session with known truth: the laptop-on-grid procedure, or
     (--cameras 2) a pair of cameras watching a moving target."""
@@ -88,7 +90,7 @@ def simulate(
         if cameras == 2:
             summary = simulate_pair_with_progress(
                 out, method, trials, seed, loaded,
-                (speed, clock_offset_ms, drift_ppm, jitter_ms, drop),
+                (speed, clock_offset_ms, drift_ppm, jitter_ms, drop), flash=not no_flash,
             )  # fmt: skip
             typer.echo(
                 f"wrote {summary.path}: {summary.method}, two cameras, {summary.n_trials} "

@@ -6,7 +6,7 @@ this one path, from each camera's frames' capture times, the target's track and 
 frame's brightness:
 
 - **brightness** (:class:`BrightnessMeter`): the mean linear level (the 2.2 gamma undone)
-  of the pixels that were in the darkest quarter of the stream's first frame. A flash
+  of the pixels that were in the darkest tenth of the stream's first frame. A flash
   multiplies each pixel's light; those pixels it lights without saturating them, so the
   brightness stays linear in a frame's lit share, which :func:`twopose.pair.flash.
   offset_from_flash` assumes (the mean of the encoded values is not: a half-lit frame reads
@@ -57,12 +57,12 @@ __all__ = [
 #: A flash: a camera's brightness rises by this share of its level before, at least ...
 FLASH_RISE = 0.25
 #: ... and by this many times its frame-to-frame scatter (robust: the median deviation).
-FLASH_NOISE = 20.0
+FLASH_NOISE = 10.0
 #: A flash's and the rays' gap's offsets of one trial further apart than this many of
 #: their combined 1-sigma are not pooled (a 1-in-1.7-million chance for two honest ones).
 AGREE_SIGMAS = 5.0
 #: The share of the first frame's pixels, darkest first, whose level is the brightness.
-DARK_SHARE = 0.25
+DARK_SHARE = 0.1
 #: The encoded level -> linear light (the sensor's 2.2 gamma undone), per 8-bit value.
 _LINEAR = (np.arange(256, dtype=np.float64) / 255.0) ** 2.2
 
@@ -89,10 +89,13 @@ class BrightnessMeter:
 
 
 def flashed(brightness: ArrayLike) -> bool:
-    """Whether a camera's frames saw a flash: its brightness steps up within two frames (an
-    onset falls in one exposure or across two) by at least :data:`FLASH_RISE` of its level
-    before, and by :data:`FLASH_NOISE` times the frames' own scatter. A moving target, a
-    hand, a camera's exposure settling change it by far less, or slowly."""
+    """Whether a camera's frames saw a flash.
+
+    Its brightness steps up within two frames (an onset falls in one exposure or across
+    two) by at least :data:`FLASH_RISE` of its level before, and by :data:`FLASH_NOISE`
+    times the frames' own scatter. A moving target, a hand, a camera's exposure settling
+    change it by far less, or slowly.
+    """
     b = np.asarray(brightness, dtype=np.float64).reshape(-1)
     b = b[np.isfinite(b)]
     if b.size < 8:
@@ -106,8 +109,11 @@ def flashed(brightness: ArrayLike) -> bool:
 
 
 def pooled_offset(offsets: list[ClockOffset]) -> ClockOffset:
-    """Independent offsets (a session's trials') pooled: their inverse-variance mean, its
-    1-sigma widened by the Birge ratio where they scatter beyond their sigmas."""
+    """Independent offsets (a session's trials') pooled.
+
+    Their inverse-variance mean, its 1-sigma widened by the Birge ratio where they scatter
+    beyond their sigmas.
+    """
     x = np.array([o.offset_ns for o in offsets], dtype=np.float64)
     s = np.array([max(o.sigma_ns, 1.0) for o in offsets], dtype=np.float64)
     w = 1.0 / s**2
@@ -125,8 +131,10 @@ def pooled_offset(offsets: list[ClockOffset]) -> ClockOffset:
 
 
 def _one_trial(flash: ClockOffset, gap: ClockOffset) -> ClockOffset:
-    """A flash's and the rays' gap's offsets of one trial pooled (generalised least
-    squares, their shared clock error ``c^2`` as the covariance of the two)."""
+    """A flash's and the rays' gap's offsets of one trial pooled.
+
+    Generalised least squares, their shared clock error ``c^2`` the covariance of the two.
+    """
     c2 = min(flash.clock_sigma_ns, gap.clock_sigma_ns) ** 2
     cov = np.array([[flash.sigma_ns**2, c2], [c2, gap.sigma_ns**2]])
     inv = np.linalg.inv(cov + 1e-6 * np.eye(2))  # 1e-6 ns^2: never singular
@@ -141,8 +149,10 @@ def _one_trial(flash: ClockOffset, gap: ClockOffset) -> ClockOffset:
 
 @dataclass(frozen=True, kw_only=True)
 class TrialOffset:
-    """A trial's offset (None: not fixed), each measurement made, and what it gave in words
-    (``why``: each way that could not measure it, or the disagreement)."""
+    """A trial's offset (None: not fixed), each measurement made, and why not in words.
+
+    ``why``: each way that could not measure it, or the two measurements' disagreement.
+    """
 
     offset: ClockOffset | None
     found: tuple[ClockOffset, ...]
@@ -185,7 +195,7 @@ def measure_trial_offset(
             f"the flash gives {flash.offset_ns / 1e6:+.2f} ± {flash.sigma_ns / 1e6:.2f} ms and "
             f"the rays' gap {gap.offset_ns / 1e6:+.2f} ± {gap.sigma_ns / 1e6:.2f} ms, "
             f"{apart:.0f} sigma apart: one of them is wrong (a flash of another light, a "
-            "repeating or too fast motion); fire the flash again, alone, before the target "
+            "repeating or too fast motion): fire the flash again, alone, before the target "
             "moves"
         )
         return TrialOffset(offset=None, found=tuple(found), why=tuple(why))
