@@ -181,7 +181,7 @@ def test_the_line_and_ground_methods_take_the_same_path(tmp_path: Path) -> None:
     simulator's truth (a line's error its distance from the line, as ``dist_err``)."""
     (tmp_path / "small.toml").write_text(SMALL_SCENE)
     scene = load_scene(tmp_path / "small.toml")
-    timing = PairTiming(speed=10.0, clock_offset_ms=8.0)
+    timing = PairTiming(speed=10.0, clock_offset_ms=8.0, flash=False)
     paths = [tmp_path / f"{m}.mcap" for m in (Method.LINE, Method.GROUND)]
     for path, method in zip(paths, (Method.LINE, Method.GROUND), strict=True):
         simulate_pair_session(path, method=method, timing=timing, trials=1, seed=0, scene=scene)

@@ -36,7 +36,6 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from twopose.arrays import F64
 from twopose.errors import InputValueError
 from twopose.pair.calibration import PairCalibration
 from twopose.pair.clock import offset_from_ray_gap
@@ -200,9 +199,3 @@ def measure_trial_offset(
         )
         return TrialOffset(offset=None, found=tuple(found), why=tuple(why))
     return TrialOffset(offset=_one_trial(flash, gap), found=tuple(found), why=tuple(why))
-
-
-def brightness_of(images: list[NDArray[np.uint8]]) -> F64:
-    """(N,) the brightness of a stream's frames, in order (one :class:`BrightnessMeter`)."""
-    meter = BrightnessMeter()
-    return np.array([meter(image) for image in images], dtype=np.float64)
