@@ -72,6 +72,13 @@ BASINS = 6
 REPEAT_APART = 2.0
 #: The fine search's candidates per frame interval (its step's uniform error enters sigma).
 FINE_STEPS = 200
+#: The fewest frames whose motion the offset may rest on (their participation ratio,
+#: :meth:`DotTracks.motion_frames`), and the least ratio of the gaps' rates with the
+#: offset to what camera 1's noise alone makes them: a line crossed in three frames at
+#: 48 in/s, the rest of the trial still, was 59 ms off with a sigma of 6.6 (the minimum
+#: was the still frames' noise's, its curvature too).
+MIN_MOVING_FRAMES = 6
+MIN_ABOVE_NOISE = 1.5
 #: Runs of camera 2's frames left out in turn to check the sigma (:func:`_jackknife_variance`).
 JACKKNIFE_BLOCKS = 10
 #: The mean squared gap this many times smaller with the cameras exchanged says they are.
@@ -165,9 +172,19 @@ def _ray_gap(dots: DotTracks, search_ns: tuple[float, float]) -> ClockOffset:
     # Least squares on S = n * mean: var = 2 s^2 / S'', s^2 = S_min / (n - 1).
     min_mean = c1 - 0.25 * (c0 - c2) ** 2 / (c0 - 2 * c1 + c2) / 2
     variance = 2 * max(min_mean, 0.0) / ((n - 1) * curvature) * dots.correlation_factor(vertex)
-    # The model's sigma checked against the data's own scatter: a slow target's (a few px a
-    # frame) was a third too small (camera 1's noise in a gap and in its rate with the
-    # offset alike), a 1.9 in/s line's 10 of its sigmas off once.
+    above_noise, moving = dots.motion_frames(float(vertex), h, max(min_mean, 0.0))
+    if above_noise < MIN_ABOVE_NOISE:
+        raise InputValueError(_NOT_FIXED)
+    if moving < MIN_MOVING_FRAMES:
+        raise InputValueError(
+            f"the offset would rest on the target's motion in {moving:.1f} frames (it moved "
+            f"in few of them, or fast past them), fewer than {MIN_MOVING_FRAMES}: move it "
+            "across both cameras' views for longer, or slower"
+        )
+    # The curvature holds camera 1's noise's share (a slow target's: half of it at 2 in/s),
+    # which fixes nothing: the motion's alone sets the sigma. Then the sigma checked
+    # against the data's own scatter (a 1.9 in/s line was once 10 of its sigmas off).
+    variance *= above_noise / (above_noise - 1.0)
     variance = max(variance, _jackknife_variance(dots, fine))
     if np.sqrt(variance) > MAX_SIGMA_SHARE * interval:
         raise InputValueError(_NOT_FIXED)

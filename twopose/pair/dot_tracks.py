@@ -148,6 +148,35 @@ class DotTracks:
         mean = np.where(enough, np.nansum(g2, axis=1) / np.maximum(used, 1), np.nan)
         return mean, used.astype(np.float64)
 
+    def motion_frames(
+        self, offset_ns: float, step_ns: float, noise_px2: float
+    ) -> tuple[float, float]:
+        """What the offset rests on: the gaps' rates against their noise, and in how many
+        frames.
+
+        A gap's rate with the offset ``s`` is camera 1's velocity between the two frames it
+        interpolates, and its noise alone makes a still frame's (variance ``2 noise_px2 /
+        dt^2``, ``noise_px2`` a camera's noise in gap units: the best's mean squared gap per
+        unit weight). Returns the ratio of ``sum s^2 / v`` to what noise alone gives (about
+        1 for a still target: its curvature is the noise's, and so would its sigma be),
+        and the participation ratio ``(sum i)^2 / sum i^2`` of each frame's information
+        beyond the noise's, ``i = (s^2 - 2 noise_px2 / dt^2)+ / v``: the number of frames
+        the motion is spread over (one frame of motion among still ones: 1).
+        """
+        candidates = np.array([offset_ns - step_ns, offset_ns + step_ns])
+        gap, weight = self.gaps(candidates)
+        i, _, ok = self.weights(offset_ns)
+        rate2 = ((gap[1] - gap[0]) / (2 * step_ns)) ** 2
+        dt = self.times[0][i + 1] - self.times[0][i]
+        v = weight.mean(axis=0)
+        use = np.isfinite(rate2) & ok
+        noise = 2 * noise_px2 / dt[use] ** 2 / v[use]
+        seen = rate2[use] / v[use]
+        ratio = float(seen.sum() / noise.sum()) if noise.sum() > 0 else np.inf
+        info = np.clip(seen - noise, 0.0, None)
+        total = float((info**2).sum())
+        return ratio, (float(info.sum() ** 2 / total) if total > 0 else 0.0)
+
     def bend_px2(self) -> float:
         """The mean squared most camera 1's linear interpolation can miss its track (px^2).
 

@@ -22,8 +22,11 @@ from twopose.pair.clock_fit import ClockOffset, RegularTimes, regular_times
 
 __all__ = ["FLASH_SIGMAS", "offset_from_flash"]
 
-#: The span of onsets a flash's frames agree with, in their lit shares' 1-sigmas.
-FLASH_SIGMAS = 3.0
+#: The span of onsets a flash's frames agree with, in their lit shares' 1-sigmas: 5, so
+#: that an onset in a gap between exposures the shares miss by 3 to 5 of their sigmas is
+#: still among them (at 3, one such draw in a thousand was taken for an onset inside the
+#: next exposure: 59 ms off, with a sigma of 1.2).
+FLASH_SIGMAS = 5.0
 
 
 def _onset(
@@ -36,8 +39,8 @@ def _onset(
     exposures and stays flat across the gaps between them (and a dropped frame's). The
     onset is where ``L`` meets the frames' measured lit shares' sum: the middle of the
     ``tau`` where they agree within :data:`FLASH_SIGMAS` of its 1-sigma, which is that
-    span over twice as many; where ``L`` is flat there, the flat span's middle, uniform
-    over it (``span / sqrt 12``).
+    span over twice as many; where ``L`` is flat anywhere in it, the whole span's middle,
+    uniform over it (``span / sqrt 12``). Shares no onset fits are refused.
     """
     b = brightness
     span = float(b.max() - b.min())
@@ -62,17 +65,20 @@ def _onset(
     L = np.clip((t[None, :] + E / 2 - grid[:, None]) / E, 0.0, 1.0).sum(axis=1)
     miss = np.abs(L - shares.sum())
     agree = miss <= FLASH_SIGMAS * max(s_sum, 1e-9)
-    if not agree.any():  # the shares disagree with one onset: take the nearest
-        agree = miss == miss.min()
+    if not agree.any():
+        raise InputValueError(
+            "the flash's frames fit no onset (their brightness is not a step: a light that "
+            "flickered, or an exposure that changed with it): fire it again, the cameras' "
+            "automatic exposure off"
+        )
     # Where L is flat (between two exposures: a gap, or a dropped frame's) every onset in it
-    # gives the same shares: known to that span only (uniform), else to its slope.
+    # gives the same shares: known to the span only (uniform), else to its slope.
     flat = agree & (np.abs(np.gradient(L)) < 1e-12)
     s_time = float(times.sigma_ns[window].max())
+    lo, hi = grid[agree].min(), grid[agree].max()
     if flat.any():
-        lo, hi = grid[flat].min(), grid[flat].max()
         sigma = float(np.sqrt((hi - lo + step) ** 2 / 12 + (s_sum * E) ** 2))
     else:
-        lo, hi = grid[agree].min(), grid[agree].max()
         sigma = max(0.5 * (hi - lo) / FLASH_SIGMAS, step)
     return 0.5 * (lo + hi), float(np.hypot(sigma, s_time)), s_time
 
