@@ -151,8 +151,7 @@ class DotTracks:
     def motion_frames(
         self, offset_ns: float, step_ns: float, noise_px2: float
     ) -> tuple[float, float]:
-        """What the offset rests on: the gaps' rates against their noise, and in how many
-        frames.
+        """What the offset rests on: the gaps' rates against their noise, and how many frames.
 
         A gap's rate with the offset ``s`` is camera 1's velocity between the two frames it
         interpolates, and its noise alone makes a still frame's (variance ``2 noise_px2 /
