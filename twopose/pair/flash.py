@@ -20,13 +20,17 @@ from twopose.arrays import F64
 from twopose.errors import InputValueError
 from twopose.pair.clock_fit import ClockOffset, RegularTimes, regular_times
 
-__all__ = ["FLASH_SIGMAS", "offset_from_flash"]
+__all__ = ["FLASH_SIGMAS", "LIT_PRIOR_FRAMES", "offset_from_flash"]
 
 #: The span of onsets a flash's frames agree with, in their lit shares' 1-sigmas: 5, so
 #: that an onset in a gap between exposures the shares miss by 3 to 5 of their sigmas is
 #: still among them (at 3, one such draw in a thousand was taken for an onset inside the
 #: next exposure: 59 ms off, with a sigma of 1.2).
 FLASH_SIGMAS = 5.0
+#: The lit frames' scatter is shrunk toward a flicker's (a share of the level) as if this
+#: many frames had shown it: a flash lights a dozen frames or fewer, whose own scatter is
+#: a poor estimate; a long one's own wins.
+LIT_PRIOR_FRAMES = 4
 
 
 def _onset(
@@ -56,15 +60,19 @@ def _onset(
     base, peak = float(np.median(before)), float(np.median(after))
     window = np.arange(first_lit - 1, first_lit + 1)  # the onset is in one of these two
     shares = (b[window] - base) / (peak - base)
-    # The shares' sum's 1-sigma: the frames' scatter about their level, taken both as
-    # added (a sensor's) and as a share of the level (a light's flicker: a lit frame's is
-    # the larger), whichever is larger (pooled as added alone, an onset in a gap between
-    # exposures was once put 5.7 of its sigmas inside the next exposure, 67 ms off).
-    added = float(np.std(np.r_[before - base, after - peak], ddof=1)) * np.sqrt(window.size)
-    relative = (
-        float(np.std(np.r_[before / base - 1, after / peak - 1], ddof=1)) if base > 0 else 0.0
-    )
-    s_sum = max(added, relative * float(np.hypot(base, peak))) / (peak - base)
+    # The shares' sum's 1-sigma: each frame's scatter at its level, the dark frames' and
+    # the lit frames' apart and in between by its share. A sensor's noise is the same at
+    # both levels, a light's flicker a share of the level (a lit frame's the larger); the
+    # few lit frames' own scatter is shrunk toward the flicker's (the dark frames' scaled
+    # by the levels) as :data:`LIT_PRIOR_FRAMES` frames would: pooled as one noise, an
+    # onset in a gap between exposures was once put 5.7 of its sigmas inside the next
+    # exposure, 67 ms off.
+    dark = float(np.std(before - base, ddof=1)) if before.size > 1 else 0.0
+    flicker = dark * peak / base if base > 0 else dark
+    own = float(((after - peak) ** 2).sum())
+    lit = float(np.sqrt((own + LIT_PRIOR_FRAMES * flicker**2) / (after.size + LIT_PRIOR_FRAMES)))
+    each = dark + (lit - dark) * np.clip(shares, 0.0, 1.0)
+    s_sum = float(np.sqrt((each**2).sum())) / (peak - base)
     E = times.interval_ns if exposure_ns is None else float(exposure_ns)
     t = times.times_ns[window]
     grid = np.linspace(t[0] - E, t[-1] + E, 4001)
