@@ -72,7 +72,13 @@ def _onset(
     own = float(((after - peak) ** 2).sum())
     lit = float(np.sqrt((own + LIT_PRIOR_FRAMES * flicker**2) / (after.size + LIT_PRIOR_FRAMES)))
     each = dark + (lit - dark) * np.clip(shares, 0.0, 1.0)
-    s_sum = float(np.sqrt((each**2).sum())) / (peak - base)
+    # ... and the levels' own errors, which every share carries (a short flash's lit level
+    # rests on a frame or two).
+    levels = np.hypot(
+        shares.sum() * lit / np.sqrt(max(after.size, 1)),
+        (1 - shares).sum() * dark / np.sqrt(max(before.size, 1)),
+    )
+    s_sum = float(np.sqrt((each**2).sum() + levels**2)) / (peak - base)
     E = times.interval_ns if exposure_ns is None else float(exposure_ns)
     t = times.times_ns[window]
     grid = np.linspace(t[0] - E, t[-1] + E, 4001)
