@@ -78,7 +78,7 @@ def test_a_pair_recorded_by_schedule_and_key_gives_one_row_per_touch(
     with SessionReader(out) as reader:
         session = read_pair_session(reader)
         assert session.info.clocks == {"cam1": "simulated", "cam2": "simulated"}
-        assert session.offset is not None, rest  # measured by the recorder, recorded
+        assert session.offset is not None  # measured by the recorder, recorded
         assert abs(session.offset.offset_ns + PHASE_S * 1e9) < 3e6, session.offset
         (trial,) = session.trials
         assert [t.how for t in trial.touches] == ["schedule", "schedule", "key", "schedule"]
