@@ -12,11 +12,15 @@
   refined by a parabola through the three candidates about it. Its 1-sigma is that of a
   least-squares parameter: ``var = 2 s^2 / S''``, ``S''`` the curvature of the summed
   squared gap and ``s^2`` the gaps' variance at the minimum, times the factor by which
-  neighbouring gaps' shared camera-1 frames correlate them, plus camera 1's
-  linear-interpolation error (its track's bend between frames), the grid step's and the
-  fitted clocks' own error. The minimum is taken over the frames every offset about it
-  measures. Refused in words: a motion along the epipolar lines (sideways, for cameras side
-  by side), one that repeats, a best at the search's edge, exchanged cameras.
+  neighbouring gaps' shared camera-1 frames correlate them, less camera 1's noise's share
+  of the curvature (a still frame's rate with the offset is its noise's), floored by a
+  jackknife over runs of frames, plus camera 1's linear-interpolation error (its track's
+  bend between frames), the grid step's and the fitted clocks' own error. The minimum is
+  taken over the frames every offset about it measures; the offsets searched are every
+  offset a pair's clocks may differ by (:data:`twopose.values.bounds.CLOCK_OFFSET`, what
+  ``simulate`` accepts) and a margin. Refused in words: a motion along the epipolar lines
+  (sideways, for cameras side by side) or no more than camera 1's noise, one in fewer than
+  three frames, one that repeats, a best at the search's edge, exchanged cameras.
 
 Both first fit each camera's frame times by a regular clock (:func:`regular_times`: a
 camera's frames are taken at a fixed rate; the stamps' jitter is the host's), so the
