@@ -157,13 +157,12 @@ def _serve(
     the console's stream trials."""
     from recorder.console.server import ConsoleOptions, serve_console
     from recorder.procedure.machine import refuse_existing
-    from recorder.procedure.stream_terminal import ask_pair_setup
-    from recorder.setup.pair_continuation import pair_continued
+    from recorder.procedure.stream_terminal import PairSetup, ask_pair_setup
     from twopose.pair.pair_file import read_pair_file
 
     refuse_existing(out)
     if continued is not None:
-        setup = pair_continued(continued, pair_path, operator=asked["operator"])
+        setup = PairSetup.continuing(continued, pair_path, operator=asked["operator"])
         pair = setup.session_pair(None)
     else:
         assert pair_path is not None  # new --pair: the one way here without --continue

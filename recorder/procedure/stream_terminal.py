@@ -121,6 +121,26 @@ class PairSetup:
     #: identity kept, its trials numbered on (:mod:`recorder.setup.pair_continuation`).
     continued: Continued | None = None
 
+    @classmethod
+    def continuing(
+        cls, continued: Continued, pair_path: Path | None = None, *,
+        plan: StreamPlan | None = None, operator: str | None = None,
+    ) -> PairSetup:  # fmt: skip
+        """A continuation's setup: ``continued``'s (its pair checked against ``pair_path``
+        and ``plan``: :func:`recorder.setup.pair_continuation.check_continuation`), recorded
+        by ``operator`` (``--operator``, else the plan's, else the session's)."""
+        from recorder.setup.pair_continuation import check_continuation
+
+        check_continuation(continued, pair_path, plan=plan)
+        if plan is not None:
+            operator = operator or plan.operator or None
+        info = continued.info
+        return cls(
+            method=info.method, units=info.units,
+            operator=operator if operator is not None else continued.operator or info.operator,
+            continued=replace(continued, operator=operator),
+        )  # fmt: skip
+
     @property
     def first_trial(self) -> int:
         """The recording's first stream trial (a continuation's: after the session's last)."""
@@ -378,7 +398,6 @@ def record_pair(  # noqa: PLR0913 - what new --pair takes
     setup (``pair_path`` None, or checked to be its pair: :mod:`recorder.setup.
     pair_continuation`), its trials numbered on."""
     from recorder.procedure.machine import refuse_existing
-    from recorder.setup.pair_continuation import pair_continued
     from recorder.setup.stream_plan import load_stream_plan
     from twopose.pair.pair_file import read_pair_file
 
@@ -386,7 +405,7 @@ def record_pair(  # noqa: PLR0913 - what new --pair takes
     plan = load_stream_plan(plan_path) if plan_path is not None else None
     if continued is not None:
         who = (given or {}).get("operator")
-        setup = pair_continued(continued, pair_path, plan=plan, operator=who)
+        setup = PairSetup.continuing(continued, pair_path, plan=plan, operator=who)
         pair = setup.session_pair(None)
     elif pair_path is None:
         raise InputValueError("--pair PAIR.toml: the pair's calibration (calibrate-pair) is needed")

@@ -20,7 +20,6 @@ one camera: refused in words, before anything is asked or recorded.
 
 from __future__ import annotations
 
-from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -30,12 +29,16 @@ from twopose.errors import InputValueError
 from twopose.values.bounds import shown
 
 if TYPE_CHECKING:
-    from recorder.procedure.stream_terminal import PairSetup
     from recorder.setup.continuation import Continued
     from recorder.setup.stream_plan import StreamPlan
     from twopose.pair.calibration import PairCalibration
 
-__all__ = ["ONE_CAMERA_WITH_PAIR", "pair_continued", "pair_differs", "refuse_one_camera_source"]
+__all__ = [
+    "ONE_CAMERA_WITH_PAIR",
+    "check_continuation",
+    "pair_differs",
+    "refuse_one_camera_source",
+]
 
 #: Why a one-camera session is not continued by a pair (``--pair`` or a pair source).
 ONE_CAMERA_WITH_PAIR = (
@@ -87,19 +90,14 @@ def _same(a: object, b: object) -> bool:
     return x.shape == y.shape and float(np.abs(x - y).max(initial=0.0)) <= _SAME * scale
 
 
-def pair_continued(
-    continued: Continued,
-    pair_path: Path | None = None,
-    *,
-    plan: StreamPlan | None = None,
-    operator: str | None = None,
-) -> PairSetup:
-    """The continuation's setup: ``continued``'s (the module docstring); ``pair_path`` a
-    pair file given beside it (checked to be the stored pair), ``plan`` a plan recording it
-    (its method and units must be the session's; its ground height, if it gives one, the
-    session's floor's), ``operator`` who records it (``--operator``, else the plan's, else
-    the session's)."""
-    from recorder.procedure.stream_terminal import PairSetup
+def check_continuation(
+    continued: Continued, pair_path: Path | None = None, *, plan: StreamPlan | None = None
+) -> PairCalibration:
+    """The pair a continuation of ``continued`` records with: the one it stored (the module
+    docstring); ``pair_path`` a pair file given beside it (checked to be that pair), ``plan``
+    a plan recording it (its method and units must be the session's; its ground height, if
+    it gives one, the session's floor's). Refused in words otherwise, and for a one-camera
+    session."""
     from twopose.pair.pair_file import read_pair_file
 
     stored = continued.pair
@@ -113,16 +111,10 @@ def pair_continued(
                 f"{differs} differ; a continuation keeps its session's pair (leave --pair out: "
                 "the session's is used), or record a new session with this pair"
             )
-    info = continued.info
     if plan is not None:
         continued.check_plan(plan.method, plan.units)
         _check_plan_floor(continued, plan)
-        operator = operator or plan.operator or None
-    return PairSetup(
-        method=info.method, units=info.units,
-        operator=operator if operator is not None else continued.operator or info.operator,
-        continued=replace(continued, operator=operator),
-    )  # fmt: skip
+    return stored
 
 
 def _check_plan_floor(continued: Continued, plan: StreamPlan) -> None:

@@ -159,7 +159,7 @@ def _pair_file_moved(moving: MovingPair, folder: Path) -> Path:
 def test_a_continuation_is_refused_in_words_another_pair_or_one_camera(
     moving: MovingPair, first: Path, tmp_path: Path
 ) -> None:
-    from recorder.setup.pair_continuation import pair_continued
+    from recorder.procedure.stream_terminal import PairSetup
 
     runner = CliRunner()
     sample = sorted(Path("sessions").glob("thesis_*.mcap"))[0]  # a one-camera session
@@ -186,7 +186,7 @@ def test_a_continuation_is_refused_in_words_another_pair_or_one_camera(
     said = refused("--continue", str(first), "--source", moving.source, "--plan", str(line_plan))
     assert "a continuation keeps the session's setup" in said
     # the same pair file is the session's pair: taken
-    setup = pair_continued(read_continued(first), moving.pair_file)
+    setup = PairSetup.continuing(read_continued(first), moving.pair_file)
     assert setup.first_trial == 2
 
 
