@@ -53,6 +53,7 @@ from analysis.report.figures.topview import plot_top_view
 from analysis.report.plane_axes import plane_of
 from analysis.session.metrics import by_session_set, session_set, used_trials
 from analysis.tables.labels import table_units
+from analysis.tables.row_units import row_units_of
 from twopose.methods.specs import Method, label_of
 from twopose.values.units import Units
 
@@ -103,7 +104,7 @@ def _running_figure(
             palette.colour_key(fig, fig.axes[1])
         height = fig.get_size_inches()[1]
         fig.supxlabel(
-            "number of frames averaged per pose",
+            palette.unit.averaged_count,
             fontsize=LABEL,
             y=(bottom + 0.05) / height,
             va="bottom",
@@ -128,7 +129,8 @@ def session_figures(
     the axes when it has no trial to name them."""
     name = figure_name(session)
     units = table_units(trials) or units
-    palette = TrialColours.of(used_trials(trials, include_warned=True)["trial"])
+    unit = row_units_of(trials)[0]  # a session's rows: trials, or a pair's touches
+    palette = TrialColours.of(used_trials(trials, include_warned=True)["trial"], unit)
 
     def scatter(fig: Figure) -> None:
         ax = fig.add_subplot()
