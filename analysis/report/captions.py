@@ -26,11 +26,13 @@ __all__ = ["run_captions", "session_captions"]
 def _which(trials: pd.DataFrame, *, include_warned: bool) -> str:
     """Which trials a run figure draws, in words."""
     n_warned = int(warned(used_trials(trials, include_warned=True)).sum())
+    noun, rows = rows_word(trials, "noun"), rows_word(trials)  # trials; a pair's touches
     if include_warned:
-        return f"every ok trial, the {n_warned} warned included (--include-warned)"
+        return f"every ok {noun}, the {n_warned} warned included (--include-warned)"
     if not n_warned:
-        return "the ok trials (none is warned)"
-    return f"the trials the answer uses ({n_warned} warned trial(s) left out, as there)"
+        return f"the ok {rows} (none is warned)"
+    each = rows_word(trials, "maybe_plural", joiner=" or ")
+    return f"the {rows} the answer uses ({n_warned} warned {each} left out, as there)"
 
 
 def largest_errors(trials: pd.DataFrame, *, include_warned: bool) -> list[tuple[str, str, float]]:
@@ -73,10 +75,11 @@ def run_captions(trials: pd.DataFrame, *, include_warned: bool) -> dict[str, str
     which = _which(trials, include_warned=include_warned)
     common = f"Drawn: {which}; {unit_note[0].lower()}{unit_note[1:]}."
     largest = _largest(trials, units, include_warned=include_warned)
+    rows, noun = rows_word(trials), rows_word(trials, "noun", joiner=" or ")
     return {
-        "error_histogram": "Trials per error bin, by method, a panel per session set, one "
-        f"bin width throughout. {common} {largest}",
-        "error_by_trial": "Each trial's error (log scale), a line per session; dotted: the "
+        "error_histogram": f"{rows.capitalize()} per error bin, by method, a panel per "
+        f"session set, one bin width throughout. {common} {largest}",
+        "error_by_trial": f"Each {noun}'s error (log scale), a line per session; dotted: the "
         f"longest semi-axis of its 95% ellipsoid, for scale. {common} {largest}",
         "error_vs_baseline": "Each trial's error (log scale) against its baseline (the "
         "longest distance between two of its typed camera centres), a panel per session "

@@ -525,7 +525,8 @@ def _session_sections(result: RunResult) -> list[str]:
             spec, caption = None, f"This session's charts could not be drawn ({err!r})."
             parts.append(f"<p class='err'>{html.escape(caption)}</p>")
         parts.append(chart_html(f"session_{_number(s, i):02d}", spec, caption))
-        parts.append("<p>Trials (every column: <code>trials.csv</code>):</p>")
+        rows = rows_word(s.trials).capitalize()  # a two-camera session's: touches
+        parts.append(f"<p>{rows} (every column: <code>trials.csv</code>):</p>")
         parts.append(table_html(readable_columns(_trial_table(s.trials), _units_of(s))))
     return parts
 

@@ -98,11 +98,14 @@ def row_units_of(table: pd.DataFrame | pd.Series) -> tuple[RowUnit, ...]:
 
 
 def rows_word(
-    table: pd.DataFrame | pd.Series, form: Literal["plural", "noun", "maybe_plural"] = "plural"
+    table: pd.DataFrame | pd.Series,
+    form: Literal["plural", "noun", "maybe_plural"] = "plural",
+    *,
+    joiner: str = " and ",
 ) -> str:
     """The rows of ``table`` in one word, or two joined (``trials``, ``touches``, ``trials
     and touches``; ``form`` ``noun``: ``trial``, ``maybe_plural``: ``trial(s)``)."""
-    return _joined(getattr(u, form) for u in row_units_of(table))
+    return joiner.join(getattr(u, form) for u in row_units_of(table))
 
 
 def rows_counted(

@@ -53,7 +53,7 @@ from analysis.report.figures.topview import plot_top_view
 from analysis.report.plane_axes import plane_of
 from analysis.session.metrics import by_session_set, session_set, used_trials
 from analysis.tables.labels import table_units
-from analysis.tables.row_units import row_units_of
+from analysis.tables.row_units import row_units_of, rows_word
 from twopose.methods.specs import Method, label_of
 from twopose.values.units import Units
 
@@ -269,7 +269,8 @@ def plot_error_by_trial(fig: Figure, trials: pd.DataFrame, *, include_warned: bo
     handles.append(key("95% ellipsoid, longest semi-axis", linestyle=":", lw=0.8))
     ax.set_yscale("log")
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
-    style(ax, "Error by trial, per session", "trial number", f"error ({units}, log scale)")
+    noun = rows_word(trials, "noun", joiner=" or ")  # trial; a two-camera session's touch
+    style(ax, f"Error by {noun}, per session", f"{noun} number", f"error ({units}, log scale)")
     legend = legend_below(fig, handles, 2)
     fig.set_size_inches(WIDTH, 3.4 + legend)
     layout(fig, left=0.75, right=0.2, top=0.35, bottom=0.55 + legend)
