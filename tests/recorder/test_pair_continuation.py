@@ -26,7 +26,13 @@ from recorder.procedure.terminal import Operator
 from recorder.setup.continuation import read_continued
 from tests.conftest import built_once
 from tests.helpers import RECORD, read_line_when_printed
-from tests.recorder.moving_pair import PHASE_S, MovingPair, moving_pair, write_moving_pair
+from tests.recorder.moving_pair import (
+    PHASE_S,
+    MovingPair,
+    moving_pair,
+    timed_keys,
+    write_moving_pair,
+)
 from twopose.format.pair_convert import pair_entry
 from twopose.format.reader import SessionReader
 from twopose.format.streams import PairSession, read_pair_session
@@ -122,13 +128,7 @@ def test_a_plan_continues_a_pair_session_analysed_as_one(
 def test_the_keys_continue_a_pair_session(moving: MovingPair, first: Path, tmp_path: Path) -> None:
     """At the terminal: Enter starts trial 2, a point typed then Enter is a touch, e ends
     the trial, q the session (the keys timed, in-process)."""
-    keys = iter([(0.2, ""), (1.2, "0.75, 0.5, 11"), (0.3, "e"), (0.3, "q")])
-
-    def readline() -> str:
-        pause, line = next(keys, (0.0, ""))
-        time.sleep(pause)
-        return line + "\n" if pause else ""
-
+    readline = timed_keys([(0.2, ""), (1.2, "0.75, 0.5, 11"), (0.3, "e"), (0.3, "q")])
     said: list[str] = []
     out = tmp_path / "keys.mcap"
     summary = record_pair(
