@@ -275,3 +275,23 @@ def test_the_console_continues_a_pair_session(
     assert trial.trial == 2
     assert [t.how for t in trial.touches] == ["button"]
     assert session.info.continues_after_trial == 1
+
+
+def test_a_continuation_says_a_camera_clock_other_than_its_sessions(first: Path) -> None:
+    """Each part records its own cameras' clocks; one that differs from the part continued
+    (a camera's driver stamps there, a video file's clock here) is said in its notes."""
+    from types import SimpleNamespace
+
+    from recorder.procedure.stream import _with_clocks
+
+    continued = read_continued(first)
+    info = continued.info_for()
+    stills = SimpleNamespace(  # a pair of folders: their clocks without a frame read
+        stills=True, cameras=(SimpleNamespace(clock="driver"), SimpleNamespace(clock="simulated"))
+    )
+    said = _with_clocks(info, stills)  # type: ignore[arg-type]
+    assert said.clocks == {"cam1": "driver", "cam2": "simulated"}
+    assert f"camera cam1's clock is driver here, simulated in {first.name}" in said.notes
+    assert "cam2" not in said.notes
+    same = _with_clocks(info, SimpleNamespace(stills=True, cameras=(stills.cameras[1],) * 2))  # type: ignore[arg-type]
+    assert same.notes == info.notes
