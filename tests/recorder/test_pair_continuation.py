@@ -204,7 +204,7 @@ def test_kill_9_of_a_continuation_loses_at_most_its_open_window(
     )  # fmt: skip
     read_line_when_printed(process, "streaming", "the trial's stream")
     streamed = time.monotonic()
-    time.sleep(2.8)
+    time.sleep(3.0)
     process.send_signal(signal.SIGKILL)
     process.wait(timeout=30)
     killed_after = time.monotonic() - streamed

@@ -154,3 +154,10 @@ def test_a_session_stores_the_camera_s_mjpg_as_a_standard_jpeg(tmp_path: Path) -
     for data in stored:
         assert _tables(data) == set(STANDARD_TABLES)
     assert np.array_equal(replayed[0], _decoded(original))
+    # a session recorded before (its frames as the camera sent them): the analysis' results
+    # file for Foxglove carries them through the same message, standard
+    from twopose.format.messages import image_message
+
+    assert _tables(image_message("cam1", mjpg, "jpeg", 1).data) == set(STANDARD_TABLES)
+    png = bytes(cv2.imencode(".png", image)[1])
+    assert image_message("cam1", png, "png", 1).data == png
