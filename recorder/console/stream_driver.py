@@ -88,7 +88,9 @@ def begin_pair(session: ConsoleSession, setup: PairSetup, pair: PairCalibration)
             "plane": plane,
             "operator": setup.operator, "stop_rule": "",
         },
-        stream={"trial": 0, "touches": [], "frames": [0, 0], "offset": "", "ended": []},
+        # the trial before the first (the page offers the next: a continuation's numbered on)
+        stream={"trial": setup.first_trial - 1, "touches": [], "frames": [0, 0], "offset": "",
+                "ended": []},
     )  # fmt: skip
     session.touch_refusal = functools.partial(touch_refusal, setup.method, pair, setup.units)
     continued = setup.continued

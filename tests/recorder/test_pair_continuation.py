@@ -254,6 +254,8 @@ def test_the_console_continues_a_pair_session(
         offered = state_when("trial")
         assert any(f"Continuing {first.name} after trial 1" in n for n in offered["notices"])  # type: ignore[attr-defined]
         assert "trial 2:" in str(offered["message"])
+        # the page shows the trial offered as the one after the stream's last: trial 2
+        assert offered["stream"]["trial"] == 1  # type: ignore[index]
         assert client.post("/api/stream", json={"action": "start"}).json() == {"ok": True}
         state_when("streaming")
         time.sleep(1.0)
