@@ -297,3 +297,44 @@ def test_a_continuation_says_a_camera_clock_other_than_its_sessions(first: Path)
     assert "cam2" not in said.notes
     same = _with_clocks(info, SimpleNamespace(stills=True, cameras=(stills.cameras[1],) * 2))  # type: ignore[arg-type]
     assert same.notes == info.notes
+
+
+def test_a_ground_pair_session_keeps_its_floor_a_plan_giving_another_is_refused(
+    tmp_path: Path,
+) -> None:
+    """A ground session whose pair file had a floor: its continuation keeps that floor; a
+    plan's ground height must be it; a pair file is the same pair without its floor (the
+    typed case), not with another."""
+    import dataclasses
+
+    from recorder.procedure.stream_terminal import PairSetup
+    from recorder.setup.pair_continuation import pair_differs
+    from recorder.setup.stream_plan import StreamPlan
+    from tests.twopose.format.pair_examples import calibrated_pair, write_pair_session
+    from twopose.errors import InputValueError
+    from twopose.methods.specs import Method
+    from twopose.values.units import Units
+
+    path = tmp_path / "ground.mcap"
+    write_pair_session(path, trials=1, frames=2, pair=calibrated_pair())
+    continued = read_continued(path)
+    stored = continued.pair
+    assert stored is not None
+    assert stored.floor is not None
+    assert continued.ground is not None
+    height = continued.ground.offset
+    setup = PairSetup.continuing(continued)
+    assert setup.session_pair(None) is stored
+    assert setup.ground() == continued.ground
+    assert (setup.method, setup.first_trial) == (Method.GROUND, 2)
+
+    def plan(offset: float) -> StreamPlan:
+        return StreamPlan(method=Method.GROUND, units=Units.IN, trials=(), plane_offset=offset)
+
+    PairSetup.continuing(continued, plan=plan(height))  # the session's floor: taken
+    with pytest.raises(InputValueError, match=r"ground height 1 is not the floor of ground\.mcap"):
+        PairSetup.continuing(continued, plan=plan(1.0))
+    assert pair_differs(stored, calibrated_pair()) == ""  # the file's, in its own mm
+    assert pair_differs(stored, dataclasses.replace(calibrated_pair(), floor=None)) == ""
+    lower = dataclasses.replace(stored.floor, height=stored.floor.height - 1.0)
+    assert pair_differs(stored, dataclasses.replace(stored, floor=lower)) == "the floor"
