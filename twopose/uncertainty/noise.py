@@ -358,9 +358,13 @@ def noise_words(
             took += ", at the limit of what is searched: check the typed resolution and units"
         words.append(took)
     elif dof > 0 and math.isfinite(sigma0):
-        words.append(
-            "not enough data to estimate the placing sigma: the regions assume the one typed"
-        )
+        said = "not enough data to estimate the placing sigma: the regions assume the one typed"
+        if chi2_tails(dof * sigma0**2, dof)[0] < FACTOR_TEST_LEVEL:  # and the test rejects it
+            said += (
+                ", which the data contradict, so they are likely too small: analyse the"
+                " session beside its operator's others, or measure the placing with a board"
+            )
+        words.append(said)
     if math.isfinite(region_widening) and not math.isclose(region_widening, 1.0, abs_tol=5e-3):
         words.append(f"regions' largest semi-axis x{region_widening:.2f}")
     if flagged:
