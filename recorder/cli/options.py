@@ -243,7 +243,8 @@ ContinueFromOption = Annotated[
         exists=True,
         dir_okay=False,
         help="Continue this session (closed, or recovered by `recover`): its setup and "
-        "id, the trials numbered after its last.",
+        "id, the trials numbered after its last; a two-camera session's continuation "
+        "takes its stored pair (give --source pair:A,B; --pair, if given, must be that pair).",
     ),
 ]
 

@@ -221,13 +221,16 @@ class PlacingPrior:
 
     A scaled inverse chi-square: ``scale`` (``lambda0``, relative to the placing sigma the
     regions start from) on ``dof`` degrees of freedom; ``source`` says where it came from
-    (words), from how many ``sessions``.
+    (words), from how many ``sessions``; ``pooled`` names them (their session ids, sorted;
+    empty when they had none), so that two runs whose priors read alike ("2 other sessions
+    of operator Eve") but pooled other sessions are told apart (``check``).
     """
 
     scale: float
     dof: float
     source: str
     sessions: int = 0
+    pooled: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         """Refuse a prior that is not a positive scale on positive degrees of freedom."""
