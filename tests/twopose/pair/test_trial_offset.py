@@ -60,6 +60,18 @@ def _lit(frames: Frames, onset_s: float, rng: np.random.Generator, flicker: floa
     return 0.2 * (1 + share) * (1 + rng.normal(0.0, flicker, share.size))
 
 
+def _clocks(
+    rng: np.random.Generator, *, jitter_s: float, drop: float, drift_ppm: float, offset_s: float
+) -> tuple[CameraClock, CameraClock]:
+    """Camera 1's clock and camera 2's (its phase drawn from ``rng``), jittered and
+    dropping alike."""
+    common = {"jitter_s": jitter_s, "drop": drop}
+    phase = float(rng.uniform(0, 1 / FPS))
+    return CameraClock(**common), CameraClock(
+        **common, phase_s=phase, drift_ppm=drift_ppm, offset_s=offset_s
+    )
+
+
 def _trial(
     motion: FingerMotion,
     clocks: tuple[CameraClock, CameraClock],
@@ -159,12 +171,7 @@ def test_an_offset_resting_on_three_frames_of_motion_is_refused() -> None:
     dropped), the rest of the trial still, was measured 59 ms off with a sigma of 6.6: its
     minimum was the still frames' noise's."""
     rng = np.random.default_rng(450219057)
-    common = {"jitter_s": 1.526e-3, "drop": 0.371}
-    clocks = (
-        CameraClock(**common),
-        CameraClock(**common, phase_s=float(rng.uniform(0, 1 / FPS)), drift_ppm=-91.64,
-                    offset_s=0.39975),
-    )  # fmt: skip
+    clocks = _clocks(rng, jitter_s=1.526e-3, drop=0.371, drift_ppm=-91.64, offset_s=0.39975)
     tracks, times, _ = _trial(LineMotion(speed=48.26, tilt=(0.5, 0.866)), clocks, rng, None)
     measured = measure_trial_offset(thesis_pair(), tracks, times)
     if measured.offset is not None:  # measured after all: then honestly
@@ -225,12 +232,9 @@ def test_every_offset_is_measured_within_its_sigmas_or_refused_in_words(
         motion = FingerMotion(radius=radius, speed=2 * np.pi * radius / period_s)
     else:
         motion = FingerMotion(speed=0.0)
-    common = {"jitter_s": jitter_ms * 1e-3, "drop": drop}
-    clocks = (
-        CameraClock(**common),
-        CameraClock(**common, phase_s=float(rng.uniform(0, 1 / FPS)), drift_ppm=drift_ppm,
-                    offset_s=offset_ms * 1e-3),
-    )  # fmt: skip
+    clocks = _clocks(
+        rng, jitter_s=jitter_ms * 1e-3, drop=drop, drift_ppm=drift_ppm, offset_s=offset_ms * 1e-3
+    )
     flash_at = float(rng.uniform(0.3, 2.0)) if flash else None
     tracks, times, lit = _trial(motion, clocks, rng, flash_at)
     measured = measure_trial_offset(thesis_pair(), tracks, times, lit)
@@ -253,12 +257,7 @@ def test_a_slow_targets_sigma_is_its_scatter_not_a_third_of_it() -> None:
     from twopose.pair.clock import offset_from_ray_gap
 
     rng = np.random.default_rng(618137020)
-    common = {"jitter_s": 0.343e-3, "drop": 0.1174}
-    clocks = (
-        CameraClock(**common),
-        CameraClock(**common, phase_s=float(rng.uniform(0, 1 / FPS)), drift_ppm=-39.16,
-                    offset_s=0.46696),
-    )  # fmt: skip
+    clocks = _clocks(rng, jitter_s=0.343e-3, drop=0.1174, drift_ppm=-39.16, offset_s=0.46696)
     tracks, times, _ = _trial(LineMotion(speed=1.851, tilt=(0.5, 0.866)), clocks, rng, None)
     o = offset_from_ray_gap(thesis_pair(), tracks[0], times[0], tracks[1], times[1])
     assert abs(o.offset_ns - 0.46696e9) <= 5 * o.sigma_ns, o
@@ -272,12 +271,7 @@ def test_a_flash_in_a_gap_of_dropped_frames_is_not_placed_in_the_next_exposure()
     from twopose.pair.flash import offset_from_flash
 
     rng = np.random.default_rng(1778362)
-    common = {"jitter_s": 1.647e-3, "drop": 0.17668}
-    clocks = (
-        CameraClock(**common),
-        CameraClock(**common, phase_s=float(rng.uniform(0, 1 / FPS)), drift_ppm=-89.5548,
-                    offset_s=0.9964466),
-    )  # fmt: skip
+    clocks = _clocks(rng, jitter_s=1.647e-3, drop=0.17668, drift_ppm=-89.5548, offset_s=0.9964466)
     radius = 3.0
     circle = FingerMotion(radius=radius, speed=2 * np.pi * radius / 0.3741780)
     flash_at = float(rng.uniform(0.3, 2.0))
@@ -295,12 +289,7 @@ def test_a_lit_frames_flicker_is_its_own_not_the_dark_frames() -> None:
     from twopose.pair.flash import offset_from_flash
 
     rng = np.random.default_rng(2066644833)
-    common = {"jitter_s": 0.511e-3, "drop": 0.32548}
-    clocks = (
-        CameraClock(**common),
-        CameraClock(**common, phase_s=float(rng.uniform(0, 1 / FPS)), drift_ppm=0.971,
-                    offset_s=-0.5376481),
-    )  # fmt: skip
+    clocks = _clocks(rng, jitter_s=0.511e-3, drop=0.32548, drift_ppm=0.971, offset_s=-0.5376481)
     flash_at = float(rng.uniform(0.3, 2.0))
     _, times, lit = _trial(FingerMotion(speed=0.0), clocks, rng, flash_at)
     assert lit is not None
