@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from recorder.simulate.identity import SIMULATED_OPERATOR, checked_operator, operator_digest
 from recorder.simulate.one_camera import SIMULATION_EPOCH_NS, SimulationSummary
 from twopose.arrays import F64
 from twopose.camera.model import Camera
@@ -159,12 +160,14 @@ def refuse_idle_options(cameras: int, given: Iterable[str]) -> None:
 
 
 def simulated_pair_ids(
-    method: Method, trials: int, seed: int, scene: Scene, timing: PairTiming
-) -> tuple[str, str]:
+    method: Method, trials: int, seed: int, scene: Scene, timing: PairTiming,
+    operator: str = SIMULATED_OPERATOR,
+) -> tuple[str, str]:  # fmt: skip
     """The session's ``session_id`` and ``part_id``: halves of one SHA-256 of its settings."""
     values = [float(v) for v in dataclasses.astuple(timing)]  # by value, not as typed
     made = json.dumps(["twopose simulate --cameras 2", method.value, trials, seed, repr(scene)])
     made += json.dumps(values)
+    made += operator_digest(operator)
     digest = hashlib.sha256(made.encode()).hexdigest()
     return digest[:32], digest[32:]
 
@@ -315,6 +318,7 @@ def simulate_pair_session(
     seed: int = 0,
     scene: Scene | None = None,
     on_progress: Callable[[], None] | None = None,
+    operator: str = SIMULATED_OPERATOR,
 ) -> SimulationSummary:
     """Simulate a two-camera session into ``out`` (new; the module docstring).
 
@@ -330,8 +334,9 @@ def simulate_pair_session(
     lead = unit_factor(Units.IN, Units(scene.units))  # one inch
     probe = Trajectory(touches=touches, speed=timing.speed, lead=lead, dwell_s=DWELL_S)
     pair_scene.check_in_view(probe.at(np.linspace(0.0, probe.duration_s, 64)))
-    ids = simulated_pair_ids(method, trials, seed, scene, timing)
-    info = _session_info(scene, method, trials, seed, timing, ids)
+    operator = checked_operator(operator)
+    ids = simulated_pair_ids(method, trials, seed, scene, timing, operator)
+    info = _session_info(scene, method, trials, seed, timing, ids, operator)
     cameras = [Camera(camera_id=_IDS[0], intrinsics=pair.intrinsics1),
                Camera(camera_id=_IDS[1], intrinsics=pair.intrinsics2)]  # fmt: skip
     fps = scene.sensor.fps
@@ -357,8 +362,9 @@ def simulate_pair_session(
 
 
 def _session_info(
-    scene: Scene, method: Method, trials: int, seed: int, timing: PairTiming, ids: tuple[str, str]
-) -> SessionInfo:
+    scene: Scene, method: Method, trials: int, seed: int, timing: PairTiming,
+    ids: tuple[str, str], operator: str,
+) -> SessionInfo:  # fmt: skip
     settings = (
         f"simulated: seed={seed}, trials={trials}, cameras=2, speed={timing.speed}, "
         f"clock_offset_ms={timing.clock_offset_ms}, drift_ppm={timing.drift_ppm}, "
@@ -374,7 +380,7 @@ def _session_info(
         method=spec_of(method).method,
         units=Units(scene.units),
         camera_ids=_IDS,
-        operator="twopose simulator",
+        operator=operator,
         notes=settings,
         created_utc=datetime.fromtimestamp(SIMULATION_EPOCH_NS / 1e9, UTC).isoformat(),
         simulated=True,
@@ -393,6 +399,7 @@ def simulate_pair_with_progress(
     timing: tuple[float | None, ...],
     *,
     flash: bool = True,
+    operator: str = SIMULATED_OPERATOR,
 ) -> SimulationSummary:
     """``simulate --cameras 2``: :func:`simulate_pair_session` with a bar on stderr.
 
@@ -414,5 +421,5 @@ def simulate_pair_with_progress(
         task = progress.add_task("frames rendered", total=None)
         return simulate_pair_session(
             out, method=method, timing=pair_timing, trials=trials, seed=seed, scene=scene,
-            on_progress=lambda: progress.advance(task),
+            on_progress=lambda: progress.advance(task), operator=operator,
         )  # fmt: skip
