@@ -44,7 +44,7 @@ def noise_model_difference(pair: Pair) -> tuple[tuple[str, ...], tuple[str, ...]
         f"{where}: the run and the baseline used different noise models (the run: "
         f"{_model(pair.result)}; the baseline: {_model(pair.baseline)}): "
         f"{', '.join(NOISE_MODEL_METRICS)} not compared (their regions assume different "
-        "noise); the errors are, the rig's correction included"
+        "noise); the errors are compared, the rig's correction included"
     )
     return (note,), NOISE_MODEL_METRICS
 
@@ -82,9 +82,9 @@ def _prior_difference(pair: Pair, where: str) -> tuple[tuple[str, ...], tuple[st
         return (), ()
     note = (
         f"{where}: the run and the baseline took different priors for the placing error (the "
-        f"run: {run or 'none'}; the baseline: {base or 'none'}, the operator's other sessions "
-        f"pooled): {', '.join(NOISE_MODEL_METRICS)} not compared (their regions assume "
-        "different noise); the errors are"
+        f"operator's other sessions pooled: in the run, {run or 'none'}; in the baseline, "
+        f"{base or 'none'}): {', '.join(NOISE_MODEL_METRICS)} not compared (their regions "
+        "assume different noise); the errors are compared"
     )
     return (note,), NOISE_MODEL_METRICS
 

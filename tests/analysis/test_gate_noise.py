@@ -137,7 +137,11 @@ def test_a_run_that_pooled_other_sessions_of_the_operator_says_so(
     said = [n for n in outcome.notes if "different priors" in n]
     assert len(said) == 1, outcome.notes
     assert said[0].startswith(f"{label} (")
-    assert "(the run: 3 other sessions of operator Ada (point); the baseline: none," in said[0]
+    assert (
+        "(the operator's other sessions pooled: in the run, 3 other sessions of operator Ada "
+        "(point); in the baseline, none):" in said[0]
+    )
+    assert said[0].endswith("the errors are compared")
     pair = outcome.comparisons[outcome.comparisons["session"] == label]
     assert "coverage95" not in set(pair["metric"])
 
@@ -163,8 +167,8 @@ def test_priors_said_alike_that_pooled_other_sessions_are_told_apart(
     assert not outcome.regressed, check_lines(outcome, base)
     said = [n for n in outcome.notes if "different priors" in n]
     assert len(said) == 1, outcome.notes
-    assert "(sessions eeee3333, gggg4444); the baseline:" in said[0]
-    assert "(sessions aaaa1111, cccc2222), the operator's" in said[0]
+    assert "(sessions eeee3333, gggg4444); in the baseline," in said[0]
+    assert "(sessions aaaa1111, cccc2222)):" in said[0]
     same, _ = _copy_with(bundled_run, tmp_path / "s", placing_source=source,
                          prior_sessions="aaaa1111bbbb;cccc2222dddd")  # fmt: skip
     gated = check(same, base)
