@@ -21,7 +21,7 @@ scatter explains (the per-frame scatter over the frames averaged), and the syste
 every frame, so the frame scatter cannot see it. For the finger across its line, also the
 part perspective alone explains (:func:`silhouette_offset`: a cylinder's outline is not
 symmetric about its axis' image when the finger is seen off to one side) and the rest
-once it is taken off (its mean: the shading's, the finger lit from one side).
+once it is taken off (its mean: likely the shading's, the finger lit from one side).
 
 Target: in every geometry the systematic rest within the registry's ``detector_floor``
 (``twopose.methods.specs``), which every view's covariance adds
