@@ -19,7 +19,9 @@ misclosures, every session's prior from the operator's other sessions,
 
 Coverage: the share of ok trials whose truth lies in their 95% region ("pooled": the
 run's rule; "alone": each session with the typed resolution's weak prior only; "typed":
-the regions of the typed sigma, what today's rule gives when its test does not reject),
+the regions of the typed sigma, what today's rule gives when its test does not reject;
+"given": the placing multiplier given exactly, the truth's, so that what "pooled" misses
+beyond it is the multiplier's estimate and what "given" misses is the regions' own),
 NEES/dof, and the regions' largest semi-axis over the typed sigma's (median).
 
 Blunders: typed right, and in 20% of the trials one pose's typed x off by 1 in (either
@@ -70,7 +72,7 @@ from twopose.sim.layout import finger_axis  # noqa: E402
 from twopose.sim.scene import Scene  # noqa: E402
 from twopose.solve.estimate import EstimateOptions, PoseView  # noqa: E402
 from twopose.solve.session import SessionEstimate, SessionTrials, estimate_session  # noqa: E402
-from twopose.uncertainty.noise import NoiseModel  # noqa: E402
+from twopose.uncertainty.noise import NoiseModel, VarianceFactor  # noqa: E402
 from twopose.uncertainty.placing_variance import BAARDA_LEVEL, operator_priors  # noqa: E402
 from twopose.uncertainty.propagate import uncertainty_columns  # noqa: E402
 from twopose.uncertainty.session_noise import operator_group, session_statistics  # noqa: E402
@@ -184,6 +186,13 @@ def honesty(e: SessionEstimate) -> pd.DataFrame:
     })  # fmt: skip
 
 
+def given(placing: float) -> EstimateOptions:
+    """The regions with the placing multiplier given exactly: the truth's, ``placing^2``."""
+    factor = VarianceFactor(sigma0_sq=math.nan, dof=0, placing_variance=placing**2,
+                            sources="the truth")  # fmt: skip
+    return EstimateOptions(noise=NoiseModel(factor=factor))
+
+
 def coverage_rows(n: int, seed: int) -> pd.DataFrame:
     rows = []
     for method in METHODS:
@@ -197,11 +206,13 @@ def coverage_rows(n: int, seed: int) -> pd.DataFrame:
                     a = honesty(e)
                     b = honesty(estimate_session(s, EstimateOptions(), line_fits=False))
                     c = honesty(estimate_session(s, PLAIN, line_fits=False))
+                    d = honesty(estimate_session(s, given(placing), line_fits=False))
                     ok = a["ok"]
                     rows.append(pd.DataFrame({
                         "method": str(method), "placing": placing, "size": size,
                         "within": a["within"][ok], "alone": b["within"][ok],
-                        "typed": c["within"][ok], "nees": a["nees"][ok],
+                        "typed": c["within"][ok], "given": d["within"][ok],
+                        "nees": a["nees"][ok],
                         "ratio": (a["axis"] / c["axis"])[ok],
                         "lam": e.factor.placing_variance if e.factor else 1.0,
                         "dof": e.factor.variance_dof if e.factor else math.inf,
@@ -271,18 +282,20 @@ def _detectable(dof: int) -> float:
 def report_coverage(t: pd.DataFrame) -> list[str]:
     print("coverage of the truth by the 95% regions (ok trials), one operator a cell")
     print(f"{'method':<8}{'placing':>8}{'size':>6}{'trials':>8}{'pooled':>8}{'alone':>8}"
-          f"{'typed':>8}{'NEES/dof':>9}{'region/typed':>13}{'lambda':>8}"
+          f"{'typed':>8}{'given':>8}{'NEES/dof':>9}{'region/typed':>13}{'lambda':>8}"
           f"{'its dof':>8}")  # fmt: skip
     missed, lo, hi = [], *COVERAGE_TARGET
     for (method, placing), g in t.groupby(["method", "placing"], sort=False):
         for size, h in g.groupby("size"):
             print(f"{method:<8}{placing:>7.1f}x{size:>6}{len(h):>8}{h['within'].mean():>8.1%}"
-                  f"{h['alone'].mean():>8.1%}{h['typed'].mean():>8.1%}{h['nees'].mean():>9.2f}"
+                  f"{h['alone'].mean():>8.1%}{h['typed'].mean():>8.1%}"
+                  f"{h['given'].mean():>8.1%}{h['nees'].mean():>9.2f}"
                   f"{h['ratio'].median():>13.2f}{h['lam'].median():>8.2f}"
                   f"{h['dof'].median():>8.0f}")  # fmt: skip
         cover, alone, typed = g["within"].mean(), g["alone"].mean(), g["typed"].mean()
         print(f"{method:<8}{placing:>7.1f}x{'all':>6}{len(g):>8}{cover:>8.1%}{alone:>8.1%}"
-              f"{typed:>8.1%}{g['nees'].mean():>9.2f}{g['ratio'].median():>13.2f}")  # fmt: skip
+              f"{typed:>8.1%}{g['given'].mean():>8.1%}{g['nees'].mean():>9.2f}"
+              f"{g['ratio'].median():>13.2f}")  # fmt: skip
         if not lo <= cover <= hi:
             missed.append(f"{method} at {placing:g}x typed: regions cover {cover:.1%}")
         if placing == 1.0 and g["ratio"].median() > TYPED_WIDER:

@@ -173,8 +173,10 @@ class _Propagation:
     tests: TrialTests | None = None
 
     def propagated(self, estimate: Callable[[F64], F64]) -> Propagated:
-        """``estimate``'s covariance from the rows' inputs, to second order (every region's
-        rule: :data:`twopose.uncertainty.propagate.SECOND_ORDER`)."""
+        """``estimate``'s covariance from the rows' inputs.
+
+        To second order: every region's rule (:data:`twopose.uncertainty.propagate.SECOND_ORDER`).
+        """
         return propagate(estimate, self.batch.inputs, self.cov_in, shared=self.shared,
                          second_order=SECOND_ORDER)  # fmt: skip
 
@@ -232,7 +234,7 @@ class SessionEstimate:
         f = thesis_direction(p.batch, self.options, np.nan_to_num(d))
         propagated = p.propagated(f)
         ok = p.solved.status == "ok"
-        placing = sum(placing_parts(propagated, p.cov_in))
+        placing = np.add(*placing_parts(propagated, p.cov_in))
         scale = region_multipliers(propagated.cov_grid, placing, p.factor, p.tests, p.rows)
         cov[p.rows[ok]] = (propagated.cov_grid * scale[:, None, None])[ok]
         return cov

@@ -11,10 +11,11 @@ view that camera took, so they are perturbed in all of a trial's views of that c
 once. :func:`propagate` pushes that through any batched estimator by central differences
 (``Sigma_x = J Sigma_in J^T``), so the covariance follows exactly the code that made the
 estimate, thesis formulas or not. With ``second_order`` (every region of a session,
-:data:`SECOND_ORDER`) the differences step :data:`SIGMA_POINT_STEP` sigma, a sigma point
-of each input, and the curvature they see is added (the divided-difference filter DD2,
-the unscented transform's axis points): exact for an estimate quadratic in each input,
-the first-order covariance where it is linear, at one more call of the estimator. No I/O.
+:data:`SECOND_ORDER`) each input is also stepped :data:`SIGMA_POINT_STEP` sigma, a sigma
+point, and the variance its curvature adds is added (the second-order term of the
+unscented transform's and the divided-difference filter's axis points): exact for an
+estimate quadratic in each input, the first-order covariance where it is linear, never
+less. No I/O.
 
 (Near 600 lines: the first and the second order share one difference machinery, and the
 regions' dimensions, quantiles and NEES read what it gives.)
@@ -228,10 +229,9 @@ def _jacobians(
     """The estimate's derivatives by central differences, and its curvature.
 
     Per view (T, W, N, D) and per shared group (T, W, G, S), W the estimate's ``width``;
-    steps of ``rel_step`` sigma. With ``second_order``, steps of :data:`SIGMA_POINT_STEP`
-    sigma (the divided differences of :func:`propagate`) and each input's curvature
-    ``f(x + h) + f(x - h) - 2 f(x)`` beside (else zero); a column whose wide steps leave
-    the solver's domain (NaN) in a row is taken there by ``rel_step`` without curvature.
+    steps of ``rel_step`` sigma. With ``second_order``, each input's curvature beside
+    (else zero): ``f(x + h) + f(x - h) - 2 f(x)``, ``h`` :data:`SIGMA_POINT_STEP` sigma
+    (zero in a row where those steps leave the solver's domain: NaN).
     """
     T, N, D = x.shape
     sigma = np.sqrt(np.clip(np.diagonal(C, axis1=2, axis2=3), 0.0, None))  # (T, N, 9)
@@ -255,7 +255,6 @@ def _jacobians(
     if second_order:
         with np.errstate(invalid="ignore", divide="ignore"):
             centre = np.asarray(estimate(x), dtype=np.float64).reshape(T, width)
-    step = SIGMA_POINT_STEP if second_order else rel_step
     # All perturbed copies go through the estimator together, in batches of about 2e5
     # views: one vectorized call per batch instead of 2 N D calls.
     per_batch = max(1, 200_000 // max(2 * T * N, 1))
@@ -263,19 +262,14 @@ def _jacobians(
         batch = columns[start : start + per_batch]
         sigmas = [sigma[:, n, d] if views is None else group_sigma[:, n, d - D]
                   for n, d, views in batch]  # fmt: skip
-        parts = _difference_columns(estimate, x, [step * s for s in sigmas], batch, centre)
-        if centre is not None:  # a wide step out of the solver's domain: a narrow one there
-            outside = [~np.isfinite(dv).all(axis=1) & np.isfinite(centre).all(axis=1)
-                       for dv, _ in parts]  # fmt: skip
-            redo = [k for k, out in enumerate(outside) if out.any()]
-            if redo:
-                narrow = _difference_columns(
-                    estimate, x, [rel_step * sigmas[k] for k in redo], [batch[k] for k in redo]
-                )
-                for k, (dv, _) in zip(redo, narrow, strict=True):
-                    out = outside[k][:, None]
-                    parts[k] = (np.where(out, dv, parts[k][0]), np.where(out, 0.0, parts[k][1]))
-        for (n, d, views), (column, curve) in zip(batch, parts, strict=True):
+        slopes = _difference_columns(estimate, x, [rel_step * s for s in sigmas], batch)
+        curves = [np.zeros_like(c) for c, _ in slopes]
+        if centre is not None:  # a wide step out of the solver's domain: no curvature seen
+            wide = _difference_columns(
+                estimate, x, [SIGMA_POINT_STEP * s for s in sigmas], batch, centre
+            )
+            curves = [np.where(np.isfinite(c), c, 0.0) for _, c in wide]
+        for (n, d, views), (column, _), curve in zip(batch, slopes, curves, strict=True):
             if views is None:
                 J[:, :, n, d], K[:, :, n, d] = column, curve
             else:
@@ -338,12 +332,14 @@ def propagate(
         per-view ones: ``Sigma_x += sum_g J_g Sigma_g J_g^T``, with ``J_g`` the derivative
         with respect to the group's value in all of its views at once.
     second_order : bool
-        The divided differences of Norgaard, Poulsen and Ravn (DD2): each input stepped by
-        ``h = sqrt(3)`` sigma, ``J`` the secant slope and ``Sigma_x += sum_k c_k c_k^T``,
-        ``c_k = sqrt(h^2 - 1) / (2 h^2) (f(x + h_k) + f(x - h_k) - 2 f(x))``: the variance
-        the estimate's curvature in each input adds (its mixed second derivatives are
-        not seen, as by the unscented transform's points on the axes). A row whose wide
-        steps leave the estimator's domain (NaN) keeps the narrow derivative there.
+        Each input also stepped by ``h = sqrt(3)`` sigma and ``Sigma_x += sum_k c_k
+        c_k^T``, ``c_k = sqrt(h^2 - 1) / (2 h^2) (f(x + h_k) + f(x - h_k) - 2 f(x))``: for a
+        normal input ``1/2 H_kk^2 sigma_k^4``, the variance the estimate's curvature in
+        each input adds (Norgaard, Poulsen and Ravn's DD2 term; the mixed second
+        derivatives are not seen, as by the unscented transform's points on the axes).
+        ``J`` stays the derivative, so the region is never narrower than first order's
+        (the secant of a wide step would be, where the estimate saturates). A row whose
+        wide steps leave the estimator's domain (NaN) has no second-order term there.
 
     Returns
     -------
