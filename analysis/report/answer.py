@@ -159,7 +159,9 @@ def noise_phrases(row: pd.Series) -> list[str]:
     if "sigma0_dof" not in row or pd.isna(row["sigma0_dof"]):
         return []
     sigma = row.get("placing_sigma", math.nan)
-    source = str(row.get("placing_source", "") or "typed").split(", times ")[0]
+    said = str(row.get("placing_source", "") or "typed")
+    source = said.split(", times ")[0]
+    estimated = _ESTIMATED_FROM.search(said)
     widening = _known(row.get("noise_widening"))
     sigma0 = _known(row.get("sigma0"))
     words = noise_words(
@@ -169,6 +171,7 @@ def noise_phrases(row: pd.Series) -> list[str]:
         placing_scale=_known(row.get("placing_scale")),
         placing_dof=_known(row.get("placing_dof")),
         flagged=int(_known(row.get("n_flagged"), 0.0)),
+        sources=estimated.group(1) if estimated else "",
     )
     scale = _known(row.get("placing_scale"))
     start = sigma / scale if isinstance(sigma, int | float) and scale > 0 else sigma  # assumed
@@ -190,6 +193,8 @@ def _phrases(words: str) -> list[str]:
     return phrases
 
 
+#: ``placing_source``'s "..., times 1.2 (estimated from ...)": where the multiplier came from.
+_ESTIMATED_FROM = re.compile(r", times \S+ \(estimated from (.*)\)$")
 _NUMBER = re.compile(r"[(]?x?[-+]?[0-9][0-9.]*(x|%)?[),;:]*")
 
 

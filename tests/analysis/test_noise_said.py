@@ -45,6 +45,22 @@ def test_the_words_say_the_test_and_the_multiplier_taken_apart() -> None:
     assert noise_phrases(pd.Series({"units": "in"})) == []  # a table from before the columns
 
 
+def test_a_multiplier_the_operators_other_sessions_raised_says_where_it_came_from() -> None:
+    """Issue 54's F1: "the data scatter less than the noise model says; placing sigma taken
+    1.8x" read as a contradiction; the words now say whose data the multiplier rests on."""
+    source = ("typed, times 1.84 (estimated from this session's 1 trial, 2 other sessions of "
+              "operator Eve (point), the typed resolution)")  # fmt: skip
+    said = " ".join(noise_phrases(_row(sigma0=0.11, sigma0_dof=5, noise_widening=1.82,
+                                       placing_sigma=0.115, placing_source=source,
+                                       placing_scale=1.84, placing_dof=7.0)))  # fmt: skip
+    assert "placing sigma 0.0625 in typed;" in said
+    assert "the data scatter less than the noise model says" in said
+    assert (
+        "placing sigma taken 1.8x the one assumed, from 7 dof (this session's 1 trial, 2 other "
+        "sessions of operator Eve (point), the typed resolution)" in said
+    )
+
+
 @pytest.fixture(scope="module")
 def point_run() -> object:
     return run([POINT])

@@ -182,3 +182,49 @@ def test_the_pooled_multiplier_is_unbiased_over_many_seeded_draws() -> None:
             ratios.append(_maximum(flags.kept.sum(axis=0)) / lam)
         mean, se = np.mean(ratios), np.std(ratios) / np.sqrt(len(ratios))
         assert abs(mean - 1.0) < 3 * se, (lam, mean, se)
+
+
+def _mostly_pixels(chi2: float, z2: list[float], share: list[float]) -> SessionNoise:
+    return SessionNoise(group="eve (point)", chi2=np.array([chi2]), dof=np.array([5]),
+                        share=np.array([share]), z2=np.array([z2]))  # fmt: skip
+
+
+def test_a_blunder_in_directions_mostly_of_pixels_is_flagged_beside_trials_that_know_little() -> (
+    None
+):
+    """Issue 54's F1 (a new user's three one-trial sessions of one operator): the typed
+    x of one pose 1 in off gave a chi-square of 48 on 5 dof in directions each a fifth
+    placing, beside two trials that scatter less than typed. Fisher's F let the rest's
+    uncertainty scale the pixels too (p 0.008 > 0.005): the blunder was not flagged, fed
+    the other two sessions' prior and widened them 1.8x. The posterior predictive flags
+    it, and the clean sessions pool nothing from it."""
+    blunder = _mostly_pixels(
+        48.12, [0.0183, 1.289, 28.05, 17.87, 0.888], [0.193, 0.215, 0.216, 0.243, 0.252]
+    )
+    clean = _mostly_pixels(
+        0.0625, [0.0085, 0.0081, 0.0395, 0.0036, 0.0028], [0.235, 0.262, 0.264, 0.309, 0.312]
+    )
+    stats = [blunder, clean, clean]
+    chi2 = np.concatenate([s.chi2 for s in stats])
+    dof = np.concatenate([s.dof for s in stats])
+    share = np.concatenate([s.share for s in stats])
+    z2 = np.concatenate([s.z2 for s in stats])
+    flags = flag_trials(chi2, dof, share, z2, TYPED)
+    assert flags.flagged.tolist() == [True, False, False]
+    assert flags.p[0] < 1e-4
+    # the clean sessions' prior is the other clean one alone: too little to estimate from
+    assert operator_priors(stats, TYPED) == [None, None, None]
+
+
+@pytest.mark.parametrize("lam", [1.0, 3.0])
+def test_clean_trials_of_any_placing_share_are_rarely_flagged(lam: float) -> None:
+    """The test against the rest at Baarda's 0.5% keeps its false alarms near that level
+    over trials whose directions are anything from a twentieth to all placing."""
+    rng = np.random.default_rng(int(lam * 10))
+    flagged = total = 0
+    for _ in range(60):
+        share = rng.uniform(0.05, 1.0, (10, 5)) * rng.choice([0.3, 1.0], (10, 1))
+        z2 = (1 + (lam - 1) * share) * rng.chisquare(1, (10, 5))
+        flagged += int(flag_trials(z2.sum(axis=1), np.full(10, 5), share, z2, TYPED).flagged.sum())
+        total += 10
+    assert flagged / total <= 0.02

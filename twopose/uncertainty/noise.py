@@ -328,6 +328,7 @@ def noise_words(
     placing_scale: float = math.nan,
     placing_dof: float = math.inf,
     flagged: int = 0,
+    sources: str = "",
 ) -> str:
     """The noise model's test and what the regions took, in words: the one home of them.
 
@@ -337,18 +338,22 @@ def noise_words(
     freedom, "too few degrees of freedom" below. Then the multiplier the regions took, with
     the degrees of freedom it rests on (``factor``'s, or ``placing_scale`` on
     ``placing_dof``), ``region_widening`` (the largest semi-axis against the typed
-    placing's; NaN: not said) and the ``flagged`` trials.
+    placing's; NaN: not said) and the ``flagged`` trials; ``sources`` where the multiplier's
+    information came from (``factor``'s when given), so that a session whose own data
+    scatter less is not left to read as contradicted by the multiplier its operator's
+    other sessions raised.
     """
     if factor is not None:
         placing_scale = factor.placing_scale if factor.estimated else math.nan
         placing_dof, flagged = factor.variance_dof, factor.flagged
+        sources = factor.sources
     words = [_test_words(sigma0, dof, flagged)]
     if math.isfinite(placing_scale) and math.isfinite(placing_dof):
         took = (
             f"placing sigma taken {placing_scale:.2g}x the one assumed, from {placing_dof:.0f} dof"
         )
-        if factor is not None and factor.sources:
-            took += f" ({factor.sources})"
+        if sources:
+            took += f" ({sources})"
         if factor is not None and factor.at_limit:
             took += ", at the limit of what is searched: check the typed resolution and units"
         words.append(took)

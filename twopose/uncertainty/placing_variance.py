@@ -25,8 +25,8 @@ anchor's sigma unwidened, said as "not enough data".
 
 **Robust, then pooled.** Before any pooling each trial is tested (Baarda's global test at
 :data:`BAARDA_LEVEL`) against the typed model (its misclosure's chi-square) and against
-the rest (its chi-square under the posterior of every other unflagged trial, the anchor
-and the operator's prior: Fisher's F); a trial both reject is **flagged** (the worst
+the rest (its chi-square under the posterior predictive of every other unflagged trial,
+the anchor and the operator's prior); a trial both reject is **flagged** (the worst
 first, then again without it: :func:`flag_trials`), kept out of the posterior and widened
 by its own misfit. With too little beside it to say what "the rest" is, the typed test
 alone decides.
@@ -151,14 +151,9 @@ def posterior(
         if np.ndim(loglik) == 1:
             return Posterior(scale=1.0, dof=math.inf, information=0.0)
         return _Posteriors(scale=np.ones(R), dof=np.full(R, math.inf),  # type: ignore[return-value]
-                           information=np.zeros(R), at_limit=np.zeros(R, dtype=bool))  # fmt: skip
-    logp = L + _inv_chi2(anchor.scale, anchor.dof)
-    if prior is not None:  # the operator's other sessions: data, not a second prior
-        logp = logp + _inv_chi2(prior.scale, prior.dof, density=False)
-    # on a log grid: d lambda = lambda d log(lambda)
-    logw = logp + _LOG_GRID
-    p = np.exp(logw - logw.max(axis=1, keepdims=True))
-    p /= p.sum(axis=1, keepdims=True)
+                           information=np.zeros(R), at_limit=np.zeros(R, dtype=bool),
+                           weights=_at(np.ones(R)))  # fmt: skip
+    p = _grid_weights(L, anchor, prior)
     tau = 1.0 / GRID
     mean = p @ tau
     var = np.clip(p @ tau**2 - mean**2, 1e-300, None)
@@ -175,17 +170,40 @@ def posterior(
     if R == 1 and np.ndim(loglik) == 1:
         return Posterior(scale=float(scale[0]), dof=float(dof[0]), information=float(info[0]),
                          at_limit=bool(at_limit[0]))  # fmt: skip
-    return _Posteriors(scale=scale, dof=dof, information=info, at_limit=at_limit)  # type: ignore[return-value]
+    return _Posteriors(scale=scale, dof=dof, information=info, at_limit=at_limit, weights=p)  # type: ignore[return-value]
+
+
+def _grid_weights(L: F64, anchor: PlacingPrior, prior: PlacingPrior | None) -> F64:
+    """(R, G) the posterior's mass at each grid point, for each row of ``L`` (R, G)."""
+    logp = L + _inv_chi2(anchor.scale, anchor.dof)
+    if prior is not None:  # the operator's other sessions: data, not a second prior
+        logp = logp + _inv_chi2(prior.scale, prior.dof, density=False)
+    # on a log grid: d lambda = lambda d log(lambda)
+    logw = logp + _LOG_GRID
+    p = np.exp(logw - logw.max(axis=1, keepdims=True))
+    return np.asarray(p / p.sum(axis=1, keepdims=True))
+
+
+def _at(scale: F64) -> F64:
+    """(R, G) all the mass at the grid point nearest each ``scale`` (R,): a multiplier known."""
+    w = np.zeros((len(scale), GRID.size))
+    w[np.arange(len(scale)), np.abs(_LOG_GRID - np.log(scale)[:, None]).argmin(axis=1)] = 1.0
+    return w
 
 
 @dataclass(frozen=True, kw_only=True)
 class _Posteriors:
-    """Rows of posteriors (:func:`posterior` of (R, G) log-likelihoods)."""
+    """Rows of posteriors (:func:`posterior` of (R, G) log-likelihoods).
+
+    ``weights`` (R, G): each one's mass on :data:`GRID` (what the test of a trial against
+    it integrates over).
+    """
 
     scale: F64
     dof: F64
     information: F64
     at_limit: Bools
+    weights: F64
 
 
 def _rest_of_each(L: F64, info: F64, use: Bools) -> tuple[F64, F64]:
@@ -199,15 +217,23 @@ def trial_pvalues(
 ) -> tuple[F64, F64]:
     """(T,) each trial's p-value against the typed model, and against ``rest``.
 
-    NaN against the rest where too little lies beside the trial (``beside`` (T,): the
-    information of every other trial, flagged or not, and the prior's): nothing to test
-    it against.
+    Against the rest: its statistic (the chi-square of its misclosure at the rest's
+    multiplier) under the rest's posterior predictive, the scaled chi-square at every
+    multiplier on the grid weighed by the rest's posterior. Not Fisher's F: F lets the
+    rest's uncertainty scale every direction, while a direction mostly of pixels barely
+    depends on the multiplier, so F made a trial whose poses are 1 in off pass beside two
+    trials that knew little (issue 54's F1: a blunder fed the operator's prior). NaN
+    where too little lies beside the trial (``beside`` (T,): the information of every
+    other trial, flagged or not, and the prior's): nothing to test it against.
     """
     with np.errstate(invalid="ignore", divide="ignore"):
         p_typed = np.where(dof > 0, special.chdtrc(np.maximum(dof, 1), chi2), np.nan)
         d = 1.0 + (rest.scale[:, None] - 1.0) * share
         under = (z2 / np.where(d > 0, d, np.inf)).sum(axis=1)
-        p_rest = special.fdtrc(np.maximum(dof, 1), rest.dof, under / np.maximum(dof, 1))
+        k, c = _satterthwaite(np.maximum(dof, 1), share, rest.scale)
+        cols = _massive(rest.weights)
+        tail = special.chdtrc(k[:, cols], under[:, None] / c[:, cols])
+        p_rest = (rest.weights[:, cols] * tail).sum(axis=1)
     enough = (dof > 0) & (beside >= _SOMETHING_BESIDE)
     return p_typed, np.where(enough, p_rest, np.nan)
 
@@ -262,8 +288,22 @@ def flag_trials(
     # the rest starts as a robust guess (the median trial's), so that many bad trials
     # cannot hide each other; then the pool it keeps, until that stays the same
     start = _robust_scale(dof, share, L)
-    rest = _Posteriors(scale=np.full(T, start), dof=np.full(T, beside.max() + anchor.dof),
-                       information=beside, at_limit=np.zeros(T, dtype=bool))  # fmt: skip
+    first = beside.max() + anchor.dof
+    guess = (
+        _at(np.full(T, start))
+        if not math.isfinite(first)
+        else np.repeat(
+            _grid_weights(
+                np.zeros((1, GRID.size)),
+                PlacingPrior(scale=start, dof=first, source="a guess"),
+                None,
+            ),
+            T,
+            axis=0,
+        )
+    )
+    rest = _Posteriors(scale=np.full(T, start), dof=np.full(T, first), information=beside,
+                       at_limit=np.zeros(T, dtype=bool), weights=guess)  # fmt: skip
     pool = np.zeros(T, dtype=bool)
     for _ in range(_ROUNDS):
         p_typed, p_rest = trial_pvalues(chi2, dof, share, z2, rest, beside)
@@ -302,23 +342,26 @@ def _kept_chance(dof: Ints, share: F64, rest: _Posteriors, p_rest: F64, level: f
     """(T, G) the log-chance, at every multiplier, that a trial is not flagged.
 
     A trial is kept when either test accepts it: its chi-square under the typed model
-    below that test's cut, or under the rest's multiplier below the rest's (where there is
-    a rest); the chance is the larger of the two (the two statistics nearly proportional).
-    Each statistic, ``sum_k w_k chi2_1`` with ``w_k`` the ratio of the direction's variance
-    at ``lambda`` to the one it is tested at, is Satterthwaite's scaled chi-square.
+    below that test's cut, or its statistic at the rest's multiplier below the cut of the
+    rest's predictive (where there is a rest); the chance is the larger of the two (the two
+    statistics nearly proportional). Each statistic, ``sum_k w_k chi2_1`` with ``w_k`` the
+    ratio of the direction's variance at ``lambda`` to the one it is tested at, is
+    Satterthwaite's scaled chi-square.
     """
     d = np.maximum(dof, 1)
-    typed = _below(d, share, np.ones(len(d)), special.chdtri(d, level))
-    with np.errstate(invalid="ignore"):
-        cut = d * special.fdtri(d, rest.dof, 1.0 - level)
-    against_rest = _below(d, share, rest.scale, cut)
-    has_rest = np.isfinite(p_rest)[:, None]
-    chance = np.where(has_rest, np.fmax(typed, against_rest), typed)
+    k, c = _satterthwaite(d, share, np.ones(len(d)))
+    typed = special.chdtr(k, special.chdtri(d, level)[:, None] / c)
+    k, c = _satterthwaite(d, share, rest.scale)
+    has_rest = np.isfinite(p_rest)
+    cut = _predictive_cut(k, c, rest.weights, level, has_rest)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        against_rest = special.chdtr(k, cut[:, None] / c)
+    chance = np.where(has_rest[:, None], np.fmax(typed, against_rest), typed)
     return np.asarray(np.log(np.clip(chance, 1e-300, 1.0)))
 
 
-def _below(dof: Ints, share: F64, tested_at: F64, cut: F64) -> F64:
-    """(T, G) the chance that a trial's statistic is below its ``cut`` (T,), at every multiplier.
+def _satterthwaite(dof: Ints, share: F64, tested_at: F64) -> tuple[F64, F64]:
+    """(T, G) ``k`` and ``c``: a trial's statistic is about ``c chi2_k`` at every multiplier.
 
     Tested at the multiplier ``tested_at`` (T,), by Satterthwaite's scaled chi-square. Its
     ``dof`` directions: those with a placing share weigh their variance at ``lambda``
@@ -330,7 +373,42 @@ def _below(dof: Ints, share: F64, tested_at: F64, cut: F64) -> F64:
     rest = (dof - (share > 0).sum(axis=1))[:, None]  # the pixel-only directions
     s1, s2 = w.sum(axis=1) + rest, (w**2).sum(axis=1) + rest
     with np.errstate(invalid="ignore", divide="ignore"):
-        return np.asarray(special.chdtr(s1**2 / s2, np.asarray(cut)[:, None] * s1 / s2))
+        return np.asarray(s1**2 / s2), np.asarray(s2 / s1)
+
+
+def _massive(weights: F64) -> Ints:
+    """The grid's columns where any row of ``weights`` (R, G) has more than 1e-8 of its mass.
+
+    Each row sums to 1: what a predictive's sum needs, to 2.4e-6 of it at most (a
+    posterior spans a few decades of the grid's ten).
+    """
+    return np.flatnonzero((weights > 1e-8).any(axis=0))
+
+
+def _predictive_cut(k: F64, c: F64, weights: F64, level: float, where: Bools) -> F64:
+    """(T,) the statistic whose predictive tail (``weights`` over ``c chi2_k``) is ``level``.
+
+    Bisection in the log of the statistic, on the rows ``where`` (NaN elsewhere), between
+    the smallest and the largest of the grid's own ``level`` quantiles (the mixture's
+    lies between them): 30 halvings leave 1e-9 of their ratio's log.
+    """
+    out = np.full(k.shape[0], np.nan)
+    rows = np.flatnonzero(where)
+    if rows.size:
+        cols = _massive(weights[rows])
+        k_, c_, w_ = k[np.ix_(rows, cols)], c[np.ix_(rows, cols)], weights[np.ix_(rows, cols)]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            q = np.log(c_ * special.chdtri(k_, level))
+        heavy = w_ > 1e-8
+        a = np.where(heavy, q, np.inf).min(axis=1)
+        b = np.where(heavy, q, -np.inf).max(axis=1)
+        for _ in range(30):
+            mid = 0.5 * (a + b)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                tail = (w_ * special.chdtrc(k_, np.exp(mid)[:, None] / c_)).sum(axis=1)
+            a, b = np.where(tail > level, mid, a), np.where(tail > level, b, mid)
+        out[rows] = np.exp(0.5 * (a + b))
+    return out
 
 
 @dataclass(frozen=True, kw_only=True)
