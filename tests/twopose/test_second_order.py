@@ -219,8 +219,8 @@ def test_the_multiplier_from_the_solvers_own_misclosures_is_unbiased_at_3x(metho
     """The misclosure is the iterated adjustment's, the distance to the views' agreement:
     the placing multiplier it gives at 3x the typed is the truth's (9) within its standard
     error (5-8% here; a few percent, as bench_noise's pooled table shows for a point at 3x,
-    is below what this test resolves: it guards against a misclosure that does not follow
-    the placing error at all, such as one linearised at the typed poses of a bent view)."""
+    is below what this test resolves: it guards against a misclosure, or a likelihood of
+    the multiplier, that does not follow the placing error)."""
     views, truth = _placed_views(method, np.random.default_rng(3), 500, 3.0)
     trials_ = SessionTrials(method=Method(method), units=Units.IN,
                             trial_ids=tuple(range(len(views))), views=views, truth=truth,
