@@ -113,7 +113,10 @@ def first_pass(
     )  # fmt: skip
     passes = execute(first)
     done = {o.session: o for o in passes if isinstance(o, NoisePass)}
-    statistics = {f: p.statistics for f, p in done.items()}
+    ids = {f.path: f.session_id for f in inputs.found}
+    statistics = {
+        f: dataclasses.replace(p.statistics, name=ids.get(f, "")) for f, p in done.items()
+    }
     priors = operator_priors_of(statistics, groups, b.options, options_for)
     return dataclasses.replace(  # type: ignore[no-any-return]
         b,

@@ -335,8 +335,11 @@ def _print_run(result: RunResult, out: Path, *, include_warned: bool) -> None:
         typer.echo(line)
     warned = int(result.summary["n_warned"].sum()) if len(result.summary) else 0
     if warned and not include_warned:
+        from analysis.tables.row_units import rows_counted
+
         footer = [
-            f"{warned} ok trial(s) with a near-degeneracy warning",
+            f"{rows_counted(result.summary, 'n_warned', ok=True, least=1)} with a "
+            "near-degeneracy warning",
             "are left out of these statistics",
             "(--include-warned keeps them)",
         ]

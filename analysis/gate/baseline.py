@@ -36,6 +36,7 @@ from analysis.gate.tolerance import (
 )
 from analysis.tables.declared import SUMMARY_TABLE
 from analysis.tables.read_back import check_results_table, read_results_table
+from analysis.tables.row_units import rows_word
 from twopose.errors import InputValueError
 from twopose.methods.specs import Method
 from twopose.values.units import unit_spec
@@ -209,8 +210,10 @@ def _pair_rows(
             status = "missing"
         return [_row(session, method, "(session and method)", math.nan, math.nan, status)]
     rows = []
+    kind = pair.result  # its rows: trials; a two-camera session's touches
     if pair.lost:
-        rows.append(_row(session, method, "(trials)", float(pair.lost), math.nan, "missing"))
+        lost = _row(session, method, "(trials)", float(pair.lost), math.nan, "missing")
+        rows.append(lost | {"unit": rows_word(kind, "maybe_plural")})
     tolerance = tolerances.get(method, tolerances[""])
     units = unit_spec(str(pair.result["units"])).units
     for metric in CHECKED_METRICS:
@@ -226,7 +229,7 @@ def _pair_rows(
         said = f"{metric.trials_said}: {'; '.join(trials)}" if trials else ""
         rows.append(
             _row(session, method, metric.name, before, after, status, allowed)
-            | {"unit": metric.unit(units), "trials": said}
+            | {"unit": metric.unit(units, rows_word(kind)), "trials": said}
         )
     return rows
 
@@ -296,7 +299,8 @@ def describe(row: pd.Series) -> str:
     where = f"{row['session']} ({row['method']})"
     if row["status"] == "missing" and row["metric"] == "(trials)":
         return (
-            f"REGRESSED {where}: {int(row['baseline'])} trial(s) of the baseline not in this "
+            f"REGRESSED {where}: {int(row['baseline'])} {row.get('unit') or 'trial(s)'} of the "
+            "baseline not in this "
             "run (a part not read, or a session that failed)"
         )
     if row["status"] == "missing":

@@ -32,6 +32,7 @@ from analysis.report.figures.draw import png_bytes
 from analysis.report.writer import page_html, table_html
 from analysis.session.metrics import paired_difference, summarize, too_few_for_interval, used_trials
 from analysis.tables.read_back import read_results_table
+from analysis.tables.row_units import row_unit
 from twopose.errors import InputValueError
 from twopose.format.entries import INCHES_PER_UNIT
 from twopose.values.units import DEFAULT_UNITS, unit_factor
@@ -85,7 +86,7 @@ class RunSide:
 
 
 #: ``one_sided.csv``: each trial one run holds and the other does not (``held_by``: A or B).
-ONE_SIDED_COLUMNS = ["session", "branch", "part", "method", "trial", "held_by"]
+ONE_SIDED_COLUMNS = ["session", "branch", "part", "method", "cameras", "trial", "held_by"]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -341,6 +342,7 @@ def _one_sided(held_a: pd.DataFrame, held_b: pd.DataFrame) -> pd.DataFrame:
                     "branch": alone["branch"].astype(str),
                     "part": alone["part"].astype(str),
                     "method": alone["method"],
+                    "cameras": alone["cameras"],
                     "trial": alone["trial"],
                     "held_by": side,
                 }
@@ -356,13 +358,15 @@ def describe_one_sided(one_sided: pd.DataFrame) -> list[str]:
     from analysis.report.answer import with_branch
 
     lines = []
-    for (side, session, branch, method), g in one_sided.groupby(
-        ["held_by", "session", "branch", "method"], sort=True
+    table = one_sided if "cameras" in one_sided else one_sided.assign(cameras=1)
+    for (side, session, branch, method, cameras), g in table.groupby(
+        ["held_by", "session", "branch", "method", "cameras"], sort=True
     ):
         numbers = ", ".join(str(int(t)) for t in sorted(g["trial"]))
+        unit = row_unit(cameras)  # trials; a two-camera session's touches
         lines.append(
             f"only in {side}: {with_branch(str(session), str(branch))} ({method}): "
-            f"trial{'s' if len(g) > 1 else ''} {numbers}"
+            f"{unit.plural if len(g) > 1 else unit.noun} {numbers}"
         )
     return lines
 
@@ -391,11 +395,11 @@ def _tests(paired: pd.DataFrame) -> pd.DataFrame:
 def describe_test(row: pd.Series) -> str:
     """One line per method: ``ground: 15 shared trials; B - A mean error ... p = ...``."""
     n = int(row["n_pairs"])
-    two = int(row.get("cameras", 1)) == 2
-    what = f"{row['method']}{', two cameras' if two else ''}"
-    shared = "touch(es)" if two else "trial(s)"
+    unit = row_unit(row.get("cameras", 1))  # trials; a two-camera session's touches
+    what = f"{row['method']}{', two cameras' if unit.cameras == 2 else ''}"
+    shared = unit.maybe_plural
     if n == 0:
-        return f"{what}: no {shared[:-4] if two else 'trial'} measured in both runs"
+        return f"{what}: no {unit.noun} measured in both runs"
     interval = (
         f" (95% CI {row['ci95_low']:+.3g} to {row['ci95_high']:+.3g})"
         if math.isfinite(row["ci95_low"])

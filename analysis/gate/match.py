@@ -29,6 +29,7 @@ import pandas as pd
 
 from analysis.session.metrics import summarize, used_trials, warned
 from analysis.tables.columns import SUMMARY_DOMAINS
+from analysis.tables.row_units import row_unit
 from twopose.errors import InputValueError
 from twopose.methods.specs import Method, spec_of
 from twopose.values.units import Units, unit_spec
@@ -144,7 +145,7 @@ SUMMARY_COUNTS = ("n_warned", "n_used", "n_ok")
 
 def _why_left_out(trial: pd.Series) -> str:
     """A trial the statistics do not use, and why: its status, else its warning."""
-    name = f"trial {int(trial['trial'])}"
+    name = row_unit(trial.get("cameras", 1)).numbered(trial)  # a touch: "trial 2, touch 1"
     if str(trial.get("branch", "") or ""):
         name += f" of branch {trial['branch']}"
     if trial["status"] != "ok":

@@ -44,7 +44,7 @@ def noise_model_difference(pair: Pair) -> tuple[tuple[str, ...], tuple[str, ...]
         f"{where}: the run and the baseline used different noise models (the run: "
         f"{_model(pair.result)}; the baseline: {_model(pair.baseline)}): "
         f"{', '.join(NOISE_MODEL_METRICS)} not compared (their regions assume different "
-        "noise); the errors are, the rig's correction included"
+        "noise); the errors are compared, the rig's correction included"
     )
     return (note,), NOISE_MODEL_METRICS
 
@@ -70,15 +70,29 @@ def _prior_difference(pair: Pair, where: str) -> tuple[tuple[str, ...], tuple[st
     if pair.result is None or pair.baseline is None:
         return (), ()
     run, base = (_prior(_text(row, "placing_source")) for row in (pair.result, pair.baseline))
+    pooled = [_text(row, "prior_sessions") for row in (pair.result, pair.baseline)]
+    if (
+        run == base
+        and pooled[0] != pooled[1]
+        and all("prior_sessions" in row.index for row in (pair.result, pair.baseline))
+    ):
+        # the same words ("2 other sessions of operator Eve"), other sessions pooled
+        run, base = (f"{said} ({_ids(ids)})" for said, ids in zip((run, base), pooled, strict=True))
     if run == base:
         return (), ()
     note = (
         f"{where}: the run and the baseline took different priors for the placing error (the "
-        f"run: {run or 'none'}; the baseline: {base or 'none'}, the operator's other sessions "
-        f"pooled): {', '.join(NOISE_MODEL_METRICS)} not compared (their regions assume "
-        "different noise); the errors are"
+        f"operator's other sessions pooled: in the run, {run or 'none'}; in the baseline, "
+        f"{base or 'none'}): {', '.join(NOISE_MODEL_METRICS)} not compared (their regions "
+        "assume different noise); the errors are compared"
     )
     return (note,), NOISE_MODEL_METRICS
+
+
+def _ids(pooled: str) -> str:
+    """``prior_sessions`` in words: the session ids pooled, each cut to 8 characters."""
+    ids = [i[:8] for i in pooled.split(";") if i]
+    return "sessions " + ", ".join(ids) if ids else "no session named"
 
 
 def _prior(source: str) -> str:

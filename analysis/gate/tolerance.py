@@ -111,12 +111,13 @@ class Metric:
         """Whether its values (and its absolute allowance) are lengths."""
         return SUMMARY_DOMAINS[self.column] in ("length", "signed")
 
-    def unit(self, units: Units) -> str:
+    def unit(self, units: Units, rows: str = "trials") -> str:
         """The unit its values are in, in a session in ``units``: that unit for a length,
-        ``trials`` for a count, none for a share."""
+        its ``rows`` for a count (``trials``; a two-camera session's ``touches``), none for
+        a share."""
         if self.is_length:
             return units
-        return "trials" if SUMMARY_DOMAINS[self.column] == "count" else ""
+        return rows if SUMMARY_DOMAINS[self.column] == "count" else ""
 
 
 #: Every metric ``check`` compares, in the order it prints them.

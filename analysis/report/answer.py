@@ -26,6 +26,7 @@ from analysis.session.metrics import (
     summarize,
     too_few_for_interval,
 )
+from analysis.tables.row_units import rows_word
 from twopose.methods.specs import label_of
 from twopose.uncertainty.blunders import EXPLAINS_LEVEL, TARGET_LEVEL, TRUTH_LEVEL
 from twopose.uncertainty.noise import FACTOR_TEST_LEVEL, MIN_PLACING_DOF, TYPED_PRIOR_DOF
@@ -256,6 +257,7 @@ def readable(table: pd.DataFrame, *, include_warned: bool = False) -> pd.DataFra
     one = units[0] if len(units) == 1 else ""
     u = f" ({one})" if one else ""
     rows = []
+    counted = rows_word(table)  # trials; a two-camera session's touches; or both
     for _, r in table.iterrows():
         row: dict[str, object] = {}
         if "session" in table:
@@ -273,7 +275,7 @@ def readable(table: pd.DataFrame, *, include_warned: bool = False) -> pd.DataFra
             f"bias x ± 95%{u}": _plus_minus(r["bias_x"], r["bias_x_ci95"], n_used),
             f"bias z ± 95%{u}": _plus_minus(r["bias_z"], r["bias_z_ci95"], n_used),
             "truth inside its 95% ellipsoid": share(r["coverage95"]),
-            "trials": r["n_trials"],
+            counted: r["n_trials"],
             "ok": r["n_ok"],
             "warned (included)" if include_warned else "warned (left out)": r["n_warned"],
             "used": r["n_used"],

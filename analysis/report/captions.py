@@ -16,6 +16,7 @@ from analysis.report.plane_axes import plane_of
 from analysis.report.terminal import UNIT_NAMES
 from analysis.session.metrics import by_session_set, used_trials, warned
 from analysis.tables.labels import MAX_LEGEND, common_units, table_units, unit_label
+from analysis.tables.row_units import row_units_of, rows_word
 from twopose.methods.specs import spec_of
 from twopose.values.units import Units
 
@@ -25,11 +26,13 @@ __all__ = ["run_captions", "session_captions"]
 def _which(trials: pd.DataFrame, *, include_warned: bool) -> str:
     """Which trials a run figure draws, in words."""
     n_warned = int(warned(used_trials(trials, include_warned=True)).sum())
+    noun, rows = rows_word(trials, "noun"), rows_word(trials)  # trials; a pair's touches
     if include_warned:
-        return f"every ok trial, the {n_warned} warned included (--include-warned)"
+        return f"every ok {noun}, the {n_warned} warned included (--include-warned)"
     if not n_warned:
-        return "the ok trials (none is warned)"
-    return f"the trials the answer uses ({n_warned} warned trial(s) left out, as there)"
+        return f"the ok {rows} (none is warned)"
+    each = rows_word(trials, "maybe_plural", joiner=" or ")
+    return f"the {rows} the answer uses ({n_warned} warned {each} left out, as there)"
 
 
 def largest_errors(trials: pd.DataFrame, *, include_warned: bool) -> list[tuple[str, str, float]]:
@@ -72,10 +75,11 @@ def run_captions(trials: pd.DataFrame, *, include_warned: bool) -> dict[str, str
     which = _which(trials, include_warned=include_warned)
     common = f"Drawn: {which}; {unit_note[0].lower()}{unit_note[1:]}."
     largest = _largest(trials, units, include_warned=include_warned)
+    rows, noun = rows_word(trials), rows_word(trials, "noun", joiner=" or ")
     return {
-        "error_histogram": "Trials per error bin, by method, a panel per session set, one "
-        f"bin width throughout. {common} {largest}",
-        "error_by_trial": "Each trial's error (log scale), a line per session; dotted: the "
+        "error_histogram": f"{rows.capitalize()} per error bin, by method, a panel per "
+        f"session set, one bin width throughout. {common} {largest}",
+        "error_by_trial": f"Each {noun}'s error (log scale), a line per session; dotted: the "
         f"longest semi-axis of its 95% ellipsoid, for scale. {common} {largest}",
         "error_vs_baseline": "Each trial's error (log scale) against its baseline (the "
         "longest distance between two of its typed camera centres), a panel per session "
@@ -95,22 +99,25 @@ def session_captions(
     seen, axes = html.escape(on.seen_words), html.escape(on.axes_said)
     ok = used_trials(trials, include_warned=True)
     n_warned = int(warned(ok).sum())
+    # a session's rows: trials; a two-camera session's touches (analysis.tables.row_units)
+    noun, rows, each = (rows_word(trials, f) for f in ("noun", "plural", "maybe_plural"))
     fate = "included in the statistics" if include_warned else "left out of the statistics"
     not_ok = len(trials) - len(ok)
-    skipped = f" {not_ok} trial(s) not ok are not drawn." if not_ok else ""
-    doubt = f" {n_warned} warned trial(s) {{how}}, {fate}." if n_warned else ""
+    skipped = f" {not_ok} {each} not ok are not drawn." if not_ok else ""
+    doubt = f" {n_warned} warned {each} {{how}}, {fate}." if n_warned else ""
     key = "the legend" if ok["trial"].nunique() <= MAX_LEGEND else "the key at the right"
-    colour = f" Each trial has one colour in all of this session's figures ({key})."
+    colour = f" Each {noun} has one colour in all of this session's figures ({key})."
     framed = (
         ""
         if include_warned or not n_warned
-        else " The axes are framed by the trials the statistics use; a left-out trial beyond "
-        "them is drawn at the edge (▲), its value under the legend."
+        else f" The axes are framed by the {rows} the statistics use; a left-out {noun} "
+        "beyond them is drawn at the edge (▲), its value under the legend."
     )
+    averaged = " and ".join(u.averaged_from for u in row_units_of(trials))
     return {
-        "scatter": f"Estimate minus truth in {a} and {b} ({label}) of each ok trial, with its 95% "
-        "error ellipse (about 95% of them hold the truth, the + at the origin, when the "
-        "uncertainty is honest); the x is the bias over the trials the statistics use."
+        "scatter": f"Estimate minus truth in {a} and {b} ({label}) of each ok {noun}, with its "
+        "95% error ellipse (about 95% of them hold the truth, the + at the origin, when the "
+        f"uncertainty is honest); the x is the bias over the {rows} the statistics use."
         + colour
         + doubt.format(how="hollow, without an ellipse")
         + framed
@@ -121,7 +128,7 @@ def session_captions(
         + doubt.format(how="dashed")
         + framed
         + skipped,
-        "averaging": "The error of the estimate from the first n frames of each pose "
+        "averaging": f"The error of the estimate from {averaged} "
         f"({label}), against n; zero is the truth; {a} and {b} on one scale."
         + colour
         + doubt.format(how="dashed")
@@ -164,6 +171,7 @@ def session_caption(
     captions = session_captions(trials, include_warned=include_warned, units=units)
     scatter = captions["scatter"].replace("the + at the origin", "the dashed cross at 0")
     return (
-        f"{scatter} Click a trial (a point in any chart) to pick it out in every chart of "
+        f"{scatter} Click a {rows_word(trials, 'noun')} (a point in any chart) to pick it out "
+        "in every chart of "
         f"this session; shift-click adds another, a click on empty space shows all. {EXPLORE}"
     )

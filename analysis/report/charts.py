@@ -25,6 +25,7 @@ import pandas as pd
 
 from analysis.report.plane_axes import covariance_column, plane_of, with_in_plane
 from analysis.session.metrics import used_trials, warned
+from analysis.tables.row_units import row_units_of, rows_word
 from twopose.methods.planes import ConstraintPlane
 from twopose.uncertainty.propagate import CHI2_95
 
@@ -80,9 +81,9 @@ def _clamped(values: pd.Series, domain: list[float]) -> tuple[np.ndarray, np.nda
     return shown, np.isfinite(v) & (shown != v)
 
 
-def _trial_colour(trials: list[int]) -> Spec:
-    """One colour per trial, the session's in all its charts (the static figures' tab10 up
-    to 10 trials, a viridis ramp beyond)."""
+def _trial_colour(trials: list[int], noun: str = "trial") -> Spec:
+    """One colour per trial (a touch: its ``noun``), the session's in all its charts (the
+    static figures' tab10 up to 10, a viridis ramp beyond)."""
     scale: Spec = {"domain": trials}
     if len(trials) <= len(TAB10):
         scale["range"] = TAB10[: max(len(trials), 1)]
@@ -92,7 +93,7 @@ def _trial_colour(trials: list[int]) -> Spec:
         "field": "trial",
         "type": "ordinal" if len(trials) > len(TAB10) else "nominal",
         "scale": scale,
-        "title": "trial",
+        "title": noun,
         "legend": {"columns": 2 if len(trials) > 10 else 1, "symbolLimit": 30},
     }
 
@@ -307,7 +308,7 @@ def session_chart(
         charts += running[0]
         datasets |= running[1]
     ids = sorted(int(t) for t in table["trial"].unique())
-    _colour_by_trial(charts, _trial_colour(ids))
+    _colour_by_trial(charts, _trial_colour(ids, rows_word(trials, "noun")))
     views_picked = [*_PICK_VIEWS, *(f"running_{axis}" for axis in on.axis_names)]
     return {
         "datasets": datasets,
@@ -487,8 +488,7 @@ def _running(
         }
     )
     # a two-camera session's: per touch, the pair estimates nearest it (averaging.csv)
-    pairs = "cameras" in averaging and bool((averaging["cameras"] == 2).all())
-    what = "pair estimates about the touch" if pairs else "frames"
+    what = " and ".join(u.averaged for u in row_units_of(averaging))
     charts = []
     for axis in (a, b):
         framed = rows.loc[rows["used"], f"e{axis}"] if rows["used"].any() else rows[f"e{axis}"]
@@ -523,7 +523,7 @@ def _running(
                     "detail": {"field": "trial"},
                     "opacity": _picked(1.0, 0.12),
                     "tooltip": [
-                        {"field": "trial"},
+                        {"field": "trial", "title": rows_word(averaging, "noun")},
                         {"field": "n_frames", "title": f"{what} (number of)"},
                         {
                             "field": f"e{axis}",

@@ -12,6 +12,7 @@ import pandas as pd
 from analysis.report.answer import strand_names
 from analysis.report.charts import TAB10, WIDTH, Spec, error_tip, records, who, zoom
 from analysis.session.metrics import by_session_set, session_set, used_trials
+from analysis.tables.row_units import rows_word
 from twopose.methods.specs import Method, label_of, spec_of
 
 __all__ = ["hex_colour", "overview_charts", "sensitivity_chart"]
@@ -55,7 +56,7 @@ def overview_charts(trials: pd.DataFrame, *, include_warned: bool = False) -> Sp
     low = float(positive.min()) / 1.5 if len(positive) else top / 100
     charts: list[Spec] = [
         {
-            "title": "Error per trial (histogram)",
+            "title": f"Error per {rows_word(used, 'noun', joiner=' or ')} (histogram)",
             "width": WIDTH,
             "height": 180,
             "mark": "bar",
@@ -65,7 +66,7 @@ def overview_charts(trials: pd.DataFrame, *, include_warned: bool = False) -> Sp
                     "bin": {"maxbins": 20, "extent": [0, top]},
                     "title": f"error ({units})",
                 },
-                "y": {"aggregate": "count", "title": "number of trials"},
+                "y": {"aggregate": "count", "title": f"number of {rows_word(used)}"},
                 "color": colour,
                 "tooltip": [
                     {
@@ -73,7 +74,7 @@ def overview_charts(trials: pd.DataFrame, *, include_warned: bool = False) -> Sp
                         "bin": {"maxbins": 20, "extent": [0, top]},
                         "title": f"error ({units})",
                     },
-                    {"aggregate": "count", "title": "number of trials"},
+                    {"aggregate": "count", "title": f"number of {rows_word(used)}"},
                 ],
             },
         },

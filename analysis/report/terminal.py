@@ -32,6 +32,7 @@ from analysis.report.answer import number as _num
 from analysis.report.answer import share as _share
 from analysis.report.plane_axes import with_in_plane
 from analysis.session.metrics import SESSION_SETS, by_session_set, summarize
+from analysis.tables.row_units import rows_word
 from twopose.methods.planes import ConstraintPlane
 from twopose.methods.specs import spec_of
 from twopose.values.units import UNIT_SPECS, Units, unit_spec
@@ -41,14 +42,16 @@ __all__ = ["UNIT_NAMES", "closing_lines", "summary_lines", "wrap_phrases"]
 UNIT_NAMES = {str(u): spec.name for u, spec in UNIT_SPECS.items()}
 
 
-def _header(unit: Units, axes: tuple[str, str]) -> str:
-    """A per-method table's header; its biases name the in-plane ``axes`` of the methods
-    below it (``bias x``, ``bias z``); its last column, the share within 1 ``unit``, names
-    it (``≤1 cm``: 1 cm, not the thesis' 1 in, which the verdict lines count)."""
+def _header(unit: Units, axes: tuple[str, str], rows: str = "trials") -> str:
+    """A per-method table's header; its count names its ``rows`` (``trials``; a two-camera
+    block's ``touches``: :mod:`analysis.tables.row_units`); its biases name the in-plane
+    ``axes`` of the methods below it (``bias x``, ``bias z``); its last column, the share
+    within 1 ``unit``, names it (``≤1 cm``: 1 cm, not the thesis' 1 in, which the verdict
+    lines count)."""
     within = f"≤1 {unit}"
     bias_a, bias_b = (f"bias {a}" for a in axes)
     return (
-        f"{'method':<7}{'sessions':>8}{'trials':>7}{'ok':>5}{'warned':>7}"
+        f"{'method':<7}{'sessions':>8}{rows:>8}{'ok':>4}{'warned':>7}"
         f"{'rmse':>7}{'median':>7}{'max':>7}{bias_a:>7}{bias_b:>7}{within:>6}"
     )
 
@@ -77,7 +80,11 @@ def summary_lines(
     (None: never wrapped, for pipes)."""
     if summary.empty:
         return []
-    which = "every ok trial" if include_warned else "ok trials without a warning"
+    which = (
+        f"every ok {rows_word(trials, 'noun')}"
+        if include_warned
+        else f"ok {rows_word(trials)} without a warning"
+    )
     lines = [f"per method, over {which}:"]
     groups = by_session_set(trials)
     for name, group in groups:
@@ -88,7 +95,9 @@ def summary_lines(
                 where += "two-camera sessions, one row per touch, "
             title = f"{where}errors in {_units_name(Units(str(units)))}:"
             lines += wrap_phrases(title.split(" "), width)
-            lines += _method_rows(part, summary, Units(str(units)), include_warned=include_warned)
+            lines += _method_rows(
+                part, summary, Units(str(units)), rows_word(part), include_warned=include_warned
+            )
     lines.append("per session:")
     for _, r in session_order(summary).iterrows():
         on = spec_of(str(r["method"])).seen_on
@@ -115,7 +124,7 @@ def summary_lines(
 
 
 def _method_rows(
-    part: pd.DataFrame, summary: pd.DataFrame, units: Units, *, include_warned: bool
+    part: pd.DataFrame, summary: pd.DataFrame, units: Units, rows: str, *, include_warned: bool
 ) -> list[str]:
     """The per-method table over ``part``'s trials (one set, one units): one row per
     method, under a header naming its plane's axes (the methods on the same axes together,
@@ -131,13 +140,13 @@ def _method_rows(
         on = spec_of(str(r["method"])).seen_on
         bias_a, bias_b = _biases(r, on)
         by_axes.setdefault(on.axis_names, []).append(
-            f"{r['method']!s:<7}{sessions.get(r['method'], 0):>8}{r['n_trials']:>7}"
-            f"{r['n_ok']:>5}{r['n_warned']:>7}{_num(r['rmse']):>7}"
+            f"{r['method']!s:<7}{sessions.get(r['method'], 0):>8}{r['n_trials']:>8}"
+            f"{r['n_ok']:>4}{r['n_warned']:>7}{_num(r['rmse']):>7}"
             f"{_num(r['median_err']):>7}{_num(r['max_err']):>7}"
             f"{_num(bias_a, signed=True):>7}{_num(bias_b, signed=True):>7}"
             f"{_share(r['within_1']):>6}"
         )
-    return [line for axes, rows in by_axes.items() for line in [_header(units, axes), *rows]]
+    return [line for axes, each in by_axes.items() for line in [_header(units, axes, rows), *each]]
 
 
 _KEEP = "\x00"  # joins the words of a phrase: textwrap only breaks at real whitespace

@@ -34,6 +34,7 @@ from analysis.session.metrics import (
     used_trials,
     warned,
 )
+from analysis.tables.row_units import rows_word
 from twopose.methods.specs import METHOD_SPECS, Method, spec_of
 from twopose.values.units import UNITS, Units, unit_factor
 
@@ -189,14 +190,15 @@ def unusable(trials: pd.DataFrame, *, include_warned: bool) -> str:
     """Why none of ``trials`` (one method's) is used, in words: ``no trial usable: ...``
     (none ok; every ok one warned and left out; or none with a known error)."""
     ok = trials[trials["status"] == "ok"]
+    noun, each = rows_word(trials, "noun"), rows_word(trials, "maybe_plural")
     if ok.empty:
-        return f"no trial usable: none of its {len(trials)} trial(s) is ok"
+        return f"no {noun} usable: none of its {len(trials)} {each} is ok"
     if not include_warned and bool(warned(ok).all()):
         return (
-            f"no trial usable: all {len(ok)} ok trial(s) warned, left out "
+            f"no {noun} usable: all {len(ok)} ok {each} warned, left out "
             "(--include-warned keeps them)"
         )
-    return f"no trial usable: none of its {len(ok)} ok trial(s) has a known error (no truth)"
+    return f"no {noun} usable: none of its {len(ok)} ok {each} has a known error (no truth)"
 
 
 def _used(trials: pd.DataFrame, *, include_warned: bool) -> pd.DataFrame:
@@ -225,9 +227,11 @@ def converted_from(trial_units: pd.Series) -> str:
 
 
 def _within(g: pd.DataFrame) -> tuple[int, str]:
+    """How many of ``g`` are within 1 in, and that in words, its rows by their noun
+    (trials; a two-camera session's touches: :mod:`analysis.tables.row_units`)."""
     n_in = int((g["err_in"] <= _WITHIN_IN).sum())
     largest = f"(largest {g['err_in'].max():.2f} in){converted_from(g['units'])}"
-    return n_in, f"{n_in} of {len(g)} trials within 1 in {largest}"
+    return n_in, f"{n_in} of {len(g)} {rows_word(g)} within 1 in {largest}"
 
 
 _THESIS_TRIALS = 15  # each of its experiments: 15 trials, every one within 1 in

@@ -1,8 +1,8 @@
 """Report: the CSV tables, one PNG per figure (:mod:`analysis.report.figures.draw`) and a
 self-contained ``report.html`` that answers first: per session set and method (the
 ``thesis_*`` sessions first: the thesis reproduced, then ``stress_*``), then per session.
-The page reads at 1280 px and at 390 px (:mod:`analysis.report.html`). (Near the 600-line
-bound: one page, a short function per section; its words and charts live elsewhere.)"""
+The page reads at 1280 px and at 390 px (:mod:`analysis.report.html`). (Near 600 lines:
+one page, a short function per section; its words and charts live elsewhere.)"""
 
 from __future__ import annotations
 
@@ -37,6 +37,7 @@ from analysis.session.metrics import (
     used_trials,
 )
 from analysis.tables.labels import metadata_table, readable_columns, table_units, unit_label
+from analysis.tables.row_units import rows_counted, rows_word
 from twopose.methods.specs import label_of, spec_of
 from twopose.values import jsonsafe
 from twopose.values.jsonsafe import jsonable
@@ -260,17 +261,17 @@ def _answer_section(result: RunResult) -> list[str]:
     """The answer per session set and method, each set's verdict against the thesis, and
     a table of contents."""
     n_ok = int((result.trials["status"] == "ok").sum())
-    which = (
-        "every ok trial (warned ones included: --include-warned)"
+    which = (  # trials; a two-camera session's touches
+        f"every ok {rows_word(result.trials, 'noun')} (warned ones included: --include-warned)"
         if result.include_warned
-        else "the ok trials without a near-degeneracy warning (“warned” counts those left "
-        "out; trials.csv has them all)"
+        else f"the ok {rows_word(result.trials)} without a near-degeneracy warning (“warned” "
+        "counts those left out; trials.csv has them all)"
     )
     inputs = _inputs_section(result)
     parts = [
         "<h1>twopose report</h1>",
         f"<p>{html.escape(result.sessions_said('analysed'))}, {len(result.errors)} failed, "
-        f"{len(result.trials)} trial(s), {n_ok} ok"
+        f"{rows_counted(result.trials)}, {n_ok} ok"
         + (
             f"; {len(result.inputs_set_aside)} input(s) not analysed as given"
             if result.inputs_set_aside
@@ -524,7 +525,8 @@ def _session_sections(result: RunResult) -> list[str]:
             spec, caption = None, f"This session's charts could not be drawn ({err!r})."
             parts.append(f"<p class='err'>{html.escape(caption)}</p>")
         parts.append(chart_html(f"session_{_number(s, i):02d}", spec, caption))
-        parts.append("<p>Trials (every column: <code>trials.csv</code>):</p>")
+        rows = rows_word(s.trials).capitalize()  # a two-camera session's: touches
+        parts.append(f"<p>{rows} (every column: <code>trials.csv</code>):</p>")
         parts.append(table_html(readable_columns(_trial_table(s.trials), _units_of(s))))
     return parts
 

@@ -168,6 +168,7 @@ def noise_summary(trials: pd.DataFrame) -> dict[str, object]:
         "placing_source": sources[0] if sources else "",
         "placing_scale": scale,
         "placing_dof": _first_number(trials, "placing_dof"),
+        "prior_sessions": _first_text(trials, "prior_sessions"),
         **rig,
         "sigma0": float(np.sqrt(factor.sigma0_sq)) if total else np.nan,
         "sigma0_dof": total,
@@ -191,6 +192,14 @@ def _first_number(trials: pd.DataFrame, column: str) -> float:
         return np.nan
     values = pd.to_numeric(trials[column], errors="coerce").dropna()
     return float(values.iloc[0]) if len(values) else np.nan
+
+
+def _first_text(trials: pd.DataFrame, column: str) -> str:
+    """The first value of a text column the session's trials share (``""``: none)."""
+    if column not in trials:
+        return ""
+    values = trials[column].dropna().astype(str)
+    return str(values.iloc[0]) if len(values) else ""
 
 
 def _identity(trials: pd.DataFrame) -> dict[str, str]:

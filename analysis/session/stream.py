@@ -5,8 +5,9 @@ two-camera sessions yet). :func:`replay_pair_session` reads a format 1.6 session
 (:func:`twopose.format.streams.read_pair_session`), detects the method's target in every
 frame of both cameras (:func:`twopose.detect.detection.detect`: the dot's centroid, or the glove's
 centroid and image line), takes the clock offset the session recorded (else measures it
-per trial from the targets' centroids by the smallest ray gap:
-:func:`twopose.pair.clock.offset_from_ray_gap`; or the one given), and estimates the stream
+per trial as the recorder does, from a flash both cameras saw and the targets' centroids'
+smallest ray gap: :func:`twopose.pair.trial_offset.measure_trial_offset`; or the one
+given), and estimates the stream
 (:func:`twopose.pair.stream.estimate_stream`: camera 1's measurement interpolated to camera
 2's capture time, the method's one solver, each pair's conditioning and 95% region). At each
 touch (a moment the target was at a known grid point, on camera 1's clock) the estimate is
@@ -34,7 +35,7 @@ from twopose.format.reader import SessionReader
 from twopose.format.streams import CameraStream, StreamTrial, read_pair_session
 from twopose.methods.specs import Method, spec_of
 from twopose.pair.calibration import PairCalibration
-from twopose.pair.clock import ClockOffset, offset_from_ray_gap
+from twopose.pair.clock import ClockOffset
 from twopose.pair.stream import (
     CameraTrack,
     StreamEstimate,
@@ -42,6 +43,7 @@ from twopose.pair.stream import (
     StreamSettings,
     estimate_stream,
 )
+from twopose.pair.trial_offset import BrightnessMeter, measure_trial_offset
 
 __all__ = [
     "MAX_TOUCH_GAP_INTERVALS",
@@ -108,16 +110,26 @@ FrameSeen = Callable[[Frame, Detection], None]
 
 
 def camera_track(
-    stream: CameraStream, method: Method, params: object = None, seen: FrameSeen | None = None
+    stream: CameraStream,
+    method: Method,
+    params: object = None,
+    seen: FrameSeen | None = None,
+    brightness: list[float] | None = None,
 ) -> CameraTrack:
     """One camera's detections of the method's target, frame by frame (by the detector's
-    thresholds ``params``, else its defaults), each told to ``seen``."""
+    thresholds ``params``, else its defaults), each told to ``seen``; each frame's
+    brightness appended to ``brightness`` (:class:`twopose.pair.trial_offset.
+    BrightnessMeter`: a flash's, for the clock offset) when it is given."""
     spec = spec_of(method)
     assert spec.target is not None  # a measuring method's
     found, centroid, theta = [], [], []
     size = (stream.camera.intrinsics.width, stream.camera.intrinsics.height)
+    meter = BrightnessMeter()
     for frame in stream.frames():
-        d = detect(frame.decode(size), spec.target, params)
+        image = frame.decode(size)
+        if brightness is not None:
+            brightness.append(meter(image))
+        d = detect(image, spec.target, params)
         if seen is not None:
             seen(frame, d)
         found.append(d.found)
@@ -136,16 +148,20 @@ def _offset(
     pair: PairCalibration,
     tracks: tuple[CameraTrack, CameraTrack],
     known: tuple[ClockOffset | None, str],
+    brightness: tuple[list[float], list[float]],
 ) -> tuple[ClockOffset, str]:
-    """The clock offset: the one known (given, recorded), else measured by the ray gap."""
+    """The clock offset: the one known (given, recorded), else measured as the recorder
+    measures it (:func:`twopose.pair.trial_offset.measure_trial_offset`: a flash both
+    cameras saw, the rays' gap, pooled where both)."""
     if known[0] is not None:
         return known[0], known[1]
     one, two = tracks
-    try:
-        measured = offset_from_ray_gap(pair, one.centroid_px, one.t_ns, two.centroid_px, two.t_ns)
-    except InputValueError as err:
-        raise InputValueError(f"trial {trial.trial}: the clock offset: {err}") from err
-    return measured, "measured"
+    measured = measure_trial_offset(
+        pair, (one.centroid_px, two.centroid_px), (one.t_ns, two.t_ns), brightness
+    )
+    if measured.offset is None:
+        raise InputValueError(f"trial {trial.trial}: the clock offset: {'; '.join(measured.why)}")
+    return measured.offset, "measured"
 
 
 def at_touches(estimate: StreamEstimate, touches: tuple[Touch, ...], interval: float) -> F64:
@@ -240,11 +256,12 @@ def replay_trial(
 
         return keep
 
+    lit: tuple[list[float], list[float]] = ([], [])
     tracks = (
-        camera_track(trial.camera1, method, params, told(0)),
-        camera_track(trial.camera2, method, params, told(1)),
+        camera_track(trial.camera1, method, params, told(0), lit[0]),
+        camera_track(trial.camera2, method, params, told(1), lit[1]),
     )
-    used, source = _offset(trial, pair, tracks, known)
+    used, source = _offset(trial, pair, tracks, known, lit)
     estimate = estimate_stream(method, pair, *tracks, used, settings)
     interval = float(np.median(np.diff(tracks[0].t_ns))) if len(tracks[0].t_ns) > 1 else 0.0
     at = at_touches(estimate, trial.touches, interval)

@@ -38,6 +38,7 @@ __all__ = [
     "placing_scale",
     "placing_sigma",
     "placing_source",
+    "prior_sessions",
     "suspect_axis",
     "suspect_offset",
     "suspect_pose",
@@ -62,6 +63,13 @@ def placing_source(t: TrialResult) -> list[str]:
     from twopose.uncertainty.session_noise import placing_source as source
 
     return [source(t.estimate.options, t.estimate.factor)] * len(t.estimate.trials)
+
+
+def prior_sessions(t: TrialResult) -> list[str]:
+    """The operator's other sessions the placing's prior pooled: their ids, ``;``-joined
+    (empty: no prior, or the recorder's noise file's, whose sessions are not named)."""
+    prior = t.estimate.options.noise.prior
+    return [";".join(prior.pooled) if prior is not None else ""] * len(t.estimate.trials)
 
 
 def placing_scale(t: TrialResult) -> F64:

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Annotated, Any, TypeVar
 
 import typer
 
-from recorder.cli.new_pair import new_pair
+from recorder.cli.new_pair import is_pair_session, new_pair
 from recorder.cli.options import (
     AdaptiveFramesOption,
     BoardCornerOption,
@@ -162,7 +162,8 @@ def new(
     }  # fmt: skip
     with handle_errors(), contextlib.ExitStack() as stack:
         refuse_existing(out)  # before the first question
-        if pair is not None:  # two cameras' stream trials (recorder/cli/new_pair.py)
+        if pair is not None or (continue_from is not None and is_pair_session(continue_from)):
+            # two cameras' stream trials, or a two-camera session's continuation
             raise typer.Exit(new_pair(out, pair, source, given, plan=plan, ui=ui))
         if plan is not None and ui:
             raise InputValueError(

@@ -42,6 +42,7 @@ __all__ = [
     "MaxPosesOption",
     "MethodOption",
     "MinGainOption",
+    "NoFlashOption",
     "NotesOption",
     "OperatorOption",
     "OutArgument",
@@ -242,7 +243,8 @@ ContinueFromOption = Annotated[
         exists=True,
         dir_okay=False,
         help="Continue this session (closed, or recovered by `recover`): its setup and "
-        "id, the trials numbered after its last.",
+        "id, the trials numbered after its last; a two-camera session's continuation "
+        "takes its stored pair (give --source pair:A,B; --pair, if given, must be that pair).",
     ),
 ]
 
@@ -343,6 +345,16 @@ DropOption = Annotated[
     typer.Option(
         **read_option("DROP"),
         help="With --cameras 2: the share of each camera's frames lost [default: 0].",
+    ),
+]
+
+NoFlashOption = Annotated[
+    bool,
+    typer.Option(
+        "--no-flash",
+        help="With --cameras 2: no flash at each stream trial's start (by default one both "
+        "cameras see, which measures any clock offset; without it the moving target's rays "
+        "must fix the offset).",
     ),
 ]
 

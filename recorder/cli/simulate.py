@@ -16,6 +16,7 @@ from recorder.cli.options import (
     DriftOption,
     DropOption,
     JitterOption,
+    NoFlashOption,
     SpeedOption,
     given_options,
 )
@@ -72,6 +73,14 @@ def simulate(
     drift_ppm: DriftOption = None,
     jitter_ms: JitterOption = None,
     drop: DropOption = None,
+    no_flash: NoFlashOption = False,
+    operator: Annotated[
+        str,
+        typer.Option(
+            help="Who the session names as its operator: an analysis pools the placing "
+            "error of one operator's sessions, so scenarios simulated apart are named apart."
+        ),
+    ] = "twopose simulator",
 ) -> None:
     """Render a simulated session with known truth: the laptop-on-grid procedure, or
     (--cameras 2) a pair of cameras watching a moving target."""
@@ -88,7 +97,8 @@ def simulate(
         if cameras == 2:
             summary = simulate_pair_with_progress(
                 out, method, trials, seed, loaded,
-                (speed, clock_offset_ms, drift_ppm, jitter_ms, drop),
+                (speed, clock_offset_ms, drift_ppm, jitter_ms, drop), flash=not no_flash,
+                operator=operator,
             )  # fmt: skip
             typer.echo(
                 f"wrote {summary.path}: {summary.method}, two cameras, {summary.n_trials} "
@@ -111,6 +121,7 @@ def simulate(
                 typed_resolution=typed_resolution,
                 poses=poses,
                 on_progress=lambda: progress.advance(task),
+                operator=operator,
             )
     typer.echo(
         f"wrote {summary.path}: {summary.method}, {summary.n_trials} "

@@ -88,9 +88,20 @@ def begin_pair(session: ConsoleSession, setup: PairSetup, pair: PairCalibration)
             "plane": plane,
             "operator": setup.operator, "stop_rule": "",
         },
-        stream={"trial": 0, "touches": [], "frames": [0, 0], "offset": "", "ended": []},
+        # the trial before the first (the page offers the next: a continuation's numbered on)
+        stream={"trial": setup.first_trial - 1, "touches": [], "frames": [0, 0], "offset": "",
+                "ended": []},
     )  # fmt: skip
     session.touch_refusal = functools.partial(touch_refusal, setup.method, pair, setup.units)
+    continued = setup.continued
+    if continued is not None:  # said first, as a one-camera continuation's page says it
+        session.update(
+            notices=[
+                *session.notices,
+                f"Continuing {continued.path.name} after trial {continued.last_trial}: its "
+                f"pair and setup; trials from {continued.next_trial}",
+            ]
+        )
 
 
 class WebStreamDriver(StreamDriver):
@@ -293,10 +304,12 @@ def record_pair_thread(
     from recorder.procedure.stream_terminal import pair_cameras
 
     live = _pointing(setup, pair, pointing)
+    driver = WebStreamDriver(session, live)
+    driver.first_trial = setup.first_trial  # a continuation's: after its session's last
     try:
         summary = record_stream(
             session.out, setup.info(notes), pair_cameras(pair), pair, source,
-            WebStreamDriver(session, live), ground=setup.ground(), sink=_Preview(session, live),
+            driver, ground=setup.ground(), sink=_Preview(session, live),
         )  # fmt: skip
         said_ended(summary.line(), stopped=session.closing.is_set() or stops.requested())
     except Exception as err:  # the page must say it, not a thread's traceback

@@ -121,7 +121,10 @@ class NoiseFile:
         beyond :data:`MAX_SESSIONS`. Written whole, then renamed (:mod:`twopose.atomic_write`)."""
         if not len(stats.chi2):
             return
-        kept = self.sessions()[-(MAX_SESSIONS - 1) :]
+        sessions = self.sessions()
+        for s in sessions:  # a file the start set aside for its numbers is not added to
+            _statistics(s, f"{self.path}: a session")
+        kept = sessions[-(MAX_SESSIONS - 1) :]
         entry: dict[str, object] = {
             "file": str(session),
             "method": str(method),

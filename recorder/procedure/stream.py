@@ -324,7 +324,8 @@ def record_stream(
 def _with_clocks(info: SessionInfo, source: PairSource) -> SessionInfo:
     """The session entry saying each camera's clock. A camera's clock is decided by its
     first frame (a driver's stamp, or the monotonic clock at grab): those are waited for
-    (and dropped) first, except from stills, whose every frame counts."""
+    (and dropped) first, except from stills, whose every frame counts. A continuation's
+    clocks are its own; where one differs from the part continued's, its notes say so."""
     if not source.stills:
         seen: set[int] = set()
         deadline = time.monotonic() + FIRST_FRAME_S
@@ -339,9 +340,15 @@ def _with_clocks(info: SessionInfo, source: PairSource) -> SessionInfo:
                     "another program)"
                 )
     one, two = source.cameras
-    return dataclasses.replace(
-        info, clocks={info.camera_ids[0]: one.clock, info.camera_ids[1]: two.clock}
-    )
+    clocks = {info.camera_ids[0]: one.clock, info.camera_ids[1]: two.clock}
+    before = (info.clocks or {}) if info.continues_file else {}  # the part continued's
+    changed = [
+        f"camera {cid}'s clock is {clock} here, {before[cid]} in {info.continues_file}"
+        for cid, clock in clocks.items()
+        if before.get(cid, clock) != clock
+    ]
+    notes = "; ".join([info.notes, *changed]) if changed else info.notes
+    return dataclasses.replace(info, clocks=clocks, notes=notes)
 
 
 def _check_sizes(source: PairSource, cameras: Sequence[Camera]) -> None:

@@ -5,13 +5,14 @@ Each frame recorded is handed to a detection thread (:class:`OffsetMeter`; the f
 writing never waits for it: when it falls :data:`QUEUE_FRAMES` behind, a frame is left
 undetected and counted). It finds the method's target (:func:`twopose.detect.detection.detect`)
 and keeps each camera's centroid track and each frame's brightness with the frames' capture
-times. When a trial ends, the offset is measured from the trial's tracks two ways, each
-where it can: from a flash both cameras saw (:func:`twopose.pair.clock.offset_from_flash`,
-when each camera's brightness steps up within two frames by a quarter of its level and
-twenty times its frame-to-frame scatter: a deliberate flash, not a moving hand), and by
-the rays' smallest gap (:func:`twopose.pair.clock.offset_from_ray_gap`: the target must
-move, and not only along the epipolar lines); a trial that fixes it neither way is said,
-in the measurements' words.
+times. When a trial ends, the offset is measured from the trial's tracks by the one path
+the analysis also takes (:func:`twopose.pair.trial_offset.measure_trial_offset`): from a
+flash both cameras saw (each camera's brightness, :class:`twopose.pair.trial_offset.
+BrightnessMeter`, stepping up within two frames by a quarter of its level and ten times
+its frame-to-frame scatter: a deliberate flash, not a moving hand), and by the rays'
+smallest gap (the target must move, and not only along the epipolar lines), the two pooled
+when both measure it and agree; a trial that fixes it neither way, or whose two disagree,
+is said, in the measurements' words.
 
 The offset of two cameras opened once stays the same through the session (a lag is
 decided when a camera starts), so the trials' offsets are **pooled**: their
@@ -31,10 +32,15 @@ from typing import TYPE_CHECKING, Self
 
 import numpy as np
 
-from twopose.arrays import F64
-from twopose.errors import InputValueError
 from twopose.methods.specs import Method, spec_of
-from twopose.pair.clock import ClockOffset, offset_from_flash, offset_from_ray_gap
+from twopose.pair.clock import ClockOffset
+from twopose.pair.trial_offset import (
+    FLASH_NOISE,
+    FLASH_RISE,
+    BrightnessMeter,
+    measure_trial_offset,
+    pooled_offset,
+)
 
 if TYPE_CHECKING:
     from recorder.sources.pair import TimedFrame
@@ -44,26 +50,7 @@ __all__ = ["FLASH_NOISE", "FLASH_RISE", "QUEUE_FRAMES", "OffsetMeter", "pooled_o
 
 #: How many frames the detection thread may fall behind before frames go undetected.
 QUEUE_FRAMES = 60
-#: A flash: a camera's brightness rises by this share of its level before, at least ...
-FLASH_RISE = 0.25
-#: ... and by this many times its frame-to-frame scatter (robust: the median deviation).
-FLASH_NOISE = 20.0
 _END_WAIT_S = 5.0  # how long a trial's end waits for the frames still queued
-
-
-def pooled_offset(offsets: list[ClockOffset]) -> ClockOffset:
-    """The trials' offsets pooled: their inverse-variance mean, its 1-sigma widened by the
-    Birge ratio where they scatter beyond their sigmas."""
-    x = np.array([o.offset_ns for o in offsets], dtype=np.float64)
-    s = np.array([max(o.sigma_ns, 1.0) for o in offsets], dtype=np.float64)
-    w = 1.0 / s**2
-    mean = float((w * x).sum() / w.sum())
-    sigma = math.sqrt(1.0 / float(w.sum()))
-    if len(offsets) > 1:
-        chi2 = float((w * (x - mean) ** 2).sum()) / (len(offsets) - 1)
-        sigma *= max(1.0, math.sqrt(chi2))
-    method = offsets[0].method if len({o.method for o in offsets}) == 1 else "pooled"
-    return ClockOffset(offset_ns=mean, sigma_ns=sigma, method=method, n=sum(o.n for o in offsets))
 
 
 class OffsetMeter:
@@ -75,6 +62,7 @@ class OffsetMeter:
         self.target = spec_of(method).target
         self._queue: queue.Queue[tuple[int, int, TimedFrame] | None] = queue.Queue(QUEUE_FRAMES)
         self._tracks: dict[int, list[tuple[int, float, float, float]]] = {1: [], 2: []}
+        self._lit = {1: BrightnessMeter(), 2: BrightnessMeter()}
         self._trial = 0
         self._lock = threading.Lock()
         self._thread: threading.Thread | None = None
@@ -105,6 +93,7 @@ class OffsetMeter:
         with self._lock:
             self._trial = trial
             self._tracks = {1: [], 2: []}
+            self._lit = {1: BrightnessMeter(), 2: BrightnessMeter()}
 
     def add(self, frame: TimedFrame) -> None:
         """A frame recorded: detected in the thread (skipped and counted when it is behind)."""
@@ -125,7 +114,7 @@ class OffsetMeter:
                 if trial == self._trial:
                     found = detect(frame.image, self.target)
                     u, v = found.centroid_px if found.found else (math.nan, math.nan)
-                    lit = float(frame.image[::4, ::4].mean())  # the frame's brightness
+                    lit = self._lit[camera](frame.image)  # a flash's (linear)
                     with self._lock:
                         if trial == self._trial:  # NaN where not found, as the analysis
                             self._tracks[camera].append((frame.t_capture_ns, u, v, lit))
@@ -155,49 +144,28 @@ class OffsetMeter:
         with self._lock:
             one, two = (np.array(self._tracks[c], dtype=np.float64).reshape(-1, 4) for c in (1, 2))
             self._trial = 0
-        found, why = [], []
-        if _flashed(one[:, 3]) and _flashed(two[:, 3]):
-            try:
-                found.append(offset_from_flash(one[:, 3], one[:, 0], two[:, 3], two[:, 0]))
-            except InputValueError as err:
-                why.append(f"the flash: {err}")
-        try:
-            found.append(
-                offset_from_ray_gap(self.pair, one[:, 1:3], one[:, 0], two[:, 1:3], two[:, 0])
-            )
-        except InputValueError as err:
-            why.append(str(err))
+        trial_offset = measure_trial_offset(
+            self.pair, (one[:, 1:3], two[:, 1:3]), (one[:, 0], two[:, 0]), (one[:, 3], two[:, 3])
+        )
         pooled = pooled_offset(self.measured) if self.measured else None
-        if not found:
-            return pooled, f"trial {trial} does not fix the clock offset: {'; '.join(why)}"
-        self.measured += found
+        if trial_offset.offset is None:
+            why = "; ".join(trial_offset.why)
+            return pooled, f"trial {trial} does not fix the clock offset: {why}"
+        self.measured.append(trial_offset.offset)
         pooled = pooled_offset(self.measured)
         said = f"trial {trial}: clock offset " + ", ".join(
             f"{o.offset_ns / 1e6:+.2f} ± {o.sigma_ns / 1e6:.2f} ms ({o.method}, {o.n} "
             f"{'frames' if o.method == 'flash' else 'pairs'})"
-            for o in found
+            for o in trial_offset.found
         )
+        if len(trial_offset.found) > 1:
+            o = trial_offset.offset
+            said += f": {o.offset_ns / 1e6:+.2f} ± {o.sigma_ns / 1e6:.2f} ms pooled"
         if self.skipped:
             said += f"; {self.skipped} frames left undetected so far (the detection was behind)"
-        if len(self.measured) > len(found):
+        if len(self.measured) > 1:
             said += (
                 f"; the session's {pooled.offset_ns / 1e6:+.2f} ± {pooled.sigma_ns / 1e6:.2f} ms "
                 f"over {len(self.measured)} measurements"
             )
         return pooled, said
-
-
-def _flashed(brightness: F64) -> bool:
-    """Whether a camera's frames saw a flash: its brightness steps up within two frames (an
-    onset falls in one exposure or across two) by at least :data:`FLASH_RISE` of its level
-    before, and by :data:`FLASH_NOISE` times the frames' own scatter. A moving target, a
-    hand, a camera's exposure settling change it by far less, or slowly."""
-    b = brightness[np.isfinite(brightness)]
-    if b.size < 8:
-        return False
-    step = np.abs(np.diff(b))
-    noise = 1.4826 * float(np.median(np.abs(step - np.median(step)))) + 1e-6
-    rise = b[2:] - b[:-2]  # over two frames
-    k = int(np.argmax(rise))
-    level = float(np.median(b[: k + 1]))
-    return float(rise[k]) > max(FLASH_RISE * level, FLASH_NOISE * noise)

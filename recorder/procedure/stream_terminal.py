@@ -58,6 +58,7 @@ from twopose.values.units import Units
 
 if TYPE_CHECKING:
     from recorder.procedure.terminal import Operator
+    from recorder.setup.continuation import Continued
     from recorder.setup.stream_plan import StreamPlan
     from recorder.sources.pair import CameraStream
     from twopose.format.entries import Touch
@@ -116,10 +117,40 @@ class PairSetup:
     operator: str = ""
     notes: str = ""
     plane_offset: float | None = None  # the method's plane's offset, typed (no floor)
+    #: The two-camera session this one continues (``--continue``): its pair, floor and
+    #: identity kept, its trials numbered on (:mod:`recorder.setup.pair_continuation`).
+    continued: Continued | None = None
+
+    @classmethod
+    def continuing(
+        cls, continued: Continued, pair_path: Path | None = None, *,
+        plan: StreamPlan | None = None, operator: str | None = None,
+    ) -> PairSetup:  # fmt: skip
+        """A continuation's setup: ``continued``'s (its pair checked against ``pair_path``
+        and ``plan``: :func:`recorder.setup.pair_continuation.check_continuation`), recorded
+        by ``operator`` (``--operator``, else the plan's, else the session's)."""
+        from recorder.setup.pair_continuation import check_continuation
+
+        check_continuation(continued, pair_path, plan=plan)
+        if plan is not None:
+            operator = operator or plan.operator or None
+        info = continued.info
+        return cls(
+            method=info.method, units=info.units,
+            operator=operator if operator is not None else continued.operator or info.operator,
+            continued=replace(continued, operator=operator),
+        )  # fmt: skip
+
+    @property
+    def first_trial(self) -> int:
+        """The recording's first stream trial (a continuation's: after the session's last)."""
+        return 1 if self.continued is None else self.continued.next_trial
 
     def info(self, notes: str = "") -> SessionInfo:
         import uuid
 
+        if self.continued is not None:  # the same session, a part of its own
+            return self.continued.info_for(notes or self.notes, operator=self.operator)
         return SessionInfo(
             method=self.method, units=self.units, camera_ids=CAMERA_IDS,
             operator=self.operator, notes=notes or self.notes,
@@ -127,10 +158,14 @@ class PairSetup:
             session_id=uuid.uuid4().hex, part_id=uuid.uuid4().hex,
         )  # fmt: skip
 
-    def session_pair(self, pair: PairCalibration) -> PairCalibration:
+    def session_pair(self, pair: PairCalibration | None) -> PairCalibration:
         """The pair the session stores: a typed offset of the method's plane (the pair file
         has no floor) becomes its floor, ``normal . p = offset`` in camera 1's frame, exact,
         as a typed ground is for one camera (so that the stream's estimate has its plane)."""
+        if self.continued is not None and self.continued.pair is not None:
+            return self.continued.pair  # as the session stored it (its floor too)
+        if pair is None:
+            raise InputValueError("a pair session needs its pair (a pair file)")
         plane = spec_of(self.method).plane
         if self.plane_offset is None or plane is None or pair.floor is not None:
             return pair
@@ -145,9 +180,12 @@ class PairSetup:
         return replace(pair.in_units(self.units), floor=floor)
 
     def ground(self) -> PlaneEntry | None:
-        """The typed plane (None: the pair's floor, or a method on no plane)."""
+        """The typed plane (None: the pair's floor, or a method on no plane); a
+        continuation's: its session's."""
         from recorder.setup.rules import plane_entry
 
+        if self.continued is not None:
+            return self.continued.ground
         return plane_entry(self.method.spec, self.plane_offset)
 
 
@@ -156,16 +194,19 @@ class TerminalStreamDriver(StreamDriver):
 
     def __init__(
         self, say: Callable[[str], None], keys: KeyReader, units: Units,
-        plan: StreamPlan | None = None,
+        plan: StreamPlan | None = None, first_trial: int = 1,
     ) -> None:  # fmt: skip
         self.say, self.keys, self.units, self.plan = say, keys, units, plan
+        self.first_trial = first_trial  # a continuation's: after its session's last
         self._keyed: list[Vec3] = []
         self._last_point: Vec3 | None = None
 
     def _planned(self, trial: int) -> Any:
-        if self.plan is None or trial > len(self.plan.trials):
+        """The plan's trial recorded as ``trial`` (its first is :attr:`first_trial`)."""
+        k = trial - self.first_trial
+        if self.plan is None or not 0 <= k < len(self.plan.trials):
             return None
-        return self.plan.trials[trial - 1]
+        return self.plan.trials[k]
 
     @override
     def start(self, cameras: tuple[CameraStream, CameraStream], path: Path) -> None:
@@ -177,7 +218,7 @@ class TerminalStreamDriver(StreamDriver):
     @override
     def next_trial(self, trial: int) -> bool:
         if self.plan is not None:
-            return trial <= len(self.plan.trials)
+            return self._planned(trial) is not None
         self.say(f"trial {trial}: Enter starts its stream; q ends the session")
         while True:
             line = self._wait_line()
@@ -348,26 +389,38 @@ def ask_pair_setup(
 
 
 def record_pair(  # noqa: PLR0913 - what new --pair takes
-    out: Path, pair_path: Path, source: str, op: Operator, *,
+    out: Path, pair_path: Path | None, source: str, op: Operator, *,
     plan_path: Path | None = None, given: dict[str, Any] | None = None, notes: str = "",
-    keys: KeyReader | None = None, fps: float | None = None,
+    keys: KeyReader | None = None, fps: float | None = None, continued: Continued | None = None,
 ) -> StreamSummary:  # fmt: skip
-    """``new OUT --pair PAIR.toml --source pair:A,B [--plan PLAN.toml]`` at the terminal."""
+    """``new OUT --pair PAIR.toml --source pair:A,B [--plan PLAN.toml]`` at the terminal;
+    with ``continued`` (``--continue S.mcap``, read), its continuation: ``S``'s pair and
+    setup (``pair_path`` None, or checked to be its pair: :mod:`recorder.setup.
+    pair_continuation`), its trials numbered on."""
     from recorder.procedure.machine import refuse_existing
     from recorder.setup.stream_plan import load_stream_plan
     from twopose.pair.pair_file import read_pair_file
 
     refuse_existing(out)
-    pair = read_pair_file(pair_path)
     plan = load_stream_plan(plan_path) if plan_path is not None else None
-    setup = ask_pair_setup(op, pair, plan=plan, **(given or {}))
-    pair = setup.session_pair(pair)
+    if continued is not None:
+        who = (given or {}).get("operator")
+        setup = PairSetup.continuing(continued, pair_path, plan=plan, operator=who)
+        pair = setup.session_pair(None)
+    elif pair_path is None:
+        raise InputValueError("--pair PAIR.toml: the pair's calibration (calibrate-pair) is needed")
+    else:
+        pair = read_pair_file(pair_path)
+        setup = ask_pair_setup(op, pair, plan=plan, **(given or {}))
+        pair = setup.session_pair(pair)
     if plan is not None:
         refuse_off_floor(plan, pair)
     src = open_pair_source(source, pair, setup, fps=fps)
     cameras = pair_cameras(pair)
     info = setup.info(notes or (plan.notes if plan is not None else ""))
-    driver = TerminalStreamDriver(op.say, keys or KeyReader(), setup.units, plan)
+    driver = TerminalStreamDriver(
+        op.say, keys or KeyReader(), setup.units, plan, first_trial=setup.first_trial
+    )
     with stops.handled():
         return record_stream(out, info, cameras, pair, src, driver, ground=setup.ground())
 

@@ -13,7 +13,9 @@ recording is a part of its own (a fresh ``part_id``). A file beside ``S`` that a
 continues the same part (a second laptop continuing one file) makes this one a new branch
 (``continues.branch``: ``B``, ``C``, ...), said once at the start and never refused. The
 analysis treats a session and its continuations as one session, each branch's trials
-apart (:mod:`twopose.format.identity`).
+apart (:mod:`twopose.format.identity`). A two-camera session's continuation takes its
+stored pair and floor as well (:attr:`Continued.pair`; its stream trials numbered on:
+:mod:`recorder.setup.pair_continuation`).
 """
 
 from __future__ import annotations
@@ -36,10 +38,14 @@ from twopose.format.entries import (
     PlaneEntry,
     PoseEntry,
     SessionInfo,
+    SimTrajectory,
+    StreamWindow,
+    Touch,
 )
 from twopose.format.identity import SessionFile, identify_file
 from twopose.format.reader import SessionReader, is_results_file, recover_command
 from twopose.methods.specs import Method
+from twopose.pair.calibration import PairCalibration
 from twopose.values.checks import Vec3
 from twopose.values.units import Units
 
@@ -59,6 +65,9 @@ _OLD_NOTE = re.compile(
     r"within (?P<reach>\S+) \w+ of the first pose"
     r"(?:; the target taped (?P<target_distance>\S+) \w+ from the first pose)?$"
 )
+#: The entries that number a trial: a pose, its truth, a note about it; a stream's window
+#: and its touches, a simulation's trajectory (a two-camera session's).
+_NUMBERED = (PoseEntry, GroundTruth, Note, StreamWindow, Touch, SimTrajectory)
 #: How every MCAP file begins (a session's first bytes, even when it was cut short).
 _MCAP_MAGIC = b"\x89MCAP"
 
@@ -74,6 +83,9 @@ class Continued:
     last_trial: int  # the last trial the file mentions (0: none)
     truth: tuple[Vec3, ...]  # the last ground truth typed (the setup's)
     sha256: str
+    #: A two-camera session's pair as it stored it (session units, its floor: the pair
+    #: file's or the typed one); None: a one-camera session.
+    pair: PairCalibration | None = None
     #: The continued part's id: the recorded one, or (before format 1.4) the one the
     #: analysis derives for it (:attr:`SessionFile.part_id`).
     part_id: str
@@ -171,19 +183,16 @@ def read_continued(path: str | Path, *, operator: str | None = None) -> Continue
     try:
         with SessionReader(src) as reader:
             info, cameras, ground = reader.info, reader.cameras, reader.ground
-            if reader.pair is not None:
-                raise InputValueError(
-                    f"--continue {src}: a two-camera session (a pair of cameras, stream "
-                    "trials): continuing one is not supported yet (this would record a "
-                    "one-camera part of it); record the rest as a new two-camera session, "
-                    "and analyse both with `twopose-analyze run`"
-                )
+            pair = reader.pair
             last = 0
             truth: tuple[Vec3, ...] = ()
             guidance = info.guidance
-            for entry in reader.iter_entries():
+            # A two-camera session's trials are its streams: their windows and touches.
+            streams = (StreamWindow, Touch, Note, SimTrajectory)
+            topics = None if pair is None else [c.TOPIC for c in streams]
+            for entry in reader.iter_entries(topics):
                 trial = getattr(entry, "trial", None)
-                if isinstance(entry, PoseEntry | GroundTruth | Note) and trial:
+                if isinstance(entry, _NUMBERED) and trial:
                     last = max(last, int(trial))
                 if isinstance(entry, GroundTruth):
                     truth = entry.points_grid
@@ -209,6 +218,7 @@ def read_continued(path: str | Path, *, operator: str | None = None) -> Continue
         ground=ground,
         last_trial=last,
         truth=tuple(truth),
+        pair=pair,
         sha256=identity.digest,
         part_id=identity.part_id,
         continued_by=_continued_beside(identity),

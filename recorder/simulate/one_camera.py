@@ -11,9 +11,10 @@ intrinsics drawn once per session (:func:`calibrated_cameras`). The same seed gi
 bytes.
 
 A simulated session carries a ``session_id`` and a ``part_id`` like a recorded one, each a
-digest of what made it (:func:`simulated_ids`: the method, trials, frames, seed and the
-whole scene): so the same settings write the same session, and a copy of it (byte, cut,
-recovered) is known as that session by every command; other settings are another session.
+digest of what made it (:func:`recorder.simulate.identity.simulated_ids`: the method,
+trials, frames, seed, the whole scene and an operator named): so the same settings write
+the same session, and a copy of it (byte, cut, recovered) is known as that session by
+every command; other settings are another session.
 
 (Near 600 lines: the one-camera simulation, from the simulated operator's typed poses to the
 file; the two-camera one is :mod:`recorder.simulate.pair`, the scene and its rendering
@@ -23,8 +24,6 @@ file; the two-camera one is :mod:`recorder.simulate.pair`, the scene and its ren
 from __future__ import annotations
 
 import dataclasses
-import hashlib
-import json
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
@@ -37,6 +36,7 @@ from typing_extensions import override
 from recorder.procedure.capture import CaptureSettings
 from recorder.procedure.driver import Driver, Placement
 from recorder.procedure.recording import record
+from recorder.simulate.identity import SIMULATED_OPERATOR, checked_operator, simulated_ids
 from recorder.sources.registry import FrameSource, SourceInfo
 from twopose.arrays import F64
 from twopose.camera.model import Camera, Intrinsics, project_points, rotation_from_angles_deg
@@ -65,12 +65,13 @@ __all__ = [
     "draw_trial_poses",
     "poses_per_trial",
     "simulate_session",
-    "simulated_ids",
     "target_points",
 ]
 
 # The thesis' running-average script is dated 2011-12-31; simulated clocks start there.
 SIMULATION_EPOCH_NS = 1_325_289_600 * 1_000_000_000
+
+
 _MAX_POSE_DRAWS = 2000
 _EDGE_MARGIN_PX = 25.0
 #: What a noise-free simulated pose records as its 1-sigma resolution (the format wants > 0).
@@ -453,27 +454,17 @@ def _checked_settings(method: Method, trials: int, frames: int, poses: int | Non
     return checked
 
 
-def simulated_ids(
-    method: Method, trials: int, frames: int, seed: int, scene: Scene
-) -> tuple[str, str]:
-    """A simulated session's ``session_id`` and ``part_id`` (32 hex digits each): halves
-    of one SHA-256 of everything that makes it (``scene`` as simulated: its overrides and
-    drawn calibration applied), so the same settings give the same ids (and bytes)."""
-    made = json.dumps(["twopose simulate", method.value, trials, frames, seed, repr(scene)])
-    digest = hashlib.sha256(made.encode()).hexdigest()
-    return digest[:32], digest[32:]
-
-
 def _session_info(
-    scene: Scene, cameras: list[Camera], spec: MethodSpec, settings: str, ids: tuple[str, str]
-) -> SessionInfo:
+    scene: Scene, cameras: list[Camera], spec: MethodSpec, settings: str, ids: tuple[str, str],
+    operator: str = SIMULATED_OPERATOR,
+) -> SessionInfo:  # fmt: skip
     """The simulated session's opening entry (its ``ids``: :func:`simulated_ids`); its
     notes say how it was made."""
     return SessionInfo(
         method=spec.method,
         units=unit_spec(scene.units).units,
         camera_ids=tuple(c.id for c in scene.cameras),
-        operator="twopose simulator",
+        operator=operator,
         notes=(
             f"simulated: {settings}, "
             f"poses={scene.poses.count}, pose_noise={scene.poses.noise_sigma}"
@@ -504,6 +495,7 @@ def simulate_session(  # noqa: PLR0913 - keyword-only settings, one per command-
     poses: int | None = None,
     on_progress: Callable[[], None] | None = None,
     typed_resolution: float | None = None,
+    operator: str = SIMULATED_OPERATOR,
 ) -> SimulationSummary:
     """Simulate a whole session into ``out`` (which must not exist), through the same
     procedure loop as a recording (:func:`recorder.procedure.recording.record`).
@@ -528,6 +520,9 @@ def simulate_session(  # noqa: PLR0913 - keyword-only settings, one per command-
         a resolution other than their placing error).
     poses : int, optional
         Overrides ``scene.poses.count`` (poses per trial, >= 2).
+    operator : str, optional
+        Who the session names as its operator (sessions of one operator pool their
+        placing error in an analysis).
     on_progress : callable, optional
         Called after every frame rendered and written (``trials * poses * frames`` times).
 
@@ -546,8 +541,9 @@ def simulate_session(  # noqa: PLR0913 - keyword-only settings, one per command-
     clock = _SimClock(SIMULATION_EPOCH_NS)
     camera = _SimulatedCamera(scene, layout, rng, clock)
     settings = f"seed={seed}, trials={trials}, frames={frames}"
-    ids = simulated_ids(method, trials, frames, seed, scene)
-    info = _session_info(scene, cameras, spec, settings, ids)
+    operator = checked_operator(operator)
+    ids = simulated_ids(method, trials, frames, seed, scene, operator)
+    info = _session_info(scene, cameras, spec, settings, ids, operator)
     try:
         summary = record(
             out,

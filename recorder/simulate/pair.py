@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from recorder.simulate.identity import SIMULATED_OPERATOR, checked_operator, operator_digest
 from recorder.simulate.one_camera import SIMULATION_EPOCH_NS, SimulationSummary
 from twopose.arrays import F64
 from twopose.camera.model import Camera
@@ -46,6 +47,7 @@ from twopose.pair.motion import thesis_pair
 from twopose.sim.moving import (
     CameraFrames,
     ClockSettings,
+    Flash,
     PairScene,
     Trajectory,
     camera_frames,
@@ -64,7 +66,9 @@ __all__ = [
 ]
 
 #: The options that make sense only with ``--cameras 2``, and those without effect there.
-PAIR_ONLY_OPTIONS = ("--speed", "--clock-offset-ms", "--drift-ppm", "--jitter-ms", "--drop")
+PAIR_ONLY_OPTIONS = (
+    "--speed", "--clock-offset-ms", "--drift-ppm", "--jitter-ms", "--drop", "--no-flash",
+)  # fmt: skip
 _POSE_OPTIONS = ("--frames", "--poses", "--pose-noise", "--typed-resolution")
 _PAIR_NEEDS = {
     "--speed": "--speed V (the moving target's speed, session units per second)",
@@ -79,6 +83,12 @@ _CLOCK_BASE_NS = 10**12
 _BETWEEN_TRIALS_NS = 10**9
 #: How long the target stays at each touch (a finger touching a point pauses on it).
 DWELL_S = 0.2
+#: The flash both cameras see in each stream trial (``PairTiming.flash``), as an operator
+#: fires one: a phone's torch switched on 0.5 s after the trial starts, held 0.4 s (a dozen
+#: frames at 30 fps, three at least with half of them dropped), the scene 2.5 times as
+#: bright meanwhile; the target waits at its start until :data:`FLASH_HOLD_S`, then moves.
+FLASH = Flash(onset_s=0.5, lit_s=0.4, gain=1.5)
+FLASH_HOLD_S = 1.1
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -89,6 +99,9 @@ class PairTiming:
     interval's excess over camera 1's, ``jitter_ms`` each stamp's 1-sigma (both
     cameras), ``drop`` the share of each camera's frames lost. Each is read by its
     quantity in :mod:`twopose.values.bounds` (one grammar, one bound) when the session is made.
+    ``flash``: a flash both cameras see at each stream trial's start (:data:`FLASH`; the
+    target waits for it), which measures any offset; False: none (``--no-flash``), the
+    offset is then the moving target's to fix (the rays' gap).
     """
 
     speed: float
@@ -96,6 +109,7 @@ class PairTiming:
     drift_ppm: float = 0.0
     jitter_ms: float = 0.0
     drop: float = 0.0
+    flash: bool = True
 
     def checked(self, units: Units) -> PairTiming:
         """The timing with every value read by its quantity (``speed`` in ``units``/s)."""
@@ -105,6 +119,7 @@ class PairTiming:
             drift_ppm=bounds.DRIFT.read(self.drift_ppm, units),
             jitter_ms=bounds.JITTER.read(self.jitter_ms, units),
             drop=bounds.DROP.read(self.drop, units),
+            flash=bool(self.flash),
         )
 
     def clocks(self, fps: float) -> tuple[ClockSettings, ClockSettings]:
@@ -145,12 +160,14 @@ def refuse_idle_options(cameras: int, given: Iterable[str]) -> None:
 
 
 def simulated_pair_ids(
-    method: Method, trials: int, seed: int, scene: Scene, timing: PairTiming
-) -> tuple[str, str]:
+    method: Method, trials: int, seed: int, scene: Scene, timing: PairTiming,
+    operator: str = SIMULATED_OPERATOR,
+) -> tuple[str, str]:  # fmt: skip
     """The session's ``session_id`` and ``part_id``: halves of one SHA-256 of its settings."""
     values = [float(v) for v in dataclasses.astuple(timing)]  # by value, not as typed
     made = json.dumps(["twopose simulate --cameras 2", method.value, trials, seed, repr(scene)])
     made += json.dumps(values)
+    made += operator_digest(operator)
     digest = hashlib.sha256(made.encode()).hexdigest()
     return digest[:32], digest[32:]
 
@@ -191,6 +208,7 @@ class _Trial:
     clock_ns: int  # camera 1's capture clock at the trial's true start
     path: Trajectory
     frames: tuple[CameraFrames, CameraFrames]
+    light: tuple[F64, F64]  # each frame's light (1: the scene's; more: the flash)
 
 
 def _plan_trial(
@@ -198,14 +216,24 @@ def _plan_trial(
     lead: float, rng: np.random.Generator,
 ) -> _Trial:  # fmt: skip
     order = rng.permutation(len(touches))
-    path = Trajectory(touches=touches[order], speed=speed, lead=lead, dwell_s=DWELL_S)
+    hold = FLASH_HOLD_S if timing.flash else 0.0
+    path = Trajectory(touches=touches[order], speed=speed, lead=lead, dwell_s=DWELL_S, hold_s=hold)
     clocks = timing.clocks(fps)
     frames = (
         camera_frames(clocks[0], path.duration_s, rng),
         camera_frames(clocks[1], path.duration_s, rng),
     )
+    light = tuple(
+        FLASH.light(f.true_s, (1.0 + 1e-6 * c.drift_ppm) / c.fps)
+        if timing.flash
+        else np.ones(f.true_s.size)
+        for f, c in zip(frames, clocks, strict=True)
+    )
     clock = _CLOCK_BASE_NS + (start_ns - SIMULATION_EPOCH_NS)
-    return _Trial(trial=trial, start_ns=start_ns, clock_ns=clock, path=path, frames=frames)
+    return _Trial(
+        trial=trial, start_ns=start_ns, clock_ns=clock, path=path, frames=frames,
+        light=(light[0], light[1]),
+    )  # fmt: skip
 
 
 def _events(plan: _Trial) -> list[tuple[int, int, int]]:
@@ -230,7 +258,8 @@ def _write_trial(
             stream.touch(point, t, "schedule", log_ns)
             continue
         frames = plan.frames[camera - 1]
-        image = scene.frame(camera, plan.path.at(frames.true_s[k : k + 1])[0])
+        light = float(plan.light[camera - 1][k])
+        image = scene.frame(camera, plan.path.at(frames.true_s[k : k + 1])[0], light)
         capture = plan.clock_ns + round(frames.stamp_s[k] * 1e9)
         stream.add_frame(_IDS[camera - 1], image, capture, log_ns)
         if on_progress is not None:
@@ -289,6 +318,7 @@ def simulate_pair_session(
     seed: int = 0,
     scene: Scene | None = None,
     on_progress: Callable[[], None] | None = None,
+    operator: str = SIMULATED_OPERATOR,
 ) -> SimulationSummary:
     """Simulate a two-camera session into ``out`` (new; the module docstring).
 
@@ -304,8 +334,9 @@ def simulate_pair_session(
     lead = unit_factor(Units.IN, Units(scene.units))  # one inch
     probe = Trajectory(touches=touches, speed=timing.speed, lead=lead, dwell_s=DWELL_S)
     pair_scene.check_in_view(probe.at(np.linspace(0.0, probe.duration_s, 64)))
-    ids = simulated_pair_ids(method, trials, seed, scene, timing)
-    info = _session_info(scene, method, trials, seed, timing, ids)
+    operator = checked_operator(operator)
+    ids = simulated_pair_ids(method, trials, seed, scene, timing, operator)
+    info = _session_info(scene, method, trials, seed, timing, ids, operator)
     cameras = [Camera(camera_id=_IDS[0], intrinsics=pair.intrinsics1),
                Camera(camera_id=_IDS[1], intrinsics=pair.intrinsics2)]  # fmt: skip
     fps = scene.sensor.fps
@@ -331,18 +362,25 @@ def simulate_pair_session(
 
 
 def _session_info(
-    scene: Scene, method: Method, trials: int, seed: int, timing: PairTiming, ids: tuple[str, str]
-) -> SessionInfo:
+    scene: Scene, method: Method, trials: int, seed: int, timing: PairTiming,
+    ids: tuple[str, str], operator: str,
+) -> SessionInfo:  # fmt: skip
     settings = (
         f"simulated: seed={seed}, trials={trials}, cameras=2, speed={timing.speed}, "
         f"clock_offset_ms={timing.clock_offset_ms}, drift_ppm={timing.drift_ppm}, "
-        f"jitter_ms={timing.jitter_ms}, drop={timing.drop}"
+        f"jitter_ms={timing.jitter_ms}, drop={timing.drop}, flash="
+        + (
+            f"at {FLASH.onset_s:g} s for {FLASH.lit_s:g} s of each trial, {1 + FLASH.gain:g} "
+            "times as bright"
+            if timing.flash
+            else "none"
+        )
     )
     return SessionInfo(
         method=spec_of(method).method,
         units=Units(scene.units),
         camera_ids=_IDS,
-        operator="twopose simulator",
+        operator=operator,
         notes=settings,
         created_utc=datetime.fromtimestamp(SIMULATION_EPOCH_NS / 1e9, UTC).isoformat(),
         simulated=True,
@@ -359,11 +397,15 @@ def simulate_pair_with_progress(
     seed: int,
     scene: Scene,
     timing: tuple[float | None, ...],
+    *,
+    flash: bool = True,
+    operator: str = SIMULATED_OPERATOR,
 ) -> SimulationSummary:
     """``simulate --cameras 2``: :func:`simulate_pair_session` with a bar on stderr.
 
     ``timing``: speed, clock offset (both given: :func:`refuse_idle_options`), drift,
-    jitter and drop (None: 0), as the command line read them.
+    jitter and drop (None: 0), as the command line read them; ``flash`` False:
+    ``--no-flash``.
     """
     from rich.console import Console
     from rich.progress import Progress
@@ -373,11 +415,11 @@ def simulate_pair_with_progress(
         raise InputValueError(f"--cameras 2 needs {' and '.join(_PAIR_NEEDS.values())}")
     pair_timing = PairTiming(
         speed=speed, clock_offset_ms=offset, drift_ppm=drift or 0.0, jitter_ms=jitter or 0.0,
-        drop=drop or 0.0,
+        drop=drop or 0.0, flash=flash,
     )  # fmt: skip
     with Progress(console=Console(stderr=True), transient=True) as progress:
         task = progress.add_task("frames rendered", total=None)
         return simulate_pair_session(
             out, method=method, timing=pair_timing, trials=trials, seed=seed, scene=scene,
-            on_progress=lambda: progress.advance(task),
+            on_progress=lambda: progress.advance(task), operator=operator,
         )  # fmt: skip

@@ -49,7 +49,7 @@ def mixed_pair_folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     folder = tmp_path_factory.mktemp("mixed")
     (folder / "small.toml").write_text(SMALL_SCENE)
     scene = load_scene(folder / "small.toml")
-    timing = PairTiming(speed=10.0, clock_offset_ms=12.5)
+    timing = PairTiming(speed=10.0, clock_offset_ms=12.5, flash=False)
     simulate_pair_session(
         folder / "pair.mcap", method=Method.POINT, timing=timing, trials=1, seed=3, scene=scene
     )

@@ -137,6 +137,40 @@ def test_a_run_that_pooled_other_sessions_of_the_operator_says_so(
     said = [n for n in outcome.notes if "different priors" in n]
     assert len(said) == 1, outcome.notes
     assert said[0].startswith(f"{label} (")
-    assert "(the run: 3 other sessions of operator Ada (point); the baseline: none," in said[0]
+    assert (
+        "(the operator's other sessions pooled: in the run, 3 other sessions of operator Ada "
+        "(point); in the baseline, none):" in said[0]
+    )
+    assert said[0].endswith("the errors are compared")
     pair = outcome.comparisons[outcome.comparisons["session"] == label]
     assert "coverage95" not in set(pair["metric"])
+
+
+def test_priors_said_alike_that_pooled_other_sessions_are_told_apart(
+    bundled_run: Path, tmp_path: Path
+) -> None:
+    """Issue 54's F5 (a new user): two runs whose session pooled "2 other sessions of
+    operator Eve" but not the same two took different priors; their words alike, their
+    ``prior_sessions`` not. The coverage is then not compared; the same sessions gate it."""
+    source = (
+        "typed, times 1.2 (estimated from this session's 4 trials, 2 other sessions of operator "
+        "Eve (point), the typed resolution)"
+    )
+    base, _ = _copy_with(bundled_run, tmp_path / "b", placing_source=source,
+                         prior_sessions="aaaa1111bbbb;cccc2222dddd")  # fmt: skip
+    summary = pd.read_csv(base / "summary.csv", keep_default_na=False)
+    summary["coverage95"] = pd.read_csv(bundled_run / "summary.csv")["coverage95"]
+    summary.to_csv(base / "summary.csv", index=False)  # the baseline's coverage as it was
+    run, _ = _copy_with(bundled_run, tmp_path / "r", placing_source=source,
+                            prior_sessions="eeee3333ffff;gggg4444hhhh")  # fmt: skip
+    outcome = check(run, base)
+    assert not outcome.regressed, check_lines(outcome, base)
+    said = [n for n in outcome.notes if "different priors" in n]
+    assert len(said) == 1, outcome.notes
+    assert "(sessions eeee3333, gggg4444); in the baseline," in said[0]
+    assert "(sessions aaaa1111, cccc2222)):" in said[0]
+    same, _ = _copy_with(bundled_run, tmp_path / "s", placing_source=source,
+                         prior_sessions="aaaa1111bbbb;cccc2222dddd")  # fmt: skip
+    gated = check(same, base)
+    assert gated.regressed  # the same prior: the coverage's drop is a regression
+    assert not any("different priors" in n for n in gated.notes)

@@ -11,6 +11,7 @@ import math
 import tomllib
 from pathlib import Path
 
+import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
@@ -148,6 +149,11 @@ def test_one_operators_sessions_pool_and_a_rerun_equals_a_no_reuse_run(
     assert first.exit_code == 0, first.output
     trials = (out / "trials.csv").read_text()
     assert "2 other sessions of operator twopose simulator (point)" in trials
+    # which two, by their ids (check tells priors said alike apart by them)
+    summary = pd.read_csv(out / "summary.csv", keep_default_na=False)
+    for row in summary.itertuples():
+        others = set(summary["session_id"]) - {row.session_id}
+        assert set(str(row.prior_sessions).split(";")) == others
     assert len(list((out / CACHE_FOLDER / "sessions").glob("*.noise.pickle"))) == 3
     again = runner.invoke(app, [*args, "--out", str(out)])
     assert REUSED.format(n=3, m=3) in again.output

@@ -55,6 +55,16 @@ def test_a_multiplier_the_operators_other_sessions_raised_says_where_it_came_fro
                                        placing_scale=1.84, placing_dof=7.0)))  # fmt: skip
     assert "placing sigma 0.0625 in typed;" in said
     assert "the data scatter less than the noise model says" in said
+    # a session too small to estimate from, whose test rejects the typed model (a new
+    # user's 2-trial ground session alone, issue 54's F2): the regions said likely too small
+    small = " ".join(noise_phrases(_row(sigma0=2.06, sigma0_dof=4, noise_widening=1.0)))
+    assert "sigma0 2.06 on 4 dof (p = 0.002): the data contradict the noise model" in small
+    assert (
+        "the regions assume the one typed, which the data contradict, so they are likely too small"
+        in small
+    )
+    agreed = " ".join(noise_phrases(_row(sigma0=0.9, sigma0_dof=2, noise_widening=1.0)))
+    assert "likely too small" not in agreed
     assert (
         "placing sigma taken 1.8x the one assumed, from 7 dof (this session's 1 trial, 2 other "
         "sessions of operator Eve (point), the typed resolution)" in said

@@ -17,18 +17,19 @@ from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
 import analysis
 from analysis.session.stream import replay_pair_session
 from recorder.simulate.pair import PairTiming, simulate_pair_session
-from tests.helpers import rewrite_session
+from tests.helpers import SMALL_SCENE, rewrite_session
 from twopose.errors import InputValueError
 from twopose.format.reader import SessionReader
 from twopose.format.stream_entries import Touch
 from twopose.methods.specs import Method
+from twopose.sim.scene import load_scene
 
 
 @pytest.mark.parametrize(
     ("timing", "seed"),
     [
-        (PairTiming(speed=100.0, clock_offset_ms=-12.5), 0),
-        (PairTiming(speed=10.0, clock_offset_ms=12.5, drop=0.5), 0),
+        (PairTiming(speed=100.0, clock_offset_ms=-12.5, flash=False), 0),
+        (PairTiming(speed=10.0, clock_offset_ms=12.5, drop=0.5, flash=False), 0),
     ],
 )
 def test_a_measured_offset_is_within_its_sigma_or_refused(
@@ -100,3 +101,39 @@ def test_a_touch_lost_to_a_camera_names_it_and_the_detectors_reason(
     for reason in lost["reason"]:
         assert "fewer than two views" not in reason
         assert re.search(r"not detected by camera 2: \S", reason), reason
+
+
+def test_the_readmes_demo_measures_its_offset_by_the_flash_and_the_rays_gap(demo: Path) -> None:
+    """``simulate`` fires a flash at each stream trial's start (issue 58 item 7); ``run``
+    measures the offset from it and the moving target's rays together, as the recorder
+    would, within its sigma of the truth (12.5 ms)."""
+    (trial,) = replay_pair_session(demo).trials
+    assert trial.offset_from == "measured"
+    assert trial.offset.method == "flash and ray gap"
+    error_ms = trial.offset.offset_ns / 1e6 - 12.5
+    assert abs(error_ms) <= 3 * trial.offset.sigma_ns / 1e6, trial.offset
+
+
+def test_an_offset_beyond_the_old_search_is_measured_from_simulate_through_run(
+    tmp_path: Path,
+) -> None:
+    """The lead's gap (issue 58): simulate accepted +-1000 ms and the rays' gap searched
+    +-500, so `run` refused a simulated session beyond it (and nothing measured it). The
+    flash measures it, the rays' gap now searches every offset simulate accepts, and the
+    two agree; every touch is estimated."""
+    scene_file = tmp_path / "small.toml"
+    scene_file.write_text(SMALL_SCENE)
+    path = tmp_path / "far.mcap"
+    offset_ms = -800.0
+    timing = PairTiming(speed=20.0, clock_offset_ms=offset_ms)
+    simulate_pair_session(
+        path, method=Method.POINT, timing=timing, trials=1, seed=1, scene=load_scene(scene_file)
+    )
+    ran = analysis.run([path])
+    assert ran.errors.empty, ran.errors
+    rows = ran.trials
+    assert (rows["status"] == "ok").all(), rows[["touch", "status", "reason"]]
+    measured = rows["clock_offset_ms"].iloc[0]
+    sigma = rows["clock_offset_sigma_ms"].iloc[0]
+    assert abs(measured - offset_ms) <= 3 * sigma, (measured, sigma)
+    assert (rows["clock_offset_source"] == "measured").all()

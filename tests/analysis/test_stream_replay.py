@@ -24,7 +24,7 @@ def moving_dot(tmp_path_factory: pytest.TempPathFactory) -> Path:
     folder = tmp_path_factory.mktemp("replay")
     (folder / "small.toml").write_text(SMALL_SCENE)
     path, scene = folder / "dot.mcap", load_scene(folder / "small.toml")
-    timing = PairTiming(speed=10.0, clock_offset_ms=12.5)
+    timing = PairTiming(speed=10.0, clock_offset_ms=12.5, flash=False)
     simulate_pair_session(path, method=Method.POINT, timing=timing, trials=1, seed=3, scene=scene)
     return path
 

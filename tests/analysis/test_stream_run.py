@@ -100,6 +100,8 @@ def test_the_command_line_runs_reports_checks_and_describes_it(mixed: Path, tmp_
     report = (out / "report.html").read_text()
     assert "the skew&#x27;s share" in report  # the session's metadata, in words
     assert "trial 1, touch 4" in report  # its trial table: which touch each row is
+    assert "2 trial(s) and 4 touch(es)" in report  # each kind of row by its word
+    assert "Touches (every column" in report
     checked = runner.invoke(app, ["check", str(out), "--baseline", str(out)])
     assert checked.exit_code == 0, checked.output
     assert "no regression" in checked.output
@@ -181,7 +183,7 @@ def test_the_line_and_ground_methods_take_the_same_path(tmp_path: Path) -> None:
     simulator's truth (a line's error its distance from the line, as ``dist_err``)."""
     (tmp_path / "small.toml").write_text(SMALL_SCENE)
     scene = load_scene(tmp_path / "small.toml")
-    timing = PairTiming(speed=10.0, clock_offset_ms=8.0)
+    timing = PairTiming(speed=10.0, clock_offset_ms=8.0, flash=False)
     paths = [tmp_path / f"{m}.mcap" for m in (Method.LINE, Method.GROUND)]
     for path, method in zip(paths, (Method.LINE, Method.GROUND), strict=True):
         simulate_pair_session(path, method=method, timing=timing, trials=1, seed=0, scene=scene)
@@ -250,3 +252,57 @@ def test_a_rig_file_above_a_two_camera_session_applies_to_the_others_only(
     assert list(rows[1]) == [str(folder / "rig.toml")]
     assert list(rows[2]) == [""]  # no typed pose to correct
     assert rig_scope(analysis.batch.inputs.resolve_inputs([folder / "pair.mcap"])).uses == ()
+
+
+def test_a_two_camera_sessions_rows_are_touches_in_every_word(ran: analysis.RunResult) -> None:
+    """The verdicts, the terminal, the report's words and figures, check and compare call
+    a two-camera session's rows touches and a one-camera session's trials, each its own in
+    a run of both (analysis.tables.row_units)."""
+    import json
+
+    from analysis.gate.baseline import describe
+    from analysis.gate.comparison import describe_one_sided
+    from analysis.gate.match import trial_changes
+    from analysis.report.captions import session_captions
+    from analysis.report.charts import session_chart
+    from analysis.report.figures.style import TrialColours
+    from analysis.report.terminal import summary_lines
+    from analysis.report.thesis import unusable
+    from analysis.tables.row_units import ROW_UNITS, rows_counted
+
+    pair = ran.trials[ran.trials["cameras"] == 2]
+    one = ran.trials[ran.trials["cameras"] == 1]
+    (two_cameras,) = [v for v in ran.verdict if "two cameras" in v]
+    assert "of 4 touches within 1 in" in two_cameras
+    assert any("of 2 trials within 1 in" in v for v in ran.verdict if v != two_cameras)
+    lines = summary_lines(ran.trials, ran.summary, width=None)
+    assert lines[0] == "per method, over ok trials and touches without a warning:"
+    block = lines.index(next(line for line in lines if "one row per touch" in line))
+    assert " touches " in lines[block + 1]
+    assert " trials " in next(line for line in lines[:block] if line.startswith("method"))
+    assert rows_counted(ran.trials) == "2 trial(s) and 4 touch(es)"
+    failed = pair.assign(status="incomplete")
+    assert unusable(failed, include_warned=False) == (
+        "no touch usable: none of its 4 touch(es) is ok"
+    )
+    assert "each ok touch" in session_captions(pair, include_warned=False)["scatter"]
+    assert "each ok trial" in session_captions(one, include_warned=False)["scatter"]
+    spec = session_chart("pair", pair, ran.averaging[ran.averaging["cameras"] == 2],
+                         ran.views.head(0), unit_text="in")  # fmt: skip
+    assert '"title": "touch"' in json.dumps(spec)  # the running averages' colour legend
+    keys = TrialColours.of(pair["trial"], ROW_UNITS[2]).legend()
+    assert [k.get_label() for k in keys] == [f"touch {t}" for t in pair["trial"]]
+    # check and compare: a touch the baseline used and the run left out, by its name
+    worse = pair.assign(status=["ok", "no_detection", "ok", "ok"], reason="no pair there")
+    changes = trial_changes(worse, pair, (False, False))
+    assert changes.left_out == ("trial 1, touch 2 (no_detection: no pair there)",)
+    lost = pd.Series({"session": "pair.mcap", "method": "point", "metric": "(trials)",
+                      "baseline": 2.0, "status": "missing", "unit": "touch(es)"})  # fmt: skip
+    assert "2 touch(es) of the baseline not in this run" in describe(lost)
+    only = pd.DataFrame({"session": ["pair.mcap", "one.mcap"], "branch": ["", ""],
+                         "part": ["", ""], "method": ["point", "point"], "cameras": [2, 1],
+                         "trial": [3, 2], "held_by": ["A", "A"]})  # fmt: skip
+    assert describe_one_sided(only) == [
+        "only in A: one.mcap (point): trial 2",
+        "only in A: pair.mcap (point): touch 3",
+    ]

@@ -2,7 +2,7 @@
 ``frames.csv`` (each camera's frames, capture and write time), ``views.csv`` (every frame
 pair, used or flagged, its rays meeting at the estimate), ``averaging.csv`` (per touch);
 its results.mcap, so that a re-run reuses it and a change re-analyses it; the same tables
-from worker processes; a session's parts analysed as one; a continuation refused in words."""
+from worker processes; a session's parts analysed as one; a continuation read with its pair."""
 
 from __future__ import annotations
 
@@ -18,7 +18,6 @@ import pytest
 import analysis
 from analysis.tables.columns import AVERAGING_COLUMNS, FRAME_COLUMNS, VIEW_COLUMNS
 from analysis.tables.read_back import read_results_table
-from twopose.errors import InputValueError
 from twopose.format.reader import SessionReader
 from twopose.format.streams import read_pair_session
 from twopose.methods.specs import Method
@@ -264,11 +263,18 @@ def test_a_two_camera_part_of_a_one_camera_session_is_refused_in_words(
     assert result.trials.empty
 
 
-def test_continuing_a_two_camera_session_is_refused_in_words(folder: Path) -> None:
+def test_a_two_camera_session_is_continued_with_its_pair_trials_numbered_on(
+    folder: Path,
+) -> None:
+    """(It was refused before issue 58's continuation: tests/recorder/test_pair_continuation.py
+    records them.)"""
     from recorder.setup.continuation import read_continued
 
-    with pytest.raises(InputValueError, match=r"a two-camera session .* not supported yet"):
-        read_continued(folder / "pair.mcap")
+    continued = read_continued(folder / "pair.mcap")
+    with SessionReader(folder / "pair.mcap") as reader:
+        session = read_pair_session(reader)
+    assert continued.pair is not None
+    assert continued.next_trial == max(t.trial for t in session.trials) + 1
 
 
 def test_the_figures_draw_no_pairs_as_typed_poses(ran: tuple[analysis.RunResult, Path]) -> None:

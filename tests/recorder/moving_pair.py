@@ -12,6 +12,8 @@ stay, from the files' start.
 
 from __future__ import annotations
 
+import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -90,3 +92,16 @@ def write_moving_pair(folder: Path, *, seconds: float | None = None) -> MovingPa
         writer.release()
     write_pair_file(made.pair_file, pair)
     return made
+
+
+def timed_keys(keys: Sequence[tuple[float, str]]) -> Callable[[], str]:
+    """An operator's lines for :class:`recorder.procedure.stream_terminal.KeyReader`: each
+    ``(pause_s, line)`` given after its pause; then the input's end."""
+    lines = iter(keys)
+
+    def readline() -> str:
+        pause, line = next(lines, (0.0, ""))
+        time.sleep(pause)
+        return line + "\n" if pause else ""
+
+    return readline

@@ -374,3 +374,25 @@ def test_a_simulated_board_session_types_the_board_poses_and_records_the_board(
     with pytest.raises(InputValueError, match="leave --poses out"):
         simulate_session(tmp_path / "b2.mcap", method=Method.BOARD, poses=3)
     assert not (tmp_path / "b2.mcap").exists()
+
+
+def test_an_operator_named_apart_is_another_session_the_default_keeps_its_bytes(
+    tmp_path: Path,
+) -> None:
+    """``simulate --operator`` (a new user's finding: every simulated session named the
+    same operator, so scenarios simulated apart pooled as one operator's): the name is
+    recorded, makes another session (ids), and the default writes the bytes it wrote
+    before the option; an empty name or a control character is refused."""
+    plain, named, default = (tmp_path / f"{n}.mcap" for n in ("plain", "named", "default"))
+    simulate_session(plain, method=Method.POINT, trials=1, frames=1, seed=5)
+    simulate_session(named, method=Method.POINT, trials=1, frames=1, seed=5, operator=" Ada ")
+    simulate_session(default, method=Method.POINT, trials=1, frames=1, seed=5,
+                     operator="twopose simulator")  # fmt: skip
+    assert _sha(plain) == _sha(default)
+    with SessionReader(plain) as a, SessionReader(named) as b:
+        assert (a.info.operator, b.info.operator) == ("twopose simulator", "Ada")
+        assert a.info.session_id != b.info.session_id
+    for bad in ("  ", "a\x1b[2J"):
+        with pytest.raises(InputValueError, match="--operator"):
+            simulate_session(tmp_path / "x.mcap", method=Method.POINT, trials=1, frames=1,
+                             operator=bad)  # fmt: skip

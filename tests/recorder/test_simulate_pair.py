@@ -36,7 +36,7 @@ from twopose.sim.scene import CameraParams, Scene, load_scene
 SMALL = Scene(
     cameras=(CameraParams(width=320, height=240, fx=262.5, fy=262.5, cx=160.0, cy=120.0),)
 )
-TIMING = PairTiming(speed=40.0, clock_offset_ms=12.5, drift_ppm=300.0)
+TIMING = PairTiming(speed=40.0, clock_offset_ms=12.5, drift_ppm=300.0, flash=False)
 
 
 def _session(path: Path) -> PairSession:
@@ -124,6 +124,7 @@ def test_the_same_settings_write_the_same_bytes_from_the_command_line(
     out = tmp_path / "cli.mcap"
     args = ["simulate", str(out), "--method", "point", "--cameras", "2", "--trials", "1"]
     args += ["--seed", "2", "--speed", "40.0", "--clock-offset-ms", "12.5", "--drift-ppm", "300.0"]
+    args += ["--no-flash"]
     result = CliRunner().invoke(app, [*args, "--scene", str(scene)])
     assert result.exit_code == 0, result.output
     assert "two cameras, 1 stream trial" in result.output
@@ -141,6 +142,7 @@ PAIR = ["--cameras", "2", "--speed", "1", "--clock-offset-ms", "1"]
         (["--drop", "0.1", "--jitter-ms", "1"], "--jitter-ms, --drop apply only with --cameras 2"),
         (["--clock-offset-ms", "3"], "--clock-offset-ms applies only with --cameras 2"),
         (["--drift-ppm", "20"], "--drift-ppm applies only with --cameras 2"),
+        (["--no-flash"], "--no-flash applies only with --cameras 2"),
         (["--cameras", "2", "--speed", "10"], "--cameras 2 needs --clock-offset-ms D"),
         (["--cameras", "2", "--clock-offset-ms", "0"], "--cameras 2 needs --speed V"),
         (["--cameras", "2"], "needs --speed V .* and --clock-offset-ms D"),

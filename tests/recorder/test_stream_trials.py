@@ -21,7 +21,13 @@ from typer.testing import CliRunner
 from analysis.cli import app as analyze
 from tests.conftest import built_once
 from tests.helpers import RECORD, read_line_when_printed
-from tests.recorder.moving_pair import PHASE_S, MovingPair, moving_pair, write_moving_pair
+from tests.recorder.moving_pair import (
+    PHASE_S,
+    MovingPair,
+    moving_pair,
+    timed_keys,
+    write_moving_pair,
+)
 from twopose.format.reader import SessionReader
 from twopose.format.streams import read_pair_session
 
@@ -299,14 +305,8 @@ def test_the_keys_start_touch_at_a_typed_point_again_end_and_quit(
     from recorder.procedure.stream_terminal import KeyReader, record_pair
     from recorder.procedure.terminal import Operator
 
-    keys = iter([(0.2, ""), (0.5, "0.75, 0.5, nope"), (0.3, "1, 2, 20"), (0.3, ""),
-                 (0.3, "e"), (0.3, "q")])  # fmt: skip
-
-    def readline() -> str:
-        pause, line = next(keys, (0.0, ""))
-        time.sleep(pause)
-        return line + "\n" if pause else ""
-
+    readline = timed_keys([(0.2, ""), (0.5, "0.75, 0.5, nope"), (0.3, "1, 2, 20"), (0.3, ""),
+                           (0.3, "e"), (0.3, "q")])  # fmt: skip
     said: list[str] = []
     out = tmp_path / "keys.mcap"
     summary = record_pair(

@@ -26,6 +26,7 @@ from mcap.writer import Writer as McapWriter
 from mcap_protobuf.schema import build_file_descriptor_set
 from numpy.typing import NDArray
 
+from twopose.camera.jpeg_tables import with_huffman_tables
 from twopose.camera.model import Camera, Intrinsics, quaternion_xyzw_from_matrix
 from twopose.errors import InputValueError, SessionFormatError
 from twopose.format.entries import (
@@ -119,8 +120,13 @@ def image_message(
     """A ``foxglove.CompressedImage`` of an encoded frame.
 
     Its ``timestamp`` is the frame's capture time (format 1.6), the log time when none is
-    given (a frame grabbed and written at once).
+    given (a frame grabbed and written at once). A JPEG is stored with its Huffman tables:
+    a webcam's MJPG frame without them gets the standard ones inserted, losslessly
+    (:func:`twopose.camera.jpeg_tables.with_huffman_tables`), so that every reader of the
+    session's images (Foxglove, any decoder) reads a standard JPEG.
     """
+    if image_format == "jpeg":
+        data = with_huffman_tables(data)
     msg = CompressedImage(frame_id=camera_frame_id(camera_id), data=data, format=image_format)
     msg.timestamp.FromNanoseconds(log_time_ns if capture_ns is None else capture_ns)
     return msg

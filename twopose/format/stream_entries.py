@@ -198,8 +198,8 @@ class PairEntry(TypedEntry):
 class ClockOffsetEntry(TypedEntry):
     """A measured clock offset (:class:`twopose.pair.clock.ClockOffset`) as stored.
 
-    ``method`` how it was measured (``flash``, ``ray gap``), ``n`` the frames or pairs it
-    rests on.
+    ``method`` how it was measured (``flash``, ``ray gap``, ``flash and ray gap``,
+    ``pooled``), ``n`` the frames or pairs it rests on.
     """
 
     offset_ns: float = json_field("offset_ns", {"type": "number"})

@@ -11,6 +11,11 @@
 - :mod:`twopose.pair.pair_file`: ``PAIR.toml``'s one reader and writer (docs/pair-file.md);
 - :mod:`twopose.pair.pairing`: two cameras' frames paired by capture time;
 - :mod:`twopose.pair.clock`: the cameras' clock offset measured, with its 1-sigma;
+- :mod:`twopose.pair.dot_tracks`: both cameras' target tracks and the rays' gap at a
+  candidate offset, what the offset's search measures;
+- :mod:`twopose.pair.flash`: the offset from a flash both cameras see;
+- :mod:`twopose.pair.trial_offset`: a stream trial's offset from all it saw (a flash and the
+  rays' gap pooled, or refused), the one path of the recorder and the analysis;
 - :mod:`twopose.pair.clock_fit`: a camera's frame times fitted by a regular clock, the offset's
   type;
 - :mod:`twopose.pair.stream`: the estimate per frame pair of a moving target.

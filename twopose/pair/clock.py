@@ -12,11 +12,15 @@
   refined by a parabola through the three candidates about it. Its 1-sigma is that of a
   least-squares parameter: ``var = 2 s^2 / S''``, ``S''`` the curvature of the summed
   squared gap and ``s^2`` the gaps' variance at the minimum, times the factor by which
-  neighbouring gaps' shared camera-1 frames correlate them, plus camera 1's
-  linear-interpolation error (its track's bend between frames), the grid step's and the
-  fitted clocks' own error. The minimum is taken over the frames every offset about it
-  measures. Refused in words: a motion along the epipolar lines (sideways, for cameras side
-  by side), one that repeats, a best at the search's edge, exchanged cameras.
+  neighbouring gaps' shared camera-1 frames correlate them, less camera 1's noise's share
+  of the curvature (a still frame's rate with the offset is its noise's), floored by a
+  jackknife over runs of frames, plus camera 1's linear-interpolation error (its track's
+  bend between frames), the grid step's and the fitted clocks' own error. The minimum is
+  taken over the frames every offset about it measures; the offsets searched are every
+  offset a pair's clocks may differ by (:data:`twopose.values.bounds.CLOCK_OFFSET`, what
+  ``simulate`` accepts) and a margin. Refused in words: a motion along the epipolar lines
+  (sideways, for cameras side by side) or no more than camera 1's noise, one in fewer than
+  three frames, one that repeats, a best at the search's edge, exchanged cameras.
 
 Both first fit each camera's frame times by a regular clock (:func:`regular_times`: a
 camera's frames are taken at a fixed rate; the stamps' jitter is the host's), so the
@@ -25,17 +29,16 @@ stamps' jitter averages out instead of entering every frame. No I/O.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from numpy.typing import ArrayLike
 
-from twopose.arrays import F64, Bools, Ints
+from twopose.arrays import F64
 from twopose.errors import InputValueError
-from twopose.pair.board_fit import LensModel
 from twopose.pair.calibration import PairCalibration
 from twopose.pair.clock_fit import ClockOffset, RegularTimes, regular_times
+from twopose.pair.dot_tracks import MIN_GAP_FRAMES, DotTracks, dot_tracks, epipolar_gap_px
 from twopose.pair.flash import offset_from_flash
+from twopose.values import bounds
 
 __all__ = [
     "ClockOffset",
@@ -46,8 +49,6 @@ __all__ = [
     "regular_times",
 ]
 
-#: The fewest camera-2 frames an offset candidate's gap is averaged over.
-MIN_GAP_FRAMES = 10
 #: A rays' gap whose minimum is this wide (1-sigma, a share of a frame interval) fixes no
 #: offset: the dot moved along the epipolar lines, or barely.
 MAX_SIGMA_SHARE = 0.25
@@ -55,10 +56,19 @@ MAX_SIGMA_SHARE = 0.25
 #: offset a frame or more from the best must fit worse: below it, another offset fits
 #: nearly as well and the offset is not known.
 MIN_LIKELIHOOD_RATIO = 25.0
-#: The offsets searched by default, either way (ns). Wider finds a repeating motion's
-#: other periods (a 2 in square at 10 in/s repeats every 0.8 s) and, on a short trial,
-#: offsets few frames overlap at: a best at its edge is refused as beyond it.
-SEARCH_NS = 0.5e9
+#: Beyond the offsets a pair's clocks may differ by, the search goes on this far (ns), so
+#: that a best at the bound is not at the search's edge (which needs a frame interval:
+#: 250 ms is one at 4 fps).
+SEARCH_MARGIN_NS = 0.25e9
+#: The offsets searched by default, either way (ns): every offset a pair's clocks may
+#: differ by (:data:`twopose.values.bounds.CLOCK_OFFSET`, what `simulate
+#: --clock-offset-ms` accepts: one definition), and :data:`SEARCH_MARGIN_NS`. A search
+#: narrower than the offsets that can be would take a repeating motion's other period for
+#: the offset (a 2 in square at 10 in/s repeats every 0.8 s); a best at its edge is
+#: refused as beyond it.
+SEARCH_NS = (
+    max(abs(bounds.CLOCK_OFFSET.low), abs(bounds.CLOCK_OFFSET.high)) * 1e6 + SEARCH_MARGIN_NS
+)
 #: The coarse cost's local minima refined and compared (:func:`_basins`).
 BASINS = 6
 #: Two minima closer than this (frame intervals) are one basin's (a minimum's 5-sigma
@@ -66,195 +76,17 @@ BASINS = 6
 REPEAT_APART = 2.0
 #: The fine search's candidates per frame interval (its step's uniform error enters sigma).
 FINE_STEPS = 200
+#: The fewest frames whose motion the offset may rest on (their participation ratio,
+#: :meth:`DotTracks.motion_frames`), and the least ratio of the gaps' rates with the
+#: offset to what camera 1's noise alone makes them: a line crossed in three frames at
+#: 48 in/s, the rest of the trial still, was 59 ms off with a sigma of 6.6 (the minimum
+#: was the still frames' noise's, its curvature too).
+MIN_MOVING_FRAMES = 3
+MIN_ABOVE_NOISE = 1.5
+#: Runs of camera 2's frames left out in turn to check the sigma (:func:`_jackknife_variance`).
+JACKKNIFE_BLOCKS = 10
 #: The mean squared gap this many times smaller with the cameras exchanged says they are.
 SWAP_RATIO = 10.0
-
-
-def epipolar_gap_px(pair: PairCalibration, u1: F64, u2: F64) -> F64:
-    """(N,) the rays' gap in pixels: Sampson's distance of undistorted pixels ``u1``, ``u2``.
-
-    (N, 2) each, camera 1's and camera 2's, to the pair's epipolar constraint
-    ``u1^T F u2 = 0`` (``F = K1^-T [t]x R K2^-1``, from ``p1 = R p2 + t``).
-    """
-    t = pair.t_2_in_1
-    tx = np.array([[0.0, -t[2], t[1]], [t[2], 0.0, -t[0]], [-t[1], t[0], 0.0]])
-    F = np.linalg.inv(pair.intrinsics1.K).T @ tx @ pair.R_2_to_1 @ np.linalg.inv(pair.intrinsics2.K)
-    F = F / np.linalg.norm(F)
-    h1 = np.concatenate([u1, np.ones((*u1.shape[:-1], 1))], axis=-1)
-    h2 = np.concatenate([u2, np.ones((*u2.shape[:-1], 1))], axis=-1)
-    Fx2 = h2 @ F.T
-    Ftx1 = h1 @ F
-    e = (h1 * Fx2).sum(axis=-1)
-    denom = Fx2[..., 0] ** 2 + Fx2[..., 1] ** 2 + Ftx1[..., 0] ** 2 + Ftx1[..., 1] ** 2
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.asarray(e / np.sqrt(denom))
-
-
-@dataclass(frozen=True, kw_only=True, eq=False)
-class _DotTracks:
-    """Both cameras' undistorted dot tracks (N, 2), fitted times (N,) and found flags."""
-
-    pair: PairCalibration
-    tracks: tuple[F64, F64]
-    times: tuple[F64, F64]
-    found: tuple[Bools, Bools]
-    gap_ns: float  # the widest span between two camera-1 frames interpolated between
-    clock_sigma: tuple[F64, F64]  # each fitted time's 1-sigma (regular_times)
-
-    def camera1_at(self, at: F64) -> tuple[F64, F64]:
-        """Camera 1's track at times ``at`` (C, N2), linearly, and each one's weight ``w``.
-
-        NaN where its two neighbours are not both found, are further apart than
-        ``gap_ns``, or do not bracket the time.
-        """
-        track, times, found = self.tracks[0], self.times[0], self.found[0]
-        j = np.clip(np.searchsorted(times, at, side="right"), 1, times.size - 1)
-        i = j - 1
-        w = (at - times[i]) / (times[j] - times[i])
-        ok = found[i] & found[j] & (times[j] - times[i] <= self.gap_ns) & (w >= 0) & (w <= 1)
-        out = track[i] * (1 - w)[..., None] + track[j] * w[..., None]
-        return np.where(ok[..., None], out, np.nan), w
-
-    def weights(self, offset_ns: float) -> tuple[Ints, F64, Bools]:
-        """Camera 2's frames' camera-1 neighbours at ``offset_ns``.
-
-        The left neighbour's index (N2,), the right one's weight (N2,), and which frames'
-        gap is measured (both neighbours found and close, camera 2's dot found).
-        """
-        at = self.times[1] - offset_ns
-        t, found = self.times[0], self.found[0]
-        j = np.clip(np.searchsorted(t, at, side="right"), 1, t.size - 1)
-        i = j - 1
-        w = (at - t[i]) / (t[j] - t[i])
-        ok = found[i] & found[j] & (t[j] - t[i] <= self.gap_ns) & (w >= 0) & (w <= 1)
-        return i.astype(np.intp), w, np.asarray(ok & self.found[1])
-
-    def correlation_factor(self, offset_ns: float) -> float:
-        """The variance factor of the gaps' sum: neighbouring gaps share a camera-1 frame.
-
-        Each gap holds camera 2's frame's error and camera 1's two frames' weighted by
-        ``1 - w`` and ``w`` (equal noise in both cameras taken); two successive gaps that
-        interpolate across a common camera-1 frame are correlated, which a sum over gaps
-        that change slowly (a smooth motion) feels as ``1 + 2 sum cov / sum var``.
-        """
-        i, w, ok = self.weights(offset_ns)
-        i, w = i[ok], w[ok]
-        if i.size < 2:
-            return 1.0
-        var = 1.0 + (1 - w) ** 2 + w**2
-        left = np.stack([i, i + 1], axis=1)  # each gap's two camera-1 frames
-        weight = np.stack([1 - w, w], axis=1)
-        a, b = left[:-1], left[1:]
-        wa, wb = weight[:-1], weight[1:]
-        same = a[:, :, None] == b[:, None, :]
-        cov = (same * wa[:, :, None] * wb[:, None, :]).sum(axis=(1, 2))
-        return float(1.0 + 2.0 * cov.sum() / var.sum())
-
-    def clock_sigma_ns(self) -> float:
-        """The two fitted clocks' error as the offset feels it, combined.
-
-        A gap averaged over a stream's frames feels each clock's error at its frames'
-        centre (the fit's least 1-sigma); its slope's error averages out.
-        """
-        return float(np.hypot(np.min(self.clock_sigma[0]), np.min(self.clock_sigma[1])))
-
-    def gaps(self, candidates: F64) -> tuple[F64, F64]:
-        """(C, N2) the rays' gap (px) at each candidate offset, and its noise weight.
-
-        The weight is camera 2's frame and camera 1's two, by ``1 - w`` and ``w`` (equal
-        noise taken), ``1 + w^2 + (1 - w)^2`` times one frame's variance; NaN gaps where
-        camera 1 has no frames about camera 2's.
-        """
-        u1, w = self.camera1_at(self.times[1][None, :] - candidates[:, None])
-        u2 = np.where(self.found[1][:, None], self.tracks[1], np.nan)
-        gap = epipolar_gap_px(self.pair, u1, np.broadcast_to(u2, u1.shape))
-        return gap, 1 + w**2 + (1 - w) ** 2
-
-    def mean_gap(self, candidates: F64, *, common: bool = False) -> tuple[F64, F64]:
-        """(C,) the mean squared gap at each candidate offset, and (C,) the frames used.
-
-        Each gap is weighed by its noise (:meth:`gaps`); a cost not weighed so would favour
-        offsets that put camera 2's frames on camera 1's (where interpolation averages no
-        noise away), the more so the slower the target. ``common``: over the frames every
-        candidate measures only -- a mean over a set of frames that changes with the
-        offset is no function of it (a frame whose camera-1 neighbours leave the set at
-        one candidate made a step that looked like a sharp minimum, issue 58's 50% drop).
-        """
-        gap, weight = self.gaps(candidates)
-        g2 = gap**2 / weight
-        if common:
-            every: Bools = np.asarray(np.isfinite(g2).all(axis=0))
-            g2 = np.where(every[None, :], g2, np.nan)
-        used = np.isfinite(g2).sum(axis=1)
-        enough = used >= MIN_GAP_FRAMES
-        mean = np.where(enough, np.nansum(g2, axis=1) / np.maximum(used, 1), np.nan)
-        return mean, used.astype(np.float64)
-
-    def bend_px2(self) -> float:
-        """The mean squared most camera 1's linear interpolation can miss its track (px^2).
-
-        Half-way between two frames ``dt`` apart the line misses a track bending with
-        acceleration ``a`` by ``dt^2 |a| / 8``; at another offset camera 2's frames fall
-        elsewhere between camera 1's (another phase ``w``), so two offsets' costs can
-        differ by up to this mean with no difference in fit.
-        """
-        track, t, found = self.tracks[0], self.times[0], self.found[0]
-        slope = (track[1:] - track[:-1]) / np.diff(t)[:, None]
-        acc = 2 * (slope[1:] - slope[:-1]) / (t[2:] - t[:-2])[:, None]
-        ok = found[:-2] & found[1:-1] & found[2:]
-        if not ok.any():
-            return 0.0
-        dt = 0.5 * (t[2:] - t[:-2])[ok]
-        miss = dt**2 * np.linalg.norm(acc[ok], axis=1) / 8
-        return float(np.mean(miss**2))
-
-    def interpolation_ns(self, offset_ns: float, step_ns: float, *, half: bool = False) -> float:
-        """The offset's error (ns) that interpolating camera 1 linearly can make, 1-sigma.
-
-        Between two camera-1 frames ``dt`` apart, a track bending with acceleration ``a``
-        (px/ns^2, from camera 1's three frames about each) is missed by the line through
-        them by ``w (1 - w) dt^2 a / 2``; each gap moves by that error's share across the
-        epipolar line (``dg``), and the offset by ``-sum(dg s / v) / sum(s^2 / v)``, ``s``
-        each gap's rate with the offset and ``v`` its weight. Its size is carried as a
-        term of the sigma: a fast or sharply turning target (100 in/s round a 2 in square)
-        or frames bridged across a dropped one bend between camera 1's frames.
-        """
-        track, t, found = self.tracks[0], self.times[0], self.found[0]
-        acc = np.full(track.shape, np.nan)
-        dt_left, dt_right = np.diff(t)[:-1], np.diff(t)[1:]
-        slope = (track[1:] - track[:-1]) / np.diff(t)[:, None]
-        acc[1:-1] = 2 * (slope[1:] - slope[:-1]) / (dt_left + dt_right)[:, None]
-        acc[1:-1][~(found[:-2] & found[1:-1] & found[2:])] = np.nan
-        candidates = np.array([offset_ns - step_ns, offset_ns, offset_ns + step_ns])
-        gap, weight = self.gaps(candidates)
-        i, w, ok = self.weights(offset_ns)
-        ok = ok & np.isfinite(gap).all(axis=0)
-        if ok.sum() < 2:
-            return 0.0
-        i, w = i[ok], w[ok]
-        # The larger bend of the bracket's two frames (either may lack its neighbours).
-        a = np.where(np.isfinite(acc[i]), acc[i], acc[i + 1])
-        a_other = np.where(np.isfinite(acc[i + 1]), acc[i + 1], acc[i])
-        larger = np.linalg.norm(np.nan_to_num(a_other), axis=1) > np.linalg.norm(
-            np.nan_to_num(a), axis=1
-        )
-        a = np.where(larger[:, None], a_other, a)
-        dt = t[i + 1] - t[i]
-        share = np.full_like(w, 0.25) if half else w * (1 - w)
-        miss = (0.5 * share * dt**2)[:, None] * np.nan_to_num(a)
-        at = self.times[1][ok] - offset_ns
-        u1, _ = self.camera1_at(at)
-        u2 = self.tracks[1][ok]
-        dg = epipolar_gap_px(self.pair, u1 + miss, u2) - epipolar_gap_px(self.pair, u1, u2)
-        s = (gap[2, ok] - gap[0, ok]) / (2 * step_ns)
-        v = weight[1, ok]
-        info = float((s**2 / v).sum())
-        if not info > 0:
-            return 0.0
-        # Signed (a bend shared by neighbouring frames moves them alike) and random parts.
-        shift = abs(float((np.nan_to_num(dg) * s / v).sum())) / info
-        spread = float(np.sqrt((np.nan_to_num(dg) ** 2 * s**2 / v**2).sum())) / info
-        return float(np.hypot(shift, spread))
 
 
 def offset_from_ray_gap(
@@ -285,7 +117,7 @@ def offset_from_ray_gap(
     ClockOffset
     """
     tracks, times = (track1_px, track2_px), (t1_ns, t2_ns)
-    dots = _dot_tracks(pair, tracks, times)
+    dots = dot_tracks(pair, tracks, times)
     try:
         offset = _ray_gap(dots, search_ns)
     except InputValueError as err:
@@ -298,7 +130,7 @@ def offset_from_ray_gap(
     return offset
 
 
-def _ray_gap(dots: _DotTracks, search_ns: tuple[float, float]) -> ClockOffset:
+def _ray_gap(dots: DotTracks, search_ns: tuple[float, float]) -> ClockOffset:
     """:func:`offset_from_ray_gap` on checked tracks (refusals raised, without the hint)."""
     interval = float(np.median(np.diff(dots.times[0])))
     lo, hi = sorted(float(x) for x in search_ns)
@@ -344,6 +176,20 @@ def _ray_gap(dots: _DotTracks, search_ns: tuple[float, float]) -> ClockOffset:
     # Least squares on S = n * mean: var = 2 s^2 / S'', s^2 = S_min / (n - 1).
     min_mean = c1 - 0.25 * (c0 - c2) ** 2 / (c0 - 2 * c1 + c2) / 2
     variance = 2 * max(min_mean, 0.0) / ((n - 1) * curvature) * dots.correlation_factor(vertex)
+    above_noise, moving = dots.motion_frames(float(vertex), h, max(min_mean, 0.0))
+    if above_noise < MIN_ABOVE_NOISE:
+        raise InputValueError(_NOT_FIXED)
+    if moving < MIN_MOVING_FRAMES:
+        raise InputValueError(
+            f"the offset would rest on the target's motion in {moving:.1f} frames (it moved "
+            f"in few of them, or fast past them), fewer than {MIN_MOVING_FRAMES}: move it "
+            "across both cameras' views for longer, or slower"
+        )
+    # The curvature holds camera 1's noise's share (a slow target's: half of it at 2 in/s),
+    # which fixes nothing: the motion's alone sets the sigma. Then the sigma checked
+    # against the data's own scatter (a 1.9 in/s line was once 10 of its sigmas off).
+    variance *= above_noise / (above_noise - 1.0)
+    variance = max(variance, _jackknife_variance(dots, fine))
     if np.sqrt(variance) > MAX_SIGMA_SHARE * interval:
         raise InputValueError(_NOT_FIXED)
     # A likelihood ratio against every offset a frame or more away: one that fits nearly
@@ -385,19 +231,68 @@ def _ray_gap(dots: _DotTracks, search_ns: tuple[float, float]) -> ClockOffset:
             "or drop fewer frames"
         )
     return ClockOffset(
-        offset_ns=float(vertex), sigma_ns=float(np.sqrt(variance)), method="ray gap", n=n
-    )
+        offset_ns=float(vertex), sigma_ns=float(np.sqrt(variance)), method="ray gap", n=n,
+        clock_sigma_ns=dots.clock_sigma_ns(),
+    )  # fmt: skip
+
+
+def _jackknife_variance(dots: DotTracks, fine: F64) -> float:
+    """The offset's variance by a delete-a-block jackknife over camera 2's frames (ns^2).
+
+    The frames every candidate of the fine grid measures, cut into :data:`JACKKNIFE_BLOCKS`
+    runs in time (a run keeps the gaps that share camera-1 frames together) that hold equal
+    shares of the offset's information (each frame's curvature of its squared gap: runs of
+    equal counts, where a trial's motion lies in a few of its frames, left one run out with
+    most of it, and the jackknife took 2.7 ms for 27); each run left out in turn, the
+    minimum found again (the grid's best, refined by its parabola), and ``(B - 1) / B``
+    times their sum of squares about their mean. One matrix of gaps, so it costs a few
+    sums. 0 when there are too few frames for it.
+    """
+    gap, weight = dots.gaps(fine)
+    g2 = gap**2 / weight
+    every = np.flatnonzero(np.isfinite(g2).all(axis=0))
+    if every.size < JACKKNIFE_BLOCKS * 3:
+        return 0.0
+    g2 = g2[:, every]
+    total = g2.sum(axis=1)
+    h = float(fine[1] - fine[0])
+    vertices = []
+    middle = fine.size // 2
+    info = np.clip(g2[middle - 1] - 2 * g2[middle] + g2[middle + 1], 0.0, None)
+    if not info.sum() > 0:
+        return 0.0
+    share = (np.cumsum(info) - 0.5 * info) / info.sum()
+    runs = np.minimum((share * JACKKNIFE_BLOCKS).astype(int), JACKKNIFE_BLOCKS - 1)
+    for b in range(JACKKNIFE_BLOCKS):
+        block = np.flatnonzero(runs == b)
+        if block.size == 0:
+            continue
+        cost = (total - g2[:, block].sum(axis=1)) / (every.size - block.size)
+        k = int(np.argmin(cost))
+        if k == 0 or k == cost.size - 1:
+            return 0.0  # a block's minimum off the grid: the scatter is not this one
+        c0, c1, c2 = cost[k - 1 : k + 2]
+        bend = c0 - 2 * c1 + c2
+        vertices.append(fine[k] + (0.5 * h * (c0 - c2) / bend if bend > 0 else 0.0))
+    v = np.asarray(vertices)
+    return float((v.size - 1) / v.size * ((v - v.mean()) ** 2).sum())
 
 
 def _basins(
-    dots: _DotTracks, coarse: F64, cost: F64, interval: float
+    dots: DotTracks, coarse: F64, cost: F64, interval: float
 ) -> list[tuple[float, float, float]]:
     """The coarse cost's :data:`BASINS` lowest local minima refined: (offset ns, mean, n).
 
     A quarter-frame grid step can straddle a fast target's narrow basin (the point beside
     the true bottom costing more than one beside another period's): each is searched again
-    at ``interval / 32`` a coarse step either way, and ranked by its bottom. A path
-    repeating within a coarse step or two is not resolved by this grid at all.
+    at ``interval / 32`` a coarse step either way, and ranked by its bottom. Two minima a
+    coarse step or two apart need a path that turns within a frame or two, which camera
+    1's frames cannot follow: such a track bends too much to be interpolated and is refused
+    (:func:`_ray_gap`), but for a target vibrating at a harmonic of the frame rate (periods
+    of a frame interval or its half, third, quarter: 33, 17, 11, 8 ms at 30 fps), which both
+    cameras see as a slow motion, shifted in time by many times its true shift: those
+    tracks are another offset's, exactly, and no grid tells them apart (a flash does:
+    :mod:`twopose.pair.trial_offset` refuses the two that disagree).
     """
     finite = np.where(np.isfinite(cost), cost, np.inf)
     left, right = np.r_[np.inf, finite[:-1]], np.r_[finite[1:], np.inf]
@@ -428,7 +323,7 @@ def _refuse_repeats(
     factor. Below :data:`MIN_LIKELIHOOD_RATIO` (25: 5 sigma, a one-parameter chi-square's
     p of 6e-7 that the other period, were it the true one, fits this much worse by chance)
     the path's periods are not told apart. The cost camera 1's interpolation alone could
-    add at another phase (``bend``, :meth:`_DotTracks.bend_px2`) is no evidence and is
+    add at another phase (``bend``, :meth:`DotTracks.bend_px2`) is no evidence and is
     taken off first: a fast target's wrong period can fit best where camera 2's frames
     fall on camera 1's.
     """
@@ -461,9 +356,9 @@ def _swapped_hint(
 ) -> str:
     """Words for a refusal when the cameras look exchanged: the gap far smaller so."""
     try:
-        ours = _dot_tracks(pair, tracks, times)
+        ours = dot_tracks(pair, tracks, times)
         # The pair as calibrated, fed each camera's track as the other's.
-        theirs = _dot_tracks(pair, (tracks[1], tracks[0]), (times[1], times[0]))
+        theirs = dot_tracks(pair, (tracks[1], tracks[0]), (times[1], times[0]))
         interval = float(np.median(np.diff(ours.times[0])))
         grid = np.arange(min(search_ns), max(search_ns) + interval / 8, interval / 4)
         own_cost, other_cost = ours.mean_gap(grid)[0], theirs.mean_gap(grid)[0]
@@ -478,32 +373,4 @@ def _swapped_hint(
         f"; the cameras may be in the wrong order: with camera 1 and camera 2 exchanged the "
         f"rays' gap is {np.sqrt(own / max(other, 1e-300)):.0f} times smaller (RMS): record "
         "with the pair's camera 1 given first (`new --source pair:A,B`: A is camera 1)"
-    )
-
-
-def _dot_tracks(
-    pair: PairCalibration, tracks: tuple[ArrayLike, ArrayLike], times: tuple[ArrayLike, ArrayLike]
-) -> _DotTracks:
-    """Both cameras' dot tracks checked, undistorted, their times fitted by a regular clock."""
-    lenses = (LensModel.of(pair.intrinsics1), LensModel.of(pair.intrinsics2))
-    undistorted, fitted, found, sigma = [], [], [], []
-    for n in (0, 1):
-        p = np.asarray(tracks[n], dtype=np.float64).reshape(-1, 2)
-        stamps = np.asarray(times[n], dtype=np.float64).reshape(-1)
-        if p.shape[0] != stamps.size:
-            raise InputValueError(f"camera {n + 1}: {p.shape[0]} pixels for {stamps.size} times")
-        ok = np.asarray(np.isfinite(p).all(axis=1))
-        undistorted.append(np.where(ok[:, None], lenses[n].undistort(np.nan_to_num(p)), np.nan))
-        clock = regular_times(stamps)
-        fitted.append(clock.times_ns)
-        sigma.append(clock.sigma_ns)
-        found.append(ok)
-    interval = float(np.median(np.diff(fitted[0])))
-    return _DotTracks(
-        pair=pair,
-        tracks=(undistorted[0], undistorted[1]),
-        times=(fitted[0], fitted[1]),
-        found=(found[0], found[1]),
-        gap_ns=2.5 * interval,  # one dropped frame between two neighbours is bridged
-        clock_sigma=(sigma[0], sigma[1]),
     )

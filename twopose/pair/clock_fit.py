@@ -28,13 +28,17 @@ class ClockOffset:
     """A measured clock offset: camera 2's clock minus camera 1's (nanoseconds).
 
     ``sigma_ns`` its 1-sigma, ``method`` how it was measured (``"flash"``, ``"ray gap"``),
-    ``n`` the frames (flash: both cameras') or pairs (ray gap) it rests on.
+    ``n`` the frames (flash: both cameras') or pairs (ray gap) it rests on;
+    ``clock_sigma_ns`` the part of ``sigma_ns`` that is the fitted clocks' own error
+    (:func:`regular_times`), which two measurements from the same stamps share (0:
+    unknown, as for an offset read back from a session).
     """
 
     offset_ns: float
     sigma_ns: float
     method: str
     n: int
+    clock_sigma_ns: float = 0.0
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)

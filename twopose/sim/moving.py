@@ -36,7 +36,7 @@ from twopose.sim.render import expose, render_radiance, render_sprite
 from twopose.sim.scene import Scene
 from twopose.values.units import Units, unit_factor
 
-__all__ = ["ClockSettings", "PairScene", "Trajectory", "camera_frames", "touch_points"]
+__all__ = ["ClockSettings", "Flash", "PairScene", "Trajectory", "camera_frames", "touch_points"]
 
 #: Where the touches lie about the scene's target: a square of side 2 in (in inches), in
 #: the plane facing the cameras (point) or level (line, ground: the floor).
@@ -63,6 +63,32 @@ class ClockSettings:
     jitter_s: float = 0.0
     drop: float = 0.0
     offset_s: float = 0.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class Flash:
+    """A flash: a light switched on at ``onset_s`` for ``lit_s`` (s from the trial's start).
+
+    The scene's light is ``1 + gain`` times as bright meanwhile (a phone's torch held near
+    it). A frame is exposed for its whole interval about its true instant (as
+    :func:`twopose.pair.flash.offset_from_flash` takes it): lit for the share of it the
+    flash overlaps.
+    """
+
+    onset_s: float
+    lit_s: float
+    gain: float
+
+    def light(self, true_s: F64, interval_s: float) -> F64:
+        """(N,) each frame's light, a factor on the scene's: ``1 + gain * lit share``."""
+        start = np.asarray(true_s, dtype=np.float64) - interval_s / 2
+        overlap = np.clip(
+            np.minimum(start + interval_s, self.onset_s + self.lit_s)
+            - np.maximum(start, self.onset_s),
+            0.0,
+            None,
+        )
+        return np.asarray(1.0 + self.gain * overlap / interval_s)
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -144,16 +170,19 @@ class Trajectory:
     """The target's reference point moving at ``speed`` through ``touches`` in order.
 
     It starts :data:`_LEAD_IN` (session units: one inch) before the first touch, along the
-    first segment, stays ``dwell_s`` at each touch (a finger touching a point pauses on
-    it) and ends as far past the last. ``touch_s`` (K,) the middle of each touch's stay;
-    :meth:`at` where it is (the reference point: the dot's centre, the fingertip, the
-    finger's floor point), ``duration_s`` the whole path's time.
+    first segment (waiting there ``hold_s`` first), stays ``dwell_s`` at each touch (a
+    finger touching a point pauses on it) and ends as far past the last. ``touch_s`` (K,)
+    the middle of each touch's stay; :meth:`at` where it is (the reference point: the
+    dot's centre, the fingertip, the finger's floor point), ``duration_s`` the whole
+    path's time.
     """
 
     touches: F64
     speed: float
     lead: float
     dwell_s: float = 0.0
+    #: how long it waits at its start before it moves (a flash fired meanwhile)
+    hold_s: float = 0.0
 
     @property
     def waypoints(self) -> F64:
@@ -171,7 +200,10 @@ class Trajectory:
         """
         w = self.waypoints
         steps = np.linalg.norm(np.diff(w, axis=0), axis=1) / self.speed
-        times, points, t = [0.0], [w[0]], 0.0
+        times, points, t = [0.0], [w[0]], self.hold_s
+        if self.hold_s > 0:
+            times.append(t)
+            points.append(w[0])
         for k in range(1, len(w)):
             t += steps[k - 1]
             times.append(t)
@@ -186,6 +218,8 @@ class Trajectory:
     def touch_s(self) -> F64:
         """(K,) the middle of the target's stay at each touch (s from the start)."""
         times, _ = self._knots
+        if self.hold_s > 0:  # the wait at the start is no touch
+            times = times[1:]
         return np.asarray(0.5 * (times[1:-1:2] + times[2:-1:2]))
 
     @property
@@ -340,6 +374,12 @@ class PairScene:
             image[rows[0] : rows[1], cols[0] : cols[1]] = under * (1.0 - cover[..., None]) + sprite
         return image
 
-    def frame(self, camera: int, reference: F64) -> NDArray[np.uint8]:
-        """Camera 1's or 2's frame (BGR uint8), exposed with this scene's generator."""
-        return expose(self.radiance(camera, reference), self.scene, self.rng)
+    def frame(self, camera: int, reference: F64, light: float = 1.0) -> NDArray[np.uint8]:
+        """Camera 1's or 2's frame (BGR uint8), exposed with this scene's generator.
+
+        Its light is ``light`` times the scene's (a flash: :class:`Flash`).
+        """
+        radiance = self.radiance(camera, reference)
+        if light != 1.0:
+            radiance = radiance * np.float32(light)
+        return expose(radiance, self.scene, self.rng)

@@ -422,9 +422,19 @@ class TrialTests:
                 "this trial's poses disagree (no single typed value explains it): check what "
                 "you typed, and that the target did not move"
             )
-        what = f"typed {axis} of one of them" if axis else "one of them"
         more = "a fourth pose" if poses <= 3 else "another pose"
-        return f"this trial's poses disagree ({what}{size}): check what you typed, or add {more}"
+        if not axis:
+            # the poses that explain it each by another component: their sizes are of
+            # different things, from 1 to 1000 times the slip (a new user's ground trials,
+            # 1 in off, read "about 1 to 1062 in"): no size is said
+            return (
+                "this trial's poses disagree (one typed value looks off, but which, and by how "
+                f"much, {poses} poses cannot tell): check what you typed, or add {more}"
+            )
+        return (
+            f"this trial's poses disagree (typed {axis} of one of them{size}): check what you "
+            f"typed, or add {more}"
+        )
 
     def _truth_words(self, i: int, units: Units) -> str:
         """A trial far off its own recorded truth, in words (:meth:`words`)."""

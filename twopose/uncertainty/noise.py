@@ -221,13 +221,16 @@ class PlacingPrior:
 
     A scaled inverse chi-square: ``scale`` (``lambda0``, relative to the placing sigma the
     regions start from) on ``dof`` degrees of freedom; ``source`` says where it came from
-    (words), from how many ``sessions``.
+    (words), from how many ``sessions``; ``pooled`` names them (their session ids, sorted;
+    empty when they had none), so that two runs whose priors read alike ("2 other sessions
+    of operator Eve") but pooled other sessions are told apart (``check``).
     """
 
     scale: float
     dof: float
     source: str
     sessions: int = 0
+    pooled: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         """Refuse a prior that is not a positive scale on positive degrees of freedom."""
@@ -358,9 +361,13 @@ def noise_words(
             took += ", at the limit of what is searched: check the typed resolution and units"
         words.append(took)
     elif dof > 0 and math.isfinite(sigma0):
-        words.append(
-            "not enough data to estimate the placing sigma: the regions assume the one typed"
-        )
+        said = "not enough data to estimate the placing sigma: the regions assume the one typed"
+        if chi2_tails(dof * sigma0**2, dof)[0] < FACTOR_TEST_LEVEL:  # and the test rejects it
+            said += (
+                ", which the data contradict, so they are likely too small: analyse the"
+                " session beside its operator's others, or measure the placing with a board"
+            )
+        words.append(said)
     if math.isfinite(region_widening) and not math.isclose(region_widening, 1.0, abs_tol=5e-3):
         words.append(f"regions' largest semi-axis x{region_widening:.2f}")
     if flagged:

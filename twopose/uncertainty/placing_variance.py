@@ -425,6 +425,8 @@ class SessionNoise:
     dof: Ints  # (T,)
     share: F64  # (T, M)
     z2: F64  # (T, M)
+    #: The session's id (``""``: not known), named in the priors that pool it.
+    name: str = ""
 
 
 def operator_priors(
@@ -483,10 +485,11 @@ def _group_priors(
         if round(f) < MIN_PLACING_DOF:
             out.append(None)
             continue
-        n = len({int(o) for o in owner[others]})
+        pooled = {int(o) for o in owner[others]}
+        n, names = len(pooled), tuple(sorted({sessions[o].name for o in pooled} - {""}))
         out.append(
             PlacingPrior(scale=lam0, dof=min(f, spread), source=f"{n} other session"
-                         f"{'s' if n > 1 else ''} of {who} {group}", sessions=n)
+                         f"{'s' if n > 1 else ''} of {who} {group}", sessions=n, pooled=names)
         )  # fmt: skip
     return out
 

@@ -447,8 +447,9 @@ SPEED = Quantity(
 )  # fmt: skip
 CLOCK_OFFSET = Quantity(
     key="clock_offset", words="clock offset", kind=Kind.MILLISECONDS, low=-1000.0,
-    high=1000.0, given_as="`simulate --clock-offset-ms` (with `--cameras 2`): camera 2's "
-    "clock minus camera 1's",
+    high=1000.0, given_as="`simulate --clock-offset-ms` (with `--cameras 2`), `point "
+    "--clock-offset-ms`: camera 2's clock minus camera 1's; the rays' gap searches this "
+    "range and 250 ms beyond",
 )  # fmt: skip
 DRIFT = Quantity(
     key="drift", words="drift", kind=Kind.PPM, low=-1000.0, high=1000.0,

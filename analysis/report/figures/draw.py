@@ -53,6 +53,7 @@ from analysis.report.figures.topview import plot_top_view
 from analysis.report.plane_axes import plane_of
 from analysis.session.metrics import by_session_set, session_set, used_trials
 from analysis.tables.labels import table_units
+from analysis.tables.row_units import row_units_of, rows_word
 from twopose.methods.specs import Method, label_of
 from twopose.values.units import Units
 
@@ -103,7 +104,7 @@ def _running_figure(
             palette.colour_key(fig, fig.axes[1])
         height = fig.get_size_inches()[1]
         fig.supxlabel(
-            "number of frames averaged per pose",
+            palette.unit.averaged_count,
             fontsize=LABEL,
             y=(bottom + 0.05) / height,
             va="bottom",
@@ -128,7 +129,8 @@ def session_figures(
     the axes when it has no trial to name them."""
     name = figure_name(session)
     units = table_units(trials) or units
-    palette = TrialColours.of(used_trials(trials, include_warned=True)["trial"])
+    unit = row_units_of(trials)[0]  # a session's rows: trials, or a pair's touches
+    palette = TrialColours.of(used_trials(trials, include_warned=True)["trial"], unit)
 
     def scatter(fig: Figure) -> None:
         ax = fig.add_subplot()
@@ -267,7 +269,8 @@ def plot_error_by_trial(fig: Figure, trials: pd.DataFrame, *, include_warned: bo
     handles.append(key("95% ellipsoid, longest semi-axis", linestyle=":", lw=0.8))
     ax.set_yscale("log")
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
-    style(ax, "Error by trial, per session", "trial number", f"error ({units}, log scale)")
+    noun = rows_word(trials, "noun", joiner=" or ")  # trial; a two-camera session's touch
+    style(ax, f"Error by {noun}, per session", f"{noun} number", f"error ({units}, log scale)")
     legend = legend_below(fig, handles, 2)
     fig.set_size_inches(WIDTH, 3.4 + legend)
     layout(fig, left=0.75, right=0.2, top=0.35, bottom=0.55 + legend)

@@ -30,6 +30,7 @@ from analysis.report.figures.style import (
 from analysis.report.plane_axes import covariances, plane_of, with_in_plane
 from analysis.session.metrics import used_trials, warned
 from analysis.tables.labels import table_units, unit_label
+from analysis.tables.row_units import row_units_of
 from twopose.methods.planes import ConstraintPlane
 from twopose.uncertainty.propagate import CHI2_95
 from twopose.values.units import Units
@@ -105,7 +106,7 @@ def plot_error_scatter(
     on = plane_of(trials)
     a, b = _errors(on)
     ok = with_in_plane(used_trials(trials, include_warned=True, measured=True), on)
-    palette = palette or TrialColours.of(ok["trial"])
+    palette = palette or TrialColours.of(ok["trial"], row_units_of(trials)[0])
     doubted = warned(ok)
     used, left_out = (ok, ok.head(0)) if include_warned else (ok[~doubted], ok[doubted])
     label = unit_label(table_units(trials) or units)
@@ -150,7 +151,7 @@ def _mark_left_out(
     beyond = mark_beyond(ax, xy, palette.colours(left_out["trial"]))
     return beyond_note(
         [
-            f"trial {t} ({x:+.3g}, {y:+.3g} {label})"
+            f"{palette.unit.noun} {t} ({x:+.3g}, {y:+.3g} {label})"
             for t, (x, y), b in zip(left_out["trial"], xy, beyond, strict=True)
             if b
         ]
@@ -233,13 +234,13 @@ def plot_running_averages(
             xy = np.array([[r["n_frames"], r[f"err_{axis}"]] for _, r in last]).reshape(-1, 2)
             beyond = mark_beyond(ax, xy, palette.colours(t for t, _ in last))
             listed += [
-                f"trial {t} {axis} {r[f'err_{axis}']:+.3g} {label}"
+                f"{palette.unit.noun} {t} {axis} {r[f'err_{axis}']:+.3g} {label}"
                 for (t, r), b in zip(last, beyond, strict=True)
                 if b
             ]
     handles = palette.legend(linestyle="-") if palette.named else []
     if any(doubt):
         fate = "included" if include_warned else "left out"
-        handles.append(key(f"warned trial ({fate})", color="0.3", linestyle="--"))
+        handles.append(key(f"warned {palette.unit.noun} ({fate})", color="0.3", linestyle="--"))
     handles.append(key("truth (zero error)", color="0.6", linestyle="-"))
     return handles, beyond_note(listed)

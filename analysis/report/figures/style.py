@@ -20,6 +20,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 from analysis.tables.labels import MAX_LEGEND, common_units
+from analysis.tables.row_units import ROW_UNITS, RowUnit
 from twopose.methods.specs import Method, spec_of
 from twopose.values.text import for_terminal
 
@@ -134,12 +135,15 @@ class TrialColours:
     named in the legend up to :data:`MAX_LEGEND` trials, by a colour bar beyond."""
 
     trials: tuple[int, ...]
+    #: What the numbered rows are (trials; a two-camera session's touches), as the legend
+    #: and the key name them.
+    unit: RowUnit = ROW_UNITS[1]
 
     @classmethod
-    def of(cls, trial_ids: object) -> TrialColours:
+    def of(cls, trial_ids: object, unit: RowUnit = ROW_UNITS[1]) -> TrialColours:
         """The colours of these trial numbers (repeats and order do not matter)."""
         ids = pd.Series(trial_ids, dtype="float64").dropna().astype(int)
-        return cls(tuple(sorted(set(ids.tolist()))))
+        return cls(tuple(sorted(set(ids.tolist()))), unit)
 
     @property
     def named(self) -> bool:
@@ -177,7 +181,9 @@ class TrialColours:
 
     def legend(self, **style: object) -> list[Line2D]:
         """Legend entries naming each trial in its colour, drawn by ``style``."""
-        return [key(f"trial {t}", **(style | {"color": self.colour(t)})) for t in self.trials]
+        return [
+            key(f"{self.unit.noun} {t}", **(style | {"color": self.colour(t)})) for t in self.trials
+        ]
 
     def colour_key(self, fig: Figure, beside: Axes) -> None:
         """The trials' colour key right of ``beside``: a strip of one swatch per trial
@@ -206,7 +212,8 @@ class TrialColours:
         for k in range(0, len(self.trials), step):
             fig.text(x0 + w + 0.05 / width, box.y0 + (k + 0.5) * cell, str(self.trials[k]),
                      fontsize=TICK, va="center", ha="left")  # fmt: skip
-        fig.text(x0 + w + 0.42 / width, (box.y0 + box.y1) / 2, "trial number (colour key)",
+        said = f"{self.unit.noun} number (colour key)"
+        fig.text(x0 + w + 0.42 / width, (box.y0 + box.y1) / 2, said,
                  fontsize=LABEL, rotation=90, va="center", ha="left")  # fmt: skip
 
 

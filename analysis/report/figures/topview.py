@@ -148,7 +148,7 @@ def plot_top_view(
     xz = np.array([e for _, e in left_out], dtype=np.float64).reshape(-1, 2)
     beyond = mark_beyond(ax, xz, palette.colours(t for t, _ in left_out))
     listed = [
-        f"trial {t} ({x:+.3g}, {z:+.3g} {units})"
+        f"{palette.unit.noun} {t} ({x:+.3g}, {z:+.3g} {units})"
         for (t, _), (x, z), b in zip(left_out, xz, beyond, strict=True)
         if b
     ]
@@ -160,7 +160,8 @@ def plot_top_view(
     ]
     if any(d.warned for d in drawn):
         fate = "included" if include_warned else "left out"
-        handles.append(key(f"warned trial ({fate})", color="0.3", lw=0.8, linestyle="--"))
+        said = f"warned {palette.unit.noun} ({fate})"
+        handles.append(key(said, color="0.3", lw=0.8, linestyle="--"))
     handles += palette.legend(marker="s", ms=6) if palette.named else []
     bottom = legend_below(fig, handles, 2, beyond_note(listed))
     fig.set_size_inches(fig.get_size_inches()[0], _TOP + box[1] + 0.5 + bottom)

@@ -10,8 +10,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from twopose.errors import InputValueError
-from twopose.pair.clock import offset_from_flash, offset_from_ray_gap, regular_times
+from twopose.pair.clock import SEARCH_NS, offset_from_flash, offset_from_ray_gap, regular_times
 from twopose.pair.motion import CameraClock, FingerMotion, Frames, observe, thesis_pair
+from twopose.values.bounds import CLOCK_OFFSET
 
 FPS = 30.0
 
@@ -145,9 +146,9 @@ def test_what_cannot_be_measured_is_refused() -> None:
 
 
 def test_an_offset_beyond_the_search_or_exchanged_cameras_are_refused_in_true_words() -> None:
-    # Issue 58 (adversarial 11, 13): an offset of 800 ms (accepted by simulate) was refused
-    # as "the dot's motion does not fix the clock offset"; exchanged cameras gave a wrong
-    # offset (41 ms against 12.5) with a 0.25 ms sigma.
+    # Issue 58 (adversarial 11, 13): an offset of 800 ms beyond the offsets searched was
+    # refused as "the dot's motion does not fix the clock offset"; exchanged cameras gave a
+    # wrong offset (41 ms against 12.5) with a 0.25 ms sigma.
     rng = np.random.default_rng(0)
     pair = thesis_pair()
     for offset_s, words in ((0.8, "edge of the offsets searched"), (0.0125, "wrong order")):
@@ -160,8 +161,9 @@ def test_an_offset_beyond_the_search_or_exchanged_cameras_are_refused_in_true_wo
         first, second = (one, two) if offset_s > 0.5 else (two, one)
         with pytest.raises(InputValueError, match=words) as refused:
             offset_from_ray_gap(
-                pair, first.centroid_px, first.t_ns, second.centroid_px, second.t_ns
-            )
+                pair, first.centroid_px, first.t_ns, second.centroid_px, second.t_ns,
+                search_ns=(-0.5e9, 0.5e9),
+            )  # fmt: skip
         assert "dot" not in str(refused.value)
         assert "widen" not in str(refused.value)
 
@@ -199,13 +201,29 @@ def test_a_repeating_path_is_refused_naming_both_offsets(
     assert "repeat" in str(no.value)
 
 
+def test_every_offset_simulate_accepts_is_searched_by_default() -> None:
+    """The lead's gap (issue 58): simulate accepted +-1000 ms, the rays' gap searched
+    +-500; the search is now the bound's (one definition) and a margin: 800 and -990 ms are
+    measured on a path that does not repeat within it."""
+    assert 1e6 * max(-CLOCK_OFFSET.low, CLOCK_OFFSET.high) + 0.1e9 <= SEARCH_NS
+    rng = np.random.default_rng(5)
+    for offset_s in (0.8, -0.99):
+        frames = (
+            CameraClock().frames(4.0, rng),
+            CameraClock(phase_s=0.02, offset_s=offset_s).frames(4.0, rng),
+        )
+        offset, sigma = _dot(frames, rng, FingerMotion(speed=5.0, radius=3.0))
+        assert sigma < 2e6
+        assert abs(offset - offset_s * 1e9) <= 4 * sigma, (offset, sigma)
+
+
 def test_a_path_that_does_not_repeat_in_the_search_is_measured_within_a_millisecond() -> None:
     rng = np.random.default_rng(3)
     frames = (
         CameraClock().frames(3.0, rng),
         CameraClock(phase_s=0.013, offset_s=0.0125).frames(3.0, rng),
     )
-    for speed, radius in ((10.0, 3.0), (25.0, 3.0)):  # periods 1885 and 754 ms
+    for speed, radius in ((10.0, 3.0), (6.0, 3.0)):  # periods 1885 and 3142 ms
         offset, sigma = _dot(frames, rng, FingerMotion(speed=speed, radius=radius))
         assert abs(offset - 12.5e6) < 1e6
         assert sigma < 1e6

@@ -1,0 +1,53 @@
+"""The operator's noise file (issue 54): a file the recording's start set aside for its
+numbers is not added to at its end (a new user's finding: the start said "set aside", the
+end appended silently to a file no recorder would read again)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from recorder.live.operator_noise import NoiseFile, live_prior, remember_session
+from twopose.errors import InputValueError
+from twopose.methods.specs import Method
+from twopose.solve.estimate import EstimateOptions
+from twopose.uncertainty.placing_variance import SessionNoise
+from twopose.values.units import Units
+
+STATS = SessionNoise(group="", chi2=np.array([2.0]), dof=np.array([3]),
+                     share=np.array([[0.5, 0.5, 0.5]]), z2=np.array([[1.0, 0.5, 0.5]]))  # fmt: skip
+
+
+def _impossible(noise: NoiseFile) -> str:
+    """A well-formed file whose one session holds a negative chi-square."""
+    noise.remember("a.mcap", Method.POINT, Units.IN, "typed", STATS)
+    text = noise.path.read_text()
+    bad = text.replace("chi2 = [2.0]", "chi2 = [-27.0]")
+    assert bad != text
+    noise.path.write_text(bad)
+    return bad
+
+
+def test_a_file_set_aside_for_its_numbers_is_not_appended_to(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("TWOPOSE_NOISE_DIR", str(tmp_path))
+    noise = NoiseFile("Eve")
+    bad = _impossible(noise)
+    _, said = live_prior("Eve", Method.POINT, EstimateOptions())
+    assert said.startswith("the operator's noise file was set aside:")
+    with pytest.raises(InputValueError, match="numbers no recorder writes"):
+        noise.remember("b.mcap", Method.POINT, Units.IN, "typed", STATS)
+    end = remember_session("Eve", Method.POINT, Units.IN, "b.mcap", EstimateOptions(), STATS)
+    assert end.startswith("the operator's noise file was not updated:")
+    assert "numbers no recorder writes" in end
+    assert noise.path.read_text() == bad  # untouched, nothing lost or added
+
+
+def test_a_good_file_is_added_to(tmp_path: Path) -> None:
+    noise = NoiseFile("Eve", tmp_path)
+    noise.remember("a.mcap", Method.POINT, Units.IN, "typed", STATS)
+    noise.remember("b.mcap", Method.POINT, Units.IN, "typed", STATS)
+    assert [s["file"] for s in noise.sessions()] == ["a.mcap", "b.mcap"]

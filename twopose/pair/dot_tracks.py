@@ -1,0 +1,271 @@
+"""Both cameras' tracks of a moving target, and the rays' gap at a candidate clock offset.
+
+What :func:`twopose.pair.clock.offset_from_ray_gap` searches over: each camera's target
+track undistorted, its frame times fitted by a regular clock
+(:func:`twopose.pair.clock_fit.regular_times`), camera 1's track interpolated (linearly) to
+camera 2's capture times at a candidate offset, and the rays' gap there in pixels
+(Sampson's first-order distance to the pair's epipolar constraint), with the terms of the
+offset's 1-sigma the tracks themselves set (the gaps' correlation, camera 1's
+interpolation error, the fitted clocks' error). No I/O.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from twopose.arrays import F64, Bools, Ints
+from twopose.errors import InputValueError
+from twopose.pair.board_fit import LensModel
+from twopose.pair.calibration import PairCalibration
+from twopose.pair.clock_fit import regular_times
+
+__all__ = ["MIN_GAP_FRAMES", "DotTracks", "dot_tracks", "epipolar_gap_px"]
+
+#: The fewest camera-2 frames an offset candidate's gap is averaged over.
+MIN_GAP_FRAMES = 10
+
+
+def epipolar_gap_px(pair: PairCalibration, u1: F64, u2: F64) -> F64:
+    """(N,) the rays' gap in pixels: Sampson's distance of undistorted pixels ``u1``, ``u2``.
+
+    (N, 2) each, camera 1's and camera 2's, to the pair's epipolar constraint
+    ``u1^T F u2 = 0`` (``F = K1^-T [t]x R K2^-1``, from ``p1 = R p2 + t``).
+    """
+    t = pair.t_2_in_1
+    tx = np.array([[0.0, -t[2], t[1]], [t[2], 0.0, -t[0]], [-t[1], t[0], 0.0]])
+    F = np.linalg.inv(pair.intrinsics1.K).T @ tx @ pair.R_2_to_1 @ np.linalg.inv(pair.intrinsics2.K)
+    F = F / np.linalg.norm(F)
+    h1 = np.concatenate([u1, np.ones((*u1.shape[:-1], 1))], axis=-1)
+    h2 = np.concatenate([u2, np.ones((*u2.shape[:-1], 1))], axis=-1)
+    Fx2 = h2 @ F.T
+    Ftx1 = h1 @ F
+    e = (h1 * Fx2).sum(axis=-1)
+    denom = Fx2[..., 0] ** 2 + Fx2[..., 1] ** 2 + Ftx1[..., 0] ** 2 + Ftx1[..., 1] ** 2
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.asarray(e / np.sqrt(denom))
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class DotTracks:
+    """Both cameras' undistorted dot tracks (N, 2), fitted times (N,) and found flags."""
+
+    pair: PairCalibration
+    tracks: tuple[F64, F64]
+    times: tuple[F64, F64]
+    found: tuple[Bools, Bools]
+    gap_ns: float  # the widest span between two camera-1 frames interpolated between
+    clock_sigma: tuple[F64, F64]  # each fitted time's 1-sigma (regular_times)
+
+    def camera1_at(self, at: F64) -> tuple[F64, F64]:
+        """Camera 1's track at times ``at`` (C, N2), linearly, and each one's weight ``w``.
+
+        NaN where its two neighbours are not both found, are further apart than
+        ``gap_ns``, or do not bracket the time.
+        """
+        track, times, found = self.tracks[0], self.times[0], self.found[0]
+        j = np.clip(np.searchsorted(times, at, side="right"), 1, times.size - 1)
+        i = j - 1
+        w = (at - times[i]) / (times[j] - times[i])
+        ok = found[i] & found[j] & (times[j] - times[i] <= self.gap_ns) & (w >= 0) & (w <= 1)
+        out = track[i] * (1 - w)[..., None] + track[j] * w[..., None]
+        return np.where(ok[..., None], out, np.nan), w
+
+    def weights(self, offset_ns: float) -> tuple[Ints, F64, Bools]:
+        """Camera 2's frames' camera-1 neighbours at ``offset_ns``.
+
+        The left neighbour's index (N2,), the right one's weight (N2,), and which frames'
+        gap is measured (both neighbours found and close, camera 2's dot found).
+        """
+        at = self.times[1] - offset_ns
+        t, found = self.times[0], self.found[0]
+        j = np.clip(np.searchsorted(t, at, side="right"), 1, t.size - 1)
+        i = j - 1
+        w = (at - t[i]) / (t[j] - t[i])
+        ok = found[i] & found[j] & (t[j] - t[i] <= self.gap_ns) & (w >= 0) & (w <= 1)
+        return i.astype(np.intp), w, np.asarray(ok & self.found[1])
+
+    def correlation_factor(self, offset_ns: float) -> float:
+        """The variance factor of the gaps' sum: neighbouring gaps share a camera-1 frame.
+
+        Each gap holds camera 2's frame's error and camera 1's two frames' weighted by
+        ``1 - w`` and ``w`` (equal noise in both cameras taken); two successive gaps that
+        interpolate across a common camera-1 frame are correlated, which a sum over gaps
+        that change slowly (a smooth motion) feels as ``1 + 2 sum cov / sum var``.
+        """
+        i, w, ok = self.weights(offset_ns)
+        i, w = i[ok], w[ok]
+        if i.size < 2:
+            return 1.0
+        var = 1.0 + (1 - w) ** 2 + w**2
+        left = np.stack([i, i + 1], axis=1)  # each gap's two camera-1 frames
+        weight = np.stack([1 - w, w], axis=1)
+        a, b = left[:-1], left[1:]
+        wa, wb = weight[:-1], weight[1:]
+        same = a[:, :, None] == b[:, None, :]
+        cov = (same * wa[:, :, None] * wb[:, None, :]).sum(axis=(1, 2))
+        return float(1.0 + 2.0 * cov.sum() / var.sum())
+
+    def clock_sigma_ns(self) -> float:
+        """The two fitted clocks' error as the offset feels it, combined.
+
+        A gap averaged over a stream's frames feels each clock's error at its frames'
+        centre (the fit's least 1-sigma); its slope's error averages out.
+        """
+        return float(np.hypot(np.min(self.clock_sigma[0]), np.min(self.clock_sigma[1])))
+
+    def gaps(self, candidates: F64) -> tuple[F64, F64]:
+        """(C, N2) the rays' gap (px) at each candidate offset, and its noise weight.
+
+        The weight is camera 2's frame and camera 1's two, by ``1 - w`` and ``w`` (equal
+        noise taken), ``1 + w^2 + (1 - w)^2`` times one frame's variance; NaN gaps where
+        camera 1 has no frames about camera 2's.
+        """
+        u1, w = self.camera1_at(self.times[1][None, :] - candidates[:, None])
+        u2 = np.where(self.found[1][:, None], self.tracks[1], np.nan)
+        gap = epipolar_gap_px(self.pair, u1, np.broadcast_to(u2, u1.shape))
+        return gap, 1 + w**2 + (1 - w) ** 2
+
+    def mean_gap(self, candidates: F64, *, common: bool = False) -> tuple[F64, F64]:
+        """(C,) the mean squared gap at each candidate offset, and (C,) the frames used.
+
+        Each gap is weighed by its noise (:meth:`gaps`); a cost not weighed so would favour
+        offsets that put camera 2's frames on camera 1's (where interpolation averages no
+        noise away), the more so the slower the target. ``common``: over the frames every
+        candidate measures only -- a mean over a set of frames that changes with the
+        offset is no function of it (a frame whose camera-1 neighbours leave the set at
+        one candidate made a step that looked like a sharp minimum, issue 58's 50% drop).
+        """
+        gap, weight = self.gaps(candidates)
+        g2 = gap**2 / weight
+        if common:
+            every: Bools = np.asarray(np.isfinite(g2).all(axis=0))
+            g2 = np.where(every[None, :], g2, np.nan)
+        used = np.isfinite(g2).sum(axis=1)
+        enough = used >= MIN_GAP_FRAMES
+        mean = np.where(enough, np.nansum(g2, axis=1) / np.maximum(used, 1), np.nan)
+        return mean, used.astype(np.float64)
+
+    def motion_frames(
+        self, offset_ns: float, step_ns: float, noise_px2: float
+    ) -> tuple[float, float]:
+        """What the offset rests on: the gaps' rates against their noise, and how many frames.
+
+        A gap's rate with the offset ``s`` is camera 1's velocity between the two frames it
+        interpolates, and its noise alone makes a still frame's (variance ``2 noise_px2 /
+        dt^2``, ``noise_px2`` a camera's noise in gap units: the best's mean squared gap per
+        unit weight). Returns the ratio of ``sum s^2 / v`` to what noise alone gives (about
+        1 for a still target: its curvature is the noise's, and so would its sigma be),
+        and the participation ratio ``(sum i)^2 / sum i^2`` of each frame's information
+        beyond the noise's, ``i = (s^2 - 2 noise_px2 / dt^2)+ / v``: the number of frames
+        the motion is spread over (one frame of motion among still ones: 1).
+        """
+        candidates = np.array([offset_ns - step_ns, offset_ns + step_ns])
+        gap, weight = self.gaps(candidates)
+        i, _, ok = self.weights(offset_ns)
+        rate2 = ((gap[1] - gap[0]) / (2 * step_ns)) ** 2
+        dt = self.times[0][i + 1] - self.times[0][i]
+        v = weight.mean(axis=0)
+        use = np.isfinite(rate2) & ok
+        noise = 2 * noise_px2 / dt[use] ** 2 / v[use]
+        seen = rate2[use] / v[use]
+        ratio = float(seen.sum() / noise.sum()) if noise.sum() > 0 else np.inf
+        info = np.clip(seen - noise, 0.0, None)
+        total = float((info**2).sum())
+        return ratio, (float(info.sum() ** 2 / total) if total > 0 else 0.0)
+
+    def bend_px2(self) -> float:
+        """The mean squared most camera 1's linear interpolation can miss its track (px^2).
+
+        Half-way between two frames ``dt`` apart the line misses a track bending with
+        acceleration ``a`` by ``dt^2 |a| / 8``; at another offset camera 2's frames fall
+        elsewhere between camera 1's (another phase ``w``), so two offsets' costs can
+        differ by up to this mean with no difference in fit.
+        """
+        track, t, found = self.tracks[0], self.times[0], self.found[0]
+        slope = (track[1:] - track[:-1]) / np.diff(t)[:, None]
+        acc = 2 * (slope[1:] - slope[:-1]) / (t[2:] - t[:-2])[:, None]
+        ok = found[:-2] & found[1:-1] & found[2:]
+        if not ok.any():
+            return 0.0
+        dt = 0.5 * (t[2:] - t[:-2])[ok]
+        miss = dt**2 * np.linalg.norm(acc[ok], axis=1) / 8
+        return float(np.mean(miss**2))
+
+    def interpolation_ns(self, offset_ns: float, step_ns: float, *, half: bool = False) -> float:
+        """The offset's error (ns) that interpolating camera 1 linearly can make, 1-sigma.
+
+        Between two camera-1 frames ``dt`` apart, a track bending with acceleration ``a``
+        (px/ns^2, from camera 1's three frames about each) is missed by the line through
+        them by ``w (1 - w) dt^2 a / 2``; each gap moves by that error's share across the
+        epipolar line (``dg``), and the offset by ``-sum(dg s / v) / sum(s^2 / v)``, ``s``
+        each gap's rate with the offset and ``v`` its weight. Its size is carried as a
+        term of the sigma: a fast or sharply turning target (100 in/s round a 2 in square)
+        or frames bridged across a dropped one bend between camera 1's frames.
+        """
+        track, t, found = self.tracks[0], self.times[0], self.found[0]
+        acc = np.full(track.shape, np.nan)
+        dt_left, dt_right = np.diff(t)[:-1], np.diff(t)[1:]
+        slope = (track[1:] - track[:-1]) / np.diff(t)[:, None]
+        acc[1:-1] = 2 * (slope[1:] - slope[:-1]) / (dt_left + dt_right)[:, None]
+        acc[1:-1][~(found[:-2] & found[1:-1] & found[2:])] = np.nan
+        candidates = np.array([offset_ns - step_ns, offset_ns, offset_ns + step_ns])
+        gap, weight = self.gaps(candidates)
+        i, w, ok = self.weights(offset_ns)
+        ok = ok & np.isfinite(gap).all(axis=0)
+        if ok.sum() < 2:
+            return 0.0
+        i, w = i[ok], w[ok]
+        # The larger bend of the bracket's two frames (either may lack its neighbours).
+        a = np.where(np.isfinite(acc[i]), acc[i], acc[i + 1])
+        a_other = np.where(np.isfinite(acc[i + 1]), acc[i + 1], acc[i])
+        larger = np.linalg.norm(np.nan_to_num(a_other), axis=1) > np.linalg.norm(
+            np.nan_to_num(a), axis=1
+        )
+        a = np.where(larger[:, None], a_other, a)
+        dt = t[i + 1] - t[i]
+        share = np.full_like(w, 0.25) if half else w * (1 - w)
+        miss = (0.5 * share * dt**2)[:, None] * np.nan_to_num(a)
+        at = self.times[1][ok] - offset_ns
+        u1, _ = self.camera1_at(at)
+        u2 = self.tracks[1][ok]
+        dg = epipolar_gap_px(self.pair, u1 + miss, u2) - epipolar_gap_px(self.pair, u1, u2)
+        s = (gap[2, ok] - gap[0, ok]) / (2 * step_ns)
+        v = weight[1, ok]
+        info = float((s**2 / v).sum())
+        if not info > 0:
+            return 0.0
+        # Signed (a bend shared by neighbouring frames moves them alike) and random parts.
+        shift = abs(float((np.nan_to_num(dg) * s / v).sum())) / info
+        spread = float(np.sqrt((np.nan_to_num(dg) ** 2 * s**2 / v**2).sum())) / info
+        return float(np.hypot(shift, spread))
+
+
+def dot_tracks(
+    pair: PairCalibration, tracks: tuple[ArrayLike, ArrayLike], times: tuple[ArrayLike, ArrayLike]
+) -> DotTracks:
+    """Both cameras' dot tracks checked, undistorted, their times fitted by a regular clock."""
+    lenses = (LensModel.of(pair.intrinsics1), LensModel.of(pair.intrinsics2))
+    undistorted, fitted, found, sigma = [], [], [], []
+    for n in (0, 1):
+        p = np.asarray(tracks[n], dtype=np.float64).reshape(-1, 2)
+        stamps = np.asarray(times[n], dtype=np.float64).reshape(-1)
+        if p.shape[0] != stamps.size:
+            raise InputValueError(f"camera {n + 1}: {p.shape[0]} pixels for {stamps.size} times")
+        ok = np.asarray(np.isfinite(p).all(axis=1))
+        undistorted.append(np.where(ok[:, None], lenses[n].undistort(np.nan_to_num(p)), np.nan))
+        clock = regular_times(stamps)
+        fitted.append(clock.times_ns)
+        sigma.append(clock.sigma_ns)
+        found.append(ok)
+    interval = float(np.median(np.diff(fitted[0])))
+    return DotTracks(
+        pair=pair,
+        tracks=(undistorted[0], undistorted[1]),
+        times=(fitted[0], fitted[1]),
+        found=(found[0], found[1]),
+        gap_ns=2.5 * interval,  # one dropped frame between two neighbours is bridged
+        clock_sigma=(sigma[0], sigma[1]),
+    )
