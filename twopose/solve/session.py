@@ -15,6 +15,7 @@ model (:mod:`twopose.uncertainty.session_noise`), the truth and the solvers are 
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
@@ -49,7 +50,7 @@ from twopose.uncertainty.blunders import TrialTests
 from twopose.uncertainty.misclosure import Misclosure
 from twopose.uncertainty.noise import VarianceFactor
 from twopose.uncertainty.propagate import (
-    PLACING,
+    SECOND_ORDER,
     Propagated,
     Shared,
     dominant_input,
@@ -59,6 +60,7 @@ from twopose.uncertainty.propagate import (
 from twopose.uncertainty.session_noise import (
     noise_of,
     placed,
+    placing_parts,
     placing_sigma,
     placing_sigmas,
     placing_source,
@@ -170,6 +172,14 @@ class _Propagation:
     #: Which trials are flagged and their own misfit (None: none tested).
     tests: TrialTests | None = None
 
+    def propagated(self, estimate: Callable[[F64], F64]) -> Propagated:
+        """``estimate``'s covariance from the rows' inputs.
+
+        To second order: every region's rule (:data:`twopose.uncertainty.propagate.SECOND_ORDER`).
+        """
+        return propagate(estimate, self.batch.inputs, self.cov_in, shared=self.shared,
+                         second_order=SECOND_ORDER)  # fmt: skip
+
 
 @dataclass(frozen=True, kw_only=True)
 class SessionEstimate:
@@ -204,7 +214,7 @@ class SessionEstimate:
         estimate = thesis_estimate(
             self.trials.method, p.batch, self.trials.ground, self.options, reference[p.rows]
         )
-        propagated = propagate(estimate, p.batch.inputs, p.cov_in, shared=p.shared)
+        propagated = p.propagated(estimate)
         rig = rig_carried(
             self.options, self.trials.method, p.batch, self.trials.ground, reference[p.rows]
         )
@@ -222,9 +232,9 @@ class SessionEstimate:
             return cov
         d = p.solved.direction
         f = thesis_direction(p.batch, self.options, np.nan_to_num(d))
-        propagated = propagate(f, p.batch.inputs, p.cov_in, shared=p.shared)
+        propagated = p.propagated(f)
         ok = p.solved.status == "ok"
-        placing = _placing_part(propagated.jacobian, p.cov_in)
+        placing = np.add(*placing_parts(propagated, p.cov_in))
         scale = region_multipliers(propagated.cov_grid, placing, p.factor, p.tests, p.rows)
         cov[p.rows[ok]] = (propagated.cov_grid * scale[:, None, None])[ok]
         return cov
@@ -342,12 +352,6 @@ def _shared_rows(shared: Shared | None, rows: Bools) -> Shared | None:
     return Shared(values=shared.values[rows], group=shared.group[rows], cov=shared.cov[rows])
 
 
-def _placing_part(jacobian: F64, cov_in: F64) -> F64:
-    """(R, W, W) what the typed translations' covariance gives of a propagated estimate."""
-    J = jacobian[..., PLACING]
-    return np.asarray(np.einsum("tinj,tnjk,tlnk->til", J, cov_in[..., PLACING, PLACING], J))
-
-
 def _session_estimate(
     trials: SessionTrials,
     measurements: list[list[PoseMeasurement]],
@@ -428,12 +432,7 @@ def _solved_estimates(
     uncertainty = _uncertainty(
         T,
         p,
-        propagate(
-            thesis_estimate(trials.method, p.batch, trials.ground, options, near),
-            p.batch.inputs,
-            p.cov_in,
-            shared=p.shared,
-        ),
+        p.propagated(thesis_estimate(trials.method, p.batch, trials.ground, options, near)),
         rig_carried(options, trials.method, p.batch, trials.ground, solved.point),
     )
     lines = trials.spec.estimates_line and line_fits
@@ -474,9 +473,11 @@ def _uncertainty(
     """
     ok, cov = p.solved.status == "ok", propagated.cov_grid
     lam = 1.0 if p.factor is None else p.factor.placing_variance
-    placing = _placing_part(propagated.jacobian, p.cov_in)
-    # the region the typed placing sigma gives: the placing's part back at 1 / lambda
-    model = cov if lam == 1.0 else cov - (1 - 1 / lam) * placing
+    first, second = placing_parts(propagated, p.cov_in)
+    placing = first + second
+    # the region the typed placing sigma gives: the placing's part back at 1 / lambda (its
+    # second-order part, at 1 / lambda^2)
+    model = cov if lam == 1.0 else cov - (1 - 1 / lam) * first - (1 - 1 / lam**2) * second
     if p.solved.direction is not None:
         # A line's reported point moves only across the line to first order (its error
         # is perpendicular by construction): keep the covariance of that offset.

@@ -1,6 +1,7 @@
 """The uncertainty: each estimate's region and the noise it assumes.
 
-First-order propagation, NEES and the dominant input (``propagate``), the noise every region
+Propagation (first order, and the second-order term where the estimate bends), NEES and
+the dominant input (``propagate``), the noise every region
 assumes and its words (``noise``), each trial's misclosure (``misclosure``), the placing
 variance's multiplier (``placing_variance``), the trials flagged before pooling
 (``blunders``: by their misclosure, against the other trials of one target, against their

@@ -1,4 +1,4 @@
-"""Uncertainty: a first-order covariance for every estimate, and what dominates it.
+"""Uncertainty: a covariance for every estimate, and what dominates it.
 
 The inputs of a trial are, per view, ``[col, row, theta_deg, tx, ty, tz, rx_deg, ry_deg,
 rz_deg]``: the combined pixel measurement and the typed pose. Views are independent; within
@@ -10,7 +10,15 @@ when its calibration's 1-sigma is known (:class:`Shared`): their error is the sa
 view that camera took, so they are perturbed in all of a trial's views of that camera at
 once. :func:`propagate` pushes that through any batched estimator by central differences
 (``Sigma_x = J Sigma_in J^T``), so the covariance follows exactly the code that made the
-estimate, thesis formulas or not. No I/O.
+estimate, thesis formulas or not. With ``second_order`` (every region of a session,
+:data:`SECOND_ORDER`) each input is also stepped :data:`SIGMA_POINT_STEP` sigma, a sigma
+point, and the variance its curvature adds is added (the second-order term of the
+unscented transform's and the divided-difference filter's axis points): exact for an
+estimate quadratic in each input, the first-order covariance where it is linear, never
+less. No I/O.
+
+(Near 600 lines: the first and the second order share one difference machinery, and the
+regions' dimensions, quantiles and NEES read what it gives.)
 """
 
 from __future__ import annotations
@@ -32,7 +40,9 @@ __all__ = [
     "INPUTS_PER_VIEW",
     "INPUT_GROUPS",
     "PLACING",
+    "SECOND_ORDER",
     "SHARED_INPUTS",
+    "SIGMA_POINT_STEP",
     "SPREAD_COLUMNS",
     "Propagated",
     "Shared",
@@ -68,6 +78,18 @@ _GROUPS = (
 )
 #: The inputs a trial's views of one camera share (:class:`Shared`): its intrinsics.
 SHARED_INPUTS = ("fx", "fy", "cx", "cy")
+#: The divided differences' step (``second_order``), in each input's sigma: sqrt(3), the
+#: Gauss-Hermite point where a normal input's fourth moment is matched (Norgaard, Poulsen
+#: and Ravn 2000, "New developments in state estimation for nonlinear systems", DD2).
+SIGMA_POINT_STEP = math.sqrt(3.0)
+#: Each input's curvature ``f(x + h) + f(x - h) - 2 f(x)`` times this is its second-order
+#: column: ``sqrt(h^2 - 1) / (2 h^2)`` (``f = a x + b x^2``: ``Var = a^2 s^2 + 2 b^2 s^4``).
+CURVATURE_WEIGHT = math.sqrt(SIGMA_POINT_STEP**2 - 1.0) / (2.0 * SIGMA_POINT_STEP**2)
+#: Every region of a session is propagated to second order (``second_order``): the same
+#: as first order where the estimate is linear in an input (the thesis' point, line and
+#: ground point are linear in the poses' translations), wider where it bends (the
+#: rotations, the intrinsics, the pixels; docs/uncertainty.md).
+SECOND_ORDER = True
 #: Prior weight (pseudo frame-differences) of the session's pooled scatter in each pose's
 #: estimate: five frames give four differences, too few to trust a pose's scatter alone.
 PRIOR_DOF = 4.0
@@ -187,6 +209,10 @@ class Propagated:
     variance_by_group: F64  # (T, N, 5) trace share of pixels, x, y, z, rotation per view
     shared_jacobian: F64 | None = None  # (T, 3, G, S) d estimate / d shared input
     shared_variance: F64 | None = None  # (T,) trace share of the shared inputs
+    #: (T, 3, N, 9) each input's second-order column ``c`` (``second_order``): the
+    #: covariance's second-order part is ``sum c c^T``, that of the placing's inputs
+    #: grows with the placing variance squared (None: first order).
+    curvature: F64 | None = None
 
 
 def _jacobians(
@@ -197,21 +223,25 @@ def _jacobians(
     Cs: F64,
     rel_step: float,
     width: int = 3,
-) -> tuple[F64, F64]:
-    """The estimate's derivatives by central differences.
+    *,
+    second_order: bool = False,
+) -> tuple[F64, F64, F64, F64]:
+    """The estimate's derivatives by central differences, and its curvature.
 
     Per view (T, W, N, D) and per shared group (T, W, G, S), W the estimate's ``width``;
-    steps of ``rel_step`` sigma.
+    steps of ``rel_step`` sigma. With ``second_order``, each input's curvature beside
+    (else zero): ``f(x + h) + f(x - h) - 2 f(x)``, ``h`` :data:`SIGMA_POINT_STEP` sigma
+    (zero in a row where those steps leave the solver's domain: NaN).
     """
     T, N, D = x.shape
     sigma = np.sqrt(np.clip(np.diagonal(C, axis1=2, axis2=3), 0.0, None))  # (T, N, 9)
-    J = np.zeros((T, width, N, D))
+    J, K = np.zeros((T, width, N, D)), np.zeros((T, width, N, D))
     # An exact input (or an unused one: a dot's angle) contributes nothing: skip it.
     columns: list[_Column] = [
         (n, d, None) for n in range(N) for d in range(D) if (sigma[:, n, d] > 0).any()
     ]
     group_sigma = np.sqrt(np.clip(np.diagonal(Cs, axis1=2, axis2=3), 0.0, None))  # (T, G, S)
-    Js = np.zeros((T, width, *Cs.shape[1:3]))
+    Js, Ks = np.zeros((T, width, *Cs.shape[1:3])), np.zeros((T, width, *Cs.shape[1:3]))
     if shared is not None:
         x = np.concatenate([x, np.asarray(shared.values, dtype=np.float64)], axis=-1)
         G, S = Cs.shape[1], Cs.shape[2]
@@ -221,22 +251,30 @@ def _jacobians(
             for s in range(S)
             if (group_sigma[:, g, s] > 0).any()
         ]
+    centre = None
+    if second_order:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            centre = np.asarray(estimate(x), dtype=np.float64).reshape(T, width)
     # All perturbed copies go through the estimator together, in batches of about 2e5
     # views: one vectorized call per batch instead of 2 N D calls.
     per_batch = max(1, 200_000 // max(2 * T * N, 1))
     for start in range(0, len(columns), per_batch):
         batch = columns[start : start + per_batch]
-        steps = [
-            rel_step * (sigma[:, n, d] if views is None else group_sigma[:, n, d - D])
-            for n, d, views in batch
-        ]
-        derivatives = _difference_columns(estimate, x, steps, batch)
-        for (n, d, views), column in zip(batch, derivatives, strict=True):
+        sigmas = [sigma[:, n, d] if views is None else group_sigma[:, n, d - D]
+                  for n, d, views in batch]  # fmt: skip
+        slopes = _difference_columns(estimate, x, [rel_step * s for s in sigmas], batch)
+        curves = [np.zeros_like(c) for c, _ in slopes]
+        if centre is not None:  # a wide step out of the solver's domain: no curvature seen
+            wide = _difference_columns(
+                estimate, x, [SIGMA_POINT_STEP * s for s in sigmas], batch, centre
+            )
+            curves = [np.where(np.isfinite(c), c, 0.0) for _, c in wide]
+        for (n, d, views), (column, _), curve in zip(batch, slopes, curves, strict=True):
             if views is None:
-                J[:, :, n, d] = column
+                J[:, :, n, d], K[:, :, n, d] = column, curve
             else:
-                Js[:, :, n, d - D] = column
-    return J, Js
+                Js[:, :, n, d - D], Ks[:, :, n, d - D] = column, curve
+    return J, Js, K, Ks
 
 
 def jacobians(
@@ -259,7 +297,7 @@ def jacobians(
     C = np.asarray(input_cov, dtype=np.float64)
     T = x.shape[0]
     Cs = np.zeros((T, 0, 0, 0)) if shared is None else np.asarray(shared.cov, dtype=np.float64)
-    J, Js = _jacobians(function, x, C, shared, Cs, rel_step, width)
+    J, Js, _, _ = _jacobians(function, x, C, shared, Cs, rel_step, width)
     return J, None if shared is None else Js
 
 
@@ -270,6 +308,7 @@ def propagate(
     *,
     rel_step: float = 1e-3,
     shared: Shared | None = None,
+    second_order: bool = False,
 ) -> Propagated:
     """Propagate per-view input covariances (and shared ones) through a batched estimator.
 
@@ -292,6 +331,15 @@ def propagate(
         Inputs common to a group of views (a camera's intrinsics), independent of the
         per-view ones: ``Sigma_x += sum_g J_g Sigma_g J_g^T``, with ``J_g`` the derivative
         with respect to the group's value in all of its views at once.
+    second_order : bool
+        Each input also stepped by ``h = sqrt(3)`` sigma and ``Sigma_x += sum_k c_k
+        c_k^T``, ``c_k = sqrt(h^2 - 1) / (2 h^2) (f(x + h_k) + f(x - h_k) - 2 f(x))``: for a
+        normal input ``1/2 H_kk^2 sigma_k^4``, the variance the estimate's curvature in
+        each input adds (Norgaard, Poulsen and Ravn's DD2 term; the mixed second
+        derivatives are not seen, as by the unscented transform's points on the axes).
+        ``J`` stays the derivative, so the region is never narrower than first order's
+        (the secant of a wide step would be, where the estimate saturates). A row whose
+        wide steps leave the estimator's domain (NaN) has no second-order term there.
 
     Returns
     -------
@@ -302,24 +350,32 @@ def propagate(
     C = np.asarray(input_cov, dtype=np.float64)
     T, N, _ = x.shape
     Cs = np.zeros((T, 0, 0, 0)) if shared is None else np.asarray(shared.cov, dtype=np.float64)
-    J, Js = _jacobians(estimate, x, C, shared, Cs, rel_step)
+    J, Js, K, Ks = _jacobians(estimate, x, C, shared, Cs, rel_step, second_order=second_order)
     # Views are independent: Sigma = sum_n J_n C_n J_n^T.
     JC = np.einsum("tinj,tnjk->tink", J, C)
     cov = np.einsum("tink,tlnk->til", JC, J)
+    curvature = shared_curvature = None
+    if second_order:  # each input's second-order part, sum_k c_k c_k^T
+        curvature, shared_curvature = CURVATURE_WEIGHT * K, CURVATURE_WEIGHT * Ks
+        cov = cov + np.einsum("tink,tjnk->tij", curvature, curvature)
     group_var = np.zeros((T, N, len(_GROUPS)))
     for g, (_, sl) in enumerate(_GROUPS):  # each input group's share, for dominant_input
         Jg, Cg = J[:, :, :, sl], C[:, :, sl, sl]
         group_var[:, :, g] = np.einsum("tinj,tnjk,tink->tn", Jg, Cg, Jg)
     if shared is None:
-        return Propagated(cov_grid=cov, jacobian=J, variance_by_group=group_var)
+        return Propagated(cov_grid=cov, jacobian=J, variance_by_group=group_var,
+                          curvature=curvature)  # fmt: skip
     # Groups (cameras) are independent of each other and of the per-view inputs.
     cov_shared = np.einsum("tigs,tgsr,tjgr->tij", Js, Cs, Js)
+    if shared_curvature is not None:
+        cov_shared = cov_shared + np.einsum("tigs,tjgs->tij", shared_curvature, shared_curvature)
     return Propagated(
         cov_grid=cov + cov_shared,
         jacobian=J,
         variance_by_group=group_var,
         shared_jacobian=Js,
         shared_variance=np.trace(cov_shared, axis1=1, axis2=2),
+        curvature=curvature,
     )
 
 
@@ -329,11 +385,17 @@ _Column = tuple[int, int, NDArray[np.bool_] | None]
 
 
 def _difference_columns(
-    estimate: Callable[[F64], F64], x: F64, steps: list[F64], columns: list[_Column]
-) -> list[F64]:
+    estimate: Callable[[F64], F64],
+    x: F64,
+    steps: list[F64],
+    columns: list[_Column],
+    centre: F64 | None = None,
+) -> list[tuple[F64, F64]]:
     """Central differences of ``columns`` of the Jacobian, in one call.
 
-    Each column (T, W); ``steps`` (T,) per column (0: an exact input, its column 0).
+    Each column's derivative (T, W) and, with the estimate at ``x`` (``centre`` (T, W)),
+    its curvature ``f(x + h) + f(x - h) - 2 f(x)`` (else zero); ``steps`` (T,) per column
+    (0: an exact input, its column 0).
     """
     T = x.shape[0]
     K = len(columns)
@@ -350,7 +412,9 @@ def _difference_columns(
     with np.errstate(invalid="ignore", divide="ignore"):
         est = estimate(batch.reshape(2 * K * T, *x.shape[1:])).reshape(2, K, T, -1)
         col = (est[0] - est[1]) / (2.0 * step[..., None])  # (K, T, W)
-    return [np.where((h[k] > 0)[:, None], col[k], 0.0) for k in range(K)]
+        curve = np.zeros_like(col) if centre is None else est[0] + est[1] - 2.0 * centre[None]
+    used = (h > 0)[..., None]
+    return [(np.where(used[k], col[k], 0.0), np.where(used[k], curve[k], 0.0)) for k in range(K)]
 
 
 #: What :func:`dominant_input` names: ``variance_by_group``'s last axis in its order, then

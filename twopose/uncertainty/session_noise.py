@@ -29,7 +29,7 @@ from twopose.uncertainty.blunders import (
 from twopose.uncertainty.misclosure import Misclosure, misclosures
 from twopose.uncertainty.noise import MIN_PLACING_DOF, NoiseModel, VarianceFactor, region_quantile
 from twopose.uncertainty.placing_variance import Flags, SessionNoise, flag_trials, posterior
-from twopose.uncertainty.propagate import PLACING, Shared, region_dof
+from twopose.uncertainty.propagate import PLACING, Propagated, Shared, region_dof
 from twopose.values.units import Units
 
 if TYPE_CHECKING:
@@ -55,6 +55,7 @@ __all__ = [
     "noise_of",
     "operator_group",
     "placed",
+    "placing_parts",
     "placing_sigma",
     "placing_sigmas",
     "placing_source",
@@ -255,6 +256,21 @@ def placed(cov_in: F64, factor: VarianceFactor | None) -> F64:
     out = cov_in.copy()
     out[..., PLACING, PLACING] *= factor.placing_variance
     return out
+
+
+def placing_parts(propagated: Propagated, cov_in: F64) -> tuple[F64, F64]:
+    """(R, W, W) twice: what the typed translations' covariance gives of an estimate.
+
+    Its first-order part (in proportion to the placing variance) and its second-order part
+    (:attr:`~twopose.uncertainty.propagate.Propagated.curvature`: to its square).
+    """
+    J = propagated.jacobian[..., PLACING]
+    first = np.einsum("tinj,tnjk,tlnk->til", J, cov_in[..., PLACING, PLACING], J)
+    c = propagated.curvature
+    if c is None:
+        return np.asarray(first), np.zeros_like(first)
+    second = np.einsum("tink,tjnk->tij", c[..., PLACING], c[..., PLACING])
+    return np.asarray(first), np.asarray(second)
 
 
 def region_multipliers(
