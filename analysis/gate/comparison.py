@@ -403,7 +403,7 @@ def describe_test(row: pd.Series) -> str:
     interval = (
         f" (95% CI {row['ci95_low']:+.3g} to {row['ci95_high']:+.3g})"
         if math.isfinite(row["ci95_low"])
-        else f" (no interval: {too_few_for_interval(n)})"
+        else f" (no interval: {too_few_for_interval(n, unit.noun, unit.plural)})"
     )
     return (
         f"{what}: {n} shared {shared}; B - A mean error {row['mean_diff']:+.3g} "

@@ -26,7 +26,7 @@ from analysis.session.metrics import (
     summarize,
     too_few_for_interval,
 )
-from analysis.tables.row_units import rows_word
+from analysis.tables.row_units import row_unit, rows_word
 from twopose.methods.specs import label_of
 from twopose.uncertainty.blunders import EXPLAINS_LEVEL, TARGET_LEVEL, TRUTH_LEVEL
 from twopose.uncertainty.noise import FACTOR_TEST_LEVEL, MIN_PLACING_DOF, TYPED_PRIOR_DOF
@@ -159,6 +159,8 @@ def noise_phrases(row: pd.Series) -> list[str]:
 
     if "sigma0_dof" not in row or pd.isna(row["sigma0_dof"]):
         return []
+    if row_unit(row.get("cameras", 1)).cameras == 2:  # a pair's touches: no pose is typed
+        return []
     sigma = row.get("placing_sigma", math.nan)
     said = str(row.get("placing_source", "") or "typed")
     source = said.split(", times ")[0]
@@ -228,11 +230,14 @@ def share(value: object) -> str:
     return f"{100 * value:.0f}%"
 
 
-def _interval(low: object, high: object, n_used: int) -> str:
-    """An interval, or why there is none (too few trials: :data:`MIN_INTERVAL_TRIALS`)."""
+def _interval(low: object, high: object, n_used: int, cameras: object = 1) -> str:
+    """An interval, or why there is none (too few trials, or a two-camera session's
+    touches: :data:`MIN_INTERVAL_TRIALS`)."""
     if number(low) != "-":
         return f"{number(low)} to {number(high)}"
-    return f"none ({too_few_for_interval(n_used)})" if 0 < n_used < MIN_INTERVAL_TRIALS else "-"
+    unit = row_unit(cameras)
+    few = too_few_for_interval(n_used, unit.noun, unit.plural)
+    return f"none ({few})" if 0 < n_used < MIN_INTERVAL_TRIALS else "-"
 
 
 def _plus_minus(value: object, half: object, n_used: int) -> str:
@@ -268,7 +273,9 @@ def readable(table: pd.DataFrame, *, include_warned: bool = False) -> pd.DataFra
         n_used = int(r["n_used"])
         row |= {
             f"RMSE{u}": number(r["rmse"]),
-            f"RMSE 95% interval{u}": _interval(r["rmse_ci95_low"], r["rmse_ci95_high"], n_used),
+            f"RMSE 95% interval{u}": _interval(
+                r["rmse_ci95_low"], r["rmse_ci95_high"], n_used, r.get("cameras", 1)
+            ),
             f"median{u}": number(r["median_err"]),
             f"largest{u}": number(r["max_err"]),
             _WITHIN.format(one) if one else _WITHIN_MIXED: share(r["within_1"]),

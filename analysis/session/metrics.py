@@ -260,9 +260,10 @@ _T95 = [
 MIN_INTERVAL_TRIALS = 5
 
 
-def too_few_for_interval(n: int) -> str:
-    """Why no interval is shown over ``n`` trials (fewer than :data:`MIN_INTERVAL_TRIALS`)."""
-    return f"{n} trial{'' if n == 1 else 's'}: an interval needs {MIN_INTERVAL_TRIALS}"
+def too_few_for_interval(n: int, noun: str = "trial", plural: str = "trials") -> str:
+    """Why no interval is shown over ``n`` trials (fewer than :data:`MIN_INTERVAL_TRIALS`);
+    ``noun``, ``plural``: what the rows are (a two-camera session's: ``touch``, ``touches``)."""
+    return f"{n} {noun if n == 1 else plural}: an interval needs {MIN_INTERVAL_TRIALS}"
 
 
 def t95(dof: int) -> float:

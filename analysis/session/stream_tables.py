@@ -191,7 +191,8 @@ def _pair_metadata(session: PairSession, parts: list[PairSession] | None = None)
     n_trials = sum(len(p.trials) for p in parts)
     in_parts = f" in {len(parts)} parts" if len(parts) > 1 else ""
     said = (
-        "none recorded (measured per trial by the ray gap)"
+        "none recorded (measured per trial from its frames: a flash where one was fired, "
+        "and the rays' gap)"
         if offset is None
         else f"{offset.offset_ns / 1e6:.3f} ms ± {offset.sigma_ns / 1e6:.3f} ms ({offset.method})"
     )

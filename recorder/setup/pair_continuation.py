@@ -71,7 +71,7 @@ def pair_differs(stored: PairCalibration, given: PairCalibration) -> str:
         moved = float(np.linalg.norm(other.t_2_in_1 - stored.t_2_in_1))
         turn = other.R_2_to_1 @ stored.R_2_to_1.T
         angle = float(np.degrees(np.arccos(np.clip((np.trace(turn) - 1) / 2, -1.0, 1.0))))
-        said.append(f"camera 2's pose (by {shown(moved)} {stored.units} and {angle:.3g} deg)")
+        said.append(f"camera 2's pose (by {moved:.3g} {stored.units} and {angle:.3g} deg)")
     if not _same(other.cov_extrinsic, stored.cov_extrinsic):
         said.append("the pose's covariance")
     floor, kept = other.floor, stored.floor
