@@ -63,7 +63,7 @@ def test_the_fourth_suggestion_at_large_reach_keeps_the_finger_off_the_blue_disk
     rng = np.random.default_rng(1)
     reach = Reach(radius=254.0, spacing=0.2)
     views = [_view(points, (0.0, 0.0, 0.0), 1, rng)]
-    said = []
+    said, moved = [], []
     for _ in range(4):
         trial = SessionTrials(method=Method.LINE, units=Units.CM, trial_ids=(1,), views=[views],
                               truth=points[None], ground=None)  # fmt: skip
@@ -76,14 +76,18 @@ def test_the_fourth_suggestion_at_large_reach_keeps_the_finger_off_the_blue_disk
         here = np.asarray(found.t_grid)[None]
         assert not over_clutter(template_view(views), here, target, Units.CM, clutter,
                                 lines=True)[0]  # fmt: skip
+        # Without the clutter: where the suggestion would have put the finger
+        blind, _ = plan_next(trial, reach, point=point)
+        assert blind is not None
+        moved.append(bool(over_clutter(template_view(views), np.asarray(blind.t_grid)[None],
+                                       target, Units.CM, clutter, lines=True)[0]))  # fmt: skip
         said.append(found)
         views.append(_view(points, found.t_grid, len(views) + 1, rng))
-    # Without the clutter, the fourth is the (12, 0, 5) cm: over the blue disk.
-    blind, _ = plan_next(trial, reach, point=point)
-    assert blind is not None
-    assert blind.t_grid == pytest.approx((12.0, 0.0, 5.0), abs=0.5)
-    assert over_clutter(template_view(views[:-1]), np.asarray(blind.t_grid)[None], target,
-                        Units.CM, clutter, lines=True)[0]  # fmt: skip
+    # At least one suggestion would have shown the finger over the blue disk without the
+    # clutter known (the fourth, (12, 0, 5) cm, with the glove's floor at 0.1 px;
+    # the floor measured in the pair's geometry, 0.15 px, moves which one): the clutter is
+    # what moved it off.
+    assert any(moved), moved
     # The fourth suggestion left poses out for the clutter, and says where it is known from.
     fourth = said[-1]
     assert dict(fourth.left_out).get(CLUTTER, 0) > 0
