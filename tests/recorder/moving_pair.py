@@ -12,6 +12,8 @@ stay, from the files' start.
 
 from __future__ import annotations
 
+import signal
+import subprocess
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -105,3 +107,16 @@ def timed_keys(keys: Sequence[tuple[float, str]]) -> Callable[[], str]:
         return line + "\n" if pause else ""
 
     return readline
+
+
+def killed_while_streaming(process: subprocess.Popen[str], after_s: float = 3.0) -> float:
+    """kill -9 ``process`` (a recording) ``after_s`` into its trial's stream; how long
+    after the stream began it died (s)."""
+    from tests.helpers import read_line_when_printed
+
+    read_line_when_printed(process, "streaming", "the trial's stream")
+    streamed = time.monotonic()
+    time.sleep(after_s)
+    process.send_signal(signal.SIGKILL)
+    process.wait(timeout=30)
+    return time.monotonic() - streamed

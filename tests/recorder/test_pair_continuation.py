@@ -10,7 +10,6 @@ one/two-camera continuations and another pair are refused in words.
 
 from __future__ import annotations
 
-import signal
 import subprocess
 import time
 from pathlib import Path
@@ -29,6 +28,7 @@ from tests.helpers import RECORD, read_line_when_printed
 from tests.recorder.moving_pair import (
     PHASE_S,
     MovingPair,
+    killed_while_streaming,
     moving_pair,
     timed_keys,
     write_moving_pair,
@@ -202,12 +202,7 @@ def test_kill_9_of_a_continuation_loses_at_most_its_open_window(
          "--plan", str(plan)],
         stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
     )  # fmt: skip
-    read_line_when_printed(process, "streaming", "the trial's stream")
-    streamed = time.monotonic()
-    time.sleep(3.0)
-    process.send_signal(signal.SIGKILL)
-    process.wait(timeout=30)
-    killed_after = time.monotonic() - streamed
+    killed_after = killed_while_streaming(process)
     fixed = tmp_path / "fixed.mcap"
     assert recover_session(out, fixed).closed_windows == 2
     session = _session(fixed)

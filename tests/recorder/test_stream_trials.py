@@ -24,6 +24,7 @@ from tests.helpers import RECORD, read_line_when_printed
 from tests.recorder.moving_pair import (
     PHASE_S,
     MovingPair,
+    killed_while_streaming,
     moving_pair,
     timed_keys,
     write_moving_pair,
@@ -205,12 +206,7 @@ def test_recover_after_kill_9_of_new_pair_loses_at_most_the_open_window(
     process = _record(
         moving, out, "--plan", str(_plan(moving, tmp_path, keyed=None, duration=None))
     )
-    read_line_when_printed(process, "streaming", "the trial's stream")
-    streamed = time.monotonic()
-    time.sleep(3.0)
-    process.send_signal(signal.SIGKILL)
-    process.wait(timeout=30)
-    killed_after = time.monotonic() - streamed
+    killed_after = killed_while_streaming(process)
     fixed = tmp_path / "fixed.mcap"
     report = recover_session(out, fixed)
     assert report.closed_windows == 2  # each camera's window in progress
