@@ -18,6 +18,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -120,3 +121,32 @@ def killed_while_streaming(process: subprocess.Popen[str], after_s: float = 3.0)
     process.send_signal(signal.SIGKILL)
     process.wait(timeout=30)
     return time.monotonic() - streamed
+
+
+@dataclass(frozen=True)
+class ConsoleOf:
+    """A recording's console over HTTP (``new ... --ui`` run as ``process``)."""
+
+    client: Any
+
+    @classmethod
+    def of(cls, process: subprocess.Popen[str]) -> ConsoleOf:
+        """The console whose address ``process`` prints, its page read (the session's token)."""
+        import httpx
+
+        from tests.helpers import read_line_when_printed
+
+        line, _ = read_line_when_printed(process, "http://", "the console's address")
+        client = httpx.Client(base_url=line.split()[2], timeout=10)
+        client.get("/")
+        return cls(client)
+
+    def state_when(self, waiting: str) -> dict[str, object]:
+        """The console's state once it waits for ``waiting`` (fails after 10 s)."""
+        state: dict[str, object] = {}
+        for _ in range(400):
+            state = self.client.get("/api/state").json()
+            if state["waiting"] == waiting:
+                return state
+            time.sleep(0.025)
+        raise AssertionError(f"never offered {waiting}: {state}")

@@ -24,9 +24,10 @@ from recorder.procedure.stream_terminal import KeyReader, record_pair
 from recorder.procedure.terminal import Operator
 from recorder.setup.continuation import read_continued
 from tests.conftest import built_once
-from tests.helpers import RECORD, read_line_when_printed
+from tests.helpers import RECORD
 from tests.recorder.moving_pair import (
     PHASE_S,
+    ConsoleOf,
     MovingPair,
     killed_while_streaming,
     moving_pair,
@@ -225,7 +226,6 @@ def test_the_console_continues_a_pair_session(
 ) -> None:
     """``new --continue S.mcap --source pair:A,B --ui``: the page says what it continues,
     offers trial 2, and its touch is recorded in trial 2."""
-    import httpx
 
     out = tmp_path / "console.mcap"
     process = subprocess.Popen(
@@ -234,17 +234,8 @@ def test_the_console_continues_a_pair_session(
         stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
     )  # fmt: skip
     try:
-        line, _ = read_line_when_printed(process, "http://", "the console's address")
-        client = httpx.Client(base_url=line.split()[2], timeout=10)
-        client.get("/")
-
-        def state_when(waiting: str) -> dict[str, object]:
-            for _ in range(400):
-                state: dict[str, object] = client.get("/api/state").json()
-                if state["waiting"] == waiting:
-                    return state
-                time.sleep(0.025)
-            raise AssertionError(f"never offered {waiting}: {state}")
+        console = ConsoleOf.of(process)
+        client, state_when = console.client, console.state_when
 
         offered = state_when("trial")
         assert any(f"Continuing {first.name} after trial 1" in n for n in offered["notices"])  # type: ignore[attr-defined]

@@ -23,6 +23,7 @@ from tests.conftest import built_once
 from tests.helpers import RECORD, read_line_when_printed
 from tests.recorder.moving_pair import (
     PHASE_S,
+    ConsoleOf,
     MovingPair,
     killed_while_streaming,
     moving_pair,
@@ -235,17 +236,8 @@ def test_the_console_streams_a_trial_start_touch_end_stop(
     process = _record(
         moving, out, "--ui", "--method", "point", "--units", "in", "--operator", "Ada"
     )
-    line, _ = read_line_when_printed(process, "http://", "the console's address")
-    client = httpx.Client(base_url=line.split()[2], timeout=10)
-    client.get("/")  # the page: the session's token
-
-    def state_when(waiting: str) -> dict[str, object]:
-        for _ in range(400):
-            state: dict[str, object] = client.get("/api/state").json()
-            if state["waiting"] == waiting:
-                return state
-            time.sleep(0.025)
-        raise AssertionError(f"never offered {waiting}: {state}")
+    console = ConsoleOf.of(process)  # the page read: the session's token
+    client, state_when = console.client, console.state_when
 
     def act(**body: str) -> httpx.Response:
         return client.post("/api/stream", json=body)
