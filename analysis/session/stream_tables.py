@@ -128,7 +128,9 @@ def analyse_pair_session(
         label=identity.label,
         metadata=metadata,
         frames=with_branch(frames, identity, stream_part),
-        trials=with_identity(rows, identity, part_of),
+        # No rig file applies to a pair (it corrects typed poses): its columns empty, as
+        # documented, and there whatever else the run holds.
+        trials=with_identity(rows.assign(rig_file="", rig_sha256=""), identity, part_of),
         averaging=with_branch(averaging, identity, part_of),
         views=with_branch(views, identity, stream_part),
     )

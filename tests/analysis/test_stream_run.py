@@ -200,6 +200,10 @@ def test_the_line_and_ground_methods_take_the_same_path(tmp_path: Path) -> None:
     line = t[t["method"] == "line"]
     np.testing.assert_allclose(line["dist_err"], line["err"])
     assert violations(t) == []
+    # A run of two-camera sessions alone has every column the docs list for every method
+    # (a new user's finding: rig_file and rig_sha256 were missing, a KeyError in a script
+    # that worked on a folder holding a one-camera session too); no rig file applies.
+    assert (t[["rig_file", "rig_sha256"]] == "").all().all()
 
 
 def test_a_touch_outside_the_stream_is_a_row_saying_so(mixed: Path) -> None:
