@@ -420,6 +420,8 @@ def record_pair(  # noqa: PLR0913 - what new --pair takes
         from recorder.procedure.new_session import say_fork
 
         say_fork(continued)
+    if pair.check is not None and not pair.check.passed:  # recorded, and said before it is
+        op.say(f"warning: {pair.check.unconfirmed()}")
     cameras = pair_cameras(pair)
     info = setup.info(notes or (plan.notes if plan is not None else ""))
     driver = TerminalStreamDriver(
