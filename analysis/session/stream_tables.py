@@ -309,7 +309,40 @@ def touch_rows(
     table["misclosure_dof"] = 0
     table["suspect_pose"] = 0
     table["nees_dof"] = table["nees_dof"].fillna(0)
+    table = _truth_flags(table, parts[0].info.units)
     return typed(table.drop(columns=[c for c in _IDENTITY if c in table]))
+
+
+def _truth_flags(table: pd.DataFrame, units: Units) -> pd.DataFrame:
+    """Each touch against its own truth, as a one-camera trial is
+    (:func:`twopose.uncertainty.blunders.scored_truth_tests`: NEES beyond chi-square's 0.1%
+    quantile): ``flagged`` (empty where untested: no estimate or no region),
+    ``flagged_by`` and the words. A touch marked as the target moved is such a row."""
+    from twopose.uncertainty.blunders import FLAGGED_BY, far_from_truth, scored_truth_tests
+
+    error = table[["err_x", "err_y", "err_z"]].to_numpy(dtype=np.float64)
+    test = scored_truth_tests(
+        error, table["nees"].to_numpy(dtype=np.float64), table["nees_dof"].to_numpy(dtype=int)
+    )
+    tested = test.dof > 0
+    causes = (
+        "the moment it was marked (a key pressed as the target moved), the grid point, or "
+        "the detection is off: check when and where the touch was marked"
+    )
+    out = table.copy()
+    out["flagged"] = pd.array([bool(f) if t else None for f, t in zip(test.flagged, tested,
+                               strict=True)], dtype="boolean")  # fmt: skip
+    out["flagged_by"] = np.where(test.flagged, FLAGGED_BY[2], "")
+    sigmas = np.sqrt(test.nees)
+    out["disagreement"] = [
+        far_from_truth(
+            test.off[k], sigmas[k], int(test.axis[k]), units, noun="touch", causes=causes
+        )
+        if test.flagged[k]
+        else ""
+        for k in range(len(table))
+    ]
+    return out
 
 
 def _part_cells(pair: PairCalibration) -> Callable[[dict[str, Any]], dict[str, Any]]:

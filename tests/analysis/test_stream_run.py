@@ -355,3 +355,39 @@ def test_a_pairs_leave_one_out_check_is_said_where_its_covariance_is_used(
         assert notes.str.contains(sentence, regex=False).all()
         assert sentence in " ".join(said.split())
         assert sentence in result.sessions[0].metadata["two_cameras"]
+
+
+def test_a_touch_far_from_its_truth_is_flagged_by_its_truth(mixed: Path, tmp_path: Path) -> None:
+    """A new user's finding: a touch marked 0.3 s late (the target already on its way to the
+    next point) lay 45 sigma from its grid point and nothing flagged it; a one-camera trial
+    that far is flagged by its truth."""
+    import dataclasses
+
+    from tests.helpers import rewrite_session
+    from twopose.format.entries import decode_entry, encode_entry
+    from twopose.format.stream_entries import Touch
+
+    def late(topic: str, data: bytes) -> bytes:
+        if topic != "/twopose/touch":
+            return data
+        touch = decode_entry(Touch.SCHEMA_NAME, data)
+        assert isinstance(touch, Touch)
+        if touch.touch != 2:
+            return data
+        return encode_entry(dataclasses.replace(touch, time_ns=touch.time_ns + 300_000_000))
+
+    session = rewrite_session(mixed / "pair.mcap", tmp_path / "late.mcap", edit=late)
+    result = analysis.run([session])
+    t = result.trials.set_index("trial")
+    assert t.loc[2, "status"] == "ok"
+    assert t.loc[2, "flagged"]
+    assert t.loc[2, "flagged_by"] == "truth"
+    assert t.loc[2, "disagreement"].startswith("this touch's estimate lies ")
+    assert "check when and where the touch was marked" in t.loc[2, "disagreement"]
+    assert t.loc[2, "nees"] > 100 * t.drop(index=2)["nees"].max()
+    assert t["flagged"].notna().all()  # every touch tested: it has a truth and a region
+    assert int(result.summary["n_flagged"].iloc[0]) == int(t["flagged"].sum())
+    printed = CliRunner().invoke(app, ["run", str(session), "--out", str(tmp_path / "r")])
+    assert "flagged: trial 1, touch 2 (by its truth): this touch's estimate" in " ".join(
+        printed.output.split()
+    )
