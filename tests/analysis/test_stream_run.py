@@ -346,6 +346,10 @@ def test_a_pairs_leave_one_out_check_is_said_where_its_covariance_is_used(
     assert result.errors.empty, result.errors
     notes = result.trials["notes"]
     said = CliRunner().invoke(app, ["info", str(session)], env={"COLUMNS": "200"}).output
+    row = next(line for line in said.splitlines() if "checked.mcap" in line and "│" in line)
+    cells = [c.strip() for c in row.split("│")]
+    # stream trials type no pose and open no capture (it read "poses 0, captures 12")
+    assert cells[6:8] == ["-", "-"], row
     if passed:
         assert not notes.str.contains("not confirmed").any()
         assert "its covariance confirmed by leave-one-out" in " ".join(said.split())
