@@ -279,9 +279,12 @@ def test_an_enter_read_with_the_input_end_still_takes_its_keyed_point(tmp_path: 
     said: list[str] = []
     driver = TerminalStreamDriver(said.append, keys, Units.IN, plan)
     driver.streaming(1)
-    assert [e.point for e in driver.events()] == [None]
+    events = driver.events()
+    # the Enter's touch first; then, the trial having no duration, the end of it all
+    assert [(e.kind, e.point) for e in events] == [("touch", None), ("quit", None)]
     assert driver.next_point(1) == (1.0, 2.0, 9.0)
     assert any("the input ended: 1 keyed touch(es)" in line for line in said), said
+    assert any("the trial and the session end here" in line for line in said), said
 
 
 def test_a_pair_whose_check_failed_records_with_a_warning_said_first(
