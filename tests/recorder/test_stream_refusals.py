@@ -331,3 +331,25 @@ def test_a_plan_trial_without_duration_and_nobody_at_the_input_ends(
     assert f"the trial and the session end {when}" in said
     assert ("1 touch (1 by schedule)" in said) is scheduled
     assert out.exists()
+
+
+def test_the_console_says_a_trial_is_closing_while_its_offset_is_measured(tmp_path: Path) -> None:
+    """A new user's finding: a start pressed in the second after end (the trial's offset
+    being measured) was refused with the last trial's summary as its reason."""
+    from recorder.console.state import ConsoleSession
+    from recorder.console.stream_driver import WebStreamDriver, begin_pair, stream_answer
+    from recorder.procedure.stream import TrialEnd
+
+    session = ConsoleSession(tmp_path / "s.mcap")
+    setup = PairSetup(method=Method.POINT, units=Units.IN, operator="Ada")
+    begin_pair(session, setup, setup.session_pair(thesis_pair()))
+    driver = WebStreamDriver(session)
+    driver.streaming(1)
+    session.update(waiting="")  # the recorder took the end: it offers nothing now
+    driver.trial_ended(TrialEnd(trial=1, why="end", n_frames=(184, 183), touches=()))
+    why, _ = stream_answer(session, {"action": "start"}, 5)
+    assert why.startswith("not now: trial 1 is closing (the clocks' offset is being measured")
+    assert "frames 184 + 183" not in why
+    driver.offset(1, None, "")
+    why, _ = stream_answer(session, {"action": "start"}, 5)
+    assert "is closing" not in why
