@@ -438,10 +438,8 @@ def record_pair(  # noqa: PLR0913 - what new --pair takes
     if plan is not None:
         refuse_off_floor(plan, pair)
     src = open_pair_source(source, pair, setup, fps=fps)
-    if continued is not None:
-        from recorder.procedure.new_session import say_fork
-
-        say_fork(continued)
+    if continued is not None and continued.fork_warning is not None:  # said once, checked
+        op.say(f"warning: {continued.fork_warning}")
     if pair.check is not None and not pair.check.passed:  # recorded, and said before it is
         op.say(f"warning: {pair.check.unconfirmed()}")
     cameras = pair_cameras(pair)
