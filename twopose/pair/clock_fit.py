@@ -7,10 +7,9 @@ place) averages the jitter out instead of letting it enter every frame.
 camera's frames up to it and itself (the last :data:`CAUSAL_WINDOW`, since the last gap of
 more than :data:`MAX_GAP_INTERVALS` intervals), so that a live pairing and a replay of the
 same stamps (:func:`causal_times`) give every frame the same time: what frames are paired
-on (:mod:`twopose.pair.pairing`). Rounding a stamp to its frame's slot on the line can only
-bring it nearer its true instant, so a fitted time is off by at most its stamp's error plus
-the line's own; where the line does not hold (too few frames, stamps too irregular for
-frame numbers) the stamp is used as it is.
+on (:mod:`twopose.pair.pairing`). A frame whose slot on the line is in doubt, and every
+frame where the line does not hold (too few frames, stamps too irregular for frame
+numbers), keeps its stamp.
 :class:`ClockOffset`: what :mod:`twopose.pair.clock` measures. No I/O.
 """
 
@@ -52,7 +51,7 @@ CAUSAL_WINDOW = 150
 #: error times the gap).
 MAX_GAP_INTERVALS = 16
 #: A causal fit needs this many frames (fewer: the stamps as they are).
-CAUSAL_MIN_FRAMES = 4
+CAUSAL_MIN_FRAMES = 12
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -146,33 +145,35 @@ class CausalClock:
     its fitted time: a line ``t = a + b k`` through the frames since the last long gap (at
     most the last :data:`CAUSAL_WINDOW`, the newest included), read at the newest frame's
     number k. The numbers come from :func:`regular_times` until its fit holds (within
-    :data:`CAUSAL_JITTER_SHARE`), then each new frame takes the slot the line puts it in
-    (after the last one's) and the line is fitted again. With fewer than
-    :data:`CAUSAL_MIN_FRAMES` frames, or stamps too irregular for the line, the stamp is the
-    time. Fitted times increase strictly (a fit that moved back gives the last time plus
-    1 ns).
+    :data:`CAUSAL_JITTER_SHARE`, no frame's slot in doubt), then each new frame takes the slot the line puts it in
+    (after the last one's) and the line is fitted again. A frame whose slot is in doubt (its
+    stamp within three of the line's 1-sigmas of half an interval from it: the next slot
+    could be its own) keeps its stamp and stays out of the line, since a wrong slot would
+    put it a whole interval off. With fewer than :data:`CAUSAL_MIN_FRAMES` frames, or stamps
+    too irregular for the line, the stamp is the time. Fitted times increase strictly (a fit
+    that moved back gives the last time plus 1 ns).
     """
 
     def __init__(self) -> None:
         self._stamps: deque[int] = deque(maxlen=CAUSAL_WINDOW)
         self._frame: deque[float] | None = None  # the window's frame numbers, once fitted
-        self._line = (0.0, 0.0)  # a, b of the last fit, from the window's first stamp
+        self._line = (0.0, 0.0, 0.0)  # a, b and the stamps' scatter of the last fit
         self._last: int | None = None
+        self._latest: int | None = None  # the last stamp given (in the window or not)
 
     def add(self, t_ns: int) -> int:
         """The next stamp in (after the last), its fitted time out (integer ns)."""
         t = int(t_ns)
-        stamps = self._stamps
-        if stamps and t <= stamps[-1]:
+        if self._latest is not None and t <= self._latest:
             raise InputValueError(
-                f"a camera's capture times must increase: {t} ns came after {stamps[-1]} ns"
+                f"a camera's capture times must increase: {t} ns came after {self._latest} ns"
             )
-        if len(stamps) >= 2 and t - stamps[-1] > MAX_GAP_INTERVALS * self._interval():
+        stamps = self._stamps
+        if self._latest is not None and t - self._latest > MAX_GAP_INTERVALS * self._interval():
             stamps.clear()  # a new stretch of frames: its own fit
             self._frame = None
-        rolled = stamps[0] if len(stamps) == stamps.maxlen else None
-        stamps.append(t)
-        fitted = self._fitted(rolled)
+        self._latest = t
+        fitted = self._fitted(t)
         if self._last is not None and fitted <= self._last:
             fitted = self._last + 1
         self._last = fitted
@@ -181,37 +182,54 @@ class CausalClock:
     def _interval(self) -> float:
         if self._frame is not None:
             return self._line[1]
+        if len(self._stamps) < 2:
+            return float("inf")
         return float(np.median(np.diff(np.fromiter(self._stamps, np.int64, len(self._stamps)))))
 
-    def _fitted(self, rolled: int | None) -> int:
-        """The newest stamp's fitted time (``rolled``: the stamp that left the window)."""
-        stamps, t = self._stamps, self._stamps[-1]
+    def _fitted(self, t: int) -> int:
+        """The stamp ``t``'s fitted time, the window and its line updated."""
+        stamps = self._stamps
+        if self._frame is not None:
+            slot = self._slot(t)
+            if slot is None:  # its slot is in doubt: its stamp, kept out of the line
+                return t
+            stamps.append(t)
+            self._frame.append(slot)
+        else:
+            stamps.append(t)
         if len(stamps) < CAUSAL_MIN_FRAMES:
             return t
         origin = stamps[0]
         x = (np.fromiter(stamps, np.int64, len(stamps)) - origin).astype(np.float64)
         if self._frame is None:
             fit = regular_times(x, max_jitter_share=CAUSAL_JITTER_SHARE)
-            if not fit.regular:
-                return t
+            doubt = 0.5 * fit.interval_ns - 3.0 * fit.sigma_ns  # as :meth:`_slot`'s
+            if not fit.regular or (np.abs(x - fit.times_ns) > doubt).any():
+                return t  # some frame's slot is in doubt: not numbered yet
             self._frame = deque(fit.frame.tolist(), maxlen=CAUSAL_WINDOW)
-        else:
-            a, b = self._line
-            if rolled is not None:  # the line's origin moved with the window's first stamp
-                a -= origin - rolled
-            frame = self._frame
-            frame.append(max(frame[-1] + 1.0, float(np.round((x[-1] - a) / b))))
         k = np.fromiter(self._frame, np.float64, len(self._frame))
-        k = k - k[0]
         (a, b), *_ = np.linalg.lstsq(np.column_stack([np.ones_like(k), k]), x, rcond=None)
         residual = x - (a + b * k)
         jitter = float(np.sqrt((residual**2).sum() / max(x.size - 2, 1)))
         if not (b > 0 and jitter <= CAUSAL_JITTER_SHARE * b):
             self._frame = None  # the line does not hold: numbered anew from the next frame
             return t
-        self._frame = deque(k.tolist(), maxlen=CAUSAL_WINDOW)
-        self._line = (float(a), float(b))
+        self._line = (float(a) + origin, float(b), jitter)  # a on the stamps' own clock
         return origin + round(float(a + b * k[-1]))
+
+    def _slot(self, t: int) -> float | None:
+        """The frame number the line puts stamp ``t`` at, or None when it is in doubt:
+        after the last frame's, and its stamp nearer it than half an interval by three of
+        the line's 1-sigmas there (else the next slot could be its own)."""
+        a, b, jitter = self._line
+        assert self._frame is not None
+        slot = float(np.round((t - a) / b))
+        k = np.fromiter(self._frame, np.float64, len(self._frame))
+        spread = max(float(((k - k.mean()) ** 2).sum()), 1e-300)
+        sigma = jitter * np.sqrt(1.0 / k.size + (slot - k.mean()) ** 2 / spread)
+        if slot <= k[-1] or abs(t - (a + b * slot)) > 0.5 * b - 3.0 * sigma:
+            return None
+        return slot
 
 
 def causal_times(t_ns: ArrayLike) -> Ints:
