@@ -145,13 +145,14 @@ class CausalClock:
     its fitted time: a line ``t = a + b k`` through the frames since the last long gap (at
     most the last :data:`CAUSAL_WINDOW`, the newest included), read at the newest frame's
     number k. The numbers come from :func:`regular_times` until its fit holds (within
-    :data:`CAUSAL_JITTER_SHARE`, no frame's slot in doubt), then each new frame takes the slot the line puts it in
-    (after the last one's) and the line is fitted again. A frame whose slot is in doubt (its
-    stamp within three of the line's 1-sigmas of half an interval from it: the next slot
-    could be its own) keeps its stamp and stays out of the line, since a wrong slot would
-    put it a whole interval off. With fewer than :data:`CAUSAL_MIN_FRAMES` frames, or stamps
-    too irregular for the line, the stamp is the time. Fitted times increase strictly (a fit
-    that moved back gives the last time plus 1 ns).
+    :data:`CAUSAL_JITTER_SHARE`, no frame's slot in doubt), then each new frame takes the
+    slot the line puts it in (after the last one's) and the line is fitted again. A frame
+    whose slot is in doubt (its stamp within three of the line's 1-sigmas of half an
+    interval from it: the next slot could be its own) keeps its stamp and stays out of the
+    line, since a wrong slot would put it a whole interval off. With fewer than
+    :data:`CAUSAL_MIN_FRAMES` frames, or stamps too irregular for the line, the stamp is the
+    time. Fitted times increase strictly (a fit that moved back gives the last time plus
+    1 ns).
     """
 
     def __init__(self) -> None:
@@ -218,9 +219,11 @@ class CausalClock:
         return origin + round(float(a + b * k[-1]))
 
     def _slot(self, t: int) -> float | None:
-        """The frame number the line puts stamp ``t`` at, or None when it is in doubt:
-        after the last frame's, and its stamp nearer it than half an interval by three of
-        the line's 1-sigmas there (else the next slot could be its own)."""
+        """The frame number the line puts stamp ``t`` at, or None when it is in doubt.
+
+        In doubt unless after the last frame's, and its stamp nearer it than half an
+        interval by three of the line's 1-sigmas there (else the next slot could be its own).
+        """
         a, b, jitter = self._line
         assert self._frame is not None
         slot = float(np.round((t - a) / b))
@@ -233,8 +236,10 @@ class CausalClock:
 
 
 def causal_times(t_ns: ArrayLike) -> Ints:
-    """(N,) int64 a camera's stamps' fitted times as :class:`CausalClock` gives them live,
-    frame by frame in order (the stamps strictly increasing, integer nanoseconds)."""
+    """(N,) int64 a camera's stamps' fitted times, as :class:`CausalClock` gives them live.
+
+    Frame by frame in order (the stamps strictly increasing, integer nanoseconds).
+    """
     t = np.asarray(t_ns).reshape(-1)
     if t.size and not np.isfinite(t).all():
         raise InputValueError("a camera's capture times must be finite numbers")

@@ -49,13 +49,13 @@ def test_the_stream_estimate_pairs_on_the_fitted_clocks() -> None:
         rng = np.random.default_rng(seed)
         one, two, t1, t2 = _clocks(rng, jitter_ms=2.0, drift_ppm=100.0, drop=0.05,
                                    offset_ms=12.5, seconds=3.0)  # fmt: skip
-        tracks = [
+        track1, track2 = (
             observe(pair, motion, Frames(true_s=f.true_s, stamps_ns=t), n, line=False)
             for n, (f, t) in enumerate(((one, t1), (two, t2)), start=1)
-        ]
+        )
         offset = ClockOffset(offset_ns=12.5e6, sigma_ns=0.0, method="given", n=0)
         noise = StreamNoise(centroid_px=0.25, theta_deg=0.25)
-        est = estimate_stream(Method.POINT, pair, *tracks, offset,
+        est = estimate_stream(Method.POINT, pair, track1, track2, offset,
                               StreamSettings(noise=(noise, noise)))  # fmt: skip
         made = Pairing(i1=est.i1, i2=est.i2, skew_ns=est.skew_ns, slop_ns=1e9 / 60,
                        unpaired1=0, unpaired2=0)  # fmt: skip
@@ -84,7 +84,8 @@ def test_pairs_on_the_fitted_clocks_over_the_simulators_clocks(
         return
     p = pair_captures(t1, t2, offset_ns=offset)
     # Each frame at most once, both cameras' frames in order, none beyond the slop.
-    assert (np.diff(p.i1) > 0).all() and (np.diff(p.i2) > 0).all()
+    assert (np.diff(p.i1) > 0).all()
+    assert (np.diff(p.i2) > 0).all()
     assert (np.abs(p.skew_ns) <= p.slop_ns).all()
     # Live, frame by frame as they were taken (other arrival orders pair alike:
     # tests/twopose/pair/test_live_pairing.py), the same pairs.
