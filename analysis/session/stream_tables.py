@@ -21,9 +21,11 @@ time) and gives each touch a row of ``trials.csv``, as a one-camera trial has:
   interpolating removed, i.e. what the skew between the paired frames cost.
 
 A touch with no estimate about it is a row all the same: ``degenerate`` (the nearest pair
-near-singular, its reason), ``no_detection`` (no pair there), or ``incomplete`` (the trial
-could not be estimated: a camera with no frame, an offset that cannot be measured),
-``reason`` saying why. A session with no touch at all has nothing to compare with the
+near-singular, its reason), ``no_detection`` (a camera did not detect the target in the
+nearest pair), or ``incomplete`` (the trial could not be estimated: a camera with no frame,
+an offset that cannot be measured; a camera with no frame about the touch; or both cameras
+saw the target about it but its frames made too few pairs there), ``reason`` saying why
+and what to do. A session with no touch at all has nothing to compare with the
 truth: it fails, saying so. A stream cut short (a lost window) is said in ``notes``.
 """
 
