@@ -327,6 +327,14 @@ def test_a_two_camera_sessions_rows_are_touches_in_every_word(ran: analysis.RunR
         "no touch usable: none of its 4 touch(es) is ok"
     )
     assert "each ok touch" in session_captions(pair, include_warned=False)["scatter"]
+    # the overview's words over touches alone (a new user's pair-only report said trials)
+    from analysis.report.captions import overview_caption, run_captions
+
+    said = overview_caption(pair, include_warned=False) + " ".join(
+        run_captions(pair, include_warned=False).values()
+    )
+    assert "trial" not in said.replace("error by trial", "").replace("error_by_trial", "")
+    assert "the pair's two cameras'" in said
     assert "each ok trial" in session_captions(one, include_warned=False)["scatter"]
     spec = session_chart("pair", pair, ran.averaging[ran.averaging["cameras"] == 2],
                          ran.views.head(0), unit_text="in")  # fmt: skip
