@@ -249,11 +249,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--keep", default="", help="a folder the sessions are kept in, reused")
     args = ap.parse_args(argv)
-    jobs = [
+    jobs = [  # the methods in turn, the drawn scenes first
         (m.value, 1000 * args.seed + 100 * k + 50 * drawn + s, drawn, args.keep)
-        for k, m in enumerate(METHODS)
-        for drawn, n in ((False, args.own_scene), (True, args.scenes))
+        for drawn, n in ((True, args.scenes), (False, args.own_scene))
         for s in range(n)
+        for k, m in enumerate(METHODS)
     ]
     with ProcessPoolExecutor(args.jobs) as pool:
         rows = pd.DataFrame(list(pool.map(scene_row, jobs)))
