@@ -200,6 +200,10 @@ def test_the_line_and_ground_methods_take_the_same_path(tmp_path: Path) -> None:
     line = t[t["method"] == "line"]
     np.testing.assert_allclose(line["dist_err"], line["err"])
     assert violations(t) == []
+    # A run of two-camera sessions alone has every column the docs list for every method
+    # (a new user's finding: rig_file and rig_sha256 were missing, a KeyError in a script
+    # that worked on a folder holding a one-camera session too); no rig file applies.
+    assert (t[["rig_file", "rig_sha256"]] == "").all().all()
 
 
 def test_a_touch_outside_the_stream_is_a_row_saying_so(mixed: Path) -> None:
@@ -310,3 +314,44 @@ def test_a_two_camera_sessions_rows_are_touches_in_every_word(ran: analysis.RunR
         "only in A: one.mcap (point): trial 2",
         "only in A: pair.mcap (point): touch 3",
     ]
+
+
+@pytest.mark.parametrize("passed", [False, True])
+def test_a_pairs_leave_one_out_check_is_said_where_its_covariance_is_used(
+    mixed: Path, tmp_path: Path, passed: bool
+) -> None:
+    """A new user's finding: a pair whose check FAILED (calibrate-pair: "the covariance is
+    not confirmed") was recorded, described and analysed without a word, its regions
+    resting on the covariance the tool itself declined to vouch for."""
+    import dataclasses
+
+    from tests.helpers import rewrite_session
+    from twopose.format.entries import decode_entry, encode_entry
+    from twopose.format.stream_entries import PairEntry
+
+    worst = 2.1 if passed else 9.5
+    check = {"folds": 13, "spacings": 624, "beyond_3_sigma": 0 if passed else 40,
+             "worst_sigmas": worst, "median_error": 0.01, "median_sigma": 0.02,
+             "jackknife_ratio": [1.0] * 6, "passed": passed}  # fmt: skip
+
+    def checked(topic: str, data: bytes) -> bytes:
+        if topic != "/twopose/pair":
+            return data
+        entry = decode_entry(PairEntry.SCHEMA_NAME, data)
+        assert isinstance(entry, PairEntry)
+        return encode_entry(dataclasses.replace(entry, check=check))
+
+    session = rewrite_session(mixed / "pair.mcap", tmp_path / "checked.mcap", edit=checked)
+    result = analysis.run([session])
+    assert result.errors.empty, result.errors
+    notes = result.trials["notes"]
+    said = CliRunner().invoke(app, ["info", str(session)], env={"COLUMNS": "200"}).output
+    if passed:
+        assert not notes.str.contains("not confirmed").any()
+        assert "its covariance confirmed by leave-one-out" in " ".join(said.split())
+    else:
+        sentence = "the pair's covariance is not confirmed (its leave-one-out check found a "
+        sentence += "held-out spacing 9.5 sigma off, 40 of 624 beyond 3)"
+        assert notes.str.contains(sentence, regex=False).all()
+        assert sentence in " ".join(said.split())
+        assert sentence in result.sessions[0].metadata["two_cameras"]
