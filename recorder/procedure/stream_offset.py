@@ -4,14 +4,16 @@ side).
 Each frame recorded is handed to a detection thread (:class:`OffsetMeter`; the frames'
 writing never waits for it: when it falls :data:`QUEUE_FRAMES` behind, a frame is left
 undetected and counted). It finds the method's target (:func:`twopose.detect.detection.detect`)
-and keeps each camera's centroid track and each frame's brightness with the frames' capture
-times. When a trial ends, the offset is measured from the trial's tracks by the one path
-the analysis also takes (:func:`twopose.pair.trial_offset.measure_trial_offset`): from a
-flash both cameras saw (each camera's brightness, :class:`twopose.pair.trial_offset.
-BrightnessMeter`, stepping up within two frames by a quarter of its level and ten times
-its frame-to-frame scatter: a deliberate flash, not a moving hand), and by the rays'
-smallest gap (the target must move, and not only along the epipolar lines), the two pooled
-when both measure it and agree; a trial that fixes it neither way, or whose two disagree,
+and keeps each camera's centroid track (the glove's image line's angle too: its point's
+place along the line is fitted, not taken as one point both cameras see) and each frame's
+brightness with the frames' capture times. When a trial ends, the offset is measured from
+the trial's tracks by the one path the analysis also takes
+(:func:`twopose.pair.trial_offset.measure_trial_offset`): from a flash both cameras saw
+(each camera's brightness, :class:`twopose.pair.trial_offset.BrightnessMeter`, stepping up
+within two frames by a quarter of its level and ten times its frame-to-frame scatter: a
+deliberate flash, not a moving hand), and by the rays' smallest gap (the target must move,
+and not only along the epipolar lines), the two pooled when both measure it and agree; a
+trial that fixes it neither way, or whose two disagree,
 is said, in the measurements' words.
 
 The offset of two cameras opened once stays the same through the session (a lag is
@@ -60,8 +62,9 @@ class OffsetMeter:
     def __init__(self, pair: PairCalibration, method: Method) -> None:
         self.pair = pair
         self.target = spec_of(method).target
+        self.lines = spec_of(method).uses_image_lines  # the glove's: its angle kept too
         self._queue: queue.Queue[tuple[int, int, TimedFrame] | None] = queue.Queue(QUEUE_FRAMES)
-        self._tracks: dict[int, list[tuple[int, float, float, float]]] = {1: [], 2: []}
+        self._tracks: dict[int, list[tuple[int, float, float, float, float]]] = {1: [], 2: []}
         self._lit = {1: BrightnessMeter(), 2: BrightnessMeter()}
         self._trial = 0
         self._lock = threading.Lock()
@@ -114,10 +117,11 @@ class OffsetMeter:
                 if trial == self._trial:
                     found = detect(frame.image, self.target)
                     u, v = found.centroid_px if found.found else (math.nan, math.nan)
+                    theta = found.theta_deg if found.found else math.nan
                     lit = self._lit[camera](frame.image)  # a flash's (linear)
                     with self._lock:
                         if trial == self._trial:  # NaN where not found, as the analysis
-                            self._tracks[camera].append((frame.t_capture_ns, u, v, lit))
+                            self._tracks[camera].append((frame.t_capture_ns, u, v, lit, theta))
             except Exception:
                 continue
             finally:
@@ -142,11 +146,12 @@ class OffsetMeter:
             return None, "the clock offset is not measured: the method has no target to track"
         self._drained()
         with self._lock:
-            one, two = (np.array(self._tracks[c], dtype=np.float64).reshape(-1, 4) for c in (1, 2))
+            one, two = (np.array(self._tracks[c], dtype=np.float64).reshape(-1, 5) for c in (1, 2))
             self._trial = 0
         trial_offset = measure_trial_offset(
-            self.pair, (one[:, 1:3], two[:, 1:3]), (one[:, 0], two[:, 0]), (one[:, 3], two[:, 3])
-        )
+            self.pair, (one[:, 1:3], two[:, 1:3]), (one[:, 0], two[:, 0]), (one[:, 3], two[:, 3]),
+            (one[:, 4], two[:, 4]) if self.lines else None,
+        )  # fmt: skip
         pooled = pooled_offset(self.measured) if self.measured else None
         if trial_offset.offset is None:
             why = "; ".join(trial_offset.why)

@@ -97,6 +97,7 @@ def offset_from_ray_gap(
     t2_ns: ArrayLike,
     *,
     search_ns: tuple[float, float] = (-SEARCH_NS, SEARCH_NS),
+    angles_deg: tuple[ArrayLike, ArrayLike] | None = None,
 ) -> ClockOffset:
     """The clock offset from a moving target both cameras see (the module docstring).
 
@@ -111,20 +112,25 @@ def offset_from_ray_gap(
         Their capture times (nanoseconds, each camera's clock).
     search_ns : (float, float)
         The range of offsets searched (default :data:`SEARCH_NS` either way).
+    angles_deg : ((N1,), (N2,)) array_like, optional
+        Each frame's image line's angle (degrees, as detected) of a target with an image
+        line (the glove): its point's place along the line is not the same point of it in
+        both cameras, and is fitted (:mod:`twopose.pair.dot_tracks`). None: a dot's.
 
     Returns
     -------
     ClockOffset
     """
     tracks, times = (track1_px, track2_px), (t1_ns, t2_ns)
-    dots = dot_tracks(pair, tracks, times)
+    dots = dot_tracks(pair, tracks, times, None if angles_deg is None else angles_deg[0])
     try:
         offset = _ray_gap(dots, search_ns)
     except InputValueError as err:
-        raise InputValueError(f"{err}{_swapped_hint(pair, tracks, times, search_ns)}") from err
+        hint = _swapped_hint(pair, tracks, times, search_ns, angles_deg)
+        raise InputValueError(f"{err}{hint}") from err
     # Exchanged cameras can still find a minimum (a wrong one, with a small sigma): the
     # gap far smaller the other way round refuses it.
-    hint = _swapped_hint(pair, tracks, times, search_ns)
+    hint = _swapped_hint(pair, tracks, times, search_ns, angles_deg)
     if hint:
         raise InputValueError(hint.removeprefix("; "))
     return offset
@@ -173,9 +179,12 @@ def _ray_gap(dots: DotTracks, search_ns: tuple[float, float]) -> ClockOffset:
         raise InputValueError(_NOT_FIXED)
     vertex = fine[k] + 0.5 * h * (c0 - c2) / (c0 - 2 * c1 + c2)
     n = int(used[k])
-    # Least squares on S = n * mean: var = 2 s^2 / S'', s^2 = S_min / (n - 1).
+    # Least squares on S = n * mean: var = 2 s^2 / S'', s^2 = S_min / (n - 1 - nuisances)
+    # (a line's slide fitted beside the offset; profiled out of S, so S'' is the offset's
+    # information less what the slide takes of it).
     min_mean = c1 - 0.25 * (c0 - c2) ** 2 / (c0 - 2 * c1 + c2) / 2
-    variance = 2 * max(min_mean, 0.0) / ((n - 1) * curvature) * dots.correlation_factor(vertex)
+    dof = n - 1 - dots.nuisances
+    variance = 2 * max(min_mean, 0.0) / (dof * curvature) * dots.correlation_factor(vertex)
     above_noise, moving = dots.motion_frames(float(vertex), h, max(min_mean, 0.0))
     if above_noise < MIN_ABOVE_NOISE:
         raise InputValueError(_NOT_FIXED)
@@ -244,9 +253,10 @@ def _jackknife_variance(dots: DotTracks, fine: F64) -> float:
     shares of the offset's information (each frame's curvature of its squared gap: runs of
     equal counts, where a trial's motion lies in a few of its frames, left one run out with
     most of it, and the jackknife took 2.7 ms for 27); each run left out in turn, the
-    minimum found again (the grid's best, refined by its parabola), and ``(B - 1) / B``
-    times their sum of squares about their mean. One matrix of gaps, so it costs a few
-    sums. 0 when there are too few frames for it.
+    minimum found again (the grid's best, refined by its parabola; a line's slide fitted
+    again without the run), and ``(B - 1) / B`` times their sum of squares about their
+    mean. One matrix of gaps (a line's: one a run), so it costs a few sums. 0 when there
+    are too few frames for it.
     """
     gap, weight = dots.gaps(fine)
     g2 = gap**2 / weight
@@ -267,6 +277,11 @@ def _jackknife_variance(dots: DotTracks, fine: F64) -> float:
         block = np.flatnonzero(runs == b)
         if block.size == 0:
             continue
+        if dots.line1 is not None:  # the slide fitted without the run
+            kept = np.ones(weight.shape[1], dtype=bool)
+            kept[every[block]] = False
+            g2 = (dots.gaps(fine, fit=kept)[0] ** 2 / weight)[:, every]
+            total = g2.sum(axis=1)
         cost = (total - g2[:, block].sum(axis=1)) / (every.size - block.size)
         k = int(np.argmin(cost))
         if k == 0 or k == cost.size - 1:
@@ -353,12 +368,14 @@ def _swapped_hint(
     tracks: tuple[ArrayLike, ArrayLike],
     times: tuple[ArrayLike, ArrayLike],
     search_ns: tuple[float, float],
+    angles_deg: tuple[ArrayLike, ArrayLike] | None = None,
 ) -> str:
     """Words for a refusal when the cameras look exchanged: the gap far smaller so."""
+    one, two = (None, None) if angles_deg is None else angles_deg
     try:
-        ours = dot_tracks(pair, tracks, times)
+        ours = dot_tracks(pair, tracks, times, one)
         # The pair as calibrated, fed each camera's track as the other's.
-        theirs = dot_tracks(pair, (tracks[1], tracks[0]), (times[1], times[0]))
+        theirs = dot_tracks(pair, (tracks[1], tracks[0]), (times[1], times[0]), two)
         interval = float(np.median(np.diff(ours.times[0])))
         grid = np.arange(min(search_ns), max(search_ns) + interval / 8, interval / 4)
         own_cost, other_cost = ours.mean_gap(grid)[0], theirs.mean_gap(grid)[0]

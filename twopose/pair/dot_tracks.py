@@ -6,7 +6,23 @@ track undistorted, its frame times fitted by a regular clock
 camera 2's capture times at a candidate offset, and the rays' gap there in pixels
 (Sampson's first-order distance to the pair's epipolar constraint), with the terms of the
 offset's 1-sigma the tracks themselves set (the gaps' correlation, camera 1's
-interpolation error, the fitted clocks' error). No I/O.
+interpolation error, the fitted clocks' error).
+
+**A target with an image line** (the glove: each frame's line through its centroid, at the
+detected angle) is not one point both cameras see: each camera's blob spans its own extent
+of the finger, so the two centroids lie at different places along the finger's axis, on
+the images of one 3-D line (the rendered sessions' centroids some 5 px along it from the
+finger's middle, one way in camera 1 and another in camera 2; the rays' gap on them was
+2.6 to 2.9 ms off RMS, 10 of its sigmas in one scene). Where along its line camera 1's
+point lies is then not known: the gap is measured from ``u1 + s d1``, ``d1`` camera 1's
+image line's direction interpolated like its point, and ``s`` (px, one for the trial: the
+blobs' extents change slowly with the finger's pose) a nuisance fitted at every candidate
+offset by least squares (the gap is linear in it to first order) and profiled out, so
+that only the gap's part no constant slide explains measures the offset, and the profile's
+curvature (the Schur complement) carries the slide's uncertainty into the offset's sigma.
+A camera-2 point's slide along its line moves the camera-1 point its ray meets along
+camera 1's line, so one slide stands for both. A target moving at one steady velocity
+then fixes no offset (a constant gap is a slide), which the refusals say. No I/O.
 """
 
 from __future__ import annotations
@@ -22,10 +38,12 @@ from twopose.pair.board_fit import LensModel
 from twopose.pair.calibration import PairCalibration
 from twopose.pair.clock_fit import regular_times
 
-__all__ = ["MIN_GAP_FRAMES", "DotTracks", "dot_tracks", "epipolar_gap_px"]
+__all__ = ["MIN_GAP_FRAMES", "DotTracks", "dot_tracks", "epipolar_gap_px", "line_directions"]
 
 #: The fewest camera-2 frames an offset candidate's gap is averaged over.
 MIN_GAP_FRAMES = 10
+#: Half the span (px) over which a line's direction is undistorted about its centroid.
+LINE_STEP_PX = 10.0
 
 
 def epipolar_gap_px(pair: PairCalibration, u1: F64, u2: F64) -> F64:
@@ -58,6 +76,14 @@ class DotTracks:
     found: tuple[Bools, Bools]
     gap_ns: float  # the widest span between two camera-1 frames interpolated between
     clock_sigma: tuple[F64, F64]  # each fitted time's 1-sigma (regular_times)
+    #: camera 1's image line's unit direction per frame (N1, 2), one sense throughout
+    #: (None: a dot's track, whose point both cameras see)
+    line1: F64 | None = None
+
+    @property
+    def nuisances(self) -> int:
+        """The parameters fitted beside the offset: the slide along a line's (1), none (0)."""
+        return 0 if self.line1 is None else 1
 
     def camera1_at(self, at: F64) -> tuple[F64, F64]:
         """Camera 1's track at times ``at`` (C, N2), linearly, and each one's weight ``w``.
@@ -116,17 +142,45 @@ class DotTracks:
         """
         return float(np.hypot(np.min(self.clock_sigma[0]), np.min(self.clock_sigma[1])))
 
-    def gaps(self, candidates: F64) -> tuple[F64, F64]:
+    def gaps(self, candidates: F64, *, fit: Bools | None = None) -> tuple[F64, F64]:
         """(C, N2) the rays' gap (px) at each candidate offset, and its noise weight.
 
         The weight is camera 2's frame and camera 1's two, by ``1 - w`` and ``w`` (equal
         noise taken), ``1 + w^2 + (1 - w)^2`` times one frame's variance; NaN gaps where
-        camera 1 has no frames about camera 2's.
+        camera 1 has no frames about camera 2's. A line's gaps are those left by the slide
+        along camera 1's line that fits best at each candidate (the module docstring),
+        fitted over camera 2's frames ``fit`` (N2,) (default all).
         """
-        u1, w = self.camera1_at(self.times[1][None, :] - candidates[:, None])
-        u2 = np.where(self.found[1][:, None], self.tracks[1], np.nan)
-        gap = epipolar_gap_px(self.pair, u1, np.broadcast_to(u2, u1.shape))
-        return gap, 1 + w**2 + (1 - w) ** 2
+        at = self.times[1][None, :] - candidates[:, None]
+        u1, w = self.camera1_at(at)
+        u2 = np.broadcast_to(np.where(self.found[1][:, None], self.tracks[1], np.nan), u1.shape)
+        gap = epipolar_gap_px(self.pair, u1, u2)
+        weight = 1 + w**2 + (1 - w) ** 2
+        if self.line1 is None:
+            return gap, weight
+        d1 = self._line1_at(at)
+        # The gap's rate with the slide (per px along the line; linear to first order).
+        rate = epipolar_gap_px(self.pair, u1 + d1, u2) - gap
+        use = np.isfinite(gap) & np.isfinite(rate) & (True if fit is None else fit[None, :])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            num = np.where(use, gap * rate / weight, 0.0).sum(axis=1)
+            den = np.where(use, rate**2 / weight, 0.0).sum(axis=1)
+            slide = np.where(den > 0, num / den, 0.0)
+        return gap - slide[:, None] * rate, weight
+
+    def _line1_at(self, at: F64) -> F64:
+        """Camera 1's image line's unit direction at times ``at`` (C, N2, 2).
+
+        Interpolated as its point is (:meth:`camera1_at`: NaN where that is).
+        """
+        assert self.line1 is not None
+        times = self.times[0]
+        j = np.clip(np.searchsorted(times, at, side="right"), 1, times.size - 1)
+        i = j - 1
+        w = ((at - times[i]) / (times[j] - times[i]))[..., None]
+        d = self.line1[i] * (1 - w) + self.line1[j] * w
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.asarray(d / np.linalg.norm(d, axis=-1, keepdims=True))
 
     def mean_gap(self, candidates: F64, *, common: bool = False) -> tuple[F64, F64]:
         """(C,) the mean squared gap at each candidate offset, and (C,) the frames used.
@@ -243,18 +297,52 @@ class DotTracks:
         return float(np.hypot(shift, spread))
 
 
+def line_directions(lens: LensModel, centroid_px: F64, angle_deg: F64) -> F64:
+    """(N, 2) a track's image line's unit direction, undistorted, one sense throughout.
+
+    The line through each (distorted) centroid at its angle, undistorted over
+    :data:`LINE_STEP_PX` about the centroid; each direction turned to the sense of the
+    track's mean line (the mean of the doubled angles: a detector's angle in (-90, 90]
+    flips sense across the vertical). NaN where the angle or the centroid is.
+    """
+    a = np.radians(np.asarray(angle_deg, dtype=np.float64).reshape(-1))
+    step = LINE_STEP_PX * np.column_stack([np.cos(a), np.sin(a)])
+    ok: Bools = np.asarray(np.isfinite(step).all(axis=1) & np.isfinite(centroid_px).all(axis=1))
+    c, step = np.nan_to_num(centroid_px), np.nan_to_num(step)
+    d = lens.undistort(c + step) - lens.undistort(c - step)
+    d = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-300)
+    doubled = np.angle(np.sum(np.where(ok, (d[:, 0] + 1j * d[:, 1]) ** 2, 0.0)))
+    mean = np.array([np.cos(doubled / 2), np.sin(doubled / 2)])
+    d = np.where((d @ mean < 0)[:, None], -d, d)
+    return np.where(ok[:, None], d, np.nan)
+
+
 def dot_tracks(
-    pair: PairCalibration, tracks: tuple[ArrayLike, ArrayLike], times: tuple[ArrayLike, ArrayLike]
+    pair: PairCalibration,
+    tracks: tuple[ArrayLike, ArrayLike],
+    times: tuple[ArrayLike, ArrayLike],
+    angles_deg: ArrayLike | None = None,
 ) -> DotTracks:
-    """Both cameras' dot tracks checked, undistorted, their times fitted by a regular clock."""
+    """Both cameras' tracks checked, undistorted, their times fitted by a regular clock.
+
+    ``angles_deg`` (N1,): camera 1's image line's angle per frame (a line target's, the
+    module docstring: its point's slide along it fitted); None: a dot's.
+    """
     lenses = (LensModel.of(pair.intrinsics1), LensModel.of(pair.intrinsics2))
     undistorted, fitted, found, sigma = [], [], [], []
+    line1 = None
     for n in (0, 1):
         p = np.asarray(tracks[n], dtype=np.float64).reshape(-1, 2)
         stamps = np.asarray(times[n], dtype=np.float64).reshape(-1)
         if p.shape[0] != stamps.size:
             raise InputValueError(f"camera {n + 1}: {p.shape[0]} pixels for {stamps.size} times")
         ok = np.asarray(np.isfinite(p).all(axis=1))
+        if n == 0 and angles_deg is not None:
+            angle = np.asarray(angles_deg, dtype=np.float64).reshape(-1)
+            if angle.size != stamps.size:
+                raise InputValueError(f"camera 1: {angle.size} angles for {stamps.size} times")
+            line1 = line_directions(lenses[0], p, angle)
+            ok &= np.isfinite(line1).all(axis=1)
         undistorted.append(np.where(ok[:, None], lenses[n].undistort(np.nan_to_num(p)), np.nan))
         clock = regular_times(stamps)
         fitted.append(clock.times_ns)
@@ -268,4 +356,5 @@ def dot_tracks(
         found=(found[0], found[1]),
         gap_ns=2.5 * interval,  # one dropped frame between two neighbours is bridged
         clock_sigma=(sigma[0], sigma[1]),
+        line1=line1,
     )

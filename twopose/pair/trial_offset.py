@@ -15,7 +15,8 @@ frame's brightness:
   :data:`FLASH_RISE` of its level and :data:`FLASH_NOISE` times its frame-to-frame scatter
   (:func:`flashed`: a deliberate flash, not a moving hand or the exposure settling);
 - **the rays' gap** (:func:`twopose.pair.clock.offset_from_ray_gap`) wherever the target
-  was tracked.
+  was tracked; for a target with an image line (the glove) its point's place along the
+  line is fitted, not taken as one point both cameras see (:mod:`twopose.pair.dot_tracks`).
 
 Both measured, they are one offset seen twice: pooled by their inverse variances, the
 fitted clocks' error they share (:attr:`ClockOffset.clock_sigma_ns`: the same stamps'
@@ -163,12 +164,15 @@ def measure_trial_offset(
     tracks: tuple[ArrayLike, ArrayLike],
     times: tuple[ArrayLike, ArrayLike],
     brightness: tuple[ArrayLike, ArrayLike] | None = None,
+    angles_deg: tuple[ArrayLike, ArrayLike] | None = None,
 ) -> TrialOffset:
     """One trial's offset (the module docstring).
 
     ``tracks`` each camera's target pixels (N_i, 2) (NaN: not found), ``times`` their
     capture times (N_i,), ns, each camera's clock; ``brightness`` each frame's
-    (:class:`BrightnessMeter`; None: no flash looked for).
+    (:class:`BrightnessMeter`; None: no flash looked for); ``angles_deg`` each frame's
+    image line's angle for a target with one (the glove: its point's place along the line
+    is fitted, :mod:`twopose.pair.dot_tracks`; None: a dot's).
     """
     found: list[ClockOffset] = []
     why: list[str] = []
@@ -182,7 +186,11 @@ def measure_trial_offset(
             except InputValueError as err:
                 why.append(f"the flash: {err}")
     try:
-        found.append(offset_from_ray_gap(pair, tracks[0], times[0], tracks[1], times[1]))
+        found.append(
+            offset_from_ray_gap(
+                pair, tracks[0], times[0], tracks[1], times[1], angles_deg=angles_deg
+            )
+        )
     except InputValueError as err:
         why.append(str(err))
     if len(found) < 2:
