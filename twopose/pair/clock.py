@@ -122,7 +122,7 @@ def offset_from_ray_gap(
     ClockOffset
     """
     tracks, times = (track1_px, track2_px), (t1_ns, t2_ns)
-    dots = dot_tracks(pair, tracks, times, None if angles_deg is None else angles_deg[0])
+    dots = dot_tracks(pair, tracks, times, angles_deg)
     try:
         offset = _ray_gap(dots, search_ns)
     except InputValueError as err:
@@ -277,7 +277,7 @@ def _jackknife_variance(dots: DotTracks, fine: F64) -> float:
         block = np.flatnonzero(runs == b)
         if block.size == 0:
             continue
-        if dots.line1 is not None:  # the slide fitted without the run
+        if dots.lines is not None:  # the slide fitted without the run
             kept = np.ones(weight.shape[1], dtype=bool)
             kept[every[block]] = False
             g2 = (dots.gaps(fine, fit=kept)[0] ** 2 / weight)[:, every]
@@ -371,11 +371,11 @@ def _swapped_hint(
     angles_deg: tuple[ArrayLike, ArrayLike] | None = None,
 ) -> str:
     """Words for a refusal when the cameras look exchanged: the gap far smaller so."""
-    one, two = (None, None) if angles_deg is None else angles_deg
+    swapped = None if angles_deg is None else (angles_deg[1], angles_deg[0])
     try:
-        ours = dot_tracks(pair, tracks, times, one)
+        ours = dot_tracks(pair, tracks, times, angles_deg)
         # The pair as calibrated, fed each camera's track as the other's.
-        theirs = dot_tracks(pair, (tracks[1], tracks[0]), (times[1], times[0]), two)
+        theirs = dot_tracks(pair, (tracks[1], tracks[0]), (times[1], times[0]), swapped)
         interval = float(np.median(np.diff(ours.times[0])))
         grid = np.arange(min(search_ns), max(search_ns) + interval / 8, interval / 4)
         own_cost, other_cost = ours.mean_gap(grid)[0], theirs.mean_gap(grid)[0]

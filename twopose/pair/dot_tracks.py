@@ -13,16 +13,22 @@ detected angle) is not one point both cameras see: each camera's blob spans its 
 of the finger, so the two centroids lie at different places along the finger's axis, on
 the images of one 3-D line (the rendered sessions' centroids some 5 px along it from the
 finger's middle, one way in camera 1 and another in camera 2; the rays' gap on them was
-2.6 to 2.9 ms off RMS, 10 of its sigmas in one scene). Where along its line camera 1's
-point lies is then not known: the gap is measured from ``u1 + s d1``, ``d1`` camera 1's
-image line's direction interpolated like its point, and ``s`` (px, one for the trial: the
-blobs' extents change slowly with the finger's pose) a nuisance fitted at every candidate
-offset by least squares (the gap is linear in it to first order) and profiled out, so
-that only the gap's part no constant slide explains measures the offset, and the profile's
-curvature (the Schur complement) carries the slide's uncertainty into the offset's sigma.
-A camera-2 point's slide along its line moves the camera-1 point its ray meets along
-camera 1's line, so one slide stands for both. A target moving at one steady velocity
-then fixes no offset (a constant gap is a slide), which the refusals say. No I/O.
+2.6 to 2.9 ms off RMS, 10 of its sigmas in one scene). Where along the finger camera 1's
+point lies is then not known: the gap is measured from camera 1's point slid along the
+finger by ``s`` (one length for the trial: the part of the finger a blob spans is a
+property of the finger and the detector), the finger's 3-D line at each frame being where
+the planes of the two cameras' image lines meet (camera 1's interpolated like its point).
+``s`` is fitted at every candidate offset by least squares (the gap is linear in it to
+first order) and profiled out, so that only the gap's part no slide explains measures the
+offset, and the profile's curvature (the Schur complement) carries the slide's
+uncertainty into the offset's sigma. Camera 2's point's own slide moves the point its ray
+meets along the same line, so one slide stands for both. A slide of a fixed number of
+pixels along camera 1's image line instead is not one: a 3-D slide's image length changes
+with the finger's place (perspective), and ±0.3 in along a finger circling at 10 in/s was
+then 10 ms off with a sigma of 0.5. A finger swept straight at one steady velocity fixes
+little (a constant gap is a slide: only perspective is left), and its sigma says so (2.4
+ms where a dot's is 0.26; without the slide, 0.05 in along the finger took it 13 ms off,
+19 of its sigmas), or the refusals. No I/O.
 """
 
 from __future__ import annotations
@@ -76,14 +82,14 @@ class DotTracks:
     found: tuple[Bools, Bools]
     gap_ns: float  # the widest span between two camera-1 frames interpolated between
     clock_sigma: tuple[F64, F64]  # each fitted time's 1-sigma (regular_times)
-    #: camera 1's image line's unit direction per frame (N1, 2), one sense throughout
-    #: (None: a dot's track, whose point both cameras see)
-    line1: F64 | None = None
+    #: each camera's image line's unit direction per frame (N_i, 2), one sense throughout
+    #: (None: a dot's tracks, whose point both cameras see)
+    lines: tuple[F64, F64] | None = None
 
     @property
     def nuisances(self) -> int:
         """The parameters fitted beside the offset: the slide along a line's (1), none (0)."""
-        return 0 if self.line1 is None else 1
+        return 0 if self.lines is None else 1
 
     def camera1_at(self, at: F64) -> tuple[F64, F64]:
         """Camera 1's track at times ``at`` (C, N2), linearly, and each one's weight ``w``.
@@ -148,37 +154,78 @@ class DotTracks:
         The weight is camera 2's frame and camera 1's two, by ``1 - w`` and ``w`` (equal
         noise taken), ``1 + w^2 + (1 - w)^2`` times one frame's variance; NaN gaps where
         camera 1 has no frames about camera 2's. A line's gaps are those left by the slide
-        along camera 1's line that fits best at each candidate (the module docstring),
-        fitted over camera 2's frames ``fit`` (N2,) (default all).
+        along the finger that fits best at each candidate (the module docstring), fitted
+        over camera 2's frames ``fit`` (N2,) (default all).
         """
         at = self.times[1][None, :] - candidates[:, None]
         u1, w = self.camera1_at(at)
         u2 = np.broadcast_to(np.where(self.found[1][:, None], self.tracks[1], np.nan), u1.shape)
         gap = epipolar_gap_px(self.pair, u1, u2)
         weight = 1 + w**2 + (1 - w) ** 2
-        if self.line1 is None:
+        if self.lines is None:
             return gap, weight
         d1 = self._line1_at(at)
-        # The gap's rate with the slide (per px along the line; linear to first order).
-        rate = epipolar_gap_px(self.pair, u1 + d1, u2) - gap
-        use = np.isfinite(gap) & np.isfinite(rate) & (True if fit is None else fit[None, :])
-        with np.errstate(invalid="ignore", divide="ignore"):
-            num = np.where(use, gap * rate / weight, 0.0).sum(axis=1)
-            den = np.where(use, rate**2 / weight, 0.0).sum(axis=1)
-            slide = np.where(den > 0, num / den, 0.0)
+        # The gap's rate with the slide (per unit length along the finger; linear to first
+        # order), and the slide that fits best at each candidate (least squares).
+        rate = epipolar_gap_px(self.pair, u1 + self._slide_px(u1, d1, u2), u2) - gap
+        rate = np.where(np.isfinite(rate), rate, 0.0)
+        use = np.isfinite(gap) & (True if fit is None else fit[None, :])
+        num = np.where(use, gap * rate / weight, 0.0).sum(axis=1)
+        den = np.where(use, rate**2 / weight, 0.0).sum(axis=1)
+        slide = num / np.where(den > 0, den, np.inf)
         return gap - slide[:, None] * rate, weight
+
+    def _slide_px(self, u1: F64, d1: F64, u2: F64) -> F64:
+        """(C, N2, 2) camera 1's pixel step for a unit slide along the finger in 3-D.
+
+        The finger's 3-D line is where the planes of the two cameras' image lines meet
+        (camera 1's at ``u1`` along ``d1``, camera 2's at ``u2`` along its own line);
+        camera 1's point's ray meets it at ``X``, and ``X + D`` (``D`` its unit direction,
+        in the sense of ``d1``) projects a step from ``u1``. 0 where the planes are nearly
+        one (the line along the epipolar lines: a slide there moves no gap).
+        """
+        assert self.lines is not None
+        pair = self.pair
+        k1inv = np.linalg.inv(pair.intrinsics1.K)
+        k2inv = np.linalg.inv(pair.intrinsics2.K)
+
+        def ray(k_inv: ArrayLike, px: ArrayLike) -> F64:
+            """Pixels' rays (..., 3) in their camera's frame."""
+            p = np.asarray(px, dtype=np.float64)
+            return np.asarray(
+                np.concatenate([p, np.ones((*p.shape[:-1], 1))], -1) @ np.transpose(k_inv)
+            )
+
+        r1 = ray(k1inv, u1)
+        n1 = np.cross(r1, ray(k1inv, u1 + d1))
+        d2 = np.broadcast_to(self.lines[1], u2.shape)
+        r2 = ray(k2inv, u2) @ pair.R_2_to_1.T
+        n2 = np.cross(r2, ray(k2inv, u2 + d2) @ pair.R_2_to_1.T)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            n1 = n1 / np.linalg.norm(n1, axis=-1, keepdims=True)
+            n2 = n2 / np.linalg.norm(n2, axis=-1, keepdims=True)
+            D = np.cross(n1, n2)
+            sin = np.linalg.norm(D, axis=-1, keepdims=True)
+            D = D / sin
+            mu = (n2 @ pair.t_2_in_1)[..., None] / (n2 * r1).sum(-1, keepdims=True)
+            X = mu * r1
+            Y = X + D
+            q = Y @ pair.intrinsics1.K.T
+            step = q[..., :2] / q[..., 2:3] - u1
+            step = np.where((step * d1).sum(-1, keepdims=True) < 0, -step, step)
+        return np.where((sin > 0.05) & np.isfinite(step), step, 0.0)
 
     def _line1_at(self, at: F64) -> F64:
         """Camera 1's image line's unit direction at times ``at`` (C, N2, 2).
 
         Interpolated as its point is (:meth:`camera1_at`: NaN where that is).
         """
-        assert self.line1 is not None
+        assert self.lines is not None
         times = self.times[0]
         j = np.clip(np.searchsorted(times, at, side="right"), 1, times.size - 1)
         i = j - 1
         w = ((at - times[i]) / (times[j] - times[i]))[..., None]
-        d = self.line1[i] * (1 - w) + self.line1[j] * w
+        d = self.lines[0][i] * (1 - w) + self.lines[0][j] * w
         with np.errstate(invalid="ignore", divide="ignore"):
             return np.asarray(d / np.linalg.norm(d, axis=-1, keepdims=True))
 
@@ -321,28 +368,30 @@ def dot_tracks(
     pair: PairCalibration,
     tracks: tuple[ArrayLike, ArrayLike],
     times: tuple[ArrayLike, ArrayLike],
-    angles_deg: ArrayLike | None = None,
+    angles_deg: tuple[ArrayLike, ArrayLike] | None = None,
 ) -> DotTracks:
     """Both cameras' tracks checked, undistorted, their times fitted by a regular clock.
 
-    ``angles_deg`` (N1,): camera 1's image line's angle per frame (a line target's, the
-    module docstring: its point's slide along it fitted); None: a dot's.
+    ``angles_deg`` ((N1,), (N2,)): each camera's image line's angle per frame (a line
+    target's, the module docstring: its point's slide along the finger fitted); None: a
+    dot's.
     """
     lenses = (LensModel.of(pair.intrinsics1), LensModel.of(pair.intrinsics2))
-    undistorted, fitted, found, sigma = [], [], [], []
-    line1 = None
+    undistorted, fitted, found, sigma, lines = [], [], [], [], []
     for n in (0, 1):
         p = np.asarray(tracks[n], dtype=np.float64).reshape(-1, 2)
         stamps = np.asarray(times[n], dtype=np.float64).reshape(-1)
         if p.shape[0] != stamps.size:
             raise InputValueError(f"camera {n + 1}: {p.shape[0]} pixels for {stamps.size} times")
         ok = np.asarray(np.isfinite(p).all(axis=1))
-        if n == 0 and angles_deg is not None:
-            angle = np.asarray(angles_deg, dtype=np.float64).reshape(-1)
+        if angles_deg is not None:
+            angle = np.asarray(angles_deg[n], dtype=np.float64).reshape(-1)
             if angle.size != stamps.size:
-                raise InputValueError(f"camera 1: {angle.size} angles for {stamps.size} times")
-            line1 = line_directions(lenses[0], p, angle)
-            ok &= np.isfinite(line1).all(axis=1)
+                raise InputValueError(
+                    f"camera {n + 1}: {angle.size} angles for {stamps.size} times"
+                )
+            lines.append(line_directions(lenses[n], p, angle))
+            ok &= np.isfinite(lines[n]).all(axis=1)
         undistorted.append(np.where(ok[:, None], lenses[n].undistort(np.nan_to_num(p)), np.nan))
         clock = regular_times(stamps)
         fitted.append(clock.times_ns)
@@ -356,5 +405,5 @@ def dot_tracks(
         found=(found[0], found[1]),
         gap_ns=2.5 * interval,  # one dropped frame between two neighbours is bridged
         clock_sigma=(sigma[0], sigma[1]),
-        line1=line1,
+        lines=(lines[0], lines[1]) if lines else None,
     )
