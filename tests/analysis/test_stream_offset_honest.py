@@ -137,3 +137,41 @@ def test_an_offset_beyond_the_old_search_is_measured_from_simulate_through_run(
     sigma = rows["clock_offset_sigma_ms"].iloc[0]
     assert abs(measured - offset_ms) <= 3 * sigma, (measured, sigma)
     assert (rows["clock_offset_source"] == "measured").all()
+
+
+def test_the_recorder_and_run_measure_the_gloves_offset_alike_its_slide_fitted(
+    demo: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The glove's detected point is not one point both cameras see (each blob spans its
+    own extent of the finger): both sides measure the offset by one path, each frame's
+    image line's angle passed so that the point's slide along the finger is fitted."""
+    from analysis.session.stream import detect_trial
+    from recorder.procedure import stream_offset
+    from recorder.sources.pair import TimedFrame
+    from twopose.format.streams import read_pair_session
+    from twopose.pair.trial_offset import measure_trial_offset
+
+    (trial,) = replay_pair_session(demo).trials
+    monkeypatch.setattr(stream_offset, "QUEUE_FRAMES", 10_000)  # no frame left undetected
+    with SessionReader(demo) as reader:
+        session = read_pair_session(reader)
+        streams = session.trials[0]
+        (one, two), _, lit = detect_trial(streams, Method.GROUND)
+        meter = stream_offset.OffsetMeter(session.pair, Method.GROUND)
+        with meter:
+            meter.begin(1)
+            for camera, stream in ((1, streams.camera1), (2, streams.camera2)):
+                size = (stream.camera.intrinsics.width, stream.camera.intrinsics.height)
+                for k, frame in enumerate(stream.frames()):
+                    t = int(stream.capture_ns[k])
+                    meter.add(TimedFrame(camera, k, t, t, frame.decode(size), ""))
+            recorded, said = meter.end(1)
+    seen = (session.pair, (one.centroid_px, two.centroid_px), (one.t_ns, two.t_ns), lit)
+    fitted = measure_trial_offset(*seen, (one.theta_deg, two.theta_deg)).offset
+    as_a_dot = measure_trial_offset(*seen).offset
+    assert fitted is not None
+    assert as_a_dot is not None
+    assert trial.offset.offset_ns == fitted.offset_ns != as_a_dot.offset_ns  # run's: fitted
+    assert recorded is not None, said
+    assert recorded.offset_ns == pytest.approx(fitted.offset_ns, abs=1.0)  # ns: the recorder's
+    assert recorded.sigma_ns == pytest.approx(fitted.sigma_ns, abs=1.0)
