@@ -39,7 +39,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import special
+from scipy import interpolate, special
 
 from twopose.arrays import F64, Bools, Ints
 from twopose.uncertainty.noise import MIN_PLACING_DOF, PlacingPrior
@@ -65,6 +65,8 @@ _LOG_GRID = np.log(GRID)
 #: most of what a looser level would, and a clean trial's false alarm stays far below 2%
 #: (benchmarks/bench_noise.py).
 BAARDA_LEVEL = 0.005
+#: The posterior's moments are summed on this many points a grid step (:func:`_precision_moments`).
+_REFINE = 8
 #: The rounds of the robust search at most (it settles in two or three).
 _ROUNDS = 20
 #: Less information than this beside a trial (other trials', the prior's) is none: the
@@ -154,9 +156,7 @@ def posterior(
                            information=np.zeros(R), at_limit=np.zeros(R, dtype=bool),
                            weights=_at(np.ones(R)))  # fmt: skip
     p = _grid_weights(L, anchor, prior)
-    tau = 1.0 / GRID
-    mean = p @ tau
-    var = np.clip(p @ tau**2 - mean**2, 1e-300, None)
+    mean, var = _precision_moments(_log_mass(L, anchor, prior), p)
     scale, dof = 1.0 / mean, 2.0 * mean**2 / var
     at_limit = (p[:, :2].sum(axis=1) > _AT_LIMIT) | (p[:, -2:].sum(axis=1) > _AT_LIMIT)
     if info is None:
@@ -173,15 +173,45 @@ def posterior(
     return _Posteriors(scale=scale, dof=dof, information=info, at_limit=at_limit, weights=p)  # type: ignore[return-value]
 
 
-def _grid_weights(L: F64, anchor: PlacingPrior, prior: PlacingPrior | None) -> F64:
-    """(R, G) the posterior's mass at each grid point, for each row of ``L`` (R, G)."""
+def _log_mass(L: F64, anchor: PlacingPrior, prior: PlacingPrior | None) -> F64:
+    """(R, G) the posterior's log-density in ``log(lambda)`` (up to a constant) on the grid."""
     logp = L + _inv_chi2(anchor.scale, anchor.dof)
     if prior is not None:  # the operator's other sessions: data, not a second prior
         logp = logp + _inv_chi2(prior.scale, prior.dof, density=False)
     # on a log grid: d lambda = lambda d log(lambda)
-    logw = logp + _LOG_GRID
+    return np.asarray(logp + _LOG_GRID)
+
+
+def _grid_weights(L: F64, anchor: PlacingPrior, prior: PlacingPrior | None) -> F64:
+    """(R, G) the posterior's mass at each grid point, for each row of ``L`` (R, G)."""
+    logw = _log_mass(L, anchor, prior)
     p = np.exp(logw - logw.max(axis=1, keepdims=True))
     return np.asarray(p / p.sum(axis=1, keepdims=True))
+
+
+def _precision_moments(logw: F64, p: F64) -> tuple[F64, F64]:
+    """(R,) the mean and variance of ``1 / lambda`` under each row's posterior.
+
+    Integrated between the grid's points: ``logw`` (R, G), the log-density in
+    ``log(lambda)``, is smooth, so a cubic spline of it through the columns where ``p``
+    (R, G, its mass on the grid) has any is exact to far below the moments' own error, and
+    its exponential is summed on :data:`_REFINE` points a grid step. On the grid's points
+    alone the moments snapped toward the nearest point: a posterior of a few thousand
+    degrees of freedom (sigma 2.6% at 3000) is narrower than the grid's step (10%), and the
+    pooled multiplier of 200 sessions of 5 trials moved by up to 2% with where its truth
+    fell between two points (benchmarks/bench_noise.py).
+    """
+    heavy = np.flatnonzero((p > 1e-12).any(axis=0))
+    lo, hi = max(int(heavy[0]) - 2, 0), min(int(heavy[-1]) + 2, GRID.size - 1)
+    u = _LOG_GRID[lo : hi + 1]
+    fine = np.linspace(u[0], u[-1], _REFINE * (hi - lo) + 1)
+    spline = interpolate.CubicSpline(u, logw[:, lo : hi + 1], axis=1)(fine)
+    w = np.exp(spline - spline.max(axis=1, keepdims=True))
+    w /= w.sum(axis=1, keepdims=True)
+    tau = np.exp(-fine)
+    mean = w @ tau
+    var = np.clip(w @ tau**2 - mean**2, 1e-300, None)
+    return mean, var
 
 
 def _at(scale: F64) -> F64:
