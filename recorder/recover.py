@@ -245,12 +245,21 @@ def _salvage(stream: IO[bytes], src: Path, dst: Path, state: _Salvage) -> None:
 def _stop_reason(err: Exception, start: int, size: int) -> str:
     """Where and why the read stopped, in words (an exception's own message may be empty:
     the reader's ``EndOfFile`` has none)."""
-    if isinstance(err, EndOfFile | EOFError | struct.error | RecordLengthLimitExceeded):
+    cut = (
+        ": the recording was not closed (killed, a power cut, a full disk) or the file was "
+        "cut short in a copy"
+    )
+    if isinstance(err, EndOfFile | EOFError | struct.error) and start >= size:
+        # Every record whole, the closing ones (data end, summary, footer) never written.
+        what = (
+            f"the file ends after its last whole record, at byte {size:,}, without the "
+            f"records that close it{cut}"
+        )
+    elif isinstance(err, EndOfFile | EOFError | struct.error | RecordLengthLimitExceeded):
         # A record longer than what is left of the file: where a cut file ends.
         what = (
             f"its last record, from byte {start:,}, runs past the end of the file "
-            f"({size:,} bytes): the recording was not closed (killed, a power cut, a full "
-            "disk) or the file was cut short in a copy"
+            f"({size:,} bytes){cut}"
         )
     elif isinstance(err, InvalidMagic):
         what = f"the bytes at {start:,} of {size:,} are not an MCAP record (garbled there)"

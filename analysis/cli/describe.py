@@ -130,6 +130,8 @@ def _row(o: SessionOverview, name: str, columns: list[str], *, narrow: bool) -> 
         if o.n_set_aside or o.n_incomplete_captures
         else ""
     )
+    if o.streams is not None:  # stream trials: no pose typed, no capture (its windows are not)
+        captures = "-"
     sim = " (sim)" if o.info.simulated else ""
     where = escape(for_terminal(name))
     if narrow:
@@ -139,7 +141,7 @@ def _row(o: SessionOverview, name: str, columns: list[str], *, narrow: bool) -> 
         "units": o.info.units,
         "cameras": cams,
         "trials": str(o.n_trials),
-        "poses": str(o.n_poses),
+        "poses": "-" if o.streams is not None else str(o.n_poses),
         "captures": captures,
         "frames": str(o.n_frames),
         "format": o.format_version,

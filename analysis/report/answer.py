@@ -328,12 +328,16 @@ RULE = (
 
 def flagged_lines(trials: pd.DataFrame, session: str) -> list[str]:
     """The session's flagged trials, each as ``trial 3 (by its misclosure): this trial's
-    poses disagree (...)``, which test flagged it in brackets (``flagged_by``)."""
+    poses disagree (...)`` (a touch: ``trial 1, touch 2 (by its truth): ...``), which test
+    flagged it in brackets (``flagged_by``)."""
     if "flagged" not in trials or trials.empty:
         return []
     flags = trials["flagged"].fillna(value=False).astype(bool)
     mine = trials[(trials["session"] == session) & flags]
-    return [f"trial {int(r['trial'])}{_by(r)}: {r['disagreement']}" for _, r in mine.iterrows()]
+    return [
+        f"{row_unit(r.get('cameras', 1)).numbered(r)}{_by(r)}: {r['disagreement']}"
+        for _, r in mine.iterrows()
+    ]
 
 
 def _by(row: pd.Series) -> str:

@@ -155,8 +155,9 @@ def thesis_verdict(trials: pd.DataFrame, *, include_warned: bool = False) -> lis
 
 def _verdict(method: Method, trials: pd.DataFrame, *, include_warned: bool) -> str:
     """The thesis table's rule in a line, over ``trials`` (one method's): all within 1 in,
-    as the thesis; or some not, consistent with its 15 of 15 (Fisher's exact test,
-    p > 0.05) or not; or no trial usable, and why."""
+    as the thesis; or some not: unlike its 15 of 15 where Fisher's exact test rejects it
+    (p <= 0.05), else can't tell (a test that does not reject says too few trials, never
+    agreement: the thesis table's rule, :func:`_within_row`); or no trial usable, and why."""
     g = _used(trials, include_warned=include_warned)
     spec = spec_of(method)
     if g.empty:
@@ -171,8 +172,19 @@ def _verdict(method: Method, trials: pd.DataFrame, *, include_warned: bool) -> s
     if n_in == len(g):
         return f"{method} ({name}): {counts}; reproduced: the thesis reports all within 1 in."
     p_value = fisher_p(n_in, len(g))
-    agrees = "consistent with" if p_value > 0.05 else "unlike"
-    return f"{method} ({name}): {counts}; {agrees} the thesis' 15 of 15 (Fisher p = {p_value:.2f})."
+    fisher = _fisher_words(p_value)
+    if p_value <= 0.05:
+        return f"{method} ({name}): {counts}; unlike the thesis' 15 of 15 (Fisher {fisher})."
+    return (
+        f"{method} ({name}): {counts}; can't tell it from the thesis' 15 of 15 (Fisher "
+        f"{fisher}: too few trials to tell them apart)."
+    )
+
+
+def _fisher_words(p_value: float) -> str:
+    """Fisher's p as the thesis' lines print it, to two decimals (``p = 0.04``); one below
+    0.001 as ``p < 0.001``, never ``p = 0.00``."""
+    return "p < 0.001" if p_value < 0.001 else f"p = {p_value:.2f}"
 
 
 def _pair_verdict(method: Method, trials: pd.DataFrame, *, include_warned: bool) -> str:
@@ -293,7 +305,7 @@ def _within_row(
     if n_in == len(g):
         return row | {"twopose": f"{text}; test: all within 1 in", "reproduced": YES}
     p_value = fisher_p(n_in, len(g))
-    text += f"; test: Fisher's exact against the thesis' 15 of 15, p = {p_value:.2f}"
+    text += f"; test: Fisher's exact against the thesis' 15 of 15, {_fisher_words(p_value)}"
     return row | {"twopose": text, "reproduced": NO if p_value <= 0.05 else CANT_TELL}
 
 

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -57,6 +58,7 @@ from twopose.errors import InputValueError
 from twopose.format.reader import SessionReader
 from twopose.format.streams import PairSession, StreamTrial, read_pair_session
 from twopose.methods.specs import spec_of
+from twopose.pair.calibration import PairCalibration
 from twopose.pair.stream import NEAR_SINGULAR, StreamEstimate, StreamSettings, estimate_stream
 from twopose.uncertainty.propagate import uncertainty_columns
 from twopose.values.units import Units
@@ -128,7 +130,9 @@ def analyse_pair_session(
         label=identity.label,
         metadata=metadata,
         frames=with_branch(frames, identity, stream_part),
-        trials=with_identity(rows, identity, part_of),
+        # No rig file applies to a pair (it corrects typed poses): its columns empty, as
+        # documented, and there whatever else the run holds.
+        trials=with_identity(rows.assign(rig_file="", rig_sha256=""), identity, part_of),
         averaging=with_branch(averaging, identity, part_of),
         views=with_branch(views, identity, stream_part),
     )
@@ -205,10 +209,23 @@ def _pair_metadata(session: PairSession, parts: list[PairSession] | None = None)
                 if pair.n_views
                 else "its pose given, not fitted to views"
             )
+            + _check_said(pair)
         ),
         "clock_offset": said,
         "touches": f"{n_touches} over {n_trials} stream trial(s){in_parts}",
     }
+
+
+def _check_said(pair: PairCalibration) -> str:
+    """The pair's leave-one-out check after its fit, in words ("" without one)."""
+    if pair.check is None:
+        return ""
+    if pair.check.passed:
+        return (
+            f", its covariance confirmed by leave-one-out (every held-out spacing within "
+            f"3 sigma, the worst {pair.check.worst_sigmas:.1f})"
+        )
+    return f"; {pair.check.unconfirmed()}"
 
 
 def pair_lines(session: PairSession) -> list[str]:
@@ -261,23 +278,25 @@ def touch_rows(
     settings = StreamSettings(noise=(noise[0].noise, noise[1].noise), estimate=options.estimate)
     rows: list[dict[str, Any]] = []
     for (part, trial), found in zip(kept, detected, strict=True):
-        baseline = {"baseline": float(np.linalg.norm(part.pair.t_2_in_1))}
+        # every row of the part: its baseline, and a failed pair check in its notes (each
+        # region carries the pair's covariance)
+        same = _part_cells(part.pair)
         blind = [s.camera_id for s in trial.cameras if len(s) < 2]
         if blind:  # nothing to pair or interpolate: said per touch
             why = (
                 f"camera {' and '.join(blind)} recorded fewer than 2 frames in trial {trial.trial}"
             )
-            rows += [_failed_row(trial, k, why) | baseline for k in range(len(trial.touches))]
+            rows += [same(_failed_row(trial, k, why)) for k in range(len(trial.touches))]
             continue
         try:
             replay = replay_trial(trial, part.pair, spec.method, (part.offset, "recorded"),
                                   settings, detected=found, noise=noise)  # fmt: skip
         except InputValueError as err:
-            rows += [_failed_row(trial, k, str(err)) | baseline for k in range(len(trial.touches))]
+            rows += [same(_failed_row(trial, k, str(err))) for k in range(len(trial.touches))]
             continue
         if outputs is not None:
             outputs.add_trial(trial, replay, first_touch=len(rows) + 1, pair=part.pair)
-        rows += [r | baseline for r in _replayed_rows(trial, replay, part, settings)]
+        rows += [same(r) for r in _replayed_rows(trial, replay, part, settings)]
     for number, row in enumerate(rows, start=1):
         row["trial"] = number
     names = [c.name for c in columns_of(spec)] + _STREAM_NAMES
@@ -290,7 +309,53 @@ def touch_rows(
     table["misclosure_dof"] = 0
     table["suspect_pose"] = 0
     table["nees_dof"] = table["nees_dof"].fillna(0)
+    table = _truth_flags(table, parts[0].info.units)
     return typed(table.drop(columns=[c for c in _IDENTITY if c in table]))
+
+
+def _truth_flags(table: pd.DataFrame, units: Units) -> pd.DataFrame:
+    """Each touch against its own truth, as a one-camera trial is
+    (:func:`twopose.uncertainty.blunders.scored_truth_tests`: NEES beyond chi-square's 0.1%
+    quantile): ``flagged`` (empty where untested: no estimate or no region),
+    ``flagged_by`` and the words. A touch marked as the target moved is such a row."""
+    from twopose.uncertainty.blunders import FLAGGED_BY, far_from_truth, scored_truth_tests
+
+    error = table[["err_x", "err_y", "err_z"]].to_numpy(dtype=np.float64)
+    test = scored_truth_tests(
+        error, table["nees"].to_numpy(dtype=np.float64), table["nees_dof"].to_numpy(dtype=int)
+    )
+    tested = test.dof > 0
+    causes = (
+        "the moment it was marked (a key pressed as the target moved), the grid point, or "
+        "the detection is off: check when and where the touch was marked"
+    )
+    out = table.copy()
+    out["flagged"] = pd.array([bool(f) if t else None for f, t in zip(test.flagged, tested,
+                               strict=True)], dtype="boolean")  # fmt: skip
+    out["flagged_by"] = np.where(test.flagged, FLAGGED_BY[2], "")
+    sigmas = np.sqrt(test.nees)
+    out["disagreement"] = [
+        far_from_truth(
+            test.off[k], sigmas[k], int(test.axis[k]), units, noun="touch", causes=causes
+        )
+        if test.flagged[k]
+        else ""
+        for k in range(len(table))
+    ]
+    return out
+
+
+def _part_cells(pair: PairCalibration) -> Callable[[dict[str, Any]], dict[str, Any]]:
+    """A row of a part with the pair ``pair``: its baseline, and the pair's failed check
+    (:meth:`twopose.pair.holdout.HoldoutCheck.unconfirmed`) added to its notes."""
+    baseline = float(np.linalg.norm(pair.t_2_in_1))
+    unconfirmed = "" if pair.check is None else pair.check.unconfirmed()
+
+    def cells(row: dict[str, Any]) -> dict[str, Any]:
+        notes = "; ".join(n for n in (row.get("notes", ""), unconfirmed) if n)
+        return row | {"baseline": baseline, "notes": notes}
+
+    return cells
 
 
 _STREAM_NAMES = [

@@ -198,6 +198,7 @@ def _intrinsics(
                     f"{intrinsics.width}x{intrinsics.height}: give the calibration made at "
                     "this size"
                 )
+        _refuse_swapped(found, board_pattern(board, square), given)
         return given, given_from, (None, None)
     fits: list[Calibration] = []
     for n in (0, 1):
@@ -216,6 +217,56 @@ def _intrinsics(
     )
     cameras = ((fits[0].intrinsics, dict(fits[0].sigma)), (fits[1].intrinsics, dict(fits[1].sigma)))
     return cameras, note, (fits[0], fits[1])
+
+
+#: A sign test over the views at this level refuses calibration files that fit swapped.
+SWAPPED_LEVEL = 0.001
+
+
+def _refuse_swapped(found: _Found, pattern: F32, given: tuple[Calibrated, Calibrated]) -> None:
+    """Refuse ``--calibration-left`` and ``--calibration-right`` given the wrong way round.
+
+    Each camera's every board, posed alone (PnP) through its own file's intrinsics and
+    through the other's: when the other's fit better in nearly every view of both cameras
+    (a sign test over the views: views, not corners, are independent, a view's corner
+    errors repeating), the files were swapped. The pair's fit cannot see it: its RMS stays
+    well under the 2 px it refuses and its leave-one-out check passes, while the pose is 30
+    sigma off (a new user's OpenCV photographs).
+    """
+    from scipy import stats
+
+    from twopose.pair.board_fit import LensModel
+    from twopose.pair.holdout import pnp_residual_px
+
+    lenses = [LensModel.of(given[0][0]), LensModel.of(given[1][0])]
+    if np.array_equal(lenses[0].K, lenses[1].K) and np.array_equal(
+        lenses[0].distortion, lenses[1].distortion
+    ):
+        return  # one file for both: swapping changes nothing
+    better, views, rms = 0, 0, []
+    for n, corners in enumerate((found.left, found.right)):
+        own = [
+            float(np.sqrt(np.mean(pnp_residual_px(c, pattern, lenses[n]) ** 2))) for c in corners
+        ]
+        other = [
+            float(np.sqrt(np.mean(pnp_residual_px(c, pattern, lenses[1 - n]) ** 2)))
+            for c in corners
+        ]
+        better += sum(b < a for a, b in zip(own, other, strict=True))
+        views += len(own)
+        rms.append(
+            (float(np.sqrt(np.mean(np.square(own)))), float(np.sqrt(np.mean(np.square(other)))))
+        )
+    if stats.binom.sf(better - 1, views, 0.5) >= SWAPPED_LEVEL:
+        return
+    raise InputValueError(
+        f"the stills fit the calibration files swapped: camera 1's boards fit at RMS "
+        f"{rms[0][0]:.3f} px through --calibration-left and {rms[0][1]:.3f} px through "
+        f"--calibration-right, camera 2's at {rms[1][0]:.3f} px through --calibration-right "
+        f"and {rms[1][1]:.3f} px through --calibration-left ({better} of {views} views fit "
+        "better the other way): give each camera its own file (are --calibration-left and "
+        "--calibration-right, or the cameras' order, swapped?)"
+    )
 
 
 def calibrate_pair_views(

@@ -73,7 +73,7 @@ def new_pair(
     session (``pair`` then None, or checked to be the session's); ``given`` every option of
     ``new`` by its name (None, False or []: not given). Its exit code: 0, 3 when a camera
     stopped (an error), 130 when interrupted."""
-    from recorder.procedure.new_session import _prompt, continued_session
+    from recorder.procedure.new_session import _prompt, continued_session, say_fork
     from recorder.procedure.stream_terminal import record_pair
     from recorder.procedure.terminal import Operator
     from recorder.setup.pair_continuation import ONE_CAMERA_WITH_PAIR, refuse_one_camera_source
@@ -115,6 +115,7 @@ def new_pair(
         "ground_height": given.get("--ground-height"), "operator": given.get("--operator"),
     }  # fmt: skip
     if ui:
+        say_fork(continued)
         _serve(out, pair, source, op, asked, given, continued)
         return 0
     summary = record_pair(

@@ -89,10 +89,10 @@ class NoiseFile:
     def history(self, method: Method, reference: str) -> list[SessionNoise]:
         """The recorded sessions of ``method`` relative to ``reference``, as statistics."""
         out = []
-        for s in self.sessions():
-            if s.get("method") != str(method) or s.get("reference") != reference:
-                continue
-            out.append(_statistics(s, f"{self.path}: a session"))
+        for s in self.sessions():  # every session checked: the end adds to the whole file
+            stats = _statistics(s, f"{self.path}: a session")
+            if s.get("method") == str(method) and s.get("reference") == reference:
+                out.append(stats)
         return out
 
     def prior(self, method: Method, reference: str, anchor: PlacingPrior) -> PlacingPrior | None:
@@ -150,13 +150,19 @@ def _regrouped(s: SessionNoise, group: str) -> SessionNoise:
 
 def _statistics(s: dict[str, object], what: str) -> SessionNoise:
     """A recorded session's statistics, refused in words unless well formed."""
+    missing = [k for k in ("chi2", "dof", "share", "z2") if k not in s]
+    if missing:
+        raise InputValueError(f"{what} lacks {', '.join(missing)}; move the file away")
     try:
         chi2 = np.asarray(s["chi2"], dtype=np.float64)
         dof = np.asarray(s["dof"], dtype=np.int_)
         share = np.asarray(s["share"], dtype=np.float64)
         z2 = np.asarray(s["z2"], dtype=np.float64)
-    except (KeyError, TypeError, ValueError) as err:
-        raise InputValueError(f"{what} lacks its numbers ({err}); move the file away") from err
+    except (TypeError, ValueError) as err:  # a string, or ragged rows: not the recorder's
+        raise InputValueError(
+            f"{what} holds chi2, dof, share or z2 that are not arrays of numbers; move the "
+            "file away"
+        ) from err
     T = len(chi2)
     shaped = dof.shape == (T,) and share.ndim == 2 and share.shape == z2.shape
     good = (

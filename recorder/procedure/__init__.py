@@ -41,6 +41,7 @@ if TYPE_CHECKING:
         record_planned,
         record_terminal,
         rig_file,
+        say_fork,
         serve_console_until_stopped,
     )
     from recorder.procedure.recording import record
@@ -74,6 +75,7 @@ __all__ = [
     "record_terminal",
     "refuse_existing",
     "rig_file",
+    "say_fork",
     "serve_console_until_stopped",
 ]
 
@@ -97,6 +99,7 @@ _HOMES = {
     "Shortfall": "recorder.procedure.capture",
     "continued_given": "recorder.procedure.new_session",
     "continued_session": "recorder.procedure.new_session",
+    "say_fork": "recorder.procedure.new_session",
     "detection_shortfall": "recorder.procedure.capture",
     "guidance_asked": "recorder.procedure.new_session",
     "record": "recorder.procedure.recording",

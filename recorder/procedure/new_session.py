@@ -33,6 +33,7 @@ __all__ = [
     "record_planned",
     "record_terminal",
     "rig_file",
+    "say_fork",
     "serve_console_until_stopped",
 ]
 
@@ -84,8 +85,8 @@ def continued_session(
 
     ``--operator`` is who records the continuation (a part of its own, perhaps another
     day or another laptop): recorded as this file's operator, the session's otherwise.
-    When a file beside it already continues the same part, that is said here, once, on
-    every path (terminal, ``--plan``, ``--ui``): this recording starts a branch.
+    When a file beside it already continues the same part, :func:`say_fork` says so once
+    the command's checks have passed (a refused command announces no branch).
     """
     if path is None:
         return None
@@ -96,10 +97,15 @@ def continued_session(
         )
     from recorder.setup.continuation import read_continued
 
-    continued = read_continued(path, operator=operator)
-    if continued.fork_warning is not None:  # said once, before any path asks or records
+    return read_continued(path, operator=operator)
+
+
+def say_fork(continued: Continued | None) -> None:
+    """Say, once, that this recording starts a branch of the session (another file
+    already continues the same part): on every path (terminal, ``--plan``, ``--ui``, a
+    pair's), after its checks and before it asks or records."""
+    if continued is not None and continued.fork_warning is not None:
         typer.secho(f"warning: {continued.fork_warning}", fg=typer.colors.YELLOW, err=True)
-    return continued
 
 
 def continued_given(
@@ -260,6 +266,9 @@ def record_planned(
         fps=mode.fps, units=the_plan.units,  # the scene in the plan's units, through its cameras
         cameras=recorded,
     )  # fmt: skip
+    if request.continued is not None:
+        request.continued.check_plan(the_plan.method, the_plan.units)
+        say_fork(request.continued)
     cameras = list(the_plan.cameras)
     view = _live_view(stack, cameras, request.live_port) if request.live_port is not None else None
     return record_plan(

@@ -130,6 +130,8 @@ class TrialEnd:
     missed: tuple[ScheduledTouch, ...] = ()
     seconds: float = 0.0
     dropped: tuple[int, int] = (0, 0)
+    #: A video file's frames played before the trial started, per camera: not recorded.
+    unrecorded: tuple[int, int] = (0, 0)
 
     @property
     def complete(self) -> bool:
@@ -156,6 +158,12 @@ class TrialEnd:
         said += f" ({d1} + {d2} dropped), {len(self.touches)} touch"
         said += "es" if len(self.touches) != 1 else ""
         said += f" ({how})" if how else ""
+        if any(self.unrecorded):
+            said += (
+                f"; {self.unrecorded[0]} + {self.unrecorded[1]} of the files' frames played "
+                "before the trial started, not recorded (a video plays at its rate from when "
+                "it is opened, as a camera does)"
+            )
         if self.why == "ended":
             said += "; the sources ended (no more frames)"
         if self.missed:
@@ -331,7 +339,9 @@ def _with_clocks(info: SessionInfo, source: PairSource) -> SessionInfo:
         deadline = time.monotonic() + FIRST_FRAME_S
         while len(seen) < 2:
             stops.check()
-            seen.add(source.read_frame(timeout_s=FIRST_FRAME_S).camera)
+            camera = source.read_frame(timeout_s=FIRST_FRAME_S).camera
+            seen.add(camera)
+            source.unrecorded[camera - 1] += 1  # read for its clock, not recorded
             if len(seen) < 2 and time.monotonic() > deadline:  # the other keeps giving
                 n = 2 if 1 in seen else 1
                 raise SourceError(
@@ -415,6 +425,8 @@ def _stream_trial(
     jpeg = writer.image_format == "jpeg"
     if not source.stills:
         source.start_capture()  # frames queued between trials are not this trial's
+    taken = source.take_unrecorded()
+    unrecorded = taken if source.files else (0, 0)  # a camera's: not data, not said
     state = _TrialState(
         trial=trial, stills=source.stills,
         schedule=sorted(driver.schedule(trial), key=lambda s: s.after_s),
@@ -446,7 +458,9 @@ def _stream_trial(
             summary.trials.append(state.end(stream, ids, why))
             driver.trial_ended(summary.trials[-1])
             raise
-    summary.trials.append(state.end(stream, ids, state.ended))
+    summary.trials.append(
+        dataclasses.replace(state.end(stream, ids, state.ended), unrecorded=unrecorded)
+    )
     return summary.trials[-1]
 
 

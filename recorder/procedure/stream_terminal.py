@@ -416,6 +416,12 @@ def record_pair(  # noqa: PLR0913 - what new --pair takes
     if plan is not None:
         refuse_off_floor(plan, pair)
     src = open_pair_source(source, pair, setup, fps=fps)
+    if continued is not None:
+        from recorder.procedure.new_session import say_fork
+
+        say_fork(continued)
+    if pair.check is not None and not pair.check.passed:  # recorded, and said before it is
+        op.say(f"warning: {pair.check.unconfirmed()}")
     cameras = pair_cameras(pair)
     info = setup.info(notes or (plan.notes if plan is not None else ""))
     driver = TerminalStreamDriver(

@@ -25,6 +25,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import math
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from datetime import UTC, datetime
@@ -197,6 +198,44 @@ def _checked(method: Method, trials: int, scene: Scene, timing: PairTiming) -> P
         )
     bounds.TRIALS.read(trials, None)
     return timing.checked(Units(scene.units))
+
+
+@dataclass(frozen=True)
+class SimulationSize:
+    """What a two-camera simulation will render: ``trials`` stream trials of
+    ``trial_s`` seconds each, both cameras at ``fps``."""
+
+    trials: int
+    trial_s: float
+    fps: float
+
+    @property
+    def frames(self) -> int:
+        """Both cameras' frames over every trial (about: each camera's phase and drops
+        move it by a frame or a few)."""
+        return 2 * self.trials * math.ceil(self.trial_s * self.fps)
+
+    def words(self) -> str:
+        each = "" if self.trials == 1 else " each"
+        return (
+            f"rendering {self.trials} stream trial{'' if self.trials == 1 else 's'} of "
+            f"{self.trial_s:,.1f} s{each}: about {self.frames:,} frames (Ctrl-C stops it; "
+            "a faster --speed makes shorter trials)"
+        )
+
+
+def simulation_size(
+    method: Method, trials: int, scene: Scene, timing: PairTiming
+) -> SimulationSize:
+    """What :func:`simulate_pair_session` will render, known before it renders a frame
+    (the target's path at ``timing.speed``; each trial's touches only reorder it)."""
+    timing = _checked(method, trials, scene, timing)
+    lead = unit_factor(Units.IN, Units(scene.units))
+    path = Trajectory(
+        touches=touch_points(scene, method, simulated_pair(scene)), speed=timing.speed,
+        lead=lead, dwell_s=DWELL_S, hold_s=FLASH_HOLD_S if timing.flash else 0.0,
+    )  # fmt: skip
+    return SimulationSize(trials, path.duration_s, scene.sensor.fps)
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -419,6 +458,11 @@ def simulate_pair_with_progress(
     )  # fmt: skip
     with Progress(console=Console(stderr=True), transient=True) as progress:
         task = progress.add_task("frames rendered", total=None)
+
+        size = simulation_size(method, trials, scene, pair_timing)
+        # Said before rendering, in a pipe too: a slow --speed is minutes of frames.
+        progress.console.print(size.words(), markup=False, highlight=False, soft_wrap=True)
+        progress.update(task, total=size.frames)
         return simulate_pair_session(
             out, method=method, timing=pair_timing, trials=trials, seed=seed, scene=scene,
             on_progress=lambda: progress.advance(task), operator=operator,

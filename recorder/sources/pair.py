@@ -276,6 +276,11 @@ class PairSource(FrameSource):
             for n, (spec, feed) in enumerate(zip(self.specs, feeds, strict=True), start=1)
         )
         self.stills = all(f.lossless for f in feeds)
+        #: A video file among the feeds: its frames played before a trial are counted.
+        self.files = any(f.recorded for f in feeds)
+        #: Each camera's frames taken and not recorded since :meth:`take_unrecorded`
+        #: (queued before a capture started, or read to learn its clock).
+        self.unrecorded = [0, 0]
         self.warnings: tuple[str, ...] = ()
         #: Why :meth:`pairs` ended before both streams did ("": it did not).
         self.ended_early = ""
@@ -485,12 +490,20 @@ class PairSource(FrameSource):
                 raise SourceError(f"camera {r.camera} ({r.spec}) sent no frame for {timeout_s:g} s")
 
     def start_capture(self) -> None:
-        """Frames queued before now are stale: dropped without counting them."""
+        """Frames queued before now are stale: dropped as dropped frames are not, counted
+        in :attr:`unrecorded` (a video file's are its data, said)."""
         with self._cond:
             for r in self._readers:
+                self.unrecorded[r.camera - 1] += len(r.queue)
                 r.queue.clear()
                 r.bytes = 0
             self._cond.notify_all()
+
+    def take_unrecorded(self) -> tuple[int, int]:
+        """Each camera's frames not recorded since the last call (then counted afresh)."""
+        taken = (self.unrecorded[0], self.unrecorded[1])
+        self.unrecorded = [0, 0]
+        return taken
 
     def close(self) -> None:
         """Stop both reader threads (at most :data:`_JOIN_S` together) and release the

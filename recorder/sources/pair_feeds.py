@@ -110,6 +110,9 @@ class Feed(ABC):
     clock_note: str = ""
     #: Stills are never dropped: the reader waits for the consumer instead.
     lossless = False
+    #: A recording (a video file) played at its rate: a frame it plays before a trial
+    #: starts is the file's data not recorded, said as such (a camera's are not kept).
+    recorded = False
     #: The stream ends (a file); a camera that stops giving frames is an error.
     finite = True
     #: The pixel format the frames come in (a camera's: ``MJPG`` where it took it).
@@ -281,6 +284,8 @@ class _Paced(Feed):
 class VideoFeed(_Paced):
     """A video file played at its rate, each frame at its own timestamp (its frame rate's
     where a timestamp does not increase)."""
+
+    recorded = True
 
     def __init__(self, source: VideoFile) -> None:
         super().__init__()

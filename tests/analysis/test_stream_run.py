@@ -200,6 +200,10 @@ def test_the_line_and_ground_methods_take_the_same_path(tmp_path: Path) -> None:
     line = t[t["method"] == "line"]
     np.testing.assert_allclose(line["dist_err"], line["err"])
     assert violations(t) == []
+    # A run of two-camera sessions alone has every column the docs list for every method
+    # (a new user's finding: rig_file and rig_sha256 were missing, a KeyError in a script
+    # that worked on a folder holding a one-camera session too); no rig file applies.
+    assert (t[["rig_file", "rig_sha256"]] == "").all().all()
 
 
 def test_a_touch_outside_the_stream_is_a_row_saying_so(mixed: Path) -> None:
@@ -310,3 +314,84 @@ def test_a_two_camera_sessions_rows_are_touches_in_every_word(ran: analysis.RunR
         "only in A: one.mcap (point): trial 2",
         "only in A: pair.mcap (point): touch 3",
     ]
+
+
+@pytest.mark.parametrize("passed", [False, True])
+def test_a_pairs_leave_one_out_check_is_said_where_its_covariance_is_used(
+    mixed: Path, tmp_path: Path, passed: bool
+) -> None:
+    """A new user's finding: a pair whose check FAILED (calibrate-pair: "the covariance is
+    not confirmed") was recorded, described and analysed without a word, its regions
+    resting on the covariance the tool itself declined to vouch for."""
+    import dataclasses
+
+    from tests.helpers import rewrite_session
+    from twopose.format.entries import decode_entry, encode_entry
+    from twopose.format.stream_entries import PairEntry
+
+    worst = 2.1 if passed else 9.5
+    check = {"folds": 13, "spacings": 624, "beyond_3_sigma": 0 if passed else 40,
+             "worst_sigmas": worst, "median_error": 0.01, "median_sigma": 0.02,
+             "jackknife_ratio": [1.0] * 6, "passed": passed}  # fmt: skip
+
+    def checked(topic: str, data: bytes) -> bytes:
+        if topic != "/twopose/pair":
+            return data
+        entry = decode_entry(PairEntry.SCHEMA_NAME, data)
+        assert isinstance(entry, PairEntry)
+        return encode_entry(dataclasses.replace(entry, check=check))
+
+    session = rewrite_session(mixed / "pair.mcap", tmp_path / "checked.mcap", edit=checked)
+    result = analysis.run([session])
+    assert result.errors.empty, result.errors
+    notes = result.trials["notes"]
+    said = CliRunner().invoke(app, ["info", str(session)], env={"COLUMNS": "200"}).output
+    row = next(line for line in said.splitlines() if "checked.mcap" in line and "│" in line)
+    cells = [c.strip() for c in row.split("│")]
+    # stream trials type no pose and open no capture (it read "poses 0, captures 12")
+    assert cells[6:8] == ["-", "-"], row
+    if passed:
+        assert not notes.str.contains("not confirmed").any()
+        assert "its covariance confirmed by leave-one-out" in " ".join(said.split())
+    else:
+        sentence = "the pair's covariance is not confirmed (its leave-one-out check found a "
+        sentence += "held-out spacing 9.5 sigma off, 40 of 624 beyond 3)"
+        assert notes.str.contains(sentence, regex=False).all()
+        assert sentence in " ".join(said.split())
+        assert sentence in result.sessions[0].metadata["two_cameras"]
+
+
+def test_a_touch_far_from_its_truth_is_flagged_by_its_truth(mixed: Path, tmp_path: Path) -> None:
+    """A new user's finding: a touch marked 0.3 s late (the target already on its way to the
+    next point) lay 45 sigma from its grid point and nothing flagged it; a one-camera trial
+    that far is flagged by its truth."""
+    import dataclasses
+
+    from tests.helpers import rewrite_session
+    from twopose.format.entries import decode_entry, encode_entry
+    from twopose.format.stream_entries import Touch
+
+    def late(topic: str, data: bytes) -> bytes:
+        if topic != "/twopose/touch":
+            return data
+        touch = decode_entry(Touch.SCHEMA_NAME, data)
+        assert isinstance(touch, Touch)
+        if touch.touch != 2:
+            return data
+        return encode_entry(dataclasses.replace(touch, time_ns=touch.time_ns + 300_000_000))
+
+    session = rewrite_session(mixed / "pair.mcap", tmp_path / "late.mcap", edit=late)
+    result = analysis.run([session])
+    t = result.trials.set_index("trial")
+    assert t.loc[2, "status"] == "ok"
+    assert t.loc[2, "flagged"]
+    assert t.loc[2, "flagged_by"] == "truth"
+    assert t.loc[2, "disagreement"].startswith("this touch's estimate lies ")
+    assert "check when and where the touch was marked" in t.loc[2, "disagreement"]
+    assert t.loc[2, "nees"] > 100 * t.drop(index=2)["nees"].max()
+    assert t["flagged"].notna().all()  # every touch tested: it has a truth and a region
+    assert int(result.summary["n_flagged"].iloc[0]) == int(t["flagged"].sum())
+    printed = CliRunner().invoke(app, ["run", str(session), "--out", str(tmp_path / "r")])
+    assert "flagged: trial 1, touch 2 (by its truth): this touch's estimate" in " ".join(
+        printed.output.split()
+    )

@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import struct
 from html.parser import HTMLParser
 from pathlib import Path
 
@@ -266,6 +267,24 @@ def test_recover_says_where_and_why_the_file_ended(tmp_path: Path) -> None:
     assert not line.rstrip().endswith(":")
     assert "runs past the end of the file" in line
     assert "the recording was not closed" in line
+
+
+def test_recover_of_a_file_cut_between_records_says_so(tmp_path: Path) -> None:
+    """Before: a file cut exactly after a whole record said its last record, "from byte N,
+    runs past the end of the file (N bytes)"."""
+    whole = tmp_path / "whole.mcap"
+    record(whole, 2, measured=True)
+    data = whole.read_bytes()
+    # The footer's summary start, less the data end record (opcode, length, crc: 13 bytes).
+    summary_start = struct.unpack_from("<Q", data, len(data) - 8 - 29 + 9)[0]
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: summary_start - 13])
+    report = recover_session(cut, tmp_path / "fixed.mcap")
+    line = next(x for x in report.summary().splitlines() if "ended early" in x)
+    assert "runs past" not in line
+    assert f"the file ends after its last whole record, at byte {summary_start - 13:,}" in line
+    assert report.chunks_lost == 0
+    assert report.chunks_kept > 0
 
 
 def test_figures_name_sessions_by_their_labels(tmp_path: Path) -> None:

@@ -254,6 +254,28 @@ def test_every_recording_is_a_fresh_part_and_a_second_continuation_a_branch(
     assert branches[str(forked.second)] == "B"
 
 
+@pytest.mark.parametrize("refused", ["source", "plan"])
+def test_a_refused_continuation_of_a_continued_part_announces_no_branch(
+    forked: Forked, tmp_path: Path, refused: str
+) -> None:
+    """Before: every refused ``new --continue`` of a part another file continues first
+    said "this file starts branch C of the session", then refused: no branch was started."""
+    out = tmp_path / "C.mcap"
+    args = ["new", str(out), "--continue", str(forked.session)]
+    if refused == "source":
+        args += ["--source", "pair:synthetic,synthetic"]  # two cameras for a one-camera part
+    else:
+        args += ["--source", "synthetic"]
+        plan = _plan(tmp_path, "mm.toml", 1)  # the plan in mm, the session in inches
+        plan.write_text(plan.read_text().replace('units = "in"', 'units = "mm"'))
+        args += ["--plan", str(plan)]
+    result = runner.invoke(record, args)
+    assert result.exit_code != 0
+    assert "Traceback" not in result.output
+    assert "already continued" not in result.output
+    assert not out.exists()
+
+
 def test_a_branch_takes_the_next_free_letter_after_the_continued_part(forked: Forked) -> None:
     """The third continuation of a part is C; a second continuation of a part on branch B
     is BB (no file rendered: the continued session read once)."""

@@ -51,3 +51,31 @@ def test_a_good_file_is_added_to(tmp_path: Path) -> None:
     noise.remember("a.mcap", Method.POINT, Units.IN, "typed", STATS)
     noise.remember("b.mcap", Method.POINT, Units.IN, "typed", STATS)
     assert [s["file"] for s in noise.sessions()] == ["a.mcap", "b.mcap"]
+
+
+@pytest.mark.parametrize(
+    ("session", "words"),
+    [
+        ('file = "x.mcap"\nchi2 = "x"\ndof = [3]\nshare = [[1.0]]\nz2 = [[1.0]]\n', "not arrays"),
+        ('file = "x.mcap"\nmethod = "line"\n', "lacks chi2, dof, share, z2"),
+    ],
+)
+def test_a_session_of_another_method_that_cannot_be_read_is_said_at_the_start(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, session: str, words: str
+) -> None:
+    """A new user's finding: a malformed session of no method (or another method) was
+    passed over at the start, which said "no earlier session ... this one is kept in FILE",
+    and then refused at the end; the Python error ("could not convert string to float")
+    leaked into the words."""
+    monkeypatch.setenv("TWOPOSE_NOISE_DIR", str(tmp_path))
+    noise = NoiseFile("Zed")
+    bad = f'format = 1\noperator = "Zed"\n\n[[session]]\n{session}'
+    noise.path.write_text(bad)
+    _, said = live_prior("Zed", Method.POINT, EstimateOptions())
+    assert said.startswith("the operator's noise file was set aside:")
+    assert words in said
+    assert "could not convert" not in said
+    assert "no earlier session" not in said
+    end = remember_session("Zed", Method.POINT, Units.IN, "b.mcap", EstimateOptions(), STATS)
+    assert end.startswith("the operator's noise file was not updated:")
+    assert noise.path.read_text() == bad

@@ -120,6 +120,18 @@ def test_the_same_from_any_iterator_of_pairs_and_given_intrinsics(
     assert result.exit_code == 0, result.output
     assert f"intrinsics: calibration files {tmp_path / 'left.toml'} and" in result.output
     assert np.allclose(read_pair_file(out).R_2_to_1, run.pair.R_2_to_1, atol=1e-12)
+    # The files swapped (a new user's: the pair 30 sigma off, "passed"): refused, none written.
+    swapped = tmp_path / "SWAPPED.toml"
+    result = runner.invoke(
+        app,
+        _args(stills, swapped, "--calibration-left", str(tmp_path / "right.toml"),
+              "--calibration-right", str(tmp_path / "left.toml")),
+    )  # fmt: skip
+    assert result.exit_code == EXIT_ERROR, result.output
+    said = " ".join(result.output.split())
+    assert "the stills fit the calibration files swapped" in said
+    assert "10 of 10 views fit better the other way" in said
+    assert not swapped.exists()
 
 
 def test_an_existing_pair_file_is_refused_before_any_work(stills: Path, tmp_path: Path) -> None:

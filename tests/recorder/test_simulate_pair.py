@@ -19,7 +19,12 @@ from hypothesis import strategies as st
 from typer.testing import CliRunner
 
 from recorder.cli.app import app
-from recorder.simulate.pair import PairTiming, simulate_pair_session, simulated_pair
+from recorder.simulate.pair import (
+    PairTiming,
+    simulate_pair_session,
+    simulated_pair,
+    simulation_size,
+)
 from tests.helpers import SMALL_SCENE
 from tests.recorder.test_simulate import _dark_centroid
 from twopose.camera.model import project_points
@@ -130,6 +135,21 @@ def test_the_same_settings_write_the_same_bytes_from_the_command_line(
     assert "two cameras, 1 stream trial" in result.output
     digest = hashlib.sha256
     assert digest(out.read_bytes()).digest() == digest(point_pair.read_bytes()).digest()
+    # The session's size said before a frame is rendered, and right to a few frames.
+    said = re.search(r"rendering 1 stream trial of [\d.]+ s: about ([\d,]+) frames", result.output)
+    assert said is not None, result.output
+    with SessionReader(out) as reader:
+        n_frames = sum(len(c) for c in read_pair_session(reader).trials[0].cameras)
+    assert abs(int(said.group(1).replace(",", "")) - n_frames) <= 4
+
+
+def test_a_slow_target_is_said_to_be_minutes_of_frames_before_any_is_rendered() -> None:
+    fast = simulation_size(Method.GROUND, 2, SMALL, dataclasses.replace(TIMING, speed=10.0))
+    slow = simulation_size(Method.GROUND, 2, SMALL, dataclasses.replace(TIMING, speed=0.01))
+    assert slow.trial_s > 500 * fast.trial_s / 2  # the path's length over the speed
+    assert slow.frames > 2 * 2 * 30 * 500
+    assert "rendering 2 stream trials of" in slow.words()
+    assert "Ctrl-C" in slow.words()
 
 
 PAIR = ["--cameras", "2", "--speed", "1", "--clock-offset-ms", "1"]

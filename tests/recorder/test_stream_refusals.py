@@ -281,3 +281,25 @@ def test_an_enter_read_with_the_input_end_still_takes_its_keyed_point(tmp_path: 
     assert [e.point for e in driver.events()] == [None]
     assert driver.next_point(1) == (1.0, 2.0, 9.0)
     assert any("the input ended: 1 keyed touch(es)" in line for line in said), said
+
+
+def test_a_pair_whose_check_failed_records_with_a_warning_said_first(
+    tmp_path: Path, stills: str
+) -> None:
+    """A new user's finding: a pair file whose leave-one-out check failed recorded without a
+    word; the regions of everything it records carry that covariance."""
+    from twopose.pair.holdout import HoldoutCheck
+
+    failed = HoldoutCheck(
+        folds=13, spacings=624, worst_sigmas=9.5, beyond=40, median_error=0.01,
+        median_sigma=0.02, jackknife_ratio=(1.0,) * 6,
+    )  # fmt: skip
+    pair = tmp_path / "FAILED.toml"
+    write_pair_file(pair, dataclasses.replace(thesis_pair(), floor=None, check=failed))
+    plan = _plan(tmp_path, _GROUND + "ground_height = 9.625\n[[trials]]\nduration = 0.2\n"
+                 "touches = [{point = [1.455, 9.625, 7.375], at = 0.1}]\n")  # fmt: skip
+    result = _new_with_plan(tmp_path / "s.mcap", pair, stills, plan)
+    assert result.exit_code == 0, result.output
+    said = " ".join(result.output.split())
+    assert "warning: the pair's covariance is not confirmed (its leave-one-out check" in said
+    assert said.index("not confirmed") < said.index("trial 1")

@@ -10,6 +10,7 @@ Then every stop: Ctrl-C, q, a camera that stops, and kill -9 (recover).
 from __future__ import annotations
 
 import csv
+import re
 import signal
 import subprocess
 import time
@@ -83,6 +84,11 @@ def test_a_pair_recorded_by_schedule_and_key_gives_one_row_per_touch(
     assert process.returncode == 0, before + rest
     assert "Traceback" not in rest
     assert "4 touches (1 by key, 3 by schedule)" in rest, rest
+    # The files' frames played before the trial started (read to learn each camera's
+    # clock, at least) are said, never silently missing (they read "0 + 0 dropped").
+    said = re.search(r"; (\d+) \+ (\d+) of the files' frames played before the trial", rest)
+    assert said is not None, rest
+    assert min(int(said.group(1)), int(said.group(2))) >= 1
     with SessionReader(out) as reader:
         session = read_pair_session(reader)
         assert session.info.clocks == {"cam1": "simulated", "cam2": "simulated"}

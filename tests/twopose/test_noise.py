@@ -145,3 +145,11 @@ def test_the_anchor_is_the_typed_resolution_or_the_boards_measurement() -> None:
     assert board.sigma(Units.IN) == 0.1  # its uncertainty is the anchor's dof, not a widening
     with pytest.raises(Exception, match="positive multiplier"):
         PlacingPrior(scale=0.0, dof=3, source="x")
+
+
+def test_sigma0_untested_beside_flagged_trials_says_what_is_true() -> None:
+    """A new user's session of three 2-pose trials (no redundancy at all), two flagged by
+    their truth, read "every trial with redundant poses is flagged"."""
+    said = noise_words(math.nan, 0, flagged=2)
+    assert said.startswith("sigma0 not tested (no unflagged trial has redundant poses)")
+    assert "every trial with redundant poses" not in said

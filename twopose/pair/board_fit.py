@@ -61,7 +61,7 @@ class LensModel:
     def undistort(self, px: ArrayLike) -> F64:
         """Pixels (..., 2) with the lens' distortion removed (the pinhole model's pixels)."""
         p = np.asarray(px, dtype=np.float64)
-        if not np.any(self.distortion):
+        if not np.any(self.distortion) or p.size == 0:  # OpenCV returns one point for none
             return p
         flat = p.reshape(-1, 1, 2)
         # Iterated to 1e-12 (OpenCV's default stops after five steps: 1e-3 px off at a

@@ -102,6 +102,26 @@ class HoldoutCheck:
         """Whether every held-out spacing is within :data:`CHECK_SIGMAS` of its sigma."""
         return self.spacings > 0 and self.worst_sigmas <= CHECK_SIGMAS
 
+    def unconfirmed(self) -> str:
+        """What a failed check means for the regions, in words ("" when it passed).
+
+        Every region of the pair's sessions carries its covariance, which the check found
+        too small or could not test.
+        """
+        if self.passed:
+            return ""
+        found = (
+            f"a held-out spacing {self.worst_sigmas:.1f} sigma off, {self.beyond} of "
+            f"{self.spacings} beyond {CHECK_SIGMAS:g}"
+            if self.spacings
+            else "no held-out spacing to compare"
+        )
+        return (
+            f"the pair's covariance is not confirmed (its leave-one-out check found {found}): "
+            "the regions that carry it may be too small; calibrate the pair again with more "
+            "stills, nearer, the board filling more of both images"
+        )
+
     def scaled(self, factor: float) -> HoldoutCheck:
         """The same check with its lengths times ``factor`` (a change of units)."""
         return dataclasses.replace(

@@ -21,7 +21,7 @@ import numpy as np
 
 from twopose.camera.model import SIGMA_KEYS, Intrinsics
 from twopose.errors import InputValueError, SessionExistsError, TwoposeError
-from twopose.pair.calibration import FloorPlane, PairCalibration
+from twopose.pair.calibration import MAX_RMS_PX, FloorPlane, PairCalibration
 from twopose.pair.holdout import HoldoutCheck
 from twopose.values.units import UNITS, unit_spec
 
@@ -42,6 +42,9 @@ _REQUIRED_TABLES = tuple(t for t, what in PAIR_TABLES.items() if "(optional)" no
 #: The longest baseline a pair file may state, in inches (5 m): beyond it the numbers are
 #: not a pair of cameras on one mount (a wrong ``units``, a typo).
 MAX_BASELINE_IN = 5000 / 25.4
+#: The shortest: two centres closer than 1 mm share a centre (nothing to triangulate;
+#: ``calibrate-pair`` refuses it, the same camera's stills given as both).
+MIN_BASELINE_IN = 1 / 25.4
 #: The highest floor a pair file may state, in inches (10 m).
 MAX_FLOOR_IN = 10000 / 25.4
 
@@ -196,8 +199,20 @@ def _calibration(pair: _PairTable, tables: dict[str, Any]) -> PairCalibration:
             f"[pair] t_2_in_1 puts the cameras {baseline:g} {pair.units} apart, beyond "
             f"{MAX_BASELINE_IN / inches:g} {pair.units}: are the units right?"
         )
+    if baseline * inches < MIN_BASELINE_IN:
+        raise InputValueError(
+            f"[pair] t_2_in_1 puts the cameras {baseline:g} {pair.units} apart: they share a "
+            "centre, and two rays from one centre meet nowhere (calibrate-pair never writes "
+            "this)"
+        )
     if pair.views < 0:
         raise InputValueError(f"[pair] views must be a count >= 0, got {pair.views}")
+    if pair.views and pair.rms_px > MAX_RMS_PX:
+        raise InputValueError(
+            f"[pair] rms_px {pair.rms_px:g} is above the {MAX_RMS_PX:g} px a board's corners "
+            "allow: calibrate-pair never writes such a fit (stills of different moments, a "
+            "wrong board or intrinsics); calibrate the pair again"
+        )
     sigmas = []
     for name in ("camera1", "camera2"):
         given = {k: getattr(tables[f"{name}.sigma"], k) for k in SIGMA_KEYS}

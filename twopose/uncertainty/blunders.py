@@ -100,7 +100,9 @@ __all__ = [
     "TargetTests",
     "TrialTests",
     "TruthTests",
+    "far_from_truth",
     "one_target",
+    "scored_truth_tests",
     "target_tests",
     "trial_tests",
     "truth_tests",
@@ -262,7 +264,17 @@ def truth_tests(error: F64, cov: F64, *, level: float = TRUTH_LEVEL) -> TruthTes
     """
     e = np.asarray(error, dtype=np.float64)
     score, dof = nees(e, np.asarray(cov, dtype=np.float64))
-    tested = (dof > 0) & np.isfinite(score)
+    return scored_truth_tests(e, score, dof, level=level)
+
+
+def scored_truth_tests(
+    error: F64, score: F64, dof: Ints, *, level: float = TRUTH_LEVEL
+) -> TruthTests:
+    """:func:`truth_tests` of errors whose NEES ``score`` (T,) on ``dof`` (T,) is known."""
+    e = np.asarray(error, dtype=np.float64)
+    score = np.asarray(score, dtype=np.float64)
+    dof = np.asarray(dof, dtype=np.int_)
+    tested = (dof > 0) & np.isfinite(score) & np.isfinite(e).all(axis=1)
     with np.errstate(invalid="ignore"):
         p = np.where(tested, special.chdtrc(np.maximum(dof, 1), np.nan_to_num(score)), np.nan)
         off = np.where(tested, np.linalg.norm(np.nan_to_num(e), axis=1), np.nan)
@@ -441,13 +453,20 @@ class TrialTests:
         off = np.full(len(self.flagged), np.nan) if self.truth_off is None else self.truth_off
         sigmas = self.truth_sigmas if self.truth_sigmas is not None else off
         axis = -1 if self.truth_axis is None else int(self.truth_axis[i])
-        along = f", mostly in {AXES[axis]}" if axis >= 0 else ""
-        return (
-            f"this trial's estimate lies {float(off[i]):.3g} {units} "
-            f"({float(sigmas[i]):.0f} sigma){along} from the grid point typed as "
-            "its truth: one of its typed poses, the grid point, or the detection is off: "
-            "check what you typed"
-        )
+        return far_from_truth(float(off[i]), float(sigmas[i]), axis, units)
+
+
+def far_from_truth(
+    off: float, sigmas: float, axis: int, units: Units, *, noun: str = "trial",
+    causes: str = "one of its typed poses, the grid point, or the detection is off: check "
+    "what you typed",
+) -> str:  # fmt: skip
+    """A row ``off`` from its truth (``sigmas``, mostly along ``axis``; -1: none) in words."""
+    along = f", mostly in {AXES[axis]}" if axis >= 0 else ""
+    return (
+        f"this {noun}'s estimate lies {off:.3g} {units} ({sigmas:.0f} sigma){along} from "
+        f"the grid point typed as its truth: {causes}"
+    )
 
 
 def _about(value: float) -> str:

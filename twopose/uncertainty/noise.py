@@ -379,7 +379,7 @@ def noise_words(
 def _test_words(sigma0: float, dof: int, flagged: int = 0) -> str:
     """sigma0's chi-square test said: never "agree" when it rejects or cannot tell."""
     if (dof <= 0 or not math.isfinite(sigma0)) and flagged:
-        return "sigma0 not tested (every trial with redundant poses is flagged)"
+        return "sigma0 not tested (no unflagged trial has redundant poses)"
     if dof <= 0 or not math.isfinite(sigma0):
         return "sigma0 not tested (no trial with redundant poses, or --no-sigma0)"
     upper, lower = chi2_tails(dof * sigma0**2, dof)

@@ -17,7 +17,7 @@ from twopose.pair.calibration import PairCalibration
 from twopose.pair.holdout import HoldoutCheck
 from twopose.pair.motion import thesis_pair
 from twopose.pair.pair_file import read_pair_file, write_pair_file
-from twopose.values.units import UNITS, Units
+from twopose.values.units import UNITS, Units, unit_factor
 
 
 def _full() -> PairCalibration:
@@ -111,6 +111,9 @@ def _edited(tmp_path: Path, old: str, new: str) -> Path:
         ),
         ("t_2_in_1 = [6.0, 0.0, 0.0]", "t_2_in_1 = [6.0, nan, 0.0]", r"t_2_in_1\[1\]"),
         ("t_2_in_1 = [6.0, 0.0, 0.0]", "t_2_in_1 = [6.0, 0.0]", "t_2_in_1 must have 3 items"),
+        # what calibrate-pair never writes (a new user's hand edits, taken before)
+        ("t_2_in_1 = [6.0, 0.0, 0.0]", "t_2_in_1 = [0.0, 0.0, 0.0]", "0 in apart: they share"),
+        ("rms_px = 0.4478", "rms_px = 35.0", "rms_px 35 is above the 2 px"),
         ("rms_px = 0.4478", "", "missing"),
         (
             "passed = true",
@@ -160,6 +163,7 @@ def test_the_covariance_must_be_one(tmp_path: Path) -> None:
     ),
     spread=st.lists(st.floats(-1.0, 1.0), min_size=36, max_size=36),
     units=st.sampled_from(UNITS),
+    baseline_mm=st.floats(1.001, 4999.0),
 )
 def test_any_calibration_round_trips(
     tmp_path_factory: pytest.TempPathFactory,
@@ -167,12 +171,15 @@ def test_any_calibration_round_trips(
     t: list[float],
     spread: list[float],
     units: Units,
+    baseline_mm: float,
 ) -> None:
     A = np.array(spread).reshape(6, 6)
+    # any direction, any baseline a pair file may state (1 mm to 5 m), in any unit
+    length = baseline_mm * unit_factor(Units.MM, Units(units))
     pc = dataclasses.replace(
         thesis_pair(),
         R_2_to_1=rotation_matrix(np.array(rotation)),
-        t_2_in_1=np.array(t) * 0.01,  # within any unit's plausible baseline
+        t_2_in_1=np.array(t) / np.linalg.norm(t) * length,
         cov_extrinsic=A @ A.T * 1e-6,
         units=units,
         floor=None,
@@ -197,3 +204,16 @@ def test_a_corrupt_toml_file_is_said_where_it_is(tmp_path: Path, text: str, word
         read_pair_file(path)
     assert words in str(caught.value)
     assert "x00" not in str(caught.value)
+
+
+def test_a_failed_check_is_said_in_words_that_name_its_numbers() -> None:
+    failed = HoldoutCheck(
+        folds=13, spacings=624, worst_sigmas=9.5, beyond=40, median_error=0.01,
+        median_sigma=0.02, jackknife_ratio=(1.0,) * 6,
+    )  # fmt: skip
+    said = failed.unconfirmed()
+    assert said.startswith("the pair's covariance is not confirmed")
+    assert "a held-out spacing 9.5 sigma off, 40 of 624 beyond 3" in said
+    passed = _full().check
+    assert passed is not None
+    assert passed.unconfirmed() == ""

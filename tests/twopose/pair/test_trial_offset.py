@@ -10,6 +10,7 @@ frames: the rendered path (simulate -> run) is tests/analysis/test_stream_offset
 
 from __future__ import annotations
 
+import dataclasses
 import re
 from dataclasses import dataclass
 
@@ -295,3 +296,20 @@ def test_a_lit_frames_flicker_is_its_own_not_the_dark_frames() -> None:
     assert lit is not None
     o = offset_from_flash(lit[0], times[0], lit[1], times[1])
     assert abs(o.offset_ns + 0.5376481e9) <= 3 * o.sigma_ns, o
+
+
+@pytest.mark.parametrize("sizes", [(0, 0), (0, 5), (1, 0), (2, 2)])
+def test_a_trial_with_too_few_frames_says_so_through_a_distorting_lens(
+    sizes: tuple[int, int],
+) -> None:
+    """A new user's finding: a stream trial ended before its first frame crashed the
+    recording (OpenCV undistorts no point into one: "cannot reshape array of size 1 into
+    shape (0,2)") where the lens has distortion; it is said instead."""
+    pair = thesis_pair()
+    lens = dataclasses.replace(pair.intrinsics1, distortion=(0.1, -0.2, 0.001, 0.001, 0.05))
+    pair = dataclasses.replace(pair, intrinsics1=lens, intrinsics2=lens)
+    tracks = tuple(np.full((n, 2), 300.0) for n in sizes)
+    times = tuple(np.arange(n, dtype=np.int64) * 33_333_333 for n in sizes)
+    said = measure_trial_offset(pair, (tracks[0], tracks[1]), (times[0], times[1]))
+    assert said.offset is None
+    assert said.why
