@@ -14,11 +14,11 @@ scaled inverse chi-square, ``lambda0`` on ``nu0`` degrees of freedom
 :data:`TYPED_PRIOR_DOF` degrees of freedom, or a board session's measured ``[placing]`` on
 its own) times, when there is one, the **operator's** (the same operator's other sessions
 of the run, :func:`operator_priors`; the recorder's per-operator noise file). The
-posterior, on the grid, is summarised as a scaled inverse chi-square by its precision's
-two moments (``1 / lambda``: mean ``1 / s^2``, variance ``2 / (nu s^4)``; exact when the
-data are all placing); every region is propagated with the placing sigma times ``s`` and
-its quantile is Fisher's F on ``nu`` (:meth:`twopose.uncertainty.noise.VarianceFactor.widening`).
-The
+posterior, on the grid (integrated between its points), is summarised as a scaled inverse
+chi-square by its precision's two moments (``1 / lambda``: mean ``1 / s^2``, variance
+``2 / (nu s^4)``; exact when the data are all placing); every region is propagated with
+the placing sigma times ``s`` and its quantile is Fisher's F on ``nu``
+(:meth:`twopose.uncertainty.noise.VarianceFactor.widening`). The
 **minimum-dof guard**: with less than :data:`twopose.uncertainty.noise.MIN_PLACING_DOF` degrees of
 freedom of information beyond the anchor, nothing is estimated and the regions assume the
 anchor's sigma unwidened, said as "not enough data".
@@ -30,6 +30,10 @@ the anchor and the operator's prior); a trial both reject is **flagged** (the wo
 first, then again without it: :func:`flag_trials`), kept out of the posterior and widened
 by its own misfit. With too little beside it to say what "the rest" is, the typed test
 alone decides.
+
+(Near 600 lines: the likelihood on the grid, its posterior, the robust test whose
+truncation that likelihood corrects, and the operator's pooling of the same curves are one
+computation on one grid; split, each part would import the others' privates.)
 """
 
 from __future__ import annotations
