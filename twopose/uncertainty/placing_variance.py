@@ -299,6 +299,7 @@ def flag_trials(
     prior: PlacingPrior | None = None,
     *,
     level: float = BAARDA_LEVEL,
+    out: Bools | None = None,
 ) -> Flags:
     """Which trials' poses disagree (Baarda, see the module), and what the others say.
 
@@ -307,9 +308,14 @@ def flag_trials(
     the typed model and its test against the rest reject at ``level``. "The rest" starts
     as the half of the trials that fit the typed model best (so that many bad trials
     cannot hide each other), then is every trial not flagged, until it stays the same.
+    ``out`` (T,): trials another test flagged (their estimate off the others', off their
+    truth): their misclosures are no operator's, so they lie in no trial's rest and are
+    never flagged here (a typo can shrink its trial's misclosure, and a rest holding it
+    flagged a clean trial: the new user's F2).
     """
     T = len(chi2)
-    tested = (dof > 0) & np.isfinite(chi2)
+    has = (dof > 0) & np.isfinite(chi2)
+    tested = has & (True if out is None else ~out)
     L, info = trial_loglik(share, z2), trial_information(share)
     if not tested.any():
         zero = np.zeros_like(L)
@@ -321,7 +327,7 @@ def flag_trials(
         beside = beside + prior.dof
     # the rest starts as a robust guess (the median trial's), so that many bad trials
     # cannot hide each other; then the pool it keeps, until that stays the same
-    start = _robust_scale(dof, share, L)
+    start = _robust_scale(np.where(tested, dof, 0), share, L)
     first = beside.max() + anchor.dof
     guess = (
         _at(np.full(T, start))
@@ -353,7 +359,7 @@ def flag_trials(
     p = np.where(np.isfinite(p_rest), p_rest, p_typed)
     return Flags(
         flagged=flagged,
-        p=np.where(tested, p, np.nan),
+        p=np.where(has, p, np.nan),
         kept=kept,
         info=np.where(clean[:, None], info, 0.0),
     )
