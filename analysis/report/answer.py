@@ -175,6 +175,7 @@ def noise_phrases(row: pd.Series) -> list[str]:
         placing_dof=_known(row.get("placing_dof")),
         flagged=int(_known(row.get("n_flagged"), 0.0)),
         sources=estimated.group(1) if estimated else "",
+        with_flagged=(_known(row.get("sigma0_all")), int(_known(row.get("sigma0_all_dof"), 0.0))),
     )
     scale = _known(row.get("placing_scale"))
     start = sigma / scale if isinstance(sigma, int | float) and scale > 0 else sigma  # assumed

@@ -121,6 +121,8 @@ def _factor(m: Misclosure, flags: Flags, out: Bools, noise: NoiseModel) -> Varia
     info = np.where(out[:, None], 0.0, flags.info).sum(axis=0)
     post = posterior(pool, anchor, prior, info)
     dof = int(m.dof[use].sum())
+    has = (m.dof > 0) & np.isfinite(m.chi2)  # the flagged trials' too
+    dof_all = int(m.dof[has].sum())
     estimated = round(post.information) >= MIN_PLACING_DOF
     return VarianceFactor(
         sigma0_sq=float(m.chi2[use].sum() / dof) if dof else math.nan,
@@ -132,6 +134,8 @@ def _factor(m: Misclosure, flags: Flags, out: Bools, noise: NoiseModel) -> Varia
         flagged=int(out.sum()),
         at_limit=post.at_limit and estimated,
         sources=_sources(int(use.sum()), prior.source if prior else "", anchor.source),
+        sigma0_sq_all=float(m.chi2[has].sum() / dof_all) if dof_all else math.nan,
+        dof_all=dof_all,
     )
 
 
