@@ -29,7 +29,8 @@ the rest (its chi-square under the posterior predictive of every other unflagged
 the anchor and the operator's prior); a trial both reject is **flagged** (the worst
 first, then again without it: :func:`flag_trials`), kept out of the posterior and widened
 by its own misfit. With too little beside it to say what "the rest" is, the typed test
-alone decides.
+alone decides. A trial another test flagged (its estimate off the others' or off its truth)
+lies in no rest (``out``).
 
 (Near 600 lines: the likelihood on the grid, its posterior, the robust test whose
 truncation that likelihood corrects, and the operator's pooling of the same curves are one
