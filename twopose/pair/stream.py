@@ -1,6 +1,6 @@
 """The stream estimate: one estimate per frame pair of a moving target.
 
-Per pair (:func:`twopose.pair.pairing.pair_frames`), camera 1's measurement is brought to
+Per pair (:func:`twopose.pair.pairing.pair_captures`), camera 1's measurement is brought to
 camera 2's capture time: with the clock offset, camera 2's time on camera 1's clock is
 ``t2 - offset``, and camera 1's measurement there is interpolated linearly between the two
 frames about it (its centroid; an image line's direction as the doubled-angle unit vector
@@ -43,7 +43,7 @@ from twopose.methods.specs import Method, spec_of
 from twopose.pair.board_fit import LensModel
 from twopose.pair.calibration import PairCalibration, typed_pose_cov
 from twopose.pair.clock import ClockOffset
-from twopose.pair.pairing import Pairing, pair_frames
+from twopose.pair.pairing import Pairing, pair_captures
 from twopose.solve.estimate import (
     EstimateOptions,
     GroundSpec,
@@ -392,7 +392,7 @@ def estimate_stream(
     settings : StreamSettings
         The detection noise, interpolation, ground plane and the solvers' thresholds.
     pairing : Pairing, optional
-        The frames' pairs (default: :func:`~twopose.pair.pairing.pair_frames` with the
+        The frames' pairs (default: :func:`~twopose.pair.pairing.pair_captures` with the
         offset).
 
     Returns
@@ -409,7 +409,7 @@ def estimate_stream(
             )
         ground, ground_cov = pair.floor.ground, pair.floor.cov
     settings = dataclasses.replace(settings, ground=ground if spec.needs_ground else None)
-    pairs = pairing or pair_frames(camera1.t_ns, camera2.t_ns, offset_ns=offset.offset_ns)
+    pairs = pairing or pair_captures(camera1.t_ns, camera2.t_ns, offset_ns=offset.offset_ns)
     lenses = (LensModel.of(pair.intrinsics1), LensModel.of(pair.intrinsics2))
     c1, th1 = _undistorted(camera1, lenses[0])
     c2, th2 = _undistorted(camera2, lenses[1])
