@@ -128,3 +128,25 @@ def test_a_typo_in_a_session_alone_never_reads_agree_where_its_trials_contradict
     if AGREE in factor.describe() and factor.flagged and factor.dof_all:
         upper_all = chi2_tails(factor.dof_all * factor.sigma0_sq_all, factor.dof_all)[0]
         assert upper_all >= FACTOR_TEST_LEVEL
+
+
+def test_a_trial_kept_out_lies_in_no_rest_and_still_counts_as_something_beside() -> None:
+    """flag_trials(out=...): trial 1 (a typo that shrank its misclosure, 0.3 on 3 dof) kept
+    out, trial 2 (24 on 3 dof, p = 2e-5 under the typed model) is tested against the anchor
+    alone (the typed resolution's 2 dof): p about 0.1, kept. With trial 1 in its rest, the
+    rest says typed-right and trial 2 is flagged; with nothing counted beside it, the typed
+    test alone would flag it too (a 2-trial ground session of a 1.6x operator: 12.5% of
+    clean trials flagged, against 5%)."""
+    from twopose.uncertainty.noise import NoiseModel
+    from twopose.uncertainty.placing_variance import flag_trials
+
+    chi2, dof = np.array([0.3, 24.0]), np.array([3, 3])
+    share = np.ones((2, 3))
+    z2 = np.array([[0.1, 0.1, 0.1], [8.0, 8.0, 8.0]])
+    anchor = NoiseModel().anchor()
+    flags = flag_trials(chi2, dof, share, z2, anchor, out=np.array([True, False]))
+    assert flags.flagged.tolist() == [False, False]  # the kept-out one is another test's
+    assert 0.05 < flags.p[1] < 0.2
+    assert (flags.kept[0] == 0).all()
+    assert (flags.info[0] == 0).all()
+    assert flag_trials(chi2, dof, share, z2, anchor).flagged.tolist() == [False, True]

@@ -322,7 +322,7 @@ def flag_trials(
         zero = np.zeros_like(L)
         return Flags(flagged=np.zeros(T, dtype=bool), p=np.full(T, np.nan), kept=zero, info=zero)
     # what lies beside each trial at all (flagged trials too): a rest to test against
-    at_one = np.where(tested, info[:, int(np.argmin(np.abs(_LOG_GRID)))], 0.0)
+    at_one = np.where(has, info[:, int(np.argmin(np.abs(_LOG_GRID)))], 0.0)
     beside = at_one.sum() - at_one
     if prior is not None and math.isfinite(prior.dof):
         beside = beside + prior.dof
