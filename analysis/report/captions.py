@@ -81,9 +81,9 @@ def run_captions(trials: pd.DataFrame, *, include_warned: bool) -> dict[str, str
         f"session set, one bin width throughout. {common} {largest}",
         "error_by_trial": f"Each {noun}'s error (log scale), a line per session; dotted: the "
         f"longest semi-axis of its 95% ellipsoid, for scale. {common} {largest}",
-        "error_vs_baseline": "Each trial's error (log scale) against its baseline (the "
-        "longest distance between two of its typed camera centres), a panel per session "
-        f"set. {common} {largest}",
+        "error_vs_baseline": f"Each {noun}'s error (log scale) against its baseline (the "
+        f"longest distance between two of its camera centres: {_centres(trials)}), a panel "
+        f"per session set. {common} {largest}",
     }
 
 
@@ -138,10 +138,12 @@ def session_captions(
 
 
 #: What every chart of the report lets a reader do (analysis.report.charts).
-EXPLORE = (
-    "Hover a point for its session, trial and values; drag or turn the wheel over a chart to "
-    "zoom it, double-click to restore it."
-)
+def explore(noun: str) -> str:
+    """How to explore the charts, their rows called ``noun`` (trial, touch, trial or touch)."""
+    return (
+        f"Hover a point for its session, {noun} and values; drag or turn the wheel over a "
+        "chart to zoom it, double-click to restore it."
+    )
 
 
 def overview_caption(trials: pd.DataFrame, *, include_warned: bool) -> str:
@@ -155,13 +157,21 @@ def overview_caption(trials: pd.DataFrame, *, include_warned: bool) -> str:
         " (sessions in other units converted)" if mixed else ""
     )
     largest = _largest(trials, units, include_warned=include_warned)
+    rows, noun = rows_word(trials), rows_word(trials, "noun", joiner=" or ")
     return (
-        "One colour per method on these charts. The histogram counts trials per error bin; "
-        "“error by trial” draws each session's trials as ticks on one row (log scale), the "
-        "sessions sorted by their median error; the last chart puts each trial's error "
-        f"against its baseline (the longest distance between two of its typed camera "
-        f"centres). Drawn: {which}; {said}. {largest} {EXPLORE}"
+        f"One colour per method on these charts. The histogram counts {rows} per error bin; "
+        f"“error by trial” draws each session's {rows} as ticks on one row (log scale), the "
+        f"sessions sorted by their median error; the last chart puts each {noun}'s error "
+        f"against its baseline (the longest distance between two of its camera centres: "
+        f"{_centres(trials)}). Drawn: {which}; {said}. {largest} {explore(noun)}"
     )
+
+
+def _centres(trials: pd.DataFrame) -> str:
+    """Whose camera centres a baseline is between, for the rows drawn: a trial's typed
+    poses, a touch's pair of cameras."""
+    said = {1: "its typed poses'", 2: "the pair's two cameras'"}
+    return " or ".join(said[u.cameras] for u in row_units_of(trials))
 
 
 def session_caption(
@@ -173,5 +183,6 @@ def session_caption(
     return (
         f"{scatter} Click a {rows_word(trials, 'noun')} (a point in any chart) to pick it out "
         "in every chart of "
-        f"this session; shift-click adds another, a click on empty space shows all. {EXPLORE}"
+        f"this session; shift-click adds another, a click on empty space shows all. "
+        f"{explore(rows_word(trials, 'noun'))}"
     )

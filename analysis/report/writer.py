@@ -261,6 +261,7 @@ def _answer_section(result: RunResult) -> list[str]:
     """The answer per session set and method, each set's verdict against the thesis, and
     a table of contents."""
     n_ok = int((result.trials["status"] == "ok").sum())
+    rows = rows_word(result.trials)  # trials; a two-camera session's touches
     which = (  # trials; a two-camera session's touches
         f"every ok {rows_word(result.trials, 'noun')} (warned ones included: --include-warned)"
         if result.include_warned
@@ -306,10 +307,10 @@ def _answer_section(result: RunResult) -> list[str]:
     parts.append(
         f"<p class='how-to-read'>Pooled over the sessions, over {which}. Errors are distances "
         "from the truth; RMSE with its 95% bootstrap interval, biases (mean error) with the "
-        f"half-widths of their 95% intervals, each from {MIN_INTERVAL_TRIALS} trials on (from "
+        f"half-widths of their 95% intervals, each from {MIN_INTERVAL_TRIALS} {rows} on (from "
         "fewer, a bootstrap only reshuffles the few errors there are: none is shown, and the "
         "cell says why); the “truth inside its 95% ellipsoid” column is "
-        "the share of trials whose truth lies inside their own 95% uncertainty ellipsoid "
+        f"the share of {rows} whose truth lies inside their own 95% uncertainty ellipsoid "
         "(95% when the uncertainty is honest). A table per unit: its “within 1” is 1 of that "
         "unit; the verdict lines count the thesis' 1 in, saying which errors they converted "
         "to inches."

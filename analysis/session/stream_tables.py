@@ -21,9 +21,11 @@ time) and gives each touch a row of ``trials.csv``, as a one-camera trial has:
   interpolating removed, i.e. what the skew between the paired frames cost.
 
 A touch with no estimate about it is a row all the same: ``degenerate`` (the nearest pair
-near-singular, its reason), ``no_detection`` (no pair there), or ``incomplete`` (the trial
-could not be estimated: a camera with no frame, an offset that cannot be measured),
-``reason`` saying why. A session with no touch at all has nothing to compare with the
+near-singular, its reason), ``no_detection`` (a camera did not detect the target in the
+nearest pair), or ``incomplete`` (the trial could not be estimated: a camera with no frame,
+an offset that cannot be measured; a camera with no frame about the touch; or both cameras
+saw the target about it but its frames made too few pairs there), ``reason`` saying why
+and what to do. A session with no touch at all has nothing to compare with the
 truth: it fails, saying so. A stream cut short (a lost window) is said in ``notes``.
 """
 
@@ -42,7 +44,6 @@ from analysis.batch.inputs import SessionIdentity
 from analysis.results import AnalysisOptions, SessionResult
 from analysis.session.results_mcap import results_writer
 from analysis.session.stream import (
-    MAX_TOUCH_GAP_INTERVALS,
     TrialReplay,
     at_touches,
     detect_trial,
@@ -50,6 +51,7 @@ from analysis.session.stream import (
     session_noise,
 )
 from analysis.session.stream_rows import PairOutputs, nearest_ok
+from analysis.session.touch_status import seen_about, touch_status
 from analysis.tables.columns import typed
 from analysis.tables.rows import with_branch, with_identity
 from analysis.tables.trials import columns_of
@@ -59,14 +61,11 @@ from twopose.format.reader import SessionReader
 from twopose.format.streams import PairSession, StreamTrial, read_pair_session
 from twopose.methods.specs import spec_of
 from twopose.pair.calibration import PairCalibration
-from twopose.pair.stream import NEAR_SINGULAR, StreamEstimate, StreamSettings, estimate_stream
+from twopose.pair.stream import StreamSettings, estimate_stream
 from twopose.uncertainty.propagate import uncertainty_columns
 from twopose.values.units import Units
 
 __all__ = ["analyse_pair_session", "pair_lines", "touch_rows"]
-
-#: The status of a touch whose nearest pair was near-singular or degenerate.
-_DEGENERATE = {NEAR_SINGULAR: "degenerate", "degenerate": "degenerate"}
 
 
 def analyse_pair_session(
@@ -408,7 +407,13 @@ def _replayed_rows(
         err = float(np.linalg.norm(error[k])) if have[k] else np.nan
         row: dict[str, Any] = {
             "touch": f"trial {trial.trial}, touch {touch.touch}",
-            **_status(est, touch.time_ns, have=bool(have[k]), missed=replay.missed),
+            **touch_status(
+                est,
+                touch.time_ns,
+                have=bool(have[k]),
+                missed=replay.missed,
+                seen=seen_about(replay, touch.time_ns),
+            ),
             "n_views": 2 if have[k] else 0,
             **{a: float(replay.at_touch[k, i]) for i, a in enumerate("xyz")},
             **_truth(truth[k]),
@@ -439,40 +444,3 @@ def _skew_share(err: float, err_raw: float) -> float:
     if not (np.isfinite(err) and np.isfinite(err_raw)) or err_raw <= 0:
         return np.nan
     return max(0.0, 1.0 - err / err_raw)
-
-
-def _status(
-    est: StreamEstimate,
-    time_ns: int,
-    *,
-    have: bool,
-    missed: tuple[tuple[str, ...], tuple[str, ...]] = ((), ()),
-) -> dict[str, str]:
-    """A touch's status and reason: ``ok``; else why there is no estimate about it (a
-    camera that did not detect the target in the nearest pair named, with its detector's
-    reason from ``missed``, each camera's frames' reasons)."""
-    if have:
-        return {"status": "ok", "reason": ""}
-    if not est.t_ns.size:
-        return {"status": "no_detection", "reason": "no frame pair in the trial"}
-    j = int(np.argmin(np.abs(est.t_ns - time_ns)))
-    status = str(est.status[j])
-    if status == "ok":  # the pairs about it are ok, but none brackets its time
-        return {
-            "status": "no_detection",
-            "reason": "no estimate about the touch: no two ok estimates about its time within "
-            f"{MAX_TOUCH_GAP_INTERVALS:g} frame intervals (outside the stream, or pairs lost)",
-        }
-    frames = (int(est.i1[j]), int(est.i2[j]))
-    lost = [
-        f"camera {n + 1}: {reasons[i]}"
-        for n, (reasons, i) in enumerate(zip(missed, frames, strict=True))
-        if i < len(reasons) and reasons[i]
-    ]
-    why = str(est.reason[j]) or status
-    if lost:  # the detector's reason, not the solver's "fewer than two views"
-        why = "target not detected by " + "; by ".join(lost)
-    return {
-        "status": _DEGENERATE.get(status, "no_detection"),
-        "reason": f"no estimate about the touch: the nearest pair's {why}",
-    }

@@ -133,7 +133,7 @@ VIEW_TABLE: tuple[Column, ...] = (
     _cameras(_V),
     _count("pair", "frame pair (from 1; 0: one camera)", _V),
     _count("pair_time_ns", "pair's time (ns, camera 1's clock; 0: one camera)", _V),
-    _number("skew_ms", "pair's skew (camera 2 on camera 1's clock minus camera 1)", _V,
+    _number("skew_ms", "pair's skew (camera 2 minus camera 1, on the fitted clocks)", _V,
             "milliseconds", FINITE),
     _text("status", "pair's status", _V),
     _text("reason", "why the pair has no estimate", _V),

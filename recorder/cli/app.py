@@ -190,8 +190,7 @@ def new(
         taken = ""  # a plan's continuation: record_planned takes its session's guidance
         if plan is None:
             asked, taken = _inherited(asked, continued, target_precision)
-        if plan is None:  # a plan's is said once the plan is read and checked
-            ns.say_fork(continued)
+        ns.say_fork(continued if plan is None else None)  # a plan's: once read and checked
         request = ns.NewRequest(
             out=out, source=source, frames=frames or 5, adaptive_frames=adaptive_frames,
             poses=asked.poses or 2,

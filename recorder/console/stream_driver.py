@@ -178,7 +178,12 @@ class WebStreamDriver(StreamDriver):
         with self.session.lock:
             ended = [*(self.session.stream or {}).get("ended", []), end.line()]
             self._stream(ended=ended, frames=list(end.n_frames))
-            self.session.update(message=end.line(), level="info" if end.complete else "warning")
+            self.session.update(
+                message=end.line(), level="info" if end.complete else "warning",
+                # what an answer before the next trial is told (its offset is measured now)
+                computing=f"trial {end.trial} is closing (the clocks' offset is being "
+                "measured from its frames): wait a moment",
+            )  # fmt: skip
 
     @override
     def offset(self, trial: int, offset: ClockOffset | None, said: str) -> None:
@@ -186,6 +191,7 @@ class WebStreamDriver(StreamDriver):
             f"{offset.offset_ns / 1e6:+.2f} ± {offset.sigma_ns / 1e6:.2f} ms ({offset.method})"
         )  # fmt: skip
         self._stream(offset=words, offset_said=said)
+        self.session.update(computing="")
         if offset is not None and self.pointing is not None:
             self.pointing.use_offset(offset)
 

@@ -56,8 +56,9 @@ from typing import TYPE_CHECKING, Literal
 from recorder.procedure import stops
 from recorder.procedure.machine import refuse_existing
 from recorder.procedure.stream_offset import OffsetMeter
+from recorder.procedure.stream_source import check_sizes, with_clocks
 from recorder.setup.stream_plan import touch_refusal
-from twopose.errors import InputValueError, SourceError, TwoposeError
+from twopose.errors import SourceError, TwoposeError
 from twopose.format.stream_entries import TouchMark
 from twopose.format.writer import SessionWriter
 from twopose.values.checks import Vec3
@@ -84,8 +85,6 @@ __all__ = [
 #: A camera that sends no frame for this long has stopped: the trial ends, the file closes
 #: (every stop within 2 s).
 SILENT_S = 1.0
-#: How long a camera may take to give its first frame (a webcam starting up).
-FIRST_FRAME_S = 5.0
 #: A stream's windows: closed and synced to disk this often (a kill -9 loses at most one).
 WINDOW_S = 1.0
 
@@ -291,8 +290,8 @@ def record_stream(
         with contextlib.ExitStack() as stack:
             stack.enter_context(meter)
             stack.enter_context(source)
-            _check_sizes(source, cameras)
-            info = _with_clocks(info, source)
+            check_sizes(source, cameras)
+            info = with_clocks(info, source)
             writer = stack.enter_context(
                 SessionWriter(out, info, cameras, ground=ground, pair=pair)
             )
@@ -327,50 +326,6 @@ def record_stream(
     summary.seconds = time.monotonic() - summary.started
     driver.finish(summary)
     return summary
-
-
-def _with_clocks(info: SessionInfo, source: PairSource) -> SessionInfo:
-    """The session entry saying each camera's clock. A camera's clock is decided by its
-    first frame (a driver's stamp, or the monotonic clock at grab): those are waited for
-    (and dropped) first, except from stills, whose every frame counts. A continuation's
-    clocks are its own; where one differs from the part continued's, its notes say so."""
-    if not source.stills:
-        seen: set[int] = set()
-        deadline = time.monotonic() + FIRST_FRAME_S
-        while len(seen) < 2:
-            stops.check()
-            camera = source.read_frame(timeout_s=FIRST_FRAME_S).camera
-            seen.add(camera)
-            source.unrecorded[camera - 1] += 1  # read for its clock, not recorded
-            if len(seen) < 2 and time.monotonic() > deadline:  # the other keeps giving
-                n = 2 if 1 in seen else 1
-                raise SourceError(
-                    f"camera {n} ({source.cameras[n - 1].spec}) gave no frame in "
-                    f"{FIRST_FRAME_S:g} s (an empty file, or a camera not connected or used by "
-                    "another program)"
-                )
-    one, two = source.cameras
-    clocks = {info.camera_ids[0]: one.clock, info.camera_ids[1]: two.clock}
-    before = (info.clocks or {}) if info.continues_file else {}  # the part continued's
-    changed = [
-        f"camera {cid}'s clock is {clock} here, {before[cid]} in {info.continues_file}"
-        for cid, clock in clocks.items()
-        if before.get(cid, clock) != clock
-    ]
-    notes = "; ".join([info.notes, *changed]) if changed else info.notes
-    return dataclasses.replace(info, clocks=clocks, notes=notes)
-
-
-def _check_sizes(source: PairSource, cameras: Sequence[Camera]) -> None:
-    """Each camera's frames must have its calibration's size (the pair's)."""
-    for n, (stream, camera) in enumerate(zip(source.cameras, cameras, strict=True), start=1):
-        k, i = camera.intrinsics, stream.info
-        if (i.width, i.height) != (k.width, k.height):
-            raise InputValueError(
-                f"camera {n} ({stream.spec}) delivers {i.width}x{i.height} frames, but the "
-                f"pair's camera {n} is calibrated for {k.width}x{k.height}: calibrate the "
-                "pair at this size, or ask the camera for the calibrated one"
-            )
 
 
 @dataclass(kw_only=True)

@@ -23,7 +23,8 @@ ground touch on the floor). A keyed touch is the one thing a plan asks of the op
 Enter, on the standard input: a terminal, or a script's pipe). A closed input (end of file)
 ends the session where a key is waited for; while a trial streams by a plan it is said when
 keyed touches are left (they cannot be marked: ``< /dev/null``), the trial goes on to its
-end and, with no touch, is said incomplete.
+end and, with no touch, is said incomplete; a trial with no ``duration`` (which only ``e``
+would end) ends after its last scheduled touch, and the session with it.
 """
 
 from __future__ import annotations
@@ -200,6 +201,7 @@ class TerminalStreamDriver(StreamDriver):
         self.first_trial = first_trial  # a continuation's: after its session's last
         self._keyed: list[Vec3] = []
         self._last_point: Vec3 | None = None
+        self._endless, self._stuck, self._stuck_end_ns = False, False, 0
 
     def _planned(self, trial: int) -> Any:
         """The plan's trial recorded as ``trial`` (its first is :attr:`first_trial`)."""
@@ -254,6 +256,13 @@ class TerminalStreamDriver(StreamDriver):
     def streaming(self, trial: int) -> None:
         planned = self._planned(trial)
         self._keyed = list(planned.keyed) if planned is not None else []
+        # No duration: only an `e` ends this trial, and a closed input never gives one.
+        self._endless = planned is None or planned.duration_s is None
+        self._stuck = False
+        # when a stuck trial ends: after its last scheduled touch (marked on camera 1's
+        # clock from its first frame, which comes after this), with a second to spare
+        last_at = max((t.at_s for t in planned.scheduled), default=-1.0) if planned else -1.0
+        self._stuck_end_ns = time.monotonic_ns() + int((last_at + 1.0) * 1e9) if last_at >= 0 else 0
         if self.keys.closed:
             self._input_ended()
         ends = "e ends the trial" if planned is None or planned.duration_s is None else (
@@ -274,6 +283,9 @@ class TerminalStreamDriver(StreamDriver):
 
     @override
     def events(self) -> list[StreamEvent]:
+        now = time.monotonic_ns()
+        if self._stuck and now >= self._stuck_end_ns:  # else it would stream forever
+            return [StreamEvent(kind="quit", at_ns=now)]
         events = []
         while (got := self.keys.get(0.0)) is not None:
             text, at = got
@@ -282,6 +294,8 @@ class TerminalStreamDriver(StreamDriver):
                     events.append(StreamEvent(kind="quit", at_ns=at))
                 else:  # this batch's Enters take their points first
                     self._input_ended(taken=sum(e.point is None for e in events))
+                    if self._stuck and at >= self._stuck_end_ns:
+                        events.append(StreamEvent(kind="quit", at_ns=at))
                 break
             event = self._event(text, at)
             if event is not None:
@@ -300,6 +314,14 @@ class TerminalStreamDriver(StreamDriver):
                 "(nobody presses Enter); what was recorded is kept"
             )
             self._keyed = self._keyed[:taken]
+        if self._endless:  # nothing else can end the trial: it and the session end here
+            when = "after its last scheduled touch" if self._stuck_end_ns else "here"
+            self.say(
+                "  the input ended and this trial has no duration (only e would end it): "
+                f"the trial and the session end {when}; give the plan's trials a duration "
+                "to record unattended"
+            )
+            self._stuck = True
 
     def _event(self, text: str, at: int) -> StreamEvent | None:
         if text.lower() in ("e", "q"):
@@ -416,10 +438,8 @@ def record_pair(  # noqa: PLR0913 - what new --pair takes
     if plan is not None:
         refuse_off_floor(plan, pair)
     src = open_pair_source(source, pair, setup, fps=fps)
-    if continued is not None:
-        from recorder.procedure.new_session import say_fork
-
-        say_fork(continued)
+    if continued is not None and continued.fork_warning is not None:  # said once, checked
+        op.say(f"warning: {continued.fork_warning}")
     if pair.check is not None and not pair.check.passed:  # recorded, and said before it is
         op.say(f"warning: {pair.check.unconfirmed()}")
     cameras = pair_cameras(pair)

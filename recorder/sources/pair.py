@@ -416,7 +416,8 @@ class PairSource(FrameSource):
         self, *, offset_ns: int = 0, slop_ns: int | None = None, timeout_s: float = 2.0
     ) -> Iterator[FramePair]:
         """Pairs by capture time as they become final (:mod:`twopose.pair.live_pairing`:
-        :func:`twopose.pair.pairing.pair_frames`' pairs), until no pair can come: both
+        :func:`twopose.pair.pairing.pair_captures`' pairs, on each camera's fitted clock),
+        until no pair can come: both
         streams ended, or one did and the other's frames passed its last by the slop
         (:attr:`ended_early` then says which; the other file is not played to its end).
 

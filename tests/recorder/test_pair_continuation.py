@@ -270,18 +270,18 @@ def test_a_continuation_says_a_camera_clock_other_than_its_sessions(first: Path)
     (a camera's driver stamps there, a video file's clock here) is said in its notes."""
     from types import SimpleNamespace
 
-    from recorder.procedure.stream import _with_clocks
+    from recorder.procedure.stream_source import with_clocks
 
     continued = read_continued(first)
     info = continued.info_for()
     stills = SimpleNamespace(  # a pair of folders: their clocks without a frame read
         stills=True, cameras=(SimpleNamespace(clock="driver"), SimpleNamespace(clock="simulated"))
     )
-    said = _with_clocks(info, stills)  # type: ignore[arg-type]
+    said = with_clocks(info, stills)  # type: ignore[arg-type]
     assert said.clocks == {"cam1": "driver", "cam2": "simulated"}
     assert f"camera cam1's clock is driver here, simulated in {first.name}" in said.notes
     assert "cam2" not in said.notes
-    same = _with_clocks(info, SimpleNamespace(stills=True, cameras=(stills.cameras[1],) * 2))  # type: ignore[arg-type]
+    same = with_clocks(info, SimpleNamespace(stills=True, cameras=(stills.cameras[1],) * 2))  # type: ignore[arg-type]
     assert same.notes == info.notes
 
 

@@ -279,7 +279,7 @@ def test_a_camera_that_never_gives_a_frame_is_said_and_nothing_is_recorded(
 ) -> None:
     """Camera 2 gives nothing (an empty file) while camera 1 streams: refused in words
     after the first frame's wait, no session file left."""
-    from recorder.procedure.stream import FIRST_FRAME_S
+    from recorder.procedure.stream_source import FIRST_FRAME_S
     from tests.helpers import write_video
     from twopose.errors import SourceError
 

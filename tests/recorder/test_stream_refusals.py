@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import re
+import time
 from pathlib import Path
 
 import cv2
@@ -278,9 +279,12 @@ def test_an_enter_read_with_the_input_end_still_takes_its_keyed_point(tmp_path: 
     said: list[str] = []
     driver = TerminalStreamDriver(said.append, keys, Units.IN, plan)
     driver.streaming(1)
-    assert [e.point for e in driver.events()] == [None]
+    events = driver.events()
+    # the Enter's touch first; then, the trial having no duration, the end of it all
+    assert [(e.kind, e.point) for e in events] == [("touch", None), ("quit", None)]
     assert driver.next_point(1) == (1.0, 2.0, 9.0)
     assert any("the input ended: 1 keyed touch(es)" in line for line in said), said
+    assert any("the trial and the session end here" in line for line in said), said
 
 
 def test_a_pair_whose_check_failed_records_with_a_warning_said_first(
@@ -303,3 +307,49 @@ def test_a_pair_whose_check_failed_records_with_a_warning_said_first(
     said = " ".join(result.output.split())
     assert "warning: the pair's covariance is not confirmed (its leave-one-out check" in said
     assert said.index("not confirmed") < said.index("trial 1")
+
+
+@pytest.mark.parametrize("scheduled", [False, True])
+def test_a_plan_trial_without_duration_and_nobody_at_the_input_ends(
+    tmp_path: Path, scheduled: bool
+) -> None:
+    """A new user's finding: a plan trial with a keyed touch and no ``duration`` under
+    ``< /dev/null`` said the touch could not be marked, then streamed until killed (0.8 MB
+    a second); nothing could end it. It ends (after its last scheduled touch, if any), and
+    with it the session."""
+    touches = "{point = [1.455, 9.625, 7.375]}"
+    if scheduled:
+        touches += ", {point = [1.0, 9.625, 7.375], at = 0.5}"
+    plan = _plan(tmp_path, _GROUND + f"ground_height = 9.625\n[[trials]]\ntouches = [{touches}]\n")
+    out = tmp_path / "endless.mcap"
+    started = time.monotonic()
+    result = _new_with_plan(out, _no_floor(tmp_path), "pair:synthetic,synthetic", plan)
+    assert time.monotonic() - started < 30
+    assert result.exit_code == 0, result.output
+    said = " ".join(result.output.split())
+    when = "after its last scheduled touch" if scheduled else "here"
+    assert f"the trial and the session end {when}" in said
+    assert ("1 touch (1 by schedule)" in said) is scheduled
+    assert out.exists()
+
+
+def test_the_console_says_a_trial_is_closing_while_its_offset_is_measured(tmp_path: Path) -> None:
+    """A new user's finding: a start pressed in the second after end (the trial's offset
+    being measured) was refused with the last trial's summary as its reason."""
+    from recorder.console.state import ConsoleSession
+    from recorder.console.stream_driver import WebStreamDriver, begin_pair, stream_answer
+    from recorder.procedure.stream import TrialEnd
+
+    session = ConsoleSession(tmp_path / "s.mcap")
+    setup = PairSetup(method=Method.POINT, units=Units.IN, operator="Ada")
+    begin_pair(session, setup, setup.session_pair(thesis_pair()))
+    driver = WebStreamDriver(session)
+    driver.streaming(1)
+    session.update(waiting="")  # the recorder took the end: it offers nothing now
+    driver.trial_ended(TrialEnd(trial=1, why="end", n_frames=(184, 183), touches=()))
+    why, _ = stream_answer(session, {"action": "start"}, 5)
+    assert why.startswith("not now: trial 1 is closing (the clocks' offset is being measured")
+    assert "frames 184 + 183" not in why
+    driver.offset(1, None, "")
+    why, _ = stream_answer(session, {"action": "start"}, 5)
+    assert "is closing" not in why

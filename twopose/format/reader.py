@@ -12,6 +12,7 @@ from typing import IO, TYPE_CHECKING, Any, Self
 from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
 from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
 from mcap.reader import make_reader
+from mcap.writer import MCAP0_MAGIC as MCAP_MAGIC
 
 from twopose.camera.model import Camera
 from twopose.errors import InputValueError, SessionFormatError, SessionVersionError, TwoposeError
@@ -152,6 +153,23 @@ class SessionReader:
             f"interrupted, `{recover_command(self.path)}` salvages it."
         )
 
+    def _starts_as_mcap(self) -> bool:
+        """Whether the file begins with MCAP's magic (a cut or garbled MCAP file does)."""
+        assert self._stream is not None
+        self._stream.seek(0)
+        head = self._stream.read(len(MCAP_MAGIC))
+        self._stream.seek(0)
+        return bool(head == MCAP_MAGIC)
+
+    def _begins(self) -> str:
+        """``; it begins "format = 1"``: the first bytes, where they are text."""
+        assert self._stream is not None
+        self._stream.seek(0)
+        head = self._stream.read(24)
+        self._stream.seek(0)
+        text = head.decode("utf-8", errors="replace").split("\n")[0]
+        return f'; it begins "{text}"' if text.isprintable() and text.strip() else ""
+
     def _open(self) -> None:
         """Read the summary and metadata, check the version, then the opening entries."""
         assert self._stream is not None
@@ -162,6 +180,11 @@ class SessionReader:
         except TwoposeError:
             raise
         except Exception as err:
+            if not self._starts_as_mcap():  # a TOML, an image: nothing to recover
+                raise SessionFormatError(
+                    f"{self.path}: not an MCAP file (it does not begin with MCAP's magic "
+                    f"bytes{self._begins()}): give a session file recorded by twopose"
+                ) from err
             raise self._fail("not a readable MCAP file", err) from err
         if summary is None:
             raise SessionFormatError(

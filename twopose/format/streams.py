@@ -14,8 +14,8 @@ order, window by window through the index), :meth:`CameraStream.images` (decoded
         session = read_pair_session(reader)
         for trial in session.trials:
             one, two = trial.camera1, trial.camera2
-            pairing = pair_frames(one.capture_ns, two.capture_ns,
-                                  offset_ns=session.offset.offset_ns)
+            pairing = pair_captures(one.capture_ns, two.capture_ns,
+                                    offset_ns=session.offset.offset_ns)
             for image in one.images(): ...
 
 Which frames a trial holds (docs/session-format.md): per camera, the frames on its image

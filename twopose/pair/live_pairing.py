@@ -1,7 +1,10 @@
 """Two cameras' frames paired as they arrive.
 
-The pairs :func:`~twopose.pair.pairing.pair_frames` gives for the whole stream, each made as
-soon as no later frame can change it.
+The pairs :func:`~twopose.pair.pairing.pair_captures` gives for the whole stream, each made
+as soon as no later frame can change it. Each frame's stamp is first fitted by its camera's
+clock as it arrives (:class:`twopose.pair.clock_fit.CausalClock`: from that camera's frames
+up to it, the same time ``pair_captures`` gives it), and the frames are paired on those
+times.
 :func:`~twopose.pair.pairing.pair_frames` pairs frames that are each other's nearest in time
 (mutual nearest neighbours) within the slop. A frame's nearest in the other stream is one of
 its two neighbours there, so a pair is final once each of its frames has its neighbour on
@@ -26,6 +29,7 @@ from typing import Generic, TypeVar
 import numpy as np
 
 from twopose.errors import InputValueError
+from twopose.pair.clock_fit import CausalClock
 from twopose.pair.pairing import pair_frames
 
 __all__ = ["LivePair", "LivePairing"]
@@ -37,8 +41,8 @@ K = TypeVar("K")
 class LivePair(Generic[K]):
     """One pair made live.
 
-    ``first`` camera 1's frame, ``second`` camera 2's, ``skew_ns`` camera 2's capture time
-    on camera 1's clock minus camera 1's.
+    ``first`` camera 1's frame, ``second`` camera 2's, ``skew_ns`` camera 2's fitted capture
+    time on camera 1's clock minus camera 1's.
     """
 
     first: K
@@ -49,7 +53,7 @@ class LivePair(Generic[K]):
 @dataclass(slots=True)
 class _Held(Generic[K]):
     seq: int  # the frame's number among its camera's frames given to the pairing
-    t_ns: int  # on camera 1's clock
+    t_ns: int  # its fitted time, on camera 1's clock
     key: K
 
 
@@ -77,6 +81,8 @@ class LivePairing(Generic[K]):
         self._last = [-1, -1]  # the last paired frame's seq, per camera
         self._rolled = [False, False]  # frames not yet decided fell out of the window
         self._ended = [False, False]
+        self._clocks = (CausalClock(), CausalClock())
+        self._stamp: list[int | None] = [None, None]  # each camera's last stamp
 
     def add(self, camera: int, t_ns: int, key: K) -> list[LivePair[K]]:
         """Give camera ``camera``'s next frame; the pairs that became final, in order.
@@ -93,17 +99,19 @@ class LivePairing(Generic[K]):
         Returns
         -------
         list of LivePair
+            Each pair's ``skew_ns`` on the fitted clocks.
         """
         c = _index(camera)
         if self._ended[c]:
             raise InputValueError(f"camera {camera}'s stream has ended: no frame comes after")
-        t = int(t_ns) - (self.offset_ns if c == 1 else 0)
-        held = self._held[c]
-        if held and t <= held[-1].t_ns:
+        last = self._stamp[c]
+        if last is not None and int(t_ns) <= last:
             raise InputValueError(
-                f"camera {camera}'s capture times must increase: {t_ns} ns came after "
-                f"{held[-1].t_ns + (self.offset_ns if c == 1 else 0)} ns"
+                f"camera {camera}'s capture times must increase: {t_ns} ns came after {last} ns"
             )
+        self._stamp[c] = int(t_ns)
+        t = self._clocks[c].add(int(t_ns)) - (self.offset_ns if c == 1 else 0)
+        held = self._held[c]
         held.append(_Held(self._count[c], t, key))
         self._count[c] += 1
         if len(held) > self.window:

@@ -2,9 +2,11 @@
 
 The stream's benchmarks and tests measure against it, and the two-camera simulator can
 render over it: a pointing finger (its tip, its axis) moving at a constant speed on a
-circle (:class:`FingerMotion`), each camera's frames taken on its own clock
-(:class:`CameraClock`: frame rate, phase, rate drift, the stamps' jitter, dropped frames,
-the clock's offset), and what each camera measures of it at its capture times
+circle (:class:`FingerMotion`) or vibrating along a line (:class:`VibratingMotion`: at a
+harmonic of the frame rate, the cameras' frames alias it), each camera's frames taken on
+its own clock (:class:`CameraClock`: frame rate, phase, rate drift, the stamps' jitter,
+dropped frames, the clock's offset), and what each camera measures of it at its capture
+times
 (:func:`observe`: the tip as a dot's centroid, or the finger's axis as an image line
 through its middle), with the detector's noise drawn from a seeded generator. The thesis'
 geometry (:func:`thesis_pair`): camera 2 six inches to the right of camera 1 and toed in
@@ -30,6 +32,7 @@ __all__ = [
     "CameraClock",
     "FingerMotion",
     "Frames",
+    "VibratingMotion",
     "observe",
     "thesis_pair",
 ]
@@ -107,6 +110,29 @@ class FingerMotion:
         tip, d = self.tip(t_s), self.direction
         s = (floor.height - tip @ floor.normal) / float(d @ floor.normal)
         return np.asarray(tip + s[:, None] * d)
+
+
+@dataclass(frozen=True, kw_only=True)
+class VibratingMotion(FingerMotion):
+    """A pointing finger whose tip vibrates along a line.
+
+    The tip is ``centre + amplitude sin(2 pi frequency_hz t + phase) d``, ``d`` the unit
+    (x, y, z) ``along``. At a harmonic or subharmonic of the frame rate (30, 15, 10 Hz at
+    30 fps) each camera sees its frames repeat (stroboscopic aliasing); near one, a slow
+    motion whose shift in time between the cameras is many times the true one.
+    """
+
+    frequency_hz: float = 15.0
+    amplitude: float = 0.5
+    phase: float = 0.0
+    along: tuple[float, float, float] = (0.0, 1.0, 0.0)
+
+    def tip(self, t_s: ArrayLike) -> F64:
+        """(N, 3) the fingertip at times ``t_s`` (seconds)."""
+        t = np.asarray(t_s, dtype=np.float64).reshape(-1)
+        d = np.asarray(self.along, dtype=np.float64)
+        swing = self.amplitude * np.sin(2 * np.pi * self.frequency_hz * t + self.phase)
+        return np.asarray(np.asarray(self.centre) + swing[:, None] * (d / np.linalg.norm(d)))
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)

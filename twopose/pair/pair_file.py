@@ -122,7 +122,20 @@ def read_pair_file(path: str | Path) -> PairCalibration:
     what = f"pair file {path}"
     data = read_toml(path, "pair file", InputValueError)
     unknown = sorted(set(data) - set(PAIR_TABLES))
+    if "pair" not in data and {"fx", "fy", "cx", "cy"} <= set(data):  # one camera's keys
+        raise InputValueError(
+            f"{what} is one camera's calibration (twopose-record calibrate: fx, fy, cx, cy), "
+            "not a pair file: make the pair's with twopose-record calibrate-pair (it takes "
+            "each camera's calibration file by --calibration-left and --calibration-right)"
+        )
     if unknown:
+        # keys of no table: their names, not "[fx]" (they are keys, not tables)
+        loose = [k for k in unknown if not isinstance(data[k], dict)]
+        if loose:
+            raise InputValueError(
+                f"{what}: unknown key(s) {', '.join(loose)} outside any table; a pair file "
+                f"holds {', '.join(f'[{t}]' for t in PAIR_TABLES)}"
+            )
         raise InputValueError(
             f"{what}: unknown table(s) {', '.join(f'[{t}]' for t in unknown)}; a pair file "
             f"holds {', '.join(f'[{t}]' for t in PAIR_TABLES)}"

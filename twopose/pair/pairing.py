@@ -14,7 +14,15 @@ frame arrives first.
 
 Times are each camera's capture times in nanoseconds; camera 2's are brought onto camera
 1's clock with the clock offset, ``t1 = t2 - offset_ns`` (:mod:`twopose.pair.clock`
-measures it), a constant or one per camera-2 frame (a drifting clock's offset). No I/O.
+measures it), a constant or one per camera-2 frame (a drifting clock's offset).
+
+A stream's frames are paired on each camera's fitted clock, not on its stamps
+(:func:`pair_captures`): the stamps jitter (the host stamps them), the frames do not (the
+camera's crystal times them), so pairing on the stamps loses pairs whose skew the jitter
+pushes past the slop and makes some whose true skew is beyond it. Each frame's fitted time
+comes from its camera's frames up to it (:class:`twopose.pair.clock_fit.CausalClock`), so
+the live pairing (:mod:`twopose.pair.live_pairing`), which has no later frame, gives the
+pairs ``run`` gives. No I/O.
 """
 
 from __future__ import annotations
@@ -27,8 +35,9 @@ from numpy.typing import ArrayLike
 
 from twopose.arrays import F64, Ints
 from twopose.errors import InputValueError
+from twopose.pair.clock_fit import causal_times
 
-__all__ = ["Pairing", "half_interval_ns", "pair_frames"]
+__all__ = ["Pairing", "half_interval_ns", "pair_captures", "pair_frames"]
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -131,6 +140,31 @@ def pair_frames(
         unpaired1=int(t1.size - i1.size),
         unpaired2=int(t2.size - i2.size),
     )
+
+
+def pair_captures(
+    t1_ns: ArrayLike,
+    t2_ns: ArrayLike,
+    *,
+    offset_ns: float | ArrayLike = 0.0,
+    slop_ns: float | None = None,
+) -> Pairing:
+    """Pair two cameras' frames on their fitted clocks (the module docstring).
+
+    :func:`pair_frames` on each camera's :func:`~twopose.pair.clock_fit.causal_times` (its
+    stamps fitted frame by frame, as the live pairing fits them); the parameters are
+    :func:`pair_frames`'. The pairs' ``skew_ns`` are the fitted clocks'.
+    """
+    one, two = (np.asarray(t).reshape(-1) for t in (t1_ns, t2_ns))
+    for name, t in (("camera 1", one), ("camera 2", two)):
+        if t.size and not np.isfinite(t).all():
+            raise InputValueError(f"{name}'s capture times must be finite numbers")
+        if (np.diff(t) <= 0).any():
+            raise InputValueError(
+                f"{name}'s capture times must increase strictly: frame "
+                f"{int(np.argmax(np.diff(t) <= 0)) + 2} is not after the one before"
+            )
+    return pair_frames(causal_times(one), causal_times(two), offset_ns=offset_ns, slop_ns=slop_ns)
 
 
 def _from_common_origin(t1_ns: ArrayLike, t2_ns: ArrayLike) -> tuple[F64, F64]:

@@ -1,6 +1,6 @@
 """The stream estimate: one estimate per frame pair of a moving target.
 
-Per pair (:func:`twopose.pair.pairing.pair_frames`), camera 1's measurement is brought to
+Per pair (:func:`twopose.pair.pairing.pair_captures`), camera 1's measurement is brought to
 camera 2's capture time: with the clock offset, camera 2's time on camera 1's clock is
 ``t2 - offset``, and camera 1's measurement there is interpolated linearly between the two
 frames about it (its centroid; an image line's direction as the doubled-angle unit vector
@@ -17,7 +17,8 @@ Each pair's conditioning is judged (the solvers' statuses, and the margins of
 :func:`twopose.solve.estimate.margin_warnings`): a near-singular pair (a line coplanar with the
 baseline: a fixed pair cannot step off it) is flagged with its reason and has no point.
 Each estimate's covariance is propagated to first order (:func:`twopose.uncertainty.propagate.
-propagate`) from: each frame's pixel noise (camera 1's interpolated from two frames);
+propagate`) from: each frame's pixel noise (camera 1's interpolated from two frames: the
+frames' scatter averaged, the detector's systematic error, the same in both, whole);
 the pair's extrinsic covariance, as camera 2's typed pose's (one error shared by every
 estimate of the session); the intrinsics' 1-sigma where the pair file has them; the
 floor's covariance (method 2); the skew term, the offset's 1-sigma times camera 1's
@@ -43,7 +44,7 @@ from twopose.methods.specs import Method, spec_of
 from twopose.pair.board_fit import LensModel
 from twopose.pair.calibration import PairCalibration, typed_pose_cov
 from twopose.pair.clock import ClockOffset
-from twopose.pair.pairing import Pairing, pair_frames
+from twopose.pair.pairing import Pairing, pair_captures
 from twopose.solve.estimate import (
     EstimateOptions,
     GroundSpec,
@@ -56,15 +57,9 @@ from twopose.solve.estimate import (
 from twopose.uncertainty.propagate import SHARED_INPUTS, Shared, propagate, semiaxis95
 
 __all__ = [
-    "IN_STEP_NS",
-    "NEAR_SINGULAR",
-    "NOT_INTERPOLATED",
-    "CameraTrack",
-    "StreamEstimate",
-    "StreamNoise",
-    "StreamSettings",
-    "estimate_stream",
-]
+    "IN_STEP_NS", "NEAR_SINGULAR", "NOT_INTERPOLATED", "CameraTrack", "StreamEstimate",
+    "StreamNoise", "StreamSettings", "estimate_stream",
+]  # fmt: skip
 
 #: The status of an ok solve whose degeneracy margin is under its threshold: no point.
 NEAR_SINGULAR = "near_singular"
@@ -101,12 +96,9 @@ class CameraTrack:
 
     @classmethod
     def of(
-        cls,
-        t_ns: ArrayLike,
-        centroid_px: ArrayLike,
-        theta_deg: ArrayLike | None = None,
+        cls, t_ns: ArrayLike, centroid_px: ArrayLike, theta_deg: ArrayLike | None = None,
         found: ArrayLike | None = None,
-    ) -> CameraTrack:
+    ) -> CameraTrack:  # fmt: skip
         """A checked track (``theta_deg`` None: a dot's; ``found`` None: where finite)."""
         t = np.asarray(t_ns, dtype=np.float64).reshape(-1)
         c = np.asarray(centroid_px, dtype=np.float64).reshape(-1, 2)
@@ -124,10 +116,15 @@ class CameraTrack:
 
 @dataclass(frozen=True, kw_only=True)
 class StreamNoise:
-    """Each frame's detection noise, 1-sigma: centroid (px), image line direction (deg)."""
+    """Each frame's detection noise, 1-sigma: centroid (px), image line direction (deg).
+
+    Of it, ``shared_*`` is the same in every frame (the detector's floor: ``camera_noise``).
+    """
 
     centroid_px: float
     theta_deg: float = 0.0
+    shared_px: float = 0.0
+    shared_deg: float = 0.0
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -392,7 +389,7 @@ def estimate_stream(
     settings : StreamSettings
         The detection noise, interpolation, ground plane and the solvers' thresholds.
     pairing : Pairing, optional
-        The frames' pairs (default: :func:`~twopose.pair.pairing.pair_frames` with the
+        The frames' pairs (default: :func:`~twopose.pair.pairing.pair_captures` with the
         offset).
 
     Returns
@@ -409,7 +406,7 @@ def estimate_stream(
             )
         ground, ground_cov = pair.floor.ground, pair.floor.cov
     settings = dataclasses.replace(settings, ground=ground if spec.needs_ground else None)
-    pairs = pairing or pair_frames(camera1.t_ns, camera2.t_ns, offset_ns=offset.offset_ns)
+    pairs = pairing or pair_captures(camera1.t_ns, camera2.t_ns, offset_ns=offset.offset_ns)
     lenses = (LensModel.of(pair.intrinsics1), LensModel.of(pair.intrinsics2))
     c1, th1 = _undistorted(camera1, lenses[0])
     c2, th2 = _undistorted(camera2, lenses[1])
@@ -478,8 +475,11 @@ def _covariance(
         return cov, share
     b = batch.rows(ok)
     pixel = [np.diag([n.centroid_px**2, n.centroid_px**2, n.theta_deg**2]) for n in noises]
+    # Interpolation averages the frames' scatter, not the floor they share: that enters whole.
+    n1 = noises[0]
+    shared = np.diag([n1.shared_px**2, n1.shared_px**2, n1.shared_deg**2])
     C = np.zeros((int(ok.sum()), 2, 9, 9))
-    C[:, 0, :3, :3] = pixel[0] * one.weight[ok, None, None]
+    C[:, 0, :3, :3] = (pixel[0] - shared) * one.weight[ok, None, None] + shared
     v = one.velocity[ok]
     skew = np.einsum("pi,pj->pij", v, v) * (one.time_error_ns[ok] ** 2)[:, None, None]
     C[:, 0, :3, :3] += skew

@@ -55,10 +55,14 @@ def test_truncated_file_is_refused_with_a_recover_hint(tmp_path: Path) -> None:
 
 
 def test_not_an_mcap_file(tmp_path: Path) -> None:
+    """Text (a pair or calibration TOML given by mistake) is not called an interrupted
+    recording: no recover advice (a new user was told to recover their pair.toml)."""
     p = tmp_path / "x.mcap"
     p.write_text("hello")
-    with pytest.raises(SessionFormatError, match="not a readable MCAP"), SessionReader(p):
+    with pytest.raises(SessionFormatError, match="not an MCAP file") as caught, SessionReader(p):
         pass
+    assert 'it begins "hello"' in str(caught.value)
+    assert "recover" not in str(caught.value)
 
 
 def test_missing_file(tmp_path: Path) -> None:

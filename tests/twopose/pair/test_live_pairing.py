@@ -1,4 +1,4 @@
-"""Pairs made live, frame by frame as they arrive, are the pairs ``pair_frames`` makes of the
+"""Pairs made live, frame by frame as they arrive, are the pairs ``pair_captures`` makes of the
 whole stream: over free-running cameras with drift, jitter, dropped frames, an offset and
 any arrival order; a stall longer than the window never makes a wrong pair."""
 
@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from twopose.errors import InputValueError
 from twopose.pair.live_pairing import LivePairing
-from twopose.pair.pairing import pair_frames
+from twopose.pair.pairing import pair_captures, pair_frames
 
 INTERVAL_NS = 33_333_333
 
@@ -74,7 +74,7 @@ def test_live_pairs_are_the_whole_streams_pairs(
         arrival[part] = np.maximum.accumulate(arrival[part]) if size else arrival[part]
     slop = round(slop_share * INTERVAL_NS)
     made = _live(t1, t2, arrival, slop, offset)
-    whole = pair_frames(t1, t2, offset_ns=offset, slop_ns=slop)
+    whole = pair_captures(t1, t2, offset_ns=offset, slop_ns=slop)
     assert [(a, b) for a, b, _ in made] == list(
         zip(whole.i1.tolist(), whole.i2.tolist(), strict=True)
     )
@@ -91,7 +91,7 @@ def test_a_stall_longer_than_the_window_never_makes_a_wrong_pair() -> None:
         np.maximum.accumulate(arrival[:300]),
         np.maximum.accumulate(arrival[300:]),
     )
-    whole = pair_frames(t1, t2, slop_ns=INTERVAL_NS // 2)
+    whole = pair_captures(t1, t2, slop_ns=INTERVAL_NS // 2)
     expected = list(zip(whole.i1.tolist(), whole.i2.tolist(), strict=True))
     made = _live(t1, t2, arrival, INTERVAL_NS // 2, 0, window=16)
     pairs = [(a, b) for a, b, _ in made]
