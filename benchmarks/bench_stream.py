@@ -1,13 +1,14 @@
 """Stream estimates of a moving finger from two free-running cameras.
 
-    .venv/bin/python benchmarks/bench_stream.py [--seed 0] [--draws 300] [--sessions 8] [--trials 2]
+    .venv/bin/python benchmarks/bench_stream.py [--seed 0] [--draws 300]
 
 The thesis' two-camera geometry (``twopose.pair.motion.thesis_pair``: camera 2 six inches
 aside and toed in 10 degrees, f = 525 px, the floor 9.625 in below camera 1) and a pointing
 finger whose tip circles 14 in ahead at 10 in/s (``FingerMotion``), measured analytically
 (no rendering): the tip as a dot, the finger's axis as an image line, with 0.3 px and 0.15
 degrees of detector noise. Camera 2 runs at a phase (skew) of 0 to 16.7 ms after camera 1,
-its clock 0.4321 s ahead. Five parts (the last on rendered frames):
+its clock 0.4321 s ahead. Four parts (the regions on rendered frames:
+``bench_stream_rendered.py``):
 
 1. A still finger: the stream's estimate per pair (``estimate_stream``) against the
    one-camera path with typed poses equal to the pair's pose (``twopose.solve.estimate``'s
@@ -29,38 +30,25 @@ its clock 0.4321 s ahead. Five parts (the last on rendered frames):
    (``twopose.pair.frame_noise.camera_noise``: what ``run`` and the live pointing do).
 4. The cost per pair: live (one pair at a time, camera 1's four frames about it) and
    vectorized (a 10 s stream in one call), CPU time on one core.
-5. The regions on the simulator's rendered frames (:func:`rendered_coverage`): ``--sessions``
-   sessions of ``--trials`` stream trials per method, rendered and replayed as ``run``
-   replays them, each pair against the true trajectory, with each camera's noise from the
-   session's own frames and with the 0.25 px and 0.25 degrees once assumed.
 
 Targets: a still target equal to the one-camera estimate to 1e-9 and independent of the
 offset; floor RMS <= 0.1 in measured and interpolated, <= 0.3 in without, at every phase;
 noise-free error within 10% of its prediction; coverage 93-97% per method with the terms;
-coverage 93-97% per method with each camera's noise from its own frames, analytic and
-rendered; live cost <= 40% of a frame interval. Exits 1 if one is missed.
-
-(Near 600 lines: one figure's five parts, which share its geometry, draws and targets.)
+coverage 93-97% per method with each camera's noise from its own frames; live cost <= 40%
+of a frame interval. Exits 1 if one is missed.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
-import tempfile
 import time
-from pathlib import Path
 
 import numpy as np
-from bench_detector_floor import draw_pair_scene  # type: ignore[import-not-found]  # sys.path[0]
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
-from analysis.session.stream import DEFAULT_NOISE, PairReplay, replay_pair_session
-from recorder.simulate.pair import PairTiming, simulate_pair_session
-from twopose.errors import SceneError
-from twopose.format.reader import SessionReader
-from twopose.format.streams import read_pair_session
-from twopose.methods.specs import METHOD_SPECS, Method, spec_of
+from analysis.session.stream import DEFAULT_NOISE
+from twopose.methods.specs import METHOD_SPECS, Method
 from twopose.pair.board_fit import rotation_matrix
 from twopose.pair.calibration import PairCalibration
 from twopose.pair.clock import ClockOffset, offset_from_ray_gap
@@ -358,131 +346,10 @@ def cost(method: Method, rng: np.random.Generator) -> tuple[float, float, float]
     return float(np.median(ms)), float(np.percentile(ms, 95)), whole * 1e3
 
 
-# Part 5: the regions on the simulator's rendered frames. Two-camera sessions rendered by
-# `simulate --cameras 2` (10 in/s, four touches a trial, the clocks 12.5 ms apart), replayed
-# as `run` replays them (`replay_pair_session`: detection, the offset by the ray gap, one
-# estimate per pair, each camera's noise from the session's own frames), each pair's
-# estimate against the true trajectory at camera 2's true capture instant: the dot's
-# centre, the fingertip (the line's point nearest it), the finger's axis on the floor.
-
-
-@dataclasses.dataclass(frozen=True)
-class RenderedCoverage:
-    """One method's pairs: covered share, count, mean NEES / dof, the noise used in words."""
-
-    covered: float
-    pairs: int
-    nees_per_dof: float
-    noise: str
-
-
-def _truths(replay: PairReplay, path: Path) -> list[np.ndarray]:
-    """Per trial, (P, 3) the truth at each pair's camera-2 frame's true instant."""
-    with SessionReader(path) as reader:
-        session = read_pair_session(reader)
-    out = []
-    floor = replay.pair.floor
-    for trial, replayed in zip(session.trials, replay.trials, strict=True):
-        truth = trial.trajectory
-        assert truth is not None
-        t = np.array(truth.t_ns)
-        instants = np.array(truth.frames[1].true_ns)[replayed.estimate.i2]
-        k = np.searchsorted(t, instants)
-        p = np.array(truth.points)[k]
-        if spec_of(replay.method).needs_ground:  # the finger's axis on the floor
-            assert truth.directions is not None
-            assert floor is not None
-            d = np.array(truth.directions)[k]
-            s = (floor.height - p @ floor.normal) / (d @ floor.normal)
-            p = p + s[:, None] * d
-        out.append(p)
-    return out
-
-
-def _covered(
-    replay: PairReplay, truths: list[np.ndarray], noise: tuple[StreamNoise, ...]
-) -> tuple[int, int, list[float]]:
-    """Covered pairs, all pairs and the NEES / dof of each, with ``noise`` per camera."""
-    inside, total, per_dof = 0, 0, []
-    for replayed, truth in zip(replay.trials, truths, strict=True):
-        settings = StreamSettings(noise=(noise[0], noise[1]))
-        if spec_of(replay.method).estimates_line:  # the line's point nearest the truth
-            settings = dataclasses.replace(settings, line_reference=truth)
-        est = estimate_stream(
-            replay.method, replay.pair, *replayed.tracks, replayed.offset, settings
-        )
-        score, dof = nees(est.point - truth, est.cov)
-        ok = np.isfinite(score)
-        limit = np.array([CHI2_95.get(int(k), np.nan) for k in dof[ok]])
-        inside += int((score[ok] <= limit).sum())
-        total += int(ok.sum())
-        per_dof += list(score[ok] / dof[ok])
-    return inside, total, per_dof
-
-
-def _simulated(
-    path: Path, method: Method, timing: PairTiming, trials: int, seed: int,
-    rng: np.random.Generator | None,
-) -> None:  # fmt: skip
-    """A session rendered in the simulator's scene or (``rng`` given) in one drawn anew: the
-    target's place and the finger's direction, so that the detector's systematic error (the
-    same in every frame of one geometry) is drawn anew too, as ``bench_detector_floor.py``
-    draws it."""
-    if rng is None:
-        simulate_pair_session(path, method=method, timing=timing, trials=trials, seed=seed)
-        return
-    while True:
-        scene = draw_pair_scene(rng)
-        try:
-            simulate_pair_session(path, method=method, timing=timing, trials=trials,
-                                  seed=seed, scene=scene)  # fmt: skip
-            return
-        except SceneError:  # the target out of a camera's view: another draw
-            path.unlink(missing_ok=True)
-
-
-def rendered_coverage(
-    method: Method, sessions: int, trials: int, seed: int, *, drawn: bool = False
-) -> tuple[RenderedCoverage, RenderedCoverage]:
-    """The method's pairs' coverage over ``sessions`` rendered sessions of ``trials`` stream
-    trials each (in the simulator's scene, or in scenes ``drawn`` anew): with the noise each
-    session estimated, and with the noise assumed."""
-    counts: dict[str, tuple[int, int, list[float]]] = {"own": (0, 0, []), "assumed": (0, 0, [])}
-    said: list[str] = []
-    timing = PairTiming(speed=10.0, clock_offset_ms=12.5)
-    rng = np.random.default_rng(seed) if drawn else None
-    with tempfile.TemporaryDirectory() as tmp:
-        for k in range(sessions):
-            path = Path(tmp) / f"{method}_{k}.mcap"
-            _simulated(path, method, timing, trials, seed + k, rng)
-            replay = replay_pair_session(path)
-            assert replay.noise is not None
-            truths = _truths(replay, path)
-            said.append(replay.noise[0].said(lines=spec_of(method).uses_image_lines))
-            for name, noise in (
-                ("own", (replay.noise[0].noise, replay.noise[1].noise)),
-                ("assumed", (DEFAULT_NOISE, DEFAULT_NOISE)),
-            ):
-                inside, total, per_dof = _covered(replay, truths, noise)
-                before = counts[name]
-                counts[name] = (before[0] + inside, before[1] + total, before[2] + per_dof)
-    return tuple(  # type: ignore[return-value]
-        RenderedCoverage(
-            covered=inside / max(total, 1),
-            pairs=total,
-            nees_per_dof=float(np.mean(per_dof)),
-            noise=said[0] if name == "own" else "assumed 0.25 px, 0.25 deg",
-        )
-        for name, (inside, total, per_dof) in counts.items()
-    )
-
-
 def main() -> int:
     parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--draws", type=int, default=300)
-    parser.add_argument("--sessions", type=int, default=4, help="rendered sessions a scene")
-    parser.add_argument("--trials", type=int, default=2, help="stream trials a session")
     args = parser.parse_args()
     rng = np.random.default_rng(args.seed)
     ok = True
@@ -531,22 +398,6 @@ def main() -> int:
         c, n, _ = coverage(method, args.draws, 0.45, rng, own_noise=True)
         ok &= 0.93 <= c <= 0.97
         print(f"{method:6} | {0.45:15.2f} | {c:8.1%} | {n:9d}")
-    print(f"5. rendered frames (twopose-record simulate --cameras 2 --speed 10 "
-          f"--clock-offset-ms 12.5, {args.sessions} sessions of {args.trials} trials per "
-          f"method and scene, replayed as run replays them): each pair's 95% region against "
-          f"the true trajectory, with each camera's noise from the session's own frames and "
-          f"with 0.25 px, 0.25 deg assumed; in the simulator's scene, and in scenes drawn "
-          f"anew (the target's place, the finger's direction):")  # fmt: skip
-    print("method | scene     | noise   | coverage | pairs | mean NEES/dof | camera 1's noise")
-    for method in METHODS:
-        for scene, drawn in (("simulator", False), ("drawn", True)):
-            own_, assumed = rendered_coverage(
-                method, args.sessions, args.trials, args.seed, drawn=drawn
-            )
-            ok &= 0.93 <= own_.covered <= 0.97
-            for name, r in (("own", own_), ("assumed", assumed)):
-                print(f"{method:6} | {scene:9} | {name:7} | {r.covered:8.1%} | {r.pairs:5d} | "
-                      f"{r.nees_per_dof:13.2f} | {r.noise}")  # fmt: skip
     budget = 0.4 * 1e3 / FPS
     print(f"4. CPU per pair (one core), budget {budget:.1f} ms (40% of a frame interval):")
     print("method | live median ms | live p95 ms | vectorized ms")

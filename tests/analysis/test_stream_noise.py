@@ -14,6 +14,7 @@ import pytest
 import analysis
 from analysis.session.stream import DEFAULT_NOISE, PairReplay, replay_pair_session
 from recorder.simulate.pair import PairTiming, simulate_pair_session
+from tests.helpers import load_benchmark
 from twopose.format.reader import SessionReader
 from twopose.format.streams import read_pair_session
 from twopose.methods.specs import Method
@@ -90,3 +91,17 @@ def test_views_csv_says_where_each_cameras_noise_came_from(ground: Path, tmp_pat
     assert metadata.startswith("camera 1: pixel noise 0.1")
     assert "; camera 2: pixel noise 0.1" in metadata
     assert "pixel noise" in (tmp_path / "report.html").read_text()
+
+
+def test_the_rendered_regions_benchmark_measures_the_detectors_error(ground: Path) -> None:
+    """bench_stream_rendered's per-scene diagnostic: each camera's detector error against
+    the simulator's truth is the glove's own (a tenth of a pixel or so), not a camera's
+    pose or a frame's instant mistaken (pixels to tens of pixels)."""
+    bench = load_benchmark("bench_stream_rendered")
+    replay = replay_pair_session(ground)
+    with SessionReader(ground) as reader:
+        truth = read_pair_session(reader).trials[0].trajectory
+    assert truth is not None
+    errors = [bench.detector_error(replay, truth, camera) for camera in (1, 2)]
+    assert all(abs(across) < 0.3 and abs(deg) < 0.3 for across, deg in errors), errors
+    assert any(abs(across) > 0.005 for across, _ in errors)  # measured, not zero

@@ -309,6 +309,8 @@ def camera_noise(
     noise = StreamNoise(
         centroid_px=math.hypot(s_px, floor[0]),
         theta_deg=math.hypot(s_deg, floor[1]) if lines else assumed.theta_deg,
+        shared_px=floor[0],
+        shared_deg=floor[1] if lines else 0.0,
     )
     return CameraNoise(
         noise=noise, source="estimated", scatter=scatter, floor=floor, dof_px=dof_px,

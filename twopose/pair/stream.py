@@ -17,7 +17,8 @@ Each pair's conditioning is judged (the solvers' statuses, and the margins of
 :func:`twopose.solve.estimate.margin_warnings`): a near-singular pair (a line coplanar with the
 baseline: a fixed pair cannot step off it) is flagged with its reason and has no point.
 Each estimate's covariance is propagated to first order (:func:`twopose.uncertainty.propagate.
-propagate`) from: each frame's pixel noise (camera 1's interpolated from two frames);
+propagate`) from: each frame's pixel noise (camera 1's interpolated from two frames: the
+frames' scatter averaged, the detector's systematic error, the same in both, whole);
 the pair's extrinsic covariance, as camera 2's typed pose's (one error shared by every
 estimate of the session); the intrinsics' 1-sigma where the pair file has them; the
 floor's covariance (method 2); the skew term, the offset's 1-sigma times camera 1's
@@ -56,15 +57,9 @@ from twopose.solve.estimate import (
 from twopose.uncertainty.propagate import SHARED_INPUTS, Shared, propagate, semiaxis95
 
 __all__ = [
-    "IN_STEP_NS",
-    "NEAR_SINGULAR",
-    "NOT_INTERPOLATED",
-    "CameraTrack",
-    "StreamEstimate",
-    "StreamNoise",
-    "StreamSettings",
-    "estimate_stream",
-]
+    "IN_STEP_NS", "NEAR_SINGULAR", "NOT_INTERPOLATED", "CameraTrack", "StreamEstimate",
+    "StreamNoise", "StreamSettings", "estimate_stream",
+]  # fmt: skip
 
 #: The status of an ok solve whose degeneracy margin is under its threshold: no point.
 NEAR_SINGULAR = "near_singular"
@@ -101,12 +96,9 @@ class CameraTrack:
 
     @classmethod
     def of(
-        cls,
-        t_ns: ArrayLike,
-        centroid_px: ArrayLike,
-        theta_deg: ArrayLike | None = None,
+        cls, t_ns: ArrayLike, centroid_px: ArrayLike, theta_deg: ArrayLike | None = None,
         found: ArrayLike | None = None,
-    ) -> CameraTrack:
+    ) -> CameraTrack:  # fmt: skip
         """A checked track (``theta_deg`` None: a dot's; ``found`` None: where finite)."""
         t = np.asarray(t_ns, dtype=np.float64).reshape(-1)
         c = np.asarray(centroid_px, dtype=np.float64).reshape(-1, 2)
@@ -124,10 +116,15 @@ class CameraTrack:
 
 @dataclass(frozen=True, kw_only=True)
 class StreamNoise:
-    """Each frame's detection noise, 1-sigma: centroid (px), image line direction (deg)."""
+    """Each frame's detection noise, 1-sigma: centroid (px), image line direction (deg).
+
+    Of it, ``shared_*`` is the same in every frame (the detector's floor: ``camera_noise``).
+    """
 
     centroid_px: float
     theta_deg: float = 0.0
+    shared_px: float = 0.0
+    shared_deg: float = 0.0
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -478,8 +475,11 @@ def _covariance(
         return cov, share
     b = batch.rows(ok)
     pixel = [np.diag([n.centroid_px**2, n.centroid_px**2, n.theta_deg**2]) for n in noises]
+    # Interpolation averages the frames' scatter, not the floor they share: that enters whole.
+    n1 = noises[0]
+    shared = np.diag([n1.shared_px**2, n1.shared_px**2, n1.shared_deg**2])
     C = np.zeros((int(ok.sum()), 2, 9, 9))
-    C[:, 0, :3, :3] = pixel[0] * one.weight[ok, None, None]
+    C[:, 0, :3, :3] = (pixel[0] - shared) * one.weight[ok, None, None] + shared
     v = one.velocity[ok]
     skew = np.einsum("pi,pj->pij", v, v) * (one.time_error_ns[ok] ** 2)[:, None, None]
     C[:, 0, :3, :3] += skew

@@ -48,6 +48,8 @@ def test_a_still_target_s_scatter_is_its_noise():
     floor = camera_noise([track], lines=False, floor=FLOOR, assumed=ASSUMED)
     assert floor.noise.centroid_px == pytest.approx(math.hypot(got.scatter.centroid_px, 0.1))
     assert floor.said(lines=False).startswith("pixel noise 0.31 px: the frames' scatter 0.3 px")
+    # ... and said to be the same in every frame (the stream's interpolation keeps it whole)
+    assert (floor.noise.shared_px, floor.noise.shared_deg) == (FLOOR[0], 0.0)
 
 
 def test_a_finger_moving_at_10_in_per_s_gives_its_noise_not_its_motion():

@@ -159,6 +159,28 @@ def test_the_region_carries_the_skew_and_the_extrinsics() -> None:
     assert (wider.semiaxis95 > 1.2 * base.semiaxis95).all()
 
 
+@pytest.mark.parametrize("method", MEASURING_METHODS)
+def test_interpolation_averages_the_scatter_not_the_detectors_floor(method: Method) -> None:
+    """Camera 1 interpolated halfway between two frames averages their scatter (half its
+    variance), never the detector's systematic error, the same in both (issue 58): a noise
+    that is all floor gives the region of a frame used as it is."""
+    still = FingerMotion(speed=0.0)
+    regions = {}
+    for shared in (0.0, 1.0):
+        noise = StreamNoise(
+            centroid_px=0.3, theta_deg=0.15, shared_px=0.3 * shared, shared_deg=0.15 * shared
+        )
+        for phase in (0.0, 0.5 / 30):
+            one, two = _tracks(method, _frames(phase), still)
+            settings = StreamSettings(noise=(noise, StreamNoise(centroid_px=0.05)))
+            est = estimate_stream(method, thesis_pair(), one, two, OFFSET, settings)
+            regions[shared, phase] = np.median(est.cov[est.ok], axis=0)
+    for shared in (0.0, 1.0):
+        assert np.isfinite(regions[shared, 0.0]).all()
+    assert np.allclose(regions[1.0, 0.5 / 30], regions[1.0, 0.0], rtol=1e-3)
+    assert np.trace(regions[0.0, 0.5 / 30]) < 0.8 * np.trace(regions[0.0, 0.0])
+
+
 def test_the_floors_covariance_widens_method_2s_region() -> None:
     one, two = _tracks(Method.GROUND, _frames(0.01))
     exact = estimate_stream(Method.GROUND, thesis_pair(), one, two, OFFSET, SETTINGS)
