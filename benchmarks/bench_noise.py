@@ -2,7 +2,7 @@
 always estimated and shrunk toward the operator's other sessions, robust per-trial tests
 before pooling, and a blunder caught at its trial.
 
-    .venv/bin/python benchmarks/bench_noise.py [--sessions 40] [--seed 0] [--write-docs]
+    .venv/bin/python benchmarks/bench_noise.py [--sessions 80] [--seed 0] [--write-docs]
 
 Sessions as a lab records them, in the simulator's geometry (``recorder.simulate.one_camera``'s
 default scene and its pose draws, :func:`recorder.simulate.one_camera.draw_trial_poses`: free poses,
@@ -27,7 +27,7 @@ NEES/dof, and the regions' largest semi-axis over the typed sigma's (median).
 The multiplier itself: pooled over ``--multiplier-sessions`` sessions of 5 trials as
 :func:`operator_priors` pools an operator's (flagged trials out), over its truth (1,
 2.56, 9): a bias of the estimate (the misclosures' nonlinearity) would show here, where a
-cell's 40 sessions leave a 1-sigma of 5-17%.
+cell's 80 sessions leave a 1-sigma of 4-12%.
 
 Blunders: typed right, and in 20% of the trials one pose's typed x off by 1 in (either
 sign): the share of blundered trials flagged (``by truth``: of them, those only the test
@@ -43,6 +43,10 @@ trials measured one target (the scene's), so a trial is also tested against the 
 share of blunders its poses can check at all (``seen``: a noncentrality Baarda's test
 catches 80% of the time) and the flag rate among those.
 With three poses and with four: how often the pose is named, and named right.
+
+``--sessions`` is 80 by default: a cell's coverage rests on its four sizes' multipliers
+(each one operator's sessions pooled) and its trials, and scatters by about 1 point at 40
+sessions, half the target band's half-width, 0.7 at 80 (a run: about 35 min on one core).
 
 Targets (exit 1 if one is missed): per method and placing error, over the sizes, pooled
 coverage 93-97%; typed right, the median region at most 1.10x the typed sigma's; with
@@ -414,7 +418,7 @@ def report_naming(t: pd.DataFrame) -> None:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--sessions", type=int, default=40)
+    parser.add_argument("--sessions", type=int, default=80)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--multiplier-sessions", type=int, default=200)
     parser.add_argument("--write-docs", action="store_true")

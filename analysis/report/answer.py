@@ -175,6 +175,7 @@ def noise_phrases(row: pd.Series) -> list[str]:
         placing_dof=_known(row.get("placing_dof")),
         flagged=int(_known(row.get("n_flagged"), 0.0)),
         sources=estimated.group(1) if estimated else "",
+        with_flagged=(_known(row.get("sigma0_all")), int(_known(row.get("sigma0_all_dof"), 0.0))),
     )
     scale = _known(row.get("placing_scale"))
     start = sigma / scale if isinstance(sigma, int | float) and scale > 0 else sigma  # assumed
@@ -316,13 +317,17 @@ RULE = (
     f"{TRUTH_LEVEL:.1%} quantile on the region's dimensions, after the multiplier) is flagged "
     "too: one of its typed poses, the grid point or the detection is off; it is kept out of "
     "the session's pool but its region is not widened, and every flagged trial stays in the error "
-    "statistics (rmse, bias, within 1). A trial without a truth has only the other tests. A "
+    "statistics (rmse, bias, within 1). A trial flagged by its estimate or its truth lies in "
+    "no other trial's rest: the misclosures' test is made again without it. A trial without "
+    "a truth has only the other tests. A "
     "pose is named when it alone, one typed component corrected, would make the trial agree "
     f"({EXPLAINS_LEVEL:.0%}). sigma0, the unflagged trials' misclosure under the typed model, "
     f'is said by its own chi-square test at {FACTOR_TEST_LEVEL:.0%}: "contradict" in its '
     'upper tail, "scatter less" in its lower tail, "agree" otherwise on at least '
-    f"{MIN_PLACING_DOF} degrees of freedom; the test decides nothing, the estimate is used "
-    "either way."
+    f"{MIN_PLACING_DOF} degrees of freedom; where it rejects the typed model with the "
+    'flagged trials\' misclosures and not without them, both are said, never "agree" alone: '
+    "if the flagged trials are not blunders, the operator places worse than typed. The test "
+    "decides nothing, the estimate is used either way."
 )
 
 

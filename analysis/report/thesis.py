@@ -166,6 +166,7 @@ def _verdict(method: Method, trials: pd.DataFrame, *, include_warned: bool) -> s
             return f"{method}: {why}; the thesis did not test this method."
         return f"{method} ({spec.thesis_name}): {why}; nothing to set against the thesis."
     n_in, counts = _within(g)
+    counts += _unestimated(trials)
     if not spec.thesis_tested:
         return f"{method}: {counts}; the thesis did not test this method."
     name = spec.thesis_name
@@ -191,7 +192,11 @@ def _pair_verdict(method: Method, trials: pd.DataFrame, *, include_warned: bool)
     """A two-camera session's touches in a line: how many within 1 in; the thesis measured
     one moving camera's trials, so they are set against nothing."""
     g = _used(trials, include_warned=include_warned)
-    said = unusable(trials, include_warned=include_warned) if g.empty else _within(g)[1]
+    said = (
+        unusable(trials, include_warned=include_warned)
+        if g.empty
+        else _within(g)[1] + _unestimated(trials)
+    )
     return (
         f"{method}, two cameras, per touch: {said}; the thesis tested one moving camera, "
         "nothing to set these against."
@@ -236,6 +241,15 @@ def converted_from(trial_units: pd.Series) -> str:
         return ", errors converted from " + " and ".join(other)
     parts = [f"{n} of {len(trial_units)} errors converted from {u}" for u, n in other.items()]
     return ", " + " and ".join(parts)
+
+
+def _unestimated(trials: pd.DataFrame) -> str:
+    """`` (4 more of its 8 touches without an estimate)``: the rows not ok, which the
+    count within 1 in leaves out ("" when every row is ok)."""
+    n_not = int((trials["status"] != "ok").sum())
+    if not n_not:
+        return ""
+    return f" ({n_not} more of its {len(trials)} {rows_word(trials)} without an estimate)"
 
 
 def _within(g: pd.DataFrame) -> tuple[int, str]:

@@ -141,8 +141,9 @@ def noise_summary(trials: pd.DataFrame) -> dict[str, object]:
     """A session's noise model (``summary.csv``'s last columns): the placing sigma its
     regions assumed, where it came from and the multiplier taken with its degrees of
     freedom; sigma0 over its unflagged ok trials' misclosures under the typed model, with
-    its chi-square test (:class:`twopose.uncertainty.noise.VarianceFactor`'s rule); the flagged
-    trials.
+    its chi-square test (:class:`twopose.uncertainty.noise.VarianceFactor`'s rule), and over
+    every ok trial with redundancy, the flagged ones' too (the words say both where flagging
+    turned the test); the flagged trials.
     A table from before the columns: not known."""
     from twopose.uncertainty.noise import VarianceFactor
 
@@ -155,6 +156,10 @@ def noise_summary(trials: pd.DataFrame) -> dict[str, object]:
     dof = pd.to_numeric(kept["misclosure_dof"], errors="coerce").fillna(0).to_numpy()
     use = np.isfinite(chi2) & (dof > 0)
     total = int(dof[use].sum())
+    every = pd.to_numeric(ok["misclosure_chi2"], errors="coerce").to_numpy(dtype=np.float64)
+    every_dof = pd.to_numeric(ok["misclosure_dof"], errors="coerce").fillna(0).to_numpy()
+    has = np.isfinite(every) & (every_dof > 0)  # the flagged trials' misclosures too
+    total_all = int(every_dof[has].sum())
     factor = VarianceFactor(
         sigma0_sq=float(chi2[use].sum() / total) if total else np.nan, dof=total
     )
@@ -173,6 +178,8 @@ def noise_summary(trials: pd.DataFrame) -> dict[str, object]:
         "sigma0": float(np.sqrt(factor.sigma0_sq)) if total else np.nan,
         "sigma0_dof": total,
         "sigma0_p": factor.p_upper if total else np.nan,
+        "sigma0_all": float(np.sqrt(every[has].sum() / total_all)) if total_all else np.nan,
+        "sigma0_all_dof": total_all,
         "noise_contradicted": factor.contradicted,
         "noise_widening": float(widening.max()) if widening.notna().any() else np.nan,
         "n_flagged": int(flagged.sum()),

@@ -311,11 +311,19 @@ def calibrate_pair_views(
     if not found.names and not found.skipped:
         raise InputValueError("no stills: give both cameras' images of the board")
     if len(found.names) < MIN_VIEWS:
+        none = not found.names and not (found.own[0] or found.own[1])
         raise InputValueError(
             f"the board was found in both cameras in {len(found.names)} pair(s) of "
             f"{len(found.names) + len(found.skipped)}; the pair's calibration needs "
             f"{MIN_VIEWS} or more"
-            + (f" (not in both: {', '.join(found.skipped)})" if found.skipped else "")
+            + (  # found in no still at all: the size given is the likelier cause
+                f": a {board[0]}x{board[1]} board is in none of them: is --board right (its "
+                "inner corners, where four squares meet, COLSxROWS)?"
+                if none
+                else f" (not in both: {', '.join(found.skipped)})"
+                if found.skipped
+                else ""
+            )
         )
     cameras, note, own = _intrinsics(found, board, square, calibrations, calibrations_from)
     corners = BoardCorners.of(board, square, found.left, found.right)

@@ -329,3 +329,22 @@ def test_the_console_answers_per_session_set_and_ends_with_verdicts_and_the_repo
     assert closing_lines(thesis_verdict(trials), tmp_path / "none", width=None)[-1].startswith(
         "verdict:"
     )
+
+
+def test_a_verdict_says_the_rows_without_an_estimate_it_leaves_out() -> None:
+    """A new user's finding: a session of 8 touches, 4 without an estimate, read "4 of 4
+    touches within 1 in"."""
+    nan = float("nan")
+    trials = pd.DataFrame(
+        {
+            "method": ["point"] * 4, "units": "in",
+            "status": ["ok", "ok", "incomplete", "no_detection"],
+            "err": [0.5, 0.2, nan, nan], "err_x": [0.1, 0.1, nan, nan], "warning": "",
+        }
+    )  # fmt: skip
+    (line,) = thesis_verdict(trials)
+    assert "2 of 2 trials within 1 in (largest 0.50 in) (2 more of its 4 trials without" in line
+    (touches,) = thesis_verdict(trials.assign(cameras=2, touch=list("abcd")))
+    assert "(2 more of its 4 touches without an estimate)" in touches
+    (clean,) = thesis_verdict(trials[trials["status"] == "ok"])
+    assert "without an estimate" not in clean

@@ -223,6 +223,8 @@ def test_pairs_without_the_board_in_both_are_said_and_too_few_refused(
             EXIT_ERROR,
             "--board: inner corners cols must be a whole number from 3",
         ),
+        # a board size found in no still: the size named as the likelier cause
+        (["--board", "9x5"], EXIT_ERROR, "a 9x5 board is in none of them: is --board right"),
         (["--square", "0"], EXIT_USAGE, "--square"),
         (["--square", "1_0"], EXIT_USAGE, "--square"),
         (["--units", "ft"], EXIT_USAGE, "--units"),

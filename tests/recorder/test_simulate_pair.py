@@ -251,3 +251,19 @@ def test_a_cameras_stamps_keep_their_frames_order_and_clock(
     steps = np.round(np.diff(frames.true_s) / interval)
     np.testing.assert_allclose(np.diff(frames.true_s), steps * interval, rtol=1e-9)
     assert frames.true_s.size <= np.floor((2.0 - frames.phase_s) / interval) + 1
+
+
+def test_a_target_leaving_a_cameras_view_is_said_as_a_point(tmp_path: Path) -> None:
+    """A new user's finding: the refusal printed numpy's array, "[-0.25  0.5  11.  ]"."""
+    from twopose.errors import SceneError
+
+    narrow = CameraParams(
+        id="cam9", width=320, height=240, fx=2000.0, fy=2000.0, cx=160.0, cy=120.0
+    )
+    scene = Scene(cameras=(SMALL.cameras[0], narrow))
+    with pytest.raises(
+        SceneError, match=r"leaves camera 2's view at \(-?[\d.]+, -?[\d.]+, -?[\d.]+\)"
+    ):
+        simulate_pair_session(tmp_path / "x.mcap", method=Method.POINT, timing=TIMING, trials=1,
+                              scene=scene)  # fmt: skip
+    assert not (tmp_path / "x.mcap").exists()

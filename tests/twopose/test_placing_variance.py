@@ -228,3 +228,19 @@ def test_clean_trials_of_any_placing_share_are_rarely_flagged(lam: float) -> Non
         flagged += int(flag_trials(z2.sum(axis=1), np.full(10, 5), share, z2, TYPED).flagged.sum())
         total += 10
     assert flagged / total <= 0.02
+
+
+@pytest.mark.parametrize("lam", np.geomspace(GRID[118], GRID[119], 6))
+def test_a_narrow_posterior_is_not_snapped_to_the_grid(lam: float) -> None:
+    """Issue 54: the posterior's moments were summed on the grid's points (24 a decade,
+    10% apart), so a posterior narrower than that (3000 dof, 200 sessions of 5 point
+    trials: sigma 2.6%) snapped toward the nearest point: the pooled multiplier moved by up
+    to 2% with where its truth fell between two points. With every direction all placing
+    and an anchor of no weight the posterior of ``1 / lambda`` is Gamma(n / 2, S / 2): its
+    scale is exactly ``S / n`` on ``n`` dof, wherever that lies on the grid."""
+    n = 3000
+    share, z2 = np.ones((n, 1)), np.full((n, 1), lam)  # S = n lam
+    post = posterior(trial_loglik(share, z2).sum(axis=0),
+                     PlacingPrior(scale=1.0, dof=1e-9, source="none"))  # fmt: skip
+    assert post.scale == pytest.approx(lam, rel=1e-3)
+    assert post.dof == pytest.approx(n, rel=1e-2)

@@ -331,8 +331,9 @@ class PairScene:
                 )
                 if not inside:
                     raise SceneError(
-                        f"the moving target leaves camera {k}'s view at {np.round(reference, 3)}"
-                        " (scene units): move the scene's target toward both cameras' views"
+                        f"the moving target leaves camera {k}'s view at ("
+                        + ", ".join(f"{v:.3g}" for v in np.asarray(reference, dtype=float))
+                        + ") (scene units): move the scene's target toward both cameras' views"
                     )
 
     @staticmethod

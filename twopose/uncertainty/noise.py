@@ -253,7 +253,9 @@ class VarianceFactor:
     ``variance_dof`` degrees of freedom (infinite: taken as exact, nothing estimated), of
     which ``information`` beyond the anchor (the data's and the operator's); ``flagged``:
     trials whose poses disagree, kept out; ``at_limit``: ``lambda`` is beyond the grid;
-    ``sources``: where ``lambda``'s information came from, in words.
+    ``sources``: where ``lambda``'s information came from, in words; ``sigma0_sq_all`` on
+    ``dof_all``: sigma0 over every tested trial, the flagged ones' misclosures included
+    (NaN, 0: not known), which the words set beside sigma0 when flagging turned its test.
     """
 
     sigma0_sq: float
@@ -265,6 +267,8 @@ class VarianceFactor:
     flagged: int = 0
     at_limit: bool = False
     sources: str = ""
+    sigma0_sq_all: float = math.nan
+    dof_all: int = 0
 
     @property
     def tested(self) -> bool:
@@ -322,7 +326,7 @@ class VarianceFactor:
         return said
 
 
-def noise_words(
+def noise_words(  # noqa: PLR0913
     sigma0: float,
     dof: int,
     region_widening: float = math.nan,
@@ -332,6 +336,7 @@ def noise_words(
     placing_dof: float = math.inf,
     flagged: int = 0,
     sources: str = "",
+    with_flagged: tuple[float, int] = (math.nan, 0),
 ) -> str:
     """The noise model's test and what the regions took, in words: the one home of them.
 
@@ -344,13 +349,18 @@ def noise_words(
     placing's; NaN: not said) and the ``flagged`` trials; ``sources`` where the multiplier's
     information came from (``factor``'s when given), so that a session whose own data
     scatter less is not left to read as contradicted by the multiplier its operator's
-    other sessions raised.
+    other sessions raised. ``with_flagged``: sigma0 on its dof with the flagged trials'
+    misclosures (``factor``'s when given): where it rejects and sigma0 does not, flagging
+    turned the test, and the words say both, never "agree" unqualified.
     """
     if factor is not None:
         placing_scale = factor.placing_scale if factor.estimated else math.nan
         placing_dof, flagged = factor.variance_dof, factor.flagged
         sources = factor.sources
-    words = [_test_words(sigma0, dof, flagged)]
+        all_sq = factor.sigma0_sq_all
+        with_flagged = (math.sqrt(all_sq) if factor.dof_all else math.nan, factor.dof_all)
+    turned = _turned_words(sigma0, dof, flagged, *with_flagged)
+    words = [turned or _test_words(sigma0, dof, flagged)]
     if math.isfinite(placing_scale) and math.isfinite(placing_dof):
         took = (
             f"placing sigma taken {placing_scale:.2g}x the one assumed, from {placing_dof:.0f} dof"
@@ -374,6 +384,37 @@ def noise_words(
         trials = "trial" if flagged == 1 else "trials"
         words.append(f"{flagged} {trials} flagged: kept out of the pool")
     return "; ".join(words)
+
+
+def _turned_words(sigma0: float, dof: int, flagged: int, sigma0_all: float, dof_all: int) -> str:
+    """sigma0's test where flagging turned it ("": it did not).
+
+    It rejects the typed model with the flagged trials' misclosures and not without them:
+    the data left agree only if the flagged trials are blunders, and if they are not, the
+    operator places worse than typed. Which, the session's own trials cannot always tell (a
+    typo can shrink its trial's misclosure, a clean trial can be noisy): never "agree"
+    unqualified.
+    """
+    known = dof <= 0 or math.isfinite(sigma0)
+    if not (flagged and dof_all > dof and math.isfinite(sigma0_all) and known):
+        return ""
+    upper_all = chi2_tails(dof_all * sigma0_all**2, dof_all)[0]
+    upper = chi2_tails(dof * sigma0**2, dof)[0] if dof > 0 else math.nan
+    if not upper_all < FACTOR_TEST_LEVEL or upper < FACTOR_TEST_LEVEL:
+        return ""
+    trials = "trial" if flagged == 1 else "trials"
+    said = f"{sigma0_all:.2f} on {dof_all} dof ({p_words(upper_all)}) with the flagged {trials}"
+    if dof > 0:
+        said = f"{sigma0:.2f} on {dof} dof ({p_words(upper)}) without the {flagged} flagged "
+        said += f"{trials}, {sigma0_all:.2f} on {dof_all} dof ({p_words(upper_all)}) with "
+        said += "it" if flagged == 1 else "them"
+    left = "the data left agree with the noise model" if dof > 0 else "no trial is left"
+    return (
+        f"sigma0 {said}: {left}, with the flagged {trials} the data contradict it: if "
+        f"{'it is not a blunder' if flagged == 1 else 'they are not blunders'}, the operator "
+        "places worse than typed and every region is too small: analyse the session beside "
+        "its operator's others, or measure the placing with a board"
+    )
 
 
 def _test_words(sigma0: float, dof: int, flagged: int = 0) -> str:

@@ -121,6 +121,8 @@ def _factor(m: Misclosure, flags: Flags, out: Bools, noise: NoiseModel) -> Varia
     info = np.where(out[:, None], 0.0, flags.info).sum(axis=0)
     post = posterior(pool, anchor, prior, info)
     dof = int(m.dof[use].sum())
+    has = (m.dof > 0) & np.isfinite(m.chi2)  # the flagged trials' too
+    dof_all = int(m.dof[has].sum())
     estimated = round(post.information) >= MIN_PLACING_DOF
     return VarianceFactor(
         sigma0_sq=float(m.chi2[use].sum() / dof) if dof else math.nan,
@@ -132,6 +134,8 @@ def _factor(m: Misclosure, flags: Flags, out: Bools, noise: NoiseModel) -> Varia
         flagged=int(out.sum()),
         at_limit=post.at_limit and estimated,
         sources=_sources(int(use.sum()), prior.source if prior else "", anchor.source),
+        sigma0_sq_all=float(m.chi2[has].sum() / dof_all) if dof_all else math.nan,
+        dof_all=dof_all,
     )
 
 
@@ -153,8 +157,7 @@ def with_one_target(noise: NoiseResult, truth: F64, point: F64, cov: F64) -> Noi
     tests = noise.tests.with_target(target_tests(point, cov, same, noise.tests.flagged))
     if tests is noise.tests:
         return noise
-    factor = _factor(m, flags, tests.flagged, model)
-    return dataclasses.replace(noise, factor=factor, tests=tests)
+    return _settled(noise, m, model, tests)
 
 
 def with_own_truth(noise: NoiseResult, error: F64, cov: F64) -> NoiseResult:
@@ -171,8 +174,45 @@ def with_own_truth(noise: NoiseResult, error: F64, cov: F64) -> NoiseResult:
     tests = noise.tests.with_truth(truth_tests(error, cov))
     if tests is noise.tests:
         return noise
-    factor = _factor(m, flags, tests.flagged, model)
-    return dataclasses.replace(noise, factor=factor, tests=tests)
+    return _settled(noise, m, model, tests)
+
+
+def _settled(
+    noise: NoiseResult, m: Misclosure, model: NoiseModel, tests: TrialTests
+) -> NoiseResult:
+    """The noise once ``tests`` flagged trials by their estimate, tested again without them.
+
+    Trials off the others' of their target, or off their own truth: their misclosures
+    leave every other trial's rest, the misclosures' test is made again, then the factor.
+
+    A trial another test flagged is in no pool: "the rest" a misclosure is tested against
+    is the pool (:func:`flag_trials`). A typo can shrink its own trial's misclosure (its
+    offset against that trial's placing error): left in the rest, it made an operator 1.6x
+    worse than typed look typed-right, a clean trial's misclosure was flagged against it,
+    and the two trials left said "the data agree" (the new user's F2).
+    """
+    T = len(tests.flagged)
+    by_estimate = tests.flagged & (_noted(tests.apart, T) | _noted(tests.truth_off, T))
+    flags = flag_trials(m.chi2, m.dof, m.placing_share, m.z2, model.anchor(), model.prior,
+                        out=by_estimate)  # fmt: skip
+    factor = _factor(m, flags, flags.flagged | by_estimate, model)
+    base = trial_tests(m, flags.flagged, flags.p, factor.placing_variance)
+    settled = dataclasses.replace(
+        base,
+        flagged=base.flagged | by_estimate,
+        own=np.where(by_estimate, tests.own, base.own),
+        own_dof=np.where(by_estimate, tests.own_dof, base.own_dof),
+        apart=tests.apart,
+        truth_off=tests.truth_off,
+        truth_sigmas=tests.truth_sigmas,
+        truth_axis=tests.truth_axis,
+    )
+    return dataclasses.replace(noise, factor=factor, tests=settled, flags=flags)
+
+
+def _noted(values: F64 | None, T: int) -> Bools:
+    """Where a per-trial column another test fills is known (``T`` False: none)."""
+    return np.zeros(T, dtype=bool) if values is None else np.isfinite(values)
 
 
 def _measured_dof(noise: NoiseModel) -> float:
