@@ -203,7 +203,13 @@ def _ray_gap(dots: DotTracks, search_ns: tuple[float, float]) -> ClockOffset:
         raise InputValueError(_NOT_FIXED)
     # A likelihood ratio against every offset a frame or more away: one that fits nearly
     # as well (the motion along the epipolar lines fits every offset; a periodic one
-    # several) leaves the offset unknown.
+    # several) leaves the offset unknown. A line's other offsets are judged with its slide
+    # held at the best's (a repeating path repeats it: DotTracks.holding_slide).
+    if dots.lines is not None:
+        held = dots.holding_slide(float(vertex))
+        coarse_cost, coarse_used = held.mean_gap(coarse)
+        supported = coarse_used >= 0.5 * coarse_used.max()
+        minima = _basins(held, coarse, np.where(supported, coarse_cost, np.nan), interval)
     far = (np.abs(coarse - vertex) > interval) & supported
     with np.errstate(invalid="ignore", divide="ignore"):
         ratio = coarse_used[far] * (coarse_cost[far] / max(min_mean, 1e-300) - 1.0)

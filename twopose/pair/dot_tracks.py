@@ -85,6 +85,8 @@ class DotTracks:
     #: each camera's image line's unit direction per frame (N_i, 2), one sense throughout
     #: (None: a dot's tracks, whose point both cameras see)
     lines: tuple[F64, F64] | None = None
+    #: a line's slide along the finger held (None: fitted at every candidate offset)
+    slide: float | None = None
 
     @property
     def nuisances(self) -> int:
@@ -151,11 +153,20 @@ class DotTracks:
     def gaps(self, candidates: F64, *, fit: Bools | None = None) -> tuple[F64, F64]:
         """(C, N2) the rays' gap (px) at each candidate offset, and its noise weight.
 
+        (:meth:`_gaps`, without the slides.)
+        """
+        gap, weight, _ = self._gaps(candidates, fit=fit)
+        return gap, weight
+
+    def _gaps(self, candidates: F64, *, fit: Bools | None = None) -> tuple[F64, F64, F64]:
+        """(C, N2) the rays' gap (px) at each candidate offset, and its noise weight.
+
         The weight is camera 2's frame and camera 1's two, by ``1 - w`` and ``w`` (equal
         noise taken), ``1 + w^2 + (1 - w)^2`` times one frame's variance; NaN gaps where
         camera 1 has no frames about camera 2's. A line's gaps are those left by the slide
         along the finger that fits best at each candidate (the module docstring), fitted
-        over camera 2's frames ``fit`` (N2,) (default all).
+        over camera 2's frames ``fit`` (N2,) (default all), or held (:attr:`slide`); and
+        (C,) the slides (0 for a dot's).
         """
         at = self.times[1][None, :] - candidates[:, None]
         u1, w = self.camera1_at(at)
@@ -163,7 +174,7 @@ class DotTracks:
         gap = epipolar_gap_px(self.pair, u1, u2)
         weight = 1 + w**2 + (1 - w) ** 2
         if self.lines is None:
-            return gap, weight
+            return gap, weight, np.zeros(candidates.shape)
         d1 = self._line1_at(at)
         # The gap's rate with the slide (per unit length along the finger; linear to first
         # order), and the slide that fits best at each candidate (least squares).
@@ -173,7 +184,25 @@ class DotTracks:
         num = np.where(use, gap * rate / weight, 0.0).sum(axis=1)
         den = np.where(use, rate**2 / weight, 0.0).sum(axis=1)
         slide = num / np.where(den > 0, den, np.inf)
-        return gap - slide[:, None] * rate, weight
+        if self.slide is not None:  # held (:meth:`holding_slide`)
+            slide = np.full_like(slide, self.slide)
+        return gap - slide[:, None] * rate, weight, slide
+
+    def holding_slide(self, offset_ns: float) -> DotTracks:
+        """These tracks with a line's slide held at the one fitted at ``offset_ns``.
+
+        What another period of a path is judged by (:func:`twopose.pair.clock._ray_gap`):
+        a path that repeats repeats the finger's pose, and with it the slide, so a true
+        repeat fits as well with it held; a slide fitted anew at every offset would let
+        an offset a second away fit by sliding the point inches along the finger.
+        """
+        if self.lines is None:
+            return self
+        held = float(self._gaps(np.array([offset_ns]))[2][0])
+        return DotTracks(
+            pair=self.pair, tracks=self.tracks, times=self.times, found=self.found,
+            gap_ns=self.gap_ns, clock_sigma=self.clock_sigma, lines=self.lines, slide=held,
+        )  # fmt: skip
 
     def _slide_px(self, u1: F64, d1: F64, u2: F64) -> F64:
         """(C, N2, 2) camera 1's pixel step for a unit slide along the finger in 3-D.

@@ -8,10 +8,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.typing import ArrayLike
 
+from twopose.errors import InputValueError
 from twopose.pair.calibration import PairCalibration
 from twopose.pair.clock import offset_from_ray_gap
 from twopose.pair.motion import CameraClock, FingerMotion, Frames, _project, thesis_pair
@@ -148,3 +150,16 @@ def test_the_offset_of_a_sliding_line_is_within_its_sigmas(
     pointing = (0.8 * np.sin(a), 0.6, 0.8 * np.cos(a))
     pair, one, two = _tracks((slide1, slide2), seed, pointing)
     assert abs(_measured(pair, one, two, lines=True)) < 3
+
+
+def test_a_line_whose_path_repeats_is_still_refused() -> None:
+    # The slide is held at the best's when other offsets are judged (a repeating path
+    # repeats the finger's pose, and its slide): a circle every 0.63 s fits both periods.
+    rng = np.random.default_rng(5)
+    pair = thesis_pair()
+    motion = FingerMotion(radius=1.0, speed=10.0)
+    one = CameraClock(phase_s=0.004).frames(DURATION_S, rng)
+    two = CameraClock(phase_s=0.02, offset_s=OFFSET_S).frames(DURATION_S, rng)
+    tracks = (_seen(pair, motion, one, 1, 0.18, rng), _seen(pair, motion, two, 2, 0.15, rng))
+    with pytest.raises(InputValueError, match=r"repeats|nearly as well|at the edge"):
+        _measured(pair, *tracks, lines=True)
