@@ -28,7 +28,8 @@ with the finger's place (perspective), and ±0.3 in along a finger circling at 1
 then 10 ms off with a sigma of 0.5. A finger swept straight at one steady velocity fixes
 little (a constant gap is a slide: only perspective is left), and its sigma says so (2.4
 ms where a dot's is 0.26; without the slide, 0.05 in along the finger took it 13 ms off,
-19 of its sigmas), or the refusals. No I/O.
+19 of its sigmas), or the refusals. Other offsets than the best are judged with the
+slide held at the best's (:meth:`DotTracks.holding_slide`). No I/O.
 """
 
 from __future__ import annotations
