@@ -122,7 +122,7 @@ def read_pair_file(path: str | Path) -> PairCalibration:
     what = f"pair file {path}"
     data = read_toml(path, "pair file", InputValueError)
     unknown = sorted(set(data) - set(PAIR_TABLES))
-    if "pair" not in data and {"fx", "fy", "cx", "cy"} <= set(data):  # one camera's keys
+    if not set(_REQUIRED_TABLES) & set(data) and {"fx", "fy", "cx", "cy"} <= set(data):
         raise InputValueError(
             f"{what} is one camera's calibration (twopose-record calibrate: fx, fy, cx, cy), "
             "not a pair file: make the pair's with twopose-record calibrate-pair (it takes "

@@ -44,7 +44,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import interpolate, special
+from scipy import special
 
 from twopose.arrays import F64, Bools, Ints
 from twopose.uncertainty.noise import MIN_PLACING_DOF, PlacingPrior
@@ -206,6 +206,8 @@ def _precision_moments(logw: F64, p: F64) -> tuple[F64, F64]:
     pooled multiplier of 200 sessions of 5 trials moved by up to 2% with where its truth
     fell between two points (benchmarks/bench_noise.py).
     """
+    from scipy import interpolate  # here: a re-run that reuses its analysis never loads it
+
     heavy = np.flatnonzero((p > 1e-12).any(axis=0))
     lo, hi = max(int(heavy[0]) - 2, 0), min(int(heavy[-1]) + 2, GRID.size - 1)
     u = _LOG_GRID[lo : hi + 1]
