@@ -56,6 +56,7 @@ from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchm
 
 from analysis.session.stream import DEFAULT_NOISE, PairReplay, replay_pair_session
 from recorder.simulate.pair import PairTiming, simulate_pair_session
+from twopose.atomic_write import replacing
 from twopose.camera.model import project_points
 from twopose.detect.detection import wrap_theta_deg
 from twopose.errors import InputValueError, SceneError
@@ -81,16 +82,15 @@ BOOTSTRAP = 2000
 
 def _session(path: Path, method: Method, seed: int, *, drawn: bool) -> None:
     """One session of one stream trial: in the simulator's scene, or in one drawn anew."""
-    part = path.with_suffix(".part")  # kept only once whole
     rng = np.random.default_rng(seed)
     while True:
         try:
-            simulate_pair_session(part, method=method, timing=TIMING, trials=1, seed=seed,
-                                  scene=draw_pair_scene(rng) if drawn else None)  # fmt: skip
-            part.rename(path)
+            with replacing(path) as part:  # kept only once whole
+                simulate_pair_session(part, method=method, timing=TIMING, trials=1, seed=seed,
+                                      scene=draw_pair_scene(rng) if drawn else None)  # fmt: skip
             return
         except SceneError:  # the target out of a camera's view: another draw
-            part.unlink(missing_ok=True)
+            continue
 
 
 def _truth_at(
