@@ -195,9 +195,10 @@ def load_stream_plan(path: str | Path) -> StreamPlan:
     method = data.get("method")
     if method not in METHODS or not spec_of(Method(method)).measures:
         measuring = [m for m in METHODS if spec_of(Method(m)).measures]
+        got = "it has none" if method is None else f"got {method!r}"
         raise InputValueError(
             f"plan: method must be one of {', '.join(measuring)} (a pair's stream measures a "
-            f"moving target), got {method!r}"
+            f"moving target; a continuation's, its session's): {got}"
         )
     units = data.get("units", DEFAULT_UNITS)
     if units not in UNITS:

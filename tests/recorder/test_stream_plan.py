@@ -74,6 +74,10 @@ def test_a_pair_plan_refuses_naming_the_key(tmp_path: Path, text: str, said: str
 def test_a_pair_plan_measures_a_moving_target(tmp_path: Path) -> None:
     with pytest.raises(InputValueError, match="point, line"):
         load_stream_plan(_plan(tmp_path, 'method = "board"\n[[trials]]\n'))
+    # none given: said so, not Python's None (a new user's continuation plan)
+    with pytest.raises(InputValueError, match="point, line") as err:
+        load_stream_plan(_plan(tmp_path, "[[trials]]\n"))
+    assert str(err.value).endswith(": it has none")
 
 
 def _with_floor(folder: Path) -> Path:
