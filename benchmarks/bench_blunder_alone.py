@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
+from doc_figures import finished, run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
@@ -129,10 +129,7 @@ def main() -> int:
     started = time.perf_counter()
     print(f"{args.sessions} sessions a cell, 3 poses a trial\n")
     missed = report(rows(args.sessions, args.placing), args.placing)
-    print(f"({time.perf_counter() - started:.0f} s)")
-    for line in missed:
-        print(f"target missed: {line}")
-    return 1 if missed else 0
+    return finished(started, missed)
 
 
 if __name__ == "__main__":

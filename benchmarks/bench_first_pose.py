@@ -49,7 +49,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
+from doc_figures import finished, run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
@@ -231,10 +231,7 @@ def main() -> int:
     ]
     _per_case(cases)
     missed = _summary(cases, args)
-    print(f"({time.perf_counter() - started:.0f} s)")
-    for line in missed:
-        print(f"target missed: {line}")
-    return 1 if missed else 0
+    return finished(started, missed)
 
 
 def _pct(value: float) -> str:

@@ -55,7 +55,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
+from doc_figures import finished, run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
@@ -323,10 +323,7 @@ def main() -> int:
     print(f"\na suggestion: median {np.median(cost_ms):.0f} ms, 95th percentile "
           f"{np.percentile(cost_ms, 95):.0f} ms over {len(costs)} (once per accepted pose, "
           "in the recording thread: the console's frames never wait on it)")  # fmt: skip
-    print(f"({time.perf_counter() - started:.0f} s)")
-    for line in missed:
-        print(f"target missed: {line}")
-    return 1 if missed else 0
+    return finished(started, missed)
 
 
 def _print(table: pd.DataFrame, args: argparse.Namespace) -> list[str]:

@@ -66,7 +66,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
+from doc_figures import finished, run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 from scipy import optimize, special
 
 REPO = Path(__file__).resolve().parents[1]
@@ -434,10 +434,7 @@ def main() -> int:
     four = blunder_rows(args.sessions, args.seed, 4, (Method.POINT, Method.GROUND), (4,))
     three = blunder_rows(args.sessions, args.seed, 3, (Method.POINT, Method.GROUND), (4,))
     report_naming(pd.concat([three, four], ignore_index=True))
-    print(f"({time.perf_counter() - started:.0f} s)")
-    for line in missed:
-        print(f"target missed: {line}")
-    return 1 if missed else 0
+    return finished(started, missed)
 
 
 if __name__ == "__main__":

@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from bench_guidance import _truth, geometric_view  # type: ignore[import-not-found]
-from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
+from doc_figures import finished, run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
@@ -168,10 +168,7 @@ def main() -> int:
     args = parser.parse_args()
     started = time.perf_counter()
     missed = report(run(args.sessions, args.seed, args.trials), args)
-    print(f"({time.perf_counter() - started:.0f} s)")
-    for line in missed:
-        print(f"target missed: {line}")
-    return 1 if missed else 0
+    return finished(started, missed)
 
 
 if __name__ == "__main__":

@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import io
 import sys
+import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
@@ -49,6 +50,15 @@ def recorded(name: str, *, write: bool) -> Iterator[None]:
     # never an older, better run), but not after an exception or Ctrl-C: half a run is no figure.
     FIGURES.mkdir(exist_ok=True)
     (FIGURES / name).write_text(tee.kept.getvalue(), encoding="utf-8")
+
+
+def finished(started: float, missed: list[str]) -> int:
+    """A benchmark's last lines: its time since ``started`` (``time.perf_counter``), each
+    target it missed; its exit code (1 when one was missed)."""
+    print(f"({time.perf_counter() - started:.0f} s)")
+    for line in missed:
+        print(f"target missed: {line}")
+    return 1 if missed else 0
 
 
 def run_recorded(main: Callable[[], int | None], figure: str) -> int:
