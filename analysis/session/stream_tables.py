@@ -61,6 +61,7 @@ from twopose.format.reader import SessionReader
 from twopose.format.streams import PairSession, StreamTrial, read_pair_session
 from twopose.methods.specs import spec_of
 from twopose.pair.calibration import PairCalibration
+from twopose.pair.holdout import CHECK_SIGMAS
 from twopose.pair.stream import StreamSettings, estimate_stream
 from twopose.uncertainty.propagate import uncertainty_columns
 from twopose.values.units import Units
@@ -222,7 +223,7 @@ def _check_said(pair: PairCalibration) -> str:
     if pair.check.passed:
         return (
             f", its covariance confirmed by leave-one-out (every held-out spacing within "
-            f"3 sigma, the worst {pair.check.worst_sigmas:.1f})"
+            f"{CHECK_SIGMAS:g} sigma, the worst {pair.check.worst_sigmas:.1f})"
         )
     return f"; {pair.check.unconfirmed()}"
 

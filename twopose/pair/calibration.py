@@ -50,6 +50,7 @@ from twopose.values.units import Units, unit_factor, unit_spec
 
 __all__ = [
     "MAX_RMS_PX",
+    "MIN_BASELINE_IN",
     "MIN_VIEWS",
     "FloorPlane",
     "PairCalibration",
@@ -63,6 +64,9 @@ MIN_VIEWS = 3
 #: Two cameras whose centres are closer than this share of the board's square share a
 #: centre: no baseline, nothing to triangulate (the same camera's stills given twice).
 MIN_BASELINE_SQUARES = 0.05
+#: Nor may any pair's centres be closer than 1 mm, in inches (what a pair file may state:
+#: :mod:`twopose.pair.pair_file`; a fine board's 0.05 squares would be less).
+MIN_BASELINE_IN = 1 / 25.4
 #: Two views whose corners are within this many pixels on average, in both cameras, are
 #: one still given twice.
 SAME_VIEW_PX = 0.5
@@ -312,7 +316,8 @@ def fit_pair(
             "cameras'?"
         )
     R, t = extrinsic_of(fit.relative)
-    if np.linalg.norm(t) < MIN_BASELINE_SQUARES * square:
+    least = max(MIN_BASELINE_SQUARES * square, MIN_BASELINE_IN / unit_spec(units).inches)
+    if np.linalg.norm(t) < least:
         raise InputValueError(
             f"the two cameras share a centre (baseline {np.linalg.norm(t):.3g} {units}): are "
             "the left and right stills the same camera's?"

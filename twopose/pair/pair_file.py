@@ -21,7 +21,7 @@ import numpy as np
 
 from twopose.camera.model import SIGMA_KEYS, Intrinsics
 from twopose.errors import InputValueError, SessionExistsError, TwoposeError
-from twopose.pair.calibration import MAX_RMS_PX, FloorPlane, PairCalibration
+from twopose.pair.calibration import MAX_RMS_PX, MIN_BASELINE_IN, FloorPlane, PairCalibration
 from twopose.pair.holdout import HoldoutCheck
 from twopose.values.units import UNITS, unit_spec
 
@@ -42,9 +42,6 @@ _REQUIRED_TABLES = tuple(t for t, what in PAIR_TABLES.items() if "(optional)" no
 #: The longest baseline a pair file may state, in inches (5 m): beyond it the numbers are
 #: not a pair of cameras on one mount (a wrong ``units``, a typo).
 MAX_BASELINE_IN = 5000 / 25.4
-#: The shortest: two centres closer than 1 mm share a centre (nothing to triangulate;
-#: ``calibrate-pair`` refuses it, the same camera's stills given as both).
-MIN_BASELINE_IN = 1 / 25.4
 #: The highest floor a pair file may state, in inches (10 m).
 MAX_FLOOR_IN = 10000 / 25.4
 

@@ -136,6 +136,10 @@ def test_degenerate_sets_are_refused_in_words(bench: ModuleType) -> None:
         fit([*left[:3], left[0]], [*right[:3], right[0]])
     with pytest.raises(InputValueError, match="share a centre"):
         fit(left, left)  # one camera's stills given as both
+    # a baseline a pair file may not state (under 1 mm), however fine the board: what
+    # calibrate-pair writes, the reader reads (a 0.001 mm square: a 0.003 mm baseline)
+    with pytest.raises(InputValueError, match="share a centre"):
+        fit_pair(BoardCorners.of((9, 6), 0.001, left, right), cams, units=Units.MM, check=False)
     with pytest.raises(InputValueError, match="outside its 640x480 image"):
         fit([*left[:3], left[3] + 700], right)
     with pytest.raises(InputValueError, match="4 views of the board in camera 1 but 3"):
