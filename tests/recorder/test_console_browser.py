@@ -268,7 +268,7 @@ def test_the_console_suggests_the_next_pose_and_stops_by_the_rule(tmp_path: Path
     """Issue 36 in the browser at a laptop's 1366x768: after pose 1 the page shows the
     suggested next pose, ``g`` in the pose form takes it, the top view marks the next one,
     and with --target-precision a trial ends as soon as its region is within it."""
-    from tests.doc_images import CONSOLE_VOLATILE, doc_image
+    from tests.doc_images import CONSOLE_VOLATILE, doc_image, live_frame_drawn
 
     out = tmp_path / "guided.mcap"
     process, url, _ = start_console(out, "--target-precision", "1.0", "--max-poses", "4")
@@ -325,6 +325,8 @@ def test_the_console_suggests_the_next_pose_and_stops_by_the_rule(tmp_path: Path
                 # The top view's scale follows the poses the run took, which a loaded
                 # machine's timing can change (the picture is of the map and the advice).
                 volatile = (*CONSOLE_VOLATILE, "#topview")
+                problem = live_frame_drawn(laptop, png)
+                assert not problem, problem
                 doc_image("console-suggestion.png", png, driver=laptop, volatile=volatile)
                 page.el("pose-x").send_keys("g")
                 page.click("capture")

@@ -28,7 +28,7 @@ from typing import Any
 import pytest
 
 from tests.browser import emulate_phone, headless_chromium, require_chromium
-from tests.doc_images import CONSOLE_VOLATILE, doc_image
+from tests.doc_images import CONSOLE_VOLATILE, doc_image, live_frame_drawn
 from tests.helpers import small_session, start_console
 
 require_chromium()
@@ -146,6 +146,9 @@ class Steps:
         size = f"{seen['width']}x{seen['height']}"
         assert not seen["problems"], f"{name} ({size}): {seen['problems']}"
         if name in self.docs:
+            # The live picture is left out of the comparison (CONSOLE_VOLATILE): drawn, at least.
+            problem = live_frame_drawn(self.browser, png) if recording else ""
+            assert not problem, f"{name}: {problem}"
             doc_image(self.docs[name], png, driver=self.browser, volatile=CONSOLE_VOLATILE)
 
 
