@@ -269,3 +269,48 @@ def test_a_line_is_reported_nearest_its_reference() -> None:
     assert np.abs(near.point - middle[est.i2]).max() < 0.02  # noise-free: on the finger
     assert np.abs(est.point - middle[est.i2]).max() > 1.0  # the solver's: near camera 2
     assert (near.semiaxis95 < est.semiaxis95).all()  # the finger's middle is seen best
+
+
+@pytest.mark.parametrize("method", [Method.POINT, Method.GROUND])
+def test_an_offset_off_by_its_sigma_stays_inside_the_region_at_camera_2s_instant(
+    method: Method,
+) -> None:
+    """The skew term is camera 1's image velocity times the offset's sigma, carried through
+    camera 1's measurement (its effect on the estimate is not along the target's motion).
+    Noise-free tracks of a dot or finger at 10 in/s, the offset given 2 ms off with a 2 ms
+    sigma: against the truth at camera 2's true capture instant, each estimate's NEES is
+    at most about 1 for the interpolation's own error (a rank-one term of its measured size)
+    plus about 1 for the offset's, inside the 95% region (7.81 on 3 dof); against the truth at the
+    estimate's own ``t_ns`` (camera 2's instant through the wrong offset) it is outside, the
+    target having moved 0.02 in meanwhile along its motion, where the region is thin (a new
+    user's r5 F11 scored at ``t_ns``; docs/two-cameras.md says what a region is of)."""
+    frames = _frames(0.01)
+    one, two = _tracks(method, frames)
+    pair, motion = thesis_pair(), FingerMotion()
+    tiny = StreamSettings(noise=StreamNoise(centroid_px=0.002, theta_deg=0.001))
+
+    def truth(t_s: np.ndarray) -> np.ndarray:
+        floor = pair.floor
+        assert floor is not None
+        return motion.floor_point(t_s, floor) if method is Method.GROUND else motion.tip(t_s)
+
+    nees = {}
+    for shift_ms in (0.0, 2.0):
+        off = dataclasses.replace(OFFSET, offset_ns=OFFSET.offset_ns + shift_ms * 1e6,
+                                  sigma_ns=2e6)  # fmt: skip
+        est = estimate_stream(method, pair, one, two, off, tiny)
+        ok = est.ok
+        assert ok.sum() >= 25
+        # t_ns is camera 1's clock, whose time 0 is the motion's (_frames' camera 1)
+        for at, instants in (
+            ("camera 2", frames[1].true_s[est.i2[ok]]),
+            ("t_ns", est.t_ns[ok] / 1e9),
+        ):
+            d = est.point[ok] - truth(instants)
+            nees[shift_ms, at] = np.einsum("pi,pij,pj->p", d, np.linalg.pinv(est.cov[ok]), d)
+    assert np.median(nees[0.0, "camera 2"]) < 1.2  # the interpolation's error alone
+    # the offset's 1 sigma adds about 1 (a dot: 1.35; the finger's floor point: 0.99)
+    added = np.median(nees[2.0, "camera 2"]) - np.median(nees[0.0, "camera 2"])
+    assert 0.7 < added < 1.6, added
+    assert nees[2.0, "camera 2"].max() < 7.81
+    assert np.median(nees[2.0, "t_ns"]) > 7.81
