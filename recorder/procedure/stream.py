@@ -402,6 +402,8 @@ def _stream_trial(
                 if frame is None:  # both files (folders) ended: no more pairs, a normal end
                     state.ended = "ended"
                     break
+                if ran_out := source.ran_out(frame):  # the other's file or folder ended
+                    raise SourceError(ran_out)
                 _write_frame(state, stream, ids, frame, source, jpeg=jpeg)
                 meter.add(frame)
                 if sink is not None:
