@@ -221,7 +221,7 @@ def _checked(method: Method, trials: int, scene: Scene, timing: PairTiming) -> P
 
 def _up(value: float) -> float:
     """``value`` rounded up to 2 significant digits (a speed that is surely enough)."""
-    scale = 10 ** (math.floor(math.log10(value)) - 1)
+    scale = 10.0 ** (math.floor(math.log10(value)) - 1)
     return math.ceil(value / scale) * scale
 
 

@@ -86,12 +86,12 @@ class FrameSource(ABC):
     def close(self) -> None:
         return None
 
-    def reads(self) -> tuple[object, ...] | None:
+    def origin(self) -> tuple[object, ...] | None:
         """What this source reads (a device, a file, a folder and its pattern), so that a
         pair's two sources can be told apart; None: nothing to compare (a rendered camera)."""
         return None
 
-    def files(self) -> list[Path]:
+    def file_paths(self) -> list[Path]:
         """The files it reads (a video, a folder's stills), to compare their bytes; none."""
         return []
 

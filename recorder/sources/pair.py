@@ -45,7 +45,7 @@ from typing import TYPE_CHECKING
 
 from recorder.procedure import stops
 from recorder.sources.base import FrameSource, SourceInfo, pair_spec
-from recorder.sources.pair_feeds import Feed, Grabbed
+from recorder.sources.pair_feeds import Feed, Grabbed, mismatch
 from twopose.errors import SourceError
 
 if TYPE_CHECKING:
@@ -290,6 +290,8 @@ class PairSource(FrameSource):
             for n, (spec, feed) in enumerate(zip(self.specs, feeds, strict=True), start=1)
         )
         self.stills = all(f.lossless for f in feeds)
+        #: Stills alone, without real time (a key is camera 1's frame last recorded).
+        self.timeless = self.stills
         #: A video file among the feeds: its frames played before a trial are counted.
         self.files = any(f.recorded for f in feeds)
         #: Each camera's frames taken and not recorded since :meth:`take_unrecorded`
@@ -311,6 +313,21 @@ class PairSource(FrameSource):
         for reader in self._readers:
             reader.bound, reader.limit = bound, bound.frames or 1
 
+    def replay(self) -> bool:
+        """Files and folders alone (before :meth:`open`): every frame of both read in
+        order, none skipped nor dropped, each camera's next frame waited for, as a
+        folder's stills are (:attr:`stills` then True), so that the same files give the
+        same frames whatever the machine's load; False (nothing changed) with a camera."""
+        if self._opened:
+            raise SourceError("a pair source is replayed whole from before it is opened")
+        feeds = [r.feed for r in self._readers]
+        if not all(f.recorded or f.lossless for f in feeds):
+            return False
+        for feed in feeds:
+            feed.lossless = feed.keep_late = True
+        self.stills = True
+        return True
+
     def open(self) -> SourceInfo:
         opened: list[_Reader] = []
         try:
@@ -321,7 +338,8 @@ class PairSource(FrameSource):
             for reader in opened:
                 reader.feed.close()
             raise
-        self.warnings = (*((self.note2,) if self.note2 else ()), *_mismatch(self.cameras))
+        one, two = (r.feed.info for r in self._readers)
+        self.warnings = (*((self.note2,) if self.note2 else ()), *mismatch(one, two))
         first = self._readers[0].feed.info
         self.info = dataclasses.replace(first, description=pair_spec(*self.specs))
         stop = stops.active()
@@ -368,6 +386,12 @@ class PairSource(FrameSource):
     def grabbed_by_camera(self) -> tuple[int, int]:
         """Each camera's frames taken so far (a folder's: its stills read)."""
         one, two = (r.grabbed for r in self._readers)
+        return one, two
+
+    @property
+    def ended_by_camera(self) -> tuple[bool, bool]:
+        """Whether each camera's stream has ended (its frames may still be queued)."""
+        one, two = (r.ended for r in self._readers)
         return one, two
 
     @property
@@ -420,7 +444,7 @@ class PairSource(FrameSource):
             other.feed.info.fps or 1.0
         ):
             return ""
-        what = "folder" if other.feed.lossless else "file"
+        what = "file" if other.feed.recorded else "folder"
         why = getattr(other.feed, "ended_by", "") or f"its {what} ended"
         when = (
             "gave no frame"
@@ -558,20 +582,3 @@ class PairSource(FrameSource):
                 r.thread.join(max(0.0, deadline - time.monotonic()))
             if r.thread is None or not r.thread.is_alive():
                 r.feed.close()
-
-
-def _mismatch(cameras: tuple[CameraStream, CameraStream]) -> tuple[str, ...]:
-    """The cameras' sizes and rates compared: what differs, said."""
-    a, b = cameras[0].info, cameras[1].info
-    said = []
-    if (a.width, a.height) != (b.width, b.height):
-        said.append(
-            f"camera 1 gives {a.width}x{a.height} frames, camera 2 {b.width}x{b.height}: "
-            "each camera is calibrated at its own size"
-        )
-    if abs(a.fps - b.fps) > 0.01 * max(a.fps, b.fps):
-        said.append(
-            f"camera 1 runs at {a.fps:g} fps, camera 2 at {b.fps:g} fps: pairs come at the "
-            "slower rate, within half the faster one's frame interval"
-        )
-    return tuple(said)

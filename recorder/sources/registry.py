@@ -97,7 +97,7 @@ class CameraSource(FrameSource):
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
 
-    def reads(self) -> tuple[object, ...]:
+    def origin(self) -> tuple[object, ...]:
         device = self.device
         return ("camera", device if isinstance(device, int) else _resolved(Path(device)))
 
@@ -157,10 +157,10 @@ class VideoSource(FrameSource):
         self.realtime = realtime
         self._cap: Any = None
 
-    def reads(self) -> tuple[object, ...]:
+    def origin(self) -> tuple[object, ...]:
         return ("video", _resolved(self.path))
 
-    def files(self) -> list[Path]:
+    def file_paths(self) -> list[Path]:
         return [self.path] if self.path.is_file() else []
 
     def open(self) -> SourceInfo:
@@ -202,10 +202,10 @@ class ImagesSource(FrameSource):
         self._files: list[Path] = []
         self._next = 0
 
-    def reads(self) -> tuple[object, ...]:
+    def origin(self) -> tuple[object, ...]:
         return ("images", _resolved(self.folder), self.pattern)
 
-    def files(self) -> list[Path]:
+    def file_paths(self) -> list[Path]:
         if not self.folder.is_dir():
             return []
         names = self.folder.glob(self.pattern) if self.pattern else self.folder.iterdir()
@@ -214,7 +214,7 @@ class ImagesSource(FrameSource):
     def open(self) -> SourceInfo:
         if not self.folder.is_dir():
             raise SourceError(f"image folder {self.folder} does not exist")
-        self._files = self.files()
+        self._files = self.file_paths()
         if not self._files and self.pattern:
             raise SourceError(f"no image in {self.folder} matches {self.pattern}")
         if not self._files:
@@ -518,15 +518,17 @@ def refuse_same(first: str, second: str, one: FrameSource, two: FrameSource) -> 
     rays of one image through two centres meet nowhere near the target, yet measure a
     clock offset. Files identical byte for byte (two copies of one recording; every still
     of two folders) are warned of: the warning returned ("": none), said with camera 2."""
-    what = one.reads()
-    if what is not None and what == two.reads():
+    what = one.origin()
+    if what is not None and what == two.origin():
         raise SourceError(
             f"pair:{first},{second}: both cameras read the same {what[0]} "
             f"({what[1]}): a pair needs two cameras, each its own device, file or folder"
         )
-    files = one.files(), two.files()
-    if files[0] and len(files[0]) == len(files[1]) and all(
-        filecmp.cmp(a, b, shallow=False) for a, b in zip(*files, strict=True)
+    files = one.file_paths(), two.file_paths()
+    if (
+        files[0]
+        and len(files[0]) == len(files[1])
+        and all(filecmp.cmp(a, b, shallow=False) for a, b in zip(*files, strict=True))
     ):
         return (
             f"camera 2's files ({second}) are camera 1's ({first}), byte for byte (two "

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import re
 import shutil
+import time
 from pathlib import Path
 
 import cv2
@@ -14,7 +15,6 @@ import pytest
 from typer.testing import CliRunner
 
 from recorder.cli.app import app
-
 from recorder.procedure.stream import StreamDriver, record_stream
 from recorder.procedure.stream_terminal import PairSetup, open_pair_source, pair_cameras
 from recorder.sources.registry import open_pair
@@ -91,9 +91,7 @@ def test_a_pair_of_one_source_given_twice_is_refused(
 
 
 @pytest.mark.parametrize("kind", ["video", "images"])
-def test_two_copies_of_one_recording_are_warned_of_with_camera_2(
-    tmp_path: Path, kind: str
-) -> None:
+def test_two_copies_of_one_recording_are_warned_of_with_camera_2(tmp_path: Path, kind: str) -> None:
     """Camera 2's files identical to camera 1's byte for byte: said with camera 2 (as the
     cameras are printed by new --pair, point and calibrate-pair) and in the warnings; two
     cameras' own files are not."""
@@ -126,3 +124,42 @@ def test_new_pair_refuses_one_video_for_both_cameras_before_asking(tmp_path: Pat
     assert "both cameras read the same video" in result.output, result.output
     assert "method" not in result.output  # nothing asked
     assert not (tmp_path / "s.mcap").exists()
+
+
+class _Late(StreamDriver):
+    """One trial of 0.2 s, started ``wait_s`` after the files opened (an operator's or a
+    loaded machine's delay)."""
+
+    def __init__(self, wait_s: float) -> None:
+        self.wait_s = wait_s
+
+    def next_trial(self, trial: int) -> bool:
+        time.sleep(self.wait_s)
+        return trial == 1
+
+    def duration_s(self, trial: int) -> float:
+        return 0.2
+
+
+def test_two_video_files_give_the_same_trial_however_late_it_starts(tmp_path: Path) -> None:
+    """Files replayed whole (r5 F13): the trial starts at each file's first frame and
+    takes every frame in order, so the same files and plan give the same session whether
+    the trial starts at once or 0.4 s (12 frames) after the files opened."""
+    pair = thesis_pair()
+    size = (pair.intrinsics1.width, pair.intrinsics1.height)
+    one, two = (write_video(tmp_path / f"c{n}.avi", 12, size, 20 + n) for n in (1, 2))
+    setup = PairSetup(method=Method.POINT, units=Units.IN, operator="Ada")
+    sessions = []
+    for wait_s in (0.0, 0.4):
+        source = open_pair_source(f"pair:video:{one},video:{two}", pair, setup, fps=None)
+        out = tmp_path / f"late{wait_s}.mcap"
+        summary = record_stream(out, setup.info(), pair_cameras(pair), pair, source, _Late(wait_s))
+        (end,) = summary.trials
+        assert end.unrecorded == (0, 0), end  # no frame played before the trial
+        assert end.why == "duration", end
+        with SessionReader(out) as reader:
+            (trial,) = read_pair_session(reader).trials
+        first = trial.camera1.capture_ns[0]
+        sessions.append([(c.capture_ns - first).tolist() for c in trial.cameras])
+    assert sessions[0] == sessions[1]
+    assert len(sessions[0][0]) == 7  # 0.2 s at 30 fps from the file's first frame
