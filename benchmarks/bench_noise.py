@@ -106,6 +106,9 @@ TYPED_WIDER, FLAGGED_LEAST, FALSE_MOST = 1.10, 0.85, 0.02
 CLEAN_MEDIAN, CLEAN_P90 = 1.02, 1.10
 #: The trials of each session whose pooled multiplier is checked against its truth.
 MULTIPLIER_SIZE = 5
+#: A cell's operators, each with ``--sessions`` sessions of their own (issue 54: one
+#: operator over 20+ sessions), and the cluster bootstrap's draws for its interval.
+OPERATORS, BOOT_DRAWS = 4, 2000
 PLAIN = EstimateOptions(noise=NoiseModel(test_redundancy=False))
 
 
@@ -209,31 +212,65 @@ def given(placing: float) -> EstimateOptions:
     return EstimateOptions(noise=NoiseModel(factor=factor))
 
 
-def coverage_rows(n: int, seed: int) -> pd.DataFrame:
+def coverage_rows(n: int, seed: int, operators: int = OPERATORS) -> pd.DataFrame:
+    """Per cell (method, placing, size): ``operators`` operators of ``n`` sessions each,
+    every operator's multiplier learned from their own sessions alone (a run of theirs)."""
     rows = []
     for method in METHODS:
         for placing in PLACINGS:
             for size in SIZES:
                 s0 = seed + 100_000 * METHODS.index(method) + 1000 * size + int(10 * placing)
-                sessions = [session(method, s0 + 7919 * k, size, placing) for k in range(n)]
-                group = operator_group("bench operator", method)
-                pooled = run_pooled(sessions, group)
-                for s, e in zip(sessions, pooled, strict=True):
-                    a = honesty(e)
-                    b = honesty(estimate_session(s, EstimateOptions(), line_fits=False))
-                    c = honesty(estimate_session(s, PLAIN, line_fits=False))
-                    d = honesty(estimate_session(s, given(placing), line_fits=False))
-                    ok = a["ok"]
-                    rows.append(pd.DataFrame({
-                        "method": str(method), "placing": placing, "size": size,
-                        "within": a["within"][ok], "alone": b["within"][ok],
-                        "typed": c["within"][ok], "given": d["within"][ok],
-                        "nees": a["nees"][ok],
-                        "ratio": (a["axis"] / c["axis"])[ok],
-                        "lam": e.factor.placing_variance if e.factor else 1.0,
-                        "dof": e.factor.variance_dof if e.factor else math.inf,
-                    }))  # fmt: skip
+                for j in range(operators):
+                    ks = range(j * n, (j + 1) * n)
+                    sessions = [session(method, s0 + 7919 * k, size, placing) for k in ks]
+                    group = operator_group(f"bench operator {j + 1}", method)
+                    pooled = run_pooled(sessions, group)
+                    for k, s, e in zip(ks, sessions, pooled, strict=True):
+                        rows.append(_coverage_frame(s, e, placing, j, k))
     return pd.concat(rows, ignore_index=True)
+
+
+def _coverage_frame(s: SessionTrials, e: SessionEstimate, placing: float, operator: int,
+                    k: int) -> pd.DataFrame:  # fmt: skip
+    """One session's ok trials: inside their regions by each rule, NEES, the region's size."""
+    a = honesty(e)
+    b = honesty(estimate_session(s, EstimateOptions(), line_fits=False))
+    c = honesty(estimate_session(s, PLAIN, line_fits=False))
+    d = honesty(estimate_session(s, given(placing), line_fits=False))
+    ok = a["ok"]
+    return pd.DataFrame({
+        "method": str(s.method), "placing": placing, "size": len(s),
+        "operator": operator, "session": k,
+        "within": a["within"][ok], "alone": b["within"][ok],
+        "typed": c["within"][ok], "given": d["within"][ok],
+        "nees": a["nees"][ok],
+        "ratio": (a["axis"] / c["axis"])[ok],
+        "lam": e.factor.placing_variance if e.factor else 1.0,
+        "dof": e.factor.variance_dof if e.factor else math.inf,
+    })  # fmt: skip
+
+
+def cluster_interval(h: pd.DataFrame, column: str = "within", draws: int = BOOT_DRAWS,
+                     seed: int = 0) -> tuple[float, float]:  # fmt: skip
+    """The 95% interval of a cell's mean ``column`` by a two-stage cluster bootstrap.
+
+    The trials of one operator share that operator's multiplier estimate, and those of one
+    session its misclosures: operators are drawn with replacement, then each drawn
+    operator's sessions with replacement, and the trials of a drawn session come whole.
+    """
+    rng = np.random.default_rng(seed)
+    per = h.groupby(["operator", "session"], sort=True)[column].agg(["sum", "count"])
+    owners = per.index.get_level_values("operator").to_numpy()
+    ops = np.unique(owners)
+    sums, counts = per["sum"].to_numpy(float), per["count"].to_numpy(float)
+    members = [np.flatnonzero(owners == o) for o in ops]
+    num, den = np.zeros(draws), np.zeros(draws)
+    for r, pick in enumerate(rng.integers(len(ops), size=(draws, len(ops)))):
+        rows = np.concatenate([m[rng.integers(len(m), size=len(m))] for m in
+                               (members[p] for p in pick)])  # fmt: skip
+        num[r], den[r] = sums[rows].sum(), counts[rows].sum()
+    lo, hi = np.quantile(num / den, [0.025, 0.975])
+    return float(lo), float(hi)
 
 
 def blunder_rows(n: int, seed: int, poses: int, methods: tuple[Method, ...] = METHODS,
@@ -296,21 +333,29 @@ def _detectable(dof: int) -> float:
 
 
 def report_coverage(t: pd.DataFrame) -> list[str]:
-    print("coverage of the truth by the 95% regions (ok trials), one operator a cell")
-    print(f"{'method':<8}{'placing':>8}{'size':>6}{'trials':>8}{'pooled':>8}{'alone':>8}"
-          f"{'typed':>8}{'given':>8}{'NEES/dof':>9}{'region/typed':>13}{'lambda':>8}"
-          f"{'its dof':>8}")  # fmt: skip
+    print("coverage of the truth by the 95% regions (ok trials); each cell several operators, "
+          "each operator's multiplier from their own sessions; 95% interval: a cluster "
+          "bootstrap over operators, then their sessions")  # fmt: skip
+    print(f"{'method':<8}{'placing':>8}{'size':>6}{'trials':>8}{'pooled':>8}{'interval':>15}"
+          f"{'alone':>8}{'typed':>8}{'given':>8}{'NEES/dof':>9}{'region/typed':>13}"
+          f"{'lambda':>8}{'its dof':>8}")  # fmt: skip
     missed, lo, hi = [], *COVERAGE_TARGET
     for (method, placing), g in t.groupby(["method", "placing"], sort=False):
         for size, h in g.groupby("size"):
+            a, b = cluster_interval(h)
             print(f"{method:<8}{placing:>7.1f}x{size:>6}{len(h):>8}{h['within'].mean():>8.1%}"
+                  f"{f'{a:.1%}-{b:.1%}':>15}"
                   f"{h['alone'].mean():>8.1%}{h['typed'].mean():>8.1%}"
                   f"{h['given'].mean():>8.1%}{h['nees'].mean():>9.2f}"
                   f"{h['ratio'].median():>13.2f}{h['lam'].median():>8.2f}"
                   f"{h['dof'].median():>8.0f}")  # fmt: skip
+            # a cell misses where its whole interval lies outside the band
+            if b < lo or a > hi:
+                missed.append(f"{method} at {placing:g}x typed, {size} trials a session: "
+                              f"regions cover {h['within'].mean():.1%} ({a:.1%}-{b:.1%})")  # fmt: skip
         cover, alone, typed = g["within"].mean(), g["alone"].mean(), g["typed"].mean()
-        print(f"{method:<8}{placing:>7.1f}x{'all':>6}{len(g):>8}{cover:>8.1%}{alone:>8.1%}"
-              f"{typed:>8.1%}{g['given'].mean():>8.1%}{g['nees'].mean():>9.2f}"
+        print(f"{method:<8}{placing:>7.1f}x{'all':>6}{len(g):>8}{cover:>8.1%}{'':>15}"
+              f"{alone:>8.1%}{typed:>8.1%}{g['given'].mean():>8.1%}{g['nees'].mean():>9.2f}"
               f"{g['ratio'].median():>13.2f}")  # fmt: skip
         if not lo <= cover <= hi:
             missed.append(f"{method} at {placing:g}x typed: regions cover {cover:.1%}")
@@ -418,21 +463,23 @@ def report_naming(t: pd.DataFrame) -> None:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--sessions", type=int, default=80)
+    parser.add_argument("--sessions", type=int, default=20, help="each operator's")
+    parser.add_argument("--operators", type=int, default=OPERATORS, help="a cell's")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--multiplier-sessions", type=int, default=200)
     parser.add_argument("--write-docs", action="store_true")
     args = parser.parse_args()
     started = time.perf_counter()
-    print(f"{args.sessions} sessions of one operator per cell, 3 poses a trial, typed "
-          f"{TYPED_IN:g} in\n")  # fmt: skip
-    missed = report_coverage(coverage_rows(args.sessions, args.seed))
+    print(f"{args.operators} operators of {args.sessions} sessions each per cell, 3 poses a "
+          f"trial, typed {TYPED_IN:g} in\n")  # fmt: skip
+    missed = report_coverage(coverage_rows(args.sessions, args.seed, args.operators))
     report_multiplier(multiplier_rows(args.multiplier_sessions, args.seed),
                       args.multiplier_sessions)  # fmt: skip
-    missed += report_blunders(blunder_rows(args.sessions, args.seed, 3))
-    report_alone(blunder_rows(args.sessions, args.seed, 3, one_target=False))
-    four = blunder_rows(args.sessions, args.seed, 4, (Method.POINT, Method.GROUND), (4,))
-    three = blunder_rows(args.sessions, args.seed, 3, (Method.POINT, Method.GROUND), (4,))
+    n = args.sessions * args.operators  # the blunders': one operator's n sessions
+    missed += report_blunders(blunder_rows(n, args.seed, 3))
+    report_alone(blunder_rows(n, args.seed, 3, one_target=False))
+    four = blunder_rows(n, args.seed, 4, (Method.POINT, Method.GROUND), (4,))
+    three = blunder_rows(n, args.seed, 3, (Method.POINT, Method.GROUND), (4,))
     report_naming(pd.concat([three, four], ignore_index=True))
     return finished(started, missed)
 
