@@ -351,8 +351,9 @@ def report_coverage(t: pd.DataFrame) -> list[str]:
                   f"{h['dof'].median():>8.0f}")  # fmt: skip
             # a cell misses where its whole interval lies outside the band
             if b < lo or a > hi:
+                cover = h["within"].mean()
                 missed.append(f"{method} at {placing:g}x typed, {size} trials a session: "
-                              f"regions cover {h['within'].mean():.1%} ({a:.1%}-{b:.1%})")  # fmt: skip
+                              f"regions cover {cover:.1%} ({a:.1%}-{b:.1%})")  # fmt: skip
         cover, alone, typed = g["within"].mean(), g["alone"].mean(), g["typed"].mean()
         print(f"{method:<8}{placing:>7.1f}x{'all':>6}{len(g):>8}{cover:>8.1%}{'':>15}"
               f"{alone:>8.1%}{typed:>8.1%}{g['given'].mean():>8.1%}{g['nees'].mean():>9.2f}"
