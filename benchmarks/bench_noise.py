@@ -2,7 +2,8 @@
 always estimated and shrunk toward the operator's other sessions, robust per-trial tests
 before pooling, and a blunder caught at its trial.
 
-    .venv/bin/python benchmarks/bench_noise.py [--sessions 80] [--seed 0] [--write-docs]
+    .venv/bin/python benchmarks/bench_noise.py [--operators 4] [--sessions 20] [--seed 0]
+        [--write-docs]
 
 Sessions as a lab records them, in the simulator's geometry (``recorder.simulate.one_camera``'s
 default scene and its pose draws, :func:`recorder.simulate.one_camera.draw_trial_poses`: free poses,
@@ -12,9 +13,10 @@ rendered ones agree: ``tests/analysis/test_blunder_session.py``): 5 frames a pos
 0.3 px of centroid noise (0.5 deg on the orientation) and the detector's error at its
 floor. The operator types 1/16 in (``poses.typed_resolution``) and places the laptop with
 that error (typed right), 1.6x or 3x it. Per method, session size (2 to 5 trials) and
-placing error, ``--sessions`` sessions of one operator: a run's two passes as
-``twopose-analyze run`` does them (:mod:`analysis.batch.noise_pass`: each session's
-misclosures, every session's prior from the operator's other sessions,
+placing error, ``--operators`` operators of ``--sessions`` sessions each (issue 54: one
+operator over 20+ sessions), each operator's sessions a run of their own, with the run's two
+passes as ``twopose-analyze run`` does them (:mod:`analysis.batch.noise_pass`: each
+session's misclosures, every session's prior from the operator's other sessions,
 :func:`twopose.uncertainty.placing_variance.operator_priors`, then each session estimated with it).
 
 Coverage: the share of ok trials whose truth lies in their 95% region ("pooled": the
@@ -22,12 +24,15 @@ run's rule; "alone": each session with the typed resolution's weak prior only; "
 the regions of the typed sigma, what today's rule gives when its test does not reject;
 "given": the placing multiplier given exactly, the truth's, so that what "pooled" misses
 beyond it is the multiplier's estimate and what "given" misses is the regions' own),
-NEES/dof, and the regions' largest semi-axis over the typed sigma's (median).
+NEES/dof, and the regions' largest semi-axis over the typed sigma's (median). A cell's
+coverage rests on its operators' multipliers (the trials of one operator share its estimate,
+those of one session its misclosures): its 95% interval is a two-stage cluster bootstrap,
+operators drawn with replacement, then each drawn operator's sessions.
 
 The multiplier itself: pooled over ``--multiplier-sessions`` sessions of 5 trials as
 :func:`operator_priors` pools an operator's (flagged trials out), over its truth (1,
-2.56, 9): a bias of the estimate (the misclosures' nonlinearity) would show here, where a
-cell's 80 sessions leave a 1-sigma of 4-12%.
+2.56, 9): a bias of the estimate (the misclosures' nonlinearity) would show here, where one
+operator's 20 sessions leave a 1-sigma of 8-23%.
 
 Blunders: typed right, and in 20% of the trials one pose's typed x off by 1 in (either
 sign): the share of blundered trials flagged (``by truth``: of them, those only the test
@@ -44,15 +49,16 @@ share of blunders its poses can check at all (``seen``: a noncentrality Baarda's
 catches 80% of the time) and the flag rate among those.
 With three poses and with four: how often the pose is named, and named right.
 
-``--sessions`` is 80 by default: a cell's coverage rests on its four sizes' multipliers
-(each one operator's sessions pooled) and its trials, and scatters by about 1 point at 40
-sessions, half the target band's half-width, 0.7 at 80 (a run: about 35 min on one core).
+A cell is 4 operators of 20 sessions by default, 80 sessions as one operator's were before
+(a run: about 35 min on one core); the blunder tables keep one operator's 80 sessions
+(``--operators`` x ``--sessions``).
 
 Targets (exit 1 if one is missed): per method and placing error, over the sizes, pooled
-coverage 93-97%; typed right, the median region at most 1.10x the typed sigma's; with
-blunders, per method, >= 85% of blundered trials flagged, <= 2% of clean ones, the clean
-trials' median region at most 1.02x and 90th percentile 1.10x the blunder-free session's,
-and the unflagged trials' coverage 93-97%.
+coverage 93-97%, and per size no cell whose whole interval lies outside 93-97%; typed
+right, the median region at most 1.10x the typed sigma's; with blunders, per method,
+>= 85% of blundered trials flagged, <= 2% of clean ones, the clean trials' median region at
+most 1.02x and 90th percentile 1.10x the blunder-free session's, and the unflagged trials'
+coverage 93-97%.
 """
 
 from __future__ import annotations
