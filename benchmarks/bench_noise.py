@@ -188,11 +188,19 @@ def blundered(trials: SessionTrials, seed: int) -> tuple[SessionTrials, np.ndarr
 
 def run_pooled(sessions: list[SessionTrials], group: str) -> list[SessionEstimate]:
     """The run's two passes over one operator's sessions (see the module)."""
+    return two_passes(sessions, group)[1]
+
+
+def two_passes(
+    sessions: list[SessionTrials], group: str
+) -> tuple[list[SessionEstimate], list[SessionEstimate]]:
+    """The run's first pass (each session alone, the anchor its only prior) and its second."""
     first = [estimate_session(s, EstimateOptions(), line_fits=False) for s in sessions]
     stats = [session_statistics(group, e.misclosure, e.tests) for e in first]
     priors = operator_priors(stats, NoiseModel().anchor())
-    return [estimate_session(s, EstimateOptions(noise=NoiseModel(prior=p)), line_fits=False)
-            for s, p in zip(sessions, priors, strict=True)]  # fmt: skip
+    return first, [estimate_session(s, EstimateOptions(noise=NoiseModel(prior=p)),
+                                    line_fits=False)
+                   for s, p in zip(sessions, priors, strict=True)]  # fmt: skip
 
 
 def honesty(e: SessionEstimate) -> pd.DataFrame:
@@ -230,17 +238,18 @@ def coverage_rows(n: int, seed: int, operators: int = OPERATORS) -> pd.DataFrame
                     ks = range(j * n, (j + 1) * n)
                     sessions = [session(method, s0 + 7919 * k, size, placing) for k in ks]
                     group = operator_group(f"bench operator {j + 1}", method)
-                    pooled = run_pooled(sessions, group)
-                    for k, s, e in zip(ks, sessions, pooled, strict=True):
-                        rows.append(_coverage_frame(s, e, placing, j, k))
+                    first, pooled = two_passes(sessions, group)
+                    for k, s, e, e0 in zip(ks, sessions, pooled, first, strict=True):
+                        rows.append(_coverage_frame(s, e, e0, placing, j, k))
     return pd.concat(rows, ignore_index=True)
 
 
-def _coverage_frame(s: SessionTrials, e: SessionEstimate, placing: float, operator: int,
-                    k: int) -> pd.DataFrame:  # fmt: skip
-    """One session's ok trials: inside their regions by each rule, NEES, the region's size."""
+def _coverage_frame(s: SessionTrials, e: SessionEstimate, alone: SessionEstimate,
+                    placing: float, operator: int, k: int) -> pd.DataFrame:  # fmt: skip
+    """One session's ok trials: inside their regions by each rule (``alone``: the run's
+    first pass), NEES, the region's size."""
     a = honesty(e)
-    b = honesty(estimate_session(s, EstimateOptions(), line_fits=False))
+    b = honesty(alone)
     c = honesty(estimate_session(s, PLAIN, line_fits=False))
     d = honesty(estimate_session(s, given(placing), line_fits=False))
     ok = a["ok"]
