@@ -2,7 +2,8 @@
 always estimated and shrunk toward the operator's other sessions, robust per-trial tests
 before pooling, and a blunder caught at its trial.
 
-    .venv/bin/python benchmarks/bench_noise.py [--sessions 80] [--seed 0] [--write-docs]
+    .venv/bin/python benchmarks/bench_noise.py [--operators 4] [--sessions 20] [--seed 0]
+        [--write-docs]
 
 Sessions as a lab records them, in the simulator's geometry (``recorder.simulate.one_camera``'s
 default scene and its pose draws, :func:`recorder.simulate.one_camera.draw_trial_poses`: free poses,
@@ -12,9 +13,10 @@ rendered ones agree: ``tests/analysis/test_blunder_session.py``): 5 frames a pos
 0.3 px of centroid noise (0.5 deg on the orientation) and the detector's error at its
 floor. The operator types 1/16 in (``poses.typed_resolution``) and places the laptop with
 that error (typed right), 1.6x or 3x it. Per method, session size (2 to 5 trials) and
-placing error, ``--sessions`` sessions of one operator: a run's two passes as
-``twopose-analyze run`` does them (:mod:`analysis.batch.noise_pass`: each session's
-misclosures, every session's prior from the operator's other sessions,
+placing error, ``--operators`` operators of ``--sessions`` sessions each (issue 54: one
+operator over 20+ sessions), each operator's sessions a run of their own, with the run's two
+passes as ``twopose-analyze run`` does them (:mod:`analysis.batch.noise_pass`: each
+session's misclosures, every session's prior from the operator's other sessions,
 :func:`twopose.uncertainty.placing_variance.operator_priors`, then each session estimated with it).
 
 Coverage: the share of ok trials whose truth lies in their 95% region ("pooled": the
@@ -22,12 +24,15 @@ run's rule; "alone": each session with the typed resolution's weak prior only; "
 the regions of the typed sigma, what today's rule gives when its test does not reject;
 "given": the placing multiplier given exactly, the truth's, so that what "pooled" misses
 beyond it is the multiplier's estimate and what "given" misses is the regions' own),
-NEES/dof, and the regions' largest semi-axis over the typed sigma's (median).
+NEES/dof, and the regions' largest semi-axis over the typed sigma's (median). A cell's
+coverage rests on its operators' multipliers (the trials of one operator share its estimate,
+those of one session its misclosures): its 95% interval is a two-stage cluster bootstrap,
+operators drawn with replacement, then each drawn operator's sessions.
 
 The multiplier itself: pooled over ``--multiplier-sessions`` sessions of 5 trials as
 :func:`operator_priors` pools an operator's (flagged trials out), over its truth (1,
-2.56, 9): a bias of the estimate (the misclosures' nonlinearity) would show here, where a
-cell's 80 sessions leave a 1-sigma of 4-12%.
+2.56, 9): a bias of the estimate (the misclosures' nonlinearity) would show here, where one
+operator's 20 sessions leave a 1-sigma of 8-23%.
 
 Blunders: typed right, and in 20% of the trials one pose's typed x off by 1 in (either
 sign): the share of blundered trials flagged (``by truth``: of them, those only the test
@@ -44,15 +49,16 @@ share of blunders its poses can check at all (``seen``: a noncentrality Baarda's
 catches 80% of the time) and the flag rate among those.
 With three poses and with four: how often the pose is named, and named right.
 
-``--sessions`` is 80 by default: a cell's coverage rests on its four sizes' multipliers
-(each one operator's sessions pooled) and its trials, and scatters by about 1 point at 40
-sessions, half the target band's half-width, 0.7 at 80 (a run: about 35 min on one core).
+A cell is 4 operators of 20 sessions by default, 80 sessions as one operator's were before
+(a run: about 35 min on one core); the blunder tables keep one operator's 80 sessions
+(``--operators`` x ``--sessions``).
 
 Targets (exit 1 if one is missed): per method and placing error, over the sizes, pooled
-coverage 93-97%; typed right, the median region at most 1.10x the typed sigma's; with
-blunders, per method, >= 85% of blundered trials flagged, <= 2% of clean ones, the clean
-trials' median region at most 1.02x and 90th percentile 1.10x the blunder-free session's,
-and the unflagged trials' coverage 93-97%.
+coverage 93-97%, and per size no cell whose whole interval lies outside 93-97%; typed
+right, the median region at most 1.10x the typed sigma's; with blunders, per method,
+>= 85% of blundered trials flagged, <= 2% of clean ones, the clean trials' median region at
+most 1.02x and 90th percentile 1.10x the blunder-free session's, and the unflagged trials'
+coverage 93-97%.
 """
 
 from __future__ import annotations
@@ -106,6 +112,9 @@ TYPED_WIDER, FLAGGED_LEAST, FALSE_MOST = 1.10, 0.85, 0.02
 CLEAN_MEDIAN, CLEAN_P90 = 1.02, 1.10
 #: The trials of each session whose pooled multiplier is checked against its truth.
 MULTIPLIER_SIZE = 5
+#: A cell's operators, each with ``--sessions`` sessions of their own (issue 54: one
+#: operator over 20+ sessions), and the cluster bootstrap's draws for its interval.
+OPERATORS, BOOT_DRAWS = 4, 2000
 PLAIN = EstimateOptions(noise=NoiseModel(test_redundancy=False))
 
 
@@ -179,11 +188,19 @@ def blundered(trials: SessionTrials, seed: int) -> tuple[SessionTrials, np.ndarr
 
 def run_pooled(sessions: list[SessionTrials], group: str) -> list[SessionEstimate]:
     """The run's two passes over one operator's sessions (see the module)."""
+    return two_passes(sessions, group)[1]
+
+
+def two_passes(
+    sessions: list[SessionTrials], group: str
+) -> tuple[list[SessionEstimate], list[SessionEstimate]]:
+    """The run's first pass (each session alone, the anchor its only prior) and its second."""
     first = [estimate_session(s, EstimateOptions(), line_fits=False) for s in sessions]
     stats = [session_statistics(group, e.misclosure, e.tests) for e in first]
     priors = operator_priors(stats, NoiseModel().anchor())
-    return [estimate_session(s, EstimateOptions(noise=NoiseModel(prior=p)), line_fits=False)
-            for s, p in zip(sessions, priors, strict=True)]  # fmt: skip
+    return first, [estimate_session(s, EstimateOptions(noise=NoiseModel(prior=p)),
+                                    line_fits=False)
+                   for s, p in zip(sessions, priors, strict=True)]  # fmt: skip
 
 
 def honesty(e: SessionEstimate) -> pd.DataFrame:
@@ -209,31 +226,66 @@ def given(placing: float) -> EstimateOptions:
     return EstimateOptions(noise=NoiseModel(factor=factor))
 
 
-def coverage_rows(n: int, seed: int) -> pd.DataFrame:
+def coverage_rows(n: int, seed: int, operators: int = OPERATORS) -> pd.DataFrame:
+    """Per cell (method, placing, size): ``operators`` operators of ``n`` sessions each,
+    every operator's multiplier learned from their own sessions alone (a run of theirs)."""
     rows = []
     for method in METHODS:
         for placing in PLACINGS:
             for size in SIZES:
                 s0 = seed + 100_000 * METHODS.index(method) + 1000 * size + int(10 * placing)
-                sessions = [session(method, s0 + 7919 * k, size, placing) for k in range(n)]
-                group = operator_group("bench operator", method)
-                pooled = run_pooled(sessions, group)
-                for s, e in zip(sessions, pooled, strict=True):
-                    a = honesty(e)
-                    b = honesty(estimate_session(s, EstimateOptions(), line_fits=False))
-                    c = honesty(estimate_session(s, PLAIN, line_fits=False))
-                    d = honesty(estimate_session(s, given(placing), line_fits=False))
-                    ok = a["ok"]
-                    rows.append(pd.DataFrame({
-                        "method": str(method), "placing": placing, "size": size,
-                        "within": a["within"][ok], "alone": b["within"][ok],
-                        "typed": c["within"][ok], "given": d["within"][ok],
-                        "nees": a["nees"][ok],
-                        "ratio": (a["axis"] / c["axis"])[ok],
-                        "lam": e.factor.placing_variance if e.factor else 1.0,
-                        "dof": e.factor.variance_dof if e.factor else math.inf,
-                    }))  # fmt: skip
+                for j in range(operators):
+                    ks = range(j * n, (j + 1) * n)
+                    sessions = [session(method, s0 + 7919 * k, size, placing) for k in ks]
+                    group = operator_group(f"bench operator {j + 1}", method)
+                    first, pooled = two_passes(sessions, group)
+                    for k, s, e, e0 in zip(ks, sessions, pooled, first, strict=True):
+                        rows.append(_coverage_frame(s, e, e0, placing, j, k))
     return pd.concat(rows, ignore_index=True)
+
+
+def _coverage_frame(s: SessionTrials, e: SessionEstimate, alone: SessionEstimate,
+                    placing: float, operator: int, k: int) -> pd.DataFrame:  # fmt: skip
+    """One session's ok trials: inside their regions by each rule (``alone``: the run's
+    first pass), NEES, the region's size."""
+    a = honesty(e)
+    b = honesty(alone)
+    c = honesty(estimate_session(s, PLAIN, line_fits=False))
+    d = honesty(estimate_session(s, given(placing), line_fits=False))
+    ok = a["ok"]
+    return pd.DataFrame({
+        "method": str(s.method), "placing": placing, "size": len(s),
+        "operator": operator, "session": k,
+        "within": a["within"][ok], "alone": b["within"][ok],
+        "typed": c["within"][ok], "given": d["within"][ok],
+        "nees": a["nees"][ok],
+        "ratio": (a["axis"] / c["axis"])[ok],
+        "lam": e.factor.placing_variance if e.factor else 1.0,
+        "dof": e.factor.variance_dof if e.factor else math.inf,
+    })  # fmt: skip
+
+
+def cluster_interval(h: pd.DataFrame, column: str = "within", draws: int = BOOT_DRAWS,
+                     seed: int = 0) -> tuple[float, float]:  # fmt: skip
+    """The 95% interval of a cell's mean ``column`` by a two-stage cluster bootstrap.
+
+    The trials of one operator share that operator's multiplier estimate, and those of one
+    session its misclosures: operators are drawn with replacement, then each drawn
+    operator's sessions with replacement, and the trials of a drawn session come whole.
+    """
+    rng = np.random.default_rng(seed)
+    per = h.groupby(["operator", "session"], sort=True)[column].agg(["sum", "count"])
+    owners = per.index.get_level_values("operator").to_numpy()
+    ops = np.unique(owners)
+    sums, counts = per["sum"].to_numpy(float), per["count"].to_numpy(float)
+    members = [np.flatnonzero(owners == o) for o in ops]
+    num, den = np.zeros(draws), np.zeros(draws)
+    for r, pick in enumerate(rng.integers(len(ops), size=(draws, len(ops)))):
+        rows = np.concatenate([m[rng.integers(len(m), size=len(m))] for m in
+                               (members[p] for p in pick)])  # fmt: skip
+        num[r], den[r] = sums[rows].sum(), counts[rows].sum()
+    lo, hi = np.quantile(num / den, [0.025, 0.975])
+    return float(lo), float(hi)
 
 
 def blunder_rows(n: int, seed: int, poses: int, methods: tuple[Method, ...] = METHODS,
@@ -296,21 +348,30 @@ def _detectable(dof: int) -> float:
 
 
 def report_coverage(t: pd.DataFrame) -> list[str]:
-    print("coverage of the truth by the 95% regions (ok trials), one operator a cell")
-    print(f"{'method':<8}{'placing':>8}{'size':>6}{'trials':>8}{'pooled':>8}{'alone':>8}"
-          f"{'typed':>8}{'given':>8}{'NEES/dof':>9}{'region/typed':>13}{'lambda':>8}"
-          f"{'its dof':>8}")  # fmt: skip
+    print("coverage of the truth by the 95% regions (ok trials); each cell several operators, "
+          "each operator's multiplier from their own sessions; 95% interval: a cluster "
+          "bootstrap over operators, then their sessions")  # fmt: skip
+    print(f"{'method':<8}{'placing':>8}{'size':>6}{'trials':>8}{'pooled':>8}{'interval':>15}"
+          f"{'alone':>8}{'typed':>8}{'given':>8}{'NEES/dof':>9}{'region/typed':>13}"
+          f"{'lambda':>8}{'its dof':>8}")  # fmt: skip
     missed, lo, hi = [], *COVERAGE_TARGET
     for (method, placing), g in t.groupby(["method", "placing"], sort=False):
         for size, h in g.groupby("size"):
+            a, b = cluster_interval(h)
             print(f"{method:<8}{placing:>7.1f}x{size:>6}{len(h):>8}{h['within'].mean():>8.1%}"
+                  f"{f'{a:.1%}-{b:.1%}':>15}"
                   f"{h['alone'].mean():>8.1%}{h['typed'].mean():>8.1%}"
                   f"{h['given'].mean():>8.1%}{h['nees'].mean():>9.2f}"
                   f"{h['ratio'].median():>13.2f}{h['lam'].median():>8.2f}"
                   f"{h['dof'].median():>8.0f}")  # fmt: skip
+            # a cell misses where its whole interval lies outside the band
+            if b < lo or a > hi:
+                cover = h["within"].mean()
+                missed.append(f"{method} at {placing:g}x typed, {size} trials a session: "
+                              f"regions cover {cover:.1%} ({a:.1%}-{b:.1%})")  # fmt: skip
         cover, alone, typed = g["within"].mean(), g["alone"].mean(), g["typed"].mean()
-        print(f"{method:<8}{placing:>7.1f}x{'all':>6}{len(g):>8}{cover:>8.1%}{alone:>8.1%}"
-              f"{typed:>8.1%}{g['given'].mean():>8.1%}{g['nees'].mean():>9.2f}"
+        print(f"{method:<8}{placing:>7.1f}x{'all':>6}{len(g):>8}{cover:>8.1%}{'':>15}"
+              f"{alone:>8.1%}{typed:>8.1%}{g['given'].mean():>8.1%}{g['nees'].mean():>9.2f}"
               f"{g['ratio'].median():>13.2f}")  # fmt: skip
         if not lo <= cover <= hi:
             missed.append(f"{method} at {placing:g}x typed: regions cover {cover:.1%}")
@@ -418,21 +479,23 @@ def report_naming(t: pd.DataFrame) -> None:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--sessions", type=int, default=80)
+    parser.add_argument("--sessions", type=int, default=20, help="each operator's")
+    parser.add_argument("--operators", type=int, default=OPERATORS, help="a cell's")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--multiplier-sessions", type=int, default=200)
     parser.add_argument("--write-docs", action="store_true")
     args = parser.parse_args()
     started = time.perf_counter()
-    print(f"{args.sessions} sessions of one operator per cell, 3 poses a trial, typed "
-          f"{TYPED_IN:g} in\n")  # fmt: skip
-    missed = report_coverage(coverage_rows(args.sessions, args.seed))
+    print(f"{args.operators} operators of {args.sessions} sessions each per cell, 3 poses a "
+          f"trial, typed {TYPED_IN:g} in\n")  # fmt: skip
+    missed = report_coverage(coverage_rows(args.sessions, args.seed, args.operators))
     report_multiplier(multiplier_rows(args.multiplier_sessions, args.seed),
                       args.multiplier_sessions)  # fmt: skip
-    missed += report_blunders(blunder_rows(args.sessions, args.seed, 3))
-    report_alone(blunder_rows(args.sessions, args.seed, 3, one_target=False))
-    four = blunder_rows(args.sessions, args.seed, 4, (Method.POINT, Method.GROUND), (4,))
-    three = blunder_rows(args.sessions, args.seed, 3, (Method.POINT, Method.GROUND), (4,))
+    n = args.sessions * args.operators  # the blunders': one operator's n sessions
+    missed += report_blunders(blunder_rows(n, args.seed, 3))
+    report_alone(blunder_rows(n, args.seed, 3, one_target=False))
+    four = blunder_rows(n, args.seed, 4, (Method.POINT, Method.GROUND), (4,))
+    three = blunder_rows(n, args.seed, 3, (Method.POINT, Method.GROUND), (4,))
     report_naming(pd.concat([three, four], ignore_index=True))
     return finished(started, missed)
 
