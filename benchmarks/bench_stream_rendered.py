@@ -29,7 +29,7 @@ rule before: interpolation shrank the floor too); ``assumed`` 0.25 px and 0.25 d
 Per scene, the detector's actual error in each camera, against the simulator's truth: the
 median over the trial's frames of the found centroid's offset (the dot: its x and y; the
 glove: across the finger's true image line, and the image line's direction's error), the
-bias the floor (``MethodSpec.detector_floor``) stands for; and per method and camera its
+bias the floor (``MethodSpec.floor_in_pair``) stands for; and per method and camera its
 RMS over the drawn scenes against the floor. And the clock offset the replay measured
 against the truth (ms, and in its sigmas), with the rays' gap's on the true images of one
 point (the dot's centre, the finger's middle) instead of the detections: the part of the
@@ -255,7 +255,7 @@ def error_table(rows: pd.DataFrame) -> pd.DataFrame:
         spec = spec_of(str(method))
         lines = spec.uses_image_lines
         names = ("across px", "direction deg") if lines else ("x px", "y px")
-        floors = spec.detector_floor if lines else (spec.detector_floor[0],) * 2
+        floors = spec.floor_in_pair if lines else (spec.floor_in_pair[0],) * 2
         for camera in (1, 2):
             for col, name, floor in zip("ab", names, floors, strict=True):
                 e = g[f"c{camera} {col}"].to_numpy()
