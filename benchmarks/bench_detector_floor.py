@@ -1,7 +1,7 @@
 """The detectors' systematic error per view and geometry, against the registry's floor.
 
     .venv/bin/python benchmarks/bench_detector_floor.py [--scenes 100] [--pair-scenes 30]
-        [--frames 3] [--jobs 2]
+        [--size WxH ...] [--frames 3] [--jobs 2] [--seed 0]
 
 Two geometries the tool is used in. The thesis' one camera (the thesis_* sample sessions'
 poses: x or x-and-depth moves): each scene's clutter drawn anew, two of its poses
@@ -23,12 +23,22 @@ part perspective alone explains (:func:`silhouette_offset`: a cylinder's outline
 symmetric about its axis' image when the finger is seen off to one side) and the rest
 once it is taken off (its mean: likely the shading's, the finger lit from one side).
 
-Target: in every geometry the systematic rest within the registry's ``detector_floor``
-(``twopose.methods.specs``), which every view's covariance adds
-(:func:`twopose.uncertainty.propagate.measurement_covariance`) and each pair camera's noise
-too (:func:`twopose.pair.frame_noise.camera_noise`). Exits 1 if it is not. The floor is the
-largest systematic RMS over the geometries, rounded up to the next 0.05 (px, degrees): one
-1-sigma per detector, whatever the geometry.
+The pair's scenes at each ``--size`` (default: 640x480 and 320x240, the registry's
+``FLOOR_MEASURED_SIZES``, and 320x240 point-sampled for the dot: rendered without
+area-averaging, ``sensor.supersample = 1``, as the tests' half-size scene is; no camera's
+frames, shown for the cause of the dot's larger error there). Printed per method and size,
+a camera of a pair's systematic RMS over both cameras' views (the glove's at the line's and
+the ground's touches pooled) with its 95% interval (a cluster bootstrap over scenes), against
+the method's floor in a pair (``MethodSpec.floor_in_pair``): ``1-sigma`` within the
+interval, ``bound`` above it, ``TOO SMALL`` below it.
+
+Target: in the thesis' geometry the systematic rest within the registry's one-camera
+``detector_floor`` (``twopose.methods.specs``: a bound, the largest RMS over the geometries
+rounded up to the next 0.05), which every view's covariance adds
+(:func:`twopose.uncertainty.propagate.measurement_covariance`); in a pair, at every
+measured camera size, no method's ``floor_in_pair`` (which each pair camera's noise adds:
+:func:`twopose.pair.frame_noise.camera_noise`) below its RMS's interval, and a method's
+own ``pair_floor`` (given as the 1-sigma) within it. Exits 1 if not.
 """
 
 from __future__ import annotations
