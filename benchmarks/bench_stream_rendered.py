@@ -1,7 +1,7 @@
 """The stream's 95% regions on the simulator's rendered two-camera frames, scene by scene.
 
     .venv/bin/python benchmarks/bench_stream_rendered.py [--seed 0] [--scenes 30]
-        [--own-scene 4] [--jobs 2] [--keep DIR]
+        [--own-scene 4] [--small-scenes 8] [--jobs 2] [--keep DIR]
 
 Two-camera sessions rendered by ``twopose-record simulate --cameras 2`` (10 in/s, four
 touches, the clocks 12.5 ms apart, one stream trial of about 3 s a session), replayed as
@@ -18,6 +18,11 @@ one). The glove detector's error is a bias that changes with the geometry and st
 every frame of a trial, so a trial's pairs are not independent: the unit is the scene,
 and the coverage's 95% interval is a cluster bootstrap over scenes (the pairs of a
 resampled scene kept together).
+
+And the dot at half size (``--small-scenes`` scenes drawn anew, both cameras 320x240 with
+the field of view kept): supersampled, as a camera's frames are area-averaged, and
+point-sampled (``sensor.supersample = 1``, as the tests' half-size scene renders): what made
+the dot's regions too small there, the size or the sampling.
 
 Three noise models, each camera's: ``own`` the noise the session estimates
 (:func:`twopose.pair.frame_noise.camera_noise`: the frames' scatter and the detector's
@@ -51,7 +56,11 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from bench_detector_floor import draw_pair_scene  # type: ignore[import-not-found]  # sys.path[0]
+from bench_detector_floor import (  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
+    POINT_SAMPLED,
+    at_size,
+    draw_pair_scene,
+)
 from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchmarks/ is sys.path[0]
 
 from analysis.session.stream import DEFAULT_NOISE, PairReplay, replay_pair_session
@@ -80,14 +89,23 @@ BAND = (0.93, 0.97)
 BOOTSTRAP = 2000
 
 
-def _session(path: Path, method: Method, seed: int, *, drawn: bool) -> None:
-    """One session of one stream trial: in the simulator's scene, or in one drawn anew."""
+#: The dot's half-size cameras: supersampled as a camera's frames are, and point-sampled as
+#: the tests' half-size scene renders (``bench_detector_floor.at_size``).
+SMALL = ("320x240", "320x240" + POINT_SAMPLED)
+
+
+def _session(path: Path, method: Method, seed: int, *, drawn: bool, size: str = "") -> None:
+    """One session of one stream trial: in the simulator's scene, or in one drawn anew (at
+    ``size``, else the simulator's cameras)."""
     rng = np.random.default_rng(seed)
     while True:
+        scene = None
+        if drawn:
+            scene = at_size(draw_pair_scene(rng), size) if size else draw_pair_scene(rng)
         try:
             with replacing(path) as part:  # kept only once whole
                 simulate_pair_session(part, method=method, timing=TIMING, trials=1, seed=seed,
-                                      scene=draw_pair_scene(rng) if drawn else None)  # fmt: skip
+                                      scene=scene)  # fmt: skip
             return
         except SceneError:  # the target out of a camera's view: another draw
             continue
@@ -182,15 +200,16 @@ def _scored(
     return int((score[ok] <= limit).sum()), int(ok.sum()), float(np.sum(score[ok] / dof[ok]))
 
 
-def scene_row(job: tuple[str, int, bool, str]) -> dict[str, float | str | int]:
+def scene_row(job: tuple[str, int, bool, str, str]) -> dict[str, float | str | int]:
     """One session rendered (into ``keep``, or reused from there) and replayed: its pairs'
     coverage per noise model, and each camera's detector error against the truth."""
-    method_name, seed, drawn, keep = job
+    method_name, seed, drawn, keep, size = job
     method = Method(method_name)
+    kind = ("drawn" if drawn else "simulator") + (f" {size}" if size else "")
     with tempfile.TemporaryDirectory() as tmp:
-        path = Path(keep or tmp) / f"{method_name}_{'drawn' if drawn else 'simulator'}_{seed}.mcap"
+        path = Path(keep or tmp) / f"{method_name}_{kind.replace(' ', '_')}_{seed}.mcap"
         if not path.exists():
-            _session(path, method, seed, drawn=drawn)
+            _session(path, method, seed, drawn=drawn, size=size)
         replay = replay_pair_session(path)
         with SessionReader(path) as reader:
             trajectory = read_pair_session(reader).trials[0].trajectory
@@ -199,9 +218,7 @@ def scene_row(job: tuple[str, int, bool, str]) -> dict[str, float | str | int]:
     truth = _truths(replay, trajectory)
     own = (replay.noise[0].noise, replay.noise[1].noise)
     per_frame = tuple(dataclasses.replace(n, shared_px=0.0, shared_deg=0.0) for n in own)
-    row: dict[str, float | str | int] = {
-        "method": method_name, "scene": "drawn" if drawn else "simulator", "seed": seed,
-    }  # fmt: skip
+    row: dict[str, float | str | int] = {"method": method_name, "scene": kind, "seed": seed}
     offset = replay.trials[0].offset
     clocks = trajectory.clocks
     true = dataclasses.replace(offset, offset_ns=clocks[1].offset_ns - clocks[0].offset_ns)
@@ -293,14 +310,20 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--scenes", type=int, default=30, help="scenes drawn anew per method")
     ap.add_argument("--own-scene", type=int, default=4, help="sessions in the simulator's scene")
+    ap.add_argument("--small-scenes", type=int, default=8,
+                    help="the dot's scenes drawn anew per half-size camera (320x240)")  # fmt: skip
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--keep", default="", help="a folder the sessions are kept in, reused")
     args = ap.parse_args(argv)
     jobs = [  # the methods in turn, the drawn scenes first
-        (m.value, 1000 * args.seed + 100 * k + 50 * drawn + s, drawn, args.keep)
+        (m.value, 1000 * args.seed + 100 * k + 50 * drawn + s, drawn, args.keep, "")
         for drawn, n in ((True, args.scenes), (False, args.own_scene))
         for s in range(n)
         for k, m in enumerate(METHODS)
+    ] + [  # the dot at half size: the same scenes supersampled and point-sampled
+        (Method.POINT.value, 1000 * args.seed + 500 + s, True, args.keep, size)
+        for size in SMALL
+        for s in range(args.small_scenes)
     ]
     with ProcessPoolExecutor(args.jobs) as pool:
         rows = pd.DataFrame(list(pool.map(scene_row, jobs)))
@@ -309,7 +332,9 @@ def main(argv: list[str] | None = None) -> int:
         f"12.5, one stream trial a session), replayed as run replays them: each pair's 95% "
         f"region against the true trajectory; {args.scenes} scenes drawn anew per method (the "
         f"target's place, the finger's direction, the clutter) and {args.own_scene} sessions "
-        f"in the simulator's scene. interval: a cluster bootstrap over scenes. noise: own "
+        f"in the simulator's scene; {args.small_scenes} of the dot's drawn anew at half size "
+        f"(320x240), supersampled and point-sampled (sensor.supersample = 1, as the tests' "
+        f"half-size scene). interval: a cluster bootstrap over scenes. noise: own "
         f"(each camera's from the session's frames, the floor the same in every frame: run's "
         f"rule), per frame (the same, the floor independent per frame: the rule before), "
         f"assumed (0.25 px, 0.25 deg)"
