@@ -134,8 +134,9 @@ def _pose_errors(
     )
 
 
-def _scene_rows(job: tuple[str, int, int]) -> list[dict[str, float | str]]:
-    method_name, seed, frames = job
+def _scene_rows(job: tuple[str, int, int, str]) -> list[dict[str, float | str]]:
+    """One thesis scene (the simulator's one camera, 640x480): its poses' views."""
+    method_name, seed, frames, size = job
     method = Method(method_name)
     rng = np.random.default_rng(seed)
     scene = Scene(poses=THESIS_POSES)
@@ -145,7 +146,7 @@ def _scene_rows(job: tuple[str, int, int]) -> list[dict[str, float | str]]:
         errors = _pose_errors(camera, method, scene, t, r, frames)
         if errors is not None:
             a, b, sa, sb, outline = errors
-            rows.append({"method": method_name, "geometry": THESIS, "size": "640x480",
+            rows.append({"method": method_name, "geometry": THESIS, "size": size,
                          "scene": seed, "a": a, "b": b, "sa": sa, "sb": sb,
                          "outline": outline})  # fmt: skip
     return rows
@@ -254,8 +255,10 @@ def at_size(scene: Scene, size: str) -> Scene:
         k = width / cam.width
         if abs(height / cam.height - k) > 1e-9:
             raise SystemExit(f"--size {size}: not the cameras' shape {cam.width}x{cam.height}")
-        scaled = {"fx": cam.fx * k, "fy": cam.fy * k, "cx": cam.cx * k, "cy": cam.cy * k}
-        cameras.append(dataclasses.replace(cam, width=width, height=height, **scaled))
+        cameras.append(dataclasses.replace(
+            cam, width=width, height=height, fx=cam.fx * k, fy=cam.fy * k, cx=cam.cx * k,
+            cy=cam.cy * k,
+        ))  # fmt: skip
     sensor = dataclasses.replace(scene.sensor, supersample=1) if sampled else scene.sensor
     return dataclasses.replace(scene, cameras=tuple(cameras), sensor=sensor)
 
@@ -400,7 +403,7 @@ def main(argv: list[str]) -> int:
     args = ap.parse_args(argv)
     sizes = args.size or list(DEFAULT_SIZES)
     jobs = [
-        (_scene_rows, (m.value, 9000 + 1000 * k + s, args.frames))
+        (_scene_rows, (m.value, 9000 + 1000 * k + s, args.frames, SIZES[0]))
         for k, m in enumerate(DETECTORS)
         for s in range(args.scenes)
     ] + [
