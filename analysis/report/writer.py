@@ -452,6 +452,10 @@ def _rig_used(result: RunResult) -> list[str]:
     """Which rig files corrected which sessions' views (and none said when none did)."""
     lines = rig_lines(result)
     if not lines:
+        cameras = result.trials.get("cameras", pd.Series(1, index=result.trials.index))
+        if len(cameras) and bool((cameras.astype(int) == 2).all()):
+            # A pair types no view: its poses are the pair file's, never a rig file's.
+            return ["<p class='rig-used'>No rig file: the poses are the pair file's.</p>"]
         return ["<p class='rig-used'>No rig file: the views are as typed.</p>"]
     return [
         f"<p class='rig-used'><strong>{html.escape(line[0].upper() + line[1:])}.</strong></p>"

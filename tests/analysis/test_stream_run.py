@@ -357,6 +357,22 @@ def test_a_two_camera_sessions_rows_are_touches_in_every_word(ran: analysis.RunR
     ]
 
 
+def test_the_reports_rig_line_says_a_pairs_poses_are_the_pair_files(
+    ran: analysis.RunResult,
+) -> None:
+    """No rig file: a run of typed views says its views are as typed; a run of two-camera
+    touches alone types no view (a new user's pair-only report said it did)."""
+    import dataclasses
+
+    from analysis.report.writer import _rig_used
+
+    assert _rig_used(ran) == ["<p class='rig-used'>No rig file: the views are as typed.</p>"]
+    pair = dataclasses.replace(ran, trials=ran.trials[ran.trials["cameras"] == 2])
+    assert _rig_used(pair) == [
+        "<p class='rig-used'>No rig file: the poses are the pair file's.</p>"
+    ]
+
+
 @pytest.mark.parametrize("passed", [False, True])
 def test_a_pairs_leave_one_out_check_is_said_where_its_covariance_is_used(
     mixed: Path, tmp_path: Path, passed: bool
