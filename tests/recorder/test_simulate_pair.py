@@ -33,7 +33,7 @@ from twopose.camera.model import project_points
 from twopose.errors import InputValueError
 from twopose.format.reader import SessionReader
 from twopose.format.streams import PairSession, read_pair_session
-from twopose.methods.specs import Method
+from twopose.methods.specs import Method, floor_unmeasured
 from twopose.sim.layout import Layout
 from twopose.sim.moving import ClockSettings, PairScene, Trajectory, camera_frames, touch_points
 from twopose.sim.render import render_radiance, render_sprite
@@ -280,8 +280,11 @@ def test_frames_whose_regions_cannot_be_trusted_are_said_before_rendering(
     floor, docs/figures/detector_floor.txt) and an image size the floor was not measured at
     are said; the default scene's frames (640x480, supersampled) are not."""
     assert frame_caveats(Scene()) == ()
-    assert frame_caveats(load_scene(small_scene)) == (POINT_SAMPLED_WORDS,)
+    assert frame_caveats(load_scene(small_scene)) == (
+        POINT_SAMPLED_WORDS,
+        floor_unmeasured(320, 240),
+    )
     wide = CameraParams(width=1280, height=720, fx=1050.0, fy=1050.0, cx=640.0, cy=360.0)
     said = frame_caveats(dataclasses.replace(Scene(), cameras=(wide,)))
     assert len(said) == 1
-    assert "measured at 640x480 and 320x240 only, not at this camera's 1280x720" in said[0]
+    assert "holds at 640x480 only, not at this camera's 1280x720" in said[0]

@@ -149,11 +149,12 @@ def test_each_detectors_one_camera_floor_covers_the_thesis_geometry() -> None:
 
 
 def test_each_methods_floor_in_a_pair_is_its_measured_1_sigma_or_above_it() -> None:
-    """A camera of a pair carries ``floor_in_pair``: at every size the floor was measured
-    at (FLOOR_MEASURED_SIZES) it is never below the measured RMS's 95% interval, and a
+    """A camera of a pair carries ``floor_in_pair``: at every size the floors are said to
+    hold at (FLOOR_MEASURED_SIZES) it is never below the measured RMS's 95% interval, and a
     method's own pair floor (the ground's) lies within it, a 1-sigma, not a bound; the
-    figure is the registry's (its floor column); point-sampled frames err more (the dot's
-    regions at half size were too small: the cause, docs/figures/detector_floor.txt)."""
+    figure is the registry's (its floor column). At half size (320x240) the rows are said
+    not held; point-sampled frames err more than supersampled ones there (the dot's
+    regions in the tests' half-size scene: docs/figures/detector_floor.txt)."""
     _, rows = _floor_figure()
     row_re = re.compile(
         r"\s*(\w+)\s+(\d+x\d+(?: point-sampled)?)\s+(across px|orientation deg|centroid [xy] px)"
@@ -180,6 +181,8 @@ def test_each_methods_floor_in_a_pair_is_its_measured_1_sigma_or_above_it() -> N
                 if spec.pair_floor is not None:
                     assert floor <= hi, (method, size, error)  # the 1-sigma
                     assert said == "1-sigma"
+    assert "320x240" not in sizes
+    assert all(v[4].startswith("not held: ") for k, v in seen.items() if k[1] == "320x240")
     for error in ("centroid x px", "centroid y px"):
-        sampled = seen[("point", f"{sizes[-1]} point-sampled", error)][0]
-        assert sampled > 1.3 * seen[("point", sizes[-1], error)][0]
+        sampled = seen[("point", "320x240 point-sampled", error)][0]
+        assert sampled > 1.3 * seen[("point", "320x240", error)][0]
