@@ -22,6 +22,7 @@ from twopose.format.streams import read_pair_session
 from twopose.methods.specs import Method, spec_of
 from twopose.pair.motion import thesis_pair
 from twopose.pair.stream import CameraTrack
+from twopose.sim.scene import Scene
 from twopose.uncertainty.propagate import nees
 
 
@@ -130,3 +131,21 @@ def test_a_session_at_a_camera_size_the_floor_was_not_measured_at_says_so() -> N
     assert one.floor == two.floor == spec_of(Method.GROUND).floor_in_pair
     assert one.unmeasured == ""
     assert "not at this camera's 1280x720" in two.said(lines=True)
+
+
+def test_the_benchmarks_half_size_camera_keeps_the_field_of_view() -> None:
+    """bench_detector_floor's ``at_size`` (the floors measured per image size, and the
+    rendered regions' half-size dot): the focal length and principal point scale with the
+    image, point-sampled frames are rendered as the tests' half-size scene renders them,
+    and a size of another shape is refused."""
+    bench = load_benchmark("bench_detector_floor")
+    base = Scene()
+    half = bench.at_size(base, "320x240")
+    (camera,) = half.cameras
+    assert (camera.width, camera.height, camera.fx, camera.cx, camera.cy) == (
+        320, 240, 262.5, 160.0, 120.0)  # fmt: skip
+    assert half.sensor.supersample == base.sensor.supersample == 2
+    assert bench.at_size(base, "320x240 point-sampled").sensor.supersample == 1
+    assert bench.at_size(base, "640x480") == base
+    with pytest.raises(SystemExit, match="not the cameras' shape 640x480"):
+        bench.at_size(base, "320x200")
