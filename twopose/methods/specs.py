@@ -306,9 +306,9 @@ GLOVE_FLOOR = (0.15, 0.15)
 #: The ground's point rests on the image line's direction almost alone, and its stream
 #: regions with it cover 95% (docs/figures/stream_rendered.txt). The line's point rests on
 #: the centroid across the line and the direction together, whose errors are one mode
-#: (correlated -0.85 to -0.90 per camera: the axis turning about a point toward the
-#: finger's base), which two independent 1-sigmas do not carry: with them its regions
-#: cover 88%, so the line keeps :data:`GLOVE_FLOOR` in the pair (96%) until the
+#: (correlated -0.85 to -0.90 per camera: the axis turning about a point off its
+#: centroid), which two independent 1-sigmas do not carry: with them its regions cover
+#: 88%, so the line keeps :data:`GLOVE_FLOOR` in the pair (96%) until the
 #: correlation is carried.
 GLOVE_PAIR_FLOOR = (0.12, 0.11)
 #: The image sizes (width, height) the floors hold at, measured: bench_detector_floor.py
@@ -319,7 +319,7 @@ FLOOR_MEASURED_SIZES = ((640, 480),)
 
 
 def floor_unmeasured(width: int, height: int) -> str:
-    """Words for a camera whose image size the floors were not measured at ("" if it was)."""
+    """Words for a camera whose image size the floors do not hold at ("" where they do)."""
     if (width, height) in FLOOR_MEASURED_SIZES:
         return ""
     sizes = " and ".join(f"{w}x{h}" for w, h in FLOOR_MEASURED_SIZES)
