@@ -163,6 +163,7 @@ def noise_summary(trials: pd.DataFrame) -> dict[str, object]:
     factor = VarianceFactor(
         sigma0_sq=float(chi2[use].sum() / total) if total else np.nan, dof=total
     )
+    everyone = VarianceFactor(sigma0_sq=_mean_chi2(every[has], total_all), dof=total_all)
     widening = pd.to_numeric(kept["noise_widening"], errors="coerce")
     sigma = pd.to_numeric(trials["placing_sigma"], errors="coerce")
     sources = [s for s in trials["placing_source"].astype(str) if s]
@@ -180,10 +181,17 @@ def noise_summary(trials: pd.DataFrame) -> dict[str, object]:
         "sigma0_p": factor.p_upper if total else np.nan,
         "sigma0_all": float(np.sqrt(every[has].sum() / total_all)) if total_all else np.nan,
         "sigma0_all_dof": total_all,
-        "noise_contradicted": factor.contradicted,
+        # What the words call "contradict": the unflagged trials' test, or where no
+        # unflagged trial is left to test, every trial's (the flagged ones' too).
+        "noise_contradicted": factor.contradicted or (total == 0 and everyone.contradicted),
         "noise_widening": float(widening.max()) if widening.notna().any() else np.nan,
         "n_flagged": int(flagged.sum()),
     }
+
+
+def _mean_chi2(chi2: np.ndarray, dof: int) -> float:
+    """sigma0 squared from summed misclosures (NaN without degrees of freedom)."""
+    return float(chi2.sum() / dof) if dof else np.nan
 
 
 def _flags(trials: pd.DataFrame) -> pd.Series:

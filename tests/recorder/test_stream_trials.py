@@ -17,6 +17,7 @@ import time
 from pathlib import Path
 
 import pytest
+from mcap.reader import make_reader
 from typer.testing import CliRunner
 
 from analysis.cli import app as analyze
@@ -31,6 +32,7 @@ from tests.recorder.moving_pair import (
     timed_keys,
     write_moving_pair,
 )
+from twopose.format.messages import image_topic
 from twopose.format.reader import SessionReader
 from twopose.format.streams import read_pair_session
 
@@ -191,12 +193,20 @@ def test_a_camera_that_stops_ends_the_recording_within_2_s(
     took = time.monotonic() - opened
     rest = process.stdout.read()
     assert process.returncode == 3, rest  # an error (EXIT_ERROR)
-    assert took < 2.5 + 2.0, took  # camera 2's 2.5 s, then the stop within 2 s
+    assert took < 30.0, took  # it ends; how soon after camera 2 stopped is in the file:
     assert "Traceback" not in rest
     assert "camera 2" in rest, rest
     assert "stopped" in rest, rest
     with SessionReader(out) as reader:
         (trial,) = read_pair_session(reader).trials
+        camera2 = image_topic(reader.info.camera_ids[1])
+    # The recorder's own write times (log_time, one clock): the trial's last record within
+    # 2 s of camera 2's last frame (1.1 s here), however slowly a loaded machine played the
+    # files (a CI run at 28 min took 4.7 s from Enter to the exit).
+    with out.open("rb") as stream:
+        times = [(c.topic, m.log_time) for _, c, m in make_reader(stream).iter_messages()]
+    last_frame = max(t for topic, t in times if topic == camera2)
+    assert max(t for _, t in times) - last_frame < 2_000_000_000, (last_frame, times[-3:])
     assert "camera 2" in trial.camera1.reason, trial.camera1.reason
     assert 15 <= trial.camera2.capture_ns.size <= 25
 

@@ -77,8 +77,31 @@ def test_where_flagging_turned_the_test_both_are_said_in_the_report_and_terminal
         assert "sigma0 1.03 on 9 dof (p = 0.39): the data agree" in " ".join(noise_phrases(row))
     # every trial flagged: nothing left to agree
     none_left = noise_words(math.nan, 0, flagged=2, with_flagged=(2.0, 6))
-    assert "with the flagged trials the data contradict it" in none_left
-    assert "no trial is left" in none_left
+    assert "with the flagged trials: the data contradict the noise model" in none_left
+    assert "no trial is left unflagged to test" in none_left
+
+
+def test_every_trial_flagged_and_contradicting_is_noise_contradicted_in_summary_csv() -> None:
+    """A new user's r5 F9: every trial flagged, sigma0 3.52 on 12 dof with them: the words
+    say "contradict", so summary.csv's noise_contradicted (the machine's word) is True; a
+    session whose flagged trials do not reject it, or whose unflagged trials agree, False."""
+    from analysis.session.metrics import noise_summary
+
+    def trials(chi2: list[float], flagged: list[bool]) -> pd.DataFrame:
+        return pd.DataFrame({
+            "status": "ok", "misclosure_chi2": chi2, "misclosure_dof": 3, "flagged": flagged,
+            "noise_widening": 1.0, "placing_sigma": 0.16, "placing_source": "typed",
+        })  # fmt: skip
+
+    every = noise_summary(trials([37.0, 38.0, 36.0, 38.0], [True] * 4))
+    assert every["sigma0_dof"] == 0
+    assert every["sigma0_all_dof"] == 12
+    assert every["noise_contradicted"]
+    quiet = noise_summary(trials([3.0, 2.0, 4.0, 3.0], [True] * 4))
+    assert not quiet["noise_contradicted"]
+    left = noise_summary(trials([3.0, 2.0, 40.0, 38.0], [False, False, True, True]))
+    assert left["sigma0_dof"] == 6
+    assert not left["noise_contradicted"]
 
 
 @settings(max_examples=300, deadline=None)

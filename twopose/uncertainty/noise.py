@@ -404,13 +404,15 @@ def _turned_words(sigma0: float, dof: int, flagged: int, sigma0_all: float, dof_
         return ""
     trials = "trial" if flagged == 1 else "trials"
     said = f"{sigma0_all:.2f} on {dof_all} dof ({p_words(upper_all)}) with the flagged {trials}"
+    left = "the data contradict the noise model, and no trial is left unflagged to test"
     if dof > 0:
         said = f"{sigma0:.2f} on {dof} dof ({p_words(upper)}) without the {flagged} flagged "
         said += f"{trials}, {sigma0_all:.2f} on {dof_all} dof ({p_words(upper_all)}) with "
         said += "it" if flagged == 1 else "them"
-    left = "the data left agree with the noise model" if dof > 0 else "no trial is left"
+        left = f"the data left agree with the noise model, with the flagged {trials} the "
+        left += "data contradict it"
     return (
-        f"sigma0 {said}: {left}, with the flagged {trials} the data contradict it: if "
+        f"sigma0 {said}: {left}: if "
         f"{'it is not a blunder' if flagged == 1 else 'they are not blunders'}, the operator "
         "places worse than typed and every region is too small: analyse the session beside "
         "its operator's others, or measure the placing with a board"
