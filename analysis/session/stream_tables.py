@@ -272,7 +272,7 @@ def touch_rows(
         detect_trial(t, spec.method, params, None if outputs is None else outputs.seen(t.trial))
         for _, t in kept
     ]
-    noise = session_noise([d[0] for d in detected], spec.method, None)
+    noise = session_noise([d[0] for d in detected], spec.method, None, pair=parts[0].pair)
     if outputs is not None:
         outputs.noise = noise
     settings = StreamSettings(noise=(noise[0].noise, noise[1].noise), estimate=options.estimate)

@@ -42,7 +42,7 @@ from twopose.format.entries import SessionInfo, SimTrajectory
 from twopose.format.simulation import SimClock, SimFrames
 from twopose.format.windows import Stream
 from twopose.format.writer import SessionWriter
-from twopose.methods.specs import Method, spec_of
+from twopose.methods.specs import Method, floor_unmeasured, spec_of
 from twopose.pair.calibration import FloorPlane, PairCalibration
 from twopose.pair.motion import thesis_pair
 from twopose.sim.moving import (
@@ -60,7 +60,9 @@ from twopose.values.units import Units, unit_factor
 
 __all__ = [
     "PAIR_ONLY_OPTIONS",
+    "POINT_SAMPLED_WORDS",
     "PairTiming",
+    "frame_caveats",
     "refuse_idle_options",
     "simulate_pair_session",
     "simulate_pair_with_progress",
@@ -208,6 +210,8 @@ class SimulationSize:
     trials: int
     trial_s: float
     fps: float
+    #: what its frames' regions cannot be trusted for, in words (:func:`frame_caveats`)
+    caveats: tuple[str, ...] = ()
 
     @property
     def frames(self) -> int:
@@ -221,7 +225,24 @@ class SimulationSize:
             f"rendering {self.trials} stream trial{'' if self.trials == 1 else 's'} of "
             f"{self.trial_s:,.1f} s{each}: about {self.frames:,} frames (Ctrl-C stops it; "
             "a faster --speed makes shorter trials)"
-        )
+        ) + "".join(f"\nnote: {c}" for c in self.caveats)
+
+
+#: Why point-sampled frames are no camera's (docs/figures/detector_floor.txt).
+POINT_SAMPLED_WORDS = (
+    "sensor.supersample = 1 renders each pixel from one ray, its edges aliased as no "
+    "camera's are: the dot's centroid errs about twice the detector's measured floor, so "
+    "the regions of these frames are too small; render with 2 or more to judge regions"
+)
+
+
+def frame_caveats(scene: Scene) -> tuple[str, ...]:
+    """What a scene's frames' 95% regions cannot be trusted for: point-sampled frames, an
+    image size the detector's floor was not measured at."""
+    said = [POINT_SAMPLED_WORDS] if scene.sensor.supersample == 1 else []
+    sizes = dict.fromkeys((c.width, c.height) for c in scene.cameras)
+    said += [w for w in (floor_unmeasured(*size) for size in sizes) if w]
+    return tuple(said)
 
 
 def simulation_size(
@@ -235,7 +256,7 @@ def simulation_size(
         touches=touch_points(scene, method, simulated_pair(scene)), speed=timing.speed,
         lead=lead, dwell_s=DWELL_S, hold_s=FLASH_HOLD_S if timing.flash else 0.0,
     )  # fmt: skip
-    return SimulationSize(trials, path.duration_s, scene.sensor.fps)
+    return SimulationSize(trials, path.duration_s, scene.sensor.fps, frame_caveats(scene))
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
