@@ -1,7 +1,7 @@
 """The detectors' systematic error per view and geometry, against the registry's floor.
 
     .venv/bin/python benchmarks/bench_detector_floor.py [--scenes 100] [--pair-scenes 30]
-        [--frames 3] [--jobs 2]
+        [--size WxH ...] [--frames 3] [--jobs 2] [--seed 0]
 
 Two geometries the tool is used in. The thesis' one camera (the thesis_* sample sessions'
 poses: x or x-and-depth moves): each scene's clutter drawn anew, two of its poses
@@ -23,12 +23,22 @@ part perspective alone explains (:func:`silhouette_offset`: a cylinder's outline
 symmetric about its axis' image when the finger is seen off to one side) and the rest
 once it is taken off (its mean: likely the shading's, the finger lit from one side).
 
-Target: in every geometry the systematic rest within the registry's ``detector_floor``
-(``twopose.methods.specs``), which every view's covariance adds
-(:func:`twopose.uncertainty.propagate.measurement_covariance`) and each pair camera's noise
-too (:func:`twopose.pair.frame_noise.camera_noise`). Exits 1 if it is not. The floor is the
-largest systematic RMS over the geometries, rounded up to the next 0.05 (px, degrees): one
-1-sigma per detector, whatever the geometry.
+The pair's scenes at each ``--size`` (default: 640x480 and 320x240, the registry's
+``FLOOR_MEASURED_SIZES``, and 320x240 point-sampled for the dot: rendered without
+area-averaging, ``sensor.supersample = 1``, as the tests' half-size scene is; no camera's
+frames, shown for the cause of the dot's larger error there). Printed per method and size,
+a camera of a pair's systematic RMS over both cameras' views (the glove's at the line's and
+the ground's touches pooled) with its 95% interval (a cluster bootstrap over scenes), against
+the method's floor in a pair (``MethodSpec.floor_in_pair``): ``1-sigma`` within the
+interval, ``bound`` above it, ``TOO SMALL`` below it.
+
+Target: in the thesis' geometry the systematic rest within the registry's one-camera
+``detector_floor`` (``twopose.methods.specs``: a bound, the largest RMS over the geometries
+rounded up to the next 0.05), which every view's covariance adds
+(:func:`twopose.uncertainty.propagate.measurement_covariance`); in a pair, at every
+measured camera size, no method's ``floor_in_pair`` (which each pair camera's noise adds:
+:func:`twopose.pair.frame_noise.camera_noise`) below its RMS's interval, and a method's
+own ``pair_floor`` (given as the 1-sigma) within it. Exits 1 if not.
 """
 
 from __future__ import annotations
@@ -55,7 +65,7 @@ from recorder.simulate.pair import simulated_pair  # noqa: E402
 from twopose.camera.model import Intrinsics, project_points, rotation_from_angles_deg  # noqa: E402
 from twopose.detect.detection import detect, wrap_theta_deg  # noqa: E402
 from twopose.errors import SceneError  # noqa: E402
-from twopose.methods.specs import Method, spec_of  # noqa: E402
+from twopose.methods.specs import FLOOR_MEASURED_SIZES, Method, spec_of  # noqa: E402
 from twopose.sim.camera import SyntheticCamera  # noqa: E402
 from twopose.sim.layout import build_layout, finger_axis  # noqa: E402
 from twopose.sim.moving import PairScene, touch_points  # noqa: E402
@@ -71,6 +81,17 @@ PAIR_TOUCHES = 2
 THESIS = "thesis (one camera)"
 #: The pair's methods: the dot, and the glove at the line's and the ground's touches.
 PAIR_METHODS = (Method.POINT, Method.LINE, Method.GROUND)
+#: The pair cameras' image sizes the floors hold at (``FLOOR_MEASURED_SIZES``): the target's.
+SIZES = tuple(f"{w}x{h}" for w, h in FLOOR_MEASURED_SIZES)
+#: A size's suffix for frames rendered without area-averaging (the dot only).
+POINT_SAMPLED = " point-sampled"
+#: A half-size camera, measured beside: the floors do not hold there (said at its rows).
+HALF = "320x240"
+#: The sizes measured by default: the floors', the half size, and it point-sampled (the
+#: dot's larger error there: the tests' half-size scenes render so, for speed).
+DEFAULT_SIZES = (*SIZES, HALF, HALF + POINT_SAMPLED)
+#: The intervals' bootstrap draws.
+BOOTSTRAP = 1000
 
 
 def _pose_errors(
@@ -115,8 +136,9 @@ def _pose_errors(
     )
 
 
-def _scene_rows(job: tuple[str, int, int]) -> list[dict[str, float | str]]:
-    method_name, seed, frames = job
+def _scene_rows(job: tuple[str, int, int, str]) -> list[dict[str, float | str]]:
+    """One thesis scene (the simulator's one camera, 640x480): its poses' views."""
+    method_name, seed, frames, size = job
     method = Method(method_name)
     rng = np.random.default_rng(seed)
     scene = Scene(poses=THESIS_POSES)
@@ -126,8 +148,9 @@ def _scene_rows(job: tuple[str, int, int]) -> list[dict[str, float | str]]:
         errors = _pose_errors(camera, method, scene, t, r, frames)
         if errors is not None:
             a, b, sa, sb, outline = errors
-            rows.append({"method": method_name, "geometry": THESIS, "a": a, "b": b,
-                         "sa": sa, "sb": sb, "outline": outline})  # fmt: skip
+            rows.append({"method": method_name, "geometry": THESIS, "size": size,
+                         "scene": seed, "a": a, "b": b, "sa": sa, "sb": sb,
+                         "outline": outline})  # fmt: skip
     return rows
 
 
@@ -223,13 +246,33 @@ def _pair_view_errors(
             float(theta.std(ddof=1)), outline)  # fmt: skip
 
 
-def _pair_rows(job: tuple[str, int, int]) -> list[dict[str, float | str]]:
-    """One pair scene drawn anew: each camera's views of the target at its touches."""
-    method_name, seed, frames = job
+def at_size(scene: Scene, size: str) -> Scene:
+    """The scene with each camera's image scaled to ``size`` ("640x480", "320x240"; the
+    field of view kept), its sensor point-sampled where ``size`` ends in
+    :data:`POINT_SAMPLED` (no camera's: for the cause of its larger error only)."""
+    sampled = size.endswith(POINT_SAMPLED)
+    width, height = (int(v) for v in size.removesuffix(POINT_SAMPLED).split("x"))
+    cameras = []
+    for cam in scene.cameras:
+        k = width / cam.width
+        if abs(height / cam.height - k) > 1e-9:
+            raise SystemExit(f"--size {size}: not the cameras' shape {cam.width}x{cam.height}")
+        cameras.append(dataclasses.replace(
+            cam, width=width, height=height, fx=cam.fx * k, fy=cam.fy * k, cx=cam.cx * k,
+            cy=cam.cy * k,
+        ))  # fmt: skip
+    sensor = dataclasses.replace(scene.sensor, supersample=1) if sampled else scene.sensor
+    return dataclasses.replace(scene, cameras=tuple(cameras), sensor=sensor)
+
+
+def _pair_rows(job: tuple[str, int, int, str]) -> list[dict[str, float | str]]:
+    """One pair scene drawn anew at an image size: each camera's views of the target at
+    its touches."""
+    method_name, seed, frames, size = job
     method = Method(method_name)
     rng = np.random.default_rng(seed)
     while True:
-        scene = draw_pair_scene(rng)
+        scene = at_size(draw_pair_scene(rng), size)
         pair = simulated_pair(scene)
         try:
             pair_scene = PairScene(scene, method, pair, rng)
@@ -245,7 +288,8 @@ def _pair_rows(job: tuple[str, int, int]) -> list[dict[str, float | str]]:
             if errors is not None:
                 a, b, sa, sb, outline = errors
                 rows.append({"method": method_name, "geometry": f"pair camera {camera}",
-                             "a": a, "b": b, "sa": sa, "sb": sb, "outline": outline})  # fmt: skip
+                             "size": size, "scene": seed, "a": a, "b": b, "sa": sa, "sb": sb,
+                             "outline": outline})  # fmt: skip
     return rows
 
 
@@ -256,62 +300,121 @@ def detector_name(method: str) -> str:
     return str(target.target)
 
 
+def _systematic(g: pd.DataFrame, col: str, scatter: str, frames: int) -> float:
+    """The systematic RMS of ``col``: its RMS squared less the averaged frames' scatter."""
+    noise2 = float((g[scatter] ** 2).mean() / frames)
+    return float(np.sqrt(max(float((g[col] ** 2).mean()) - noise2, 0.0)))
+
+
 def floor_table(views: pd.DataFrame, frames: int) -> pd.DataFrame:
-    """Per detector and geometry: RMS error, the frames' share and the systematic rest,
-    against the floor; for the finger across its line, the perspective's part (the RMS of
-    :func:`silhouette_offset`) and the systematic rest once it is taken off."""
+    """Per detector and geometry (the cameras at 640x480): RMS error, the frames' share and
+    the systematic rest, against the one-camera floor (the thesis' geometry; a pair
+    camera's is judged per method in :func:`pair_table`); for the finger across its line,
+    the perspective's part (the RMS of :func:`silhouette_offset`) and the systematic rest
+    once it is taken off."""
     rows = []
+    views = views[views["size"] == SIZES[0]]
     views = views.assign(detector=[detector_name(m) for m in views["method"]])
     for (detector, geometry), g in views.groupby(["detector", "geometry"], sort=False):
         spec = spec_of(str(g["method"].iloc[0]))  # line and ground share the glove
         lines = spec.uses_image_lines
         names = ("across px", "orientation deg") if lines else ("centroid x px", "centroid y px")
         floors = spec.detector_floor if lines else (spec.detector_floor[0],) * 2
+        thesis = geometry == THESIS
         for col, scatter, name, floor in zip(("a", "b"), ("sa", "sb"), names, floors, strict=True):
             noise2 = float((g[scatter] ** 2).mean() / frames)
-            rms = float(np.sqrt((g[col] ** 2).mean()))
-            systematic = float(np.sqrt(max(rms**2 - noise2, 0.0)))
+            systematic = _systematic(g, col, scatter, frames)
             perspective = rest = rest_mean = float("nan")
             if lines and col == "a":
                 perspective = float(np.sqrt((g["outline"] ** 2).mean()))
                 rest = float(np.sqrt(max(((g["a"] - g["outline"]) ** 2).mean() - noise2, 0.0)))
                 rest_mean = float((g["a"] - g["outline"]).mean())
-            rows.append(
-                {
-                    "detector": detector,
-                    "geometry": geometry,
-                    "error": name,
-                    "views": len(g),
-                    "mean": float(g[col].mean()),
-                    "rms": rms,
-                    "frames_part": float(np.sqrt(noise2)),
-                    "systematic": systematic,
-                    "p95": float(np.quantile(np.abs(g[col]), 0.95)),
-                    "perspective": perspective,
-                    "rest": rest,
-                    "rest_mean": rest_mean,
-                    "floor": floor,
-                    "within": systematic <= floor,
-                }
-            )
+            rows.append({
+                "detector": detector, "geometry": geometry, "error": name, "views": len(g),
+                "mean": float(g[col].mean()), "rms": float(np.sqrt((g[col] ** 2).mean())),
+                "frames_part": float(np.sqrt(noise2)), "systematic": systematic,
+                "p95": float(np.quantile(np.abs(g[col]), 0.95)), "perspective": perspective,
+                "rest": rest, "rest_mean": rest_mean,
+                "floor": floor if thesis else float("nan"),
+                "within": bool(systematic <= floor) if thesis else "-",
+            })  # fmt: skip
+    return pd.DataFrame(rows)
+
+
+def _interval(
+    g: pd.DataFrame, col: str, scatter: str, frames: int, seed: int
+) -> tuple[float, float]:
+    """The systematic RMS's 95% interval: scenes resampled with their views (a percentile
+    cluster bootstrap: a scene's views share its clutter and finger)."""
+    rng = np.random.default_rng(seed)
+    groups = [part for _, part in g.groupby("scene")]
+    draws = [
+        _systematic(pd.concat([groups[k] for k in rng.integers(0, len(groups), len(groups))]),
+                    col, scatter, frames)
+        for _ in range(BOOTSTRAP)
+    ]  # fmt: skip
+    lo, hi = np.quantile(draws, [0.025, 0.975])
+    return float(lo), float(hi)
+
+
+def _as(floor: float, lo: float, hi: float) -> str:
+    """How the floor stands to the RMS's interval: its 1-sigma, a bound above it, or too small."""
+    if floor < lo:
+        return "TOO SMALL"
+    return "1-sigma" if floor <= hi else f"bound, {floor / hi:.2f}x"
+
+
+def pair_table(views: pd.DataFrame, frames: int, seed: int) -> pd.DataFrame:
+    """Per method and image size: a camera of a pair's systematic RMS (both cameras' views,
+    the glove's at the line's and the ground's touches pooled), its 95% interval, against
+    the method's floor in a pair (``MethodSpec.floor_in_pair``)."""
+    pair = views[views["geometry"] != THESIS]
+    pair = pair.assign(detector=[detector_name(m) for m in pair["method"]])
+    rows = []
+    for method in PAIR_METHODS:
+        spec = spec_of(method)
+        lines = spec.uses_image_lines
+        names = ("across px", "orientation deg") if lines else ("centroid x px", "centroid y px")
+        floors = spec.floor_in_pair if lines else (spec.floor_in_pair[0],) * 2
+        mine = pair[pair["detector"] == detector_name(method.value)]
+        for size, g in mine.groupby("size", sort=False):
+            for col, scatter, name, floor in zip("ab", ("sa", "sb"), names, floors, strict=True):
+                lo, hi = _interval(g, col, scatter, frames, seed)
+                rows.append({
+                    "method": method.value, "size": size, "error": name, "views": len(g),
+                    "scenes": g["scene"].nunique(),
+                    "systematic": _systematic(g, col, scatter, frames),
+                    "interval 95%": f"{lo:.3f}-{hi:.3f}", "floor": floor,
+                    "as": _as(floor, lo, hi) if size in SIZES else (
+                        f"not a camera: {_as(floor, lo, hi)}" if str(size).endswith(POINT_SAMPLED)
+                        else f"not held: {_as(floor, lo, hi)}"),
+                })  # fmt: skip
     return pd.DataFrame(rows)
 
 
 def main(argv: list[str]) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenes", type=int, default=100, help="thesis scenes per detector")
-    ap.add_argument("--pair-scenes", type=int, default=30, help="pair scenes per method")
+    ap.add_argument("--pair-scenes", type=int, default=30, help="pair scenes per method and size")
+    sampled = POINT_SAMPLED.strip()
+    ap.add_argument("--size", action="append", default=None, metavar="WxH",
+                    help=f"a pair camera's image size (repeat; default {', '.join(DEFAULT_SIZES)}; "
+                    f"'{sampled}' after it: rendered without area-averaging)")  # fmt: skip
     ap.add_argument("--frames", type=int, default=3, help="frames averaged per pose")
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--seed", type=int, default=0, help="the intervals' bootstrap")
     args = ap.parse_args(argv)
+    sizes = args.size or list(DEFAULT_SIZES)
     jobs = [
-        (_scene_rows, (m.value, 9000 + 1000 * k + s, args.frames))
+        (_scene_rows, (m.value, 9000 + 1000 * k + s, args.frames, SIZES[0]))
         for k, m in enumerate(DETECTORS)
         for s in range(args.scenes)
     ] + [
-        (_pair_rows, (m.value, 20000 + 1000 * k + s, args.frames))
+        (_pair_rows, (m.value, 20000 + 1000 * k + s, args.frames, size))
+        for size in sizes
         for k, m in enumerate(PAIR_METHODS)
         for s in range(args.pair_scenes)
+        if not (size.endswith(POINT_SAMPLED) and spec_of(m).uses_image_lines)
     ]
     with ProcessPoolExecutor(args.jobs) as pool:
         done = [pool.submit(f, job) for f, job in jobs]
@@ -320,20 +423,39 @@ def main(argv: list[str]) -> int:
     print(
         f"{args.scenes} rendered scenes per detector in the thesis' geometry ({POSES_PER_SCENE} "
         f"poses each, clutter drawn anew); {args.pair_scenes} per method (point, line, ground) "
-        f"in the two-camera simulator's (twopose-record simulate --cameras 2: the targets' "
-        f"places, the finger's direction and the clutter drawn anew; each camera's view at "
-        f"{PAIR_TOUCHES} of the four touches, frames stored as JPEG); {args.frames} frames "
-        "averaged per view. mean and rms: the averaged views' error; p95: its 95th "
-        "percentile in size; perspective: the RMS of the part a cylinder's outline alone "
-        "puts off its axis' image (silhouette_offset); rest: the systematic error once that "
-        "part is taken off (rest_mean: its mean)"
+        f"and image size in the two-camera simulator's (twopose-record simulate --cameras 2: "
+        f"the targets' places, the finger's direction and the clutter drawn anew; each "
+        f"camera's view at {PAIR_TOUCHES} of the four touches, frames stored as JPEG); "
+        f"{args.frames} frames averaged per view. mean and rms: the averaged views' error; "
+        "p95: its 95th percentile in size; perspective: the RMS of the part a cylinder's "
+        "outline alone puts off its axis' image (silhouette_offset); rest: the systematic "
+        "error once that part is taken off (rest_mean: its mean); floor: the one-camera "
+        "floor (detector_floor), judged in the thesis' geometry"
     )
     print(table.to_string(index=False, float_format=lambda v: f"{v:.3f}", na_rep="-"))
-    ok = bool(table["within"].all())
+    pairs = pair_table(views, args.frames, args.seed)
+    print(
+        "a camera of a pair, per method and image size: the systematic RMS over both cameras' "
+        "views (the glove's at the line's and the ground's touches pooled) and its 95% "
+        "interval (scenes resampled), against the method's floor in a pair (floor_in_pair): "
+        "as its 1-sigma (within the interval), a bound (above it: how many times its top), or "
+        f"TOO SMALL (below it); not held: a size the floors are not said to hold at "
+        f"(FLOOR_MEASURED_SIZES: {', '.join(SIZES)}); '{POINT_SAMPLED.strip()}': rendered "
+        "without area-averaging (sensor.supersample = 1), no camera's frames"
+    )
+    print(pairs.to_string(index=False, float_format=lambda v: f"{v:.3f}", na_rep="-"))
+    camera = pairs[pairs["size"].isin(SIZES)]
+    sigma = {m.value for m in PAIR_METHODS if spec_of(m).pair_floor is not None}
+    ok = (
+        bool((table["within"] != False).all())  # noqa: E712 - a column of bools and "-"
+        and not (camera["as"] == "TOO SMALL").any()
+        and bool((camera[camera["method"].isin(sigma)]["as"] == "1-sigma").all())
+    )
     verdict = "met" if ok else "MISSED"
     print(
-        "target (the systematic error within the registry's detector_floor in every "
-        f"geometry): {verdict}"
+        "target (in the thesis' geometry the systematic error within the one-camera floor; "
+        f"in a pair at {', '.join(SIZES)} no floor below its RMS's interval, and a floor "
+        f"given as the pair's 1-sigma within it): {verdict}"
     )
     return 0 if ok else 1
 

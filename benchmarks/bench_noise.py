@@ -2,7 +2,8 @@
 always estimated and shrunk toward the operator's other sessions, robust per-trial tests
 before pooling, and a blunder caught at its trial.
 
-    .venv/bin/python benchmarks/bench_noise.py [--sessions 80] [--seed 0] [--write-docs]
+    .venv/bin/python benchmarks/bench_noise.py [--operators 4] [--sessions 20] [--seed 0]
+        [--write-docs]
 
 Sessions as a lab records them, in the simulator's geometry (``recorder.simulate.one_camera``'s
 default scene and its pose draws, :func:`recorder.simulate.one_camera.draw_trial_poses`: free poses,
@@ -12,9 +13,10 @@ rendered ones agree: ``tests/analysis/test_blunder_session.py``): 5 frames a pos
 0.3 px of centroid noise (0.5 deg on the orientation) and the detector's error at its
 floor. The operator types 1/16 in (``poses.typed_resolution``) and places the laptop with
 that error (typed right), 1.6x or 3x it. Per method, session size (2 to 5 trials) and
-placing error, ``--sessions`` sessions of one operator: a run's two passes as
-``twopose-analyze run`` does them (:mod:`analysis.batch.noise_pass`: each session's
-misclosures, every session's prior from the operator's other sessions,
+placing error, ``--operators`` operators of ``--sessions`` sessions each (issue 54: one
+operator over 20+ sessions), each operator's sessions a run of their own, with the run's two
+passes as ``twopose-analyze run`` does them (:mod:`analysis.batch.noise_pass`: each
+session's misclosures, every session's prior from the operator's other sessions,
 :func:`twopose.uncertainty.placing_variance.operator_priors`, then each session estimated with it).
 
 Coverage: the share of ok trials whose truth lies in their 95% region ("pooled": the
@@ -22,18 +24,23 @@ run's rule; "alone": each session with the typed resolution's weak prior only; "
 the regions of the typed sigma, what today's rule gives when its test does not reject;
 "given": the placing multiplier given exactly, the truth's, so that what "pooled" misses
 beyond it is the multiplier's estimate and what "given" misses is the regions' own),
-NEES/dof, and the regions' largest semi-axis over the typed sigma's (median).
+NEES/dof, and the regions' largest semi-axis over the typed sigma's (median). A cell's
+coverage rests on its operators' multipliers (the trials of one operator share its estimate,
+those of one session its misclosures): its 95% interval is a two-stage cluster bootstrap,
+operators drawn with replacement, then each drawn operator's sessions.
 
 The multiplier itself: pooled over ``--multiplier-sessions`` sessions of 5 trials as
 :func:`operator_priors` pools an operator's (flagged trials out), over its truth (1,
-2.56, 9): a bias of the estimate (the misclosures' nonlinearity) would show here, where a
-cell's 80 sessions leave a 1-sigma of 4-12%.
+2.56, 9): a bias of the estimate (the misclosures' nonlinearity) would show here, where one
+operator's 20 sessions leave a 1-sigma of 8-23%.
 
 Blunders: typed right, and in 20% of the trials one pose's typed x off by 1 in (either
 sign): the share of blundered trials flagged (``by truth``: of them, those only the test
 against their own recorded truth flagged, :mod:`twopose.uncertainty.blunders`), of clean
-trials flagged, the clean trials' regions over the same sessions' without the blunders
-(median, 90th percentile), the coverage of the trials not flagged and of all of them
+trials flagged, the clean trials' regions over the same sessions' typed right and over the
+same sessions' with the blundered trials absent (what the blunder itself costs them beyond
+its trial's information: a missed blunder in the pool; median with its 95% interval,
+operators resampled, and 90th percentile), the coverage of the trials not flagged and of all of them
 (``all cover``: the flagged ones in their own regions, widened by their misfit where a
 misclosure or the other trials flagged them, not where the truth did: removing the trials
 the truth flags is the one way the unflagged coverage can rise by it). The sessions'
@@ -44,15 +51,17 @@ share of blunders its poses can check at all (``seen``: a noncentrality Baarda's
 catches 80% of the time) and the flag rate among those.
 With three poses and with four: how often the pose is named, and named right.
 
-``--sessions`` is 80 by default: a cell's coverage rests on its four sizes' multipliers
-(each one operator's sessions pooled) and its trials, and scatters by about 1 point at 40
-sessions, half the target band's half-width, 0.7 at 80 (a run: about 35 min on one core).
+A cell is 4 operators of 20 sessions by default, 80 sessions as one operator's were before
+(a run: about 20 min on one core); so is the first blunder table (per size), the other two
+keep one operator's 80 sessions (``--operators`` x ``--sessions``).
 
 Targets (exit 1 if one is missed): per method and placing error, over the sizes, pooled
-coverage 93-97%; typed right, the median region at most 1.10x the typed sigma's; with
-blunders, per method, >= 85% of blundered trials flagged, <= 2% of clean ones, the clean
-trials' median region at most 1.02x and 90th percentile 1.10x the blunder-free session's,
-and the unflagged trials' coverage 93-97%.
+coverage 93-97%, and per size no cell whose whole interval lies outside 93-97%; typed
+right, the median region at most 1.10x the typed sigma's; with blunders, per method,
+>= 85% of blundered trials flagged, <= 2% of clean ones, the clean trials' median region
+over the one with the blundered trials absent not above 1.02x (missed where its whole 95%
+interval is) and its 90th percentile at most 1.10x, and the unflagged trials' coverage
+93-97%.
 """
 
 from __future__ import annotations
@@ -106,6 +115,9 @@ TYPED_WIDER, FLAGGED_LEAST, FALSE_MOST = 1.10, 0.85, 0.02
 CLEAN_MEDIAN, CLEAN_P90 = 1.02, 1.10
 #: The trials of each session whose pooled multiplier is checked against its truth.
 MULTIPLIER_SIZE = 5
+#: A cell's operators, each with ``--sessions`` sessions of their own (issue 54: one
+#: operator over 20+ sessions), and the cluster bootstrap's draws for its interval.
+OPERATORS, BOOT_DRAWS = 4, 2000
 PLAIN = EstimateOptions(noise=NoiseModel(test_redundancy=False))
 
 
@@ -179,11 +191,19 @@ def blundered(trials: SessionTrials, seed: int) -> tuple[SessionTrials, np.ndarr
 
 def run_pooled(sessions: list[SessionTrials], group: str) -> list[SessionEstimate]:
     """The run's two passes over one operator's sessions (see the module)."""
+    return two_passes(sessions, group)[1]
+
+
+def two_passes(
+    sessions: list[SessionTrials], group: str
+) -> tuple[list[SessionEstimate], list[SessionEstimate]]:
+    """The run's first pass (each session alone, the anchor its only prior) and its second."""
     first = [estimate_session(s, EstimateOptions(), line_fits=False) for s in sessions]
     stats = [session_statistics(group, e.misclosure, e.tests) for e in first]
     priors = operator_priors(stats, NoiseModel().anchor())
-    return [estimate_session(s, EstimateOptions(noise=NoiseModel(prior=p)), line_fits=False)
-            for s, p in zip(sessions, priors, strict=True)]  # fmt: skip
+    return first, [estimate_session(s, EstimateOptions(noise=NoiseModel(prior=p)),
+                                    line_fits=False)
+                   for s, p in zip(sessions, priors, strict=True)]  # fmt: skip
 
 
 def honesty(e: SessionEstimate) -> pd.DataFrame:
@@ -209,62 +229,121 @@ def given(placing: float) -> EstimateOptions:
     return EstimateOptions(noise=NoiseModel(factor=factor))
 
 
-def coverage_rows(n: int, seed: int) -> pd.DataFrame:
+def coverage_rows(n: int, seed: int, operators: int = OPERATORS) -> pd.DataFrame:
+    """Per cell (method, placing, size): ``operators`` operators of ``n`` sessions each,
+    every operator's multiplier learned from their own sessions alone (a run of theirs)."""
     rows = []
     for method in METHODS:
         for placing in PLACINGS:
             for size in SIZES:
                 s0 = seed + 100_000 * METHODS.index(method) + 1000 * size + int(10 * placing)
-                sessions = [session(method, s0 + 7919 * k, size, placing) for k in range(n)]
-                group = operator_group("bench operator", method)
-                pooled = run_pooled(sessions, group)
-                for s, e in zip(sessions, pooled, strict=True):
-                    a = honesty(e)
-                    b = honesty(estimate_session(s, EstimateOptions(), line_fits=False))
-                    c = honesty(estimate_session(s, PLAIN, line_fits=False))
-                    d = honesty(estimate_session(s, given(placing), line_fits=False))
-                    ok = a["ok"]
-                    rows.append(pd.DataFrame({
-                        "method": str(method), "placing": placing, "size": size,
-                        "within": a["within"][ok], "alone": b["within"][ok],
-                        "typed": c["within"][ok], "given": d["within"][ok],
-                        "nees": a["nees"][ok],
-                        "ratio": (a["axis"] / c["axis"])[ok],
-                        "lam": e.factor.placing_variance if e.factor else 1.0,
-                        "dof": e.factor.variance_dof if e.factor else math.inf,
-                    }))  # fmt: skip
+                for j in range(operators):
+                    ks = range(j * n, (j + 1) * n)
+                    sessions = [session(method, s0 + 7919 * k, size, placing) for k in ks]
+                    group = operator_group(f"bench operator {j + 1}", method)
+                    first, pooled = two_passes(sessions, group)
+                    for k, s, e, e0 in zip(ks, sessions, pooled, first, strict=True):
+                        rows.append(_coverage_frame(s, e, e0, placing, j, k))
     return pd.concat(rows, ignore_index=True)
 
 
+def _coverage_frame(s: SessionTrials, e: SessionEstimate, alone: SessionEstimate,
+                    placing: float, operator: int, k: int) -> pd.DataFrame:  # fmt: skip
+    """One session's ok trials: inside their regions by each rule (``alone``: the run's
+    first pass), NEES, the region's size."""
+    a = honesty(e)
+    b = honesty(alone)
+    c = honesty(estimate_session(s, PLAIN, line_fits=False))
+    d = honesty(estimate_session(s, given(placing), line_fits=False))
+    ok = a["ok"]
+    return pd.DataFrame({
+        "method": str(s.method), "placing": placing, "size": len(s),
+        "operator": operator, "session": k,
+        "within": a["within"][ok], "alone": b["within"][ok],
+        "typed": c["within"][ok], "given": d["within"][ok],
+        "nees": a["nees"][ok],
+        "ratio": (a["axis"] / c["axis"])[ok],
+        "lam": e.factor.placing_variance if e.factor else 1.0,
+        "dof": e.factor.variance_dof if e.factor else math.inf,
+    })  # fmt: skip
+
+
+def cluster_interval(h: pd.DataFrame, column: str = "within", draws: int = BOOT_DRAWS,
+                     seed: int = 0) -> tuple[float, float]:  # fmt: skip
+    """The 95% interval of a cell's mean ``column`` by a two-stage cluster bootstrap.
+
+    The trials of one operator share that operator's multiplier estimate, and those of one
+    session its misclosures: operators are drawn with replacement, then each drawn
+    operator's sessions with replacement, and the trials of a drawn session come whole.
+    """
+    rng = np.random.default_rng(seed)
+    per = h.groupby(["operator", "session"], sort=True)[column].agg(["sum", "count"])
+    owners = per.index.get_level_values("operator").to_numpy()
+    ops = np.unique(owners)
+    sums, counts = per["sum"].to_numpy(float), per["count"].to_numpy(float)
+    members = [np.flatnonzero(owners == o) for o in ops]
+    num, den = np.zeros(draws), np.zeros(draws)
+    for r, pick in enumerate(rng.integers(len(ops), size=(draws, len(ops)))):
+        rows = np.concatenate([m[rng.integers(len(m), size=len(m))] for m in
+                               (members[p] for p in pick)])  # fmt: skip
+        num[r], den[r] = sums[rows].sum(), counts[rows].sum()
+    lo, hi = np.quantile(num / den, [0.025, 0.975])
+    return float(lo), float(hi)
+
+
 def blunder_rows(n: int, seed: int, poses: int, methods: tuple[Method, ...] = METHODS,
-                 sizes: tuple[int, ...] = SIZES, *,
-                 one_target: bool = True) -> pd.DataFrame:  # fmt: skip
-    """Blundered sessions' trials; without ``one_target`` each trial records its own truth
-    (1e-6 in apart: the session is no one target, only each trial's misclosure can see its
-    blunder) and the blunder-free sessions are not run (no ``ratio``)."""
+                 sizes: tuple[int, ...] = SIZES, *, one_target: bool = True,
+                 operators: int = 1) -> pd.DataFrame:  # fmt: skip
+    """Blundered sessions' trials, ``n`` sessions a size split among ``operators`` (each a
+    run of their own); without ``one_target`` each trial records its own truth (1e-6 in
+    apart: the session is no one target, only each trial's misclosure can see its blunder)
+    and the blunder-free sessions are not run (no ``ratio``). ``ratio``: a trial's region
+    over the same session's with every trial typed right; ``absent``: over the same
+    session's with the blundered trials left out (what the blunder itself costs, beyond its
+    trial's information)."""
     rows = []
     for method in methods:
         for size in sizes:
             s0 = seed + 500_000 + 100_000 * METHODS.index(method) + 1000 * size + poses
-            clean = [session(method, s0 + 7919 * k, size, 1.0, poses) for k in range(n)]
-            if not one_target:
-                clean = [apart(s) for s in clean]
-            made = [blundered(s, s0 + k) for k, s in enumerate(clean)]
-            group = operator_group("bench operator", method)
-            with_b = run_pooled([m for m, _ in made], group)
-            without = run_pooled(clean, group) if one_target else with_b
-            for (_, which), e, e0 in zip(made, with_b, without, strict=True):
-                a, b = honesty(e), honesty(e0)
-                ok = a["ok"] & b["ok"]
-                rows.append(pd.DataFrame({
-                    "method": str(method), "size": size, "poses": poses,
-                    "blunder": which[ok] > 0, "flagged": a["flagged"][ok],
-                    "truth": a["truth"][ok],
-                    "named": a["named"][ok], "right": (a["named"] == which)[ok],
-                    "within": a["within"][ok], "ratio": (a["axis"] / b["axis"])[ok],
-                    "seen": seen(e, which)[ok],
-                }))  # fmt: skip
+            for j in range(operators):
+                ks = range(j * n // operators, (j + 1) * n // operators)
+                clean = [session(method, s0 + 7919 * k, size, 1.0, poses) for k in ks]
+                if not one_target:
+                    clean = [apart(s) for s in clean]
+                made = [blundered(s, s0 + k) for k, s in zip(ks, clean, strict=True)]
+                group = operator_group(f"bench operator {j + 1}", method)
+                with_b = run_pooled([m for m, _ in made], group)
+                without = run_pooled(clean, group) if one_target else with_b
+                gone = [dataclasses.replace(s, views=[[] if w else v for v, w in
+                                                      zip(s.views, which, strict=True)])
+                        for s, (_, which) in zip(clean, made, strict=True)]  # fmt: skip
+                absent = run_pooled(gone, group) if one_target else with_b
+                for (_, which), e, e0, e1 in zip(made, with_b, without, absent, strict=True):
+                    a, b, c = honesty(e), honesty(e0), honesty(e1)
+                    ok = a["ok"] & b["ok"]
+                    rows.append(pd.DataFrame({
+                        "method": str(method), "size": size, "poses": poses, "operator": j,
+                        "blunder": which[ok] > 0, "flagged": a["flagged"][ok],
+                        "truth": a["truth"][ok],
+                        "named": a["named"][ok], "right": (a["named"] == which)[ok],
+                        "within": a["within"][ok], "ratio": (a["axis"] / b["axis"])[ok],
+                        "absent": (a["axis"] / c["axis"].where(c["ok"]))[ok],
+                        "seen": seen(e, which)[ok],
+                    }))  # fmt: skip
     return pd.concat(rows, ignore_index=True)
+
+
+def median_interval(h: pd.DataFrame, column: str, draws: int = BOOT_DRAWS,
+                    seed: int = 0) -> tuple[float, float]:  # fmt: skip
+    """The 95% interval of the median of ``column`` over ``h``'s trials, its operators drawn
+    with replacement (an operator's trials share its multiplier: they move together)."""
+    rng = np.random.default_rng(seed)
+    # an operator is one per size and index (each size's sessions are runs of their own)
+    groups = [g[column].dropna().to_numpy(float) for _, g in h.groupby(["size", "operator"])]
+    medians = [np.median(np.concatenate([groups[i] for i in pick]))
+               for pick in rng.integers(len(groups), size=(draws, len(groups)))]  # fmt: skip
+    lo, hi = np.quantile(medians, [0.025, 0.975])
+    return float(lo), float(hi)
 
 
 def apart(trials: SessionTrials) -> SessionTrials:
@@ -296,21 +375,30 @@ def _detectable(dof: int) -> float:
 
 
 def report_coverage(t: pd.DataFrame) -> list[str]:
-    print("coverage of the truth by the 95% regions (ok trials), one operator a cell")
-    print(f"{'method':<8}{'placing':>8}{'size':>6}{'trials':>8}{'pooled':>8}{'alone':>8}"
-          f"{'typed':>8}{'given':>8}{'NEES/dof':>9}{'region/typed':>13}{'lambda':>8}"
-          f"{'its dof':>8}")  # fmt: skip
+    print("coverage of the truth by the 95% regions (ok trials); each cell several operators, "
+          "each operator's multiplier from their own sessions; 95% interval: a cluster "
+          "bootstrap over operators, then their sessions")  # fmt: skip
+    print(f"{'method':<8}{'placing':>8}{'size':>6}{'trials':>8}{'pooled':>8}{'interval':>15}"
+          f"{'alone':>8}{'typed':>8}{'given':>8}{'NEES/dof':>9}{'region/typed':>13}"
+          f"{'lambda':>8}{'its dof':>8}")  # fmt: skip
     missed, lo, hi = [], *COVERAGE_TARGET
     for (method, placing), g in t.groupby(["method", "placing"], sort=False):
         for size, h in g.groupby("size"):
+            a, b = cluster_interval(h)
             print(f"{method:<8}{placing:>7.1f}x{size:>6}{len(h):>8}{h['within'].mean():>8.1%}"
+                  f"{f'{a:.1%}-{b:.1%}':>15}"
                   f"{h['alone'].mean():>8.1%}{h['typed'].mean():>8.1%}"
                   f"{h['given'].mean():>8.1%}{h['nees'].mean():>9.2f}"
                   f"{h['ratio'].median():>13.2f}{h['lam'].median():>8.2f}"
                   f"{h['dof'].median():>8.0f}")  # fmt: skip
+            # a cell misses where its whole interval lies outside the band
+            if b < lo or a > hi:
+                cover = h["within"].mean()
+                missed.append(f"{method} at {placing:g}x typed, {size} trials a session: "
+                              f"regions cover {cover:.1%} ({a:.1%}-{b:.1%})")  # fmt: skip
         cover, alone, typed = g["within"].mean(), g["alone"].mean(), g["typed"].mean()
-        print(f"{method:<8}{placing:>7.1f}x{'all':>6}{len(g):>8}{cover:>8.1%}{alone:>8.1%}"
-              f"{typed:>8.1%}{g['given'].mean():>8.1%}{g['nees'].mean():>9.2f}"
+        print(f"{method:<8}{placing:>7.1f}x{'all':>6}{len(g):>8}{cover:>8.1%}{'':>15}"
+              f"{alone:>8.1%}{typed:>8.1%}{g['given'].mean():>8.1%}{g['nees'].mean():>9.2f}"
               f"{g['ratio'].median():>13.2f}")  # fmt: skip
         if not lo <= cover <= hi:
             missed.append(f"{method} at {placing:g}x typed: regions cover {cover:.1%}")
@@ -320,27 +408,33 @@ def report_coverage(t: pd.DataFrame) -> list[str]:
 
 
 def report_blunders(t: pd.DataFrame) -> list[str]:
+    operators = t["operator"].nunique()
     print(f"\na {BLUNDER_IN:g} in blunder (one pose's typed x) in {BLUNDER_SHARE:.0%} of the "
-          "trials, typed right otherwise")  # fmt: skip
+          f"trials, typed right otherwise; {operators} operators a size; the clean trials' "
+          "regions over the same sessions' typed right, and with the blundered trials "
+          "absent (95% interval of its median, operators resampled)")  # fmt: skip
     print(f"{'method':<8}{'size':>6}{'blundered':>10}{'flagged':>9}{'by truth':>9}{'clean':>7}"
-          f"{'flagged':>9}{'clean region median':>20}{'90th':>7}{'unflagged cover':>16}"
-          f"{'all cover':>10}")  # fmt: skip
+          f"{'flagged':>9}{'vs typed right':>15}{'vs absent':>10}{'interval':>14}"
+          f"{'90th':>7}{'unflagged cover':>16}{'all cover':>10}")  # fmt: skip
     missed, lo, hi = [], *COVERAGE_TARGET
     for method, g in t.groupby("method", sort=False):
         for size, h in [*g.groupby("size"), ("all", g)]:
             b, c = h[h["blunder"]], h[~h["blunder"]]
             u = h[~h["flagged"]]
+            low, high = median_interval(c, "absent")
             print(f"{method:<8}{size!s:>6}{len(b):>10}{b['flagged'].mean():>9.1%}"
                   f"{b['truth'].mean():>9.1%}{len(c):>7}"
-                  f"{c['flagged'].mean():>9.1%}{c['ratio'].median():>20.3f}"
-                  f"{c['ratio'].quantile(0.9):>7.3f}{u['within'].mean():>16.1%}"
+                  f"{c['flagged'].mean():>9.1%}{c['ratio'].median():>15.3f}"
+                  f"{c['absent'].median():>10.3f}{f'{low:.3f}-{high:.3f}':>14}"
+                  f"{c['absent'].quantile(0.9):>7.3f}{u['within'].mean():>16.1%}"
                   f"{h['within'].mean():>10.1%}")  # fmt: skip
         b, c, u = g[g["blunder"]], g[~g["blunder"]], g[~g["flagged"]]
         if b["flagged"].mean() < FLAGGED_LEAST:
             missed.append(f"{method}: {b['flagged'].mean():.1%} of blundered trials flagged")
         if c["flagged"].mean() > FALSE_MOST:
             missed.append(f"{method}: {c['flagged'].mean():.1%} of clean trials flagged")
-        if c["ratio"].median() > CLEAN_MEDIAN or c["ratio"].quantile(0.9) > CLEAN_P90:
+        low, _high = median_interval(c, "absent")
+        if low > CLEAN_MEDIAN or c["absent"].quantile(0.9) > CLEAN_P90:
             missed.append(f"{method}: clean trials' regions widened by the blunders")
         if not lo <= u["within"].mean() <= hi:
             missed.append(f"{method}: unflagged trials cover {u['within'].mean():.1%}")
@@ -418,21 +512,23 @@ def report_naming(t: pd.DataFrame) -> None:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--sessions", type=int, default=80)
+    parser.add_argument("--sessions", type=int, default=20, help="each operator's")
+    parser.add_argument("--operators", type=int, default=OPERATORS, help="a cell's")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--multiplier-sessions", type=int, default=200)
     parser.add_argument("--write-docs", action="store_true")
     args = parser.parse_args()
     started = time.perf_counter()
-    print(f"{args.sessions} sessions of one operator per cell, 3 poses a trial, typed "
-          f"{TYPED_IN:g} in\n")  # fmt: skip
-    missed = report_coverage(coverage_rows(args.sessions, args.seed))
+    print(f"{args.operators} operators of {args.sessions} sessions each per cell, 3 poses a "
+          f"trial, typed {TYPED_IN:g} in\n")  # fmt: skip
+    missed = report_coverage(coverage_rows(args.sessions, args.seed, args.operators))
     report_multiplier(multiplier_rows(args.multiplier_sessions, args.seed),
                       args.multiplier_sessions)  # fmt: skip
-    missed += report_blunders(blunder_rows(args.sessions, args.seed, 3))
-    report_alone(blunder_rows(args.sessions, args.seed, 3, one_target=False))
-    four = blunder_rows(args.sessions, args.seed, 4, (Method.POINT, Method.GROUND), (4,))
-    three = blunder_rows(args.sessions, args.seed, 3, (Method.POINT, Method.GROUND), (4,))
+    n = args.sessions * args.operators  # the blunders': one operator's n sessions
+    missed += report_blunders(blunder_rows(n, args.seed, 3, operators=args.operators))
+    report_alone(blunder_rows(n, args.seed, 3, one_target=False))
+    four = blunder_rows(n, args.seed, 4, (Method.POINT, Method.GROUND), (4,))
+    three = blunder_rows(n, args.seed, 3, (Method.POINT, Method.GROUND), (4,))
     report_naming(pd.concat([three, four], ignore_index=True))
     return finished(started, missed)
 

@@ -25,7 +25,7 @@ its clock 0.4321 s ahead. Four parts (the regions on rendered frames:
    (0.45 ms), with it known only to 5 ms (the skew term dominant), and the 5 ms case with
    the extrinsic and skew terms left out (what they are for).
    Then (3b) each camera's detector also off by a draw of its systematic error (the
-   method's ``detector_floor``, the same in every frame of the draw), and each camera's
+   method's ``floor_in_pair``, the same in every frame of the draw), and each camera's
    noise estimated from the draw's own 8 s of frames
    (``twopose.pair.frame_noise.camera_noise``: what ``run`` and the live pointing do).
 4. The cost per pair: live (one pair at a time, camera 1's four frames about it) and
@@ -301,8 +301,8 @@ def coverage(
 
 def biased(method: Method, track: CameraTrack, rng: np.random.Generator) -> CameraTrack:
     """The track with the detector's systematic error: one draw of its floor (centroid px,
-    direction deg; ``MethodSpec.detector_floor``), the same in every frame of the camera."""
-    px, deg = METHOD_SPECS[method].detector_floor
+    direction deg; ``MethodSpec.floor_in_pair``), the same in every frame of the camera."""
+    px, deg = METHOD_SPECS[method].floor_in_pair
     return dataclasses.replace(
         track,
         centroid_px=track.centroid_px + rng.normal(0.0, px, 2),
@@ -315,7 +315,7 @@ def own(method: Method, one: CameraTrack, two: CameraTrack) -> tuple[StreamNoise
     use: the frames' scatter with the method's detector floor, else the assumed 0.25 px."""
     spec = METHOD_SPECS[method]
     noises = [
-        camera_noise([track], lines=spec.uses_image_lines, floor=spec.detector_floor,
+        camera_noise([track], lines=spec.uses_image_lines, floor=spec.floor_in_pair,
                      assumed=DEFAULT_NOISE).noise
         for track in (one, two)
     ]  # fmt: skip

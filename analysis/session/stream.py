@@ -241,7 +241,7 @@ def replay_pair_session(
             raise InputValueError(f"{path}: a {method} session measures nothing to replay")
         known = (offset, "given") if offset is not None else (session.offset, "recorded")
         detected = [detect_trial(trial, method) for trial in session.trials]
-        used = session_noise([d[0] for d in detected], method, noise)
+        used = session_noise([d[0] for d in detected], method, noise, pair=session.pair)
         settings = StreamSettings(noise=(used[0].noise, used[1].noise), interpolate=interpolate)
         trials = [
             replay_trial(trial, session.pair, method, known, settings, detected=d,
@@ -253,18 +253,22 @@ def replay_pair_session(
 
 
 def session_noise(
-    tracks: list[tuple[CameraTrack, CameraTrack]], method: Method, given: StreamNoise | None
-) -> tuple[CameraNoise, CameraNoise]:
+    tracks: list[tuple[CameraTrack, CameraTrack]], method: Method, given: StreamNoise | None,
+    pair: PairCalibration | None = None,
+) -> tuple[CameraNoise, CameraNoise]:  # fmt: skip
     """Each camera's detection noise per frame: ``given``, else from the session's own
-    frames, every stream trial's pooled: their scatter with the detector's floor
+    frames, every stream trial's pooled: their scatter with the detector's floor in a pair
     (:func:`twopose.pair.frame_noise.camera_noise`), or :data:`DEFAULT_NOISE` where they
-    are too few, said so."""
+    are too few, said so; with the ``pair``, each camera's image size too (a floor not
+    measured at it said)."""
     if given is not None:
         return CameraNoise.given(given), CameraNoise.given(given)
     spec = spec_of(method)
+    sizes = (None, None) if pair is None else tuple(
+        (i.width, i.height) for i in (pair.intrinsics1, pair.intrinsics2))  # fmt: skip
     one, two = (
         camera_noise([t[c] for t in tracks], lines=spec.uses_image_lines,
-                     floor=spec.detector_floor, assumed=DEFAULT_NOISE)
+                     floor=spec.floor_in_pair, assumed=DEFAULT_NOISE, size=sizes[c])
         for c in (0, 1)
     )  # fmt: skip
     return one, two

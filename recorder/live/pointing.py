@@ -378,10 +378,11 @@ class LivePointing:
         if self.settings.noise is not None:
             return self.noise
         lines = self.spec.uses_image_lines
+        sizes = [(i.width, i.height) for i in (self.pair.intrinsics1, self.pair.intrinsics2)]
         one, two = (
             camera_noise([_track(list(r), lines=lines)], lines=lines,
-                         floor=self.spec.detector_floor, assumed=DEFAULT_NOISE)
-            for r in self._recent
+                         floor=self.spec.floor_in_pair, assumed=DEFAULT_NOISE, size=size)
+            for r, size in zip(self._recent, sizes, strict=True)
         )  # fmt: skip
         return one, two
 

@@ -42,7 +42,7 @@ from twopose.format.entries import SessionInfo, SimTrajectory
 from twopose.format.simulation import SimClock, SimFrames
 from twopose.format.windows import Stream
 from twopose.format.writer import SessionWriter
-from twopose.methods.specs import Method, spec_of
+from twopose.methods.specs import Method, floor_unmeasured, spec_of
 from twopose.pair.calibration import FloorPlane, PairCalibration
 from twopose.pair.motion import thesis_pair
 from twopose.sim.moving import (
@@ -60,7 +60,9 @@ from twopose.values.units import Units, unit_factor
 
 __all__ = [
     "PAIR_ONLY_OPTIONS",
+    "POINT_SAMPLED_WORDS",
     "PairTiming",
+    "frame_caveats",
     "refuse_idle_options",
     "simulate_pair_session",
     "simulate_pair_with_progress",
@@ -243,6 +245,8 @@ class SimulationSize:
     trials: int
     trial_s: float
     fps: float
+    #: what its frames' regions cannot be trusted for, in words (:func:`frame_caveats`)
+    caveats: tuple[str, ...] = ()
 
     @property
     def frames(self) -> int:
@@ -256,7 +260,24 @@ class SimulationSize:
             f"rendering {self.trials} stream trial{'' if self.trials == 1 else 's'} of "
             f"{self.trial_s:,.1f} s{each}: about {self.frames:,} frames (Ctrl-C stops it; "
             "a faster --speed makes shorter trials)"
-        )
+        ) + "".join(f"\nnote: {c}" for c in self.caveats)
+
+
+#: Why point-sampled frames are no camera's (docs/figures/detector_floor.txt).
+POINT_SAMPLED_WORDS = (
+    "sensor.supersample = 1 renders each pixel from one ray, its edges aliased as no "
+    "camera's are: the dot's centroid errs about twice the detector's measured floor, so "
+    "the regions of these frames are too small; render with 2 or more to judge regions"
+)
+
+
+def frame_caveats(scene: Scene) -> tuple[str, ...]:
+    """What a scene's frames' 95% regions cannot be trusted for: point-sampled frames, an
+    image size the detector's floor was not measured at."""
+    said = [POINT_SAMPLED_WORDS] if scene.sensor.supersample == 1 else []
+    sizes = dict.fromkeys((c.width, c.height) for c in scene.cameras)
+    said += [w for w in (floor_unmeasured(*size) for size in sizes) if w]
+    return tuple(said)
 
 
 def simulation_size(
@@ -265,7 +286,8 @@ def simulation_size(
     """What :func:`simulate_pair_session` will render, known before it renders a frame
     (the target's path at ``timing.speed``; each trial's touches only reorder it)."""
     timing = _checked(method, trials, scene, timing)
-    return SimulationSize(trials, _path(scene, method, timing).duration_s, scene.sensor.fps)
+    path = _path(scene, method, timing)
+    return SimulationSize(trials, path.duration_s, scene.sensor.fps, frame_caveats(scene))
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)

@@ -19,8 +19,9 @@ from analysis.report.figures.draw import (
     png_bytes,
     session_figures,
 )
-from analysis.report.thesis import thesis_verdict
+from analysis.report.thesis import _used, _within_row, thesis_verdict
 from analysis.report.writer import ANSWER_COLUMNS, answer_table, dominant_inputs
+from twopose.methods.specs import Method
 from twopose.uncertainty.propagate import CHI2_95
 
 
@@ -254,7 +255,25 @@ def test_thesis_verdict_counts_trials_within_one_inch_in_any_unit() -> None:
     assert "can't tell it from the thesis' 15 of 15 (Fisher p = 0.12: too few trials" in lines[0]
     assert "consistent" not in " ".join(lines)
     assert lines[2].startswith("point (method 1): 2 of 2 trials within 1 in")
-    assert "reproduced: the thesis reports all within 1 in" in lines[2]
+    # All within on fewer trials than the thesis' 15 is no reproduction (a new user's r5
+    # F4: "1 of 1 ... reproduced"); 15 of 15 is.
+    assert "can't tell: all within, as the thesis reports, but on 2 trials" in lines[2]
+    assert "reproduced" not in lines[2].replace("too few to call it reproduced", "")
+    errors = np.linspace(0.1, 0.9, 15)
+    fifteen = pd.DataFrame({"method": ["point"] * 15, "units": "in", "status": "ok",
+                            "err": errors, "err_x": 0.1, "warning": ""})  # fmt: skip
+    (line,) = thesis_verdict(fifteen)
+    assert line.endswith("; reproduced: the thesis reports all within 1 in.")
+    for table, said in ((fifteen, "yes"), (trials, "can't tell")):  # the thesis table's row
+        row = _within_row(table, _used(table, include_warned=False), Method.POINT, "method 1",
+                          include_warned=False)  # fmt: skip
+        assert row["reproduced"] == said, row
+    # an ok trial left out for its warning is said beside the count, with its error
+    left = trials.assign(warning=["", "", "", "plane angle 4.70 deg < 5", ""])
+    lines = thesis_verdict(left)
+    assert "1 of 1 trials within 1 in (largest 0.79 in)" in lines[0]
+    assert "(1 more ok trial warned, left out: 1.18 in)" in lines[0]
+    assert "reproduced:" not in lines[0]
 
 
 def test_answer_table_pools_per_method_and_units() -> None:

@@ -326,12 +326,14 @@ def test_the_live_noise_is_the_analysis_rule_over_the_last_frames():
     spec = spec_of(Method.GROUND)
     tracks = (_offline_track(Method.GROUND, frames, 1), _offline_track(Method.GROUND, frames, 2))
     offline = [
-        camera_noise([t], lines=True, floor=spec.detector_floor, assumed=DEFAULT_NOISE)
+        camera_noise([t], lines=True, floor=spec.floor_in_pair, assumed=DEFAULT_NOISE,
+                     size=(640, 480))
         for t in tracks
-    ]
+    ]  # fmt: skip
     assert list(live.noise) == offline  # the same frames (all within the last 10 s)
     assert made[-1].noise == tuple(n.said(lines=True) for n in offline)
-    assert made[-1].noise[0].startswith("pixel noise 0.15 px, 0.15 deg: the frames' scatter")
+    # the glove's floor in a pair (0.12 px, 0.11 deg), not its one-camera bound
+    assert made[-1].noise[0].startswith("pixel noise 0.12 px, 0.11 deg: the frames' scatter")
     whole = estimate_stream(
         Method.GROUND, clip.pair, *tracks,
         ClockOffset(offset_ns=0.0, sigma_ns=0.0, method="given", n=0),

@@ -20,7 +20,9 @@ from typer.testing import CliRunner
 
 from recorder.cli.app import app
 from recorder.simulate.pair import (
+    POINT_SAMPLED_WORDS,
     PairTiming,
+    frame_caveats,
     simulate_pair_session,
     simulated_pair,
     simulation_size,
@@ -31,7 +33,7 @@ from twopose.camera.model import project_points
 from twopose.errors import InputValueError
 from twopose.format.reader import SessionReader
 from twopose.format.streams import PairSession, read_pair_session
-from twopose.methods.specs import Method
+from twopose.methods.specs import Method, floor_unmeasured
 from twopose.sim.layout import Layout
 from twopose.sim.moving import ClockSettings, PairScene, Trajectory, camera_frames, touch_points
 from twopose.sim.render import render_radiance, render_sprite
@@ -133,6 +135,8 @@ def test_the_same_settings_write_the_same_bytes_from_the_command_line(
     result = CliRunner().invoke(app, [*args, "--scene", str(scene)])
     assert result.exit_code == 0, result.output
     assert "two cameras, 1 stream trial" in result.output
+    # the half-size test scene renders point-sampled: its regions are said to be too small
+    assert f"note: {POINT_SAMPLED_WORDS}" in result.output.replace("\n", " ").replace("  ", " ")
     digest = hashlib.sha256
     assert digest(out.read_bytes()).digest() == digest(point_pair.read_bytes()).digest()
     # The session's size said before a frame is rendered, and right to a few frames.
@@ -274,3 +278,20 @@ def test_a_target_leaving_a_cameras_view_is_said_as_a_point(tmp_path: Path) -> N
         simulate_pair_session(tmp_path / "x.mcap", method=Method.POINT, timing=TIMING, trials=1,
                               scene=scene)  # fmt: skip
     assert not (tmp_path / "x.mcap").exists()
+
+
+def test_frames_whose_regions_cannot_be_trusted_are_said_before_rendering(
+    small_scene: Path,
+) -> None:
+    """Point-sampled frames (sensor.supersample = 1: the dot's centroid errs about twice its
+    floor, docs/figures/detector_floor.txt) and an image size the floor was not measured at
+    are said; the default scene's frames (640x480, supersampled) are not."""
+    assert frame_caveats(Scene()) == ()
+    assert frame_caveats(load_scene(small_scene)) == (
+        POINT_SAMPLED_WORDS,
+        floor_unmeasured(320, 240),
+    )
+    wide = CameraParams(width=1280, height=720, fx=1050.0, fy=1050.0, cx=640.0, cy=360.0)
+    said = frame_caveats(dataclasses.replace(Scene(), cameras=(wide,)))
+    assert len(said) == 1
+    assert "holds at 640x480 only, not at this camera's 1280x720" in said[0]

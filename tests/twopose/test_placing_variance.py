@@ -244,3 +244,18 @@ def test_a_narrow_posterior_is_not_snapped_to_the_grid(lam: float) -> None:
                      PlacingPrior(scale=1.0, dof=1e-9, source="none"))  # fmt: skip
     assert post.scale == pytest.approx(lam, rel=1e-3)
     assert post.dof == pytest.approx(n, rel=1e-2)
+
+
+def test_an_operators_sessions_supersede_the_typed_resolution() -> None:
+    """An operator placing 3x worse than typed (multiplier 9), their other sessions saying
+    so on 38 dof: a two-trial method-2 session's multiplier is theirs, not pulled toward the
+    typed 1 (on the typed resolution's 2 dof beside them it came out 0.960 of 9 on average
+    over these sessions: 2 / 42 of the way to 1). Alone, the typed word still weighs 2 dof."""
+    prior = PlacingPrior(scale=9.0, dof=38.0, source="19 other sessions of operator Ada")
+    assert NoiseModel().anchor().dof == 2.0
+    options = EstimateOptions(noise=NoiseModel(prior=prior))
+    lam = [estimate_session(bench.session(Method.GROUND, 54_000 + s, 2, 3.0), options,
+                            line_fits=False).factor for s in range(30)]  # fmt: skip
+    ratio = np.array([f.placing_variance / 9.0 for f in lam if f is not None])
+    assert len(ratio) == 30
+    assert 0.98 < ratio.mean() < 1.03

@@ -5,8 +5,10 @@ A stream's 95% regions carry each frame's detection noise (``StreamNoise``: the 
 each camera on its own, by the one-camera path's rule for a pose's measurement
 (:func:`twopose.uncertainty.propagate.measurement_covariance`): the frames' own scatter
 plus the detector's floor (its systematic error, the same in every frame of a target
-standing still, which no scatter can see: the method's ``detector_floor``, measured on
-rendered views by ``benchmarks/bench_detector_floor.py``). The scatter is a moving target's,
+standing still, which no scatter can see: the method's ``floor_in_pair``, its 1-sigma in a
+camera of a pair measured on rendered views by ``benchmarks/bench_detector_floor.py`` at
+the image sizes ``FLOOR_MEASURED_SIZES``; at another size the noise says its floor is
+unmeasured there). The scatter is a moving target's,
 so it is measured about a smooth local fit in time:
 
 - every run of :data:`WINDOW_FRAMES` consecutive found frames (no more than
@@ -47,6 +49,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from twopose.arrays import F64, Bools
+from twopose.methods.specs import floor_unmeasured
 from twopose.pair.stream import CameraTrack, StreamNoise
 
 __all__ = [
@@ -111,6 +114,9 @@ class CameraNoise:
     #: the noise's degrees of freedom, centroid's and direction's: the scatter's with the
     #: floor known (Welch-Satterthwaite; infinite for a given noise, 0 for an assumed one)
     noise_dof: tuple[float, float] = (0.0, 0.0)
+    #: words where the floor was not measured at the camera's image size ("" where it was:
+    #: :func:`twopose.methods.specs.floor_unmeasured`), said with the noise
+    unmeasured: str = ""
 
     @classmethod
     def given(cls, noise: StreamNoise) -> CameraNoise:
@@ -134,7 +140,7 @@ class CameraNoise:
             return (
                 f"pixel noise {value(self.noise)}: the frames' scatter {value(self.scatter)} "
                 f"(estimated from {self.frames} frames, dof {dof}) and the detector's floor "
-                f"{value(self.floor)}"
+                f"{value(self.floor)}" + (f" ({self.unmeasured})" if self.unmeasured else "")
             )
         if self.source == "given":
             return f"pixel noise {value(self.noise)} given"
@@ -245,6 +251,7 @@ def camera_noise(
     lines: bool,
     floor: tuple[float, float],
     assumed: StreamNoise,
+    size: tuple[int, int] | None = None,
 ) -> CameraNoise:
     """One camera's detection noise per frame from its tracks' frames (the module docstring).
 
@@ -257,9 +264,12 @@ def camera_noise(
         Whether the image line's direction is measured (its scatter estimated too).
     floor : (float, float)
         The detector's systematic error per frame (centroid px, direction deg; the method's
-        :attr:`twopose.methods.specs.MethodSpec.detector_floor`), added to the scatter.
+        :attr:`twopose.methods.specs.MethodSpec.floor_in_pair`), added to the scatter.
     assumed : StreamNoise
         The noise used when too few frames give an estimate (said so).
+    size : (int, int), optional
+        The camera's image size (width, height): where the floor was not measured at it,
+        the noise says so (:func:`twopose.methods.specs.floor_unmeasured`).
 
     Returns
     -------
@@ -315,4 +325,5 @@ def camera_noise(
     return CameraNoise(
         noise=noise, source="estimated", scatter=scatter, floor=floor, dof_px=dof_px,
         dof_deg=dof_deg, frames=frames, noise_dof=with_floor,
+        unmeasured=floor_unmeasured(*size) if size is not None else "",
     )  # fmt: skip
