@@ -217,7 +217,24 @@ class InputSet:
             f"{s.path}: an empty session (no pose was recorded): nothing to analyse"
             for s in self.empty
         ]
-        return repeats + copies + empty + list(self.strand_notes)
+        return repeats + copies + empty + list(self.strand_notes) + self.operator_notes()
+
+    @property
+    def of_operators(self) -> dict[str, tuple[str, ...]]:
+        """The sessions ``run`` analyses whose parts two or more operators recorded (a
+        ``--continue --operator``), by their first part's path: their operators."""
+        return {s.head: s.operators for s in self._analysed if len(s.operators) > 1}
+
+    def operator_notes(self) -> list[str]:
+        """A session of two operators, said: one placing multiplier for both parts' trials
+        (the session's), pooled with neither operator's other sessions."""
+        return [
+            f"{head}: its parts were recorded by {len(names)} operators ({', '.join(names)}): "
+            "its trials are analysed as one session, one placing multiplier for all of them, "
+            "pooled with neither operator's other sessions; to give each operator's trials "
+            "their own, analyse each part's file in a run without the other"
+            for head, names in self.of_operators.items()
+        ]
 
     def run_notes(self) -> list[str]:
         """What ``run`` says: :meth:`notes`, and the board sessions it leaves to ``rig``."""

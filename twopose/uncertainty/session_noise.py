@@ -60,6 +60,7 @@ __all__ = [
     "placing_sigmas",
     "placing_source",
     "region_multipliers",
+    "session_base_in",
     "session_statistics",
     "with_one_target",
     "with_own_truth",
@@ -264,8 +265,9 @@ def operator_group(operator: str, method: Method) -> str:
 
 
 def session_statistics(
-    group: str, m: Misclosure | None, tests: TrialTests | None = None
-) -> SessionNoise:
+    group: str, m: Misclosure | None, tests: TrialTests | None = None,
+    placing_in: float = math.nan,
+) -> SessionNoise:  # fmt: skip
     """What a session's misclosures say of its operator (:class:`SessionNoise`).
 
     Its tested trials' chi-square, dof and components (none when not tested); a trial
@@ -275,15 +277,37 @@ def session_statistics(
     tests it in regions the operator's prior has not settled yet (at 3x the typed placing
     it would flag merely noisy trials and thin the operator's pool by the truth), and a
     blunder only the truth sees is one its misclosure cannot: its misclosure is a clean one.
+    ``placing_in``: the session's base (:func:`session_base_in`), so that its operator's
+    sessions of other typed resolutions pool with it as placing variances.
     """
     if m is None:
         return SessionNoise(group=group, chi2=np.zeros(0), dof=np.zeros(0, dtype=np.int_),
-                            share=np.zeros((0, 0)), z2=np.zeros((0, 0)))  # fmt: skip
+                            share=np.zeros((0, 0)), z2=np.zeros((0, 0)),
+                            placing_in=placing_in)  # fmt: skip
     use = (m.dof > 0) & np.isfinite(m.chi2)
     if tests is not None and tests.apart is not None:
         use &= ~np.isfinite(tests.apart)
     return SessionNoise(group=group, chi2=m.chi2[use], dof=m.dof[use],
-                        share=m.placing_share[use], z2=m.z2[use])  # fmt: skip
+                        share=m.placing_share[use], z2=m.z2[use],
+                        placing_in=placing_in)  # fmt: skip
+
+
+def session_base_in(trials: SessionTrials, options: EstimateOptions) -> float:
+    """The placing sigma a session's multiplier is relative to, in inches (NaN: no pose).
+
+    A board's measured ``[placing]``, else the RMS of its poses' typed resolutions
+    (:func:`twopose.uncertainty.hand.base_placing_in`).
+    """
+    from twopose.uncertainty.hand import base_placing_in
+    from twopose.values.units import unit_spec
+
+    placing = options.noise.placing
+    if placing is not None and not placing.upper_bound:
+        return placing.sigma_in
+    if not trials.units:
+        return math.nan
+    typed = [v.t_sigma for row in trials.views for v in row]
+    return base_placing_in(typed, unit_spec(Units(trials.units)).inches)
 
 
 def placed(cov_in: F64, factor: VarianceFactor | None) -> F64:
