@@ -260,14 +260,34 @@ def live_results(
     (:mod:`recorder.live.operator_noise`); what they start from is said as it starts."""
     from recorder.live.operator_noise import live_prior
 
-    estimate = settings.estimate_options()
+    estimate, placing_words = _placing_of_operator(settings, info)
     estimate, prior_words, prior = live_prior(info.operator, info.method, estimate, info.units)
     results = LiveResults(info.method, info.units, cameras, ground, estimate, settings.rig)
     results.operator_prior = prior
-    results.notes.insert(0, settings.placing_words(info.units))
+    results.notes.insert(0, placing_words)
     if prior_words:
         results.notes.insert(1, prior_words)
     return results
+
+
+def _placing_of_operator(
+    settings: CaptureSettings, info: SessionInfo
+) -> tuple[EstimateOptions, str]:
+    """The live estimate's options and its placing sigma in words: the rig file's
+    ``[placing]`` when it is this session's operator's (or names none), else each pose's
+    typed resolution (another operator's board is not this one's hand; the analysis' rule,
+    :meth:`analysis.rig.scope.RigUse.placing_for`)."""
+    estimate = settings.estimate_options()
+    placing = settings.placing
+    if placing is None or not placing.operators or info.operator.strip() in placing.operators:
+        return estimate, settings.placing_words(info.units)
+    noise = dataclasses.replace(estimate.noise, placing=None)
+    said = (
+        f"placing sigma: typed (each pose's recorded resolution): the rig file's [placing] "
+        f"({placing.measured_by}) is operator {', '.join(placing.operators)}'s, not "
+        f"{info.operator.strip() or 'this session'}'s"
+    )
+    return dataclasses.replace(estimate, noise=noise), said
 
 
 def guidance_options(options: EstimateOptions, results: Iterable[TrialResult]) -> EstimateOptions:

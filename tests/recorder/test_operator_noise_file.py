@@ -125,3 +125,22 @@ def test_an_older_files_sessions_without_their_placing_sigma_are_set_aside_and_s
     assert live is None
     assert "3 of them set aside: written before the file kept each session's placing" in said
     assert noise.prior(Method.POINT, "typed", EstimateOptions().noise.anchor(), 0.16) is None
+
+
+def test_a_live_session_of_another_operator_starts_from_its_typed_resolution() -> None:
+    """A new user's r5 F2, live: a rig file's [placing] is its board's operator's hand."""
+    from recorder.live.result import _placing_of_operator
+    from recorder.procedure.capture import CaptureSettings
+    from tests.lab import new_info
+    from twopose.uncertainty.noise import PlacingSigma
+
+    board = PlacingSigma(sigma_in=0.1, sigma_sigma_in=0.02, measured_by="b.mcap", captures=16,
+                         operators=("Ada",))  # fmt: skip
+    info = new_info()  # operator "lab"
+    options, said = _placing_of_operator(CaptureSettings(placing=board), info)
+    assert options.noise.placing is None
+    assert said.endswith("the rig file's [placing] (b.mcap) is operator Ada's, not lab's")
+    mine = PlacingSigma(sigma_in=0.1, sigma_sigma_in=0.02, measured_by="b.mcap", captures=16,
+                        operators=("lab",))  # fmt: skip
+    options, said = _placing_of_operator(CaptureSettings(placing=mine), info)
+    assert options.noise.placing == mine

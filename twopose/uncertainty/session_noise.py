@@ -109,9 +109,42 @@ def noise_of(
     m_rows = misclosures(residuals, batch.inputs, cov_in, batch.valid, parameters, shared=shared)
     m = _at_rows(Misclosure.none(T, N), rows, m_rows)
     flags = flag_trials(m.chi2, m.dof, m.placing_share, m.z2, noise.anchor(), noise.prior)
+    checked = _anchor_checked(noise, m, flags.flagged)
+    if checked is not noise:  # the board's sigma gives way: the trials tested again
+        noise = checked
+        flags = flag_trials(m.chi2, m.dof, m.placing_share, m.z2, noise.anchor(), noise.prior)
     factor = _factor(m, flags, flags.flagged, noise)
     tests = trial_tests(m, flags.flagged, flags.p, factor.placing_variance)
     return NoiseResult(factor=factor, misclosure=m, tests=tests, flags=flags, noise=noise)
+
+
+def _anchor_checked(noise: NoiseModel, m: Misclosure, out: Bools) -> NoiseModel:
+    """``noise`` with its board's placing sigma contradicted, where the data do (F test).
+
+    The unflagged trials' sigma0 squared (with the operator's prior as data beside them)
+    on their dof against the board's multiplier 1 on its own dof: Fisher's F. Below
+    :data:`~twopose.uncertainty.noise.ANCHOR_CONFLICT_LEVEL` the board's sigma is not this
+    session's operator's placing (another hand, another day): kept at its 352 dof it
+    outweighed sessions that contradicted it at p < 0.001 and their regions covered 79%
+    (a new user's r5 F2). Unchanged where nothing was measured or nothing contradicts it.
+    """
+    from scipy import special
+
+    from twopose.uncertainty.noise import ANCHOR_CONFLICT_LEVEL
+
+    placing = noise.placing
+    if placing is None or placing.upper_bound or not math.isfinite(placing.dof):
+        return noise
+    use = (m.dof > 0) & np.isfinite(m.chi2) & ~out
+    chi2, dof = float(m.chi2[use].sum()), float(m.dof[use].sum())
+    if noise.prior is not None and math.isfinite(noise.prior.dof):
+        chi2, dof = chi2 + noise.prior.scale * noise.prior.dof, dof + noise.prior.dof
+    if dof < MIN_PLACING_DOF:
+        return noise
+    p = float(special.fdtrc(dof, placing.dof, chi2 / dof))
+    if not p < ANCHOR_CONFLICT_LEVEL:
+        return noise
+    return dataclasses.replace(noise, anchor_contradicted=p)
 
 
 def _factor(m: Misclosure, flags: Flags, out: Bools, noise: NoiseModel) -> VarianceFactor:
@@ -137,6 +170,8 @@ def _factor(m: Misclosure, flags: Flags, out: Bools, noise: NoiseModel) -> Varia
         sources=_sources(int(use.sum()), prior.source if prior else "", anchor.source),
         sigma0_sq_all=float(m.chi2[has].sum() / dof_all) if dof_all else math.nan,
         dof_all=dof_all,
+        against="typed" if _measured_dof(noise) == math.inf else "the board's sigma",
+        anchor_conflict=noise.anchor_contradicted,
     )
 
 
