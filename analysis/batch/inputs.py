@@ -223,7 +223,8 @@ class InputSet:
     def of_operators(self) -> dict[str, tuple[str, ...]]:
         """The sessions ``run`` analyses whose parts two or more operators recorded (a
         ``--continue --operator``), by their first part's path: their operators."""
-        return {s.head: s.operators for s in self._analysed if len(s.operators) > 1}
+        named = {s.head: _operators(s) for s in self._analysed}
+        return {head: names for head, names in named.items() if len(names) > 1}
 
     def operator_notes(self) -> list[str]:
         """A session of two operators, said: one placing multiplier for both parts' trials
@@ -243,6 +244,13 @@ class InputSet:
             "not analysed here"
             for s in self.boards
         ]
+
+
+def _operators(strand: Strand) -> tuple[str, ...]:
+    """The operators a strand's parts name (each part's session entry: a continuation's
+    ``--operator`` is who recorded it), once each, in order; unnamed ones left out."""
+    names = (p.file.info.operator.strip() for p in strand.parts if p.file.info is not None)
+    return tuple(dict.fromkeys(n for n in names if n))
 
 
 def sessions_said(strands: Iterable[tuple[str, str]], verb: str = "") -> str:

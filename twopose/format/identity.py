@@ -327,15 +327,6 @@ class Strand:
         return tuple(p.file.path for p in self.parts[1:])
 
     @property
-    def operators(self) -> tuple[str, ...]:
-        """The operators its parts name, once each, in order; unnamed ones left out.
-
-        Each part's session entry: a continuation's ``--operator`` is who recorded it.
-        """
-        names = (p.file.info.operator.strip() for p in self.parts if p.file.info is not None)
-        return tuple(dict.fromkeys(n for n in names if n))
-
-    @property
     def branches(self) -> dict[str, str]:
         """Each part's path -> its branch ("" on a session that never forked)."""
         return {p.file.path: p.branch for p in self.parts}

@@ -21,13 +21,35 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol, TypeVar
 
 import numpy as np
 
 if TYPE_CHECKING:
+    from twopose.arrays import F64, Ints
     from twopose.uncertainty.noise import PlacingPrior
-    from twopose.uncertainty.placing_variance import SessionNoise
+
+
+class _Statistics(Protocol):
+    """What is read of a session's statistics.
+
+    Those of :class:`twopose.uncertainty.placing_variance.SessionNoise` (a dataclass; not
+    imported: it imports this module).
+    """
+
+    @property
+    def chi2(self) -> F64: ...
+    @property
+    def dof(self) -> Ints: ...
+    @property
+    def share(self) -> F64: ...
+    @property
+    def z2(self) -> F64: ...
+    @property
+    def placing_in(self) -> float: ...
+
+
+SessionNoise = TypeVar("SessionNoise", bound=_Statistics)
 
 __all__ = ["base_placing_in", "on_one_base", "prior_on_own_base", "rebased", "same_base"]
 
@@ -60,7 +82,7 @@ def rebased(stats: SessionNoise, base_in: float) -> SessionNoise:
         return stats
     c = (base_in / own) ** 2
     n = 1.0 - stats.share + c * stats.share
-    return dataclasses.replace(
+    return dataclasses.replace(  # type: ignore[type-var]
         stats, share=c * stats.share / n, z2=stats.z2 / n, placing_in=base_in
     )
 
@@ -91,7 +113,7 @@ def on_one_base(
     for s in sessions:
         if not math.isfinite(s.placing_in):
             M = s.share.shape[1] if s.share.ndim == 2 else 1
-            out.append(dataclasses.replace(
+            out.append(dataclasses.replace(  # type: ignore[type-var]
                 s, chi2=np.zeros(0), dof=np.zeros(0, dtype=np.int_),
                 share=np.zeros((0, M)), z2=np.zeros((0, M)),
             ))  # fmt: skip

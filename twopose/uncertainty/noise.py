@@ -71,11 +71,9 @@ TYPED_PRIOR_DOF = 2.0
 #: typed over 20 sessions of two method-2 trials (their regions covered 92.5%, 94.4%
 #: without; benchmarks/bench_noise.py). Not zero: a prior's dof must be positive.
 SUPERSEDED_PRIOR_DOF = 1e-6
-#: A board's measured placing sigma gives way where a session's data (and its operator's
-#: other sessions) contradict it this strongly: Fisher's F of their sigma0 on both dofs.
-#: 1%, not 0.1%: a board wrongly kept makes regions too small, one wrongly dropped only
-#: lets the trials set the sigma (the new user's r5 F2 sessions, 1.5x the board's hand
-#: over 4 sessions, stood at p = 0.001-0.002).
+#: A board's placing sigma gives way where the data contradict it this strongly (Fisher's F
+#: on both dofs): 1%, as a board wrongly kept makes regions too small, one wrongly dropped
+#: only lets the trials decide (r5 F2's sessions, 1.5x the board's, stood at p = 0.001-0.002).
 ANCHOR_CONFLICT_LEVEL = 0.01
 #: The regions' level.
 _REGION_LEVEL = 0.95
@@ -272,8 +270,7 @@ class VarianceFactor:
     trials whose poses disagree, kept out; ``at_limit``: ``lambda`` is beyond the grid;
     ``sources``: where ``lambda``'s information came from, in words; ``sigma0_sq_all`` on
     ``dof_all``: sigma0 over every tested trial, the flagged ones' misclosures included
-    (NaN, 0: not known), which the words set beside sigma0 when flagging turned its test;
-    ``against``, ``anchor_conflict``: see the fields.
+    (NaN, 0: not known), which the words set beside sigma0 when flagging turned its test.
     """
 
     sigma0_sq: float
@@ -520,8 +517,7 @@ class NoiseModel:
     #: (:mod:`twopose.rig.carried`), beside the views' own noise and never widened by its
     #: test; None: no rig, or its constants taken as exact.
     rig: RigCovariance | None = None
-    #: The F test's p where the session's data contradicted ``placing`` (NaN: they did not,
-    #: or not tested): the board's sigma then weighs as the typed word does (:meth:`anchor`).
+    #: The F test's p where the data contradicted ``placing`` (NaN: not): it weighs as typed.
     anchor_contradicted: float = math.nan
 
     def anchor(self) -> PlacingPrior:
