@@ -282,7 +282,7 @@ class LivePrior:
 
 
 def live_prior(
-    operator: str, method: Method, options: EstimateOptions, units: Units = Units.IN
+    operator: str, method: Method, options: EstimateOptions, units: Units
 ) -> tuple[EstimateOptions, str, LivePrior | None]:
     """The live result's options with the operator's prior from their noise file, what to
     tell the operator about it ("" when the setup names no operator), and the prior at

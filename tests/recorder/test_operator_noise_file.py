@@ -36,7 +36,7 @@ def test_a_file_set_aside_for_its_numbers_is_not_appended_to(
     monkeypatch.setenv("TWOPOSE_NOISE_DIR", str(tmp_path))
     noise = NoiseFile("Eve")
     bad = _impossible(noise)
-    _, said, _ = live_prior("Eve", Method.POINT, EstimateOptions())
+    _, said, _ = live_prior("Eve", Method.POINT, EstimateOptions(), Units.IN)
     assert said.startswith("the operator's noise file was set aside:")
     with pytest.raises(InputValueError, match="numbers no recorder writes"):
         noise.remember("b.mcap", Method.POINT, Units.IN, "typed", STATS)
@@ -71,7 +71,7 @@ def test_a_session_of_another_method_that_cannot_be_read_is_said_at_the_start(
     noise = NoiseFile("Zed")
     bad = f'format = 1\noperator = "Zed"\n\n[[session]]\n{session}'
     noise.path.write_text(bad)
-    _, said, _ = live_prior("Zed", Method.POINT, EstimateOptions())
+    _, said, _ = live_prior("Zed", Method.POINT, EstimateOptions(), Units.IN)
     assert said.startswith("the operator's noise file was set aside:")
     assert words in said
     assert "could not convert" not in said
