@@ -34,7 +34,6 @@ from pathlib import Path
 from typing import Self
 
 from twopose.format.identity import (
-    Part,
     SessionFile,
     Strand,
     file_digest,
@@ -92,9 +91,6 @@ class InputSet:
     repeats: tuple[tuple[str, str], ...] = ()
     strands: tuple[Strand, ...] = ()  # what ``run`` analyses, one strand each
     strand_notes: tuple[str, ...] = ()  # continuations and forks, in words
-    #: sessions whose parts two or more operators recorded, split into each operator's
-    #: (the first part's path, its operators, the new strands' first parts)
-    by_operator: tuple[tuple[str, tuple[str, ...], tuple[str, ...]], ...] = ()
     #: the path kept of copies that tie on all else -> why it
     #: (:func:`twopose.format.identity.kept_of_copies`: outside a backup folder, the oldest)
     kept_why: tuple[tuple[str, str], ...] = ()
@@ -225,17 +221,20 @@ class InputSet:
 
     @property
     def of_operators(self) -> dict[str, tuple[str, ...]]:
-        """The sessions whose parts two or more operators recorded (a ``--continue
-        --operator``), by their first part's path: their operators."""
-        return {head: names for head, names, _ in self.by_operator}
+        """The sessions ``run`` analyses whose parts two or more operators recorded (a
+        ``--continue --operator``), by their first part's path: their operators."""
+        named = {s.head: _operators(s) for s in self._analysed}
+        return {head: names for head, names in named.items() if len(names) > 1}
 
     def operator_notes(self) -> list[str]:
-        """A session of two operators, said: each operator's parts analysed as a session."""
+        """A session of two operators, said: one placing multiplier for both parts' trials
+        (the session's), pooled with neither operator's other sessions."""
         return [
             f"{head}: its parts were recorded by {len(names)} operators ({', '.join(names)}): "
-            f"each operator's parts are analysed as a session of their own ({', '.join(heads)}"
-            "), with that operator's placing multiplier, pooled with their other sessions"
-            for head, names, heads in self.by_operator
+            "its trials are analysed as one session, one placing multiplier for all of them, "
+            "pooled with neither operator's other sessions; to give each operator's trials "
+            "their own, analyse each part's file in a run without the other"
+            for head, names in self.of_operators.items()
         ]
 
     def run_notes(self) -> list[str]:
@@ -247,40 +246,11 @@ class InputSet:
         ]
 
 
-def _operator(part: Part) -> str:
-    """Who recorded a part (its session entry's operator; "": not named or not read)."""
-    return part.file.info.operator.strip() if part.file.info is not None else ""
-
-
-def _by_operator(
-    strands: Sequence[Strand],
-) -> tuple[tuple[Strand, ...], tuple[tuple[str, tuple[str, ...], tuple[str, ...]], ...]]:
-    """The strands, each one whose parts two operators recorded split into runs of one
-    operator's parts (a part naming none stays with the one before it), and what was split.
-
-    A continuation's ``--operator`` is who recorded its trials: their placing is that
-    operator's hand, its own multiplier and its own pool (analysed as one session, Bob's
-    part of Ada's took Ada's multiplier and 3 of his 4 clean trials were flagged as
-    typos: a new user's r5 F10).
-    """
-    out: list[Strand] = []
-    split: list[tuple[str, tuple[str, ...], tuple[str, ...]]] = []
-    for strand in strands:
-        names = tuple(dict.fromkeys(n for n in map(_operator, strand.parts) if n))
-        if len(names) < 2:
-            out.append(strand)
-            continue
-        runs: list[list[Part]] = []
-        for part in strand.parts:
-            who = _operator(part)
-            if runs and (not who or who == _operator(runs[-1][0]) or not _operator(runs[-1][0])):
-                runs[-1].append(part)
-            else:
-                runs.append([part])
-        pieces = [Strand(session_id=strand.session_id, parts=tuple(r)) for r in runs]
-        out += pieces
-        split.append((strand.head, names, tuple(p.head for p in pieces)))
-    return tuple(out), tuple(split)
+def _operators(strand: Strand) -> tuple[str, ...]:
+    """The operators a strand's parts name (each part's session entry: a continuation's
+    ``--operator`` is who recorded it), once each, in order; unnamed ones left out."""
+    names = (p.file.info.operator.strip() for p in strand.parts if p.file.info is not None)
+    return tuple(dict.fromkeys(n for n in names if n))
 
 
 def sessions_said(strands: Iterable[tuple[str, str]], verb: str = "") -> str:
@@ -347,16 +317,12 @@ def resolve_inputs(paths: str | Path | Sequence[str | Path] | InputSet) -> Input
         found.append(identify_file(kept, digest))
     measuring = [s for s in found if not s.is_board]
     resolution = resolve_session_files(measuring)
-    strands, by_operator = _by_operator(resolution.strands)
-    apart = [f"{h}: continues " for _, _, heads in by_operator for h in heads[1:]]  # said anew
-    notes = tuple(n for n in resolution.notes if not n.startswith(tuple(apart)))
     return InputSet(
         found=tuple(found),
         others=(*others, *resolution.others),
         skipped=tuple(skipped),
         repeats=tuple(repeats),
-        strands=strands,
-        by_operator=by_operator,
-        strand_notes=notes,
+        strands=resolution.strands,
+        strand_notes=resolution.notes,
         kept_why=(*kept_why, *resolution.kept_why),
     )

@@ -94,16 +94,17 @@ _Batch = TypeVar("_Batch")
 
 def operator_heads(inputs: InputSet, files: Sequence[str]) -> dict[str, tuple[str, str]]:
     """The sessions among ``files`` (first parts' paths) that may pool with their
-    operator's others: their operator and method (a two-camera session has no typed pose).
+    operator's others: their operator and method.
 
-    Each is one operator's: a session two operators recorded is analysed as each one's
-    parts (:attr:`analysis.batch.inputs.InputSet.by_operator`), each named by its first
-    part, whose session entry names its operator.
+    Not a two-camera session (no typed pose), nor one whose parts two operators recorded
+    (one multiplier for two hands: :attr:`analysis.batch.inputs.InputSet.of_operators`,
+    said).
     """
+    mixed = inputs.of_operators
     return {
         f.path: (f.info.operator, str(f.info.method))
         for f in inputs.found
-        if f.path in files and f.info is not None and not f.pair
+        if f.path in files and f.info is not None and not f.pair and f.path not in mixed
     }
 
 

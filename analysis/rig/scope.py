@@ -227,7 +227,8 @@ def rig_scope(
     if no_rig or not sessions:
         return RigScope(by_session=dict.fromkeys(inputs.files))
     heads = {f.path: f.info.operator.strip() for f in inputs.found if f.info is not None}
-    operators = {s: tuple(filter(None, [heads.get(s, "")])) for s in sessions}  # one each
+    mixed = inputs.of_operators
+    operators = {s: mixed.get(s, tuple(filter(None, [heads.get(s, "")]))) for s in sessions}
     if rig is not None:
         use = RigUse.read(rig, given=True)
         scope = RigScope(by_session=dict.fromkeys(sessions, use), operators=operators)
