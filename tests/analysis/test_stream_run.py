@@ -454,9 +454,7 @@ def test_a_touch_far_from_its_truth_is_flagged_by_its_truth(mixed: Path, tmp_pat
     )
 
 
-def test_a_touch_lost_to_a_cut_file_says_the_stream_ends_there(
-    mixed: Path, tmp_path: Path
-) -> None:
+def test_a_touch_lost_to_a_cut_file_says_the_stream_ends_there(mixed: Path, tmp_path: Path) -> None:
     """A two-camera file cut short and recovered: a touch the cut took says the trial's
     stream ends there, with the trial's reason (recovered), not the machine's load or its
     stamps' jitter (a new user's r5 F6); the touches before the cut keep their estimates."""
