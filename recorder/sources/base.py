@@ -13,7 +13,7 @@ import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from types import TracebackType
-from typing import TYPE_CHECKING, Any, Protocol, Self
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol, Self
 
 from twopose.errors import SourceError
 
@@ -85,6 +85,9 @@ class FrameSource(ABC):
 
     def close(self) -> None:
         return None
+
+    #: What it reads, in words (a pair given one of them twice is refused naming it).
+    reads: ClassVar[str] = "source"
 
     def origin(self) -> tuple[object, ...] | None:
         """What this source reads (a device, a file, a folder and its pattern), so that a

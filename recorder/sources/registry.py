@@ -88,6 +88,8 @@ class CameraSource(FrameSource):
     ``device`` is a camera index, or anything else ``cv2.VideoCapture`` opens (a stream URL).
     """
 
+    reads = "camera device"
+
     def __init__(
         self, device: int | str, width: int = 640, height: int = 480, fps: float = 30.0
     ) -> None:
@@ -99,7 +101,7 @@ class CameraSource(FrameSource):
 
     def origin(self) -> tuple[object, ...]:
         device = self.device
-        return ("camera", device if isinstance(device, int) else _resolved(Path(device)))
+        return (type(self), device if isinstance(device, int) else _resolved(Path(device)))
 
     def open(self) -> SourceInfo:
 
@@ -152,13 +154,15 @@ class VideoSource(FrameSource):
     """Frames of a video file, in order; with ``realtime``, paced like a camera at the
     file's frame rate (frames a late reader misses are skipped and counted as dropped)."""
 
+    reads = "video file"
+
     def __init__(self, path: str | Path, *, realtime: bool = False) -> None:
         self.path = Path(path)
         self.realtime = realtime
         self._cap: Any = None
 
     def origin(self) -> tuple[object, ...]:
-        return ("video", _resolved(self.path))
+        return (type(self), _resolved(self.path))
 
     def file_paths(self) -> list[Path]:
         return [self.path] if self.path.is_file() else []
@@ -192,6 +196,8 @@ class ImagesSource(FrameSource):
     ``DIR/PATTERN`` (a shell pattern such as ``photos/left*.jpg``: a folder often holds
     more than one camera's views)."""
 
+    reads = "folder of images"
+
     stills = True
 
     def __init__(self, folder: str | Path) -> None:
@@ -203,7 +209,7 @@ class ImagesSource(FrameSource):
         self._next = 0
 
     def origin(self) -> tuple[object, ...]:
-        return ("images", _resolved(self.folder), self.pattern)
+        return (type(self), _resolved(self.folder), self.pattern)
 
     def file_paths(self) -> list[Path]:
         if not self.folder.is_dir():
@@ -521,7 +527,7 @@ def refuse_same(first: str, second: str, one: FrameSource, two: FrameSource) -> 
     what = one.origin()
     if what is not None and what == two.origin():
         raise SourceError(
-            f"pair:{first},{second}: both cameras read the same {what[0]} "
+            f"pair:{first},{second}: both cameras read the same {one.reads} "
             f"({what[1]}): a pair needs two cameras, each its own device, file or folder"
         )
     files = one.file_paths(), two.file_paths()
