@@ -90,6 +90,9 @@ def about(
     if cameras is not None:
         said["cameras"] = [c.text() for c in cameras]
         said["fps"] = min(c.info.fps for c in cameras)
+        # What makes every point meaningless (two copies of one recording): said on the
+        # page in place of "conditioning: ok", never only in the terminal.
+        said["warnings"] = [c.warning for c in cameras if c.warning]  # each names its camera
     return said
 
 

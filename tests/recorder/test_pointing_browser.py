@@ -167,6 +167,37 @@ def test_the_panel_draws_the_point_its_region_track_and_conditioning(served) -> 
         browser.save_screenshot(str(folder / "6-stopped.png"))
 
 
+def test_a_warned_pair_is_never_ok_on_the_page(served) -> None:
+    """Two copies of one recording (the source's warning on camera 2): the page says the
+    warning where "conditioning: ok" would be, in amber, for every pair it draws (it was said
+    only in the terminal, the page reading "conditioning: ok": a new user's r5 F3)."""
+    from recorder.console.pointing_server import about
+    from recorder.sources.base import SourceInfo
+    from recorder.sources.pair import CameraStream
+    from twopose.methods.specs import Method
+    from twopose.pair.motion import thesis_pair
+
+    feed, url = served
+    info = SourceInfo(description="video", width=640, height=480, fps=30.0)
+    warning = "camera 2's files (b.avi) are camera 1's (a.avi), byte for byte"
+    cameras = (
+        CameraStream(spec="video:a.avi", info=info, fourcc="MJPG", clock="file",
+                     clock_note="the file's own timestamps"),
+        CameraStream(spec="video:b.avi", info=info, fourcc="MJPG", clock="file",
+                     clock_note="the file's own timestamps", warning=warning),
+    )  # fmt: skip
+    with headless_chromium(1366, 768) as browser:
+        browser.get(url + "/")
+        wait_text(browser, "pointing-conditioning", "no pair running")
+        feed.start(about(Method.GROUND, thesis_pair(), cameras))
+        feed.publish(circling(10))
+        said = wait_text(browser, "pointing-conditioning", "not to be trusted")
+        assert said == f"not to be trusted: {warning}"
+        words = browser.find_element("css selector", "[data-testid=pointing-conditioning]")
+        assert "singular" in words.get_attribute("class").split()  # amber, never "ok"
+        browser.save_screenshot(str(screenshots() / "7-warned-pair.png"))
+
+
 def test_a_page_of_another_site_cannot_read_the_push_stream(served) -> None:
     feed, url = served
     port = int(url.rsplit(":", 1)[1])

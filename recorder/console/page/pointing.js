@@ -125,6 +125,10 @@ function renderPointing() {
   if (!pair) {
     setText(words, "waiting for the first pair...");
     words.classList.add("idle");
+  } else if ((s.warnings || []).length) {
+    // A warning that voids every point (one recording given twice): never "ok" over it.
+    setText(words, "not to be trusted: " + s.warnings.join("; "));
+    words.classList.add("singular");
   } else if (pair.point) {
     setText(words, "conditioning: ok");
     words.classList.add("ok");
