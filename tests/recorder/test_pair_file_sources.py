@@ -72,7 +72,11 @@ def test_a_folder_that_runs_out_ends_the_trial_at_once_incomplete(tmp_path: Path
         ("video:{d}/c1.avi", "video:{d}/link.avi", "both cameras read the same video"),
         ("camera:0", "camera:0", "both cameras read the same camera device (0)"),
         ("images:{d}/a", "images:{d}/a/", "both cameras read the same folder of images"),
-        ("images:{d}/a/*.png", "images:{d}/sub/../a/*.png", "both cameras read the same folder of images"),
+        (
+            "images:{d}/a/*.png",
+            "images:{d}/sub/../a/*.png",
+            "both cameras read the same folder of images",
+        ),
     ],
 )
 def test_a_pair_of_one_source_given_twice_is_refused(
