@@ -109,3 +109,31 @@ def test_a_region_with_an_estimated_multiplier_covers_95_percent(
     plain = error2 <= q * assumed
     assert abs(inside.mean() - 0.95) < 0.012
     assert plain.mean() < 0.94 if share == 1.0 else plain.mean() < 0.945
+
+
+def _clean(per_operator: list[float], trials: int = 40, size: int = 3) -> pd.DataFrame:
+    """A blunder table's clean trials, each operator's regions over their blunder-absent
+    ones at one ratio (an operator's trials share its multiplier), a little spread."""
+    rows = []
+    for j, ratio in enumerate(per_operator):
+        spread = np.random.default_rng(j).normal(0.0, 0.002, trials)
+        rows.append(pd.DataFrame({
+            "method": "line", "size": size, "poses": 3, "operator": j, "blunder": False,
+            "flagged": False, "truth": False, "named": 0, "right": False, "within": True,
+            "ratio": ratio + spread, "absent": ratio + spread, "seen": False,
+        }))  # fmt: skip
+    return pd.concat(rows, ignore_index=True)
+
+
+def test_a_blunders_cost_to_clean_regions_is_judged_over_operators() -> None:
+    """The clean trials' regions against the blunder-absent session's: the median's interval
+    resamples operators (the trials of one move together with its multiplier), so one
+    operator's draw cannot pass or fail a method alone; a widening every operator shows
+    (1.05) is a miss, one whose interval reaches below 1.02 is not."""
+    spread = _clean([0.97, 1.01, 1.03, 1.07])
+    low, high = bench.median_interval(spread, "absent")
+    assert low < 1.0 < 1.05 < high  # the operators' spread, not the trials'
+    blundered = _clean([1.0]).assign(blunder=True, flagged=True).head(10)
+    for table, widened in ((spread, False), (_clean([1.05, 1.06, 1.05, 1.06]), True)):
+        missed = bench.report_blunders(pd.concat([table, blundered], ignore_index=True))
+        assert any("widened" in m for m in missed) is widened, missed

@@ -217,7 +217,25 @@ class InputSet:
             f"{s.path}: an empty session (no pose was recorded): nothing to analyse"
             for s in self.empty
         ]
-        return repeats + copies + empty + list(self.strand_notes)
+        return repeats + copies + empty + list(self.strand_notes) + self.operator_notes()
+
+    @property
+    def of_operators(self) -> dict[str, tuple[str, ...]]:
+        """The sessions ``run`` analyses whose parts two or more operators recorded (a
+        ``--continue --operator``), by their first part's path: their operators."""
+        named = {s.head: _operators(s) for s in self._analysed}
+        return {head: names for head, names in named.items() if len(names) > 1}
+
+    def operator_notes(self) -> list[str]:
+        """A session of two operators, said: one placing multiplier for both parts' trials
+        (the session's), pooled with neither operator's other sessions."""
+        return [
+            f"{head}: its parts were recorded by {len(names)} operators ({', '.join(names)}): "
+            "its trials are analysed as one session, one placing multiplier for all of them, "
+            "pooled with neither operator's other sessions; to give each operator's trials "
+            "their own, analyse each part's file in a run without the other"
+            for head, names in self.of_operators.items()
+        ]
 
     def run_notes(self) -> list[str]:
         """What ``run`` says: :meth:`notes`, and the board sessions it leaves to ``rig``."""
@@ -226,6 +244,13 @@ class InputSet:
             "not analysed here"
             for s in self.boards
         ]
+
+
+def _operators(strand: Strand) -> tuple[str, ...]:
+    """The operators a strand's parts name (each part's session entry: a continuation's
+    ``--operator`` is who recorded it), once each, in order; unnamed ones left out."""
+    names = (p.file.info.operator.strip() for p in strand.parts if p.file.info is not None)
+    return tuple(dict.fromkeys(n for n in names if n))
 
 
 def sessions_said(strands: Iterable[tuple[str, str]], verb: str = "") -> str:

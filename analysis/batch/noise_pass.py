@@ -39,7 +39,11 @@ from analysis.session.pipeline import corrected_trials, replay_views
 from twopose.solve.session import estimate_session
 from twopose.uncertainty.noise import PlacingPrior
 from twopose.uncertainty.placing_variance import SessionNoise, operator_priors
-from twopose.uncertainty.session_noise import operator_group, session_statistics
+from twopose.uncertainty.session_noise import (
+    operator_group,
+    session_base_in,
+    session_statistics,
+)
 
 if TYPE_CHECKING:
     from analysis.batch.inputs import InputSet
@@ -49,6 +53,7 @@ __all__ = [
     "by_rig_file",
     "first_pass",
     "noise_pass",
+    "operator_heads",
     "operator_priors_of",
     "pooled_groups",
     "prior_salt",
@@ -87,6 +92,22 @@ def pooled_groups(heads: Mapping[str, tuple[str, str]], options: AnalysisOptions
 _Batch = TypeVar("_Batch")
 
 
+def operator_heads(inputs: InputSet, files: Sequence[str]) -> dict[str, tuple[str, str]]:
+    """The sessions among ``files`` (first parts' paths) that may pool with their
+    operator's others: their operator and method.
+
+    Not a two-camera session (no typed pose), nor one whose parts two operators recorded
+    (one multiplier for two hands: :attr:`analysis.batch.inputs.InputSet.of_operators`,
+    said).
+    """
+    mixed = inputs.of_operators
+    return {
+        f.path: (f.info.operator, str(f.info.method))
+        for f in inputs.found
+        if f.path in files and f.info is not None and not f.pair and f.path not in mixed
+    }
+
+
 def first_pass(
     batch: _Batch, inputs: InputSet, execute: Callable[[_Batch], Sequence[object]]
 ) -> _Batch:
@@ -97,11 +118,7 @@ def first_pass(
     from analysis.results import SessionFailure
 
     b: Any = batch
-    heads = {
-        f.path: (f.info.operator, str(f.info.method))
-        for f in inputs.found
-        if f.path in b.files and f.info is not None and not f.pair  # no typed pose
-    }
+    heads = operator_heads(inputs, b.files)
     options_for: Callable[[str], AnalysisOptions] = b.options_for
     groups = by_rig_file(pooled_groups(heads, b.options), options_for)
     if not groups:
@@ -134,7 +151,9 @@ def noise_pass(path: str, options: AnalysisOptions, continuations: Sequence[str]
     estimate = estimate_session(trials, options.estimate, line_fits=False)
     return NoisePass(
         session=path,
-        statistics=session_statistics("", estimate.misclosure, estimate.tests),
+        statistics=session_statistics(
+            "", estimate.misclosure, estimate.tests, session_base_in(trials, options.estimate)
+        ),
         detections=keep,
     )
 
@@ -210,6 +229,7 @@ def statistics_json(stats: SessionNoise) -> dict[str, object]:
         "dof": np.asarray(stats.dof, dtype=np.int64),
         "share": np.asarray(stats.share, dtype=np.float64),
         "z2": np.asarray(stats.z2, dtype=np.float64),
+        "placing_in": float(stats.placing_in),
     }
 
 
@@ -217,6 +237,7 @@ def statistics_from_json(values: Mapping[str, object]) -> SessionNoise:
     """The statistics :func:`statistics_json` kept (refused, as KeyError or TypeError,
     when they are not its arrays)."""
     arrays = {k: values[k] for k in ("chi2", "dof", "share", "z2")}
-    if not all(isinstance(v, np.ndarray) for v in arrays.values()):
+    base = values["placing_in"]  # an entry kept before the base was: computed again
+    if not all(isinstance(v, np.ndarray) for v in arrays.values()) or not isinstance(base, float):
         raise TypeError("not a session's noise statistics")
-    return SessionNoise(group="", **arrays)  # type: ignore[arg-type]
+    return SessionNoise(group="", placing_in=base, **arrays)  # type: ignore[arg-type]

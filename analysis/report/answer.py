@@ -176,6 +176,8 @@ def noise_phrases(row: pd.Series) -> list[str]:
         flagged=int(_known(row.get("n_flagged"), 0.0)),
         sources=estimated.group(1) if estimated else "",
         with_flagged=(_known(row.get("sigma0_all")), int(_known(row.get("sigma0_all_dof"), 0.0))),
+        against="the board's sigma" if source.startswith("measured by") else "typed",
+        board_contradicted="(contradicted by the data)" in said,
     )
     scale = _known(row.get("placing_scale"))
     start = sigma / scale if isinstance(sigma, int | float) and scale > 0 else sigma  # assumed

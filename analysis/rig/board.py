@@ -60,6 +60,8 @@ class BoardCaptures:
     r_sigma_deg: F64
     cameras: tuple[Intrinsics, ...]
     left_out: tuple[str, ...] = ()
+    #: who placed the board (the session entry's operator; "": not named)
+    operator: str = ""
 
     def fingerprint(self) -> str:
         """What the fit reads from the session (a copy of a file has the same)."""
@@ -122,6 +124,7 @@ def read_board_session(path: str | Path) -> BoardCaptures:
         r_sigma_deg=np.array([p.entry.rotation_resolution_deg for _, p in rows]),
         cameras=tuple(dict.fromkeys(p.camera.intrinsics for _, p in rows)),
         left_out=tuple(left_out),
+        operator=info.operator.strip(),
     )
 
 
@@ -185,8 +188,9 @@ def calibrate_board(
     sessions = tuple(dict.fromkeys(str(p) for p in paths if str(p) in used))
     if board.placing is not None:  # measured by these sessions, named as the rig file's
         named = ", ".join(Path(s).name for s in sessions)
+        hands = tuple(dict.fromkeys(p.operator for p in ordered if p.operator))  # whose
         board = dataclasses.replace(
-            board, placing=dataclasses.replace(board.placing, measured_by=named)
+            board, placing=dataclasses.replace(board.placing, measured_by=named, operators=hands)
         )
     return BoardCalibration(fit=as_rig_fit(board), board=board, sessions=sessions)
 

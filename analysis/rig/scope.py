@@ -35,6 +35,7 @@ from twopose.rig.file import RigFile, load_rig_file
 if TYPE_CHECKING:
     from analysis.batch.inputs import InputSet
     from analysis.results import AnalysisOptions, RigSource, RunResult
+    from twopose.uncertainty.noise import PlacingSigma
 
 __all__ = [
     "RIG_BESIDE",
@@ -42,6 +43,7 @@ __all__ = [
     "RigUse",
     "check_rig_for_sessions",
     "nearest_rig",
+    "placing_notes",
     "rig_file_columns",
     "rig_files_json",
     "rig_lines",
@@ -72,15 +74,29 @@ class RigUse:
         digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
         return cls(path=str(path), sha256=digest, file=found, given=given)
 
-    def options(self, options: AnalysisOptions) -> AnalysisOptions:
+    def placing_for(self, operators: tuple[str, ...]) -> PlacingSigma | None:
+        """The file's ``[placing]`` for a session of ``operators`` (None: none applies).
+
+        A board's placing is its operators' hand (``operators`` in the table): another
+        operator's session starts from its typed resolution. A table that names none (a rig
+        file from before they were recorded) applies to every operator, and is said so
+        (:func:`placing_notes`).
+        """
+        placing = self.file.placing
+        if placing is None or not placing.operators:
+            return placing
+        return placing if set(operators) <= set(placing.operators) else None
+
+    def options(self, options: AnalysisOptions, operators: tuple[str, ...] = ()) -> AnalysisOptions:
         """``options`` with this rig: every view corrected by its constants, every region
-        given its placing sigma (when the file records one) and carrying its constants'
+        given its placing sigma (when the file records one, and it is the placing of the
+        session's ``operators``: :meth:`placing_for`) and carrying its constants'
         covariance (``estimate.noise``)."""
         from analysis.results import RigSource
 
         noise = dataclasses.replace(
             options.estimate.noise,
-            placing=self.file.placing or options.estimate.noise.placing,
+            placing=self.placing_for(operators) or options.estimate.noise.placing,
             rig=self.file.constants.covariance,
         )
         estimate = dataclasses.replace(options.estimate, noise=noise)
@@ -97,6 +113,8 @@ class RigScope:
     """Which rig file each session (by its first part's path) uses; None: none."""
 
     by_session: Mapping[str, RigUse | None] = field(default_factory=dict)
+    #: each session's operators (its parts' session entries; empty: none named)
+    operators: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
 
     def of(self, session: str) -> RigUse | None:
         """The rig file ``session`` uses (None: none)."""
@@ -116,7 +134,7 @@ class RigScope:
     def options_for(self, session: str, options: AnalysisOptions) -> AnalysisOptions:
         """The options ``session`` is analysed with: ``options`` with its rig, if any."""
         use = self.of(session)
-        return options if use is None else use.options(options)
+        return options if use is None else use.options(options, self.operators.get(session, ()))
 
 
 def run_rig_sources(
@@ -208,17 +226,52 @@ def rig_scope(
     sessions = [f for f in inputs.files if f not in pairs]
     if no_rig or not sessions:
         return RigScope(by_session=dict.fromkeys(inputs.files))
+    heads = {f.path: f.info.operator.strip() for f in inputs.found if f.info is not None}
+    mixed = inputs.of_operators
+    operators = {s: mixed.get(s, tuple(filter(None, [heads.get(s, "")]))) for s in sessions}
     if rig is not None:
         use = RigUse.read(rig, given=True)
-        scope = RigScope(by_session=dict.fromkeys(sessions, use))
+        scope = RigScope(by_session=dict.fromkeys(sessions, use), operators=operators)
     else:
-        scope = RigScope(by_session=_found(sessions, inputs.continuations))
+        found = _found(sessions, inputs.continuations)
+        scope = RigScope(by_session=found, operators=operators)
     for use in scope.uses:
         applies = [s for s, u in scope.by_session.items() if u is not None and u.path == use.path]
         parts = [p for s in applies for p in (s, *inputs.continuations.get(s, ()))]
         for text in check_rig_for_sessions(use.file, parts, f"rig file {use.path}"):
             note(text)
+        for text in placing_notes(use, {s: operators[s] for s in applies}):
+            note(text)
     return scope
+
+
+def placing_notes(use: RigUse, operators: Mapping[str, tuple[str, ...]]) -> list[str]:
+    """Whose placing a rig file's ``[placing]`` is, beside the sessions it covers
+    (``operators``: each one's), in words: the sessions of other operators it is not
+    applied to, or, when it names no operator, that it is applied to every one."""
+    placing = use.file.placing
+    if placing is None or placing.upper_bound:
+        return []
+    named = sorted({n for names in operators.values() for n in names})
+    what = f"rig file {use.path}'s [placing] ({placing.measured_by})"
+    if not placing.operators:
+        if not named:
+            return []
+        return [
+            f"{what} records no operator: it is applied to every operator's sessions it "
+            f"covers ({', '.join(named)}) as their placing sigma; fit it again with "
+            "twopose-analyze rig to record whose placing it is"
+        ]
+    others = [s for s, names in operators.items() if use.placing_for(names) is None]
+    if not others:
+        return []
+    who = sorted({n for s in others for n in operators[s]} - set(placing.operators)) or ["none"]
+    shown = ", ".join(Path(s).name for s in others[:4]) + (", ..." if len(others) > 4 else "")
+    return [
+        f"{what} is operator {', '.join(placing.operators)}'s: not applied to "
+        f"{len(others)} session{'s' if len(others) != 1 else ''} of other operators "
+        f"({', '.join(who)}: {shown}): their regions start from their typed resolution"
+    ]
 
 
 def _found(

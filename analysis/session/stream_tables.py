@@ -44,6 +44,7 @@ from analysis.batch.inputs import SessionIdentity
 from analysis.results import AnalysisOptions, SessionResult
 from analysis.session.results_mcap import results_writer
 from analysis.session.stream import (
+    MAX_TOUCH_GAP_INTERVALS,
     TrialReplay,
     at_touches,
     detect_trial,
@@ -51,7 +52,7 @@ from analysis.session.stream import (
     session_noise,
 )
 from analysis.session.stream_rows import PairOutputs, nearest_ok
-from analysis.session.touch_status import seen_about, touch_status
+from analysis.session.touch_status import seen_about, stream_end_ns, touch_status
 from analysis.tables.columns import typed
 from analysis.tables.rows import with_branch, with_identity
 from analysis.tables.trials import columns_of
@@ -414,6 +415,8 @@ def _replayed_rows(
                 have=bool(have[k]),
                 missed=replay.missed,
                 seen=seen_about(replay, touch.time_ns),
+                ended=(replay.reason, stream_end_ns(replay)),
+                reach_ns=MAX_TOUCH_GAP_INTERVALS * replay.interval_ns,
             ),
             "n_views": 2 if have[k] else 0,
             **{a: float(replay.at_touch[k, i]) for i, a in enumerate("xyz")},

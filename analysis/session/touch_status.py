@@ -17,7 +17,7 @@ import numpy as np
 from analysis.session.stream import MAX_TOUCH_GAP_INTERVALS, TrialReplay
 from twopose.pair.stream import NEAR_SINGULAR, NOT_INTERPOLATED, StreamEstimate
 
-__all__ = ["seen_about", "touch_status"]
+__all__ = ["seen_about", "stream_end_ns", "touch_status"]
 
 #: The status of a touch whose nearest pair was near-singular or degenerate.
 _DEGENERATE = {NEAR_SINGULAR: "degenerate", "degenerate": "degenerate"}
@@ -91,6 +91,29 @@ def _unpaired(
     )
 
 
+def stream_end_ns(replay: TrialReplay) -> float:
+    """Where the trial's stream ends on camera 1's clock: the earlier of its cameras' last
+    frames (camera 2's through the offset; -inf when a camera has none)."""
+    ends = [
+        float(track.t_ns[-1]) - shift if track.t_ns.size else -np.inf
+        for track, shift in zip(replay.tracks, (0.0, replay.offset.offset_ns), strict=True)
+    ]
+    return min(ends)
+
+
+def _cut_short(time_ns: int, ended: tuple[str, float], reach_ns: float) -> str:
+    """Why a touch has no estimate when the trial's stream ended about it, its trial
+    incomplete (a recovered file's open window, a camera that stopped): "" otherwise."""
+    reason, end_ns = ended
+    if not reason or time_ns + reach_ns <= end_ns:
+        return ""
+    when = (
+        f"{(end_ns - time_ns) / 1e6:.0f} ms after it" if end_ns >= time_ns
+        else f"{(time_ns - end_ns) / 1e6:.0f} ms before it"
+    )  # fmt: skip
+    return f"no estimate about the touch: the trial's stream ends there, {when} ({reason})"
+
+
 def touch_status(
     est: StreamEstimate,
     time_ns: int,
@@ -98,15 +121,22 @@ def touch_status(
     have: bool,
     missed: tuple[tuple[str, ...], tuple[str, ...]] = ((), ()),
     seen: tuple[tuple[int, int, float], ...] | None = None,
+    ended: tuple[str, float] = ("", np.inf),
+    reach_ns: float = 0.0,
 ) -> dict[str, str]:
     """A touch's status and reason: ``ok``; else why there is no estimate about it (a
     camera that did not detect the target in the nearest pair named, with its detector's
     reason from ``missed``, each camera's frames' reasons). ``seen``: each camera's frames
     about the touch and those that detected the target (:func:`seen_about`); where both
     cameras saw it there but no pairs estimate it, the touch is ``incomplete`` (pairs
-    lost), never ``no_detection``."""
+    lost), never ``no_detection``. ``ended``: why the trial is incomplete ("" when it is
+    not) and where its stream ends (:func:`stream_end_ns`): a touch within ``reach_ns`` of
+    that end is ``incomplete`` for it, not for load or jitter."""
     if have:
         return {"status": "ok", "reason": ""}
+    cut = _cut_short(time_ns, ended, reach_ns)
+    if cut:
+        return {"status": "incomplete", "reason": cut}
     unpaired = _unpaired(est, time_ns, seen)
     if unpaired:
         return {"status": "incomplete", "reason": unpaired}

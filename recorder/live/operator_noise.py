@@ -20,10 +20,12 @@ that cannot be read is said and set aside, never the recording's end.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import math
 import re
 from collections.abc import Sequence
+from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -35,9 +37,9 @@ from twopose.methods.specs import Method
 from twopose.solve.margins import EstimateOptions
 from twopose.uncertainty.noise import PlacingPrior
 from twopose.uncertainty.placing_variance import SessionNoise, operator_priors
-from twopose.values.units import Units
+from twopose.values.units import Units, unit_spec
 
-__all__ = ["FORMAT", "NoiseFile", "live_prior", "noise_dir", "remember_session"]
+__all__ = ["FORMAT", "LivePrior", "NoiseFile", "live_prior", "noise_dir", "remember_session"]
 
 #: The file's layout; another is set aside (said), never misread.
 FORMAT = 1
@@ -86,25 +88,40 @@ class NoiseFile:
             raise InputValueError(f"{self.path}: [[session]] must be an array of tables")
         return [s for s in sessions if isinstance(s, dict)]
 
-    def history(self, method: Method, reference: str) -> list[SessionNoise]:
-        """The recorded sessions of ``method`` relative to ``reference``, as statistics."""
+    def history(
+        self, method: Method, reference: str, base_in: float = math.nan
+    ) -> list[SessionNoise]:
+        """The recorded sessions of ``method`` relative to ``reference``, as statistics.
+
+        ``base_in``: the placing sigma (inches) a ``reference`` other than ``"typed"`` is
+        (a rig file's ``[placing]``): an entry written before the file kept each session's
+        ``placing_in`` has it. A typed entry without one keeps NaN: it cannot be converted.
+        """
         out = []
         for s in self.sessions():  # every session checked: the end adds to the whole file
             stats = _statistics(s, f"{self.path}: a session")
             if s.get("method") == str(method) and s.get("reference") == reference:
+                if not math.isfinite(stats.placing_in) and reference != "typed":
+                    stats = dataclasses.replace(stats, placing_in=base_in)
                 out.append(stats)
         return out
 
-    def prior(self, method: Method, reference: str, anchor: PlacingPrior) -> PlacingPrior | None:
-        """The prior its sessions give a new session (the analysis' rule, with the new
-        session as the one left out): None without enough of them."""
-        history = self.history(method, reference)
+    def prior(
+        self, method: Method, reference: str, anchor: PlacingPrior, base_in: float = math.nan
+    ) -> PlacingPrior | None:
+        """The prior its sessions give a new session of base ``base_in`` (inches; the
+        analysis' rule, with the new session as the one left out): None without enough of
+        them. Sessions of other typed resolutions pool as placing variances
+        (:mod:`twopose.uncertainty.hand`); an older entry without its base is left out
+        beside them (:meth:`unconvertible` counts them)."""
+        history = self.history(method, reference, base_in)
         if not history:
             return None
         group = f"{self.operator} ({method})"
         empty = SessionNoise(group=group, chi2=np.zeros(0), dof=np.zeros(0, dtype=np.int_),
-                             share=np.zeros((0, 1)), z2=np.zeros((0, 1)))  # fmt: skip
-        stats = [_regrouped(s, group) for s in history] + [empty]
+                             share=np.zeros((0, 1)), z2=np.zeros((0, 1)),
+                             placing_in=base_in)  # fmt: skip
+        stats = [dataclasses.replace(s, group=group) for s in history] + [empty]
         prior = operator_priors(stats, anchor, who="operator")[-1]
         if prior is None:
             return None
@@ -113,6 +130,13 @@ class NoiseFile:
             f"{n} earlier session{'s' if n != 1 else ''} of operator {self.operator} ({method})"
         )
         return PlacingPrior(scale=prior.scale, dof=prior.dof, source=source, sessions=n)
+
+    def unconvertible(self, method: Method, reference: str, base_in: float) -> int:
+        """How many of the sessions :meth:`prior` leaves out: written before the file kept
+        each session's placing sigma, beside sessions (or a new one) whose is known."""
+        history = self.history(method, reference, base_in)
+        unknown = sum(not math.isfinite(s.placing_in) for s in history)
+        return unknown if unknown < len(history) or math.isfinite(base_in) else 0
 
     def remember(
         self, session: str | Path, method: Method, units: Units, reference: str, stats: SessionNoise
@@ -131,6 +155,7 @@ class NoiseFile:
             "units": str(units),
             "recorded_utc": datetime.now(UTC).isoformat(timespec="seconds"),
             "reference": reference,
+            **({"placing_in": float(stats.placing_in)} if math.isfinite(stats.placing_in) else {}),
             "chi2": [float(v) for v in stats.chi2],
             "dof": [int(v) for v in stats.dof],
             "share": [[float(v) for v in row] for row in stats.share],
@@ -142,10 +167,6 @@ class NoiseFile:
         except OSError as err:
             raise write_failed(self.path.parent, err) from err
         write_atomically(self.path, text.encode("utf-8"))
-
-
-def _regrouped(s: SessionNoise, group: str) -> SessionNoise:
-    return SessionNoise(group=group, chi2=s.chi2, dof=s.dof, share=s.share, z2=s.z2)
 
 
 def _statistics(s: dict[str, object], what: str) -> SessionNoise:
@@ -171,9 +192,12 @@ def _statistics(s: dict[str, object], what: str) -> SessionNoise:
         and bool(np.all((share >= 0) & (share <= 1)))
         and bool(np.all(np.isfinite(z2)) and np.all(z2 >= 0))
     )  # fmt: skip
-    if not good:
+    given = s.get("placing_in", math.nan)  # an older file's entry: not known
+    number = isinstance(given, int | float) and not isinstance(given, bool)
+    base = float(given) if isinstance(given, int | float) and number else -1.0
+    if not good or not (math.isnan(base) or (math.isfinite(base) and base > 0)):
         raise InputValueError(f"{what} holds numbers no recorder writes; move the file away")
-    return SessionNoise(group="", chi2=chi2, dof=dof, share=share, z2=z2)
+    return SessionNoise(group="", chi2=chi2, dof=dof, share=share, z2=z2, placing_in=base)
 
 
 def _document(operator: str, sessions: Sequence[dict[str, object]]) -> str:
@@ -228,38 +252,89 @@ def _reference(options: EstimateOptions) -> str:
     return f"placing {placing.sigma_in:.6g} in ({placing.measured_by or 'given'})"
 
 
-def live_prior(
-    operator: str, method: Method, options: EstimateOptions
-) -> tuple[EstimateOptions, str]:
-    """The live result's options with the operator's prior from their noise file, and
-    what to tell the operator about it ("" when the setup names no operator)."""
-    import dataclasses
+def _measured_base(options: EstimateOptions) -> float:
+    """The base a rig file's measured ``[placing]`` is, in inches (NaN: typed, per pose)."""
+    placing = options.noise.placing
+    return math.nan if placing is None or placing.upper_bound else placing.sigma_in
 
+
+@dataclass(kw_only=True)
+class LivePrior:
+    """The operator's earlier sessions as a recording reads them: the prior at the base
+    its poses type (:meth:`at`, known at its first solve, not at its start)."""
+
+    noise_file: NoiseFile
+    method: Method
+    reference: str
+    anchor: PlacingPrior
+    _known: dict[float, PlacingPrior | None] = field(default_factory=dict)
+
+    def at(self, base_in: float) -> PlacingPrior | None:
+        """The prior of a session of base ``base_in`` (inches); None: too little."""
+        if base_in not in self._known:
+            try:
+                self._known[base_in] = self.noise_file.prior(
+                    self.method, self.reference, self.anchor, base_in
+                )
+            except InputValueError:  # said at the start
+                self._known[base_in] = None
+        return self._known[base_in]
+
+
+def live_prior(
+    operator: str, method: Method, options: EstimateOptions, units: Units
+) -> tuple[EstimateOptions, str, LivePrior | None]:
+    """The live result's options with the operator's prior from their noise file, what to
+    tell the operator about it ("" when the setup names no operator), and the prior at
+    the base the session's poses will type (None: nothing to start from).
+
+    A rig file's measured ``[placing]`` is the base from the start; typed, the prior is
+    said as the placing sigma the earlier sessions pooled (a multiplier of each pose's
+    typed resolution once one is typed)."""
     if not operator.strip() or not options.noise.test_redundancy:
-        return options, ""
+        return options, "", None
     noise_file = NoiseFile(operator)
-    reference = _reference(options)
+    reference, base = _reference(options), _measured_base(options)
+    said_base = base if math.isfinite(base) else 1.0  # typed: said in absolute terms
     try:
-        earlier = len(noise_file.history(method, reference))
-        prior = noise_file.prior(method, reference, options.noise.anchor())
+        earlier = len(noise_file.history(method, reference, base))
+        prior = noise_file.prior(method, reference, options.noise.anchor(), said_base)
+        old = noise_file.unconvertible(method, reference, said_base)
     except InputValueError as err:
-        return options, f"the operator's noise file was set aside: {err}"
+        return options, f"the operator's noise file was set aside: {err}", None
+    aside = (
+        f"; {old} of them set aside: written before the file kept each session's placing "
+        "sigma, they cannot be converted to this one's typed resolution"
+        if old
+        else ""
+    )
+    who = f"operator {noise_file.operator} ({method})"
     if prior is None:
         what = (
-            f"no earlier session of operator {noise_file.operator} ({method})"
+            f"no earlier session of {who}"
             if not earlier
-            else f"the {earlier} earlier session{'s' if earlier != 1 else ''} of operator "
-            f"{noise_file.operator} ({method}) {'say' if earlier != 1 else 'says'} too little"
+            else f"the {earlier} earlier session{'s' if earlier != 1 else ''} of {who} "
+            f"{'say' if earlier != 1 else 'says'} too little"
         )
-        return options, (
-            f"placing error: {what} to start from; this one is kept in {noise_file.path}"
+        return (
+            options,
+            (f"placing error: {what}{aside} to start from; this one is kept in {noise_file.path}"),
+            None,
         )
-    noise = dataclasses.replace(options.noise, prior=prior)
-    said = (
-        f"placing error: starting from {prior.source} (placing sigma {prior.scale**0.5:.2g}x "
-        f"the one assumed, {prior.dof:.0f} dof; {noise_file.path})"
-    )
-    return dataclasses.replace(options, noise=noise), said
+    live = LivePrior(
+        noise_file=noise_file, method=method, reference=reference,
+        anchor=options.noise.anchor(),
+    )  # fmt: skip
+    if math.isfinite(base):
+        noise = dataclasses.replace(options.noise, prior=prior)
+        options = dataclasses.replace(options, noise=noise)
+        scale = f"placing sigma {prior.scale**0.5:.2g}x the one assumed"
+    else:
+        sigma = prior.scale**0.5 * said_base / unit_spec(units).inches
+        scale = f"their placing sigma {sigma:.2g} {units}, "
+        scale += "taken relative to each pose's typed resolution"
+    said = f"placing error: starting from {prior.source} ({scale}, {prior.dof:.0f} dof{aside}; "
+    return options, said + f"{noise_file.path})", live
 
 
 def remember_session(

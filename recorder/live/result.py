@@ -30,7 +30,7 @@ from twopose.solve.estimate import EstimateOptions, GroundSpec, PoseView, measur
 from twopose.solve.session import SessionTrials, estimate_session
 from twopose.uncertainty.noise import VarianceFactor
 from twopose.uncertainty.placing_variance import SessionNoise
-from twopose.uncertainty.session_noise import session_statistics
+from twopose.uncertainty.session_noise import session_base_in, session_statistics
 from twopose.values.units import Units
 
 __all__ = ["LiveResults", "MappedAdvice", "guidance_options", "live_results"]
@@ -38,6 +38,7 @@ __all__ = ["LiveResults", "MappedAdvice", "guidance_options", "live_results"]
 if TYPE_CHECKING:
     from pathlib import Path
 
+    from recorder.live.operator_noise import LivePrior
     from recorder.procedure.capture import CaptureSettings
     from twopose.detect.clutter import Clutter
     from twopose.format.entries import SessionInfo
@@ -88,6 +89,8 @@ class LiveResults:
         self.results: dict[int, TrialResult] = {}  # trial -> its latest result
         #: what the trials so far say of the operator's placing (the noise file keeps it)
         self.statistics: SessionNoise | None = None
+        #: the operator's earlier sessions: the prior at the base the poses type
+        self.operator_prior: LivePrior | None = None
 
     def begin(self, trial: int, entries: Iterable[TypedEntry]) -> None:
         """A trial begins; its ground truth (if typed) is among ``entries``."""
@@ -154,9 +157,15 @@ class LiveResults:
             truth=np.array([self._truth.get(t, np.full((2, 3), np.nan)) for t in trials]),
             ground=self._ground,
         )
-        estimate = estimate_session(session, self.options)
+        base_in, options = session_base_in(session, self.options), self.options
+        prior = self.operator_prior.at(base_in) if self.operator_prior else None
+        if prior is not None:  # a typed session's: known once its poses typed their base
+            options = dataclasses.replace(
+                options, noise=dataclasses.replace(options.noise, prior=prior)
+            )
+        estimate = estimate_session(session, options)
         if keep:
-            self.statistics = session_statistics("", estimate.misclosure, estimate.tests)
+            self.statistics = session_statistics("", estimate.misclosure, estimate.tests, base_in)
         return dict(zip(trials, results_of(estimate), strict=True))
 
     def advise(self, trial: int, guidance: Guidance) -> MappedAdvice | None:
@@ -253,16 +262,37 @@ def live_results(
     (:func:`twopose.methods.specs.floors_unmeasured`)."""
     from recorder.live.operator_noise import live_prior
 
-    estimate = settings.estimate_options()
-    estimate, prior_words = live_prior(info.operator, info.method, estimate)
+    estimate, placing_words = _placing_of_operator(settings, info)
+    estimate, prior_words, prior = live_prior(info.operator, info.method, estimate, info.units)
     results = LiveResults(info.method, info.units, cameras, ground, estimate, settings.rig)
-    results.notes.insert(0, settings.placing_words(info.units))
+    results.operator_prior = prior
+    results.notes.insert(0, placing_words)
     if prior_words:
         results.notes.insert(1, prior_words)
     floor = floors_unmeasured((c.intrinsics.width, c.intrinsics.height) for c in cameras)
     if floor and spec_of(info.method).measures:  # a camera of another image size
         results.notes.append(floor)
     return results
+
+
+def _placing_of_operator(
+    settings: CaptureSettings, info: SessionInfo
+) -> tuple[EstimateOptions, str]:
+    """The live estimate's options and its placing sigma in words: the rig file's
+    ``[placing]`` when it is this session's operator's (or names none), else each pose's
+    typed resolution (another operator's board is not this one's hand; the analysis' rule,
+    :meth:`analysis.rig.scope.RigUse.placing_for`)."""
+    estimate = settings.estimate_options()
+    placing = settings.placing
+    if placing is None or not placing.operators or info.operator.strip() in placing.operators:
+        return estimate, settings.placing_words(info.units)
+    noise = dataclasses.replace(estimate.noise, placing=None)
+    said = (
+        f"placing sigma: typed (each pose's recorded resolution): the rig file's [placing] "
+        f"({placing.measured_by}) is operator {', '.join(placing.operators)}'s, not "
+        f"{info.operator.strip() or 'this session'}'s"
+    )
+    return dataclasses.replace(estimate, noise=noise), said
 
 
 def guidance_options(options: EstimateOptions, results: Iterable[TrialResult]) -> EstimateOptions:

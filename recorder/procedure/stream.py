@@ -16,9 +16,11 @@ or a button is stamped with the monotonic clock when it arrives (:class:`StreamE
 where camera 1's capture clock is the monotonic clock (a driver's stamps, the monotonic
 clock at grab, a video file or the synthetic camera paced from the pair's start) that is
 the touch's time; a folder of stills has no real time, and a key is then the capture time
-of camera 1's frame last recorded. A trial's **start** is its first camera-1 frame's
-capture time; a scheduled touch is written when camera 1's clock passes it (one never
-reached, the trial ended first, is said).
+of camera 1's frame last recorded. Files alone (video files, folders) are replayed whole
+(:meth:`recorder.sources.pair.PairSource.replay`: every frame in order, the first trial
+from the files' first frames), so that the same files and plan give the same session. A
+trial's **start** is its first camera-1 frame's capture time; a scheduled touch is written
+when camera 1's clock passes it (one never reached, the trial ended first, is said).
 
 **The lag between a key and the frames.** The touch is stamped when the line reaches the
 recorder: the terminal and the key thread add well under a millisecond. The operator is
@@ -56,7 +58,7 @@ from typing import TYPE_CHECKING, Literal
 from recorder.procedure import stops
 from recorder.procedure.machine import refuse_existing
 from recorder.procedure.stream_offset import OffsetMeter
-from recorder.procedure.stream_source import check_sizes, with_clocks
+from recorder.procedure.stream_source import check_sizes, first_frames, with_clocks
 from recorder.setup.stream_plan import touch_refusal
 from twopose.errors import SourceError, TwoposeError
 from twopose.format.stream_entries import TouchMark
@@ -289,8 +291,11 @@ def record_stream(
     try:
         with contextlib.ExitStack() as stack:
             stack.enter_context(meter)
+            source.replay()  # files: every frame, in order, whatever the load (r5 F13)
             stack.enter_context(source)
             check_sizes(source, cameras)
+            if source.stills:
+                first_frames(source)  # an empty file refused before the session begins
             info = with_clocks(info, source)
             writer = stack.enter_context(
                 SessionWriter(out, info, cameras, ground=ground, pair=pair)
@@ -383,7 +388,7 @@ def _stream_trial(
     taken = source.take_unrecorded()
     unrecorded = taken if source.files else (0, 0)  # a camera's: not data, not said
     state = _TrialState(
-        trial=trial, stills=source.stills,
+        trial=trial, stills=source.timeless,
         schedule=sorted(driver.schedule(trial), key=lambda s: s.after_s),
         duration_s=driver.duration_s(trial), seen_dropped=source.dropped_by_camera,
         refuse_point=refuse_point,
@@ -402,6 +407,8 @@ def _stream_trial(
                 if frame is None:  # both files (folders) ended: no more pairs, a normal end
                     state.ended = "ended"
                     break
+                if ran_out := source.ran_out(frame):  # the other's file or folder ended
+                    raise SourceError(ran_out)
                 _write_frame(state, stream, ids, frame, source, jpeg=jpeg)
                 meter.add(frame)
                 if sink is not None:

@@ -19,7 +19,7 @@ if TYPE_CHECKING:
     from twopose.camera.model import Camera
     from twopose.format.entries import SessionInfo
 
-__all__ = ["FIRST_FRAME_S", "check_sizes", "with_clocks"]
+__all__ = ["FIRST_FRAME_S", "check_sizes", "first_frames", "with_clocks"]
 
 #: How long a camera may take to give its first frame (a webcam starting up).
 FIRST_FRAME_S = 5.0
@@ -39,12 +39,7 @@ def with_clocks(info: SessionInfo, source: PairSource) -> SessionInfo:
             seen.add(camera)
             source.unrecorded[camera - 1] += 1  # read for its clock, not recorded
             if len(seen) < 2 and time.monotonic() > deadline:  # the other keeps giving
-                n = 2 if 1 in seen else 1
-                raise SourceError(
-                    f"camera {n} ({source.cameras[n - 1].spec}) gave no frame in "
-                    f"{FIRST_FRAME_S:g} s (an empty file, or a camera not connected or used by "
-                    "another program)"
-                )
+                _refuse_silent(source, 2 if 1 in seen else 1)
     one, two = source.cameras
     clocks = {info.camera_ids[0]: one.clock, info.camera_ids[1]: two.clock}
     before = (info.clocks or {}) if info.continues_file else {}  # the part continued's
@@ -55,6 +50,33 @@ def with_clocks(info: SessionInfo, source: PairSource) -> SessionInfo:
     ]
     notes = "; ".join([info.notes, *changed]) if changed else info.notes
     return dataclasses.replace(info, clocks=clocks, notes=notes)
+
+
+def first_frames(source: PairSource) -> None:
+    """Files replayed whole (every frame counts, none taken here): each camera's first
+    frame waited for, at most :data:`FIRST_FRAME_S`; a file or folder that ended without
+    one, or a camera silent so long, refused before the session begins."""
+    deadline = time.monotonic() + FIRST_FRAME_S
+    while not all(source.grabbed_by_camera) and time.monotonic() < deadline:
+        stops.check()
+        if any(n == 0 and e for n, e in zip(*_counts(source), strict=True)):
+            break  # a file or folder that ended without a frame
+        time.sleep(0.01)
+    grabbed, ended = _counts(source)
+    for n in sorted((1, 2), key=lambda n: not ended[n - 1]):  # an empty one first
+        if not grabbed[n - 1]:
+            _refuse_silent(source, n)
+
+
+def _counts(source: PairSource) -> tuple[tuple[int, int], tuple[bool, bool]]:
+    return source.grabbed_by_camera, source.ended_by_camera
+
+
+def _refuse_silent(source: PairSource, n: int) -> None:
+    raise SourceError(
+        f"camera {n} ({source.cameras[n - 1].spec}) gave no frame in {FIRST_FRAME_S:g} s (an "
+        "empty file, or a camera not connected or used by another program)"
+    )
 
 
 def check_sizes(source: PairSource, cameras: Sequence[Camera]) -> None:

@@ -199,7 +199,42 @@ def _checked(method: Method, trials: int, scene: Scene, timing: PairTiming) -> P
             "simulates a moving target for point, line or ground"
         )
     bounds.TRIALS.read(trials, None)
-    return timing.checked(Units(scene.units))
+    units = Units(scene.units)
+    timing = timing.checked(units)
+    path = _path(scene, method, timing)
+    with np.errstate(over="ignore"):  # a speed of 5e-324: a path of infinite seconds
+        seconds = path.duration_s
+    shown = f"{seconds:,.0f}" if seconds < 1e9 else f"{seconds:.3g}"
+    said = bounds.SIMULATED_TRIAL.refusal(seconds, None, given=shown)
+    if said:  # a slow --speed: a trial of years, its frame count past any array (r5 F12)
+        bound = bounds.SIMULATED_TRIAL.high
+        still_s = path.hold_s + path.dwell_s * len(path.touches)
+        length = float(np.linalg.norm(np.diff(path.waypoints, axis=0), axis=1).sum())
+        fastest = length / (bound - still_s)
+        raise InputValueError(
+            f"{said} (at --speed {bounds.shown(timing.speed)} {units}/s the target's path "
+            f"takes that long): a simulated trial lasts at most {bound:g} s (10 minutes: "
+            f"{math.ceil(bound * scene.sensor.fps):,} frames a camera at "
+            f"{scene.sensor.fps:g} fps, about an hour of rendering): give --speed "
+            f"{_up(fastest):g} or more"
+        )
+    return timing
+
+
+def _up(value: float) -> float:
+    """``value`` rounded up to 2 significant digits (a speed that is surely enough)."""
+    scale = 10.0 ** (math.floor(math.log10(value)) - 1)
+    return math.ceil(value / scale) * scale
+
+
+def _path(scene: Scene, method: Method, timing: PairTiming) -> Trajectory:
+    """The target's path a trial follows at ``timing.speed`` (each trial's touches only
+    reorder it)."""
+    return Trajectory(
+        touches=touch_points(scene, method, simulated_pair(scene)), speed=timing.speed,
+        lead=unit_factor(Units.IN, Units(scene.units)), dwell_s=DWELL_S,
+        hold_s=FLASH_HOLD_S if timing.flash else 0.0,
+    )  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -251,11 +286,7 @@ def simulation_size(
     """What :func:`simulate_pair_session` will render, known before it renders a frame
     (the target's path at ``timing.speed``; each trial's touches only reorder it)."""
     timing = _checked(method, trials, scene, timing)
-    lead = unit_factor(Units.IN, Units(scene.units))
-    path = Trajectory(
-        touches=touch_points(scene, method, simulated_pair(scene)), speed=timing.speed,
-        lead=lead, dwell_s=DWELL_S, hold_s=FLASH_HOLD_S if timing.flash else 0.0,
-    )  # fmt: skip
+    path = _path(scene, method, timing)
     return SimulationSize(trials, path.duration_s, scene.sensor.fps, frame_caveats(scene))
 
 

@@ -86,6 +86,15 @@ class FrameSource(ABC):
     def close(self) -> None:
         return None
 
+    def origin(self) -> tuple[object, ...] | None:
+        """What this source reads (a device, a file, a folder and its pattern), so that a
+        pair's two sources can be told apart; None: nothing to compare (a rendered camera)."""
+        return None
+
+    def file_paths(self) -> list[Path]:
+        """The files it reads (a video, a folder's stills), to compare their bytes; none."""
+        return []
+
     def frame_name(self, index: int) -> str:
         """How to name frame ``index`` (from 0) to the operator."""
         return f"frame {index + 1}"

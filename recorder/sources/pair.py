@@ -45,7 +45,7 @@ from typing import TYPE_CHECKING
 
 from recorder.procedure import stops
 from recorder.sources.base import FrameSource, SourceInfo, pair_spec
-from recorder.sources.pair_feeds import Feed, Grabbed
+from recorder.sources.pair_feeds import Feed, Grabbed, mismatch
 from twopose.errors import SourceError
 
 if TYPE_CHECKING:
@@ -57,6 +57,7 @@ if TYPE_CHECKING:
 __all__ = [
     "QUEUE_BYTES",
     "QUEUE_S",
+    "RAN_OUT_INTERVALS",
     "CameraStream",
     "FramePair",
     "PairSource",
@@ -74,6 +75,10 @@ QUEUE_S = 10.0
 QUEUE_BYTES = 256 * 2**20
 #: How many overflows of a queue are said one by one (then counted only).
 _SAID_MAX = 20
+#: A file or folder whose last frame lies more than this many of its frame intervals
+#: before the other camera's frame has ran out (:meth:`PairSource.ran_out`): the pairing's
+#: slop is half an interval; two files of one length that end together are not cut.
+RAN_OUT_INTERVALS = 2.0
 _POLL_S = 0.05  # how often a wait looks whether the recording is to stop
 _JOIN_S = 2.0  # how long closing waits for both reader threads, together
 
@@ -117,12 +122,18 @@ class CameraStream:
     fourcc: str
     clock: str
     clock_note: str
+    #: What is doubtful about its frames ("": nothing), said as a warning with it.
+    warning: str = ""
 
     def text(self) -> str:
         """The camera as the operator is told it."""
         i = self.info
         fmt = f", {self.fourcc}" if self.fourcc else ""
-        return f"{self.spec}: {i.width}x{i.height} at {i.fps:g} fps{fmt}; clock: {self.clock_note}"
+        warn = f"; warning: {self.warning}" if self.warning else ""
+        return (
+            f"{self.spec}: {i.width}x{i.height} at {i.fps:g} fps{fmt}; clock: "
+            f"{self.clock_note}{warn}"
+        )
 
 
 class _Reader:
@@ -143,6 +154,7 @@ class _Reader:
         self.ended = False  # the thread is done (the stream ended, failed or was stopped)
         self.error: SourceError | None = None
         self.last_ns = time.monotonic_ns()
+        self.taken_ns: int | None = None  # the capture time of the frame last taken
         self.thread: threading.Thread | None = None
 
     def run(self, cond: threading.Condition, stop: threading.Event) -> None:
@@ -268,14 +280,18 @@ class PairSource(FrameSource):
         specs: tuple[str, str],
         *,
         bound: QueueBound | None = None,
+        note2: str = "",
     ) -> None:
         self.specs = specs
+        self.note2 = note2  # a warning about camera 2's frames (CameraStream.warning)
         self.bound = bound or QueueBound()
         self._readers = tuple(
             _Reader(n, spec, feed, self.bound)
             for n, (spec, feed) in enumerate(zip(self.specs, feeds, strict=True), start=1)
         )
         self.stills = all(f.lossless for f in feeds)
+        #: Stills alone, without real time (a key is camera 1's frame last recorded).
+        self.timeless = self.stills
         #: A video file among the feeds: its frames played before a trial are counted.
         self.files = any(f.recorded for f in feeds)
         #: Each camera's frames taken and not recorded since :meth:`take_unrecorded`
@@ -297,6 +313,21 @@ class PairSource(FrameSource):
         for reader in self._readers:
             reader.bound, reader.limit = bound, bound.frames or 1
 
+    def replay(self) -> bool:
+        """Files and folders alone (before :meth:`open`): every frame of both read in
+        order, none skipped nor dropped, each camera's next frame waited for, as a
+        folder's stills are (:attr:`stills` then True), so that the same files give the
+        same frames whatever the machine's load; False (nothing changed) with a camera."""
+        if self._opened:
+            raise SourceError("a pair source is replayed whole from before it is opened")
+        feeds = [r.feed for r in self._readers]
+        if not all(f.recorded or f.lossless for f in feeds):
+            return False
+        for feed in feeds:
+            feed.lossless = feed.keep_late = True
+        self.stills = True
+        return True
+
     def open(self) -> SourceInfo:
         opened: list[_Reader] = []
         try:
@@ -307,7 +338,8 @@ class PairSource(FrameSource):
             for reader in opened:
                 reader.feed.close()
             raise
-        self.warnings = _mismatch(self.cameras)
+        one, two = (r.feed.info for r in self._readers)
+        self.warnings = (*((self.note2,) if self.note2 else ()), *mismatch(one, two))
         first = self._readers[0].feed.info
         self.info = dataclasses.replace(first, description=pair_spec(*self.specs))
         stop = stops.active()
@@ -337,6 +369,7 @@ class PairSource(FrameSource):
                 fourcc=r.feed.fourcc,
                 clock=r.feed.clock,
                 clock_note=r.feed.clock_note,
+                warning=self.note2 if r.camera == 2 else "",
             )
             for r in self._readers
         )
@@ -353,6 +386,12 @@ class PairSource(FrameSource):
     def grabbed_by_camera(self) -> tuple[int, int]:
         """Each camera's frames taken so far (a folder's: its stills read)."""
         one, two = (r.grabbed for r in self._readers)
+        return one, two
+
+    @property
+    def ended_by_camera(self) -> tuple[bool, bool]:
+        """Whether each camera's stream has ended (its frames may still be queued)."""
+        one, two = (r.ended for r in self._readers)
         return one, two
 
     @property
@@ -390,6 +429,32 @@ class PairSource(FrameSource):
             for r in self._readers
             if r.drained and (why := getattr(r.feed, "ended_by", ""))
         ]
+
+    def ran_out(self, frame: TimedFrame) -> str:
+        """Why ``frame`` has no partner left: the other camera's file or folder ended
+        (read to its end, no failure) more than :data:`RAN_OUT_INTERVALS` of its frame
+        intervals before ``frame``'s capture, on the stream's clock ("": it did not). A
+        finite source knows its end: no wall time is waited (a folder is read faster
+        than its nominal rate)."""
+        other = self._readers[2 - frame.camera]
+        if not (other.drained and other.error is None and other.feed.finite):
+            return ""
+        last = other.taken_ns
+        if last is not None and frame.t_capture_ns - last <= RAN_OUT_INTERVALS * 1e9 / (
+            other.feed.info.fps or 1.0
+        ):
+            return ""
+        what = "file" if other.feed.recorded else "folder"
+        why = getattr(other.feed, "ended_by", "") or f"its {what} ended"
+        when = (
+            "gave no frame"
+            if last is None
+            else f"gave its last frame {(frame.t_capture_ns - last) / 1e9:.2f} s earlier"
+        )
+        return (
+            f"camera {other.camera} ({other.spec}) ran out ({why}): its {what} {when} "
+            f"while camera {frame.camera} gives them (no more pairs)"
+        )
 
     def read(self, timeout_s: float = 2.0) -> Image:
         """The next frame of either camera (:meth:`read_frame`'s image)."""
@@ -468,6 +533,7 @@ class PairSource(FrameSource):
                 if ready and merged:
                     reader = min(ready, key=lambda r: r.queue[0][1].t_capture_ns)
                     index, grabbed = reader.take()
+                    reader.taken_ns = grabbed.t_capture_ns
                     self._cond.notify_all()  # a folder's thread may wait for room
                     break
                 self._raise_failed(timeout_s)
@@ -516,20 +582,3 @@ class PairSource(FrameSource):
                 r.thread.join(max(0.0, deadline - time.monotonic()))
             if r.thread is None or not r.thread.is_alive():
                 r.feed.close()
-
-
-def _mismatch(cameras: tuple[CameraStream, CameraStream]) -> tuple[str, ...]:
-    """The cameras' sizes and rates compared: what differs, said."""
-    a, b = cameras[0].info, cameras[1].info
-    said = []
-    if (a.width, a.height) != (b.width, b.height):
-        said.append(
-            f"camera 1 gives {a.width}x{a.height} frames, camera 2 {b.width}x{b.height}: "
-            "each camera is calibrated at its own size"
-        )
-    if abs(a.fps - b.fps) > 0.01 * max(a.fps, b.fps):
-        said.append(
-            f"camera 1 runs at {a.fps:g} fps, camera 2 at {b.fps:g} fps: pairs come at the "
-            "slower rate, within half the faster one's frame interval"
-        )
-    return tuple(said)

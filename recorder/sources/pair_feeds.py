@@ -58,6 +58,7 @@ __all__ = [
     "StillsFeed",
     "VideoFeed",
     "VideoFile",
+    "mismatch",
 ]
 
 CLOCK_DRIVER = "driver"
@@ -115,6 +116,9 @@ class Feed(ABC):
     recorded = False
     #: The stream ends (a file); a camera that stops giving frames is an error.
     finite = True
+    #: A paced frame the reader is late for is taken, not skipped (a file replayed whole:
+    #: :meth:`recorder.sources.pair.PairSource.replay`).
+    keep_late = False
     #: The pixel format the frames come in (a camera's: ``MJPG`` where it took it).
     fourcc = ""
     info: SourceInfo
@@ -278,7 +282,7 @@ class _Paced(Feed):
         late = time.monotonic_ns() - due
         if late < 0:
             return None if stop.wait(-late / 1e9) else True
-        return late <= RING_FRAMES * interval_ns
+        return self.keep_late or late <= RING_FRAMES * interval_ns
 
 
 class VideoFeed(_Paced):
@@ -402,3 +406,20 @@ class StillsFeed(Feed):
 
     def close(self) -> None:
         self.source.close()
+
+
+def mismatch(a: SourceInfo, b: SourceInfo) -> tuple[str, ...]:
+    """Two cameras' sizes and rates compared (camera 1's ``a``, camera 2's ``b``): what
+    differs, said."""
+    said = []
+    if (a.width, a.height) != (b.width, b.height):
+        said.append(
+            f"camera 1 gives {a.width}x{a.height} frames, camera 2 {b.width}x{b.height}: "
+            "each camera is calibrated at its own size"
+        )
+    if abs(a.fps - b.fps) > 0.01 * max(a.fps, b.fps):
+        said.append(
+            f"camera 1 runs at {a.fps:g} fps, camera 2 at {b.fps:g} fps: pairs come at the "
+            "slower rate, within half the faster one's frame interval"
+        )
+    return tuple(said)

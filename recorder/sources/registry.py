@@ -12,6 +12,8 @@ gives a :class:`FrameSource`; use it as a context manager and call
 from __future__ import annotations
 
 import contextlib
+import filecmp
+import os
 import queue
 import threading
 from dataclasses import dataclass, replace
@@ -67,6 +69,7 @@ __all__ = [
     "open_video",
     "pair_spec",
     "parse_pair",
+    "refuse_same",
     "register_feed",
     "register_source",
     "source_help",
@@ -93,6 +96,10 @@ class CameraSource(FrameSource):
         self._frames: queue.Queue[Image | None] = queue.Queue(maxsize=2)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
+
+    def origin(self) -> tuple[object, ...]:
+        device = self.device
+        return ("camera", device if isinstance(device, int) else _resolved(Path(device)))
 
     def open(self) -> SourceInfo:
 
@@ -150,6 +157,12 @@ class VideoSource(FrameSource):
         self.realtime = realtime
         self._cap: Any = None
 
+    def origin(self) -> tuple[object, ...]:
+        return ("video", _resolved(self.path))
+
+    def file_paths(self) -> list[Path]:
+        return [self.path] if self.path.is_file() else []
+
     def open(self) -> SourceInfo:
         self._cap, self.info = open_video(self.path)
         self._pacer = Pacer(self.info.fps) if self.realtime else None
@@ -189,11 +202,19 @@ class ImagesSource(FrameSource):
         self._files: list[Path] = []
         self._next = 0
 
+    def origin(self) -> tuple[object, ...]:
+        return ("images", _resolved(self.folder), self.pattern)
+
+    def file_paths(self) -> list[Path]:
+        if not self.folder.is_dir():
+            return []
+        names = self.folder.glob(self.pattern) if self.pattern else self.folder.iterdir()
+        return sorted(p for p in names if p.suffix.lower() in IMAGE_SUFFIXES)
+
     def open(self) -> SourceInfo:
         if not self.folder.is_dir():
             raise SourceError(f"image folder {self.folder} does not exist")
-        names = self.folder.glob(self.pattern) if self.pattern else self.folder.iterdir()
-        self._files = sorted(p for p in names if p.suffix.lower() in IMAGE_SUFFIXES)
+        self._files = self.file_paths()
         if not self._files and self.pattern:
             raise SourceError(f"no image in {self.folder} matches {self.pattern}")
         if not self._files:
@@ -470,7 +491,7 @@ def open_pair(
     from recorder.sources.pair import PairSource, QueueBound
 
     options = replace(options or SourceOptions(), realtime=False)  # paced by their feeds
-    feeds = []
+    feeds, sources = [], []
     for spec in (first, second):
         source = open_from(SOURCE_KINDS, spec, options)
         factory = next((FEEDS[t] for t in type(source).__mro__ if t in FEEDS), None)
@@ -480,5 +501,38 @@ def open_pair(
                 "(its kind has no feed: recorder.sources.registry.register_feed)"
             )
         feeds.append(factory(source))
+        sources.append(source)
+    same = refuse_same(first, second, sources[0], sources[1])
     bound = bound or QueueBound(frames=queue_frames or 0)
-    return PairSource((feeds[0], feeds[1]), (first, second), bound=bound)
+    return PairSource((feeds[0], feeds[1]), (first, second), bound=bound, note2=same)
+
+
+def _resolved(path: Path) -> str:
+    """A path as the file system names it (symbolic links and ``..`` followed)."""
+    return os.path.realpath(path)
+
+
+def refuse_same(first: str, second: str, one: FrameSource, two: FrameSource) -> str:
+    """A pair whose two cameras read one thing refused in words: the same device, file or
+    folder given twice (however spelled): camera 2 would see what camera 1 sees, and the
+    rays of one image through two centres meet nowhere near the target, yet measure a
+    clock offset. Files identical byte for byte (two copies of one recording; every still
+    of two folders) are warned of: the warning returned ("": none), said with camera 2."""
+    what = one.origin()
+    if what is not None and what == two.origin():
+        raise SourceError(
+            f"pair:{first},{second}: both cameras read the same {what[0]} "
+            f"({what[1]}): a pair needs two cameras, each its own device, file or folder"
+        )
+    files = one.file_paths(), two.file_paths()
+    if (
+        files[0]
+        and len(files[0]) == len(files[1])
+        and all(filecmp.cmp(a, b, shallow=False) for a, b in zip(*files, strict=True))
+    ):
+        return (
+            f"camera 2's files ({second}) are camera 1's ({first}), byte for byte (two "
+            "copies of one recording?): a pair needs two cameras' own frames; what it "
+            "measures of them (points, the clock offset) means nothing"
+        )
+    return ""

@@ -452,3 +452,24 @@ def test_a_touch_far_from_its_truth_is_flagged_by_its_truth(mixed: Path, tmp_pat
     assert "flagged: trial 1, touch 2 (by its truth): this touch's estimate" in " ".join(
         printed.output.split()
     )
+
+
+def test_a_touch_lost_to_a_cut_file_says_the_stream_ends_there(mixed: Path, tmp_path: Path) -> None:
+    """A two-camera file cut short and recovered: a touch the cut took says the trial's
+    stream ends there, with the trial's reason (recovered), not the machine's load or its
+    stamps' jitter (a new user's r5 F6); the touches before the cut keep their estimates."""
+    from recorder.recover import RECOVERED_REASON, recover_session
+
+    whole = (mixed / "pair.mcap").read_bytes()
+    cut, fixed = tmp_path / "cut.mcap", tmp_path / "fixed.mcap"
+    cut.write_bytes(whole[: len(whole) * 3 // 4])
+    recover_session(cut, fixed)
+    rows = analysis.run([fixed]).trials
+    lost = rows[rows["status"] != "ok"]
+    assert len(lost), "the cut took no touch: cut earlier"
+    assert (rows["status"] == "ok").any(), "the cut took every touch: cut later"
+    for reason in lost["reason"]:
+        assert "the trial's stream ends there" in reason, reason
+        assert RECOVERED_REASON in reason
+        assert "load" not in reason
+        assert "jitter" not in reason

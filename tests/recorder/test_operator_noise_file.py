@@ -36,7 +36,7 @@ def test_a_file_set_aside_for_its_numbers_is_not_appended_to(
     monkeypatch.setenv("TWOPOSE_NOISE_DIR", str(tmp_path))
     noise = NoiseFile("Eve")
     bad = _impossible(noise)
-    _, said = live_prior("Eve", Method.POINT, EstimateOptions())
+    _, said, _ = live_prior("Eve", Method.POINT, EstimateOptions(), Units.IN)
     assert said.startswith("the operator's noise file was set aside:")
     with pytest.raises(InputValueError, match="numbers no recorder writes"):
         noise.remember("b.mcap", Method.POINT, Units.IN, "typed", STATS)
@@ -71,7 +71,7 @@ def test_a_session_of_another_method_that_cannot_be_read_is_said_at_the_start(
     noise = NoiseFile("Zed")
     bad = f'format = 1\noperator = "Zed"\n\n[[session]]\n{session}'
     noise.path.write_text(bad)
-    _, said = live_prior("Zed", Method.POINT, EstimateOptions())
+    _, said, _ = live_prior("Zed", Method.POINT, EstimateOptions(), Units.IN)
     assert said.startswith("the operator's noise file was set aside:")
     assert words in said
     assert "could not convert" not in said
@@ -79,3 +79,68 @@ def test_a_session_of_another_method_that_cannot_be_read_is_said_at_the_start(
     end = remember_session("Zed", Method.POINT, Units.IN, "b.mcap", EstimateOptions(), STATS)
     assert end.startswith("the operator's noise file was not updated:")
     assert noise.path.read_text() == bad
+
+
+def _hand(typed_in: float, seed: int) -> SessionNoise:
+    """Four trials of a 0.16 in hand typed ``typed_in`` (4 directions, 0.98 placing)."""
+    rng = np.random.default_rng(seed)
+    share = np.full((4, 4), 0.98)
+    z2 = (1 + ((0.16 / typed_in) ** 2 - 1) * share) * rng.standard_normal((4, 4)) ** 2
+    return SessionNoise(group="", chi2=z2.sum(axis=1), dof=np.full(4, 4), share=share, z2=z2,
+                        placing_in=typed_in)  # fmt: skip
+
+
+def test_sessions_typed_coarser_start_a_finer_one_from_the_operators_hand(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A new user's r5 F1 (live): three sessions typed 0.5 in by a 0.16 in hand started a
+    session typed 0.16 in from their multiplier (0.1x of 0.16 in), and every trial was
+    warned as a typo. The file keeps each session's placing sigma; the prior is the hand."""
+    monkeypatch.setenv("TWOPOSE_NOISE_DIR", str(tmp_path))
+    noise = NoiseFile("Cy")
+    for seed in range(3):
+        noise.remember(f"c{seed}.mcap", Method.POINT, Units.IN, "typed", _hand(0.5, seed))
+    assert "placing_in = 0.5" in noise.path.read_text()
+    _, said, live = live_prior("Cy", Method.POINT, EstimateOptions(), Units.IN)
+    assert live is not None
+    assert "their placing sigma 0.1" in said  # the hand, in inches, about 0.16
+    fine = live.at(0.16)
+    assert fine is not None
+    assert 0.5 < fine.scale < 2.0
+    coarse = live.at(0.5)
+    assert coarse is not None
+    assert 0.05 < coarse.scale < 0.2
+
+
+def test_an_older_files_sessions_without_their_placing_sigma_are_set_aside_and_said(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("TWOPOSE_NOISE_DIR", str(tmp_path))
+    noise = NoiseFile("Cy")
+    for seed in range(3):
+        noise.remember(f"c{seed}.mcap", Method.POINT, Units.IN, "typed", _hand(0.5, seed))
+    old = noise.path.read_text().replace("placing_in = 0.5\n", "")
+    noise.path.write_text(old)
+    _, said, live = live_prior("Cy", Method.POINT, EstimateOptions(), Units.IN)
+    assert live is None
+    assert "3 of them set aside: written before the file kept each session's placing" in said
+    assert noise.prior(Method.POINT, "typed", EstimateOptions().noise.anchor(), 0.16) is None
+
+
+def test_a_live_session_of_another_operator_starts_from_its_typed_resolution() -> None:
+    """A new user's r5 F2, live: a rig file's [placing] is its board's operator's hand."""
+    from recorder.live.result import _placing_of_operator
+    from recorder.procedure.capture import CaptureSettings
+    from tests.lab import new_info
+    from twopose.uncertainty.noise import PlacingSigma
+
+    board = PlacingSigma(sigma_in=0.1, sigma_sigma_in=0.02, measured_by="b.mcap", captures=16,
+                         operators=("Ada",))  # fmt: skip
+    info = new_info()  # operator "lab"
+    options, said = _placing_of_operator(CaptureSettings(placing=board), info)
+    assert options.noise.placing is None
+    assert said.endswith("the rig file's [placing] (b.mcap) is operator Ada's, not lab's")
+    mine = PlacingSigma(sigma_in=0.1, sigma_sigma_in=0.02, measured_by="b.mcap", captures=16,
+                        operators=("lab",))  # fmt: skip
+    options, said = _placing_of_operator(CaptureSettings(placing=mine), info)
+    assert options.noise.placing == mine

@@ -142,7 +142,7 @@ def test_too_few_pairs_when_the_files_end_are_refused_nothing_written(
          "--square", "25", "--units", "mm"],
     )  # fmt: skip
     assert result.exit_code == EXIT_ERROR
-    assert "the two cameras share a centre" in result.output, result.output  # one file twice
+    assert "both cameras read the same video" in result.output, result.output  # one file twice
     assert "Traceback" not in result.output
     assert not out.exists()
 

@@ -75,6 +75,7 @@ PLACING_KEYS = {
     "units": "of sigma and sigma_sigma",
     "measured_by": "the board session(s) that measured it",
     "captures": "how many captures it was measured over",
+    "operators": "whose placing it is: the board sessions' operators",
 }
 
 
@@ -131,7 +132,14 @@ def placing_table(placing: PlacingSigma, units: Units) -> list[str]:
         f'units = "{units}"',
         f'measured_by = "{measured_by}"',
         f"captures = {placing.captures}",
+        *([f"operators = {_name_list(placing.operators)}"] if placing.operators else []),
     ]
+
+
+def _name_list(names: tuple[str, ...]) -> str:
+    """A TOML array of names (quotes and backslashes escaped)."""
+    quoted = (n.replace("\\", "\\\\").replace('"', '\\"') for n in names)
+    return "[" + ", ".join(f'"{n}"' for n in quoted) + "]"
 
 
 def covariance_table(covariance: RigCovariance) -> list[str]:
@@ -339,6 +347,9 @@ def _placing(table: object, rig_units: str | None, path: str | Path) -> PlacingS
     if _number(captures, f"{what}: captures", whole=True) < 0:
         raise InputValueError(f"{what}: captures must be a count >= 0, got {captures!r}")
     captures = int(captures)
+    operators = table.get("operators", [])
+    if not isinstance(operators, list) or not all(isinstance(n, str) for n in operators):
+        raise InputValueError(f"{what}: operators must be a list of names, got {operators!r}")
     if not isinstance(bound, bool):
         raise InputValueError(f"{what}: upper_bound must be true or false, got {bound!r}")
     dof = 0.5 * (sigma / spread) ** 2 if spread > 0 else math.inf
@@ -355,6 +366,7 @@ def _placing(table: object, rig_units: str | None, path: str | Path) -> PlacingS
             measured_by=measured_by or f"rig file {path}",
             captures=captures,
             upper_bound=bound,
+            operators=tuple(dict.fromkeys(n.strip() for n in operators if n.strip())),
         )
     except InputValueError as err:
         raise InputValueError(f"{what}: {err}") from None

@@ -11,7 +11,7 @@ the chi-square no longer rejects (5%, on one degree of freedom fewer). The pose 
 has three degrees of freedom, and a mistyped component of any pose can usually be made to
 fit it (the trial can be flagged, its pose not named: "typed x of one of them looks about
 1 in off"); a fourth pose leaves one pose alone able to explain it. The component is said
-when every explaining pose's best is the same one.
+when every explaining pose's best is the same one (none, when no pose explains it).
 
 A flagged trial is kept out of the pool; its own region is widened by its own misfit, its
 chi-square over its degrees of freedom (at least 1), with Fisher's F on them
@@ -509,7 +509,9 @@ def trial_tests(m: Misclosure, flagged: Bools, p: F64, lam: float) -> TrialTests
     top_c = best_c[np.arange(R), top]
     same = np.array([(best_c[r][explains[r]] == top_c[r]).all() for r in range(R)])
     pose = np.where(count == 1, top + 1, 0)
-    axis = np.where(same | (count == 1), np.array(AXES)[top_c], "")
+    # said only where a pose explains it (all() of none is True: a trial nothing explains
+    # named the best component of all beside "no single typed value explains it": r5 F5)
+    axis = np.where((count > 0) & same, np.array(AXES)[top_c], "")
     offset = tests.offset[np.arange(R), top, top_c]
     sizes = np.abs(np.take_along_axis(tests.offset, best_c[..., None], axis=2)[..., 0])
     among = np.where((count > 0)[:, None], explains, np.arange(sizes.shape[1]) == top[:, None])

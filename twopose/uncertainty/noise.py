@@ -40,6 +40,7 @@ if TYPE_CHECKING:
     from twopose.values.units import Units
 
 __all__ = [
+    "ANCHOR_CONFLICT_LEVEL",
     "FACTOR_TEST_LEVEL",
     "MIN_PLACING_DOF",
     "TYPED_PRIOR_DOF",
@@ -70,6 +71,10 @@ TYPED_PRIOR_DOF = 2.0
 #: typed over 20 sessions of two method-2 trials (their regions covered 92.5%, 94.4%
 #: without; benchmarks/bench_noise.py). Not zero: a prior's dof must be positive.
 SUPERSEDED_PRIOR_DOF = 1e-6
+#: A board's placing sigma gives way where the data contradict it this strongly (Fisher's F
+#: on both dofs): 1%, as a board wrongly kept makes regions too small, one wrongly dropped
+#: only lets the trials decide (r5 F2's sessions, 1.5x the board's, stood at p = 0.001-0.002).
+ANCHOR_CONFLICT_LEVEL = 0.01
 #: The regions' level.
 _REGION_LEVEL = 0.95
 #: Beyond this many degrees of freedom a placing sigma's own uncertainty is not said as a
@@ -101,6 +106,9 @@ class PlacingSigma:
     measured_by: str = ""
     captures: int = 0
     upper_bound: bool = False
+    #: Whose placing it is: the board sessions' operators (empty: not recorded, a rig file
+    #: from before they were: applied to every operator's sessions, and said).
+    operators: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         """Refuse a placing sigma that is not a positive finite length."""
@@ -276,6 +284,10 @@ class VarianceFactor:
     sources: str = ""
     sigma0_sq_all: float = math.nan
     dof_all: int = 0
+    #: What sigma0 tests the data against: ``typed``, or ``the board's sigma``.
+    against: str = "typed"
+    #: The F test's p where the data contradicted the board's placing sigma (NaN: not).
+    anchor_conflict: float = math.nan
 
     @property
     def tested(self) -> bool:
@@ -344,6 +356,8 @@ def noise_words(  # noqa: PLR0913
     flagged: int = 0,
     sources: str = "",
     with_flagged: tuple[float, int] = (math.nan, 0),
+    against: str = "typed",
+    board_contradicted: bool = False,
 ) -> str:
     """The noise model's test and what the regions took, in words: the one home of them.
 
@@ -358,7 +372,10 @@ def noise_words(  # noqa: PLR0913
     scatter less is not left to read as contradicted by the multiplier its operator's
     other sessions raised. ``with_flagged``: sigma0 on its dof with the flagged trials'
     misclosures (``factor``'s when given): where it rejects and sigma0 does not, flagging
-    turned the test, and the words say both, never "agree" unqualified.
+    turned the test, and the words say both, never "agree" unqualified. ``against``: what
+    sigma0 tests (``typed``, or ``the board's sigma``); ``board_contradicted``: the data
+    contradicted the board's placing sigma (:attr:`NoiseModel.anchor_contradicted`), said
+    loudly (``factor``'s when given).
     """
     if factor is not None:
         placing_scale = factor.placing_scale if factor.estimated else math.nan
@@ -366,8 +383,17 @@ def noise_words(  # noqa: PLR0913
         sources = factor.sources
         all_sq = factor.sigma0_sq_all
         with_flagged = (math.sqrt(all_sq) if factor.dof_all else math.nan, factor.dof_all)
+    if factor is not None:
+        against = factor.against
+        board_contradicted = math.isfinite(factor.anchor_conflict)
     turned = _turned_words(sigma0, dof, flagged, *with_flagged)
-    words = [turned or _test_words(sigma0, dof, flagged)]
+    words = [turned or _test_words(sigma0, dof, flagged, against)]
+    if board_contradicted:
+        words.append(
+            f"the data contradict the board's placing sigma (F test, p < "
+            f"{ANCHOR_CONFLICT_LEVEL:g}): regions likely too small with it, so it weighs as a "
+            "guess here and the trials set the placing sigma"
+        )
     if math.isfinite(placing_scale) and math.isfinite(placing_dof):
         took = (
             f"placing sigma taken {placing_scale:.2g}x the one assumed, from {placing_dof:.0f} dof"
@@ -426,7 +452,7 @@ def _turned_words(sigma0: float, dof: int, flagged: int, sigma0_all: float, dof_
     )
 
 
-def _test_words(sigma0: float, dof: int, flagged: int = 0) -> str:
+def _test_words(sigma0: float, dof: int, flagged: int = 0, against: str = "typed") -> str:
     """sigma0's chi-square test said: never "agree" when it rejects or cannot tell."""
     if (dof <= 0 or not math.isfinite(sigma0)) and flagged:
         return "sigma0 not tested (no unflagged trial has redundant poses)"
@@ -435,7 +461,7 @@ def _test_words(sigma0: float, dof: int, flagged: int = 0) -> str:
     upper, lower = chi2_tails(dof * sigma0**2, dof)
     head = f"sigma0 {sigma0:.2f} on {dof} dof ({p_words(upper)})"
     if upper < FACTOR_TEST_LEVEL:
-        return f"{head}: the data contradict the noise model (they scatter more than typed)"
+        return f"{head}: the data contradict the noise model (they scatter more than {against})"
     if lower < FACTOR_TEST_LEVEL:
         return f"{head}: the data scatter less than the noise model says"
     if dof < MIN_PLACING_DOF:
@@ -491,13 +517,16 @@ class NoiseModel:
     #: (:mod:`twopose.rig.carried`), beside the views' own noise and never widened by its
     #: test; None: no rig, or its constants taken as exact.
     rig: RigCovariance | None = None
+    #: The F test's p where the data contradicted ``placing`` (NaN: not): it weighs as typed.
+    anchor_contradicted: float = math.nan
 
     def anchor(self) -> PlacingPrior:
         """The prior the regions' placing sigma itself is.
 
         A board's measurement on its degrees of freedom, else (no board, or a board that only
-        bounded it) the typed resolution's weak word (:data:`TYPED_PRIOR_DOF`), next to
-        nothing beside an operator's prior (:data:`SUPERSEDED_PRIOR_DOF`).
+        bounded it, or one the session's data contradict) the typed resolution's weak word
+        (:data:`TYPED_PRIOR_DOF`), next to nothing beside an operator's prior
+        (:data:`SUPERSEDED_PRIOR_DOF`).
         """
         placing = self.placing
         if placing is None or placing.upper_bound:  # a bound is no measurement: the typed
@@ -505,4 +534,7 @@ class NoiseModel:
             dof = TYPED_PRIOR_DOF if self.prior is None else SUPERSEDED_PRIOR_DOF
             return PlacingPrior(scale=1.0, dof=dof, source="the typed resolution")
         where = placing.measured_by or "the given placing sigma"
+        if math.isfinite(self.anchor_contradicted):  # the data contradict it: it gives way
+            dof = TYPED_PRIOR_DOF if self.prior is None else SUPERSEDED_PRIOR_DOF
+            return PlacingPrior(scale=1.0, dof=dof, source=f"{where} (contradicted by the data)")
         return PlacingPrior(scale=1.0, dof=placing.dof, source=where)

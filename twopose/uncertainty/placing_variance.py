@@ -470,6 +470,9 @@ class SessionNoise:
     z2: F64  # (T, M)
     #: The session's id (``""``: not known), named in the priors that pool it.
     name: str = ""
+    #: Its base, the placing sigma its multiplier is relative to, in inches (NaN: not
+    #: known): sessions of other bases pool as placing variances (:mod:`~twopose.uncertainty.hand`).
+    placing_in: float = math.nan
 
 
 def operator_priors(
@@ -482,19 +485,24 @@ def operator_priors(
     pooled likelihood's maximum ``lambda0`` on its degrees of freedom ``F``, shrunk for
     the spread between the group's sessions: the prior's dof is ``min(d0, F)``, ``d0`` the
     type II maximum-likelihood dof of a scaled inverse chi-square at ``lambda0`` that the
-    group's sessions' multipliers are drawn from (infinite: they share one).
+    group's sessions' multipliers are drawn from (infinite: they share one). Sessions of
+    other bases (typed resolutions) pool as placing variances, each one's prior a multiplier
+    of its own base (:func:`twopose.uncertainty.hand.on_one_base`).
     """
     out: list[PlacingPrior | None] = [None] * len(sessions)
     groups: dict[str, list[int]] = {}
     for i, s in enumerate(sessions):
         if s.group:
             groups.setdefault(s.group, []).append(i)
+    from twopose.uncertainty.hand import on_one_base, prior_on_own_base
+
     for group, members in groups.items():
         if len(members) < 2:
             continue
-        priors = _group_priors([sessions[i] for i in members], anchor, group, who)
-        for i, prior in zip(members, priors, strict=True):
-            out[i] = prior
+        mine, back, converted = on_one_base([sessions[i] for i in members])
+        priors = _group_priors(mine, anchor, group, who)
+        for i, prior, factor in zip(members, priors, back, strict=True):
+            out[i] = prior_on_own_base(prior, factor) if converted else prior
     return out
 
 

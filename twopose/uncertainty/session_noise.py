@@ -60,6 +60,7 @@ __all__ = [
     "placing_sigmas",
     "placing_source",
     "region_multipliers",
+    "session_base_in",
     "session_statistics",
     "with_one_target",
     "with_own_truth",
@@ -108,9 +109,42 @@ def noise_of(
     m_rows = misclosures(residuals, batch.inputs, cov_in, batch.valid, parameters, shared=shared)
     m = _at_rows(Misclosure.none(T, N), rows, m_rows)
     flags = flag_trials(m.chi2, m.dof, m.placing_share, m.z2, noise.anchor(), noise.prior)
+    checked = _anchor_checked(noise, m, flags.flagged)
+    if checked is not noise:  # the board's sigma gives way: the trials tested again
+        noise = checked
+        flags = flag_trials(m.chi2, m.dof, m.placing_share, m.z2, noise.anchor(), noise.prior)
     factor = _factor(m, flags, flags.flagged, noise)
     tests = trial_tests(m, flags.flagged, flags.p, factor.placing_variance)
     return NoiseResult(factor=factor, misclosure=m, tests=tests, flags=flags, noise=noise)
+
+
+def _anchor_checked(noise: NoiseModel, m: Misclosure, out: Bools) -> NoiseModel:
+    """``noise`` with its board's placing sigma contradicted, where the data do (F test).
+
+    The unflagged trials' sigma0 squared (with the operator's prior as data beside them)
+    on their dof against the board's multiplier 1 on its own dof: Fisher's F. Below
+    :data:`~twopose.uncertainty.noise.ANCHOR_CONFLICT_LEVEL` the board's sigma is not this
+    session's operator's placing (another hand, another day): kept at its 352 dof it
+    outweighed sessions that contradicted it at p < 0.001 and their regions covered 79%
+    (a new user's r5 F2). Unchanged where nothing was measured or nothing contradicts it.
+    """
+    from scipy import special
+
+    from twopose.uncertainty.noise import ANCHOR_CONFLICT_LEVEL
+
+    placing = noise.placing
+    if placing is None or placing.upper_bound or not math.isfinite(placing.dof):
+        return noise
+    use = (m.dof > 0) & np.isfinite(m.chi2) & ~out
+    chi2, dof = float(m.chi2[use].sum()), float(m.dof[use].sum())
+    if noise.prior is not None and math.isfinite(noise.prior.dof):
+        chi2, dof = chi2 + noise.prior.scale * noise.prior.dof, dof + noise.prior.dof
+    if dof < MIN_PLACING_DOF:
+        return noise
+    p = float(special.fdtrc(dof, placing.dof, chi2 / dof))
+    if not p < ANCHOR_CONFLICT_LEVEL:
+        return noise
+    return dataclasses.replace(noise, anchor_contradicted=p)
 
 
 def _factor(m: Misclosure, flags: Flags, out: Bools, noise: NoiseModel) -> VarianceFactor:
@@ -136,6 +170,8 @@ def _factor(m: Misclosure, flags: Flags, out: Bools, noise: NoiseModel) -> Varia
         sources=_sources(int(use.sum()), prior.source if prior else "", anchor.source),
         sigma0_sq_all=float(m.chi2[has].sum() / dof_all) if dof_all else math.nan,
         dof_all=dof_all,
+        against="typed" if _measured_dof(noise) == math.inf else "the board's sigma",
+        anchor_conflict=noise.anchor_contradicted,
     )
 
 
@@ -264,8 +300,9 @@ def operator_group(operator: str, method: Method) -> str:
 
 
 def session_statistics(
-    group: str, m: Misclosure | None, tests: TrialTests | None = None
-) -> SessionNoise:
+    group: str, m: Misclosure | None, tests: TrialTests | None = None,
+    placing_in: float = math.nan,
+) -> SessionNoise:  # fmt: skip
     """What a session's misclosures say of its operator (:class:`SessionNoise`).
 
     Its tested trials' chi-square, dof and components (none when not tested); a trial
@@ -275,15 +312,37 @@ def session_statistics(
     tests it in regions the operator's prior has not settled yet (at 3x the typed placing
     it would flag merely noisy trials and thin the operator's pool by the truth), and a
     blunder only the truth sees is one its misclosure cannot: its misclosure is a clean one.
+    ``placing_in``: the session's base (:func:`session_base_in`), so that its operator's
+    sessions of other typed resolutions pool with it as placing variances.
     """
     if m is None:
         return SessionNoise(group=group, chi2=np.zeros(0), dof=np.zeros(0, dtype=np.int_),
-                            share=np.zeros((0, 0)), z2=np.zeros((0, 0)))  # fmt: skip
+                            share=np.zeros((0, 0)), z2=np.zeros((0, 0)),
+                            placing_in=placing_in)  # fmt: skip
     use = (m.dof > 0) & np.isfinite(m.chi2)
     if tests is not None and tests.apart is not None:
         use &= ~np.isfinite(tests.apart)
     return SessionNoise(group=group, chi2=m.chi2[use], dof=m.dof[use],
-                        share=m.placing_share[use], z2=m.z2[use])  # fmt: skip
+                        share=m.placing_share[use], z2=m.z2[use],
+                        placing_in=placing_in)  # fmt: skip
+
+
+def session_base_in(trials: SessionTrials, options: EstimateOptions) -> float:
+    """The placing sigma a session's multiplier is relative to, in inches (NaN: no pose).
+
+    A board's measured ``[placing]``, else the RMS of its poses' typed resolutions
+    (:func:`twopose.uncertainty.hand.base_placing_in`).
+    """
+    from twopose.uncertainty.hand import base_placing_in
+    from twopose.values.units import unit_spec
+
+    placing = options.noise.placing
+    if placing is not None and not placing.upper_bound:
+        return placing.sigma_in
+    if not trials.units:
+        return math.nan
+    typed = [v.t_sigma for row in trials.views for v in row]
+    return base_placing_in(typed, unit_spec(Units(trials.units)).inches)
 
 
 def placed(cov_in: F64, factor: VarianceFactor | None) -> F64:

@@ -63,6 +63,7 @@ __all__ = [
     "SAMPLES",
     "SEED",
     "SESSION_TIMEOUT",
+    "SIMULATED_TRIAL",
     "SPEED",
     "STREAM_DURATION",
     "TARGET_DISTANCE",
@@ -472,6 +473,13 @@ STREAM_DURATION = Quantity(
     high=3600.0, low_open=True,
     given_as="a pair plan's `duration`: a stream trial ends this long after its start",
 )  # fmt: skip
+SIMULATED_TRIAL = Quantity(
+    key="simulated_trial", words="simulated stream trial's length", kind=Kind.SECONDS,
+    low=0.0, high=600.0, low_open=True,
+    given_as="`simulate --cameras 2`: a trial's path over `--speed` (10 minutes, the issue's "
+    "longest recording: 18,000 frames a camera at 30 fps, about an hour of rendering at "
+    "0.1 s a frame)",
+)  # fmt: skip
 SAMPLES = Quantity(
     key="samples", words="samples", kind=Kind.COUNT, low=100, high=10_000_000,
     given_as="`sensitivity --samples`",
@@ -483,7 +491,7 @@ QUANTITIES: tuple[Quantity, ...] = (
     BOARD_SQUARE, FOCAL, PRINCIPAL, IMAGE_SIDE, GRID, REACH, TARGET_PRECISION, TARGET_DISTANCE,
     MIN_GAIN, MAX_POSES, POSES, FRAMES, INNER_CORNERS, FPS, PORT, TRIALS, SEED, POSE_NOISE,
     TYPED_RESOLUTION, VIEWS, JOBS, MARGIN_ANGLE, SESSION_TIMEOUT, SAMPLES, CAMERAS,
-    SPEED, CLOCK_OFFSET, DRIFT, JITTER, DROP, TOUCH_TIME, STREAM_DURATION,
+    SPEED, CLOCK_OFFSET, DRIFT, JITTER, DROP, TOUCH_TIME, STREAM_DURATION, SIMULATED_TRIAL,
 )  # fmt: skip
 
 

@@ -1,0 +1,165 @@
+"""Two cameras read from files or folders (issue 58, a new user's r5 findings): a folder
+that runs out before the other ends the trial at once, said (F7); one source given for both
+cameras is refused (F3)."""
+
+from __future__ import annotations
+
+import re
+import shutil
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from recorder.cli.app import app
+from recorder.procedure.stream import StreamDriver, record_stream
+from recorder.procedure.stream_terminal import PairSetup, open_pair_source, pair_cameras
+from recorder.sources.registry import open_pair
+from tests.helpers import write_video
+from twopose.errors import SourceError
+from twopose.format.reader import SessionReader
+from twopose.format.streams import read_pair_session
+from twopose.methods.specs import Method
+from twopose.pair.motion import thesis_pair
+from twopose.pair.pair_file import write_pair_file
+from twopose.values.units import Units
+
+
+def _stills(folder: Path, n: int, seed: int) -> Path:
+    """``n`` noisy grey stills of the pair's size (small PNGs: quick to read)."""
+    k = thesis_pair().intrinsics1
+    rng = np.random.default_rng(seed)
+    folder.mkdir()
+    for i in range(n):
+        image = np.clip(80 + rng.normal(0, 2.0, (k.height, k.width, 3)), 0, 255)
+        cv2.imwrite(str(folder / f"{i:03d}.png"), image.astype(np.uint8))
+    return folder
+
+
+class _Lasting(StreamDriver):
+    def duration_s(self, trial: int) -> float:
+        return 0.9
+
+
+def test_a_folder_that_runs_out_ends_the_trial_at_once_incomplete(tmp_path: Path) -> None:
+    """Camera 2's folder holds 10 stills (0.3 s at 30 fps), camera 1's 40, the trial lasts
+    0.9 s: the trial ends on the stream's clock right after camera 2's last still (not
+    "complete", not 1 s of wall time later), its window incomplete naming the folder."""
+    a, b = _stills(tmp_path / "a", 40, 1), _stills(tmp_path / "b", 10, 2)
+    pair = thesis_pair()
+    setup = PairSetup(method=Method.POINT, units=Units.IN, operator="Ada")
+    source = open_pair_source(f"pair:images:{a},images:{b}", pair, setup, fps=None)
+    out = tmp_path / "short.mcap"
+    summary = record_stream(out, setup.info(), pair_cameras(pair), pair, source, _Lasting())
+    assert summary.kept
+    assert "camera 2 (images:" in summary.stopped, summary.stopped
+    assert "ran out" in summary.stopped, summary.stopped
+    assert "(stopped: camera 2" in summary.line(), summary.line()
+    (end,) = summary.trials
+    assert end.n_frames == (11, 10), end  # camera 1's last frame within 2 intervals of b's
+    with SessionReader(out) as reader:
+        (trial,) = read_pair_session(reader).trials
+    assert "ran out" in trial.camera1.reason, trial.camera1.reason
+
+
+@pytest.mark.parametrize(
+    ("first", "second", "said"),
+    [
+        ("video:{d}/c1.avi", "video:{d}/./sub/../c1.avi", "both cameras read the same video"),
+        ("video:{d}/c1.avi", "video:{d}/link.avi", "both cameras read the same video"),
+        ("camera:0", "camera:0", "both cameras read the same camera (0)"),
+        ("images:{d}/a", "images:{d}/a/", "both cameras read the same images"),
+        ("images:{d}/a/*.png", "images:{d}/sub/../a/*.png", "both cameras read the same images"),
+    ],
+)
+def test_a_pair_of_one_source_given_twice_is_refused(
+    tmp_path: Path, first: str, second: str, said: str
+) -> None:
+    """The same file, device or folder for both cameras (however spelled), or two copies
+    of one recording: refused in words before anything opens (F3: rays of one image through
+    two centres 'measured' a clock offset, and the live page said conditioning ok)."""
+    video = write_video(tmp_path / "c1.avi", 3)
+    (tmp_path / "link.avi").symlink_to(video)
+    (tmp_path / "sub").mkdir()
+    _stills(tmp_path / "a", 2, 1)
+    a, b = (s.format(d=tmp_path) for s in (first, second))
+    with pytest.raises(SourceError, match=re.escape(said)):
+        open_pair(a, b)
+
+
+@pytest.mark.parametrize("kind", ["video", "images"])
+def test_two_copies_of_one_recording_are_warned_of_with_camera_2(tmp_path: Path, kind: str) -> None:
+    """Camera 2's files identical to camera 1's byte for byte: said with camera 2 (as the
+    cameras are printed by new --pair, point and calibrate-pair) and in the warnings; two
+    cameras' own files are not."""
+    if kind == "video":
+        one = write_video(tmp_path / "c1.avi", 3)
+        copy, other = shutil.copy(one, tmp_path / "copy.avi"), tmp_path / "c2.avi"
+        write_video(other, 3, step=21)
+    else:
+        one = _stills(tmp_path / "a", 2, 1)
+        copy, other = shutil.copytree(one, tmp_path / "acopy"), _stills(tmp_path / "b", 2, 2)
+    with open_pair(f"{kind}:{one}", f"{kind}:{copy}") as source:
+        first, second = source.cameras
+        warnings = source.warnings
+    assert "byte for byte" in second.text(), second.text()
+    assert "warning" not in first.text()
+    assert any("byte for byte" in w for w in warnings), warnings
+    with open_pair(f"{kind}:{one}", f"{kind}:{other}") as source:
+        assert "warning" not in source.cameras[1].text()
+        assert not source.warnings
+
+
+def test_new_pair_refuses_one_video_for_both_cameras_before_asking(tmp_path: Path) -> None:
+    write_pair_file(tmp_path / "PAIR.toml", thesis_pair())
+    video = write_video(tmp_path / "c1.avi", 3)
+    result = CliRunner().invoke(app, [
+        "new", str(tmp_path / "s.mcap"), "--pair", str(tmp_path / "PAIR.toml"),
+        "--source", f"pair:video:{video},video:{video}",
+    ])  # fmt: skip
+    assert result.exit_code != 0
+    assert "both cameras read the same video" in result.output, result.output
+    assert "method" not in result.output  # nothing asked
+    assert not (tmp_path / "s.mcap").exists()
+
+
+class _Late(StreamDriver):
+    """One trial of 0.2 s, started ``wait_s`` after the files opened (an operator's or a
+    loaded machine's delay)."""
+
+    def __init__(self, wait_s: float) -> None:
+        self.wait_s = wait_s
+
+    def next_trial(self, trial: int) -> bool:
+        time.sleep(self.wait_s)
+        return trial == 1
+
+    def duration_s(self, trial: int) -> float:
+        return 0.2
+
+
+def test_two_video_files_give_the_same_trial_however_late_it_starts(tmp_path: Path) -> None:
+    """Files replayed whole (r5 F13): the trial starts at each file's first frame and
+    takes every frame in order, so the same files and plan give the same session whether
+    the trial starts at once or 0.4 s (12 frames) after the files opened."""
+    pair = thesis_pair()
+    size = (pair.intrinsics1.width, pair.intrinsics1.height)
+    one, two = (write_video(tmp_path / f"c{n}.avi", 12, size, 20 + n) for n in (1, 2))
+    setup = PairSetup(method=Method.POINT, units=Units.IN, operator="Ada")
+    sessions = []
+    for wait_s in (0.0, 0.4):
+        source = open_pair_source(f"pair:video:{one},video:{two}", pair, setup, fps=None)
+        out = tmp_path / f"late{wait_s}.mcap"
+        summary = record_stream(out, setup.info(), pair_cameras(pair), pair, source, _Late(wait_s))
+        (end,) = summary.trials
+        assert end.unrecorded == (0, 0), end  # no frame played before the trial
+        assert end.why == "duration", end
+        with SessionReader(out) as reader:
+            (trial,) = read_pair_session(reader).trials
+        first = trial.camera1.capture_ns[0]
+        sessions.append([(c.capture_ns - first).tolist() for c in trial.cameras])
+    assert sessions[0] == sessions[1]
+    assert len(sessions[0][0]) == 7  # 0.2 s at 30 fps from the file's first frame
