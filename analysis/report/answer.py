@@ -181,7 +181,11 @@ def noise_phrases(row: pd.Series) -> list[str]:
     )
     scale = _known(row.get("placing_scale"))
     start = sigma / scale if isinstance(sigma, int | float) and scale > 0 else sigma  # assumed
-    return [f"placing sigma {_sig(start)} {row['units']} {source};", *_phrases(words)]
+    phrases = [f"placing sigma {_sig(start)} {row['units']} {source};", *_phrases(words)]
+    floor = row.get("floor_unmeasured", "")  # a camera of another image size ("": none)
+    if not isinstance(floor, str) or not floor:
+        return phrases
+    return [*phrases[:-1], phrases[-1] + ";", *floor.split(" ")]
 
 
 def _phrases(words: str) -> list[str]:

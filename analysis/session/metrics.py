@@ -175,6 +175,7 @@ def noise_summary(trials: pd.DataFrame) -> dict[str, object]:
         "placing_scale": scale,
         "placing_dof": _first_number(trials, "placing_dof"),
         "prior_sessions": _first_text(trials, "prior_sessions"),
+        "floor_unmeasured": _distinct_text(trials, "floor_unmeasured"),
         **rig,
         "sigma0": float(np.sqrt(factor.sigma0_sq)) if total else np.nan,
         "sigma0_dof": total,
@@ -215,6 +216,15 @@ def _first_text(trials: pd.DataFrame, column: str) -> str:
         return ""
     values = trials[column].dropna().astype(str)
     return str(values.iloc[0]) if len(values) else ""
+
+
+def _distinct_text(trials: pd.DataFrame, column: str) -> str:
+    """A text column's distinct non-empty values over the session's trials, ``; ``-joined
+    in order (``""``: none, or a table from before the column)."""
+    if column not in trials:
+        return ""
+    values = [str(v) for v in trials[column].dropna() if str(v)]
+    return "; ".join(dict.fromkeys(values))
 
 
 def _identity(trials: pd.DataFrame) -> dict[str, str]:

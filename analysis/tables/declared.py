@@ -199,6 +199,7 @@ SUMMARY_TABLE: tuple[Column, ...] = (
             NON_NEGATIVE),
     _number("placing_dof", "placing sigma's degrees of freedom", _S, "none", NON_NEGATIVE),
     _text("prior_sessions", "the operator's other sessions pooled", _S),
+    _text("floor_unmeasured", "detector's floor not measured at", _S),
     _text("rig_file", "rig file", _S),
     _text("rig_sha256", "rig file's SHA-256", _S),
     _number("sigma0", "sigma0 under the typed model", _S, "none", NON_NEGATIVE),

@@ -30,6 +30,7 @@ __all__ = [
     "disagreement",
     "flagged",
     "flagged_by",
+    "floor_unmeasured",
     "misclosure_chi2",
     "misclosure_dof",
     "misclosure_p",
@@ -63,6 +64,15 @@ def placing_source(t: TrialResult) -> list[str]:
     from twopose.uncertainty.session_noise import placing_source as source
 
     return [source(t.estimate.options, t.estimate.factor)] * len(t.estimate.trials)
+
+
+def floor_unmeasured(t: TrialResult) -> list[str]:
+    """Per trial, where its views' image size is not one the detector's floor was measured
+    at, the words saying so (:func:`twopose.methods.specs.floors_unmeasured`; ``""``: the
+    floor holds at every view's size)."""
+    from twopose.methods.specs import floors_unmeasured
+
+    return [floors_unmeasured(v.width_height for v in row) for row in t.estimate.trials.views]
 
 
 def prior_sessions(t: TrialResult) -> list[str]:

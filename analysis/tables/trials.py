@@ -443,6 +443,7 @@ TRIAL_TABLE: tuple[Column, ...] = (
     Column(name="placing_dof", label="placing sigma's degrees of freedom", unit="none",
            domain=NON_NEGATIVE, group="noise", fill=nc.placing_dof),
     _text("prior_sessions", "the operator's other sessions pooled", "noise", nc.prior_sessions),
+    _text("floor_unmeasured", "detector's floor not measured at", "noise", nc.floor_unmeasured),
     # the rig file the session used (filled by the pipeline, from its options)
     _text("rig_file", "rig file", "noise"),
     _text("rig_sha256", "rig file's SHA-256", "noise"),

@@ -24,7 +24,7 @@ from twopose.camera.model import Camera
 from twopose.display.scene import TrialScene, scene_of_views
 from twopose.format.entries import GroundTruth, PlaneEntry, PoseEntry, TypedEntry
 from twopose.guidance.advice import Advice
-from twopose.methods.specs import Method
+from twopose.methods.specs import Method, floors_unmeasured, spec_of
 from twopose.rig.constants import RigConstants, check_applicable, corrected_ground, corrected_view
 from twopose.solve.estimate import EstimateOptions, GroundSpec, PoseView, measure, pose_view
 from twopose.solve.session import SessionTrials, estimate_session
@@ -257,7 +257,9 @@ def live_results(
 ) -> LiveResults:
     """The live results of a recording: its regions from the rig file's placing sigma (or
     each pose's typed one), the operator's earlier sessions their prior
-    (:mod:`recorder.live.operator_noise`); what they start from is said as it starts."""
+    (:mod:`recorder.live.operator_noise`); what they start from is said as it starts, and
+    a camera whose image size the detector's floor was not measured at
+    (:func:`twopose.methods.specs.floors_unmeasured`)."""
     from recorder.live.operator_noise import live_prior
 
     estimate, placing_words = _placing_of_operator(settings, info)
@@ -267,6 +269,9 @@ def live_results(
     results.notes.insert(0, placing_words)
     if prior_words:
         results.notes.insert(1, prior_words)
+    floor = floors_unmeasured((c.intrinsics.width, c.intrinsics.height) for c in cameras)
+    if floor and spec_of(info.method).measures:  # a camera of another image size
+        results.notes.append(floor)
     return results
 
 

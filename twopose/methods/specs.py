@@ -12,7 +12,7 @@ same as when the method was a plain string.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import asdict, dataclass
 from types import MappingProxyType
 from typing import TYPE_CHECKING, Any, ClassVar, Literal, TypeVar
@@ -48,6 +48,7 @@ __all__ = [
     "Solver",
     "TruthKind",
     "floor_unmeasured",
+    "floors_unmeasured",
     "label_of",
     "register_method",
     "spec_of",
@@ -328,6 +329,15 @@ def floor_unmeasured(width: int, height: int) -> str:
         "its error in pixels there is not the floor's and the regions may be too small; "
         "measure it (benchmarks/bench_detector_floor.py --size) or give the noise"
     )
+
+
+def floors_unmeasured(sizes: Iterable[tuple[int, int]]) -> str:
+    """:func:`floor_unmeasured`'s words for each image size the floors do not hold at.
+
+    ``sizes`` (width, height): each said once, in order ("" where the floors hold at all).
+    """
+    said = (floor_unmeasured(w, h) for w, h in dict.fromkeys(sizes))
+    return "; ".join(w for w in said if w)
 
 
 #: Method 1's solver: the rays through each view's dot (thesis eq. 3.9).
