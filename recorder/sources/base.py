@@ -8,6 +8,7 @@ operator names them are in :mod:`recorder.sources.registry`.
 from __future__ import annotations
 
 import csv
+import filecmp
 import io
 import time
 from abc import ABC, abstractmethod
@@ -37,6 +38,7 @@ __all__ = [
     "open_video",
     "pair_spec",
     "parse_pair",
+    "refuse_same",
 ]
 
 
@@ -87,7 +89,7 @@ class FrameSource(ABC):
         return None
 
     #: What it reads, in words (a pair given one of them twice is refused naming it).
-    reads: ClassVar[str] = "source"
+    what_it_reads: ClassVar[str] = "source"
 
     def origin(self) -> tuple[object, ...] | None:
         """What this source reads (a device, a file, a folder and its pattern), so that a
@@ -237,3 +239,29 @@ def pair_spec(first: str, second: str) -> str:
     out = io.StringIO()
     csv.writer(out, lineterminator="").writerow([first, second])
     return f"pair:{out.getvalue()}"
+
+
+def refuse_same(first: str, second: str, one: FrameSource, two: FrameSource) -> str:
+    """A pair whose two cameras read one thing refused in words: the same device, file or
+    folder given twice (however spelled): camera 2 would see what camera 1 sees, and the
+    rays of one image through two centres meet nowhere near the target, yet measure a
+    clock offset. Files identical byte for byte (two copies of one recording; every still
+    of two folders) are warned of: the warning returned ("": none), said with camera 2."""
+    what = one.origin()
+    if what is not None and what == two.origin():
+        raise SourceError(
+            f"pair:{first},{second}: both cameras read the same {one.what_it_reads} "
+            f"({what[1]}): a pair needs two cameras, each its own device, file or folder"
+        )
+    files = one.file_paths(), two.file_paths()
+    if (
+        files[0]
+        and len(files[0]) == len(files[1])
+        and all(filecmp.cmp(a, b, shallow=False) for a, b in zip(*files, strict=True))
+    ):
+        return (
+            f"camera 2's files ({second}) are camera 1's ({first}), byte for byte (two "
+            "copies of one recording?): a pair needs two cameras' own frames; what it "
+            "measures of them (points, the clock offset) means nothing"
+        )
+    return ""

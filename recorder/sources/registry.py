@@ -12,7 +12,6 @@ gives a :class:`FrameSource`; use it as a context manager and call
 from __future__ import annotations
 
 import contextlib
-import filecmp
 import os
 import queue
 import threading
@@ -30,6 +29,7 @@ from recorder.sources.base import (
     open_video,
     pair_spec,
     parse_pair,
+    refuse_same,
 )
 from recorder.sources.pair_feeds import CameraFeed, Feed, PacedFeed, StillsFeed, VideoFeed
 from recorder.sources.synthetic import SyntheticSource
@@ -69,7 +69,6 @@ __all__ = [
     "open_video",
     "pair_spec",
     "parse_pair",
-    "refuse_same",
     "register_feed",
     "register_source",
     "source_help",
@@ -88,7 +87,7 @@ class CameraSource(FrameSource):
     ``device`` is a camera index, or anything else ``cv2.VideoCapture`` opens (a stream URL).
     """
 
-    reads = "camera device"
+    what_it_reads = "camera device"
 
     def __init__(
         self, device: int | str, width: int = 640, height: int = 480, fps: float = 30.0
@@ -154,7 +153,7 @@ class VideoSource(FrameSource):
     """Frames of a video file, in order; with ``realtime``, paced like a camera at the
     file's frame rate (frames a late reader misses are skipped and counted as dropped)."""
 
-    reads = "video file"
+    what_it_reads = "video file"
 
     def __init__(self, path: str | Path, *, realtime: bool = False) -> None:
         self.path = Path(path)
@@ -196,7 +195,7 @@ class ImagesSource(FrameSource):
     ``DIR/PATTERN`` (a shell pattern such as ``photos/left*.jpg``: a folder often holds
     more than one camera's views)."""
 
-    reads = "folder of images"
+    what_it_reads = "folder of images"
 
     stills = True
 
@@ -516,29 +515,3 @@ def open_pair(
 def _resolved(path: Path) -> str:
     """A path as the file system names it (symbolic links and ``..`` followed)."""
     return os.path.realpath(path)
-
-
-def refuse_same(first: str, second: str, one: FrameSource, two: FrameSource) -> str:
-    """A pair whose two cameras read one thing refused in words: the same device, file or
-    folder given twice (however spelled): camera 2 would see what camera 1 sees, and the
-    rays of one image through two centres meet nowhere near the target, yet measure a
-    clock offset. Files identical byte for byte (two copies of one recording; every still
-    of two folders) are warned of: the warning returned ("": none), said with camera 2."""
-    what = one.origin()
-    if what is not None and what == two.origin():
-        raise SourceError(
-            f"pair:{first},{second}: both cameras read the same {one.reads} "
-            f"({what[1]}): a pair needs two cameras, each its own device, file or folder"
-        )
-    files = one.file_paths(), two.file_paths()
-    if (
-        files[0]
-        and len(files[0]) == len(files[1])
-        and all(filecmp.cmp(a, b, shallow=False) for a, b in zip(*files, strict=True))
-    ):
-        return (
-            f"camera 2's files ({second}) are camera 1's ({first}), byte for byte (two "
-            "copies of one recording?): a pair needs two cameras' own frames; what it "
-            "measures of them (points, the clock offset) means nothing"
-        )
-    return ""
