@@ -337,7 +337,8 @@ def replay_trial(
         touches=trial.touches,
         at_touch=at,
         touch_error=np.full(len(trial.touches), np.nan),
-        reason="; ".join(s.reason for s in trial.cameras if s.reason),
+        # one reason once (a recovered window closes both cameras alike)
+        reason="; ".join(dict.fromkeys(s.reason for s in trial.cameras if s.reason)),
         noise=noise,
         interval_ns=interval,
         missed=missed,

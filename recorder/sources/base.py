@@ -10,6 +10,7 @@ from __future__ import annotations
 import csv
 import filecmp
 import io
+import os
 import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
@@ -254,6 +255,13 @@ def refuse_same(first: str, second: str, one: FrameSource, two: FrameSource) -> 
             f"({what[1]}): a pair needs two cameras, each its own device, file or folder"
         )
     files = one.file_paths(), two.file_paths()
+    read = [sorted(os.path.realpath(f) for f in side) for side in files]
+    if read[0] and read[0] == read[1]:  # one folder, spelled with and without a pattern
+        raise SourceError(
+            f"pair:{first},{second}: both cameras read the same files ({len(read[0])}, "
+            f"from {os.path.dirname(read[0][0])}): a pair needs two cameras, each its own "
+            "device, file or folder"
+        )
     if (
         files[0]
         and len(files[0]) == len(files[1])

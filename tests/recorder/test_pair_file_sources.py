@@ -72,6 +72,7 @@ def test_a_folder_that_runs_out_ends_the_trial_at_once_incomplete(tmp_path: Path
         ("video:{d}/c1.avi", "video:{d}/link.avi", "both cameras read the same video"),
         ("camera:0", "camera:0", "both cameras read the same camera device (0)"),
         ("images:{d}/a", "images:{d}/a/", "both cameras read the same folder of images"),
+        ("images:{d}/a", "images:{d}/a/*.png", "both cameras read the same files"),
         (
             "images:{d}/a/*.png",
             "images:{d}/sub/../a/*.png",
