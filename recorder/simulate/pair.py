@@ -218,6 +218,14 @@ def _checked(method: Method, trials: int, scene: Scene, timing: PairTiming) -> P
             f"{scene.sensor.fps:g} fps, about an hour of rendering): give --speed "
             f"{_up(fastest):g} or more"
         )
+    # The rendering's cost is the frames, however they come: many trials, a fast camera.
+    frames = trials * math.ceil(seconds * scene.sensor.fps)
+    said = bounds.SIMULATED_FRAMES.refusal(frames, None, given=f"{frames:,}")
+    if said:
+        raise InputValueError(
+            f"{said} ({trials:,} trial(s) of {seconds:,.1f} s at {scene.sensor.fps:g} fps): "
+            "give fewer --trials, a faster --speed, or a scene of a lower fps"
+        )
     return timing
 
 

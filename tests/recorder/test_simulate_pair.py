@@ -187,6 +187,11 @@ PAIR = ["--cameras", "2", "--speed", "1", "--clock-offset-ms", "1"]
         ),
         (["--cameras", "2", "--speed", "5e-324", "--clock-offset-ms", "1"], "600 s, got inf"),
         (["--cameras", "2", "--speed", "1e-6", "--clock-offset-ms", "1"], "got 8,000,00"),
+        (  # a second new user's r5 F12a': each trial within 600 s, 10,000 of them
+            [*PAIR, "--trials", "10000"],
+            r"frames a camera of a simulated two-camera session must be a whole number from 1 "
+            r"to 18000, got [\d,]+ \(10,000 trial\(s\) of .* give fewer --trials",
+        ),
     ],
 )
 def test_every_option_is_refused_in_words_when_malformed_or_without_its_partner(

@@ -63,6 +63,7 @@ __all__ = [
     "SAMPLES",
     "SEED",
     "SESSION_TIMEOUT",
+    "SIMULATED_FRAMES",
     "SIMULATED_TRIAL",
     "SPEED",
     "STREAM_DURATION",
@@ -480,6 +481,12 @@ SIMULATED_TRIAL = Quantity(
     "longest recording: 18,000 frames a camera at 30 fps, about an hour of rendering at "
     "0.1 s a frame)",
 )  # fmt: skip
+SIMULATED_FRAMES = Quantity(
+    key="simulated_frames", words="frames a camera of a simulated two-camera session",
+    kind=Kind.COUNT, low=1, high=18_000,
+    given_as="`simulate --cameras 2`: `--trials` times each trial's length times the "
+    "scene's fps (the frames of one 10-minute trial at 30 fps, about an hour of rendering)",
+)  # fmt: skip
 SAMPLES = Quantity(
     key="samples", words="samples", kind=Kind.COUNT, low=100, high=10_000_000,
     given_as="`sensitivity --samples`",
@@ -492,6 +499,7 @@ QUANTITIES: tuple[Quantity, ...] = (
     MIN_GAIN, MAX_POSES, POSES, FRAMES, INNER_CORNERS, FPS, PORT, TRIALS, SEED, POSE_NOISE,
     TYPED_RESOLUTION, VIEWS, JOBS, MARGIN_ANGLE, SESSION_TIMEOUT, SAMPLES, CAMERAS,
     SPEED, CLOCK_OFFSET, DRIFT, JITTER, DROP, TOUCH_TIME, STREAM_DURATION, SIMULATED_TRIAL,
+    SIMULATED_FRAMES,
 )  # fmt: skip
 
 
