@@ -61,6 +61,7 @@ from recorder.procedure.stream_offset import OffsetMeter
 from recorder.procedure.stream_source import check_sizes, first_frames, with_clocks
 from recorder.setup.stream_plan import touch_refusal
 from twopose.errors import SourceError, TwoposeError
+from twopose.format.entries import Note
 from twopose.format.stream_entries import TouchMark
 from twopose.format.writer import SessionWriter
 from twopose.values.checks import Vec3
@@ -300,6 +301,8 @@ def record_stream(
             writer = stack.enter_context(
                 SessionWriter(out, info, cameras, ground=ground, pair=pair)
             )
+            for warning in source.warnings:  # kept in the file, for the analysis to say
+                writer.write_note(Note(text=f"warning: {warning}"))
             driver.start(source.cameras, out)
             try:
                 trial = driver.first_trial - 1

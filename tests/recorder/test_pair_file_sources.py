@@ -168,3 +168,20 @@ def test_two_video_files_give_the_same_trial_however_late_it_starts(tmp_path: Pa
         sessions.append([(c.capture_ns - first).tolist() for c in trial.cameras])
     assert sessions[0] == sessions[1]
     assert len(sessions[0][0]) == 7  # 0.2 s at 30 fps from the file's first frame
+
+
+def test_a_copy_recorded_keeps_its_warning_in_the_session(tmp_path: Path) -> None:
+    """Two copies of one folder recorded by new --pair: the start's warning is a note of the
+    session file (a second new user's r5 F3d: said at the terminal, gone from the file)."""
+    from twopose.format.entries import Note
+
+    a = _stills(tmp_path / "a", 12, 1)
+    copy = shutil.copytree(a, tmp_path / "acopy")
+    pair = thesis_pair()
+    setup = PairSetup(method=Method.POINT, units=Units.IN, operator="Ada")
+    source = open_pair_source(f"pair:images:{a},images:{copy}", pair, setup, fps=None)
+    out = tmp_path / "copy.mcap"
+    record_stream(out, setup.info(), pair_cameras(pair), pair, source, _Lasting())
+    with SessionReader(out) as reader:
+        notes = [e.text for e in reader.iter_entries([Note.TOPIC]) if isinstance(e, Note)]
+    assert any(n.startswith("warning: ") and "byte for byte" in n for n in notes), notes
