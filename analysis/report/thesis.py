@@ -225,8 +225,7 @@ def _used(trials: pd.DataFrame, *, include_warned: bool) -> pd.DataFrame:
     error, in inches (``err_in``, ``err_x_in``), converted from their own units by the
     registry's sizes (:data:`THESIS_UNITS`)."""
     used = used_trials(trials, include_warned=include_warned, measured=True)
-    per_unit = {str(u): unit_factor(u, THESIS_UNITS) for u in UNITS}
-    scale = used["units"].astype(str).map(per_unit).astype(float)
+    scale = _to_inches(used)
     inches: pd.DataFrame = used.assign(err_in=used["err"] * scale, err_x_in=used["err_x"] * scale)
     return inches
 
@@ -256,6 +255,12 @@ def _too_few_all_within(n: int) -> str:
     )
 
 
+def _to_inches(trials: pd.DataFrame) -> pd.Series:
+    """Each row's factor from its own units to the thesis' inches (:data:`THESIS_UNITS`)."""
+    per_unit = {str(u): unit_factor(u, THESIS_UNITS) for u in UNITS}
+    return trials["units"].astype(str).map(per_unit).astype(float)
+
+
 def _left_out(trials: pd.DataFrame, *, include_warned: bool) -> str:
     """`` (1 more ok trial warned, left out: 13.23 in)``, `` (5 more ok trials warned, left
     out, the largest 4.28 in)``: ok rows the count leaves out for a near-degeneracy warning
@@ -266,8 +271,7 @@ def _left_out(trials: pd.DataFrame, *, include_warned: bool) -> str:
     out = ok[warned(ok)]
     if out.empty:
         return ""
-    per_unit = {str(u): unit_factor(u, THESIS_UNITS) for u in UNITS}
-    inches = pd.to_numeric(out["err"], errors="coerce") * out["units"].astype(str).map(per_unit)
+    inches = pd.to_numeric(out["err"], errors="coerce") * _to_inches(out)
     known = inches.dropna()
     if len(out) == 1:
         said = f": {known.iloc[0]:.2f} in" if len(known) else ""
