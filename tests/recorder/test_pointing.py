@@ -346,3 +346,20 @@ def test_the_live_noise_is_the_analysis_rule_over_the_last_frames():
     said = [e.noise for f in frames for e in given.add_frame(f)]
     assert said
     assert all(n == ("pixel noise 0.25 px, 0.25 deg given",) * 2 for n in said)
+
+
+def test_camera_2_showing_camera_1s_pictures_warns_every_pair_after_ten(ground_stream):
+    """Camera 2's frames camera 1's pictures (a copy of one recording, bytes aside): once
+    ten pairs saw the finger at one pixel in both cameras, each pair carries the warning the
+    page says in place of "conditioning: ok"; the real pair's pairs carry none."""
+    clip, frames = ground_stream
+    images = {f.index: f.image for f in frames if f.camera == 1}
+    copied = [
+        dataclasses.replace(f, image=images[f.index]) if f.camera == 2 else f
+        for f in frames
+        if f.index in images
+    ]
+    warned = [e.warning for e in _live(Method.GROUND, clip, copied)]
+    assert "camera 2's frames look like camera 1's" in warned[-1], warned
+    assert warned[0] == ""  # one pair tells nothing
+    assert all(e.warning == "" for e in _live(Method.GROUND, clip, frames))
