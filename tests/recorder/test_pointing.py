@@ -281,6 +281,18 @@ def test_in_step_cameras_give_each_pair_at_once_and_equal_the_offline_estimate()
     np.testing.assert_array_equal(alone.point[alone.ok], offline.point[offline.ok])
 
 
+def _wait_for_library(pid: int, name: str, timeout_s: float = 30.0) -> None:
+    """Until process ``pid`` has loaded a shared library whose path holds ``name``."""
+    from pathlib import Path
+
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if name in Path(f"/proc/{pid}/maps").read_text():
+            return
+        time.sleep(0.005)
+    raise AssertionError(f"process {pid} did not load {name} in {timeout_s} s")
+
+
 @pytest.mark.parametrize("when", ["serving", "starting"])
 def test_ctrl_c_stops_point_with_exit_130_and_no_traceback(tmp_path, when):
     """``twopose-record point`` is a command like any other: Ctrl-C (while the page is
@@ -302,8 +314,10 @@ def test_ctrl_c_stops_point_with_exit_130_and_no_traceback(tmp_path, when):
     )  # fmt: skip
     if when == "serving":
         read_line_when_printed(process, "twopose pointing: http", "the page's address")
-    else:
-        time.sleep(0.3)  # the command line's modules are being imported
+    else:  # the command line's modules are being imported (NumPy's loaded after the
+        # command's first step, its signal handling: before it, the interpreter's own
+        # start-up is no command's, and a loaded machine can take 0.3 s to reach it)
+        _wait_for_library(process.pid, "_multiarray_umath")
     process.send_signal(signal.SIGINT)
     out, err = process.communicate(timeout=30)
     assert process.returncode == 130, (out, err)
