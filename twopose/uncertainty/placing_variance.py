@@ -52,6 +52,7 @@ from twopose.uncertainty.noise import MIN_PLACING_DOF, PlacingPrior
 __all__ = [
     "BAARDA_LEVEL",
     "GRID",
+    "POOL_LEVEL",
     "Flags",
     "Posterior",
     "SessionNoise",
@@ -70,6 +71,11 @@ _LOG_GRID = np.log(GRID)
 #: most of what a looser level would, and a clean trial's false alarm stays far below 2%
 #: (benchmarks/bench_noise.py).
 BAARDA_LEVEL = 0.005
+#: A trial is pooled (in the multiplier's likelihood and the others' rest) while its test
+#: against the rest accepts at 5%, flagged below 0.5%, in between neither (the cut corrected,
+#: :func:`_kept_chance`). Pooled up to 0.5%, typos an operator 1.6x worse than typed left
+#: unflagged widened the rest, which then passed more (r6 G8: multiplier 2-3.3x, not 1.6).
+POOL_LEVEL = 0.05
 #: The posterior's moments are summed on this many points a grid step (:func:`_precision_moments`).
 _REFINE = 8
 #: The rounds of the robust search at most (it settles in two or three).
@@ -77,6 +83,10 @@ _ROUNDS = 20
 #: Less information than this beside a trial (other trials', the prior's) is none: the
 #: typed test alone decides whether it is flagged.
 _SOMETHING_BESIDE = 0.5
+#: The information beside a trial (dof) from which the pool's cut is :data:`POOL_LEVEL`:
+#: the rest's multiplier known to 30%. Beside less, the cut is costly (a clean trial's
+#: misfit is the little there is) and the pool is cut at Baarda's level.
+_SHARP_REST = 20.0
 #: A posterior with more than this mass at the grid's first or last points is at its limit.
 _AT_LIMIT = 1e-3
 #: Between-session spread (type II maximum likelihood of the prior's dof over these).
@@ -348,17 +358,20 @@ def flag_trials(
     rest = _Posteriors(scale=np.full(T, start), dof=np.full(T, first), information=beside,
                        at_limit=np.zeros(T, dtype=bool), weights=guess)  # fmt: skip
     pool = np.zeros(T, dtype=bool)
+    pool_level = np.where(beside >= _SHARP_REST, max(level, POOL_LEVEL), level)
     for _ in range(_ROUNDS):
         p_typed, p_rest = trial_pvalues(chi2, dof, share, z2, rest, beside)
-        keep = tested & ~((p_typed < level) & (np.isnan(p_rest) | (p_rest < level)))
-        chance = _kept_chance(dof, share, rest, p_rest, level)
-        kept = np.where(keep[:, None], L - chance, 0.0)
-        if np.array_equal(keep, pool):
+        typed_off, no_rest = p_typed < level, np.isnan(p_rest)
+        keep = tested & ~(typed_off & (no_rest | (p_rest < level)))
+        pooled = tested & ~(typed_off & (no_rest | (p_rest < pool_level)))
+        chance = _kept_chance(dof, share, rest, p_rest, level, pool_level)
+        kept = np.where(pooled[:, None], L - chance, 0.0)
+        if np.array_equal(pooled, pool):
             break
-        pool = keep
-        rest_L, rest_info = _rest_of_each(kept, info, keep)
+        pool = pooled
+        rest_L, rest_info = _rest_of_each(kept, info, pooled)
         rest = posterior(rest_L, anchor, prior, rest_info)  # type: ignore[assignment]
-    flagged, clean = tested & ~keep, keep
+    flagged, clean = tested & ~keep, pooled
     p = np.where(np.isfinite(p_rest), p_rest, p_typed)
     return Flags(
         flagged=flagged,
@@ -381,22 +394,24 @@ def _robust_scale(dof: Ints, share: F64, L: F64) -> float:
     return float(np.clip(np.median(own / median), GRID[0], GRID[-1]))
 
 
-def _kept_chance(dof: Ints, share: F64, rest: _Posteriors, p_rest: F64, level: float) -> F64:
-    """(T, G) the log-chance, at every multiplier, that a trial is not flagged.
+def _kept_chance(
+    dof: Ints, share: F64, rest: _Posteriors, p_rest: F64, level: float, rest_level: F64
+) -> F64:
+    """(T, G) the log-chance, at every multiplier, that a trial is pooled.
 
-    A trial is kept when either test accepts it: its chi-square under the typed model
-    below that test's cut, or its statistic at the rest's multiplier below the cut of the
-    rest's predictive (where there is a rest); the chance is the larger of the two (the two
-    statistics nearly proportional). Each statistic, ``sum_k w_k chi2_1`` with ``w_k`` the
-    ratio of the direction's variance at ``lambda`` to the one it is tested at, is
-    Satterthwaite's scaled chi-square.
+    A trial is pooled when either test accepts it: its chi-square under the typed model
+    below that test's cut (``level``), or its statistic at the rest's multiplier below the
+    cut of the rest's predictive (``rest_level``, where there is a rest); the chance is the
+    larger of the two (the two statistics nearly proportional). Each statistic,
+    ``sum_k w_k chi2_1`` with ``w_k`` the ratio of the direction's variance at ``lambda``
+    to the one it is tested at, is Satterthwaite's scaled chi-square.
     """
     d = np.maximum(dof, 1)
     k, c = _satterthwaite(d, share, np.ones(len(d)))
     typed = special.chdtr(k, special.chdtri(d, level)[:, None] / c)
     k, c = _satterthwaite(d, share, rest.scale)
     has_rest = np.isfinite(p_rest)
-    cut = _predictive_cut(k, c, rest.weights, level, has_rest)
+    cut = _predictive_cut(k, c, rest.weights, rest_level, has_rest)
     with np.errstate(invalid="ignore", divide="ignore"):
         against_rest = special.chdtr(k, cut[:, None] / c)
     chance = np.where(has_rest[:, None], np.fmax(typed, against_rest), typed)
@@ -428,7 +443,7 @@ def _massive(weights: F64) -> Ints:
     return np.flatnonzero((weights > 1e-8).any(axis=0))
 
 
-def _predictive_cut(k: F64, c: F64, weights: F64, level: float, where: Bools) -> F64:
+def _predictive_cut(k: F64, c: F64, weights: F64, level: F64, where: Bools) -> F64:
     """(T,) the statistic whose predictive tail (``weights`` over ``c chi2_k``) is ``level``.
 
     Bisection in the log of the statistic, on the rows ``where`` (NaN elsewhere), between
@@ -440,8 +455,9 @@ def _predictive_cut(k: F64, c: F64, weights: F64, level: float, where: Bools) ->
     if rows.size:
         cols = _massive(weights[rows])
         k_, c_, w_ = k[np.ix_(rows, cols)], c[np.ix_(rows, cols)], weights[np.ix_(rows, cols)]
+        at = np.broadcast_to(level, where.shape)[rows]
         with np.errstate(invalid="ignore", divide="ignore"):
-            q = np.log(c_ * special.chdtri(k_, level))
+            q = np.log(c_ * special.chdtri(k_, at[:, None]))
         heavy = w_ > 1e-8
         a = np.where(heavy, q, np.inf).min(axis=1)
         b = np.where(heavy, q, -np.inf).max(axis=1)
@@ -449,7 +465,7 @@ def _predictive_cut(k: F64, c: F64, weights: F64, level: float, where: Bools) ->
             mid = 0.5 * (a + b)
             with np.errstate(invalid="ignore", divide="ignore"):
                 tail = (w_ * special.chdtrc(k_, np.exp(mid)[:, None] / c_)).sum(axis=1)
-            a, b = np.where(tail > level, mid, a), np.where(tail > level, b, mid)
+            a, b = np.where(tail > at, mid, a), np.where(tail > at, b, mid)
         out[rows] = np.exp(0.5 * (a + b))
     return out
 
@@ -521,8 +537,11 @@ def _group_priors(
     flags = flag_trials(chi2, dof, share, z2, anchor)
     use = (dof > 0) & np.isfinite(chi2) & ~flags.flagged
     L, clean = flags.kept, use.astype(float)
-    per_session = np.stack([L[owner == k].sum(axis=0) for k in range(len(sessions))])
-    spread = _spread_dof(per_session, L.sum(axis=0))
+    # the spread from the pooled trials' own likelihoods: corrected for the cut, one near it
+    # is flat to any larger multiplier, and sessions of one multiplier looked 2-8 dof apart
+    raw = np.where(use[:, None] & (L != 0).any(axis=1)[:, None], trial_loglik(share, z2), 0.0)
+    per_session = np.stack([raw[owner == k].sum(axis=0) for k in range(len(sessions))])
+    spread = _spread_dof(per_session, raw.sum(axis=0))
     out: list[PlacingPrior | None] = []
     for k in range(len(sessions)):
         others = use & (owner != k)
