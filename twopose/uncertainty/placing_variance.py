@@ -71,11 +71,11 @@ _LOG_GRID = np.log(GRID)
 #: most of what a looser level would, and a clean trial's false alarm stays far below 2%
 #: (benchmarks/bench_noise.py).
 BAARDA_LEVEL = 0.005
-#: A trial is pooled (in the multiplier's likelihood and the others' rest) while its test
-#: against the rest accepts at 5%, flagged below 0.5%, in between neither (the cut corrected,
-#: :func:`_kept_chance`). Pooled up to 0.5%, typos an operator 1.6x worse than typed left
-#: unflagged widened the rest, which then passed more (r6 G8: multiplier 2-3.3x, not 1.6).
-POOL_LEVEL = 0.05
+#: A trial beside a sharp rest (``_SHARP_REST`` dof: its multiplier known to 30%) is pooled
+#: (in the multiplier's likelihood, the others' rest) while its test against the rest accepts
+#: at 5%; flagged below 0.5%, in between neither (the cut corrected, :func:`_kept_chance`).
+#: Pooled to 0.5%, an operator's unflagged typos widened the rest, which passed more (r6 G8).
+POOL_LEVEL, _SHARP_REST = 0.05, 20.0
 #: The posterior's moments are summed on this many points a grid step (:func:`_precision_moments`).
 _REFINE = 8
 #: The rounds of the robust search at most (it settles in two or three).
@@ -83,10 +83,6 @@ _ROUNDS = 20
 #: Less information than this beside a trial (other trials', the prior's) is none: the
 #: typed test alone decides whether it is flagged.
 _SOMETHING_BESIDE = 0.5
-#: The information beside a trial (dof) from which the pool's cut is :data:`POOL_LEVEL`:
-#: the rest's multiplier known to 30%. Beside less, the cut is costly (a clean trial's
-#: misfit is the little there is) and the pool is cut at Baarda's level.
-_SHARP_REST = 20.0
 #: A posterior with more than this mass at the grid's first or last points is at its limit.
 _AT_LIMIT = 1e-3
 #: Between-session spread (type II maximum likelihood of the prior's dof over these).
@@ -537,8 +533,7 @@ def _group_priors(
     flags = flag_trials(chi2, dof, share, z2, anchor)
     use = (dof > 0) & np.isfinite(chi2) & ~flags.flagged
     L, clean = flags.kept, use.astype(float)
-    # the spread from the pooled trials' own likelihoods: corrected for the cut, one near it
-    # is flat to any larger multiplier, and sessions of one multiplier looked 2-8 dof apart
+    # the spread from the pooled trials' untruncated likelihoods (a truncated one is flat up)
     raw = np.where(use[:, None] & (L != 0).any(axis=1)[:, None], trial_loglik(share, z2), 0.0)
     per_session = np.stack([raw[owner == k].sum(axis=0) for k in range(len(sessions))])
     spread = _spread_dof(per_session, raw.sum(axis=0))
