@@ -218,7 +218,9 @@ def prior_salt(prior: PlacingPrior | None) -> str:
     """What the session's cache key adds for its prior (``""``: none): its digest."""
     if prior is None:
         return ""
-    text = json.dumps([repr(prior.scale), repr(prior.dof), prior.source, prior.sessions])
+    text = json.dumps(
+        [repr(prior.scale), repr(prior.dof), prior.source, prior.sessions, repr(prior.anchor_p)]
+    )
     return hashlib.sha256(text.encode()).hexdigest()
 
 

@@ -129,7 +129,8 @@ class NoiseFile:
         source = (
             f"{n} earlier session{'s' if n != 1 else ''} of operator {self.operator} ({method})"
         )
-        return PlacingPrior(scale=prior.scale, dof=prior.dof, source=source, sessions=n)
+        return PlacingPrior(scale=prior.scale, dof=prior.dof, source=source, sessions=n,
+                            anchor_p=prior.anchor_p)  # fmt: skip
 
     def unconvertible(self, method: Method, reference: str, base_in: float) -> int:
         """How many of the sessions :meth:`prior` leaves out: written before the file kept
