@@ -111,3 +111,12 @@ def test_the_words_say_the_operators_sessions_decided() -> None:
     assert "the data contradict the board's placing sigma (F test over all this operator's " in said
     alone = noise_words(1.21, 12, math.nan, board_contradicted=True)
     assert "(F test, p < 0.01)" in alone
+
+
+def test_typed_sessions_are_not_tested_as_a_board() -> None:
+    """The typed resolution is a weak word, not a measurement: no conflict test, no answer."""
+    rng = np.random.default_rng(3)
+    stats = [session_statistics("Ada (point)", _drawn(2.1, rng), placing_in=0.16) for _ in range(4)]
+    priors = operator_priors(stats, NoiseModel().anchor())
+    assert all(p is not None and math.isnan(p.anchor_p) for p in priors)
+    assert all("contradicted" not in p.source for p in priors if p is not None)

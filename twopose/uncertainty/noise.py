@@ -254,6 +254,8 @@ class PlacingPrior:
     sessions: int = 0
     pooled: tuple[str, ...] = ()
     anchor_p: float = math.nan
+    #: A board's measured sigma as the anchor (:meth:`NoiseModel.anchor`): the one tested.
+    measured: bool = False
 
     def __post_init__(self) -> None:
         """Refuse a prior that is not a positive scale on positive degrees of freedom."""
@@ -552,4 +554,4 @@ class NoiseModel:
             return PlacingPrior(
                 scale=1.0, dof=dof, source=f"{where} (contradicted by the data{whose})"
             )
-        return PlacingPrior(scale=1.0, dof=placing.dof, source=where)
+        return PlacingPrior(scale=1.0, dof=placing.dof, source=where, measured=True)

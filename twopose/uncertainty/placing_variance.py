@@ -515,7 +515,7 @@ def operator_priors(
 
 def _group_anchor(sessions: list[SessionNoise], anchor: PlacingPrior) -> tuple[PlacingPrior, float]:
     """:func:`~twopose.uncertainty.anchor_conflict.group_anchor` over ``sessions``' trials."""
-    if not math.isfinite(anchor.dof) or not any(s.share.size for s in sessions):
+    if not anchor.measured or not any(s.share.size for s in sessions):
         return anchor, math.nan
     _, chi2, dof, share, z2 = pooled_trials(sessions)
     return group_anchor(
