@@ -44,6 +44,7 @@ from twopose.uncertainty.session_noise import (
     session_base_in,
     session_statistics,
 )
+from twopose.values.operators import operator_key
 
 if TYPE_CHECKING:
     from analysis.batch.inputs import InputSet
@@ -82,7 +83,12 @@ def pooled_groups(heads: Mapping[str, tuple[str, str]], options: AnalysisOptions
         return {}
     from twopose.methods.specs import Method
 
-    groups = {p: operator_group(op, Method(m)) for p, (op, m) in heads.items() if m}
+    shown: dict[str, str] = {}  # one operator's name as first typed ("ada" is "Ada")
+    for op, _ in heads.values():
+        shown.setdefault(operator_key(op), op.strip())
+    groups = {
+        p: operator_group(shown[operator_key(op)], Method(m)) for p, (op, m) in heads.items() if m
+    }
     count: dict[str, int] = {}
     for g in groups.values():
         count[g] = count.get(g, 0) + 1

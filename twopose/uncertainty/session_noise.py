@@ -280,7 +280,7 @@ def operator_group(operator: str, method: Method) -> str:
     ``""`` (no operator named): a session alone.
     """
     name = operator.strip()
-    return f"{name} ({method})" if name else ""
+    return f"{name} ({method})" if name else ""  # matched by operator_key: the caller's
 
 
 def session_statistics(
