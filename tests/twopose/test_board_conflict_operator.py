@@ -9,6 +9,7 @@ with her other trials, and every session gets the one answer."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -120,3 +121,25 @@ def test_typed_sessions_are_not_tested_as_a_board() -> None:
     priors = operator_priors(stats, NoiseModel().anchor())
     assert all(p is not None and math.isnan(p.anchor_p) for p in priors)
     assert all("contradicted" not in p.source for p in priors if p is not None)
+
+
+def test_the_recorders_noise_file_gives_the_live_result_the_operators_answer(
+    tmp_path: Path,
+) -> None:
+    """One rule, live too: a rig's board tested over the operator's earlier sessions."""
+    from recorder.live.operator_noise import NoiseFile
+    from twopose.methods.specs import Method
+    from twopose.values.units import Units
+
+    noise_file, reference = NoiseFile("Ada", tmp_path), "placing 0.11 in (board16.mcap)"
+    for z2 in ADA:
+        m = _misclosure(np.array(z2))
+        stats = session_statistics("", m, placing_in=0.11)
+        noise_file.remember("a.mcap", Method.POINT, Units.IN, reference, stats)
+    anchor = NoiseModel(placing=BOARD).anchor()
+    prior = noise_file.prior(Method.POINT, reference, anchor, 0.11)
+    assert prior is not None
+    assert prior.anchor_p < 0.01
+    live = noise_from(_misclosure(np.array(ADA[0])), NoiseModel(placing=BOARD, prior=prior))
+    assert _contradicted(live)
+    assert not live.tests.flagged.any()
