@@ -455,7 +455,8 @@ def _turned_words(sigma0: float, dof: int, flagged: int, sigma0_all: float, dof_
         said = f"{sigma0:.2f} on {dof} dof ({p_words(upper)}) without the {flagged} flagged "
         said += f"{trials}, {sigma0_all:.2f} on {dof_all} dof ({p_words(upper_all)}) with "
         said += "it" if flagged == 1 else "them"
-        left = f"the data left agree with the noise model, with the flagged {trials} the "
+        # the data left said by the rule sigma0 alone is said by (a new user's r6 G6)
+        left = f"the data left {_left_words(sigma0, dof)}, with the flagged {trials} the "
         left += "data contradict it"
     return (
         f"sigma0 {said}: {left}: if "
@@ -463,6 +464,19 @@ def _turned_words(sigma0: float, dof: int, flagged: int, sigma0_all: float, dof_
         "places worse than typed and every region is too small: analyse the session beside "
         "its operator's others, or measure the placing with a board"
     )
+
+
+def _left_words(sigma0: float, dof: int) -> str:
+    """What the unflagged trials' sigma0 says where the flagged ones turned the test.
+
+    Its upper tail does not reject there: "agree" only on :data:`MIN_PLACING_DOF` dof or
+    more and outside the lower tail, as :func:`_test_words` says it.
+    """
+    if chi2_tails(dof * sigma0**2, dof)[1] < FACTOR_TEST_LEVEL:
+        return "scatter less than the noise model says"
+    if dof < MIN_PLACING_DOF:
+        return "are too few to judge the noise model"
+    return "agree with the noise model"
 
 
 def _test_words(sigma0: float, dof: int, flagged: int = 0, against: str = "typed") -> str:
