@@ -27,6 +27,9 @@ nobody measured: it was the resolution the operator typed. Here it is
   (:attr:`twopose.solve.margins.EstimateOptions.noise`).
 
 Light: the command lines read it; NumPy and SciPy are imported where a number is computed.
+
+(Near 600 lines: the noise's types and the one home of their words are read together by
+every side; split, the words would import the types' privates.)
 """
 
 from __future__ import annotations
@@ -75,6 +78,8 @@ SUPERSEDED_PRIOR_DOF = 1e-6
 #: on both dofs): 1%, as a board wrongly kept makes regions too small, one wrongly dropped
 #: only lets the trials decide (r5 F2's sessions, 1.5x the board's, stood at p = 0.001-0.002).
 ANCHOR_CONFLICT_LEVEL = 0.01
+#: How a board contradicted by its operator's pooled sessions is named, not by one session's.
+OPERATOR_DATA = "of its operator's sessions"
 #: The regions' level.
 _REGION_LEVEL = 0.95
 #: Beyond this many degrees of freedom a placing sigma's own uncertainty is not said as a
@@ -238,7 +243,9 @@ class PlacingPrior:
     regions start from) on ``dof`` degrees of freedom; ``source`` says where it came from
     (words), from how many ``sessions``; ``pooled`` names them (their session ids, sorted;
     empty when they had none), so that two runs whose priors read alike ("2 other sessions
-    of operator Eve") but pooled other sessions are told apart (``check``).
+    of operator Eve") but pooled other sessions are told apart (``check``). ``anchor_p``:
+    the board's conflict test over all the operator's sessions (NaN: not made), one answer
+    for each (:mod:`twopose.uncertainty.anchor_conflict`).
     """
 
     scale: float
@@ -246,6 +253,9 @@ class PlacingPrior:
     source: str
     sessions: int = 0
     pooled: tuple[str, ...] = ()
+    anchor_p: float = math.nan
+    #: A board's measured sigma as the anchor (:meth:`NoiseModel.anchor`): the one tested.
+    measured: bool = False
 
     def __post_init__(self) -> None:
         """Refuse a prior that is not a positive scale on positive degrees of freedom."""
@@ -358,6 +368,7 @@ def noise_words(  # noqa: PLR0913
     with_flagged: tuple[float, int] = (math.nan, 0),
     against: str = "typed",
     board_contradicted: bool = False,
+    by_operator: bool = False,
 ) -> str:
     """The noise model's test and what the regions took, in words: the one home of them.
 
@@ -375,7 +386,7 @@ def noise_words(  # noqa: PLR0913
     turned the test, and the words say both, never "agree" unqualified. ``against``: what
     sigma0 tests (``typed``, or ``the board's sigma``); ``board_contradicted``: the data
     contradicted the board's placing sigma (:attr:`NoiseModel.anchor_contradicted`), said
-    loudly (``factor``'s when given).
+    loudly (``factor``'s when given), ``by_operator`` over all the operator's sessions.
     """
     if factor is not None:
         placing_scale = factor.placing_scale if factor.estimated else math.nan
@@ -386,11 +397,13 @@ def noise_words(  # noqa: PLR0913
     if factor is not None:
         against = factor.against
         board_contradicted = math.isfinite(factor.anchor_conflict)
+        by_operator = f"(contradicted by the data {OPERATOR_DATA})" in factor.sources
+    over_words = " over all this operator's sessions" if by_operator else ""
     turned = _turned_words(sigma0, dof, flagged, *with_flagged)
     words = [turned or _test_words(sigma0, dof, flagged, against)]
     if board_contradicted:
         words.append(
-            f"the data contradict the board's placing sigma (F test, p < "
+            f"the data contradict the board's placing sigma (F test{over_words}, p < "
             f"{ANCHOR_CONFLICT_LEVEL:g}): regions likely too small with it, so it weighs as a "
             "guess here and the trials set the placing sigma"
         )
@@ -549,6 +562,10 @@ class NoiseModel:
             return PlacingPrior(scale=1.0, dof=dof, source="the typed resolution")
         where = placing.measured_by or "the given placing sigma"
         if math.isfinite(self.anchor_contradicted):  # the data contradict it: it gives way
-            dof = TYPED_PRIOR_DOF if self.prior is None else SUPERSEDED_PRIOR_DOF
-            return PlacingPrior(scale=1.0, dof=dof, source=f"{where} (contradicted by the data)")
-        return PlacingPrior(scale=1.0, dof=placing.dof, source=where)
+            prior = self.prior
+            dof = TYPED_PRIOR_DOF if prior is None else SUPERSEDED_PRIOR_DOF
+            whose = f" {OPERATOR_DATA}" if prior and math.isfinite(prior.anchor_p) else ""
+            return PlacingPrior(
+                scale=1.0, dof=dof, source=f"{where} (contradicted by the data{whose})"
+            )
+        return PlacingPrior(scale=1.0, dof=placing.dof, source=where, measured=True)
