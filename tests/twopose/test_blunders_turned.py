@@ -82,6 +82,14 @@ def test_where_flagging_turned_the_test_both_are_said_in_the_report_and_terminal
     less = noise_words(0.23, 6, flagged=1, with_flagged=(1.73, 8))
     assert "the data left scatter less than the noise model says, with the flagged" in less
     assert AGREE not in few + less
+    # advice already followed is not given (a new user's r6 G2)
+    beside = "this session's 3 trials, 19 other sessions of operator P16 (point), the typed"
+    pooled = noise_words(0.88, 9, flagged=1, with_flagged=(1.76, 12), sources=beside,
+                         placing_scale=1.4, placing_dof=32)  # fmt: skip
+    assert "every region is too small: measure the placing with a board" in pooled
+    assert "beside its operator's others" not in pooled
+    alone = noise_words(0.88, 9, flagged=1, with_flagged=(1.76, 12))
+    assert "analyse the session beside its operator's others, or measure" in alone
     # every trial flagged: nothing left to agree
     none_left = noise_words(math.nan, 0, flagged=2, with_flagged=(2.0, 6))
     assert "with the flagged trials: the data contradict the noise model" in none_left

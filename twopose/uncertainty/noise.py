@@ -399,7 +399,10 @@ def noise_words(  # noqa: PLR0913
         board_contradicted = math.isfinite(factor.anchor_conflict)
         by_operator = f"(contradicted by the data {OPERATOR_DATA})" in factor.sources
     over_words = " over all this operator's sessions" if by_operator else ""
-    turned = _turned_words(sigma0, dof, flagged, *with_flagged)
+    # advice already followed is not given (a new user's r6 G2): pooled with the operator's
+    # other sessions, only a board is left to measure the placing with
+    advice = _BOARD if _OPERATORS_POOLED in sources else f"{_BESIDE}, or {_BOARD}"
+    turned = _turned_words(sigma0, dof, flagged, *with_flagged, advice=advice)
     words = [turned or _test_words(sigma0, dof, flagged, against)]
     if board_contradicted:
         words.append(
@@ -419,10 +422,7 @@ def noise_words(  # noqa: PLR0913
     elif dof > 0 and math.isfinite(sigma0):
         said = "not enough data to estimate the placing sigma: the regions assume the one typed"
         if chi2_tails(dof * sigma0**2, dof)[0] < FACTOR_TEST_LEVEL:  # and the test rejects it
-            said += (
-                ", which the data contradict, so they are likely too small: analyse the"
-                " session beside its operator's others, or measure the placing with a board"
-            )
+            said += f", which the data contradict, so they are likely too small: {advice}"
         words.append(said)
     if math.isfinite(region_widening) and not math.isclose(region_widening, 1.0, abs_tol=5e-3):
         words.append(f"regions' largest semi-axis x{region_widening:.2f}")
@@ -432,7 +432,17 @@ def noise_words(  # noqa: PLR0913
     return "; ".join(words)
 
 
-def _turned_words(sigma0: float, dof: int, flagged: int, sigma0_all: float, dof_all: int) -> str:
+#: What a session whose data contradict its regions' placing sigma can do, in words ...
+_BESIDE = "analyse the session beside its operator's others"
+_BOARD = "measure the placing with a board"
+#: ... the first done where the multiplier's sources name the operator's other sessions
+#: (:func:`twopose.uncertainty.placing_variance.operator_priors`' words).
+_OPERATORS_POOLED = " of operator "
+
+
+def _turned_words(
+    sigma0: float, dof: int, flagged: int, sigma0_all: float, dof_all: int, *, advice: str
+) -> str:
     """sigma0's test where flagging turned it ("": it did not).
 
     It rejects the typed model with the flagged trials' misclosures and not without them:
@@ -461,8 +471,7 @@ def _turned_words(sigma0: float, dof: int, flagged: int, sigma0_all: float, dof_
     return (
         f"sigma0 {said}: {left}: if "
         f"{'it is not a blunder' if flagged == 1 else 'they are not blunders'}, the operator "
-        "places worse than typed and every region is too small: analyse the session beside "
-        "its operator's others, or measure the placing with a board"
+        f"places worse than typed and every region is too small: {advice}"
     )
 
 
