@@ -46,8 +46,8 @@ from twopose.uncertainty.propagate import PLACING, Shared, jacobians
 
 __all__ = [
     "ITERATIONS",
-    "RANGE_GAP",
     "PLANES",
+    "RANGE_GAP",
     "RAYS",
     "Misclosure",
     "MisclosureModel",
