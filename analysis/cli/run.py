@@ -339,7 +339,7 @@ def _print_run(result: RunResult, out: Path, *, include_warned: bool) -> None:
 
         footer = [
             f"{rows_counted(result.summary, 'n_warned', ok=True, least=1)} with a "
-            "near-degeneracy warning",
+            "warning (trials.csv's warning says which)",
             "are left out of these statistics",
             "(--include-warned keeps them)",
         ]

@@ -263,8 +263,9 @@ def _to_inches(trials: pd.DataFrame) -> pd.Series:
 
 def _left_out(trials: pd.DataFrame, *, include_warned: bool) -> str:
     """`` (1 more ok trial warned, left out: 13.23 in)``, `` (5 more ok trials warned, left
-    out, the largest 4.28 in)``: ok rows the count leaves out for a near-degeneracy warning
-    ("" when none, or ``--include-warned``); their error in inches, the verdict's unit."""
+    out, the largest 4.28 in)``: ok rows the count leaves out for a warning (a
+    near-degeneracy, a pair's copies) ("" when none, or ``--include-warned``); their error
+    in inches, the verdict's unit."""
     if include_warned:
         return ""
     ok = trials[trials["status"] == "ok"]

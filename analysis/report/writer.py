@@ -265,8 +265,9 @@ def _answer_section(result: RunResult) -> list[str]:
     which = (  # trials; a two-camera session's touches
         f"every ok {rows_word(result.trials, 'noun')} (warned ones included: --include-warned)"
         if result.include_warned
-        else f"the ok {rows_word(result.trials)} without a near-degeneracy warning (“warned” "
-        "counts those left out; trials.csv has them all)"
+        else f"the ok {rows_word(result.trials)} without a warning (a near-degeneracy, or a "
+        "pair's two copies of one recording; “warned” counts those left out; trials.csv has "
+        "them all)"
     )
     inputs = _inputs_section(result)
     parts = [

@@ -62,6 +62,7 @@ from twopose.format.reader import SessionReader
 from twopose.format.streams import PairSession, StreamTrial, read_pair_session
 from twopose.methods.specs import spec_of
 from twopose.pair.calibration import PairCalibration
+from twopose.pair.copied_view import copied_view
 from twopose.pair.holdout import CHECK_SIGMAS
 from twopose.pair.stream import StreamSettings, estimate_stream
 from twopose.uncertainty.propagate import uncertainty_columns
@@ -404,6 +405,10 @@ def _replayed_rows(
     cov[have] = est.cov[nearest[have]]
     spread = uncertainty_columns(np.where(have[:, None], error, np.nan), cov)
     margins = spec_of(session.info.method).margins
+    # Two copies of one recording: every touch warned, whatever offset was recorded or given.
+    one, two = replay.tracks
+    copy = copied_view((one.centroid_px, two.centroid_px), (one.t_ns, two.t_ns),
+                       replay.offset.offset_ns).words()  # fmt: skip
     rows = []
     for k, touch in enumerate(touches):
         err = float(np.linalg.norm(error[k])) if have[k] else np.nan
@@ -424,7 +429,7 @@ def _replayed_rows(
             **{f"err_{a}": float(error[k, i]) for i, a in enumerate("xyz")},
             "err": err,
             **{name: spread[name][k] for name in spread},
-            "warning": "",
+            "warning": copy,
             "notes": replay.reason,
             "clock_offset_ms": replay.offset.offset_ns / 1e6,
             "clock_offset_sigma_ms": replay.offset.sigma_ns / 1e6,

@@ -37,6 +37,7 @@ from twopose.detect.detection import detect
 from twopose.errors import InputValueError
 from twopose.methods.specs import Method, spec_of
 from twopose.pair.clock import ClockOffset
+from twopose.pair.copied_view import CopiedView
 from twopose.pair.frame_noise import CameraNoise, camera_noise
 from twopose.pair.live_pairing import LivePairing
 from twopose.pair.pairing import Pairing
@@ -58,6 +59,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "CHI2_2D_95",
+    "COPY_PAIRS",
     "DEFAULT_NOISE",
     "NOISE_EVERY_S",
     "NOISE_WINDOW_S",
@@ -73,6 +75,8 @@ __all__ = [
 CHI2_2D_95 = 5.991464547107979
 #: How far back the track reaches (s).
 TRACK_S = 1.0
+#: The last pairs judged for camera 2's frames being camera 1's (a second at 30 fps).
+COPY_PAIRS = 30
 #: Each frame's detection noise (1-sigma) assumed until the last seconds' frames give an
 #: estimate (:func:`twopose.pair.frame_noise.camera_noise`): the analysis' default.
 DEFAULT_NOISE = StreamNoise(centroid_px=0.25, theta_deg=0.25)
@@ -168,7 +172,9 @@ class PointingEstimate:
     oldest first, this pair's last; ``done_ns`` the monotonic clock when it was made;
     ``cpu_ns`` the CPU this pair took (both frames' detection, its share of the estimate);
     ``noise`` each camera's detection noise its region carries, in words (where it came
-    from: :class:`twopose.pair.frame_noise.CameraNoise`).
+    from: :class:`twopose.pair.frame_noise.CameraNoise`); ``warning`` what voids the point
+    though it is ok: camera 2's frames looking like camera 1's over the last
+    :data:`COPY_PAIRS` pairs (:mod:`twopose.pair.copied_view`), "" where none.
     """
 
     seq: int
@@ -184,6 +190,7 @@ class PointingEstimate:
     done_ns: int
     cpu_ns: int
     noise: tuple[str, str] = ("", "")
+    warning: str = ""
 
     @property
     def ok(self) -> bool:
@@ -266,6 +273,8 @@ class LivePointing:
         self._one: deque[_Seen] = deque()  # camera 1's detected frames, oldest first
         self._waiting: deque[tuple[_Seen, _Seen, int]] = deque()  # pairs: first, second, skew
         self._track: deque[tuple[float, float, float]] = deque()  # (t_ns, across, ahead)
+        # The last pairs' detections (u1, v1, u2, v2): two copies of one recording alike.
+        self._alike: deque[tuple[float, float, float, float]] = deque(maxlen=COPY_PAIRS)
         self._ended = False
         self.seq = 0
 
@@ -435,6 +444,9 @@ class LivePointing:
                 self._track.popleft()
             track = tuple(((t - s) / 1e9, a, b) for s, a, b in self._track if s <= t)
             p3 = e.point[k]
+            if first.found and second.found:
+                self._alike.append((first.u, first.v, second.u, second.v))
+            alike = np.array(self._alike, dtype=np.float64).reshape(-1, 4)
             out.append(
                 PointingEstimate(
                     seq=self.seq,
@@ -450,6 +462,7 @@ class LivePointing:
                     done_ns=now,
                     cpu_ns=first.cpu_ns + second.cpu_ns + share_ns,
                     noise=noise,
+                    warning=CopiedView.of(alike[:, :2], alike[:, 2:]).words(),
                 )
             )
             self.seq += 1

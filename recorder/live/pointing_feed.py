@@ -50,6 +50,7 @@ def estimate_json(e: PointingEstimate) -> dict[str, Any]:
         "cpu_ms": e.cpu_ns / 1e6,
         "skew_ms": e.skew_ns / 1e6,
         "noise": list(e.noise),
+        "warning": e.warning,
     }
 
 

@@ -31,6 +31,7 @@ from twopose.solve.session import SessionTrials, estimate_session
 from twopose.uncertainty.noise import VarianceFactor
 from twopose.uncertainty.placing_variance import SessionNoise
 from twopose.uncertainty.session_noise import session_base_in, session_statistics
+from twopose.values.operators import operator_key
 from twopose.values.units import Units
 
 __all__ = ["LiveResults", "MappedAdvice", "guidance_options", "live_results"]
@@ -130,7 +131,11 @@ class LiveResults:
         if len(self._views[trial]) < 2:
             self.results.pop(trial, None)
             return None
+        before = self.results
         self.results = self._solve(self._views, keep=True)
+        lapsed = _lapsed(before, self.results, trial)
+        if lapsed:
+            self.results[trial] = dataclasses.replace(self.results[trial], lapsed=lapsed)
         return self.results[trial]
 
     def preview(self, trial: int, accepted: Mapping[int, PoseEntry]) -> TrialResult | None:
@@ -244,6 +249,23 @@ class LiveResults:
         )
 
 
+def _lapsed(before: Mapping[int, TrialResult], now: Mapping[int, TrialResult], trial: int) -> str:
+    """Other trials flagged before ``trial``'s new pose and not now, in words ("": none).
+
+    A trial tested against the rest passes where the rest now scatters as much (the session
+    contradicts the typed placing, and the multiplier grows): what was said of it may still
+    hold, so its flag is never withdrawn without a word (a new user's r6 G1).
+    """
+    said = [
+        f"trial {t} no longer flagged: beside trial {trial} the session's trials scatter "
+        f"more than typed, which its poses fit; what was said of it may still hold "
+        f"({before[t].disagreement})"
+        for t in sorted(before)
+        if t != trial and before[t].flagged and t in now and not now[t].flagged
+    ]
+    return "; ".join(said)
+
+
 def _captures_of(accepted: Mapping[int, PoseEntry]) -> tuple[int, ...]:
     """The capture numbers of the accepted poses, in pose order."""
     return tuple(e.capture for _, e in sorted(accepted.items()) if e.capture is not None)
@@ -284,7 +306,8 @@ def _placing_of_operator(
     :meth:`analysis.rig.scope.RigUse.placing_for`)."""
     estimate = settings.estimate_options()
     placing = settings.placing
-    if placing is None or not placing.operators or info.operator.strip() in placing.operators:
+    theirs = {operator_key(n) for n in placing.operators} if placing is not None else set()
+    if placing is None or not placing.operators or operator_key(info.operator) in theirs:
         return estimate, settings.placing_words(info.units)
     noise = dataclasses.replace(estimate.noise, placing=None)
     said = (

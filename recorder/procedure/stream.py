@@ -292,7 +292,8 @@ def record_stream(
     try:
         with contextlib.ExitStack() as stack:
             stack.enter_context(meter)
-            source.replay()  # files: every frame, in order, whatever the load (r5 F13)
+            # files: every frame, in order, whatever the load (r5 F13), each detected (F3c)
+            meter.lossless = source.replay()
             stack.enter_context(source)
             check_sizes(source, cameras)
             if source.stills:

@@ -1,9 +1,11 @@
 """The cameras' clock offset, measured while a pair records (issue 58 item 2, the recorder's
 side).
 
-Each frame recorded is handed to a detection thread (:class:`OffsetMeter`; the frames'
-writing never waits for it: when it falls :data:`QUEUE_FRAMES` behind, a frame is left
-undetected and counted). It finds the method's target (:func:`twopose.detect.detection.detect`)
+Each frame recorded is handed to a detection thread (:class:`OffsetMeter`; a camera's
+frames' writing never waits for it: when it falls :data:`QUEUE_FRAMES` behind, a frame is
+left undetected and counted; files' and folders' wait, :attr:`OffsetMeter.lossless`, so
+that the same files record the same offset whatever the load). It finds the method's
+target (:func:`twopose.detect.detection.detect`)
 and keeps each camera's centroid track (the glove's image line's angle too: its point's
 place along the line is fitted, not taken as one point both cameras see) and each frame's
 brightness with the frames' capture times. When a trial ends, the offset is measured from
@@ -70,6 +72,10 @@ class OffsetMeter:
         self._lock = threading.Lock()
         self._thread: threading.Thread | None = None
         self.skipped = 0  # frames left undetected: the thread was behind
+        #: Every frame detected, the recording waiting for the thread when it is behind:
+        #: files and folders replayed whole (no frame lost by waiting), so that the same
+        #: files record the same offset whatever the load (a second new user's r5 F3c).
+        self.lossless = False
         self.measured: list[ClockOffset] = []
 
     def __enter__(self) -> Self:
@@ -102,6 +108,9 @@ class OffsetMeter:
         """A frame recorded: detected in the thread (skipped and counted when it is behind)."""
         if self._thread is None:
             return
+        if self.lossless:
+            self._queue.put((self._trial, frame.camera, frame))
+            return
         try:
             self._queue.put_nowait((self._trial, frame.camera, frame))
         except queue.Full:
@@ -128,7 +137,8 @@ class OffsetMeter:
                 self._queue.task_done()
 
     def _drained(self) -> None:
-        """Wait (at most :data:`_END_WAIT_S`) for the frames still queued."""
+        """Wait (at most :data:`_END_WAIT_S`; replaying files, until done) for the frames
+        still queued."""
         done = threading.Event()
 
         def join() -> None:
@@ -136,7 +146,7 @@ class OffsetMeter:
             done.set()
 
         threading.Thread(target=join, daemon=True).start()
-        done.wait(_END_WAIT_S)
+        done.wait(None if self.lossless else _END_WAIT_S)
 
     def end(self, trial: int) -> tuple[ClockOffset | None, str]:
         """The trial ended: its offset measured (a flash both cameras saw, and the rays'

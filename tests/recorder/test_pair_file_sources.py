@@ -15,7 +15,7 @@ import pytest
 from typer.testing import CliRunner
 
 from recorder.cli.app import app
-from recorder.procedure.stream import StreamDriver, record_stream
+from recorder.procedure.stream import ScheduledTouch, StreamDriver, record_stream
 from recorder.procedure.stream_terminal import PairSetup, open_pair_source, pair_cameras
 from recorder.sources.registry import open_pair
 from tests.helpers import write_video
@@ -185,3 +185,107 @@ def test_a_copy_recorded_keeps_its_warning_in_the_session(tmp_path: Path) -> Non
     with SessionReader(out) as reader:
         notes = [e.text for e in reader.iter_entries([Note.TOPIC]) if isinstance(e, Note)]
     assert any(n.startswith("warning: ") and "byte for byte" in n for n in notes), notes
+
+
+def _dot_stills(folder: Path, pixels: np.ndarray) -> Path:
+    """Grey stills with the dot drawn at each of ``pixels`` (N, 2), to 1/16 px."""
+    k = thesis_pair().intrinsics1
+    folder.mkdir()
+    for i, (col, row) in enumerate(pixels):
+        image = np.full((k.height, k.width, 3), 200, np.uint8)
+        centre = (round(col * 16), round(row * 16))
+        cv2.circle(image, centre, 6 * 16, (0, 0, 0), -1, cv2.LINE_AA, shift=4)
+        cv2.imwrite(str(folder / f"{i:03d}.png"), image)
+    return folder
+
+
+class _Said(_Lasting):
+    """Keeps what the recorder says of each trial's clock offset."""
+
+    def __init__(self) -> None:
+        self.said: list[str] = []
+
+    def schedule(self, trial: int) -> list[ScheduledTouch]:
+        return [ScheduledTouch(point=(0.0, 0.0, 24.0), after_s=0.4)]
+
+    def offset(self, trial: int, offset: object, said: str) -> None:
+        self.said.append(said)
+
+
+def test_a_copy_whose_bytes_differ_fixes_no_offset_and_its_touches_are_warned(
+    tmp_path: Path,
+) -> None:
+    """Camera 2's folder a copy of camera 1's with one still saved again as other bytes
+    (a second new user's r5 F3a: recorded without a word, its offset "measured" 0 +- 0.4
+    ms): the recorder says the copy in place of an offset, and `run` warns each touch,
+    leaving it out of the statistics. A real pair's stills (the dot where camera 2 sees
+    it) record an offset and no warning."""
+    from analysis.batch.runner import run
+    from twopose.camera.model import project_points
+
+    pair = thesis_pair()
+    a = np.linspace(0.0, 2 * np.pi, 30)
+    path = np.column_stack([2.5 * np.cos(a), 2.0 * np.sin(a), 24.0 + np.sin(2 * a)])
+    k = pair.intrinsics1
+    one = project_points(path, k, np.eye(3), np.zeros(3))
+    two = project_points(path, pair.intrinsics2, pair.R_2_to_1, pair.t_2_in_1)
+    first = _dot_stills(tmp_path / "c1", one)
+    copy = shutil.copytree(first, tmp_path / "copy")
+    again = _read(copy / "005.png")
+    cv2.imwrite(str(copy / "005.png"), again, [cv2.IMWRITE_PNG_COMPRESSION, 9])  # other bytes
+    assert (copy / "005.png").read_bytes() != (first / "005.png").read_bytes()
+    real = _dot_stills(tmp_path / "c2", two)
+    setup = PairSetup(method=Method.POINT, units=Units.IN, operator="Ada")
+    said = {}
+    for name, second in (("copy", copy), ("real", real)):
+        source = open_pair_source(f"pair:images:{first},images:{second}", pair, setup, fps=None)
+        driver = _Said()
+        record_stream(tmp_path / f"{name}.mcap", setup.info(), pair_cameras(pair), pair,
+                      source, driver)  # fmt: skip
+        said[name] = driver.said
+    assert "camera 2's frames look like camera 1's" in said["copy"][0], said
+    assert "clock offset" in said["real"][0], said
+    assert "look like" not in said["real"][0], said
+    # As an older recorder wrote it: the copy's offset "measured" and recorded.
+    _with_offset(tmp_path / "older.mcap", [_read(p) for p in sorted(copy.iterdir())])
+    sessions = [tmp_path / f"{n}.mcap" for n in ("copy", "older", "real")]
+    result = run(sessions, tmp_path / "out")
+    rows = result.trials.set_index(result.trials["session"].map(lambda s: Path(s).stem))
+    assert rows.loc["copy", "status"] == "incomplete"  # no offset: "I can't"
+    assert "camera 2's frames look like camera 1's" in str(rows.loc["copy", "reason"])
+    assert rows.loc["older", "status"] == "ok"
+    assert "camera 2's frames look like camera 1's" in str(rows.loc["older", "warning"])
+    summary = result.summary.set_index(result.summary["session"].map(lambda s: Path(s).stem))
+    assert summary.loc["older", "n_warned"] == 1
+    assert summary.loc["older", "n_used"] == 0
+    assert rows.loc["real", "status"] == "ok"
+    assert summary.loc["real", "n_warned"] == 0
+
+
+def _read(path: Path) -> np.ndarray:
+    image = cv2.imread(str(path))
+    assert image is not None, path
+    return np.asarray(image)
+
+
+def _with_offset(path: Path, images: list[np.ndarray]) -> None:
+    """One stream trial of ``images`` for both cameras at one time each, a touch mid-way,
+    and a recorded clock offset of 0 +- 0.4 ms."""
+    from twopose.format.entries import SessionInfo
+    from twopose.format.writer import SessionWriter
+    from twopose.pair.clock import ClockOffset
+
+    pair = thesis_pair()
+    info = SessionInfo(method=Method.POINT, units=Units.IN, camera_ids=("cam1", "cam2"),
+                       clocks={"cam1": "simulated", "cam2": "simulated"})  # fmt: skip
+    t0 = 1_700_000_000_000_000_000
+    with SessionWriter(path, info, pair_cameras(pair), pair=pair, start_ns=t0) as writer:
+        writer.write_clock_offset(ClockOffset(offset_ns=0.0, sigma_ns=4e5, method="ray gap",
+                                              n=30), t0)  # fmt: skip
+        with writer.stream(1, window_s=0.5, start_ns=t0) as stream:
+            for k, image in enumerate(images):
+                t = 10**9 + k * 33_333_333
+                for cid in ("cam1", "cam2"):
+                    stream.add_frame(cid, image, t, t0 + t)
+                if k == len(images) // 2:
+                    stream.touch((0.0, 0.0, 24.0), t, "schedule")

@@ -281,6 +281,18 @@ def test_in_step_cameras_give_each_pair_at_once_and_equal_the_offline_estimate()
     np.testing.assert_array_equal(alone.point[alone.ok], offline.point[offline.ok])
 
 
+def _wait_for_library(pid: int, name: str, timeout_s: float = 30.0) -> None:
+    """Until process ``pid`` has loaded a shared library whose path holds ``name``."""
+    from pathlib import Path
+
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if name in Path(f"/proc/{pid}/maps").read_text():
+            return
+        time.sleep(0.005)
+    raise AssertionError(f"process {pid} did not load {name} in {timeout_s} s")
+
+
 @pytest.mark.parametrize("when", ["serving", "starting"])
 def test_ctrl_c_stops_point_with_exit_130_and_no_traceback(tmp_path, when):
     """``twopose-record point`` is a command like any other: Ctrl-C (while the page is
@@ -302,8 +314,10 @@ def test_ctrl_c_stops_point_with_exit_130_and_no_traceback(tmp_path, when):
     )  # fmt: skip
     if when == "serving":
         read_line_when_printed(process, "twopose pointing: http", "the page's address")
-    else:
-        time.sleep(0.3)  # the command line's modules are being imported
+    else:  # the command line's modules are being imported (NumPy's loaded after the
+        # command's first step, its signal handling: before it, the interpreter's own
+        # start-up is no command's, and a loaded machine can take 0.3 s to reach it)
+        _wait_for_library(process.pid, "_multiarray_umath")
     process.send_signal(signal.SIGINT)
     out, err = process.communicate(timeout=30)
     assert process.returncode == 130, (out, err)
@@ -346,3 +360,20 @@ def test_the_live_noise_is_the_analysis_rule_over_the_last_frames():
     said = [e.noise for f in frames for e in given.add_frame(f)]
     assert said
     assert all(n == ("pixel noise 0.25 px, 0.25 deg given",) * 2 for n in said)
+
+
+def test_camera_2_showing_camera_1s_pictures_warns_every_pair_after_ten(ground_stream):
+    """Camera 2's frames camera 1's pictures (a copy of one recording, bytes aside): once
+    ten pairs saw the finger at one pixel in both cameras, each pair carries the warning the
+    page says in place of "conditioning: ok"; the real pair's pairs carry none."""
+    clip, frames = ground_stream
+    images = {f.index: f.image for f in frames if f.camera == 1}
+    copied = [
+        dataclasses.replace(f, image=images[f.index]) if f.camera == 2 else f
+        for f in frames
+        if f.index in images
+    ]
+    warned = [e.warning for e in _live(Method.GROUND, clip, copied)]
+    assert "camera 2's frames look like camera 1's" in warned[-1], warned
+    assert warned[0] == ""  # one pair tells nothing
+    assert all(e.warning == "" for e in _live(Method.GROUND, clip, frames))

@@ -10,6 +10,7 @@ A screenshot of each state is saved for a person to look at: into
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -196,6 +197,14 @@ def test_a_warned_pair_is_never_ok_on_the_page(served) -> None:
         words = browser.find_element("css selector", "[data-testid=pointing-conditioning]")
         assert "singular" in words.get_attribute("class").split()  # amber, never "ok"
         browser.save_screenshot(str(screenshots() / "7-warned-pair.png"))
+        # The pairs' own warning (camera 2's frames alike camera 1's, bytes aside).
+        alike = "camera 2 saw the target at camera 1's pixel in 30 of 30 pairs"
+        feed.start(about(Method.GROUND, thesis_pair()))
+        feed.publish([dataclasses.replace(e, warning=alike) for e in circling(10)])
+        said = wait_text(browser, "pointing-conditioning", "not to be trusted")
+        assert said == f"not to be trusted: {alike}"
+        feed.publish(circling(10))  # frames apart again: ok again
+        assert wait_text(browser, "pointing-conditioning", "conditioning: ok")
 
 
 def test_a_page_of_another_site_cannot_read_the_push_stream(served) -> None:

@@ -22,7 +22,9 @@ Both measured, they are one offset seen twice: pooled by their inverse variances
 fitted clocks' error they share (:attr:`ClockOffset.clock_sigma_ns`: the same stamps'
 fit) kept whole rather than averaged down (generalised least squares). Two that disagree
 beyond :data:`AGREE_SIGMAS` of their combined 1-sigma are not pooled: the trial is said not
-to fix the offset, both named (one of them is wrong, and a pool would hide which).
+to fix the offset, both named (one of them is wrong, and a pool would hide which). Two
+copies of one recording fix none: the target at one pixel in both cameras' every pair
+(:mod:`twopose.pair.copied_view`) is said in place of any offset.
 
 Over a session's trials the offsets are pooled by :func:`pooled_offset` (their
 inverse-variance mean, widened by the Birge ratio where they scatter beyond their sigmas).
@@ -41,6 +43,7 @@ from twopose.errors import InputValueError
 from twopose.pair.calibration import PairCalibration
 from twopose.pair.clock import offset_from_ray_gap
 from twopose.pair.clock_fit import ClockOffset
+from twopose.pair.copied_view import copied_view
 from twopose.pair.flash import offset_from_flash
 
 __all__ = [
@@ -193,6 +196,10 @@ def measure_trial_offset(
         )
     except InputValueError as err:
         why.append(str(err))
+    # Two copies of one recording "measure" an offset (their own: 0) that means nothing.
+    copy = copied_view(tracks, times, found[-1].offset_ns if found else 0.0)
+    if copy.copied:
+        return TrialOffset(offset=None, found=(), why=(copy.words(),))
     if len(found) < 2:
         return TrialOffset(offset=found[0] if found else None, found=tuple(found), why=tuple(why))
     flash, gap = found

@@ -125,9 +125,11 @@ function renderPointing() {
   if (!pair) {
     setText(words, "waiting for the first pair...");
     words.classList.add("idle");
-  } else if ((s.warnings || []).length) {
-    // A warning that voids every point (one recording given twice): never "ok" over it.
-    setText(words, "not to be trusted: " + s.warnings.join("; "));
+  } else if ((s.warnings || []).length || pair.warning) {
+    // A warning that voids every point (one recording given twice, or the pairs' frames
+    // alike): never "ok" over it.
+    const warnings = [...(s.warnings || []), ...(pair.warning ? [pair.warning] : [])];
+    setText(words, "not to be trusted: " + warnings.join("; "));
     words.classList.add("singular");
   } else if (pair.point) {
     setText(words, "conditioning: ok");
