@@ -46,8 +46,8 @@ from twopose.uncertainty.propagate import PLACING, Shared, jacobians
 
 __all__ = [
     "ITERATIONS",
-    "PLANES",
     "RANGE_GAP",
+    "PLANES",
     "RAYS",
     "Misclosure",
     "MisclosureModel",
