@@ -40,6 +40,8 @@ __all__ = [
     "placing_sigma",
     "placing_source",
     "prior_sessions",
+    "scatter_chi2",
+    "scatter_dof",
     "suspect_axis",
     "suspect_offset",
     "suspect_pose",
@@ -93,6 +95,20 @@ def placing_dof(t: TrialResult) -> F64:
     factor, T = t.estimate.factor, len(t.estimate.trials)
     dof = factor.variance_dof if factor is not None and factor.estimated else np.nan
     return np.full(T, dof)
+
+
+def scatter_chi2(t: TrialResult) -> F64:
+    """The session's trials of one target: their contrasts' chi-square under the typed model
+    (:mod:`twopose.uncertainty.target_scatter`; the same in every trial; NaN: none)."""
+    factor = t.estimate.factor
+    return np.full(len(t.estimate.trials), np.nan if factor is None else factor.scatter_chi2)
+
+
+def scatter_dof(t: TrialResult) -> Any:
+    """The degrees of freedom of :func:`scatter_chi2` (0: none)."""
+    factor = t.estimate.factor
+    dof = 0 if factor is None else factor.scatter_dof
+    return np.full(len(t.estimate.trials), dof, dtype=np.int64)
 
 
 def misclosure_chi2(t: TrialResult) -> F64:

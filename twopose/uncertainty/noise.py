@@ -288,6 +288,11 @@ class VarianceFactor:
     against: str = "typed"
     #: The F test's p where the data contradicted the board's placing sigma (NaN: not).
     anchor_conflict: float = math.nan
+    #: The part of sigma0 (in ``dof``, ``dof_all``) from its trials of one target's scatter
+    #: (:mod:`twopose.uncertainty.target_scatter`): chi-square under the typed model on its
+    #: dof (NaN, 0: none).
+    scatter_chi2: float = math.nan
+    scatter_dof: int = 0
 
     @property
     def tested(self) -> bool:
@@ -411,12 +416,23 @@ def noise_words(  # noqa: PLR0913
                 " session beside its operator's others, or measure the placing with a board"
             )
         words.append(said)
+    elif not (dof > 0 and math.isfinite(sigma0)) and against == "typed":
+        words.append(_UNTESTED)
     if math.isfinite(region_widening) and not math.isclose(region_widening, 1.0, abs_tol=5e-3):
         words.append(f"regions' largest semi-axis x{region_widening:.2f}")
     if flagged:
         trials = "trial" if flagged == 1 else "trials"
         words.append(f"{flagged} {trials} flagged: kept out of the pool")
     return "; ".join(words)
+
+
+#: Said where nothing tested the typed placing sigma and nothing estimated the multiplier
+#: (two poses a trial and no trials of one target to compare: the thesis' own procedure).
+_UNTESTED = (
+    "the regions rest on the typed placing sigma, untested: if the operator places worse "
+    "than typed they are too small (record three or more trials of one target, analyse the "
+    "session beside its operator's others, or measure the placing with a board)"
+)
 
 
 def _turned_words(sigma0: float, dof: int, flagged: int, sigma0_all: float, dof_all: int) -> str:

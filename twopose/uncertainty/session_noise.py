@@ -185,6 +185,8 @@ def _factor(
         sigma0_sq_all=float((m.chi2[has].sum() + extra[0]) / dof_all) if dof_all else math.nan,
         dof_all=dof_all,
         against="typed" if _measured_dof(noise) == math.inf else "the board's sigma",
+        scatter_chi2=math.nan if scatter is None else scatter.chi2,
+        scatter_dof=extra[1],
         anchor_conflict=noise.anchor_contradicted,
     )
 

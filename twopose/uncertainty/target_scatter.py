@@ -129,8 +129,10 @@ def components(y: F64, A: F64, B: F64) -> tuple[F64, F64]:
 def _generalised(d: F64, A: F64, B: F64) -> tuple[F64, F64]:
     """``d``'s components in the eigenbasis of ``B`` against ``A + B``: (share, z^2)."""
     S = A + B
-    S = S + _FLAT * np.trace(S) / len(S) * np.eye(len(S))  # a tiny ridge: never singular
-    beta, W = linalg.eigh(B, S)
+    try:
+        beta, W = linalg.eigh(B, S)
+    except linalg.LinAlgError:  # singular (a direction no region holds): a tiny ridge
+        beta, W = linalg.eigh(B, S + _FLAT * np.trace(S) / len(S) * np.eye(len(S)))
     return np.clip(beta, 0.0, 1.0), (W.T @ d) ** 2
 
 
