@@ -169,9 +169,7 @@ def _factor(
     has = (m.dof > 0) & np.isfinite(m.chi2)  # the flagged trials' too
     dof_all = int(m.dof[has].sum()) + extra[1]
     estimated = round(post.information) >= MIN_PLACING_DOF
-    said = _sources(int(use.sum()), prior.source if prior else "", anchor.source)
-    if scatter is not None:
-        said = f"the scatter of this session's {scatter.trials} trials of one target, {said}"
+    said = _sources(int(use.sum()), prior.source if prior else "", anchor.source, scatter)
     return VarianceFactor(
         sigma0_sq=float((m.chi2[use].sum() + extra[0]) / dof) if dof else math.nan,
         dof=dof,
@@ -300,9 +298,12 @@ def _measured_alone(noise: NoiseModel) -> VarianceFactor | None:
                           sources=f"{noise.anchor().source} alone")  # fmt: skip
 
 
-def _sources(trials: int, prior: str, anchor: str) -> str:
+def _sources(trials: int, prior: str, anchor: str, scatter: Evidence | None = None) -> str:
     """Where the multiplier's information came from, in words."""
     said = [f"this session's {trials} trial{'s' if trials != 1 else ''}"] if trials else []
+    if scatter is not None:  # its trials of one target, about each other
+        whose = "its" if trials else "this session's"
+        said.append(f"the scatter of {whose} {scatter.trials} trials of one target")
     return ", ".join([*said, *([prior] if prior else []), anchor])
 
 
