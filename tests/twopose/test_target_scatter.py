@@ -15,7 +15,7 @@ from tests.helpers import load_benchmark
 from twopose.methods.specs import Method
 from twopose.methods.truth import reported
 from twopose.solve.estimate import EstimateOptions
-from twopose.solve.session import estimate_session
+from twopose.solve.session import SessionEstimate, estimate_session
 from twopose.uncertainty.noise import noise_words
 from twopose.uncertainty.placing_variance import GRID, trial_loglik
 from twopose.uncertainty.propagate import uncertainty_columns
@@ -59,7 +59,7 @@ def test_the_contrasts_likelihood_is_the_restricted_likelihood_of_lambda(
     assert np.ptp(diff) < 1e-6 * (1 + np.abs(diff).max())
 
 
-def _run(seed: int, placing: float, blunder: int = -1) -> tuple:
+def _run(seed: int, placing: float, blunder: int = -1) -> tuple[SessionEstimate, np.ndarray]:
     """The new user's session: method 2, two poses a trial, 6 trials of one target."""
     trials = bench.session(Method.GROUND, seed, 6, placing, 2)
     if blunder >= 0:  # pose 1 of that trial typed 1 in off in x
@@ -89,6 +89,7 @@ def test_an_operator_3x_worse_than_typed_is_estimated_said_and_covered() -> None
         assert f.dof == f.scatter_dof == 10  # (6 - 1) trials x 2 directions on the ground
         assert "the scatter of this session's 6 trials of one target" in f.sources
         within += int(np.sum(w))
+        assert est.tests is not None
         flagged += int(est.tests.flagged.sum())
     assert flagged == 0
     assert within >= 28
@@ -101,6 +102,7 @@ def test_typed_right_the_multiplier_stays_near_one() -> None:
         assert f is not None
         assert 0.6 < f.placing_scale < 1.2
         assert not f.contradicted
+        assert est.tests is not None
         assert not est.tests.flagged.any()
         assert np.all(w)
 
@@ -110,12 +112,14 @@ def test_a_1_in_typo_in_one_trial_is_still_flagged_beside_an_operator_3x_worse()
     any pooling: the typo's trial is flagged and kept out of the scatter, the clean ones
     are not."""
     est, _ = _run(0, 3.0, blunder=2)
-    tests = est.tests
+    tests, factor = est.tests, est.factor
+    assert tests is not None
+    assert factor is not None
     assert tests.flagged.tolist() == [False, False, True, False, False, False]
     assert tests.by(2) == "other trials"
     assert "check what you typed" in tests.words(2, est.trials.units, 2)
-    assert est.factor.scatter_dof == 8  # the 5 others
-    assert 1.5 < est.factor.placing_scale < 3.6
+    assert factor.scatter_dof == 8  # the 5 others
+    assert 1.5 < factor.placing_scale < 3.6
 
 
 def test_nothing_tests_the_typed_sigma_and_the_words_say_so() -> None:
