@@ -179,10 +179,24 @@ def suspect_offset(t: TrialResult) -> F64:
     return _tests(t).offset
 
 
+#: Beside a trial its truth flagged where nothing in its session tested the typed placing
+#: sigma: a clean trial of an operator placing worse than typed lies off its truth too (a
+#: new user's r6 G3: 4 clean trials told only "check what you typed").
+UNTESTED_CAUSE = (
+    "; or the operator places worse than typed: nothing in this session tests the typed "
+    "placing sigma"
+)
+
+
 def disagreement(t: TrialResult) -> list[str]:
     """A flagged trial's poses' disagreement in words (the recorder's live words)."""
     from twopose.values.units import Units
 
-    tests, trials = _tests(t), t.estimate.trials
+    tests, trials, factor = _tests(t), t.estimate.trials, t.estimate.factor
     units = Units(trials.units)
-    return [tests.words(i, units, len(v)) for i, v in enumerate(trials.views)]
+    said = [tests.words(i, units, len(v)) for i, v in enumerate(trials.views)]
+    typed = t.estimate.options.noise.placing is None  # no board's sigma: the typed one
+    if factor is None or factor.tested or factor.estimated or not typed:
+        return said
+    truth = FLAGGED_BY[2]
+    return [w + UNTESTED_CAUSE if tests.by(i) == truth else w for i, w in enumerate(said)]

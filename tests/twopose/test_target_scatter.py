@@ -135,3 +135,21 @@ def test_nothing_tests_the_typed_sigma_and_the_words_say_so() -> None:
     assert "the regions rest on the typed placing sigma, untested" in said
     # a board's measured sigma is no untested typed one
     assert "untested" not in noise_words(float("nan"), 0, against="the board's sigma")
+
+
+def test_a_truth_flag_where_nothing_tests_the_typed_sigma_names_the_operator_too() -> None:
+    """Trials of different targets, two poses a trial, 3x worse than typed: the truth flags
+    clean trials (seed 1: trial 3), and their words no longer say only "check what you
+    typed": nothing in the session tests the typed sigma."""
+    from types import SimpleNamespace
+
+    from analysis.tables.noise import UNTESTED_CAUSE, disagreement
+
+    trials = bench.apart(bench.session(Method.GROUND, 1, 4, 3.0, 2))
+    est = estimate_session(trials, EstimateOptions(), line_fits=False)
+    assert est.tests is not None
+    assert [est.tests.by(i) for i in range(4)] == ["", "", "truth", ""]
+    said = disagreement(SimpleNamespace(estimate=est))
+    assert said[2].startswith("this trial's estimate lies ")
+    assert said[2].endswith(UNTESTED_CAUSE)
+    assert said[0] == said[1] == said[3] == ""

@@ -42,7 +42,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import linalg
 
 from twopose.arrays import F64, Bools
 from twopose.uncertainty.blunders import TargetTests, _across
@@ -129,6 +128,8 @@ def components(y: F64, A: F64, B: F64) -> tuple[F64, F64]:
 
 def _generalised(d: F64, A: F64, B: F64) -> tuple[F64, F64]:
     """``d``'s components in the eigenbasis of ``B`` against ``A + B``: (share, z^2)."""
+    from scipy import linalg  # here: only a session of one target loads it
+
     S = A + B
     try:
         beta, W = linalg.eigh(B, S)
