@@ -130,7 +130,11 @@ class LiveResults:
         if len(self._views[trial]) < 2:
             self.results.pop(trial, None)
             return None
+        before = self.results
         self.results = self._solve(self._views, keep=True)
+        lapsed = _lapsed(before, self.results, trial)
+        if lapsed:
+            self.results[trial] = dataclasses.replace(self.results[trial], lapsed=lapsed)
         return self.results[trial]
 
     def preview(self, trial: int, accepted: Mapping[int, PoseEntry]) -> TrialResult | None:
@@ -242,6 +246,23 @@ class LiveResults:
             self._truth.get(trial, np.full((2, 3), np.nan)),
             np.array(result.cov, dtype=np.float64).reshape(3, 3),
         )
+
+
+def _lapsed(before: Mapping[int, TrialResult], now: Mapping[int, TrialResult], trial: int) -> str:
+    """Other trials flagged before ``trial``'s new pose and not now, in words ("": none).
+
+    A trial tested against the rest passes where the rest now scatters as much (the session
+    contradicts the typed placing, and the multiplier grows): what was said of it may still
+    hold, so its flag is never withdrawn without a word (a new user's r6 G1).
+    """
+    said = [
+        f"trial {t} no longer flagged: beside trial {trial} the session's trials scatter "
+        f"more than typed, which its poses fit; what was said of it may still hold "
+        f"({before[t].disagreement})"
+        for t in sorted(before)
+        if t != trial and before[t].flagged and t in now and not now[t].flagged
+    ]
+    return "; ".join(said)
 
 
 def _captures_of(accepted: Mapping[int, PoseEntry]) -> tuple[int, ...]:

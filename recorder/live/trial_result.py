@@ -75,6 +75,9 @@ class TrialResult:
     #: off the grid point typed as its truth); ``""`` when not flagged (trials.csv's
     #: ``flagged_by``).
     flagged_by: str = ""
+    #: Other trials flagged before this trial's pose that pass now, beside it, in words
+    #: (""): a flag never withdrawn silently (a new user's r6 G1).
+    lapsed: str = ""
 
     @property
     def noise(self) -> str:
@@ -120,6 +123,8 @@ class TrialResult:
             parts.append(f"WARNING {self.warning}")
         if self.outside95:
             parts.append("WARNING the error is beyond its 95% region: check the truth and poses")
+        if self.lapsed:
+            parts.append(f"NOTE {self.lapsed}")
         return "; ".join(parts)
 
     @property
@@ -189,6 +194,7 @@ class TrialResult:
             "flagged": self.flagged,
             "disagreement": self.disagreement,
             "flagged_by": self.flagged_by,
+            "lapsed": self.lapsed,
             "text": self.text(),
         }
 

@@ -151,3 +151,33 @@ def test_the_terminal_says_a_trial_far_off_the_grid_point_typed_as_its_truth(
         "sigma), mostly in x from the grid point typed as its truth: one of its typed poses, "
         "the grid point, or the detection is off: check what you typed" in three
     )
+
+
+def test_a_flag_that_lapses_with_a_later_trial_is_said_not_dropped() -> None:
+    """Trial 1 flagged after its poses; a later trial's pose makes the session scatter
+    more, and trial 1 passes beside it: the later trial's line says so, with what was said
+    of trial 1 (a new user's r6 G1: the live flag on pose 2 vanished without a word)."""
+    import dataclasses
+
+    from recorder.live.result import _lapsed
+    from recorder.live.trial_result import trial_results
+    from tests.helpers import load_benchmark
+    from twopose.solve.session import SessionTrials
+
+    bench = load_benchmark("bench_noise")
+    trials: SessionTrials = bench.session(Method.POINT, 3, 2, 1.0, 4)
+    views = trials.views[0]
+    moved = [v if k != 1 else type(v)(**{**v.__dict__, "t_grid": v.t_grid + 4 * OFF})
+             for k, v in enumerate(views)]  # fmt: skip
+    before = dict(
+        enumerate(trial_results(dataclasses.replace(trials, views=[moved, trials.views[1]])), 1)
+    )
+    assert before[1].flagged
+    now = {**before, 1: dataclasses.replace(before[1], flagged=False)}
+    said = _lapsed(before, now, trial=2)
+    assert said.startswith("trial 1 no longer flagged: beside trial 2 ")
+    assert before[1].disagreement in said
+    assert _lapsed(before, before, trial=2) == ""  # still flagged: nothing lapsed
+    assert _lapsed(before, now, trial=1) == ""  # its own new pose: its own line says it
+    line = dataclasses.replace(now[2], lapsed=said).text()
+    assert line.endswith(f"NOTE {said}")
