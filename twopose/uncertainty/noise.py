@@ -27,6 +27,9 @@ nobody measured: it was the resolution the operator typed. Here it is
   (:attr:`twopose.solve.margins.EstimateOptions.noise`).
 
 Light: the command lines read it; NumPy and SciPy are imported where a number is computed.
+
+(Near 600 lines: the noise's values and the one home of their words, which read every field
+of them; split, the words would import the values' privates and the rule would live twice.)
 """
 
 from __future__ import annotations
