@@ -17,9 +17,9 @@ from twopose.methods.truth import reported
 from twopose.solve.estimate import EstimateOptions
 from twopose.solve.session import SessionEstimate, estimate_session
 from twopose.uncertainty.noise import noise_words
-from twopose.uncertainty.placing_variance import GRID, trial_loglik
+from twopose.uncertainty.placing_variance import GRID, trial_information, trial_loglik
 from twopose.uncertainty.propagate import uncertainty_columns
-from twopose.uncertainty.target_scatter import components
+from twopose.uncertainty.target_scatter import TargetScatter, components
 
 bench = load_benchmark("bench_noise")
 
@@ -57,6 +57,14 @@ def test_the_contrasts_likelihood_is_the_restricted_likelihood_of_lambda(
         direct.append(-0.5 * (np.linalg.slogdet(S)[1] + d @ np.linalg.solve(S, d)))
     diff = mine[::20] - np.array(direct)
     assert np.ptp(diff) < 1e-6 * (1 + np.abs(diff).max())
+    # the session's curves, computed on the grid without the M x M matrices, are the same
+    ev = TargetScatter(y=y, A=A, B=B, usable=np.ones(n, dtype=bool)).evidence(np.zeros(n, bool))
+    assert ev is not None
+    assert ev.dof == len(z2)
+    assert np.isclose(ev.chi2, z2.sum(), rtol=1e-7)
+    gap = ev.loglik - mine
+    assert np.ptp(gap) < 1e-6 * (1 + np.abs(gap).max())
+    assert np.allclose(ev.info, trial_information(share[None])[0], rtol=1e-6, atol=1e-9)
 
 
 def _run(seed: int, placing: float, blunder: int = -1) -> tuple[SessionEstimate, np.ndarray]:
