@@ -29,7 +29,12 @@ from analysis.session.metrics import (
 from analysis.tables.row_units import row_unit, rows_word
 from twopose.methods.specs import label_of
 from twopose.uncertainty.blunders import EXPLAINS_LEVEL, TRUTH_LEVEL
-from twopose.uncertainty.noise import FACTOR_TEST_LEVEL, MIN_PLACING_DOF, TYPED_PRIOR_DOF
+from twopose.uncertainty.noise import (
+    FACTOR_TEST_LEVEL,
+    MIN_PLACING_DOF,
+    OPERATOR_DATA,
+    TYPED_PRIOR_DOF,
+)
 from twopose.uncertainty.placing_variance import BAARDA_LEVEL
 
 __all__ = [
@@ -177,7 +182,8 @@ def noise_phrases(row: pd.Series) -> list[str]:
         sources=estimated.group(1) if estimated else "",
         with_flagged=(_known(row.get("sigma0_all")), int(_known(row.get("sigma0_all_dof"), 0.0))),
         against="the board's sigma" if source.startswith("measured by") else "typed",
-        board_contradicted="(contradicted by the data)" in said,
+        board_contradicted="(contradicted by the data" in said,
+        by_operator=f"(contradicted by the data {OPERATOR_DATA})" in said,
     )
     scale = _known(row.get("placing_scale"))
     start = sigma / scale if isinstance(sigma, int | float) and scale > 0 else sigma  # assumed

@@ -75,6 +75,21 @@ def test_where_flagging_turned_the_test_both_are_said_in_the_report_and_terminal
     for row in (_row(sigma0=1.03, sigma0_dof=9, sigma0_all=1.1, sigma0_all_dof=12, n_flagged=1),
                 _row(sigma0=1.03, sigma0_dof=9, n_flagged=1)):  # fmt: skip
         assert "sigma0 1.03 on 9 dof (p = 0.39): the data agree" in " ".join(noise_phrases(row))
+    # the data left said by sigma0's own rule (a new user's r6 G6: "the data left agree"
+    # on 1 dof, and at a lower tail of 0.0006)
+    few = noise_words(1.74, 1, flagged=1, with_flagged=(1.96, 2))
+    assert "the data left are too few to judge the noise model, with the flagged" in few
+    less = noise_words(0.23, 6, flagged=1, with_flagged=(1.73, 8))
+    assert "the data left scatter less than the noise model says, with the flagged" in less
+    assert AGREE not in few + less
+    # advice already followed is not given (a new user's r6 G2)
+    beside = "this session's 3 trials, 19 other sessions of operator P16 (point), the typed"
+    pooled = noise_words(0.88, 9, flagged=1, with_flagged=(1.76, 12), sources=beside,
+                         placing_scale=1.4, placing_dof=32)  # fmt: skip
+    assert "every region is too small: measure the placing with a board" in pooled
+    assert "beside its operator's others" not in pooled
+    alone = noise_words(0.88, 9, flagged=1, with_flagged=(1.76, 12))
+    assert "analyse the session beside its operator's others, or measure" in alone
     # every trial flagged: nothing left to agree
     none_left = noise_words(math.nan, 0, flagged=2, with_flagged=(2.0, 6))
     assert "with the flagged trials: the data contradict the noise model" in none_left

@@ -28,8 +28,8 @@ nobody measured: it was the resolution the operator typed. Here it is
 
 Light: the command lines read it; NumPy and SciPy are imported where a number is computed.
 
-(Near 600 lines: the noise's values and the one home of their words, which read every field
-of them; split, the words would import the values' privates and the rule would live twice.)
+(Near 600 lines: the noise's types and the one home of their words are read together by
+every side; split, the words would import the types' privates.)
 """
 
 from __future__ import annotations
@@ -78,6 +78,8 @@ SUPERSEDED_PRIOR_DOF = 1e-6
 #: on both dofs): 1%, as a board wrongly kept makes regions too small, one wrongly dropped
 #: only lets the trials decide (r5 F2's sessions, 1.5x the board's, stood at p = 0.001-0.002).
 ANCHOR_CONFLICT_LEVEL = 0.01
+#: How a board contradicted by its operator's pooled sessions is named, not by one session's.
+OPERATOR_DATA = "of its operator's sessions"
 #: The regions' level.
 _REGION_LEVEL = 0.95
 #: Beyond this many degrees of freedom a placing sigma's own uncertainty is not said as a
@@ -241,7 +243,9 @@ class PlacingPrior:
     regions start from) on ``dof`` degrees of freedom; ``source`` says where it came from
     (words), from how many ``sessions``; ``pooled`` names them (their session ids, sorted;
     empty when they had none), so that two runs whose priors read alike ("2 other sessions
-    of operator Eve") but pooled other sessions are told apart (``check``).
+    of operator Eve") but pooled other sessions are told apart (``check``). ``anchor_p``:
+    the board's conflict test over all the operator's sessions (NaN: not made), one answer
+    for each (:mod:`twopose.uncertainty.anchor_conflict`).
     """
 
     scale: float
@@ -249,6 +253,9 @@ class PlacingPrior:
     source: str
     sessions: int = 0
     pooled: tuple[str, ...] = ()
+    anchor_p: float = math.nan
+    #: A board's measured sigma as the anchor (:meth:`NoiseModel.anchor`): the one tested.
+    measured: bool = False
 
     def __post_init__(self) -> None:
         """Refuse a prior that is not a positive scale on positive degrees of freedom."""
@@ -366,6 +373,7 @@ def noise_words(  # noqa: PLR0913
     with_flagged: tuple[float, int] = (math.nan, 0),
     against: str = "typed",
     board_contradicted: bool = False,
+    by_operator: bool = False,
 ) -> str:
     """The noise model's test and what the regions took, in words: the one home of them.
 
@@ -383,7 +391,7 @@ def noise_words(  # noqa: PLR0913
     turned the test, and the words say both, never "agree" unqualified. ``against``: what
     sigma0 tests (``typed``, or ``the board's sigma``); ``board_contradicted``: the data
     contradicted the board's placing sigma (:attr:`NoiseModel.anchor_contradicted`), said
-    loudly (``factor``'s when given).
+    loudly (``factor``'s when given), ``by_operator`` over all the operator's sessions.
     """
     if factor is not None:
         placing_scale = factor.placing_scale if factor.estimated else math.nan
@@ -394,11 +402,16 @@ def noise_words(  # noqa: PLR0913
     if factor is not None:
         against = factor.against
         board_contradicted = math.isfinite(factor.anchor_conflict)
-    turned = _turned_words(sigma0, dof, flagged, *with_flagged)
+        by_operator = f"(contradicted by the data {OPERATOR_DATA})" in factor.sources
+    over_words = " over all this operator's sessions" if by_operator else ""
+    # advice already followed is not given (a new user's r6 G2): pooled with the operator's
+    # other sessions, only a board is left to measure the placing with
+    advice = _BOARD if _OPERATORS_POOLED in sources else f"{_BESIDE}, or {_BOARD}"
+    turned = _turned_words(sigma0, dof, flagged, *with_flagged, advice=advice)
     words = [turned or _test_words(sigma0, dof, flagged, against)]
     if board_contradicted:
         words.append(
-            f"the data contradict the board's placing sigma (F test, p < "
+            f"the data contradict the board's placing sigma (F test{over_words}, p < "
             f"{ANCHOR_CONFLICT_LEVEL:g}): regions likely too small with it, so it weighs as a "
             "guess here and the trials set the placing sigma"
         )
@@ -414,10 +427,7 @@ def noise_words(  # noqa: PLR0913
     elif dof > 0 and math.isfinite(sigma0):
         said = "not enough data to estimate the placing sigma: the regions assume the one typed"
         if chi2_tails(dof * sigma0**2, dof)[0] < FACTOR_TEST_LEVEL:  # and the test rejects it
-            said += (
-                ", which the data contradict, so they are likely too small: analyse the"
-                " session beside its operator's others, or measure the placing with a board"
-            )
+            said += f", which the data contradict, so they are likely too small: {advice}"
         words.append(said)
     elif not (dof > 0 and math.isfinite(sigma0)) and against == "typed":
         words.append(_UNTESTED)
@@ -436,9 +446,17 @@ _UNTESTED = (
     "than typed they are too small (record three or more trials of one target, analyse the "
     "session beside its operator's others, or measure the placing with a board)"
 )
+#: What a session whose data contradict its regions' placing sigma can do, in words ...
+_BESIDE = "analyse the session beside its operator's others"
+_BOARD = "measure the placing with a board"
+#: ... the first done where the multiplier's sources name the operator's other sessions
+#: (:func:`twopose.uncertainty.placing_variance.operator_priors`' words).
+_OPERATORS_POOLED = " of operator "
 
 
-def _turned_words(sigma0: float, dof: int, flagged: int, sigma0_all: float, dof_all: int) -> str:
+def _turned_words(
+    sigma0: float, dof: int, flagged: int, sigma0_all: float, dof_all: int, *, advice: str
+) -> str:
     """sigma0's test where flagging turned it ("": it did not).
 
     It rejects the typed model with the flagged trials' misclosures and not without them:
@@ -461,14 +479,27 @@ def _turned_words(sigma0: float, dof: int, flagged: int, sigma0_all: float, dof_
         said = f"{sigma0:.2f} on {dof} dof ({p_words(upper)}) without the {flagged} flagged "
         said += f"{trials}, {sigma0_all:.2f} on {dof_all} dof ({p_words(upper_all)}) with "
         said += "it" if flagged == 1 else "them"
-        left = f"the data left agree with the noise model, with the flagged {trials} the "
+        # the data left said by the rule sigma0 alone is said by (a new user's r6 G6)
+        left = f"the data left {_left_words(sigma0, dof)}, with the flagged {trials} the "
         left += "data contradict it"
     return (
         f"sigma0 {said}: {left}: if "
         f"{'it is not a blunder' if flagged == 1 else 'they are not blunders'}, the operator "
-        "places worse than typed and every region is too small: analyse the session beside "
-        "its operator's others, or measure the placing with a board"
+        f"places worse than typed and every region is too small: {advice}"
     )
+
+
+def _left_words(sigma0: float, dof: int) -> str:
+    """What the unflagged trials' sigma0 says where the flagged ones turned the test.
+
+    Its upper tail does not reject there: "agree" only on :data:`MIN_PLACING_DOF` dof or
+    more and outside the lower tail, as :func:`_test_words` says it.
+    """
+    if chi2_tails(dof * sigma0**2, dof)[1] < FACTOR_TEST_LEVEL:
+        return "scatter less than the noise model says"
+    if dof < MIN_PLACING_DOF:
+        return "are too few to judge the noise model"
+    return "agree with the noise model"
 
 
 def _test_words(sigma0: float, dof: int, flagged: int = 0, against: str = "typed") -> str:
@@ -554,6 +585,10 @@ class NoiseModel:
             return PlacingPrior(scale=1.0, dof=dof, source="the typed resolution")
         where = placing.measured_by or "the given placing sigma"
         if math.isfinite(self.anchor_contradicted):  # the data contradict it: it gives way
-            dof = TYPED_PRIOR_DOF if self.prior is None else SUPERSEDED_PRIOR_DOF
-            return PlacingPrior(scale=1.0, dof=dof, source=f"{where} (contradicted by the data)")
-        return PlacingPrior(scale=1.0, dof=placing.dof, source=where)
+            prior = self.prior
+            dof = TYPED_PRIOR_DOF if prior is None else SUPERSEDED_PRIOR_DOF
+            whose = f" {OPERATOR_DATA}" if prior and math.isfinite(prior.anchor_p) else ""
+            return PlacingPrior(
+                scale=1.0, dof=dof, source=f"{where} (contradicted by the data{whose})"
+            )
+        return PlacingPrior(scale=1.0, dof=placing.dof, source=where, measured=True)

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 from twopose.arrays import F64, Bools, Ints
+from twopose.uncertainty.anchor_conflict import alone_checked, operator_decided
 from twopose.uncertainty.blunders import (
     TrialTests,
     one_target,
@@ -52,6 +53,7 @@ class SessionTrials(Protocol):
 
 __all__ = [
     "NoiseResult",
+    "noise_from",
     "noise_of",
     "operator_group",
     "placed",
@@ -109,44 +111,26 @@ def noise_of(
     N = batch.valid.shape[1]
     residuals, parameters = misclosure_residuals(method, batch)
     m_rows = misclosures(residuals, batch.inputs, cov_in, batch.valid, parameters, shared=shared)
-    m = _at_rows(Misclosure.none(T, N), rows, m_rows)
+    return noise_from(_at_rows(Misclosure.none(T, N), rows, m_rows), noise)
+
+
+def noise_from(m: Misclosure, noise: NoiseModel) -> NoiseResult:
+    """The noise of a session whose trials' misclosures are ``m``, under ``noise``.
+
+    The board's sigma as its operator's pooled sessions decided, before any trial is
+    flagged against it (:mod:`twopose.uncertainty.anchor_conflict`), then the trials
+    flagged (and a session with no operator's answer tests the board on those left),
+    then the factor from the others.
+    """
+    noise = operator_decided(noise)  # before any trial is flagged against the board
     flags = flag_trials(m.chi2, m.dof, m.placing_share, m.z2, noise.anchor(), noise.prior)
-    checked = _anchor_checked(noise, m, flags.flagged)
+    checked = alone_checked(noise, m, flags.flagged)  # no operator's answer: this session's
     if checked is not noise:  # the board's sigma gives way: the trials tested again
         noise = checked
         flags = flag_trials(m.chi2, m.dof, m.placing_share, m.z2, noise.anchor(), noise.prior)
     factor = _factor(m, flags, flags.flagged, noise)
     tests = trial_tests(m, flags.flagged, flags.p, factor.placing_variance)
     return NoiseResult(factor=factor, misclosure=m, tests=tests, flags=flags, noise=noise)
-
-
-def _anchor_checked(noise: NoiseModel, m: Misclosure, out: Bools) -> NoiseModel:
-    """``noise`` with its board's placing sigma contradicted, where the data do (F test).
-
-    The unflagged trials' sigma0 squared (with the operator's prior as data beside them)
-    on their dof against the board's multiplier 1 on its own dof: Fisher's F. Below
-    :data:`~twopose.uncertainty.noise.ANCHOR_CONFLICT_LEVEL` the board's sigma is not this
-    session's operator's placing (another hand, another day): kept at its 352 dof it
-    outweighed sessions that contradicted it at p < 0.001 and their regions covered 79%
-    (a new user's r5 F2). Unchanged where nothing was measured or nothing contradicts it.
-    """
-    from scipy import special
-
-    from twopose.uncertainty.noise import ANCHOR_CONFLICT_LEVEL
-
-    placing = noise.placing
-    if placing is None or placing.upper_bound or not math.isfinite(placing.dof):
-        return noise
-    use = (m.dof > 0) & np.isfinite(m.chi2) & ~out
-    chi2, dof = float(m.chi2[use].sum()), float(m.dof[use].sum())
-    if noise.prior is not None and math.isfinite(noise.prior.dof):
-        chi2, dof = chi2 + noise.prior.scale * noise.prior.dof, dof + noise.prior.dof
-    if dof < MIN_PLACING_DOF:
-        return noise
-    p = float(special.fdtrc(dof, placing.dof, chi2 / dof))
-    if not p < ANCHOR_CONFLICT_LEVEL:
-        return noise
-    return dataclasses.replace(noise, anchor_contradicted=p)
 
 
 def _factor(
@@ -323,7 +307,7 @@ def operator_group(operator: str, method: Method) -> str:
     ``""`` (no operator named): a session alone.
     """
     name = operator.strip()
-    return f"{name} ({method})" if name else ""
+    return f"{name} ({method})" if name else ""  # matched by operator_key: the caller's
 
 
 def session_statistics(
