@@ -28,7 +28,7 @@ from analysis.session.metrics import (
 )
 from analysis.tables.row_units import row_unit, rows_word
 from twopose.methods.specs import label_of
-from twopose.uncertainty.blunders import EXPLAINS_LEVEL, TARGET_LEVEL, TRUTH_LEVEL
+from twopose.uncertainty.blunders import EXPLAINS_LEVEL, TRUTH_LEVEL
 from twopose.uncertainty.noise import (
     FACTOR_TEST_LEVEL,
     MIN_PLACING_DOF,
@@ -312,7 +312,9 @@ RULE = (
     "a test did not reject it: its multiplier (the placing variance over the one assumed) is "
     "always estimated, from the misclosures of the trials with redundant poses (how far each "
     "trial's views disagree with its own estimate, evaluated where the adjusted inputs "
-    "agree), shrunk toward the same operator's other sessions of the run (same operator, same "
+    "agree) and, in a session whose trials measured one target, from their estimates' "
+    "scatter about each other (their contrasts, as a misclosure), shrunk toward the same "
+    "operator's other sessions of the run (same operator, same "
     f"method), with the typed resolution as a weak prior of {TYPED_PRIOR_DOF:g} degrees of "
     "freedom where the session has no such other sessions (they supersede it), or the "
     "board's measurement on its own. Every region is propagated with the "
@@ -323,8 +325,9 @@ RULE = (
     f"(Baarda's global test at {BAARDA_LEVEL:.1%}): a trial both reject is flagged (its "
     "poses disagree), kept out of the pool and its own region widened by its own misfit; in "
     "a session whose trials measured one target (the same recorded truth), a trial whose "
-    "estimate lies off the others' weighted mean (a chi-square test on its region's "
-    f"dimensions at {TARGET_LEVEL:.1%}) is flagged too: a typed value its own poses cannot "
+    "estimate lies off the others' weighted mean (a test on its region's dimensions, at the "
+    f"multiplier the others measure, at {BAARDA_LEVEL:.1%}) is flagged too and left out of "
+    "the scatter: a typed value its own poses cannot "
     "check; a trial whose reported point lies outside its own region far from the grid point "
     "recorded as its truth (its NEES beyond the chi-square's upper "
     f"{TRUTH_LEVEL:.1%} quantile on the region's dimensions, after the multiplier) is flagged "

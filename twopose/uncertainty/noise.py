@@ -298,6 +298,11 @@ class VarianceFactor:
     against: str = "typed"
     #: The F test's p where the data contradicted the board's placing sigma (NaN: not).
     anchor_conflict: float = math.nan
+    #: The part of sigma0 (in ``dof``, ``dof_all``) from its trials of one target's scatter
+    #: (:mod:`twopose.uncertainty.target_scatter`): chi-square under the typed model on its
+    #: dof (NaN, 0: none).
+    scatter_chi2: float = math.nan
+    scatter_dof: int = 0
 
     @property
     def tested(self) -> bool:
@@ -424,6 +429,8 @@ def noise_words(  # noqa: PLR0913
         if chi2_tails(dof * sigma0**2, dof)[0] < FACTOR_TEST_LEVEL:  # and the test rejects it
             said += f", which the data contradict, so they are likely too small: {advice}"
         words.append(said)
+    elif not (dof > 0 and math.isfinite(sigma0)) and against == "typed":
+        words.append(_UNTESTED)
     if math.isfinite(region_widening) and not math.isclose(region_widening, 1.0, abs_tol=5e-3):
         words.append(f"regions' largest semi-axis x{region_widening:.2f}")
     if flagged:
@@ -432,6 +439,13 @@ def noise_words(  # noqa: PLR0913
     return "; ".join(words)
 
 
+#: Said where nothing tested the typed placing sigma and nothing estimated the multiplier
+#: (two poses a trial and no trials of one target to compare: the thesis' own procedure).
+_UNTESTED = (
+    "the regions rest on the typed placing sigma, untested: if the operator places worse "
+    "than typed they are too small (record three or more trials of one target, analyse the "
+    "session beside its operator's others, or measure the placing with a board)"
+)
 #: What a session whose data contradict its regions' placing sigma can do, in words ...
 _BESIDE = "analyse the session beside its operator's others"
 _BOARD = "measure the placing with a board"
