@@ -74,6 +74,9 @@ never makes the accuracy look better). A trial with no truth is not tested here;
 misclosure and the other trials' test apply.
 
 The three tests are one concern (what flags a trial, and why), so they share one module.
+(Near 600 lines for that reason: which pose and component explain a flagged trial, and the
+words each test says, read the same fields; split, they would import each other's privates,
+as :mod:`twopose.uncertainty.target_scatter` already reads ``_across``.)
 """
 
 from __future__ import annotations
