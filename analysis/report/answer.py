@@ -158,9 +158,9 @@ def skew_phrases(row: pd.Series) -> list[str]:
 def noise_phrases(row: pd.Series) -> list[str]:
     """A session's noise model in words (a ``summary.csv`` row): the placing sigma its
     regions assumed and where it came from, and sigma0's test with the multiplier taken
-    (:func:`twopose.uncertainty.noise.noise_words`, the one home of these words); none for a table
-    from before these columns. The terminal and the report say these."""
-    from twopose.uncertainty.noise import noise_words
+    (:func:`twopose.uncertainty.noise_words.noise_words`, the one home of these words);
+    none for a table from before these columns. The terminal and the report say these."""
+    from twopose.uncertainty.noise_words import noise_words
 
     if "sigma0_dof" not in row or pd.isna(row["sigma0_dof"]):
         return []

@@ -17,7 +17,8 @@ from tests.helpers import load_benchmark
 from twopose.methods.specs import Method
 from twopose.solve.estimate import EstimateOptions
 from twopose.solve.session import SessionTrials, estimate_session
-from twopose.uncertainty.noise import FACTOR_TEST_LEVEL, chi2_tails, noise_words
+from twopose.uncertainty.noise import FACTOR_TEST_LEVEL, chi2_tails
+from twopose.uncertainty.noise_words import describe, noise_words
 
 bench = load_benchmark("bench_noise")
 AGREE = "the data agree with the noise model"
@@ -48,7 +49,7 @@ def test_a_trial_the_other_trials_flag_leaves_the_rest_a_clean_trial_is_tested_a
     assert factor.trials == 3
     assert factor.contradicted
     assert factor.placing_scale > 1.6  # the truth 1.6x; 1.1x before
-    said = factor.describe()
+    said = describe(factor)
     assert "the data contradict the noise model" in said
     assert AGREE not in said
 
@@ -163,7 +164,7 @@ def test_a_typo_in_a_session_alone_never_reads_agree_where_its_trials_contradict
     est = estimate_session(trials, EstimateOptions(), line_fits=False)
     factor = est.factor
     assert factor is not None
-    if AGREE in factor.describe() and factor.flagged and factor.dof_all:
+    if AGREE in describe(factor) and factor.flagged and factor.dof_all:
         upper_all = chi2_tails(factor.dof_all * factor.sigma0_sq_all, factor.dof_all)[0]
         assert upper_all >= FACTOR_TEST_LEVEL
 

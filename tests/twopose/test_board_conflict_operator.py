@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 
 from twopose.uncertainty.misclosure import Misclosure
-from twopose.uncertainty.noise import NoiseModel, PlacingPrior, PlacingSigma, noise_words
+from twopose.uncertainty.noise import NoiseModel, PlacingPrior, PlacingSigma
+from twopose.uncertainty.noise_words import noise_words
 from twopose.uncertainty.placing_variance import operator_priors
 from twopose.uncertainty.session_noise import NoiseResult, noise_from, session_statistics
 

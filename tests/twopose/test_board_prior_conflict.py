@@ -16,8 +16,8 @@ from twopose.uncertainty.noise import (
     NoiseModel,
     PlacingSigma,
     VarianceFactor,
-    noise_words,
 )
+from twopose.uncertainty.noise_words import noise_words
 from twopose.uncertainty.session_noise import noise_from
 
 BOARD = PlacingSigma(sigma_in=0.104, sigma_sigma_in=0.104 / math.sqrt(2 * 352),

@@ -24,9 +24,9 @@ from twopose.uncertainty.noise import (
     VarianceFactor,
     chi2_quantile,
     f_quantile,
-    noise_words,
     p_words,
 )
+from twopose.uncertainty.noise_words import describe, noise_words
 from twopose.values.units import Units
 
 levels = st.floats(0.01, 0.99)
@@ -90,7 +90,7 @@ def test_sigma0_3_35_on_8_dof_is_never_said_to_agree() -> None:
     assert "p < 0.001" in words
     factor = VarianceFactor(sigma0_sq=3.35**2, dof=8, trials=4)
     assert factor.contradicted  # summary.csv's noise_contradicted says the same
-    assert "the data agree" not in factor.describe()
+    assert "the data agree" not in describe(factor)
 
 
 def test_a_widening_at_p_0_17_is_not_said_as_a_contradiction() -> None:

@@ -16,7 +16,7 @@ from twopose.methods.specs import Method
 from twopose.methods.truth import reported
 from twopose.solve.estimate import EstimateOptions
 from twopose.solve.session import SessionEstimate, estimate_session
-from twopose.uncertainty.noise import noise_words
+from twopose.uncertainty.noise_words import noise_words
 from twopose.uncertainty.placing_variance import GRID, trial_information, trial_loglik
 from twopose.uncertainty.propagate import uncertainty_columns
 from twopose.uncertainty.target_scatter import TargetScatter, components
