@@ -185,6 +185,7 @@ def noise_summary(trials: pd.DataFrame) -> dict[str, object]:
         "sigma0": float(np.sqrt(factor.sigma0_sq)) if total else np.nan,
         "sigma0_dof": total,
         "sigma0_p": factor.p_upper if total else np.nan,
+        "sigma0_placing_share": _placing_share(kept, use, s_dof, total),
         "sigma0_all": float(np.sqrt(every_chi2 / total_all)) if total_all else np.nan,
         "sigma0_all_dof": total_all,
         # What the words call "contradict": the unflagged trials' test, or where no
@@ -193,6 +194,19 @@ def noise_summary(trials: pd.DataFrame) -> dict[str, object]:
         "noise_widening": float(widening.max()) if widening.notna().any() else np.nan,
         "n_flagged": int(flagged.sum()),
     }
+
+
+def _placing_share(kept: pd.DataFrame, use: np.ndarray, scatter_dof: int, total: int) -> float:
+    """The placing's mean share of sigma0's directions: its misclosures' (their
+    ``misclosure_placing_share`` over their dof), the trials of one target's contrasts
+    counted as all placing (NaN: not tested; 1 in a table from before the column)."""
+    if not total:
+        return np.nan
+    if "misclosure_placing_share" not in kept:
+        return 1.0
+    share = pd.to_numeric(kept["misclosure_placing_share"], errors="coerce").to_numpy()
+    dof = pd.to_numeric(kept["misclosure_dof"], errors="coerce").fillna(0).to_numpy()
+    return float((np.nan_to_num(share[use]) * dof[use]).sum() + scatter_dof) / total
 
 
 def _flags(trials: pd.DataFrame) -> pd.Series:

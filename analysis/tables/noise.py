@@ -34,6 +34,7 @@ __all__ = [
     "misclosure_chi2",
     "misclosure_dof",
     "misclosure_p",
+    "misclosure_placing_share",
     "noise_widening",
     "placing_dof",
     "placing_scale",
@@ -121,6 +122,15 @@ def misclosure_dof(t: TrialResult) -> Any:
     """Each trial's redundant measurements tested (0: none, or not tested)."""
     m = t.estimate.misclosure
     return np.zeros(len(t.estimate.trials), dtype=np.int64) if m is None else m.dof
+
+
+def misclosure_placing_share(t: TrialResult) -> F64:
+    """Each trial's misclosure: the placing's mean share of its directions (NaN: none)."""
+    m = t.estimate.misclosure
+    if m is None:
+        return np.full(len(t.estimate.trials), np.nan)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(m.dof > 0, m.placing_share.sum(axis=1) / m.dof, np.nan)
 
 
 def noise_widening(t: TrialResult) -> F64:

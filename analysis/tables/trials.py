@@ -453,6 +453,8 @@ TRIAL_TABLE: tuple[Column, ...] = (
            domain=COUNT, dtype="int64", group="noise", fill=nc.misclosure_dof),
     Column(name="misclosure_p", label="misclosure p-value against the rest", unit="share",
            domain=SHARE, group="noise", fill=nc.misclosure_p),
+    Column(name="misclosure_placing_share", label="misclosure: the placing's share",
+           unit="share", domain=SHARE, group="noise", fill=nc.misclosure_placing_share),
     Column(name="scatter_chi2", label="trials of one target: scatter chi-square", unit="none",
            domain=NON_NEGATIVE, group="noise", fill=nc.scatter_chi2),
     Column(name="scatter_dof", label="trials of one target: scatter dof", unit="count",

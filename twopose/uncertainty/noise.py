@@ -297,6 +297,10 @@ class VarianceFactor:
     #: The part of sigma0 (in ``dof``, ``dof_all``) from its trials of one target's scatter
     #: (:mod:`twopose.uncertainty.target_scatter`): chi-square under the typed model on its
     #: dof (NaN, 0: none).
+    #: The placing's mean share of sigma0's directions (its misclosures' ``beta``, the
+    #: trials of one target's contrasts counted as all placing): 1 when the test sees
+    #: placing alone, near 0 when the pixels' noise is most of it (its power said with it).
+    placing_share: float = 1.0
     scatter_chi2: float = math.nan
     scatter_dof: int = 0
 

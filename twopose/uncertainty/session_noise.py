@@ -170,6 +170,7 @@ def _factor(
         scatter_chi2=math.nan if scatter is None else scatter.chi2,
         scatter_dof=extra[1],
         anchor_conflict=noise.anchor_contradicted,
+        placing_share=float((m.placing_share[use].sum() + extra[1]) / dof) if dof else 1.0,
     )
 
 
