@@ -46,6 +46,7 @@ from bench_noise import METHODS, SIZES, session  # type: ignore[import-not-found
 from twopose.methods.truth import reported  # noqa: E402
 from twopose.solve.estimate import EstimateOptions  # noqa: E402
 from twopose.solve.session import SessionEstimate, SessionTrials, estimate_session  # noqa: E402
+from twopose.uncertainty.noise_words import describe  # noqa: E402
 from twopose.uncertainty.propagate import uncertainty_columns  # noqa: E402
 
 #: The docs include this file (``--write-docs`` writes it).
@@ -89,8 +90,8 @@ def rows(n: int, placing: float) -> pd.DataFrame:
                 is_clean = ok & (np.arange(size) != which)
                 out.append({
                     "method": str(method), "size": size,
-                    "agree_clean": AGREE in e0.factor.describe(),
-                    "agree_typo": AGREE in e.factor.describe(),
+                    "agree_clean": AGREE in describe(e0.factor),
+                    "agree_typo": AGREE in describe(e.factor),
                     "typo_flagged": bool(e.tests.flagged[which]),
                     "clean": int(is_clean.sum()),
                     "clean_flagged": int((e.tests.flagged & is_clean).sum()),

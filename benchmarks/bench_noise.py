@@ -71,6 +71,7 @@ import dataclasses
 import math
 import sys
 import time
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -101,6 +102,8 @@ from twopose.uncertainty.propagate import uncertainty_columns  # noqa: E402
 from twopose.uncertainty.session_noise import operator_group, session_statistics  # noqa: E402
 from twopose.values.units import Units  # noqa: E402
 
+#: Each trial's poses, (typed t, typed r, true t, true r) each, as the simulator draws them.
+Draw = Callable[[Scene, Method, int, np.random.Generator], Sequence[tuple[np.ndarray, ...]]]
 #: The docs include this file (``--write-docs`` writes it).
 FIGURE = "noise.txt"
 TYPED_IN = 0.0625
@@ -122,8 +125,12 @@ PLAIN = EstimateOptions(noise=NoiseModel(test_redundancy=False))
 
 
 def session(method: Method, seed: int, trials: int, placing: float, poses: int = 3,
-            scene: Scene | None = None) -> SessionTrials:  # fmt: skip
-    """One session in the simulator's geometry, projected: ``placing`` x the typed error."""
+            scene: Scene | None = None,
+            draw: Draw = draw_trial_poses) -> SessionTrials:  # fmt: skip
+    """One session in the simulator's geometry, projected: ``placing`` x the typed error.
+
+    ``draw``: each trial's poses (typed and true), the simulator's by default
+    (``benchmarks/bench_misclosure_models.py`` draws the typed values otherwise)."""
     base = scene or Scene()
     p = dataclasses.replace(base.poses, count=poses, noise_sigma=placing * TYPED_IN,
                             typed_resolution=TYPED_IN)  # fmt: skip
@@ -137,9 +144,7 @@ def session(method: Method, seed: int, trials: int, placing: float, poses: int =
     views = []
     for _ in range(trials):
         row = []
-        for k, (typed, r_typed, t_true, r_true) in enumerate(
-            draw_trial_poses(scene, method, poses, rng)
-        ):
+        for k, (typed, r_typed, t_true, r_true) in enumerate(draw(scene, method, poses, rng)):
             px = project_points(seen, K, rotation_from_angles_deg(r_true), t_true)
             centroid, theta = (
                 (px.mean(axis=0), _angle(px)) if spec.uses_image_lines else (px[0], math.nan)

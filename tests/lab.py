@@ -32,13 +32,15 @@ CAMERA = Camera(
 _BLANK = np.full((48, 64, 3), 200, dtype=np.uint8)
 
 
-def new_info(*, units: Units = Units.IN, created: str = "2026-11-27T00:00:00Z") -> SessionInfo:
+def new_info(
+    *, units: Units = Units.IN, created: str = "2026-11-27T00:00:00Z", operator: str = "lab"
+) -> SessionInfo:
     """A new session's opening entry, as the recorder writes one (a fresh id and part)."""
     return SessionInfo(
         method=Method.POINT,
         units=units,
         camera_ids=("cam0",),
-        operator="lab",
+        operator=operator,
         created_utc=created,
         session_id=uuid.uuid4().hex,
         part_id=uuid.uuid4().hex,

@@ -43,6 +43,7 @@ from twopose.format.identity import (
     resolve_session_files,
 )
 from twopose.format.reader import find_sessions, is_results_file
+from twopose.values.operators import operators_of, spelled_apart
 
 __all__ = ["FoundSession", "InputSet", "SessionIdentity", "resolve_inputs", "sessions_said"]
 
@@ -235,6 +236,16 @@ class InputSet:
             "pooled with neither operator's other sessions; to give each operator's trials "
             "their own, analyse each part's file in a run without the other"
             for head, names in self.of_operators.items()
+        ] + self.case_notes()
+
+    def case_notes(self) -> list[str]:
+        """Operator names of the run that differ only in case (or spaces around them),
+        said: they are taken as one operator (pooled, a rig file's ``operators``)."""
+        named = (f.info.operator for f in self.found if f.info is not None)
+        return [
+            f"operator names {', '.join(names)} differ only in case: taken as one operator "
+            f"({names[0]})"
+            for names in spelled_apart(named)
         ]
 
     def run_notes(self) -> list[str]:
@@ -248,9 +259,9 @@ class InputSet:
 
 def _operators(strand: Strand) -> tuple[str, ...]:
     """The operators a strand's parts name (each part's session entry: a continuation's
-    ``--operator`` is who recorded it), once each, in order; unnamed ones left out."""
-    names = (p.file.info.operator.strip() for p in strand.parts if p.file.info is not None)
-    return tuple(dict.fromkeys(n for n in names if n))
+    ``--operator`` is who recorded it), once each (case folded), in order; unnamed ones
+    left out."""
+    return operators_of(p.file.info.operator for p in strand.parts if p.file.info is not None)
 
 
 def sessions_said(strands: Iterable[tuple[str, str]], verb: str = "") -> str:

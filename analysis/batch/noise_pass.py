@@ -44,6 +44,7 @@ from twopose.uncertainty.session_noise import (
     session_base_in,
     session_statistics,
 )
+from twopose.values.operators import operator_key
 
 if TYPE_CHECKING:
     from analysis.batch.inputs import InputSet
@@ -82,7 +83,12 @@ def pooled_groups(heads: Mapping[str, tuple[str, str]], options: AnalysisOptions
         return {}
     from twopose.methods.specs import Method
 
-    groups = {p: operator_group(op, Method(m)) for p, (op, m) in heads.items() if m}
+    shown: dict[str, str] = {}  # one operator's name as first typed ("ada" is "Ada")
+    for op, _ in heads.values():
+        shown.setdefault(operator_key(op), op.strip())
+    groups = {
+        p: operator_group(shown[operator_key(op)], Method(m)) for p, (op, m) in heads.items() if m
+    }
     count: dict[str, int] = {}
     for g in groups.values():
         count[g] = count.get(g, 0) + 1
@@ -218,7 +224,9 @@ def prior_salt(prior: PlacingPrior | None) -> str:
     """What the session's cache key adds for its prior (``""``: none): its digest."""
     if prior is None:
         return ""
-    text = json.dumps([repr(prior.scale), repr(prior.dof), prior.source, prior.sessions])
+    text = json.dumps(
+        [repr(prior.scale), repr(prior.dof), prior.source, prior.sessions, repr(prior.anchor_p)]
+    )
     return hashlib.sha256(text.encode()).hexdigest()
 
 

@@ -106,6 +106,6 @@ def _prior(source: str) -> str:
     if head not in source or not source.endswith(")"):
         return ""
     parts = source[source.index(head) + len(head) : -1].split(", ")
-    if parts and parts[0].startswith("this session's "):
-        parts = parts[1:]
+    own = ("this session's ", "the scatter of ")  # its trials, their scatter about one target
+    parts = [p for p in parts if not p.startswith(own)]
     return ", ".join(parts[:-1])

@@ -28,8 +28,13 @@ from analysis.session.metrics import (
 )
 from analysis.tables.row_units import row_unit, rows_word
 from twopose.methods.specs import label_of
-from twopose.uncertainty.blunders import EXPLAINS_LEVEL, TARGET_LEVEL, TRUTH_LEVEL
-from twopose.uncertainty.noise import FACTOR_TEST_LEVEL, MIN_PLACING_DOF, TYPED_PRIOR_DOF
+from twopose.uncertainty.blunders import EXPLAINS_LEVEL, TRUTH_LEVEL
+from twopose.uncertainty.noise import (
+    FACTOR_TEST_LEVEL,
+    MIN_PLACING_DOF,
+    OPERATOR_DATA,
+    TYPED_PRIOR_DOF,
+)
 from twopose.uncertainty.placing_variance import BAARDA_LEVEL
 
 __all__ = [
@@ -153,9 +158,9 @@ def skew_phrases(row: pd.Series) -> list[str]:
 def noise_phrases(row: pd.Series) -> list[str]:
     """A session's noise model in words (a ``summary.csv`` row): the placing sigma its
     regions assumed and where it came from, and sigma0's test with the multiplier taken
-    (:func:`twopose.uncertainty.noise.noise_words`, the one home of these words); none for a table
-    from before these columns. The terminal and the report say these."""
-    from twopose.uncertainty.noise import noise_words
+    (:func:`twopose.uncertainty.noise_words.noise_words`, the one home of these words);
+    none for a table from before these columns. The terminal and the report say these."""
+    from twopose.uncertainty.noise_words import noise_words
 
     if "sigma0_dof" not in row or pd.isna(row["sigma0_dof"]):
         return []
@@ -177,7 +182,9 @@ def noise_phrases(row: pd.Series) -> list[str]:
         sources=estimated.group(1) if estimated else "",
         with_flagged=(_known(row.get("sigma0_all")), int(_known(row.get("sigma0_all_dof"), 0.0))),
         against="the board's sigma" if source.startswith("measured by") else "typed",
-        board_contradicted="(contradicted by the data)" in said,
+        board_contradicted="(contradicted by the data" in said,
+        by_operator=f"(contradicted by the data {OPERATOR_DATA})" in said,
+        placing_share=_known(row.get("sigma0_placing_share"), 1.0),
     )
     scale = _known(row.get("placing_scale"))
     start = sigma / scale if isinstance(sigma, int | float) and scale > 0 else sigma  # assumed
@@ -306,7 +313,9 @@ RULE = (
     "a test did not reject it: its multiplier (the placing variance over the one assumed) is "
     "always estimated, from the misclosures of the trials with redundant poses (how far each "
     "trial's views disagree with its own estimate, evaluated where the adjusted inputs "
-    "agree), shrunk toward the same operator's other sessions of the run (same operator, same "
+    "agree) and, in a session whose trials measured one target, from their estimates' "
+    "scatter about each other (their contrasts, as a misclosure), shrunk toward the same "
+    "operator's other sessions of the run (same operator, same "
     f"method), with the typed resolution as a weak prior of {TYPED_PRIOR_DOF:g} degrees of "
     "freedom where the session has no such other sessions (they supersede it), or the "
     "board's measurement on its own. Every region is propagated with the "
@@ -317,8 +326,9 @@ RULE = (
     f"(Baarda's global test at {BAARDA_LEVEL:.1%}): a trial both reject is flagged (its "
     "poses disagree), kept out of the pool and its own region widened by its own misfit; in "
     "a session whose trials measured one target (the same recorded truth), a trial whose "
-    "estimate lies off the others' weighted mean (a chi-square test on its region's "
-    f"dimensions at {TARGET_LEVEL:.1%}) is flagged too: a typed value its own poses cannot "
+    "estimate lies off the others' weighted mean (a test on its region's dimensions, at the "
+    f"multiplier the others measure, at {BAARDA_LEVEL:.1%}) is flagged too and left out of "
+    "the scatter: a typed value its own poses cannot "
     "check; a trial whose reported point lies outside its own region far from the grid point "
     "recorded as its truth (its NEES beyond the chi-square's upper "
     f"{TRUTH_LEVEL:.1%} quantile on the region's dimensions, after the multiplier) is flagged "

@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING
 
 from twopose.errors import InputValueError
 from twopose.rig.file import RigFile, load_rig_file
+from twopose.values.operators import operator_key
 
 if TYPE_CHECKING:
     from analysis.batch.inputs import InputSet
@@ -85,7 +86,8 @@ class RigUse:
         placing = self.file.placing
         if placing is None or not placing.operators:
             return placing
-        return placing if set(operators) <= set(placing.operators) else None
+        mine = {operator_key(n) for n in operators}  # "ada" is "Ada"
+        return placing if mine <= {operator_key(n) for n in placing.operators} else None
 
     def options(self, options: AnalysisOptions, operators: tuple[str, ...] = ()) -> AnalysisOptions:
         """``options`` with this rig: every view corrected by its constants, every region
@@ -265,7 +267,9 @@ def placing_notes(use: RigUse, operators: Mapping[str, tuple[str, ...]]) -> list
     others = [s for s, names in operators.items() if use.placing_for(names) is None]
     if not others:
         return []
-    who = sorted({n for s in others for n in operators[s]} - set(placing.operators)) or ["none"]
+    theirs = {operator_key(n) for n in placing.operators}
+    names = {n for s in others for n in operators[s] if operator_key(n) not in theirs}
+    who = sorted(names) or ["none"]
     shown = ", ".join(Path(s).name for s in others[:4]) + (", ..." if len(others) > 4 else "")
     return [
         f"{what} is operator {', '.join(placing.operators)}'s: not applied to "

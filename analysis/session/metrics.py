@@ -155,15 +155,20 @@ def noise_summary(trials: pd.DataFrame) -> dict[str, object]:
     chi2 = pd.to_numeric(kept["misclosure_chi2"], errors="coerce").to_numpy(dtype=np.float64)
     dof = pd.to_numeric(kept["misclosure_dof"], errors="coerce").fillna(0).to_numpy()
     use = np.isfinite(chi2) & (dof > 0)
-    total = int(dof[use].sum())
+    # the trials of one target's scatter (twopose.uncertainty.target_scatter), in both
+    s_dof = int(np.nan_to_num(_first_number(trials, "scatter_dof")))
+    s_chi2 = _first_number(trials, "scatter_chi2") if s_dof else 0.0
+    total = int(dof[use].sum()) + s_dof
     every = pd.to_numeric(ok["misclosure_chi2"], errors="coerce").to_numpy(dtype=np.float64)
     every_dof = pd.to_numeric(ok["misclosure_dof"], errors="coerce").fillna(0).to_numpy()
     has = np.isfinite(every) & (every_dof > 0)  # the flagged trials' misclosures too
-    total_all = int(every_dof[has].sum())
+    total_all = int(every_dof[has].sum()) + s_dof
+    every_chi2 = every[has].sum() + s_chi2
     factor = VarianceFactor(
-        sigma0_sq=float(chi2[use].sum() / total) if total else np.nan, dof=total
+        sigma0_sq=float((chi2[use].sum() + s_chi2) / total) if total else np.nan, dof=total
     )
-    everyone = VarianceFactor(sigma0_sq=_mean_chi2(every[has], total_all), dof=total_all)
+    everyone = VarianceFactor(sigma0_sq=every_chi2 / total_all if total_all else np.nan,
+                              dof=total_all)  # fmt: skip
     widening = pd.to_numeric(kept["noise_widening"], errors="coerce")
     sigma = pd.to_numeric(trials["placing_sigma"], errors="coerce")
     sources = [s for s in trials["placing_source"].astype(str) if s]
@@ -180,7 +185,8 @@ def noise_summary(trials: pd.DataFrame) -> dict[str, object]:
         "sigma0": float(np.sqrt(factor.sigma0_sq)) if total else np.nan,
         "sigma0_dof": total,
         "sigma0_p": factor.p_upper if total else np.nan,
-        "sigma0_all": float(np.sqrt(every[has].sum() / total_all)) if total_all else np.nan,
+        "sigma0_placing_share": _placing_share(kept, use, s_dof, total),
+        "sigma0_all": float(np.sqrt(every_chi2 / total_all)) if total_all else np.nan,
         "sigma0_all_dof": total_all,
         # What the words call "contradict": the unflagged trials' test, or where no
         # unflagged trial is left to test, every trial's (the flagged ones' too).
@@ -190,9 +196,17 @@ def noise_summary(trials: pd.DataFrame) -> dict[str, object]:
     }
 
 
-def _mean_chi2(chi2: np.ndarray, dof: int) -> float:
-    """sigma0 squared from summed misclosures (NaN without degrees of freedom)."""
-    return float(chi2.sum() / dof) if dof else np.nan
+def _placing_share(kept: pd.DataFrame, use: np.ndarray, scatter_dof: int, total: int) -> float:
+    """The placing's mean share of sigma0's directions: its misclosures' (their
+    ``misclosure_placing_share`` over their dof), the trials of one target's contrasts
+    counted as all placing (NaN: not tested; 1 in a table from before the column)."""
+    if not total:
+        return np.nan
+    if "misclosure_placing_share" not in kept:
+        return 1.0
+    share = pd.to_numeric(kept["misclosure_placing_share"], errors="coerce").to_numpy()
+    dof = pd.to_numeric(kept["misclosure_dof"], errors="coerce").fillna(0).to_numpy()
+    return float((np.nan_to_num(share[use]) * dof[use]).sum() + scatter_dof) / total
 
 
 def _flags(trials: pd.DataFrame) -> pd.Series:

@@ -205,6 +205,7 @@ SUMMARY_TABLE: tuple[Column, ...] = (
     _number("sigma0", "sigma0 under the typed model", _S, "none", NON_NEGATIVE),
     _count("sigma0_dof", "sigma0's degrees of freedom", _S),
     _number("sigma0_p", "sigma0's test: p-value", _S, "share", SHARE),
+    _number("sigma0_placing_share", "sigma0's test: the placing's share", _S, "share", SHARE),
     _number("sigma0_all", "sigma0 with the flagged trials", _S, "none", NON_NEGATIVE),
     _count("sigma0_all_dof", "its degrees of freedom", _S),
     Column(name="noise_contradicted", label="the data contradict the noise model",

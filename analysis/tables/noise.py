@@ -34,12 +34,15 @@ __all__ = [
     "misclosure_chi2",
     "misclosure_dof",
     "misclosure_p",
+    "misclosure_placing_share",
     "noise_widening",
     "placing_dof",
     "placing_scale",
     "placing_sigma",
     "placing_source",
     "prior_sessions",
+    "scatter_chi2",
+    "scatter_dof",
     "suspect_axis",
     "suspect_offset",
     "suspect_pose",
@@ -95,6 +98,20 @@ def placing_dof(t: TrialResult) -> F64:
     return np.full(T, dof)
 
 
+def scatter_chi2(t: TrialResult) -> F64:
+    """The session's trials of one target: their contrasts' chi-square under the typed model
+    (:mod:`twopose.uncertainty.target_scatter`; the same in every trial; NaN: none)."""
+    factor = t.estimate.factor
+    return np.full(len(t.estimate.trials), np.nan if factor is None else factor.scatter_chi2)
+
+
+def scatter_dof(t: TrialResult) -> Any:
+    """The degrees of freedom of :func:`scatter_chi2` (0: none)."""
+    factor = t.estimate.factor
+    dof = 0 if factor is None else factor.scatter_dof
+    return np.full(len(t.estimate.trials), dof, dtype=np.int64)
+
+
 def misclosure_chi2(t: TrialResult) -> F64:
     """Each trial's misclosure chi-square (NaN: no redundancy, or not tested)."""
     m = t.estimate.misclosure
@@ -105,6 +122,15 @@ def misclosure_dof(t: TrialResult) -> Any:
     """Each trial's redundant measurements tested (0: none, or not tested)."""
     m = t.estimate.misclosure
     return np.zeros(len(t.estimate.trials), dtype=np.int64) if m is None else m.dof
+
+
+def misclosure_placing_share(t: TrialResult) -> F64:
+    """Each trial's misclosure: the placing's mean share of its directions (NaN: none)."""
+    m = t.estimate.misclosure
+    if m is None:
+        return np.full(len(t.estimate.trials), np.nan)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(m.dof > 0, m.placing_share.sum(axis=1) / m.dof, np.nan)
 
 
 def noise_widening(t: TrialResult) -> F64:
@@ -163,10 +189,24 @@ def suspect_offset(t: TrialResult) -> F64:
     return _tests(t).offset
 
 
+#: Beside a trial its truth flagged where nothing in its session tested the typed placing
+#: sigma: a clean trial of an operator placing worse than typed lies off its truth too (a
+#: new user's r6 G3: 4 clean trials told only "check what you typed").
+UNTESTED_CAUSE = (
+    "; or the operator places worse than typed: nothing in this session tests the typed "
+    "placing sigma"
+)
+
+
 def disagreement(t: TrialResult) -> list[str]:
     """A flagged trial's poses' disagreement in words (the recorder's live words)."""
     from twopose.values.units import Units
 
-    tests, trials = _tests(t), t.estimate.trials
+    tests, trials, factor = _tests(t), t.estimate.trials, t.estimate.factor
     units = Units(trials.units)
-    return [tests.words(i, units, len(v)) for i, v in enumerate(trials.views)]
+    said = [tests.words(i, units, len(v)) for i, v in enumerate(trials.views)]
+    typed = t.estimate.options.noise.placing is None  # no board's sigma: the typed one
+    if factor is None or factor.tested or factor.estimated or not typed:
+        return said
+    truth = FLAGGED_BY[2]
+    return [w + UNTESTED_CAUSE if tests.by(i) == truth else w for i, w in enumerate(said)]

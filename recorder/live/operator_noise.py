@@ -13,7 +13,9 @@ to the same placing sigma (typed, or the same rig file's ``[placing]``), are its
 
 The files live in ``$TWOPOSE_NOISE_DIR``, else ``$XDG_DATA_HOME/twopose/operators``
 (``~/.local/share/twopose/operators``), one per operator: ``<name>-<hash>.toml``, the name
-made safe for a file name and the hash of the exact name keeping two names apart. Plain
+made safe for a file name and the hash of the name, case folded, keeping two names apart
+("Ada" and "ada" are one operator, :mod:`twopose.values.operators`; a file an earlier
+recorder wrote under the hash of the name as typed is still found). Plain
 TOML (docs/uncertainty.md lists the keys); delete it to start an operator afresh. A file
 that cannot be read is said and set aside, never the recording's end.
 """
@@ -37,6 +39,7 @@ from twopose.methods.specs import Method
 from twopose.solve.margins import EstimateOptions
 from twopose.uncertainty.noise import PlacingPrior
 from twopose.uncertainty.placing_variance import SessionNoise, operator_priors
+from twopose.values.operators import operator_key
 from twopose.values.units import Units, unit_spec
 
 __all__ = ["FORMAT", "LivePrior", "NoiseFile", "live_prior", "noise_dir", "remember_session"]
@@ -58,9 +61,35 @@ def noise_dir() -> Path:
     return Path(data) / "twopose" / "operators"
 
 
+def _safe(operator: str) -> str:
+    """The name made safe for a file name (lower case: every spelling of one operator's)."""
+    return re.sub(r"[^a-z0-9_-]+", "_", operator.strip().lower()).strip("_")[:40] or "operator"
+
+
 def _file_name(operator: str) -> str:
-    safe = re.sub(r"[^a-z0-9_-]+", "_", operator.strip().lower()).strip("_")[:40] or "operator"
-    return f"{safe}-{hashlib.sha256(operator.strip().encode()).hexdigest()[:8]}.toml"
+    """The operator's file name: the safe name and the hash of the case-folded name."""
+    return (
+        f"{_safe(operator)}-{hashlib.sha256(operator_key(operator).encode()).hexdigest()[:8]}.toml"
+    )
+
+
+def _file_of(operator: str, folder: Path) -> Path:
+    """The operator's noise file in ``folder``: the case-folded name's, else one an earlier
+    recorder wrote under the hash of the name as typed then, in any case ("Ada"'s file is
+    "ada"'s): its ``operator`` key names them."""
+    from twopose.values.toml import read_toml
+
+    path = folder / _file_name(operator)
+    if path.is_file() or not folder.is_dir():
+        return path
+    for older in sorted(folder.glob(f"{_safe(operator)}-*.toml")):
+        try:
+            named = read_toml(older, "operator noise file", InputValueError).get("operator")
+        except InputValueError:  # said when it is read as this operator's, if it is
+            continue
+        if isinstance(named, str) and operator_key(named) == operator_key(operator):
+            return older
+    return path
 
 
 class NoiseFile:
@@ -68,7 +97,7 @@ class NoiseFile:
 
     def __init__(self, operator: str, folder: Path | None = None) -> None:
         self.operator = operator.strip()
-        self.path = (folder or noise_dir()) / _file_name(self.operator)
+        self.path = _file_of(self.operator, folder or noise_dir())
 
     def sessions(self) -> list[dict[str, object]]:
         """Its sessions as recorded; none when there is no file. A file that cannot be
@@ -78,7 +107,10 @@ class NoiseFile:
         if not self.path.is_file():
             return []
         data = read_toml(self.path, "operator noise file", InputValueError)
-        if data.get("format") != FORMAT or data.get("operator") != self.operator:
+        named = data.get("operator")
+        if data.get("format") != FORMAT or not isinstance(named, str):
+            named = None
+        if named is None or operator_key(named) != operator_key(self.operator):
             raise InputValueError(
                 f"{self.path} is not this recorder's noise file of operator {self.operator!r} "
                 f"(format {FORMAT}); move it away to start afresh"
@@ -129,7 +161,8 @@ class NoiseFile:
         source = (
             f"{n} earlier session{'s' if n != 1 else ''} of operator {self.operator} ({method})"
         )
-        return PlacingPrior(scale=prior.scale, dof=prior.dof, source=source, sessions=n)
+        return PlacingPrior(scale=prior.scale, dof=prior.dof, source=source, sessions=n,
+                            anchor_p=prior.anchor_p)  # fmt: skip
 
     def unconvertible(self, method: Method, reference: str, base_in: float) -> int:
         """How many of the sessions :meth:`prior` leaves out: written before the file kept

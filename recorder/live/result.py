@@ -31,6 +31,7 @@ from twopose.solve.session import SessionTrials, estimate_session
 from twopose.uncertainty.noise import VarianceFactor
 from twopose.uncertainty.placing_variance import SessionNoise
 from twopose.uncertainty.session_noise import session_base_in, session_statistics
+from twopose.values.operators import operator_key
 from twopose.values.units import Units
 
 __all__ = ["LiveResults", "MappedAdvice", "guidance_options", "live_results"]
@@ -305,7 +306,8 @@ def _placing_of_operator(
     :meth:`analysis.rig.scope.RigUse.placing_for`)."""
     estimate = settings.estimate_options()
     placing = settings.placing
-    if placing is None or not placing.operators or info.operator.strip() in placing.operators:
+    theirs = {operator_key(n) for n in placing.operators} if placing is not None else set()
+    if placing is None or not placing.operators or operator_key(info.operator) in theirs:
         return estimate, settings.placing_words(info.units)
     noise = dataclasses.replace(estimate.noise, placing=None)
     said = (

@@ -24,7 +24,8 @@ from twopose.methods.truth import line_errors, reported
 from twopose.solve.estimate import EstimateOptions
 from twopose.solve.session import SessionEstimate, SessionTrials, estimate_session
 from twopose.uncertainty.blunders import TrialTests
-from twopose.uncertainty.noise import VarianceFactor, noise_words
+from twopose.uncertainty.noise import VarianceFactor
+from twopose.uncertainty.noise_words import noise_words
 from twopose.uncertainty.propagate import semiaxis95, uncertainty_columns
 from twopose.values.units import Units
 
@@ -81,7 +82,7 @@ class TrialResult:
 
     @property
     def noise(self) -> str:
-        """The noise model's test in words (:func:`twopose.uncertainty.noise.noise_words`)."""
+        """The noise model's test in words (:func:`twopose.uncertainty.noise_words.noise_words`)."""
         if self.factor is None:
             return ""
         sigma0 = math.sqrt(self.factor.sigma0_sq) if self.factor.tested else math.nan

@@ -17,7 +17,8 @@ from tests.helpers import load_benchmark
 from twopose.methods.specs import Method
 from twopose.solve.estimate import EstimateOptions
 from twopose.solve.session import SessionTrials, estimate_session
-from twopose.uncertainty.noise import FACTOR_TEST_LEVEL, chi2_tails, noise_words
+from twopose.uncertainty.noise import FACTOR_TEST_LEVEL, chi2_tails
+from twopose.uncertainty.noise_words import describe, noise_words
 
 bench = load_benchmark("bench_noise")
 AGREE = "the data agree with the noise model"
@@ -48,7 +49,7 @@ def test_a_trial_the_other_trials_flag_leaves_the_rest_a_clean_trial_is_tested_a
     assert factor.trials == 3
     assert factor.contradicted
     assert factor.placing_scale > 1.6  # the truth 1.6x; 1.1x before
-    said = factor.describe()
+    said = describe(factor)
     assert "the data contradict the noise model" in said
     assert AGREE not in said
 
@@ -75,6 +76,21 @@ def test_where_flagging_turned_the_test_both_are_said_in_the_report_and_terminal
     for row in (_row(sigma0=1.03, sigma0_dof=9, sigma0_all=1.1, sigma0_all_dof=12, n_flagged=1),
                 _row(sigma0=1.03, sigma0_dof=9, n_flagged=1)):  # fmt: skip
         assert "sigma0 1.03 on 9 dof (p = 0.39): the data agree" in " ".join(noise_phrases(row))
+    # the data left said by sigma0's own rule (a new user's r6 G6: "the data left agree"
+    # on 1 dof, and at a lower tail of 0.0006)
+    few = noise_words(1.74, 1, flagged=1, with_flagged=(1.96, 2))
+    assert "the data left are too few to judge the noise model, with the flagged" in few
+    less = noise_words(0.23, 6, flagged=1, with_flagged=(1.73, 8))
+    assert "the data left scatter less than the noise model says, with the flagged" in less
+    assert AGREE not in few + less
+    # advice already followed is not given (a new user's r6 G2)
+    beside = "this session's 3 trials, 19 other sessions of operator P16 (point), the typed"
+    pooled = noise_words(0.88, 9, flagged=1, with_flagged=(1.76, 12), sources=beside,
+                         placing_scale=1.4, placing_dof=32)  # fmt: skip
+    assert "every region is too small: measure the placing with a board" in pooled
+    assert "beside its operator's others" not in pooled
+    alone = noise_words(0.88, 9, flagged=1, with_flagged=(1.76, 12))
+    assert "analyse the session beside its operator's others, or measure" in alone
     # every trial flagged: nothing left to agree
     none_left = noise_words(math.nan, 0, flagged=2, with_flagged=(2.0, 6))
     assert "with the flagged trials: the data contradict the noise model" in none_left
@@ -148,7 +164,7 @@ def test_a_typo_in_a_session_alone_never_reads_agree_where_its_trials_contradict
     est = estimate_session(trials, EstimateOptions(), line_fits=False)
     factor = est.factor
     assert factor is not None
-    if AGREE in factor.describe() and factor.flagged and factor.dof_all:
+    if AGREE in describe(factor) and factor.flagged and factor.dof_all:
         upper_all = chi2_tails(factor.dof_all * factor.sigma0_sq_all, factor.dof_all)[0]
         assert upper_all >= FACTOR_TEST_LEVEL
 

@@ -16,9 +16,9 @@ from twopose.uncertainty.noise import (
     NoiseModel,
     PlacingSigma,
     VarianceFactor,
-    noise_words,
 )
-from twopose.uncertainty.session_noise import _anchor_checked
+from twopose.uncertainty.noise_words import noise_words
+from twopose.uncertainty.session_noise import noise_from
 
 BOARD = PlacingSigma(sigma_in=0.104, sigma_sigma_in=0.104 / math.sqrt(2 * 352),
                      measured_by="board.mcap", captures=120)  # fmt: skip
@@ -36,7 +36,8 @@ def _misclosure(scale: float) -> Misclosure:
 def test_data_that_contradict_the_board_make_it_give_way() -> None:
     model = NoiseModel(placing=BOARD)
     assert model.anchor().dof > 300
-    checked = _anchor_checked(model, _misclosure(2.5), np.zeros(4, dtype=bool))
+    checked = noise_from(_misclosure(2.5), model).noise
+    assert checked is not None
     assert checked.anchor_contradicted < 0.01
     assert checked.anchor().dof == TYPED_PRIOR_DOF  # a guess now, not 352 dof
     assert "contradicted by the data" in checked.anchor().source
@@ -45,7 +46,7 @@ def test_data_that_contradict_the_board_make_it_give_way() -> None:
 def test_data_that_agree_with_the_board_keep_it() -> None:
     model = NoiseModel(placing=BOARD)
     for scale in (0.5, 1.0, 1.5):  # 1.5 on 12 dof beside 352: p = 0.12
-        checked = _anchor_checked(model, _misclosure(scale), np.zeros(4, dtype=bool))
+        checked = noise_from(_misclosure(scale), model).noise
         assert checked is model
 
 

@@ -56,6 +56,7 @@ from twopose.uncertainty.propagate import (
     dominant_input,
     pooled_scatter,
     propagate,
+    region_widening,
 )
 from twopose.uncertainty.session_noise import (
     noise_of,
@@ -126,6 +127,9 @@ class Uncertainty:
     dominant_share: F64
     #: The 95% region's largest variance against the typed placing sigma's (1: unchanged).
     widening: F64
+    #: (T, 2, 3, 3) the region at the sigma it starts from: the part the placing does not
+    #: give, and the part it does (:mod:`twopose.uncertainty.target_scatter`; None: none).
+    parts: F64 | None = None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -152,6 +156,7 @@ class Estimates:
     #: (T,) the region's largest variance against the typed placing sigma's (1: unchanged;
     #: NaN: no region): :mod:`twopose.uncertainty.noise`'s re-propagation and F quantile.
     widening: F64
+    parts: F64 | None = None  # (T, 2, 3, 3) as :attr:`Uncertainty.parts`
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -323,7 +328,7 @@ def estimate_session(
     est = _solved_estimates(
         trials, complete, context, options, line_fits=line_fits, report_near=report_near
     )
-    settled = with_one_target(noise, trials.truth, est.point, est.cov)
+    settled = with_one_target(noise, trials.truth, est.point, est.parts)
     for _ in range(2):  # a trial off the others of its target, then off its own truth
         if settled is not noise:  # kept out of the pool: the factor and regions again
             noise, factor = settled, settled.factor
@@ -461,6 +466,7 @@ def _solved_estimates(
         dominant=uncertainty.dominant,
         dominant_share=uncertainty.dominant_share,
         widening=uncertainty.widening,
+        parts=uncertainty.parts,
     )
 
 
@@ -478,14 +484,16 @@ def _uncertainty(
     # the region the typed placing sigma gives: the placing's part back at 1 / lambda (its
     # second-order part, at 1 / lambda^2)
     model = cov if lam == 1.0 else cov - (1 - 1 / lam) * first - (1 - 1 / lam**2) * second
+    typed = first / lam + second / lam**2  # the placing's part of ``model``
     if p.solved.direction is not None:
         # A line's reported point moves only across the line to first order (its error
         # is perpendicular by construction): keep the covariance of that offset.
         d = p.solved.direction
         across = np.eye(3) - np.einsum("ti,tj->tij", d, d)
         cov, model = across @ cov @ across, across @ model @ across
-        placing = across @ placing @ across
+        placing, typed = across @ placing @ across, across @ typed @ across
     cov = cov * region_multipliers(cov, placing, p.factor, p.tests, p.rows)[:, None, None]
+    parts = np.stack([model - typed, typed], axis=1)  # before the rig's (shared by all)
     # the rig's constants: carried beside the views' noise, never widened by its test
     cov, model, carried = with_carried(cov, model, carried, p.solved.direction)
     widening = region_widening(cov, model)
@@ -497,21 +505,8 @@ def _uncertainty(
         dominant=_with_rows(none.dominant, rows, np.array(names, dtype=object)[ok]),
         dominant_share=_with_rows(none.dominant_share, rows, share[ok]),
         widening=_with_rows(none.widening, rows, widening[ok]),
+        parts=_with_rows(np.full((T, 2, 3, 3), np.nan), rows, parts[ok]),
     )
-
-
-def region_widening(cov: F64, model: F64) -> F64:
-    """(T,) each region's largest variance in ``cov`` against ``model``'s (NaN: not finite).
-
-    1 exactly where the two are the same.
-    """
-    out = np.full(len(cov), np.nan)
-    finite = np.isfinite(cov).all(axis=(1, 2)) & np.isfinite(model).all(axis=(1, 2))
-    if finite.any():
-        new, old = np.linalg.eigvalsh(cov[finite])[:, -1], np.linalg.eigvalsh(model[finite])[:, -1]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            out[finite] = np.where(new == old, 1.0, new / old)
-    return out
 
 
 def _weighted_lines(p: _Propagation, options: EstimateOptions) -> F64:

@@ -25,8 +25,8 @@ if TYPE_CHECKING:
         PlacingPrior,
         PlacingSigma,
         VarianceFactor,
-        noise_words,
     )
+    from twopose.uncertainty.noise_words import noise_words
     from twopose.uncertainty.placing_variance import BAARDA_LEVEL, SessionNoise, operator_priors
     from twopose.uncertainty.propagate import (
         CHI2_95,
@@ -131,7 +131,7 @@ _HOMES = {
     "measurement_covariance": "twopose.uncertainty.propagate",
     "nees": "twopose.uncertainty.propagate",
     "noise_of": "twopose.uncertainty.session_noise",
-    "noise_words": "twopose.uncertainty.noise",
+    "noise_words": "twopose.uncertainty.noise_words",
     "operator_group": "twopose.uncertainty.session_noise",
     "operator_priors": "twopose.uncertainty.placing_variance",
     "placed": "twopose.uncertainty.session_noise",

@@ -74,6 +74,9 @@ never makes the accuracy look better). A trial with no truth is not tested here;
 misclosure and the other trials' test apply.
 
 The three tests are one concern (what flags a trial, and why), so they share one module.
+(Near 600 lines for that reason: which pose and component explain a flagged trial, and the
+words each test says, read the same fields; split, they would import each other's privates,
+as :mod:`twopose.uncertainty.target_scatter` already reads ``_across``.)
 """
 
 from __future__ import annotations
@@ -493,14 +496,14 @@ def trial_tests(m: Misclosure, flagged: Bools, p: F64, lam: float) -> TrialTests
     d = 1.0 + (lam - 1.0) * mine.placing_share
     chi2 = (mine.z2 / np.where(d > 0, d, np.inf)).sum(axis=1)  # under the session's lambda
     dof = mine.dof
-    best_c = np.argmax(tests.w2, axis=2)  # (R, N) each pose's best component
+    # each pose's best component: of those that alone explain the misclosure, the one
+    # needing the smallest error (a typo of 1 in over one of 51 in along the camera's axis
+    # that explains it as well: a new user's r6 G12), else the one explaining the most
+    each = _explaining(chi2[:, None, None], tests.w2, dof[:, None, None]) & (tests.w2 > 0)
+    size = np.where(each, np.abs(np.nan_to_num(tests.offset, nan=np.inf)), np.inf)
+    best_c = np.where(each.any(axis=2), np.argmin(size, axis=2), np.argmax(tests.w2, axis=2))
     best_w2 = np.take_along_axis(tests.w2, best_c[..., None], axis=2)[..., 0]
-    left = np.clip(chi2[:, None] - best_w2, 0.0, None)
-    fewer = np.maximum(dof - 1, 0)[:, None]
-    closed = np.where(left < 1e-6 * (1 + chi2[:, None]), 1.0, 0.0)  # one dof: all or none
-    with np.errstate(invalid="ignore"):
-        p_left = np.where(fewer > 0, special.chdtrc(np.maximum(fewer, 1), left), closed)
-    explains = (p_left >= EXPLAINS_LEVEL) & (best_w2 > 0)
+    explains = np.take_along_axis(each, best_c[..., None], axis=2)[..., 0]
     count = explains.sum(axis=1)
     # the best of the poses that explain it (of all, when none does)
     score = np.where((count > 0)[:, None], np.where(explains, best_w2, -1.0), best_w2)
@@ -530,6 +533,20 @@ def trial_tests(m: Misclosure, flagged: Bools, p: F64, lam: float) -> TrialTests
         own_dof=_put(out.own_dof, rows, dof),
         apart=out.apart,
     )
+
+
+def _explaining(chi2: F64, w2: F64, dof: Ints) -> Bools:
+    """Whether one component's error alone explains the misclosure.
+
+    What it leaves of ``chi2`` (its ``w2`` taken: chi-square on ``dof - 1``) is no more
+    than noise (:data:`EXPLAINS_LEVEL`).
+    """
+    left = np.clip(chi2 - w2, 0.0, None)
+    fewer = np.broadcast_to(np.maximum(dof - 1, 0), left.shape)
+    closed = left < 1e-6 * (1.0 + chi2)  # one dof: all or none
+    with np.errstate(invalid="ignore"):
+        p_left = np.where(fewer > 0, special.chdtrc(np.maximum(fewer, 1), left), closed)
+    return np.asarray(p_left >= EXPLAINS_LEVEL)
 
 
 def _put(base: NDArray[Any], rows: Ints, values: NDArray[Any]) -> NDArray[Any]:

@@ -51,7 +51,14 @@ class _Statistics(Protocol):
 
 SessionNoise = TypeVar("SessionNoise", bound=_Statistics)
 
-__all__ = ["base_placing_in", "on_one_base", "prior_on_own_base", "rebased", "same_base"]
+__all__ = [
+    "base_placing_in",
+    "on_one_base",
+    "pooled_trials",
+    "prior_on_own_base",
+    "rebased",
+    "same_base",
+]
 
 #: Two bases closer than this (relative) are one: no conversion.
 _SAME = 1e-9
@@ -136,3 +143,18 @@ def prior_on_own_base(prior: PlacingPrior | None, factor: float) -> PlacingPrior
         scale=prior.scale * factor,
         source=f"{prior.source}, pooled as placing sigmas across their typed resolutions",
     )
+
+
+def pooled_trials(sessions: Sequence[SessionNoise]) -> tuple[Ints, F64, Ints, F64, F64]:
+    """The sessions' trials as one set (an operator's, on one base).
+
+    Each one's session index, ``chi2``, ``dof``, and ``share``, ``z2`` padded to the widest
+    session's directions (a direction of no placing share adds nothing).
+    """
+    M = max((s.share.shape[1] for s in sessions if s.share.size), default=0)
+    owner = np.concatenate([np.full(len(s.chi2), k) for k, s in enumerate(sessions)])
+    share = np.concatenate([np.pad(s.share, ((0, 0), (0, M - s.share.shape[1]))) for s in sessions])
+    z2 = np.concatenate([np.pad(s.z2, ((0, 0), (0, M - s.z2.shape[1]))) for s in sessions])
+    chi2 = np.concatenate([s.chi2 for s in sessions])
+    dof = np.concatenate([s.dof for s in sessions])
+    return owner.astype(np.int_), chi2, dof, share, z2

@@ -19,10 +19,10 @@ nobody measured: it was the resolution the operator typed. Here it is
   its chi-square test; the multiplier ``lambda`` every region is propagated with (always
   estimated, never a pretest) and the degrees of freedom it rests on (the regions' Fisher
   F); the trials flagged (their poses disagree);
-* :func:`noise_words`: the one place a test is said in words, so that the words never say
-  more than the numbers: "agree" only when sigma0's own chi-square test does not reject on
-  enough degrees of freedom, "contradict" only when it rejects, "scatter less" only in its
-  lower tail;
+* its words (:mod:`twopose.uncertainty.noise_words`): the one place a test is said, so that
+  the words never say more than the numbers: "agree" only when sigma0's own chi-square
+  test does not reject on enough degrees of freedom, "contradict" only when it rejects,
+  "scatter less" only in its lower tail;
 * :class:`NoiseModel`: all of it as the estimation's options carry it
   (:attr:`twopose.solve.margins.EstimateOptions.noise`).
 
@@ -48,7 +48,6 @@ __all__ = [
     "PlacingPrior",
     "PlacingSigma",
     "VarianceFactor",
-    "noise_words",
     "p_words",
     "region_quantile",
 ]
@@ -75,6 +74,8 @@ SUPERSEDED_PRIOR_DOF = 1e-6
 #: on both dofs): 1%, as a board wrongly kept makes regions too small, one wrongly dropped
 #: only lets the trials decide (r5 F2's sessions, 1.5x the board's, stood at p = 0.001-0.002).
 ANCHOR_CONFLICT_LEVEL = 0.01
+#: How a board contradicted by its operator's pooled sessions is named, not by one session's.
+OPERATOR_DATA = "of its operator's sessions"
 #: The regions' level.
 _REGION_LEVEL = 0.95
 #: Beyond this many degrees of freedom a placing sigma's own uncertainty is not said as a
@@ -238,7 +239,9 @@ class PlacingPrior:
     regions start from) on ``dof`` degrees of freedom; ``source`` says where it came from
     (words), from how many ``sessions``; ``pooled`` names them (their session ids, sorted;
     empty when they had none), so that two runs whose priors read alike ("2 other sessions
-    of operator Eve") but pooled other sessions are told apart (``check``).
+    of operator Eve") but pooled other sessions are told apart (``check``). ``anchor_p``:
+    the board's conflict test over all the operator's sessions (NaN: not made), one answer
+    for each (:mod:`twopose.uncertainty.anchor_conflict`).
     """
 
     scale: float
@@ -246,6 +249,9 @@ class PlacingPrior:
     source: str
     sessions: int = 0
     pooled: tuple[str, ...] = ()
+    anchor_p: float = math.nan
+    #: A board's measured sigma as the anchor (:meth:`NoiseModel.anchor`): the one tested.
+    measured: bool = False
 
     def __post_init__(self) -> None:
         """Refuse a prior that is not a positive scale on positive degrees of freedom."""
@@ -288,6 +294,15 @@ class VarianceFactor:
     against: str = "typed"
     #: The F test's p where the data contradicted the board's placing sigma (NaN: not).
     anchor_conflict: float = math.nan
+    #: The part of sigma0 (in ``dof``, ``dof_all``) from its trials of one target's scatter
+    #: (:mod:`twopose.uncertainty.target_scatter`): chi-square under the typed model on its
+    #: dof (NaN, 0: none).
+    #: The placing's mean share of sigma0's directions (its misclosures' ``beta``, the
+    #: trials of one target's contrasts counted as all placing): 1 when the test sees
+    #: placing alone, near 0 when the pixels' noise is most of it (its power said with it).
+    placing_share: float = 1.0
+    scatter_chi2: float = math.nan
+    scatter_dof: int = 0
 
     @property
     def tested(self) -> bool:
@@ -332,170 +347,6 @@ class VarianceFactor:
         dof = self.variance_dof / min(share, 1.0) ** 2
         return region_quantile(k, dof) / region_quantile(k)
 
-    def describe(self, placing: float = math.nan, units: Units | None = None) -> str:
-        """The test and the multiplier applied in words (:func:`noise_words`).
-
-        ``placing``: the placing sigma the regions start from, in ``units``.
-        """
-        s0 = math.sqrt(self.sigma0_sq) if self.tested else math.nan
-        said = noise_words(s0, self.dof, math.nan, self)
-        if math.isfinite(placing) and units is not None and self.estimated:
-            assumed = placing * self.placing_scale
-            said += f"; the regions assume a placing sigma of {assumed:.2g} {units}"
-        return said
-
-
-def noise_words(  # noqa: PLR0913
-    sigma0: float,
-    dof: int,
-    region_widening: float = math.nan,
-    factor: VarianceFactor | None = None,
-    *,
-    placing_scale: float = math.nan,
-    placing_dof: float = math.inf,
-    flagged: int = 0,
-    sources: str = "",
-    with_flagged: tuple[float, int] = (math.nan, 0),
-    against: str = "typed",
-    board_contradicted: bool = False,
-) -> str:
-    """The noise model's test and what the regions took, in words: the one home of them.
-
-    ``sigma0`` on ``dof``: the unflagged trials' a-posteriori factor under the typed model,
-    said by its own chi-square test (5%): "contradict" in its upper tail, "scatter less" in
-    its lower tail, "agree" otherwise on at least :data:`MIN_PLACING_DOF` degrees of
-    freedom, "too few degrees of freedom" below. Then the multiplier the regions took, with
-    the degrees of freedom it rests on (``factor``'s, or ``placing_scale`` on
-    ``placing_dof``), ``region_widening`` (the largest semi-axis against the typed
-    placing's; NaN: not said) and the ``flagged`` trials; ``sources`` where the multiplier's
-    information came from (``factor``'s when given), so that a session whose own data
-    scatter less is not left to read as contradicted by the multiplier its operator's
-    other sessions raised. ``with_flagged``: sigma0 on its dof with the flagged trials'
-    misclosures (``factor``'s when given): where it rejects and sigma0 does not, flagging
-    turned the test, and the words say both, never "agree" unqualified. ``against``: what
-    sigma0 tests (``typed``, or ``the board's sigma``); ``board_contradicted``: the data
-    contradicted the board's placing sigma (:attr:`NoiseModel.anchor_contradicted`), said
-    loudly (``factor``'s when given).
-    """
-    if factor is not None:
-        placing_scale = factor.placing_scale if factor.estimated else math.nan
-        placing_dof, flagged = factor.variance_dof, factor.flagged
-        sources = factor.sources
-        all_sq = factor.sigma0_sq_all
-        with_flagged = (math.sqrt(all_sq) if factor.dof_all else math.nan, factor.dof_all)
-    if factor is not None:
-        against = factor.against
-        board_contradicted = math.isfinite(factor.anchor_conflict)
-    turned = _turned_words(sigma0, dof, flagged, *with_flagged)
-    words = [turned or _test_words(sigma0, dof, flagged, against)]
-    if board_contradicted:
-        words.append(
-            f"the data contradict the board's placing sigma (F test, p < "
-            f"{ANCHOR_CONFLICT_LEVEL:g}): regions likely too small with it, so it weighs as a "
-            "guess here and the trials set the placing sigma"
-        )
-    if math.isfinite(placing_scale) and math.isfinite(placing_dof):
-        took = (
-            f"placing sigma taken {placing_scale:.2g}x the one assumed, from {placing_dof:.0f} dof"
-        )
-        if sources:
-            took += f" ({sources})"
-        if factor is not None and factor.at_limit:
-            took += ", at the limit of what is searched: check the typed resolution and units"
-        words.append(took)
-    elif dof > 0 and math.isfinite(sigma0):
-        said = "not enough data to estimate the placing sigma: the regions assume the one typed"
-        if chi2_tails(dof * sigma0**2, dof)[0] < FACTOR_TEST_LEVEL:  # and the test rejects it
-            said += (
-                ", which the data contradict, so they are likely too small: analyse the"
-                " session beside its operator's others, or measure the placing with a board"
-            )
-        words.append(said)
-    if math.isfinite(region_widening) and not math.isclose(region_widening, 1.0, abs_tol=5e-3):
-        words.append(f"regions' largest semi-axis x{region_widening:.2f}")
-    if flagged:
-        trials = "trial" if flagged == 1 else "trials"
-        words.append(f"{flagged} {trials} flagged: kept out of the pool")
-    return "; ".join(words)
-
-
-def _turned_words(sigma0: float, dof: int, flagged: int, sigma0_all: float, dof_all: int) -> str:
-    """sigma0's test where flagging turned it ("": it did not).
-
-    It rejects the typed model with the flagged trials' misclosures and not without them:
-    the data left agree only if the flagged trials are blunders, and if they are not, the
-    operator places worse than typed. Which, the session's own trials cannot always tell (a
-    typo can shrink its trial's misclosure, a clean trial can be noisy): never "agree"
-    unqualified.
-    """
-    known = dof <= 0 or math.isfinite(sigma0)
-    if not (flagged and dof_all > dof and math.isfinite(sigma0_all) and known):
-        return ""
-    upper_all = chi2_tails(dof_all * sigma0_all**2, dof_all)[0]
-    upper = chi2_tails(dof * sigma0**2, dof)[0] if dof > 0 else math.nan
-    if not upper_all < FACTOR_TEST_LEVEL or upper < FACTOR_TEST_LEVEL:
-        return ""
-    trials = "trial" if flagged == 1 else "trials"
-    said = f"{sigma0_all:.2f} on {dof_all} dof ({p_words(upper_all)}) with the flagged {trials}"
-    left = "the data contradict the noise model, and no trial is left unflagged to test"
-    if dof > 0:
-        said = f"{sigma0:.2f} on {dof} dof ({p_words(upper)}) without the {flagged} flagged "
-        said += f"{trials}, {sigma0_all:.2f} on {dof_all} dof ({p_words(upper_all)}) with "
-        said += "it" if flagged == 1 else "them"
-        left = f"the data left agree with the noise model, with the flagged {trials} the "
-        left += "data contradict it"
-    return (
-        f"sigma0 {said}: {left}: if "
-        f"{'it is not a blunder' if flagged == 1 else 'they are not blunders'}, the operator "
-        "places worse than typed and every region is too small: analyse the session beside "
-        "its operator's others, or measure the placing with a board"
-    )
-
-
-def _test_words(sigma0: float, dof: int, flagged: int = 0, against: str = "typed") -> str:
-    """sigma0's chi-square test said: never "agree" when it rejects or cannot tell."""
-    if (dof <= 0 or not math.isfinite(sigma0)) and flagged:
-        return "sigma0 not tested (no unflagged trial has redundant poses)"
-    if dof <= 0 or not math.isfinite(sigma0):
-        return "sigma0 not tested (no trial with redundant poses, or --no-sigma0)"
-    upper, lower = chi2_tails(dof * sigma0**2, dof)
-    head = f"sigma0 {sigma0:.2f} on {dof} dof ({p_words(upper)})"
-    if upper < FACTOR_TEST_LEVEL:
-        return f"{head}: the data contradict the noise model (they scatter more than {against})"
-    if lower < FACTOR_TEST_LEVEL:
-        return f"{head}: the data scatter less than the noise model says"
-    if dof < MIN_PLACING_DOF:
-        return f"{head}: too few degrees of freedom to judge the noise model"
-    return f"{head}: the data agree with the noise model{_power_words(dof)}"
-
-
-#: The test's power said: the placing sigma (over the one assumed) it detects this often.
-POWER = 0.8
-#: Below this sigma ratio detected at :data:`POWER`, "agree" needs no qualifier.
-POWER_SAID_FROM = 1.25
-
-
-def _power_words(dof: int) -> str:
-    """What a test that did not reject could have missed, in words ("" where it is small).
-
-    The placing sigma, over the one assumed, that sigma0's test at 5% on ``dof`` detects
-    only :data:`POWER` of the time (``sqrt(q95 / q20)`` of chi-square on ``dof``: the
-    misclosure all placing, so at best), said where it is :data:`POWER_SAID_FROM` or more.
-    "Agree" on a small session's few dof is what the test says, not that the operator
-    places as typed.
-    """
-    from scipy import special
-
-    ratio = math.sqrt(
-        float(special.chdtri(dof, FACTOR_TEST_LEVEL)) / float(special.chdtri(dof, POWER))
-    )
-    if ratio < POWER_SAID_FROM:
-        return ""
-    return (
-        f" (on {dof} dof it tells a placing sigma {ratio:.1f}x the one assumed only "
-        f"{POWER:.0%} of the time)"
-    )
-
 
 @dataclass(frozen=True, kw_only=True)
 class NoiseModel:
@@ -535,6 +386,10 @@ class NoiseModel:
             return PlacingPrior(scale=1.0, dof=dof, source="the typed resolution")
         where = placing.measured_by or "the given placing sigma"
         if math.isfinite(self.anchor_contradicted):  # the data contradict it: it gives way
-            dof = TYPED_PRIOR_DOF if self.prior is None else SUPERSEDED_PRIOR_DOF
-            return PlacingPrior(scale=1.0, dof=dof, source=f"{where} (contradicted by the data)")
-        return PlacingPrior(scale=1.0, dof=placing.dof, source=where)
+            prior = self.prior
+            dof = TYPED_PRIOR_DOF if prior is None else SUPERSEDED_PRIOR_DOF
+            whose = f" {OPERATOR_DATA}" if prior and math.isfinite(prior.anchor_p) else ""
+            return PlacingPrior(
+                scale=1.0, dof=dof, source=f"{where} (contradicted by the data{whose})"
+            )
+        return PlacingPrior(scale=1.0, dof=placing.dof, source=where, measured=True)

@@ -39,6 +39,7 @@ computation on one grid; split, each part would import the others' privates.)
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -47,6 +48,8 @@ import numpy as np
 from scipy import special
 
 from twopose.arrays import F64, Bools, Ints
+from twopose.uncertainty.anchor_conflict import as_guess, group_anchor
+from twopose.uncertainty.hand import pooled_trials
 from twopose.uncertainty.noise import MIN_PLACING_DOF, PlacingPrior
 
 __all__ = [
@@ -512,24 +515,32 @@ def operator_priors(
         if len(members) < 2:
             continue
         mine, back, converted = on_one_base([sessions[i] for i in members])
-        priors = _group_priors(mine, anchor, group, who)
+        used, p = _group_anchor(mine, anchor)  # the board tested once, over all of them
+        priors = [
+            None if prior is None else dataclasses.replace(prior, anchor_p=p)
+            for prior in _group_priors(mine, used, group, who)
+        ]
         for i, prior, factor in zip(members, priors, back, strict=True):
             out[i] = prior_on_own_base(prior, factor) if converted else prior
     return out
 
 
+def _group_anchor(sessions: list[SessionNoise], anchor: PlacingPrior) -> tuple[PlacingPrior, float]:
+    """:func:`~twopose.uncertainty.anchor_conflict.group_anchor` over ``sessions``' trials."""
+    if not anchor.measured or not any(s.share.size for s in sessions):
+        return anchor, math.nan
+    _, chi2, dof, share, z2 = pooled_trials(sessions)
+    return group_anchor(
+        chi2, dof, flag_trials(chi2, dof, share, z2, as_guess(anchor)).flagged, anchor
+    )
+
+
 def _group_priors(
     sessions: list[SessionNoise], anchor: PlacingPrior, group: str, who: str
 ) -> list[PlacingPrior | None]:
-    M = max((s.share.shape[1] for s in sessions if s.share.size), default=0)
-    if M == 0:
+    if not any(s.share.size for s in sessions):
         return [None] * len(sessions)
-    owner = np.concatenate([np.full(len(s.chi2), k) for k, s in enumerate(sessions)])
-    pad = [np.pad(s.share, ((0, 0), (0, M - s.share.shape[1]))) for s in sessions]
-    pad_z = [np.pad(s.z2, ((0, 0), (0, M - s.z2.shape[1]))) for s in sessions]
-    chi2 = np.concatenate([s.chi2 for s in sessions])
-    dof = np.concatenate([s.dof for s in sessions])
-    share, z2 = np.concatenate(pad), np.concatenate(pad_z)
+    owner, chi2, dof, share, z2 = pooled_trials(sessions)
     flags = flag_trials(chi2, dof, share, z2, anchor)
     use = (dof > 0) & np.isfinite(chi2) & ~flags.flagged
     L, clean = flags.kept, use.astype(float)

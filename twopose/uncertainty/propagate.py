@@ -56,6 +56,7 @@ __all__ = [
     "pooled_scatter",
     "propagate",
     "region_dof",
+    "region_widening",
     "semiaxis95",
     "uncertainty_columns",
 ]
@@ -564,3 +565,17 @@ def uncertainty_columns(error: F64, cov: F64) -> dict[str, F64]:
         within,
     )
     return dict(zip(SPREAD_COLUMNS, values, strict=True))
+
+
+def region_widening(cov: F64, model: F64) -> F64:
+    """(T,) each region's largest variance in ``cov`` against ``model``'s (NaN: not finite).
+
+    1 exactly where the two are the same.
+    """
+    out = np.full(len(cov), np.nan)
+    finite = np.isfinite(cov).all(axis=(1, 2)) & np.isfinite(model).all(axis=(1, 2))
+    if finite.any():
+        new, old = np.linalg.eigvalsh(cov[finite])[:, -1], np.linalg.eigvalsh(model[finite])[:, -1]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out[finite] = np.where(new == old, 1.0, new / old)
+    return out

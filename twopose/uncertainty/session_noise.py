@@ -19,10 +19,10 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 from twopose.arrays import F64, Bools, Ints
+from twopose.uncertainty.anchor_conflict import alone_checked, operator_decided
 from twopose.uncertainty.blunders import (
     TrialTests,
     one_target,
-    target_tests,
     trial_tests,
     truth_tests,
 )
@@ -30,6 +30,7 @@ from twopose.uncertainty.misclosure import Misclosure, misclosures
 from twopose.uncertainty.noise import MIN_PLACING_DOF, NoiseModel, VarianceFactor, region_quantile
 from twopose.uncertainty.placing_variance import Flags, SessionNoise, flag_trials, posterior
 from twopose.uncertainty.propagate import PLACING, Propagated, Shared, region_dof
+from twopose.uncertainty.target_scatter import Evidence, TargetScatter, scatter_tests
 from twopose.values.units import Units
 
 if TYPE_CHECKING:
@@ -52,6 +53,7 @@ class SessionTrials(Protocol):
 
 __all__ = [
     "NoiseResult",
+    "noise_from",
     "noise_of",
     "operator_group",
     "placed",
@@ -80,6 +82,8 @@ class NoiseResult:
     tests: TrialTests
     flags: Flags | None = None
     noise: NoiseModel | None = None
+    #: Its trials of one target (:mod:`twopose.uncertainty.target_scatter`; None: none).
+    scatter: TargetScatter | None = None
 
 
 def noise_of(
@@ -107,9 +111,20 @@ def noise_of(
     N = batch.valid.shape[1]
     residuals, parameters = misclosure_residuals(method, batch)
     m_rows = misclosures(residuals, batch.inputs, cov_in, batch.valid, parameters, shared=shared)
-    m = _at_rows(Misclosure.none(T, N), rows, m_rows)
+    return noise_from(_at_rows(Misclosure.none(T, N), rows, m_rows), noise)
+
+
+def noise_from(m: Misclosure, noise: NoiseModel) -> NoiseResult:
+    """The noise of a session whose trials' misclosures are ``m``, under ``noise``.
+
+    The board's sigma as its operator's pooled sessions decided, before any trial is
+    flagged against it (:mod:`twopose.uncertainty.anchor_conflict`), then the trials
+    flagged (and a session with no operator's answer tests the board on those left),
+    then the factor from the others.
+    """
+    noise = operator_decided(noise)  # before any trial is flagged against the board
     flags = flag_trials(m.chi2, m.dof, m.placing_share, m.z2, noise.anchor(), noise.prior)
-    checked = _anchor_checked(noise, m, flags.flagged)
+    checked = alone_checked(noise, m, flags.flagged)  # no operator's answer: this session's
     if checked is not noise:  # the board's sigma gives way: the trials tested again
         noise = checked
         flags = flag_trials(m.chi2, m.dof, m.placing_share, m.z2, noise.anchor(), noise.prior)
@@ -118,48 +133,29 @@ def noise_of(
     return NoiseResult(factor=factor, misclosure=m, tests=tests, flags=flags, noise=noise)
 
 
-def _anchor_checked(noise: NoiseModel, m: Misclosure, out: Bools) -> NoiseModel:
-    """``noise`` with its board's placing sigma contradicted, where the data do (F test).
+def _factor(
+    m: Misclosure, flags: Flags, out: Bools, noise: NoiseModel, scatter: Evidence | None = None
+) -> VarianceFactor:
+    """The session's factor from the trials not kept ``out`` (flagged).
 
-    The unflagged trials' sigma0 squared (with the operator's prior as data beside them)
-    on their dof against the board's multiplier 1 on its own dof: Fisher's F. Below
-    :data:`~twopose.uncertainty.noise.ANCHOR_CONFLICT_LEVEL` the board's sigma is not this
-    session's operator's placing (another hand, another day): kept at its 352 dof it
-    outweighed sessions that contradicted it at p < 0.001 and their regions covered 79%
-    (a new user's r5 F2). Unchanged where nothing was measured or nothing contradicts it.
+    ``scatter``: its unflagged trials of one target's contrasts, evidence beside the
+    misclosures' in the posterior and in sigma0 (:mod:`twopose.uncertainty.target_scatter`).
     """
-    from scipy import special
-
-    from twopose.uncertainty.noise import ANCHOR_CONFLICT_LEVEL
-
-    placing = noise.placing
-    if placing is None or placing.upper_bound or not math.isfinite(placing.dof):
-        return noise
-    use = (m.dof > 0) & np.isfinite(m.chi2) & ~out
-    chi2, dof = float(m.chi2[use].sum()), float(m.dof[use].sum())
-    if noise.prior is not None and math.isfinite(noise.prior.dof):
-        chi2, dof = chi2 + noise.prior.scale * noise.prior.dof, dof + noise.prior.dof
-    if dof < MIN_PLACING_DOF:
-        return noise
-    p = float(special.fdtrc(dof, placing.dof, chi2 / dof))
-    if not p < ANCHOR_CONFLICT_LEVEL:
-        return noise
-    return dataclasses.replace(noise, anchor_contradicted=p)
-
-
-def _factor(m: Misclosure, flags: Flags, out: Bools, noise: NoiseModel) -> VarianceFactor:
-    """The session's factor from the trials not kept ``out`` (flagged)."""
     anchor, prior = noise.anchor(), noise.prior
     use = (m.dof > 0) & np.isfinite(m.chi2) & ~out
     pool = np.where(out[:, None], 0.0, flags.kept).sum(axis=0)
     info = np.where(out[:, None], 0.0, flags.info).sum(axis=0)
+    extra = (0.0, 0) if scatter is None else (scatter.chi2, scatter.dof)
+    if scatter is not None:
+        pool, info = pool + scatter.loglik, info + scatter.info
     post = posterior(pool, anchor, prior, info)
-    dof = int(m.dof[use].sum())
+    dof = int(m.dof[use].sum()) + extra[1]
     has = (m.dof > 0) & np.isfinite(m.chi2)  # the flagged trials' too
-    dof_all = int(m.dof[has].sum())
+    dof_all = int(m.dof[has].sum()) + extra[1]
     estimated = round(post.information) >= MIN_PLACING_DOF
+    said = _sources(int(use.sum()), prior.source if prior else "", anchor.source, scatter)
     return VarianceFactor(
-        sigma0_sq=float(m.chi2[use].sum() / dof) if dof else math.nan,
+        sigma0_sq=float((m.chi2[use].sum() + extra[0]) / dof) if dof else math.nan,
         dof=dof,
         trials=int(use.sum()),
         placing_variance=post.scale if estimated else 1.0,
@@ -167,33 +163,43 @@ def _factor(m: Misclosure, flags: Flags, out: Bools, noise: NoiseModel) -> Varia
         information=post.information,
         flagged=int(out.sum()),
         at_limit=post.at_limit and estimated,
-        sources=_sources(int(use.sum()), prior.source if prior else "", anchor.source),
-        sigma0_sq_all=float(m.chi2[has].sum() / dof_all) if dof_all else math.nan,
+        sources=said,
+        sigma0_sq_all=float((m.chi2[has].sum() + extra[0]) / dof_all) if dof_all else math.nan,
         dof_all=dof_all,
         against="typed" if _measured_dof(noise) == math.inf else "the board's sigma",
+        scatter_chi2=math.nan if scatter is None else scatter.chi2,
+        scatter_dof=extra[1],
         anchor_conflict=noise.anchor_contradicted,
+        placing_share=float((m.placing_share[use].sum() + extra[1]) / dof) if dof else 1.0,
     )
 
 
-def with_one_target(noise: NoiseResult, truth: F64, point: F64, cov: F64) -> NoiseResult:
+def with_one_target(noise: NoiseResult, truth: F64, point: F64, parts: F64 | None) -> NoiseResult:
     """The session's noise with its trials of one target tested against each other.
 
-    :mod:`twopose.uncertainty.blunders`: ``truth`` (T, 2, 3) the recorded truths (only
-    their equality is read), ``point`` and ``cov`` each trial's estimate and region. A
-    trial it flags is kept out of the pool too, and the factor settled again without it.
-    The same result (the same object) when nothing more is flagged, or the session was not
-    tested (``--no-sigma0``).
+    :mod:`twopose.uncertainty.target_scatter`: ``truth`` (T, 2, 3) the recorded truths
+    (only their equality is read), ``point`` (T, 3) and ``parts`` (T, 2, 3, 3) each trial's
+    estimate and its region's part the placing does not give and the part it does, at the
+    sigma the regions start from. The trials are tested against each other at the
+    multiplier the rest of them measure, and their scatter is evidence on the multiplier
+    beside the misclosures': a trial flagged is kept out of the pool, and the factor is
+    settled again. The same result (the same object) when the session is no one target's
+    (fewer than three trials to compare), or was not tested (``--no-sigma0``; no ``parts``).
     """
     m, flags, model = noise.misclosure, noise.flags, noise.noise
-    if m is None or flags is None or model is None:
+    if m is None or flags is None or model is None or parts is None:
         return noise
     same = one_target(truth)
     if not same.any():
         return noise
-    tests = noise.tests.with_target(target_tests(point, cov, same, noise.tests.flagged))
-    if tests is noise.tests:
+    out = noise.tests.flagged
+    base = (np.where(out[:, None], 0.0, flags.kept).sum(axis=0),
+            np.where(out[:, None], 0.0, flags.info).sum(axis=0))  # fmt: skip
+    scatter, target = scatter_tests(point, parts, same, out, base, model.anchor(), model.prior)
+    if scatter is None:
         return noise
-    return _settled(noise, m, model, tests)
+    tests = noise.tests.with_target(target)
+    return _settled(dataclasses.replace(noise, scatter=scatter), m, model, tests)
 
 
 def with_own_truth(noise: NoiseResult, error: F64, cov: F64) -> NoiseResult:
@@ -231,7 +237,10 @@ def _settled(
     by_estimate = tests.flagged & (_noted(tests.apart, T) | _noted(tests.truth_off, T))
     flags = flag_trials(m.chi2, m.dof, m.placing_share, m.z2, model.anchor(), model.prior,
                         out=by_estimate)  # fmt: skip
-    factor = _factor(m, flags, flags.flagged | by_estimate, model)
+    out = flags.flagged | by_estimate
+    factor = _factor(
+        m, flags, out, model, None if noise.scatter is None else noise.scatter.evidence(out)
+    )
     base = trial_tests(m, flags.flagged, flags.p, factor.placing_variance)
     settled = dataclasses.replace(
         base,
@@ -274,9 +283,12 @@ def _measured_alone(noise: NoiseModel) -> VarianceFactor | None:
                           sources=f"{noise.anchor().source} alone")  # fmt: skip
 
 
-def _sources(trials: int, prior: str, anchor: str) -> str:
+def _sources(trials: int, prior: str, anchor: str, scatter: Evidence | None = None) -> str:
     """Where the multiplier's information came from, in words."""
     said = [f"this session's {trials} trial{'s' if trials != 1 else ''}"] if trials else []
+    if scatter is not None:  # its trials of one target, about each other
+        whose = "its" if trials else "this session's"
+        said.append(f"the scatter of {whose} {scatter.trials} trials of one target")
     return ", ".join([*said, *([prior] if prior else []), anchor])
 
 
@@ -296,7 +308,7 @@ def operator_group(operator: str, method: Method) -> str:
     ``""`` (no operator named): a session alone.
     """
     name = operator.strip()
-    return f"{name} ({method})" if name else ""
+    return f"{name} ({method})" if name else ""  # matched by operator_key: the caller's
 
 
 def session_statistics(

@@ -1,0 +1,38 @@
+"""With a fourth pose the mistyped pose is named, with the component a typo most plausibly
+is (a new user's r6 G12: method 2's 1 in typo in x was named "typed z of pose 2 looks
+about 51 in off", 9 in, 14 in, or "typed y ... about 6 in" in a procedure that never
+moves y: a plane's z shifted n_x / n_z times as far moves it alike, and the test named the
+one explaining slightly more)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from tests.helpers import load_benchmark
+from twopose.methods.specs import Method
+from twopose.solve.estimate import EstimateOptions
+from twopose.solve.session import SessionTrials, estimate_session
+
+
+def test_a_typo_in_x_is_named_in_x_with_its_size_never_along_another_axis() -> None:
+    bench = load_benchmark("bench_noise")
+    named = 0
+    for seed in range(12):
+        trials: SessionTrials = bench.session(Method.GROUND, 1200 + seed, 3, 1.0, 4)
+        views = [list(v) for v in trials.views]
+        typo = views[1][1]
+        views[1][1] = dataclasses.replace(typo, t_grid=typo.t_grid + np.array([1.0, 0, 0]))
+        est = estimate_session(dataclasses.replace(trials, views=views), EstimateOptions(),
+                               line_fits=False)  # fmt: skip
+        tests = est.tests
+        assert tests is not None
+        if not tests.flagged[1] or not tests.axis[1]:
+            continue
+        named += 1
+        assert tests.axis[1] == "x", (seed, tests.axis[1], tests.offset[1])
+        if tests.pose[1]:
+            assert tests.pose[1] == 2
+            assert 0.5 < abs(tests.offset[1]) < 1.6, (seed, tests.offset[1])
+    assert named >= 6
