@@ -341,23 +341,15 @@ def flag_trials(
     # cannot hide each other; then the pool it keeps, until that stays the same
     start = _robust_scale(np.where(tested, dof, 0), share, L)
     first = beside.max() + anchor.dof
-    guess = (
-        _at(np.full(T, start))
-        if not math.isfinite(first)
-        else np.repeat(
-            _grid_weights(
-                np.zeros((1, GRID.size)),
-                PlacingPrior(scale=start, dof=first, source="a guess"),
-                None,
-            ),
-            T,
-            axis=0,
-        )
-    )
+    around = PlacingPrior(scale=start, dof=first, source="a guess")
+    flat = np.zeros((1, GRID.size))
+    guess = (_at(np.full(T, start)) if not math.isfinite(first) else
+             np.repeat(_grid_weights(flat, around, None), T, axis=0))  # fmt: skip
     rest = _Posteriors(scale=np.full(T, start), dof=np.full(T, first), information=beside,
                        at_limit=np.zeros(T, dtype=bool), weights=guess)  # fmt: skip
     pool = np.zeros(T, dtype=bool)
-    pool_level = np.where(beside >= _SHARP_REST, max(level, POOL_LEVEL), level)
+    sharp = (beside >= _SHARP_REST) & math.isfinite(anchor.dof)  # an anchor stated exactly
+    pool_level = np.where(sharp, max(level, POOL_LEVEL), level)  # is a rest that learns nothing
     for _ in range(_ROUNDS):
         p_typed, p_rest = trial_pvalues(chi2, dof, share, z2, rest, beside)
         typed_off, no_rest = p_typed < level, np.isnan(p_rest)
@@ -393,15 +385,13 @@ def _robust_scale(dof: Ints, share: F64, L: F64) -> float:
     return float(np.clip(np.median(own / median), GRID[0], GRID[-1]))
 
 
-def _kept_chance(
-    dof: Ints, share: F64, rest: _Posteriors, p_rest: F64, level: float, rest_level: F64
-) -> F64:
+def _kept_chance(dof: Ints, share: F64, rest: _Posteriors, p: F64, level: float, at: F64) -> F64:
     """(T, G) the log-chance, at every multiplier, that a trial is pooled.
 
     A trial is pooled when either test accepts it: its chi-square under the typed model
     below that test's cut (``level``), or its statistic at the rest's multiplier below the
-    cut of the rest's predictive (``rest_level``, where there is a rest); the chance is the
-    larger of the two (the two statistics nearly proportional). Each statistic,
+    cut of the rest's predictive (``at``, where ``p`` says there is a rest); the chance is
+    the larger of the two (the two statistics nearly proportional). Each statistic,
     ``sum_k w_k chi2_1`` with ``w_k`` the ratio of the direction's variance at ``lambda``
     to the one it is tested at, is Satterthwaite's scaled chi-square.
     """
@@ -409,8 +399,8 @@ def _kept_chance(
     k, c = _satterthwaite(d, share, np.ones(len(d)))
     typed = special.chdtr(k, special.chdtri(d, level)[:, None] / c)
     k, c = _satterthwaite(d, share, rest.scale)
-    has_rest = np.isfinite(p_rest)
-    cut = _predictive_cut(k, c, rest.weights, rest_level, has_rest)
+    has_rest = np.isfinite(p)
+    cut = _predictive_cut(k, c, rest.weights, at, has_rest)
     with np.errstate(invalid="ignore", divide="ignore"):
         against_rest = special.chdtr(k, cut[:, None] / c)
     chance = np.where(has_rest[:, None], np.fmax(typed, against_rest), typed)
@@ -557,7 +547,10 @@ def _group_priors(
         curve = L[others].sum(axis=0)
         lam0 = _maximum(curve)
         info = (clean[others, None] * flags.info[others]).sum(axis=0)
-        f = float(np.interp(math.log(lam0), _LOG_GRID, info))
+        g = int(np.clip(np.argmax(curve), 1, len(GRID) - 2))  # the curve's own dof: 2x its bend
+        bend = (curve[g - 1] - 2 * curve[g] + curve[g + 1]) / (_LOG_GRID[1] - _LOG_GRID[0]) ** 2
+        own = max(-2.0 * float(bend), 0.0) if math.isfinite(anchor.dof) else math.inf  # cut at 5%
+        f = min(float(np.interp(math.log(lam0), _LOG_GRID, info)), own)  # it tells less
         if round(f) < MIN_PLACING_DOF:
             out.append(None)
             continue
@@ -600,12 +593,8 @@ def _spread_dof(per_session: F64, pooled: F64) -> float:
                 prior /= prior.sum()
                 marginal = float(np.log(np.clip(like @ prior, 1e-300, None)).sum())
             else:  # one shared multiplier: each session's likelihood at it
-                at = math.log(scale)
-                marginal = float(
-                    sum(
-                        np.interp(at, _LOG_GRID, row) for row in np.log(np.clip(like, 1e-300, None))
-                    )
-                )
+                logs = np.log(np.clip(like, 1e-300, None))
+                marginal = float(sum(np.interp(math.log(scale), _LOG_GRID, r) for r in logs))
             if marginal > best + 1e-9:
                 best, best_dof = marginal, float(d0)
     return best_dof
