@@ -193,6 +193,7 @@ def noise_summary(trials: pd.DataFrame) -> dict[str, object]:
         "noise_contradicted": factor.contradicted or (total == 0 and everyone.contradicted),
         "noise_widening": float(widening.max()) if widening.notna().any() else np.nan,
         "n_flagged": int(flagged.sum()),
+        "n_off_truth": int((ok["flagged_by"] == "truth").sum()) if "flagged_by" in ok else 0,
     }
 
 
