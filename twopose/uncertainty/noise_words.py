@@ -26,7 +26,7 @@ if TYPE_CHECKING:
     from twopose.uncertainty.noise import VarianceFactor
     from twopose.values.units import Units
 
-__all__ = ["POWER", "POWER_SAID_FROM", "describe", "noise_words"]
+__all__ = ["POWER", "POWER_SAID_FROM", "describe", "noise_words", "off_truth_words"]
 
 
 def noise_words(  # noqa: PLR0913
@@ -118,7 +118,7 @@ def _flag_words(flagged: int, off_truth: int) -> list[str]:
         trials = "trial" if flagged == 1 else "trials"
         words.append(f"{flagged} {trials} flagged: kept out of the pool")
     if off_truth >= _OFF_TRUTH_SAID:
-        words.append(_off_truth_words(off_truth))
+        words.append(off_truth_words(off_truth))
     return words
 
 
@@ -127,15 +127,17 @@ def _flag_words(flagged: int, off_truth: int) -> list[str]:
 _OFF_TRUTH_SAID = 2
 
 
-def _off_truth_words(count: int) -> str:
+def off_truth_words(count: int, of: int = 0) -> str:
     """What ``count`` trials off their truths beyond their regions say of the session.
 
     A rig whose constants no rig file carries (the camera's offset from the laptop's typed
     point, its principal point) moves every pose alike: the poses still agree with each
     other (sigma0 "agree"), while their estimates miss the truths (regions covering 35%).
+    ``of``: among how many trials (0: not said).
     """
+    among = f" of {of}" if of else ""
     return (
-        f"{count} trials lie off their truths beyond their regions (by chance 1 in 1000 "
+        f"{count}{among} trials lie off their truths beyond their regions (by chance 1 in 1000 "
         "each): something every pose shares is off, which the poses cannot check in each "
         "other (a rig's constants: measure them with a board, `twopose-analyze rig`), or "
         "the truths or several typed poses are"
