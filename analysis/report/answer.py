@@ -185,6 +185,7 @@ def noise_phrases(row: pd.Series) -> list[str]:
         board_contradicted="(contradicted by the data" in said,
         by_operator=f"(contradicted by the data {OPERATOR_DATA})" in said,
         placing_share=_known(row.get("sigma0_placing_share"), 1.0),
+        off_truth=int(_known(row.get("n_off_truth"), 0.0)),
     )
     scale = _known(row.get("placing_scale"))
     start = sigma / scale if isinstance(sigma, int | float) and scale > 0 else sigma  # assumed

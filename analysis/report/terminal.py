@@ -98,6 +98,7 @@ def summary_lines(
             lines += _method_rows(
                 part, summary, Units(str(units)), rows_word(part), include_warned=include_warned
             )
+    lines += _off_truth_lines(trials, width)
     lines.append("per session:")
     for _, r in session_order(summary).iterrows():
         on = spec_of(str(r["method"])).seen_on
@@ -176,4 +177,30 @@ def closing_lines(verdict: list[str], out: Path, *, width: int | None = 80) -> l
     report = out / "report.html"
     if report.is_file():
         lines.append(f"report: {report}")
+    return lines
+
+
+#: A run's trials off their truths said when this unlikely by chance (each 1 in 1000).
+_OFF_TRUTH_P = 0.01
+
+
+def _off_truth_lines(trials: pd.DataFrame, width: int | None) -> list[str]:
+    """Per method, the run's trials flagged by their truth, where more than chance makes
+    (a binomial tail at :data:`_OFF_TRUTH_P`, each 1 in 1000): one or two a session, a
+    rig's unknown constants go unsaid by every session line (a new user's r6 G10: 10 of
+    48 trials over 12 sessions, regions covering 35%, every line "agree")."""
+    from scipy import stats
+
+    from twopose.uncertainty.blunders import TRUTH_LEVEL
+    from twopose.uncertainty.noise_words import off_truth_words
+
+    if "flagged_by" not in trials or "nees_dof" not in trials:
+        return []
+    lines: list[str] = []
+    ok = trials[(trials["status"] == "ok") & (pd.to_numeric(trials["nees_dof"]) > 0)]
+    for method, part in ok.groupby("method", sort=False):
+        off = int((part["flagged_by"] == "truth").sum())
+        if off >= 2 and stats.binom.sf(off - 1, len(part), TRUTH_LEVEL) < _OFF_TRUTH_P:
+            said = f"note: {method}: {off_truth_words(off, len(part))}"
+            lines += wrap_phrases(said.split(" "), width)
     return lines

@@ -156,8 +156,8 @@ def noise_summary(trials: pd.DataFrame) -> dict[str, object]:
     dof = pd.to_numeric(kept["misclosure_dof"], errors="coerce").fillna(0).to_numpy()
     use = np.isfinite(chi2) & (dof > 0)
     # the trials of one target's scatter (twopose.uncertainty.target_scatter), in both
-    s_dof = int(np.nan_to_num(_first_number(trials, "scatter_dof")))
-    s_chi2 = _first_number(trials, "scatter_chi2") if s_dof else 0.0
+    s_dof = int(np.nan_to_num(_first_number(trials, "target_scatter_dof")))
+    s_chi2 = _first_number(trials, "target_scatter_chi2") if s_dof else 0.0
     total = int(dof[use].sum()) + s_dof
     every = pd.to_numeric(ok["misclosure_chi2"], errors="coerce").to_numpy(dtype=np.float64)
     every_dof = pd.to_numeric(ok["misclosure_dof"], errors="coerce").fillna(0).to_numpy()
@@ -193,6 +193,7 @@ def noise_summary(trials: pd.DataFrame) -> dict[str, object]:
         "noise_contradicted": factor.contradicted or (total == 0 and everyone.contradicted),
         "noise_widening": float(widening.max()) if widening.notna().any() else np.nan,
         "n_flagged": int(flagged.sum()),
+        "n_off_truth": int((ok["flagged_by"] == "truth").sum()) if "flagged_by" in ok else 0,
     }
 
 

@@ -309,6 +309,7 @@ def touch_rows(
     table["cameras"] = 2
     # One pair of views has no redundancy to test: no misclosure's dof, no pose named.
     table["misclosure_dof"] = 0
+    table["target_scatter_dof"] = 0  # a pair's touches: no trials of one target compared
     table["suspect_pose"] = 0
     table["nees_dof"] = table["nees_dof"].fillna(0)
     table = _truth_flags(table, parts[0].info.units)

@@ -212,6 +212,7 @@ SUMMARY_TABLE: tuple[Column, ...] = (
            unit="none", domain=FLAG, dtype="bool", group=_S),
     _number("noise_widening", "largest covariance widening", _S, "none", NON_NEGATIVE),
     _count("n_flagged", "trials flagged", _S),
+    _count("n_off_truth", "trials off their truth beyond their regions", _S),
     _length("rmse_uninterpolated", "RMSE, camera 1's paired frame as it is"),
     _number("skew_share", "share of that RMSE interpolation removed", _S, "share", SHARE),
 )  # fmt: skip

@@ -41,11 +41,11 @@ __all__ = [
     "placing_sigma",
     "placing_source",
     "prior_sessions",
-    "scatter_chi2",
-    "scatter_dof",
     "suspect_axis",
     "suspect_offset",
     "suspect_pose",
+    "target_scatter_chi2",
+    "target_scatter_dof",
 ]
 
 
@@ -98,15 +98,15 @@ def placing_dof(t: TrialResult) -> F64:
     return np.full(T, dof)
 
 
-def scatter_chi2(t: TrialResult) -> F64:
+def target_scatter_chi2(t: TrialResult) -> F64:
     """The session's trials of one target: their contrasts' chi-square under the typed model
     (:mod:`twopose.uncertainty.target_scatter`; the same in every trial; NaN: none)."""
     factor = t.estimate.factor
     return np.full(len(t.estimate.trials), np.nan if factor is None else factor.scatter_chi2)
 
 
-def scatter_dof(t: TrialResult) -> Any:
-    """The degrees of freedom of :func:`scatter_chi2` (0: none)."""
+def target_scatter_dof(t: TrialResult) -> Any:
+    """The degrees of freedom of :func:`target_scatter_chi2` (0: none)."""
     factor = t.estimate.factor
     dof = 0 if factor is None else factor.scatter_dof
     return np.full(len(t.estimate.trials), dof, dtype=np.int64)

@@ -83,7 +83,7 @@ def test_summary_terminal_and_report_say_the_sessions_noise_model(point_run: obj
     # two-pose point trials: one redundant pixel coordinate each
     assert (trials["misclosure_dof"] == 1).all()
     # and its 15 trials of one target: 14 contrasts of 3 directions (target_scatter)
-    assert (trials["scatter_dof"] == 42).all()
+    assert (trials["target_scatter_dof"] == 42).all()
     assert row["sigma0_dof"] == 15 + 42
     assert 0.5 < row["sigma0"] < 2.0
     assert row["placing_source"].startswith("typed, times ")
@@ -94,7 +94,7 @@ def test_summary_terminal_and_report_say_the_sessions_noise_model(point_run: obj
     assert row["placing_sigma"] > 0
     assert row["noise_contradicted"] == (row["sigma0_p"] < 0.05)
     assert 5 < row["placing_dof"] < 60  # the anchor's 2 and the trials' placing shares
-    chi2 = trials["misclosure_chi2"].sum() + trials["scatter_chi2"].iloc[0]
+    chi2 = trials["misclosure_chi2"].sum() + trials["target_scatter_chi2"].iloc[0]
     assert math.isclose(row["sigma0"] ** 2, chi2 / 57, rel_tol=1e-9)
     session = summary_document(point_run)["summary"][0]  # type: ignore[arg-type,index]
     for key in ("sigma0", "sigma0_dof", "noise_contradicted", "placing_sigma", "placing_source"):

@@ -189,3 +189,31 @@ def test_a_trial_kept_out_lies_in_no_rest_and_still_counts_as_something_beside()
     assert (flags.kept[0] == 0).all()
     assert (flags.info[0] == 0).all()
     assert flag_trials(chi2, dof, share, z2, anchor).flagged.tolist() == [False, True]
+
+
+def test_trials_off_their_truths_are_said_beside_an_agreeing_sigma0() -> None:
+    """A new user's r6 G10: a rig with constants no rig file carries, regions covering
+    35%, 11 of 48 trials flagged by their truth, and each session line said only "the data
+    agree with the noise model". Two or more trials off their truths say what it means."""
+    row = _row(sigma0=1.0, sigma0_dof=9, n_flagged=3, n_off_truth=3)
+    said = " ".join(noise_phrases(row))
+    assert "3 trials lie off their truths beyond their regions" in said
+    assert "twopose-analyze rig" in said
+    one = " ".join(noise_phrases(_row(sigma0=1.0, sigma0_dof=9, n_flagged=1, n_off_truth=1)))
+    assert "off their truths" not in one  # one in a thousand, one trial: a blunder's words
+
+
+def test_a_runs_trials_off_their_truths_are_said_once_per_method() -> None:
+    """One or two a session, a rig's unknown constants went unsaid by every session line
+    (10 of 48 trials over 12 sessions): the run says them per method, where more than the
+    1 in 1000 each makes by chance."""
+    from analysis.report.terminal import _off_truth_lines
+
+    def trials(off: int, n: int) -> pd.DataFrame:
+        return pd.DataFrame({"method": "ground", "status": "ok", "nees_dof": 2,
+                             "flagged_by": ["truth"] * off + [""] * (n - off)})  # fmt: skip
+
+    (said,) = _off_truth_lines(trials(10, 48), None)
+    assert said.startswith("note: ground: 10 of 48 trials lie off their truths")
+    assert _off_truth_lines(trials(1, 48), None) == []  # one: a blunder's, said with it
+    assert _off_truth_lines(trials(2, 5000), None) == []  # two in 5000: chance

@@ -26,7 +26,7 @@ if TYPE_CHECKING:
     from twopose.uncertainty.noise import VarianceFactor
     from twopose.values.units import Units
 
-__all__ = ["POWER", "POWER_SAID_FROM", "describe", "noise_words"]
+__all__ = ["POWER", "POWER_SAID_FROM", "describe", "noise_words", "off_truth_words"]
 
 
 def noise_words(  # noqa: PLR0913
@@ -44,6 +44,7 @@ def noise_words(  # noqa: PLR0913
     board_contradicted: bool = False,
     by_operator: bool = False,
     placing_share: float = 1.0,
+    off_truth: int = 0,
 ) -> str:
     """The noise model's test and what the regions took, in words: the one home of them.
 
@@ -62,6 +63,9 @@ def noise_words(  # noqa: PLR0913
     sigma0 tests (``typed``, or ``the board's sigma``); ``board_contradicted``: the data
     contradicted the board's placing sigma (:attr:`NoiseModel.anchor_contradicted`), said
     loudly (``factor``'s when given), ``by_operator`` over all the operator's sessions.
+    ``placing_share``: the placing's mean share of sigma0's directions (its power's words);
+    ``off_truth``: trials flagged by their truth (two or more say what a rig's constants
+    would do).
     """
     if factor is not None:
         placing_scale = factor.placing_scale if factor.estimated else math.nan
@@ -104,10 +108,40 @@ def noise_words(  # noqa: PLR0913
         words.append(_UNTESTED)
     if math.isfinite(region_widening) and not math.isclose(region_widening, 1.0, abs_tol=5e-3):
         words.append(f"regions' largest semi-axis x{region_widening:.2f}")
+    return "; ".join(words + _flag_words(flagged, off_truth))
+
+
+def _flag_words(flagged: int, off_truth: int) -> list[str]:
+    """The flagged trials in words, and what two or more off their truths mean."""
+    words = []
     if flagged:
         trials = "trial" if flagged == 1 else "trials"
         words.append(f"{flagged} {trials} flagged: kept out of the pool")
-    return "; ".join(words)
+    if off_truth >= _OFF_TRUTH_SAID:
+        words.append(off_truth_words(off_truth))
+    return words
+
+
+#: Trials off their truth (each 1 in 1000 by chance) from which the session says what they
+#: mean: the poses agreeing among themselves is then no "ok" (a new user's r6 G10).
+_OFF_TRUTH_SAID = 2
+
+
+def off_truth_words(count: int, of: int = 0) -> str:
+    """What ``count`` trials off their truths beyond their regions say of the session.
+
+    A rig whose constants no rig file carries (the camera's offset from the laptop's typed
+    point, its principal point) moves every pose alike: the poses still agree with each
+    other (sigma0 "agree"), while their estimates miss the truths (regions covering 35%).
+    ``of``: among how many trials (0: not said).
+    """
+    among = f" of {of}" if of else ""
+    return (
+        f"{count}{among} trials lie off their truths beyond their regions (by chance 1 in 1000 "
+        "each): something every pose shares is off, which the poses cannot check in each "
+        "other (a rig's constants: measure them with a board, `twopose-analyze rig`), or "
+        "the truths or several typed poses are"
+    )
 
 
 #: Said where nothing tested the typed placing sigma and nothing estimated the multiplier
