@@ -15,6 +15,7 @@ named so: a per-method table repeats its header above the methods whose axes dif
 
 from __future__ import annotations
 
+import math
 import textwrap
 from pathlib import Path
 
@@ -189,8 +190,6 @@ def _off_truth_lines(trials: pd.DataFrame, width: int | None) -> list[str]:
     (a binomial tail at :data:`_OFF_TRUTH_P`, each 1 in 1000): one or two a session, a
     rig's unknown constants go unsaid by every session line (a new user's r6 G10: 10 of
     48 trials over 12 sessions, regions covering 35%, every line "agree")."""
-    from scipy import stats
-
     from twopose.uncertainty.blunders import TRUTH_LEVEL
     from twopose.uncertainty.noise_words import off_truth_words
 
@@ -200,7 +199,14 @@ def _off_truth_lines(trials: pd.DataFrame, width: int | None) -> list[str]:
     ok = trials[(trials["status"] == "ok") & (pd.to_numeric(trials["nees_dof"]) > 0)]
     for method, part in ok.groupby("method", sort=False):
         off = int((part["flagged_by"] == "truth").sum())
-        if off >= 2 and stats.binom.sf(off - 1, len(part), TRUTH_LEVEL) < _OFF_TRUTH_P:
+        if off >= 2 and _at_least(off, len(part), TRUTH_LEVEL) < _OFF_TRUTH_P:
             said = f"note: {method}: {off_truth_words(off, len(part))}"
             lines += wrap_phrases(said.split(" "), width)
     return lines
+
+
+def _at_least(k: int, n: int, p: float) -> float:
+    """A binomial's upper tail ``P(X >= k)`` on ``n`` trials of chance ``p`` (by its terms:
+    the terminal imports no estimation library, so that a re-run from the cache stays light)."""
+    below = sum(math.comb(n, i) * p**i * (1 - p) ** (n - i) for i in range(min(k, n + 1)))
+    return max(0.0, 1.0 - below)

@@ -74,11 +74,11 @@ _LOG_GRID = np.log(GRID)
 #: most of what a looser level would, and a clean trial's false alarm stays far below 2%
 #: (benchmarks/bench_noise.py).
 BAARDA_LEVEL = 0.005
-#: A trial beside a sharp rest (``_SHARP_REST`` dof: its multiplier known to 30%) is pooled
-#: (in the multiplier's likelihood, the others' rest) while its test against the rest accepts
-#: at 5%; flagged below 0.5%, in between neither (the cut corrected, :func:`_kept_chance`).
+#: A trial beside a sharp rest (20 dof: its multiplier known to 30%) is pooled while its test
+#: against the rest accepts at 5%; flagged below 0.5%, in between neither (:func:`_kept_chance`).
 #: Pooled to 0.5%, an operator's unflagged typos widened the rest, which passed more (r6 G8).
-POOL_LEVEL, _SHARP_REST = 0.05, 20.0
+POOL_LEVEL = 0.05
+_SHARP_REST = 20.0
 #: The posterior's moments are summed on this many points a grid step (:func:`_precision_moments`).
 _REFINE = 8
 #: The rounds of the robust search at most (it settles in two or three).
