@@ -178,8 +178,13 @@ def _unraisable(info: object) -> None:
         import threading
 
         # Our SIGINT handler runs again in the main thread, once this hook has returned
-        # (raised from within the hook, it would be swallowed all the same).
-        threading.Timer(0.01, _thread.interrupt_main).start()
+        # (raised from within the hook, it would be swallowed all the same). A second
+        # interrupt landing inside this hook must not stop it from doing so: Python would
+        # ignore the hook's own exception, and the command would finish 0 (seen once in CI).
+        try:
+            threading.Timer(0.01, _thread.interrupt_main).start()
+        except BaseException:
+            _thread.interrupt_main()
         return
     sys.__unraisablehook__(info)  # type: ignore[arg-type]
 
