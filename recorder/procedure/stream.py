@@ -295,7 +295,7 @@ def record_stream(
             # files: every frame, in order, whatever the load (r5 F13), each detected (F3c)
             meter.lossless = source.replay()
             stack.enter_context(source)
-            check_sizes(source, cameras)
+            check_sizes(source, [camera.intrinsics for camera in cameras])
             if source.stills:
                 first_frames(source)  # an empty file refused before the session begins
             info = with_clocks(info, source)

@@ -187,6 +187,35 @@ def test_point_refuses_in_words_what_it_cannot_show(tmp_path):
         assert "Traceback" not in result.output
 
 
+def test_point_refuses_frames_of_another_size_than_the_pairs_as_a_recording_does(tmp_path):
+    """A new user's r7 K2: `point` drew 320x240 frames through a 640x480 pair as green
+    points 2.4 in off (ten times their regions), where `new --pair` refused the same."""
+    import cv2
+    from typer.testing import CliRunner
+
+    from recorder.cli.app import app
+    from twopose.pair.pair_file import write_pair_file
+
+    pair = tmp_path / "pair.toml"
+    write_pair_file(pair, PointingClip(Method.POINT).pair)  # both cameras 640x480
+    videos = []
+    for name in ("a.avi", "b.avi"):
+        writer = cv2.VideoWriter(str(tmp_path / name), cv2.VideoWriter.fourcc(*"MJPG"), 10.0,
+                                 (320, 240))  # fmt: skip
+        for _ in range(5):
+            writer.write(np.zeros((240, 320, 3), np.uint8))
+        writer.release()
+        videos.append(f"video:{tmp_path / name}")
+    result = CliRunner().invoke(app, ["point", "--pair", str(pair), "--source",
+                                      "pair:" + ",".join(videos), "--method", "point",
+                                      "--port", "0"])  # fmt: skip
+    assert result.exit_code != 0
+    assert "delivers 320x240 frames, but the pair's camera 1 is calibrated for 640x480" in (
+        result.output
+    )
+    assert "Traceback" not in result.output
+
+
 def test_a_recording_feeds_the_panel_from_its_own_thread(ground_stream):
     """Frames handed over as a recording writes them: the estimates published in order
     (the same as the pointing's own), the panel told when frames stop and why it ended."""
