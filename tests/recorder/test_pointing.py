@@ -406,3 +406,19 @@ def test_camera_2_showing_camera_1s_pictures_warns_every_pair_after_ten(ground_s
     assert "camera 2's frames look like camera 1's" in warned[-1], warned
     assert warned[0] == ""  # one pair tells nothing
     assert all(e.warning == "" for e in _live(Method.GROUND, clip, frames))
+
+
+def test_a_copy_once_seen_stays_one_while_its_target_pauses() -> None:
+    """A new user's r7 K1: a transcoded copy was amber at 2 s, green `conditioning: ok`
+    with a point at 4 s (its finger paused: the last 30 pairs' pixels no longer spread),
+    amber at 5.5 s. The cameras do not change while they run: a copy stays one; and a
+    target still at one pixel in both is "cannot tell", never nothing."""
+    live = LivePointing(Method.GROUND, PointingClip(Method.GROUND).pair)
+    moving = 20.0 * np.column_stack([np.cos(np.arange(30)), np.sin(np.arange(30))]) + 300
+    still = np.full((30, 2), 300.0)
+    assert "move it to tell" in live._copy_warning(np.hstack([still, still]))
+    assert "look like camera 1's" in live._copy_warning(np.hstack([moving, moving]))
+    assert "look like camera 1's" in live._copy_warning(np.hstack([still, still]))
+    apart = np.hstack([moving, moving + 40.0])
+    fresh = LivePointing(Method.GROUND, PointingClip(Method.GROUND).pair)
+    assert fresh._copy_warning(apart) == ""  # a real pair's: nothing to say
