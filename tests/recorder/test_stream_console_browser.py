@@ -93,3 +93,7 @@ def test_the_page_starts_touches_and_ends_a_stream_trial(
     (touch,) = trial.touches
     assert touch.how == "button"
     assert touch.point == (0.75, 0.5, 11.0)
+    # files are replayed at the machine's pace, stamped on their own clock from when they
+    # opened: the button is the frame camera 1 last recorded, the one on the page (a new
+    # user's r7 K6: stamped as it came, a touch landed seconds past the frames it meant)
+    assert touch.time_ns in set(trial.camera1.capture_ns.tolist())
