@@ -228,9 +228,12 @@ def test_a_recording_feeds_the_panel_from_its_own_thread(ground_stream):
     worker = PointingThread(
         LivePointing(Method.GROUND, clip.pair), feed, about(Method.GROUND, clip.pair)
     )
+    # before any frame: two cameras open, no trial streaming (not "no pair running")
+    seen, (idle,), _ = feed.after(0, 1.0)
+    assert (idle["running"], idle["words"]) == (False, IDLE_WORDS)
     for frame in frames:
         worker.give(frame)
-    seen, messages = 0, list[dict[str, Any]]()
+    messages = list[dict[str, Any]]()
     while not any(m.get("words") == IDLE_WORDS for m in messages):
         seen, new, missed = feed.after(seen, 5 * IDLE_S)
         assert new, "the panel was never told that the frames stopped"
