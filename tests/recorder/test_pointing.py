@@ -216,6 +216,29 @@ def test_point_refuses_frames_of_another_size_than_the_pairs_as_a_recording_does
     assert "Traceback" not in result.output
 
 
+def test_a_pair_whose_covariance_its_check_did_not_confirm_is_said_on_the_panel() -> None:
+    """A new user's r7 K8: `point` drew regions from a pair whose leave-one-out check
+    failed without a word, where `new --pair` warns first."""
+    from recorder.console.pointing_server import about
+    from twopose.pair.holdout import HoldoutCheck
+
+    pair = PointingClip(Method.POINT).pair
+    failed = HoldoutCheck(
+        folds=5,
+        spacings=1209,
+        worst_sigmas=9.5,
+        beyond=40,
+        median_error=0.1,
+        median_sigma=0.1,
+        jackknife_ratio=(1.0,) * 6,
+    )
+    said = about(Method.POINT, dataclasses.replace(pair, check=failed))["about"]
+    assert "warning: the pair's covariance is not confirmed" in said
+    assert "9.5 sigma off, 40 of 1209 beyond 3" in said
+    passed = dataclasses.replace(failed, worst_sigmas=1.2, beyond=0)
+    assert "warning" not in about(Method.POINT, dataclasses.replace(pair, check=passed))["about"]
+
+
 def test_a_recording_feeds_the_panel_from_its_own_thread(ground_stream):
     """Frames handed over as a recording writes them: the estimates published in order
     (the same as the pointing's own), the panel told when frames stop and why it ended."""
