@@ -120,6 +120,13 @@ def run_pointing(
                 if stop.is_set():
                     why = "stopped"
                     break
+                # the other camera's file or folder ended: the pairs end with it, said
+                # (a new user's r7 K10: its last point stayed green 2.4 s, then "the
+                # cameras' streams ended", camera 1's file played to its end)
+                if ran_out := source.ran_out(frame):
+                    feed.publish(live.end())
+                    why = f"the pair stopped: {ran_out}"
+                    break
                 feed.publish(live.add_frame(frame))
             else:
                 feed.publish(live.end())

@@ -448,3 +448,37 @@ def test_a_copy_once_seen_stays_one_while_its_target_pauses() -> None:
     apart = np.hstack([moving, moving + 40.0])
     fresh = LivePointing(Method.GROUND, PointingClip(Method.GROUND).pair)
     assert fresh._copy_warning(apart) == ""  # a real pair's: nothing to say
+
+
+def test_a_camera_whose_file_ends_first_ends_the_pairs_and_is_named(tmp_path):
+    """A new user's r7 K10: `point` on two files, camera 2's shorter: its last point stayed
+    green for 2.4 s, then "the cameras' streams ended", camera 1's file played to its end.
+    The docs: the pairs end with the first file, which is named."""
+    import threading
+
+    import cv2
+
+    from recorder.console.pointing_server import run_pointing
+    from recorder.live.pointing_feed import PointingFeed
+    from recorder.sources.registry import SOURCE_KINDS, SourceOptions, open_from
+    from tests.recorder.moving_pair import write_moving_pair
+    from twopose.pair.pair_file import read_pair_file
+
+    made = write_moving_pair(tmp_path, seconds=2.0)
+    short = tmp_path / "short.avi"
+    read = cv2.VideoCapture(str(made.videos[1]))
+    writer = cv2.VideoWriter(str(short), cv2.VideoWriter.fourcc(*"MJPG"), 10.0, (320, 240))
+    for _ in range(6):
+        ok, image = read.read()
+        assert ok
+        writer.write(image)
+    writer.release()
+    read.release()
+    source = open_from(SOURCE_KINDS, f"pair:video:{made.videos[0]},video:{short}",
+                       SourceOptions(method=Method.POINT))  # fmt: skip
+    feed = PointingFeed()
+    run_pointing(source, LivePointing(Method.POINT, read_pair_file(made.pair_file)), feed,
+                 threading.Event())  # fmt: skip
+    words = feed.status["words"]
+    assert words.startswith("the pair stopped: camera 2 ("), words
+    assert "ran out" in words
