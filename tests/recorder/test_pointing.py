@@ -356,10 +356,14 @@ def test_ctrl_c_stops_point_with_exit_130_and_no_traceback(tmp_path, when):
     import subprocess
 
     from tests.helpers import RECORD, SMALL_SCENE, read_line_when_printed
+    from twopose.camera.model import Intrinsics
     from twopose.pair.pair_file import write_pair_file
 
     pair, scene = tmp_path / "pair.toml", tmp_path / "scene.toml"
-    write_pair_file(pair, PointingClip(Method.POINT).pair)
+    # the pair calibrated at the small scene's size (another is refused before serving)
+    small = Intrinsics(width=320, height=240, fx=262.5, fy=262.5, cx=160.0, cy=120.0)
+    clip = PointingClip(Method.POINT).pair
+    write_pair_file(pair, dataclasses.replace(clip, intrinsics1=small, intrinsics2=small))
     scene.write_text(SMALL_SCENE)
     camera = f"synthetic:{scene}"
     process = subprocess.Popen(
@@ -474,8 +478,11 @@ def test_a_camera_whose_file_ends_first_ends_the_pairs_and_is_named(tmp_path):
         writer.write(image)
     writer.release()
     read.release()
+    from recorder.sources.pair import PairSource
+
     source = open_from(SOURCE_KINDS, f"pair:video:{made.videos[0]},video:{short}",
                        SourceOptions(method=Method.POINT))  # fmt: skip
+    assert isinstance(source, PairSource)
     feed = PointingFeed()
     run_pointing(source, LivePointing(Method.POINT, read_pair_file(made.pair_file)), feed,
                  threading.Event())  # fmt: skip
