@@ -28,8 +28,10 @@ from twopose.uncertainty.blunders import (
 )
 from twopose.uncertainty.misclosure import Misclosure, misclosures
 from twopose.uncertainty.noise import MIN_PLACING_DOF, NoiseModel, VarianceFactor, region_quantile
-from twopose.uncertainty.placing_variance import Flags, SessionNoise, flag_trials, posterior
+from twopose.uncertainty.operator_pool import SessionNoise
+from twopose.uncertainty.placing_variance import posterior
 from twopose.uncertainty.propagate import PLACING, Propagated, Shared, region_dof
+from twopose.uncertainty.robust_flags import Flags, flag_trials
 from twopose.uncertainty.target_scatter import Evidence, TargetScatter, scatter_tests
 from twopose.values.units import Units
 

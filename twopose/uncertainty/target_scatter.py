@@ -23,7 +23,7 @@ a trial, ``k = 3`` for a point, ``(T - 1) k`` in all.
 **Robust first.** Before pooling, each trial's estimate is tested against the weighted mean
 of the others (at the multiplier *their* contrasts, the trials' misclosures, the anchor and
 the operator's prior give): the statistic at the rest's multiplier under the rest's
-posterior predictive (:func:`twopose.uncertainty.placing_variance.trial_pvalues`), flagged
+posterior predictive (:func:`twopose.uncertainty.robust_flags.trial_pvalues`), flagged
 when both it and the typed model's test reject at :data:`SCATTER_LEVEL`; the worst first,
 then again without it, while two others remain. So an operator 3x worse than typed is not
 called a typo trial by trial (the old test, in regions at the typed sigma, flagged a third
@@ -46,12 +46,8 @@ import numpy as np
 from twopose.arrays import F64, Bools
 from twopose.uncertainty.blunders import TargetTests, _across
 from twopose.uncertainty.noise import PlacingPrior
-from twopose.uncertainty.placing_variance import (
-    BAARDA_LEVEL,
-    GRID,
-    posterior,
-    trial_pvalues,
-)
+from twopose.uncertainty.placing_variance import GRID, posterior
+from twopose.uncertainty.robust_flags import BAARDA_LEVEL, trial_pvalues
 
 __all__ = ["SCATTER_LEVEL", "Evidence", "TargetScatter", "components", "scatter_tests"]
 
