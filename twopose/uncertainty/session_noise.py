@@ -195,8 +195,7 @@ def with_one_target(noise: NoiseResult, truth: F64, point: F64, parts: F64 | Non
     if not same.any():
         return noise
     out = noise.tests.flagged
-    base = (np.where(out[:, None], 0.0, flags.kept).sum(axis=0),
-            np.where(out[:, None], 0.0, flags.info).sum(axis=0))  # fmt: skip
+    base = (np.where(out[:, None], 0.0, flags.kept), np.where(out[:, None], 0.0, flags.info))
     scatter, target = scatter_tests(point, parts, same, out, base, model.anchor(), model.prior)
     if scatter is None:
         return noise
