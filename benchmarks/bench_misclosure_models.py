@@ -61,7 +61,7 @@ from twopose.solve.nview import projection_matrices, triangulate_points  # noqa:
 from twopose.solve.session import SessionEstimate, SessionTrials, estimate_session  # noqa: E402
 from twopose.uncertainty.misclosure import ray_residuals  # noqa: E402
 from twopose.uncertainty.noise import NoiseModel, PlacingPrior  # noqa: E402
-from twopose.uncertainty.placing_variance import operator_priors  # noqa: E402
+from twopose.uncertainty.operator_pool import operator_priors  # noqa: E402
 from twopose.uncertainty.propagate import PLACING, jacobians  # noqa: E402
 from twopose.uncertainty.session_noise import operator_group, session_statistics  # noqa: E402
 

@@ -17,7 +17,7 @@ placing error, ``--operators`` operators of ``--sessions`` sessions each (issue 
 operator over 20+ sessions), each operator's sessions a run of their own, with the run's two
 passes as ``twopose-analyze run`` does them (:mod:`analysis.batch.noise_pass`: each
 session's misclosures, every session's prior from the operator's other sessions,
-:func:`twopose.uncertainty.placing_variance.operator_priors`, then each session estimated with it).
+:func:`twopose.uncertainty.operator_pool.operator_priors`, then each session estimated with it).
 
 Coverage: the share of ok trials whose truth lies in their 95% region ("pooled": the
 run's rule; "alone": each session with the typed resolution's weak prior only; "typed":
@@ -93,13 +93,10 @@ from twopose.sim.scene import Scene  # noqa: E402
 from twopose.solve.estimate import EstimateOptions, PoseView  # noqa: E402
 from twopose.solve.session import SessionEstimate, SessionTrials, estimate_session  # noqa: E402
 from twopose.uncertainty.noise import NoiseModel, PlacingPrior, VarianceFactor  # noqa: E402
-from twopose.uncertainty.placing_variance import (  # noqa: E402
-    BAARDA_LEVEL,
-    flag_trials,
-    operator_priors,
-    posterior,
-)
+from twopose.uncertainty.operator_pool import operator_priors  # noqa: E402
+from twopose.uncertainty.placing_variance import posterior  # noqa: E402
 from twopose.uncertainty.propagate import uncertainty_columns  # noqa: E402
+from twopose.uncertainty.robust_flags import BAARDA_LEVEL, flag_trials  # noqa: E402
 from twopose.uncertainty.session_noise import operator_group, session_statistics  # noqa: E402
 from twopose.values.units import Units  # noqa: E402
 
