@@ -51,26 +51,53 @@ __all__ = [
     "Misclosure",
     "MisclosureModel",
     "PoseTests",
+    "TrialConditions",
     "misclosures",
     "pose_tests",
 ]
 
-#: Each view's residuals from the (perturbed) inputs ``x`` (R, N, 9[+S]), their cameras
-#: ``P`` (R, N, 3, 4) and valid views (R, N): (R, N, 2), zero in a padding view.
-Residuals = Callable[[F64, F64, Bools], F64]
-#: Eigen-directions of Cov(r) under this share of its largest are outside its range.
+#: A model's condition equations ``r(x, theta) = 0``: each view's residuals from the
+#: (perturbed) inputs ``x`` (R, N, 9[+S]), the estimate's parameters ``theta`` (R, K), the
+#: cameras ``P`` (R, N, 3, 4) and valid views (R, N): (R, N, 2), zero in a padding view.
+Conditions = Callable[[F64, F64, F64, Bools], F64]
+#: Eigen-directions of a covariance under this share of its largest are outside its range.
 _RANK_TOLERANCE = 1e-9
 #: The adjustment's steps at most, and when it has converged (chi2's relative change).
-ITERATIONS = 6
+ITERATIONS = 8
 _CONVERGED = 1e-6
+#: A step longer than the last (it would walk off) is halved at most this many times,
+#: then the adjustment stops at the last step it took.
+_HALVINGS = 4
+#: The parameters' difference step, a share of the estimate's distance from the origin.
+_PARAMETER_STEP = 1e-6
 
 
 @dataclass(frozen=True, kw_only=True)
 class MisclosureModel:
-    """What a solver's estimate predicts of each view, and how many parameters it has."""
+    """What a solver's estimate predicts of each view, with its parameters explicit."""
 
-    residuals: Residuals
+    #: Where the views agree with an estimate ``theta``: ``conditions(x, theta) = 0``.
+    conditions: Conditions
+    #: The method's own estimate from the inputs (x, P, valid) -> theta (R, K): the start.
+    estimate: Callable[[F64, F64, Bools], F64]
+    #: ``theta`` (R, K) moved by a step (R, parameters) in its own tangent directions.
+    moved: Callable[[F64, F64], F64]
     #: The estimate's degrees of freedom: a point 3, a 3-D line 4.
+    parameters: int
+
+
+@dataclass(frozen=True, kw_only=True)
+class TrialConditions:
+    """A batch's :class:`MisclosureModel` bound to its views (:func:`misclosures` takes it).
+
+    ``conditions(x, theta)``: stacked (perturbed) inputs (R T, N, 9[+S]) and ``theta``
+    (T, K) -> (R T, N, 2) as :func:`twopose.uncertainty.propagate.propagate` calls an
+    estimate; ``estimate(x)``: inputs (T, N, 9[+S]) -> the method's own ``theta`` (T, K).
+    """
+
+    conditions: Callable[[F64, F64], F64]
+    estimate: Callable[[F64], F64]
+    moved: Callable[[F64, F64], F64]
     parameters: int
 
 
@@ -83,22 +110,30 @@ def _project(P: F64, X: F64) -> F64:
     return np.asarray(h[..., :2] / h[..., 2:3])
 
 
-def ray_residuals(x: F64, P: F64, valid: Bools) -> F64:
-    """Each view's measured pixel minus the thesis' point projected there (R, N, 2)."""
-    X = triangulate_points(x[..., :2], P, valid=valid).point_grid
-    r = x[..., :2] - _project(P, X)
+def ray_conditions(x: F64, theta: F64, P: F64, valid: Bools) -> F64:
+    """Each view's measured pixel minus the point ``theta`` (R, 3) projected (R, N, 2)."""
+    r = x[..., :2] - _project(P, theta)
     return np.asarray(np.where(valid[..., None], r, 0.0))
 
 
-def plane_residuals(x: F64, P: F64, valid: Bools) -> F64:
-    """Each view's centroid across, and angle against, the thesis' 3-D line projected.
+def _thesis_point(x: F64, P: F64, valid: Bools) -> F64:
+    """The thesis' point of the views' rays (R, 3)."""
+    return triangulate_points(x[..., :2], P, valid=valid).point_grid
 
-    (R, N, 2): the measured centroid's signed distance (px) from the projected line and
-    the measured angle minus the projected line's (degrees, lines have no arrow).
+
+def _shifted(theta: F64, step: F64) -> F64:
+    return np.asarray(theta + step)
+
+
+def plane_conditions(x: F64, theta: F64, P: F64, valid: Bools) -> F64:
+    """Each view's centroid across, and angle against, the 3-D line ``theta`` projected.
+
+    ``theta`` (R, 6): a point of the line and its unit direction. (R, N, 2): the measured
+    centroid's signed distance (px) from the projected line and the measured angle minus
+    the projected line's (degrees, lines have no arrow).
     """
-    line = triangulate_lines(image_lines(x[..., :2], x[..., 2]), P, valid=valid)
-    a = _project(P, line.point_grid)
-    b = _project(P, line.point_grid[:, None] + line.direction_grid[:, None])
+    a = _project(P, theta[:, :3])
+    b = _project(P, theta[:, :3] + theta[:, 3:])
     d = b - a
     length = np.linalg.norm(d, axis=-1, keepdims=True)
     normal = np.stack([-d[..., 1], d[..., 0]], axis=-1) / length
@@ -108,10 +143,33 @@ def plane_residuals(x: F64, P: F64, valid: Bools) -> F64:
     return np.asarray(np.where(valid[..., None], r, 0.0))
 
 
+def _thesis_line(x: F64, P: F64, valid: Bools) -> F64:
+    """The thesis' line of the views' planes (R, 6): its point and unit direction."""
+    line = triangulate_lines(image_lines(x[..., :2], x[..., 2]), P, valid=valid)
+    return np.concatenate([line.point_grid, line.direction_grid], axis=-1)
+
+
+def _line_moved(theta: F64, step: F64) -> F64:
+    """The line ``theta`` (R, 6) moved across itself by ``step[:, :2]`` (session units) and
+    turned by ``step[:, 2:]`` (radians), both along two directions square to it."""
+    p, d = theta[:, :3], theta[:, 3:]
+    axis = np.eye(3)[np.argmin(np.abs(np.nan_to_num(d)), axis=1)]
+    e1 = np.cross(d, axis)
+    e1 = e1 / np.linalg.norm(e1, axis=1, keepdims=True)
+    e2 = np.cross(d, e1)
+    p = p + step[:, :1] * e1 + step[:, 1:2] * e2
+    d = d + step[:, 2:3] * e1 + step[:, 3:4] * e2
+    return np.concatenate([p, d / np.linalg.norm(d, axis=1, keepdims=True)], axis=-1)
+
+
 #: A point's rays: its projection in every view.
-RAYS = MisclosureModel(residuals=ray_residuals, parameters=3)
+RAYS = MisclosureModel(
+    conditions=ray_conditions, estimate=_thesis_point, moved=_shifted, parameters=3
+)
 #: A line's planes (the fixed line, method 2's finger): the line projected in every view.
-PLANES = MisclosureModel(residuals=plane_residuals, parameters=4)
+PLANES = MisclosureModel(
+    conditions=plane_conditions, estimate=_thesis_line, moved=_line_moved, parameters=4
+)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -160,7 +218,7 @@ class Misclosure:
 
 
 def misclosures(
-    residuals: Callable[[F64], F64],
+    conditions: TrialConditions,
     inputs: F64,
     input_cov: F64,
     valid: Bools,
@@ -169,12 +227,12 @@ def misclosures(
     shared: Shared | None = None,
     iterations: int = ITERATIONS,
 ) -> Misclosure:
-    """Every trial's misclosure at its adjusted inputs, vectorized over trials.
+    """Every trial's misclosure, the Gauss-Helmert adjustment's, vectorized over trials.
 
-    ``residuals`` maps stacked (perturbed) inputs (R T, N, 9[+S]) to (R T, N, 2) as
-    :func:`twopose.uncertainty.propagate.propagate` calls an estimate; ``inputs`` (T, N, 9),
-    ``input_cov`` (T, N, 9, 9), ``shared`` as there; ``parameters``: the estimate's own.
-    ``iterations``: the adjustment's steps at most (1: linearised at the typed inputs).
+    ``conditions`` the batch's (:class:`TrialConditions`); ``inputs`` (T, N, 9),
+    ``input_cov`` (T, N, 9, 9), ``shared`` as :func:`twopose.uncertainty.propagate.propagate`
+    takes them; ``parameters``: the estimate's own. ``iterations``: the adjustment's steps
+    at most (1: linearised at the typed inputs and the method's own estimate).
     """
     T, N, _ = inputs.shape
     M = 2 * N
@@ -182,18 +240,20 @@ def misclosures(
     out = Misclosure.none(T, N)
     if not (dof > 0).any():
         return out
-    # every row goes through (``residuals`` is bound to the whole batch); one without
-    # redundancy is done from the start
-    step = _Adjustment.start(residuals, inputs, input_cov, dof, shared)
-    done = dof == 0
+    # every row goes through (``conditions`` is bound to the whole batch); one without
+    # redundancy, or whose estimate failed, is done from the start
+    step = _Adjustment.start(conditions, inputs, input_cov, valid, dof, shared)
+    done = (dof == 0) | ~np.isfinite(step.chi2)
     count = np.ones(T, dtype=np.int_)
+    last = np.full(T, np.inf)  # the last step's length (in the inputs' sigmas)
     for _ in range(max(iterations, 1) - 1):
-        following = step.next()
-        count[~done] += 1
+        following, length = _controlled(step, done, last)
+        took = ~done & np.isfinite(following.chi2) & (length <= last)
         moved = np.abs(following.chi2 - step.chi2) > _CONVERGED * (1 + np.abs(step.chi2))
-        usable = np.isfinite(following.chi2) & ~done
-        step = step.merged(following, usable)
-        done |= ~usable | ~moved
+        count[took] += 1
+        step = step.merged(following, took)
+        last = np.where(took, length, last)
+        done |= ~took | ~moved
         if done.all():
             break
     chi2, share, z, bias, kept = step.components()
@@ -209,58 +269,100 @@ def misclosures(
     )
 
 
+def _controlled(step: _Adjustment, done: Bools, last: F64) -> tuple[_Adjustment, F64]:
+    """The adjustment's next step, and its length, under step control.
+
+    A step no shorter than the last (the iteration walking off rather than closing in) or
+    one whose linearisation fails is halved, at most :data:`_HALVINGS` times.
+    """
+    fraction = np.ones(len(done))
+    following = step.toward(fraction)
+    length = step.length(following)
+    for _ in range(_HALVINGS):
+        redo = ~done & ~(np.isfinite(following.chi2) & (length <= last))
+        if not redo.any():
+            break
+        fraction = np.where(redo, fraction / 2, fraction)
+        following = step.merged(step.toward(fraction), redo)
+        length = np.where(redo, step.length(following), length)
+    return following, length
+
+
 @dataclass(frozen=True, kw_only=True)
 class _Adjustment:
     """One step of the Gauss-Helmert adjustment of a batch of trials (R rows).
 
-    ``x``/``s``: the inputs and shared values it linearises at (the typed ones first);
-    ``w``: the misclosure referred back to the observations, ``r(x) + J (x0 - x)``;
-    ``cov`` its covariance ``J C J^T`` (+ the shared part), ``placing`` that of the typed
-    translations alone; ``chi2 = w^T cov^+ w`` over the trial's ``dof`` directions.
+    The conditions ``r(x, theta) = 0`` linearised at the inputs ``x`` (and shared values
+    ``s``) and parameters ``theta`` (the typed inputs and the method's own estimate first):
+    ``B v + A dtheta + w = 0`` with ``B`` (``J``, ``Js``) and ``A`` their derivatives,
+    ``w = r(x, theta) + B (x0 - x)`` the misclosure referred back to the typed inputs and
+    ``cov = B C B^T`` its covariance (``placing`` that of the typed translations alone).
+    Whitened by ``cov^-1/2`` (``white``) and with what ``dtheta`` absorbs projected out
+    (``proj``), ``chi2 = |proj white w|^2 = v^T C^+ v`` over ``2 N - parameters``
+    directions; ``dtheta`` and the multipliers ``k`` (``v = C B^T k``) are the step.
     """
 
-    residuals: Callable[[F64], F64]
+    conditions: TrialConditions
     x0: F64
     C: F64
+    valid: Bools
     dof: Ints
     shared: Shared | None
     x: F64
     s: F64 | None
+    theta: F64
     w: F64
     J: F64
     Js: F64 | None
-    cov: F64
     placing: F64
+    white: F64
+    proj: F64
+    kept: Ints
+    dtheta: F64
+    k: F64
     chi2: F64
 
     @classmethod
     def start(
-        cls, residuals: Callable[[F64], F64], x0: F64, C: F64, dof: Ints, shared: Shared | None
+        cls,
+        conditions: TrialConditions,
+        x0: F64,
+        C: F64,
+        valid: Bools,
+        dof: Ints,
+        shared: Shared | None,
     ) -> _Adjustment:
-        """The first step: linearised at the typed inputs."""
+        """The first step: linearised at the typed inputs and the method's estimate."""
         s0 = None if shared is None else shared.values
-        return cls._at(residuals, x0, C, dof, shared, x0, s0)
+        full = x0 if s0 is None else np.concatenate([x0, s0], axis=-1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            theta = conditions.estimate(full)
+        return cls._at(conditions, x0, C, valid, dof, shared, x0, s0, theta)
 
     @classmethod
     def _at(
         cls,
-        residuals: Callable[[F64], F64],
+        conditions: TrialConditions,
         x0: F64,
         C: F64,
+        valid: Bools,
         dof: Ints,
         shared: Shared | None,
         x: F64,
         s: F64 | None,
+        theta: F64,
     ) -> _Adjustment:
         R, N, _ = x.shape
         M = 2 * N
         here = None if shared is None or s is None else dataclasses.replace(shared, values=s)
 
         def flat(values: F64) -> F64:
-            return residuals(values).reshape(values.shape[0], M)
+            return conditions.conditions(values, theta).reshape(values.shape[0], M)
 
         full = x if s is None else np.concatenate([x, s], axis=-1)
-        r = flat(full)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            r = flat(full)
+            A = _parameter_columns(conditions, full, theta, M)
         J, Js = jacobians(flat, x, C, M, shared=here)
         w = r + np.einsum("rmnd,rnd->rm", J, np.nan_to_num(x0 - x))
         cov = np.einsum("rinj,rnjk,rlnk->ril", J, C, J)
@@ -273,67 +375,143 @@ class _Adjustment:
             cov = cov + np.einsum("rigs,rgsq,rjgq->rij", Js, shared.cov, Js)
         Jp = J[..., PLACING]
         placing = np.einsum("rinj,rnjk,rlnk->ril", Jp, C[..., PLACING, PLACING], Jp)
-        finite = np.isfinite(w).all(axis=1) & np.isfinite(cov).all(axis=(1, 2))
-        chi2 = np.full(R, np.nan)
-        if finite.any():
-            pinv = _range_inverse(cov[finite], dof[finite])
-            chi2[finite] = np.einsum("ri,rij,rj->r", w[finite], pinv, w[finite])
-        return cls(residuals=residuals, x0=x0, C=C, dof=dof, shared=shared, x=x, s=s, w=w,
-                   J=J, Js=Js, cov=cov, placing=placing, chi2=chi2)  # fmt: skip
+        solved = _solve(w, cov, A, np.repeat(valid, 2, axis=1), dof)
+        return cls(conditions=conditions, x0=x0, C=C, valid=valid, dof=dof, shared=shared,
+                   x=x, s=s, theta=theta, w=w, J=J, Js=Js, placing=placing, **solved)  # fmt: skip
 
-    def next(self) -> _Adjustment:
-        """The step linearised at the inputs this one adjusts.
+    def toward(self, fraction: F64) -> _Adjustment:
+        """The step linearised where this one's solution lies (``fraction`` of the way).
 
-        They are ``x0 + v``, ``v = -C J^T cov^+ w``: the least correction that closes the
-        linearised views.
+        The inputs ``x0 + v``, ``v = C B^T k`` (the least correction that closes the
+        linearised views) and the parameters ``theta + dtheta``.
         """
-        good = np.isfinite(self.chi2)
-        lam = np.zeros_like(self.w)
-        if good.any():
-            lam[good] = np.einsum(
-                "rij,rj->ri", _range_inverse(self.cov[good], self.dof[good]), self.w[good]
-            )
-        v = np.nan_to_num(-np.einsum("rnjk,rmnk,rm->rnj", self.C, self.J, lam))
-        x = np.where(np.isfinite(self.x0), self.x0 + v, self.x0)
+        f = fraction[:, None, None]
+        v = np.nan_to_num(np.einsum("rnjk,rmnk,rm->rnj", self.C, self.J, self.k))
+        x = np.where(np.isfinite(self.x0), self.x + f * (self.x0 + v - self.x), self.x0)
         s = self.s
         if self.shared is not None and self.Js is not None and s is not None:
             G = self.shared.cov.shape[1]
-            vs = -np.einsum("rgsq,rmgq,rm->rgs", self.shared.cov, self.Js, lam)
+            vs = np.einsum("rgsq,rmgq,rm->rgs", self.shared.cov, self.Js, self.k)
             s0 = _per_group(self.shared.values, self.shared.group, G)
-            s = _per_view(s0 + vs, self.shared.group, self.shared.values)
-        return _Adjustment._at(self.residuals, self.x0, self.C, self.dof, self.shared, x, s)
+            s = s + f * (_per_view(s0 + vs, self.shared.group, self.shared.values) - s)
+        theta = self.conditions.moved(self.theta, fraction[:, None] * np.nan_to_num(self.dtheta))
+        return _Adjustment._at(self.conditions, self.x0, self.C, self.valid, self.dof,
+                               self.shared, x, s, theta)  # fmt: skip
+
+    def length(self, other: _Adjustment) -> F64:
+        """(R,) how far ``other``'s inputs lie from this one's, in the inputs' sigmas."""
+        sigma = np.sqrt(np.clip(np.diagonal(self.C, axis1=2, axis2=3), 0.0, None))
+        d = np.where(sigma > 0, np.nan_to_num(other.x - self.x) / np.where(sigma > 0, sigma, 1), 0)
+        total = (d**2).sum(axis=(1, 2))
+        if self.shared is not None and self.s is not None and other.s is not None:
+            sd = np.sqrt(np.clip(np.diagonal(self.shared.cov, axis1=2, axis2=3), 0.0, None))
+            G = sd.shape[1]
+            ds = _per_group(other.s, self.shared.group, G) - _per_group(
+                self.s, self.shared.group, G
+            )
+            total += np.where(sd > 0, ds / np.where(sd > 0, sd, 1.0), 0.0).__pow__(2).sum(
+                axis=(1, 2)
+            )
+        return np.asarray(np.sqrt(total))
 
     def merged(self, other: _Adjustment, take: Bools) -> _Adjustment:
         """The step with ``other``'s rows where ``take`` (a failed step keeps its last)."""
         if take.all():
             return other
         rows: dict[str, Any] = {}
-        for name in ("x", "s", "w", "J", "Js", "cov", "placing", "chi2"):
-            mine, theirs = getattr(self, name), getattr(other, name)
-            if isinstance(mine, np.ndarray):
+        for f in dataclasses.fields(self):
+            mine, theirs = getattr(self, f.name), getattr(other, f.name)
+            if f.name not in _FIXED and isinstance(mine, np.ndarray):
                 shape = (-1,) + (1,) * (mine.ndim - 1)
-                rows[name] = np.where(take.reshape(shape), theirs, mine)
+                rows[f.name] = np.where(take.reshape(shape), theirs, mine)
         return dataclasses.replace(self, **rows)
 
     def components(self) -> tuple[F64, F64, F64, F64, Ints]:
-        """The misclosure in the basis that whitens ``cov`` and diagonalizes ``placing``.
+        """The misclosure in the basis that whitens its covariance and diagonalizes ``placing``.
 
         ``chi2``, the placing's share of each direction, the signed component there, each
         typed translation's unit error's components (R, N * 3, M), and the directions kept.
         """
         R, M = self.w.shape
         N = M // 2
+        Q = np.einsum("rij,rjk->rik", self.proj, self.white)  # whitened, dtheta's out
+        r = np.einsum("rij,rj->ri", Q, self.w)
+        placing = np.einsum("rij,rjk,rlk->ril", Q, self.placing, Q)
         bias_cols = np.moveaxis(self.J[..., PLACING], 1, -1).reshape(R, N * 3, M)
+        bias_cols = np.einsum("rij,rcj->rci", Q, bias_cols)
         out_share, out_z = np.zeros((R, M)), np.zeros((R, M))
         out_bias, kept = np.zeros((R, N * 3, M)), np.zeros(R, dtype=np.int_)
         chi2 = np.full(R, np.nan)
         good = np.isfinite(self.chi2)
         if good.any():
-            parts = _components(self.w[good], self.cov[good], self.placing[good], self.dof[good],
+            parts = _components(r[good], self.proj[good], placing[good], self.kept[good],
                                 bias_cols[good])  # fmt: skip
             chi2[good], out_share[good], out_z[good], out_bias[good], kept[good] = parts
         chi2[kept == 0] = np.nan
         return chi2, out_share, out_z, out_bias, kept
+
+
+#: What every step of one adjustment shares (never merged row by row).
+_FIXED = frozenset({"x0", "C", "valid", "dof"})
+
+
+def _parameter_columns(conditions: TrialConditions, full: F64, theta: F64, M: int) -> F64:
+    """(R, M, p) the conditions' derivatives in the parameters' steps (central differences)."""
+    R = full.shape[0]
+    p = conditions.parameters
+    h = _PARAMETER_STEP * (1.0 + np.linalg.norm(np.nan_to_num(theta[:, :3]), axis=1))
+    steps = np.zeros((2 * p, R, p))
+    for j in range(p):
+        steps[j, :, j], steps[p + j, :, j] = h, -h
+    moved = np.concatenate([conditions.moved(theta, steps[i]) for i in range(2 * p)])
+    r = conditions.conditions(np.tile(full, (2 * p, 1, 1)), moved)
+    r = r.reshape(2, p, R, M)
+    return np.asarray(np.moveaxis((r[0] - r[1]) / (2 * h[None, :, None]), 0, -1))
+
+
+def _solve(w: F64, cov: F64, A: F64, rows: Bools, dof: Ints) -> dict[str, Any]:
+    """The linearised adjustment's solution per row (NaN where it has none).
+
+    ``rows`` (R, M): the conditions of the trial's views (the others are zero and given a
+    unit weight, so every solve is regular). Returns ``white`` (``cov^-1/2``), ``proj``
+    (the whitened conditions' projector away from the parameters), the directions
+    ``kept``, ``dtheta``, the multipliers ``k`` and ``chi2``.
+    """
+    R, M = w.shape
+    p = A.shape[2]
+    scale = np.max(np.where(rows, np.diagonal(cov, axis1=1, axis2=2), 0.0), axis=1)
+    cov = cov + np.where(~rows, np.nan_to_num(scale)[:, None], 0.0)[:, :, None] * np.eye(M)
+    out: dict[str, Any] = {
+        "white": np.zeros((R, M, M)),
+        "proj": np.zeros((R, M, M)),
+        "kept": np.zeros(R, dtype=np.int_),
+        "dtheta": np.full((R, p), np.nan),
+        "k": np.zeros((R, M)),
+        "chi2": np.full(R, np.nan),
+    }
+    ok = np.isfinite(w).all(axis=1) & np.isfinite(cov).all(axis=(1, 2)) & (scale > 0)
+    ok &= np.isfinite(A).all(axis=(1, 2)) & (dof > 0)
+    if not ok.any():
+        return out
+    e, V = np.linalg.eigh(cov[ok])
+    regular = e[:, 0] > _RANK_TOLERANCE * e[:, -1]
+    ok[ok] = regular
+    e, V = e[regular], V[regular]
+    white = np.einsum("rij,rj,rkj->rik", V, 1.0 / np.sqrt(e), V)
+    Aw = np.einsum("rij,rjk->rik", white, A[ok])
+    ww = np.einsum("rij,rj->ri", white, w[ok])
+    U, S, Vt = np.linalg.svd(Aw, full_matrices=False)
+    has = S > _RANK_TOLERANCE * np.maximum(S[:, :1], 1e-300)
+    U = U * has[:, None, :]
+    proj = np.where(rows[ok][:, :, None], np.eye(M), 0.0) - np.einsum("rik,rjk->rij", U, U)
+    left = np.einsum("rij,rj->ri", proj, ww)
+    inv_s = np.where(has, 1.0 / np.where(has, S, 1.0), 0.0)
+    out["white"][ok], out["proj"][ok] = white, proj
+    out["kept"][ok] = np.minimum(dof[ok], rows[ok].sum(axis=1) - has.sum(axis=1))
+    out["dtheta"][ok] = -np.einsum("rkj,rk,rik,ri->rj", Vt, inv_s, U, ww)
+    out["k"][ok] = -np.einsum("rij,rj->ri", white, left)
+    out["chi2"][ok] = (left**2).sum(axis=1)
+    return out
 
 
 def _per_group(values: F64, group: Ints, G: int) -> F64:
