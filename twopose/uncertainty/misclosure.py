@@ -242,7 +242,7 @@ def misclosures(
         return out
     # every row goes through (``conditions`` is bound to the whole batch); one without
     # redundancy, or whose estimate failed, is done from the start
-    step = _Adjustment.start(conditions, inputs, input_cov, valid, dof, shared)
+    step = first = _Adjustment.start(conditions, inputs, input_cov, valid, dof, shared)
     done = (dof == 0) | ~np.isfinite(step.chi2)
     count = np.ones(T, dtype=np.int_)
     last = np.full(T, np.inf)  # the last step's length (in the inputs' sigmas)
@@ -256,6 +256,11 @@ def misclosures(
         done |= ~took | ~moved
         if done.all():
             break
+    # an adjustment that ended above what correcting the pixels alone to the method's own
+    # estimate costs has not found the least correction: the first step's (never above it)
+    fallback = ~(step.chi2 <= first.pixels_alone()) & np.isfinite(first.chi2)
+    step = step.merged(first, fallback)
+    count[fallback] = 1
     chi2, share, z, bias, kept = step.components()
     good = np.isfinite(chi2) & (dof > 0)
     return dataclasses.replace(
@@ -413,6 +418,30 @@ class _Adjustment:
                 axis=(1, 2)
             )
         return np.asarray(np.sqrt(total))
+
+    def pixels_alone(self) -> F64:
+        """(R,) the chi-square of closing each view by its own pixels alone (inf: none do).
+
+        The models' conditions are linear in a view's pixels (centroid and angle), so
+        correcting them alone to the parameters ``theta`` closes the views exactly: a
+        correction the least one never exceeds, and the first step's never does.
+        """
+        R, M = self.w.shape
+        N = M // 2
+        rows = np.arange(N)
+        G = self.J.reshape(R, N, 2, N, -1)[:, rows, :, rows, :3]  # (N, R, 2, 3) own pixels
+        S = np.einsum("nrij,rnjk,nrlk->nril", G, self.C[..., :3, :3], G)
+        g = np.moveaxis(self.w.reshape(R, N, 2), 1, 0)
+        det = S[..., 0, 0] * S[..., 1, 1] - S[..., 0, 1] * S[..., 1, 0]
+        scale = np.einsum("nrii->nr", S) ** 2
+        regular = det > _RANK_TOLERANCE * scale
+        inv = np.stack([np.stack([S[..., 1, 1], -S[..., 0, 1]], -1),
+                        np.stack([-S[..., 1, 0], S[..., 0, 0]], -1)], -2)  # fmt: skip
+        inv = inv / np.where(regular, det, 1.0)[..., None, None]
+        cost = np.einsum("nri,nrij,nrj->nr", g, inv, g)
+        used = self.valid.T
+        cost = np.where(used, np.where(regular, cost, np.inf), 0.0).sum(axis=0)
+        return np.asarray(np.where(np.isfinite(self.chi2), cost, np.inf))
 
     def merged(self, other: _Adjustment, take: Bools) -> _Adjustment:
         """The step with ``other``'s rows where ``take`` (a failed step keeps its last)."""
