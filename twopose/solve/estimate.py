@@ -37,7 +37,7 @@ from twopose.solve.margins import (  # the options' one home, light for the CLI
     EstimateOptions,
 )
 from twopose.solve.nview import image_lines, projection_matrices, triangulate_lines
-from twopose.uncertainty.misclosure import TrialConditions
+from twopose.uncertainty.misclosure_models import TrialConditions
 from twopose.uncertainty.propagate import (
     INPUTS_PER_VIEW,
     SHARED_INPUTS,
