@@ -175,18 +175,13 @@ class Adjustment:
 
     def length(self, other: Adjustment) -> F64:
         """(R,) how far ``other``'s inputs lie from this one's, in the inputs' sigmas."""
-        sigma = np.sqrt(np.clip(np.diagonal(self.C, axis1=2, axis2=3), 0.0, None))
-        d = np.where(sigma > 0, np.nan_to_num(other.x - self.x) / np.where(sigma > 0, sigma, 1), 0)
-        total = (d**2).sum(axis=(1, 2))
+        total = _in_sigmas(other.x - self.x, np.diagonal(self.C, axis1=2, axis2=3))
         if self.shared is not None and self.s is not None and other.s is not None:
-            sd = np.sqrt(np.clip(np.diagonal(self.shared.cov, axis1=2, axis2=3), 0.0, None))
-            G = sd.shape[1]
-            ds = _per_group(other.s, self.shared.group, G) - _per_group(
+            G = self.shared.cov.shape[1]
+            moved = _per_group(other.s, self.shared.group, G) - _per_group(
                 self.s, self.shared.group, G
             )
-            total += (
-                np.where(sd > 0, ds / np.where(sd > 0, sd, 1.0), 0.0).__pow__(2).sum(axis=(1, 2))
-            )
+            total = total + _in_sigmas(moved, np.diagonal(self.shared.cov, axis1=2, axis2=3))
         return np.asarray(np.sqrt(total))
 
     def pixels_alone(self) -> F64:
@@ -252,6 +247,13 @@ class Adjustment:
 
 #: What every step of one adjustment shares (never merged row by row).
 _FIXED = frozenset({"x0", "C", "valid", "dof"})
+
+
+def _in_sigmas(change: F64, variance: F64) -> F64:
+    """(R,) the sum of squares of ``change`` (R, ., .) in sigmas (exact inputs: none)."""
+    sigma = np.sqrt(np.clip(variance, 0.0, None))
+    d = np.where(sigma > 0, np.nan_to_num(change) / np.where(sigma > 0, sigma, 1.0), 0.0)
+    return np.asarray((d**2).sum(axis=(1, 2)))
 
 
 def _parameter_columns(conditions: TrialConditions, full: F64, theta: F64, M: int) -> F64:
