@@ -33,28 +33,41 @@ from twopose.arrays import F64, Bools, Ints
 from twopose.uncertainty.misclosure_models import TrialConditions
 from twopose.uncertainty.propagate import PLACING, Shared, jacobians
 
-__all__ = ["HALVINGS", "Adjustment", "controlled"]
+__all__ = ["HALVINGS", "RISE", "Adjustment", "accepted", "controlled"]
 
 #: Eigen-directions of a covariance under this share of its largest are outside its range.
 _RANK_TOLERANCE = 1e-9
 #: A step longer than the last (it would walk off) is halved at most this many times,
 #: then the adjustment stops at the last step it took.
 HALVINGS = 4
+#: A step whose chi-square is more than this many times the last's is halved.
+RISE = 2.0
 #: The parameters' difference step, a share of the estimate's distance from the origin.
 _PARAMETER_STEP = 1e-6
+
+
+def accepted(step: Adjustment, following: Adjustment, length: F64, last: F64) -> Bools:
+    """(R,) whether ``following`` (``length`` from ``step``) is a step the adjustment takes.
+
+    Not one no shorter than the last (``last``: the iteration walking off rather than
+    closing in), nor one whose linearisation fails, nor one whose chi-square is more than
+    :data:`RISE` times the last's (a step into where the conditions bend away: the least
+    correction's chi-square can rise as the linearisation closes in, never leap).
+    """
+    rise = following.chi2 <= RISE * step.chi2 + 1.0
+    return np.asarray(np.isfinite(following.chi2) & (length <= last) & rise)
 
 
 def controlled(step: Adjustment, done: Bools, last: F64) -> tuple[Adjustment, F64]:
     """The adjustment's next step, and its length, under step control.
 
-    A step no shorter than the last (the iteration walking off rather than closing in) or
-    one whose linearisation fails is halved, at most :data:`HALVINGS` times.
+    A step it would not take (:func:`accepted`) is halved, at most :data:`HALVINGS` times.
     """
     fraction = np.ones(len(done))
     following = step.toward(fraction)
     length = step.length(following)
     for _ in range(HALVINGS):
-        redo = ~done & ~(np.isfinite(following.chi2) & (length <= last))
+        redo = ~done & ~accepted(step, following, length, last)
         if not redo.any():
             break
         fraction = np.where(redo, fraction / 2, fraction)

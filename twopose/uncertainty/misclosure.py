@@ -43,7 +43,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from twopose.arrays import F64, Bools, Ints
-from twopose.uncertainty.adjustment import Adjustment, controlled
+from twopose.uncertainty.adjustment import Adjustment, accepted, controlled
 from twopose.uncertainty.misclosure_models import (  # the models' home; here as before
     PLANES,
     RAYS,
@@ -67,6 +67,9 @@ __all__ = [
 #: The adjustment's steps at most, and when it has converged (chi2's relative change).
 ITERATIONS = 8
 _CONVERGED = 1e-6
+#: A step refused while the chi-square still changes by more than this share of itself
+#: leaves the adjustment short of where the views agree.
+_STALLED = 1e-3
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -143,19 +146,24 @@ def misclosures(
     done = (dof == 0) | ~np.isfinite(step.chi2)
     count = np.ones(T, dtype=np.int_)
     last = np.full(T, np.inf)  # the last step's length (in the inputs' sigmas)
+    refused = np.zeros(T, dtype=bool)
     for _ in range(max(iterations, 1) - 1):
         following, length = controlled(step, done, last)
-        took = ~done & np.isfinite(following.chi2) & (length <= last)
-        moved = np.abs(following.chi2 - step.chi2) > _CONVERGED * (1 + np.abs(step.chi2))
+        took = ~done & accepted(step, following, length, last)
+        change = np.abs(following.chi2 - step.chi2) / (1 + np.abs(step.chi2))
+        moved = change > _CONVERGED
+        # stopped short of where its views agree (not a converged step's rounding)
+        refused |= ~done & ~took & ~(change <= _STALLED)
         count[took] += 1
         step = step.merged(following, took)
         last = np.where(took, length, last)
         done |= ~took | ~moved
         if done.all():
             break
-    # an adjustment that ended above what correcting the pixels alone to the method's own
-    # estimate costs has not found the least correction: the first step's (never above it)
-    fallback = ~(step.chi2 <= first.pixels_alone()) & np.isfinite(first.chi2)
+    # an adjustment step control stopped short, or one that ended above what correcting
+    # the pixels alone to the method's own estimate costs, has not found the least
+    # correction: the first step's (the linear test at the typed poses, never above it)
+    fallback = (refused | ~(step.chi2 <= first.pixels_alone())) & np.isfinite(first.chi2)
     step = step.merged(first, fallback)
     count[fallback] = 1
     chi2, share, z, bias, kept = step.components()
