@@ -58,14 +58,17 @@ def accepted(step: Adjustment, following: Adjustment, length: F64, last: F64) ->
     return np.asarray(np.isfinite(following.chi2) & (length <= last) & rise)
 
 
-def controlled(step: Adjustment, done: Bools, last: F64) -> tuple[Adjustment, F64]:
-    """The adjustment's next step, and its length, under step control.
+def controlled(step: Adjustment, done: Bools, last: F64) -> tuple[Adjustment, F64, F64]:
+    """The adjustment's next step under step control, its length and the full step's.
 
-    A step it would not take (:func:`accepted`) is halved, at most :data:`HALVINGS` times.
+    A step it would not take (:func:`accepted`) is halved, at most :data:`HALVINGS` times;
+    the next step is held to the full step's length (``last``), not the halved one's (a
+    halving is no promise that the steps after it close in as fast).
     """
     fraction = np.ones(len(done))
     following = step.toward(fraction)
     length = step.length(following)
+    full = length
     for _ in range(HALVINGS):
         redo = ~done & ~accepted(step, following, length, last)
         if not redo.any():
@@ -73,7 +76,7 @@ def controlled(step: Adjustment, done: Bools, last: F64) -> tuple[Adjustment, F6
         fraction = np.where(redo, fraction / 2, fraction)
         following = step.merged(step.toward(fraction), redo)
         length = np.where(redo, step.length(following), length)
-    return following, length
+    return following, length, full
 
 
 @dataclass(frozen=True, kw_only=True)

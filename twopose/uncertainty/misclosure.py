@@ -65,7 +65,7 @@ __all__ = [
 ]
 
 #: The adjustment's steps at most, and when it has converged (chi2's relative change).
-ITERATIONS = 8
+ITERATIONS = 12
 _CONVERGED = 1e-6
 #: A step refused while the chi-square still changes by more than this share of itself
 #: leaves the adjustment short of where the views agree.
@@ -148,7 +148,7 @@ def misclosures(
     last = np.full(T, np.inf)  # the last step's length (in the inputs' sigmas)
     refused = np.zeros(T, dtype=bool)
     for _ in range(max(iterations, 1) - 1):
-        following, length = controlled(step, done, last)
+        following, length, full = controlled(step, done, last)
         took = ~done & accepted(step, following, length, last)
         change = np.abs(following.chi2 - step.chi2) / (1 + np.abs(step.chi2))
         moved = change > _CONVERGED
@@ -156,7 +156,7 @@ def misclosures(
         refused |= ~done & ~took & ~(change <= _STALLED)
         count[took] += 1
         step = step.merged(following, took)
-        last = np.where(took, length, last)
+        last = np.where(took, full, last)
         done |= ~took | ~moved
         if done.all():
             break
