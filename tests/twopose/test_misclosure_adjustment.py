@@ -45,6 +45,7 @@ def _misclosure(trials: SessionTrials, seen: dict[str, Any]) -> Any:
 
     def spy(*args: Any, **kwargs: Any) -> Any:
         seen["x0"], seen["C"], seen["valid"] = args[1], args[2], args[3]
+        seen["args"], seen["kwargs"] = args, kwargs
         return real(*args, **kwargs)
 
     names["misclosures"] = spy
@@ -192,3 +193,30 @@ def test_chi2_over_dof_is_one_in_g11s_geometry_at_the_true_noise(
     assert 0.6 < m.chi2.sum() / m.dof.sum() < 1.5
     assert stats.kstest(stats.chi2.sf(m.chi2, 2), "uniform").pvalue > 0.01
     assert m.chi2.max() < 25.0  # p ~ 4e-6 for the largest of 40
+
+
+def test_an_adjustment_that_walks_off_gives_way_to_its_first_step(
+    g11: SessionTrials, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Whatever the iteration does (here each step taken 8 times too far, as the old
+    adjustment walked off), the misclosure is never above the pixels-alone correction:
+    a trial whose adjustment stops short or ends above it takes its first step's (the
+    linear test at the typed poses), one step."""
+    import twopose.uncertainty.misclosure as misclosure
+
+    def walking_off(step: Any, done: np.ndarray, last: np.ndarray) -> Any:
+        following = step.toward(np.full(len(done), 8.0))
+        length = step.length(following)
+        return following, length, length
+
+    seen: dict[str, Any] = {}
+    adjusted = _misclosure(g11, seen)
+    linear = misclosure.misclosures(*seen["args"], **seen["kwargs"], iterations=1)
+    monkeypatch.setattr(misclosure, "controlled", walking_off)
+    m = _misclosure(g11, seen)
+    intr = np.stack([np.stack([v.intrinsics for v in row]) for row in g11.views])
+    bound = _pixels_alone(seen["x0"], seen["C"], intr, seen["valid"])
+    assert (m.chi2 <= bound * (1 + 1e-6)).all()
+    assert m.chi2[1] == pytest.approx(linear.chi2[1], rel=1e-9)  # 92.9, not 77.9
+    assert m.iterations[1] == 1
+    assert adjusted.chi2[1] < linear.chi2[1]
