@@ -15,7 +15,6 @@ named so: a per-method table repeats its header above the methods whose axes dif
 
 from __future__ import annotations
 
-import math
 import textwrap
 from pathlib import Path
 
@@ -24,6 +23,7 @@ import pandas as pd
 from analysis.report.answer import (
     flagged_lines,
     noise_phrases,
+    off_truth_notes,
     session_order,
     shown_name,
     skew_phrases,
@@ -181,32 +181,10 @@ def closing_lines(verdict: list[str], out: Path, *, width: int | None = 80) -> l
     return lines
 
 
-#: A run's trials off their truths said when this unlikely by chance (each 1 in 1000).
-_OFF_TRUTH_P = 0.01
-
-
 def _off_truth_lines(trials: pd.DataFrame, width: int | None) -> list[str]:
-    """Per method, the run's trials flagged by their truth, where more than chance makes
-    (a binomial tail at :data:`_OFF_TRUTH_P`, each 1 in 1000): one or two a session, a
-    rig's unknown constants go unsaid by every session line (a new user's r6 G10: 10 of
-    48 trials over 12 sessions, regions covering 35%, every line "agree")."""
-    from twopose.uncertainty.blunders import TRUTH_LEVEL
-    from twopose.uncertainty.noise_words import off_truth_words
-
-    if "flagged_by" not in trials or "nees_dof" not in trials:
-        return []
+    """The run's trials off their truths per method, where more than chance makes them
+    (:func:`analysis.report.answer.off_truth_notes`), as ``note:`` lines."""
     lines: list[str] = []
-    ok = trials[(trials["status"] == "ok") & (pd.to_numeric(trials["nees_dof"]) > 0)]
-    for method, part in ok.groupby("method", sort=False):
-        off = int((part["flagged_by"] == "truth").sum())
-        if off >= 2 and _at_least(off, len(part), TRUTH_LEVEL) < _OFF_TRUTH_P:
-            said = f"note: {method}: {off_truth_words(off, len(part))}"
-            lines += wrap_phrases(said.split(" "), width)
+    for said in off_truth_notes(trials):
+        lines += wrap_phrases(f"note: {said}".split(" "), width)
     return lines
-
-
-def _at_least(k: int, n: int, p: float) -> float:
-    """A binomial's upper tail ``P(X >= k)`` on ``n`` trials of chance ``p`` (by its terms:
-    the terminal imports no estimation library, so that a re-run from the cache stays light)."""
-    below = sum(math.comb(n, i) * p**i * (1 - p) ** (n - i) for i in range(min(k, n + 1)))
-    return max(0.0, 1.0 - below)

@@ -38,6 +38,7 @@ from recorder.console.transport import ACCEPT_BURST, MAX_HEADER_BYTES, GuardedH1
 from recorder.live.pointing import FloorView, LivePointing, PointingSettings
 from recorder.live.pointing_feed import PointingFeed
 from recorder.procedure import stops
+from recorder.procedure.stream_source import check_sizes
 from twopose.display import fonts as webfonts
 from twopose.errors import InputValueError, SourceError, TwoposeError
 from twopose.methods.specs import Method, spec_of
@@ -241,6 +242,11 @@ def serve_pointing(request: PointRequest) -> None:
         source.open()
     except TwoposeError as err:
         raise SourceError(f"--source {request.source}: {err}") from err
+    try:  # and one whose frames are not the size its calibration was made at
+        check_sizes(source, (live.pair.intrinsics1, live.pair.intrinsics2))
+    except BaseException:
+        source.close()
+        raise
     for n, camera in enumerate(source.cameras, start=1):
         print(f"camera {n}: {camera.text()}", flush=True)
     try:

@@ -275,6 +275,10 @@ class LivePointing:
         self._track: deque[tuple[float, float, float]] = deque()  # (t_ns, across, ahead)
         # The last pairs' detections (u1, v1, u2, v2): two copies of one recording alike.
         self._alike: deque[tuple[float, float, float, float]] = deque(maxlen=COPY_PAIRS)
+        # A copy, once seen, stays one: the cameras do not change while they run, and a
+        # copy's target pausing (its pixels still) voided no point for a while (a new
+        # user's r7 K1: green `conditioning: ok` at 4 s between two amber warnings)
+        self._copied = ""
         self._ended = False
         self.seq = 0
 
@@ -425,6 +429,14 @@ class LivePointing:
         share = (time.thread_time_ns() - start) // len(batch)
         return self._said(e, batch, share)
 
+    def _copy_warning(self, alike: F64) -> str:
+        """What voids the pair's points as copies (:mod:`twopose.pair.copied_view`): a copy
+        seen over the last :data:`COPY_PAIRS` pairs, kept from then on; else, a target
+        still at one pixel in both cameras, which cannot be told from one ("" else)."""
+        view = CopiedView.of(alike[:, :2], alike[:, 2:])
+        self._copied = self._copied or view.words()
+        return self._copied or view.held_words()
+
     def _said(
         self, e: StreamEstimate, batch: list[tuple[_Seen, _Seen, int]], share_ns: int
     ) -> list[PointingEstimate]:
@@ -462,7 +474,7 @@ class LivePointing:
                     done_ns=now,
                     cpu_ns=first.cpu_ns + second.cpu_ns + share_ns,
                     noise=noise,
-                    warning=CopiedView.of(alike[:, :2], alike[:, 2:]).words(),
+                    warning=self._copy_warning(alike),
                 )
             )
             self.seq += 1

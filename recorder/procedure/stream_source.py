@@ -16,7 +16,7 @@ from twopose.errors import InputValueError, SourceError
 
 if TYPE_CHECKING:
     from recorder.sources.pair import PairSource
-    from twopose.camera.model import Camera
+    from twopose.camera.model import Intrinsics
     from twopose.format.entries import SessionInfo
 
 __all__ = ["FIRST_FRAME_S", "check_sizes", "first_frames", "with_clocks"]
@@ -79,10 +79,12 @@ def _refuse_silent(source: PairSource, n: int) -> None:
     )
 
 
-def check_sizes(source: PairSource, cameras: Sequence[Camera]) -> None:
-    """Each camera's frames must have its calibration's size (the pair's)."""
-    for n, (stream, camera) in enumerate(zip(source.cameras, cameras, strict=True), start=1):
-        k, i = camera.intrinsics, stream.info
+def check_sizes(source: PairSource, intrinsics: Sequence[Intrinsics]) -> None:
+    """Each camera's frames must have its calibration's size (the pair's): a recording's
+    and ``point``'s alike (a new user's r7 K2: ``point`` drew 320x240 frames through a
+    640x480 pair as green points 2.4 in off, ten times their regions)."""
+    for n, (stream, k) in enumerate(zip(source.cameras, intrinsics, strict=True), start=1):
+        i = stream.info
         if (i.width, i.height) != (k.width, k.height):
             raise InputValueError(
                 f"camera {n} ({stream.spec}) delivers {i.width}x{i.height} frames, but the "

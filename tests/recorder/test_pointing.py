@@ -187,6 +187,35 @@ def test_point_refuses_in_words_what_it_cannot_show(tmp_path):
         assert "Traceback" not in result.output
 
 
+def test_point_refuses_frames_of_another_size_than_the_pairs_as_a_recording_does(tmp_path):
+    """A new user's r7 K2: `point` drew 320x240 frames through a 640x480 pair as green
+    points 2.4 in off (ten times their regions), where `new --pair` refused the same."""
+    import cv2
+    from typer.testing import CliRunner
+
+    from recorder.cli.app import app
+    from twopose.pair.pair_file import write_pair_file
+
+    pair = tmp_path / "pair.toml"
+    write_pair_file(pair, PointingClip(Method.POINT).pair)  # both cameras 640x480
+    videos = []
+    for name in ("a.avi", "b.avi"):
+        writer = cv2.VideoWriter(str(tmp_path / name), cv2.VideoWriter.fourcc(*"MJPG"), 10.0,
+                                 (320, 240))  # fmt: skip
+        for _ in range(5):
+            writer.write(np.zeros((240, 320, 3), np.uint8))
+        writer.release()
+        videos.append(f"video:{tmp_path / name}")
+    result = CliRunner().invoke(app, ["point", "--pair", str(pair), "--source",
+                                      "pair:" + ",".join(videos), "--method", "point",
+                                      "--port", "0"])  # fmt: skip
+    assert result.exit_code != 0
+    assert "delivers 320x240 frames, but the pair's camera 1 is calibrated for 640x480" in (
+        result.output
+    )
+    assert "Traceback" not in result.output
+
+
 def test_a_recording_feeds_the_panel_from_its_own_thread(ground_stream):
     """Frames handed over as a recording writes them: the estimates published in order
     (the same as the pointing's own), the panel told when frames stop and why it ended."""
@@ -199,9 +228,12 @@ def test_a_recording_feeds_the_panel_from_its_own_thread(ground_stream):
     worker = PointingThread(
         LivePointing(Method.GROUND, clip.pair), feed, about(Method.GROUND, clip.pair)
     )
+    # before any frame: two cameras open, no trial streaming (not "no pair running")
+    seen, (idle,), _ = feed.after(0, 1.0)
+    assert (idle["running"], idle["words"]) == (False, IDLE_WORDS)
     for frame in frames:
         worker.give(frame)
-    seen, messages = 0, list[dict[str, Any]]()
+    messages = list[dict[str, Any]]()
     while not any(m.get("words") == IDLE_WORDS for m in messages):
         seen, new, missed = feed.after(seen, 5 * IDLE_S)
         assert new, "the panel was never told that the frames stopped"
@@ -377,3 +409,19 @@ def test_camera_2_showing_camera_1s_pictures_warns_every_pair_after_ten(ground_s
     assert "camera 2's frames look like camera 1's" in warned[-1], warned
     assert warned[0] == ""  # one pair tells nothing
     assert all(e.warning == "" for e in _live(Method.GROUND, clip, frames))
+
+
+def test_a_copy_once_seen_stays_one_while_its_target_pauses() -> None:
+    """A new user's r7 K1: a transcoded copy was amber at 2 s, green `conditioning: ok`
+    with a point at 4 s (its finger paused: the last 30 pairs' pixels no longer spread),
+    amber at 5.5 s. The cameras do not change while they run: a copy stays one; and a
+    target still at one pixel in both is "cannot tell", never nothing."""
+    live = LivePointing(Method.GROUND, PointingClip(Method.GROUND).pair)
+    moving = 20.0 * np.column_stack([np.cos(np.arange(30)), np.sin(np.arange(30))]) + 300
+    still = np.full((30, 2), 300.0)
+    assert "move it to tell" in live._copy_warning(np.hstack([still, still]))
+    assert "look like camera 1's" in live._copy_warning(np.hstack([moving, moving]))
+    assert "look like camera 1's" in live._copy_warning(np.hstack([still, still]))
+    apart = np.hstack([moving, moving + 40.0])
+    fresh = LivePointing(Method.GROUND, PointingClip(Method.GROUND).pair)
+    assert fresh._copy_warning(apart) == ""  # a real pair's: nothing to say

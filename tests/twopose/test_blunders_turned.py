@@ -217,3 +217,21 @@ def test_a_runs_trials_off_their_truths_are_said_once_per_method() -> None:
     assert said.startswith("note: ground: 10 of 48 trials lie off their truths")
     assert _off_truth_lines(trials(1, 48), None) == []  # one: a blunder's, said with it
     assert _off_truth_lines(trials(2, 5000), None) == []  # two in 5000: chance
+
+
+def test_the_report_says_a_runs_trials_off_their_truths_as_the_terminal_does() -> None:
+    """The run's off-truth line was the terminal's alone (the last stop's G10 note): the
+    report's noise section says it too, above the sessions' lines."""
+    from analysis.report.answer import noise_section
+
+    trials = pd.DataFrame({"method": "ground", "status": "ok", "nees_dof": 2,
+                           "session": "s.mcap", "flagged": False,
+                           "flagged_by": ["truth"] * 10 + [""] * 38})  # fmt: skip
+    summary = pd.DataFrame([{"session": "s.mcap", "label": "s", "method": "ground",
+                             "units": "in", "placing_sigma": 0.1, "placing_source": "typed",
+                             "sigma0": 1.0, "sigma0_dof": 9, "n_flagged": 0}])  # fmt: skip
+    section = " ".join(noise_section(summary, trials))
+    assert "ground: 10 of 48 trials lie off their truths beyond their regions" in section
+    assert section.index("off their truths") < section.index("<ul class='noise'>")
+    clean = trials.assign(flagged_by="")
+    assert "off their truths" not in " ".join(noise_section(summary, clean))

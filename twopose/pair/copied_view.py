@@ -80,6 +80,24 @@ class CopiedView:
             and self.spread_px >= MIN_SPREAD_PX
         )
 
+    @property
+    def coinciding(self) -> bool:
+        """Whether the target sat at one pixel in both cameras, moved or not.
+
+        A copy, or a target held still where a real pair's views cross: it cannot tell.
+        """
+        return self.pairs >= MIN_PAIRS and self.near >= COPIED_SHARE * self.pairs
+
+    def held_words(self) -> str:
+        """Where coinciding over a target held still: what cannot be told ("" else)."""
+        if not self.coinciding or self.copied:
+            return ""
+        return (
+            f"camera 2 saw the target at camera 1's pixel in {self.near} of {self.pairs} "
+            f"pairs over a target held still ({self.spread_px:.1f} px moved): two copies of "
+            "one recording, or a target where the cameras' views cross; move it to tell"
+        )
+
     def words(self) -> str:
         """The warning ("" where not copied)."""
         if not self.copied:

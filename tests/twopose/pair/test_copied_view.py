@@ -78,6 +78,13 @@ def test_a_target_held_still_where_a_real_pair_converges_is_no_copy() -> None:
     assert view.near == 30
     assert view.spread_px < MIN_SPREAD_PX
     assert not view.copied
+    # ... and no "ok" either: a copy of a still target looks the same (a new user's r7 K1:
+    # `pair:synthetic,synthetic`, one view in both cameras, drawn green at 34 in ahead)
+    assert view.coinciding
+    assert "move it to tell" in view.held_words()
+    assert view.words() == ""
+    track = 20.0 * np.column_stack([np.cos(np.arange(30)), np.sin(np.arange(30))]) + 300
+    assert CopiedView.of(track, track).held_words() == ""  # a copy moving: said as one
 
 
 @settings(max_examples=60, deadline=None)
@@ -100,7 +107,9 @@ def test_no_real_pair_looks_like_a_copy(
     one, two = _views(points, (pitch_deg, yaw_deg, 0.0), t)
     seen = np.isfinite(one).all(axis=1) & np.isfinite(two).all(axis=1)
     times = np.arange(30) * FRAME_NS
-    assert not copied_view((one[seen], two[seen]), (times[seen], times[seen])).copied
+    view = copied_view((one[seen], two[seen]), (times[seen], times[seen]))
+    assert not view.copied
+    assert not view.coinciding  # nor "cannot tell": a real pair's moving target is told
 
 
 def test_a_trials_offset_from_a_copy_is_refused_in_words() -> None:
