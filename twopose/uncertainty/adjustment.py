@@ -33,7 +33,7 @@ from twopose.arrays import F64, Bools, Ints
 from twopose.uncertainty.misclosure_models import TrialConditions
 from twopose.uncertainty.propagate import PLACING, Shared, jacobians
 
-__all__ = ["HALVINGS", "RISE", "Adjustment", "accepted", "controlled"]
+__all__ = ["HALVINGS", "RISE", "Adjustment", "Problem", "accepted", "controlled"]
 
 #: Eigen-directions of a covariance under this share of its largest are outside its range.
 _RANK_TOLERANCE = 1e-9
@@ -80,6 +80,23 @@ def controlled(step: Adjustment, done: Bools, last: F64) -> tuple[Adjustment, F6
 
 
 @dataclass(frozen=True, kw_only=True)
+class Problem:
+    """What every step of one adjustment shares.
+
+    The batch's conditions, its typed inputs ``x0`` (R, N, 9) and their covariance ``C``,
+    valid views, each trial's ``dof`` and the shared inputs
+    (:class:`twopose.uncertainty.propagate.Shared`, or None).
+    """
+
+    conditions: TrialConditions
+    x0: F64
+    C: F64
+    valid: Bools
+    dof: Ints
+    shared: Shared | None
+
+
+@dataclass(frozen=True, kw_only=True)
 class Adjustment:
     """One step of the Gauss-Helmert adjustment of a batch of trials (R rows).
 
@@ -93,12 +110,7 @@ class Adjustment:
     directions; ``dtheta`` and the multipliers ``k`` (``v = C B^T k``) are the step.
     """
 
-    conditions: TrialConditions
-    x0: F64
-    C: F64
-    valid: Bools
-    dof: Ints
-    shared: Shared | None
+    problem: Problem
     x: F64
     s: F64 | None
     theta: F64
@@ -114,35 +126,18 @@ class Adjustment:
     chi2: F64
 
     @classmethod
-    def start(
-        cls,
-        conditions: TrialConditions,
-        x0: F64,
-        C: F64,
-        valid: Bools,
-        dof: Ints,
-        shared: Shared | None,
-    ) -> Adjustment:
+    def start(cls, problem: Problem) -> Adjustment:
         """The first step: linearised at the typed inputs and the method's estimate."""
-        s0 = None if shared is None else shared.values
+        s0 = None if problem.shared is None else problem.shared.values
+        x0 = problem.x0
         full = x0 if s0 is None else np.concatenate([x0, s0], axis=-1)
         with np.errstate(invalid="ignore", divide="ignore"):
-            theta = conditions.estimate(full)
-        return cls._at(conditions, x0, C, valid, dof, shared, x0, s0, theta)
+            theta = problem.conditions.estimate(full)
+        return cls._at(problem, x0, s0, theta)
 
     @classmethod
-    def _at(  # noqa: PLR0913 - the problem (6, fixed) and where it is linearised (3)
-        cls,
-        conditions: TrialConditions,
-        x0: F64,
-        C: F64,
-        valid: Bools,
-        dof: Ints,
-        shared: Shared | None,
-        x: F64,
-        s: F64 | None,
-        theta: F64,
-    ) -> Adjustment:
+    def _at(cls, problem: Problem, x: F64, s: F64 | None, theta: F64) -> Adjustment:
+        conditions, x0, C, shared = problem.conditions, problem.x0, problem.C, problem.shared
         N = x.shape[1]
         M = 2 * N
         here = None if shared is None or s is None else dataclasses.replace(shared, values=s)
@@ -166,8 +161,8 @@ class Adjustment:
             cov = cov + np.einsum("rigs,rgsq,rjgq->rij", Js, shared.cov, Js)
         Jp = J[..., PLACING]
         placing = np.einsum("rinj,rnjk,rlnk->ril", Jp, C[..., PLACING, PLACING], Jp)
-        solved = _solve(w, cov, A, np.repeat(valid, 2, axis=1), dof)
-        return cls(conditions=conditions, x0=x0, C=C, valid=valid, dof=dof, shared=shared,
+        solved = _solve(w, cov, A, np.repeat(problem.valid, 2, axis=1), problem.dof)
+        return cls(problem=problem,
                    x=x, s=s, theta=theta, w=w, J=J, Js=Js, placing=placing, **solved)  # fmt: skip
 
     def toward(self, fraction: F64) -> Adjustment:
@@ -177,27 +172,36 @@ class Adjustment:
         linearised views) and the parameters ``theta + dtheta``.
         """
         f = fraction[:, None, None]
-        v = np.nan_to_num(np.einsum("rnjk,rmnk,rm->rnj", self.C, self.J, self.k))
-        x = np.where(np.isfinite(self.x0), self.x + f * (self.x0 + v - self.x), self.x0)
+        v = np.nan_to_num(np.einsum("rnjk,rmnk,rm->rnj", self.problem.C, self.J, self.k))
+        x = np.where(
+            np.isfinite(self.problem.x0),
+            self.x + f * (self.problem.x0 + v - self.x),
+            self.problem.x0,
+        )
         s = self.s
-        if self.shared is not None and self.Js is not None and s is not None:
-            G = self.shared.cov.shape[1]
-            vs = np.einsum("rgsq,rmgq,rm->rgs", self.shared.cov, self.Js, self.k)
-            s0 = _per_group(self.shared.values, self.shared.group, G)
-            s = s + f * (_per_view(s0 + vs, self.shared.group, self.shared.values) - s)
-        theta = self.conditions.moved(self.theta, fraction[:, None] * np.nan_to_num(self.dtheta))
-        return Adjustment._at(self.conditions, self.x0, self.C, self.valid, self.dof,
-                               self.shared, x, s, theta)  # fmt: skip
+        if self.problem.shared is not None and self.Js is not None and s is not None:
+            G = self.problem.shared.cov.shape[1]
+            vs = np.einsum("rgsq,rmgq,rm->rgs", self.problem.shared.cov, self.Js, self.k)
+            s0 = _per_group(self.problem.shared.values, self.problem.shared.group, G)
+            s = s + f * (
+                _per_view(s0 + vs, self.problem.shared.group, self.problem.shared.values) - s
+            )
+        theta = self.problem.conditions.moved(
+            self.theta, fraction[:, None] * np.nan_to_num(self.dtheta)
+        )
+        return Adjustment._at(self.problem, x, s, theta)
 
     def length(self, other: Adjustment) -> F64:
         """(R,) how far ``other``'s inputs lie from this one's, in the inputs' sigmas."""
-        total = _in_sigmas(other.x - self.x, np.diagonal(self.C, axis1=2, axis2=3))
-        if self.shared is not None and self.s is not None and other.s is not None:
-            G = self.shared.cov.shape[1]
-            moved = _per_group(other.s, self.shared.group, G) - _per_group(
-                self.s, self.shared.group, G
+        total = _in_sigmas(other.x - self.x, np.diagonal(self.problem.C, axis1=2, axis2=3))
+        if self.problem.shared is not None and self.s is not None and other.s is not None:
+            G = self.problem.shared.cov.shape[1]
+            moved = _per_group(other.s, self.problem.shared.group, G) - _per_group(
+                self.s, self.problem.shared.group, G
             )
-            total = total + _in_sigmas(moved, np.diagonal(self.shared.cov, axis1=2, axis2=3))
+            total = total + _in_sigmas(
+                moved, np.diagonal(self.problem.shared.cov, axis1=2, axis2=3)
+            )
         return np.asarray(np.sqrt(total))
 
     def pixels_alone(self) -> F64:
@@ -211,7 +215,7 @@ class Adjustment:
         N = M // 2
         rows = np.arange(N)
         G = self.J.reshape(R, N, 2, N, -1)[:, rows, :, rows, :3]  # (N, R, 2, 3) own pixels
-        S = np.einsum("nrij,rnjk,nrlk->nril", G, self.C[..., :3, :3], G)
+        S = np.einsum("nrij,rnjk,nrlk->nril", G, self.problem.C[..., :3, :3], G)
         g = np.moveaxis(self.w.reshape(R, N, 2), 1, 0)
         det = S[..., 0, 0] * S[..., 1, 1] - S[..., 0, 1] * S[..., 1, 0]
         scale = np.einsum("nrii->nr", S) ** 2
@@ -220,7 +224,7 @@ class Adjustment:
                         np.stack([-S[..., 1, 0], S[..., 0, 0]], -1)], -2)  # fmt: skip
         inv = inv / np.where(regular, det, 1.0)[..., None, None]
         cost = np.einsum("nri,nrij,nrj->nr", g, inv, g)
-        used = self.valid.T
+        used = self.problem.valid.T
         cost = np.where(used, np.where(regular, cost, np.inf), 0.0).sum(axis=0)
         return np.asarray(np.where(np.isfinite(self.chi2), cost, np.inf))
 
@@ -231,7 +235,7 @@ class Adjustment:
         rows: dict[str, Any] = {}
         for f in dataclasses.fields(self):
             mine, theirs = getattr(self, f.name), getattr(other, f.name)
-            if f.name not in _FIXED and isinstance(mine, np.ndarray):
+            if isinstance(mine, np.ndarray):
                 shape = (-1,) + (1,) * (mine.ndim - 1)
                 rows[f.name] = np.where(take.reshape(shape), theirs, mine)
         return dataclasses.replace(self, **rows)
@@ -259,10 +263,6 @@ class Adjustment:
             chi2[good], out_share[good], out_z[good], out_bias[good], kept[good] = parts
         chi2[kept == 0] = np.nan
         return chi2, out_share, out_z, out_bias, kept
-
-
-#: What every step of one adjustment shares (never merged row by row).
-_FIXED = frozenset({"x0", "C", "valid", "dof"})
 
 
 def _in_sigmas(change: F64, variance: F64) -> F64:

@@ -43,7 +43,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from twopose.arrays import F64, Bools, Ints
-from twopose.uncertainty.adjustment import Adjustment, accepted, controlled
+from twopose.uncertainty.adjustment import Adjustment, Problem, accepted, controlled
 from twopose.uncertainty.misclosure_models import (  # the models' home; here as before
     PLANES,
     RAYS,
@@ -142,7 +142,9 @@ def misclosures(
         return out
     # every row goes through (``conditions`` is bound to the whole batch); one without
     # redundancy, or whose estimate failed, is done from the start
-    step = first = Adjustment.start(conditions, inputs, input_cov, valid, dof, shared)
+    step = first = Adjustment.start(
+        Problem(conditions=conditions, x0=inputs, C=input_cov, valid=valid, dof=dof, shared=shared)
+    )
     done = (dof == 0) | ~np.isfinite(step.chi2)
     count = np.ones(T, dtype=np.int_)
     last = np.full(T, np.inf)  # the last step's length (in the inputs' sigmas)
