@@ -1,7 +1,7 @@
 """What a solver's estimate predicts of each view: the misclosure's condition equations.
 
-Each model (:class:`MisclosureModel`, the solver table's :attr:`SolverEntry.misclosure`
-<twopose.solve.entries.SolverEntry>) states where a trial's views agree with an estimate
+Each model (:class:`MisclosureModel`, held by the solver table:
+:class:`twopose.solve.entries.SolverEntry`) states where a trial's views agree with an estimate
 ``theta`` whose parameters are explicit: ``r(x, theta) = 0``, two numbers a view, linear in
 the view's own pixels. A point's rays (:data:`RAYS`, ``theta`` its 3 coordinates): each
 view's dot minus the point projected. A 3-D line's planes (:data:`PLANES`, 4 parameters:
