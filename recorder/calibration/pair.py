@@ -482,6 +482,12 @@ def _refuse_combinations(r: PairRequest) -> None:
         )
     if r.floor_left is None and r.floor_right is not None:
         raise InputValueError("--floor-right needs --floor-left: the floor is in camera 1's frame")
+    if r.floor_left is None and r.board_thickness:
+        # a thickness with no floor still would be dropped without a word (a new user's r7 K9)
+        raise InputValueError(
+            "--board-thickness needs --floor-left: it is the floor board's printed face "
+            "above the floor"
+        )
 
 
 def _live_pairs(
