@@ -227,9 +227,7 @@ class InputSet:
         # a two-camera session has no typed poses, so no placing multiplier to share (a new
         # user's r7 K9: the note was said of one)
         named = {
-            s.head: _operators(s)
-            for s in self._analysed
-            if not any(p.file.pair for p in s.parts)
+            s.head: _operators(s) for s in self._analysed if not any(p.file.pair for p in s.parts)
         }
         return {head: names for head, names in named.items() if len(names) > 1}
 
