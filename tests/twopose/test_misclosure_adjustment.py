@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 from scipy import optimize, stats
 
@@ -153,6 +153,8 @@ def test_the_adjustment_never_ends_above_a_correction_that_closes_the_views(
     m = _misclosure(trials, seen)
     intr = np.stack([v.intrinsics for v in row])[None]
     bound = _pixels_alone(seen["x0"], seen["C"], intr, seen["valid"])
+    # a typo can put the planes' point behind a camera: no estimate there, nothing to adjust
+    assume(m.dof[0] > 0)
     assert m.dof[0] == 2
     assert 0 <= m.chi2[0] <= bound[0] * (1 + 1e-6)
 

@@ -86,7 +86,7 @@ def test_an_operator_3x_worse_than_typed_is_estimated_said_and_covered() -> None
     misclosure), 13 of 30 clean trials were flagged as typos ("check what you typed") and
     the regions covered 17 of 30. Now the trials' scatter estimates it (2-3.5x), says the
     data contradict the typed sigma, flags no clean trial, and the regions cover."""
-    within, flagged = 0, 0
+    within, flagged, solved = 0, 0, 0
     for seed in range(5):
         est, w = _run(seed, 3.0)
         f = est.factor
@@ -94,13 +94,19 @@ def test_an_operator_3x_worse_than_typed_is_estimated_said_and_covered() -> None
         assert f.estimated
         assert 1.8 < f.placing_scale < 3.6
         assert f.contradicted  # sigma0's test, on the scatter's 10 dof
-        assert f.dof == f.scatter_dof == 10  # (6 - 1) trials x 2 directions on the ground
-        assert "the scatter of this session's 6 trials of one target" in f.sources
-        within += int(np.sum(w))
+        # (n - 1) trials x 2 directions on the ground, n the trials with a point (a pair of
+        # poses whose planes meet the ground behind a camera has none: seeds 1 and 4)
+        ok = est.estimates.status == "ok"
+        n = int(ok.sum())
+        assert n >= 5
+        assert f.dof == f.scatter_dof == 2 * (n - 1)
+        assert f"the scatter of this session's {n} trials of one target" in f.sources
+        within += int(np.sum(w[ok]))
+        solved += n
         assert est.tests is not None
         flagged += int(est.tests.flagged.sum())
     assert flagged == 0
-    assert within >= 28
+    assert within >= solved - 2
 
 
 def test_typed_right_the_multiplier_stays_near_one() -> None:
@@ -147,13 +153,13 @@ def test_nothing_tests_the_typed_sigma_and_the_words_say_so() -> None:
 
 def test_a_truth_flag_where_nothing_tests_the_typed_sigma_names_the_operator_too() -> None:
     """Trials of different targets, two poses a trial, 3x worse than typed: the truth flags
-    clean trials (seed 1: trial 3), and their words no longer say only "check what you
+    clean trials (seed 2: trial 3), and their words no longer say only "check what you
     typed": nothing in the session tests the typed sigma."""
     from types import SimpleNamespace
 
     from analysis.tables.noise import UNTESTED_CAUSE, disagreement
 
-    trials = bench.apart(bench.session(Method.GROUND, 1, 4, 3.0, 2))
+    trials = bench.apart(bench.session(Method.GROUND, 2, 4, 3.0, 2))
     est = estimate_session(trials, EstimateOptions(), line_fits=False)
     assert est.tests is not None
     assert [est.tests.by(i) for i in range(4)] == ["", "", "truth", ""]

@@ -419,9 +419,9 @@ def estimate_stream(
     if one.in_step is not None:  # camera 1's frame at that time lost it: no detection
         late &= ~one.in_step
     status[late], reason[late] = NOT_INTERPOLATED, "camera 1 has no frames about camera 2's time"
-    warnings = margin_warnings(status, solved.margins, settings.estimate, spec.seen_on)
-    warned = np.array(warnings, dtype="<U96")
-    near = (status == "ok") & (warned != "")
+    judged = np.where(reason == "point behind a camera", "ok", status)  # near-singular first
+    warned = np.array(margin_warnings(judged, solved.margins, settings.estimate, spec.seen_on))
+    near = (judged == "ok") & (warned != "")
     status[near], reason[near] = NEAR_SINGULAR, warned[near]
     ok = status == "ok"
     point = np.where(ok[:, None], solved.point, np.nan)
