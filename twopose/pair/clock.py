@@ -15,7 +15,10 @@
   neighbouring gaps' shared camera-1 frames correlate them, less camera 1's noise's share
   of the curvature (a still frame's rate with the offset is its noise's), floored by a
   jackknife over runs of frames, plus camera 1's linear-interpolation error (its track's
-  bend between frames), the grid step's and the fitted clocks' own error. The minimum is
+  bend between frames), the grid step's and the fitted clocks' own error, and the
+  detector's error alike over frames about one place (the method's floor in a pair,
+  ``floor_px``: :meth:`DotTracks.systematic_ns`; a slow glove was 35 sigma off without
+  it). The minimum is
   taken over the frames every offset about it measures; the offsets searched are every
   offset a pair's clocks may differ by (:data:`twopose.values.bounds.CLOCK_OFFSET`, what
   ``simulate`` accepts) and a margin. Refused in words: a motion along the epipolar lines
