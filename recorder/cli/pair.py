@@ -153,6 +153,38 @@ def _said(name: str, found: tuple[bool, bool]) -> None:
     typer.echo(f"  {name}: board {words[found[0]]} in camera 1, {words[found[1]]} in camera 2")
 
 
+#: The moments a pair's calibration is asked for at least (docs: ten to twenty), and the
+#: views a camera's own intrinsics are fitted on at least, below which the command says
+#: what its sigmas leave out.
+ADVISED_VIEWS = 10
+
+
+def _few_views(run: PairCalibrationRun) -> list[str]:
+    """What a calibration on few moments leaves out of its sigmas, in words ([] if none).
+
+    The angles' and t's 1-sigma (and the leave-one-out check) hold given the intrinsics;
+    fitted on a camera's 3 or 4 own stills, the intrinsics' own error moved OpenCV's
+    photographs' pose 4 to 14 of those sigmas, with the check `passed` (a new user's r7 K7).
+    """
+    lines = []
+    if run.pair.n_views < ADVISED_VIEWS:
+        lines.append(
+            f"  warning: {run.pair.n_views} pairs: ten to twenty moments are advised, at "
+            "several places and tilts; the sigmas of so few say little"
+        )
+    fitted = [fit.n_views for fit in run.own if fit is not None]
+    if fitted and min(fitted) < ADVISED_VIEWS:
+        views = " and ".join(map(str, fitted))
+        lines.append(
+            f"  warning: each camera's intrinsics were fitted here on {views} views; the "
+            "sigmas above (and the leave-one-out check) hold given them, and the "
+            "intrinsics' own error, not in them, may move the pose further: calibrate each "
+            f"camera on {ADVISED_VIEWS} or more views (twopose-record calibrate) and give "
+            "--calibration-left and --calibration-right"
+        )
+    return lines
+
+
 def report_lines(run: PairCalibrationRun) -> list[str]:
     """What ``calibrate-pair`` says of its calibration, line by line."""
     pc, u = run.pair, run.pair.units
@@ -168,6 +200,7 @@ def report_lines(run: PairCalibrationRun) -> list[str]:
         f"{'stills' if run.live is None or run.live.stills else 'frames'}; "
         f"intrinsics: {pc.intrinsics_from}",
     ]
+    lines += _few_views(run)
     for dropped in pc.dropped:
         lines.append(f"  dropped as an outlier and fitted again: {dropped}")
     for skipped in run.skipped:

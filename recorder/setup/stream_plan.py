@@ -221,12 +221,16 @@ def touch_refusal(method: Method, pair: PairCalibration | None, units: Units, po
     ground height), within the units' ground tolerance (half a 1/16 in tape tick, half a
     millimetre: a one-camera ground truth's) plus three of the floor's height sigmas (a
     calibrated floor's). The point and line methods take any grid point (the dot's place, a
-    point the finger's line passes through): nothing is required of it."""
+    point the finger's line passes through) in front of both cameras; behind either, no
+    camera saw a target there (a sign typed wrong: a new user's r7 K4)."""
     import numpy as np
 
     from twopose.values.bounds import shown
     from twopose.values.units import unit_spec
 
+    behind = _behind(pair, units, point)
+    if behind:
+        return behind
     plane = spec_of(method).plane
     if plane is None or pair is None or pair.floor is None:
         return ""
@@ -249,3 +253,25 @@ def touch_refusal(method: Method, pair: PairCalibration | None, units: Units, po
         f"{units}): a {method} touch is where the finger meets {plane.name}, so its grid "
         "point must lie on it"
     )
+
+
+def _behind(pair: PairCalibration | None, units: Units, point: Vec3) -> str:
+    """Why ``point`` (camera 1's frame, ``units``) is behind a camera of ``pair`` ("": not)."""
+    import numpy as np
+
+    from twopose.values.bounds import shown
+
+    if pair is None:
+        return ""
+    mine = pair.in_units(units)
+    p = np.asarray(point, dtype=np.float64)
+    depths = (float(p[2]), float((mine.R_2_to_1.T @ (p - mine.t_2_in_1))[2]))
+    for camera, depth in enumerate(depths, start=1):
+        if depth <= 0.0:
+            shown_point = ", ".join(shown(v) for v in point)
+            return (
+                f"({shown_point}) lies {abs(depth):.4g} {units} behind camera {camera} (the "
+                "grid's z is camera 1's depth, ahead positive): no camera saw a target there: "
+                "check its signs"
+            )
+    return ""

@@ -76,6 +76,11 @@ def test_a_real_calibration_is_said_and_written(stills: Path, tmp_path: Path) ->
     assert ": passed" in text
     assert "the covariance is widened by a variance factor of" in text
     assert "floor: normal" in text
+    # five moments, each camera's intrinsics fitted on them: what the sigmas leave out is
+    # said (a new user's r7 K7: 3-4 stills printed a pose 4-14 sigmas off, `passed`)
+    assert "warning: 5 pairs: ten to twenty moments are advised" in text
+    assert "each camera's intrinsics were fitted here on 5 and 5 views" in text
+    assert "--calibration-left and --calibration-right" in text
     assert pc.floor is not None
     assert 80 < pc.baseline < 90
     assert pc.view_names[0] == "left01.jpg & right01.jpg"
@@ -119,6 +124,7 @@ def test_the_same_from_any_iterator_of_pairs_and_given_intrinsics(
     )  # fmt: skip
     assert result.exit_code == 0, result.output
     assert f"intrinsics: calibration files {tmp_path / 'left.toml'} and" in result.output
+    assert "intrinsics were fitted here" not in result.output  # given: nothing left out
     assert np.allclose(read_pair_file(out).R_2_to_1, run.pair.R_2_to_1, atol=1e-12)
     # The files swapped (a new user's: the pair 30 sigma off, "passed"): refused, none written.
     swapped = tmp_path / "SWAPPED.toml"

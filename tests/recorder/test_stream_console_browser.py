@@ -66,8 +66,18 @@ def test_the_page_starts_touches_and_ends_a_stream_trial(
             driver.find_element("id", "stream-start").click()
             _wait(lambda: _on(driver, "stream-touch"))
             assert not _on(driver, "stream-start")
-            for axis, value in zip("xyz", ("0.75", "0.5", "11"), strict=True):
+            # a mistyped touch is refused in words next to the button, and they stay
+            # (the next state's render hid them at once: a new user's r7 K4)
+            for axis, value in zip("xyz", ("0,75", "0.5", "11"), strict=True):
                 driver.find_element("id", f"stream-{axis}").send_keys(value)
+            driver.find_element("id", "stream-touch").click()
+            refusal = driver.find_element("id", "stream-refusal")
+            _wait(lambda: refusal.is_displayed() and "0,75" in refusal.text)
+            time.sleep(1.0)  # several polls of the state
+            assert refusal.is_displayed()
+            assert "0,75" in refusal.text
+            driver.find_element("id", "stream-x").clear()
+            driver.find_element("id", "stream-x").send_keys("0.75")
             driver.find_element("id", "stream-touch").click()
             _wait(lambda: "touch 1 at (0.75, 0.5, 11) by button" in driver.find_element(
                 "id", "stream-touches").text)  # fmt: skip

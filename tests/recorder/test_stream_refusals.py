@@ -94,6 +94,12 @@ def test_a_ground_touch_must_lie_on_the_floor_the_others_anywhere() -> None:
     assert touch_refusal(Method.GROUND, pair, Units.MM, (10.0, 245.0, 300.0)) != ""
     for method in (Method.POINT, Method.LINE):
         assert touch_refusal(method, pair, Units.IN, (3.455, 0.0, 7.375)) == ""
+    # behind a camera, whatever the method: a sign typed wrong (a new user's r7 K4: a
+    # ground touch at z -7.375, on the floor, 7 in behind camera 1, was taken)
+    for method in Method.GROUND, Method.POINT, Method.LINE:
+        behind = touch_refusal(method, pair, Units.IN, (3.455, 9.625, -7.375))
+        assert "lies 7.375 in behind camera 1" in behind, method
+        assert "check its signs" in behind
     # a calibrated floor, tilted 10 deg: normal . p = height, widened by its height's sigma
     from twopose.pair.calibration import FloorPlane
 

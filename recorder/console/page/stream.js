@@ -6,6 +6,10 @@
 "use strict";
 
 const STREAM_INPUTS = {x: "stream-x", y: "stream-y", z: "stream-z"};
+// A start, touch or end the server refused at once ({message, at}): said next to its
+// button until the step moves on or the operator acts again (the next state's render
+// hid it at once: a new user's r7 K4, `1,455` and `1e3` dropped without a word).
+let streamRefusal = null;
 
 function renderStream(s) {
   const stream = s.stream;
@@ -30,10 +34,12 @@ function renderStream(s) {
   if (changed("stream-ended", stream.ended)) {
     $("stream-ended").replaceChildren(...(stream.ended || []).map((line) => el("li", line)));
   }
+  if (streamRefusal && streamRefusal.at !== stepOf(s)) streamRefusal = null;
   const r = s.refusal || {};
-  const refused = r.seq && ["start", "touch", "end"].includes(r.control) && r.seq > dismissedRefusal;
+  const theirs = r.seq && ["start", "touch", "end"].includes(r.control) && r.seq > dismissedRefusal;
+  const refused = streamRefusal ? streamRefusal.message : theirs ? r.message : "";
   show($("stream-refusal"), !!refused);
-  setText($("stream-refusal"), refused ? r.message : "");
+  setText($("stream-refusal"), refused);
 }
 
 async function streamAction(action) {
@@ -42,13 +48,15 @@ async function streamAction(action) {
     for (const [key, id] of Object.entries(STREAM_INPUTS)) body[key] = $(id).value;
   }
   sent = {what: action, words: action === "touch" ? "touch sent" : action + " sent"};
+  streamRefusal = null;
   const answer = await post("/api/stream", body);
   for (const [key, id] of Object.entries(STREAM_INPUTS)) {
     $(id).classList.toggle("invalid", !answer.ok && !!(answer.errors || {})[key]);
   }
   if (!answer.ok) {
+    streamRefusal = {message: answer.error || "refused", at: stepOf(state)};
     show($("stream-refusal"), true);
-    setText($("stream-refusal"), answer.error);
+    setText($("stream-refusal"), streamRefusal.message);
   }
 }
 
