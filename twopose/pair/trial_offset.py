@@ -195,7 +195,12 @@ def measure_trial_offset(
     try:
         found.append(
             offset_from_ray_gap(
-                pair, tracks[0], times[0], tracks[1], times[1], angles_deg=angles_deg,
+                pair,
+                tracks[0],
+                times[0],
+                tracks[1],
+                times[1],
+                angles_deg=angles_deg,
                 floor_px=floor_px,
             )
         )
