@@ -36,6 +36,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -55,7 +56,7 @@ LINE_STEP_PX = 10.0
 #: detector's error in it is another (:meth:`DotTracks.systematic_ns`). Over rendered
 #: gloves at 2 and 10 in/s, 5 px left the offsets' errors about 1 of their sigmas.
 POSE_PX = 5.0
-_CHUNK = 512  # rows of the gaps' correlation computed at a time
+_GRID = 2000  # the most cells a side of the grid the gaps' correlation is summed on
 
 
 def epipolar_gap_px(pair: PairCalibration, u1: F64, u2: F64) -> F64:
@@ -357,11 +358,19 @@ class DotTracks:
         info = float((s**2 / v).sum())
         if not info > 0:
             return 0.0
+        # a^T C a by binning a at each frame's pixel (1 px, or coarser over a huge span)
+        # and blurring by the Gaussian: a sum over pairs of frames without the pairs.
         a = s / v / info
-        total = 0.0
-        for k in range(0, a.size, _CHUNK):  # C a by rows: a long trial's C is not held
-            r2 = ((place[k : k + _CHUNK, None, :] - place[None, :, :]) ** 2).sum(axis=-1)
-            total += float(a[k : k + _CHUNK] @ (np.exp(-0.5 * r2 / POSE_PX**2) @ a))
+        step = max(1.0, float(np.ptp(place, axis=0).max()) / _GRID)
+        cell = np.round((place - place.min(axis=0)) / step).astype(np.intp)
+        binned = np.zeros(tuple(int(n) + 1 for n in cell.max(axis=0)), dtype=np.float64)
+        np.add.at(binned, (cell[:, 0], cell[:, 1]), a)
+        taps = np.arange(-np.ceil(4 * POSE_PX / step), np.ceil(4 * POSE_PX / step) + 1)
+        kernel = np.exp(-0.5 * (taps * step / POSE_PX) ** 2)
+        blurred = cv2.sepFilter2D(
+            binned, cv2.CV_64F, kernel, kernel, borderType=cv2.BORDER_CONSTANT
+        )
+        total = float((binned * blurred).sum())
         return float(np.sqrt(2.0 * max(total, 0.0)) * floor_px)
 
     def interpolation_ns(self, offset_ns: float, step_ns: float, *, half: bool = False) -> float:
