@@ -9,7 +9,7 @@ degrees of freedom (a 16-capture board: its measured variance drawn as the truth
 chi-square(42) / 42); the operator's hand is 1x or 1.45x the board's true sigma; in the
 blunder cells a trial in five carries a pose typed about 1 in off (9 of the board's
 sigmas in one direction). Each operator's sessions are analysed as a run does
-(:func:`twopose.uncertainty.placing_variance.operator_priors`, then
+(:func:`twopose.uncertainty.operator_pool.operator_priors`, then
 :func:`twopose.uncertainty.session_noise.noise_from`): **now**, the board tested once over
 the operator's pooled trials before any trial is flagged against it; **before**, each
 session's own test on the trials the board left unflagged. Per cell: operators whose board
@@ -35,7 +35,7 @@ from doc_figures import run_recorded  # type: ignore[import-not-found]  # benchm
 from twopose.arrays import Bools
 from twopose.uncertainty.misclosure import Misclosure
 from twopose.uncertainty.noise import NoiseModel, PlacingSigma
-from twopose.uncertainty.placing_variance import operator_priors
+from twopose.uncertainty.operator_pool import operator_priors
 from twopose.uncertainty.session_noise import NoiseResult, noise_from, session_statistics
 
 #: The docs include this file (``--write-docs`` writes it).

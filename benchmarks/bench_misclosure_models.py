@@ -59,9 +59,9 @@ from twopose.sim.scene import Scene  # noqa: E402
 from twopose.solve.estimate import EstimateOptions  # noqa: E402
 from twopose.solve.nview import projection_matrices, triangulate_points  # noqa: E402
 from twopose.solve.session import SessionEstimate, SessionTrials, estimate_session  # noqa: E402
-from twopose.uncertainty.misclosure import ray_residuals  # noqa: E402
+from twopose.uncertainty.misclosure_models import ray_conditions  # noqa: E402
 from twopose.uncertainty.noise import NoiseModel, PlacingPrior  # noqa: E402
-from twopose.uncertainty.placing_variance import operator_priors  # noqa: E402
+from twopose.uncertainty.operator_pool import operator_priors  # noqa: E402
 from twopose.uncertainty.propagate import PLACING, jacobians  # noqa: E402
 from twopose.uncertainty.session_noise import operator_group, session_statistics  # noqa: E402
 
@@ -120,7 +120,9 @@ def quadratic_form(x: np.ndarray, C: np.ndarray, intrinsics: np.ndarray) -> np.n
     def flat(v: np.ndarray) -> np.ndarray:
         intr = np.broadcast_to(intrinsics, (v.shape[0], *intrinsics.shape))
         P = projection_matrices(intr, rotation_from_angles_deg(v[..., 6:9]), v[..., 3:6])
-        return ray_residuals(v, P, np.ones(v.shape[:2], dtype=bool)).reshape(v.shape[0], 2 * N)
+        valid = np.ones(v.shape[:2], dtype=bool)
+        X = triangulate_points(v[..., :2], P, valid=valid).point_grid  # the thesis' point
+        return ray_conditions(v, X, P, valid).reshape(v.shape[0], 2 * N)
 
     J, _ = jacobians(flat, x, C, 2 * N)
     cov = np.einsum("rinj,rnjk,rlnk->ril", J, C, J)

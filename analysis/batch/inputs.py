@@ -224,7 +224,11 @@ class InputSet:
     def of_operators(self) -> dict[str, tuple[str, ...]]:
         """The sessions ``run`` analyses whose parts two or more operators recorded (a
         ``--continue --operator``), by their first part's path: their operators."""
-        named = {s.head: _operators(s) for s in self._analysed}
+        # a two-camera session has no typed poses, so no placing multiplier to share (a new
+        # user's r7 K9: the note was said of one)
+        named = {
+            s.head: _operators(s) for s in self._analysed if not any(p.file.pair for p in s.parts)
+        }
         return {head: names for head, names in named.items() if len(names) > 1}
 
     def operator_notes(self) -> list[str]:

@@ -3,12 +3,12 @@ its operator's other sessions (issue 54).
 
 A session's regions depend on its operator's other sessions in the run (the placing
 variance's multiplier is shrunk toward theirs:
-:func:`twopose.uncertainty.placing_variance.operator_priors`).
+:func:`twopose.uncertainty.operator_pool.operator_priors`).
 So a run whose sessions share an operator (the session entry's ``operator``, the same
 method: one setup) analyses them in two passes:
 
 1. :func:`noise_pass`: each such session replayed and detected once, its trials'
-   misclosures (:class:`twopose.uncertainty.placing_variance.SessionNoise`, a few numbers per
+   misclosures (:class:`twopose.uncertainty.operator_pool.SessionNoise`, a few numbers per
    trial),
    kept by the session cache under the session's own key, and its detections handed on;
 2. the run's priors (:func:`operator_priors_of`, cheap: every trial's likelihood on one
@@ -38,7 +38,7 @@ from analysis.session.detection import Detections
 from analysis.session.pipeline import corrected_trials, replay_views
 from twopose.solve.session import estimate_session
 from twopose.uncertainty.noise import PlacingPrior
-from twopose.uncertainty.placing_variance import SessionNoise, operator_priors
+from twopose.uncertainty.operator_pool import SessionNoise, operator_priors
 from twopose.uncertainty.session_noise import (
     operator_group,
     session_base_in,

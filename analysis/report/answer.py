@@ -35,7 +35,7 @@ from twopose.uncertainty.noise import (
     OPERATOR_DATA,
     TYPED_PRIOR_DOF,
 )
-from twopose.uncertainty.placing_variance import BAARDA_LEVEL
+from twopose.uncertainty.robust_flags import BAARDA_LEVEL
 
 __all__ = [
     "ANSWER_COLUMNS",

@@ -472,16 +472,16 @@ def _refuse_combinations(r: PairRequest) -> None:
         raise InputValueError("give both cameras' stills: --left and --right")
     if r.source is None and r.views is not None:
         raise InputValueError(
-            "--views counts the pairs kept from a live --source; every pair of stills given "
-            "by --left and --right is used"
+            "--views counts the pairs kept from a live --source; every pair of stills is used"
         )
     if (r.calibration_left is None) != (r.calibration_right is None):
         raise InputValueError(
             "give both cameras' calibration files (--calibration-left and --calibration-right) "
             "or neither (each camera is then fitted on its own stills)"
         )
-    if r.floor_left is None and r.floor_right is not None:
-        raise InputValueError("--floor-right needs --floor-left: the floor is in camera 1's frame")
+    if r.floor_left is None and (r.floor_right is not None or r.board_thickness):  # r7 K9
+        which = "--floor-right" if r.floor_right is not None else "--board-thickness"
+        raise InputValueError(f"{which} needs --floor-left: the floor is in camera 1's frame")
 
 
 def _live_pairs(

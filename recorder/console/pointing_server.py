@@ -88,6 +88,11 @@ def about(
         "span": _SPAN_IN * unit_factor(Units.IN, units),
         "method": spec.method.value,
     }
+    # a pair whose covariance its check did not confirm: every region here carries it
+    # (docs: "said wherever its covariance is used"; a new user's r7 K8: `point` said nothing)
+    unconfirmed = pair.check.unconfirmed() if pair.check is not None else ""
+    if unconfirmed:
+        said["about"] += f"; warning: {unconfirmed}"
     if cameras is not None:
         said["cameras"] = [c.text() for c in cameras]
         said["fps"] = min(c.info.fps for c in cameras)
@@ -114,6 +119,13 @@ def run_pointing(
             for frame in source.frames():
                 if stop.is_set():
                     why = "stopped"
+                    break
+                # the other camera's file or folder ended: the pairs end with it, said
+                # (a new user's r7 K10: its last point stayed green 2.4 s, then "the
+                # cameras' streams ended", camera 1's file played to its end)
+                if ran_out := source.ran_out(frame):
+                    feed.publish(live.end())
+                    why = f"the pair stopped: {ran_out}"
                     break
                 feed.publish(live.add_frame(frame))
             else:
@@ -249,6 +261,8 @@ def serve_pointing(request: PointRequest) -> None:
         raise
     for n, camera in enumerate(source.cameras, start=1):
         print(f"camera {n}: {camera.text()}", flush=True)
+    if live.pair.check is not None and live.pair.check.unconfirmed():
+        print(f"warning: {live.pair.check.unconfirmed()}", flush=True)
     try:
         sock = _listening(request.host, request.port)
     except BaseException:  # refused, or a stop before the page was served

@@ -5,7 +5,7 @@ A session's live result estimates the placing variance's multiplier from its own
 and a prior (:mod:`twopose.uncertainty.placing_variance`); a lab's operator records session after
 session, and their earlier sessions are that prior, exactly as the analysis pools the
 same operator's other sessions of a run
-(:func:`twopose.uncertainty.placing_variance.operator_priors`,
+(:func:`twopose.uncertainty.operator_pool.operator_priors`,
 one rule). At the end of every recording whose setup names an operator, the recorder adds
 the session's trials' misclosures (a few numbers per trial with redundant poses) to the
 operator's file; when a recording starts, the file's sessions of the same method, relative
@@ -38,7 +38,7 @@ from twopose.errors import InputValueError
 from twopose.methods.specs import Method
 from twopose.solve.margins import EstimateOptions
 from twopose.uncertainty.noise import PlacingPrior
-from twopose.uncertainty.placing_variance import SessionNoise, operator_priors
+from twopose.uncertainty.operator_pool import SessionNoise, operator_priors
 from twopose.values.operators import operator_key
 from twopose.values.units import Units, unit_spec
 

@@ -57,6 +57,9 @@ class PointingThread:
         self._closed = False
         self._offset: ClockOffset | None = None  # to use from the next frame on
         self.dropped = 0  # frames the thread was too late for
+        # two cameras are open, no trial streams yet: said so from the start, not the
+        # feed's "no pair running (it needs two cameras)" (a new user's r7 K5)
+        self.feed.stop(IDLE_WORDS)
         self._thread = threading.Thread(target=self._run, name="pointing", daemon=True)
         self._thread.start()
 

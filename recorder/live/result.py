@@ -29,7 +29,7 @@ from twopose.rig.constants import RigConstants, check_applicable, corrected_grou
 from twopose.solve.estimate import EstimateOptions, GroundSpec, PoseView, measure, pose_view
 from twopose.solve.session import SessionTrials, estimate_session
 from twopose.uncertainty.noise import VarianceFactor
-from twopose.uncertainty.placing_variance import SessionNoise
+from twopose.uncertainty.operator_pool import SessionNoise
 from twopose.uncertainty.session_noise import session_base_in, session_statistics
 from twopose.values.operators import operator_key
 from twopose.values.units import Units

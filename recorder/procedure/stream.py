@@ -15,10 +15,12 @@ A touch's time is on **camera 1's capture clock** (the format's ``/twopose/touch
 or a button is stamped with the monotonic clock when it arrives (:class:`StreamEvent`);
 where camera 1's capture clock is the monotonic clock (a driver's stamps, the monotonic
 clock at grab, a video file or the synthetic camera paced from the pair's start) that is
-the touch's time; a folder of stills has no real time, and a key is then the capture time
-of camera 1's frame last recorded. Files alone (video files, folders) are replayed whole
+the touch's time. Files alone (video files, folders) are replayed whole
 (:meth:`recorder.sources.pair.PairSource.replay`: every frame in order, the first trial
-from the files' first frames), so that the same files and plan give the same session. A
+from the files' first frames), so that the same files and plan give the same session; a
+replay has no operator's time (a folder's stills none at all, a video's frames recorded at
+the machine's pace), and a key or a button is then the capture time of camera 1's frame
+last recorded, the one the operator sees. A
 trial's **start** is its first camera-1 frame's capture time; a scheduled touch is written
 when camera 1's clock passes it (one never reached, the trial ended first, is said).
 

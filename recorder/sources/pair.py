@@ -290,7 +290,8 @@ class PairSource(FrameSource):
             for n, (spec, feed) in enumerate(zip(self.specs, feeds, strict=True), start=1)
         )
         self.stills = all(f.lossless for f in feeds)
-        #: Stills alone, without real time (a key is camera 1's frame last recorded).
+        #: Stills alone, or files replayed whole: frames without the operator's time (a key
+        #: or a button is camera 1's frame last recorded, the one the operator sees).
         self.timeless = self.stills
         #: A video file among the feeds: its frames played before a trial are counted.
         self.files = any(f.recorded for f in feeds)
@@ -325,7 +326,11 @@ class PairSource(FrameSource):
             return False
         for feed in feeds:
             feed.lossless = feed.keep_late = True
-        self.stills = True
+        # A replay runs at the machine's pace, its frames stamped on the files' clock
+        # from when they opened: a touch stamped as it came landed seconds from the frame
+        # on the page (a new user's r7 K6: a button 1.0 s after start, 4.97 s into the
+        # trial's frames, past their end), so a touch takes the frame last recorded.
+        self.stills = self.timeless = True
         return True
 
     def open(self) -> SourceInfo:

@@ -18,7 +18,7 @@ from twopose.methods.specs import Method
 from twopose.rig.constants import RigConstants
 from twopose.rig.file import RigFile
 from twopose.uncertainty.noise import PlacingSigma
-from twopose.uncertainty.placing_variance import SessionNoise
+from twopose.uncertainty.operator_pool import SessionNoise
 from twopose.values.operators import operator_key, operators_of, spelled_apart
 from twopose.values.units import Units
 

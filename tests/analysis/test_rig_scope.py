@@ -27,7 +27,7 @@ from analysis.rig.scope import RIG_BESIDE, RigScope, RigUse, nearest_rig, rig_sc
 from tests.analysis.rig_helpers import runner
 from tests.lab import CAMERA, continue_session, record
 from twopose.errors import InputValueError
-from twopose.uncertainty.placing_variance import SessionNoise, operator_priors
+from twopose.uncertainty.operator_pool import SessionNoise, operator_priors
 
 #: A rig for the lab's camera (64x48, f 52.5), in inches, with a placing sigma.
 RIG = (

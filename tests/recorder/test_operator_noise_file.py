@@ -13,7 +13,7 @@ from recorder.live.operator_noise import NoiseFile, live_prior, remember_session
 from twopose.errors import InputValueError
 from twopose.methods.specs import Method
 from twopose.solve.estimate import EstimateOptions
-from twopose.uncertainty.placing_variance import SessionNoise
+from twopose.uncertainty.operator_pool import SessionNoise
 from twopose.values.units import Units
 
 STATS = SessionNoise(group="", chi2=np.array([2.0]), dof=np.array([3]),

@@ -221,6 +221,8 @@ def test_pairs_without_the_board_in_both_are_said_and_too_few_refused(
         (["--left", "NOWHERE/left*.jpg"], EXIT_ERROR, "matches no image"),
         (["--calibration-left", "CAL"], EXIT_ERROR, "give both cameras' calibration files"),
         (["--floor-right", "RIGHT01"], EXIT_ERROR, "--floor-right needs --floor-left"),
+        # a thickness with no floor still was dropped without a word (a new user's r7 K9)
+        (["--board-thickness", "3"], EXIT_ERROR, "--board-thickness needs --floor-left"),
         (["--board", "9x"], EXIT_ERROR, "--board: inner corners rows: type a"),
         (["--board", "nine"], EXIT_ERROR, "--board: type the board's inner corners as COLSxROWS"),
         # OpenCV's board search needs 3 or more each way (it raised cv2.error on 2x5)

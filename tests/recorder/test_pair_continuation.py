@@ -113,6 +113,13 @@ def test_a_plan_continues_a_pair_session_analysed_as_one(
     # one session: the touches of both parts, each trial with its part's offset, and each
     # part's rows what that part gives alone (one long recording, where that applies)
     both = analysis.run([str(out), str(first)]).trials.sort_values("trial")
+    # two operators' parts of a two-camera session: no placing multiplier to share, so no
+    # note that it has one (a new user's r7 K9)
+    from analysis.batch.inputs import resolve_inputs
+
+    inputs = resolve_inputs([out, first])
+    assert inputs.of_operators == {}
+    assert "operators" not in " ".join(inputs.run_notes())
     alone = [analysis.run([str(p)]).trials for p in (first, out)]
     assert list(both["trial"]) == [1, 2, 3, 4, 5, 6]
     assert list(both["touch"]) == [f"trial {t}, touch {k}" for t in (1, 2) for k in (1, 2, 3)]

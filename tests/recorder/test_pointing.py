@@ -216,6 +216,29 @@ def test_point_refuses_frames_of_another_size_than_the_pairs_as_a_recording_does
     assert "Traceback" not in result.output
 
 
+def test_a_pair_whose_covariance_its_check_did_not_confirm_is_said_on_the_panel() -> None:
+    """A new user's r7 K8: `point` drew regions from a pair whose leave-one-out check
+    failed without a word, where `new --pair` warns first."""
+    from recorder.console.pointing_server import about
+    from twopose.pair.holdout import HoldoutCheck
+
+    pair = PointingClip(Method.POINT).pair
+    failed = HoldoutCheck(
+        folds=5,
+        spacings=1209,
+        worst_sigmas=9.5,
+        beyond=40,
+        median_error=0.1,
+        median_sigma=0.1,
+        jackknife_ratio=(1.0,) * 6,
+    )
+    said = about(Method.POINT, dataclasses.replace(pair, check=failed))["about"]
+    assert "warning: the pair's covariance is not confirmed" in said
+    assert "9.5 sigma off, 40 of 1209 beyond 3" in said
+    passed = dataclasses.replace(failed, worst_sigmas=1.2, beyond=0)
+    assert "warning" not in about(Method.POINT, dataclasses.replace(pair, check=passed))["about"]
+
+
 def test_a_recording_feeds_the_panel_from_its_own_thread(ground_stream):
     """Frames handed over as a recording writes them: the estimates published in order
     (the same as the pointing's own), the panel told when frames stop and why it ended."""
@@ -228,9 +251,12 @@ def test_a_recording_feeds_the_panel_from_its_own_thread(ground_stream):
     worker = PointingThread(
         LivePointing(Method.GROUND, clip.pair), feed, about(Method.GROUND, clip.pair)
     )
+    # before any frame: two cameras open, no trial streaming (not "no pair running")
+    seen, (idle,), _ = feed.after(0, 1.0)
+    assert (idle["running"], idle["words"]) == (False, IDLE_WORDS)
     for frame in frames:
         worker.give(frame)
-    seen, messages = 0, list[dict[str, Any]]()
+    messages = list[dict[str, Any]]()
     while not any(m.get("words") == IDLE_WORDS for m in messages):
         seen, new, missed = feed.after(seen, 5 * IDLE_S)
         assert new, "the panel was never told that the frames stopped"
@@ -330,10 +356,14 @@ def test_ctrl_c_stops_point_with_exit_130_and_no_traceback(tmp_path, when):
     import subprocess
 
     from tests.helpers import RECORD, SMALL_SCENE, read_line_when_printed
+    from twopose.camera.model import Intrinsics
     from twopose.pair.pair_file import write_pair_file
 
     pair, scene = tmp_path / "pair.toml", tmp_path / "scene.toml"
-    write_pair_file(pair, PointingClip(Method.POINT).pair)
+    # the pair calibrated at the small scene's size (another is refused before serving)
+    small = Intrinsics(width=320, height=240, fx=262.5, fy=262.5, cx=160.0, cy=120.0)
+    clip = PointingClip(Method.POINT).pair
+    write_pair_file(pair, dataclasses.replace(clip, intrinsics1=small, intrinsics2=small))
     scene.write_text(SMALL_SCENE)
     camera = f"synthetic:{scene}"
     process = subprocess.Popen(
@@ -422,3 +452,40 @@ def test_a_copy_once_seen_stays_one_while_its_target_pauses() -> None:
     apart = np.hstack([moving, moving + 40.0])
     fresh = LivePointing(Method.GROUND, PointingClip(Method.GROUND).pair)
     assert fresh._copy_warning(apart) == ""  # a real pair's: nothing to say
+
+
+def test_a_camera_whose_file_ends_first_ends_the_pairs_and_is_named(tmp_path):
+    """A new user's r7 K10: `point` on two files, camera 2's shorter: its last point stayed
+    green for 2.4 s, then "the cameras' streams ended", camera 1's file played to its end.
+    The docs: the pairs end with the first file, which is named."""
+    import threading
+
+    import cv2
+
+    from recorder.console.pointing_server import run_pointing
+    from recorder.live.pointing_feed import PointingFeed
+    from recorder.sources.registry import SOURCE_KINDS, SourceOptions, open_from
+    from tests.recorder.moving_pair import write_moving_pair
+    from twopose.pair.pair_file import read_pair_file
+
+    made = write_moving_pair(tmp_path, seconds=2.0)
+    short = tmp_path / "short.avi"
+    read = cv2.VideoCapture(str(made.videos[1]))
+    writer = cv2.VideoWriter(str(short), cv2.VideoWriter.fourcc(*"MJPG"), 10.0, (320, 240))
+    for _ in range(6):
+        ok, image = read.read()
+        assert ok
+        writer.write(image)
+    writer.release()
+    read.release()
+    from recorder.sources.pair import PairSource
+
+    source = open_from(SOURCE_KINDS, f"pair:video:{made.videos[0]},video:{short}",
+                       SourceOptions(method=Method.POINT))  # fmt: skip
+    assert isinstance(source, PairSource)
+    feed = PointingFeed()
+    run_pointing(source, LivePointing(Method.POINT, read_pair_file(made.pair_file)), feed,
+                 threading.Event())  # fmt: skip
+    words = feed.status["words"]
+    assert words.startswith("the pair stopped: camera 2 ("), words
+    assert "ran out" in words

@@ -78,6 +78,15 @@ def test_the_page_starts_touches_and_ends_a_stream_trial(
             assert "0,75" in refusal.text
             driver.find_element("id", "stream-x").clear()
             driver.find_element("id", "stream-x").send_keys("0.75")
+            # behind camera 1 (a sign typed wrong): said once, next to the touch button
+            driver.find_element("id", "stream-z").clear()
+            driver.find_element("id", "stream-z").send_keys("-11")
+            driver.find_element("id", "stream-touch").click()
+            _wait(lambda: "behind camera 1" in refusal.text)
+            time.sleep(0.5)
+            assert not driver.find_element("id", "refusal").is_displayed()
+            driver.find_element("id", "stream-z").clear()
+            driver.find_element("id", "stream-z").send_keys("11")
             driver.find_element("id", "stream-touch").click()
             _wait(lambda: "touch 1 at (0.75, 0.5, 11) by button" in driver.find_element(
                 "id", "stream-touches").text)  # fmt: skip
@@ -93,3 +102,7 @@ def test_the_page_starts_touches_and_ends_a_stream_trial(
     (touch,) = trial.touches
     assert touch.how == "button"
     assert touch.point == (0.75, 0.5, 11.0)
+    # files are replayed at the machine's pace, stamped on their own clock from when they
+    # opened: the button is the frame camera 1 last recorded, the one on the page (a new
+    # user's r7 K6: stamped as it came, a touch landed seconds past the frames it meant)
+    assert touch.time_ns in set(trial.camera1.capture_ns.tolist())

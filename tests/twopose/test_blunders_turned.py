@@ -177,7 +177,7 @@ def test_a_trial_kept_out_lies_in_no_rest_and_still_counts_as_something_beside()
     test alone would flag it too (a 2-trial ground session of a 1.6x operator: 12.5% of
     clean trials flagged, against 5%)."""
     from twopose.uncertainty.noise import NoiseModel
-    from twopose.uncertainty.placing_variance import flag_trials
+    from twopose.uncertainty.robust_flags import flag_trials
 
     chi2, dof = np.array([0.3, 24.0]), np.array([3, 3])
     share = np.ones((2, 3))

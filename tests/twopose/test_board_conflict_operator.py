@@ -17,7 +17,7 @@ import pytest
 from twopose.uncertainty.misclosure import Misclosure
 from twopose.uncertainty.noise import NoiseModel, PlacingPrior, PlacingSigma
 from twopose.uncertainty.noise_words import noise_words
-from twopose.uncertainty.placing_variance import operator_priors
+from twopose.uncertainty.operator_pool import operator_priors
 from twopose.uncertainty.session_noise import NoiseResult, noise_from, session_statistics
 
 #: board16.mcap's fit: 0.11 +- 0.012 in on 42 dof.

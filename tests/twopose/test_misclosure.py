@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -16,7 +17,7 @@ from tests.helpers import load_benchmark
 from twopose.methods.specs import Method
 from twopose.solve.estimate import EstimateOptions
 from twopose.solve.session import estimate_session
-from twopose.uncertainty.misclosure import misclosures, pose_tests
+from twopose.uncertainty.misclosure import TrialConditions, misclosures, pose_tests
 
 bench = load_benchmark("bench_noise")
 SIGMA = 0.05
@@ -40,12 +41,32 @@ def test_misclosure_chi2_follows_its_dof_under_the_right_model(method: Method) -
     assert set(dof) == {2 * 3 - parameters}
 
 
-def _circle(x: np.ndarray) -> np.ndarray:
-    """A residual whose views agree where the first two views' x lie on the unit circle:
-    strongly non-linear at x = 3."""
-    r = np.zeros((x.shape[0], x.shape[1], 2))
-    r[:, 0, 0] = x[:, 0, 3] ** 2 + x[:, 1, 3] ** 2 - 1.0
-    return r
+def _conditions(first: Callable[[np.ndarray], np.ndarray]) -> TrialConditions:
+    """Two views' conditions: the first view's first is ``first(x)``, each other one a
+    pixel coordinate minus one of three parameters (so one condition is redundant)."""
+
+    def conditions(x: np.ndarray, theta: np.ndarray) -> np.ndarray:
+        th = np.tile(theta, (x.shape[0] // len(theta), 1))
+        r = np.zeros((x.shape[0], x.shape[1], 2))
+        r[:, 0, 0] = first(x)
+        r[:, 0, 1], r[:, 1, 0], r[:, 1, 1] = (x[:, 0, 1] - th[:, 0], x[:, 1, 0] - th[:, 1],
+                                              x[:, 1, 1] - th[:, 2])  # fmt: skip
+        return r
+
+    return TrialConditions(
+        conditions=conditions,
+        estimate=lambda x: np.stack([x[:, 0, 1], x[:, 1, 0], x[:, 1, 1]], axis=-1),
+        moved=lambda theta, step: theta + step,
+        parameters=3,
+    )
+
+
+def _cov(sigma_x: float) -> np.ndarray:
+    """Two views' inputs: pixels of 1 px, typed x of ``sigma_x``."""
+    cov = np.zeros((1, 2, 9, 9))
+    cov[0, :, 0, 0] = cov[0, :, 1, 1] = 1.0
+    cov[0, :, 3, 3] = sigma_x**2
+    return cov
 
 
 def test_the_misclosure_is_the_distance_to_where_the_views_agree_not_a_linearisation() -> None:
@@ -55,14 +76,13 @@ def test_the_misclosure_is_the_distance_to_where_the_views_agree_not_a_linearisa
     circle, (|x| - 1)^2 / sigma^2, which one linearisation at the typed x gets wrong."""
     x0 = np.zeros((1, 2, 9))
     x0[0, 0, 3], x0[0, 1, 3] = 3.0 / math.sqrt(2), 3.0 / math.sqrt(2)  # |x| = 3
-    cov = np.zeros((1, 2, 9, 9))
-    cov[0, :, 3, 3] = SIGMA**2
     valid = np.ones((1, 2), dtype=bool)
     exact = (3.0 - 1.0) ** 2 / SIGMA**2
-    linear = misclosures(_circle, x0, cov, valid, 3, iterations=1)
+    circle = _conditions(lambda x: x[:, 0, 3] ** 2 + x[:, 1, 3] ** 2 - 1.0)
+    linear = misclosures(circle, x0, _cov(SIGMA), valid, 3, iterations=1)
     # one linearisation: (|x|^2 - 1)^2 / (4 |x|^2 sigma^2), 1.78 / sigma^2 against 4 / sigma^2
     assert linear.chi2[0] == pytest.approx(64 / 36 / SIGMA**2, rel=1e-4)
-    iterated = misclosures(_circle, x0, cov, valid, 3)
+    iterated = misclosures(circle, x0, _cov(SIGMA), valid, 3)
     assert iterated.chi2[0] == pytest.approx(exact, rel=1e-4)
     assert iterated.iterations[0] > 1
     assert iterated.dof[0] == 1
@@ -73,14 +93,9 @@ def test_a_linear_misclosure_needs_one_step_and_its_w_tests_find_the_mistyped_co
     a 1 in error in the first view's typed x is found by its w-test, whole."""
     x0 = np.zeros((1, 2, 9))
     x0[0, 0, 3] = 1.0  # typed 1 in off
-    cov = np.zeros((1, 2, 9, 9))
-    cov[0, :, 3:6, 3:6] = np.eye(3) * SIGMA**2
-
-    def linear(x: np.ndarray) -> np.ndarray:
-        r = np.zeros((x.shape[0], x.shape[1], 2))
-        r[:, 0, 0] = x[:, 0, 3] - x[:, 1, 3]
-        return r
-
+    cov = _cov(SIGMA)
+    cov[0, :, 4, 4] = cov[0, :, 5, 5] = SIGMA**2
+    linear = _conditions(lambda x: x[:, 0, 3] - x[:, 1, 3])
     m = misclosures(linear, x0, cov, np.ones((1, 2), dtype=bool), 3)
     assert m.chi2[0] == pytest.approx(1.0 / (2 * SIGMA**2), rel=1e-6)
     assert m.iterations[0] <= 2  # the second step only confirms the first
@@ -107,7 +122,7 @@ def test_inputs_the_model_takes_as_exact_test_nothing() -> None:
     # no noise anywhere: no direction of the residuals to test (not chi2 0 on 3 dof)
     T, N = 2, 3
     zero = np.zeros((T, N, 9))
-    m = misclosures(lambda x: np.zeros((x.shape[0], N, 2)), zero, np.zeros((T, N, 9, 9)),
+    m = misclosures(_conditions(lambda x: 0.0 * x[:, 0, 3]), zero, np.zeros((T, N, 9, 9)),
                     np.ones((T, N), dtype=bool), 3)  # fmt: skip
     assert (m.dof == 0).all()
     assert np.isnan(m.chi2).all()

@@ -13,13 +13,9 @@ import pytest
 
 from twopose.uncertainty.hand import rebased
 from twopose.uncertainty.noise import PlacingPrior
-from twopose.uncertainty.placing_variance import (
-    GRID,
-    SessionNoise,
-    flag_trials,
-    operator_priors,
-    trial_loglik,
-)
+from twopose.uncertainty.operator_pool import SessionNoise, operator_priors
+from twopose.uncertainty.placing_variance import GRID, trial_loglik
+from twopose.uncertainty.robust_flags import flag_trials
 
 TYPED = PlacingPrior(scale=1.0, dof=2.0, source="the typed resolution")
 HAND_IN = 0.16

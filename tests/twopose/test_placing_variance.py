@@ -15,15 +15,14 @@ from twopose.methods.specs import Method
 from twopose.solve.estimate import EstimateOptions
 from twopose.solve.session import estimate_session
 from twopose.uncertainty.noise import NoiseModel, PlacingPrior
+from twopose.uncertainty.operator_pool import SessionNoise, operator_priors
 from twopose.uncertainty.placing_variance import (
     GRID,
-    SessionNoise,
-    flag_trials,
-    operator_priors,
     posterior,
     trial_information,
     trial_loglik,
 )
+from twopose.uncertainty.robust_flags import flag_trials
 
 bench = load_benchmark("bench_noise")
 TYPED = PlacingPrior(scale=1.0, dof=2.0, source="the typed resolution")
@@ -169,7 +168,7 @@ def test_the_pooled_multiplier_is_unbiased_over_many_seeded_draws() -> None:
     correction moves it less than its standard error here (at 0.5% the robust test keeps
     nearly every clean trial)."""
     from twopose.uncertainty.noise import PlacingPrior
-    from twopose.uncertainty.placing_variance import _maximum
+    from twopose.uncertainty.operator_pool import _maximum
 
     rng = np.random.default_rng(54)
     anchor = PlacingPrior(scale=1.0, dof=2.0, source="typed")

@@ -35,9 +35,9 @@ from twopose.solve.nview import (
     triangulate_lines,
     triangulate_points,
 )
-from twopose.uncertainty.misclosure import PLANES as PLANE_MISCLOSURE
-from twopose.uncertainty.misclosure import RAYS as RAY_MISCLOSURE
-from twopose.uncertainty.misclosure import MisclosureModel
+from twopose.uncertainty.misclosure_models import PLANES as PLANE_MISCLOSURE
+from twopose.uncertainty.misclosure_models import RAYS as RAY_MISCLOSURE
+from twopose.uncertainty.misclosure_models import MisclosureModel
 from twopose.uncertainty.propagate import INPUTS_PER_VIEW, SHARED_INPUTS
 
 __all__ = [

@@ -37,6 +37,7 @@ from twopose.solve.margins import (  # the options' one home, light for the CLI
     EstimateOptions,
 )
 from twopose.solve.nview import image_lines, projection_matrices, triangulate_lines
+from twopose.uncertainty.misclosure_models import TrialConditions
 from twopose.uncertainty.propagate import (
     INPUTS_PER_VIEW,
     SHARED_INPUTS,
@@ -185,20 +186,29 @@ def thesis_estimate(
     return estimate
 
 
-def misclosure_residuals(method: Method, batch: ViewBatch) -> tuple[Callable[[F64], F64], int]:
-    """Each view's residuals as a function of the (perturbed) inputs, and the parameters.
+def misclosure_residuals(method: Method, batch: ViewBatch) -> tuple[TrialConditions, int]:
+    """The views' condition equations with the estimate's parameters explicit, and their count.
 
-    The residuals (R T, N, 2) of the method's solver's
-    :class:`~twopose.uncertainty.misclosure.MisclosureModel`, for
-    :func:`twopose.uncertainty.misclosure.misclosures`; the estimate's parameter count beside them.
+    The method's solver's :class:`~twopose.uncertainty.misclosure.MisclosureModel` bound to
+    the batch's views (each view's residuals (R T, N, 2) as a function of the (perturbed)
+    inputs and the estimate's parameters, and the method's own estimate to start from), for
+    :func:`twopose.uncertainty.misclosure.misclosures`.
     """
     model = _solver_of(method).misclosure
 
-    def residuals(x: F64) -> F64:
+    def conditions(x: F64, theta: F64) -> F64:
         _, valid, P = _perturbed_views(batch, x)
-        return model.residuals(x, P, valid)
+        # theta: the batch's (T rows, tiled as the inputs are) or one per row already
+        return model.conditions(x, np.tile(theta, (x.shape[0] // len(theta), 1)), P, valid)
 
-    return residuals, model.parameters
+    def estimate(x: F64) -> F64:
+        _, valid, P = _perturbed_views(batch, x)
+        return model.estimate(x, P, valid)
+
+    bound = TrialConditions(
+        conditions=conditions, estimate=estimate, moved=model.moved, parameters=model.parameters
+    )
+    return bound, model.parameters
 
 
 def thesis_direction(

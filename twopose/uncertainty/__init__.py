@@ -3,9 +3,11 @@
 Propagation (first order, and the second-order term where the estimate bends), NEES and
 the dominant input (``propagate``), the noise every region
 assumes and its words (``noise``), each trial's misclosure (``misclosure``), the placing
-variance's multiplier (``placing_variance``), the trials flagged before pooling
-(``blunders``: by their misclosure, against the other trials of one target, against their
-own truth) and a session's noise as the estimation settles it (``session_noise``).
+variance's multiplier (``placing_variance``), the trials kept out of its pool
+(``robust_flags``), the operator's other sessions as its prior (``operator_pool``), the
+trials flagged before pooling (``blunders``: by their misclosure, against the other trials
+of one target, against their own truth) and a session's noise as the estimation settles
+it (``session_noise``).
 """
 
 from __future__ import annotations
@@ -27,7 +29,7 @@ if TYPE_CHECKING:
         VarianceFactor,
     )
     from twopose.uncertainty.noise_words import noise_words
-    from twopose.uncertainty.placing_variance import BAARDA_LEVEL, SessionNoise, operator_priors
+    from twopose.uncertainty.operator_pool import SessionNoise, operator_priors
     from twopose.uncertainty.propagate import (
         CHI2_95,
         INPUTS_PER_VIEW,
@@ -46,6 +48,7 @@ if TYPE_CHECKING:
         semiaxis95,
         uncertainty_columns,
     )
+    from twopose.uncertainty.robust_flags import BAARDA_LEVEL
     from twopose.uncertainty.session_noise import (
         noise_of,
         operator_group,
@@ -103,7 +106,7 @@ __all__ = [
 
 #: Where each exported name lives; it is imported from there on first use.
 _HOMES = {
-    "BAARDA_LEVEL": "twopose.uncertainty.placing_variance",
+    "BAARDA_LEVEL": "twopose.uncertainty.robust_flags",
     "CHI2_95": "twopose.uncertainty.propagate",
     "EXPLAINS_LEVEL": "twopose.uncertainty.blunders",
     "FACTOR_TEST_LEVEL": "twopose.uncertainty.noise",
@@ -120,7 +123,7 @@ _HOMES = {
     "PlacingPrior": "twopose.uncertainty.noise",
     "PlacingSigma": "twopose.uncertainty.noise",
     "Propagated": "twopose.uncertainty.propagate",
-    "SessionNoise": "twopose.uncertainty.placing_variance",
+    "SessionNoise": "twopose.uncertainty.operator_pool",
     "Shared": "twopose.uncertainty.propagate",
     "TrialTests": "twopose.uncertainty.blunders",
     "VarianceFactor": "twopose.uncertainty.noise",
@@ -133,7 +136,7 @@ _HOMES = {
     "noise_of": "twopose.uncertainty.session_noise",
     "noise_words": "twopose.uncertainty.noise_words",
     "operator_group": "twopose.uncertainty.session_noise",
-    "operator_priors": "twopose.uncertainty.placing_variance",
+    "operator_priors": "twopose.uncertainty.operator_pool",
     "placed": "twopose.uncertainty.session_noise",
     "placing_sigma": "twopose.uncertainty.session_noise",
     "placing_sigmas": "twopose.uncertainty.session_noise",

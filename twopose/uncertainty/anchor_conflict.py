@@ -7,7 +7,7 @@ operator's trials contradict it (Fisher's F of their sigma0 squared against the 
 this operator's hand and weighs as a guess: the trials set the placing sigma.
 
 **One answer per operator, before the flags.** An operator's sessions pool as one hand
-(:func:`~twopose.uncertainty.placing_variance.operator_priors`), so the board is tested
+(:func:`~twopose.uncertainty.operator_pool.operator_priors`), so the board is tested
 once over all of them (every trial of the operator's sessions of one method under one rig
 file in the run, or of the recorder's noise file) and every session gets that answer
 (:attr:`~twopose.uncertainty.noise.PlacingPrior.anchor_p`, carried by its prior) before
@@ -18,7 +18,7 @@ rejected the board, which was kept in 3 of one operator's 4 sessions, clean tria
 typos, and 9 of those sessions' 12 trials inside their regions (a new user's r5 F2a).
 Over the operator's pooled trials the trials the test leaves out are those that disagree
 with the *other trials*, not with the board: Baarda's test of
-:func:`~twopose.uncertainty.placing_variance.flag_trials` with the board weighed as the
+:func:`~twopose.uncertainty.robust_flags.flag_trials` with the board weighed as the
 typed word is (:func:`as_guess`), so each trial's rest is the others' multiplier. A 1 in
 blunder disagrees with the other trials whatever the board says and is left out (it must
 not make a board the clean trials agree with give way), while a clean trial of a hand the

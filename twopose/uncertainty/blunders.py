@@ -2,7 +2,7 @@
 
 A trial is **flagged** when its misclosure rejects both the typed model and the model the
 rest of its session (and the operator's prior) measures (Baarda's global test at 0.5%,
-:func:`twopose.uncertainty.placing_variance.flag_trials`). Then each typed translation component of
+:func:`twopose.uncertainty.robust_flags.flag_trials`). Then each typed translation component of
 each pose is tested alone (Baarda's w-test, :func:`twopose.uncertainty.misclosure.pose_tests`): the
 share of the misclosure an error in that one component explains, and how large it would
 be. A pose **explains** the trial when, its best component corrected, what is left of

@@ -33,7 +33,7 @@ if TYPE_CHECKING:
 class _Statistics(Protocol):
     """What is read of a session's statistics.
 
-    Those of :class:`twopose.uncertainty.placing_variance.SessionNoise` (a dataclass; not
+    Those of :class:`twopose.uncertainty.operator_pool.SessionNoise` (a dataclass; not
     imported: it imports this module).
     """
 

@@ -155,7 +155,7 @@ _UNTESTED = (
 _BESIDE = "analyse the session beside its operator's others"
 _BOARD = "measure the placing with a board"
 #: ... the first done where the multiplier's sources name the operator's other sessions
-#: (:func:`twopose.uncertainty.placing_variance.operator_priors`' words).
+#: (:func:`twopose.uncertainty.operator_pool.operator_priors`' words).
 _OPERATORS_POOLED = " of operator "
 
 

@@ -28,8 +28,10 @@ from twopose.uncertainty.blunders import (
 )
 from twopose.uncertainty.misclosure import Misclosure, misclosures
 from twopose.uncertainty.noise import MIN_PLACING_DOF, NoiseModel, VarianceFactor, region_quantile
-from twopose.uncertainty.placing_variance import Flags, SessionNoise, flag_trials, posterior
+from twopose.uncertainty.operator_pool import SessionNoise
+from twopose.uncertainty.placing_variance import posterior
 from twopose.uncertainty.propagate import PLACING, Propagated, Shared, region_dof
+from twopose.uncertainty.robust_flags import Flags, flag_trials
 from twopose.uncertainty.target_scatter import Evidence, TargetScatter, scatter_tests
 from twopose.values.units import Units
 
@@ -193,8 +195,7 @@ def with_one_target(noise: NoiseResult, truth: F64, point: F64, parts: F64 | Non
     if not same.any():
         return noise
     out = noise.tests.flagged
-    base = (np.where(out[:, None], 0.0, flags.kept).sum(axis=0),
-            np.where(out[:, None], 0.0, flags.info).sum(axis=0))  # fmt: skip
+    base = (np.where(out[:, None], 0.0, flags.kept), np.where(out[:, None], 0.0, flags.info))
     scatter, target = scatter_tests(point, parts, same, out, base, model.anchor(), model.prior)
     if scatter is None:
         return noise

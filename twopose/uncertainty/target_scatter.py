@@ -23,7 +23,7 @@ a trial, ``k = 3`` for a point, ``(T - 1) k`` in all.
 **Robust first.** Before pooling, each trial's estimate is tested against the weighted mean
 of the others (at the multiplier *their* contrasts, the trials' misclosures, the anchor and
 the operator's prior give): the statistic at the rest's multiplier under the rest's
-posterior predictive (:func:`twopose.uncertainty.placing_variance.trial_pvalues`), flagged
+posterior predictive (:func:`twopose.uncertainty.robust_flags.trial_pvalues`), flagged
 when both it and the typed model's test reject at :data:`SCATTER_LEVEL`; the worst first,
 then again without it, while two others remain. So an operator 3x worse than typed is not
 called a typo trial by trial (the old test, in regions at the typed sigma, flagged a third
@@ -46,12 +46,8 @@ import numpy as np
 from twopose.arrays import F64, Bools
 from twopose.uncertainty.blunders import TargetTests, _across
 from twopose.uncertainty.noise import PlacingPrior
-from twopose.uncertainty.placing_variance import (
-    BAARDA_LEVEL,
-    GRID,
-    posterior,
-    trial_pvalues,
-)
+from twopose.uncertainty.placing_variance import GRID, posterior
+from twopose.uncertainty.robust_flags import BAARDA_LEVEL, trial_pvalues
 
 __all__ = ["SCATTER_LEVEL", "Evidence", "TargetScatter", "components", "scatter_tests"]
 
@@ -191,9 +187,11 @@ def scatter_tests(
     ``point`` (T, 3), ``parts`` (T, 2, 3, 3): each trial's estimate and its region's two
     parts ``A``, ``B`` at the sigma the regions start from (NaN: not solved); ``same`` (T,)
     the one target's trials; ``out`` (T,): flagged already (never tested here, never in a
-    rest); ``base``: the rest of the session's evidence on ``lambda`` (its unflagged
-    misclosures' log-likelihood and information, (G,) each). The scatter is None where
-    fewer than three trials can be compared.
+    rest); ``base``: the session's evidence on ``lambda`` from its misclosures (each
+    unflagged trial's log-likelihood and information, (T, G) each; zero for a flagged
+    one): a trial's own misclosure is in no rest it is tested against (left in, a line's
+    1 in typo, whose misclosure is mostly pixels, pulled its own rest's multiplier up and
+    passed: r6 G8). The scatter is None where fewer than three trials can be compared.
     """
     T = len(point)
     none = TargetTests(flagged=np.zeros(T, dtype=bool), chi2=np.full(T, np.nan),
@@ -246,7 +244,9 @@ def _each_against_rest(
     R, k = len(rows), s.y.shape[1]
     blocks = _blocks(s.y[rows], s.A[rows], s.B[rows])
     rest_L, rest_info, _ = _restricted(blocks, each_left_out=True)
-    rest_L, rest_info = rest_L + base[0], rest_info + base[1]
+    # the session's misclosures less the trial's own: each row's rest is the others'
+    rest_L = rest_L + base[0].sum(axis=0) - base[0][rows]
+    rest_info = rest_info + base[1].sum(axis=0) - base[1][rows]
     rest = posterior(rest_L, anchor, prior, rest_info)
     shares, z2s, far = np.zeros((R, k)), np.zeros((R, k)), np.zeros(R)
     for r, i in enumerate(rows):

@@ -317,7 +317,11 @@ function renderDecision(s) {
   if (localRefusal && localRefusal.at !== stepOf(s)) localRefusal = null; // the step moved on
   let refusal = localRefusal;
   const r = s.refusal || {};
-  if (!refusal && r.seq && r.seq > dismissedRefusal && recording && s.waiting !== "pose") {
+  // a stream trial's start, touch and end are said next to their own buttons (stream.js),
+  // not twice (a new user's r7 K5)
+  const streamControl = ["start", "touch", "end"].includes(r.control);
+  if (!refusal && r.seq && r.seq > dismissedRefusal && recording && s.waiting !== "pose" &&
+      !streamControl) {
     refusal = {control: r.control, message: r.message};
   }
   if (!recording) refusal = null;
