@@ -167,18 +167,20 @@ def _offset(
     known: tuple[ClockOffset | None, str],
     brightness: tuple[list[float], list[float]],
     *,
-    lines: bool,
+    method: Method,
 ) -> tuple[ClockOffset, str]:
     """The clock offset: the one known (given, recorded), else measured as the recorder
     measures it (:func:`twopose.pair.trial_offset.measure_trial_offset`: a flash both
-    cameras saw, the rays' gap, pooled where both; a target with image ``lines`` with its
-    point's place along them fitted)."""
+    cameras saw, the rays' gap, pooled where both; a target with image lines with its
+    point's place along them fitted; the method's detector floor in a pair a term of the
+    gap's sigma)."""
     if known[0] is not None:
         return known[0], known[1]
     one, two = tracks
+    spec = spec_of(method)
     measured = measure_trial_offset(
         pair, (one.centroid_px, two.centroid_px), (one.t_ns, two.t_ns), brightness,
-        (one.theta_deg, two.theta_deg) if lines else None,
+        (one.theta_deg, two.theta_deg) if spec.uses_image_lines else None, spec.floor_in_pair[0],
     )  # fmt: skip
     if measured.offset is None:
         raise InputValueError(f"trial {trial.trial}: the clock offset: {'; '.join(measured.why)}")
@@ -324,7 +326,7 @@ def replay_trial(
     camera with too few frames, an offset that cannot be measured), saying why.
     """
     tracks, missed, lit = detected or detect_trial(trial, method)
-    used, source = _offset(trial, pair, tracks, known, lit, lines=spec_of(method).uses_image_lines)
+    used, source = _offset(trial, pair, tracks, known, lit, method=method)
     estimate = estimate_stream(method, pair, *tracks, used, settings)
     interval = float(np.median(np.diff(tracks[0].t_ns))) if len(tracks[0].t_ns) > 1 else 0.0
     at = at_touches(estimate, trial.touches, interval)

@@ -65,6 +65,7 @@ class OffsetMeter:
         self.pair = pair
         self.target = spec_of(method).target
         self.lines = spec_of(method).uses_image_lines  # the glove's: its angle kept too
+        self.floor_px = spec_of(method).floor_in_pair[0]  # the detector's, as the analysis
         self._queue: queue.Queue[tuple[int, int, TimedFrame] | None] = queue.Queue(QUEUE_FRAMES)
         self._tracks: dict[int, list[tuple[int, float, float, float, float]]] = {1: [], 2: []}
         self._lit = {1: BrightnessMeter(), 2: BrightnessMeter()}
@@ -160,7 +161,7 @@ class OffsetMeter:
             self._trial = 0
         trial_offset = measure_trial_offset(
             self.pair, (one[:, 1:3], two[:, 1:3]), (one[:, 0], two[:, 0]), (one[:, 3], two[:, 3]),
-            (one[:, 4], two[:, 4]) if self.lines else None,
+            (one[:, 4], two[:, 4]) if self.lines else None, self.floor_px,
         )  # fmt: skip
         pooled = pooled_offset(self.measured) if self.measured else None
         if trial_offset.offset is None:

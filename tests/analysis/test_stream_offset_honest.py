@@ -21,7 +21,7 @@ from tests.helpers import SMALL_SCENE, rewrite_session
 from twopose.errors import InputValueError
 from twopose.format.reader import SessionReader
 from twopose.format.stream_entries import Touch
-from twopose.methods.specs import Method
+from twopose.methods.specs import Method, spec_of
 from twopose.sim.scene import load_scene
 
 
@@ -174,8 +174,9 @@ def test_the_recorder_and_run_measure_the_gloves_offset_alike_its_slide_fitted(
             recorded, said = meter.end(1)
     assert meter.skipped == 0
     seen = (session.pair, (one.centroid_px, two.centroid_px), (one.t_ns, two.t_ns), lit)
-    fitted = measure_trial_offset(*seen, (one.theta_deg, two.theta_deg)).offset
-    as_a_dot = measure_trial_offset(*seen).offset
+    floor = spec_of(Method.GROUND).floor_in_pair[0]  # both sides' systematic term
+    fitted = measure_trial_offset(*seen, (one.theta_deg, two.theta_deg), floor).offset
+    as_a_dot = measure_trial_offset(*seen, None, floor).offset
     assert fitted is not None
     assert as_a_dot is not None
     assert trial.offset.offset_ns == fitted.offset_ns != as_a_dot.offset_ns  # run's: fitted

@@ -15,7 +15,10 @@
   neighbouring gaps' shared camera-1 frames correlate them, less camera 1's noise's share
   of the curvature (a still frame's rate with the offset is its noise's), floored by a
   jackknife over runs of frames, plus camera 1's linear-interpolation error (its track's
-  bend between frames), the grid step's and the fitted clocks' own error. The minimum is
+  bend between frames), the grid step's and the fitted clocks' own error, and the
+  detector's error alike over frames about one place (the method's floor in a pair,
+  ``floor_px``: :meth:`DotTracks.systematic_ns`; a slow glove was 35 sigma off without
+  it). The minimum is
   taken over the frames every offset about it measures; the offsets searched are every
   offset a pair's clocks may differ by (:data:`twopose.values.bounds.CLOCK_OFFSET`, what
   ``simulate`` accepts) and a margin. Refused in words: a motion along the epipolar lines
@@ -98,6 +101,7 @@ def offset_from_ray_gap(
     *,
     search_ns: tuple[float, float] = (-SEARCH_NS, SEARCH_NS),
     angles_deg: tuple[ArrayLike, ArrayLike] | None = None,
+    floor_px: float = 0.0,
 ) -> ClockOffset:
     """The clock offset from a moving target both cameras see (the module docstring).
 
@@ -116,6 +120,11 @@ def offset_from_ray_gap(
         Each frame's image line's angle (degrees, as detected) of a target with an image
         line (the glove): its point's place along the line is not the same point of it in
         both cameras, and is fitted (:mod:`twopose.pair.dot_tracks`). None: a dot's.
+    floor_px : float
+        The detector's systematic error per camera (px, 1-sigma: the method's
+        :attr:`~twopose.methods.specs.MethodSpec.floor_in_pair`), which stays over many
+        frames and enters the sigma as a term (:meth:`DotTracks.systematic_ns`). 0: tracks
+        with no such error (synthetic ones).
 
     Returns
     -------
@@ -124,7 +133,7 @@ def offset_from_ray_gap(
     tracks, times = (track1_px, track2_px), (t1_ns, t2_ns)
     dots = dot_tracks(pair, tracks, times, angles_deg)
     try:
-        offset = _ray_gap(dots, search_ns)
+        offset = _ray_gap(dots, search_ns, floor_px)
     except InputValueError as err:
         hint = _swapped_hint(pair, tracks, times, search_ns, angles_deg)
         raise InputValueError(f"{err}{hint}") from err
@@ -136,7 +145,7 @@ def offset_from_ray_gap(
     return offset
 
 
-def _ray_gap(dots: DotTracks, search_ns: tuple[float, float]) -> ClockOffset:
+def _ray_gap(dots: DotTracks, search_ns: tuple[float, float], floor_px: float) -> ClockOffset:
     """:func:`offset_from_ray_gap` on checked tracks (refusals raised, without the hint)."""
     interval = float(np.median(np.diff(dots.times[0])))
     lo, hi = sorted(float(x) for x in search_ns)
@@ -239,6 +248,9 @@ def _ray_gap(dots: DotTracks, search_ns: tuple[float, float]) -> ClockOffset:
         dots.interpolation_ns(float(vertex), h), dots.interpolation_ns(float(vertex), h, half=True)
     )
     variance += bend**2 + h**2 / 12 + dots.clock_sigma_ns() ** 2
+    # The detector's error that stays over many frames: the scatter and the jackknife see
+    # none of it, and a slow target's offset rests on a few frames' motion.
+    variance += dots.systematic_ns(float(vertex), h, floor_px) ** 2
     if bend > MAX_SIGMA_SHARE * interval:
         raise InputValueError(
             f"the target's track bends too much between camera 1's frames to be interpolated "

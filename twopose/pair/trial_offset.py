@@ -168,6 +168,7 @@ def measure_trial_offset(
     times: tuple[ArrayLike, ArrayLike],
     brightness: tuple[ArrayLike, ArrayLike] | None = None,
     angles_deg: tuple[ArrayLike, ArrayLike] | None = None,
+    floor_px: float = 0.0,
 ) -> TrialOffset:
     """One trial's offset (the module docstring).
 
@@ -175,7 +176,10 @@ def measure_trial_offset(
     capture times (N_i,), ns, each camera's clock; ``brightness`` each frame's
     (:class:`BrightnessMeter`; None: no flash looked for); ``angles_deg`` each frame's
     image line's angle for a target with one (the glove: its point's place along the line
-    is fitted, :mod:`twopose.pair.dot_tracks`; None: a dot's).
+    is fitted, :mod:`twopose.pair.dot_tracks`; None: a dot's); ``floor_px`` the
+    detector's systematic error per camera (the method's
+    :attr:`~twopose.methods.specs.MethodSpec.floor_in_pair`, px), a term of the rays'
+    gap's sigma (:meth:`twopose.pair.dot_tracks.DotTracks.systematic_ns`).
     """
     found: list[ClockOffset] = []
     why: list[str] = []
@@ -191,7 +195,13 @@ def measure_trial_offset(
     try:
         found.append(
             offset_from_ray_gap(
-                pair, tracks[0], times[0], tracks[1], times[1], angles_deg=angles_deg
+                pair,
+                tracks[0],
+                times[0],
+                tracks[1],
+                times[1],
+                angles_deg=angles_deg,
+                floor_px=floor_px,
             )
         )
     except InputValueError as err:
