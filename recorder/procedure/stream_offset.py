@@ -177,6 +177,9 @@ class OffsetMeter:
         if len(trial_offset.found) > 1:
             o = trial_offset.offset
             said += f": {o.offset_ns / 1e6:+.2f} ± {o.sigma_ns / 1e6:.2f} ms pooled"
+        if trial_offset.why:  # the way that could not measure it, said (with its hint, a
+            # pair given in the wrong order: a new user's r7 K11, the rays' gap left unsaid)
+            said += "; " + "; ".join(trial_offset.why)
         if self.skipped:
             said += f"; {self.skipped} frames left undetected so far (the detection was behind)"
         if len(self.measured) > 1:

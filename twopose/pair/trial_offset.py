@@ -205,7 +205,7 @@ def measure_trial_offset(
             )
         )
     except InputValueError as err:
-        why.append(str(err))
+        why.append(f"the rays' gap: {err}")
     # Two copies of one recording "measure" an offset (their own: 0) that means nothing.
     copy = copied_view(tracks, times, found[-1].offset_ns if found else 0.0)
     if copy.copied:

@@ -118,6 +118,23 @@ def test_a_flash_and_the_rays_gap_that_agree_are_pooled_their_shared_clock_kept(
     assert pooled.sigma_ns > independent
 
 
+def test_cameras_given_in_the_wrong_order_keep_the_flash_and_say_the_rays_gap_why() -> None:
+    """A new user's r7 K11: cameras given in the wrong order, a flash seen: the recorder
+    said the flash's offset alone, the rays' gap (which says the cameras may be exchanged)
+    left unsaid. The flash still fixes it; the rays' gap's refusal is kept, named."""
+    rng = np.random.default_rng(4)
+    clocks = (CameraClock(jitter_s=0.002), CameraClock(phase_s=0.01, offset_s=0.3,
+                                                        jitter_s=0.002))  # fmt: skip
+    tracks, times, lit = _trial(FingerMotion(), clocks, rng, flash_at=0.5)
+    assert lit is not None
+    swapped = measure_trial_offset(thesis_pair(), tracks[::-1], times[::-1], lit[::-1])
+    assert swapped.offset is not None
+    assert swapped.offset.method == "flash"
+    (why,) = swapped.why
+    assert why.startswith("the rays' gap: ")
+    assert "wrong order" in why
+
+
 def test_a_flash_and_the_rays_gap_that_disagree_are_refused_naming_both() -> None:
     """A target circling every 11.2 ms (a third of a frame interval; issue 58: "a path
     that repeats within one or two coarse steps, 8-17 ms"), which both cameras see as a
