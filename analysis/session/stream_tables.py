@@ -62,6 +62,7 @@ from twopose.format.reader import SessionReader
 from twopose.format.streams import PairSession, StreamTrial, read_pair_session
 from twopose.methods.specs import spec_of
 from twopose.pair.calibration import PairCalibration
+from twopose.pair.clock import ClockOffset
 from twopose.pair.copied_view import copied_view
 from twopose.pair.holdout import CHECK_SIGMAS
 from twopose.pair.stream import StreamSettings, estimate_stream
@@ -191,17 +192,14 @@ def _skew_said(rows: pd.DataFrame, units: Units) -> str:
 def _pair_metadata(session: PairSession, parts: list[PairSession] | None = None) -> dict[str, str]:
     """What the report says of the pair: its cameras, baseline, offset and touches (over
     ``parts``, the session's parts, where it has more than one)."""
-    pair, offset = session.pair, session.offset
+    pair = session.pair
     parts = parts or [session]
     n_touches = sum(len(p.touches) for p in parts)
     n_trials = sum(len(p.trials) for p in parts)
     in_parts = f" in {len(parts)} parts" if len(parts) > 1 else ""
-    said = (
-        "none recorded (measured per trial from its frames: a flash where one was fired, "
-        "and the rays' gap)"
-        if offset is None
-        else f"{offset.offset_ns / 1e6:.3f} ms ± {offset.sigma_ns / 1e6:.3f} ms ({offset.method})"
-    )
+    said = "; ".join(_offset_said(p.offset) for p in parts)
+    if len(parts) > 1:  # each part's own, as the analysis uses them (a new user's r7 K9)
+        said = "by part: " + said
     return {
         "two_cameras": (
             f"{session.cameras[0].camera_id} and {session.cameras[1].camera_id}: baseline "
@@ -216,6 +214,16 @@ def _pair_metadata(session: PairSession, parts: list[PairSession] | None = None)
         "clock_offset": said,
         "touches": f"{n_touches} over {n_trials} stream trial(s){in_parts}",
     }
+
+
+def _offset_said(offset: ClockOffset | None) -> str:
+    """A part's recorded clock offset in words."""
+    if offset is None:
+        return (
+            "none recorded (measured per trial from its frames: a flash where one was fired, "
+            "and the rays' gap)"
+        )
+    return f"{offset.offset_ns / 1e6:.3f} ms ± {offset.sigma_ns / 1e6:.3f} ms ({offset.method})"
 
 
 def _check_said(pair: PairCalibration) -> str:

@@ -112,7 +112,12 @@ def test_a_plan_continues_a_pair_session_analysed_as_one(
     assert abs(two.offset.offset_ns + PHASE_S * 1e9) < 4 * two.offset.sigma_ns + 1e6
     # one session: the touches of both parts, each trial with its part's offset, and each
     # part's rows what that part gives alone (one long recording, where that applies)
-    both = analysis.run([str(out), str(first)]).trials.sort_values("trial")
+    result = analysis.run([str(out), str(first)])
+    both = result.trials.sort_values("trial")
+    # the report says each part's own offset, as the analysis uses them (r7 K9)
+    said = result.sessions[0].metadata["clock_offset"]
+    assert said.startswith("by part: ")
+    assert said.count(" ms ± ") == 2
     # two operators' parts of a two-camera session: no placing multiplier to share, so no
     # note that it has one (a new user's r7 K9)
     from analysis.batch.inputs import resolve_inputs
