@@ -62,6 +62,9 @@ def test_the_page_starts_touches_and_ends_a_stream_trial(
             assert not _on(driver, "stream-touch")
             assert not _on(driver, "stream-end")
             assert not driver.find_element("id", "pose-form").is_displayed()
+            # nothing is drawn on a pair's preview, and the aside says so (r7 K5)
+            aside = driver.find_element("id", "camera-aside").text
+            assert aside == "camera 1's frames as recorded"
             assert not driver.find_element("id", "accept").is_displayed()
             driver.find_element("id", "stream-start").click()
             _wait(lambda: _on(driver, "stream-touch"))

@@ -37,9 +37,11 @@ function renderCapture(s) {
   setText($("progress-text"), n ? "frame " + s.capture.frame + " of " + n : "");
   setText($("last-capture"), s.last_capture ? "last capture: " + s.last_capture : "");
   const page = s.page;
-  if (changed("frames-head", [page.camera_aside, page.detection_columns, page.objects_header])) {
-    // What the method's page says (the server's): the aside, and the table's columns.
-    setText($("camera-aside"), page.camera_aside);
+  const pair = !!s.stream;
+  if (changed("frames-head", [page.camera_aside, page.detection_columns, page.objects_header, pair])) {
+    // What the method's page says (the server's): the aside, and the table's columns; a
+    // pair's preview is camera 1's frames as recorded, nothing drawn on them (r7 K5).
+    setText($("camera-aside"), pair ? "camera 1's frames as recorded" : page.camera_aside);
     const head = $("frames-table").tHead.rows[0];
     for (const th of head.cells) show(th, page.detection_columns || th.cellIndex < 2);
     head.cells[1].textContent = page.objects_header;

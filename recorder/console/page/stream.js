@@ -23,7 +23,8 @@ function renderStream(s) {
   for (const id of Object.values(STREAM_INPUTS)) $(id).disabled = s.phase !== "recording";
   const where = s.waiting === "streaming" ? stream.trial + ": streaming"
     : s.waiting === "trial" ? (stream.trial + 1) + ": ready to start" : "";
-  setText($("stream-where"), where);
+  // with the recorder gone the last state's "streaming" is no longer so (r7 K5)
+  setText($("stream-where"), connected ? where : "");
   const frames = stream.frames || [0, 0];
   setText($("stream-frames"), "frames: camera 1 " + frames[0] + ", camera 2 " + frames[1] +
     (stream.offset ? "; clock offset " + stream.offset : ""));
