@@ -62,6 +62,12 @@ def test_the_page_starts_touches_and_ends_a_stream_trial(
             assert not _on(driver, "stream-touch")
             assert not _on(driver, "stream-end")
             assert not driver.find_element("id", "pose-form").is_displayed()
+            # before the first trial the pointing panel stands, saying no trial streams
+            # (the column stood empty; the header said "no pair running": r7 K5)
+            _wait(lambda: "no trial streams" in driver.find_element(
+                "id", "pointing-conditioning").text)  # fmt: skip
+            assert driver.find_element("id", "pointing-conditioning").is_displayed()
+            assert "view shows once a trial" in driver.find_element("id", "live-note").text
             # nothing is drawn on a pair's preview, and the aside says so (r7 K5)
             aside = driver.find_element("id", "camera-aside").text
             assert aside == "camera 1's frames as recorded"

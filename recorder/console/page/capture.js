@@ -14,7 +14,11 @@ function renderCapture(s) {
   show($("live-last"), frozen && kept);
   let note = "";
   if (s.phase === "setup") note = "the camera is shown here once the session starts";
-  else if (s.phase === "recording" && connected && !live.naturalWidth) note = "waiting for the camera's first frame...";
+  else if (s.phase === "recording" && connected && !live.naturalWidth) {
+    // a pair shows camera 1's frames as a trial records them, none before (r7 K9)
+    note = s.stream && s.waiting === "trial" ? "camera 1's view shows once a trial's stream starts" :
+      "waiting for the camera's first frame...";
+  }
   // The table is this pose's capture while it is taken and decided; afterwards it is
   // the last capture's, and says so.
   const of = s.frames_of || {};

@@ -101,7 +101,10 @@ function renderPointing() {
   const running = Boolean(s.running);
   // Stopped: the last pair's drawing stays, greyed, under why it stopped.
   const final = running ? null : POINTING.final || null;
-  const shown = running || final !== null;
+  // a pair's recording shows the panel from the start: its words say no trial streams yet
+  // (the third column stood empty before: a new user's r7 K5)
+  const pairPage = document.body.classList.contains("two-cameras");
+  const shown = running || final !== null || pairPage;
   const badge = $("pointing-badge");
   if (badge) {
     show($("pointing"), shown);
@@ -109,7 +112,7 @@ function renderPointing() {
     setText(badge, shown ? "" : "pointing: " + (s.words || "no pair running"));
   }
   $("pointing").classList.toggle("pointing-live", shown);
-  show($("pointing-box"), shown);
+  show($("pointing-box"), running || final !== null);
   $("pointing-box").classList.toggle("stopped", final !== null);
   setText($("pointing-aside"), running ? s.about || "" : "");
   const words = $("pointing-conditioning");
