@@ -95,13 +95,15 @@ def test_each_snippet_pastes_clean(name: str, tmp_path: Path) -> None:
         assert done.returncode == 0, done.stdout + done.stderr
 
 
-def _two_views(px: list[list[float]]) -> dict[str, Any]:
+def _two_views(
+    px: list[list[float]], theta_deg: tuple[float, float] = (60.0, 120.0)
+) -> dict[str, Any]:
     """A solve request of two views, the camera moved 1 along x, each seeing ``px``."""
     camera = {"K": [525, 525, 320, 240]}
     return {
         "views": [
-            {**camera, "pose": {"t": [0, 0, 0]}, "line": {"px": px[0], "theta_deg": 60.0}},
-            {**camera, "pose": {"t": [1, 0, 0]}, "line": {"px": px[1], "theta_deg": 120.0}},
+            {**camera, "pose": {"t": [0, 0, 0]}, "line": {"px": px[0], "theta_deg": theta_deg[0]}},
+            {**camera, "pose": {"t": [1, 0, 0]}, "line": {"px": px[1], "theta_deg": theta_deg[1]}},
         ]
     }
 
@@ -118,10 +120,14 @@ def test_the_wall_snippet_registers_a_method_and_its_plane() -> None:
     assert wall in MEASURING_METHODS
     assert ns["WALL_PLANE"] in PLANES
     assert registered(METHOD_SPECS)["parser"]("wall") is wall
-    request = _two_views([[300.0, 200.0], [280.0, 210.0]]) | {"wall_x": 9.625}
-    answer = solve_request(wall, request)
-    assert answer["status"] in {"ok", "degenerate"}
-    assert answer["point"][0] == pytest.approx(9.625)  # on the wall
+    # a finger whose line meets the wall at (9.625, 0.5, 20), in front of both cameras
+    request = _two_views([[572.66, 253.12], [546.41, 253.12]], (136.74, 139.9))
+    answer = solve_request(wall, request | {"wall_x": 9.625})
+    assert answer["status"] == "ok"
+    assert answer["point"] == pytest.approx([9.625, 0.5, 20.0], abs=1e-3)  # on the wall
+    # one meeting it behind a camera: no point there (r7 K11)
+    behind = solve_request(wall, _two_views([[300.0, 200.0], [280.0, 210.0]]) | {"wall_x": 9.625})
+    assert behind["status"] == "degenerate"
     with pytest.raises(ValueError, match="already registered"):
         run_snippet("wall")  # the name is taken
 
