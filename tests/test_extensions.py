@@ -125,9 +125,6 @@ def test_the_wall_snippet_registers_a_method_and_its_plane() -> None:
     answer = solve_request(wall, request | {"wall_x": 9.625})
     assert answer["status"] == "ok"
     assert answer["point"] == pytest.approx([9.625, 0.5, 20.0], abs=1e-3)  # on the wall
-    # one meeting it behind a camera: no point there (r7 K11)
-    behind = solve_request(wall, _two_views([[300.0, 200.0], [280.0, 210.0]]) | {"wall_x": 9.625})
-    assert behind["status"] == "degenerate"
     with pytest.raises(ValueError, match="already registered"):
         run_snippet("wall")  # the name is taken
 

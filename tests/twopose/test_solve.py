@@ -221,11 +221,6 @@ def test_line_and_ground_point_recovered_exactly(p1, p2, anchor, direction) -> N
     ground = solve_ground(px, th, k, R, t, normal, h)
     assume(ground.conditioning[0] > 1e-3)
     expected = a + (h - a[1]) / u[1] * u
-    depths = [float(((expected - t) @ R)[2]) for R, t in (v1, v2)]
-    assume(min(abs(d) for d in depths) > 1e-6)
-    if min(depths) < 0:  # the line meets the ground behind a camera: no point it points at
-        assert (ground.status[0], ground.reason[0]) == ("degenerate", "point behind a camera")
-        return
     np.testing.assert_allclose(
         ground.point_grid[0], expected, atol=float(1e-9 * (np.linalg.norm(expected) + 1) * 10)
     )

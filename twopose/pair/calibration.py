@@ -190,6 +190,18 @@ class PairCalibration:
         object.__setattr__(self, "sigma1", intrinsics_sigma(self.sigma1))
         object.__setattr__(self, "sigma2", intrinsics_sigma(self.sigma2))
 
+    def behind(self, points: F64) -> Bools:
+        """(P,) whether each (P, 3) point (camera 1's frame) lies behind either camera.
+
+        Method 2's planes can meet their plane behind the cameras (the finger pointing
+        away from where they look, or the cameras given in the wrong order: a new user's
+        r7 K11, drawn `ok` 142 in behind camera 1); a one-camera trial's typed poses are
+        then what its tests blame, a pair has none.
+        """
+        p = np.nan_to_num(np.asarray(points, dtype=np.float64))
+        in_2 = (p - self.t_2_in_1) @ self.R_2_to_1  # R^T (p - t), row by row
+        return np.asarray((p[:, 2] <= 0) | (in_2[:, 2] <= 0))
+
     @property
     def angles_deg(self) -> F64:
         """``R_2_to_1`` as the typed angles (rx, ry, rz) in degrees, ``R = Rx Ry Rz``."""

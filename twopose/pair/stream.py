@@ -25,7 +25,8 @@ floor's covariance (method 2); the skew term, the offset's 1-sigma times camera 
 measured image velocity (without interpolation, the whole skew); and linear
 interpolation's own error, ``a w (1 - w) dt^2 / 2`` from camera 1's measured acceleration
 ``a`` (a fingertip circling at 10 in/s bends its track by up to 0.2 px between frames).
-Vectorized over pairs; no I/O.
+Vectorized over pairs; no I/O. (Near 600 lines: the stream estimate is one path, pairs to
+regions, each step feeding the next's arrays; its pairing, clocks and tracks live apart.)
 """
 
 from __future__ import annotations
@@ -415,6 +416,9 @@ def estimate_stream(
     batch = _batch(pair, one, c2[pairs.i2], th2[pairs.i2], lines=spec.uses_image_lines)
     solved = solve_batch(spec.method, batch, settings.ground, settings.estimate)
     status, reason = solved.status.astype("<U24"), solved.reason.astype("<U96")
+    if spec.plane is not None:  # a plane cut behind a camera: no typed pose to blame (r7 K11)
+        behind = (status == "ok") & pair.behind(solved.point)
+        status[behind], reason[behind] = "degenerate", "point behind a camera"
     late = ~one.ok & camera2.found[pairs.i2]  # camera 2 saw it; camera 1 not about then
     if one.in_step is not None:  # camera 1's frame at that time lost it: no detection
         late &= ~one.in_step

@@ -533,12 +533,6 @@ def triangulate_ground(
     flag_no_baseline(camera_centres(p), ok, status, reason)
     usable = status == "ok"
     point = _on_ground(planes, n3, h, usable)
-    # the planes meet the ground behind a camera: the finger's line points away from where
-    # the cameras look (a pair given in the wrong order: a new user's r7 K11, drawn `ok`
-    # 142 in behind camera 1), as the rays' point behind a camera is
-    behind = usable & ((_depths(p, point) <= 0) & ok).any(axis=1)
-    status[behind], reason[behind] = "degenerate", "point behind a camera"
-    point[behind] = np.nan
     return NViewPoints(
         point_grid=point,
         conditioning=best,
@@ -546,12 +540,6 @@ def triangulate_ground(
         reason=reason,
         rms_px=np.full(len(point), np.nan),
     )
-
-
-def _depths(P: F64, point: F64) -> F64:
-    """(T, N) each view's depth of the (T, 3) points (its sign: in front is positive)."""
-    w = np.einsum("tnj,tj->tn", P[..., 2, :3], np.nan_to_num(point)) + P[..., 2, 3]
-    return np.asarray(np.sign(np.linalg.det(P[..., :3])) * w)
 
 
 def _on_ground(planes: F64, n3: F64, h: float, usable: NDArray[np.bool_]) -> F64:

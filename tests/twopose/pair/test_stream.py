@@ -314,3 +314,25 @@ def test_an_offset_off_by_its_sigma_stays_inside_the_region_at_camera_2s_instant
     assert 0.7 < added < 1.6, added
     assert nees[2.0, "camera 2"].max() < 7.81
     assert np.median(nees[2.0, "t_ns"]) > 7.81
+
+
+def test_a_finger_whose_line_meets_the_floor_behind_the_cameras_points_at_nothing() -> None:
+    """A new user's r7 K11: cameras given in the wrong order drew the finger's point 142 in
+    behind camera 1 as `conditioning: ok`. A pair has no typed pose to blame: where the
+    planes meet the floor behind a camera (here a finger held pointing up, away from the
+    floor), the pair is degenerate, said, and has no point; pointing down, every pair is."""
+    up = FingerMotion(pointing=(0.0, -0.3, 1.0))
+    one, two = _tracks(Method.GROUND, _frames(0.01), up)
+    est = estimate_stream(Method.GROUND, thesis_pair(), one, two, OFFSET, SETTINGS)
+    assert not est.ok.any()
+    assert set(est.reason) == {"point behind a camera"}
+    assert np.isnan(est.point).all()
+    one, two = _tracks(Method.GROUND, _frames(0.01))
+    assert estimate_stream(Method.GROUND, thesis_pair(), one, two, OFFSET, SETTINGS).ok.all()
+    # the pair's own test, either camera
+    pair = thesis_pair()
+    ahead = np.array([[0.0, 9.0, 30.0]])
+    assert not pair.behind(ahead).any()
+    assert pair.behind(np.array([[0.0, 9.0, -30.0]])).all()
+    behind_2 = pair.t_2_in_1 - 5.0 * pair.R_2_to_1[:, 2]  # 5 in behind camera 2's centre
+    assert pair.behind(behind_2[None]).all()
