@@ -115,9 +115,9 @@ def test_a_plan_continues_a_pair_session_analysed_as_one(
     result = analysis.run([str(out), str(first)])
     both = result.trials.sort_values("trial")
     # the report says each part's own offset, as the analysis uses them (r7 K9)
-    said = result.sessions[0].metadata["clock_offset"]
-    assert said.startswith("by part: ")
-    assert said.count(" ms ± ") == 2
+    offsets_said = result.sessions[0].metadata["clock_offset"]
+    assert offsets_said.startswith("by part: ")
+    assert offsets_said.count(" ms ± ") == 2
     # two operators' parts of a two-camera session: no placing multiplier to share, so no
     # note that it has one (a new user's r7 K9)
     from analysis.batch.inputs import resolve_inputs
