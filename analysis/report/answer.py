@@ -340,7 +340,8 @@ RULE = (
     "no other trial's rest: the misclosures' test is made again without it. A trial without "
     "a truth has only the other tests. A "
     "pose is named when it alone, one typed component corrected, would make the trial agree "
-    f"({EXPLAINS_LEVEL:.0%}). sigma0, the unflagged trials' misclosure under the typed model, "
+    f"({EXPLAINS_LEVEL:.0%}), from a fourth pose on. sigma0, the unflagged trials' "
+    "misclosure under the typed model, "
     f'is said by its own chi-square test at {FACTOR_TEST_LEVEL:.0%}: "contradict" in its '
     'upper tail, "scatter less" in its lower tail, "agree" otherwise on at least '
     f"{MIN_PLACING_DOF} degrees of freedom; where it rejects the typed model with the "
@@ -392,11 +393,16 @@ def noise_section(summary: pd.DataFrame, trials: pd.DataFrame) -> list[str]:
         )
     if not items:
         return []
-    notes = [f"<p class='off-truth'>{html.escape(said)}</p>" for said in off_truth_notes(trials)]
+    # what more trials off their truths than chance says of the run, before the rule's
+    # long explanation, where a reader sees it
+    notes = [
+        f"<p class='off-truth'><b>note:</b> {html.escape(said)}</p>"
+        for said in off_truth_notes(trials)
+    ]
     return [
         "<h3 id='noise'>The noise model the regions assumed</h3>",
-        f"<p>{RULE} (docs/uncertainty.md)</p>",
         *notes,
+        f"<p>{RULE} (docs/uncertainty.md)</p>",
         f"<ul class='noise'>{''.join(items)}</ul>",
     ]
 

@@ -153,12 +153,6 @@ def _said(name: str, found: tuple[bool, bool]) -> None:
     typer.echo(f"  {name}: board {words[found[0]]} in camera 1, {words[found[1]]} in camera 2")
 
 
-#: The moments a pair's calibration is asked for at least (docs: ten to twenty), and the
-#: views a camera's own intrinsics are fitted on at least, below which the command says
-#: what its sigmas leave out.
-ADVISED_VIEWS = 10
-
-
 def _few_views(run: PairCalibrationRun) -> list[str]:
     """What a calibration on few moments leaves out of its sigmas, in words ([] if none).
 
@@ -166,6 +160,8 @@ def _few_views(run: PairCalibrationRun) -> list[str]:
     fitted on a camera's 3 or 4 own stills, the intrinsics' own error moved OpenCV's
     photographs' pose 4 to 14 of those sigmas, with the check `passed` (a new user's r7 K7).
     """
+    from twopose.pair.calibration import ADVISED_VIEWS
+
     lines = []
     if run.pair.n_views < ADVISED_VIEWS:
         lines.append(

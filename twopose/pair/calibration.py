@@ -49,6 +49,7 @@ from twopose.pair.holdout import HoldoutCheck, leave_one_out
 from twopose.values.units import Units, unit_factor, unit_spec
 
 __all__ = [
+    "ADVISED_VIEWS",
     "MAX_RMS_PX",
     "MIN_BASELINE_IN",
     "MIN_VIEWS",
@@ -61,6 +62,9 @@ __all__ = [
 
 #: The fewest views of the board a pair's calibration takes: leave-one-out needs three.
 MIN_VIEWS = 3
+#: The views advised (the docs: ten to twenty moments); below, ``calibrate-pair`` says what
+#: its sigmas leave out (on 3-4 of OpenCV's stills the pose lay 4-14 of them off: r7 K7).
+ADVISED_VIEWS = 10
 #: Two cameras whose centres are closer than this share of the board's square share a
 #: centre: no baseline, nothing to triangulate (the same camera's stills given twice).
 MIN_BASELINE_SQUARES = 0.05

@@ -416,14 +416,16 @@ def estimate_stream(
     batch = _batch(pair, one, c2[pairs.i2], th2[pairs.i2], lines=spec.uses_image_lines)
     solved = solve_batch(spec.method, batch, settings.ground, settings.estimate)
     status, reason = solved.status.astype("<U24"), solved.reason.astype("<U96")
-    if spec.plane is not None:  # a plane cut behind a camera: no typed pose to blame (r7 K11)
-        behind = (status == "ok") & pair.behind(solved.point)
-        status[behind], reason[behind] = "degenerate", "point behind a camera"
+    behind = (status == "ok") & (spec.plane is not None) & pair.behind(solved.point)  # r7 K11
+    status[behind] = "degenerate"  # a plane's cut behind a camera: no typed pose to blame
+    reason[behind] = "point behind a camera: the plane's cut lies behind them (cameras swapped?)"
     late = ~one.ok & camera2.found[pairs.i2]  # camera 2 saw it; camera 1 not about then
     if one.in_step is not None:  # camera 1's frame at that time lost it: no detection
         late &= ~one.in_step
     status[late], reason[late] = NOT_INTERPOLATED, "camera 1 has no frames about camera 2's time"
-    judged = np.where(reason == "point behind a camera", "ok", status)  # near-singular first
+    judged = np.where(
+        np.char.startswith(reason, "point behind"), "ok", status
+    )  # near-singular first
     warned = np.array(margin_warnings(judged, solved.margins, settings.estimate, spec.seen_on))
     near = (judged == "ok") & (warned != "")
     status[near], reason[near] = NEAR_SINGULAR, warned[near]
