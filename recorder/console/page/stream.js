@@ -13,7 +13,13 @@ let streamRefusal = null;
 
 function renderStream(s) {
   const stream = s.stream;
+  const wasPair = document.body.classList.contains("two-cameras");
   document.body.classList.toggle("two-cameras", !!stream);
+  // the pointing panel stands on a pair's page: drawn again when the page learns it is one
+  // (its own status may have come first, and an idle pair sends no other)
+  if (wasPair !== !!stream && typeof renderPointing === "function" && $("pointing-conditioning")) {
+    renderPointing();
+  }
   show($("stream"), !!stream && s.phase === "recording");
   if (!stream) return;
   const recording = s.phase === "recording" && connected && !sent && !busy;
