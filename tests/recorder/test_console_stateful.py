@@ -650,5 +650,13 @@ def test_the_console_matches_its_model() -> None:
 
 @pytest.mark.slow
 def test_the_console_matches_its_model_on_new_sequences() -> None:
-    ran = _run_machine(30, 60, derandomize=False)  # 30 new sequences (~28 s of CI's 20 min)
+    # 30 new sequences (~28 s of CI's 20 min). Fresh draws vary in how many captures they
+    # reach (6 in 43 examples once, 10+ usually): draw another batch, at most two more, until
+    # the exploration bound is met, so a rare draw neither fails CI nor lowers the bound.
+    ran = _run_machine(30, 60, derandomize=False)
+    for _ in range(2):
+        if ran["captures"] >= 10 and ran["recovered"] > 0 and ran["none_found"] > 0:
+            break
+        more = _run_machine(30, 60, derandomize=False)
+        ran = {k: ran[k] + more[k] for k in ran}
     _assert_it_explored(ran, 30)
