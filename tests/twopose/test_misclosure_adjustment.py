@@ -222,3 +222,21 @@ def test_an_adjustment_that_walks_off_gives_way_to_its_first_step(
     assert m.chi2[1] == pytest.approx(linear.chi2[1], rel=1e-9)  # 92.9, not 77.9
     assert m.iterations[1] == 1
     assert adjusted.chi2[1] < linear.chi2[1]
+
+
+def test_a_trial_closes_alike_in_its_session_and_alone() -> None:
+    """A trial's misclosure is its own, whatever else is adjusted beside it: the step
+    control halved one trial's step and put every other trial of the batch back where it
+    stood, so they stopped at the linear test (a point session at 6x typed: 48.1 where
+    the trial alone closes at 64.9; 200 sessions of 5 trials at 3x pooled 0.94 of the
+    placing multiplier's truth, benchmarks/bench_noise.py)."""
+    trials = bench.session(Method.POINT, 31753, 5, 6.0)
+    m = estimate_session(trials, EstimateOptions(), line_fits=False).misclosure
+    assert m is not None
+    assert (m.iterations > 2).all()
+    for i in range(len(trials)):
+        one = dataclasses.replace(trials, trial_ids=(i + 1,), views=[trials.views[i]],
+                                  truth=trials.truth[i : i + 1])  # fmt: skip
+        alone = estimate_session(one, EstimateOptions(), line_fits=False).misclosure
+        assert alone is not None
+        assert m.chi2[i] == pytest.approx(alone.chi2[0], rel=2e-3)

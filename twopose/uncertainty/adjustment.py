@@ -74,7 +74,9 @@ def controlled(step: Adjustment, done: Bools, last: F64) -> tuple[Adjustment, F6
         if not redo.any():
             break
         fraction = np.where(redo, fraction / 2, fraction)
-        following = step.merged(step.toward(fraction), redo)
+        # the rows halved anew; every other keeps the step it has (not this one's: a row
+        # the batch did not halve would stop where it stands, its next step unmade)
+        following = following.merged(step.toward(fraction), redo)
         length = np.where(redo, step.length(following), length)
     return following, length, full
 
