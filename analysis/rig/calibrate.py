@@ -70,7 +70,7 @@ def placing_against_truth(placing: PlacingSigma, true_rms: float, units: Units) 
         f"the placing the simulator drew (/simulation/truth): RMS {true_rms:.3g} {units} "
         f"over the {placing.captures} captures' components"
     )
-    if true_rms <= 0:
+    if true_rms < 1e-9:  # no placing drawn (its rig undone to rounding)
         return f"{head}: none drawn"
     if placing.upper_bound:
         return f"{head}; the upper bound is {measured / true_rms:.2f}x it"

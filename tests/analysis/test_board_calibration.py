@@ -255,3 +255,20 @@ def test_a_board_placed_exactly_gives_an_upper_bound_never_a_measured_sigma(
     assert "measured by" not in found.placing.describe(Units.IN)
     (camera,) = found.constants.cameras
     assert (camera.width, camera.height, camera.fx) == (640, 480, 525.0)
+
+
+def test_the_placing_is_set_against_the_draw_in_the_sessions_units() -> None:
+    """The words `rig` prints under the placing sigma: a ratio with its spread, a bound's
+    ratio alone, and none for a draw of no placing (the board placed exactly)."""
+    from analysis.rig.calibrate import placing_against_truth
+    from twopose.uncertainty.noise import PlacingSigma
+
+    measured = PlacingSigma(sigma_in=0.11, sigma_sigma_in=0.011, captures=16)
+    said = placing_against_truth(measured, 0.1 * 25.4, Units.MM)
+    assert said == (
+        "the placing the simulator drew (/simulation/truth): RMS 2.54 mm over the 16 "
+        "captures' components; the measured sigma is 1.10x it (± 0.11x)"
+    )
+    bound = PlacingSigma(sigma_in=0.002, captures=8, upper_bound=True)
+    assert placing_against_truth(bound, 0.001, Units.IN).endswith("the upper bound is 2.00x it")
+    assert placing_against_truth(bound, 1e-15, Units.IN).endswith(": none drawn")
