@@ -228,8 +228,8 @@ def test_a_trial_closes_alike_in_its_session_and_alone() -> None:
     """A trial's misclosure is its own, whatever else is adjusted beside it: the step
     control halved one trial's step and put every other trial of the batch back where it
     stood, so they stopped at the linear test (a point session at 6x typed: 48.1 where
-    the trial alone closes at 64.9; 200 sessions of 5 trials at 3x pooled 0.94 of the
-    placing multiplier's truth, benchmarks/bench_noise.py)."""
+    the trial alone closes at 64.9, its least correction; benchmarks/bench_noise.py's
+    point multiplier at 3x, seed 0, 0.906 of its truth, 0.913 now)."""
     trials = bench.session(Method.POINT, 31753, 5, 6.0)
     m = estimate_session(trials, EstimateOptions(), line_fits=False).misclosure
     assert m is not None
