@@ -318,11 +318,13 @@ def rewrite_session(
     metadata: dict[str, dict[str, str]] | None = None,
     edit: Callable[[str, bytes], bytes] | None = None,
     ids: tuple[str, str] | None = None,
+    drop: frozenset[str] = frozenset(),
 ) -> Path:
     """``session`` copied to ``out`` message by message: with ``metadata`` records added,
-    each message's data through ``edit(topic, data)`` (a typed entry edited by hand), and
-    with ``ids``, its session entry (and the metadata's copy of it) given that session and
-    part id."""
+    each message's data through ``edit(topic, data)`` (a typed entry edited by hand), with
+    ``ids``, its session entry (and the metadata's copy of it) given that session and
+    part id, and without the messages of the topics in ``drop`` (a file written before
+    they were)."""
     import dataclasses
 
     from mcap.reader import make_reader
@@ -362,6 +364,8 @@ def rewrite_session(
                 values = {**values, "session": renamed(values["session"].encode()).decode()}
             writer.add_metadata(name, values)
         for _schema, channel, message in messages:
+            if channel.topic in drop:
+                continue
             data = message.data if edit is None else edit(channel.topic, message.data)
             if channel.topic == SessionInfo.TOPIC:
                 data = renamed(data)

@@ -52,7 +52,7 @@ def rig_command(
     targets; write them for `run --rig` and `twopose-record new --rig`."""
     from analysis.batch.inputs import resolve_inputs
     from analysis.batch.outputs import run_inputs, write_file
-    from analysis.rig.calibrate import calibrate_rig
+    from analysis.rig.calibrate import calibrate_rig, placing_against_truth
     from analysis.rig.fit import rig_toml
     from analysis.rig.scope import RIG_BESIDE
 
@@ -71,7 +71,10 @@ def rig_command(
     for name, why in fit.fixed.items():
         typer.echo(f"  {name}: fixed ({why})")
     if found.placing is not None:
-        typer.echo(f"  {found.placing.describe(fit.constants.units or Units.IN)}")
+        units = fit.constants.units or Units.IN
+        typer.echo(f"  {found.placing.describe(units)}")
+        if found.true_placing is not None:
+            typer.echo(f"  {placing_against_truth(found.placing, found.true_placing, units)}")
     else:
         typer.echo("  placing sigma: not measured (only a board session measures it)")
     for warning in found.warnings:

@@ -7,6 +7,11 @@ order), averaged over the frames that found it. A capture in which no frame foun
 board is left out, and said. The captures of several board sessions are fitted together
 (each keeps its own board placement and intrinsics; one unit for all), combined in an order
 of their content, not of the command line; a session named twice counts once.
+
+A simulated board session records what the simulator drew (``/simulation/truth``, kind
+``board``): where each capture's laptop really stood. Where every capture used has it, the
+calibration carries the placing the simulator realised (:attr:`BoardCalibration.true_placing`,
+its RMS over the captures' components), to set the measured placing sigma against.
 """
 
 from __future__ import annotations
@@ -21,14 +26,15 @@ import numpy as np
 
 from analysis.rig.fit import RigFit
 from twopose.arrays import F64
-from twopose.camera.model import Intrinsics
+from twopose.camera.model import Intrinsics, rotation_from_angles_deg
 from twopose.detect.checkerboard import find_board
 from twopose.errors import InputValueError
 from twopose.format.reader import SessionReader
+from twopose.format.simulation import SimulationTruth
 from twopose.format.trials import PoseCapture, iter_trials
 from twopose.methods.specs import spec_of
 from twopose.rig.board import FITTED, BoardRigFit, board_order, fit_board_rig
-from twopose.rig.constants import RIG_PARAMETERS
+from twopose.rig.constants import RIG_PARAMETERS, RigConstants
 from twopose.values.units import Units
 
 __all__ = ["BoardCalibration", "BoardCaptures", "calibrate_board", "is_board_session"]
@@ -62,6 +68,11 @@ class BoardCaptures:
     left_out: tuple[str, ...] = ()
     #: who placed the board (the session entry's operator; "": not named)
     operator: str = ""
+    #: A simulated session's true placing error per capture (C, 3; where the laptop really
+    #: stood minus where it was typed, session units, from ``/simulation/truth``); None
+    #: when a capture has no truth (a recorded session, or one simulated before it was
+    #: written).
+    true_placing: F64 | None = None
 
     def fingerprint(self) -> str:
         """What the fit reads from the session (a copy of a file has the same)."""
@@ -80,6 +91,9 @@ class BoardCalibration:
     fit: RigFit
     board: BoardRigFit
     sessions: tuple[str, ...]
+    #: The placing the simulator drew, RMS over every used capture's three components
+    #: (session units; None: not every session records its truth, as no recorded one does).
+    true_placing: float | None = None
 
 
 def is_board_session(path: str | Path) -> bool:
@@ -97,6 +111,7 @@ def read_board_session(path: str | Path) -> BoardCaptures:
             raise InputValueError(f"{session} is not a board session (its method is {info.method})")
         board = info.board
         rows: list[tuple[F64, PoseCapture]] = []
+        placed: list[F64 | None] = []
         left_out: list[str] = []
         for record in iter_trials(reader):
             for pose in record.poses:
@@ -109,6 +124,7 @@ def read_board_session(path: str | Path) -> BoardCaptures:
                     left_out.append(f"{where}: the whole board was found in none of its frames")
                     continue
                 rows.append((corners, pose))
+                placed.append(_true_placing(record.simulation_truth, pose))
     if not rows:
         raise InputValueError(f"{session}: no capture found the whole board; nothing to fit")
     grid = board.corners_grid()
@@ -125,7 +141,20 @@ def read_board_session(path: str | Path) -> BoardCaptures:
         cameras=tuple(dict.fromkeys(p.camera.intrinsics for _, p in rows)),
         left_out=tuple(left_out),
         operator=info.operator.strip(),
+        true_placing=None if any(e is None for e in placed) else np.array(placed),
     )
+
+
+def _true_placing(truth: SimulationTruth | None, pose: PoseCapture) -> F64 | None:
+    """Where the laptop of ``pose`` really stood minus its typed place (session units), from
+    the trial's simulated truth: the true camera pose with the rig's constants undone
+    (:meth:`twopose.rig.RigConstants.placed_poses`); None without a truth of that pose."""
+    true = next((p for p in truth.poses if p.pose == pose.entry.pose), None) if truth else None
+    if truth is None or true is None:
+        return None
+    rig = RigConstants() if truth.rig is None else RigConstants.from_vector(truth.rig)
+    t_placed, _ = rig.placed_poses(true.t_grid, rotation_from_angles_deg(true.r_deg))
+    return np.asarray(t_placed - np.asarray(pose.entry.t_grid), dtype=np.float64)
 
 
 def _k(pose: PoseCapture) -> tuple[float, float, float, float]:
@@ -192,7 +221,15 @@ def calibrate_board(
         board = dataclasses.replace(
             board, placing=dataclasses.replace(board.placing, measured_by=named, operators=hands)
         )
-    return BoardCalibration(fit=as_rig_fit(board), board=board, sessions=sessions)
+    truths = [p.true_placing for p in ordered]
+    true_placing = (
+        None
+        if any(t is None for t in truths)
+        else float(np.sqrt(np.mean(np.concatenate([t for t in truths if t is not None]) ** 2)))
+    )
+    return BoardCalibration(
+        fit=as_rig_fit(board), board=board, sessions=sessions, true_placing=true_placing
+    )
 
 
 def as_rig_fit(board: BoardRigFit) -> RigFit:

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import math
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -32,7 +33,7 @@ from twopose.solve.session import SessionTrials, estimate_session
 from twopose.uncertainty.noise import PlacingSigma
 from twopose.values.units import Units
 
-__all__ = ["RigCalibration", "calibrate", "calibrate_rig", "with_rig"]
+__all__ = ["RigCalibration", "calibrate", "calibrate_rig", "placing_against_truth", "with_rig"]
 
 if TYPE_CHECKING:
     from analysis.results import AnalysisOptions
@@ -51,6 +52,31 @@ class RigCalibration:
     warnings: tuple[str, ...] = ()
     #: The operator's placing sigma a board measured (None: target sessions, which do not).
     placing: PlacingSigma | None = None
+    #: Simulated board sessions: the placing the simulator drew, the RMS of every used
+    #: capture's three true placing errors (session units; ``/simulation/truth``), to set
+    #: ``placing`` against. None: a session without its truth (every recorded one).
+    true_placing: float | None = None
+
+
+def placing_against_truth(placing: PlacingSigma, true_rms: float, units: Units) -> str:
+    """The measured placing sigma set against the placing a simulator drew, in words.
+
+    ``true_rms`` (session ``units``) is :attr:`RigCalibration.true_placing`: the issue's
+    target, the board's placing sigma within 25% of the truth, judged on the draw itself
+    (a draw's RMS scatters about the ``--pose-noise`` it was drawn with).
+    """
+    measured = placing.sigma(units)
+    head = (
+        f"the placing the simulator drew (/simulation/truth): RMS {true_rms:.3g} {units} "
+        f"over the {placing.captures} captures' components"
+    )
+    if true_rms < 1e-9:  # no placing drawn (its rig undone to rounding)
+        return f"{head}: none drawn"
+    if placing.upper_bound:
+        return f"{head}; the upper bound is {measured / true_rms:.2f}x it"
+    ratio = f"{head}; the measured sigma is {measured / true_rms:.2f}x it"
+    spread = placing.sigma_sigma_in / placing.sigma_in * measured / true_rms
+    return f"{ratio} (± {spread:.2f}x)" if math.isfinite(spread) else ratio
 
 
 def calibrate_rig(
@@ -105,6 +131,7 @@ def calibrate_rig(
             basis=basis,
             warnings=b.warnings,
             placing=b.placing,
+            true_placing=board.true_placing,
         )
     fit, data = calibrate(targets, groups, on_note, inputs.continuations)
     basis = f"{len(data.trial_ids)} trial(s) with ground truth"

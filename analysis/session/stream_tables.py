@@ -64,7 +64,9 @@ from twopose.methods.specs import spec_of
 from twopose.pair.calibration import PairCalibration
 from twopose.pair.clock import ClockOffset
 from twopose.pair.copied_view import copied_view
+from twopose.pair.dot_tracks import epipolar_gap_px
 from twopose.pair.holdout import CHECK_SIGMAS
+from twopose.pair.rays_miss import pixel_sigma, rays_miss_words, still_frames
 from twopose.pair.stream import StreamSettings, estimate_stream
 from twopose.uncertainty.propagate import uncertainty_columns
 from twopose.values.units import Units
@@ -418,6 +420,7 @@ def _replayed_rows(
     one, two = replay.tracks
     copy = copied_view((one.centroid_px, two.centroid_px), (one.t_ns, two.t_ns),
                        replay.offset.offset_ns).words()  # fmt: skip
+    warning = copy or _rays_missed(replay, session)
     rows = []
     for k, touch in enumerate(touches):
         err = float(np.linalg.norm(error[k])) if have[k] else np.nan
@@ -438,7 +441,7 @@ def _replayed_rows(
             **{f"err_{a}": float(error[k, i]) for i, a in enumerate("xyz")},
             "err": err,
             **{name: spread[name][k] for name in spread},
-            "warning": copy,
+            "warning": warning,
             "notes": replay.reason,
             "clock_offset_ms": replay.offset.offset_ns / 1e6,
             "clock_offset_sigma_ms": replay.offset.sigma_ns / 1e6,
@@ -455,6 +458,19 @@ def _replayed_rows(
                 row["dist_err"] = err
         rows.append(row)
     return rows
+
+
+def _rays_missed(replay: TrialReplay, session: PairSession) -> str:
+    """A dot's rays missing each other where it stood still: the pair file not these
+    cameras' (:mod:`twopose.pair.rays_miss`; a new user's r7 K11: every touch 41-51 sigma
+    off, blamed on the moment it was marked). "" for a target with image lines."""
+    if spec_of(session.info.method).uses_image_lines:
+        return ""
+    est = replay.estimate
+    still = still_frames(replay.tracks[1].centroid_px)[est.i2]
+    gaps = epipolar_gap_px(session.pair, est.measured[:, 0, :2], est.measured[:, 1, :2])
+    noise = 0.0 if replay.noise is None else max(n.noise.centroid_px for n in replay.noise)
+    return rays_miss_words(gaps[still], pixel_sigma(noise, session.pair.rms_px))
 
 
 def _skew_share(err: float, err_raw: float) -> float:

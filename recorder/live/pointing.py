@@ -33,11 +33,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from recorder.live.pointing_voids import PointVoids
 from twopose.detect.detection import detect
 from twopose.errors import InputValueError
 from twopose.methods.specs import Method, spec_of
 from twopose.pair.clock import ClockOffset
-from twopose.pair.copied_view import CopiedView
 from twopose.pair.frame_noise import CameraNoise, camera_noise
 from twopose.pair.live_pairing import LivePairing
 from twopose.pair.pairing import Pairing
@@ -59,7 +59,6 @@ if TYPE_CHECKING:
 
 __all__ = [
     "CHI2_2D_95",
-    "COPY_PAIRS",
     "DEFAULT_NOISE",
     "NOISE_EVERY_S",
     "NOISE_WINDOW_S",
@@ -75,8 +74,6 @@ __all__ = [
 CHI2_2D_95 = 5.991464547107979
 #: How far back the track reaches (s).
 TRACK_S = 1.0
-#: The last pairs judged for camera 2's frames being camera 1's (a second at 30 fps).
-COPY_PAIRS = 30
 #: Each frame's detection noise (1-sigma) assumed until the last seconds' frames give an
 #: estimate (:func:`twopose.pair.frame_noise.camera_noise`): the analysis' default.
 DEFAULT_NOISE = StreamNoise(centroid_px=0.25, theta_deg=0.25)
@@ -173,8 +170,10 @@ class PointingEstimate:
     ``cpu_ns`` the CPU this pair took (both frames' detection, its share of the estimate);
     ``noise`` each camera's detection noise its region carries, in words (where it came
     from: :class:`twopose.pair.frame_noise.CameraNoise`); ``warning`` what voids the point
-    though it is ok: camera 2's frames looking like camera 1's over the last
-    :data:`COPY_PAIRS` pairs (:mod:`twopose.pair.copied_view`), "" where none.
+    though it is ok (:class:`~recorder.live.pointing_voids.PointVoids`): camera 2's
+    frames looking like camera 1's over the last pairs (:mod:`twopose.pair.copied_view`),
+    or a dot's rays missing each other where it stood still (the pair file not these
+    cameras': :mod:`twopose.pair.rays_miss`), "" where none.
     """
 
     seq: int
@@ -273,12 +272,8 @@ class LivePointing:
         self._one: deque[_Seen] = deque()  # camera 1's detected frames, oldest first
         self._waiting: deque[tuple[_Seen, _Seen, int]] = deque()  # pairs: first, second, skew
         self._track: deque[tuple[float, float, float]] = deque()  # (t_ns, across, ahead)
-        # The last pairs' detections (u1, v1, u2, v2): two copies of one recording alike.
-        self._alike: deque[tuple[float, float, float, float]] = deque(maxlen=COPY_PAIRS)
-        # A copy, once seen, stays one: the cameras do not change while they run, and a
-        # copy's target pausing (its pixels still) voided no point for a while (a new
-        # user's r7 K1: green `conditioning: ok` at 4 s between two amber warnings)
-        self._copied = ""
+        # Copies of one recording, a pair file of another rig (a new user's r7 K1, K11)
+        self.voids = PointVoids(pair, dot=not self.spec.uses_image_lines)
         self._ended = False
         self.seq = 0
 
@@ -429,14 +424,6 @@ class LivePointing:
         share = (time.thread_time_ns() - start) // len(batch)
         return self._said(e, batch, share)
 
-    def _copy_warning(self, alike: F64) -> str:
-        """What voids the pair's points as copies (:mod:`twopose.pair.copied_view`): a copy
-        seen over the last :data:`COPY_PAIRS` pairs, kept from then on; else, a target
-        still at one pixel in both cameras, which cannot be told from one ("" else)."""
-        view = CopiedView.of(alike[:, :2], alike[:, 2:])
-        self._copied = self._copied or view.words()
-        return self._copied or view.held_words()
-
     def _said(
         self, e: StreamEstimate, batch: list[tuple[_Seen, _Seen, int]], share_ns: int
     ) -> list[PointingEstimate]:
@@ -446,6 +433,8 @@ class LivePointing:
         now = time.monotonic_ns()
         lines = self.spec.uses_image_lines
         noise = (self.noise[0].said(lines=lines), self.noise[1].said(lines=lines))
+        gaps = self.voids.gaps(e.measured)
+        noise_px = max(n.noise.centroid_px for n in self.noise)
         out = []
         for k, (first, second, skew) in enumerate(batch):
             ok = bool(e.ok[k])
@@ -456,9 +445,10 @@ class LivePointing:
                 self._track.popleft()
             track = tuple(((t - s) / 1e9, a, b) for s, a, b in self._track if s <= t)
             p3 = e.point[k]
-            if first.found and second.found:
-                self._alike.append((first.u, first.v, second.u, second.v))
-            alike = np.array(self._alike, dtype=np.float64).reshape(-1, 4)
+            warning = self.voids.said(
+                (first.u, first.v) if first.found else None,
+                (second.u, second.v) if second.found else None, float(gaps[k]), noise_px,
+            )  # fmt: skip
             out.append(
                 PointingEstimate(
                     seq=self.seq,
@@ -474,7 +464,7 @@ class LivePointing:
                     done_ns=now,
                     cpu_ns=first.cpu_ns + second.cpu_ns + share_ns,
                     noise=noise,
-                    warning=self._copy_warning(alike),
+                    warning=warning,
                 )
             )
             self.seq += 1

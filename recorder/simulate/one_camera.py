@@ -5,7 +5,8 @@ the laptop there with an error of ``poses.noise_sigma`` on every translation com
 (``poses.rotation_noise_deg`` on every angle), records those as each entry's 1-sigma
 ``resolution`` (or ``poses.typed_resolution``: an operator who types another), and
 captures ``frames`` frames per pose rendered from the *true* pose. Typed poses go to
-``/twopose/pose``; the true poses and target go to ``/simulation/truth``. A camera with a
+``/twopose/pose``; the true poses and target go to ``/simulation/truth`` (a board
+session's: its true poses and the board's corners). A camera with a
 ``calibration_sigma`` is recorded with its intrinsics and that sigma, and rendered with true
 intrinsics drawn once per session (:func:`calibrated_cameras`). The same seed gives the same
 bytes.
@@ -51,6 +52,7 @@ from twopose.format.entries import (
     TruthKind,
     TypedEntry,
 )
+from twopose.format.simulation import BOARD_TRUTH, SimTruthKind
 from twopose.methods.planes import GROUND_PLANE, ConstraintPlane
 from twopose.methods.specs import LINE_TRUTH, POINT_TRUTH, Method, MethodSpec, spec_of
 from twopose.sim.camera import SyntheticCamera, camera_pose, true_intrinsics
@@ -348,12 +350,13 @@ class _SimulatedOperator(Driver):
     ) -> None:
         self.scene, self.spec, self.trials = scene, spec, trials
         self.rng, self.clock, self.source = rng, clock, source
-        self.board = not spec.measures  # a board session: its poses, no truth
+        self.board = not spec.measures  # a board session: its poses, no ground truth
         self.kind: TruthKind = POINT_TRUTH
-        self.truth: tuple[Vec3, ...] = ()
-        if not self.board:
+        if self.board:  # its simulated truth: the board's corners where it really stood
+            truth = scene.board.placement().corners_grid()
+        else:
             self.kind, truth = target_points(scene, spec)
-            self.truth = tuple(_vec(p) for p in truth)
+        self.truth: tuple[Vec3, ...] = tuple(_vec(p) for p in truth)
         self.pose_dt = int(scene.sensor.seconds_between_poses * 1e9)
         self.drawn: list[tuple[F64, F64, F64, F64]] = []
         self.poses_per_trial = poses_per_trial(scene, spec)
@@ -387,9 +390,6 @@ class _SimulatedOperator(Driver):
         return Placement(entry=entry, true_pose=(_vec(t_true), _vec(r_true)))
 
     def end_trial(self, trial: int) -> Sequence[TypedEntry]:
-        if self.board:
-            self.clock.advance(self.source.frame_dt)
-            return ()
         cams = self.scene.cameras
         true_poses = tuple(
             TruePose(pose=k, camera_id=cams[(k - 1) % len(cams)].id, t_grid=_vec(t), r_deg=_vec(r))
@@ -398,9 +398,10 @@ class _SimulatedOperator(Driver):
         self.clock.advance(self.source.frame_dt)
         rig = self.scene.systematic
         constants = None if rig.is_identity else tuple(float(v) for v in rig.vector())
+        kind: SimTruthKind = BOARD_TRUTH if self.board else self.kind
         return (
             SimulationTruth(
-                trial=trial, poses=true_poses, kind=self.kind, points_grid=self.truth, rig=constants
+                trial=trial, poses=true_poses, kind=kind, points_grid=self.truth, rig=constants
             ),
         )
 

@@ -2,7 +2,9 @@
 files the simulator records (its one synthetic camera applies the rig's constants). The
 constants come back within their uncertainty; the rig file is the one ``run --rig`` reads;
 board and target sessions are not mixed; a board session is not analysed as a measurement;
-a session named twice counts once; a capture that never saw the board is left out, said."""
+a session named twice counts once; a capture that never saw the board is left out, said;
+a simulated board session records the poses it was rendered from, and `rig` sets the
+placing it measured against the placing the simulator drew."""
 
 from __future__ import annotations
 
@@ -19,7 +21,11 @@ from analysis.cli import app
 from analysis.rig.board import calibrate_board, read_board_session
 from analysis.rig.calibrate import calibrate_rig
 from recorder.simulate.one_camera import simulate_session
+from tests.helpers import rewrite_session
 from twopose.errors import InputValueError
+from twopose.format.reader import SessionReader
+from twopose.format.simulation import BOARD_TRUTH, SimulationTruth
+from twopose.format.trials import iter_trials
 from twopose.methods.specs import Method
 from twopose.rig.constants import RigConstants
 from twopose.rig.file import load_rig, load_rig_file
@@ -100,6 +106,63 @@ def test_rig_writes_the_file_run_reads(board_session: Path, tmp_path: Path) -> N
     assert placing.captures == 8
     assert abs(placing.sigma_in - 0.04) < 3 * placing.sigma_sigma_in, placing
     assert f"placing sigma {placing.sigma_in:.3g} ± " in result.stdout
+    # H3: beside it, the placing the simulator drew, from the session's own truth.
+    drawn_each = read_board_session(board_session).true_placing
+    assert drawn_each is not None
+    drawn = float(np.sqrt(np.mean(drawn_each**2)))
+    assert (
+        f"the placing the simulator drew (/simulation/truth): RMS {drawn:.3g} in over the 8 "
+        f"captures' components; the measured sigma is {placing.sigma_in / drawn:.2f}x it"
+    ) in result.stdout
+
+
+def test_a_simulated_board_session_records_the_poses_it_was_rendered_from(
+    board_session: Path,
+) -> None:
+    """H3 (issue 54's board target, checkable): one truth per trial, kind "board", every
+    capture's true pose and the board's corners; the placing read back from it is the one
+    drawn (0.04 in a component here), the rig's constants undone (their 0.3-0.4 in camera
+    offset is no placing)."""
+    with SessionReader(board_session) as reader:
+        board = reader.info.board
+        assert board is not None
+        (trial,) = list(iter_trials(reader, with_frames=False))
+    truth = trial.simulation_truth
+    assert isinstance(truth, SimulationTruth)
+    assert truth.kind == BOARD_TRUTH
+    np.testing.assert_allclose(truth.points_grid, board.corners_grid())
+    assert [p.pose for p in truth.poses] == list(range(1, len(BOARD_POSES) + 1))
+    assert truth.rig is not None
+    np.testing.assert_allclose(truth.rig, TRUE.vector())
+    true_t = np.array([p.t_grid for p in truth.poses])
+    typed = np.array([p.entry.t_grid for p in trial.poses])
+    assert np.sqrt(np.mean((true_t - typed) ** 2)) > 0.2  # the camera, not the laptop
+    placing = read_board_session(board_session).true_placing
+    assert placing is not None
+    assert placing.shape == (len(BOARD_POSES), 3)
+    rms = float(np.sqrt(np.mean(placing**2)))
+    assert 0.025 < rms < 0.055  # 24 draws of N(0, 0.04^2)
+    assert calibrate_board([board_session]).true_placing == pytest.approx(rms)
+
+
+def test_a_board_session_without_its_truth_is_calibrated_as_before(
+    board_session: Path, tmp_path: Path
+) -> None:
+    """A board session simulated before its truth was written (or a recorded one): the same
+    fit, no truth said."""
+    old = rewrite_session(
+        board_session, tmp_path / "old.mcap", drop=frozenset({"/simulation/truth"})
+    )
+    with SessionReader(old) as reader:
+        assert all(t.simulation_truth is None for t in iter_trials(reader, with_frames=False))
+    assert read_board_session(old).true_placing is None
+    found, before = calibrate_board([old]), calibrate_board([board_session])
+    assert found.true_placing is None
+    np.testing.assert_allclose(found.board.rig.vector(), before.board.rig.vector())
+    result = runner.invoke(app, ["rig", str(old), "--out", str(tmp_path / "rig.toml")])
+    assert result.exit_code == 0, result.output
+    assert "placing sigma" in result.stdout
+    assert "/simulation/truth" not in result.stdout
 
 
 def test_a_session_named_twice_or_copied_counts_once(board_session: Path, tmp_path: Path) -> None:
@@ -192,3 +255,20 @@ def test_a_board_placed_exactly_gives_an_upper_bound_never_a_measured_sigma(
     assert "measured by" not in found.placing.describe(Units.IN)
     (camera,) = found.constants.cameras
     assert (camera.width, camera.height, camera.fx) == (640, 480, 525.0)
+
+
+def test_the_placing_is_set_against_the_draw_in_the_sessions_units() -> None:
+    """The words `rig` prints under the placing sigma: a ratio with its spread, a bound's
+    ratio alone, and none for a draw of no placing (the board placed exactly)."""
+    from analysis.rig.calibrate import placing_against_truth
+    from twopose.uncertainty.noise import PlacingSigma
+
+    measured = PlacingSigma(sigma_in=0.11, sigma_sigma_in=0.011, captures=16)
+    said = placing_against_truth(measured, 0.1 * 25.4, Units.MM)
+    assert said == (
+        "the placing the simulator drew (/simulation/truth): RMS 2.54 mm over the 16 "
+        "captures' components; the measured sigma is 1.10x it (± 0.11x)"
+    )
+    bound = PlacingSigma(sigma_in=0.002, captures=8, upper_bound=True)
+    assert placing_against_truth(bound, 0.001, Units.IN).endswith("the upper bound is 2.00x it")
+    assert placing_against_truth(bound, 1e-15, Units.IN).endswith(": none drawn")

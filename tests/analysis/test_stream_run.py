@@ -473,3 +473,50 @@ def test_a_touch_lost_to_a_cut_file_says_the_stream_ends_there(mixed: Path, tmp_
         assert reason.count(RECOVERED_REASON) == 1, reason  # once, not once a camera
         assert "load" not in reason
         assert "jitter" not in reason
+
+
+@pytest.mark.parametrize("recorded", [False, True])
+def test_a_pair_file_not_these_cameras_is_said_at_every_touch(
+    tmp_path: Path, recorded: bool
+) -> None:
+    """A new user's r7 K11: a dot session recorded with another rig's pair file gave every
+    touch 41-51 sigma off, blamed on the moment it was marked. The dot's rays miss each
+    other where it stood still (twopose.pair.rays_miss): with the offset recorded every
+    touch is warned, saying so; measured, the trial's offset is refused, saying so; with
+    the right pair nothing is said."""
+    from tests.recorder.test_pointing import _dot_frames
+    from tests.twopose.format.pair_examples import pair_cameras
+    from tests.twopose.pair.test_rays_miss import another_rig
+    from twopose.pair.clock import ClockOffset
+
+    still = np.tile([1.0, 2.0, 14.0], (24, 1))
+    moving = still[:1] + np.linspace(0.1, 3.0, 12)[:, None] * np.array([1.0, 0.5, 0.0])
+    frames = _dot_frames(thesis_pair(), np.vstack([still, moving]))
+    info = SessionInfo(method=Method.POINT, units=Units.IN, camera_ids=("cam1", "cam2"))
+    paths = []
+    for name, pair, t0 in (("right", thesis_pair(), 10**18), ("other", another_rig(), 10**18 + 1)):
+        path = tmp_path / f"{name}.mcap"
+        with SessionWriter(path, info, pair_cameras(pair), pair=pair, start_ns=t0) as writer:
+            if recorded:
+                writer.write_clock_offset(
+                    ClockOffset(offset_ns=0.0, sigma_ns=1e5, method="flash", n=60)
+                )
+            with writer.stream(1, window_s=0.1, start_ns=t0 + 10**9) as stream:
+                for f in frames:
+                    stream.add_frame(
+                        f"cam{f.camera}",
+                        f.image,
+                        f.t_capture_ns,
+                        t0 + f.t_capture_ns - frames[0].t_capture_ns + 10**9,
+                    )
+                stream.touch((1.0, 2.0, 14.0), frames[20].t_capture_ns, "key")
+        paths.append(path)
+    result = analysis.run(paths)
+    rows = result.trials.set_index("label")
+    right = rows.loc["right.mcap"]
+    assert right["status"] == "ok", right.to_dict()
+    assert not right["warning"], right.to_dict()
+    other = rows.loc["other.mcap"]
+    said = str(other["warning"]) if recorded else str(other["reason"])
+    assert "miss each other" in said, other.to_dict()
+    assert "calibrate this pair" in said

@@ -84,9 +84,11 @@ def test_placing_errors_are_fitted_with_the_typed_resolution_as_their_prior() ->
 def test_the_poses_depth_spread_sets_how_well_the_depth_offset_and_focal_scale_part() -> None:
     """Each capture's depth is known only to the placing error, so the depth offset and the
     focal scale part by the ratio of that error to the poses' spread of depths: the
-    benchmark's poses (19-58 in from the board) leave the depth offset to under 0.05 in and
-    the principal point to under 0.7 px (1 sigma); the same eight moves squeezed into 20-38
-    in leave more, on the same corners' noise."""
+    benchmark's poses (19-58 in from the board) leave the depth offset to under 0.06 in
+    (0.054; 0.044 before each unturned capture carried the detector's turn-shaped errors,
+    r7 H2) and the principal point to under 1.3 px (1.23; 0.61 before: it parts from the
+    mount's rotation, which those errors now widen); the same eight moves squeezed into
+    20-38 in leave the depth offset and focal scale more, on the same corners' noise."""
 
     def sigma(poses: np.ndarray) -> dict[str, float]:
         observed = _observed(TRUE, poses, 0.2, 0)
@@ -103,12 +105,13 @@ def test_the_poses_depth_spread_sets_how_well_the_depth_offset_and_focal_scale_p
         return {n: float(fit.sigma[FITTED_NAMES.index(n)]) for n in names}
 
     spread = sigma(POSES)
-    assert spread["offset_z"] < 0.05
-    assert spread["principal_dx_px"] < 0.7
+    assert spread["offset_z"] < 0.06
+    assert spread["principal_dx_px"] < 1.3
     near = POSES.copy()
     near[:, 2] = np.interp(POSES[:, 2], [-34.0, 5.0], [-14.0, 4.0])  # 20-38 in
     squeezed = sigma(near)
-    assert all(squeezed[n] > 1.3 * spread[n] for n in spread), (squeezed, spread)
+    parted = ("offset_z", "focal_scale")
+    assert all(squeezed[n] > 1.25 * spread[n] for n in parted), (squeezed, spread)
 
 
 def test_translation_along_one_direction_is_refused() -> None:

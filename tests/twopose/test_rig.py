@@ -53,6 +53,34 @@ def test_the_constants_act_as_documented() -> None:
     assert not rig.is_identity
 
 
+small = st.floats(-3.0, 3.0)
+vec = st.tuples(small, small, small)
+
+
+@given(
+    mount=vec,
+    offset=vec,
+    tape=st.floats(0.9, 1.1),
+    t=st.tuples(st.floats(-40, 40), st.floats(-40, 40), st.floats(-40, 40)),
+    r=st.tuples(st.floats(-60, 60), angle, st.floats(-60, 60)),
+)
+def test_placed_poses_undo_the_constants(
+    mount: tuple[float, float, float],
+    offset: tuple[float, float, float],
+    tape: float,
+    t: tuple[float, float, float],
+    r: tuple[float, float, float],
+) -> None:
+    """Where a simulated board's laptop was placed, from its true camera pose (H3)."""
+    rig = RigConstants(mount_rotation_deg=mount, camera_offset=offset, tape_scale=tape)
+    t_true, R_true = rig.true_poses(t, r)
+    t_placed, r_placed = rig.placed_poses(t_true, R_true)
+    np.testing.assert_allclose(t_placed, t, atol=1e-9)
+    np.testing.assert_allclose(
+        rotation_from_angles_deg(r_placed), rotation_from_angles_deg(r), atol=1e-9
+    )
+
+
 @pytest.mark.parametrize(
     "kwargs", [{"focal_scale": 3.0}, {"tape_scale": 0.1}, {"ground_height_error": float("nan")}]
 )

@@ -1,7 +1,8 @@
 """The simulator's truth entries: what a simulated trial really was.
 
 ``/simulation/truth`` (:class:`SimulationTruth`, format 1.0): a typed-pose trial's true
-poses and target. ``/twopose/sim/trajectory`` (:class:`SimTrajectory`, format 1.6): a
+poses and target (a board session's trial: its true poses and the board's inner corners,
+``kind`` ``"board"``). ``/twopose/sim/trajectory`` (:class:`SimTrajectory`, format 1.6): a
 stream trial's true motion (the target at every frame's true instant), each camera's true
 clock and the pair the frames were rendered with. Both are declared as every entry is
 (:mod:`twopose.format.declared`); :mod:`twopose.format.entries` registers them.
@@ -12,7 +13,7 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 from twopose.errors import InputValueError
 from twopose.format.declared import (
@@ -28,9 +29,22 @@ from twopose.format.declared import (
 from twopose.methods.specs import TRUTH_POINTS, TruthKind
 from twopose.values.checks import Vec3, camera_id, finite, index, numbers, vec3
 
-__all__ = ["SimClock", "SimFrames", "SimTrajectory", "SimulationTruth", "TruePose"]
+__all__ = [
+    "BOARD_TRUTH",
+    "SimClock",
+    "SimFrames",
+    "SimTrajectory",
+    "SimTruthKind",
+    "SimulationTruth",
+    "TruePose",
+]
 
-_POINTS_SCHEMA = {"enum": list(TRUTH_POINTS)}
+#: A simulated board session's truth: the poses the frames were rendered from, and the
+#: board's inner corners as its target (the session entry's board, where it really stood).
+BOARD_TRUTH: Literal["board"] = "board"
+#: What a simulated trial's truth is: a target's point or line, or a board.
+SimTruthKind = TruthKind | Literal["board"]
+_POINTS_SCHEMA = {"enum": [*TRUTH_POINTS, BOARD_TRUTH]}
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -55,7 +69,11 @@ class TruePose:
 )
 @dataclass(frozen=True, kw_only=True)
 class SimulationTruth(TypedEntry):
-    """What a simulated trial really was: true poses and the true point or line."""
+    """What a simulated trial really was: true poses and the true point or line.
+
+    A board session's trial (``kind`` :data:`BOARD_TRUTH`): its captures' true poses, and
+    ``points_grid`` the board's inner corners (``BoardPlacement.corners_grid`` order).
+    """
 
     trial: int = json_field("trial", INDEX_SCHEMA)
     poses: tuple[TruePose, ...] = json_field(
@@ -63,9 +81,15 @@ class SimulationTruth(TypedEntry):
         {"type": "array", "items": object_schema(TruePose)},
         decode=lambda items: tuple(from_json(TruePose, p) for p in items),
     )
-    kind: TruthKind = json_field("kind", _POINTS_SCHEMA)
+    kind: SimTruthKind = json_field("kind", _POINTS_SCHEMA)
     points_grid: tuple[Vec3, ...] = json_field(
-        "points", {"type": "array", "items": vec3_schema("grid frame"), "minItems": 1}
+        "points",
+        {
+            "type": "array",
+            "items": vec3_schema("grid frame"),
+            "minItems": 1,
+            "description": "the true point, the line's two points, or the board's inner corners",
+        },
     )
     rig: tuple[float, ...] | None = json_field(
         "rig",
@@ -88,6 +112,9 @@ class SimulationTruth(TypedEntry):
         object.__setattr__(
             self, "points_grid", tuple(vec3(p, "truth point") for p in self.points_grid)
         )
+        if self.kind not in (*TRUTH_POINTS, BOARD_TRUTH):
+            kinds = ", ".join((*TRUTH_POINTS, BOARD_TRUTH))
+            raise InputValueError(f"a simulated truth's kind is one of {kinds}, got {self.kind!r}")
         if self.rig is not None:
             object.__setattr__(self, "rig", tuple(float(v) for v in numbers(self.rig, 11, "rig")))
 

@@ -23,7 +23,9 @@
   offset a pair's clocks may differ by (:data:`twopose.values.bounds.CLOCK_OFFSET`, what
   ``simulate`` accepts) and a margin. Refused in words: a motion along the epipolar lines
   (sideways, for cameras side by side) or no more than camera 1's noise, one in fewer than
-  three frames, one that repeats, a best at the search's edge, exchanged cameras.
+  three frames, one that repeats, a best at the search's edge, exchanged cameras, and a
+  dot's rays apart at their best by more than its detection makes (a pair file not these
+  cameras': :mod:`twopose.pair.rays_miss`).
 
 Both first fit each camera's frame times by a regular clock (:func:`regular_times`: a
 camera's frames are taken at a fixed rate; the stamps' jitter is the host's), so the
@@ -41,6 +43,7 @@ from twopose.pair.calibration import PairCalibration
 from twopose.pair.clock_fit import ClockOffset, RegularTimes, regular_times
 from twopose.pair.dot_tracks import MIN_GAP_FRAMES, DotTracks, dot_tracks, epipolar_gap_px
 from twopose.pair.flash import offset_from_flash
+from twopose.pair.rays_miss import pixel_sigma, rays_miss_words, still_frames
 from twopose.values import bounds
 
 __all__ = [
@@ -161,6 +164,7 @@ def _ray_gap(dots: DotTracks, search_ns: tuple[float, float], floor_px: float) -
     supported = coarse_used >= 0.5 * coarse_used.max()
     minima = _basins(dots, coarse, np.where(supported, coarse_cost, np.nan), interval)
     best = minima[0][0]
+    _refuse_another_pair(dots, best, floor_px)
     if min(best - lo, hi - best) < interval:
         raise InputValueError(
             f"the rays' gap is smallest at the edge of the offsets searched ({lo / 1e6:+.0f} "
@@ -379,6 +383,21 @@ _NOT_FIXED = (
     "the target's motion does not fix the clock offset (it moved along the epipolar lines, "
     "or too little): move it across them, up and down for cameras side by side"
 )
+
+
+def _refuse_another_pair(dots: DotTracks, best_ns: float, floor_px: float) -> None:
+    """Refuse a pair file not these cameras': a dot's rays apart where it stood still.
+
+    At the best offset (:mod:`twopose.pair.rays_miss`), in its words. A line target's gap
+    cannot tell (its slide along the finger takes most of it up): not judged.
+    """
+    if dots.lines is not None:
+        return
+    still = still_frames(dots.tracks[1])
+    sigma = pixel_sigma(floor_px, dots.pair.rms_px)
+    missed = rays_miss_words(dots.gaps(np.array([best_ns]))[0][0][still], sigma)
+    if missed:
+        raise InputValueError(missed)
 
 
 def _swapped_hint(

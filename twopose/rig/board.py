@@ -32,10 +32,12 @@ laptop is not zero, and the corners see it). Each capture's **rotation error** i
 too (issue 54), three angles with the typed rotation resolution as their prior: a laptop
 turned by a tenth of a degree moves a board's image as a sideways placing error does, and
 unmodelled it was read as one. A turn shows beside a shift only in the board's
-perspective, where the corner detector errs too: each turned capture also carries two
+perspective, where the corner detector errs too: each capture also carries two
 perspective-shaped corner errors (:func:`perspective_modes`), so that the detector's
-error there is not read as a turn and then as placing. A placing sigma the captures
-cannot measure (the fit's floor) is only bounded, and said
+error there is not read as a turn and then as placing, nor, where no capture is turned,
+as the mount's rotation, which every capture shares; an unturned capture carries a
+roll-shaped one too (:func:`roll_mode`; a turned capture's own roll has that shape). A
+placing sigma the captures cannot measure (the fit's floor) is only bounded, and said
 (``BoardRigFit.placing.upper_bound``). The constants' covariance is kept whole
 (``RigConstants.covariance``): the rig file carries it. No I/O.
 """
@@ -69,11 +71,13 @@ from twopose.values.units import DEFAULT_UNITS, Units, unit_spec
 __all__ = [
     "PERSPECTIVE_PRIOR",
     "RIG_PRIORS",
+    "ROLL_PRIOR",
     "BoardRigFit",
     "board_order",
     "check_identifiable",
     "fit_board_rig",
     "perspective_modes",
+    "roll_mode",
 ]
 
 #: The constants a board determines (RIG_PARAMETERS order, without the ground's).
@@ -95,6 +99,11 @@ ROTATION_FLOOR_DEG = 1e-6
 #: +13%, (estimate - truth) / sigma RMS 1.45 without them; +7% and 1.25 at 3, +6.5% and 1.15
 #: at 10, which costs a fifth of the degrees of freedom (30 at 3, 26 at 10, of 33).
 PERSPECTIVE_PRIOR = 3.0
+#: The prior 1-sigma of an unturned capture's roll-shaped corner error (:func:`roll_mode`),
+#: in corner sigmas at its outermost corner: on 10 rendered boards, against the poses they
+#: were rendered from (``/simulation/truth``), 0.9-1.1 RMS about no mean (docs/rig.md).
+ROLL_PRIOR = 1.0
+_MODES = 3  # a capture's shaped corner errors: two perspective patterns, then the roll's
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -244,7 +253,7 @@ def fit_board_rig(  # noqa: PLR0913 - the captures' arrays, then how to fit them
     free = _free_mask(groups)
     check_identifiable(t, X[:, :, 2].mean(axis=1))
     model = _Model.of(free, units, t_sigma, r_sigma)
-    modes = perspective_modes(u, k)  # (C, 2, K, 2)
+    modes = np.concatenate([perspective_modes(u, k), roll_mode(u, k)[:, None]], axis=1)
 
     def predicted(x: F64, sigma_px: F64) -> F64:
         """The corners predicted, the detector's perspective-shaped error added."""
@@ -389,10 +398,13 @@ class _Model:
     """The board fit's parameters: which are fitted, their prior means and sigmas.
 
     The full vector is the 10 constants (FITTED order), each capture's placing error
-    (C x 3), rotation error (C x 3, degrees) and perspective modes (C x 2, corner sigmas:
-    :func:`perspective_modes`); the fitted ones are the free constants, every placing error
-    (when the translations have a resolution) and the rotation errors and modes of captures
-    typed with a rotation resolution (over :data:`ROTATION_FLOOR_DEG`).
+    (C x 3), rotation error (C x 3, degrees) and shaped corner errors (C x 3, corner sigmas:
+    the two of :func:`perspective_modes`, then :func:`roll_mode`); the fitted ones are the
+    free constants, every placing error (when the translations have a resolution), the
+    rotation errors of captures typed with a rotation resolution (over
+    :data:`ROTATION_FLOOR_DEG`), every capture's perspective modes, and the roll mode of
+    the captures whose rotation is not fitted (a fitted roll about the optical axis moves
+    the corners in that very shape).
     """
 
     fitted: NDArray[np.bool_]
@@ -410,16 +422,18 @@ class _Model:
         n_placed = 3 * C if t_sigma > 0 else 0
         turned = r_sigma > ROTATION_FLOOR_DEG
         turning = np.repeat(turned, 3)
-        nominal = np.concatenate([RigConstants().vector()[:-1], np.zeros(8 * C)])
+        shaped = np.stack([np.ones(C, bool), np.ones(C, bool), ~turned], axis=1).ravel()
+        nominal = np.concatenate([RigConstants().vector()[:-1], np.zeros((6 + _MODES) * C)])
         return cls(
-            fitted=np.concatenate(
-                [free, np.full(3 * C, n_placed > 0), turning, np.repeat(turned, 2)]
-            ),
+            fitted=np.concatenate([free, np.full(3 * C, n_placed > 0), turning, shaped]),
             full_nominal=nominal,
             rig_prior=_prior_sigma(units)[free],
-            # The perspective modes' prior (in the capture's corner sigmas) after the angles'.
+            # The shaped errors' priors (in the capture's corner sigmas) after the angles'.
             rotation_prior=np.concatenate(
-                [np.repeat(r_sigma, 3)[turning], np.full(2 * int(turned.sum()), PERSPECTIVE_PRIOR)]
+                [
+                    np.repeat(r_sigma, 3)[turning],
+                    np.tile([PERSPECTIVE_PRIOR, PERSPECTIVE_PRIOR, ROLL_PRIOR], C)[shaped],
+                ]
             ),
             n_free=int(free.sum()),
             n_placed=n_placed,
@@ -443,10 +457,10 @@ class _Model:
         return out
 
     def split(self, x: F64) -> tuple[F64, F64, F64, F64]:
-        """A full vector's constants (10), placing, rotation errors and modes (C, 3/3/2)."""
+        """A full vector's constants (10), placing, rotation errors and modes (C, 3/3/3)."""
         n, C = len(FITTED_NAMES), self.n_captures
         placed, turned = x[n : n + 3 * C].reshape(C, 3), x[n + 3 * C : n + 6 * C].reshape(C, 3)
-        return x[:n], placed, turned, x[n + 6 * C :].reshape(C, 2)
+        return x[:n], placed, turned, x[n + 6 * C :].reshape(C, _MODES)
 
     def linearized(self, jac: F64, res: F64, p: F64) -> Linearized:
         """The fit's linearization for the placing sigma (:mod:`twopose.rig.placing`)."""
@@ -483,6 +497,21 @@ def perspective_modes(observed_px: F64, intrinsics: F64) -> F64:
     second = np.stack([x * y, y * y], axis=-1) / reach[..., None]
     modes: F64 = np.stack([first, second], axis=1)
     return modes
+
+
+def roll_mode(observed_px: F64, intrinsics: F64) -> F64:
+    """Each capture's roll-shaped corner pattern (C, K, 2), in pixels per corner sigma.
+
+    ``(-y, x)`` in the normalised image (from the principal point), scaled to 1 at the
+    capture's outermost corner: how a roll about the optical axis moves the corners. The
+    detector errs in this shape too (:data:`ROLL_PRIOR`); unfitted, where no turn is, that
+    went to the mount's roll every capture shares (r7 H2).
+    """
+    x = (observed_px[..., 0] - intrinsics[:, None, 2]) / intrinsics[:, None, 0]
+    y = (observed_px[..., 1] - intrinsics[:, None, 3]) / intrinsics[:, None, 1]
+    reach = np.sqrt(np.max(x**2 + y**2, axis=1))[:, None, None]  # (C, 1, 1)
+    mode: F64 = np.stack([-y, x], axis=-1) / reach
+    return mode
 
 
 def _covariance(jac: F64, free: NDArray[np.bool_]) -> F64:

@@ -145,6 +145,20 @@ class RigConstants:
         offset = np.einsum("...ij,j->...i", R_typed, np.asarray(self.camera_offset))
         return self.tape_scale * t + offset, np.asarray(R_typed @ R_mount)
 
+    def placed_poses(self, t_true: ArrayLike, R_true: ArrayLike) -> tuple[F64, F64]:
+        """:meth:`true_poses` undone: where the laptop was placed and how it was turned.
+
+        True centres (..., 3) and rotations (..., 3, 3) -> the placed centres (..., 3) and
+        angles (..., 3; degrees).
+        """
+        R_typed = (
+            np.asarray(R_true, dtype=np.float64)
+            @ rotation_from_angles_deg(self.mount_rotation_deg).T
+        )
+        offset = np.einsum("...ij,j->...i", R_typed, np.asarray(self.camera_offset))
+        t = (np.asarray(t_true, dtype=np.float64) - offset) / self.tape_scale
+        return t, angles_deg_from_rotation(R_typed)
+
     def true_intrinsics(self, intrinsics: ArrayLike) -> F64:
         """Typed ``(fx, fy, cx, cy)`` (..., 4) -> the true ones."""
         k = np.array(intrinsics, dtype=np.float64)
