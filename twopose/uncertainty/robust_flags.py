@@ -10,6 +10,17 @@ little beside it to say what "the rest" is, the typed test alone decides. A tria
 test flagged (its estimate off the others' or off its truth) lies in no rest (``out``).
 The likelihood of the trials kept is truncated (:func:`_kept_chance`): the test keeps the
 trials below a cut, and the kept ones alone would understate ``lambda``.
+
+**A typo is tested where a typed pose can move the misclosure.** A mistyped translation
+moves only the directions the placing moves (its share ``beta > 0``: the typed
+translations' covariance is of full rank, so their effects span exactly what it spans); a
+direction of pixels alone (``beta = 0``) carries none of it, and tested beside it dilutes
+it. A line's or a ground point's three-pose misclosure has 2 dof, one of them pixels alone:
+its typed poses' test is on 1 (a new user's r6 G8: a line's 1 in typo at 29 on 2 dof, p
+0.012 against the rest, 0.0025 on its placing direction). So a trial is flagged when the
+test of its whole misclosure (any blunder: a detection's too) or the test of its placing
+directions (:func:`placing_directions`) rejects, each against the typed model and the
+rest; a trial without a pixel-only direction (a point's) has the one test.
 """
 
 from __future__ import annotations
@@ -38,6 +49,7 @@ __all__ = [
     "POOL_LEVEL",
     "Flags",
     "flag_trials",
+    "placing_directions",
     "trial_pvalues",
 ]
 
@@ -57,6 +69,9 @@ _ROUNDS = 20
 #: Less information than this beside a trial (other trials', the prior's) is none: the
 #: typed test alone decides whether it is flagged.
 _SOMETHING_BESIDE = 0.5
+#: A direction whose placing share is below this is of pixels alone (they come out exactly
+#: 0, or 1e-3 and more).
+_PIXELS_ALONE = 1e-6
 
 
 def _rest_of_each(L: F64, info: F64, use: Bools) -> tuple[F64, F64]:
@@ -96,7 +111,8 @@ class Flags:
     """Which trials' poses disagree (:func:`flag_trials`), and what the others say.
 
     ``flagged`` and ``p`` (T,): the p-value against the rest (the typed model's where
-    nothing lies beside the trial; NaN: no redundancy). ``kept`` (T, G): each trial's
+    nothing lies beside the trial; NaN: no redundancy), the smaller of its two tests' where
+    it has a direction of pixels alone (see the module). ``kept`` (T, G): each trial's
     log-likelihood of the multiplier *given that it was not flagged* (the test keeps the
     trials below a cut, so the kept ones alone would understate ``lambda``: each is
     divided by the chance to fall below its cut at ``lambda``, the truncated likelihood),
@@ -157,11 +173,16 @@ def flag_trials(
     pool = np.zeros(T, dtype=bool)
     sharp = (beside >= _SHARP_REST) & math.isfinite(anchor.dof)  # an anchor stated exactly
     pool_level = np.where(sharp, max(level, POOL_LEVEL), level)  # is a rest that learns nothing
+    typo = placing_directions(dof, share, z2)
     for _ in range(_ROUNDS):
         p_typed, p_rest = trial_pvalues(chi2, dof, share, z2, rest, beside)
         typed_off, no_rest = p_typed < level, np.isnan(p_rest)
         keep = tested & ~(typed_off & (no_rest | (p_rest < level)))
-        pooled = tested & ~(typed_off & (no_rest | (p_rest < pool_level)))
+        if typo is not None:  # a typed pose's test, on the directions it can move
+            q_typed, q_rest = trial_pvalues(typo[0], typo[1], share, typo[2], rest, beside)
+            keep &= ~((q_typed < level) & (np.isnan(q_rest) | (q_rest < level)))
+            q = np.where(np.isfinite(q_rest), q_rest, q_typed)
+        pooled = keep & ~(typed_off & (no_rest | (p_rest < pool_level)))
         chance = _kept_chance(dof, share, rest, p_rest, level, pool_level)
         kept = np.where(pooled[:, None], L - chance, 0.0)
         if np.array_equal(pooled, pool):
@@ -171,12 +192,31 @@ def flag_trials(
         rest = posterior(rest_L, anchor, prior, rest_info)  # type: ignore[assignment]
     flagged, clean = tested & ~keep, pooled
     p = np.where(np.isfinite(p_rest), p_rest, p_typed)
+    if typo is not None:  # the smaller of the two tests'
+        p = np.where(np.isfinite(q), np.fmin(p, q), p)
     return Flags(
         flagged=flagged,
         p=np.where(has, p, np.nan),
         kept=kept,
         info=np.where(clean[:, None], info, 0.0),
     )
+
+
+def placing_directions(dof: Ints, share: F64, z2: F64) -> tuple[F64, Ints, F64] | None:
+    """The trials' misclosures on the directions a typed pose can move (see the module).
+
+    ``chi2`` (T,), ``dof`` (T,) and ``z2`` (T, M) with the directions of pixels alone
+    (``share`` below :data:`_PIXELS_ALONE`) left out; None where no trial has one (the
+    whole misclosure's test is the typed poses' too). A trial with no placing direction
+    has 0 dof: untested here.
+    """
+    real = dof > 0
+    moved = share >= _PIXELS_ALONE
+    n = np.where(real, moved.sum(axis=1), 0)
+    if not (real & (n < dof)).any():
+        return None
+    z2_m = np.where(moved & real[:, None], np.nan_to_num(z2), 0.0)
+    return z2_m.sum(axis=1), n, z2_m
 
 
 def _robust_scale(dof: Ints, share: F64, L: F64) -> float:
