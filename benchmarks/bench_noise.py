@@ -51,14 +51,18 @@ share of blunders its poses can check at all (``seen``: a noncentrality Baarda's
 catches 80% of the time) and the flag rate among those.
 With three poses and with four: how often the pose is named, and named right.
 
-A cell is 4 operators of 20 sessions by default, 80 sessions as one operator's were before
-(a run: about 20 min on one core); so is the first blunder table (per size), the other two
-keep one operator's 80 sessions (``--operators`` x ``--sessions``).
+A cell is 8 operators of 20 sessions by default (4 until r8: a cell's coverage over the
+sizes then scattered over seeds about as widely as the band, line at 3x 93.7-97.2% over
+seven seeds; a run: about 40 min on one core); so is the first blunder table (per size),
+the other two keep one operator's 160 sessions (``--operators`` x ``--sessions``).
 
 Targets (exit 1 if one is missed): per method and placing error, over the sizes, pooled
 coverage 93-97%, and per size no cell whose whole interval lies outside 93-97%; typed
-right, the median region at most 1.10x the typed sigma's, over the sizes and per size (a
-new user's r7 H1: the 2-trial ground cell read 1.13 unchecked); with blunders, per method,
+right, the median region at most 1.10x the typed sigma's over the sizes, and per size no
+cell whose whole interval (operators resampled) lies above 1.10x (a new user's r7 H1: the
+2-trial ground cell read 1.13 unchecked; at 20 seeds it read 0.95-1.13, above 1.10 in 3,
+its operators' mean multiplier 1.019: chance, judged as a cell's coverage is); with
+blunders, per method,
 >= 85% of blundered trials flagged, <= 2% of clean ones, the clean trials' median region
 over the one with the blundered trials absent not above 1.02x (missed where its whole 95%
 interval is) and its 90th percentile at most 1.10x, and the unflagged trials' coverage
@@ -118,7 +122,7 @@ CLEAN_MEDIAN, CLEAN_P90 = 1.02, 1.10
 MULTIPLIER_SIZE = 5
 #: A cell's operators, each with ``--sessions`` sessions of their own (issue 54: one
 #: operator over 20+ sessions), and the cluster bootstrap's draws for its interval.
-OPERATORS, BOOT_DRAWS = 4, 2000
+OPERATORS, BOOT_DRAWS = 8, 2000
 PLAIN = EstimateOptions(noise=NoiseModel(test_redundancy=False))
 
 
@@ -385,6 +389,7 @@ def report_coverage(t: pd.DataFrame) -> list[str]:
           f"{'alone':>8}{'typed':>8}{'given':>8}{'NEES/dof':>9}{'region/typed':>13}"
           f"{'lambda':>8}{'its dof':>8}")  # fmt: skip
     missed, lo, hi = [], *COVERAGE_TARGET
+    widths: list[str] = []
     for (method, placing), g in t.groupby(["method", "placing"], sort=False):
         for size, h in g.groupby("size"):
             a, b = cluster_interval(h)
@@ -399,9 +404,17 @@ def report_coverage(t: pd.DataFrame) -> list[str]:
                 cover = h["within"].mean()
                 missed.append(f"{method} at {placing:g}x typed, {size} trials a session: "
                               f"regions cover {cover:.1%} ({a:.1%}-{b:.1%})")  # fmt: skip
-            if placing == 1.0 and h["ratio"].median() > TYPED_WIDER:
+            # typed right: a size's median width misses, as its coverage, where its whole
+            # interval lies above (one cell's median rests on its few operators' multipliers:
+            # 2-trial ground read 1.13 at one seed, 0.95-1.12 at 19 others; r8 curve lane)
+            width = median_interval(h, "ratio") if placing == 1.0 else (np.nan, np.nan)
+            if width[0] > TYPED_WIDER:
                 missed.append(f"{method} typed right, {size} trials a session: regions "
-                              f"{h['ratio'].median():.2f}x the typed")  # fmt: skip
+                              f"{h['ratio'].median():.2f}x the typed ({width[0]:.2f}-"
+                              f"{width[1]:.2f})")  # fmt: skip
+            elif placing == 1.0:
+                widths.append(f"{method} typed right, {size} trials: {h['ratio'].median():.2f}x"
+                              f" ({width[0]:.2f}-{width[1]:.2f})")  # fmt: skip
         cover, alone, typed = g["within"].mean(), g["alone"].mean(), g["typed"].mean()
         print(f"{method:<8}{placing:>7.1f}x{'all':>6}{len(g):>8}{cover:>8.1%}{'':>15}"
               f"{alone:>8.1%}{typed:>8.1%}{g['given'].mean():>8.1%}{g['nees'].mean():>9.2f}"
@@ -410,6 +423,8 @@ def report_coverage(t: pd.DataFrame) -> list[str]:
             missed.append(f"{method} at {placing:g}x typed: regions cover {cover:.1%}")
         if placing == 1.0 and g["ratio"].median() > TYPED_WIDER:
             missed.append(f"{method} typed right: regions {g['ratio'].median():.2f}x the typed")
+    print("typed right, each size's median region over the typed sigma's with its 95% interval "
+          "(operators resampled): " + "; ".join(widths))  # fmt: skip
     return missed
 
 
