@@ -66,7 +66,7 @@ from twopose.pair.clock import ClockOffset
 from twopose.pair.copied_view import copied_view
 from twopose.pair.dot_tracks import epipolar_gap_px
 from twopose.pair.holdout import CHECK_SIGMAS
-from twopose.pair.rays_miss import pixel_sigma, rays_miss_words, still_frames
+from twopose.pair.rays_miss import inside, pixel_sigma, rays_miss_words, still_frames
 from twopose.pair.stream import StreamSettings, estimate_stream
 from twopose.uncertainty.propagate import uncertainty_columns
 from twopose.values.units import Units
@@ -466,11 +466,13 @@ def _rays_missed(replay: TrialReplay, session: PairSession) -> str:
     off, blamed on the moment it was marked). "" for a target with image lines."""
     if spec_of(session.info.method).uses_image_lines:
         return ""
-    est = replay.estimate
-    still = still_frames(replay.tracks[1].centroid_px)[est.i2]
+    est, (i1, i2) = replay.estimate, (session.pair.intrinsics1, session.pair.intrinsics2)
+    two = replay.tracks[1].centroid_px
+    judged = (still_frames(two) & inside(two, i2.width, i2.height))[est.i2]
+    judged &= inside(replay.tracks[0].centroid_px, i1.width, i1.height)[est.i1]
     gaps = epipolar_gap_px(session.pair, est.measured[:, 0, :2], est.measured[:, 1, :2])
     noise = 0.0 if replay.noise is None else max(n.noise.centroid_px for n in replay.noise)
-    return rays_miss_words(gaps[still], pixel_sigma(noise, session.pair.rms_px))
+    return rays_miss_words(gaps[judged], pixel_sigma(noise, session.pair.rms_px))
 
 
 def _skew_share(err: float, err_raw: float) -> float:

@@ -19,7 +19,7 @@ import numpy as np
 
 from twopose.pair.copied_view import CopiedView
 from twopose.pair.dot_tracks import epipolar_gap_px
-from twopose.pair.rays_miss import STILL_PX, pixel_sigma, rays_miss_words
+from twopose.pair.rays_miss import STILL_FRAMES, inside, pixel_sigma, rays_miss_words, still_frames
 
 if TYPE_CHECKING:
     from twopose.arrays import F64
@@ -47,7 +47,8 @@ class PointVoids:
         self._copied = ""
         self._gaps: deque[float] = deque(maxlen=GAP_PAIRS)  # pairs with the dot still
         self._missed = ""
-        self._last2: tuple[float, float] = (math.nan, math.nan)  # camera 2's dot before
+        # camera 2's dot in its last frames, this one's included (NaN: not found)
+        self._last2: deque[tuple[float, float]] = deque(maxlen=STILL_FRAMES + 1)
 
     def gaps(self, measured: F64) -> F64:
         """(P,) each pair's rays' gap (px) from the stream estimate's ``measured`` (P, 2, 3)
@@ -65,7 +66,7 @@ class PointVoids:
         if first is not None and second is not None:
             self._alike.append((*first, *second))
         alike = np.array(self._alike, dtype=np.float64).reshape(-1, 4)
-        return self.copy_warning(alike) or self._rays_missed(gap_px, second, noise_px)
+        return self.copy_warning(alike) or self._rays_missed(gap_px, (first, second), noise_px)
 
     def copy_warning(self, alike: F64) -> str:
         """What voids the pair's points as copies (:mod:`twopose.pair.copied_view`): a copy
@@ -77,16 +78,25 @@ class PointVoids:
         return self._copied or view.held_words()
 
     def _rays_missed(
-        self, gap_px: float, second: tuple[float, float] | None, noise_px: float
+        self, gap_px: float, seen: tuple[tuple[float, float] | None, ...], noise_px: float
     ) -> str:
         """A dot's rays missing each other over the last :data:`GAP_PAIRS` pairs with the
-        dot still (camera 2's moved less than :data:`~twopose.pair.rays_miss.STILL_PX`
-        since its frame before: a moving dot's gap holds the clock offset's error), in
-        words ("" where they meet, or too few pairs yet)."""
-        here = second if second is not None else (math.nan, math.nan)
-        still = math.hypot(here[0] - self._last2[0], here[1] - self._last2[1]) < STILL_PX
-        self._last2 = here
-        if still and math.isfinite(gap_px):
+        dot still and whole (:func:`~twopose.pair.rays_miss.still_frames` over camera 2's
+        last frames: a moving dot's gap holds the clock offset's error;
+        :func:`~twopose.pair.rays_miss.inside` both images: a dot cut by an edge has its
+        centroid moved), in words ("" where they meet, or too few pairs yet)."""
+        first, second = seen
+        self._last2.append(second if second is not None else (math.nan, math.nan))
+        still = bool(still_frames(np.array(self._last2))[-1])
+        whole = (
+            first is not None
+            and second is not None
+            and all(
+                bool(inside(np.array([p]), i.width, i.height)[0])
+                for p, i in ((first, self.pair.intrinsics1), (second, self.pair.intrinsics2))
+            )
+        )
+        if still and whole and math.isfinite(gap_px):
             self._gaps.append(gap_px)
         if self.dot and not self._missed:
             sigma = pixel_sigma(noise_px, self.pair.rms_px)

@@ -484,14 +484,12 @@ def test_a_pair_file_not_these_cameras_is_said_at_every_touch(
     other where it stood still (twopose.pair.rays_miss): with the offset recorded every
     touch is warned, saying so; measured, the trial's offset is refused, saying so; with
     the right pair nothing is said."""
-    from tests.recorder.test_pointing import _dot_frames
+    from tests.recorder.test_pointing import _dot_frames, resting_then_moving
     from tests.twopose.format.pair_examples import pair_cameras
     from tests.twopose.pair.test_rays_miss import another_rig
     from twopose.pair.clock import ClockOffset
 
-    still = np.tile([1.0, 2.0, 14.0], (24, 1))
-    moving = still[:1] + np.linspace(0.1, 3.0, 12)[:, None] * np.array([1.0, 0.5, 0.0])
-    frames = _dot_frames(thesis_pair(), np.vstack([still, moving]))
+    frames = _dot_frames(thesis_pair(), resting_then_moving())
     info = SessionInfo(method=Method.POINT, units=Units.IN, camera_ids=("cam1", "cam2"))
     paths = []
     for name, pair, t0 in (("right", thesis_pair(), 10**18), ("other", another_rig(), 10**18 + 1)):
@@ -509,7 +507,7 @@ def test_a_pair_file_not_these_cameras_is_said_at_every_touch(
                         f.t_capture_ns,
                         t0 + f.t_capture_ns - frames[0].t_capture_ns + 10**9,
                     )
-                stream.touch((1.0, 2.0, 14.0), frames[20].t_capture_ns, "key")
+                stream.touch((1.0, 2.0, 14.0), frames[40].t_capture_ns, "key")
         paths.append(path)
     result = analysis.run(paths)
     rows = result.trials.set_index("label")

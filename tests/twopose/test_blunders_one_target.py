@@ -42,6 +42,9 @@ def test_a_blunder_its_misclosure_cannot_see_is_caught_by_the_other_trials(
     assert words.startswith("this trial's estimate lies about ")
     assert "other trials of the same target" in words
     assert "check what you typed" in words
+    # three poses checked each other and agreed; two could not have (a new user's r8 F5)
+    assert "where its poses agree:" in words
+    assert "where its poses cannot check each other:" in tests.words(1, trials.units, 2)
     rep = reported(est)
     assert uncertainty_columns(rep.error, rep.cov)["within95"][1]  # widened by its own misfit
     # the operator's pool leaves it out as the session's does

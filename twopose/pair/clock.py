@@ -43,7 +43,7 @@ from twopose.pair.calibration import PairCalibration
 from twopose.pair.clock_fit import ClockOffset, RegularTimes, regular_times
 from twopose.pair.dot_tracks import MIN_GAP_FRAMES, DotTracks, dot_tracks, epipolar_gap_px
 from twopose.pair.flash import offset_from_flash
-from twopose.pair.rays_miss import pixel_sigma, rays_miss_words, still_frames
+from twopose.pair.rays_miss import inside, pixel_sigma, rays_miss_words, still_frames
 from twopose.values import bounds
 
 __all__ = [
@@ -379,23 +379,30 @@ def _refuse_repeats(
             )
 
 
+# A pair a little off (0.2-0.3 deg, 0.3 in) leaves the rays apart at every offset, which
+# reads as a motion that fixes nothing (a new user's r8 F1): both causes said.
 _NOT_FIXED = (
     "the target's motion does not fix the clock offset (it moved along the epipolar lines, "
-    "or too little): move it across them, up and down for cameras side by side"
+    "or too little): move it across them, up and down for cameras side by side; if it "
+    "did, the pair file may not be these cameras' (a pose a little off leaves the rays "
+    "apart at every offset): calibrate the pair again"
 )
 
 
 def _refuse_another_pair(dots: DotTracks, best_ns: float, floor_px: float) -> None:
-    """Refuse a pair file not these cameras': a dot's rays apart where it stood still.
+    """Refuse a pair file not these cameras': a dot's rays apart where it stood still, whole.
 
     At the best offset (:mod:`twopose.pair.rays_miss`), in its words. A line target's gap
     cannot tell (its slide along the finger takes most of it up): not judged.
     """
     if dots.lines is not None:
         return
-    still = still_frames(dots.tracks[1])
+    u1 = dots.camera1_at(dots.times[1][None, :] - best_ns)[0][0]
+    i1, i2 = dots.pair.intrinsics1, dots.pair.intrinsics2
+    judged = still_frames(dots.tracks[1]) & inside(dots.tracks[1], i2.width, i2.height)
+    judged &= inside(u1, i1.width, i1.height)
     sigma = pixel_sigma(floor_px, dots.pair.rms_px)
-    missed = rays_miss_words(dots.gaps(np.array([best_ns]))[0][0][still], sigma)
+    missed = rays_miss_words(dots.gaps(np.array([best_ns]))[0][0][judged], sigma)
     if missed:
         raise InputValueError(missed)
 

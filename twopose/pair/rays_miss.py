@@ -9,15 +9,26 @@ still solve (the two-ray least squares always has a point) and their regions, wh
 on the pixels' noise, stay small: a new user's r7 K11 saw OpenCV's pair file on the thesis
 pair's dot files give points 8 in off at ±0.08 in, ``conditioning: ok``.
 
-The rule: over the pairs whose dot stood still (camera 2's dot moved less than
-:data:`STILL_PX` since its frame before: :func:`still_frames`), the median of their
+The rule: over the pairs whose dot stood still (camera 2's dot within :data:`STILL_PX` of
+where it was in each of its :data:`STILL_FRAMES` frames before: :func:`still_frames`) and
+whole (at least :data:`EDGE_PX` inside both cameras' images: :func:`inside`), the median of their
 absolute gaps over the larger of :data:`RAYS_MISS_PX` and :data:`RAYS_MISS_SIGMAS` times a
 camera's detection noise, over at least :data:`MIN_MISS_PAIRS` of them. Still pairs only: a
 moving dot's gap also holds the clock offset's error and camera 1's interpolation times its
 speed (a dot at 75 in/s with 5 ms of jitter and a fifth of its frames dropped: a median of
 2.8 px with the right pair), which a still one does not, whatever the offset. The median,
 not the mean: a wrong detection in a few pairs moves it little. On the r7 files the right
-pair gives 0.02 px, OpenCV's 10.9 px; a dot that never stands still is not judged.
+pair gives 0.02 px, OpenCV's 10.9 px; a dot that never stands still is not judged. Still
+over a third of a second, not one frame: a slow dot (0.4 in/s, under a pixel a frame) with
+the cameras' clocks 300 ms apart moved between the two frames of a pair, and its gap read
+as a wrong pair's (a new user's r8 F7). Whole: a resting dot half cut off by an image's
+edge has its centroid moved by the cut (1.7-2.0 px of gap with the right pair, the r8
+F6).
+
+What the gap cannot tell from a wrong pair: a target vibrating at a multiple of the frame
+rate, which each camera samples at its own phase, so that each sees it still, at another
+place of its path (a test's 60 Hz vibration at 30 fps: 42.5 px with the right pair). The
+words say both.
 
 What the gap cannot see: a pair file wrong only in a turn about the axis across both
 cameras' rays (a toe-in for cameras side by side) moves a dot along its epipolar line, so
@@ -35,6 +46,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from twopose.detect.thresholds import DotParams
+
 #: The least median gap (px) that says the rays miss each other, whatever the noise: a
 #: still dot's detection leaves a fraction of a pixel.
 RAYS_MISS_PX = 1.5
@@ -43,20 +56,41 @@ RAYS_MISS_PX = 1.5
 RAYS_MISS_SIGMAS = 6.0
 #: The fewest still pairs with a gap the median is judged over (half a second at 30 fps).
 MIN_MISS_PAIRS = 15
-#: A dot that moved less than this (px) since camera 2's frame before stood still.
+#: A dot within this (px) of where it was in each of camera 2's frames before ...
 STILL_PX = 1.0
+#: ... this many of them (a third of a second at 30 fps) stood still.
+STILL_FRAMES = 10
+#: A dot whose centre is nearer an image's edge than this (px: the dot detector's largest
+#: radius) may be cut off by it, its centroid moved: not judged.
+EDGE_PX = float(DotParams().max_radius_px)
 
 
 def still_frames(track_px: ArrayLike) -> NDArray[np.bool_]:
     """(N,) whether each frame's dot stood still.
 
-    Found, as was the frame before, less than :data:`STILL_PX` from it. ``track_px``
-    (N, 2) a camera's dot (NaN: not found).
+    Found, as in each of the :data:`STILL_FRAMES` frames before, within :data:`STILL_PX`
+    of each. ``track_px`` (N, 2) a camera's dot (NaN: not found).
     """
     p = np.asarray(track_px, dtype=np.float64).reshape(-1, 2)
-    moved = np.full(p.shape[0], np.inf)
-    moved[1:] = np.linalg.norm(np.diff(p, axis=0), axis=1)
-    return np.asarray(np.nan_to_num(moved, nan=np.inf) < STILL_PX)
+    still = np.zeros(p.shape[0], dtype=bool)
+    still[STILL_FRAMES:] = True
+    for k in range(1, STILL_FRAMES + 1):
+        moved = np.linalg.norm(p[k:] - p[:-k], axis=1)
+        still[k:] &= np.nan_to_num(moved, nan=np.inf) < STILL_PX
+    return still
+
+
+def inside(points_px: ArrayLike, width: int, height: int) -> NDArray[np.bool_]:
+    """(N,) whether each dot is whole: nowhere cut by an image's edge.
+
+    Its centre ``points_px`` (N, 2) at least :data:`EDGE_PX` inside a ``width`` x
+    ``height`` image (False where NaN).
+    """
+    p = np.asarray(points_px, dtype=np.float64).reshape(-1, 2)
+    with np.errstate(invalid="ignore"):
+        ok = (p[:, 0] >= EDGE_PX) & (p[:, 0] <= width - 1 - EDGE_PX)
+        ok &= (p[:, 1] >= EDGE_PX) & (p[:, 1] <= height - 1 - EDGE_PX)
+    return np.asarray(ok)
 
 
 def pixel_sigma(detection_px: float, pair_rms_px: float) -> float:
@@ -97,5 +131,7 @@ def rays_miss_words(gap_px: ArrayLike, noise_px: float = 0.0) -> str:
         f"{gaps.size} pairs with the dot still; the pixels' noise allows {allowed:.1f}): "
         "the pair file is not these cameras' (another rig's, or from before the cameras "
         "moved on their mount), or the cameras are given in the other order: calibrate "
-        "this pair (twopose-record calibrate-pair)"
+        "this pair (twopose-record calibrate-pair); or a target vibrating at a multiple of "
+        "the frame rate looks still to each camera, each at another place of its path: "
+        "move it by hand, or measure the offset by a flash"
     )

@@ -414,11 +414,13 @@ class TrialTests:
         if self.by(i) == FLAGGED_BY[2]:
             return self._truth_words(i, units)
         if self.apart is not None and np.isfinite(self.apart[i]):
+            # Two poses cannot check each other; three or more did and agreed (a new
+            # user's r8 F5: "cannot" was said of three-pose trials too).
+            check = "its poses cannot check each other" if poses < 3 else "its poses agree"
             return (
                 "this trial's estimate lies about "
                 f"{_about(float(self.apart[i]))} {units} from the session's other trials of "
-                "the same target, where its poses cannot check each other: check what you "
-                "typed for its poses"
+                f"the same target, where {check}: check what you typed for its poses"
             )
         low, high = self.spread[i]
         size = " looks off"

@@ -20,9 +20,12 @@ from tests.twopose.pair.test_trial_offset import LineMotion, _clocks, _trial
 from twopose.camera.model import rotation_from_angles_deg
 from twopose.pair.motion import FingerMotion, thesis_pair
 from twopose.pair.rays_miss import (
+    EDGE_PX,
     MIN_MISS_PAIRS,
     RAYS_MISS_PX,
     RAYS_MISS_SIGMAS,
+    STILL_FRAMES,
+    inside,
     pixel_sigma,
     rays_miss_words,
     still_frames,
@@ -112,6 +115,19 @@ def test_the_rule_is_the_median_over_enough_still_pairs(
         assert f"(the median of {finite.size} pairs with the dot still" in said
 
 
-def test_still_frames_need_the_dot_in_both_frames_and_less_than_a_pixel_apart() -> None:
-    track = np.array([[10, 10], [10.5, 10], [12, 10], [np.nan, np.nan], [12, 10], [12, 10.2]])
-    assert still_frames(track).tolist() == [False, True, False, False, False, True]
+def test_still_frames_need_the_dot_in_the_frames_before_and_within_a_pixel_of_each() -> None:
+    n = STILL_FRAMES + 4
+    track = np.full((n, 2), 100.0)
+    track[:, 0] += 0.09 * np.arange(n)  # creeping: 0.9 px over ten frames, still
+    assert still_frames(track).tolist() == [False] * STILL_FRAMES + [True] * 4
+    track[:, 0] = 100.0 + 0.11 * np.arange(n)  # 1.1 px over ten frames: moving
+    assert not still_frames(track).any()
+    track[:, 0] = 100.0
+    track[STILL_FRAMES + 1] = np.nan  # lost once: the ten frames after it are not still
+    assert still_frames(track).tolist() == [False] * STILL_FRAMES + [True, False, False, False]
+
+
+def test_a_dot_nearer_an_edge_than_its_largest_radius_is_not_whole() -> None:
+    points = np.array([[EDGE_PX, 240.0], [EDGE_PX - 0.1, 240.0], [320.0, 479 - EDGE_PX],
+                       [320.0, 479.5 - EDGE_PX], [np.nan, 240.0]])  # fmt: skip
+    assert inside(points, 640, 480).tolist() == [True, False, True, False, False]
