@@ -57,6 +57,10 @@ class PointingThread:
         self._closed = False
         self._offset: ClockOffset | None = None  # to use from the next frame on
         self.dropped = 0  # frames the thread was too late for
+        # What voided the last trial's points (a copy, a pair file not these cameras'),
+        # said between trials too: the page went green-idle after the trial otherwise
+        # (a new user's r8 F3)
+        self.warning = ""
         # two cameras are open, no trial streams yet: said so from the start, not the
         # feed's "no pair running (it needs two cameras)" (a new user's r7 K5)
         self.feed.stop(IDLE_WORDS)
@@ -78,12 +82,19 @@ class PointingThread:
             self._offset = offset
 
     def close(self, words: str = "the recording ended") -> None:
-        """The recording ended: the thread stops, the panel says why."""
+        """The recording ended: the thread stops, the panel says why (and what voided the
+        points, where something did)."""
         with self._cond:
             self._closed = True
             self._cond.notify()
         self._thread.join(timeout=2.0)
-        self.feed.stop(words)
+        self.feed.stop(self._with_warning(words))
+
+    def _with_warning(self, words: str) -> str:
+        """``words``, then what voided the points so far ("" none)."""
+        if not self.warning:
+            return words
+        return f"{words}; the points were not to be trusted: {self.warning}"
 
     def _next(self) -> TimedFrame | None:
         """The next frame; None once closed, or after :data:`IDLE_S` without one."""
@@ -94,6 +105,7 @@ class PointingThread:
                 live = self.live
                 settings = dataclasses.replace(live.settings, offset=self._offset)
                 self.live = LivePointing(live.method, live.pair, settings)
+                self.live.voids = live.voids  # the cameras and the pair file are the same
                 self._offset = None
             return self._frames.popleft() if self._frames else None
 
@@ -105,13 +117,14 @@ class PointingThread:
                 frame = self._next()
                 if frame is None:
                     if running:
-                        self.feed.stop(IDLE_WORDS)
+                        self.feed.stop(self._with_warning(IDLE_WORDS))
                         running = False
                     continue
                 if not running:
                     self.feed.start(self.about)
                     running = True
                 self.feed.publish(self.live.add_frame(frame))
+                self.warning = self.live.voids.kept
         except TwoposeError as err:
             self.feed.stop(f"the pointing stopped: {err}")
         except Exception as err:  # the panel says it; the recording goes on

@@ -50,6 +50,12 @@ class PointVoids:
         # camera 2's dot in its last frames, this one's included (NaN: not found)
         self._last2: deque[tuple[float, float]] = deque(maxlen=STILL_FRAMES + 1)
 
+    @property
+    def kept(self) -> str:
+        """What voids every point from now on, once seen ("" none yet): a copy, or a pair
+        file not these cameras'; not a target held still, which moving it tells."""
+        return self._copied or self._missed
+
     def gaps(self, measured: F64) -> F64:
         """(P,) each pair's rays' gap (px) from the stream estimate's ``measured`` (P, 2, 3)
         (NaN for a target with an image line, and where a camera lost the dot)."""

@@ -560,3 +560,46 @@ def test_a_slow_dot_late_is_not_judged_nor_a_dot_cut_by_the_edge() -> None:
         y = (edge_px - 240) * 14.0 / 525
         frames = _dot_frames(thesis_pair(), resting_then_moving(at=(1.0, y, 14.0)))
         assert any("miss each other" in w for w in _warnings(another_rig(), frames)) is told
+
+
+def test_the_panel_between_trials_says_what_voided_the_last_trials_points() -> None:
+    """A new user's r8 F3: in `new --ui` with another rig's pair file the panel was amber
+    while the trial streamed, then said only that no trial streams, and the recording
+    ended green. Between trials and at the end it says what voided the points; a new
+    estimate on a measured offset keeps it (the cameras and the pair file are the same)."""
+    from recorder.console.pointing_server import about
+    from recorder.live.pointing_feed import PointingFeed
+    from recorder.live.pointing_thread import IDLE_S, IDLE_WORDS, PointingThread
+    from tests.twopose.pair.test_rays_miss import another_rig
+
+    frames = _dot_frames(thesis_pair_(), resting_then_moving())
+    feed = PointingFeed()
+    worker = PointingThread(
+        LivePointing(Method.POINT, another_rig()), feed, about(Method.POINT, another_rig())
+    )
+    seen, _, _ = feed.after(0, 1.0)
+    for frame in frames:  # as a recording writes them (all at once: the oldest dropped)
+        worker.give(frame)
+        time.sleep(0.01)
+    idle: list[str] = []
+    while not any(w.startswith(IDLE_WORDS) for w in idle):
+        seen, new, _ = feed.after(seen, 5 * IDLE_S)
+        assert new, "the panel was never told that the frames stopped"
+        idle += [m["words"] for m in new if m["kind"] == "status" and not m["running"]]
+    assert "; the points were not to be trusted: the cameras' rays to the dot miss" in idle[-1]
+    worker.use_offset(ClockOffset(offset_ns=0.0, sigma_ns=1e5, method="flash", n=40))
+    worker.give(frames[0])
+    for _ in range(100):
+        if worker.live.settings.offset.method == "flash":
+            break
+        time.sleep(0.01)
+    assert worker.live.voids.kept  # kept across the new estimate
+    worker.close("the recording ended")
+    assert feed.status["words"].startswith("the recording ended; the points were not to be")
+    assert worker.dropped == 0
+
+
+def thesis_pair_():
+    from twopose.pair.motion import thesis_pair
+
+    return thesis_pair()

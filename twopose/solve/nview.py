@@ -329,10 +329,19 @@ def _gauss_newton(point: F64, x: F64, P: F64, ok: NDArray[np.bool_], iterations:
         # d(y_k / y_2)/dp = (P_k - (y_k / y_2) P_2)[:3] / y_2
         J = (P[..., :2, :3] - (y[..., :2] / z)[..., None] * P[..., 2:3, :3]) / z[..., None]
         J = J * w[..., None]
-        JtJ = np.einsum("tnki,tnkj->tij", J, J)
+        JtJ = np.einsum("tnki,tnkj->tij", J, J) + 1e-12 * np.eye(3)
         Jtr = np.einsum("tnki,tnk->ti", J, r)
-        step = np.linalg.solve(JtJ + 1e-12 * np.eye(3), -Jtr[..., None])[..., 0]
-        p += step
+        # A row whose start lies where a camera sees it edge-on (nearly parallel rays: a
+        # live warm-up's made-up pixels on a pair not toed in) has a singular or non-finite
+        # normal matrix: it keeps its linear point, the others step on (a LinAlgError once
+        # stopped the live pointing: a new user's r8 F3 run).
+        good = np.isfinite(JtJ).all(axis=(1, 2)) & np.isfinite(Jtr).all(axis=1)
+        step = np.zeros_like(p)
+        try:
+            step[good] = np.linalg.solve(JtJ[good], -Jtr[good][..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            step[good] = (np.linalg.pinv(JtJ[good]) @ -Jtr[good][..., None])[..., 0]
+        p += np.where(np.isfinite(step), step, 0.0)
         if np.abs(step).max() < 1e-13 * max(np.abs(p).max(), 1.0):
             break
     return p
