@@ -138,6 +138,8 @@ def run_pointing(
         why = f"the pair stopped: {err}"
     except Exception as err:  # the page must say it, not a thread's traceback
         why = f"the pair stopped: {type(err).__name__}: {err}"
+    if live.voids.kept:  # the amber not lost when the streams end (a new user's r8 F8)
+        why += f"; the points were not to be trusted: {live.voids.kept}"
     feed.stop(why)
 
 

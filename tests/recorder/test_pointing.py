@@ -603,3 +603,33 @@ def thesis_pair_():
     from twopose.pair.motion import thesis_pair
 
     return thesis_pair()
+
+
+def test_point_says_what_voided_the_points_when_the_streams_end(tmp_path):
+    """A new user's r8 F8: `point` on two files with another rig's pair file turned amber,
+    then, when the files ended, said only "the cameras' streams ended" over the last point:
+    a page looked at afterwards showed no sign. The end says it too."""
+    import threading
+
+    import cv2
+
+    from recorder.console.pointing_server import run_pointing
+    from recorder.live.pointing_feed import PointingFeed
+    from recorder.sources.registry import SOURCE_KINDS, SourceOptions, open_from
+    from tests.twopose.pair.test_rays_miss import another_rig
+
+    frames = _dot_frames(thesis_pair_(), resting_then_moving())
+    paths = [tmp_path / f"c{n}.avi" for n in (1, 2)]
+    for n, path in enumerate(paths, start=1):
+        writer = cv2.VideoWriter(str(path), cv2.VideoWriter.fourcc(*"MJPG"), FPS, (640, 480))
+        for f in frames:
+            if f.camera == n:
+                writer.write(f.image)
+        writer.release()
+    source = open_from(SOURCE_KINDS, f"pair:video:{paths[0]},video:{paths[1]}",
+                       SourceOptions(method=Method.POINT))  # fmt: skip
+    feed = PointingFeed()
+    run_pointing(source, LivePointing(Method.POINT, another_rig()), feed, threading.Event())
+    words = feed.status["words"]
+    assert words.startswith("the cameras' streams ended"), words
+    assert "; the points were not to be trusted: the cameras' rays to the dot miss" in words
