@@ -626,8 +626,11 @@ def test_point_says_what_voided_the_points_when_the_streams_end(tmp_path):
             if f.camera == n:
                 writer.write(f.image)
         writer.release()
+    from recorder.sources.pair import PairSource
+
     source = open_from(SOURCE_KINDS, f"pair:video:{paths[0]},video:{paths[1]}",
                        SourceOptions(method=Method.POINT))  # fmt: skip
+    assert isinstance(source, PairSource)
     feed = PointingFeed()
     run_pointing(source, LivePointing(Method.POINT, another_rig()), feed, threading.Event())
     words = feed.status["words"]
