@@ -365,6 +365,22 @@ def flagged_lines(trials: pd.DataFrame, session: str) -> list[str]:
     ]
 
 
+def touch_warnings(trials: pd.DataFrame, session: str) -> list[str]:
+    """A two-camera session's warnings on its ok touches, each once, as ``4 of 4 touches:
+    <words>``: what voids them is the session's (two copies of one recording, a pair file
+    not these cameras'), and the terminal says it, not ``trials.csv`` alone (a new user's
+    r8 F8). A one-camera trial's warnings (its margins) stay in ``trials.csv``."""
+    if "warning" not in trials or trials.empty:
+        return []
+    mine = trials[(trials["session"] == session) & (trials.get("cameras", 1) == 2)]
+    ok = mine[mine["status"] == "ok"]
+    said = ok["warning"].fillna("").astype(str)
+    return [
+        f"{int((said == words).sum())} of {len(ok)} touches: {words}"
+        for words in dict.fromkeys(w for w in said if w)
+    ]
+
+
 def _by(row: pd.Series) -> str:
     """`` (by its truth)``: which test flagged the trial, as ``flagged_by`` says it."""
     by = row.get("flagged_by")

@@ -27,6 +27,7 @@ from analysis.report.answer import (
     session_order,
     shown_name,
     skew_phrases,
+    touch_warnings,
     two_cameras,
 )
 from analysis.report.answer import number as _num
@@ -122,6 +123,8 @@ def summary_lines(
         lines += wrap_phrases(phrases, width, indent="  ")
         for flagged in flagged_lines(trials, str(r["session"])):  # poses that disagree
             lines += wrap_phrases(["flagged:", *flagged.split(" ")], width, indent="    ")
+        for warned in touch_warnings(trials, str(r["session"])):  # a pair's: why warned
+            lines += wrap_phrases(["warned:", *warned.split(" ")], width, indent="    ")
     return lines
 
 

@@ -518,3 +518,9 @@ def test_a_pair_file_not_these_cameras_is_said_at_every_touch(
     said = str(other["warning"]) if recorded else str(other["reason"])
     assert "miss each other" in said, other.to_dict()
     assert "calibrate this pair" in said
+    if recorded:  # the terminal says why the touch is warned, not trials.csv alone (r8 F8)
+        from analysis.report.terminal import summary_lines
+
+        text = " ".join(summary_lines(result.trials, result.summary, width=None))
+        assert "warned: 1 of 1 touches: the cameras' rays to the dot miss each other" in text
+        assert text.count("warned: ") == 1  # the right pair's session: nothing
