@@ -84,7 +84,7 @@ def begin_pair(session: ConsoleSession, setup: PairSetup, pair: PairCalibration)
         session_setup={
             "method": setup.method.value, "units": setup.units.value,
             "camera": f"a pair: camera 1 {pair.intrinsics1.width}x{pair.intrinsics1.height}, "
-            f"baseline {shown(float(sum(v * v for v in pair.t_2_in_1) ** 0.5))} {pair.units}",
+            f"baseline {pair.baseline:.4g} {pair.units}",  # as calibrate-pair says it
             "plane": plane,
             "operator": setup.operator, "stop_rule": "",
         },

@@ -5,6 +5,7 @@ tests/recorder/moving_pair.py, played from two video files)."""
 from __future__ import annotations
 
 import json
+import re
 import time
 from pathlib import Path
 from typing import Any
@@ -50,6 +51,9 @@ def test_a_pair_recording_in_the_console_pushes_its_pairs_to_the_panel(
                 if client.get("/api/state").json()["waiting"] == "trial":
                     break
                 time.sleep(0.025)
+            # the baseline as calibrate-pair says it (4 digits), not a float's 16 (r8 F8)
+            camera = client.get("/api/state").json()["setup"]["camera"]
+            assert re.fullmatch(r"a pair: camera 1 \d+x\d+, baseline \d+(\.\d{1,3})? in", camera)
             assert client.post("/api/stream", json={"action": "start"}).json() == {"ok": True}
             deadline = time.monotonic() + 15
             for text in lines:
