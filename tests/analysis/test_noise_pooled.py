@@ -89,7 +89,8 @@ def test_a_mistyped_pose_is_flagged_and_said_in_trials_csv_the_terminal_and_the_
     assert "1 trial flagged: kept out of the pool" in text
     report = (out / "report.html").read_text()
     assert words.replace("'", "&#x27;") in report
-    assert "a trial both reject is flagged" in report  # the rule applied, explained
+    assert "a trial both reject on either is flagged" in report  # the rule applied, explained
+    assert "the directions a typed pose can move" in report  # the placing directions' test
     written = (out / "trials.csv").read_text()
     assert "suspect_axis" in written.splitlines()[0]
     assert trials["flagged_by"].fillna("").tolist() == ["", "misclosure", ""]
